@@ -1,0 +1,26 @@
+"""Typed errors raised by swpm-usd. Every error names the file (when there is one) and what is wrong."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class SwpmError(Exception):
+    """Base class of every error swpm-usd raises on purpose."""
+
+
+class MeshLoadError(SwpmError):
+    """A mesh file could not be turned into a valid triangle mesh.
+
+    ``path`` is the file, ``problem`` a short human-readable statement of what is wrong.
+    """
+
+    def __init__(self, path: str | Path | None, problem: str) -> None:
+        self.path = None if path is None else str(path)
+        self.problem = problem
+        where = self.path if self.path is not None else "<mesh>"
+        super().__init__(f"{where}: {problem}")
+
+
+class BuildError(SwpmError):
+    """An encoding could not be built from a mesh (bad parameters or an unsupported mesh)."""

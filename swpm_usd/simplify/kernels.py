@@ -1,0 +1,592 @@
+"""Numba kernels of the half-edge collapse simplifier (Garland-Heckbert quadrics, Svarovsky's VIPM).
+
+The mesh is held twice: *vertices* (what the GPU draws, split at attribute seams) and *positions* (welded
+points). Collapses are decided on positions: binning position ``b`` onto position ``k`` moves every vertex at
+``b`` onto the vertex at ``k`` it shares an edge triangle with (Svarovsky's "difficult edges" are banned:
+a vertex at ``b`` that touches no triangle of the edge, or two different vertices at ``k``, refuses the
+collapse). The kept position never moves (half-edge collapse, no new vertices).
+
+State lives in a namedtuple of arrays (:class:`CollapseState`) so that other builders (the sliding-window
+levels) can reuse :func:`valid_collapse`, :func:`collapse_cost` and :func:`apply_collapse`.
+
+Per position: a linked list of the triangle corners that sit on it (``corner_head``/``corner_next``,
+corner ``3*t+i``), compacted lazily when walked; a quadric ``quadric[p, 0:10]`` (upper triangle of the 4x4
+matrix) and the face area it sums in ``quadric_weight[p]``.
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numba as nb
+import numpy as np
+
+CollapseState = namedtuple(
+    "CollapseState",
+    [
+        "pos_points",  # (P,3) f64 welded positions
+        "vertex_pos",  # (V,) i32 position of every vertex
+        "pos_vstart",  # (P+1,) i32 CSR of the vertices at each position
+        "pos_verts",  # (V,) i32
+        "tri_verts",  # (T,3) i32 current vertex ids (edited by collapses)
+        "tri_alive",  # (T,) bool
+        "corner_head",  # (P,) i32 first corner on each position, -1 if none
+        "corner_next",  # (3T,) i32 next corner on the same position, -1 at the end
+        "quadric",  # (P,10) f64
+        "quadric_weight",  # (P,) f64
+        "pos_alive",  # (P,) bool
+        "pos_locked",  # (P,) bool: never binned (non-manifold input, or caller's choice)
+        "pos_boundary",  # (P,) bool
+        "min_area2",  # (1,) f64: squared doubled-area below which a triangle counts as zero-area
+    ],
+)
+
+
+# ----------------------------------------------------------------------------------------------------
+# quadrics
+# ----------------------------------------------------------------------------------------------------
+@nb.njit(cache=True, inline="always")
+def _add_plane(q: np.ndarray, p: int, nx: float, ny: float, nz: float, d: float, w: float) -> None:
+    q[p, 0] += w * nx * nx
+    q[p, 1] += w * nx * ny
+    q[p, 2] += w * nx * nz
+    q[p, 3] += w * nx * d
+    q[p, 4] += w * ny * ny
+    q[p, 5] += w * ny * nz
+    q[p, 6] += w * ny * d
+    q[p, 7] += w * nz * nz
+    q[p, 8] += w * nz * d
+    q[p, 9] += w * d * d
+
+
+@nb.njit(cache=True, inline="always")
+def _eval_quadric2(q: np.ndarray, a: int, b: int, x: float, y: float, z: float) -> float:
+    """(Q_a + Q_b)(x, y, z)."""
+    s = 0.0
+    s += (q[a, 0] + q[b, 0]) * x * x
+    s += 2.0 * (q[a, 1] + q[b, 1]) * x * y
+    s += 2.0 * (q[a, 2] + q[b, 2]) * x * z
+    s += 2.0 * (q[a, 3] + q[b, 3]) * x
+    s += (q[a, 4] + q[b, 4]) * y * y
+    s += 2.0 * (q[a, 5] + q[b, 5]) * y * z
+    s += 2.0 * (q[a, 6] + q[b, 6]) * y
+    s += (q[a, 7] + q[b, 7]) * z * z
+    s += 2.0 * (q[a, 8] + q[b, 8]) * z
+    s += q[a, 9] + q[b, 9]
+    return s
+
+
+@nb.njit(cache=True)
+def init_quadrics(
+    pos_points: np.ndarray,
+    tri_pos: np.ndarray,
+    constraint_edges: np.ndarray,
+    constraint_faces: np.ndarray,
+    constraint_weights: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Area-weighted face quadrics, plus planes through each constraint edge (boundary or attribute seam)
+    perpendicular to its face, weighted by ``constraint_weights[i] * length^2`` (so they keep area units)."""
+    P = pos_points.shape[0]
+    q = np.zeros((P, 10))
+    w = np.zeros(P)
+    for t in range(tri_pos.shape[0]):
+        a, b, c = tri_pos[t, 0], tri_pos[t, 1], tri_pos[t, 2]
+        e1 = pos_points[b] - pos_points[a]
+        e2 = pos_points[c] - pos_points[a]
+        n = np.cross(e1, e2)
+        ln = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+        if ln <= 0.0:
+            continue
+        area = 0.5 * ln
+        nx, ny, nz = n[0] / ln, n[1] / ln, n[2] / ln
+        d = -(nx * pos_points[a, 0] + ny * pos_points[a, 1] + nz * pos_points[a, 2])
+        for p in (a, b, c):
+            _add_plane(q, p, nx, ny, nz, d, area)
+            w[p] += area
+    for i in range(constraint_edges.shape[0]):
+        a, b = constraint_edges[i, 0], constraint_edges[i, 1]
+        t = constraint_faces[i]
+        pa, pb = pos_points[tri_pos[t, 0]], pos_points[tri_pos[t, 1]]
+        pc = pos_points[tri_pos[t, 2]]
+        fn = np.cross(pb - pa, pc - pa)
+        e = pos_points[b] - pos_points[a]
+        n = np.cross(e, fn)
+        ln = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+        if ln <= 0.0:
+            continue
+        nx, ny, nz = n[0] / ln, n[1] / ln, n[2] / ln
+        d = -(nx * pos_points[a, 0] + ny * pos_points[a, 1] + nz * pos_points[a, 2])
+        wt = constraint_weights[i] * (e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+        _add_plane(q, a, nx, ny, nz, d, wt)
+        _add_plane(q, b, nx, ny, nz, d, wt)
+    return q, w
+
+
+# ----------------------------------------------------------------------------------------------------
+# adjacency
+# ----------------------------------------------------------------------------------------------------
+@nb.njit(cache=True)
+def gather_triangles(st: CollapseState, p: int) -> np.ndarray:
+    """Alive triangles around position ``p`` (each once); unlinks dead corners on the way."""
+    n = 0
+    c = st.corner_head[p]
+    while c >= 0:
+        n += 1
+        c = st.corner_next[c]
+    out = np.empty(n, np.int32)
+    m = 0
+    prev = -1
+    c = st.corner_head[p]
+    while c >= 0:
+        nxt = st.corner_next[c]
+        t = c // 3
+        if st.tri_alive[t]:
+            out[m] = t
+            m += 1
+            prev = c
+        else:
+            if prev < 0:
+                st.corner_head[p] = nxt
+            else:
+                st.corner_next[prev] = nxt
+        c = nxt
+    return out[:m]
+
+
+@nb.njit(cache=True)
+def triangle_positions(st: CollapseState, tris: np.ndarray) -> np.ndarray:
+    """(n,3) positions of the given triangles (read once: namedtuple field access costs a refcount)."""
+    tv = st.tri_verts
+    vp = st.vertex_pos
+    out = np.empty((tris.shape[0], 3), np.int32)
+    for j in range(tris.shape[0]):
+        for i in range(3):
+            out[j, i] = vp[tv[tris[j], i]]
+    return out
+
+
+@nb.njit(cache=True)
+def neighbours(p: int, tp: np.ndarray) -> np.ndarray:
+    """Distinct positions sharing a triangle with ``p`` (``tp``: positions of p's triangles)."""
+    buf = np.empty(2 * tp.shape[0], np.int32)
+    m = 0
+    for j in range(tp.shape[0]):
+        for i in range(3):
+            q = tp[j, i]
+            if q == p:
+                continue
+            dup = False
+            for r in range(m):
+                if buf[r] == q:
+                    dup = True
+                    break
+            if not dup:
+                buf[m] = q
+                m += 1
+    return buf[:m]
+
+
+@nb.njit(cache=True, inline="always")
+def _has(tp: np.ndarray, j: int, p: int) -> bool:
+    return tp[j, 0] == p or tp[j, 1] == p or tp[j, 2] == p
+
+
+# ----------------------------------------------------------------------------------------------------
+# collapse test, cost and application
+# ----------------------------------------------------------------------------------------------------
+@nb.njit(cache=True)
+def collapse_cost(st: CollapseState, b: int, k: int) -> float:
+    """Mean squared plane distance of the merged quadric at the kept point (>= 0)."""
+    x, y, z = st.pos_points[k, 0], st.pos_points[k, 1], st.pos_points[k, 2]
+    e = _eval_quadric2(st.quadric, b, k, x, y, z)
+    w = st.quadric_weight[b] + st.quadric_weight[k]
+    if w > 0.0:
+        e /= w
+    return e if e > 0.0 else 0.0
+
+
+@nb.njit(cache=True)
+def vertex_map(st: CollapseState, b: int, k: int, tris_b: np.ndarray, tp_b: np.ndarray) -> np.ndarray:
+    """For every vertex at ``b`` (in pos_verts order) the vertex at ``k`` it moves onto; -1 in slot 0 of a
+    length-1 array when the collapse would split an attribute seam (a "difficult edge")."""
+    tv = st.tri_verts
+    pv = st.pos_verts
+    v0, v1 = st.pos_vstart[b], st.pos_vstart[b + 1]
+    nv = v1 - v0
+    target = np.full(nv, -1, np.int32)
+    used = np.zeros(nv, np.bool_)
+    fallback = -1
+    for j in range(tris_b.shape[0]):
+        t = tris_b[j]
+        ib = -1
+        ik = -1
+        for i in range(3):
+            q = tp_b[j, i]
+            if q == b:
+                ib = i
+            elif q == k:
+                ik = i
+        vb = tv[t, ib]
+        local = 0
+        for r in range(nv):
+            if pv[v0 + r] == vb:
+                local = r
+                break
+        used[local] = True
+        if ik < 0:
+            continue
+        vk = tv[t, ik]
+        fallback = vk
+        if target[local] < 0:
+            target[local] = vk
+        elif target[local] != vk:
+            return np.full(1, -1, np.int32)
+    for r in range(nv):
+        if target[r] < 0:
+            if used[r]:
+                return np.full(1, -1, np.int32)  # this vertex's triangles do not reach k
+            target[r] = fallback  # vertex without triangles: rides along with any vertex at k
+        # two vertices of b onto one vertex of k would merge a seam: banned
+        for s in range(r):
+            if used[r] and used[s] and target[s] == target[r]:
+                return np.full(1, -1, np.int32)
+    return target
+
+
+@nb.njit(cache=True)
+def valid_collapse(
+    st: CollapseState, b: int, k: int, tris_b: np.ndarray, tp_b: np.ndarray, nbr_b: np.ndarray
+) -> bool:
+    """Can position ``b`` be binned onto ``k``? Checks topology (link condition, no duplicate faces,
+    boundary vertices stay on the boundary), geometry (no flipped or zero-area face) and seams."""
+    pos_alive = st.pos_alive
+    if st.pos_locked[b] or not pos_alive[b] or not pos_alive[k] or b == k:
+        return False
+    n_edge = 0
+    opp0 = -1
+    opp1 = -1
+    for j in range(tp_b.shape[0]):
+        if _has(tp_b, j, k):
+            o = -1
+            for i in range(3):
+                q = tp_b[j, i]
+                if q != b and q != k:
+                    o = q
+            if n_edge == 0:
+                opp0 = o
+            else:
+                opp1 = o
+            n_edge += 1
+    if n_edge == 0 or n_edge > 2:
+        return False
+    if st.pos_boundary[b]:
+        if n_edge != 1:
+            return False
+    elif n_edge != 2:
+        return False
+    # link condition: common neighbours of b and k are exactly the edge's opposite vertices
+    tris_k = gather_triangles(st, k)
+    tp_k = triangle_positions(st, tris_k)
+    nbr_k = neighbours(k, tp_k)
+    common = 0
+    for i in range(nbr_b.shape[0]):
+        q = nbr_b[i]
+        if q == k:
+            continue
+        for j in range(nbr_k.shape[0]):
+            if nbr_k[j] == q:
+                if q != opp0 and q != opp1:
+                    return False
+                common += 1
+                break
+    if common != n_edge:
+        return False
+    P_ = st.pos_points
+    min_area2 = st.min_area2[0]
+    for j in range(tp_b.shape[0]):
+        if _has(tp_b, j, k):
+            continue
+        # the surviving triangle b, x, y (in winding order) before and after b moves onto k
+        p0 = tp_b[j, 0]
+        p1 = tp_b[j, 1]
+        p2 = tp_b[j, 2]
+        if p0 == b:
+            x, y = p1, p2
+        elif p1 == b:
+            x, y = p2, p0
+        else:
+            x, y = p0, p1
+        ex0 = P_[x, 0] - P_[b, 0]
+        ex1 = P_[x, 1] - P_[b, 1]
+        ex2 = P_[x, 2] - P_[b, 2]
+        ey0 = P_[y, 0] - P_[b, 0]
+        ey1 = P_[y, 1] - P_[b, 1]
+        ey2 = P_[y, 2] - P_[b, 2]
+        n00 = ex1 * ey2 - ex2 * ey1
+        n01 = ex2 * ey0 - ex0 * ey2
+        n02 = ex0 * ey1 - ex1 * ey0
+        fx0 = P_[x, 0] - P_[k, 0]
+        fx1 = P_[x, 1] - P_[k, 1]
+        fx2 = P_[x, 2] - P_[k, 2]
+        fy0 = P_[y, 0] - P_[k, 0]
+        fy1 = P_[y, 1] - P_[k, 1]
+        fy2 = P_[y, 2] - P_[k, 2]
+        n10 = fx1 * fy2 - fx2 * fy1
+        n11 = fx2 * fy0 - fx0 * fy2
+        n12 = fx0 * fy1 - fx1 * fy0
+        l1 = n10 * n10 + n11 * n11 + n12 * n12
+        if l1 <= min_area2:
+            return False
+        l0 = n00 * n00 + n01 * n01 + n02 * n02
+        d = n00 * n10 + n01 * n11 + n02 * n12
+        # refuse flips and near-flips (normal turned by more than ~84 degrees)
+        if d <= 0.1 * np.sqrt(l0 * l1):
+            return False
+        # duplicate face: (k, x, y) already exists around k
+        for jj in range(tp_k.shape[0]):
+            if _has(tp_k, jj, x) and _has(tp_k, jj, y):
+                return False
+    vm = vertex_map(st, b, k, tris_b, tp_b)
+    if vm[0] < 0:
+        return False
+    return True
+
+
+@nb.njit(cache=True)
+def apply_collapse(st: CollapseState, b: int, k: int, vmap: np.ndarray) -> int:
+    """Bin position ``b`` onto ``k``: redirect its corners, kill the edge's triangles, merge quadrics.
+    Returns the number of triangles removed."""
+    v0 = st.pos_vstart[b]
+    tv = st.tri_verts
+    vp = st.vertex_pos
+    pv = st.pos_verts
+    alive = st.tri_alive
+    cnext = st.corner_next
+    removed = 0
+    c = st.corner_head[b]
+    last = -1
+    while c >= 0:
+        t = c // 3
+        if alive[t]:
+            if vp[tv[t, 0]] == k or vp[tv[t, 1]] == k or vp[tv[t, 2]] == k:
+                alive[t] = False
+                removed += 1
+            else:
+                vb = tv[t, c - 3 * t]
+                for r in range(vmap.shape[0]):
+                    if pv[v0 + r] == vb:
+                        tv[t, c - 3 * t] = vmap[r]
+                        break
+        last = c
+        c = cnext[c]
+    if last >= 0:  # splice b's corners in front of k's
+        st.corner_next[last] = st.corner_head[k]
+        st.corner_head[k] = st.corner_head[b]
+    st.corner_head[b] = -1
+    for i in range(10):
+        st.quadric[k, i] += st.quadric[b, i]
+    st.quadric_weight[k] += st.quadric_weight[b]
+    st.pos_alive[b] = False
+    return removed
+
+
+@nb.njit(cache=True)
+def best_collapse(st: CollapseState, b: int) -> tuple[int, float]:
+    """Cheapest valid target for binning ``b``: (k, cost), or (-1, inf)."""
+    if st.pos_locked[b] or not st.pos_alive[b]:
+        return -1, np.inf
+    tris_b = gather_triangles(st, b)
+    if tris_b.shape[0] == 0:
+        return -1, np.inf
+    tp_b = triangle_positions(st, tris_b)
+    nbr = neighbours(b, tp_b)
+    costs = np.empty(nbr.shape[0])
+    for i in range(nbr.shape[0]):
+        costs[i] = collapse_cost(st, b, nbr[i])
+    order = np.argsort(costs)
+    for i in range(order.shape[0]):
+        k = nbr[order[i]]
+        if valid_collapse(st, b, k, tris_b, tp_b, nbr):
+            return k, costs[order[i]]
+    return -1, np.inf
+
+
+# ----------------------------------------------------------------------------------------------------
+# a binary min-heap on arrays (cost, position, stamp); stale entries are skipped on pop
+# ----------------------------------------------------------------------------------------------------
+@nb.njit(cache=True)
+def _heap_push(keys, ids, stamps, size, key, pid, stamp):
+    if size == keys.shape[0]:
+        nk = np.empty(2 * size, keys.dtype)
+        ni = np.empty(2 * size, ids.dtype)
+        ns = np.empty(2 * size, stamps.dtype)
+        nk[:size] = keys
+        ni[:size] = ids
+        ns[:size] = stamps
+        keys, ids, stamps = nk, ni, ns
+    i = size
+    while i > 0:
+        parent = (i - 1) >> 1
+        if keys[parent] <= key:
+            break
+        keys[i], ids[i], stamps[i] = keys[parent], ids[parent], stamps[parent]
+        i = parent
+    keys[i], ids[i], stamps[i] = key, pid, stamp
+    return keys, ids, stamps, size + 1
+
+
+@nb.njit(cache=True)
+def _heap_pop(keys, ids, stamps, size):
+    key, pid, stamp = keys[0], ids[0], stamps[0]
+    size -= 1
+    lk, li, ls = keys[size], ids[size], stamps[size]
+    i = 0
+    while True:
+        child = 2 * i + 1
+        if child >= size:
+            break
+        if child + 1 < size and keys[child + 1] < keys[child]:
+            child += 1
+        if keys[child] >= lk:
+            break
+        keys[i], ids[i], stamps[i] = keys[child], ids[child], stamps[child]
+        i = child
+    if size > 0:
+        keys[i], ids[i], stamps[i] = lk, li, ls
+    return key, pid, stamp, size
+
+
+# ----------------------------------------------------------------------------------------------------
+# the full sequence
+# ----------------------------------------------------------------------------------------------------
+@nb.njit(cache=True)
+def run_sequence(st: CollapseState, max_passes: int):
+    """Collapse greedily in quadric-error order until nothing valid remains.
+
+    Returns per vertex collapse: binned vertex, kept vertex, step (position collapse it belongs to), and per
+    step its error (sqrt of the quadric cost, a distance) and the binned / kept positions.
+    """
+    P = st.pos_points.shape[0]
+    V = st.vertex_pos.shape[0]
+    binned = np.empty(V, np.int32)
+    kept = np.empty(V, np.int32)
+    step_of = np.empty(V, np.int32)
+    step_error = np.empty(P, np.float64)
+    step_b = np.empty(P, np.int32)
+    step_k = np.empty(P, np.int32)
+    n_rec = 0
+    n_step = 0
+    stamp = np.zeros(P, np.int64)
+    target = np.full(P, -1, np.int32)
+    keys = np.empty(max(16, P), np.float64)
+    ids = np.empty(max(16, P), np.int64)
+    stamps = np.empty(max(16, P), np.int64)
+    size = 0
+    for _ in range(max_passes):
+        progress = 0
+        for p in range(P):
+            k, cost = best_collapse(st, p)
+            stamp[p] += 1
+            target[p] = k
+            if k >= 0:
+                keys, ids, stamps, size = _heap_push(keys, ids, stamps, size, cost, p, stamp[p])
+        while size > 0:
+            cost, b, s, size = _heap_pop(keys, ids, stamps, size)
+            if s != stamp[b] or not st.pos_alive[b]:
+                continue
+            k = target[b]
+            tris_b = gather_triangles(st, b)
+            tp_b = triangle_positions(st, tris_b)
+            nbr_b = neighbours(b, tp_b)
+            if k < 0 or not valid_collapse(st, b, k, tris_b, tp_b, nbr_b):
+                k2, c2 = best_collapse(st, b)
+                stamp[b] += 1
+                target[b] = k2
+                if k2 >= 0:
+                    keys, ids, stamps, size = _heap_push(keys, ids, stamps, size, c2, b, stamp[b])
+                continue
+            cost = collapse_cost(st, b, k)
+            vmap = vertex_map(st, b, k, tris_b, tp_b)
+            v0 = st.pos_vstart[b]
+            for r in range(vmap.shape[0]):
+                binned[n_rec] = st.pos_verts[v0 + r]
+                kept[n_rec] = vmap[r]
+                step_of[n_rec] = n_step
+                n_rec += 1
+            step_error[n_step] = np.sqrt(cost)
+            step_b[n_step] = b
+            step_k[n_step] = k
+            n_step += 1
+            progress += 1
+            apply_collapse(st, b, k, vmap)
+            stamp[b] += 1
+            # the kept position and its new ring see changed quadrics and topology
+            tris_k = gather_triangles(st, k)
+            ring = neighbours(k, triangle_positions(st, tris_k))
+            for i in range(ring.shape[0] + 1):
+                q = k if i == ring.shape[0] else ring[i]
+                k2, c2 = best_collapse(st, q)
+                stamp[q] += 1
+                target[q] = k2
+                if k2 >= 0:
+                    keys, ids, stamps, size = _heap_push(keys, ids, stamps, size, c2, q, stamp[q])
+        if progress == 0:
+            break
+    return (
+        binned[:n_rec].copy(),
+        kept[:n_rec].copy(),
+        step_of[:n_rec].copy(),
+        step_error[:n_step].copy(),
+        step_b[:n_step].copy(),
+        step_k[:n_step].copy(),
+    )
+
+
+@nb.njit(cache=True)
+def build_corner_lists(tri_pos: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
+    head = np.full(P, -1, np.int32)
+    nxt = np.full(3 * tri_pos.shape[0], -1, np.int32)
+    for t in range(tri_pos.shape[0] - 1, -1, -1):
+        for i in range(2, -1, -1):
+            c = 3 * t + i
+            p = tri_pos[t, i]
+            nxt[c] = head[p]
+            head[p] = c
+    return head, nxt
+
+
+@nb.njit(cache=True)
+def fan_counts(st: CollapseState) -> np.ndarray:
+    """Number of edge-connected triangle fans around each position (>1 means a pinch vertex)."""
+    P = st.pos_points.shape[0]
+    out = np.zeros(P, np.int32)
+    for p in range(P):
+        tris = gather_triangles(st, p)
+        tp = triangle_positions(st, tris)
+        n = tris.shape[0]
+        if n == 0:
+            continue
+        parent = np.arange(n)
+        for i in range(n):
+            for j in range(i + 1, n):
+                # share a second position besides p?
+                shared = False
+                for a in range(3):
+                    qa = tp[i, a]
+                    if qa != p and _has(tp, j, qa):
+                        shared = True
+                if shared:
+                    ri = i
+                    while parent[ri] != ri:
+                        ri = parent[ri]
+                    rj = j
+                    while parent[rj] != rj:
+                        rj = parent[rj]
+                    if ri != rj:
+                        parent[ri] = rj
+        roots = 0
+        for i in range(n):
+            if parent[i] == i:
+                roots += 1
+        out[p] = roots
+    return out

@@ -1,0 +1,232 @@
+"""The half-edge collapse sequence of a mesh (Garland-Heckbert quadrics; Svarovsky, Forsyth).
+
+:func:`collapse_sequence` welds the mesh's vertices into positions, classifies edges (boundary, attribute
+seam, non-manifold), seeds the quadrics and runs the numba kernels of :mod:`.kernels`. The result lists
+*vertex* collapses (``binned`` -> ``kept``) grouped into *steps*: one step bins one position, i.e. all the
+vertices a seam put there, at once. Every step is a level of detail; ``triangles_after(n)`` rebuilds the
+triangle set after any number of vertex collapses by replaying them with numpy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..mesh import Mesh
+from . import kernels
+
+
+@dataclass(frozen=True, eq=False)
+class MeshTopology:
+    """Welded view of a mesh: positions and the classification of its edges."""
+
+    vertex_pos: np.ndarray  # (V,) i32
+    pos_points: np.ndarray  # (P,3) f64
+    tri_pos: np.ndarray  # (T,3) i32
+    boundary_edges: np.ndarray  # (nb,2) position pairs with one triangle
+    boundary_faces: np.ndarray  # (nb,)
+    seam_edges: np.ndarray  # (ns,2) manifold edges whose two triangles use different vertices
+    seam_faces: np.ndarray  # (ns,)
+    pos_boundary: np.ndarray  # (P,) bool
+    pos_nonmanifold: np.ndarray  # (P,) bool: on a non-manifold or inconsistently oriented edge
+
+
+def mesh_topology(mesh: Mesh) -> MeshTopology:
+    """Weld positions and classify every edge (numpy only)."""
+    pts = mesh.points
+    tris = mesh.triangles
+    uniq, vertex_pos = np.unique(pts, axis=0, return_inverse=True)
+    vertex_pos = vertex_pos.reshape(-1).astype(np.int32)
+    P = uniq.shape[0]
+    tri_pos = vertex_pos[tris]
+    T = tris.shape[0]
+    # half-edges (a -> b) of every triangle, with their vertices and face
+    ha = tri_pos.reshape(-1)
+    hb = tri_pos[:, [1, 2, 0]].reshape(-1)
+    va = tris.reshape(-1)
+    vb = tris[:, [1, 2, 0]].reshape(-1)
+    face = np.repeat(np.arange(T, dtype=np.int64), 3)
+    lo = np.minimum(ha, hb).astype(np.int64)
+    hi = np.maximum(ha, hb).astype(np.int64)
+    key = lo * P + hi
+    order = np.argsort(key, kind="stable")
+    key_s = key[order]
+    starts = np.flatnonzero(np.r_[True, key_s[1:] != key_s[:-1]])
+    counts = np.diff(np.r_[starts, key_s.shape[0]])
+    first = order[starts]
+    # boundary edges
+    bmask = counts == 1
+    bh = first[bmask]
+    boundary_edges = np.stack([ha[bh], hb[bh]], axis=1).astype(np.int32)
+    boundary_faces = face[bh].astype(np.int32)
+    pos_boundary = np.zeros(P, bool)
+    pos_boundary[boundary_edges.reshape(-1)] = True
+    # manifold edges: exactly two half-edges in opposite directions
+    two = counts == 2
+    h0 = order[starts[two]]
+    h1 = order[starts[two] + 1]
+    consistent = ha[h0] == hb[h1]
+    # vertices at (lo, hi) on each side; a seam when they differ
+    v0_lo = np.where(ha[h0] == lo[h0], va[h0], vb[h0])
+    v0_hi = np.where(ha[h0] == lo[h0], vb[h0], va[h0])
+    v1_lo = np.where(ha[h1] == lo[h1], va[h1], vb[h1])
+    v1_hi = np.where(ha[h1] == lo[h1], vb[h1], va[h1])
+    seam = consistent & ((v0_lo != v1_lo) | (v0_hi != v1_hi))
+    sh0 = h0[seam]
+    sh1 = h1[seam]
+    seam_edges = np.concatenate(
+        [np.stack([ha[sh0], hb[sh0]], 1), np.stack([ha[sh1], hb[sh1]], 1)]
+    ).astype(np.int32)
+    seam_faces = np.concatenate([face[sh0], face[sh1]]).astype(np.int32)
+    # non-manifold: more than two triangles, or two with the same direction (inconsistent orientation)
+    bad_starts = np.r_[starts[counts > 2], starts[two][~consistent]]
+    pos_nonmanifold = np.zeros(P, bool)
+    if bad_starts.size:
+        bad_keys = key_s[bad_starts]
+        pos_nonmanifold[(bad_keys // P).astype(np.int64)] = True
+        pos_nonmanifold[(bad_keys % P).astype(np.int64)] = True
+    return MeshTopology(
+        vertex_pos=vertex_pos,
+        pos_points=uniq.astype(np.float64),
+        tri_pos=tri_pos.astype(np.int32),
+        boundary_edges=boundary_edges,
+        boundary_faces=boundary_faces,
+        seam_edges=seam_edges,
+        seam_faces=seam_faces,
+        pos_boundary=pos_boundary,
+        pos_nonmanifold=pos_nonmanifold,
+    )
+
+
+def make_state(
+    mesh: Mesh,
+    topo: MeshTopology,
+    *,
+    boundary_weight: float = 8.0,
+    seam_weight: float = 2.0,
+    locked_positions: np.ndarray | None = None,
+) -> kernels.CollapseState:
+    """Fresh simplifier state (quadrics, corner lists, locks) for ``mesh``."""
+    P = topo.pos_points.shape[0]
+    V = mesh.vertex_count
+    edges = np.concatenate([topo.boundary_edges, topo.seam_edges]).reshape(-1, 2)
+    faces = np.concatenate([topo.boundary_faces, topo.seam_faces])
+    weights = np.r_[np.full(len(topo.boundary_faces), boundary_weight), np.full(len(topo.seam_faces), seam_weight)]
+    q, w = kernels.init_quadrics(
+        topo.pos_points, topo.tri_pos, edges.astype(np.int32), faces.astype(np.int32), weights.astype(np.float64)
+    )
+    order = np.argsort(topo.vertex_pos, kind="stable").astype(np.int32)
+    pos_vstart = np.zeros(P + 1, np.int32)
+    np.cumsum(np.bincount(topo.vertex_pos, minlength=P), out=pos_vstart[1:])
+    head, nxt = kernels.build_corner_lists(topo.tri_pos, P)
+    diag = float(np.linalg.norm(topo.pos_points.max(0) - topo.pos_points.min(0))) if P else 1.0
+    min_area2 = np.array([(2e-10 * diag * diag) ** 2])
+    locked = topo.pos_nonmanifold.copy()
+    if locked_positions is not None:
+        locked |= locked_positions
+    st = kernels.CollapseState(
+        pos_points=np.ascontiguousarray(topo.pos_points),
+        vertex_pos=topo.vertex_pos,
+        pos_vstart=pos_vstart,
+        pos_verts=order,
+        tri_verts=np.array(mesh.triangles, dtype=np.int32, copy=True),
+        tri_alive=np.ones(mesh.triangle_count, bool),
+        corner_head=head,
+        corner_next=nxt,
+        quadric=q,
+        quadric_weight=w,
+        pos_alive=np.bincount(topo.vertex_pos, minlength=P)[:P] > 0,
+        pos_locked=locked,
+        pos_boundary=topo.pos_boundary.copy(),
+        min_area2=min_area2,
+    )
+    # pinch vertices (several fans) are non-manifold too
+    st.pos_locked[kernels.fan_counts(st) > 1] = True
+    assert V == st.vertex_pos.shape[0]
+    return st
+
+
+@dataclass(frozen=True, eq=False)
+class CollapseSequence:
+    """Ordered half-edge collapses of ``mesh``.
+
+    Per vertex collapse ``c``: ``binned[c]`` moves onto ``kept[c]`` (original vertex ids), ``step[c]`` is
+    the position collapse it belongs to and ``error[c]`` that step's quadric error (a distance).
+    Errors are raw (not monotone); :meth:`lod_errors` gives the non-decreasing per-step figure.
+    ``step_offsets[s]`` is the number of vertex collapses done after ``s`` steps (``step_count + 1``
+    entries): a level of detail is a whole number of steps.
+    """
+
+    mesh: Mesh
+    binned: np.ndarray
+    kept: np.ndarray
+    step: np.ndarray
+    error: np.ndarray
+    step_error: np.ndarray
+    step_offsets: np.ndarray
+    binned_position: np.ndarray
+    kept_position: np.ndarray
+
+    @property
+    def collapse_count(self) -> int:
+        return int(self.binned.shape[0])
+
+    @property
+    def step_count(self) -> int:
+        return int(self.step_error.shape[0])
+
+    def vertex_map_after(self, n: int) -> np.ndarray:
+        """(V,) the vertex each original vertex has become after the first ``n`` vertex collapses."""
+        n = int(n)
+        if not 0 <= n <= self.collapse_count:
+            raise IndexError(f"collapse count {n} out of range [0, {self.collapse_count}]")
+        m = np.arange(self.mesh.vertex_count, dtype=np.int32)
+        m[self.binned[:n]] = self.kept[:n]
+        while True:  # pointer jumping: a kept vertex may itself be binned later
+            m2 = m[m]
+            if np.array_equal(m2, m):
+                return m
+            m = m2
+
+    def triangles_after(self, n: int) -> np.ndarray:
+        """Triangles (original vertex ids, original order) after the first ``n`` vertex collapses."""
+        t = self.vertex_map_after(n)[self.mesh.triangles]
+        keep = (t[:, 0] != t[:, 1]) & (t[:, 1] != t[:, 2]) & (t[:, 0] != t[:, 2])
+        return t[keep]
+
+    def lod_errors(self) -> np.ndarray:
+        """(step_count + 1,) error after ``s`` steps: the worst step so far (0 at full detail)."""
+        return np.r_[0.0, np.maximum.accumulate(self.step_error)] if self.step_count else np.zeros(1)
+
+    def triangles_at_step(self, s: int) -> np.ndarray:
+        """Triangles after ``s`` whole steps (``s`` in ``[0, step_count]``)."""
+        return self.triangles_after(int(self.step_offsets[s]))
+
+
+def collapse_sequence(
+    mesh: Mesh,
+    *,
+    boundary_weight: float = 8.0,
+    seam_weight: float = 2.0,
+    locked_positions: np.ndarray | None = None,
+) -> CollapseSequence:
+    """Collapse ``mesh`` down to its coarsest valid form in quadric-error order."""
+    topo = mesh_topology(mesh)
+    st = make_state(
+        mesh, topo, boundary_weight=boundary_weight, seam_weight=seam_weight, locked_positions=locked_positions
+    )
+    binned, kept, step, step_error, step_b, step_k = kernels.run_sequence(st, 3)
+    offsets = np.zeros(step_error.shape[0] + 1, np.int64)
+    np.cumsum(np.bincount(step, minlength=step_error.shape[0]), out=offsets[1:])
+    return CollapseSequence(
+        mesh=mesh,
+        binned=binned,
+        kept=kept,
+        step=step,
+        error=step_error[step] if step.size else np.zeros(0),
+        step_error=step_error,
+        step_offsets=offsets,
+        binned_position=step_b,
+        kept_position=step_k,
+    )
