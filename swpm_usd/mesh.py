@@ -18,9 +18,10 @@ from .errors import MeshLoadError
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
+    """A read-only contiguous array that the caller cannot mutate behind the mesh's back."""
     a = np.ascontiguousarray(a)
     if a.flags.writeable:
-        a = a.copy() if a.base is not None else a
+        a = a.copy()
         a.setflags(write=False)
     return a
 

@@ -1,0 +1,30 @@
+"""swpm-usd: view-independent progressive meshes (vanilla, skip-strip, sliding-window) for real-time LOD."""
+
+from __future__ import annotations
+
+__version__ = "0.1.0"
+
+from .build import build
+from .encode import ProgressiveMesh, from_buffers
+from .errors import BuildError, MeshLoadError, SwpmError
+from .mesh import Mesh
+
+
+def load_mesh(path, **kwargs):  # noqa: ANN001, ANN201 - thin re-export, see swpm_usd.io.load_mesh
+    """Load a mesh file (see :func:`swpm_usd.io.load_mesh`)."""
+    from .io import load_mesh as _load
+
+    return _load(path, **kwargs)
+
+
+__all__ = [
+    "BuildError",
+    "Mesh",
+    "MeshLoadError",
+    "ProgressiveMesh",
+    "SwpmError",
+    "__version__",
+    "build",
+    "from_buffers",
+    "load_mesh",
+]

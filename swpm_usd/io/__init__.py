@@ -1,0 +1,53 @@
+"""Mesh loading: :func:`load_mesh` reads a mesh file into a cleaned :class:`~swpm_usd.mesh.Mesh`.
+
+OBJ / PLY / STL / OFF / glTF / GLB go through trimesh, USD (.usd / .usda / .usdc / .usdz) through usd-core;
+both end in :func:`clean_mesh`. Every failure is a :class:`~swpm_usd.errors.MeshLoadError` naming the file.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from ..errors import MeshLoadError
+from ..mesh import Mesh
+from .clean import clean_mesh
+
+__all__ = ["clean_mesh", "load_mesh", "SUPPORTED_SUFFIXES"]
+
+_TRIMESH_SUFFIXES = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
+_USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
+SUPPORTED_SUFFIXES = _TRIMESH_SUFFIXES + _USD_SUFFIXES
+
+
+def load_mesh(path: str | os.PathLike[str], *, prim_path: str | None = None) -> Mesh:
+    """Load the mesh file at ``path`` (type chosen by suffix) as one cleaned triangle mesh.
+
+    Several geometries (glTF nodes, OBJ objects, USD Mesh prims) are concatenated with their transforms
+    applied. ``prim_path`` (USD only) restricts loading to the Mesh prims at and under that prim. UV and
+    normal seams are kept: vertices sharing a position but not their attributes stay distinct.
+    """
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix not in SUPPORTED_SUFFIXES:
+        raise MeshLoadError(
+            p, f"unsupported file type {suffix or '(no suffix)'!r}; supported: {' '.join(SUPPORTED_SUFFIXES)}"
+        )
+    if not p.exists():
+        raise MeshLoadError(p, "file not found")
+    if not p.is_file():
+        raise MeshLoadError(p, "not a regular file")
+    try:
+        with p.open("rb") as f:
+            f.read(1)
+    except OSError as e:
+        raise MeshLoadError(p, f"cannot read the file ({e.strerror or e})") from e
+    if suffix in _USD_SUFFIXES:
+        from .usd_loader import load_usd
+
+        return load_usd(p, prim_path=prim_path)
+    if prim_path is not None:
+        raise MeshLoadError(p, "prim_path only applies to USD files")
+    from .trimesh_loader import load_trimesh
+
+    return load_trimesh(p)

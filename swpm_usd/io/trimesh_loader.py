@@ -1,0 +1,100 @@
+"""Load OBJ / PLY / STL / OFF / glTF / GLB files through trimesh into a cleaned :class:`~swpm_usd.mesh.Mesh`.
+
+trimesh is asked not to process anything (``process=False``): no vertex welding, so UV and normal seams stay
+split. ``maintain_order`` is deliberately *not* used for OBJ: in trimesh it keeps one vertex per ``v`` line
+and picks the median ``vt`` / ``vn`` index for it, which silently destroys UV and normal seams. Every
+triangle geometry of the scene is taken with its scene-graph transform applied and the parts are
+concatenated; per-vertex ``normal``, ``uv`` and ``color`` (RGBA float in [0, 1]) are kept when every part
+has them. Any trimesh failure becomes a :class:`~swpm_usd.errors.MeshLoadError` naming the file.
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import MeshLoadError
+from ..mesh import Mesh
+from .clean import clean_mesh, concatenate_parts, rgba_float, split_corners, transform_part
+
+_TEXT_TYPES = ("obj", "off")
+
+
+def _geometry_part(geom: object) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]] | None:
+    import trimesh
+
+    if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
+        return None
+    points = np.asarray(geom.vertices, dtype=np.float64)
+    faces = np.asarray(geom.faces, dtype=np.int64)
+    v = points.shape[0]
+    attrs: dict[str, np.ndarray] = {}
+    # only normals the file provided (trimesh computes them on access otherwise)
+    if "vertex_normals" in geom._cache:
+        normals = np.asarray(geom._cache["vertex_normals"], dtype=np.float32)
+        if normals.shape == (v, 3):
+            attrs["normal"] = normals
+    visual = geom.visual
+    face_colors = None
+    if isinstance(visual, trimesh.visual.TextureVisuals):
+        uv = visual.uv
+        if uv is not None and np.shape(uv) == (v, 2):
+            attrs["uv"] = np.asarray(uv, dtype=np.float32)
+        color = visual.vertex_attributes.get("color")
+        if color is not None and len(color) == v:
+            attrs["color"] = rgba_float(color)
+    elif isinstance(visual, trimesh.visual.ColorVisuals):
+        if visual.kind == "vertex":
+            attrs["color"] = rgba_float(visual.vertex_colors)
+        elif visual.kind == "face":
+            face_colors = rgba_float(visual.face_colors)
+    if face_colors is None:
+        return points, faces, attrs
+    # per-face colors: split vertices whose faces disagree in color
+    vertex_point, triangles, corner = split_corners(faces, {"color": np.repeat(face_colors, 3, axis=0)})
+    new_attrs = {name: a[vertex_point] for name, a in attrs.items()}
+    new_attrs.update(corner)
+    return points[vertex_point], triangles, new_attrs
+
+
+def load_trimesh(path: Path) -> Mesh:
+    """Load an OBJ, PLY, STL, OFF, glTF or GLB file as one cleaned mesh."""
+    import trimesh
+
+    file_type = path.suffix.lower().lstrip(".")
+    try:
+        if file_type in _TEXT_TYPES:
+            # trimesh needs the optional charset_normalizer to guess the encoding of non-UTF-8 text and fails
+            # without it: hand it UTF-8 (non-UTF-8 bytes are read as Latin-1, which only occurs in comments
+            # and names of a valid file)
+            data = path.read_bytes()
+            try:
+                data.decode("utf-8")
+            except UnicodeDecodeError:
+                data = data.decode("latin-1").encode("utf-8")
+            resolver = trimesh.resolvers.FilePathResolver(str(path))
+            scene = trimesh.load_scene(
+                io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
+            )
+        else:
+            scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
+        parts = []
+        for node in scene.graph.nodes_geometry:
+            matrix, geom_name = scene.graph[node]
+            part = _geometry_part(scene.geometry[geom_name])
+            if part is not None:
+                parts.append(transform_part(part, matrix))
+    except MeshLoadError:
+        raise
+    except ModuleNotFoundError as e:
+        if e.name == "charset_normalizer":  # trimesh's last resort for bytes that are not UTF-8
+            raise MeshLoadError(path, f"not a valid {file_type.upper()} file (binary garbage?)") from e
+        raise MeshLoadError(path, f"trimesh could not read it ({type(e).__name__}: {e})") from e
+    except Exception as e:
+        raise MeshLoadError(path, f"trimesh could not read it ({type(e).__name__}: {e})") from e
+    if not parts:
+        raise MeshLoadError(path, "no triangles: the file holds no triangle geometry")
+    points, triangles, attrs = concatenate_parts(parts, path)
+    return clean_mesh(points, triangles, attrs, str(path))

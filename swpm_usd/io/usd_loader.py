@@ -1,0 +1,241 @@
+"""Load USD stages (.usd .usda .usdc .usdz) through usd-core into a cleaned :class:`~swpm_usd.mesh.Mesh`.
+
+Every ``UsdGeom.Mesh`` prim under the pseudo-root (or under ``prim_path``), instance proxies included, is read
+at its earliest time sample, moved to world space with its local-to-world transform and concatenated.
+Polygons are fan-triangulated; ``orientation = leftHanded`` (and mirroring transforms) flip the winding so
+front faces come out counter-clockwise. Primvars: ``primvars:normals`` (else the ``normals`` attribute) ->
+``normal``, ``primvars:st`` (else the first texCoord2f[] primvar by name) -> ``uv``, ``primvars:displayColor``
+(+ ``displayOpacity`` as alpha) -> ``color``. Indexed primvars are flattened. ``vertex`` / ``varying`` /
+``constant`` values stay per point; ``faceVarying`` / ``uniform`` values are taken per face corner and each
+distinct (point, values) pair becomes one vertex, so only real seams split points. Any USD failure becomes a
+:class:`~swpm_usd.errors.MeshLoadError` naming the file.
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+from pxr import Sdf, Tf, Usd, UsdGeom
+
+from ..errors import MeshLoadError
+from ..mesh import Mesh
+from .clean import Part, clean_mesh, concatenate_parts, rgba_float, split_corners, transform_part
+
+_TEXCOORD2_TYPES = {
+    Sdf.ValueTypeNames.TexCoord2fArray,
+    Sdf.ValueTypeNames.TexCoord2dArray,
+    Sdf.ValueTypeNames.TexCoord2hArray,
+}
+
+
+class _Invalid(ValueError):
+    """Something in the stage's data is not a valid mesh (the message says what and where)."""
+
+
+def _tf_message(e: BaseException) -> str:
+    """The messages of a Tf.ErrorException, without the C++ function / file / line noise."""
+    chunks = re.split(r"\s*Error in '[^']*' at line \d+ in file \S+ : ", str(e))
+    found = [" ".join(c.split()).strip("'") for c in chunks if c.strip()]
+    return "; ".join(found) if found else (str(e).strip() or type(e).__name__)
+
+
+class _Topology:
+    """Fan triangulation of one mesh prim: corner indices of every triangle and the face each comes from."""
+
+    def __init__(self, counts: np.ndarray, indices: np.ndarray, n_points: int, left_handed: bool, where: str):
+        if counts.shape[0] and counts.min() < 3:
+            face = int(np.argmax(counts < 3))
+            raise _Invalid(f"{where}: face {face} has {int(counts[face])} vertices (at least 3 needed)")
+        if int(counts.sum()) != indices.shape[0]:
+            raise _Invalid(
+                f"{where}: faceVertexCounts sum to {int(counts.sum())} "
+                f"but there are {indices.shape[0]} faceVertexIndices"
+            )
+        if indices.shape[0] and (indices.min() < 0 or indices.max() >= n_points):
+            bad = int(np.argmax((indices < 0) | (indices >= n_points)))
+            raise _Invalid(
+                f"{where}: faceVertexIndices[{bad}] = {int(indices[bad])} out of range for {n_points} points"
+            )
+        self.n_faces = counts.shape[0]
+        self.n_corners_in = indices.shape[0]
+        self.n_points = n_points
+        ntri = counts - 2
+        starts = np.cumsum(counts) - counts
+        self.face = np.repeat(np.arange(self.n_faces, dtype=np.int64), ntri)
+        k = np.arange(self.face.shape[0], dtype=np.int64) - (np.cumsum(ntri) - ntri)[self.face] + 1
+        c0 = starts[self.face]
+        order = (0, 2, 1) if left_handed else (0, 1, 2)
+        # corner (face-vertex) index of every triangle corner, (T, 3)
+        self.corners = np.stack([c0, c0 + k, c0 + k + 1], axis=1)[:, order]
+        self.points = indices[self.corners]
+
+    def resolve(self, values: np.ndarray, interpolation: str, what: str) -> tuple[str, np.ndarray]:
+        """Primvar values -> ("point", (V, k)) or ("corner", (3T, k))."""
+        values = values.reshape(values.shape[0], -1)
+        n = values.shape[0]
+        expected = {
+            UsdGeom.Tokens.constant: 1,
+            UsdGeom.Tokens.uniform: self.n_faces,
+            UsdGeom.Tokens.vertex: self.n_points,
+            UsdGeom.Tokens.varying: self.n_points,
+            UsdGeom.Tokens.faceVarying: self.n_corners_in,
+        }.get(interpolation)
+        if expected is None:
+            raise _Invalid(f"{what} has unknown interpolation {interpolation!r}")
+        if n < expected or (n != expected and interpolation != UsdGeom.Tokens.constant):
+            raise _Invalid(f"{what} ({interpolation}) has {n} values, expected {expected}")
+        if interpolation == UsdGeom.Tokens.constant:
+            return "point", np.broadcast_to(values[:1], (self.n_points, values.shape[1]))
+        if interpolation in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying):
+            return "point", values
+        if interpolation == UsdGeom.Tokens.uniform:
+            return "corner", np.repeat(values[self.face], 3, axis=0)
+        return "corner", values[self.corners.reshape(-1)]
+
+    def to_corner(self, resolved: tuple[str, np.ndarray]) -> np.ndarray:
+        kind, values = resolved
+        return values if kind == "corner" else values[self.points.reshape(-1)]
+
+
+def _primvar(api: UsdGeom.PrimvarsAPI, name: str) -> UsdGeom.Primvar | None:
+    pv = api.GetPrimvar(name)
+    return pv if pv and pv.HasValue() else None
+
+
+def _primvar_values(
+    pv: UsdGeom.Primvar, topo: _Topology, time: Usd.TimeCode, where: str
+) -> tuple[str, np.ndarray] | None:
+    what = f"{where}: primvar {pv.GetPrimvarName()!r}"
+    if pv.GetElementSize() != 1:
+        warnings.warn(f"{what} has elementSize {pv.GetElementSize()}; ignored", stacklevel=4)
+        return None
+    if pv.IsIndexed():
+        raw, indices = pv.Get(time), pv.GetIndices(time)
+        n = 0 if raw is None else len(raw)
+        idx = np.asarray(indices if indices is not None else [], dtype=np.int64)
+        if idx.shape[0] and (idx.min() < 0 or idx.max() >= n):
+            pos = int(np.argmax((idx < 0) | (idx >= n)))
+            raise _Invalid(f"{what}: indices[{pos}] = {int(idx[pos])} out of range for {n} values")
+    flat = pv.ComputeFlattened(time)
+    if flat is None:
+        raise _Invalid(f"{what} could not be flattened")
+    return topo.resolve(np.asarray(flat), pv.GetInterpolation(), what)
+
+
+def _read_mesh(prim: Usd.Prim, xf_cache: UsdGeom.XformCache, time: Usd.TimeCode) -> Part | None:
+    where = str(prim.GetPath())
+    mesh = UsdGeom.Mesh(prim)
+    raw_points = mesh.GetPointsAttr().Get(time)
+    raw_counts = mesh.GetFaceVertexCountsAttr().Get(time)
+    raw_indices = mesh.GetFaceVertexIndicesAttr().Get(time)
+    points = (
+        np.zeros((0, 3)) if raw_points is None else np.asarray(raw_points, dtype=np.float64).reshape(-1, 3)
+    )
+    counts = np.zeros(0, np.int64) if raw_counts is None else np.asarray(raw_counts, dtype=np.int64)
+    indices = np.zeros(0, np.int64) if raw_indices is None else np.asarray(raw_indices, dtype=np.int64)
+    if counts.shape[0] == 0 and indices.shape[0] == 0:
+        return None  # an empty placeholder mesh contributes nothing
+    left = mesh.GetOrientationAttr().Get(time) == UsdGeom.Tokens.leftHanded
+    topo = _Topology(counts, indices, points.shape[0], left, where)
+
+    api = UsdGeom.PrimvarsAPI(prim)
+    found: dict[str, tuple[str, np.ndarray]] = {}
+
+    pv = _primvar(api, "normals")
+    if pv is not None:
+        r = _primvar_values(pv, topo, time, where)
+        if r is not None:
+            found["normal"] = r
+    elif mesh.GetNormalsAttr().HasValue():
+        normals = mesh.GetNormalsAttr().Get(time)
+        if normals is not None and len(normals):
+            found["normal"] = topo.resolve(
+                np.asarray(normals), mesh.GetNormalsInterpolation(), f"{where}: attribute 'normals'"
+            )
+
+    pv = _primvar(api, "st")
+    if pv is None:
+        tex = sorted(
+            (p for p in api.GetPrimvarsWithValues() if p.GetTypeName() in _TEXCOORD2_TYPES),
+            key=lambda p: str(p.GetPrimvarName()),
+        )
+        pv = tex[0] if tex else None
+    if pv is not None:
+        r = _primvar_values(pv, topo, time, where)
+        if r is not None:
+            if r[1].shape[1] != 2:
+                raise _Invalid(f"{where}: uv primvar {pv.GetPrimvarName()!r} is not 2-component")
+            found["uv"] = r
+
+    pv = _primvar(api, "displayColor")
+    if pv is not None:
+        color = _primvar_values(pv, topo, time, where)
+        opv = _primvar(api, "displayOpacity")
+        opacity = None if opv is None else _primvar_values(opv, topo, time, where)
+        if color is not None and opacity is not None:
+            if color[0] == opacity[0] == "point":
+                color = ("point", np.concatenate([color[1][:, :3], opacity[1][:, :1]], axis=1))
+            else:
+                rgb = topo.to_corner(color)[:, :3]
+                color = ("corner", np.concatenate([rgb, topo.to_corner(opacity)[:, :1]], axis=1))
+        if color is not None:
+            found["color"] = (color[0], rgba_float(color[1]))
+
+    point_attrs = {n: np.asarray(v, dtype=np.float32) for n, (kind, v) in found.items() if kind == "point"}
+    corner_attrs = {n: np.asarray(v, dtype=np.float32) for n, (kind, v) in found.items() if kind == "corner"}
+    if corner_attrs:
+        vertex_point, triangles, attrs = split_corners(topo.points, corner_attrs)
+        attrs.update({n: a[vertex_point] for n, a in point_attrs.items()})
+        part = (points[vertex_point], triangles, attrs)
+    else:
+        part = (points, topo.points, point_attrs)
+    # USD matrices act on row vectors; transform_part wants the column-vector form
+    matrix = np.array(xf_cache.GetLocalToWorldTransform(prim), dtype=np.float64).T
+    return transform_part(part, matrix)
+
+
+def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
+    """Load every Mesh prim of a USD stage (or those under ``prim_path``) as one cleaned mesh."""
+    try:
+        try:
+            stage = Usd.Stage.Open(str(path))
+        except Tf.ErrorException as e:
+            raise MeshLoadError(path, f"USD could not open it: {_tf_message(e)}") from e
+        if stage is None:
+            raise MeshLoadError(path, "USD could not open it")
+        if prim_path is None:
+            root = stage.GetPseudoRoot()
+        else:
+            if not Sdf.Path.IsValidPathString(prim_path) or not Sdf.Path(prim_path).IsAbsolutePath():
+                raise MeshLoadError(path, f"prim_path {prim_path!r} is not an absolute USD prim path")
+            root = stage.GetPrimAtPath(prim_path)
+            if not root or not root.IsValid():
+                raise MeshLoadError(path, f"no prim at {prim_path}")
+        time = Usd.TimeCode.EarliestTime()
+        xf_cache = UsdGeom.XformCache(time)
+        parts: list[Part] = []
+        n_mesh_prims = 0
+        for prim in Usd.PrimRange(root, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)):
+            if prim.IsA(UsdGeom.Mesh):
+                n_mesh_prims += 1
+                part = _read_mesh(prim, xf_cache, time)
+                if part is not None:
+                    parts.append(part)
+    except MeshLoadError:
+        raise
+    except _Invalid as e:
+        raise MeshLoadError(path, str(e)) from e
+    except Tf.ErrorException as e:
+        raise MeshLoadError(path, f"USD error: {_tf_message(e)}") from e
+    except Exception as e:
+        raise MeshLoadError(path, f"{type(e).__name__}: {e}") from e
+    under = "" if prim_path is None else f" under {prim_path}"
+    if n_mesh_prims == 0:
+        raise MeshLoadError(path, f"no UsdGeom.Mesh prims{under}")
+    if not parts:
+        raise MeshLoadError(path, f"no triangles: the {n_mesh_prims} Mesh prims{under} have no faces")
+    points, triangles, attrs = concatenate_parts(parts, path)
+    return clean_mesh(points, triangles, attrs, str(path))

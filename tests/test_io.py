@@ -1,0 +1,675 @@
+"""Tests of mesh loading (swpm_usd.io): shared test meshes, seams, trimesh formats, USD, cleaning, errors."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdUtils, Vt
+
+from swpm_usd.errors import MeshLoadError
+from swpm_usd.io import clean_mesh, load_mesh
+from swpm_usd.mesh import Mesh
+
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "meshes"
+
+# README T is the count after fan triangulation; differences must be explained by what cleaning dropped.
+EXPECTED_DROPS = {"suzanne.obj": {"duplicate_dropped": 1}}  # quads 142/143 share a triangle, opposite winding
+# loaded vertex counts: seams split spot/bob/beetle, teapot's patch-seam duplicates weld, bunny has 1113 `v`
+# lines no face uses (trimesh's OBJ reader already leaves them out), suzanne has normal seams
+EXPECTED_V = {
+    "stanford-bunny.obj": 34834,
+    "spot.obj": 3225,
+    "bob.obj": 5647,
+    "teapot.obj": 3241,
+    "beetle.obj": 1254,
+}
+EXPECTED_MERGED = {"teapot.obj": 403}
+
+
+def _readme_table() -> dict[str, tuple[int, int]]:
+    rows = {}
+    for line in (SHARED / "README.md").read_text().splitlines():
+        m = re.match(r"\|\s*([\w.-]+\.obj)\s*\|\s*(\d+)\s*\|\s*(\d+)\s*\|", line)
+        if m:
+            rows[m.group(1)] = (int(m.group(2)), int(m.group(3)))
+    return rows
+
+
+README = _readme_table()
+
+
+def test_readme_lists_every_shared_mesh() -> None:
+    assert sorted(README) == sorted(p.name for p in SHARED.glob("*.obj"))
+
+
+@pytest.mark.parametrize("name", sorted(README))
+def test_shared_mesh_counts(name: str) -> None:
+    readme_v, readme_t = README[name]
+    m = load_mesh(SHARED / name)
+    drops = EXPECTED_DROPS.get(name, {})
+    assert m.stats["degenerate_dropped"] == drops.get("degenerate_dropped", 0)
+    assert m.stats["duplicate_dropped"] == drops.get("duplicate_dropped", 0)
+    assert m.stats["unreferenced_dropped"] == 0
+    assert m.stats["vertices_merged"] == EXPECTED_MERGED.get(name, 0)
+    assert m.triangle_count + m.stats["degenerate_dropped"] + m.stats["duplicate_dropped"] == readme_t
+    assert m.vertex_count == EXPECTED_V.get(name, readme_v)
+    assert m.points.dtype == np.float32 and m.triangles.dtype == np.int32
+    assert m.triangles.min() == 0 and m.triangles.max() == m.vertex_count - 1
+    assert m.source == str(SHARED / name)
+
+
+def _parse_obj(path: Path) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Tiny independent OBJ reader for triangle files: v / vt / vn arrays and (F, 3, 3) 1-based corner ids."""
+    data: dict[str, list] = {"v": [], "vt": [], "vn": []}
+    faces = []
+    for line in path.read_text().splitlines():
+        parts = line.split()
+        if not parts:
+            continue
+        if parts[0] in data:
+            data[parts[0]].append([float(x) for x in parts[1:]])
+        elif parts[0] == "f":
+            assert len(parts) == 4
+            faces.append([[int(x) if x else 0 for x in (c.split("/") + ["", ""])[:3]] for c in parts[1:]])
+    arrays = {k: np.array(v, dtype=np.float32) for k, v in data.items() if v}
+    return arrays, np.array(faces)
+
+
+@pytest.mark.parametrize("name", ["spot.obj", "bob.obj"])
+def test_obj_seams_survive(name: str) -> None:
+    m = load_mesh(SHARED / name)
+    arrays, corners = _parse_obj(SHARED / name)
+    assert "uv" in m.attributes
+    assert m.attributes["uv"].dtype == np.float32 and m.attributes["uv"].shape == (m.vertex_count, 2)
+    n_positions = len(np.unique(m.points, axis=0))
+    assert n_positions == len(arrays["v"]) < m.vertex_count
+    # triangle order is the file's: every corner has exactly the position / uv / normal the file gives it
+    assert m.triangle_count == len(corners)
+    np.testing.assert_array_equal(m.points[m.triangles], arrays["v"][corners[:, :, 0] - 1])
+    np.testing.assert_array_equal(
+        m.attributes["uv"][m.triangles], arrays["vt"][corners[:, :, 1] - 1][..., :2]
+    )
+    if "vn" in arrays:
+        np.testing.assert_array_equal(m.attributes["normal"][m.triangles], arrays["vn"][corners[:, :, 2] - 1])
+        key = corners.reshape(-1, 3)
+    else:
+        assert "normal" not in m.attributes
+        key = corners.reshape(-1, 3)[:, :2]
+    # one vertex per distinct (v, vt[, vn]) combination: seams split, nothing more
+    assert m.vertex_count == len(np.unique(key, axis=0))
+
+
+# ---------------------------------------------------------------- trimesh formats
+
+
+def _canonical(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Triangles as position rows, each rotated to start at its smallest corner (winding kept), sorted.
+
+    Positions are rounded to 4 decimals first so float32 / float64 copies of one mesh compare equal.
+    """
+    corners = np.round(np.asarray(points, dtype=np.float64)[triangles], 4) + 0.0  # (T, 3, 3), no -0.0
+    keys = corners[:, :, 0] * 1e6 + corners[:, :, 1] * 1e3 + corners[:, :, 2]
+    start = np.argmin(keys, axis=1)
+    idx = (start[:, None] + np.arange(3)) % 3
+    rows = np.take_along_axis(corners, idx[:, :, None], axis=1).reshape(-1, 9)
+    return rows[np.lexsort(rows.T[::-1])]
+
+
+def _colored_sphere() -> trimesh.Trimesh:
+    m = trimesh.creation.icosphere(subdivisions=2)
+    rng = np.random.default_rng(0)
+    m.visual.vertex_colors = (rng.random((len(m.vertices), 4)) * 255).astype(np.uint8)
+    _ = m.vertex_normals  # computed now so exporters write them
+    return m
+
+
+@pytest.mark.parametrize("ext", ["ply", "off", "glb", "obj"])
+def test_trimesh_round_trip_keeps_order_and_attributes(tmp_path: Path, ext: str) -> None:
+    src = _colored_sphere()
+    path = tmp_path / f"sphere.{ext}"
+    src.export(path)
+    m = load_mesh(path)
+    np.testing.assert_allclose(m.points, src.vertices, atol=1e-7)  # OBJ writes 8 decimals
+    np.testing.assert_array_equal(m.triangles, src.faces)
+    assert dict(m.stats) == {
+        "degenerate_dropped": 0,
+        "duplicate_dropped": 0,
+        "unreferenced_dropped": 0,
+        "vertices_merged": 0,
+    }
+    if ext != "off":  # trimesh writes neither normals nor colors to OFF
+        np.testing.assert_allclose(m.attributes["normal"], src.vertex_normals, atol=1e-6)
+        assert m.attributes["color"].dtype == np.float32 and m.attributes["color"].shape == (
+            len(src.vertices),
+            4,
+        )
+        channels = 3 if ext == "obj" else 4  # OBJ vertex colors are RGB: alpha comes back as 1
+        np.testing.assert_allclose(
+            m.attributes["color"][:, :channels] * 255, src.visual.vertex_colors[:, :channels], atol=1e-3
+        )
+
+
+def test_stl_round_trip_welds_split_corners(tmp_path: Path) -> None:
+    src = _colored_sphere()
+    path = tmp_path / "sphere.stl"
+    src.export(path)
+    m = load_mesh(path)
+    # STL stores three corners per triangle; identical positions weld back to the original vertex count
+    assert m.vertex_count == len(src.vertices)
+    assert m.stats["vertices_merged"] == 3 * len(src.faces) - len(src.vertices)
+    np.testing.assert_allclose(
+        _canonical(m.points, m.triangles), _canonical(src.vertices, src.faces), atol=1e-4
+    )
+    assert dict(m.attributes) == {}
+
+
+@pytest.mark.parametrize("ext", ["ply", "glb", "obj"])
+def test_uv_seams_round_trip(tmp_path: Path, ext: str) -> None:
+    box = trimesh.creation.box()
+    box.unmerge_vertices()  # 36 vertices at 8 positions
+    uv = np.random.default_rng(1).random((len(box.vertices), 2))
+    # a material without an image: trimesh's default material needs Pillow to export
+    box.visual = trimesh.visual.TextureVisuals(
+        uv=uv, material=trimesh.visual.material.PBRMaterial(baseColorFactor=[255, 0, 0, 255])
+    )
+    path = tmp_path / f"box.{ext}"
+    box.export(path)
+    m = load_mesh(path)
+    assert m.vertex_count == 36 and len(np.unique(m.points, axis=0)) == 8
+    np.testing.assert_allclose(m.attributes["uv"], uv, atol=1e-6)
+
+
+def test_glb_scene_concatenated_with_transforms(tmp_path: Path) -> None:
+    a = trimesh.creation.box()
+    b = trimesh.creation.icosphere(subdivisions=1)
+    for geom in (a, b):
+        _ = geom.vertex_normals  # computed now so the exporter writes them
+    ta = trimesh.transformations.translation_matrix([10.0, 0.0, 0.0])
+    tb = trimesh.transformations.rotation_matrix(np.pi / 2, [0, 0, 1]) @ np.diag([2.0, 2.0, 2.0, 1.0])
+    mirror = np.diag([-1.0, 1.0, 1.0, 1.0])
+    scene = trimesh.Scene()
+    scene.add_geometry(a, node_name="a", geom_name="a", transform=ta)
+    scene.add_geometry(b, node_name="b", geom_name="b", transform=tb)
+    scene.add_geometry(b, node_name="b2", geom_name="b", transform=mirror)  # instanced + mirrored
+    path = tmp_path / "scene.glb"
+    scene.export(path)
+    m = load_mesh(path)
+    assert m.triangle_count == len(a.faces) + 2 * len(b.faces)
+    expected = []
+    for geom, t in ((a, ta), (b, tb), (b, mirror)):
+        faces = geom.faces[:, ::-1] if np.linalg.det(t[:3, :3]) < 0 else geom.faces
+        expected.append(_canonical(trimesh.transform_points(geom.vertices, t), faces))
+    expected_rows = np.concatenate(expected)
+    expected_rows = expected_rows[np.lexsort(expected_rows.T[::-1])]
+    np.testing.assert_allclose(_canonical(m.points, m.triangles), expected_rows, atol=1e-5)
+    # the mirrored sphere still faces outwards: normals agree with the winding everywhere
+    tri = m.points[m.triangles].astype(np.float64)
+    geometric = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    shading = m.attributes["normal"][m.triangles].sum(axis=1)
+    assert (np.einsum("ij,ij->i", geometric, shading) > 0).all()
+
+
+def test_multi_object_obj_concatenated(tmp_path: Path) -> None:
+    (tmp_path / "two.mtl").write_text("newmtl red\nKd 1 0 0\nnewmtl blue\nKd 0 0 1\n")
+    path = tmp_path / "two.obj"
+    path.write_text(
+        "mtllib two.mtl\n"
+        "o first\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl red\nf 1/1 2/2 3/3\n"
+        "o second\nv 5 0 0\nv 6 0 0\nv 6 1 0\nv 5 1 0\nusemtl blue\nf 4 5 6 7\n"
+    )
+    with pytest.warns(UserWarning, match="uv"):  # only the first object has UVs
+        m = load_mesh(path)
+    assert m.triangle_count == 3 and m.vertex_count == 7
+    assert "uv" not in m.attributes
+    assert sorted(np.unique(m.points[:, 0]).tolist()) == [0.0, 1.0, 5.0, 6.0]
+
+
+def test_obj_degenerate_and_duplicates_dropped(tmp_path: Path) -> None:
+    path = tmp_path / "dirty.obj"
+    path.write_text(
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 0 0\nv 1 1 0\n"  # v4 repeats v2's position
+        "f 1 2 3\n"
+        "f 2 3 1\n"  # same triangle, rotated
+        "f 3 2 1\n"  # opposite winding
+        "f 1 1 2\n"  # repeated index
+        "f 1 4 2\n"  # v4 == v2 after the weld
+        "f 2 5 3\n"
+        "f 4 5 3\n"  # duplicate of the previous one once v4 is welded to v2
+    )
+    m = load_mesh(path)
+    assert m.triangles.tolist() == [[0, 1, 2], [1, 3, 2]]
+    assert dict(m.stats) == {
+        "degenerate_dropped": 2,
+        "duplicate_dropped": 3,
+        "unreferenced_dropped": 0,
+        "vertices_merged": 1,
+    }
+    np.testing.assert_array_equal(m.points, [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]])
+
+
+# ---------------------------------------------------------------- USD
+
+
+def _define_mesh(
+    stage: Usd.Stage,
+    path: str,
+    points: np.ndarray,
+    counts: list[int],
+    indices: list[int],
+    orientation: str | None = None,
+) -> UsdGeom.Mesh:
+    mesh = UsdGeom.Mesh.Define(stage, path)
+    mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(np.asarray(points, dtype=np.float32)))
+    mesh.CreateFaceVertexCountsAttr(Vt.IntArray(counts))
+    mesh.CreateFaceVertexIndicesAttr(Vt.IntArray(indices))
+    if orientation is not None:
+        mesh.CreateOrientationAttr(orientation)
+    return mesh
+
+
+# two unit quads side by side in the z=0 plane, counter-clockwise seen from +z
+STRIP_POINTS = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 1, 0], [1, 1, 0], [2, 1, 0]], dtype=np.float32)
+STRIP_COUNTS = [4, 4]
+STRIP_INDICES = [0, 1, 4, 3, 1, 2, 5, 4]
+
+
+def _geometric_normals(m: Mesh) -> np.ndarray:
+    tri = m.points[m.triangles].astype(np.float64)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def test_usd_polygons_fan_triangulated(tmp_path: Path) -> None:
+    path = tmp_path / "poly.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    angles = np.linspace(0, 2 * np.pi, 6)[:-1]
+    pentagon = np.stack([np.cos(angles) + 5, np.sin(angles), np.zeros(5)], axis=1)
+    points = np.concatenate([STRIP_POINTS, pentagon])
+    _define_mesh(stage, "/M", points, [4, 4, 5, 3], STRIP_INDICES + [6, 7, 8, 9, 10, 0, 1, 3])
+    stage.Save()
+    m = load_mesh(path)
+    assert m.triangle_count == 2 + 2 + 3 + 1
+    assert m.vertex_count == 11
+    np.testing.assert_allclose(_geometric_normals(m), np.tile([0, 0, 1], (8, 1)), atol=1e-6)
+    # fan from the first corner of each face, in face order
+    assert m.triangles[4:7].tolist() == [[6, 7, 8], [6, 8, 9], [6, 9, 10]]
+
+
+@pytest.mark.parametrize("orientation", [UsdGeom.Tokens.rightHanded, UsdGeom.Tokens.leftHanded])
+def test_usd_orientation(tmp_path: Path, orientation: str) -> None:
+    path = tmp_path / "o.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    _define_mesh(stage, "/M", STRIP_POINTS, STRIP_COUNTS, STRIP_INDICES, orientation=orientation)
+    stage.Save()
+    m = load_mesh(path)
+    z = 1.0 if orientation == UsdGeom.Tokens.rightHanded else -1.0
+    np.testing.assert_allclose(_geometric_normals(m), np.tile([0, 0, z], (4, 1)), atol=1e-6)
+
+
+def _strip_corner_uv(seam: bool) -> np.ndarray:
+    """faceVarying st for the strip: u = x / 2 across both faces, or (with a seam) face 1 shifted by 0.25."""
+    corners = STRIP_POINTS[STRIP_INDICES]
+    uv = np.stack([corners[:, 0] / 2, corners[:, 1]], axis=1)
+    if seam:
+        uv[4:, 0] += 0.25
+    return uv.astype(np.float32)
+
+
+@pytest.mark.parametrize("seam", [True, False])
+def test_usd_face_varying_st(tmp_path: Path, seam: bool) -> None:
+    path = tmp_path / "fv.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    mesh = _define_mesh(stage, "/M", STRIP_POINTS, STRIP_COUNTS, STRIP_INDICES)
+    pv = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(
+        "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying
+    )
+    pv.Set(Vt.Vec2fArray.FromNumpy(_strip_corner_uv(seam)))
+    stage.Save()
+    m = load_mesh(path)
+    # the shared edge (points 1 and 4) splits only when the uvs differ there
+    assert m.vertex_count == (8 if seam else 6)
+    assert len(np.unique(m.points, axis=0)) == 6
+    assert m.stats["vertices_merged"] == 0
+    uv = m.attributes["uv"][m.triangles]  # (T, 3, 2)
+    pos = m.points[m.triangles]
+    face1 = pos[:, :, 0].mean(axis=1) > 1
+    expected = np.stack([pos[..., 0] / 2 + np.where(seam & face1, 0.25, 0)[:, None], pos[..., 1]], axis=-1)
+    np.testing.assert_allclose(uv, expected, atol=1e-7)
+
+
+def test_usd_indexed_primvars(tmp_path: Path) -> None:
+    path = tmp_path / "idx.usdc"
+    stage = Usd.Stage.CreateNew(str(path))
+    mesh = _define_mesh(stage, "/M", STRIP_POINTS, STRIP_COUNTS, STRIP_INDICES)
+    api = UsdGeom.PrimvarsAPI(mesh)
+    st = api.CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying)
+    st.Set(Vt.Vec2fArray([Gf.Vec2f(0, 0), Gf.Vec2f(1, 0), Gf.Vec2f(1, 1), Gf.Vec2f(0, 1)]))
+    st.SetIndices(Vt.IntArray([0, 1, 2, 3, 0, 1, 2, 3]))  # each face gets the full square: a seam
+    color = api.CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.vertex)
+    color.Set(Vt.Vec3fArray([Gf.Vec3f(1, 0, 0), Gf.Vec3f(0, 0, 1)]))
+    color.SetIndices(Vt.IntArray([0, 1, 0, 1, 0, 1]))
+    stage.Save()
+    m = load_mesh(path)
+    assert m.vertex_count == 8  # points 1 and 4 carry u=1 for face 0 and u=0 for face 1
+    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=np.float32)
+    # first triangle of each face: corners 0, 1, 2 of the face
+    np.testing.assert_array_equal(m.attributes["uv"][m.triangles[[0, 2]]], [square[:3], square[:3]])
+    red, blue = [1, 0, 0, 1], [0, 0, 1, 1]
+    index_of_point = np.array([0, 1, 0, 1, 0, 1])
+    expected = np.array([red, blue], dtype=np.float32)[index_of_point]
+    # map each loaded vertex back to its USD point by position
+    point_of_vertex = np.array([np.flatnonzero((STRIP_POINTS == p).all(axis=1))[0] for p in m.points])
+    np.testing.assert_array_equal(m.attributes["color"], expected[point_of_vertex])
+
+
+def test_usd_uniform_and_constant_colors(tmp_path: Path) -> None:
+    path = tmp_path / "colors.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    a = _define_mesh(stage, "/A", STRIP_POINTS, STRIP_COUNTS, STRIP_INDICES)
+    UsdGeom.PrimvarsAPI(a).CreatePrimvar(
+        "displayColor", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.uniform
+    ).Set(Vt.Vec3fArray([Gf.Vec3f(1, 0, 0), Gf.Vec3f(0, 1, 0)]))
+    b = _define_mesh(stage, "/B", STRIP_POINTS + [0, 0, 5], STRIP_COUNTS, STRIP_INDICES)
+    api = UsdGeom.PrimvarsAPI(b)
+    api.CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.constant).Set(
+        Vt.Vec3fArray([Gf.Vec3f(0.5, 2.0, 0.25)])  # HDR value: clipped to [0, 1]
+    )
+    api.CreatePrimvar("displayOpacity", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.constant).Set(
+        Vt.FloatArray([0.5])
+    )
+    stage.Save()
+    m = load_mesh(path)
+    assert m.triangle_count == 8
+    on_a = m.points[:, 2] == 0
+    assert on_a.sum() == 8  # uniform colors split points 1 and 4 of /A
+    color_of_tri = m.attributes["color"][m.triangles]
+    assert (color_of_tri == color_of_tri[:, :1]).all()  # each face one color
+    centroid_x = m.points[m.triangles][:, :, 0].mean(axis=1)
+    tri_a = m.points[m.triangles][:, 0, 2] == 0
+    np.testing.assert_array_equal(color_of_tri[tri_a & (centroid_x < 1), 0], [[1, 0, 0, 1]] * 2)
+    np.testing.assert_array_equal(color_of_tri[tri_a & (centroid_x > 1), 0], [[0, 1, 0, 1]] * 2)
+    np.testing.assert_array_equal(m.attributes["color"][~on_a], [[0.5, 1.0, 0.25, 0.5]] * 6)
+
+
+def test_usd_transforms_and_normals(tmp_path: Path) -> None:
+    path = tmp_path / "xf.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    moved = UsdGeom.Xform.Define(stage, "/World/Moved")
+    moved.AddTranslateOp().Set(Gf.Vec3d(10, 0, 0))
+    moved.AddScaleOp().Set(Gf.Vec3f(2, 2, 2))
+    a = _define_mesh(stage, "/World/Moved/A", STRIP_POINTS, STRIP_COUNTS, STRIP_INDICES)
+    mirrored = UsdGeom.Xform.Define(stage, "/World/Mirrored")
+    mirrored.AddScaleOp().Set(Gf.Vec3f(-1, 1, 1))
+    b = _define_mesh(stage, "/World/Mirrored/B", STRIP_POINTS, STRIP_COUNTS, STRIP_INDICES)
+    for mesh in (a, b):
+        mesh.CreateNormalsAttr(Vt.Vec3fArray([Gf.Vec3f(0, 0, 1)] * 6))
+        mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
+    stage.Save()
+    m = load_mesh(path)
+    assert m.triangle_count == 8 and m.vertex_count == 12
+    xs = sorted(np.unique(m.points[:, 0]).tolist())
+    assert xs == [-2.0, -1.0, 0.0, 10.0, 12.0, 14.0]
+    assert sorted(np.unique(m.points[:, 1]).tolist()) == [0.0, 1.0, 2.0]
+    # the mirrored quad keeps facing +z (winding flipped back), like its normals
+    np.testing.assert_allclose(_geometric_normals(m), np.tile([0, 0, 1], (8, 1)), atol=1e-6)
+    np.testing.assert_allclose(m.attributes["normal"], np.tile([0, 0, 1], (12, 1)), atol=1e-6)
+
+
+def test_usd_two_meshes_and_prim_path(tmp_path: Path) -> None:
+    path = tmp_path / "two.usd"
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.Xform.Define(stage, "/World")
+    _define_mesh(stage, "/World/A", STRIP_POINTS, STRIP_COUNTS, STRIP_INDICES)
+    _define_mesh(stage, "/World/B", STRIP_POINTS[:3] + [0, 0, 1], [3], [0, 1, 2])
+    stage.Save()
+    assert load_mesh(path).triangle_count == 5
+    assert load_mesh(path, prim_path="/World").triangle_count == 5
+    only_b = load_mesh(path, prim_path="/World/B")
+    assert only_b.triangle_count == 1 and (only_b.points[:, 2] == 1).all()
+    with pytest.raises(MeshLoadError, match=r"two\.usd.*no prim at /World/C"):
+        load_mesh(path, prim_path="/World/C")
+    with pytest.raises(MeshLoadError, match="two.usd"):
+        load_mesh(path, prim_path="not a path")
+
+
+def test_usd_instanced_reference(tmp_path: Path) -> None:
+    proto_path = tmp_path / "proto.usda"
+    proto = Usd.Stage.CreateNew(str(proto_path))
+    root = UsdGeom.Xform.Define(proto, "/Geo")
+    _define_mesh(proto, "/Geo/Strip", STRIP_POINTS, STRIP_COUNTS, STRIP_INDICES)
+    proto.SetDefaultPrim(root.GetPrim())
+    proto.Save()
+
+    path = tmp_path / "scene.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    for i, x in enumerate((0.0, 5.0)):
+        inst = UsdGeom.Xform.Define(stage, f"/World/I{i}")
+        inst.AddTranslateOp().Set(Gf.Vec3d(x, 0, 0))
+        inst.GetPrim().GetReferences().AddReference(proto_path.name)
+        inst.GetPrim().SetInstanceable(True)
+    stage.Save()
+    assert Usd.Stage.Open(str(path)).GetPrimAtPath("/World/I1").IsInstance()
+
+    m = load_mesh(path)
+    assert m.triangle_count == 8 and m.vertex_count == 12
+    assert sorted(np.unique(m.points[:, 0]).tolist()) == [0.0, 1.0, 2.0, 5.0, 6.0, 7.0]
+    assert load_mesh(path, prim_path="/World/I1/Strip").points[:, 0].min() == 5.0
+
+
+def test_usdz(tmp_path: Path) -> None:
+    src = tmp_path / "src.usdc"
+    stage = Usd.Stage.CreateNew(str(src))
+    _define_mesh(stage, "/M", STRIP_POINTS, STRIP_COUNTS, STRIP_INDICES)
+    stage.Save()
+    path = tmp_path / "pkg.usdz"
+    assert UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(str(src)), str(path))
+    m = load_mesh(path)
+    assert m.triangle_count == 4 and m.vertex_count == 6
+
+
+def _write_usda(path: Path, body: str) -> Path:
+    path.write_text("#usda 1.0\n" + body)
+    return path
+
+
+_TRIANGLE = "point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]"
+
+
+def _mesh_usda(*lines: str) -> str:
+    return 'def Mesh "M"\n{\n' + "".join(f"    {line}\n" for line in lines) + "}\n"
+
+
+@pytest.mark.parametrize(
+    ("body", "problem"),
+    [
+        ('def Xform "X"\n{\n}\n', "no UsdGeom.Mesh prims"),
+        (
+            _mesh_usda(
+                _TRIANGLE, "int[] faceVertexCounts = [3, 2]", "int[] faceVertexIndices = [0, 1, 2, 0, 1]"
+            ),
+            "/M: face 1 has 2 vertices",
+        ),
+        (
+            _mesh_usda(_TRIANGLE, "int[] faceVertexCounts = [3]", "int[] faceVertexIndices = [0, 1, 7]"),
+            r"faceVertexIndices\[2\] = 7 out of range for 3 points",
+        ),
+        (
+            _mesh_usda(_TRIANGLE, "int[] faceVertexCounts = [4]", "int[] faceVertexIndices = [0, 1, 2]"),
+            "faceVertexCounts sum to 4 but there are 3 faceVertexIndices",
+        ),
+        (
+            _mesh_usda(
+                _TRIANGLE,
+                "int[] faceVertexCounts = [3]",
+                "int[] faceVertexIndices = [0, 1, 2]",
+                'texCoord2f[] primvars:st = [(0, 0), (1, 0)] (interpolation = "faceVarying")',
+            ),
+            r"primvar 'st' \(faceVarying\) has 2 values, expected 3",
+        ),
+        (
+            _mesh_usda(
+                _TRIANGLE,
+                "int[] faceVertexCounts = [3]",
+                "int[] faceVertexIndices = [0, 1, 2]",
+                'texCoord2f[] primvars:st = [(0, 0), (1, 0)] (interpolation = "vertex")',
+                "int[] primvars:st:indices = [0, 1, 5]",
+            ),
+            r"primvar 'st': indices\[2\] = 5 out of range for 2 values",
+        ),
+        (
+            _mesh_usda(
+                "point3f[] points = [(0, 0, 0), (1, 0, 0), (nan, 1, 0)]",
+                "int[] faceVertexCounts = [3]",
+                "int[] faceVertexIndices = [0, 1, 2]",
+            ),
+            "1 of 3 points have NaN",
+        ),
+        ("garbage {{{\n", "USD could not open it"),
+    ],
+)
+def test_usd_bad_input(tmp_path: Path, body: str, problem: str) -> None:
+    path = _write_usda(tmp_path / "bad.usda", body)
+    with pytest.raises(MeshLoadError, match=r"bad\.usda: .*" + problem):
+        load_mesh(path)
+
+
+# ---------------------------------------------------------------- bad files
+
+
+@pytest.mark.parametrize("ext", ["obj", "ply", "glb", "stl", "off", "usdc", "usdz"])
+def test_garbage_bytes(tmp_path: Path, ext: str) -> None:
+    path = tmp_path / f"garbage.{ext}"
+    path.write_bytes(np.random.default_rng(7).integers(0, 256, 4000, dtype=np.uint8).tobytes())
+    with pytest.raises(MeshLoadError) as err:
+        load_mesh(path)
+    assert "garbage." + ext in str(err.value)
+    assert err.value.path == str(path)
+
+
+def test_missing_unsupported_and_directory(tmp_path: Path) -> None:
+    with pytest.raises(MeshLoadError, match=r"nope\.obj: file not found"):
+        load_mesh(tmp_path / "nope.obj")
+    (tmp_path / "m.fbx").write_bytes(b"x")
+    with pytest.raises(MeshLoadError, match=r"m\.fbx: unsupported file type '\.fbx'"):
+        load_mesh(tmp_path / "m.fbx")
+    (tmp_path / "dir.obj").mkdir()
+    with pytest.raises(MeshLoadError, match=r"dir\.obj: not a regular file"):
+        load_mesh(tmp_path / "dir.obj")
+    obj = tmp_path / "t.obj"
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    with pytest.raises(MeshLoadError, match="prim_path only applies to USD"):
+        load_mesh(obj, prim_path="/M")
+
+
+@pytest.mark.parametrize(
+    ("text", "problem"),
+    [
+        ("", "no triangles"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\n", "no triangles"),
+        ("v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "1 of 3 points have NaN"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", "index 8 is out of bounds"),  # trimesh raises IndexError
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 1 2\n", "all 1 triangles are degenerate"),
+    ],
+)
+def test_bad_obj(tmp_path: Path, text: str, problem: str) -> None:
+    path = tmp_path / "bad.obj"
+    path.write_text(text)
+    with pytest.raises(MeshLoadError, match=r"bad\.obj: .*" + problem):
+        load_mesh(path)
+
+
+def test_latin1_obj_comment(tmp_path: Path) -> None:
+    path = tmp_path / "latin.obj"
+    path.write_bytes("# modèle créé\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".encode("latin-1"))
+    assert load_mesh(path).triangle_count == 1
+
+
+# ---------------------------------------------------------------- clean_mesh directly
+
+TRI_POINTS = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], dtype=np.float64)
+
+
+@pytest.mark.parametrize(
+    ("points", "triangles", "attributes", "problem"),
+    [
+        (TRI_POINTS, np.zeros((0, 3), int), {}, "no triangles"),
+        (TRI_POINTS[:, :2], [[0, 1, 2]], {}, r"points must have shape \(V, 3\), got \(4, 2\)"),
+        (np.where(np.eye(4, 3) > 0, np.nan, TRI_POINTS), [[0, 1, 2]], {}, "3 of 4 points have NaN"),
+        (TRI_POINTS + [[np.inf, 0, 0]] + [[0], [0], [0], [0]], [[0, 1, 2]], {}, "4 of 4 points have NaN/inf"),
+        (TRI_POINTS, [[0, 1, 2], [1, 9, 2]], {}, "triangle 1 has vertex index 9 out of range for 4 vertices"),
+        (TRI_POINTS, [[0, -1, 2]], {}, "vertex index -1 out of range"),
+        (TRI_POINTS, [[0.0, 1.0, 2.0]], {}, "must be integers"),
+        (TRI_POINTS, [0, 1, 2], {}, r"triangles must have shape \(T, 3\)"),
+        (TRI_POINTS, [[0, 1, 2]], {"uv": np.zeros((3, 2))}, "attribute 'uv' has 3 rows for 4 points"),
+        (TRI_POINTS, [[0, 1, 2]], {"uv": [[0, 0], [np.nan, 0], [0, 0], [0, 0]]}, "'uv' has NaN/inf values"),
+        (TRI_POINTS, [[0, 0, 1], [3, 3, 3]], {}, "all 2 triangles are degenerate"),
+    ],
+)
+def test_clean_mesh_rejects(points, triangles, attributes, problem: str) -> None:  # noqa: ANN001
+    with pytest.raises(MeshLoadError, match=r"some/file\.obj: .*" + problem):
+        clean_mesh(points, triangles, attributes, "some/file.obj")
+
+
+def test_clean_mesh_welds_identical_vertices_only() -> None:
+    # positions 0..3 of a quad, then copies: 4 == 1 exactly (welds), 5 == 2 in position but not uv (seam)
+    points = np.concatenate([TRI_POINTS, TRI_POINTS[[1, 2]], [[5, 5, 5]]])
+    uv = np.array([[0, 0], [1, 0], [0, 1], [1, 1], [1, 0], [0.5, 1], [9, 9]], dtype=np.float32)
+    triangles = np.array([[0, 1, 2], [4, 3, 5]])
+    m = clean_mesh(points, triangles, {"uv": uv}, None)
+    assert m.vertex_count == 5  # 4 welded into 1, 6 unreferenced
+    np.testing.assert_array_equal(m.points, points[[0, 1, 2, 3, 5]].astype(np.float32))
+    np.testing.assert_array_equal(m.attributes["uv"], uv[[0, 1, 2, 3, 5]])
+    assert m.triangles.tolist() == [[0, 1, 2], [1, 3, 4]]
+    assert dict(m.stats) == {
+        "degenerate_dropped": 0,
+        "duplicate_dropped": 0,
+        "unreferenced_dropped": 1,
+        "vertices_merged": 1,
+    }
+    assert m.source is None
+
+
+def test_clean_mesh_drops_degenerate_and_duplicates_in_order() -> None:
+    points = np.concatenate([TRI_POINTS, TRI_POINTS[[1]]])  # vertex 4 at vertex 1's position
+    uv = np.array([[0, 0], [1, 0], [0, 1], [1, 1], [7, 7]])  # ... but a different uv: not welded
+    triangles = np.array(
+        [
+            [1, 3, 2],
+            [0, 1, 2],
+            [0, 4, 1],  # two corners at one position: degenerate although the indices differ
+            [2, 1, 0],  # opposite winding of triangle 1: duplicate
+            [3, 2, 1],  # rotation of triangle 0: duplicate
+            [2, 2, 2],  # degenerate
+        ]
+    )
+    m = clean_mesh(points, triangles, {"uv": uv}, "x.ply")
+    assert m.triangles.tolist() == [[1, 3, 2], [0, 1, 2]]
+    assert m.vertex_count == 4
+    assert m.attributes["uv"].dtype == uv.dtype  # integer attributes keep their dtype
+    assert dict(m.stats) == {
+        "degenerate_dropped": 2,
+        "duplicate_dropped": 2,
+        "unreferenced_dropped": 1,
+        "vertices_merged": 0,
+    }
+
+
+def test_clean_mesh_signed_zero_and_float32_weld() -> None:
+    points = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [-0.0, 0, 0], [1 + 1e-12, 0, 0]])
+    m = clean_mesh(points, [[0, 1, 2], [3, 4, 2]], {"normal": np.tile([0.0, -0.0, 1.0], (5, 1))}, None)
+    # -0.0 == 0.0 and 1 + 1e-12 == 1 once stored as float32: the second triangle is the first one again
+    assert m.vertex_count == 3 and m.triangle_count == 1
+    assert m.stats["vertices_merged"] == 2 and m.stats["duplicate_dropped"] == 1
+    assert m.attributes["normal"].dtype == np.float32
+
+
+def test_mesh_from_arrays_cleans() -> None:
+    m = Mesh.from_arrays(TRI_POINTS, [[0, 1, 2], [0, 1, 2]], source=Path("a/b.obj"))
+    assert m.triangle_count == 1 and m.vertex_count == 3 and m.source == str(Path("a/b.obj"))
+    assert not m.points.flags.writeable
+    with pytest.raises(MeshLoadError, match="b.obj"):
+        Mesh.from_arrays(TRI_POINTS, [[0, 1, 5]], source="b.obj")
