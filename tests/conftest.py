@@ -1,0 +1,48 @@
+"""Shared fixtures: the real test meshes of ../shared/meshes, loaded once per session."""
+
+from __future__ import annotations
+
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED_MESHES = ROOT.parent / "shared" / "meshes"
+
+
+@cache
+def shared_mesh(name: str):
+    from swpm_usd.io import load_mesh
+
+    path = SHARED_MESHES / name
+    if not path.exists():
+        pytest.fail(f"shared mesh {path} is missing: CI must run with ../shared beside the project")
+    return load_mesh(path)
+
+
+@cache
+def shared_sequence(name: str):
+    from swpm_usd.simplify import collapse_sequence
+
+    return collapse_sequence(shared_mesh(name))
+
+
+def edge_stats(triangles: np.ndarray, vertex_pos: np.ndarray) -> dict[str, int]:
+    """Counts of welded (position) edges by number of incident triangles, and orientation problems."""
+    t = vertex_pos[triangles]
+    a = t.reshape(-1)
+    b = t[:, [1, 2, 0]].reshape(-1)
+    directed = np.stack([a, b], 1)
+    und = np.sort(directed, 1)
+    _, inv, counts = np.unique(und, axis=0, return_inverse=True, return_counts=True)
+    # a consistently oriented manifold edge is used once in each direction
+    uniq_dir = np.unique(directed, axis=0).shape[0]
+    return {
+        "edges": int(counts.shape[0]),
+        "boundary": int((counts == 1).sum()),
+        "manifold": int((counts == 2).sum()),
+        "nonmanifold": int((counts > 2).sum()),
+        "repeated_directed": int(directed.shape[0] - uniq_dir),
+    }

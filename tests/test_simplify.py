@@ -1,0 +1,153 @@
+"""The half-edge collapse sequence: topology, seams, boundaries, locks and replay."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import edge_stats, shared_mesh, shared_sequence
+
+from swpm_usd.mesh import Mesh
+from swpm_usd.simplify import collapse_sequence, mesh_topology
+
+
+def _sample_steps(seq, n=25):
+    return np.unique(np.linspace(0, seq.step_count, n).astype(int))
+
+
+@pytest.mark.parametrize("name", ["spot.obj", "bob.obj", "fandisk.obj"])
+def test_closed_manifold_stays_closed_manifold(name):
+    mesh = shared_mesh(name)
+    seq = shared_sequence(name)
+    topo = mesh_topology(mesh)
+    base = edge_stats(mesh.triangles, topo.vertex_pos)
+    assert base["boundary"] == 0 and base["nonmanifold"] == 0  # the input really is closed
+    euler0 = None
+    for s in _sample_steps(seq):
+        tris = seq.triangles_at_step(s)
+        st = edge_stats(tris, topo.vertex_pos)
+        assert st["boundary"] == 0, (name, s, st)
+        assert st["nonmanifold"] == 0, (name, s, st)
+        assert st["repeated_directed"] == 0, (name, s, st)
+        n_pos = np.unique(topo.vertex_pos[tris]).shape[0]
+        euler = n_pos - st["edges"] + tris.shape[0]
+        euler0 = euler if euler0 is None else euler0
+        assert euler == euler0, "genus changed"
+    # it simplifies all the way down (a closed genus-0 mesh ends near a tetrahedron)
+    assert seq.triangles_at_step(seq.step_count).shape[0] <= 0.02 * mesh.triangle_count + 8
+
+
+def test_every_lod_triangle_has_area_and_keeps_orientation():
+    mesh = shared_mesh("spot.obj")
+    seq = shared_sequence("spot.obj")
+    pts = mesh.points.astype(np.float64)
+    for s in _sample_steps(seq, 10):
+        tris = seq.triangles_at_step(s)
+        n = np.cross(pts[tris[:, 1]] - pts[tris[:, 0]], pts[tris[:, 2]] - pts[tris[:, 0]])
+        assert np.all(np.linalg.norm(n, axis=1) > 0)
+        # a closed, consistently oriented surface encloses positive volume
+        vol = np.einsum("ij,ij->i", pts[tris[:, 0]], n).sum() / 6.0
+        assert vol > 0
+
+
+def test_errors_and_steps_are_consistent():
+    seq = shared_sequence("cow.obj")
+    assert seq.binned.shape == seq.kept.shape == seq.step.shape == seq.error.shape
+    assert np.all(np.diff(seq.step) >= 0)
+    assert seq.step_offsets[0] == 0 and seq.step_offsets[-1] == seq.collapse_count
+    lod_err = seq.lod_errors()
+    assert lod_err[0] == 0 and np.all(np.diff(lod_err) >= 0)
+    # every vertex is binned at most once, never onto itself
+    assert np.unique(seq.binned).shape[0] == seq.binned.shape[0]
+    assert np.all(seq.binned != seq.kept)
+    # triangle counts fall as steps proceed
+    counts = [seq.triangles_at_step(s).shape[0] for s in _sample_steps(seq)]
+    assert counts == sorted(counts, reverse=True)
+
+
+def test_seam_vertices_collapse_together():
+    mesh = shared_mesh("spot.obj")  # UV seams: several vertices share a position
+    seq = shared_sequence("spot.obj")
+    topo = mesh_topology(mesh)
+    assert topo.vertex_pos.max() + 1 < mesh.vertex_count
+    # some step bins a whole seam position (several vertices at once)
+    assert np.bincount(seq.step).max() >= 2
+    # at every step boundary no binned position is still referenced: nothing was torn apart
+    for s in _sample_steps(seq, 15):
+        tris = seq.triangles_at_step(s)
+        used_pos = np.unique(topo.vertex_pos[tris])
+        gone = seq.binned_position[:s]
+        assert np.intersect1d(used_pos, gone).size == 0
+    # within a step every vertex of the binned position is binned
+    per_pos = np.bincount(topo.vertex_pos)
+    per_step = np.bincount(seq.step, minlength=seq.step_count)
+    assert np.array_equal(per_step, per_pos[seq.binned_position])
+
+
+def test_boundary_vertices_stay_on_boundary():
+    mesh = shared_mesh("stanford-bunny.obj")  # open: 5 holes
+    seq = shared_sequence("stanford-bunny.obj")
+    topo = mesh_topology(mesh)
+    on_boundary = topo.pos_boundary
+    b = seq.binned_position
+    k = seq.kept_position
+    assert on_boundary[b].any()
+    assert np.all(on_boundary[k[on_boundary[b]]])
+    # and the surface never grows new holes: boundary edge count never exceeds the input's
+    base = edge_stats(mesh.triangles, topo.vertex_pos)["boundary"]
+    for s in _sample_steps(seq, 8):
+        st = edge_stats(seq.triangles_at_step(s), topo.vertex_pos)
+        assert st["boundary"] <= base and st["nonmanifold"] == 0
+
+
+@pytest.mark.parametrize("name", ["cow.obj", "beetle.obj", "teapot.obj", "suzanne.obj"])
+def test_nonmanifold_and_multi_component_meshes(name):
+    mesh = shared_mesh(name)
+    seq = shared_sequence(name)
+    topo = mesh_topology(mesh)
+    assert seq.step_count > 0.5 * topo.pos_points.shape[0]  # most of the mesh still simplifies
+    locked = topo.pos_nonmanifold
+    assert not np.isin(seq.binned_position, np.flatnonzero(locked)).any()
+    last = seq.triangles_at_step(seq.step_count)
+    assert last.shape[0] > 0
+
+
+def test_cow_pinch_vertex_is_locked():
+    mesh = shared_mesh("cow.obj")
+    seq = shared_sequence("cow.obj")
+    topo = mesh_topology(mesh)
+    # find the pinch: a position whose triangles form two fans although all its edges are manifold
+    tris = topo.tri_pos
+    P = topo.pos_points.shape[0]
+    tri_count = np.bincount(tris.reshape(-1), minlength=P)
+    und = np.unique(np.sort(np.stack([tris.reshape(-1), tris[:, [1, 2, 0]].reshape(-1)], 1), 1), axis=0)
+    edge_count = np.bincount(und.reshape(-1), minlength=P)
+    # closed one-fan vertex: edges == triangles; a two-fan pinch has the same count, so use Euler per star
+    candidates = np.flatnonzero((edge_count == tri_count) & ~topo.pos_boundary)
+    assert candidates.size > 0
+    from swpm_usd.simplify import make_state
+    from swpm_usd.simplify.kernels import fan_counts
+
+    fans = fan_counts(make_state(mesh, topo))
+    pinch = np.flatnonzero(fans > 1)
+    assert pinch.size >= 1
+    assert not np.isin(seq.binned_position, pinch).any()
+
+
+def test_single_triangle_and_two_components():
+    tri = Mesh(points=[[0, 0, 0], [1, 0, 0], [0, 1, 0]], triangles=[[0, 1, 2]])
+    seq = collapse_sequence(tri)
+    assert seq.triangles_after(0).shape == (1, 3)
+    pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [5, 0, 0], [6, 0, 0], [5, 1, 0]], float)
+    two = Mesh(points=pts, triangles=[[0, 1, 2], [1, 3, 2], [4, 5, 6]])
+    seq2 = collapse_sequence(two)
+    for n in range(seq2.collapse_count + 1):
+        t = seq2.triangles_after(n)
+        assert t.shape[1] == 3
+        assert np.all(t[:, 0] != t[:, 1])
+
+
+def test_triangles_after_bounds():
+    seq = shared_sequence("cow.obj")
+    with pytest.raises(IndexError):
+        seq.triangles_after(seq.collapse_count + 1)
+    assert np.array_equal(seq.triangles_after(0), seq.mesh.triangles)
