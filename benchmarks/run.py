@@ -165,7 +165,8 @@ def print_table(results: list[dict]) -> None:
             continue
         for i, p in enumerate(r["points"]):
             lead = (
-                f"{Path(r['mesh']).name:<22} {r['encoding']:<15} {r['triangles']:>8} {r['build_s_median']:>8.3f} "
+                f"{Path(r['mesh']).name:<22} {r['encoding']:<15} {r['triangles']:>8} "
+                f"{r['build_s_median']:>8.3f} "
                 f"{r['peak_rss_mb']:>7.0f} {r['lod_count']:>7} {r['lambda']:>6.2f}"
                 if i == 0
                 else " " * 78
@@ -177,7 +178,8 @@ def print_table(results: list[dict]) -> None:
                 else f"{'':>7} {'':>5} {'':>8}"
             )
             print(
-                f"{lead} {int(100 * p['fraction']):>4} {p['acmr16']:>6.3f} {p['acmr16'] / p['meshopt_acmr16']:>5.2f} "
+                f"{lead} {int(100 * p['fraction']):>4} {p['acmr16']:>6.3f} "
+                f"{p['acmr16'] / p['meshopt_acmr16']:>5.2f} "
                 f"{p['acmr32']:>6.3f} {p['acmr32'] / p['meshopt_acmr32']:>5.2f} {err}"
             )
 
@@ -209,7 +211,9 @@ def main() -> None:
             cmd += ["--samples", str(samples)]
             proc = subprocess.run(cmd, capture_output=True, text=True, env=dict(os.environ))
             if proc.returncode != 0:
-                results.append({"mesh": spec, "encoding": enc, "failed": proc.stderr.strip().splitlines()[-1:]})
+                results.append(
+                    {"mesh": spec, "encoding": enc, "failed": proc.stderr.strip().splitlines()[-1:]}
+                )
             else:
                 results.append(json.loads(proc.stdout.strip().splitlines()[-1]))
             print(f"  done {Path(spec).name} {enc}", file=sys.stderr)

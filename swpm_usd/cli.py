@@ -74,11 +74,14 @@ def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int
     from .encode import BUILDERS
 
     if encoding not in BUILDERS:
-        raise click.BadParameter(f"{encoding!r}; choose one of {', '.join(sorted(BUILDERS))}", param_hint="--encoding")
+        raise click.BadParameter(
+            f"{encoding!r}; choose one of {', '.join(sorted(BUILDERS))}", param_hint="--encoding"
+        )
     unknown = sorted({p.split("=", 1)[0] for p in params} - set(BUILDERS[encoding][1]))
     if unknown:
         raise click.BadParameter(
-            f"{', '.join(unknown)} not a parameter of {encoding}; it takes {', '.join(sorted(BUILDERS[encoding][1]))}",
+            f"{', '.join(unknown)} not a parameter of {encoding}; "
+            f"it takes {', '.join(sorted(BUILDERS[encoding][1]))}",
             param_hint="--param",
         )
     parsed = {}
@@ -122,6 +125,84 @@ def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int
             f"{r['lod']:>7} {r['triangles']:>10} {r['vertices']:>9} {r['error']:>11.4g} {r['acmr']:>6.3f}"
         )
 
+
+@main.command("run")
+@click.argument("config", type=click.Path(dir_okay=False))
+@click.option("--jobs", "-j", default=1, show_default=True, help="Assets built at once.")
+@click.option("--dry-run", is_flag=True, help="Plan only: print each asset's rule, encoding and why.")
+@click.option("--explain", is_flag=True, help="Print the plan, then run it.")
+@click.option("--executor", type=click.Choice(["local", "dask"]), default="local", show_default=True)
+@click.option(
+    "--scheduler", default=None, metavar="ADDR", help="Dask scheduler address (default: a local cluster)."
+)
+@click.option("--force", is_flag=True, help="Rebuild assets even when they are up to date.")
+@click.option("--json", "as_json", is_flag=True, help="Print the run summary as JSON.")
+def run_cmd(
+    config: str,
+    jobs: int,
+    dry_run: bool,
+    explain: bool,
+    executor: str,
+    scheduler: str | None,
+    force: bool,
+    as_json: bool,
+) -> None:
+    """Run the pipeline described by CONFIG (pipeline.yaml).
+
+    \b
+    Per asset: the first matching rule picks the encoding and its parameters; the asset is built, its
+    streaming order validated and its outputs written atomically under output.dir, with manifest.json
+    and report.html. Unchanged assets are skipped. Exit 0 when every asset built, 1 when any failed,
+    2 when the configuration is invalid (every problem listed as FILE:LINE:COL: $.path: message).
+    """
+    from .pipeline import ConfigError, run
+
+    try:
+        res = run(
+            config,
+            jobs=jobs,
+            executor=executor,
+            scheduler=scheduler,
+            dry_run=dry_run,
+            explain=explain,
+            force=force,
+            echo=lambda m: click.echo(m, err=as_json),
+        )
+    except ConfigError as exc:
+        for p in exc.problems:
+            click.echo(p, err=True)
+        sys.exit(2)
+    if as_json:
+        click.echo(
+            json.dumps(
+                {
+                    "built": res.built,
+                    "skipped": res.skipped,
+                    "failed": res.failed,
+                    "warnings": res.warnings,
+                    "seconds": res.seconds,
+                    "manifest": str(res.manifest_path),
+                },
+                indent=2,
+            )
+        )
+    elif not dry_run:
+        click.echo(
+            f"{res.built} built, {res.skipped} up to date, {res.failed} failed in {res.seconds:.1f} s; "
+            f"manifest {res.manifest_path}"
+        )
+        for rid, rec in sorted(res.records.items()):
+            if rec.get("status") == "failed":
+                click.echo(f"FAILED {rid}: {rec.get('error')}", err=True)
+    sys.exit(1 if res.failed else 0)
+
+
+from .format.cli import conformance_cmd, encode_cmd, inspect_cmd, validate_cmd  # noqa: E402
+
+main.add_command(encode_cmd)
+main.add_command(inspect_cmd)
+main.add_command(validate_cmd)
+main.add_command(conformance_cmd)
 
 if __name__ == "__main__":  # pragma: no cover
     main()

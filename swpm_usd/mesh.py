@@ -32,7 +32,8 @@ class Mesh:
 
     ``points``: (V, 3) float32. ``triangles``: (T, 3) int32, counter-clockwise front faces.
     ``attributes``: name -> (V, k) array (e.g. ``normal`` (V,3) f32, ``uv`` (V,2) f32, ``color`` (V,3|4) f32).
-    ``stats``: what cleaning did on load (``degenerate_dropped``, ``duplicate_dropped``, ``unreferenced_dropped``).
+    ``stats``: what cleaning did on load (``degenerate_dropped``, ``duplicate_dropped``,
+    ``unreferenced_dropped``).
     """
 
     points: np.ndarray

@@ -25,8 +25,13 @@ def _build_vanilla(mesh: Mesh, **params: Any) -> ProgressiveMesh:
     return pm
 
 
+from .mixed import MIXED_PARAMS, build_mixed_mesh  # noqa: E402 (skip-strip / mixed entries)
+from .skipstrip import SKIPSTRIP_PARAMS, build_skipstrip_mesh  # noqa: E402
+
 BUILDERS: dict[str, tuple[Callable[..., ProgressiveMesh], dict[str, Any]]] = {
     "vanilla": (_build_vanilla, dict(SIMPLIFY_PARAMS)),
+    "skip-strip": (build_skipstrip_mesh, {**SIMPLIFY_PARAMS, **SKIPSTRIP_PARAMS}),
+    "mixed": (build_mixed_mesh, {**SIMPLIFY_PARAMS, **MIXED_PARAMS}),
 }
 
 __all__ = [

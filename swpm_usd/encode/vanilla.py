@@ -86,7 +86,9 @@ def collapse_records(
     index slots (``3 * triangle + corner``, in the input order) it redirects from binned to kept.
     """
     tris = np.ascontiguousarray(triangles, dtype=np.int64)
-    die, start, corners = _replay(tris, np.asarray(binned, np.int64), np.asarray(kept, np.int64), vertex_count)
+    die, start, corners = _replay(
+        tris, np.asarray(binned, np.int64), np.asarray(kept, np.int64), vertex_count
+    )
     C = len(binned)
     removed = np.bincount(die[die < C], minlength=C).astype(np.int64)
     return die, removed, start, corners
@@ -255,8 +257,15 @@ class VanillaInstance:
         return self._buf[: 3 * self.triangle_count]
 
     def _move(self, target: int) -> None:
-        _apply(self._buf, self._offsets, self.pm._change_start, self._kept, self.pm._binned_id,
-               self.records_applied, target)
+        _apply(
+            self._buf,
+            self._offsets,
+            self.pm._change_start,
+            self._kept,
+            self.pm._binned_id,
+            self.records_applied,
+            target,
+        )
         self.records_applied = target
 
     def collapse(self) -> bool:

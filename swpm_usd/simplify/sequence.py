@@ -75,9 +75,9 @@ def mesh_topology(mesh: Mesh) -> MeshTopology:
     seam = consistent & ((v0_lo != v1_lo) | (v0_hi != v1_hi))
     sh0 = h0[seam]
     sh1 = h1[seam]
-    seam_edges = np.concatenate(
-        [np.stack([ha[sh0], hb[sh0]], 1), np.stack([ha[sh1], hb[sh1]], 1)]
-    ).astype(np.int32)
+    seam_edges = np.concatenate([np.stack([ha[sh0], hb[sh0]], 1), np.stack([ha[sh1], hb[sh1]], 1)]).astype(
+        np.int32
+    )
     seam_faces = np.concatenate([face[sh0], face[sh1]]).astype(np.int32)
     # non-manifold: more than two triangles, or two with the same direction (inconsistent orientation)
     bad_starts = np.r_[starts[counts > 2], starts[two][~consistent]]
@@ -112,9 +112,15 @@ def make_state(
     V = mesh.vertex_count
     edges = np.concatenate([topo.boundary_edges, topo.seam_edges]).reshape(-1, 2)
     faces = np.concatenate([topo.boundary_faces, topo.seam_faces])
-    weights = np.r_[np.full(len(topo.boundary_faces), boundary_weight), np.full(len(topo.seam_faces), seam_weight)]
+    weights = np.r_[
+        np.full(len(topo.boundary_faces), boundary_weight), np.full(len(topo.seam_faces), seam_weight)
+    ]
     q, w = kernels.init_quadrics(
-        topo.pos_points, topo.tri_pos, edges.astype(np.int32), faces.astype(np.int32), weights.astype(np.float64)
+        topo.pos_points,
+        topo.tri_pos,
+        edges.astype(np.int32),
+        faces.astype(np.int32),
+        weights.astype(np.float64),
     )
     order = np.argsort(topo.vertex_pos, kind="stable").astype(np.int32)
     pos_vstart = np.zeros(P + 1, np.int32)
@@ -214,7 +220,11 @@ def collapse_sequence(
     """Collapse ``mesh`` down to its coarsest valid form in quadric-error order."""
     topo = mesh_topology(mesh)
     st = make_state(
-        mesh, topo, boundary_weight=boundary_weight, seam_weight=seam_weight, locked_positions=locked_positions
+        mesh,
+        topo,
+        boundary_weight=boundary_weight,
+        seam_weight=seam_weight,
+        locked_positions=locked_positions,
     )
     binned, kept, step, step_error, step_b, step_k = kernels.run_sequence(st, 3)
     offsets = np.zeros(step_error.shape[0] + 1, np.int64)

@@ -1,0 +1,155 @@
+"""Asset discovery and rule matching for the pipeline.
+
+An asset is a mesh file matched by a glob, or a Mesh prim of a USD stage (its instance count comes from
+the composed stage: instanceable prims sharing a prototype, and PointInstancer ids). Rules are tried in
+order; the first whose ``match`` holds wins, a rule without ``match`` matches everything, and when no rule
+matches, ``defaults`` apply.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import hashlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .config import Config
+
+
+@dataclass
+class Asset:
+    id: str  # stable name: path relative to the config, plus ":/prim/path" for stage assets
+    path: Path
+    prim: str | None = None
+    instances: int = 1
+    tags: dict[str, Any] = field(default_factory=dict)
+    source_index: int = 0  # which entry of `assets` found it
+
+    @property
+    def output_stem(self) -> str:
+        if self.prim is None:
+            return self.path.stem
+        return f"{self.path.stem}__{self.prim.strip('/').replace('/', '_')}"
+
+
+def file_digest(paths: list[Path]) -> str:
+    h = hashlib.sha256()
+    for p in paths:
+        h.update(str(p.name).encode())
+        with open(p, "rb") as f:
+            while chunk := f.read(1 << 20):
+                h.update(chunk)
+    return h.hexdigest()
+
+
+def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset], list[Path]]:
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.Open(str(stage_path))
+    if stage is None:
+        raise OSError("the stage does not open")
+    counts: dict[str, int] = {}
+    first_path: dict[str, str] = {}
+    tags: dict[str, dict] = {}
+    pred = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+    instancer_counts: dict[str, int] = {}
+    for prim in Usd.PrimRange(stage.GetPseudoRoot(), pred):
+        if prim.IsA(UsdGeom.PointInstancer):
+            inst = UsdGeom.PointInstancer(prim)
+            targets = inst.GetPrototypesRel().GetTargets()
+            ids = inst.GetProtoIndicesAttr().Get() or []
+            for i, t in enumerate(targets):
+                instancer_counts[str(t)] = instancer_counts.get(str(t), 0) + sum(1 for x in ids if x == i)
+        if not prim.IsA(UsdGeom.Mesh):
+            continue
+        key = str(prim.GetPrimInPrototype().GetPath()) if prim.IsInstanceProxy() else str(prim.GetPath())
+        counts[key] = counts.get(key, 0) + 1
+        first_path.setdefault(key, str(prim.GetPath()))
+        tags.setdefault(key, dict(prim.GetCustomData()))
+    # meshes under a PointInstancer prototype are drawn once per instancer id, not as themselves
+    for proto, n in instancer_counts.items():
+        for key in counts:
+            if key == proto or key.startswith(proto + "/"):
+                counts[key] = n
+    rel = stage_path.relative_to(cfg.base) if stage_path.is_relative_to(cfg.base) else stage_path
+    assets = [
+        Asset(f"{rel.as_posix()}:{first_path[k]}", stage_path, first_path[k], counts[k], tags[k], index)
+        for k in sorted(counts)
+    ]
+    used = [Path(layer.realPath) for layer in stage.GetUsedLayers() if layer.realPath]
+    return assets, used
+
+
+def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]]:
+    """Every asset of the config, the files each depends on, and semantic problems (located)."""
+    assets: list[Asset] = []
+    inputs: dict[str, list[Path]] = {}
+    problems: list[str] = []
+    for i, src in enumerate(cfg.data["assets"]):
+        if "glob" in src:
+            found = sorted(p for p in cfg.base.glob(src["glob"]) if p.is_file())
+            if not found:
+                problems.append(f"{cfg.where(('assets', i, 'glob'))}: the glob matches no file")
+            for p in found:
+                rel = p.relative_to(cfg.base).as_posix()
+                assets.append(Asset(rel, p, None, int(src.get("instances", 1)), {}, i))
+                inputs[rel] = [p]
+        else:
+            stage_path = (cfg.base / src["stage"]).resolve()
+            try:
+                found, used = _stage_assets(cfg, i, stage_path)
+            except Exception as exc:  # noqa: BLE001 - any pxr failure is reported, located
+                msg = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+                problems.append(
+                    f"{cfg.where(('assets', i, 'stage'))}: cannot open stage {src['stage']}: {msg}"
+                )
+                continue
+            if not found:
+                problems.append(f"{cfg.where(('assets', i, 'stage'))}: the stage has no Mesh prims")
+            for a in found:
+                assets.append(a)
+                inputs[a.id] = used
+    seen: dict[str, str] = {}
+    for a in assets:
+        if a.output_stem in seen and seen[a.output_stem] != a.id:
+            problems.append(
+                f"{cfg.where(('assets', a.source_index))}: {a.id} and {seen[a.output_stem]} would both write "
+                f"{a.output_stem}.swpm"
+            )
+        seen[a.output_stem] = a.id
+    return assets, inputs, problems
+
+
+def _in_range(value: float, rng: dict | None) -> bool:
+    if not rng:
+        return True
+    return rng.get("min", float("-inf")) <= value <= rng.get("max", float("inf"))
+
+
+def match_rule(cfg: Config, asset: Asset, triangles: int) -> tuple[int | None, dict[str, Any], str]:
+    """(rule index or None for defaults, {'encoding', 'params'}, why) for an asset."""
+    for i, rule in enumerate(cfg.data.get("rules", [])):
+        m = rule.get("match") or {}
+        checks = []
+        if "path" in m:
+            checks.append(("path", fnmatch.fnmatch(asset.id.split(":")[0], m["path"])))
+        if "prim" in m:
+            checks.append(("prim", asset.prim is not None and fnmatch.fnmatch(asset.prim, m["prim"])))
+        if "triangles" in m:
+            checks.append((f"triangles={triangles}", _in_range(triangles, m["triangles"])))
+        if "instances" in m:
+            checks.append((f"instances={asset.instances}", _in_range(asset.instances, m["instances"])))
+        if "tag" in m:
+            checks.append(("tag", all(asset.tags.get(k) == v for k, v in m["tag"].items())))
+        if all(ok for _, ok in checks):
+            why = f"rule {rule['name']!r} matched" + (
+                f" ({', '.join(name for name, _ in checks)})" if checks else " (no match conditions)"
+            )
+            return i, {"encoding": rule["encoding"], "params": dict(rule.get("params", {}))}, why
+    d = cfg.data.get("defaults", {})
+    return (
+        None,
+        {"encoding": d.get("encoding", "sliding-window"), "params": dict(d.get("params", {}))},
+        ("no rule matched: defaults"),
+    )

@@ -1,0 +1,132 @@
+"""Reading ``pipeline.yaml``: YAML with positions, JSON Schema validation, every error at once.
+
+Each problem is reported as ``pipeline.yaml:LINE:COL: $.json.path: message`` (line and column of the
+offending node, 1-based), so an editor can jump to it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import jsonschema
+import yaml
+
+from ..errors import SwpmError
+from .schema import load_schema
+
+
+class ConfigError(SwpmError):
+    """The pipeline configuration is invalid; ``problems`` lists every located message."""
+
+    def __init__(self, problems: list[str]) -> None:
+        self.problems = problems
+        super().__init__("\n".join(problems))
+
+
+@dataclass
+class Config:
+    path: Path
+    data: dict[str, Any]
+    marks: dict[tuple, tuple[int, int]] = field(default_factory=dict)
+
+    @property
+    def base(self) -> Path:
+        return self.path.parent
+
+    def where(self, json_path: tuple) -> str:
+        line, col = self.marks.get(json_path, self.marks.get((), (1, 1)))
+        return f"{self.path.name}:{line}:{col}: {format_path(json_path)}"
+
+
+def format_path(parts: tuple) -> str:
+    out = "$"
+    for p in parts:
+        out += f"[{p}]" if isinstance(p, int) else f".{p}"
+    return out
+
+
+def _to_python(node: yaml.Node, path: tuple, marks: dict) -> Any:
+    """Convert a composed YAML node tree to Python values, recording each node's (line, col)."""
+    marks[path] = (node.start_mark.line + 1, node.start_mark.column + 1)
+    if isinstance(node, yaml.MappingNode):
+        out = {}
+        for key_node, value_node in node.value:
+            key = (
+                yaml.safe_load(yaml.serialize(key_node))
+                if key_node.tag != "tag:yaml.org,2002:str"
+                else key_node.value
+            )
+            out[key] = _to_python(value_node, (*path, key), marks)
+            # a wrong key is best pointed at by the key itself
+            marks.setdefault(
+                (*path, key, "<key>"), (key_node.start_mark.line + 1, key_node.start_mark.column + 1)
+            )
+        return out
+    if isinstance(node, yaml.SequenceNode):
+        return [_to_python(v, (*path, i), marks) for i, v in enumerate(node.value)]
+    return yaml.safe_load(yaml.serialize(node))
+
+
+def load_config(path: str | Path) -> Config:
+    """Parse and validate ``path``; raise :class:`ConfigError` listing every problem."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError([f"{path.name}:1:1: $: cannot read the file ({exc})"]) from None
+    try:
+        node = yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
+        raise ConfigError(
+            [f"{path.name}:{line}:{col}: $: invalid YAML: {getattr(exc, 'problem', exc)}"]
+        ) from None
+    marks: dict[tuple, tuple[int, int]] = {}
+    data = _to_python(node, (), marks) if node is not None else None
+    cfg = Config(path=path.resolve(), data=data if isinstance(data, dict) else {}, marks=marks)
+    if not isinstance(data, dict):
+        raise ConfigError([f"{path.name}:1:1: $: the configuration must be a mapping"])
+    validator = jsonschema.Draft202012Validator(load_schema())
+    problems = []
+    for err in sorted(validator.iter_errors(data), key=lambda e: tuple(map(str, e.absolute_path))):
+        problems.extend(_describe(cfg, err))
+    if problems:
+        raise ConfigError(sorted(set(problems), key=_line_key))
+    return cfg
+
+
+def _line_key(msg: str) -> tuple[int, int, str]:
+    try:
+        _, line, col, _ = msg.split(":", 3)
+        return int(line), int(col), msg
+    except ValueError:
+        return 0, 0, msg
+
+
+def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
+    # descend into combinators to report the precise failure (if/then, allOf)
+    if err.context:
+        out = []
+        for sub in err.context:
+            out.extend(_describe(cfg, sub))
+        if out and err.validator != "oneOf":
+            return out
+    path = tuple(err.absolute_path)
+    if err.validator == "additionalProperties":
+        extra = sorted(set(err.instance) - set(err.schema.get("properties", {})))
+        msgs = []
+        for key in extra:
+            where = cfg.marks.get((*path, key, "<key>")) or cfg.marks.get(path, (1, 1))
+            hint = ""
+            if path and path[-1] == "params":
+                hint = " (not a parameter of this rule's encoding)"
+            msgs.append(
+                f"{cfg.path.name}:{where[0]}:{where[1]}: {format_path((*path, key))}: unknown key{hint}"
+            )
+        return msgs
+    if err.validator == "oneOf" and path and path[0] == "assets":
+        return [f"{cfg.where(path)}: an asset source needs exactly one of 'glob' or 'stage'"]
+    return [f"{cfg.where(path)}: {err.message}"]

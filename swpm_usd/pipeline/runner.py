@@ -1,0 +1,316 @@
+"""``swpm-pipeline run``: plan every asset, skip what is up to date, run the rest on an executor, record.
+
+The run manifest (``<output>/manifest.json``) is rewritten atomically after every finished asset, so an
+interrupted run (Ctrl-C or a kill) keeps every earlier result and a rerun only does what is left. An asset
+is up to date when the digest of its input files, its resolved rule, parameters and the tool version equal
+the manifest's and its outputs are still there with the recorded size.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .. import __version__
+from .assets import Asset, discover, file_digest, match_rule
+from .config import Config, ConfigError, load_config
+from .worker import atomic_write_bytes, process_asset
+
+MANIFEST = "manifest.json"
+
+
+@dataclass
+class PlanItem:
+    asset: Asset
+    input_digest: str
+    triangles: int | None  # known from the manifest, else None (the worker counts)
+    rule: int | None = None
+    treatment: dict[str, Any] = field(default_factory=dict)
+    why: str = ""
+    digest: str = ""
+    up_to_date: bool = False
+
+
+@dataclass
+class RunResult:
+    records: dict[str, dict]
+    built: int
+    skipped: int
+    failed: int
+    warnings: list[str]
+    seconds: float
+    manifest_path: Path
+
+
+def _read_manifest(path: Path) -> dict:
+    try:
+        data = json.loads(path.read_text())
+        return data if isinstance(data, dict) and isinstance(data.get("assets"), dict) else {"assets": {}}
+    except (OSError, ValueError):
+        return {"assets": {}}
+
+
+def _write_manifest(path: Path, manifest: dict) -> None:
+    atomic_write_bytes(path, (json.dumps(manifest, indent=1, default=float) + "\n").encode())
+
+
+def _treatment_digest(item: PlanItem) -> str:
+    payload = json.dumps(
+        [item.input_digest, item.asset.prim, item.asset.instances, item.treatment, __version__],
+        sort_keys=True,
+    )
+    return hashlib.sha256(payload.encode()).hexdigest()
+
+
+def _count_triangles(asset: Asset) -> int:
+    from ..io import load_mesh
+
+    mesh = load_mesh(asset.path, prim_path=asset.prim) if asset.prim else load_mesh(asset.path)
+    return mesh.triangle_count
+
+
+def plan(cfg: Config, manifest: dict) -> tuple[list[PlanItem], list[str], list[str]]:
+    """Resolve each asset's rule and parameters; (items, errors, warnings)."""
+    assets, inputs, problems = discover(cfg)
+    out_dir = cfg.base / cfg.data["output"]["dir"]
+    known = manifest.get("assets", {})
+    items = []
+    needs_rule_on_triangles = any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))
+    for a in assets:
+        digest = file_digest(inputs[a.id])
+        prev = known.get(a.id, {})
+        tri = prev.get("triangles_in") if prev.get("input_digest") == digest else None
+        if tri is None and needs_rule_on_triangles:
+            try:
+                tri = _count_triangles(a)
+            except Exception:  # noqa: BLE001 - the worker reports it as this asset's failure
+                tri = None
+        item = PlanItem(a, digest, tri)
+        item.rule, item.treatment, item.why = match_rule(cfg, a, tri if tri is not None else 0)
+        item.digest = _treatment_digest(item)
+        outs = prev.get("outputs", {})
+        item.up_to_date = (
+            prev.get("status") == "built"
+            and prev.get("digest") == item.digest
+            and all(
+                (out_dir / o["path"]).is_file() and (out_dir / o["path"]).stat().st_size == o.get("size", -1)
+                for o in outs.values()
+            )
+            and bool(outs) == _wants_outputs(cfg)
+        )
+        items.append(item)
+    warnings = []
+    reached = {i.rule for i in items}
+    for idx, rule in enumerate(cfg.data.get("rules", [])):
+        if idx not in reached:
+            warnings.append(f"{cfg.where(('rules', idx))}: rule {rule['name']!r} matches no asset")
+    return items, problems, warnings
+
+
+def _wants_outputs(cfg: Config) -> bool:
+    out = cfg.data["output"]
+    return bool(out.get("swpm", True) or out.get("usd", False))
+
+
+def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
+    out = cfg.data["output"]
+    return {
+        "id": item.asset.id,
+        "path": str(item.asset.path),
+        "prim": item.asset.prim,
+        "instances": item.asset.instances,
+        "stem": item.asset.output_stem,
+        "digest": item.digest,
+        "encoding": item.treatment["encoding"],
+        "params": item.treatment["params"],
+        "why": item.why,
+        "streaming": cfg.data.get("streaming", {}),
+        "budgets": cfg.data.get("budgets", {}),
+        "out_dir": str(cfg.base / out["dir"]),
+        "write_swpm": bool(out.get("swpm", True)),
+        "write_usd": bool(out.get("usd", False)),
+    }
+
+
+def execute(tasks: list[dict], jobs: int, executor: str, scheduler: str | None) -> Iterator[dict]:
+    """Run tasks, yielding each record as it finishes (order of completion)."""
+    if not tasks:
+        return
+    if executor == "dask":
+        try:
+            from dask.distributed import Client, LocalCluster, as_completed
+        except ImportError as exc:
+            raise ConfigError(
+                [f"--executor dask needs the extra: pip install 'swpm-usd[dask]' ({exc})"]
+            ) from None
+        cluster = None
+        if scheduler:
+            client = Client(scheduler)
+        else:
+            cluster = LocalCluster(n_workers=max(1, jobs), threads_per_worker=1, processes=True)
+            client = Client(cluster)
+        try:
+            futures = client.map(process_asset, tasks, pure=False)
+            for fut in as_completed(futures):
+                yield fut.result()
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+        return
+    if jobs <= 1:
+        for t in tasks:
+            yield process_asset(t)
+        return
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"))
+    try:
+        futures = [pool.submit(process_asset, t) for t in tasks]
+        for fut in as_completed(futures):
+            yield fut.result()
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
+
+
+class _Progress:
+    """A rich progress bar on a terminal, plain lines elsewhere (CI logs)."""
+
+    def __init__(self, total: int) -> None:
+        self.total = total
+        self.done = 0
+        self.bar = None
+        if sys.stderr.isatty() and total:
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+            self.bar = Progress(
+                TextColumn("[bold]building"),
+                BarColumn(),
+                MofNCompleteColumn(),
+                TimeRemainingColumn(),
+                TextColumn("{task.description}"),
+                transient=False,
+            )
+            self.bar.start()
+            self.task = self.bar.add_task("", total=total)
+
+    def advance(self, rec: dict) -> None:
+        self.done += 1
+        status = rec["status"] if rec["status"] != "failed" else f"FAILED ({rec.get('error', '')[:100]})"
+        if self.bar is not None:
+            self.bar.update(self.task, advance=1, description=f"{rec['id']}: {status}")
+        else:
+            print(
+                f"[{self.done}/{self.total}] {rec['id']}: {status} ({rec.get('seconds', 0):.2f} s)",
+                file=sys.stderr,
+                flush=True,
+            )
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.stop()
+
+
+def run(
+    config_path: str | Path,
+    *,
+    jobs: int = 1,
+    executor: str = "local",
+    scheduler: str | None = None,
+    dry_run: bool = False,
+    explain: bool = False,
+    force: bool = False,
+    echo=print,
+) -> RunResult:
+    """Run the pipeline described by ``config_path``; see the module docstring."""
+    t_start = time.perf_counter()
+    cfg = load_config(config_path)
+    out_dir = cfg.base / cfg.data["output"]["dir"]
+    manifest_path = out_dir / MANIFEST
+    manifest = _read_manifest(manifest_path)
+    items, errors, warnings = plan(cfg, manifest)
+    if errors:
+        raise ConfigError(errors)
+    for w in warnings:
+        echo(f"warning: {w}")
+    if dry_run or explain:
+        for it in items:
+            state = "up to date" if it.up_to_date and not force else "to build"
+            tri = "?" if it.triangles is None else it.triangles
+            echo(
+                f"{it.asset.id}: {it.treatment['encoding']} "
+                f"{json.dumps(it.treatment['params'], sort_keys=True)} "
+                f"[{state}] triangles={tri} instances={it.asset.instances}; {it.why}"
+            )
+        if dry_run:
+            return RunResult({}, 0, sum(i.up_to_date for i in items), 0, warnings, 0.0, manifest_path)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for stale in out_dir.glob(".*.tmp"):  # left by a killed run
+        stale.unlink(missing_ok=True)
+    todo = [it for it in items if force or not it.up_to_date]
+    records = {k: v for k, v in manifest.get("assets", {}).items() if k in {i.asset.id for i in items}}
+    manifest = {"tool_version": __version__, "config": str(cfg.path), "assets": records}
+    built = failed = 0
+    progress = _Progress(len(todo))
+    by_id = {it.asset.id: it for it in todo}
+    try:
+        for rec in execute([_task(cfg, it) for it in todo], jobs, executor, scheduler):
+            it = by_id[rec["id"]]
+            rec["input_digest"] = it.input_digest
+            rec["rule"] = None if it.rule is None else cfg.data["rules"][it.rule]["name"]
+            for o in rec.get("outputs", {}).values():
+                o["size"] = (out_dir / o["path"]).stat().st_size
+            if rec["status"] == "built":
+                built += 1
+            else:
+                failed += 1
+            records[rec["id"]] = rec
+            _write_manifest(manifest_path, manifest)
+            progress.advance(rec)
+    finally:
+        progress.close()
+    if cfg.data["output"].get("scene"):
+        _write_scene(out_dir, records)
+    if cfg.data["output"].get("report", True):
+        from .report import write_report
+
+        write_report(out_dir / "report.html", manifest)
+    _write_manifest(manifest_path, manifest)
+    return RunResult(
+        records, built, len(items) - len(todo), failed, warnings, time.perf_counter() - t_start, manifest_path
+    )
+
+
+def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
+    """A scene layer that references every per-asset USD layer, one Xform each."""
+    from pxr import Sdf, Usd, UsdGeom
+
+    layers = [
+        (k, r["outputs"]["usd"]["path"])
+        for k, r in sorted(records.items())
+        if r.get("status") == "built" and "usd" in r.get("outputs", {})
+    ]
+    target = out_dir / "scene.usda"
+    tmp = out_dir / ".scene.usda.tmp"
+    stage = Usd.Stage.CreateNew(str(tmp))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    root = UsdGeom.Xform.Define(stage, "/Scene").GetPrim()
+    stage.SetDefaultPrim(root)
+    for i, (_, layer) in enumerate(layers):
+        name = (
+            Sdf.Path.MakeValidIdentifier(Path(layer).stem)
+            if hasattr(Sdf.Path, "MakeValidIdentifier")
+            else f"a{i}"
+        )
+        prim = stage.DefinePrim(f"/Scene/{name}_{i}", "Xform")
+        prim.GetReferences().AddReference(f"./{layer}")
+    stage.GetRootLayer().Save()
+    tmp.replace(target)

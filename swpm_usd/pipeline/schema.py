@@ -1,0 +1,167 @@
+"""The JSON Schema of ``pipeline.yaml``, generated from the encoders' own parameter tables.
+
+``pipeline/pipeline.schema.json`` is this function's output, checked in; a test fails when they differ
+(``python -m swpm_usd.pipeline.schema > pipeline/pipeline.schema.json`` regenerates it). A rule's
+``params`` may only name parameters of the rule's ``encoding``; ``auto`` takes none.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+SCHEMA_PATH = Path(__file__).resolve().parents[2] / "pipeline" / "pipeline.schema.json"
+PACKAGED_SCHEMA = Path(__file__).resolve().parent / "pipeline.schema.json"
+
+
+def _param_schema(value: Any) -> dict[str, Any]:
+    if isinstance(value, bool):
+        return {"type": "boolean"}
+    if isinstance(value, int):
+        return {"type": "integer"}
+    if isinstance(value, float):
+        return {"type": "number"}
+    if isinstance(value, str):
+        return {"type": "string"}
+    return {}
+
+
+def build_schema() -> dict[str, Any]:
+    from ..encode import BUILDERS
+
+    encodings = sorted(BUILDERS)
+    range_ = {
+        "type": "object",
+        "additionalProperties": False,
+        "properties": {"min": {"type": "number", "minimum": 0}, "max": {"type": "number", "minimum": 0}},
+    }
+    match = {
+        "type": "object",
+        "additionalProperties": False,
+        "description": "Every given condition must hold; an absent match matches every asset.",
+        "properties": {
+            "path": {"type": "string", "description": "glob on the asset's path relative to the config"},
+            "prim": {"type": "string", "description": "glob on the USD prim path (stage assets)"},
+            "triangles": range_,
+            "instances": range_,
+            "tag": {
+                "type": "object",
+                "description": "USD customData key -> value the prim must carry (stage assets)",
+                "additionalProperties": {"type": ["string", "number", "boolean"]},
+            },
+        },
+    }
+    by_encoding = []
+    for enc in encodings:
+        defaults = BUILDERS[enc][1]
+        by_encoding.append(
+            {
+                "if": {"properties": {"encoding": {"const": enc}}, "required": ["encoding"]},
+                "then": {
+                    "properties": {
+                        "params": {
+                            "type": "object",
+                            "additionalProperties": False,
+                            "properties": {k: _param_schema(v) for k, v in sorted(defaults.items())},
+                        }
+                    }
+                },
+            }
+        )
+    by_encoding.append(
+        {
+            "if": {"properties": {"encoding": {"const": "auto"}}, "required": ["encoding"]},
+            "then": {"properties": {"params": {"type": "object", "maxProperties": 0}}},
+        }
+    )
+    treatment = {
+        "encoding": {"enum": [*encodings, "auto"]},
+        "params": {"type": "object"},
+    }
+    rule = {
+        "type": "object",
+        "additionalProperties": False,
+        "required": ["name", "encoding"],
+        "properties": {"name": {"type": "string", "minLength": 1}, "match": match, **treatment},
+        "allOf": by_encoding,
+    }
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "$id": "https://swpm-usd.invalid/pipeline.schema.json",
+        "title": "swpm-usd pipeline configuration",
+        "type": "object",
+        "additionalProperties": False,
+        "required": ["version", "assets", "output"],
+        "properties": {
+            "version": {"const": 1},
+            "assets": {
+                "type": "array",
+                "minItems": 1,
+                "items": {
+                    "type": "object",
+                    "additionalProperties": False,
+                    "oneOf": [{"required": ["glob"]}, {"required": ["stage"]}],
+                    "properties": {
+                        "glob": {"type": "string", "description": "mesh files, relative to the config"},
+                        "stage": {"type": "string", "description": "a USD stage: its Mesh prims are assets"},
+                        "instances": {"type": "integer", "minimum": 1, "description": "for glob assets"},
+                    },
+                },
+            },
+            "output": {
+                "type": "object",
+                "additionalProperties": False,
+                "required": ["dir"],
+                "properties": {
+                    "dir": {"type": "string"},
+                    "swpm": {"type": "boolean", "default": True},
+                    "usd": {"type": "boolean", "default": False, "description": "per-asset USD layers"},
+                    "scene": {"type": "boolean", "default": False, "description": "scene layer of them all"},
+                    "report": {"type": "boolean", "default": True, "description": "report.html"},
+                },
+            },
+            "defaults": {
+                "type": "object",
+                "additionalProperties": False,
+                "properties": treatment,
+                "allOf": by_encoding,
+            },
+            "rules": {"type": "array", "items": rule},
+            "streaming": {
+                "type": "object",
+                "additionalProperties": False,
+                "properties": {
+                    "order": {"enum": ["coarse-to-fine"]},
+                    "coarsest_lod_bytes": {"type": "integer", "minimum": 1},
+                    "max_lods": {"type": "integer", "minimum": 1},
+                    "min_coarsest_triangles": {"type": "integer", "minimum": 0},
+                },
+            },
+            "budgets": {
+                "type": "object",
+                "additionalProperties": False,
+                "properties": {
+                    "global_bytes": {"type": "integer", "minimum": 1},
+                    "instance_bytes": {"type": "integer", "minimum": 1},
+                    "total_bytes": {"type": "integer", "minimum": 1},
+                },
+            },
+        },
+    }
+
+
+def schema_text() -> str:
+    return json.dumps(build_schema(), indent=2, sort_keys=False) + "\n"
+
+
+def load_schema() -> dict[str, Any]:
+    """The checked-in schema (the repository copy when present, else the packaged copy)."""
+    for p in (SCHEMA_PATH, PACKAGED_SCHEMA):
+        if p.exists():
+            return json.loads(p.read_text())
+    return build_schema()
+
+
+if __name__ == "__main__":  # pragma: no cover
+    print(schema_text(), end="")

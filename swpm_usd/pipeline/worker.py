@@ -1,0 +1,231 @@
+"""One asset's work, run in a worker process (local pool or a Dask task): load, choose, build, check the
+streaming order, write the outputs atomically. Never raises: a failure comes back as a record with its cause.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+import time
+import traceback
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+AUTO_CANDIDATES = ("vanilla", "skip-strip", "mixed", "sliding-window")
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def sha256_file(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        while chunk := f.read(1 << 20):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def lod_change_cost(pm) -> float:
+    """Mean index writes per record when an instance changes LOD (0 for a table look-up)."""
+    b = pm.buffers()
+    if "collapse_change_count" in b and b["collapse_change_count"].size:
+        return float(np.mean(b["collapse_change_count"]))
+    return 0.0
+
+
+def summarize(pm, cache_size: int = 16) -> dict[str, Any]:
+    """Figures the manifest and the report show: lambda, ACMR and error per LOD sample, memory."""
+    from ..metrics import acmr
+
+    t0 = max(1, pm.triangle_count_at(0))
+    b = pm.buffers()
+    if "index_pool" in b:
+        dataset = b["index_pool"].shape[0]
+    else:
+        dataset = sum(v.shape[0] for k, v in b.items() if k.endswith("indices"))
+    curve = []
+    for f in np.linspace(1.0, 0.0, 21):
+        k = pm.lod_for_triangles(int(round(f * t0)))
+        if curve and curve[-1]["lod"] == k:
+            continue
+        kind, stream = pm.draw_stream(k)
+        curve.append(
+            {
+                "lod": int(k),
+                "triangles": pm.triangle_count_at(k),
+                "vertices": pm.vertex_count_at(k),
+                "error": pm.error_at(k),
+                "acmr": acmr(stream, cache_size=cache_size, kind=kind, restart_index=pm.restart_index),
+            }
+        )
+    half = curve[min(range(len(curve)), key=lambda i: abs(curve[i]["triangles"] - t0 / 2))]
+    return {
+        "lod_count": pm.lod_count,
+        "triangles": int(t0),
+        "vertices": pm.vertex_count,
+        "lambda": dataset / (3 * t0),
+        "acmr": half["acmr"],
+        "error_at_half": half["error"],
+        "global_bytes": int(pm.global_bytes),
+        "instance_bytes": int(pm.instance_bytes),
+        "lod_change_cost": lod_change_cost(pm),
+        "curve": curve,
+    }
+
+
+def choose_auto(mesh, instances: int, budgets: dict) -> tuple[Any, str, dict]:
+    """Build every candidate, measure, and pick (Forsyth's table with measured numbers).
+
+    Within the memory budgets (global + instances x instance bytes), the lowest ACMR at half the triangles
+    wins; ACMRs within 5 % are a tie, broken by total memory, then by LOD-change cost. If nothing fits the
+    budgets, the smallest total memory wins and the reason says so.
+    """
+    from ..build import build
+    from ..encode import BUILDERS
+
+    measured = {}
+    built = {}
+    for enc in AUTO_CANDIDATES:
+        if enc not in BUILDERS:
+            continue
+        pm = build(mesh, enc)
+        s = summarize(pm)
+        s["total_bytes"] = s["global_bytes"] + instances * s["instance_bytes"]
+        measured[enc] = {k: v for k, v in s.items() if k != "curve"}
+        built[enc] = pm
+
+    def fits(m: dict) -> bool:
+        return (
+            m["total_bytes"] <= budgets.get("total_bytes", float("inf"))
+            and m["global_bytes"] <= budgets.get("global_bytes", float("inf"))
+            and m["instance_bytes"] <= budgets.get("instance_bytes", float("inf"))
+        )
+
+    ok = [e for e in measured if fits(measured[e])]
+    if ok:
+        best_acmr = min(measured[e]["acmr"] for e in ok)
+        tied = [e for e in ok if measured[e]["acmr"] <= 1.05 * best_acmr]
+        pick = min(tied, key=lambda e: (measured[e]["total_bytes"], measured[e]["lod_change_cost"]))
+        why = (
+            f"auto: {pick} has ACMR {measured[pick]['acmr']:.3f} (best within budget {best_acmr:.3f}) and "
+            f"{measured[pick]['total_bytes']} bytes for {instances} instance(s); candidates within budget: "
+            f"{', '.join(sorted(ok))}"
+        )
+    else:
+        pick = min(measured, key=lambda e: measured[e]["total_bytes"])
+        why = (
+            f"auto: no encoding fits the budgets; {pick} needs the least memory "
+            f"({measured[pick]['total_bytes']} bytes for {instances} instance(s))"
+        )
+    return built[pick], why, measured
+
+
+def check_streaming(pm, policy: dict) -> list[str]:
+    """The config's streaming policy on top of the format's own invariants (checked by validate)."""
+    problems = []
+    last = pm.lod_count - 1
+    if "max_lods" in policy and pm.lod_count > policy["max_lods"]:
+        problems.append(f"{pm.lod_count} LODs exceed streaming.max_lods={policy['max_lods']}")
+    if "min_coarsest_triangles" in policy and pm.triangle_count_at(last) < policy["min_coarsest_triangles"]:
+        problems.append(
+            f"coarsest LOD has {pm.triangle_count_at(last)} triangles < "
+            f"streaming.min_coarsest_triangles={policy['min_coarsest_triangles']}"
+        )
+    if "coarsest_lod_bytes" in policy:
+        stride = pm.vertex_bytes() // max(1, pm.vertex_count)
+        kind, stream = pm.draw_stream(last)
+        isz = 2 if pm.vertex_count <= 0xFFFF else 4
+        need = pm.vertex_count_at(last) * stride + stream.shape[0] * isz
+        if need > policy["coarsest_lod_bytes"]:
+            problems.append(
+                f"coarsest LOD needs {need} bytes > "
+                f"streaming.coarsest_lod_bytes={policy['coarsest_lod_bytes']}"
+            )
+    # vertex prefix property and monotone tables, independent of the file format
+    vc = pm.vertex_counts
+    if np.any(np.diff(vc) > 0) or np.any(np.diff(pm.triangle_counts) > 0):
+        problems.append("LOD table is not ordered finest to coarsest")
+    for k in {0, last // 2, last}:
+        t = pm.triangles_at(k)
+        if t.size and int(t.max()) >= pm.vertex_count_at(k):
+            problems.append(f"LOD {k} uses a vertex outside its prefix [0, {pm.vertex_count_at(k)})")
+    return problems
+
+
+def process_asset(task: dict[str, Any]) -> dict[str, Any]:
+    """Do one asset. ``task`` is plain data (picklable for process pools and Dask)."""
+    start = time.perf_counter()
+    rec: dict[str, Any] = {"id": task["id"], "digest": task["digest"], "status": "failed"}
+    try:
+        from .. import build as build_pm
+        from ..io import load_mesh
+
+        mesh = load_mesh(task["path"], prim_path=task["prim"]) if task["prim"] else load_mesh(task["path"])
+        rec["triangles_in"] = mesh.triangle_count
+        encoding, params = task["encoding"], task["params"]
+        reason = task["why"]
+        candidates = None
+        if encoding == "auto":
+            pm, why, candidates = choose_auto(mesh, task["instances"], task["budgets"])
+            reason = f"{reason}; {why}"
+        else:
+            pm = build_pm(mesh, encoding, **params)
+        rec.update(encoding=pm.encoding, params=pm.params, why=reason, instances=task["instances"])
+        if candidates:
+            rec["auto_candidates"] = candidates
+        problems = check_streaming(pm, task["streaming"])
+        total = pm.global_bytes + task["instances"] * pm.instance_bytes
+        for key, value in (
+            ("global_bytes", pm.global_bytes),
+            ("instance_bytes", pm.instance_bytes),
+            ("total_bytes", total),
+        ):
+            if key in task["budgets"] and value > task["budgets"][key]:
+                problems.append(f"{key} {value} exceeds budgets.{key}={task['budgets'][key]}")
+        rec["summary"] = summarize(pm, int(pm.params.get("cache_size", 16)))
+        if problems:
+            rec["error"] = "streaming/budget check failed: " + "; ".join(problems)
+            return rec
+        outputs = {}
+        out_dir = Path(task["out_dir"])
+        if task["write_swpm"]:
+            from .. import format as swpm_format
+
+            target = out_dir / f"{task['stem']}.swpm"
+            # validate the bytes before they replace anything: a bad build never overwrites a good file
+            data = swpm_format.encode_bytes(pm, source_digest=task["digest"])
+            report = swpm_format.validate_bytes(data, path=str(target))
+            if not report.valid:
+                problems = "; ".join(f"{p.code}: {p.message}" for p in report.errors[:5])
+                rec["error"] = "encoded file failed validation: " + problems
+                return rec
+            atomic_write_bytes(target, data)
+            outputs["swpm"] = {"path": target.name, "sha256": sha256_file(target)}
+        if task["write_usd"]:
+            from ..usd import write as usd_write
+
+            target = out_dir / f"{task['stem']}.usdc"
+            usd_write(pm, target)
+            outputs["usd"] = {"path": target.name, "sha256": sha256_file(target)}
+        rec["outputs"] = outputs
+        rec["status"] = "built"
+    except Exception as exc:  # noqa: BLE001 - one asset's failure must not stop the others
+        rec["error"] = f"{type(exc).__name__}: {exc}"
+        rec["traceback"] = traceback.format_exc(limit=6)
+    finally:
+        rec["seconds"] = time.perf_counter() - start
+    return rec
