@@ -1,0 +1,293 @@
+"""The declarative pipeline: config errors, rules, incremental runs, failures, interruption, executors."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+from conftest import SHARED_MESHES
+
+import swpm_usd
+from swpm_usd.cli import main
+from swpm_usd.encode import BUILDERS
+from swpm_usd.pipeline import ConfigError, load_config, run
+from swpm_usd.pipeline.schema import PACKAGED_SCHEMA, SCHEMA_PATH, schema_text
+
+
+def _project(tmp_path: Path, meshes=("cow.obj", "spot.obj"), config: str = "") -> Path:
+    (tmp_path / "meshes").mkdir()
+    for m in meshes:
+        shutil.copy(SHARED_MESHES / m, tmp_path / "meshes" / m)
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(config)
+    return cfg
+
+
+MINIMAL = """\
+version: 1
+assets:
+  - glob: "meshes/*.obj"
+output:
+  dir: out
+rules:
+  - name: small
+    match: {triangles: {max: 15000}}
+    encoding: skip-strip
+  - name: default
+    encoding: sliding-window
+"""
+
+
+def test_schema_file_matches_the_encoders():
+    assert SCHEMA_PATH.read_text() == schema_text(), "regenerate: python -m swpm_usd.pipeline.schema"
+    assert PACKAGED_SCHEMA.read_text() == schema_text()
+
+
+def test_minimal_config_runs_and_writes_manifest_and_files(tmp_path):
+    cfg = _project(tmp_path, ("cow.obj", "spot.obj", "stanford-bunny.obj"), MINIMAL)
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 0 and res.built == 3
+    out = tmp_path / "out"
+    manifest = json.loads((out / "manifest.json").read_text())
+    assets = manifest["assets"]
+    assert set(assets) == {"meshes/cow.obj", "meshes/spot.obj", "meshes/stanford-bunny.obj"}
+    assert (
+        assets["meshes/cow.obj"]["encoding"] == "skip-strip" and assets["meshes/cow.obj"]["rule"] == "small"
+    )
+    assert assets["meshes/stanford-bunny.obj"]["encoding"] == "sliding-window"
+    for stem in ("cow", "spot", "stanford-bunny"):
+        path = out / f"{stem}.swpm"
+        assert swpm_usd.validate(path).valid
+        rec = assets[f"meshes/{stem}.obj"]
+        assert rec["outputs"]["swpm"]["path"] == f"{stem}.swpm"
+        for key in ("lambda", "acmr", "global_bytes", "instance_bytes"):
+            assert key in rec["summary"]
+    assert (out / "report.html").read_text().count("<svg") >= 6
+
+
+def test_config_errors_are_all_reported_with_positions(tmp_path):
+    cfg = _project(
+        tmp_path,
+        config="""\
+version: 1
+assets:
+  - glob: "meshes/*.obj"
+output:
+  dir: out
+  colour: red
+rules:
+  - name: small
+    encoding: vanilla
+    params: {mu: 0.2}
+  - name: bad
+    encoding: squiggle
+""",
+    )
+    with pytest.raises(ConfigError) as exc:
+        load_config(cfg)
+    problems = exc.value.problems
+    assert any(p.startswith("pipeline.yaml:6:3: $.output.colour:") for p in problems)
+    assert any(p.startswith("pipeline.yaml:10:14: $.rules[0].params.mu:") for p in problems)
+    assert any(p.startswith("pipeline.yaml:12:15: $.rules[1].encoding:") for p in problems)
+    result = CliRunner().invoke(main, ["run", str(cfg)])
+    assert result.exit_code == 2
+    assert "$.output.colour" in result.output and "$.rules[1].encoding" in result.output
+
+
+def test_semantic_errors_and_unreachable_rule_warning(tmp_path):
+    cfg = _project(
+        tmp_path,
+        config="""\
+version: 1
+assets:
+  - glob: "meshes/*.obj"
+  - glob: "nothing/*.obj"
+output: {dir: out}
+rules:
+  - name: everything
+    encoding: vanilla
+  - name: never
+    encoding: skip-strip
+""",
+    )
+    result = CliRunner().invoke(main, ["run", str(cfg)])
+    assert result.exit_code == 2
+    assert "pipeline.yaml:4:11: $.assets[1].glob: the glob matches no file" in result.output
+    cfg.write_text(cfg.read_text().replace('  - glob: "nothing/*.obj"\n', ""))
+    messages = []
+    res = run(cfg, dry_run=True, echo=messages.append)
+    assert res.built == 0 and not (tmp_path / "out").exists()
+    assert any("rule 'never' matches no asset" in m for m in messages)
+    assert any(m.startswith("meshes/cow.obj: vanilla") and "rule 'everything' matched" in m for m in messages)
+
+
+def test_incremental_rerun_and_changes(tmp_path):
+    cfg = _project(tmp_path, config=MINIMAL.replace("sliding-window", "vanilla"))
+    assert run(cfg, echo=lambda m: None).built == 2
+    again = run(cfg, echo=lambda m: None)
+    assert again.built == 0 and again.skipped == 2
+    # a changed input is rebuilt, the other is not
+    spot = tmp_path / "meshes" / "spot.obj"
+    spot.write_text(spot.read_text() + "\n# touched\n")
+    third = run(cfg, echo=lambda m: None)
+    assert third.built == 1 and third.records["meshes/spot.obj"]["status"] == "built"
+    # changed parameters rebuild what they apply to
+    cfg.write_text(
+        cfg.read_text().replace("encoding: skip-strip", "encoding: skip-strip\n    params: {primitive: list}")
+    )
+    fourth = run(cfg, echo=lambda m: None)
+    assert fourth.built == 2
+    # a deleted output is rebuilt
+    (tmp_path / "out" / "cow.swpm").unlink()
+    assert run(cfg, echo=lambda m: None).built == 1
+
+
+def test_one_bad_asset_does_not_stop_the_others(tmp_path):
+    cfg = _project(tmp_path, config=MINIMAL.replace("sliding-window", "vanilla"))
+    (tmp_path / "meshes" / "broken.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
+    result = CliRunner().invoke(main, ["run", str(cfg), "--json"])
+    assert result.exit_code == 1
+    manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
+    assert manifest["assets"]["meshes/broken.obj"]["status"] == "failed"
+    assert "broken.obj" in manifest["assets"]["meshes/broken.obj"]["error"]
+    assert manifest["assets"]["meshes/cow.obj"]["status"] == "built"
+    assert swpm_usd.validate(tmp_path / "out" / "spot.swpm").valid
+
+
+def test_streaming_policy_and_budgets_fail_the_asset(tmp_path):
+    cfg = _project(
+        tmp_path,
+        ("cow.obj",),
+        """\
+version: 1
+assets: [{glob: "meshes/*.obj"}]
+output: {dir: out}
+defaults: {encoding: vanilla}
+streaming: {coarsest_lod_bytes: 10}
+""",
+    )
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1
+    assert "coarsest_lod_bytes" in res.records["meshes/cow.obj"]["error"]
+    assert not (tmp_path / "out" / "cow.swpm").exists()
+
+
+def test_auto_encoding_records_choice_and_reason(tmp_path):
+    cfg = _project(
+        tmp_path,
+        ("cow.obj",),
+        """\
+version: 1
+assets: [{glob: "meshes/*.obj", instances: 500}]
+output: {dir: out}
+rules: [{name: auto, encoding: auto}]
+""",
+    )
+    res = run(cfg, echo=lambda m: None)
+    rec = res.records["meshes/cow.obj"]
+    assert rec["status"] == "built", rec.get("error")
+    cands = rec["auto_candidates"]
+    assert set(cands) >= {"vanilla", "skip-strip"}
+    totals = {e: c["global_bytes"] + 500 * c["instance_bytes"] for e, c in cands.items()}
+    assert all(totals[e] == cands[e]["total_bytes"] for e in cands)
+    assert "auto:" in rec["why"] and rec["encoding"] in rec["why"]
+
+
+def test_usd_stage_assets_count_instances(tmp_path):
+    from pxr import Usd, UsdGeom
+
+    asset = tmp_path / "spot_asset.usda"
+    mesh = swpm_usd.load_mesh(SHARED_MESHES / "spot.obj")
+    st = Usd.Stage.CreateNew(str(asset))
+    root = UsdGeom.Xform.Define(st, "/Spot")
+    st.SetDefaultPrim(root.GetPrim())
+    m = UsdGeom.Mesh.Define(st, "/Spot/Body")
+    m.CreatePointsAttr(mesh.points)
+    m.CreateFaceVertexCountsAttr([3] * mesh.triangle_count)
+    m.CreateFaceVertexIndicesAttr(mesh.triangles.reshape(-1))
+    st.GetRootLayer().Save()
+    scene = tmp_path / "scene.usda"
+    st = Usd.Stage.CreateNew(str(scene))
+    for i in range(3):
+        p = st.DefinePrim(f"/World/spot_{i}", "Xform")
+        p.GetReferences().AddReference("./spot_asset.usda")
+        p.SetInstanceable(True)
+    st.GetRootLayer().Save()
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        """\
+version: 1
+assets: [{stage: scene.usda}]
+output: {dir: out}
+rules:
+  - {name: crowd, match: {instances: {min: 2}}, encoding: vanilla}
+  - {name: single, encoding: skip-strip}
+"""
+    )
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 0 and res.built == 1
+    (rec,) = res.records.values()
+    assert rec["instances"] == 3 and rec["rule"] == "crowd"
+
+
+def test_interrupted_run_keeps_earlier_outputs_and_rerun_finishes(tmp_path):
+    cfg = _project(tmp_path, ("cow.obj", "spot.obj", "bob.obj", "fandisk.obj", "teapot.obj"), "")
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'meshes/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: skip-strip}\n"
+    )
+    manifest = tmp_path / "out" / "manifest.json"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "swpm_usd.cli", "run", str(cfg)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    deadline = time.time() + 120
+    done_before = 0
+    while time.time() < deadline and proc.poll() is None:
+        if manifest.exists():
+            done_before = len(json.loads(manifest.read_text())["assets"])
+            if done_before >= 1:
+                break
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert done_before >= 1
+    recorded = json.loads(manifest.read_text())["assets"]
+    for rec in recorded.values():
+        assert swpm_usd.validate(tmp_path / "out" / rec["outputs"]["swpm"]["path"]).valid
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 0
+    assert res.built + res.skipped == 5 and res.skipped >= len(recorded)
+    assert not list((tmp_path / "out").glob(".*.tmp"))
+
+
+def test_parallel_jobs_and_dask_executor(tmp_path):
+    pytest.importorskip("dask.distributed", reason="the dask extra is part of .[dev]")
+    cfg = _project(tmp_path, config=MINIMAL.replace("sliding-window", "vanilla"))
+    res = run(cfg, jobs=2, echo=lambda m: None)
+    assert res.built == 2 and res.failed == 0
+    cfg2 = tmp_path / "pipeline2.yaml"
+    cfg2.write_text(cfg.read_text().replace("dir: out", "dir: out_dask"))
+    res2 = run(cfg2, jobs=1, executor="dask", echo=lambda m: None)
+    assert res2.built == 2 and res2.failed == 0
+    a = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]
+    b = json.loads((tmp_path / "out_dask" / "manifest.json").read_text())["assets"]
+    for key in a:
+        assert a[key]["outputs"]["swpm"]["sha256"] == b[key]["outputs"]["swpm"]["sha256"]
+
+
+def test_every_rule_encoding_is_buildable():
+    schema = json.loads(schema_text())
+    assert set(schema["properties"]["rules"]["items"]["properties"]["encoding"]["enum"]) == {
+        *BUILDERS,
+        "auto",
+    }
