@@ -391,8 +391,9 @@ def apply_collapse(st: CollapseState, b: int, k: int, vmap: np.ndarray) -> int:
 
 
 @nb.njit(cache=True)
-def best_collapse(st: CollapseState, b: int) -> tuple[int, float]:
-    """Cheapest valid target for binning ``b``: (k, cost), or (-1, inf)."""
+def best_collapse(st: CollapseState, b: int, validate: bool = True) -> tuple[int, float]:
+    """Cheapest target for binning ``b``: (k, cost), or (-1, inf). With ``validate`` False the cheapest
+    neighbour is returned unchecked (the queue re-checks it when it comes up: lazy evaluation)."""
     if st.pos_locked[b] or not st.pos_alive[b]:
         return -1, np.inf
     tris_b = gather_triangles(st, b)
@@ -401,10 +402,17 @@ def best_collapse(st: CollapseState, b: int) -> tuple[int, float]:
     tp_b = triangle_positions(st, tris_b)
     nbr = neighbours(b, tp_b)
     costs = np.empty(nbr.shape[0])
+    best = 0
     for i in range(nbr.shape[0]):
         costs[i] = collapse_cost(st, b, nbr[i])
+        if costs[i] < costs[best]:
+            best = i
+    if not validate:
+        return nbr[best], costs[best]
+    if valid_collapse(st, b, nbr[best], tris_b, tp_b, nbr):
+        return nbr[best], costs[best]
     order = np.argsort(costs)
-    for i in range(order.shape[0]):
+    for i in range(1, order.shape[0]):
         k = nbr[order[i]]
         if valid_collapse(st, b, k, tris_b, tp_b, nbr):
             return k, costs[order[i]]
@@ -485,7 +493,7 @@ def run_sequence(st: CollapseState, max_passes: int):
     for _ in range(max_passes):
         progress = 0
         for p in range(P):
-            k, cost = best_collapse(st, p)
+            k, cost = best_collapse(st, p, False)
             stamp[p] += 1
             target[p] = k
             if k >= 0:
@@ -525,7 +533,7 @@ def run_sequence(st: CollapseState, max_passes: int):
             ring = neighbours(k, triangle_positions(st, tris_k))
             for i in range(ring.shape[0] + 1):
                 q = k if i == ring.shape[0] else ring[i]
-                k2, c2 = best_collapse(st, q)
+                k2, c2 = best_collapse(st, q, False)
                 stamp[q] += 1
                 target[q] = k2
                 if k2 >= 0:
