@@ -1,0 +1,359 @@
+"""Tests of swpm_usd.vcache: FIFO vertex-cache triangle ordering, block ordering and fan ordering."""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numba import njit
+
+from swpm_usd.metrics import acmr
+from swpm_usd.vcache import (
+    apply_order,
+    fan_order,
+    fan_order_nb,
+    fifo_contents,
+    optimize_block_order,
+    optimize_triangle_order,
+)
+
+MESHES = Path(__file__).resolve().parents[1].parent / "shared" / "meshes"
+
+
+def _load_tris(name: str) -> np.ndarray:
+    trimesh = pytest.importorskip("trimesh")
+    path = MESHES / name
+    if not path.exists():
+        pytest.skip(f"{path} not available")
+    m = trimesh.load(path, process=False, force="mesh")
+    return np.asarray(m.faces, dtype=np.int64)
+
+
+@pytest.fixture(scope="module")
+def cow() -> np.ndarray:
+    return _load_tris("cow.obj")
+
+
+def _grid(nx: int, ny: int) -> np.ndarray:
+    """Triangulated nx * ny grid of quads, consistently wound."""
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+    v = (i * (ny + 1) + j).ravel()
+    a, b, c, d = v, v + ny + 1, v + ny + 2, v + 1
+    return np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)]).astype(np.int64)
+
+
+def _canonical(tris: np.ndarray) -> np.ndarray:
+    """Each row as its lexicographically smallest cyclic rotation (the same for rows equal up to rotation)."""
+    rots = np.stack([np.roll(tris, -r, axis=1) for r in range(3)], axis=1)  # (n, 3 rotations, 3)
+    base = int(tris.max()) + 1 if tris.size else 1
+    key = (rots[..., 0] * base + rots[..., 1]) * base + rots[..., 2]
+    return rots[np.arange(tris.shape[0]), np.argmin(key, axis=1)]
+
+
+def _meshopt_order(tris: np.ndarray) -> np.ndarray:
+    meshopt = pytest.importorskip("meshoptimizer")
+    idx = np.ascontiguousarray(tris, dtype=np.uint32).ravel()
+    dst = np.zeros_like(idx)
+    meshopt.optimize_vertex_cache(dst, idx, idx.size, int(idx.max()) + 1)
+    return dst.reshape(-1, 3)
+
+
+def _is_perm(perm: np.ndarray, n: int) -> bool:
+    return perm.dtype == np.int64 and perm.shape == (n,) and np.array_equal(np.sort(perm), np.arange(n))
+
+
+def _shuffle_within(tris: np.ndarray, starts: np.ndarray, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    out = tris.copy()
+    for lo, hi in zip(starts[:-1], starts[1:], strict=True):
+        out[lo:hi] = tris[lo + rng.permutation(hi - lo)]
+    return out
+
+
+def _block_of(starts: np.ndarray) -> np.ndarray:
+    return np.repeat(np.arange(starts.size - 1), np.diff(starts))
+
+
+def _random_blocks(n: int, lo: int, hi: int, seed: int) -> np.ndarray:
+    sizes = np.random.default_rng(seed).integers(lo, hi + 1, n)
+    starts = np.concatenate([[0], np.cumsum(sizes)])
+    return np.append(starts[starts < n], n).astype(np.int64)
+
+
+# --------------------------------------------------------------------------------------------------------
+# optimize_triangle_order
+# --------------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("dtype", [np.int32, np.int64])
+def test_permutation_keeps_triangles_and_winding(cow: np.ndarray, dtype: type) -> None:
+    tris = cow.astype(dtype)
+    perm = optimize_triangle_order(tris)
+    assert _is_perm(perm, tris.shape[0])
+    out = tris[perm]
+    assert np.array_equal(out, cow[perm])  # whole rows moved: vertex sets and winding unchanged
+
+    perm_r, shift = optimize_triangle_order(tris, rotate=True)
+    assert _is_perm(perm_r, tris.shape[0])
+    assert shift.shape == perm_r.shape and set(np.unique(shift)) <= {0, 1, 2}
+    rotated = apply_order(tris, perm_r, shift)
+    assert not np.array_equal(rotated, tris[perm_r]) or not shift.any()
+    # a cyclic rotation keeps the vertex set and the winding: same canonical form as the source row
+    assert np.array_equal(_canonical(rotated), _canonical(tris[perm_r]))
+    assert acmr(rotated) <= acmr(tris[perm_r]) * 1.02
+
+
+def test_acmr_on_shuffled_cow_improves_and_matches_meshoptimizer(cow: np.ndarray) -> None:
+    shuffled = cow[np.random.default_rng(3).permutation(cow.shape[0])]
+    before = acmr(shuffled)
+    assert before > 2.0
+    for cache_size in (16, 32):
+        ours = acmr(shuffled[optimize_triangle_order(shuffled, cache_size=cache_size)], cache_size)
+        assert ours < 0.35 * acmr(shuffled, cache_size)
+        assert ours < 0.7 if cache_size == 16 else ours < 0.64
+    for tris in (shuffled, cow):
+        reference = acmr(_meshopt_order(tris))
+        assert acmr(tris[optimize_triangle_order(tris)]) <= 1.05 * reference
+
+
+def test_grid_is_near_optimal_for_its_cache() -> None:
+    tris = _grid(40, 40)
+    shuffled = tris[np.random.default_rng(0).permutation(tris.shape[0])]
+    perm = optimize_triangle_order(shuffled, cache_size=16)
+    # a regular grid has 0.5 vertices per triangle; a 16-entry FIFO gets well below 0.75
+    assert acmr(shuffled[perm], 16) < 0.72
+
+
+def test_empty_and_single_triangle() -> None:
+    for empty in (np.zeros((0, 3), np.int64), np.zeros((0, 3), np.int32), []):
+        perm = optimize_triangle_order(empty)
+        assert perm.dtype == np.int64 and perm.shape == (0,)
+        perm, shift = optimize_triangle_order(empty, rotate=True)
+        assert perm.shape == (0,) and shift.shape == (0,)
+        assert optimize_block_order(empty, []).shape == (0,)
+    one = np.array([[7, 3, 5]], np.int32)
+    assert np.array_equal(optimize_triangle_order(one), [0])
+    perm, shift = optimize_triangle_order(one, rotate=True)
+    assert np.array_equal(perm, [0]) and shift[0] == 0  # nothing cached: every rotation misses 3 times
+    assert np.array_equal(optimize_block_order(one, [0, 1]), [0])
+
+
+def test_sparse_vertex_ids_and_degenerate_triangles() -> None:
+    tris = _grid(6, 6) * 1000 + 123_456
+    tris[5] = [tris[5, 0], tris[5, 0], tris[5, 1]]  # degenerate rows are ordered like any other
+    tris[9] = [tris[9, 2], tris[9, 2], tris[9, 2]]
+    perm = optimize_triangle_order(tris)
+    assert _is_perm(perm, tris.shape[0])
+    assert np.array_equal(perm, optimize_triangle_order(tris, vertex_count=int(tris.max()) + 10))
+    assert acmr(tris[perm]) < acmr(tris[np.random.default_rng(0).permutation(tris.shape[0])])
+    # ids far beyond any buffer size are renumbered internally: same order, no huge work arrays
+    huge = tris + 10**12
+    assert np.array_equal(optimize_triangle_order(huge), perm)
+    starts = np.array([0, 20, 45, tris.shape[0]])
+    state = np.unique(tris[:3])
+    assert np.array_equal(
+        optimize_block_order(huge, starts, cache_state=state + 10**12),
+        optimize_block_order(tris, starts, cache_state=state),
+    )
+    assert np.array_equal(fifo_contents(huge[:30], 16), fifo_contents(tris[:30], 16) + 10**12)
+
+
+def test_input_validation() -> None:
+    with pytest.raises(ValueError):
+        optimize_triangle_order(np.array([[0, 1, 2, 3]]))
+    with pytest.raises(ValueError):
+        optimize_triangle_order(np.array([[0, 1, -2]]))
+    with pytest.raises(ValueError):
+        optimize_triangle_order(np.array([[0.0, 1.0, 2.0]]))
+    with pytest.raises(ValueError):
+        optimize_triangle_order(np.array([[0, 1, 9]]), vertex_count=5)
+    with pytest.raises(ValueError):
+        optimize_triangle_order(np.array([[0, 1, 2]]), cache_size=0)
+    with pytest.raises(ValueError):
+        optimize_block_order(np.array([[0, 1, 2], [1, 2, 3]]), [0, 2, 1])
+    with pytest.raises(ValueError):
+        optimize_block_order(np.array([[0, 1, 2]]), [0, 1], cache_state=[4, 4])
+    with pytest.raises(ValueError):
+        fan_order(np.array([[0, 1, 2], [3, 4, 5]]), 0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.integers(0, 60).flatmap(
+        lambda n: st.tuples(
+            st.lists(st.tuples(*(st.integers(0, 25),) * 3), min_size=n, max_size=n),
+            st.lists(st.integers(0, n), max_size=8),
+            st.sampled_from([1, 3, 4, 16]),
+        )
+    )
+)
+def test_random_inputs_give_permutations(case: tuple[list, list, int]) -> None:
+    rows, cuts, cache_size = case
+    tris = np.array(rows, np.int64).reshape(-1, 3)
+    n = tris.shape[0]
+    assert _is_perm(optimize_triangle_order(tris, cache_size=cache_size), n)
+    perm, shift = optimize_triangle_order(tris, cache_size=cache_size, rotate=True)
+    assert _is_perm(perm, n)
+    assert np.array_equal(_canonical(apply_order(tris, perm, shift)), _canonical(tris[perm]))
+    starts = np.unique(np.array([0, *cuts, n], np.int64))
+    bperm = optimize_block_order(tris, starts, cache_size=cache_size)
+    assert _is_perm(bperm, n)
+    for lo, hi in zip(starts[:-1], starts[1:], strict=True):
+        assert np.array_equal(np.sort(bperm[lo:hi]), np.arange(lo, hi))
+
+
+# --------------------------------------------------------------------------------------------------------
+# optimize_block_order
+# --------------------------------------------------------------------------------------------------------
+
+
+def test_block_order_stays_in_blocks_and_improves(cow: np.ndarray) -> None:
+    ordered = cow[optimize_triangle_order(cow)]
+    starts = _random_blocks(ordered.shape[0], 3, 8, seed=1)
+    shuffled = _shuffle_within(ordered, starts, seed=2)
+    perm = optimize_block_order(shuffled, starts)
+    assert _is_perm(perm, shuffled.shape[0])
+    block_of = _block_of(starts)
+    assert np.array_equal(block_of[perm], block_of)  # every triangle stays inside its block
+    before = acmr(shuffled)
+    after = acmr(shuffled[perm])
+    assert after < 0.95 * before
+    assert after < 1.01 * acmr(ordered)  # about as good as the unshuffled cache-optimised order
+
+    # big blocks (contiguous eighths of a cache-ordered mesh, each shuffled) are reordered as well as the
+    # whole-list optimiser orders each of them on its own
+    starts8 = np.linspace(0, cow.shape[0], 9).astype(np.int64)
+    big = _shuffle_within(ordered, starts8, seed=4)
+    perm8 = optimize_block_order(big, starts8)
+    assert np.array_equal(_block_of(starts8)[perm8], _block_of(starts8))
+    separately = np.concatenate(
+        [lo + optimize_triangle_order(big[lo:hi]) for lo, hi in zip(starts8[:-1], starts8[1:], strict=True)]
+    )
+    assert acmr(big) > 2.0
+    assert acmr(big[perm8]) < 0.7
+    assert acmr(big[perm8]) <= 1.01 * acmr(big[separately])
+
+
+def test_block_start_conventions(cow: np.ndarray) -> None:
+    tris = cow[:500]
+    a = optimize_block_order(tris, [0, 100, 250, 500])
+    assert np.array_equal(a, optimize_block_order(tris, [100, 250]))  # leading 0 and trailing n implied
+    assert np.array_equal(a, optimize_block_order(tris, [0, 100, 100, 250, 250, 500]))  # empty blocks
+    whole = optimize_block_order(tris, [0])
+    assert np.array_equal(whole, optimize_triangle_order(tris))  # one block = the whole-list optimiser
+
+
+def test_cache_state_carries_over(cow: np.ndarray) -> None:
+    tris = cow[optimize_triangle_order(cow)][:600]
+    starts = np.array([0, 250, 600])
+    shuffled = _shuffle_within(tris, starts, seed=5)
+    perm = optimize_block_order(shuffled, starts)
+    # the second block is ordered from the FIFO content the first block leaves
+    state = fifo_contents(shuffled[perm[:250]])
+    second = optimize_block_order(shuffled[250:], [0], cache_state=state)
+    assert np.array_equal(perm[250:], second + 250)
+    # a seeded cache starts the block where the cached vertices are
+    seeded = optimize_block_order(shuffled, [0], cache_state=shuffled[417])
+    assert np.isin(shuffled[seeded[0]], shuffled[417]).sum() >= 2
+    # a longer state keeps only its newest cache_size entries
+    assert np.array_equal(
+        optimize_block_order(shuffled[250:], [0], cache_state=np.concatenate([[5000, 5001], state])), second
+    )
+
+
+def test_many_tiny_blocks_are_fast() -> None:
+    tris = _grid(250, 250)[: 20_000 * 5]
+    starts = _random_blocks(tris.shape[0], 3, 8, seed=0)
+    starts = starts[:20_001] if starts.size > 20_001 else starts
+    tris = tris[: starts[-1]]
+    shuffled = _shuffle_within(tris, starts, seed=1)
+    optimize_block_order(shuffled[:100], [0, 50])  # load the compiled kernel
+    t0 = time.perf_counter()
+    perm = optimize_block_order(shuffled, starts)
+    elapsed = time.perf_counter() - t0
+    assert starts.size - 1 >= 15_000
+    assert elapsed < 1.0
+    assert acmr(shuffled[perm]) < acmr(shuffled)
+
+
+# --------------------------------------------------------------------------------------------------------
+# fifo_contents
+# --------------------------------------------------------------------------------------------------------
+
+
+def test_fifo_contents_matches_reference(cow: np.ndarray) -> None:
+    seq = cow[:300].ravel()
+    for cache_size in (1, 3, 16):
+        cache: deque[int] = deque()
+        for v in seq:
+            if v not in cache:
+                cache.append(int(v))
+                if len(cache) > cache_size:
+                    cache.popleft()
+        assert fifo_contents(seq, cache_size).tolist() == list(cache)
+    # chaining through `initial` is the same as one run
+    head = fifo_contents(seq[:400], 16)
+    assert np.array_equal(fifo_contents(seq[400:], 16, initial=head), fifo_contents(seq, 16))
+    assert fifo_contents([], 16).shape == (0,)
+
+
+# --------------------------------------------------------------------------------------------------------
+# fan_order
+# --------------------------------------------------------------------------------------------------------
+
+
+def _consecutive_share_edges(fan: np.ndarray) -> bool:
+    return all(len(set(fan[i]) & set(fan[i + 1])) == 2 for i in range(fan.shape[0] - 1))
+
+
+@pytest.mark.parametrize("k", [3, 6, 11])
+def test_fan_order_closed_fan(k: int) -> None:
+    rim = np.arange(1, k + 1) * 10
+    fan = np.stack([np.zeros(k, np.int64), rim, np.roll(rim, -1)], axis=1)
+    shuffled = fan[np.random.default_rng(k).permutation(k)]
+    perm = fan_order(shuffled, 0)
+    assert _is_perm(perm, k)
+    assert _consecutive_share_edges(shuffled[perm])
+
+
+@pytest.mark.parametrize("k", [1, 2, 5, 9])
+def test_fan_order_open_fan_starts_at_a_boundary_end(k: int) -> None:
+    rim = np.arange(1, k + 2) * 7
+    fan = np.stack([rim[:-1], rim[1:], np.full(k, 3)], axis=1)  # centre 3 last in every row
+    shuffled = fan[np.random.default_rng(k).permutation(k)]
+    perm = fan_order(shuffled, 3)
+    out = shuffled[perm]
+    assert _is_perm(perm, k)
+    assert _consecutive_share_edges(out)
+    assert rim[0] in out[0] or rim[-1] in out[0]
+    # the input rows are not rotated
+    assert np.array_equal(out, shuffled[perm])
+
+
+def test_fan_order_mixed_winding_and_two_arcs() -> None:
+    fan = np.array([[0, 1, 2], [0, 2, 3], [0, 4, 3], [0, 4, 5], [0, 7, 8], [0, 8, 9]])  # row 2 flipped
+    shuffled = fan[[3, 0, 5, 2, 4, 1]]
+    perm = fan_order(shuffled, 0)
+    out = shuffled[perm]
+    assert _is_perm(perm, 6)
+    shared = [len(set(out[i]) & set(out[i + 1])) == 2 for i in range(5)]
+    assert sum(shared) == 4  # two arcs: one break between them
+
+
+@njit(cache=False)
+def _fan_from_numba(tris: np.ndarray, centre: int) -> np.ndarray:
+    return fan_order_nb(tris, centre)
+
+
+def test_fan_order_nb_callable_from_numba() -> None:
+    rim = np.array([5, 6, 7, 8, 9])
+    fan = np.stack([np.full(4, 2), rim[:-1], rim[1:]], axis=1)[[2, 0, 3, 1]]
+    perm = _fan_from_numba(np.ascontiguousarray(fan), 2)
+    assert np.array_equal(np.sort(perm), np.arange(4))
+    assert _consecutive_share_edges(fan[perm])
+    assert np.array_equal(perm, fan_order(fan, 2))
