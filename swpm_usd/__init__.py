@@ -4,9 +4,12 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
+from .usd import plugin as _usd_plugin  # noqa: F401, I001 - registers SwpmMeshAPI before any stage use
+
 from .build import build
 from .encode import ProgressiveMesh, from_buffers
 from .errors import BuildError, MeshLoadError, SwpmError
+from .format import load, save, validate
 from .mesh import Mesh
 
 
@@ -26,5 +29,8 @@ __all__ = [
     "__version__",
     "build",
     "from_buffers",
+    "load",
     "load_mesh",
+    "save",
+    "validate",
 ]

@@ -291,3 +291,11 @@ def test_every_rule_encoding_is_buildable():
         *BUILDERS,
         "auto",
     }
+
+
+@pytest.mark.parametrize(
+    "preset", sorted((SCHEMA_PATH.parent / "presets").glob("*.yaml")), ids=lambda p: p.name
+)
+def test_presets_and_sample_config_are_valid(preset):
+    load_config(preset)
+    load_config(SCHEMA_PATH.parents[1] / "samples" / "pipeline.yaml")

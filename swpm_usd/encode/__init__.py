@@ -27,8 +27,11 @@ def _build_vanilla(mesh: Mesh, **params: Any) -> ProgressiveMesh:
 
 from .mixed import MIXED_PARAMS, build_mixed_mesh  # noqa: E402 (skip-strip / mixed entries)
 from .skipstrip import SKIPSTRIP_PARAMS, build_skipstrip_mesh  # noqa: E402
+from .slidingwindow import SLIDING_WINDOW_PARAMS  # noqa: E402
+from .slidingwindow import build_sliding_window as _build_sliding_window  # noqa: E402
 
 BUILDERS: dict[str, tuple[Callable[..., ProgressiveMesh], dict[str, Any]]] = {
+    "sliding-window": (_build_sliding_window, {**SIMPLIFY_PARAMS, **SLIDING_WINDOW_PARAMS}),
     "vanilla": (_build_vanilla, dict(SIMPLIFY_PARAMS)),
     "skip-strip": (build_skipstrip_mesh, {**SIMPLIFY_PARAMS, **SKIPSTRIP_PARAMS}),
     "mixed": (build_mixed_mesh, {**SIMPLIFY_PARAMS, **MIXED_PARAMS}),

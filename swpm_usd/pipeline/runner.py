@@ -252,7 +252,7 @@ def run(
         if dry_run:
             return RunResult({}, 0, sum(i.up_to_date for i in items), 0, warnings, 0.0, manifest_path)
     out_dir.mkdir(parents=True, exist_ok=True)
-    for stale in out_dir.glob(".*.tmp"):  # left by a killed run
+    for stale in [*out_dir.glob(".*.tmp"), *out_dir.glob(".*.tmp.usda")]:  # left by a killed run
         stale.unlink(missing_ok=True)
     todo = [it for it in items if force or not it.up_to_date]
     records = {k: v for k, v in manifest.get("assets", {}).items() if k in {i.asset.id for i in items}}
@@ -298,7 +298,7 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
         if r.get("status") == "built" and "usd" in r.get("outputs", {})
     ]
     target = out_dir / "scene.usda"
-    tmp = out_dir / ".scene.usda.tmp"
+    tmp = out_dir / ".scene.tmp.usda"
     stage = Usd.Stage.CreateNew(str(tmp))
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)

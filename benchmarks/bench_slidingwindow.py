@@ -1,0 +1,165 @@
+"""Benchmark of the sliding-window encoding: index-pool size, levels, vertex cache, error and build time.
+
+    python benchmarks/bench_slidingwindow.py [MESH ...] [--options topology,inner3,forsyth] [--samples 30000]
+        [--repeat 3] [--big] [--out benchmarks/results/slidingwindow.json]
+
+Rows per mesh and option: lambda (pool indices / LOD-0 indices), levels, LOD count; FIFO-16 ACMR of the
+window at 100/50/25/10 % of the triangles next to meshoptimizer's ``optimize_vertex_cache`` of the same
+triangle set (ratio = ours / theirs); Hausdorff error (``swpm_usd.metrics.surface_error``, exact point to
+triangle, / bbox diagonal) at 50/25/10 % next to meshoptimizer's ``simplify`` at the same triangle count;
+build seconds (median of ``--repeat`` after one warm-up build). ``--big`` adds a generated icosphere of
+1.3 M triangles (build time only). Targets (issue): lambda <= 5.4 on bunny (topology, no reductions),
+ACMR ratio <= 1.10, error ratio <= 1.5, bunny build <= 3 s, 1 M triangles <= 60 s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+MESHES = HERE.parent.parent / "shared" / "meshes"
+OPTIONS = {
+    "topology": {},
+    "inner3": {"inner_vertices": 3},
+    "forsyth": {"builder": "forsyth"},
+    "forsyth-tol1": {"builder": "forsyth", "tolerance": 1.0},
+}
+FRACTIONS = (1.0, 0.5, 0.25, 0.1)
+
+
+def _meshopt_acmr(tris: np.ndarray, vertex_count: int, cache_size: int) -> float:
+    import meshoptimizer
+
+    from swpm_usd.metrics import acmr
+
+    idx = np.ascontiguousarray(tris, dtype=np.uint32).reshape(-1)
+    dst = np.empty_like(idx)
+    meshoptimizer.optimize_vertex_cache(dst, idx, idx.shape[0], vertex_count)
+    return acmr(dst, cache_size)
+
+
+def _meshopt_simplify(points: np.ndarray, tris: np.ndarray, target_tris: int) -> np.ndarray:
+    import meshoptimizer
+
+    idx = np.ascontiguousarray(tris, dtype=np.uint32).reshape(-1)
+    pos = np.ascontiguousarray(points, dtype=np.float32)
+    dst = np.empty_like(idx)
+    n = meshoptimizer.simplify(
+        dst, idx, pos, idx.shape[0], pos.shape[0], 12, 3 * int(target_tris), 1e3, 0, None
+    )
+    return dst[:n].reshape(-1, 3)
+
+
+def bench_mesh(name: str, mesh, option: str, params: dict, samples: int, repeat: int, errors: bool) -> dict:
+    import swpm_usd
+    from swpm_usd.metrics import acmr, surface_error
+
+    cache = 16
+    pm = swpm_usd.build(mesh, encoding="sliding-window", **params)  # warm-up (numba cache, first call)
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        pm = swpm_usd.build(mesh, encoding="sliding-window", **params)
+        times.append(time.perf_counter() - t)
+    T0 = mesh.triangle_count
+    row = {
+        "mesh": name,
+        "option": option,
+        "T": T0,
+        "lambda": pm.index_pool.shape[0] / (3.0 * T0),
+        "levels": pm.level_count,
+        "lods": pm.lod_count,
+        "build_s": statistics.median(times),
+    }
+    for f in FRACTIONS:
+        k = pm.lod_for_triangles(int(round(f * T0)))
+        tris = pm.triangles_at(k)
+        ours = acmr(tris, cache)
+        ref = _meshopt_acmr(tris, pm.vertex_count, cache)
+        row[f"acmr{int(f * 100)}"] = ours
+        row[f"acmr{int(f * 100)}_ratio"] = ours / ref if ref else float("nan")
+        if errors and f < 1.0:
+            ms = _meshopt_simplify(mesh.points, mesh.triangles, tris.shape[0])
+            e_ours = surface_error(mesh.points, mesh.triangles, pm.points, tris, samples=samples).hausdorff
+            e_ref = surface_error(mesh.points, mesh.triangles, mesh.points, ms, samples=samples).hausdorff
+            row[f"err{int(f * 100)}"] = e_ours
+            row[f"err{int(f * 100)}_ratio"] = e_ours / e_ref if e_ref else float("nan")
+    return row
+
+
+def _fmt(rows: list[dict]) -> str:
+    cols = ["mesh", "option", "T", "lambda", "levels", "lods", "build_s"]
+    cols += [f"acmr{int(f * 100)}_ratio" for f in FRACTIONS]
+    cols += [f"err{int(f * 100)}_ratio" for f in FRACTIONS if f < 1.0]
+    out = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    for r in rows:
+        cells = []
+        for c in cols:
+            v = r.get(c, "")
+            cells.append(f"{v:.3f}" if isinstance(v, float) else str(v))
+        out.append("| " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("meshes", nargs="*", help="mesh files (default: every .obj of ../shared/meshes)")
+    ap.add_argument("--options", default="topology,inner3,forsyth")
+    ap.add_argument("--samples", type=int, default=30_000)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--no-errors", action="store_true")
+    ap.add_argument("--big", action="store_true", help="add a generated 1.3M-triangle icosphere (time only)")
+    ap.add_argument("--out", default=str(HERE / "results" / "slidingwindow.json"))
+    args = ap.parse_args(argv)
+
+    import swpm_usd
+    from swpm_usd.mesh import Mesh
+
+    paths = [Path(p) for p in args.meshes] or sorted(MESHES.glob("*.obj"))
+    rows = []
+    for path in paths:
+        mesh = swpm_usd.load_mesh(path)
+        for opt in args.options.split(","):
+            row = bench_mesh(
+                path.stem, mesh, opt, OPTIONS[opt], args.samples, args.repeat, not args.no_errors
+            )
+            rows.append(row)
+            print(_fmt([row]).splitlines()[-1], flush=True)
+    if args.big:
+        import trimesh
+
+        s = trimesh.creation.icosphere(subdivisions=8)
+        mesh = Mesh(points=np.asarray(s.vertices, np.float32), triangles=np.asarray(s.faces, np.int32))
+        swpm_usd.build(Mesh(points=mesh.points, triangles=mesh.triangles[:2000]), encoding="sliding-window")
+        t = time.perf_counter()
+        pm = swpm_usd.build(mesh, encoding="sliding-window")
+        rows.append(
+            {
+                "mesh": "icosphere-8",
+                "option": "topology",
+                "T": mesh.triangle_count,
+                "lambda": pm.index_pool.shape[0] / (3.0 * mesh.triangle_count),
+                "levels": pm.level_count,
+                "lods": pm.lod_count,
+                "build_s": time.perf_counter() - t,
+            }
+        )
+        print(_fmt([rows[-1]]).splitlines()[-1], flush=True)
+    print()
+    print(_fmt(rows))
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(rows, indent=1))
+    print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,447 @@
+"""Sliding-window VIPM (Forsyth, "Comparison of VIPM Methods"; TD-VIPM; SWPM index-dataset reduction).
+
+One static index pool serves every level of detail; changing LOD is a look-up in ``window_records`` (first
+index offset, triangle count, vertex count: Forsyth's ``SlidingWindowRecord``) and nothing is edited at run
+time, so an instance needs only its LOD number.
+
+Layout. The pool is a cascade of *levels*. A level starts from a mesh ``T_L`` and a list of disjoint
+patches ``P_1..P_n`` (``P_i``: the triangles around the inner vertices of patch ``i``); ``Q_i`` is ``P_i``
+after its inner vertices are removed by half-edge collapses, and ``M`` the level's triangles in no patch.
+The level is stored as (SWPM eq. 1, with the untouched middle of Forsyth's three sections)::
+
+    P_1 || P_2 || ... || P_n || M || Q_1 || Q_2 || ... || Q_n
+
+and the LOD after the first ``j`` patches of the level is the ONE contiguous window
+``P_{j+1} .. P_n || M || Q_1 .. Q_j`` (it starts ``|P_1..P_j|`` triangles in and holds
+``|T_L| - |P_1..P_j| + |Q_1..Q_j|`` triangles): the window slides towards the end of the pool as detail
+drops. The next level starts from the level's simplest mesh ``M || Q_1..Q_n``; levels are concatenated.
+LOD ``k`` counts patches over all levels, finest first (``lod_count = patches + 1``); the last LOD of a
+level is the first window of the next one.
+
+Vertices. Vertex collapses are numbered in build order over all levels; the vertex the ``c``-th one bins is
+stored at index ``V - 1 - c`` (as in vanilla VIPM), never-binned vertices first, so LOD ``k`` uses exactly
+the prefix ``[0, vertex_count_at(k))``. An attribute seam puts several vertices at one position: the step
+that bins the position bins all of them (``vertex_map``).
+
+Builders.
+
+* ``builder="topology"`` (TD-VIPM, the default): per level, a greedy minimum-degree maximal independent set
+  of patch centres (TD-VIPM 3.1) where a fraction ``mu`` of the highest-error vertices may not be centres
+  (SWPM 3); each centre goes by its best valid half-edge collapse; patches are ordered greedily for a FIFO
+  vertex cache (TD-VIPM 3.2, eq. 2); the triangles inside every ``P_i``, ``Q_i`` and the static middle
+  are then reordered for the cache block by block, the FIFO state carried from block to block
+  (:func:`swpm_usd.vcache.optimize_block_order`; the patches start out as fans). ``inner_vertices > 1``
+  grows each patch to that many adjacent inner vertices (SWPM 3.3): fewer approximations, a smaller pool.
+* ``builder="forsyth"``: the quadric-error collapse order, one patch (the binned vertex's star) per
+  collapse; when the best collapse touches a triangle already created in the current level, the best one
+  that does not is taken if its error is within ``tolerance`` times the mean collapse error of the plain
+  quadric sequence (Forsyth's 10 %), else a new level starts.
+
+``optimize_connectivity`` (SWPM 3.1, edge swaps) and ``cluster`` (SWPM 3.2, clustered / linked patches
+sharing buffers between levels) are accepted names but not implemented yet: ``True`` raises
+:class:`BuildError`. The cache size of every ordering is ``cache_size`` (FIFO, default 16).
+
+The builders also keep their own collapse sequence (:attr:`SlidingWindowProgressiveMesh.collapse_sequence`,
+a :class:`swpm_usd.simplify.CollapseSequence`; ``lod_steps[k]`` steps of it give LOD ``k``), against which
+the tests replay every window.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ..errors import BuildError
+from ..mesh import Mesh
+from ..simplify import CollapseSequence, collapse_sequence, make_state, mesh_topology
+from . import sw_kernels as swk
+from .base import ProgressiveMesh, register
+from .vanilla import index_size
+
+__all__ = [
+    "SLIDING_WINDOW_PARAMS",
+    "SlidingWindowProgressiveMesh",
+    "build_sliding_window",
+    "screen_space_error",
+]
+
+#: the encoding's own parameters and their defaults (the collapse quadric weights come on top)
+SLIDING_WINDOW_PARAMS: dict[str, Any] = {
+    "builder": "topology",
+    "mu": 0.1,
+    "tolerance": 0.1,
+    "optimize_connectivity": False,
+    "cluster": False,
+    "inner_vertices": 1,
+    "cache_size": 16,
+}
+
+
+@register
+class SlidingWindowProgressiveMesh(ProgressiveMesh):
+    """Sliding-window VIPM: a static ``index_pool`` and one ``window_records`` row per LOD.
+
+    ``window_records[k] = (first index offset, triangle count, vertex count)``; LOD ``k`` draws
+    ``index_pool[first : first + 3 * count]`` and only vertices ``[0, vertex count)``.
+    """
+
+    encoding = "sliding-window"
+
+    def __init__(
+        self,
+        points: np.ndarray,
+        attributes: Mapping[str, np.ndarray],
+        vertex_counts: np.ndarray,
+        triangle_counts: np.ndarray,
+        lod_errors: np.ndarray,
+        index_pool: np.ndarray,
+        window_records: np.ndarray,
+        params: Mapping[str, Any] | None = None,
+    ) -> None:
+        super().__init__(points, attributes, vertex_counts, triangle_counts, lod_errors, params)
+        self.index_pool = np.asarray(index_pool).reshape(-1)
+        self.window_records = np.asarray(window_records).reshape(-1, 3)
+        if self.window_records.shape[0] != self.lod_count:
+            raise BuildError("window_records needs one row per LOD")
+        #: build-time extras (not stored in buffers): the builder's own collapse sequence, the number of its
+        #: steps behind every LOD, the source vertex of every stored vertex and the level of every LOD
+        self.collapse_sequence: CollapseSequence | None = None
+        self.lod_steps: np.ndarray | None = None
+        self.source_vertex: np.ndarray | None = None
+        self.lod_level: np.ndarray | None = None
+
+    # -- drawing -------------------------------------------------------------------------------------------
+    def window(self, k: int) -> tuple[int, int, int]:
+        """The record of LOD ``k``: (first index offset, triangle count, vertex count)."""
+        r = self.window_records[self._check_lod(k)]
+        return int(r[0]), int(r[1]), int(r[2])
+
+    def triangles_at(self, k: int) -> np.ndarray:
+        first, count, _ = self.window(k)
+        return self.index_pool[first : first + 3 * count].reshape(-1, 3).astype(np.int32)
+
+    @property
+    def level_count(self) -> int:
+        """Number of levels in the pool (LOD 0 and every later level's first LOD start one)."""
+        return int(np.unique(self.lod_level).shape[0]) if self.lod_level is not None else 0
+
+    def record_for_triangles(self, target: int) -> np.ndarray:
+        """The window record of the finest LOD drawing at most ``target`` triangles."""
+        return self.window_records[self.lod_for_triangles(target)]
+
+    def record_for_error(self, max_error: float, lod_errors: np.ndarray | None = None) -> np.ndarray:
+        """The window record of the coarsest LOD whose error (``lod_errors``, default this mesh's,
+        non-decreasing, one per LOD) is at most ``max_error``."""
+        errs = self.lod_errors if lod_errors is None else np.asarray(lod_errors, np.float32)
+        k = int(np.searchsorted(errs, np.float32(max_error), side="right")) - 1
+        return self.window_records[max(0, min(k, self.lod_count - 1))]
+
+    def record_for_screen_error(
+        self,
+        max_pixels: float,
+        distance: float,
+        fov_y: float,
+        viewport_height: int,
+        lod_errors: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """The window record whose object-space error projects to at most ``max_pixels`` on screen for an
+        object at ``distance`` seen with vertical field of view ``fov_y`` (radians)."""
+        return self.record_for_error(
+            max_pixels / screen_space_error(1.0, distance, fov_y, viewport_height), lod_errors
+        )
+
+    # -- memory --------------------------------------------------------------------------------------------
+    @property
+    def global_bytes(self) -> int:
+        isz = index_size(max(self.vertex_count - 1, 0))
+        # Forsyth's record: 32-bit first index, 16-bit counts (32-bit when they do not fit)
+        wide = int(self.window_records[:, 1:].max(initial=0)) > 0xFFFF
+        rec = 12 if wide else 8
+        return int(self.vertex_bytes() + isz * self.index_pool.shape[0] + rec * self.lod_count)
+
+    @property
+    def instance_bytes(self) -> int:
+        return 4  # the current LOD number: nothing else is per instance
+
+    # -- buffers -------------------------------------------------------------------------------------------
+    def buffers(self) -> dict[str, np.ndarray]:
+        return {
+            "index_pool": self.index_pool.astype(np.uint32, copy=False),
+            "window_records": self.window_records.astype(np.uint32, copy=False),
+        }
+
+    @classmethod
+    def _from_buffers(cls, points, attributes, vertex_counts, triangle_counts, lod_errors, buffers, params):
+        return cls(
+            points,
+            attributes,
+            vertex_counts,
+            triangle_counts,
+            lod_errors,
+            index_pool=buffers["index_pool"],
+            window_records=buffers["window_records"],
+            params=params,
+        )
+
+
+def screen_space_error(error: float, distance: float, fov_y: float, viewport_height: int) -> float:
+    """Pixels covered by an object-space ``error`` at ``distance`` (perspective, vertical fov in radians)."""
+    return float(error) * float(viewport_height) / (2.0 * float(distance) * np.tan(0.5 * float(fov_y)))
+
+
+# --------------------------------------------------------------------------------------------------------
+# helpers
+# --------------------------------------------------------------------------------------------------------
+def _block_order(tris: np.ndarray, starts: np.ndarray, vertex_count: int, cache_size: int) -> np.ndarray:
+    """``tris`` reordered for a FIFO vertex cache inside each block ``[starts[i], starts[i+1])`` (blocks
+    stay in place) by :func:`swpm_usd.vcache.optimize_block_order`; unchanged if that is unavailable."""
+    if tris.shape[0] < 2:
+        return tris
+    try:
+        from ..vcache import optimize_block_order
+    except ImportError:  # pragma: no cover - the optimizer module ships with the package
+        return tris
+    perm = np.asarray(optimize_block_order(np.ascontiguousarray(tris), starts.astype(np.int64), cache_size))
+    return tris[perm]
+
+
+def _adjacency(tp: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
+    """CSR of the position graph of the triangles ``tp`` (positions)."""
+    a = tp.reshape(-1).astype(np.int64)
+    b = tp[:, [1, 2, 0]].reshape(-1).astype(np.int64)
+    key = np.unique(np.concatenate([a * P + b, b * P + a]))
+    src = key // P
+    dst = key % P
+    start = np.zeros(P + 1, np.int64)
+    np.cumsum(np.bincount(src, minlength=P), out=start[1:])
+    return start, dst
+
+
+#: weight of a vertex's error rank (0 = lowest error, 1 = highest) next to its remaining degree in the
+#: greedy choice of patch centres (2: a vertex of the lowest error beats one of the highest even with two
+#: more free neighbours; lambda +0.5 %, Hausdorff error at 10 % of the triangles -14 % on bunny)
+_ERROR_WEIGHT = 2.0
+
+
+class _Level:
+    """One level of the cascade: its starting triangles (global ids) and its patches in draw order."""
+
+    def __init__(self, start_gids, p_start, p_out, q_start, q_out, patch_steps):
+        self.start_gids = start_gids
+        self.p_start = p_start
+        self.p_out = p_out
+        self.q_start = q_start
+        self.q_out = q_out
+        self.patch_steps = patch_steps
+
+    @property
+    def patch_count(self) -> int:
+        return int(self.p_start.shape[0] - 1)
+
+
+def _build_topology(mesh: Mesh, st, mu: float, inner_vertices: int, cache_size: int):
+    T = mesh.triangle_count
+    P = st.pos_points.shape[0]
+    V = mesh.vertex_count
+    gtris = np.empty((max(16, 2 * T), 3), np.int64)
+    gtris[:T] = mesh.triangles
+    ng = T
+    cur_gid = np.arange(T, dtype=np.int64)
+    levels: list[_Level] = []
+    recs_all = []
+    info_all = []
+    nstep = 0
+    while True:
+        alive_t = np.flatnonzero(st.tri_alive)
+        if alive_t.shape[0] == 0:
+            break
+        tp = st.vertex_pos[st.tri_verts[alive_t]]
+        positions = np.unique(tp).astype(np.int64)
+        ks, cs = swk.level_costs(st, positions)
+        valid = ks >= 0
+        eligible = np.zeros(P, bool)
+        eligible[positions[valid]] = True
+        n_excl = min(int(round(mu * positions.shape[0])), int(valid.sum()))
+        tiebreak = np.zeros(P)
+        max_cost = np.inf
+        if valid.any():
+            vc = cs[valid]
+            rank = np.empty(vc.shape[0])
+            order = np.argsort(vc, kind="stable")
+            rank[order] = _ERROR_WEIGHT * np.arange(vc.shape[0]) / vc.shape[0]
+            tiebreak[positions[valid]] = rank
+            if n_excl > 0:
+                eligible[positions[valid][order[vc.shape[0] - n_excl :]]] = False
+                # no collapse in this level may cost more than the mu cut (later inner vertices of a patch,
+                # or a centre whose best collapse got worse after its neighbours' patches)
+                max_cost = float(vc[order[vc.shape[0] - n_excl - 1]]) if n_excl < vc.shape[0] else 0.0
+        if not eligible.any():
+            break
+        adj_start, adj = _adjacency(tp, P)
+        inner_start, inner = swk.select_patches(adj_start, adj, eligible, tiebreak, int(inner_vertices))
+        pt_start, pt = swk.patch_triangles(st, inner_start, inner)
+        order = swk.order_patches(pt_start, pt, st.tri_verts, V, int(cache_size))
+        start_gids = cur_gid[alive_t].copy()
+        gtris, ng, p_start, p_out, q_start, q_out, recs, info, patch_steps = swk.collapse_patches(
+            st, order, inner_start, inner, pt_start, pt, cur_gid, gtris, ng, nstep, max_cost
+        )
+        if patch_steps.shape[0] == 0:
+            break
+        levels.append(_Level(start_gids, p_start, p_out, q_start, q_out, patch_steps))
+        recs_all.append(recs)
+        info_all.append(info)
+        nstep += info.shape[0]
+    recs = np.concatenate(recs_all) if recs_all else np.zeros((0, 3), np.int64)
+    info = np.concatenate(info_all) if info_all else np.zeros((0, 3))
+    return gtris[:ng], levels, recs, info
+
+
+def _build_forsyth(mesh: Mesh, st, tolerance: float, boundary_weight: float, seam_weight: float):
+    T = mesh.triangle_count
+    # Forsyth's tolerance is relative to the average collapse error of the plain quadric sequence
+    ref = collapse_sequence(mesh, boundary_weight=boundary_weight, seam_weight=seam_weight)
+    mean_error = float(ref.step_error.mean()) if ref.step_count else 0.0
+    gtris = np.empty((max(16, 2 * T), 3), np.int64)
+    gtris[:T] = mesh.triangles
+    cur_gid = np.arange(T, dtype=np.int64)
+    (gtris, ng, level_start, level_gids, patch_level, p_start, p_out, q_start, q_out, recs, info) = (
+        swk.forsyth_run(st, float(tolerance) * mean_error, cur_gid, gtris, T)
+    )
+    levels = []
+    bounds = np.searchsorted(patch_level, np.arange(level_start.shape[0]), side="left")
+    for li in range(level_start.shape[0] - 1):
+        a, b = int(bounds[li]), int(bounds[li + 1])
+        if b == a:
+            continue
+        levels.append(
+            _Level(
+                level_gids[level_start[li] : level_start[li + 1]],
+                p_start[a : b + 1] - p_start[a],
+                p_out[p_start[a] : p_start[b]],
+                q_start[a : b + 1] - q_start[a],
+                q_out[q_start[a] : q_start[b]],
+                np.ones(b - a, np.int64),
+            )
+        )
+    return gtris[:ng], levels, recs, info
+
+
+def _assemble(
+    mesh: Mesh, gtris: np.ndarray, levels: list[_Level], recs: np.ndarray, info: np.ndarray, cache_size: int
+) -> SlidingWindowProgressiveMesh:
+    V, T = mesh.vertex_count, mesh.triangle_count
+    binned, kept, step = recs[:, 0], recs[:, 1], recs[:, 2]
+    C = binned.shape[0]
+    S = info.shape[0]
+    # vertex order: never-binned first (original order), then binned in reverse collapse order
+    is_binned = np.zeros(V, bool)
+    is_binned[binned] = True
+    new_id = np.empty(V, np.int64)
+    survivors = np.flatnonzero(~is_binned)
+    new_id[survivors] = np.arange(survivors.shape[0])
+    new_id[binned] = V - 1 - np.arange(C)
+    perm = np.empty(V, np.int64)
+    perm[new_id] = np.arange(V)
+    rec_after_step = np.zeros(S + 1, np.int64)
+    np.cumsum(np.bincount(step, minlength=S), out=rec_after_step[1:])
+    step_err = info[:, 0] if S else np.zeros(0)
+    err_after = np.r_[0.0, np.maximum.accumulate(step_err)] if S else np.zeros(1)
+
+    parts = []
+    rows = []  # (first triangle, triangle count, steps done, level)
+    offset = 0
+    steps_done = 0
+    if not levels:  # nothing to collapse: one level, one window
+        levels = [
+            _Level(
+                np.arange(T),
+                np.zeros(1, np.int64),
+                np.zeros(0, np.int64),
+                np.zeros(1, np.int64),
+                np.zeros(0, np.int64),
+                np.zeros(0, np.int64),
+            )
+        ]
+    for li, lev in enumerate(levels):
+        n = lev.patch_count
+        in_p = np.zeros(gtris.shape[0], bool)
+        in_p[lev.p_out] = True
+        middle = gtris[lev.start_gids[~in_p[lev.start_gids]]]
+        level_tris = np.concatenate([gtris[lev.p_out], middle, gtris[lev.q_out]])
+        # blocks P_1..P_n, M, Q_1..Q_n: each reordered for the cache in place, the FIFO carried over
+        starts = np.r_[lev.p_start, lev.p_start[-1] + middle.shape[0] + lev.q_start]
+        parts.append(_block_order(level_tris, starts, V, cache_size))
+        Tl = lev.start_gids.shape[0]
+        last = li == len(levels) - 1
+        for j in range(n + 1 if last else n):
+            rows.append((offset + lev.p_start[j], Tl - lev.p_start[j] + lev.q_start[j], steps_done, li))
+            if j < n:
+                steps_done += int(lev.patch_steps[j])
+        offset += Tl + lev.q_start[n]
+    pool_tris = np.concatenate(parts) if parts else np.zeros((0, 3), np.int64)
+    pool = new_id[pool_tris].reshape(-1)
+    rows_a = np.asarray(rows, np.int64)
+    lod_steps = rows_a[:, 2]
+    vertex_counts = V - rec_after_step[lod_steps]
+    records = np.stack([3 * rows_a[:, 0], rows_a[:, 1], vertex_counts], axis=1)
+    pm = SlidingWindowProgressiveMesh(
+        points=mesh.points[perm],
+        attributes={name: a[perm] for name, a in mesh.attributes.items()},
+        vertex_counts=vertex_counts,
+        triangle_counts=rows_a[:, 1],
+        lod_errors=err_after[lod_steps],
+        index_pool=pool.astype(np.uint32),
+        window_records=records.astype(np.uint32),
+        params={},
+    )
+    step_offsets = rec_after_step
+    pm.collapse_sequence = CollapseSequence(
+        mesh=mesh,
+        binned=binned.astype(np.int32),
+        kept=kept.astype(np.int32),
+        step=step.astype(np.int32),
+        error=step_err[step] if C else np.zeros(0),
+        step_error=step_err,
+        step_offsets=step_offsets,
+        binned_position=info[:, 1].astype(np.int32) if S else np.zeros(0, np.int32),
+        kept_position=info[:, 2].astype(np.int32) if S else np.zeros(0, np.int32),
+    )
+    pm.lod_steps = lod_steps
+    pm.source_vertex = perm
+    pm.lod_level = rows_a[:, 3]
+    return pm
+
+
+def build_sliding_window(
+    mesh: Mesh,
+    *,
+    builder: str = "topology",
+    mu: float = 0.1,
+    tolerance: float = 0.1,
+    optimize_connectivity: bool = False,
+    cluster: bool = False,
+    inner_vertices: int = 1,
+    cache_size: int = 16,
+    boundary_weight: float = 8.0,
+    seam_weight: float = 2.0,
+) -> SlidingWindowProgressiveMesh:
+    """Build a sliding-window progressive mesh of ``mesh`` (see the module docstring for the parameters)."""
+    if builder not in ("topology", "forsyth"):
+        raise BuildError(f"unknown sliding-window builder {builder!r}; choose 'topology' or 'forsyth'")
+    if not 0.0 <= mu < 1.0:
+        raise BuildError(f"mu must be in [0, 1), got {mu}")
+    if int(inner_vertices) < 1:
+        raise BuildError(f"inner_vertices must be >= 1, got {inner_vertices}")
+    if int(cache_size) < 3:
+        raise BuildError(f"cache_size must be >= 3, got {cache_size}")
+    if optimize_connectivity or cluster:
+        raise BuildError("optimize_connectivity and cluster are not implemented yet")
+    topo = mesh_topology(mesh)
+    st = make_state(mesh, topo, boundary_weight=boundary_weight, seam_weight=seam_weight)
+    if builder == "topology":
+        gtris, levels, recs, info = _build_topology(mesh, st, float(mu), int(inner_vertices), int(cache_size))
+    else:
+        gtris, levels, recs, info = _build_forsyth(mesh, st, float(tolerance), boundary_weight, seam_weight)
+    return _assemble(mesh, gtris, levels, recs, info, int(cache_size))

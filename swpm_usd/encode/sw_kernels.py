@@ -1,0 +1,711 @@
+"""Numba kernels of the sliding-window builders (see :mod:`.slidingwindow`).
+
+Both builders work on the half-edge collapse state of :mod:`swpm_usd.simplify.kernels` and describe each level
+of detail step as a *patch*: the triangles it replaces (``P``, the star of its inner vertices) and the
+triangles that replace them (``Q``). Triangles are named by *global triangle ids* (``gid``): the input
+triangles are ``0..T-1`` and every triangle a collapse rewrites gets a fresh id whose vertices are appended
+to ``gtris``; ``cur_gid[t]`` is the id of the current version of state triangle ``t``.
+
+* :func:`level_costs` - best valid collapse of every position (the error ranking behind ``mu``).
+* :func:`select_patches` - greedy minimum-degree independent set of patch centres (TD-VIPM section 3.1,
+  SWPM section 3.2's greedy search), optionally grown to several inner vertices per patch (SWPM 3.3).
+* :func:`patch_triangles` - the triangles of every patch, ordered as fans (edge-adjacent chains).
+* :func:`order_patches` - greedy vertex-cache order of the patches (TD-VIPM section 3.2).
+* :func:`collapse_patches` - removes the inner vertices of every patch, in that order.
+* :func:`forsyth_run` - Forsyth's QEM order with the error-tolerance reordering and level restarts.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from ..simplify import kernels as K
+
+
+# ----------------------------------------------------------------------------------------------------
+# small helpers
+# ----------------------------------------------------------------------------------------------------
+@nb.njit(cache=True)
+def _grow_i64(a: np.ndarray, n: int) -> np.ndarray:
+    if n < a.shape[0]:
+        return a
+    b = np.empty(max(2 * a.shape[0], n + 16), a.dtype)
+    b[: a.shape[0]] = a
+    return b
+
+
+@nb.njit(cache=True)
+def _grow_tris(a: np.ndarray, n: int) -> np.ndarray:
+    if n < a.shape[0]:
+        return a
+    b = np.empty((max(2 * a.shape[0], n + 16), 3), a.dtype)
+    b[: a.shape[0]] = a
+    return b
+
+
+@nb.njit(cache=True)
+def chain_order(tv: np.ndarray) -> np.ndarray:
+    """Order of a handful of triangles (``tv`` (n,3) vertex ids) so consecutive ones share an edge where
+    possible: a closed fan comes out as a fan, an open fan starts at one of its ends."""
+    n = tv.shape[0]
+    order = np.empty(n, np.int64)
+    if n == 0:
+        return order
+    adj = np.zeros((n, n), np.bool_)
+    nadj = np.zeros(n, np.int64)
+    for i in range(n):
+        for j in range(i + 1, n):
+            shared = 0
+            for a in range(3):
+                x = tv[i, a]
+                if x == tv[j, 0] or x == tv[j, 1] or x == tv[j, 2]:
+                    shared += 1
+            if shared >= 2:
+                adj[i, j] = True
+                adj[j, i] = True
+                nadj[i] += 1
+                nadj[j] += 1
+    used = np.zeros(n, np.bool_)
+    cur = 0
+    for i in range(n):
+        if nadj[i] < nadj[cur]:
+            cur = i
+    for m in range(n):
+        order[m] = cur
+        used[cur] = True
+        if m == n - 1:
+            break
+        nxt = -1
+        for j in range(n):
+            if not used[j] and adj[cur, j]:
+                nxt = j
+                break
+        if nxt < 0:  # jump: the unused triangle with the fewest unused neighbours (an end of a chain)
+            best = n + 1
+            for j in range(n):
+                if not used[j]:
+                    c = 0
+                    for i in range(n):
+                        if not used[i] and adj[i, j]:
+                            c += 1
+                    if c < best:
+                        best = c
+                        nxt = j
+        cur = nxt
+    return order
+
+
+# ----------------------------------------------------------------------------------------------------
+# topology-driven levels
+# ----------------------------------------------------------------------------------------------------
+@nb.njit(cache=True)
+def level_costs(st: K.CollapseState, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Best valid collapse target and its quadric cost for every position of ``positions``."""
+    n = positions.shape[0]
+    ks = np.empty(n, np.int32)
+    cs = np.empty(n, np.float64)
+    for i in range(n):
+        k, c = K.best_collapse(st, positions[i])
+        ks[i] = k
+        cs[i] = c
+    return ks, cs
+
+
+@nb.njit(cache=True)
+def _mark_inner(
+    x: int,
+    p: int,
+    adj_start: np.ndarray,
+    adj: np.ndarray,
+    deleted: np.ndarray,
+    owner: np.ndarray,
+    degree: np.ndarray,
+    tiebreak: np.ndarray,
+    eligible: np.ndarray,
+    hk: np.ndarray,
+    hi: np.ndarray,
+    hs: np.ndarray,
+    size: int,
+    stamp: np.ndarray,
+):
+    """Make ``x`` an inner vertex of patch ``p``: colour it and its free neighbours (SWPM's greedy search:
+    "delete it and its neighbours by marking them and decrementing the degrees of their neighbours")."""
+    deleted[x] = True
+    owner[x] = p
+    for a in range(adj_start[x], adj_start[x + 1]):
+        y = adj[a]
+        if not deleted[y]:
+            deleted[y] = True
+            owner[y] = p
+            for b in range(adj_start[y], adj_start[y + 1]):
+                z = adj[b]
+                if not deleted[z]:
+                    degree[z] -= 1
+                    if eligible[z]:
+                        stamp[z] += 1
+                        hk, hi, hs, size = K._heap_push(
+                            hk, hi, hs, size, degree[z] + tiebreak[z], z, stamp[z]
+                        )
+        elif owner[y] != p and owner[y] >= 0:
+            owner[y] = -2  # ring vertex of two patches: may never join either
+    return hk, hi, hs, size
+
+
+@nb.njit(cache=True)
+def select_patches(
+    adj_start: np.ndarray, adj: np.ndarray, eligible: np.ndarray, tiebreak: np.ndarray, inner_max: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Greedy patch cover on the position graph (CSR ``adj_start``/``adj``).
+
+    Vertices that are not ``eligible`` (locked, no valid collapse, or among the ``mu`` highest-error ones)
+    are deleted first. Then, while eligible vertices remain, the one of lowest remaining degree plus
+    ``tiebreak`` (an error rank) seeds a patch; with ``inner_max > 1`` the patch grows by eligible neighbours
+    that touch no other patch (each the one that colours fewest new vertices). Returns the CSR
+    ``(inner_start, inner)`` of every patch's inner positions, in selection order.
+    """
+    P = eligible.shape[0]
+    deleted = np.empty(P, np.bool_)
+    owner = np.full(P, -1, np.int64)
+    degree = np.zeros(P, np.float64)
+    stamp = np.zeros(P, np.int64)
+    for x in range(P):
+        deleted[x] = not eligible[x]
+        if deleted[x]:
+            owner[x] = -3
+    for x in range(P):
+        if deleted[x]:
+            continue
+        d = 0
+        for a in range(adj_start[x], adj_start[x + 1]):
+            if not deleted[adj[a]]:
+                d += 1
+        degree[x] = d
+    cap = max(16, P)
+    hk = np.empty(cap, np.float64)
+    hi = np.empty(cap, np.int64)
+    hs = np.empty(cap, np.int64)
+    size = np.int64(0)
+    for x in range(P):
+        if not deleted[x]:
+            hk, hi, hs, size = K._heap_push(hk, hi, hs, size, degree[x] + tiebreak[x], x, stamp[x])
+    inner = np.empty(P, np.int64)
+    inner_start = np.zeros(P + 1, np.int64)
+    is_inner = np.zeros(P, np.bool_)
+    n_inner = np.int64(0)
+    n_patch = np.int64(0)
+    while size > 0:
+        _, x, s, size = K._heap_pop(hk, hi, hs, size)
+        if deleted[x] or s != stamp[x]:
+            continue
+        p = n_patch
+        first = n_inner
+        inner[n_inner] = x
+        n_inner += 1
+        is_inner[x] = True
+        hk, hi, hs, size = _mark_inner(
+            x, p, adj_start, adj, deleted, owner, degree, tiebreak, eligible, hk, hi, hs, size, stamp
+        )
+        for _ in range(1, inner_max):
+            best = -1
+            best_key = np.inf
+            for r in range(first, n_inner):
+                u = inner[r]
+                for a in range(adj_start[u], adj_start[u + 1]):
+                    y = adj[a]
+                    if is_inner[y] or owner[y] != p or not eligible[y]:
+                        continue
+                    c = 0
+                    for b in range(adj_start[y], adj_start[y + 1]):
+                        if not deleted[adj[b]]:
+                            c += 1
+                    key = c + tiebreak[y]
+                    if key < best_key:
+                        best_key = key
+                        best = y
+            if best < 0:
+                break
+            inner[n_inner] = best
+            n_inner += 1
+            is_inner[best] = True
+            hk, hi, hs, size = _mark_inner(
+                best, p, adj_start, adj, deleted, owner, degree, tiebreak, eligible, hk, hi, hs, size, stamp
+            )
+        n_patch += 1
+        inner_start[n_patch] = n_inner
+    return inner_start[: n_patch + 1].copy(), inner[:n_inner].copy()
+
+
+@nb.njit(cache=True)
+def patch_triangles(
+    st: K.CollapseState, inner_start: np.ndarray, inner: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """CSR of the (state) triangles of every patch: the union of its inner positions' stars, as a fan."""
+    tv = st.tri_verts
+    T = tv.shape[0]
+    n = inner_start.shape[0] - 1
+    mark = np.full(T, -1, np.int64)
+    start = np.zeros(n + 1, np.int64)
+    out = np.empty(max(16, 8 * inner.shape[0]), np.int64)
+    m = np.int64(0)
+    for p in range(n):
+        for r in range(inner_start[p], inner_start[p + 1]):
+            tris = K.gather_triangles(st, inner[r])
+            for j in range(tris.shape[0]):
+                t = tris[j]
+                if mark[t] != p:
+                    mark[t] = p
+                    out = _grow_i64(out, m + 1)
+                    out[m] = t
+                    m += 1
+        seg = out[start[p] : m].copy()
+        sub = np.empty((seg.shape[0], 3), np.int64)
+        for j in range(seg.shape[0]):
+            for i in range(3):
+                sub[j, i] = tv[seg[j], i]
+        o = chain_order(sub)
+        for j in range(seg.shape[0]):
+            out[start[p] + j] = seg[o[j]]
+        start[p + 1] = m
+    return start, out[:m].copy()
+
+
+@nb.njit(cache=True)
+def order_patches(
+    pt_start: np.ndarray, pt: np.ndarray, tri_verts: np.ndarray, vertex_count: int, cache_size: int
+) -> np.ndarray:
+    """Greedy vertex-cache order of patches (TD-VIPM section 3.2): simulating a FIFO cache of
+    ``cache_size`` entries, the next patch is the one among those touching a cached vertex whose vertices
+    miss the cache least (fraction of its vertices, eq. 2); with none, the nearest unvisited patch on a
+    stack of recently drawn vertices, else the first unvisited one."""
+    n = pt_start.shape[0] - 1
+    order = np.empty(n, np.int64)
+    if n == 0:
+        return order
+    # vertex sets of patches and the patches of every vertex
+    vmark = np.full(vertex_count, -1, np.int64)
+    pv_start = np.zeros(n + 1, np.int64)
+    pv = np.empty(3 * pt.shape[0] + 1, np.int64)
+    m = np.int64(0)
+    for p in range(n):
+        for j in range(pt_start[p], pt_start[p + 1]):
+            for i in range(3):
+                v = tri_verts[pt[j], i]
+                if vmark[v] != p:
+                    vmark[v] = p
+                    pv[m] = v
+                    m += 1
+        pv_start[p + 1] = m
+    cnt = np.zeros(vertex_count + 1, np.int64)
+    for j in range(m):
+        cnt[pv[j] + 1] += 1
+    vp_start = np.cumsum(cnt)
+    fill = vp_start[:-1].copy()
+    vp = np.empty(m, np.int64)
+    for p in range(n):
+        for j in range(pv_start[p], pv_start[p + 1]):
+            v = pv[j]
+            vp[fill[v]] = p
+            fill[v] += 1
+    done = np.zeros(n, np.bool_)
+    stamp = np.zeros(vertex_count, np.int64)
+    ring = np.full(cache_size, -1, np.int64)
+    pushes = np.int64(0)
+    stack = np.empty(m + 1, np.int64)
+    sp = np.int64(0)
+    scan = np.int64(0)
+    for o in range(n):
+        best = -1
+        best_score = np.inf
+        for r in range(cache_size):
+            v = ring[r]
+            if v < 0:
+                continue
+            for a in range(vp_start[v], vp_start[v + 1]):
+                p = vp[a]
+                if done[p]:
+                    continue
+                miss = 0
+                for j in range(pv_start[p], pv_start[p + 1]):
+                    s = stamp[pv[j]]
+                    if s == 0 or pushes - s + 1 > cache_size:
+                        miss += 1
+                score = miss / (pv_start[p + 1] - pv_start[p]) + 1e-9 * p
+                if score < best_score:
+                    best_score = score
+                    best = p
+        while best < 0 and sp > 0:
+            sp -= 1
+            v = stack[sp]
+            for a in range(vp_start[v], vp_start[v + 1]):
+                if not done[vp[a]]:
+                    best = vp[a]
+                    break
+        if best < 0:
+            while done[scan]:
+                scan += 1
+            best = scan
+        order[o] = best
+        done[best] = True
+        for j in range(pt_start[best], pt_start[best + 1]):
+            for i in range(3):
+                v = tri_verts[pt[j], i]
+                s = stamp[v]
+                if s == 0 or pushes - s + 1 > cache_size:
+                    pushes += 1
+                    stamp[v] = pushes
+                    ring[pushes % cache_size] = v
+        for j in range(pv_start[best], pv_start[best + 1]):
+            stack[sp] = pv[j]
+            sp += 1
+    return order
+
+
+@nb.njit(cache=True)
+def _emit_new_versions(
+    st: K.CollapseState,
+    tris: np.ndarray,
+    cur_gid: np.ndarray,
+    gtris: np.ndarray,
+    ng: int,
+    q_out: np.ndarray,
+    nq: int,
+):
+    """Append the surviving triangles of ``tris`` (after a collapse) as new global triangles, in fan
+    order, to ``q_out``; triangles that did not change keep their id."""
+    tv = st.tri_verts
+    alive = st.tri_alive
+    ns = 0
+    for j in range(tris.shape[0]):
+        if alive[tris[j]]:
+            ns += 1
+    surv = np.empty(ns, np.int64)
+    sub = np.empty((ns, 3), np.int64)
+    ns = 0
+    for j in range(tris.shape[0]):
+        t = tris[j]
+        if alive[t]:
+            surv[ns] = t
+            for i in range(3):
+                sub[ns, i] = tv[t, i]
+            ns += 1
+    o = chain_order(sub)
+    q_out = _grow_i64(q_out, nq + ns)
+    for j in range(ns):
+        t = surv[o[j]]
+        g = cur_gid[t]
+        if gtris[g, 0] != tv[t, 0] or gtris[g, 1] != tv[t, 1] or gtris[g, 2] != tv[t, 2]:
+            gtris = _grow_tris(gtris, ng + 1)
+            for i in range(3):
+                gtris[ng, i] = tv[t, i]
+            cur_gid[t] = ng
+            g = ng
+            ng += 1
+        q_out[nq] = g
+        nq += 1
+    return gtris, ng, q_out, nq
+
+
+@nb.njit(cache=True)
+def _record_collapse(st: K.CollapseState, b: int, k: int, recs: np.ndarray, nrec: int, step: int):
+    """Apply the collapse of position ``b`` onto ``k``; append its vertex collapses (binned, kept, step)."""
+    tris_b = K.gather_triangles(st, b)
+    tp_b = K.triangle_positions(st, tris_b)
+    vmap = K.vertex_map(st, b, k, tris_b, tp_b)
+    v0 = st.pos_vstart[b]
+    pv = st.pos_verts
+    if recs.shape[0] < nrec + vmap.shape[0]:
+        grown = np.empty((2 * recs.shape[0] + vmap.shape[0], 3), np.int64)
+        grown[:nrec] = recs[:nrec]
+        recs = grown
+    for r in range(vmap.shape[0]):
+        recs[nrec, 0] = pv[v0 + r]
+        recs[nrec, 1] = vmap[r]
+        recs[nrec, 2] = step
+        nrec += 1
+    K.apply_collapse(st, b, k, vmap)
+    return recs, nrec
+
+
+@nb.njit(cache=True)
+def collapse_patches(
+    st: K.CollapseState,
+    order: np.ndarray,
+    inner_start: np.ndarray,
+    inner: np.ndarray,
+    pt_start: np.ndarray,
+    pt: np.ndarray,
+    cur_gid: np.ndarray,
+    gtris: np.ndarray,
+    ng: int,
+    step0: int,
+    max_cost: float,
+):
+    """Simplify the patches in ``order``: each inner vertex, cheapest first, by its best valid half-edge
+    collapse in the current state, if its quadric cost is at most ``max_cost`` (the ``mu`` cut of the
+    level). A patch none of whose inner vertices can go is dropped (its triangles stay in the level's
+    static middle).
+
+    Returns ``(gtris, ng, p_start, p_out, q_start, q_out, recs, step_info, patch_steps)``: the CSR of the
+    kept patches' old (``P``) and new (``Q``) global triangle ids in draw order, the vertex collapses
+    ``recs`` (binned, kept, step), per step (error, binned position, kept position) and per kept patch the
+    number of steps it made.
+    """
+    n = order.shape[0]
+    alive_pos = st.pos_alive
+    p_start = np.zeros(n + 1, np.int64)
+    q_start = np.zeros(n + 1, np.int64)
+    p_out = np.empty(max(16, pt.shape[0]), np.int64)
+    q_out = np.empty(max(16, pt.shape[0]), np.int64)
+    recs = np.empty((max(16, 2 * n), 3), np.int64)
+    step_info = np.empty((max(16, inner.shape[0]), 3), np.float64)
+    patch_steps = np.zeros(n, np.int64)
+    nrec = np.int64(0)
+    nstep = np.int64(0)
+    npatch = np.int64(0)
+    npo = np.int64(0)
+    nq = np.int64(0)
+    for o in range(n):
+        p = order[o]
+        tris = pt[pt_start[p] : pt_start[p + 1]]
+        m0 = inner_start[p]
+        m1 = inner_start[p + 1]
+        remaining = inner[m0:m1].copy()
+        made = np.int64(0)
+        p_snapshot = np.empty(tris.shape[0], np.int64)
+        for j in range(tris.shape[0]):
+            p_snapshot[j] = cur_gid[tris[j]]
+        while True:
+            best_r = np.int64(-1)
+            best_k = np.int64(-1)
+            best_c = np.inf
+            for r in range(remaining.shape[0]):
+                b = remaining[r]
+                if b < 0 or not alive_pos[b]:
+                    continue
+                k, c = K.best_collapse(st, b)
+                if k >= 0 and c < best_c and c <= max_cost:
+                    best_c = c
+                    best_k = k
+                    best_r = r
+            if best_r < 0:
+                break
+            b = remaining[best_r]
+            remaining[best_r] = -1
+            recs, nrec = _record_collapse(st, b, best_k, recs, nrec, step0 + nstep)
+            step_info[nstep, 0] = np.sqrt(best_c)
+            step_info[nstep, 1] = b
+            step_info[nstep, 2] = best_k
+            nstep += 1
+            made += 1
+        if made == 0:
+            continue
+        patch_steps[npatch] = made
+        p_out = _grow_i64(p_out, npo + tris.shape[0])
+        for j in range(tris.shape[0]):
+            p_out[npo] = p_snapshot[j]
+            npo += 1
+        gtris, ng, q_out, nq = _emit_new_versions(st, tris, cur_gid, gtris, ng, q_out, nq)
+        npatch += 1
+        p_start[npatch] = npo
+        q_start[npatch] = nq
+    return (
+        gtris,
+        ng,
+        p_start[: npatch + 1].copy(),
+        p_out[:npo].copy(),
+        q_start[: npatch + 1].copy(),
+        q_out[:nq].copy(),
+        recs[:nrec].copy(),
+        step_info[:nstep].copy(),
+        patch_steps[:npatch].copy(),
+    )
+
+
+# ----------------------------------------------------------------------------------------------------
+# Forsyth's builder
+# ----------------------------------------------------------------------------------------------------
+@nb.njit(cache=True)
+def _touches_level(st: K.CollapseState, b: int, tri_level: np.ndarray, level: int) -> bool:
+    tris = K.gather_triangles(st, b)
+    for j in range(tris.shape[0]):
+        if tri_level[tris[j]] == level:
+            return True
+    return False
+
+
+@nb.njit(cache=True)
+def _refresh(st, q, keys, ids, stamps, size, stamp, target):
+    k2, c2 = K.best_collapse(st, q)
+    stamp[q] += 1
+    target[q] = k2
+    if k2 >= 0:
+        keys, ids, stamps, size = K._heap_push(keys, ids, stamps, size, c2, q, stamp[q])
+    return keys, ids, stamps, size
+
+
+@nb.njit(cache=True)
+def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, gtris: np.ndarray, ng: int):
+    """Quadric-error collapses, one patch (the star of the binned position) each, grouped into levels
+    (Forsyth, "Comparison of VIPM Methods", sliding window): a collapse may not touch a triangle created
+    in the current level. When the best collapse would, the best one that does not is taken if its error
+    (a distance) exceeds the best one's by at most ``tolerance_abs``; otherwise a new level starts.
+
+    Returns ``(gtris, ng, level_start, level_gids, patch_level, p_start, p_out, q_start, q_out, recs,
+    step_info)``: per level the global ids of its starting triangles (CSR), per patch (= step) its level
+    and its ``P``/``Q`` triangles, the vertex collapses and per step (error, binned, kept position).
+    """
+    P = st.pos_points.shape[0]
+    T = st.tri_verts.shape[0]
+    alive = st.tri_alive
+    pos_alive = st.pos_alive
+    tv = st.tri_verts
+    tri_level = np.full(T, -1, np.int64)
+    level = np.int64(0)
+    level_start = np.zeros(2, np.int64)
+    level_gids = np.empty(T, np.int64)
+    nlg = np.int64(0)
+    for t in range(T):
+        if alive[t]:
+            level_gids[nlg] = cur_gid[t]
+            nlg += 1
+    level_start[1] = nlg
+    nlev = np.int64(1)
+    patch_level = np.empty(max(16, P), np.int64)
+    p_start = np.zeros(max(16, P) + 1, np.int64)
+    q_start = np.zeros(max(16, P) + 1, np.int64)
+    p_out = np.empty(max(16, 3 * T), np.int64)
+    q_out = np.empty(max(16, 3 * T), np.int64)
+    npo = np.int64(0)
+    nq = np.int64(0)
+    recs = np.empty((max(16, st.vertex_pos.shape[0]), 3), np.int64)
+    nrec = np.int64(0)
+    step_info = np.empty((max(16, P), 3), np.float64)
+    nstep = np.int64(0)
+    stamp = np.zeros(P, np.int64)
+    target = np.full(P, -1, np.int32)
+    keys = np.empty(max(16, P), np.float64)
+    ids = np.empty(max(16, P), np.int64)
+    stamps = np.empty(max(16, P), np.int64)
+    size = np.int64(0)
+    ak = np.empty(64, np.float64)
+    ai = np.empty(64, np.int64)
+    ast = np.empty(64, np.int64)
+    for _ in range(3):
+        progress = 0
+        for p in range(P):
+            keys, ids, stamps, size = _refresh(st, p, keys, ids, stamps, size, stamp, target)
+        while size > 0:
+            cost, b, s, size = K._heap_pop(keys, ids, stamps, size)
+            if s != stamp[b] or not pos_alive[b]:
+                continue
+            k = target[b]
+            tris_b = K.gather_triangles(st, b)
+            tp_b = K.triangle_positions(st, tris_b)
+            nbr_b = K.neighbours(b, tp_b)
+            if k < 0 or not K.valid_collapse(st, b, k, tris_b, tp_b, nbr_b):
+                keys, ids, stamps, size = _refresh(st, b, keys, ids, stamps, size, stamp, target)
+                continue
+            cost = K.collapse_cost(st, b, k)
+            if _touches_level(st, b, tri_level, level):
+                # Forsyth's reordering: the best collapse that starts no new level, if close enough
+                limit = np.sqrt(cost) + tolerance_abs
+                na = 1
+                ak[0], ai[0], ast[0] = cost, b, s
+                found = -1
+                while size > 0:
+                    c2, b2, s2, size = K._heap_pop(keys, ids, stamps, size)
+                    if s2 != stamp[b2] or not pos_alive[b2]:
+                        continue
+                    if np.sqrt(c2) > limit:
+                        keys, ids, stamps, size = K._heap_push(keys, ids, stamps, size, c2, b2, s2)
+                        break
+                    k2 = target[b2]
+                    tris2 = K.gather_triangles(st, b2)
+                    tp2 = K.triangle_positions(st, tris2)
+                    nbr2 = K.neighbours(b2, tp2)
+                    if k2 < 0 or not K.valid_collapse(st, b2, k2, tris2, tp2, nbr2):
+                        keys, ids, stamps, size = _refresh(st, b2, keys, ids, stamps, size, stamp, target)
+                        continue
+                    if not _touches_level(st, b2, tri_level, level):
+                        found = b2
+                        break
+                    if na == ak.shape[0]:
+                        ak2 = np.empty(2 * na, np.float64)
+                        ai2 = np.empty(2 * na, np.int64)
+                        as2 = np.empty(2 * na, np.int64)
+                        ak2[:na] = ak
+                        ai2[:na] = ai
+                        as2[:na] = ast
+                        ak, ai, ast = ak2, ai2, as2
+                    ak[na], ai[na], ast[na] = c2, b2, s2
+                    na += 1
+                for r in range(na):
+                    keys, ids, stamps, size = K._heap_push(keys, ids, stamps, size, ak[r], ai[r], ast[r])
+                if found < 0:
+                    # new level: every current triangle may be changed again
+                    level += 1
+                    level_start = _grow_i64(level_start, nlev + 2)
+                    level_gids = _grow_i64(level_gids, nlg + T)
+                    for t in range(T):
+                        if alive[t]:
+                            level_gids[nlg] = cur_gid[t]
+                            nlg += 1
+                    nlev += 1
+                    level_start[nlev] = nlg
+                    continue
+                b = found
+                k = target[b]
+                cost = K.collapse_cost(st, b, k)
+            # do the collapse b -> k as one patch
+            tris_b = K.gather_triangles(st, b)
+            p_out = _grow_i64(p_out, npo + tris_b.shape[0])
+            sub = np.empty((tris_b.shape[0], 3), np.int64)
+            for j in range(tris_b.shape[0]):
+                for i in range(3):
+                    sub[j, i] = tv[tris_b[j], i]
+            o = chain_order(sub)
+            for j in range(tris_b.shape[0]):
+                p_out[npo] = cur_gid[tris_b[o[j]]]
+                npo += 1
+            recs, nrec = _record_collapse(st, b, k, recs, nrec, nstep)
+            gtris, ng, q_out, nq = _emit_new_versions(st, tris_b, cur_gid, gtris, ng, q_out, nq)
+            for j in range(tris_b.shape[0]):
+                if alive[tris_b[j]]:
+                    tri_level[tris_b[j]] = level
+            if nstep + 1 >= patch_level.shape[0]:
+                patch_level = _grow_i64(patch_level, nstep + 2)
+                p_start = _grow_i64(p_start, nstep + 3)
+                q_start = _grow_i64(q_start, nstep + 3)
+                si = np.empty((2 * step_info.shape[0], 3), np.float64)
+                si[:nstep] = step_info[:nstep]
+                step_info = si
+            patch_level[nstep] = level
+            step_info[nstep, 0] = np.sqrt(cost)
+            step_info[nstep, 1] = b
+            step_info[nstep, 2] = k
+            nstep += 1
+            p_start[nstep] = npo
+            q_start[nstep] = nq
+            progress += 1
+            stamp[b] += 1
+            tris_k = K.gather_triangles(st, k)
+            ring = K.neighbours(k, K.triangle_positions(st, tris_k))
+            for i in range(ring.shape[0] + 1):
+                q = k if i == ring.shape[0] else ring[i]
+                keys, ids, stamps, size = _refresh(st, q, keys, ids, stamps, size, stamp, target)
+        if progress == 0:
+            break
+    return (
+        gtris,
+        ng,
+        level_start[: nlev + 1].copy(),
+        level_gids[:nlg].copy(),
+        patch_level[:nstep].copy(),
+        p_start[: nstep + 1].copy(),
+        p_out[:npo].copy(),
+        q_start[: nstep + 1].copy(),
+        q_out[:nq].copy(),
+        recs[:nrec].copy(),
+        step_info[:nstep].copy(),
+    )

@@ -1,0 +1,186 @@
+"""``swpm-pipeline`` commands of the binary format: ``encode``, ``inspect``, ``validate``, ``conformance``.
+
+They are plain :class:`click.Command` objects; ``swpm_usd/cli.py`` adds them to its group. Exit codes:
+0 ok, 1 invalid input (a mesh or .swpm file that cannot be used), 2 usage error (click's own).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+from pathlib import Path
+
+import click
+
+from ..errors import SwpmError
+
+
+def _parse_params(params: tuple[str, ...]) -> dict:
+    parsed = {}
+    for item in params:
+        if "=" not in item:
+            raise click.UsageError(f"--param expects NAME=VALUE, got {item!r}")
+        name, value = item.split("=", 1)
+        try:
+            parsed[name] = json.loads(value)
+        except json.JSONDecodeError:
+            parsed[name] = value
+    return parsed
+
+
+@click.command("encode")
+@click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
+@click.option(
+    "-o",
+    "--output",
+    "output",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="The .swpm file to write (atomically).",
+)
+@click.option(
+    "--encoding", "-e", default="vanilla", show_default=True, help="vanilla, sliding-window or skip-strip."
+)
+@click.option(
+    "--param",
+    "-p",
+    "params",
+    multiple=True,
+    metavar="NAME=VALUE",
+    help="Encoding parameter (repeatable), value parsed as JSON when it can be.",
+)
+def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, ...]) -> None:
+    """Build INPUT with an encoding and write it as an SWPM v1 file."""
+    from ..build import build
+    from .writer import save
+
+    parsed = _parse_params(params)
+    try:
+        pm = build(input_path, encoding, **parsed)
+        digest = None
+        if Path(input_path).is_file():
+            digest = "sha256:" + hashlib.sha256(Path(input_path).read_bytes()).hexdigest()
+        save(pm, output, source_digest=digest)
+    except (SwpmError, OSError, ValueError) as exc:
+        click.echo(f"error: {exc}", err=True)
+        sys.exit(1)
+    click.echo(
+        f"{output}: {pm.encoding}, {pm.lod_count} LODs, {pm.vertex_count} vertices, "
+        f"{Path(output).stat().st_size} bytes"
+    )
+
+
+@click.command("inspect")
+@click.argument("file", type=click.Path(dir_okay=False))
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@click.option("--rows", default=10, show_default=True, help="LOD rows to show (spread evenly).")
+def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
+    """Show FILE's header, chunks, counts, parameters and a per-LOD table."""
+    from .reader import _check, _map
+
+    try:
+        buf = _map(file)
+    except OSError as exc:
+        click.echo(f"error: {exc}", err=True)
+        sys.exit(1)
+    rep, p = _check(buf, file)
+    out = {"path": file, "valid": rep.valid, **rep.summary, "problems": [q.to_dict() for q in rep.problems]}
+    if p is not None and p.meta is not None:
+        out["meta"] = p.meta
+    table = []
+    if p is not None and p.lods is not None:
+        n = p.lods.shape[0]
+        picks = sorted({int(round(x)) for x in [i * (n - 1) / max(rows - 1, 1) for i in range(max(rows, 2))]})
+        for k in picks:
+            r = p.lods[k]
+            table.append(
+                {
+                    "lod": k,
+                    "vertices": int(r["vertex_count"]),
+                    "triangles": int(r["triangle_count"]),
+                    "error": float(r["error"]),
+                }
+            )
+    out["lods"] = table
+    if as_json:
+        click.echo(json.dumps(out, indent=2, default=str))
+    else:
+        click.echo(
+            f"{file}: {'valid' if rep.valid else 'INVALID'} SWPM {out.get('version', '?')} "
+            f"{out.get('encoding', '?')}, index u{8 * out.get('index_width', 0)}"
+        )
+        for key in (
+            "file_size",
+            "lod_count",
+            "vertex_count",
+            "triangle_count",
+            "index_count",
+            "lambda",
+            "attributes",
+        ):
+            if key in out:
+                click.echo(f"  {key}: {out[key]}")
+        if "meta" in out:
+            click.echo(f"  params: {json.dumps(out['meta'].get('params', {}), sort_keys=True)}")
+        for c in out.get("chunks", []):
+            click.echo(
+                f"  chunk {c['type']} {'critical ' if c['critical'] else 'ancillary'} "
+                f"@{c['offset']:>10} {c['length']:>10} B"
+            )
+        if table:
+            click.echo(f"  {'LOD':>7} {'vertices':>9} {'triangles':>10} {'error':>11}")
+            for r in table:
+                click.echo(f"  {r['lod']:>7} {r['vertices']:>9} {r['triangles']:>10} {r['error']:>11.4g}")
+        for q in rep.problems:
+            click.echo(f"  {q.severity} {q.code} @{q.offset}: {q.message}")
+    sys.exit(0 if rep.valid else 1)
+
+
+@click.command("validate")
+@click.argument("file", type=click.Path(dir_okay=False))
+@click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
+@click.option("--no-builtin", is_flag=True, help="USD stages: run only our validator, not usd-core's.")
+@click.pass_context
+def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool) -> None:
+    """Check FILE and list every problem. Exit 0 valid, 1 invalid.
+
+    A .swpm file is checked against the SWPM v1 spec (spec/format.md); a USD stage (.usd .usda .usdc
+    .usdz) with the SwpmMeshAPI validators plus usd-core's built-in ones (spec/usd.md).
+    """
+    if Path(file).suffix.lower() in {".usd", ".usda", ".usdc", ".usdz"}:
+        from ..usd.cli import validate_usd
+
+        if not Path(file).is_file():
+            click.echo(f"error: {file}: file not found", err=True)
+            sys.exit(1)
+        ctx.invoke(validate_usd, stage=Path(file), as_json=as_json, no_builtin=no_builtin)
+        return
+    from .reader import validate
+
+    rep = validate(file)
+    click.echo(rep.to_json(indent=2) if as_json else rep.format())
+    sys.exit(0 if rep.valid else 1)
+
+
+@click.command("conformance")
+@click.argument("vector_dir", required=False, default="spec/vectors", type=click.Path(file_okay=False))
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def conformance_cmd(vector_dir: str, as_json: bool) -> None:
+    """Run the reader over the conformance vectors of VECTOR_DIR (default spec/vectors)."""
+    from .vectors import run_conformance
+
+    if not (Path(vector_dir) / "manifest.json").is_file():
+        raise click.UsageError(f"{vector_dir} has no manifest.json")
+    results = run_conformance(vector_dir)
+    failed = [r for r in results if not r.passed]
+    if as_json:
+        click.echo(json.dumps([r.__dict__ for r in results], indent=2))
+    else:
+        for r in results:
+            click.echo(f"{'PASS' if r.passed else 'FAIL'} {r.name}: {r.detail}")
+        click.echo(f"{len(results) - len(failed)}/{len(results)} passed")
+    sys.exit(1 if failed else 0)
+
+
+__all__ = ["conformance_cmd", "encode_cmd", "inspect_cmd", "validate_cmd"]

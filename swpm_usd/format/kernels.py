@@ -1,0 +1,118 @@
+"""Numba kernels of the validator: checks that need a loop but must stay linear in the file size.
+
+Callers check every bound first (indices below the vertex count, offsets inside the index buffer), so the
+kernels never index out of range even on hostile input.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+
+@nb.njit(cache=True)
+def vanilla_replay(indices, kept, removed, change_count, offsets, vertex_count):  # pragma: no cover - jitted
+    """Replay vanilla records; return ``(kind, record, slot)`` of the first problem, kind 0 when none.
+
+    kind 1: record ``record`` changes ``slot``, which does not hold its binned vertex (or is not live);
+    kind 2: after record ``record`` its binned vertex is still referenced by a live triangle.
+    """
+    n = indices.shape[0]
+    buf = np.empty(n, np.int32)
+    ref = np.zeros(vertex_count, np.int32)
+    for i in range(n):
+        v = np.int32(indices[i])
+        buf[i] = v
+        ref[v] += 1
+    live = n // 3
+    j = 0
+    for r in range(kept.shape[0]):
+        b = np.int32(vertex_count - 1 - r)
+        k = np.int32(kept[r])
+        after = live - np.int64(removed[r])
+        for _ in range(np.int64(change_count[r])):
+            s = np.int64(offsets[j])
+            j += 1
+            if s >= 3 * after or buf[s] != b:
+                return 1, r, s
+            buf[s] = k
+            ref[b] -= 1
+            ref[k] += 1
+        for s in range(3 * after, 3 * live):
+            ref[buf[s]] -= 1
+        live = after
+        if ref[b] != 0:
+            return 2, r, np.int64(b)
+    return 0, 0, 0
+
+
+@nb.njit(cache=True)
+def window_limits(starts, ends, limits, n):  # pragma: no cover - jitted
+    """For each pool position, the smallest ``limits[w]`` of the windows ``[starts[w], ends[w])`` covering it
+    and that window (``-1`` where none covers). Linear: windows are painted tightest first, skipping painted
+    positions with a path-compressed next-unpainted pointer."""
+    order = np.argsort(limits, kind="mergesort")
+    lim = np.full(n, -1, np.int64)
+    owner = np.full(n, -1, np.int64)
+    nxt = np.arange(n + 1)
+    for oi in range(order.shape[0]):
+        w = order[oi]
+        p = starts[w]
+        e = ends[w]
+        # find first unpainted >= p
+        while p < e:
+            q = p
+            while nxt[q] != q:
+                q = nxt[q]
+            # path compression
+            r = p
+            while nxt[r] != q:
+                t = nxt[r]
+                nxt[r] = q
+                r = t
+            p = q
+            if p >= e:
+                break
+            lim[p] = limits[w]
+            owner[p] = w
+            nxt[p] = p + 1
+            p += 1
+    return lim, owner
+
+
+@nb.njit(cache=True)
+def first_violation(values, lim):  # pragma: no cover - jitted
+    """First position whose value is at or above its limit (limit -1: unconstrained), or -1."""
+    for p in range(values.shape[0]):
+        if lim[p] >= 0 and values[p] >= lim[p]:
+            return p
+    return -1
+
+
+@nb.njit(cache=True)
+def monotone_windows(pool, starts, ends, limits):  # pragma: no cover - jitted
+    """Prefix check for windows whose starts and ends do not decrease and whose limits do not increase:
+    the tightest window covering position p is the last one starting at or before p. Returns
+    ``(position, window)`` of the first index at or above its limit, ``(-1, -1)`` when none. O(pool + L)."""
+    n_w = starts.shape[0]
+    for k in range(n_w):
+        s = starts[k]
+        nxt = starts[k + 1] if k + 1 < n_w else pool.shape[0]
+        e = min(nxt, ends[k])
+        lim = limits[k]
+        for p in range(s, e):
+            if pool[p] >= lim:
+                return p, k
+    return -1, -1
+
+
+@nb.njit(cache=True)
+def segment_limits(arr, starts, limits, exempt):  # pragma: no cover - jitted
+    """First position p in segment [starts[s], starts[s+1]) with ``arr[p] >= limits[s]`` (not ``exempt``)."""
+    for s in range(limits.shape[0]):
+        lim = limits[s]
+        for p in range(starts[s], starts[s + 1]):
+            v = arr[p]
+            if v >= lim and v != exempt:
+                return p, s
+    return -1, -1

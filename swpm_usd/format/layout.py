@@ -1,0 +1,168 @@
+"""Byte layout of SWPM v1 (spec/format.md): every fixed-size structure as a little-endian numpy dtype.
+
+Each dtype below is one byte table of the spec; ``tests/test_format.py`` asserts that their sizes equal the
+sizes the spec states. Offsets in the file are absolute; payloads start on 8-byte boundaries and every
+array inside a payload on a 4-byte boundary, padding is zero.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+MAGIC = b"SWPM\r\n\x1a\n"
+VERSION_MAJOR = 1
+VERSION_MINOR = 0
+CHUNK_ALIGN = 8
+MAX_CHUNKS = 1024
+MAX_ATTRIBUTES = 255
+MAX_BAND_RANGES = 16
+ARRAY_ALIGN = 4
+
+#: file header, 64 bytes (spec section "Header")
+HEADER = np.dtype(
+    [
+        ("magic", "S8"),
+        ("major", "<u2"),
+        ("minor", "<u2"),
+        ("header_size", "<u4"),
+        ("flags", "<u4"),
+        ("features", "<u4"),
+        ("chunk_count", "<u4"),
+        ("reserved0", "<u4"),
+        ("table_offset", "<u8"),
+        ("file_size", "<u8"),
+        ("file_crc", "<u4"),
+        ("reserved1", "<u4", (3,)),
+    ]
+)
+HEADER_SIZE = 64
+FILE_CRC_OFFSET = 48
+
+#: one chunk-table entry, 32 bytes
+CHUNK_ENTRY = np.dtype(
+    [
+        ("type", "S4"),
+        ("flags", "<u4"),
+        ("offset", "<u8"),
+        ("length", "<u8"),
+        ("crc", "<u4"),
+        ("reserved", "<u4"),
+    ]
+)
+CHUNK_CRITICAL = 0x1
+
+# required-feature bits (a reader MUST reject a file with a bit it does not know)
+FEATURE_INDEX32 = 1 << 0
+FEATURE_VANILLA = 1 << 1
+FEATURE_SLIDING_WINDOW = 1 << 2
+FEATURE_SKIP_STRIP = 1 << 3
+KNOWN_FEATURES = FEATURE_INDEX32 | FEATURE_VANILLA | FEATURE_SLIDING_WINDOW | FEATURE_SKIP_STRIP
+ENCODING_FEATURES = {
+    "vanilla": FEATURE_VANILLA,
+    "sliding-window": FEATURE_SLIDING_WINDOW,
+    "skip-strip": FEATURE_SKIP_STRIP,
+}
+
+#: LOD table row (LODS), 12 bytes
+LOD_ROW = np.dtype([("vertex_count", "<u4"), ("triangle_count", "<u4"), ("error", "<f4")])
+
+#: VERT payload header, 16 bytes, followed by attribute descriptors
+VERT_HEADER = np.dtype(
+    [("vertex_count", "<u4"), ("attribute_count", "<u4"), ("stride", "<u4"), ("data_offset", "<u4")]
+)
+#: one attribute descriptor, 16 bytes
+ATTR_DESC = np.dtype(
+    [
+        ("name_offset", "<u4"),
+        ("name_length", "<u2"),
+        ("elem_type", "u1"),
+        ("components", "u1"),
+        ("offset", "<u4"),
+        ("reserved", "<u4"),
+    ]
+)
+#: element type codes of attributes
+ELEM_TYPES: dict[int, np.dtype] = {
+    1: np.dtype("u1"),
+    2: np.dtype("i1"),
+    3: np.dtype("<u2"),
+    4: np.dtype("<i2"),
+    5: np.dtype("<u4"),
+    6: np.dtype("<i4"),
+    7: np.dtype("<f2"),
+    8: np.dtype("<f4"),
+    9: np.dtype("<f8"),
+}
+ELEM_CODES = {dt.str: code for code, dt in ELEM_TYPES.items()}
+ELEM_NAMES = {1: "u8", 2: "i8", 3: "u16", 4: "i16", 5: "u32", 6: "i32", 7: "f16", 8: "f32", 9: "f64"}
+
+#: collapse-record chunk (VREC / SREC) header, 8 bytes
+REC_HEADER = np.dtype([("record_count", "<u4"), ("offset_count", "<u4")])
+#: skip-strip level chunk (SKIP) header, 8 bytes
+SKIP_HEADER = np.dtype([("level_count", "<u4"), ("collapsed_count", "<u4")])
+#: streaming-map header, 8 bytes; band, 24 bytes; range, 16 bytes
+SMAP_HEADER = np.dtype([("band_count", "<u4"), ("range_count", "<u4")])
+SMAP_BAND = np.dtype(
+    [
+        ("first_lod", "<u4"),
+        ("lod_count", "<u4"),
+        ("range_start", "<u4"),
+        ("range_count", "<u4"),
+        ("prefix_length", "<u8"),
+    ]
+)
+SMAP_RANGE = np.dtype([("offset", "<u8"), ("length", "<u8")])
+
+# chunk types: (critical?, encodings that use it or None for all)
+META = b"META"
+LODS = b"LODS"
+SMAP = b"SMAP"
+VERT = b"VERT"
+INDX = b"INDX"
+WREC = b"WREC"
+VREC = b"VREC"
+SREC = b"SREC"
+SKIP = b"SKIP"
+RCNT = b"RCNT"
+CHUNK_TYPES: dict[bytes, tuple[bool, frozenset[str]]] = {
+    META: (True, frozenset(ENCODING_FEATURES)),
+    LODS: (True, frozenset(ENCODING_FEATURES)),
+    SMAP: (False, frozenset(ENCODING_FEATURES)),
+    VERT: (True, frozenset(ENCODING_FEATURES)),
+    INDX: (True, frozenset(ENCODING_FEATURES)),
+    WREC: (True, frozenset({"sliding-window"})),
+    VREC: (True, frozenset({"vanilla"})),
+    RCNT: (True, frozenset({"vanilla", "skip-strip"})),
+    SKIP: (True, frozenset({"skip-strip"})),
+    SREC: (True, frozenset({"skip-strip"})),
+}
+#: the chunks each encoding requires, in the order a writer lays them out (coarse-to-fine streaming order)
+REQUIRED_CHUNKS: dict[str, tuple[bytes, ...]] = {
+    "vanilla": (META, LODS, SMAP, RCNT, VREC, INDX, VERT),
+    "sliding-window": (META, LODS, SMAP, WREC, INDX, VERT),
+    "skip-strip": (META, LODS, SMAP, RCNT, SKIP, SREC, INDX, VERT),
+}
+
+#: sizes the spec's byte tables state, checked by the tests
+SPEC_SIZES = {
+    "HEADER": 64,
+    "CHUNK_ENTRY": 32,
+    "LOD_ROW": 12,
+    "VERT_HEADER": 16,
+    "ATTR_DESC": 16,
+    "REC_HEADER": 8,
+    "SKIP_HEADER": 8,
+    "SMAP_HEADER": 8,
+    "SMAP_BAND": 24,
+    "SMAP_RANGE": 16,
+}
+
+
+def align(n: int, a: int) -> int:
+    """``n`` rounded up to a multiple of ``a``."""
+    return (n + a - 1) // a * a
+
+
+def index_dtype(width: int) -> np.dtype:
+    """The stored dtype of encoding arrays for an index width of 2 or 4 bytes."""
+    return np.dtype("<u2") if width == 2 else np.dtype("<u4")

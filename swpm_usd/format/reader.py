@@ -1,0 +1,1024 @@
+"""SWPM v1 reader and validator.
+
+:func:`validate` returns a :class:`Report` of every problem (never raises for file content); :func:`load`
+memory-maps the file, runs the same checks and returns a :class:`ProgressiveMesh` whose arrays are views of
+the mapping (read-only, no copy; integer buffers keep the file's u16/u32 dtype). Every count is checked
+against the bytes that remain before an array is viewed, and arrays are only ever views, so a hostile file
+cannot make the reader allocate much more than its own size.
+"""
+
+from __future__ import annotations
+
+import json
+import mmap
+import os
+import re
+import zlib
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..encode.base import ENCODINGS, ProgressiveMesh, from_buffers
+from . import layout as L
+from .errors import Report, SwpmFormatError
+from .kernels import first_violation, monotone_windows, segment_limits, vanilla_replay, window_limits
+from .writer import needed_index_ranges
+
+_TYPE_RE = re.compile(rb"^[A-Za-z0-9]{4}$")
+#: problems of one code beyond this many are counted in ``summary["suppressed"]``, not listed
+MAX_PER_CODE = 20
+
+
+class _Report(Report):
+    def add(self, code: str, offset: int | None, **args: Any) -> None:  # noqa: D401 - capped add
+        n = self.summary.setdefault("_counts", {}).get(code, 0)
+        self.summary["_counts"][code] = n + 1
+        if n < MAX_PER_CODE:
+            super().add(code, offset, **args)
+        else:
+            self.summary["suppressed"] = self.summary.get("suppressed", 0) + 1
+
+
+@dataclass
+class _Chunk:
+    type: bytes
+    flags: int
+    offset: int
+    length: int
+    entry_offset: int
+    ok: bool = True  # in bounds and CRC matches: content may be decoded
+
+    @property
+    def name(self) -> str:
+        return self.type.decode("latin-1")
+
+
+@dataclass
+class _Parsed:
+    buf: np.ndarray
+    encoding: str | None = None
+    width: int = 4
+    minor: int = 0
+    chunks: dict[bytes, _Chunk] = field(default_factory=dict)
+    order: list[_Chunk] = field(default_factory=list)
+    meta: dict[str, Any] | None = None
+    lods: np.ndarray | None = None
+    points: np.ndarray | None = None
+    attributes: dict[str, np.ndarray] = field(default_factory=dict)
+    vert_stride: int = 0
+    vert_data: int = 0
+    buffers: dict[str, np.ndarray] = field(default_factory=dict)
+    content_ok: bool = True
+
+
+def _map(path: str | os.PathLike[str]) -> np.ndarray:
+    with open(path, "rb") as f:
+        size = os.fstat(f.fileno()).st_size
+        if size == 0:
+            return np.zeros(0, np.uint8)
+        flags = mmap.MAP_SHARED | getattr(mmap, "MAP_POPULATE", 0)
+        mm = mmap.mmap(f.fileno(), 0, flags=flags, prot=mmap.PROT_READ)
+    return np.frombuffer(mm, np.uint8)
+
+
+def _view(buf: np.ndarray, start: int, count: int, dtype: np.dtype | str) -> np.ndarray:
+    dt = np.dtype(dtype)
+    return buf[start : start + count * dt.itemsize].view(dt)
+
+
+# -- structure ------------------------------------------------------------------------------------------
+def _structure(buf: np.ndarray, rep: Report, check_crc: bool) -> _Parsed | None:
+    size = int(buf.shape[0])
+    p = _Parsed(buf)
+    if size < L.HEADER_SIZE:
+        if size >= 8 and bytes(buf[:8]) != L.MAGIC:
+            rep.add("SWPM_HEADER_BAD_MAGIC", 0, found=bytes(buf[:8]).hex(), expected=L.MAGIC.hex())
+        else:
+            rep.add("SWPM_HEADER_TRUNCATED", 0, size=size, need=L.HEADER_SIZE)
+        return None
+    h = buf[: L.HEADER_SIZE].view(L.HEADER)[0]
+    if bytes(buf[:8]) != L.MAGIC:
+        rep.add("SWPM_HEADER_BAD_MAGIC", 0, found=bytes(buf[:8]).hex(), expected=L.MAGIC.hex())
+        return None
+    if int(h["major"]) != L.VERSION_MAJOR:
+        rep.add("SWPM_HEADER_UNSUPPORTED_MAJOR", 8, major=int(h["major"]))
+        return None
+    p.minor = int(h["minor"])
+    if p.minor > L.VERSION_MINOR:
+        rep.add("SWPM_HEADER_NEWER_MINOR", 10, minor=p.minor)
+    hs = int(h["header_size"])
+    if hs < L.HEADER_SIZE or hs > size:
+        rep.add("SWPM_HEADER_BAD_SIZE", 12, value=hs)
+        return None
+    feats = int(h["features"])
+    if feats & ~L.KNOWN_FEATURES:
+        rep.add("SWPM_HEADER_UNKNOWN_FEATURE", 20, bits=feats & ~L.KNOWN_FEATURES)
+    encs = [e for e, bit in L.ENCODING_FEATURES.items() if feats & bit]
+    if len(encs) != 1:
+        rep.add("SWPM_HEADER_BAD_ENCODING", 20, bits=feats)
+    else:
+        p.encoding = encs[0]
+    p.width = 4 if feats & L.FEATURE_INDEX32 else 2
+    if p.minor == L.VERSION_MINOR:  # newer minors may use reserved fields
+        for name, off in (("reserved0", 28), ("reserved1", 52)):
+            val = h[name]
+            if np.any(val):
+                rep.add("SWPM_HEADER_RESERVED_NONZERO", off, field=name, value=np.asarray(val).tolist())
+    declared = int(h["file_size"])
+    end = size
+    if declared > size:
+        rep.add("SWPM_FILE_SIZE_MISMATCH", 40, declared=declared, actual=size)
+    elif declared < size:
+        rep.add("SWPM_FILE_TRAILING_BYTES", declared, extra=size - declared)
+        end = declared
+    to, count = int(h["table_offset"]), int(h["chunk_count"])
+    if to < hs or to % L.CHUNK_ALIGN:
+        rep.add("SWPM_TABLE_BAD_OFFSET", 32, value=to)
+        return None
+    need = count * L.CHUNK_ENTRY.itemsize
+    if count > L.MAX_CHUNKS:
+        rep.add("SWPM_TABLE_TOO_LARGE", 24, count=count, limit=L.MAX_CHUNKS)
+        return None
+    if to + need > end:
+        rep.add("SWPM_TABLE_TRUNCATED", 24, count=count, need=need, at=to, size=end)
+        return None
+    table_end = to + need
+    if check_crc:
+        found = int(h["file_crc"])
+        crc = zlib.crc32(buf[: L.FILE_CRC_OFFSET])
+        crc = zlib.crc32(b"\0\0\0\0", crc)
+        crc = zlib.crc32(buf[L.FILE_CRC_OFFSET + 4 : table_end], crc)
+        if crc != found:
+            rep.add("SWPM_CHECKSUM_MISMATCH", L.FILE_CRC_OFFSET, found=found, computed=crc)
+    if np.any(buf[hs:to]):
+        rep.add("SWPM_PADDING_NONZERO", hs, start=hs)
+    entries = buf[to:table_end].view(L.CHUNK_ENTRY)
+    prev_end, prev_off, prev_name = table_end, -1, "header/chunk table"
+    for i in range(count):
+        e = entries[i]
+        eo = to + i * L.CHUNK_ENTRY.itemsize
+        t = bytes(e["type"]).ljust(4, b"\0")
+        flags, off, ln = int(e["flags"]), int(e["offset"]), int(e["length"])
+        c = _Chunk(t, flags, off, ln, eo)
+        name = t.decode("latin-1")
+        if not _TYPE_RE.match(t):
+            rep.add("SWPM_CHUNK_BAD_TYPE", eo, type=repr(t)[1:])
+            c.ok = False
+        if off + ln > end:
+            rep.add("SWPM_CHUNK_OUT_OF_BOUNDS", eo + 8, type=name, start=off, end=off + ln, size=end)
+            c.ok = False
+        if off % L.CHUNK_ALIGN:
+            rep.add("SWPM_CHUNK_MISALIGNED", eo + 8, type=name, start=off)
+            c.ok = False
+        if off < prev_off:
+            rep.add("SWPM_CHUNK_OUT_OF_ORDER", eo + 8, type=name, start=off)
+            c.ok = False
+        elif off < prev_end:
+            rep.add("SWPM_CHUNK_OVERLAP", eo + 8, type=name, start=off, end=off + ln, other=prev_name)
+            c.ok = False
+        elif off <= end and np.any(buf[prev_end:off]):
+            rep.add("SWPM_PADDING_NONZERO", prev_end, start=prev_end)
+        if int(e["reserved"]) and p.minor == L.VERSION_MINOR:
+            rep.add(
+                "SWPM_HEADER_RESERVED_NONZERO",
+                eo + 28,
+                field=f"chunk {name} reserved",
+                value=int(e["reserved"]),
+            )
+        if c.ok and check_crc:
+            crc = zlib.crc32(buf[off : off + ln], zlib.crc32(t))
+            if crc != int(e["crc"]):
+                rep.add("SWPM_CHUNK_CRC_MISMATCH", eo + 24, type=name, found=int(e["crc"]), computed=crc)
+                c.ok = False
+        critical = bool(flags & L.CHUNK_CRITICAL)
+        known = L.CHUNK_TYPES.get(t)
+        if known is None:
+            if critical:
+                rep.add("SWPM_CHUNK_UNKNOWN_CRITICAL", eo, type=name)
+            else:
+                rep.add("SWPM_CHUNK_UNKNOWN_ANCILLARY", eo, type=name)
+        else:
+            if critical != known[0]:
+                rep.add("SWPM_CHUNK_BAD_FLAGS", eo + 4, type=name, flags=flags, critical=int(known[0]))
+            if p.encoding is not None and p.encoding not in known[1]:
+                rep.add("SWPM_CHUNK_NOT_ALLOWED", eo, type=name, encoding=p.encoding)
+            elif t in p.chunks:
+                rep.add("SWPM_CHUNK_DUPLICATE", eo, type=name)
+            else:
+                p.chunks[t] = c
+        p.order.append(c)
+        if off >= prev_off:
+            prev_off, prev_end, prev_name = off, max(prev_end, off + ln), name
+    if prev_end < end and np.any(buf[prev_end:end]):
+        rep.add("SWPM_PADDING_NONZERO", prev_end, start=prev_end)
+    if p.encoding is None:
+        return None
+    for t in L.REQUIRED_CHUNKS[p.encoding]:
+        if t not in p.chunks and L.CHUNK_TYPES[t][0]:
+            rep.add("SWPM_CHUNK_MISSING", None, type=t.decode())
+    _stream_order(p, rep)
+    return p
+
+
+def _stream_order(p: _Parsed, rep: Report) -> None:
+    want = [t for t in L.REQUIRED_CHUNKS[p.encoding or "vanilla"] if t in p.chunks]
+    have = [c.type for c in p.order if c.type in want]
+    if have != want:
+        for a, b in zip(have, want, strict=False):
+            if a != b:
+                c = p.chunks[a]
+                rep.add(
+                    "SWPM_STREAM_ORDER", c.entry_offset, type=c.name, reason=f"expected {b.decode()} here"
+                )
+                return
+    if p.order and p.order[-1].type != L.VERT and L.VERT in p.chunks:
+        c = p.chunks[L.VERT]
+        rep.add("SWPM_STREAM_ORDER", c.entry_offset, type="VERT", reason="VERT must be the last chunk")
+
+
+# -- content --------------------------------------------------------------------------------------------
+def _get(p: _Parsed, t: bytes) -> _Chunk | None:
+    c = p.chunks.get(t)
+    if c is None or not c.ok:
+        p.content_ok = False
+        return None
+    return c
+
+
+def _arrays(
+    p: _Parsed, rep: Report, c: _Chunk, start: int, spec: list[tuple[str, int, np.dtype]], exact: bool = True
+) -> dict[str, np.ndarray] | None:
+    """View consecutive arrays (name, count, dtype) each padded to 4 bytes, from payload offset ``start``;
+    every count is checked against the bytes that remain first."""
+    out, pos = {}, start
+    for name, count, dt in spec:
+        need = count * dt.itemsize
+        remain = c.length - pos
+        if need > remain:
+            rep.add(
+                "SWPM_COUNT_EXCEEDS_CHUNK",
+                c.offset + pos,
+                what=name,
+                count=count,
+                need=need,
+                remain=max(remain, 0),
+                type=c.name,
+            )
+            return None
+        out[name] = _view(p.buf, c.offset + pos, count, dt)
+        pos += need if name == spec[-1][0] else L.align(need, L.ARRAY_ALIGN)
+    if exact and pos != c.length:
+        rep.add("SWPM_CHUNK_BAD_LENGTH", c.entry_offset + 16, type=c.name, length=c.length, need=pos)
+        return None
+    return out
+
+
+def _meta(p: _Parsed, rep: Report) -> None:
+    c = _get(p, L.META)
+    if c is None:
+        return
+    try:
+        meta = json.loads(p.buf[c.offset : c.offset + c.length].tobytes().decode("utf-8"))
+    except (UnicodeDecodeError, ValueError, RecursionError) as exc:
+        rep.add("SWPM_META_BAD_JSON", c.offset, reason=str(exc)[:200])
+        p.content_ok = False
+        return
+    if not isinstance(meta, dict):
+        rep.add("SWPM_META_BAD_JSON", c.offset, reason="not an object")
+        p.content_ok = False
+        return
+    if not isinstance(meta.get("params", {}), dict):
+        rep.add("SWPM_META_BAD_FIELD", c.offset, field="params", reason="must be an object")
+        p.content_ok = False
+        return
+    if meta.get("encoding", p.encoding) != p.encoding:
+        rep.add(
+            "SWPM_META_BAD_FIELD", c.offset, field="encoding", reason=f"differs from header ({p.encoding})"
+        )
+    p.meta = meta
+
+
+def _lods(p: _Parsed, rep: Report) -> None:
+    c = _get(p, L.LODS)
+    if c is None:
+        return
+    if c.length % L.LOD_ROW.itemsize:
+        rep.add(
+            "SWPM_CHUNK_BAD_LENGTH",
+            c.entry_offset + 16,
+            type="LODS",
+            length=c.length,
+            need=c.length // 12 * 12,
+        )
+        p.content_ok = False
+        return
+    rows = _view(p.buf, c.offset, c.length // 12, L.LOD_ROW)
+    if rows.shape[0] == 0:
+        rep.add("SWPM_LOD_EMPTY", c.offset)
+        p.content_ok = False
+        return
+    for col, order in (("vertex_count", "non-increasing"), ("triangle_count", "non-increasing")):
+        bad = np.flatnonzero(np.diff(rows[col].astype(np.int64)) > 0)
+        if bad.size:
+            k = int(bad[0]) + 1
+            rep.add("SWPM_LOD_NOT_MONOTONE", c.offset + 12 * k, lod=k, what=col, order=order)
+            p.content_ok = False
+    err = rows["error"]
+    bad = np.flatnonzero(~np.isfinite(err))
+    if bad.size:
+        k = int(bad[0])
+        rep.add("SWPM_LOD_NOT_MONOTONE", c.offset + 12 * k + 8, lod=k, what="error", order="finite")
+        p.content_ok = False
+    else:
+        bad = np.flatnonzero(np.diff(err) < 0)
+        if bad.size:
+            k = int(bad[0]) + 1
+            rep.add(
+                "SWPM_LOD_NOT_MONOTONE", c.offset + 12 * k + 8, lod=k, what="error", order="non-decreasing"
+            )
+            p.content_ok = False
+    p.lods = rows
+
+
+def _vert(p: _Parsed, rep: Report) -> None:
+    c = _get(p, L.VERT)
+    if c is None:
+        return
+    o = c.offset
+    if c.length < L.VERT_HEADER.itemsize:
+        rep.add("SWPM_CHUNK_BAD_LENGTH", c.entry_offset + 16, type="VERT", length=c.length, need=16)
+        p.content_ok = False
+        return
+    h = _view(p.buf, o, 1, L.VERT_HEADER)[0]
+    V, A, stride, data = (int(h[k]) for k in ("vertex_count", "attribute_count", "stride", "data_offset"))
+    bad = None
+    if 16 + 16 * A > c.length:
+        rep.add(
+            "SWPM_COUNT_EXCEEDS_CHUNK",
+            o + 4,
+            what="attribute_count",
+            count=A,
+            need=16 + 16 * A,
+            remain=c.length - 16,
+            type="VERT",
+        )
+        p.content_ok = False
+        return
+    if A > L.MAX_ATTRIBUTES:
+        bad = f"{A} attributes, at most {L.MAX_ATTRIBUTES} allowed"
+    elif stride < 12 or stride % 4:
+        bad = f"stride {stride} is below 12 or not a multiple of 4"
+    elif data % 8 or data < 16 + 16 * A or data > c.length:
+        bad = f"data_offset {data} is misaligned or outside the chunk"
+    elif V * stride > c.length - data:
+        rep.add(
+            "SWPM_COUNT_EXCEEDS_CHUNK",
+            o,
+            what="vertex_count",
+            count=V,
+            need=V * stride,
+            remain=c.length - data,
+            type="VERT",
+        )
+        p.content_ok = False
+        return
+    elif data + V * stride != c.length:
+        rep.add(
+            "SWPM_CHUNK_BAD_LENGTH", c.entry_offset + 16, type="VERT", length=c.length, need=data + V * stride
+        )
+        p.content_ok = False
+        return
+    descs = _view(p.buf, o + 16, A, L.ATTR_DESC)
+    names, formats, offsets, attr_names = ["f0"], [("<f4", (3,))], [0], []
+    spans = [(0, 12)]
+    for i in range(A if bad is None else 0):
+        d = descs[i]
+        no, nl, et, comp, off = (
+            int(d[k]) for k in ("name_offset", "name_length", "elem_type", "components", "offset")
+        )
+        if no < 16 + 16 * A or no + nl > data or nl == 0:
+            bad = f"attribute {i}: name bytes [{no}, {no + nl}) are outside the name area"
+            break
+        try:
+            name = p.buf[o + no : o + no + nl].tobytes().decode("utf-8")
+        except UnicodeDecodeError:
+            bad = f"attribute {i}: name is not UTF-8"
+            break
+        if name in attr_names:
+            bad = f"attribute {name!r} appears twice"
+            break
+        if et not in L.ELEM_TYPES or comp == 0:
+            bad = f"attribute {name!r}: element type {et} / {comp} components is not valid"
+            break
+        dt = L.ELEM_TYPES[et]
+        if off % dt.itemsize or off + dt.itemsize * comp > stride:
+            bad = f"attribute {name!r}: offset {off} is misaligned or past the stride"
+            break
+        spans.append((off, off + dt.itemsize * comp))
+        attr_names.append(name)
+        names.append(f"f{i + 1}")
+        formats.append((dt.str, (comp,)))
+        offsets.append(off)
+    if bad is None:
+        spans.sort()
+        if any(a[1] > b[0] for a, b in zip(spans, spans[1:], strict=False)):
+            bad = "attributes overlap"
+    if bad is not None:
+        rep.add("SWPM_VERT_BAD_LAYOUT", o, reason=bad)
+        p.content_ok = False
+        return
+    dtype = np.dtype({"names": names, "formats": formats, "offsets": offsets, "itemsize": stride})
+    recs = _view(p.buf, o + data, V, dtype)
+    p.points = recs["f0"]
+    p.attributes = {n: recs[f"f{i + 1}"] for i, n in enumerate(attr_names)}
+    p.vert_stride, p.vert_data = stride, data
+    nonfinite = int(np.count_nonzero(~np.isfinite(p.points)))
+    if nonfinite:
+        rep.add("SWPM_VERT_NONFINITE", o + data, count=nonfinite)
+
+
+def _index_check(
+    p: _Parsed,
+    rep: Report,
+    c: _Chunk,
+    arr: np.ndarray,
+    what: str,
+    limit: int,
+    base: int,
+    exempt: int | None = None,
+) -> bool:
+    if arr.size == 0:
+        return True
+    if int(arr.max()) < limit:  # one vectorised pass in the common case
+        return True
+    bad = arr >= limit
+    if exempt is not None:
+        bad &= arr != exempt
+    first = np.flatnonzero(bad)
+    n = first.shape[0]
+    for i in first[:3]:
+        rep.add(
+            "SWPM_INDEX_OUT_OF_RANGE",
+            base + int(i) * arr.dtype.itemsize,
+            what=what,
+            value=int(arr[i]),
+            index=int(i),
+            limit=limit,
+        )
+    return n == 0
+
+
+def _record_chunk(p: _Parsed, rep: Report, t: bytes, cols: list[str]) -> dict[str, np.ndarray] | None:
+    c = _get(p, t)
+    if c is None:
+        return None
+    if c.length < 8:
+        rep.add("SWPM_CHUNK_BAD_LENGTH", c.entry_offset + 16, type=c.name, length=c.length, need=8)
+        p.content_ok = False
+        return None
+    h = _view(p.buf, c.offset, 1, L.REC_HEADER)[0]
+    R, M = int(h["record_count"]), int(h["offset_count"])
+    it = L.index_dtype(p.width)
+    arrs = _arrays(p, rep, c, 8, [("record_count", 4 * R, it), ("offset_count", M, it)])
+    if arrs is None:
+        p.content_ok = False
+        return None
+    table = arrs["record_count"].reshape(R, 4)
+    out = {name: table[:, i] for i, name in enumerate(cols)}
+    out["collapse_change_offsets"] = arrs["offset_count"]
+    out["_base"] = np.array([c.offset + 8, c.offset + 8 + L.align(16 * R * p.width // 4, 4)], np.int64)
+    return out
+
+
+def _common_records(
+    p: _Parsed, rep: Report, rec: dict[str, np.ndarray], rc: np.ndarray, rc_off: int, lods: int
+) -> bool:
+    cc = rec["collapse_change_count"].astype(np.int64)
+    R = cc.shape[0]
+    ok = True
+    if int(cc.sum()) != rec["collapse_change_offsets"].shape[0]:
+        rep.add(
+            "SWPM_RECORD_BAD_COUNTS",
+            int(rec["_base"][0]),
+            reason=f"change counts sum to {int(cc.sum())}, {rec['collapse_change_offsets'].shape[0]} offsets",
+        )
+        ok = False
+    prev = rec["collapse_prev_change_count"].astype(np.int64)
+    if R and (prev[0] != 0 or np.any(prev[1:] != cc[:-1])):
+        bad = 0 if prev[0] != 0 else int(np.flatnonzero(prev[1:] != cc[:-1])[0]) + 1
+        rep.add(
+            "SWPM_RECORD_BAD_COUNTS",
+            int(rec["_base"][0]) + bad * 4 * p.width + 3 * p.width,
+            reason=f"record {bad}: previous change count {int(prev[bad])} is wrong",
+        )
+        ok = False
+    rc64 = rc.astype(np.int64)
+    if rc64.shape[0] != lods:
+        rep.add("SWPM_CHUNK_BAD_LENGTH", rc_off, type="RCNT", length=rc.nbytes, need=lods * p.width)
+        return False
+    if rc64[0] != 0 or np.any(np.diff(rc64) < 0) or rc64[-1] > R:
+        rep.add(
+            "SWPM_RECORD_BAD_COUNTS",
+            rc_off,
+            reason="per-LOD record counts must start at 0, not decrease and not exceed the record count",
+        )
+        ok = False
+    return ok
+
+
+def _vanilla(p: _Parsed, rep: Report) -> None:
+    rc_c, idx_c = _get(p, L.RCNT), _get(p, L.INDX)
+    rec = _record_chunk(
+        p,
+        rep,
+        L.VREC,
+        ["collapse_kept", "collapse_tris_removed", "collapse_change_count", "collapse_prev_change_count"],
+    )
+    if rc_c is None or idx_c is None or rec is None or p.lods is None or p.points is None:
+        p.content_ok = False
+        return
+    it = L.index_dtype(p.width)
+    if rc_c.length % p.width or idx_c.length % (3 * p.width):
+        bad = rc_c if rc_c.length % p.width else idx_c
+        rep.add(
+            "SWPM_CHUNK_BAD_LENGTH",
+            bad.entry_offset + 16,
+            type=bad.name,
+            length=bad.length,
+            need=bad.length // (3 * p.width) * 3 * p.width,
+        )
+        p.content_ok = False
+        return
+    rc = _view(p.buf, rc_c.offset, rc_c.length // p.width, it)
+    indices = _view(p.buf, idx_c.offset, idx_c.length // p.width, it)
+    V, T0, Lc = p.points.shape[0], indices.shape[0] // 3, p.lods.shape[0]
+    ok = _common_records(p, rep, rec, rc, rc_c.offset, Lc)
+    ok &= _index_check(p, rep, idx_c, indices, "INDX", V, idx_c.offset)
+    kept = rec["collapse_kept"].astype(np.int64)
+    R = kept.shape[0]
+    if R >= max(V, 1) and R:
+        rep.add("SWPM_RECORD_BAD_COUNTS", int(rec["_base"][0]) - 8, reason=f"{R} records for {V} vertices")
+        ok = False
+    else:
+        binned = V - 1 - np.arange(R)
+        bad = np.flatnonzero(kept >= binned)
+        for r in bad[:3]:
+            rep.add(
+                "SWPM_RECORD_BAD_KEPT",
+                int(rec["_base"][0]) + int(r) * 4 * p.width,
+                record=int(r),
+                kept=int(kept[r]),
+                binned=int(binned[r]),
+            )
+        ok &= bad.size == 0
+    removed = rec["collapse_tris_removed"].astype(np.int64)
+    cum = np.r_[0, np.cumsum(removed)]
+    if cum[-1] > T0:
+        rep.add(
+            "SWPM_RECORD_BAD_COUNTS",
+            int(rec["_base"][0]) + p.width,
+            reason=f"records remove {int(cum[-1])} triangles of {T0}",
+        )
+        ok = False
+    offs = rec["collapse_change_offsets"]
+    ok &= _index_check(
+        p, rep, p.chunks[L.VREC], offs, "collapse_change_offsets", 3 * T0, int(rec["_base"][1])
+    )
+    if ok:
+        vc, tc = p.lods["vertex_count"].astype(np.int64), p.lods["triangle_count"].astype(np.int64)
+        n = rc.astype(np.int64)
+        for what, got, want in (("vertex", vc, V - n), ("triangle", tc, T0 - cum[n])):
+            bad = np.flatnonzero(got != want)
+            if bad.size:
+                k = int(bad[0])
+                rep.add(
+                    "SWPM_LOD_VERTEX_COUNT" if what == "vertex" else "SWPM_RECORD_BAD_COUNTS",
+                    p.chunks[L.LODS].offset + 12 * k,
+                    lod=k,
+                    count=int(got[k]),
+                    expected=int(want[k]),
+                    reason=f"LOD {k} has {int(got[k])} {what}s, the records give {int(want[k])}",
+                )
+                ok = False
+    if ok:
+        kind, r, s = vanilla_replay(
+            indices, rec["collapse_kept"], rec["collapse_tris_removed"], rec["collapse_change_count"], offs, V
+        )
+        if kind == 1:
+            rep.add(
+                "SWPM_RECORD_BAD_CHANGE",
+                int(rec["_base"][0]) + int(r) * 4 * p.width,
+                record=int(r),
+                slot=int(s),
+            )
+            ok = False
+        elif kind == 2:
+            k = int(np.searchsorted(rc, r + 1))
+            rep.add(
+                "SWPM_PREFIX_VIOLATION",
+                int(rec["_base"][0]) + int(r) * 4 * p.width,
+                lod=k,
+                vertex=int(s),
+                limit=int(s),
+            )
+            ok = False
+    if not ok:
+        p.content_ok = False
+        return
+    rec.pop("_base")
+    p.buffers = {"indices": indices, **rec, "lod_record_counts": rc}
+
+
+def _sliding(p: _Parsed, rep: Report) -> None:
+    w_c, idx_c = _get(p, L.WREC), _get(p, L.INDX)
+    if w_c is None or idx_c is None or p.lods is None or p.points is None:
+        p.content_ok = False
+        return
+    it = L.index_dtype(p.width)
+    Lc = p.lods.shape[0]
+    if w_c.length != 3 * p.width * Lc or idx_c.length % p.width:
+        bad = w_c if w_c.length != 3 * p.width * Lc else idx_c
+        need = 3 * p.width * Lc if bad is w_c else bad.length // p.width * p.width
+        rep.add("SWPM_CHUNK_BAD_LENGTH", bad.entry_offset + 16, type=bad.name, length=bad.length, need=need)
+        p.content_ok = False
+        return
+    win = _view(p.buf, w_c.offset, 3 * Lc, it).reshape(Lc, 3)
+    pool = _view(p.buf, idx_c.offset, idx_c.length // p.width, it)
+    V = p.points.shape[0]
+    first, tc, vc = (win[:, i].astype(np.int64) for i in range(3))
+    ok = True
+    row = 3 * p.width
+    for i, (what, col) in enumerate((("triangle_count", "triangle_count"), ("vertex_count", "vertex_count"))):
+        got = (tc, vc)[i]
+        bad = np.flatnonzero(got != p.lods[col])
+        if bad.size:
+            k = int(bad[0])
+            rep.add(
+                "SWPM_WINDOW_COUNT_MISMATCH",
+                w_c.offset + k * row + (1 + i) * p.width,
+                lod=k,
+                what=what,
+                value=int(got[k]),
+                expected=int(p.lods[col][k]),
+            )
+            ok = False
+    bad = np.flatnonzero(np.diff(tc) > 0)
+    if bad.size:
+        k = int(bad[0]) + 1
+        rep.add(
+            "SWPM_WINDOW_NOT_MONOTONE",
+            w_c.offset + k * row + p.width,
+            lod=k,
+            what="triangle count grows from the previous (finer) window",
+        )
+        ok = False
+    end = first + 3 * tc
+    bad = np.flatnonzero(end > pool.shape[0])
+    for k in bad[:3]:
+        rep.add(
+            "SWPM_WINDOW_OUT_OF_POOL",
+            w_c.offset + int(k) * row,
+            lod=int(k),
+            start=int(first[k]),
+            end=int(end[k]),
+            pool=int(pool.shape[0]),
+        )
+    ok &= bad.size == 0
+    ok &= _index_check(p, rep, idx_c, pool, "INDX", V, idx_c.offset)
+    if ok and pool.size:
+        if np.all(np.diff(first) >= 0) and np.all(np.diff(end) >= 0) and np.all(np.diff(vc) <= 0):
+            pos, k = (int(x) for x in monotone_windows(pool, first, end, vc))
+        else:
+            lim, owner = window_limits(first, end, vc, pool.shape[0])
+            pos = int(first_violation(pool, lim))
+            k = int(owner[pos]) if pos >= 0 else -1
+        if pos >= 0:
+            rep.add(
+                "SWPM_PREFIX_VIOLATION",
+                idx_c.offset + pos * p.width,
+                lod=k,
+                vertex=int(pool[pos]),
+                limit=int(vc[k]),
+            )
+            ok = False
+    if not ok:
+        p.content_ok = False
+        return
+    p.buffers = {"index_pool": pool, "window_records": win}
+
+
+def _skip(p: _Parsed, rep: Report) -> None:
+    rc_c, s_c, idx_c = _get(p, L.RCNT), _get(p, L.SKIP), _get(p, L.INDX)
+    rec = _record_chunk(
+        p,
+        rep,
+        L.SREC,
+        ["collapse_kept", "collapse_binned", "collapse_change_count", "collapse_prev_change_count"],
+    )
+    if rc_c is None or s_c is None or idx_c is None or rec is None or p.lods is None or p.points is None:
+        p.content_ok = False
+        return
+    it = L.index_dtype(p.width)
+    if rc_c.length % p.width or idx_c.length % p.width or s_c.length < 8:
+        bad = rc_c if rc_c.length % p.width else idx_c if idx_c.length % p.width else s_c
+        rep.add(
+            "SWPM_CHUNK_BAD_LENGTH",
+            bad.entry_offset + 16,
+            type=bad.name,
+            length=bad.length,
+            need=bad.length // p.width * p.width,
+        )
+        p.content_ok = False
+        return
+    rc = _view(p.buf, rc_c.offset, rc_c.length // p.width, it)
+    lst = _view(p.buf, idx_c.offset, idx_c.length // p.width, it)
+    h = _view(p.buf, s_c.offset, 1, L.SKIP_HEADER)[0]
+    n, C = int(h["level_count"]), int(h["collapsed_count"])
+    arrs = _arrays(
+        p,
+        rep,
+        s_c,
+        8,
+        [
+            ("level_first_lod", n, it),
+            ("level_index_start", n + 1, it),
+            ("level_collapsed_start", n + 1, it),
+            ("level_record_start", n + 1, it),
+            ("level_collapsed_indices", C, it),
+        ],
+    )
+    if arrs is None:
+        p.content_ok = False
+        return
+    V, Lc = p.points.shape[0], p.lods.shape[0]
+    ok = _common_records(p, rep, rec, rc, rc_c.offset, Lc)
+    R = rec["collapse_kept"].shape[0]
+    first = arrs["level_first_lod"].astype(np.int64)
+    reason = None
+    for name, total in (
+        ("level_index_start", lst.shape[0]),
+        ("level_collapsed_start", C),
+        ("level_record_start", R),
+    ):
+        s = arrs[name].astype(np.int64)
+        if s[0] != 0 or s[-1] != total or np.any(np.diff(s) < 0):
+            reason = f"{name} must run from 0 to {total} without decreasing"
+    if n == 0 or first[0] != 0 or np.any(np.diff(first) <= 0) or first[-1] >= Lc:
+        reason = "level_first_lod must start at 0, increase and stay below the LOD count"
+    if reason:
+        rep.add("SWPM_LEVEL_BAD_TABLE", s_c.offset, reason=reason)
+        p.content_ok = False
+        return
+    params = (p.meta or {}).get("params", {})
+    restart = params.get("restart_index")
+    exempt = (
+        int(restart) if isinstance(restart, int) and params.get("primitive", "strip") == "strip" else None
+    )
+    ok &= _index_check(p, rep, idx_c, lst, "INDX", V, idx_c.offset, exempt)
+    ok &= _index_check(
+        p, rep, s_c, arrs["level_collapsed_indices"], "level_collapsed_indices", V, s_c.offset, exempt
+    )
+    for col in ("collapse_kept", "collapse_binned"):
+        ok &= _index_check(p, rep, p.chunks[L.SREC], rec[col], col, V, int(rec["_base"][0]))
+    if ok:
+        # change offsets of record r index the list of the level that holds r
+        rstart = arrs["level_record_start"].astype(np.int64)
+        lstart = arrs["level_index_start"].astype(np.int64)
+        lev_of_rec = np.searchsorted(rstart, np.arange(R), side="right") - 1
+        per_off = np.repeat(lev_of_rec, rec["collapse_change_count"].astype(np.int64))
+        limit = (lstart[per_off + 1] - lstart[per_off]) if per_off.size else per_off
+        bad = np.flatnonzero(rec["collapse_change_offsets"].astype(np.int64) >= limit)
+        for j in bad[:3]:
+            rep.add(
+                "SWPM_INDEX_OUT_OF_RANGE",
+                int(rec["_base"][1]) + int(j) * p.width,
+                what="collapse_change_offsets",
+                value=int(rec["collapse_change_offsets"][j]),
+                index=int(j),
+                limit=int(limit[j]),
+            )
+        ok &= bad.size == 0
+        # prefix property at each level's entry: its list uses only the level's first LOD's vertices
+        vc = p.lods["vertex_count"].astype(np.int64)
+        pos, lv = (int(x) for x in segment_limits(lst, lstart, vc[first], -1 if exempt is None else exempt))
+        if pos >= 0:
+            rep.add(
+                "SWPM_PREFIX_VIOLATION",
+                idx_c.offset + pos * p.width,
+                lod=int(first[lv]),
+                vertex=int(lst[pos]),
+                limit=int(vc[first[lv]]),
+            )
+            ok = False
+    if not ok:
+        p.content_ok = False
+        return
+    rec.pop("_base")
+    p.buffers = {**{k: v for k, v in arrs.items()}, "level_indices": lst, **rec, "lod_record_counts": rc}
+
+
+def _smap(p: _Parsed, rep: Report) -> None:
+    c = p.chunks.get(L.SMAP)
+    if c is None or not c.ok or not p.content_ok or p.lods is None:
+        return
+    if c.length < 8:
+        rep.add("SWPM_SMAP_INVALID", c.offset, reason="shorter than its header")
+        return
+    h = _view(p.buf, c.offset, 1, L.SMAP_HEADER)[0]
+    B, N = int(h["band_count"]), int(h["range_count"])
+    if 8 + 24 * B + 16 * N != c.length:
+        rep.add(
+            "SWPM_SMAP_INVALID",
+            c.offset,
+            reason=f"{B} bands and {N} ranges need {8 + 24 * B + 16 * N} bytes, the chunk has {c.length}",
+        )
+        return
+    bands = _view(p.buf, c.offset + 8, B, L.SMAP_BAND)
+    ranges = _view(p.buf, c.offset + 8 + 24 * B, N, L.SMAP_RANGE)
+    Lc = p.lods.shape[0]
+    fl, lc = bands["first_lod"].astype(np.int64), bands["lod_count"].astype(np.int64)
+    if (
+        B == 0
+        or fl[0] != 0
+        or np.any(lc == 0)
+        or np.any(fl[1:] != (fl + lc)[:-1])
+        or int((fl + lc)[-1]) != Lc
+    ):
+        rep.add("SWPM_SMAP_INVALID", c.offset + 8, reason="bands do not cover the LODs in order")
+        return
+    rs, rn = bands["range_start"].astype(np.int64), bands["range_count"].astype(np.int64)
+    if np.any(rs + rn > N):
+        rep.add("SWPM_SMAP_INVALID", c.offset + 8, reason="a band's ranges lie outside the range table")
+        return
+    ro, rl = ranges["offset"].astype(np.uint64), ranges["length"].astype(np.uint64)
+    fsz = np.uint64(p.buf.shape[0])
+    if np.any(ro > fsz) or np.any(rl > fsz - np.minimum(ro, fsz)):
+        rep.add("SWPM_SMAP_INVALID", c.offset + 8 + 24 * B, reason="a range lies outside the file")
+        return
+    indx, vert = p.chunks[L.INDX], p.chunks[L.VERT]
+    need = needed_index_ranges(p.encoding or "", p.buffers, Lc, indx.length // p.width)
+    ro, rl = ro.astype(np.int64), rl.astype(np.int64)
+    vc = p.lods["vertex_count"].astype(np.int64)
+    # hulls of (a) prefix before INDX, (b) INDX elements, (c) VERT prefix, per band (vectorised over bands)
+    lo = indx.offset + np.minimum.reduceat(need[:, 0], fl) * p.width
+    hi = indx.offset + np.maximum.reduceat(need[:, 1], fl) * p.width
+    vend = vert.offset + p.vert_data + np.maximum.reduceat(vc, fl) * p.vert_stride
+    want_a = np.stack([np.zeros(B, np.int64), lo, np.full(B, vert.offset, np.int64)], axis=1)
+    want_e = np.stack([np.full(B, indx.offset, np.int64), hi, vend], axis=1)
+    if int(rn.max()) > L.MAX_BAND_RANGES:
+        rep.add(
+            "SWPM_SMAP_INVALID", c.offset + 8, reason=f"a band names more than {L.MAX_BAND_RANGES} ranges"
+        )
+        return
+    slot = rs[:, None] + np.arange(L.MAX_BAND_RANGES)[None, :]  # (B, 16) range ids, masked past rn
+    used = np.arange(L.MAX_BAND_RANGES)[None, :] < rn[:, None]
+    slot = np.where(used, slot, 0) if N else np.zeros_like(slot)
+    r_lo = ro[slot] if N else np.zeros(slot.shape, np.int64)
+    r_hi = r_lo + (rl[slot] if N else 0)
+    inside = (
+        used[:, None, :] & (r_lo[:, None, :] <= want_a[:, :, None]) & (r_hi[:, None, :] >= want_e[:, :, None])
+    ).any(axis=2) | (want_e <= want_a)
+    if not inside.all():
+        b, j = (int(x) for x in np.argwhere(~inside)[0])
+        rep.add(
+            "SWPM_SMAP_INVALID",
+            c.offset + 8 + 24 * b,
+            reason=f"band {b} (LODs {int(fl[b])}..{int(fl[b] + lc[b] - 1)}) does not cover bytes "
+            f"[{int(want_a[b, j])}, {int(want_e[b, j])})",
+        )
+        return
+    prefix = want_e.max(axis=1)
+    bad = np.flatnonzero(bands["prefix_length"].astype(np.int64) != prefix)
+    if bad.size:
+        b = int(bad[0])
+        rep.add(
+            "SWPM_SMAP_INVALID",
+            c.offset + 8 + 24 * b + 16,
+            reason=f"band {b} prefix_length is {int(bands['prefix_length'][b])}, LODs need {int(prefix[b])}",
+        )
+
+
+def _check(buf: np.ndarray, path: str | None, check_crc: bool = True) -> tuple[Report, _Parsed | None]:
+    rep = _Report(path=path)
+    p = _structure(buf, rep, check_crc)
+    if p is not None and not rep.errors:
+        _meta(p, rep)
+        _lods(p, rep)
+        _vert(p, rep)
+        if p.lods is not None and p.points is not None:
+            vc0 = int(p.lods["vertex_count"][0])
+            if vc0 != p.points.shape[0]:
+                rep.add(
+                    "SWPM_LOD_VERTEX_COUNT",
+                    p.chunks[L.LODS].offset,
+                    lod=0,
+                    count=vc0,
+                    expected=p.points.shape[0],
+                )
+                p.content_ok = False
+        if p.lods is not None and p.points is not None and p.meta is not None:
+            {"vanilla": _vanilla, "sliding-window": _sliding, "skip-strip": _skip}[p.encoding or ""](p, rep)
+        if not rep.errors:
+            _smap(p, rep)
+        if not rep.errors:
+            _summarise(p, rep)
+    counts = rep.summary.pop("_counts", None)
+    if rep.summary.get("suppressed"):
+        rep.summary["suppressed_by_code"] = {
+            k: v - MAX_PER_CODE for k, v in counts.items() if v > MAX_PER_CODE
+        }
+    return rep, p
+
+
+def _summarise(p: _Parsed, rep: Report) -> None:
+    assert p.lods is not None and p.points is not None
+    t0 = int(p.lods["triangle_count"][0])
+    rep.summary.update(
+        {
+            "encoding": p.encoding,
+            "version": f"1.{p.minor}",
+            "index_width": p.width,
+            "lod_count": int(p.lods.shape[0]),
+            "vertex_count": int(p.points.shape[0]),
+            "triangle_count": int(p.lods["triangle_count"][0]),
+            "index_count": int(p.chunks[L.INDX].length // p.width),
+            "lambda": (p.chunks[L.INDX].length / p.width / (3 * t0)) if t0 else None,
+            "file_size": int(p.buf.shape[0]),
+            "attributes": {n: f"{a.dtype}x{a.shape[1]}" for n, a in p.attributes.items()},
+            "chunks": [
+                {"type": c.name, "critical": bool(c.flags & 1), "offset": c.offset, "length": c.length}
+                for c in p.order
+            ],
+        }
+    )
+
+
+# -- public API -----------------------------------------------------------------------------------------
+def validate_bytes(data: bytes | bytearray | memoryview | np.ndarray, path: str | None = None) -> Report:
+    """Validate an in-memory file (see :func:`validate`)."""
+    buf = (
+        np.frombuffer(data, np.uint8) if not isinstance(data, np.ndarray) else data.view(np.uint8).reshape(-1)
+    )
+    return _check(buf, path)[0]
+
+
+def validate(path: str | os.PathLike[str]) -> Report:
+    """Every problem of the file at ``path`` (``report.valid`` is True when none is an error)."""
+    try:
+        buf = _map(path)
+    except OSError as exc:
+        rep = Report(path=str(path))
+        rep.add("SWPM_IO_ERROR", None, reason=str(exc))
+        return rep
+    return _check(buf, str(path))[0]
+
+
+def _build(p: _Parsed, rep: Report) -> ProgressiveMesh:
+    assert p.lods is not None and p.meta is not None and p.points is not None
+    if p.encoding not in ENCODINGS:
+        rep.add("SWPM_ENCODING_UNAVAILABLE", None, encoding=p.encoding)
+        raise SwpmFormatError(rep)
+    try:
+        return from_buffers(
+            p.encoding or "",
+            p.points,
+            p.attributes,
+            p.lods["vertex_count"],
+            p.lods["triangle_count"],
+            p.lods["error"],
+            p.buffers,
+            p.meta.get("params", {}),
+        )
+    except Exception as exc:  # noqa: BLE001 - an implementation's complaint becomes a coded problem
+        rep.add("SWPM_BUFFERS_REJECTED", None, encoding=p.encoding, reason=f"{type(exc).__name__}: {exc}")
+        raise SwpmFormatError(rep) from exc
+
+
+def load_bytes(data: bytes | bytearray | memoryview | np.ndarray, path: str | None = None) -> ProgressiveMesh:
+    """Decode an in-memory file (see :func:`load`); arrays are views of ``data``."""
+    buf = (
+        np.frombuffer(data, np.uint8) if not isinstance(data, np.ndarray) else data.view(np.uint8).reshape(-1)
+    )
+    rep, p = _check(buf, path)
+    if not rep.valid or p is None:
+        raise SwpmFormatError(rep)
+    return _build(p, rep)
+
+
+def load(path: str | os.PathLike[str]) -> ProgressiveMesh:
+    """Memory-map and decode ``path``; raises :class:`SwpmFormatError` (with the full report) if invalid.
+
+    The returned mesh's ``points``, ``attributes`` and encoding buffers are read-only views of the mapping;
+    integer buffers are u16 when the file stores u16 (values equal ``pm.buffers()`` of the saved mesh).
+    """
+    try:
+        buf = _map(path)
+    except OSError as exc:
+        rep = Report(path=str(path))
+        rep.add("SWPM_IO_ERROR", None, reason=str(exc))
+        raise SwpmFormatError(rep) from exc
+    rep, p = _check(buf, str(path))
+    if not rep.valid or p is None:
+        raise SwpmFormatError(rep)
+    return _build(p, rep)

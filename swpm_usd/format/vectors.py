@@ -1,0 +1,427 @@
+"""Deterministic generator of the conformance vectors in ``spec/vectors/`` and the conformance runner.
+
+``python -m swpm_usd.format.vectors spec/vectors`` rebuilds every vector byte for byte. The meshes are
+hand-made (a five-vertex fan and a single triangle), so the vectors do not depend on the simplifier; the
+sliding-window and skip-strip vectors are written from hand-made buffers through :class:`RawProgressiveMesh`.
+Invalid vectors are valid files with one defect patched in; CRCs are recomputed unless the defect is a CRC.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import struct
+import zlib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import layout as L
+from .reader import _check
+from .writer import encode_bytes
+
+GENERATOR = "swpm-usd conformance"
+
+
+@dataclass
+class RawProgressiveMesh:
+    """The fields the writer reads, for writing buffers of any encoding without its implementation."""
+
+    encoding: str
+    points: np.ndarray
+    vertex_counts: np.ndarray
+    triangle_counts: np.ndarray
+    lod_errors: np.ndarray
+    raw_buffers: dict[str, np.ndarray]
+    attributes: Mapping[str, np.ndarray] = field(default_factory=dict)
+    params: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def vertex_count(self) -> int:
+        return int(np.asarray(self.points).reshape(-1, 3).shape[0])
+
+    @property
+    def lod_count(self) -> int:
+        return int(len(self.vertex_counts))
+
+    def buffers(self) -> dict[str, np.ndarray]:
+        return {k: np.asarray(v, np.uint32) for k, v in self.raw_buffers.items()}
+
+
+FAN_POINTS = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0.5, 0.25]], np.float32)
+
+
+def fan_vanilla(**over: Any) -> RawProgressiveMesh:
+    """Four triangles around vertex 4; one collapse bins 4 onto 0 (2 triangles removed, 2 slots changed)."""
+    bufs = {
+        "indices": [1, 2, 4, 2, 3, 4, 0, 1, 4, 3, 0, 4],
+        "collapse_kept": [0],
+        "collapse_tris_removed": [2],
+        "collapse_change_count": [2],
+        "collapse_prev_change_count": [0],
+        "collapse_change_offsets": [2, 5],
+        "lod_record_counts": [0, 1],
+    }
+    bufs.update(over.pop("buffers", {}))
+    args: dict[str, Any] = {
+        "encoding": "vanilla",
+        "points": FAN_POINTS,
+        "vertex_counts": np.array([5, 4]),
+        "triangle_counts": np.array([4, 2]),
+        "lod_errors": np.array([0.0, 0.5], np.float32),
+        "raw_buffers": bufs,
+    }
+    args.update(over)
+    return RawProgressiveMesh(**args)
+
+
+def fan_sliding(**over: Any) -> RawProgressiveMesh:
+    bufs = {
+        "index_pool": [0, 1, 4, 3, 0, 4, 1, 2, 4, 2, 3, 4, 1, 2, 0, 2, 3, 0],
+        "window_records": [[0, 4, 5], [12, 2, 4]],
+    }
+    bufs.update(over.pop("buffers", {}))
+    args: dict[str, Any] = {
+        "encoding": "sliding-window",
+        "points": FAN_POINTS,
+        "vertex_counts": np.array([5, 4]),
+        "triangle_counts": np.array([4, 2]),
+        "lod_errors": np.array([0.0, 0.5], np.float32),
+        "raw_buffers": bufs,
+        "params": {"cache_size": 16},
+    }
+    args.update(over)
+    return RawProgressiveMesh(**args)
+
+
+def fan_skip() -> RawProgressiveMesh:
+    bufs = {
+        "level_first_lod": [0],
+        "level_index_start": [0, 12],
+        "level_indices": [1, 2, 4, 2, 3, 4, 0, 1, 4, 3, 0, 4],
+        "level_collapsed_start": [0, 12],
+        "level_collapsed_indices": [1, 2, 0, 2, 3, 0, 0, 1, 0, 3, 0, 0],
+        "level_record_start": [0, 1],
+        "collapse_kept": [0],
+        "collapse_binned": [4],
+        "collapse_change_count": [4],
+        "collapse_prev_change_count": [0],
+        "collapse_change_offsets": [2, 5, 8, 11],
+        "lod_record_counts": [0, 1],
+    }
+    return RawProgressiveMesh(
+        "skip-strip",
+        FAN_POINTS,
+        np.array([5, 4]),
+        np.array([4, 2]),
+        np.array([0.0, 0.5], np.float32),
+        bufs,
+        params={"primitive": "list"},
+    )
+
+
+def fan_skip_strip() -> RawProgressiveMesh:
+    """Skip-strip, strip variant: one single-triangle strip per triangle, joined by the restart index."""
+    R = 0xFFFF
+    strip = [1, 2, 4, R, 2, 3, 4, R, 0, 1, 4, R, 3, 0, 4]
+    bufs = dict(fan_skip().raw_buffers)
+    bufs.update(
+        level_index_start=[0, 15],
+        level_indices=strip,
+        level_collapsed_start=[0, 15],
+        level_collapsed_indices=[0 if v == 4 else v for v in strip],
+        collapse_change_offsets=[2, 6, 10, 14],
+    )
+    return RawProgressiveMesh(
+        "skip-strip",
+        FAN_POINTS,
+        np.array([5, 4]),
+        np.array([4, 2]),
+        np.array([0.0, 0.5], np.float32),
+        bufs,
+        params={"primitive": "strip", "restart_index": R},
+    )
+
+
+def single_triangle() -> RawProgressiveMesh:
+    bufs = {
+        "indices": [0, 1, 2],
+        "collapse_kept": [],
+        "collapse_tris_removed": [],
+        "collapse_change_count": [],
+        "collapse_prev_change_count": [],
+        "collapse_change_offsets": [],
+        "lod_record_counts": [0],
+    }
+    return RawProgressiveMesh(
+        "vanilla", FAN_POINTS[:3], np.array([3]), np.array([1]), np.array([0.0], np.float32), bufs
+    )
+
+
+def _write(pm: RawProgressiveMesh, **kw: Any) -> bytes:
+    return encode_bytes(pm, generator=GENERATOR, **kw)  # type: ignore[arg-type]
+
+
+# -- patching helpers -----------------------------------------------------------------------------------
+def _entries(data: bytes) -> list[tuple[bytes, int, int, int]]:
+    """(type, entry offset, payload offset, length) of every chunk-table entry."""
+    count = struct.unpack_from("<I", data, 24)[0]
+    to = struct.unpack_from("<Q", data, 32)[0]
+    out = []
+    for i in range(count):
+        eo = to + 32 * i
+        t, _, off, ln = struct.unpack_from("<4sIQQ", data, eo)
+        out.append((t, eo, off, ln))
+    return out
+
+
+def fix_crcs(data: bytes | bytearray) -> bytes:
+    """Recompute every chunk CRC and the file CRC (for vectors whose defect is not a CRC)."""
+    b = bytearray(data)
+    ents = _entries(bytes(b))
+    for t, eo, off, ln in ents:
+        if off + ln <= len(b):
+            struct.pack_into("<I", b, eo + 24, zlib.crc32(bytes(b[off : off + ln]), zlib.crc32(t)))
+    table_end = struct.unpack_from("<Q", b, 32)[0] + 32 * len(ents)
+    struct.pack_into("<I", b, L.FILE_CRC_OFFSET, 0)
+    struct.pack_into("<I", b, L.FILE_CRC_OFFSET, zlib.crc32(bytes(b[:table_end])))
+    return bytes(b)
+
+
+def chunk(data: bytes, t: bytes) -> tuple[int, int, int]:
+    """(entry offset, payload offset, length) of chunk ``t``."""
+    for tt, eo, off, ln in _entries(data):
+        if tt == t:
+            return eo, off, ln
+    raise KeyError(t)
+
+
+def patch(data: bytes, offset: int, fmt: str, *values: Any, crc: bool = True) -> bytes:
+    b = bytearray(data)
+    struct.pack_into(fmt, b, offset, *values)
+    return fix_crcs(b) if crc else bytes(b)
+
+
+# -- the vectors ----------------------------------------------------------------------------------------
+def _valid() -> dict[str, tuple[bytes, str]]:
+    attrs = {
+        "normal": np.tile(np.array([[0, 0, 1]], np.float32), (5, 1)),
+        "uv": FAN_POINTS[:, :2].copy(),
+        "color": np.array(
+            [[255, 0, 0, 255], [0, 255, 0, 255], [0, 0, 255, 255], [9, 9, 9, 255], [1, 2, 3, 4]], np.uint8
+        ),
+    }
+    return {
+        "minimal-vanilla": (
+            _write(fan_vanilla()),
+            "the worked example of the spec: 4 triangles, one collapse",
+        ),
+        "vanilla-u32": (_write(fan_vanilla(), index_width=4), "the same mesh with u32 indices"),
+        "sliding-window": (_write(fan_sliding()), "sliding window: two windows in one pool"),
+        "skip-strip-list": (_write(fan_skip()), "skip-strip, list variant, one level"),
+        "skip-strip-strip": (_write(fan_skip_strip()), "skip-strip, strips joined by restart index 0xFFFF"),
+        "attributes": (_write(fan_vanilla(attributes=attrs)), "normal f32x3, uv f32x2, color u8x4"),
+        "single-triangle": (_write(single_triangle()), "one triangle, one LOD, no records"),
+        "unknown-ancillary-chunk": (
+            _write(fan_vanilla(), extra_chunks=[(b"zXTR", False, b"ignore me")]),
+            "an unknown ancillary chunk a reader must skip",
+        ),
+        "newer-minor-version": (fix_crcs(_write(fan_vanilla(), minor=3)), "minor version 3: read as 1.0"),
+    }
+
+
+def _invalid(base: bytes) -> dict[str, tuple[bytes, str]]:
+    out: dict[str, tuple[bytes, str]] = {}
+    out["truncated-header"] = (base[:40], "40 bytes: the header is cut")
+    out["truncated-chunk-table"] = (base[:100], "the chunk table is cut (file_size also disagrees)")
+    out["bad-magic"] = (b"SWPX" + base[4:], "wrong signature")
+    out["unknown-major-version"] = (patch(base, 8, "<H", 2), "major version 2")
+    _, voff, vlen = chunk(base, L.VERT)
+    bad = bytearray(base)
+    bad[voff + 20] ^= 0x40
+    out["crc-mismatch"] = (bytes(bad), "one bit of a point flipped: VERT CRC no longer matches")
+    out["file-checksum-mismatch"] = (
+        patch(base, L.FILE_CRC_OFFSET, "<I", 0x12345678, crc=False),
+        "the header's file CRC is wrong",
+    )
+    veo, _, _ = chunk(base, L.VERT)
+    out["chunk-past-end"] = (patch(base, veo + 16, "<Q", vlen + 64), "VERT length runs past the end of file")
+    _, moff, _ = chunk(base, L.META)
+    leo, _, _ = chunk(base, L.LODS)
+    out["overlapping-chunks"] = (patch(base, leo + 8, "<Q", moff), "LODS starts inside META")
+    out["unknown-critical-chunk"] = (
+        _write(fan_vanilla(), extra_chunks=[(b"zXTR", True, b"need me")]),
+        "a critical chunk no v1 reader knows",
+    )
+    out["window-outside-pool"] = (
+        _write(fan_sliding(buffers={"window_records": [[0, 4, 5], [15, 2, 4]]})),
+        "the coarse window ends 3 indices past the pool",
+    )
+    out["index-above-vertex-count"] = (
+        _write(fan_vanilla(buffers={"indices": [1, 2, 4, 2, 3, 4, 0, 1, 4, 3, 0, 9]})),
+        "INDX holds 9 in a 5-vertex mesh",
+    )
+    out["window-prefix-violation"] = (
+        _write(fan_sliding(buffers={"index_pool": [0, 1, 4, 3, 0, 4, 1, 2, 4, 2, 3, 4, 1, 2, 4, 2, 3, 0]})),
+        "the coarse window (4 vertices) draws vertex 4",
+    )
+    out["non-monotone-records"] = (
+        _write(
+            fan_sliding(
+                buffers={"window_records": [[12, 2, 5], [0, 4, 5]]},
+                vertex_counts=np.array([5, 5]),
+                triangle_counts=np.array([2, 4]),
+            )
+        ),
+        "windows ordered coarse to fine: triangle counts grow",
+    )
+    _, roff, _ = chunk(base, L.VREC)
+    out["huge-record-count"] = (
+        patch(base, roff, "<I", 0xFFFFFFFF),
+        "VREC declares 2^32-1 records: must be rejected before any allocation",
+    )
+    out["record-keeps-binned-vertex"] = (
+        _write(fan_vanilla(buffers={"collapse_kept": [4]})),
+        "the collapse keeps the vertex it bins",
+    )
+    out["record-changes-wrong-slot"] = (
+        _write(fan_vanilla(buffers={"collapse_change_offsets": [0, 5]})),
+        "a change offset points at a slot that does not hold the binned vertex",
+    )
+    _, mo, ml = chunk(base, L.META)
+    b = bytearray(base)
+    b[mo] = ord("[")
+    out["meta-not-json"] = (fix_crcs(b), "META is not a JSON object")
+    out["unknown-required-feature"] = (
+        patch(base, 20, "<I", L.FEATURE_VANILLA | (1 << 20)),
+        "required-feature bit 20 is unknown",
+    )
+    return out
+
+
+def buffer_digests(data: bytes) -> dict[str, Any]:
+    """Decoded summary of a valid file: counts and the SHA-256 of each array as stored (little-endian)."""
+    rep, p = _check(np.frombuffer(data, np.uint8), None)
+    if not rep.valid or p is None or p.points is None or p.lods is None:
+        raise ValueError(rep.format())
+    arrays = {"points": p.points, **{f"attribute:{k}": v for k, v in p.attributes.items()}, **p.buffers}
+    arrays["vertex_counts"] = p.lods["vertex_count"]
+    arrays["triangle_counts"] = p.lods["triangle_count"]
+    arrays["lod_errors"] = p.lods["error"]
+    return {
+        "encoding": p.encoding,
+        "index_width": p.width,
+        "lod_count": int(p.lods.shape[0]),
+        "vertex_count": int(p.points.shape[0]),
+        "triangle_count": int(p.lods["triangle_count"][0]),
+        "params": (p.meta or {}).get("params", {}),
+        "buffers": {
+            k: {
+                "shape": list(v.shape),
+                "sha256": hashlib.sha256(np.ascontiguousarray(v).tobytes()).hexdigest(),
+            }
+            for k, v in sorted(arrays.items())
+        },
+    }
+
+
+def expected_result(data: bytes) -> dict[str, Any]:
+    rep, _ = _check(np.frombuffer(data, np.uint8), None)
+    out: dict[str, Any] = {
+        "valid": rep.valid,
+        "problems": [{"code": q.code, "severity": q.severity, "offset": q.offset} for q in rep.problems],
+    }
+    if rep.valid:
+        out["summary"] = buffer_digests(data)
+    return out
+
+
+def build_all() -> dict[str, bytes]:
+    """Every file of ``spec/vectors`` by name (vectors, expected results, manifest), deterministically."""
+    files: dict[str, bytes] = {}
+    manifest: list[dict[str, Any]] = []
+    valid = _valid()
+    invalid = _invalid(valid["minimal-vanilla"][0])
+    for group, items in (("valid", valid), ("invalid", invalid)):
+        for name, (data, desc) in items.items():
+            exp = expected_result(data)
+            if exp["valid"] != (group == "valid"):
+                raise AssertionError(f"vector {name}: expected {group}, validator says {exp}")
+            files[f"{group}/{name}.swpm"] = data
+            files[f"{group}/{name}.json"] = (json.dumps(exp, indent=2, sort_keys=True) + "\n").encode()
+            manifest.append(
+                {
+                    "name": name,
+                    "file": f"{group}/{name}.swpm",
+                    "expected": f"{group}/{name}.json",
+                    "valid": group == "valid",
+                    "description": desc,
+                    "sha256": hashlib.sha256(data).hexdigest(),
+                }
+            )
+    doc = {"format": "SWPM", "version": "1.0", "vectors": manifest}
+    files["manifest.json"] = (json.dumps(doc, indent=2) + "\n").encode()
+    files["minimal-vanilla.hex"] = hexdump(valid["minimal-vanilla"][0]).encode()
+    return files
+
+
+def hexdump(data: bytes) -> str:
+    """``xxd``-style dump: offset, 16 bytes in hex, ASCII."""
+    lines = []
+    for i in range(0, len(data), 16):
+        row = data[i : i + 16]
+        hx = " ".join(row[j : j + 2].hex() for j in range(0, len(row), 2))
+        asc = "".join(chr(c) if 32 <= c < 127 else "." for c in row)
+        lines.append(f"{i:08x}: {hx:<39}  {asc}")
+    return "\n".join(lines) + "\n"
+
+
+def write_all(outdir: str | Path) -> list[Path]:
+    """Write :func:`build_all` under ``outdir``."""
+    outdir = Path(outdir)
+    written = []
+    for rel, data in build_all().items():
+        path = outdir / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(data)
+        written.append(path)
+    return written
+
+
+@dataclass
+class Outcome:
+    name: str
+    passed: bool
+    detail: str
+
+
+def run_conformance(vector_dir: str | Path) -> list[Outcome]:
+    """Validate every vector of ``manifest.json`` and compare with its expected result."""
+    from .reader import validate
+
+    vector_dir = Path(vector_dir)
+    manifest = json.loads((vector_dir / "manifest.json").read_text())
+    out = []
+    for v in manifest["vectors"]:
+        exp = json.loads((vector_dir / v["expected"]).read_text())
+        path = vector_dir / v["file"]
+        rep = validate(path)
+        got = {
+            "valid": rep.valid,
+            "problems": [{"code": q.code, "severity": q.severity, "offset": q.offset} for q in rep.problems],
+        }
+        if rep.valid:
+            got["summary"] = buffer_digests(path.read_bytes())
+        diff = [k for k in exp if exp[k] != got.get(k)]
+        out.append(Outcome(v["name"], not diff, "ok" if not diff else f"differs in {', '.join(diff)}"))
+    return out
+
+
+if __name__ == "__main__":  # pragma: no cover
+    import sys
+
+    for p in write_all(sys.argv[1] if len(sys.argv) > 1 else "spec/vectors"):
+        print(p)

@@ -1,0 +1,293 @@
+"""SWPM v1 writer: :func:`encode_bytes` lays a :class:`ProgressiveMesh` out as spec/format.md describes and
+:func:`save` writes it atomically (temporary file in the same directory, then ``os.replace``)."""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import zlib
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import __version__
+from ..encode.base import ProgressiveMesh
+from . import layout as L
+
+#: LOD bands of the streaming map: one per halving of the vertex count
+GENERATOR = f"swpm-usd {__version__}"
+
+
+def _pad(b: bytes, a: int = L.ARRAY_ALIGN) -> bytes:
+    return b + b"\0" * (L.align(len(b), a) - len(b))
+
+
+def _u(a: np.ndarray, dt: np.dtype) -> bytes:
+    return _pad(np.ascontiguousarray(a, dtype=dt).tobytes())
+
+
+def choose_index_width(buffers: dict[str, np.ndarray]) -> int:
+    """2 when every value of every integer encoding buffer fits u16, else 4 (spec: "Index width")."""
+    top = 0
+    for a in buffers.values():
+        a = np.asarray(a)
+        if a.size and np.issubdtype(a.dtype, np.integer):
+            top = max(top, int(a.max()))
+    return 2 if top <= 0xFFFF else 4
+
+
+def _vert_payload(pm: ProgressiveMesh) -> tuple[bytes, int, int]:
+    """VERT payload, its stride and its data offset (relative to the payload)."""
+    V = pm.vertex_count
+    names, descs, fields = [], [], [("f0", "<f4", (3,))]
+    offset, max_elem = 12, 4
+    blob = b""
+    attrs = list(pm.attributes.items())
+    hdr_len = L.VERT_HEADER.itemsize + L.ATTR_DESC.itemsize * len(attrs)
+    for i, (name, a) in enumerate(attrs):
+        a = np.asarray(a)
+        if a.ndim == 1:
+            a = a[:, None]
+        dt = a.dtype.newbyteorder("<") if a.dtype.byteorder == ">" else a.dtype
+        code = L.ELEM_CODES.get(np.dtype(dt).newbyteorder("<").str)
+        if code is None or a.ndim != 2 or a.shape[0] != V or not 1 <= a.shape[1] <= 255:
+            raise ValueError(f"attribute {name!r} ({a.dtype}, shape {a.shape}) cannot be stored in SWPM v1")
+        elem = L.ELEM_TYPES[code]
+        offset = L.align(offset, elem.itemsize)
+        raw = name.encode("utf-8")
+        descs.append((hdr_len + len(blob), len(raw), code, a.shape[1], offset, 0))
+        blob += raw
+        fields.append((f"f{i + 1}", elem.str, (a.shape[1],)))
+        names.append((name, a))
+        offset += elem.itemsize * a.shape[1]
+        max_elem = max(max_elem, elem.itemsize)
+    stride = L.align(offset, max_elem)
+    data_offset = L.align(hdr_len + len(blob), L.CHUNK_ALIGN)
+    dtype = np.dtype(
+        {
+            "names": [f[0] for f in fields],
+            "formats": [(f[1], f[2]) for f in fields],
+            "offsets": [0] + [int(d[4]) for d in descs],
+            "itemsize": stride,
+        }
+    )
+    data = np.zeros(V, dtype)
+    data["f0"] = pm.points
+    for i, (_, a) in enumerate(names):
+        data[f"f{i + 1}"] = a
+    head = np.array([(V, len(attrs), stride, data_offset)], L.VERT_HEADER).tobytes()
+    table = np.array(descs, L.ATTR_DESC).tobytes() if descs else b""
+    pre = head + table + blob
+    return pre + b"\0" * (data_offset - len(pre)) + data.tobytes(), stride, data_offset
+
+
+def _records(table: list[np.ndarray], offsets: np.ndarray, it: np.dtype) -> bytes:
+    R, M = int(table[0].shape[0]), int(offsets.shape[0])
+    head = np.array([(R, M)], L.REC_HEADER).tobytes()
+    return (
+        head
+        + _u(np.stack(table, axis=1) if R else np.zeros((0, 4)), it)
+        + np.ascontiguousarray(offsets, it).tobytes()
+    )
+
+
+def _bands(vc: np.ndarray) -> np.ndarray:
+    """Band of each LOD: floor(log2(V0 / vertex_count)), non-decreasing because counts do not grow."""
+    v0 = max(int(vc[0]), 1)
+    return np.floor(np.log2(v0 / np.maximum(vc.astype(np.float64), 1.0))).astype(np.int64)
+
+
+def needed_index_ranges(encoding: str, buffers: dict[str, np.ndarray], lods: int, n_index: int) -> np.ndarray:
+    """(L, 2) element range of INDX each LOD needs (spec: "Streaming map")."""
+    if encoding == "sliding-window":
+        w = np.asarray(buffers["window_records"], np.int64).reshape(-1, 3)
+        return np.stack([w[:, 0], w[:, 0] + 3 * w[:, 1]], axis=1)
+    if encoding == "skip-strip":
+        first = np.asarray(buffers["level_first_lod"], np.int64)
+        start = np.asarray(buffers["level_index_start"], np.int64)
+        lev = np.searchsorted(first, np.arange(lods), side="right") - 1
+        return np.stack([start[lev], start[lev + 1]], axis=1)
+    return np.tile(np.array([[0, n_index]], np.int64), (lods, 1))
+
+
+def smap_payload(
+    vc: np.ndarray,
+    idx_need: np.ndarray,
+    width: int,
+    indx_off: int,
+    vert_off: int,
+    vert_data: int,
+    stride: int,
+) -> bytes:
+    """Streaming map: per band of LODs, three ranges (prefix before INDX, INDX hull, VERT hull)."""
+    band = _bands(vc)
+    starts = np.flatnonzero(np.r_[True, np.diff(band) != 0])
+    counts = np.diff(np.r_[starts, len(vc)])
+    bands, ranges = [], []
+    for b, (s, n) in enumerate(zip(starts, counts, strict=True)):
+        lo = int(idx_need[s : s + n, 0].min()) * width + indx_off
+        hi = int(idx_need[s : s + n, 1].max()) * width + indx_off
+        vend = vert_off + vert_data + int(vc[s : s + n].max()) * stride
+        rs = [(0, indx_off), (lo, hi - lo), (vert_off, vend - vert_off)]
+        bands.append((int(s), int(n), 3 * b, 3, max(r[0] + r[1] for r in rs)))
+        ranges.extend(rs)
+    head = np.array([(len(bands), len(ranges))], L.SMAP_HEADER).tobytes()
+    return head + np.array(bands, L.SMAP_BAND).tobytes() + np.array(ranges, L.SMAP_RANGE).tobytes()
+
+
+def encode_bytes(
+    pm: ProgressiveMesh,
+    *,
+    source_digest: str | None = None,
+    generator: str = GENERATOR,
+    extra_chunks: Sequence[tuple[bytes, bool, bytes]] = (),
+    minor: int = L.VERSION_MINOR,
+    index_width: int | None = None,
+) -> bytes:
+    """The complete file for ``pm``. ``extra_chunks`` (type, critical, payload) go right after SMAP;
+    ``index_width`` (2 or 4) overrides the smallest width that fits (u32 is always allowed)."""
+    enc = pm.encoding
+    if enc not in L.ENCODING_FEATURES:
+        raise ValueError(f"encoding {enc!r} has no SWPM v1 layout")
+    bufs = pm.buffers()
+    W = choose_index_width(bufs) if index_width is None else max(int(index_width), choose_index_width(bufs))
+    it = L.index_dtype(W)
+    lods = pm.lod_count
+    meta = {
+        "encoding": enc,
+        "generator": generator,
+        "params": pm.params,
+        "source_digest": source_digest,
+    }
+    payload: dict[bytes, bytes] = {
+        L.META: json.dumps(meta, sort_keys=True, separators=(",", ":"), default=_json_default).encode(
+            "utf-8"
+        ),
+    }
+    rows = np.zeros(lods, L.LOD_ROW)
+    rows["vertex_count"] = pm.vertex_counts
+    rows["triangle_count"] = pm.triangle_counts
+    rows["error"] = pm.lod_errors
+    payload[L.LODS] = rows.tobytes()
+    vert, stride, vert_data = _vert_payload(pm)
+    payload[L.VERT] = vert
+    if enc == "vanilla":
+        payload[L.RCNT] = np.ascontiguousarray(bufs["lod_record_counts"], it).tobytes()
+        cols = [
+            "collapse_kept",
+            "collapse_tris_removed",
+            "collapse_change_count",
+            "collapse_prev_change_count",
+        ]
+        payload[L.VREC] = _records([np.asarray(bufs[c]) for c in cols], bufs["collapse_change_offsets"], it)
+        index = bufs["indices"]
+    elif enc == "sliding-window":
+        payload[L.WREC] = np.ascontiguousarray(
+            np.asarray(bufs["window_records"]).reshape(-1, 3), it
+        ).tobytes()
+        index = bufs["index_pool"]
+    else:
+        payload[L.RCNT] = np.ascontiguousarray(bufs["lod_record_counts"], it).tobytes()
+        first = np.asarray(bufs["level_first_lod"])
+        coll = np.asarray(bufs["level_collapsed_indices"])
+        payload[L.SKIP] = (
+            np.array([(first.shape[0], coll.shape[0])], L.SKIP_HEADER).tobytes()
+            + b"".join(
+                _u(bufs[k], it)
+                for k in (
+                    "level_first_lod",
+                    "level_index_start",
+                    "level_collapsed_start",
+                    "level_record_start",
+                )
+            )
+            + np.ascontiguousarray(coll, it).tobytes()
+        )
+        cols = ["collapse_kept", "collapse_binned", "collapse_change_count", "collapse_prev_change_count"]
+        payload[L.SREC] = _records([np.asarray(bufs[c]) for c in cols], bufs["collapse_change_offsets"], it)
+        index = bufs["level_indices"]
+    payload[L.INDX] = np.ascontiguousarray(index, it).tobytes()
+    n_index = int(np.asarray(index).shape[0])
+
+    order = list(L.REQUIRED_CHUNKS[enc])
+    at = order.index(L.SMAP) + 1
+    types = order[:at] + [c[0] for c in extra_chunks] + order[at:]
+    crit = {t: L.CHUNK_TYPES[t][0] for t in order} | {c[0]: c[1] for c in extra_chunks}
+    payload.update({c[0]: c[2] for c in extra_chunks})
+    table_end = L.HEADER_SIZE + L.CHUNK_ENTRY.itemsize * len(types)
+
+    def offsets(smap_len: int) -> dict[bytes, int]:
+        pos, out = L.align(table_end, L.CHUNK_ALIGN), {}
+        for t in types:
+            out[t] = pos
+            n = smap_len if t == L.SMAP else len(payload[t])
+            pos = L.align(pos + n, L.CHUNK_ALIGN)
+        return out
+
+    vc = np.asarray(pm.vertex_counts, np.int64)
+    band_n = len(np.unique(_bands(vc)))
+    offs = offsets(L.SMAP_HEADER.itemsize + band_n * (L.SMAP_BAND.itemsize + 3 * L.SMAP_RANGE.itemsize))
+    idx_need = needed_index_ranges(enc, bufs, lods, n_index)
+    payload[L.SMAP] = smap_payload(vc, idx_need, W, offs[L.INDX], offs[L.VERT], vert_data, stride)
+
+    file_size = offs[types[-1]] + len(payload[types[-1]])
+    out = bytearray(file_size)
+    entries = np.zeros(len(types), L.CHUNK_ENTRY)
+    for i, t in enumerate(types):
+        p = payload[t]
+        out[offs[t] : offs[t] + len(p)] = p
+        entries[i] = (t, L.CHUNK_CRITICAL if crit[t] else 0, offs[t], len(p), zlib.crc32(p, zlib.crc32(t)), 0)
+    features = L.ENCODING_FEATURES[enc] | (L.FEATURE_INDEX32 if W == 4 else 0)
+    head = np.zeros(1, L.HEADER)
+    head[0] = (
+        L.MAGIC,
+        L.VERSION_MAJOR,
+        minor,
+        L.HEADER_SIZE,
+        0,
+        features,
+        len(types),
+        0,
+        L.HEADER_SIZE,
+        file_size,
+        0,
+        (0, 0, 0),
+    )
+    out[: L.HEADER_SIZE] = head.tobytes()
+    out[L.HEADER_SIZE : table_end] = entries.tobytes()
+    crc = zlib.crc32(bytes(out[:table_end]))
+    out[L.FILE_CRC_OFFSET : L.FILE_CRC_OFFSET + 4] = crc.to_bytes(4, "little")
+    return bytes(out)
+
+
+def _json_default(o: Any) -> Any:
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (set, tuple)):
+        return list(o)
+    raise TypeError(f"parameter value {o!r} is not JSON-serialisable")
+
+
+def save(pm: ProgressiveMesh, path: str | os.PathLike[str], *, source_digest: str | None = None) -> Path:
+    """Write ``pm`` to ``path`` as SWPM v1, atomically: a reader sees the old file or the complete new one."""
+    data = encode_bytes(pm, source_digest=source_digest)
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    return path

@@ -1,0 +1,39 @@
+"""USD schema and I/O for progressive meshes: the SwpmMeshAPI schema, writer, reader, overrides, validation.
+
+Importing ``swpm_usd`` registers the schema plugin (:mod:`swpm_usd.usd.plugin`); everything else is loaded
+lazily so ``import swpm_usd`` stays cheap. Public API:
+
+- :func:`write` (asset layer per mesh), :func:`write_overrides` (non-destructive layer over a stage),
+  :func:`write_usdlod` (UsdLod layer over an asset written with discrete LODs), :func:`select_lods`;
+- :func:`read` (prim -> ProgressiveMesh), :func:`read_buffers`, :func:`find_encoded`;
+- :func:`validate_stage` -> list of :class:`Finding`, :func:`register_validators`.
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import Any
+
+from . import plugin as plugin
+
+_EXPORTS = {
+    "write": "writer",
+    "write_usdlod": "writer",
+    "select_lods": "writer",
+    "read": "reader",
+    "read_buffers": "reader",
+    "find_encoded": "reader",
+    "write_overrides": "overrides",
+    "validate_stage": "validate",
+    "validate_prim": "validate",
+    "register_validators": "validate",
+    "Finding": "validate",
+}
+
+__all__ = sorted(_EXPORTS) + ["plugin"]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        return getattr(import_module(f".{_EXPORTS[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

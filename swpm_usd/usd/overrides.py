@@ -1,0 +1,253 @@
+"""Non-destructive encoding of an existing stage: a layer that sublayers (or references) the source and
+overrides each Mesh prim with SwpmMeshAPI, points in LOD order, LOD-0 topology and re-indexed primvars.
+
+Per Mesh prim (in its local space, at the default time): faces are fan-triangulated; vertices are the
+distinct (point, faceVarying values, uniform normals/st/displayColor values) combinations, so seams split
+points only where needed; degenerate triangles are dropped. Primvars are re-indexed consistently:
+``vertex`` / ``varying`` ones follow the points; ``faceVarying`` ones (and uniform normals / st /
+displayColor) become ``vertex`` primvars on the split points; other ``uniform`` ones follow the LOD-0
+triangles; ``constant`` ones are untouched; indexed primvars are written flattened (their indices blocked).
+Face GeomSubsets get the LOD-0 triangles of their faces. Instanced meshes (inside prototypes) are skipped.
+The source files are never written.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pxr import Sdf, Usd, UsdGeom
+
+from ..build import build
+from ..encode.base import ProgressiveMesh, from_buffers
+from ..errors import SwpmError
+from ..io.usd_loader import _Topology
+from ..mesh import Mesh
+from .writer import author_swpm
+
+_PROV = "_swpm_source_vertex"
+_PM_NAMES = {"normals": "normal", "st": "uv", "displayColor": "color"}
+
+
+class UsdOverrideError(SwpmError):
+    """A source stage or prim cannot be encoded in place."""
+
+
+class _Primvar:
+    def __init__(
+        self, name: str, values: np.ndarray, interp: str, pv: UsdGeom.Primvar | None, attr: Usd.Attribute
+    ):
+        self.name, self.interp, self.pv, self.attr = name, interp, pv, attr
+        self.values = values  # (n_elements, ...) flattened values, one row per element
+        self.rows = values.reshape(values.shape[0], -1)
+
+
+def _primvars(prim: Usd.Prim, topo: _Topology) -> list[_Primvar]:
+    mesh = UsdGeom.Mesh(prim)
+    out = []
+    api = UsdGeom.PrimvarsAPI(prim)
+    for pv in api.GetPrimvarsWithValues():
+        flat = pv.ComputeFlattened()
+        if flat is None:
+            continue
+        a = np.asarray(flat)
+        es = max(pv.GetElementSize(), 1)
+        a = a.reshape(a.shape[0] // es, es, *a.shape[1:]) if es > 1 else a
+        out.append(_Primvar(str(pv.GetPrimvarName()), a, str(pv.GetInterpolation()), pv, pv.GetAttr()))
+    if not any(p.name == "normals" for p in out) and mesh.GetNormalsAttr().HasValue():
+        a = np.asarray(mesh.GetNormalsAttr().Get())
+        out.append(_Primvar("normals", a, str(mesh.GetNormalsInterpolation()), None, mesh.GetNormalsAttr()))
+    return out
+
+
+def _corner_rows(p: _Primvar, topo: _Topology) -> np.ndarray:
+    """Values of ``p`` at each triangle corner (3T, k)."""
+    if p.interp == UsdGeom.Tokens.faceVarying:
+        return p.rows[topo.corners.reshape(-1)]
+    if p.interp == UsdGeom.Tokens.uniform:
+        return p.rows[np.repeat(topo.face, 3)]
+    return p.rows[topo.points.reshape(-1)]
+
+
+def _splits(p: _Primvar) -> bool:
+    return p.interp == UsdGeom.Tokens.faceVarying or (
+        p.interp == UsdGeom.Tokens.uniform and p.name in _PM_NAMES
+    )
+
+
+def _extract(prim: Usd.Prim) -> tuple[Mesh, dict[str, Any]]:
+    mesh = UsdGeom.Mesh(prim)
+    points = np.asarray(mesh.GetPointsAttr().Get(), np.float32).reshape(-1, 3)
+    counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get(), np.int64)
+    fvi = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), np.int64)
+    topo = _Topology(counts, fvi, points.shape[0], False, str(prim.GetPath()))
+    pvs = [p for p in _primvars(prim, topo) if p.interp != UsdGeom.Tokens.constant]
+    n = topo.points.size
+    cols = [np.ascontiguousarray(topo.points.reshape(-1, 1).astype("<i8")).view(np.uint8).reshape(n, -1)]
+    for p in pvs:
+        if _splits(p):
+            r = np.ascontiguousarray(_corner_rows(p, topo))
+            cols.append(r.view(np.uint8).reshape(n, -1))
+    key = np.ascontiguousarray(np.concatenate(cols, axis=1))
+    key = key.view(np.dtype((np.void, key.shape[1]))).reshape(-1)
+    _, rep_corner, vertex_of_corner = np.unique(key, return_index=True, return_inverse=True)
+    tris = vertex_of_corner.reshape(-1, 3)
+    keep = (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])
+    src_point = topo.points.reshape(-1)[rep_corner]
+    attrs: dict[str, np.ndarray] = {}
+    for p in pvs:
+        if p.name in _PM_NAMES and p.rows.dtype.kind == "f":
+            rows = _corner_rows(p, topo)[rep_corner].astype(np.float32)
+            if p.name == "displayColor":
+                opacity = next((q for q in pvs if q.name == "displayOpacity"), None)
+                if opacity is not None and _splits(opacity) == _splits(p):
+                    rows = np.concatenate([rows, _corner_rows(opacity, topo)[rep_corner][:, :1]], axis=1)
+            attrs[_PM_NAMES[p.name]] = rows
+    attrs[_PROV] = np.arange(rep_corner.shape[0], dtype=np.int64)[:, None]
+    m = Mesh(points[src_point], tris[keep].astype(np.int32), attrs, source=str(prim.GetPath()))
+    info = {
+        "topo": topo,
+        "primvars": pvs,
+        "rep_corner": rep_corner,
+        "src_point": src_point,
+        "kept_tris": keep,
+    }
+    return m, info
+
+
+def _match_triangles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """For each row of ``b`` the row of ``a`` holding the same vertex set (a and b: same multiset)."""
+    sa, sb = np.sort(a, axis=1), np.sort(b, axis=1)
+    oa = np.lexsort(sa.T[::-1])
+    ob = np.lexsort(sb.T[::-1])
+    if a.shape != b.shape or not np.array_equal(sa[oa], sb[ob]):
+        raise UsdOverrideError("the encoding's LOD-0 triangles are not the source triangles")
+    out = np.empty(b.shape[0], np.int64)
+    out[ob] = oa
+    return out
+
+
+def _set_values(p: _Primvar, rows: np.ndarray, interp: str) -> None:
+    values = (
+        rows.reshape(-1, *p.values.shape[2:]) if p.values.ndim > 2 else rows.reshape(-1, *p.values.shape[1:])
+    )
+    p.attr.Set(np.ascontiguousarray(values))
+    if p.pv is not None:
+        if p.pv.IsIndexed():
+            p.pv.BlockIndices()
+        if interp != p.interp:
+            p.pv.SetInterpolation(interp)
+    elif interp != p.interp:
+        UsdGeom.Mesh(p.attr.GetPrim()).SetNormalsInterpolation(interp)
+
+
+def encode_prim(prim: Usd.Prim, encoding: str = "vanilla", **params: Any) -> ProgressiveMesh:
+    """Encode one Mesh prim of an editable stage in place: apply SwpmMeshAPI and author everything on the
+    stage's edit target (an ``over`` when the prim comes from a weaker layer)."""
+    mesh_in, info = _extract(prim)
+    pm = build(mesh_in, encoding, **params)
+    prov = np.asarray(pm.attributes[_PROV]).reshape(-1).astype(np.int64)
+    attrs = {k: v for k, v in pm.attributes.items() if k != _PROV}
+    pm = from_buffers(
+        pm.encoding,
+        pm.points,
+        attrs,
+        pm.vertex_counts,
+        pm.triangle_counts,
+        pm.lod_errors,
+        pm.buffers(),
+        pm.params,
+    )
+    topo: _Topology = info["topo"]
+    corner = info["rep_corner"][prov]  # source triangle corner of each new vertex
+    kept_src = np.flatnonzero(info["kept_tris"])
+    tri0 = np.asarray(pm.triangles_at(0), np.int64)
+    mesh_tris = np.asarray(mesh_in.triangles, np.int64)
+    src_tri = kept_src[_match_triangles(mesh_tris, prov[tri0])]  # source triangle of each LOD-0 triangle
+    src_face = topo.face[src_tri]
+
+    mesh = UsdGeom.Mesh(prim)
+    mesh.GetPointsAttr().Set(np.ascontiguousarray(pm.points))
+    mesh.GetFaceVertexIndicesAttr().Set(np.ascontiguousarray(tri0.reshape(-1).astype(np.int32)))
+    mesh.GetFaceVertexCountsAttr().Set(np.full(tri0.shape[0], 3, np.int32))
+    if pm.vertex_count:
+        mesh.GetExtentAttr().Set(np.stack([pm.points.min(axis=0), pm.points.max(axis=0)]))
+    for p in info["primvars"]:
+        if p.interp in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying):
+            _set_values(p, p.rows[info["src_point"][prov]], p.interp)
+        elif _splits(p):
+            _set_values(p, _corner_rows(p, topo)[corner], UsdGeom.Tokens.vertex)
+        elif p.interp == UsdGeom.Tokens.uniform:
+            _set_values(p, p.rows[src_face], p.interp)
+    for subset in UsdGeom.Subset.GetAllGeomSubsets(mesh):
+        if subset.GetElementTypeAttr().Get() != UsdGeom.Tokens.face:
+            continue
+        faces = np.asarray(subset.GetIndicesAttr().Get() or [], np.int64)
+        subset.GetIndicesAttr().Set(np.flatnonzero(np.isin(src_face, faces)).astype(np.int32))
+    author_swpm(prim, pm)
+    return pm
+
+
+def _mesh_prims(stage: Usd.Stage, prims: Iterable[str] | None) -> list[Usd.Prim]:
+    roots = [stage.GetPseudoRoot()] if prims is None else [stage.GetPrimAtPath(p) for p in prims]
+    out = []
+    for root in roots:
+        if not root:
+            raise UsdOverrideError(f"no prim at {root.GetPath() if root else prims}")
+        out.extend(p for p in Usd.PrimRange(root) if p.IsA(UsdGeom.Mesh) and not p.IsInstanceProxy())
+    return out
+
+
+def write_overrides(
+    source: str | os.PathLike[str],
+    path: str | os.PathLike[str],
+    encoding: str = "vanilla",
+    *,
+    mode: str = "sublayer",
+    prims: Iterable[str] | None = None,
+    **params: Any,
+) -> dict[str, ProgressiveMesh]:
+    """Write ``path``: a layer over ``source`` that encodes each Mesh prim (all, or those under ``prims``).
+
+    ``mode="sublayer"``: the layer sublayers the source (all its prims, same paths). ``mode="reference"``:
+    the layer's default prim references the source's default prim (only prims under it are encoded).
+    Format from the suffix (``.usda`` text, else crate). Returns prim path -> progressive mesh.
+    """
+    src_path, out_path = Path(source).resolve(), Path(path).resolve()
+    if src_path == out_path:
+        raise UsdOverrideError("the override layer must not be the source file")
+    src_stage = Usd.Stage.Open(str(src_path))
+    rel = os.path.relpath(src_path, out_path.parent).replace(os.sep, "/")
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    layer = Sdf.Layer.Find(str(out_path))
+    if layer is not None:
+        layer.Clear()
+    else:
+        layer = Sdf.Layer.CreateNew(str(out_path))
+    if mode == "sublayer":
+        layer.subLayerPaths.append(rel)
+    elif mode == "reference":
+        default = src_stage.GetDefaultPrim()
+        if not default:
+            raise UsdOverrideError(f"{src_path}: reference mode needs a defaultPrim")
+        spec = Sdf.CreatePrimInLayer(layer, default.GetPath())
+        spec.specifier = Sdf.SpecifierDef
+        spec.typeName = default.GetTypeName()
+        spec.referenceList.Prepend(Sdf.Reference(rel))
+        layer.defaultPrim = default.GetName()
+    else:
+        raise UsdOverrideError(f"mode must be 'sublayer' or 'reference', not {mode!r}")
+    for key in ("upAxis", "metersPerUnit"):
+        if src_stage.HasAuthoredMetadata(key):
+            layer.pseudoRoot.SetInfo(key, src_stage.GetMetadata(key))
+    if mode == "sublayer" and src_stage.GetRootLayer().defaultPrim:
+        layer.defaultPrim = src_stage.GetRootLayer().defaultPrim
+    stage = Usd.Stage.Open(layer)
+    result = {}
+    for prim in _mesh_prims(stage, prims):
+        result[str(prim.GetPath())] = encode_prim(prim, encoding, **params)
+    layer.Save()
+    return result

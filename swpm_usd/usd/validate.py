@@ -1,0 +1,347 @@
+"""Validation of SwpmMeshAPI prims, registered as a UsdValidation validator, plus a stage-level runner.
+
+:func:`validate_prim` checks one prim against the invariants of the format (windows inside the pool,
+indices below the vertex count, a known encoding, consistent strides and types) and returns
+:class:`Finding` objects with stable codes (listed in ``CODES`` and spec/usd.md). :func:`register_validators`
+registers it as the UsdValidation prim validator ``swpmValidators:SwpmMeshChecker``; :func:`validate_stage`
+runs it together with usd-core's built-in validators on a stage (instance proxies included).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+from pxr import Usd, UsdGeom, UsdValidation
+
+from .reader import _snake, is_encoded
+from .schema import COLLAPSE_PREFIX, ENCODING_TOKENS, FORMAT_VERSION, PROPERTY_TYPES, attr_name
+
+VALIDATOR_NAME = "swpmValidators:SwpmMeshChecker"
+ERROR, WARNING = "error", "warning"
+
+#: stable finding codes of our validator -> what they mean
+CODES: dict[str, str] = {
+    "SWPM_USD_NOT_MESH": "SwpmMeshAPI is applied to a prim that is not a Mesh.",
+    "SWPM_USD_MISSING": "a required swpm: attribute (or points) has no value.",
+    "SWPM_USD_TYPE": "an attribute's type differs from the schema (or a buffer dtype is unknown).",
+    "SWPM_USD_ENCODING": "swpm:encoding names no known encoding.",
+    "SWPM_USD_VERSION": "swpm:formatVersion is not supported by this reader.",
+    "SWPM_USD_LOD_TABLE": "vertexCounts / triangleCounts / lodErrors disagree in length, order or range.",
+    "SWPM_USD_STRIDE": "an array's length is not a multiple of its row width or parallel arrays differ.",
+    "SWPM_USD_WINDOW_RANGE": "a sliding window lies (partly) outside swpm:indexPool.",
+    "SWPM_USD_INDEX_RANGE": "a vertex index is not below the vertex count.",
+    "SWPM_USD_TOPOLOGY": "faceVertexIndices / Counts are not a triangle list of one of the LODs.",
+    "SWPM_USD_PARAMS": "swpm:params is not a JSON object.",
+    "SWPM_USD_REBUILD": "the stored buffers do not rebuild a progressive mesh.",
+}
+
+# buffers whose values are vertex ids
+_VERTEX_BUFFERS = (
+    "indices",
+    "index_pool",
+    "level_indices",
+    "level_collapsed_indices",
+    "level_static_indices",
+    "level_dynamic_indices",
+    "level_dynamic_collapsed_indices",
+    "collapse_kept",
+    "collapse_binned",
+)
+_REQUIRED = (
+    "swpm:formatVersion",
+    "swpm:encoding",
+    "swpm:vertexCounts",
+    "swpm:triangleCounts",
+    "swpm:lodErrors",
+    "swpm:bufferNames",
+    "swpm:bufferDtypes",
+    "swpm:bufferColumns",
+)
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One problem: stable ``code``, ``severity`` ("error" / "warning"), ``prim`` path, ``message``."""
+
+    code: str
+    severity: str
+    prim: str
+    message: str
+
+    def to_dict(self) -> dict[str, str]:
+        return asdict(self)
+
+
+class _Check:
+    def __init__(self, prim: Usd.Prim) -> None:
+        self.prim = prim
+        self.where = str(prim.GetPath())
+        self.found: list[Finding] = []
+
+    def add(self, code: str, message: str, severity: str = ERROR) -> None:
+        self.found.append(Finding(code, severity, self.where, message))
+
+    def get(self, name: str, required: bool = True) -> Any:
+        attr = self.prim.GetAttribute(name)
+        if not attr or not attr.HasValue():
+            if required:
+                self.add("SWPM_USD_MISSING", f"{name} has no value")
+            return None
+        expected = PROPERTY_TYPES.get(name)
+        if expected is not None:
+            # the schema's type wins in attr.GetTypeName(); the authored spec says what is stored
+            stack = attr.GetPropertyStack()
+            authored = str(stack[0].typeName) if stack else str(attr.GetTypeName())
+            if authored != expected:
+                self.add("SWPM_USD_TYPE", f"{name} is authored as {authored}, expected {expected}")
+                return None
+        return attr.Get()
+
+
+def _array(value: Any, dtype: Any = np.int64) -> np.ndarray:
+    return np.asarray(value).astype(dtype, copy=False).reshape(-1)
+
+
+def validate_prim(prim: Usd.Prim) -> list[Finding]:
+    """Our invariants on one prim (no findings for a prim without SwpmMeshAPI)."""
+    if not is_encoded(prim):
+        return []
+    c = _Check(prim)
+    if not prim.IsA(UsdGeom.Mesh):
+        c.add("SWPM_USD_NOT_MESH", f"SwpmMeshAPI on a {prim.GetTypeName() or 'typeless'} prim")
+        return c.found
+    values = {n: c.get(n) for n in _REQUIRED}
+    if any(v is None for v in values.values()):
+        return c.found
+    from ..encode.base import ENCODINGS
+
+    encoding = str(values["swpm:encoding"])
+    if encoding not in ENCODING_TOKENS or encoding not in ENCODINGS:
+        c.add("SWPM_USD_ENCODING", f"swpm:encoding {encoding!r} is not one of {sorted(ENCODINGS)}")
+    if int(values["swpm:formatVersion"]) != FORMAT_VERSION:
+        c.add(
+            "SWPM_USD_VERSION",
+            f"swpm:formatVersion {values['swpm:formatVersion']} (supported: {FORMAT_VERSION})",
+        )
+    params = c.get("swpm:params", required=False)
+    try:
+        params = json.loads(params) if params is not None else {}
+        if not isinstance(params, dict):
+            raise ValueError("not an object")
+    except ValueError as e:
+        c.add("SWPM_USD_PARAMS", f"swpm:params: {e}")
+        params = {}
+
+    points = prim.GetAttribute("points").Get()
+    V = 0 if points is None else len(points)
+    vc = _array(values["swpm:vertexCounts"])
+    tc = _array(values["swpm:triangleCounts"])
+    err = _array(values["swpm:lodErrors"], np.float64)
+    L = vc.shape[0]
+    if L == 0 or tc.shape[0] != L or err.shape[0] != L:
+        c.add(
+            "SWPM_USD_LOD_TABLE", f"{L} vertexCounts, {tc.shape[0]} triangleCounts, {err.shape[0]} lodErrors"
+        )
+    else:
+        if np.any(np.diff(vc) > 0) or np.any(np.diff(tc) > 0) or np.any(np.diff(err) < 0):
+            c.add("SWPM_USD_LOD_TABLE", "counts must not grow and errors must not shrink from LOD to LOD")
+        if int(vc[0]) != V:
+            c.add("SWPM_USD_LOD_TABLE", f"vertexCounts[0] = {int(vc[0])} but the prim has {V} points")
+
+    names = [str(n) for n in values["swpm:bufferNames"]]
+    dtypes = [str(d) for d in values["swpm:bufferDtypes"]]
+    cols = _array(values["swpm:bufferColumns"])
+    if not len(names) == len(dtypes) == cols.shape[0]:
+        c.add("SWPM_USD_STRIDE", "swpm:bufferNames, bufferDtypes and bufferColumns differ in length")
+        return c.found
+    for d in dtypes:
+        try:
+            np.dtype(d)
+        except TypeError:
+            c.add("SWPM_USD_TYPE", f"swpm:bufferDtypes names an unknown dtype {d!r}")
+            return c.found
+    fields = [COLLAPSE_PREFIX + _snake(str(f)) for f in (c.get("swpm:collapseRecordFields", False) or [])]
+    buffers: dict[str, np.ndarray] = {}
+    structural = len(c.found)
+    if fields:
+        table = c.get("swpm:collapseRecords")
+        if table is None:
+            return c.found
+        table = _array(table)
+        if table.shape[0] % len(fields):
+            c.add(
+                "SWPM_USD_STRIDE",
+                f"swpm:collapseRecords has {table.shape[0]} entries for {len(fields)} fields",
+            )
+            return c.found
+        table = table.reshape(-1, len(fields))
+        buffers.update({f: table[:, i] for i, f in enumerate(fields)})
+    for name, width in zip(names, cols.tolist(), strict=True):
+        if name in buffers:
+            continue
+        a = c.get(attr_name(name))
+        if a is None:
+            continue
+        a = _array(a)
+        if width and a.shape[0] % width:
+            c.add("SWPM_USD_STRIDE", f"{attr_name(name)} has {a.shape[0]} entries, not a multiple of {width}")
+            continue
+        buffers[name] = a.reshape(-1, width) if width else a
+    if len(c.found) > structural:
+        return c.found
+
+    from ..encode.base import ENCODINGS as _E
+
+    restart = {
+        v for k, v in params.items() if "restart" in k and isinstance(v, int) and not isinstance(v, bool)
+    }
+    cls_restart = getattr(_E.get(encoding), "restart_index", None)
+    if cls_restart is not None:
+        restart.add(int(cls_restart))
+    for name in _VERTEX_BUFFERS:
+        a = buffers.get(name)
+        if a is None or a.size == 0:
+            continue
+        bad = a >= V
+        if restart:
+            bad &= ~np.isin(a, list(restart))
+        if bad.any():
+            i = int(np.argmax(bad))
+            c.add("SWPM_USD_INDEX_RANGE", f"{attr_name(name)}[{i}] = {int(a.reshape(-1)[i])} >= {V} vertices")
+    if "window_records" in buffers:
+        w = buffers["window_records"].reshape(-1, 3)
+        pool = buffers.get("index_pool", np.zeros(0, np.int64))
+        if w.shape[0] != L:
+            c.add("SWPM_USD_STRIDE", f"swpm:windowRecords has {w.shape[0]} rows for {L} LODs")
+        end = w[:, 0] + 3 * w[:, 1]
+        out = end > pool.shape[0]
+        if out.any():
+            k = int(np.argmax(out))
+            c.add(
+                "SWPM_USD_WINDOW_RANGE",
+                f"window of LOD {k} [{int(w[k, 0])}, {int(end[k])}) outside indexPool of {pool.shape[0]}",
+            )
+        if (w[:, 2] > V).any():
+            k = int(np.argmax(w[:, 2] > V))
+            c.add("SWPM_USD_INDEX_RANGE", f"window of LOD {k} uses {int(w[k, 2])} vertices of {V}")
+    if "collapse_change_offsets" in buffers and "collapse_change_count" in buffers:
+        if int(buffers["collapse_change_count"].sum()) != buffers["collapse_change_offsets"].shape[0]:
+            c.add("SWPM_USD_STRIDE", "collapse change counts do not sum to the number of change offsets")
+
+    fvc = prim.GetAttribute("faceVertexCounts").Get()
+    fvi = prim.GetAttribute("faceVertexIndices").Get()
+    if fvc is None or fvi is None:
+        c.add("SWPM_USD_TOPOLOGY", "faceVertexCounts / faceVertexIndices have no value")
+    else:
+        fvc, fvi = _array(fvc), _array(fvi)
+        if fvc.size and (fvc != 3).any():
+            c.add("SWPM_USD_TOPOLOGY", "faceVertexCounts are not all 3")
+        elif fvi.shape[0] != 3 * fvc.shape[0] or (L and fvc.shape[0] not in set(tc.tolist())):
+            c.add("SWPM_USD_TOPOLOGY", f"{fvc.shape[0]} faces match no LOD's triangle count")
+        elif fvi.size and (fvi.min() < 0 or fvi.max() >= V):
+            c.add("SWPM_USD_INDEX_RANGE", f"faceVertexIndices outside [0, {V})")
+    if not c.found:
+        try:
+            from .reader import read
+
+            read(prim)
+        except Exception as e:  # any failure of the encoding's constructor
+            c.add("SWPM_USD_REBUILD", f"{type(e).__name__}: {e}")
+    return c.found
+
+
+_registered = False
+
+
+def _validator_fn(prim: Usd.Prim, *_: Any) -> list[Any]:
+    errors = []
+    for f in validate_prim(prim):
+        kind = (
+            UsdValidation.ValidationErrorType.Error
+            if f.severity == ERROR
+            else UsdValidation.ValidationErrorType.Warn
+        )
+        site = UsdValidation.ValidationErrorSite(prim.GetStage(), prim.GetPath())
+        errors.append(UsdValidation.ValidationError(f.code, kind, [site], f.message))
+    return errors
+
+
+def register_validators() -> bool:
+    """Register ``swpmValidators:SwpmMeshChecker`` with UsdValidation (once); False if usd-core cannot."""
+    global _registered
+    if _registered:
+        return True
+    reg = UsdValidation.ValidationRegistry()
+    if not reg.HasValidator(VALIDATOR_NAME):
+        meta = UsdValidation.ValidatorMetadata(
+            name=VALIDATOR_NAME,
+            keywords=["swpm", "SwpmMeshAPI"],
+            doc="SwpmMeshAPI invariants: " + " ".join(f"{k}: {v}" for k, v in CODES.items()),
+        )
+        try:
+            reg.RegisterPrimValidator(meta, _validator_fn)
+        except Exception:  # pragma: no cover - registration API differs
+            return False
+    _registered = True
+    return True
+
+
+def _builtin_names(reg: Any) -> list[str]:
+    return [
+        m.name
+        for m in reg.GetAllValidatorMetadata()
+        if "UsdzValidators" not in m.GetKeywords()
+        and m.name != "usdUtilsValidators:RootPackageValidator"
+        and m.name != VALIDATOR_NAME
+        and not m.isSuite
+    ]
+
+
+def _site_path(err: Any) -> str:
+    for site in err.GetSites():
+        if site.IsPrim() or site.IsProperty():
+            return str(site.GetPrim().GetPath() if site.IsPrim() else site.GetProperty().GetPath())
+    return "/"
+
+
+def validate_stage(path: str | os.PathLike[str] | Usd.Stage, builtin: bool = True) -> list[Finding]:
+    """Run our validator and (``builtin``) usd-core's built-in validators on a stage; our output has none."""
+    stage = path if isinstance(path, Usd.Stage) else Usd.Stage.Open(os.fspath(path))
+    reg = UsdValidation.ValidationRegistry()
+    names = _builtin_names(reg) if builtin else []
+    ours = register_validators()
+    if ours:
+        names.append(VALIDATOR_NAME)
+    findings: list[Finding] = []
+    if names:
+        ctx = UsdValidation.ValidationContext(reg.GetOrLoadValidatorsByName(names))
+        for err in ctx.Validate(stage):
+            if err.HasNoError():
+                continue
+            validator = err.GetValidator()
+            vname = validator.GetMetadata().name if validator else ""
+            severity = ERROR if err.GetType() == UsdValidation.ValidationErrorType.Error else WARNING
+            if vname == VALIDATOR_NAME:
+                code = str(err.GetName()).rsplit(".", 1)[-1]
+            else:
+                code = f"{vname}.{err.GetName()}" if str(err.GetName()) else vname
+            findings.append(Finding(code, severity, _site_path(err), err.GetMessage()))
+    if not ours:
+        rng = Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate))
+        for prim in rng:
+            findings.extend(validate_prim(prim))
+    findings.sort(key=lambda f: (f.prim, f.code, f.message))
+    return findings
+
+
+def report(findings: list[Finding]) -> dict[str, Any]:
+    """JSON-able report: counts per severity and the findings."""
+    return {
+        "errors": sum(f.severity == ERROR for f in findings),
+        "warnings": sum(f.severity == WARNING for f in findings),
+        "findings": [f.to_dict() for f in findings],
+    }

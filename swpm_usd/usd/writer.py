@@ -1,0 +1,367 @@
+"""Write progressive meshes to USD: an asset layer per mesh, discrete LOD variants and a UsdLod layer.
+
+Asset layout (``write``)::
+
+    /<Name>        Xform, defaultPrim, kind=component   (references / instanceable prims target this)
+      mesh         Mesh + SwpmMeshAPI: points in LOD order, LOD-0 topology, primvars, swpm:* buffers
+
+With ``lods=n`` the mesh also gets a ``LOD`` variant set (``LOD0`` .. ``LOD{n-1}``, selection ``LOD0``) whose
+variants hold the topology of ``n`` progressive LODs (chosen by triangle fraction or error, see
+:func:`select_lods`) for tools that know neither UsdLod nor swpm; ``swpm:discreteLods`` names their
+progressive LOD indices. :func:`write_usdlod` then writes a UsdLod layer over such an asset.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, Vt
+
+from ..encode.base import ProgressiveMesh
+from ..errors import SwpmError
+from . import plugin
+from .arrays import to_vt
+from .schema import COLLAPSE_FLAT, COLLAPSE_PREFIX, FORMAT_VERSION, SCHEMA_NAME, attr_name, camel
+
+MESH_NAME = "mesh"
+LOD_VARIANT_SET = "LOD"
+_UNIFORM = Sdf.VariabilityUniform
+
+
+class UsdWriteError(SwpmError):
+    """The progressive mesh cannot be written to USD as asked."""
+
+
+def _json_default(o: Any) -> Any:
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    return str(o)
+
+
+def _collapse_fields(buffers: dict[str, np.ndarray]) -> list[str]:
+    """Buffers stored as columns of swpm:collapseRecords: 1-D collapse_* arrays of the record count."""
+    names = [
+        n
+        for n, a in buffers.items()
+        if n.startswith(COLLAPSE_PREFIX) and n not in COLLAPSE_FLAT and a.ndim == 1
+    ]
+    if not names:
+        return []
+    r = buffers[names[0]].shape[0]
+    return [n for n in names if buffers[n].shape[0] == r and buffers[n].dtype.kind in "ui"]
+
+
+def swpm_values(pm: ProgressiveMesh) -> dict[str, tuple[Sdf.ValueTypeName, Any]]:
+    """Every swpm: attribute of ``pm``: name -> (Sdf type, value). Exactly what the prim stores."""
+    buffers = {n: np.asarray(a) for n, a in pm.buffers().items()}
+    fields = _collapse_fields(buffers)
+    T = Sdf.ValueTypeNames
+    out: dict[str, tuple[Sdf.ValueTypeName, Any]] = {
+        "swpm:formatVersion": (T.Int, FORMAT_VERSION),
+        "swpm:encoding": (T.Token, pm.encoding),
+        "swpm:indexWidth": (T.Int, 2 if pm.vertex_count - 1 <= 0xFFFF else 4),
+        "swpm:vertexCounts": to_vt("swpm:vertexCounts", pm.vertex_counts),
+        "swpm:triangleCounts": to_vt("swpm:triangleCounts", pm.triangle_counts),
+        "swpm:lodErrors": to_vt("swpm:lodErrors", pm.lod_errors),
+        "swpm:params": (T.String, json.dumps(pm.params, sort_keys=True, default=_json_default)),
+        "swpm:attributeNames": (T.TokenArray, list(pm.attributes)),
+        "swpm:bufferNames": (T.TokenArray, list(buffers)),
+        "swpm:bufferDtypes": (T.TokenArray, [a.dtype.name for a in buffers.values()]),
+        "swpm:bufferColumns": to_vt(
+            "swpm:bufferColumns",
+            np.array([a.shape[1] if a.ndim == 2 else 0 for a in buffers.values()], np.uint32),
+        ),
+    }
+    vc = np.maximum(pm.vertex_counts.astype(np.float64), 1.0)
+    band = np.floor(np.log2(max(float(vc[0]), 1.0) / vc)).astype(np.int64)
+    starts = np.flatnonzero(np.r_[True, np.diff(band) != 0])
+    bands = np.stack([starts, np.diff(np.r_[starts, band.shape[0]])], axis=1)
+    out["swpm:streamingBands"] = to_vt("swpm:streamingBands", bands)
+    if fields:
+        table = np.stack([buffers[n] for n in fields], axis=1)
+        out["swpm:collapseRecordFields"] = (T.TokenArray, [camel(n[len(COLLAPSE_PREFIX) :]) for n in fields])
+        out["swpm:collapseRecords"] = to_vt("swpm:collapseRecords", table)
+    for n, a in buffers.items():
+        if n in fields:
+            continue
+        if a.ndim > 2:
+            raise UsdWriteError(
+                f"buffer {n!r} has shape {a.shape}; only 1-D and (n, k) buffers are supported"
+            )
+        out[attr_name(n)] = to_vt(attr_name(n), a)
+    return out
+
+
+def author_swpm(prim: Usd.Prim, pm: ProgressiveMesh) -> None:
+    """Apply SwpmMeshAPI to the Mesh ``prim`` and author every swpm: attribute explicitly."""
+    if not prim.IsA(UsdGeom.Mesh):
+        raise UsdWriteError(
+            f"{prim.GetPath()}: SwpmMeshAPI only applies to Mesh prims, not {prim.GetTypeName()!r}"
+        )
+    if plugin.register():
+        schema_type = Usd.SchemaRegistry.GetTypeFromSchemaTypeName(SCHEMA_NAME)
+        if schema_type:
+            ok, why = prim.CanApplyAPI(schema_type)
+            if not ok:
+                raise UsdWriteError(f"{prim.GetPath()}: cannot apply {SCHEMA_NAME}: {why}")
+    prim.AddAppliedSchema(SCHEMA_NAME)
+    for name, (sdf_type, value) in swpm_values(pm).items():
+        attr = prim.CreateAttribute(name, sdf_type, custom=False, variability=_UNIFORM)
+        attr.Set(value)
+
+
+def _vec(a: np.ndarray, k: int) -> Any:
+    a = np.ascontiguousarray(a, dtype=np.float32)
+    return {1: Vt.FloatArray, 2: Vt.Vec2fArray, 3: Vt.Vec3fArray, 4: Vt.Vec4fArray}[k].FromNumpy(a)
+
+
+def author_primvars(mesh: UsdGeom.Mesh, attributes: dict[str, np.ndarray]) -> None:
+    """Per-vertex attributes -> normals / primvars:st / displayColor (+Opacity) / primvars:<name> (vertex)."""
+    T = Sdf.ValueTypeNames
+    api = UsdGeom.PrimvarsAPI(mesh)
+    vertex = UsdGeom.Tokens.vertex
+    for name, a in attributes.items():
+        a = np.asarray(a)
+        a = a.reshape(a.shape[0], -1)
+        k = a.shape[1]
+        if name == "normal" and k == 3:
+            mesh.CreateNormalsAttr().Set(_vec(a, 3))
+            mesh.SetNormalsInterpolation(vertex)
+        elif name == "uv" and k == 2:
+            api.CreatePrimvar("st", T.TexCoord2fArray, vertex).Set(_vec(a, 2))
+        elif name == "color" and k in (3, 4):
+            api.CreatePrimvar("displayColor", T.Color3fArray, vertex).Set(_vec(a[:, :3], 3))
+            if k == 4:
+                api.CreatePrimvar("displayOpacity", T.FloatArray, vertex).Set(_vec(a[:, 3], 1))
+        else:
+            if not Sdf.Path.IsValidNamespacedIdentifier(name):
+                raise UsdWriteError(f"attribute name {name!r} is not a valid USD primvar name")
+            types = {1: T.FloatArray, 2: T.Float2Array, 3: T.Float3Array, 4: T.Float4Array}
+            if k in types:
+                api.CreatePrimvar(name, types[k], vertex).Set(_vec(a if k > 1 else a[:, 0], k))
+            else:
+                pv = api.CreatePrimvar(name, T.FloatArray, vertex, k)
+                pv.Set(_vec(a.reshape(-1), 1))
+
+
+def _topology(k_tris: np.ndarray) -> tuple[Any, Any]:
+    tris = np.ascontiguousarray(k_tris, dtype=np.int32).reshape(-1)
+    return Vt.IntArray.FromNumpy(tris), Vt.IntArray.FromNumpy(np.full(tris.shape[0] // 3, 3, np.int32))
+
+
+def author_geometry(mesh: UsdGeom.Mesh, pm: ProgressiveMesh, discrete: Sequence[int] | None = None) -> None:
+    """Points (LOD order), LOD-0 topology (or a LOD variant set), extent, primvars of ``pm`` on ``mesh``."""
+    mesh.CreatePointsAttr().Set(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(pm.points, np.float32)))
+    mesh.CreateSubdivisionSchemeAttr().Set(UsdGeom.Tokens.none)
+    if pm.vertex_count:
+        lo, hi = pm.points.min(axis=0), pm.points.max(axis=0)
+        mesh.CreateExtentAttr().Set(Vt.Vec3fArray([Gf.Vec3f(*map(float, lo)), Gf.Vec3f(*map(float, hi))]))
+    author_primvars(mesh, dict(pm.attributes))
+    if not discrete:
+        fvi, fvc = _topology(pm.triangles_at(0))
+        mesh.CreateFaceVertexIndicesAttr().Set(fvi)
+        mesh.CreateFaceVertexCountsAttr().Set(fvc)
+        return
+    # topology only inside the variants: a direct opinion would be stronger than every variant
+    mesh.CreateFaceVertexIndicesAttr()
+    mesh.CreateFaceVertexCountsAttr()
+    vset = mesh.GetPrim().GetVariantSets().AddVariantSet(LOD_VARIANT_SET)
+    for i, k in enumerate(discrete):
+        vset.AddVariant(f"LOD{i}")
+        vset.SetVariantSelection(f"LOD{i}")
+        fvi, fvc = _topology(pm.triangles_at(int(k)))
+        with vset.GetVariantEditContext():
+            mesh.GetFaceVertexIndicesAttr().Set(fvi)
+            mesh.GetFaceVertexCountsAttr().Set(fvc)
+    vset.SetVariantSelection("LOD0")
+    attr = mesh.GetPrim().CreateAttribute(
+        "swpm:discreteLods", Sdf.ValueTypeNames.UIntArray, custom=False, variability=_UNIFORM
+    )
+    attr.Set(Vt.UIntArray.FromNumpy(np.asarray(discrete, np.uint32)))
+
+
+def select_lods(pm: ProgressiveMesh, count: int, by: str = "triangles", ratio: float = 0.5) -> list[int]:
+    """Progressive LOD indices of ``count`` discrete levels, LOD 0 first, strictly increasing.
+
+    ``by="triangles"``: level i keeps about ``ratio**i`` of the LOD-0 triangles. ``by="error"``: errors
+    spaced geometrically from the smallest non-zero LOD error to the largest. Duplicates are dropped, so
+    fewer levels come back when the mesh has fewer distinct LODs.
+    """
+    if count < 1:
+        raise UsdWriteError("the number of discrete LODs must be at least 1")
+    if by == "triangles":
+        t0 = pm.triangle_count_at(0)
+        picks = [pm.lod_for_triangles(int(math.floor(t0 * ratio**i))) for i in range(count)]
+    elif by == "error":
+        errs = pm.lod_errors[pm.lod_errors > 0]
+        if errs.size == 0 or count == 1:
+            picks = [0]
+        else:
+            targets = np.geomspace(float(errs[0]), float(errs[-1]), count - 1)
+            picks = [0] + [pm.lod_for_error(float(e)) for e in targets]
+    else:
+        raise UsdWriteError(f"select LODs by 'triangles' or 'error', not {by!r}")
+    return sorted(set(picks))
+
+
+def _prim_name(path: Path, name: str | None) -> str:
+    raw = name or path.stem.split(".")[0] or "Asset"
+    return Tf.MakeValidIdentifier(raw[0].upper() + raw[1:])
+
+
+def _layer_args(path: Path, fmt: str | None) -> dict[str, str]:
+    if fmt is None:
+        return {}
+    if fmt not in ("usda", "usdc"):
+        raise UsdWriteError(f"format must be 'usda' or 'usdc', not {fmt!r}")
+    return {"format": fmt}
+
+
+def _export(stage: Usd.Stage, path: Path, fmt: str | None) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if not stage.GetRootLayer().Export(str(path), args=_layer_args(path, fmt)):
+        raise UsdWriteError(f"could not write {path}")
+    # a layer of that name already open in this process would keep its stale content
+    layer = Sdf.Layer.Find(str(path))
+    if layer is not None:
+        layer.Reload(force=True)
+    return path
+
+
+def _resolve_path(path: str | os.PathLike[str], fmt: str | None) -> Path:
+    p = Path(path)
+    if p.suffix.lower() not in (".usd", ".usda", ".usdc"):
+        p = p.with_name(p.name + "." + (fmt or "usdc"))
+    if fmt is None and p.suffix.lower() == ".usd":
+        fmt = "usdc"
+    return p
+
+
+def write(
+    pm: ProgressiveMesh,
+    path: str | os.PathLike[str],
+    *,
+    name: str | None = None,
+    fmt: str | None = None,
+    up_axis: str = "Y",
+    meters_per_unit: float = 1.0,
+    lods: int | None = None,
+    lod_by: str = "triangles",
+) -> Path:
+    """Write ``pm`` as an asset layer: ``/<Name>`` (Xform, default prim) / ``mesh`` (Mesh + SwpmMeshAPI).
+
+    ``.usdc`` by default (also for ``.usd``); ``.usda`` for a ``.usda`` path or ``fmt="usda"``. ``lods=n``
+    adds the ``LOD`` variant set of :func:`select_lods` (``lod_by`` ``"triangles"`` or ``"error"``).
+    Returns the written path.
+    """
+    p = _resolve_path(path, fmt)
+    if fmt is None and p.suffix.lower() == ".usd":
+        fmt = "usdc"
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z if up_axis.upper() == "Z" else UsdGeom.Tokens.y)
+    UsdGeom.SetStageMetersPerUnit(stage, float(meters_per_unit))
+    root = UsdGeom.Xform.Define(stage, Sdf.Path.absoluteRootPath.AppendChild(_prim_name(p, name)))
+    Usd.ModelAPI(root.GetPrim()).SetKind(Kind.Tokens.component)
+    stage.SetDefaultPrim(root.GetPrim())
+    mesh = UsdGeom.Mesh.Define(stage, root.GetPath().AppendChild(MESH_NAME))
+    discrete = select_lods(pm, lods, lod_by) if lods else None
+    author_geometry(mesh, pm, discrete)
+    author_swpm(mesh.GetPrim(), pm)
+    return _export(stage, p, fmt)
+
+
+def _thresholds(errors: np.ndarray) -> np.ndarray:
+    """Strictly increasing positive copy of ``errors`` (so heuristics get a valid threshold list)."""
+    e = np.maximum.accumulate(np.maximum(np.asarray(errors, np.float64), 1e-12))
+    for i in range(1, e.shape[0]):  # tiny list (one entry per discrete LOD)
+        if e[i] <= e[i - 1]:
+            e[i] = np.nextafter(np.float32(e[i - 1]), np.float32(np.inf))
+    return e
+
+
+def write_usdlod(
+    asset_path: str | os.PathLike[str],
+    path: str | os.PathLike[str],
+    *,
+    pixel_error: float = 1.0,
+    viewport_px: int = 1080,
+    fov_degrees: float = 60.0,
+    fmt: str | None = None,
+) -> Path:
+    """Write a UsdLod layer over an asset written with ``lods``: one LOD item per discrete LOD.
+
+    Layout: ``/<Name>LOD`` (Xform, default prim) / ``lod`` (LODRootAPI; items ``LOD0``.. each an instanceable
+    reference to the asset with that variant selected) and ``/<Name>LOD/heuristics`` (beside the root, not
+    in it) holding an ``LODDistanceHeuristic`` and an ``LODScreenSizeHeuristic``. Item i switches to i+1
+    when the error of LOD i+1 projects to at most ``pixel_error`` pixels on a ``viewport_px`` tall view with
+    a ``fov_degrees`` vertical field of view: distance ``d = err * f / pixel_error`` with
+    ``f = viewport_px / (2 tan(fov / 2))``, screen size ``s = 2 r f / (d * viewport_px)`` (r: bounding
+    radius).
+    Needs usd-core >= 26.8 (UsdLod).
+    """
+    try:
+        from pxr import UsdLod
+    except ImportError as e:  # pragma: no cover - older usd-core
+        raise UsdWriteError("UsdLod needs usd-core >= 26.8; use the LOD variant set instead") from e
+    asset = Path(asset_path)
+    src = Usd.Stage.Open(str(asset))
+    default = src.GetDefaultPrim()
+    mesh_prim = default.GetChild(MESH_NAME) if default else None
+    if not mesh_prim or not mesh_prim.GetAttribute("swpm:discreteLods").HasAuthoredValue():
+        raise UsdWriteError(f"{asset}: no {MESH_NAME} prim with discrete LODs (write it with lods=n)")
+    discrete = np.asarray(mesh_prim.GetAttribute("swpm:discreteLods").Get(), np.int64)
+    errors = np.asarray(mesh_prim.GetAttribute("swpm:lodErrors").Get(), np.float64)[discrete]
+    extent = np.asarray(UsdGeom.Mesh(mesh_prim).GetExtentAttr().Get(), np.float64).reshape(2, 3)
+    center = extent.mean(axis=0)
+    radius = 0.5 * float(np.linalg.norm(extent[1] - extent[0]))
+
+    p = _resolve_path(path, fmt).resolve()
+    p.parent.mkdir(parents=True, exist_ok=True)
+    # a real (not anonymous) layer, so the relative reference to the asset resolves while authoring
+    layer = Sdf.Layer.Find(str(p))
+    if layer is not None:
+        layer.Clear()
+    else:
+        layer = Sdf.Layer.CreateNew(str(p), args=_layer_args(p, fmt))
+    stage = Usd.Stage.Open(layer)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.GetStageUpAxis(src))
+    UsdGeom.SetStageMetersPerUnit(stage, UsdGeom.GetStageMetersPerUnit(src))
+    top = UsdGeom.Xform.Define(stage, f"/{default.GetName()}LOD")
+    stage.SetDefaultPrim(top.GetPrim())
+    Usd.ModelAPI(top.GetPrim()).SetKind(Kind.Tokens.assembly)
+    lod_root = UsdGeom.Xform.Define(stage, top.GetPath().AppendChild("lod"))
+    rel_asset = os.path.relpath(asset.resolve(), p.resolve().parent).replace(os.sep, "/")
+    for i in range(discrete.shape[0]):
+        item = UsdGeom.Xform.Define(stage, lod_root.GetPath().AppendChild(f"LOD{i}")).GetPrim()
+        item.GetReferences().AddReference(rel_asset)
+        item.SetInstanceable(True)
+        # the item is instanceable: author the selection in the layer, not through the (proxy) prim
+        over = Sdf.CreatePrimInLayer(layer, item.GetPath().AppendChild(MESH_NAME))
+        over.specifier = Sdf.SpecifierOver
+        over.variantSelections[LOD_VARIANT_SET] = f"LOD{i}"
+    heur = UsdGeom.Scope.Define(stage, top.GetPath().AppendChild("heuristics"))
+    focal = viewport_px / (2.0 * math.tan(math.radians(fov_degrees) / 2.0))
+    dist = _thresholds(errors[1:] * focal / pixel_error)
+    screen = 2.0 * radius * focal / (dist * viewport_px)
+    dh = UsdLod.DistanceHeuristic.Define(stage, heur.GetPath().AppendChild("distance"))
+    dh.CreateLodDomainAttr().Set(UsdLod.Tokens.imaging)
+    dh.CreateThresholdsAttr().Set(Vt.FloatArray.FromNumpy(dist.astype(np.float32)))
+    dh.CreateCenterAttr().Set(Gf.Vec3f(*map(float, center)))
+    sh = UsdLod.ScreenSizeHeuristic.Define(stage, heur.GetPath().AppendChild("screenSize"))
+    sh.CreateLodDomainAttr().Set(UsdLod.Tokens.imaging)
+    sh.CreateThresholdsAttr().Set(Vt.FloatArray.FromNumpy(screen.astype(np.float32)))
+    sh.CreateExtentAttr().Set(Vt.Vec3fArray.FromNumpy(extent.astype(np.float32)))
+    api = UsdLod.RootAPI.Apply(lod_root.GetPrim())
+    api.CreateLodDefaultIndexAttr().Set(0)
+    api.CreateLodHeuristicsRel().SetTargets([dh.GetPath(), sh.GetPath()])
+    if not layer.Save():
+        raise UsdWriteError(f"could not write {p}")
+    return p

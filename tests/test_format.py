@@ -1,0 +1,275 @@
+"""Tests of the SWPM v1 codec (swpm_usd.format): layout vs spec, round trips, atomic save, errors, CLI."""
+
+from __future__ import annotations
+
+import re
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import swpm_usd
+from swpm_usd.encode.base import ENCODINGS
+from swpm_usd.format import SwpmFormatError, encode_bytes, load, load_bytes, save, validate, validate_bytes
+from swpm_usd.format import layout as L
+from swpm_usd.format.errors import CATALOGUE, render_markdown
+from swpm_usd.format.vectors import fan_sliding, fan_vanilla
+from swpm_usd.mesh import Mesh
+
+ROOT = Path(__file__).resolve().parents[1]
+SPEC = ROOT / "spec" / "format.md"
+READER = ROOT / "swpm_usd" / "format" / "reader.py"
+
+
+# -- layout == spec ---------------------------------------------------------------------------------------
+def _spec_table(heading: str) -> list[tuple[int, int, str]]:
+    """(offset, size, field) rows of the first byte table after ``heading`` in spec/format.md."""
+    text = SPEC.read_text()
+    section = text[text.index(heading) :]
+    rows = []
+    for line in section.splitlines()[2:]:
+        if rows and not line.startswith("|"):
+            break
+        m = re.match(r"\|\s*(\d+)\s*\|\s*(\d+)\s*\|\s*[\w\[\]]+\s*\|\s*(\w+)", line)
+        if m:
+            rows.append((int(m.group(1)), int(m.group(2)), m.group(3)))
+    return rows
+
+
+@pytest.mark.parametrize(
+    ("heading", "dtype"),
+    [
+        ("### 2.1 Header", L.HEADER),
+        ("### 2.2 Chunk table entry", L.CHUNK_ENTRY),
+        ("### 3.2 `LODS`", L.LOD_ROW),
+    ],
+)
+def test_dtypes_match_spec_tables(heading: str, dtype: np.dtype) -> None:
+    rows = _spec_table(heading)
+    assert sum(size for _, size, _ in rows) == dtype.itemsize
+    assert [off for off, _, _ in rows] == [dtype.fields[n][1] for n in dtype.names]
+
+
+def test_sizes_match_spec() -> None:
+    for name, size in L.SPEC_SIZES.items():
+        assert getattr(L, name).itemsize == size, name
+    for dt in (L.HEADER, L.CHUNK_ENTRY, L.LOD_ROW, L.VERT_HEADER, L.ATTR_DESC, L.SMAP_BAND, L.SMAP_RANGE):
+        for n in dt.names:
+            base = dt.fields[n][0].base
+            assert base.str[0] in "<|", (dt, n)  # explicit little-endian (or byte-sized)
+    assert "24 B" in SPEC.read_text() and "16 N" in SPEC.read_text()
+
+
+# -- round trips -------------------------------------------------------------------------------------------
+def _fan_mesh() -> Mesh:
+    rng = np.random.default_rng(0)
+    n = 12
+    g = np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="ij"), -1).reshape(-1, 2).astype(np.float32)
+    pts = np.c_[g, rng.random(n * n).astype(np.float32) * 0.1]
+    tris = []
+    for i in range(n - 1):
+        for j in range(n - 1):
+            a, b, c, d = i * n + j, (i + 1) * n + j, (i + 1) * n + j + 1, i * n + j + 1
+            tris += [(a, b, c), (a, c, d)]
+    attrs = {"uv": g / n, "color": (rng.random((n * n, 4)) * 255).astype(np.uint8)}
+    return Mesh(pts, np.array(tris), attrs)
+
+
+@pytest.fixture(scope="module")
+def grid_pm() -> swpm_usd.ProgressiveMesh:
+    return swpm_usd.build(_fan_mesh(), "vanilla")
+
+
+def _same(a: swpm_usd.ProgressiveMesh, b: swpm_usd.ProgressiveMesh) -> None:
+    assert a.encoding == b.encoding
+    np.testing.assert_array_equal(a.points, b.points)
+    assert list(a.attributes) == list(b.attributes)
+    for k in a.attributes:
+        np.testing.assert_array_equal(a.attributes[k], b.attributes[k])
+        assert a.attributes[k].dtype == b.attributes[k].dtype
+    ba, bb = a.buffers(), b.buffers()
+    assert sorted(ba) == sorted(bb)
+    for k in ba:
+        np.testing.assert_array_equal(ba[k], bb[k], err_msg=k)
+    np.testing.assert_array_equal(a.vertex_counts, b.vertex_counts)
+    np.testing.assert_array_equal(a.triangle_counts, b.triangle_counts)
+    np.testing.assert_array_equal(a.lod_errors, b.lod_errors)
+    assert a.params == b.params
+    for k in sorted({0, a.lod_count // 2, a.lod_count - 1}):
+        ka, sa = a.draw_stream(k)
+        kb, sb = b.draw_stream(k)
+        assert ka == kb
+        np.testing.assert_array_equal(sa, sb)
+
+
+def test_vanilla_round_trip_zero_copy(grid_pm, tmp_path: Path) -> None:
+    path = save(grid_pm, tmp_path / "grid.swpm")
+    rep = validate(path)
+    assert rep.valid, rep.format()
+    q = load(path)
+    _same(grid_pm, q)
+    # zero copy: read-only views of the mapping, file dtype kept (u16 here)
+    assert not q.points.flags.writeable and not q.points.flags.owndata
+    assert q.indices.dtype == np.dtype("<u2") and not q.indices.flags.owndata
+    assert q.attributes["color"].dtype == np.uint8
+
+
+def test_u32_when_values_exceed_u16(grid_pm, tmp_path: Path) -> None:
+    data = encode_bytes(grid_pm, index_width=4)
+    q = load_bytes(data)
+    assert q.indices.dtype == np.dtype("<u4")
+    _same(grid_pm, q)
+    # a value above 65535 forces u32 without asking
+    raw = fan_vanilla(lod_errors=np.array([0, 70000.0], np.float32))
+    raw.raw_buffers = dict(raw.raw_buffers, collapse_change_offsets=[2, 5])
+    assert validate_bytes(encode_bytes(raw)).summary["index_width"] == 2
+    from swpm_usd.format.writer import choose_index_width
+
+    assert choose_index_width({"a": np.array([65535], np.uint32)}) == 2
+    assert choose_index_width({"a": np.array([65536], np.uint32)}) == 4
+
+
+@pytest.mark.parametrize(
+    ("encoding", "params"),
+    [("sliding-window", {}), ("skip-strip", {}), ("skip-strip", {"primitive": "list"})],
+)
+def test_other_encodings_round_trip(encoding: str, params: dict, tmp_path: Path) -> None:
+    if encoding not in ENCODINGS:
+        pytest.skip(f"{encoding} not registered yet")
+    pm = swpm_usd.build(_fan_mesh(), encoding, **params)
+    path = save(pm, tmp_path / "x.swpm")
+    rep = validate(path)
+    assert rep.valid, rep.format()
+    _same(pm, load(path))
+
+
+def test_hand_made_sliding_window_buffers_validate() -> None:
+    """Without the sliding-window implementation the codec still writes and checks its chunks."""
+    rep = validate_bytes(encode_bytes(fan_sliding()))
+    assert rep.valid, rep.format()
+    assert rep.summary["encoding"] == "sliding-window"
+
+
+def test_streaming_map_prefixes_shrink_coarse_to_fine(grid_pm) -> None:
+    import struct
+
+    from swpm_usd.format.vectors import chunk
+
+    data = encode_bytes(grid_pm)
+    _, off, _ = chunk(data, L.SMAP)
+    bands, _ = struct.unpack_from("<II", data, off)
+    rows = [struct.unpack_from("<IIIIQ", data, off + 8 + 24 * b) for b in range(bands)]
+    prefixes = [r[4] for r in rows]
+    assert bands > 1 and prefixes == sorted(prefixes, reverse=True) and prefixes[0] == len(data)
+    _, voff, _ = chunk(data, L.VERT)
+    _, _, stride, data_offset = struct.unpack_from("<IIII", data, voff)
+    first, count = rows[-1][0], rows[-1][1]
+    coarse_max = max(grid_pm.vertex_count_at(k) for k in range(first, first + count))
+    # the coarsest band needs everything before VERT plus only its vertex prefix
+    assert prefixes[-1] == voff + data_offset + coarse_max * stride < len(data)
+
+
+def test_save_is_atomic(grid_pm, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    path = tmp_path / "a.swpm"
+    save(grid_pm, path)
+    before = path.read_bytes()
+
+    def boom(*a, **k):  # noqa: ANN002, ANN003, ANN202
+        raise OSError("disk full")
+
+    monkeypatch.setattr("swpm_usd.format.writer.os.replace", boom)
+    with pytest.raises(OSError):
+        save(swpm_usd.build(_fan_mesh(), "vanilla", seam_weight=3.0), path)
+    assert path.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.swpm"]
+
+
+def test_save_is_deterministic(grid_pm) -> None:
+    assert encode_bytes(grid_pm) == encode_bytes(grid_pm)
+
+
+# -- errors ------------------------------------------------------------------------------------------------
+def test_errors_md_is_generated_from_catalogue() -> None:
+    assert (ROOT / "spec" / "errors.md").read_text() == render_markdown()
+
+
+def test_every_reported_code_is_catalogued() -> None:
+    used = set(re.findall(r'"(SWPM_[A-Z0-9_]+)"', READER.read_text()))
+    assert used, "no codes found"
+    assert used <= set(CATALOGUE)
+    for e in CATALOGUE.values():
+        assert e.severity in ("error", "warning", "info")
+
+
+def test_load_raises_one_exception_with_full_report(tmp_path: Path) -> None:
+    data = bytearray(encode_bytes(fan_vanilla(buffers={"indices": [1, 2, 4, 2, 3, 9, 0, 1, 4, 3, 0, 9]})))
+    data[20] |= 0x80  # unknown feature bit as well
+    path = tmp_path / "bad.swpm"
+    path.write_bytes(bytes(data))
+    with pytest.raises(SwpmFormatError) as info:
+        load(path)
+    codes = info.value.report.codes()
+    assert "SWPM_HEADER_UNKNOWN_FEATURE" in codes and "SWPM_CHECKSUM_MISMATCH" in codes
+    assert all(p.offset is None or p.offset >= 0 for p in info.value.report.problems)
+    rep = validate_bytes(encode_bytes(fan_vanilla(buffers={"indices": [1, 2, 4, 2, 3, 9, 0, 1, 4, 3, 0, 9]})))
+    assert [p.code for p in rep.problems].count(
+        "SWPM_INDEX_OUT_OF_RANGE"
+    ) == 2  # every problem, not the first
+
+
+def test_huge_count_allocates_nothing() -> None:
+    from swpm_usd.format.vectors import chunk, patch
+
+    base = encode_bytes(fan_vanilla())
+    _, roff, _ = chunk(base, L.VREC)
+    bad = patch(base, roff, "<I", 0xFFFFFFFF)
+    tracemalloc.start()
+    rep = validate_bytes(bad)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert "SWPM_COUNT_EXCEEDS_CHUNK" in rep.codes()
+    assert peak < 1_000_000
+
+
+def test_unknown_ancillary_is_ignored_and_critical_rejected() -> None:
+    ok = encode_bytes(fan_vanilla(), extra_chunks=[(b"zXTR", False, b"x" * 5)])
+    assert load_bytes(ok).lod_count == 2
+    bad = encode_bytes(fan_vanilla(), extra_chunks=[(b"zXTR", True, b"x")])
+    with pytest.raises(SwpmFormatError) as info:
+        load_bytes(bad)
+    assert info.value.report.codes() == ["SWPM_CHUNK_UNKNOWN_CRITICAL"]
+
+
+# -- CLI ---------------------------------------------------------------------------------------------------
+def test_cli(tmp_path: Path) -> None:
+    from swpm_usd.cli import main
+
+    obj = tmp_path / "grid.obj"
+    m = _fan_mesh()
+    obj.write_text(
+        "".join(f"v {x} {y} {z}\n" for x, y, z in m.points)
+        + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in m.triangles)
+    )
+    out = tmp_path / "grid.swpm"
+    r = CliRunner().invoke(main, ["encode", str(obj), "-o", str(out), "--encoding", "vanilla"])
+    assert r.exit_code == 0, r.output
+    assert load(out).params
+    assert validate(out).valid
+    r = CliRunner().invoke(main, ["validate", str(out)])
+    assert r.exit_code == 0 and "valid" in r.output
+    r = CliRunner().invoke(
+        main, ["validate", str(ROOT / "spec/vectors/invalid/overlapping-chunks.swpm"), "--json"]
+    )
+    assert r.exit_code == 1 and "SWPM_CHUNK_OVERLAP" in r.output
+    r = CliRunner().invoke(main, ["validate"])
+    assert r.exit_code == 2
+    r = CliRunner().invoke(main, ["inspect", str(out), "--json"])
+    assert r.exit_code == 0 and '"lod_count"' in r.output
+    r = CliRunner().invoke(main, ["inspect", str(out)])
+    assert r.exit_code == 0 and "VERT" in r.output
+    r = CliRunner().invoke(main, ["conformance", str(ROOT / "spec" / "vectors")])
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(main, ["encode", str(tmp_path / "missing.obj"), "-o", str(out)])
+    assert r.exit_code == 1

@@ -1,0 +1,169 @@
+"""Tests of the sliding-window encoding: every window draws a valid mesh equal to the builder's own collapse
+sequence replayed, records are ordered finest to coarsest, and the buffers round-trip."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import swpm_usd
+from swpm_usd.encode.slidingwindow import (
+    SlidingWindowProgressiveMesh,
+    build_sliding_window,
+    screen_space_error,
+)
+from swpm_usd.errors import BuildError
+from swpm_usd.mesh import Mesh
+from swpm_usd.simplify import mesh_topology
+
+MESHES = Path(__file__).resolve().parents[1].parent / "shared" / "meshes"
+
+
+def _icosphere(subdivisions: int = 3) -> Mesh:
+    trimesh = pytest.importorskip("trimesh")
+    s = trimesh.creation.icosphere(subdivisions=subdivisions)
+    return Mesh.from_arrays(np.asarray(s.vertices), np.asarray(s.faces))
+
+
+def _canonical(tris: np.ndarray) -> np.ndarray:
+    """Triangles rotated so the smallest index comes first (winding kept), rows sorted."""
+    t = np.asarray(tris, np.int64).reshape(-1, 3)
+    r = np.argmin(t, axis=1)
+    idx = (r[:, None] + np.arange(3)[None, :]) % 3
+    t = np.take_along_axis(t, idx, axis=1)
+    return t[np.lexsort(t.T[::-1])]
+
+
+def _edge_stats(tp: np.ndarray) -> tuple[bool, int]:
+    """(closed 2-manifold edges: every directed edge once with its reverse once, and edge count)."""
+    a = tp.reshape(-1)
+    b = tp[:, [1, 2, 0]].reshape(-1)
+    n = int(tp.max()) + 1 if tp.size else 1
+    d = a.astype(np.int64) * n + b
+    if np.unique(d).shape[0] != d.shape[0]:
+        return False, 0
+    rev = b.astype(np.int64) * n + a
+    return bool(np.isin(rev, d).all()), d.shape[0] // 2
+
+
+def _check_all(pm: SlidingWindowProgressiveMesh, mesh: Mesh, closed: bool, every: int = 1) -> None:
+    seq = pm.collapse_sequence
+    new_id = np.empty(mesh.vertex_count, np.int64)
+    new_id[pm.source_vertex] = np.arange(mesh.vertex_count)
+    vpos = mesh_topology(mesh).vertex_pos
+    chi0 = None
+    rec = pm.window_records.astype(np.int64)
+    # records finest to coarsest
+    assert np.all(np.diff(rec[:, 1]) <= 0) and np.all(np.diff(rec[:, 2]) <= 0)
+    assert np.all(np.diff(pm.lod_errors) >= 0) and pm.lod_errors[0] == 0
+    assert rec[0, 1] == mesh.triangle_count and rec[0, 2] == mesh.vertex_count
+    assert np.all(rec[:, 0] + 3 * rec[:, 1] <= pm.index_pool.shape[0])
+    assert np.array_equal(np.diff(pm.lod_steps) > 0, np.ones(pm.lod_count - 1, bool))
+    lods = sorted(set(range(0, pm.lod_count, every)) | {pm.lod_count - 1})
+    for k in lods:
+        tris = pm.triangles_at(k)
+        first, count, nv = pm.window(k)
+        assert np.array_equal(tris.reshape(-1), pm.index_pool[first : first + 3 * count].astype(np.int32))
+        assert tris.shape[0] == pm.triangle_count_at(k) == count
+        assert nv == pm.vertex_count_at(k)
+        assert tris.max() < nv, f"LOD {k} indexes past its vertex prefix"
+        ref = new_id[seq.triangles_at_step(int(pm.lod_steps[k]))]
+        assert np.array_equal(_canonical(tris), _canonical(ref)), f"LOD {k} differs from the replay"
+        if closed:
+            tp = vpos[pm.source_vertex[tris]]
+            assert np.all((tp[:, 0] != tp[:, 1]) & (tp[:, 1] != tp[:, 2]) & (tp[:, 0] != tp[:, 2]))
+            ok, e = _edge_stats(tp)
+            assert ok, f"LOD {k} is not a closed 2-manifold"
+            chi = np.unique(tp).shape[0] - e + tp.shape[0]
+            chi0 = chi if chi0 is None else chi0
+            assert chi == chi0, f"LOD {k} changed the Euler characteristic"
+
+
+@pytest.fixture(scope="module")
+def spot() -> Mesh:
+    path = MESHES / "spot.obj"
+    if not path.exists():
+        pytest.skip("shared meshes not available")
+    return swpm_usd.load_mesh(path)
+
+
+@pytest.mark.parametrize("inner", [1, 3])
+def test_topology_icosphere_every_lod(inner: int) -> None:
+    mesh = _icosphere(3)
+    pm = build_sliding_window(mesh, inner_vertices=inner)
+    assert pm.lod_count > 50 and pm.level_count > 2
+    _check_all(pm, mesh, closed=True)
+
+
+def test_topology_spot_every_lod(spot: Mesh) -> None:
+    pm = swpm_usd.build(spot, encoding="sliding-window")
+    assert isinstance(pm, SlidingWindowProgressiveMesh)
+    assert pm.params["builder"] == "topology" and pm.params["cache_size"] == 16
+    # one LOD per collapse (one patch, one position step each)
+    assert pm.lod_count == pm.collapse_sequence.step_count + 1
+    assert pm.triangle_count_at(pm.lod_count - 1) < 0.02 * spot.triangle_count
+    _check_all(pm, spot, closed=True)
+
+
+def test_topology_spot_inner_vertices(spot: Mesh) -> None:
+    pm1 = build_sliding_window(spot)
+    pm3 = build_sliding_window(spot, inner_vertices=3)
+    assert pm3.index_pool.shape[0] < pm1.index_pool.shape[0]
+    assert pm3.lod_count < pm1.lod_count
+    _check_all(pm3, spot, closed=True, every=3)
+
+
+def test_forsyth_spot(spot: Mesh) -> None:
+    pm = swpm_usd.build(spot, encoding="sliding-window", builder="forsyth")
+    assert pm.level_count > 1
+    _check_all(pm, spot, closed=True, every=5)
+
+
+@pytest.mark.parametrize("name", ["cow.obj", "stanford-bunny.obj", "teapot.obj", "beetle.obj"])
+def test_open_and_non_manifold_inputs(name: str) -> None:
+    path = MESHES / name
+    if not path.exists():
+        pytest.skip("shared meshes not available")
+    mesh = swpm_usd.load_mesh(path)
+    if mesh.triangle_count > 20000:  # keep the test short: the bunny's first 12k triangles
+        mesh = Mesh.from_arrays(mesh.points, mesh.triangles[:12000])
+    pm = build_sliding_window(mesh)
+    _check_all(pm, mesh, closed=False, every=7)
+
+
+def test_buffers_round_trip_and_memory(spot: Mesh) -> None:
+    pm = build_sliding_window(spot)
+    b = pm.buffers()
+    assert set(b) == {"index_pool", "window_records"} and b["window_records"].shape == (pm.lod_count, 3)
+    assert b["index_pool"].dtype == np.uint32
+    pm2 = swpm_usd.from_buffers(
+        "sliding-window", pm.points, pm.attributes, pm.vertex_counts, pm.triangle_counts, pm.lod_errors, b
+    )
+    for k in (0, pm.lod_count // 3, pm.lod_count - 1):
+        assert np.array_equal(pm2.triangles_at(k), pm.triangles_at(k))
+    assert pm.instance_bytes == 4
+    assert pm.global_bytes == pm.vertex_bytes() + 2 * pm.index_pool.shape[0] + 8 * pm.lod_count
+
+
+def test_lod_selection(spot: Mesh) -> None:
+    pm = build_sliding_window(spot)
+    rec = pm.record_for_triangles(spot.triangle_count // 2)
+    k = pm.lod_for_triangles(spot.triangle_count // 2)
+    assert rec[1] <= spot.triangle_count // 2 and pm.triangle_count_at(k - 1) > spot.triangle_count // 2
+    assert np.array_equal(pm.record_for_error(0.0), pm.window_records[0])
+    e = float(pm.lod_errors[pm.lod_count // 2])
+    assert pm.record_for_error(e)[1] <= pm.window_records[pm.lod_count // 2][1]
+    assert np.array_equal(pm.record_for_error(1e30), pm.window_records[-1])
+    # the screen-space helper: the error that covers 1 pixel maps back to the same record
+    px = screen_space_error(e, 10.0, 1.0, 1080)
+    assert np.array_equal(pm.record_for_screen_error(px, 10.0, 1.0, 1080), pm.record_for_error(e))
+
+
+def test_parameters_are_checked() -> None:
+    mesh = _icosphere(1)
+    with pytest.raises(BuildError):
+        swpm_usd.build(mesh, encoding="sliding-window", builder="nope")
+    with pytest.raises(BuildError):
+        swpm_usd.build(mesh, encoding="sliding-window", inner_vertices=0)

@@ -1,0 +1,416 @@
+"""USD schema and I/O: SwpmMeshAPI registration, writer / reader, composition, overrides, LODs, validation."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import Sdf, Usd, UsdGeom, Vt
+
+import swpm_usd
+from swpm_usd import usd
+from swpm_usd.encode import BUILDERS
+from swpm_usd.mesh import Mesh
+from swpm_usd.usd import schema
+from swpm_usd.usd.validate import CODES, validate_stage
+
+MESHES = Path(__file__).resolve().parents[2] / "shared" / "meshes"
+if not MESHES.exists():
+    MESHES = Path("/work/shared/meshes")
+SUZANNE = MESHES / "suzanne.obj"
+
+
+def _attributed_mesh() -> Mesh:
+    m = swpm_usd.load_mesh(SUZANNE)
+    p = m.points
+    n = p / np.maximum(np.linalg.norm(p, axis=1, keepdims=True), 1e-6)
+    return Mesh(
+        p,
+        m.triangles,
+        {
+            "normal": n.astype(np.float32),
+            "uv": (p[:, :2] * 0.5 + 0.5).astype(np.float32),
+            "color": np.c_[np.abs(n), np.full(len(p), 0.5)].astype(np.float32),
+            "weight": p[:, 2:3].astype(np.float32),
+        },
+    )
+
+
+@pytest.fixture(scope="module")
+def mesh() -> Mesh:
+    return _attributed_mesh()
+
+
+@pytest.fixture(scope="module")
+def pm(mesh):
+    return swpm_usd.build(mesh, "vanilla")
+
+
+@pytest.fixture(scope="module")
+def asset(pm, tmp_path_factory) -> Path:
+    return usd.write(pm, tmp_path_factory.mktemp("asset") / "suzanne.usdc")
+
+
+def _expected_buffers(pm, tmp: Path) -> dict[str, np.ndarray]:
+    """The .swpm file's buffers when the format codec handles this encoding, else the in-memory ones."""
+    try:
+        from swpm_usd import format as fmt
+
+        path = fmt.save(pm, tmp / f"{pm.encoding}.swpm")
+        loaded = fmt.load(path).buffers()
+    except (ImportError, ValueError, AttributeError):
+        return pm.buffers()
+    return {k: np.asarray(loaded[k]).astype(v.dtype) for k, v in pm.buffers().items()}
+
+
+def _assert_same(bufs: dict[str, np.ndarray], expected: dict[str, np.ndarray]) -> None:
+    assert list(bufs) == list(expected)
+    for k, v in expected.items():
+        assert bufs[k].dtype == v.dtype and bufs[k].shape == v.shape, k
+        assert bufs[k].tobytes() == v.tobytes(), k
+
+
+# -- schema ------------------------------------------------------------------------------------------------
+def test_resources_match_the_property_table():
+    for name, text in schema.resource_texts().items():
+        assert (schema.RESOURCES / name).read_text(encoding="utf-8") == text, f"regenerate {name}"
+
+
+def test_schema_registered_with_documented_properties():
+    defn = Usd.SchemaRegistry().FindAppliedAPIPrimDefinition(schema.SCHEMA_NAME)
+    assert defn is not None
+    names = set(defn.GetPropertyNames())
+    for required in (
+        "formatVersion",
+        "encoding",
+        "indexPool",
+        "windowRecords",
+        "collapseRecords",
+        "lodErrors",
+    ):
+        assert f"swpm:{required}" in names
+    for p in schema.PROPERTIES:
+        assert defn.GetAttributeDefinition(p.name).GetDocumentation()
+    tokens = defn.GetAttributeDefinition("swpm:encoding").GetMetadata("allowedTokens")
+    assert set(tokens) == set(schema.ENCODING_TOKENS)
+
+
+def test_schema_only_applies_to_meshes(pm):
+    stage = Usd.Stage.CreateInMemory()
+    xf = UsdGeom.Xform.Define(stage, "/x").GetPrim()
+    t = Usd.SchemaRegistry.GetTypeFromSchemaTypeName(schema.SCHEMA_NAME)
+    assert not xf.CanApplyAPI(t)[0]
+    assert UsdGeom.Mesh.Define(stage, "/m").GetPrim().CanApplyAPI(t)[0]
+    from swpm_usd.usd.writer import UsdWriteError, author_swpm
+
+    with pytest.raises(UsdWriteError, match="Mesh"):
+        author_swpm(xf, pm)
+
+
+def test_camel_case_names():
+    assert schema.attr_name("index_pool") == "swpm:indexPool"
+    assert schema.attr_name("window_records") == "swpm:windowRecords"
+    assert schema.attr_name("level_collapsed_indices") == "swpm:levelCollapsedIndices"
+
+
+# -- writer / reader ---------------------------------------------------------------------------------------
+def test_asset_layout(pm, asset):
+    stage = Usd.Stage.Open(str(asset))
+    assert Sdf.Layer.FindOrOpen(str(asset)).GetFileFormat().formatId == "usdc"
+    root = stage.GetDefaultPrim()
+    assert root.IsA(UsdGeom.Xform) and root.GetName() == "Suzanne"
+    assert UsdGeom.GetStageUpAxis(stage) == "Y" and UsdGeom.GetStageMetersPerUnit(stage) == 1.0
+    prim = root.GetChild("mesh")
+    assert prim.HasAPI(schema.SCHEMA_NAME) or schema.SCHEMA_NAME in prim.GetAppliedSchemas()
+    mesh = UsdGeom.Mesh(prim)
+    np.testing.assert_array_equal(np.asarray(mesh.GetPointsAttr().Get()), pm.points)
+    np.testing.assert_array_equal(
+        np.asarray(mesh.GetFaceVertexIndicesAttr().Get()), pm.triangles_at(0).ravel()
+    )
+    assert set(np.asarray(mesh.GetFaceVertexCountsAttr().Get()).tolist()) == {3}
+    assert mesh.GetSubdivisionSchemeAttr().Get() == "none"
+    ext = np.asarray(mesh.GetExtentAttr().Get())
+    np.testing.assert_allclose(ext, [pm.points.min(0), pm.points.max(0)])
+    api = UsdGeom.PrimvarsAPI(prim)
+    assert mesh.GetNormalsInterpolation() == "vertex"
+    assert api.GetPrimvar("st").GetTypeName() == Sdf.ValueTypeNames.TexCoord2fArray
+    assert api.GetPrimvar("displayOpacity").HasValue() and api.GetPrimvar("weight").HasValue()
+    for p in schema.PROPERTIES[:3]:
+        assert prim.GetAttribute(p.name).HasAuthoredValue()
+
+
+def test_read_equals_format_file(pm, asset, tmp_path):
+    stage = Usd.Stage.Open(str(asset))
+    prim = stage.GetDefaultPrim()
+    back = usd.read(prim)
+    _assert_same(usd.read_buffers(prim), _expected_buffers(pm, tmp_path))
+    _assert_same(back.buffers(), pm.buffers())
+    assert back.encoding == pm.encoding and back.params == pm.params
+    np.testing.assert_array_equal(back.points, pm.points)
+    for name, a in pm.attributes.items():
+        np.testing.assert_array_equal(back.attributes[name], a)
+    for k in (0, pm.lod_count // 2, pm.lod_count - 1):
+        np.testing.assert_array_equal(back.triangles_at(k), pm.triangles_at(k))
+
+
+def test_usda_on_request_and_round_trip_is_stable(pm, tmp_path):
+    a = usd.write(pm, tmp_path / "a", fmt="usda")
+    assert a.suffix == ".usda" and a.read_text().startswith("#usda")
+    stage = Usd.Stage.Open(str(a))
+    back = usd.read(stage.GetDefaultPrim())
+    b = usd.write(back, tmp_path / "b.usda", name="a")
+    assert a.read_text() == b.read_text()
+
+
+@pytest.mark.parametrize("encoding", sorted((set(BUILDERS) | {"sliding-window"}) - {"vanilla"}))
+def test_other_encodings_round_trip(encoding, mesh, tmp_path):
+    if encoding in BUILDERS:
+        pm = swpm_usd.build(mesh, encoding)
+    else:
+        sw = pytest.importorskip("swpm_usd.encode.slidingwindow")
+        pm = sw.build_sliding_window(mesh)
+    path = usd.write(pm, tmp_path / f"{encoding}.usdc")
+    stage = Usd.Stage.Open(str(path))
+    prim = stage.GetDefaultPrim()
+    _assert_same(usd.read_buffers(prim), _expected_buffers(pm, tmp_path))
+    back = usd.read(prim)
+    np.testing.assert_array_equal(back.triangles_at(back.lod_count - 1), pm.triangles_at(pm.lod_count - 1))
+    assert validate_stage(path) == []
+
+
+# -- composition -------------------------------------------------------------------------------------------
+def _scene(asset: Path, folder: Path, n: int = 100) -> Path:
+    stage = Usd.Stage.CreateNew(str(folder / "scene.usda"))
+    UsdGeom.SetStageUpAxis(stage, "Y")
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    world = UsdGeom.Xform.Define(stage, "/World")
+    stage.SetDefaultPrim(world.GetPrim())
+    for i in range(n):
+        x = UsdGeom.Xform.Define(stage, f"/World/inst_{i:03d}")
+        x.AddTranslateOp().Set((float(i % 10) * 3, 0.0, float(i // 10) * 3))
+        x.GetPrim().GetReferences().AddReference(asset.name)
+        x.GetPrim().SetInstanceable(True)
+    payload = UsdGeom.Xform.Define(stage, "/World/payloaded").GetPrim()
+    payload.GetPayloads().AddPayload(asset.name)
+    stage.Save()
+    return folder / "scene.usda"
+
+
+def test_instances_and_payload_read_back_the_file(pm, asset, tmp_path):
+    scene = _scene(asset, asset.parent)
+    expected = _expected_buffers(pm, tmp_path)
+    stage = Usd.Stage.Open(str(scene))
+    assert len(stage.GetPrototypes()) == 1
+    found = usd.find_encoded(stage)
+    assert len(found) == 101 and sum(p.IsInstanceProxy() for p in found) == 100
+    for prim in found:
+        _assert_same(usd.read_buffers(prim), expected)
+    _assert_same(usd.read(stage.GetPrimAtPath("/World/payloaded")).buffers(), expected)
+    unloaded = Usd.Stage.Open(str(scene), Usd.Stage.LoadNone)
+    assert len(usd.find_encoded(unloaded)) == 100
+    unloaded.Load("/World/payloaded")
+    _assert_same(usd.read_buffers(unloaded.GetPrimAtPath("/World/payloaded")), expected)
+    assert validate_stage(scene) == []
+
+
+def test_stage_reads_without_the_plugin(pm, asset, tmp_path):
+    np.savez(tmp_path / "expected.npz", **pm.buffers())
+    code = f"""
+import numpy as np
+from pxr import Usd
+stage = Usd.Stage.Open({str(asset)!r})
+prim = stage.GetPrimAtPath("/Suzanne/mesh")
+assert not prim.HasAPI("SwpmMeshAPI") or True
+assert prim.GetAttribute("swpm:encoding").Get() == "vanilla"
+from swpm_usd.usd.reader import read_buffers, read   # registers the plugin too late for this stage
+exp = np.load({str(tmp_path / "expected.npz")!r})
+got = read_buffers(prim)
+assert all(got[k].tobytes() == exp[k].tobytes() for k in exp.files)
+print(read(prim).lod_count)
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert int(out.stdout.strip()) == pm.lod_count
+
+
+# -- overrides ---------------------------------------------------------------------------------------------
+def _grid_stage(path: Path, n: int = 10) -> None:
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageUpAxis(stage, "Z")
+    UsdGeom.SetStageMetersPerUnit(stage, 0.01)
+    world = UsdGeom.Xform.Define(stage, "/World")
+    stage.SetDefaultPrim(world.GetPrim())
+    xs, ys = np.meshgrid(np.arange(n + 1), np.arange(n + 1))
+    pts = np.stack([xs.ravel(), ys.ravel(), np.sin(xs.ravel() * 0.7) * np.cos(ys.ravel() * 0.5)], 1)
+    a = (np.arange(n)[None, :] + (n + 1) * np.arange(n)[:, None]).ravel()
+    faces = np.stack([a, a + 1, a + n + 2, a + n + 1], 1)
+    mesh = UsdGeom.Mesh.Define(stage, "/World/grid")
+    mesh.GetPointsAttr().Set(Vt.Vec3fArray.FromNumpy(pts.astype(np.float32)))
+    mesh.GetFaceVertexCountsAttr().Set(Vt.IntArray.FromNumpy(np.full(len(faces), 4, np.int32)))
+    mesh.GetFaceVertexIndicesAttr().Set(Vt.IntArray.FromNumpy(faces.ravel().astype(np.int32)))
+    api = UsdGeom.PrimvarsAPI(mesh)
+    # faceVarying, indexed st with a real seam at x = n / 2 (corner values differ per face side)
+    corner_pts = pts[faces.ravel()]
+    face_x = np.repeat(pts[faces[:, 0], 0], 4)
+    st_vals = np.c_[corner_pts[:, 0] / n + (face_x >= n / 2), corner_pts[:, 1] / n].astype(np.float32)
+    uniq, inv = np.unique(st_vals, axis=0, return_inverse=True)
+    st = api.CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying)
+    st.Set(Vt.Vec2fArray.FromNumpy(uniq))
+    st.SetIndices(Vt.IntArray.FromNumpy(inv.ravel().astype(np.int32)))
+    api.CreatePrimvar("height", Sdf.ValueTypeNames.FloatArray, "vertex").Set(
+        Vt.FloatArray.FromNumpy(pts[:, 2].astype(np.float32))
+    )
+    api.CreatePrimvar("faceId", Sdf.ValueTypeNames.IntArray, "uniform").Set(
+        Vt.IntArray.FromNumpy(np.arange(len(faces), dtype=np.int32))
+    )
+    api.CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray, "constant").Set([(1, 0, 0)])
+    left = [int(f) for f in range(len(faces)) if pts[faces[f, 0], 0] < n / 2]
+    UsdGeom.Subset.CreateGeomSubset(mesh, "left", "face", Vt.IntArray(left))
+    stage.Save()
+
+
+@pytest.mark.parametrize("mode", ["sublayer", "reference"])
+def test_overrides_reindex_primvars_and_subsets(mode, tmp_path):
+    n = 10
+    src = tmp_path / "src.usda"
+    _grid_stage(src, n)
+    before = src.read_bytes()
+    out = tmp_path / f"ovr_{mode}.usda"
+    result = usd.write_overrides(src, out, mode=mode)
+    assert src.read_bytes() == before and list(result) == ["/World/grid"]
+    stage = Usd.Stage.Open(str(out))
+    prim = stage.GetPrimAtPath("/World/grid")
+    _assert_same(usd.read_buffers(prim), result["/World/grid"].buffers())
+    mesh = UsdGeom.Mesh(prim)
+    pts = np.asarray(mesh.GetPointsAttr().Get())
+    tri = np.asarray(mesh.GetFaceVertexIndicesAttr().Get()).reshape(-1, 3)
+    api = UsdGeom.PrimvarsAPI(prim)
+    assert pts.shape[0] == (n + 1) ** 2 + (n + 1)  # the seam column is split once
+    np.testing.assert_allclose(np.asarray(api.GetPrimvar("height").Get()), pts[:, 2])
+    st = api.GetPrimvar("st")
+    assert st.GetInterpolation() == "vertex" and not st.IsIndexed()
+    stv = np.asarray(st.Get())
+    centre = pts[tri].mean(axis=1)
+    right = centre[:, 0] >= n / 2
+    np.testing.assert_allclose(stv[tri][:, :, 0], pts[tri][:, :, 0] / n + right[:, None], atol=1e-6)
+    face = np.floor(centre[:, 0]).astype(int) + n * np.floor(centre[:, 1]).astype(int)
+    np.testing.assert_array_equal(np.asarray(api.GetPrimvar("faceId").Get()), face)
+    subset = np.asarray(UsdGeom.Subset(stage.GetPrimAtPath("/World/grid/left")).GetIndicesAttr().Get())
+    np.testing.assert_array_equal(subset, np.flatnonzero(centre[:, 0] < n / 2))
+    assert UsdGeom.GetStageUpAxis(stage) == "Z"
+    assert validate_stage(out) == []
+
+
+# -- discrete LODs -----------------------------------------------------------------------------------------
+def test_lod_variants_and_usdlod(pm, tmp_path):
+    asset = usd.write(pm, tmp_path / "lods.usdc", lods=4)
+    stage = Usd.Stage.Open(str(asset))
+    prim = stage.GetPrimAtPath("/Lods/mesh")
+    lods = np.asarray(prim.GetAttribute("swpm:discreteLods").Get())
+    assert len(lods) == 4 and lods[0] == 0 and np.all(np.diff(lods) > 0)
+    vset = prim.GetVariantSets().GetVariantSet("LOD")
+    assert vset.GetVariantSelection() == "LOD0"
+    for i, k in enumerate(lods):
+        vset.SetVariantSelection(f"LOD{i}")
+        fvi = np.asarray(UsdGeom.Mesh(prim).GetFaceVertexIndicesAttr().Get())
+        np.testing.assert_array_equal(fvi, pm.triangles_at(int(k)).ravel())
+    assert usd.select_lods(pm, 3, by="error")[0] == 0
+    layer = usd.write_usdlod(asset, tmp_path / "lods_lod.usda")
+    lstage = Usd.Stage.Open(str(layer))
+    from pxr import UsdLod
+
+    root = lstage.GetPrimAtPath("/LodsLOD/lod")
+    assert root.HasAPI(UsdLod.RootAPI)
+    assert [c.GetName() for c in root.GetChildren()] == [f"LOD{i}" for i in range(4)]
+    dist = np.asarray(
+        UsdLod.DistanceHeuristic(lstage.GetPrimAtPath("/LodsLOD/heuristics/distance"))
+        .GetThresholdsAttr()
+        .Get()
+    )
+    size = np.asarray(
+        UsdLod.ScreenSizeHeuristic(lstage.GetPrimAtPath("/LodsLOD/heuristics/screenSize"))
+        .GetThresholdsAttr()
+        .Get()
+    )
+    assert len(dist) == len(size) == 3 and np.all(np.diff(dist) > 0) and np.all(np.diff(size) < 0)
+    coarse = lstage.GetPrimAtPath("/LodsLOD/lod/LOD3/mesh")
+    assert len(UsdGeom.Mesh(coarse).GetFaceVertexIndicesAttr().Get()) == 3 * pm.triangle_count_at(
+        int(lods[3])
+    )
+    _assert_same(usd.read_buffers(coarse), pm.buffers())
+    assert validate_stage(asset) == [] and validate_stage(layer) == []
+
+
+# -- validation --------------------------------------------------------------------------------------------
+def _corrupt(src: Path, dst: Path, edit) -> Path:
+    stage = Usd.Stage.Open(str(src))
+    edit(stage.GetPrimAtPath(stage.GetDefaultPrim().GetPath().AppendChild("mesh")))
+    stage.GetRootLayer().Export(str(dst))
+    return dst
+
+
+def _retype(prim, name, type_name, value):
+    """Author ``name`` with another type at the layer level (the Usd API would refuse it)."""
+    spec = prim.GetStage().GetRootLayer().GetPrimAtPath(prim.GetPath())
+    spec.RemoveProperty(spec.properties[name])
+    attr = Sdf.AttributeSpec(spec, name, type_name, Sdf.VariabilityUniform)
+    attr.default = value
+
+
+def test_corruptions_are_reported_with_path_and_code(mesh, asset, tmp_path):
+    sw = pytest.importorskip("swpm_usd.encode.slidingwindow")
+    sw_asset = usd.write(sw.build_sliding_window(mesh), tmp_path / "sw.usdc")
+    sw_stage = Usd.Stage.Open(str(sw_asset))
+    pool_len = len(sw_stage.GetPrimAtPath("/Sw/mesh").GetAttribute("swpm:indexPool").Get())
+
+    def window_out(prim):
+        w = np.asarray(prim.GetAttribute("swpm:windowRecords").Get()).copy()
+        w[0] = pool_len  # first index offset past the pool
+        prim.GetAttribute("swpm:windowRecords").Set(Vt.UIntArray.FromNumpy(w))
+
+    cases = {
+        "SWPM_USD_WINDOW_RANGE": (sw_asset, window_out),
+        "SWPM_USD_TYPE": (
+            asset,
+            lambda p: _retype(
+                p, "swpm:indices", Sdf.ValueTypeNames.FloatArray, Vt.FloatArray([0.5, 1.5, 2.5])
+            ),
+        ),
+        "SWPM_USD_ENCODING": (asset, lambda p: p.GetAttribute("swpm:encoding").Set("quantum")),
+        "SWPM_USD_INDEX_RANGE": (
+            asset,
+            lambda p: p.GetAttribute("swpm:indices").Set(
+                Vt.UIntArray.FromNumpy(np.r_[np.asarray(p.GetAttribute("swpm:indices").Get())[:-1], 10**6])
+            ),
+        ),
+        "SWPM_USD_STRIDE": (
+            asset,
+            lambda p: p.GetAttribute("swpm:collapseRecords").Set(
+                Vt.UIntArray.FromNumpy(np.asarray(p.GetAttribute("swpm:collapseRecords").Get())[:-1].copy())
+            ),
+        ),
+    }
+    for code, (src, edit) in cases.items():
+        assert code in CODES
+        bad = _corrupt(src, tmp_path / f"{code}.usdc", edit)
+        findings = validate_stage(bad)
+        ours = [f for f in findings if f.code == code]
+        assert ours, (code, findings)
+        assert ours[0].prim.endswith("/mesh") and ours[0].severity == "error"
+        json.dumps([f.to_dict() for f in findings])
+
+
+def test_cli_reports_json_and_exit_code(asset, tmp_path):
+    from click.testing import CliRunner
+
+    from swpm_usd.usd.cli import validate_usd
+
+    ok = CliRunner().invoke(validate_usd, [str(asset), "--json"])
+    assert ok.exit_code == 0 and json.loads(ok.output)["errors"] == 0
+    bad = _corrupt(asset, tmp_path / "bad.usda", lambda p: p.GetAttribute("swpm:encoding").Set("nope"))
+    res = CliRunner().invoke(validate_usd, [str(bad)])
+    assert res.exit_code == 1 and "SWPM_USD_ENCODING /Suzanne/mesh" in res.output
