@@ -271,7 +271,8 @@ def test_interrupted_run_keeps_earlier_outputs_and_rerun_finishes(tmp_path):
 
 
 def test_parallel_jobs_and_dask_executor(tmp_path):
-    pytest.importorskip("dask.distributed", reason="the dask extra is part of .[dev]")
+    import dask.distributed  # noqa: F401 - the dask extra is part of .[dev]
+
     cfg = _project(tmp_path, config=MINIMAL.replace("sliding-window", "vanilla"))
     res = run(cfg, jobs=2, echo=lambda m: None)
     assert res.built == 2 and res.failed == 0

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-AUTO_CANDIDATES = ("vanilla", "skip-strip", "mixed", "sliding-window")
+AUTO_CANDIDATES = ("vanilla", "skip-strip", "mixed", "sliding-window")  # those the .swpm format can store: see auto_candidates()
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:
