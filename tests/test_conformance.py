@@ -52,6 +52,9 @@ def test_manifest_and_expected_results_follow_the_schema() -> None:
         "attributes",
         "single-triangle",
         "unknown-ancillary-chunk",
+        "mixed",
+        "mixed-change-offset-out-of-range",
+        "mixed-level-outside-list",
     ):
         assert need in names
 

@@ -272,3 +272,89 @@ def test_cli(tmp_path: Path) -> None:
     assert r.exit_code == 0, r.output
     r = CliRunner().invoke(main, ["encode", str(tmp_path / "missing.obj"), "-o", str(out)])
     assert r.exit_code == 1
+
+
+# -- mixed ---------------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def cow_mixed() -> swpm_usd.ProgressiveMesh:
+    cow = Path("/work/shared/meshes/cow.obj")
+    if not cow.exists():
+        pytest.skip("cow.obj not available")
+    return swpm_usd.build(swpm_usd.load_mesh(cow), "mixed")
+
+
+def test_mixed_round_trip_cow(cow_mixed, tmp_path: Path) -> None:
+    path = save(cow_mixed, tmp_path / "cow.swpm")
+    rep = validate(path)
+    assert rep.valid, rep.format()
+    assert rep.summary["encoding"] == "mixed"
+    q = load(path)
+    _same(cow_mixed, q)
+    assert not q.level_static_indices.flags.owndata and not q.level_dynamic_indices.flags.owndata
+    lods = sorted({0, 1, cow_mixed.lod_count // 3, cow_mixed.lod_count // 2, cow_mixed.lod_count - 1})
+    for k in lods:
+        np.testing.assert_array_equal(cow_mixed.draw_stream(k)[1], q.draw_stream(k)[1])
+        calls_a, calls_b = cow_mixed.draw_calls(k), q.draw_calls(k)
+        assert len(calls_a) == len(calls_b) == 2
+        for (pa, ia), (pb, ib) in zip(calls_a, calls_b, strict=True):
+            assert pa == pb
+            np.testing.assert_array_equal(ia, ib)
+    # instances of the loaded mesh walk up and down across level boundaries like the original
+    ia, ib = cow_mixed.instance(), q.instance()
+    for k in (cow_mixed.lod_count - 1, 0, cow_mixed.lod_count // 2):
+        np.testing.assert_array_equal(ia.draw_stream(k)[1], ib.draw_stream(k)[1])
+
+
+def test_mixed_u32_and_streaming_map(cow_mixed) -> None:
+    q = load_bytes(encode_bytes(cow_mixed, index_width=4))
+    assert q.level_static_indices.dtype == np.dtype("<u4")
+    _same(cow_mixed, q)
+    rep = validate_bytes(encode_bytes(cow_mixed))
+    assert rep.valid and not [p for p in rep.problems if p.code == "SWPM_SMAP_INVALID"]
+    assert [c["type"] for c in rep.summary["chunks"]] == [
+        "META", "LODS", "SMAP", "RCNT", "MLVL", "MREC", "INDX", "VERT"
+    ]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("buffers", "code"),
+    [
+        ({"collapse_change_offsets": [2, 6]}, "SWPM_INDEX_OUT_OF_RANGE"),
+        ({"level_static_start": [0, 9]}, "SWPM_MIXED_BAD_LEVELS"),
+        ({"level_dynamic_start": [0, 5]}, "SWPM_MIXED_BAD_LEVELS"),
+        ({"level_record_start": [0, 2]}, "SWPM_MIXED_BAD_LEVELS"),
+        ({"level_first_lod": [1]}, "SWPM_MIXED_BAD_LEVELS"),
+        ({"level_dynamic_indices": [1, 2, 4, 2, 3, 8]}, "SWPM_INDEX_OUT_OF_RANGE"),
+        ({"level_dynamic_collapsed_indices": [1, 2, 4, 2, 3, 0]}, "SWPM_PREFIX_VIOLATION"),
+        ({"collapse_static_tris_removed": [3]}, "SWPM_RECORD_BAD_COUNTS"),
+        ({"collapse_dynamic_tris_removed": [1]}, "SWPM_RECORD_BAD_COUNTS"),
+        ({"collapse_kept": [4]}, "SWPM_RECORD_BAD_KEPT"),
+        ({"collapse_prev_change_count": [1]}, "SWPM_RECORD_BAD_COUNTS"),
+        ({"collapse_change_offsets": [0, 5]}, "SWPM_RECORD_BAD_CHANGE"),
+        ({"level_dynamic_collapsed_indices": [1, 2, 0, 2, 3, 1]}, "SWPM_MIXED_BAD_LEVELS"),
+        ({"collapse_change_count": [1], "collapse_change_offsets": [2]}, "SWPM_PREFIX_VIOLATION"),
+    ],
+)
+def test_mixed_defects_are_coded(buffers: dict, code: str) -> None:
+    from swpm_usd.format.vectors import fan_mixed
+
+    assert validate_bytes(encode_bytes(fan_mixed())).valid
+    rep = validate_bytes(encode_bytes(fan_mixed(buffers=buffers)))
+    assert not rep.valid and code in rep.codes(), rep.format()
+    with pytest.raises(SwpmFormatError):
+        load_bytes(encode_bytes(fan_mixed(buffers=buffers)))
+
+
+def test_mixed_huge_counts_allocate_nothing() -> None:
+    from swpm_usd.format.vectors import chunk, fan_mixed, patch
+
+    base = encode_bytes(fan_mixed())
+    for t, at in ((L.MLVL, 0), (L.MLVL, 4), (L.MREC, 0), (L.MREC, 4)):
+        _, off, _ = chunk(base, t)
+        bad = patch(base, off + at, "<I", 0xFFFFFFFF)
+        tracemalloc.start()
+        rep = validate_bytes(bad)
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        assert "SWPM_COUNT_EXCEEDS_CHUNK" in rep.codes(), (t, at, rep.format())
+        assert peak < 1_000_000

@@ -40,7 +40,11 @@ def _parse_params(params: tuple[str, ...]) -> dict:
     help="The .swpm file to write (atomically).",
 )
 @click.option(
-    "--encoding", "-e", default="vanilla", show_default=True, help="vanilla, sliding-window or skip-strip."
+    "--encoding",
+    "-e",
+    default="vanilla",
+    show_default=True,
+    help="vanilla, sliding-window, skip-strip or mixed.",
 )
 @click.option(
     "--param",

@@ -303,6 +303,12 @@ _ENTRIES = [
     ),
     Entry("SWPM_LEVEL_BAD_TABLE", ERROR, "skip-strip levels: {reason}", "The level table is inconsistent."),
     Entry(
+        "SWPM_MIXED_BAD_LEVELS",
+        ERROR,
+        "mixed levels: {reason}",
+        "The mixed level table (MLVL) is inconsistent with itself, its arrays, MREC or RCNT.",
+    ),
+    Entry(
         "SWPM_SMAP_INVALID",
         WARNING,
         "streaming map: {reason}",

@@ -116,3 +116,59 @@ def segment_limits(arr, starts, limits, exempt):  # pragma: no cover - jitted
             if v >= lim and v != exempt:
                 return p, s
     return -1, -1
+
+
+@nb.njit(cache=True)
+def mixed_replay(
+    static, sstart, dyn, coll, dstart, rstart, kept, st_removed, dy_removed, change_count, offsets, nv
+):  # pragma: no cover - jitted
+    """Replay each mixed level's records on a copy of its dynamic list; ``(kind, record, slot)`` of the first
+    problem, kind 0 when none. Callers have checked every index, offset and per-level range.
+
+    kind 1: record ``record`` changes dynamic slot ``slot``, which does not hold its binned vertex (or is
+    not live after the record); kind 2: after record ``record`` its binned vertex (``slot``) is still
+    referenced by a live triangle of either list; kind 3: the collapsed dynamic list differs from the replay
+    at ``slot``. ``nv`` is the vertex count.
+    """
+    ref = np.zeros(nv, np.int32)
+    n = sstart.shape[0] - 1
+    j = 0
+    for lv in range(n):
+        s0, s1, d0, d1 = sstart[lv], sstart[lv + 1], dstart[lv], dstart[lv + 1]
+        buf = np.empty(d1 - d0, np.int64)
+        for i in range(d1 - d0):
+            buf[i] = dyn[d0 + i]
+            ref[buf[i]] += 1
+        for i in range(s0, s1):
+            ref[static[i]] += 1
+        live_s = (s1 - s0) // 3
+        live_d = (d1 - d0) // 3
+        for r in range(rstart[lv], rstart[lv + 1]):
+            b = nv - 1 - r
+            k = kept[r]
+            after_s = live_s - np.int64(st_removed[r])
+            after_d = live_d - np.int64(dy_removed[r])
+            for _ in range(np.int64(change_count[r])):
+                s = np.int64(offsets[j])
+                j += 1
+                if s >= 3 * after_d or buf[s] != b:
+                    return 1, r, s
+                buf[s] = k
+                ref[b] -= 1
+                ref[k] += 1
+            for s in range(3 * after_d, 3 * live_d):
+                ref[buf[s]] -= 1
+            for s in range(s0 + 3 * after_s, s0 + 3 * live_s):
+                ref[static[s]] -= 1
+            live_s, live_d = after_s, after_d
+            if ref[b] != 0:
+                return 2, r, np.int64(b)
+        for i in range(d1 - d0):
+            if coll[d0 + i] != buf[i]:
+                return 3, rstart[lv + 1] - 1, np.int64(d0 + i)
+        # forget this level's live references (linear, no O(V) reset per level)
+        for s in range(3 * live_d):
+            ref[buf[s]] -= 1
+        for s in range(s0, s0 + 3 * live_s):
+            ref[static[s]] -= 1
+    return 0, 0, 0

@@ -56,11 +56,15 @@ FEATURE_INDEX32 = 1 << 0
 FEATURE_VANILLA = 1 << 1
 FEATURE_SLIDING_WINDOW = 1 << 2
 FEATURE_SKIP_STRIP = 1 << 3
-KNOWN_FEATURES = FEATURE_INDEX32 | FEATURE_VANILLA | FEATURE_SLIDING_WINDOW | FEATURE_SKIP_STRIP
+FEATURE_MIXED = 1 << 4
+KNOWN_FEATURES = (
+    FEATURE_INDEX32 | FEATURE_VANILLA | FEATURE_SLIDING_WINDOW | FEATURE_SKIP_STRIP | FEATURE_MIXED
+)
 ENCODING_FEATURES = {
     "vanilla": FEATURE_VANILLA,
     "sliding-window": FEATURE_SLIDING_WINDOW,
     "skip-strip": FEATURE_SKIP_STRIP,
+    "mixed": FEATURE_MIXED,
 }
 
 #: LOD table row (LODS), 12 bytes
@@ -96,10 +100,12 @@ ELEM_TYPES: dict[int, np.dtype] = {
 ELEM_CODES = {dt.str: code for code, dt in ELEM_TYPES.items()}
 ELEM_NAMES = {1: "u8", 2: "i8", 3: "u16", 4: "i16", 5: "u32", 6: "i32", 7: "f16", 8: "f32", 9: "f64"}
 
-#: collapse-record chunk (VREC / SREC) header, 8 bytes
+#: collapse-record chunk (VREC / SREC / MREC) header, 8 bytes
 REC_HEADER = np.dtype([("record_count", "<u4"), ("offset_count", "<u4")])
 #: skip-strip level chunk (SKIP) header, 8 bytes
 SKIP_HEADER = np.dtype([("level_count", "<u4"), ("collapsed_count", "<u4")])
+#: mixed level chunk (MLVL) header, 8 bytes
+MLVL_HEADER = np.dtype([("level_count", "<u4"), ("dynamic_count", "<u4")])
 #: streaming-map header, 8 bytes; band, 24 bytes; range, 16 bytes
 SMAP_HEADER = np.dtype([("band_count", "<u4"), ("range_count", "<u4")])
 SMAP_BAND = np.dtype(
@@ -124,6 +130,8 @@ VREC = b"VREC"
 SREC = b"SREC"
 SKIP = b"SKIP"
 RCNT = b"RCNT"
+MLVL = b"MLVL"
+MREC = b"MREC"
 CHUNK_TYPES: dict[bytes, tuple[bool, frozenset[str]]] = {
     META: (True, frozenset(ENCODING_FEATURES)),
     LODS: (True, frozenset(ENCODING_FEATURES)),
@@ -132,15 +140,18 @@ CHUNK_TYPES: dict[bytes, tuple[bool, frozenset[str]]] = {
     INDX: (True, frozenset(ENCODING_FEATURES)),
     WREC: (True, frozenset({"sliding-window"})),
     VREC: (True, frozenset({"vanilla"})),
-    RCNT: (True, frozenset({"vanilla", "skip-strip"})),
+    RCNT: (True, frozenset({"vanilla", "skip-strip", "mixed"})),
     SKIP: (True, frozenset({"skip-strip"})),
     SREC: (True, frozenset({"skip-strip"})),
+    MLVL: (True, frozenset({"mixed"})),
+    MREC: (True, frozenset({"mixed"})),
 }
 #: the chunks each encoding requires, in the order a writer lays them out (coarse-to-fine streaming order)
 REQUIRED_CHUNKS: dict[str, tuple[bytes, ...]] = {
     "vanilla": (META, LODS, SMAP, RCNT, VREC, INDX, VERT),
     "sliding-window": (META, LODS, SMAP, WREC, INDX, VERT),
     "skip-strip": (META, LODS, SMAP, RCNT, SKIP, SREC, INDX, VERT),
+    "mixed": (META, LODS, SMAP, RCNT, MLVL, MREC, INDX, VERT),
 }
 
 #: sizes the spec's byte tables state, checked by the tests
@@ -152,6 +163,7 @@ SPEC_SIZES = {
     "ATTR_DESC": 16,
     "REC_HEADER": 8,
     "SKIP_HEADER": 8,
+    "MLVL_HEADER": 8,
     "SMAP_HEADER": 8,
     "SMAP_BAND": 24,
     "SMAP_RANGE": 16,

@@ -2,7 +2,8 @@
 
 ``python -m swpm_usd.format.vectors spec/vectors`` rebuilds every vector byte for byte. The meshes are
 hand-made (a five-vertex fan and a single triangle), so the vectors do not depend on the simplifier; the
-sliding-window and skip-strip vectors are written from hand-made buffers through :class:`RawProgressiveMesh`.
+sliding-window, skip-strip and mixed vectors are written from hand-made buffers through
+:class:`RawProgressiveMesh`.
 Invalid vectors are valid files with one defect patched in; CRCs are recomputed unless the defect is a CRC.
 """
 
@@ -146,6 +147,38 @@ def fan_skip_strip() -> RawProgressiveMesh:
     )
 
 
+def fan_mixed(**over: Any) -> RawProgressiveMesh:
+    """Mixed, one level: the two triangles the collapse bins are static, the two it changes dynamic."""
+    bufs = {
+        "level_first_lod": [0],
+        "level_record_start": [0, 1],
+        "level_static_start": [0, 6],
+        "level_static_indices": [0, 1, 4, 3, 0, 4],
+        "level_dynamic_start": [0, 6],
+        "level_dynamic_indices": [1, 2, 4, 2, 3, 4],
+        "level_dynamic_collapsed_indices": [1, 2, 0, 2, 3, 0],
+        "collapse_kept": [0],
+        "collapse_static_tris_removed": [2],
+        "collapse_dynamic_tris_removed": [0],
+        "collapse_change_count": [2],
+        "collapse_prev_change_count": [0],
+        "collapse_change_offsets": [2, 5],
+        "lod_record_counts": [0, 1],
+    }
+    bufs.update(over.pop("buffers", {}))
+    args: dict[str, Any] = {
+        "encoding": "mixed",
+        "points": FAN_POINTS,
+        "vertex_counts": np.array([5, 4]),
+        "triangle_counts": np.array([4, 2]),
+        "lod_errors": np.array([0.0, 0.5], np.float32),
+        "raw_buffers": bufs,
+        "params": {"cache_size": 16, "level_threshold": 0.25},
+    }
+    args.update(over)
+    return RawProgressiveMesh(**args)
+
+
 def single_triangle() -> RawProgressiveMesh:
     bufs = {
         "indices": [0, 1, 2],
@@ -230,6 +263,7 @@ def _valid() -> dict[str, tuple[bytes, str]]:
             "an unknown ancillary chunk a reader must skip",
         ),
         "newer-minor-version": (fix_crcs(_write(fan_vanilla(), minor=3)), "minor version 3: read as 1.0"),
+        "mixed": (_write(fan_mixed()), "mixed, one level: static and dynamic list, one collapse"),
     }
 
 
@@ -298,6 +332,14 @@ def _invalid(base: bytes) -> dict[str, tuple[bytes, str]]:
     out["unknown-required-feature"] = (
         patch(base, 20, "<I", L.FEATURE_VANILLA | (1 << 20)),
         "required-feature bit 20 is unknown",
+    )
+    out["mixed-change-offset-out-of-range"] = (
+        _write(fan_mixed(buffers={"collapse_change_offsets": [2, 6]})),
+        "a mixed change offset points past its level's dynamic list (6 slots)",
+    )
+    out["mixed-level-outside-list"] = (
+        _write(fan_mixed(buffers={"level_static_start": [0, 9]})),
+        "the mixed level's static range ends 3 indices past INDX",
     )
     return out
 

@@ -19,6 +19,14 @@ from . import layout as L
 
 #: LOD bands of the streaming map: one per halving of the vertex count
 GENERATOR = f"swpm-usd {__version__}"
+#: the columns of an MREC record row, in order (spec section "MLVL and MREC")
+MIXED_RECORD_COLUMNS = (
+    "collapse_kept",
+    "collapse_static_tris_removed",
+    "collapse_dynamic_tris_removed",
+    "collapse_change_count",
+    "collapse_prev_change_count",
+)
 
 
 def _pad(b: bytes, a: int = L.ARRAY_ALIGN) -> bytes:
@@ -89,7 +97,7 @@ def _records(table: list[np.ndarray], offsets: np.ndarray, it: np.dtype) -> byte
     head = np.array([(R, M)], L.REC_HEADER).tobytes()
     return (
         head
-        + _u(np.stack(table, axis=1) if R else np.zeros((0, 4)), it)
+        + _u(np.stack(table, axis=1) if R else np.zeros((0, len(table))), it)
         + np.ascontiguousarray(offsets, it).tobytes()
     )
 
@@ -108,6 +116,11 @@ def needed_index_ranges(encoding: str, buffers: dict[str, np.ndarray], lods: int
     if encoding == "skip-strip":
         first = np.asarray(buffers["level_first_lod"], np.int64)
         start = np.asarray(buffers["level_index_start"], np.int64)
+        lev = np.searchsorted(first, np.arange(lods), side="right") - 1
+        return np.stack([start[lev], start[lev + 1]], axis=1)
+    if encoding == "mixed":  # INDX holds the static lists; the dynamic ones are in MLVL, before INDX
+        first = np.asarray(buffers["level_first_lod"], np.int64)
+        start = np.asarray(buffers["level_static_start"], np.int64)
         lev = np.searchsorted(first, np.arange(lods), side="right") - 1
         return np.stack([start[lev], start[lev + 1]], axis=1)
     return np.tile(np.array([[0, n_index]], np.int64), (lods, 1))
@@ -189,6 +202,28 @@ def encode_bytes(
             np.asarray(bufs["window_records"]).reshape(-1, 3), it
         ).tobytes()
         index = bufs["index_pool"]
+    elif enc == "mixed":
+        payload[L.RCNT] = np.ascontiguousarray(bufs["lod_record_counts"], it).tobytes()
+        first = np.asarray(bufs["level_first_lod"])
+        dyn = np.asarray(bufs["level_dynamic_indices"])
+        payload[L.MLVL] = (
+            np.array([(first.shape[0], dyn.shape[0])], L.MLVL_HEADER).tobytes()
+            + b"".join(
+                _u(bufs[k], it)
+                for k in (
+                    "level_first_lod",
+                    "level_static_start",
+                    "level_dynamic_start",
+                    "level_record_start",
+                    "level_dynamic_indices",
+                )
+            )
+            + np.ascontiguousarray(bufs["level_dynamic_collapsed_indices"], it).tobytes()
+        )
+        payload[L.MREC] = _records(
+            [np.asarray(bufs[c]) for c in MIXED_RECORD_COLUMNS], bufs["collapse_change_offsets"], it
+        )
+        index = bufs["level_static_indices"]
     else:
         payload[L.RCNT] = np.ascontiguousarray(bufs["lod_record_counts"], it).tobytes()
         first = np.asarray(bufs["level_first_lod"])

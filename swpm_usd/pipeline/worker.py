@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-AUTO_CANDIDATES = ("vanilla", "skip-strip", "mixed", "sliding-window")  # those the .swpm format can store: see auto_candidates()
+AUTO_CANDIDATES = ("vanilla", "skip-strip", "mixed", "sliding-window")
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:
@@ -87,7 +87,9 @@ def summarize(pm, cache_size: int = 16) -> dict[str, Any]:
     }
 
 
-def choose_auto(mesh, instances: int, budgets: dict) -> tuple[Any, str, dict]:
+def choose_auto(
+    mesh, instances: int, budgets: dict, storable: frozenset[str] | None = None
+) -> tuple[Any, str, dict]:
     """Build every candidate, measure, and pick (Forsyth's table with measured numbers).
 
     Within the memory budgets (global + instances x instance bytes), the lowest ACMR at half the triangles
@@ -100,7 +102,7 @@ def choose_auto(mesh, instances: int, budgets: dict) -> tuple[Any, str, dict]:
     measured = {}
     built = {}
     for enc in AUTO_CANDIDATES:
-        if enc not in BUILDERS:
+        if enc not in BUILDERS or (storable is not None and enc not in storable):
             continue
         pm = build(mesh, enc)
         s = summarize(pm)
@@ -180,7 +182,12 @@ def process_asset(task: dict[str, Any]) -> dict[str, Any]:
         reason = task["why"]
         candidates = None
         if encoding == "auto":
-            pm, why, candidates = choose_auto(mesh, task["instances"], task["budgets"])
+            storable = None
+            if task["write_swpm"]:  # only encodings the .swpm format has a layout for
+                from ..format.layout import ENCODING_FEATURES
+
+                storable = frozenset(ENCODING_FEATURES)
+            pm, why, candidates = choose_auto(mesh, task["instances"], task["budgets"], storable)
             reason = f"{reason}; {why}"
         else:
             pm = build_pm(mesh, encoding, **params)
