@@ -7,7 +7,9 @@ Rows per mesh and option: lambda (pool indices / LOD-0 indices), levels, LOD cou
 window at 100/50/25/10 % of the triangles next to meshoptimizer's ``optimize_vertex_cache`` of the same
 triangle set (ratio = ours / theirs); Hausdorff error (``swpm_usd.metrics.surface_error``, exact point to
 triangle, / bbox diagonal) at 50/25/10 % next to meshoptimizer's ``simplify`` at the same triangle count;
-build seconds (median of ``--repeat`` after one warm-up build). ``--big`` adds a generated icosphere of
+build seconds (median of ``--repeat`` after one warm-up build). Options (``--options``, comma separated):
+topology, inner3, forsyth, forsyth-tol1, swap and inner3-swap (``optimize_connectivity=True``, SWPM 3.1
+edge swaps; the error is still measured against the unswapped input). ``--big`` adds a generated icosphere of
 1.3 M triangles (build time only). Targets (issue): lambda <= 5.4 on bunny (topology, no reductions),
 ACMR ratio <= 1.10, error ratio <= 1.5, bunny build <= 3 s, 1 M triangles <= 60 s.
 """
@@ -30,6 +32,8 @@ OPTIONS = {
     "inner3": {"inner_vertices": 3},
     "forsyth": {"builder": "forsyth"},
     "forsyth-tol1": {"builder": "forsyth", "tolerance": 1.0},
+    "swap": {"optimize_connectivity": True},
+    "inner3-swap": {"inner_vertices": 3, "optimize_connectivity": True},
 }
 FRACTIONS = (1.0, 0.5, 0.25, 0.1)
 

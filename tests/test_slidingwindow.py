@@ -166,3 +166,75 @@ def test_parameters_are_checked() -> None:
         swpm_usd.build(mesh, encoding="sliding-window", builder="nope")
     with pytest.raises(BuildError):
         swpm_usd.build(mesh, encoding="sliding-window", inner_vertices=0)
+
+
+def test_windows_are_cache_friendly(spot: Mesh) -> None:
+    """The level's untouched triangles go with the patches, not into a scattered middle block drawn in every
+    window: FIFO-16 ACMR of the windows at 100/50/25/10 % of the triangles near a whole-mesh optimiser's."""
+    from swpm_usd.metrics import acmr
+    from swpm_usd.vcache import optimize_triangle_order
+
+    pm = build_sliding_window(spot)
+    for f in (1.0, 0.5, 0.25, 0.1):
+        tris = pm.triangles_at(pm.lod_for_triangles(int(f * spot.triangle_count)))
+        ref = acmr(tris[optimize_triangle_order(tris, pm.vertex_count, 16)], 16)
+        assert acmr(tris, 16) <= 1.3 * ref, f
+
+
+def test_optimize_connectivity(spot: Mesh) -> None:
+    """SWPM 3.1 edge swaps: LOD 0 is the input re-triangulated in near-flat quads only (same vertices,
+    triangle count and Euler characteristic), every LOD a closed manifold equal to the replay, and the pool
+    is smaller."""
+    pm0 = build_sliding_window(spot)
+    pm = swpm_usd.build(spot, encoding="sliding-window", optimize_connectivity=True)
+    assert pm.params["optimize_connectivity"] is True
+    swapped = pm.collapse_sequence.mesh
+    assert swapped.triangle_count == spot.triangle_count and swapped.vertex_count == spot.vertex_count
+    changed = (np.sort(swapped.triangles, 1) != np.sort(spot.triangles, 1)).any(1)
+    assert 0.1 * spot.triangle_count < changed.sum() < 0.8 * spot.triangle_count
+
+    # the swapped edges lie in near-flat quads: the area-weighted normal of every vertex barely moves
+    def vertex_normals(m: Mesh) -> np.ndarray:
+        p = m.points.astype(np.float64)
+        t = m.triangles
+        fn = np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]])
+        vn = np.zeros_like(p)
+        for i in range(3):
+            np.add.at(vn, t[:, i], fn)
+        return vn / np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-30)
+
+    cosang = np.sum(vertex_normals(spot) * vertex_normals(swapped), axis=1)
+    assert np.min(cosang) > np.cos(np.radians(20.0)) and np.mean(cosang) > np.cos(np.radians(3.0))
+    assert pm.index_pool.shape[0] < 0.95 * pm0.index_pool.shape[0]
+    _check_all(pm, swapped, closed=True, every=9)
+    # Euler characteristic of the input kept (checked against LOD 0 inside _check_all for every LOD)
+    vpos = mesh_topology(spot).vertex_pos
+    tp = vpos[spot.triangles]
+    _, e = _edge_stats(tp)
+    tp1 = vpos[pm.source_vertex[pm.triangles_at(0)]]
+    _, e1 = _edge_stats(tp1)
+    assert e1 == e
+
+
+def test_cluster_is_not_implemented() -> None:
+    with pytest.raises(BuildError):
+        build_sliding_window(_icosphere(1), cluster=True)
+
+
+def test_absorb_middle_trades_pool_size_for_cache(spot: Mesh) -> None:
+    """Without absorption the static middle stays one block: a smaller pool, a colder cache."""
+    from swpm_usd.metrics import acmr
+
+    on = swpm_usd.build(spot, "sliding-window")
+    off = swpm_usd.build(spot, "sliding-window", absorb_middle=False)
+    assert on.params["absorb_middle"] is True and off.params["absorb_middle"] is False
+    assert off.index_pool.shape[0] < on.index_pool.shape[0]
+    k_on = on.lod_for_triangles(spot.triangle_count // 2)
+    k_off = off.lod_for_triangles(spot.triangle_count // 2)
+    assert acmr(on.draw_stream(k_on)[1]) < acmr(off.draw_stream(k_off)[1])
+    for pm in (on, off):
+        for k in (0, pm.lod_count // 2, pm.lod_count - 1):
+            first, n, nv = (int(x) for x in pm.window_records[k])
+            tris = pm.triangles_at(k)
+            assert np.array_equal(tris.reshape(-1), pm.index_pool[first : first + 3 * n])
+            assert tris.max() < nv

@@ -30,15 +30,30 @@ Builders.
   (SWPM 3); each centre goes by its best valid half-edge collapse; patches are ordered greedily for a FIFO
   vertex cache (TD-VIPM 3.2, eq. 2); the triangles inside every ``P_i``, ``Q_i`` and the static middle
   are then reordered for the cache block by block, the FIFO state carried from block to block
-  (:func:`swpm_usd.vcache.optimize_block_order`; the patches start out as fans). ``inner_vertices > 1``
+  (:func:`swpm_usd.vcache.optimize_block_order`; the patches start out as fans). Before that, every
+  triangle of no patch that shares a position with a patch joins it (``absorb_middle=True``, the default;
+  :func:`.sw_kernels.absorb_middle`): it touches no inner vertex, so it is the same triangle in ``P_i``
+  and ``Q_i`` and
+  is stored twice instead of once in ``M``, which is then nearly empty. The trade: lambda +15 %, but no
+  window draws a scattered middle block any more (bunny, FIFO 16, ACMR / meshoptimizer's
+  ``optimize_vertex_cache`` of the same triangles at 100/50/25/10 %: 1.27/1.62/1.62/1.48 ->
+  1.04/1.11/1.11/1.08; lambda 4.94 -> 5.67). ``inner_vertices > 1``
   grows each patch to that many adjacent inner vertices (SWPM 3.3): fewer approximations, a smaller pool.
 * ``builder="forsyth"``: the quadric-error collapse order, one patch (the binned vertex's star) per
   collapse; when the best collapse touches a triangle already created in the current level, the best one
   that does not is taken if its error is within ``tolerance`` times the mean collapse error of the plain
   quadric sequence (Forsyth's 10 %), else a new level starts.
 
-``optimize_connectivity`` (SWPM 3.1, edge swaps) and ``cluster`` (SWPM 3.2, clustered / linked patches
-sharing buffers between levels) are accepted names but not implemented yet: ``True`` raises
+``optimize_connectivity=True`` (SWPM 3.1) first swaps edges of the input to create low-degree vertices
+(:func:`optimize_mesh_connectivity`, the paper's ``Optimize``: breadth first, an edge ``(v, j)`` is swapped
+when it lowers the degrees of ``v`` and ``j`` and raises those of two vertices not meant to be lowered),
+so the minimum-degree patch centres have smaller patches and the pool shrinks. Guards: interior manifold
+edges that are no attribute seam, the four normals of the old and new triangles within 10 degrees of each
+other (only near-flat quads change, nothing folds) and no degree below 4 (the paper's floor in flat
+regions). LOD 0 is then the swapped mesh (same vertices, triangle count and topology; ``collapse_sequence
+.mesh``). Bunny: lambda 5.67 -> 5.14, ACMR ratios 1.03/1.09/1.08/1.06; the Hausdorff error at 50 % of the
+triangles grows (see ``benchmarks/bench_slidingwindow.py``, row ``swap``). ``cluster`` (SWPM 3.2,
+clustered / linked patches) is an accepted name but not implemented yet: ``True`` raises
 :class:`BuildError`. The cache size of every ordering is ``cache_size`` (FIFO, default 16).
 
 The builders also keep their own collapse sequence (:attr:`SlidingWindowProgressiveMesh.collapse_sequence`,
@@ -64,6 +79,7 @@ __all__ = [
     "SLIDING_WINDOW_PARAMS",
     "SlidingWindowProgressiveMesh",
     "build_sliding_window",
+    "optimize_mesh_connectivity",
     "screen_space_error",
 ]
 
@@ -76,6 +92,7 @@ SLIDING_WINDOW_PARAMS: dict[str, Any] = {
     "cluster": False,
     "inner_vertices": 1,
     "cache_size": 16,
+    "absorb_middle": True,
 }
 
 
@@ -225,6 +242,15 @@ def _adjacency(tp: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
 _ERROR_WEIGHT = 2.0
 
 
+#: topology builder with ``absorb_middle=True``: a triangle of no patch joins the patch with which it
+#: shares at least this many positions (1: a corner, so nearly every one; 2: an edge); it is then stored
+#: twice (in ``P_i`` and ``Q_i``) instead of once in ``M``: lambda +15 %, but ``M`` is no longer drawn as a
+#: separate scattered block in every window (bunny, FIFO 16, ACMR / meshoptimizer at 100/50/25/10 % of the
+#: triangles: 1.27/1.62/1.62/1.48 -> 1.04/1.11/1.11/1.08, lambda 4.94 -> 5.67). ``absorb_middle=False``
+#: keeps them in the static middle.
+_ABSORB_MIN_SHARED = 1
+
+
 class _Level:
     """One level of the cascade: its starting triangles (global ids) and its patches in draw order."""
 
@@ -241,7 +267,42 @@ class _Level:
         return int(self.p_start.shape[0] - 1)
 
 
-def _build_topology(mesh: Mesh, st, mu: float, inner_vertices: int, cache_size: int):
+#: planarity guard of the edge swaps: the two triangles of a swapped edge and the two that replace them are
+#: all within this angle (degrees) of each other
+_SWAP_MAX_ANGLE_DEG = 10.0
+#: degree floor of the edge swaps (SWPM 3.1: "not below four" in flat regions, the only ones swapped here)
+_SWAP_MIN_DEGREE = 4
+
+
+def optimize_mesh_connectivity(
+    mesh: Mesh, max_angle_deg: float | None = None, min_degree: int | None = None
+) -> Mesh:
+    """``mesh`` with edges swapped to create low-degree vertices (SWPM 3.1, :func:`.sw_kernels.swap_edges`):
+    same vertices and attributes, same triangle count, only interior manifold non-seam edges of near-flat
+    quads swapped, so the surface and its topology (closed, manifold, Euler characteristic) are kept."""
+    angle = _SWAP_MAX_ANGLE_DEG if max_angle_deg is None else float(max_angle_deg)
+    floor = _SWAP_MIN_DEGREE if min_degree is None else int(min_degree)
+    if mesh.triangle_count == 0:
+        return mesh
+    topo = mesh_topology(mesh)
+    free = ~(topo.pos_boundary | topo.pos_nonmanifold)
+    tris, _ = swk.swap_edges(
+        np.ascontiguousarray(mesh.triangles, np.int64),
+        np.ascontiguousarray(topo.tri_pos, np.int64),
+        np.ascontiguousarray(topo.pos_points, np.float64),
+        np.ascontiguousarray(free),
+        float(np.cos(np.radians(angle))),
+        floor,
+    )
+    return Mesh(
+        points=mesh.points,
+        triangles=tris.astype(mesh.triangles.dtype),
+        attributes=dict(mesh.attributes),
+        source=mesh.source,
+    )
+
+
+def _build_topology(mesh: Mesh, st, mu: float, inner_vertices: int, cache_size: int, absorb_min_shared: int):
     T = mesh.triangle_count
     P = st.pos_points.shape[0]
     V = mesh.vertex_count
@@ -282,6 +343,8 @@ def _build_topology(mesh: Mesh, st, mu: float, inner_vertices: int, cache_size: 
         adj_start, adj = _adjacency(tp, P)
         inner_start, inner = swk.select_patches(adj_start, adj, eligible, tiebreak, int(inner_vertices))
         pt_start, pt = swk.patch_triangles(st, inner_start, inner)
+        if absorb_min_shared > 0:
+            pt_start, pt = swk.absorb_middle(st, pt_start, pt, alive_t.astype(np.int64), absorb_min_shared)
         order = swk.order_patches(pt_start, pt, st.tri_verts, V, int(cache_size))
         start_gids = cur_gid[alive_t].copy()
         gtris, ng, p_start, p_out, q_start, q_out, recs, info, patch_steps = swk.collapse_patches(
@@ -424,6 +487,7 @@ def build_sliding_window(
     cluster: bool = False,
     inner_vertices: int = 1,
     cache_size: int = 16,
+    absorb_middle: bool = True,
     boundary_weight: float = 8.0,
     seam_weight: float = 2.0,
 ) -> SlidingWindowProgressiveMesh:
@@ -436,12 +500,17 @@ def build_sliding_window(
         raise BuildError(f"inner_vertices must be >= 1, got {inner_vertices}")
     if int(cache_size) < 3:
         raise BuildError(f"cache_size must be >= 3, got {cache_size}")
-    if optimize_connectivity or cluster:
-        raise BuildError("optimize_connectivity and cluster are not implemented yet")
+    if cluster:
+        raise BuildError("cluster is not implemented yet")
+    if optimize_connectivity:
+        mesh = optimize_mesh_connectivity(mesh)
     topo = mesh_topology(mesh)
     st = make_state(mesh, topo, boundary_weight=boundary_weight, seam_weight=seam_weight)
     if builder == "topology":
-        gtris, levels, recs, info = _build_topology(mesh, st, float(mu), int(inner_vertices), int(cache_size))
+        absorb = _ABSORB_MIN_SHARED if absorb_middle else 0
+        gtris, levels, recs, info = _build_topology(
+            mesh, st, float(mu), int(inner_vertices), int(cache_size), absorb
+        )
     else:
         gtris, levels, recs, info = _build_forsyth(mesh, st, float(tolerance), boundary_weight, seam_weight)
     return _assemble(mesh, gtris, levels, recs, info, int(cache_size))

@@ -10,9 +10,11 @@ to ``gtris``; ``cur_gid[t]`` is the id of the current version of state triangle 
 * :func:`select_patches` - greedy minimum-degree independent set of patch centres (TD-VIPM section 3.1,
   SWPM section 3.2's greedy search), optionally grown to several inner vertices per patch (SWPM 3.3).
 * :func:`patch_triangles` - the triangles of every patch, ordered as fans (edge-adjacent chains).
+* :func:`absorb_middle` - grows the patches by the triangles of no patch (the static middle).
 * :func:`order_patches` - greedy vertex-cache order of the patches (TD-VIPM section 3.2).
 * :func:`collapse_patches` - removes the inner vertices of every patch, in that order.
 * :func:`forsyth_run` - Forsyth's QEM order with the error-tolerance reordering and level restarts.
+* :func:`swap_edges` - SWPM 3.1's edge swaps creating low-degree vertices (``optimize_connectivity``).
 """
 
 from __future__ import annotations
@@ -268,6 +270,103 @@ def patch_triangles(
             out[start[p] + j] = seg[o[j]]
         start[p + 1] = m
     return start, out[:m].copy()
+
+
+@nb.njit(cache=True)
+def absorb_middle(
+    st: K.CollapseState,
+    pt_start: np.ndarray,
+    pt: np.ndarray,
+    alive_t: np.ndarray,
+    min_shared: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Patches grown by the level's untouched triangles (those in no patch, the static middle ``M``).
+
+    A middle triangle joins the patch with which it shares most positions (an edge: 2, a corner: 1; ties:
+    the smaller patch), if it shares at least ``min_shared``. It touches no inner vertex, so its ``Q`` copy
+    is the same triangle: it is stored twice (in ``P_i`` and ``Q_i``) instead of once in ``M``, but is drawn
+    with its neighbours instead of in a separate, scattered block. Returns the grown CSR (each patch's own
+    triangles first, then the absorbed ones)."""
+    tv = st.tri_verts
+    vpos = st.vertex_pos
+    T = tv.shape[0]
+    n = pt_start.shape[0] - 1
+    tri_patch = np.full(T, -1, np.int64)
+    size = np.zeros(n, np.int64)
+    for p in range(n):
+        size[p] = pt_start[p + 1] - pt_start[p]
+        for j in range(pt_start[p], pt_start[p + 1]):
+            tri_patch[pt[j]] = p
+    extra_of = np.full(alive_t.shape[0], -1, np.int64)
+    cnt = np.zeros(n + 1, np.int64)
+    cand = np.empty(64, np.int64)
+    score = np.empty(64, np.int64)
+    for i in range(alive_t.shape[0]):
+        t = alive_t[i]
+        if tri_patch[t] >= 0:
+            continue
+        a = vpos[tv[t, 0]]
+        b = vpos[tv[t, 1]]
+        c = vpos[tv[t, 2]]
+        nc = 0
+        for r in range(3):
+            q = a if r == 0 else (b if r == 1 else c)
+            tris = K.gather_triangles(st, q)
+            for j in range(tris.shape[0]):
+                p = tri_patch[tris[j]]
+                u = tris[j]
+                sh = 0
+                for k in range(3):
+                    w = vpos[tv[u, k]]
+                    if w == a or w == b or w == c:
+                        sh += 1
+                if p < 0:
+                    continue
+                found = -1
+                for m in range(nc):
+                    if cand[m] == p:
+                        found = m
+                        break
+                if found < 0:
+                    if nc == cand.shape[0]:
+                        continue
+                    cand[nc] = p
+                    score[nc] = sh
+                    nc += 1
+                elif sh > score[found]:
+                    score[found] = sh
+        best = -1
+        for m in range(nc):
+            if score[m] < min_shared:
+                continue
+            if (
+                best < 0
+                or score[m] > score[best]
+                or (score[m] == score[best] and size[cand[m]] < size[cand[best]])
+            ):
+                best = m
+        if best >= 0:
+            p = cand[best]
+            extra_of[i] = p
+            size[p] += 1
+            cnt[p + 1] += 1
+    new_start = np.zeros(n + 1, np.int64)
+    for p in range(n):
+        new_start[p + 1] = new_start[p] + (pt_start[p + 1] - pt_start[p]) + cnt[p + 1]
+    out = np.empty(new_start[n], np.int64)
+    fill = np.empty(n, np.int64)
+    for p in range(n):
+        m = new_start[p]
+        for j in range(pt_start[p], pt_start[p + 1]):
+            out[m] = pt[j]
+            m += 1
+        fill[p] = m
+    for i in range(alive_t.shape[0]):
+        p = extra_of[i]
+        if p >= 0:
+            out[fill[p]] = alive_t[i]
+            fill[p] += 1
+    return new_start, out
 
 
 @nb.njit(cache=True)
@@ -709,3 +808,196 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
         recs[:nrec].copy(),
         step_info[:nstep].copy(),
     )
+
+
+# ----------------------------------------------------------------------------------------------------
+# connectivity optimisation (SWPM section 3.1)
+# ----------------------------------------------------------------------------------------------------
+@nb.njit(cache=True, inline="always")
+def _unit_normal(pts: np.ndarray, a: int, b: int, c: int) -> tuple[float, float, float]:
+    ux = pts[b, 0] - pts[a, 0]
+    uy = pts[b, 1] - pts[a, 1]
+    uz = pts[b, 2] - pts[a, 2]
+    vx = pts[c, 0] - pts[a, 0]
+    vy = pts[c, 1] - pts[a, 1]
+    vz = pts[c, 2] - pts[a, 2]
+    nx = uy * vz - uz * vy
+    ny = uz * vx - ux * vz
+    nz = ux * vy - uy * vx
+    ln = np.sqrt(nx * nx + ny * ny + nz * nz)
+    if ln <= 0.0:
+        return 0.0, 0.0, 0.0
+    return nx / ln, ny / ln, nz / ln
+
+
+@nb.njit(cache=True)
+def _has_pos(tp: np.ndarray, t: int, p: int) -> bool:
+    return tp[t, 0] == p or tp[t, 1] == p or tp[t, 2] == p
+
+
+#: positions of a higher degree take no part in edge swaps (bounds the per-position work arrays)
+_SWAP_MAX_DEGREE = 32
+
+
+@nb.njit(cache=True)
+def swap_edges(
+    tris: np.ndarray,
+    tri_pos: np.ndarray,
+    pos_points: np.ndarray,
+    free: np.ndarray,
+    cos_max: float,
+    min_degree: int,
+) -> tuple[np.ndarray, int]:
+    """Edge swaps that create low-degree vertices (SWPM section 3.1, procedure ``Optimize``).
+
+    Positions are visited breadth first; a visited position ``v`` not yet marked ``Y`` joins ``X`` and
+    each of its edges ``(v, j)`` with triangles ``(v, j, k)`` and ``(j, v, l)`` is swapped to ``(k, l)``
+    when ``j`` is not in ``Y`` and ``k``, ``l`` are not in ``X``; then ``j`` joins ``X`` and ``k``, ``l``
+    join ``Y``: the degrees of ``v`` and ``j`` drop by one, those of ``k`` and ``l`` grow by one.
+
+    Guards: all four positions ``free`` (interior, manifold); the edge no attribute seam (the same
+    vertices in both triangles); ``(k, l)`` not an edge yet; planarity (the normals of the two triangles
+    and of the two new ones pairwise within ``acos(cos_max)``: the swap only re-triangulates a near-flat
+    quad and never folds it); the degrees of ``v`` and ``j`` not below ``min_degree`` (the paper's floor
+    in flat regions). Works on a copy of ``tris``; returns it and the number of swaps.
+    """
+    T = tris.shape[0]
+    P = pos_points.shape[0]
+    out = tris.copy()
+    tp = tri_pos.astype(np.int64).copy()
+    deg = np.zeros(P, np.int64)
+    for t in range(T):
+        for i in range(3):
+            deg[tp[t, i]] += 1
+    # incident triangles of every position, room for 8 more; positions of a higher degree than
+    # _SWAP_MAX_DEGREE are never swapped (they keep only part of their list: it serves the visiting order)
+    cap = 8
+    for p in range(P):
+        cap = max(cap, min(deg[p], _SWAP_MAX_DEGREE) + 8)
+    free = free.copy()
+    inc = np.full((P, cap), -1, np.int64)
+    ninc = np.zeros(P, np.int64)
+    for t in range(T):
+        for i in range(3):
+            p = tp[t, i]
+            if ninc[p] < cap:
+                inc[p, ninc[p]] = t
+                ninc[p] += 1
+    for p in range(P):
+        if deg[p] > _SWAP_MAX_DEGREE:
+            free[p] = False
+    inX = np.zeros(P, np.bool_)
+    inY = np.zeros(P, np.bool_)
+    seen = np.zeros(P, np.bool_)
+    queue = np.empty(P, np.int64)
+    nswap = 0
+    for root in range(P):
+        if seen[root] or ninc[root] == 0:
+            continue
+        seen[root] = True
+        qh = 0
+        qt = 0
+        queue[qt] = root
+        qt += 1
+        while qh < qt:
+            v = queue[qh]
+            qh += 1
+            if free[v] and not inY[v]:
+                inX[v] = True
+                r = 0
+                while r < ninc[v]:
+                    t1 = inc[v, r]
+                    r += 1
+                    # the edge (v, j) that t1 holds in winding order, its third corner k
+                    iv = 0
+                    while tp[t1, iv] != v:
+                        iv += 1
+                    j = tp[t1, (iv + 1) % 3]
+                    k = tp[t1, (iv + 2) % 3]
+                    if inY[j] or inX[k] or not (free[j] and free[k]):
+                        continue
+                    if ninc[v] - 1 < min_degree or ninc[j] - 1 < min_degree:
+                        continue
+                    if ninc[k] + 1 > cap:
+                        continue
+                    # the other triangle (j, v, l)
+                    t2 = -1
+                    ncommon = 0
+                    for s in range(ninc[v]):
+                        u = inc[v, s]
+                        if u != t1 and _has_pos(tp, u, j):
+                            t2 = u
+                            ncommon += 1
+                    if ncommon != 1:
+                        continue
+                    i2 = 0
+                    while tp[t2, i2] != j:
+                        i2 += 1
+                    if tp[t2, (i2 + 1) % 3] != v:
+                        continue  # inconsistent winding
+                    l = tp[t2, (i2 + 2) % 3]
+                    if l == k or inX[l] or not free[l] or ninc[l] + 1 > cap:
+                        continue
+                    # no attribute seam on (v, j)
+                    if out[t1, iv] != out[t2, (i2 + 1) % 3] or out[t1, (iv + 1) % 3] != out[t2, i2]:
+                        continue
+                    # (k, l) must not be an edge already
+                    exists = False
+                    for s in range(ninc[k]):
+                        if _has_pos(tp, inc[k, s], l):
+                            exists = True
+                            break
+                    if exists:
+                        continue
+                    # planarity: old and new normals close to each other
+                    n1 = _unit_normal(pos_points, v, j, k)
+                    n2 = _unit_normal(pos_points, j, v, l)
+                    m1 = _unit_normal(pos_points, v, l, k)
+                    m2 = _unit_normal(pos_points, l, j, k)
+                    ok = True
+                    ns = (n1, n2, m1, m2)
+                    for x in range(4):
+                        for y in range(x + 1, 4):
+                            d = ns[x][0] * ns[y][0] + ns[x][1] * ns[y][1] + ns[x][2] * ns[y][2]
+                            if d < cos_max:
+                                ok = False
+                    if not ok:
+                        continue
+                    # swap: t1 = (v, l, k), t2 = (l, j, k)
+                    vv = out[t1, iv]
+                    vj = out[t1, (iv + 1) % 3]
+                    vk = out[t1, (iv + 2) % 3]
+                    vl = out[t2, (i2 + 2) % 3]
+                    out[t1, 0], out[t1, 1], out[t1, 2] = vv, vl, vk
+                    out[t2, 0], out[t2, 1], out[t2, 2] = vl, vj, vk
+                    tp[t1, 0], tp[t1, 1], tp[t1, 2] = v, l, k
+                    tp[t2, 0], tp[t2, 1], tp[t2, 2] = l, j, k
+                    # incidence: v loses t2, j loses t1, k gains t2, l gains t1
+                    for s in range(ninc[v]):
+                        if inc[v, s] == t2:
+                            inc[v, s] = inc[v, ninc[v] - 1]
+                            ninc[v] -= 1
+                            break
+                    for s in range(ninc[j]):
+                        if inc[j, s] == t1:
+                            inc[j, s] = inc[j, ninc[j] - 1]
+                            ninc[j] -= 1
+                            break
+                    inc[k, ninc[k]] = t2
+                    ninc[k] += 1
+                    inc[l, ninc[l]] = t1
+                    ninc[l] += 1
+                    inX[j] = True
+                    inY[k] = True
+                    inY[l] = True
+                    nswap += 1
+                    r = 0  # v's fan changed: rescan it
+            for s in range(ninc[v]):
+                t = inc[v, s]
+                for i in range(3):
+                    w = tp[t, i]
+                    if not seen[w]:
+                        seen[w] = True
+                        queue[qt] = w
+                        qt += 1
+    return out, nswap
