@@ -174,9 +174,7 @@ def execute(tasks: list[dict], jobs: int, executor: str, scheduler: str | None) 
     # workers fork from a server that has imported the package once (fast start, no inherited threads)
     ctx = mp.get_context("forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn")
     if ctx.get_start_method() == "forkserver":
-        ctx.set_forkserver_preload(
-            ["swpm_usd.pipeline.worker", "swpm_usd.encode", "swpm_usd.format", "swpm_usd.io"]
-        )
+        ctx.set_forkserver_preload(["swpm_usd.pipeline._warm"])  # kernels loaded once, inherited
     pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx)
     try:
         futures = [pool.submit(process_asset, t) for t in tasks]
