@@ -14,6 +14,7 @@ import numpy as np
 
 from . import __version__
 from .errors import SwpmError
+from .format.cli import _parse_params
 
 
 def _lod_rows(pm, max_rows: int) -> list[dict]:
@@ -84,15 +85,7 @@ def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int
             f"it takes {', '.join(sorted(BUILDERS[encoding][1]))}",
             param_hint="--param",
         )
-    parsed = {}
-    for item in params:
-        if "=" not in item:
-            raise click.UsageError(f"--param expects NAME=VALUE, got {item!r}")
-        name, value = item.split("=", 1)
-        try:
-            parsed[name] = json.loads(value)
-        except json.JSONDecodeError:
-            parsed[name] = value
+    parsed = _parse_params(params)
     start = time.perf_counter()
     try:
         pm = build(input_path, encoding, **parsed)

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import zlib
 from collections.abc import Sequence
 from pathlib import Path
@@ -15,6 +14,7 @@ import numpy as np
 
 from .. import __version__
 from ..encode.base import ProgressiveMesh
+from ..fileio import atomic_write_bytes
 from . import layout as L
 
 #: LOD bands of the streaming map: one per halving of the vertex count
@@ -310,19 +310,4 @@ def _json_default(o: Any) -> Any:
 
 def save(pm: ProgressiveMesh, path: str | os.PathLike[str], *, source_digest: str | None = None) -> Path:
     """Write ``pm`` to ``path`` as SWPM v1, atomically: a reader sees the old file or the complete new one."""
-    data = encode_bytes(pm, source_digest=source_digest)
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-    return path
+    return atomic_write_bytes(path, encode_bytes(pm, source_digest=source_digest))

@@ -5,8 +5,6 @@ streaming order, write the outputs atomically. Never raises: a failure comes bac
 from __future__ import annotations
 
 import hashlib
-import os
-import tempfile
 import time
 import traceback
 from pathlib import Path
@@ -14,21 +12,9 @@ from typing import Any
 
 import numpy as np
 
+from ..fileio import atomic_write_bytes
+
 AUTO_CANDIDATES = ("vanilla", "skip-strip", "mixed", "sliding-window")
-
-
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def sha256_file(path: Path) -> str:
