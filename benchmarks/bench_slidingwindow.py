@@ -9,9 +9,11 @@ triangle set (ratio = ours / theirs); Hausdorff error (``swpm_usd.metrics.surfac
 triangle, / bbox diagonal) at 50/25/10 % next to meshoptimizer's ``simplify`` at the same triangle count;
 build seconds (median of ``--repeat`` after one warm-up build). Options (``--options``, comma separated):
 topology, inner3, forsyth, forsyth-tol1, swap and inner3-swap (``optimize_connectivity=True``, SWPM 3.1
-edge swaps; the error is still measured against the unswapped input). ``--big`` adds a generated icosphere of
-1.3 M triangles (build time only). Targets (issue): lambda <= 5.4 on bunny (topology, no reductions),
-ACMR ratio <= 1.10, error ratio <= 1.5, bunny build <= 3 s, 1 M triangles <= 60 s.
+edge swaps; the error is still measured against the unswapped input), cluster and cluster-swap
+(``cluster=True``, SWPM 3.2 linked patches, without and with the edge swaps). ``--big`` adds a generated
+icosphere of 1.3 M triangles (build time only). Targets (issue): lambda <= 5.4 on bunny (topology, no
+reductions; <= 3.9 with cluster-swap), ACMR ratio <= 1.10, error ratio <= 1.5, bunny build <= 3 s,
+1 M triangles <= 60 s.
 """
 
 from __future__ import annotations
@@ -34,6 +36,8 @@ OPTIONS = {
     "forsyth-tol1": {"builder": "forsyth", "tolerance": 1.0},
     "swap": {"optimize_connectivity": True},
     "inner3-swap": {"inner_vertices": 3, "optimize_connectivity": True},
+    "cluster": {"cluster": True},
+    "cluster-swap": {"cluster": True, "optimize_connectivity": True},
 }
 FRACTIONS = (1.0, 0.5, 0.25, 0.1)
 

@@ -216,9 +216,51 @@ def test_optimize_connectivity(spot: Mesh) -> None:
     assert e1 == e
 
 
-def test_cluster_is_not_implemented() -> None:
+@pytest.mark.parametrize("swap", [False, True])
+def test_cluster_icosphere_every_lod(swap: bool) -> None:
+    """SWPM 3.2 clustered / linked patches: every window is still one contiguous slice equal to the replay,
+    a closed manifold, within its vertex prefix, and the pool is smaller."""
+    mesh = _icosphere(3)
+    plain = build_sliding_window(mesh, optimize_connectivity=swap)
+    pm = swpm_usd.build(mesh, encoding="sliding-window", cluster=True, optimize_connectivity=swap)
+    assert pm.params["cluster"] is True
+    assert pm.lod_count > 50 and pm.level_count > 2
+    assert pm.index_pool.shape[0] < plain.index_pool.shape[0]
+    _check_all(pm, pm.collapse_sequence.mesh, closed=True)
+
+
+def test_cluster_spot(spot: Mesh) -> None:
+    plain = build_sliding_window(spot)
+    pm = build_sliding_window(spot, cluster=True)
+    assert pm.index_pool.shape[0] < plain.index_pool.shape[0]
+    assert pm.lod_count == pm.collapse_sequence.step_count + 1
+    assert pm.triangle_count_at(pm.lod_count - 1) < 0.02 * spot.triangle_count
+    # a linked level reads its patches out of the previous level's tail: its first window starts inside
+    # the previous level's last one (without clustering every level starts past it)
+    rec = pm.window_records.astype(np.int64)
+    first_of_level = np.flatnonzero(np.diff(pm.lod_level) != 0) + 1
+    shared = [k for k in first_of_level if rec[k, 0] < rec[k - 1, 0] + 3 * rec[k - 1, 1]]
+    assert len(shared) > len(first_of_level) // 2
+    rec0 = plain.window_records.astype(np.int64)
+    first0 = np.flatnonzero(np.diff(plain.lod_level) != 0) + 1
+    assert all(rec0[k, 0] >= rec0[k - 1, 0] + 3 * rec0[k - 1, 1] for k in first0)
+    _check_all(pm, spot, closed=True, every=3)
+
+
+def test_cluster_open_mesh() -> None:
+    path = MESHES / "cow.obj"
+    assert path.exists(), "shared meshes not available"
+    mesh = swpm_usd.load_mesh(path)
+    pm = build_sliding_window(mesh, cluster=True)
+    assert pm.index_pool.shape[0] < build_sliding_window(mesh).index_pool.shape[0]
+    _check_all(pm, mesh, closed=False, every=5)
+
+
+def test_cluster_needs_single_inner_topology() -> None:
     with pytest.raises(BuildError):
-        build_sliding_window(_icosphere(1), cluster=True)
+        build_sliding_window(_icosphere(1), cluster=True, builder="forsyth")
+    with pytest.raises(BuildError):
+        build_sliding_window(_icosphere(1), cluster=True, inner_vertices=2)
 
 
 def test_absorb_middle_trades_pool_size_for_cache(spot: Mesh) -> None:

@@ -9,6 +9,8 @@ to ``gtris``; ``cur_gid[t]`` is the id of the current version of state triangle 
 * :func:`level_costs` - best valid collapse of every position (the error ranking behind ``mu``).
 * :func:`select_patches` - greedy minimum-degree independent set of patch centres (TD-VIPM section 3.1,
   SWPM section 3.2's greedy search), optionally grown to several inner vertices per patch (SWPM 3.3).
+* :func:`cluster_patches` - patch centres whose stars are disjoint intervals of the previous level's tail
+  (``cluster=True``, SWPM section 3.2).
 * :func:`patch_triangles` - the triangles of every patch, ordered as fans (edge-adjacent chains).
 * :func:`absorb_middle` - grows the patches by the triangles of no patch (the static middle).
 * :func:`order_patches` - greedy vertex-cache order of the patches (TD-VIPM section 3.2).
@@ -236,6 +238,73 @@ def select_patches(
         n_patch += 1
         inner_start[n_patch] = n_inner
     return inner_start[: n_patch + 1].copy(), inner[:n_inner].copy()
+
+
+@nb.njit(cache=True)
+def cluster_patches(
+    st: K.CollapseState, cands: np.ndarray, tpos: np.ndarray, rank: np.ndarray, min_picks: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Clustered / linked patch centres of a level that reuses the previous level's tail (SWPM 3.2).
+
+    ``tpos[t]`` is the place of state triangle ``t`` in that tail (the fixed order in which the level's
+    starting mesh is stored). A centre's patch (its star) then spans the interval ``[lo, hi]`` of places,
+    and the patches, drawn in tail order, can read their ``P`` blocks out of the tail only if their
+    intervals do not overlap. So the centres are a maximum set of pairwise disjoint intervals (greedy by
+    earliest end; ties: the later start, then the lower ``rank``). Disjoint intervals mean triangle-disjoint
+    stars, hence non-adjacent centres: the independent-set condition of the plain builder holds. The
+    level then keeps the first ``r >= min_picks`` of them that minimise ``(end of the r-th interval + 1) / r``
+    (the tail up to there is stored again, as new or unchanged ``Q`` triangles; the rest is left to the
+    next level for free). Returns the CSR ``(inner_start, inner)`` (one inner position per patch) in tail
+    order."""
+    n = cands.shape[0]
+    lo = np.empty(n, np.int64)
+    hi = np.empty(n, np.int64)
+    for i in range(n):
+        tris = K.gather_triangles(st, cands[i])
+        a = np.int64(1) << 62
+        b = np.int64(-1)
+        for j in range(tris.shape[0]):
+            p = tpos[tris[j]]
+            if p < 0:
+                b = np.int64(1) << 62  # not in the tail: never a centre
+            a = min(a, p)
+            b = max(b, p)
+        if tris.shape[0] == 0:
+            b = np.int64(1) << 62
+        lo[i] = a
+        hi[i] = b
+    by_rank = np.argsort(rank, kind="mergesort")
+    span = np.int64(tpos.shape[0] + 1)
+    key = np.empty(n, np.int64)
+    for r in range(n):
+        i = by_rank[r]
+        key[r] = min(hi[i], span) * span + (span - 1 - min(lo[i], span - 1))
+    order = by_rank[np.argsort(key, kind="mergesort")]
+    inner = np.empty(n, np.int64)
+    pick_hi = np.empty(n, np.int64)
+    m = 0
+    last = np.int64(-1)
+    for r in range(n):
+        i = order[r]
+        if hi[i] >= (np.int64(1) << 62):
+            continue
+        if lo[i] > last:
+            inner[m] = cands[i]
+            pick_hi[m] = hi[i]
+            m += 1
+            last = hi[i]
+    # stop where the run read so far costs least per patch (the run is stored again as the ``Q`` blocks
+    # and the untouched triangles in it; what follows the last patch stays for the next level, for free)
+    best_m = m
+    best_ratio = np.inf
+    for r in range(min_picks - 1, m):
+        ratio = (pick_hi[r] + 1.0) / (r + 1.0)
+        if ratio < best_ratio:
+            best_ratio = ratio
+            best_m = r + 1
+    m = min(m, best_m)
+    inner_start = np.arange(m + 1).astype(np.int64)
+    return inner_start, inner[:m].copy()
 
 
 @nb.njit(cache=True)
