@@ -265,7 +265,9 @@ def run(
     progress = _Progress(len(todo))
     by_id = {it.asset.id: it for it in todo}
     try:
-        for rec in execute([_task(cfg, it) for it in todo], jobs, executor, scheduler):
+        # largest inputs first, so no worker is left with a big asset at the end (LPT scheduling)
+        ordered = sorted(todo, key=lambda it: -it.asset.path.stat().st_size)
+        for rec in execute([_task(cfg, it) for it in ordered], jobs, executor, scheduler):
             it = by_id[rec["id"]]
             rec["input_digest"] = it.input_digest
             rec["rule"] = None if it.rule is None else cfg.data["rules"][it.rule]["name"]
