@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import swpm_usd
+from swpm_usd.encode.instance import apply_records as _apply
 from swpm_usd.encode.skipstrip import (
     SkipStripProgressiveMesh,
     _nondegenerate,
@@ -19,7 +20,6 @@ from swpm_usd.encode.skipstrip import (
     vertex_order,
 )
 from swpm_usd.encode.strips import decode_strip, stripify
-from swpm_usd.encode.vanilla import _apply
 from swpm_usd.metrics import cache_misses
 
 MESH = "cow.obj"

@@ -24,8 +24,9 @@ from ..errors import BuildError
 from ..mesh import Mesh
 from ..simplify import CollapseSequence, collapse_sequence
 from .base import ProgressiveMesh, register
+from .instance import LevelledInstance, apply_records
 from .skipstrip import cache_permutation, next_level_lod, vertex_order
-from .vanilla import _apply, collapse_records, index_size
+from .vanilla import collapse_records, index_size
 
 __all__ = ["MIXED_PARAMS", "MixedInstance", "MixedProgressiveMesh", "build_mixed", "build_mixed_mesh"]
 
@@ -180,47 +181,11 @@ class MixedProgressiveMesh(ProgressiveMesh):
         return cls(points, attributes, vertex_counts, triangle_counts, lod_errors, buffers, params)
 
 
-class MixedInstance:
+class MixedInstance(LevelledInstance):
     """One drawn instance: a private copy of the current level's dynamic list; the static list is shared."""
 
-    def __init__(self, pm: MixedProgressiveMesh) -> None:
-        self.pm = pm
-        self.level = 0
-        self.records_applied = 0
-        self._buf = np.array(pm.dynamic_list(0), dtype=np.int64)
-        self.records_done = 0
-        self.level_switches = 0
-
-    def _move(self, target: int) -> None:
-        pm = self.pm
-        target = int(target)
-        lvl = pm.level_of_records(target)
-        r = self.records_applied
-        if lvl != self.level:
-            r0, r1 = int(pm._lrs[lvl]), int(pm._lrs[lvl + 1])
-            collapsed = (r1 - target) < (target - r0)
-            self._buf = np.array(pm.dynamic_list(lvl, collapsed), dtype=np.int64)
-            r = r1 if collapsed else r0
-            self.level = lvl
-            self.level_switches += 1
-        _apply(self._buf, pm._offsets, pm._start, pm._kept, pm._binned, r, target)
-        self.records_done += abs(target - r)
-        self.records_applied = target
-
-    def collapse(self) -> bool:
-        if self.records_applied >= self.pm.record_count:
-            return False
-        self._move(self.records_applied + 1)
-        return True
-
-    def split(self) -> bool:
-        if self.records_applied == 0:
-            return False
-        self._move(self.records_applied - 1)
-        return True
-
-    def set_lod(self, k: int) -> None:
-        self._move(int(self.pm.lod_record_counts[self.pm._check_lod(k)]))
+    def _level_list(self, level: int, collapsed: bool) -> np.ndarray:
+        return self.pm.dynamic_list(level, collapsed)
 
     def draw_calls(self) -> list[tuple[str, np.ndarray]]:
         """The two draws as they are now: dynamic live prefix, static live prefix (uint32)."""
@@ -289,7 +254,7 @@ def build_mixed(
         dyn = tris[dynamic_order].reshape(-1)
         offs = pos[corners // 3] * 3 + corners % 3
         col = dyn.copy()
-        _apply(col, offs, start, kept[c0:c1], binned[c0:c1], 0, n)
+        apply_records(col, offs, start, kept[c0:c1], binned[c0:c1], 0, n)
         first_lod.append(k)
         rec_start.append(c0)
         statics.append(tris[static_order].reshape(-1))

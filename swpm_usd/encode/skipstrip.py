@@ -33,8 +33,9 @@ from ..errors import BuildError
 from ..mesh import Mesh
 from ..simplify import CollapseSequence, collapse_sequence
 from .base import ProgressiveMesh, register
+from .instance import LevelledInstance
 from .strips import decode_strip, stripify
-from .vanilla import _apply, collapse_records, index_size
+from .vanilla import collapse_records, index_size
 
 __all__ = [
     "SKIPSTRIP_PARAMS",
@@ -347,66 +348,15 @@ _BUFFER_NAMES = (
 )
 
 
-class SkipStripInstance:
+class SkipStripInstance(LevelledInstance):
     """One drawn instance: a private copy of the current level's list, edited one record at a time.
 
     ``records_applied`` is the global record count; the instance switches level (copying the nearer of the
     target level's uncollapsed and fully collapsed lists) whenever the target state belongs to another level.
     """
 
-    def __init__(self, pm: SkipStripProgressiveMesh) -> None:
-        self.pm = pm
-        self.level = 0
-        self.records_applied = 0
-        self._buf = np.array(pm.level_list(0), dtype=np.int64)
-        #: records applied or undone and lists copied, for the LOD-change cost
-        self.records_done = 0
-        self.level_switches = 0
-
-    @property
-    def vertex_count(self) -> int:
-        return self.pm.vertex_count - self.records_applied
-
-    @property
-    def lod(self) -> int | None:
-        """The LOD shown, or None between the records of one seam step."""
-        lrc = self.pm.lod_record_counts
-        k = int(np.searchsorted(lrc, self.records_applied))
-        return k if k < self.pm.lod_count and lrc[k] == self.records_applied else None
-
-    def _move(self, target: int) -> None:
-        pm = self.pm
-        target = int(target)
-        lvl = pm.level_of_records(target)
-        r = self.records_applied
-        if lvl != self.level:
-            r0, r1 = int(pm._lrs[lvl]), int(pm._lrs[lvl + 1])
-            collapsed = (r1 - target) < (target - r0)
-            self._buf = np.array(pm.level_list(lvl, collapsed), dtype=np.int64)
-            r = r1 if collapsed else r0
-            self.level = lvl
-            self.level_switches += 1
-        _apply(self._buf, pm._offsets, pm._start, pm._kept, pm._binned, r, target)
-        self.records_done += abs(target - r)
-        self.records_applied = target
-
-    def collapse(self) -> bool:
-        """Apply the next record; False at the coarsest state."""
-        if self.records_applied >= self.pm.record_count:
-            return False
-        self._move(self.records_applied + 1)
-        return True
-
-    def split(self) -> bool:
-        """Undo the last record; False at full detail."""
-        if self.records_applied == 0:
-            return False
-        self._move(self.records_applied - 1)
-        return True
-
-    def set_lod(self, k: int) -> None:
-        """Jump to LOD ``k``, switching levels as needed."""
-        self._move(int(self.pm.lod_record_counts[self.pm._check_lod(k)]))
+    def _level_list(self, level: int, collapsed: bool) -> np.ndarray:
+        return self.pm.level_list(level, collapsed)
 
     def indices(self) -> np.ndarray:
         """The instance's list (a view): all of it is drawn, degenerate triangles included."""

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..simplify import CollapseSequence
 from .base import ProgressiveMesh, register
+from .instance import RecordInstance, apply_records
 
 
 def index_size(max_value: int) -> int:
@@ -94,19 +95,6 @@ def collapse_records(
     return die, removed, start, corners
 
 
-@nb.njit(cache=True)
-def _apply(buf, offsets, start, kept, binned_id, r0, r1):
-    """Collapse records r0..r1-1 (r0 <= r1) or split r0-1..r1 (r0 > r1) on the index buffer ``buf``."""
-    if r0 <= r1:
-        for r in range(r0, r1):
-            for j in range(start[r], start[r + 1]):
-                buf[offsets[j]] = kept[r]
-    else:
-        for r in range(r0 - 1, r1 - 1, -1):
-            for j in range(start[r], start[r + 1]):
-                buf[offsets[j]] = binned_id[r]
-
-
 @register
 class VanillaProgressiveMesh(ProgressiveMesh):
     """Vanilla VIPM: LOD-0 ``indices`` plus collapse records; see the module docstring.
@@ -161,7 +149,7 @@ class VanillaProgressiveMesh(ProgressiveMesh):
     def indices_after(self, records: int) -> np.ndarray:
         """The live index buffer after applying the first ``records`` records (flat, copy)."""
         buf = np.array(self.indices, dtype=np.int64)
-        _apply(
+        apply_records(
             buf,
             self.collapse_change_offsets.astype(np.int64, copy=False),
             self._change_start,
@@ -226,38 +214,25 @@ class VanillaProgressiveMesh(ProgressiveMesh):
         )
 
 
-class VanillaInstance:
+class VanillaInstance(RecordInstance):
     """One drawn instance: a private index buffer edited one record at a time."""
 
     def __init__(self, pm: VanillaProgressiveMesh) -> None:
-        self.pm = pm
+        super().__init__(pm)
         self._buf = np.array(pm.indices, dtype=np.int64)
         self._offsets = pm.collapse_change_offsets.astype(np.int64, copy=False)
         self._kept = pm.collapse_kept.astype(np.int64, copy=False)
-        self.records_applied = 0
-
-    @property
-    def vertex_count(self) -> int:
-        return self.pm.vertex_count - self.records_applied
 
     @property
     def triangle_count(self) -> int:
         return int(self.pm._tri_after[self.records_applied])
-
-    @property
-    def lod(self) -> int | None:
-        """The LOD this instance shows, or None between the records of one seam step."""
-        k = int(np.searchsorted(self.pm.lod_record_counts, self.records_applied))
-        if k < self.pm.lod_count and self.pm.lod_record_counts[k] == self.records_applied:
-            return k
-        return None
 
     def indices(self) -> np.ndarray:
         """The live part of the index buffer (a view: what would be drawn)."""
         return self._buf[: 3 * self.triangle_count]
 
     def _move(self, target: int) -> None:
-        _apply(
+        apply_records(
             self._buf,
             self._offsets,
             self.pm._change_start,
@@ -267,24 +242,6 @@ class VanillaInstance:
             target,
         )
         self.records_applied = target
-
-    def collapse(self) -> bool:
-        """Apply the next record; False at the coarsest state."""
-        if self.records_applied >= self.pm.record_count:
-            return False
-        self._move(self.records_applied + 1)
-        return True
-
-    def split(self) -> bool:
-        """Undo the last record; False at full detail."""
-        if self.records_applied == 0:
-            return False
-        self._move(self.records_applied - 1)
-        return True
-
-    def set_lod(self, k: int) -> None:
-        """Jump to LOD ``k`` (collapsing or splitting as many records as needed)."""
-        self._move(int(self.pm.lod_record_counts[self.pm._check_lod(k)]))
 
 
 def build_vanilla(seq: CollapseSequence) -> VanillaProgressiveMesh:
