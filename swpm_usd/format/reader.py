@@ -716,6 +716,27 @@ def _sliding(p: _Parsed, rep: Report) -> None:
     p.buffers = {"index_pool": pool, "window_records": win}
 
 
+def _offsets_in_level(
+    p: _Parsed, rep: Report, rec: dict[str, np.ndarray], rstart: np.ndarray, list_start: np.ndarray
+) -> bool:
+    """Change offsets of record r must index inside the list of the level that holds r."""
+    R = rec["collapse_change_count"].shape[0]
+    lev_of_rec = np.searchsorted(rstart, np.arange(R), side="right") - 1
+    per_off = np.repeat(lev_of_rec, rec["collapse_change_count"].astype(np.int64))
+    limit = (list_start[per_off + 1] - list_start[per_off]) if per_off.size else per_off
+    bad = np.flatnonzero(rec["collapse_change_offsets"].astype(np.int64) >= limit)
+    for j in bad[:3]:
+        rep.add(
+            "SWPM_INDEX_OUT_OF_RANGE",
+            int(rec["_base"][1]) + int(j) * p.width,
+            what="collapse_change_offsets",
+            value=int(rec["collapse_change_offsets"][j]),
+            index=int(j),
+            limit=int(limit[j]),
+        )
+    return bad.size == 0
+
+
 def _skip(p: _Parsed, rep: Report) -> None:
     rc_c, s_c, idx_c = _get(p, L.RCNT), _get(p, L.SKIP), _get(p, L.INDX)
     rec = _record_chunk(
@@ -790,23 +811,9 @@ def _skip(p: _Parsed, rep: Report) -> None:
     for col in ("collapse_kept", "collapse_binned"):
         ok &= _index_check(p, rep, p.chunks[L.SREC], rec[col], col, V, int(rec["_base"][0]))
     if ok:
-        # change offsets of record r index the list of the level that holds r
         rstart = arrs["level_record_start"].astype(np.int64)
         lstart = arrs["level_index_start"].astype(np.int64)
-        lev_of_rec = np.searchsorted(rstart, np.arange(R), side="right") - 1
-        per_off = np.repeat(lev_of_rec, rec["collapse_change_count"].astype(np.int64))
-        limit = (lstart[per_off + 1] - lstart[per_off]) if per_off.size else per_off
-        bad = np.flatnonzero(rec["collapse_change_offsets"].astype(np.int64) >= limit)
-        for j in bad[:3]:
-            rep.add(
-                "SWPM_INDEX_OUT_OF_RANGE",
-                int(rec["_base"][1]) + int(j) * p.width,
-                what="collapse_change_offsets",
-                value=int(rec["collapse_change_offsets"][j]),
-                index=int(j),
-                limit=int(limit[j]),
-            )
-        ok &= bad.size == 0
+        ok &= _offsets_in_level(p, rep, rec, rstart, lstart)
         # prefix property at each level's entry: its list uses only the level's first LOD's vertices
         vc = p.lods["vertex_count"].astype(np.int64)
         pos, lv = (int(x) for x in segment_limits(lst, lstart, vc[first], -1 if exempt is None else exempt))
@@ -920,21 +927,7 @@ def _mixed(p: _Parsed, rep: Report) -> None:
     rstart = arrs["level_record_start"].astype(np.int64)
     sstart = arrs["level_static_start"].astype(np.int64)
     dstart = arrs["level_dynamic_start"].astype(np.int64)
-    lev_of_rec = np.searchsorted(rstart, np.arange(R), side="right") - 1
-    # change offsets of record r index the dynamic list of the level that holds r
-    per_off = np.repeat(lev_of_rec, rec["collapse_change_count"].astype(np.int64))
-    limit = (dstart[per_off + 1] - dstart[per_off]) if per_off.size else per_off
-    bad = np.flatnonzero(rec["collapse_change_offsets"].astype(np.int64) >= limit)
-    for j in bad[:3]:
-        rep.add(
-            "SWPM_INDEX_OUT_OF_RANGE",
-            int(rec["_base"][1]) + int(j) * p.width,
-            what="collapse_change_offsets",
-            value=int(rec["collapse_change_offsets"][j]),
-            index=int(j),
-            limit=int(limit[j]),
-        )
-    ok &= bad.size == 0
+    ok &= _offsets_in_level(p, rep, rec, rstart, dstart)  # offsets index the level's dynamic list
     # live triangles of each list after r records (per level): never negative
     live = {}
     for col, lst_start in (("static", sstart), ("dynamic", dstart)):
