@@ -55,6 +55,25 @@ class RawProgressiveMesh:
 FAN_POINTS = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0.5, 0.25]], np.float32)
 
 
+def _fan(
+    encoding: str, bufs: dict[str, Any], params: dict[str, Any] | None = None, **over: Any
+) -> RawProgressiveMesh:
+    """The four-triangle fan's two LODs (5 -> 4 vertices, 4 -> 2 triangles) with an encoding's buffers;
+    ``buffers=`` in ``over`` patches single buffers, any other key replaces that field (defect vectors)."""
+    bufs = {**bufs, **over.pop("buffers", {})}
+    args: dict[str, Any] = {
+        "encoding": encoding,
+        "points": FAN_POINTS,
+        "vertex_counts": np.array([5, 4]),
+        "triangle_counts": np.array([4, 2]),
+        "lod_errors": np.array([0.0, 0.5], np.float32),
+        "raw_buffers": bufs,
+        "params": dict(params or {}),
+    }
+    args.update(over)
+    return RawProgressiveMesh(**args)
+
+
 def fan_vanilla(**over: Any) -> RawProgressiveMesh:
     """Four triangles around vertex 4; one collapse bins 4 onto 0 (2 triangles removed, 2 slots changed)."""
     bufs = {
@@ -66,17 +85,7 @@ def fan_vanilla(**over: Any) -> RawProgressiveMesh:
         "collapse_change_offsets": [2, 5],
         "lod_record_counts": [0, 1],
     }
-    bufs.update(over.pop("buffers", {}))
-    args: dict[str, Any] = {
-        "encoding": "vanilla",
-        "points": FAN_POINTS,
-        "vertex_counts": np.array([5, 4]),
-        "triangle_counts": np.array([4, 2]),
-        "lod_errors": np.array([0.0, 0.5], np.float32),
-        "raw_buffers": bufs,
-    }
-    args.update(over)
-    return RawProgressiveMesh(**args)
+    return _fan("vanilla", bufs, **over)
 
 
 def fan_sliding(**over: Any) -> RawProgressiveMesh:
@@ -84,18 +93,7 @@ def fan_sliding(**over: Any) -> RawProgressiveMesh:
         "index_pool": [0, 1, 4, 3, 0, 4, 1, 2, 4, 2, 3, 4, 1, 2, 0, 2, 3, 0],
         "window_records": [[0, 4, 5], [12, 2, 4]],
     }
-    bufs.update(over.pop("buffers", {}))
-    args: dict[str, Any] = {
-        "encoding": "sliding-window",
-        "points": FAN_POINTS,
-        "vertex_counts": np.array([5, 4]),
-        "triangle_counts": np.array([4, 2]),
-        "lod_errors": np.array([0.0, 0.5], np.float32),
-        "raw_buffers": bufs,
-        "params": {"cache_size": 16},
-    }
-    args.update(over)
-    return RawProgressiveMesh(**args)
+    return _fan("sliding-window", bufs, {"cache_size": 16}, **over)
 
 
 def fan_skip() -> RawProgressiveMesh:
@@ -113,15 +111,7 @@ def fan_skip() -> RawProgressiveMesh:
         "collapse_change_offsets": [2, 5, 8, 11],
         "lod_record_counts": [0, 1],
     }
-    return RawProgressiveMesh(
-        "skip-strip",
-        FAN_POINTS,
-        np.array([5, 4]),
-        np.array([4, 2]),
-        np.array([0.0, 0.5], np.float32),
-        bufs,
-        params={"primitive": "list"},
-    )
+    return _fan("skip-strip", bufs, {"primitive": "list"})
 
 
 def fan_skip_strip() -> RawProgressiveMesh:
@@ -136,15 +126,7 @@ def fan_skip_strip() -> RawProgressiveMesh:
         level_collapsed_indices=[0 if v == 4 else v for v in strip],
         collapse_change_offsets=[2, 6, 10, 14],
     )
-    return RawProgressiveMesh(
-        "skip-strip",
-        FAN_POINTS,
-        np.array([5, 4]),
-        np.array([4, 2]),
-        np.array([0.0, 0.5], np.float32),
-        bufs,
-        params={"primitive": "strip", "restart_index": R},
-    )
+    return _fan("skip-strip", bufs, {"primitive": "strip", "restart_index": R})
 
 
 def fan_mixed(**over: Any) -> RawProgressiveMesh:
@@ -165,18 +147,7 @@ def fan_mixed(**over: Any) -> RawProgressiveMesh:
         "collapse_change_offsets": [2, 5],
         "lod_record_counts": [0, 1],
     }
-    bufs.update(over.pop("buffers", {}))
-    args: dict[str, Any] = {
-        "encoding": "mixed",
-        "points": FAN_POINTS,
-        "vertex_counts": np.array([5, 4]),
-        "triangle_counts": np.array([4, 2]),
-        "lod_errors": np.array([0.0, 0.5], np.float32),
-        "raw_buffers": bufs,
-        "params": {"cache_size": 16, "level_threshold": 0.25},
-    }
-    args.update(over)
-    return RawProgressiveMesh(**args)
+    return _fan("mixed", bufs, {"cache_size": 16, "level_threshold": 0.25}, **over)
 
 
 def single_triangle() -> RawProgressiveMesh:
