@@ -884,15 +884,7 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
 # ----------------------------------------------------------------------------------------------------
 @nb.njit(cache=True, inline="always")
 def _unit_normal(pts: np.ndarray, a: int, b: int, c: int) -> tuple[float, float, float]:
-    ux = pts[b, 0] - pts[a, 0]
-    uy = pts[b, 1] - pts[a, 1]
-    uz = pts[b, 2] - pts[a, 2]
-    vx = pts[c, 0] - pts[a, 0]
-    vy = pts[c, 1] - pts[a, 1]
-    vz = pts[c, 2] - pts[a, 2]
-    nx = uy * vz - uz * vy
-    ny = uz * vx - ux * vz
-    nz = ux * vy - uy * vx
+    nx, ny, nz = K.tri_normal(pts, a, b, c)
     ln = np.sqrt(nx * nx + ny * ny + nz * nz)
     if ln <= 0.0:
         return 0.0, 0.0, 0.0

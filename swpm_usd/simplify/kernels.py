@@ -187,6 +187,18 @@ def neighbours(p: int, tp: np.ndarray) -> np.ndarray:
 
 
 @nb.njit(cache=True, inline="always")
+def tri_normal(pts: np.ndarray, a: int, b: int, c: int) -> tuple[float, float, float]:
+    """Unnormalised normal of triangle (a, b, c): (b - a) x (c - a), twice its area long."""
+    ux = pts[b, 0] - pts[a, 0]
+    uy = pts[b, 1] - pts[a, 1]
+    uz = pts[b, 2] - pts[a, 2]
+    vx = pts[c, 0] - pts[a, 0]
+    vy = pts[c, 1] - pts[a, 1]
+    vz = pts[c, 2] - pts[a, 2]
+    return uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+
+
+@nb.njit(cache=True, inline="always")
 def _has(tp: np.ndarray, j: int, p: int) -> bool:
     return tp[j, 0] == p or tp[j, 1] == p or tp[j, 2] == p
 
@@ -316,24 +328,8 @@ def valid_collapse(
             x, y = p2, p0
         else:
             x, y = p0, p1
-        ex0 = P_[x, 0] - P_[b, 0]
-        ex1 = P_[x, 1] - P_[b, 1]
-        ex2 = P_[x, 2] - P_[b, 2]
-        ey0 = P_[y, 0] - P_[b, 0]
-        ey1 = P_[y, 1] - P_[b, 1]
-        ey2 = P_[y, 2] - P_[b, 2]
-        n00 = ex1 * ey2 - ex2 * ey1
-        n01 = ex2 * ey0 - ex0 * ey2
-        n02 = ex0 * ey1 - ex1 * ey0
-        fx0 = P_[x, 0] - P_[k, 0]
-        fx1 = P_[x, 1] - P_[k, 1]
-        fx2 = P_[x, 2] - P_[k, 2]
-        fy0 = P_[y, 0] - P_[k, 0]
-        fy1 = P_[y, 1] - P_[k, 1]
-        fy2 = P_[y, 2] - P_[k, 2]
-        n10 = fx1 * fy2 - fx2 * fy1
-        n11 = fx2 * fy0 - fx0 * fy2
-        n12 = fx0 * fy1 - fx1 * fy0
+        n00, n01, n02 = tri_normal(P_, b, x, y)
+        n10, n11, n12 = tri_normal(P_, k, x, y)
         l1 = n10 * n10 + n11 * n11 + n12 * n12
         if l1 <= min_area2:
             return False
