@@ -401,7 +401,11 @@ def _build_topology(
                 pt_start, pt = swk.absorb_middle(
                     st, pt_start, pt, alive_t.astype(np.int64), absorb_min_shared
                 )
-            order = swk.order_patches(pt_start, pt, st.tri_verts, V, int(cache_size))
+            inner_pos = np.zeros(P, bool)
+            inner_pos[inner] = True
+            order = swk.order_patches(
+                pt_start, pt, st.tri_verts, inner_pos[st.vertex_pos], np.diff(inner_start), V, int(cache_size)
+            )
         start_gids = cur_gid[alive_t].copy()
         gtris, ng, p_start, p_out, q_start, q_out, recs, info, patch_steps = swk.collapse_patches(
             st, order, inner_start, inner, pt_start, pt, cur_gid, gtris, ng, nstep, max_cost

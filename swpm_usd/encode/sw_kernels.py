@@ -384,10 +384,15 @@ def absorb_middle(
             for j in range(tris.shape[0]):
                 p = tri_patch[tris[j]]
                 u = tris[j]
+                # shared corners; a shared vertex (not only its position: an attribute seam splits
+                # the cache entries) counts double
                 sh = 0
                 for k in range(3):
-                    w = vpos[tv[u, k]]
-                    if w == a or w == b or w == c:
+                    x = tv[u, k]
+                    w = vpos[x]
+                    if x == tv[t, 0] or x == tv[t, 1] or x == tv[t, 2]:
+                        sh += 2
+                    elif w == a or w == b or w == c:
                         sh += 1
                 if p < 0:
                     continue
@@ -438,14 +443,63 @@ def absorb_middle(
     return new_start, out
 
 
+#: weight of the "live" term in the patch order: the mean number of other unvisited patches on a patch's
+#: vertices (Forsyth's remaining-triangle score at patch level: finish vertices off rather than leave
+#: isolated patches for a cold visit later). Bunny, ACMR / meshoptimizer at 100/50/25/10 %:
+#: 1.044/1.096/1.098/1.065 without, 1.037/1.082/1.074/1.054 with 0.3.
+_ORDER_LIVE_WEIGHT = 0.3
+
+
+@nb.njit(cache=True)
+def _fifo_misses(verts: np.ndarray, skip: np.ndarray, stamp: np.ndarray, pushes: int, cache_size: int) -> int:
+    """Misses of ``verts`` (those not ``skip``-ped) against a FIFO of ``cache_size`` (``stamp``: push count
+    at which each vertex entered; a vertex is cached while fewer than ``cache_size`` pushes followed)."""
+    miss = 0
+    for j in range(verts.shape[0]):
+        v = verts[j]
+        if skip[v]:
+            continue
+        s = stamp[v]
+        if s == 0 or pushes - s + 1 > cache_size:
+            miss += 1
+    return miss
+
+
+@nb.njit(cache=True)
+def _fifo_push(verts: np.ndarray, skip: np.ndarray, stamp: np.ndarray, ring: np.ndarray, pushes: int) -> int:
+    """Draw ``verts`` (in order, those not ``skip``-ped) through the FIFO; returns the new push count."""
+    cache_size = ring.shape[0]
+    for j in range(verts.shape[0]):
+        v = verts[j]
+        if skip[v]:
+            continue
+        s = stamp[v]
+        if s == 0 or pushes - s + 1 > cache_size:
+            pushes += 1
+            stamp[v] = pushes
+            ring[pushes % cache_size] = v
+    return pushes
+
+
 @nb.njit(cache=True)
 def order_patches(
-    pt_start: np.ndarray, pt: np.ndarray, tri_verts: np.ndarray, vertex_count: int, cache_size: int
+    pt_start: np.ndarray,
+    pt: np.ndarray,
+    tri_verts: np.ndarray,
+    binned_vertex: np.ndarray,
+    inner_count: np.ndarray,
+    vertex_count: int,
+    cache_size: int,
 ) -> np.ndarray:
-    """Greedy vertex-cache order of patches (TD-VIPM section 3.2): simulating a FIFO cache of
-    ``cache_size`` entries, the next patch is the one among those touching a cached vertex whose vertices
-    miss the cache least (fraction of its vertices, eq. 2); with none, the nearest unvisited patch on a
-    stack of recently drawn vertices, else the first unvisited one."""
+    """Greedy vertex-cache order of patches (TD-VIPM section 3.2, eq. 2, for both halves of the level).
+
+    A window of the level draws ``P_{j+1}..P_n`` and then ``Q_1..Q_j`` in the same patch order, so two FIFO
+    caches of ``cache_size`` entries are simulated: one for the ``P`` sequence (the patch's triangles) and
+    one for the ``Q`` sequence (the patch's vertices but its ``binned_vertex`` ones, which is what its
+    ``Q`` draws). The next patch is, among those touching a vertex in the ``P`` cache, the one with the
+    fewest misses per triangle in both caches (``Q`` has ``2 * inner_count`` triangles fewer) plus
+    :data:`_ORDER_LIVE_WEIGHT` times the mean number of other unvisited patches on its vertices; with none,
+    the nearest unvisited patch on a stack of recently drawn vertices, else the first unvisited one."""
     n = pt_start.shape[0] - 1
     order = np.empty(n, np.int64)
     if n == 0:
@@ -475,10 +529,15 @@ def order_patches(
             v = pv[j]
             vp[fill[v]] = p
             fill[v] += 1
+    remaining = np.diff(vp_start)
+    no_skip = np.zeros(vertex_count, np.bool_)
     done = np.zeros(n, np.bool_)
-    stamp = np.zeros(vertex_count, np.int64)
-    ring = np.full(cache_size, -1, np.int64)
-    pushes = np.int64(0)
+    stamp_p = np.zeros(vertex_count, np.int64)
+    ring_p = np.full(cache_size, -1, np.int64)
+    stamp_q = np.zeros(vertex_count, np.int64)
+    ring_q = np.full(cache_size, -1, np.int64)
+    push_p = np.int64(0)
+    push_q = np.int64(0)
     stack = np.empty(m + 1, np.int64)
     sp = np.int64(0)
     scan = np.int64(0)
@@ -486,19 +545,23 @@ def order_patches(
         best = -1
         best_score = np.inf
         for r in range(cache_size):
-            v = ring[r]
+            v = ring_p[r]
             if v < 0:
                 continue
             for a in range(vp_start[v], vp_start[v + 1]):
                 p = vp[a]
                 if done[p]:
                     continue
-                miss = 0
-                for j in range(pv_start[p], pv_start[p + 1]):
-                    s = stamp[pv[j]]
-                    if s == 0 or pushes - s + 1 > cache_size:
-                        miss += 1
-                score = miss / (pv_start[p + 1] - pv_start[p]) + 1e-9 * p
+                verts = pv[pv_start[p] : pv_start[p + 1]]
+                miss_p = _fifo_misses(verts, no_skip, stamp_p, push_p, cache_size)
+                miss_q = _fifo_misses(verts, binned_vertex, stamp_q, push_q, cache_size)
+                live = 0.0
+                for j in range(verts.shape[0]):
+                    live += remaining[verts[j]] - 1
+                ntri = pt_start[p + 1] - pt_start[p]
+                ntri_q = max(ntri - 2 * inner_count[p], 1)
+                score = miss_p / ntri + miss_q / ntri_q + _ORDER_LIVE_WEIGHT * live / verts.shape[0]
+                score += 1e-9 * p
                 if score < best_score:
                     best_score = score
                     best = p
@@ -516,15 +579,12 @@ def order_patches(
         order[o] = best
         done[best] = True
         for j in range(pt_start[best], pt_start[best + 1]):
-            for i in range(3):
-                v = tri_verts[pt[j], i]
-                s = stamp[v]
-                if s == 0 or pushes - s + 1 > cache_size:
-                    pushes += 1
-                    stamp[v] = pushes
-                    ring[pushes % cache_size] = v
-        for j in range(pv_start[best], pv_start[best + 1]):
-            stack[sp] = pv[j]
+            push_p = _fifo_push(tri_verts[pt[j]], no_skip, stamp_p, ring_p, push_p)
+        verts = pv[pv_start[best] : pv_start[best + 1]]
+        push_q = _fifo_push(verts, binned_vertex, stamp_q, ring_q, push_q)
+        for j in range(verts.shape[0]):
+            remaining[verts[j]] -= 1
+            stack[sp] = verts[j]
             sp += 1
     return order
 
