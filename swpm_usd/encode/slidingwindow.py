@@ -243,14 +243,7 @@ def _block_order(tris: np.ndarray, starts: np.ndarray, vertex_count: int, cache_
 
 def _adjacency(tp: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
     """CSR of the position graph of the triangles ``tp`` (positions)."""
-    a = tp.reshape(-1).astype(np.int64)
-    b = tp[:, [1, 2, 0]].reshape(-1).astype(np.int64)
-    key = np.unique(np.concatenate([a * P + b, b * P + a]))
-    src = key // P
-    dst = key % P
-    start = np.zeros(P + 1, np.int64)
-    np.cumsum(np.bincount(src, minlength=P), out=start[1:])
-    return start, dst
+    return swk.position_graph(np.ascontiguousarray(tp, np.int64), P)
 
 
 #: weight of a vertex's error rank (0 = lowest error, 1 = highest) next to its remaining degree in the
@@ -360,7 +353,7 @@ def _build_topology(
         if alive_t.shape[0] == 0:
             break
         tp = st.vertex_pos[st.tri_verts[alive_t]]
-        positions = np.unique(tp).astype(np.int64)
+        positions = np.flatnonzero(np.bincount(tp.reshape(-1), minlength=P)).astype(np.int64)
         ks, cs = swk.level_costs(st, positions)
         valid = ks >= 0
         eligible = np.zeros(P, bool)

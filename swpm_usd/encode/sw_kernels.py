@@ -104,6 +104,44 @@ def chain_order(tv: np.ndarray) -> np.ndarray:
 # topology-driven levels
 # ----------------------------------------------------------------------------------------------------
 @nb.njit(cache=True)
+def position_graph(tp: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
+    """CSR ``(start, nbr)`` of the edge graph of the triangles ``tp`` (positions; each neighbour once, in
+    increasing order)."""
+    cnt = np.zeros(P + 1, np.int64)
+    for t in range(tp.shape[0]):
+        for i in range(3):
+            cnt[tp[t, i] + 1] += 2
+    raw_start = np.cumsum(cnt)
+    fill = raw_start[:-1].copy()
+    raw = np.empty(raw_start[P], np.int64)
+    for t in range(tp.shape[0]):
+        for i in range(3):
+            a = tp[t, i]
+            raw[fill[a]] = tp[t, (i + 1) % 3]
+            raw[fill[a] + 1] = tp[t, (i + 2) % 3]
+            fill[a] += 2
+    start = np.zeros(P + 1, np.int64)
+    nbr = np.empty(raw_start[P], np.int64)
+    mark = np.full(P, -1, np.int64)
+    m = 0
+    for a in range(P):
+        first = m
+        for j in range(raw_start[a], raw_start[a + 1]):
+            b = raw[j]
+            if mark[b] != a:
+                mark[b] = a
+                # insertion into the sorted run
+                k = m
+                while k > first and nbr[k - 1] > b:
+                    nbr[k] = nbr[k - 1]
+                    k -= 1
+                nbr[k] = b
+                m += 1
+        start[a + 1] = m
+    return start, nbr[:m].copy()
+
+
+@nb.njit(cache=True)
 def level_costs(st: K.CollapseState, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Best valid collapse target and its quadric cost for every position of ``positions``."""
     n = positions.shape[0]
