@@ -279,6 +279,81 @@ def select_patches(
 
 
 @nb.njit(cache=True)
+def merge_patches(
+    adj_start: np.ndarray,
+    adj: np.ndarray,
+    eligible: np.ndarray,
+    tiebreak: np.ndarray,
+    inner_max: int,
+    centres: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Patches with several inner vertices made by merging two levels (SWPM 3.3: "one method to build
+    the patches with multiple inner vertices is the clustering algorithm": the next level's patch takes
+    the simplified patches around its centre and their intermediate ``Q`` is never stored).
+
+    ``centres`` is this level's independent set (one inner vertex per patch). A second-level centre ``c``
+    (eligible, not a centre) takes ALL the centres next to it, ``B(c)``, into one patch ``{c} + B(c)``,
+    if ``1 <= |B(c)| <= inner_max - 1``, no other merged patch took one of them and ``c`` is not next to
+    an accepted ``c'``; then no inner vertex of one patch is next to one of another, so the patches
+    (unions of stars) are disjoint. Candidates are taken by fewest ``B``, then lowest degree plus
+    ``tiebreak``; the centres nobody took stay single patches. Returns the CSR ``(inner_start, inner)``
+    (each merged patch lists ``B(c)`` then ``c``)."""
+    P = eligible.shape[0]
+    is_centre = np.zeros(P, np.bool_)
+    for v in centres:
+        is_centre[v] = True
+    key = np.full(P, np.inf)
+    for x in range(P):
+        if is_centre[x] or not eligible[x]:
+            continue
+        nb0 = 0
+        for a in range(adj_start[x], adj_start[x + 1]):
+            if is_centre[adj[a]]:
+                nb0 += 1
+        if 1 <= nb0 <= inner_max - 1:
+            key[x] = nb0 * 1e6 + (adj_start[x + 1] - adj_start[x]) + tiebreak[x]
+    order = np.argsort(key)
+    taken = np.zeros(P, np.bool_)
+    blocked = np.zeros(P, np.bool_)
+    inner = np.empty(P, np.int64)
+    inner_start = np.zeros(P + 1, np.int64)
+    m = 0
+    n_patch = 0
+    for r in range(P):
+        c = order[r]
+        if key[c] == np.inf:
+            break
+        if blocked[c]:
+            continue
+        free = True
+        for a in range(adj_start[c], adj_start[c + 1]):
+            y = adj[a]
+            if is_centre[y] and taken[y]:
+                free = False
+                break
+        if not free:
+            continue
+        for a in range(adj_start[c], adj_start[c + 1]):
+            y = adj[a]
+            blocked[y] = True
+            if is_centre[y]:
+                taken[y] = True
+                inner[m] = y
+                m += 1
+        inner[m] = c
+        m += 1
+        n_patch += 1
+        inner_start[n_patch] = m
+    for v in centres:
+        if not taken[v]:
+            inner[m] = v
+            m += 1
+            n_patch += 1
+            inner_start[n_patch] = m
+    return inner_start[: n_patch + 1].copy(), inner[:m].copy()
+
+
+@nb.njit(cache=True)
 def cluster_patches(
     st: K.CollapseState, cands: np.ndarray, tpos: np.ndarray, rank: np.ndarray, min_picks: int
 ) -> tuple[np.ndarray, np.ndarray]:
