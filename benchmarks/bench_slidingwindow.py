@@ -8,12 +8,13 @@ window at 100/50/25/10 % of the triangles next to meshoptimizer's ``optimize_ver
 triangle set (ratio = ours / theirs); Hausdorff error (``swpm_usd.metrics.surface_error``, exact point to
 triangle, / bbox diagonal) at 50/25/10 % next to meshoptimizer's ``simplify`` at the same triangle count;
 build seconds (median of ``--repeat`` after one warm-up build). Options (``--options``, comma separated):
-topology, inner3, forsyth, forsyth-tol1, swap and inner3-swap (``optimize_connectivity=True``, SWPM 3.1
-edge swaps; the error is still measured against the unswapped input), cluster and cluster-swap
-(``cluster=True``, SWPM 3.2 linked patches, without and with the edge swaps). ``--big`` adds a generated
-icosphere of 1.3 M triangles (build time only). Targets (issue): lambda <= 5.4 on bunny (topology, no
-reductions; <= 3.9 with cluster-swap), ACMR ratio <= 1.10, error ratio <= 1.5, bunny build <= 3 s,
-1 M triangles <= 60 s.
+topology; topology-mu0 and topology-mu0.3 (the default builder with ``mu`` 0, the papers' basic TD-VIPM
+without error control, and with 0.3: ``mu`` trades pool size for error); inner3; forsyth; forsyth-tol1;
+swap and inner3-swap (``optimize_connectivity=True``, SWPM 3.1 edge swaps; the error is still measured
+against the unswapped input); cluster and cluster-swap (``cluster=True``, SWPM 3.2 linked patches,
+without and with the edge swaps). ``--big`` adds a generated icosphere of 1.3 M triangles (build time
+only). Targets (issue): lambda <= 5.4 on bunny (topology, no reductions; <= 3.9 with cluster-swap; <= 2.8
+with inner3-swap), ACMR ratio <= 1.10, error ratio <= 1.5, bunny build <= 3 s, 1 M triangles <= 60 s.
 """
 
 from __future__ import annotations
@@ -31,6 +32,8 @@ HERE = Path(__file__).resolve().parent
 MESHES = HERE.parent.parent / "shared" / "meshes"
 OPTIONS = {
     "topology": {},
+    "topology-mu0": {"mu": 0.0},
+    "topology-mu0.3": {"mu": 0.3},
     "inner3": {"inner_vertices": 3},
     "forsyth": {"builder": "forsyth"},
     "forsyth-tol1": {"builder": "forsyth", "tolerance": 1.0},

@@ -280,3 +280,53 @@ def test_absorb_middle_trades_pool_size_for_cache(spot: Mesh) -> None:
             tris = pm.triangles_at(k)
             assert np.array_equal(tris.reshape(-1), pm.index_pool[first : first + 3 * n])
             assert tris.max() < nv
+
+
+def test_position_graph_is_the_edge_graph() -> None:
+    """The numba position graph: every edge of the triangles both ways, each neighbour once, sorted."""
+    from swpm_usd.encode import sw_kernels as swk
+
+    tp = mesh_topology(_icosphere(2)).tri_pos.astype(np.int64)
+    P = int(tp.max()) + 2  # one position without triangles
+    start, nbr = swk.position_graph(tp, P)
+    a = tp.reshape(-1)
+    b = tp[:, [1, 2, 0]].reshape(-1)
+    key = np.unique(np.concatenate([a * P + b, b * P + a]))
+    assert np.array_equal(np.repeat(np.arange(P), np.diff(start)), key // P)
+    assert np.array_equal(nbr, key % P)
+
+
+@pytest.mark.parametrize("inner_max", [2, 3, 4])
+def test_merged_patches_are_disjoint(inner_max: int) -> None:
+    """SWPM 3.3 by merging two levels: every centre is an inner vertex exactly once, a merged patch holds a
+    second-level vertex and ALL the centres next to it (at most ``inner_max`` inner vertices), and no edge
+    joins inner vertices of two patches (so the patches' stars are disjoint)."""
+    from swpm_usd.encode import sw_kernels as swk
+
+    tp = mesh_topology(_icosphere(3)).tri_pos.astype(np.int64)
+    P = int(tp.max()) + 1
+    start, nbr = swk.position_graph(tp, P)
+    eligible = np.ones(P, bool)
+    eligible[::7] = False  # some vertices may not be removed
+    tiebreak = np.zeros(P)
+    _, centres = swk.select_patches(start, nbr, eligible, tiebreak, 1)
+    inner_start, inner = swk.merge_patches(start, nbr, eligible, tiebreak, inner_max, centres)
+    assert np.unique(inner).shape[0] == inner.shape[0]
+    assert np.isin(centres, inner).all() and eligible[inner].all()
+    sizes = np.diff(inner_start)
+    assert sizes.min() >= 1 and sizes.max() <= inner_max
+    pid = np.full(P, -1)
+    pid[inner] = np.repeat(np.arange(sizes.shape[0]), sizes)
+    src = np.repeat(np.arange(P), np.diff(start))
+    both = (pid[src] >= 0) & (pid[nbr] >= 0)
+    assert np.all(pid[src][both] == pid[nbr][both]), "inner vertices of two patches are neighbours"
+    is_centre = np.zeros(P, bool)
+    is_centre[centres] = True
+    for p in np.flatnonzero(sizes > 1):
+        members = inner[inner_start[p] : inner_start[p + 1]]
+        second = members[~is_centre[members]]
+        assert second.shape[0] == 1
+        ring = nbr[start[second[0]] : start[second[0] + 1]]
+        assert set(ring[is_centre[ring]]) == set(members[is_centre[members]])
+    if inner_max == 4:
+        assert inner.shape[0] > 1.1 * centres.shape[0]
