@@ -27,18 +27,27 @@ Builders.
 
 * ``builder="topology"`` (TD-VIPM, the default): per level, a greedy minimum-degree maximal independent set
   of patch centres (TD-VIPM 3.1) where a fraction ``mu`` of the highest-error vertices may not be centres
-  (SWPM 3); each centre goes by its best valid half-edge collapse; patches are ordered greedily for a FIFO
-  vertex cache (TD-VIPM 3.2, eq. 2); the triangles inside every ``P_i``, ``Q_i`` and the static middle
-  are then reordered for the cache block by block, the FIFO state carried from block to block
-  (:func:`swpm_usd.vcache.optimize_block_order`; the patches start out as fans). Before that, every
-  triangle of no patch that shares a position with a patch joins it (``absorb_middle=True``, the default;
-  :func:`.sw_kernels.absorb_middle`): it touches no inner vertex, so it is the same triangle in ``P_i``
-  and ``Q_i`` and
-  is stored twice instead of once in ``M``, which is then nearly empty. The trade: lambda +15 %, but no
-  window draws a scattered middle block any more (bunny, FIFO 16, ACMR / meshoptimizer's
-  ``optimize_vertex_cache`` of the same triangles at 100/50/25/10 %: 1.27/1.62/1.62/1.48 ->
-  1.04/1.11/1.11/1.08; lambda 4.94 -> 5.67). ``inner_vertices > 1``
-  grows each patch to that many adjacent inner vertices (SWPM 3.3): fewer approximations, a smaller pool.
+  (SWPM 3); each centre goes by its best valid half-edge collapse. Every triangle of no patch that shares
+  a position with a patch joins it (``absorb_middle=True``, the default; :func:`.sw_kernels.absorb_middle`,
+  a patch sharing a *vertex* first, since an attribute seam splits cache entries): it touches no inner
+  vertex, so it is the same triangle in ``P_i`` and ``Q_i`` and is stored twice instead of once in ``M``,
+  which is then nearly empty: the level's cover is the papers' ``P_1 U .. U P_n = T``. The trade: lambda
+  +15 %, but no window draws a scattered middle block (bunny, FIFO 16, ACMR / meshoptimizer's
+  ``optimize_vertex_cache`` of the same triangles at 100/50/25/10 %: 1.26/1.60/1.60/1.47 without,
+  1.04/1.08/1.07/1.05 with; lambda 4.94 -> 5.68). Patches are then ordered greedily for a FIFO vertex
+  cache (TD-VIPM 3.2, eq. 2), scoring the misses of both sequences a window draws, ``P_{j+1}..P_n`` and
+  ``Q_1..Q_j`` (:func:`.sw_kernels.order_patches`); the triangles inside every ``P_i``, ``Q_i`` and the
+  static middle are reordered for the cache block by block, the FIFO state carried from block to block
+  (:func:`swpm_usd.vcache.optimize_block_order`; the patches start out as fans). ``inner_vertices > 1``
+  (SWPM 3.3: fewer approximations, a smaller pool) either grows each patch to that many adjacent inner
+  vertices or merges two levels (a second-level vertex with all the centres next to it,
+  :func:`.sw_kernels.merge_patches`), whichever removes more vertices in the level.
+
+  Why lambda is 5.7 at ``mu=0.1``: a level stores ``T_L + T_{L+1}`` triangles and removes two per centre,
+  and the independent set holds about 30 % of the vertices (28 % on bunny's first level; a (1,2)-swap
+  local search adds 0.3 %), so lambda ~ (2 - f) / f; with ``mu=0`` (the papers' basic TD-VIPM, no error
+  control) bunny gives 5.4, the figure of both papers (SWPM's estimate ``(d - 1)(1 + mu)`` has the same
+  ``1 + mu`` factor). ``mu`` trades pool size for error (row ``topology-mu0.3`` of the benchmark).
 * ``builder="forsyth"``: the quadric-error collapse order, one patch (the binned vertex's star) per
   collapse; when the best collapse touches a triangle already created in the current level, the best one
   that does not is taken if its error is within ``tolerance`` times the mean collapse error of the plain
@@ -51,7 +60,7 @@ so the minimum-degree patch centres have smaller patches and the pool shrinks. G
 edges that are no attribute seam, the four normals of the old and new triangles within 10 degrees of each
 other (only near-flat quads change, nothing folds) and no degree below 4 (the paper's floor in flat
 regions). LOD 0 is then the swapped mesh (same vertices, triangle count and topology; ``collapse_sequence
-.mesh``). Bunny: lambda 5.67 -> 5.14, ACMR ratios 1.03/1.09/1.08/1.06; the Hausdorff error at 50 % of the
+.mesh``). Bunny: lambda 5.68 -> 5.14, ACMR ratios 1.03/1.06/1.06/1.05; the Hausdorff error at 50 % of the
 triangles grows (see ``benchmarks/bench_slidingwindow.py``, row ``swap``). The cache size of every
 ordering is ``cache_size`` (FIFO, default 16).
 
@@ -64,10 +73,12 @@ triangles up to the next star, which reappear unchanged in ``Q_j``) and only ``Q
 the pool is ``.. P_1..P_n || [M || Q_1..Q_n = P'_1..P'_m || M'] || Q'_1..Q'_m ..``. Every window is still
 one contiguous slice. The tail gets more scattered with every linked level (longer intervals), so once a
 linked level costs more pool triangles per collapse than the last level stored in full, the next one is
-stored in full again (the usual layout and selection). Bunny with the edge swaps: lambda 5.14 -> 4.55
-(without: 5.67 -> 5.26); the price: the centres follow the tail order rather than degree and error, so the
-windows are colder (ACMR ratio at 50 % 1.09 -> 1.19) and the Hausdorff error at 50 % of the triangles
-grows (ratio to meshoptimizer 1.72 -> 1.87; rows ``cluster`` / ``cluster-swap`` of the benchmark).
+stored in full again (the usual layout and selection). Bunny with the edge swaps: lambda 5.14 -> 4.52
+(without: 5.68 -> 5.25); the price: the centres follow the tail order rather than degree and error, so the
+windows are colder (ACMR ratio at 50 % 1.06 -> 1.14) and the Hausdorff error grows (rows ``cluster`` /
+``cluster-swap`` of the benchmark). Tried and dropped: planning a fully stored level's patch order for
+the next level (its centres chosen first, their stars made runs of the tail by ordering ``Q`` blocks
+along paths): lambda -2 to -6 %, but ACMR ratios up to 1.4.
 
 The builders also keep their own collapse sequence (:attr:`SlidingWindowProgressiveMesh.collapse_sequence`,
 a :class:`swpm_usd.simplify.CollapseSequence`; ``lod_steps[k]`` steps of it give LOD ``k``), against which
@@ -253,11 +264,12 @@ _ERROR_WEIGHT = 2.0
 
 
 #: topology builder with ``absorb_middle=True``: a triangle of no patch joins the patch with which it
-#: shares at least this many positions (1: a corner, so nearly every one; 2: an edge); it is then stored
-#: twice (in ``P_i`` and ``Q_i``) instead of once in ``M``: lambda +15 %, but ``M`` is no longer drawn as a
-#: separate scattered block in every window (bunny, FIFO 16, ACMR / meshoptimizer at 100/50/25/10 % of the
-#: triangles: 1.27/1.62/1.62/1.48 -> 1.04/1.11/1.11/1.08, lambda 4.94 -> 5.67). ``absorb_middle=False``
-#: keeps them in the static middle.
+#: shares the most, a shared vertex counting 2 and a shared position of another vertex (a seam) 1, if that
+#: is at least this much (1: a corner, so nearly every one); it is then stored twice (in ``P_i`` and
+#: ``Q_i``) instead of once in ``M``: lambda +15 %, but ``M`` is no longer drawn as a separate scattered
+#: block in every window (bunny, FIFO 16, ACMR / meshoptimizer at 100/50/25/10 % of the triangles:
+#: 1.26/1.60/1.60/1.47 -> 1.04/1.08/1.07/1.05, lambda 4.94 -> 5.68). ``absorb_middle=False`` keeps them
+#: in the static middle.
 _ABSORB_MIN_SHARED = 1
 
 #: ``cluster=True``: a linked level stops after the prefix of its patches that costs least per patch, but

@@ -464,11 +464,12 @@ def absorb_middle(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Patches grown by the level's untouched triangles (those in no patch, the static middle ``M``).
 
-    A middle triangle joins the patch with which it shares most positions (an edge: 2, a corner: 1; ties:
-    the smaller patch), if it shares at least ``min_shared``. It touches no inner vertex, so its ``Q`` copy
-    is the same triangle: it is stored twice (in ``P_i`` and ``Q_i``) instead of once in ``M``, but is drawn
-    with its neighbours instead of in a separate, scattered block. Returns the grown CSR (each patch's own
-    triangles first, then the absorbed ones)."""
+    A middle triangle joins the patch with which it shares most (per corner of one of the patch's triangles:
+    2 for the same vertex, 1 for the same position with another vertex, i.e. across an attribute seam,
+    where the cache gains nothing; ties: the smaller patch), if that is at least ``min_shared``. It touches
+    no inner vertex, so its ``Q`` copy is the same triangle: it is stored twice (in ``P_i`` and ``Q_i``)
+    instead of once in ``M``, but is drawn with its neighbours instead of in a separate, scattered block.
+    Returns the grown CSR (each patch's own triangles first, then the absorbed ones)."""
     tv = st.tri_verts
     vpos = st.vertex_pos
     T = tv.shape[0]
