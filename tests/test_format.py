@@ -358,3 +358,29 @@ def test_mixed_huge_counts_allocate_nothing() -> None:
         tracemalloc.stop()
         assert "SWPM_COUNT_EXCEEDS_CHUNK" in rep.codes(), (t, at, rep.format())
         assert peak < 1_000_000
+
+
+@pytest.mark.parametrize(
+    "make, buffer, value, code",
+    [
+        ("skip", "collapse_kept", [77], "SWPM_INDEX_OUT_OF_RANGE"),
+        ("skip", "collapse_binned", [88], "SWPM_INDEX_OUT_OF_RANGE"),
+        ("skip", "level_collapsed_indices", [1, 2, 0, 2, 3, 0, 0, 1, 0, 3, 0, 99], "SWPM_INDEX_OUT_OF_RANGE"),
+        ("mixed", "collapse_prev_change_count", [7], "SWPM_RECORD_BAD_COUNTS"),
+        ("vanilla", "collapse_prev_change_count", [7], "SWPM_RECORD_BAD_COUNTS"),
+    ],
+)
+def test_reported_offset_is_the_bad_value(make: str, buffer: str, value: list[int], code: str) -> None:
+    """The offset a problem reports points at the stored value that breaks the rule (spec/errors.md, column
+    "Offset reported"): a record column is strided in its table, an array after others in its chunk."""
+    import struct
+
+    from swpm_usd.format.vectors import fan_mixed, fan_skip
+
+    pm = {"skip": fan_skip, "mixed": fan_mixed, "vanilla": fan_vanilla}[make]()
+    pm.raw_buffers[buffer] = value
+    data = encode_bytes(pm)  # type: ignore[arg-type]
+    found = [p for p in validate_bytes(data).problems if p.code == code]
+    assert found, validate_bytes(data).format()
+    bad = max(value)
+    assert struct.unpack_from("<H", data, found[0].offset)[0] == bad

@@ -454,7 +454,10 @@ def _index_check(
     limit: int,
     base: int,
     exempt: int | None = None,
+    stride: int | None = None,
 ) -> bool:
+    """Report (at most 3) values of ``arr`` >= ``limit``; element i lies at ``base + i * stride`` (default:
+    the item size; a column of a record table has the row size)."""
     if arr.size == 0:
         return True
     if int(arr.max()) < limit:  # one vectorised pass in the common case
@@ -467,7 +470,7 @@ def _index_check(
     for i in first[:3]:
         rep.add(
             "SWPM_INDEX_OUT_OF_RANGE",
-            base + int(i) * arr.dtype.itemsize,
+            base + int(i) * (arr.dtype.itemsize if stride is None else stride),
             what=what,
             value=int(arr[i]),
             index=int(i),
@@ -495,7 +498,8 @@ def _record_chunk(p: _Parsed, rep: Report, t: bytes, cols: list[str]) -> dict[st
     table = arrs["record_count"].reshape(R, nc)
     out = {name: table[:, i] for i, name in enumerate(cols)}
     out["collapse_change_offsets"] = arrs["offset_count"]
-    out["_base"] = np.array([c.offset + 8, c.offset + 8 + L.align(nc * R * p.width, 4)], np.int64)
+    # (record table start, change offsets start, columns per record)
+    out["_base"] = np.array([c.offset + 8, c.offset + 8 + L.align(nc * R * p.width, 4), nc], np.int64)
     return out
 
 
@@ -517,7 +521,8 @@ def _common_records(
         bad = 0 if prev[0] != 0 else int(np.flatnonzero(prev[1:] != cc[:-1])[0]) + 1
         rep.add(
             "SWPM_RECORD_BAD_COUNTS",
-            int(rec["_base"][0]) + bad * 4 * p.width + 3 * p.width,
+            # prev_change_count is the last column of every record table (4 columns, 5 in MREC)
+            int(rec["_base"][0]) + (bad * int(rec["_base"][2]) + int(rec["_base"][2]) - 1) * p.width,
             reason=f"record {bad}: previous change count {int(prev[bad])} is wrong",
         )
         ok = False
@@ -805,11 +810,14 @@ def _skip(p: _Parsed, rep: Report) -> None:
         int(restart) if isinstance(restart, int) and params.get("primitive", "strip") == "strip" else None
     )
     ok &= _index_check(p, rep, idx_c, lst, "INDX", V, idx_c.offset, exempt)
+    collapsed_at = s_c.offset + 8 + sum(L.align(k * p.width, L.ARRAY_ALIGN) for k in (n, n + 1, n + 1, n + 1))
     ok &= _index_check(
-        p, rep, s_c, arrs["level_collapsed_indices"], "level_collapsed_indices", V, s_c.offset, exempt
+        p, rep, s_c, arrs["level_collapsed_indices"], "level_collapsed_indices", V, collapsed_at, exempt
     )
-    for col in ("collapse_kept", "collapse_binned"):
-        ok &= _index_check(p, rep, p.chunks[L.SREC], rec[col], col, V, int(rec["_base"][0]))
+    for i, col in enumerate(("collapse_kept", "collapse_binned")):
+        ok &= _index_check(
+            p, rep, p.chunks[L.SREC], rec[col], col, V, int(rec["_base"][0]) + i * p.width, stride=4 * p.width
+        )
     if ok:
         rstart = arrs["level_record_start"].astype(np.int64)
         lstart = arrs["level_index_start"].astype(np.int64)
