@@ -3,20 +3,49 @@
 It does not import or look at the project's own codec (``swpm_usd``); its purpose is to test whether the
 specification is precise enough for a second implementation to agree with the conformance vectors.
 
-``read(data)`` returns ``{"valid", "problems", "summary"}`` in the shape of the vectors' expected JSON.
+``read(data)`` returns ``{"valid", "problems", "summary"}`` in the shape of the vectors' expected JSON:
+the problems in the order of the checks of format.md §5 ("Reporting"), each at the offset the column
+"Offset reported" of errors.md gives, and for a valid file the summary of §7.
 
-Where the spec is silent this reader applies the following interpretations (each one is a spec gap):
+The current spec settles the offsets, the order, the stages, the multiplicity and the buffers. What it
+still leaves open, and how this reader decides (only the replay rule is exercised by a vector):
 
-* Offsets: a problem is reported at the absolute offset of the first byte of the *first field involved*
-  in the broken rule: a header field, a chunk-table entry field, a payload field, or an array element.
-  Padding problems are reported at the first non-zero padding byte; a count that needs more bytes than
-  remain is reported at the count field; a missing chunk is reported with offset ``None``.
-* Multiplicity: every code is reported at most once per chunk (at its first occurrence).
-* Cascades: after a structural error in the header, table or chunk layout the payloads are not decoded;
-  after a failed check inside an encoding's tables the dependent checks (record replay) are skipped.
-* Buffers: the spec does not say which arrays are exposed, under which names, or how a buffer is hashed.
-  This reader exposes every array it decodes under a name taken from the spec text and hashes the
-  array's bytes exactly as stored in the file (little-endian, the stored element type, C order).
+* ``header_size`` "past the end of the file": compared with the length of the file as given; the table
+  and the chunks are bounded by the bytes read (the file, cut at ``file_size`` when longer).
+* ``META``: JSON without the non-standard constants ``NaN``/``Infinity`` (those are not JSON).
+* A table entry with a bad type still takes part in the bounds, alignment, order/overlap/padding and
+  reserved checks; the checks that need its type (unknown, critical bit, allowed, duplicate) are skipped.
+  A gap whose chunk lies (partly) outside the file is checked up to the end of the file.
+  ``SWPM_CHUNK_NOT_ALLOWED`` is only checked when exactly one encoding bit is set; a chunk that is not
+  allowed is not also reported as a duplicate. ``SWPM_CHUNK_MISSING`` lists absent chunks in streaming
+  order; a chunk is absent when no entry has its type.
+* ``SWPM_STREAM_ORDER``: entries are compared with ``META LODS SMAP [tables] INDX VERT`` restricted to the
+  present types; duplicates are skipped, a chunk that is not allowed is out of place, an unknown chunk is
+  in place anywhere after ``META``, ``LODS`` and ``SMAP`` (those present); "VERT not last" means VERT is
+  not the last table entry.
+* ``VERT``: checks in the order length >= 16, attribute_count <= 255, the attribute descriptors' count
+  (``SWPM_COUNT_EXCEEDS_CHUNK``), stride, data_offset (a data_offset past the payload is
+  ``SWPM_CHUNK_BAD_LENGTH``), vertex_count (``SWPM_COUNT_EXCEEDS_CHUNK``), length, then the descriptors.
+  An attribute name must lie in [16 + 16 A, data_offset) and be valid UTF-8.
+* "(0 to X)" / "0 .. X" for the start arrays of ``SKIP``/``MLVL`` is read as "every value in [0, X]".
+  ``level_count`` 0 is a level-table problem (``SKIP``: payload; ``MLVL``: a bad ``level_first_lod``).
+  A record beyond ``level_record_start[n]`` belongs to no level: its change offsets are not checked
+  against a list; were RCNT to reach it, skip-strip's triangle-count check applies it to the last level's
+  list (slots past its end ignored), as "records [level_record_start[l], RCNT[k])" reads literally.
+  An ``MLVL`` removal problem is reported once per column (static, dynamic).
+* Stage 0 checks the chunks in streaming order (``RCNT``, the record/level/window chunks, ``INDX``);
+  vanilla's "``INDX`` holds 3 T0 entries" is a stage-0 length check (``SWPM_CHUNK_BAD_LENGTH``). An
+  ``RCNT`` whose length is not a multiple of W is reported at its length field, one with another number of
+  counts than L at its payload.
+* Skip-strip ``kept``/``binned``: a value >= V is ``SWPM_INDEX_OUT_OF_RANGE`` only (not also
+  ``SWPM_RECORD_BAD_KEPT``/``SWPM_RECORD_BAD_BINNED``); ``primitive`` other than ``"list"`` decodes as
+  strips, and the restart index is exempt only for ``"strip"`` (or a missing ``primitive``).
+* Replays (vanilla, mixed, skip-strip) stop at their first problem: one problem per replay, so a slot that
+  does not hold the binned vertex is not also a prefix violation of the same record (vector
+  ``record-changes-wrong-slot``); after a replay problem the collapsed list is not compared.
+* Sliding-window prefix property: the lowest offending element of ``INDX`` over all windows.
+* ``SMAP``: an empty (b) hull is not required to lie in a range and does not count for ``prefix_length``;
+  the coverage of every band is checked before any band's ``prefix_length``.
 """
 
 from __future__ import annotations
@@ -34,10 +63,12 @@ MAGIC = b"SWPM\r\n\x1a\n"
 HEADER_SIZE = 64
 ENTRY_SIZE = 32
 MAX_CHUNKS = 1024
+MAX_PER_CODE = 20
 
 INDEX32 = 1 << 0
 ENCODING_BITS = {1 << 1: "vanilla", 1 << 2: "sliding-window", 1 << 3: "skip-strip", 1 << 4: "mixed"}
 KNOWN_FEATURES = INDEX32 | sum(ENCODING_BITS)
+TYPE_CHARS = frozenset(b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789")
 
 CRITICAL = {
     "META": True,
@@ -53,11 +84,17 @@ CRITICAL = {
     "INDX": True,
     "VERT": True,
 }
+COMMON = ("META", "LODS", "SMAP", "INDX", "VERT")
 ENCODING_TABLES = {
     "vanilla": ["RCNT", "VREC"],
     "sliding-window": ["WREC"],
     "skip-strip": ["RCNT", "SKIP", "SREC"],
     "mixed": ["RCNT", "MLVL", "MREC"],
+}
+RECORD_COLUMNS = {
+    "vanilla": ("kept", "tris_removed", "change_count", "prev_change_count"),
+    "skip-strip": ("kept", "binned", "change_count", "prev_change_count"),
+    "mixed": ("kept", "static_tris_removed", "dynamic_tris_removed", "change_count", "prev_change_count"),
 }
 
 SEVERITY = {
@@ -105,6 +142,7 @@ SEVERITY = {
     "SWPM_WINDOW_COUNT_MISMATCH": "error",
     "SWPM_PREFIX_VIOLATION": "error",
     "SWPM_RECORD_BAD_KEPT": "error",
+    "SWPM_RECORD_BAD_BINNED": "error",
     "SWPM_RECORD_BAD_COUNTS": "error",
     "SWPM_RECORD_BAD_CHANGE": "error",
     "SWPM_LEVEL_BAD_TABLE": "error",
@@ -125,59 +163,45 @@ ELEM_TYPES = {
     9: ("<f8", 8),
 }
 
-STRUCTURAL = {
-    "SWPM_TABLE_TRUNCATED",
-    "SWPM_TABLE_TOO_LARGE",
-    "SWPM_TABLE_BAD_OFFSET",
-    "SWPM_CHUNK_BAD_TYPE",
-    "SWPM_CHUNK_OUT_OF_BOUNDS",
-    "SWPM_CHUNK_MISALIGNED",
-    "SWPM_CHUNK_OVERLAP",
-    "SWPM_CHUNK_OUT_OF_ORDER",
-    "SWPM_CHUNK_DUPLICATE",
-    "SWPM_CHUNK_UNKNOWN_CRITICAL",
-    "SWPM_CHUNK_MISSING",
-    "SWPM_CHUNK_NOT_ALLOWED",
-    "SWPM_CHUNK_BAD_FLAGS",
-    "SWPM_HEADER_BAD_SIZE",
-}
-
 
 def _align4(n: int) -> int:
     return (n + 3) & ~3
 
 
-class _Fail(Exception):
-    """Raised to stop decoding one group of checks after an error was reported."""
+def _first_bad(values: list[int], bad: Any) -> int | None:
+    """Index of the first element for which ``bad(i, x)`` holds, else None."""
+    for i, x in enumerate(values):
+        if bad(i, x):
+            return i
+    return None
 
 
 class _Report:
     def __init__(self) -> None:
         self.problems: list[dict[str, Any]] = []
-        self._seen: set[tuple[str, str]] = set()
+        self.counts: dict[str, int] = {}
+        self.total = 0
 
-    def add(self, code: str, offset: int | None, scope: str | None = None) -> None:
-        if scope is not None:
-            key = (code, scope)
-            if key in self._seen:
-                return
-            self._seen.add(key)
-        self.problems.append({"code": code, "severity": SEVERITY[code], "offset": offset})
+    def add(self, code: str, offset: int | None) -> None:
+        """Record a problem; beyond MAX_PER_CODE problems of one code they are only counted (§5)."""
+        self.total += 1
+        n = self.counts.get(code, 0) + 1
+        self.counts[code] = n
+        if n <= MAX_PER_CODE:
+            self.problems.append({"code": code, "severity": SEVERITY[code], "offset": offset})
 
-    def has_error(self, codes: set[str] | None = None) -> bool:
-        return any(p["severity"] == "error" and (codes is None or p["code"] in codes) for p in self.problems)
-
-    def error_count(self) -> int:
-        return sum(1 for p in self.problems if p["severity"] == "error")
+    def has_error(self) -> bool:
+        return any(SEVERITY[code] == "error" for code in self.counts)
 
 
 class _Chunk:
-    def __init__(self, ctype: str, entry: int, flags: int, offset: int, length: int) -> None:
+    def __init__(self, ctype: str, entry: int, offset: int, length: int) -> None:
         self.type = ctype
         self.entry = entry
-        self.flags = flags
         self.offset = offset
         self.length = length
+        self.duplicate = False
+        self.not_allowed = False
 
 
 def _hash(arr: np.ndarray) -> dict[str, Any]:
@@ -193,8 +217,10 @@ class _Reader:
         self.data = self.raw
         self.rep = _Report()
         self.chunks: dict[str, _Chunk] = {}
-        self.order: list[_Chunk] = []
-        self.encoding = ""
+        self.entries: list[_Chunk] = []
+        self.last_entry = -1
+        self.encoding: str | None = None
+        self.minor = 0
         self.W = 2
         self.idt = "<u2"
         self.buffers: dict[str, np.ndarray] = {}
@@ -202,710 +228,715 @@ class _Reader:
         self.V = 0
         self.L = 0
         self.T0 = 0
+        self.vc: list[int] = []
+        self.tc: list[int] = []
+        self.stride = 0
+        self.data_offset = 0
+        self.indx = np.zeros(0, dtype=np.int64)
+        self.indx_off = 0
+        self.level_first: list[int] = []
+        self.level_starts: list[int] = []
 
     # ----------------------------------------------------------------- helpers
-    def add(self, code: str, offset: int | None, scope: str | None = None) -> None:
-        self.rep.add(code, offset, scope)
-
-    def u16(self, off: int) -> int:
-        return struct.unpack_from("<H", self.data, off)[0]
+    def add(self, code: str, offset: int | None) -> None:
+        self.rep.add(code, offset)
 
     def u32(self, off: int) -> int:
         return struct.unpack_from("<I", self.data, off)[0]
 
-    def u64(self, off: int) -> int:
-        return struct.unpack_from("<Q", self.data, off)[0]
-
-    def idx_array(self, off: int, count: int) -> np.ndarray:
-        """The idx[count] array at absolute ``off``; the caller has checked the bounds."""
+    def view(self, off: int, count: int) -> np.ndarray:
+        """The idx[count] array at absolute ``off`` (a view); the caller has checked the bounds."""
+        if count == 0:
+            return np.zeros(0, dtype=self.idt)
         return np.frombuffer(self.data, dtype=self.idt, count=count, offset=off)
 
-    def check_zero(self, start: int, end: int, scope: str) -> None:
-        """Padding [start, end) MUST be zero; report the first non-zero byte."""
+    def check_zero(self, start: int, end: int) -> None:
+        """The padding gap [start, end) MUST be zero; reported at the start of the gap (errors.md)."""
         end = min(end, len(self.data))
-        if start >= end:
-            return
-        seg = self.data[start:end]
-        if seg.count(0) != len(seg):
-            first = next(i for i, b in enumerate(seg) if b)
-            self.add("SWPM_PADDING_NONZERO", start + first, scope)
+        if start < end and self.data[start:end].count(0) != end - start:
+            self.add("SWPM_PADDING_NONZERO", start)
 
-    # ----------------------------------------------------------------- header
+    def first_n(self, mask: np.ndarray, base: int, step: int, n: int = 3) -> None:
+        """Report SWPM_INDEX_OUT_OF_RANGE at the first ``n`` set elements of ``mask``."""
+        for i in np.flatnonzero(mask)[:n].tolist():
+            self.add("SWPM_INDEX_OUT_OF_RANGE", base + step * i)
+
+    # ----------------------------------------------------------------- step 1
     def run(self) -> dict[str, Any]:
+        table = self.header()
+        if table is None:
+            return self.result()
+        self.table(*table)
+        if self.rep.has_error():
+            return self.result()
+        self.payloads()
+        return self.result()
+
+    def header(self) -> tuple[int, int, int] | None:
         d = self.raw
         if len(d) < HEADER_SIZE:
-            self.add("SWPM_HEADER_TRUNCATED", 0)
-            return self.result()
+            bad_magic = len(d) >= 8 and d[:8] != MAGIC
+            self.add("SWPM_HEADER_BAD_MAGIC" if bad_magic else "SWPM_HEADER_TRUNCATED", 0)
+            return None
         if d[:8] != MAGIC:
             self.add("SWPM_HEADER_BAD_MAGIC", 0)
-            return self.result()
+            return None
         major, minor = struct.unpack_from("<HH", d, 8)
         if major != 1:
             self.add("SWPM_HEADER_UNSUPPORTED_MAJOR", 8)
-            return self.result()
+            return None
+        self.minor = minor
         if minor > 0:
             self.add("SWPM_HEADER_NEWER_MINOR", 10)
         header_size, _flags, features, chunk_count, reserved0 = struct.unpack_from("<IIIII", d, 12)
         table_offset, file_size = struct.unpack_from("<QQ", d, 32)
-        file_crc = self.u32(48)
-        bad = False
+        file_crc = struct.unpack_from("<I", d, 48)[0]
+        if header_size < HEADER_SIZE or header_size > len(d):
+            self.add("SWPM_HEADER_BAD_SIZE", 12)
+            return None
         if features & ~KNOWN_FEATURES:
             self.add("SWPM_HEADER_UNKNOWN_FEATURE", 20)
-            bad = True
         enc_bits = [b for b in ENCODING_BITS if features & b]
-        if len(enc_bits) != 1:
+        if len(enc_bits) == 1:
+            self.encoding = ENCODING_BITS[enc_bits[0]]
+        else:
             self.add("SWPM_HEADER_BAD_ENCODING", 20)
-            bad = True
-        if bad:
-            return self.result()
-        self.encoding = ENCODING_BITS[enc_bits[0]]
         self.W = 4 if features & INDEX32 else 2
         self.idt = "<u4" if self.W == 4 else "<u2"
-        if reserved0:
-            self.add("SWPM_HEADER_RESERVED_NONZERO", 28)
-        for off in (52, 56, 60):
-            if self.u32(off):
-                self.add("SWPM_HEADER_RESERVED_NONZERO", off)
-        # file size: a shorter file is an error, a longer one is cut at file_size (ignored bytes)
+        if minor == 0:
+            if reserved0:
+                self.add("SWPM_HEADER_RESERVED_NONZERO", 28)
+            if any(d[52:64]):
+                self.add("SWPM_HEADER_RESERVED_NONZERO", 52)
         if len(d) < file_size:
             self.add("SWPM_FILE_SIZE_MISMATCH", 40)
         elif len(d) > file_size:
             self.add("SWPM_FILE_TRAILING_BYTES", file_size)
-            self.data = d[: max(file_size, HEADER_SIZE)]
-        size = len(self.data)
-        if header_size < HEADER_SIZE or header_size > size:
-            self.add("SWPM_HEADER_BAD_SIZE", 12)
-            return self.result()
-        if chunk_count > MAX_CHUNKS:
-            self.add("SWPM_TABLE_TOO_LARGE", 24)
-            return self.result()
+            self.data = d[:file_size]
         if table_offset < header_size or table_offset % 8:
             self.add("SWPM_TABLE_BAD_OFFSET", 32)
-            return self.result()
+            return None
+        if chunk_count > MAX_CHUNKS:
+            self.add("SWPM_TABLE_TOO_LARGE", 24)
+            return None
         table_end = table_offset + ENTRY_SIZE * chunk_count
-        if table_end > size:
+        if table_end > len(self.data):
             self.add("SWPM_TABLE_TRUNCATED", 24)
-            return self.result()
+            return None
         buf = bytearray(self.data[:table_end])
-        buf[48:52] = b"\0\0\0\0"
+        buf[48:52] = bytes(4)
         if zlib.crc32(bytes(buf)) & 0xFFFFFFFF != file_crc:
             self.add("SWPM_CHECKSUM_MISMATCH", 48)
-        self.read_table(table_offset, chunk_count, table_end, file_size)
-        if self.rep.has_error(STRUCTURAL) or self.rep.has_error({"SWPM_FILE_SIZE_MISMATCH"}):
-            return self.result()
-        self.stream_order()
-        self.decode()
-        return self.result()
+        self.check_zero(header_size, table_offset)
+        return table_offset, chunk_count, table_end
 
-    # ----------------------------------------------------------------- table
-    def read_table(self, table_offset: int, count: int, table_end: int, file_size: int) -> None:
+    # ----------------------------------------------------------------- step 2
+    def table(self, table_offset: int, count: int, table_end: int) -> None:
         size = len(self.data)
-        covered_end = table_end
-        prev_offset = -1
+        last, end = -1, table_end
+        self.last_entry = table_offset + ENTRY_SIZE * (count - 1)
         for i in range(count):
             eo = table_offset + ENTRY_SIZE * i
-            raw_type, flags, offset, length, crc, _res = struct.unpack_from("<4sIQQII", self.data, eo)
-            scope = f"entry{i}"
-            if not all(
-                c in b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789" for c in raw_type
-            ):
-                self.add("SWPM_CHUNK_BAD_TYPE", eo, scope)
-                continue
-            ctype = raw_type.decode("ascii")
-            critical = bool(flags & 1)  # other flag bits: unknown, ignored (§5)
-            ok = True
-            if offset % 8:
-                self.add("SWPM_CHUNK_MISALIGNED", eo + 8, scope)
-                ok = False
-            if offset + length > size:
-                self.add("SWPM_CHUNK_OUT_OF_BOUNDS", eo + 8, scope)
-                ok = False
-            if offset < prev_offset:
-                self.add("SWPM_CHUNK_OUT_OF_ORDER", eo + 8, scope)
-                ok = False
-            elif offset < covered_end:
-                self.add("SWPM_CHUNK_OVERLAP", eo + 8, scope)
-                ok = False
-            elif ok:
-                self.check_zero(covered_end, offset, "between")
-            prev_offset = max(prev_offset, offset)
-            if offset + length <= size:
-                covered_end = max(covered_end, offset + length)
-            if ok:
+            raw_type, flags, offset, length, crc, reserved = struct.unpack_from("<4sIQQII", self.data, eo)
+            type_ok = all(c in TYPE_CHARS for c in raw_type)
+            if not type_ok:
+                self.add("SWPM_CHUNK_BAD_TYPE", eo)
+            bounds_ok = offset + length <= size
+            if not bounds_ok:
+                self.add("SWPM_CHUNK_OUT_OF_BOUNDS", eo + 8)
+            align_ok = offset % 8 == 0
+            if not align_ok:
+                self.add("SWPM_CHUNK_MISALIGNED", eo + 8)
+            place_ok = True
+            if offset < last:
+                self.add("SWPM_CHUNK_OUT_OF_ORDER", eo + 8)
+                place_ok = False
+            else:
+                if offset < end:
+                    self.add("SWPM_CHUNK_OVERLAP", eo + 8)
+                    place_ok = False
+                else:
+                    self.check_zero(end, offset)
+                last, end = offset, max(end, offset + length)
+            if self.minor == 0 and reserved:
+                self.add("SWPM_HEADER_RESERVED_NONZERO", eo + 28)
+            if type_ok and bounds_ok and align_ok and place_ok:
                 payload = self.data[offset : offset + length]
                 if zlib.crc32(payload, zlib.crc32(raw_type)) & 0xFFFFFFFF != crc:
-                    self.add("SWPM_CHUNK_CRC_MISMATCH", eo + 24, scope)
-            chunk = _Chunk(ctype, eo, flags, offset, length)
-            if ctype not in CRITICAL:
-                if critical:
-                    self.add("SWPM_CHUNK_UNKNOWN_CRITICAL", eo, scope)
-                else:
-                    self.add("SWPM_CHUNK_UNKNOWN_ANCILLARY", eo, scope)
-                self.order.append(chunk)
+                    self.add("SWPM_CHUNK_CRC_MISMATCH", eo + 24)
+            if not type_ok:
                 continue
-            if critical != CRITICAL[ctype]:
-                self.add("SWPM_CHUNK_BAD_FLAGS", eo + 4, scope)
-            allowed = (
-                ctype in ("META", "LODS", "SMAP", "INDX", "VERT") or ctype in ENCODING_TABLES[self.encoding]
-            )
-            if not allowed:
-                self.add("SWPM_CHUNK_NOT_ALLOWED", eo, scope)
-            if ctype in self.chunks:
-                self.add("SWPM_CHUNK_DUPLICATE", eo, scope)
+            chunk = _Chunk(raw_type.decode("ascii"), eo, offset, length)
+            self.entries.append(chunk)
+            if chunk.type not in CRITICAL:
+                unknown = "CRITICAL" if flags & 1 else "ANCILLARY"
+                self.add("SWPM_CHUNK_UNKNOWN_" + unknown, eo)
                 continue
-            self.chunks[ctype] = chunk
-            self.order.append(chunk)
-        if not self.rep.has_error(STRUCTURAL):
-            self.check_zero(covered_end, min(size, file_size), "between")
-        for ctype in ["META", "LODS", *ENCODING_TABLES[self.encoding], "INDX", "VERT"]:
-            if ctype not in self.chunks:
-                self.add("SWPM_CHUNK_MISSING", None)
-
-    def stream_order(self) -> None:
-        expected = ["META", "LODS", "SMAP", *ENCODING_TABLES[self.encoding], "INDX", "VERT"]
-        known = [c for c in self.order if c.type in CRITICAL]
-        want = [t for t in expected if t in self.chunks]
-        for c, t in zip(known, want, strict=True):
-            if c.type != t:
-                self.add("SWPM_STREAM_ORDER", c.entry, "order")
-                return
-        # unknown ancillary chunks may follow SMAP, but VERT stays last
-        seen_smap = "SMAP" not in self.chunks
-        for i, c in enumerate(self.order):
-            if c.type == "SMAP":
-                seen_smap = True
-            elif c.type not in CRITICAL and (not seen_smap or i == len(self.order) - 1):
-                self.add("SWPM_STREAM_ORDER", c.entry, "order")
-                return
-
-    # ----------------------------------------------------------------- payloads
-    def decode(self) -> None:
-        self.read_meta()
-        if not self.read_lods() or not self.read_vert():
-            return
-        if not self.read_indx():
-            return
-        try:
-            if self.encoding == "vanilla":
-                self.read_vanilla()
-            elif self.encoding == "sliding-window":
-                self.read_sliding()
-            elif self.encoding == "skip-strip":
-                self.read_skip_strip()
+            if bool(flags & 1) != CRITICAL[chunk.type]:
+                self.add("SWPM_CHUNK_BAD_FLAGS", eo + 4)
+            if self.encoding is not None and not (
+                chunk.type in COMMON or chunk.type in ENCODING_TABLES[self.encoding]
+            ):
+                self.add("SWPM_CHUNK_NOT_ALLOWED", eo)
+                chunk.not_allowed = True
+            elif chunk.type in self.chunks:
+                self.add("SWPM_CHUNK_DUPLICATE", eo)
+                chunk.duplicate = True
             else:
-                self.read_mixed()
-        except _Fail:
+                self.chunks[chunk.type] = chunk
+        self.check_zero(end, size)
+        if self.encoding is None:
             return
-        if "SMAP" in self.chunks and self.rep.error_count() == 0:
+        order = ["META", "LODS", "SMAP", *ENCODING_TABLES[self.encoding], "INDX", "VERT"]
+        for ctype in order:
+            if CRITICAL[ctype] and ctype not in self.chunks:
+                self.add("SWPM_CHUNK_MISSING", None)
+        self.stream_order(order)
+
+    def stream_order(self, order: list[str]) -> None:
+        expected = [t for t in order if t in self.chunks]
+        head = sum(1 for t in ("META", "LODS", "SMAP") if t in self.chunks)
+        pos = 0
+        for c in self.entries:
+            if c.type not in CRITICAL:
+                if pos < head:
+                    self.add("SWPM_STREAM_ORDER", c.entry)
+                    return
+                continue
+            if c.duplicate:
+                continue
+            if c.not_allowed or pos >= len(expected) or expected[pos] != c.type:
+                self.add("SWPM_STREAM_ORDER", c.entry)
+                return
+            pos += 1
+        vert = self.chunks.get("VERT")
+        if vert is not None and vert.entry != self.last_entry:
+            self.add("SWPM_STREAM_ORDER", vert.entry)
+
+    # ----------------------------------------------------------------- step 3
+    def payloads(self) -> None:
+        meta_ok = self.read_meta()
+        lods_ok = self.read_lods()
+        vert_ok = self.read_vert()
+        if lods_ok and vert_ok and self.vc[0] != self.V:
+            self.add("SWPM_LOD_VERTEX_COUNT", self.chunks["LODS"].offset)
+        if not (meta_ok and lods_ok and vert_ok):
+            return
+        enc = {
+            "vanilla": self.vanilla,
+            "sliding-window": self.sliding,
+            "skip-strip": self.skip_strip,
+            "mixed": self.mixed,
+        }
+        if self.encoding is not None:
+            enc[self.encoding]()
+        if not self.rep.has_error() and "SMAP" in self.chunks:
             self.read_smap()
 
-    def read_meta(self) -> None:
+    def read_meta(self) -> bool:
         c = self.chunks["META"]
-        raw = self.data[c.offset : c.offset + c.length]
 
         def no_constants(name: str) -> Any:
             raise ValueError(name)
 
         try:
-            meta = json.loads(raw.decode("utf-8"), parse_constant=no_constants)
+            text = self.data[c.offset : c.offset + c.length].decode("utf-8")
+            meta = json.loads(text, parse_constant=no_constants)
         except (UnicodeDecodeError, ValueError, RecursionError):
             meta = None
         if not isinstance(meta, dict):
-            self.add("SWPM_META_BAD_JSON", c.offset, "META")
-            return
-        if meta.get("encoding") != self.encoding:
-            self.add("SWPM_META_BAD_FIELD", c.offset, "META")
-        if "generator" in meta and not isinstance(meta["generator"], str):
-            self.add("SWPM_META_BAD_FIELD", c.offset, "META")
-        sd = meta.get("source_digest")
-        if sd is not None and not (
-            isinstance(sd, str)
-            and sd.startswith("sha256:")
-            and len(sd) > 7
-            and all(ch in "0123456789abcdefABCDEF" for ch in sd[7:])
-        ):
-            self.add("SWPM_META_BAD_FIELD", c.offset, "META")
+            self.add("SWPM_META_BAD_JSON", c.offset)
+            return False
         params = meta.get("params", {})
         if not isinstance(params, dict):
-            self.add("SWPM_META_BAD_FIELD", c.offset, "META")
-            params = {}
+            self.add("SWPM_META_BAD_FIELD", c.offset)
+            return False
         self.params = params
+        if "encoding" in meta and meta["encoding"] != self.encoding:
+            self.add("SWPM_META_BAD_FIELD", c.offset)
+        return True
 
     def read_lods(self) -> bool:
         c = self.chunks["LODS"]
         if c.length % 12:
-            self.add("SWPM_CHUNK_BAD_LENGTH", c.offset, "LODS")
+            self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
             return False
         L = c.length // 12
         if L == 0:
-            self.add("SWPM_LOD_EMPTY", c.offset, "LODS")
+            self.add("SWPM_LOD_EMPTY", c.offset)
             return False
         rows = np.frombuffer(self.data, dtype="<u4", count=3 * L, offset=c.offset).reshape(L, 3)
-        vc = rows[:, 0].astype(np.int64)
-        tc = rows[:, 1].astype(np.int64)
         err = np.frombuffer(self.data, dtype="<f4", count=3 * L, offset=c.offset).reshape(L, 3)[:, 2]
-        # monotonicity is a semantic rule: the rest of the file still decodes, so it is not fatal
-        for k in range(L):
-            base = c.offset + 12 * k
-            if not math.isfinite(float(err[k])):
-                self.add("SWPM_LOD_NOT_MONOTONE", base + 8, "LODS")
-            if k == 0:
-                continue
-            if vc[k] > vc[k - 1]:
-                self.add("SWPM_LOD_NOT_MONOTONE", base, "LODS")
-            if tc[k] > tc[k - 1]:
-                self.add("SWPM_LOD_NOT_MONOTONE", base + 4, "LODS")
-            if err[k] < err[k - 1]:
-                self.add("SWPM_LOD_NOT_MONOTONE", base + 8, "LODS")
-        self.L = L
-        self.vc = vc
-        self.tc = tc
-        self.T0 = int(tc[0])
-        self.buffers["vertex_count"] = np.ascontiguousarray(rows[:, 0])
-        self.buffers["triangle_count"] = np.ascontiguousarray(rows[:, 1])
-        self.buffers["error"] = np.ascontiguousarray(err)
+        vc, tc, ev = rows[:, 0].tolist(), rows[:, 1].tolist(), err.tolist()
+        for col in (vc, tc):
+            k = _first_bad(col, lambda i, x, col=col: i > 0 and x > col[i - 1])
+            if k is not None:
+                self.add("SWPM_LOD_NOT_MONOTONE", c.offset + 12 * k)
+        k = _first_bad(ev, lambda i, x: not math.isfinite(x))
+        if k is None:
+            k = _first_bad(ev, lambda i, x: i > 0 and x < ev[i - 1])
+        if k is not None:
+            self.add("SWPM_LOD_NOT_MONOTONE", c.offset + 12 * k + 8)
+        self.L, self.vc, self.tc, self.T0 = L, vc, tc, tc[0]
+        self.buffers["vertex_counts"] = rows[:, 0]
+        self.buffers["triangle_counts"] = rows[:, 1]
+        self.buffers["lod_errors"] = err
         return True
 
     def read_vert(self) -> bool:
         c = self.chunks["VERT"]
-        p = c.offset
-        n = c.length
+        p, n = c.offset, c.length
         if n < 16:
-            self.add("SWPM_CHUNK_BAD_LENGTH", p, "VERT")
+            self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
             return False
         V, A, stride, data_offset = struct.unpack_from("<IIII", self.data, p)
         if A > 255:
-            self.add("SWPM_VERT_BAD_LAYOUT", p + 4, "VERT")
+            self.add("SWPM_VERT_BAD_LAYOUT", p)
             return False
         if 16 + 16 * A > n:
-            self.add("SWPM_COUNT_EXCEEDS_CHUNK", p + 4, "VERT")
+            self.add("SWPM_COUNT_EXCEEDS_CHUNK", p + 4)
             return False
-        if stride < 12 or stride % 4:
-            self.add("SWPM_VERT_BAD_LAYOUT", p + 8, "VERT")
+        if stride < 12 or stride % 4 or data_offset % 8 or data_offset < 16 + 16 * A:
+            self.add("SWPM_VERT_BAD_LAYOUT", p)
             return False
-        if data_offset % 8 or data_offset < 16 + 16 * A or data_offset > n:
-            self.add("SWPM_VERT_BAD_LAYOUT", p + 12, "VERT")
+        if data_offset > n:
+            self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
             return False
         if V * stride > n - data_offset:
-            self.add("SWPM_COUNT_EXCEEDS_CHUNK", p, "VERT")
+            self.add("SWPM_COUNT_EXCEEDS_CHUNK", p)
             return False
         if data_offset + V * stride != n:
-            self.add("SWPM_CHUNK_BAD_LENGTH", p, "VERT")
+            self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
             return False
-        names_start = 16 + 16 * A
-        name_used = bytearray(data_offset - names_start)
-        rec_used = bytearray(stride)
-        rec_used[0:12] = b"\1" * 12
-        names: set[str] = set()
-        attrs: list[tuple[str, str, int, int]] = []
-        ok = True
-        for a in range(A):
-            do = p + 16 + 16 * a
-            name_off, name_len, et, comps, aoff, ares = struct.unpack_from("<IHBBII", self.data, do)
-            if name_len < 1 or name_off < names_start or name_off + name_len > data_offset:
-                self.add("SWPM_VERT_BAD_LAYOUT", do, "VERT")
-                ok = False
-                continue
-            try:
-                name = self.data[p + name_off : p + name_off + name_len].decode("utf-8")
-            except UnicodeDecodeError:
-                self.add("SWPM_VERT_BAD_LAYOUT", do, "VERT")
-                ok = False
-                continue
-            if name in names:
-                self.add("SWPM_VERT_BAD_LAYOUT", do, "VERT")
-                ok = False
-            names.add(name)
-            name_used[name_off - names_start : name_off - names_start + name_len] = b"\1" * name_len
-            if et not in ELEM_TYPES:
-                self.add("SWPM_VERT_BAD_LAYOUT", do + 6, "VERT")
-                ok = False
-                continue
-            dt, es = ELEM_TYPES[et]
-            if comps < 1:
-                self.add("SWPM_VERT_BAD_LAYOUT", do + 7, "VERT")
-                ok = False
-                continue
-            if stride % es:
-                self.add("SWPM_VERT_BAD_LAYOUT", p + 8, "VERT")
-                ok = False
-            if aoff % es or aoff + es * comps > stride:
-                self.add("SWPM_VERT_BAD_LAYOUT", do + 8, "VERT")
-                ok = False
-                continue
-            if any(rec_used[aoff : aoff + es * comps]):
-                self.add("SWPM_VERT_BAD_LAYOUT", do + 8, "VERT")
-                ok = False
-            rec_used[aoff : aoff + es * comps] = b"\1" * (es * comps)
-            if ares:
-                self.add("SWPM_VERT_BAD_LAYOUT", do + 12, "VERT")
-                ok = False
-            attrs.append((name, dt, comps, aoff))
-        if not ok:
+        attrs = self.attributes(p, A, stride, data_offset)
+        if attrs is None:
+            self.add("SWPM_VERT_BAD_LAYOUT", p)
             return False
-        for i, used in enumerate(name_used):
-            if not used and self.data[p + names_start + i]:
-                self.add("SWPM_PADDING_NONZERO", p + names_start + i, "VERT")
-                break
-        gaps = [i for i, used in enumerate(rec_used) if not used]
-        if gaps and V:
-            recs = np.frombuffer(self.data, dtype=np.uint8, count=V * stride, offset=p + data_offset)
-            recs = recs.reshape(V, stride)[:, gaps]
-            nz = np.argwhere(recs)
-            if len(nz):
-                v, g = nz[0]
-                self.add("SWPM_PADDING_NONZERO", p + data_offset + int(v) * stride + gaps[int(g)], "VERT")
-        self.V = V
+        self.V, self.stride, self.data_offset = V, stride, data_offset
+        base = p + data_offset
         pos_dt = np.dtype({"names": ["p"], "formats": [("<f4", (3,))], "offsets": [0], "itemsize": stride})
-        pts = np.frombuffer(self.data, dtype=pos_dt, count=V, offset=p + data_offset)["p"]
-        self.buffers["position"] = np.ascontiguousarray(pts)
-        bad = ~np.isfinite(pts)
-        if bad.any():
-            first = int(np.argmax(bad.reshape(-1)))
-            self.add("SWPM_VERT_NONFINITE", p + data_offset + (first // 3) * stride + 4 * (first % 3), "VERT")
+        pts = np.frombuffer(self.data, dtype=pos_dt, count=V, offset=base)["p"] if V else np.zeros((0, 3))
+        self.buffers["points"] = pts.astype("<f4", copy=False)
         for name, dt, comps, aoff in attrs:
             adt = np.dtype(
                 {"names": ["a"], "formats": [(dt, (comps,))], "offsets": [aoff], "itemsize": stride}
             )
-            arr = np.frombuffer(self.data, dtype=adt, count=V, offset=p + data_offset)["a"]
-            self.buffers[f"attribute:{name}"] = np.ascontiguousarray(arr.reshape(V, comps))
-        if int(self.vc[0]) != V:
-            self.add("SWPM_LOD_VERTEX_COUNT", self.chunks["LODS"].offset, "LODS")
-            return False
-        for k in range(self.L):
-            if self.vc[k] > V:
-                self.add("SWPM_LOD_VERTEX_COUNT", self.chunks["LODS"].offset + 12 * k, "LODS")
-                return False
+            arr = np.frombuffer(self.data, dtype=adt, count=V, offset=base)["a"] if V else np.zeros((0,), dt)
+            self.buffers[f"attribute:{name}"] = arr.reshape(V, comps)
+        bad = int((~np.isfinite(pts)).sum())
+        if bad:
+            self.add("SWPM_VERT_NONFINITE", base)
         return True
 
-    def read_indx(self) -> bool:
-        c = self.chunks["INDX"]
-        if c.length % self.W:
-            self.add("SWPM_CHUNK_BAD_LENGTH", c.offset, "INDX")
-            return False
-        self.indx = self.idx_array(c.offset, c.length // self.W)
-        restart = None
-        if self.encoding == "skip-strip":
-            r = self.params.get("restart_index")
-            if isinstance(r, int) and not isinstance(r, bool):
-                restart = r
-        self.restart = restart
-        vals = self.indx.astype(np.int64)
-        bad = vals >= self.V
-        if restart is not None:
-            bad &= vals != restart
-        if bad.any():
-            self.add("SWPM_INDEX_OUT_OF_RANGE", c.offset + self.W * int(np.argmax(bad)), "INDX")
-            return False
-        return True
+    def attributes(self, p: int, A: int, stride: int, data_offset: int) -> list[Any] | None:
+        """The attribute descriptors of §3.3, or None when one breaks a rule."""
+        names_start = 16 + 16 * A
+        used = bytearray(stride)
+        used[0:12] = b"\1" * 12
+        names: set[str] = set()
+        attrs = []
+        for a in range(A):
+            name_off, name_len, et, comps, aoff, _res = struct.unpack_from(
+                "<IHBBII", self.data, p + 16 + 16 * a
+            )
+            if name_len < 1 or name_off < names_start or name_off + name_len > data_offset:
+                return None
+            try:
+                name = self.data[p + name_off : p + name_off + name_len].decode("utf-8")
+            except UnicodeDecodeError:
+                return None
+            if name in names or et not in ELEM_TYPES or comps < 1:
+                return None
+            names.add(name)
+            dt, es = ELEM_TYPES[et]
+            if stride % es or aoff % es or aoff + es * comps > stride or any(used[aoff : aoff + es * comps]):
+                return None
+            used[aoff : aoff + es * comps] = b"\1" * (es * comps)
+            attrs.append((name, dt, comps, aoff))
+        return attrs
 
-    # ------------------------------------------------------------ shared parts
-    def read_rcnt(self, R: int) -> np.ndarray:
+    # ------------------------------------------------------------ stage 0 parts
+    def rcnt_layout(self) -> list[int] | None:
         c = self.chunks["RCNT"]
-        if c.length != self.W * self.L:
-            self.add("SWPM_CHUNK_BAD_LENGTH", c.offset, "RCNT")
-            raise _Fail
-        rc = self.idx_array(c.offset, self.L)
-        self.buffers["lod_record_counts"] = rc
-        rcl = [int(x) for x in rc]
-        for k, x in enumerate(rcl):
-            off = c.offset + self.W * k
-            if (k == 0 and x != 0) or (k > 0 and x < rcl[k - 1]) or x > R or int(self.vc[k]) != self.V - x:
-                self.add("SWPM_RECORD_BAD_COUNTS", off, "RCNT")
-                raise _Fail
-        return np.array(rcl, dtype=np.int64)
+        if c.length % self.W:
+            self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
+            return None
+        if c.length // self.W != self.L:
+            self.add("SWPM_CHUNK_BAD_LENGTH", c.offset)
+            return None
+        arr = self.view(c.offset, self.L)
+        self.buffers["lod_record_counts"] = arr
+        return arr.tolist()
 
-    def read_records(self, ctype: str, cols: int) -> tuple[np.ndarray, np.ndarray, int]:
-        """A VREC-layout chunk: (records[R, cols], change_offsets[M], offsets array position)."""
+    def record_layout(self, ctype: str) -> tuple[np.ndarray, np.ndarray, int] | None:
+        """A VREC-layout chunk: (records[R, cols], change_offsets[M], offsets position)."""
+        assert self.encoding is not None
+        columns = RECORD_COLUMNS[self.encoding]
+        cols = len(columns)
         c = self.chunks[ctype]
         p = c.offset
         if c.length < 8:
-            self.add("SWPM_CHUNK_BAD_LENGTH", p, ctype)
-            raise _Fail
+            self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
+            return None
         R, M = struct.unpack_from("<II", self.data, p)
         need = cols * self.W * R
         if need > c.length - 8:
-            self.add("SWPM_COUNT_EXCEEDS_CHUNK", p, ctype)
-            raise _Fail
+            self.add("SWPM_COUNT_EXCEEDS_CHUNK", p + 8)
+            return None
         ao = 8 + _align4(need)
         if ao > c.length or M * self.W > c.length - ao:
-            self.add("SWPM_COUNT_EXCEEDS_CHUNK", p + 4, ctype)
-            raise _Fail
+            self.add("SWPM_COUNT_EXCEEDS_CHUNK", p + ao)
+            return None
         if ao + M * self.W != c.length:
-            self.add("SWPM_CHUNK_BAD_LENGTH", p, ctype)
-            raise _Fail
-        self.check_zero(p + 8 + need, p + ao, ctype)
-        if R and R >= self.V:
-            self.add("SWPM_RECORD_BAD_COUNTS", p, ctype)
-            raise _Fail
-        recs = self.idx_array(p + 8, cols * R).reshape(R, cols)
-        offs = self.idx_array(p + ao, M)
-        cc_col = cols - 2
-        cc = recs[:, cc_col].astype(np.int64)
-        if int(cc.sum()) != M:
-            self.add("SWPM_RECORD_BAD_COUNTS", p + 4, ctype)
-            raise _Fail
-        for r in range(R):
-            prev = int(cc[r - 1]) if r else 0
-            if int(recs[r, cols - 1]) != prev:
-                self.add("SWPM_RECORD_BAD_COUNTS", p + 8 + self.W * (cols * r + cols - 1), ctype)
-                raise _Fail
-        return recs, offs, p + ao
+            self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
+            return None
+        recs = self.view(p + 8, cols * R).reshape(R, cols)
+        offs = self.view(p + ao, M)
+        for i, name in enumerate(columns):
+            self.buffers["collapse_" + name] = recs[:, i]
+        self.buffers["collapse_change_offsets"] = offs
+        return recs.astype(np.int64), offs.astype(np.int64), p + ao
 
-    def rec_field(self, ctype: str, cols: int, r: int, col: int) -> int:
+    def indx_layout(self) -> bool:
+        c = self.chunks["INDX"]
+        if c.length % self.W:
+            self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
+            return False
+        count = c.length // self.W
+        if self.encoding == "vanilla" and count != 3 * self.T0:
+            self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
+            return False
+        arr = self.view(c.offset, count)
+        name = {
+            "vanilla": "indices",
+            "sliding-window": "index_pool",
+            "skip-strip": "level_indices",
+            "mixed": "level_static_indices",
+        }[self.encoding or ""]
+        self.buffers[name] = arr
+        self.indx = arr.astype(np.int64)
+        self.indx_off = c.offset
+        return True
+
+    def level_layout(self, ctype: str, extra: int, names: list[str]) -> list[tuple[np.ndarray, int]] | None:
+        """SKIP/MLVL: u32 n, u32 count, then idx arrays of n, n+1, n+1, n+1 and ``extra`` x count."""
+        c = self.chunks[ctype]
+        if c.length < 8:
+            self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
+            return None
+        n, count = struct.unpack_from("<II", self.data, c.offset)
+        sizes = [n, n + 1, n + 1, n + 1] + [count] * extra
+        out = []
+        pos = 8
+        for i, size in enumerate(sizes):
+            if i:
+                pos = _align4(pos)
+            if pos > c.length or size * self.W > c.length - pos:
+                self.add("SWPM_COUNT_EXCEEDS_CHUNK", c.offset + pos)
+                return None
+            out.append((self.view(c.offset + pos, size), c.offset + pos))
+            pos += size * self.W
+        if pos != c.length:
+            self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
+            return None
+        for name, (arr, _off) in zip(names, out, strict=True):
+            self.buffers[name] = arr
+        return [(arr.astype(np.int64), off) for arr, off in out]
+
+    # ------------------------------------------------------------ shared checks
+    def counts_36(self, ctype: str, recs: np.ndarray, M: int, rc: list[int]) -> bool:
+        """§3.6 counts: change counts sum to M, prev_change_count, RCNT. True when all hold."""
+        c = self.chunks[ctype]
+        cols = recs.shape[1]
+        R = recs.shape[0]
+        ok = True
+        cc = recs[:, cols - 2]
+        if int(cc.sum()) != M:
+            self.add("SWPM_RECORD_BAD_COUNTS", c.offset + 8)
+            ok = False
+        prev = np.concatenate([np.zeros(1, np.int64), cc[:-1]]) if R else cc
+        bad = np.flatnonzero(recs[:, cols - 1] != prev)
+        if len(bad):
+            r = int(bad[0])
+            self.add("SWPM_RECORD_BAD_COUNTS", c.offset + 8 + self.W * (cols * r + cols - 1))
+            ok = False
+        if rc[0] != 0 or any(rc[k] < rc[k - 1] for k in range(1, len(rc))) or max(rc) > R:
+            self.add("SWPM_RECORD_BAD_COUNTS", self.chunks["RCNT"].offset)
+            ok = False
+        return ok
+
+    def r_below_v(self, ctype: str, R: int) -> None:
+        if R and R >= self.V:
+            self.add("SWPM_RECORD_BAD_COUNTS", self.chunks[ctype].offset)
+
+    def row(self, ctype: str, r: int, col: int = 0) -> int:
+        cols = len(RECORD_COLUMNS[self.encoding or ""])
         return self.chunks[ctype].offset + 8 + self.W * (cols * r + col)
 
-    def check_kept(self, ctype: str, recs: np.ndarray, cols: int) -> None:
-        for r in range(recs.shape[0]):
-            if int(recs[r, 0]) >= self.V - 1 - r:
-                self.add("SWPM_RECORD_BAD_KEPT", self.rec_field(ctype, cols, r, 0), ctype)
-                raise _Fail
-
-    # ----------------------------------------------------------------- vanilla
-    def read_vanilla(self) -> None:
-        ic = self.chunks["INDX"]
-        n = len(self.indx)
-        if n != 3 * self.T0:
-            self.add("SWPM_CHUNK_BAD_LENGTH", ic.offset, "INDX")
-            raise _Fail
-        self.buffers["indices"] = self.indx
-        recs, offs, op = self.read_records("VREC", 4)
+    def bad_kept(self, ctype: str, recs: np.ndarray) -> None:
         R = recs.shape[0]
-        for i, name in enumerate(["kept", "tris_removed", "change_count", "prev_change_count"]):
-            self.buffers[name] = np.ascontiguousarray(recs[:, i])
-        self.buffers["change_offsets"] = offs
-        rc = self.read_rcnt(R)
-        self.check_kept("VREC", recs, 4)
-        # replay the records
-        ind = [int(x) for x in self.indx]
-        refs = [0] * self.V
-        for x in ind:
-            refs[x] += 1
-        live = self.T0
-        cum = [0]
-        c = 0
-        offl = [int(x) for x in offs]
-        for r in range(R):
-            binned = self.V - 1 - r
-            kept, tr, cc = int(recs[r, 0]), int(recs[r, 1]), int(recs[r, 2])
-            if tr > live:
-                self.add("SWPM_RECORD_BAD_COUNTS", self.rec_field("VREC", 4, r, 1), "VREC")
-                raise _Fail
-            after = live - tr
-            for j in range(c, c + cc):
-                s = offl[j]
-                if s >= n:
-                    self.add("SWPM_INDEX_OUT_OF_RANGE", op + self.W * j, "VREC")
-                    raise _Fail
-                if ind[s] != binned or s >= 3 * after:
-                    self.add("SWPM_RECORD_BAD_CHANGE", op + self.W * j, "VREC")
-                    raise _Fail
-                ind[s] = kept
-                refs[binned] -= 1
-                refs[kept] += 1
-            c += cc
-            for s in range(3 * after, 3 * live):
-                refs[ind[s]] -= 1
-            live = after
-            cum.append(cum[-1] + tr)
-            if refs[binned]:
-                self.add("SWPM_RECORD_BAD_CHANGE", self.rec_field("VREC", 4, r, 0), "VREC")
-                raise _Fail
-        for k in range(self.L):
-            if int(self.tc[k]) != self.T0 - cum[int(rc[k])]:
-                self.add("SWPM_RECORD_BAD_COUNTS", self.chunks["RCNT"].offset + self.W * k, "RCNT")
-                raise _Fail
+        limit = self.V - 1 - np.arange(R, dtype=np.int64)
+        for r in np.flatnonzero(recs[:, 0] >= limit)[:3].tolist():
+            self.add("SWPM_RECORD_BAD_KEPT", self.row(ctype, r))
 
-    # ---------------------------------------------------------- sliding window
-    def read_sliding(self) -> None:
-        c = self.chunks["WREC"]
-        W = self.W
-        if c.length != 3 * W * self.L:
-            self.add("SWPM_CHUNK_BAD_LENGTH", c.offset, "WREC")
-            raise _Fail
-        rows = self.idx_array(c.offset, 3 * self.L).reshape(self.L, 3)
-        self.buffers["index_pool"] = self.indx
-        self.buffers["window_records"] = rows
-        pool = len(self.indx)
-        vals = self.indx.astype(np.int64)
-        for k in range(self.L):
-            base = c.offset + 3 * W * k
-            first, tcount, vcount = (int(x) for x in rows[k])
-            if k and tcount > int(rows[k - 1, 1]):
-                self.add("SWPM_WINDOW_NOT_MONOTONE", base + W, "WREC")
-            if tcount != int(self.tc[k]):
-                self.add("SWPM_WINDOW_COUNT_MISMATCH", base + W, "WREC")
-            if vcount != int(self.vc[k]):
-                self.add("SWPM_WINDOW_COUNT_MISMATCH", base + 2 * W, "WREC")
-            if first + 3 * tcount > pool:
-                self.add("SWPM_WINDOW_OUT_OF_POOL", base, "WREC")
-                continue
-            win = vals[first : first + 3 * tcount]
-            bad = win >= int(self.vc[k])
-            if bad.any():
-                pos = first + int(np.argmax(bad))
-                self.add("SWPM_PREFIX_VIOLATION", self.chunks["INDX"].offset + W * pos, "INDX")
+    def lods_vertex_counts(self, rc: list[int]) -> None:
+        k = _first_bad(self.vc, lambda i, x: x != self.V - rc[i])
+        if k is not None:
+            self.add("SWPM_LOD_VERTEX_COUNT", self.chunks["LODS"].offset + 12 * k)
 
-    # -------------------------------------------------------------- level table
-    def level_arrays(self, ctype: str, head: int, sizes: list[int]) -> list[tuple[np.ndarray, int]]:
-        """Consecutive idx arrays starting at payload+head, each starting at a multiple of 4."""
-        c = self.chunks[ctype]
-        out = []
-        pos = head
-        for i, count in enumerate(sizes):
-            pos = _align4(pos)
-            if count * self.W > c.length - min(pos, c.length) or pos > c.length:
-                self.add("SWPM_COUNT_EXCEEDS_CHUNK", c.offset + (0 if i < 3 else 4), ctype)
-                raise _Fail
-            out.append((self.idx_array(c.offset + pos, count), c.offset + pos))
-            end = pos + count * self.W
-            if i + 1 < len(sizes):
-                self.check_zero(c.offset + end, c.offset + _align4(end), ctype)
-            pos = end
-        if pos != c.length:
-            self.add("SWPM_CHUNK_BAD_LENGTH", c.offset, ctype)
-            raise _Fail
-        return out
+    def lods_row_bad_counts(self, expected: list[int]) -> None:
+        k = _first_bad(self.tc, lambda i, x: x != expected[i])
+        if k is not None:
+            self.add("SWPM_RECORD_BAD_COUNTS", self.chunks["LODS"].offset + 12 * k)
 
-    def check_levels(
-        self,
-        code: str,
-        ctype: str,
-        lfl: tuple[np.ndarray, int],
-        starts: list[tuple[np.ndarray, int, int, int]],
-    ) -> None:
-        """level_first_lod starts at 0, increasing, < L; each start array within [0, hi], non-decreasing,
-        steps a multiple of ``step``."""
-        arr, off = lfl
-        vals = [int(x) for x in arr]
-        for i, x in enumerate(vals):
-            if (i == 0 and x != 0) or (i and x <= vals[i - 1]) or x >= self.L:
-                self.add(code, off + self.W * i, ctype)
-                raise _Fail
-        for arr, off, hi, step in starts:
-            vals = [int(x) for x in arr]
-            for i, x in enumerate(vals):
-                if x > hi or (i and (x < vals[i - 1] or (x - vals[i - 1]) % step)):
-                    self.add(code, off + self.W * i, ctype)
-                    raise _Fail
-
-    def level_of(self, lfl: list[int], k: int) -> int:
+    def level_of(self, k: int) -> int:
         lev = 0
-        for i, f in enumerate(lfl):
+        for i, f in enumerate(self.level_first):
             if f <= k:
                 lev = i
         return lev
 
+    @staticmethod
+    def slot_starts(recs: np.ndarray) -> list[int]:
+        cc = recs[:, recs.shape[1] - 2]
+        return [0, *np.cumsum(cc).tolist()]
+
+    # ----------------------------------------------------------------- vanilla
+    def vanilla(self) -> None:
+        rc = self.rcnt_layout()
+        got = self.record_layout("VREC") if rc is not None else None
+        if rc is None or got is None or not self.indx_layout():
+            return
+        recs, offs, op = got
+        R, M, V, T0 = recs.shape[0], len(offs), self.V, self.T0
+        mark = self.rep.total
+        # (a)
+        self.counts_36("VREC", recs, M, rc)
+        self.first_n(self.indx >= V, self.indx_off, self.W)
+        self.r_below_v("VREC", R)
+        self.bad_kept("VREC", recs)
+        if int(recs[:, 1].sum()) > T0:
+            self.add("SWPM_RECORD_BAD_COUNTS", self.row("VREC", 0, 1))
+        self.first_n(offs >= 3 * T0, op, self.W)
+        if self.rep.total > mark:
+            return
+        # (b)
+        self.lods_vertex_counts(rc)
+        removed = [0, *np.cumsum(recs[:, 1]).tolist()]
+        self.lods_row_bad_counts([T0 - removed[rc[k]] for k in range(self.L)])
+        if self.rep.total > mark:
+            return
+        # (c) the replay: one problem
+        ind = self.indx.copy()
+        starts = self.slot_starts(recs)
+        live = T0
+        refs = np.bincount(ind, minlength=V) if V else np.zeros(0, np.int64)
+        for r in range(R):
+            binned, kept, after = V - 1 - r, int(recs[r, 0]), live - int(recs[r, 1])
+            slots = offs[starts[r] : starts[r + 1]]
+            if len(slots) and (bool((ind[slots] != binned).any()) or int(slots.max()) >= 3 * after):
+                self.add("SWPM_RECORD_BAD_CHANGE", self.row("VREC", r))
+                return
+            ind[slots] = kept
+            refs[binned] -= len(slots)
+            refs[kept] += len(slots)
+            np.subtract.at(refs, ind[3 * after : 3 * live], 1)
+            live = after
+            if refs[binned]:
+                self.add("SWPM_PREFIX_VIOLATION", self.row("VREC", r))
+                return
+
+    # ---------------------------------------------------------- sliding window
+    def sliding(self) -> None:
+        c = self.chunks["WREC"]
+        W, L = self.W, self.L
+        if c.length != 3 * W * L:
+            self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
+            return
+        if not self.indx_layout():
+            return
+        raw = self.view(c.offset, 3 * L).reshape(L, 3)
+        self.buffers["window_records"] = raw
+        rows = raw.tolist()
+        first = [r[0] for r in rows]
+        tcount = [r[1] for r in rows]
+        vcount = [r[2] for r in rows]
+        pool = len(self.indx)
+        mark = self.rep.total
+        # (a)
+        k = _first_bad(tcount, lambda i, x: x != self.tc[i])
+        if k is not None:
+            self.add("SWPM_WINDOW_COUNT_MISMATCH", c.offset + 3 * W * k + W)
+        k = _first_bad(vcount, lambda i, x: x != self.vc[i])
+        if k is not None:
+            self.add("SWPM_WINDOW_COUNT_MISMATCH", c.offset + 3 * W * k + 2 * W)
+        k = _first_bad(tcount, lambda i, x: i > 0 and x > tcount[i - 1])
+        if k is not None:
+            self.add("SWPM_WINDOW_NOT_MONOTONE", c.offset + 3 * W * k + W)
+        outside = [k for k in range(L) if first[k] + 3 * tcount[k] > pool]
+        for k in outside[:3]:
+            self.add("SWPM_WINDOW_OUT_OF_POOL", c.offset + 3 * W * k)
+        self.first_n(self.indx >= self.V, self.indx_off, W)
+        if self.rep.total > mark:
+            return
+        # (b) the prefix property: the lowest offending INDX element
+        worst = None
+        for k in range(L):
+            win = self.indx[first[k] : first[k] + 3 * tcount[k]]
+            bad = np.flatnonzero(win >= vcount[k])
+            if len(bad):
+                pos = first[k] + int(bad[0])
+                worst = pos if worst is None else min(worst, pos)
+        if worst is not None:
+            self.add("SWPM_PREFIX_VIOLATION", self.indx_off + W * worst)
+
     # -------------------------------------------------------------- skip-strip
-    def read_skip_strip(self) -> None:
-        c = self.chunks["SKIP"]
-        if c.length < 8:
-            self.add("SWPM_CHUNK_BAD_LENGTH", c.offset, "SKIP")
-            raise _Fail
-        n, C = struct.unpack_from("<II", self.data, c.offset)
-        if n < 1:
-            self.add("SWPM_LEVEL_BAD_TABLE", c.offset, "SKIP")
-            raise _Fail
-        if (4 * n + 3) * self.W > c.length or C * self.W > c.length:
-            self.add(
-                "SWPM_COUNT_EXCEEDS_CHUNK",
-                c.offset if (4 * n + 3) * self.W > c.length else c.offset + 4,
-                "SKIP",
-            )
-            raise _Fail
-        arrs = self.level_arrays("SKIP", 8, [n, n + 1, n + 1, n + 1, C])
-        (lfl, _), (lis, lis_o), (lcs, lcs_o), (lrs, lrs_o), (lci, lci_o) = arrs
-        recs, offs, op = self.read_records("SREC", 4)
-        R = recs.shape[0]
-        names = ["level_first_lod", "level_index_start", "level_collapsed_start", "level_record_start"]
-        for name, (a, _o) in zip(names, arrs[:4], strict=True):
-            self.buffers[name] = a
-        self.buffers["level_collapsed_indices"] = lci
-        self.buffers["level_indices"] = self.indx
-        for i, name in enumerate(["kept", "binned", "change_count", "prev_change_count"]):
-            self.buffers[name] = np.ascontiguousarray(recs[:, i])
-        self.buffers["change_offsets"] = offs
-        N = len(self.indx)
-        self.check_levels(
-            "SWPM_LEVEL_BAD_TABLE",
-            "SKIP",
-            arrs[0],
-            [(lis, lis_o, N, 1), (lcs, lcs_o, C, 1), (lrs, lrs_o, R, 1)],
+    def skip_strip(self) -> None:
+        names = [
+            "level_first_lod",
+            "level_index_start",
+            "level_collapsed_start",
+            "level_record_start",
+            "level_collapsed_indices",
+        ]
+        rc = self.rcnt_layout()
+        levels = self.level_layout("SKIP", 1, names) if rc is not None else None
+        got = self.record_layout("SREC") if levels is not None else None
+        if rc is None or levels is None or got is None or not self.indx_layout():
+            return
+        recs, offs, op = got
+        (lfl, _), (lis, _), (lcs, _), (lrs, _), (lci, lci_o) = levels
+        R, M, V, W, N, C = recs.shape[0], len(offs), self.V, self.W, len(self.indx), len(lci)
+        skip_off = self.chunks["SKIP"].offset
+        prim = self.params.get("primitive", "strip")
+        rst = self.params.get("restart_index")
+        restart = rst if prim == "strip" and isinstance(rst, int) and not isinstance(rst, bool) else None
+        is_list = prim == "list"
+        mark = self.rep.total
+        # (a)
+        self.counts_36("SREC", recs, M, rc)
+        fl, ls, cs, rs = lfl.tolist(), lis.tolist(), lcs.tolist(), lrs.tolist()
+        n = len(fl)
+        table_ok = (
+            n >= 1
+            and fl[0] == 0
+            and all(fl[i] > fl[i - 1] for i in range(1, n))
+            and fl[-1] < self.L
+            and all(self.monotone(arr, hi, 1) for arr, hi in ((ls, N), (cs, C), (rs, R)))
+            and cs == ls
         )
-        rc = self.read_rcnt(R)
-        restart = self.restart
-        cvals = lci.astype(np.int64)
-        bad = cvals >= self.V
-        if restart is not None:
-            bad &= cvals != restart
-        if bad.any():
-            self.add("SWPM_INDEX_OUT_OF_RANGE", lci_o + self.W * int(np.argmax(bad)), "SKIP")
-            raise _Fail
-        for r in range(R):
-            if int(recs[r, 1]) != self.V - 1 - r:
-                self.add("SWPM_RECORD_BAD_COUNTS", self.rec_field("SREC", 4, r, 1), "SREC")
-                raise _Fail
-        self.check_kept("SREC", recs, 4)
-        lfl_l = [int(x) for x in lfl]
-        lis_l = [int(x) for x in lis]
-        lrs_l = [int(x) for x in lrs]
-        starts = [0]
-        for r in range(R):
-            starts.append(starts[-1] + int(recs[r, 2]))
-        offl = [int(x) for x in offs]
+        if not table_ok:
+            self.add("SWPM_LEVEL_BAD_TABLE", skip_off)
+            return
+        self.level_first, self.level_starts = fl, ls
+
+        def over(arr: np.ndarray) -> np.ndarray:
+            return (arr >= V) & (arr != restart) if restart is not None else arr >= V
+
+        self.first_n(over(self.indx), self.indx_off, W)
+        self.first_n(over(lci), lci_o, W)
+        if self.rep.total > mark:
+            return
+        # (b)
+        starts = self.slot_starts(recs)
+        bad_offsets = []
         for lev in range(n):
-            lo, hi = lis_l[lev], lis_l[lev + 1]
-            first_lod = lfl_l[lev]
-            last_lod = lfl_l[lev + 1] - 1 if lev + 1 < n else self.L - 1
-            lst = [int(x) for x in self.indx[lo:hi]]
-            lim = int(self.vc[first_lod])
-            for j, x in enumerate(lst):
-                if x >= lim and x != restart:
-                    self.add("SWPM_PREFIX_VIOLATION", self.chunks["INDX"].offset + self.W * (lo + j), "INDX")
-                    raise _Fail
-            # records of this level, replayed on a copy of its list
-            lod_at = {int(rc[k]): k for k in range(first_lod, last_lod + 1)}
-            for r in range(lrs_l[lev], lrs_l[lev + 1]):
-                binned = self.V - 1 - r
+            for r in range(rs[lev], rs[lev + 1]):
                 for j in range(starts[r], starts[r + 1]):
-                    s = offl[j]
-                    if s >= len(lst):
-                        self.add("SWPM_INDEX_OUT_OF_RANGE", op + self.W * j, "SREC")
-                        raise _Fail
-                    if lst[s] != binned:
-                        self.add("SWPM_RECORD_BAD_CHANGE", op + self.W * j, "SREC")
-                        raise _Fail
-                    lst[s] = int(recs[r, 0])
-                k = lod_at.get(r + 1)
-                if k is not None and any(x >= int(self.vc[k]) and x != restart for x in lst):
-                    self.add("SWPM_PREFIX_VIOLATION", self.rec_field("SREC", 4, r, 0), "SREC")
-                    raise _Fail
-            clo, chi = int(lcs[lev]), int(lcs[lev + 1])
-            if [int(x) for x in lci[clo:chi]] != lst:
-                self.add("SWPM_LEVEL_BAD_TABLE", lcs_o + self.W * lev, "SKIP")
-                raise _Fail
+                    if offs[j] >= ls[lev + 1] - ls[lev]:
+                        bad_offsets.append(j)
+        for j in sorted(bad_offsets)[:3]:
+            self.add("SWPM_INDEX_OUT_OF_RANGE", op + W * j)
+        for lev in range(n):
+            bad = np.flatnonzero(self.above(self.indx[ls[lev] : ls[lev + 1]], self.vc[fl[lev]], restart))
+            if len(bad):
+                self.add("SWPM_PREFIX_VIOLATION", self.indx_off + W * (ls[lev] + int(bad[0])))
+                break
+        if self.rep.total > mark:
+            return
+        # (c)
+        self.r_below_v("SREC", R)
+        rec_base = self.chunks["SREC"].offset + 8
+        limit = V - 1 - np.arange(R, dtype=np.int64)
+        for col, code in ((1, "SWPM_RECORD_BAD_BINNED"), (0, "SWPM_RECORD_BAD_KEPT")):
+            values = recs[:, col]
+            self.first_n(values >= V, rec_base + W * col, 4 * W)
+            wrong = (values != limit) if col == 1 else (values >= limit)
+            for r in np.flatnonzero(wrong & (values < V))[:3].tolist():
+                self.add(code, self.row("SREC", r, col))
+        if any(rs[lev] != rc[fl[lev]] for lev in range(n)):
+            self.add("SWPM_LEVEL_BAD_TABLE", skip_off)
+        self.lods_vertex_counts(rc)
+        if self.rep.total > mark:
+            return
+        # (d) the replay, then the collapsed lists' prefix
+        for lev in range(n):
+            lst = self.indx[ls[lev] : ls[lev + 1]].copy()
+            bad_record = None
+            for r in range(rs[lev], rs[lev + 1]):
+                slots = offs[starts[r] : starts[r + 1]]
+                if len(slots) and bool((lst[slots] != V - 1 - r).any()):
+                    bad_record = r
+                    break
+                lst[slots] = recs[r, 0]
+            if bad_record is not None:
+                self.add("SWPM_RECORD_BAD_CHANGE", self.row("SREC", bad_record))
+                break
+            diff = np.flatnonzero(lci[cs[lev] : cs[lev + 1]] != lst)
+            if len(diff):
+                self.add("SWPM_LEVEL_BAD_TABLE", lci_o + W * (cs[lev] + int(diff[0])))
+                break
+        for lev in range(n):
+            bad = np.flatnonzero(self.above(lci[cs[lev] : cs[lev + 1]], V - rs[lev + 1], restart))
+            if len(bad):
+                self.add("SWPM_PREFIX_VIOLATION", lci_o + W * (cs[lev] + int(bad[0])))
+                break
+        if self.rep.total > mark:
+            return
+        # (e) LODS triangle counts: non-degenerate triangles after records [level_record_start[l], RCNT[k])
+        # RCNT is non-decreasing (stage a), so each level's records are applied once, in order.
+        expected = []
+        for lev in range(n):
+            lst = self.indx[ls[lev] : ls[lev + 1]].copy()
+            applied, count = rs[lev], None
+            for k in range(fl[lev], fl[lev + 1] if lev + 1 < n else self.L):
+                if count is None or applied < rc[k]:
+                    for r in range(applied, min(rc[k], R)):
+                        slots = offs[starts[r] : starts[r + 1]]
+                        lst[slots[slots < len(lst)]] = recs[r, 0]
+                    applied = max(applied, rc[k])
+                    count = self.triangles(lst, is_list, restart)
+                expected.append(count)
+        self.lods_row_bad_counts(expected)
+
+    @staticmethod
+    def monotone(arr: list[int], hi: int, step: int) -> bool:
+        """Every value in [0, hi], non-decreasing, steps a multiple of ``step``."""
+        return all(0 <= x <= hi for x in arr) and all(
+            arr[i] >= arr[i - 1] and (arr[i] - arr[i - 1]) % step == 0 for i in range(1, len(arr))
+        )
+
+    @staticmethod
+    def above(arr: np.ndarray, limit: int, restart: int | None) -> np.ndarray:
+        bad = arr >= limit
+        return bad & (arr != restart) if restart is not None else bad
+
+    @staticmethod
+    def triangles(lst: np.ndarray, is_list: bool, restart: int | None) -> int:
+        if is_list:
+            t = lst[: 3 * (len(lst) // 3)].reshape(-1, 3)
+            a, b, c = t[:, 0], t[:, 1], t[:, 2]
+        else:
+            if len(lst) < 3:
+                return 0
+            a, b, c = lst[:-2], lst[1:-1], lst[2:]
+        ok = (a != b) & (b != c) & (a != c)
+        if not is_list and restart is not None:
+            ok &= (a != restart) & (b != restart) & (c != restart)
+        return int(ok.sum())
 
     # ------------------------------------------------------------------- mixed
-    def read_mixed(self) -> None:
-        c = self.chunks["MLVL"]
-        if c.length < 8:
-            self.add("SWPM_CHUNK_BAD_LENGTH", c.offset, "MLVL")
-            raise _Fail
-        n, D = struct.unpack_from("<II", self.data, c.offset)
-        if n < 1:
-            self.add("SWPM_MIXED_BAD_LEVELS", c.offset, "MLVL")
-            raise _Fail
-        if (4 * n + 3) * self.W > c.length or 2 * D * self.W > c.length:
-            self.add(
-                "SWPM_COUNT_EXCEEDS_CHUNK",
-                c.offset if (4 * n + 3) * self.W > c.length else c.offset + 4,
-                "MLVL",
-            )
-            raise _Fail
-        arrs = self.level_arrays("MLVL", 8, [n, n + 1, n + 1, n + 1, D, D])
-        (lfl, _), (lss, lss_o), (lds, lds_o), (lrs, lrs_o), (ldi, ldi_o), (ldc, ldc_o) = arrs
-        recs, offs, op = self.read_records("MREC", 5)
-        R = recs.shape[0]
+    def mixed(self) -> None:
         names = [
             "level_first_lod",
             "level_static_start",
@@ -914,137 +945,154 @@ class _Reader:
             "level_dynamic_indices",
             "level_dynamic_collapsed_indices",
         ]
-        for name, (a, _o) in zip(names, arrs, strict=True):
-            self.buffers[name] = a
-        self.buffers["level_static_indices"] = self.indx
-        cols = ["kept", "static_tris_removed", "dynamic_tris_removed", "change_count", "prev_change_count"]
-        for i, name in enumerate(cols):
-            self.buffers[name] = np.ascontiguousarray(recs[:, i])
-        self.buffers["change_offsets"] = offs
-        N = len(self.indx)
-        self.check_levels(
-            "SWPM_MIXED_BAD_LEVELS",
-            "MLVL",
-            arrs[0],
-            [(lss, lss_o, N, 3), (lds, lds_o, D, 3), (lrs, lrs_o, R, 1)],
-        )
-        rc = self.read_rcnt(R)
-        lfl_l = [int(x) for x in lfl]
-        lrs_l = [int(x) for x in lrs]
+        rc = self.rcnt_layout()
+        levels = self.level_layout("MLVL", 2, names) if rc is not None else None
+        got = self.record_layout("MREC") if levels is not None else None
+        if rc is None or levels is None or got is None or not self.indx_layout():
+            return
+        recs, offs, op = got
+        (lfl, lfl_o), (lss, lss_o), (lds, lds_o), (lrs, lrs_o), (ldi, ldi_o), (ldc, ldc_o) = levels
+        R, M, V, W, N, D = recs.shape[0], len(offs), self.V, self.W, len(self.indx), len(ldi)
+        mark = self.rep.total
+        # (a)
+        counts_ok = self.counts_36("MREC", recs, M, rc)
+        fl, ss, ds, rs = lfl.tolist(), lss.tolist(), lds.tolist(), lrs.tolist()
+        n = len(fl)
+        if not (n >= 1 and fl[0] == 0 and all(fl[i] > fl[i - 1] for i in range(1, n)) and fl[-1] < self.L):
+            self.add("SWPM_MIXED_BAD_LEVELS", lfl_o)
+            return
+        bad_arrays = [
+            off
+            for arr, off, hi, step in ((ss, lss_o, N, 3), (ds, lds_o, D, 3), (rs, lrs_o, R, 1))
+            if not self.monotone(arr, hi, step)
+        ]
+        if bad_arrays:
+            self.add("SWPM_MIXED_BAD_LEVELS", bad_arrays[-1])
+            return
+        if counts_ok:
+            lev = _first_bad(rs[:n], lambda i, x: x != rc[fl[i]])
+            if lev is not None:
+                self.add("SWPM_MIXED_BAD_LEVELS", lrs_o + W * lev)
+                return
+        self.level_first, self.level_starts = fl, ss
+        self.first_n(self.indx >= V, self.indx_off, W)
+        self.first_n(ldi >= V, ldi_o, W)
+        self.first_n(ldc >= V, ldc_o, W)
+        self.r_below_v("MREC", R)
+        self.bad_kept("MREC", recs)
+        if self.rep.total > mark:
+            return
+        # (b)
+        starts = self.slot_starts(recs)
+        bad_offsets = []
         for lev in range(n):
-            if lrs_l[lev] != int(rc[lfl_l[lev]]):
-                self.add("SWPM_MIXED_BAD_LEVELS", lrs_o + self.W * lev, "MLVL")
-                raise _Fail
-        for arr, off in ((ldi, ldi_o), (ldc, ldc_o)):
-            bad = arr.astype(np.int64) >= self.V
-            if bad.any():
-                self.add("SWPM_INDEX_OUT_OF_RANGE", off + self.W * int(np.argmax(bad)), "MLVL")
-                raise _Fail
-        self.check_kept("MREC", recs, 5)
-        starts = [0]
-        for r in range(R):
-            starts.append(starts[-1] + int(recs[r, 3]))
-        offl = [int(x) for x in offs]
-        io = self.chunks["INDX"].offset
-        for lev in range(n):
-            first_lod = lfl_l[lev]
-            last_lod = lfl_l[lev + 1] - 1 if lev + 1 < n else self.L - 1
-            lim = int(self.vc[first_lod])
-            s_lo, s_hi = int(lss[lev]), int(lss[lev + 1])
-            d_lo, d_hi = int(lds[lev]), int(lds[lev + 1])
-            stat = [int(x) for x in self.indx[s_lo:s_hi]]
-            dyn = [int(x) for x in ldi[d_lo:d_hi]]
-            for j, x in enumerate(stat):
-                if x >= lim:
-                    self.add("SWPM_PREFIX_VIOLATION", io + self.W * (s_lo + j), "INDX")
-                    raise _Fail
-            for j, x in enumerate(dyn):
-                if x >= lim:
-                    self.add("SWPM_PREFIX_VIOLATION", ldi_o + self.W * (d_lo + j), "MLVL")
-                    raise _Fail
-            s_live, d_live = len(stat) // 3, len(dyn) // 3
-            live_after = {lrs_l[lev]: s_live + d_live}
-            for r in range(lrs_l[lev], lrs_l[lev + 1]):
-                binned = self.V - 1 - r
-                kept, s_tr, d_tr = int(recs[r, 0]), int(recs[r, 1]), int(recs[r, 2])
-                if s_tr > s_live or d_tr > d_live:
-                    self.add(
-                        "SWPM_RECORD_BAD_COUNTS",
-                        self.rec_field("MREC", 5, r, 1 if s_tr > s_live else 2),
-                        "MREC",
-                    )
-                    raise _Fail
-                s_live -= s_tr
-                d_live -= d_tr
+            for r in range(rs[lev], rs[lev + 1]):
                 for j in range(starts[r], starts[r + 1]):
-                    s = offl[j]
-                    if s >= len(dyn):
-                        self.add("SWPM_INDEX_OUT_OF_RANGE", op + self.W * j, "MREC")
-                        raise _Fail
-                    if dyn[s] != binned or s >= 3 * d_live:
-                        self.add("SWPM_RECORD_BAD_CHANGE", op + self.W * j, "MREC")
-                        raise _Fail
-                    dyn[s] = kept
-                if binned in stat[: 3 * s_live] or binned in dyn[: 3 * d_live]:
-                    self.add("SWPM_RECORD_BAD_CHANGE", self.rec_field("MREC", 5, r, 0), "MREC")
-                    raise _Fail
-                live_after[r + 1] = s_live + d_live
-            if [int(x) for x in ldc[d_lo:d_hi]] != dyn:
-                self.add("SWPM_MIXED_BAD_LEVELS", ldc_o + self.W * d_lo, "MLVL")
-                raise _Fail
-            lim_c = self.V - lrs_l[lev + 1]
-            if any(x >= lim_c for x in dyn[: 3 * d_live]):
-                self.add("SWPM_PREFIX_VIOLATION", ldc_o + self.W * d_lo, "MLVL")
-                raise _Fail
-            for k in range(first_lod, last_lod + 1):
-                rk = int(rc[k])
-                if rk not in live_after or live_after[rk] != int(self.tc[k]):
-                    self.add("SWPM_RECORD_BAD_COUNTS", self.chunks["RCNT"].offset + self.W * k, "RCNT")
-                    raise _Fail
+                    if offs[j] >= ds[lev + 1] - ds[lev]:
+                        bad_offsets.append(j)
+        for j in sorted(bad_offsets)[:3]:
+            self.add("SWPM_INDEX_OUT_OF_RANGE", op + W * j)
+        s_rm = [0, *np.cumsum(recs[:, 1]).tolist()]
+        d_rm = [0, *np.cumsum(recs[:, 2]).tolist()]
+        for col, starts_arr, removed in ((1, ss, s_rm), (2, ds, d_rm)):
+            if any(
+                removed[rs[lev + 1]] - removed[rs[lev]] > (starts_arr[lev + 1] - starts_arr[lev]) // 3
+                for lev in range(n)
+            ):
+                self.add("SWPM_RECORD_BAD_COUNTS", self.row("MREC", 0, col))
+        if self.rep.total > mark:
+            return
+        # (c)
+        self.lods_vertex_counts(rc)
+        expected = []
+        for k in range(self.L):
+            lev = self.level_of(k)
+            s_live = (ss[lev + 1] - ss[lev]) // 3 - (s_rm[rc[k]] - s_rm[rs[lev]])
+            d_live = (ds[lev + 1] - ds[lev]) // 3 - (d_rm[rc[k]] - d_rm[rs[lev]])
+            expected.append(s_live + d_live)
+        self.lods_row_bad_counts(expected)
+        for arr, off, st in ((self.indx, self.indx_off, ss), (ldi, ldi_o, ds)):
+            for lev in range(n):
+                bad = np.flatnonzero(arr[st[lev] : st[lev + 1]] >= self.vc[fl[lev]])
+                if len(bad):
+                    self.add("SWPM_PREFIX_VIOLATION", off + W * (st[lev] + int(bad[0])))
+                    break
+        for lev in range(n):
+            d_live = (ds[lev + 1] - ds[lev]) // 3 - (d_rm[rs[lev + 1]] - d_rm[rs[lev]])
+            bad = np.flatnonzero(ldc[ds[lev] : ds[lev] + 3 * d_live] >= V - rs[lev + 1])
+            if len(bad):
+                self.add("SWPM_PREFIX_VIOLATION", ldc_o + W * (ds[lev] + int(bad[0])))
+                break
+        if self.rep.total > mark:
+            return
+        # (d) the replay: one problem
+        for lev in range(n):
+            stat = self.indx[ss[lev] : ss[lev + 1]]
+            dyn = ldi[ds[lev] : ds[lev + 1]].copy()
+            s_live, d_live = len(stat) // 3, len(dyn) // 3
+            for r in range(rs[lev], rs[lev + 1]):
+                binned = V - 1 - r
+                s_live -= int(recs[r, 1])
+                d_live -= int(recs[r, 2])
+                slots = offs[starts[r] : starts[r + 1]]
+                if len(slots) and (bool((dyn[slots] != binned).any()) or int(slots.max()) >= 3 * d_live):
+                    self.add("SWPM_RECORD_BAD_CHANGE", self.row("MREC", r))
+                    return
+                dyn[slots] = recs[r, 0]
+                if bool((stat[: 3 * s_live] == binned).any()) or bool((dyn[: 3 * d_live] == binned).any()):
+                    self.add("SWPM_PREFIX_VIOLATION", self.row("MREC", r))
+                    return
+            diff = np.flatnonzero(ldc[ds[lev] : ds[lev + 1]] != dyn)
+            if len(diff):
+                self.add("SWPM_MIXED_BAD_LEVELS", ldc_o + W * (ds[lev] + int(diff[0])))
+                return
 
     # -------------------------------------------------------------------- SMAP
     def read_smap(self) -> None:
         c = self.chunks["SMAP"]
         p = c.offset
-
-        def invalid() -> None:
-            self.add("SWPM_SMAP_INVALID", p, "SMAP")
-
         if c.length < 8:
-            return invalid()
+            self.add("SWPM_SMAP_INVALID", p)
+            return
         B, N = struct.unpack_from("<II", self.data, p)
-        if B < 1 or 24 * B + 16 * N > c.length - 8:
-            return invalid()
         if c.length != 8 + 24 * B + 16 * N:
-            return invalid()
+            self.add("SWPM_SMAP_INVALID", p)
+            return
+        bands = [struct.unpack_from("<IIIIQ", self.data, p + 8 + 24 * b) for b in range(B)]
         ranges = [struct.unpack_from("<QQ", self.data, p + 8 + 24 * B + 16 * i) for i in range(N)]
-        ic, vc = self.chunks["INDX"], self.chunks["VERT"]
-        stride, data_offset = struct.unpack_from("<II", self.data, vc.offset + 8)
         next_lod = 0
-        for b in range(B):
-            first, count, rs, rn, prefix = struct.unpack_from("<IIIIQ", self.data, p + 8 + 24 * b)
-            if first != next_lod or count < 1 or first + count > self.L or rn > 16 or rs + rn > N:
-                return invalid()
+        for first, count, rs, rn, _prefix in bands:
+            if first != next_lod or count < 1 or rn > 16 or rs + rn > N:
+                next_lod = -1
+                break
             next_lod = first + count
+        if B < 1 or next_lod != self.L:
+            self.add("SWPM_SMAP_INVALID", p + 8)
+            return
+        if any(off + length > len(self.data) for off, length in ranges):
+            self.add("SWPM_SMAP_INVALID", p + 8 + 24 * B)
+            return
+        ic, vc = self.chunks["INDX"], self.chunks["VERT"]
+        hulls = []
+        for first, count, _rs, _rn, _prefix in bands:
+            need = [(0, ic.offset)]
+            spans = [self.lod_index_range(k) for k in range(first, first + count)]
+            spans = [(lo, hi) for lo, hi in spans if hi > lo]
+            if spans:
+                lo, hi = min(s[0] for s in spans), max(s[1] for s in spans)
+                need.append((ic.offset + self.W * lo, ic.offset + self.W * hi))
+            vmax = max(self.vc[first : first + count])
+            need.append((vc.offset, vc.offset + self.data_offset + vmax * self.stride))
+            hulls.append(need)
+        for b, (_first, _count, rs, rn, _prefix) in enumerate(bands):
             band = ranges[rs : rs + rn]
-            hulls = [(0, ic.offset)]
-            b_lo, b_hi = None, None
-            for k in range(first, first + count):
-                lo, hi = self.lod_index_range(k)
-                if hi > lo:
-                    b_lo = lo if b_lo is None else min(b_lo, lo)
-                    b_hi = hi if b_hi is None else max(b_hi, hi)
-            if b_lo is not None and b_hi is not None:
-                hulls.append((ic.offset + self.W * b_lo, ic.offset + self.W * b_hi))
-            hulls.append((vc.offset, vc.offset + data_offset + int(self.vc[first]) * stride))
-            for lo, hi in hulls:
-                if not any(ro <= lo and hi <= ro + rl for ro, rl in band):
-                    return invalid()
-            if prefix != max(hi for _lo, hi in hulls):
-                return invalid()
-        if next_lod != self.L:
-            return invalid()
-        return None
+            if not all(any(ro <= lo and hi <= ro + rl for ro, rl in band) for lo, hi in hulls[b]):
+                self.add("SWPM_SMAP_INVALID", p + 8 + 24 * b)
+                return
+        for b, band in enumerate(bands):
+            if band[4] != max(hi for _lo, hi in hulls[b]):
+                self.add("SWPM_SMAP_INVALID", p + 8 + 24 * b + 16)
+                return
 
     def lod_index_range(self, k: int) -> tuple[int, int]:
         """The INDX elements [lo, hi) that LOD k needs (§4 (b))."""
@@ -1053,11 +1101,8 @@ class _Reader:
         if self.encoding == "sliding-window":
             first, tcount, _v = (int(x) for x in self.buffers["window_records"][k])
             return first, first + 3 * tcount
-        lfl = [int(x) for x in self.buffers["level_first_lod"]]
-        lev = self.level_of(lfl, k)
-        key = "level_index_start" if self.encoding == "skip-strip" else "level_static_start"
-        starts = self.buffers[key]
-        return int(starts[lev]), int(starts[lev + 1])
+        lev = self.level_of(k)
+        return self.level_starts[lev], self.level_starts[lev + 1]
 
     # ------------------------------------------------------------------ result
     def result(self) -> dict[str, Any]:

@@ -289,7 +289,7 @@ _ENTRIES = [
         "LOD {lod} uses {count} vertices, expected {expected}",
         "LOD 0 must use every vertex, no LOD more than there are.",
         "the start of LODS row k (its vertex_count field): row 0 when it differs from VERT's vertex "
-        "count; vanilla and mixed also the first row that differs from the records",
+        "count; vanilla, skip-strip and mixed also the first row that differs from the records",
     ),
     Entry(
         "SWPM_VERT_BAD_LAYOUT",
@@ -350,15 +350,23 @@ _ENTRIES = [
         "LOD {lod} draws vertex {vertex}, but only [0, {limit}) is in use",
         "The vertex prefix property: LOD k draws only vertices below vertex_count_at(k).",
         "the first offending element of INDX (sliding-window, skip-strip; mixed: static lists), of "
-        "level_dynamic_indices, or of level_dynamic_collapsed_indices (first offending level); found "
-        "while replaying records (vanilla, mixed): the start of record r's row; one problem per check",
+        "level_dynamic_indices, or of level_collapsed_indices / level_dynamic_collapsed_indices (first "
+        "offending level); found while replaying records (vanilla, mixed): the start of record r's row; "
+        "one problem per check",
     ),
     Entry(
         "SWPM_RECORD_BAD_KEPT",
         ERROR,
         "record {record} keeps vertex {kept}, not below the binned vertex {binned}",
         "A collapse must keep a vertex that stays in use.",
-        "the start of record r's row in VREC or MREC (its kept field); first 3 records",
+        "the start of record r's row in VREC, SREC or MREC (its kept field); first 3 records",
+    ),
+    Entry(
+        "SWPM_RECORD_BAD_BINNED",
+        ERROR,
+        "record {record} bins vertex {binned}; record r must bin V - 1 - r",
+        "Skip-strip record r must bin the last vertex still in use, V - 1 - r (vertex prefix property).",
+        "record r's binned field in SREC (table + W x (4 r + 1)); first 3 records",
     ),
     Entry(
         "SWPM_RECORD_BAD_COUNTS",
@@ -377,14 +385,16 @@ _ENTRIES = [
         ERROR,
         "record {record} changes slot {slot}, which does not hold the binned vertex",
         "A change offset must point at a live index slot holding the binned vertex.",
-        "the start of record r's row in VREC or MREC, not the change_offsets element; first bad record only",
+        "the start of record r's row in VREC, SREC or MREC, not the change_offsets element; first bad "
+        "record only",
     ),
     Entry(
         "SWPM_LEVEL_BAD_TABLE",
         ERROR,
         "skip-strip levels: {reason}",
         "The level table is inconsistent.",
-        "SKIP payload (its level_count field), whatever the reason; one problem",
+        "SKIP payload (its level_count field), whatever the reason, except a collapsed list that differs "
+        "from its level's replayed records: that element of level_collapsed_indices; one problem",
     ),
     Entry(
         "SWPM_MIXED_BAD_LEVELS",

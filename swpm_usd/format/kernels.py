@@ -172,3 +172,64 @@ def mixed_replay(
         for s in range(s0, s0 + 3 * live_s):
             ref[static[s]] -= 1
     return 0, 0, 0
+
+
+@nb.njit(cache=True, inline="always")
+def _skip_tri_ok(buf, j, restart):  # pragma: no cover - jitted
+    a, b, c = buf[j], buf[j + 1], buf[j + 2]
+    if a == restart or b == restart or c == restart:
+        return 0
+    return 1 if (a != b and b != c and a != c) else 0
+
+
+@nb.njit(cache=True)
+def skip_replay(
+    lst, lstart, coll, rstart, kept, change_count, offsets, nv, strip, restart
+):  # pragma: no cover - jitted
+    """Replay each skip-strip level's records on a copy of its list; returns ``(kind, record, slot, tris)``.
+
+    ``tris[r]`` is the number of non-degenerate triangles of record r's level list after records up to r
+    (``tris[R + l]``: level l's list before any record). kind 1: record ``record`` changes ``slot`` (an
+    element of ``lst``), which does not hold its binned vertex; kind 3: the collapsed list differs from the
+    replay at element ``slot`` of ``coll``. (A binned vertex left in the list after its record stays there
+    to the level's end, so the caller finds it in the collapsed list: vertices >= V - the level's last
+    record.) ``restart`` is the strip restart index (-1: none; never a vertex). Callers have checked every
+    index (< nv or the restart index), offset (inside its level's list) and range.
+    """
+    R = kept.shape[0]
+    n = lstart.shape[0] - 1
+    tris = np.zeros(R + n, np.int64)
+    j = 0
+    step = 1 if strip else 3
+    for lv in range(n):
+        a, e = lstart[lv], lstart[lv + 1]
+        m = e - a
+        buf = lst[a:e].astype(np.int64)
+        count = 0
+        if strip:
+            for t in range(m - 2):
+                count += _skip_tri_ok(buf, t, restart)
+        else:
+            for t in range(0, m - 2, 3):
+                count += _skip_tri_ok(buf, t, restart)
+        tris[R + lv] = count
+        for r in range(rstart[lv], rstart[lv + 1]):
+            b = nv - 1 - r
+            k = kept[r]
+            for _ in range(np.int64(change_count[r])):
+                s = np.int64(offsets[j])
+                j += 1
+                if buf[s] != b:
+                    return 1, r, a + s, tris
+                lo = max(0, s - 2) if strip else s - s % 3
+                hi = min(s, m - 3) if strip else s - s % 3
+                for t in range(lo, hi + 1, step):
+                    count -= _skip_tri_ok(buf, t, restart)
+                buf[s] = k
+                for t in range(lo, hi + 1, step):
+                    count += _skip_tri_ok(buf, t, restart)
+            tris[r] = count
+        for i in range(m):
+            if coll[a + i] != buf[i]:
+                return 3, rstart[lv + 1] - 1, a + i, tris
+    return 0, 0, 0, tris

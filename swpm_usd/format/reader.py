@@ -27,6 +27,7 @@ from .kernels import (
     mixed_replay,
     monotone_windows,
     segment_limits,
+    skip_replay,
     vanilla_replay,
     window_limits,
 )
@@ -834,11 +835,133 @@ def _skip(p: _Parsed, rep: Report) -> None:
                 limit=int(vc[first[lv]]),
             )
             ok = False
+    if ok:
+        ok = _skip_records(p, rep, rec, arrs, lst, rc, s_c, collapsed_at, exempt)
     if not ok:
         p.content_ok = False
         return
     rec.pop("_base")
     p.buffers = {**{k: v for k, v in arrs.items()}, "level_indices": lst, **rec, "lod_record_counts": rc}
+
+
+def _skip_records(
+    p: _Parsed,
+    rep: Report,
+    rec: dict[str, np.ndarray],
+    arrs: dict[str, np.ndarray],
+    lst: np.ndarray,
+    rc: np.ndarray,
+    s_c: _Chunk,
+    collapsed_at: int,
+    restart: int | None,
+) -> bool:
+    """Skip-strip records against the lists and LODS (spec 3.7): record r bins V-1-r onto a kept vertex
+    below it, the level table matches RCNT, replaying a level's records changes only slots holding the
+    binned vertex, removes it from the list and gives the collapsed list, and LODS counts what is drawn."""
+    assert p.points is not None and p.lods is not None
+    V, Lc, W = p.points.shape[0], p.lods.shape[0], p.width
+    kept = rec["collapse_kept"].astype(np.int64)
+    binned = rec["collapse_binned"].astype(np.int64)
+    R = kept.shape[0]
+    row0 = int(rec["_base"][0])
+    if R >= max(V, 1) and R:
+        rep.add("SWPM_RECORD_BAD_COUNTS", row0 - 8, reason=f"{R} records for {V} vertices")
+        return False
+    ok = True
+    bad = np.flatnonzero(binned != V - 1 - np.arange(R))
+    for r in bad[:3]:
+        rep.add("SWPM_RECORD_BAD_BINNED", row0 + (4 * int(r) + 1) * W, record=int(r), binned=int(binned[r]))
+    ok &= bad.size == 0
+    bad = np.flatnonzero(kept >= V - 1 - np.arange(R))
+    for r in bad[:3]:
+        rep.add(
+            "SWPM_RECORD_BAD_KEPT",
+            row0 + 4 * int(r) * W,
+            record=int(r),
+            kept=int(kept[r]),
+            binned=int(V - 1 - r),
+        )
+    ok &= bad.size == 0
+    first = arrs["level_first_lod"].astype(np.int64)
+    rstart = arrs["level_record_start"].astype(np.int64)
+    lstart = arrs["level_index_start"].astype(np.int64)
+    nrc = rc.astype(np.int64)
+    reason = None
+    if not np.array_equal(arrs["level_collapsed_start"], arrs["level_index_start"]):
+        reason = "level_collapsed_start must equal level_index_start"
+    elif np.any(nrc[first] != rstart[:-1]):
+        lv = int(np.flatnonzero(nrc[first] != rstart[:-1])[0])
+        reason = f"level {lv} starts at record {int(rstart[lv])}, its first LOD applies {int(nrc[first[lv]])}"
+    if reason:
+        rep.add("SWPM_LEVEL_BAD_TABLE", s_c.offset, reason=reason)
+        ok = False
+    vc, tc = p.lods["vertex_count"].astype(np.int64), p.lods["triangle_count"].astype(np.int64)
+    bad = np.flatnonzero(vc != V - nrc)
+    if bad.size:
+        k = int(bad[0])
+        rep.add(
+            "SWPM_LOD_VERTEX_COUNT",
+            p.chunks[L.LODS].offset + 12 * k,
+            lod=k,
+            count=int(vc[k]),
+            expected=int(V - nrc[k]),
+        )
+        ok = False
+    if not ok:
+        return False
+    params = (p.meta or {}).get("params", {})
+    strip = params.get("primitive", "strip") == "strip"
+    kind, r, s, tris = skip_replay(
+        lst,
+        lstart,
+        arrs["level_collapsed_indices"],
+        rstart,
+        kept,
+        rec["collapse_change_count"],
+        rec["collapse_change_offsets"],
+        V,
+        strip,
+        -1 if restart is None else int(restart),
+    )
+    kind, r, s = int(kind), int(r), int(s)
+    if kind == 1:
+        rep.add("SWPM_RECORD_BAD_CHANGE", row0 + 4 * r * W, record=r, slot=s)
+    elif kind == 3:
+        lv = int(np.searchsorted(lstart, s, side="right")) - 1
+        rep.add(
+            "SWPM_LEVEL_BAD_TABLE",
+            collapsed_at + s * W,
+            reason=f"level {lv}'s collapsed list differs from its records at element {s}",
+        )
+    if kind:
+        return False
+    # a binned vertex left in the list after its record stays to the level's end: the collapsed list of
+    # level l uses only vertices below V - level_record_start[l + 1]
+    coll = arrs["level_collapsed_indices"]
+    limits = V - rstart[1:]
+    pos, lv = (int(x) for x in segment_limits(coll, lstart, limits, -1 if restart is None else int(restart)))
+    if pos >= 0:
+        rep.add(
+            "SWPM_PREFIX_VIOLATION",
+            collapsed_at + pos * W,
+            lod=int(first[lv + 1]) if lv + 1 < first.shape[0] else Lc - 1,
+            vertex=int(coll[pos]),
+            limit=int(limits[lv]),
+        )
+        return False
+    # LODS triangle counts: the non-degenerate triangles of the level's list after RCNT[k] records
+    lev = np.searchsorted(first, np.arange(Lc), side="right") - 1
+    want = np.where(nrc > rstart[lev], tris[np.maximum(nrc - 1, 0)], tris[R + lev])
+    bad = np.flatnonzero(tc != want)
+    if bad.size:
+        k = int(bad[0])
+        rep.add(
+            "SWPM_RECORD_BAD_COUNTS",
+            p.chunks[L.LODS].offset + 12 * k,
+            reason=f"LOD {k} has {int(tc[k])} triangles, the records give {int(want[k])}",
+        )
+        return False
+    return True
 
 
 def _mixed(p: _Parsed, rep: Report) -> None:

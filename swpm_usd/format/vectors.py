@@ -96,7 +96,7 @@ def fan_sliding(**over: Any) -> RawProgressiveMesh:
     return _fan("sliding-window", bufs, {"cache_size": 16}, **over)
 
 
-def fan_skip() -> RawProgressiveMesh:
+def fan_skip(**over: Any) -> RawProgressiveMesh:
     bufs = {
         "level_first_lod": [0],
         "level_index_start": [0, 12],
@@ -111,7 +111,7 @@ def fan_skip() -> RawProgressiveMesh:
         "collapse_change_offsets": [2, 5, 8, 11],
         "lod_record_counts": [0, 1],
     }
-    return _fan("skip-strip", bufs, {"primitive": "list"})
+    return _fan("skip-strip", bufs, {"primitive": "list"}, **over)
 
 
 def fan_skip_strip() -> RawProgressiveMesh:
@@ -311,6 +311,18 @@ def _invalid(base: bytes) -> dict[str, tuple[bytes, str]]:
     out["mixed-level-outside-list"] = (
         _write(fan_mixed(buffers={"level_static_start": [0, 9]})),
         "the mixed level's static range ends 3 indices past INDX",
+    )
+    out["skip-binned-not-last"] = (
+        _write(fan_skip(buffers={"collapse_binned": [3]})),
+        "the skip-strip record bins vertex 3; record 0 must bin V - 1 = 4",
+    )
+    out["skip-collapsed-list-differs"] = (
+        _write(fan_skip(buffers={"level_collapsed_indices": [1, 2, 0, 2, 3, 0, 0, 1, 0, 3, 1, 0]})),
+        "the skip-strip level's collapsed list is not its list with the record applied",
+    )
+    out["skip-triangle-count"] = (
+        _write(fan_skip(triangle_counts=np.array([4, 3]))),
+        "LODS says 3 triangles after the collapse; the list holds 2 non-degenerate ones",
     )
     return out
 
