@@ -384,3 +384,15 @@ def test_reported_offset_is_the_bad_value(make: str, buffer: str, value: list[in
     assert found, validate_bytes(data).format()
     bad = max(value)
     assert struct.unpack_from("<H", data, found[0].offset)[0] == bad
+
+
+@pytest.mark.parametrize("params", [{"primitive": "fan"}, {"restart_index": True}, {"restart_index": -1}])
+def test_skip_strip_decoding_params_are_checked(params: dict) -> None:
+    """Skip-strip's ``primitive`` and ``restart_index`` decide how its lists decode: a bad one is an error of
+    validate (not only of load)."""
+    from swpm_usd.format.vectors import fan_skip
+
+    pm = fan_skip()
+    pm.params.update(params)
+    rep = validate_bytes(encode_bytes(pm))  # type: ignore[arg-type]
+    assert not rep.valid and [p.code for p in rep.errors] == ["SWPM_META_BAD_FIELD"]

@@ -271,7 +271,8 @@ _ENTRIES = [
         ERROR,
         "META field {field}: {reason}",
         "A metadata field has the wrong type.",
-        "META payload, for every field; first bad field only (params before encoding)",
+        "META payload, for every field: params not an object (ends the checks), then encoding, then "
+        "skip-strip params.primitive or params.restart_index (each ends the checks)",
     ),
     Entry("SWPM_LOD_EMPTY", ERROR, "LODS has no LOD", "At least one LOD is required.", "LODS payload"),
     Entry(

@@ -304,6 +304,18 @@ def _meta(p: _Parsed, rep: Report) -> None:
         rep.add(
             "SWPM_META_BAD_FIELD", c.offset, field="encoding", reason=f"differs from header ({p.encoding})"
         )
+    if p.encoding == "skip-strip":
+        # the parameters that change how the lists decode (spec 3.7)
+        params = meta.get("params", {})
+        restart = params.get("restart_index")
+        if params.get("primitive", "strip") not in ("strip", "list"):
+            rep.add("SWPM_META_BAD_FIELD", c.offset, field="params.primitive", reason='not "strip" or "list"')
+            p.content_ok = False
+            return
+        if restart is not None and (type(restart) is not int or not 0 <= restart <= 0xFFFFFFFF):
+            rep.add("SWPM_META_BAD_FIELD", c.offset, field="params.restart_index", reason="not null or a u32")
+            p.content_ok = False
+            return
     p.meta = meta
 
 
