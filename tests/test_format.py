@@ -396,3 +396,15 @@ def test_skip_strip_decoding_params_are_checked(params: dict) -> None:
     pm.params.update(params)
     rep = validate_bytes(encode_bytes(pm))  # type: ignore[arg-type]
     assert not rep.valid and [p.code for p in rep.errors] == ["SWPM_META_BAD_FIELD"]
+
+
+@pytest.mark.parametrize("replacement", [b'"source_digest":NaN ', b'"encoding":"vanilla"'])
+def test_meta_must_be_strict_json(replacement: bytes) -> None:
+    """META is JSON: NaN/Infinity and duplicate keys (Python's json accepts both) are SWPM_META_BAD_JSON."""
+    from swpm_usd.format.vectors import fix_crcs
+
+    data = encode_bytes(fan_vanilla())  # type: ignore[arg-type]
+    old = b'"source_digest":null'
+    assert data.count(old) == 1 and len(replacement) == len(old)
+    bad = fix_crcs(data.replace(old, replacement))
+    assert [p.code for p in validate_bytes(bad).errors] == ["SWPM_META_BAD_JSON"]

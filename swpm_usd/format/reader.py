@@ -282,12 +282,27 @@ def _arrays(
     return out
 
 
+def _reject_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not JSON")
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    out = dict(pairs)
+    if len(out) != len(pairs):
+        raise ValueError("duplicate key in a JSON object")
+    return out
+
+
 def _meta(p: _Parsed, rep: Report) -> None:
     c = _get(p, L.META)
     if c is None:
         return
     try:
-        meta = json.loads(p.buf[c.offset : c.offset + c.length].tobytes().decode("utf-8"))
+        meta = json.loads(
+            p.buf[c.offset : c.offset + c.length].tobytes().decode("utf-8"),
+            parse_constant=_reject_constant,
+            object_pairs_hook=_unique_keys,
+        )
     except (UnicodeDecodeError, ValueError, RecursionError) as exc:
         rep.add("SWPM_META_BAD_JSON", c.offset, reason=str(exc)[:200])
         p.content_ok = False

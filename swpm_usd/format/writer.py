@@ -176,9 +176,10 @@ def encode_bytes(
         "source_digest": source_digest,
     }
     payload: dict[bytes, bytes] = {
-        L.META: json.dumps(meta, sort_keys=True, separators=(",", ":"), default=_json_default).encode(
-            "utf-8"
-        ),
+        # allow_nan=False: NaN and Infinity are not JSON; a reader rejects them (ValueError here)
+        L.META: json.dumps(
+            meta, sort_keys=True, separators=(",", ":"), default=_json_default, allow_nan=False
+        ).encode("utf-8"),
     }
     rows = np.zeros(lods, L.LOD_ROW)
     rows["vertex_count"] = pm.vertex_counts
