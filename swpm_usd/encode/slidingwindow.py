@@ -401,7 +401,10 @@ def _build_topology(
         else:
             adj_start, adj = _adjacency(tp, P)
             inner_start, inner = swk.select_patches(adj_start, adj, eligible, tiebreak, int(inner_vertices))
-            if inner_vertices > 1:
+            if inner_vertices == 1:
+                inner = swk.lower_error_centres(adj_start, adj, eligible, inner, tiebreak)
+                inner_start = np.arange(inner.shape[0] + 1, dtype=np.int64)
+            else:
                 # two ways to several inner vertices: grow patches, or merge two levels; keep the one that
                 # removes more vertices (bunny with the edge swaps, three inner vertices: lambda 3.72 by
                 # growing alone, 3.37 with both)
