@@ -25,23 +25,23 @@ that bins the position bins all of them (``vertex_map``).
 
 Builders.
 
-* ``builder="topology"`` (TD-VIPM, the default): per level, a greedy minimum-degree maximal independent set
-  of patch centres (TD-VIPM 3.1) where a fraction ``mu`` of the highest-error vertices may not be centres
-  (SWPM 3); each centre goes by its best valid half-edge collapse. Every triangle of no patch that shares
-  a position with a patch joins it (``absorb_middle=True``, the default; :func:`.sw_kernels.absorb_middle`,
-  a patch sharing a *vertex* first, since an attribute seam splits cache entries): it touches no inner
-  vertex, so it is the same triangle in ``P_i`` and ``Q_i`` and is stored twice instead of once in ``M``,
-  which is then nearly empty: the level's cover is the papers' ``P_1 U .. U P_n = T``. The trade: lambda
-  +15 %, but no window draws a scattered middle block (bunny, FIFO 16, ACMR / meshoptimizer's
-  ``optimize_vertex_cache`` of the same triangles at 100/50/25/10 %: 1.26/1.60/1.60/1.47 without,
-  1.04/1.08/1.07/1.05 with; lambda 4.94 -> 5.68). Patches are then ordered greedily for a FIFO vertex
-  cache (TD-VIPM 3.2, eq. 2), scoring the misses of both sequences a window draws, ``P_{j+1}..P_n`` and
-  ``Q_1..Q_j`` (:func:`.sw_kernels.order_patches`); the triangles inside every ``P_i``, ``Q_i`` and the
-  static middle are reordered for the cache block by block, the FIFO state carried from block to block
-  (:func:`swpm_usd.vcache.optimize_block_order`; the patches start out as fans). ``inner_vertices > 1``
-  (SWPM 3.3: fewer approximations, a smaller pool) either grows each patch to that many adjacent inner
-  vertices or merges two levels (a second-level vertex with all the centres next to it,
-  :func:`.sw_kernels.merge_patches`), whichever removes more vertices in the level.
+* ``builder="topology"`` (TD-VIPM, the default): per level, a greedy minimum-degree maximal independent set of
+  patch centres (TD-VIPM 3.1) where a fraction ``mu`` of the highest-error vertices may not be centres (SWPM
+  3), then centres traded 1-for-1 for cheaper neighbours (:func:`.sw_kernels.lower_error_centres`: same size,
+  lower error); each centre goes by its best valid half-edge collapse. Every triangle of no patch that shares
+  a position with a patch joins it (``absorb_middle=True``, the default; :func:`.sw_kernels.absorb_middle`, a
+  patch sharing a *vertex* first, since an attribute seam splits cache entries): it touches no inner vertex,
+  so it is the same triangle in ``P_i`` and ``Q_i`` and is stored twice instead of once in ``M``, which is
+  then nearly empty: the level's cover is the papers' ``P_1 U .. U P_n = T``. The trade: lambda +15 %, but no
+  window draws a scattered middle block (bunny, FIFO 16, ACMR / meshoptimizer's ``optimize_vertex_cache`` of
+  the same triangles at 100/50/25/10 %: 1.26/1.60/1.60/1.47 without, 1.04/1.08/1.07/1.05 with; lambda 4.94 ->
+  5.68). Patches are then ordered greedily for a FIFO vertex cache (TD-VIPM 3.2, eq. 2), scoring the misses of
+  both sequences a window draws, ``P_{j+1}..P_n`` and ``Q_1..Q_j`` (:func:`.sw_kernels.order_patches`); the
+  triangles inside every ``P_i``, ``Q_i`` and the static middle are reordered for the cache block by block,
+  the FIFO state carried from block to block (:func:`swpm_usd.vcache.optimize_block_order`; the patches start
+  out as fans). ``inner_vertices > 1`` (SWPM 3.3: fewer approximations, a smaller pool) either grows each
+  patch to that many adjacent inner vertices or merges two levels (a second-level vertex with all the centres
+  next to it, :func:`.sw_kernels.merge_patches`), whichever removes more vertices in the level.
 
   Why lambda is 5.7 at ``mu=0.1``: a level stores ``T_L + T_{L+1}`` triangles and removes two per centre,
   and the independent set holds about 30 % of the vertices (28 % on bunny's first level; a (1,2)-swap
