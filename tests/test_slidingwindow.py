@@ -330,3 +330,30 @@ def test_merged_patches_are_disjoint(inner_max: int) -> None:
         assert set(ring[is_centre[ring]]) == set(members[is_centre[members]])
     if inner_max == 4:
         assert inner.shape[0] > 1.1 * centres.shape[0]
+
+
+def test_lower_error_centres_keep_a_maximal_independent_set() -> None:
+    """The 1-for-1 swaps towards cheaper centres keep the set independent, eligible and maximal, never
+    shrink it, and lower the error rank summed over the centres that were swapped."""
+    from swpm_usd.encode import sw_kernels as swk
+
+    tp = mesh_topology(_icosphere(3)).tri_pos.astype(np.int64)
+    P = int(tp.max()) + 1
+    start, nbr = swk.position_graph(tp, P)
+    rng = np.random.default_rng(1)
+    rank = rng.random(P)
+    eligible = rank < 0.9
+    _, centres = swk.select_patches(start, nbr, eligible, np.zeros(P), 1)
+    out = swk.lower_error_centres(start, nbr, eligible, centres, rank)
+    is_c = np.zeros(P, bool)
+    is_c[out] = True
+    src = np.repeat(np.arange(P), np.diff(start))
+    assert not np.any(is_c[src] & is_c[nbr]), "two centres are neighbours"
+    assert eligible[out].all() and out.shape[0] >= centres.shape[0]
+    covered = is_c.copy()
+    np.logical_or.at(covered, nbr[is_c[src]], True)
+    assert covered[eligible].all(), "an eligible vertex has no centre in its closed neighbourhood"
+    gone = np.setdiff1d(centres, out)
+    came = np.setdiff1d(out, centres)
+    assert gone.size > 0 and came.size >= gone.size
+    assert rank[gone].mean() > rank[centres].mean(), "the swaps should move off high-error centres"
