@@ -7,12 +7,20 @@ specification is precise enough for a second implementation to agree with the co
 the problems in the order of the checks of format.md §5 ("Reporting"), each at the offset the column
 "Offset reported" of errors.md gives, and for a valid file the summary of §7.
 
-The current spec settles the offsets, the order, the stages, the multiplicity and the buffers. What it
-still leaves open, and how this reader decides (only the replay rule is exercised by a vector):
+The current spec settles the offsets, the order, the stages, the multiplicity, the buffers, strict JSON
+for ``META`` (no ``NaN``/``Infinity``, no duplicate key in any object) and the skip-strip ``params``. What
+it still leaves open, and how this reader decides (only the replay rule is exercised by a vector):
 
 * ``header_size`` "past the end of the file": compared with the length of the file as given; the table
   and the chunks are bounded by the bytes read (the file, cut at ``file_size`` when longer).
-* ``META``: JSON without the non-standard constants ``NaN``/``Infinity`` (those are not JSON).
+* ``META``: parsed by Python's ``json`` with the two RFC 8259 rules of §3.1 added; a leading BOM is not
+  JSON (rejected); a number too large for a float (``1e999``) parses and is not an integer.
+* Skip-strip ``params`` (§3.7): ``primitive`` and then ``restart_index`` are checked in step 3 with
+  ``META``, after ``encoding``; "ends the checks" is read as: the encoding's checks do not run, while
+  ``LODS``, ``VERT`` and row 0 = V still do. ``restart_index`` is an integer when JSON gives it without
+  fraction or exponent (``65535.0`` and ``6.5535e4`` are ``SWPM_META_BAD_FIELD``); it is type-checked for
+  ``"list"`` too. A strips' restart index below V is reported in skip-strip stage (a) after the §3.6
+  counts and before the level table, and ends the checks (so a level-table problem is then not listed).
 * A table entry with a bad type still takes part in the bounds, alignment, order/overlap/padding and
   reserved checks; the checks that need its type (unknown, critical bit, allowed, duplicate) are skipped.
   A gap whose chunk lies (partly) outside the file is checked up to the end of the file.
@@ -38,11 +46,12 @@ still leaves open, and how this reader decides (only the replay rule is exercise
   ``RCNT`` whose length is not a multiple of W is reported at its length field, one with another number of
   counts than L at its payload.
 * Skip-strip ``kept``/``binned``: a value >= V is ``SWPM_INDEX_OUT_OF_RANGE`` only (not also
-  ``SWPM_RECORD_BAD_KEPT``/``SWPM_RECORD_BAD_BINNED``); ``primitive`` other than ``"list"`` decodes as
-  strips, and the restart index is exempt only for ``"strip"`` (or a missing ``primitive``).
+  ``SWPM_RECORD_BAD_KEPT``/``SWPM_RECORD_BAD_BINNED``). A missing ``restart_index`` reads as null.
 * Replays (vanilla, mixed, skip-strip) stop at their first problem: one problem per replay, so a slot that
   does not hold the binned vertex is not also a prefix violation of the same record (vector
-  ``record-changes-wrong-slot``); after a replay problem the collapsed list is not compared.
+  ``record-changes-wrong-slot``); after a replay problem the collapsed list is not compared. Skip-strip's
+  collapsed-list prefix check (stage (d), "then the collapsed lists' prefix") is a separate check of the
+  stage: it runs over all levels even after a replay problem.
 * Sliding-window prefix property: the lowest offending element of ``INDX`` over all windows.
 * ``SMAP``: an empty (b) hull is not required to lie in a range and does not count for ``prefix_length``;
   the coverage of every band is checked before any band's ``prefix_length``.
@@ -439,9 +448,15 @@ class _Reader:
         def no_constants(name: str) -> Any:
             raise ValueError(name)
 
+        def unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+            obj = dict(pairs)
+            if len(obj) != len(pairs):
+                raise ValueError("duplicate key")
+            return obj
+
         try:
             text = self.data[c.offset : c.offset + c.length].decode("utf-8")
-            meta = json.loads(text, parse_constant=no_constants)
+            meta = json.loads(text, parse_constant=no_constants, object_pairs_hook=unique_keys)
         except (UnicodeDecodeError, ValueError, RecursionError):
             meta = None
         if not isinstance(meta, dict):
@@ -454,6 +469,16 @@ class _Reader:
         self.params = params
         if "encoding" in meta and meta["encoding"] != self.encoding:
             self.add("SWPM_META_BAD_FIELD", c.offset)
+        if self.encoding == "skip-strip":
+            # §3.7: each of these ends the checks (the encoding's checks do not run)
+            if params.get("primitive", "strip") not in ("strip", "list"):
+                self.add("SWPM_META_BAD_FIELD", c.offset)
+                return False
+            rst = params.get("restart_index")
+            is_int = isinstance(rst, int) and not isinstance(rst, bool)
+            if rst is not None and not (is_int and 0 <= rst < 1 << 32):
+                self.add("SWPM_META_BAD_FIELD", c.offset)
+                return False
         return True
 
     def read_lods(self) -> bool:
@@ -815,6 +840,10 @@ class _Reader:
         mark = self.rep.total
         # (a)
         self.counts_36("SREC", recs, M, rc)
+        if restart is not None and restart < V:
+            # a strips' restart index that is a vertex: META_BAD_FIELD, found with the level table (§3.7)
+            self.add("SWPM_META_BAD_FIELD", self.chunks["META"].offset)
+            return
         fl, ls, cs, rs = lfl.tolist(), lis.tolist(), lcs.tolist(), lrs.tolist()
         n = len(fl)
         table_ok = (
@@ -823,6 +852,7 @@ class _Reader:
             and all(fl[i] > fl[i - 1] for i in range(1, n))
             and fl[-1] < self.L
             and all(self.monotone(arr, hi, 1) for arr, hi in ((ls, N), (cs, C), (rs, R)))
+            and self.monotone(ls, N, 3 if is_list else 1)
             and cs == ls
         )
         if not table_ok:

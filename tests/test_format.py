@@ -408,3 +408,20 @@ def test_meta_must_be_strict_json(replacement: bytes) -> None:
     assert data.count(old) == 1 and len(replacement) == len(old)
     bad = fix_crcs(data.replace(old, replacement))
     assert [p.code for p in validate_bytes(bad).errors] == ["SWPM_META_BAD_JSON"]
+
+
+def test_skip_strip_record_checks_all_run() -> None:
+    """Spec 5, stage (c): R >= V is reported and the other record checks of the stage still run."""
+    from swpm_usd.format.vectors import fan_skip
+
+    pm = fan_skip(
+        buffers={
+            "collapse_kept": [0, 0, 0, 0, 0],
+            "collapse_binned": [4, 3, 2, 1, 0],
+            "collapse_change_count": [4, 0, 0, 0, 0],
+            "collapse_prev_change_count": [0, 4, 0, 0, 0],
+            "level_record_start": [0, 5],
+        }
+    )
+    codes = {p.code for p in validate_bytes(encode_bytes(pm)).errors}  # type: ignore[arg-type]
+    assert {"SWPM_RECORD_BAD_COUNTS", "SWPM_RECORD_BAD_KEPT"} <= codes

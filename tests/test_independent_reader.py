@@ -125,3 +125,28 @@ def test_corruption_never_raises() -> None:
                 elif at < len(buf):
                     buf[at] = rng.choice((0, 1, 2, 3, 4, 5, 0xFF, rng.randrange(256)))
             _check(read(_fix_crcs(buf)))
+
+
+# META edits of the same length (JSON whitespace pads them), CRCs fixed so that they reach §3.1/§3.7.
+META_EDITS = [
+    # duplicate key in a nested object: not RFC 8259 JSON (§3.1)
+    ("mixed", b'"cache_size":16,"level_threshold":0.25', b'"cache_size":16,"cache_size"     :0.25', "JSON"),
+    # NaN is not JSON (§3.1)
+    ("skip-strip-strip", b'"restart_index":65535', b'"restart_index":NaN  ', "JSON"),
+    # restart_index a boolean (§3.7)
+    ("skip-strip-strip", b'"restart_index":65535', b'"restart_index":true ', "FIELD"),
+    # restart_index at or above 2^32 (§3.7)
+    ("skip-strip-strip", b'"restart_index":65535', b'"restart_index":9e999', "FIELD"),
+    # a strips' restart index below V = 5 is a vertex (§3.7)
+    ("skip-strip-strip", b'"restart_index":65535', b'"restart_index":    4', "FIELD"),
+]
+
+
+@pytest.mark.parametrize(("name", "old", "new", "what"), META_EDITS)
+def test_meta_rules(name: str, old: bytes, new: bytes, what: str) -> None:
+    vector = next(v for v in MANIFEST["vectors"] if v["name"] == name)
+    data, _expected = _load(vector)
+    assert data.count(old) == 1 and len(old) == len(new)
+    result = read(_fix_crcs(bytearray(data.replace(old, new))))
+    meta = data.index(b'{"encoding"')
+    assert result["problems"] == [{"code": "SWPM_META_BAD_" + what, "severity": "error", "offset": meta}]

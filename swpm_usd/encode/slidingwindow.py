@@ -27,21 +27,22 @@ Builders.
 
 * ``builder="topology"`` (TD-VIPM, the default): per level, a greedy minimum-degree maximal independent set of
   patch centres (TD-VIPM 3.1) where a fraction ``mu`` of the highest-error vertices may not be centres (SWPM
-  3), then centres traded 1-for-1 for cheaper neighbours (:func:`.sw_kernels.lower_error_centres`: same size,
-  lower error); each centre goes by its best valid half-edge collapse. Every triangle of no patch that shares
-  a position with a patch joins it (``absorb_middle=True``, the default; :func:`.sw_kernels.absorb_middle`, a
-  patch sharing a *vertex* first, since an attribute seam splits cache entries): it touches no inner vertex,
-  so it is the same triangle in ``P_i`` and ``Q_i`` and is stored twice instead of once in ``M``, which is
-  then nearly empty: the level's cover is the papers' ``P_1 U .. U P_n = T``. The trade: lambda +15 %, but no
-  window draws a scattered middle block (bunny, FIFO 16, ACMR / meshoptimizer's ``optimize_vertex_cache`` of
-  the same triangles at 100/50/25/10 %: 1.26/1.60/1.60/1.47 without, 1.04/1.08/1.07/1.05 with; lambda 4.94 ->
-  5.68). Patches are then ordered greedily for a FIFO vertex cache (TD-VIPM 3.2, eq. 2), scoring the misses of
-  both sequences a window draws, ``P_{j+1}..P_n`` and ``Q_1..Q_j`` (:func:`.sw_kernels.order_patches`); the
-  triangles inside every ``P_i``, ``Q_i`` and the static middle are reordered for the cache block by block,
-  the FIFO state carried from block to block (:func:`swpm_usd.vcache.optimize_block_order`; the patches start
-  out as fans). ``inner_vertices > 1`` (SWPM 3.3: fewer approximations, a smaller pool) either grows each
-  patch to that many adjacent inner vertices or merges two levels (a second-level vertex with all the centres
-  next to it, :func:`.sw_kernels.merge_patches`), whichever removes more vertices in the level.
+  3), then (one inner vertex per patch) centres traded 1-for-1 for cheaper neighbours
+  (:func:`.sw_kernels.lower_error_centres`: same size, lower error); each centre goes by its best valid
+  half-edge collapse. Every triangle of no patch that shares a position with a patch joins it
+  (``absorb_middle=True``, the default; :func:`.sw_kernels.absorb_middle`, a patch sharing a *vertex* first,
+  since an attribute seam splits cache entries): it touches no inner vertex, so it is the same triangle in
+  ``P_i`` and ``Q_i`` and is stored twice instead of once in ``M``, which is then nearly empty: the level's
+  cover is the papers' ``P_1 U .. U P_n = T``. The trade: lambda +15 %, but no window draws a scattered middle
+  block (bunny, FIFO 16, ACMR / meshoptimizer's ``optimize_vertex_cache`` of the same triangles at
+  100/50/25/10 %: 1.26/1.60/1.60/1.47 without, 1.04/1.08/1.08/1.06 with; lambda 4.94 -> 5.68). Patches are
+  then ordered greedily for a FIFO vertex cache (TD-VIPM 3.2, eq. 2), scoring the misses of both sequences a
+  window draws, ``P_{j+1}..P_n`` and ``Q_1..Q_j`` (:func:`.sw_kernels.order_patches`); the triangles inside
+  every ``P_i``, ``Q_i`` and the static middle are reordered for the cache block by block, the FIFO state
+  carried from block to block (:func:`swpm_usd.vcache.optimize_block_order`; the patches start out as fans).
+  ``inner_vertices > 1`` (SWPM 3.3: fewer approximations, a smaller pool) either grows each patch to that many
+  adjacent inner vertices or merges two levels (a second-level vertex with all the centres next to it,
+  :func:`.sw_kernels.merge_patches`), whichever removes more vertices in the level.
 
   Why lambda is 5.7 at ``mu=0.1``: a level stores ``T_L + T_{L+1}`` triangles and removes two per centre,
   and the independent set holds about 30 % of the vertices (28 % on bunny's first level; a (1,2)-swap
@@ -60,7 +61,7 @@ so the minimum-degree patch centres have smaller patches and the pool shrinks. G
 edges that are no attribute seam, the four normals of the old and new triangles within 10 degrees of each
 other (only near-flat quads change, nothing folds) and no degree below 4 (the paper's floor in flat
 regions). LOD 0 is then the swapped mesh (same vertices, triangle count and topology; ``collapse_sequence
-.mesh``). Bunny: lambda 5.68 -> 5.14, ACMR ratios 1.03/1.06/1.06/1.05; the Hausdorff error at 50 % of the
+.mesh``). Bunny: lambda 5.68 -> 5.15, ACMR ratios 1.03/1.07/1.07/1.04; the Hausdorff error at 50 % of the
 triangles grows (see ``benchmarks/bench_slidingwindow.py``, row ``swap``). The cache size of every
 ordering is ``cache_size`` (FIFO, default 16).
 
@@ -75,7 +76,7 @@ one contiguous slice. The tail gets more scattered with every linked level (long
 linked level costs more pool triangles per collapse than the last level stored in full, the next one is
 stored in full again (the usual layout and selection). Bunny with the edge swaps: lambda 5.14 -> 4.52
 (without: 5.68 -> 5.25); the price: the centres follow the tail order rather than degree and error, so the
-windows are colder (ACMR ratio at 50 % 1.06 -> 1.14) and the Hausdorff error grows (rows ``cluster`` /
+windows are colder (ACMR ratio at 50 % 1.07 -> 1.13) and the Hausdorff error grows (rows ``cluster`` /
 ``cluster-swap`` of the benchmark). Tried and dropped: planning a fully stored level's patch order for
 the next level (its centres chosen first, their stars made runs of the tail by ordering ``Q`` blocks
 along paths): lambda -2 to -6 %, but ACMR ratios up to 1.4.
@@ -268,7 +269,7 @@ _ERROR_WEIGHT = 2.0
 #: is at least this much (1: a corner, so nearly every one); it is then stored twice (in ``P_i`` and
 #: ``Q_i``) instead of once in ``M``: lambda +15 %, but ``M`` is no longer drawn as a separate scattered
 #: block in every window (bunny, FIFO 16, ACMR / meshoptimizer at 100/50/25/10 % of the triangles:
-#: 1.26/1.60/1.60/1.47 -> 1.04/1.08/1.07/1.05, lambda 4.94 -> 5.68). ``absorb_middle=False`` keeps them
+#: 1.26/1.60/1.60/1.47 -> 1.04/1.08/1.08/1.06, lambda 4.94 -> 5.68). ``absorb_middle=False`` keeps them
 #: in the static middle.
 _ABSORB_MIN_SHARED = 1
 

@@ -6,14 +6,18 @@ triangles that replace them (``Q``). Triangles are named by *global triangle ids
 triangles are ``0..T-1`` and every triangle a collapse rewrites gets a fresh id whose vertices are appended
 to ``gtris``; ``cur_gid[t]`` is the id of the current version of state triangle ``t``.
 
+* :func:`position_graph` - the edge graph of a level's triangles (CSR over positions).
 * :func:`level_costs` - best valid collapse of every position (the error ranking behind ``mu``).
 * :func:`select_patches` - greedy minimum-degree independent set of patch centres (TD-VIPM section 3.1,
   SWPM section 3.2's greedy search), optionally grown to several inner vertices per patch (SWPM 3.3).
+* :func:`lower_error_centres` - 1-for-1 swaps of centres for cheaper neighbours (one inner vertex).
+* :func:`merge_patches` - several inner vertices by merging two levels (SWPM 3.3 via clustering).
 * :func:`cluster_patches` - patch centres whose stars are disjoint intervals of the previous level's tail
   (``cluster=True``, SWPM section 3.2).
 * :func:`patch_triangles` - the triangles of every patch, ordered as fans (edge-adjacent chains).
 * :func:`absorb_middle` - grows the patches by the triangles of no patch (the static middle).
-* :func:`order_patches` - greedy vertex-cache order of the patches (TD-VIPM section 3.2).
+* :func:`order_patches` - greedy vertex-cache order of the patches for the ``P`` and the ``Q`` sequence
+  (TD-VIPM section 3.2).
 * :func:`collapse_patches` - removes the inner vertices of every patch, in that order.
 * :func:`forsyth_run` - Forsyth's QEM order with the error-tolerance reordering and level restarts.
 * :func:`swap_edges` - SWPM 3.1's edge swaps creating low-degree vertices (``optimize_connectivity``).
@@ -287,8 +291,9 @@ def lower_error_centres(
     neighbour whose only centre neighbour it is (a 1-for-1 swap keeps the set independent), and
     neighbours that no centre covers any more join. The minimum-degree greedy picks 28-31 % of the
     vertices and has to take some with an error just under the ``mu`` cut; this moves them off the
-    costliest ones (the 10 shared meshes at 50/25/10 % of the triangles: Hausdorff error -8 % as a
-    geometric mean, RMS error unchanged, lambda unchanged). Returns the new centres (sorted)."""
+    costliest ones (the 10 shared meshes at 50/25/10 % of the triangles, 20,000 samples, with / without in
+    one run: Hausdorff error ratio 0.92 as a geometric mean, RMS error 0.99, lambda unchanged; single LODs
+    move either way). Returns the new centres (sorted)."""
     P = eligible.shape[0]
     sol = np.zeros(P, np.bool_)
     tight = np.zeros(P, np.int64)  # centre neighbours of every vertex

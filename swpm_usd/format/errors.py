@@ -272,7 +272,8 @@ _ENTRIES = [
         "META field {field}: {reason}",
         "A metadata field has the wrong type.",
         "META payload, for every field: params not an object (ends the checks), then encoding, then "
-        "skip-strip params.primitive or params.restart_index (each ends the checks)",
+        "skip-strip params.primitive or params.restart_index (each ends the checks; a strips' restart "
+        "index below V is found with the level table)",
     ),
     Entry("SWPM_LOD_EMPTY", ERROR, "LODS has no LOD", "At least one LOD is required.", "LODS payload"),
     Entry(

@@ -222,7 +222,7 @@ def skip_replay(
                 if buf[s] != b:
                     return 1, r, a + s, tris
                 lo = max(0, s - 2) if strip else s - s % 3
-                hi = min(s, m - 3) if strip else s - s % 3
+                hi = min(s, m - 3) if strip else min(s - s % 3, m - 3)  # never past the list's end
                 for t in range(lo, hi + 1, step):
                     count -= _skip_tri_ok(buf, t, restart)
                 buf[s] = k

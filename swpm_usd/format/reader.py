@@ -331,6 +331,7 @@ def _meta(p: _Parsed, rep: Report) -> None:
             rep.add("SWPM_META_BAD_FIELD", c.offset, field="params.restart_index", reason="not null or a u32")
             p.content_ok = False
             return
+
     p.meta = meta
 
 
@@ -815,6 +816,18 @@ def _skip(p: _Parsed, rep: Report) -> None:
         return
     V, Lc = p.points.shape[0], p.lods.shape[0]
     ok = _common_records(p, rep, rec, rc, rc_c.offset, Lc)
+    params = (p.meta or {}).get("params", {})
+    restart = params.get("restart_index")
+    exempt = (
+        int(restart) if isinstance(restart, int) and params.get("primitive", "strip") == "strip" else None
+    )
+    if exempt is not None and exempt < V:
+        meta_at = p.chunks[L.META].offset
+        rep.add(
+            "SWPM_META_BAD_FIELD", meta_at, field="params.restart_index", reason=f"{exempt} is below V ({V})"
+        )
+        p.content_ok = False
+        return
     R = rec["collapse_kept"].shape[0]
     first = arrs["level_first_lod"].astype(np.int64)
     reason = None
@@ -832,11 +845,6 @@ def _skip(p: _Parsed, rep: Report) -> None:
         rep.add("SWPM_LEVEL_BAD_TABLE", s_c.offset, reason=reason)
         p.content_ok = False
         return
-    params = (p.meta or {}).get("params", {})
-    restart = params.get("restart_index")
-    exempt = (
-        int(restart) if isinstance(restart, int) and params.get("primitive", "strip") == "strip" else None
-    )
     ok &= _index_check(p, rep, idx_c, lst, "INDX", V, idx_c.offset, exempt)
     collapsed_at = s_c.offset + 8 + sum(L.align(k * p.width, L.ARRAY_ALIGN) for k in (n, n + 1, n + 1, n + 1))
     ok &= _index_check(
@@ -891,10 +899,10 @@ def _skip_records(
     binned = rec["collapse_binned"].astype(np.int64)
     R = kept.shape[0]
     row0 = int(rec["_base"][0])
-    if R >= max(V, 1) and R:
-        rep.add("SWPM_RECORD_BAD_COUNTS", row0 - 8, reason=f"{R} records for {V} vertices")
-        return False
     ok = True
+    if R >= max(V, 1) and R:  # reported; the other checks of this stage still run
+        rep.add("SWPM_RECORD_BAD_COUNTS", row0 - 8, reason=f"{R} records for {V} vertices")
+        ok = False
     bad = np.flatnonzero(binned != V - 1 - np.arange(R))
     for r in bad[:3]:
         rep.add("SWPM_RECORD_BAD_BINNED", row0 + (4 * int(r) + 1) * W, record=int(r), binned=int(binned[r]))
@@ -914,8 +922,12 @@ def _skip_records(
     lstart = arrs["level_index_start"].astype(np.int64)
     nrc = rc.astype(np.int64)
     reason = None
+    params = (p.meta or {}).get("params", {})
+    strip = params.get("primitive", "strip") == "strip"
     if not np.array_equal(arrs["level_collapsed_start"], arrs["level_index_start"]):
         reason = "level_collapsed_start must equal level_index_start"
+    elif not strip and np.any(np.diff(lstart) % 3):
+        reason = "a level's triangle list must hold whole triangles (a multiple of 3 indices)"
     elif np.any(nrc[first] != rstart[:-1]):
         lv = int(np.flatnonzero(nrc[first] != rstart[:-1])[0])
         reason = f"level {lv} starts at record {int(rstart[lv])}, its first LOD applies {int(nrc[first[lv]])}"
@@ -936,8 +948,6 @@ def _skip_records(
         ok = False
     if not ok:
         return False
-    params = (p.meta or {}).get("params", {})
-    strip = params.get("primitive", "strip") == "strip"
     kind, r, s, tris = skip_replay(
         lst,
         lstart,
@@ -960,8 +970,7 @@ def _skip_records(
             collapsed_at + s * W,
             reason=f"level {lv}'s collapsed list differs from its records at element {s}",
         )
-    if kind:
-        return False
+    ok = kind == 0
     # a binned vertex left in the list after its record stays to the level's end: the collapsed list of
     # level l uses only vertices below V - level_record_start[l + 1]
     coll = arrs["level_collapsed_indices"]
@@ -975,6 +984,8 @@ def _skip_records(
             vertex=int(coll[pos]),
             limit=int(limits[lv]),
         )
+        ok = False
+    if not ok:
         return False
     # LODS triangle counts: the non-degenerate triangles of the level's list after RCNT[k] records
     lev = np.searchsorted(first, np.arange(Lc), side="right") - 1

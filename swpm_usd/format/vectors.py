@@ -324,6 +324,33 @@ def _invalid(base: bytes) -> dict[str, tuple[bytes, str]]:
         _write(fan_skip(triangle_counts=np.array([4, 3]))),
         "LODS says 3 triangles after the collapse; the list holds 2 non-degenerate ones",
     )
+    partial = [1, 2, 4, 2, 3, 4, 0, 1, 4, 3, 0, 4, 4]
+    out["skip-list-partial-triangle"] = (
+        _write(
+            fan_skip(
+                buffers={
+                    "level_index_start": [0, 13],
+                    "level_indices": partial,
+                    "level_collapsed_start": [0, 13],
+                    "level_collapsed_indices": [0 if v == 4 else v for v in partial],
+                    "collapse_change_count": [5],
+                    "collapse_change_offsets": [2, 5, 8, 11, 12],
+                }
+            )
+        ),
+        "a skip-strip triangle list of 13 indices: the last triangle is cut",
+    )
+    restart_vertex = fan_skip_strip()
+    restart_vertex.params["restart_index"] = 3
+    out["skip-restart-is-a-vertex"] = (
+        _write(restart_vertex),
+        "the strips' restart index 3 is a vertex of the 5-vertex mesh",
+    )
+    bad_primitive = fan_skip()
+    bad_primitive.params["primitive"] = "fan"
+    out["skip-bad-primitive"] = (_write(bad_primitive), "skip-strip params.primitive is not strip or list")
+    dup = base.replace(b'"source_digest":null', b'"encoding":"vanilla"')
+    out["meta-duplicate-key"] = (fix_crcs(dup), "META repeats the key encoding (not valid JSON: RFC 8259)")
     return out
 
 
