@@ -255,10 +255,17 @@ def _get(p: _Parsed, t: bytes) -> _Chunk | None:
 
 
 def _arrays(
-    p: _Parsed, rep: Report, c: _Chunk, start: int, spec: list[tuple[str, int, np.dtype]], exact: bool = True
+    p: _Parsed,
+    rep: Report,
+    c: _Chunk,
+    start: int,
+    spec: list[tuple[str, int, np.dtype]],
+    exact: bool = True,
+    at: dict[str, int] | None = None,
 ) -> dict[str, np.ndarray] | None:
     """View consecutive arrays (name, count, dtype) each padded to 4 bytes, from payload offset ``start``;
-    every count is checked against the bytes that remain first."""
+    every count is checked against the bytes that remain first. ``at`` receives each array's absolute
+    offset (for problem offsets)."""
     out, pos = {}, start
     for name, count, dt in spec:
         need = count * dt.itemsize
@@ -275,6 +282,8 @@ def _arrays(
             )
             return None
         out[name] = _view(p.buf, c.offset + pos, count, dt)
+        if at is not None:
+            at[name] = c.offset + pos
         pos += need if name == spec[-1][0] else L.align(need, L.ARRAY_ALIGN)
     if exact and pos != c.length:
         rep.add("SWPM_CHUNK_BAD_LENGTH", c.entry_offset + 16, type=c.name, length=c.length, need=pos)
@@ -520,7 +529,8 @@ def _record_chunk(p: _Parsed, rep: Report, t: bytes, cols: list[str]) -> dict[st
     R, M = int(h["record_count"]), int(h["offset_count"])
     it = L.index_dtype(p.width)
     nc = len(cols)
-    arrs = _arrays(p, rep, c, 8, [("record_count", nc * R, it), ("offset_count", M, it)])
+    at: dict[str, int] = {}
+    arrs = _arrays(p, rep, c, 8, [("record_count", nc * R, it), ("offset_count", M, it)], at=at)
     if arrs is None:
         p.content_ok = False
         return None
@@ -528,7 +538,7 @@ def _record_chunk(p: _Parsed, rep: Report, t: bytes, cols: list[str]) -> dict[st
     out = {name: table[:, i] for i, name in enumerate(cols)}
     out["collapse_change_offsets"] = arrs["offset_count"]
     # (record table start, change offsets start, columns per record)
-    out["_base"] = np.array([c.offset + 8, c.offset + 8 + L.align(nc * R * p.width, 4), nc], np.int64)
+    out["_base"] = np.array([at["record_count"], at["offset_count"], nc], np.int64)
     return out
 
 
@@ -798,6 +808,7 @@ def _skip(p: _Parsed, rep: Report) -> None:
     lst = _view(p.buf, idx_c.offset, idx_c.length // p.width, it)
     h = _view(p.buf, s_c.offset, 1, L.SKIP_HEADER)[0]
     n, C = int(h["level_count"]), int(h["collapsed_count"])
+    at: dict[str, int] = {}  # absolute offset of each SKIP array
     arrs = _arrays(
         p,
         rep,
@@ -810,6 +821,7 @@ def _skip(p: _Parsed, rep: Report) -> None:
             ("level_record_start", n + 1, it),
             ("level_collapsed_indices", C, it),
         ],
+        at=at,
     )
     if arrs is None:
         p.content_ok = False
@@ -846,7 +858,7 @@ def _skip(p: _Parsed, rep: Report) -> None:
         p.content_ok = False
         return
     ok &= _index_check(p, rep, idx_c, lst, "INDX", V, idx_c.offset, exempt)
-    collapsed_at = s_c.offset + 8 + sum(L.align(k * p.width, L.ARRAY_ALIGN) for k in (n, n + 1, n + 1, n + 1))
+    collapsed_at = at["level_collapsed_indices"]
     ok &= _index_check(
         p, rep, s_c, arrs["level_collapsed_indices"], "level_collapsed_indices", V, collapsed_at, exempt
     )
@@ -1025,6 +1037,7 @@ def _mixed(p: _Parsed, rep: Report) -> None:
     h = _view(p.buf, m_c.offset, 1, L.MLVL_HEADER)[0]
     n, D = int(h["level_count"]), int(h["dynamic_count"])
     names = ["level_first_lod", "level_static_start", "level_dynamic_start", "level_record_start"]
+    at: dict[str, int] = {}  # absolute offset of each MLVL array
     arrs = _arrays(
         p,
         rep,
@@ -1032,6 +1045,7 @@ def _mixed(p: _Parsed, rep: Report) -> None:
         8,
         [(names[0], n, it), *((k, n + 1, it) for k in names[1:])]
         + [("level_dynamic_indices", D, it), ("level_dynamic_collapsed_indices", D, it)],
+        at=at,
     )
     if arrs is None:
         p.content_ok = False
@@ -1039,12 +1053,6 @@ def _mixed(p: _Parsed, rep: Report) -> None:
     V, Lc = p.points.shape[0], p.lods.shape[0]
     ok = _common_records(p, rep, rec, rc, rc_c.offset, Lc)
     R = rec["collapse_kept"].shape[0]
-    # payload offset of each MLVL array, for problem offsets
-    at, pos = {}, m_c.offset + 8
-    for k, cnt in zip([*names, "level_dynamic_indices"], [n, n + 1, n + 1, n + 1, D], strict=True):
-        at[k] = pos
-        pos += L.align(cnt * p.width, L.ARRAY_ALIGN)
-    at["level_dynamic_collapsed_indices"] = pos
     first = arrs["level_first_lod"].astype(np.int64)
     reason, where = None, m_c.offset
     for name, total, step in (
