@@ -542,6 +542,24 @@ def _record_chunk(p: _Parsed, rep: Report, t: bytes, cols: list[str]) -> dict[st
     return out
 
 
+def _kept_below_binned(p: _Parsed, rep: Report, rec: dict[str, np.ndarray], V: int) -> bool:
+    """Record r bins vertex V-1-r and must keep a vertex below it (``SWPM_RECORD_BAD_KEPT`` at the row's
+    ``kept`` field, the first three)."""
+    kept = rec["collapse_kept"].astype(np.int64)
+    binned = V - 1 - np.arange(kept.shape[0])
+    bad = np.flatnonzero(kept >= binned)
+    row, ncols = int(rec["_base"][0]), int(rec["_base"][2])
+    for r in bad[:3]:
+        rep.add(
+            "SWPM_RECORD_BAD_KEPT",
+            row + int(r) * ncols * p.width,
+            record=int(r),
+            kept=int(kept[r]),
+            binned=int(binned[r]),
+        )
+    return bad.size == 0
+
+
 def _common_records(
     p: _Parsed, rep: Report, rec: dict[str, np.ndarray], rc: np.ndarray, rc_off: int, lods: int
 ) -> bool:
@@ -613,17 +631,7 @@ def _vanilla(p: _Parsed, rep: Report) -> None:
         rep.add("SWPM_RECORD_BAD_COUNTS", int(rec["_base"][0]) - 8, reason=f"{R} records for {V} vertices")
         ok = False
     else:
-        binned = V - 1 - np.arange(R)
-        bad = np.flatnonzero(kept >= binned)
-        for r in bad[:3]:
-            rep.add(
-                "SWPM_RECORD_BAD_KEPT",
-                int(rec["_base"][0]) + int(r) * 4 * p.width,
-                record=int(r),
-                kept=int(kept[r]),
-                binned=int(binned[r]),
-            )
-        ok &= bad.size == 0
+        ok &= _kept_below_binned(p, rep, rec, V)
     removed = rec["collapse_tris_removed"].astype(np.int64)
     cum = np.r_[0, np.cumsum(removed)]
     if cum[-1] > T0:
@@ -919,16 +927,7 @@ def _skip_records(
     for r in bad[:3]:
         rep.add("SWPM_RECORD_BAD_BINNED", row0 + (4 * int(r) + 1) * W, record=int(r), binned=int(binned[r]))
     ok &= bad.size == 0
-    bad = np.flatnonzero(kept >= V - 1 - np.arange(R))
-    for r in bad[:3]:
-        rep.add(
-            "SWPM_RECORD_BAD_KEPT",
-            row0 + 4 * int(r) * W,
-            record=int(r),
-            kept=int(kept[r]),
-            binned=int(V - 1 - r),
-        )
-    ok &= bad.size == 0
+    ok &= _kept_below_binned(p, rep, rec, V)
     first = arrs["level_first_lod"].astype(np.int64)
     rstart = arrs["level_record_start"].astype(np.int64)
     lstart = arrs["level_index_start"].astype(np.int64)
@@ -1082,22 +1081,11 @@ def _mixed(p: _Parsed, rep: Report) -> None:
     ok &= _index_check(p, rep, idx_c, static, "INDX", V, idx_c.offset)
     for k in ("level_dynamic_indices", "level_dynamic_collapsed_indices"):
         ok &= _index_check(p, rep, m_c, arrs[k], k, V, at[k])
-    kept = rec["collapse_kept"].astype(np.int64)
     if R >= max(V, 1) and R:
         rep.add("SWPM_RECORD_BAD_COUNTS", int(rec["_base"][0]) - 8, reason=f"{R} records for {V} vertices")
         ok = False
     else:
-        binned = V - 1 - np.arange(R)
-        bad = np.flatnonzero(kept >= binned)
-        for r in bad[:3]:
-            rep.add(
-                "SWPM_RECORD_BAD_KEPT",
-                int(rec["_base"][0]) + int(r) * 5 * p.width,
-                record=int(r),
-                kept=int(kept[r]),
-                binned=int(binned[r]),
-            )
-        ok &= bad.size == 0
+        ok &= _kept_below_binned(p, rep, rec, V)
     if not ok:
         p.content_ok = False
         return
