@@ -726,6 +726,20 @@ class _Reader:
         cc = recs[:, recs.shape[1] - 2]
         return [0, *np.cumsum(cc).tolist()]
 
+    def offsets_in_levels(
+        self, starts: list[int], rs: list[int], list_starts: list[int], offs: np.ndarray, op: int
+    ) -> None:
+        """Change offsets of level l's records (record r's at ``starts[r]..starts[r + 1]``) index level l's
+        list (first three bad ones reported)."""
+        bad_offsets = []
+        for lev in range(len(list_starts) - 1):
+            for r in range(rs[lev], rs[lev + 1]):
+                for j in range(starts[r], starts[r + 1]):
+                    if offs[j] >= list_starts[lev + 1] - list_starts[lev]:
+                        bad_offsets.append(j)
+        for j in sorted(bad_offsets)[:3]:
+            self.add("SWPM_INDEX_OUT_OF_RANGE", op + self.W * j)
+
     # ----------------------------------------------------------------- vanilla
     def vanilla(self) -> None:
         rc = self.rcnt_layout()
@@ -869,14 +883,7 @@ class _Reader:
             return
         # (b)
         starts = self.slot_starts(recs)
-        bad_offsets = []
-        for lev in range(n):
-            for r in range(rs[lev], rs[lev + 1]):
-                for j in range(starts[r], starts[r + 1]):
-                    if offs[j] >= ls[lev + 1] - ls[lev]:
-                        bad_offsets.append(j)
-        for j in sorted(bad_offsets)[:3]:
-            self.add("SWPM_INDEX_OUT_OF_RANGE", op + W * j)
+        self.offsets_in_levels(starts, rs, ls, offs, op)
         for lev in range(n):
             bad = np.flatnonzero(self.above(self.indx[ls[lev] : ls[lev + 1]], self.vc[fl[lev]], restart))
             if len(bad):
@@ -1014,14 +1021,7 @@ class _Reader:
             return
         # (b)
         starts = self.slot_starts(recs)
-        bad_offsets = []
-        for lev in range(n):
-            for r in range(rs[lev], rs[lev + 1]):
-                for j in range(starts[r], starts[r + 1]):
-                    if offs[j] >= ds[lev + 1] - ds[lev]:
-                        bad_offsets.append(j)
-        for j in sorted(bad_offsets)[:3]:
-            self.add("SWPM_INDEX_OUT_OF_RANGE", op + W * j)
+        self.offsets_in_levels(starts, rs, ds, offs, op)
         s_rm = [0, *np.cumsum(recs[:, 1]).tolist()]
         d_rm = [0, *np.cumsum(recs[:, 2]).tolist()]
         for col, starts_arr, removed in ((1, ss, s_rm), (2, ds, d_rm)):
