@@ -492,10 +492,9 @@ def _index_check(
     limit: int,
     base: int,
     exempt: int | None = None,
-    stride: int | None = None,
 ) -> bool:
-    """Report (at most 3) values of ``arr`` >= ``limit``; element i lies at ``base + i * stride`` (default:
-    the item size; a column of a record table has the row size)."""
+    """Report (at most 3) values of ``arr`` (a view of the file) >= ``limit``; element 0 lies at ``base``,
+    element i ``arr.strides[0]`` bytes per step further (a record-table column steps a whole row)."""
     if arr.size == 0:
         return True
     if int(arr.max()) < limit:  # one vectorised pass in the common case
@@ -508,7 +507,7 @@ def _index_check(
     for i in first[:3]:
         rep.add(
             "SWPM_INDEX_OUT_OF_RANGE",
-            base + int(i) * (arr.dtype.itemsize if stride is None else stride),
+            base + int(i) * arr.strides[0],
             what=what,
             value=int(arr[i]),
             index=int(i),
@@ -871,9 +870,7 @@ def _skip(p: _Parsed, rep: Report) -> None:
         p, rep, s_c, arrs["level_collapsed_indices"], "level_collapsed_indices", V, collapsed_at, exempt
     )
     for i, col in enumerate(("collapse_kept", "collapse_binned")):
-        ok &= _index_check(
-            p, rep, p.chunks[L.SREC], rec[col], col, V, int(rec["_base"][0]) + i * p.width, stride=4 * p.width
-        )
+        ok &= _index_check(p, rep, p.chunks[L.SREC], rec[col], col, V, int(rec["_base"][0]) + i * p.width)
     if ok:
         rstart = arrs["level_record_start"].astype(np.int64)
         lstart = arrs["level_index_start"].astype(np.int64)
