@@ -361,3 +361,44 @@ def test_lower_error_centres_keep_a_maximal_independent_set() -> None:
         ring = nbr[start[c] : start[c + 1]]
         partners = ring[is_c[ring] & ~np.isin(ring, centres)]
         assert partners.size and rank[partners].min() < rank[c], f"centre {c} left without a cheaper partner"
+
+
+def _csr(P: int, edges: list[tuple[int, int]]) -> tuple[np.ndarray, np.ndarray]:
+    e = np.array(edges + [(b, a) for a, b in edges], np.int64)
+    e = e[np.lexsort((e[:, 1], e[:, 0]))]
+    return np.searchsorted(e[:, 0], np.arange(P + 1)).astype(np.int64), e[:, 1].copy()
+
+
+def test_centre_search_makes_the_two_for_one_swap() -> None:
+    """On the path a-b-c started from {b}, the local search alone swaps b for a and c; a vertex that may
+    not be removed never joins."""
+    from swpm_usd.encode import sw_kernels as swk
+
+    start, nbr = _csr(3, [(0, 1), (1, 2)])
+    out = swk.grow_independent_set(start, nbr, np.ones(3, bool), np.array([1], np.int64), 0, 1)
+    assert out.tolist() == [0, 2]
+    eligible = np.array([True, True, False])
+    out = swk.grow_independent_set(start, nbr, eligible, np.array([1], np.int64), 10, 1)
+    assert out.tolist() == [1] or out.tolist() == [0]
+
+
+def test_centre_search_grows_the_greedy_set() -> None:
+    """On a sphere with a tenth of the vertices locked, the iterated local search returns an independent
+    set of eligible vertices larger than the minimum-degree greedy's, the same one for the same seed."""
+    from swpm_usd.encode import sw_kernels as swk
+
+    tp = mesh_topology(_icosphere(4)).tri_pos.astype(np.int64)
+    P = int(tp.max()) + 1
+    start, nbr = swk.position_graph(tp, P)
+    rng = np.random.default_rng(3)
+    eligible = rng.random(P) < 0.9
+    _, centres = swk.select_patches(start, nbr, eligible, rng.random(P) * 2.0, 1)
+    out = swk.grow_independent_set(start, nbr, eligible, centres, P, 7)
+    is_c = np.zeros(P, bool)
+    is_c[out] = True
+    src = np.repeat(np.arange(P), np.diff(start))
+    assert not np.any(is_c[src] & is_c[nbr]), "two centres are neighbours"
+    assert eligible[out].all() and np.unique(out).shape[0] == out.shape[0]
+    assert out.shape[0] > 1.01 * centres.shape[0], (out.shape[0], centres.shape[0])
+    again = swk.grow_independent_set(start, nbr, eligible, centres, P, 7)
+    assert np.array_equal(out, again)
