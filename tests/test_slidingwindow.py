@@ -402,3 +402,30 @@ def test_centre_search_grows_the_greedy_set() -> None:
     assert out.shape[0] > 1.01 * centres.shape[0], (out.shape[0], centres.shape[0])
     again = swk.grow_independent_set(start, nbr, eligible, centres, P, 7)
     assert np.array_equal(out, again)
+
+
+def _degrees(mesh: Mesh) -> np.ndarray:
+    tp = mesh_topology(mesh).tri_pos
+    return np.bincount(tp.reshape(-1), minlength=int(tp.max()) + 1)
+
+
+def test_swap_degree_floor_four_where_flat_three_where_curved() -> None:
+    """SWPM 3.1's planarity check: swaps never take a vertex of a flat region below degree 4, while on a
+    curved surface (a fine sphere, every quad within the fold guard) they go down to 3."""
+    from swpm_usd.encode.slidingwindow import optimize_mesh_connectivity
+
+    n = 24
+    x, y = np.meshgrid(np.arange(n + 1.0), np.arange(n + 1.0))
+    pts = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], 1)
+    i = np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]
+    i = i.ravel()
+    tris = np.concatenate([np.stack([i, i + 1, i + n + 2], 1), np.stack([i, i + n + 2, i + n + 1], 1)])
+    plane = Mesh(points=pts, triangles=tris)
+    swapped = optimize_mesh_connectivity(plane)
+    assert (np.sort(swapped.triangles, 1) != np.sort(plane.triangles, 1)).any(), "nothing swapped"
+    inner = (pts[:, 0] > 0) & (pts[:, 0] < n) & (pts[:, 1] > 0) & (pts[:, 1] < n)
+    assert _degrees(swapped)[inner].min() == 4
+    assert _degrees(optimize_mesh_connectivity(plane, min_degree=3))[inner].min() == 3  # the floor binds
+    sphere = _icosphere(4)
+    assert _degrees(optimize_mesh_connectivity(sphere)).min() == 3
+    assert _degrees(optimize_mesh_connectivity(sphere, min_degree=4)).min() == 4

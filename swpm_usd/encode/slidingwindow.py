@@ -59,10 +59,12 @@ Builders.
 when it lowers the degrees of ``v`` and ``j`` and raises those of two vertices not meant to be lowered),
 so the minimum-degree patch centres have smaller patches and the pool shrinks. Guards: interior manifold
 edges that are no attribute seam, the four normals of the old and new triangles within 10 degrees of each
-other (only near-flat quads change, nothing folds) and no degree below 4 (the paper's floor in flat
-regions). LOD 0 is then the swapped mesh (same vertices, triangle count and topology; ``collapse_sequence
-.mesh``). Bunny: lambda 5.68 -> 5.15, ACMR ratios 1.03/1.07/1.07/1.04; the Hausdorff error at 50 % of the
-triangles grows (see ``benchmarks/bench_slidingwindow.py``, row ``swap``). The cache size of every
+other (only near-flat quads change, nothing folds) and the paper's degree floor: no degree below 4 at a
+flat vertex (every incident normal within 2 degrees of the vertex normal), below 3 elsewhere. LOD 0 is
+then the swapped mesh (same vertices, triangle count and topology; ``collapse_sequence.mesh``). Bunny:
+lambda 5.55 -> 4.85 (a floor of 4 everywhere: 5.07; a fold guard of 20 degrees: 4.46, but LOD 0 moves
+1.5x as far from the input, 0.00063 of the diagonal); the Hausdorff error at 50 % of the triangles grows
+(see ``benchmarks/bench_slidingwindow.py``, row ``swap``). The cache size of every
 ordering is ``cache_size`` (FIFO, default 16).
 
 ``cluster=True`` (SWPM 3.2, clustered and linked patches; ``builder="topology"``, ``inner_vertices=1``
@@ -318,28 +320,61 @@ class _Level:
 
 
 #: planarity guard of the edge swaps: the two triangles of a swapped edge and the two that replace them are
-#: all within this angle (degrees) of each other
+#: all within this angle (degrees) of each other (the quad is re-triangulated, never folded)
 _SWAP_MAX_ANGLE_DEG = 10.0
-#: degree floor of the edge swaps (SWPM 3.1: "not below four" in flat regions, the only ones swapped here)
-_SWAP_MIN_DEGREE = 4
+#: degree floors of the edge swaps (SWPM 3.1: "if a curvature in a vertex is below some threshold, then
+#: degree of this vertex should not be decreased below four"; elsewhere the procedure goes down to three)
+_SWAP_MIN_DEGREE_FLAT = 4
+_SWAP_MIN_DEGREE_CURVED = 3
+#: a vertex is flat when every incident triangle's normal is within this angle (degrees) of its
+#: area-weighted vertex normal
+_SWAP_FLAT_ANGLE_DEG = 2.0
+
+
+def _swap_degree_floor(tri_pos: np.ndarray, pos_points: np.ndarray, flat_angle_deg: float) -> np.ndarray:
+    """Per position: the degree an edge swap may not go below (4 where the surface is flat, else 3)."""
+    P = pos_points.shape[0]
+    p = pos_points[tri_pos]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])  # area-weighted face normals
+    vn = np.zeros((P, 3))
+    for i in range(3):
+        np.add.at(vn, tri_pos[:, i], n)
+    vn /= np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-300)
+    un = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    min_cos = np.ones(P)
+    for i in range(3):
+        np.minimum.at(min_cos, tri_pos[:, i], np.sum(un * vn[tri_pos[:, i]], axis=1))
+    flat = min_cos >= np.cos(np.radians(flat_angle_deg))
+    return np.where(flat, _SWAP_MIN_DEGREE_FLAT, _SWAP_MIN_DEGREE_CURVED).astype(np.int64)
 
 
 def optimize_mesh_connectivity(
-    mesh: Mesh, max_angle_deg: float | None = None, min_degree: int | None = None
+    mesh: Mesh,
+    max_angle_deg: float | None = None,
+    min_degree: int | None = None,
+    flat_angle_deg: float | None = None,
 ) -> Mesh:
     """``mesh`` with edges swapped to create low-degree vertices (SWPM 3.1, :func:`.sw_kernels.swap_edges`):
     same vertices and attributes, same triangle count, only interior manifold non-seam edges of near-flat
-    quads swapped, so the surface and its topology (closed, manifold, Euler characteristic) are kept."""
+    quads (``max_angle_deg``) swapped, so the surface and its topology (closed, manifold, Euler
+    characteristic) are kept. Degree floor: ``min_degree`` everywhere if given, else the paper's 4 at flat
+    vertices (``flat_angle_deg``) and 3 elsewhere."""
     angle = _SWAP_MAX_ANGLE_DEG if max_angle_deg is None else float(max_angle_deg)
-    floor = _SWAP_MIN_DEGREE if min_degree is None else int(min_degree)
+    flat_angle = _SWAP_FLAT_ANGLE_DEG if flat_angle_deg is None else float(flat_angle_deg)
     if mesh.triangle_count == 0:
         return mesh
     topo = mesh_topology(mesh)
     free = ~(topo.pos_boundary | topo.pos_nonmanifold)
+    tri_pos = np.ascontiguousarray(topo.tri_pos, np.int64)
+    pos_points = np.ascontiguousarray(topo.pos_points, np.float64)
+    if min_degree is None:
+        floor = _swap_degree_floor(tri_pos, pos_points, flat_angle)
+    else:
+        floor = np.full(pos_points.shape[0], int(min_degree), np.int64)
     tris, _ = swk.swap_edges(
         np.ascontiguousarray(mesh.triangles, np.int64),
-        np.ascontiguousarray(topo.tri_pos, np.int64),
-        np.ascontiguousarray(topo.pos_points, np.float64),
+        tri_pos,
+        pos_points,
         np.ascontiguousarray(free),
         float(np.cos(np.radians(angle))),
         floor,

@@ -1315,7 +1315,7 @@ def swap_edges(
     pos_points: np.ndarray,
     free: np.ndarray,
     cos_max: float,
-    min_degree: int,
+    min_degree: np.ndarray,
 ) -> tuple[np.ndarray, int]:
     """Edge swaps that create low-degree vertices (SWPM section 3.1, procedure ``Optimize``).
 
@@ -1327,8 +1327,9 @@ def swap_edges(
     Guards: all four positions ``free`` (interior, manifold); the edge no attribute seam (the same
     vertices in both triangles); ``(k, l)`` not an edge yet; planarity (the normals of the two triangles
     and of the two new ones pairwise within ``acos(cos_max)``: the swap only re-triangulates a near-flat
-    quad and never folds it); the degrees of ``v`` and ``j`` not below ``min_degree`` (the paper's floor
-    in flat regions). Works on a copy of ``tris``; returns it and the number of swaps.
+    quad and never folds it); the degrees of ``v`` and ``j`` not below their ``min_degree`` (per position:
+    the paper's floor, 4 in flat regions, 3 elsewhere). Works on a copy of ``tris``; returns it and the
+    number of swaps.
     """
     T = tris.shape[0]
     P = pos_points.shape[0]
@@ -1385,7 +1386,7 @@ def swap_edges(
                     k = tp[t1, (iv + 2) % 3]
                     if inY[j] or inX[k] or not (free[j] and free[k]):
                         continue
-                    if ninc[v] - 1 < min_degree or ninc[j] - 1 < min_degree:
+                    if ninc[v] - 1 < min_degree[v] or ninc[j] - 1 < min_degree[j]:
                         continue
                     if ninc[k] + 1 > cap:
                         continue
