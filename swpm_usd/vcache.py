@@ -119,8 +119,12 @@ def _order_blocks(
     cache_tab: np.ndarray,
     live_tab: np.ndarray,
     rotate: bool,
+    segments: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """Forsyth greedy on a FIFO cache, block by block, the cache carrying over between blocks.
+
+    ``segments``: increasing block indices at which a new *segment* starts; a vertex's remaining-triangle
+    count covers the later blocks of its own segment only (a segment is drawn on its own).
 
     FIFO state (updated in place): ``stamp[v]`` is the push number (1-based) at which ``v`` last entered
     the cache (0 = never), ``pushes`` the number of pushes so far and ``ring[p % cache_size]`` the vertex of
@@ -132,12 +136,11 @@ def _order_blocks(
     C = cache_size
     perm = np.empty(n, np.int64)
     shift = np.zeros(n, np.int8)
-    # remaining triangles of every vertex over this and all later blocks (the scoring's live count)
+    # remaining triangles of every vertex over this and all later blocks of the segment (the scoring's live
+    # count; filled in at the start of every segment, when the previous one has used its counts up)
     glive = np.zeros(nvert, np.int64)
-    for t in range(n):
-        for k in range(3):
-            if not _is_repeat(tris, t, k):
-                glive[tris[t, k]] += 1
+    nb = starts.shape[0] - 1
+    seg = 0
     # per-block scratch, indexed by local vertex / local triangle
     loc = np.full(nvert, -1, np.int64)  # global -> local vertex id of the current block
     lvert = np.empty(3 * n + 1, np.int64)
@@ -152,7 +155,15 @@ def _order_blocks(
     upd = np.empty(C + 8, np.int64)
     out = 0
     step = 0
-    for b in range(starts.shape[0] - 1):
+    for b in range(nb):
+        if b == 0 or (seg < segments.shape[0] and segments[seg] == b):
+            while seg < segments.shape[0] and segments[seg] <= b:
+                seg += 1
+            end = starts[segments[seg]] if seg < segments.shape[0] and segments[seg] < nb else n
+            for t in range(starts[b], end):
+                for k in range(3):
+                    if not _is_repeat(tris, t, k):
+                        glive[tris[t, k]] += 1
         lo = starts[b]
         m = starts[b + 1] - lo
         if m <= 0:
@@ -511,7 +522,9 @@ def optimize_triangle_order(
     cache_tab, live_tab = _score_tables(c)
     stamp, ring, pushes = _seed_state(None, c, nvert)
     starts = np.array([0, n], np.int64)
-    perm, shift, _ = _order_blocks(tri, starts, c, stamp, ring, pushes, cache_tab, live_tab, bool(rotate))
+    perm, shift, _ = _order_blocks(
+        tri, starts, c, stamp, ring, pushes, cache_tab, live_tab, bool(rotate), np.zeros(0, np.int64)
+    )
     return (perm, shift) if rotate else perm
 
 
@@ -522,6 +535,7 @@ def optimize_block_order(
     cache_state: np.ndarray | None = None,
     *,
     rotate: bool = False,
+    segment_starts: np.ndarray | None = None,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Permutation of all rows of ``triangles`` that reorders them only inside each block.
 
@@ -529,7 +543,10 @@ def optimize_block_order(
     when missing; empty blocks are allowed); ``perm[lo:hi]`` is a permutation of ``lo..hi-1`` for every
     block, so blocks stay in place. The FIFO content left by one block seeds the scoring of the next;
     ``cache_state`` is the content before the first block, oldest first (e.g. :func:`fifo_contents` of
-    what is drawn before). ``rotate`` as in :func:`optimize_triangle_order`.
+    what is drawn before). ``rotate`` as in :func:`optimize_triangle_order`. ``segment_starts`` (triangle
+    offsets, each a block start) split the blocks into segments that are drawn apart (e.g. the ``P`` and
+    the ``Q`` half of a sliding-window level): the cache still carries over, but the remaining-triangle
+    term of a vertex counts the triangles of its own segment only.
     """
     tri = _as_triangles(triangles)
     c = _check_cache_size(cache_size)
@@ -552,8 +569,15 @@ def optimize_block_order(
     tri, nvert, state, _ = _compact(tri, nvert, state)
     cache_tab, live_tab = _score_tables(c)
     stamp, ring, pushes = _seed_state(state, c, nvert)
+    if segment_starts is None:
+        segments = np.zeros(0, np.int64)
+    else:
+        seg = np.asarray(segment_starts, dtype=np.int64).reshape(-1)
+        if not np.all(np.isin(seg, starts)):
+            raise ValueError("segment_starts must be block starts")
+        segments = np.unique(np.searchsorted(starts, seg, side="left")).astype(np.int64)
     perm, shift, _ = _order_blocks(
-        tri, np.ascontiguousarray(starts), c, stamp, ring, pushes, cache_tab, live_tab, bool(rotate)
+        tri, np.ascontiguousarray(starts), c, stamp, ring, pushes, cache_tab, live_tab, bool(rotate), segments
     )
     return (perm, shift) if rotate else perm
 

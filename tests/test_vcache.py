@@ -358,3 +358,20 @@ def test_fan_order_nb_callable_from_numba() -> None:
     assert np.array_equal(np.sort(perm), np.arange(4))
     assert _consecutive_share_edges(fan[perm])
     assert np.array_equal(perm, fan_order(fan, 2))
+
+
+def test_block_order_segments(cow: np.ndarray) -> None:
+    """``segment_starts`` (the P and Q halves of a sliding-window level) keep every triangle in its block,
+    and a segment start that is no block start is refused."""
+    ordered = cow[optimize_triangle_order(cow)]
+    starts = _random_blocks(ordered.shape[0], 3, 8, seed=5)
+    shuffled = _shuffle_within(ordered, starts, seed=6)
+    mid = int(starts[starts.shape[0] // 2])
+    perm = optimize_block_order(shuffled, starts, segment_starts=[mid])
+    assert _is_perm(perm, shuffled.shape[0])
+    assert np.array_equal(_block_of(starts)[perm], _block_of(starts))
+    assert acmr(shuffled[perm]) < 0.95 * acmr(shuffled)
+    not_a_start = int(starts[1]) + 1
+    assert not_a_start not in set(starts.tolist())
+    with pytest.raises(ValueError):
+        optimize_block_order(shuffled, starts, segment_starts=[not_a_start])

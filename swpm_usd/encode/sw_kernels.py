@@ -17,6 +17,7 @@ to ``gtris``; ``cur_gid[t]`` is the id of the current version of state triangle 
   (``cluster=True``, SWPM section 3.2).
 * :func:`patch_triangles` - the triangles of every patch, ordered as fans (edge-adjacent chains).
 * :func:`absorb_middle` - grows the patches by the triangles of no patch (the static middle).
+* :func:`reassign_middle` - moves those triangles to the patch where the patch order draws them cheapest.
 * :func:`order_patches` - greedy vertex-cache order of the patches for the ``P`` and the ``Q`` sequence
   (TD-VIPM section 3.2).
 * :func:`collapse_patches` - removes the inner vertices of every patch, in that order.
@@ -1471,3 +1472,157 @@ def swap_edges(
                         queue[qt] = w
                         qt += 1
     return out, nswap
+
+
+@nb.njit(cache=True)
+def reassign_middle(
+    st: K.CollapseState,
+    own_start: np.ndarray,
+    pt_start: np.ndarray,
+    pt: np.ndarray,
+    order: np.ndarray,
+    binned_vertex: np.ndarray,
+    cache_size: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The triangles :func:`absorb_middle` added to the patches, each moved to the patch where it costs the
+    fewest FIFO misses once the patch order ``order`` is known.
+
+    ``own_start``: CSR offsets of the patches' own triangles (those of :func:`patch_triangles`, first in
+    every patch of ``pt_start`` / ``pt``, the absorbed ones after them). The candidates of an absorbed
+    triangle are the patches with an own triangle at one of its positions. The ``P`` and ``Q`` caches of
+    :func:`order_patches` are simulated along ``order`` (each patch's own triangles, its ``Q`` without the
+    ``binned_vertex`` ones, then its absorbed triangles, drawn in both); right after a candidate's own
+    triangles, the absorbed triangle's misses in both caches are its cost there. It moves only to a
+    strictly cheaper candidate (the first cheapest), else stays: :func:`absorb_middle` picks by shared
+    vertices alone, so an edge shared with one patch can lose to a corner of a patch drawn right after
+    the neighbours that hold its other corners. Returns the new CSR (own triangles first, as before)."""
+    tv = st.tri_verts
+    vpos = st.vertex_pos
+    T = tv.shape[0]
+    V = vpos.shape[0]
+    n = pt_start.shape[0] - 1
+    tri_patch = np.full(T, -1, np.int64)
+    nab = 0
+    for p in range(n):
+        own_end = pt_start[p] + own_start[p + 1] - own_start[p]
+        for j in range(pt_start[p], own_end):
+            tri_patch[pt[j]] = p
+        nab += pt_start[p + 1] - own_end
+    ab = np.empty(nab, np.int64)
+    ab_cur = np.empty(nab, np.int64)
+    k = 0
+    for p in range(n):
+        own_end = pt_start[p] + own_start[p + 1] - own_start[p]
+        for j in range(own_end, pt_start[p + 1]):
+            ab[k] = pt[j]
+            ab_cur[k] = p
+            k += 1
+    # candidate patches of every absorbed triangle: the patches with an own triangle at one of its positions
+    P = np.int64(0)
+    for v in range(V):
+        P = max(P, vpos[v] + 1)
+    pcnt = np.zeros(P + 1, np.int64)
+    for p in range(n):
+        for j in range(pt_start[p], pt_start[p] + own_start[p + 1] - own_start[p]):
+            for kk in range(3):
+                pcnt[vpos[tv[pt[j], kk]] + 1] += 1
+    pp_start = np.cumsum(pcnt)
+    pfill = pp_start[:-1].copy()
+    pp = np.empty(pp_start[P], np.int64)
+    for p in range(n):
+        for j in range(pt_start[p], pt_start[p] + own_start[p + 1] - own_start[p]):
+            for kk in range(3):
+                w = vpos[tv[pt[j], kk]]
+                pp[pfill[w]] = p
+                pfill[w] += 1
+    cand_start = np.zeros(nab + 1, np.int64)
+    cand = np.empty(8 * nab + 16, np.int64)
+    nc = 0
+    for i in range(nab):
+        t = ab[i]
+        first = nc
+        for r in range(3):
+            w = vpos[tv[t, r]]
+            for a in range(pp_start[w], pp_start[w + 1]):
+                p = pp[a]
+                dup = False
+                for m in range(first, nc):
+                    if cand[m] == p:
+                        dup = True
+                        break
+                if not dup:
+                    cand = _grow_i64(cand, nc + 1)
+                    cand[nc] = p
+                    nc += 1
+        cand_start[i + 1] = nc
+    # patch -> (absorbed triangle, candidate slot)
+    cnt = np.zeros(n + 1, np.int64)
+    for m in range(nc):
+        cnt[cand[m] + 1] += 1
+    pc_start = np.cumsum(cnt)
+    fill = pc_start[:-1].copy()
+    pc = np.empty(nc, np.int64)
+    for i in range(nab):
+        for m in range(cand_start[i], cand_start[i + 1]):
+            p = cand[m]
+            pc[fill[p]] = m
+            fill[p] += 1
+    slot_tri = np.empty(nc, np.int64)
+    for i in range(nab):
+        for m in range(cand_start[i], cand_start[i + 1]):
+            slot_tri[m] = i
+    cost = np.zeros(nc, np.int64)
+    no_skip = np.zeros(V, np.bool_)
+    stamp_p = np.zeros(V, np.int64)
+    ring_p = np.full(cache_size, -1, np.int64)
+    stamp_q = np.zeros(V, np.int64)
+    ring_q = np.full(cache_size, -1, np.int64)
+    push_p = np.int64(0)
+    push_q = np.int64(0)
+    for o in range(order.shape[0]):
+        p = order[o]
+        own_end = pt_start[p] + own_start[p + 1] - own_start[p]
+        for j in range(pt_start[p], own_end):
+            push_p = _fifo_push(tv[pt[j]], no_skip, stamp_p, ring_p, push_p)
+            push_q = _fifo_push(tv[pt[j]], binned_vertex, stamp_q, ring_q, push_q)
+        for a in range(pc_start[p], pc_start[p + 1]):
+            m = pc[a]
+            verts = tv[ab[slot_tri[m]]]
+            cost[m] = _fifo_misses(verts, no_skip, stamp_p, push_p, cache_size) + _fifo_misses(
+                verts, no_skip, stamp_q, push_q, cache_size
+            )
+        for j in range(own_end, pt_start[p + 1]):
+            push_p = _fifo_push(tv[pt[j]], no_skip, stamp_p, ring_p, push_p)
+            push_q = _fifo_push(tv[pt[j]], no_skip, stamp_q, ring_q, push_q)
+    size = np.diff(pt_start)
+    newp = ab_cur.copy()
+    for i in range(nab):
+        cur_cost = -1
+        for m in range(cand_start[i], cand_start[i + 1]):
+            if cand[m] == ab_cur[i]:
+                cur_cost = cost[m]
+        best = -1
+        for m in range(cand_start[i], cand_start[i + 1]):
+            if cost[m] < cur_cost:
+                if best < 0 or cost[m] < cost[best]:
+                    best = m
+        if best >= 0:
+            size[ab_cur[i]] -= 1
+            newp[i] = cand[best]
+            size[cand[best]] += 1
+    new_start = np.zeros(n + 1, np.int64)
+    for p in range(n):
+        new_start[p + 1] = new_start[p] + size[p]
+    out = np.empty(new_start[n], np.int64)
+    fill2 = np.empty(n, np.int64)
+    for p in range(n):
+        m = new_start[p]
+        for j in range(pt_start[p], pt_start[p] + own_start[p + 1] - own_start[p]):
+            out[m] = pt[j]
+            m += 1
+        fill2[p] = m
+    for i in range(nab):
+        p = newp[i]
+        out[fill2[p]] = ab[i]
+        fill2[p] += 1
+    return new_start, out
