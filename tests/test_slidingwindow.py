@@ -332,6 +332,67 @@ def test_merged_patches_are_disjoint(inner_max: int) -> None:
         assert inner.shape[0] > 1.1 * centres.shape[0]
 
 
+@pytest.mark.parametrize("inner_max", [2, 3])
+def test_component_set_patches(inner_max: int) -> None:
+    """SWPM 3.3 patches by local search: eligible inner vertices, each patch a connected component of at most
+    ``inner_max`` of them (no edge joins two patches), no eligible vertex could still join, and more inner
+    vertices than the merged patches it started from."""
+    from swpm_usd.encode import sw_kernels as swk
+
+    tp = mesh_topology(_icosphere(3)).tri_pos.astype(np.int64)
+    P = int(tp.max()) + 1
+    start, nbr = swk.position_graph(tp, P)
+    eligible = np.ones(P, bool)
+    eligible[::7] = False
+    tiebreak = np.zeros(P)
+    _, centres = swk.select_patches(start, nbr, eligible, tiebreak, 1)
+    _, merged = swk.merge_patches(start, nbr, eligible, tiebreak, inner_max, centres)
+    inner_start, inner = swk.grow_component_set(
+        start, nbr, eligible, tiebreak, inner_max, merged, 2 * P, 7, 1.0
+    )
+    assert np.unique(inner).shape[0] == inner.shape[0] and eligible[inner].all()
+    sizes = np.diff(inner_start)
+    assert sizes.min() >= 1 and sizes.max() <= inner_max
+    pid = np.full(P, -1)
+    pid[inner] = np.repeat(np.arange(sizes.shape[0]), sizes)
+    src = np.repeat(np.arange(P), np.diff(start))
+    both = (pid[src] >= 0) & (pid[nbr] >= 0)
+    assert np.all(pid[src][both] == pid[nbr][both]), "inner vertices of two patches are neighbours"
+    for p in range(sizes.shape[0]):  # every patch is connected
+        members = set(inner[inner_start[p] : inner_start[p + 1]].tolist())
+        seen, todo = set(), [next(iter(members))]
+        while todo:
+            x = todo.pop()
+            if x not in seen:
+                seen.add(x)
+                todo.extend(y for y in nbr[start[x] : start[x + 1]].tolist() if y in members)
+        assert seen == members
+    for x in np.flatnonzero(eligible & (pid < 0)):  # maximal: joining x would exceed inner_max
+        ring = nbr[start[x] : start[x + 1]]
+        assert 1 + sizes[np.unique(pid[ring][pid[ring] >= 0])].sum() > inner_max
+    assert inner.shape[0] > merged.shape[0]
+
+
+def test_inner_vertices_patch_search_shrinks_the_pool(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Three inner vertices per patch remove more vertices per level than one, and the patch search and
+    the high-degree targets remove more still (icosphere 3: lambda 5.43 / 4.63 / 4.42)."""
+    from swpm_usd.encode import slidingwindow as sw
+
+    mesh = _icosphere(3)
+
+    def lam(inner: int) -> float:
+        return build_sliding_window(mesh, inner_vertices=inner).index_pool.shape[0] / (
+            3 * mesh.triangle_count
+        )
+
+    one, three = lam(1), lam(3)
+    monkeypatch.setattr(sw, "_PATCH_SEARCH", 0.0)
+    monkeypatch.setattr(sw, "_TARGET_SLACK", 0.0)
+    plain = lam(3)
+    assert three < plain < one
+    assert three < 0.98 * plain
+
+
 def test_lower_error_centres_keep_a_maximal_independent_set() -> None:
     """The 1-for-1 swaps towards cheaper centres keep the set independent, eligible and maximal, never
     shrink it, and lower the error rank summed over the centres that were swapped."""

@@ -1017,11 +1017,13 @@ def collapse_patches(
     ng: int,
     step0: int,
     max_cost: float,
+    slack: float = 1.0,
 ):
     """Simplify the patches in ``order``: each inner vertex, cheapest first, by its best valid half-edge
     collapse in the current state, if its quadric cost is at most ``max_cost`` (the ``mu`` cut of the
-    level). A patch none of whose inner vertices can go is dropped (its triangles stay in the level's
-    static middle).
+    level); with ``slack > 0`` the target is the highest-degree one within ``slack * max_cost`` of the
+    cheapest (:func:`_shaped_collapse`). A patch none of whose inner vertices can go is dropped (its
+    triangles stay in the level's static middle).
 
     Returns ``(gtris, ng, p_start, p_out, q_start, q_out, recs, step_info, patch_steps)``: the CSR of the
     kept patches' old (``P``) and new (``Q``) global triangle ids in draw order, the vertex collapses
@@ -1060,7 +1062,7 @@ def collapse_patches(
                 b = remaining[r]
                 if b < 0 or not alive_pos[b]:
                     continue
-                k, c = K.best_collapse(st, b)
+                k, c = _shaped_collapse(st, b, slack, max_cost)
                 if k >= 0 and c < best_c and c <= max_cost:
                     best_c = c
                     best_k = k
@@ -1626,3 +1628,216 @@ def reassign_middle(
         out[fill2[p]] = ab[i]
         fill2[p] += 1
     return new_start, out
+
+
+# ----------------------------------------------------------------------------------------------------
+# patches of up to k inner vertices: large-neighbourhood search on sets whose components have <= k vertices
+# ----------------------------------------------------------------------------------------------------
+@nb.njit(cache=True)
+def _component_fits(v, in_set, adj_start, adj, k, mark, stamp, stack):
+    """Whether ``v`` joined to the set lies in a component of at most ``k`` members."""
+    mark[v] = stamp
+    stack[0] = v
+    n = 1
+    head = 0
+    while head < n:
+        x = stack[head]
+        head += 1
+        for a in range(adj_start[x], adj_start[x + 1]):
+            y = adj[a]
+            if in_set[y] and mark[y] != stamp:
+                mark[y] = stamp
+                if n == k:
+                    return False
+                stack[n] = y
+                n += 1
+    return True
+
+
+@nb.njit(cache=True)
+def _xorshift(rng):
+    rng ^= rng << np.uint64(13)
+    rng ^= rng >> np.uint64(7)
+    rng ^= rng << np.uint64(17)
+    return rng
+
+
+@nb.njit(cache=True)
+def grow_component_set(
+    adj_start: np.ndarray,
+    adj: np.ndarray,
+    eligible: np.ndarray,
+    tiebreak: np.ndarray,
+    k: int,
+    init: np.ndarray,
+    iterations: int,
+    seed: int,
+    jitter: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Patches of at most ``k`` inner vertices, as many inner vertices as possible (SWPM 3.3).
+
+    Inner vertices of two patches may not be neighbours (the stars would share triangles), so the inner
+    vertices of a level form a set of ``eligible`` vertices whose connected components have at most ``k``
+    members, each component a patch. Starting from ``init`` (such a set), a large-neighbourhood search:
+    each of ``iterations`` empties the 2-ring of a random eligible vertex and refills it greedily (the
+    vertex that colours the fewest new vertices, plus ``tiebreak`` (error rank) and a random jitter), keeping
+    the result unless it holds fewer members. Deterministic for a ``seed``. Returns the CSR
+    ``(inner_start, inner)`` of the components."""
+    rng = np.uint64(seed) * np.uint64(0x9E3779B97F4A7C15) | np.uint64(1)
+    P = eligible.shape[0]
+    in_set = np.zeros(P, np.bool_)
+    tight = np.zeros(P, np.int64)
+    for v in init:
+        in_set[v] = True
+        for a in range(adj_start[v], adj_start[v + 1]):
+            tight[adj[a]] += 1
+    mark = np.zeros(P, np.int64)
+    stamp = np.int64(0)
+    stack = np.empty(k + 1, np.int64)
+    rmark = np.zeros(P, np.int64)
+    rstamp = np.int64(0)
+    region = np.empty(256, np.int64)
+    removed = np.empty(256, np.int64)
+    added = np.empty(256, np.int64)
+    pool = np.flatnonzero(eligible)
+    # complete the initial set: every eligible vertex that fits, fewest free neighbours first
+    key0 = np.empty(pool.shape[0])
+    for i in range(pool.shape[0]):
+        x = pool[i]
+        key0[i] = (adj_start[x + 1] - adj_start[x]) + tiebreak[x]
+    for i in np.argsort(key0):
+        x = pool[i]
+        if not in_set[x]:
+            stamp += 1
+            if _component_fits(x, in_set, adj_start, adj, k, mark, stamp, stack):
+                in_set[x] = True
+                for a in range(adj_start[x], adj_start[x + 1]):
+                    tight[adj[a]] += 1
+    for _ in range(iterations):
+        if pool.shape[0] == 0:
+            break
+        rng = _xorshift(rng)
+        v = pool[np.int64(rng % np.uint64(pool.shape[0]))]
+        rstamp += 1
+        nr = 0
+        rmark[v] = rstamp
+        region[nr] = v
+        nr += 1
+        h = 0
+        for _d in range(2):
+            end = nr
+            while h < end:
+                x = region[h]
+                h += 1
+                for a in range(adj_start[x], adj_start[x + 1]):
+                    y = adj[a]
+                    if rmark[y] != rstamp and nr < region.shape[0]:
+                        rmark[y] = rstamp
+                        region[nr] = y
+                        nr += 1
+        nrem = 0
+        for i in range(nr):
+            x = region[i]
+            if in_set[x]:
+                in_set[x] = False
+                for a in range(adj_start[x], adj_start[x + 1]):
+                    tight[adj[a]] -= 1
+                removed[nrem] = x
+                nrem += 1
+        nadd = 0
+        while True:
+            best = -1
+            best_key = np.inf
+            for i in range(nr):
+                x = region[i]
+                if in_set[x] or not eligible[x]:
+                    continue
+                stamp += 1
+                if not _component_fits(x, in_set, adj_start, adj, k, mark, stamp, stack):
+                    continue
+                c = 0
+                for a in range(adj_start[x], adj_start[x + 1]):
+                    y = adj[a]
+                    if not in_set[y] and tight[y] == 0:
+                        c += 1
+                if tight[x] == 0:
+                    c += 1
+                rng = _xorshift(rng)
+                key = c + tiebreak[x] + jitter * np.float64(rng >> np.uint64(11)) / 9007199254740992.0
+                if key < best_key:
+                    best_key = key
+                    best = x
+            if best < 0:
+                break
+            in_set[best] = True
+            for a in range(adj_start[best], adj_start[best + 1]):
+                tight[adj[a]] += 1
+            added[nadd] = best
+            nadd += 1
+        if nadd < nrem:  # worse: restore the region
+            for i in range(nadd):
+                x = added[i]
+                in_set[x] = False
+                for a in range(adj_start[x], adj_start[x + 1]):
+                    tight[adj[a]] -= 1
+            for i in range(nrem):
+                x = removed[i]
+                in_set[x] = True
+                for a in range(adj_start[x], adj_start[x + 1]):
+                    tight[adj[a]] += 1
+    # components -> patches
+    comp = np.full(P, -1, np.int64)
+    inner = np.empty(P, np.int64)
+    inner_start = np.zeros(P + 1, np.int64)
+    m = 0
+    n_patch = 0
+    for s in range(P):
+        if not in_set[s] or comp[s] >= 0:
+            continue
+        comp[s] = n_patch
+        first = m
+        inner[m] = s
+        m += 1
+        h = first
+        while h < m:
+            x = inner[h]
+            h += 1
+            for a in range(adj_start[x], adj_start[x + 1]):
+                y = adj[a]
+                if in_set[y] and comp[y] < 0:
+                    comp[y] = n_patch
+                    inner[m] = y
+                    m += 1
+        n_patch += 1
+        inner_start[n_patch] = m
+    return inner_start[: n_patch + 1].copy(), inner[:m].copy()
+
+
+@nb.njit(cache=True)
+def _shaped_collapse(st: K.CollapseState, b: int, slack: float, max_cost: float) -> tuple[int, float]:
+    """Valid collapse of ``b``: among the valid targets costing at most ``slack * max_cost`` more than the
+    cheapest one (and at most ``max_cost``), the one of highest degree (ties: the cheaper). ``slack`` 0 or
+    an unbounded ``max_cost``: :func:`swpm_usd.simplify.kernels.best_collapse`."""
+    k0, c0 = K.best_collapse(st, b)
+    if k0 < 0 or slack <= 0.0 or not np.isfinite(max_cost):
+        return k0, c0
+    tris_b = K.gather_triangles(st, b)
+    tp_b = K.triangle_positions(st, tris_b)
+    nbr = K.neighbours(b, tp_b)
+    lim = min(c0 + slack * max_cost, max_cost)
+    best_k = k0
+    best_c = c0
+    best_d = -1
+    for i in range(nbr.shape[0]):
+        k = nbr[i]
+        c = K.collapse_cost(st, b, k)
+        if c > lim:
+            continue
+        if not K.valid_collapse(st, b, k, tris_b, tp_b, nbr):
+            continue
+        d = K.neighbours(k, K.triangle_positions(st, K.gather_triangles(st, k))).shape[0]
+        if d > best_d or (d == best_d and c < best_c):
+            best_d = d
+            best_k = k
+            best_c = c
+    return best_k, best_c
