@@ -490,3 +490,39 @@ def test_swap_degree_floor_four_where_flat_three_where_curved() -> None:
     sphere = _icosphere(4)
     assert _degrees(optimize_mesh_connectivity(sphere)).min() == 3
     assert _degrees(optimize_mesh_connectivity(sphere, min_degree=4)).min() == 4
+
+
+def test_lower_costly_centres_lower_the_top_of_the_ranking() -> None:
+    """The exchanges towards cheaper centres keep the set independent, eligible and maximal, never shrink
+    it, lower the penalty sum(rank ** power) and take centres off the top of the ranking; a (2,2)-exchange
+    that the 1-for-1 swaps cannot make is found."""
+    from swpm_usd.encode import sw_kernels as swk
+
+    tp = mesh_topology(_icosphere(3)).tri_pos.astype(np.int64)
+    P = int(tp.max()) + 1
+    start, nbr = swk.position_graph(tp, P)
+    rng = np.random.default_rng(5)
+    rank = rng.random(P)
+    eligible = rank < 0.9
+    _, centres = swk.select_patches(start, nbr, eligible, np.zeros(P), 1)
+    centres = swk.lower_error_centres(start, nbr, eligible, centres, rank)
+    out = swk.lower_costly_centres(start, nbr, eligible, centres, rank, 8.0, 3, 2)
+    is_c = np.zeros(P, bool)
+    is_c[out] = True
+    src = np.repeat(np.arange(P), np.diff(start))
+    assert not np.any(is_c[src] & is_c[nbr]), "two centres are neighbours"
+    assert eligible[out].all() and out.shape[0] >= centres.shape[0]
+    covered = is_c.copy()
+    np.logical_or.at(covered, nbr[is_c[src]], True)
+    assert covered[eligible].all(), "an eligible vertex has no centre in its closed neighbourhood"
+    assert np.sum(rank[out] ** 8) < 0.95 * np.sum(rank[centres] ** 8)
+    assert np.sum(rank[out] > 0.8) < np.sum(rank[centres] > 0.8)
+
+    # path 4-0-1-2-3 with members {0, 2} and 3 barred: 1 touches both, so no 1-for-1 swap lowers 2 (rank
+    # 0.8), but the exchange {0, 2} -> {1, 4} does (0.1 ** 8 + 0.8 ** 8 > 0.2 ** 8 + 0.3 ** 8)
+    start, nbr = _csr(5, [(4, 0), (0, 1), (1, 2), (2, 3)])
+    rank = np.array([0.1, 0.2, 0.8, 0.05, 0.3])
+    eligible = np.array([True, True, True, False, True])
+    members = np.array([0, 2], np.int64)
+    assert swk.lower_error_centres(start, nbr, eligible, members, rank).tolist() == [0, 2]
+    assert swk.lower_costly_centres(start, nbr, eligible, members, rank, 8.0, 3, 2).tolist() == [1, 4]

@@ -12,6 +12,7 @@ to ``gtris``; ``cur_gid[t]`` is the id of the current version of state triangle 
   SWPM section 3.2's greedy search), optionally grown to several inner vertices per patch (SWPM 3.3).
 * :func:`grow_independent_set` - more patch centres by iterated local search ((1,2)-swaps).
 * :func:`lower_error_centres` - 1-for-1 swaps of centres for cheaper neighbours (one inner vertex).
+* :func:`lower_costly_centres` - exchanges that take centres off the top of the error ranking.
 * :func:`merge_patches` - several inner vertices by merging two levels (SWPM 3.3 via clustering).
 * :func:`cluster_patches` - patch centres whose stars are disjoint intervals of the previous level's tail
   (``cluster=True``, SWPM section 3.2).
@@ -510,6 +511,116 @@ def grow_independent_set(
         nq = _queue_near(v, sol, tight, adj_start, adj, queue, nq, queued)
         for a in range(adj_start[v], adj_start[v + 1]):
             nq = _queue_near(adj[a], sol, tight, adj_start, adj, queue, nq, queued)
+    return np.flatnonzero(sol).astype(np.int64)
+
+
+@nb.njit(cache=True)
+def _undo(log, nlog, sol, tight, adj_start, adj):
+    for r in range(nlog - 1, -1, -1):
+        v = log[r]
+        if v >= 0:
+            sol[v] = False
+            for a in range(adj_start[v], adj_start[v + 1]):
+                tight[adj[a]] -= 1
+        else:
+            sol[-v - 1] = True
+            for a in range(adj_start[-v - 1], adj_start[-v]):
+                tight[adj[a]] += 1
+
+
+@nb.njit(cache=True)
+def _sort_by(keys: np.ndarray, items: np.ndarray, n: int) -> None:
+    """Insertion sort of ``items[:n]`` by ``keys[item]`` (a handful of items)."""
+    for i in range(1, n):
+        x = items[i]
+        k = keys[x]
+        j = i - 1
+        while j >= 0 and keys[items[j]] > k:
+            items[j + 1] = items[j]
+            j -= 1
+        items[j + 1] = x
+
+
+@nb.njit(cache=True)
+def lower_costly_centres(
+    adj_start: np.ndarray,
+    adj: np.ndarray,
+    eligible: np.ndarray,
+    centres: np.ndarray,
+    rank: np.ndarray,
+    power: float,
+    tries: int,
+    passes: int,
+    min_rank: float = 0.0,
+) -> np.ndarray:
+    """Centres of the independent set traded for cheaper ones around them, the set's size kept or grown.
+
+    The Hausdorff error of a level's LODs comes from its few costliest collapses, so the search lowers the
+    penalty ``sum(rank ** power)`` over the centres (``rank``: error rank in [0, 1]; a high ``power``
+    weighs the top of the ranking): costliest centre first (those ranked ``min_rank`` or more), one of its
+    ``tries`` cheapest eligible non-member neighbours ``u`` is forced in (its member neighbours leave: a
+    (1,1)-exchange, or a (2,2)- or (3,3)-exchange when ``u`` touched more), then the vertices around that no
+    member covers any more join, cheapest first. The move stays if the set did not shrink and the penalty
+    dropped, else it is undone. ``passes`` rounds over the centres. Returns the new centres (sorted)."""
+    P = eligible.shape[0]
+    pen = rank**power
+    sol = np.zeros(P, np.bool_)
+    tight = np.zeros(P, np.int64)
+    log = np.empty(64, np.int64)
+    for c in centres:
+        log, _ = _set_insert(c, sol, tight, adj_start, adj, log, 0)
+    cand = np.empty(64, np.int64)
+    free = np.empty(256, np.int64)
+    for _ in range(passes):
+        members = np.flatnonzero(sol & (rank >= min_rank))
+        order = members[np.argsort(-rank[members])]
+        moved = 0
+        for oi in range(order.shape[0]):
+            c = order[oi]
+            if not sol[c]:
+                continue
+            nc = 0
+            for a in range(adj_start[c], adj_start[c + 1]):
+                u = adj[a]
+                if eligible[u] and not sol[u] and rank[u] < rank[c] and nc < cand.shape[0]:
+                    cand[nc] = u
+                    nc += 1
+            _sort_by(rank, cand, nc)
+            for t in range(min(tries, nc)):
+                u = cand[t]
+                if sol[u] or not sol[c]:
+                    break
+                nlog = 0
+                dsize = 0
+                dpen = 0.0
+                nf = 0
+                for a in range(adj_start[u], adj_start[u + 1]):
+                    y = adj[a]
+                    if sol[y]:
+                        log, nlog = _set_remove(y, sol, tight, adj_start, adj, log, nlog)
+                        dsize -= 1
+                        dpen -= pen[y]
+                        for b in range(adj_start[y], adj_start[y + 1]):
+                            z = adj[b]
+                            if nf < free.shape[0] and eligible[z] and z != u:
+                                free[nf] = z
+                                nf += 1
+                log, nlog = _set_insert(u, sol, tight, adj_start, adj, log, nlog)
+                dsize += 1
+                dpen += pen[u]
+                _sort_by(rank, free, nf)
+                for i in range(nf):
+                    z = free[i]
+                    if not sol[z] and tight[z] == 0:
+                        log, nlog = _set_insert(z, sol, tight, adj_start, adj, log, nlog)
+                        dsize += 1
+                        dpen += pen[z]
+                if dsize >= 0 and dpen < -1e-12:
+                    moved += 1
+                    break
+                _undo(log, nlog, sol, tight, adj_start, adj)
+        if moved == 0:
+            break
     return np.flatnonzero(sol).astype(np.int64)
 
 
