@@ -296,6 +296,17 @@ def test_position_graph_is_the_edge_graph() -> None:
     assert np.array_equal(nbr, key % P)
 
 
+def _patch_ids_disjoint(start: np.ndarray, nbr: np.ndarray, inner: np.ndarray, sizes: np.ndarray):
+    """Patch id of every position (-1: no inner vertex), checking that no edge joins two patches."""
+    P = start.shape[0] - 1
+    pid = np.full(P, -1)
+    pid[inner] = np.repeat(np.arange(sizes.shape[0]), sizes)
+    src = np.repeat(np.arange(P), np.diff(start))
+    both = (pid[src] >= 0) & (pid[nbr] >= 0)
+    assert np.all(pid[src][both] == pid[nbr][both]), "inner vertices of two patches are neighbours"
+    return pid
+
+
 @pytest.mark.parametrize("inner_max", [2, 3, 4])
 def test_merged_patches_are_disjoint(inner_max: int) -> None:
     """SWPM 3.3 by merging two levels: every centre is an inner vertex exactly once, a merged patch holds a
@@ -315,11 +326,7 @@ def test_merged_patches_are_disjoint(inner_max: int) -> None:
     assert np.isin(centres, inner).all() and eligible[inner].all()
     sizes = np.diff(inner_start)
     assert sizes.min() >= 1 and sizes.max() <= inner_max
-    pid = np.full(P, -1)
-    pid[inner] = np.repeat(np.arange(sizes.shape[0]), sizes)
-    src = np.repeat(np.arange(P), np.diff(start))
-    both = (pid[src] >= 0) & (pid[nbr] >= 0)
-    assert np.all(pid[src][both] == pid[nbr][both]), "inner vertices of two patches are neighbours"
+    _patch_ids_disjoint(start, nbr, inner, sizes)
     is_centre = np.zeros(P, bool)
     is_centre[centres] = True
     for p in np.flatnonzero(sizes > 1):
@@ -353,11 +360,7 @@ def test_component_set_patches(inner_max: int) -> None:
     assert np.unique(inner).shape[0] == inner.shape[0] and eligible[inner].all()
     sizes = np.diff(inner_start)
     assert sizes.min() >= 1 and sizes.max() <= inner_max
-    pid = np.full(P, -1)
-    pid[inner] = np.repeat(np.arange(sizes.shape[0]), sizes)
-    src = np.repeat(np.arange(P), np.diff(start))
-    both = (pid[src] >= 0) & (pid[nbr] >= 0)
-    assert np.all(pid[src][both] == pid[nbr][both]), "inner vertices of two patches are neighbours"
+    pid = _patch_ids_disjoint(start, nbr, inner, sizes)
     for p in range(sizes.shape[0]):  # every patch is connected
         members = set(inner[inner_start[p] : inner_start[p + 1]].tolist())
         seen, todo = set(), [next(iter(members))]
