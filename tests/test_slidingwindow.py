@@ -396,6 +396,21 @@ def test_inner_vertices_patch_search_shrinks_the_pool(monkeypatch: pytest.Monkey
     assert three < 0.98 * plain
 
 
+def _assert_maximal_independent(start: np.ndarray, nbr: np.ndarray, eligible: np.ndarray, out: np.ndarray):
+    """``out`` is an independent set of eligible vertices that no eligible vertex could join; returns its
+    membership mask."""
+    P = start.shape[0] - 1
+    is_c = np.zeros(P, bool)
+    is_c[out] = True
+    src = np.repeat(np.arange(P), np.diff(start))
+    assert not np.any(is_c[src] & is_c[nbr]), "two centres are neighbours"
+    assert eligible[out].all()
+    covered = is_c.copy()
+    np.logical_or.at(covered, nbr[is_c[src]], True)
+    assert covered[eligible].all(), "an eligible vertex has no centre in its closed neighbourhood"
+    return is_c
+
+
 def test_lower_error_centres_keep_a_maximal_independent_set() -> None:
     """The 1-for-1 swaps towards cheaper centres keep the set independent, eligible and maximal, never
     shrink it, and lower the error rank summed over the centres that were swapped."""
@@ -409,14 +424,8 @@ def test_lower_error_centres_keep_a_maximal_independent_set() -> None:
     eligible = rank < 0.9
     _, centres = swk.select_patches(start, nbr, eligible, np.zeros(P), 1)
     out = swk.lower_error_centres(start, nbr, eligible, centres, rank)
-    is_c = np.zeros(P, bool)
-    is_c[out] = True
-    src = np.repeat(np.arange(P), np.diff(start))
-    assert not np.any(is_c[src] & is_c[nbr]), "two centres are neighbours"
-    assert eligible[out].all() and out.shape[0] >= centres.shape[0]
-    covered = is_c.copy()
-    np.logical_or.at(covered, nbr[is_c[src]], True)
-    assert covered[eligible].all(), "an eligible vertex has no centre in its closed neighbourhood"
+    is_c = _assert_maximal_independent(start, nbr, eligible, out)
+    assert out.shape[0] >= centres.shape[0]
     gone = np.setdiff1d(centres, out)
     came = np.setdiff1d(out, centres)
     assert gone.size > 0 and came.size >= gone.size
@@ -510,14 +519,8 @@ def test_lower_costly_centres_lower_the_top_of_the_ranking() -> None:
     _, centres = swk.select_patches(start, nbr, eligible, np.zeros(P), 1)
     centres = swk.lower_error_centres(start, nbr, eligible, centres, rank)
     out = swk.lower_costly_centres(start, nbr, eligible, centres, rank, 8.0, 3, 2)
-    is_c = np.zeros(P, bool)
-    is_c[out] = True
-    src = np.repeat(np.arange(P), np.diff(start))
-    assert not np.any(is_c[src] & is_c[nbr]), "two centres are neighbours"
-    assert eligible[out].all() and out.shape[0] >= centres.shape[0]
-    covered = is_c.copy()
-    np.logical_or.at(covered, nbr[is_c[src]], True)
-    assert covered[eligible].all(), "an eligible vertex has no centre in its closed neighbourhood"
+    _assert_maximal_independent(start, nbr, eligible, out)
+    assert out.shape[0] >= centres.shape[0]
     assert np.sum(rank[out] ** 8) < 0.95 * np.sum(rank[centres] ** 8)
     assert np.sum(rank[out] > 0.8) < np.sum(rank[centres] > 0.8)
 

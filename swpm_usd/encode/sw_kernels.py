@@ -56,6 +56,22 @@ def _grow_tris(a: np.ndarray, n: int) -> np.ndarray:
 
 
 @nb.njit(cache=True)
+def _group_by(keys: np.ndarray, n_groups: int) -> tuple[np.ndarray, np.ndarray]:
+    """Counting sort: CSR ``(start, idx)`` listing, for every group ``g < n_groups``, the indices ``j`` with
+    ``keys[j] == g`` in increasing order."""
+    cnt = np.zeros(n_groups + 1, np.int64)
+    for j in range(keys.shape[0]):
+        cnt[keys[j] + 1] += 1
+    start = np.cumsum(cnt)
+    fill = start[:-1].copy()
+    idx = np.empty(keys.shape[0], np.int64)
+    for j in range(keys.shape[0]):
+        idx[fill[keys[j]]] = j
+        fill[keys[j]] += 1
+    return start, idx
+
+
+@nb.njit(cache=True)
 def chain_order(tv: np.ndarray) -> np.ndarray:
     """Order of a handful of triangles (``tv`` (n,3) vertex ids) so consecutive ones share an edge where
     possible: a closed fan comes out as a fan, an open fan starts at one of its ends."""
@@ -978,17 +994,11 @@ def order_patches(
                     pv[m] = v
                     m += 1
         pv_start[p + 1] = m
-    cnt = np.zeros(vertex_count + 1, np.int64)
-    for j in range(m):
-        cnt[pv[j] + 1] += 1
-    vp_start = np.cumsum(cnt)
-    fill = vp_start[:-1].copy()
-    vp = np.empty(m, np.int64)
+    patch_of = np.empty(m, np.int64)
     for p in range(n):
-        for j in range(pv_start[p], pv_start[p + 1]):
-            v = pv[j]
-            vp[fill[v]] = p
-            fill[v] += 1
+        patch_of[pv_start[p] : pv_start[p + 1]] = p
+    vp_start, vp = _group_by(pv[:m], vertex_count)
+    vp = patch_of[vp]
     remaining = np.diff(vp_start)
     no_skip = np.zeros(vertex_count, np.bool_)
     done = np.zeros(n, np.bool_)
@@ -1634,20 +1644,17 @@ def reassign_middle(
     P = np.int64(0)
     for v in range(V):
         P = max(P, vpos[v] + 1)
-    pcnt = np.zeros(P + 1, np.int64)
+    corner_pos = np.empty(3 * pt.shape[0], np.int64)
+    corner_patch = np.empty(3 * pt.shape[0], np.int64)
+    nk = 0
     for p in range(n):
         for j in range(pt_start[p], pt_start[p] + own_start[p + 1] - own_start[p]):
             for kk in range(3):
-                pcnt[vpos[tv[pt[j], kk]] + 1] += 1
-    pp_start = np.cumsum(pcnt)
-    pfill = pp_start[:-1].copy()
-    pp = np.empty(pp_start[P], np.int64)
-    for p in range(n):
-        for j in range(pt_start[p], pt_start[p] + own_start[p + 1] - own_start[p]):
-            for kk in range(3):
-                w = vpos[tv[pt[j], kk]]
-                pp[pfill[w]] = p
-                pfill[w] += 1
+                corner_pos[nk] = vpos[tv[pt[j], kk]]
+                corner_patch[nk] = p
+                nk += 1
+    pp_start, pp = _group_by(corner_pos[:nk], P)
+    pp = corner_patch[pp]
     cand_start = np.zeros(nab + 1, np.int64)
     cand = np.empty(8 * nab + 16, np.int64)
     nc = 0
@@ -1669,17 +1676,7 @@ def reassign_middle(
                     nc += 1
         cand_start[i + 1] = nc
     # patch -> (absorbed triangle, candidate slot)
-    cnt = np.zeros(n + 1, np.int64)
-    for m in range(nc):
-        cnt[cand[m] + 1] += 1
-    pc_start = np.cumsum(cnt)
-    fill = pc_start[:-1].copy()
-    pc = np.empty(nc, np.int64)
-    for i in range(nab):
-        for m in range(cand_start[i], cand_start[i + 1]):
-            p = cand[m]
-            pc[fill[p]] = m
-            fill[p] += 1
+    pc_start, pc = _group_by(cand[:nc], n)
     slot_tri = np.empty(nc, np.int64)
     for i in range(nab):
         for m in range(cand_start[i], cand_start[i + 1]):
