@@ -3,7 +3,7 @@
 The pool of the topology builder shrinks with the number of patch centres per level (an independent set of
 the level's vertices, SWPM appendix: lambda ~ (2 - f) / f for a centre fraction f), so the lambda target
 (<= 5.4 on bunny) needs f >= 0.3125 on every level. For the first levels of a default build this prints
-the minimum-degree greedy's set, the builder's iterated local search (``sw_kernels.grow_independent_set``)
+the minimum-degree greedy's set, the builder's iterated local search (``sw_centres.grow_independent_set``)
 at the builder's effort and at 10 iterations per vertex, and HiGHS's branch and bound on the same graph
 (``scipy.optimize.milp``; one clique constraint per triangle): its best set and its upper bound after
 ``--time-limit`` seconds (HiGHS overruns it: bunny's first level took 17 minutes for a 150 s limit, the
@@ -26,6 +26,7 @@ from scipy.sparse import csr_matrix
 
 import swpm_usd
 from swpm_usd.encode import slidingwindow as sw
+from swpm_usd.encode import sw_centres as swc
 from swpm_usd.encode import sw_kernels as swk
 
 HERE = Path(__file__).resolve().parent
@@ -36,7 +37,7 @@ def _record_levels(mesh, mu: float) -> tuple[list[dict], float]:
     """Build once, keeping every level's graph, eligible positions and greedy centres."""
     levels: list[dict] = []
     graphs: list[np.ndarray] = []
-    select, graph = swk.select_patches, swk.position_graph
+    select, graph = swc.select_patches, swk.position_graph
 
     def graph_hook(tp, P):
         graphs.append(np.array(tp))
@@ -49,11 +50,11 @@ def _record_levels(mesh, mu: float) -> tuple[list[dict], float]:
         levels.append(level)
         return out
 
-    swk.select_patches, swk.position_graph = select_hook, graph_hook
+    swc.select_patches, swk.position_graph = select_hook, graph_hook
     try:
         pm = swpm_usd.build(mesh, encoding="sliding-window", mu=mu)
     finally:
-        swk.select_patches, swk.position_graph = select, graph
+        swc.select_patches, swk.position_graph = select, graph
     return levels, pm.index_pool.shape[0] / (3.0 * mesh.triangle_count)
 
 
@@ -96,7 +97,7 @@ def main(argv: list[str] | None = None) -> int:
     for i, lv in enumerate(levels[: args.levels]):
         positions = int(np.count_nonzero(np.diff(lv["adj_start"])))
         build = sw._more_centres(lv["adj_start"], lv["adj"], lv["eligible"], lv["greedy"]).shape[0]
-        long = swk.grow_independent_set(
+        long = swc.grow_independent_set(
             lv["adj_start"], lv["adj"], lv["eligible"], lv["greedy"], 10 * int(lv["eligible"].sum()), 1
         ).shape[0]
         t = time.perf_counter()

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import swpm_usd
+from swpm_usd.encode import sw_centres as swc
 from swpm_usd.encode.slidingwindow import (
     SlidingWindowProgressiveMesh,
     build_sliding_window,
@@ -320,8 +321,8 @@ def test_merged_patches_are_disjoint(inner_max: int) -> None:
     eligible = np.ones(P, bool)
     eligible[::7] = False  # some vertices may not be removed
     tiebreak = np.zeros(P)
-    _, centres = swk.select_patches(start, nbr, eligible, tiebreak, 1)
-    inner_start, inner = swk.merge_patches(start, nbr, eligible, tiebreak, inner_max, centres)
+    _, centres = swc.select_patches(start, nbr, eligible, tiebreak, 1)
+    inner_start, inner = swc.merge_patches(start, nbr, eligible, tiebreak, inner_max, centres)
     assert np.unique(inner).shape[0] == inner.shape[0]
     assert np.isin(centres, inner).all() and eligible[inner].all()
     sizes = np.diff(inner_start)
@@ -352,9 +353,9 @@ def test_component_set_patches(inner_max: int) -> None:
     eligible = np.ones(P, bool)
     eligible[::7] = False
     tiebreak = np.zeros(P)
-    _, centres = swk.select_patches(start, nbr, eligible, tiebreak, 1)
-    _, merged = swk.merge_patches(start, nbr, eligible, tiebreak, inner_max, centres)
-    inner_start, inner = swk.grow_component_set(
+    _, centres = swc.select_patches(start, nbr, eligible, tiebreak, 1)
+    _, merged = swc.merge_patches(start, nbr, eligible, tiebreak, inner_max, centres)
+    inner_start, inner = swc.grow_component_set(
         start, nbr, eligible, tiebreak, inner_max, merged, 2 * P, 7, 1.0
     )
     assert np.unique(inner).shape[0] == inner.shape[0] and eligible[inner].all()
@@ -422,8 +423,8 @@ def test_lower_error_centres_keep_a_maximal_independent_set() -> None:
     rng = np.random.default_rng(1)
     rank = rng.random(P)
     eligible = rank < 0.9
-    _, centres = swk.select_patches(start, nbr, eligible, np.zeros(P), 1)
-    out = swk.lower_error_centres(start, nbr, eligible, centres, rank)
+    _, centres = swc.select_patches(start, nbr, eligible, np.zeros(P), 1)
+    out = swc.lower_error_centres(start, nbr, eligible, centres, rank)
     is_c = _assert_maximal_independent(start, nbr, eligible, out)
     assert out.shape[0] >= centres.shape[0]
     gone = np.setdiff1d(centres, out)
@@ -445,13 +446,12 @@ def _csr(P: int, edges: list[tuple[int, int]]) -> tuple[np.ndarray, np.ndarray]:
 def test_centre_search_makes_the_two_for_one_swap() -> None:
     """On the path a-b-c started from {b}, the local search alone swaps b for a and c; a vertex that may
     not be removed never joins."""
-    from swpm_usd.encode import sw_kernels as swk
 
     start, nbr = _csr(3, [(0, 1), (1, 2)])
-    out = swk.grow_independent_set(start, nbr, np.ones(3, bool), np.array([1], np.int64), 0, 1)
+    out = swc.grow_independent_set(start, nbr, np.ones(3, bool), np.array([1], np.int64), 0, 1)
     assert out.tolist() == [0, 2]
     eligible = np.array([True, True, False])
-    out = swk.grow_independent_set(start, nbr, eligible, np.array([1], np.int64), 10, 1)
+    out = swc.grow_independent_set(start, nbr, eligible, np.array([1], np.int64), 10, 1)
     assert out.tolist() == [1] or out.tolist() == [0]
 
 
@@ -465,15 +465,15 @@ def test_centre_search_grows_the_greedy_set() -> None:
     start, nbr = swk.position_graph(tp, P)
     rng = np.random.default_rng(3)
     eligible = rng.random(P) < 0.9
-    _, centres = swk.select_patches(start, nbr, eligible, rng.random(P) * 2.0, 1)
-    out = swk.grow_independent_set(start, nbr, eligible, centres, P, 7)
+    _, centres = swc.select_patches(start, nbr, eligible, rng.random(P) * 2.0, 1)
+    out = swc.grow_independent_set(start, nbr, eligible, centres, P, 7)
     is_c = np.zeros(P, bool)
     is_c[out] = True
     src = np.repeat(np.arange(P), np.diff(start))
     assert not np.any(is_c[src] & is_c[nbr]), "two centres are neighbours"
     assert eligible[out].all() and np.unique(out).shape[0] == out.shape[0]
     assert out.shape[0] > 1.01 * centres.shape[0], (out.shape[0], centres.shape[0])
-    again = swk.grow_independent_set(start, nbr, eligible, centres, P, 7)
+    again = swc.grow_independent_set(start, nbr, eligible, centres, P, 7)
     assert np.array_equal(out, again)
 
 
@@ -516,9 +516,9 @@ def test_lower_costly_centres_lower_the_top_of_the_ranking() -> None:
     rng = np.random.default_rng(5)
     rank = rng.random(P)
     eligible = rank < 0.9
-    _, centres = swk.select_patches(start, nbr, eligible, np.zeros(P), 1)
-    centres = swk.lower_error_centres(start, nbr, eligible, centres, rank)
-    out = swk.lower_costly_centres(start, nbr, eligible, centres, rank, 8.0, 3, 2)
+    _, centres = swc.select_patches(start, nbr, eligible, np.zeros(P), 1)
+    centres = swc.lower_error_centres(start, nbr, eligible, centres, rank)
+    out = swc.lower_costly_centres(start, nbr, eligible, centres, rank, 8.0, 3, 2)
     _assert_maximal_independent(start, nbr, eligible, out)
     assert out.shape[0] >= centres.shape[0]
     assert np.sum(rank[out] ** 8) < 0.95 * np.sum(rank[centres] ** 8)
@@ -530,5 +530,5 @@ def test_lower_costly_centres_lower_the_top_of_the_ranking() -> None:
     rank = np.array([0.1, 0.2, 0.8, 0.05, 0.3])
     eligible = np.array([True, True, True, False, True])
     members = np.array([0, 2], np.int64)
-    assert swk.lower_error_centres(start, nbr, eligible, members, rank).tolist() == [0, 2]
-    assert swk.lower_costly_centres(start, nbr, eligible, members, rank, 8.0, 3, 2).tolist() == [1, 4]
+    assert swc.lower_error_centres(start, nbr, eligible, members, rank).tolist() == [0, 2]
+    assert swc.lower_costly_centres(start, nbr, eligible, members, rank, 8.0, 3, 2).tolist() == [1, 4]

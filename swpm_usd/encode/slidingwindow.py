@@ -28,8 +28,8 @@ Builders.
 * ``builder="topology"`` (TD-VIPM, the default): per level, a greedy minimum-degree maximal independent set of
   patch centres (TD-VIPM 3.1) where a fraction ``mu`` of the highest-error vertices may not be centres (SWPM
   3), then (one inner vertex per patch) centres traded 1-for-1 for cheaper neighbours
-  (:func:`.sw_kernels.lower_error_centres`: same size, lower error), then (1,1)- and (2,2)-exchanges that
-  take centres off the top of the error ranking (:func:`.sw_kernels.lower_costly_centres`: a LOD's
+  (:func:`.sw_centres.lower_error_centres`: same size, lower error), then (1,1)- and (2,2)-exchanges that
+  take centres off the top of the error ranking (:func:`.sw_centres.lower_costly_centres`: a LOD's
   Hausdorff error comes from its level's few costliest collapses); each centre goes by its best valid
   half-edge collapse. Every triangle of no patch that shares a position with a patch joins it
   (``absorb_middle=True``, the default; :func:`.sw_kernels.absorb_middle`, a patch sharing a *vertex* first,
@@ -49,8 +49,8 @@ Builders.
   end of one and the start of the other (same mean: 1.074 -> 1.070).
   ``inner_vertices > 1`` (SWPM 3.3: fewer approximations, a smaller pool) either grows each patch to that many
   adjacent inner vertices or merges two levels (a second-level vertex with all the centres next to it,
-  :func:`.sw_kernels.merge_patches`), whichever removes more vertices in the level, then enlarges that set
-  of inner vertices by a large-neighbourhood search (:func:`.sw_kernels.grow_component_set`: any set whose
+  :func:`.sw_centres.merge_patches`), whichever removes more vertices in the level, then enlarges that set
+  of inner vertices by a large-neighbourhood search (:func:`.sw_centres.grow_component_set`: any set whose
   connected components have at most ``inner_vertices`` members, one patch per component), and the inner
   vertices go to high-degree targets where that costs little (``_TARGET_SLACK``: more low-degree vertices
   for the next level). A level's pool share is ``T_L + T_{L+1}``, so only the fraction of vertices removed
@@ -58,7 +58,7 @@ Builders.
   the search, 52 % / 44-47 % with both (lambda 3.32 -> 3.07).
 
   Before the 1-for-1 trades the greedy set of centres is enlarged by an iterated local search
-  (:func:`.sw_kernels.grow_independent_set`, Andrade, Resende & Werneck's (1,2)-swaps with random forced
+  (:func:`.sw_centres.grow_independent_set`, Andrade, Resende & Werneck's (1,2)-swaps with random forced
   insertions, half an iteration per vertex).
 
   Why lambda is 5.5 at ``mu=0.1``: a level stores ``T_L + T_{L+1}`` triangles and removes two per centre, so
@@ -118,6 +118,7 @@ import numpy as np
 from ..errors import BuildError
 from ..mesh import Mesh
 from ..simplify import CollapseSequence, collapse_sequence, make_state, mesh_topology
+from . import sw_centres as swc
 from . import sw_kernels as swk
 from .base import ProgressiveMesh, register
 from .vanilla import index_size
@@ -296,14 +297,14 @@ def _adjacency(tp: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
 _ERROR_WEIGHT = 2.0
 
 
-#: iterations of the centre search (:func:`sw_kernels.grow_independent_set`) per eligible vertex: the
+#: iterations of the centre search (:func:`sw_centres.grow_independent_set`) per eligible vertex: the
 #: minimum-degree greedy leaves 2-3 % of the possible centres (bunny, ``mu=0.1``, one run: lambda 5.68
 #: with the greedy alone, 5.65 with the local search only, 5.56 / 5.53 / 5.50 with 0.5 / 1 / 2 iterations
 #: per vertex for a build time of +10 / +21 / +44 %)
 _CENTRE_SEARCH = 0.5
 _CENTRE_SEARCH_SEED = 0x5EED
 
-#: one inner vertex: the exchanges of :func:`sw_kernels.lower_costly_centres` after the 1-for-1 swaps
+#: one inner vertex: the exchanges of :func:`sw_centres.lower_costly_centres` after the 1-for-1 swaps
 #: lower ``sum(rank ** _TAIL_POWER)`` over the centres (error rank in [0, 1]), trying the ``_TAIL_TRIES``
 #: cheapest neighbours of every centre, ``_TAIL_PASSES`` rounds. A LOD's Hausdorff maximum comes from the
 #: top percent or two of its level's collapses (cow: the nearest collapse to the worst sample has rank
@@ -320,10 +321,10 @@ _TAIL_PASSES = 2
 
 def _more_centres(adj_start: np.ndarray, adj: np.ndarray, eligible: np.ndarray, centres: np.ndarray):
     iterations = int(_CENTRE_SEARCH * np.count_nonzero(eligible))
-    return swk.grow_independent_set(adj_start, adj, eligible, centres, iterations, _CENTRE_SEARCH_SEED)
+    return swc.grow_independent_set(adj_start, adj, eligible, centres, iterations, _CENTRE_SEARCH_SEED)
 
 
-#: ``inner_vertices > 1``: iterations of the patch search (:func:`sw_kernels.grow_component_set`) per
+#: ``inner_vertices > 1``: iterations of the patch search (:func:`sw_centres.grow_component_set`) per
 #: eligible vertex, and the random jitter of its greedy refill (in free neighbours). Bunny with the edge
 #: swaps, three inner vertices: lambda 3.32 without the search, 3.30 / 3.13 / 3.10 with 0 / 1 / 3
 #: iterations per vertex (jitter 0.5); jitter 1.0 at 1 iteration: 3.13 (build time +0.5 s)
@@ -509,12 +510,12 @@ def _build_topology(
             order = np.arange(inner_start.shape[0] - 1, dtype=np.int64)
         else:
             adj_start, adj = _adjacency(tp, P)
-            inner_start, inner = swk.select_patches(adj_start, adj, eligible, tiebreak, int(inner_vertices))
+            inner_start, inner = swc.select_patches(adj_start, adj, eligible, tiebreak, int(inner_vertices))
             if inner_vertices == 1:
                 inner = _more_centres(adj_start, adj, eligible, inner)
-                inner = swk.lower_error_centres(adj_start, adj, eligible, inner, tiebreak)
+                inner = swc.lower_error_centres(adj_start, adj, eligible, inner, tiebreak)
                 rank = tiebreak / _ERROR_WEIGHT
-                inner = swk.lower_costly_centres(
+                inner = swc.lower_costly_centres(
                     adj_start, adj, eligible, inner, rank, _TAIL_POWER, _TAIL_TRIES, _TAIL_PASSES
                 )
                 inner_start = np.arange(inner.shape[0] + 1, dtype=np.int64)
@@ -522,15 +523,15 @@ def _build_topology(
                 # two ways to several inner vertices: grow patches, or merge two levels; keep the one that
                 # removes more vertices (bunny with the edge swaps, three inner vertices: lambda 3.72 by
                 # growing alone, 3.37 with both)
-                _, centres = swk.select_patches(adj_start, adj, eligible, tiebreak, 1)
+                _, centres = swc.select_patches(adj_start, adj, eligible, tiebreak, 1)
                 centres = _more_centres(adj_start, adj, eligible, centres)
-                merged = swk.merge_patches(adj_start, adj, eligible, tiebreak, int(inner_vertices), centres)
+                merged = swc.merge_patches(adj_start, adj, eligible, tiebreak, int(inner_vertices), centres)
                 if merged[1].shape[0] > inner.shape[0]:
                     inner_start, inner = merged
                 # then a large-neighbourhood search for more inner vertices (components of at most
                 # ``inner_vertices``)
                 iterations = int(_PATCH_SEARCH * np.count_nonzero(eligible))
-                inner_start, inner = swk.grow_component_set(
+                inner_start, inner = swc.grow_component_set(
                     adj_start,
                     adj,
                     eligible,
