@@ -96,9 +96,9 @@ triangles up to the next star, which reappear unchanged in ``Q_j``) and only ``Q
 the pool is ``.. P_1..P_n || [M || Q_1..Q_n = P'_1..P'_m || M'] || Q'_1..Q'_m ..``. Every window is still
 one contiguous slice. The tail gets more scattered with every linked level (longer intervals), so once a
 linked level costs more pool triangles per collapse than the last level stored in full, the next one is
-stored in full again (the usual layout and selection). Bunny with the edge swaps: lambda 5.14 -> 4.52
-(without: 5.68 -> 5.25); the price: the centres follow the tail order rather than degree and error, so the
-windows are colder (ACMR ratio at 50 % 1.07 -> 1.13) and the Hausdorff error grows (rows ``cluster`` /
+stored in full again (the usual layout and selection). Bunny with the edge swaps: lambda 4.86 -> 4.32
+(without: 5.55 -> 5.14); the price: the centres follow the tail order rather than degree and error, so the
+windows are colder (ACMR ratio at 50 % 1.04 -> 1.11) and the Hausdorff error grows (rows ``cluster`` /
 ``cluster-swap`` of the benchmark). Tried and dropped: planning a fully stored level's patch order for
 the next level (its centres chosen first, their stars made runs of the tail by ordering ``Q`` blocks
 along paths): lambda -2 to -6 %, but ACMR ratios up to 1.4.
