@@ -297,6 +297,14 @@ def test_position_graph_is_the_edge_graph() -> None:
     assert np.array_equal(nbr, key % P)
 
 
+def _sphere_graph(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
+    """CSR position graph of an icosphere."""
+    from swpm_usd.encode import sw_kernels as swk
+
+    tp = mesh_topology(_icosphere(subdivisions)).tri_pos.astype(np.int64)
+    return swk.position_graph(tp, int(tp.max()) + 1)
+
+
 def _patch_ids_disjoint(start: np.ndarray, nbr: np.ndarray, inner: np.ndarray, sizes: np.ndarray):
     """Patch id of every position (-1: no inner vertex), checking that no edge joins two patches."""
     P = start.shape[0] - 1
@@ -313,11 +321,8 @@ def test_merged_patches_are_disjoint(inner_max: int) -> None:
     """SWPM 3.3 by merging two levels: every centre is an inner vertex exactly once, a merged patch holds a
     second-level vertex and ALL the centres next to it (at most ``inner_max`` inner vertices), and no edge
     joins inner vertices of two patches (so the patches' stars are disjoint)."""
-    from swpm_usd.encode import sw_kernels as swk
-
-    tp = mesh_topology(_icosphere(3)).tri_pos.astype(np.int64)
-    P = int(tp.max()) + 1
-    start, nbr = swk.position_graph(tp, P)
+    start, nbr = _sphere_graph(3)
+    P = start.shape[0] - 1
     eligible = np.ones(P, bool)
     eligible[::7] = False  # some vertices may not be removed
     tiebreak = np.zeros(P)
@@ -345,11 +350,8 @@ def test_component_set_patches(inner_max: int) -> None:
     """SWPM 3.3 patches by local search: eligible inner vertices, each patch a connected component of at most
     ``inner_max`` of them (no edge joins two patches), no eligible vertex could still join, and more inner
     vertices than the merged patches it started from."""
-    from swpm_usd.encode import sw_kernels as swk
-
-    tp = mesh_topology(_icosphere(3)).tri_pos.astype(np.int64)
-    P = int(tp.max()) + 1
-    start, nbr = swk.position_graph(tp, P)
+    start, nbr = _sphere_graph(3)
+    P = start.shape[0] - 1
     eligible = np.ones(P, bool)
     eligible[::7] = False
     tiebreak = np.zeros(P)
@@ -415,11 +417,8 @@ def _assert_maximal_independent(start: np.ndarray, nbr: np.ndarray, eligible: np
 def test_lower_error_centres_keep_a_maximal_independent_set() -> None:
     """The 1-for-1 swaps towards cheaper centres keep the set independent, eligible and maximal, never
     shrink it, and lower the error rank summed over the centres that were swapped."""
-    from swpm_usd.encode import sw_kernels as swk
-
-    tp = mesh_topology(_icosphere(3)).tri_pos.astype(np.int64)
-    P = int(tp.max()) + 1
-    start, nbr = swk.position_graph(tp, P)
+    start, nbr = _sphere_graph(3)
+    P = start.shape[0] - 1
     rng = np.random.default_rng(1)
     rank = rng.random(P)
     eligible = rank < 0.9
@@ -458,11 +457,8 @@ def test_centre_search_makes_the_two_for_one_swap() -> None:
 def test_centre_search_grows_the_greedy_set() -> None:
     """On a sphere with a tenth of the vertices locked, the iterated local search returns an independent
     set of eligible vertices larger than the minimum-degree greedy's, the same one for the same seed."""
-    from swpm_usd.encode import sw_kernels as swk
-
-    tp = mesh_topology(_icosphere(4)).tri_pos.astype(np.int64)
-    P = int(tp.max()) + 1
-    start, nbr = swk.position_graph(tp, P)
+    start, nbr = _sphere_graph(4)
+    P = start.shape[0] - 1
     rng = np.random.default_rng(3)
     eligible = rng.random(P) < 0.9
     _, centres = swc.select_patches(start, nbr, eligible, rng.random(P) * 2.0, 1)
@@ -508,11 +504,8 @@ def test_lower_costly_centres_lower_the_top_of_the_ranking() -> None:
     """The exchanges towards cheaper centres keep the set independent, eligible and maximal, never shrink
     it, lower the penalty sum(rank ** power) and take centres off the top of the ranking; a (2,2)-exchange
     that the 1-for-1 swaps cannot make is found."""
-    from swpm_usd.encode import sw_kernels as swk
-
-    tp = mesh_topology(_icosphere(3)).tri_pos.astype(np.int64)
-    P = int(tp.max()) + 1
-    start, nbr = swk.position_graph(tp, P)
+    start, nbr = _sphere_graph(3)
+    P = start.shape[0] - 1
     rng = np.random.default_rng(5)
     rank = rng.random(P)
     eligible = rank < 0.9

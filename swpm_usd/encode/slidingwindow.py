@@ -550,18 +550,13 @@ def _build_topology(
                 )
             inner_pos = np.zeros(P, bool)
             inner_pos[inner] = True
+            binned_vertex = inner_pos[st.vertex_pos]
             order = swk.order_patches(
-                pt_start, pt, st.tri_verts, inner_pos[st.vertex_pos], np.diff(inner_start), V, int(cache_size)
+                pt_start, pt, st.tri_verts, binned_vertex, np.diff(inner_start), V, int(cache_size)
             )
             if absorb_min_shared > 0:
                 pt_start, pt = swk.reassign_middle(
-                    st,
-                    own_start,
-                    pt_start,
-                    pt,
-                    order,
-                    inner_pos[st.vertex_pos],
-                    int(cache_size),
+                    st, own_start, pt_start, pt, order, binned_vertex, int(cache_size)
                 )
         start_gids = cur_gid[alive_t].copy()
         gtris, ng, p_start, p_out, q_start, q_out, recs, info, patch_steps = swk.collapse_patches(

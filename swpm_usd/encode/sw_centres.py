@@ -229,6 +229,34 @@ def _set_remove(v, sol, tight, adj_start, adj, log, nlog):
 
 
 @nb.njit(cache=True)
+def _undo(log, nlog, sol, tight, adj_start, adj):
+    """Take back the last ``nlog`` insertions (``+v``) and removals (``-v-1``) of ``log``."""
+    for r in range(nlog - 1, -1, -1):
+        v = log[r]
+        if v >= 0:
+            sol[v] = False
+            for a in range(adj_start[v], adj_start[v + 1]):
+                tight[adj[a]] -= 1
+        else:
+            sol[-v - 1] = True
+            for a in range(adj_start[-v - 1], adj_start[-v]):
+                tight[adj[a]] += 1
+
+
+@nb.njit(cache=True)
+def _xorshift_seed(seed: int) -> np.uint64:
+    return np.uint64(seed) * np.uint64(0x9E3779B97F4A7C15) | np.uint64(1)  # xorshift64 state, never 0
+
+
+@nb.njit(cache=True)
+def _xorshift(rng):
+    rng ^= rng << np.uint64(13)
+    rng ^= rng >> np.uint64(7)
+    rng ^= rng << np.uint64(17)
+    return rng
+
+
+@nb.njit(cache=True)
 def _queue_near(v, sol, tight, adj_start, adj, queue, nq, queued):
     """Queue the set members next to ``v`` or owning a 1-tight neighbour of ``v``: the only ones whose
     (1,2)-swaps a change at ``v`` can create."""
@@ -267,7 +295,7 @@ def grow_independent_set(
     removes two triangles, so the pool shrinks with the set: bunny's first three levels, 9847 / 7761 /
     5182 centres by the minimum-degree greedy, 10138 / 7941 / 5330 with 3 iterations per vertex (an exact
     solver reaches 7952 on the second level). Deterministic for a ``seed``. Returns the set (sorted)."""
-    rng = np.uint64(seed) * np.uint64(0x9E3779B97F4A7C15) | np.uint64(1)  # xorshift64 state, never 0
+    rng = _xorshift_seed(seed)
     P = eligible.shape[0]
     sol = np.zeros(P, np.bool_)
     tight = np.zeros(P, np.int64)  # members among each vertex's neighbours
@@ -337,16 +365,7 @@ def grow_independent_set(
         if size >= best:
             best = size
         else:  # undo back to the last kept state
-            for r in range(nlog - 1, -1, -1):
-                v = log[r]
-                if v >= 0:
-                    sol[v] = False
-                    for a in range(adj_start[v], adj_start[v + 1]):
-                        tight[adj[a]] -= 1
-                else:
-                    sol[-v - 1] = True
-                    for a in range(adj_start[-v - 1], adj_start[-v]):
-                        tight[adj[a]] += 1
+            _undo(log, nlog, sol, tight, adj_start, adj)
             size = best
         nlog = 0
         if it >= iterations or pool.shape[0] == 0:
@@ -354,9 +373,7 @@ def grow_independent_set(
         it += 1
         v = -1
         for _ in range(64):
-            rng ^= rng << np.uint64(13)
-            rng ^= rng >> np.uint64(7)
-            rng ^= rng << np.uint64(17)
+            rng = _xorshift(rng)
             c = pool[np.int64(rng % np.uint64(pool.shape[0]))]
             if not sol[c]:
                 v = c
@@ -383,20 +400,6 @@ def grow_independent_set(
         for a in range(adj_start[v], adj_start[v + 1]):
             nq = _queue_near(adj[a], sol, tight, adj_start, adj, queue, nq, queued)
     return np.flatnonzero(sol).astype(np.int64)
-
-
-@nb.njit(cache=True)
-def _undo(log, nlog, sol, tight, adj_start, adj):
-    for r in range(nlog - 1, -1, -1):
-        v = log[r]
-        if v >= 0:
-            sol[v] = False
-            for a in range(adj_start[v], adj_start[v + 1]):
-                tight[adj[a]] -= 1
-        else:
-            sol[-v - 1] = True
-            for a in range(adj_start[-v - 1], adj_start[-v]):
-                tight[adj[a]] += 1
 
 
 @nb.njit(cache=True)
@@ -595,14 +598,6 @@ def _component_fits(v, in_set, adj_start, adj, k, mark, stamp, stack):
 
 
 @nb.njit(cache=True)
-def _xorshift(rng):
-    rng ^= rng << np.uint64(13)
-    rng ^= rng >> np.uint64(7)
-    rng ^= rng << np.uint64(17)
-    return rng
-
-
-@nb.njit(cache=True)
 def grow_component_set(
     adj_start: np.ndarray,
     adj: np.ndarray,
@@ -623,7 +618,7 @@ def grow_component_set(
     vertex that colours the fewest new vertices, plus ``tiebreak`` (error rank) and a random jitter), keeping
     the result unless it holds fewer members. Deterministic for a ``seed``. Returns the CSR
     ``(inner_start, inner)`` of the components."""
-    rng = np.uint64(seed) * np.uint64(0x9E3779B97F4A7C15) | np.uint64(1)
+    rng = _xorshift_seed(seed)
     P = eligible.shape[0]
     in_set = np.zeros(P, np.bool_)
     tight = np.zeros(P, np.int64)

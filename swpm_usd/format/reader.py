@@ -559,6 +559,30 @@ def _kept_below_binned(p: _Parsed, rep: Report, rec: dict[str, np.ndarray], V: i
     return bad.size == 0
 
 
+def _lod_counts_check(p: _Parsed, rep: Report, vertex_want: np.ndarray, triangle_want: np.ndarray) -> bool:
+    """LODS's vertex and triangle counts equal what the records give (first bad LOD of each reported at its
+    LODS row: ``SWPM_LOD_VERTEX_COUNT`` / ``SWPM_RECORD_BAD_COUNTS``)."""
+    ok = True
+    for what, col, want in (
+        ("vertex", "vertex_count", vertex_want),
+        ("triangle", "triangle_count", triangle_want),
+    ):
+        got = p.lods[col].astype(np.int64)
+        bad = np.flatnonzero(got != want)
+        if bad.size:
+            k = int(bad[0])
+            rep.add(
+                "SWPM_LOD_VERTEX_COUNT" if what == "vertex" else "SWPM_RECORD_BAD_COUNTS",
+                p.chunks[L.LODS].offset + 12 * k,
+                lod=k,
+                count=int(got[k]),
+                expected=int(want[k]),
+                reason=f"LOD {k} has {int(got[k])} {what}s, the records give {int(want[k])}",
+            )
+            ok = False
+    return ok
+
+
 def _common_records(
     p: _Parsed, rep: Report, rec: dict[str, np.ndarray], rc: np.ndarray, rc_off: int, lods: int
 ) -> bool:
@@ -645,21 +669,8 @@ def _vanilla(p: _Parsed, rep: Report) -> None:
         p, rep, p.chunks[L.VREC], offs, "collapse_change_offsets", 3 * T0, int(rec["_base"][1])
     )
     if ok:
-        vc, tc = p.lods["vertex_count"].astype(np.int64), p.lods["triangle_count"].astype(np.int64)
         n = rc.astype(np.int64)
-        for what, got, want in (("vertex", vc, V - n), ("triangle", tc, T0 - cum[n])):
-            bad = np.flatnonzero(got != want)
-            if bad.size:
-                k = int(bad[0])
-                rep.add(
-                    "SWPM_LOD_VERTEX_COUNT" if what == "vertex" else "SWPM_RECORD_BAD_COUNTS",
-                    p.chunks[L.LODS].offset + 12 * k,
-                    lod=k,
-                    count=int(got[k]),
-                    expected=int(want[k]),
-                    reason=f"LOD {k} has {int(got[k])} {what}s, the records give {int(want[k])}",
-                )
-                ok = False
+        ok &= _lod_counts_check(p, rep, V - n, T0 - cum[n])
     if ok:
         kind, r, s = vanilla_replay(
             indices, rec["collapse_kept"], rec["collapse_tris_removed"], rec["collapse_change_count"], offs, V
@@ -1110,7 +1121,7 @@ def _mixed(p: _Parsed, rep: Report) -> None:
         p.content_ok = False
         return
     # LODS agrees with the records: vertex_count = V - RCNT, triangle_count = live static + live dynamic
-    vc, tc = p.lods["vertex_count"].astype(np.int64), p.lods["triangle_count"].astype(np.int64)
+    vc = p.lods["vertex_count"].astype(np.int64)
     nrc = rc.astype(np.int64)
     lev = np.searchsorted(first, np.arange(Lc), side="right") - 1
     tri = np.zeros(Lc, np.int64)
@@ -1118,19 +1129,7 @@ def _mixed(p: _Parsed, rep: Report) -> None:
         removed = rec[f"collapse_{col}_tris_removed"].astype(np.int64)
         cum = np.r_[0, np.cumsum(removed)]
         tri += np.diff(lst_start)[lev] // 3 - (cum[nrc] - cum[rstart[lev]])
-    for what, got, want in (("vertex", vc, V - nrc), ("triangle", tc, tri)):
-        bad = np.flatnonzero(got != want)
-        if bad.size:
-            k = int(bad[0])
-            rep.add(
-                "SWPM_LOD_VERTEX_COUNT" if what == "vertex" else "SWPM_RECORD_BAD_COUNTS",
-                p.chunks[L.LODS].offset + 12 * k,
-                lod=k,
-                count=int(got[k]),
-                expected=int(want[k]),
-                reason=f"LOD {k} has {int(got[k])} {what}s, the records give {int(want[k])}",
-            )
-            ok = False
+    ok &= _lod_counts_check(p, rep, V - nrc, tri)
     # prefix property: a level's static and dynamic lists use only its first LOD's vertices, the live part
     # of its collapsed dynamic list only the vertices left after its records
     lim = vc[first]
