@@ -11,6 +11,7 @@ import pytest
 import swpm_usd
 from swpm_usd.encode import sw_centres as swc
 from swpm_usd.encode.slidingwindow import (
+    SWAP_MAX_DEVIATION,
     SlidingWindowProgressiveMesh,
     build_sliding_window,
     screen_space_error,
@@ -183,29 +184,35 @@ def test_windows_are_cache_friendly(spot: Mesh) -> None:
 
 
 def test_optimize_connectivity(spot: Mesh) -> None:
-    """SWPM 3.1 edge swaps: LOD 0 is the input re-triangulated in near-flat quads only (same vertices,
-    triangle count and Euler characteristic), every LOD a closed manifold equal to the replay, and the pool
-    is smaller."""
+    """SWPM 3.1 edge swaps: LOD 0 is the input re-triangulated (same vertices, triangle count and Euler
+    characteristic) within ``swap_max_deviation`` of it, every LOD a closed manifold equal to the replay,
+    and the pool is smaller."""
+    from swpm_usd.metrics import surface_error
+
     pm0 = build_sliding_window(spot)
     pm = swpm_usd.build(spot, encoding="sliding-window", optimize_connectivity=True)
     assert pm.params["optimize_connectivity"] is True
+    assert pm.params["swap_max_deviation"] == SWAP_MAX_DEVIATION
     swapped = pm.collapse_sequence.mesh
     assert swapped.triangle_count == spot.triangle_count and swapped.vertex_count == spot.vertex_count
     changed = (np.sort(swapped.triangles, 1) != np.sort(spot.triangles, 1)).any(1)
     assert 0.1 * spot.triangle_count < changed.sum() < 0.8 * spot.triangle_count
-
-    # the swapped edges lie in near-flat quads: the area-weighted normal of every vertex barely moves
-    def vertex_normals(m: Mesh) -> np.ndarray:
-        p = m.points.astype(np.float64)
-        t = m.triangles
-        fn = np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]])
-        vn = np.zeros_like(p)
-        for i in range(3):
-            np.add.at(vn, t[:, i], fn)
-        return vn / np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-30)
-
-    cosang = np.sum(vertex_normals(spot) * vertex_normals(swapped), axis=1)
-    assert np.min(cosang) > np.cos(np.radians(20.0)) and np.mean(cosang) > np.cos(np.radians(3.0))
+    # every swap moves the surface by at most the bound (a few neighbouring swaps may add up a little)
+    moved = surface_error(spot.points, spot.triangles, swapped.points, swapped.triangles, samples=20000)
+    assert 0.3 * SWAP_MAX_DEVIATION < moved.hausdorff < 1.25 * SWAP_MAX_DEVIATION
+    # a tighter bound: fewer swaps, closer to the input, a larger pool
+    tight = swpm_usd.build(
+        spot, encoding="sliding-window", optimize_connectivity=True, swap_max_deviation=2e-4
+    )
+    tight_mesh = tight.collapse_sequence.mesh
+    tight_moved = surface_error(
+        spot.points, spot.triangles, tight_mesh.points, tight_mesh.triangles, samples=20000
+    )
+    assert tight_moved.hausdorff < 1.25 * 2e-4
+    assert (np.sort(tight_mesh.triangles, 1) != np.sort(spot.triangles, 1)).any(1).sum() < changed.sum()
+    assert pm.index_pool.shape[0] < tight.index_pool.shape[0] < pm0.index_pool.shape[0]
+    with pytest.raises(BuildError, match="swap_max_deviation"):
+        build_sliding_window(spot, optimize_connectivity=True, swap_max_deviation=-1.0)
     assert pm.index_pool.shape[0] < 0.95 * pm0.index_pool.shape[0]
     _check_all(pm, swapped, closed=True, every=9)
     # Euler characteristic of the input kept (checked against LOD 0 inside _check_all for every LOD)
@@ -498,6 +505,17 @@ def test_swap_degree_floor_four_where_flat_three_where_curved() -> None:
     sphere = _icosphere(4)
     assert _degrees(optimize_mesh_connectivity(sphere)).min() == 3
     assert _degrees(optimize_mesh_connectivity(sphere, min_degree=4)).min() == 4
+
+
+def test_swap_deviation_is_the_distance_between_the_two_triangulations() -> None:
+    """A quad folded along its diagonal (v, j) by height h: swapping to (k, l) moves the surface by the
+    distance from the crossing point (0, 0, h) to the old triangles' planes, h / sqrt(1 + h^2); a planar
+    quad does not move at all."""
+    from swpm_usd.encode.sw_kernels import _swap_deviation
+
+    for h in (0.0, 0.1, 0.5):
+        pp = np.array([[-1.0, 0, 0], [1.0, 0, 0], [0, 1.0, h], [0, -1.0, h]])  # v, j, k, l
+        assert _swap_deviation(pp, 0, 1, 2, 3) == pytest.approx(h / np.sqrt(1 + h * h), abs=1e-12)
 
 
 def test_lower_costly_centres_lower_the_top_of_the_ranking() -> None:

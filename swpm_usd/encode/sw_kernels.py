@@ -26,6 +26,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from ..metrics import _tri_dist2
 from ..simplify import kernels as K
 from .sw_centres import _grow_i64
 
@@ -877,6 +878,43 @@ def _has_pos(tp: np.ndarray, t: int, p: int) -> bool:
     return tp[t, 0] == p or tp[t, 1] == p or tp[t, 2] == p
 
 
+@nb.njit(cache=True)
+def _segment_to_pair(pp: np.ndarray, a: int, b: int, t1: tuple, t2: tuple, samples: int) -> float:
+    """Largest distance from the points ``a + (b - a) * i / samples`` (``0 < i < samples``) to the nearer
+    of the triangles ``t1``, ``t2`` (position triples)."""
+    worst = 0.0
+    for i in range(1, samples):
+        w = i / samples
+        x = pp[a, 0] + (pp[b, 0] - pp[a, 0]) * w
+        y = pp[a, 1] + (pp[b, 1] - pp[a, 1]) * w
+        z = pp[a, 2] + (pp[b, 2] - pp[a, 2]) * w
+        d = np.inf
+        for t in (t1, t2):
+            p, q, r = t
+            d = min(
+                d,
+                _tri_dist2(
+                    x, y, z,
+                    pp[p, 0], pp[p, 1], pp[p, 2],
+                    pp[q, 0], pp[q, 1], pp[q, 2],
+                    pp[r, 0], pp[r, 1], pp[r, 2],
+                ),
+            )  # fmt: skip
+        worst = max(worst, d)
+    return np.sqrt(worst)
+
+
+@nb.njit(cache=True)
+def _swap_deviation(pp: np.ndarray, v: int, j: int, k: int, l: int) -> float:
+    """How far swapping the edge ``(v, j)`` of the triangles ``(v, j, k)``, ``(j, v, l)`` to ``(k, l)``
+    moves the surface. The two triangulations of the quad share its border, and on each old triangle the
+    distance to the new pair is near zero at the two edges it shares with them, so it is largest on the
+    diagonal; likewise the other way. Sampled: each diagonal, 7 points, against the other pair."""
+    old = _segment_to_pair(pp, v, j, (v, l, k), (l, j, k), 8)
+    new = _segment_to_pair(pp, k, l, (v, j, k), (j, v, l), 8)
+    return max(old, new)
+
+
 #: positions of a higher degree take no part in edge swaps (bounds the per-position work arrays)
 _SWAP_MAX_DEGREE = 32
 
@@ -889,6 +927,7 @@ def swap_edges(
     free: np.ndarray,
     cos_max: float,
     min_degree: np.ndarray,
+    max_deviation: float = np.inf,
 ) -> tuple[np.ndarray, int]:
     """Edge swaps that create low-degree vertices (SWPM section 3.1, procedure ``Optimize``).
 
@@ -898,10 +937,11 @@ def swap_edges(
     join ``Y``: the degrees of ``v`` and ``j`` drop by one, those of ``k`` and ``l`` grow by one.
 
     Guards: all four positions ``free`` (interior, manifold); the edge no attribute seam (the same
-    vertices in both triangles); ``(k, l)`` not an edge yet; planarity (the normals of the two triangles
-    and of the two new ones pairwise within ``acos(cos_max)``: the swap only re-triangulates a near-flat
-    quad and never folds it); the degrees of ``v`` and ``j`` not below their ``min_degree`` (per position:
-    the paper's floor, 4 in flat regions, 3 elsewhere). Works on a copy of ``tris``; returns it and the
+    vertices in both triangles); ``(k, l)`` not an edge yet; the normals of the two triangles and of the
+    two new ones pairwise within ``acos(cos_max)`` (at 90 degrees: no triangle is flipped, the quad is
+    never folded); the surface moves by at most ``max_deviation`` (:func:`_swap_deviation`); the degrees
+    of ``v`` and ``j`` not below their ``min_degree`` (per position: the paper's floor, 4 in flat regions,
+    3 elsewhere). Works on a copy of ``tris``; returns it and the
     number of swaps.
     """
     T = tris.shape[0]
@@ -1005,6 +1045,8 @@ def swap_edges(
                             if d < cos_max:
                                 ok = False
                     if not ok:
+                        continue
+                    if max_deviation < np.inf and _swap_deviation(pos_points, v, j, k, l) > max_deviation:
                         continue
                     # swap: t1 = (v, l, k), t2 = (l, j, k)
                     vv = out[t1, iv]
