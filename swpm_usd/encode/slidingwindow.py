@@ -727,7 +727,7 @@ def _assemble(
     err_after = np.r_[0.0, np.maximum.accumulate(step_err)] if S else np.zeros(1)
 
     parts = []
-    rows = []  # (first triangle, triangle count, steps done, level)
+    rows = []  # per level: (first triangle, triangle count, steps done, level) of every window
     head_next = 0
     steps_done = 0
     if not levels:  # nothing to collapse: one level, one window
@@ -762,14 +762,23 @@ def _assemble(
         pool_len += parts[-1].shape[0]
         head_next = offset + int(lev.p_start[n])
         Tl = lev.start_gids.shape[0]
-        last = li == len(levels) - 1
-        for j in range(n + 1 if last else n):
-            rows.append((offset + lev.p_start[j], Tl - lev.p_start[j] + lev.q_start[j], steps_done, li))
-            if j < n:
-                steps_done += int(lev.patch_steps[j])
+        m = n + 1 if li == len(levels) - 1 else n  # the last level also keeps its final window
+        steps = steps_done + np.r_[0, np.cumsum(lev.patch_steps[:n])]
+        rows.append(
+            np.stack(
+                [
+                    offset + lev.p_start[:m],
+                    Tl - lev.p_start[:m] + lev.q_start[:m],
+                    steps[:m],
+                    np.full(m, li, np.int64),
+                ],
+                axis=1,
+            )
+        )
+        steps_done = int(steps[n])
     pool_tris = np.concatenate(parts) if parts else np.zeros((0, 3), np.int64)
     pool = new_id[pool_tris].reshape(-1)
-    rows_a = np.asarray(rows, np.int64)
+    rows_a = np.concatenate(rows).astype(np.int64)
     lod_steps = rows_a[:, 2]
     vertex_counts = V - rec_after_step[lod_steps]
     records = np.stack([3 * rows_a[:, 0], rows_a[:, 1], vertex_counts], axis=1)
