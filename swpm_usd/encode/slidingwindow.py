@@ -295,8 +295,20 @@ def _block_order(
     stay in place) by :func:`swpm_usd.vcache.optimize_block_order`; unchanged if that is unavailable.
     ``tail``: the offset of a level's ``Q_1`` (a block start): the head ``P_1..P_n || M`` and the tail
     ``Q_1..Q_n`` are drawn apart (a window takes the end of one and the start of the other), so a vertex's
-    remaining-triangle count in the ordering covers its own half only (the FIFO still carries over)."""
-    return tris[_block_perm(tris, starts, cache_size, tail)]
+    remaining-triangle count in the ordering covers its own half only (the FIFO still carries over).
+    Each triangle's indices may also be rotated cyclically (same winding) to the rotation with the fewest
+    misses (``rotate=True``; ACMR / meshoptimizer, the ten benchmark meshes at 20 fractions: -0.25 %)."""
+    if tris.shape[0] < 2:
+        return tris
+    try:
+        from ..vcache import apply_order, optimize_block_order
+    except ImportError:  # pragma: no cover - the optimizer module ships with the package
+        return tris
+    segs = None if tail is None else np.array([tail], np.int64)
+    perm, shift = optimize_block_order(
+        np.ascontiguousarray(tris), starts.astype(np.int64), cache_size, segment_starts=segs, rotate=True
+    )
+    return apply_order(tris, perm, shift)
 
 
 def _adjacency(tp: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
