@@ -408,7 +408,7 @@ class _Level:
 #: fold guard of the edge swaps: the two triangles of a swapped edge and the two that replace them are all
 #: within this angle (degrees) of each other (90: no triangle flips, the quad is never folded). How far the
 #: surface may move is the ``swap_max_deviation`` parameter: a distance bounds what a viewer sees, an angle
-#: does not (10 degrees over a large quad moved cow's LOD 0 by 0.0014 of the diagonal, bunny's by 0.0003)
+#: does not (a 10-degree guard alone moved LOD 0 by 0.0003 of the diagonal on bunny, 0.0044 on suzanne)
 _SWAP_MAX_ANGLE_DEG = 90.0
 #: degree floors of the edge swaps (SWPM 3.1: "if a curvature in a vertex is below some threshold, then
 #: degree of this vertex should not be decreased below four"; elsewhere the procedure goes down to three)
