@@ -12,12 +12,11 @@ topology; topology-mu0 and topology-mu0.3 (the default builder with ``mu`` 0, th
 without error control, and with 0.3: ``mu`` trades pool size for error); inner3; forsyth; forsyth-tol1;
 swap and inner3-swap (``optimize_connectivity=True``, SWPM 3.1 edge swaps; the error is still measured
 against the unswapped input), inner3-swap-mu0 (the papers' builder without error control),
-swap-dev1e-3 and cluster-swap-dev1e-3 (``swap_max_deviation=1e-3``: a smaller pool, LOD 0 farther from the
-input); cluster and cluster-swap (``cluster=True``, SWPM 3.2 linked patches, without and with the edge
-swaps). ``--big`` adds a generated
-icosphere of 1.3 M triangles (build time only). Targets (issue): lambda <= 5.4 on bunny (topology, no
-reductions; <= 3.9 with cluster-swap; <= 2.8 with inner3-swap), ACMR ratio <= 1.10, error ratio <= 1.5,
-bunny build <= 3 s, 1 M triangles <= 60 s.
+swap-dev1e-3, cluster-swap-dev1e-3 and inner3-swap-dev1e-3 (``swap_max_deviation=1e-3``: a smaller pool,
+LOD 0 farther from the input); cluster and cluster-swap (``cluster=True``, SWPM 3.2 linked patches, without
+and with the edge swaps). ``--big`` adds a generated icosphere of 1.3 M triangles (build time only).
+Targets (issue): lambda <= 5.4 on bunny (topology, no reductions; <= 3.9 with cluster-swap; <= 2.8 with
+inner3-swap), ACMR ratio <= 1.10, error ratio <= 1.5, bunny build <= 3 s, 1 M triangles <= 60 s.
 """
 
 from __future__ import annotations
@@ -45,6 +44,7 @@ OPTIONS = {
     "inner3-swap-mu0": {"inner_vertices": 3, "optimize_connectivity": True, "mu": 0.0},
     "swap-dev1e-3": {"optimize_connectivity": True, "swap_max_deviation": 1e-3},
     "cluster-swap-dev1e-3": {"cluster": True, "optimize_connectivity": True, "swap_max_deviation": 1e-3},
+    "inner3-swap-dev1e-3": {"inner_vertices": 3, "optimize_connectivity": True, "swap_max_deviation": 1e-3},
     "cluster": {"cluster": True},
     "cluster-swap": {"cluster": True, "optimize_connectivity": True},
 }

@@ -82,14 +82,13 @@ edges that are no attribute seam, no folded quad (the old and new normals within
 degree floor (no degree below 4 at a flat vertex, every incident normal within 2 degrees of the vertex
 normal; below 3 elsewhere) and a distance: a swap may move the surface by at most ``swap_max_deviation``
 times the bounding-box diagonal (default 5e-4; measured along the quad's diagonals, where the two
-triangulations are farthest apart). LOD 0 is then the swapped mesh (same vertices, triangle count and
-topology; ``collapse_sequence.mesh``), within about that distance of the input. Bunny: lambda 5.55 -> 4.23
-(``swap_max_deviation`` 3e-4: 4.56; 1e-3: 4.08; unbounded: 4.10 with LOD 0 at 0.0016 of the diagonal; the
-paper's procedure, without the fold guard either: 4.00, 0.0021); the Hausdorff error of the LODs stays
-about that of the default build at 5e-4 and grows at 1e-3, where LOD 0 alone is twice as far from the
-input as meshoptimizer's 50 % LOD (see ``benchmarks/bench_slidingwindow.py``, rows ``swap`` and
-``swap-dev1e-3``). The cache size of every
-ordering is ``cache_size`` (FIFO, default 16).
+triangulations are farthest apart; exact, by bisection). LOD 0 is then the swapped mesh (same
+vertices, triangle count and topology; ``collapse_sequence.mesh``), within about that distance of the input.
+Bunny: lambda 5.55 -> 4.23 (``swap_max_deviation`` 3e-4: 4.56; 1e-3: 4.08; unbounded: 4.10 with LOD 0 at
+0.0016 of the diagonal; the paper's procedure, without the fold guard either: 4.00, 0.0021); the Hausdorff
+error of the LODs stays about that of the default build at 5e-4 and grows at 1e-3, where LOD 0 alone is
+twice as far from the input as meshoptimizer's 50 % LOD (see ``benchmarks/bench_slidingwindow.py``, rows
+``swap`` and ``swap-dev1e-3``). The cache size of every ordering is ``cache_size`` (FIFO, default 16).
 
 ``cluster=True`` (SWPM 3.2, clustered and linked patches; ``builder="topology"``, ``inner_vertices=1``
 only): consecutive levels share storage. A level's tail ``M || Q_1..Q_n`` is, in its final order, the
@@ -138,7 +137,7 @@ __all__ = [
 #: ``optimize_connectivity``: an edge swap may move the surface by at most this fraction of the bounding-box
 #: diagonal. LOD 0 then lies within about that distance of the input (Hausdorff, 30,000 samples: 0.00046 -
 #: 0.00052 on the ten shared meshes; the former 10-degree guard alone gave 0.0003 - 0.0044, suzanne the
-#: worst), below meshoptimizer's error at 50 % of bunny's triangles (0.00044 / 0.00052 at 5e-4), so the
+#: worst), about meshoptimizer's error at 50 % of bunny's triangles (0.00044 / 0.00052 at 5e-4), so the
 #: swaps cost the LODs about no error. Bunny: lambda with the swaps 4.86 -> 4.23, with clustering 4.32 ->
 #: 3.97; at 1e-3 (LOD 0 at 0.0010): 4.08 and 3.83, with the Hausdorff ratio at 50 % 1.58 -> 2.65.
 SWAP_MAX_DEVIATION = 5e-4

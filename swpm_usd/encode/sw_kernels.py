@@ -879,39 +879,52 @@ def _has_pos(tp: np.ndarray, t: int, p: int) -> bool:
 
 
 @nb.njit(cache=True)
-def _segment_to_pair(pp: np.ndarray, a: int, b: int, t1: tuple, t2: tuple, samples: int) -> float:
-    """Largest distance from the points ``a + (b - a) * i / samples`` (``0 < i < samples``) to the nearer
-    of the triangles ``t1``, ``t2`` (position triples)."""
-    worst = 0.0
-    for i in range(1, samples):
-        w = i / samples
+def _dist_to_tri(pp: np.ndarray, x: float, y: float, z: float, t: tuple) -> float:
+    """Distance from ``(x, y, z)`` to the triangle ``t`` (a position triple)."""
+    p, q, r = t
+    return np.sqrt(
+        _tri_dist2(
+            x, y, z,
+            pp[p, 0], pp[p, 1], pp[p, 2],
+            pp[q, 0], pp[q, 1], pp[q, 2],
+            pp[r, 0], pp[r, 1], pp[r, 2],
+        )
+    )  # fmt: skip
+
+
+@nb.njit(cache=True)
+def _segment_to_pair(pp: np.ndarray, a: int, b: int, ta: tuple, tb: tuple) -> float:
+    """Largest distance from the segment ``(a, b)`` to the nearer of the triangles ``ta`` (holding ``a``)
+    and ``tb`` (holding ``b``). The distance to ``ta`` is convex along the segment and 0 at ``a``, so
+    nondecreasing; that to ``tb`` nonincreasing: their minimum peaks where they cross, found by bisection
+    (2^-30 of the segment)."""
+    lo = 0.0
+    hi = 1.0
+    best = 0.0
+    for _ in range(30):
+        w = 0.5 * (lo + hi)
         x = pp[a, 0] + (pp[b, 0] - pp[a, 0]) * w
         y = pp[a, 1] + (pp[b, 1] - pp[a, 1]) * w
         z = pp[a, 2] + (pp[b, 2] - pp[a, 2]) * w
-        d = np.inf
-        for t in (t1, t2):
-            p, q, r = t
-            d = min(
-                d,
-                _tri_dist2(
-                    x, y, z,
-                    pp[p, 0], pp[p, 1], pp[p, 2],
-                    pp[q, 0], pp[q, 1], pp[q, 2],
-                    pp[r, 0], pp[r, 1], pp[r, 2],
-                ),
-            )  # fmt: skip
-        worst = max(worst, d)
-    return np.sqrt(worst)
+        da = _dist_to_tri(pp, x, y, z, ta)
+        db = _dist_to_tri(pp, x, y, z, tb)
+        best = max(best, min(da, db))
+        if da < db:
+            lo = w
+        else:
+            hi = w
+    return best
 
 
 @nb.njit(cache=True)
 def _swap_deviation(pp: np.ndarray, v: int, j: int, k: int, l: int) -> float:
     """How far swapping the edge ``(v, j)`` of the triangles ``(v, j, k)``, ``(j, v, l)`` to ``(k, l)``
-    moves the surface. The two triangulations of the quad share its border, and on each old triangle the
-    distance to the new pair is near zero at the two edges it shares with them, so it is largest on the
-    diagonal; likewise the other way. Sampled: each diagonal, 7 points, against the other pair."""
-    old = _segment_to_pair(pp, v, j, (v, l, k), (l, j, k), 8)
-    new = _segment_to_pair(pp, k, l, (v, j, k), (j, v, l), 8)
+    moves the surface: the Hausdorff distance between the two triangulations of the quad. A point of an
+    old triangle lies on a segment from its third corner (``k`` or ``l``, a corner of both new triangles,
+    distance 0) to the diagonal ``(v, j)``, and the distance to each new triangle is convex along it, so
+    the largest distance lies on the diagonal; likewise the other way (:func:`_segment_to_pair`)."""
+    old = _segment_to_pair(pp, v, j, (v, l, k), (l, j, k))
+    new = _segment_to_pair(pp, k, l, (v, j, k), (j, v, l))
     return max(old, new)
 
 
