@@ -121,6 +121,7 @@ import numpy as np
 from ..errors import BuildError
 from ..mesh import Mesh
 from ..simplify import CollapseSequence, collapse_sequence, make_state, mesh_topology
+from ..vcache import apply_order, optimize_block_order
 from . import sw_centres as swc
 from . import sw_kernels as swk
 from .base import ProgressiveMesh, register
@@ -272,12 +273,9 @@ def screen_space_error(error: float, distance: float, fov_y: float, viewport_hei
 # helpers
 # --------------------------------------------------------------------------------------------------------
 def _block_perm(tris: np.ndarray, starts: np.ndarray, cache_size: int, tail: int | None = None) -> np.ndarray:
-    """The permutation of :func:`_block_order` (identity if the optimizer is unavailable)."""
+    """The cache order of :func:`_block_order` as a permutation only, without rotating any triangle: the
+    clustered layout keeps its levels as global triangle ids, which must stay the stored triangles."""
     if tris.shape[0] < 2:
-        return np.arange(tris.shape[0])
-    try:
-        from ..vcache import optimize_block_order
-    except ImportError:  # pragma: no cover - the optimizer module ships with the package
         return np.arange(tris.shape[0])
     segs = None if tail is None else np.array([tail], np.int64)
     return np.asarray(
@@ -291,17 +289,13 @@ def _block_order(
     tris: np.ndarray, starts: np.ndarray, vertex_count: int, cache_size: int, tail: int | None = None
 ) -> np.ndarray:
     """``tris`` reordered for a FIFO vertex cache inside each block ``[starts[i], starts[i+1])`` (blocks
-    stay in place) by :func:`swpm_usd.vcache.optimize_block_order`; unchanged if that is unavailable.
+    stay in place) by :func:`swpm_usd.vcache.optimize_block_order`.
     ``tail``: the offset of a level's ``Q_1`` (a block start): the head ``P_1..P_n || M`` and the tail
     ``Q_1..Q_n`` are drawn apart (a window takes the end of one and the start of the other), so a vertex's
     remaining-triangle count in the ordering covers its own half only (the FIFO still carries over).
     Each triangle's indices may also be rotated cyclically (same winding) to the rotation with the fewest
     misses (``rotate=True``; ACMR / meshoptimizer, the ten benchmark meshes at 20 fractions: -0.25 %)."""
     if tris.shape[0] < 2:
-        return tris
-    try:
-        from ..vcache import apply_order, optimize_block_order
-    except ImportError:  # pragma: no cover - the optimizer module ships with the package
         return tris
     segs = None if tail is None else np.array([tail], np.int64)
     perm, shift = optimize_block_order(
