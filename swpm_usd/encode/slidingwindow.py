@@ -84,7 +84,7 @@ normal; below 3 elsewhere) and a distance: a swap may move the surface by at mos
 times the bounding-box diagonal (default 5e-4; measured along the quad's diagonals, where the two
 triangulations are farthest apart; exact, by bisection). LOD 0 is then the swapped mesh (same
 vertices, triangle count and topology; ``collapse_sequence.mesh``), within about that distance of the input.
-Bunny: lambda 5.55 -> 4.23 (``swap_max_deviation`` 3e-4: 4.56; 1e-3: 4.08; unbounded: 4.10 with LOD 0 at
+Bunny: lambda 5.55 -> 4.25 (``swap_max_deviation`` 3e-4: 4.58; 1e-3: 4.07; unbounded: 4.10 with LOD 0 at
 0.0016 of the diagonal; the paper's procedure, without the fold guard either: 4.00, 0.0021); the Hausdorff
 error of the LODs stays about that of the default build at 5e-4 and grows at 1e-3, where LOD 0 alone is
 twice as far from the input as meshoptimizer's 50 % LOD (see ``benchmarks/bench_slidingwindow.py``, rows
@@ -136,11 +136,11 @@ __all__ = [
 ]
 
 #: ``optimize_connectivity``: an edge swap may move the surface by at most this fraction of the bounding-box
-#: diagonal. LOD 0 then lies within about that distance of the input (Hausdorff, 30,000 samples: 0.00046 -
-#: 0.00052 on the ten shared meshes; the former 10-degree guard alone gave 0.0003 - 0.0044, suzanne the
-#: worst), about meshoptimizer's error at 50 % of bunny's triangles (0.00044 / 0.00052 at 5e-4), so the
-#: swaps cost the LODs about no error. Bunny: lambda with the swaps 4.86 -> 4.23, with clustering 4.32 ->
-#: 3.97; at 1e-3 (LOD 0 at 0.0010): 4.08 and 3.83, with the Hausdorff ratio at 50 % 1.58 -> 2.65.
+#: diagonal. LOD 0 then lies within that distance of the input (Hausdorff, 30,000 samples: 0.00042 - 0.00049
+#: on the ten shared meshes; the former 10-degree guard alone gave 0.0003 - 0.0044, suzanne the worst),
+#: about meshoptimizer's error at 50 % of bunny's triangles (0.00044), so the swaps cost the LODs about no
+#: error. Bunny: lambda with the swaps 4.86 -> 4.25, with clustering 4.32 -> 4.00; at 1e-3 (LOD 0 at
+#: 0.0009): 4.07 and 3.72, with the Hausdorff ratio at 50 % 1.55 -> 2.07.
 SWAP_MAX_DEVIATION = 5e-4
 
 #: the encoding's own parameters and their defaults (the collapse quadric weights come on top)
