@@ -55,7 +55,8 @@ Builders.
   vertices go to high-degree targets where that costs little (``_TARGET_SLACK``: more low-degree vertices
   for the next level). A level's pool share is ``T_L + T_{L+1}``, so only the fraction of vertices removed
   per level counts; bunny with the edge swaps: 51 % on the first level, 41-43 % on the next ones without
-  the search, 52 % / 44-47 % with both (lambda 3.32 -> 3.07).
+  the search, 52 % / 44-47 % with both (lambda 3.32 -> 3.07; measured with the former 10-degree swap
+  guard, 2.91 with today's swaps).
 
   Before the 1-for-1 trades the greedy set of centres is enlarged by an iterated local search
   (:func:`.sw_centres.grow_independent_set`, Andrade, Resende & Werneck's (1,2)-swaps with random forced
@@ -99,9 +100,9 @@ triangles up to the next star, which reappear unchanged in ``Q_j``) and only ``Q
 the pool is ``.. P_1..P_n || [M || Q_1..Q_n = P'_1..P'_m || M'] || Q'_1..Q'_m ..``. Every window is still
 one contiguous slice. The tail gets more scattered with every linked level (longer intervals), so once a
 linked level costs more pool triangles per collapse than the last level stored in full, the next one is
-stored in full again (the usual layout and selection). Bunny with the edge swaps: lambda 4.86 -> 4.32
+stored in full again (the usual layout and selection). Bunny with the edge swaps: lambda 4.25 -> 4.00
 (without: 5.55 -> 5.14); the price: the centres follow the tail order rather than degree and error, so the
-windows are colder (ACMR ratio at 50 % 1.04 -> 1.11) and the Hausdorff error grows (rows ``cluster`` /
+windows are colder (ACMR ratio at 25 % 1.06 -> 1.17) and the Hausdorff error grows (rows ``cluster`` /
 ``cluster-swap`` of the benchmark). Tried and dropped: planning a fully stored level's patch order for
 the next level (its centres chosen first, their stars made runs of the tail by ordering ``Q`` blocks
 along paths): lambda -2 to -6 %, but ACMR ratios up to 1.4.
@@ -344,8 +345,8 @@ def _more_centres(adj_start: np.ndarray, adj: np.ndarray, eligible: np.ndarray, 
 
 #: ``inner_vertices > 1``: iterations of the patch search (:func:`sw_centres.grow_component_set`) per
 #: eligible vertex, and the random jitter of its greedy refill (in free neighbours). Bunny with the edge
-#: swaps, three inner vertices: lambda 3.32 without the search, 3.30 / 3.13 / 3.10 with 0 / 1 / 3
-#: iterations per vertex (jitter 0.5); jitter 1.0 at 1 iteration: 3.13 (build time +0.5 s)
+#: swaps (the former 10-degree guard), three inner vertices: lambda 3.32 without the search, 3.30 / 3.13 /
+#: 3.10 with 0 / 1 / 3 iterations per vertex (jitter 0.5); jitter 1.0 at 1 iteration: 3.13 (build time +0.5 s)
 _PATCH_SEARCH = 1.0
 _PATCH_SEARCH_JITTER = 1.0
 
