@@ -123,6 +123,7 @@ import numpy as np
 from ..errors import BuildError
 from ..mesh import Mesh
 from ..simplify import CollapseSequence, collapse_sequence, make_state, mesh_topology
+from ..simplify.kernels import star_snapshot
 from ..vcache import apply_order, optimize_block_order
 from . import sw_centres as swc
 from . import sw_kernels as swk
@@ -509,7 +510,8 @@ def _build_topology(
             break
         tp = st.vertex_pos[st.tri_verts[alive_t]]
         positions = np.flatnonzero(np.bincount(tp.reshape(-1), minlength=P)).astype(np.int64)
-        ks, cs = swk.level_costs(st, positions)
+        stars = star_snapshot(st)  # the state is read-only until collapse_patches
+        ks, cs = swk.level_costs(st, positions, stars)
         valid = ks >= 0
         eligible = np.zeros(P, bool)
         eligible[positions[valid]] = True
@@ -539,7 +541,7 @@ def _build_topology(
             tpos[alive_t] = place[cur_gid[alive_t]]
             cands = np.flatnonzero(eligible).astype(np.int64)
             inner_start, inner = swk.cluster_patches(st, cands, tpos, tiebreak[cands], _CLUSTER_MIN_PATCHES)
-            pt_start, pt = swk.patch_triangles(st, inner_start, inner)
+            pt_start, pt = swk.patch_triangles(st, inner_start, inner, stars)
             order = np.arange(inner_start.shape[0] - 1, dtype=np.int64)
         else:
             adj_start, adj = _adjacency(tp, P)
@@ -575,11 +577,11 @@ def _build_topology(
                     _CENTRE_SEARCH_SEED,
                     _PATCH_SEARCH_JITTER,
                 )
-            pt_start, pt = swk.patch_triangles(st, inner_start, inner)
+            pt_start, pt = swk.patch_triangles(st, inner_start, inner, stars)
             own_start = pt_start
             if absorb_min_shared > 0:
                 pt_start, pt = swk.absorb_middle(
-                    st, pt_start, pt, alive_t.astype(np.int64), absorb_min_shared
+                    st, pt_start, pt, alive_t.astype(np.int64), absorb_min_shared, stars
                 )
             inner_pos = np.zeros(P, bool)
             inner_pos[inner] = True

@@ -153,13 +153,14 @@ def position_graph(tp: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 @nb.njit(cache=True)
-def level_costs(st: K.CollapseState, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Best valid collapse target and its quadric cost for every position of ``positions``."""
+def level_costs(st: K.CollapseState, positions: np.ndarray, stars: K.Stars) -> tuple[np.ndarray, np.ndarray]:
+    """Best valid collapse target and its quadric cost for every position of ``positions`` (``stars``: a
+    snapshot of ``st``, :func:`swpm_usd.simplify.kernels.star_snapshot`)."""
     n = positions.shape[0]
     ks = np.empty(n, np.int32)
     cs = np.empty(n, np.float64)
     for i in range(n):
-        k, c = K.best_collapse(st, positions[i])
+        k, c = K.best_collapse(st, positions[i], True, stars)
         ks[i] = k
         cs[i] = c
     return ks, cs
@@ -234,9 +235,10 @@ def cluster_patches(
 
 @nb.njit(cache=True)
 def patch_triangles(
-    st: K.CollapseState, inner_start: np.ndarray, inner: np.ndarray
+    st: K.CollapseState, inner_start: np.ndarray, inner: np.ndarray, stars: K.Stars
 ) -> tuple[np.ndarray, np.ndarray]:
-    """CSR of the (state) triangles of every patch: the union of its inner positions' stars, as a fan."""
+    """CSR of the (state) triangles of every patch: the union of its inner positions' stars, as a fan
+    (``stars``: a snapshot of ``st``)."""
     tv = st.tri_verts
     T = tv.shape[0]
     n = inner_start.shape[0] - 1
@@ -246,9 +248,8 @@ def patch_triangles(
     m = np.int64(0)
     for p in range(n):
         for r in range(inner_start[p], inner_start[p + 1]):
-            tris = K.gather_triangles(st, inner[r])
-            for j in range(tris.shape[0]):
-                t = tris[j]
+            for j in range(stars.start[inner[r]], stars.start[inner[r] + 1]):
+                t = stars.tris[j]
                 if mark[t] != p:
                     mark[t] = p
                     out = _grow_i64(out, m + 1)
@@ -273,6 +274,7 @@ def absorb_middle(
     pt: np.ndarray,
     alive_t: np.ndarray,
     min_shared: int,
+    stars: K.Stars,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Patches grown by the level's untouched triangles (those in no patch, the static middle ``M``).
 
@@ -281,7 +283,10 @@ def absorb_middle(
     where the cache gains nothing; ties: the smaller patch), if that is at least ``min_shared``. It touches
     no inner vertex, so its ``Q`` copy is the same triangle: it is stored twice (in ``P_i`` and ``Q_i``)
     instead of once in ``M``, but is drawn with its neighbours instead of in a separate, scattered block.
-    Returns the grown CSR (each patch's own triangles first, then the absorbed ones)."""
+    Returns the grown CSR (each patch's own triangles first, then the absorbed ones); ``stars``: a
+    snapshot of ``st``."""
+    star_start = stars.start
+    star_tris = stars.tris
     tv = st.tri_verts
     vpos = st.vertex_pos
     T = tv.shape[0]
@@ -306,10 +311,9 @@ def absorb_middle(
         nc = 0
         for r in range(3):
             q = a if r == 0 else (b if r == 1 else c)
-            tris = K.gather_triangles(st, q)
-            for j in range(tris.shape[0]):
-                p = tri_patch[tris[j]]
-                u = tris[j]
+            for j in range(star_start[q], star_start[q + 1]):
+                u = star_tris[j]
+                p = tri_patch[u]
                 # shared corners; a shared vertex (not only its position: an attribute seam splits
                 # the cache entries) counts double
                 sh = 0

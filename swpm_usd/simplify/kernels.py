@@ -41,6 +41,19 @@ CollapseState = namedtuple(
     ],
 )
 
+#: a snapshot of every position's star in a state (:func:`star_snapshot`): what :func:`gather_triangles`,
+#: :func:`triangle_positions` and :func:`neighbours` return for position ``p``, as CSR rows ``p``
+Stars = namedtuple(
+    "Stars",
+    [
+        "start",  # (P+1,) i64 rows of tris / tp
+        "tris",  # (n,) i32 alive triangles around each position
+        "tp",  # (n,3) i32 their positions
+        "nbr_start",  # (P+1,) i64 rows of nbr
+        "nbr",  # (m,) i32 distinct neighbouring positions
+    ],
+)
+
 
 # ----------------------------------------------------------------------------------------------------
 # quadrics
@@ -134,7 +147,12 @@ def gather_triangles(st: CollapseState, p: int) -> np.ndarray:
         n += 1
         c = st.corner_next[c]
     out = np.empty(n, np.int32)
-    m = 0
+    return out[: _gather_into(st, p, out, 0)]
+
+
+@nb.njit(cache=True, inline="always")
+def _gather_into(st: CollapseState, p: int, out: np.ndarray, m: int) -> int:
+    """:func:`gather_triangles` written to ``out[m:]`` (room for all of p's corners); returns the end."""
     prev = -1
     c = st.corner_head[p]
     while c >= 0:
@@ -150,7 +168,7 @@ def gather_triangles(st: CollapseState, p: int) -> np.ndarray:
             else:
                 st.corner_next[prev] = nxt
         c = nxt
-    return out[:m]
+    return m
 
 
 @nb.njit(cache=True)
@@ -169,21 +187,55 @@ def triangle_positions(st: CollapseState, tris: np.ndarray) -> np.ndarray:
 def neighbours(p: int, tp: np.ndarray) -> np.ndarray:
     """Distinct positions sharing a triangle with ``p`` (``tp``: positions of p's triangles)."""
     buf = np.empty(2 * tp.shape[0], np.int32)
-    m = 0
+    return buf[: _neighbours_into(p, tp, buf, 0)]
+
+
+@nb.njit(cache=True, inline="always")
+def _neighbours_into(p: int, tp: np.ndarray, buf: np.ndarray, m0: int) -> int:
+    """:func:`neighbours` written to ``buf[m0:]`` (room for ``2 * len(tp)``); returns the end."""
+    m = m0
     for j in range(tp.shape[0]):
         for i in range(3):
             q = tp[j, i]
             if q == p:
                 continue
             dup = False
-            for r in range(m):
+            for r in range(m0, m):
                 if buf[r] == q:
                     dup = True
                     break
             if not dup:
                 buf[m] = q
                 m += 1
-    return buf[:m]
+    return m
+
+
+@nb.njit(cache=True)
+def _star_arrays(st: CollapseState):
+    P = st.pos_points.shape[0]
+    n = st.corner_next.shape[0]
+    start = np.zeros(P + 1, np.int64)
+    tris = np.empty(n, np.int32)
+    tp = np.empty((n, 3), np.int32)
+    nbr_start = np.zeros(P + 1, np.int64)
+    nbr = np.empty(2 * n, np.int32)
+    tv = st.tri_verts
+    vp = st.vertex_pos
+    for p in range(P):
+        s0 = start[p]
+        s1 = _gather_into(st, p, tris, s0)
+        for j in range(s0, s1):
+            for i in range(3):
+                tp[j, i] = vp[tv[tris[j], i]]
+        start[p + 1] = s1
+        nbr_start[p + 1] = _neighbours_into(p, tp[s0:s1], nbr, nbr_start[p])
+    return start, tris, tp, nbr_start, nbr
+
+
+def star_snapshot(st: CollapseState) -> Stars:
+    """Every position's star in the current state, read once (a level's passes over all positions then
+    read contiguous rows instead of walking the corner lists again); valid until the next collapse."""
+    return Stars(*_star_arrays(st))
 
 
 @nb.njit(cache=True, inline="always")
@@ -266,11 +318,37 @@ def vertex_map(st: CollapseState, b: int, k: int, tris_b: np.ndarray, tp_b: np.n
 
 
 @nb.njit(cache=True)
+def _single_vertex_maps(st: CollapseState, b: int, k: int, tris_b: np.ndarray, tp_b: np.ndarray) -> bool:
+    """``vertex_map(...)[0] >= 0`` for a position ``b`` with one vertex, without allocating: the edge
+    triangles exist and all reach the same vertex at ``k``."""
+    tv = st.tri_verts
+    vk = -1
+    for j in range(tris_b.shape[0]):
+        ik = -1
+        for i in range(3):
+            if tp_b[j, i] == k:
+                ik = i
+        if ik >= 0:
+            v = tv[tris_b[j], ik]
+            if vk >= 0 and v != vk:
+                return False
+            vk = v
+    return vk >= 0
+
+
+@nb.njit(cache=True)
 def valid_collapse(
-    st: CollapseState, b: int, k: int, tris_b: np.ndarray, tp_b: np.ndarray, nbr_b: np.ndarray
+    st: CollapseState,
+    b: int,
+    k: int,
+    tris_b: np.ndarray,
+    tp_b: np.ndarray,
+    nbr_b: np.ndarray,
+    stars: Stars | None = None,
 ) -> bool:
     """Can position ``b`` be binned onto ``k``? Checks topology (link condition, no duplicate faces,
-    boundary vertices stay on the boundary), geometry (no flipped or zero-area face) and seams."""
+    boundary vertices stay on the boundary), geometry (no flipped or zero-area face) and seams.
+    ``stars``: a snapshot of the current state (:func:`star_snapshot`) to read ``k``'s star from."""
     pos_alive = st.pos_alive
     if st.pos_locked[b] or not pos_alive[b] or not pos_alive[k] or b == k:
         return False
@@ -296,10 +374,13 @@ def valid_collapse(
             return False
     elif n_edge != 2:
         return False
+    if stars is None:
+        tp_k = triangle_positions(st, gather_triangles(st, k))
+        nbr_k = neighbours(k, tp_k)
+    else:
+        tp_k = stars.tp[stars.start[k] : stars.start[k + 1]]
+        nbr_k = stars.nbr[stars.nbr_start[k] : stars.nbr_start[k + 1]]
     # link condition: common neighbours of b and k are exactly the edge's opposite vertices
-    tris_k = gather_triangles(st, k)
-    tp_k = triangle_positions(st, tris_k)
-    nbr_k = neighbours(k, tp_k)
     common = 0
     for i in range(nbr_b.shape[0]):
         q = nbr_b[i]
@@ -338,10 +419,15 @@ def valid_collapse(
         # refuse flips and near-flips (normal turned by more than ~84 degrees)
         if d <= 0.1 * np.sqrt(l0 * l1):
             return False
-        # duplicate face: (k, x, y) already exists around k
-        for jj in range(tp_k.shape[0]):
-            if _has(tp_k, jj, x) and _has(tp_k, jj, y):
-                return False
+        # duplicate face: (k, x, y) already exists around k. A face around k holds only k's neighbours,
+        # and the link test above left only the edge's opposite vertices (and b) common to both, so
+        # other x, y cannot repeat a face: skip the scan (same answer, most of the test's time)
+        if (x == opp0 or x == opp1 or x == b) and (y == opp0 or y == opp1 or y == b):
+            for jj in range(tp_k.shape[0]):
+                if _has(tp_k, jj, x) and _has(tp_k, jj, y):
+                    return False
+    if st.pos_vstart[b + 1] - st.pos_vstart[b] == 1:
+        return _single_vertex_maps(st, b, k, tris_b, tp_b)
     vm = vertex_map(st, b, k, tris_b, tp_b)
     if vm[0] < 0:
         return False
@@ -387,16 +473,25 @@ def apply_collapse(st: CollapseState, b: int, k: int, vmap: np.ndarray) -> int:
 
 
 @nb.njit(cache=True)
-def best_collapse(st: CollapseState, b: int, validate: bool = True) -> tuple[int, float]:
+def best_collapse(
+    st: CollapseState, b: int, validate: bool = True, stars: Stars | None = None
+) -> tuple[int, float]:
     """Cheapest target for binning ``b``: (k, cost), or (-1, inf). With ``validate`` False the cheapest
-    neighbour is returned unchecked (the queue re-checks it when it comes up: lazy evaluation)."""
+    neighbour is returned unchecked (the queue re-checks it when it comes up: lazy evaluation).
+    ``stars``: a snapshot of ``st`` (:func:`star_snapshot`) to read the stars from instead of the
+    corner lists."""
     if st.pos_locked[b] or not st.pos_alive[b]:
         return -1, np.inf
-    tris_b = gather_triangles(st, b)
+    if stars is None:
+        tris_b = gather_triangles(st, b)
+        tp_b = triangle_positions(st, tris_b)
+        nbr = neighbours(b, tp_b)
+    else:
+        tris_b = stars.tris[stars.start[b] : stars.start[b + 1]]
+        tp_b = stars.tp[stars.start[b] : stars.start[b + 1]]
+        nbr = stars.nbr[stars.nbr_start[b] : stars.nbr_start[b + 1]]
     if tris_b.shape[0] == 0:
         return -1, np.inf
-    tp_b = triangle_positions(st, tris_b)
-    nbr = neighbours(b, tp_b)
     costs = np.empty(nbr.shape[0])
     best = 0
     for i in range(nbr.shape[0]):
@@ -405,12 +500,12 @@ def best_collapse(st: CollapseState, b: int, validate: bool = True) -> tuple[int
             best = i
     if not validate:
         return nbr[best], costs[best]
-    if valid_collapse(st, b, nbr[best], tris_b, tp_b, nbr):
+    if valid_collapse(st, b, nbr[best], tris_b, tp_b, nbr, stars):
         return nbr[best], costs[best]
     order = np.argsort(costs)
     for i in range(1, order.shape[0]):
         k = nbr[order[i]]
-        if valid_collapse(st, b, k, tris_b, tp_b, nbr):
+        if valid_collapse(st, b, k, tris_b, tp_b, nbr, stars):
             return k, costs[order[i]]
     return -1, np.inf
 
