@@ -1266,10 +1266,11 @@ def _shaped_collapse(st: K.CollapseState, b: int, slack: float, max_cost: float)
         c = K.collapse_cost(st, b, k)
         if c > lim:
             continue
-        if not K.valid_collapse(st, b, k, tris_b, tp_b, nbr):
-            continue
         d = K.neighbours(k, K.triangle_positions(st, K.gather_triangles(st, k))).shape[0]
-        if d > best_d or (d == best_d and c < best_c):
+        # the validity test costs most: only for a target that would win
+        if not (d > best_d or (d == best_d and c < best_c)):
+            continue
+        if K.valid_collapse(st, b, k, tris_b, tp_b, nbr):
             best_d = d
             best_k = k
             best_c = c
