@@ -63,14 +63,16 @@ Builders.
   (:func:`.sw_centres.grow_independent_set`, Andrade, Resende & Werneck's (1,2)-swaps with random forced
   insertions, half an iteration per vertex).
 
-  Why lambda is 5.5 at ``mu=0.1``: a level stores ``T_L + T_{L+1}`` triangles and removes two per centre, so
-  lambda ~ (2 - f) / f for a centre fraction f, and the papers' 5.4 needs f >= 0.3125 on every level. On
-  bunny's first three levels (``benchmarks/bench_centres.py``) the greedy reaches f = 0.283 / 0.313 / 0.302,
-  the local search 0.288 / 0.317 / 0.307, and an exact solver (HiGHS) proves at most 0.305 / 0.320 / 0.312:
-  with a tenth of the vertices barred, no centre choice reaches 5.4 (20 times the search's effort: 5.47).
-  With ``mu=0`` (the papers' basic TD-VIPM, no error control) bunny gives 5.30 (SWPM's estimate
-  ``(d - 1)(1 + mu)`` has the same ``1 + mu`` factor). ``mu`` trades pool size for error (row
-  ``topology-mu0.3`` of the benchmark).
+  Why the collapse targets matter for lambda at ``mu=0.1``: a level stores ``T_L + T_{L+1}`` triangles and
+  removes two per centre, so lambda ~ (2 - f) / f for a centre fraction f, and the papers' 5.4 needs f >=
+  0.3125 on every level. On bunny's first three levels with the cheapest targets (``benchmarks/
+  bench_centres.py``) the greedy reaches f = 0.283 / 0.313 / 0.302, the local search 0.288 / 0.317 / 0.307,
+  and an exact solver (HiGHS) proves at most 0.305 / 0.320 / 0.312: with a tenth of the vertices barred, no
+  centre choice reaches 5.4 (20 times the search's effort: 5.47). The next level's connectivity is the
+  lever left: higher-degree targets (``_TARGET_SLACK_SINGLE``) leave it more low-degree vertices, and
+  bunny reaches 5.37. With ``mu=0`` (the papers' basic TD-VIPM, no error control, where the targets stay
+  the cheapest) bunny gives 5.31 (SWPM's estimate ``(d - 1)(1 + mu)`` has the same ``1 + mu`` factor).
+  ``mu`` trades pool size for error (row ``topology-mu0.3`` of the benchmark).
 * ``builder="forsyth"``: the quadric-error collapse order, one patch (the binned vertex's star) per
   collapse; when the best collapse touches a triangle already created in the current level, the best one
   that does not is taken if its error is within ``tolerance`` times the mean collapse error of the plain
