@@ -80,19 +80,20 @@ Builders.
 
 ``optimize_connectivity=True`` (SWPM 3.1) first swaps edges of the input to create low-degree vertices
 (:func:`optimize_mesh_connectivity`, the paper's ``Optimize``: breadth first, an edge ``(v, j)`` is swapped
-when it lowers the degrees of ``v`` and ``j`` and raises those of two vertices not meant to be lowered),
-so the minimum-degree patch centres have smaller patches and the pool shrinks. Guards: interior manifold
-edges that are no attribute seam, no folded quad (the old and new normals within 90 degrees), the paper's
-degree floor (no degree below 4 at a flat vertex, every incident normal within 2 degrees of the vertex
-normal; below 3 elsewhere) and a distance: a swap may move the surface by at most ``swap_max_deviation``
-times the bounding-box diagonal (default 5e-4; measured along the quad's diagonals, where the two
-triangulations are farthest apart; exact, by bisection). LOD 0 is then the swapped mesh (same
-vertices, triangle count and topology; ``collapse_sequence.mesh``), within about that distance of the input.
-Bunny: lambda 5.55 -> 4.25 (``swap_max_deviation`` 3e-4: 4.58; 1e-3: 4.07; unbounded: 4.10 with LOD 0 at
-0.0016 of the diagonal; the paper's procedure, without the fold guard either: 4.00, 0.0021); the Hausdorff
-error of the LODs stays about that of the default build at 5e-4 and grows at 1e-3, where LOD 0 alone is
-twice as far from the input as meshoptimizer's 50 % LOD (see ``benchmarks/bench_slidingwindow.py``, rows
-``swap`` and ``swap-dev1e-3``). The cache size of every ordering is ``cache_size`` (FIFO, default 16).
+when it lowers the degrees of ``v`` and ``j`` and raises those of two vertices not meant to be lowered), so
+the minimum-degree patch centres have smaller patches and the pool shrinks. Guards: interior manifold edges
+that are no attribute seam, no folded quad (the old and new normals within 90 degrees), the paper's degree
+floor (no degree below 4 at a flat vertex, every incident normal within 2 degrees of the vertex normal; below
+3 elsewhere) and a distance: a swap may move the surface by at most ``swap_max_deviation`` times the
+bounding-box diagonal (default 5e-4; measured along the quad's diagonals, where the two triangulations are
+farthest apart; exact, by bisection). LOD 0 is then the swapped mesh (same vertices, triangle count and
+topology; ``collapse_sequence.mesh``), within about that distance of the input. Bunny: lambda 5.37 -> 4.20
+(before the higher-degree targets, 5.55 -> 4.25; ``swap_max_deviation`` 3e-4: 4.58; 1e-3: 4.07; unbounded:
+4.10 with LOD 0 at 0.0016 of the diagonal; the paper's procedure, without the fold guard either: 4.00,
+0.0021); the Hausdorff error of the LODs stays about that of the default build at 5e-4 and grows at 1e-3,
+where LOD 0 alone is twice as far from the input as meshoptimizer's 50 % LOD (see
+``benchmarks/bench_slidingwindow.py``, rows ``swap`` and ``swap-dev1e-3``). The cache size of every ordering
+is ``cache_size`` (FIFO, default 16).
 
 ``cluster=True`` (SWPM 3.2, clustered and linked patches; ``builder="topology"``, ``inner_vertices=1``
 only): consecutive levels share storage. A level's tail ``M || Q_1..Q_n`` is, in its final order, the
@@ -103,8 +104,8 @@ triangles up to the next star, which reappear unchanged in ``Q_j``) and only ``Q
 the pool is ``.. P_1..P_n || [M || Q_1..Q_n = P'_1..P'_m || M'] || Q'_1..Q'_m ..``. Every window is still
 one contiguous slice. The tail gets more scattered with every linked level (longer intervals), so once a
 linked level costs more pool triangles per collapse than the last level stored in full, the next one is
-stored in full again (the usual layout and selection). Bunny with the edge swaps: lambda 4.25 -> 4.00
-(without: 5.55 -> 5.14); the price: the centres follow the tail order rather than degree and error, so the
+stored in full again (the usual layout and selection). Bunny with the edge swaps: lambda 4.20 -> 3.95
+(without: 5.37 -> 5.04); the price: the centres follow the tail order rather than degree and error, so the
 windows are colder (ACMR ratio at 25 % 1.06 -> 1.17) and the Hausdorff error grows (rows ``cluster`` /
 ``cluster-swap`` of the benchmark). Tried and dropped: planning a fully stored level's patch order for
 the next level (its centres chosen first, their stars made runs of the tail by ordering ``Q`` blocks
