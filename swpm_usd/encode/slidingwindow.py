@@ -596,6 +596,7 @@ def _build_topology(
                 pt_start, pt = swk.reassign_middle(
                     st, own_start, pt_start, pt, order, binned_vertex, int(cache_size)
                 )
+        del stars  # stale from the first collapse on (and one level's snapshot at a time in memory)
         start_gids = cur_gid[alive_t].copy()
         gtris, ng, p_start, p_out, q_start, q_out, recs, info, patch_steps = swk.collapse_patches(
             st,

@@ -757,7 +757,7 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
             tris_b = K.gather_triangles(st, b)
             tp_b = K.triangle_positions(st, tris_b)
             nbr_b = K.neighbours(b, tp_b)
-            if k < 0 or not K.valid_collapse(st, b, k, tris_b, tp_b, nbr_b):
+            if k < 0 or not K.valid_collapse(st, b, k, tris_b, tp_b, nbr_b, None):
                 keys, ids, stamps, size = _refresh(st, b, keys, ids, stamps, size, stamp, target)
                 continue
             cost = K.collapse_cost(st, b, k)
@@ -778,7 +778,7 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
                     tris2 = K.gather_triangles(st, b2)
                     tp2 = K.triangle_positions(st, tris2)
                     nbr2 = K.neighbours(b2, tp2)
-                    if k2 < 0 or not K.valid_collapse(st, b2, k2, tris2, tp2, nbr2):
+                    if k2 < 0 or not K.valid_collapse(st, b2, k2, tris2, tp2, nbr2, None):
                         keys, ids, stamps, size = _refresh(st, b2, keys, ids, stamps, size, stamp, target)
                         continue
                     if not _touches_level(st, b2, tri_level, level):
@@ -1270,7 +1270,7 @@ def _shaped_collapse(st: K.CollapseState, b: int, slack: float, max_cost: float)
         # the validity test costs most: only for a target that would win
         if not (d > best_d or (d == best_d and c < best_c)):
             continue
-        if K.valid_collapse(st, b, k, tris_b, tp_b, nbr):
+        if K.valid_collapse(st, b, k, tris_b, tp_b, nbr, None):
             best_d = d
             best_k = k
             best_c = c

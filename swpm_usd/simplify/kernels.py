@@ -348,7 +348,9 @@ def valid_collapse(
 ) -> bool:
     """Can position ``b`` be binned onto ``k``? Checks topology (link condition, no duplicate faces,
     boundary vertices stay on the boundary), geometry (no flipped or zero-area face) and seams.
-    ``stars``: a snapshot of the current state (:func:`star_snapshot`) to read ``k``'s star from."""
+    ``stars``: a snapshot of the current state (:func:`star_snapshot`) to read ``k``'s star from; without
+    one pass ``None`` explicitly (numba compiles an omitted argument apart from the ``None`` that
+    :func:`best_collapse` passes on)."""
     pos_alive = st.pos_alive
     if st.pos_locked[b] or not pos_alive[b] or not pos_alive[k] or b == k:
         return False
@@ -597,7 +599,7 @@ def run_sequence(st: CollapseState, max_passes: int):
             tris_b = gather_triangles(st, b)
             tp_b = triangle_positions(st, tris_b)
             nbr_b = neighbours(b, tp_b)
-            if k < 0 or not valid_collapse(st, b, k, tris_b, tp_b, nbr_b):
+            if k < 0 or not valid_collapse(st, b, k, tris_b, tp_b, nbr_b, None):
                 k2, c2 = best_collapse(st, b)
                 stamp[b] += 1
                 target[b] = k2
