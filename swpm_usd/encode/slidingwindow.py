@@ -278,36 +278,33 @@ def screen_space_error(error: float, distance: float, fov_y: float, viewport_hei
 # --------------------------------------------------------------------------------------------------------
 # helpers
 # --------------------------------------------------------------------------------------------------------
-def _block_perm(tris: np.ndarray, starts: np.ndarray, cache_size: int, tail: int | None = None) -> np.ndarray:
-    """The cache order of :func:`_block_order` as a permutation only, without rotating any triangle: the
-    clustered layout keeps its levels as global triangle ids, which must stay the stored triangles."""
-    if tris.shape[0] < 2:
-        return np.arange(tris.shape[0])
+def _block_perm(
+    tris: np.ndarray, starts: np.ndarray, cache_size: int, tail: int | None = None, rotate: bool = False
+):
+    """The cache order of ``tris`` inside each block ``[starts[i], starts[i+1])`` (blocks stay in place),
+    by :func:`swpm_usd.vcache.optimize_block_order`: the permutation, and with ``rotate`` the per-triangle
+    rotations too. ``tail``: the offset of a level's ``Q_1`` (a block start): the head ``P_1..P_n || M`` and
+    the tail ``Q_1..Q_n`` are drawn apart (a window takes the end of one and the start of the other), so a
+    vertex's remaining-triangle count in the ordering covers its own half only (the FIFO still carries
+    over). The clustered layout keeps its levels as global triangle ids, which must stay the stored
+    triangles: it takes the permutation alone."""
+    n = tris.shape[0]
+    if n < 2:
+        perm = np.arange(n)
+        return (perm, np.zeros(n, np.int8)) if rotate else perm
     segs = None if tail is None else np.array([tail], np.int64)
-    return np.asarray(
-        optimize_block_order(
-            np.ascontiguousarray(tris), starts.astype(np.int64), cache_size, segment_starts=segs
-        )
+    return optimize_block_order(
+        np.ascontiguousarray(tris), starts.astype(np.int64), cache_size, segment_starts=segs, rotate=rotate
     )
 
 
 def _block_order(
-    tris: np.ndarray, starts: np.ndarray, vertex_count: int, cache_size: int, tail: int | None = None
+    tris: np.ndarray, starts: np.ndarray, cache_size: int, tail: int | None = None
 ) -> np.ndarray:
-    """``tris`` reordered for a FIFO vertex cache inside each block ``[starts[i], starts[i+1])`` (blocks
-    stay in place) by :func:`swpm_usd.vcache.optimize_block_order`.
-    ``tail``: the offset of a level's ``Q_1`` (a block start): the head ``P_1..P_n || M`` and the tail
-    ``Q_1..Q_n`` are drawn apart (a window takes the end of one and the start of the other), so a vertex's
-    remaining-triangle count in the ordering covers its own half only (the FIFO still carries over).
-    Each triangle's indices may also be rotated cyclically (same winding) to the rotation with the fewest
-    misses (``rotate=True``; ACMR / meshoptimizer, the ten benchmark meshes at 20 fractions: -0.25 %)."""
-    if tris.shape[0] < 2:
-        return tris
-    segs = None if tail is None else np.array([tail], np.int64)
-    perm, shift = optimize_block_order(
-        np.ascontiguousarray(tris), starts.astype(np.int64), cache_size, segment_starts=segs, rotate=True
-    )
-    return apply_order(tris, perm, shift)
+    """``tris`` in the order of :func:`_block_perm`, each triangle's indices also rotated cyclically (same
+    winding) to the rotation with the fewest misses (ACMR / meshoptimizer, the ten benchmark meshes at 20
+    fractions: -0.25 %)."""
+    return apply_order(tris, *_block_perm(tris, starts, cache_size, tail, rotate=True))
 
 
 def _adjacency(tp: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
@@ -781,7 +778,7 @@ def _assemble(
             # blocks P_1..P_n, M, Q_1..Q_n: each reordered for the cache in place, the FIFO carried over
             starts = np.r_[lev.p_start, lev.p_start[-1] + middle.shape[0] + lev.q_start]
             tail = int(lev.p_start[-1] + middle.shape[0])
-            parts.append(_block_order(level_tris, starts, V, cache_size, tail))
+            parts.append(_block_order(level_tris, starts, cache_size, tail))
         pool_len += parts[-1].shape[0]
         head_next = offset + int(lev.p_start[n])
         Tl = lev.start_gids.shape[0]
