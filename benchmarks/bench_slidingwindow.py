@@ -35,6 +35,7 @@ MESHES = HERE.parent.parent / "shared" / "meshes"
 OPTIONS = {
     "topology": {},
     "topology-mu0": {"mu": 0.0},
+    "topology-mu0.2": {"mu": 0.2},
     "topology-mu0.3": {"mu": 0.3},
     "inner3": {"inner_vertices": 3},
     "forsyth": {"builder": "forsyth"},
