@@ -255,6 +255,29 @@ def test_cluster_spot(spot: Mesh) -> None:
     _check_all(pm, spot, closed=True, every=3)
 
 
+def test_cluster_links_a_level_only_when_cheaper(spot: Mesh, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A level is linked when its linked patches cost fewer pool triangles per collapse than a fully stored
+    level would: never linking gives the plain pool, always linking a far larger one (the tail scatters),
+    the estimate a smaller pool than both."""
+    from swpm_usd.encode import slidingwindow as sw
+
+    def shared_and_pool(relink: float) -> tuple[int, int, int]:
+        monkeypatch.setattr(sw, "_CLUSTER_RELINK", relink)
+        pm = build_sliding_window(spot, cluster=True)
+        rec = pm.window_records.astype(np.int64)
+        first_of_level = np.flatnonzero(np.diff(pm.lod_level) != 0) + 1
+        shared = sum(int(rec[k, 0] < rec[k - 1, 0] + 3 * rec[k - 1, 1]) for k in first_of_level)
+        return shared, len(first_of_level), pm.index_pool.shape[0]
+
+    never_shared, _, never_pool = shared_and_pool(0.0)
+    always_shared, always_levels, always_pool = shared_and_pool(1e9)
+    shared, levels, pool = shared_and_pool(1.0)
+    assert never_shared == 0 and never_pool == build_sliding_window(spot).index_pool.shape[0]
+    assert always_shared == always_levels
+    assert 0 < shared < levels
+    assert pool < 0.97 * never_pool and pool < always_pool
+
+
 def test_cluster_open_mesh() -> None:
     path = MESHES / "cow.obj"
     assert path.exists(), "shared meshes not available"

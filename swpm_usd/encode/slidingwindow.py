@@ -102,14 +102,16 @@ of that tail (:func:`.sw_kernels.cluster_patches`: greedy earliest end, the pref
 patch), so its head ``P_1..P_m || M'`` IS the previous tail (patch ``j`` = its star plus the untouched
 triangles up to the next star, which reappear unchanged in ``Q_j``) and only ``Q_1..Q_m`` are appended:
 the pool is ``.. P_1..P_n || [M || Q_1..Q_n = P'_1..P'_m || M'] || Q'_1..Q'_m ..``. Every window is still
-one contiguous slice. The tail gets more scattered with every linked level (longer intervals), so once a
-linked level costs more pool triangles per collapse than the last level stored in full, the next one is
-stored in full again (the usual layout and selection). Bunny with the edge swaps: lambda 4.20 -> 3.95
-(without: 5.37 -> 5.04); the price: the centres follow the tail order rather than degree and error, so the
-windows are colder (ACMR ratio at 25 % 1.06 -> 1.17) and the Hausdorff error grows (rows ``cluster`` /
-``cluster-swap`` of the benchmark). Tried and dropped: planning a fully stored level's patch order for
-the next level (its centres chosen first, their stars made runs of the tail by ordering ``Q`` blocks
-along paths): lambda -2 to -6 %, but ACMR ratios up to 1.4.
+one contiguous slice. The tail gets more scattered with every linked level (longer intervals), so a level
+is linked only if, before its collapses, its linked patches cost at most the pool triangles per collapse
+of a fully stored level (``2 T_L / n - 2``, ``n`` its minimum-degree centres); otherwise it is stored in
+full (the usual layout and selection). Bunny with the edge swaps: lambda 4.20 -> 3.74 (without: 5.37 ->
+4.97; deciding from the previous linked level's outcome instead: 3.95 and 5.04); the price: the centres
+follow the tail order rather than degree and error, so the windows are colder (ACMR ratio at 10 % 1.03 ->
+1.26) and the Hausdorff error grows (rows ``cluster`` / ``cluster-swap`` of the benchmark). Tried and
+dropped: planning a fully stored level's patch order for the next level (its centres chosen first, their
+stars made runs of the tail by ordering ``Q`` blocks along paths): lambda -2 to -6 %, but ACMR ratios up
+to 1.4.
 
 The builders also keep their own collapse sequence (:attr:`SlidingWindowProgressiveMesh.collapse_sequence`,
 a :class:`swpm_usd.simplify.CollapseSequence`; ``lod_steps[k]`` steps of it give LOD ``k``), against which
@@ -145,8 +147,8 @@ __all__ = [
 #: diagonal. LOD 0 then lies within that distance of the input (Hausdorff, 30,000 samples: 0.00042 - 0.00049
 #: on the ten shared meshes; the former 10-degree guard alone gave 0.0003 - 0.0044, suzanne the worst),
 #: about meshoptimizer's error at 50 % of bunny's triangles (0.00044), so the swaps cost the LODs about no
-#: error. Bunny: lambda with the swaps 4.86 -> 4.25, with clustering 4.32 -> 4.00; at 1e-3 (LOD 0 at
-#: 0.0009): 4.07 and 3.72, with the Hausdorff ratio at 50 % 1.55 -> 2.07.
+#: error. Bunny: lambda with the swaps 5.37 -> 4.20, with clustering 3.74; at 1e-3 (LOD 0 at 0.0009):
+#: 4.01 and 3.60, with the Hausdorff ratio at 50 % 1.63 -> 2.07.
 SWAP_MAX_DEVIATION = 5e-4
 
 #: the encoding's own parameters and their defaults (the collapse quadric weights come on top)
@@ -379,8 +381,10 @@ _ABSORB_MIN_SHARED = 1
 #: ``cluster=True``: a linked level stops after the prefix of its patches that costs least per patch, but
 #: has at least this many patches (fewer levels, less build time)
 _CLUSTER_MIN_PATCHES = 16
-#: ``cluster=True``: linked levels follow each other while one costs at most this many times the pool
-#: triangles per collapse of the last level stored in full
+#: ``cluster=True``: a level is linked only if, before its collapses, its linked patches cost at most this
+#: many times the pool triangles per collapse of a fully stored level (``2 T_L / n - 2``, ``n`` the
+#: minimum-degree centres; estimated once per run of linked levels). Deciding from the level itself rather
+#: than from the previous linked level's outcome: bunny cluster-swap lambda 3.95 -> 3.74
 _CLUSTER_RELINK = 1.0
 
 
@@ -502,8 +506,7 @@ def _build_topology(
     recs_all = []
     info_all = []
     nstep = 0
-    link_next = False
-    fresh_cost = np.inf
+    fresh_cost = None  # cluster=True: pool triangles per collapse a fully stored level would cost
     while True:
         alive_t = np.flatnonzero(st.tri_alive)
         if alive_t.shape[0] == 0:
@@ -531,9 +534,11 @@ def _build_topology(
                 max_cost = float(vc[order[vc.shape[0] - n_excl - 1]]) if n_excl < vc.shape[0] else 0.0
         if not eligible.any():
             break
-        link = cluster and bool(levels) and link_next
-        if link:
-            # SWPM 3.2: this level's patches are read out of the previous level's tail
+        link = False
+        fresh = None
+        if cluster and levels:
+            # SWPM 3.2: this level's patches read out of the previous level's tail, if that costs no more
+            # pool triangles per collapse than storing the level in full
             tail = levels[-1].tail
             place = np.full(ng, -1, np.int64)
             place[tail] = np.arange(tail.shape[0])
@@ -542,10 +547,18 @@ def _build_topology(
             cands = np.flatnonzero(eligible).astype(np.int64)
             inner_start, inner = swk.cluster_patches(st, cands, tpos, tiebreak[cands], _CLUSTER_MIN_PATCHES)
             pt_start, pt = swk.patch_triangles(st, inner_start, inner, stars)
+            if fresh_cost is None:
+                fresh = _select_fresh(tp, P, eligible, tiebreak, int(inner_vertices))
+                fresh_cost = 2.0 * alive_t.shape[0] / max(fresh[3].shape[0], 1) - 2.0
+            linked_cost = _linked_cost(tpos, pt, inner.shape[0]) if inner.shape[0] else np.inf
+            link = linked_cost <= _CLUSTER_RELINK * fresh_cost
+        if link:
             order = np.arange(inner_start.shape[0] - 1, dtype=np.int64)
         else:
-            adj_start, adj = _adjacency(tp, P)
-            inner_start, inner = swc.select_patches(adj_start, adj, eligible, tiebreak, int(inner_vertices))
+            fresh_cost = None  # a new run of linked levels starts after this one
+            adj_start, adj, inner_start, inner = fresh or _select_fresh(
+                tp, P, eligible, tiebreak, int(inner_vertices)
+            )
             if inner_vertices == 1:
                 inner = _more_centres(adj_start, adj, eligible, inner)
                 inner = swc.lower_error_centres(adj_start, adj, eligible, inner, tiebreak)
@@ -618,22 +631,30 @@ def _build_topology(
                 gtris, start_gids, p_start, p_out, q_start, q_out, patch_steps, cache_size
             )
             levels.append(lev)
-            fresh_cost = lev.stored.shape[0] / info.shape[0]
-            link_next = True
         else:
             lev = _linked_level(
                 gtris, ng, levels[-1].tail, p_start, p_out, q_start, q_out, patch_steps, cache_size
             )
             levels.append(lev)
-            # the tail of linked levels gets more and more scattered: once a linked level costs more
-            # pool triangles per collapse than the last fresh one, the next level starts fresh
-            link_next = lev.stored.shape[0] / info.shape[0] <= _CLUSTER_RELINK * fresh_cost
         recs_all.append(recs)
         info_all.append(info)
         nstep += info.shape[0]
     recs = np.concatenate(recs_all) if recs_all else np.zeros((0, 3), np.int64)
     info = np.concatenate(info_all) if info_all else np.zeros((0, 3))
     return gtris[:ng], levels, recs, info
+
+
+def _select_fresh(tp: np.ndarray, P: int, eligible: np.ndarray, tiebreak: np.ndarray, inner_vertices: int):
+    """The position graph of a level and its minimum-degree patches (the start of a fully stored level)."""
+    adj_start, adj = _adjacency(tp, P)
+    inner_start, inner = swc.select_patches(adj_start, adj, eligible, tiebreak, inner_vertices)
+    return adj_start, adj, inner_start, inner
+
+
+def _linked_cost(tpos: np.ndarray, pt: np.ndarray, patches: int) -> float:
+    """Pool triangles per collapse of a linked level, before its collapses: its ``Q`` blocks store the
+    previous tail up to the end of the last patch again, less two triangles per removed centre."""
+    return (int(tpos[pt].max()) + 1) / patches - 2.0
 
 
 def _first_clustered_level(gtris, start_gids, p_start, p_out, q_start, q_out, patch_steps, cache_size):
