@@ -43,6 +43,7 @@ OPTIONS = {
     "swap": {"optimize_connectivity": True},
     "inner3-swap": {"inner_vertices": 3, "optimize_connectivity": True},
     "inner3-swap-mu0": {"inner_vertices": 3, "optimize_connectivity": True, "mu": 0.0},
+    "inner3-swap-noabsorb": {"inner_vertices": 3, "optimize_connectivity": True, "absorb_middle": False},
     "swap-dev1e-3": {"optimize_connectivity": True, "swap_max_deviation": 1e-3},
     "cluster-swap-dev1e-3": {"cluster": True, "optimize_connectivity": True, "swap_max_deviation": 1e-3},
     "inner3-swap-dev1e-3": {"inner_vertices": 3, "optimize_connectivity": True, "swap_max_deviation": 1e-3},
