@@ -140,6 +140,7 @@ def test_star_snapshot_matches_the_corner_lists(name: str, frac: float) -> None:
     positions = np.arange(P, dtype=np.int64)
     ks, cs = swk.level_costs(st, positions, stars)
     n_valid = 0
+    kbuf = K.star_buffers(st)
     for p in range(P):
         k, c = K.best_collapse(st, p)
         assert (ks[p], cs[p]) == (k, c) or (ks[p] == k == -1), p
@@ -148,6 +149,9 @@ def test_star_snapshot_matches_the_corner_lists(name: str, frac: float) -> None:
         for q in nbr:
             plain = K.valid_collapse(st, p, int(q), tris, tp, nbr, None)
             assert K.valid_collapse(st, p, int(q), tris, tp, nbr, stars) == plain, (p, q)
+            # k's star read by the caller into reused buffers (the sliding-window target choice)
+            _, tp_k, nbr_k = K.star_into(st, int(q), *kbuf)
+            assert K.valid_collapse(st, p, int(q), tris, tp, nbr, None, tp_k, nbr_k) == plain, (p, q)
             assert _valid_reference(st, p, int(q), tris, tp, nbr) == plain, (p, q)
     assert 0 < n_valid < P
 
@@ -160,10 +164,12 @@ def test_shaped_collapse_is_the_highest_degree_valid_target_within_the_slack(nam
     costs = np.array([K.best_collapse(st, p)[1] for p in range(P)])
     max_cost = float(np.quantile(costs[np.isfinite(costs)], 0.9))
     moved = 0
+    bbuf = K.star_buffers(st)
+    kbuf = K.star_buffers(st)
     for slack in (0.05, 0.5):
         for b in range(P):
             k0, c0 = K.best_collapse(st, b)
-            got = swk._shaped_collapse(st, b, slack, max_cost)
+            got = swk._shaped_collapse(st, b, slack, max_cost, bbuf, kbuf)
             if k0 < 0:
                 assert got[0] == -1
                 continue

@@ -151,3 +151,20 @@ def test_triangles_after_bounds():
     with pytest.raises(IndexError):
         seq.triangles_after(seq.collapse_count + 1)
     assert np.array_equal(seq.triangles_after(0), seq.mesh.triangles)
+
+
+def test_weld_and_counting_sorts_match_numpy():
+    # the welding of mesh_topology and the counting sorts of the kernels reproduce the numpy calls they
+    # replace (np.unique over rows, stable argsort), duplicates, negative coordinates and ties included
+    from swpm_usd.simplify import kernels
+    from swpm_usd.simplify.sequence import _weld
+
+    rng = np.random.default_rng(7)
+    pts = rng.integers(-3, 4, size=(500, 3)).astype(np.float32) * np.float32(0.5)
+    uniq, inverse = _weld(pts)
+    ref_uniq, ref_inverse = np.unique(pts, axis=0, return_inverse=True)
+    assert uniq.shape[0] < pts.shape[0]  # the sample really has duplicates
+    np.testing.assert_array_equal(uniq, ref_uniq)
+    np.testing.assert_array_equal(inverse, ref_inverse.reshape(-1))
+    keys = rng.integers(0, 17, size=1000)
+    np.testing.assert_array_equal(kernels.stable_order(keys, 17), np.argsort(keys, kind="stable"))

@@ -619,6 +619,8 @@ def collapse_patches(
     npatch = np.int64(0)
     npo = np.int64(0)
     nq = np.int64(0)
+    bbuf = K.star_buffers(st)
+    kbuf = K.star_buffers(st)
     for o in range(n):
         p = order[o]
         tris = pt[pt_start[p] : pt_start[p + 1]]
@@ -637,7 +639,7 @@ def collapse_patches(
                 b = remaining[r]
                 if b < 0 or not alive_pos[b]:
                     continue
-                k, c = _shaped_collapse(st, b, slack, max_cost)
+                k, c = _shaped_collapse(st, b, slack, max_cost, bbuf, kbuf)
                 if k >= 0 and c < best_c and c <= max_cost:
                     best_c = c
                     best_k = k
@@ -1247,16 +1249,18 @@ def reassign_middle(
 
 
 @nb.njit(cache=True)
-def _shaped_collapse(st: K.CollapseState, b: int, slack: float, max_cost: float) -> tuple[int, float]:
+def _shaped_collapse(
+    st: K.CollapseState, b: int, slack: float, max_cost: float, bbuf: tuple, kbuf: tuple
+) -> tuple[int, float]:
     """Valid collapse of ``b``: among the valid targets costing at most ``slack * max_cost`` more than the
     cheapest one (and at most ``max_cost``), the one of highest degree (ties: the cheaper). ``slack`` 0 or
-    an unbounded ``max_cost``: :func:`swpm_usd.simplify.kernels.best_collapse`."""
+    an unbounded ``max_cost``: :func:`swpm_usd.simplify.kernels.best_collapse`. ``bbuf``, ``kbuf``:
+    :func:`swpm_usd.simplify.kernels.star_buffers` for the stars of ``b`` and of a target (read once per
+    target, for its degree and its validity)."""
     k0, c0 = K.best_collapse(st, b)
     if k0 < 0 or slack <= 0.0 or not np.isfinite(max_cost):
         return k0, c0
-    tris_b = K.gather_triangles(st, b)
-    tp_b = K.triangle_positions(st, tris_b)
-    nbr = K.neighbours(b, tp_b)
+    tris_b, tp_b, nbr = K.star_into(st, b, bbuf[0], bbuf[1], bbuf[2])
     lim = min(c0 + slack * max_cost, max_cost)
     best_k = k0
     best_c = c0
@@ -1266,11 +1270,12 @@ def _shaped_collapse(st: K.CollapseState, b: int, slack: float, max_cost: float)
         c = K.collapse_cost(st, b, k)
         if c > lim:
             continue
-        d = K.neighbours(k, K.triangle_positions(st, K.gather_triangles(st, k))).shape[0]
-        # the validity test costs most: only for a target that would win
+        _, tp_k, nbr_k = K.star_into(st, k, kbuf[0], kbuf[1], kbuf[2])
+        d = nbr_k.shape[0]
+        # the validity test costs most: only for a target that would win (k0 passed it already)
         if not (d > best_d or (d == best_d and c < best_c)):
             continue
-        if K.valid_collapse(st, b, k, tris_b, tp_b, nbr, None):
+        if k == k0 or K.valid_collapse(st, b, k, tris_b, tp_b, nbr, None, tp_k, nbr_k):
             best_d = d
             best_k = k
             best_c = c

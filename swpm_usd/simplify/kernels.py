@@ -238,6 +238,31 @@ def star_snapshot(st: CollapseState) -> Stars:
     return Stars(*_star_arrays(st))
 
 
+@nb.njit(cache=True)
+def star_into(
+    st: CollapseState, p: int, tris: np.ndarray, tp: np.ndarray, nbr: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``p``'s star as :func:`gather_triangles`, :func:`triangle_positions` and :func:`neighbours` give it,
+    written to reusable buffers instead of three new arrays (room: ``tris`` and ``tp`` one row per triangle
+    of the state, ``nbr`` twice that: :func:`star_buffers`); returns views of them, valid until the next
+    call with the same buffers."""
+    n = _gather_into(st, p, tris, 0)
+    tv = st.tri_verts
+    vp = st.vertex_pos
+    for j in range(n):
+        for i in range(3):
+            tp[j, i] = vp[tv[tris[j], i]]
+    m = _neighbours_into(p, tp[:n], nbr, 0)
+    return tris[:n], tp[:n], nbr[:m]
+
+
+@nb.njit(cache=True)
+def star_buffers(st: CollapseState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Buffers for :func:`star_into` (any star of ``st`` fits)."""
+    T = st.tri_verts.shape[0]
+    return np.empty(T, np.int32), np.empty((T, 3), np.int32), np.empty(2 * T, np.int32)
+
+
 @nb.njit(cache=True, inline="always")
 def tri_normal(pts: np.ndarray, a: int, b: int, c: int) -> tuple[float, float, float]:
     """Unnormalised normal of triangle (a, b, c): (b - a) x (c - a), twice its area long."""
@@ -345,12 +370,15 @@ def valid_collapse(
     tp_b: np.ndarray,
     nbr_b: np.ndarray,
     stars: Stars | None = None,
+    tp_k: np.ndarray | None = None,
+    nbr_k: np.ndarray | None = None,
 ) -> bool:
     """Can position ``b`` be binned onto ``k``? Checks topology (link condition, no duplicate faces,
     boundary vertices stay on the boundary), geometry (no flipped or zero-area face) and seams.
     ``stars``: a snapshot of the current state (:func:`star_snapshot`) to read ``k``'s star from; without
     one pass ``None`` explicitly (numba compiles an omitted argument apart from the ``None`` that
-    :func:`best_collapse` passes on)."""
+    :func:`best_collapse` passes on). ``tp_k``, ``nbr_k``: ``k``'s star read already by the caller (its
+    triangles' positions and neighbours in the current state, e.g. by :func:`star_into`; ``stars`` None)."""
     pos_alive = st.pos_alive
     if st.pos_locked[b] or not pos_alive[b] or not pos_alive[k] or b == k:
         return False
@@ -376,20 +404,24 @@ def valid_collapse(
             return False
     elif n_edge != 2:
         return False
-    if stars is None:
-        tp_k = triangle_positions(st, gather_triangles(st, k))
-        nbr_k = neighbours(k, tp_k)
+    # (the ``is None`` tests are resolved at compile time: one branch per specialisation)
+    if tp_k is not None and nbr_k is not None:
+        tk = tp_k
+        nk = nbr_k
+    elif stars is None:
+        tk = triangle_positions(st, gather_triangles(st, k))
+        nk = neighbours(k, tk)
     else:
-        tp_k = stars.tp[stars.start[k] : stars.start[k + 1]]
-        nbr_k = stars.nbr[stars.nbr_start[k] : stars.nbr_start[k + 1]]
+        tk = stars.tp[stars.start[k] : stars.start[k + 1]]
+        nk = stars.nbr[stars.nbr_start[k] : stars.nbr_start[k + 1]]
     # link condition: common neighbours of b and k are exactly the edge's opposite vertices
     common = 0
     for i in range(nbr_b.shape[0]):
         q = nbr_b[i]
         if q == k:
             continue
-        for j in range(nbr_k.shape[0]):
-            if nbr_k[j] == q:
+        for j in range(nk.shape[0]):
+            if nk[j] == q:
                 if q != opp0 and q != opp1:
                     return False
                 common += 1
@@ -425,8 +457,8 @@ def valid_collapse(
         # and the link test above left only the edge's opposite vertices (and b) common to both, so
         # other x, y cannot repeat a face: skip the scan (same answer, most of the test's time)
         if (x == opp0 or x == opp1 or x == b) and (y == opp0 or y == opp1 or y == b):
-            for jj in range(tp_k.shape[0]):
-                if _has(tp_k, jj, x) and _has(tp_k, jj, y):
+            for jj in range(tk.shape[0]):
+                if _has(tk, jj, x) and _has(tk, jj, y):
                     return False
     if st.pos_vstart[b + 1] - st.pos_vstart[b] == 1:
         return _single_vertex_maps(st, b, k, tris_b, tp_b)
@@ -657,17 +689,40 @@ def build_corner_lists(tri_pos: np.ndarray, P: int) -> tuple[np.ndarray, np.ndar
 
 
 @nb.njit(cache=True)
+def stable_order(keys: np.ndarray, n_keys: int) -> np.ndarray:
+    """``np.argsort(keys, kind="stable")`` for integer keys in ``[0, n_keys)``, by a counting sort."""
+    cnt = np.zeros(n_keys + 1, np.int64)
+    for j in range(keys.shape[0]):
+        cnt[keys[j] + 1] += 1
+    for g in range(n_keys):
+        cnt[g + 1] += cnt[g]
+    order = np.empty(keys.shape[0], np.int64)
+    for j in range(keys.shape[0]):
+        order[cnt[keys[j]]] = j
+        cnt[keys[j]] += 1
+    return order
+
+
+@nb.njit(cache=True)
 def fan_counts(st: CollapseState) -> np.ndarray:
     """Number of edge-connected triangle fans around each position (>1 means a pinch vertex)."""
     P = st.pos_points.shape[0]
     out = np.zeros(P, np.int32)
+    tv = st.tri_verts
+    vp = st.vertex_pos
+    # one buffer for every star (a new array per position cost more than the test itself)
+    tris = np.empty(tv.shape[0], np.int32)
+    tp = np.empty((tv.shape[0], 3), np.int32)
+    parent = np.empty(tv.shape[0], np.int64)
     for p in range(P):
-        tris = gather_triangles(st, p)
-        tp = triangle_positions(st, tris)
-        n = tris.shape[0]
+        n = _gather_into(st, p, tris, 0)
         if n == 0:
             continue
-        parent = np.arange(n)
+        for j in range(n):
+            for i in range(3):
+                tp[j, i] = vp[tv[tris[j], i]]
+        for i in range(n):
+            parent[i] = i
         for i in range(n):
             for j in range(i + 1, n):
                 # share a second position besides p?
