@@ -259,6 +259,7 @@ def _order_blocks(
             emitted[cur] = True
             step += 1
             nupd = 0
+            pushes0 = pushes
             # fetch the three indices through the FIFO; collect block vertices that get evicted
             for k in range(3):
                 v = tris[t, (r + k) % 3]
@@ -294,14 +295,19 @@ def _order_blocks(
                     mark[lv] = step
                     upd[nupd] = lv
                     nupd += 1
-            # every cached vertex moved (or not): rescore cached, evicted and just-used vertices
+            # every cached vertex moved (or not): rescore cached, evicted and just-used vertices; without a
+            # miss the other cached vertices kept their slot and counts, hence their scores: they are only
+            # candidates then
+            nres = nupd
             for j in range(min(C, pushes)):
                 lv = loc[ring[(pushes - j) % C]]
                 if lv >= 0 and mark[lv] != step:
                     mark[lv] = step
                     upd[nupd] = lv
                     nupd += 1
-            for i in range(nupd):
+            if pushes != pushes0:
+                nres = nupd
+            for i in range(nres):
                 lv = upd[i]
                 score = 0.0
                 if live[lv] > 0:

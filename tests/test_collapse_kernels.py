@@ -166,10 +166,11 @@ def test_shaped_collapse_is_the_highest_degree_valid_target_within_the_slack(nam
     moved = 0
     bbuf = K.star_buffers(st)
     kbuf = K.star_buffers(st)
+    cbuf = np.empty(bbuf[2].shape[0])
     for slack in (0.05, 0.5):
         for b in range(P):
             k0, c0 = K.best_collapse(st, b)
-            got = swk._shaped_collapse(st, b, slack, max_cost, bbuf, kbuf)
+            got = swk._shaped_collapse(st, b, slack, max_cost, bbuf, kbuf, cbuf)
             if k0 < 0:
                 assert got[0] == -1
                 continue
@@ -187,3 +188,27 @@ def test_shaped_collapse_is_the_highest_degree_valid_target_within_the_slack(nam
             assert got == best[:2], (b, slack)
             moved += got[0] != k0
     assert moved > 0  # the slack changes some targets
+
+
+def test_chain_order_in_reused_buffers_matches_fresh_ones() -> None:
+    # the patch kernels reuse one work set for every patch: a larger earlier patch must leave no
+    # adjacency behind (closed fans of every size, parts of them, then random sets)
+    rng = np.random.default_rng(5)
+    w = swk._chain_work(4)
+    cases = []
+    for k in (12, 3, 7, 1, 9, 2):
+        ring = np.arange(1, k + 1)
+        fan = np.stack([np.zeros(k, np.int64), ring, np.roll(ring, -1)], 1)
+        cases += [(fan[rng.permutation(k)], k >= 3), (fan[rng.permutation(k)][: max(1, k - 2)], False)]
+    cases += [(rng.integers(0, 6, (n, 3)), False) for n in (10, 4, 8, 0, 5)]
+    for tv, closed in cases:
+        tv = np.ascontiguousarray(tv, np.int64)
+        n = tv.shape[0]
+        w = swk._chain_work_for(w, n)
+        sub = w[5]
+        sub[:n] = tv
+        got = swk._chain_order_into(sub, n, w).copy()
+        assert np.array_equal(got, swk.chain_order(tv))
+        assert np.array_equal(np.sort(got), np.arange(n))
+        if closed:  # a closed fan comes out as a fan: consecutive triangles share an edge
+            assert all(len(set(tv[a]) & set(tv[b])) == 2 for a, b in zip(got[:-1], got[1:], strict=True))

@@ -63,12 +63,43 @@ def _group_by(keys: np.ndarray, n_groups: int) -> tuple[np.ndarray, np.ndarray]:
 def chain_order(tv: np.ndarray) -> np.ndarray:
     """Order of a handful of triangles (``tv`` (n,3) vertex ids) so consecutive ones share an edge where
     possible: a closed fan comes out as a fan, an open fan starts at one of its ends."""
-    n = tv.shape[0]
-    order = np.empty(n, np.int64)
+    return _chain_order_into(tv, tv.shape[0], _chain_work(tv.shape[0])).copy()
+
+
+@nb.njit(cache=True)
+def _chain_work(n: int) -> tuple:
+    """Reusable buffers for :func:`_chain_order_into` and :func:`_emit_new_versions`, up to ``n`` triangles:
+    (order, adjacency, neighbour counts, used, triangle ids, (n,3) vertex ids)."""
+    return (
+        np.empty(n, np.int64),
+        np.zeros((n, n), np.bool_),
+        np.empty(n, np.int64),
+        np.empty(n, np.bool_),
+        np.empty(n, np.int64),
+        np.empty((n, 3), np.int64),
+    )
+
+
+@nb.njit(cache=True)
+def _chain_work_for(w: tuple, n: int) -> tuple:
+    """``w`` if it holds ``n`` triangles, else larger buffers."""
+    if w[0].shape[0] >= n:
+        return w
+    return _chain_work(max(n, 2 * w[0].shape[0]))
+
+
+@nb.njit(cache=True)
+def _chain_order_into(tv: np.ndarray, n: int, w: tuple) -> np.ndarray:
+    """:func:`chain_order` of the first ``n`` rows of ``tv`` in the buffers ``w`` (:func:`_chain_work`);
+    returns a view of ``w``'s order buffer."""
+    order, adj, nadj, used = w[0], w[1], w[2], w[3]
     if n == 0:
-        return order
-    adj = np.zeros((n, n), np.bool_)
-    nadj = np.zeros(n, np.int64)
+        return order[:0]
+    for i in range(n):
+        nadj[i] = 0
+        used[i] = False
+        for j in range(n):
+            adj[i, j] = False
     for i in range(n):
         for j in range(i + 1, n):
             shared = 0
@@ -81,7 +112,6 @@ def chain_order(tv: np.ndarray) -> np.ndarray:
                 adj[j, i] = True
                 nadj[i] += 1
                 nadj[j] += 1
-    used = np.zeros(n, np.bool_)
     cur = 0
     for i in range(n):
         if nadj[i] < nadj[cur]:
@@ -108,7 +138,7 @@ def chain_order(tv: np.ndarray) -> np.ndarray:
                         best = c
                         nxt = j
         cur = nxt
-    return order
+    return order[:n]
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -159,8 +189,22 @@ def level_costs(st: K.CollapseState, positions: np.ndarray, stars: K.Stars) -> t
     n = positions.shape[0]
     ks = np.empty(n, np.int32)
     cs = np.empty(n, np.float64)
+    maxd = 1
+    for p in range(stars.nbr_start.shape[0] - 1):
+        maxd = max(maxd, stars.nbr_start[p + 1] - stars.nbr_start[p])
+    costs = np.empty(maxd)  # one buffer for every star's costs
+    locked = st.pos_locked
+    alive = st.pos_alive
     for i in range(n):
-        k, c = K.best_collapse(st, positions[i], True, stars)
+        b = positions[i]
+        s0 = stars.start[b]
+        s1 = stars.start[b + 1]
+        if locked[b] or not alive[b] or s0 == s1:  # as best_collapse
+            ks[i] = -1
+            cs[i] = np.inf
+            continue
+        nbr = stars.nbr[stars.nbr_start[b] : stars.nbr_start[b + 1]]
+        k, c = K.best_of_star(st, b, stars.tris[s0:s1], stars.tp[s0:s1], nbr, True, stars, costs, None)
         ks[i] = k
         cs[i] = c
     return ks, cs
@@ -245,6 +289,7 @@ def patch_triangles(
     mark = np.full(T, -1, np.int64)
     start = np.zeros(n + 1, np.int64)
     out = np.empty(max(16, 8 * inner.shape[0]), np.int64)
+    w = _chain_work(16)
     m = np.int64(0)
     for p in range(n):
         for r in range(inner_start[p], inner_start[p + 1]):
@@ -255,13 +300,16 @@ def patch_triangles(
                     out = _grow_i64(out, m + 1)
                     out[m] = t
                     m += 1
-        seg = out[start[p] : m].copy()
-        sub = np.empty((seg.shape[0], 3), np.int64)
-        for j in range(seg.shape[0]):
+        ns = m - start[p]
+        w = _chain_work_for(w, ns)
+        seg = w[4]
+        sub = w[5]
+        for j in range(ns):
+            seg[j] = out[start[p] + j]
             for i in range(3):
                 sub[j, i] = tv[seg[j], i]
-        o = chain_order(sub)
-        for j in range(seg.shape[0]):
+        o = _chain_order_into(sub, ns, w)
+        for j in range(ns):
             out[start[p] + j] = seg[o[j]]
         start[p + 1] = m
     return start, out[:m].copy()
@@ -522,17 +570,15 @@ def _emit_new_versions(
     ng: int,
     q_out: np.ndarray,
     nq: int,
+    w: tuple,
 ):
     """Append the surviving triangles of ``tris`` (after a collapse) as new global triangles, in fan
-    order, to ``q_out``; triangles that did not change keep their id."""
+    order, to ``q_out``; triangles that did not change keep their id. ``w``: :func:`_chain_work` for
+    ``len(tris)`` triangles."""
     tv = st.tri_verts
     alive = st.tri_alive
-    ns = 0
-    for j in range(tris.shape[0]):
-        if alive[tris[j]]:
-            ns += 1
-    surv = np.empty(ns, np.int64)
-    sub = np.empty((ns, 3), np.int64)
+    surv = w[4]
+    sub = w[5]
     ns = 0
     for j in range(tris.shape[0]):
         t = tris[j]
@@ -541,7 +587,7 @@ def _emit_new_versions(
             for i in range(3):
                 sub[ns, i] = tv[t, i]
             ns += 1
-    o = chain_order(sub)
+    o = _chain_order_into(sub, ns, w)
     q_out = _grow_i64(q_out, nq + ns)
     for j in range(ns):
         t = surv[o[j]]
@@ -559,10 +605,16 @@ def _emit_new_versions(
 
 
 @nb.njit(cache=True)
-def _record_collapse(st: K.CollapseState, b: int, k: int, recs: np.ndarray, nrec: int, step: int):
-    """Apply the collapse of position ``b`` onto ``k``; append its vertex collapses (binned, kept, step)."""
-    tris_b = K.gather_triangles(st, b)
-    tp_b = K.triangle_positions(st, tris_b)
+def _record_collapse(
+    st: K.CollapseState, b: int, k: int, recs: np.ndarray, nrec: int, step: int, bbuf: tuple | None = None
+):
+    """Apply the collapse of position ``b`` onto ``k``; append its vertex collapses (binned, kept, step).
+    ``bbuf``: :func:`swpm_usd.simplify.kernels.star_buffers` to read ``b``'s star into."""
+    if bbuf is None:
+        tris_b = K.gather_triangles(st, b)
+        tp_b = K.triangle_positions(st, tris_b)
+    else:
+        tris_b, tp_b, _ = K.star_into(st, b, bbuf[0], bbuf[1], bbuf[2])
     vmap = K.vertex_map(st, b, k, tris_b, tp_b)
     v0 = st.pos_vstart[b]
     pv = st.pos_verts
@@ -621,14 +673,25 @@ def collapse_patches(
     nq = np.int64(0)
     bbuf = K.star_buffers(st)
     kbuf = K.star_buffers(st)
+    costs = np.empty(bbuf[2].shape[0])
+    # per-patch buffers, sized for the largest patch
+    max_tris = 0
+    max_inner = 0
+    for p in range(pt_start.shape[0] - 1):
+        max_tris = max(max_tris, pt_start[p + 1] - pt_start[p])
+    for p in range(inner_start.shape[0] - 1):
+        max_inner = max(max_inner, inner_start[p + 1] - inner_start[p])
+    w = _chain_work(max_tris)
+    remaining_buf = np.empty(max_inner, np.int64)
+    p_snapshot = np.empty(max_tris, np.int64)
     for o in range(n):
         p = order[o]
         tris = pt[pt_start[p] : pt_start[p + 1]]
         m0 = inner_start[p]
         m1 = inner_start[p + 1]
-        remaining = inner[m0:m1].copy()
+        remaining = remaining_buf[: m1 - m0]
+        remaining[:] = inner[m0:m1]
         made = np.int64(0)
-        p_snapshot = np.empty(tris.shape[0], np.int64)
         for j in range(tris.shape[0]):
             p_snapshot[j] = cur_gid[tris[j]]
         while True:
@@ -639,7 +702,7 @@ def collapse_patches(
                 b = remaining[r]
                 if b < 0 or not alive_pos[b]:
                     continue
-                k, c = _shaped_collapse(st, b, slack, max_cost, bbuf, kbuf)
+                k, c = _shaped_collapse(st, b, slack, max_cost, bbuf, kbuf, costs)
                 if k >= 0 and c < best_c and c <= max_cost:
                     best_c = c
                     best_k = k
@@ -648,7 +711,7 @@ def collapse_patches(
                 break
             b = remaining[best_r]
             remaining[best_r] = -1
-            recs, nrec = _record_collapse(st, b, best_k, recs, nrec, step0 + nstep)
+            recs, nrec = _record_collapse(st, b, best_k, recs, nrec, step0 + nstep, bbuf)
             step_info[nstep, 0] = np.sqrt(best_c)
             step_info[nstep, 1] = b
             step_info[nstep, 2] = best_k
@@ -661,7 +724,7 @@ def collapse_patches(
         for j in range(tris.shape[0]):
             p_out[npo] = p_snapshot[j]
             npo += 1
-        gtris, ng, q_out, nq = _emit_new_versions(st, tris, cur_gid, gtris, ng, q_out, nq)
+        gtris, ng, q_out, nq = _emit_new_versions(st, tris, cur_gid, gtris, ng, q_out, nq, w)
         npatch += 1
         p_start[npatch] = npo
         q_start[npatch] = nq
@@ -747,6 +810,7 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
     ak = np.empty(64, np.float64)
     ai = np.empty(64, np.int64)
     ast = np.empty(64, np.int64)
+    fw = _chain_work(16)
     for _ in range(3):
         progress = 0
         for p in range(P):
@@ -825,7 +889,8 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
                 p_out[npo] = cur_gid[tris_b[o[j]]]
                 npo += 1
             recs, nrec = _record_collapse(st, b, k, recs, nrec, nstep)
-            gtris, ng, q_out, nq = _emit_new_versions(st, tris_b, cur_gid, gtris, ng, q_out, nq)
+            fw = _chain_work_for(fw, tris_b.shape[0])
+            gtris, ng, q_out, nq = _emit_new_versions(st, tris_b, cur_gid, gtris, ng, q_out, nq, fw)
             for j in range(tris_b.shape[0]):
                 if alive[tris_b[j]]:
                     tri_level[tris_b[j]] = level
@@ -1250,24 +1315,29 @@ def reassign_middle(
 
 @nb.njit(cache=True)
 def _shaped_collapse(
-    st: K.CollapseState, b: int, slack: float, max_cost: float, bbuf: tuple, kbuf: tuple
+    st: K.CollapseState, b: int, slack: float, max_cost: float, bbuf: tuple, kbuf: tuple, costs: np.ndarray
 ) -> tuple[int, float]:
     """Valid collapse of ``b``: among the valid targets costing at most ``slack * max_cost`` more than the
     cheapest one (and at most ``max_cost``), the one of highest degree (ties: the cheaper). ``slack`` 0 or
     an unbounded ``max_cost``: :func:`swpm_usd.simplify.kernels.best_collapse`. ``bbuf``, ``kbuf``:
     :func:`swpm_usd.simplify.kernels.star_buffers` for the stars of ``b`` and of a target (read once per
-    target, for its degree and its validity)."""
-    k0, c0 = K.best_collapse(st, b)
+    target, for its degree and its validity); ``costs``: room for the costs of ``b``'s neighbours."""
+    if st.pos_locked[b] or not st.pos_alive[b]:
+        return -1, np.inf
+    # b's star read once, for best_collapse and the targets of the slack
+    tris_b, tp_b, nbr = K.star_into(st, b, bbuf[0], bbuf[1], bbuf[2])
+    if tris_b.shape[0] == 0:
+        return -1, np.inf
+    k0, c0 = K.best_of_star(st, b, tris_b, tp_b, nbr, True, None, costs, kbuf)
     if k0 < 0 or slack <= 0.0 or not np.isfinite(max_cost):
         return k0, c0
-    tris_b, tp_b, nbr = K.star_into(st, b, bbuf[0], bbuf[1], bbuf[2])
     lim = min(c0 + slack * max_cost, max_cost)
     best_k = k0
     best_c = c0
     best_d = -1
     for i in range(nbr.shape[0]):
         k = nbr[i]
-        c = K.collapse_cost(st, b, k)
+        c = costs[i]
         if c > lim:
             continue
         _, tp_k, nbr_k = K.star_into(st, k, kbuf[0], kbuf[1], kbuf[2])

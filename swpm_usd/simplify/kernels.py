@@ -526,28 +526,60 @@ def best_collapse(
         nbr = stars.nbr[stars.nbr_start[b] : stars.nbr_start[b + 1]]
     if tris_b.shape[0] == 0:
         return -1, np.inf
-    costs = np.empty(nbr.shape[0])
+    return best_of_star(st, b, tris_b, tp_b, nbr, validate, stars, np.empty(nbr.shape[0]), None)
+
+
+@nb.njit(cache=True, inline="always")
+def best_of_star(
+    st: CollapseState,
+    b: int,
+    tris_b: np.ndarray,
+    tp_b: np.ndarray,
+    nbr: np.ndarray,
+    validate: bool,
+    stars: Stars | None,
+    costs: np.ndarray,
+    kbuf: tuple | None,
+) -> tuple[int, float]:
+    """:func:`best_collapse` of ``b`` (alive, unlocked, with triangles) from its star read already
+    (``tris_b``, ``tp_b``, ``nbr``), the costs written to ``costs`` (room for ``len(nbr)``); ``kbuf``
+    (:func:`star_buffers`, ``stars`` None): read the targets' stars into it instead of new arrays.
+    Returns the costs of all of ``nbr`` in ``costs[:len(nbr)]`` too."""
+    nn = nbr.shape[0]
     best = 0
-    for i in range(nbr.shape[0]):
+    for i in range(nn):
         costs[i] = collapse_cost(st, b, nbr[i])
         if costs[i] < costs[best]:
             best = i
     if not validate:
         return nbr[best], costs[best]
-    if valid_collapse(st, b, nbr[best], tris_b, tp_b, nbr, stars):
-        return nbr[best], costs[best]
-    order = np.argsort(costs)
-    for i in range(1, order.shape[0]):
-        k = nbr[order[i]]
-        if valid_collapse(st, b, k, tris_b, tp_b, nbr, stars):
-            return k, costs[order[i]]
+    # (``kbuf is None`` is resolved at compile time: one branch per specialisation)
+    if kbuf is None:
+        if valid_collapse(st, b, nbr[best], tris_b, tp_b, nbr, stars):
+            return nbr[best], costs[best]
+        order = np.argsort(costs[:nn])
+        for i in range(1, order.shape[0]):
+            k = nbr[order[i]]
+            if valid_collapse(st, b, k, tris_b, tp_b, nbr, stars):
+                return k, costs[order[i]]
+    else:
+        k = nbr[best]
+        _, tp_k, nbr_k = star_into(st, k, kbuf[0], kbuf[1], kbuf[2])
+        if valid_collapse(st, b, k, tris_b, tp_b, nbr, None, tp_k, nbr_k):
+            return k, costs[best]
+        order = np.argsort(costs[:nn])
+        for i in range(1, order.shape[0]):
+            k = nbr[order[i]]
+            _, tp_k, nbr_k = star_into(st, k, kbuf[0], kbuf[1], kbuf[2])
+            if valid_collapse(st, b, k, tris_b, tp_b, nbr, None, tp_k, nbr_k):
+                return k, costs[order[i]]
     return -1, np.inf
 
 
 # ----------------------------------------------------------------------------------------------------
 # a binary min-heap on arrays (cost, position, stamp); stale entries are skipped on pop
 # ----------------------------------------------------------------------------------------------------
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _heap_push(keys, ids, stamps, size, key, pid, stamp):
     if size == keys.shape[0]:
         nk = np.empty(2 * size, keys.dtype)
@@ -568,7 +600,7 @@ def _heap_push(keys, ids, stamps, size, key, pid, stamp):
     return keys, ids, stamps, size + 1
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _heap_pop(keys, ids, stamps, size):
     key, pid, stamp = keys[0], ids[0], stamps[0]
     size -= 1
