@@ -1,10 +1,12 @@
 """Build time of a whole LOD chain against meshoptimizer (the aim: within 10x of its time).
 
 meshoptimizer's chain: ``simplify`` from the full mesh to 50, 25, 10, 5 and 2 % of the indices (five
-discrete LODs); ours: one ``swpm_usd.build`` per encoding (every LOD at once). Medians of 5 / 3 runs after a
-warm-up, in one process.
+discrete LODs); ours: one ``swpm_usd.build`` per encoding (every LOD at once). After a warm-up, the two are
+timed in alternation, ``--rounds`` times (default 5), and the ratio is the median of the per-round ratios:
+on a shared machine the load drifts, and timing one side after the other let the drift into the ratio
+(meshoptimizer's own median moved 40 % between runs).
 
-    python benchmarks/bench_chain.py [MESH ...]
+    python benchmarks/bench_chain.py [MESH ...] [--encodings sliding-window,vanilla] [--rounds 5]
 """
 
 from __future__ import annotations
@@ -26,14 +28,22 @@ HERE = Path(__file__).resolve().parent
 SHARED = HERE.parent.parent / "shared" / "meshes"
 
 
-def _median_time(fn, repeats: int) -> float:
+def _seconds(fn) -> float:
+    t = time.perf_counter()
     fn()
-    times = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times)
+    return time.perf_counter() - t
+
+
+def _alternating(ours, reference, rounds: int) -> tuple[float, float, float]:
+    """Medians of ``ours`` and ``reference`` times and of their per-round ratio, timed in alternation."""
+    ours()
+    reference()
+    a, b = [], []
+    for _ in range(rounds):
+        b.append(_seconds(reference))
+        a.append(_seconds(ours))
+    ratios = [x / y for x, y in zip(a, b, strict=True)]
+    return statistics.median(a), statistics.median(b), statistics.median(ratios)
 
 
 def main() -> None:
@@ -41,8 +51,14 @@ def main() -> None:
     ap.add_argument(
         "meshes", nargs="*", default=[str(SHARED / "stanford-bunny.obj"), str(SHARED / "cow.obj")]
     )
+    ap.add_argument("--encodings", default=",".join(BUILDERS), help="comma-separated (default: all)")
+    ap.add_argument("--rounds", type=int, default=5, help="alternating timing rounds (default 5)")
     ap.add_argument("--out", default=str(HERE / "results" / "chain.json"))
     args = ap.parse_args()
+    encodings = [e for e in args.encodings.split(",") if e]
+    unknown = sorted(set(encodings) - set(BUILDERS))
+    if unknown:
+        ap.error(f"unknown encodings {unknown}; choose from {sorted(BUILDERS)}")
     rows = []
     for path in args.meshes:
         mesh = load_mesh(path)
@@ -63,16 +79,17 @@ def main() -> None:
                     target_error=1e3,
                 )
 
-        mo = _median_time(chain, 5)
-        for enc in BUILDERS:
-            ours = _median_time(lambda enc=enc, mesh=mesh: swpm_usd.build(mesh, enc), 3)
+        for enc in encodings:
+            ours, mo, ratio = _alternating(
+                lambda enc=enc, mesh=mesh: swpm_usd.build(mesh, enc), chain, args.rounds
+            )
             rows.append(
                 {
                     "mesh": Path(path).name,
                     "encoding": enc,
                     "ours_s": ours,
                     "meshopt_s": mo,
-                    "ratio": ours / mo,
+                    "ratio": ratio,
                 }
             )
     print(f"{'mesh':<20} {'encoding':<15} {'ours s':>8} {'meshopt s':>10} {'ratio':>6}  (aim <= 10x)")
