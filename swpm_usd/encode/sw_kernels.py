@@ -44,22 +44,6 @@ def _grow_tris(a: np.ndarray, n: int) -> np.ndarray:
 
 
 @nb.njit(cache=True)
-def _group_by(keys: np.ndarray, n_groups: int) -> tuple[np.ndarray, np.ndarray]:
-    """Counting sort: CSR ``(start, idx)`` listing, for every group ``g < n_groups``, the indices ``j`` with
-    ``keys[j] == g`` in increasing order."""
-    cnt = np.zeros(n_groups + 1, np.int64)
-    for j in range(keys.shape[0]):
-        cnt[keys[j] + 1] += 1
-    start = np.cumsum(cnt)
-    fill = start[:-1].copy()
-    idx = np.empty(keys.shape[0], np.int64)
-    for j in range(keys.shape[0]):
-        idx[fill[keys[j]]] = j
-        fill[keys[j]] += 1
-    return start, idx
-
-
-@nb.njit(cache=True)
 def chain_order(tv: np.ndarray) -> np.ndarray:
     """Order of a handful of triangles (``tv`` (n,3) vertex ids) so consecutive ones share an edge where
     possible: a closed fan comes out as a fan, an open fan starts at one of its ends."""
@@ -499,7 +483,7 @@ def order_patches(
     patch_of = np.empty(m, np.int64)
     for p in range(n):
         patch_of[pv_start[p] : pv_start[p + 1]] = p
-    vp_start, vp = _group_by(pv[:m], vertex_count)
+    vp_start, vp = K.group_by(pv[:m], vertex_count)
     vp = patch_of[vp]
     remaining = np.diff(vp_start)
     no_skip = np.zeros(vertex_count, np.bool_)
@@ -1228,7 +1212,7 @@ def reassign_middle(
                 corner_pos[nk] = vpos[tv[pt[j], kk]]
                 corner_patch[nk] = p
                 nk += 1
-    pp_start, pp = _group_by(corner_pos[:nk], P)
+    pp_start, pp = K.group_by(corner_pos[:nk], P)
     pp = corner_patch[pp]
     cand_start = np.zeros(nab + 1, np.int64)
     cand = np.empty(8 * nab + 16, np.int64)
@@ -1251,7 +1235,7 @@ def reassign_middle(
                     nc += 1
         cand_start[i + 1] = nc
     # patch -> (absorbed triangle, candidate slot)
-    pc_start, pc = _group_by(cand[:nc], n)
+    pc_start, pc = K.group_by(cand[:nc], n)
     slot_tri = np.empty(nc, np.int64)
     for i in range(nab):
         for m in range(cand_start[i], cand_start[i + 1]):

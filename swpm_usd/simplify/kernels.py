@@ -246,14 +246,21 @@ def star_into(
     written to reusable buffers instead of three new arrays (room: ``tris`` and ``tp`` one row per triangle
     of the state, ``nbr`` twice that: :func:`star_buffers`); returns views of them, valid until the next
     call with the same buffers."""
+    n = _positions_into(st, p, tris, tp)
+    m = _neighbours_into(p, tp[:n], nbr, 0)
+    return tris[:n], tp[:n], nbr[:m]
+
+
+@nb.njit(cache=True)
+def _positions_into(st: CollapseState, p: int, tris: np.ndarray, tp: np.ndarray) -> int:
+    """``p``'s live triangles into ``tris[:n]`` and their positions into ``tp[:n]``; returns ``n``."""
     n = _gather_into(st, p, tris, 0)
     tv = st.tri_verts
     vp = st.vertex_pos
     for j in range(n):
         for i in range(3):
             tp[j, i] = vp[tv[tris[j], i]]
-    m = _neighbours_into(p, tp[:n], nbr, 0)
-    return tris[:n], tp[:n], nbr[:m]
+    return n
 
 
 @nb.njit(cache=True)
@@ -553,7 +560,9 @@ def best_of_star(
             best = i
     if not validate:
         return nbr[best], costs[best]
-    # (``kbuf is None`` is resolved at compile time: one branch per specialisation)
+    # (``kbuf is None`` is resolved at compile time: one branch per specialisation). The two branches are
+    # written out: one helper choosing the star source made ``level_costs`` ~35 % slower (111 -> 152 ms
+    # on bunny), even inlined
     if kbuf is None:
         if valid_collapse(st, b, nbr[best], tris_b, tp_b, nbr, stars):
             return nbr[best], costs[best]
@@ -721,18 +730,25 @@ def build_corner_lists(tri_pos: np.ndarray, P: int) -> tuple[np.ndarray, np.ndar
 
 
 @nb.njit(cache=True)
-def stable_order(keys: np.ndarray, n_keys: int) -> np.ndarray:
-    """``np.argsort(keys, kind="stable")`` for integer keys in ``[0, n_keys)``, by a counting sort."""
-    cnt = np.zeros(n_keys + 1, np.int64)
+def group_by(keys: np.ndarray, n_groups: int) -> tuple[np.ndarray, np.ndarray]:
+    """Counting sort: CSR ``(start, idx)`` listing, for every group ``g < n_groups``, the indices ``j`` with
+    ``keys[j] == g`` in increasing order."""
+    cnt = np.zeros(n_groups + 1, np.int64)
     for j in range(keys.shape[0]):
         cnt[keys[j] + 1] += 1
-    for g in range(n_keys):
-        cnt[g + 1] += cnt[g]
-    order = np.empty(keys.shape[0], np.int64)
+    start = np.cumsum(cnt)
+    fill = start[:-1].copy()
+    idx = np.empty(keys.shape[0], np.int64)
     for j in range(keys.shape[0]):
-        order[cnt[keys[j]]] = j
-        cnt[keys[j]] += 1
-    return order
+        idx[fill[keys[j]]] = j
+        fill[keys[j]] += 1
+    return start, idx
+
+
+@nb.njit(cache=True)
+def stable_order(keys: np.ndarray, n_keys: int) -> np.ndarray:
+    """``np.argsort(keys, kind="stable")`` for integer keys in ``[0, n_keys)`` (:func:`group_by`)."""
+    return group_by(keys, n_keys)[1]
 
 
 @nb.njit(cache=True)
@@ -740,19 +756,15 @@ def fan_counts(st: CollapseState) -> np.ndarray:
     """Number of edge-connected triangle fans around each position (>1 means a pinch vertex)."""
     P = st.pos_points.shape[0]
     out = np.zeros(P, np.int32)
-    tv = st.tri_verts
-    vp = st.vertex_pos
+    T = st.tri_verts.shape[0]
     # one buffer for every star (a new array per position cost more than the test itself)
-    tris = np.empty(tv.shape[0], np.int32)
-    tp = np.empty((tv.shape[0], 3), np.int32)
-    parent = np.empty(tv.shape[0], np.int64)
+    tris = np.empty(T, np.int32)
+    tp = np.empty((T, 3), np.int32)
+    parent = np.empty(T, np.int64)
     for p in range(P):
-        n = _gather_into(st, p, tris, 0)
+        n = _positions_into(st, p, tris, tp)
         if n == 0:
             continue
-        for j in range(n):
-            for i in range(3):
-                tp[j, i] = vp[tv[tris[j], i]]
         for i in range(n):
             parent[i] = i
         for i in range(n):
