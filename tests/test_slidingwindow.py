@@ -591,3 +591,20 @@ def test_lower_costly_centres_lower_the_top_of_the_ranking() -> None:
     members = np.array([0, 2], np.int64)
     assert swc.lower_error_centres(start, nbr, eligible, members, rank).tolist() == [0, 2]
     assert swc.lower_costly_centres(start, nbr, eligible, members, rank, 8.0, 3, 2).tolist() == [1, 4]
+
+
+def test_sparse_coarse_levels_keep_their_middle(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Beetle's coarse levels have few centres left; their middle stays one block (not absorbed into
+    blobs around the centres): a smaller pool and a warmer cache there than absorbing on every level."""
+    from swpm_usd.encode import slidingwindow as sw
+    from swpm_usd.metrics import acmr
+
+    beetle = swpm_usd.load_mesh(MESHES / "beetle.obj")
+    bounded = build_sliding_window(beetle)
+    monkeypatch.setattr(sw, "_ABSORB_MAX_MIDDLE", 1.0)
+    always = build_sliding_window(beetle)
+    assert bounded.index_pool.shape[0] < 0.97 * always.index_pool.shape[0]
+    k_b = bounded.lod_for_triangles(beetle.triangle_count // 10)
+    k_a = always.lod_for_triangles(beetle.triangle_count // 10)
+    assert acmr(bounded.triangles_at(k_b)) < 0.95 * acmr(always.triangles_at(k_a))
+    _check_all(bounded, beetle, closed=False, every=7)

@@ -37,9 +37,11 @@ Builders.
   joins it (``absorb_middle=True``, the default; :func:`.sw_kernels.absorb_middle`, a patch sharing a *vertex*
   first, since an attribute seam splits cache entries): it touches no inner vertex, so it is the same triangle
   in ``P_i`` and ``Q_i`` and is stored twice instead of once in ``M``, which is then nearly empty: the level's
-  cover is the papers' ``P_1 U .. U P_n = T``. The trade: lambda +15 %, but no window draws a scattered middle
-  block (bunny, FIFO 16, ACMR / meshoptimizer's ``optimize_vertex_cache`` of the same triangles at
-  100/50/25/10 %: 1.26/1.60/1.60/1.47 without, 1.04/1.08/1.08/1.06 with; lambda 4.94 -> 5.68). Patches are
+  cover is the papers' ``P_1 U .. U P_n = T`` (not on a coarse level whose stars cover under 40 % of it, where
+  ``M`` is a connected mesh that draws well as one block: ``_ABSORB_MAX_MIDDLE``). The trade: lambda +15 %,
+  but no window draws a scattered middle block (bunny, FIFO 16, ACMR / meshoptimizer's
+  ``optimize_vertex_cache`` of the same triangles at 100/50/25/10 %: 1.26/1.60/1.60/1.47 without,
+  1.04/1.08/1.08/1.06 with; lambda 4.94 -> 5.68). Patches are
   then ordered greedily for a FIFO vertex cache (TD-VIPM 3.2, eq. 2), scoring the misses of both sequences a
   window draws, ``P_{j+1}..P_n`` and ``Q_1..Q_j`` (:func:`.sw_kernels.order_patches`); then every absorbed
   triangle moves to the patch next to it where that order draws it with the fewest misses
@@ -377,6 +379,15 @@ _TARGET_SLACK_SINGLE = 0.05
 #: 1.26/1.60/1.60/1.47 -> 1.04/1.08/1.08/1.06, lambda 4.94 -> 5.68). ``absorb_middle=False`` keeps them
 #: in the static middle.
 _ABSORB_MIN_SHARED = 1
+#: ... but only on a level whose patches (their own stars) cover at least ``1 - _ABSORB_MAX_MIDDLE`` of its
+#: triangles. On a coarse level where few vertices can still go (beetle's last levels: 7-23 patches on
+#: 220-300 triangles, 62-79 % of them in no star) the middle is one connected mesh that draws well as a
+#: single block, and absorbing it would store most of the level twice as blobs around the few centres.
+#: Ten shared meshes, ACMR ratio at 20 fractions (100 to 5 %): worst window 1.256 -> 1.157 (beetle at 10 %),
+#: mean 1.0582 -> 1.0573, lambda mean 5.385 -> 5.354 (beetle 5.89 -> 5.62); with the edge swaps worst
+#: 1.178 either way, lambda 4.906 -> 4.872. A bound of 0.4-0.5 leaves beetle levels of 42-48 % middle
+#: unabsorbed, where the blobs draw better (worst window 1.34)
+_ABSORB_MAX_MIDDLE = 0.6
 
 #: ``cluster=True``: a linked level stops after the prefix of its patches that costs least per patch, but
 #: has at least this many patches (fewer levels, less build time)
@@ -592,7 +603,11 @@ def _build_topology(
                 )
             pt_start, pt = swk.patch_triangles(st, inner_start, inner, stars)
             own_start = pt_start
-            if absorb_min_shared > 0:
+            absorb = (
+                absorb_min_shared > 0
+                and alive_t.shape[0] - pt_start[-1] <= _ABSORB_MAX_MIDDLE * alive_t.shape[0]
+            )
+            if absorb:
                 pt_start, pt = swk.absorb_middle(
                     st, pt_start, pt, alive_t.astype(np.int64), absorb_min_shared, stars
                 )
@@ -602,7 +617,7 @@ def _build_topology(
             order = swk.order_patches(
                 pt_start, pt, st.tri_verts, binned_vertex, np.diff(inner_start), V, int(cache_size)
             )
-            if absorb_min_shared > 0:
+            if absorb:
                 pt_start, pt = swk.reassign_middle(
                     st, own_start, pt_start, pt, order, binned_vertex, int(cache_size)
                 )
