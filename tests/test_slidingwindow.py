@@ -608,3 +608,24 @@ def test_sparse_coarse_levels_keep_their_middle(monkeypatch: pytest.MonkeyPatch)
     k_a = always.lod_for_triangles(beetle.triangle_count // 10)
     assert acmr(bounded.triangles_at(k_b)) < 0.95 * acmr(always.triangles_at(k_a))
     _check_all(bounded, beetle, closed=False, every=7)
+
+
+def test_target_slack_trades_error_for_pool_size(spot: Mesh) -> None:
+    """``target_slack=None`` is the mode's own default; a larger slack sends inner vertices to costlier,
+    higher-degree targets: a smaller pool, larger collapse errors, still valid windows."""
+    from swpm_usd.encode import slidingwindow as sw
+
+    default = build_sliding_window(spot, inner_vertices=3)
+    explicit = build_sliding_window(spot, inner_vertices=3, target_slack=sw._TARGET_SLACK)
+    assert np.array_equal(default.index_pool, explicit.index_pool)
+    single = build_sliding_window(spot, target_slack=sw._TARGET_SLACK_SINGLE)
+    assert np.array_equal(single.index_pool, build_sliding_window(spot).index_pool)
+    loose = swpm_usd.build(spot, "sliding-window", inner_vertices=3, target_slack=1.0)
+    assert loose.params["target_slack"] == 1.0
+    assert loose.index_pool.shape[0] < 0.97 * default.index_pool.shape[0]
+    # the collapses' own quadric errors (the same 3,186 vertices go either way)
+    assert loose.collapse_sequence.error.mean() > 1.1 * default.collapse_sequence.error.mean()
+    _check_all(loose, spot, closed=True, every=9)
+    for bad in (-0.1, float("nan"), "1", True):
+        with pytest.raises(BuildError, match="target_slack"):
+            build_sliding_window(spot, target_slack=bad)

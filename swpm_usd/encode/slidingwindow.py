@@ -75,6 +75,13 @@ Builders.
   bunny reaches 5.37. With ``mu=0`` (the papers' basic TD-VIPM, no error control, where the targets stay
   the cheapest) bunny gives 5.31 (SWPM's estimate ``(d - 1)(1 + mu)`` has the same ``1 + mu`` factor).
   ``mu`` trades pool size for error (row ``topology-mu0.3`` of the benchmark).
+
+  ``target_slack`` sets how much more than its cheapest collapse an inner vertex may cost, as a fraction of
+  the level's ``mu`` cut (never above the cut), when it goes to a neighbour of higher degree; ``None`` (the
+  default) means 0.05 with one inner vertex and 0.1 with more (``_TARGET_SLACK_SINGLE``,
+  ``_TARGET_SLACK``). Larger values give a smaller pool and a larger error, at a lower error price than a
+  smaller ``mu``: three inner vertices with the edge swaps and ``target_slack=1.0`` reach bunny lambda 2.78
+  (ten meshes: 3.22 -> 3.06; Hausdorff ratio 1.86 -> 2.03), where ``mu=0.05`` reaches 2.77 at 2.19.
 * ``builder="forsyth"``: the quadric-error collapse order, one patch (the binned vertex's star) per
   collapse; when the best collapse touches a triangle already created in the current level, the best one
   that does not is taken if its error is within ``tolerance`` times the mean collapse error of the plain
@@ -164,6 +171,7 @@ SLIDING_WINDOW_PARAMS: dict[str, Any] = {
     "inner_vertices": 1,
     "cache_size": 16,
     "absorb_middle": True,
+    "target_slack": None,
 }
 
 
@@ -362,13 +370,20 @@ _PATCH_SEARCH_JITTER = 1.0
 #: take more of them (the bound is about half the vertices of a degree-6 mesh). Bunny with the edge swaps,
 #: three inner vertices and the patch search: lambda 3.13 / 3.11 / 3.06 / 2.97 at 0 / 0.02 / 0.1 / 0.3;
 #: the Hausdorff error (geometric mean of the 12 err ratios of bunny and cow, inner3 and inner3-swap) 1.75
-#: before the search, 1.79 at 0.1, 2.00 at 0.3.
+#: before the search, 1.79 at 0.1, 2.00 at 0.3. Today (the 5e-4 swap bound), ten shared meshes, three inner
+#: vertices with the edge swaps, 30,000 samples: slack 0.1 / 0.5 / 1.0 gives lambda mean 3.216 / 3.096 /
+#: 3.056 (bunny 2.912 / 2.804 / 2.775), Hausdorff ratio geometric mean 1.86 / 1.97 / 2.03 at 50/25/10 %, the
+#: ACMR unchanged (1.066 / 1.064 / 1.062); lowering ``mu`` to 0.05 instead reaches the same lambda (3.074,
+#: bunny 2.773) at 2.19: the slack is the cheaper of the two ways to a smaller pool. Both constants are the
+#: defaults of the ``target_slack`` parameter.
 _TARGET_SLACK = 0.1
 #: the same for one inner vertex (the patch centres). The ten shared meshes, 12 fractions from 90 to 5 % of
 #: the triangles (120 points; Hausdorff at 30,000 samples), slack 0 / 0.05 / 0.1: lambda mean 5.61 / 5.39 /
 #: 5.31 (bunny 5.55 / 5.37 / 5.25), ACMR ratio mean 1.059 / 1.070 / 1.070 (104 / 100 / 94 within 1.10),
 #: Hausdorff ratio geometric mean 1.71 / 1.67 / 1.73 (45 / 45 / 49 within 1.5): a smaller pool for a
-#: slightly colder cache, the error unchanged within its noise
+#: slightly colder cache, the error unchanged within its noise. Spent on ``mu`` (same ten meshes, 50/25/10 %,
+#: 30,000 samples): ``mu=0.2, target_slack=1.0`` gives the defaults' lambda (mean 5.377 against 5.385) at a
+#: Hausdorff ratio of 1.46 against 1.56, for a colder cache (30 of 40 ACMR ratios within 1.10, against 34)
 _TARGET_SLACK_SINGLE = 0.05
 
 #: topology builder with ``absorb_middle=True``: a triangle of no patch joins the patch with which it
@@ -505,10 +520,15 @@ def _build_topology(
     cache_size: int,
     absorb_min_shared: int,
     cluster: bool = False,
+    target_slack: float | None = None,
 ):
     T = mesh.triangle_count
     P = st.pos_points.shape[0]
     V = mesh.vertex_count
+    if target_slack is None:
+        slack = _TARGET_SLACK if inner_vertices > 1 else _TARGET_SLACK_SINGLE
+    else:
+        slack = float(target_slack)
     gtris = np.empty((max(16, 2 * T), 3), np.int64)
     gtris[:T] = mesh.triangles
     ng = T
@@ -635,7 +655,7 @@ def _build_topology(
             ng,
             nstep,
             max_cost,
-            _TARGET_SLACK if inner_vertices > 1 else _TARGET_SLACK_SINGLE,
+            slack,
         )
         if patch_steps.shape[0] == 0:
             break
@@ -878,6 +898,7 @@ def build_sliding_window(
     inner_vertices: int = 1,
     cache_size: int = 16,
     absorb_middle: bool = True,
+    target_slack: float | None = None,
     boundary_weight: float = 8.0,
     seam_weight: float = 2.0,
 ) -> SlidingWindowProgressiveMesh:
@@ -892,6 +913,12 @@ def build_sliding_window(
         raise BuildError(f"swap_max_deviation must be >= 0, got {swap_max_deviation}")
     if int(cache_size) < 3:
         raise BuildError(f"cache_size must be >= 3, got {cache_size}")
+    if target_slack is not None and not (
+        isinstance(target_slack, (int, float))
+        and not isinstance(target_slack, bool)
+        and 0.0 <= float(target_slack) < np.inf
+    ):
+        raise BuildError(f"target_slack must be a number >= 0 or None, got {target_slack!r}")
     if cluster and (builder != "topology" or int(inner_vertices) != 1):
         raise BuildError("cluster=True needs builder='topology' and inner_vertices=1")
     if optimize_connectivity:
@@ -901,7 +928,7 @@ def build_sliding_window(
     if builder == "topology":
         absorb = _ABSORB_MIN_SHARED if absorb_middle else 0
         gtris, levels, recs, info = _build_topology(
-            mesh, st, float(mu), int(inner_vertices), int(cache_size), absorb, bool(cluster)
+            mesh, st, float(mu), int(inner_vertices), int(cache_size), absorb, bool(cluster), target_slack
         )
     else:
         gtris, levels, recs, info = _build_forsyth(mesh, st, float(tolerance), boundary_weight, seam_weight)

@@ -16,6 +16,8 @@ PACKAGED_SCHEMA = Path(__file__).resolve().parent / "pipeline.schema.json"
 
 
 def _param_schema(value: Any) -> dict[str, Any]:
+    if value is None:  # an optional number: None leaves the choice to the encoder
+        return {"type": ["number", "null"]}
     if isinstance(value, bool):
         return {"type": "boolean"}
     if isinstance(value, int):
