@@ -76,9 +76,9 @@ Builders.
   the cheapest) bunny gives 5.31 (SWPM's estimate ``(d - 1)(1 + mu)`` has the same ``1 + mu`` factor).
   ``mu`` trades pool size for error (row ``topology-mu0.3`` of the benchmark).
 
-  ``target_slack`` sets how much more than its cheapest collapse an inner vertex may cost, as a fraction of
-  the level's ``mu`` cut (never above the cut), when it goes to a neighbour of higher degree; ``None`` (the
-  default) means 0.05 with one inner vertex and 0.1 with more (``_TARGET_SLACK_SINGLE``,
+  ``target_slack`` (this builder only) sets how much more than its cheapest collapse an inner vertex may cost,
+  as a fraction of the level's ``mu`` cut (never above the cut), when it goes to a neighbour of higher degree;
+  ``None`` (the default) means 0.05 with one inner vertex and 0.1 with more (``_TARGET_SLACK_SINGLE``,
   ``_TARGET_SLACK``). Larger values give a smaller pool and a larger error, at a lower error price than a
   smaller ``mu``: three inner vertices with the edge swaps and ``target_slack=1.0`` reach bunny lambda 2.78
   (ten meshes: 3.22 -> 3.06; Hausdorff ratio 1.86 -> 2.03), where ``mu=0.05`` reaches 2.77 at 2.19.
