@@ -14,8 +14,9 @@ swap and inner3-swap (``optimize_connectivity=True``, SWPM 3.1 edge swaps; the e
 against the unswapped input), inner3-swap-mu0 (the papers' builder without error control),
 swap-dev1e-3, cluster-swap-dev1e-3 and inner3-swap-dev1e-3 (``swap_max_deviation=1e-3``: a smaller pool,
 LOD 0 farther from the input); cluster and cluster-swap (``cluster=True``, SWPM 3.2 linked patches, without
-and with the edge swaps); inner3-swap-slack1 and topology-mu0.2-slack1 (``target_slack=1.0``: costlier,
-higher-degree collapse targets for a smaller pool, alone and spent on ``mu=0.2``). ``--big`` adds a
+and with the edge swaps); inner3-swap-slack1, cluster-swap-slack1 and topology-mu0.2-slack1
+(``target_slack=1.0``: costlier, higher-degree collapse targets for a smaller pool, alone and spent on
+``mu=0.2``). ``--big`` adds a
 generated icosphere of 1.3 M triangles (build time only).
 Targets (issue): lambda <= 5.4 on bunny (topology, no reductions; <= 3.9 with cluster-swap; <= 2.8 with
 inner3-swap), ACMR ratio <= 1.10, error ratio <= 1.5, bunny build <= 3 s, 1 M triangles <= 60 s.
@@ -53,6 +54,7 @@ OPTIONS = {
     "cluster-swap": {"cluster": True, "optimize_connectivity": True},
     "inner3-swap-slack1": {"inner_vertices": 3, "optimize_connectivity": True, "target_slack": 1.0},
     "topology-mu0.2-slack1": {"mu": 0.2, "target_slack": 1.0},
+    "cluster-swap-slack1": {"cluster": True, "optimize_connectivity": True, "target_slack": 1.0},
 }
 FRACTIONS = (1.0, 0.5, 0.25, 0.1)
 
