@@ -596,9 +596,9 @@ def optimize_block_order(
 
 @njit(cache=True)
 def _rotate_rows(out: np.ndarray, shift: np.ndarray) -> None:
-    """Rotate row ``i`` of ``out`` (n, 3) left cyclically by ``shift[i]``, in place."""
+    """Rotate row ``i`` of ``out`` (n, 3) left cyclically by ``shift[i]`` (any integer), in place."""
     for i in range(out.shape[0]):
-        r = shift[i]
+        r = shift[i] % 3  # Python's modulo (numba keeps it): -1 -> 2, 3 -> 0, as the take_along_axis path
         if r != 0:
             a, b, c = out[i, 0], out[i, 1], out[i, 2]
             if r == 1:
@@ -614,7 +614,9 @@ def apply_order(triangles: np.ndarray, perm: np.ndarray, shift: np.ndarray | Non
     if shift is None or out.shape[0] == 0:
         return out
     s = np.asarray(shift, dtype=np.int64).reshape(-1)
-    if out.ndim == 2 and out.shape[1] == 3 and np.issubdtype(out.dtype, np.integer):
+    if out.ndim == 2 and out.shape[1] == 3 and np.issubdtype(out.dtype, np.integer) and out.dtype.isnative:
+        # the kernel reads shift[i] unchecked: a shorter shift must fail (or broadcast) as it did before
+        s = np.ascontiguousarray(np.broadcast_to(s, out.shape[:1]))
         _rotate_rows(out, s)  # in place, one pass (take_along_axis cost ~1 ms per 10,000 rows)
         return out
     cols = (np.arange(3)[None, :] + s.reshape(-1, 1)) % 3

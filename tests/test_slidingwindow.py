@@ -626,6 +626,9 @@ def test_target_slack_trades_error_for_pool_size(spot: Mesh) -> None:
     # the collapses' own quadric errors (the same 3,186 vertices go either way)
     assert loose.collapse_sequence.error.mean() > 1.1 * default.collapse_sequence.error.mean()
     _check_all(loose, spot, closed=True, every=9)
-    for bad in (-0.1, float("nan"), "1", True):
+    # a numpy scalar is a number too (1.0 is exact in float32: the same pool)
+    loose32 = build_sliding_window(spot, inner_vertices=3, target_slack=np.float32(1.0))
+    assert np.array_equal(loose32.index_pool, loose.index_pool)
+    for bad in (-0.1, float("nan"), float("inf"), "1", True, np.bool_(True)):
         with pytest.raises(BuildError, match="target_slack"):
             build_sliding_window(spot, target_slack=bad)

@@ -375,3 +375,23 @@ def test_block_order_segments(cow: np.ndarray) -> None:
     assert not_a_start not in set(starts.tolist())
     with pytest.raises(ValueError):
         optimize_block_order(shuffled, starts, segment_starts=[not_a_start])
+
+
+@pytest.mark.parametrize("dtype", [np.int32, np.uint32, np.int64, ">i4", np.float64])
+def test_apply_order_rotates_left_by_any_integer_shift(dtype: str | type) -> None:
+    """Row ``i`` is ``triangles[perm[i]]`` rotated left by ``shift[i]`` modulo 3 (negative and >= 3 too),
+    for every dtype; a shift of the wrong length fails instead of reading past its end."""
+    tris = np.array([[0, 1, 2], [3, 4, 5], [6, 7, 8], [9, 10, 11], [12, 13, 14]], dtype)
+    perm = np.array([4, 3, 2, 1, 0])
+    out = apply_order(tris, perm, np.array([1, 2, 3, -1, 4]))
+    assert out.tolist() == [[13, 14, 12], [11, 9, 10], [6, 7, 8], [5, 3, 4], [1, 2, 0]]
+    assert tris[0].tolist() == [0, 1, 2]  # the input is left alone
+    assert apply_order(tris, perm, [1]).tolist() == [
+        [13, 14, 12],
+        [10, 11, 9],
+        [7, 8, 6],
+        [4, 5, 3],
+        [1, 2, 0],
+    ]
+    with pytest.raises((ValueError, IndexError)):
+        apply_order(tris, perm, np.ones(3, np.int64))

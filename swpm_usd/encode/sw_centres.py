@@ -37,6 +37,8 @@ def _heap_push_fixed(keys, ids, stamps, size, key, pid, stamp):
     """:func:`swpm_usd.simplify.kernels._heap_push` into arrays sized for every push: it returns the size
     only, since a loop that reassigns arrays pays numba's reference counting on every iteration (this
     made :func:`select_patches` cost ~40 ns per position even on a level with nothing left to pick)."""
+    if size >= keys.shape[0]:  # numba checks no bounds: a wrong capacity must not write past the arrays
+        raise IndexError("heap capacity exceeded")
     i = size
     while i > 0:
         parent = (i - 1) >> 1
@@ -115,8 +117,10 @@ def select_patches(
             if not deleted[adj[a]]:
                 d += 1
         degree[x] = d
-    # room for every push: one per position, then one per degree decrement (at most one per edge end)
-    cap = 16 + P + adj.shape[0]
+    # room for every push: one per position, then one per degree decrement. A decrement comes from the
+    # first of an edge's two ends to be deleted (the other end is then still live), so there is at most one
+    # per undirected edge: half of ``adj``, which lists every edge both ways
+    cap = 16 + P + adj.shape[0] // 2
     hk = np.empty(cap, np.float64)
     hi = np.empty(cap, np.int64)
     hs = np.empty(cap, np.int64)
