@@ -227,24 +227,28 @@ def lower_error_centres(
 # larger independent sets: iterated local search (Andrade, Resende & Werneck, "Fast local search for the
 # maximum independent set problem", 2012): (1,2)-swaps plus random forced insertions
 # ----------------------------------------------------------------------------------------------------
+# ``log`` is sized by the caller for every entry it can take: returning the array (to grow it) from the
+# search loops' helpers would cost numba's reference counting on every call (see :func:`_heap_push_fixed`)
 @nb.njit(cache=True)
 def _set_insert(v, sol, tight, adj_start, adj, log, nlog):
+    if nlog >= log.shape[0]:  # numba checks no bounds: a wrong capacity must not write past ``log``
+        raise IndexError("set log capacity exceeded")
     sol[v] = True
     for a in range(adj_start[v], adj_start[v + 1]):
         tight[adj[a]] += 1
-    log = _grow_i64(log, nlog + 1)
     log[nlog] = v
-    return log, nlog + 1
+    return nlog + 1
 
 
 @nb.njit(cache=True)
 def _set_remove(v, sol, tight, adj_start, adj, log, nlog):
+    if nlog >= log.shape[0]:  # numba checks no bounds: a wrong capacity must not write past ``log``
+        raise IndexError("set log capacity exceeded")
     sol[v] = False
     for a in range(adj_start[v], adj_start[v + 1]):
         tight[adj[a]] -= 1
-    log = _grow_i64(log, nlog + 1)
     log[nlog] = -v - 1
-    return log, nlog + 1
+    return nlog + 1
 
 
 @nb.njit(cache=True)
@@ -318,10 +322,12 @@ def grow_independent_set(
     P = eligible.shape[0]
     sol = np.zeros(P, np.bool_)
     tight = np.zeros(P, np.int64)  # members among each vertex's neighbours
-    log = np.empty(64, np.int64)  # +v inserted, -v-1 removed since the last kept state
-    nlog = 0
+    # +v inserted, -v-1 removed since the last kept state. Between two resets the forced insertion removes
+    # at most P members, every other removal is a (1,2)-swap's that grows the set (at most P of them), and
+    # insertions exceed removals by at most P (the set's size): at most P + 2 * 2P entries
+    log = np.empty(5 * P + 64, np.int64)
     for c in centres:
-        log, nlog = _set_insert(c, sol, tight, adj_start, adj, log, 0)
+        _set_insert(c, sol, tight, adj_start, adj, log, 0)
     nlog = 0
     queue = np.empty(4 * P + 64, np.int64)
     queued = np.zeros(P, np.bool_)
@@ -366,14 +372,14 @@ def grow_independent_set(
                     break
             if fu < 0:
                 continue
-            log, nlog = _set_remove(x, sol, tight, adj_start, adj, log, nlog)
-            log, nlog = _set_insert(fu, sol, tight, adj_start, adj, log, nlog)
-            log, nlog = _set_insert(fw, sol, tight, adj_start, adj, log, nlog)
+            nlog = _set_remove(x, sol, tight, adj_start, adj, log, nlog)
+            nlog = _set_insert(fu, sol, tight, adj_start, adj, log, nlog)
+            nlog = _set_insert(fw, sol, tight, adj_start, adj, log, nlog)
             size += 1
             for i in range(n1):
                 z = ones[i]
                 if not sol[z] and tight[z] == 0:
-                    log, nlog = _set_insert(z, sol, tight, adj_start, adj, log, nlog)
+                    nlog = _set_insert(z, sol, tight, adj_start, adj, log, nlog)
                     size += 1
             if nq + P >= queue.shape[0]:  # at most P vertices are queued at once
                 nq -= head
@@ -401,16 +407,16 @@ def grow_independent_set(
             continue
         for a in range(adj_start[v], adj_start[v + 1]):
             if sol[adj[a]]:
-                log, nlog = _set_remove(adj[a], sol, tight, adj_start, adj, log, nlog)
+                nlog = _set_remove(adj[a], sol, tight, adj_start, adj, log, nlog)
                 size -= 1
-        log, nlog = _set_insert(v, sol, tight, adj_start, adj, log, nlog)
+        nlog = _set_insert(v, sol, tight, adj_start, adj, log, nlog)
         size += 1
         for a in range(adj_start[v], adj_start[v + 1]):
             y = adj[a]
             for b in range(adj_start[y], adj_start[y + 1]):
                 z = adj[b]
                 if eligible[z] and not sol[z] and tight[z] == 0:
-                    log, nlog = _set_insert(z, sol, tight, adj_start, adj, log, nlog)
+                    nlog = _set_insert(z, sol, tight, adj_start, adj, log, nlog)
                     size += 1
         queued[v] = True
         queue[nq] = v
@@ -459,11 +465,12 @@ def lower_costly_centres(
     pen = rank**power
     sol = np.zeros(P, np.bool_)
     tight = np.zeros(P, np.int64)
-    log = np.empty(64, np.int64)
-    for c in centres:
-        log, _ = _set_insert(c, sol, tight, adj_start, adj, log, 0)
     cand = np.empty(64, np.int64)
     free = np.empty(256, np.int64)
+    # one move's removals are distinct vertices (at most P), its insertions ``u`` and members of ``free``
+    log = np.empty(P + free.shape[0] + 1, np.int64)
+    for c in centres:
+        _set_insert(c, sol, tight, adj_start, adj, log, 0)
     for _ in range(passes):
         members = np.flatnonzero(sol & (rank >= min_rank))
         order = members[np.argsort(-rank[members])]
@@ -490,7 +497,7 @@ def lower_costly_centres(
                 for a in range(adj_start[u], adj_start[u + 1]):
                     y = adj[a]
                     if sol[y]:
-                        log, nlog = _set_remove(y, sol, tight, adj_start, adj, log, nlog)
+                        nlog = _set_remove(y, sol, tight, adj_start, adj, log, nlog)
                         dsize -= 1
                         dpen -= pen[y]
                         for b in range(adj_start[y], adj_start[y + 1]):
@@ -498,14 +505,14 @@ def lower_costly_centres(
                             if nf < free.shape[0] and eligible[z] and z != u:
                                 free[nf] = z
                                 nf += 1
-                log, nlog = _set_insert(u, sol, tight, adj_start, adj, log, nlog)
+                nlog = _set_insert(u, sol, tight, adj_start, adj, log, nlog)
                 dsize += 1
                 dpen += pen[u]
                 _sort_by(rank, free, nf)
                 for i in range(nf):
                     z = free[i]
                     if not sol[z] and tight[z] == 0:
-                        log, nlog = _set_insert(z, sol, tight, adj_start, adj, log, nlog)
+                        nlog = _set_insert(z, sol, tight, adj_start, adj, log, nlog)
                         dsize += 1
                         dpen += pen[z]
                 if dsize >= 0 and dpen < -1e-12:

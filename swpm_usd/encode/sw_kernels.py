@@ -272,8 +272,18 @@ def patch_triangles(
     n = inner_start.shape[0] - 1
     mark = np.full(T, -1, np.int64)
     start = np.zeros(n + 1, np.int64)
-    out = np.empty(max(16, 8 * inner.shape[0]), np.int64)
-    w = _chain_work(16)
+    # a patch has at most the sum of its inner positions' star sizes: sized once, so that the loops below
+    # reassign no array (numba's reference counting per reassignment)
+    cap = np.int64(16)
+    max_ns = np.int64(16)
+    for p in range(n):
+        ns = np.int64(0)
+        for r in range(inner_start[p], inner_start[p + 1]):
+            ns += stars.start[inner[r] + 1] - stars.start[inner[r]]
+        cap += ns
+        max_ns = max(max_ns, ns)
+    out = np.empty(cap, np.int64)
+    w = _chain_work(max_ns)
     m = np.int64(0)
     for p in range(n):
         for r in range(inner_start[p], inner_start[p + 1]):
@@ -281,11 +291,9 @@ def patch_triangles(
                 t = stars.tris[j]
                 if mark[t] != p:
                     mark[t] = p
-                    out = _grow_i64(out, m + 1)
                     out[m] = t
                     m += 1
         ns = m - start[p]
-        w = _chain_work_for(w, ns)
         seg = w[4]
         sub = w[5]
         for j in range(ns):
@@ -559,6 +567,25 @@ def _emit_new_versions(
     """Append the surviving triangles of ``tris`` (after a collapse) as new global triangles, in fan
     order, to ``q_out``; triangles that did not change keep their id. ``w``: :func:`_chain_work` for
     ``len(tris)`` triangles."""
+    gtris = _grow_tris(gtris, ng + tris.shape[0])
+    q_out = _grow_i64(q_out, nq + tris.shape[0])
+    ng, nq = _emit_into(st, tris, cur_gid, gtris, ng, q_out, nq, w)
+    return gtris, ng, q_out, nq
+
+
+@nb.njit(cache=True)
+def _emit_into(
+    st: K.CollapseState,
+    tris: np.ndarray,
+    cur_gid: np.ndarray,
+    gtris: np.ndarray,
+    ng: int,
+    q_out: np.ndarray,
+    nq: int,
+    w: tuple,
+) -> tuple[int, int]:
+    """:func:`_emit_new_versions` into ``gtris`` and ``q_out`` with room for ``len(tris)`` more rows each:
+    returns ``(ng, nq)`` only, since a loop reassigning arrays pays numba's reference counting per call."""
     tv = st.tri_verts
     alive = st.tri_alive
     surv = w[4]
@@ -572,12 +599,10 @@ def _emit_new_versions(
                 sub[ns, i] = tv[t, i]
             ns += 1
     o = _chain_order_into(sub, ns, w)
-    q_out = _grow_i64(q_out, nq + ns)
     for j in range(ns):
         t = surv[o[j]]
         g = cur_gid[t]
         if gtris[g, 0] != tv[t, 0] or gtris[g, 1] != tv[t, 1] or gtris[g, 2] != tv[t, 2]:
-            gtris = _grow_tris(gtris, ng + 1)
             for i in range(3):
                 gtris[ng, i] = tv[t, i]
             cur_gid[t] = ng
@@ -585,7 +610,7 @@ def _emit_new_versions(
             ng += 1
         q_out[nq] = g
         nq += 1
-    return gtris, ng, q_out, nq
+    return ng, nq
 
 
 @nb.njit(cache=True)
@@ -594,6 +619,19 @@ def _record_collapse(
 ):
     """Apply the collapse of position ``b`` onto ``k``; append its vertex collapses (binned, kept, step).
     ``bbuf``: :func:`swpm_usd.simplify.kernels.star_buffers` to read ``b``'s star into."""
+    nv = max(1, st.pos_vstart[b + 1] - st.pos_vstart[b])  # vertex_map's length
+    if recs.shape[0] < nrec + nv:
+        grown = np.empty((2 * recs.shape[0] + nv, 3), np.int64)
+        grown[:nrec] = recs[:nrec]
+        recs = grown
+    return recs, _record_collapse_into(st, b, k, recs, nrec, step, bbuf)
+
+
+@nb.njit(cache=True)
+def _record_collapse_into(
+    st: K.CollapseState, b: int, k: int, recs: np.ndarray, nrec: int, step: int, bbuf: tuple | None = None
+) -> int:
+    """:func:`_record_collapse` into ``recs`` with room for the vertices at ``b``; returns ``nrec`` only."""
     if bbuf is None:
         tris_b = K.gather_triangles(st, b)
         tp_b = K.triangle_positions(st, tris_b)
@@ -602,17 +640,13 @@ def _record_collapse(
     vmap = K.vertex_map(st, b, k, tris_b, tp_b)
     v0 = st.pos_vstart[b]
     pv = st.pos_verts
-    if recs.shape[0] < nrec + vmap.shape[0]:
-        grown = np.empty((2 * recs.shape[0] + vmap.shape[0], 3), np.int64)
-        grown[:nrec] = recs[:nrec]
-        recs = grown
     for r in range(vmap.shape[0]):
         recs[nrec, 0] = pv[v0 + r]
         recs[nrec, 1] = vmap[r]
         recs[nrec, 2] = step
         nrec += 1
     K.apply_collapse(st, b, k, vmap)
-    return recs, nrec
+    return nrec
 
 
 @nb.njit(cache=True)
@@ -645,9 +679,21 @@ def collapse_patches(
     alive_pos = st.pos_alive
     p_start = np.zeros(n + 1, np.int64)
     q_start = np.zeros(n + 1, np.int64)
-    p_out = np.empty(max(16, pt.shape[0]), np.int64)
-    q_out = np.empty(max(16, pt.shape[0]), np.int64)
-    recs = np.empty((max(16, 2 * n), 3), np.int64)
+    # every array the patch loop appends to is sized here for all it can take (each patch in ``order``
+    # adds at most its triangles to p_out, q_out and gtris, and the vertices of each of its inner
+    # positions, collapsed at most once, to recs), so that the loop reassigns none (numba's reference
+    # counting per reassignment)
+    n_tris = np.int64(0)
+    n_recs = np.int64(0)
+    for o in range(n):
+        p = order[o]
+        n_tris += pt_start[p + 1] - pt_start[p]
+        for r in range(inner_start[p], inner_start[p + 1]):
+            n_recs += max(1, st.pos_vstart[inner[r] + 1] - st.pos_vstart[inner[r]])
+    p_out = np.empty(max(16, n_tris), np.int64)
+    q_out = np.empty(max(16, n_tris), np.int64)
+    gtris = _grow_tris(gtris, ng + n_tris)
+    recs = np.empty((max(16, n_recs), 3), np.int64)
     step_info = np.empty((max(16, inner.shape[0]), 3), np.float64)
     patch_steps = np.zeros(n, np.int64)
     nrec = np.int64(0)
@@ -695,7 +741,7 @@ def collapse_patches(
                 break
             b = remaining[best_r]
             remaining[best_r] = -1
-            recs, nrec = _record_collapse(st, b, best_k, recs, nrec, step0 + nstep, bbuf)
+            nrec = _record_collapse_into(st, b, best_k, recs, nrec, step0 + nstep, bbuf)
             step_info[nstep, 0] = np.sqrt(best_c)
             step_info[nstep, 1] = b
             step_info[nstep, 2] = best_k
@@ -704,11 +750,10 @@ def collapse_patches(
         if made == 0:
             continue
         patch_steps[npatch] = made
-        p_out = _grow_i64(p_out, npo + tris.shape[0])
         for j in range(tris.shape[0]):
             p_out[npo] = p_snapshot[j]
             npo += 1
-        gtris, ng, q_out, nq = _emit_new_versions(st, tris, cur_gid, gtris, ng, q_out, nq, w)
+        ng, nq = _emit_into(st, tris, cur_gid, gtris, ng, q_out, nq, w)
         npatch += 1
         p_start[npatch] = npo
         q_start[npatch] = nq
@@ -1215,7 +1260,13 @@ def reassign_middle(
     pp_start, pp = K.group_by(corner_pos[:nk], P)
     pp = corner_patch[pp]
     cand_start = np.zeros(nab + 1, np.int64)
-    cand = np.empty(8 * nab + 16, np.int64)
+    # at most the patches listed at the three corners: sized once, the loop reassigns no array
+    n_cand = np.int64(16)
+    for i in range(nab):
+        for r in range(3):
+            w = vpos[tv[ab[i], r]]
+            n_cand += pp_start[w + 1] - pp_start[w]
+    cand = np.empty(n_cand, np.int64)
     nc = 0
     for i in range(nab):
         t = ab[i]
@@ -1230,7 +1281,6 @@ def reassign_middle(
                         dup = True
                         break
                 if not dup:
-                    cand = _grow_i64(cand, nc + 1)
                     cand[nc] = p
                     nc += 1
         cand_start[i + 1] = nc
