@@ -632,3 +632,14 @@ def test_target_slack_trades_error_for_pool_size(spot: Mesh) -> None:
     for bad in (-0.1, float("nan"), float("inf"), "1", True, np.bool_(True)):
         with pytest.raises(BuildError, match="target_slack"):
             build_sliding_window(spot, target_slack=bad)
+
+
+def test_forsyth_tolerance_trades_levels_for_order(spot: Mesh) -> None:
+    """Forsyth's tolerance: a larger one lets more collapses skip ahead of one that would start a new level,
+    so fewer levels (and a smaller pool); with 0 every touching collapse starts one."""
+    builds = [build_sliding_window(spot, builder="forsyth", tolerance=t) for t in (0.0, 0.1, 1.0)]
+    levels = [pm.level_count for pm in builds]
+    pools = [pm.index_pool.shape[0] for pm in builds]
+    assert levels[0] > levels[1] > levels[2] > 1
+    assert pools[0] > pools[1] > pools[2]
+    _check_all(builds[2], spot, closed=True, every=11)

@@ -836,17 +836,28 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
     ids = np.empty(max(16, P), np.int64)
     stamps = np.empty(max(16, P), np.int64)
     size = np.int64(0)
-    ak = np.empty(64, np.float64)
-    ai = np.empty(64, np.int64)
-    ast = np.empty(64, np.int64)
+    dk = np.empty(64, np.float64)  # deferred heap: collapses that touch the current level
+    di = np.empty(64, np.int64)
+    ds = np.empty(64, np.int64)
+    dsize = np.int64(0)
     fw = _chain_work(16)
     for _ in range(3):
         progress = 0
         for p in range(P):
             keys, ids, stamps, size = _refresh(st, p, keys, ids, stamps, size, stamp, target)
-        while size > 0:
-            cost, b, s, size = K._heap_pop(keys, ids, stamps, size)
-            if s != stamp[b] or not pos_alive[b]:
+        while size > 0 or dsize > 0:
+            # the best valid collapse: the deferred heap's top (it touches the level) or the main heap's
+            while dsize > 0 and (ds[0] != stamp[di[0]] or not pos_alive[di[0]]):
+                _, _, _, dsize = K._heap_pop(dk, di, ds, dsize)
+            if dsize > 0 and (size == 0 or dk[0] <= keys[0]):
+                cost, b, s, dsize = K._heap_pop(dk, di, ds, dsize)
+                from_deferred = True
+            elif size > 0:
+                cost, b, s, size = K._heap_pop(keys, ids, stamps, size)
+                if s != stamp[b] or not pos_alive[b]:
+                    continue
+                from_deferred = False
+            else:
                 continue
             k = target[b]
             tris_b = K.gather_triangles(st, b)
@@ -856,11 +867,13 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
                 keys, ids, stamps, size = _refresh(st, b, keys, ids, stamps, size, stamp, target)
                 continue
             cost = K.collapse_cost(st, b, k)
-            if _touches_level(st, b, tri_level, level):
-                # Forsyth's reordering: the best collapse that starts no new level, if close enough
+            if from_deferred or _touches_level(st, b, tri_level, level):
+                # Forsyth's reordering: the best collapse that starts no new level, if close enough. A
+                # collapse that touches the level keeps touching it until the level ends (the level only
+                # gains triangles), so it waits in the deferred heap instead of being popped and pushed
+                # back at every step (quadratic on large meshes)
+                dk, di, ds, dsize = K._heap_push(dk, di, ds, dsize, cost, b, s)
                 limit = np.sqrt(cost) + tolerance_abs
-                na = 1
-                ak[0], ai[0], ast[0] = cost, b, s
                 found = -1
                 while size > 0:
                     c2, b2, s2, size = K._heap_pop(keys, ids, stamps, size)
@@ -879,20 +892,13 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
                     if not _touches_level(st, b2, tri_level, level):
                         found = b2
                         break
-                    if na == ak.shape[0]:
-                        ak2 = np.empty(2 * na, np.float64)
-                        ai2 = np.empty(2 * na, np.int64)
-                        as2 = np.empty(2 * na, np.int64)
-                        ak2[:na] = ak
-                        ai2[:na] = ai
-                        as2[:na] = ast
-                        ak, ai, ast = ak2, ai2, as2
-                    ak[na], ai[na], ast[na] = c2, b2, s2
-                    na += 1
-                for r in range(na):
-                    keys, ids, stamps, size = K._heap_push(keys, ids, stamps, size, ak[r], ai[r], ast[r])
+                    dk, di, ds, dsize = K._heap_push(dk, di, ds, dsize, c2, b2, s2)
                 if found < 0:
-                    # new level: every current triangle may be changed again
+                    # new level: every current triangle may be changed again, every deferred collapse
+                    # competes again
+                    while dsize > 0:
+                        c2, b2, s2, dsize = K._heap_pop(dk, di, ds, dsize)
+                        keys, ids, stamps, size = K._heap_push(keys, ids, stamps, size, c2, b2, s2)
                     level += 1
                     level_start = _grow_i64(level_start, nlev + 2)
                     level_gids = _grow_i64(level_gids, nlg + T)
