@@ -89,16 +89,11 @@ def _score_tables(cache_size: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 @njit(cache=True, inline="always")
-def _vertex_score(
-    stamp_v: int, pushes: int, cache_size: int, live: int, cache_tab: np.ndarray, live_tab: np.ndarray
-) -> float:
-    if live <= 0:
-        return 0.0
-    s = 0.0
+def _age(stamp_v: int, pushes: int, cache_size: int) -> int:
+    """Cache position of a vertex (0 = newest), ``cache_size`` when it is not cached."""
     if stamp_v > 0 and pushes - stamp_v < cache_size:
-        s = cache_tab[pushes - stamp_v]
-    top = live_tab.shape[0] - 1
-    return s + live_tab[min(live, top)]
+        return pushes - stamp_v
+    return cache_size
 
 
 @njit(cache=True, inline="always")
@@ -153,6 +148,19 @@ def _order_blocks(
     emitted = np.zeros(n + 1, np.bool_)
     dead = np.empty(3 * n + 1, np.int64)
     upd = np.empty(C + 8, np.int64)
+    # the block's own pushes still in the FIFO, oldest first: push number and local vertex of entries
+    # qhead..qtail-1. Walking these instead of the whole ring (cache_size entries, most of them other
+    # blocks' vertices) finds the cached block vertices in the same newest-to-oldest order
+    qpush = np.empty(3 * n + C + 1, np.int64)
+    qlv = np.empty(3 * n + C + 1, np.int64)
+    # vertex score by (cache position or C when not cached, remaining triangles capped at 8); a table
+    # instead of a helper taking the two score arrays: numba reference-counted the arrays on every call
+    # of the helper (atomic increments, ~15 % of this kernel's time)
+    top = live_tab.shape[0] - 1
+    score_tab = np.zeros((C + 1, top + 1), np.float64)
+    for a in range(C + 1):
+        for c in range(1, top + 1):  # a vertex without remaining triangles scores 0
+            score_tab[a, c] = (cache_tab[a] if a < C else 0.0) + live_tab[c]
     out = 0
     step = 0
     for b in range(nb):
@@ -194,25 +202,32 @@ def _order_blocks(
                     adj[off[lv] + live[lv]] = t - lo
                     live[lv] += 1
         for i in range(nv):
-            vsc[i] = _vertex_score(stamp[lvert[i]], pushes, C, glive[lvert[i]], cache_tab, live_tab)
+            v = lvert[i]
+            vsc[i] = score_tab[_age(stamp[v], pushes, C), min(glive[v], top)]
         for t in range(m):
             s = 0.0
             for k in range(3):
                 if not _is_repeat(tris, lo + t, k):
                     s += vsc[loc[tris[lo + t, k]]]
             tsc[t] = s
-        # first candidate: best triangle touching the carried-over cache
+        # the block's vertices in the carried-over cache, oldest first
+        qhead = 0
+        qtail = 0
+        for p in range(max(pushes - C + 1, 1), pushes + 1):
+            lv = loc[ring[p % C]]
+            if lv >= 0:
+                qpush[qtail] = p
+                qlv[qtail] = lv
+                qtail += 1
+        # first candidate: best triangle touching the carried-over cache (newest entries first)
         best = -1
         best_score = -1.0
-        slot = pushes % C  # the ring is walked newest to oldest without a modulo per entry (hot loop)
-        for _ in range(min(C, pushes)):
-            lv = loc[ring[slot]]
-            slot = slot - 1 if slot > 0 else C - 1
-            if lv >= 0:
-                for q in range(off[lv], off[lv] + live[lv]):
-                    if tsc[adj[q]] > best_score:
-                        best_score = tsc[adj[q]]
-                        best = adj[q]
+        for j in range(qtail - 1, qhead - 1, -1):
+            lv = qlv[j]
+            for q in range(off[lv], off[lv] + live[lv]):
+                if tsc[adj[q]] > best_score:
+                    best_score = tsc[adj[q]]
+                    best = adj[q]
         dtop = 0
         cursor = 0
         for _ in range(m):
@@ -268,15 +283,18 @@ def _order_blocks(
                 s = stamp[v]
                 if s == 0 or pushes - s >= C:
                     pushes += 1
-                    slot = pushes % C
-                    if pushes > C:
-                        lv = loc[ring[slot]]
-                        if lv >= 0 and mark[lv] != step:
+                    if qhead < qtail and qpush[qhead] == pushes - C:  # a block vertex is evicted
+                        lv = qlv[qhead]
+                        qhead += 1
+                        if mark[lv] != step:
                             mark[lv] = step
                             upd[nupd] = lv
                             nupd += 1
-                    ring[slot] = v
+                    ring[pushes % C] = v
                     stamp[v] = pushes
+                    qpush[qtail] = pushes
+                    qlv[qtail] = loc[v]
+                    qtail += 1
             # retire the triangle from its vertices' live lists
             for k in range(3):
                 if _is_repeat(tris, t, k):
@@ -301,11 +319,9 @@ def _order_blocks(
             # miss the other cached vertices kept their slot and counts, hence their scores: they are only
             # candidates then
             nres = nupd
-            slot = pushes % C
-            for _ in range(min(C, pushes)):
-                lv = loc[ring[slot]]
-                slot = slot - 1 if slot > 0 else C - 1
-                if lv >= 0 and mark[lv] != step:
+            for j in range(qtail - 1, qhead - 1, -1):
+                lv = qlv[j]
+                if mark[lv] != step:
                     mark[lv] = step
                     upd[nupd] = lv
                     nupd += 1
@@ -315,7 +331,8 @@ def _order_blocks(
                 lv = upd[i]
                 score = 0.0
                 if live[lv] > 0:
-                    score = _vertex_score(stamp[lvert[lv]], pushes, C, glive[lvert[lv]], cache_tab, live_tab)
+                    v = lvert[lv]
+                    score = score_tab[_age(stamp[v], pushes, C), min(glive[v], top)]
                 diff = score - vsc[lv]
                 if diff != 0.0:
                     vsc[lv] = score
