@@ -32,24 +32,6 @@ def _grow_i64(a: np.ndarray, n: int) -> np.ndarray:
     return b
 
 
-@nb.njit(cache=True, inline="always")
-def _heap_push_fixed(keys, ids, stamps, size, key, pid, stamp):
-    """:func:`swpm_usd.simplify.kernels._heap_push` into arrays sized for every push: it returns the size
-    only, since a loop that reassigns arrays pays numba's reference counting on every iteration (this
-    made :func:`select_patches` cost ~40 ns per position even on a level with nothing left to pick)."""
-    if size >= keys.shape[0]:  # numba checks no bounds: a wrong capacity must not write past the arrays
-        raise IndexError("heap capacity exceeded")
-    i = size
-    while i > 0:
-        parent = (i - 1) >> 1
-        if keys[parent] <= key:
-            break
-        keys[i], ids[i], stamps[i] = keys[parent], ids[parent], stamps[parent]
-        i = parent
-    keys[i], ids[i], stamps[i] = key, pid, stamp
-    return size + 1
-
-
 @nb.njit(cache=True)
 def _mark_inner(
     x: int,
@@ -82,7 +64,7 @@ def _mark_inner(
                     degree[z] -= 1
                     if eligible[z]:
                         stamp[z] += 1
-                        size = _heap_push_fixed(hk, hi, hs, size, degree[z] + tiebreak[z], z, stamp[z])
+                        size = K._heap_push_into(hk, hi, hs, size, degree[z] + tiebreak[z], z, stamp[z])
         elif owner[y] != p and owner[y] >= 0:
             owner[y] = -2  # ring vertex of two patches: may never join either
     return size
@@ -127,7 +109,7 @@ def select_patches(
     size = np.int64(0)
     for x in range(P):
         if not deleted[x]:
-            size = _heap_push_fixed(hk, hi, hs, size, degree[x] + tiebreak[x], x, stamp[x])
+            size = K._heap_push_into(hk, hi, hs, size, degree[x] + tiebreak[x], x, stamp[x])
     inner = np.empty(P, np.int64)
     inner_start = np.zeros(P + 1, np.int64)
     is_inner = np.zeros(P, np.bool_)
@@ -228,7 +210,8 @@ def lower_error_centres(
 # maximum independent set problem", 2012): (1,2)-swaps plus random forced insertions
 # ----------------------------------------------------------------------------------------------------
 # ``log`` is sized by the caller for every entry it can take: returning the array (to grow it) from the
-# search loops' helpers would cost numba's reference counting on every call (see :func:`_heap_push_fixed`)
+# search loops' helpers would cost numba's reference counting on every call (see
+# :func:`swpm_usd.simplify.kernels._heap_push_into`)
 @nb.njit(cache=True)
 def _set_insert(v, sol, tight, adj_start, adj, log, nlog):
     if nlog >= log.shape[0]:  # numba checks no bounds: a wrong capacity must not write past ``log``

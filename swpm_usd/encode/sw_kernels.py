@@ -52,7 +52,7 @@ def chain_order(tv: np.ndarray) -> np.ndarray:
 
 @nb.njit(cache=True)
 def _chain_work(n: int) -> tuple:
-    """Reusable buffers for :func:`_chain_order_into` and :func:`_emit_new_versions`, up to ``n`` triangles:
+    """Reusable buffers for :func:`_chain_order_into` and :func:`_emit_into`, up to ``n`` triangles:
     (order, adjacency, neighbour counts, used, triangle ids, (n,3) vertex ids)."""
     return (
         np.empty(n, np.int64),
@@ -554,26 +554,6 @@ def order_patches(
 
 
 @nb.njit(cache=True)
-def _emit_new_versions(
-    st: K.CollapseState,
-    tris: np.ndarray,
-    cur_gid: np.ndarray,
-    gtris: np.ndarray,
-    ng: int,
-    q_out: np.ndarray,
-    nq: int,
-    w: tuple,
-):
-    """Append the surviving triangles of ``tris`` (after a collapse) as new global triangles, in fan
-    order, to ``q_out``; triangles that did not change keep their id. ``w``: :func:`_chain_work` for
-    ``len(tris)`` triangles."""
-    gtris = _grow_tris(gtris, ng + tris.shape[0])
-    q_out = _grow_i64(q_out, nq + tris.shape[0])
-    ng, nq = _emit_into(st, tris, cur_gid, gtris, ng, q_out, nq, w)
-    return gtris, ng, q_out, nq
-
-
-@nb.njit(cache=True)
 def _emit_into(
     st: K.CollapseState,
     tris: np.ndarray,
@@ -584,8 +564,11 @@ def _emit_into(
     nq: int,
     w: tuple,
 ) -> tuple[int, int]:
-    """:func:`_emit_new_versions` into ``gtris`` and ``q_out`` with room for ``len(tris)`` more rows each:
-    returns ``(ng, nq)`` only, since a loop reassigning arrays pays numba's reference counting per call."""
+    """Append the surviving triangles of ``tris`` (after a collapse) as new global triangles, in fan
+    order, to ``q_out``; triangles that did not change keep their id. ``gtris`` and ``q_out`` have room for
+    ``len(tris)`` more rows each (the caller grows them: this returns ``(ng, nq)`` only, since a loop
+    reassigning arrays pays numba's reference counting per call). ``w``: :func:`_chain_work` for
+    ``len(tris)`` triangles."""
     tv = st.tri_verts
     alive = st.tri_alive
     surv = w[4]
@@ -925,7 +908,9 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
                 npo += 1
             recs, nrec = _record_collapse(st, b, k, recs, nrec, nstep)
             fw = _chain_work_for(fw, tris_b.shape[0])
-            gtris, ng, q_out, nq = _emit_new_versions(st, tris_b, cur_gid, gtris, ng, q_out, nq, fw)
+            gtris = _grow_tris(gtris, ng + tris_b.shape[0])
+            q_out = _grow_i64(q_out, nq + tris_b.shape[0])
+            ng, nq = _emit_into(st, tris_b, cur_gid, gtris, ng, q_out, nq, fw)
             for j in range(tris_b.shape[0]):
                 if alive[tris_b[j]]:
                     tri_level[tris_b[j]] = level

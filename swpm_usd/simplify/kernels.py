@@ -598,6 +598,16 @@ def _heap_push(keys, ids, stamps, size, key, pid, stamp):
         ni[:size] = ids
         ns[:size] = stamps
         keys, ids, stamps = nk, ni, ns
+    return keys, ids, stamps, _heap_push_into(keys, ids, stamps, size, key, pid, stamp)
+
+
+@nb.njit(cache=True, inline="always")
+def _heap_push_into(keys, ids, stamps, size, key, pid, stamp):
+    """:func:`_heap_push` into arrays with room for it; returns the new size only. A hot loop that pushes into
+    arrays sized for every push calls this one: reassigning the arrays returned by :func:`_heap_push` costs
+    numba's reference counting on every iteration."""
+    if size >= keys.shape[0]:  # numba checks no bounds: a wrong capacity must not write past the arrays
+        raise IndexError("heap capacity exceeded")
     i = size
     while i > 0:
         parent = (i - 1) >> 1
@@ -606,7 +616,7 @@ def _heap_push(keys, ids, stamps, size, key, pid, stamp):
         keys[i], ids[i], stamps[i] = keys[parent], ids[parent], stamps[parent]
         i = parent
     keys[i], ids[i], stamps[i] = key, pid, stamp
-    return keys, ids, stamps, size + 1
+    return size + 1
 
 
 @nb.njit(cache=True, inline="always")
