@@ -327,6 +327,34 @@ def test_position_graph_is_the_edge_graph() -> None:
     assert np.array_equal(nbr, key % P)
 
 
+def test_level_positions_and_stable_ties() -> None:
+    """The numba level start: the triangles' positions and the positions used, as numpy's fancy indexing and
+    bincount give them; and ties_by_index turns any argsort into numpy's stable one (ties by index, NaNs
+    together at the end)."""
+    from swpm_usd.encode import sw_kernels as swk
+
+    topo = mesh_topology(_icosphere(2))
+    tv = topo.tri_pos.astype(np.int32)  # one vertex per position: vertex ids are position ids
+    vpos = np.arange(int(tv.max()) + 1, dtype=np.int32)[::-1].copy()  # renumbered
+    P = vpos.shape[0] + 3  # positions without triangles
+    alive_t = np.flatnonzero(np.arange(tv.shape[0]) % 3 != 1)
+    tp, positions = swk.level_positions(alive_t, tv, vpos, P)
+    assert tp.dtype == vpos.dtype and positions.dtype == np.int64
+    assert np.array_equal(tp, vpos[tv[alive_t]])
+    assert np.array_equal(positions, np.flatnonzero(np.bincount(tp.reshape(-1), minlength=P)))
+    rng = np.random.default_rng(7)
+    for n in (0, 1, 2, 9, 700):
+        keys = np.round(rng.random(n) * 4, 1)  # many ties
+        keys[::5] = np.inf
+        keys[::7] = np.nan
+        want = np.argsort(keys, kind="stable")
+        # a sort of the keys with every tie in decreasing index order
+        backwards = n - 1 - np.argsort(keys[::-1], kind="stable")
+        assert n < 9 or not np.array_equal(backwards, want)
+        assert np.array_equal(swk.ties_by_index(keys, backwards), want)
+        assert np.array_equal(swk.ties_by_index(keys, np.argsort(keys)), want)
+
+
 def _sphere_graph(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
     """CSR position graph of an icosphere."""
     from swpm_usd.encode import sw_kernels as swk

@@ -39,7 +39,12 @@ def _grow_tris(a: np.ndarray, n: int) -> np.ndarray:
     if n < a.shape[0]:
         return a
     b = np.empty((max(2 * a.shape[0], n + 16), 3), a.dtype)
-    b[: a.shape[0]] = a
+    # copies in the kernels are loops, not slice assignments (``b[: len(a)] = a``, also inside np.diff):
+    # numba compiles and links a slice assignment's shape-mismatch message (string formatting), seconds of
+    # compile time
+    for i in range(a.shape[0]):
+        for j in range(3):
+            b[i, j] = a[i, j]
     return b
 
 
@@ -129,6 +134,56 @@ def _chain_order_into(tv: np.ndarray, n: int, w: tuple) -> np.ndarray:
 # topology-driven levels
 # ----------------------------------------------------------------------------------------------------
 @nb.njit(cache=True)
+def level_positions(
+    alive_t: np.ndarray, tri_verts: np.ndarray, vertex_pos: np.ndarray, P: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(tp, positions)`` of a level: the positions of the triangles ``alive_t`` (``(n, 3)``, the dtype of
+    ``vertex_pos``) and the positions they use, increasing (as ``vertex_pos[tri_verts[alive_t]]`` and
+    ``np.flatnonzero(np.bincount(tp.ravel(), minlength=P))``, in one pass: numpy's fancy indexing cost
+    ~0.2 ms per level on cow)."""
+    n = alive_t.shape[0]
+    tp = np.empty((n, 3), vertex_pos.dtype)
+    used = np.zeros(P, np.bool_)
+    for j in range(n):
+        for i in range(3):
+            q = vertex_pos[tri_verts[alive_t[j], i]]
+            tp[j, i] = q
+            used[q] = True
+    m = 0
+    for q in range(P):
+        if used[q]:
+            m += 1
+    positions = np.empty(m, np.int64)
+    m = 0
+    for q in range(P):
+        if used[q]:
+            positions[m] = q
+            m += 1
+    return tp, positions
+
+
+@nb.njit(cache=True)
+def ties_by_index(keys: np.ndarray, order: np.ndarray) -> np.ndarray:
+    """``order`` (an argsort of ``keys``, any tie order) with every run of equal keys in increasing index
+    order, in place: ``np.argsort(keys, kind="stable")`` from the default sort (numpy's stable argsort took
+    ~0.2 ms on cow's 2,900 costs, its quicksort ~0.05). NaNs count as equal to each other."""
+    n = order.shape[0]
+    i = 0
+    while i < n:
+        a = keys[order[i]]
+        j = i + 1
+        while j < n:
+            b = keys[order[j]]
+            if not (a == b or (a != a and b != b)):
+                break
+            j += 1
+        if j - i > 1:
+            order[i:j] = np.sort(order[i:j])
+        i = j
+    return order
+
+
+@nb.njit(cache=True)
 def position_graph(tp: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
     """CSR ``(start, nbr)`` of the edge graph of the triangles ``tp`` (positions; each neighbour once, in
     increasing order)."""
@@ -177,20 +232,58 @@ def level_costs(st: K.CollapseState, positions: np.ndarray, stars: K.Stars) -> t
     for p in range(stars.nbr_start.shape[0] - 1):
         maxd = max(maxd, stars.nbr_start[p + 1] - stars.nbr_start[p])
     costs = np.empty(maxd)  # one buffer for every star's costs
+    # K.best_of_star written out on the state's arrays and the snapshot's rows, read once here: the
+    # namedtuple field reads and star slices per position and per test cost most of the time in numba's
+    # reference counting
     locked = st.pos_locked
     alive = st.pos_alive
+    boundary = st.pos_boundary
+    pts = st.pos_points
+    quadric = st.quadric
+    qw = st.quadric_weight
+    min_area2 = st.min_area2[0]
+    tv = st.tri_verts
+    pv = st.pos_verts
+    vstart = st.pos_vstart
+    s_start = stars.start
+    s_tris = stars.tris
+    s_tp = stars.tp
+    s_nstart = stars.nbr_start
+    s_nbr = stars.nbr
     for i in range(n):
         b = positions[i]
-        s0 = stars.start[b]
-        s1 = stars.start[b + 1]
+        s0 = s_start[b]
+        s1 = s_start[b + 1]
+        ks[i] = -1
+        cs[i] = np.inf
         if locked[b] or not alive[b] or s0 == s1:  # as best_collapse
-            ks[i] = -1
-            cs[i] = np.inf
             continue
-        nbr = stars.nbr[stars.nbr_start[b] : stars.nbr_start[b + 1]]
-        k, c = K.best_of_star(st, b, stars.tris[s0:s1], stars.tp[s0:s1], nbr, True, stars, costs, None)
-        ks[i] = k
-        cs[i] = c
+        n0 = s_nstart[b]
+        n1 = s_nstart[b + 1]
+        nn = n1 - n0
+        best = 0
+        for j in range(nn):
+            costs[j] = K._cost_of(pts, quadric, qw, b, s_nbr[n0 + j])
+            if costs[j] < costs[best]:
+                best = j
+        k = np.int64(s_nbr[n0 + best])  # one specialisation of the helpers (int64 positions)
+        if K.valid_collapse_in(
+            alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, s_tris, s_tp, s0, s1,
+            s_nbr, n0, n1, s_tp, s_start[k], s_start[k + 1], s_nbr, s_nstart[k], s_nstart[k + 1],
+        ):  # fmt: skip
+            ks[i] = k
+            cs[i] = costs[best]
+            continue
+        order = np.argsort(costs[:nn])
+        for r in range(1, nn):
+            k = np.int64(s_nbr[n0 + order[r]])
+            if K.valid_collapse_in(
+                alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, s_tris, s_tp, s0, s1,
+                s_nbr, n0, n1, s_tp, s_start[k], s_start[k + 1], s_nbr, s_nstart[k], s_nstart[k + 1],
+            ):  # fmt: skip
+                ks[i] = k
+                cs[i] = costs[order[r]]
+                break
     return ks, cs
 
 
@@ -477,7 +570,8 @@ def order_patches(
     # vertex sets of patches and the patches of every vertex
     vmark = np.full(vertex_count, -1, np.int64)
     pv_start = np.zeros(n + 1, np.int64)
-    pv = np.empty(3 * pt.shape[0] + 1, np.int64)
+    # int32 vertex ids, as the triangle rows drawn through the same FIFO helpers (one specialisation each)
+    pv = np.empty(3 * pt.shape[0] + 1, np.int32)
     m = np.int64(0)
     for p in range(n):
         for j in range(pt_start[p], pt_start[p + 1]):
@@ -493,7 +587,9 @@ def order_patches(
         patch_of[pv_start[p] : pv_start[p + 1]] = p
     vp_start, vp = K.group_by(pv[:m], vertex_count)
     vp = patch_of[vp]
-    remaining = np.diff(vp_start)
+    remaining = np.empty(vertex_count, np.int64)  # np.diff(vp_start) as a loop (np.diff: see _grow_tris)
+    for v in range(vertex_count):
+        remaining[v] = vp_start[v + 1] - vp_start[v]
     no_skip = np.zeros(vertex_count, np.bool_)
     done = np.zeros(n, np.bool_)
     stamp_p = np.zeros(vertex_count, np.int64)
@@ -573,7 +669,7 @@ def _emit_into(
     alive = st.tri_alive
     surv = w[4]
     sub = w[5]
-    ns = 0
+    ns = np.int64(0)  # not a literal 0: numba would compile _chain_order_into for Literal[int](0) too
     for j in range(tris.shape[0]):
         t = tris[j]
         if alive[t]:
@@ -605,7 +701,9 @@ def _record_collapse(
     nv = max(1, st.pos_vstart[b + 1] - st.pos_vstart[b])  # vertex_map's length
     if recs.shape[0] < nrec + nv:
         grown = np.empty((2 * recs.shape[0] + nv, 3), np.int64)
-        grown[:nrec] = recs[:nrec]
+        for i in range(nrec):  # a loop: see _grow_tris
+            for j in range(3):
+                grown[i, j] = recs[i, j]
         recs = grown
     return recs, _record_collapse_into(st, b, k, recs, nrec, step, bbuf)
 
@@ -618,8 +716,10 @@ def _record_collapse_into(
     if bbuf is None:
         tris_b = K.gather_triangles(st, b)
         tp_b = K.triangle_positions(st, tris_b)
-    else:
-        tris_b, tp_b, _ = K.star_into(st, b, bbuf[0], bbuf[1], bbuf[2])
+    else:  # b's triangles and their positions (not its neighbours: star_into's costliest part)
+        n = K._positions_into(st, b, bbuf[0], bbuf[1])
+        tris_b = bbuf[0][:n]
+        tp_b = bbuf[1][:n]
     vmap = K.vertex_map(st, b, k, tris_b, tp_b)
     v0 = st.pos_vstart[b]
     pv = st.pos_verts
@@ -688,8 +788,8 @@ def collapse_patches(
     kbuf = K.star_buffers(st)
     costs = np.empty(bbuf[2].shape[0])
     # per-patch buffers, sized for the largest patch
-    max_tris = 0
-    max_inner = 0
+    max_tris = np.int64(0)  # int64, not literals: one specialisation of _chain_work
+    max_inner = np.int64(0)
     for p in range(pt_start.shape[0] - 1):
         max_tris = max(max_tris, pt_start[p + 1] - pt_start[p])
     for p in range(inner_start.shape[0] - 1):
@@ -703,7 +803,8 @@ def collapse_patches(
         m0 = inner_start[p]
         m1 = inner_start[p + 1]
         remaining = remaining_buf[: m1 - m0]
-        remaining[:] = inner[m0:m1]
+        for r in range(m1 - m0):  # a loop: see _grow_tris
+            remaining[r] = inner[m0 + r]
         made = np.int64(0)
         for j in range(tris.shape[0]):
             p_snapshot[j] = cur_gid[tris[j]]
@@ -814,7 +915,9 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
     step_info = np.empty((max(16, P), 3), np.float64)
     nstep = np.int64(0)
     stamp = np.zeros(P, np.int64)
-    target = np.full(P, -1, np.int32)
+    # int64 positions and triangle ids throughout: the callees shared with collapse_patches and
+    # run_sequence are compiled once for both
+    target = np.full(P, -1, np.int64)
     keys = np.empty(max(16, P), np.float64)
     ids = np.empty(max(16, P), np.int64)
     stamps = np.empty(max(16, P), np.int64)
@@ -823,7 +926,8 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
     di = np.empty(64, np.int64)
     ds = np.empty(64, np.int64)
     dsize = np.int64(0)
-    fw = _chain_work(16)
+    fw = _chain_work(np.int64(16))
+    bbuf = K.star_buffers(st)
     for _ in range(3):
         progress = 0
         for p in range(P):
@@ -831,12 +935,12 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
         while size > 0 or dsize > 0:
             # the best valid collapse: the deferred heap's top (it touches the level) or the main heap's
             while dsize > 0 and (ds[0] != stamp[di[0]] or not pos_alive[di[0]]):
-                _, _, _, dsize = K._heap_pop(dk, di, ds, dsize)
+                _, _, _, dsize = K._heap_pop_call(dk, di, ds, dsize)
             if dsize > 0 and (size == 0 or dk[0] <= keys[0]):
-                cost, b, s, dsize = K._heap_pop(dk, di, ds, dsize)
+                cost, b, s, dsize = K._heap_pop_call(dk, di, ds, dsize)
                 from_deferred = True
             elif size > 0:
-                cost, b, s, size = K._heap_pop(keys, ids, stamps, size)
+                cost, b, s, size = K._heap_pop_call(keys, ids, stamps, size)
                 if s != stamp[b] or not pos_alive[b]:
                     continue
                 from_deferred = False
@@ -855,15 +959,15 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
                 # collapse that touches the level keeps touching it until the level ends (the level only
                 # gains triangles), so it waits in the deferred heap instead of being popped and pushed
                 # back at every step (quadratic on large meshes)
-                dk, di, ds, dsize = K._heap_push(dk, di, ds, dsize, cost, b, s)
+                dk, di, ds, dsize = K._heap_push_call(dk, di, ds, dsize, cost, b, s)
                 limit = np.sqrt(cost) + tolerance_abs
                 found = -1
                 while size > 0:
-                    c2, b2, s2, size = K._heap_pop(keys, ids, stamps, size)
+                    c2, b2, s2, size = K._heap_pop_call(keys, ids, stamps, size)
                     if s2 != stamp[b2] or not pos_alive[b2]:
                         continue
                     if np.sqrt(c2) > limit:
-                        keys, ids, stamps, size = K._heap_push(keys, ids, stamps, size, c2, b2, s2)
+                        keys, ids, stamps, size = K._heap_push_call(keys, ids, stamps, size, c2, b2, s2)
                         break
                     k2 = target[b2]
                     tris2 = K.gather_triangles(st, b2)
@@ -875,13 +979,13 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
                     if not _touches_level(st, b2, tri_level, level):
                         found = b2
                         break
-                    dk, di, ds, dsize = K._heap_push(dk, di, ds, dsize, c2, b2, s2)
+                    dk, di, ds, dsize = K._heap_push_call(dk, di, ds, dsize, c2, b2, s2)
                 if found < 0:
                     # new level: every current triangle may be changed again, every deferred collapse
                     # competes again
                     while dsize > 0:
-                        c2, b2, s2, dsize = K._heap_pop(dk, di, ds, dsize)
-                        keys, ids, stamps, size = K._heap_push(keys, ids, stamps, size, c2, b2, s2)
+                        c2, b2, s2, dsize = K._heap_pop_call(dk, di, ds, dsize)
+                        keys, ids, stamps, size = K._heap_push_call(keys, ids, stamps, size, c2, b2, s2)
                     level += 1
                     level_start = _grow_i64(level_start, nlev + 2)
                     level_gids = _grow_i64(level_gids, nlg + T)
@@ -896,30 +1000,32 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
                 k = target[b]
                 cost = K.collapse_cost(st, b, k)
             # do the collapse b -> k as one patch
-            tris_b = K.gather_triangles(st, b)
-            p_out = _grow_i64(p_out, npo + tris_b.shape[0])
-            sub = np.empty((tris_b.shape[0], 3), np.int64)
-            for j in range(tris_b.shape[0]):
+            tris_p = K.gather_triangles(st, b).astype(np.int64)  # int64 as collapse_patches' (_emit_into)
+            p_out = _grow_i64(p_out, npo + tris_p.shape[0])
+            sub = np.empty((tris_p.shape[0], 3), np.int64)
+            for j in range(tris_p.shape[0]):
                 for i in range(3):
-                    sub[j, i] = tv[tris_b[j], i]
+                    sub[j, i] = tv[tris_p[j], i]
             o = chain_order(sub)
-            for j in range(tris_b.shape[0]):
-                p_out[npo] = cur_gid[tris_b[o[j]]]
+            for j in range(tris_p.shape[0]):
+                p_out[npo] = cur_gid[tris_p[o[j]]]
                 npo += 1
-            recs, nrec = _record_collapse(st, b, k, recs, nrec, nstep)
-            fw = _chain_work_for(fw, tris_b.shape[0])
-            gtris = _grow_tris(gtris, ng + tris_b.shape[0])
-            q_out = _grow_i64(q_out, nq + tris_b.shape[0])
-            ng, nq = _emit_into(st, tris_b, cur_gid, gtris, ng, q_out, nq, fw)
-            for j in range(tris_b.shape[0]):
-                if alive[tris_b[j]]:
-                    tri_level[tris_b[j]] = level
+            recs, nrec = _record_collapse(st, b, k, recs, nrec, nstep, bbuf)
+            fw = _chain_work_for(fw, tris_p.shape[0])
+            gtris = _grow_tris(gtris, ng + tris_p.shape[0])
+            q_out = _grow_i64(q_out, nq + tris_p.shape[0])
+            ng, nq = _emit_into(st, tris_p, cur_gid, gtris, ng, q_out, nq, fw)
+            for j in range(tris_p.shape[0]):
+                if alive[tris_p[j]]:
+                    tri_level[tris_p[j]] = level
             if nstep + 1 >= patch_level.shape[0]:
                 patch_level = _grow_i64(patch_level, nstep + 2)
                 p_start = _grow_i64(p_start, nstep + 3)
                 q_start = _grow_i64(q_start, nstep + 3)
                 si = np.empty((2 * step_info.shape[0], 3), np.float64)
-                si[:nstep] = step_info[:nstep]
+                for i in range(nstep):  # a loop: see _grow_tris
+                    for j in range(3):
+                        si[i, j] = step_info[i, j]
                 step_info = si
             patch_level[nstep] = level
             step_info[nstep, 0] = np.sqrt(cost)
@@ -933,7 +1039,7 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
             tris_k = K.gather_triangles(st, k)
             ring = K.neighbours(k, K.triangle_positions(st, tris_k))
             for i in range(ring.shape[0] + 1):
-                q = k if i == ring.shape[0] else ring[i]
+                q = k if i == ring.shape[0] else np.int64(ring[i])
                 keys, ids, stamps, size = _refresh(st, q, keys, ids, stamps, size, stamp, target)
         if progress == 0:
             break
@@ -1304,7 +1410,9 @@ def reassign_middle(
         for j in range(own_end, pt_start[p + 1]):
             push_p = _fifo_push(tv[pt[j]], no_skip, stamp_p, ring_p, push_p)
             push_q = _fifo_push(tv[pt[j]], no_skip, stamp_q, ring_q, push_q)
-    size = np.diff(pt_start)
+    size = np.empty(n, np.int64)  # np.diff(pt_start) as a loop (np.diff: see _grow_tris)
+    for p in range(n):
+        size[p] = pt_start[p + 1] - pt_start[p]
     newp = ab_cur.copy()
     for i in range(nab):
         cur_cost = -1
@@ -1347,30 +1455,76 @@ def _shaped_collapse(
     an unbounded ``max_cost``: :func:`swpm_usd.simplify.kernels.best_collapse`. ``bbuf``, ``kbuf``:
     :func:`swpm_usd.simplify.kernels.star_buffers` for the stars of ``b`` and of a target (read once per
     target, for its degree and its validity); ``costs``: room for the costs of ``b``'s neighbours."""
-    if st.pos_locked[b] or not st.pos_alive[b]:
+    locked = st.pos_locked
+    alive = st.pos_alive
+    if locked[b] or not alive[b]:
         return -1, np.inf
+    # the state's arrays read once and the stars kept as row counts in the buffers, K.best_of_star written
+    # out: namedtuple field reads and slices per target cost most of the time in numba's reference counting
+    head = st.corner_head
+    cnext = st.corner_next
+    talive = st.tri_alive
+    tv = st.tri_verts
+    vp = st.vertex_pos
+    boundary = st.pos_boundary
+    pts = st.pos_points
+    quadric = st.quadric
+    qw = st.quadric_weight
+    min_area2 = st.min_area2[0]
+    pv = st.pos_verts
+    vstart = st.pos_vstart
+    b_tris, b_tp, b_nbr = bbuf
+    k_tris, k_tp, k_nbr = kbuf
     # b's star read once, for best_collapse and the targets of the slack
-    tris_b, tp_b, nbr = K.star_into(st, b, bbuf[0], bbuf[1], bbuf[2])
-    if tris_b.shape[0] == 0:
+    nt, nn = K.star_rows(head, cnext, talive, tv, vp, b, b_tris, b_tp, b_nbr)
+    if nt == 0:
         return -1, np.inf
-    k0, c0 = K.best_of_star(st, b, tris_b, tp_b, nbr, True, None, costs, kbuf)
+    best = 0
+    for i in range(nn):
+        costs[i] = K._cost_of(pts, quadric, qw, b, b_nbr[i])
+        if costs[i] < costs[best]:
+            best = i
+    k0 = -1
+    c0 = np.inf
+    k = np.int64(b_nbr[best])  # one specialisation of the helpers (int64 positions)
+    mt, mn = K.star_rows(head, cnext, talive, tv, vp, k, k_tris, k_tp, k_nbr)
+    if K.valid_collapse_in(
+        alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, b_tris, b_tp, 0, nt, b_nbr, 0, nn,
+        k_tp, 0, mt, k_nbr, 0, mn,
+    ):  # fmt: skip
+        k0 = k
+        c0 = costs[best]
+    else:
+        order = np.argsort(costs[:nn])
+        for i in range(1, nn):
+            k = np.int64(b_nbr[order[i]])
+            mt, mn = K.star_rows(head, cnext, talive, tv, vp, k, k_tris, k_tp, k_nbr)
+            if K.valid_collapse_in(
+                alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, b_tris, b_tp, 0, nt, b_nbr, 0,
+                nn, k_tp, 0, mt, k_nbr, 0, mn,
+            ):  # fmt: skip
+                k0 = k
+                c0 = costs[order[i]]
+                break
     if k0 < 0 or slack <= 0.0 or not np.isfinite(max_cost):
         return k0, c0
     lim = min(c0 + slack * max_cost, max_cost)
     best_k = k0
     best_c = c0
     best_d = -1
-    for i in range(nbr.shape[0]):
-        k = nbr[i]
+    for i in range(nn):
+        k = np.int64(b_nbr[i])  # one specialisation of the star and validity helpers
         c = costs[i]
         if c > lim:
             continue
-        _, tp_k, nbr_k = K.star_into(st, k, kbuf[0], kbuf[1], kbuf[2])
-        d = nbr_k.shape[0]
+        mt, d = K.star_rows(head, cnext, talive, tv, vp, k, k_tris, k_tp, k_nbr)
         # the validity test costs most: only for a target that would win (k0 passed it already)
         if not (d > best_d or (d == best_d and c < best_c)):
             continue
-        if k == k0 or K.valid_collapse(st, b, k, tris_b, tp_b, nbr, None, tp_k, nbr_k):
+        if k == k0 or K.valid_collapse_in(
+            alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, b_tris, b_tp, 0, nt, b_nbr, 0, nn,
+            k_tp, 0, mt, k_nbr, 0, d,
+        ):  # fmt: skip
             best_d = d
             best_k = k
             best_c = c

@@ -102,16 +102,16 @@ def init_quadrics(
     P = pos_points.shape[0]
     q = np.zeros((P, 10))
     w = np.zeros(P)
+    # cross products written out (the same products and differences as np.cross): numba's np.cross
+    # compiles and links the string formatting of its shape error, seconds of compile time
     for t in range(tri_pos.shape[0]):
         a, b, c = tri_pos[t, 0], tri_pos[t, 1], tri_pos[t, 2]
-        e1 = pos_points[b] - pos_points[a]
-        e2 = pos_points[c] - pos_points[a]
-        n = np.cross(e1, e2)
-        ln = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+        n0, n1, n2 = tri_normal(pos_points, a, b, c)
+        ln = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
         if ln <= 0.0:
             continue
         area = 0.5 * ln
-        nx, ny, nz = n[0] / ln, n[1] / ln, n[2] / ln
+        nx, ny, nz = n0 / ln, n1 / ln, n2 / ln
         d = -(nx * pos_points[a, 0] + ny * pos_points[a, 1] + nz * pos_points[a, 2])
         for p in (a, b, c):
             _add_plane(q, p, nx, ny, nz, d, area)
@@ -119,17 +119,19 @@ def init_quadrics(
     for i in range(constraint_edges.shape[0]):
         a, b = constraint_edges[i, 0], constraint_edges[i, 1]
         t = constraint_faces[i]
-        pa, pb = pos_points[tri_pos[t, 0]], pos_points[tri_pos[t, 1]]
-        pc = pos_points[tri_pos[t, 2]]
-        fn = np.cross(pb - pa, pc - pa)
-        e = pos_points[b] - pos_points[a]
-        n = np.cross(e, fn)
-        ln = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+        f0, f1, f2 = tri_normal(pos_points, tri_pos[t, 0], tri_pos[t, 1], tri_pos[t, 2])
+        ex = pos_points[b, 0] - pos_points[a, 0]
+        ey = pos_points[b, 1] - pos_points[a, 1]
+        ez = pos_points[b, 2] - pos_points[a, 2]
+        n0 = ey * f2 - ez * f1
+        n1 = ez * f0 - ex * f2
+        n2 = ex * f1 - ey * f0
+        ln = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
         if ln <= 0.0:
             continue
-        nx, ny, nz = n[0] / ln, n[1] / ln, n[2] / ln
+        nx, ny, nz = n0 / ln, n1 / ln, n2 / ln
         d = -(nx * pos_points[a, 0] + ny * pos_points[a, 1] + nz * pos_points[a, 2])
-        wt = constraint_weights[i] * (e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+        wt = constraint_weights[i] * (ex * ex + ey * ey + ez * ez)
         _add_plane(q, a, nx, ny, nz, d, wt)
         _add_plane(q, b, nx, ny, nz, d, wt)
     return q, w
@@ -153,20 +155,28 @@ def gather_triangles(st: CollapseState, p: int) -> np.ndarray:
 @nb.njit(cache=True, inline="always")
 def _gather_into(st: CollapseState, p: int, out: np.ndarray, m: int) -> int:
     """:func:`gather_triangles` written to ``out[m:]`` (room for all of p's corners); returns the end."""
+    return _gather_rows(st.corner_head, st.corner_next, st.tri_alive, p, out, m)
+
+
+@nb.njit(cache=True, inline="always")
+def _gather_rows(
+    corner_head: np.ndarray, corner_next: np.ndarray, tri_alive: np.ndarray, p: int, out: np.ndarray, m: int
+) -> int:
+    """:func:`_gather_into` on the state's arrays."""
     prev = -1
-    c = st.corner_head[p]
+    c = corner_head[p]
     while c >= 0:
-        nxt = st.corner_next[c]
+        nxt = corner_next[c]
         t = c // 3
-        if st.tri_alive[t]:
+        if tri_alive[t]:
             out[m] = t
             m += 1
             prev = c
         else:
             if prev < 0:
-                st.corner_head[p] = nxt
+                corner_head[p] = nxt
             else:
-                st.corner_next[prev] = nxt
+                corner_next[prev] = nxt
         c = nxt
     return m
 
@@ -193,8 +203,14 @@ def neighbours(p: int, tp: np.ndarray) -> np.ndarray:
 @nb.njit(cache=True, inline="always")
 def _neighbours_into(p: int, tp: np.ndarray, buf: np.ndarray, m0: int) -> int:
     """:func:`neighbours` written to ``buf[m0:]`` (room for ``2 * len(tp)``); returns the end."""
+    return _neighbours_rows(p, tp, 0, tp.shape[0], buf, m0)
+
+
+@nb.njit(cache=True, inline="always")
+def _neighbours_rows(p: int, tp: np.ndarray, j0: int, j1: int, buf: np.ndarray, m0: int) -> int:
+    """:func:`_neighbours_into` for rows ``j0:j1`` of ``tp`` (no slice: numba's reference counting)."""
     m = m0
-    for j in range(tp.shape[0]):
+    for j in range(j0, j1):
         for i in range(3):
             q = tp[j, i]
             if q == p:
@@ -210,6 +226,27 @@ def _neighbours_into(p: int, tp: np.ndarray, buf: np.ndarray, m0: int) -> int:
     return m
 
 
+@nb.njit(cache=True, inline="always")
+def _positions_rows(
+    head: np.ndarray,
+    cnext: np.ndarray,
+    talive: np.ndarray,
+    tv: np.ndarray,
+    vp: np.ndarray,
+    p: int,
+    tris: np.ndarray,
+    tp: np.ndarray,
+    m0: int,
+) -> int:
+    """``p``'s live triangles into ``tris[m0:]`` and their positions into ``tp[m0:]``, on the state's arrays
+    (``corner_head``, ``corner_next``, ``tri_alive``, ``tri_verts``, ``vertex_pos``); returns the end."""
+    m = _gather_rows(head, cnext, talive, p, tris, m0)
+    for j in range(m0, m):
+        for i in range(3):
+            tp[j, i] = vp[tv[tris[j], i]]
+    return m
+
+
 @nb.njit(cache=True)
 def _star_arrays(st: CollapseState):
     P = st.pos_points.shape[0]
@@ -221,14 +258,15 @@ def _star_arrays(st: CollapseState):
     nbr = np.empty(2 * n, np.int32)
     tv = st.tri_verts
     vp = st.vertex_pos
+    # the state's fields read once and the rows of tp walked without a slice per position: numba's
+    # reference counting costs more than the loop's work
+    head = st.corner_head
+    cnext = st.corner_next
+    talive = st.tri_alive
     for p in range(P):
-        s0 = start[p]
-        s1 = _gather_into(st, p, tris, s0)
-        for j in range(s0, s1):
-            for i in range(3):
-                tp[j, i] = vp[tv[tris[j], i]]
+        s1 = _positions_rows(head, cnext, talive, tv, vp, p, tris, tp, start[p])
         start[p + 1] = s1
-        nbr_start[p + 1] = _neighbours_into(p, tp[s0:s1], nbr, nbr_start[p])
+        nbr_start[p + 1] = _neighbours_rows(p, tp, start[p], s1, nbr, nbr_start[p])
     return start, tris, tp, nbr_start, nbr
 
 
@@ -246,21 +284,36 @@ def star_into(
     written to reusable buffers instead of three new arrays (room: ``tris`` and ``tp`` one row per triangle
     of the state, ``nbr`` twice that: :func:`star_buffers`); returns views of them, valid until the next
     call with the same buffers."""
-    n = _positions_into(st, p, tris, tp)
-    m = _neighbours_into(p, tp[:n], nbr, 0)
+    n, m = star_rows(
+        st.corner_head, st.corner_next, st.tri_alive, st.tri_verts, st.vertex_pos, p, tris, tp, nbr
+    )
     return tris[:n], tp[:n], nbr[:m]
 
 
 @nb.njit(cache=True)
 def _positions_into(st: CollapseState, p: int, tris: np.ndarray, tp: np.ndarray) -> int:
     """``p``'s live triangles into ``tris[:n]`` and their positions into ``tp[:n]``; returns ``n``."""
-    n = _gather_into(st, p, tris, 0)
-    tv = st.tri_verts
-    vp = st.vertex_pos
-    for j in range(n):
-        for i in range(3):
-            tp[j, i] = vp[tv[tris[j], i]]
-    return n
+    return _positions_rows(
+        st.corner_head, st.corner_next, st.tri_alive, st.tri_verts, st.vertex_pos, p, tris, tp, 0
+    )
+
+
+@nb.njit(cache=True)
+def star_rows(
+    corner_head: np.ndarray,
+    corner_next: np.ndarray,
+    tri_alive: np.ndarray,
+    tv: np.ndarray,
+    vp: np.ndarray,
+    p: int,
+    tris: np.ndarray,
+    tp: np.ndarray,
+    nbr: np.ndarray,
+) -> tuple[int, int]:
+    """:func:`star_into` on the state's arrays (``tri_verts``, ``vertex_pos``), returning the row counts
+    ``(n, m)`` of ``tris[:n]``, ``tp[:n]``, ``nbr[:m]`` instead of views (a hot loop makes no slices)."""
+    n = _positions_rows(corner_head, corner_next, tri_alive, tv, vp, p, tris, tp, 0)
+    return n, _neighbours_rows(p, tp, 0, n, nbr, 0)
 
 
 @nb.njit(cache=True)
@@ -293,9 +346,16 @@ def _has(tp: np.ndarray, j: int, p: int) -> bool:
 @nb.njit(cache=True)
 def collapse_cost(st: CollapseState, b: int, k: int) -> float:
     """Mean squared plane distance of the merged quadric at the kept point (>= 0)."""
-    x, y, z = st.pos_points[k, 0], st.pos_points[k, 1], st.pos_points[k, 2]
-    e = _eval_quadric2(st.quadric, b, k, x, y, z)
-    w = st.quadric_weight[b] + st.quadric_weight[k]
+    return _cost_of(st.pos_points, st.quadric, st.quadric_weight, b, k)
+
+
+@nb.njit(cache=True, inline="always")
+def _cost_of(pts: np.ndarray, quadric: np.ndarray, qw: np.ndarray, b: int, k: int) -> float:
+    """:func:`collapse_cost` on the state's arrays (a hot loop reads them once: each namedtuple field read
+    costs numba's reference counting)."""
+    x, y, z = pts[k, 0], pts[k, 1], pts[k, 2]
+    e = _eval_quadric2(quadric, b, k, x, y, z)
+    w = qw[b] + qw[k]
     if w > 0.0:
         e /= w
     return e if e > 0.0 else 0.0
@@ -305,9 +365,21 @@ def collapse_cost(st: CollapseState, b: int, k: int) -> float:
 def vertex_map(st: CollapseState, b: int, k: int, tris_b: np.ndarray, tp_b: np.ndarray) -> np.ndarray:
     """For every vertex at ``b`` (in pos_verts order) the vertex at ``k`` it moves onto; -1 in slot 0 of a
     length-1 array when the collapse would split an attribute seam (a "difficult edge")."""
-    tv = st.tri_verts
-    pv = st.pos_verts
-    v0, v1 = st.pos_vstart[b], st.pos_vstart[b + 1]
+    return _vertex_map(st.tri_verts, st.pos_verts, st.pos_vstart, b, k, tris_b, tp_b)
+
+
+@nb.njit(cache=True)
+def _vertex_map(
+    tv: np.ndarray,
+    pv: np.ndarray,
+    pos_vstart: np.ndarray,
+    b: int,
+    k: int,
+    tris_b: np.ndarray,
+    tp_b: np.ndarray,
+) -> np.ndarray:
+    """:func:`vertex_map` on the state's arrays."""
+    v0, v1 = pos_vstart[b], pos_vstart[b + 1]
     nv = v1 - v0
     target = np.full(nv, -1, np.int32)
     used = np.zeros(nv, np.bool_)
@@ -350,12 +422,14 @@ def vertex_map(st: CollapseState, b: int, k: int, tris_b: np.ndarray, tp_b: np.n
 
 
 @nb.njit(cache=True)
-def _single_vertex_maps(st: CollapseState, b: int, k: int, tris_b: np.ndarray, tp_b: np.ndarray) -> bool:
-    """``vertex_map(...)[0] >= 0`` for a position ``b`` with one vertex, without allocating: the edge
-    triangles exist and all reach the same vertex at ``k``."""
-    tv = st.tri_verts
+def _single_vertex_maps(
+    tv: np.ndarray, k: int, tris_b: np.ndarray, tp_b: np.ndarray, j0: int, j1: int
+) -> bool:
+    """``vertex_map(...)[0] >= 0`` for a position ``b`` with one vertex (its star: rows ``j0:j1`` of
+    ``tris_b``, ``tp_b``), without allocating: the edge triangles exist and all reach the same vertex at
+    ``k``."""
     vk = -1
-    for j in range(tris_b.shape[0]):
+    for j in range(j0, j1):
         ik = -1
         for i in range(3):
             if tp_b[j, i] == k:
@@ -389,10 +463,80 @@ def valid_collapse(
     pos_alive = st.pos_alive
     if st.pos_locked[b] or not pos_alive[b] or not pos_alive[k] or b == k:
         return False
+    # (the ``is None`` tests are resolved at compile time: one branch per specialisation)
+    if tp_k is not None and nbr_k is not None:
+        tk = tp_k
+        nk = nbr_k
+    elif stars is None:
+        tk = triangle_positions(st, gather_triangles(st, k))
+        nk = neighbours(k, tk)
+    else:
+        tk = stars.tp[stars.start[k] : stars.start[k + 1]]
+        nk = stars.nbr[stars.nbr_start[k] : stars.nbr_start[k + 1]]
+    return valid_collapse_in(
+        pos_alive,
+        st.pos_locked,
+        st.pos_boundary,
+        st.pos_points,
+        st.min_area2[0],
+        st.tri_verts,
+        st.pos_verts,
+        st.pos_vstart,
+        b,
+        k,
+        tris_b,
+        tp_b,
+        0,
+        tp_b.shape[0],
+        nbr_b,
+        0,
+        nbr_b.shape[0],
+        tk,
+        0,
+        tk.shape[0],
+        nk,
+        0,
+        nk.shape[0],
+    )
+
+
+@nb.njit(cache=True)
+def valid_collapse_in(
+    pos_alive: np.ndarray,
+    pos_locked: np.ndarray,
+    pos_boundary: np.ndarray,
+    pts: np.ndarray,
+    min_area2: float,
+    tv: np.ndarray,
+    pv: np.ndarray,
+    pos_vstart: np.ndarray,
+    b: int,
+    k: int,
+    tris_b: np.ndarray,
+    tp_b: np.ndarray,
+    b0: int,
+    b1: int,
+    nbr_b: np.ndarray,
+    n0: int,
+    n1: int,
+    tk: np.ndarray,
+    k0: int,
+    k1: int,
+    nk: np.ndarray,
+    m0: int,
+    m1: int,
+) -> bool:
+    """:func:`valid_collapse` on the state's arrays, the stars given as row ranges (``b``'s triangles and
+    their positions: rows ``b0:b1`` of ``tris_b``, ``tp_b``; its neighbours ``nbr_b[n0:n1]``; ``k``'s
+    triangles' positions ``tk[k0:k1]`` and neighbours ``nk[m0:m1]``): a hot loop over a star snapshot
+    reads the state's fields and makes the slices of every star once, not per test (numba's reference
+    counting)."""
+    if pos_locked[b] or not pos_alive[b] or not pos_alive[k] or b == k:
+        return False
     n_edge = 0
     opp0 = -1
     opp1 = -1
-    for j in range(tp_b.shape[0]):
+    for j in range(b0, b1):
         if _has(tp_b, j, k):
             o = -1
             for i in range(3):
@@ -406,28 +550,18 @@ def valid_collapse(
             n_edge += 1
     if n_edge == 0 or n_edge > 2:
         return False
-    if st.pos_boundary[b]:
+    if pos_boundary[b]:
         if n_edge != 1:
             return False
     elif n_edge != 2:
         return False
-    # (the ``is None`` tests are resolved at compile time: one branch per specialisation)
-    if tp_k is not None and nbr_k is not None:
-        tk = tp_k
-        nk = nbr_k
-    elif stars is None:
-        tk = triangle_positions(st, gather_triangles(st, k))
-        nk = neighbours(k, tk)
-    else:
-        tk = stars.tp[stars.start[k] : stars.start[k + 1]]
-        nk = stars.nbr[stars.nbr_start[k] : stars.nbr_start[k + 1]]
     # link condition: common neighbours of b and k are exactly the edge's opposite vertices
     common = 0
-    for i in range(nbr_b.shape[0]):
+    for i in range(n0, n1):
         q = nbr_b[i]
         if q == k:
             continue
-        for j in range(nk.shape[0]):
+        for j in range(m0, m1):
             if nk[j] == q:
                 if q != opp0 and q != opp1:
                     return False
@@ -435,9 +569,7 @@ def valid_collapse(
                 break
     if common != n_edge:
         return False
-    P_ = st.pos_points
-    min_area2 = st.min_area2[0]
-    for j in range(tp_b.shape[0]):
+    for j in range(b0, b1):
         if _has(tp_b, j, k):
             continue
         # the surviving triangle b, x, y (in winding order) before and after b moves onto k
@@ -450,8 +582,8 @@ def valid_collapse(
             x, y = p2, p0
         else:
             x, y = p0, p1
-        n00, n01, n02 = tri_normal(P_, b, x, y)
-        n10, n11, n12 = tri_normal(P_, k, x, y)
+        n00, n01, n02 = tri_normal(pts, b, x, y)
+        n10, n11, n12 = tri_normal(pts, k, x, y)
         l1 = n10 * n10 + n11 * n11 + n12 * n12
         if l1 <= min_area2:
             return False
@@ -464,12 +596,12 @@ def valid_collapse(
         # and the link test above left only the edge's opposite vertices (and b) common to both, so
         # other x, y cannot repeat a face: skip the scan (same answer, most of the test's time)
         if (x == opp0 or x == opp1 or x == b) and (y == opp0 or y == opp1 or y == b):
-            for jj in range(tk.shape[0]):
+            for jj in range(k0, k1):
                 if _has(tk, jj, x) and _has(tk, jj, y):
                     return False
-    if st.pos_vstart[b + 1] - st.pos_vstart[b] == 1:
-        return _single_vertex_maps(st, b, k, tris_b, tp_b)
-    vm = vertex_map(st, b, k, tris_b, tp_b)
+    if pos_vstart[b + 1] - pos_vstart[b] == 1:
+        return _single_vertex_maps(tv, k, tris_b, tp_b, b0, b1)
+    vm = _vertex_map(tv, pv, pos_vstart, b, k, tris_b[b0:b1], tp_b[b0:b1])
     if vm[0] < 0:
         return False
     return True
@@ -485,8 +617,9 @@ def apply_collapse(st: CollapseState, b: int, k: int, vmap: np.ndarray) -> int:
     pv = st.pos_verts
     alive = st.tri_alive
     cnext = st.corner_next
+    head = st.corner_head  # fields read once (numba's reference counting per read)
     removed = 0
-    c = st.corner_head[b]
+    c = head[b]
     last = -1
     while c >= 0:
         t = c // 3
@@ -503,12 +636,14 @@ def apply_collapse(st: CollapseState, b: int, k: int, vmap: np.ndarray) -> int:
         last = c
         c = cnext[c]
     if last >= 0:  # splice b's corners in front of k's
-        st.corner_next[last] = st.corner_head[k]
-        st.corner_head[k] = st.corner_head[b]
-    st.corner_head[b] = -1
+        cnext[last] = head[k]
+        head[k] = head[b]
+    head[b] = -1
+    q = st.quadric
     for i in range(10):
-        st.quadric[k, i] += st.quadric[b, i]
-    st.quadric_weight[k] += st.quadric_weight[b]
+        q[k, i] += q[b, i]
+    qw = st.quadric_weight
+    qw[k] += qw[b]
     st.pos_alive[b] = False
     return removed
 
@@ -552,10 +687,12 @@ def best_of_star(
     (``tris_b``, ``tp_b``, ``nbr``), the costs written to ``costs`` (room for ``len(nbr)``); ``kbuf``
     (:func:`star_buffers`, ``stars`` None): read the targets' stars into it instead of new arrays.
     Returns the costs of all of ``nbr`` in ``costs[:len(nbr)]`` too."""
+    # targets are passed on as int64 (``nbr`` holds int32): one numba specialisation of each callee for
+    # every caller (the builders' own targets are int64)
     nn = nbr.shape[0]
     best = 0
     for i in range(nn):
-        costs[i] = collapse_cost(st, b, nbr[i])
+        costs[i] = collapse_cost(st, b, np.int64(nbr[i]))
         if costs[i] < costs[best]:
             best = i
     if not validate:
@@ -564,21 +701,22 @@ def best_of_star(
     # written out: one helper choosing the star source made ``level_costs`` ~35 % slower (111 -> 152 ms
     # on bunny), even inlined
     if kbuf is None:
-        if valid_collapse(st, b, nbr[best], tris_b, tp_b, nbr, stars):
-            return nbr[best], costs[best]
+        k = np.int64(nbr[best])
+        if valid_collapse(st, b, k, tris_b, tp_b, nbr, stars):
+            return k, costs[best]
         order = np.argsort(costs[:nn])
         for i in range(1, order.shape[0]):
-            k = nbr[order[i]]
+            k = np.int64(nbr[order[i]])
             if valid_collapse(st, b, k, tris_b, tp_b, nbr, stars):
                 return k, costs[order[i]]
     else:
-        k = nbr[best]
+        k = np.int64(nbr[best])
         _, tp_k, nbr_k = star_into(st, k, kbuf[0], kbuf[1], kbuf[2])
         if valid_collapse(st, b, k, tris_b, tp_b, nbr, None, tp_k, nbr_k):
             return k, costs[best]
         order = np.argsort(costs[:nn])
         for i in range(1, order.shape[0]):
-            k = nbr[order[i]]
+            k = np.int64(nbr[order[i]])
             _, tp_k, nbr_k = star_into(st, k, kbuf[0], kbuf[1], kbuf[2])
             if valid_collapse(st, b, k, tris_b, tp_b, nbr, None, tp_k, nbr_k):
                 return k, costs[order[i]]
@@ -594,9 +732,12 @@ def _heap_push(keys, ids, stamps, size, key, pid, stamp):
         nk = np.empty(2 * size, keys.dtype)
         ni = np.empty(2 * size, ids.dtype)
         ns = np.empty(2 * size, stamps.dtype)
-        nk[:size] = keys
-        ni[:size] = ids
-        ns[:size] = stamps
+        # a loop, not nk[:size] = keys: numba compiles and links a slice assignment's shape-mismatch
+        # message (string formatting), seconds of compile time
+        for i in range(size):
+            nk[i] = keys[i]
+            ni[i] = ids[i]
+            ns[i] = stamps[i]
         keys, ids, stamps = nk, ni, ns
     return keys, ids, stamps, _heap_push_into(keys, ids, stamps, size, key, pid, stamp)
 
@@ -640,6 +781,19 @@ def _heap_pop(keys, ids, stamps, size):
     return key, pid, stamp, size
 
 
+@nb.njit(cache=True)
+def _heap_push_call(keys, ids, stamps, size, key, pid, stamp):
+    """:func:`_heap_push` as a call, not inlined: a kernel that pushes and pops at many places
+    (:func:`run_sequence`, ``sw_kernels.forsyth_run``) compiles seconds faster, at no cost in run time."""
+    return _heap_push(keys, ids, stamps, size, key, pid, stamp)
+
+
+@nb.njit(cache=True)
+def _heap_pop_call(keys, ids, stamps, size):
+    """:func:`_heap_pop` as a call (see :func:`_heap_push_call`)."""
+    return _heap_pop(keys, ids, stamps, size)
+
+
 # ----------------------------------------------------------------------------------------------------
 # the full sequence
 # ----------------------------------------------------------------------------------------------------
@@ -661,11 +815,12 @@ def run_sequence(st: CollapseState, max_passes: int):
     n_rec = 0
     n_step = 0
     stamp = np.zeros(P, np.int64)
-    target = np.full(P, -1, np.int32)
+    # int64 targets: position arguments of one type for every callee (one numba specialisation each)
+    target = np.full(P, -1, np.int64)
     keys = np.empty(max(16, P), np.float64)
     ids = np.empty(max(16, P), np.int64)
     stamps = np.empty(max(16, P), np.int64)
-    size = 0
+    size = np.int64(0)  # not a literal 0: one specialisation of the heap calls
     for _ in range(max_passes):
         progress = 0
         for p in range(P):
@@ -673,9 +828,9 @@ def run_sequence(st: CollapseState, max_passes: int):
             stamp[p] += 1
             target[p] = k
             if k >= 0:
-                keys, ids, stamps, size = _heap_push(keys, ids, stamps, size, cost, p, stamp[p])
+                keys, ids, stamps, size = _heap_push_call(keys, ids, stamps, size, cost, p, stamp[p])
         while size > 0:
-            cost, b, s, size = _heap_pop(keys, ids, stamps, size)
+            cost, b, s, size = _heap_pop_call(keys, ids, stamps, size)
             if s != stamp[b] or not st.pos_alive[b]:
                 continue
             k = target[b]
@@ -687,7 +842,7 @@ def run_sequence(st: CollapseState, max_passes: int):
                 stamp[b] += 1
                 target[b] = k2
                 if k2 >= 0:
-                    keys, ids, stamps, size = _heap_push(keys, ids, stamps, size, c2, b, stamp[b])
+                    keys, ids, stamps, size = _heap_push_call(keys, ids, stamps, size, c2, b, stamp[b])
                 continue
             cost = collapse_cost(st, b, k)
             vmap = vertex_map(st, b, k, tris_b, tp_b)
@@ -708,12 +863,12 @@ def run_sequence(st: CollapseState, max_passes: int):
             tris_k = gather_triangles(st, k)
             ring = neighbours(k, triangle_positions(st, tris_k))
             for i in range(ring.shape[0] + 1):
-                q = k if i == ring.shape[0] else ring[i]
+                q = k if i == ring.shape[0] else np.int64(ring[i])
                 k2, c2 = best_collapse(st, q, False)
                 stamp[q] += 1
                 target[q] = k2
                 if k2 >= 0:
-                    keys, ids, stamps, size = _heap_push(keys, ids, stamps, size, c2, q, stamp[q])
+                    keys, ids, stamps, size = _heap_push_call(keys, ids, stamps, size, c2, q, stamp[q])
         if progress == 0:
             break
     return (
@@ -771,8 +926,13 @@ def fan_counts(st: CollapseState) -> np.ndarray:
     tris = np.empty(T, np.int32)
     tp = np.empty((T, 3), np.int32)
     parent = np.empty(T, np.int64)
+    head = st.corner_head  # read once (numba's reference counting per field read)
+    cnext = st.corner_next
+    talive = st.tri_alive
+    tv = st.tri_verts
+    vp = st.vertex_pos
     for p in range(P):
-        n = _positions_into(st, p, tris, tp)
+        n = _positions_rows(head, cnext, talive, tv, vp, p, tris, tp, 0)
         if n == 0:
             continue
         for i in range(n):

@@ -137,7 +137,8 @@ def make_state(
         faces.astype(np.int32),
         weights.astype(np.float64),
     )
-    order = kernels.stable_order(topo.vertex_pos, P).astype(np.int32)
+    # int64 keys as the edge sort's: one numba specialisation of stable_order
+    order = kernels.stable_order(topo.vertex_pos.astype(np.int64), P).astype(np.int32)
     pos_vstart = np.zeros(P + 1, np.int32)
     np.cumsum(np.bincount(topo.vertex_pos, minlength=P), out=pos_vstart[1:])
     head, nxt = kernels.build_corner_lists(topo.tri_pos, P)
