@@ -562,7 +562,7 @@ def test_swap_deviation_is_the_distance_between_the_two_triangulations() -> None
     """A quad folded along its diagonal (v, j) by height h: swapping to (k, l) moves the surface by the
     distance from the crossing point (0, 0, h) to the old triangles' planes, h / sqrt(1 + h^2); a planar
     quad does not move at all."""
-    from swpm_usd.encode.sw_kernels import _swap_deviation
+    from swpm_usd.encode.sw_swaps import _swap_deviation
 
     for h in (0.0, 0.1, 0.5):
         pp = np.array([[-1.0, 0, 0], [1.0, 0, 0], [0, 1.0, h], [0, -1.0, h]])  # v, j, k, l

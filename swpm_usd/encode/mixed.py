@@ -1,4 +1,4 @@
-"""Mixed-mode VIPM with indexed lists (Forsyth, "Comparison of VIPM Methods", Game Programming Gems 3, 4.1).
+"""Mixed-mode VIPM with indexed lists (Forsyth, "Comparison of VIPM Methods", Game Programming Gems 2, 4.1).
 
 Levels as in multilevel skip lists (a new level when the level's binned fraction would exceed
 ``level_threshold``). Within a level, its collapses split the level's triangles into Forsyth's four lists:

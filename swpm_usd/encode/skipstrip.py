@@ -1,4 +1,4 @@
-"""Multilevel skip strips (Forsyth, "Comparison of VIPM Methods", Game Programming Gems 3, 4.1; the name
+"""Multilevel skip strips (Forsyth, "Comparison of VIPM Methods", Game Programming Gems 2, 4.1; the name
 from El-Sana et al., "Skip Strips", 1999) and their indexed-list variant.
 
 A collapse does not drop triangles off the end of the index buffer as in vanilla VIPM: every index slot that

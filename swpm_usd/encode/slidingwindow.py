@@ -141,6 +141,7 @@ from ..simplify import CollapseSequence, collapse_sequence, make_state, mesh_top
 from ..simplify.kernels import star_snapshot
 from ..vcache import apply_order, optimize_block_order
 from . import sw_centres as swc
+from . import sw_forsyth, sw_swaps
 from . import sw_kernels as swk
 from .base import ProgressiveMesh, register
 from .vanilla import index_size
@@ -477,7 +478,7 @@ def optimize_mesh_connectivity(
     flat_angle_deg: float | None = None,
     max_deviation: float = SWAP_MAX_DEVIATION,
 ) -> Mesh:
-    """``mesh`` with edges swapped to create low-degree vertices (SWPM 3.1, :func:`.sw_kernels.swap_edges`):
+    """``mesh`` with edges swapped to create low-degree vertices (SWPM 3.1, :func:`.sw_swaps.swap_edges`):
     same vertices and attributes, same triangle count, only interior manifold non-seam edges swapped whose
     quad is not folded (normals within ``max_angle_deg``) and whose swap moves the surface by at most
     ``max_deviation`` times the bounding-box diagonal; the topology (closed, manifold, Euler characteristic)
@@ -497,7 +498,7 @@ def optimize_mesh_connectivity(
         floor = _swap_degree_floor(tri_pos, pos_points, flat_angle)
     else:
         floor = np.full(pos_points.shape[0], int(min_degree), np.int64)
-    tris, _ = swk.swap_edges(
+    tris, _ = sw_swaps.swap_edges(
         np.ascontiguousarray(mesh.triangles, np.int64),
         tri_pos,
         pos_points,
@@ -761,7 +762,7 @@ def _build_forsyth(mesh: Mesh, st, tolerance: float, boundary_weight: float, sea
     gtris[:T] = mesh.triangles
     cur_gid = np.arange(T, dtype=np.int64)
     (gtris, ng, level_start, level_gids, patch_level, p_start, p_out, q_start, q_out, recs, info) = (
-        swk.forsyth_run(st, float(tolerance) * mean_error, cur_gid, gtris, T)
+        sw_forsyth.forsyth_run(st, float(tolerance) * mean_error, cur_gid, gtris, T)
     )
     levels = []
     bounds = np.searchsorted(patch_level, np.arange(level_start.shape[0]), side="left")

@@ -784,7 +784,7 @@ def _heap_pop(keys, ids, stamps, size):
 @nb.njit(cache=True)
 def _heap_push_call(keys, ids, stamps, size, key, pid, stamp):
     """:func:`_heap_push` as a call, not inlined: a kernel that pushes and pops at many places
-    (:func:`run_sequence`, ``sw_kernels.forsyth_run``) compiles seconds faster, at no cost in run time."""
+    (:func:`run_sequence`, ``sw_forsyth.forsyth_run``) compiles seconds faster, at no cost in run time."""
     return _heap_push(keys, ids, stamps, size, key, pid, stamp)
 
 

@@ -1,0 +1,219 @@
+"""Forsyth's sliding-window builder: the quadric-error collapse order, one patch (the binned position's
+star) per collapse, grouped into levels (Forsyth, "Comparison of VIPM Methods", Game Programming Gems 2,
+sliding window). A collapse may not touch a triangle created in the current level; the best one that does
+not is taken while its error is within a tolerance of the best one's, else a new level starts.
+
+Collapses that touch the current level keep touching it until the level ends, so they wait in a deferred
+heap instead of being popped and pushed back at every step. The patches are emitted with the helpers of
+:mod:`.sw_kernels`, as the topology-driven builder emits its own.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from ..simplify import kernels as K
+from .sw_centres import _grow_i64
+from .sw_kernels import _chain_work, _chain_work_for, _emit_into, _grow_tris, _record_collapse, chain_order
+
+
+@nb.njit(cache=True)
+def _touches_level(st: K.CollapseState, b: int, tri_level: np.ndarray, level: int) -> bool:
+    tris = K.gather_triangles(st, b)
+    for j in range(tris.shape[0]):
+        if tri_level[tris[j]] == level:
+            return True
+    return False
+
+
+@nb.njit(cache=True)
+def _refresh(st, q, keys, ids, stamps, size, stamp, target):
+    k2, c2 = K.best_collapse(st, q)
+    stamp[q] += 1
+    target[q] = k2
+    if k2 >= 0:
+        keys, ids, stamps, size = K._heap_push(keys, ids, stamps, size, c2, q, stamp[q])
+    return keys, ids, stamps, size
+
+
+@nb.njit(cache=True)
+def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, gtris: np.ndarray, ng: int):
+    """Quadric-error collapses, one patch (the star of the binned position) each, grouped into levels
+    (Forsyth, "Comparison of VIPM Methods", sliding window): a collapse may not touch a triangle created
+    in the current level. When the best collapse would, the best one that does not is taken if its error
+    (a distance) exceeds the best one's by at most ``tolerance_abs``; otherwise a new level starts.
+
+    Returns ``(gtris, ng, level_start, level_gids, patch_level, p_start, p_out, q_start, q_out, recs,
+    step_info)``: per level the global ids of its starting triangles (CSR), per patch (= step) its level
+    and its ``P``/``Q`` triangles, the vertex collapses and per step (error, binned, kept position).
+    """
+    P = st.pos_points.shape[0]
+    T = st.tri_verts.shape[0]
+    alive = st.tri_alive
+    pos_alive = st.pos_alive
+    tv = st.tri_verts
+    tri_level = np.full(T, -1, np.int64)
+    level = np.int64(0)
+    level_start = np.zeros(2, np.int64)
+    level_gids = np.empty(T, np.int64)
+    nlg = np.int64(0)
+    for t in range(T):
+        if alive[t]:
+            level_gids[nlg] = cur_gid[t]
+            nlg += 1
+    level_start[1] = nlg
+    nlev = np.int64(1)
+    patch_level = np.empty(max(16, P), np.int64)
+    p_start = np.zeros(max(16, P) + 1, np.int64)
+    q_start = np.zeros(max(16, P) + 1, np.int64)
+    p_out = np.empty(max(16, 3 * T), np.int64)
+    q_out = np.empty(max(16, 3 * T), np.int64)
+    npo = np.int64(0)
+    nq = np.int64(0)
+    recs = np.empty((max(16, st.vertex_pos.shape[0]), 3), np.int64)
+    nrec = np.int64(0)
+    step_info = np.empty((max(16, P), 3), np.float64)
+    nstep = np.int64(0)
+    stamp = np.zeros(P, np.int64)
+    # int64 positions and triangle ids throughout: the callees shared with collapse_patches and
+    # run_sequence are compiled once for both
+    target = np.full(P, -1, np.int64)
+    keys = np.empty(max(16, P), np.float64)
+    ids = np.empty(max(16, P), np.int64)
+    stamps = np.empty(max(16, P), np.int64)
+    size = np.int64(0)
+    dk = np.empty(64, np.float64)  # deferred heap: collapses that touch the current level
+    di = np.empty(64, np.int64)
+    ds = np.empty(64, np.int64)
+    dsize = np.int64(0)
+    fw = _chain_work(np.int64(16))
+    bbuf = K.star_buffers(st)
+    for _ in range(3):
+        progress = 0
+        for p in range(P):
+            keys, ids, stamps, size = _refresh(st, p, keys, ids, stamps, size, stamp, target)
+        while size > 0 or dsize > 0:
+            # the best valid collapse: the deferred heap's top (it touches the level) or the main heap's
+            while dsize > 0 and (ds[0] != stamp[di[0]] or not pos_alive[di[0]]):
+                _, _, _, dsize = K._heap_pop_call(dk, di, ds, dsize)
+            if dsize > 0 and (size == 0 or dk[0] <= keys[0]):
+                cost, b, s, dsize = K._heap_pop_call(dk, di, ds, dsize)
+                from_deferred = True
+            elif size > 0:
+                cost, b, s, size = K._heap_pop_call(keys, ids, stamps, size)
+                if s != stamp[b] or not pos_alive[b]:
+                    continue
+                from_deferred = False
+            else:
+                continue
+            k = target[b]
+            tris_b = K.gather_triangles(st, b)
+            tp_b = K.triangle_positions(st, tris_b)
+            nbr_b = K.neighbours(b, tp_b)
+            if k < 0 or not K.valid_collapse(st, b, k, tris_b, tp_b, nbr_b, None):
+                keys, ids, stamps, size = _refresh(st, b, keys, ids, stamps, size, stamp, target)
+                continue
+            cost = K.collapse_cost(st, b, k)
+            if from_deferred or _touches_level(st, b, tri_level, level):
+                # Forsyth's reordering: the best collapse that starts no new level, if close enough. A
+                # collapse that touches the level keeps touching it until the level ends (the level only
+                # gains triangles), so it waits in the deferred heap instead of being popped and pushed
+                # back at every step (quadratic on large meshes)
+                dk, di, ds, dsize = K._heap_push_call(dk, di, ds, dsize, cost, b, s)
+                limit = np.sqrt(cost) + tolerance_abs
+                found = -1
+                while size > 0:
+                    c2, b2, s2, size = K._heap_pop_call(keys, ids, stamps, size)
+                    if s2 != stamp[b2] or not pos_alive[b2]:
+                        continue
+                    if np.sqrt(c2) > limit:
+                        keys, ids, stamps, size = K._heap_push_call(keys, ids, stamps, size, c2, b2, s2)
+                        break
+                    k2 = target[b2]
+                    tris2 = K.gather_triangles(st, b2)
+                    tp2 = K.triangle_positions(st, tris2)
+                    nbr2 = K.neighbours(b2, tp2)
+                    if k2 < 0 or not K.valid_collapse(st, b2, k2, tris2, tp2, nbr2, None):
+                        keys, ids, stamps, size = _refresh(st, b2, keys, ids, stamps, size, stamp, target)
+                        continue
+                    if not _touches_level(st, b2, tri_level, level):
+                        found = b2
+                        break
+                    dk, di, ds, dsize = K._heap_push_call(dk, di, ds, dsize, c2, b2, s2)
+                if found < 0:
+                    # new level: every current triangle may be changed again, every deferred collapse
+                    # competes again
+                    while dsize > 0:
+                        c2, b2, s2, dsize = K._heap_pop_call(dk, di, ds, dsize)
+                        keys, ids, stamps, size = K._heap_push_call(keys, ids, stamps, size, c2, b2, s2)
+                    level += 1
+                    level_start = _grow_i64(level_start, nlev + 2)
+                    level_gids = _grow_i64(level_gids, nlg + T)
+                    for t in range(T):
+                        if alive[t]:
+                            level_gids[nlg] = cur_gid[t]
+                            nlg += 1
+                    nlev += 1
+                    level_start[nlev] = nlg
+                    continue
+                b = found
+                k = target[b]
+                cost = K.collapse_cost(st, b, k)
+            # do the collapse b -> k as one patch
+            tris_p = K.gather_triangles(st, b).astype(np.int64)  # int64 as collapse_patches' (_emit_into)
+            p_out = _grow_i64(p_out, npo + tris_p.shape[0])
+            sub = np.empty((tris_p.shape[0], 3), np.int64)
+            for j in range(tris_p.shape[0]):
+                for i in range(3):
+                    sub[j, i] = tv[tris_p[j], i]
+            o = chain_order(sub)
+            for j in range(tris_p.shape[0]):
+                p_out[npo] = cur_gid[tris_p[o[j]]]
+                npo += 1
+            recs, nrec = _record_collapse(st, b, k, recs, nrec, nstep, bbuf)
+            fw = _chain_work_for(fw, tris_p.shape[0])
+            gtris = _grow_tris(gtris, ng + tris_p.shape[0])
+            q_out = _grow_i64(q_out, nq + tris_p.shape[0])
+            ng, nq = _emit_into(st, tris_p, cur_gid, gtris, ng, q_out, nq, fw)
+            for j in range(tris_p.shape[0]):
+                if alive[tris_p[j]]:
+                    tri_level[tris_p[j]] = level
+            if nstep + 1 >= patch_level.shape[0]:
+                patch_level = _grow_i64(patch_level, nstep + 2)
+                p_start = _grow_i64(p_start, nstep + 3)
+                q_start = _grow_i64(q_start, nstep + 3)
+                si = np.empty((2 * step_info.shape[0], 3), np.float64)
+                for i in range(nstep):  # a loop: see _grow_tris
+                    for j in range(3):
+                        si[i, j] = step_info[i, j]
+                step_info = si
+            patch_level[nstep] = level
+            step_info[nstep, 0] = np.sqrt(cost)
+            step_info[nstep, 1] = b
+            step_info[nstep, 2] = k
+            nstep += 1
+            p_start[nstep] = npo
+            q_start[nstep] = nq
+            progress += 1
+            stamp[b] += 1
+            tris_k = K.gather_triangles(st, k)
+            ring = K.neighbours(k, K.triangle_positions(st, tris_k))
+            for i in range(ring.shape[0] + 1):
+                q = k if i == ring.shape[0] else np.int64(ring[i])
+                keys, ids, stamps, size = _refresh(st, q, keys, ids, stamps, size, stamp, target)
+        if progress == 0:
+            break
+    return (
+        gtris,
+        ng,
+        level_start[: nlev + 1].copy(),
+        level_gids[:nlg].copy(),
+        patch_level[:nstep].copy(),
+        p_start[: nstep + 1].copy(),
+        p_out[:npo].copy(),
+        q_start[: nstep + 1].copy(),
+        q_out[:nq].copy(),
+        recs[:nrec].copy(),
+        step_info[:nstep].copy(),
+    )
