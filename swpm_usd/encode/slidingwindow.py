@@ -23,104 +23,26 @@ stored at index ``V - 1 - c`` (as in vanilla VIPM), never-binned vertices first,
 the prefix ``[0, vertex_count_at(k))``. An attribute seam puts several vertices at one position: the step
 that bins the position bins all of them (``vertex_map``).
 
-Builders.
+Builders and options, in short (``slidingwindow.md`` next to this file has the design notes: why each
+choice, what was measured and what was tried and dropped):
 
-* ``builder="topology"`` (TD-VIPM, the default): per level, a greedy minimum-degree maximal independent set of
-  patch centres (TD-VIPM 3.1) where a fraction ``mu`` of the highest-error vertices may not be centres (SWPM
-  3), then (one inner vertex per patch) centres traded 1-for-1 for cheaper neighbours
-  (:func:`.sw_centres.lower_error_centres`: same size, lower error), then (1,1)- and (2,2)-exchanges that take
-  centres off the top of the error ranking (:func:`.sw_centres.lower_costly_centres`: a LOD's Hausdorff error
-  comes from its level's few costliest collapses); each centre goes by its best valid half-edge collapse, or
-  to a neighbour of higher degree that costs at most 5 % of the level's ``mu`` cut more
-  (``_TARGET_SLACK_SINGLE``: the fans pile up on fewer vertices and the next level finds more low-degree
-  centres; lambda -4 %, bunny 5.55 -> 5.37). Every triangle of no patch that shares a position with a patch
-  joins it (``absorb_middle=True``, the default; :func:`.sw_kernels.absorb_middle`, a patch sharing a *vertex*
-  first, since an attribute seam splits cache entries): it touches no inner vertex, so it is the same triangle
-  in ``P_i`` and ``Q_i`` and is stored twice instead of once in ``M``, which is then nearly empty: the level's
-  cover is the papers' ``P_1 U .. U P_n = T`` (not on a coarse level whose stars cover under 40 % of it, where
-  ``M`` is a connected mesh that draws well as one block: ``_ABSORB_MAX_MIDDLE``). The trade: lambda +15 %,
-  but no window draws a scattered middle block (bunny, FIFO 16, ACMR / meshoptimizer's
-  ``optimize_vertex_cache`` of the same triangles at 100/50/25/10 %: 1.26/1.60/1.60/1.47 without,
-  1.04/1.08/1.08/1.06 with; lambda 4.94 -> 5.68). Patches are
-  then ordered greedily for a FIFO vertex cache (TD-VIPM 3.2, eq. 2), scoring the misses of both sequences a
-  window draws, ``P_{j+1}..P_n`` and ``Q_1..Q_j`` (:func:`.sw_kernels.order_patches`); then every absorbed
-  triangle moves to the patch next to it where that order draws it with the fewest misses
-  (:func:`.sw_kernels.reassign_middle`; ACMR ratio, mean over the ten benchmark meshes at 19 fractions of the
-  triangles: 1.070 -> 1.062, lambda unchanged); the triangles inside every ``P_i``, ``Q_i`` and the static
-  middle are reordered for the cache block by block, the FIFO state carried from block to block
-  (:func:`swpm_usd.vcache.optimize_block_order`; the patches start out as fans), with the remaining-triangle
-  counts of the head ``P_1..P_n || M`` and of the tail ``Q_1..Q_n`` kept apart, since a window draws the end
-  of one and the start of the other (same mean: 1.074 -> 1.070). ``inner_vertices > 1`` (SWPM 3.3: fewer
-  approximations, a smaller pool) either grows each patch to that many adjacent inner vertices or merges two
-  levels (a second-level vertex with all the centres next to it, :func:`.sw_centres.merge_patches`), whichever
-  removes more vertices in the level, then enlarges that set of inner vertices by a large-neighbourhood search
-  (:func:`.sw_centres.grow_component_set`: any set whose connected components have at most ``inner_vertices``
-  members, one patch per component), and the inner vertices go to high-degree targets where that costs little
-  (``_TARGET_SLACK``: more low-degree vertices for the next level). A level's pool share is ``T_L + T_{L+1}``,
-  so only the fraction of vertices removed per level counts; bunny with the edge swaps: 51 % on the first
-  level, 41-43 % on the next ones without the search, 52 % / 44-47 % with both (lambda 3.32 -> 3.07; measured
-  with the former 10-degree swap guard, 2.91 with today's swaps).
+* ``builder="topology"`` (TD-VIPM, the default): per level, a greedy minimum-degree maximal independent set
+  of patch centres (TD-VIPM 3.1, :mod:`.sw_centres`) in which a fraction ``mu`` of the highest-error vertices
+  may not be centres (SWPM 3); each centre goes by its best valid half-edge collapse, or to a neighbour of
+  higher degree costing at most ``target_slack`` of the level's ``mu`` cut more; the triangles of no patch
+  join a patch (``absorb_middle``); the patches are ordered for a FIFO vertex cache (TD-VIPM 3.2,
+  :func:`.sw_kernels.order_patches`) and the triangles inside every block after them
+  (:func:`swpm_usd.vcache.optimize_block_order`). ``inner_vertices > 1`` (SWPM 3.3): patches of several
+  inner vertices, fewer LODs, a smaller pool.
+* ``builder="forsyth"``: Forsyth's quadric-error order with the error-tolerance reordering
+  (:mod:`.sw_forsyth`).
+* ``optimize_connectivity=True`` (SWPM 3.1): edge swaps creating low-degree vertices first, each moving the
+  surface by at most ``swap_max_deviation`` of the bounding-box diagonal (:mod:`.sw_swaps`).
+* ``cluster=True`` (SWPM 3.2): a level's patches read out of the previous level's tail, so consecutive
+  levels share storage, where that costs fewer pool triangles per collapse
+  (:func:`.sw_kernels.cluster_patches`).
 
-  Before the 1-for-1 trades the greedy set of centres is enlarged by an iterated local search
-  (:func:`.sw_centres.grow_independent_set`, Andrade, Resende & Werneck's (1,2)-swaps with random forced
-  insertions, half an iteration per vertex).
-
-  Why the collapse targets matter for lambda at ``mu=0.1``: a level stores ``T_L + T_{L+1}`` triangles and
-  removes two per centre, so lambda ~ (2 - f) / f for a centre fraction f, and the papers' 5.4 needs f >=
-  0.3125 on every level. On bunny's first three levels with the cheapest targets (``benchmarks/
-  bench_centres.py``) the greedy reaches f = 0.283 / 0.313 / 0.302, the local search 0.288 / 0.317 / 0.307,
-  and an exact solver (HiGHS) proves at most 0.305 / 0.320 / 0.312: with a tenth of the vertices barred, no
-  centre choice reaches 5.4 (20 times the search's effort: 5.47). The next level's connectivity is the
-  lever left: higher-degree targets (``_TARGET_SLACK_SINGLE``) leave it more low-degree vertices, and
-  bunny reaches 5.37. With ``mu=0`` (the papers' basic TD-VIPM, no error control, where the targets stay
-  the cheapest) bunny gives 5.31 (SWPM's estimate ``(d - 1)(1 + mu)`` has the same ``1 + mu`` factor).
-  ``mu`` trades pool size for error (row ``topology-mu0.3`` of the benchmark).
-
-  ``target_slack`` (this builder only) sets how much more than its cheapest collapse an inner vertex may cost,
-  as a fraction of the level's ``mu`` cut (never above the cut), when it goes to a neighbour of higher degree;
-  ``None`` (the default) means 0.05 with one inner vertex and 0.1 with more (``_TARGET_SLACK_SINGLE``,
-  ``_TARGET_SLACK``). Larger values give a smaller pool and a larger error, at a lower error price than a
-  smaller ``mu``: three inner vertices with the edge swaps and ``target_slack=1.0`` reach bunny lambda 2.78
-  (ten meshes: 3.21 -> 3.05; Hausdorff ratio 1.85 -> 2.00), where ``mu=0.05`` reaches 2.77 at 2.19.
-* ``builder="forsyth"``: the quadric-error collapse order, one patch (the binned vertex's star) per
-  collapse; when the best collapse touches a triangle already created in the current level, the best one
-  that does not is taken if its error is within ``tolerance`` times the mean collapse error of the plain
-  quadric sequence (Forsyth's 10 %), else a new level starts.
-
-``optimize_connectivity=True`` (SWPM 3.1) first swaps edges of the input to create low-degree vertices
-(:func:`optimize_mesh_connectivity`, the paper's ``Optimize``: breadth first, an edge ``(v, j)`` is swapped
-when it lowers the degrees of ``v`` and ``j`` and raises those of two vertices not meant to be lowered), so
-the minimum-degree patch centres have smaller patches and the pool shrinks. Guards: interior manifold edges
-that are no attribute seam, no folded quad (the old and new normals within 90 degrees), the paper's degree
-floor (no degree below 4 at a flat vertex, every incident normal within 2 degrees of the vertex normal; below
-3 elsewhere) and a distance: a swap may move the surface by at most ``swap_max_deviation`` times the
-bounding-box diagonal (default 5e-4; measured along the quad's diagonals, where the two triangulations are
-farthest apart; exact, by bisection). LOD 0 is then the swapped mesh (same vertices, triangle count and
-topology; ``collapse_sequence.mesh``), within about that distance of the input. Bunny: lambda 5.37 -> 4.20
-(before the higher-degree targets, 5.55 -> 4.25; ``swap_max_deviation`` 3e-4: 4.58; 1e-3: 4.07; unbounded:
-4.10 with LOD 0 at 0.0016 of the diagonal; the paper's procedure, without the fold guard either: 4.00,
-0.0021); the Hausdorff error of the LODs stays about that of the default build at 5e-4 and grows at 1e-3,
-where LOD 0 alone is twice as far from the input as meshoptimizer's 50 % LOD (see
-``benchmarks/bench_slidingwindow.py``, rows ``swap`` and ``swap-dev1e-3``). The cache size of every ordering
-is ``cache_size`` (FIFO, default 16).
-
-``cluster=True`` (SWPM 3.2, clustered and linked patches; ``builder="topology"``, ``inner_vertices=1``
-only): consecutive levels share storage. A level's tail ``M || Q_1..Q_n`` is, in its final order, the
-next level's starting mesh; a *linked* level picks its centres so that their stars are disjoint intervals
-of that tail (:func:`.sw_kernels.cluster_patches`: greedy earliest end, the prefix that costs least per
-patch), so its head ``P_1..P_m || M'`` IS the previous tail (patch ``j`` = its star plus the untouched
-triangles up to the next star, which reappear unchanged in ``Q_j``) and only ``Q_1..Q_m`` are appended:
-the pool is ``.. P_1..P_n || [M || Q_1..Q_n = P'_1..P'_m || M'] || Q'_1..Q'_m ..``. Every window is still
-one contiguous slice. The tail gets more scattered with every linked level (longer intervals), so a level
-is linked only if, before its collapses, its linked patches cost at most the pool triangles per collapse
-of a fully stored level (``2 T_L / n - 2``, ``n`` its minimum-degree centres); otherwise it is stored in
-full (the usual layout and selection). Bunny with the edge swaps: lambda 4.20 -> 3.74 (without: 5.37 ->
-4.97; deciding from the previous linked level's outcome instead: 3.95 and 5.04); the price: the centres
-follow the tail order rather than degree and error, so the windows are colder (ACMR ratio at 10 % 1.03 ->
-1.26) and the Hausdorff error grows (rows ``cluster`` / ``cluster-swap`` of the benchmark). Tried and
-dropped: planning a fully stored level's patch order for the next level (its centres chosen first, their
-stars made runs of the tail by ordering ``Q`` blocks along paths): lambda -2 to -6 %, but ACMR ratios up
-to 1.4.
+Every ordering is for a FIFO cache of ``cache_size`` entries (default 16).
 
 The builders also keep their own collapse sequence (:attr:`SlidingWindowProgressiveMesh.collapse_sequence`,
 a :class:`swpm_usd.simplify.CollapseSequence`; ``lod_steps[k]`` steps of it give LOD ``k``), against which
@@ -905,7 +827,8 @@ def build_sliding_window(
     boundary_weight: float = 8.0,
     seam_weight: float = 2.0,
 ) -> SlidingWindowProgressiveMesh:
-    """Build a sliding-window progressive mesh of ``mesh`` (see the module docstring for the parameters)."""
+    """Build a sliding-window progressive mesh of ``mesh`` (parameters: the module docstring; their design:
+    ``slidingwindow.md``)."""
     if builder not in ("topology", "forsyth"):
         raise BuildError(f"unknown sliding-window builder {builder!r}; choose 'topology' or 'forsyth'")
     if not 0.0 <= mu < 1.0:
