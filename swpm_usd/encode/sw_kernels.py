@@ -164,8 +164,12 @@ def level_positions(
 def ties_by_index(keys: np.ndarray, order: np.ndarray) -> np.ndarray:
     """``order`` (an argsort of ``keys``, any tie order) with every run of equal keys in increasing index
     order, in place: ``np.argsort(keys, kind="stable")`` from the default sort (numpy's stable argsort took
-    ~0.2 ms on cow's 2,900 costs, its quicksort ~0.05). NaNs count as equal to each other."""
+    ~0.2 ms on cow's 2,900 costs, its quicksort ~0.05). NaNs count as equal to each other. The runs are
+    refilled by a counting pass over the indices in increasing order (no np.sort and slice assignment:
+    numba's sort and broadcast code took ~6 s of a cold build's compile time)."""
     n = order.shape[0]
+    run = np.empty(n, np.int64)  # first slot of every index's run
+    fill = np.empty(n, np.int64)  # next free slot of the run starting there
     i = 0
     while i < n:
         a = keys[order[i]]
@@ -175,9 +179,14 @@ def ties_by_index(keys: np.ndarray, order: np.ndarray) -> np.ndarray:
             if not (a == b or (a != a and b != b)):
                 break
             j += 1
-        if j - i > 1:
-            order[i:j] = np.sort(order[i:j])
+        for r in range(i, j):
+            run[order[r]] = i
+        fill[i] = i
         i = j
+    for x in range(n):
+        s = run[x]
+        order[fill[s]] = x
+        fill[s] += 1
     return order
 
 
@@ -580,11 +589,18 @@ def order_patches(
                     pv[m] = v
                     m += 1
         pv_start[p + 1] = m
+    # loops, not a slice fill and fancy indexing (numba's broadcast code), and int64 keys: one
+    # specialisation of K.group_by
     patch_of = np.empty(m, np.int64)
+    keys = np.empty(m, np.int64)
     for p in range(n):
-        patch_of[pv_start[p] : pv_start[p + 1]] = p
-    vp_start, vp = K.group_by(pv[:m], vertex_count)
-    vp = patch_of[vp]
+        for j in range(pv_start[p], pv_start[p + 1]):
+            patch_of[j] = p
+            keys[j] = pv[j]
+    vp_start, idx = K.group_by(keys, vertex_count)
+    vp = np.empty(m, np.int64)
+    for j in range(m):
+        vp[j] = patch_of[idx[j]]
     remaining = np.empty(vertex_count, np.int64)  # np.diff(vp_start) as a loop (np.diff: see _grow_tris)
     for v in range(vertex_count):
         remaining[v] = vp_start[v + 1] - vp_start[v]
@@ -703,21 +719,22 @@ def _record_collapse(
             for j in range(3):
                 grown[i, j] = recs[i, j]
         recs = grown
+    if bbuf is None:
+        return recs, _record_collapse_into(st, b, k, recs, nrec, step, K.star_buffers(st))
     return recs, _record_collapse_into(st, b, k, recs, nrec, step, bbuf)
 
 
 @nb.njit(cache=True)
 def _record_collapse_into(
-    st: K.CollapseState, b: int, k: int, recs: np.ndarray, nrec: int, step: int, bbuf: tuple | None = None
+    st: K.CollapseState, b: int, k: int, recs: np.ndarray, nrec: int, step: int, bbuf: tuple
 ) -> int:
-    """:func:`_record_collapse` into ``recs`` with room for the vertices at ``b``; returns ``nrec`` only."""
-    if bbuf is None:
-        tris_b = K.gather_triangles(st, b)
-        tp_b = K.triangle_positions(st, tris_b)
-    else:  # b's triangles and their positions (not its neighbours: star_into's costliest part)
-        n = K._positions_into(st, b, bbuf[0], bbuf[1])
-        tris_b = bbuf[0][:n]
-        tp_b = bbuf[1][:n]
+    """:func:`_record_collapse` into ``recs`` with room for the vertices at ``b``; returns ``nrec`` only.
+    ``bbuf`` (:func:`swpm_usd.simplify.kernels.star_buffers`, not optional: numba compiled the branch
+    without it too) takes b's triangles and their positions (not its neighbours: star_into's costliest
+    part)."""
+    n = K._positions_into(st, b, bbuf[0], bbuf[1])
+    tris_b = bbuf[0][:n]
+    tp_b = bbuf[1][:n]
     vmap = K.vertex_map(st, b, k, tris_b, tp_b)
     v0 = st.pos_vstart[b]
     pv = st.pos_verts
@@ -908,8 +925,10 @@ def reassign_middle(
                 corner_pos[nk] = vpos[tv[pt[j], kk]]
                 corner_patch[nk] = p
                 nk += 1
-    pp_start, pp = K.group_by(corner_pos[:nk], P)
-    pp = corner_patch[pp]
+    pp_start, idx = K.group_by(corner_pos[:nk], P)
+    pp = np.empty(nk, np.int64)
+    for j in range(nk):  # corner_patch[idx] as a loop (numba's fancy indexing: compile time)
+        pp[j] = corner_patch[idx[j]]
     cand_start = np.zeros(nab + 1, np.int64)
     # at most the patches listed at the three corners: sized once, the loop reassigns no array
     n_cand = np.int64(16)
@@ -1028,6 +1047,8 @@ def _shaped_collapse(
     pv = st.pos_verts
     vstart = st.pos_vstart
     b_tris, b_tp, b_nbr = bbuf
+    # a typed zero for the row starts: a literal 0 made a second specialisation of K.valid_collapse_in
+    z = np.int64(0)
     k_tris, k_tp, k_nbr = kbuf
     # b's star read once, for best_collapse and the targets of the slack
     nt, nn = K.star_rows(head, cnext, talive, tv, vp, b, b_tris, b_tp, b_nbr)
@@ -1043,8 +1064,8 @@ def _shaped_collapse(
     k = np.int64(b_nbr[best])  # one specialisation of the helpers (int64 positions)
     mt, mn = K.star_rows(head, cnext, talive, tv, vp, k, k_tris, k_tp, k_nbr)
     if K.valid_collapse_in(
-        alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, b_tris, b_tp, 0, nt, b_nbr, 0, nn,
-        k_tp, 0, mt, k_nbr, 0, mn,
+        alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, b_tris, b_tp, z, nt, b_nbr, z, nn,
+        k_tp, z, mt, k_nbr, z, mn,
     ):  # fmt: skip
         k0 = k
         c0 = costs[best]
@@ -1054,8 +1075,8 @@ def _shaped_collapse(
             k = np.int64(b_nbr[order[i]])
             mt, mn = K.star_rows(head, cnext, talive, tv, vp, k, k_tris, k_tp, k_nbr)
             if K.valid_collapse_in(
-                alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, b_tris, b_tp, 0, nt, b_nbr, 0,
-                nn, k_tp, 0, mt, k_nbr, 0, mn,
+                alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, b_tris, b_tp, z, nt, b_nbr, z,
+                nn, k_tp, z, mt, k_nbr, z, mn,
             ):  # fmt: skip
                 k0 = k
                 c0 = costs[order[i]]
@@ -1076,8 +1097,8 @@ def _shaped_collapse(
         if not (d > best_d or (d == best_d and c < best_c)):
             continue
         if k == k0 or K.valid_collapse_in(
-            alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, b_tris, b_tp, 0, nt, b_nbr, 0, nn,
-            k_tp, 0, mt, k_nbr, 0, d,
+            alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, b_tris, b_tp, z, nt, b_nbr, z, nn,
+            k_tp, z, mt, k_nbr, z, d,
         ):  # fmt: skip
             best_d = d
             best_k = k
