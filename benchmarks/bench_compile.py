@@ -1,0 +1,112 @@
+"""First build on a fresh machine: numba compiles the kernels before the first build of every encoding.
+
+    python benchmarks/bench_compile.py [MESH] [--repeats 3] [--out benchmarks/results/compile.json]
+
+Each repeat runs one fresh Python process with an empty ``NUMBA_CACHE_DIR`` (a temporary folder) that
+builds MESH (default: cow) with every encoding in turn: sliding-window (the topology builder), Forsyth's
+builder, vanilla, skip-strip, mixed. A step's cold time includes the compile of the kernels no earlier
+step compiled; the warm time is the same build again in the same process. ``--alone`` gives every encoding
+a fresh process and cache of its own (its whole compile). Prints the medians and writes JSON.
+No target: what a user waits for on first use, and a yardstick for changes to the kernels.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+DEFAULT = HERE.parent.parent / "shared" / "meshes" / "cow.obj"
+STEPS = {
+    "sliding-window": ("sliding-window", {}),
+    "sliding-window forsyth": ("sliding-window", {"builder": "forsyth"}),
+    "vanilla": ("vanilla", {}),
+    "skip-strip": ("skip-strip", {}),
+    "mixed": ("mixed", {}),
+}
+
+CHILD = """
+import json, sys, time
+steps = json.loads(sys.argv[2])
+t = time.perf_counter()
+import swpm_usd
+mesh = swpm_usd.load_mesh(sys.argv[1])
+out = {"import_load_s": time.perf_counter() - t}
+for name, (encoding, params) in steps.items():
+    t = time.perf_counter()
+    swpm_usd.build(mesh, encoding=encoding, **params)
+    t1 = time.perf_counter()
+    swpm_usd.build(mesh, encoding=encoding, **params)
+    out[name] = {"cold_s": t1 - t, "warm_s": time.perf_counter() - t1}
+print(json.dumps(out))
+"""
+
+
+def _run(mesh: str, steps: dict) -> dict:
+    with tempfile.TemporaryDirectory(prefix="swpm-numba-") as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        res = subprocess.run(
+            [sys.executable, "-c", CHILD, mesh, json.dumps(steps)],
+            env=env,
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("mesh", nargs="?", default=str(DEFAULT))
+    ap.add_argument("--repeats", type=int, default=3, help="fresh processes per measurement (default 3)")
+    ap.add_argument("--alone", action="store_true", help="every encoding in a fresh process of its own")
+    ap.add_argument("--out", default=str(HERE / "results" / "compile.json"))
+    args = ap.parse_args(argv)
+    if args.repeats < 1:
+        ap.error("--repeats must be at least 1")
+    runs: dict[str, list[dict]] = {name: [] for name in STEPS}
+    for _ in range(args.repeats):
+        if args.alone:
+            for name, step in STEPS.items():
+                runs[name].append(_run(args.mesh, {name: step})[name])
+        else:
+            out = _run(args.mesh, STEPS)
+            for name in STEPS:
+                runs[name].append(out[name])
+    rows = []
+    print(f"{'step':24s} {'cold s (median)':>16s} {'warm s':>8s}  cold runs")
+    for name, rs in runs.items():
+        cold = [r["cold_s"] for r in rs]
+        warm = [r["warm_s"] for r in rs]
+        row = {
+            "step": name,
+            "cold_s": statistics.median(cold),
+            "warm_s": statistics.median(warm),
+            "cold_runs": cold,
+        }
+        rows.append(row)
+        print(f"{name:24s} {row['cold_s']:16.1f} {row['warm_s']:8.3f}  {' '.join(f'{c:.1f}' for c in cold)}")
+    total = sum(r["cold_s"] for r in rows)
+    print(f"{'total':24s} {total:16.1f}")
+    out_path = Path(args.out)
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    doc = {
+        "mesh": args.mesh,
+        "alone": args.alone,
+        "repeats": args.repeats,
+        "rows": rows,
+        "total_cold_s": total,
+    }
+    out_path.write_text(json.dumps(doc, indent=2))
+    print(f"wrote {out_path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
