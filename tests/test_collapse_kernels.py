@@ -44,13 +44,14 @@ def _collapsed_state(mesh: Mesh, frac: float, seed: int = 0):
     st = make_state(mesh, mesh_topology(mesh))
     P = st.pos_points.shape[0]
     recs = np.empty((16, 3), np.int64)
+    bbuf = K.star_buffers(st)
     nrec, done = 0, 0
     for b in np.random.default_rng(seed).permutation(P):
         if done >= frac * P:
             break
         k, _ = K.best_collapse(st, int(b))
         if k >= 0:
-            recs, nrec = swk._record_collapse(st, int(b), int(k), recs, nrec, 0)
+            recs, nrec = swk._record_collapse(st, int(b), int(k), recs, nrec, 0, bbuf)
             done += 1
     return st
 

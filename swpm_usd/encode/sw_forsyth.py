@@ -28,6 +28,15 @@ def _touches_level(st: K.CollapseState, b: int, tri_level: np.ndarray, level: in
 
 
 @nb.njit(cache=True)
+def _valid_target(st: K.CollapseState, b: int, k: int) -> bool:
+    """``k >= 0`` and the collapse of ``b`` onto ``k`` valid in the current state (b's star read afresh)."""
+    tris_b = K.gather_triangles(st, b)
+    tp_b = K.triangle_positions(st, tris_b)
+    nbr_b = K.neighbours(b, tp_b)
+    return k >= 0 and K.valid_collapse(st, b, k, tris_b, tp_b, nbr_b, None)
+
+
+@nb.njit(cache=True)
 def _refresh(st, q, keys, ids, stamps, size, stamp, target):
     k2, c2 = K.best_collapse(st, q)
     stamp[q] += 1
@@ -96,22 +105,19 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
         while size > 0 or dsize > 0:
             # the best valid collapse: the deferred heap's top (it touches the level) or the main heap's
             while dsize > 0 and (ds[0] != stamp[di[0]] or not pos_alive[di[0]]):
-                _, _, _, dsize = K._heap_pop_call(dk, di, ds, dsize)
+                _, _, _, dsize = K._heap_pop(dk, di, ds, dsize)
             if dsize > 0 and (size == 0 or dk[0] <= keys[0]):
-                cost, b, s, dsize = K._heap_pop_call(dk, di, ds, dsize)
+                cost, b, s, dsize = K._heap_pop(dk, di, ds, dsize)
                 from_deferred = True
             elif size > 0:
-                cost, b, s, size = K._heap_pop_call(keys, ids, stamps, size)
+                cost, b, s, size = K._heap_pop(keys, ids, stamps, size)
                 if s != stamp[b] or not pos_alive[b]:
                     continue
                 from_deferred = False
             else:
                 continue
             k = target[b]
-            tris_b = K.gather_triangles(st, b)
-            tp_b = K.triangle_positions(st, tris_b)
-            nbr_b = K.neighbours(b, tp_b)
-            if k < 0 or not K.valid_collapse(st, b, k, tris_b, tp_b, nbr_b, None):
+            if not _valid_target(st, b, k):
                 keys, ids, stamps, size = _refresh(st, b, keys, ids, stamps, size, stamp, target)
                 continue
             cost = K.collapse_cost(st, b, k)
@@ -120,33 +126,29 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
                 # collapse that touches the level keeps touching it until the level ends (the level only
                 # gains triangles), so it waits in the deferred heap instead of being popped and pushed
                 # back at every step (quadratic on large meshes)
-                dk, di, ds, dsize = K._heap_push_call(dk, di, ds, dsize, cost, b, s)
+                dk, di, ds, dsize = K._heap_push(dk, di, ds, dsize, cost, b, s)
                 limit = np.sqrt(cost) + tolerance_abs
                 found = -1
                 while size > 0:
-                    c2, b2, s2, size = K._heap_pop_call(keys, ids, stamps, size)
+                    c2, b2, s2, size = K._heap_pop(keys, ids, stamps, size)
                     if s2 != stamp[b2] or not pos_alive[b2]:
                         continue
                     if np.sqrt(c2) > limit:
-                        keys, ids, stamps, size = K._heap_push_call(keys, ids, stamps, size, c2, b2, s2)
+                        keys, ids, stamps, size = K._heap_push(keys, ids, stamps, size, c2, b2, s2)
                         break
-                    k2 = target[b2]
-                    tris2 = K.gather_triangles(st, b2)
-                    tp2 = K.triangle_positions(st, tris2)
-                    nbr2 = K.neighbours(b2, tp2)
-                    if k2 < 0 or not K.valid_collapse(st, b2, k2, tris2, tp2, nbr2, None):
+                    if not _valid_target(st, b2, target[b2]):
                         keys, ids, stamps, size = _refresh(st, b2, keys, ids, stamps, size, stamp, target)
                         continue
                     if not _touches_level(st, b2, tri_level, level):
                         found = b2
                         break
-                    dk, di, ds, dsize = K._heap_push_call(dk, di, ds, dsize, c2, b2, s2)
+                    dk, di, ds, dsize = K._heap_push(dk, di, ds, dsize, c2, b2, s2)
                 if found < 0:
                     # new level: every current triangle may be changed again, every deferred collapse
                     # competes again
                     while dsize > 0:
-                        c2, b2, s2, dsize = K._heap_pop_call(dk, di, ds, dsize)
-                        keys, ids, stamps, size = K._heap_push_call(keys, ids, stamps, size, c2, b2, s2)
+                        c2, b2, s2, dsize = K._heap_pop(dk, di, ds, dsize)
+                        keys, ids, stamps, size = K._heap_push(keys, ids, stamps, size, c2, b2, s2)
                     level += 1
                     level_start = _grow_i64(level_start, nlev + 2)
                     level_gids = _grow_i64(level_gids, nlg + T)

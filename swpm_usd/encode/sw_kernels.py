@@ -708,7 +708,7 @@ def _emit_into(
 
 @nb.njit(cache=True)
 def _record_collapse(
-    st: K.CollapseState, b: int, k: int, recs: np.ndarray, nrec: int, step: int, bbuf: tuple | None = None
+    st: K.CollapseState, b: int, k: int, recs: np.ndarray, nrec: int, step: int, bbuf: tuple
 ):
     """Apply the collapse of position ``b`` onto ``k``; append its vertex collapses (binned, kept, step).
     ``bbuf``: :func:`swpm_usd.simplify.kernels.star_buffers` to read ``b``'s star into."""
@@ -719,8 +719,6 @@ def _record_collapse(
             for j in range(3):
                 grown[i, j] = recs[i, j]
         recs = grown
-    if bbuf is None:
-        return recs, _record_collapse_into(st, b, k, recs, nrec, step, K.star_buffers(st))
     return recs, _record_collapse_into(st, b, k, recs, nrec, step, bbuf)
 
 

@@ -726,7 +726,9 @@ def best_of_star(
 # ----------------------------------------------------------------------------------------------------
 # a binary min-heap on arrays (cost, position, stamp); stale entries are skipped on pop
 # ----------------------------------------------------------------------------------------------------
-@nb.njit(cache=True, inline="always")
+# push and pop are calls, not inlined: a kernel that pushes and pops at many places (run_sequence,
+# sw_forsyth.forsyth_run) compiles seconds faster, at no cost in run time
+@nb.njit(cache=True)
 def _heap_push(keys, ids, stamps, size, key, pid, stamp):
     if size == keys.shape[0]:
         nk = np.empty(2 * size, keys.dtype)
@@ -760,7 +762,7 @@ def _heap_push_into(keys, ids, stamps, size, key, pid, stamp):
     return size + 1
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _heap_pop(keys, ids, stamps, size):
     key, pid, stamp = keys[0], ids[0], stamps[0]
     size -= 1
@@ -779,19 +781,6 @@ def _heap_pop(keys, ids, stamps, size):
     if size > 0:
         keys[i], ids[i], stamps[i] = lk, li, ls
     return key, pid, stamp, size
-
-
-@nb.njit(cache=True)
-def _heap_push_call(keys, ids, stamps, size, key, pid, stamp):
-    """:func:`_heap_push` as a call, not inlined: a kernel that pushes and pops at many places
-    (:func:`run_sequence`, ``sw_forsyth.forsyth_run``) compiles seconds faster, at no cost in run time."""
-    return _heap_push(keys, ids, stamps, size, key, pid, stamp)
-
-
-@nb.njit(cache=True)
-def _heap_pop_call(keys, ids, stamps, size):
-    """:func:`_heap_pop` as a call (see :func:`_heap_push_call`)."""
-    return _heap_pop(keys, ids, stamps, size)
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -828,9 +817,9 @@ def run_sequence(st: CollapseState, max_passes: int):
             stamp[p] += 1
             target[p] = k
             if k >= 0:
-                keys, ids, stamps, size = _heap_push_call(keys, ids, stamps, size, cost, p, stamp[p])
+                keys, ids, stamps, size = _heap_push(keys, ids, stamps, size, cost, p, stamp[p])
         while size > 0:
-            cost, b, s, size = _heap_pop_call(keys, ids, stamps, size)
+            cost, b, s, size = _heap_pop(keys, ids, stamps, size)
             if s != stamp[b] or not st.pos_alive[b]:
                 continue
             k = target[b]
@@ -842,7 +831,7 @@ def run_sequence(st: CollapseState, max_passes: int):
                 stamp[b] += 1
                 target[b] = k2
                 if k2 >= 0:
-                    keys, ids, stamps, size = _heap_push_call(keys, ids, stamps, size, c2, b, stamp[b])
+                    keys, ids, stamps, size = _heap_push(keys, ids, stamps, size, c2, b, stamp[b])
                 continue
             cost = collapse_cost(st, b, k)
             vmap = vertex_map(st, b, k, tris_b, tp_b)
@@ -868,7 +857,7 @@ def run_sequence(st: CollapseState, max_passes: int):
                 stamp[q] += 1
                 target[q] = k2
                 if k2 >= 0:
-                    keys, ids, stamps, size = _heap_push_call(keys, ids, stamps, size, c2, q, stamp[q])
+                    keys, ids, stamps, size = _heap_push(keys, ids, stamps, size, c2, q, stamp[q])
         if progress == 0:
             break
     return (
