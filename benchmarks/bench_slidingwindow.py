@@ -16,7 +16,8 @@ swap-dev1e-3, cluster-swap-dev1e-3 and inner3-swap-dev1e-3 (``swap_max_deviation
 LOD 0 farther from the input); cluster and cluster-swap (``cluster=True``, SWPM 3.2 linked patches, without
 and with the edge swaps); inner3-swap-slack1, cluster-swap-slack1 and topology-mu0.2-slack1
 (``target_slack=1.0``: costlier, higher-degree collapse targets for a smaller pool, alone and spent on
-``mu=0.2``). ``--big`` adds a
+``mu=0.2``); topology-mu0.3-absorb-all (``mu=0.3, absorb_rounds=0``: the whole static middle joins
+the patches). ``--big`` adds a
 generated icosphere of 1.3 M triangles (build time only).
 Targets (issue): lambda <= 5.4 on bunny (topology, no reductions; <= 3.9 with cluster-swap; <= 2.8 with
 inner3-swap), ACMR ratio <= 1.10, error ratio <= 1.5, bunny build <= 3 s, 1 M triangles <= 60 s.
@@ -39,6 +40,7 @@ OPTIONS = {
     "topology": {},
     "topology-mu0": {"mu": 0.0},
     "topology-mu0.2": {"mu": 0.2},
+    "topology-mu0.3-absorb-all": {"mu": 0.3, "absorb_rounds": 0},
     "topology-mu0.3": {"mu": 0.3},
     "inner3": {"inner_vertices": 3},
     "forsyth": {"builder": "forsyth"},

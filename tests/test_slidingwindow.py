@@ -313,6 +313,31 @@ def test_absorb_middle_trades_pool_size_for_cache(spot: Mesh) -> None:
             assert tris.max() < nv
 
 
+def test_absorb_rounds_take_the_whole_middle(spot: Mesh) -> None:
+    """``absorb_rounds=1`` is the default; at ``mu=0.3`` one round leaves part of the middle as a scattered
+    block, and ``absorb_rounds=0`` (until none is left) stores it in the patches: a larger pool, a warmer
+    cache over the LODs, every window still valid."""
+    from swpm_usd.metrics import acmr
+
+    default = build_sliding_window(spot)
+    assert np.array_equal(default.index_pool, build_sliding_window(spot, absorb_rounds=1).index_pool)
+    one = swpm_usd.build(spot, "sliding-window", mu=0.3)
+    every = swpm_usd.build(spot, "sliding-window", mu=0.3, absorb_rounds=0)
+    assert every.params["absorb_rounds"] == 0 and one.params["absorb_rounds"] == 1
+    assert every.index_pool.shape[0] > 1.01 * one.index_pool.shape[0]
+
+    def misses_per_triangle(pm: swpm_usd.ProgressiveMesh) -> float:
+        ks = [pm.lod_for_triangles(int(f * spot.triangle_count)) for f in (0.9, 0.7, 0.5, 0.3, 0.2, 0.1)]
+        tris = [pm.triangles_at(k) for k in ks]
+        return sum(acmr(t) * t.shape[0] for t in tris) / sum(t.shape[0] for t in tris)
+
+    assert misses_per_triangle(every) < 0.99 * misses_per_triangle(one)
+    _check_all(every, spot, closed=True, every=13)
+    for bad in (-1, 1.5, "2", True, None):
+        with pytest.raises(BuildError, match="absorb_rounds"):
+            build_sliding_window(spot, absorb_rounds=bad)
+
+
 def test_position_graph_is_the_edge_graph() -> None:
     """The numba position graph: every edge of the triangles both ways, each neighbour once, sorted."""
     from swpm_usd.encode import sw_kernels as swk
