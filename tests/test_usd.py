@@ -16,6 +16,7 @@ from swpm_usd import usd
 from swpm_usd.encode import BUILDERS
 from swpm_usd.mesh import Mesh
 from swpm_usd.usd import schema
+from swpm_usd.usd.reader import UsdReadError
 from swpm_usd.usd.validate import CODES, validate_stage
 
 MESHES = Path(__file__).resolve().parents[2] / "shared" / "meshes"
@@ -152,6 +153,14 @@ def test_read_equals_format_file(pm, asset, tmp_path):
         np.testing.assert_array_equal(back.attributes[name], a)
     for k in (0, pm.lod_count // 2, pm.lod_count - 1):
         np.testing.assert_array_equal(back.triangles_at(k), pm.triangles_at(k))
+
+
+def test_prim_of_a_freed_stage_is_a_clear_error(asset):
+    """A stage opened inline and never held is freed at once: its prim is invalid, and the error says why."""
+    with pytest.raises(UsdReadError, match="keep the Usd.Stage in a variable"):
+        usd.read(Usd.Stage.Open(str(asset)).GetDefaultPrim())
+    with pytest.raises(UsdReadError, match="invalid prim"):
+        usd.read(Usd.Prim())
 
 
 def test_usda_on_request_and_round_trip_is_stable(pm, tmp_path):

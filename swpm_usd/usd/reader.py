@@ -46,7 +46,10 @@ def find_encoded(root: Usd.Stage | Usd.Prim) -> list[Usd.Prim]:
 
 def _encoded_prim(prim: Usd.Prim) -> Usd.Prim:
     if not prim or not prim.IsValid():
-        raise UsdReadError("invalid prim")
+        # a prim of a stage nobody holds any more is invalid too: Usd.Stage.Open(f).GetDefaultPrim()
+        raise UsdReadError(
+            "invalid prim: not a prim of an open stage (keep the Usd.Stage in a variable while reading)"
+        )
     if is_encoded(prim):
         return prim
     found = find_encoded(prim)
