@@ -26,7 +26,7 @@ SAMPLES = Path(__file__).resolve().parents[1] / "samples"
 SETTINGS = settings(
     max_examples=400, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck), database=None
 )
-#: (file name, how trimesh / usd-core writes it)
+#: the valid files mutated, one per format and encoding (trimesh writes the first seven, usd-core the rest)
 SEEDS = ["seed.obj", "seed.ply", "seed_ascii.ply", "seed.stl", "seed_ascii.stl", "seed.off", "seed.glb"]
 SEEDS += ["seed.usda", "seed.usdc"]
 EXTREME = [b"1e400", b"nan", b"-inf", b"999999999999", b"-5", b"0", b"4294967295", b"2147483648", b"1e-320"]
