@@ -168,3 +168,71 @@ def test_weld_and_counting_sorts_match_numpy():
     np.testing.assert_array_equal(inverse, ref_inverse.reshape(-1))
     keys = rng.integers(0, 17, size=1000)
     np.testing.assert_array_equal(kernels.stable_order(keys, 17), np.argsort(keys, kind="stable"))
+
+
+def _icosphere(subdivisions: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    import trimesh
+
+    s = trimesh.creation.icosphere(subdivisions=subdivisions)
+    return np.asarray(s.vertices, np.float32).copy(), np.asarray(s.faces, np.int64).copy()
+
+
+def _double_fan(n: int = 12) -> tuple[np.ndarray, np.ndarray]:
+    # vertices 0 and 1 share a position; every triangle has both as corners, so that position's star
+    # lists each triangle twice (2n corners for n triangles)
+    ring = np.stack([np.cos(np.arange(n)), np.sin(np.arange(n)), np.ones(n)], 1)
+    pts = np.vstack([[0, 0, 0], [0, 0, 0], ring]).astype(np.float32)
+    return pts, np.array([[0, 1, 2 + i] for i in range(n)])
+
+
+def _bad_mesh(kind: str) -> tuple[Mesh, str]:
+    pts, tris = _icosphere()
+    if kind == "index-high":
+        tris[3, 1] = 10**6
+        return Mesh(pts, tris, source="high.obj"), "triangle 3 has vertex index 1000000 out of range"
+    if kind == "index-negative":
+        tris[5, 2] = -1
+        return Mesh(pts, tris, source="neg.obj"), "triangle 5 has vertex index -1 out of range"
+    if kind == "nan":
+        pts[7, 1] = np.nan
+        return Mesh(pts, tris, source="nan.obj"), "1 of 162 points have NaN/inf coordinates (first: point 7)"
+    if kind == "no-triangles":
+        return Mesh(pts, tris[:0], source="empty.obj"), "mesh has no triangles"
+    if kind == "point-triangles":
+        pts[:] = 0.0
+        return Mesh(pts, tris, source="point.obj"), "320 of 320 triangles have all three corners at one"
+    pts, tris = _double_fan()
+    return Mesh(pts, tris, source="fan.obj"), "the position of vertex 0 is 24 triangle corners, more than"
+
+
+@pytest.mark.parametrize(
+    "kind", ["index-high", "index-negative", "nan", "no-triangles", "point-triangles", "double-fan"]
+)
+@pytest.mark.parametrize("encoding", ["vanilla", "skip-strip", "mixed", "sliding-window"])
+def test_a_mesh_made_directly_is_checked_before_the_kernels(kind, encoding):
+    # Mesh(...) does not clean (Mesh.from_arrays and the loaders do): a bad array must give a BuildError
+    # naming the mesh, not an IndexError, garbage LODs or a corrupt heap (all-at-one-point triangles
+    # overran a star buffer and aborted the process)
+    import swpm_usd
+    from swpm_usd.errors import BuildError
+
+    mesh, message = _bad_mesh(kind)
+    with pytest.raises(BuildError, match=r"^" + mesh.source.replace(".", r"\.")) as err:
+        swpm_usd.build(mesh, encoding=encoding)
+    assert message in str(err.value)
+
+
+def test_a_triangle_with_two_corners_at_one_position_still_builds():
+    # a seam's two vertices at one position in one triangle (USD overrides keep such triangles): the
+    # kernels take it, and every LOD of every encoding indexes inside its vertex prefix
+    import swpm_usd
+
+    pts, tris = _icosphere()
+    pts[tris[0, 0]] = pts[tris[0, 1]]
+    mesh = Mesh(pts, tris, source="sliver.obj")
+    for encoding in ("vanilla", "skip-strip", "mixed", "sliding-window"):
+        pm = swpm_usd.build(mesh, encoding=encoding)
+        assert pm.lod_count > 100
+        for k in range(0, pm.lod_count, 7):
+            t = pm.triangles_at(k)
+            assert t.min() >= 0 and t.max() < pm.vertex_count_at(k)

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import BuildError
 from ..mesh import Mesh
 from . import kernels
 
@@ -46,13 +47,64 @@ def _weld(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return s[new], inverse
 
 
+def _unbuildable(mesh: Mesh, problem: str) -> BuildError:
+    where = mesh.source if mesh.source is not None else "<mesh>"
+    return BuildError(f"{where}: {problem} (Mesh.from_arrays and load_mesh check and clean a mesh)")
+
+
+def check_buildable(mesh: Mesh) -> None:
+    """Raise :class:`BuildError` naming ``mesh.source`` if a :class:`Mesh` made directly (not through
+    :meth:`Mesh.from_arrays` or a loader, which check and clean) is not one the kernels can take: no
+    triangles, an index outside ``[0, V)``, a NaN/inf point. The kernels index without bounds checks, so
+    this is what stands between a bad array and a corrupt heap."""
+    tris = mesh.triangles
+    V = mesh.vertex_count
+    if tris.shape[0] == 0:
+        raise _unbuildable(mesh, "mesh has no triangles")
+    bad = (tris < 0) | (tris >= V)
+    if bad.any():
+        flat = int(np.argmax(bad.reshape(-1)))
+        raise _unbuildable(
+            mesh,
+            f"triangle {flat // 3} has vertex index {int(tris.reshape(-1)[flat])} out of range for {V} "
+            f"vertices ({int(np.count_nonzero(bad))} bad indices in all)",
+        )
+    finite = np.isfinite(mesh.points).all(axis=1)
+    if not finite.all():
+        raise _unbuildable(
+            mesh,
+            f"{int(np.count_nonzero(~finite))} of {V} points have NaN/inf coordinates "
+            f"(first: point {int(np.argmin(finite))})",
+        )
+
+
 def mesh_topology(mesh: Mesh) -> MeshTopology:
-    """Weld positions and classify every edge (numpy only)."""
+    """Weld positions and classify every edge (numpy only). Raises :class:`BuildError` for a mesh the
+    kernels cannot take (:func:`check_buildable`, and the degenerate triangles below)."""
+    check_buildable(mesh)
     pts = mesh.points
     tris = mesh.triangles
     uniq, vertex_pos = _weld(pts)
     P = uniq.shape[0]
     tri_pos = vertex_pos[tris]
+    # A triangle with two corners at one position (a seam's two vertices) is taken: the kernels list it
+    # twice in that position's star. One with all three there has no edge, and a star longer than the mesh
+    # would overrun the kernels' star buffers (any star fits in T rows).
+    point = (tri_pos[:, 0] == tri_pos[:, 1]) & (tri_pos[:, 1] == tri_pos[:, 2])
+    if point.any():
+        raise _unbuildable(
+            mesh,
+            f"{int(np.count_nonzero(point))} of {tris.shape[0]} triangles have all three corners at one "
+            f"position (first: triangle {int(np.argmax(point))})",
+        )
+    corners = np.bincount(tri_pos.reshape(-1), minlength=P)
+    if corners.max() > tris.shape[0]:
+        p = int(np.argmax(corners))
+        raise _unbuildable(
+            mesh,
+            f"the position of vertex {int(np.argmax(vertex_pos == p))} is {int(corners[p])} triangle "
+            f"corners, more than the mesh's {tris.shape[0]} triangles (triangles with two corners there)",
+        )
     T = tris.shape[0]
     # half-edges (a -> b) of every triangle, with their vertices and face
     ha = tri_pos.reshape(-1)
