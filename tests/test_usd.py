@@ -422,3 +422,47 @@ def test_cli_reports_json_and_exit_code(asset, tmp_path):
     bad = _corrupt(asset, tmp_path / "bad.usda", lambda p: p.GetAttribute("swpm:encoding").Set("nope"))
     res = CliRunner().invoke(validate_usd, [str(bad)])
     assert res.exit_code == 1 and "SWPM_USD_ENCODING /Suzanne/mesh" in res.output
+
+
+@pytest.mark.parametrize("encoding", sorted(BUILDERS))
+def test_an_edited_stage_is_rejected_before_the_runtime(encoding, mesh, tmp_path):
+    """Every swpm: uint[] array of a written prim, one element set out of range or off by one: ``read``
+    raises a UsdReadError naming the file and the prim, or returns a mesh whose every LOD indexes inside
+    its vertex prefix and whose runtime instance walks the LODs. Before the check, a collapse record
+    pointing outside the index buffer crashed the process in ``set_lod``."""
+    pm = swpm_usd.build(mesh, encoding)
+    path = usd.write(pm, tmp_path / "a.usdc")
+    stage = Usd.Stage.Open(str(path))
+    prim = usd.find_encoded(stage)[0]
+    arrays = [
+        a
+        for a in prim.GetAttributes()
+        if a.GetName().startswith("swpm:") and a.GetTypeName() == Sdf.ValueTypeNames.UIntArray and a.Get()
+    ]
+    assert len(arrays) >= 4
+    rejected = 0
+    for attr in arrays:
+        original = np.array(attr.Get(), np.int64)
+        for i, value in (
+            (original.size // 2, 2**32 - 1),
+            (original.size // 3, original[original.size // 3] + 1),
+        ):
+            edited = original.copy()
+            edited[i] = value
+            attr.Set(Vt.UIntArray.FromNumpy(edited.astype(np.uint32)))
+            try:
+                back = usd.read(prim)
+            except UsdReadError as e:
+                assert str(e).startswith(f"{path}: {prim.GetPath()}: "), e
+                rejected += 1
+                continue
+            for k in range(back.lod_count):
+                t = back.triangles_at(k)
+                assert t.size == 0 or t.max() < back.vertex_count_at(k), (attr.GetName(), i, k)
+            if hasattr(back, "instance"):
+                inst = back.instance()
+                for k in (back.lod_count - 1, back.lod_count // 2, 0):
+                    inst.set_lod(k)
+        attr.Set(Vt.UIntArray.FromNumpy(original.astype(np.uint32)))
+    assert rejected >= len(arrays)  # every out-of-range value at least
+    usd.read(prim)  # restored: reads again
