@@ -148,6 +148,20 @@ def test_lod_selection_helpers():
     assert pm.lod_for_triangles(0) == pm.lod_count - 1
 
 
+@pytest.mark.parametrize("encoding", ["vanilla", "skip-strip", "mixed", "sliding-window"])
+def test_a_lod_number_must_be_an_integer_in_range(encoding):
+    pm = swpm_usd.build(shared_mesh("cow.obj"), encoding)
+    np.testing.assert_array_equal(pm.triangles_at(np.int64(3)), pm.triangles_at(3))
+    with pytest.raises(TypeError):
+        pm.triangles_at(1.5)  # was LOD 1
+    with pytest.raises(IndexError, match="out of range"):
+        pm.vertex_count_at(pm.lod_count)
+    with pytest.raises(ValueError, match="NaN"):
+        pm.lod_for_error(float("nan"))  # was the coarsest LOD
+    assert pm.lod_for_error(float("inf")) == pm.lod_count - 1
+    assert pm.lod_for_error(-1.0) == 0
+
+
 def test_build_entry_point_validates_parameters(tmp_path):
     mesh = shared_mesh("cow.obj")
     with pytest.raises(swpm_usd.BuildError, match="do not belong"):

@@ -9,6 +9,7 @@ rebuild the object with :func:`from_buffers`.
 
 from __future__ import annotations
 
+import operator
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
 from types import MappingProxyType
@@ -69,7 +70,7 @@ class ProgressiveMesh(ABC):
         return int(self.points.shape[0])
 
     def _check_lod(self, k: int) -> int:
-        k = int(k)
+        k = operator.index(k)  # an int or numpy integer; 1.5 is a TypeError, not LOD 1
         if not 0 <= k < self.lod_count:
             raise IndexError(f"LOD {k} out of range [0, {self.lod_count})")
         return k
@@ -95,6 +96,8 @@ class ProgressiveMesh(ABC):
 
     def lod_for_error(self, max_error: float) -> int:
         """The coarsest LOD whose error does not exceed ``max_error`` (LOD 0 if none is that good)."""
+        if np.isnan(max_error):
+            raise ValueError("max_error is NaN")
         k = int(np.searchsorted(self.lod_errors, np.float32(max_error), side="right")) - 1
         return max(0, min(k, self.lod_count - 1))
 

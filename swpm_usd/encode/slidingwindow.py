@@ -157,6 +157,8 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
         """The window record of the coarsest LOD whose error (``lod_errors``, default this mesh's,
         non-decreasing, one per LOD) is at most ``max_error``."""
         errs = self.lod_errors if lod_errors is None else np.asarray(lod_errors, np.float32)
+        if np.isnan(max_error):
+            raise ValueError("max_error is NaN")
         k = int(np.searchsorted(errs, np.float32(max_error), side="right")) - 1
         return self.window_records[max(0, min(k, self.lod_count - 1))]
 
