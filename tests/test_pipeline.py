@@ -270,6 +270,36 @@ def test_interrupted_run_keeps_earlier_outputs_and_rerun_finishes(tmp_path):
     assert not list((tmp_path / "out").glob(".*.tmp"))
 
 
+def test_manifest_is_not_rewritten_after_every_asset(tmp_path, monkeypatch):
+    # each rewrite serialises every record: once per asset made a run quadratic in its asset count
+    # (1,500 small assets: 461 s, 380 of them writing JSON; 82 s with the rewrites spaced out)
+    from swpm_usd.pipeline import runner
+
+    (tmp_path / "meshes").mkdir()
+    text = (SHARED_MESHES / "suzanne.obj").read_text()
+    for i in range(40):
+        (tmp_path / "meshes" / f"m{i:02d}.obj").write_text(f"{text}\n# copy {i}\n")
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'meshes/*.obj'}]\noutput: {dir: out, report: false}\n"
+        "defaults: {encoding: vanilla}\n"
+    )
+    writes = []
+    real = runner._write_manifest
+    monkeypatch.setattr(
+        runner, "_write_manifest", lambda path, m: (writes.append(len(m["assets"])), real(path, m))
+    )
+    t = time.perf_counter()
+    res = run(cfg, echo=lambda m: None)
+    seconds = time.perf_counter() - t
+    assert res.built == 40 and res.failed == 0
+    assert writes[0] == 1  # the first finished asset is on disk at once
+    assert (
+        writes[-1] == 40 and len(json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]) == 40
+    )
+    assert len(writes) <= seconds / runner._MANIFEST_EVERY_S + 3 < 40, (writes, seconds)
+
+
 def test_parallel_jobs_and_dask_executor(tmp_path):
     import dask.distributed  # noqa: F401 - the dask extra is part of .[dev]
 

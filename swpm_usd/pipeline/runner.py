@@ -1,7 +1,8 @@
 """``swpm-pipeline run``: plan every asset, skip what is up to date, run the rest on an executor, record.
 
-The run manifest (``<output>/manifest.json``) is rewritten atomically after every finished asset, so an
-interrupted run (Ctrl-C or a kill) keeps every earlier result and a rerun only does what is left. An asset
+The run manifest (``<output>/manifest.json``) is rewritten atomically as assets finish (at most once a
+second, and at once when the run ends, fails or is stopped with Ctrl-C), so an interrupted run keeps every
+earlier result (a kill loses at most the last second's) and a rerun only does what is left. An asset
 is up to date when the digest of its input files, its resolved rule, parameters and the tool version equal
 the manifest's and its outputs are still there with the recorded size.
 """
@@ -23,6 +24,11 @@ from .config import Config, ConfigError, load_config
 from .worker import atomic_write_bytes, process_asset
 
 MANIFEST = "manifest.json"
+
+#: the manifest is rewritten at most this often during a run, or less often while one rewrite takes more
+#: than a fifth of it: each rewrite serialises every record, and rewriting it after every asset made a run
+#: of 1,500 small assets spend about 380 of its 461 s writing JSON (a 6 MB manifest, 1,500 times)
+_MANIFEST_EVERY_S = 1.0
 
 
 @dataclass
@@ -264,6 +270,7 @@ def run(
     built = failed = 0
     progress = _Progress(len(todo))
     by_id = {it.asset.id: it for it in todo}
+    last_write, write_s = float("-inf"), 0.0
     try:
         # largest inputs first, so no worker is left with a big asset at the end (LPT scheduling)
         ordered = sorted(todo, key=lambda it: -it.asset.path.stat().st_size)
@@ -278,10 +285,16 @@ def run(
             else:
                 failed += 1
             records[rec["id"]] = rec
-            _write_manifest(manifest_path, manifest)
+            now = time.perf_counter()
+            if now - last_write >= max(_MANIFEST_EVERY_S, 5 * write_s):
+                _write_manifest(manifest_path, manifest)
+                last_write = time.perf_counter()
+                write_s = last_write - now
             progress.advance(rec)
     finally:
         progress.close()
+        if todo:
+            _write_manifest(manifest_path, manifest)  # every finished asset, also on an error or Ctrl-C
     if cfg.data["output"].get("scene"):
         _write_scene(out_dir, records)
     if cfg.data["output"].get("report", True):
