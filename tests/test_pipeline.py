@@ -287,7 +287,7 @@ def test_manifest_is_not_rewritten_after_every_asset(tmp_path, monkeypatch):
     writes = []
     real = runner._write_manifest
     monkeypatch.setattr(
-        runner, "_write_manifest", lambda path, m: (writes.append(len(m["assets"])), real(path, m))
+        runner, "_write_manifest", lambda path, m, *a: (writes.append(len(m["assets"])), real(path, m, *a))
     )
     t = time.perf_counter()
     res = run(cfg, echo=lambda m: None)
@@ -298,6 +298,12 @@ def test_manifest_is_not_rewritten_after_every_asset(tmp_path, monkeypatch):
         writes[-1] == 40 and len(json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]) == 40
     )
     assert len(writes) <= seconds / runner._MANIFEST_EVERY_S + 3 < 40, (writes, seconds)
+    # the cached record texts make the same file json.dumps would
+    manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
+    text = runner._ManifestText()
+    assert text.dumps(manifest) == json.dumps(manifest, indent=1)
+    manifest["assets"]["meshes/m07.obj"] = {"replaced": [1, {"a": None}]}
+    assert text.dumps(manifest) == json.dumps(manifest, indent=1)  # a new record object is serialised again
 
 
 def test_parallel_jobs_and_dask_executor(tmp_path):
