@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import fnmatch
 import hashlib
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -125,6 +126,13 @@ def _in_range(value: float, rng: dict | None) -> bool:
     if not rng:
         return True
     return rng.get("min", float("-inf")) <= value <= rng.get("max", float("inf"))
+
+
+def treatment_digest(input_digest: str, asset: Asset, treatment: dict[str, Any], version: str) -> str:
+    """What decides whether an asset's outputs are current: its inputs, prim, instances, encoding and
+    parameters, and the tool's version."""
+    payload = json.dumps([input_digest, asset.prim, asset.instances, treatment, version], sort_keys=True)
+    return hashlib.sha256(payload.encode()).hexdigest()
 
 
 def match_rule(cfg: Config, asset: Asset, triangles: int) -> tuple[int | None, dict[str, Any], str]:

@@ -9,7 +9,6 @@ the manifest's and its outputs are still there with the recorded size.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import sys
 import time
@@ -19,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import __version__
-from .assets import Asset, discover, file_digest, match_rule
+from .assets import Asset, discover, file_digest, match_rule, treatment_digest
 from .config import Config, ConfigError, load_config
 from .worker import atomic_write_bytes, process_asset
 
@@ -41,6 +40,7 @@ class PlanItem:
     why: str = ""
     digest: str = ""
     up_to_date: bool = False
+    rule_pending: bool = False  # the worker matches the rule once it has counted the triangles
 
 
 @dataclass
@@ -95,11 +95,7 @@ def _write_manifest(path: Path, manifest: dict, text: _ManifestText | None = Non
 
 
 def _treatment_digest(item: PlanItem) -> str:
-    payload = json.dumps(
-        [item.input_digest, item.asset.prim, item.asset.instances, item.treatment, __version__],
-        sort_keys=True,
-    )
-    return hashlib.sha256(payload.encode()).hexdigest()
+    return treatment_digest(item.input_digest, item.asset, item.treatment, __version__)
 
 
 def _count_triangles(asset: Asset) -> int:
@@ -109,8 +105,15 @@ def _count_triangles(asset: Asset) -> int:
     return mesh.triangle_count
 
 
-def plan(cfg: Config, manifest: dict) -> tuple[list[PlanItem], list[str], list[str]]:
-    """Resolve each asset's rule and parameters; (items, errors, warnings)."""
+def plan(
+    cfg: Config, manifest: dict, count_triangles: bool = True
+) -> tuple[list[PlanItem], list[str], list[str]]:
+    """Resolve each asset's rule and parameters; (items, errors, warnings).
+
+    Rules on triangle counts need the count of every new or changed asset. ``count_triangles=False``
+    leaves those items ``rule_pending`` (their rule, treatment and digest empty, never up to date): the
+    worker that builds the asset loads it anyway and chooses the rule then, so the main process does not
+    load every new asset a second time, one after another (1,000 small assets: 10 of 46 s)."""
     assets, inputs, problems = discover(cfg)
     out_dir = cfg.base / cfg.data["output"]["dir"]
     known = manifest.get("assets", {})
@@ -121,6 +124,9 @@ def plan(cfg: Config, manifest: dict) -> tuple[list[PlanItem], list[str], list[s
         prev = known.get(a.id, {})
         tri = prev.get("triangles_in") if prev.get("input_digest") == digest else None
         if tri is None and needs_rule_on_triangles:
+            if not count_triangles:
+                items.append(PlanItem(a, digest, None, why="rule chosen by the worker", rule_pending=True))
+                continue
             try:
                 tri = _count_triangles(a)
             except Exception:  # noqa: BLE001 - the worker reports it as this asset's failure
@@ -139,12 +145,17 @@ def plan(cfg: Config, manifest: dict) -> tuple[list[PlanItem], list[str], list[s
             and bool(outs) == _wants_outputs(cfg)
         )
         items.append(item)
-    warnings = []
-    reached = {i.rule for i in items}
-    for idx, rule in enumerate(cfg.data.get("rules", [])):
-        if idx not in reached:
-            warnings.append(f"{cfg.where(('rules', idx))}: rule {rule['name']!r} matches no asset")
+    warnings = [] if any(i.rule_pending for i in items) else _unreached_rules(cfg, items)
     return items, problems, warnings
+
+
+def _unreached_rules(cfg: Config, items: list[PlanItem]) -> list[str]:
+    reached = {i.rule for i in items}
+    return [
+        f"{cfg.where(('rules', idx))}: rule {rule['name']!r} matches no asset"
+        for idx, rule in enumerate(cfg.data.get("rules", []))
+        if idx not in reached
+    ]
 
 
 def _wants_outputs(cfg: Config) -> bool:
@@ -161,14 +172,19 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
         "instances": item.asset.instances,
         "stem": item.asset.output_stem,
         "digest": item.digest,
-        "encoding": item.treatment["encoding"],
-        "params": item.treatment["params"],
+        "encoding": item.treatment.get("encoding"),
+        "params": item.treatment.get("params", {}),
         "why": item.why,
         "streaming": cfg.data.get("streaming", {}),
         "budgets": cfg.data.get("budgets", {}),
         "out_dir": str(cfg.base / out["dir"]),
         "write_swpm": bool(out.get("swpm", True)),
         "write_usd": bool(out.get("usd", False)),
+        "input_digest": item.input_digest,
+        # a pending rule: the worker runs match_rule on the config (plain data, picklable)
+        "config_data": cfg.data if item.rule_pending else None,
+        "config_path": str(cfg.path),
+        "tags": item.asset.tags,
     }
 
 
@@ -273,7 +289,7 @@ def run(
     out_dir = cfg.base / cfg.data["output"]["dir"]
     manifest_path = out_dir / MANIFEST
     manifest = _read_manifest(manifest_path)
-    items, errors, warnings = plan(cfg, manifest)
+    items, errors, warnings = plan(cfg, manifest, count_triangles=dry_run or explain)
     if errors:
         raise ConfigError(errors)
     for w in warnings:
@@ -305,6 +321,8 @@ def run(
         ordered = sorted(todo, key=lambda it: -it.asset.path.stat().st_size)
         for rec in execute([_task(cfg, it) for it in ordered], jobs, executor, scheduler):
             it = by_id[rec["id"]]
+            if it.rule_pending:
+                it.rule = rec.pop("rule_index", None)
             rec["input_digest"] = it.input_digest
             rec["rule"] = None if it.rule is None else cfg.data["rules"][it.rule]["name"]
             for o in rec.get("outputs", {}).values():
@@ -324,6 +342,10 @@ def run(
         progress.close()
         if todo:
             _write_manifest(manifest_path, manifest, text)  # every finished asset, also on an error or Ctrl-C
+    if any(i.rule_pending for i in items):  # the rules are known now
+        warnings = _unreached_rules(cfg, items)
+        for w in warnings:
+            echo(f"warning: {w}")
     if cfg.data["output"].get("scene"):
         _write_scene(out_dir, records)
     if cfg.data["output"].get("report", True):

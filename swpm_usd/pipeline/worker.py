@@ -166,6 +166,20 @@ def process_asset(task: dict[str, Any]) -> dict[str, Any]:
         rec["triangles_in"] = mesh.triangle_count
         encoding, params = task["encoding"], task["params"]
         reason = task["why"]
+        if task.get("config_data") is not None:  # the planner left the rule to the triangle count
+            from .. import __version__
+            from .assets import Asset, match_rule, treatment_digest
+            from .config import Config
+
+            asset = Asset(
+                task["id"], Path(task["path"]), task["prim"], task["instances"], task.get("tags", {})
+            )
+            rule, treatment, reason = match_rule(
+                Config(Path(task["config_path"]), task["config_data"]), asset, mesh.triangle_count
+            )
+            encoding, params = treatment["encoding"], treatment["params"]
+            rec["rule_index"] = rule
+            rec["digest"] = treatment_digest(task["input_digest"], asset, treatment, __version__)
         candidates = None
         if encoding == "auto":
             storable = None
