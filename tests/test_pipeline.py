@@ -332,6 +332,23 @@ def test_rules_on_triangles_are_matched_by_the_worker_that_loads_the_asset(tmp_p
     assert any("meshes/spot.obj: skip-strip" in line and "[up to date]" in line for line in lines)
 
 
+def test_scene_references_every_asset_layer_by_name(tmp_path):
+    from pxr import Usd
+
+    from swpm_usd import usd
+
+    cfg = _project(
+        tmp_path, ("cow.obj", "spot.obj"), MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}")
+    )
+    res = run(cfg, echo=lambda m: None)
+    assert res.built == 2 and res.failed == 0
+    stage = Usd.Stage.Open(str(tmp_path / "out" / "scene.usda"))
+    names = [p.GetName() for p in stage.GetPrimAtPath("/Scene").GetChildren()]
+    assert names == ["cow_0", "spot_1"]  # the assets' names, not a0_0, a1_1
+    encoded = usd.find_encoded(stage)
+    assert [usd.read(p).encoding for p in encoded] == ["skip-strip", "skip-strip"]
+
+
 def test_parallel_jobs_and_dask_executor(tmp_path):
     import dask.distributed  # noqa: F401 - the dask extra is part of .[dev]
 

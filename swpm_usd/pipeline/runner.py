@@ -360,7 +360,7 @@ def run(
 
 def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
     """A scene layer that references every per-asset USD layer, one Xform each."""
-    from pxr import Sdf, Usd, UsdGeom
+    from pxr import Tf, Usd, UsdGeom
 
     layers = [
         (k, r["outputs"]["usd"]["path"])
@@ -375,12 +375,8 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
     root = UsdGeom.Xform.Define(stage, "/Scene").GetPrim()
     stage.SetDefaultPrim(root)
     for i, (_, layer) in enumerate(layers):
-        name = (
-            Sdf.Path.MakeValidIdentifier(Path(layer).stem)
-            if hasattr(Sdf.Path, "MakeValidIdentifier")
-            else f"a{i}"
-        )
-        prim = stage.DefinePrim(f"/Scene/{name}_{i}", "Xform")
+        # the asset's name (unique with the index: two stems can map to one identifier)
+        prim = stage.DefinePrim(f"/Scene/{Tf.MakeValidIdentifier(Path(layer).stem)}_{i}", "Xform")
         prim.GetReferences().AddReference(f"./{layer}")
     stage.GetRootLayer().Save()
     tmp.replace(target)
