@@ -121,7 +121,9 @@ def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int
 
 @main.command("run")
 @click.argument("config", type=click.Path(dir_okay=False))
-@click.option("--jobs", "-j", default=1, show_default=True, help="Assets built at once.")
+@click.option(
+    "--jobs", "-j", type=click.IntRange(min=1), default=1, show_default=True, help="Assets built at once."
+)
 @click.option("--dry-run", is_flag=True, help="Plan only: print each asset's rule, encoding and why.")
 @click.option("--explain", is_flag=True, help="Print the plan, then run it.")
 @click.option("--executor", type=click.Choice(["local", "dask"]), default="local", show_default=True)

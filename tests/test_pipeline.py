@@ -100,6 +100,9 @@ rules:
     result = CliRunner().invoke(main, ["run", str(cfg)])
     assert result.exit_code == 2
     assert "$.output.colour" in result.output and "$.rules[1].encoding" in result.output
+    for jobs in ("0", "-3"):  # was taken as one job
+        result = CliRunner().invoke(main, ["run", str(cfg), "--jobs", jobs])
+        assert result.exit_code == 2 and "--jobs" in result.output
 
 
 def test_semantic_errors_and_unreachable_rule_warning(tmp_path):
