@@ -2,13 +2,50 @@
 
 from __future__ import annotations
 
+import math
+import numbers
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from .encode import BUILDERS
 from .encode.base import ProgressiveMesh
 from .errors import BuildError
 from .mesh import Mesh
+
+#: a FIFO larger than this models no GPU, and the cache simulations allocate arrays of this many entries
+#: (``cache_size=10**9`` asked for 7.5 GiB)
+MAX_CACHE_SIZE = 1024
+#: the quadric weights of boundary and seam edges; larger ones overflow the collapse errors to inf
+MAX_QUADRIC_WEIGHT = 1e6
+
+
+def check_params(encoding: str, defaults: dict[str, Any], params: dict[str, Any]) -> None:
+    """A :class:`BuildError` naming the parameter unless each value has its default's type (an integer,
+    a finite number, a bool or a string; a ``None`` default is the encoder's to check) and the shared
+    bounds: ``cache_size <= MAX_CACHE_SIZE``, quadric weights in ``[0, MAX_QUADRIC_WEIGHT]``."""
+    for name, value in params.items():
+        default = defaults[name]
+        is_bool = isinstance(value, (bool, np.bool_))
+        if isinstance(default, bool):
+            ok, kind = is_bool, "true or false"
+        elif isinstance(default, numbers.Integral):
+            ok, kind = isinstance(value, numbers.Integral) and not is_bool, "an integer"
+        elif isinstance(default, numbers.Real):
+            ok = isinstance(value, numbers.Real) and not is_bool and math.isfinite(value)
+            kind = "a finite number"
+        elif isinstance(default, str):
+            ok, kind = isinstance(value, str), "a string"
+        else:
+            continue
+        if not ok:
+            raise BuildError(f"{encoding} parameter {name} must be {kind}, got {value!r}")
+    if params.get("cache_size", 0) > MAX_CACHE_SIZE:
+        raise BuildError(f"cache_size must be at most {MAX_CACHE_SIZE}, got {params['cache_size']}")
+    for name in ("boundary_weight", "seam_weight"):
+        if name in params and not 0.0 <= params[name] <= MAX_QUADRIC_WEIGHT:
+            raise BuildError(f"{name} must be in [0, {MAX_QUADRIC_WEIGHT:g}], got {params[name]}")
 
 
 def build(mesh_or_path: Mesh | str | Path, encoding: str = "vanilla", **params: Any) -> ProgressiveMesh:
@@ -26,6 +63,7 @@ def build(mesh_or_path: Mesh | str | Path, encoding: str = "vanilla", **params: 
             f"parameter(s) {', '.join(unknown)} do not belong to encoding {encoding!r}; "
             f"it accepts {', '.join(sorted(defaults))}"
         )
+    check_params(encoding, defaults, params)
     if isinstance(mesh_or_path, Mesh):
         mesh = mesh_or_path
     else:

@@ -162,6 +162,28 @@ def test_a_lod_number_must_be_an_integer_in_range(encoding):
     assert pm.lod_for_error(-1.0) == 0
 
 
+@pytest.mark.parametrize(
+    ("encoding", "params", "message"),
+    [
+        ("sliding-window", {"mu": "abc"}, "parameter mu must be a finite number, got 'abc'"),  # TypeError
+        ("sliding-window", {"mu": float("nan")}, "parameter mu must be a finite number"),
+        ("sliding-window", {"cluster": 1}, "parameter cluster must be true or false"),
+        ("sliding-window", {"cache_size": 16.5}, "parameter cache_size must be an integer"),
+        ("sliding-window", {"cache_size": 10**9}, "cache_size must be at most 1024"),  # 7.5 GiB arrays
+        ("skip-strip", {"cache_size": 10**9}, "cache_size must be at most 1024"),
+        ("mixed", {"cache_size": True}, "parameter cache_size must be an integer"),
+        ("sliding-window", {"tolerance": -1.0}, "tolerance must be a finite number >= 0"),
+        ("vanilla", {"seam_weight": 1e308}, "seam_weight must be in [0, 1e+06]"),  # inf errors
+        ("vanilla", {"boundary_weight": -5}, "boundary_weight must be in [0, 1e+06]"),
+        ("skip-strip", {"primitive": 3}, "parameter primitive must be a string"),
+    ],
+)
+def test_a_parameter_of_the_wrong_type_or_out_of_bounds_is_a_build_error(encoding, params, message):
+    with pytest.raises(swpm_usd.BuildError) as err:
+        swpm_usd.build(shared_mesh("suzanne.obj"), encoding, **params)
+    assert message in str(err.value)
+
+
 def test_build_entry_point_validates_parameters(tmp_path):
     mesh = shared_mesh("cow.obj")
     with pytest.raises(swpm_usd.BuildError, match="do not belong"):

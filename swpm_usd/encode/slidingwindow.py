@@ -865,6 +865,8 @@ def build_sliding_window(
         raise BuildError(f"unknown sliding-window builder {builder!r}; choose 'topology' or 'forsyth'")
     if not 0.0 <= mu < 1.0:
         raise BuildError(f"mu must be in [0, 1), got {mu}")
+    if not 0.0 <= tolerance < np.inf:
+        raise BuildError(f"tolerance must be a finite number >= 0, got {tolerance}")
     if int(inner_vertices) < 1:
         raise BuildError(f"inner_vertices must be >= 1, got {inner_vertices}")
     if not float(swap_max_deviation) >= 0.0:
