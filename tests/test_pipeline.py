@@ -105,6 +105,22 @@ rules:
         assert result.exit_code == 2 and "--jobs" in result.output
 
 
+def test_params_out_of_build_bounds_fail_at_their_config_line(tmp_path):
+    cfg = _project(
+        tmp_path,
+        config=MINIMAL
+        + "    params: {cache_size: 100000}\n  - name: weights\n    encoding: vanilla\n"
+        + "    params: {seam_weight: -1.0}\n",
+    )
+    with pytest.raises(ConfigError) as exc:
+        load_config(cfg)
+    problems = exc.value.problems
+    assert problems == [
+        "pipeline.yaml:12:26: $.rules[1].params.cache_size: 100000 is greater than the maximum of 1024",
+        "pipeline.yaml:15:27: $.rules[2].params.seam_weight: -1.0 is less than the minimum of 0",
+    ]
+
+
 def test_semantic_errors_and_unreachable_rule_warning(tmp_path):
     cfg = _project(
         tmp_path,

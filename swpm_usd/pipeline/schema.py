@@ -15,7 +15,14 @@ SCHEMA_PATH = Path(__file__).resolve().parents[2] / "pipeline" / "pipeline.schem
 PACKAGED_SCHEMA = Path(__file__).resolve().parent / "pipeline.schema.json"
 
 
-def _param_schema(value: Any) -> dict[str, Any]:
+def _param_schema(value: Any, name: str = "") -> dict[str, Any]:
+    from ..build import MAX_CACHE_SIZE, MAX_QUADRIC_WEIGHT
+
+    # the bounds build() checks for every encoding, so a config fails at its line, not asset by asset
+    if name == "cache_size":
+        return {"type": "integer", "maximum": MAX_CACHE_SIZE}
+    if name in ("boundary_weight", "seam_weight"):
+        return {"type": "number", "minimum": 0, "maximum": MAX_QUADRIC_WEIGHT}
     if value is None:  # an optional number: None leaves the choice to the encoder
         return {"type": ["number", "null"]}
     if isinstance(value, bool):
@@ -65,7 +72,7 @@ def build_schema() -> dict[str, Any]:
                         "params": {
                             "type": "object",
                             "additionalProperties": False,
-                            "properties": {k: _param_schema(v) for k, v in sorted(defaults.items())},
+                            "properties": {k: _param_schema(v, k) for k, v in sorted(defaults.items())},
                         }
                     }
                 },
