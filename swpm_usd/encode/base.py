@@ -59,6 +59,10 @@ class ProgressiveMesh(ABC):
         n = self.vertex_counts.shape[0]
         if n == 0 or self.triangle_counts.shape[0] != n or self.lod_errors.shape[0] != n:
             raise BuildError("vertex_counts, triangle_counts and lod_errors need one entry per LOD (>= 1)")
+        vc = self.vertex_counts
+        if vc[0] != self.points.shape[0] or (np.diff(vc) > 0).any() or vc.min() < 0:
+            # LOD k draws the prefix [0, vertex_counts[k]): the format writer sizes its chunks from these
+            raise BuildError(f"vertex_counts must start at the {self.points.shape[0]} points and not grow")
 
     # -- LOD table -------------------------------------------------------------------------------------
     @property
@@ -96,10 +100,7 @@ class ProgressiveMesh(ABC):
 
     def lod_for_error(self, max_error: float) -> int:
         """The coarsest LOD whose error does not exceed ``max_error`` (LOD 0 if none is that good)."""
-        if np.isnan(max_error):
-            raise ValueError("max_error is NaN")
-        k = int(np.searchsorted(self.lod_errors, np.float32(max_error), side="right")) - 1
-        return max(0, min(k, self.lod_count - 1))
+        return lod_at_error(self.lod_errors, max_error)
 
     # -- drawing ---------------------------------------------------------------------------------------
     @abstractmethod
@@ -151,6 +152,14 @@ class ProgressiveMesh(ABC):
             f"<{type(self).__name__} encoding={self.encoding!r} V={self.vertex_count} "
             f"T0={int(self.triangle_counts[0])} lods={self.lod_count}>"
         )
+
+
+def lod_at_error(lod_errors: np.ndarray, max_error: float) -> int:
+    """The last LOD whose error in ``lod_errors`` (non-decreasing) is at most ``max_error``, or 0."""
+    if np.isnan(max_error):
+        raise ValueError("max_error is NaN")
+    k = int(np.searchsorted(lod_errors, np.float32(max_error), side="right")) - 1
+    return max(0, min(k, lod_errors.shape[0] - 1))
 
 
 def from_buffers(

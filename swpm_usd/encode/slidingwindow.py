@@ -66,7 +66,7 @@ from ..vcache import apply_order, optimize_block_order
 from . import sw_centres as swc
 from . import sw_forsyth, sw_swaps
 from . import sw_kernels as swk
-from .base import ProgressiveMesh, register
+from .base import ProgressiveMesh, lod_at_error, register
 from .vanilla import index_size
 
 __all__ = [
@@ -157,10 +157,7 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
         """The window record of the coarsest LOD whose error (``lod_errors``, default this mesh's,
         non-decreasing, one per LOD) is at most ``max_error``."""
         errs = self.lod_errors if lod_errors is None else np.asarray(lod_errors, np.float32)
-        if np.isnan(max_error):
-            raise ValueError("max_error is NaN")
-        k = int(np.searchsorted(errs, np.float32(max_error), side="right")) - 1
-        return self.window_records[max(0, min(k, self.lod_count - 1))]
+        return self.window_records[min(lod_at_error(errs, max_error), self.lod_count - 1)]
 
     def record_for_screen_error(
         self,

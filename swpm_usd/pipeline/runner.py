@@ -338,10 +338,11 @@ def run(
                 last_write = time.perf_counter()
                 write_s = last_write - now
             progress.advance(rec)
+    except BaseException:
+        _write_manifest(manifest_path, manifest, text)  # every finished asset, also on an error or Ctrl-C
+        raise
     finally:
         progress.close()
-        if todo:
-            _write_manifest(manifest_path, manifest, text)  # every finished asset, also on an error or Ctrl-C
     if any(i.rule_pending for i in items):  # the rules are known now
         warnings = _unreached_rules(cfg, items)
         for w in warnings:

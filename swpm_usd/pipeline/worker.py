@@ -171,9 +171,7 @@ def process_asset(task: dict[str, Any]) -> dict[str, Any]:
             from .assets import Asset, match_rule, treatment_digest
             from .config import Config
 
-            asset = Asset(
-                task["id"], Path(task["path"]), task["prim"], task["instances"], task.get("tags", {})
-            )
+            asset = Asset(task["id"], Path(task["path"]), task["prim"], task["instances"], task["tags"])
             rule, treatment, reason = match_rule(
                 Config(Path(task["config_path"]), task["config_data"]), asset, mesh.triangle_count
             )

@@ -55,20 +55,16 @@ def _unbuildable(mesh: Mesh, problem: str) -> BuildError:
 def check_buildable(mesh: Mesh) -> None:
     """Raise :class:`BuildError` naming ``mesh.source`` if a :class:`Mesh` made directly (not through
     :meth:`Mesh.from_arrays` or a loader, which check and clean) is not one the kernels can take: no
-    triangles, an index outside ``[0, V)``, a NaN/inf point. The kernels index without bounds checks, so
-    this is what stands between a bad array and a corrupt heap."""
-    tris = mesh.triangles
+    triangles, an index outside ``[0, V)`` (the loaders' own check), a NaN/inf point. The kernels index
+    without bounds checks, so this is what stands between a bad array and a corrupt heap."""
+    from ..errors import MeshLoadError
+    from ..io.clean import _as_triangles
+
     V = mesh.vertex_count
-    if tris.shape[0] == 0:
-        raise _unbuildable(mesh, "mesh has no triangles")
-    bad = (tris < 0) | (tris >= V)
-    if bad.any():
-        flat = int(np.argmax(bad.reshape(-1)))
-        raise _unbuildable(
-            mesh,
-            f"triangle {flat // 3} has vertex index {int(tris.reshape(-1)[flat])} out of range for {V} "
-            f"vertices ({int(np.count_nonzero(bad))} bad indices in all)",
-        )
+    try:
+        _as_triangles(mesh.triangles, V, mesh.source)
+    except MeshLoadError as e:
+        raise _unbuildable(mesh, e.problem) from None
     finite = np.isfinite(mesh.points).all(axis=1)
     if not finite.all():
         raise _unbuildable(

@@ -174,12 +174,6 @@ def _check_buffers(prim: Usd.Prim, pm: ProgressiveMesh) -> None:
     from ..format.writer import encode_bytes
 
     where = _where(prim)
-    vc = np.asarray(pm.vertex_counts, np.int64)
-    if vc[0] != pm.vertex_count or (np.diff(vc) > 0).any() or vc.min() < 0:
-        # before the writer, which sizes its chunks from these counts
-        raise UsdReadError(
-            f"{where}: swpm:vertexCounts must start at the {pm.vertex_count} points and not grow"
-        )
     try:
         errors = validate_bytes(encode_bytes(pm)).errors
     except (SwpmError, ValueError, TypeError, IndexError, OverflowError) as e:
