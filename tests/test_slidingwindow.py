@@ -696,3 +696,72 @@ def test_forsyth_tolerance_trades_levels_for_order(spot: Mesh) -> None:
     assert levels[0] > levels[1] > levels[2] > 1
     assert pools[0] > pools[1] > pools[2]
     _check_all(builds[2], spot, closed=True, every=11)
+
+
+def _level_blocks(pm: SlidingWindowProgressiveMesh, level: int):
+    """A level's blocks as the refinement sees them, read back from the pool: ``P`` of its first ``n``
+    patches, then ``P_{n+1} || M`` as one block, then ``Q`` of the same ``n`` patches."""
+    rec = pm.window_records.astype(np.int64)
+    pool = pm.index_pool.astype(np.int64)
+    ks = np.flatnonzero(pm.lod_level == level)
+    first, end = rec[ks, 0], rec[ks, 0] + 3 * rec[ks, 1]
+    n = ks.shape[0] - 1
+    blocks = [pool[first[i] : first[i + 1]] for i in range(n)] + [pool[first[n] : end[0]]]
+    blocks += [pool[end[i] : end[i + 1]] for i in range(n)]
+    block_start = np.concatenate(([0], np.cumsum([b.shape[0] for b in blocks]))).astype(np.int64)
+    return n, block_start, np.concatenate(blocks)
+
+
+def test_refine_patch_order_lowers_the_windows_misses(spot: Mesh) -> None:
+    """The local search returns a permutation with fewer FIFO misses summed over the level's windows (each
+    window simulated on its own from a cold cache), and never reorders two patches with a common target."""
+    from swpm_usd.encode.sw_refine import refine_patch_order, window_misses
+
+    pm = build_sliding_window(spot)
+    for level in (1, 4):
+        n, block_start, blocks = _level_blocks(pm, level)
+        no_targets = np.zeros(n + 1, np.int64), np.zeros(0, np.int64)
+        order = refine_patch_order(block_start, blocks, n, *no_targets, 1, pm.vertex_count, 16, 3, 2, 2)
+        assert np.array_equal(np.sort(order), np.arange(n)) and not np.array_equal(order, np.arange(n))
+        before = window_misses(block_start, blocks, n, np.arange(n), 16)
+        after = window_misses(block_start, blocks, n, order, 16)
+        assert after < 0.99 * before, (level, before, after)
+        # patches 2m and 2m + 1 share target m: each pair keeps its order
+        pairs = np.arange(n + 1, dtype=np.int64), np.arange(n, dtype=np.int64) // 2
+        order = refine_patch_order(block_start, blocks, n, *pairs, n, pm.vertex_count, 16, 3, 2, 2)
+        place = np.empty(n, np.int64)
+        place[order] = np.arange(n)
+        assert np.all(place[0 : n - 1 : 2] < place[1:n:2])
+        assert not np.array_equal(order, np.arange(n))
+
+
+def test_order_passes_warm_the_windows_with_the_same_pool_and_errors(spot: Mesh) -> None:
+    """``order_passes`` reorders each level's patches (records renumbered with them): every window is still
+    the collapse sequence replayed, the pool, the levels and every collapse's error are unchanged, and the
+    windows draw with fewer cache misses (spot, every third window: -2.4 %)."""
+    from swpm_usd.metrics import cache_misses
+
+    base = swpm_usd.build(spot, "sliding-window")
+    pm = swpm_usd.build(spot, "sliding-window", order_passes=2)
+    assert pm.params["order_passes"] == 2 and base.params["order_passes"] == 0
+    assert pm.index_pool.shape == base.index_pool.shape and pm.lod_count == base.lod_count
+    assert np.array_equal(pm.lod_level, base.lod_level)
+    assert np.array_equal(
+        np.sort(pm.collapse_sequence.step_error), np.sort(base.collapse_sequence.step_error)
+    )
+    assert not np.array_equal(pm.index_pool, base.index_pool)
+    _check_all(pm, spot, closed=True, every=7)
+
+    def misses(p: SlidingWindowProgressiveMesh) -> int:
+        return sum(cache_misses(p.triangles_at(k).reshape(-1), 16)[0] for k in range(0, p.lod_count, 3))
+
+    assert misses(pm) < 0.985 * misses(base)
+    # patches of several inner vertices (a target set each) reorder as well
+    multi = build_sliding_window(spot, inner_vertices=3, order_passes=1)
+    _check_all(multi, spot, closed=True, every=11)
+    for bad in (-1, 1.5, True, "2", None):
+        with pytest.raises(BuildError, match="order_passes"):
+            build_sliding_window(spot, order_passes=bad)
+    for params in ({"cluster": True}, {"builder": "forsyth"}):
+        with pytest.raises(BuildError, match="order_passes"):
+            build_sliding_window(spot, order_passes=1, **params)
