@@ -231,14 +231,15 @@ def refine_patch_order(
         seq[a] = a
         seq[n + 1 + a] = n + 1 + a
     seq[n] = n
-    snap = np.full((N + 1, C), -1, np.int64)  # cache content before each run position, oldest first
-    new_snap = np.full((N + 1, C), -1, np.int64)
+    # cache content before each run position, oldest first (int32: 19 MB each for 150,000 patches)
+    snap = np.full((N + 1, C), -1, np.int32)
+    new_snap = np.full((N + 1, C), -1, np.int32)
     m_run = np.zeros(N, np.int64)
     new_m = np.zeros(N, np.int64)
     cold = np.zeros(n + 1, np.int64)  # window j's cold start, at run position j (M for j = n)
     stamp = np.zeros(vertex_count, np.int64)
     ver = np.zeros(vertex_count, np.int64)
-    log = np.empty(C + blocks.shape[0] + 1, np.int64)
+    log = np.empty(C + blocks.shape[0] + 1, np.int32)
     mark = np.zeros(target_count, np.int64)
     version = 1
     _run(seq, 0, N, N, N, blocks, block_start, snap, snap, N, m_run, stamp, ver, version, log, C, -1)
@@ -431,7 +432,7 @@ def refine_patch_order(
                 for x in range(max(0, lo - reach - 1), min(n, end + reach + 1)):
                     dont_look[seq[x]] = False
                 improved = True
-            if not moved and i < n:
+            if not moved:
                 dont_look[seq[i]] = True
         if not improved:
             break
