@@ -611,22 +611,11 @@ def _build_topology(
             break
         if not cluster:
             if order_passes > 0:
-                p_start, p_out, q_start, q_out, patch_steps, recs, info = _refine_level(
-                    gtris,
-                    start_gids,
-                    p_start,
-                    p_out,
-                    q_start,
-                    q_out,
-                    patch_steps,
-                    recs,
-                    info,
-                    nstep,
-                    V,
-                    P,
-                    int(cache_size),
-                    order_passes,
+                collapsed = (p_start, p_out, q_start, q_out, patch_steps, recs, info)
+                collapsed = _refine_level(
+                    gtris, start_gids, collapsed, nstep, V, P, int(cache_size), order_passes
                 )
+                p_start, p_out, q_start, q_out, patch_steps, recs, info = collapsed
             levels.append(_Level(start_gids, p_start, p_out, q_start, q_out, patch_steps))
         elif not link:
             lev = _first_clustered_level(
@@ -655,27 +644,15 @@ def _gather(starts: np.ndarray, sizes: np.ndarray) -> np.ndarray:
     return np.repeat(starts - (ends - sizes), sizes) + np.arange(total)
 
 
-def _refine_level(
-    gtris,
-    start_gids,
-    p_start,
-    p_out,
-    q_start,
-    q_out,
-    patch_steps,
-    recs,
-    info,
-    step0,
-    V,
-    P,
-    cache_size,
-    passes,
-):
+def _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes):
     """The level's patches in the order of :func:`.sw_refine.refine_patch_order` (fewer cache misses over
-    its windows), with their collapse records and steps renumbered to follow."""
+    its windows), with their collapse records and steps renumbered to follow. ``collapsed``: the level's
+    ``(p_start, p_out, q_start, q_out, patch_steps, recs, info)`` from :func:`.sw_kernels.collapse_patches`,
+    returned in the same form."""
+    p_start, p_out, q_start, q_out, patch_steps, recs, info = collapsed
     n = patch_steps.shape[0]
     if n < 3:
-        return p_start, p_out, q_start, q_out, patch_steps, recs, info
+        return collapsed
     in_p = np.zeros(gtris.shape[0], bool)
     in_p[p_out[: p_start[n]]] = True
     middle = start_gids[~in_p[start_gids]]
@@ -701,7 +678,7 @@ def _refine_level(
         passes,
     )
     if np.array_equal(perm, np.arange(n)):
-        return p_start, p_out, q_start, q_out, patch_steps, recs, info
+        return collapsed
     p_sizes = np.diff(p_start)[perm]
     q_sizes = np.diff(q_start)[perm]
     p_out = p_out[_gather(p_start[perm], p_sizes)]

@@ -38,12 +38,16 @@ _SETTLE = 40
 _COLD_BLOCKS = 3
 
 
+# A simulation's state, one tuple for every helper: ``(blocks, block_start, stamp, ver, log)``. A vertex is
+# in the cache if pushed (``stamp``: push count) in this simulation (``ver == version``) within the last
+# ``C`` pushes; ``log`` lists the pushes, so the cache is ``log[t - C:t]`` (oldest first).
+
+
 @nb.njit(cache=True, inline="always")
-def _load(
-    snap: np.ndarray, r: int, stamp: np.ndarray, ver: np.ndarray, version: int, log: np.ndarray, C: int
-) -> int:
-    """Start a simulation from the cache content ``snap[r]`` (oldest first, -1 empty): returns the push
-    count."""
+def _load(snap, r, sim, version):
+    """Start a simulation from the cache content ``snap[r]`` (-1: empty): returns the push count."""
+    stamp, ver, log = sim[2], sim[3], sim[4]
+    C = snap.shape[1]
     for i in range(C):
         v = snap[r, i]
         log[i] = v
@@ -54,12 +58,12 @@ def _load(
 
 
 @nb.njit(cache=True, inline="always")
-def _draw(vs, a0, a1, stamp, ver, version, log, t, C):
-    """FIFO misses of ``vs[a0:a1]``: a vertex is cached if pushed (``stamp``) in this simulation
-    (``ver == version``) within the last ``C`` pushes. Returns ``(misses, push count)``."""
+def _draw(sim, b, version, t, C):
+    """FIFO misses of block ``b`` from push count ``t``. Returns ``(misses, push count)``."""
+    blocks, block_start, stamp, ver, log = sim
     m = 0
-    for i in range(a0, a1):
-        v = vs[i]
+    for i in range(block_start[b], block_start[b + 1]):
+        v = blocks[i]
         if ver[v] != version or t - stamp[v] > C:
             ver[v] = version
             stamp[v] = t
@@ -70,7 +74,9 @@ def _draw(vs, a0, a1, stamp, ver, version, log, t, C):
 
 
 @nb.njit(cache=True, inline="always")
-def _agrees(log: np.ndarray, t: int, snap: np.ndarray, r: int, C: int) -> bool:
+def _agrees(sim, t, snap, r):
+    log = sim[4]
+    C = snap.shape[1]
     for i in range(C):
         if log[t - C + i] != snap[r, i]:
             return False
@@ -86,44 +92,26 @@ def _weight(a: int, n: int) -> int:
 
 
 @nb.njit(cache=True)
-def _run(
-    seq,
-    lo,
-    cap,
-    qlo,
-    qhi,
-    vs,
-    vstart,
-    snap,
-    out_snap,
-    snap_until,
-    out_m,
-    stamp,
-    ver,
-    version,
-    log,
-    C,
-    horizon,
-):
+def _run(seq, lo, cap, q_change, snap, out_snap, snap_until, out_m, sim, version, horizon):
     """Simulate the run ``seq`` from position ``lo`` (cache ``snap[lo]``): ``out_m[a]`` the misses at
     position ``a``, ``out_snap[a + 1]`` the cache after it (up to ``snap_until``). Stops at the first
     position ``a >= cap`` whose cache equals the stored ``snap[a]`` (nothing later changes), or ``horizon``
-    positions past ``cap`` (``horizon < 0``: never). Reaching ``qlo`` (the first changed ``Q`` block) moves
-    ``cap`` to ``qhi``. Returns the end position."""
+    positions past ``cap`` (``horizon < 0``: never). Reaching ``q_change = (first, end)``, the changed
+    ``Q`` blocks, moves ``cap`` to their end. Returns the end position."""
     N = seq.shape[0]
-    t = _load(snap, lo, stamp, ver, version, log, C)
+    C = snap.shape[1]
+    t = _load(snap, lo, sim, version)
     a = lo
     while a < N:
-        b = seq[a]
-        m, t = _draw(vs, vstart[b], vstart[b + 1], stamp, ver, version, log, t, C)
+        m, t = _draw(sim, seq[a], version, t, C)
         out_m[a] = m
         a += 1
-        if a > qlo and cap < qhi:
-            cap = qhi
-        same = a >= cap and _agrees(log, t, snap, a, C)
+        if a > q_change[0] and cap < q_change[1]:
+            cap = q_change[1]
+        same = a >= cap and _agrees(sim, t, snap, a)
         if a <= snap_until:
             for i in range(C):
-                out_snap[a, i] = log[t - C + i]
+                out_snap[a, i] = sim[4][t - C + i]
         if same:
             return a
         if horizon >= 0 and a >= cap + horizon:
@@ -132,25 +120,27 @@ def _run(
 
 
 @nb.njit(cache=True)
-def _cold_extra(seq, a, n, vs, vstart, snap, new_snap, new_m, lo, end, m_run, stamp, ver, version, log, C):
-    """Extra misses of the window starting cold at position ``a`` over the warm run (positions in
-    ``[lo, end)`` read the candidate run's ``new_m`` / ``new_snap``), and the blocks simulated."""
+def _cold_extra(seq, a, snap, m_run, new, sim, version):
+    """Extra misses of the window starting cold at position ``a`` over the warm run. ``new = (lo, end,
+    new_m, new_snap)``: positions in ``[lo, end)`` read the candidate run's misses and caches."""
+    lo, end, new_m, new_snap = new
+    C = snap.shape[1]
+    log = sim[4]
     t = C
     for i in range(C):
         log[i] = -1
     extra = 0
     b = a
     while b < seq.shape[0] and b < a + _COLD_BLOCKS:
-        blk = seq[b]
-        m, t = _draw(vs, vstart[blk], vstart[blk + 1], stamp, ver, version, log, t, C)
+        m, t = _draw(sim, seq[b], version, t, C)
         extra += m - (new_m[b] if lo <= b < end else m_run[b])
         b += 1
         if lo < b <= end:
-            if _agrees(log, t, new_snap, b, C):
+            if _agrees(sim, t, new_snap, b):
                 break
-        elif _agrees(log, t, snap, b, C):
+        elif _agrees(sim, t, snap, b):
             break
-    return extra, b - a
+    return extra
 
 
 @nb.njit(cache=True)
@@ -170,20 +160,25 @@ def _settled_windows(a0, a1, end, m_run, new_m, cold, write):
 
 
 @nb.njit(cache=True)
-def _arrange(order, out, i, s, k):
-    """``out`` = ``order`` with its run ``[i, i + s)`` moved to place ``k`` (of the order without it), in
-    ``out[lo:hi]``; returns ``(lo, hi)``."""
+def _arrange(seq, cand, n, i, s, k):
+    """``cand`` = ``seq`` with its run of patches ``[i, i + s)`` moved to place ``k`` (of the order
+    without it), the ``P`` places and the ``Q`` places alike; returns the changed ``P`` places
+    ``(lo, hi)``."""
     if k < i:
         for x in range(s):
-            out[k + x] = order[i + x]
+            cand[k + x] = seq[i + x]
         for x in range(k, i):
-            out[x + s] = order[x]
-        return k, i + s
-    for x in range(i, k):
-        out[x] = order[x + s]
-    for x in range(s):
-        out[k + x] = order[i + x]
-    return i, k + s
+            cand[x + s] = seq[x]
+        lo, hi = k, i + s
+    else:
+        for x in range(i, k):
+            cand[x] = seq[x + s]
+        for x in range(s):
+            cand[k + x] = seq[i + x]
+        lo, hi = i, k + s
+    for x in range(lo, hi):
+        cand[n + 1 + x] = n + 1 + cand[x]
+    return lo, hi
 
 
 @nb.njit(cache=True)
@@ -200,6 +195,63 @@ def _crosses_target(order, i, s, k, target_start, targets, mark, stamp_id):
             if mark[targets[r]] == stamp_id:
                 return True
     return False
+
+
+@nb.njit(cache=True)
+def _move_delta(cand, lo, hi, n, best, run, sim, version):
+    """The change of the window-weighted sum if the run were ``cand`` (changed in ``[lo, hi)`` and the same
+    ``Q`` places), or any value ``>= best`` once the move cannot beat ``best``. ``run = (snap, m_run,
+    cold, new_snap, new_m)``. Returns ``(delta, version)``."""
+    snap, m_run, cold, new_snap, new_m = run
+    N = cand.shape[0]
+    q_change = (n + 1 + lo, n + 1 + hi)
+    version += 1
+    end = _run(cand, lo, hi, q_change, snap, new_snap, hi + _COLD_BLOCKS, new_m, sim, version, _HORIZON)
+    d = 0
+    for a in range(lo, end):
+        d += _weight(a, n) * (new_m[a] - m_run[a])
+    if end < q_change[0]:  # settled before the Q blocks: follow them on their own
+        version += 1
+        end_q = _run(cand, q_change[0], q_change[1], (N, N), snap, new_snap, 0, new_m, sim, version, _HORIZON)
+        for a in range(q_change[0], end_q):
+            d += _weight(a, n) * (new_m[a] - m_run[a])
+    d += _settled_windows(hi, min(n + 1, end), end, m_run, new_m, cold, False)
+    # the cold starts inside the change can lower d by at most their old terms and warm misses: simulate
+    # them only if that could make this move the best
+    bound = 0
+    for a in range(max(1, lo), min(n + 1, hi)):
+        bound += cold[a]
+        for b in range(a, min(a + _COLD_BLOCKS, N)):
+            bound += new_m[b] if lo <= b < end else m_run[b]
+    if d - bound >= best:
+        return d - bound, version
+    for a in range(max(1, lo), min(n + 1, hi)):
+        version += 1
+        d += _cold_extra(cand, a, snap, m_run, (lo, end, new_m, new_snap), sim, version) - cold[a]
+    return d, version
+
+
+@nb.njit(cache=True)
+def _apply_move(seq, lo, hi, n, run, sim, version):
+    """Re-simulate the stored run after ``seq`` changed in ``[lo, hi)`` (and the same ``Q`` places), until
+    its caches agree with the stored ones (at most :data:`_SETTLE` blocks past the change). Returns
+    ``(end of the change, version)``."""
+    snap, m_run, cold, _, new_m = run
+    N = seq.shape[0]
+    q_change = (n + 1 + lo, n + 1 + hi)
+    version += 1
+    end = _run(seq, lo, hi, q_change, snap, snap, N, new_m, sim, version, _SETTLE)
+    _settled_windows(hi, min(n + 1, end), end, m_run, new_m, cold, True)
+    for a in range(lo, end):
+        m_run[a] = new_m[a]
+    if end < q_change[0]:
+        version += 1
+        _run(seq, q_change[0], q_change[1], (N, N), snap, snap, N, m_run, sim, version, _SETTLE)
+    no_change = (0, 0, m_run, snap)
+    for a in range(max(1, lo - _COLD_BLOCKS), min(n + 1, hi)):
+        version += 1
+        cold[a] = _cold_extra(seq, a, snap, m_run, no_change, sim, version)
+    return end, version
 
 
 @nb.njit(cache=True)
@@ -226,7 +278,7 @@ def refine_patch_order(
         return order
     C = cache_size
     N = 2 * n + 1
-    seq = np.empty(N, np.int64)
+    seq = np.empty(N, np.int64)  # the run: P places, M, Q places (block ids)
     for a in range(n):
         seq[a] = a
         seq[n + 1 + a] = n + 1 + a
@@ -237,20 +289,19 @@ def refine_patch_order(
     m_run = np.zeros(N, np.int64)
     new_m = np.zeros(N, np.int64)
     cold = np.zeros(n + 1, np.int64)  # window j's cold start, at run position j (M for j = n)
-    stamp = np.zeros(vertex_count, np.int64)
-    ver = np.zeros(vertex_count, np.int64)
     log = np.empty(C + blocks.shape[0] + 1, np.int32)
-    mark = np.zeros(target_count, np.int64)
+    sim = (blocks, block_start, np.zeros(vertex_count, np.int64), np.zeros(vertex_count, np.int64), log)
+    run = (snap, m_run, cold, new_snap, new_m)
     version = 1
-    _run(seq, 0, N, N, N, blocks, block_start, snap, snap, N, m_run, stamp, ver, version, log, C, -1)
+    _run(seq, 0, N, (N, N), snap, snap, N, m_run, sim, version, -1)
+    no_change = (0, 0, m_run, snap)
     for a in range(1, n + 1):
         version += 1
-        cold[a], _ = _cold_extra(
-            seq, a, n, blocks, block_start, snap, snap, m_run, 0, 0, m_run, stamp, ver, version, log, C
-        )
+        cold[a] = _cold_extra(seq, a, snap, m_run, no_change, sim, version)
+    mark = np.zeros(target_count, np.int64)
+    marks = 0
     dont_look = np.zeros(n, np.bool_)  # per patch: no move of its improved the last time it was tried
     cand = seq.copy()
-    marks = 0
     for _ in range(passes):
         improved = False
         for i in range(n):
@@ -268,176 +319,28 @@ def refine_patch_order(
                     marks += 1
                     if _crosses_target(seq, i, s, k, target_start, targets, mark, marks):
                         continue
-                    lo, hi = _arrange(seq, cand, i, s, k)
-                    for x in range(lo, hi):
-                        cand[n + 1 + x] = n + 1 + cand[x]
-                    version += 1
-                    end = _run(
-                        cand,
-                        lo,
-                        hi,
-                        n + 1 + lo,
-                        n + 1 + hi,
-                        blocks,
-                        block_start,
-                        snap,
-                        new_snap,
-                        hi + _COLD_BLOCKS,
-                        new_m,
-                        stamp,
-                        ver,
-                        version,
-                        log,
-                        C,
-                        _HORIZON,
-                    )
-                    d = 0
-                    for a in range(lo, end):
-                        d += _weight(a, n) * (new_m[a] - m_run[a])
-                    if end < n + 1 + lo:  # settled before the Q blocks: follow them on their own
-                        version += 1
-                        end_q = _run(
-                            cand,
-                            n + 1 + lo,
-                            n + 1 + hi,
-                            N,
-                            N,
-                            blocks,
-                            block_start,
-                            snap,
-                            new_snap,
-                            0,
-                            new_m,
-                            stamp,
-                            ver,
-                            version,
-                            log,
-                            C,
-                            _HORIZON,
-                        )
-                        for a in range(n + 1 + lo, end_q):
-                            d += _weight(a, n) * (new_m[a] - m_run[a])
-                    d += _settled_windows(hi, min(n + 1, end), end, m_run, new_m, cold, False)
-                    # the cold starts inside the change can lower d by at most their warm misses and old
-                    # terms: simulate them only if that could make this move the best
-                    bound = 0
-                    for a in range(max(1, lo), min(n + 1, hi)):
-                        bound += cold[a]
-                        for b in range(a, min(a + _COLD_BLOCKS, N)):
-                            bound += new_m[b] if lo <= b < end else m_run[b]
-                    if d - bound >= best:
-                        for x in range(lo, hi):
-                            cand[x] = seq[x]
-                            cand[n + 1 + x] = seq[n + 1 + x]
-                        continue
-                    for a in range(max(1, lo), min(n + 1, hi)):
-                        version += 1
-                        extra, _ = _cold_extra(
-                            cand,
-                            a,
-                            n,
-                            blocks,
-                            block_start,
-                            snap,
-                            new_snap,
-                            new_m,
-                            lo,
-                            end,
-                            m_run,
-                            stamp,
-                            ver,
-                            version,
-                            log,
-                            C,
-                        )
-                        d += extra - cold[a]
+                    lo, hi = _arrange(seq, cand, n, i, s, k)
+                    d, version = _move_delta(cand, lo, hi, n, best, run, sim, version)
                     if d < best:
                         best = d
                         best_k = k
-                    for x in range(lo, hi):
-                        cand[x] = seq[x]
-                        cand[n + 1 + x] = seq[n + 1 + x]
+                    cand[lo:hi] = seq[lo:hi]
+                    cand[n + 1 + lo : n + 1 + hi] = seq[n + 1 + lo : n + 1 + hi]
                 if best_k < 0:
                     continue
-                moved = True
-                lo, hi = _arrange(seq, cand, i, s, best_k)
-                for x in range(lo, hi):
-                    seq[x] = cand[x]
-                    seq[n + 1 + x] = n + 1 + cand[x]
-                    cand[n + 1 + x] = seq[n + 1 + x]
-                version += 1
-                end = _run(
-                    seq,
-                    lo,
-                    hi,
-                    n + 1 + lo,
-                    n + 1 + hi,
-                    blocks,
-                    block_start,
-                    snap,
-                    snap,
-                    N,
-                    new_m,
-                    stamp,
-                    ver,
-                    version,
-                    log,
-                    C,
-                    _SETTLE,
-                )
-                _settled_windows(hi, min(n + 1, end), end, m_run, new_m, cold, True)
-                for a in range(lo, end):
-                    m_run[a] = new_m[a]
-                if end < n + 1 + lo:
-                    version += 1
-                    _run(
-                        seq,
-                        n + 1 + lo,
-                        n + 1 + hi,
-                        N,
-                        N,
-                        blocks,
-                        block_start,
-                        snap,
-                        snap,
-                        N,
-                        m_run,
-                        stamp,
-                        ver,
-                        version,
-                        log,
-                        C,
-                        _SETTLE,
-                    )
-                for a in range(max(1, lo - _COLD_BLOCKS), min(n + 1, hi)):
-                    version += 1
-                    cold[a], _ = _cold_extra(
-                        seq,
-                        a,
-                        n,
-                        blocks,
-                        block_start,
-                        snap,
-                        snap,
-                        m_run,
-                        0,
-                        0,
-                        m_run,
-                        stamp,
-                        ver,
-                        version,
-                        log,
-                        C,
-                    )
+                lo, hi = _arrange(seq, cand, n, i, s, best_k)
+                seq[lo:hi] = cand[lo:hi]
+                seq[n + 1 + lo : n + 1 + hi] = cand[n + 1 + lo : n + 1 + hi]
+                end, version = _apply_move(seq, lo, hi, n, run, sim, version)
                 for x in range(max(0, lo - reach - 1), min(n, end + reach + 1)):
                     dont_look[seq[x]] = False
+                moved = True
                 improved = True
             if not moved:
                 dont_look[seq[i]] = True
         if not improved:
             break
-    for a in range(n):
-        order[a] = seq[a]
+    order[:] = seq[:n]
     return order
 
 
