@@ -11,6 +11,7 @@ import pytest
 import swpm_usd
 from swpm_usd.encode import sw_centres as swc
 from swpm_usd.encode.slidingwindow import (
+    MAX_ORDER_PASSES,
     SWAP_MAX_DEVIATION,
     SlidingWindowProgressiveMesh,
     build_sliding_window,
@@ -759,7 +760,7 @@ def test_order_passes_warm_the_windows_with_the_same_pool_and_errors(spot: Mesh)
     # patches of several inner vertices (a target set each) reorder as well
     multi = build_sliding_window(spot, inner_vertices=3, order_passes=1)
     _check_all(multi, spot, closed=True, every=11)
-    for bad in (-1, 1.5, True, "2", None):
+    for bad in (-1, MAX_ORDER_PASSES + 1, 1.5, True, "2", None):
         with pytest.raises(BuildError, match="order_passes"):
             build_sliding_window(spot, order_passes=bad)
     for params in ({"cluster": True}, {"builder": "forsyth"}):
