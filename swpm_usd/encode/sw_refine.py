@@ -272,7 +272,9 @@ def refine_patch_order(
 
     ``blocks[block_start[b]:block_start[b + 1]]`` is block ``b``'s index sequence: ``P`` of patch ``p`` is
     block ``p``, ``M`` block ``n``, ``Q`` of patch ``p`` block ``n + 1 + p``. Patch ``p``'s collapse
-    targets are ``targets[target_start[p]:target_start[p + 1]]`` (ids below ``target_count``)."""
+    targets are ``targets[target_start[p]:target_start[p + 1]]`` (ids below ``target_count``). A pass ends
+    the search when it moves nothing; the evaluation is local, so passes can also undo and redo moves:
+    ``passes`` bounds the work (the builder allows at most ``MAX_ORDER_PASSES``)."""
     order = np.arange(n, dtype=np.int64)
     if n < 3:
         return order
