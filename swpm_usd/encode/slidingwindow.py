@@ -650,6 +650,28 @@ def _gather(starts: np.ndarray, sizes: np.ndarray) -> np.ndarray:
     return np.repeat(starts - (ends - sizes), sizes) + np.arange(total)
 
 
+def _level_layout(gtris, start_gids, p_start, p_out, q_start, q_out):
+    """A level's triangles (global ids) as the pool lays them out, ``P_1..P_n || M || Q_1..Q_n`` (``M``: its
+    starting triangles in no patch), and the block starts: ``n + 1`` for the patches and ``M``, then one per
+    ``Q_i`` (``starts[n + 1]`` is where ``Q_1`` begins)."""
+    in_p = np.zeros(gtris.shape[0], bool)
+    in_p[p_out] = True
+    middle = start_gids[~in_p[start_gids]]
+    # np.concatenate: np.r_ costs tens of microseconds per call
+    gids = np.concatenate((p_out, middle, q_out))
+    starts = np.concatenate((p_start, p_start[-1] + middle.shape[0] + q_start))
+    return gids, starts
+
+
+def _level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size):
+    """The level's triangles as the pool stores them: :func:`_level_layout`, each block reordered for the
+    cache in place (the FIFO carried over, the head and the tail apart: :func:`_block_order`); and the
+    block starts."""
+    gids, starts = _level_layout(gtris, start_gids, p_start, p_out, q_start, q_out)
+    n = p_start.shape[0] - 1
+    return _block_order(gtris[gids], starts, cache_size, int(starts[n + 1])), starts
+
+
 def _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes):
     """The level's patches in the order of :func:`.sw_refine.refine_patch_order` (fewer cache misses over
     its windows), with their collapse records and steps renumbered to follow. ``collapsed``: the level's
@@ -659,20 +681,14 @@ def _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes)
     n = patch_steps.shape[0]
     if n < 3:
         return collapsed
-    in_p = np.zeros(gtris.shape[0], bool)
-    in_p[p_out[: p_start[n]]] = True
-    middle = start_gids[~in_p[start_gids]]
     # the blocks as the pool will draw them (:func:`_assemble`'s cache order inside each), not as fans: the
     # search then gains what the pool keeps (spot, misses over every third window: -1.2 % as fans)
-    level_tris = np.concatenate((gtris[p_out[: p_start[n]]], gtris[middle], gtris[q_out[: q_start[n]]]))
-    starts = np.concatenate((p_start, p_start[n] + middle.shape[0] + q_start))
-    blocks = _block_order(level_tris, starts, cache_size, int(p_start[n] + middle.shape[0])).reshape(-1)
-    block_start = 3 * starts
+    tris, starts = _level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size)
     step_start = np.concatenate(([0], np.cumsum(patch_steps)))
     targets = info[: step_start[n], 2].astype(np.int64)
     perm = swr.refine_patch_order(
-        block_start.astype(np.int64),
-        blocks.astype(np.int64),
+        3 * starts,
+        np.ascontiguousarray(tris, np.int64).reshape(-1),
         n,
         step_start,
         targets,
@@ -730,11 +746,7 @@ def _linked_cost(tpos: np.ndarray, pt: np.ndarray, patches: int) -> float:
 def _first_clustered_level(gtris, start_gids, p_start, p_out, q_start, q_out, patch_steps, cache_size):
     """Level 0 with ``cluster=True``: laid out as usual (``P_1..P_n || M || Q_1..Q_n``), but its final
     order is fixed now, since the next level reads its patches out of this level's tail ``M || Q``."""
-    in_p = np.zeros(gtris.shape[0], bool)
-    in_p[p_out] = True
-    middle = start_gids[~in_p[start_gids]]
-    gids = np.concatenate([p_out, middle, q_out])
-    starts = np.r_[p_start, p_start[-1] + middle.shape[0] + q_start]
+    gids, starts = _level_layout(gtris, start_gids, p_start, p_out, q_start, q_out)
     gids = gids[_block_perm(gtris[gids], starts, cache_size)]
     lev = _Level(start_gids, p_start, p_out, q_start, q_out, patch_steps, stored=gids, shared=False)
     lev.tail = gids[p_start[-1] :]
@@ -862,15 +874,10 @@ def _assemble(
         if lev.stored is not None:
             parts.append(gtris[lev.stored])
         else:
-            in_p = np.zeros(gtris.shape[0], bool)
-            in_p[lev.p_out] = True
-            middle = gtris[lev.start_gids[~in_p[lev.start_gids]]]
-            level_tris = np.concatenate([gtris[lev.p_out], middle, gtris[lev.q_out]])
-            # blocks P_1..P_n, M, Q_1..Q_n: each reordered for the cache in place, the FIFO carried over
-            # (np.concatenate: np.r_ costs tens of microseconds per call, twice per level)
-            starts = np.concatenate((lev.p_start, lev.p_start[-1] + middle.shape[0] + lev.q_start))
-            tail = int(lev.p_start[-1] + middle.shape[0])
-            parts.append(_block_order(level_tris, starts, cache_size, tail))
+            tris, _ = _level_pool(
+                gtris, lev.start_gids, lev.p_start, lev.p_out, lev.q_start, lev.q_out, cache_size
+            )
+            parts.append(tris)
         pool_len += parts[-1].shape[0]
         head_next = offset + int(lev.p_start[n])
         Tl = lev.start_gids.shape[0]
