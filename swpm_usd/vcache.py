@@ -103,7 +103,7 @@ def _is_repeat(tris: np.ndarray, t: int, k: int) -> bool:
     return (k >= 1 and tris[t, 0] == v) or (k == 2 and tris[t, 1] == v)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _order_blocks(
     tris: np.ndarray,
     starts: np.ndarray,
@@ -351,7 +351,7 @@ def _order_blocks(
     return perm, shift, pushes
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def fan_order_nb(tris: np.ndarray, centre: int) -> np.ndarray:
     """Order of the rows of ``tris`` (k, 3) around vertex ``centre``: consecutive triangles share an edge.
 
@@ -430,7 +430,7 @@ def fan_order_nb(tris: np.ndarray, centre: int) -> np.ndarray:
     return perm
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _fifo_run(seq: np.ndarray, cache_size: int, stamp: np.ndarray, ring: np.ndarray, pushes: int) -> int:
     for i in range(seq.shape[0]):
         v = seq[i]
@@ -611,7 +611,7 @@ def optimize_block_order(
     return (perm, shift) if rotate else perm
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _rotate_rows(out: np.ndarray, shift: np.ndarray) -> None:
     """Rotate row ``i`` of ``out`` (n, 3) left cyclically by ``shift[i]`` (any integer), in place."""
     for i in range(out.shape[0]):

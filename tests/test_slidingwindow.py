@@ -766,3 +766,28 @@ def test_order_passes_warm_the_windows_with_the_same_pool_and_errors(spot: Mesh)
     for params in ({"cluster": True}, {"builder": "forsyth"}):
         with pytest.raises(BuildError, match="order_passes"):
             build_sliding_window(spot, order_passes=1, **params)
+
+
+@pytest.mark.parametrize("params", [{}, {"order_passes": 2}])
+def test_levels_finished_in_a_thread_build_the_same_pool(
+    spot: Mesh, params: dict, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Each level's order search and cache order run on a worker thread while the next level is built: the
+    result is the one built inline, bit for bit, and an error in the worker reaches the caller."""
+    import swpm_usd.encode.slidingwindow as sw
+
+    threaded = build_sliding_window(spot, **params)
+    monkeypatch.setattr(sw, "_FINISH_IN_THREAD", False)
+    inline = build_sliding_window(spot, **params)
+    for name in ("index_pool", "window_records", "points", "lod_errors", "source_vertex"):
+        assert np.array_equal(getattr(threaded, name), getattr(inline, name)), name
+    assert np.array_equal(threaded.collapse_sequence.binned, inline.collapse_sequence.binned)
+
+    monkeypatch.setattr(sw, "_FINISH_IN_THREAD", True)
+
+    def broken(*args):
+        raise RuntimeError("worker failed")
+
+    monkeypatch.setattr(sw, "_finish_level", broken)
+    with pytest.raises(RuntimeError, match="worker failed"):
+        build_sliding_window(spot, **params)

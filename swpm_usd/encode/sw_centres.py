@@ -23,7 +23,7 @@ import numpy as np
 from ..simplify import kernels as K
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _grow_i64(a: np.ndarray, n: int) -> np.ndarray:
     if n < a.shape[0]:
         return a
@@ -33,7 +33,7 @@ def _grow_i64(a: np.ndarray, n: int) -> np.ndarray:
     return b
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _mark_inner(
     x: int,
     p: int,
@@ -71,7 +71,7 @@ def _mark_inner(
     return size
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def select_patches(
     adj_start: np.ndarray, adj: np.ndarray, eligible: np.ndarray, tiebreak: np.ndarray, inner_max: int
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -158,7 +158,7 @@ def select_patches(
     return inner_start[: n_patch + 1].copy(), inner[:n_inner].copy()
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def lower_error_centres(
     adj_start: np.ndarray, adj: np.ndarray, eligible: np.ndarray, centres: np.ndarray, rank: np.ndarray
 ) -> np.ndarray:
@@ -237,7 +237,7 @@ def _set_remove(v, sol, tight, adj_start, adj, log, nlog):
     return nlog + 1
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _undo(log, nlog, sol, tight, adj_start, adj):
     """Take back the last ``nlog`` insertions (``+v``) and removals (``-v-1``) of ``log``."""
     for r in range(nlog - 1, -1, -1):
@@ -252,12 +252,12 @@ def _undo(log, nlog, sol, tight, adj_start, adj):
                 tight[adj[a]] += 1
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _xorshift_seed(seed: int) -> np.uint64:
     return np.uint64(seed) * np.uint64(0x9E3779B97F4A7C15) | np.uint64(1)  # xorshift64 state, never 0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _xorshift(rng):
     rng ^= rng << np.uint64(13)
     rng ^= rng >> np.uint64(7)
@@ -265,7 +265,7 @@ def _xorshift(rng):
     return rng
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _queue_near(v, sol, tight, adj_start, adj, queue, nq, queued):
     """Queue the set members next to ``v`` or owning a 1-tight neighbour of ``v``: the only ones whose
     (1,2)-swaps a change at ``v`` can create."""
@@ -286,7 +286,7 @@ def _queue_near(v, sol, tight, adj_start, adj, queue, nq, queued):
     return nq
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def grow_independent_set(
     adj_start: np.ndarray,
     adj: np.ndarray,
@@ -414,7 +414,7 @@ def grow_independent_set(
     return np.flatnonzero(sol).astype(np.int64)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _sort_by(keys: np.ndarray, items: np.ndarray, n: int) -> None:
     """Insertion sort of ``items[:n]`` by ``keys[item]`` (a handful of items)."""
     for i in range(1, n):
@@ -427,7 +427,7 @@ def _sort_by(keys: np.ndarray, items: np.ndarray, n: int) -> None:
         items[j + 1] = x
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def lower_costly_centres(
     adj_start: np.ndarray,
     adj: np.ndarray,
@@ -518,7 +518,7 @@ def lower_costly_centres(
     return np.flatnonzero(sol).astype(np.int64)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def merge_patches(
     adj_start: np.ndarray,
     adj: np.ndarray,
@@ -596,7 +596,7 @@ def merge_patches(
 # ----------------------------------------------------------------------------------------------------
 # patches of up to k inner vertices: large-neighbourhood search on sets whose components have <= k vertices
 # ----------------------------------------------------------------------------------------------------
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _component_fits(v, in_set, adj_start, adj, k, mark, stamp, stack):
     """Whether ``v`` joined to the set lies in a component of at most ``k`` members."""
     mark[v] = stamp
@@ -617,7 +617,7 @@ def _component_fits(v, in_set, adj_start, adj, k, mark, stamp, stack):
     return True
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def grow_component_set(
     adj_start: np.ndarray,
     adj: np.ndarray,

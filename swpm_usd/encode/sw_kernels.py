@@ -32,7 +32,7 @@ from ..simplify import kernels as K
 # ----------------------------------------------------------------------------------------------------
 # small helpers
 # ----------------------------------------------------------------------------------------------------
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _grow_tris(a: np.ndarray, n: int) -> np.ndarray:
     if n < a.shape[0]:
         return a
@@ -46,14 +46,14 @@ def _grow_tris(a: np.ndarray, n: int) -> np.ndarray:
     return b
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def chain_order(tv: np.ndarray) -> np.ndarray:
     """Order of a handful of triangles (``tv`` (n,3) vertex ids) so consecutive ones share an edge where
     possible: a closed fan comes out as a fan, an open fan starts at one of its ends."""
     return _chain_order_into(tv, tv.shape[0], _chain_work(tv.shape[0])).copy()
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _chain_work(n: int) -> tuple:
     """Reusable buffers for :func:`_chain_order_into` and :func:`_emit_into`, up to ``n`` triangles:
     (order, adjacency, neighbour counts, used, triangle ids, (n,3) vertex ids)."""
@@ -67,7 +67,7 @@ def _chain_work(n: int) -> tuple:
     )
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _chain_work_for(w: tuple, n: int) -> tuple:
     """``w`` if it holds ``n`` triangles, else larger buffers."""
     if w[0].shape[0] >= n:
@@ -75,7 +75,7 @@ def _chain_work_for(w: tuple, n: int) -> tuple:
     return _chain_work(max(n, 2 * w[0].shape[0]))
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _chain_order_into(tv: np.ndarray, n: int, w: tuple) -> np.ndarray:
     """:func:`chain_order` of the first ``n`` rows of ``tv`` in the buffers ``w`` (:func:`_chain_work`);
     returns a view of ``w``'s order buffer."""
@@ -131,7 +131,7 @@ def _chain_order_into(tv: np.ndarray, n: int, w: tuple) -> np.ndarray:
 # ----------------------------------------------------------------------------------------------------
 # topology-driven levels
 # ----------------------------------------------------------------------------------------------------
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def level_positions(
     alive_t: np.ndarray, tri_verts: np.ndarray, vertex_pos: np.ndarray, P: int
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -160,7 +160,7 @@ def level_positions(
     return tp, positions
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def ties_by_index(keys: np.ndarray, order: np.ndarray) -> np.ndarray:
     """``order`` (an argsort of ``keys``, any tie order) with every run of equal keys in increasing index
     order, in place: ``np.argsort(keys, kind="stable")`` from the default sort (numpy's stable argsort took
@@ -190,7 +190,7 @@ def ties_by_index(keys: np.ndarray, order: np.ndarray) -> np.ndarray:
     return order
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def position_graph(tp: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
     """CSR ``(start, nbr)`` of the edge graph of the triangles ``tp`` (positions; each neighbour once, in
     increasing order)."""
@@ -228,7 +228,7 @@ def position_graph(tp: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
     return start, nbr[:m].copy()
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def level_costs(st: K.CollapseState, positions: np.ndarray, stars: K.Stars) -> tuple[np.ndarray, np.ndarray]:
     """Best valid collapse target and its quadric cost for every position of ``positions`` (``stars``: a
     snapshot of ``st``, :func:`swpm_usd.simplify.kernels.star_snapshot`)."""
@@ -294,7 +294,7 @@ def level_costs(st: K.CollapseState, positions: np.ndarray, stars: K.Stars) -> t
     return ks, cs
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def cluster_patches(
     st: K.CollapseState, cands: np.ndarray, tpos: np.ndarray, rank: np.ndarray, min_picks: int
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -361,7 +361,7 @@ def cluster_patches(
     return inner_start, inner[:m].copy()
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def patch_triangles(
     st: K.CollapseState, inner_start: np.ndarray, inner: np.ndarray, stars: K.Stars
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -407,7 +407,7 @@ def patch_triangles(
     return start, out[:m].copy()
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def absorb_middle(
     st: K.CollapseState,
     pt_start: np.ndarray,
@@ -520,7 +520,7 @@ def absorb_middle(
 _ORDER_LIVE_WEIGHT = 0.3
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _fifo_misses(verts: np.ndarray, skip: np.ndarray, stamp: np.ndarray, pushes: int, cache_size: int) -> int:
     """Misses of ``verts`` (those not ``skip``-ped) against a FIFO of ``cache_size`` (``stamp``: push count
     at which each vertex entered; a vertex is cached while fewer than ``cache_size`` pushes followed)."""
@@ -535,7 +535,7 @@ def _fifo_misses(verts: np.ndarray, skip: np.ndarray, stamp: np.ndarray, pushes:
     return miss
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _fifo_push(verts: np.ndarray, skip: np.ndarray, stamp: np.ndarray, ring: np.ndarray, pushes: int) -> int:
     """Draw ``verts`` (in order, those not ``skip``-ped) through the FIFO; returns the new push count."""
     cache_size = ring.shape[0]
@@ -551,7 +551,7 @@ def _fifo_push(verts: np.ndarray, skip: np.ndarray, stamp: np.ndarray, ring: np.
     return pushes
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def order_patches(
     pt_start: np.ndarray,
     pt: np.ndarray,
@@ -663,7 +663,7 @@ def order_patches(
     return order
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _emit_into(
     st: K.CollapseState,
     tris: np.ndarray,
@@ -706,7 +706,7 @@ def _emit_into(
     return ng, nq
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _record_collapse(
     st: K.CollapseState, b: int, k: int, recs: np.ndarray, nrec: int, step: int, bbuf: tuple
 ):
@@ -722,7 +722,7 @@ def _record_collapse(
     return recs, _record_collapse_into(st, b, k, recs, nrec, step, bbuf)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _record_collapse_into(
     st: K.CollapseState, b: int, k: int, recs: np.ndarray, nrec: int, step: int, bbuf: tuple
 ) -> int:
@@ -745,7 +745,7 @@ def _record_collapse_into(
     return nrec
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def collapse_patches(
     st: K.CollapseState,
     order: np.ndarray,
@@ -867,7 +867,7 @@ def collapse_patches(
     )
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def reassign_middle(
     st: K.CollapseState,
     own_start: np.ndarray,
@@ -1017,7 +1017,7 @@ def reassign_middle(
     return new_start, out
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _shaped_collapse(
     st: K.CollapseState, b: int, slack: float, max_cost: float, bbuf: tuple, kbuf: tuple, costs: np.ndarray
 ) -> tuple[int, float]:

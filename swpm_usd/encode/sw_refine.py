@@ -254,7 +254,7 @@ def _apply_move(seq, lo, hi, n, run, sim, version):
     return end, version
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def refine_patch_order(
     block_start: np.ndarray,
     blocks: np.ndarray,

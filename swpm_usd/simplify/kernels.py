@@ -89,7 +89,7 @@ def _eval_quadric2(q: np.ndarray, a: int, b: int, x: float, y: float, z: float) 
     return s
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def init_quadrics(
     pos_points: np.ndarray,
     tri_pos: np.ndarray,
@@ -140,7 +140,7 @@ def init_quadrics(
 # ----------------------------------------------------------------------------------------------------
 # adjacency
 # ----------------------------------------------------------------------------------------------------
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def gather_triangles(st: CollapseState, p: int) -> np.ndarray:
     """Alive triangles around position ``p`` (each once); unlinks dead corners on the way."""
     n = 0
@@ -181,7 +181,7 @@ def _gather_rows(
     return m
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def triangle_positions(st: CollapseState, tris: np.ndarray) -> np.ndarray:
     """(n,3) positions of the given triangles (read once: namedtuple field access costs a refcount)."""
     tv = st.tri_verts
@@ -193,7 +193,7 @@ def triangle_positions(st: CollapseState, tris: np.ndarray) -> np.ndarray:
     return out
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def neighbours(p: int, tp: np.ndarray) -> np.ndarray:
     """Distinct positions sharing a triangle with ``p`` (``tp``: positions of p's triangles)."""
     buf = np.empty(2 * tp.shape[0], np.int32)
@@ -247,7 +247,7 @@ def _positions_rows(
     return m
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _star_arrays(st: CollapseState):
     P = st.pos_points.shape[0]
     n = st.corner_next.shape[0]
@@ -276,7 +276,7 @@ def star_snapshot(st: CollapseState) -> Stars:
     return Stars(*_star_arrays(st))
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def star_into(
     st: CollapseState, p: int, tris: np.ndarray, tp: np.ndarray, nbr: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -290,7 +290,7 @@ def star_into(
     return tris[:n], tp[:n], nbr[:m]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _positions_into(st: CollapseState, p: int, tris: np.ndarray, tp: np.ndarray) -> int:
     """``p``'s live triangles into ``tris[:n]`` and their positions into ``tp[:n]``; returns ``n``."""
     return _positions_rows(
@@ -298,7 +298,7 @@ def _positions_into(st: CollapseState, p: int, tris: np.ndarray, tp: np.ndarray)
     )
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def star_rows(
     corner_head: np.ndarray,
     corner_next: np.ndarray,
@@ -316,7 +316,7 @@ def star_rows(
     return n, _neighbours_rows(p, tp, 0, n, nbr, 0)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def star_buffers(st: CollapseState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Buffers for :func:`star_into` (any star of ``st`` fits)."""
     T = st.tri_verts.shape[0]
@@ -343,7 +343,7 @@ def _has(tp: np.ndarray, j: int, p: int) -> bool:
 # ----------------------------------------------------------------------------------------------------
 # collapse test, cost and application
 # ----------------------------------------------------------------------------------------------------
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def collapse_cost(st: CollapseState, b: int, k: int) -> float:
     """Mean squared plane distance of the merged quadric at the kept point (>= 0)."""
     return _cost_of(st.pos_points, st.quadric, st.quadric_weight, b, k)
@@ -361,14 +361,14 @@ def _cost_of(pts: np.ndarray, quadric: np.ndarray, qw: np.ndarray, b: int, k: in
     return e if e > 0.0 else 0.0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def vertex_map(st: CollapseState, b: int, k: int, tris_b: np.ndarray, tp_b: np.ndarray) -> np.ndarray:
     """For every vertex at ``b`` (in pos_verts order) the vertex at ``k`` it moves onto; -1 in slot 0 of a
     length-1 array when the collapse would split an attribute seam (a "difficult edge")."""
     return _vertex_map(st.tri_verts, st.pos_verts, st.pos_vstart, b, k, tris_b, tp_b)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _vertex_map(
     tv: np.ndarray,
     pv: np.ndarray,
@@ -421,7 +421,7 @@ def _vertex_map(
     return target
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _single_vertex_maps(
     tv: np.ndarray, k: int, tris_b: np.ndarray, tp_b: np.ndarray, j0: int, j1: int
 ) -> bool:
@@ -442,7 +442,7 @@ def _single_vertex_maps(
     return vk >= 0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def valid_collapse(
     st: CollapseState,
     b: int,
@@ -500,7 +500,7 @@ def valid_collapse(
     )
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def valid_collapse_in(
     pos_alive: np.ndarray,
     pos_locked: np.ndarray,
@@ -607,7 +607,7 @@ def valid_collapse_in(
     return True
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def apply_collapse(st: CollapseState, b: int, k: int, vmap: np.ndarray) -> int:
     """Bin position ``b`` onto ``k``: redirect its corners, kill the edge's triangles, merge quadrics.
     Returns the number of triangles removed."""
@@ -648,7 +648,7 @@ def apply_collapse(st: CollapseState, b: int, k: int, vmap: np.ndarray) -> int:
     return removed
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def best_collapse(
     st: CollapseState, b: int, validate: bool = True, stars: Stars | None = None
 ) -> tuple[int, float]:
@@ -728,7 +728,7 @@ def best_of_star(
 # ----------------------------------------------------------------------------------------------------
 # push and pop are calls, not inlined: a kernel that pushes and pops at many places (run_sequence,
 # sw_forsyth.forsyth_run) compiles seconds faster, at no cost in run time
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _heap_push(keys, ids, stamps, size, key, pid, stamp):
     if size == keys.shape[0]:
         nk = np.empty(2 * size, keys.dtype)
@@ -762,7 +762,7 @@ def _heap_push_into(keys, ids, stamps, size, key, pid, stamp):
     return size + 1
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _heap_pop(keys, ids, stamps, size):
     key, pid, stamp = keys[0], ids[0], stamps[0]
     size -= 1
@@ -786,7 +786,7 @@ def _heap_pop(keys, ids, stamps, size):
 # ----------------------------------------------------------------------------------------------------
 # the full sequence
 # ----------------------------------------------------------------------------------------------------
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def run_sequence(st: CollapseState, max_passes: int, full_ring_update: bool = False):
     """Collapse greedily in quadric-error order until nothing valid remains. ``full_ring_update``: after a
     collapse, re-evaluate every ring position's whole star, not only its collapse onto the kept position
@@ -891,7 +891,7 @@ def run_sequence(st: CollapseState, max_passes: int, full_ring_update: bool = Fa
     )
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def build_corner_lists(tri_pos: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
     head = np.full(P, -1, np.int32)
     nxt = np.full(3 * tri_pos.shape[0], -1, np.int32)
@@ -904,7 +904,7 @@ def build_corner_lists(tri_pos: np.ndarray, P: int) -> tuple[np.ndarray, np.ndar
     return head, nxt
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def group_by(keys: np.ndarray, n_groups: int) -> tuple[np.ndarray, np.ndarray]:
     """Counting sort: CSR ``(start, idx)`` listing, for every group ``g < n_groups``, the indices ``j`` with
     ``keys[j] == g`` in increasing order."""
@@ -920,13 +920,13 @@ def group_by(keys: np.ndarray, n_groups: int) -> tuple[np.ndarray, np.ndarray]:
     return start, idx
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def stable_order(keys: np.ndarray, n_keys: int) -> np.ndarray:
     """``np.argsort(keys, kind="stable")`` for integer keys in ``[0, n_keys)`` (:func:`group_by`)."""
     return group_by(keys, n_keys)[1]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def fan_counts(st: CollapseState) -> np.ndarray:
     """Number of edge-connected triangle fans around each position (>1 means a pinch vertex)."""
     P = st.pos_points.shape[0]
