@@ -18,9 +18,10 @@ and with the edge swaps); inner3-swap-slack1, cluster-swap-slack1 and topology-m
 (``target_slack=1.0``: costlier, higher-degree collapse targets for a smaller pool, alone and spent on
 ``mu=0.2``); topology-mu0.3-absorb-all (``mu=0.3, absorb_rounds=0``: the whole static middle joins
 the patches); inner3-mu0.3 (patches of up to three inner vertices spent on ``mu=0.3``: the error of
-topology-mu0.3-absorb-all from a smaller pool, fewer LODs, a colder cache); order2,
-mu0.3-absorb-all-order2 and inner3-mu0.3-order2 (``order_passes=2``: each level's patch order searched for
-fewer cache misses over its windows, for a longer build). ``--big`` adds a
+topology-mu0.3-absorb-all from a smaller pool, fewer LODs, a colder cache); order0 (``order_passes=0``: the
+greedy patch order alone, without the search the defaults run, two passes of reach 1); order2,
+mu0.3-absorb-all-order2 and inner3-mu0.3-order2 (``order_passes=2, order_reach=3``: each level's patch
+order searched further for fewer cache misses over its windows, for a longer build). ``--big`` adds a
 generated icosphere of 1.3 M triangles (build time only).
 Targets (issue): lambda <= 5.4 on bunny (topology, no reductions; <= 3.9 with cluster-swap; <= 2.8 with
 inner3-swap), ACMR ratio <= 1.10, error ratio <= 1.5, bunny build <= 3 s, 1 M triangles <= 60 s.
@@ -47,9 +48,10 @@ OPTIONS = {
     "topology-mu0.3": {"mu": 0.3},
     "inner3": {"inner_vertices": 3},
     "inner3-mu0.3": {"inner_vertices": 3, "mu": 0.3},
-    "order2": {"order_passes": 2},
-    "mu0.3-absorb-all-order2": {"mu": 0.3, "absorb_rounds": 0, "order_passes": 2},
-    "inner3-mu0.3-order2": {"inner_vertices": 3, "mu": 0.3, "order_passes": 2},
+    "order0": {"order_passes": 0},
+    "order2": {"order_passes": 2, "order_reach": 3},
+    "mu0.3-absorb-all-order2": {"mu": 0.3, "absorb_rounds": 0, "order_passes": 2, "order_reach": 3},
+    "inner3-mu0.3-order2": {"inner_vertices": 3, "mu": 0.3, "order_passes": 2, "order_reach": 3},
     "forsyth": {"builder": "forsyth"},
     "forsyth-tol1": {"builder": "forsyth", "tolerance": 1.0},
     "swap": {"optimize_connectivity": True},

@@ -34,9 +34,10 @@ choice, what was measured and what was tried and dropped):
   ``mu``); the patches are ordered for a FIFO vertex cache (TD-VIPM 3.2,
   :func:`.sw_kernels.order_patches`) and the triangles inside every block after them
   (:func:`swpm_usd.vcache.optimize_block_order`). ``inner_vertices > 1`` (SWPM 3.3): patches of several
-  inner vertices, fewer LODs, a smaller pool. ``order_passes > 0``: that many passes of a local search that
-  moves patches wherever the FIFO misses summed over the level's windows fall (:mod:`.sw_refine`; a warmer
-  cache for a longer build, same pool and errors).
+  inner vertices, fewer LODs, a smaller pool. ``order_passes`` (None: 2 here, 0 with ``cluster``) passes of
+  a local search then move patches up to ``order_reach`` places (default 1) wherever the FIFO misses summed
+  over the level's windows fall (:mod:`.sw_refine`; a warmer cache, the same pool and errors; more passes
+  and a longer reach for a longer build).
 * ``builder="forsyth"``: Forsyth's quadric-error order with the error-tolerance reordering
   (:mod:`.sw_forsyth`).
 * ``optimize_connectivity=True`` (SWPM 3.1): edge swaps creating low-degree vertices first, each moving the
@@ -94,6 +95,17 @@ SWAP_MAX_DEVIATION = 5e-4
 #: so late passes can undo and redo the same moves instead of settling (spot with 10**9 passes did not end
 #: in 5 minutes); four passes gain 0.1 % over two (ACMR ratio mean over the ten meshes, 40 fractions)
 MAX_ORDER_PASSES = 8
+#: ``order_passes=None`` (the default): passes of the patch-order search for ``builder="topology"`` without
+#: ``cluster`` (whose linked levels take their order from the previous level's tail; 0 there). Ten meshes,
+#: ACMR ratio to meshoptimizer over 40 fractions from 100 to 5 % (400 points): no search 1.0588 (350 within
+#: 1.10, 179 within 1.05); two passes of reach 1 1.0442 (366, 242); one pass of reach 3 1.0412 (371, 252).
+#: With each level searched on the worker thread (``_FINISH_IN_THREAD``), two passes of reach 1 cost about
+#: nothing in wall time on two cores (ten meshes 4.0 -> 4.2 s; built inline 4.9 -> 6.4 s); reach 3 costs
+#: 4.0 -> 5.4 s (inline 7.3 s with one pass)
+DEFAULT_ORDER_PASSES = 2
+#: ``order_reach`` at most (a move is evaluated over blocks up to this far apart, and all of a pass's
+#: candidates grow with it)
+MAX_ORDER_REACH = 8
 
 #: the encoding's own parameters and their defaults (the collapse quadric weights come on top)
 SLIDING_WINDOW_PARAMS: dict[str, Any] = {
@@ -108,7 +120,8 @@ SLIDING_WINDOW_PARAMS: dict[str, Any] = {
     "absorb_middle": True,
     "absorb_rounds": 1,
     "target_slack": None,
-    "order_passes": 0,
+    "order_passes": None,
+    "order_reach": 1,
 }
 
 
@@ -287,10 +300,9 @@ _TAIL_POWER = 8.0
 _TAIL_TRIES = 3
 _TAIL_PASSES = 2
 #: ``order_passes > 0``: :func:`.sw_refine.refine_patch_order` after the greedy patch order moves runs of up
-#: to ``_REFINE_RUN`` patches by up to ``_REFINE_REACH`` places (ten meshes, ACMR ratio mean over 40
-#: fractions with one pass, the defaults 1.0588: reach 3 1.0416, reach 2 1.0426; runs of up to two patches
-#: 1.0404 for 1.4 times the search's time)
-_REFINE_REACH = 3
+#: to ``_REFINE_RUN`` patches by up to ``order_reach`` places (ten meshes, ACMR ratio mean over 40 fractions,
+#: no search 1.0588: one pass of reach 1 / 2 / 3 1.0463 / 1.0418 / 1.0412, two passes of reach 1 / 2
+#: 1.0442 / 1.0389; runs of up to two patches 1.0404 with reach 3 for 1.4 times the search's time)
 _REFINE_RUN = 1
 
 
@@ -490,6 +502,7 @@ def _build_levels(
     target_slack: float | None = None,
     absorb_rounds: int = 1,
     order_passes: int = 0,
+    order_reach: int = 1,
 ):
     T = mesh.triangle_count
     P = st.pos_points.shape[0]
@@ -631,7 +644,7 @@ def _build_levels(
             # the level's patch order search and cache order need nothing of the levels after it: a worker
             # thread finishes it while this one builds the next level (the kernels release the GIL)
             collapsed = (p_start, p_out, q_start, q_out, patch_steps, recs, info)
-            args = (gtris, start_gids, collapsed, nstep, V, P, int(cache_size), order_passes)
+            args = (gtris, start_gids, collapsed, nstep, V, P, int(cache_size), order_passes, order_reach)
             pending.append(worker.submit(_finish_level, *args) if worker else _done(_finish_level(*args)))
             levels.append(None)  # filled in from ``pending``
         elif not link:
@@ -709,19 +722,19 @@ def _done(value) -> Future:
     return f
 
 
-def _finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes):
+def _finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach=1):
     """A fully stored level after its collapses: its patch order searched (``passes`` > 0:
     :func:`_refine_level`) and its triangles in pool order. Returns the :class:`_Level`, its collapse records
     and its steps' info (renumbered by the search). Reads only rows of ``gtris`` that later levels keep."""
     if passes > 0:
-        collapsed = _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes)
+        collapsed = _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach)
     p_start, p_out, q_start, q_out, patch_steps, recs, info = collapsed
     lev = _Level(start_gids, p_start, p_out, q_start, q_out, patch_steps)
     lev.pool = _level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size)[0]
     return lev, recs, info
 
 
-def _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes):
+def _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach=1):
     """The level's patches in the order of :func:`.sw_refine.refine_patch_order` (fewer cache misses over
     its windows), with their collapse records and steps renumbered to follow. ``collapsed``: the level's
     ``(p_start, p_out, q_start, q_out, patch_steps, recs, info)`` from :func:`.sw_kernels.collapse_patches`,
@@ -744,7 +757,7 @@ def _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes)
         P,
         V,
         cache_size,
-        _REFINE_REACH,
+        reach,
         _REFINE_RUN,
         passes,
     )
@@ -994,7 +1007,8 @@ def build_sliding_window(
     absorb_middle: bool = True,
     absorb_rounds: int = 1,
     target_slack: float | None = None,
-    order_passes: int = 0,
+    order_passes: int | None = None,
+    order_reach: int = 1,
     boundary_weight: float = 8.0,
     seam_weight: float = 2.0,
 ) -> SlidingWindowProgressiveMesh:
@@ -1023,12 +1037,18 @@ def build_sliding_window(
         raise BuildError(f"absorb_rounds must be an integer >= 0, got {absorb_rounds!r}")
     if cluster and (builder != "topology" or int(inner_vertices) != 1):
         raise BuildError("cluster=True needs builder='topology' and inner_vertices=1")
+    if order_passes is None:  # a linked level's patch order is its tail's: no search with cluster
+        order_passes = DEFAULT_ORDER_PASSES if builder == "topology" and not cluster else 0
     integral = isinstance(order_passes, numbers.Integral) and not isinstance(order_passes, bool)
     if not integral or not 0 <= order_passes <= MAX_ORDER_PASSES:
-        raise BuildError(f"order_passes must be an integer in [0, {MAX_ORDER_PASSES}], got {order_passes!r}")
+        raise BuildError(
+            f"order_passes must be None or an integer in [0, {MAX_ORDER_PASSES}], got {order_passes!r}"
+        )
     if order_passes and (builder != "topology" or cluster):
-        # a linked level's patch order is its tail's
         raise BuildError("order_passes > 0 needs builder='topology' without cluster")
+    integral = isinstance(order_reach, numbers.Integral) and not isinstance(order_reach, bool)
+    if not integral or not 1 <= order_reach <= MAX_ORDER_REACH:
+        raise BuildError(f"order_reach must be an integer in [1, {MAX_ORDER_REACH}], got {order_reach!r}")
     if optimize_connectivity:
         mesh = optimize_mesh_connectivity(mesh, max_deviation=swap_max_deviation)
     topo = mesh_topology(mesh)
@@ -1046,6 +1066,7 @@ def build_sliding_window(
             target_slack,
             int(absorb_rounds),
             int(order_passes),
+            int(order_reach),
         )
     else:
         gtris, levels, recs, info = _build_forsyth(mesh, st, float(tolerance), boundary_weight, seam_weight)

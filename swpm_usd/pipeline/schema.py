@@ -17,13 +17,15 @@ PACKAGED_SCHEMA = Path(__file__).resolve().parent / "pipeline.schema.json"
 
 def _param_schema(value: Any, name: str = "") -> dict[str, Any]:
     from ..build import MAX_CACHE_SIZE, MAX_QUADRIC_WEIGHT
-    from ..encode.slidingwindow import MAX_ORDER_PASSES
+    from ..encode.slidingwindow import MAX_ORDER_PASSES, MAX_ORDER_REACH
 
     # the bounds build() checks for every encoding, so a config fails at its line, not asset by asset
     if name == "cache_size":
         return {"type": "integer", "maximum": MAX_CACHE_SIZE}
-    if name == "order_passes":
-        return {"type": "integer", "minimum": 0, "maximum": MAX_ORDER_PASSES}
+    if name == "order_passes":  # null: the encoder's default
+        return {"type": ["integer", "null"], "minimum": 0, "maximum": MAX_ORDER_PASSES}
+    if name == "order_reach":
+        return {"type": "integer", "minimum": 1, "maximum": MAX_ORDER_REACH}
     if name in ("boundary_weight", "seam_weight"):
         return {"type": "number", "minimum": 0, "maximum": MAX_QUADRIC_WEIGHT}
     if value is None:  # an optional number: None leaves the choice to the encoder
