@@ -645,7 +645,8 @@ def _build_levels(
             # thread finishes it while this one builds the next level (the kernels release the GIL)
             collapsed = (p_start, p_out, q_start, q_out, patch_steps, recs, info)
             args = (gtris, start_gids, collapsed, nstep, V, P, int(cache_size), order_passes, order_reach)
-            pending.append(worker.submit(_finish_level, *args) if worker else _done(_finish_level(*args)))
+            finishing = worker.submit(_finish_level, *args) if worker else _done(_finish_level(*args))
+            pending.append((finishing, args))
             levels.append(None)  # filled in from ``pending``
         elif not link:
             lev = _first_clustered_level(
@@ -671,7 +672,12 @@ def _build_topology(mesh: Mesh, st, *args, **kwargs):
     worker = ThreadPoolExecutor(max_workers=1) if _FINISH_IN_THREAD and cores > 1 else None
     try:
         levels, recs_all, info_all, gtris, ng = _build_levels(mesh, st, pending, worker, *args, **kwargs)
-        done = iter([f.result() for f in pending])
+        # the levels the worker has not started are finished here, last first, beside it
+        finished = [None] * len(pending)
+        for i in range(len(pending) - 1, -1, -1):
+            if pending[i][0].cancel():
+                finished[i] = _finish_level(*pending[i][1])
+        done = iter([r if r is not None else f.result() for r, (f, _) in zip(finished, pending, strict=True)])
     finally:
         if worker is not None:
             worker.shutdown(wait=True, cancel_futures=True)
