@@ -719,7 +719,7 @@ def test_refine_patch_order_lowers_the_windows_misses(spot: Mesh) -> None:
     window simulated on its own from a cold cache), and never reorders two patches with a common target."""
     from swpm_usd.encode.sw_refine import refine_patch_order, window_misses
 
-    pm = build_sliding_window(spot)
+    pm = build_sliding_window(spot, order_passes=0)  # the greedy order
     for level in (1, 4):
         n, block_start, blocks = _level_blocks(pm, level)
         no_targets = np.zeros(n + 1, np.int64), np.zeros(0, np.int64)
@@ -793,13 +793,13 @@ def test_levels_finished_in_a_thread_build_the_same_pool(
     import swpm_usd.encode.slidingwindow as sw
 
     threaded = build_sliding_window(spot, **params)
-    monkeypatch.setattr(sw, "_FINISH_IN_THREAD", False)
+    monkeypatch.setattr(sw, "FINISH_IN_THREAD", False)
     inline = build_sliding_window(spot, **params)
     for name in ("index_pool", "window_records", "points", "lod_errors", "source_vertex"):
         assert np.array_equal(getattr(threaded, name), getattr(inline, name)), name
     assert np.array_equal(threaded.collapse_sequence.binned, inline.collapse_sequence.binned)
 
-    monkeypatch.setattr(sw, "_FINISH_IN_THREAD", True)
+    monkeypatch.setattr(sw, "FINISH_IN_THREAD", True)
 
     def broken(*args):
         raise RuntimeError("worker failed")

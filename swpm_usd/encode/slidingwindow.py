@@ -99,7 +99,7 @@ MAX_ORDER_PASSES = 8
 #: ``cluster`` (whose linked levels take their order from the previous level's tail; 0 there). Ten meshes,
 #: ACMR ratio to meshoptimizer over 40 fractions from 100 to 5 % (400 points): no search 1.0588 (350 within
 #: 1.10, 179 within 1.05); two passes of reach 1 1.0442 (366, 242); one pass of reach 3 1.0412 (371, 252).
-#: With each level searched on the worker thread (``_FINISH_IN_THREAD``), two passes of reach 1 cost about
+#: With each level searched on the worker thread (``FINISH_IN_THREAD``), two passes of reach 1 cost about
 #: nothing in wall time on two cores (ten meshes 4.0 -> 4.2 s; built inline 4.9 -> 6.4 s); reach 3 costs
 #: 4.0 -> 5.4 s (inline 7.3 s with one pass)
 DEFAULT_ORDER_PASSES = 2
@@ -313,9 +313,10 @@ def _more_centres(adj_start: np.ndarray, adj: np.ndarray, eligible: np.ndarray, 
 
 #: finish each fully stored level (its patch order search and cache order, :func:`_finish_level`) on a worker
 #: thread while the next level is built (the kernels release the GIL; the pool is the same bit for bit).
-#: Bunny, medians of 3 alternating builds: 1.25 -> 0.98 s at the defaults, 2.48 -> 1.61 s with
-#: ``order_passes=2``; cow 0.11 -> 0.09 s and 0.25 -> 0.17 s. False: every level is finished inline
-_FINISH_IN_THREAD = True
+#: Bunny, medians of 3 alternating builds: 1.25 -> 0.98 s without the search, 2.48 -> 1.61 s with two passes
+#: of reach 3; cow 0.11 -> 0.09 s and 0.25 -> 0.17 s. False: every level is finished inline, what a process
+#: that shares the cores with others building wants (the pipeline's workers with ``--jobs`` > 1 set it)
+FINISH_IN_THREAD = True
 
 #: ``inner_vertices > 1``: iterations of the patch search (:func:`sw_centres.grow_component_set`) per
 #: eligible vertex, and the random jitter of its greedy refill (in free neighbours). Bunny with the edge
@@ -669,7 +670,7 @@ def _build_topology(mesh: Mesh, st, *args, **kwargs):
     machine has a second core, inline otherwise (the same pool either way)."""
     pending: list = []
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    worker = ThreadPoolExecutor(max_workers=1) if _FINISH_IN_THREAD and cores > 1 else None
+    worker = ThreadPoolExecutor(max_workers=1) if FINISH_IN_THREAD and cores > 1 else None
     try:
         levels, recs_all, info_all, gtris, ng = _build_levels(mesh, st, pending, worker, *args, **kwargs)
         # the levels the worker has not started are finished here, last first, beside it
@@ -732,11 +733,14 @@ def _finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes,
     """A fully stored level after its collapses: its patch order searched (``passes`` > 0:
     :func:`_refine_level`) and its triangles in pool order. Returns the :class:`_Level`, its collapse records
     and its steps' info (renumbered by the search). Reads only rows of ``gtris`` that later levels keep."""
+    pool = None
     if passes > 0:
-        collapsed = _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach)
+        collapsed, pool = _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach)
     p_start, p_out, q_start, q_out, patch_steps, recs, info = collapsed
     lev = _Level(start_gids, p_start, p_out, q_start, q_out, patch_steps)
-    lev.pool = _level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size)[0]
+    if pool is None:
+        pool = _level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size)[0]
+    lev.pool = pool
     return lev, recs, info
 
 
@@ -748,7 +752,7 @@ def _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes,
     p_start, p_out, q_start, q_out, patch_steps, recs, info = collapsed
     n = patch_steps.shape[0]
     if n < 3:
-        return collapsed
+        return collapsed, None
     # the blocks as the pool will draw them (:func:`_assemble`'s cache order inside each), not as fans: the
     # search then gains what the pool keeps (spot, misses over every third window: -1.2 % as fans)
     tris, starts = _level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size)
@@ -768,7 +772,11 @@ def _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes,
         passes,
     )
     if np.array_equal(perm, np.arange(n)):
-        return collapsed
+        return collapsed, tris
+    # the pool: the blocks as ordered for the search, moved with their patches
+    block_sizes = np.diff(starts)
+    blocks = np.concatenate((perm, [n], n + 1 + perm))
+    pool = tris[_gather(starts[blocks], block_sizes[blocks])]
     p_sizes = np.diff(p_start)[perm]
     q_sizes = np.diff(q_start)[perm]
     p_out = p_out[_gather(p_start[perm], p_sizes)]
@@ -783,7 +791,7 @@ def _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes,
     by_step = np.argsort(rec_step, kind="stable")
     recs = recs[by_step]
     recs[:, 2] = rec_step[by_step] + step0
-    return p_start, p_out, q_start, q_out, patch_steps[perm], recs, info
+    return (p_start, p_out, q_start, q_out, patch_steps[perm], recs, info), pool
 
 
 def _absorb(st, pt_start, pt, alive_t, min_shared: int, stars, rounds: int):
