@@ -98,10 +98,10 @@ MAX_ORDER_PASSES = 8
 #: ``order_passes=None`` (the default): passes of the patch-order search for ``builder="topology"`` without
 #: ``cluster`` (whose linked levels take their order from the previous level's tail; 0 there). Ten meshes,
 #: ACMR ratio to meshoptimizer over 40 fractions from 100 to 5 % (400 points): no search 1.0588 (350 within
-#: 1.10, 179 within 1.05); two passes of reach 1 1.0442 (366, 242); one pass of reach 3 1.0412 (371, 252).
-#: With each level searched on the worker thread (``FINISH_IN_THREAD``), two passes of reach 1 cost about
-#: nothing in wall time on two cores (ten meshes 4.0 -> 4.2 s; built inline 4.9 -> 6.4 s); reach 3 costs
-#: 4.0 -> 5.4 s (inline 7.3 s with one pass)
+#: 1.10, 179 within 1.05); two passes of reach 1 1.0436 (365, 241); two passes of reach 3 1.0356 (374, 272).
+#: With each level searched on the worker thread (``FINISH_IN_THREAD``), two passes of reach 1 cost little
+#: wall time on two cores (ten meshes about 4.0-4.7 -> 4.2-4.8 s) and 1.14-1.21x the CPU time of no search
+#: (inline, three runs); two passes of reach 3 1.6-1.7x
 DEFAULT_ORDER_PASSES = 2
 #: ``order_reach`` at most (a move is evaluated over blocks up to this far apart, and all of a pass's
 #: candidates grow with it)
