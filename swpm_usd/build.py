@@ -72,5 +72,6 @@ def build(mesh_or_path: Mesh | str | Path, encoding: str = "vanilla", **params: 
         mesh = load_mesh(mesh_or_path)
     resolved = {**defaults, **params}
     pm = fn(mesh, **resolved)
-    pm.params.update(resolved)
+    # a None default leaves the choice to the encoder: the value it recorded stays (order_passes)
+    pm.params.update({k: v for k, v in resolved.items() if v is not None or k not in pm.params})
     return pm

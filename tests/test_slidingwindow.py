@@ -748,7 +748,7 @@ def test_order_passes_warm_the_windows_with_the_same_pool_and_errors(spot: Mesh)
     default = swpm_usd.build(spot, "sliding-window")
     pm = swpm_usd.build(spot, "sliding-window", order_passes=2, order_reach=3)
     assert pm.params["order_passes"] == 2 and base.params["order_passes"] == 0
-    assert default.params["order_passes"] is None and default.params["order_reach"] == 1
+    assert default.params["order_passes"] == 2 and default.params["order_reach"] == 1
     for p in (default, pm):
         assert p.index_pool.shape == base.index_pool.shape and p.lod_count == base.lod_count
         assert np.array_equal(p.lod_level, base.lod_level)
@@ -807,3 +807,32 @@ def test_levels_finished_in_a_thread_build_the_same_pool(
     monkeypatch.setattr(sw, "_finish_level", broken)
     with pytest.raises(RuntimeError, match="worker failed"):
         build_sliding_window(spot, **params)
+
+
+def test_inline_finishing_builds_without_a_worker_on_this_thread_only(
+    spot: Mesh, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Inside ``inline_finishing`` (the pipeline's workers) a build starts no worker thread; the setting is
+    per thread and restored on exit, and the pool is the same."""
+    import threading
+
+    import swpm_usd.encode.slidingwindow as sw
+
+    threaded = build_sliding_window(spot)
+    started = []
+    real = sw.ThreadPoolExecutor
+
+    def counting(*args, **kwargs):
+        started.append(threading.get_ident())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(sw, "ThreadPoolExecutor", counting)
+    with sw.inline_finishing():
+        inline = build_sliding_window(spot)
+        other = threading.Thread(target=lambda: build_sliding_window(spot))
+        other.start()
+        other.join()
+    assert np.array_equal(inline.index_pool, threaded.index_pool)
+    assert started == [other.ident]  # the other thread still finished its levels on a worker
+    build_sliding_window(spot)
+    assert len(started) == 2  # restored on exit

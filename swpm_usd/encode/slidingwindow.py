@@ -57,8 +57,10 @@ from __future__ import annotations
 
 import numbers
 import os
-from collections.abc import Mapping
+import threading
+from collections.abc import Iterator, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
@@ -314,9 +316,23 @@ def _more_centres(adj_start: np.ndarray, adj: np.ndarray, eligible: np.ndarray, 
 #: finish each fully stored level (its patch order search and cache order, :func:`_finish_level`) on a worker
 #: thread while the next level is built (the kernels release the GIL; the pool is the same bit for bit).
 #: Bunny, medians of 3 alternating builds: 1.25 -> 0.98 s without the search, 2.48 -> 1.61 s with two passes
-#: of reach 3; cow 0.11 -> 0.09 s and 0.25 -> 0.17 s. False: every level is finished inline, what a process
-#: that shares the cores with others building wants (the pipeline's workers with ``--jobs`` > 1 set it)
+#: of reach 3; cow 0.11 -> 0.09 s and 0.25 -> 0.17 s. False: every level is finished inline (as inside
+#: :func:`inline_finishing`, which the pipeline's workers use: ``--jobs`` is the pipeline's parallelism)
 FINISH_IN_THREAD = True
+_THIS_THREAD = threading.local()
+
+
+@contextmanager
+def inline_finishing() -> Iterator[None]:
+    """Builds on this thread finish their levels inline (no worker thread) inside the block: for a process
+    or thread that shares the cores with other builds. Per thread, so concurrent callers do not interfere."""
+    before = getattr(_THIS_THREAD, "inline", False)
+    _THIS_THREAD.inline = True
+    try:
+        yield
+    finally:
+        _THIS_THREAD.inline = before
+
 
 #: ``inner_vertices > 1``: iterations of the patch search (:func:`sw_centres.grow_component_set`) per
 #: eligible vertex, and the random jitter of its greedy refill (in free neighbours). Bunny with the edge
@@ -670,7 +686,8 @@ def _build_topology(mesh: Mesh, st, *args, **kwargs):
     machine has a second core, inline otherwise (the same pool either way)."""
     pending: list = []
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    worker = ThreadPoolExecutor(max_workers=1) if FINISH_IN_THREAD and cores > 1 else None
+    threads = FINISH_IN_THREAD and not getattr(_THIS_THREAD, "inline", False) and cores > 1
+    worker = ThreadPoolExecutor(max_workers=1) if threads else None
     try:
         levels, recs_all, info_all, gtris, ng = _build_levels(mesh, st, pending, worker, *args, **kwargs)
         # the levels the worker has not started are finished here, last first, beside it
@@ -1084,4 +1101,6 @@ def build_sliding_window(
         )
     else:
         gtris, levels, recs, info = _build_forsyth(mesh, st, float(tolerance), boundary_weight, seam_weight)
-    return _assemble(mesh, gtris, levels, recs, info, int(cache_size))
+    pm = _assemble(mesh, gtris, levels, recs, info, int(cache_size))
+    pm.params["order_passes"] = int(order_passes)  # what ran (None resolved)
+    return pm

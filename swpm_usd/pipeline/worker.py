@@ -157,17 +157,14 @@ def check_streaming(pm, policy: dict) -> list[str]:
 def process_asset(task: dict[str, Any]) -> dict[str, Any]:
     """Do one asset. ``task`` is plain data (picklable for process pools and Dask).
 
-    The build runs on one core (no sliding-window finishing thread, :data:`.slidingwindow.FINISH_IN_THREAD`):
-    ``--jobs`` is the pipeline's parallelism, and a build thread beside every worker would compete with the
-    other workers (20 assets, ``--jobs 2``: 19.5 s with a build thread beside each worker, 16.8 s without)."""
+    The build runs on one core, ``--jobs 1`` included (no sliding-window finishing thread:
+    :func:`.slidingwindow.inline_finishing`): ``--jobs`` is the pipeline's parallelism, and a build thread
+    beside every worker would compete with the other workers (20 assets, ``--jobs 2``: 19.5 s with a build
+    thread beside each worker, 16.8 s without)."""
     from ..encode import slidingwindow
 
-    threads = slidingwindow.FINISH_IN_THREAD
-    slidingwindow.FINISH_IN_THREAD = False
-    try:
+    with slidingwindow.inline_finishing():
         return _process_asset(task)
-    finally:
-        slidingwindow.FINISH_IN_THREAD = threads
 
 
 def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
