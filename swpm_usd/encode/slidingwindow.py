@@ -746,7 +746,7 @@ def _done(value) -> Future:
     return f
 
 
-def _finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach=1):
+def _finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach):
     """A fully stored level after its collapses: its patch order searched (``passes`` > 0:
     :func:`_refine_level`) and its triangles in pool order. Returns the :class:`_Level`, its collapse records
     and its steps' info (renumbered by the search). Reads only rows of ``gtris`` that later levels keep."""
@@ -761,17 +761,18 @@ def _finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes,
     return lev, recs, info
 
 
-def _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach=1):
+def _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach):
     """The level's patches in the order of :func:`.sw_refine.refine_patch_order` (fewer cache misses over
     its windows), with their collapse records and steps renumbered to follow. ``collapsed``: the level's
-    ``(p_start, p_out, q_start, q_out, patch_steps, recs, info)`` from :func:`.sw_kernels.collapse_patches`,
-    returned in the same form."""
+    ``(p_start, p_out, q_start, q_out, patch_steps, recs, info)`` from :func:`.sw_kernels.collapse_patches`.
+    Returns it in the same form, and the level's triangles in pool order (None for fewer than 3 patches,
+    which are not searched)."""
     p_start, p_out, q_start, q_out, patch_steps, recs, info = collapsed
     n = patch_steps.shape[0]
     if n < 3:
         return collapsed, None
-    # the blocks as the pool will draw them (:func:`_assemble`'s cache order inside each), not as fans: the
-    # search then gains what the pool keeps (spot, misses over every third window: -1.2 % as fans)
+    # the blocks cache-ordered as the pool stores them, not as fans: the search then gains what the pool
+    # keeps (spot, misses over every third window: -1.2 % as fans)
     tris, starts = _level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size)
     step_start = np.concatenate(([0], np.cumsum(patch_steps)))
     targets = info[: step_start[n], 2].astype(np.int64)
@@ -1024,6 +1025,11 @@ def _assemble(
     return pm
 
 
+def _is_integer(value: Any) -> bool:
+    """An integer (numpy's too), not a bool."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
 def build_sliding_window(
     mesh: Mesh,
     *,
@@ -1063,22 +1069,19 @@ def build_sliding_window(
         and 0.0 <= float(target_slack) < np.inf
     ):
         raise BuildError(f"target_slack must be a finite number >= 0 or None, got {target_slack!r}")
-    integral = isinstance(absorb_rounds, numbers.Integral) and not isinstance(absorb_rounds, bool)
-    if not integral or absorb_rounds < 0:
+    if not _is_integer(absorb_rounds) or absorb_rounds < 0:
         raise BuildError(f"absorb_rounds must be an integer >= 0, got {absorb_rounds!r}")
     if cluster and (builder != "topology" or int(inner_vertices) != 1):
         raise BuildError("cluster=True needs builder='topology' and inner_vertices=1")
     if order_passes is None:  # a linked level's patch order is its tail's: no search with cluster
         order_passes = DEFAULT_ORDER_PASSES if builder == "topology" and not cluster else 0
-    integral = isinstance(order_passes, numbers.Integral) and not isinstance(order_passes, bool)
-    if not integral or not 0 <= order_passes <= MAX_ORDER_PASSES:
+    if not _is_integer(order_passes) or not 0 <= order_passes <= MAX_ORDER_PASSES:
         raise BuildError(
             f"order_passes must be None or an integer in [0, {MAX_ORDER_PASSES}], got {order_passes!r}"
         )
     if order_passes and (builder != "topology" or cluster):
         raise BuildError("order_passes > 0 needs builder='topology' without cluster")
-    integral = isinstance(order_reach, numbers.Integral) and not isinstance(order_reach, bool)
-    if not integral or not 1 <= order_reach <= MAX_ORDER_REACH:
+    if not _is_integer(order_reach) or not 1 <= order_reach <= MAX_ORDER_REACH:
         raise BuildError(f"order_reach must be an integer in [1, {MAX_ORDER_REACH}], got {order_reach!r}")
     if optimize_connectivity:
         mesh = optimize_mesh_connectivity(mesh, max_deviation=swap_max_deviation)
