@@ -650,14 +650,15 @@ def test_lower_costly_centres_lower_the_top_of_the_ranking() -> None:
 
 def test_sparse_coarse_levels_keep_their_middle(monkeypatch: pytest.MonkeyPatch) -> None:
     """Beetle's coarse levels have few centres left; their middle stays one block (not absorbed into
-    blobs around the centres): a smaller pool and a warmer cache there than absorbing on every level."""
+    blobs around the centres): a smaller pool and a warmer cache there than absorbing on every level. At
+    10 % of the triangles beetle is at its coarsest LOD: without its copy, so the last level draws it."""
     from swpm_usd.encode import slidingwindow as sw
     from swpm_usd.metrics import acmr
 
     beetle = swpm_usd.load_mesh(MESHES / "beetle.obj")
-    bounded = build_sliding_window(beetle)
+    bounded = build_sliding_window(beetle, coarsest_copy=False)
     monkeypatch.setattr(sw, "_ABSORB_MAX_MIDDLE", 1.0)
-    always = build_sliding_window(beetle)
+    always = build_sliding_window(beetle, coarsest_copy=False)
     assert bounded.index_pool.shape[0] < 0.97 * always.index_pool.shape[0]
     k_b = bounded.lod_for_triangles(beetle.triangle_count // 10)
     k_a = always.lod_for_triangles(beetle.triangle_count // 10)
@@ -782,6 +783,32 @@ def test_order_passes_warm_the_windows_with_the_same_pool_and_errors(spot: Mesh)
     for params in ({"cluster": True}, {"builder": "forsyth"}):
         with pytest.raises(BuildError, match="order_passes"):
             build_sliding_window(spot, order_passes=1, **params)
+
+
+def test_the_coarsest_lod_is_stored_again_as_one_cache_ordered_block(
+    spot: Mesh, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``coarsest_copy`` (the default) appends the coarsest LOD's triangles after the last level, ordered as
+    one block: the same triangles with fewer FIFO misses than the last level's final window, every other
+    window and the pool before it unchanged; above ``COARSEST_COPY_MAX_SHARE`` of the pool, no copy."""
+    from swpm_usd.encode import slidingwindow as sw
+    from swpm_usd.metrics import cache_misses
+
+    with_copy = build_sliding_window(spot)
+    without = build_sliding_window(spot, coarsest_copy=False)
+    k = with_copy.lod_count - 1
+    n_before = without.index_pool.shape[0]
+    first, count, _ = with_copy.window(k)
+    assert first == n_before and with_copy.index_pool.shape[0] == n_before + 3 * count
+    assert np.array_equal(with_copy.index_pool[:n_before], without.index_pool)
+    assert np.array_equal(with_copy.window_records[:-1], without.window_records[:-1])
+    assert with_copy.lod_level[k] == without.lod_level[k] + 1
+    copy, window = with_copy.triangles_at(k), without.triangles_at(k)
+    assert np.array_equal(_canonical(copy), _canonical(window))
+    assert cache_misses(copy)[0] < cache_misses(window)[0]
+    _check_all(with_copy, spot, closed=True, every=97)
+    monkeypatch.setattr(sw, "COARSEST_COPY_MAX_SHARE", 0.5 * count / (n_before / 3 + count))
+    assert np.array_equal(build_sliding_window(spot).index_pool, without.index_pool)
 
 
 @pytest.mark.parametrize("params", [{}, {"order_passes": 2}])

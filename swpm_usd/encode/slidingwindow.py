@@ -37,7 +37,8 @@ choice, what was measured and what was tried and dropped):
   inner vertices, fewer LODs, a smaller pool. ``order_passes`` (None: 2 here, 0 with ``cluster``) passes of
   a local search then move patches up to ``order_reach`` places (default 1) wherever the FIFO misses summed
   over the level's windows fall (:mod:`.sw_refine`; a warmer cache, the same pool and errors; more passes
-  and a longer reach for a longer build).
+  and a longer reach for a longer build). ``coarsest_copy`` (default True): the coarsest LOD also stored on
+  its own after the last level, cache-ordered as one block, where it is small and that saves misses.
 * ``builder="forsyth"``: Forsyth's quadric-error order with the error-tolerance reordering
   (:mod:`.sw_forsyth`).
 * ``optimize_connectivity=True`` (SWPM 3.1): edge swaps creating low-degree vertices first, each moving the
@@ -67,6 +68,7 @@ import numpy as np
 
 from ..errors import BuildError
 from ..mesh import Mesh
+from ..metrics import cache_misses
 from ..simplify import CollapseSequence, collapse_sequence, make_state, mesh_topology
 from ..simplify.kernels import star_snapshot
 from ..vcache import apply_order, optimize_block_order
@@ -124,6 +126,7 @@ SLIDING_WINDOW_PARAMS: dict[str, Any] = {
     "target_slack": None,
     "order_passes": None,
     "order_reach": 1,
+    "coarsest_copy": True,
 }
 
 
@@ -311,6 +314,13 @@ _REFINE_RUN = 1
 def _more_centres(adj_start: np.ndarray, adj: np.ndarray, eligible: np.ndarray, centres: np.ndarray):
     iterations = int(_CENTRE_SEARCH * np.count_nonzero(eligible))
     return swc.grow_independent_set(adj_start, adj, eligible, centres, iterations, _CENTRE_SEARCH_SEED)
+
+
+#: ``coarsest_copy=True``: the coarsest LOD is stored again after the last level, its triangles cache-ordered
+#: as one block (a window there reloads the vertices on the front between the ``P`` and ``Q`` parts), when
+#: that saves misses and the copy is at most this share of the pool (the ten benchmark meshes: 4-210
+#: triangles, 0.01-1.8 % of the pool; ACMR ratio of the coarsest LOD 1.00-1.25 -> see ``slidingwindow.md``)
+COARSEST_COPY_MAX_SHARE = 1 / 32
 
 
 #: finish each fully stored level (its patch order search and cache order, :func:`_finish_level`) on a worker
@@ -922,8 +932,28 @@ def _build_forsyth(mesh: Mesh, st, tolerance: float, boundary_weight: float, sea
     return gtris[:ng], levels, recs, info
 
 
+def _coarsest_copy(pool_tris: np.ndarray, row: np.ndarray, cache_size: int) -> np.ndarray | None:
+    """The coarsest LOD's triangles (``row``: its window's first triangle and count in ``pool_tris``)
+    ordered for the cache as one block, if that draws them with fewer FIFO misses than its window does and
+    they are at most :data:`COARSEST_COPY_MAX_SHARE` of the pool; else None."""
+    first, count = int(row[0]), int(row[1])
+    if count < 2 or count > COARSEST_COPY_MAX_SHARE * pool_tris.shape[0]:
+        return None
+    window = pool_tris[first : first + count]
+    copy = _block_order(window, np.array([0, count], np.int64), cache_size)
+    if cache_misses(copy, cache_size)[0] >= cache_misses(window, cache_size)[0]:
+        return None
+    return copy
+
+
 def _assemble(
-    mesh: Mesh, gtris: np.ndarray, levels: list[_Level], recs: np.ndarray, info: np.ndarray, cache_size: int
+    mesh: Mesh,
+    gtris: np.ndarray,
+    levels: list[_Level],
+    recs: np.ndarray,
+    info: np.ndarray,
+    cache_size: int,
+    coarsest_copy: bool = True,
 ) -> SlidingWindowProgressiveMesh:
     V, T = mesh.vertex_count, mesh.triangle_count
     binned, kept, step = recs[:, 0], recs[:, 1], recs[:, 2]
@@ -991,6 +1021,13 @@ def _assemble(
             )
         )
         steps_done = int(steps[n])
+    if coarsest_copy:
+        copy = _coarsest_copy(np.concatenate(parts), rows[-1][-1], cache_size)
+        if copy is not None:  # the coarsest LOD becomes a level of its own: one block, no patches
+            parts.append(copy)
+            rows[-1][-1, 0] = pool_len
+            rows[-1][-1, 3] = len(levels)
+            pool_len += copy.shape[0]
     pool_tris = np.concatenate(parts) if parts else np.zeros((0, 3), np.int64)
     pool = new_id[pool_tris].reshape(-1)
     rows_a = np.concatenate(rows).astype(np.int64)
@@ -1046,6 +1083,7 @@ def build_sliding_window(
     target_slack: float | None = None,
     order_passes: int | None = None,
     order_reach: int = 1,
+    coarsest_copy: bool = True,
     boundary_weight: float = 8.0,
     seam_weight: float = 2.0,
 ) -> SlidingWindowProgressiveMesh:
@@ -1104,6 +1142,6 @@ def build_sliding_window(
         )
     else:
         gtris, levels, recs, info = _build_forsyth(mesh, st, float(tolerance), boundary_weight, seam_weight)
-    pm = _assemble(mesh, gtris, levels, recs, info, int(cache_size))
+    pm = _assemble(mesh, gtris, levels, recs, info, int(cache_size), bool(coarsest_copy))
     pm.params["order_passes"] = int(order_passes)  # what ran (None resolved)
     return pm
