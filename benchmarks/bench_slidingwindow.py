@@ -19,7 +19,8 @@ and with the edge swaps); inner3-swap-slack1, cluster-swap-slack1 and topology-m
 ``mu=0.2``); topology-mu0.3-absorb-all (``mu=0.3, absorb_rounds=0``: the whole static middle joins
 the patches); inner3-mu0.3 (patches of up to three inner vertices spent on ``mu=0.3``: the error of
 topology-mu0.3-absorb-all from a smaller pool, fewer LODs, a colder cache); order0 (``order_passes=0``: the
-greedy patch order alone, without the search the defaults run, two passes of reach 1); order2,
+greedy patch order alone, without the search the defaults run, two passes of reach 2); reach1
+(``order_reach=1``: the default until 2026-12-02's second session); order2,
 mu0.3-absorb-all-order2 and inner3-mu0.3-order2 (``order_passes=2, order_reach=3``: each level's patch
 order searched further for fewer cache misses over its windows, for a longer build). ``--big`` adds a
 generated icosphere of 1.3 M triangles (build time only).
@@ -49,6 +50,7 @@ OPTIONS = {
     "inner3": {"inner_vertices": 3},
     "inner3-mu0.3": {"inner_vertices": 3, "mu": 0.3},
     "order0": {"order_passes": 0},
+    "reach1": {"order_reach": 1},
     "order2": {"order_passes": 2, "order_reach": 3},
     "mu0.3-absorb-all-order2": {"mu": 0.3, "absorb_rounds": 0, "order_passes": 2, "order_reach": 3},
     "inner3-mu0.3-order2": {"inner_vertices": 3, "mu": 0.3, "order_passes": 2, "order_reach": 3},

@@ -35,7 +35,7 @@ choice, what was measured and what was tried and dropped):
   :func:`.sw_kernels.order_patches`) and the triangles inside every block after them
   (:func:`swpm_usd.vcache.optimize_block_order`). ``inner_vertices > 1`` (SWPM 3.3): patches of several
   inner vertices, fewer LODs, a smaller pool. ``order_passes`` (None: 2 here, 0 with ``cluster``) passes of
-  a local search then move patches up to ``order_reach`` places (default 1) wherever the FIFO misses summed
+  a local search then move patches up to ``order_reach`` places (default 2) wherever the FIFO misses summed
   over the level's windows fall (:mod:`.sw_refine`; a warmer cache, the same pool and errors; more passes
   and a longer reach for a longer build). ``coarsest_copy`` (default True): the coarsest LOD also stored on
   its own after the last level, cache-ordered as one block, where it is small and that saves misses.
@@ -102,10 +102,12 @@ MAX_ORDER_PASSES = 8
 #: ``order_passes=None`` (the default): passes of the patch-order search for ``builder="topology"`` without
 #: ``cluster`` (whose linked levels take their order from the previous level's tail; 0 there). Ten meshes,
 #: ACMR ratio to meshoptimizer over 40 fractions from 100 to 5 % (400 points): no search 1.0588 (350 within
-#: 1.10, 179 within 1.05); two passes of reach 1 1.0436 (365, 241); two passes of reach 3 1.0356 (374, 272).
-#: With each level searched on the worker thread (``FINISH_IN_THREAD``), two passes of reach 1 cost little
-#: wall time on two cores (ten meshes about 4.0-4.7 -> 4.2-4.8 s) and 1.14-1.21x the CPU time of no search
-#: (inline, three runs); two passes of reach 3 1.6-1.7x
+#: 1.10, 179 within 1.05); two passes of reach 1 1.0436 (365, 241); of reach 2 (``order_reach``'s default)
+#: 1.0368 (374, 265); of reach 3 1.0356 (374, 272). CPU time over no search, inline, ten meshes, medians of
+#: three: 1.25x / 1.46x / 1.68x for reach 1 / 2 / 3. With each level searched on the worker thread
+#: (``FINISH_IN_THREAD``) the wall time on two cores grows less (ten builds 3.4 s with reach 1, 4.1 s with
+#: reach 2; bunny's LOD chain 5.1-6.1x meshoptimizer's -> 5.8-6.6x, cow's 7.9-8.6x -> 8.1-9.1x, three
+#: alternating runs)
 DEFAULT_ORDER_PASSES = 2
 #: ``order_reach`` at most (a move is evaluated over blocks up to this far apart, and all of a pass's
 #: candidates grow with it)
@@ -125,7 +127,7 @@ SLIDING_WINDOW_PARAMS: dict[str, Any] = {
     "absorb_rounds": 1,
     "target_slack": None,
     "order_passes": None,
-    "order_reach": 1,
+    "order_reach": 2,
     "coarsest_copy": True,
 }
 
@@ -529,7 +531,7 @@ def _build_levels(
     target_slack: float | None = None,
     absorb_rounds: int = 1,
     order_passes: int = 0,
-    order_reach: int = 1,
+    order_reach: int = 2,
 ):
     T = mesh.triangle_count
     P = st.pos_points.shape[0]
@@ -1082,7 +1084,7 @@ def build_sliding_window(
     absorb_rounds: int = 1,
     target_slack: float | None = None,
     order_passes: int | None = None,
-    order_reach: int = 1,
+    order_reach: int = 2,
     coarsest_copy: bool = True,
     boundary_weight: float = 8.0,
     seam_weight: float = 2.0,
