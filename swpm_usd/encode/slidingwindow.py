@@ -16,7 +16,8 @@ and the LOD after the first ``j`` patches of the level is the ONE contiguous win
 ``|T_L| - |P_1..P_j| + |Q_1..Q_j|`` triangles): the window slides towards the end of the pool as detail
 drops. The next level starts from the level's simplest mesh ``M || Q_1..Q_n``; levels are concatenated.
 LOD ``k`` counts patches over all levels, finest first (``lod_count = patches + 1``); the last LOD of a
-level is the first window of the next one.
+level is the first window of the next one. The coarsest LOD may be stored once more after the last level,
+as one cache-ordered block (``coarsest_copy``): its record then points there.
 
 Vertices. Vertex collapses are numbered in build order over all levels; the vertex the ``c``-th one bins is
 stored at index ``V - 1 - c`` (as in vanilla VIPM), never-binned vertices first, so LOD ``k`` uses exactly
@@ -102,8 +103,9 @@ MAX_ORDER_PASSES = 8
 #: ``order_passes=None`` (the default): passes of the patch-order search for ``builder="topology"`` without
 #: ``cluster`` (whose linked levels take their order from the previous level's tail; 0 there). Ten meshes,
 #: ACMR ratio to meshoptimizer over 40 fractions from 100 to 5 % (400 points): no search 1.0588 (350 within
-#: 1.10, 179 within 1.05); two passes of reach 1 1.0436 (365, 241); of reach 2 (``order_reach``'s default)
-#: 1.0368 (374, 265); of reach 3 1.0356 (374, 272). CPU time over no search, inline, ten meshes, medians of
+#: 1.10, 179 within 1.05); two passes of reach 1 1.0436 (365, 241). With the coarsest LOD's copy: no search
+#: 1.0577 (353, 182); two passes of reach 1 1.0425 (368, 244), of reach 2 (``order_reach``'s default) 1.0357
+#: (377, 268), of reach 3 1.0345 (377, 275). CPU time over no search, inline, ten meshes, medians of
 #: three: 1.25x / 1.46x / 1.68x for reach 1 / 2 / 3. With each level searched on the worker thread
 #: (``FINISH_IN_THREAD``) the wall time on two cores grows less (ten builds 3.4 s with reach 1, 4.1 s with
 #: reach 2; bunny's LOD chain 5.1-6.1x meshoptimizer's -> 5.8-6.6x, cow's 7.9-8.6x -> 8.1-9.1x, three
@@ -177,7 +179,8 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
 
     @property
     def level_count(self) -> int:
-        """Number of levels in the pool (LOD 0 and every later level's first LOD start one)."""
+        """Number of levels in the pool (LOD 0 and every later level's first LOD start one; the coarsest
+        LOD's copy, ``coarsest_copy``, counts as a level)."""
         return int(np.unique(self.lod_level).shape[0]) if self.lod_level is not None else 0
 
     def record_for_triangles(self, target: int) -> np.ndarray:
@@ -320,9 +323,13 @@ def _more_centres(adj_start: np.ndarray, adj: np.ndarray, eligible: np.ndarray, 
 
 #: ``coarsest_copy=True``: the coarsest LOD is stored again after the last level, its triangles cache-ordered
 #: as one block (a window there reloads the vertices on the front between the ``P`` and ``Q`` parts), when
-#: that saves misses and the copy is at most this share of the pool (the ten benchmark meshes: 4-210
-#: triangles, 0.01-1.8 % of the pool; ACMR ratio of the coarsest LOD 1.00-1.25 -> see ``slidingwindow.md``)
+#: the copy is at most this share of the pool without it (inclusive) and saves at least
+#: ``_COARSEST_COPY_MIN_GAIN`` of the window's misses. The ten benchmark meshes: copies of 21-210
+#: triangles, up to 1.8 % of the pool, on six of them; the coarsest LOD's ACMR ratio to meshoptimizer
+#: 1.00-1.25 -> 1.00-1.01 (``slidingwindow.md``)
 COARSEST_COPY_MAX_SHARE = 1 / 32
+#: a copy saving less is not worth its pool (those of the ten meshes save 9.5-20 %)
+_COARSEST_COPY_MIN_GAIN = 0.05
 
 
 #: finish each fully stored level (its patch order search and cache order, :func:`_finish_level`) on a worker
@@ -936,14 +943,18 @@ def _build_forsyth(mesh: Mesh, st, tolerance: float, boundary_weight: float, sea
 
 def _coarsest_copy(pool_tris: np.ndarray, row: np.ndarray, cache_size: int) -> np.ndarray | None:
     """The coarsest LOD's triangles (``row``: its window's first triangle and count in ``pool_tris``)
-    ordered for the cache as one block, if that draws them with fewer FIFO misses than its window does and
-    they are at most :data:`COARSEST_COPY_MAX_SHARE` of the pool; else None."""
+    ordered for the cache as one block, if that draws them with at least :data:`_COARSEST_COPY_MIN_GAIN`
+    fewer FIFO misses than its window does and they are at most :data:`COARSEST_COPY_MAX_SHARE` of
+    ``pool_tris`` (the pool without the copy); else None."""
     first, count = int(row[0]), int(row[1])
     if count < 2 or count > COARSEST_COPY_MAX_SHARE * pool_tris.shape[0]:
         return None
     window = pool_tris[first : first + count]
     copy = _block_order(window, np.array([0, count], np.int64), cache_size)
-    if cache_misses(copy, cache_size)[0] >= cache_misses(window, cache_size)[0]:
+    if (
+        cache_misses(copy, cache_size)[0]
+        > (1.0 - _COARSEST_COPY_MIN_GAIN) * cache_misses(window, cache_size)[0]
+    ):
         return None
     return copy
 
@@ -1023,14 +1034,12 @@ def _assemble(
             )
         )
         steps_done = int(steps[n])
-    if coarsest_copy:
-        copy = _coarsest_copy(np.concatenate(parts), rows[-1][-1], cache_size)
-        if copy is not None:  # the coarsest LOD becomes a level of its own: one block, no patches
-            parts.append(copy)
-            rows[-1][-1, 0] = pool_len
-            rows[-1][-1, 3] = len(levels)
-            pool_len += copy.shape[0]
     pool_tris = np.concatenate(parts) if parts else np.zeros((0, 3), np.int64)
+    copy = _coarsest_copy(pool_tris, rows[-1][-1], cache_size) if coarsest_copy else None
+    if copy is not None:  # the coarsest LOD becomes a level of its own: one block, no patches
+        rows[-1][-1, 0] = pool_tris.shape[0]
+        rows[-1][-1, 3] = len(levels)
+        pool_tris = np.concatenate((pool_tris, copy))
     pool = new_id[pool_tris].reshape(-1)
     rows_a = np.concatenate(rows).astype(np.int64)
     lod_steps = rows_a[:, 2]
