@@ -136,23 +136,27 @@ def _order_blocks(
     glive = np.zeros(nvert, np.int64)
     nb = starts.shape[0] - 1
     seg = 0
-    # per-block scratch, indexed by local vertex / local triangle
+    # per-block scratch, indexed by local vertex / local triangle: sized for the largest block (a
+    # sliding-window level is thousands of small blocks: 1 M triangles in one call needed 400 MB at 3 n)
+    mb = 0
+    for b in range(nb):
+        mb = max(mb, starts[b + 1] - starts[b])
     loc = np.full(nvert, -1, np.int64)  # global -> local vertex id of the current block
-    lvert = np.empty(3 * n + 1, np.int64)
-    off = np.empty(3 * n + 2, np.int64)
-    live = np.empty(3 * n + 1, np.int64)  # live triangles of the vertex inside the block
-    adj = np.empty(3 * n + 1, np.int64)  # live triangles first in each vertex's range
-    vsc = np.empty(3 * n + 1, np.float64)
-    mark = np.zeros(3 * n + 1, np.int64)
-    tsc = np.empty(n + 1, np.float64)
-    emitted = np.zeros(n + 1, np.bool_)
-    dead = np.empty(3 * n + 1, np.int64)
+    lvert = np.empty(3 * mb + 1, np.int64)
+    off = np.empty(3 * mb + 2, np.int64)
+    live = np.empty(3 * mb + 1, np.int64)  # live triangles of the vertex inside the block
+    adj = np.empty(3 * mb + 1, np.int64)  # live triangles first in each vertex's range
+    vsc = np.empty(3 * mb + 1, np.float64)
+    mark = np.zeros(3 * mb + 1, np.int64)
+    tsc = np.empty(mb + 1, np.float64)
+    emitted = np.zeros(mb + 1, np.bool_)
+    dead = np.empty(3 * mb + 1, np.int64)
     upd = np.empty(C + 8, np.int64)
     # the block's own pushes still in the FIFO, oldest first: push number and local vertex of entries
     # qhead..qtail-1. Walking these instead of the whole ring (cache_size entries, most of them other
     # blocks' vertices) finds the cached block vertices in the same newest-to-oldest order
-    qpush = np.empty(3 * n + C + 1, np.int64)
-    qlv = np.empty(3 * n + C + 1, np.int64)
+    qpush = np.empty(3 * mb + C + 1, np.int64)
+    qlv = np.empty(3 * mb + C + 1, np.int64)
     # vertex score by (cache position or C when not cached, remaining triangles capped at 8); a table
     # instead of a helper taking the two score arrays: numba reference-counted the arrays on every call
     # of the helper (atomic increments, ~15 % of this kernel's time)

@@ -430,6 +430,7 @@ class _Level:
 
     def __init__(self, start_gids, p_start, p_out, q_start, q_out, patch_steps, stored=None, shared=False):
         self.start_gids = start_gids
+        self.triangle_count = int(start_gids.shape[0])
         self.p_start = p_start
         self.p_out = p_out
         self.q_start = q_start
@@ -683,6 +684,9 @@ def _build_levels(
             args = (gtris, start_gids, collapsed, nstep, V, P, int(cache_size), order_passes, order_reach)
             finishing = worker.submit(_finish_level, *args) if worker else _done(_finish_level(*args))
             pending.append((finishing, args))
+            for i, (f, a) in enumerate(pending):  # a finished level's inputs are not needed any more
+                if a is not None and f.done():
+                    pending[i] = (f, None)
             levels.append(None)  # filled in from ``pending``
         elif not link:
             lev = _first_clustered_level(
@@ -776,7 +780,10 @@ def _finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes,
     lev = _Level(start_gids, p_start, p_out, q_start, q_out, patch_steps)
     if pool is None:
         pool = _level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size)[0]
-    lev.pool = pool
+    # what _assemble needs: the pool (vertex ids, int32 where they fit), the patch offsets and step counts;
+    # the triangle ids are let go (1 M triangles: 130 MB less at the peak with the pools halved)
+    lev.pool = pool.astype(np.int32) if V <= np.iinfo(np.int32).max else pool
+    lev.start_gids = lev.p_out = lev.q_out = None
     return lev, recs, info
 
 
@@ -941,15 +948,14 @@ def _build_forsyth(mesh: Mesh, st, tolerance: float, boundary_weight: float, sea
     return gtris[:ng], levels, recs, info
 
 
-def _coarsest_copy(pool_tris: np.ndarray, row: np.ndarray, cache_size: int) -> np.ndarray | None:
-    """The coarsest LOD's triangles (``row``: its window's first triangle and count in ``pool_tris``)
-    ordered for the cache as one block, if that draws them with at least :data:`_COARSEST_COPY_MIN_GAIN`
-    fewer FIFO misses than its window does and they are at most :data:`COARSEST_COPY_MAX_SHARE` of
-    ``pool_tris`` (the pool without the copy); else None."""
-    first, count = int(row[0]), int(row[1])
-    if count < 2 or count > COARSEST_COPY_MAX_SHARE * pool_tris.shape[0]:
+def _coarsest_copy(window: np.ndarray, pool_size: int, cache_size: int) -> np.ndarray | None:
+    """The coarsest LOD's triangles (``window``, as its window draws them) ordered for the cache as one
+    block, if that draws them with at least :data:`_COARSEST_COPY_MIN_GAIN` fewer FIFO misses than the window
+    does and they are at most :data:`COARSEST_COPY_MAX_SHARE` of ``pool_size`` triangles (the pool without
+    the copy); else None."""
+    count = window.shape[0]
+    if count < 2 or count > COARSEST_COPY_MAX_SHARE * pool_size:
         return None
-    window = pool_tris[first : first + count]
     copy = _block_order(window, np.array([0, count], np.int64), cache_size)
     if (
         cache_misses(copy, cache_size)[0]
@@ -957,6 +963,21 @@ def _coarsest_copy(pool_tris: np.ndarray, row: np.ndarray, cache_size: int) -> n
     ):
         return None
     return copy
+
+
+def _pool_slice(parts: list[np.ndarray], part_start: np.ndarray, first: int, count: int) -> np.ndarray:
+    """Triangles ``[first, first + count)`` of the pool that is ``parts`` concatenated (a window can start
+    in the part before its level's: a linked level's head is the previous level's tail)."""
+    out = []
+    i = int(np.searchsorted(part_start, first, side="right")) - 1
+    end = first + count
+    while first < end:
+        a = first - int(part_start[i])
+        b = min(end, int(part_start[i + 1])) - int(part_start[i])
+        out.append(parts[i][a:b])
+        first += b - a
+        i += 1
+    return np.concatenate(out) if out else np.zeros((0, 3), np.int64)
 
 
 def _assemble(
@@ -1019,7 +1040,7 @@ def _assemble(
             parts.append(tris)
         pool_len += parts[-1].shape[0]
         head_next = offset + int(lev.p_start[n])
-        Tl = lev.start_gids.shape[0]
+        Tl = lev.triangle_count
         m = n + 1 if li == len(levels) - 1 else n  # the last level also keeps its final window
         steps = steps_done + np.concatenate(([0], np.cumsum(lev.patch_steps[:n])))
         rows.append(
@@ -1034,13 +1055,21 @@ def _assemble(
             )
         )
         steps_done = int(steps[n])
-    pool_tris = np.concatenate(parts) if parts else np.zeros((0, 3), np.int64)
-    copy = _coarsest_copy(pool_tris, rows[-1][-1], cache_size) if coarsest_copy else None
+    part_start = np.concatenate(([0], np.cumsum([part.shape[0] for part in parts], dtype=np.int64)))
+    copy = None
+    if coarsest_copy:
+        first, count = int(rows[-1][-1, 0]), int(rows[-1][-1, 1])
+        copy = _coarsest_copy(_pool_slice(parts, part_start, first, count), int(part_start[-1]), cache_size)
     if copy is not None:  # the coarsest LOD becomes a level of its own: one block, no patches
-        rows[-1][-1, 0] = pool_tris.shape[0]
+        rows[-1][-1, 0] = part_start[-1]
         rows[-1][-1, 3] = len(levels)
-        pool_tris = np.concatenate((pool_tris, copy))
-    pool = new_id[pool_tris].reshape(-1)
+        parts.append(copy)
+        part_start = np.append(part_start, part_start[-1] + copy.shape[0])
+    # the stored ids part by part, straight into the final array (one pool-sized int64 temporary for the
+    # whole pool cost 1 M triangles 260 MB at the peak)
+    pool = np.empty(3 * int(part_start[-1]), np.uint32)
+    for part, a in zip(parts, part_start[:-1], strict=True):
+        pool[3 * a : 3 * (a + part.shape[0])] = new_id[part.reshape(-1)]
     rows_a = np.concatenate(rows).astype(np.int64)
     lod_steps = rows_a[:, 2]
     vertex_counts = V - rec_after_step[lod_steps]
@@ -1051,7 +1080,7 @@ def _assemble(
         vertex_counts=vertex_counts,
         triangle_counts=rows_a[:, 1],
         lod_errors=err_after[lod_steps],
-        index_pool=pool.astype(np.uint32),
+        index_pool=pool,
         window_records=records.astype(np.uint32),
         params={},
     )
