@@ -426,7 +426,9 @@ _CLUSTER_RELINK = 1.0
 
 
 class _Level:
-    """One level of the cascade: its starting triangles (global ids) and its patches in draw order."""
+    """One level of the cascade: its starting triangles (global ids) and its patches in draw order. A level
+    finished by :func:`_finish_level` keeps its ``pool`` and lets ``start_gids``, ``p_out`` and ``q_out`` go
+    (None): :func:`_assemble` then reads only ``pool``, the offsets and ``triangle_count``."""
 
     def __init__(self, start_gids, p_start, p_out, q_start, q_out, patch_steps, stored=None, shared=False):
         self.start_gids = start_gids
@@ -685,7 +687,7 @@ def _build_levels(
             finishing = worker.submit(_finish_level, *args) if worker else _done(_finish_level(*args))
             pending.append((finishing, args))
             for i, (f, a) in enumerate(pending):  # a finished level's inputs are not needed any more
-                if a is not None and f.done():
+                if a is not None and f.done() and not f.cancelled():
                     pending[i] = (f, None)
             levels.append(None)  # filled in from ``pending``
         elif not link:
@@ -716,7 +718,7 @@ def _build_topology(mesh: Mesh, st, *args, **kwargs):
         # the levels the worker has not started are finished here, last first, beside it
         finished = [None] * len(pending)
         for i in range(len(pending) - 1, -1, -1):
-            if pending[i][0].cancel():
+            if pending[i][1] is not None and pending[i][0].cancel():
                 finished[i] = _finish_level(*pending[i][1])
         done = iter([r if r is not None else f.result() for r, (f, _) in zip(finished, pending, strict=True)])
     finally:
@@ -771,8 +773,9 @@ def _done(value) -> Future:
 
 def _finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach):
     """A fully stored level after its collapses: its patch order searched (``passes`` > 0:
-    :func:`_refine_level`) and its triangles in pool order. Returns the :class:`_Level`, its collapse records
-    and its steps' info (renumbered by the search). Reads only rows of ``gtris`` that later levels keep."""
+    :func:`_refine_level`) and its triangles in pool order. Returns the :class:`_Level` (with its ``pool``,
+    its triangle ids let go), its collapse records and its steps' info (renumbered by the search). Reads only
+    rows of ``gtris`` that later levels keep."""
     pool = None
     if passes > 0:
         collapsed, pool = _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach)
