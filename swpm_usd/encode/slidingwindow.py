@@ -971,16 +971,8 @@ def _coarsest_copy(window: np.ndarray, pool_size: int, cache_size: int) -> np.nd
 def _pool_slice(parts: list[np.ndarray], part_start: np.ndarray, first: int, count: int) -> np.ndarray:
     """Triangles ``[first, first + count)`` of the pool that is ``parts`` concatenated (a window can start
     in the part before its level's: a linked level's head is the previous level's tail)."""
-    out = []
     i = int(np.searchsorted(part_start, first, side="right")) - 1
-    end = first + count
-    while first < end:
-        a = first - int(part_start[i])
-        b = min(end, int(part_start[i + 1])) - int(part_start[i])
-        out.append(parts[i][a:b])
-        first += b - a
-        i += 1
-    return np.concatenate(out) if out else np.zeros((0, 3), np.int64)
+    return np.concatenate(parts[i:])[first - int(part_start[i]) :][:count]
 
 
 def _assemble(
