@@ -970,8 +970,9 @@ def _coarsest_copy(window: np.ndarray, pool_size: int, cache_size: int) -> np.nd
 
 def _pool_slice(parts: list[np.ndarray], part_start: np.ndarray, first: int, count: int) -> np.ndarray:
     """Triangles ``[first, first + count)`` of the pool that is ``parts`` concatenated (a window can start
-    in the part before its level's: a linked level's head is the previous level's tail)."""
-    i = int(np.searchsorted(part_start, first, side="right")) - 1
+    in the part before its level's: a linked level's head is the previous level's tail; an empty window at
+    the pool's end, ``first`` = its length, comes out of the last part empty)."""
+    i = min(int(np.searchsorted(part_start, first, side="right")) - 1, len(parts) - 1)
     return np.concatenate(parts[i:])[first - int(part_start[i]) :][:count]
 
 
