@@ -260,8 +260,10 @@ def test_cluster_spot(spot: Mesh) -> None:
 def test_cluster_links_a_level_only_when_cheaper(spot: Mesh, monkeypatch: pytest.MonkeyPatch) -> None:
     """A level is linked when its linked patches cost fewer pool triangles per collapse than a fully stored
     level would: never linking gives the plain pool, always linking a far larger one (the tail scatters),
-    the estimate a smaller pool than both."""
+    the estimate a smaller pool than both (never linking: the plain pool at the cluster mode's patch-order
+    weight)."""
     from swpm_usd.encode import slidingwindow as sw
+    from swpm_usd.encode import sw_kernels as swk
 
     def shared_and_pool(relink: float) -> tuple[int, int, int]:
         monkeypatch.setattr(sw, "_CLUSTER_RELINK", relink)
@@ -274,6 +276,7 @@ def test_cluster_links_a_level_only_when_cheaper(spot: Mesh, monkeypatch: pytest
     never_shared, _, never_pool = shared_and_pool(0.0)
     always_shared, always_levels, always_pool = shared_and_pool(1e9)
     shared, levels, pool = shared_and_pool(1.0)
+    monkeypatch.setattr(swk, "ORDER_LIVE_WEIGHT", swk.ORDER_LIVE_WEIGHT_CLUSTER)
     assert never_shared == 0 and never_pool == build_sliding_window(spot).index_pool.shape[0]
     assert always_shared == always_levels
     assert 0 < shared < levels

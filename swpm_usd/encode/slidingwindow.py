@@ -399,7 +399,7 @@ _ABSORB_MIN_SHARED = 1
 #: mean 1.0582 -> 1.0573, lambda mean 5.385 -> 5.354 (beetle 5.89 -> 5.62); with the edge swaps worst
 #: 1.178 either way, lambda 4.906 -> 4.872. A bound of 0.4-0.5 leaves beetle levels of 42-48 % middle
 #: unabsorbed, where the blobs draw better (worst window 1.34). With the patch order's live weight at 1.0
-#: (``sw_kernels._ORDER_LIVE_WEIGHT``; 400 points, 100 to 5 %): worst 1.252 -> 1.205, mean 1.0329 ->
+#: (``sw_kernels.ORDER_LIVE_WEIGHT``; 400 points, 100 to 5 %): worst 1.252 -> 1.205, mean 1.0329 ->
 #: 1.0332, lambda mean 5.393 -> 5.362 (beetle 5.93 -> 5.69)
 _ABSORB_MAX_MIDDLE = 0.6
 #: ``absorb_rounds=0``: rounds of :func:`.sw_kernels.absorb_middle` at most. Each round takes the middle
@@ -656,8 +656,16 @@ def _build_levels(
             inner_pos = np.zeros(P, bool)
             inner_pos[inner] = True
             binned_vertex = inner_pos[st.vertex_pos]
+            live_weight = swk.ORDER_LIVE_WEIGHT_CLUSTER if cluster else swk.ORDER_LIVE_WEIGHT
             order = swk.order_patches(
-                pt_start, pt, st.tri_verts, binned_vertex, np.diff(inner_start), V, int(cache_size)
+                pt_start,
+                pt,
+                st.tri_verts,
+                binned_vertex,
+                np.diff(inner_start),
+                V,
+                int(cache_size),
+                live_weight,
             )
             if absorb:
                 pt_start, pt = swk.reassign_middle(
