@@ -18,8 +18,10 @@ and with the edge swaps); inner3-swap-slack1, cluster-swap-slack1 and topology-m
 (``target_slack=1.0``: costlier, higher-degree collapse targets for a smaller pool, alone and spent on
 ``mu=0.2``); topology-mu0.3-absorb-all (``mu=0.3, absorb_rounds=0``: the whole static middle joins
 the patches); inner3-mu0.3 (patches of up to three inner vertices spent on ``mu=0.3``: the error of
-topology-mu0.3-absorb-all from a smaller pool, fewer LODs, a colder cache); order0 (``order_passes=0``: the
-greedy patch order alone, without the search the defaults run, two passes of reach 2); reach1
+topology-mu0.3-absorb-all from a smaller pool, fewer LODs, a colder cache); inner2-mu0.35-absorb-all,
+inner3-mu0.4-absorb-all and inner5-mu0.5 (several inner vertices and a larger ``mu``: about the defaults'
+pool, half their Hausdorff misses or fewer, a colder cache); order0 (``order_passes=0``: the greedy patch
+order alone, without the search the defaults run, two passes of reach 2); reach1
 (``order_reach=1``: the default until 2026-12-02's second session); order2,
 mu0.3-absorb-all-order2 and inner3-mu0.3-order2 (``order_passes=2, order_reach=3``: each level's patch
 order searched further for fewer cache misses over its windows, for a longer build). ``--big`` adds a
@@ -49,6 +51,9 @@ OPTIONS = {
     "topology-mu0.3": {"mu": 0.3},
     "inner3": {"inner_vertices": 3},
     "inner3-mu0.3": {"inner_vertices": 3, "mu": 0.3},
+    "inner3-mu0.4-absorb-all": {"inner_vertices": 3, "mu": 0.4, "absorb_rounds": 0},
+    "inner2-mu0.35-absorb-all": {"inner_vertices": 2, "mu": 0.35, "absorb_rounds": 0},
+    "inner5-mu0.5": {"inner_vertices": 5, "mu": 0.5},
     "order0": {"order_passes": 0},
     "reach1": {"order_reach": 1},
     "order2": {"order_passes": 2, "order_reach": 3},
