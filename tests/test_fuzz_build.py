@@ -1,12 +1,16 @@
-"""Hostile but loadable meshes through every encoder: each builds, every LOD indexes only its vertex prefix,
-the sliding window's LODs (about 25 sampled per build) equal its collapse sequence replayed, the three
-per-collapse encodings draw the same surface at the sampled LODs, and the binary format round-trips every
-LOD of every build.
+"""Hostile but loadable meshes through every encoder: each builds, every LOD of the per-collapse encodings
+(and every sampled one of the sliding window's: all, or 25 to 50 of them) indexes only its vertex prefix, the
+sampled sliding-window LODs equal its collapse sequence replayed, the three per-collapse encodings draw the
+same surface at the sampled LODs, and every build round-trips through the binary format (points, counts,
+errors and every LOD's triangles).
 
 The meshes are suzanne (967 triangles) mutated the ways real assets are broken: random holes, duplicated,
-flipped, double-sided and degenerate faces, split (unwelded) vertices, non-manifold fins and fans, two
-shells glued at one vertex, a flattened copy with coincident points, a soup of disjoint triangles, and
-meshes of one to five triangles (whose coarsest LOD may be empty).
+flipped, double-sided and degenerate faces, split vertices (copies with their own uv, so the seams stay),
+non-manifold fins and fans, two shells glued at one vertex, a flattened copy with coincident points, a soup
+of disjoint triangles, and meshes of one to five triangles (whose coarsest LOD may be empty). They go in
+through :meth:`Mesh.from_arrays`, as a loader's do: it welds equal vertices and drops degenerate and
+repeated faces, so for those mutations the cases check the cleaner and the encoders on what it leaves (a
+:class:`Mesh` made directly with a face naming one vertex twice is a ``BuildError``: ``test_simplify``).
 """
 
 from __future__ import annotations
@@ -45,7 +49,7 @@ def _mutate(kind: str, points: np.ndarray, tris: np.ndarray, rng: np.random.Gene
     elif kind == "degenerate":
         k = rng.integers(0, n, n // 20)
         t[k, 1] = t[k, 0]
-    elif kind == "split":  # every third face on its own copy of the vertices: seams everywhere
+    elif kind == "split":  # about 30 % of the faces on a copy of the vertices (given its own uv below)
         p = np.concatenate([p, p])
         t[rng.random(n) < 0.3] += len(points)
     elif kind == "fins":  # a third face on a tenth of the edges
@@ -90,6 +94,10 @@ def _round_trip(pm: swpm_usd.ProgressiveMesh, path: Path) -> None:
     assert not swpm_usd.validate(path).problems
     back = swpm_usd.load(path)
     assert back.lod_count == pm.lod_count
+    assert np.array_equal(back.points, pm.points)
+    assert np.array_equal(back.vertex_counts, pm.vertex_counts)
+    assert np.array_equal(back.triangle_counts, pm.triangle_counts)
+    assert np.array_equal(back.lod_errors, pm.lod_errors)
     for k in range(pm.lod_count):
         assert np.array_equal(back.triangles_at(k), pm.triangles_at(k))
 
@@ -99,7 +107,12 @@ def test_hostile_meshes_build_valid_lods(kind: str, tmp_path: Path) -> None:
     base = shared_mesh("suzanne.obj")
     rng = np.random.default_rng(KINDS.index(kind))
     points, tris = _mutate(kind, np.asarray(base.points, np.float64), np.asarray(base.triangles), rng)
-    mesh = Mesh.from_arrays(points, tris)
+    uv = None
+    if kind == "split":  # the copies' uv differ from the originals': the cleaner keeps them apart
+        uv = {"uv": np.repeat([[0.0, 0.0], [1.0, 0.0]], len(points) // 2, axis=0)}
+    mesh = Mesh.from_arrays(points, tris, uv)
+    if kind == "split":
+        assert mesh.vertex_count > base.vertex_count
     for i, settings in enumerate(SW_SETTINGS):
         pm = swpm_usd.build(mesh, encoding="sliding-window", **settings)
         _check_all(pm, mesh, closed=False, every=max(1, pm.lod_count // 25))

@@ -224,6 +224,11 @@ def _bad_mesh(kind: str) -> tuple[Mesh, str]:
         return Mesh(pts, tris, source="nan.obj"), "1 of 162 points have NaN/inf coordinates (first: point 7)"
     if kind == "no-triangles":
         return Mesh(pts, tris[:0], source="empty.obj"), "mesh has no triangles"
+    if kind == "repeated-vertex":
+        tris[9, 2] = tris[9, 0]
+        return Mesh(
+            pts, tris, source="repeat.obj"
+        ), "1 of 320 triangles name one vertex twice (first: triangle 9)"
     if kind == "point-triangles":
         pts[:] = 0.0
         return Mesh(pts, tris, source="point.obj"), "320 of 320 triangles have all three corners at one"
@@ -232,7 +237,16 @@ def _bad_mesh(kind: str) -> tuple[Mesh, str]:
 
 
 @pytest.mark.parametrize(
-    "kind", ["index-high", "index-negative", "nan", "no-triangles", "point-triangles", "double-fan"]
+    "kind",
+    [
+        "index-high",
+        "index-negative",
+        "nan",
+        "no-triangles",
+        "repeated-vertex",
+        "point-triangles",
+        "double-fan",
+    ],
 )
 @pytest.mark.parametrize("encoding", ["vanilla", "skip-strip", "mixed", "sliding-window"])
 def test_a_mesh_made_directly_is_checked_before_the_kernels(kind, encoding):

@@ -72,6 +72,16 @@ def check_buildable(mesh: Mesh) -> None:
             f"{int(np.count_nonzero(~finite))} of {V} points have NaN/inf coordinates "
             f"(first: point {int(np.argmin(finite))})",
         )
+    # a triangle naming one vertex twice is dead in the collapse state from the start, while the encoders
+    # would draw it at LOD 0: LOD 0 would not be the sequence's first mesh (the cleaners drop it)
+    t = mesh.triangles
+    repeat = (t[:, 0] == t[:, 1]) | (t[:, 1] == t[:, 2]) | (t[:, 0] == t[:, 2])
+    if repeat.any():
+        raise _unbuildable(
+            mesh,
+            f"{int(np.count_nonzero(repeat))} of {t.shape[0]} triangles name one vertex twice "
+            f"(first: triangle {int(np.argmax(repeat))})",
+        )
 
 
 def mesh_topology(mesh: Mesh) -> MeshTopology:
