@@ -11,6 +11,8 @@ of disjoint triangles, and meshes of one to five triangles (whose coarsest LOD m
 through :meth:`Mesh.from_arrays`, as a loader's do: it welds equal vertices and drops degenerate and
 repeated faces, so for those mutations the cases check the cleaner and the encoders on what it leaves (a
 :class:`Mesh` made directly with a face naming one vertex twice is a ``BuildError``: ``test_simplify``).
+The same meshes made directly (``Mesh(...)``, no cleaning) must build consistent LODs or fail with a
+``BuildError`` naming the mesh.
 """
 
 from __future__ import annotations
@@ -132,3 +134,27 @@ def test_hostile_meshes_build_valid_lods(kind: str, tmp_path: Path) -> None:
             assert np.array_equal(_by_position(pm, k), ref), f"{pm.encoding} draws another surface at LOD {k}"
     for pm in built:
         _round_trip(pm, tmp_path / f"{pm.encoding}.swpm")
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_hostile_meshes_made_directly_build_or_fail_clearly(kind: str) -> None:
+    # Mesh(...) does not clean: each encoder either builds LODs that agree with their own counts (and, for
+    # the sliding window, with its collapse sequence) or raises a BuildError naming the mesh
+    from swpm_usd.errors import BuildError
+
+    base = shared_mesh("suzanne.obj")
+    rng = np.random.default_rng(KINDS.index(kind))
+    points, tris = _mutate(kind, np.asarray(base.points, np.float64), np.asarray(base.triangles), rng)
+    mesh = Mesh(points, tris, source=f"{kind}.obj")
+    for encoding in ["sliding-window", *PER_COLLAPSE]:
+        try:
+            pm = swpm_usd.build(mesh, encoding=encoding)
+        except BuildError as e:
+            assert str(e).startswith(f"{kind}.obj: ")
+            continue
+        for k in range(pm.lod_count):
+            tris_k = pm.triangles_at(k)
+            assert tris_k.shape[0] == pm.triangle_count_at(k), f"{encoding} LOD {k}"
+            assert tris_k.size == 0 or tris_k.max() < pm.vertex_count_at(k)
+        if encoding == "sliding-window":
+            _check_all(pm, mesh, closed=False, every=max(1, pm.lod_count // 25))
