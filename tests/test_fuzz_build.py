@@ -84,6 +84,21 @@ KINDS = ["holes", "duplicated", "flipped", "degenerate", "split", "fins", "fan",
 KINDS += ["flat", "soup", "tiny1", "tiny2", "tiny5"]
 
 
+def _mutated(kind: str) -> tuple[Mesh, np.ndarray, np.ndarray]:
+    """Suzanne, and its points and triangles mutated by ``kind`` (seeded by the kind)."""
+    base = shared_mesh("suzanne.obj")
+    rng = np.random.default_rng(KINDS.index(kind))
+    return base, *_mutate(kind, np.asarray(base.points, np.float64), np.asarray(base.triangles), rng)
+
+
+def _assert_counts(pm: swpm_usd.ProgressiveMesh) -> None:
+    """Every LOD draws as many triangles as its record says, inside its vertex prefix."""
+    for k in range(pm.lod_count):
+        tris_k = pm.triangles_at(k)
+        assert tris_k.shape[0] == pm.triangle_count_at(k), f"{pm.encoding} LOD {k}"
+        assert tris_k.size == 0 or tris_k.max() < pm.vertex_count_at(k)
+
+
 def _by_position(pm: swpm_usd.ProgressiveMesh, k: int) -> np.ndarray:
     """LOD ``k``'s triangles over position ids (ids in sorted coordinate order, so the same in every
     encoding's vertex order), each rotated to its smallest id, rows sorted."""
@@ -106,9 +121,7 @@ def _round_trip(pm: swpm_usd.ProgressiveMesh, path: Path) -> None:
 
 @pytest.mark.parametrize("kind", KINDS)
 def test_hostile_meshes_build_valid_lods(kind: str, tmp_path: Path) -> None:
-    base = shared_mesh("suzanne.obj")
-    rng = np.random.default_rng(KINDS.index(kind))
-    points, tris = _mutate(kind, np.asarray(base.points, np.float64), np.asarray(base.triangles), rng)
+    base, points, tris = _mutated(kind)
     uv = None
     if kind == "split":  # the copies' uv differ from the originals': the cleaner keeps them apart
         uv = {"uv": np.repeat([[0.0, 0.0], [1.0, 0.0]], len(points) // 2, axis=0)}
@@ -122,10 +135,7 @@ def test_hostile_meshes_build_valid_lods(kind: str, tmp_path: Path) -> None:
     built = [swpm_usd.build(mesh, encoding=e) for e in PER_COLLAPSE]
     assert len({pm.lod_count for pm in built}) == 1
     for pm in built:
-        for k in range(pm.lod_count):
-            tris_k = pm.triangles_at(k)
-            assert tris_k.shape[0] == pm.triangle_count_at(k)
-            assert tris_k.size == 0 or tris_k.max() < pm.vertex_count_at(k)
+        _assert_counts(pm)
     for k in sorted(
         set(range(0, built[0].lod_count, max(1, built[0].lod_count // 25))) | {built[0].lod_count - 1}
     ):
@@ -142,9 +152,7 @@ def test_hostile_meshes_made_directly_build_or_fail_clearly(kind: str) -> None:
     # the sliding window, with its collapse sequence) or raises a BuildError naming the mesh
     from swpm_usd.errors import BuildError
 
-    base = shared_mesh("suzanne.obj")
-    rng = np.random.default_rng(KINDS.index(kind))
-    points, tris = _mutate(kind, np.asarray(base.points, np.float64), np.asarray(base.triangles), rng)
+    _, points, tris = _mutated(kind)
     mesh = Mesh(points, tris, source=f"{kind}.obj")
     for encoding in ["sliding-window", *PER_COLLAPSE]:
         try:
@@ -152,9 +160,6 @@ def test_hostile_meshes_made_directly_build_or_fail_clearly(kind: str) -> None:
         except BuildError as e:
             assert str(e).startswith(f"{kind}.obj: ")
             continue
-        for k in range(pm.lod_count):
-            tris_k = pm.triangles_at(k)
-            assert tris_k.shape[0] == pm.triangle_count_at(k), f"{encoding} LOD {k}"
-            assert tris_k.size == 0 or tris_k.max() < pm.vertex_count_at(k)
+        _assert_counts(pm)
         if encoding == "sliding-window":
             _check_all(pm, mesh, closed=False, every=max(1, pm.lod_count // 25))
