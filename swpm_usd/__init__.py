@@ -1,4 +1,4 @@
-"""swpm-usd: view-independent progressive meshes (vanilla, skip-strip, sliding-window) for real-time LOD."""
+"""swpm-usd: view-independent progressive meshes (vanilla, skip-strip, mixed, sliding window) for LOD."""
 
 from __future__ import annotations
 

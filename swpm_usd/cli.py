@@ -43,7 +43,7 @@ def _lod_rows(pm, max_rows: int) -> list[dict]:
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="swpm-pipeline")
 def main() -> None:
-    """Turn meshes into view-independent progressive meshes (vanilla, skip-strip, sliding-window).
+    """Turn meshes into view-independent progressive meshes (vanilla, skip-strip, mixed, sliding-window).
 
     \b
     Examples:
