@@ -81,8 +81,8 @@ def lod_at_error(pm, mesh, e_ref: float, t_start: int, samples: int, scan: int) 
 
     def ok(k: int) -> bool:
         if k not in measured:
-            tris = pm.triangles_at(k)
-            measured[k] = surface_error(mesh.points, mesh.triangles, pm.points, tris, samples=samples).hausdorff
+            err = surface_error(mesh.points, mesh.triangles, pm.points, pm.triangles_at(k), samples=samples)
+            measured[k] = err.hausdorff
         return measured[k] <= e_ref
 
     T0 = mesh.triangle_count
@@ -163,7 +163,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("meshes", nargs="*", help="mesh paths (default: the ten shared meshes)")
     ap.add_argument("--encodings", default="sliding-window", help="comma-separated (default: sliding-window)")
-    ap.add_argument("--options", default="topology", help="sliding-window parameter sets (bench_slidingwindow)")
+    ap.add_argument("--options", default="topology", help="sliding-window parameter sets")
     ap.add_argument("--samples", type=int, default=30_000, help="surface samples each way (default 30000)")
     ap.add_argument("--scan", type=int, default=32, help="grid points from f to LOD 0 (default 32)")
     ap.add_argument("--out", default=str(RESULTS / "equal_error.json"))
@@ -190,13 +190,15 @@ def main(argv: list[str] | None = None) -> int:
     print()
     for s in summary:
         print(
-            f"{s['encoding']} {s['option']}: triangles at meshoptimizer's error, geomean {s['tri_geomean']:.3f} "
+            f"{s['encoding']} {s['option']}: triangles at meshoptimizer's error, "
+            f"geomean {s['tri_geomean']:.3f} "
             f"(max {s['tri_max']:.2f}, within 1.25 on {s['tri_within_1.25']} of {s['points']}); "
             f"misses geomean {s['miss_geomean']:.3f}"
         )
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({"samples": args.samples, "scan": args.scan, "rows": rows, "summary": summary}, indent=1))
+    result = {"samples": args.samples, "scan": args.scan, "rows": rows, "summary": summary}
+    out.write_text(json.dumps(result, indent=1))
     return 0
 
 
