@@ -220,6 +220,92 @@ rules: [{name: auto, encoding: auto}]
     assert "auto:" in rec["why"] and rec["encoding"] in rec["why"]
 
 
+def test_misses_at_error_draws_each_encodings_coarsest_lod_within_the_reference_error():
+    from swpm_usd.metrics import cache_misses
+    from swpm_usd.pipeline.worker import AUTO_ERROR_FRACTIONS, misses_at_error
+
+    mesh = swpm_usd.load_mesh(SHARED_MESHES / "cow.obj")
+    pms = {e: swpm_usd.build(mesh, encoding=e) for e in ("vanilla", "skip-strip", "sliding-window")}
+    got = misses_at_error(pms)
+    T = mesh.triangle_count
+    for i, f in enumerate(AUTO_ERROR_FRACTIONS):
+        # the reference is the smallest error any encoding stores at f of the triangles
+        errs = [pm.error_at(pm.lod_for_triangles(int(round(f * T)))) for pm in pms.values()]
+        assert got["vanilla"]["reference_errors"][i] == pytest.approx(min(errs))
+    for enc, pm in pms.items():
+        total = 0
+        for i, e in enumerate(got[enc]["reference_errors"]):
+            k = pm.lod_for_error(e)
+            # the coarsest LOD within the error: the next coarser one exceeds it
+            assert pm.error_at(k) <= e
+            assert k == pm.lod_count - 1 or pm.error_at(k + 1) > e
+            assert got[enc]["triangles"][i] == pm.triangle_count_at(k)
+            kind, stream = pm.draw_stream(k)
+            total += cache_misses(stream, 16, kind, pm.restart_index)[0]
+        assert got[enc]["misses"] == total
+    # vanilla and skip-strip share the collapse order, so they draw the same triangle counts; vanilla's bin
+    # order draws them colder (README: 3.5x meshoptimizer's misses against 1.15x)
+    assert got["vanilla"]["triangles"] == got["skip-strip"]["triangles"]
+    assert got["skip-strip"]["misses"] < 0.5 * got["vanilla"]["misses"]
+    # the sliding window's levels carry more error along them: at equal error it draws more triangles
+    assert sum(got["sliding-window"]["triangles"]) > 1.2 * sum(got["skip-strip"]["triangles"])
+
+
+def test_auto_can_rank_by_misses_at_equal_error(tmp_path):
+    cfg = _project(
+        tmp_path,
+        ("cow.obj",),
+        """\
+version: 1
+assets: [{glob: "meshes/*.obj", instances: 500}]
+output: {dir: out}
+rules: [{name: auto, encoding: auto, params: {select: misses-at-error}}]
+""",
+    )
+    res = run(cfg, echo=lambda m: None)
+    rec = res.records["meshes/cow.obj"]
+    assert rec["status"] == "built", rec.get("error")
+    cands = rec["auto_candidates"]
+    misses = {e: c["misses_at_error"] for e, c in cands.items()}
+    assert len(misses) >= 3 and all(m > 0 for m in misses.values())
+    # no budgets: the fewest misses at equal error wins, ties within 5 % going to the smaller memory
+    assert misses[rec["encoding"]] <= 1.05 * min(misses.values())
+    assert "cache misses at equal error" in rec["why"]
+    # the selector is part of the treatment: changing it rebuilds
+    cfg.write_text(cfg.read_text().replace("misses-at-error", "acmr"))
+    res2 = run(cfg, echo=lambda m: None)
+    rec2 = res2.records["meshes/cow.obj"]
+    assert res2.built == 1 and "misses_at_error" not in rec2["auto_candidates"][rec2["encoding"]]
+    assert "ACMR" in rec2["why"]
+
+
+def test_auto_takes_select_alone(tmp_path):
+    cfg = _project(
+        tmp_path,
+        config="""\
+version: 1
+assets:
+  - glob: "meshes/*.obj"
+output:
+  dir: out
+rules:
+  - name: a
+    encoding: auto
+    params: {select: fastest}
+  - name: b
+    encoding: auto
+    params: {mu: 0.2}
+""",
+    )
+    with pytest.raises(ConfigError) as exc:
+        load_config(cfg)
+    problems = exc.value.problems
+    assert problems == [
+        "pipeline.yaml:9:22: $.rules[0].params.select: 'fastest' is not one of ['acmr', 'misses-at-error']",
+        "pipeline.yaml:12:14: $.rules[1].params.mu: unknown key (not a parameter of this rule's encoding)",
+    ]
+
+
 def test_usd_stage_assets_count_instances(tmp_path):
     from pxr import Usd, UsdGeom
 

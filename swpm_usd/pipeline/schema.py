@@ -2,7 +2,8 @@
 
 ``pipeline/pipeline.schema.json`` is this function's output, checked in; a test fails when they differ
 (``python -m swpm_usd.pipeline.schema > pipeline/pipeline.schema.json`` regenerates it). A rule's
-``params`` may only name parameters of the rule's ``encoding``; ``auto`` takes none.
+``params`` may only name parameters of the rule's ``encoding``; ``auto`` takes ``select`` alone (what it ranks
+the candidates by: :data:`.worker.AUTO_SELECT`).
 """
 
 from __future__ import annotations
@@ -10,6 +11,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 from typing import Any
+
+from .worker import AUTO_SELECT
 
 SCHEMA_PATH = Path(__file__).resolve().parents[2] / "pipeline" / "pipeline.schema.json"
 PACKAGED_SCHEMA = Path(__file__).resolve().parent / "pipeline.schema.json"
@@ -86,7 +89,22 @@ def build_schema() -> dict[str, Any]:
     by_encoding.append(
         {
             "if": {"properties": {"encoding": {"const": "auto"}}, "required": ["encoding"]},
-            "then": {"properties": {"params": {"type": "object", "maxProperties": 0}}},
+            "then": {
+                "properties": {
+                    "params": {
+                        "type": "object",
+                        "additionalProperties": False,
+                        "properties": {
+                            "select": {
+                                "enum": list(AUTO_SELECT),
+                                "default": "acmr",
+                                "description": "rank the candidates within the budgets by their ACMR at half "
+                                "the triangles, or by the cache misses they draw at equal error",
+                            }
+                        },
+                    }
+                }
+            },
         }
     )
     treatment = {

@@ -15,6 +15,14 @@ import numpy as np
 from ..fileio import atomic_write_bytes
 
 AUTO_CANDIDATES = ("vanilla", "skip-strip", "mixed", "sliding-window")
+#: ``encoding: auto``'s ``select`` parameter: what the candidates within the budgets are ranked by.
+#: ``acmr``: the ACMR at half the triangles (issue 7's rule, the default). ``misses-at-error``: the
+#: vertex-cache misses each draws at equal error, as a renderer picking LODs by error (``lod_for_error``)
+#: would draw them: an encoding whose LODs carry more error draws more triangles for the same screen-space
+#: error
+AUTO_SELECT = ("acmr", "misses-at-error")
+#: ``misses-at-error``: the triangle fractions whose errors are the references (see :func:`misses_at_error`)
+AUTO_ERROR_FRACTIONS = (0.5, 0.25, 0.1)
 
 
 def sha256_file(path: Path) -> str:
@@ -73,15 +81,50 @@ def summarize(pm, cache_size: int = 16) -> dict[str, Any]:
     }
 
 
+def misses_at_error(pms: dict[str, Any], fractions=AUTO_ERROR_FRACTIONS, cache_size: int = 16) -> dict:
+    """Per encoding, the FIFO misses its draw stream costs at equal error, summed over ``fractions``.
+
+    For each fraction ``f``, the reference error is the smallest that any of ``pms`` (built from one mesh)
+    stores for its LOD at ``f`` of LOD 0's triangles (``error_at(lod_for_triangles(...))``); each encoding
+    then draws its coarsest LOD within that error (``lod_for_error``), as a renderer selecting by error
+    would, and its misses (cache of ``cache_size``, degenerate triangles and strip joins included) are
+    counted.
+    Returns ``{encoding: {"misses": total, "triangles": [per fraction], "reference_errors": [...]}}``."""
+    from ..metrics import cache_misses
+
+    t0 = max(1, min(pm.triangle_count_at(0) for pm in pms.values()))
+    refs = [
+        min(pm.error_at(pm.lod_for_triangles(int(round(f * t0)))) for pm in pms.values()) for f in fractions
+    ]
+    out = {}
+    for enc, pm in pms.items():
+        misses = 0
+        tris = []
+        for e in refs:
+            k = pm.lod_for_error(e)
+            kind, stream = pm.draw_stream(k)
+            misses += cache_misses(stream, cache_size, kind, pm.restart_index)[0]
+            tris.append(pm.triangle_count_at(k))
+        out[enc] = {"misses": int(misses), "triangles": tris, "reference_errors": [float(e) for e in refs]}
+    return out
+
+
 def choose_auto(
-    mesh, instances: int, budgets: dict, storable: frozenset[str] | None = None
+    mesh,
+    instances: int,
+    budgets: dict,
+    storable: frozenset[str] | None = None,
+    select: str = "acmr",
 ) -> tuple[Any, str, dict]:
     """Build every candidate, measure, and pick (Forsyth's table with measured numbers).
 
     Within the memory budgets (global + instances x instance bytes), the lowest ACMR at half the triangles
-    wins; ACMRs within 5 % are a tie, broken by total memory, then by LOD-change cost. If nothing fits the
-    budgets, the smallest total memory wins and the reason says so.
+    wins (``select="acmr"``), or the fewest vertex-cache misses at equal error (``select="misses-at-error"``,
+    :func:`misses_at_error`); values within 5 % are a tie, broken by total memory, then by LOD-change cost.
+    If nothing fits the budgets, the smallest total memory wins and the reason says so.
     """
+    if select not in AUTO_SELECT:
+        raise ValueError(f"auto: select must be one of {', '.join(AUTO_SELECT)}, got {select!r}")
     from ..build import build
     from ..encode import BUILDERS
 
@@ -103,13 +146,27 @@ def choose_auto(
             and m["instance_bytes"] <= budgets.get("instance_bytes", float("inf"))
         )
 
+    if select == "misses-at-error" and built:
+        for enc, m in misses_at_error(built).items():
+            measured[enc]["misses_at_error"] = m["misses"]
+            measured[enc]["triangles_at_error"] = m["triangles"]
+            measured[enc]["reference_errors"] = m["reference_errors"]
+    key = "acmr" if select == "acmr" else "misses_at_error"
     ok = [e for e in measured if fits(measured[e])]
     if ok:
-        best_acmr = min(measured[e]["acmr"] for e in ok)
-        tied = [e for e in ok if measured[e]["acmr"] <= 1.05 * best_acmr]
+        best = min(measured[e][key] for e in ok)
+        tied = [e for e in ok if measured[e][key] <= 1.05 * best]
         pick = min(tied, key=lambda e: (measured[e]["total_bytes"], measured[e]["lod_change_cost"]))
+        if select == "acmr":
+            what = f"ACMR {measured[pick]['acmr']:.3f} (best within budget {best:.3f})"
+        else:
+            what = (
+                f"{measured[pick]['misses_at_error']} cache misses at equal error (best within budget "
+                f"{best}; LODs at the errors of {', '.join(f'{f:g}' for f in AUTO_ERROR_FRACTIONS)} of the "
+                "triangles)"
+            )
         why = (
-            f"auto: {pick} has ACMR {measured[pick]['acmr']:.3f} (best within budget {best_acmr:.3f}) and "
+            f"auto: {pick} has {what} and "
             f"{measured[pick]['total_bytes']} bytes for {instances} instance(s); candidates within budget: "
             f"{', '.join(sorted(ok))}"
         )
@@ -197,7 +254,7 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
                 from ..format.layout import ENCODING_FEATURES
 
                 storable = frozenset(ENCODING_FEATURES)
-            pm, why, candidates = choose_auto(mesh, task["instances"], task["budgets"], storable)
+            pm, why, candidates = choose_auto(mesh, task["instances"], task["budgets"], storable, **params)
             reason = f"{reason}; {why}"
         else:
             pm = build_pm(mesh, encoding, **params)
