@@ -6,10 +6,12 @@ so the cost of a larger error is more triangles. Here, per mesh and fraction ``f
 
 * ``e_ref``: the Hausdorff error (``swpm_usd.metrics.surface_error``) of meshoptimizer's ``simplify`` to
   ``f`` of the triangles;
-* our LOD: the one of fewest triangles whose measured Hausdorff error is at most ``e_ref``, searched from
-  ``f`` of the triangles up to LOD 0 on a geometric grid of ``--scan`` triangle counts, then by bisection
-  between the last grid point that fails and the first that passes (so to within a few LODs where the error
-  grows with the LOD between them);
+* our LOD: the one of fewest triangles whose measured Hausdorff error is at most ``e_ref``. The search starts
+  at meshoptimizer's triangle count and walks a geometric grid of ``--scan`` triangle counts: towards LOD 0
+  while the LODs exceed ``e_ref``, towards the coarsest LOD while they are within it; then it bisects
+  between the last LOD within the error and the first beyond it (exact where the error grows with the LOD
+  between those two). If not even LOD 0 is within the error (float rounding), LOD 0 is reported and the
+  row's ``within`` is false;
 * ``tri``: its triangles over meshoptimizer's; ``miss``: its FIFO misses as drawn (``draw_stream``, cache of
   16) over those of meshoptimizer's LOD ordered by ``optimize_vertex_cache``: the vertex work at equal
   error.
@@ -71,12 +73,13 @@ def _meshopt_misses(tris: np.ndarray, vertex_count: int) -> int:
 
 def _drawn_misses(pm, k: int) -> int:
     kind, stream = pm.draw_stream(k)
-    return cache_misses(stream, CACHE, kind, getattr(pm, "restart_index", None))[0]
+    return cache_misses(stream, CACHE, kind, pm.restart_index)[0]
 
 
-def lod_at_error(pm, mesh, e_ref: float, t_start: int, samples: int, scan: int) -> tuple[int, int]:
-    """The LOD of fewest triangles (searched as the module docstring says) with Hausdorff error at most
-    ``e_ref``, and how many errors were measured."""
+def lod_at_error(pm, mesh, e_ref: float, t_start: int, samples: int, scan: int) -> tuple[int, int, bool]:
+    """The LOD of fewest triangles with Hausdorff error at most ``e_ref`` (searched as the module docstring
+    says), how many errors were measured, and whether that LOD is within ``e_ref`` (False only when not even
+    LOD 0 is: it is returned then)."""
     measured: dict[int, float] = {}
 
     def ok(k: int) -> bool:
@@ -86,25 +89,41 @@ def lod_at_error(pm, mesh, e_ref: float, t_start: int, samples: int, scan: int) 
         return measured[k] <= e_ref
 
     T0 = mesh.triangle_count
-    fail = None
-    for t in np.geomspace(max(t_start, 1), T0, scan):
-        k = pm.lod_for_triangles(int(round(t)))
-        if ok(k):
-            break
-        fail = k
+    last = pm.lod_count - 1
+    k0 = pm.lod_for_triangles(max(t_start, 1))
+    passing, failing = None, None
+    if ok(k0):
+        # within the error at meshoptimizer's count already: look for a coarser LOD that still is
+        passing = k0
+        for t in np.geomspace(max(t_start, 1), max(pm.triangle_count_at(last), 1), scan)[1:]:
+            k = pm.lod_for_triangles(int(round(t)))
+            if k == passing:
+                continue
+            if not ok(k):
+                failing = k
+                break
+            passing = k
     else:
-        k = 0
-    # bisection on the LOD index between the last failing grid point (coarser) and the passing one (finer)
-    if fail is not None:
-        lo, hi = k, fail  # lo passes, hi fails; LODs grow coarser with the index
+        failing = k0
+        for t in np.geomspace(max(t_start, 1), T0, scan)[1:]:
+            k = pm.lod_for_triangles(int(round(t)))
+            if ok(k):
+                passing = k
+                break
+            failing = k
+        if passing is None:
+            return 0, len(measured), ok(0)
+    # bisection on the LOD index between the passing LOD (finer) and the failing one (coarser)
+    if failing is not None:
+        lo, hi = passing, failing
         while hi - lo > 1:
             mid = (lo + hi) // 2
             if ok(mid):
                 lo = mid
             else:
                 hi = mid
-        k = lo
-    return k, len(measured)
+        passing = lo
+    return passing, len(measured), True
 
 
 def bench(name: str, mesh, encoding: str, option: str, params: dict, samples: int, scan: int) -> dict:
@@ -113,11 +132,12 @@ def bench(name: str, mesh, encoding: str, option: str, params: dict, samples: in
     for f in FRACTIONS:
         ms = bsw._meshopt_simplify(mesh.points, mesh.triangles, int(round(f * mesh.triangle_count)))
         e_ref = surface_error(mesh.points, mesh.triangles, mesh.points, ms, samples=samples).hausdorff
-        k, evals = lod_at_error(pm, mesh, e_ref, ms.shape[0], samples, scan)
+        k, evals, within = lod_at_error(pm, mesh, e_ref, ms.shape[0], samples, scan)
         p = int(f * 100)
-        row[f"tri{p}"] = pm.triangle_count_at(k) / ms.shape[0]
+        row[f"tri{p}"] = pm.triangle_count_at(k) / max(ms.shape[0], 1)
         row[f"miss{p}"] = _drawn_misses(pm, k) / max(_meshopt_misses(ms, mesh.vertex_count), 1)
         row[f"evals{p}"] = evals
+        row[f"within{p}"] = within
     return row
 
 

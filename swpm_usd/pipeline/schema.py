@@ -97,7 +97,7 @@ def build_schema() -> dict[str, Any]:
                         "properties": {
                             "select": {
                                 "enum": list(AUTO_SELECT),
-                                "default": "acmr",
+                                "default": AUTO_SELECT[0],
                                 "description": "rank the candidates within the budgets by their ACMR at half "
                                 "the triangles, or by the cache misses they draw at equal error",
                             }

@@ -82,31 +82,50 @@ def summarize(pm, cache_size: int = 16) -> dict[str, Any]:
 
 
 def misses_at_error(pms: dict[str, Any], fractions=AUTO_ERROR_FRACTIONS, cache_size: int = 16) -> dict:
-    """Per encoding, the FIFO misses its draw stream costs at equal error, summed over ``fractions``.
+    """Per encoding, the FIFO misses its draw stream costs at equal error, at each of ``fractions``.
 
     For each fraction ``f``, the reference error is the smallest that any of ``pms`` (built from one mesh)
-    stores for its LOD at ``f`` of LOD 0's triangles (``error_at(lod_for_triangles(...))``); each encoding
-    then draws its coarsest LOD within that error (``lod_for_error``), as a renderer selecting by error
-    would, and its misses (cache of ``cache_size``, degenerate triangles and strip joins included) are
-    counted.
-    Returns ``{encoding: {"misses": total, "triangles": [per fraction], "reference_errors": [...]}}``."""
+    stores for its LOD at ``f`` of LOD 0's triangles (``error_at(lod_for_triangles(...))``), among those whose
+    LODs get down to that count (one that stops simplifying above it would offer its coarsest LOD's error);
+    a fraction none of them reaches is skipped. Each encoding then draws its coarsest LOD within that error
+    (``lod_for_error``), as a renderer selecting by error would, and its misses (cache of ``cache_size``,
+    degenerate triangles and strip joins included) are counted. Returns
+    ``{encoding: {"misses": [...], "triangles": [...], "reference_errors": [...]}}``, one entry per fraction
+    used."""
     from ..metrics import cache_misses
 
     t0 = max(1, min(pm.triangle_count_at(0) for pm in pms.values()))
-    refs = [
-        min(pm.error_at(pm.lod_for_triangles(int(round(f * t0)))) for pm in pms.values()) for f in fractions
-    ]
+    refs = []
+    for f in fractions:
+        target = int(round(f * t0))
+        errs = []
+        for pm in pms.values():
+            k = pm.lod_for_triangles(target)
+            if pm.triangle_count_at(k) <= target:
+                errs.append(pm.error_at(k))
+        if errs:
+            refs.append(min(errs))
     out = {}
     for enc, pm in pms.items():
-        misses = 0
-        tris = []
+        misses, tris = [], []
         for e in refs:
             k = pm.lod_for_error(e)
             kind, stream = pm.draw_stream(k)
-            misses += cache_misses(stream, cache_size, kind, pm.restart_index)[0]
+            misses.append(int(cache_misses(stream, cache_size, kind, pm.restart_index)[0]))
             tris.append(pm.triangle_count_at(k))
-        out[enc] = {"misses": int(misses), "triangles": tris, "reference_errors": [float(e) for e in refs]}
+        out[enc] = {"misses": misses, "triangles": tris, "reference_errors": [float(e) for e in refs]}
     return out
+
+
+def _misses_scores(per_encoding: dict) -> dict[str, float]:
+    """Per encoding, the geometric mean over the reference errors of its misses over the fewest any encoding
+    draws there (1.0: the fewest at every one), so each error weighs alike."""
+    encs = list(per_encoding)
+    m = np.array([per_encoding[e]["misses"] for e in encs], dtype=np.float64).reshape(len(encs), -1)
+    if m.shape[1] == 0:
+        return dict.fromkeys(encs, 1.0)
+    ratio = np.maximum(m, 1.0) / np.maximum(m.min(axis=0), 1.0)
+    return {e: float(np.exp(np.log(ratio[i]).mean())) for i, e in enumerate(encs)}
 
 
 def choose_auto(
@@ -119,8 +138,9 @@ def choose_auto(
     """Build every candidate, measure, and pick (Forsyth's table with measured numbers).
 
     Within the memory budgets (global + instances x instance bytes), the lowest ACMR at half the triangles
-    wins (``select="acmr"``), or the fewest vertex-cache misses at equal error (``select="misses-at-error"``,
-    :func:`misses_at_error`); values within 5 % are a tie, broken by total memory, then by LOD-change cost.
+    wins (``select="acmr"``), or the fewest vertex-cache misses at equal error (``select="misses-at-error"``:
+    :func:`misses_at_error`, each encoding's misses over the fewest at every reference error, geometric
+    mean); values within 5 % are a tie, broken by total memory, then by LOD-change cost.
     If nothing fits the budgets, the smallest total memory wins and the reason says so.
     """
     if select not in AUTO_SELECT:
@@ -147,11 +167,16 @@ def choose_auto(
         )
 
     if select == "misses-at-error" and built:
-        for enc, m in misses_at_error(built).items():
+        # the reference errors come from every candidate, within the budgets or not: they only pick the
+        # error levels at which the candidates are compared
+        per_encoding = misses_at_error(built)
+        scores = _misses_scores(per_encoding)
+        for enc, m in per_encoding.items():
             measured[enc]["misses_at_error"] = m["misses"]
+            measured[enc]["misses_at_error_score"] = scores[enc]
             measured[enc]["triangles_at_error"] = m["triangles"]
             measured[enc]["reference_errors"] = m["reference_errors"]
-    key = "acmr" if select == "acmr" else "misses_at_error"
+    key = "acmr" if select == "acmr" else "misses_at_error_score"
     ok = [e for e in measured if fits(measured[e])]
     if ok:
         best = min(measured[e][key] for e in ok)
@@ -161,9 +186,9 @@ def choose_auto(
             what = f"ACMR {measured[pick]['acmr']:.3f} (best within budget {best:.3f})"
         else:
             what = (
-                f"{measured[pick]['misses_at_error']} cache misses at equal error (best within budget "
-                f"{best}; LODs at the errors of {', '.join(f'{f:g}' for f in AUTO_ERROR_FRACTIONS)} of the "
-                "triangles)"
+                f"{measured[pick]['misses_at_error_score']:.2f}x the fewest cache misses at equal error "
+                f"(best within budget {best:.2f}x; geometric mean over the errors stored at "
+                f"{', '.join(f'{f:g}' for f in AUTO_ERROR_FRACTIONS)} of the triangles)"
             )
         why = (
             f"auto: {pick} has {what} and "
