@@ -303,6 +303,12 @@ rules: [{name: auto, encoding: auto, params: {select: misses-at-error}}]
     # no budgets: the fewest misses at equal error wins, ties within 5 % going to the smaller memory
     assert scores[rec["encoding"]] <= 1.05 * min(scores.values())
     assert "cache misses at equal error" in rec["why"]
+    # the report shows every candidate as measured, the chosen one in bold
+    report = (tmp_path / "out" / "report.html").read_text()
+    assert "Encodings compared by <code>auto</code>" in report and "misses at equal error" in report
+    assert f"<b>{rec['encoding']}</b>" in report
+    for enc, c in cands.items():
+        assert f"<td>{c['misses_at_error_score']:.2f}</td><td>{c['global_bytes']}</td>" in report, enc
     # the selector is part of the treatment: changing it rebuilds
     cfg.write_text(cfg.read_text().replace("misses-at-error", "acmr"))
     res2 = run(cfg, echo=lambda m: None)

@@ -29,9 +29,31 @@ def _polyline(xs: list[float], ys: list[float], w: int = 260, h: int = 140, log_
     )
 
 
+def _auto_table(aid: str, rec: dict) -> str:
+    """One asset's ``encoding: auto`` candidates as measured (the chosen one in bold) and the reason."""
+    e = html.escape
+    cands = rec["auto_candidates"]
+    by_error = any("misses_at_error_score" in c for c in cands.values())
+    head = "<th>encoding</th><th>ACMR@50%</th>"
+    head += "<th>misses at equal error (x fewest)</th>" if by_error else ""
+    head += "<th>global B</th><th>instance B</th><th>total B</th><th>LOD change writes</th>"
+    body = []
+    for enc, c in sorted(cands.items()):
+        name = f"<b>{e(enc)}</b>" if enc == rec["encoding"] else e(enc)
+        cells = f"<td>{name}</td><td>{c.get('acmr', 0):.3f}</td>"
+        if by_error:
+            cells += f"<td>{c.get('misses_at_error_score', float('nan')):.2f}</td>"
+        cells += (
+            f"<td>{c.get('global_bytes')}</td><td>{c.get('instance_bytes')}</td><td>{c.get('total_bytes')}</td>"
+            f"<td>{c.get('lod_change_cost', 0):.1f}</td>"
+        )
+        body.append(f"<tr>{cells}</tr>")
+    return f"<h3>{e(aid)}</h3><p>{e(rec.get('why', ''))}</p><table><tr>{head}</tr>{''.join(body)}</table>"
+
+
 def write_report(path: Path, manifest: dict) -> None:
     assets = manifest.get("assets", {})
-    rows, failures, plots = [], [], []
+    rows, failures, plots, autos = [], [], [], []
     by_encoding: dict[str, list[dict]] = {}
     for aid, rec in sorted(assets.items()):
         e = html.escape
@@ -48,6 +70,8 @@ def write_report(path: Path, manifest: dict) -> None:
             f"<td>{rec.get('instances')}</td><td>{rec.get('seconds', 0):.2f}</td>"
             f"<td title='{e(rec.get('why', ''))}'>why</td></tr>"
         )
+        if rec.get("auto_candidates"):
+            autos.append(_auto_table(aid, rec))
         curve = s.get("curve", [])
         tri = [c["triangles"] for c in curve]
         plots.append(
@@ -77,6 +101,7 @@ td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}} td:first-child{{
 <h2>Assets</h2><table><tr><th>asset</th><th>rule</th><th>encoding</th><th>triangles</th><th>LODs</th>
 <th>lambda</th><th>ACMR@50%</th><th>global B</th><th>instance B</th><th>instances</th><th>s</th><th></th></tr>
 {"".join(rows)}</table>
+<h2>Encodings compared by <code>auto</code></h2>{"".join(autos) or "<p>none</p>"}
 <h2>Curves</h2>{"".join(plots)}
 </body></html>
 """
