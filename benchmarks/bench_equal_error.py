@@ -44,22 +44,9 @@ import bench_slidingwindow as bsw  # noqa: E402  (OPTIONS and meshoptimizer's si
 import swpm_usd  # noqa: E402
 from swpm_usd.metrics import cache_misses, surface_error  # noqa: E402
 
-SHARED = HERE.parent.parent / "shared" / "meshes"
 RESULTS = HERE / "results"
 FRACTIONS = (0.5, 0.25, 0.1)
 CACHE = 16
-MESHES = (
-    "beetle",
-    "bob",
-    "cow",
-    "dragon-20k",
-    "fandisk",
-    "nefertiti",
-    "spot",
-    "stanford-bunny",
-    "suzanne",
-    "teapot",
-)
 
 
 def _meshopt_misses(tris: np.ndarray, vertex_count: int) -> int:
@@ -188,7 +175,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scan", type=int, default=32, help="grid points from f to LOD 0 (default 32)")
     ap.add_argument("--out", default=str(RESULTS / "equal_error.json"))
     args = ap.parse_args(argv)
-    paths = [Path(p) for p in args.meshes] or [SHARED / f"{m}.obj" for m in MESHES]
+    paths = [Path(p) for p in args.meshes] or sorted(bsw.MESHES.glob("*.obj"))
     runs = []
     for enc in args.encodings.split(","):
         if enc == "sliding-window":

@@ -200,17 +200,19 @@ streaming: {coarsest_lod_bytes: 10}
     assert not (tmp_path / "out" / "cow.swpm").exists()
 
 
-def test_auto_encoding_records_choice_and_reason(tmp_path):
-    cfg = _project(
-        tmp_path,
-        ("cow.obj",),
-        """\
+def _auto_project(tmp_path: Path, rule: str = "{name: auto, encoding: auto}") -> Path:
+    """Cow, 500 instances, one ``auto`` rule."""
+    config = f"""\
 version: 1
-assets: [{glob: "meshes/*.obj", instances: 500}]
-output: {dir: out}
-rules: [{name: auto, encoding: auto}]
-""",
-    )
+assets: [{{glob: "meshes/*.obj", instances: 500}}]
+output: {{dir: out}}
+rules: [{rule}]
+"""
+    return _project(tmp_path, ("cow.obj",), config)
+
+
+def test_auto_encoding_records_choice_and_reason(tmp_path):
+    cfg = _auto_project(tmp_path)
     res = run(cfg, echo=lambda m: None)
     rec = res.records["meshes/cow.obj"]
     assert rec["status"] == "built", rec.get("error")
@@ -283,16 +285,7 @@ def test_misses_at_error_ignores_a_candidate_that_stops_simplifying_above_a_frac
 
 
 def test_auto_can_rank_by_misses_at_equal_error(tmp_path):
-    cfg = _project(
-        tmp_path,
-        ("cow.obj",),
-        """\
-version: 1
-assets: [{glob: "meshes/*.obj", instances: 500}]
-output: {dir: out}
-rules: [{name: auto, encoding: auto, params: {select: misses-at-error}}]
-""",
-    )
+    cfg = _auto_project(tmp_path, "{name: auto, encoding: auto, params: {select: misses-at-error}}")
     res = run(cfg, echo=lambda m: None)
     rec = res.records["meshes/cow.obj"]
     assert rec["status"] == "built", rec.get("error")
