@@ -69,12 +69,17 @@ def _dead_linked_corners(st) -> int:
 def _valid_reference(st, b, k, tris_b, tp_b, nbr_b) -> bool:
     """:func:`valid_collapse` without its shortcuts: the duplicate-face scan over every surviving
     triangle and the full :func:`vertex_map` for every position."""
-    if st.pos_locked[b] or not st.pos_alive[b] or not st.pos_alive[k] or b == k:
+    if not st.pos_alive[b] or not st.pos_alive[k] or b == k:
         return False
     edge = [j for j in range(tp_b.shape[0]) if k in tp_b[j]]
-    if not edge or len(edge) > 2 or len(edge) != (1 if st.pos_boundary[b] else 2):
+    opp_list = [int(q) for j in edge for q in tp_b[j] if q != b and q != k]
+    opp = set(opp_list)
+    if st.pos_locked[b] == K.LOCK_COMPLEX:
+        # onto a complex position, along an edge of three or more triangles with distinct third corners
+        if st.pos_locked[k] != K.LOCK_COMPLEX or len(edge) < 3 or len(opp) != len(opp_list):
+            return False
+    elif st.pos_locked[b] or not edge or len(edge) > 2 or len(edge) != (1 if st.pos_boundary[b] else 2):
         return False
-    opp = {int(q) for j in edge for q in tp_b[j] if q != b and q != k}
     _, tp_k, nbr_k = _plain_star(st, k)
     common = (set(nbr_b.tolist()) - {k}) & set(nbr_k.tolist())
     if not common <= opp or len(common) != len(edge):
@@ -144,7 +149,10 @@ def test_star_snapshot_matches_the_corner_lists(name: str, frac: float) -> None:
     kbuf = K.star_buffers(st)
     for p in range(P):
         k, c = K.best_collapse(st, p)
-        assert (ks[p], cs[p]) == (k, c) or (ks[p] == k == -1), p
+        if st.pos_locked[p] == K.LOCK_COMPLEX:  # no sliding-window centre: its patch is no fan
+            assert ks[p] == -1, p
+        else:
+            assert (ks[p], cs[p]) == (k, c) or (ks[p] == k == -1), p
         n_valid += k >= 0
         tris, tp, nbr = _plain_star(st, p)
         for q in nbr:

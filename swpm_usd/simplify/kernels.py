@@ -35,11 +35,21 @@ CollapseState = namedtuple(
         "quadric",  # (P,10) f64
         "quadric_weight",  # (P,) f64
         "pos_alive",  # (P,) bool
-        "pos_locked",  # (P,) bool: never binned (non-manifold input, or caller's choice)
+        "pos_locked",  # (P,) u8: LOCK_FREE, LOCK_FIXED (never binned) or LOCK_COMPLEX (below)
         "pos_boundary",  # (P,) bool
         "min_area2",  # (1,) f64: squared doubled-area below which a triangle counts as zero-area
     ],
 )
+
+#: ``pos_locked`` values. A free position may be binned by any valid collapse; a fixed one never (an
+#: inconsistently oriented edge, a pinch vertex, the caller's choice). A complex one lies on an edge of three
+#: or more triangles (a fin, two sheets along a crease): it may only slide along such an edge onto another
+#: complex position, so a non-manifold curve shortens without dragging a sheet off it (meshoptimizer's
+#: "complex" vertices move onto each other too). Any non-zero value stops the sliding-window centre kernels,
+#: whose patches are a centre's fan.
+LOCK_FREE = 0
+LOCK_FIXED = 1
+LOCK_COMPLEX = 2
 
 #: a snapshot of every position's star in a state (:func:`star_snapshot`): what :func:`gather_triangles`,
 #: :func:`triangle_positions` and :func:`neighbours` return for position ``p``, as CSR rows ``p``
@@ -461,7 +471,7 @@ def valid_collapse(
     :func:`best_collapse` passes on). ``tp_k``, ``nbr_k``: ``k``'s star read already by the caller (its
     triangles' positions and neighbours in the current state, e.g. by :func:`star_into`; ``stars`` None)."""
     pos_alive = st.pos_alive
-    if st.pos_locked[b] or not pos_alive[b] or not pos_alive[k] or b == k:
+    if st.pos_locked[b] == LOCK_FIXED or not pos_alive[b] or not pos_alive[k] or b == k:
         return False
     # (the ``is None`` tests are resolved at compile time: one branch per specialisation)
     if tp_k is not None and nbr_k is not None:
@@ -531,8 +541,15 @@ def valid_collapse_in(
     triangles' positions ``tk[k0:k1]`` and neighbours ``nk[m0:m1]``): a hot loop over a star snapshot
     reads the state's fields and makes the slices of every star once, not per test (numba's reference
     counting)."""
-    if pos_locked[b] or not pos_alive[b] or not pos_alive[k] or b == k:
+    if not pos_alive[b] or not pos_alive[k] or b == k:
         return False
+    if pos_locked[b] != LOCK_FREE:
+        if pos_locked[b] != LOCK_COMPLEX or pos_locked[k] != LOCK_COMPLEX:
+            return False
+        return _valid_complex_collapse(
+            pts, min_area2, tv, pv, pos_vstart, b, k, tris_b, tp_b, b0, b1, nbr_b, n0, n1, tk, k0, k1, nk, m0,
+            m1,
+        )  # fmt: skip
     n_edge = 0
     opp0 = -1
     opp1 = -1
@@ -608,6 +625,96 @@ def valid_collapse_in(
 
 
 @nb.njit(cache=True, nogil=True)
+def _valid_complex_collapse(
+    pts: np.ndarray,
+    min_area2: float,
+    tv: np.ndarray,
+    pv: np.ndarray,
+    pos_vstart: np.ndarray,
+    b: int,
+    k: int,
+    tris_b: np.ndarray,
+    tp_b: np.ndarray,
+    b0: int,
+    b1: int,
+    nbr_b: np.ndarray,
+    n0: int,
+    n1: int,
+    tk: np.ndarray,
+    k0: int,
+    k1: int,
+    nk: np.ndarray,
+    m0: int,
+    m1: int,
+) -> bool:
+    """:func:`valid_collapse_in` for a complex ``b`` onto a complex ``k`` (``LOCK_COMPLEX``): the edge
+    ``b``-``k`` must be non-manifold (three or more triangles, their third corners distinct), and the
+    link condition, the flip and zero-area tests and the duplicate-face test are the manifold ones with
+    every edge triangle's third corner in place of the two. So the collapse removes the edge's triangles,
+    creates no edge of more triangles than the two it merges had, and folds nothing over."""
+    opp = np.empty(b1 - b0, np.int64)
+    n_edge = 0
+    for j in range(b0, b1):
+        if _has(tp_b, j, k):
+            o = -1
+            for i in range(3):
+                q = tp_b[j, i]
+                if q != b and q != k:
+                    o = q
+            for i in range(n_edge):
+                if opp[i] == o:
+                    return False  # two triangles on the edge with one third corner: a doubled face
+            opp[n_edge] = o
+            n_edge += 1
+    if n_edge < 3:
+        return False
+    # link condition: the common neighbours of b and k are exactly the edge triangles' third corners
+    common = 0
+    for i in range(n0, n1):
+        q = nbr_b[i]
+        if q == k:
+            continue
+        for j in range(m0, m1):
+            if nk[j] == q:
+                found = False
+                for r in range(n_edge):
+                    found = found or opp[r] == q
+                if not found:
+                    return False
+                common += 1
+                break
+    if common != n_edge:
+        return False
+    for j in range(b0, b1):
+        if _has(tp_b, j, k):
+            continue
+        p0 = tp_b[j, 0]
+        p1 = tp_b[j, 1]
+        p2 = tp_b[j, 2]
+        if p0 == b:
+            x, y = p1, p2
+        elif p1 == b:
+            x, y = p2, p0
+        else:
+            x, y = p0, p1
+        n00, n01, n02 = tri_normal(pts, b, x, y)
+        n10, n11, n12 = tri_normal(pts, k, x, y)
+        l1 = n10 * n10 + n11 * n11 + n12 * n12
+        if l1 <= min_area2:
+            return False
+        l0 = n00 * n00 + n01 * n01 + n02 * n02
+        if n00 * n10 + n01 * n11 + n02 * n12 <= 0.1 * np.sqrt(l0 * l1):
+            return False
+        for jj in range(k0, k1):  # (k, x, y) already around k: a duplicate face
+            if _has(tk, jj, x) and _has(tk, jj, y):
+                return False
+    if pos_vstart[b + 1] - pos_vstart[b] == 1:
+        return _single_vertex_maps(tv, k, tris_b, tp_b, b0, b1)
+    vm = _vertex_map(tv, pv, pos_vstart, b, k, tris_b[b0:b1], tp_b[b0:b1])
+    return vm[0] >= 0
+
+
+@nb.njit(cache=True, nogil=True)
 def apply_collapse(st: CollapseState, b: int, k: int, vmap: np.ndarray) -> int:
     """Bin position ``b`` onto ``k``: redirect its corners, kill the edge's triangles, merge quadrics.
     Returns the number of triangles removed."""
@@ -656,7 +763,7 @@ def best_collapse(
     neighbour is returned unchecked (the queue re-checks it when it comes up: lazy evaluation).
     ``stars``: a snapshot of ``st`` (:func:`star_snapshot`) to read the stars from instead of the
     corner lists."""
-    if st.pos_locked[b] or not st.pos_alive[b]:
+    if st.pos_locked[b] == LOCK_FIXED or not st.pos_alive[b]:
         return -1, np.inf
     if stars is None:
         tris_b = gather_triangles(st, b)

@@ -31,6 +31,7 @@ class MeshTopology:
     seam_faces: np.ndarray  # (ns,)
     pos_boundary: np.ndarray  # (P,) bool
     pos_nonmanifold: np.ndarray  # (P,) bool: on a non-manifold or inconsistently oriented edge
+    pos_complex: np.ndarray  # (P,) bool: on an edge of three or more triangles, on no inconsistent edge
 
 
 def _weld(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -152,13 +153,17 @@ def mesh_topology(mesh: Mesh) -> MeshTopology:
         np.int32
     )
     seam_faces = np.concatenate([face[sh0], face[sh1]]).astype(np.int32)
+
     # non-manifold: more than two triangles, or two with the same direction (inconsistent orientation)
-    bad_starts = np.r_[starts[counts > 2], starts[two][~consistent]]
-    pos_nonmanifold = np.zeros(P, bool)
-    if bad_starts.size:
-        bad_keys = key_s[bad_starts]
-        pos_nonmanifold[(bad_keys // P).astype(np.int64)] = True
-        pos_nonmanifold[(bad_keys % P).astype(np.int64)] = True
+    def ends(edge_starts: np.ndarray) -> np.ndarray:
+        on = np.zeros(P, bool)
+        on[(key_s[edge_starts] // P).astype(np.int64)] = True
+        on[(key_s[edge_starts] % P).astype(np.int64)] = True
+        return on
+
+    on_fin = ends(starts[counts > 2])
+    on_inconsistent = ends(starts[two][~consistent])
+    pos_nonmanifold = on_fin | on_inconsistent
     return MeshTopology(
         vertex_pos=vertex_pos,
         pos_points=uniq.astype(np.float64),
@@ -169,6 +174,7 @@ def mesh_topology(mesh: Mesh) -> MeshTopology:
         seam_faces=seam_faces,
         pos_boundary=pos_boundary,
         pos_nonmanifold=pos_nonmanifold,
+        pos_complex=on_fin & ~on_inconsistent,
     )
 
 
@@ -202,9 +208,12 @@ def make_state(
     head, nxt = kernels.build_corner_lists(topo.tri_pos, P)
     diag = float(np.linalg.norm(topo.pos_points.max(0) - topo.pos_points.min(0))) if P else 1.0
     min_area2 = np.array([(2e-10 * diag * diag) ** 2])
-    locked = topo.pos_nonmanifold.copy()
+    # a complex position slides along its non-manifold edges (kernels.LOCK_COMPLEX) unless it is also on
+    # the boundary (where a fin's free edge meets the curve) or an inconsistent edge: those stay fixed
+    locked = np.where(topo.pos_nonmanifold, kernels.LOCK_FIXED, kernels.LOCK_FREE).astype(np.uint8)
+    locked[topo.pos_complex & ~topo.pos_boundary] = kernels.LOCK_COMPLEX
     if locked_positions is not None:
-        locked |= locked_positions
+        locked[np.asarray(locked_positions, bool)] = kernels.LOCK_FIXED
     st = kernels.CollapseState(
         pos_points=np.ascontiguousarray(topo.pos_points),
         vertex_pos=topo.vertex_pos,
@@ -222,7 +231,7 @@ def make_state(
         min_area2=min_area2,
     )
     # pinch vertices (several fans) are non-manifold too
-    st.pos_locked[kernels.fan_counts(st) > 1] = True
+    st.pos_locked[kernels.fan_counts(st) > 1] = kernels.LOCK_FIXED
     assert V == st.vertex_pos.shape[0]
     return st
 
