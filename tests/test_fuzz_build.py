@@ -6,11 +6,12 @@ errors and every LOD's triangles).
 
 The meshes are suzanne (967 triangles) mutated the ways real assets are broken: random holes, duplicated,
 flipped, double-sided and degenerate faces, split vertices (copies with their own uv, so the seams stay),
-non-manifold fins and fans, two shells glued at one vertex, a flattened copy with coincident points, a soup
-of disjoint triangles, and meshes of one to five triangles (whose coarsest LOD may be empty). They go in
-through :meth:`Mesh.from_arrays`, as a loader's do: it welds equal vertices and drops degenerate and
-repeated faces, so for those mutations the cases check the cleaner and the encoders on what it leaves (a
-:class:`Mesh` made directly with a face naming one vertex twice is a ``BuildError``: ``test_simplify``).
+non-manifold fins and fans, strips standing on edge paths (whose inner points slide along them), two shells
+glued at one vertex, a flattened copy with coincident points, a soup of disjoint triangles, and meshes of one
+to five triangles (whose coarsest LOD may be empty). They go in through :meth:`Mesh.from_arrays`, as a
+loader's do: it welds equal vertices and drops degenerate and repeated faces, so for those mutations the cases
+check the cleaner and the encoders on what it leaves (a :class:`Mesh` made directly with a face naming one
+vertex twice is a ``BuildError``: ``test_simplify``).
 The same meshes made directly (``Mesh(...)``, no cleaning) must build consistent LODs or fail with a
 ``BuildError`` naming the mesh.
 """
@@ -59,6 +60,17 @@ def _mutate(kind: str, points: np.ndarray, tris: np.ndarray, rng: np.random.Gene
         tip = np.arange(len(p), len(p) + len(k))
         p = np.concatenate([p, p[t[k]].mean(1) + rng.normal(0, 0.01, (len(k), 3))])
         t = np.concatenate([t, np.stack([t[k, 0], t[k, 1], tip], 1)])
+    elif kind == "fin-strips":  # strips standing on edge paths: the paths' inner points are complex
+        for _ in range(6):
+            path = [int(rng.integers(len(points)))]
+            for _ in range(5):  # a walk along the mesh's edges, never back onto itself
+                nxt = np.setdiff1d(t[(t == path[-1]).any(1)], path)
+                if nxt.size:
+                    path.append(int(rng.choice(nxt)))
+            top = np.arange(len(p), len(p) + len(path))
+            p = np.concatenate([p, p[path] + rng.normal(0, 0.05, 3) + rng.normal(0, 0.005, (len(path), 3))])
+            a, b = np.array(path[:-1]), np.array(path[1:])
+            t = np.concatenate([t, np.stack([a, b, top[1:]], 1), np.stack([a, top[1:], top[:-1]], 1)])
     elif kind == "fan":  # forty faces on one edge
         tip = np.arange(len(p), len(p) + 40)
         p = np.concatenate([p, rng.normal(size=(40, 3))])
@@ -81,7 +93,7 @@ def _mutate(kind: str, points: np.ndarray, tris: np.ndarray, rng: np.random.Gene
 
 
 KINDS = ["holes", "duplicated", "flipped", "degenerate", "split", "fins", "fan", "glued", "double-sided"]
-KINDS += ["flat", "soup", "tiny1", "tiny2", "tiny5"]
+KINDS += ["flat", "soup", "tiny1", "tiny2", "tiny5", "fin-strips"]
 
 
 def _mutated(kind: str) -> tuple[Mesh, np.ndarray, np.ndarray]:
