@@ -165,6 +165,12 @@ def test_incremental_rerun_and_changes(tmp_path):
     )
     fourth = run(cfg, echo=lambda m: None)
     assert fourth.built == 2
+    # a default written out (as a whole number, for a real-valued parameter) builds the same thing: nothing
+    # is rebuilt; another value is
+    cfg.write_text(cfg.read_text().replace("{primitive: list}", "{primitive: list, boundary_weight: 8}"))
+    assert run(cfg, echo=lambda m: None).built == 0
+    cfg.write_text(cfg.read_text().replace("boundary_weight: 8}", "boundary_weight: 8.5}"))
+    assert run(cfg, echo=lambda m: None).built == 2
     # a deleted output is rebuilt
     (tmp_path / "out" / "cow.swpm").unlink()
     assert run(cfg, echo=lambda m: None).built == 1

@@ -128,10 +128,31 @@ def _in_range(value: float, rng: dict | None) -> bool:
     return rng.get("min", float("-inf")) <= value <= rng.get("max", float("inf"))
 
 
+def canonical_treatment(treatment: dict[str, Any]) -> dict[str, Any]:
+    """``treatment`` with every parameter of its encoding, defaults filled in (``auto``: ``select``), and
+    whole numbers given for a real-valued parameter as floats: two configs that build the same thing
+    (``mu: 0.1`` written out or left to the default, ``mu: 1`` or ``mu: 1.0``) give one treatment."""
+    from ..encode import BUILDERS
+    from .worker import AUTO_SELECT
+
+    encoding = treatment.get("encoding")
+    defaults = BUILDERS[encoding][1] if encoding in BUILDERS else {"select": AUTO_SELECT[0]}
+    params = dict(defaults)
+    for name, value in (treatment.get("params") or {}).items():
+        default = defaults.get(name)
+        if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        params[name] = value
+    return {**treatment, "params": params}
+
+
 def treatment_digest(input_digest: str, asset: Asset, treatment: dict[str, Any], version: str) -> str:
     """What decides whether an asset's outputs are current: its inputs, prim, instances, encoding and
-    parameters, and the tool's version."""
-    payload = json.dumps([input_digest, asset.prim, asset.instances, treatment, version], sort_keys=True)
+    parameters (:func:`canonical_treatment`: a default written out changes nothing), and the tool's
+    version."""
+    payload = json.dumps(
+        [input_digest, asset.prim, asset.instances, canonical_treatment(treatment), version], sort_keys=True
+    )
     return hashlib.sha256(payload.encode()).hexdigest()
 
 

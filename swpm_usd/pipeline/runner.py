@@ -3,8 +3,9 @@
 The run manifest (``<output>/manifest.json``) is rewritten atomically as assets finish (at most once a
 second, and at once when the run ends, fails or is stopped with Ctrl-C), so an interrupted run keeps every
 earlier result (a kill loses at most the last second's) and a rerun only does what is left. An asset
-is up to date when the digest of its input files, its resolved rule, parameters and the tool version equal
-the manifest's and its outputs are still there with the recorded size.
+is up to date when the digest of its input files, its resolved rule, parameters (defaults filled in, so
+writing one out rebuilds nothing) and the tool version equal the manifest's and its outputs are still there
+with the recorded size.
 """
 
 from __future__ import annotations
