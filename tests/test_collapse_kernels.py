@@ -1,7 +1,7 @@
 """The collapse kernels' fast paths against their plain counterparts: the per-level star snapshot
 (:func:`star_snapshot`, read by ``level_costs``, ``patch_triangles`` and ``absorb_middle``) and the
-sliding-window target choice (``_shaped_collapse``), on meshes with attribute seams, boundaries, locked
-(non-manifold) positions, degenerate triangles and dead corners left by earlier collapses."""
+sliding-window target choice (``_shaped_collapse``), on meshes with attribute seams, boundaries, fixed
+and complex (non-manifold) positions, degenerate triangles and dead corners left by earlier collapses."""
 
 from __future__ import annotations
 
@@ -149,10 +149,7 @@ def test_star_snapshot_matches_the_corner_lists(name: str, frac: float) -> None:
     kbuf = K.star_buffers(st)
     for p in range(P):
         k, c = K.best_collapse(st, p)
-        if st.pos_locked[p] == K.LOCK_COMPLEX:  # no sliding-window centre: its patch is no fan
-            assert ks[p] == -1, p
-        else:
-            assert (ks[p], cs[p]) == (k, c) or (ks[p] == k == -1), p
+        assert (ks[p], cs[p]) == (k, c) or (ks[p] == k == -1), p
         n_valid += k >= 0
         tris, tp, nbr = _plain_star(st, p)
         for q in nbr:

@@ -45,8 +45,7 @@ CollapseState = namedtuple(
 #: inconsistently oriented edge, a pinch vertex, the caller's choice). A complex one lies on an edge of three
 #: or more triangles (a fin, two sheets along a crease): it may only slide along such an edge onto another
 #: complex position, so a non-manifold curve shortens without dragging a sheet off it (meshoptimizer's
-#: "complex" vertices move onto each other too). Any non-zero value stops the sliding-window centre kernels,
-#: whose patches are a centre's fan.
+#: "complex" vertices move onto each other too). A complex centre's sliding-window patch is its whole star.
 LOCK_FREE = 0
 LOCK_FIXED = 1
 LOCK_COMPLEX = 2
