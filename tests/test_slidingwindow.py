@@ -691,6 +691,28 @@ def test_non_manifold_positions_are_patch_centres(settings: dict) -> None:
     _check_all(pm, mesh, closed=False)
 
 
+@pytest.mark.parametrize("kind", ["holes", "flipped"])
+def test_a_stuck_mesh_stores_no_trickle_of_levels(kind: str) -> None:
+    """Suzanne with random holes, or a fifth of its faces flipped, stops simplifying at 70-80 % of its
+    triangles. Its levels each remove at least 2.5 % of their triangles (the builder's estimate, two per
+    centre, at least 5 %), except levels of at most 1 % of LOD 0's: no level stores the whole remaining
+    mesh again for a handful of triangles, and every window is still the replay."""
+    from test_fuzz_build import _mutated
+
+    _, points, tris = _mutated(kind)
+    mesh = Mesh.from_arrays(points, tris)
+    pm = build_sliding_window(mesh)
+    tc = pm.triangle_counts
+    last = [int(np.flatnonzero(pm.lod_level == lv)[-1]) for lv in np.unique(pm.lod_level)]
+    assert tc[-1] > 0.3 * mesh.triangle_count  # stuck indeed
+    ends = [int(tc[k]) for k in last]
+    if pm.lod_count - 1 == last[-1] and len(last) > 1 and ends[-1] == ends[-2]:
+        ends = ends[:-1]  # the coarsest LOD's copy
+    for start, end in zip(ends[:-1], ends[1:], strict=True):
+        assert end <= 0.975 * start or start <= 0.01 * mesh.triangle_count, (start, end)
+    _check_all(pm, mesh, closed=False)
+
+
 def test_target_slack_trades_error_for_pool_size(spot: Mesh) -> None:
     """``target_slack=None`` is the mode's own default; a larger slack sends inner vertices to costlier,
     higher-degree targets: a smaller pool, larger collapse errors, still valid windows."""
