@@ -41,8 +41,8 @@ CollapseState = namedtuple(
     ],
 )
 
-#: ``pos_locked`` values. A free position may be binned by any valid collapse; a fixed one never (an
-#: inconsistently oriented edge, a pinch vertex, the caller's choice). A complex one lies on an edge of three
+#: ``pos_locked`` values. A free position may be binned by any valid collapse; a fixed one never (a pinch
+#: vertex, a complex position on the boundary, the caller's choice). A complex one lies on an edge of three
 #: or more triangles (a fin, two sheets along a crease): it may only slide along such an edge onto another
 #: complex position, so a non-manifold curve shortens without dragging a sheet off it (meshoptimizer's
 #: "complex" vertices move onto each other too). A complex centre's sliding-window patch is its whole star.

@@ -31,7 +31,7 @@ class MeshTopology:
     seam_faces: np.ndarray  # (ns,)
     pos_boundary: np.ndarray  # (P,) bool
     pos_nonmanifold: np.ndarray  # (P,) bool: on a non-manifold or inconsistently oriented edge
-    pos_complex: np.ndarray  # (P,) bool: on an edge of three or more triangles, on no inconsistent edge
+    pos_complex: np.ndarray  # (P,) bool: on an edge of three or more triangles
 
 
 def _weld(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -146,7 +146,7 @@ def mesh_topology(mesh: Mesh) -> MeshTopology:
     v0_hi = np.where(ha[h0] == lo[h0], vb[h0], va[h0])
     v1_lo = np.where(ha[h1] == lo[h1], va[h1], vb[h1])
     v1_hi = np.where(ha[h1] == lo[h1], vb[h1], va[h1])
-    seam = consistent & ((v0_lo != v1_lo) | (v0_hi != v1_hi))
+    seam = (v0_lo != v1_lo) | (v0_hi != v1_hi)
     sh0 = h0[seam]
     sh1 = h1[seam]
     seam_edges = np.concatenate([np.stack([ha[sh0], hb[sh0]], 1), np.stack([ha[sh1], hb[sh1]], 1)]).astype(
@@ -154,7 +154,8 @@ def mesh_topology(mesh: Mesh) -> MeshTopology:
     )
     seam_faces = np.concatenate([face[sh0], face[sh1]]).astype(np.int32)
 
-    # non-manifold: more than two triangles, or two with the same direction (inconsistent orientation)
+    # non-manifold: more than two triangles (complex), or two with the same direction (inconsistent
+    # orientation; seams are found on those too)
     def ends(edge_starts: np.ndarray) -> np.ndarray:
         on = np.zeros(P, bool)
         on[(key_s[edge_starts] // P).astype(np.int64)] = True
@@ -174,7 +175,7 @@ def mesh_topology(mesh: Mesh) -> MeshTopology:
         seam_faces=seam_faces,
         pos_boundary=pos_boundary,
         pos_nonmanifold=pos_nonmanifold,
-        pos_complex=on_fin & ~on_inconsistent,
+        pos_complex=on_fin,
     )
 
 
@@ -209,8 +210,10 @@ def make_state(
     diag = float(np.linalg.norm(topo.pos_points.max(0) - topo.pos_points.min(0))) if P else 1.0
     min_area2 = np.array([(2e-10 * diag * diag) ** 2])
     # a complex position slides along its non-manifold edges (kernels.LOCK_COMPLEX) unless it is also on
-    # the boundary (where a fin's free edge meets the curve) or an inconsistent edge: those stay fixed
-    locked = np.where(topo.pos_nonmanifold, kernels.LOCK_FIXED, kernels.LOCK_FREE).astype(np.uint8)
+    # the boundary (where a fin's free edge meets the curve): then it stays fixed. An edge whose two faces
+    # run the same way (inconsistent orientation) is a two-face edge like any other: collapses test each
+    # face against its own winding
+    locked = np.where(topo.pos_complex, kernels.LOCK_FIXED, kernels.LOCK_FREE).astype(np.uint8)
     locked[topo.pos_complex & ~topo.pos_boundary] = kernels.LOCK_COMPLEX
     if locked_positions is not None:
         locked[np.asarray(locked_positions, bool)] = kernels.LOCK_FIXED
