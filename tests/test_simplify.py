@@ -105,25 +105,35 @@ def test_nonmanifold_and_multi_component_meshes(name):
     seq = shared_sequence(name)
     topo = mesh_topology(mesh)
     assert seq.step_count > 0.5 * topo.pos_points.shape[0]  # most of the mesh still simplifies
-    # fixed: complex and on the boundary; never binned
-    fixed = topo.pos_complex & topo.pos_boundary
-    assert not np.isin(seq.binned_position, np.flatnonzero(fixed)).any()
     _assert_complex_collapses_slide(seq, topo)
     last = seq.triangles_at_step(seq.step_count)
     assert last.shape[0] > 0
 
 
+def _edge_counts_at(tp: np.ndarray, p: int) -> dict[int, int]:
+    """Triangles on each edge (p, x) of the triangles ``tp`` (positions)."""
+    counts: dict[int, int] = {}
+    for row in tp[(tp == p).any(1)]:
+        for x in set(row.tolist()) - {p}:
+            counts[x] = counts.get(x, 0) + 1
+    return counts
+
+
 def _assert_complex_collapses_slide(seq, topo) -> int:
-    """Every step that bins a complex position (on an edge of three or more triangles) moves it along
-    such an edge, as the sequence had it then, onto another complex position. Returns their number."""
-    complex_steps = np.flatnonzero(topo.pos_complex[seq.binned_position])
-    for s in complex_steps:
+    """Every step that bins a position on an edge of three or more triangles (as the sequence had it then)
+    moves it along such an edge onto another position on one, and none of those is on the boundary too (it
+    is binned once its fin is gone, as an ordinary position). Returns the number of such steps."""
+    n = 0
+    for s in np.flatnonzero(topo.pos_complex[seq.binned_position]):
         b, k = seq.binned_position[s], seq.kept_position[s]
-        assert topo.pos_complex[k], s
         tp = topo.vertex_pos[seq.triangles_at_step(int(s))]
-        on_edge = ((tp == b).any(1) & (tp == k).any(1)).sum()
-        assert on_edge >= 3, (s, on_edge)
-    return int(complex_steps.size)
+        at_b = _edge_counts_at(tp, b)
+        if max(at_b.values()) < 3:
+            continue
+        n += 1
+        assert min(at_b.values()) > 1, (s, "complex and on the boundary")
+        assert at_b[k] >= 3 and max(_edge_counts_at(tp, k).values()) >= 3, (s, at_b)
+    return n
 
 
 def test_inconsistent_orientation_does_not_stop_simplification():
@@ -196,9 +206,11 @@ def test_fin_attachment_slides_along_itself_and_stays_valid():
         st = edge_stats(seq.triangles_at_step(s), topo.vertex_pos)
         assert st["nonmanifold"] <= base["nonmanifold"], (s, st)
         assert st["repeated_directed"] <= base["repeated_directed"], (s, st)
-    # the fin is still there at the end: a triangle off the grid's plane
-    last = seq.triangles_at_step(seq.step_count)
-    assert (mesh.points[last][:, :, 2].max(1) > 1.0).any()
+    # the fin (dear to collapse) stands while the flat grid goes: a triangle off the grid's plane in every
+    # LOD of ten triangles or more
+    for s in range(seq.step_count + 1):
+        tris = seq.triangles_at_step(s)
+        assert tris.shape[0] < 10 or (mesh.points[tris][:, :, 2].max(1) > 1.0).any(), s
 
 
 def test_cow_pinch_vertex_is_locked():

@@ -691,10 +691,10 @@ def test_non_manifold_positions_are_patch_centres(settings: dict) -> None:
     _check_all(pm, mesh, closed=False)
 
 
-@pytest.mark.parametrize("kind", ["holes", "fins"])
+@pytest.mark.parametrize("kind", ["holes", "flat"])
 def test_a_stuck_mesh_stores_no_trickle_of_levels(kind: str) -> None:
-    """Suzanne with random holes, or one-triangle fins on a tenth of its edges, stops simplifying at a
-    third to 70 % of its triangles. Its levels each remove at least 2.5 % of their triangles (the builder's
+    """Suzanne with random holes, or flattened with a tenth of its points at one place, stops simplifying at a
+    quarter to 70 % of its triangles. Its levels each remove at least 2.5 % of their triangles (the builder's
     estimate, two per centre, at least 5 %), except levels of at most 1 % of LOD 0's: no level stores the
     whole remaining mesh again for a handful of triangles, and every window is still the replay."""
     from test_fuzz_build import _mutated
@@ -704,7 +704,7 @@ def test_a_stuck_mesh_stores_no_trickle_of_levels(kind: str) -> None:
     pm = build_sliding_window(mesh)
     tc = pm.triangle_counts
     last = [int(np.flatnonzero(pm.lod_level == lv)[-1]) for lv in np.unique(pm.lod_level)]
-    assert tc[-1] > 0.3 * mesh.triangle_count  # stuck indeed
+    assert tc[-1] > 0.2 * mesh.triangle_count  # stuck indeed
     ends = [int(tc[k]) for k in last]
     if pm.lod_count - 1 == last[-1] and len(last) > 1 and ends[-1] == ends[-2]:
         ends = ends[:-1]  # the coarsest LOD's copy

@@ -263,7 +263,7 @@ def level_costs(st: K.CollapseState, positions: np.ndarray, stars: K.Stars) -> t
         s1 = s_start[b + 1]
         ks[i] = -1
         cs[i] = np.inf
-        if locked[b] == K.LOCK_FIXED or not alive[b] or s0 == s1:  # as best_collapse
+        if locked[b] & K.LOCK_FIXED or not alive[b] or s0 == s1:  # as best_collapse
             continue
         n0 = s_nstart[b]
         n1 = s_nstart[b + 1]
@@ -1034,7 +1034,7 @@ def _shaped_collapse(
     target, for its degree and its validity); ``costs``: room for the costs of ``b``'s neighbours."""
     locked = st.pos_locked
     alive = st.pos_alive
-    if locked[b] == K.LOCK_FIXED or not alive[b]:
+    if locked[b] & K.LOCK_FIXED or not alive[b]:
         return -1, np.inf
     # the state's arrays read once and the stars kept as row counts in the buffers, K.best_of_star written
     # out: namedtuple field reads and slices per target cost most of the time in numba's reference counting

@@ -35,17 +35,21 @@ CollapseState = namedtuple(
         "quadric",  # (P,10) f64
         "quadric_weight",  # (P,) f64
         "pos_alive",  # (P,) bool
-        "pos_locked",  # (P,) u8: LOCK_FREE, LOCK_FIXED (never binned) or LOCK_COMPLEX (below)
+        "pos_locked",  # (P,) u8: LOCK_FREE or the bits LOCK_FIXED (never binned), LOCK_COMPLEX (below)
         "pos_boundary",  # (P,) bool
         "min_area2",  # (1,) f64: squared doubled-area below which a triangle counts as zero-area
     ],
 )
 
-#: ``pos_locked`` values. A free position may be binned by any valid collapse; a fixed one never (a pinch
-#: vertex, a complex position on the boundary, the caller's choice). A complex one lies on an edge of three
-#: or more triangles (a fin, two sheets along a crease): it may only slide along such an edge onto another
-#: complex position, so a non-manifold curve shortens without dragging a sheet off it (meshoptimizer's
-#: "complex" vertices move onto each other too). A complex centre's sliding-window patch is its whole star.
+#: ``pos_locked`` bits. A free position (0) may be binned by any valid collapse; a fixed one never. A complex
+#: one lies on an edge of three or more triangles (a fin, two sheets along a crease): it may only slide along
+#: such an edge onto another complex position, so a non-manifold curve shortens without dragging a sheet off
+#: it (meshoptimizer's "complex" vertices move onto each other too). A complex position on the boundary (where
+#: a fin's free edge meets the curve) is fixed as well. Both bits of a complex position, and ``pos_boundary``,
+#: follow the mesh: once its last edge of three triangles or its last boundary edge is gone (a fin collapsed
+#: away, :func:`apply_collapse`), the bits and the flag drop. A plain fixed position (a pinch vertex, the
+#: caller's choice: ``LOCK_FIXED`` alone) stays fixed. A complex centre's sliding-window patch is its whole
+#: star.
 LOCK_FREE = 0
 LOCK_FIXED = 1
 LOCK_COMPLEX = 2
@@ -470,7 +474,7 @@ def valid_collapse(
     :func:`best_collapse` passes on). ``tp_k``, ``nbr_k``: ``k``'s star read already by the caller (its
     triangles' positions and neighbours in the current state, e.g. by :func:`star_into`; ``stars`` None)."""
     pos_alive = st.pos_alive
-    if st.pos_locked[b] == LOCK_FIXED or not pos_alive[b] or not pos_alive[k] or b == k:
+    if st.pos_locked[b] & LOCK_FIXED or not pos_alive[b] or not pos_alive[k] or b == k:
         return False
     # (the ``is None`` tests are resolved at compile time: one branch per specialisation)
     if tp_k is not None and nbr_k is not None:
@@ -543,7 +547,7 @@ def valid_collapse_in(
     if not pos_alive[b] or not pos_alive[k] or b == k:
         return False
     if pos_locked[b] != LOCK_FREE:
-        if pos_locked[b] != LOCK_COMPLEX or pos_locked[k] != LOCK_COMPLEX:
+        if pos_locked[b] != LOCK_COMPLEX or not pos_locked[k] & LOCK_COMPLEX:
             return False
         return _valid_complex_collapse(
             pts, min_area2, tv, pv, pos_vstart, b, k, tris_b, tp_b, b0, b1, nbr_b, n0, n1, tk, k0, k1, nk, m0,
@@ -741,6 +745,7 @@ def apply_collapse(st: CollapseState, b: int, k: int, vmap: np.ndarray) -> int:
                         break
         last = c
         c = cnext[c]
+    first = head[b]
     if last >= 0:  # splice b's corners in front of k's
         cnext[last] = head[k]
         head[k] = head[b]
@@ -751,7 +756,60 @@ def apply_collapse(st: CollapseState, b: int, k: int, vmap: np.ndarray) -> int:
     qw = st.quadric_weight
     qw[k] += qw[b]
     st.pos_alive[b] = False
+    # the killed triangles' corners (k and the edge's third corners) are the positions whose edges lost
+    # triangles: a fin's foot or a boundary there may be gone
+    locked = st.pos_locked
+    boundary = st.pos_boundary
+    c = first
+    while c >= 0:
+        t = c // 3
+        if not alive[t]:
+            for i in range(3):
+                p = vp[tv[t, i]]
+                if p != b and st.pos_alive[p] and (boundary[p] or locked[p] & LOCK_COMPLEX):
+                    _refresh_kind(st, p)
+        if c == last:
+            break
+        c = cnext[c]
     return removed
+
+
+@nb.njit(cache=True, nogil=True)
+def _refresh_kind(st: CollapseState, p: int) -> None:
+    """``pos_boundary[p]`` and the complex bits of ``pos_locked[p]`` from ``p``'s current star: on an
+    edge of one triangle, on an edge of three or more."""
+    tv = st.tri_verts
+    vp = st.vertex_pos
+    alive = st.tri_alive
+    cnext = st.corner_next
+    on_boundary = False
+    on_fin = False
+    c = st.corner_head[p]
+    while c >= 0:
+        t = c // 3
+        if alive[t]:
+            for i in range(3):
+                x = vp[tv[t, i]]
+                if x == p:
+                    continue
+                n = 0  # triangles on the edge (p, x)
+                c2 = st.corner_head[p]
+                while c2 >= 0:
+                    t2 = c2 // 3
+                    if alive[t2] and (vp[tv[t2, 0]] == x or vp[tv[t2, 1]] == x or vp[tv[t2, 2]] == x):
+                        n += 1
+                    c2 = cnext[c2]
+                on_boundary = on_boundary or n == 1
+                on_fin = on_fin or n >= 3
+        c = cnext[c]
+    st.pos_boundary[p] = on_boundary
+    if st.pos_locked[p] & LOCK_COMPLEX:
+        if not on_fin:
+            st.pos_locked[p] = LOCK_FREE
+        elif on_boundary:
+            st.pos_locked[p] = LOCK_COMPLEX | LOCK_FIXED
+        else:
+            st.pos_locked[p] = LOCK_COMPLEX
 
 
 @nb.njit(cache=True, nogil=True)
@@ -762,7 +820,7 @@ def best_collapse(
     neighbour is returned unchecked (the queue re-checks it when it comes up: lazy evaluation).
     ``stars``: a snapshot of ``st`` (:func:`star_snapshot`) to read the stars from instead of the
     corner lists."""
-    if st.pos_locked[b] == LOCK_FIXED or not st.pos_alive[b]:
+    if st.pos_locked[b] & LOCK_FIXED or not st.pos_alive[b]:
         return -1, np.inf
     if stars is None:
         tris_b = gather_triangles(st, b)

@@ -210,11 +210,11 @@ def make_state(
     diag = float(np.linalg.norm(topo.pos_points.max(0) - topo.pos_points.min(0))) if P else 1.0
     min_area2 = np.array([(2e-10 * diag * diag) ** 2])
     # a complex position slides along its non-manifold edges (kernels.LOCK_COMPLEX) unless it is also on
-    # the boundary (where a fin's free edge meets the curve): then it stays fixed. An edge whose two faces
-    # run the same way (inconsistent orientation) is a two-face edge like any other: collapses test each
-    # face against its own winding
-    locked = np.where(topo.pos_complex, kernels.LOCK_FIXED, kernels.LOCK_FREE).astype(np.uint8)
-    locked[topo.pos_complex & ~topo.pos_boundary] = kernels.LOCK_COMPLEX
+    # the boundary (where a fin's free edge meets the curve): then it is fixed while it is both. An edge whose
+    # two faces run the same way (inconsistent orientation) is a two-face edge like any other: collapses
+    # test each face against its own winding
+    locked = np.where(topo.pos_complex, kernels.LOCK_COMPLEX, kernels.LOCK_FREE).astype(np.uint8)
+    locked[topo.pos_complex & topo.pos_boundary] |= kernels.LOCK_FIXED
     if locked_positions is not None:
         locked[np.asarray(locked_positions, bool)] = kernels.LOCK_FIXED
     st = kernels.CollapseState(
