@@ -76,7 +76,7 @@ def _valid_reference(st, b, k, tris_b, tp_b, nbr_b) -> bool:
     opp = set(opp_list)
     if st.pos_locked[b] == K.LOCK_COMPLEX:
         # onto a complex position, along an edge of three or more triangles with distinct third corners
-        if st.pos_locked[k] != K.LOCK_COMPLEX or len(edge) < 3 or len(opp) != len(opp_list):
+        if not st.pos_locked[k] & K.LOCK_COMPLEX or len(edge) < 3 or len(opp) != len(opp_list):
             return False
     elif st.pos_locked[b] or not edge or len(edge) > 2 or len(edge) != (1 if st.pos_boundary[b] else 2):
         return False
@@ -160,6 +160,24 @@ def test_star_snapshot_matches_the_corner_lists(name: str, frac: float) -> None:
             assert K.valid_collapse(st, p, int(q), tris, tp, nbr, None, tp_k, nbr_k) == plain, (p, q)
             assert _valid_reference(st, p, int(q), tris, tp, nbr) == plain, (p, q)
     assert 0 < n_valid < P
+
+
+def test_complex_collapses_match_the_reference() -> None:
+    # a fin standing on a path of the grid: its inner feet may slide along it, onto each other and onto its
+    # two ends (complex and on the boundary, so fixed themselves)
+    from test_simplify import _finned_grid
+
+    st = make_state(_finned_grid()[0], mesh_topology(_finned_grid()[0]))
+    onto_fixed = 0
+    n_valid = 0
+    for p in range(st.pos_points.shape[0]):
+        tris, tp, nbr = _plain_star(st, p)
+        for q in nbr:
+            plain = K.valid_collapse(st, p, int(q), tris, tp, nbr, None)
+            assert _valid_reference(st, p, int(q), tris, tp, nbr) == plain, (p, q)
+            n_valid += plain and st.pos_locked[p] == K.LOCK_COMPLEX
+            onto_fixed += plain and st.pos_locked[q] == K.LOCK_COMPLEX | K.LOCK_FIXED
+    assert n_valid > 0 and onto_fixed > 0
 
 
 @pytest.mark.parametrize(("name", "frac"), [("grid", 0.2), ("spot.obj", 0.3)])

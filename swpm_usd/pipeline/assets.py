@@ -141,7 +141,10 @@ def canonical_treatment(treatment: dict[str, Any]) -> dict[str, Any]:
     for name, value in (treatment.get("params") or {}).items():
         default = defaults.get(name)
         if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
+            try:
+                value = float(value)
+            except OverflowError:  # out of any build's range: the build reports it, located
+                pass
         params[name] = value
     return {**treatment, "params": params}
 
