@@ -513,6 +513,29 @@ def valid_collapse(
     )
 
 
+@nb.njit(cache=True, inline="always")
+def _moved_face_ok(pts: np.ndarray, min_area2: float, tp_b: np.ndarray, j: int, b: int, k: int):
+    """The surviving triangle ``j`` of ``b``'s star, ``b, x, y`` in winding order, before and after ``b``
+    moves onto ``k``: (no zero area and no flip or near-flip, x, y). A normal turned by more than ~84
+    degrees is refused."""
+    p0 = tp_b[j, 0]
+    p1 = tp_b[j, 1]
+    p2 = tp_b[j, 2]
+    if p0 == b:
+        x, y = p1, p2
+    elif p1 == b:
+        x, y = p2, p0
+    else:
+        x, y = p0, p1
+    n00, n01, n02 = tri_normal(pts, b, x, y)
+    n10, n11, n12 = tri_normal(pts, k, x, y)
+    l1 = n10 * n10 + n11 * n11 + n12 * n12
+    if l1 <= min_area2:
+        return False, x, y
+    l0 = n00 * n00 + n01 * n01 + n02 * n02
+    return n00 * n10 + n01 * n11 + n02 * n12 > 0.1 * np.sqrt(l0 * l1), x, y
+
+
 @nb.njit(cache=True, nogil=True)
 def valid_collapse_in(
     pos_alive: np.ndarray,
@@ -592,25 +615,8 @@ def valid_collapse_in(
     for j in range(b0, b1):
         if _has(tp_b, j, k):
             continue
-        # the surviving triangle b, x, y (in winding order) before and after b moves onto k
-        p0 = tp_b[j, 0]
-        p1 = tp_b[j, 1]
-        p2 = tp_b[j, 2]
-        if p0 == b:
-            x, y = p1, p2
-        elif p1 == b:
-            x, y = p2, p0
-        else:
-            x, y = p0, p1
-        n00, n01, n02 = tri_normal(pts, b, x, y)
-        n10, n11, n12 = tri_normal(pts, k, x, y)
-        l1 = n10 * n10 + n11 * n11 + n12 * n12
-        if l1 <= min_area2:
-            return False
-        l0 = n00 * n00 + n01 * n01 + n02 * n02
-        d = n00 * n10 + n01 * n11 + n02 * n12
-        # refuse flips and near-flips (normal turned by more than ~84 degrees)
-        if d <= 0.1 * np.sqrt(l0 * l1):
+        ok, x, y = _moved_face_ok(pts, min_area2, tp_b, j, b, k)
+        if not ok:
             return False
         # duplicate face: (k, x, y) already exists around k. A face around k holds only k's neighbours,
         # and the link test above left only the edge's opposite vertices (and b) common to both, so
@@ -691,22 +697,8 @@ def _valid_complex_collapse(
     for j in range(b0, b1):
         if _has(tp_b, j, k):
             continue
-        p0 = tp_b[j, 0]
-        p1 = tp_b[j, 1]
-        p2 = tp_b[j, 2]
-        if p0 == b:
-            x, y = p1, p2
-        elif p1 == b:
-            x, y = p2, p0
-        else:
-            x, y = p0, p1
-        n00, n01, n02 = tri_normal(pts, b, x, y)
-        n10, n11, n12 = tri_normal(pts, k, x, y)
-        l1 = n10 * n10 + n11 * n11 + n12 * n12
-        if l1 <= min_area2:
-            return False
-        l0 = n00 * n00 + n01 * n01 + n02 * n02
-        if n00 * n10 + n01 * n11 + n02 * n12 <= 0.1 * np.sqrt(l0 * l1):
+        ok, x, y = _moved_face_ok(pts, min_area2, tp_b, j, b, k)
+        if not ok:
             return False
         for jj in range(k0, k1):  # (k, x, y) already around k: a duplicate face
             if _has(tk, jj, x) and _has(tk, jj, y):
