@@ -167,7 +167,8 @@ def test_complex_collapses_match_the_reference() -> None:
     # two ends (complex and on the boundary, so fixed themselves)
     from test_simplify import _finned_grid
 
-    st = make_state(_finned_grid()[0], mesh_topology(_finned_grid()[0]))
+    mesh, _ = _finned_grid()
+    st = make_state(mesh, mesh_topology(mesh))
     onto_fixed = 0
     n_valid = 0
     for p in range(st.pos_points.shape[0]):

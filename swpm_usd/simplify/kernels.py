@@ -752,13 +752,14 @@ def apply_collapse(st: CollapseState, b: int, k: int, vmap: np.ndarray) -> int:
     # triangles: a fin's foot or a boundary there may be gone
     locked = st.pos_locked
     boundary = st.pos_boundary
+    pos_alive = st.pos_alive
     c = first
     while c >= 0:
         t = c // 3
         if not alive[t]:
             for i in range(3):
                 p = vp[tv[t, i]]
-                if p != b and st.pos_alive[p] and (boundary[p] or locked[p] & LOCK_COMPLEX):
+                if p != b and pos_alive[p] and (boundary[p] or locked[p] & LOCK_COMPLEX):
                     _refresh_kind(st, p)
         if c == last:
             break

@@ -146,7 +146,7 @@ def mesh_topology(mesh: Mesh) -> MeshTopology:
     v0_hi = np.where(ha[h0] == lo[h0], vb[h0], va[h0])
     v1_lo = np.where(ha[h1] == lo[h1], va[h1], vb[h1])
     v1_hi = np.where(ha[h1] == lo[h1], vb[h1], va[h1])
-    seam = (v0_lo != v1_lo) | (v0_hi != v1_hi)
+    seam = (v0_lo != v1_lo) | (v0_hi != v1_hi)  # on inconsistently oriented edges too
     sh0 = h0[seam]
     sh1 = h1[seam]
     seam_edges = np.concatenate([np.stack([ha[sh0], hb[sh0]], 1), np.stack([ha[sh1], hb[sh1]], 1)]).astype(
@@ -155,7 +155,7 @@ def mesh_topology(mesh: Mesh) -> MeshTopology:
     seam_faces = np.concatenate([face[sh0], face[sh1]]).astype(np.int32)
 
     # non-manifold: more than two triangles (complex), or two with the same direction (inconsistent
-    # orientation; seams are found on those too)
+    # orientation)
     def ends(edge_starts: np.ndarray) -> np.ndarray:
         on = np.zeros(P, bool)
         on[(key_s[edge_starts] // P).astype(np.int64)] = True
