@@ -298,6 +298,56 @@ def test_weld_and_counting_sorts_match_numpy():
     np.testing.assert_array_equal(kernels.stable_order(keys, 17), np.argsort(keys, kind="stable"))
 
 
+def _fan_reference(tri_pos: np.ndarray, p: int) -> tuple[list[int], int]:
+    """p's distinct neighbours in first-occurrence order and its number of edge-connected fans, slowly."""
+    star = [t for t in tri_pos.tolist() if p in t]
+    nbr = list(dict.fromkeys(q for t in star for q in t if q != p))
+    fan = list(range(len(star)))
+
+    def root(i):
+        while fan[i] != i:
+            i = fan[i]
+        return i
+
+    for i in range(len(star)):
+        for j in range(i):
+            if (set(star[i]) & set(star[j])) - {p}:
+                fan[root(i)] = root(j)
+    return nbr, sum(root(i) == i for i in range(len(star)))
+
+
+def test_large_stars_find_neighbours_and_fans_by_sorting():
+    # stars of more than _LARGE_STAR triangles take the sorting paths (a fan of thousands of triangles on
+    # one edge was cubic): same neighbours in the same order, same fan counts as the pairwise definition
+    from swpm_usd.simplify import kernels, make_state
+
+    rng = np.random.default_rng(3)
+    n = 3 * kernels._LARGE_STAR
+    grid, _ = _finned_grid()
+    pts = np.asarray(grid.points, dtype=np.float64)
+    tris = np.asarray(grid.triangles)
+    a, b = tris[0, 0], tris[0, 1]
+    tips = np.arange(len(pts), len(pts) + n)
+    pts = np.concatenate([pts, rng.normal(size=(n, 3))])
+    fan = np.stack([np.full(n, a), np.full(n, b), tips], axis=1)
+    # a second fan of one-triangle wings on vertex a alone makes it a pinch of many fans
+    wings = np.arange(len(pts), len(pts) + 2 * n).reshape(n, 2)
+    pts = np.concatenate([pts, rng.normal(size=(2 * n, 3))])
+    mesh = Mesh.from_arrays(pts, np.concatenate([tris, rng.permutation(fan), np.c_[np.full(n, a), wings]]))
+    topo = mesh_topology(mesh)
+    st = make_state(mesh, topo)
+    tri_pos = topo.vertex_pos[mesh.triangles]
+    fans = kernels.fan_counts(st)
+    hubs = topo.vertex_pos[[a, b]]
+    for p in [*hubs, *rng.choice(topo.vertex_pos.max() + 1, 20, replace=False)]:
+        ref_nbr, ref_fans = _fan_reference(tri_pos, p)
+        tp = kernels.triangle_positions(st, kernels.gather_triangles(st, p))
+        assert kernels.neighbours(p, tp).tolist() == ref_nbr, p
+        assert fans[p] == ref_fans, p
+    assert fans[hubs[0]] == n + 1 and fans[hubs[1]] == 1  # the wings are fans of their own
+    assert len(_fan_reference(tri_pos, hubs[0])[0]) > kernels._LARGE_STAR
+
+
 def _icosphere(subdivisions: int = 2) -> tuple[np.ndarray, np.ndarray]:
     import trimesh
 

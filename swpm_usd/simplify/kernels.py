@@ -219,9 +219,39 @@ def _neighbours_into(p: int, tp: np.ndarray, buf: np.ndarray, m0: int) -> int:
     return _neighbours_rows(p, tp, 0, tp.shape[0], buf, m0)
 
 
+# stars of more triangles than this find their distinct neighbours by a sort, not by comparing each with
+# those found so far: a fan of thousands of triangles on one edge made every collapse there quadratic
+_LARGE_STAR = 48
+
+
+@nb.njit(cache=True, nogil=True)
+def _neighbours_rows_sorted(p: int, tp: np.ndarray, j0: int, j1: int, buf: np.ndarray, m0: int) -> int:
+    """:func:`_neighbours_rows` by a stable sort, n log n: the same positions in the same order (first
+    occurrence)."""
+    c = m0
+    for j in range(j0, j1):
+        for i in range(3):
+            if tp[j, i] != p:
+                buf[c] = tp[j, i]
+                c += 1
+    order = np.argsort(buf[m0:c], kind="mergesort")
+    first = np.zeros(c - m0, np.bool_)
+    for r in range(order.shape[0]):
+        if r == 0 or buf[m0 + order[r]] != buf[m0 + order[r - 1]]:
+            first[order[r]] = True  # the stable sort puts a value's first occurrence first
+    m = m0
+    for r in range(c - m0):
+        if first[r]:
+            buf[m] = buf[m0 + r]
+            m += 1
+    return m
+
+
 @nb.njit(cache=True, inline="always")
 def _neighbours_rows(p: int, tp: np.ndarray, j0: int, j1: int, buf: np.ndarray, m0: int) -> int:
     """:func:`_neighbours_into` for rows ``j0:j1`` of ``tp`` (no slice: numba's reference counting)."""
+    if j1 - j0 > _LARGE_STAR:
+        return _neighbours_rows_sorted(p, tp, j0, j1, buf, m0)
     m = m0
     for j in range(j0, j1):
         for i in range(3):
@@ -1094,6 +1124,14 @@ def stable_order(keys: np.ndarray, n_keys: int) -> np.ndarray:
 
 
 @nb.njit(cache=True, nogil=True)
+def _find_root(parent: np.ndarray, i: int) -> int:
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]  # path halving: a fan of thousands of triangles stays near linear
+        i = parent[i]
+    return i
+
+
+@nb.njit(cache=True, nogil=True)
 def fan_counts(st: CollapseState) -> np.ndarray:
     """Number of edge-connected triangle fans around each position (>1 means a pinch vertex)."""
     P = st.pos_points.shape[0]
@@ -1103,6 +1141,8 @@ def fan_counts(st: CollapseState) -> np.ndarray:
     tris = np.empty(T, np.int32)
     tp = np.empty((T, 3), np.int32)
     parent = np.empty(T, np.int64)
+    other = np.empty(3 * T, np.int64)  # (other position, star row) per corner that is not p
+    row = np.empty(3 * T, np.int64)
     head = st.corner_head  # read once (numba's reference counting per field read)
     cnext = st.corner_next
     talive = st.tri_alive
@@ -1112,28 +1152,25 @@ def fan_counts(st: CollapseState) -> np.ndarray:
         n = _positions_rows(head, cnext, talive, tv, vp, p, tris, tp, 0)
         if n == 0:
             continue
+        # two triangles of p's star are in one fan when they share an edge (p, q): group the star's rows
+        # by their other positions q (a sort: n log n, where comparing every pair was cubic on a fan of
+        # thousands of triangles on one edge)
+        m = 0
         for i in range(n):
             parent[i] = i
-        for i in range(n):
-            for j in range(i + 1, n):
-                # share a second position besides p?
-                shared = False
-                for a in range(3):
-                    qa = tp[i, a]
-                    if qa != p and _has(tp, j, qa):
-                        shared = True
-                if shared:
-                    ri = i
-                    while parent[ri] != ri:
-                        ri = parent[ri]
-                    rj = j
-                    while parent[rj] != rj:
-                        rj = parent[rj]
-                    if ri != rj:
-                        parent[ri] = rj
-        roots = 0
-        for i in range(n):
-            if parent[i] == i:
-                roots += 1
+            for a in range(3):
+                if tp[i, a] != p:
+                    other[m] = tp[i, a]
+                    row[m] = i
+                    m += 1
+        order = np.argsort(other[:m], kind="mergesort")
+        roots = n
+        for j in range(1, m):
+            if other[order[j]] == other[order[j - 1]]:
+                ri = _find_root(parent, row[order[j]])
+                rj = _find_root(parent, row[order[j - 1]])
+                if ri != rj:
+                    parent[ri] = rj
+                    roots -= 1
         out[p] = roots
     return out
