@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import shared_mesh
 
 import swpm_usd
 from swpm_usd.encode import sw_centres as swc
@@ -711,6 +712,38 @@ def test_a_stuck_mesh_stores_no_trickle_of_levels(kind: str) -> None:
     for start, end in zip(ends[:-1], ends[1:], strict=True):
         assert end <= 0.975 * start or start <= 0.01 * mesh.triangle_count, (start, end)
     _check_all(pm, mesh, closed=False)
+
+
+def _suzanne_with_fan(n: int) -> Mesh:
+    """Suzanne with ``n`` extra triangles standing on one of its edges, tips scattered about it."""
+    base = shared_mesh("suzanne.obj")
+    rng = np.random.default_rng(0)
+    pts = np.asarray(base.points, dtype=np.float64)
+    tris = np.asarray(base.triangles)
+    tips = np.arange(len(pts), len(pts) + n)
+    fan = np.stack([np.full(n, tris[0, 0]), np.full(n, tris[0, 1]), tips], axis=1)
+    return Mesh.from_arrays(np.concatenate([pts, rng.normal(size=(n, 3))]), np.concatenate([tris, fan]))
+
+
+def test_a_level_that_removes_a_trickle_is_the_last() -> None:
+    """Suzanne with a fan of 300 triangles on one edge: its tips are centres, but each tip's collapse onto the
+    edge's ends costs more as the tips before it add their quadrics there, and passes the level's cut after a
+    few. The builder's estimate (two triangles per centre) cannot see that; a level that removed under 5 % of
+    its triangles is the last (the fan's levels removed 4-5 triangles each, 201 levels of ~250 triangles)."""
+    mesh = _suzanne_with_fan(300)
+    pm = build_sliding_window(mesh)
+    tc = pm.triangle_counts
+    last = [int(np.flatnonzero(pm.lod_level == lv)[-1]) for lv in np.unique(pm.lod_level)]
+    ends = [int(tc[0])] + [int(tc[k]) for k in last]
+    if pm.lod_count - 1 == last[-1] and len(last) > 1 and ends[-1] == ends[-2]:
+        ends = ends[:-1]  # the coarsest LOD's copy
+    gains = [1 - end / start for start, end in zip(ends[:-1], ends[1:], strict=True)]
+    assert all(g >= 0.05 for g in gains[:-1]), gains
+    assert len(gains) <= 12 and pm.index_pool.shape[0] < 6 * 3 * mesh.triangle_count
+    _check_all(pm, mesh, closed=False)
+    forsyth = build_sliding_window(mesh, builder="forsyth")
+    assert forsyth.triangle_counts[-1] < 0.05 * mesh.triangle_count  # the quadric order takes the whole fan
+    _check_all(forsyth, mesh, closed=False, every=7)
 
 
 def test_target_slack_trades_error_for_pool_size(spot: Mesh) -> None:

@@ -427,7 +427,9 @@ _CLUSTER_MIN_PATCHES = 16
 #: through levels that each store about its whole remaining mesh again to remove a few triangles. At 0.05, on
 #: the hostile-mesh test's suzannes: holes lambda 4.83 -> 3.44 for a coarsest LOD of 389 triangles instead of
 #: 382, flattened 5.75 -> 5.24 (242, 236); beetle 5.78 -> 5.59 (199, 189); the other nine shared meshes
-#: unchanged. At 0.1 suzanne's coarse levels stop too (24 -> 26 triangles)
+#: unchanged. At 0.1 suzanne's coarse levels stop too (24 -> 26 triangles). The estimate can be far off (tips
+#: of a fan on one edge, whose collapses onto its ends grow dearer than the cut one after another): a level
+#: that removed less than this fraction is the last one built
 _MIN_LEVEL_GAIN = 0.05
 _SMALL_LEVEL = 0.01
 
@@ -707,6 +709,15 @@ def _build_levels(
         )
         if patch_steps.shape[0] == 0:
             break
+        # the estimate above can be far off: centres whose collapses grew dearer than the cut as their
+        # neighbours' went first (many patches onto one target, whose quadric grows with each) are skipped.
+        # A level that removed a trickle stays (its collapses are made) but is the last one
+        last = (
+            not link
+            and len(levels) > 0
+            and alive_t.shape[0] > _SMALL_LEVEL * T
+            and p_out.shape[0] - q_out.shape[0] < _MIN_LEVEL_GAIN * alive_t.shape[0]
+        )
         if not cluster:
             # the level's patch order search and cache order need nothing of the levels after it: a worker
             # thread finishes it while this one builds the next level (the kernels release the GIL)
@@ -731,6 +742,8 @@ def _build_levels(
         recs_all.append(recs)
         info_all.append(info)
         nstep += info.shape[0]
+        if last:
+            break
     return levels, recs_all, info_all, gtris, ng
 
 

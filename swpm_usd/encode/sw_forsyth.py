@@ -47,6 +47,17 @@ def _refresh(st, q, keys, ids, stamps, size, stamp, target):
 
 
 @nb.njit(cache=True)
+def _refresh_unchecked(st, q, keys, ids, stamps, size, stamp, target):
+    """:func:`_refresh` with ``q``'s cheapest target, valid or not: the pop checks it (lazy evaluation)."""
+    k2, c2 = K.best_collapse(st, q, False)
+    stamp[q] += 1
+    target[q] = k2
+    if k2 >= 0:
+        keys, ids, stamps, size = K._heap_push(keys, ids, stamps, size, c2, q, stamp[q])
+    return keys, ids, stamps, size
+
+
+@nb.njit(cache=True)
 def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, gtris: np.ndarray, ng: int):
     """Quadric-error collapses, one patch (the star of the binned position) each, grouped into levels
     (Forsyth, "Comparison of VIPM Methods", sliding window): a collapse may not touch a triangle created
@@ -203,7 +214,7 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
             ring = K.neighbours(k, K.triangle_positions(st, tris_k))
             for i in range(ring.shape[0] + 1):
                 q = k if i == ring.shape[0] else np.int64(ring[i])
-                keys, ids, stamps, size = _refresh(st, q, keys, ids, stamps, size, stamp, target)
+                keys, ids, stamps, size = _refresh_unchecked(st, q, keys, ids, stamps, size, stamp, target)
         if progress == 0:
             break
     return (
