@@ -521,3 +521,25 @@ def test_every_rule_encoding_is_buildable():
 def test_presets_and_sample_config_are_valid(preset):
     load_config(preset)
     load_config(SCHEMA_PATH.parents[1] / "samples" / "pipeline.yaml")
+
+
+def test_whole_numbers_for_an_optional_real_parameter_give_one_treatment():
+    # target_slack defaults to None (the encoder's choice) and takes a real number: 1 and 1.0 build the same
+    # pool, so they are one treatment; an integer parameter stays an integer
+    from swpm_usd.pipeline.assets import canonical_treatment
+
+    one = canonical_treatment(
+        {"encoding": "sliding-window", "params": {"target_slack": 1, "order_passes": 2}}
+    )
+    other = canonical_treatment(
+        {"encoding": "sliding-window", "params": {"target_slack": 1.0, "order_passes": 2}}
+    )
+    assert json.dumps(one, sort_keys=True) == json.dumps(other, sort_keys=True)
+    assert one["params"]["target_slack"] == 1.0 and isinstance(one["params"]["target_slack"], float)
+    assert isinstance(one["params"]["order_passes"], int)
+    assert one["params"]["mu"] == BUILDERS["sliding-window"][1]["mu"]  # the defaults filled in
+    from swpm_usd.io import load_mesh
+
+    suzanne = load_mesh(SHARED_MESHES / "suzanne.obj")
+    pools = [swpm_usd.build(suzanne, "sliding-window", target_slack=v).index_pool for v in (1, 1.0)]
+    assert np.array_equal(*pools)

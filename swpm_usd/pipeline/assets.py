@@ -133,14 +133,19 @@ def canonical_treatment(treatment: dict[str, Any]) -> dict[str, Any]:
     whole numbers given for a real-valued parameter as floats: two configs that build the same thing
     (``mu: 0.1`` written out or left to the default, ``mu: 1`` or ``mu: 1.0``) give one treatment."""
     from ..encode import BUILDERS
+    from .schema import real_valued
     from .worker import AUTO_SELECT
 
     encoding = treatment.get("encoding")
     defaults = BUILDERS[encoding][1] if encoding in BUILDERS else {"select": AUTO_SELECT[0]}
     params = dict(defaults)
     for name, value in (treatment.get("params") or {}).items():
-        default = defaults.get(name)
-        if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
+        if (
+            name in defaults
+            and real_valued(name, defaults[name])
+            and isinstance(value, int)
+            and not isinstance(value, bool)
+        ):
             try:
                 value = float(value)
             except OverflowError:  # out of any build's range: the build reports it, located

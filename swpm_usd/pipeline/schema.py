@@ -44,6 +44,13 @@ def _param_schema(value: Any, name: str = "") -> dict[str, Any]:
     return {}
 
 
+def real_valued(name: str, default: Any) -> bool:
+    """Is the encoding parameter ``name`` (default ``default``) a real number in the config's schema: a float
+    default, or an optional number (``None`` leaves the choice to the encoder)?"""
+    kind = _param_schema(default, name).get("type")
+    return kind == "number" or (isinstance(kind, list) and "number" in kind)
+
+
 def build_schema() -> dict[str, Any]:
     from ..encode import BUILDERS
 
