@@ -428,8 +428,9 @@ _CLUSTER_MIN_PATCHES = 16
 #: the hostile-mesh test's suzannes: holes lambda 4.83 -> 3.44 for a coarsest LOD of 389 triangles instead of
 #: 382, flattened 5.75 -> 5.24 (242, 236); beetle 5.78 -> 5.59 (199, 189); the other nine shared meshes
 #: unchanged. At 0.1 suzanne's coarse levels stop too (24 -> 26 triangles). The estimate can be far off (tips
-#: of a fan on one edge, whose collapses onto its ends grow dearer than the cut one after another): a level
-#: that removed less than this fraction is the last one built
+#: of a fan on one edge, whose collapses onto its ends grow dearer than the cut one after another): after a
+#: level that removed less than this fraction, the next one collapses its centres without the cut, and if
+#: that one removes less too, it is the last
 _MIN_LEVEL_GAIN = 0.05
 _SMALL_LEVEL = 0.01
 
@@ -574,6 +575,7 @@ def _build_levels(
     info_all = []
     nstep = 0
     fresh_cost = None  # cluster=True: pool triangles per collapse a fully stored level would cost
+    relax = False  # the level after a trickle: no cost limit at collapse time (see ``last`` below)
     while True:
         alive_t = np.flatnonzero(st.tri_alive)
         if alive_t.shape[0] == 0:
@@ -704,20 +706,24 @@ def _build_levels(
             gtris,
             ng,
             nstep,
-            max_cost,
+            np.inf if relax else max_cost,
             slack,
         )
         if patch_steps.shape[0] == 0:
             break
         # the estimate above can be far off: centres whose collapses grew dearer than the cut as their
         # neighbours' went first (many patches onto one target, whose quadric grows with each) are skipped.
-        # A level that removed a trickle stays (its collapses are made) but is the last one
-        last = (
+        # A level that removed a trickle stays (its collapses are made); the next one lets its centres,
+        # chosen under the cut, collapse whatever they cost by then, and if that one trickles too it is the
+        # last
+        trickle = (
             not link
             and len(levels) > 0
             and alive_t.shape[0] > _SMALL_LEVEL * T
             and p_out.shape[0] - q_out.shape[0] < _MIN_LEVEL_GAIN * alive_t.shape[0]
         )
+        last = trickle and relax
+        relax = trickle and not relax
         if not cluster:
             # the level's patch order search and cache order need nothing of the levels after it: a worker
             # thread finishes it while this one builds the next level (the kernels release the GIL)

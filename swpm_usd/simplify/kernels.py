@@ -232,6 +232,10 @@ def _neighbours_rows_sorted(p: int, tp: np.ndarray, j0: int, j1: int, buf: np.nd
     for j in range(j0, j1):
         for i in range(3):
             if tp[j, i] != p:
+                # every row holds p, so two corners each fit the callers' room of two per row; numba checks
+                # no bounds, so a row without p must not write past the buffer
+                if c >= buf.shape[0]:
+                    raise IndexError("neighbour buffer too small: a star row without its position")
                 buf[c] = tp[j, i]
                 c += 1
     order = np.argsort(buf[m0:c], kind="mergesort")
