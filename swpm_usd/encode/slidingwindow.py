@@ -434,6 +434,13 @@ _CLUSTER_MIN_PATCHES = 16
 _MIN_LEVEL_GAIN = 0.05
 _SMALL_LEVEL = 0.01
 
+
+def _trickle(removed: int, level_triangles: int, lod0_triangles: int) -> bool:
+    """Does a level of ``level_triangles`` that removes ``removed`` of them remove a trickle
+    (:data:`_MIN_LEVEL_GAIN`; levels of at most :data:`_SMALL_LEVEL` of LOD 0's triangles never do)?"""
+    return level_triangles > _SMALL_LEVEL * lod0_triangles and removed < _MIN_LEVEL_GAIN * level_triangles
+
+
 #: ``cluster=True``: a level is linked only if, before its collapses, its linked patches cost at most this
 #: many times the pool triangles per collapse of a fully stored level (``2 T_L / n - 2``, ``n`` the
 #: minimum-degree centres; estimated once per run of linked levels). Deciding from the level itself rather
@@ -687,12 +694,8 @@ def _build_levels(
                     st, own_start, pt_start, pt, order, binned_vertex, int(cache_size)
                 )
         del stars  # stale from the first collapse on (and one level's snapshot at a time in memory)
-        if (  # a trickle of a fully stored level, dearer than the few triangles it removes
-            not link
-            and levels
-            and alive_t.shape[0] > _SMALL_LEVEL * T
-            and 2 * inner.shape[0] < _MIN_LEVEL_GAIN * alive_t.shape[0]
-        ):
+        # a trickle of a fully stored level, dearer than the few triangles it removes
+        if not link and levels and _trickle(2 * inner.shape[0], alive_t.shape[0], T):
             break
         start_gids = cur_gid[alive_t].copy()
         gtris, ng, p_start, p_out, q_start, q_out, recs, info, patch_steps = swk.collapse_patches(
@@ -717,10 +720,7 @@ def _build_levels(
         # chosen under the cut, collapse whatever they cost by then, and if that one trickles too it is the
         # last
         trickle = (
-            not link
-            and len(levels) > 0
-            and alive_t.shape[0] > _SMALL_LEVEL * T
-            and p_out.shape[0] - q_out.shape[0] < _MIN_LEVEL_GAIN * alive_t.shape[0]
+            not link and len(levels) > 0 and _trickle(p_out.shape[0] - q_out.shape[0], alive_t.shape[0], T)
         )
         last = trickle and relax
         relax = trickle and not relax

@@ -37,19 +37,10 @@ def _valid_target(st: K.CollapseState, b: int, k: int) -> bool:
 
 
 @nb.njit(cache=True)
-def _refresh(st, q, keys, ids, stamps, size, stamp, target):
-    k2, c2 = K.best_collapse(st, q)
-    stamp[q] += 1
-    target[q] = k2
-    if k2 >= 0:
-        keys, ids, stamps, size = K._heap_push(keys, ids, stamps, size, c2, q, stamp[q])
-    return keys, ids, stamps, size
-
-
-@nb.njit(cache=True)
-def _refresh_unchecked(st, q, keys, ids, stamps, size, stamp, target):
-    """:func:`_refresh` with ``q``'s cheapest target, valid or not: the pop checks it (lazy evaluation)."""
-    k2, c2 = K.best_collapse(st, q, False)
+def _refresh(st, q, keys, ids, stamps, size, stamp, target, validate):
+    """Queue ``q`` with its best target: the best valid one (``validate``), or its cheapest, valid or not,
+    which the pop checks (lazy evaluation: a check reads the target's whole star)."""
+    k2, c2 = K.best_collapse(st, q, validate)
     stamp[q] += 1
     target[q] = k2
     if k2 >= 0:
@@ -112,7 +103,7 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
     for _ in range(3):
         progress = 0
         for p in range(P):
-            keys, ids, stamps, size = _refresh(st, p, keys, ids, stamps, size, stamp, target)
+            keys, ids, stamps, size = _refresh(st, p, keys, ids, stamps, size, stamp, target, True)
         while size > 0 or dsize > 0:
             # the best valid collapse: the deferred heap's top (it touches the level) or the main heap's
             while dsize > 0 and (ds[0] != stamp[di[0]] or not pos_alive[di[0]]):
@@ -129,7 +120,7 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
                 continue
             k = target[b]
             if not _valid_target(st, b, k):
-                keys, ids, stamps, size = _refresh(st, b, keys, ids, stamps, size, stamp, target)
+                keys, ids, stamps, size = _refresh(st, b, keys, ids, stamps, size, stamp, target, True)
                 continue
             cost = K.collapse_cost(st, b, k)
             if from_deferred or _touches_level(st, b, tri_level, level):
@@ -148,7 +139,9 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
                         keys, ids, stamps, size = K._heap_push(keys, ids, stamps, size, c2, b2, s2)
                         break
                     if not _valid_target(st, b2, target[b2]):
-                        keys, ids, stamps, size = _refresh(st, b2, keys, ids, stamps, size, stamp, target)
+                        keys, ids, stamps, size = _refresh(
+                            st, b2, keys, ids, stamps, size, stamp, target, True
+                        )
                         continue
                     if not _touches_level(st, b2, tri_level, level):
                         found = b2
@@ -214,7 +207,7 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
             ring = K.neighbours(k, K.triangle_positions(st, tris_k))
             for i in range(ring.shape[0] + 1):
                 q = k if i == ring.shape[0] else np.int64(ring[i])
-                keys, ids, stamps, size = _refresh_unchecked(st, q, keys, ids, stamps, size, stamp, target)
+                keys, ids, stamps, size = _refresh(st, q, keys, ids, stamps, size, stamp, target, False)
         if progress == 0:
             break
     return (
