@@ -21,6 +21,7 @@ from swpm_usd.encode.slidingwindow import (
 )
 from swpm_usd.errors import BuildError
 from swpm_usd.mesh import Mesh
+from swpm_usd.simplify import kernels as K
 from swpm_usd.simplify import mesh_topology
 
 MESHES = Path(__file__).resolve().parents[1].parent / "shared" / "meshes"
@@ -344,13 +345,17 @@ def test_absorb_rounds_take_the_whole_middle(spot: Mesh) -> None:
             build_sliding_window(spot, absorb_rounds=bad)
 
 
-def test_position_graph_is_the_edge_graph() -> None:
-    """The numba position graph: every edge of the triangles both ways, each neighbour once, sorted."""
+@pytest.mark.parametrize("shape", ["icosphere", "cone"])
+def test_position_graph_is_the_edge_graph(shape: str) -> None:
+    """The numba position graph: every edge of the triangles both ways, each neighbour once, sorted (a
+    cone's apex and cap centre are hubs, whose runs are sorted at the end rather than by insertion)."""
     from swpm_usd.encode import sw_kernels as swk
 
-    tp = mesh_topology(_icosphere(2)).tri_pos.astype(np.int64)
+    mesh = _icosphere(2) if shape == "icosphere" else _cone(300)
+    tp = mesh_topology(mesh).tri_pos.astype(np.int64)
     P = int(tp.max()) + 2  # one position without triangles
     start, nbr = swk.position_graph(tp, P)
+    assert (np.diff(start).max() > 2 * K.HUB_SIZE) == (shape == "cone")
     a = tp.reshape(-1)
     b = tp[:, [1, 2, 0]].reshape(-1)
     key = np.unique(np.concatenate([a * P + b, b * P + a]))
@@ -712,6 +717,46 @@ def test_a_stuck_mesh_stores_no_trickle_of_levels(kind: str) -> None:
     for start, end in zip(ends[:-1], ends[1:], strict=True):
         assert end <= 0.975 * start or start <= 0.01 * mesh.triangle_count, (start, end)
     _check_all(pm, mesh, closed=False)
+
+
+def _cone(sections: int) -> Mesh:
+    """A closed cone: its apex and its cap's centre are hubs of ``sections`` triangles each."""
+    import trimesh
+
+    cone = trimesh.creation.cone(radius=1.0, height=2.0, sections=sections)
+    return Mesh.from_arrays(np.asarray(cone.vertices), np.asarray(cone.faces))
+
+
+@pytest.mark.parametrize(
+    "settings",
+    [{}, {"inner_vertices": 3}, {"cluster": True, "optimize_connectivity": True}, {"builder": "forsyth"}],
+)
+def test_a_cone_of_many_sections_simplifies_past_its_hubs(settings: dict) -> None:
+    """A cone's apex and cap centre are in every section's triangles. The builders do not look through
+    such a hub for neighbouring centres or patches (``HUB_SIZE``), and a hub with no valid collapse is
+    checked again only after a share of its star has changed: every LOD is still a valid closed mesh, the
+    cone simplifies down to a handful of triangles, and no level holds a patch of a hub's thousands."""
+    sections = 1500
+    mesh = _cone(sections)
+    pm = build_sliding_window(mesh, **settings)
+    assert pm.triangle_count_at(pm.lod_count - 1) <= 8
+    assert pm.lod_count > sections // 4
+    _check_all(pm, mesh, closed=True, every=41)
+
+
+@pytest.mark.parametrize("encoding", ["vanilla", "skip-strip", "mixed"])
+def test_the_quadric_order_simplifies_a_cone_past_its_hubs(encoding: str) -> None:
+    sections = 1500
+    mesh = _cone(sections)
+    pm = swpm_usd.build(mesh, encoding=encoding)
+    assert pm.triangle_count_at(0) == 2 * sections
+    assert pm.triangle_count_at(pm.lod_count - 1) <= 8
+    for k in range(0, pm.lod_count, 97):
+        tris = pm.triangles_at(k)
+        ok, _ = _edge_stats(
+            tris[(tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])]
+        )
+        assert ok, f"{encoding} LOD {k} is not a closed 2-manifold"
 
 
 def _suzanne_with_fan(n: int) -> Mesh:

@@ -400,6 +400,8 @@ def grow_independent_set(
         size += 1
         for a in range(adj_start[v], adj_start[v + 1]):
             y = adj[a]
+            if adj_start[y + 1] - adj_start[y] > K.HUB_SIZE:
+                continue  # a hub's neighbours are all over the mesh (a cone's apex): linear per iteration
             for b in range(adj_start[y], adj_start[y + 1]):
                 z = adj[b]
                 if eligible[z] and not sol[z] and tight[z] == 0:
@@ -410,7 +412,8 @@ def grow_independent_set(
         nq += 1
         nq = _queue_near(v, sol, tight, adj_start, adj, queue, nq, queued)
         for a in range(adj_start[v], adj_start[v + 1]):
-            nq = _queue_near(adj[a], sol, tight, adj_start, adj, queue, nq, queued)
+            if adj_start[adj[a] + 1] - adj_start[adj[a]] <= K.HUB_SIZE:  # (as above)
+                nq = _queue_near(adj[a], sol, tight, adj_start, adj, queue, nq, queued)
     return np.flatnonzero(sol).astype(np.int64)
 
 
@@ -476,6 +479,9 @@ def lower_costly_centres(
             nc = np.int64(0)
             for a in range(adj_start[c], adj_start[c + 1]):
                 u = adj[a]
+                # not a hub: forced in, it would push out hundreds of members (linear per try)
+                if adj_start[u + 1] - adj_start[u] > K.HUB_SIZE:
+                    continue
                 if eligible[u] and not sol[u] and rank[u] < rank[c] and nc < cand.shape[0]:
                     cand[nc] = u
                     nc += 1
@@ -684,6 +690,8 @@ def grow_component_set(
             while h < end:
                 x = region[h]
                 h += 1
+                if adj_start[x + 1] - adj_start[x] > K.HUB_SIZE:
+                    continue  # a hub's ring is all over the mesh (a cone's apex)
                 for a in range(adj_start[x], adj_start[x + 1]):
                     y = adj[a]
                     if rmark[y] != rstamp and nr < region.shape[0]:
@@ -705,7 +713,9 @@ def grow_component_set(
             best_key = np.inf
             for i in range(nr):
                 x = region[i]
-                if in_set[x] or not eligible[x]:
+                # a hub is no inner vertex here: its patch would be its thousands of triangles, and
+                # counting its free neighbours is linear per candidate
+                if in_set[x] or not eligible[x] or adj_start[x + 1] - adj_start[x] > K.HUB_SIZE:
                     continue
                 stamp += 1
                 if not _component_fits(x, in_set, adj_start, adj, k, mark, stamp, stack):

@@ -213,17 +213,20 @@ def position_graph(tp: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
     m = 0
     for a in range(P):
         first = m
+        hub = raw_start[a + 1] - raw_start[a] > 2 * K.HUB_SIZE
         for j in range(raw_start[a], raw_start[a + 1]):
             b = raw[j]
             if mark[b] != a:
                 mark[b] = a
-                # insertion into the sorted run
+                # insertion into the sorted run (a hub's run is sorted at the end: quadratic otherwise)
                 k = m
-                while k > first and nbr[k - 1] > b:
+                while not hub and k > first and nbr[k - 1] > b:
                     nbr[k] = nbr[k - 1]
                     k -= 1
                 nbr[k] = b
                 m += 1
+        if hub:
+            nbr[first:m].sort()
         start[a + 1] = m
     return start, nbr[:m].copy()
 
@@ -282,7 +285,7 @@ def level_costs(st: K.CollapseState, positions: np.ndarray, stars: K.Stars) -> t
             cs[i] = costs[best]
             continue
         order = np.argsort(costs[:nn])
-        for r in range(1, nn):
+        for r in range(1, min(nn, K.MAX_TARGET_TRIES)):
             k = np.int64(s_nbr[n0 + order[r]])
             if K.valid_collapse_in(
                 alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, s_tris, s_tp, s0, s1,
@@ -451,6 +454,8 @@ def absorb_middle(
         nc = 0
         for r in range(3):
             q = a if r == 0 else (b if r == 1 else c)
+            if star_start[q + 1] - star_start[q] > K.HUB_SIZE:
+                continue  # a hub's star holds patches all over the mesh: linear per triangle
             for j in range(star_start[q], star_start[q + 1]):
                 u = star_tris[j]
                 p = tri_patch[u]
@@ -618,6 +623,7 @@ def order_patches(
     ring_q = np.full(cache_size, -1, np.int64)
     push_p = np.int64(0)
     push_q = np.int64(0)
+    first_left = vp_start[:-1].copy()
     stack = np.empty(m + 1, np.int64)
     sp = np.int64(0)
     scan = np.int64(0)
@@ -626,7 +632,7 @@ def order_patches(
         best_score = np.inf
         for r in range(cache_size):
             v = ring_p[r]
-            if v < 0:
+            if v < 0 or vp_start[v + 1] - vp_start[v] > K.HUB_SIZE:
                 continue
             for a in range(vp_start[v], vp_start[v + 1]):
                 p = vp[a]
@@ -648,10 +654,12 @@ def order_patches(
         while best < 0 and sp > 0:
             sp -= 1
             v = stack[sp]
-            for a in range(vp_start[v], vp_start[v + 1]):
-                if not done[vp[a]]:
-                    best = vp[a]
-                    break
+            # the first of v's patches not drawn yet; the ones before it stay drawn (a hub is on the
+            # stack once per patch drawn: scanning its whole list each time was quadratic)
+            while first_left[v] < vp_start[v + 1] and done[vp[first_left[v]]]:
+                first_left[v] += 1
+            if first_left[v] < vp_start[v + 1]:
+                best = vp[first_left[v]]
         if best < 0:
             while done[scan]:
                 scan += 1
@@ -939,7 +947,8 @@ def reassign_middle(
     for i in range(nab):
         for r in range(3):
             w = vpos[tv[ab[i], r]]
-            n_cand += pp_start[w + 1] - pp_start[w]
+            if pp_start[w + 1] - pp_start[w] <= K.HUB_SIZE:
+                n_cand += pp_start[w + 1] - pp_start[w]
     cand = np.empty(n_cand, np.int64)
     nc = 0
     for i in range(nab):
@@ -947,6 +956,8 @@ def reassign_middle(
         first = nc
         for r in range(3):
             w = vpos[tv[t, r]]
+            if pp_start[w + 1] - pp_start[w] > K.HUB_SIZE:
+                continue
             for a in range(pp_start[w], pp_start[w + 1]):
                 p = pp[a]
                 dup = False
@@ -1075,7 +1086,7 @@ def _shaped_collapse(
         c0 = costs[best]
     else:
         order = np.argsort(costs[:nn])
-        for i in range(1, nn):
+        for i in range(1, min(nn, K.MAX_TARGET_TRIES)):
             k = np.int64(b_nbr[order[i]])
             mt, mn = K.star_rows(head, cnext, talive, tv, vp, k, k_tris, k_tp, k_nbr)
             if K.valid_collapse_in(

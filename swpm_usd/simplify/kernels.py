@@ -872,6 +872,23 @@ def best_collapse(
     return best_of_star(st, b, tris_b, tp_b, nbr, validate, stars, np.empty(nbr.shape[0]), None)
 
 
+# A position or vertex with more neighbours or patches than this is a hub (a cone's apex, a cap's centre:
+# thousands of triangles). The builders that look for a neighbouring centre or patch through the vertices
+# it shares with others do not look through a hub's list: its members lie all over the mesh and along the
+# whole patch order, and each look was linear in the mesh (a cone of 12,000 triangles spent 17 s of its
+# sliding-window build in reassign_middle alone). Ordinary vertices have a few neighbours each. And a
+# position found with no valid target is checked again only after ``star size // HUB_SIZE`` collapses
+# next to it (run_sequence, Forsyth's builder), not after every one: a hub that no collapse suits was
+# re-queued by each collapse of its ring and checked against its targets at once, a cubic sequence (a
+# cone of 16,000 triangles: 372 s)
+HUB_SIZE = 64
+
+# The targets a position tries, cheapest first, before it counts as having no valid collapse: a hub of
+# thousands of triangles that no collapse suits checked every target against its whole star (quadratic per
+# check). Ordinary stars have fewer neighbours and try them all
+MAX_TARGET_TRIES = 32
+
+
 @nb.njit(cache=True, inline="always")
 def best_of_star(
     st: CollapseState,
@@ -906,7 +923,7 @@ def best_of_star(
         if valid_collapse(st, b, k, tris_b, tp_b, nbr, stars):
             return k, costs[best]
         order = np.argsort(costs[:nn])
-        for i in range(1, order.shape[0]):
+        for i in range(1, min(order.shape[0], MAX_TARGET_TRIES)):
             k = np.int64(nbr[order[i]])
             if valid_collapse(st, b, k, tris_b, tp_b, nbr, stars):
                 return k, costs[order[i]]
@@ -916,7 +933,7 @@ def best_of_star(
         if valid_collapse(st, b, k, tris_b, tp_b, nbr, None, tp_k, nbr_k):
             return k, costs[best]
         order = np.argsort(costs[:nn])
-        for i in range(1, order.shape[0]):
+        for i in range(1, min(order.shape[0], MAX_TARGET_TRIES)):
             k = np.int64(nbr[order[i]])
             _, tp_k, nbr_k = star_into(st, k, kbuf[0], kbuf[1], kbuf[2])
             if valid_collapse(st, b, k, tris_b, tp_b, nbr, None, tp_k, nbr_k):
@@ -1012,6 +1029,8 @@ def run_sequence(st: CollapseState, max_passes: int, full_ring_update: bool = Fa
     target_cost = np.full(P, np.inf)  # the cost of ``target``, as pushed
     # the target is the cheapest neighbour, valid or not (not after a failed check picked a costlier one)
     cheapest = np.zeros(P, np.bool_)
+    # collapses next to a position with no valid target left before it is checked again (see HUB_SIZE)
+    wait = np.zeros(P, np.int64)
     keys = np.empty(max(16, P), np.float64)
     ids = np.empty(max(16, P), np.int64)
     stamps = np.empty(max(16, P), np.int64)
@@ -1036,6 +1055,8 @@ def run_sequence(st: CollapseState, max_passes: int, full_ring_update: bool = Fa
             nbr_b = neighbours(b, tp_b)
             if k < 0 or not valid_collapse(st, b, k, tris_b, tp_b, nbr_b, None):
                 k2, c2 = best_collapse(st, b)
+                if k2 < 0:
+                    wait[b] = tris_b.shape[0] // HUB_SIZE
                 stamp[b] += 1
                 target[b] = k2
                 target_cost[b] = c2
@@ -1067,6 +1088,9 @@ def run_sequence(st: CollapseState, max_passes: int, full_ring_update: bool = Fa
             for i in range(ring.shape[0] + 1):
                 q = k if i == ring.shape[0] else np.int64(ring[i])
                 tq = target[q]
+                if tq < 0 and wait[q] > 0 and q != k:
+                    wait[q] -= 1
+                    continue
                 if q != k and tq >= 0 and tq != b and tq != k and cheapest[q] and not full_ring_update:
                     c2 = collapse_cost(st, q, k)
                     if not c2 < target_cost[q]:
