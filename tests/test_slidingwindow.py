@@ -567,6 +567,25 @@ def test_centre_search_grows_the_greedy_set() -> None:
     assert np.array_equal(out, again)
 
 
+def test_centre_search_frees_a_hubs_ring_when_the_hub_leaves() -> None:
+    """The search does not look through a hub's ring for vertices left free (linear per iteration), except
+    when its forced insertion just pushed that hub out of the set: then every rim vertex of a cone whose
+    apex and cap centre were the centres is free, and the set must take them in (half the rim) and stay
+    maximal."""
+    from swpm_usd.encode import sw_kernels as swk
+
+    sections = 400
+    tp = mesh_topology(_cone(sections)).tri_pos.astype(np.int64)
+    P = int(tp.max()) + 1
+    start, nbr = swk.position_graph(tp, P)
+    hubs = np.flatnonzero(np.diff(start) > K.HUB_SIZE).astype(np.int64)
+    assert hubs.shape[0] == 2
+    eligible = np.ones(P, bool)
+    out = swc.grow_independent_set(start, nbr, eligible, hubs, 10, 5)
+    _assert_maximal_independent(start, nbr, eligible, out)
+    assert out.shape[0] >= 0.45 * sections  # both hubs out, about every other rim vertex in
+
+
 def _degrees(mesh: Mesh) -> np.ndarray:
     tp = mesh_topology(mesh).tri_pos
     return np.bincount(tp.reshape(-1), minlength=int(tp.max()) + 1)

@@ -318,6 +318,7 @@ def grow_independent_set(
     queue = np.empty(4 * P + 64, np.int64)
     queued = np.zeros(P, np.bool_)
     mark = np.zeros(P, np.int64)
+    removed_at = np.full(P, -1, np.int64)  # the iteration whose forced insertion removed the vertex
     stamp = 0
     ones = np.empty(64, np.int64)
     size = centres.shape[0]
@@ -396,12 +397,15 @@ def grow_independent_set(
             if sol[adj[a]]:
                 nlog = _set_remove(adj[a], sol, tight, adj_start, adj, log, nlog)
                 size -= 1
+                removed_at[adj[a]] = it
         nlog = _set_insert(v, sol, tight, adj_start, adj, log, nlog)
         size += 1
         for a in range(adj_start[v], adj_start[v + 1]):
             y = adj[a]
-            if adj_start[y + 1] - adj_start[y] > K.HUB_SIZE:
-                continue  # a hub's neighbours are all over the mesh (a cone's apex): linear per iteration
+            if adj_start[y + 1] - adj_start[y] > K.HUB_SIZE and removed_at[y] != it:
+                # a hub's neighbours are all over the mesh (a cone's apex): linear per iteration. Only a hub
+                # that just left the set can have left them free
+                continue
             for b in range(adj_start[y], adj_start[y + 1]):
                 z = adj[b]
                 if eligible[z] and not sol[z] and tight[z] == 0:

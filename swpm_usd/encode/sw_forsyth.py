@@ -47,8 +47,7 @@ def _refresh(st, q, keys, ids, stamps, size, stamp, target, validate, wait):
         wait[q] -= 1
         return keys, ids, stamps, size
     k2, c2 = K.best_collapse(st, q, validate)
-    if validate and k2 < 0:
-        wait[q] = K.gather_triangles(st, q).shape[0] // K.HUB_SIZE
+    wait[q] = K.gather_triangles(st, q).shape[0] // K.HUB_SIZE if validate and k2 < 0 else 0
     stamp[q] += 1
     target[q] = k2
     if k2 >= 0:
@@ -216,6 +215,8 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
             ring = K.neighbours(k, K.triangle_positions(st, tris_k))
             for i in range(ring.shape[0] + 1):
                 q = k if i == ring.shape[0] else np.int64(ring[i])
+                if q == k:
+                    wait[k] = 0  # its star grew by b's: checked now, as run_sequence checks it
                 keys, ids, stamps, size = _refresh(st, q, keys, ids, stamps, size, stamp, target, False, wait)
         if progress == 0:
             break

@@ -878,14 +878,15 @@ def best_collapse(
 # whole patch order, and each look was linear in the mesh (a cone of 12,000 triangles spent 17 s of its
 # sliding-window build in reassign_middle alone). Ordinary vertices have a few neighbours each. And a
 # position found with no valid target is checked again only after ``star size // HUB_SIZE`` collapses
-# next to it (run_sequence, Forsyth's builder), not after every one: a hub that no collapse suits was
-# re-queued by each collapse of its ring and checked against its targets at once, a cubic sequence (a
-# cone of 16,000 triangles: 372 s)
+# next to it (run_sequence, Forsyth's builder; a star of 64 triangles or more waits), not after every
+# one: a hub that no collapse suits was re-queued by each collapse of its ring and checked against its
+# targets at once, a cubic sequence (a cone of 16,000 triangles: 372 s)
 HUB_SIZE = 64
 
 # The targets a position tries, cheapest first, before it counts as having no valid collapse: a hub of
 # thousands of triangles that no collapse suits checked every target against its whole star (quadratic per
-# check). Ordinary stars have fewer neighbours and try them all
+# check). A star of up to 32 neighbours tries them all (teapot's coarse end has positions of 40; its
+# sequence, like the ten shared meshes', is the same as without the limit)
 MAX_TARGET_TRIES = 32
 
 
@@ -1039,6 +1040,7 @@ def run_sequence(st: CollapseState, max_passes: int, full_ring_update: bool = Fa
         progress = 0
         for p in range(P):
             k, cost = best_collapse(st, p, False)
+            wait[p] = 0
             stamp[p] += 1
             target[p] = k
             target_cost[p] = cost
