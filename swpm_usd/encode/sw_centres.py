@@ -402,7 +402,7 @@ def grow_independent_set(
         size += 1
         for a in range(adj_start[v], adj_start[v + 1]):
             y = adj[a]
-            if adj_start[y + 1] - adj_start[y] > K.HUB_SIZE and removed_at[y] != it:
+            if K.is_hub(adj_start, y) and removed_at[y] != it:
                 # a hub's neighbours are all over the mesh (a cone's apex): linear per iteration. Only a hub
                 # that just left the set can have left them free
                 continue
@@ -416,7 +416,7 @@ def grow_independent_set(
         nq += 1
         nq = _queue_near(v, sol, tight, adj_start, adj, queue, nq, queued)
         for a in range(adj_start[v], adj_start[v + 1]):
-            if adj_start[adj[a] + 1] - adj_start[adj[a]] <= K.HUB_SIZE:  # (as above)
+            if not K.is_hub(adj_start, adj[a]):  # (as above)
                 nq = _queue_near(adj[a], sol, tight, adj_start, adj, queue, nq, queued)
     return np.flatnonzero(sol).astype(np.int64)
 
@@ -484,7 +484,7 @@ def lower_costly_centres(
             for a in range(adj_start[c], adj_start[c + 1]):
                 u = adj[a]
                 # not a hub: forced in, it would push out hundreds of members (linear per try)
-                if adj_start[u + 1] - adj_start[u] > K.HUB_SIZE:
+                if K.is_hub(adj_start, u):
                     continue
                 if eligible[u] and not sol[u] and rank[u] < rank[c] and nc < cand.shape[0]:
                     cand[nc] = u
@@ -694,7 +694,7 @@ def grow_component_set(
             while h < end:
                 x = region[h]
                 h += 1
-                if adj_start[x + 1] - adj_start[x] > K.HUB_SIZE:
+                if K.is_hub(adj_start, x):
                     continue  # a hub's ring is all over the mesh (a cone's apex)
                 for a in range(adj_start[x], adj_start[x + 1]):
                     y = adj[a]
@@ -719,7 +719,7 @@ def grow_component_set(
                 x = region[i]
                 # a hub is no inner vertex here: its patch would be its thousands of triangles, and
                 # counting its free neighbours is linear per candidate
-                if in_set[x] or not eligible[x] or adj_start[x + 1] - adj_start[x] > K.HUB_SIZE:
+                if in_set[x] or not eligible[x] or K.is_hub(adj_start, x):
                     continue
                 stamp += 1
                 if not _component_fits(x, in_set, adj_start, adj, k, mark, stamp, stack):

@@ -454,7 +454,7 @@ def absorb_middle(
         nc = 0
         for r in range(3):
             q = a if r == 0 else (b if r == 1 else c)
-            if star_start[q + 1] - star_start[q] > K.HUB_SIZE:
+            if K.is_hub(star_start, q):
                 continue  # a hub's star holds patches all over the mesh: linear per triangle
             for j in range(star_start[q], star_start[q + 1]):
                 u = star_tris[j]
@@ -632,7 +632,7 @@ def order_patches(
         best_score = np.inf
         for r in range(cache_size):
             v = ring_p[r]
-            if v < 0 or vp_start[v + 1] - vp_start[v] > K.HUB_SIZE:
+            if v < 0 or K.is_hub(vp_start, v):
                 continue
             for a in range(vp_start[v], vp_start[v + 1]):
                 p = vp[a]
@@ -947,7 +947,7 @@ def reassign_middle(
     for i in range(nab):
         for r in range(3):
             w = vpos[tv[ab[i], r]]
-            if pp_start[w + 1] - pp_start[w] <= K.HUB_SIZE:
+            if not K.is_hub(pp_start, w):
                 n_cand += pp_start[w + 1] - pp_start[w]
     cand = np.empty(n_cand, np.int64)
     nc = 0
@@ -956,7 +956,7 @@ def reassign_middle(
         first = nc
         for r in range(3):
             w = vpos[tv[t, r]]
-            if pp_start[w + 1] - pp_start[w] > K.HUB_SIZE:
+            if K.is_hub(pp_start, w):
                 continue
             for a in range(pp_start[w], pp_start[w + 1]):
                 p = pp[a]

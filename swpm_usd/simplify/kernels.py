@@ -883,6 +883,13 @@ def best_collapse(
 # targets at once, a cubic sequence (a cone of 16,000 triangles: 372 s)
 HUB_SIZE = 64
 
+
+@nb.njit(cache=True, inline="always")
+def is_hub(start: np.ndarray, i: int) -> bool:
+    """Whether entry ``i`` of a CSR listing (``start``: offsets) lists more than :data:`HUB_SIZE` items."""
+    return start[i + 1] - start[i] > HUB_SIZE
+
+
 # The targets a position tries, cheapest first, before it counts as having no valid collapse: a hub of
 # thousands of triangles that no collapse suits checked every target against its whole star (quadratic per
 # check). A star of up to 32 neighbours tries them all (teapot's coarse end has positions of 40; its
