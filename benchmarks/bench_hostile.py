@@ -1,18 +1,22 @@
-"""Build time on hostile meshes: a fan of many triangles standing on one edge, and a cone of many sections.
+"""Build time on hostile meshes: a fan of many triangles standing on one edge, a cone of many sections and a
+non-manifold hub.
 
 The fan: suzanne (967 triangles) with ``n`` extra triangles on one of its edges, their tips scattered
 around it, the way a broken export or a malicious file can pile faces onto one edge. The cone: a closed cone
 of ``n`` sections (``2 n`` triangles), whose apex and cap centre are hubs of ``n`` triangles each, as CAD
-exports tessellate cones, cylinders and discs. Every encoding (and the sliding window's Forsyth builder and
+exports tessellate cones, cylinders and discs. The hub: ``n`` triangles that all hold one vertex, their
+other corners random among ``n`` points, as a file whose indices were zeroed in part would make it (before
+the hub's edges were counted, ``pos_edge_kinds``, and its ring visited lazily: vanilla 99 s at 3,000
+triangles, cubic). Every encoding (and the sliding window's Forsyth builder and
 its several-inner-vertex mode with edge swaps) is built once per size, warm, in one process. The ratio
 column is the time over the previous size's (2 for linear at doubling sizes, 4 for quadratic, 8 for
 cubic). Targets: no build over 30 s at a fan of 2,000 triangles (that fan used to take 489 s with Forsyth's
 builder and 207 s with the topology-driven one) or at a cone of 10,000 sections (before the hub guards,
 ``swpm_usd.simplify.kernels.HUB_SIZE``: the topology-driven builder 62 s, Forsyth's 120 s or more, and the
-quadric order of vanilla 372 s already at 8,000 sections).
+quadric order of vanilla 372 s already at 8,000 sections) or at a hub of 30,000 triangles.
 
     python benchmarks/bench_hostile.py [--sizes 500,1000,2000] [--cone-sizes 2500,5000,10000]
-        [--out benchmarks/results/hostile.json]
+        [--hub-sizes 7500,15000,30000] [--out benchmarks/results/hostile.json]
 """
 
 from __future__ import annotations
@@ -61,7 +65,17 @@ def cone_mesh(n: int):
     return Mesh.from_arrays(np.asarray(cone.vertices), np.asarray(cone.faces))
 
 
-SHAPES = {"fan": (fan_mesh, 2000), "cone": (cone_mesh, 10000)}  # mesh maker, size the target is at
+def hub_mesh(n: int):
+    """``n`` triangles that all hold vertex 0, their other corners random among ``n`` normal random points."""
+    from swpm_usd.mesh import Mesh
+
+    rng = np.random.default_rng(0)
+    pts = rng.normal(size=(n + 1, 3))
+    return Mesh.from_arrays(pts, np.c_[np.zeros(n, np.int64), rng.integers(1, n + 1, (n, 2))])
+
+
+# mesh maker, size the target is at
+SHAPES = {"fan": (fan_mesh, 2000), "cone": (cone_mesh, 10000), "hub": (hub_mesh, 30000)}
 
 
 def main() -> None:
@@ -70,11 +84,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sizes", default="500,1000,2000")
     ap.add_argument("--cone-sizes", default="2500,5000,10000")
+    ap.add_argument("--hub-sizes", default="7500,15000,30000")
     ap.add_argument("--out", default=str(HERE / "results" / "hostile.json"))
     args = ap.parse_args()
     sizes = {
         "fan": [int(s) for s in args.sizes.split(",")],
         "cone": [int(s) for s in args.cone_sizes.split(",")],
+        "hub": [int(s) for s in args.hub_sizes.split(",")],
     }
     swpm_usd.build(fan_mesh(50), encoding="sliding-window")  # numba's compile (or cache load) off the clock
     rows = []

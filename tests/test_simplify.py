@@ -428,3 +428,97 @@ def test_a_triangle_with_two_corners_at_one_position_still_builds():
         for k in range(0, pm.lod_count, 7):
             t = pm.triangles_at(k)
             assert t.min() >= 0 and t.max() < pm.vertex_count_at(k)
+
+
+def _hub_meshes() -> dict[str, Mesh]:
+    """Meshes whose hubs (positions of thousands of triangles) are boundary or non-manifold."""
+    rng = np.random.default_rng(11)
+    n = 1500
+    # three non-manifold hubs: each triangle holds one of them, its other corners random
+    pts = rng.normal(size=(n + 3, 3))
+    hub = rng.integers(0, 3, n)
+    random_hubs = Mesh.from_arrays(pts, np.c_[hub, rng.integers(3, n + 3, (n, 2))])
+    # a flat disc: its centre is a hub on no boundary edge, its rim is the boundary
+    angles = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+    rim = np.c_[np.cos(angles), np.sin(angles), np.zeros(n)]
+    ring = 1 + np.arange(n)
+    centre = np.zeros(n, int)
+    disc = Mesh.from_arrays(np.concatenate([[[0.0, 0.0, 0.0]], rim]), np.c_[centre, ring, np.roll(ring, -1)])
+    # a fan of one-triangle fins on one edge: both ends are hubs on edges of one and of n triangles
+    tips = rng.normal(size=(n, 3))
+    edge = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]
+    fan = Mesh.from_arrays(np.concatenate([edge, tips]), np.c_[centre, np.ones(n, int), 2 + np.arange(n)])
+    return {"random hubs": random_hubs, "disc": disc, "fan": fan}
+
+
+@pytest.mark.parametrize("name", ["random hubs", "disc", "fan"])
+def test_hub_edge_counts_follow_the_mesh(name):
+    # a hub's boundary and fin edges are counted once and then kept up to date by each collapse around it
+    # (sorting its star after every collapse made the sequence quadratic): the same sequence and flags as
+    # sorting, and at the end the counts of the edges the mesh really has
+    from swpm_usd.simplify import kernels
+    from swpm_usd.simplify.sequence import make_state
+
+    mesh = _hub_meshes()[name]
+    topo = mesh_topology(mesh)
+    runs, states = [], []
+    for counted in (True, False):
+        st = make_state(mesh, topo, count_hub_edges=counted)
+        runs.append(kernels.run_sequence(st, 3))
+        states.append(st)
+    assert runs[0][3].shape[0] > 100  # it collapsed a good part of the mesh
+    for a, b in zip(*runs, strict=True):
+        assert np.array_equal(a, b)
+    assert np.array_equal(states[0].pos_boundary, states[1].pos_boundary)
+    assert np.array_equal(states[0].pos_locked, states[1].pos_locked)
+    st = states[0]
+    hubs = np.flatnonzero(st.pos_edge_kinds[:, 0] >= 0)
+    assert hubs.shape[0] > 0  # the counts were used
+    tri_pos = topo.vertex_pos[st.tri_verts[st.tri_alive]]
+    alive_hubs = [p for p in hubs if st.pos_alive[p]]
+    assert alive_hubs
+    for p in alive_hubs:
+        star = tri_pos[(tri_pos == p).any(axis=1)]
+        others = star[star != p]
+        _, runs_of = np.unique(others, return_counts=True)
+        assert st.pos_edge_kinds[p].tolist() == [int((runs_of == 1).sum()), int((runs_of >= 3).sum())], p
+
+
+@pytest.mark.parametrize("name", ["random hubs", "disc", "fan"])
+def test_a_collapse_onto_a_hub_is_tested_from_the_binned_ring(name):
+    # binning a position onto a hub reads the hub's star only around the binned position's ring
+    # (hub_side_rows): every position's test against each hub it touches gives the answer the hub's whole
+    # star gives, before and after half the sequence
+    from swpm_usd.simplify import kernels
+    from swpm_usd.simplify.sequence import make_state
+
+    mesh = _hub_meshes()[name]
+    topo = mesh_topology(mesh)
+    answers = {True: 0, False: 0}
+    for steps in (0, None):
+        st = make_state(mesh, topo)
+        if steps is None:  # half the sequence applied
+            seq = kernels.run_sequence(make_state(mesh, topo), 3)
+            for b, k in zip(seq[4][: len(seq[4]) // 2], seq[5][: len(seq[5]) // 2], strict=True):
+                tris_b = kernels.gather_triangles(st, b)
+                vmap = kernels.vertex_map(st, b, k, tris_b, kernels.triangle_positions(st, tris_b))
+                kernels.apply_collapse(st, b, k, vmap)
+        hubs = [p for p in range(st.pos_alive.shape[0]) if kernels._alive_more_than(st, p, kernels.HUB_SIZE)]
+        assert hubs
+        for k in hubs:
+            tk = kernels.triangle_positions(st, kernels.gather_triangles(st, k))
+            nk = kernels.neighbours(k, tk)
+            for b in nk:
+                tris_b = kernels.gather_triangles(st, b)
+                tp_b = kernels.triangle_positions(st, tris_b)
+                nbr_b = kernels.neighbours(b, tp_b)
+                if not st.pos_alive[b] or st.pos_locked[b] & kernels.LOCK_FIXED:
+                    continue
+                full = kernels.valid_collapse(st, b, k, tris_b, tp_b, nbr_b, None, tk, nk)
+                tk_b, nk_b = kernels._hub_side_of(st, k, nbr_b)
+                ring = kernels.valid_collapse(st, b, k, tris_b, tp_b, nbr_b, None, tk_b, nk_b)
+                assert ring == full, (name, b, k)
+                assert kernels.valid_collapse(st, b, k, tris_b, tp_b, nbr_b, None) == full
+                answers[full] += 1
+    # both answers were tested (every fin of the fan may be binned onto either end)
+    assert answers[True] > 0 and (answers[False] > 0 or name == "fan")

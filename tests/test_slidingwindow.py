@@ -778,6 +778,24 @@ def test_the_quadric_order_simplifies_a_cone_past_its_hubs(encoding: str) -> Non
         assert ok, f"{encoding} LOD {k} is not a closed 2-manifold"
 
 
+@pytest.mark.parametrize(
+    "settings",
+    [{}, {"inner_vertices": 3}, {"cluster": True, "optimize_connectivity": True}, {"builder": "forsyth"}],
+)
+def test_a_non_manifold_hub_builds_valid_windows(settings: dict) -> None:
+    """One vertex in every triangle, the other corners random (as a file whose indices were zeroed in part
+    would have it): every edge at the hub is a boundary or a fin. Tests against the hub read its star around
+    the binned ring only, and its boundary and fin edges are counted, not sorted out again after each
+    collapse; every window still equals the replay of the sequence, and the mesh simplifies."""
+    rng = np.random.default_rng(5)
+    n = 1500
+    corners = np.c_[np.zeros(n, int), rng.integers(1, n + 1, (n, 2))]
+    mesh = Mesh.from_arrays(rng.normal(size=(n + 1, 3)), corners)
+    pm = build_sliding_window(mesh, **settings)
+    assert pm.triangle_count_at(pm.lod_count - 1) < 0.6 * mesh.triangle_count
+    _check_all(pm, mesh, closed=False, every=37)
+
+
 def _suzanne_with_fan(n: int) -> Mesh:
     """Suzanne with ``n`` extra triangles standing on one of its edges, tips scattered about it."""
     base = shared_mesh("suzanne.obj")

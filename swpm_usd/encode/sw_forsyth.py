@@ -37,12 +37,13 @@ def _valid_target(st: K.CollapseState, b: int, k: int) -> bool:
 
 
 @nb.njit(cache=True)
-def _refresh(st, q, keys, ids, stamps, size, stamp, target, validate, wait):
+def _refresh(st, q, keys, ids, stamps, size, stamp, target, validate, wait, grown):
     """Queue ``q`` with its best target: the best valid one (``validate``), or its cheapest, valid or not,
     which the pop checks (lazy evaluation: a check reads the target's whole star). A position with no valid
     target is not queued again until ``wait[q]`` more collapses next to it have refreshed it (as
     :func:`swpm_usd.simplify.kernels.run_sequence` does: a hub that no collapse suits, checked after every
-    collapse of its ring, made a cone of 20,000 triangles take 66 s)."""
+    collapse of its ring, made a cone of 20,000 triangles take 66 s). ``grown``: (hub_grown,
+    target_grown, hub_star) of :func:`forsyth_run`."""
     if not validate and target[q] < 0 and wait[q] > 0:
         wait[q] -= 1
         return keys, ids, stamps, size
@@ -51,8 +52,17 @@ def _refresh(st, q, keys, ids, stamps, size, stamp, target, validate, wait):
     stamp[q] += 1
     target[q] = k2
     if k2 >= 0:
+        grown[1][q] = grown[0][k2]
         keys, ids, stamps, size = K._heap_push(keys, ids, stamps, size, c2, q, stamp[q])
     return keys, ids, stamps, size
+
+
+@nb.njit(cache=True)
+def _stale(b: int, target: np.ndarray, grown: tuple) -> bool:
+    """Whether ``b``'s queued target is a hub that took more than star // HUB_SIZE collapses since ``b``
+    was queued (its ring is not refreshed after each: see forsyth_run)."""
+    k = target[b]
+    return k >= 0 and grown[0][k] - grown[1][b] > grown[2][k] // K.HUB_SIZE
 
 
 @nb.njit(cache=True)
@@ -98,6 +108,9 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
     # run_sequence are compiled once for both
     target = np.full(P, -1, np.int64)
     wait = np.zeros(P, np.int64)
+    # per position: collapses onto it while a hub, the count when its target was queued, its star at the
+    # last collapse onto it (a hub's ring is not refreshed after each collapse onto it, as in run_sequence)
+    grown = (np.zeros(P, np.int64), np.zeros(P, np.int64), np.zeros(P, np.int64))
     keys = np.empty(max(16, P), np.float64)
     ids = np.empty(max(16, P), np.int64)
     stamps = np.empty(max(16, P), np.int64)
@@ -111,7 +124,9 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
     for _ in range(3):
         progress = 0
         for p in range(P):
-            keys, ids, stamps, size = _refresh(st, p, keys, ids, stamps, size, stamp, target, True, wait)
+            keys, ids, stamps, size = _refresh(
+                st, p, keys, ids, stamps, size, stamp, target, True, wait, grown
+            )
         while size > 0 or dsize > 0:
             # the best valid collapse: the deferred heap's top (it touches the level) or the main heap's
             while dsize > 0 and (ds[0] != stamp[di[0]] or not pos_alive[di[0]]):
@@ -123,12 +138,19 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
                 cost, b, s, size = K._heap_pop(keys, ids, stamps, size)
                 if s != stamp[b] or not pos_alive[b]:
                     continue
+                if _stale(b, target, grown):
+                    keys, ids, stamps, size = _refresh(
+                        st, b, keys, ids, stamps, size, stamp, target, False, wait, grown
+                    )
+                    continue
                 from_deferred = False
             else:
                 continue
             k = target[b]
             if not _valid_target(st, b, k):
-                keys, ids, stamps, size = _refresh(st, b, keys, ids, stamps, size, stamp, target, True, wait)
+                keys, ids, stamps, size = _refresh(
+                    st, b, keys, ids, stamps, size, stamp, target, True, wait, grown
+                )
                 continue
             cost = K.collapse_cost(st, b, k)
             if from_deferred or _touches_level(st, b, tri_level, level):
@@ -143,12 +165,17 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
                     c2, b2, s2, size = K._heap_pop(keys, ids, stamps, size)
                     if s2 != stamp[b2] or not pos_alive[b2]:
                         continue
+                    if _stale(b2, target, grown):
+                        keys, ids, stamps, size = _refresh(
+                            st, b2, keys, ids, stamps, size, stamp, target, False, wait, grown
+                        )
+                        continue
                     if np.sqrt(c2) > limit:
                         keys, ids, stamps, size = K._heap_push(keys, ids, stamps, size, c2, b2, s2)
                         break
                     if not _valid_target(st, b2, target[b2]):
                         keys, ids, stamps, size = _refresh(
-                            st, b2, keys, ids, stamps, size, stamp, target, True, wait
+                            st, b2, keys, ids, stamps, size, stamp, target, True, wait, grown
                         )
                         continue
                     if not _touches_level(st, b2, tri_level, level):
@@ -176,6 +203,11 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
                 cost = K.collapse_cost(st, b, k)
             # do the collapse b -> k as one patch
             tris_p = K.gather_triangles(st, b).astype(np.int64)  # int64 as collapse_patches' (_emit_into)
+            # a hub's ring is most of the mesh: after a collapse onto it only b's ring (whose stars changed)
+            # and the hub are refreshed (a non-manifold hub in 10,000 triangles: 86 s, quadratic)
+            k_hub = K._alive_more_than(st, k, K.HUB_SIZE)
+            if k_hub:
+                ring = K.neighbours(b, K.triangle_positions(st, tris_p))
             p_out = _grow_i64(p_out, npo + tris_p.shape[0])
             sub = np.empty((tris_p.shape[0], 3), np.int64)
             for j in range(tris_p.shape[0]):
@@ -212,12 +244,20 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
             progress += 1
             stamp[b] += 1
             tris_k = K.gather_triangles(st, k)
-            ring = K.neighbours(k, K.triangle_positions(st, tris_k))
+            if k_hub:
+                grown[0][k] += 1
+                grown[2][k] = tris_k.shape[0]
+            else:
+                ring = K.neighbours(k, K.triangle_positions(st, tris_k))
             for i in range(ring.shape[0] + 1):
                 q = k if i == ring.shape[0] else np.int64(ring[i])
+                if q == k and i < ring.shape[0]:
+                    continue
                 if q == k:
                     wait[k] = 0  # its star grew by b's: checked now, as run_sequence checks it
-                keys, ids, stamps, size = _refresh(st, q, keys, ids, stamps, size, stamp, target, False, wait)
+                keys, ids, stamps, size = _refresh(
+                    st, q, keys, ids, stamps, size, stamp, target, False, wait, grown
+                )
         if progress == 0:
             break
     return (

@@ -1034,6 +1034,35 @@ def reassign_middle(
     return new_start, out
 
 
+# the degree a hub target counts with in _shaped_collapse's choice (more than any other position's: its
+# neighbours are not sorted out of its thousands of triangles for it)
+_HUB_DEGREE = 1 << 30
+
+
+@nb.njit(cache=True, nogil=True)
+def _target_rows(
+    head: np.ndarray,
+    cnext: np.ndarray,
+    talive: np.ndarray,
+    tv: np.ndarray,
+    vp: np.ndarray,
+    k: int,
+    b_nbr: np.ndarray,
+    nn: int,
+    kbuf: tuple,
+) -> tuple[int, int, bool]:
+    """Target ``k``'s star as binning a position of neighbours ``b_nbr[:nn]`` tests it, into ``kbuf``
+    (:func:`.kernels.star_buffers`): its row counts and whether ``k`` is a hub, whose rows are those
+    around that ring alone (:func:`.kernels.hub_side_rows`, the same answers for the test; its neighbour
+    count is then not its degree)."""
+    if K.alive_more_than_in(head, cnext, talive, k, K.HUB_SIZE):
+        mt, mn = K.hub_side_rows(head, cnext, talive, tv, vp, k, b_nbr, nn, kbuf[1], kbuf[2])
+        if mt >= 0:
+            return mt, mn, True
+    mt, mn = K.star_rows(head, cnext, talive, tv, vp, k, kbuf[0], kbuf[1], kbuf[2])
+    return mt, mn, False
+
+
 @nb.njit(cache=True, nogil=True)
 def _shaped_collapse(
     st: K.CollapseState, b: int, slack: float, max_cost: float, bbuf: tuple, kbuf: tuple, costs: np.ndarray
@@ -1064,7 +1093,7 @@ def _shaped_collapse(
     b_tris, b_tp, b_nbr = bbuf
     # a typed zero for the row starts: a literal 0 made a second specialisation of K.valid_collapse_in
     z = np.int64(0)
-    k_tris, k_tp, k_nbr = kbuf
+    _, k_tp, k_nbr = kbuf
     # b's star read once, for best_collapse and the targets of the slack
     nt, nn = K.star_rows(head, cnext, talive, tv, vp, b, b_tris, b_tp, b_nbr)
     if nt == 0:
@@ -1077,18 +1106,22 @@ def _shaped_collapse(
     k0 = -1
     c0 = np.inf
     k = np.int64(b_nbr[best])  # one specialisation of the helpers (int64 positions)
-    mt, mn = K.star_rows(head, cnext, talive, tv, vp, k, k_tris, k_tp, k_nbr)
-    if K.valid_collapse_in(
-        alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, b_tris, b_tp, z, nt, b_nbr, z, nn,
-        k_tp, z, mt, k_nbr, z, mn,
-    ):  # fmt: skip
-        k0 = k
-        c0 = costs[best]
-    else:
+    # (the edge's triangle count first, from b's star: a target's star may be a hub's thousands)
+    if K.edge_count_ok_in(locked, boundary, b, k, b_tp, nt):
+        mt, mn, _ = _target_rows(head, cnext, talive, tv, vp, k, b_nbr, nn, kbuf)
+        if K.valid_collapse_in(
+            alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, b_tris, b_tp, z, nt, b_nbr, z, nn,
+            k_tp, z, mt, k_nbr, z, mn,
+        ):  # fmt: skip
+            k0 = k
+            c0 = costs[best]
+    if k0 < 0:
         order = np.argsort(costs[:nn])
         for i in range(1, min(nn, K.MAX_TARGET_TRIES)):
             k = np.int64(b_nbr[order[i]])
-            mt, mn = K.star_rows(head, cnext, talive, tv, vp, k, k_tris, k_tp, k_nbr)
+            if not K.edge_count_ok_in(locked, boundary, b, k, b_tp, nt):
+                continue
+            mt, mn, _ = _target_rows(head, cnext, talive, tv, vp, k, b_nbr, nn, kbuf)
             if K.valid_collapse_in(
                 alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, b_tris, b_tp, z, nt, b_nbr, z,
                 nn, k_tp, z, mt, k_nbr, z, mn,
@@ -1105,15 +1138,16 @@ def _shaped_collapse(
     for i in range(nn):
         k = np.int64(b_nbr[i])  # one specialisation of the star and validity helpers
         c = costs[i]
-        if c > lim:
+        if c > lim or not K.edge_count_ok_in(locked, boundary, b, k, b_tp, nt):
             continue
-        mt, d = K.star_rows(head, cnext, talive, tv, vp, k, k_tris, k_tp, k_nbr)
+        mt, mn, hub = _target_rows(head, cnext, talive, tv, vp, k, b_nbr, nn, kbuf)
+        d = _HUB_DEGREE if hub else mn
         # the validity test costs most: only for a target that would win (k0 passed it already)
         if not (d > best_d or (d == best_d and c < best_c)):
             continue
         if k == k0 or K.valid_collapse_in(
             alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, b_tris, b_tp, z, nt, b_nbr, z, nn,
-            k_tp, z, mt, k_nbr, z, d,
+            k_tp, z, mt, k_nbr, z, mn,
         ):  # fmt: skip
             best_d = d
             best_k = k

@@ -186,8 +186,11 @@ def make_state(
     boundary_weight: float = 8.0,
     seam_weight: float = 2.0,
     locked_positions: np.ndarray | None = None,
+    count_hub_edges: bool = True,
 ) -> kernels.CollapseState:
-    """Fresh simplifier state (quadrics, corner lists, locks) for ``mesh``."""
+    """Fresh simplifier state (quadrics, corner lists, locks) for ``mesh``. ``count_hub_edges`` False: a
+    hub's boundary and fin edges are found by sorting its star after each collapse around it, not kept
+    counted (the same states, for tests)."""
     P = topo.pos_points.shape[0]
     V = mesh.vertex_count
     edges = np.concatenate([topo.boundary_edges, topo.seam_edges]).reshape(-1, 2)
@@ -232,6 +235,7 @@ def make_state(
         pos_locked=locked,
         pos_boundary=topo.pos_boundary.copy(),
         min_area2=min_area2,
+        pos_edge_kinds=np.full((P if count_hub_edges else 0, 2), -1, np.int32),
     )
     # pinch vertices (several fans) are non-manifold too
     st.pos_locked[kernels.fan_counts(st) > 1] = kernels.LOCK_FIXED
