@@ -243,16 +243,19 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
             q_start[nstep] = nq
             progress += 1
             stamp[b] += 1
-            tris_k = K.gather_triangles(st, k)
             if k_hub:
                 grown[0][k] += 1
-                grown[2][k] = tris_k.shape[0]
             else:
-                ring = K.neighbours(k, K.triangle_positions(st, tris_k))
+                ring = K.neighbours(k, K.triangle_positions(st, K.gather_triangles(st, k)))
             for i in range(ring.shape[0] + 1):
                 q = k if i == ring.shape[0] else np.int64(ring[i])
                 if q == k and i < ring.shape[0]:
                     continue
+                if q == k and k_hub:
+                    # the hub itself is refreshed every star // HUB_SIZE collapses onto it
+                    if grown[0][k] % max(1, grown[2][k] // K.HUB_SIZE) != 0:
+                        continue
+                    grown[2][k] = K.gather_triangles(st, k).shape[0]
                 if q == k:
                     wait[k] = 0  # its star grew by b's: checked now, as run_sequence checks it
                 keys, ids, stamps, size = _refresh(
