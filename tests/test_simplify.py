@@ -448,10 +448,19 @@ def _hub_meshes() -> dict[str, Mesh]:
     tips = rng.normal(size=(n, 3))
     edge = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]
     fan = Mesh.from_arrays(np.concatenate([edge, tips]), np.c_[centre, np.ones(n, int), 2 + np.arange(n)])
-    return {"random hubs": random_hubs, "disc": disc, "fan": fan}
+    # the disc's open half with three slivers (centre, a second vertex at the centre, a rim vertex): a
+    # triangle with two corners at the hub's position, counted once per corner
+    half = np.c_[centre, ring, np.roll(ring, -1)][: n // 2]
+    slivers = np.c_[np.zeros(3, int), np.full(3, n + 1), 1 + rng.choice(n // 2, 3, replace=False)]
+    # and five triangles apart (a position may not have more corners than the mesh has triangles); Mesh
+    # itself: from_arrays would drop the slivers as degenerate
+    apart = n + 2 + np.arange(15).reshape(5, 3)
+    points = np.concatenate([[[0.0, 0.0, 0.0]], rim, [[0.0, 0.0, 0.0]], 5.0 + rng.random((15, 3))])
+    sliver_disc = Mesh(points=points, triangles=np.concatenate([half, slivers, apart]))
+    return {"random hubs": random_hubs, "disc": disc, "fan": fan, "slivers": sliver_disc}
 
 
-@pytest.mark.parametrize("name", ["random hubs", "disc", "fan"])
+@pytest.mark.parametrize("name", ["random hubs", "disc", "fan", "slivers"])
 def test_hub_edge_counts_follow_the_mesh(name):
     # a hub's boundary and fin edges are counted once and then kept up to date by each collapse around it
     # (sorting its star after every collapse made the sequence quadratic): the same sequence and flags as
@@ -478,8 +487,12 @@ def test_hub_edge_counts_follow_the_mesh(name):
     alive_hubs = [p for p in hubs if st.pos_alive[p]]
     assert alive_hubs
     for p in alive_hubs:
+        # an edge p-x counts corners at p times corners at x over the triangles (a sliver across a seam
+        # holds p twice)
         star = tri_pos[(tri_pos == p).any(axis=1)]
-        others = star[star != p]
+        at_p = (star == p).sum(axis=1)
+        rows = [np.repeat(row[row != p], c) for row, c in zip(star, at_p, strict=True)]
+        others = np.concatenate([np.empty(0, np.int64), *rows])
         _, runs_of = np.unique(others, return_counts=True)
         assert st.pos_edge_kinds[p].tolist() == [int((runs_of == 1).sum()), int((runs_of >= 3).sum())], p
 

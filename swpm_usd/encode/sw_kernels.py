@@ -1068,7 +1068,8 @@ def _shaped_collapse(
     st: K.CollapseState, b: int, slack: float, max_cost: float, bbuf: tuple, kbuf: tuple, costs: np.ndarray
 ) -> tuple[int, float]:
     """Valid collapse of ``b``: among the valid targets costing at most ``slack * max_cost`` more than the
-    cheapest one (and at most ``max_cost``), the one of highest degree (ties: the cheaper). ``slack`` 0 or
+    cheapest one (and at most ``max_cost``), the one of highest degree (ties: the cheaper; a hub counts as
+    of the highest degree, ``_HUB_DEGREE``, as its neighbours are not counted). ``slack`` 0 or
     an unbounded ``max_cost``: :func:`swpm_usd.simplify.kernels.best_collapse`. ``bbuf``, ``kbuf``:
     :func:`swpm_usd.simplify.kernels.star_buffers` for the stars of ``b`` and of a target (read once per
     target, for its degree and its validity); ``costs``: room for the costs of ``b``'s neighbours."""

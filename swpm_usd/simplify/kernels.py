@@ -592,6 +592,8 @@ def _hub_side_of(st: CollapseState, k: int, nbr_b: np.ndarray) -> tuple[np.ndarr
     cnext = st.corner_next
     n_rows = 0
     for i in range(nbr_b.shape[0]):
+        if nbr_b[i] == k:
+            continue  # (k's own list is what this spares)
         c = head[nbr_b[i]]
         while c >= 0:
             n_rows += 1
@@ -937,9 +939,23 @@ def apply_collapse(st: CollapseState, b: int, k: int, vmap: np.ndarray) -> int:
     return removed
 
 
+@nb.njit(cache=True, inline="always")
+def _corners_at(vp: np.ndarray, tv: np.ndarray, t: int, p: int) -> int:
+    """How many corners of triangle ``t`` lie at position ``p`` (two for a sliver across a seam)."""
+    return np.int64(vp[tv[t, 0]] == p) + np.int64(vp[tv[t, 1]] == p) + np.int64(vp[tv[t, 2]] == p)
+
+
+@nb.njit(cache=True, inline="always")
+def _row_corners_at(tp: np.ndarray, j: int, p: int) -> int:
+    """How many corners of row ``j`` of a star's positions ``tp`` are ``p``."""
+    return np.int64(tp[j, 0] == p) + np.int64(tp[j, 1] == p) + np.int64(tp[j, 2] == p)
+
+
 @nb.njit(cache=True, nogil=True)
 def _edge_count(st: CollapseState, x: int, y: int) -> int:
-    """Alive triangles holding positions ``x`` and ``y``, read from ``x``'s corner list."""
+    """The triangles on the edge ``x``-``y`` as :func:`_refresh_kind` counts them: over the alive
+    triangles, corners at ``x`` times corners at ``y`` (``x``'s corner list holds a triangle once per
+    corner at ``x``)."""
     tv = st.tri_verts
     vp = st.vertex_pos
     alive = st.tri_alive
@@ -948,8 +964,8 @@ def _edge_count(st: CollapseState, x: int, y: int) -> int:
     c = st.corner_head[x]
     while c >= 0:
         t = c // 3
-        if alive[t] and (vp[tv[t, 0]] == y or vp[tv[t, 1]] == y or vp[tv[t, 2]] == y):
-            n += 1
+        if alive[t]:
+            n += _corners_at(vp, tv, t, y)
         c = cnext[c]
     return n
 
@@ -986,9 +1002,11 @@ def _count_hub_edges(st: CollapseState, b: int, k: int) -> None:
     tris_b = gather_triangles(st, b)
     tp_b = triangle_positions(st, tris_b)
     ring = neighbours(b, tp_b)
-    on_bk = 0  # triangles on the edge b-k (they die)
+    # the edges' triangles as _refresh_kind counts them (_edge_count): tp_b holds a triangle once per
+    # corner at b. The edge b-k's triangles die
+    on_bk = 0
     for j in range(tp_b.shape[0]):
-        on_bk += _has(tp_b, j, k)
+        on_bk += _row_corners_at(tp_b, j, k)
     if kinds[k, 0] >= 0:
         _recount_edge(kinds, k, on_bk, 0)
     for i in range(ring.shape[0]):
@@ -998,9 +1016,9 @@ def _count_hub_edges(st: CollapseState, b: int, k: int) -> None:
         on_bx = 0
         on_bkx = 0
         for j in range(tp_b.shape[0]):
-            if _has(tp_b, j, x):
-                on_bx += 1
-                on_bkx += _has(tp_b, j, k)
+            at_x = _row_corners_at(tp_b, j, x)
+            on_bx += at_x
+            on_bkx += at_x * _has(tp_b, j, k)  # (b, k, x: one corner each)
         # read the smaller star: a hub's ring positions have a few triangles each
         if kinds[k, 0] >= 0:
             on_kx = _edge_count(st, x, k)
@@ -1363,7 +1381,8 @@ def run_sequence(st: CollapseState, max_passes: int, full_ring_update: bool = Fa
             # keep their entries, and an entry whose target is the hub is evaluated again when it comes up
             # (a random non-manifold hub, one vertex of all 10,000 triangles: a quadratic number of ring
             # visits, 18.6 million). The order is then approximate (a cost may fall as the hub's quadric
-            # grows), which a hub's neighbourhood affords
+            # grows), which a hub's neighbourhood affords. A pass can then end with valid collapses left
+            # around a hub (a position that waits is not queued again in it): the next pass finds them
             k_hub = not full_ring_update and _alive_more_than(st, k, HUB_SIZE)
             if k_hub:
                 hub_grown[k] += 1
