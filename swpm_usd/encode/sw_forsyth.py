@@ -47,8 +47,8 @@ def _refresh(st, q, keys, ids, stamps, size, stamp, target, validate, wait, grow
     if not validate and target[q] < 0 and wait[q] > 0:
         wait[q] -= 1
         return keys, ids, stamps, size
-    k2, c2 = K.best_collapse(st, q, validate)
-    wait[q] = K.gather_triangles(st, q).shape[0] // K.HUB_SIZE if validate and k2 < 0 else 0
+    k2, c2, n_q = K.best_collapse_sized(st, q, validate, None)
+    wait[q] = n_q // K.HUB_SIZE if validate and k2 < 0 else 0
     stamp[q] += 1
     target[q] = k2
     if k2 >= 0:

@@ -518,9 +518,9 @@ def valid_collapse(
         tk = tp_k
         nk = nbr_k
     elif stars is None:
-        if not edge_count_ok(st, b, k, tp_b):
-            return False  # before reading k's star, which may be a hub's: see edge_count_ok
-        if _lists_more_than(st, k, HUB_SIZE):
+        if _alive_more_than(st, k, HUB_SIZE):
+            if not edge_count_ok(st, b, k, tp_b):
+                return False  # before reading the hub's star: see edge_count_ok
             tk, nk = _hub_side_of(st, k, nbr_b)
         else:
             tk = triangle_positions(st, gather_triangles(st, k))
@@ -553,16 +553,6 @@ def valid_collapse(
         0,
         nk.shape[0],
     )
-
-
-@nb.njit(cache=True, inline="always")
-def _lists_more_than(st: CollapseState, p: int, n: int) -> bool:
-    """Whether ``p``'s corner list (dead corners included) is longer than ``n``: at most ``n + 1`` steps."""
-    c = st.corner_head[p]
-    while c >= 0 and n >= 0:
-        n -= 1
-        c = st.corner_next[c]
-    return n < 0
 
 
 @nb.njit(cache=True, inline="always")
@@ -1123,7 +1113,7 @@ def best_collapse_sized(
         nbr = stars.nbr[stars.nbr_start[b] : stars.nbr_start[b + 1]]
     if tris_b.shape[0] == 0:
         return -1, np.inf, 0
-    k, cost = best_of_star(st, b, tris_b, tp_b, nbr, validate, stars, np.empty(nbr.shape[0]), None)
+    k, cost = best_of_star(st, b, tris_b, tp_b, nbr, validate, stars, np.empty(nbr.shape[0]))
     return k, cost, tris_b.shape[0]
 
 
@@ -1167,11 +1157,9 @@ def best_of_star(
     validate: bool,
     stars: Stars | None,
     costs: np.ndarray,
-    kbuf: tuple | None,
 ) -> tuple[int, float]:
     """:func:`best_collapse` of ``b`` (alive, unlocked, with triangles) from its star read already
-    (``tris_b``, ``tp_b``, ``nbr``), the costs written to ``costs`` (room for ``len(nbr)``); ``kbuf``
-    (:func:`star_buffers`, ``stars`` None): read the targets' stars into it instead of new arrays.
+    (``tris_b``, ``tp_b``, ``nbr``), the costs written to ``costs`` (room for ``len(nbr)``).
     Returns the costs of all of ``nbr`` in ``costs[:len(nbr)]`` too."""
     # targets are passed on as int64 (``nbr`` holds int32): one numba specialisation of each callee for
     # every caller (the builders' own targets are int64)
@@ -1183,32 +1171,14 @@ def best_of_star(
             best = i
     if not validate:
         return nbr[best], costs[best]
-    # (``kbuf is None`` is resolved at compile time: one branch per specialisation). The two branches are
-    # written out: one helper choosing the star source made ``level_costs`` ~35 % slower (111 -> 152 ms
-    # on bunny), even inlined
-    if kbuf is None:
-        k = np.int64(nbr[best])
+    k = np.int64(nbr[best])
+    if valid_collapse(st, b, k, tris_b, tp_b, nbr, stars):
+        return k, costs[best]
+    order = np.argsort(costs[:nn])
+    for i in range(1, min(order.shape[0], MAX_TARGET_TRIES)):
+        k = np.int64(nbr[order[i]])
         if valid_collapse(st, b, k, tris_b, tp_b, nbr, stars):
-            return k, costs[best]
-        order = np.argsort(costs[:nn])
-        for i in range(1, min(order.shape[0], MAX_TARGET_TRIES)):
-            k = np.int64(nbr[order[i]])
-            if valid_collapse(st, b, k, tris_b, tp_b, nbr, stars):
-                return k, costs[order[i]]
-    else:
-        k = np.int64(nbr[best])
-        if edge_count_ok(st, b, k, tp_b):
-            _, tp_k, nbr_k = star_into(st, k, kbuf[0], kbuf[1], kbuf[2])
-            if valid_collapse(st, b, k, tris_b, tp_b, nbr, None, tp_k, nbr_k):
-                return k, costs[best]
-        order = np.argsort(costs[:nn])
-        for i in range(1, min(order.shape[0], MAX_TARGET_TRIES)):
-            k = np.int64(nbr[order[i]])
-            if not edge_count_ok(st, b, k, tp_b):
-                continue
-            _, tp_k, nbr_k = star_into(st, k, kbuf[0], kbuf[1], kbuf[2])
-            if valid_collapse(st, b, k, tris_b, tp_b, nbr, None, tp_k, nbr_k):
-                return k, costs[order[i]]
+            return k, costs[order[i]]
     return -1, np.inf
 
 
