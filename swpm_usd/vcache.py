@@ -27,6 +27,13 @@ Method
     * Dead ends (no live triangle touches the cache) restart from the most recently emitted vertex that
       still has triangles (Tipsify's dead-end stack), then from the first triangle not emitted yet in input
       order.
+    * A vertex of more than :data:`_HEAVY` triangles in a block (a non-manifold hub, a fan on one edge, a
+      cone's apex) would cost a scan of its triangles for every triangle emitted while it is cached: a
+      random hub of 20,000 triangles took 46 s inside Forsyth's sliding-window builder. Its score is kept
+      out of its triangles' stored scores (added when one is read) and its live triangles sit in a max tree
+      by stored score, whose earliest best leaf is the triangle the scan would pick. A triangle with two
+      heavy corners is ranked in each one's tree without the other's score, which is exact when all of a
+      heavy vertex's triangles share the other (the fan) and an approximation otherwise.
 
     Tipsify (Sander, Nehab, Barczak, "Fast Triangle Reordering for Vertex Locality and Reduced Overdraw",
     2007) was implemented FIFO-exactly as well (with and without fan walking, with cache-slack variants) and
@@ -103,6 +110,53 @@ def _is_repeat(tris: np.ndarray, t: int, k: int) -> bool:
     return (k >= 1 and tris[t, 0] == v) or (k == 2 and tris[t, 1] == v)
 
 
+#: a vertex with more triangles than this in a block is *heavy*: its score is added to its triangles' scores
+#: when they are read, not stored in them, and its live triangles sit in a max tree (a non-manifold hub or
+#: a large fan would otherwise cost time linear in its degree for every triangle emitted). Below it a scan
+#: is cheap and keeps the running sums' rounding: fandisk's skip-strip levels reach 70 triangles at a
+#: vertex, and at 64 a near tie broke the other way (the same ACMR, another order)
+_HEAVY = 128
+
+
+@njit(cache=True, inline="always")
+def _heavy_part(tris: np.ndarray, t: int, loc: np.ndarray, heavy: np.ndarray, vsc: np.ndarray) -> float:
+    """Sum of the scores of triangle ``t``'s heavy corners (each vertex once)."""
+    s = 0.0
+    for k in range(3):
+        if not _is_repeat(tris, t, k):
+            lv = loc[tris[t, k]]
+            if heavy[lv]:
+                s += vsc[lv]
+    return s
+
+
+@njit(cache=True, inline="always")
+def _better(tsc: np.ndarray, adj: np.ndarray, first: int, x: int, y: int) -> int:
+    """The leaf (-1 = none) of a heavy vertex's tree whose triangle ``adj[first + leaf]`` scores higher,
+    the earlier leaf on ties."""
+    if x < 0:
+        return y
+    if y < 0:
+        return x
+    a = tsc[adj[first + x]]
+    b = tsc[adj[first + y]]
+    return y if b > a or (b == a and y < x) else x
+
+
+@njit(cache=True)
+def _tree_set(tree: np.ndarray, tsc: np.ndarray, adj: np.ndarray, first: int, d: int, leaf: int, alive: bool):
+    """Set leaf ``leaf`` of the max tree of a heavy vertex (nodes ``tree[2 * first + 1 .. 2 * first + 2 d)``,
+    leaves ``d..2d-1`` for the triangles ``adj[first .. first + d)``, keyed by their ``tsc``) and update its
+    ancestors."""
+    base = 2 * first
+    node = d + leaf
+    tree[base + node] = leaf if alive else -1
+    node //= 2
+    while node >= 1:
+        tree[base + node] = _better(tsc, adj, first, tree[base + 2 * node], tree[base + 2 * node + 1])
+        node //= 2
+
+
 @njit(cache=True, nogil=True)
 def _order_blocks(
     tris: np.ndarray,
@@ -115,6 +169,7 @@ def _order_blocks(
     live_tab: np.ndarray,
     rotate: bool,
     segments: np.ndarray,
+    heavy_degree: int,
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """Forsyth greedy on a FIFO cache, block by block, the cache carrying over between blocks.
 
@@ -151,6 +206,14 @@ def _order_blocks(
     tsc = np.empty(mb + 1, np.float64)
     emitted = np.zeros(mb + 1, np.bool_)
     dead = np.empty(3 * mb + 1, np.int64)
+    # heavy vertices (see _HEAVY): flag per local vertex, heavy corners per local triangle, the slot of
+    # each corner in its vertex's list (kept for heavy vertices; a tree's leaf is a slot, so the tree's
+    # earliest best leaf is the triangle a scan of the list would pick) and the max trees of the heavy
+    # vertices' live triangles by stored score
+    heavy = np.zeros(3 * mb + 1, np.bool_)
+    hv = np.zeros(mb + 1, np.int64)
+    cslot = np.empty(3 * mb + 3, np.int64)
+    tree = np.empty(6 * mb + 6, np.int64)
     upd = np.empty(C + 8, np.int64)
     # the block's own pushes still in the FIFO, oldest first: push number and local vertex of entries
     # qhead..qtail-1. Walking these instead of the whole ring (cache_size entries, most of them other
@@ -203,17 +266,37 @@ def _order_blocks(
             for k in range(3):
                 if not _is_repeat(tris, t, k):
                     lv = loc[tris[t, k]]
+                    cslot[3 * (t - lo) + k] = off[lv] + live[lv]
                     adj[off[lv] + live[lv]] = t - lo
                     live[lv] += 1
+        nheavy = 0
         for i in range(nv):
             v = lvert[i]
             vsc[i] = score_tab[_age(stamp[v], pushes, C), min(glive[v], top)]
+            heavy[i] = live[i] > heavy_degree
+            nheavy += heavy[i]
         for t in range(m):
             s = 0.0
+            hv[t] = 0
             for k in range(3):
                 if not _is_repeat(tris, lo + t, k):
-                    s += vsc[loc[tris[lo + t, k]]]
+                    lv = loc[tris[lo + t, k]]
+                    if heavy[lv]:
+                        hv[t] += 1
+                    else:
+                        s += vsc[lv]
             tsc[t] = s
+        if nheavy > 0:
+            for lv in range(nv):
+                if heavy[lv]:
+                    d = live[lv]
+                    base = 2 * off[lv]
+                    for i in range(d):
+                        tree[base + d + i] = i
+                    for node in range(d - 1, 0, -1):
+                        tree[base + node] = _better(
+                            tsc, adj, off[lv], tree[base + 2 * node], tree[base + 2 * node + 1]
+                        )
         # the block's vertices in the carried-over cache, oldest first
         qhead = 0
         qtail = 0
@@ -228,9 +311,16 @@ def _order_blocks(
         best_score = -1.0
         for j in range(qtail - 1, qhead - 1, -1):
             lv = qlv[j]
-            for q in range(off[lv], off[lv] + live[lv]):
-                if tsc[adj[q]] > best_score:
-                    best_score = tsc[adj[q]]
+            qa, qb = off[lv], off[lv] + live[lv]
+            if heavy[lv]:  # only its best stored score: its own score is the same for all its triangles
+                leaf = tree[2 * off[lv] + 1]
+                qa, qb = (off[lv] + leaf, off[lv] + leaf + 1) if leaf >= 0 else (0, 0)
+            for q in range(qa, qb):
+                s = tsc[adj[q]]
+                if hv[adj[q]] > 0:
+                    s += _heavy_part(tris, lo + adj[q], loc, heavy, vsc)
+                if s > best_score:
+                    best_score = s
                     best = adj[q]
         dtop = 0
         cursor = 0
@@ -240,9 +330,18 @@ def _order_blocks(
                 while dtop > 0 and cur < 0:
                     dtop -= 1
                     lv = dead[dtop]
-                    for q in range(off[lv], off[lv] + live[lv]):
-                        if cur < 0 or tsc[adj[q]] > tsc[cur]:
+                    qa, qb = off[lv], off[lv] + live[lv]
+                    if heavy[lv]:
+                        leaf = tree[2 * off[lv] + 1]
+                        qa, qb = (off[lv] + leaf, off[lv] + leaf + 1) if leaf >= 0 else (0, 0)
+                    cur_score = -1.0
+                    for q in range(qa, qb):
+                        s = tsc[adj[q]]
+                        if hv[adj[q]] > 0:
+                            s += _heavy_part(tris, lo + adj[q], loc, heavy, vsc)
+                        if cur < 0 or s > cur_score:
                             cur = adj[q]
+                            cur_score = s
                     if cur >= 0:
                         dtop += 1  # the vertex may have more triangles: keep it on the stack
                 if cur < 0:
@@ -305,12 +404,26 @@ def _order_blocks(
                     continue
                 v = tris[t, k]
                 lv = loc[v]
-                last = off[lv] + live[lv] - 1
-                for q in range(off[lv], last + 1):
-                    if adj[q] == cur:
-                        adj[q] = adj[last]
+                if heavy[lv]:  # the same swap with the last live triangle, found by its slot; leaves follow
+                    d = off[lv + 1] - off[lv]
+                    q = cslot[3 * cur + k]
+                    last = off[lv] + live[lv] - 1
+                    if q != last:
+                        moved = adj[last]
+                        adj[q] = moved
                         adj[last] = cur
-                        break
+                        for k2 in range(3):
+                            if not _is_repeat(tris, lo + moved, k2) and loc[tris[lo + moved, k2]] == lv:
+                                cslot[3 * moved + k2] = q
+                        _tree_set(tree, tsc, adj, off[lv], d, q - off[lv], True)
+                    _tree_set(tree, tsc, adj, off[lv], d, last - off[lv], False)
+                else:
+                    last = off[lv] + live[lv] - 1
+                    for q in range(off[lv], last + 1):
+                        if adj[q] == cur:
+                            adj[q] = adj[last]
+                            adj[last] = cur
+                            break
                 live[lv] -= 1
                 glive[v] -= 1
                 dead[dtop] = lv
@@ -340,15 +453,39 @@ def _order_blocks(
                 diff = score - vsc[lv]
                 if diff != 0.0:
                     vsc[lv] = score
+                    if heavy[lv]:  # read with its triangles' scores, not stored in them
+                        continue
                     for q in range(off[lv], off[lv] + live[lv]):
                         tsc[adj[q]] += diff
+                        if hv[adj[q]] > 0:  # its place in the heavy corners' trees moves
+                            ht = adj[q]
+                            for k in range(3):
+                                if not _is_repeat(tris, lo + ht, k):
+                                    hl = loc[tris[lo + ht, k]]
+                                    if heavy[hl]:
+                                        _tree_set(
+                                            tree,
+                                            tsc,
+                                            adj,
+                                            off[hl],
+                                            off[hl + 1] - off[hl],
+                                            cslot[3 * ht + k] - off[hl],
+                                            True,
+                                        )
             best = -1
             best_score = -1.0
             for i in range(nupd):
                 lv = upd[i]
-                for q in range(off[lv], off[lv] + live[lv]):
-                    if tsc[adj[q]] > best_score:
-                        best_score = tsc[adj[q]]
+                qa, qb = off[lv], off[lv] + live[lv]
+                if heavy[lv]:
+                    leaf = tree[2 * off[lv] + 1]
+                    qa, qb = (off[lv] + leaf, off[lv] + leaf + 1) if leaf >= 0 else (0, 0)
+                for q in range(qa, qb):
+                    s = tsc[adj[q]]
+                    if hv[adj[q]] > 0:
+                        s += _heavy_part(tris, lo + adj[q], loc, heavy, vsc)
+                    if s > best_score:
+                        best_score = s
                         best = adj[q]
         for i in range(nv):
             loc[lvert[i]] = -1
@@ -554,7 +691,7 @@ def optimize_triangle_order(
     stamp, ring, pushes = _seed_state(None, c, nvert)
     starts = np.array([0, n], np.int64)
     perm, shift, _ = _order_blocks(
-        tri, starts, c, stamp, ring, pushes, cache_tab, live_tab, bool(rotate), np.zeros(0, np.int64)
+        tri, starts, c, stamp, ring, pushes, cache_tab, live_tab, bool(rotate), np.zeros(0, np.int64), _HEAVY
     )
     return (perm, shift) if rotate else perm
 
@@ -610,7 +747,17 @@ def optimize_block_order(
             raise ValueError("segment_starts must be block starts")
         segments = np.unique(at).astype(np.int64)
     perm, shift, _ = _order_blocks(
-        tri, np.ascontiguousarray(starts), c, stamp, ring, pushes, cache_tab, live_tab, bool(rotate), segments
+        tri,
+        np.ascontiguousarray(starts),
+        c,
+        stamp,
+        ring,
+        pushes,
+        cache_tab,
+        live_tab,
+        bool(rotate),
+        segments,
+        _HEAVY,
     )
     return (perm, shift) if rotate else perm
 
