@@ -8,8 +8,9 @@ exports tessellate cones, cylinders and discs. The hub: ``n`` triangles that all
 other corners random among ``n`` points, as a file whose indices were zeroed in part would make it (before
 the hub's edges were counted, ``pos_edge_kinds``, and its ring visited lazily: vanilla 99 s at 3,000
 triangles, cubic; before the vertex-cache order kept a heavy vertex's triangles in a tree, ``vcache._HEAVY``:
-Forsyth's builder 142 s at 30,000, its levels' ordering 46 of its 49 s at 20,000). Every encoding (and the sliding window's Forsyth builder and
-its several-inner-vertex mode with edge swaps) is built once per size, warm, in one process. The ratio
+Forsyth's builder 142 s at 30,000, its levels' ordering 46 of its 49 s at 20,000). Every encoding (and
+the sliding window's Forsyth builder and its several-inner-vertex mode with edge swaps) is built once per
+size, warm, in one process. The ratio
 column is the time over the previous size's (2 for linear at doubling sizes, 4 for quadratic, 8 for
 cubic). Targets: no build over 30 s at a fan of 2,000 triangles (that fan used to take 489 s with Forsyth's
 builder and 207 s with the topology-driven one) or at a cone of 10,000 sections (before the hub guards,
