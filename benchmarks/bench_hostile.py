@@ -1,5 +1,5 @@
-"""Build time on hostile meshes: a fan of many triangles standing on one edge, a cone of many sections and a
-non-manifold hub.
+"""Build time on hostile meshes: a fan of many triangles standing on one edge, a cone of many sections, a
+non-manifold hub and a flat strip.
 
 The fan: suzanne (967 triangles) with ``n`` extra triangles on one of its edges, their tips scattered
 around it, the way a broken export or a malicious file can pile faces onto one edge. The cone: a closed cone
@@ -8,17 +8,22 @@ exports tessellate cones, cylinders and discs. The hub: ``n`` triangles that all
 other corners random among ``n`` points, as a file whose indices were zeroed in part would make it (before
 the hub's edges were counted, ``pos_edge_kinds``, and its ring visited lazily: vanilla 99 s at 3,000
 triangles, cubic; before the vertex-cache order kept a heavy vertex's triangles in a tree, ``vcache._HEAVY``:
-Forsyth's builder 142 s at 30,000, its levels' ordering 46 of its 49 s at 20,000). Every encoding (and
-the sliding window's Forsyth builder and its several-inner-vertex mode with edge swaps) is built once per
-size, warm, in one process. The ratio
-column is the time over the previous size's (2 for linear at doubling sizes, 4 for quadratic, 8 for
-cubic). Targets: no build over 30 s at a fan of 2,000 triangles (that fan used to take 489 s with Forsyth's
-builder and 207 s with the topology-driven one) or at a cone of 10,000 sections (before the hub guards,
+Forsyth's builder 142 s at 30,000, its levels' ordering 46 of its 49 s at 20,000). The strip: ``n`` quads
+in a row in the plane z = 0 (a ribbon, a road, a hair card), where every collapse along the strip costs
+exactly 0: the quadric order's first-of-equal-cost targets bin most of it onto a few positions, which grow
+into fans of thousands of triangles and then move themselves (vanilla 277 s at 40,000 triangles before
+vanilla's replay dropped dead corners). Every encoding (and the sliding window's Forsyth builder and its
+several-inner-vertex mode with edge swaps) is built once per size, warm, in one process. The ratio column is
+the time over the previous size's (2 for linear at doubling sizes, 4 for quadratic, 8 for cubic). Targets:
+no build over 30 s at a fan of 2,000 triangles (that fan used to take 489 s with Forsyth's builder and 207 s
+with the topology-driven one), at a cone of 10,000 sections (before the hub guards,
 ``swpm_usd.simplify.kernels.HUB_SIZE``: the topology-driven builder 62 s, Forsyth's 120 s or more, and the
-quadric order of vanilla 372 s already at 8,000 sections) or at a hub of 30,000 triangles.
+quadric order of vanilla 372 s already at 8,000 sections), at a hub of 30,000 triangles or at a strip of
+20,000 quads.
 
     python benchmarks/bench_hostile.py [--sizes 500,1000,2000] [--cone-sizes 2500,5000,10000]
-        [--hub-sizes 7500,15000,30000] [--out benchmarks/results/hostile.json]
+        [--hub-sizes 7500,15000,30000] [--strip-sizes 5000,10000,20000]
+        [--out benchmarks/results/hostile.json]
 """
 
 from __future__ import annotations
@@ -76,8 +81,28 @@ def hub_mesh(n: int):
     return Mesh.from_arrays(pts, np.c_[np.zeros(n, np.int64), rng.integers(1, n + 1, (n, 2))])
 
 
+def strip_mesh(n: int):
+    """A flat strip of ``n`` unit quads in a row (``2 n`` triangles) in the plane z = 0: every vertex on the
+    boundary, every boundary edge collinear, so every collapse along the strip costs exactly 0."""
+    from swpm_usd.mesh import Mesh
+
+    x = np.arange(n + 1, dtype=np.float64)
+    pts = np.concatenate(
+        [np.c_[x, np.zeros(n + 1), np.zeros(n + 1)], np.c_[x, np.ones(n + 1), np.zeros(n + 1)]]
+    )
+    i = np.arange(n)
+    top = n + 1 + i
+    tris = np.concatenate([np.c_[i, i + 1, top + 1], np.c_[i, top + 1, top]])
+    return Mesh.from_arrays(pts, tris)
+
+
 # mesh maker, size the target is at
-SHAPES = {"fan": (fan_mesh, 2000), "cone": (cone_mesh, 10000), "hub": (hub_mesh, 30000)}
+SHAPES = {
+    "fan": (fan_mesh, 2000),
+    "cone": (cone_mesh, 10000),
+    "hub": (hub_mesh, 30000),
+    "strip": (strip_mesh, 20000),
+}
 
 
 def main() -> None:
@@ -87,12 +112,14 @@ def main() -> None:
     ap.add_argument("--sizes", default="500,1000,2000")
     ap.add_argument("--cone-sizes", default="2500,5000,10000")
     ap.add_argument("--hub-sizes", default="7500,15000,30000")
+    ap.add_argument("--strip-sizes", default="5000,10000,20000")
     ap.add_argument("--out", default=str(HERE / "results" / "hostile.json"))
     args = ap.parse_args()
     sizes = {
         "fan": [int(s) for s in args.sizes.split(",")],
         "cone": [int(s) for s in args.cone_sizes.split(",")],
         "hub": [int(s) for s in args.hub_sizes.split(",")],
+        "strip": [int(s) for s in args.strip_sizes.split(",")],
     }
     swpm_usd.build(fan_mesh(50), encoding="sliding-window")  # numba's compile (or cache load) off the clock
     rows = []

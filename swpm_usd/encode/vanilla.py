@@ -52,9 +52,15 @@ def _replay(tris: np.ndarray, binned: np.ndarray, kept: np.ndarray, vertex_count
         b = binned[ci]
         k = kept[ci]
         start[ci] = n
+        # b's corners of surviving triangles move onto k and are spliced in front of k's list; the corners
+        # of dead triangles are unlinked on the way, so each is walked once: kept in the list, a chain of
+        # collapses (b onto k, k onto k2, ...) walked its whole history again at every step (a flat strip
+        # of 20,000 triangles: 7 s)
         c = head[b]
+        first = -1
         last = -1
         while c >= 0:
+            c_next = nxt[c]
             t = c // 3
             if die[t] == C:
                 if tv[t, 0] == k or tv[t, 1] == k or tv[t, 2] == k:
@@ -68,12 +74,16 @@ def _replay(tris: np.ndarray, binned: np.ndarray, kept: np.ndarray, vertex_count
                         corners = grown
                     corners[n] = c
                     n += 1
-            last = c
-            c = nxt[c]
+                    if last >= 0:
+                        nxt[last] = c
+                    else:
+                        first = c
+                    last = c
+            c = c_next
         if last >= 0:
             nxt[last] = head[k]
-            head[k] = head[b]
-            head[b] = -1
+            head[k] = first
+        head[b] = -1
     start[C] = n
     return die, start, corners[:n].copy()
 
