@@ -33,7 +33,8 @@ Method
       out of its triangles' stored scores (added when one is read) and its live triangles sit in a max tree
       by stored score, whose earliest best leaf is the triangle the scan would pick. A triangle with two
       heavy corners is ranked in each one's tree without the other's score, which is exact when all of a
-      heavy vertex's triangles share the other (the fan) and an approximation otherwise.
+      heavy vertex's triangles share the other (a fan on an edge whose ends hold nothing else) and an
+      approximation otherwise.
 
     Tipsify (Sander, Nehab, Barczak, "Fast Triangle Reordering for Vertex Locality and Reduced Overdraw",
     2007) was implemented FIFO-exactly as well (with and without fan walking, with cache-slack variants) and

@@ -289,13 +289,14 @@ def test_many_tiny_blocks_are_fast() -> None:
 
 
 def _heavy_meshes() -> dict[str, np.ndarray]:
-    """Shuffled meshes with vertices of hundreds of triangles: a grid with a fan of 400 triangles on one of
-    its edges (both edge ends heavy, in the grid's triangles as well), a cone of 300 sections (apex and cap
+    """Shuffled meshes with vertices of hundreds of triangles: a grid beside a fan of 400 triangles on one
+    edge (both edge ends heavy, in the fan's triangles only: a grid triangle at an end, without the other
+    end, would be ranked approximately, see the module docstring), a cone of 300 sections (apex and cap
     centre heavy, no triangle holds both) and a random non-manifold hub (one vertex in every triangle)."""
     rng = np.random.default_rng(7)
     grid = _grid(20, 20)
-    a, b = grid[0, 0], grid[0, 1]
-    tips = grid.max() + 1 + np.arange(400)
+    a, b = grid.max() + 1, grid.max() + 2
+    tips = grid.max() + 3 + np.arange(400)
     fan = np.concatenate([grid, np.stack([np.full(400, a), np.full(400, b), tips], 1)])
     k = 300
     i = np.arange(k)
