@@ -10,11 +10,12 @@ the hub's edges were counted, ``pos_edge_kinds``, and its ring visited lazily: v
 triangles, cubic; before the vertex-cache order kept a heavy vertex's triangles in a tree, ``vcache._HEAVY``:
 Forsyth's builder 142 s at 30,000, its levels' ordering 46 of its 49 s at 20,000). The strip: ``n`` quads
 in a row in the plane z = 0 (a ribbon, a road, a hair card), where every collapse along the strip costs
-exactly 0: the quadric order's first-of-equal-cost targets bin most of it onto a few positions, which grow
-into fans of thousands of triangles and then move themselves (vanilla 277 s at 40,000 triangles before
-vanilla's replay dropped dead corners). Every encoding (and the sliding window's Forsyth builder and its
-several-inner-vertex mode with edge swaps) is built once per size, warm, in one process. The ratio column is
-the time over the previous size's (2 for linear at doubling sizes, 4 for quadratic, 8 for cubic). Targets:
+exactly 0 (before the quadric order's heap stopped popping the newest of equal keys first, it chained
+collapses onto a few fans of thousands of triangles that then moved along the strip: vanilla 35 s and mixed
+43 s at 20,000 quads; 277 s at 40,000 before vanilla's replay dropped dead corners). Every encoding (and
+the sliding window's Forsyth builder and its several-inner-vertex mode with edge swaps) is built once per
+size, warm, in one process. The ratio column is the time over the previous size's (2 for linear at doubling
+sizes, 4 for quadratic, 8 for cubic). Targets:
 no build over 30 s at a fan of 2,000 triangles (that fan used to take 489 s with Forsyth's builder and 207 s
 with the topology-driven one), at a cone of 10,000 sections (before the hub guards,
 ``swpm_usd.simplify.kernels.HUB_SIZE``: the topology-driven builder 62 s, Forsyth's 120 s or more, and the
