@@ -307,7 +307,9 @@ def _order_blocks(
                 qpush[qtail] = p
                 qlv[qtail] = lv
                 qtail += 1
-        # first candidate: best triangle touching the carried-over cache (newest entries first)
+        # first candidate: best triangle touching the carried-over cache (newest entries first). This scan,
+        # the dead end's and the per-step one are written out: one inlined helper taking the arrays made
+        # bunny's order 5x slower (59 -> 289 ms; numba's reference counting per call)
         best = -1
         best_score = -1.0
         for j in range(qtail - 1, qhead - 1, -1):
