@@ -425,3 +425,31 @@ def test_skip_strip_record_checks_all_run() -> None:
     )
     codes = {p.code for p in validate_bytes(encode_bytes(pm)).errors}  # type: ignore[arg-type]
     assert {"SWPM_RECORD_BAD_COUNTS", "SWPM_RECORD_BAD_KEPT"} <= codes
+
+
+@pytest.mark.parametrize("make", ["vanilla", "mixed"])
+def test_kept_is_checked_when_records_reach_vertex_count(make: str) -> None:
+    """Spec 5, vanilla and mixed stage (a): "every check of a stage runs", so R >= V (SWPM_RECORD_BAD_COUNTS)
+    does not hide a record that keeps a vertex not below the one it bins (SWPM_RECORD_BAD_KEPT); R = V = 5
+    all-zero records: record 4 bins vertex 0 and keeps vertex 0."""
+    from swpm_usd.format.vectors import chunk, fan_mixed
+
+    zeros = [0, 0, 0, 0, 0]
+    if make == "vanilla":
+        over = {"collapse_tris_removed": zeros}
+    else:
+        over = {"collapse_static_tris_removed": zeros, "collapse_dynamic_tris_removed": zeros}
+        over["level_record_start"] = [0, 5]
+    over |= {
+        "collapse_kept": zeros,
+        "collapse_change_count": zeros,
+        "collapse_prev_change_count": zeros,
+        "collapse_change_offsets": [],
+    }
+    pm = {"vanilla": fan_vanilla, "mixed": fan_mixed}[make](buffers=over)
+    data = encode_bytes(pm)  # type: ignore[arg-type]
+    _, rec_at, _ = chunk(data, L.VREC if make == "vanilla" else L.MREC)
+    errors = [(p.code, p.offset) for p in validate_bytes(data).errors]
+    cols, W = (4 if make == "vanilla" else 5), 2
+    assert ("SWPM_RECORD_BAD_COUNTS", rec_at) in errors, errors
+    assert ("SWPM_RECORD_BAD_KEPT", rec_at + 8 + 4 * cols * W) in errors, errors

@@ -650,11 +650,10 @@ def _vanilla(p: _Parsed, rep: Report) -> None:
     ok &= _index_check(p, rep, idx_c, indices, "INDX", V, idx_c.offset)
     kept = rec["collapse_kept"].astype(np.int64)
     R = kept.shape[0]
-    if R >= max(V, 1) and R:
+    if R >= max(V, 1) and R:  # reported; the kept check of this stage still runs
         rep.add("SWPM_RECORD_BAD_COUNTS", int(rec["_base"][0]) - 8, reason=f"{R} records for {V} vertices")
         ok = False
-    else:
-        ok &= _kept_below_binned(p, rep, rec, V)
+    ok &= _kept_below_binned(p, rep, rec, V)
     removed = rec["collapse_tris_removed"].astype(np.int64)
     cum = np.r_[0, np.cumsum(removed)]
     if cum[-1] > T0:
@@ -1089,11 +1088,10 @@ def _mixed(p: _Parsed, rep: Report) -> None:
     ok &= _index_check(p, rep, idx_c, static, "INDX", V, idx_c.offset)
     for k in ("level_dynamic_indices", "level_dynamic_collapsed_indices"):
         ok &= _index_check(p, rep, m_c, arrs[k], k, V, at[k])
-    if R >= max(V, 1) and R:
+    if R >= max(V, 1) and R:  # reported; the kept check of this stage still runs
         rep.add("SWPM_RECORD_BAD_COUNTS", int(rec["_base"][0]) - 8, reason=f"{R} records for {V} vertices")
         ok = False
-    else:
-        ok &= _kept_below_binned(p, rep, rec, V)
+    ok &= _kept_below_binned(p, rep, rec, V)
     if not ok:
         p.content_ok = False
         return
