@@ -453,3 +453,16 @@ def test_kept_is_checked_when_records_reach_vertex_count(make: str) -> None:
     cols, W = (4 if make == "vanilla" else 5), 2
     assert ("SWPM_RECORD_BAD_COUNTS", rec_at) in errors, errors
     assert ("SWPM_RECORD_BAD_KEPT", rec_at + 8 + 4 * cols * W) in errors, errors
+
+
+def test_stream_order_names_the_misplaced_duplicate() -> None:
+    """SWPM_STREAM_ORDER is reported at the entry found where the order expects another: a second META
+    listed after SMAP, not the first META (which is in place)."""
+    from swpm_usd.format.vectors import chunk, fix_crcs
+
+    data = bytearray(encode_bytes(fan_vanilla(), extra_chunks=[(b"zXTR", False, b"{}")]))  # type: ignore[arg-type]
+    eo, _, _ = chunk(bytes(data), b"zXTR")
+    data[eo : eo + 8] = b"META" + L.CHUNK_CRITICAL.to_bytes(4, "little")
+    found = [(p.code, p.offset) for p in validate_bytes(fix_crcs(data)).problems]
+    assert ("SWPM_CHUNK_DUPLICATE", eo) in found, found
+    assert [p for p in found if p[0] == "SWPM_STREAM_ORDER"] == [("SWPM_STREAM_ORDER", eo)], found
