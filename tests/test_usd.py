@@ -155,6 +155,33 @@ def test_read_equals_format_file(pm, asset, tmp_path):
         np.testing.assert_array_equal(back.triangles_at(k), pm.triangles_at(k))
 
 
+@pytest.mark.parametrize("dtype", ["u1", "<u2"])
+def test_unsigned_colour_is_normalised_and_read_back_exactly(dtype, tmp_path):
+    """A u8 / u16 colour is stored as display colour in [0, 1] (value / (2^bits - 1)); read() restores the
+    attribute's element type and values exactly, and other attributes keep their dtype (swpm:attributeDtypes).
+    """
+    from swpm_usd.format import encode_bytes, load_bytes
+    from swpm_usd.format.vectors import fan_vanilla
+
+    top = np.iinfo(dtype).max
+    color = np.array([[top, 0, 0, top], [0, top, 0, 7], [0, 0, top, 0], [1, 2, 3, 4], [top, top, top, 1]])
+    attrs = {"color": color.astype(dtype), "id": np.arange(5, dtype="<i2")[:, None] - 2}
+    pm = load_bytes(encode_bytes(fan_vanilla(attributes=attrs)))  # type: ignore[arg-type]
+    path = usd.write(pm, tmp_path / "colour.usda")
+    stage = Usd.Stage.Open(str(path))
+    prim = stage.GetDefaultPrim().GetChild("mesh")
+    api = UsdGeom.PrimvarsAPI(prim)
+    rgb = np.asarray(api.GetPrimvar("displayColor").Get())
+    alpha = np.asarray(api.GetPrimvar("displayOpacity").Get())
+    assert rgb.min() >= 0.0 and rgb.max() == 1.0 and alpha.min() >= 0.0 and alpha.max() == 1.0
+    np.testing.assert_allclose(rgb, color[:, :3] / top, rtol=1e-6)
+    back = usd.read(prim)
+    for name, a in attrs.items():
+        assert back.attributes[name].dtype == a.dtype, name
+        np.testing.assert_array_equal(back.attributes[name], a)
+    assert validate_stage(path) == []
+
+
 def test_prim_of_a_freed_stage_is_a_clear_error(asset):
     """A stage opened inline and never held is freed at once: its prim is invalid, and the error says why."""
     with pytest.raises(UsdReadError, match="keep the Usd.Stage in a variable"):

@@ -99,7 +99,30 @@ def read_buffers(prim: Usd.Prim) -> dict[str, np.ndarray]:
     return out
 
 
-def _attributes(prim: Usd.Prim, names: list[str]) -> dict[str, np.ndarray]:
+def _restore(name: str, a: np.ndarray, dtype: str | None) -> np.ndarray:
+    """The float32 primvar values ``a`` of attribute ``name`` back in the attribute's ``dtype`` (from
+    swpm:attributeDtypes; None: float32): unsigned-integer colours were normalised to [0, 1] when written."""
+    dt = np.dtype(dtype or np.float32)
+    if dt == a.dtype:
+        return a
+    if dt.kind in "ui":
+        info = np.iinfo(dt)
+        v = a.astype(np.float64) * (float(info.max) if name == "color" and dt.kind == "u" else 1.0)
+        return np.clip(np.rint(v), info.min, info.max).astype(dt)
+    return a.astype(dt)
+
+
+def _attributes(prim: Usd.Prim, names: list[str], dtypes: list[str] | None = None) -> dict[str, np.ndarray]:
+    """The per-vertex attributes ``names`` from their primvars, each cast back to its ``dtypes`` entry."""
+    out = _float_attributes(prim, names)
+    if dtypes is None:
+        return out
+    if len(dtypes) != len(names):
+        raise UsdReadError(f"{prim.GetPath()}: swpm:attributeNames and attributeDtypes differ in length")
+    return {n: _restore(n, out[n], str(d)) for n, d in zip(names, dtypes, strict=True)}
+
+
+def _float_attributes(prim: Usd.Prim, names: list[str]) -> dict[str, np.ndarray]:
     mesh = UsdGeom.Mesh(prim)
     api = UsdGeom.PrimvarsAPI(prim)
     out = {}
@@ -147,7 +170,11 @@ def read(prim: Usd.Prim, check: bool = True) -> ProgressiveMesh:
         pm = from_buffers(
             encoding,
             points,
-            _attributes(prim, list(_get(prim, "swpm:attributeNames", required=False) or [])),
+            _attributes(
+                prim,
+                list(_get(prim, "swpm:attributeNames", required=False) or []),
+                _get(prim, "swpm:attributeDtypes", required=False),
+            ),
             from_vt(_get(prim, "swpm:vertexCounts"), np.int64),
             from_vt(_get(prim, "swpm:triangleCounts"), np.int64),
             from_vt(_get(prim, "swpm:lodErrors"), np.float32),

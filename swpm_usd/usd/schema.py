@@ -87,6 +87,14 @@ PROPERTIES: tuple[Prop, ...] = (
         "other name -> primvars:<name>; all vertex interpolation, in LOD order.",
     ),
     Prop(
+        "swpm:attributeDtypes",
+        "token[]",
+        "[]",
+        "Numpy dtype of each attribute (parallel to swpm:attributeNames); the float primvar is cast back to "
+        "it. Unsigned-integer color components are stored normalised to [0, 1] (value / (2^bits - 1)) and "
+        "scaled back (exact for 8 and 16 bits). Absent: float32.",
+    ),
+    Prop(
         "swpm:bufferNames",
         "token[]",
         "[]",

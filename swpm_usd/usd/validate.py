@@ -27,7 +27,7 @@ ERROR, WARNING = "error", "warning"
 CODES: dict[str, str] = {
     "SWPM_USD_NOT_MESH": "SwpmMeshAPI is applied to a prim that is not a Mesh.",
     "SWPM_USD_MISSING": "a required swpm: attribute (or points) has no value.",
-    "SWPM_USD_TYPE": "an attribute's type differs from the schema (or a buffer dtype is unknown).",
+    "SWPM_USD_TYPE": "an attribute's type differs from the schema (or a buffer/attribute dtype is unknown).",
     "SWPM_USD_ENCODING": "swpm:encoding names no known encoding.",
     "SWPM_USD_VERSION": "swpm:formatVersion is not supported by this reader.",
     "SWPM_USD_LOD_TABLE": "vertexCounts / triangleCounts / lodErrors disagree in length, order or range.",
@@ -135,6 +135,17 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
     except ValueError as e:
         c.add("SWPM_USD_PARAMS", f"swpm:params: {e}")
         params = {}
+
+    attr_dtypes = c.get("swpm:attributeDtypes", required=False)
+    if attr_dtypes is not None:
+        if len(attr_dtypes) != len(c.get("swpm:attributeNames", required=False) or []):
+            c.add("SWPM_USD_STRIDE", "swpm:attributeNames and attributeDtypes differ in length")
+        for d in attr_dtypes:
+            try:
+                np.dtype(str(d))
+            except TypeError:
+                c.add("SWPM_USD_TYPE", f"swpm:attributeDtypes names an unknown dtype {d!r}")
+                break
 
     points = prim.GetAttribute("points").Get()
     V = 0 if points is None else len(points)

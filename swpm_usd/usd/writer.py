@@ -73,6 +73,7 @@ def swpm_values(pm: ProgressiveMesh) -> dict[str, tuple[Sdf.ValueTypeName, Any]]
         "swpm:lodErrors": to_vt("swpm:lodErrors", pm.lod_errors),
         "swpm:params": (T.String, json.dumps(pm.params, sort_keys=True, default=_json_default)),
         "swpm:attributeNames": (T.TokenArray, list(pm.attributes)),
+        "swpm:attributeDtypes": (T.TokenArray, [np.asarray(a).dtype.name for a in pm.attributes.values()]),
         "swpm:bufferNames": (T.TokenArray, list(buffers)),
         "swpm:bufferDtypes": (T.TokenArray, [a.dtype.name for a in buffers.values()]),
         "swpm:bufferColumns": to_vt(
@@ -124,7 +125,8 @@ def _vec(a: np.ndarray, k: int) -> Any:
 
 
 def author_primvars(mesh: UsdGeom.Mesh, attributes: dict[str, np.ndarray]) -> None:
-    """Per-vertex attributes -> normals / primvars:st / displayColor (+Opacity) / primvars:<name> (vertex)."""
+    """Per-vertex attributes -> normals / primvars:st / displayColor (+Opacity) / primvars:<name> (vertex);
+    unsigned-integer colour components are normalised to [0, 1] (value / (2^bits - 1))."""
     T = Sdf.ValueTypeNames
     api = UsdGeom.PrimvarsAPI(mesh)
     vertex = UsdGeom.Tokens.vertex
@@ -138,6 +140,8 @@ def author_primvars(mesh: UsdGeom.Mesh, attributes: dict[str, np.ndarray]) -> No
         elif name == "uv" and k == 2:
             api.CreatePrimvar("st", T.TexCoord2fArray, vertex).Set(_vec(a, 2))
         elif name == "color" and k in (3, 4):
+            if a.dtype.kind == "u":  # display colour is in [0, 1]: u8 255 -> 1.0 (read scales back)
+                a = a.astype(np.float64) / float(np.iinfo(a.dtype).max)
             api.CreatePrimvar("displayColor", T.Color3fArray, vertex).Set(_vec(a[:, :3], 3))
             if k == 4:
                 api.CreatePrimvar("displayOpacity", T.FloatArray, vertex).Set(_vec(a[:, 3], 1))
