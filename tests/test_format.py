@@ -466,3 +466,25 @@ def test_stream_order_names_the_misplaced_duplicate() -> None:
     found = [(p.code, p.offset) for p in validate_bytes(fix_crcs(data)).problems]
     assert ("SWPM_CHUNK_DUPLICATE", eo) in found, found
     assert [p for p in found if p[0] == "SWPM_STREAM_ORDER"] == [("SWPM_STREAM_ORDER", eo)], found
+
+
+def test_stride_must_be_a_multiple_of_every_element_size() -> None:
+    """Spec 3.3: stride is a multiple of every attribute's element size. An f64 attribute at offset 16 of a
+    stride-28 record (a multiple of 4, ends within the stride) is SWPM_VERT_BAD_LAYOUT."""
+    from swpm_usd.format.vectors import chunk, fix_crcs
+
+    data = bytearray(encode_bytes(fan_vanilla(attributes={"w": np.zeros((5, 1), "<f8")})))  # type: ignore[arg-type]
+    _, vo, vl = chunk(bytes(data), L.VERT)
+    V, A, stride, at = np.frombuffer(bytes(data[vo : vo + 16]), "<u4")
+    assert (A, stride) == (1, 24)
+    # grow each record by 4 bytes: stride 28, data_offset and the chunk's length follow
+    recs = np.frombuffer(bytes(data[vo + at : vo + vl]), np.uint8).reshape(V, stride)
+    grown = np.concatenate([recs, np.zeros((V, 4), np.uint8)], axis=1).tobytes()
+    payload = bytes(data[vo : vo + 8]) + np.uint32(28).tobytes() + bytes(data[vo + 12 : vo + at]) + grown
+    out = bytes(data[:vo]) + payload
+    eo, _, _ = chunk(bytes(data), L.VERT)
+    out = bytearray(out)
+    out[eo + 16 : eo + 24] = len(payload).to_bytes(8, "little")
+    out[40:48] = len(out).to_bytes(8, "little")
+    rep = validate_bytes(fix_crcs(out))
+    assert [(p.code, p.offset) for p in rep.errors] == [("SWPM_VERT_BAD_LAYOUT", vo)], rep.format()

@@ -456,8 +456,8 @@ def _vert(p: _Parsed, rep: Report) -> None:
             bad = f"attribute {name!r}: element type {et} / {comp} components is not valid"
             break
         dt = L.ELEM_TYPES[et]
-        if off % dt.itemsize or off + dt.itemsize * comp > stride:
-            bad = f"attribute {name!r}: offset {off} is misaligned or past the stride"
+        if off % dt.itemsize or stride % dt.itemsize or off + dt.itemsize * comp > stride:
+            bad = f"attribute {name!r}: offset {off} or stride {stride} is misaligned, or past the stride"
             break
         spans.append((off, off + dt.itemsize * comp))
         attr_names.append(name)
