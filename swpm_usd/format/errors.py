@@ -144,7 +144,7 @@ _ENTRIES = [
         ERROR,
         "chunk type {type} is not four ASCII letters or digits",
         "A chunk type must be four characters from A-Z, a-z, 0-9.",
-        "entry (its type field)",
+        "entry (its type field); the entry is then also an unknown chunk (critical or ancillary)",
     ),
     Entry(
         "SWPM_CHUNK_OUT_OF_BOUNDS",
@@ -229,7 +229,8 @@ _ENTRIES = [
         "chunk {type} is {length} bytes, its contents need {need}",
         "A chunk's length does not match the counts it declares.",
         "entry + 16 (the length field of the chunk whose length is wrong); exception: an RCNT whose "
-        "number of counts differs from the LOD count is reported at RCNT's payload",
+        "number of counts differs from the LOD count is reported at RCNT's payload (a stage (a) check, "
+        "after the change counts and prev_change_count)",
     ),
     Entry(
         "SWPM_COUNT_EXCEEDS_CHUNK",
@@ -255,8 +256,9 @@ _ENTRIES = [
         WARNING,
         "chunk {type} is not laid out in streaming order ({reason})",
         "Chunks are not in the coarse-to-fine order of the spec; the file decodes but does not stream.",
-        "entry of the first chunk found where the order expects another, else of VERT when it is not "
-        "last; once per file",
+        "entry at the first position where the encoding's chunks, in table order with duplicates, differ "
+        "from the streaming order restricted to the types present (format.md 2.3), else the (first) VERT "
+        "entry when the last entry is not a VERT; once per file",
     ),
     # -- content ------------------------------------------------------------------------------------------
     Entry(
@@ -291,7 +293,8 @@ _ENTRIES = [
         "LOD {lod} uses {count} vertices, expected {expected}",
         "LOD 0 must use every vertex, no LOD more than there are.",
         "the start of LODS row k (its vertex_count field): row 0 when it differs from VERT's vertex "
-        "count; vanilla, skip-strip and mixed also the first row that differs from the records",
+        "count; vanilla, skip-strip and mixed also the first row that differs from the records (row 0 "
+        "again when it differs from VERT's vertex count and that stage runs)",
     ),
     Entry(
         "SWPM_VERT_BAD_LAYOUT",
@@ -379,8 +382,9 @@ _ENTRIES = [
         "of record r wrong: that field, payload + 8 + W x (c r + c - 1) with c columns (4, MREC 5), "
         "for the first such r; RCNT not from 0, decreasing or above R: RCNT "
         "payload; R >= V: the record chunk's payload; too many triangles removed: record 0's "
-        "tris_removed (table + W; MREC: static + W, dynamic + 2 W, whatever the level); LODS "
-        "triangle_count differs: the start of the first differing LODS row",
+        "tris_removed (table + W; MREC: static + W, dynamic + 2 W, whatever the level, one problem per "
+        "column); LODS triangle_count differs (vanilla: also row 0 against T0 = INDX count / 3): the "
+        "start of the first differing LODS row",
     ),
     Entry(
         "SWPM_RECORD_BAD_CHANGE",
