@@ -75,7 +75,7 @@ PROPERTIES: tuple[Prop, ...] = (
         "swpm:lodErrors",
         "float[]",
         "[]",
-        "Per LOD: geometric error in mesh units (0 at LOD 0, non-decreasing), for screen-space selection.",
+        "Per LOD: geometric error in mesh units (finite, non-decreasing), for screen-space selection.",
     ),
     Prop("swpm:params", "string", '"{}"', "The encoder's parameters as a JSON object."),
     Prop(
