@@ -543,3 +543,73 @@ def test_whole_numbers_for_an_optional_real_parameter_give_one_treatment():
     suzanne = load_mesh(SHARED_MESHES / "suzanne.obj")
     pools = [swpm_usd.build(suzanne, "sliding-window", target_slack=v).index_pool for v in (1, 1.0)]
     assert np.array_equal(*pools)
+
+
+TWO_TRIANGLES = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n"
+
+
+def _digest(path: Path) -> str:
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_the_run_never_overwrites_its_own_inputs(tmp_path):
+    # a stage asset whose generated scene.usda would replace the stage itself (output.dir ".")
+    from pxr import Usd, UsdGeom
+
+    mesh_layer = tmp_path / "quad.usda"
+    st = Usd.Stage.CreateNew(str(mesh_layer))
+    st.SetDefaultPrim(UsdGeom.Xform.Define(st, "/Quad").GetPrim())
+    m = UsdGeom.Mesh.Define(st, "/Quad/Geo")
+    m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
+    m.CreateFaceVertexCountsAttr([3, 3])
+    m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+    st.GetRootLayer().Save()
+    scene = tmp_path / "scene.usda"
+    st = Usd.Stage.CreateNew(str(scene))
+    st.DefinePrim("/World/q", "Xform").GetReferences().AddReference("./quad.usda")
+    st.GetRootLayer().Save()
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{stage: scene.usda}]\n"
+        'output: {dir: ".", usd: true, scene: true}\ndefaults: {encoding: vanilla}\n'
+    )
+    before = _digest(scene)
+    result = CliRunner().invoke(main, ["run", str(cfg)])
+    assert result.exit_code == 2, result.output
+    assert "c.yaml:3:" in result.output and "$.output.dir" in result.output
+    assert "scene layer would overwrite scene.usda" in result.output
+    assert _digest(scene) == before and not (tmp_path / "manifest.json").exists()
+    # a glob whose files have the names of the outputs (*.usdc in the output dir), "" as "."
+    (tmp_path / "beetle.usdc").write_bytes(b"")
+    os.replace(mesh_layer, tmp_path / "beetle.usda")
+    from pxr import Sdf
+
+    Sdf.Layer.FindOrOpen(str(tmp_path / "beetle.usda")).Export(str(tmp_path / "beetle.usdc"))
+    before = _digest(tmp_path / "beetle.usdc")
+    for out_dir in ('"."', '""'):
+        cfg.write_text(
+            f"version: 1\nassets: [{{glob: '*.usdc'}}]\noutput: {{dir: {out_dir}, usd: true}}\n"
+            "defaults: {encoding: vanilla}\n"
+        )
+        result = CliRunner().invoke(main, ["run", str(cfg), "--dry-run"])
+        assert result.exit_code == 2, result.output
+        assert "USD layer of beetle.usdc would overwrite beetle.usdc" in result.output
+        assert _digest(tmp_path / "beetle.usdc") == before
+    # the config itself, and a stale-temporary-file name the run deletes
+    cfg2 = tmp_path / "report.html"
+    cfg2.write_text("version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: .}\n")
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    with pytest.raises(ConfigError, match=r"the run report would overwrite report.html \(the configuration"):
+        run(cfg2, echo=lambda m: None)
+    (tmp_path / "m" / ".b.obj.tmp").write_text(TWO_TRIANGLES)
+    cfg.write_text("version: 1\nassets: [{glob: 'm/*.obj*'}]\noutput: {dir: m}\n")
+    with pytest.raises(ConfigError, match="named like a temporary file"):
+        run(cfg, echo=lambda m: None)
+    # apart from the inputs, the same config runs
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    assert run(cfg, echo=lambda m: None).built == 1

@@ -10,6 +10,7 @@ with the recorded size.
 
 from __future__ import annotations
 
+import fnmatch
 import json
 import sys
 import time
@@ -117,6 +118,7 @@ def plan(
     load every new asset a second time, one after another (1,000 small assets: 10 of 46 s)."""
     assets, inputs, problems = discover(cfg)
     out_dir = cfg.base / cfg.data["output"]["dir"]
+    problems.extend(_overwritten_inputs(cfg, out_dir, assets, inputs))
     known = manifest.get("assets", {})
     items = []
     needs_rule_on_triangles = any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))
@@ -148,6 +150,68 @@ def plan(
         items.append(item)
     warnings = [] if any(i.rule_pending for i in items) else _unreached_rules(cfg, items)
     return items, problems, warnings
+
+
+def planned_outputs(cfg: Config, out_dir: Path, assets: list[Asset]) -> dict[Path, str]:
+    """Every file a run of ``cfg`` writes (or, for temporary files, may delete) -> what it is."""
+    out = cfg.data["output"]
+    files: dict[Path, str] = {out_dir / MANIFEST: "the run manifest"}
+    if out.get("report", True):
+        files[out_dir / "report.html"] = "the run report"
+    if out.get("scene"):
+        files[out_dir / "scene.usda"] = "the scene layer"
+    for a in assets:
+        if out.get("swpm", True):
+            files[out_dir / f"{a.output_stem}.swpm"] = f"the .swpm of {a.id}"
+        if out.get("usd", False):
+            files[out_dir / f"{a.output_stem}.usdc"] = f"the USD layer of {a.id}"
+    return files
+
+
+def _file_key(path: Path) -> tuple:
+    """One key per file: the resolved path, or (device, inode) when it exists (hard links, odd mounts)."""
+    try:
+        st = path.stat()
+        return ("inode", st.st_dev, st.st_ino)
+    except OSError:
+        return ("path", str(path.resolve()))
+
+
+def _overwritten_inputs(
+    cfg: Config, out_dir: Path, assets: list[Asset], inputs: dict[str, list[Path]]
+) -> list[str]:
+    """The run never writes over its own inputs: a file it would write (:func:`planned_outputs`) or a stale
+    temporary file it would delete must not be a matched mesh, a stage, a layer a stage uses, or the config
+    itself. Located at ``output.dir``."""
+    sources: dict[tuple, tuple[Path, str]] = {_file_key(cfg.path): (cfg.path, "the configuration file")}
+    for a in assets:
+        for p in inputs.get(a.id, []):
+            what = "an input of" if p != a.path else "the input of"
+            sources.setdefault(_file_key(p), (p, f"{what} {a.id}"))
+    problems = []
+    for target, what in planned_outputs(cfg, out_dir, assets).items():
+        hit = sources.get(_file_key(target))
+        if hit is not None:
+            problems.append(
+                f"{cfg.where(('output', 'dir'))}: {what} would overwrite {_rel(cfg, hit[0])} "
+                f"({hit[1]}); choose an output.dir apart from the inputs (and globs not reaching into it)"
+            )
+    for path, what in sources.values():
+        if path.parent.resolve() == out_dir.resolve() and (
+            fnmatch.fnmatch(path.name, ".*.tmp") or fnmatch.fnmatch(path.name, ".*.tmp.usda")
+        ):
+            problems.append(
+                f"{cfg.where(('output', 'dir'))}: {_rel(cfg, path)} ({what}) is named like a temporary file "
+                f"the run deletes from output.dir; rename it or choose another output.dir"
+            )
+    return problems
+
+
+def _rel(cfg: Config, path: Path) -> str:
+    try:
+        return path.resolve().relative_to(cfg.base).as_posix()
+    except ValueError:
+        return str(path)
 
 
 def _unreached_rules(cfg: Config, items: list[PlanItem]) -> list[str]:
