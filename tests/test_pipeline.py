@@ -613,3 +613,31 @@ def test_the_run_never_overwrites_its_own_inputs(tmp_path):
         "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
     )
     assert run(cfg, echo=lambda m: None).built == 1
+
+
+def test_tightened_budgets_or_streaming_and_changed_outputs_rebuild(tmp_path):
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    base = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    cfg.write_text(base + "budgets: {global_bytes: 1000000}\n")
+    assert run(cfg, echo=lambda m: None).built == 1
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    # a budget the asset no longer meets is checked again, not skipped as up to date
+    cfg.write_text(base + "budgets: {global_bytes: 1}\n")
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1 and "budgets.global_bytes=1" in res.records["m/a.obj"]["error"]
+    cfg.write_text(base + "budgets: {global_bytes: 1000000}\n")
+    assert run(cfg, echo=lambda m: None).built == 1
+    cfg.write_text(base + "budgets: {global_bytes: 1000000}\nstreaming: {coarsest_lod_bytes: 1}\n")
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1 and "coarsest_lod_bytes" in res.records["m/a.obj"]["error"]
+    # an output changed in place (same size) is rebuilt: its sha256 is compared, not only its size
+    cfg.write_text(base)
+    assert run(cfg, echo=lambda m: None).built == 1
+    out = tmp_path / "out" / "a.swpm"
+    data = bytearray(out.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    out.write_bytes(bytes(data))
+    assert run(cfg, echo=lambda m: None).built == 1
+    assert swpm_usd.validate(out).valid

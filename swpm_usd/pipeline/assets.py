@@ -154,12 +154,26 @@ def canonical_treatment(treatment: dict[str, Any]) -> dict[str, Any]:
     return {**treatment, "params": params}
 
 
-def treatment_digest(input_digest: str, asset: Asset, treatment: dict[str, Any], version: str) -> str:
+def checks_of(data: dict[str, Any]) -> dict[str, Any]:
+    """The parts of a config (its data) that decide whether a built asset passes: ``budgets`` (which ``auto``
+    also chooses by) and ``streaming``."""
+    return {"budgets": data.get("budgets") or {}, "streaming": data.get("streaming") or {}}
+
+
+def treatment_digest(
+    input_digest: str,
+    asset: Asset,
+    treatment: dict[str, Any],
+    version: str,
+    checks: dict[str, Any] | None = None,
+) -> str:
     """What decides whether an asset's outputs are current: its inputs, prim, instances, encoding and
-    parameters (:func:`canonical_treatment`: a default written out changes nothing), and the tool's
-    version."""
+    parameters (:func:`canonical_treatment`: a default written out changes nothing), the budgets and
+    streaming policy it was checked against (:func:`checks_of`: a tightened budget re-checks it), and the
+    tool's version."""
     payload = json.dumps(
-        [input_digest, asset.prim, asset.instances, canonical_treatment(treatment), version], sort_keys=True
+        [input_digest, asset.prim, asset.instances, canonical_treatment(treatment), checks or {}, version],
+        sort_keys=True,
     )
     return hashlib.sha256(payload.encode()).hexdigest()
 

@@ -4,8 +4,8 @@ The run manifest (``<output>/manifest.json``) is rewritten atomically as assets 
 second, and at once when the run ends, fails or is stopped with Ctrl-C), so an interrupted run keeps every
 earlier result (a kill loses at most the last second's) and a rerun only does what is left. An asset
 is up to date when the digest of its input files, its resolved rule, parameters (defaults filled in, so
-writing one out rebuilds nothing) and the tool version equal the manifest's and its outputs are still there
-with the recorded size.
+writing one out rebuilds nothing), the budgets and streaming policy it is checked against and the tool version
+equal the manifest's, and its outputs are still there with the recorded size and sha256.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import __version__
-from .assets import Asset, discover, file_digest, match_rule, treatment_digest
+from .assets import Asset, checks_of, discover, file_digest, match_rule, treatment_digest
 from .config import Config, ConfigError, load_config
 from .worker import atomic_write_bytes, process_asset
 
@@ -96,8 +96,8 @@ def _write_manifest(path: Path, manifest: dict, text: _ManifestText | None = Non
     atomic_write_bytes(path, (body + "\n").encode())
 
 
-def _treatment_digest(item: PlanItem) -> str:
-    return treatment_digest(item.input_digest, item.asset, item.treatment, __version__)
+def _treatment_digest(cfg: Config, item: PlanItem) -> str:
+    return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, checks_of(cfg.data))
 
 
 def _count_triangles(asset: Asset) -> int:
@@ -136,20 +136,30 @@ def plan(
                 tri = None
         item = PlanItem(a, digest, tri)
         item.rule, item.treatment, item.why = match_rule(cfg, a, tri if tri is not None else 0)
-        item.digest = _treatment_digest(item)
+        item.digest = _treatment_digest(cfg, item)
         outs = prev.get("outputs", {})
         item.up_to_date = (
             prev.get("status") == "built"
             and prev.get("digest") == item.digest
-            and all(
-                (out_dir / o["path"]).is_file() and (out_dir / o["path"]).stat().st_size == o.get("size", -1)
-                for o in outs.values()
-            )
+            and all(_output_intact(out_dir / o["path"], o) for o in outs.values())
             and bool(outs) == _wants_outputs(cfg)
         )
         items.append(item)
     warnings = [] if any(i.rule_pending for i in items) else _unreached_rules(cfg, items)
     return items, problems, warnings
+
+
+def _output_intact(path: Path, recorded: dict) -> bool:
+    """Is ``path`` still the file the manifest recorded: its size, then its sha256 (a file this tool wrote,
+    hashed again: a changed byte of a same-size file rebuilds it)."""
+    from .worker import sha256_file
+
+    try:
+        if not path.is_file() or path.stat().st_size != recorded.get("size", -1):
+            return False
+        return sha256_file(path) == recorded.get("sha256")
+    except OSError:
+        return False
 
 
 def planned_outputs(cfg: Config, out_dir: Path, assets: list[Asset]) -> dict[Path, str]:
