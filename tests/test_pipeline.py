@@ -641,3 +641,43 @@ def test_tightened_budgets_or_streaming_and_changed_outputs_rebuild(tmp_path):
     out.write_bytes(bytes(data))
     assert run(cfg, echo=lambda m: None).built == 1
     assert swpm_usd.validate(out).valid
+
+
+def test_yaml_empty_values_floats_without_a_dot_and_duplicate_keys(tmp_path):
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+
+    def problems(text: str) -> list[str]:
+        cfg.write_text(text)
+        result = CliRunner().invoke(main, ["run", str(cfg), "--dry-run"])
+        assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+        with pytest.raises(ConfigError) as exc:
+            load_config(cfg)
+        return exc.value.problems
+
+    # an empty value (a bare `rules:` or `params:`) is null, reported at its line
+    assert problems(head + "rules:\n") == ["c.yaml:4:7: $.rules: empty value (null); expected an array"]
+    assert problems(head + "rules:\n  - {name: a, encoding: mixed, params: }\n") == [
+        "c.yaml:5:39: $.rules[0].params: empty value (null); expected an object"
+    ]
+    # a key given twice is an error at its second occurrence, not silently replaced
+    assert problems("version: 1\n" + head + "rules: []\nrules:\n  - {name: b, encoding: vanilla}\n") == [
+        "c.yaml:2:1: $.version: duplicate key (first given on line 1)",
+        "c.yaml:6:1: $.rules: duplicate key (first given on line 5)",
+    ]
+    assert problems(head + "defaults: {encoding: vanilla, encoding: mixed}\n")[0].startswith(
+        "c.yaml:4:31: $.defaults.encoding: duplicate key"
+    )
+    # YAML 1.2 floats without a dot (YAML 1.1 reads them as strings)
+    cfg.write_text(
+        head + "defaults:\n  encoding: sliding-window\n"
+        "  params: {optimize_connectivity: true, swap_max_deviation: 1e-3, mu: 2E-1}\n"
+    )
+    params = load_config(cfg).data["defaults"]["params"]
+    assert params["swap_max_deviation"] == 0.001 and params["mu"] == 0.2
+    # python tags stay refused, located
+    assert problems(head.replace("'m/*.obj'", '!!python/name:os.system ""'))[0].startswith(
+        "c.yaml:2:17: $: invalid"
+    )
