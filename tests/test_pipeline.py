@@ -681,3 +681,28 @@ def test_yaml_empty_values_floats_without_a_dot_and_duplicate_keys(tmp_path):
     assert problems(head.replace("'m/*.obj'", '!!python/name:os.system ""'))[0].startswith(
         "c.yaml:2:17: $: invalid"
     )
+
+
+def test_unusable_output_dir_and_globs_are_located_config_errors(tmp_path):
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+
+    def problems(glob: str, out_dir: str, *options: str) -> str:
+        cfg.write_text(f"version: 1\nassets: [{{glob: '{glob}'}}]\noutput: {{dir: '{out_dir}'}}\n")
+        result = CliRunner().invoke(main, ["run", str(cfg), *options])
+        assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+        return result.output
+
+    assert "c.yaml:3:15: $.output.dir: " in problems("m/*.obj", "m/a.obj")
+    assert "m/a.obj is a file, not a folder" in problems("m/*.obj", "m/a.obj", "--dry-run")
+    assert "is under " in problems("m/*.obj", "m/a.obj/out")
+    if Path("/proc/self").is_dir():  # a parent that cannot be created, even by root
+        assert "c.yaml:3:15: $.output.dir: cannot create /proc/nope/out" in problems(
+            "m/*.obj", "/proc/nope/out"
+        )
+    absolute = str(tmp_path / "m" / "*.obj")
+    assert "c.yaml:2:17: $.assets[0].glob: a glob must be a non-empty pattern relative" in problems(
+        absolute, "out", "--dry-run"
+    )
+    assert "$.assets[0].glob: a glob must be" in problems("", "out")

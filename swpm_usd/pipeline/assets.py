@@ -89,9 +89,19 @@ def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]
     problems: list[str] = []
     for i, src in enumerate(cfg.data["assets"]):
         if "glob" in src:
-            found = sorted(p for p in cfg.base.glob(src["glob"]) if p.is_file())
+            where = cfg.where(("assets", i, "glob"))
+            if not src["glob"] or Path(src["glob"]).is_absolute():
+                problems.append(
+                    f"{where}: a glob must be a non-empty pattern relative to the config's folder"
+                )
+                continue
+            try:
+                found = sorted(p for p in cfg.base.glob(src["glob"]) if p.is_file())
+            except (ValueError, NotImplementedError, OSError) as exc:
+                problems.append(f"{where}: unusable glob: {exc}")
+                continue
             if not found:
-                problems.append(f"{cfg.where(('assets', i, 'glob'))}: the glob matches no file")
+                problems.append(f"{where}: the glob matches no file")
             for p in found:
                 rel = p.relative_to(cfg.base).as_posix()
                 assets.append(Asset(rel, p, None, int(src.get("instances", 1)), {}, i))

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import fnmatch
 import json
+import os
 import sys
 import time
 from collections.abc import Iterator
@@ -118,6 +119,7 @@ def plan(
     load every new asset a second time, one after another (1,000 small assets: 10 of 46 s)."""
     assets, inputs, problems = discover(cfg)
     out_dir = cfg.base / cfg.data["output"]["dir"]
+    problems.extend(_unusable_out_dir(cfg, out_dir))
     problems.extend(_overwritten_inputs(cfg, out_dir, assets, inputs))
     known = manifest.get("assets", {})
     items = []
@@ -147,6 +149,28 @@ def plan(
         items.append(item)
     warnings = [] if any(i.rule_pending for i in items) else _unreached_rules(cfg, items)
     return items, problems, warnings
+
+
+def _unusable_out_dir(cfg: Config, out_dir: Path) -> list[str]:
+    """output.dir must be a folder, or creatable: not an existing file, nor under one."""
+    for p in (out_dir, *out_dir.parents):
+        if p.exists():
+            if not p.is_dir():
+                what = "is a file" if p == out_dir else f"is under {p}, which is a file"
+                return [f"{cfg.where(('output', 'dir'))}: {out_dir} {what}, not a folder"]
+            return []
+    return []
+
+
+def _make_out_dir(cfg: Config, out_dir: Path) -> None:
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(
+            [f"{cfg.where(('output', 'dir'))}: cannot create {out_dir}: {exc.strerror or exc}"]
+        ) from None
+    if not os.access(out_dir, os.W_OK | os.X_OK):
+        raise ConfigError([f"{cfg.where(('output', 'dir'))}: cannot write in {out_dir}: permission denied"])
 
 
 def _output_intact(path: Path, recorded: dict) -> bool:
@@ -380,7 +404,7 @@ def run(
             )
         if dry_run:
             return RunResult({}, 0, sum(i.up_to_date for i in items), 0, warnings, 0.0, manifest_path)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    _make_out_dir(cfg, out_dir)
     for stale in [*out_dir.glob(".*.tmp"), *out_dir.glob(".*.tmp.usda")]:  # left by a killed run
         stale.unlink(missing_ok=True)
     todo = [it for it in items if force or not it.up_to_date]
