@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 import re
+import stat
 import tracemalloc
 from pathlib import Path
 
@@ -425,3 +427,21 @@ def test_skip_strip_record_checks_all_run() -> None:
     )
     codes = {p.code for p in validate_bytes(encode_bytes(pm)).errors}  # type: ignore[arg-type]
     assert {"SWPM_RECORD_BAD_COUNTS", "SWPM_RECORD_BAD_KEPT"} <= codes
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o027, 0o077])
+def test_atomic_writes_get_the_mode_of_a_plain_open(grid_pm, tmp_path: Path, umask: int) -> None:
+    from swpm_usd.fileio import atomic_write_bytes
+
+    old = os.umask(umask)
+    try:
+        save(grid_pm, tmp_path / "a.swpm")
+        atomic_write_bytes(tmp_path / "m.json", b"{}")
+        with open(tmp_path / "plain", "wb"):
+            pass
+    finally:
+        os.umask(old)
+    want = stat.S_IMODE((tmp_path / "plain").stat().st_mode)
+    assert want == 0o666 & ~umask
+    for name in ("a.swpm", "m.json"):
+        assert stat.S_IMODE((tmp_path / name).stat().st_mode) == want, name
