@@ -706,3 +706,25 @@ def test_unusable_output_dir_and_globs_are_located_config_errors(tmp_path):
         absolute, "out", "--dry-run"
     )
     assert "$.assets[0].glob: a glob must be" in problems("", "out")
+
+
+def test_a_file_matched_by_two_asset_entries_is_one_asset(tmp_path):
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    (tmp_path / "m" / "b.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}, {glob: 'm/a.*'}]\noutput: {dir: out}\n"
+        "defaults: {encoding: vanilla}\n"
+    )
+    res = run(cfg, echo=lambda m: None)
+    manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
+    assert res.built == 2 and sorted(manifest["assets"]) == ["m/a.obj", "m/b.obj"]
+    # the same file with other settings is ambiguous: refused, at the second entry
+    cfg.write_text(cfg.read_text().replace("{glob: 'm/a.*'}", "{glob: 'm/a.*', instances: 50}"))
+    with pytest.raises(ConfigError) as exc:
+        run(cfg, echo=lambda m: None)
+    assert exc.value.problems == [
+        "c.yaml:2:29: $.assets[1]: m/a.obj is also matched by $.assets[0] with instances=1, here "
+        "instances=50: one file is one asset; narrow one of the two so each file is matched once"
+    ]

@@ -82,11 +82,38 @@ def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset
     return assets, used
 
 
+def _first_match(
+    cfg: Config,
+    matched: dict[tuple, tuple[int, int]],
+    key: tuple,
+    index: int,
+    name: str,
+    instances: int,
+    problems: list[str],
+) -> bool:
+    """Is this the first entry of ``assets`` to find the file (prim) ``key``? One file is one asset, built
+    once: a later entry that finds it again with the same settings is skipped, and one with other settings
+    (``instances``) is a problem, located at it."""
+    if key not in matched:
+        matched[key] = (index, instances)
+        return True
+    first, first_instances = matched[key]
+    if first_instances != instances and first != index:
+        problems.append(
+            f"{cfg.where(('assets', index))}: {name} is also matched by $.assets[{first}] with "
+            f"instances={first_instances}, here instances={instances}: one file is one asset; "
+            f"narrow one of the two so each file is matched once"
+        )
+    return False
+
+
 def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]]:
-    """Every asset of the config, the files each depends on, and semantic problems (located)."""
+    """Every asset of the config, the files each depends on, and semantic problems (located). A file (or a
+    stage's prim) matched by several entries of ``assets`` is one asset, found by the first of them."""
     assets: list[Asset] = []
     inputs: dict[str, list[Path]] = {}
     problems: list[str] = []
+    matched: dict[tuple, tuple[int, int]] = {}
     for i, src in enumerate(cfg.data["assets"]):
         if "glob" in src:
             where = cfg.where(("assets", i, "glob"))
@@ -104,7 +131,10 @@ def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]
                 problems.append(f"{where}: the glob matches no file")
             for p in found:
                 rel = p.relative_to(cfg.base).as_posix()
-                assets.append(Asset(rel, p, None, int(src.get("instances", 1)), {}, i))
+                instances = int(src.get("instances", 1))
+                if not _first_match(cfg, matched, (p.resolve(), None), i, rel, instances, problems):
+                    continue
+                assets.append(Asset(rel, p, None, instances, {}, i))
                 inputs[rel] = [p]
         else:
             stage_path = (cfg.base / src["stage"]).resolve()
@@ -119,6 +149,8 @@ def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]
             if not found:
                 problems.append(f"{cfg.where(('assets', i, 'stage'))}: the stage has no Mesh prims")
             for a in found:
+                if not _first_match(cfg, matched, (stage_path, a.prim), i, a.id, a.instances, problems):
+                    continue
                 assets.append(a)
                 inputs[a.id] = used
     seen: dict[str, str] = {}
