@@ -14,7 +14,6 @@ import numpy as np
 
 from . import __version__
 from .errors import SwpmError
-from .format.cli import _parse_params
 
 
 def _lod_rows(pm, max_rows: int) -> list[dict]:
@@ -72,20 +71,9 @@ def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int
     cache size, 16 by default) for LODs spread evenly over the triangle counts.
     """
     from .build import build
-    from .encode import BUILDERS
+    from .format.cli import _encoding_and_params
 
-    if encoding not in BUILDERS:
-        raise click.BadParameter(
-            f"{encoding!r}; choose one of {', '.join(sorted(BUILDERS))}", param_hint="--encoding"
-        )
-    unknown = sorted({p.split("=", 1)[0] for p in params} - set(BUILDERS[encoding][1]))
-    if unknown:
-        raise click.BadParameter(
-            f"{', '.join(unknown)} not a parameter of {encoding}; "
-            f"it takes {', '.join(sorted(BUILDERS[encoding][1]))}",
-            param_hint="--param",
-        )
-    parsed = _parse_params(params)
+    parsed = _encoding_and_params(encoding, params)
     start = time.perf_counter()
     try:
         pm = build(input_path, encoding, **parsed)

@@ -276,6 +276,34 @@ def test_cli(tmp_path: Path) -> None:
     assert r.exit_code == 1
 
 
+def test_build_and_encode_share_usage_errors_and_encode_never_overwrites_its_input(tmp_path: Path) -> None:
+    from swpm_usd.cli import main
+
+    obj = tmp_path / "victim.obj"
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
+    before = obj.read_bytes()
+    out = str(tmp_path / "x.swpm")
+    for args, message in (
+        (["-e", "foo"], "--encoding"),
+        (["-e", "mixed", "-p", "foo=1"], "foo not a parameter of mixed"),
+        (["-e", "sliding-window", "-p", "mu=abc"], "mu must be a finite number"),
+        (["-p", "cache_size"], "--param expects NAME=VALUE"),
+    ):
+        for cmd in (["build", str(obj)], ["encode", str(obj), "-o", out]):
+            r = CliRunner().invoke(main, [*cmd, *args])
+            assert r.exit_code == 2 and message in r.output, (cmd, args, r.output)
+    # -o: the input itself (also through a link), or not a .swpm name, is refused; nothing is written
+    (tmp_path / "link.swpm").symlink_to(obj)
+    for target, message in (
+        (obj, "victim.obj is the input"),
+        (tmp_path / "link.swpm", "link.swpm is the input"),
+        (tmp_path / "x.usda", "the output must be a .swpm file"),
+    ):
+        r = CliRunner().invoke(main, ["encode", str(obj), "-o", str(target)])
+        assert r.exit_code == 2 and message in r.output, r.output
+    assert obj.read_bytes() == before and not (tmp_path / "x.usda").exists()
+
+
 # -- mixed ---------------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def cow_mixed() -> swpm_usd.ProgressiveMesh:

@@ -29,6 +29,34 @@ def _parse_params(params: tuple[str, ...]) -> dict:
     return parsed
 
 
+def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
+    """``--encoding`` and ``--param`` checked alike for every command (usage errors, exit 2): a known
+    encoding, NAME=VALUE items, names its builder takes, values of their types and shared bounds
+    (:func:`..build.check_params`; a range only the encoder knows fails at the build, exit 1). Returns the
+    parsed parameters."""
+    from ..encode import BUILDERS
+
+    if encoding not in BUILDERS:
+        raise click.BadParameter(
+            f"{encoding!r}; choose one of {', '.join(sorted(BUILDERS))}", param_hint="--encoding"
+        )
+    parsed = _parse_params(params)
+    unknown = sorted(set(parsed) - set(BUILDERS[encoding][1]))
+    if unknown:
+        raise click.BadParameter(
+            f"{', '.join(unknown)} not a parameter of {encoding}; "
+            f"it takes {', '.join(sorted(BUILDERS[encoding][1]))}",
+            param_hint="--param",
+        )
+    from ..build import check_params
+
+    try:
+        check_params(encoding, BUILDERS[encoding][1], parsed)
+    except SwpmError as exc:
+        raise click.BadParameter(str(exc), param_hint="--param") from None
+    return parsed
+
+
 @click.command("encode")
 @click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
 @click.option(
@@ -37,7 +65,7 @@ def _parse_params(params: tuple[str, ...]) -> dict:
     "output",
     required=True,
     type=click.Path(dir_okay=False),
-    help="The .swpm file to write (atomically).",
+    help="The .swpm file to write (atomically); never the input.",
 )
 @click.option(
     "--encoding",
@@ -59,7 +87,11 @@ def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, .
     from ..build import build
     from .writer import save
 
-    parsed = _parse_params(params)
+    parsed = _encoding_and_params(encoding, params)
+    if Path(output).exists() and Path(input_path).exists() and Path(output).samefile(input_path):
+        raise click.BadParameter(f"{output} is the input: it would be overwritten", param_hint="--output")
+    if Path(output).suffix.lower() != ".swpm":
+        raise click.BadParameter(f"{output}: the output must be a .swpm file", param_hint="--output")
     try:
         pm = build(input_path, encoding, **parsed)
         digest = None
