@@ -728,3 +728,30 @@ def test_a_file_matched_by_two_asset_entries_is_one_asset(tmp_path):
         "c.yaml:2:29: $.assets[1]: m/a.obj is also matched by $.assets[0] with instances=1, here "
         "instances=50: one file is one asset; narrow one of the two so each file is matched once"
     ]
+
+
+def test_json_output_on_failure_is_json(tmp_path):
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    (tmp_path / "m" / "broken.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
+    runner = CliRunner()  # click 8.2: result.stdout holds stdout alone
+    r = runner.invoke(main, ["build", str(tmp_path / "m" / "broken.obj"), "--json"])
+    assert r.exit_code == 1 and "broken.obj" in json.loads(r.stdout)["error"]
+    r = runner.invoke(main, ["inspect", str(tmp_path / "nope.swpm"), "--json"])
+    rep = json.loads(r.stdout)
+    assert r.exit_code == 1 and not rep["valid"] and rep["problems"][0]["code"] == "SWPM_IO_ERROR"
+    r = runner.invoke(main, ["run", str(tmp_path / "nope.yaml"), "--json"])
+    assert r.exit_code == 2 and "nope.yaml:1:1: $: cannot read" in json.loads(r.stdout)["problems"][0]
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    r = runner.invoke(main, ["run", str(cfg), "--json", "--dry-run"])
+    plan = json.loads(r.stdout)["plan"]
+    assert r.exit_code == 0 and [p["id"] for p in plan] == ["m/a.obj", "m/broken.obj"]
+    assert plan[0]["encoding"] == "vanilla" and plan[0]["state"] == "to build"
+    r = runner.invoke(main, ["run", str(cfg), "--json"])
+    summary = json.loads(r.stdout)
+    assert r.exit_code == 1 and summary["built"] == 1 and summary["failed"] == 1
+    (failure,) = summary["failures"]
+    assert failure["id"] == "m/broken.obj" and "broken.obj" in failure["error"]

@@ -119,6 +119,17 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
         buf = _map(file)
     except OSError as exc:
         click.echo(f"error: {exc}", err=True)
+        if as_json:  # the report validate gives: one SWPM_IO_ERROR
+            from .reader import validate
+
+            rep = validate(file)
+            out = {
+                "path": file,
+                "valid": False,
+                **rep.summary,
+                "problems": [q.to_dict() for q in rep.problems],
+            }
+            click.echo(json.dumps({**out, "lods": []}, indent=2, default=str))
         sys.exit(1)
     rep, p = _check(buf, file)
     out = {"path": file, "valid": rep.valid, **rep.summary, "problems": [q.to_dict() for q in rep.problems]}

@@ -55,6 +55,7 @@ class RunResult:
     warnings: list[str]
     seconds: float
     manifest_path: Path
+    plan: list[dict] = field(default_factory=list)  # --dry-run / --explain: each asset's plan
 
 
 def _read_manifest(path: Path) -> dict:
@@ -393,6 +394,7 @@ def run(
         raise ConfigError(errors)
     for w in warnings:
         echo(f"warning: {w}")
+    planned = []
     if dry_run or explain:
         for it in items:
             state = "up to date" if it.up_to_date and not force else "to build"
@@ -402,8 +404,20 @@ def run(
                 f"{json.dumps(it.treatment['params'], sort_keys=True)} "
                 f"[{state}] triangles={tri} instances={it.asset.instances}; {it.why}"
             )
+            planned.append(
+                {
+                    "id": it.asset.id,
+                    "encoding": it.treatment["encoding"],
+                    "params": it.treatment["params"],
+                    "state": state,
+                    "triangles": it.triangles,
+                    "instances": it.asset.instances,
+                    "why": it.why,
+                }
+            )
         if dry_run:
-            return RunResult({}, 0, sum(i.up_to_date for i in items), 0, warnings, 0.0, manifest_path)
+            skipped = sum(i.up_to_date for i in items)
+            return RunResult({}, 0, skipped, 0, warnings, 0.0, manifest_path, planned)
     _make_out_dir(cfg, out_dir)
     for stale in [*out_dir.glob(".*.tmp"), *out_dir.glob(".*.tmp.usda")]:  # left by a killed run
         stale.unlink(missing_ok=True)
@@ -453,8 +467,9 @@ def run(
 
         write_report(out_dir / "report.html", manifest)
     _write_manifest(manifest_path, manifest, text)
+    seconds = time.perf_counter() - t_start
     return RunResult(
-        records, built, len(items) - len(todo), failed, warnings, time.perf_counter() - t_start, manifest_path
+        records, built, len(items) - len(todo), failed, warnings, seconds, manifest_path, planned
     )
 
 
