@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import stat
@@ -473,3 +474,28 @@ def test_atomic_writes_get_the_mode_of_a_plain_open(grid_pm, tmp_path: Path, uma
     assert want == 0o666 & ~umask
     for name in ("a.swpm", "m.json"):
         assert stat.S_IMODE((tmp_path / name).stat().st_mode) == want, name
+
+
+def test_conformance_reports_an_unusable_manifest_and_finds_the_vectors_from_elsewhere(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from swpm_usd.cli import main
+
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    for text in ("{", "[]", '{"vectors": 3}'):
+        (bad / "manifest.json").write_text(text)
+        r = CliRunner().invoke(main, ["conformance", str(bad), "--json"])
+        assert r.exit_code == 1 and (r.exception is None or isinstance(r.exception, SystemExit)), r.output
+        assert "manifest.json" in json.loads(r.stdout)["error"]
+    (bad / "manifest.json").write_text(
+        '{"vectors": [{"name": "no-expected", "file": "a.swpm"}, '
+        '{"name": "missing", "file": "a.swpm", "expected": "a.json"}, 7]}'
+    )
+    r = CliRunner().invoke(main, ["conformance", str(bad)])
+    assert r.exit_code == 1 and (r.exception is None or isinstance(r.exception, SystemExit)), r.output
+    assert "FAIL no-expected: unusable manifest entry: no 'expected' key" in r.output
+    assert "FAIL missing: unusable manifest entry:" in r.output and "0/3 passed" in r.output
+    monkeypatch.chdir(tmp_path)  # the default spec/vectors is not here: the checkout's are used
+    r = CliRunner().invoke(main, ["conformance"])
+    assert r.exit_code == 0 and "passed" in r.output, r.output

@@ -210,16 +210,30 @@ def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool)
     sys.exit(0 if rep.valid else 1)
 
 
+_DEFAULT_VECTORS = "spec/vectors"
+#: the repository's vectors, beside the package in a source checkout (not in the wheel)
+_REPO_VECTORS = Path(__file__).resolve().parents[2] / "spec" / "vectors"
+
+
 @click.command("conformance")
-@click.argument("vector_dir", required=False, default="spec/vectors", type=click.Path(file_okay=False))
+@click.argument("vector_dir", required=False, default=_DEFAULT_VECTORS, type=click.Path(file_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def conformance_cmd(vector_dir: str, as_json: bool) -> None:
-    """Run the reader over the conformance vectors of VECTOR_DIR (default spec/vectors)."""
-    from .vectors import run_conformance
+    """Run the reader over the conformance vectors of VECTOR_DIR (default spec/vectors, else the source
+    checkout's)."""
+    from .vectors import ConformanceManifestError, run_conformance
 
+    if vector_dir == _DEFAULT_VECTORS and not Path(vector_dir).is_dir() and _REPO_VECTORS.is_dir():
+        vector_dir = str(_REPO_VECTORS)  # run from elsewhere than the repository root
     if not (Path(vector_dir) / "manifest.json").is_file():
         raise click.UsageError(f"{vector_dir} has no manifest.json")
-    results = run_conformance(vector_dir)
+    try:
+        results = run_conformance(vector_dir)
+    except ConformanceManifestError as exc:
+        click.echo(f"error: {exc}", err=True)
+        if as_json:
+            click.echo(json.dumps({"error": str(exc)}, indent=2))
+        sys.exit(1)
     failed = [r for r in results if not r.passed]
     if as_json:
         click.echo(json.dumps([r.__dict__ for r in results], indent=2))
