@@ -14,7 +14,6 @@ import numpy as np
 
 from . import __version__
 from .errors import SwpmError
-from .format.cli import _parse_params
 
 
 def _lod_rows(pm, max_rows: int) -> list[dict]:
@@ -72,25 +71,16 @@ def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int
     cache size, 16 by default) for LODs spread evenly over the triangle counts.
     """
     from .build import build
-    from .encode import BUILDERS
+    from .format.cli import _encoding_and_params
 
-    if encoding not in BUILDERS:
-        raise click.BadParameter(
-            f"{encoding!r}; choose one of {', '.join(sorted(BUILDERS))}", param_hint="--encoding"
-        )
-    unknown = sorted({p.split("=", 1)[0] for p in params} - set(BUILDERS[encoding][1]))
-    if unknown:
-        raise click.BadParameter(
-            f"{', '.join(unknown)} not a parameter of {encoding}; "
-            f"it takes {', '.join(sorted(BUILDERS[encoding][1]))}",
-            param_hint="--param",
-        )
-    parsed = _parse_params(params)
+    parsed = _encoding_and_params(encoding, params)
     start = time.perf_counter()
     try:
         pm = build(input_path, encoding, **parsed)
     except SwpmError as exc:
         click.echo(f"error: {exc}", err=True)
+        if as_json:
+            click.echo(json.dumps({"input": input_path, "error": str(exc)}, indent=2))
         sys.exit(1)
     seconds = time.perf_counter() - start
     table = _lod_rows(pm, rows)
@@ -166,21 +156,26 @@ def run_cmd(
     except ConfigError as exc:
         for p in exc.problems:
             click.echo(p, err=True)
+        if as_json:
+            click.echo(json.dumps({"error": "invalid configuration", "problems": exc.problems}, indent=2))
         sys.exit(2)
     if as_json:
-        click.echo(
-            json.dumps(
-                {
-                    "built": res.built,
-                    "skipped": res.skipped,
-                    "failed": res.failed,
-                    "warnings": res.warnings,
-                    "seconds": res.seconds,
-                    "manifest": str(res.manifest_path),
-                },
-                indent=2,
-            )
-        )
+        summary = {
+            "built": res.built,
+            "skipped": res.skipped,
+            "failed": res.failed,
+            "warnings": res.warnings,
+            "seconds": res.seconds,
+            "manifest": str(res.manifest_path),
+            "failures": [
+                {"id": rid, "error": rec.get("error")}
+                for rid, rec in sorted(res.records.items())
+                if rec.get("status") == "failed"
+            ],
+        }
+        if dry_run or explain:
+            summary["plan"] = res.plan
+        click.echo(json.dumps(summary, indent=2, default=float))
     elif not dry_run:
         click.echo(
             f"{res.built} built, {res.skipped} up to date, {res.failed} failed in {res.seconds:.1f} s; "

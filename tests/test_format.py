@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import json
+import os
 import re
+import stat
 import tracemalloc
 from pathlib import Path
 
@@ -274,6 +277,34 @@ def test_cli(tmp_path: Path) -> None:
     assert r.exit_code == 1
 
 
+def test_build_and_encode_share_usage_errors_and_encode_never_overwrites_its_input(tmp_path: Path) -> None:
+    from swpm_usd.cli import main
+
+    obj = tmp_path / "victim.obj"
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
+    before = obj.read_bytes()
+    out = str(tmp_path / "x.swpm")
+    for args, message in (
+        (["-e", "foo"], "--encoding"),
+        (["-e", "mixed", "-p", "foo=1"], "foo not a parameter of mixed"),
+        (["-e", "sliding-window", "-p", "mu=abc"], "mu must be a finite number"),
+        (["-p", "cache_size"], "--param expects NAME=VALUE"),
+    ):
+        for cmd in (["build", str(obj)], ["encode", str(obj), "-o", out]):
+            r = CliRunner().invoke(main, [*cmd, *args])
+            assert r.exit_code == 2 and message in r.output, (cmd, args, r.output)
+    # -o: the input itself (also through a link), or not a .swpm name, is refused; nothing is written
+    (tmp_path / "link.swpm").symlink_to(obj)
+    for target, message in (
+        (obj, "victim.obj is the input"),
+        (tmp_path / "link.swpm", "link.swpm is the input"),
+        (tmp_path / "x.usda", "the output must be a .swpm file"),
+    ):
+        r = CliRunner().invoke(main, ["encode", str(obj), "-o", str(target)])
+        assert r.exit_code == 2 and message in r.output, r.output
+    assert obj.read_bytes() == before and not (tmp_path / "x.usda").exists()
+
+
 # -- mixed ---------------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def cow_mixed() -> swpm_usd.ProgressiveMesh:
@@ -488,3 +519,46 @@ def test_stride_must_be_a_multiple_of_every_element_size() -> None:
     out[40:48] = len(out).to_bytes(8, "little")
     rep = validate_bytes(fix_crcs(out))
     assert [(p.code, p.offset) for p in rep.errors] == [("SWPM_VERT_BAD_LAYOUT", vo)], rep.format()
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o027, 0o077])
+def test_atomic_writes_get_the_mode_of_a_plain_open(grid_pm, tmp_path: Path, umask: int) -> None:
+    from swpm_usd.fileio import atomic_write_bytes
+
+    old = os.umask(umask)
+    try:
+        save(grid_pm, tmp_path / "a.swpm")
+        atomic_write_bytes(tmp_path / "m.json", b"{}")
+        with open(tmp_path / "plain", "wb"):
+            pass
+    finally:
+        os.umask(old)
+    want = stat.S_IMODE((tmp_path / "plain").stat().st_mode)
+    assert want == 0o666 & ~umask
+    for name in ("a.swpm", "m.json"):
+        assert stat.S_IMODE((tmp_path / name).stat().st_mode) == want, name
+
+
+def test_conformance_reports_an_unusable_manifest_and_finds_the_vectors_from_elsewhere(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from swpm_usd.cli import main
+
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    for text in ("{", "[]", '{"vectors": 3}'):
+        (bad / "manifest.json").write_text(text)
+        r = CliRunner().invoke(main, ["conformance", str(bad), "--json"])
+        assert r.exit_code == 1 and (r.exception is None or isinstance(r.exception, SystemExit)), r.output
+        assert "manifest.json" in json.loads(r.stdout)["error"]
+    (bad / "manifest.json").write_text(
+        '{"vectors": [{"name": "no-expected", "file": "a.swpm"}, '
+        '{"name": "missing", "file": "a.swpm", "expected": "a.json"}, 7]}'
+    )
+    r = CliRunner().invoke(main, ["conformance", str(bad)])
+    assert r.exit_code == 1 and (r.exception is None or isinstance(r.exception, SystemExit)), r.output
+    assert "FAIL no-expected: unusable manifest entry: no 'expected' key" in r.output
+    assert "FAIL missing: unusable manifest entry:" in r.output and "0/3 passed" in r.output
+    monkeypatch.chdir(tmp_path)  # the default spec/vectors is not here: the checkout's are used
+    r = CliRunner().invoke(main, ["conformance"])
+    assert r.exit_code == 0 and "passed" in r.output, r.output

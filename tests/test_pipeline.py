@@ -543,3 +543,215 @@ def test_whole_numbers_for_an_optional_real_parameter_give_one_treatment():
     suzanne = load_mesh(SHARED_MESHES / "suzanne.obj")
     pools = [swpm_usd.build(suzanne, "sliding-window", target_slack=v).index_pool for v in (1, 1.0)]
     assert np.array_equal(*pools)
+
+
+TWO_TRIANGLES = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n"
+
+
+def _digest(path: Path) -> str:
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_the_run_never_overwrites_its_own_inputs(tmp_path):
+    # a stage asset whose generated scene.usda would replace the stage itself (output.dir ".")
+    from pxr import Usd, UsdGeom
+
+    mesh_layer = tmp_path / "quad.usda"
+    st = Usd.Stage.CreateNew(str(mesh_layer))
+    st.SetDefaultPrim(UsdGeom.Xform.Define(st, "/Quad").GetPrim())
+    m = UsdGeom.Mesh.Define(st, "/Quad/Geo")
+    m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
+    m.CreateFaceVertexCountsAttr([3, 3])
+    m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+    st.GetRootLayer().Save()
+    scene = tmp_path / "scene.usda"
+    st = Usd.Stage.CreateNew(str(scene))
+    st.DefinePrim("/World/q", "Xform").GetReferences().AddReference("./quad.usda")
+    st.GetRootLayer().Save()
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{stage: scene.usda}]\n"
+        'output: {dir: ".", usd: true, scene: true}\ndefaults: {encoding: vanilla}\n'
+    )
+    before = _digest(scene)
+    result = CliRunner().invoke(main, ["run", str(cfg)])
+    assert result.exit_code == 2, result.output
+    assert "c.yaml:3:" in result.output and "$.output.dir" in result.output
+    assert "scene layer would overwrite scene.usda" in result.output
+    assert _digest(scene) == before and not (tmp_path / "manifest.json").exists()
+    # a glob whose files have the names of the outputs (*.usdc in the output dir), "" as "."
+    (tmp_path / "beetle.usdc").write_bytes(b"")
+    os.replace(mesh_layer, tmp_path / "beetle.usda")
+    from pxr import Sdf
+
+    Sdf.Layer.FindOrOpen(str(tmp_path / "beetle.usda")).Export(str(tmp_path / "beetle.usdc"))
+    before = _digest(tmp_path / "beetle.usdc")
+    for out_dir in ('"."', '""'):
+        cfg.write_text(
+            f"version: 1\nassets: [{{glob: '*.usdc'}}]\noutput: {{dir: {out_dir}, usd: true}}\n"
+            "defaults: {encoding: vanilla}\n"
+        )
+        result = CliRunner().invoke(main, ["run", str(cfg), "--dry-run"])
+        assert result.exit_code == 2, result.output
+        assert "USD layer of beetle.usdc would overwrite beetle.usdc" in result.output
+        assert _digest(tmp_path / "beetle.usdc") == before
+    # the config itself, and a stale-temporary-file name the run deletes
+    cfg2 = tmp_path / "report.html"
+    cfg2.write_text("version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: .}\n")
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    with pytest.raises(ConfigError, match=r"the run report would overwrite report.html \(the configuration"):
+        run(cfg2, echo=lambda m: None)
+    (tmp_path / "m" / ".b.obj.tmp").write_text(TWO_TRIANGLES)
+    cfg.write_text("version: 1\nassets: [{glob: 'm/*.obj*'}]\noutput: {dir: m}\n")
+    with pytest.raises(ConfigError, match="named like a temporary file"):
+        run(cfg, echo=lambda m: None)
+    # apart from the inputs, the same config runs
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    assert run(cfg, echo=lambda m: None).built == 1
+
+
+def test_tightened_budgets_or_streaming_and_changed_outputs_rebuild(tmp_path):
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    base = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    cfg.write_text(base + "budgets: {global_bytes: 1000000}\n")
+    assert run(cfg, echo=lambda m: None).built == 1
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    # a budget the asset no longer meets is checked again, not skipped as up to date
+    cfg.write_text(base + "budgets: {global_bytes: 1}\n")
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1 and "budgets.global_bytes=1" in res.records["m/a.obj"]["error"]
+    cfg.write_text(base + "budgets: {global_bytes: 1000000}\n")
+    assert run(cfg, echo=lambda m: None).built == 1
+    cfg.write_text(base + "budgets: {global_bytes: 1000000}\nstreaming: {coarsest_lod_bytes: 1}\n")
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1 and "coarsest_lod_bytes" in res.records["m/a.obj"]["error"]
+    # an output changed in place (same size) is rebuilt: its sha256 is compared, not only its size
+    cfg.write_text(base)
+    assert run(cfg, echo=lambda m: None).built == 1
+    out = tmp_path / "out" / "a.swpm"
+    data = bytearray(out.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    out.write_bytes(bytes(data))
+    assert run(cfg, echo=lambda m: None).built == 1
+    assert swpm_usd.validate(out).valid
+
+
+def test_yaml_empty_values_floats_without_a_dot_and_duplicate_keys(tmp_path):
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+
+    def problems(text: str) -> list[str]:
+        cfg.write_text(text)
+        result = CliRunner().invoke(main, ["run", str(cfg), "--dry-run"])
+        assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+        with pytest.raises(ConfigError) as exc:
+            load_config(cfg)
+        return exc.value.problems
+
+    # an empty value (a bare `rules:` or `params:`) is null, reported at its line
+    assert problems(head + "rules:\n") == ["c.yaml:4:7: $.rules: empty value (null); expected an array"]
+    assert problems(head + "rules:\n  - {name: a, encoding: mixed, params: }\n") == [
+        "c.yaml:5:39: $.rules[0].params: empty value (null); expected an object"
+    ]
+    # a key given twice is an error at its second occurrence, not silently replaced
+    assert problems("version: 1\n" + head + "rules: []\nrules:\n  - {name: b, encoding: vanilla}\n") == [
+        "c.yaml:2:1: $.version: duplicate key (first given on line 1)",
+        "c.yaml:6:1: $.rules: duplicate key (first given on line 5)",
+    ]
+    assert problems(head + "defaults: {encoding: vanilla, encoding: mixed}\n")[0].startswith(
+        "c.yaml:4:31: $.defaults.encoding: duplicate key"
+    )
+    # YAML 1.2 floats without a dot (YAML 1.1 reads them as strings)
+    cfg.write_text(
+        head + "defaults:\n  encoding: sliding-window\n"
+        "  params: {optimize_connectivity: true, swap_max_deviation: 1e-3, mu: 2E-1}\n"
+    )
+    params = load_config(cfg).data["defaults"]["params"]
+    assert params["swap_max_deviation"] == 0.001 and params["mu"] == 0.2
+    # python tags stay refused, located
+    assert problems(head.replace("'m/*.obj'", '!!python/name:os.system ""'))[0].startswith(
+        "c.yaml:2:17: $: invalid"
+    )
+
+
+def test_unusable_output_dir_and_globs_are_located_config_errors(tmp_path):
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+
+    def problems(glob: str, out_dir: str, *options: str) -> str:
+        cfg.write_text(f"version: 1\nassets: [{{glob: '{glob}'}}]\noutput: {{dir: '{out_dir}'}}\n")
+        result = CliRunner().invoke(main, ["run", str(cfg), *options])
+        assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+        return result.output
+
+    assert "c.yaml:3:15: $.output.dir: " in problems("m/*.obj", "m/a.obj")
+    assert "m/a.obj is a file, not a folder" in problems("m/*.obj", "m/a.obj", "--dry-run")
+    assert "is under " in problems("m/*.obj", "m/a.obj/out")
+    if Path("/proc/self").is_dir():  # a parent that cannot be created, even by root
+        assert "c.yaml:3:15: $.output.dir: cannot create /proc/nope/out" in problems(
+            "m/*.obj", "/proc/nope/out"
+        )
+    absolute = str(tmp_path / "m" / "*.obj")
+    assert "c.yaml:2:17: $.assets[0].glob: a glob must be a non-empty pattern relative" in problems(
+        absolute, "out", "--dry-run"
+    )
+    assert "$.assets[0].glob: a glob must be" in problems("", "out")
+
+
+def test_a_file_matched_by_two_asset_entries_is_one_asset(tmp_path):
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    (tmp_path / "m" / "b.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}, {glob: 'm/a.*'}]\noutput: {dir: out}\n"
+        "defaults: {encoding: vanilla}\n"
+    )
+    res = run(cfg, echo=lambda m: None)
+    manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
+    assert res.built == 2 and sorted(manifest["assets"]) == ["m/a.obj", "m/b.obj"]
+    # the same file with other settings is ambiguous: refused, at the second entry
+    cfg.write_text(cfg.read_text().replace("{glob: 'm/a.*'}", "{glob: 'm/a.*', instances: 50}"))
+    with pytest.raises(ConfigError) as exc:
+        run(cfg, echo=lambda m: None)
+    assert exc.value.problems == [
+        "c.yaml:2:29: $.assets[1]: m/a.obj is also matched by $.assets[0] with instances=1, here "
+        "instances=50: one file is one asset; narrow one of the two so each file is matched once"
+    ]
+
+
+def test_json_output_on_failure_is_json(tmp_path):
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    (tmp_path / "m" / "broken.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
+    runner = CliRunner()  # click 8.2: result.stdout holds stdout alone
+    r = runner.invoke(main, ["build", str(tmp_path / "m" / "broken.obj"), "--json"])
+    assert r.exit_code == 1 and "broken.obj" in json.loads(r.stdout)["error"]
+    r = runner.invoke(main, ["inspect", str(tmp_path / "nope.swpm"), "--json"])
+    rep = json.loads(r.stdout)
+    assert r.exit_code == 1 and not rep["valid"] and rep["problems"][0]["code"] == "SWPM_IO_ERROR"
+    r = runner.invoke(main, ["run", str(tmp_path / "nope.yaml"), "--json"])
+    assert r.exit_code == 2 and "nope.yaml:1:1: $: cannot read" in json.loads(r.stdout)["problems"][0]
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    r = runner.invoke(main, ["run", str(cfg), "--json", "--dry-run"])
+    plan = json.loads(r.stdout)["plan"]
+    assert r.exit_code == 0 and [p["id"] for p in plan] == ["m/a.obj", "m/broken.obj"]
+    assert plan[0]["encoding"] == "vanilla" and plan[0]["state"] == "to build"
+    r = runner.invoke(main, ["run", str(cfg), "--json"])
+    summary = json.loads(r.stdout)
+    assert r.exit_code == 1 and summary["built"] == 1 and summary["failed"] == 1
+    (failure,) = summary["failures"]
+    assert failure["id"] == "m/broken.obj" and "broken.obj" in failure["error"]

@@ -493,3 +493,30 @@ def test_an_edited_stage_is_rejected_before_the_runtime(encoding, mesh, tmp_path
         attr.Set(Vt.UIntArray.FromNumpy(original.astype(np.uint32)))
     assert rejected >= len(arrays)  # every out-of-range value at least
     usd.read(prim)  # restored: reads again
+
+
+def test_validate_reports_a_usd_file_that_does_not_open_as_a_coded_error(tmp_path):
+    from click.testing import CliRunner
+
+    from swpm_usd.cli import main
+
+    cases = {
+        "truncated.usda": b'#usda 1.0\n(\n    defaultPrim = "W"\n)\ndef Mesh "W" {\n    point3f[] p = [(0, 0',
+        "empty.usda": b"",
+        "random.usdc": bytes(range(256)) * 8,
+        "renamed.usda": b"SWPM\r\n\x1a\n" + b"\0" * 64,
+    }
+    for name, data in cases.items():
+        path = tmp_path / name
+        path.write_bytes(data)
+        (finding,) = validate_stage(path)
+        assert finding.code == "SWPM_USD_OPEN" and finding.code in CODES and finding.severity == "error"
+        assert name in finding.message
+        result = CliRunner().invoke(main, ["validate", str(path), "--json"])
+        assert result.exit_code == 1
+        rep = json.loads(result.output)
+        assert rep["errors"] == 1 and rep["findings"][0]["code"] == "SWPM_USD_OPEN"
+        result = CliRunner().invoke(main, ["validate", str(path)])
+        assert result.exit_code == 1 and "SWPM_USD_OPEN" in result.output
+    assert "empty" in validate_stage(tmp_path / "empty.usda")[0].message
+    assert "SWPM file" in validate_stage(tmp_path / "renamed.usda")[0].message

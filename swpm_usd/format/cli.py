@@ -29,6 +29,34 @@ def _parse_params(params: tuple[str, ...]) -> dict:
     return parsed
 
 
+def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
+    """``--encoding`` and ``--param`` checked alike for every command (usage errors, exit 2): a known
+    encoding, NAME=VALUE items, names its builder takes, values of their types and shared bounds
+    (:func:`..build.check_params`; a range only the encoder knows fails at the build, exit 1). Returns the
+    parsed parameters."""
+    from ..encode import BUILDERS
+
+    if encoding not in BUILDERS:
+        raise click.BadParameter(
+            f"{encoding!r}; choose one of {', '.join(sorted(BUILDERS))}", param_hint="--encoding"
+        )
+    parsed = _parse_params(params)
+    unknown = sorted(set(parsed) - set(BUILDERS[encoding][1]))
+    if unknown:
+        raise click.BadParameter(
+            f"{', '.join(unknown)} not a parameter of {encoding}; "
+            f"it takes {', '.join(sorted(BUILDERS[encoding][1]))}",
+            param_hint="--param",
+        )
+    from ..build import check_params
+
+    try:
+        check_params(encoding, BUILDERS[encoding][1], parsed)
+    except SwpmError as exc:
+        raise click.BadParameter(str(exc), param_hint="--param") from None
+    return parsed
+
+
 @click.command("encode")
 @click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
 @click.option(
@@ -37,7 +65,7 @@ def _parse_params(params: tuple[str, ...]) -> dict:
     "output",
     required=True,
     type=click.Path(dir_okay=False),
-    help="The .swpm file to write (atomically).",
+    help="The .swpm file to write (atomically); never the input.",
 )
 @click.option(
     "--encoding",
@@ -59,7 +87,11 @@ def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, .
     from ..build import build
     from .writer import save
 
-    parsed = _parse_params(params)
+    parsed = _encoding_and_params(encoding, params)
+    if Path(output).exists() and Path(input_path).exists() and Path(output).samefile(input_path):
+        raise click.BadParameter(f"{output} is the input: it would be overwritten", param_hint="--output")
+    if Path(output).suffix.lower() != ".swpm":
+        raise click.BadParameter(f"{output}: the output must be a .swpm file", param_hint="--output")
     try:
         pm = build(input_path, encoding, **parsed)
         digest = None
@@ -87,6 +119,17 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
         buf = _map(file)
     except OSError as exc:
         click.echo(f"error: {exc}", err=True)
+        if as_json:  # the report validate gives: one SWPM_IO_ERROR
+            from .reader import validate
+
+            rep = validate(file)
+            out = {
+                "path": file,
+                "valid": False,
+                **rep.summary,
+                "problems": [q.to_dict() for q in rep.problems],
+            }
+            click.echo(json.dumps({**out, "lods": []}, indent=2, default=str))
         sys.exit(1)
     rep, p = _check(buf, file)
     out = {"path": file, "valid": rep.valid, **rep.summary, "problems": [q.to_dict() for q in rep.problems]}
@@ -167,16 +210,30 @@ def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool)
     sys.exit(0 if rep.valid else 1)
 
 
+_DEFAULT_VECTORS = "spec/vectors"
+#: the repository's vectors, beside the package in a source checkout (not in the wheel)
+_REPO_VECTORS = Path(__file__).resolve().parents[2] / "spec" / "vectors"
+
+
 @click.command("conformance")
-@click.argument("vector_dir", required=False, default="spec/vectors", type=click.Path(file_okay=False))
+@click.argument("vector_dir", required=False, default=_DEFAULT_VECTORS, type=click.Path(file_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def conformance_cmd(vector_dir: str, as_json: bool) -> None:
-    """Run the reader over the conformance vectors of VECTOR_DIR (default spec/vectors)."""
-    from .vectors import run_conformance
+    """Run the reader over the conformance vectors of VECTOR_DIR (default spec/vectors, else the source
+    checkout's)."""
+    from .vectors import ConformanceManifestError, run_conformance
 
+    if vector_dir == _DEFAULT_VECTORS and not Path(vector_dir).is_dir() and _REPO_VECTORS.is_dir():
+        vector_dir = str(_REPO_VECTORS)  # run from elsewhere than the repository root
     if not (Path(vector_dir) / "manifest.json").is_file():
         raise click.UsageError(f"{vector_dir} has no manifest.json")
-    results = run_conformance(vector_dir)
+    try:
+        results = run_conformance(vector_dir)
+    except ConformanceManifestError as exc:
+        click.echo(f"error: {exc}", err=True)
+        if as_json:
+            click.echo(json.dumps({"error": str(exc)}, indent=2))
+        sys.exit(1)
     failed = [r for r in results if not r.passed]
     if as_json:
         click.echo(json.dumps([r.__dict__ for r in results], indent=2))

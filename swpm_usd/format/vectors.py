@@ -450,16 +450,37 @@ class Outcome:
     detail: str
 
 
+class ConformanceManifestError(ValueError):
+    """``manifest.json`` of a vector folder cannot be read or is not ``{"vectors": [...]}``."""
+
+
 def run_conformance(vector_dir: str | Path) -> list[Outcome]:
-    """Validate every vector of ``manifest.json`` and compare with its expected result."""
+    """Validate every vector of ``manifest.json`` and compare with its expected result.
+
+    A manifest that cannot be read raises :class:`ConformanceManifestError` naming it; a vector whose entry
+    or expected file is unusable fails, with the reason."""
     from .reader import validate
 
     vector_dir = Path(vector_dir)
-    manifest = json.loads((vector_dir / "manifest.json").read_text())
+    where = vector_dir / "manifest.json"
+    try:
+        manifest = json.loads(where.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise ConformanceManifestError(f"{where}: cannot read it: {exc}") from None
+    if not isinstance(manifest, dict) or not isinstance(manifest.get("vectors"), list):
+        raise ConformanceManifestError(f'{where}: not a JSON object with a "vectors" list')
     out = []
-    for v in manifest["vectors"]:
-        exp = json.loads((vector_dir / v["expected"]).read_text())
-        path = vector_dir / v["file"]
+    for i, v in enumerate(manifest["vectors"]):
+        name = v.get("name", f"vectors[{i}]") if isinstance(v, dict) else f"vectors[{i}]"
+        try:
+            exp = json.loads((vector_dir / v["expected"]).read_text(encoding="utf-8"))
+            path = vector_dir / v["file"]
+            if not isinstance(exp, dict):
+                raise ValueError("the expected result is not a JSON object")
+        except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError) as exc:
+            what = f"no {exc} key" if isinstance(exc, KeyError) else str(exc)
+            out.append(Outcome(str(name), False, f"unusable manifest entry: {what}"))
+            continue
         rep = validate(path)
         got = {
             "valid": rep.valid,

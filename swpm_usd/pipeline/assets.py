@@ -82,19 +82,59 @@ def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset
     return assets, used
 
 
+def _first_match(
+    cfg: Config,
+    matched: dict[tuple, tuple[int, int]],
+    key: tuple,
+    index: int,
+    name: str,
+    instances: int,
+    problems: list[str],
+) -> bool:
+    """Is this the first entry of ``assets`` to find the file (prim) ``key``? One file is one asset, built
+    once: a later entry that finds it again with the same settings is skipped, and one with other settings
+    (``instances``) is a problem, located at it."""
+    if key not in matched:
+        matched[key] = (index, instances)
+        return True
+    first, first_instances = matched[key]
+    if first_instances != instances and first != index:
+        problems.append(
+            f"{cfg.where(('assets', index))}: {name} is also matched by $.assets[{first}] with "
+            f"instances={first_instances}, here instances={instances}: one file is one asset; "
+            f"narrow one of the two so each file is matched once"
+        )
+    return False
+
+
 def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]]:
-    """Every asset of the config, the files each depends on, and semantic problems (located)."""
+    """Every asset of the config, the files each depends on, and semantic problems (located). A file (or a
+    stage's prim) matched by several entries of ``assets`` is one asset, found by the first of them."""
     assets: list[Asset] = []
     inputs: dict[str, list[Path]] = {}
     problems: list[str] = []
+    matched: dict[tuple, tuple[int, int]] = {}
     for i, src in enumerate(cfg.data["assets"]):
         if "glob" in src:
-            found = sorted(p for p in cfg.base.glob(src["glob"]) if p.is_file())
+            where = cfg.where(("assets", i, "glob"))
+            if not src["glob"] or Path(src["glob"]).is_absolute():
+                problems.append(
+                    f"{where}: a glob must be a non-empty pattern relative to the config's folder"
+                )
+                continue
+            try:
+                found = sorted(p for p in cfg.base.glob(src["glob"]) if p.is_file())
+            except (ValueError, NotImplementedError, OSError) as exc:
+                problems.append(f"{where}: unusable glob: {exc}")
+                continue
             if not found:
-                problems.append(f"{cfg.where(('assets', i, 'glob'))}: the glob matches no file")
+                problems.append(f"{where}: the glob matches no file")
             for p in found:
                 rel = p.relative_to(cfg.base).as_posix()
-                assets.append(Asset(rel, p, None, int(src.get("instances", 1)), {}, i))
+                instances = int(src.get("instances", 1))
+                if not _first_match(cfg, matched, (p.resolve(), None), i, rel, instances, problems):
+                    continue
+                assets.append(Asset(rel, p, None, instances, {}, i))
                 inputs[rel] = [p]
         else:
             stage_path = (cfg.base / src["stage"]).resolve()
@@ -109,6 +149,8 @@ def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]
             if not found:
                 problems.append(f"{cfg.where(('assets', i, 'stage'))}: the stage has no Mesh prims")
             for a in found:
+                if not _first_match(cfg, matched, (stage_path, a.prim), i, a.id, a.instances, problems):
+                    continue
                 assets.append(a)
                 inputs[a.id] = used
     seen: dict[str, str] = {}
@@ -154,12 +196,26 @@ def canonical_treatment(treatment: dict[str, Any]) -> dict[str, Any]:
     return {**treatment, "params": params}
 
 
-def treatment_digest(input_digest: str, asset: Asset, treatment: dict[str, Any], version: str) -> str:
+def checks_of(data: dict[str, Any]) -> dict[str, Any]:
+    """The parts of a config (its data) that decide whether a built asset passes: ``budgets`` (which ``auto``
+    also chooses by) and ``streaming``."""
+    return {"budgets": data.get("budgets") or {}, "streaming": data.get("streaming") or {}}
+
+
+def treatment_digest(
+    input_digest: str,
+    asset: Asset,
+    treatment: dict[str, Any],
+    version: str,
+    checks: dict[str, Any] | None = None,
+) -> str:
     """What decides whether an asset's outputs are current: its inputs, prim, instances, encoding and
-    parameters (:func:`canonical_treatment`: a default written out changes nothing), and the tool's
-    version."""
+    parameters (:func:`canonical_treatment`: a default written out changes nothing), the budgets and
+    streaming policy it was checked against (:func:`checks_of`: a tightened budget re-checks it), and the
+    tool's version."""
     payload = json.dumps(
-        [input_digest, asset.prim, asset.instances, canonical_treatment(treatment), version], sort_keys=True
+        [input_digest, asset.prim, asset.instances, canonical_treatment(treatment), checks or {}, version],
+        sort_keys=True,
     )
     return hashlib.sha256(payload.encode()).hexdigest()
 

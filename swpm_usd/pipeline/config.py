@@ -6,6 +6,7 @@ offending node, 1-based), so an editor can jump to it.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -47,26 +48,48 @@ def format_path(parts: tuple) -> str:
     return out
 
 
-def _to_python(node: yaml.Node, path: tuple, marks: dict) -> Any:
-    """Convert a composed YAML node tree to Python values, recording each node's (line, col)."""
+class _Loader(yaml.SafeLoader):
+    """PyYAML's safe loader, plus YAML 1.2's floats without a dot (``1e-3``, ``2E6``: strings in YAML 1.1)."""
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"),
+)
+
+
+def _scalar(node: yaml.Node) -> Any:
+    """A scalar node's value (an empty one, as in ``rules:``, is null), via the loader's constructor."""
+    return _Loader("").construct_object(node, deep=True)
+
+
+def _to_python(node: yaml.Node, path: tuple, marks: dict, problems: list[str], name: str) -> Any:
+    """Convert a composed YAML node tree to Python values, recording each node's (line, col); a key given
+    twice in one mapping is a problem (located at its second occurrence)."""
     marks[path] = (node.start_mark.line + 1, node.start_mark.column + 1)
     if isinstance(node, yaml.MappingNode):
         out = {}
+        first_line: dict[Any, int] = {}
         for key_node, value_node in node.value:
-            key = (
-                yaml.safe_load(yaml.serialize(key_node))
-                if key_node.tag != "tag:yaml.org,2002:str"
-                else key_node.value
-            )
-            out[key] = _to_python(value_node, (*path, key), marks)
+            key = _scalar(key_node) if isinstance(key_node, yaml.ScalarNode) else repr(key_node.value)
+            if not isinstance(key, (str, int, float, bool)) and key is not None:
+                key = str(key)
+            line, col = key_node.start_mark.line + 1, key_node.start_mark.column + 1
+            if key in first_line:
+                problems.append(
+                    f"{name}:{line}:{col}: {format_path((*path, key))}: duplicate key "
+                    f"(first given on line {first_line[key]})"
+                )
+                continue
+            first_line[key] = line
+            out[key] = _to_python(value_node, (*path, key), marks, problems, name)
             # a wrong key is best pointed at by the key itself
-            marks.setdefault(
-                (*path, key, "<key>"), (key_node.start_mark.line + 1, key_node.start_mark.column + 1)
-            )
+            marks.setdefault((*path, key, "<key>"), (line, col))
         return out
     if isinstance(node, yaml.SequenceNode):
-        return [_to_python(v, (*path, i), marks) for i, v in enumerate(node.value)]
-    return yaml.safe_load(yaml.serialize(node))
+        return [_to_python(v, (*path, i), marks, problems, name) for i, v in enumerate(node.value)]
+    return _scalar(node)
 
 
 def load_config(path: str | Path) -> Config:
@@ -76,16 +99,19 @@ def load_config(path: str | Path) -> Config:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError([f"{path.name}:1:1: $: cannot read the file ({exc})"]) from None
+    marks: dict[tuple, tuple[int, int]] = {}
+    duplicates: list[str] = []
     try:
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
+        node = yaml.compose(text, Loader=_Loader)
+        data = _to_python(node, (), marks, duplicates, path.name) if node is not None else None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
         raise ConfigError(
-            [f"{path.name}:{line}:{col}: $: invalid YAML: {getattr(exc, 'problem', exc)}"]
+            [f"{path.name}:{line}:{col}: $: invalid YAML: {getattr(exc, 'problem', None) or exc}"]
         ) from None
-    marks: dict[tuple, tuple[int, int]] = {}
-    data = _to_python(node, (), marks) if node is not None else None
+    if duplicates:
+        raise ConfigError(duplicates)
     cfg = Config(path=path.resolve(), data=data if isinstance(data, dict) else {}, marks=marks)
     if not isinstance(data, dict):
         raise ConfigError([f"{path.name}:1:1: $: the configuration must be a mapping"])
@@ -129,4 +155,12 @@ def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
         return msgs
     if err.validator == "oneOf" and path and path[0] == "assets":
         return [f"{cfg.where(path)}: an asset source needs exactly one of 'glob' or 'stage'"]
+    if err.validator == "type" and err.instance is None:  # `rules:` with nothing after it
+        expected = (
+            err.validator_value if isinstance(err.validator_value, str) else " or ".join(err.validator_value)
+        )
+        return [
+            f"{cfg.where(path)}: empty value (null); expected {'an' if expected[0] in 'aeiou' else 'a'} "
+            f"{expected}"
+        ]
     return [f"{cfg.where(path)}: {err.message}"]

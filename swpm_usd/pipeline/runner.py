@@ -4,13 +4,15 @@ The run manifest (``<output>/manifest.json``) is rewritten atomically as assets 
 second, and at once when the run ends, fails or is stopped with Ctrl-C), so an interrupted run keeps every
 earlier result (a kill loses at most the last second's) and a rerun only does what is left. An asset
 is up to date when the digest of its input files, its resolved rule, parameters (defaults filled in, so
-writing one out rebuilds nothing) and the tool version equal the manifest's and its outputs are still there
-with the recorded size.
+writing one out rebuilds nothing), the budgets and streaming policy it is checked against and the tool version
+equal the manifest's, and its outputs are still there with the recorded size and sha256.
 """
 
 from __future__ import annotations
 
+import fnmatch
 import json
+import os
 import sys
 import time
 from collections.abc import Iterator
@@ -19,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import __version__
-from .assets import Asset, discover, file_digest, match_rule, treatment_digest
+from .assets import Asset, checks_of, discover, file_digest, match_rule, treatment_digest
 from .config import Config, ConfigError, load_config
 from .worker import atomic_write_bytes, process_asset
 
@@ -53,6 +55,7 @@ class RunResult:
     warnings: list[str]
     seconds: float
     manifest_path: Path
+    plan: list[dict] = field(default_factory=list)  # --dry-run / --explain: each asset's plan
 
 
 def _read_manifest(path: Path) -> dict:
@@ -95,8 +98,8 @@ def _write_manifest(path: Path, manifest: dict, text: _ManifestText | None = Non
     atomic_write_bytes(path, (body + "\n").encode())
 
 
-def _treatment_digest(item: PlanItem) -> str:
-    return treatment_digest(item.input_digest, item.asset, item.treatment, __version__)
+def _treatment_digest(cfg: Config, item: PlanItem) -> str:
+    return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, checks_of(cfg.data))
 
 
 def _count_triangles(asset: Asset) -> int:
@@ -117,6 +120,8 @@ def plan(
     load every new asset a second time, one after another (1,000 small assets: 10 of 46 s)."""
     assets, inputs, problems = discover(cfg)
     out_dir = cfg.base / cfg.data["output"]["dir"]
+    problems.extend(_unusable_out_dir(cfg, out_dir))
+    problems.extend(_overwritten_inputs(cfg, out_dir, assets, inputs))
     known = manifest.get("assets", {})
     items = []
     needs_rule_on_triangles = any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))
@@ -134,20 +139,114 @@ def plan(
                 tri = None
         item = PlanItem(a, digest, tri)
         item.rule, item.treatment, item.why = match_rule(cfg, a, tri if tri is not None else 0)
-        item.digest = _treatment_digest(item)
+        item.digest = _treatment_digest(cfg, item)
         outs = prev.get("outputs", {})
         item.up_to_date = (
             prev.get("status") == "built"
             and prev.get("digest") == item.digest
-            and all(
-                (out_dir / o["path"]).is_file() and (out_dir / o["path"]).stat().st_size == o.get("size", -1)
-                for o in outs.values()
-            )
+            and all(_output_intact(out_dir / o["path"], o) for o in outs.values())
             and bool(outs) == _wants_outputs(cfg)
         )
         items.append(item)
     warnings = [] if any(i.rule_pending for i in items) else _unreached_rules(cfg, items)
     return items, problems, warnings
+
+
+def _unusable_out_dir(cfg: Config, out_dir: Path) -> list[str]:
+    """output.dir must be a folder, or creatable: not an existing file, nor under one."""
+    for p in (out_dir, *out_dir.parents):
+        if p.exists():
+            if not p.is_dir():
+                what = "is a file" if p == out_dir else f"is under {p}, which is a file"
+                return [f"{cfg.where(('output', 'dir'))}: {out_dir} {what}, not a folder"]
+            return []
+    return []
+
+
+def _make_out_dir(cfg: Config, out_dir: Path) -> None:
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(
+            [f"{cfg.where(('output', 'dir'))}: cannot create {out_dir}: {exc.strerror or exc}"]
+        ) from None
+    if not os.access(out_dir, os.W_OK | os.X_OK):
+        raise ConfigError([f"{cfg.where(('output', 'dir'))}: cannot write in {out_dir}: permission denied"])
+
+
+def _output_intact(path: Path, recorded: dict) -> bool:
+    """Is ``path`` still the file the manifest recorded: its size, then its sha256 (a file this tool wrote,
+    hashed again: a changed byte of a same-size file rebuilds it)."""
+    from .worker import sha256_file
+
+    try:
+        if not path.is_file() or path.stat().st_size != recorded.get("size", -1):
+            return False
+        return sha256_file(path) == recorded.get("sha256")
+    except OSError:
+        return False
+
+
+def planned_outputs(cfg: Config, out_dir: Path, assets: list[Asset]) -> dict[Path, str]:
+    """Every file a run of ``cfg`` writes (or, for temporary files, may delete) -> what it is."""
+    out = cfg.data["output"]
+    files: dict[Path, str] = {out_dir / MANIFEST: "the run manifest"}
+    if out.get("report", True):
+        files[out_dir / "report.html"] = "the run report"
+    if out.get("scene"):
+        files[out_dir / "scene.usda"] = "the scene layer"
+    for a in assets:
+        if out.get("swpm", True):
+            files[out_dir / f"{a.output_stem}.swpm"] = f"the .swpm of {a.id}"
+        if out.get("usd", False):
+            files[out_dir / f"{a.output_stem}.usdc"] = f"the USD layer of {a.id}"
+    return files
+
+
+def _file_key(path: Path) -> tuple:
+    """One key per file: the resolved path, or (device, inode) when it exists (hard links, odd mounts)."""
+    try:
+        st = path.stat()
+        return ("inode", st.st_dev, st.st_ino)
+    except OSError:
+        return ("path", str(path.resolve()))
+
+
+def _overwritten_inputs(
+    cfg: Config, out_dir: Path, assets: list[Asset], inputs: dict[str, list[Path]]
+) -> list[str]:
+    """The run never writes over its own inputs: a file it would write (:func:`planned_outputs`) or a stale
+    temporary file it would delete must not be a matched mesh, a stage, a layer a stage uses, or the config
+    itself. Located at ``output.dir``."""
+    sources: dict[tuple, tuple[Path, str]] = {_file_key(cfg.path): (cfg.path, "the configuration file")}
+    for a in assets:
+        for p in inputs.get(a.id, []):
+            what = "an input of" if p != a.path else "the input of"
+            sources.setdefault(_file_key(p), (p, f"{what} {a.id}"))
+    problems = []
+    for target, what in planned_outputs(cfg, out_dir, assets).items():
+        hit = sources.get(_file_key(target))
+        if hit is not None:
+            problems.append(
+                f"{cfg.where(('output', 'dir'))}: {what} would overwrite {_rel(cfg, hit[0])} "
+                f"({hit[1]}); choose an output.dir apart from the inputs (and globs not reaching into it)"
+            )
+    for path, what in sources.values():
+        if path.parent.resolve() == out_dir.resolve() and (
+            fnmatch.fnmatch(path.name, ".*.tmp") or fnmatch.fnmatch(path.name, ".*.tmp.usda")
+        ):
+            problems.append(
+                f"{cfg.where(('output', 'dir'))}: {_rel(cfg, path)} ({what}) is named like a temporary file "
+                f"the run deletes from output.dir; rename it or choose another output.dir"
+            )
+    return problems
+
+
+def _rel(cfg: Config, path: Path) -> str:
+    try:
+        return path.resolve().relative_to(cfg.base).as_posix()
+    except ValueError:
+        return str(path)
 
 
 def _unreached_rules(cfg: Config, items: list[PlanItem]) -> list[str]:
@@ -295,6 +394,7 @@ def run(
         raise ConfigError(errors)
     for w in warnings:
         echo(f"warning: {w}")
+    planned = []
     if dry_run or explain:
         for it in items:
             state = "up to date" if it.up_to_date and not force else "to build"
@@ -304,9 +404,21 @@ def run(
                 f"{json.dumps(it.treatment['params'], sort_keys=True)} "
                 f"[{state}] triangles={tri} instances={it.asset.instances}; {it.why}"
             )
+            planned.append(
+                {
+                    "id": it.asset.id,
+                    "encoding": it.treatment["encoding"],
+                    "params": it.treatment["params"],
+                    "state": state,
+                    "triangles": it.triangles,
+                    "instances": it.asset.instances,
+                    "why": it.why,
+                }
+            )
         if dry_run:
-            return RunResult({}, 0, sum(i.up_to_date for i in items), 0, warnings, 0.0, manifest_path)
-    out_dir.mkdir(parents=True, exist_ok=True)
+            skipped = sum(i.up_to_date for i in items)
+            return RunResult({}, 0, skipped, 0, warnings, 0.0, manifest_path, planned)
+    _make_out_dir(cfg, out_dir)
     for stale in [*out_dir.glob(".*.tmp"), *out_dir.glob(".*.tmp.usda")]:  # left by a killed run
         stale.unlink(missing_ok=True)
     todo = [it for it in items if force or not it.up_to_date]
@@ -355,8 +467,9 @@ def run(
 
         write_report(out_dir / "report.html", manifest)
     _write_manifest(manifest_path, manifest, text)
+    seconds = time.perf_counter() - t_start
     return RunResult(
-        records, built, len(items) - len(todo), failed, warnings, time.perf_counter() - t_start, manifest_path
+        records, built, len(items) - len(todo), failed, warnings, seconds, manifest_path, planned
     )
 
 

@@ -153,7 +153,13 @@ def build_schema() -> dict[str, Any]:
                 "additionalProperties": False,
                 "required": ["dir"],
                 "properties": {
-                    "dir": {"type": "string"},
+                    "dir": {
+                        "type": "string",
+                        "description": "relative to the config; the run writes <name>.swpm, <name>.usdc, "
+                        "scene.usda, manifest.json and report.html there, and refuses to start when one "
+                        "of them would overwrite an input (a matched file, a stage or a layer it uses, the "
+                        "config)",
+                    },
                     "swpm": {"type": "boolean", "default": True},
                     "usd": {"type": "boolean", "default": False, "description": "per-asset USD layers"},
                     "scene": {"type": "boolean", "default": False, "description": "scene layer of them all"},

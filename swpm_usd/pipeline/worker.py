@@ -262,7 +262,7 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         reason = task["why"]
         if task.get("config_data") is not None:  # the planner left the rule to the triangle count
             from .. import __version__
-            from .assets import Asset, match_rule, treatment_digest
+            from .assets import Asset, checks_of, match_rule, treatment_digest
             from .config import Config
 
             asset = Asset(task["id"], Path(task["path"]), task["prim"], task["instances"], task["tags"])
@@ -271,7 +271,9 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
             )
             encoding, params = treatment["encoding"], treatment["params"]
             rec["rule_index"] = rule
-            rec["digest"] = treatment_digest(task["input_digest"], asset, treatment, __version__)
+            rec["digest"] = treatment_digest(
+                task["input_digest"], asset, treatment, __version__, checks_of(task["config_data"])
+            )
         candidates = None
         if encoding == "auto":
             storable = None

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -37,6 +38,7 @@ CODES: dict[str, str] = {
     "SWPM_USD_TOPOLOGY": "faceVertexIndices / Counts are not a triangle list of one of the LODs.",
     "SWPM_USD_PARAMS": "swpm:params is not a JSON object.",
     "SWPM_USD_REBUILD": "the stored buffers do not rebuild a progressive mesh.",
+    "SWPM_USD_OPEN": "the file is not a USD layer usd-core can open (empty, truncated or not USD at all).",
 }
 
 # buffers whose values are vertex ids
@@ -319,9 +321,49 @@ def _site_path(err: Any) -> str:
     return "/"
 
 
+def _tf_messages(text: str) -> str:
+    """The messages of a ``Tf.ErrorException`` text ("Error in 'F' at line N in file S : 'message'", one per
+    error), without pxr's namespace names, joined by "; "."""
+    out = []
+    for part in re.split(r"\s*Error in ", text.strip()):
+        msg = part.split(" : '", 1)[1] if " : '" in part else part
+        msg = re.sub(r"pxrInternal_\w+?__pxrReserved__::", "", msg.strip().rstrip("'").strip())
+        if msg:
+            out.append(msg)
+    return "; ".join(out)
+
+
+def _open(path: str) -> tuple[Usd.Stage | None, str]:
+    """The stage at ``path``, or None and why usd-core cannot open it (naming the file)."""
+    try:
+        stage = Usd.Stage.Open(path)
+        reason = "" if stage is not None else "usd-core returned no stage"
+    except Exception as exc:  # noqa: BLE001 - pxr raises Tf.ErrorException (and others) for a bad layer
+        stage = None
+        reason = _tf_messages(str(exc)) or type(exc).__name__
+    if stage is not None:
+        return stage, ""
+    hint = ""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(8)
+        if not head:
+            hint = " (the file is empty)"
+        elif head.startswith(b"SWPM"):
+            hint = " (it is an SWPM file: give it a .swpm name to validate it as one)"
+    except OSError as exc:
+        hint = f" ({exc.strerror or exc})"
+    return None, f"{path}: usd-core cannot open it as a USD layer{hint}: {reason}"
+
+
 def validate_stage(path: str | os.PathLike[str] | Usd.Stage, builtin: bool = True) -> list[Finding]:
     """Run our validator and (``builtin``) usd-core's built-in validators on a stage; our output has none."""
-    stage = path if isinstance(path, Usd.Stage) else Usd.Stage.Open(os.fspath(path))
+    if isinstance(path, Usd.Stage):
+        stage = path
+    else:
+        stage, problem = _open(os.fspath(path))
+        if stage is None:
+            return [Finding("SWPM_USD_OPEN", ERROR, "/", problem)]
     reg = UsdValidation.ValidationRegistry()
     names = _builtin_names(reg) if builtin else []
     ours = register_validators()
