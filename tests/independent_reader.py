@@ -7,51 +7,54 @@ specification is precise enough for a second implementation to agree with the co
 the problems in the order of the checks of format.md §5 ("Reporting"), each at the offset the column
 "Offset reported" of errors.md gives, and for a valid file the summary of §7.
 
-The current spec settles the offsets, the order, the stages, the multiplicity, the buffers, strict JSON
-for ``META`` (no ``NaN``/``Infinity``, no duplicate key in any object) and the skip-strip ``params``. What
-it still leaves open, and how this reader decides (only the replay rule is exercised by a vector):
+The spec settles the offsets, the order, the stages, the multiplicity, the buffers, strict JSON for
+``META`` (no ``NaN``/``Infinity``, no duplicate key in any object) and the skip-strip ``params``. Since the
+audit of a second reader (F1-F13) it also settles the cases this reader used to decide for itself, which it
+now follows as written:
+
+* An entry with a bad type gets every check of §5 step 2: its type is unknown, so it is also
+  ``SWPM_CHUNK_UNKNOWN_CRITICAL`` or ``_ANCILLARY`` by its critical bit (no CRC, critical-bit, allowed or
+  duplicate check).
+* ``SWPM_STREAM_ORDER`` (§2.3): the entries of the encoding's chunk types, in table order with duplicates
+  (unknown chunks and chunks of another encoding skipped wherever they are), compared position by position
+  with ``META LODS SMAP [tables] INDX VERT`` restricted to the types present; the entry at the first
+  differing position, else the first ``VERT`` when the last entry is not a ``VERT``.
+* ``VERT`` (§3.3): length >= 16; the descriptors' count (``SWPM_COUNT_EXCEEDS_CHUNK`` at payload + 4);
+  attribute_count <= 255, stride and data_offset (also one past the payload: ``SWPM_VERT_BAD_LAYOUT``);
+  vertex_count (``SWPM_COUNT_EXCEEDS_CHUNK``); length; then the descriptors (stride a multiple of every
+  element size) and the overlap.
+* Stage 0 (§5 step 4): the record chunk, ``RCNT`` a multiple of W, ``INDX`` (vanilla: a multiple of 3 W),
+  then ``SKIP``/``MLVL``; sliding-window ``WREC`` then ``INDX``. ``RCNT`` holding L counts is one of the
+  counts of §3.6 in stage (a), after the change counts and ``prev_change_count``
+  (``SWPM_CHUNK_BAD_LENGTH`` at its payload, its values then unchecked).
+* Vanilla ``T0`` is ``INDX`` count / 3 (§3.4); a ``LODS`` triangle_count(0) other than that is
+  ``SWPM_RECORD_BAD_COUNTS`` at row 0 in stage (b). The summary's ``triangle_count`` is ``LODS`` row 0 (§7).
+* Skip-strip ``kept``/``binned`` >= V are ``SWPM_INDEX_OUT_OF_RANGE`` in stage (a), after ``INDX`` and
+  ``level_collapsed_indices``; stage (c) checks ``binned`` = V-1-r, then ``kept`` < V-1-r.
+* The start arrays of ``SKIP``/``MLVL``: element 0 = 0, element n = the total, non-decreasing.
+
+What the spec still leaves open, and how this reader decides:
 
 * ``header_size`` "past the end of the file": compared with the length of the file as given; the table
   and the chunks are bounded by the bytes read (the file, cut at ``file_size`` when longer).
 * ``META``: parsed by Python's ``json`` with the two RFC 8259 rules of §3.1 added; a leading BOM is not
   JSON (rejected); a number too large for a float (``1e999``) parses and is not an integer.
-* Skip-strip ``params`` (§3.7): ``primitive`` and then ``restart_index`` are checked in step 3 with
-  ``META``, after ``encoding``; "ends the checks" is read as: the encoding's checks do not run, while
-  ``LODS``, ``VERT`` and row 0 = V still do. ``restart_index`` is an integer when JSON gives it without
-  fraction or exponent (``65535.0`` and ``6.5535e4`` are ``SWPM_META_BAD_FIELD``); it is type-checked for
-  ``"list"`` too. A strips' restart index below V is reported in skip-strip stage (a) after the §3.6
-  counts and before the level table, and ends the checks (so a level-table problem is then not listed).
-* A table entry with a bad type still takes part in the bounds, alignment, order/overlap/padding and
-  reserved checks; the checks that need its type (unknown, critical bit, allowed, duplicate) are skipped.
-  A gap whose chunk lies (partly) outside the file is checked up to the end of the file.
+* Skip-strip ``restart_index`` is an integer when JSON gives it without fraction or exponent (``65535.0``
+  and ``6.5535e4`` are ``SWPM_META_BAD_FIELD``); it is type-checked for ``"list"`` too. A missing
+  ``restart_index`` reads as null.
+* A padding gap before a chunk that lies (partly) outside the file is checked up to the end of the file.
   ``SWPM_CHUNK_NOT_ALLOWED`` is only checked when exactly one encoding bit is set; a chunk that is not
   allowed is not also reported as a duplicate. ``SWPM_CHUNK_MISSING`` lists absent chunks in streaming
-  order; a chunk is absent when no entry has its type.
-* ``SWPM_STREAM_ORDER``: entries are compared with ``META LODS SMAP [tables] INDX VERT`` restricted to the
-  present types; duplicates are skipped, a chunk that is not allowed is out of place, an unknown chunk is
-  in place anywhere after ``META``, ``LODS`` and ``SMAP`` (those present); "VERT not last" means VERT is
-  not the last table entry.
-* ``VERT``: checks in the order length >= 16, attribute_count <= 255, the attribute descriptors' count
-  (``SWPM_COUNT_EXCEEDS_CHUNK``), stride, data_offset (a data_offset past the payload is
-  ``SWPM_CHUNK_BAD_LENGTH``), vertex_count (``SWPM_COUNT_EXCEEDS_CHUNK``), length, then the descriptors.
-  An attribute name must lie in [16 + 16 A, data_offset) and be valid UTF-8.
-* "(0 to X)" / "0 .. X" for the start arrays of ``SKIP``/``MLVL`` is read as "every value in [0, X]".
-  ``level_count`` 0 is a level-table problem (``SKIP``: payload; ``MLVL``: a bad ``level_first_lod``).
-  A record beyond ``level_record_start[n]`` belongs to no level: its change offsets are not checked
-  against a list; were RCNT to reach it, skip-strip's triangle-count check applies it to the last level's
-  list (slots past its end ignored), as "records [level_record_start[l], RCNT[k])" reads literally.
-  An ``MLVL`` removal problem is reported once per column (static, dynamic).
-* Stage 0 checks the chunks in streaming order (``RCNT``, the record/level/window chunks, ``INDX``);
-  vanilla's "``INDX`` holds 3 T0 entries" is a stage-0 length check (``SWPM_CHUNK_BAD_LENGTH``). An
-  ``RCNT`` whose length is not a multiple of W is reported at its length field, one with another number of
-  counts than L at its payload.
-* Skip-strip ``kept``/``binned``: a value >= V is ``SWPM_INDEX_OUT_OF_RANGE`` only (not also
-  ``SWPM_RECORD_BAD_KEPT``/``SWPM_RECORD_BAD_BINNED``). A missing ``restart_index`` reads as null.
+  order; a chunk is absent when no entry has its type. In the stream-order comparison, positions past the
+  shorter of the two sequences are not compared.
+* ``level_count`` 0 is a level-table problem (``SKIP``: payload; ``MLVL``: a bad ``level_first_lod``).
 * Replays (vanilla, mixed, skip-strip) stop at their first problem: one problem per replay, so a slot that
   does not hold the binned vertex is not also a prefix violation of the same record (vector
-  ``record-changes-wrong-slot``); after a replay problem the collapsed list is not compared. Skip-strip's
-  collapsed-list prefix check (stage (d), "then the collapsed lists' prefix") is a separate check of the
-  stage: it runs over all levels even after a replay problem.
+  ``record-changes-wrong-slot``); after a replay problem the collapsed list is not compared. A record's
+  changes are made one after another, so a slot listed twice by one record no longer holds the binned
+  vertex the second time (``SWPM_RECORD_BAD_CHANGE``). Skip-strip's collapsed-list prefix check (stage
+  (d), "then the collapsed lists' prefix") is a separate check of the stage: it runs over all levels even
+  after a replay problem.
 * Sliding-window prefix property: the lowest offending element of ``INDX`` over all windows.
 * ``SMAP``: an empty (b) hull is not required to lie in a range and does not count for ``prefix_length``;
   the coverage of every band is checked before any band's ``prefix_length``.
@@ -209,8 +212,6 @@ class _Chunk:
         self.entry = entry
         self.offset = offset
         self.length = length
-        self.duplicate = False
-        self.not_allowed = False
 
 
 def _hash(arr: np.ndarray) -> dict[str, Any]:
@@ -227,7 +228,6 @@ class _Reader:
         self.rep = _Report()
         self.chunks: dict[str, _Chunk] = {}
         self.entries: list[_Chunk] = []
-        self.last_entry = -1
         self.encoding: str | None = None
         self.minor = 0
         self.W = 2
@@ -343,7 +343,6 @@ class _Reader:
     def table(self, table_offset: int, count: int, table_end: int) -> None:
         size = len(self.data)
         last, end = -1, table_end
-        self.last_entry = table_offset + ENTRY_SIZE * (count - 1)
         for i in range(count):
             eo = table_offset + ENTRY_SIZE * i
             raw_type, flags, offset, length, crc, reserved = struct.unpack_from("<4sIQQII", self.data, eo)
@@ -373,9 +372,8 @@ class _Reader:
                 payload = self.data[offset : offset + length]
                 if zlib.crc32(payload, zlib.crc32(raw_type)) & 0xFFFFFFFF != crc:
                     self.add("SWPM_CHUNK_CRC_MISMATCH", eo + 24)
-            if not type_ok:
-                continue
-            chunk = _Chunk(raw_type.decode("ascii"), eo, offset, length)
+            # §5 step 2: an entry with a bad type gets every check of the step; its type is unknown
+            chunk = _Chunk(raw_type.decode("ascii") if type_ok else "", eo, offset, length)
             self.entries.append(chunk)
             if chunk.type not in CRITICAL:
                 unknown = "CRITICAL" if flags & 1 else "ANCILLARY"
@@ -387,10 +385,8 @@ class _Reader:
                 chunk.type in COMMON or chunk.type in ENCODING_TABLES[self.encoding]
             ):
                 self.add("SWPM_CHUNK_NOT_ALLOWED", eo)
-                chunk.not_allowed = True
             elif chunk.type in self.chunks:
                 self.add("SWPM_CHUNK_DUPLICATE", eo)
-                chunk.duplicate = True
             else:
                 self.chunks[chunk.type] = chunk
         self.check_zero(end, size)
@@ -403,23 +399,16 @@ class _Reader:
         self.stream_order(order)
 
     def stream_order(self, order: list[str]) -> None:
+        """§2.3: the entries of the encoding's chunk types, in table order with duplicates (unknown chunks and
+        chunks of another encoding skipped), against ``order`` restricted to the types present."""
         expected = [t for t in order if t in self.chunks]
-        head = sum(1 for t in ("META", "LODS", "SMAP") if t in self.chunks)
-        pos = 0
-        for c in self.entries:
-            if c.type not in CRITICAL:
-                if pos < head:
-                    self.add("SWPM_STREAM_ORDER", c.entry)
-                    return
-                continue
-            if c.duplicate:
-                continue
-            if c.not_allowed or pos >= len(expected) or expected[pos] != c.type:
+        listed = [c for c in self.entries if c.type in order]
+        for c, want in zip(listed, expected, strict=False):
+            if c.type != want:
                 self.add("SWPM_STREAM_ORDER", c.entry)
                 return
-            pos += 1
         vert = self.chunks.get("VERT")
-        if vert is not None and vert.entry != self.last_entry:
+        if vert is not None and self.entries[-1].type != "VERT":
             self.add("SWPM_STREAM_ORDER", vert.entry)
 
     # ----------------------------------------------------------------- step 3
@@ -515,17 +504,12 @@ class _Reader:
             self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
             return False
         V, A, stride, data_offset = struct.unpack_from("<IIII", self.data, p)
-        if A > 255:
-            self.add("SWPM_VERT_BAD_LAYOUT", p)
-            return False
+        # §3.3: the order of the checks, the first problem ending them
         if 16 + 16 * A > n:
             self.add("SWPM_COUNT_EXCEEDS_CHUNK", p + 4)
             return False
-        if stride < 12 or stride % 4 or data_offset % 8 or data_offset < 16 + 16 * A:
+        if A > 255 or stride < 12 or stride % 4 or data_offset % 8 or not 16 + 16 * A <= data_offset <= n:
             self.add("SWPM_VERT_BAD_LAYOUT", p)
-            return False
-        if data_offset > n:
-            self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
             return False
         if V * stride > n - data_offset:
             self.add("SWPM_COUNT_EXCEEDS_CHUNK", p)
@@ -582,14 +566,12 @@ class _Reader:
 
     # ------------------------------------------------------------ stage 0 parts
     def rcnt_layout(self) -> list[int] | None:
+        """Stage 0: a whole number of counts (whether there are L of them is a §3.6 count, stage (a))."""
         c = self.chunks["RCNT"]
         if c.length % self.W:
             self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
             return None
-        if c.length // self.W != self.L:
-            self.add("SWPM_CHUNK_BAD_LENGTH", c.offset)
-            return None
-        arr = self.view(c.offset, self.L)
+        arr = self.view(c.offset, c.length // self.W)
         self.buffers["lod_record_counts"] = arr
         return arr.tolist()
 
@@ -628,7 +610,7 @@ class _Reader:
             self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
             return False
         count = c.length // self.W
-        if self.encoding == "vanilla" and count != 3 * self.T0:
+        if self.encoding == "vanilla" and count % 3:  # §3.4: vanilla T0 = INDX count / 3
             self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
             return False
         arr = self.view(c.offset, count)
@@ -670,7 +652,8 @@ class _Reader:
 
     # ------------------------------------------------------------ shared checks
     def counts_36(self, ctype: str, recs: np.ndarray, M: int, rc: list[int]) -> bool:
-        """§3.6 counts: change counts sum to M, prev_change_count, RCNT. True when all hold."""
+        """§3.6 counts, in the order of §5 step 4: change counts sum to M, prev_change_count, RCNT holding L
+        counts (its values then not checked), RCNT from 0, non-decreasing, <= R. True when all hold."""
         c = self.chunks[ctype]
         cols = recs.shape[1]
         R = recs.shape[0]
@@ -685,7 +668,10 @@ class _Reader:
             r = int(bad[0])
             self.add("SWPM_RECORD_BAD_COUNTS", c.offset + 8 + self.W * (cols * r + cols - 1))
             ok = False
-        if rc[0] != 0 or any(rc[k] < rc[k - 1] for k in range(1, len(rc))) or max(rc) > R:
+        if len(rc) != self.L:
+            self.add("SWPM_CHUNK_BAD_LENGTH", self.chunks["RCNT"].offset)
+            ok = False
+        elif rc[0] != 0 or any(rc[k] < rc[k - 1] for k in range(1, len(rc))) or max(rc) > R:
             self.add("SWPM_RECORD_BAD_COUNTS", self.chunks["RCNT"].offset)
             ok = False
         return ok
@@ -722,6 +708,12 @@ class _Reader:
         return lev
 
     @staticmethod
+    def bad_change(lst: np.ndarray, slots: np.ndarray, binned: int) -> bool:
+        """A record's changes, made one after another, find a slot not holding the binned vertex (§3.6: "when
+        record r changes it"): one that does not hold it, or one changed twice (it then holds ``kept``)."""
+        return bool((lst[slots] != binned).any()) or len(np.unique(slots)) < len(slots)
+
+    @staticmethod
     def slot_starts(recs: np.ndarray) -> list[int]:
         cc = recs[:, recs.shape[1] - 2]
         return [0, *np.cumsum(cc).tolist()]
@@ -742,12 +734,13 @@ class _Reader:
 
     # ----------------------------------------------------------------- vanilla
     def vanilla(self) -> None:
-        rc = self.rcnt_layout()
-        got = self.record_layout("VREC") if rc is not None else None
-        if rc is None or got is None or not self.indx_layout():
+        # stage 0: VREC, RCNT, INDX
+        got = self.record_layout("VREC")
+        rc = self.rcnt_layout() if got is not None else None
+        if got is None or rc is None or not self.indx_layout():
             return
         recs, offs, op = got
-        R, M, V, T0 = recs.shape[0], len(offs), self.V, self.T0
+        R, M, V, T0 = recs.shape[0], len(offs), self.V, len(self.indx) // 3
         mark = self.rep.total
         # (a)
         self.counts_36("VREC", recs, M, rc)
@@ -773,7 +766,7 @@ class _Reader:
         for r in range(R):
             binned, kept, after = V - 1 - r, int(recs[r, 0]), live - int(recs[r, 1])
             slots = offs[starts[r] : starts[r + 1]]
-            if len(slots) and (bool((ind[slots] != binned).any()) or int(slots.max()) >= 3 * after):
+            if self.bad_change(ind, slots, binned) or (len(slots) and int(slots.max()) >= 3 * after):
                 self.add("SWPM_RECORD_BAD_CHANGE", self.row("VREC", r))
                 return
             ind[slots] = kept
@@ -838,10 +831,13 @@ class _Reader:
             "level_record_start",
             "level_collapsed_indices",
         ]
-        rc = self.rcnt_layout()
-        levels = self.level_layout("SKIP", 1, names) if rc is not None else None
-        got = self.record_layout("SREC") if levels is not None else None
-        if rc is None or levels is None or got is None or not self.indx_layout():
+        # stage 0: SREC, RCNT, INDX, SKIP
+        got = self.record_layout("SREC")
+        rc = self.rcnt_layout() if got is not None else None
+        if got is None or rc is None or not self.indx_layout():
+            return
+        levels = self.level_layout("SKIP", 1, names)
+        if levels is None:
             return
         recs, offs, op = got
         (lfl, _), (lis, _), (lcs, _), (lrs, _), (lci, lci_o) = levels
@@ -877,8 +873,11 @@ class _Reader:
         def over(arr: np.ndarray) -> np.ndarray:
             return (arr >= V) & (arr != restart) if restart is not None else arr >= V
 
+        rec_base = self.chunks["SREC"].offset + 8
         self.first_n(over(self.indx), self.indx_off, W)
         self.first_n(over(lci), lci_o, W)
+        self.first_n(recs[:, 0] >= V, rec_base, 4 * W)  # kept
+        self.first_n(recs[:, 1] >= V, rec_base + W, 4 * W)  # binned
         if self.rep.total > mark:
             return
         # (b)
@@ -893,14 +892,11 @@ class _Reader:
             return
         # (c)
         self.r_below_v("SREC", R)
-        rec_base = self.chunks["SREC"].offset + 8
         limit = V - 1 - np.arange(R, dtype=np.int64)
-        for col, code in ((1, "SWPM_RECORD_BAD_BINNED"), (0, "SWPM_RECORD_BAD_KEPT")):
-            values = recs[:, col]
-            self.first_n(values >= V, rec_base + W * col, 4 * W)
-            wrong = (values != limit) if col == 1 else (values >= limit)
-            for r in np.flatnonzero(wrong & (values < V))[:3].tolist():
-                self.add(code, self.row("SREC", r, col))
+        for r in np.flatnonzero(recs[:, 1] != limit)[:3].tolist():
+            self.add("SWPM_RECORD_BAD_BINNED", self.row("SREC", r, 1))
+        for r in np.flatnonzero(recs[:, 0] >= limit)[:3].tolist():
+            self.add("SWPM_RECORD_BAD_KEPT", self.row("SREC", r, 0))
         if any(rs[lev] != rc[fl[lev]] for lev in range(n)):
             self.add("SWPM_LEVEL_BAD_TABLE", skip_off)
         self.lods_vertex_counts(rc)
@@ -912,7 +908,7 @@ class _Reader:
             bad_record = None
             for r in range(rs[lev], rs[lev + 1]):
                 slots = offs[starts[r] : starts[r + 1]]
-                if len(slots) and bool((lst[slots] != V - 1 - r).any()):
+                if self.bad_change(lst, slots, V - 1 - r):
                     bad_record = r
                     break
                 lst[slots] = recs[r, 0]
@@ -948,9 +944,12 @@ class _Reader:
 
     @staticmethod
     def monotone(arr: list[int], hi: int, step: int) -> bool:
-        """Every value in [0, hi], non-decreasing, steps a multiple of ``step``."""
-        return all(0 <= x <= hi for x in arr) and all(
-            arr[i] >= arr[i - 1] and (arr[i] - arr[i - 1]) % step == 0 for i in range(1, len(arr))
+        """A start array (§3.7, §3.8): element 0 = 0, the last = ``hi``, non-decreasing, steps a multiple of
+        ``step``."""
+        return (
+            arr[0] == 0
+            and arr[-1] == hi
+            and all(arr[i] >= arr[i - 1] and (arr[i] - arr[i - 1]) % step == 0 for i in range(1, len(arr)))
         )
 
     @staticmethod
@@ -982,10 +981,13 @@ class _Reader:
             "level_dynamic_indices",
             "level_dynamic_collapsed_indices",
         ]
-        rc = self.rcnt_layout()
-        levels = self.level_layout("MLVL", 2, names) if rc is not None else None
-        got = self.record_layout("MREC") if levels is not None else None
-        if rc is None or levels is None or got is None or not self.indx_layout():
+        # stage 0: MREC, RCNT, INDX, MLVL
+        got = self.record_layout("MREC")
+        rc = self.rcnt_layout() if got is not None else None
+        if got is None or rc is None or not self.indx_layout():
+            return
+        levels = self.level_layout("MLVL", 2, names)
+        if levels is None:
             return
         recs, offs, op = got
         (lfl, lfl_o), (lss, lss_o), (lds, lds_o), (lrs, lrs_o), (ldi, ldi_o), (ldc, ldc_o) = levels
@@ -1065,7 +1067,7 @@ class _Reader:
                 s_live -= int(recs[r, 1])
                 d_live -= int(recs[r, 2])
                 slots = offs[starts[r] : starts[r + 1]]
-                if len(slots) and (bool((dyn[slots] != binned).any()) or int(slots.max()) >= 3 * d_live):
+                if self.bad_change(dyn, slots, binned) or (len(slots) and int(slots.max()) >= 3 * d_live):
                     self.add("SWPM_RECORD_BAD_CHANGE", self.row("MREC", r))
                     return
                 dyn[slots] = recs[r, 0]
