@@ -58,6 +58,16 @@ def test_manifest_and_expected_results_follow_the_schema() -> None:
         "skip-binned-not-last",
         "skip-collapsed-list-differs",
         "skip-triangle-count",
+        # the cases the audit of a second reader found open, settled in format.md 2.3, 3.3, 3.4, 3.7 and 5
+        "rcnt-count-and-change-counts",
+        "vanilla-lods-row0-not-index-count",
+        "vert-stride-not-element-multiple",
+        "vert-attribute-count-too-large",
+        "duplicate-meta-misplaced",
+        "unknown-ancillary-before-smap",
+        "bad-chunk-type",
+        "skip-kept-above-vertex-count",
+        "skip-index-past-level-table",
     ):
         assert need in names
 

@@ -4,7 +4,8 @@
 hand-made (a five-vertex fan and a single triangle), so the vectors do not depend on the simplifier; the
 sliding-window, skip-strip and mixed vectors are written from hand-made buffers through
 :class:`RawProgressiveMesh`.
-Invalid vectors are valid files with one defect patched in; CRCs are recomputed unless the defect is a CRC.
+Invalid vectors are valid files with one defect patched in (two where a vector pins the order of the
+checks); CRCs are recomputed unless the defect is a CRC.
 """
 
 from __future__ import annotations
@@ -209,6 +210,42 @@ def patch(data: bytes, offset: int, fmt: str, *values: Any, crc: bool = True) ->
     return fix_crcs(b) if crc else bytes(b)
 
 
+def reorder(data: bytes, order: list[int]) -> bytes:
+    """The file with its chunks listed and laid out in ``order`` (indices into the chunk table), payloads
+    packed from the table's end on 8-byte boundaries, CRCs recomputed. Permuting chunks that all precede an
+    unmoved tail keeps the tail's offsets, so SMAP's ranges stay right."""
+    ents = _entries(data)
+    b = bytearray(data[: struct.unpack_from("<Q", data, 32)[0] + 32 * len(ents)])
+    pos = L.align(len(b), L.CHUNK_ALIGN)
+    body = bytearray(pos - len(b))
+    for i, k in enumerate(order):
+        _, eo, off, ln = ents[k]
+        at = ents[i][1]
+        b[at : at + 32] = data[eo : eo + 32]
+        struct.pack_into("<Q", b, at + 8, pos)
+        end = L.align(pos + ln, L.CHUNK_ALIGN) if i < len(order) - 1 else pos + ln
+        body += data[off : off + ln] + bytes(end - pos - ln)
+        pos = end
+    out = b + body
+    struct.pack_into("<Q", out, 40, len(out))
+    return fix_crcs(out)
+
+
+def grow_stride(data: bytes, extra: int) -> bytes:
+    """The file with ``extra`` zero bytes appended to every VERT record (stride, length and file_size follow;
+    VERT must be the last chunk)."""
+    eo, vo, vl = chunk(data, L.VERT)
+    V, _, stride, at = struct.unpack_from("<4I", data, vo)
+    recs = np.frombuffer(data[vo + at : vo + vl], np.uint8).reshape(V, stride)
+    grown = np.concatenate([recs, np.zeros((V, extra), np.uint8)], axis=1).tobytes()
+    head = bytearray(data[vo : vo + at])
+    struct.pack_into("<I", head, 8, stride + extra)
+    out = bytearray(data[:vo]) + head + grown
+    struct.pack_into("<Q", out, eo + 16, len(head) + len(grown))
+    struct.pack_into("<Q", out, 40, len(out))
+    return fix_crcs(out)
+
+
 # -- the vectors ----------------------------------------------------------------------------------------
 def _valid() -> dict[str, tuple[bytes, str]]:
     attrs = {
@@ -235,6 +272,13 @@ def _valid() -> dict[str, tuple[bytes, str]]:
         ),
         "newer-minor-version": (fix_crcs(_write(fan_vanilla(), minor=3)), "minor version 3: read as 1.0"),
         "mixed": (_write(fan_mixed()), "mixed, one level: static and dynamic list, one collapse"),
+        "unknown-ancillary-before-smap": (
+            # META zXTR LODS SMAP ...: unknown chunks are skipped by the stream-order check wherever they are
+            reorder(
+                _write(fan_vanilla(), extra_chunks=[(b"zXTR", False, b"ignore me")]), [0, 3, 1, 2, 4, 5, 6, 7]
+            ),
+            "an unknown ancillary chunk between META and LODS: no SWPM_STREAM_ORDER (format.md 2.3)",
+        ),
     }
 
 
@@ -351,7 +395,50 @@ def _invalid(base: bytes) -> dict[str, tuple[bytes, str]]:
     out["skip-bad-primitive"] = (_write(bad_primitive), "skip-strip params.primitive is not strip or list")
     dup = base.replace(b'"source_digest":null', b'"encoding":"vanilla"')
     out["meta-duplicate-key"] = (fix_crcs(dup), "META repeats the key encoding (not valid JSON: RFC 8259)")
+    _new_invalid(base, out)
     return out
+
+
+def _new_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
+    """The vectors that pin what the audit of a second reader found open (format.md 2.3, 3.3, 3.4, 5)."""
+    out["rcnt-count-and-change-counts"] = (
+        _write(fan_vanilla(buffers={"lod_record_counts": [0, 1, 1], "collapse_change_count": [3]})),
+        "RCNT holds 3 counts for 2 LODs and the change counts sum to 3, not 2: both stage (a) counts, the"
+        " change counts first (RCNT's count is not a stage 0 length)",
+    )
+    out["vanilla-lods-row0-not-index-count"] = (
+        _write(fan_vanilla(buffers={"indices": [1, 2, 4, 2, 3, 4, 0, 1, 4, 3, 0, 4, 0, 1, 2]})),
+        "INDX holds 5 triangles, LODS row 0 says 4: T0 is INDX count / 3, so LODS row 0 is wrong (stage b)",
+    )
+    attr = {"w": np.zeros((5, 1), "<f8")}
+    out["vert-stride-not-element-multiple"] = (
+        grow_stride(_write(fan_vanilla(attributes=attr)), 4),
+        "an f64 attribute in a stride-28 vertex record: stride must be a multiple of every element size",
+    )
+    out["vert-attribute-count-too-large"] = (
+        patch(base, chunk(base, L.VERT)[1] + 4, "<I", 256),
+        "VERT declares 256 attributes in a 76-byte chunk: the descriptors' count is checked before A <= 255",
+    )
+    data = bytearray(_write(fan_vanilla(), extra_chunks=[(b"zXTR", False, b"{}")]))
+    eo, _, _ = chunk(bytes(data), b"zXTR")
+    data[eo : eo + 8] = L.META + L.CHUNK_CRITICAL.to_bytes(4, "little")
+    out["duplicate-meta-misplaced"] = (
+        fix_crcs(data),
+        "a second META after SMAP: a duplicate, and the stream-order warning names it, not the first META",
+    )
+    out["bad-chunk-type"] = (
+        _write(fan_vanilla(), extra_chunks=[(b"zX!R", False, b"ignore me")]),
+        "an ancillary chunk typed zX!R: a bad type, and so also an unknown ancillary chunk",
+    )
+    out["skip-kept-above-vertex-count"] = (
+        _write(fan_skip(buffers={"collapse_kept": [9], "collapse_binned": [3]})),
+        "a skip-strip record keeps vertex 9 of 5 (stage a); its binned 3, not V-1 = 4, is a stage (c) check"
+        " that then does not run",
+    )
+    out["skip-index-past-level-table"] = (
+        _write(fan_skip(buffers={"level_indices": [1, 2, 4, 2, 3, 4, 0, 1, 4, 3, 0, 4, 0, 1, 2]})),
+        "INDX holds 15 indices, level_index_start ends at 12: its last element must be the INDX count",
+    )
 
 
 def buffer_digests(data: bytes) -> dict[str, Any]:
