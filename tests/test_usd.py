@@ -182,6 +182,51 @@ def test_unsigned_colour_is_normalised_and_read_back_exactly(dtype, tmp_path):
     assert validate_stage(path) == []
 
 
+@pytest.mark.parametrize("dtype", ["u1", "<u2", "<f4"])
+@pytest.mark.parametrize("k", [1, 2, 3, 4, 5])
+def test_colour_of_every_component_count_round_trips(k, dtype, tmp_path):
+    """A per-vertex "color" of 3 or 4 components is displayColor (+ displayOpacity), of 1, 2 or 5 components
+    primvars:color (there is no display colour of that shape); read() finds either and gives back the
+    attribute exactly, unsigned-integer components normalised to [0, 1] in the stage either way."""
+    from swpm_usd.format import encode_bytes, load_bytes
+    from swpm_usd.format.vectors import fan_vanilla
+
+    unsigned = np.dtype(dtype).kind == "u"
+    top = np.iinfo(dtype).max if unsigned else 8
+    values = np.array([[top, 0, 0, top, 1], [0, top, 0, 7, 2], [0, 0, top, 0, 3], [1, 2, 3, 4, 5], [top] * 5])
+    color = (values[:, :k] if unsigned else values[:, :k] / 8).astype(dtype)
+    pm = load_bytes(encode_bytes(fan_vanilla(attributes={"color": color})))  # type: ignore[arg-type]
+    path = usd.write(pm, tmp_path / "colour.usda")
+    stage = Usd.Stage.Open(str(path))
+    prim = stage.GetDefaultPrim().GetChild("mesh")
+    api = UsdGeom.PrimvarsAPI(prim)
+    stored = api.GetPrimvar("displayColor" if k in (3, 4) else "color")
+    assert stored and stored.GetInterpolation() == UsdGeom.Tokens.vertex
+    assert api.GetPrimvar("color").HasAuthoredValue() is (k not in (3, 4))
+    assert api.GetPrimvar("displayColor").HasAuthoredValue() is (k in (3, 4))
+    assert np.asarray(stored.Get()).max() == 1.0  # u8, u16: value / (2^bits - 1); f32 as given
+    back = usd.read(prim)
+    assert back.attributes["color"].dtype == color.dtype
+    np.testing.assert_array_equal(back.attributes["color"], color)
+    assert validate_stage(path) == []
+
+
+@pytest.mark.parametrize(("name", "k"), [("normal", 2), ("normal", 4), ("uv", 1), ("uv", 3)])
+def test_normal_and_uv_of_another_shape_round_trip(name, k, tmp_path):
+    """A normal that is not 3 components or a uv that is not 2 is primvars:<name>, and read() finds it there
+    (it looked for normals / primvars:st only)."""
+    from swpm_usd.format import encode_bytes, load_bytes
+    from swpm_usd.format.vectors import fan_vanilla
+
+    a = (np.arange(5 * k, dtype=np.float32).reshape(5, k) / 7).astype(np.float32)
+    pm = load_bytes(encode_bytes(fan_vanilla(attributes={name: a})))  # type: ignore[arg-type]
+    path = usd.write(pm, tmp_path / "shape.usda")
+    stage = Usd.Stage.Open(str(path))
+    prim = stage.GetDefaultPrim().GetChild("mesh")
+    assert UsdGeom.PrimvarsAPI(prim).GetPrimvar(name).HasAuthoredValue()
+    np.testing.assert_array_equal(usd.read(prim).attributes[name], a)
+
+
 def test_prim_of_a_freed_stage_is_a_clear_error(asset):
     """A stage opened inline and never held is freed at once: its prim is invalid, and the error says why."""
     with pytest.raises(UsdReadError, match="keep the Usd.Stage in a variable"):

@@ -123,15 +123,18 @@ def _attributes(prim: Usd.Prim, names: list[str], dtypes: list[str] | None = Non
 
 
 def _float_attributes(prim: Usd.Prim, names: list[str]) -> dict[str, np.ndarray]:
+    """As the writer stores them: normal (3 components) from normals, uv (2) from primvars:st, color (3, 4)
+    from displayColor (+ displayOpacity); any other shape or name from primvars:<name>."""
     mesh = UsdGeom.Mesh(prim)
     api = UsdGeom.PrimvarsAPI(prim)
     out = {}
     for name in names:
-        if name == "normal":
+        own = name in ("normal", "uv", "color") and api.GetPrimvar(name).HasAuthoredValue()
+        if name == "normal" and not own:
             value = mesh.GetNormalsAttr().Get()
-        elif name == "uv":
+        elif name == "uv" and not own:
             value = api.GetPrimvar("st").Get()
-        elif name == "color":
+        elif name == "color" and not own:
             value = api.GetPrimvar("displayColor").Get()
             opacity = api.GetPrimvar("displayOpacity")
             if value is not None and opacity and opacity.HasAuthoredValue():

@@ -82,17 +82,18 @@ PROPERTIES: tuple[Prop, ...] = (
         "swpm:attributeNames",
         "token[]",
         "[]",
-        "Names of the progressive mesh's per-vertex attributes, in order. normal -> normals, uv -> "
-        "primvars:st, color -> primvars:displayColor (+ primvars:displayOpacity for 4 channels), any "
-        "other name -> primvars:<name>; all vertex interpolation, in LOD order.",
+        "Names of the progressive mesh's per-vertex attributes, in order. normal of 3 components -> normals, "
+        "uv of 2 -> primvars:st, color of 3 or 4 -> primvars:displayColor (+ primvars:displayOpacity for 4 "
+        "channels), any other name or component count -> primvars:<name> (a color of 1, 2 or 5+ components "
+        "-> primvars:color); all vertex interpolation, in LOD order.",
     ),
     Prop(
         "swpm:attributeDtypes",
         "token[]",
         "[]",
         "Numpy dtype of each attribute (parallel to swpm:attributeNames); the float primvar is cast back to "
-        "it. Unsigned-integer color components are stored normalised to [0, 1] (value / (2^bits - 1)) and "
-        "scaled back (exact for 8 and 16 bits). Absent: float32.",
+        "it. Unsigned-integer color components (any component count) are stored normalised to [0, 1] "
+        "(value / (2^bits - 1)) and scaled back (exact for 8 and 16 bits). Absent: float32.",
     ),
     Prop(
         "swpm:bufferNames",

@@ -125,8 +125,10 @@ def _vec(a: np.ndarray, k: int) -> Any:
 
 
 def author_primvars(mesh: UsdGeom.Mesh, attributes: dict[str, np.ndarray]) -> None:
-    """Per-vertex attributes -> normals / primvars:st / displayColor (+Opacity) / primvars:<name> (vertex);
-    unsigned-integer colour components are normalised to [0, 1] (value / (2^bits - 1))."""
+    """Per-vertex attributes (vertex interpolation): normal of 3 components -> normals, uv of 2 ->
+    primvars:st, color of 3 or 4 -> displayColor (+ displayOpacity), any other -> primvars:<name> (so a
+    colour of 1, 2 or 5+ components is primvars:color). Unsigned-integer colour components are normalised to
+    [0, 1] (value / (2^bits - 1)) wherever they go; read scales them back."""
     T = Sdf.ValueTypeNames
     api = UsdGeom.PrimvarsAPI(mesh)
     vertex = UsdGeom.Tokens.vertex
@@ -134,14 +136,14 @@ def author_primvars(mesh: UsdGeom.Mesh, attributes: dict[str, np.ndarray]) -> No
         a = np.asarray(a)
         a = a.reshape(a.shape[0], -1)
         k = a.shape[1]
+        if name == "color" and a.dtype.kind == "u":  # display colour is in [0, 1]: u8 255 -> 1.0
+            a = a.astype(np.float64) / float(np.iinfo(a.dtype).max)
         if name == "normal" and k == 3:
             mesh.CreateNormalsAttr().Set(_vec(a, 3))
             mesh.SetNormalsInterpolation(vertex)
         elif name == "uv" and k == 2:
             api.CreatePrimvar("st", T.TexCoord2fArray, vertex).Set(_vec(a, 2))
         elif name == "color" and k in (3, 4):
-            if a.dtype.kind == "u":  # display colour is in [0, 1]: u8 255 -> 1.0 (read scales back)
-                a = a.astype(np.float64) / float(np.iinfo(a.dtype).max)
             api.CreatePrimvar("displayColor", T.Color3fArray, vertex).Set(_vec(a[:, :3], 3))
             if k == 4:
                 api.CreatePrimvar("displayOpacity", T.FloatArray, vertex).Set(_vec(a[:, 3], 1))
