@@ -269,7 +269,7 @@ def test_cluster_links_a_level_only_when_cheaper(spot: Mesh, monkeypatch: pytest
 
     def shared_and_pool(relink: float) -> tuple[int, int, int]:
         monkeypatch.setattr(sw, "_CLUSTER_RELINK", relink)
-        pm = build_sliding_window(spot, cluster=True)
+        pm = build_sliding_window(spot, cluster=True, coarsest_copy=False)  # (the copy links to no level)
         rec = pm.window_records.astype(np.int64)
         first_of_level = np.flatnonzero(np.diff(pm.lod_level) != 0) + 1
         shared = sum(int(rec[k, 0] < rec[k - 1, 0] + 3 * rec[k - 1, 1]) for k in first_of_level)
@@ -279,8 +279,11 @@ def test_cluster_links_a_level_only_when_cheaper(spot: Mesh, monkeypatch: pytest
     always_shared, always_levels, always_pool = shared_and_pool(1e9)
     shared, levels, pool = shared_and_pool(1.0)
     monkeypatch.setattr(swk, "ORDER_LIVE_WEIGHT", swk.ORDER_LIVE_WEIGHT_CLUSTER)
-    assert never_shared == 0 and never_pool == build_sliding_window(spot).index_pool.shape[0]
-    assert always_shared == always_levels
+    assert (
+        never_shared == 0
+        and never_pool == build_sliding_window(spot, coarsest_copy=False).index_pool.shape[0]
+    )
+    assert always_shared >= always_levels - 1  # (spot's last level, of 24 triangles, is stored in full)
     assert 0 < shared < levels
     assert pool < 0.97 * never_pool and pool < always_pool
 
@@ -1043,3 +1046,117 @@ def test_inline_finishing_builds_without_a_worker_on_this_thread_only(
     assert started == [other.ident]  # the other thread still finished its levels on a worker
     build_sliding_window(spot)
     assert len(started) == 2  # restored on exit
+
+
+def test_the_bounded_search_is_exact_beyond_its_bound() -> None:
+    """``_beyond`` returns the exact squared distance to the nearest triangle when it exceeds the bound, and
+    otherwise some distance within the bound: random points against a bumpy sphere, brute force beside."""
+    from swpm_usd.encode import sw_deviation as swd
+    from swpm_usd.metrics import _STACK, point_triangle_distances
+
+    s = _icosphere(2)
+    rng = np.random.default_rng(3)
+    pts = s.points * (1.0 + 0.1 * rng.random((s.vertex_count, 1)))
+    tv, nmin, nmax, na, nb = swd.surface_bvh(pts, s.triangles)
+    q = rng.normal(size=(400, 3)) * rng.uniform(0.5, 1.5, (400, 1))
+    exact = point_triangle_distances(q, pts, s.triangles) ** 2
+    stack = np.empty(_STACK, np.int64)
+    hint = 0
+    beyond = within = 0
+    for i in range(q.shape[0]):
+        bound = float(rng.choice([0.0, exact[i] * 0.5, exact[i] * 2.0]))
+        d, hint = swd._beyond(q[i, 0], q[i, 1], q[i, 2], bound, hint, tv, nmin, nmax, na, nb, stack)
+        if exact[i] > bound:
+            assert d == pytest.approx(exact[i], rel=1e-9, abs=1e-15)
+            beyond += 1
+        else:
+            assert exact[i] - 1e-15 <= d <= bound
+            within += 1
+    assert beyond > 100 and within > 100
+
+
+def test_deviation_costs_are_the_farthest_fan_sample_or_the_quadric_cost() -> None:
+    """Per position: the larger of its quadric cost and the squared distances of its new fan's samples from
+    the input surface and of the binned point from the fan, against brute force on a bumpy sphere; a flat
+    grid's collapses stay at their quadric cost (the fan lies in the plane)."""
+    from swpm_usd.encode import sw_deviation as swd
+    from swpm_usd.encode import sw_kernels as swk
+    from swpm_usd.metrics import point_triangle_distances
+    from swpm_usd.simplify import make_state
+
+    rng = np.random.default_rng(5)
+    sphere = _icosphere(2)
+    bumpy = Mesh.from_arrays(
+        sphere.points * (1.0 + 0.15 * rng.random((sphere.vertex_count, 1))), sphere.triangles
+    )
+    g = np.stack(np.meshgrid(np.arange(6.0), np.arange(6.0), indexing="ij"), -1).reshape(-1, 2)
+    quads = np.array([(i * 6 + j, (i + 1) * 6 + j, i * 6 + j + 1) for i in range(5) for j in range(5)])
+    quads2 = np.array(
+        [((i + 1) * 6 + j, (i + 1) * 6 + j + 1, i * 6 + j + 1) for i in range(5) for j in range(5)]
+    )
+    flat = Mesh.from_arrays(np.c_[g, np.zeros(36)], np.r_[quads, quads2])
+    for mesh, is_flat in ((bumpy, False), (flat, True)):
+        st = make_state(mesh, mesh_topology(mesh))
+        alive_t = np.flatnonzero(st.tri_alive)
+        _, positions = swk.level_positions(alive_t, st.tri_verts, st.vertex_pos, st.pos_points.shape[0])
+        stars = K.star_snapshot(st)
+        ks, cs = swk.level_costs(st, positions, stars)
+        surface = swd.surface_bvh(st.pos_points, st.vertex_pos[mesh.triangles])
+        floor2 = 1e-12
+        got = swd.deviation_costs(
+            st.pos_points, positions, ks, cs, stars.start, stars.tp, floor2, swd.SAMPLES, *surface
+        )
+        cheap = swd.deviation_costs(
+            st.pos_points, positions, ks, cs, stars.start, stars.tp, floor2, swd.SAMPLES[:0], *surface
+        )
+        assert (got >= cs).all() and (got >= cheap).all()
+        pts = st.pos_points
+        tp_all = st.vertex_pos[mesh.triangles]
+        raised = 0
+        for i in np.flatnonzero(ks >= 0):
+            b, k = positions[i], ks[i]
+            rows = stars.tp[stars.start[b] : stars.start[b + 1]]
+            fan = rows[~(rows == k).any(axis=1)]
+            fan = np.where(fan == b, k, fan)
+            fan = np.array([np.roll(t, -int(np.flatnonzero(t == k)[0])) for t in fan], np.int64).reshape(
+                -1, 3
+            )
+            want = cs[i]
+            if fan.shape[0]:  # (a corner of the grid: its collapse leaves no fan)
+                samples = np.concatenate([np.einsum("j,tjd->td", w, pts[fan]) for w in swd.SAMPLES])
+                far = (point_triangle_distances(samples, pts, tp_all) ** 2).max()
+                near_b = (point_triangle_distances(pts[b][None], pts, fan) ** 2)[0]
+                if max(far, near_b) > floor2:
+                    want = max(cs[i], far, near_b)
+            assert got[i] == pytest.approx(want, rel=1e-9, abs=1e-18)
+            raised += want > cs[i] * (1 + 1e-9) + 1e-18
+        if is_flat:
+            assert raised == 0 and np.array_equal(got, cs)
+        else:
+            assert raised > 0.5 * np.count_nonzero(ks >= 0)
+
+
+def test_ranking_by_fan_deviation_lowers_the_windows_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Barring from the patch centres the vertices whose collapse moves the surface most (not only the
+    costliest quadrics) lowers the Hausdorff error of cow's windows: over eight fractions of its triangles
+    from 60 to 10 %, 0.79 of the quadric ranking's as a geometric mean (every fraction below 0.93), for
+    about the same pool."""
+    from swpm_usd.encode import slidingwindow as sw
+    from swpm_usd.metrics import surface_error
+
+    cow = shared_mesh("cow.obj")
+    fractions = (0.6, 0.5, 0.4, 0.3, 0.25, 0.2, 0.15, 0.1)
+    errors, pools = {}, {}
+    for flag in (False, True):
+        monkeypatch.setattr(sw, "_RANK_BY_DEVIATION", flag)
+        pm = build_sliding_window(cow)
+        tris = [pm.triangles_at(pm.lod_for_triangles(int(f * cow.triangle_count))) for f in fractions]
+        errors[flag] = np.array(
+            [surface_error(cow.points, cow.triangles, pm.points, t, 20000).hausdorff for t in tris]
+        )
+        pools[flag] = pm.index_pool.shape[0]
+        if flag:
+            _check_all(pm, cow, closed=True, every=13)
+    ratio = errors[True] / errors[False]
+    assert np.exp(np.log(ratio).mean()) < 0.9, ratio
+    assert abs(pools[True] - pools[False]) < 0.03 * pools[False]

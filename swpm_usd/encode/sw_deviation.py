@@ -1,0 +1,193 @@
+"""Fan deviation: how far the new triangles of a collapse lie from the input surface.
+
+The topology-driven builder bars a fraction ``mu`` of each level's costliest vertices from being patch
+centres (SWPM section 3) and ranks the rest by cost. The quadric cost of a half-edge collapse (Garland and
+Heckbert, :func:`swpm_usd.simplify.kernels.collapse_cost`) is the area-weighted *mean* squared distance of the
+kept point from the planes gathered by the binned one: it measures the kept vertex, not the interiors of the
+new fan's triangles, and on a later level a large region's mean dilutes one fold of it. A window's Hausdorff
+error is the *largest* distance of any of its triangles from the input, so :func:`deviation_costs` ranks a
+position's best collapse by the larger of its quadric cost and the squared distance from the input surface of
+the new fan's sample points (each fan triangle's centroid and edge midpoints).
+
+Most samples lie closer to the input than that larger value: a query stops at the first input triangle within
+it (the bounded search of :func:`_beyond`), so only the samples that raise a position's cost pay for an exact
+nearest-triangle search. The input's triangles sit in the bounding-volume hierarchy of
+:mod:`swpm_usd.metrics`.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from ..metrics import _STACK, _box_dist2, _build_bvh, _tri_dist2
+
+#: per fan triangle ``(k, u, v)`` (barycentric weights): its centroid and the midpoint of its new edge ``k u``
+#: (the edge ``v k`` is the next fan triangle's ``k u``; ``u v`` is an edge of the mesh already)
+SAMPLES = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0]], dtype=np.float64)
+
+
+def surface_bvh(points: np.ndarray, triangles: np.ndarray) -> tuple:
+    """The input surface for :func:`deviation_costs`: its triangles' corners sorted into a BVH."""
+    tv = np.ascontiguousarray(np.asarray(points, np.float64)[np.asarray(triangles, np.int64)])
+    order, node_min, node_max, node_a, node_b = _build_bvh(tv)
+    return np.ascontiguousarray(tv[order]), node_min, node_max, node_a, node_b
+
+
+@nb.njit(cache=True, nogil=True)
+def _beyond(
+    px: float,
+    py: float,
+    pz: float,
+    bound: float,
+    hint: int,
+    tv: np.ndarray,
+    node_min: np.ndarray,
+    node_max: np.ndarray,
+    node_a: np.ndarray,
+    node_b: np.ndarray,
+    stack: np.ndarray,
+) -> tuple[float, int]:
+    """Squared distance from the point to the nearest triangle if it is above ``bound``, else some value at
+    most ``bound`` (the search stops at the first triangle that close); and the leaf searched last, the
+    ``hint`` of the next, nearby query (its triangles are tried first)."""
+    best = np.inf
+    s = node_a[hint]
+    for t in range(s, s - 1 - node_b[hint]):
+        d = _tri_dist2(
+            px, py, pz,
+            tv[t, 0, 0], tv[t, 0, 1], tv[t, 0, 2],
+            tv[t, 1, 0], tv[t, 1, 1], tv[t, 1, 2],
+            tv[t, 2, 0], tv[t, 2, 1], tv[t, 2, 2],
+        )  # fmt: skip
+        if d < best:
+            best = d
+    if best <= bound:
+        return best, hint
+    stack[0] = 0
+    sp = 1
+    while sp > 0:
+        sp -= 1
+        n = stack[sp]
+        if _box_dist2(px, py, pz, node_min, node_max, n) >= best:
+            continue
+        b = node_b[n]
+        if b < 0:
+            s = node_a[n]
+            for t in range(s, s - 1 - b):
+                d = _tri_dist2(
+                    px, py, pz,
+                    tv[t, 0, 0], tv[t, 0, 1], tv[t, 0, 2],
+                    tv[t, 1, 0], tv[t, 1, 1], tv[t, 1, 2],
+                    tv[t, 2, 0], tv[t, 2, 1], tv[t, 2, 2],
+                )  # fmt: skip
+                if d < best:
+                    best = d
+                    hint = n
+            if best <= bound:
+                return best, hint
+            continue
+        a = node_a[n]
+        da = _box_dist2(px, py, pz, node_min, node_max, a)
+        db = _box_dist2(px, py, pz, node_min, node_max, b)
+        if da <= db:  # the nearer child on top of the stack
+            if db < best:
+                stack[sp] = b
+                sp += 1
+            if da < best:
+                stack[sp] = a
+                sp += 1
+        else:
+            if da < best:
+                stack[sp] = a
+                sp += 1
+            if db < best:
+                stack[sp] = b
+                sp += 1
+    return best, hint
+
+
+@nb.njit(cache=True, inline="always")
+def _fan_triangle(star_tp: np.ndarray, r: int, b: int, k: int) -> tuple[int, int, int]:
+    """Star row ``r`` of ``b`` after ``b`` moves onto ``k``, turned to start at ``k`` with its winding kept:
+    ``(k, u, v)``; ``(-1, -1, -1)`` if the row holds ``k`` (it collapses away)."""
+    c0 = star_tp[r, 0]
+    c1 = star_tp[r, 1]
+    c2 = star_tp[r, 2]
+    if c0 == k or c1 == k or c2 == k:
+        return -1, -1, -1
+    if c0 == b:
+        return k, c1, c2
+    if c1 == b:
+        return k, c2, c0
+    return k, c0, c1
+
+
+@nb.njit(cache=True, inline="always")
+def _point_tri2(pts: np.ndarray, p: int, a: int, b: int, c: int) -> float:
+    return _tri_dist2(
+        pts[p, 0], pts[p, 1], pts[p, 2],
+        pts[a, 0], pts[a, 1], pts[a, 2],
+        pts[b, 0], pts[b, 1], pts[b, 2],
+        pts[c, 0], pts[c, 1], pts[c, 2],
+    )  # fmt: skip
+
+
+@nb.njit(cache=True, nogil=True)
+def deviation_costs(
+    pts: np.ndarray,
+    positions: np.ndarray,
+    ks: np.ndarray,
+    costs: np.ndarray,
+    star_start: np.ndarray,
+    star_tp: np.ndarray,
+    floor2: float,
+    samples: np.ndarray,
+    tv: np.ndarray,
+    node_min: np.ndarray,
+    node_max: np.ndarray,
+    node_a: np.ndarray,
+    node_b: np.ndarray,
+) -> np.ndarray:
+    """``max(costs[i], D)`` for the collapse of ``positions[i]`` onto ``ks[i]``, where ``D`` is the largest
+    squared distance of the new fan's ``samples`` (barycentric rows over each fan triangle ``(k, u, v)``)
+    from the input and of the binned point from the fan; ``costs[i]`` where ``D <= floor2`` (rounding, far
+    below any error that matters) or ``ks[i] < 0`` (no valid collapse). ``star_start``, ``star_tp``: a star
+    snapshot's rows (:func:`swpm_usd.simplify.kernels.star_snapshot`); ``tv`` and the node arrays:
+    :func:`surface_bvh`."""
+    out = costs.copy()
+    stack = np.empty(_STACK, np.int64)
+    hint = 0
+    for i in range(positions.shape[0]):
+        k = ks[i]
+        if k < 0:
+            continue
+        b = positions[i]
+        # the other way first, cheap: the binned point (an input vertex) to its nearest fan triangle; a
+        # larger bound lets more of the samples' searches stop early
+        dev = np.inf
+        for r in range(star_start[b], star_start[b + 1]):
+            c0, c1, c2 = _fan_triangle(star_tp, r, b, k)
+            if c0 >= 0:
+                dev = min(dev, _point_tri2(pts, b, c0, c1, c2))
+        if not np.isfinite(dev):
+            continue  # no fan: the collapse removes the whole star
+        m = max(costs[i], floor2, dev)
+        for r in range(star_start[b], star_start[b + 1]):
+            c0, c1, c2 = _fan_triangle(star_tp, r, b, k)
+            if c0 < 0:
+                continue
+            for s in range(samples.shape[0]):
+                w0 = samples[s, 0]
+                w1 = samples[s, 1]
+                w2 = samples[s, 2]
+                px = w0 * pts[c0, 0] + w1 * pts[c1, 0] + w2 * pts[c2, 0]
+                py = w0 * pts[c0, 1] + w1 * pts[c1, 1] + w2 * pts[c2, 1]
+                pz = w0 * pts[c0, 2] + w1 * pts[c1, 2] + w2 * pts[c2, 2]
+                d, hint = _beyond(px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack)
+                if d > m:
+                    m = d
+                    dev = d
+        if dev > floor2:
+            out[i] = max(dev, costs[i])
+    return out
