@@ -27,19 +27,20 @@ that bins the position bins all of them (``vertex_map``).
 Builders and options, in short (``slidingwindow.md`` next to this file has the design notes: why each
 choice, what was measured and what was tried and dropped):
 
-* ``builder="topology"`` (TD-VIPM, the default): per level, a greedy minimum-degree maximal independent set
-  of patch centres (TD-VIPM 3.1, :mod:`.sw_centres`) in which a fraction ``mu`` of the highest-error vertices
-  may not be centres (SWPM 3); each centre goes by its best valid half-edge collapse, or to a neighbour of
-  higher degree costing at most ``target_slack`` of the level's ``mu`` cut more; the triangles of no patch
-  join a patch (``absorb_middle``; ``absorb_rounds`` rings of them, 0 for all, a warmer cache at high
-  ``mu``); the patches are ordered for a FIFO vertex cache (TD-VIPM 3.2,
+* ``builder="topology"`` (TD-VIPM, the default): per level, a greedy minimum-degree maximal independent set of
+  patch centres (TD-VIPM 3.1, :mod:`.sw_centres`) in which a fraction ``mu`` of the highest-error vertices may
+  not be centres (SWPM 3; a vertex's error: its best collapse's quadric cost or how far that collapse's new
+  fan lies from the input, whichever is larger, :mod:`.sw_deviation`); each centre goes by its best valid
+  half-edge collapse, or to a neighbour of higher degree costing at most ``target_slack`` of the level's
+  ``mu`` cut more; the triangles of no patch join a patch (``absorb_middle``; ``absorb_rounds`` rings of them,
+  0 for all, a warmer cache at high ``mu``); the patches are ordered for a FIFO vertex cache (TD-VIPM 3.2,
   :func:`.sw_kernels.order_patches`) and the triangles inside every block after them
-  (:func:`swpm_usd.vcache.optimize_block_order`). ``inner_vertices > 1`` (SWPM 3.3): patches of several
-  inner vertices, fewer LODs, a smaller pool. ``order_passes`` (None: 2 here, 0 with ``cluster``) passes of
-  a local search then move patches up to ``order_reach`` places (default 2) wherever the FIFO misses summed
-  over the level's windows fall (:mod:`.sw_refine`; a warmer cache, the same pool and errors; more passes
-  and a longer reach for a longer build). ``coarsest_copy`` (default True): the coarsest LOD also stored on
-  its own after the last level, cache-ordered as one block, where it is small and that saves misses.
+  (:func:`swpm_usd.vcache.optimize_block_order`). ``inner_vertices > 1`` (SWPM 3.3): patches of several inner
+  vertices, fewer LODs, a smaller pool. ``order_passes`` (None: 2 here, 0 with ``cluster``) passes of a local
+  search then move patches up to ``order_reach`` places (default 2) wherever the FIFO misses summed over the
+  level's windows fall (:mod:`.sw_refine`; a warmer cache, the same pool and errors; more passes and a longer
+  reach for a longer build). ``coarsest_copy`` (default True): the coarsest LOD also stored on its own after
+  the last level, cache-ordered as one block, where it is small and that saves misses.
 * ``builder="forsyth"``: Forsyth's quadric-error order with the error-tolerance reordering
   (:mod:`.sw_forsyth`).
 * ``optimize_connectivity=True`` (SWPM 3.1): edge swaps creating low-degree vertices first, each moving the
@@ -290,16 +291,23 @@ def _adjacency(tp: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
 _ERROR_WEIGHT = 2.0
 
 #: rank a level's vertices (the ``mu`` cut and the error rank above) by their best collapse's quadric cost or
-#: the squared distance of its new fan from the input, whichever is larger (:mod:`.sw_deviation`; False: the
-#: quadric cost alone, until 2026-12-03). Ten shared meshes at the defaults, 30,000 samples: Hausdorff ratio
-#: to meshoptimizer at 50/25/10 % (geometric mean of 30) 1.546 -> 1.32, ACMR within 1.10 36 -> 37-38 of 40,
-#: lambda mean 5.339 -> 5.331
+#: how far its new fan lies from the input, whichever is larger (:mod:`.sw_deviation`; False: the quadric cost
+#: alone, until 2026-12-03). Ten shared meshes at the defaults, 100,000 samples: Hausdorff ratio to
+#: meshoptimizer at 50/25/10 % (geometric mean of 30) 1.55 -> 1.34, within 1.5 16 -> 21 of 30; ACMR within
+#: 1.10 36 -> 39 of 40; lambda mean 5.339 -> 5.303; builds about 1.3x as long (``slidingwindow.md``)
 _RANK_BY_DEVIATION = True
 #: fan samples nearer the input than this fraction of the bounding-box diagonal (and than the quadric cost)
 #: are not searched exactly: rounding, far below any error that matters
 _DEVIATION_FLOOR = 1e-6
+#: levels before this one take only the binned point's distance from its fan (level 0's fans lie over the
+#: input stars its quadrics hold exactly; the samples there changed nothing measurable and cost a third)
 _DEVIATION_FROM_LEVEL = 1
+#: the share of a level's vertices, the highest by quadric cost and binned point's distance, whose fan samples
+#: are searched (bunny: 96-100 % of the top tenth by the full ranking are in the top half of that one)
 _DEVIATION_SHARE = 0.5
+#: nodes a sample's search may open (512: the ten shared meshes build the same pools as without a limit; a
+#: cone of 80,000 sections 24 s without, 4.1 s with it)
+_DEVIATION_BUDGET = 512
 
 
 #: iterations of the centre search (:func:`sw_centres.grow_independent_set`) per eligible vertex: the
@@ -611,7 +619,7 @@ def _build_levels(
         rank_cs = cs
         if surface is not None:
             rank_cs = swd.deviation_costs(
-                st.pos_points, positions, ks, cs, stars.start, stars.tp, floor2, swd.SAMPLES[:0], *surface
+                st.pos_points, positions, ks, cs, stars.start, stars.tp, floor2, swd.SAMPLES[:0], 0, *surface
             )
             if len(levels) >= _DEVIATION_FROM_LEVEL and _DEVIATION_SHARE > 0:
                 cand = np.flatnonzero(ks >= 0)
@@ -626,6 +634,7 @@ def _build_levels(
                     stars.tp,
                     floor2,
                     swd.SAMPLES,
+                    _DEVIATION_BUDGET,
                     *surface,
                 )
         valid = ks >= 0

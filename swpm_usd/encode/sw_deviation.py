@@ -6,13 +6,14 @@ Heckbert, :func:`swpm_usd.simplify.kernels.collapse_cost`) is the area-weighted 
 kept point from the planes gathered by the binned one: it measures the kept vertex, not the interiors of the
 new fan's triangles, and on a later level a large region's mean dilutes one fold of it. A window's Hausdorff
 error is the *largest* distance of any of its triangles from the input, so :func:`deviation_costs` ranks a
-position's best collapse by the larger of its quadric cost and the squared distance from the input surface of
-the new fan's sample points (each fan triangle's centroid and edge midpoints).
+position's best collapse by the larger of its quadric cost, the squared distance from the input surface of
+the new fan's sample points (each fan triangle's centroid and new-edge midpoint) and the squared distance of
+the binned point (an input vertex) from the new fan.
 
 Most samples lie closer to the input than that larger value: a query stops at the first input triangle within
-it (the bounded search of :func:`_beyond`), so only the samples that raise a position's cost pay for an exact
-nearest-triangle search. The input's triangles sit in the bounding-volume hierarchy of
-:mod:`swpm_usd.metrics`.
+it (the bounded search of :func:`_beyond`), so a sample needs an exact nearest-triangle search only where it
+raises the position's cost, and each search opens at most ``budget`` nodes of the bounding-volume hierarchy
+(:mod:`swpm_usd.metrics`'s) over the input's triangles.
 """
 
 from __future__ import annotations
@@ -23,7 +24,8 @@ import numpy as np
 from ..metrics import _STACK, _box_dist2, _build_bvh, _tri_dist2
 
 #: per fan triangle ``(k, u, v)`` (barycentric weights): its centroid and the midpoint of its new edge ``k u``
-#: (the edge ``v k`` is the next fan triangle's ``k u``; ``u v`` is an edge of the mesh already)
+#: (``u v`` is an edge of the mesh already; ``v k`` is the next fan triangle's ``k u``, except at the end of a
+#: boundary vertex's fan, whose last new edge goes unsampled: the boundary quadrics hold that edge)
 SAMPLES = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0]], dtype=np.float64)
 
 
@@ -47,10 +49,13 @@ def _beyond(
     node_a: np.ndarray,
     node_b: np.ndarray,
     stack: np.ndarray,
+    budget: int,
 ) -> tuple[float, int]:
     """Squared distance from the point to the nearest triangle if it is above ``bound``, else some value at
     most ``bound`` (the search stops at the first triangle that close); and the leaf searched last, the
-    ``hint`` of the next, nearby query (its triangles are tried first)."""
+    ``hint`` of the next, nearby query (its triangles are tried first). A search that has opened ``budget``
+    nodes stops too and returns ``bound``: where thousands of long triangles meet (a cone's apex, a disc's
+    centre) every box holds the point and the search would be linear in them."""
     best = np.inf
     s = node_a[hint]
     for t in range(s, s - 1 - node_b[hint]):
@@ -67,6 +72,9 @@ def _beyond(
     stack[0] = 0
     sp = 1
     while sp > 0:
+        budget -= 1
+        if budget < 0:
+            return bound, hint
         sp -= 1
         n = stack[sp]
         if _box_dist2(px, py, pz, node_min, node_max, n) >= best:
@@ -143,6 +151,7 @@ def deviation_costs(
     star_tp: np.ndarray,
     floor2: float,
     samples: np.ndarray,
+    budget: int,
     tv: np.ndarray,
     node_min: np.ndarray,
     node_max: np.ndarray,
@@ -184,7 +193,7 @@ def deviation_costs(
                 px = w0 * pts[c0, 0] + w1 * pts[c1, 0] + w2 * pts[c2, 0]
                 py = w0 * pts[c0, 1] + w1 * pts[c1, 1] + w2 * pts[c2, 1]
                 pz = w0 * pts[c0, 2] + w1 * pts[c1, 2] + w2 * pts[c2, 2]
-                d, hint = _beyond(px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack)
+                d, hint = _beyond(px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget)
                 if d > m:
                     m = d
                     dev = d

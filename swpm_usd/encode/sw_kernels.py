@@ -7,7 +7,8 @@ triangles are ``0..T-1`` and every triangle a collapse rewrites gets a fresh id 
 to ``gtris``; ``cur_gid[t]`` is the id of the current version of state triangle ``t``.
 
 * :func:`position_graph` - the edge graph of a level's triangles (CSR over positions).
-* :func:`level_costs` - best valid collapse of every position (the error ranking behind ``mu``).
+* :func:`level_costs` - best valid collapse of every position (the error ranking behind ``mu``, with
+  :mod:`.sw_deviation`'s distance of the collapse's new fan from the input).
 * patch centres (independent sets, patches of several inner vertices): :mod:`.sw_centres`.
 * :func:`cluster_patches` - patch centres whose stars are disjoint intervals of the previous level's tail
   (``cluster=True``, SWPM section 3.2).
