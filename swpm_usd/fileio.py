@@ -34,7 +34,10 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
             f.flush()
-            os.fchmod(f.fileno(), 0o666 & ~_umask())
+            try:
+                os.fchmod(f.fileno(), 0o666 & ~_umask())
+            except (OSError, AttributeError):  # a filesystem without modes (vfat, some network mounts)
+                pass
             os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:
