@@ -479,6 +479,89 @@ def _box_dist2(px: float, py: float, pz: float, node_min: np.ndarray, node_max: 
     return d
 
 
+@njit(cache=True, inline="always")
+def _leaf_min2(
+    px: float, py: float, pz: float, tv_sorted: np.ndarray, first: int, count: int, best: float
+) -> float:
+    """The smaller of ``best`` and the squared distance to the triangles ``first .. first + count - 1``."""
+    for t in range(first, first + count):
+        d = _tri_dist2(
+            px, py, pz,
+            tv_sorted[t, 0, 0], tv_sorted[t, 0, 1], tv_sorted[t, 0, 2],
+            tv_sorted[t, 1, 0], tv_sorted[t, 1, 1], tv_sorted[t, 1, 2],
+            tv_sorted[t, 2, 0], tv_sorted[t, 2, 1], tv_sorted[t, 2, 2],
+        )  # fmt: skip
+        if d < best:
+            best = d
+    return best
+
+
+@njit(cache=True)
+def _nearest2(
+    px: float,
+    py: float,
+    pz: float,
+    bound: float,
+    hint: int,
+    tv_sorted: np.ndarray,
+    node_min: np.ndarray,
+    node_max: np.ndarray,
+    node_a: np.ndarray,
+    node_b: np.ndarray,
+    stack: np.ndarray,
+    budget: int,
+) -> tuple[float, int]:
+    """Squared distance from the point to the nearest triangle (branch and bound), and the leaf that held it,
+    the ``hint`` of the next, nearby query (its triangles seed the bound: coherent queries are cheap).
+
+    With ``bound >= 0`` the search may stop at the first triangle at most that close and return its distance
+    (the exact distance is returned whenever it is above ``bound``); after opening ``budget`` nodes it stops
+    and returns ``bound`` (where thousands of long triangles meet, at a cone's apex or a disc's centre,
+    every box holds the point and the search would be linear in them). ``bound = -1`` and an unreachable
+    ``budget``: the exact distance always."""
+    best = _leaf_min2(px, py, pz, tv_sorted, node_a[hint], max(-1 - node_b[hint], 0), np.inf)
+    if best <= bound:
+        return best, hint
+    stack[0] = 0
+    sp = 1
+    while sp > 0:
+        budget -= 1
+        if budget < 0:
+            return bound, hint
+        sp -= 1
+        n = stack[sp]
+        if _box_dist2(px, py, pz, node_min, node_max, n) >= best:
+            continue
+        b = node_b[n]
+        if b < 0:
+            d = _leaf_min2(px, py, pz, tv_sorted, node_a[n], -1 - b, best)
+            if d < best:
+                best = d
+                hint = n
+            if best <= bound:
+                return best, hint
+            continue
+        a = node_a[n]
+        da = _box_dist2(px, py, pz, node_min, node_max, a)
+        db = _box_dist2(px, py, pz, node_min, node_max, b)
+        # Push the farther child first so the nearer one is searched first.
+        if da <= db:
+            if db < best:
+                stack[sp] = b
+                sp += 1
+            if da < best:
+                stack[sp] = a
+                sp += 1
+        else:
+            if da < best:
+                stack[sp] = a
+                sp += 1
+            if db < best:
+                stack[sp] = b
+                sp += 1
+    return best, hint
+
+
 @njit(cache=True)
 def _query_bvh(
     q: np.ndarray,
@@ -494,61 +577,20 @@ def _query_bvh(
     stack = np.empty(_STACK, dtype=np.int64)
     hint = 0  # leaf that held the previous answer: a cheap first upper bound for coherent queries
     for i in range(nq):
-        px = q[i, 0]
-        py = q[i, 1]
-        pz = q[i, 2]
-        best = np.inf
-        # Seed the bound with the previous query's leaf.
-        s = node_a[hint]
-        for t in range(s, s - 1 - node_b[hint]):
-            d = _tri_dist2(
-                px, py, pz,
-                tv_sorted[t, 0, 0], tv_sorted[t, 0, 1], tv_sorted[t, 0, 2],
-                tv_sorted[t, 1, 0], tv_sorted[t, 1, 1], tv_sorted[t, 1, 2],
-                tv_sorted[t, 2, 0], tv_sorted[t, 2, 1], tv_sorted[t, 2, 2],
-            )  # fmt: skip
-            if d < best:
-                best = d
-        sp = 0
-        stack[0] = 0
-        sp = 1
-        while sp > 0:
-            sp -= 1
-            n = stack[sp]
-            if _box_dist2(px, py, pz, node_min, node_max, n) >= best:
-                continue
-            b = node_b[n]
-            if b < 0:
-                s = node_a[n]
-                for t in range(s, s - 1 - b):
-                    d = _tri_dist2(
-                        px, py, pz,
-                        tv_sorted[t, 0, 0], tv_sorted[t, 0, 1], tv_sorted[t, 0, 2],
-                        tv_sorted[t, 1, 0], tv_sorted[t, 1, 1], tv_sorted[t, 1, 2],
-                        tv_sorted[t, 2, 0], tv_sorted[t, 2, 1], tv_sorted[t, 2, 2],
-                    )  # fmt: skip
-                    if d < best:
-                        best = d
-                        hint = n
-                continue
-            a = node_a[n]
-            da = _box_dist2(px, py, pz, node_min, node_max, a)
-            db = _box_dist2(px, py, pz, node_min, node_max, b)
-            # Push the farther child first so the nearer one is searched first.
-            if da <= db:
-                if db < best:
-                    stack[sp] = b
-                    sp += 1
-                if da < best:
-                    stack[sp] = a
-                    sp += 1
-            else:
-                if da < best:
-                    stack[sp] = a
-                    sp += 1
-                if db < best:
-                    stack[sp] = b
-                    sp += 1
+        best, hint = _nearest2(
+            q[i, 0],
+            q[i, 1],
+            q[i, 2],
+            -1.0,
+            hint,
+            tv_sorted,
+            node_min,
+            node_max,
+            node_a,
+            node_b,
+            stack,
+            1 << 62,
+        )
         out[i] = np.sqrt(best)
     return out
 

@@ -1047,11 +1047,11 @@ def test_inline_finishing_builds_without_a_worker_on_this_thread_only(
 
 
 def test_the_bounded_search_is_exact_beyond_its_bound() -> None:
-    """``_beyond`` returns the exact squared distance to the nearest triangle when it exceeds the bound, and
-    otherwise some distance within the bound: random points against a bumpy sphere, brute force beside; out
-    of its node budget it returns the bound."""
+    """``metrics._nearest2`` returns the exact squared distance to the nearest triangle when it exceeds the
+    bound, and otherwise some distance within the bound: random points against a bumpy sphere, brute force
+    beside; out of its node budget it returns the bound."""
     from swpm_usd.encode import sw_deviation as swd
-    from swpm_usd.metrics import _STACK, point_triangle_distances
+    from swpm_usd.metrics import _STACK, _nearest2, point_triangle_distances
 
     s = _icosphere(2)
     rng = np.random.default_rng(3)
@@ -1064,7 +1064,7 @@ def test_the_bounded_search_is_exact_beyond_its_bound() -> None:
     beyond = within = 0
     for i in range(q.shape[0]):
         bound = float(rng.choice([0.0, exact[i] * 0.5, exact[i] * 2.0]))
-        d, hint = swd._beyond(q[i, 0], q[i, 1], q[i, 2], bound, hint, tv, nmin, nmax, na, nb, stack, 10**6)
+        d, hint = _nearest2(q[i, 0], q[i, 1], q[i, 2], bound, hint, tv, nmin, nmax, na, nb, stack, 10**6)
         if exact[i] > bound:
             assert d == pytest.approx(exact[i], rel=1e-9, abs=1e-15)
             beyond += 1
@@ -1074,7 +1074,7 @@ def test_the_bounded_search_is_exact_beyond_its_bound() -> None:
     assert beyond > 100 and within > 100
     # out of budget (no node may be opened, no hint leaf): the bound, as if the point were that near
     for i in range(20):
-        d, _ = swd._beyond(q[i, 0], q[i, 1], q[i, 2], 1e-12, 0, tv, nmin, nmax, na, nb, stack, 0)
+        d, _ = _nearest2(q[i, 0], q[i, 1], q[i, 2], 1e-12, 0, tv, nmin, nmax, na, nb, stack, 0)
         assert d == 1e-12 < exact[i]
 
 

@@ -11,9 +11,9 @@ the new fan's sample points (each fan triangle's centroid and new-edge midpoint)
 the binned point (an input vertex) from the new fan.
 
 Most samples lie closer to the input than that larger value: a query stops at the first input triangle within
-it (the bounded search of :func:`_beyond`), so a sample needs an exact nearest-triangle search only where it
-raises the position's cost, and each search opens at most ``budget`` nodes of the bounding-volume hierarchy
-(:mod:`swpm_usd.metrics`'s) over the input's triangles.
+it (the bounded search of :func:`swpm_usd.metrics._nearest2`, in the bounding-volume hierarchy of the input's
+triangles), so a sample needs an exact nearest-triangle search only where it raises the position's cost, and
+each search opens at most ``budget`` nodes.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ..metrics import _STACK, _box_dist2, _build_bvh, _tri_dist2
+from ..metrics import _STACK, _build_bvh, _nearest2, _tri_dist2
 
 #: per fan triangle ``(k, u, v)`` (barycentric weights): its centroid and the midpoint of its new edge ``k u``
 #: (``u v`` is an edge of the mesh already; ``v k`` is the next fan triangle's ``k u``, except at the end of a
@@ -34,85 +34,6 @@ def surface_bvh(points: np.ndarray, triangles: np.ndarray) -> tuple:
     tv = np.ascontiguousarray(np.asarray(points, np.float64)[np.asarray(triangles, np.int64)])
     order, node_min, node_max, node_a, node_b = _build_bvh(tv)
     return np.ascontiguousarray(tv[order]), node_min, node_max, node_a, node_b
-
-
-@nb.njit(cache=True, nogil=True)
-def _beyond(
-    px: float,
-    py: float,
-    pz: float,
-    bound: float,
-    hint: int,
-    tv: np.ndarray,
-    node_min: np.ndarray,
-    node_max: np.ndarray,
-    node_a: np.ndarray,
-    node_b: np.ndarray,
-    stack: np.ndarray,
-    budget: int,
-) -> tuple[float, int]:
-    """Squared distance from the point to the nearest triangle if it is above ``bound``, else some value at
-    most ``bound`` (the search stops at the first triangle that close); and the leaf searched last, the
-    ``hint`` of the next, nearby query (its triangles are tried first). A search that has opened ``budget``
-    nodes stops too and returns ``bound``: where thousands of long triangles meet (a cone's apex, a disc's
-    centre) every box holds the point and the search would be linear in them."""
-    best = np.inf
-    s = node_a[hint]
-    for t in range(s, s - 1 - node_b[hint]):
-        d = _tri_dist2(
-            px, py, pz,
-            tv[t, 0, 0], tv[t, 0, 1], tv[t, 0, 2],
-            tv[t, 1, 0], tv[t, 1, 1], tv[t, 1, 2],
-            tv[t, 2, 0], tv[t, 2, 1], tv[t, 2, 2],
-        )  # fmt: skip
-        if d < best:
-            best = d
-    if best <= bound:
-        return best, hint
-    stack[0] = 0
-    sp = 1
-    while sp > 0:
-        budget -= 1
-        if budget < 0:
-            return bound, hint
-        sp -= 1
-        n = stack[sp]
-        if _box_dist2(px, py, pz, node_min, node_max, n) >= best:
-            continue
-        b = node_b[n]
-        if b < 0:
-            s = node_a[n]
-            for t in range(s, s - 1 - b):
-                d = _tri_dist2(
-                    px, py, pz,
-                    tv[t, 0, 0], tv[t, 0, 1], tv[t, 0, 2],
-                    tv[t, 1, 0], tv[t, 1, 1], tv[t, 1, 2],
-                    tv[t, 2, 0], tv[t, 2, 1], tv[t, 2, 2],
-                )  # fmt: skip
-                if d < best:
-                    best = d
-                    hint = n
-            if best <= bound:
-                return best, hint
-            continue
-        a = node_a[n]
-        da = _box_dist2(px, py, pz, node_min, node_max, a)
-        db = _box_dist2(px, py, pz, node_min, node_max, b)
-        if da <= db:  # the nearer child on top of the stack
-            if db < best:
-                stack[sp] = b
-                sp += 1
-            if da < best:
-                stack[sp] = a
-                sp += 1
-        else:
-            if da < best:
-                stack[sp] = a
-                sp += 1
-            if db < best:
-                stack[sp] = b
-                sp += 1
-    return best, hint
 
 
 @nb.njit(cache=True, inline="always")
@@ -193,7 +114,9 @@ def deviation_costs(
                 px = w0 * pts[c0, 0] + w1 * pts[c1, 0] + w2 * pts[c2, 0]
                 py = w0 * pts[c0, 1] + w1 * pts[c1, 1] + w2 * pts[c2, 1]
                 pz = w0 * pts[c0, 2] + w1 * pts[c1, 2] + w2 * pts[c2, 2]
-                d, hint = _beyond(px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget)
+                d, hint = _nearest2(
+                    px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget
+                )
                 if d > m:
                     m = d
                     dev = d
