@@ -629,6 +629,22 @@ def test_tightened_budgets_or_streaming_and_changed_outputs_rebuild(tmp_path):
     assert res.failed == 1 and "budgets.global_bytes=1" in res.records["m/a.obj"]["error"]
     cfg.write_text(base + "budgets: {global_bytes: 1000000}\n")
     assert run(cfg, echo=lambda m: None).built == 1
+    # a looser or dropped limit lets through what passed before: nothing to build (a studio loosening a
+    # budget over thousands of assets rebuilds none of them)
+    for looser in ("budgets: {global_bytes: 2000000}\n", "", "budgets: {global_bytes: 1000000}\n"):
+        cfg.write_text(base + looser)
+        assert run(cfg, echo=lambda m: None).skipped == 1, looser
+    # a limit added, or a streaming order given, builds again; a minimum dropped does not
+    two = "budgets: {global_bytes: 1000000, instance_bytes: 1000000}\n"
+    for text, built in (
+        (two, 1),
+        (two + "streaming: {order: coarse-to-fine}\n", 1),
+        (two + "streaming: {order: coarse-to-fine, min_coarsest_triangles: 0}\n", 1),
+        (two + "streaming: {order: coarse-to-fine}\n", 0),
+    ):
+        cfg.write_text(base + text)
+        res = run(cfg, echo=lambda m: None)
+        assert (res.built, res.skipped) == (built, 1 - built), text
     cfg.write_text(base + "budgets: {global_bytes: 1000000}\nstreaming: {coarsest_lod_bytes: 1}\n")
     res = run(cfg, echo=lambda m: None)
     assert res.failed == 1 and "coarsest_lod_bytes" in res.records["m/a.obj"]["error"]
@@ -755,3 +771,30 @@ def test_json_output_on_failure_is_json(tmp_path):
     assert r.exit_code == 1 and summary["built"] == 1 and summary["failed"] == 1
     (failure,) = summary["failures"]
     assert failure["id"] == "m/broken.obj" and "broken.obj" in failure["error"]
+
+
+def test_checks_no_stricter_compares_limits_by_their_direction():
+    from swpm_usd.pipeline.assets import checks_no_stricter
+
+    then = {
+        "budgets": {"global_bytes": 100},
+        "streaming": {"min_coarsest_triangles": 8, "order": "coarse-to-fine"},
+    }
+    same = {
+        "budgets": {"global_bytes": 100},
+        "streaming": {"min_coarsest_triangles": 8, "order": "coarse-to-fine"},
+    }
+    assert checks_no_stricter(same, then)
+    assert checks_no_stricter({**same, "budgets": {"global_bytes": 101}}, then)  # a larger maximum
+    assert not checks_no_stricter({**same, "budgets": {"global_bytes": 99}}, then)
+    assert not checks_no_stricter({**same, "budgets": {"global_bytes": 100, "total_bytes": 10**9}}, then)
+    looser_min = {**same, "streaming": {"min_coarsest_triangles": 4, "order": "coarse-to-fine"}}
+    assert checks_no_stricter(looser_min, then)  # a smaller minimum
+    assert not checks_no_stricter(
+        looser_min | {"budgets": {}}, {**then, "budgets": {}} | {"streaming": {"min_coarsest_triangles": 2}}
+    )
+    assert checks_no_stricter(
+        {"budgets": {}, "streaming": {"order": "coarse-to-fine"}}, then
+    )  # limits dropped
+    assert not checks_no_stricter({"budgets": {"global_bytes": 100}, "streaming": {}}, then)  # order dropped
+    assert not checks_no_stricter(same, None)  # a record without its checks

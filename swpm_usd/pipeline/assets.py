@@ -202,6 +202,39 @@ def checks_of(data: dict[str, Any]) -> dict[str, Any]:
     return {"budgets": data.get("budgets") or {}, "streaming": data.get("streaming") or {}}
 
 
+#: the limits of :func:`checks_of` that a larger value loosens, and the one a smaller value loosens
+_MAXIMA = {
+    ("budgets", "total_bytes"),
+    ("budgets", "global_bytes"),
+    ("budgets", "instance_bytes"),
+    ("streaming", "coarsest_lod_bytes"),
+    ("streaming", "max_lods"),
+}
+_MINIMA = {("streaming", "min_coarsest_triangles")}
+
+
+def checks_no_stricter(now: dict[str, Any], then: dict[str, Any] | None) -> bool:
+    """Does an asset that passed the checks ``then`` pass ``now`` without being built again: every limit of
+    ``now`` as loose as ``then``'s or looser (a limit dropped is looser, one added is not), every other
+    setting (the streaming order) the same? ``then`` None (a record without its checks): no."""
+    if then is None:
+        return False
+    for section in ("budgets", "streaming"):
+        a, b = now.get(section) or {}, then.get(section) or {}
+        for key in set(a) | set(b):
+            if key not in a and ((section, key) in _MAXIMA or (section, key) in _MINIMA):
+                continue  # dropped
+            if (section, key) in _MAXIMA:
+                if key not in b or a[key] < b[key]:
+                    return False
+            elif (section, key) in _MINIMA:
+                if key not in b or a[key] > b[key]:
+                    return False
+            elif a.get(key) != b.get(key):
+                return False
+    return True
+
+
 def treatment_digest(
     input_digest: str,
     asset: Asset,
@@ -210,9 +243,9 @@ def treatment_digest(
     checks: dict[str, Any] | None = None,
 ) -> str:
     """What decides whether an asset's outputs are current: its inputs, prim, instances, encoding and
-    parameters (:func:`canonical_treatment`: a default written out changes nothing), the budgets and
-    streaming policy it was checked against (:func:`checks_of`: a tightened budget re-checks it), and the
-    tool's version."""
+    parameters (:func:`canonical_treatment`: a default written out changes nothing), for ``encoding: auto``
+    the budgets and streaming policy it chose by (:func:`checks_of`; other encodings keep their checks in
+    their record, and :func:`checks_no_stricter` decides), and the tool's version."""
     payload = json.dumps(
         [input_digest, asset.prim, asset.instances, canonical_treatment(treatment), checks or {}, version],
         sort_keys=True,

@@ -4,8 +4,10 @@ The run manifest (``<output>/manifest.json``) is rewritten atomically as assets 
 second, and at once when the run ends, fails or is stopped with Ctrl-C), so an interrupted run keeps every
 earlier result (a kill loses at most the last second's) and a rerun only does what is left. An asset
 is up to date when the digest of its input files, its resolved rule, parameters (defaults filled in, so
-writing one out rebuilds nothing), the budgets and streaming policy it is checked against and the tool version
-equal the manifest's, and its outputs are still there with the recorded size and sha256.
+writing one out rebuilds nothing) and the tool version equal the manifest's (for ``encoding: auto`` also the
+budgets and streaming policy it chose by), the budgets and streaming limits are as loose as those it passed
+(:func:`.assets.checks_no_stricter`: loosening a budget rebuilds nothing, tightening one checks again), and
+its outputs are still there with the recorded size and sha256.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import __version__
-from .assets import Asset, checks_of, discover, file_digest, match_rule, treatment_digest
+from .assets import Asset, checks_no_stricter, checks_of, discover, file_digest, match_rule, treatment_digest
 from .config import Config, ConfigError, load_config
 from .worker import atomic_write_bytes, process_asset
 
@@ -99,7 +101,8 @@ def _write_manifest(path: Path, manifest: dict, text: _ManifestText | None = Non
 
 
 def _treatment_digest(cfg: Config, item: PlanItem) -> str:
-    return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, checks_of(cfg.data))
+    checks = checks_of(cfg.data) if item.treatment.get("encoding") == "auto" else None
+    return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, checks)
 
 
 def _count_triangles(asset: Asset) -> int:
@@ -144,6 +147,11 @@ def plan(
         item.up_to_date = (
             prev.get("status") == "built"
             and prev.get("digest") == item.digest
+            # (auto's checks are in its digest; another encoding passes limits as loose as it passed before)
+            and (
+                item.treatment.get("encoding") == "auto"
+                or checks_no_stricter(checks_of(cfg.data), prev.get("checks"))
+            )
             and all(_output_intact(out_dir / o["path"], o) for o in outs.values())
             and bool(outs) == _wants_outputs(cfg)
         )

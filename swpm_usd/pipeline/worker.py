@@ -271,9 +271,8 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
             )
             encoding, params = treatment["encoding"], treatment["params"]
             rec["rule_index"] = rule
-            rec["digest"] = treatment_digest(
-                task["input_digest"], asset, treatment, __version__, checks_of(task["config_data"])
-            )
+            checks = checks_of(task["config_data"]) if treatment["encoding"] == "auto" else None
+            rec["digest"] = treatment_digest(task["input_digest"], asset, treatment, __version__, checks)
         candidates = None
         if encoding == "auto":
             storable = None
@@ -323,6 +322,7 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
             usd_write(pm, target)
             outputs["usd"] = {"path": target.name, "sha256": sha256_file(target)}
         rec["outputs"] = outputs
+        rec["checks"] = {"budgets": task["budgets"] or {}, "streaming": task["streaming"] or {}}  # passed
         rec["status"] = "built"
     except Exception as exc:  # noqa: BLE001 - one asset's failure must not stop the others
         rec["error"] = f"{type(exc).__name__}: {exc}"
