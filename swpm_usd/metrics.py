@@ -608,13 +608,19 @@ def _triangle_vertices(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(pts[tri])  # (T, 3, 3)
 
 
-def _distances_to(query: np.ndarray, tv: np.ndarray) -> np.ndarray:
+def surface_bvh(tv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The triangles ``tv`` (T, 3, 3) in BVH order, and the BVH's nodes: (tv_sorted, node_min, node_max,
+    node_a, node_b), the arguments of :func:`_query_bvh` and :func:`_nearest2` after the query."""
     order, node_min, node_max, node_a, node_b = _build_bvh(tv)
-    tv_sorted = np.ascontiguousarray(tv[order])
+    return np.ascontiguousarray(tv[order]), node_min, node_max, node_a, node_b
+
+
+def _distances_to(query: np.ndarray, tv: np.ndarray) -> np.ndarray:
+    bvh = surface_bvh(tv)
     q = np.ascontiguousarray(np.asarray(query, dtype=np.float64).reshape(-1, 3))
     if q.shape[0] == 0:
         return np.zeros(0, dtype=np.float64)
-    return _query_bvh(q, tv_sorted, node_min, node_max, node_a, node_b)
+    return _query_bvh(q, *bvh)
 
 
 def point_triangle_distances(query_points: np.ndarray, points: np.ndarray, tris: np.ndarray) -> np.ndarray:

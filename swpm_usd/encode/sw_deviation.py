@@ -21,7 +21,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ..metrics import _STACK, _build_bvh, _nearest2, _tri_dist2
+from .. import metrics
+from ..metrics import _STACK, _nearest2, _tri_dist2
 
 #: per fan triangle ``(k, u, v)`` (barycentric weights): its centroid and the midpoint of its new edge ``k u``
 #: (``u v`` is an edge of the mesh already; ``v k`` is the next fan triangle's ``k u``, except at the end of a
@@ -30,10 +31,8 @@ SAMPLES = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0]], dtype=np.float64)
 
 
 def surface_bvh(points: np.ndarray, triangles: np.ndarray) -> tuple:
-    """The input surface for :func:`deviation_costs`: its triangles' corners sorted into a BVH."""
-    tv = np.ascontiguousarray(np.asarray(points, np.float64)[np.asarray(triangles, np.int64)])
-    order, node_min, node_max, node_a, node_b = _build_bvh(tv)
-    return np.ascontiguousarray(tv[order]), node_min, node_max, node_a, node_b
+    """The input surface for :func:`deviation_costs`: its triangles sorted into a BVH (as metrics' own)."""
+    return metrics.surface_bvh(metrics._triangle_vertices(points, triangles))
 
 
 @nb.njit(cache=True, inline="always")

@@ -160,6 +160,11 @@ def plan(
     return items, problems, warnings
 
 
+#: temporary files a run leaves in output.dir if it is killed (the atomic writes' and the scene's), which the
+#: next run deletes
+_TEMPORARY = (".*.tmp", ".*.tmp.usda")
+
+
 def _unusable_out_dir(cfg: Config, out_dir: Path) -> list[str]:
     """output.dir must be a folder, or creatable: not an existing file, nor under one."""
     for p in (out_dir, *out_dir.parents):
@@ -241,7 +246,7 @@ def _overwritten_inputs(
             )
     for path, what in sources.values():
         if path.parent.resolve() == out_dir.resolve() and (
-            fnmatch.fnmatch(path.name, ".*.tmp") or fnmatch.fnmatch(path.name, ".*.tmp.usda")
+            any(fnmatch.fnmatch(path.name, pattern) for pattern in _TEMPORARY)
         ):
             problems.append(
                 f"{cfg.where(('output', 'dir'))}: {_rel(cfg, path)} ({what}) is named like a temporary file "
@@ -427,7 +432,7 @@ def run(
             skipped = sum(i.up_to_date for i in items)
             return RunResult({}, 0, skipped, 0, warnings, 0.0, manifest_path, planned)
     _make_out_dir(cfg, out_dir)
-    for stale in [*out_dir.glob(".*.tmp"), *out_dir.glob(".*.tmp.usda")]:  # left by a killed run
+    for stale in [p for pattern in _TEMPORARY for p in out_dir.glob(pattern)]:  # left by a killed run
         stale.unlink(missing_ok=True)
     todo = [it for it in items if force or not it.up_to_date]
     records = {k: v for k, v in manifest.get("assets", {}).items() if k in {i.asset.id for i in items}}

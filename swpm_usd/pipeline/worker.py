@@ -322,7 +322,9 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
             usd_write(pm, target)
             outputs["usd"] = {"path": target.name, "sha256": sha256_file(target)}
         rec["outputs"] = outputs
-        rec["checks"] = {"budgets": task["budgets"] or {}, "streaming": task["streaming"] or {}}  # passed
+        from .assets import checks_of
+
+        rec["checks"] = checks_of(task)  # passed (the task carries the config's budgets and streaming)
         rec["status"] = "built"
     except Exception as exc:  # noqa: BLE001 - one asset's failure must not stop the others
         rec["error"] = f"{type(exc).__name__}: {exc}"
