@@ -299,9 +299,10 @@ _RANK_BY_DEVIATION = True
 #: fan samples nearer the input than this fraction of the bounding-box diagonal (and than the quadric cost)
 #: are not searched exactly: rounding, far below any error that matters
 _DEVIATION_FLOOR = 1e-6
-#: levels before this one take only the binned point's distance from its fan (level 0's fans lie over the
-#: input stars its quadrics hold exactly; the samples there changed nothing measurable and cost a third)
-_DEVIATION_FROM_LEVEL = 1
+#: levels before this one take only the binned point's distance from its fan. 0: every level samples its fans
+#: (ten meshes, 100,000 samples: Hausdorff ratio within 1.5 on 23 of 30 points, geomean 1.291, against 21 and
+#: 1.337 from level 1: level 0's costliest fans set the error of every window after it; cow builds 1.09x)
+_DEVIATION_FROM_LEVEL = 0
 #: the share of a level's vertices, the highest by quadric cost and binned point's distance, whose fan samples
 #: are searched (bunny: 96-100 % of the top tenth by the full ranking are in the top half of that one)
 _DEVIATION_SHARE = 0.5
