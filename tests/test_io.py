@@ -550,6 +550,66 @@ def test_garbage_bytes(tmp_path: Path, ext: str) -> None:
     assert err.value.path == str(path)
 
 
+def _stl_bytes(file_type: str = "stl") -> bytes | str:
+    return trimesh.creation.icosphere(subdivisions=2).export(file_type=file_type)  # 320 triangles
+
+
+@pytest.mark.parametrize(
+    ("keep", "problem"),
+    [
+        (8042, r"truncated binary STL: header says 320 triangles \(16084 bytes\), the file has 8042 bytes"),
+        (84 + 50 * 3 + 20, r"truncated binary STL: .*the file has 254 bytes"),  # inside a triangle record
+        (84, r"truncated binary STL: header says 320 triangles \(16084 bytes\), the file has 84 bytes"),
+        (60, r"truncated binary STL: 60 bytes, shorter than the 84-byte header"),
+        (0, r"no triangles: the file is empty"),
+    ],
+)
+def test_truncated_binary_stl_says_so(tmp_path: Path, keep: int, problem: str) -> None:
+    # trimesh takes a binary STL whose length disagrees with its header for ASCII and found "no triangles"
+    path = tmp_path / "cut.stl"
+    path.write_bytes(_stl_bytes()[:keep])
+    with pytest.raises(MeshLoadError, match=r"cut\.stl: " + problem) as err:
+        load_mesh(path)
+    assert err.value.path == str(path)
+
+
+def test_binary_stl_longer_than_its_header_or_not_stl(tmp_path: Path) -> None:
+    path = tmp_path / "long.stl"
+    path.write_bytes(_stl_bytes() + b"xyz")
+    with pytest.raises(MeshLoadError, match=r"long\.stl: not a valid binary STL: .*16087 bytes \(3 bytes"):
+        load_mesh(path)
+    path = tmp_path / "text.stl"
+    path.write_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n" * 8)
+    with pytest.raises(MeshLoadError, match=r"text\.stl: not an STL file: not ASCII STL \(no 'solid'"):
+        load_mesh(path)
+
+
+def test_binary_stl_whose_header_starts_with_solid_loads(tmp_path: Path) -> None:
+    # some exporters write "solid" into a binary header: its length, not its first word, makes it binary
+    data = _stl_bytes()
+    path = tmp_path / "solid.stl"
+    path.write_bytes(b"solid made by some exporter".ljust(80, b" ") + data[80:])
+    assert load_mesh(path).triangle_count == 320
+
+
+@pytest.mark.parametrize("cut", ["vertex", "endloop", "endfacet"])
+def test_ascii_stl_cut_mid_facet_says_where(tmp_path: Path, cut: str) -> None:
+    text = _stl_bytes("stl_ascii")
+    at = text.index(cut, len(text) // 2) + 3  # inside the keyword, past the middle of the file
+    path = tmp_path / "cut.stl"
+    path.write_text(text[:at])
+    facets = text[:at].count("endfacet")
+    line = text[:at].count("\n") + 1
+    with pytest.raises(
+        MeshLoadError,
+        match=rf"cut\.stl: truncated ASCII STL: the text stops at line {line} after {facets} complete facets,"
+        r" without the closing 'endsolid'",
+    ):
+        load_mesh(path)
+    path.write_text(text)  # the whole file loads
+    assert load_mesh(path).triangle_count == 320
+
+
 def test_missing_unsupported_and_directory(tmp_path: Path) -> None:
     with pytest.raises(MeshLoadError, match=r"nope\.obj: file not found"):
         load_mesh(tmp_path / "nope.obj")

@@ -6,6 +6,10 @@ and picks the median ``vt`` / ``vn`` index for it, which silently destroys UV an
 triangle geometry of the scene is taken with its scene-graph transform applied and the parts are
 concatenated; per-vertex ``normal``, ``uv`` and ``color`` (RGBA float in [0, 1]) are kept when every part
 has them. Any trimesh failure becomes a :class:`~swpm_usd.errors.MeshLoadError` naming the file.
+
+STL files are checked before trimesh reads them (:func:`check_stl`): trimesh takes a binary STL whose length
+disagrees with its header for ASCII, and drops an ASCII solid without its ``endsolid``, so a cut file would
+load as "no triangles" (or as part of its triangles) instead of being reported as truncated.
 """
 
 from __future__ import annotations
@@ -20,6 +24,52 @@ from ..mesh import Mesh
 from .clean import clean_mesh, concatenate_parts, rgba_float, split_corners, transform_part
 
 _TEXT_TYPES = ("obj", "off")
+#: a binary STL: an 80-byte header, the triangle count (uint32), then 50 bytes per triangle
+_STL_HEADER_BYTES = 84
+_STL_TRIANGLE_BYTES = 50
+
+
+def check_stl(path: Path, data: bytes) -> None:
+    """Raise a :class:`MeshLoadError` if ``data`` (the bytes of the STL file ``path``) is cut short.
+
+    A binary STL must be exactly 84 + 50 x (its header's triangle count) bytes (the test trimesh reads it
+    by); anything else is taken for ASCII, which starts with ``solid`` and holds no NUL byte. A file that is
+    neither is reported with the sizes: expected by its header against actual. An ASCII STL must close its
+    last facet with an ``endsolid``: text stopping earlier is reported with the line it stops at.
+    """
+    size = len(data)
+    if size >= _STL_HEADER_BYTES:
+        count = int.from_bytes(data[80:84], "little")
+        expected = _STL_HEADER_BYTES + _STL_TRIANGLE_BYTES * count
+        if size == expected:
+            return
+    ascii_like = data[:256].lstrip()[:5].lower() == b"solid" and b"\x00" not in data
+    if ascii_like:
+        text = data.lower()
+        if text.rfind(b"endsolid") < text.rfind(b"facet"):  # a facet after the last endsolid, or none
+            lines = data.count(b"\n") + (not data.endswith(b"\n"))
+            raise MeshLoadError(
+                path,
+                f"truncated ASCII STL: the text stops at line {lines} after {text.count(b'endfacet')} "
+                f"complete facets, without the closing 'endsolid'",
+            )
+        return
+    if size == 0:
+        raise MeshLoadError(path, "no triangles: the file is empty (0 bytes)")
+    if size < _STL_HEADER_BYTES:
+        raise MeshLoadError(
+            path,
+            f"truncated binary STL: {size} bytes, shorter than the {_STL_HEADER_BYTES}-byte header "
+            f"(and not ASCII STL: it does not start with 'solid')",
+        )
+    what = f"header says {count} triangles ({expected} bytes), the file has {size} bytes"
+    if b"\x00" not in data:  # text, but no 'solid'
+        raise MeshLoadError(
+            path, f"not an STL file: not ASCII STL (no 'solid' at the start) nor binary STL ({what})"
+        )
+    if size < expected:
+        raise MeshLoadError(path, f"truncated binary STL: {what}")
+    raise MeshLoadError(path, f"not a valid binary STL: {what} ({size - expected} bytes too many)")
 
 
 def _geometry_part(geom: object) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]] | None:
@@ -65,7 +115,11 @@ def load_trimesh(path: Path) -> Mesh:
 
     file_type = path.suffix.lower().lstrip(".")
     try:
-        if file_type in _TEXT_TYPES:
+        if file_type == "stl":
+            data = path.read_bytes()
+            check_stl(path, data)
+            scene = trimesh.load_scene(io.BytesIO(data), file_type=file_type, process=False)
+        elif file_type in _TEXT_TYPES:
             # trimesh needs the optional charset_normalizer to guess the encoding of non-UTF-8 text and fails
             # without it: hand it UTF-8 (non-UTF-8 bytes are read as Latin-1, which only occurs in comments
             # and names of a valid file)
