@@ -9,6 +9,7 @@ from __future__ import annotations
 import hashlib
 import json
 import sys
+import time
 from pathlib import Path
 
 import click
@@ -82,8 +83,14 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     metavar="NAME=VALUE",
     help="Encoding parameter (repeatable), value parsed as JSON when it can be.",
 )
-def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, ...]) -> None:
-    """Build INPUT with an encoding and write it as an SWPM v1 file."""
+@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, ...], as_json: bool) -> None:
+    """Build INPUT with an encoding and write it as an SWPM v1 file.
+
+    \b
+    Examples:
+      swpm-pipeline encode samples/spot.obj -o spot.swpm --json
+    """
     from ..build import build
     from .writer import save
 
@@ -92,19 +99,39 @@ def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, .
         raise click.BadParameter(f"{output} is the input: it would be overwritten", param_hint="--output")
     if Path(output).suffix.lower() != ".swpm":
         raise click.BadParameter(f"{output}: the output must be a .swpm file", param_hint="--output")
+    start = time.perf_counter()
     try:
         pm = build(input_path, encoding, **parsed)
+        seconds = time.perf_counter() - start
         digest = None
         if Path(input_path).is_file():
             digest = "sha256:" + hashlib.sha256(Path(input_path).read_bytes()).hexdigest()
         save(pm, output, source_digest=digest)
+        size = Path(output).stat().st_size
     except (SwpmError, OSError, ValueError) as exc:
         click.echo(f"error: {exc}", err=True)
+        if as_json:
+            click.echo(json.dumps({"input": input_path, "output": output, "error": str(exc)}, indent=2))
         sys.exit(1)
-    click.echo(
-        f"{output}: {pm.encoding}, {pm.lod_count} LODs, {pm.vertex_count} vertices, "
-        f"{Path(output).stat().st_size} bytes"
-    )
+    if as_json:
+        out = {
+            "input": input_path,
+            "output": output,
+            "encoding": pm.encoding,
+            "params": pm.params,
+            "lod_count": pm.lod_count,
+            "vertices": pm.vertex_count,
+            "triangles": pm.triangle_count_at(0),
+            "coarsest_triangles": pm.triangle_count_at(pm.lod_count - 1),
+            "bytes": size,
+            "global_bytes": pm.global_bytes,
+            "instance_bytes": pm.instance_bytes,
+            "source_digest": digest,
+            "build_seconds": seconds,
+        }
+        click.echo(json.dumps(out, indent=2, default=float))
+        return
+    click.echo(f"{output}: {pm.encoding}, {pm.lod_count} LODs, {pm.vertex_count} vertices, {size} bytes")
 
 
 @click.command("inspect")
