@@ -14,6 +14,7 @@ import numpy as np
 
 from . import __version__
 from .errors import SwpmError
+from .format.cli import EncodingsHelpCommand, EncodingsHelpGroup
 
 
 def _lod_rows(pm, max_rows: int) -> list[dict]:
@@ -39,7 +40,7 @@ def _lod_rows(pm, max_rows: int) -> list[dict]:
     return rows
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(cls=EncodingsHelpGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="swpm-pipeline")
 def main() -> None:
     """Turn meshes into view-independent progressive meshes (vanilla, skip-strip, mixed, sliding-window).
@@ -48,19 +49,23 @@ def main() -> None:
     Examples:
       swpm-pipeline build samples/spot.obj --encoding vanilla
       swpm-pipeline build samples/spot.obj --encoding vanilla --json
+      swpm-pipeline encode spot.obj -o spot.swpm -e skip-strip -p primitive=list
+      swpm-pipeline run samples/pipeline.yaml --jobs 4
     """
 
 
-@main.command("build")
+@main.command("build", cls=EncodingsHelpCommand)
 @click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
-@click.option("--encoding", "-e", default="vanilla", show_default=True, help="Encoding to build.")
+@click.option(
+    "--encoding", "-e", default="vanilla", show_default=True, help="Encoding to build (listed below)."
+)
 @click.option(
     "--param",
     "-p",
     "params",
     multiple=True,
     metavar="NAME=VALUE",
-    help="Encoding parameter (repeatable), value parsed as JSON when it can be: -p mu=0.2",
+    help="Encoding parameter (repeatable, listed below), value parsed as JSON when it can be: -p mu=0.2",
 )
 @click.option("--rows", default=12, show_default=True, help="How many LODs the table shows.")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")

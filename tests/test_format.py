@@ -347,6 +347,34 @@ def test_encode_json_reports_the_written_file_and_failures_as_json(tmp_path: Pat
     assert r.exit_code == 2 and r.stdout == "" and "--encoding" in r.stderr
 
 
+def test_help_lists_the_registered_encodings_and_their_parameters(monkeypatch: pytest.MonkeyPatch) -> None:
+    from swpm_usd.cli import main
+    from swpm_usd.encode import BUILDERS
+
+    # an encoding registered later is listed too: the help is read from the registry
+    extra = {**BUILDERS["vanilla"][1], "knob": 3, "mode": "fast", "flag": False, "auto_pick": None}
+    monkeypatch.setitem(BUILDERS, "test-encoding", (BUILDERS["vanilla"][0], extra))
+    runner = CliRunner()
+    helps = {cmd: runner.invoke(main, [cmd, "--help"]) for cmd in ("encode", "build")}
+    helps["group"] = runner.invoke(main, ["--help"])
+    for name, r in helps.items():
+        assert r.exit_code == 0, r.output
+        assert all(len(line) <= 80 for line in r.output.splitlines()), (name, r.output)
+        listed = r.output[r.output.index("Encodings (--encoding):") :]
+        for encoding in BUILDERS:
+            assert re.search(rf"^    {re.escape(encoding)}( |$)", listed, re.M), (name, encoding)
+        assert "boundary_weight=8.0 seam_weight=2.0" in listed  # the parameters every encoding takes
+    for name in ("encode", "build"):
+        text = " ".join(helps[name].output.split())
+        for encoding, (_, defaults) in BUILDERS.items():
+            for param, value in defaults.items():
+                shown = value if isinstance(value, str) else json.dumps(value)
+                assert f"{param}={shown}" in text, (name, encoding, param)
+        assert "knob=3 mode=fast flag=false auto_pick=null" in text
+        assert "-e, --encoding" in text and "-p, --param NAME=VALUE" in text  # the options keep their names
+    assert "knob" not in helps["group"].output and "swpm-pipeline encode --help" in helps["group"].output
+
+
 # -- mixed ---------------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def cow_mixed() -> swpm_usd.ProgressiveMesh:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import hashlib
 import json
 import sys
+import textwrap
 import time
 from pathlib import Path
 
@@ -58,7 +59,73 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     return parsed
 
 
-@click.command("encode")
+#: one line per encoding for ``--help`` (an encoding registered in ``BUILDERS`` without one is listed bare)
+_ENCODING_SUMMARY = {
+    "vanilla": "each instance edits its own index buffer (collapse records)",
+    "skip-strip": "multilevel skip strips or lists, cache-ordered per level",
+    "mixed": "per level a shared static and a per-instance dynamic list",
+    "sliding-window": "one static index pool; a LOD change is a table look-up",
+}
+
+
+def _param_value(value: object) -> str:
+    """A default as it is given to ``-p``: strings bare, the rest as JSON (true, null, 0.25)."""
+    return value if isinstance(value, str) else json.dumps(value)
+
+
+def encodings_help(parameters: bool = True) -> str:
+    """The encodings of :data:`swpm_usd.encode.BUILDERS` as help text: each one's name and summary, then
+    the parameters every encoding takes (with the same default) and, with ``parameters``, each encoding's
+    own, with their defaults. Paragraphs start with click's ``\\b``, so the columns are kept."""
+    from ..encode import BUILDERS
+
+    defaults = [d for _, d in BUILDERS.values()]
+    shared = {k: v for k, v in defaults[0].items() if all(k in d and d[k] == v for d in defaults)}
+    width = max(len(name) for name in BUILDERS) + 2
+
+    def assignments(values: dict) -> str:
+        return " ".join(f"{k}={_param_value(v)}" for k, v in values.items())
+
+    lines = ["\b", "Encodings (--encoding):"]
+    for name, (_, params) in BUILDERS.items():
+        lines.append(f"  {name:<{width}}{_ENCODING_SUMMARY.get(name, '')}".rstrip())
+        own = {k: v for k, v in params.items() if k not in shared}
+        if parameters and own:
+            lines += [f"  {'':<{width}}{line}" for line in textwrap.wrap(assignments(own), 76 - width)]
+    if shared:
+        lines += ["", "\b", "Parameters of every encoding (-p NAME=VALUE, defaults shown):"]
+        lines += [f"  {line}" for line in textwrap.wrap(assignments(shared), 74)]
+    if parameters and any(v is None for d in defaults for v in d.values()):
+        lines += ["", "A default of null: the encoder picks the value from the other parameters."]
+    return "\n".join(lines)
+
+
+class EncodingsHelpCommand(click.Command):
+    """A command whose ``--help`` ends with the encodings and their parameters (:func:`encodings_help`),
+    read from the registry when the help is shown (so ``--version`` and the commands import nothing more)."""
+
+    def format_epilog(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        super().format_epilog(ctx, formatter)
+        formatter.write_paragraph()
+        with formatter.indentation():
+            formatter.write_text(encodings_help(parameters=True))
+
+
+class EncodingsHelpGroup(click.Group):
+    """The command group: its ``--help`` ends with the encodings and the parameters every encoding takes."""
+
+    def format_epilog(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        super().format_epilog(ctx, formatter)
+        formatter.write_paragraph()
+        with formatter.indentation():
+            formatter.write_text(
+                encodings_help(parameters=False)
+                + "\n\nEach encoding's own parameters: swpm-pipeline encode --help. In a pipeline config,"
+                + " encoding: auto picks one of them per asset."
+            )
+
+
+@click.command("encode", cls=EncodingsHelpCommand)
 @click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
 @click.option(
     "-o",
@@ -73,7 +140,7 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     "-e",
     default="vanilla",
     show_default=True,
-    help="vanilla, sliding-window, skip-strip or mixed.",
+    help="Encoding to build (listed below).",
 )
 @click.option(
     "--param",
@@ -81,7 +148,7 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     "params",
     multiple=True,
     metavar="NAME=VALUE",
-    help="Encoding parameter (repeatable), value parsed as JSON when it can be.",
+    help="Encoding parameter (repeatable, listed below), value parsed as JSON when it can be.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, ...], as_json: bool) -> None:
@@ -90,6 +157,7 @@ def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, .
     \b
     Examples:
       swpm-pipeline encode samples/spot.obj -o spot.swpm --json
+      swpm-pipeline encode spot.obj -o spot.swpm -e skip-strip -p primitive=list
     """
     from ..build import build
     from .writer import save
@@ -271,4 +339,12 @@ def conformance_cmd(vector_dir: str, as_json: bool) -> None:
     sys.exit(1 if failed else 0)
 
 
-__all__ = ["conformance_cmd", "encode_cmd", "inspect_cmd", "validate_cmd"]
+__all__ = [
+    "EncodingsHelpCommand",
+    "EncodingsHelpGroup",
+    "conformance_cmd",
+    "encode_cmd",
+    "encodings_help",
+    "inspect_cmd",
+    "validate_cmd",
+]
