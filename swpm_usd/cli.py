@@ -142,8 +142,10 @@ def run_cmd(
     \b
     Per asset: the first matching rule picks the encoding and its parameters; the asset is built, its
     streaming order validated and its outputs written atomically under output.dir, with manifest.json
-    and report.html. Unchanged assets are skipped. Exit 0 when every asset built, 1 when any failed,
-    2 when the configuration is invalid (every problem listed as FILE:LINE:COL: $.path: message).
+    and report.html. Unchanged assets are skipped. An asset built before whose rebuild fails keeps its
+    previous build (outputs, manifest record, place in the scene) and is reported as failed. Exit 0 when
+    every asset built, 1 when any failed, 2 when the configuration is invalid (every problem listed as
+    FILE:LINE:COL: $.path: message).
     """
     from .pipeline import ConfigError, run
 
@@ -173,9 +175,8 @@ def run_cmd(
             "seconds": res.seconds,
             "manifest": str(res.manifest_path),
             "failures": [
-                {"id": rid, "error": rec.get("error")}
-                for rid, rec in sorted(res.records.items())
-                if rec.get("status") == "failed"
+                {"id": rid, "error": rec.get("error"), "kept_previous": rec["kept_previous"]}
+                for rid, rec in sorted(res.failures.items())
             ],
         }
         if dry_run or explain:
@@ -186,9 +187,13 @@ def run_cmd(
             f"{res.built} built, {res.skipped} up to date, {res.failed} failed in {res.seconds:.1f} s; "
             f"manifest {res.manifest_path}"
         )
-        for rid, rec in sorted(res.records.items()):
-            if rec.get("status") == "failed":
-                click.echo(f"FAILED {rid}: {rec.get('error')}", err=True)
+        for rid, rec in sorted(res.failures.items()):
+            kept = (
+                "; its previous build is kept (outputs, manifest record, scene)"
+                if rec["kept_previous"]
+                else ""
+            )
+            click.echo(f"FAILED {rid}: {rec.get('error')}{kept}", err=True)
     sys.exit(1 if res.failed else 0)
 
 

@@ -23,6 +23,12 @@ from swpm_usd.pipeline import ConfigError, load_config, run
 from swpm_usd.pipeline.schema import PACKAGED_SCHEMA, SCHEMA_PATH, schema_text
 
 
+def sha256_of(path: Path) -> str:
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
 def _project(tmp_path: Path, meshes=("cow.obj", "spot.obj"), config: str = "") -> Path:
     (tmp_path / "meshes").mkdir()
     for m in meshes:
@@ -491,6 +497,91 @@ def test_scene_references_every_asset_layer_by_name(tmp_path):
     assert [usd.read(p).encoding for p in encoded] == ["skip-strip", "skip-strip"]
 
 
+def _listed_outputs(out: Path) -> tuple[set[str], set[str]]:
+    """(every .swpm / .usdc file in ``out``, every output the manifest lists)."""
+    files = {p.name for p in out.iterdir() if p.suffix in (".swpm", ".usdc")}
+    assets = json.loads((out / "manifest.json").read_text())["assets"]
+    return files, {o["path"] for rec in assets.values() for o in rec.get("outputs", {}).values()}
+
+
+def test_a_failed_rebuild_keeps_the_previous_build(tmp_path):
+    from pxr import Usd
+
+    cfg = _project(tmp_path, config=MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    before = json.loads((out / "manifest.json").read_text())["assets"]["meshes/cow.obj"]
+    cow = tmp_path / "meshes" / "cow.obj"
+    good = cow.read_bytes()
+    cow.write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")  # the input is broken: its rebuild fails
+    for _ in range(2):  # and fails again on the next run, which tries again
+        r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
+        assert r.exit_code == 1, r.output
+        summary = json.loads(r.stdout)
+        assert (summary["built"], summary["skipped"], summary["failed"]) == (0, 1, 1)
+        (failure,) = summary["failures"]
+        assert failure["id"] == "meshes/cow.obj" and failure["kept_previous"] is True
+        assert "cow.obj" in failure["error"]
+        rec = json.loads((out / "manifest.json").read_text())["assets"]["meshes/cow.obj"]
+        # the previous build's record, untouched, with the failure beside it
+        assert {k: v for k, v in rec.items() if k != "last_failure"} == before
+        assert "cow.obj" in rec["last_failure"]["error"] and rec["last_failure"]["digest"] != before["digest"]
+        for o in rec["outputs"].values():
+            assert sha256_of(out / o["path"]) == o["sha256"]
+        stage = Usd.Stage.Open(str(out / "scene.usda"))
+        assert [p.GetName() for p in stage.GetPrimAtPath("/Scene").GetChildren()] == ["cow_0", "spot_1"]
+        report = (out / "report.html").read_text()
+        assert (
+            "rebuild failed; the previous build (below) is kept" in report
+            and "keeping their previous" in report
+        )
+        files, listed = _listed_outputs(out)
+        assert files == listed == {"cow.swpm", "cow.usdc", "spot.swpm", "spot.usdc"}
+    r = CliRunner().invoke(main, ["run", str(cfg)])  # the text summary says so too
+    assert r.exit_code == 1 and "FAILED meshes/cow.obj: " in r.stderr and "previous build is kept" in r.stderr
+    # the input put back: the kept build is up to date again, and the failure goes
+    cow.write_bytes(good)
+    again = run(cfg, echo=lambda m: None)
+    assert (again.built, again.skipped, again.failed, again.failures) == (0, 2, 0, {})
+    assert json.loads((out / "manifest.json").read_text())["assets"]["meshes/cow.obj"] == before
+    # a previous build whose outputs are no longer all there is not kept: the failure replaces its record
+    # and its remaining outputs go with it (none is left that the manifest does not list)
+    (out / "cow.usdc").unlink()
+    cow.write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1 and res.failures["meshes/cow.obj"]["kept_previous"] is False
+    assert (
+        res.records["meshes/cow.obj"]["status"] == "failed"
+        and "last_failure" not in res.records["meshes/cow.obj"]
+    )
+    files, listed = _listed_outputs(out)
+    assert files == listed == {"spot.swpm", "spot.usdc"}
+    stage = Usd.Stage.Open(str(out / "scene.usda"))
+    assert [p.GetName() for p in stage.GetPrimAtPath("/Scene").GetChildren()] == ["spot_0"]
+
+
+def test_a_failed_usd_export_replaces_no_output(tmp_path, monkeypatch):
+    # the outputs are all made before any replaces its old file: a USD layer that cannot be written leaves
+    # the asset's .swpm as it was, and no temporary file
+    from swpm_usd import usd
+
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("dir: out", "{dir: out, usd: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    swpm = (out / "cow.swpm").read_bytes()
+
+    def refuse(*args, **kwargs):
+        raise OSError("disk full (test)")
+
+    monkeypatch.setattr(usd, "write", refuse)
+    cfg.write_text(cfg.read_text().replace("encoding: skip-strip", "encoding: vanilla"))  # another .swpm
+    res = run(cfg, echo=lambda m: None)
+    assert (out / "cow.swpm").read_bytes() == swpm
+    assert sorted(p.name for p in out.iterdir()) == ["cow.swpm", "cow.usdc", "manifest.json", "report.html"]
+    assert res.failed == 1 and "disk full" in res.failures["meshes/cow.obj"]["error"]
+    assert res.failures["meshes/cow.obj"]["kept_previous"]
+
+
 def test_parallel_jobs_and_dask_executor(tmp_path):
     import dask.distributed  # noqa: F401 - the dask extra is part of .[dev]
 
@@ -626,9 +717,13 @@ def test_tightened_budgets_or_streaming_and_changed_outputs_rebuild(tmp_path):
     # a budget the asset no longer meets is checked again, not skipped as up to date
     cfg.write_text(base + "budgets: {global_bytes: 1}\n")
     res = run(cfg, echo=lambda m: None)
-    assert res.failed == 1 and "budgets.global_bytes=1" in res.records["m/a.obj"]["error"]
+    assert res.failed == 1 and "budgets.global_bytes=1" in res.failures["m/a.obj"]["error"]
+    # its previous build is kept (see test_a_failed_rebuild_keeps_the_previous_build): with the budget it
+    # passed back, it is up to date
+    assert "budgets.global_bytes=1" in res.records["m/a.obj"]["last_failure"]["error"]
     cfg.write_text(base + "budgets: {global_bytes: 1000000}\n")
-    assert run(cfg, echo=lambda m: None).built == 1
+    res = run(cfg, echo=lambda m: None)
+    assert (res.skipped, res.failed) == (1, 0) and "last_failure" not in res.records["m/a.obj"]
     # a looser or dropped limit lets through what passed before: nothing to build (a studio loosening a
     # budget over thousands of assets rebuilds none of them)
     for looser in ("budgets: {global_bytes: 2000000}\n", "", "budgets: {global_bytes: 1000000}\n"):
@@ -647,7 +742,7 @@ def test_tightened_budgets_or_streaming_and_changed_outputs_rebuild(tmp_path):
         assert (res.built, res.skipped) == (built, 1 - built), text
     cfg.write_text(base + "budgets: {global_bytes: 1000000}\nstreaming: {coarsest_lod_bytes: 1}\n")
     res = run(cfg, echo=lambda m: None)
-    assert res.failed == 1 and "coarsest_lod_bytes" in res.records["m/a.obj"]["error"]
+    assert res.failed == 1 and "coarsest_lod_bytes" in res.failures["m/a.obj"]["error"]
     # an output changed in place (same size) is rebuilt: its sha256 is compared, not only its size
     cfg.write_text(base)
     assert run(cfg, echo=lambda m: None).built == 1

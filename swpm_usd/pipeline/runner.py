@@ -8,6 +8,10 @@ writing one out rebuilds nothing) and the tool version equal the manifest's (for
 budgets and streaming policy it chose by), the budgets and streaming limits are as loose as those it passed
 (:func:`.assets.checks_no_stricter`: loosening a budget rebuilds nothing, tightening one checks again), and
 its outputs are still there with the recorded size and sha256.
+
+An asset whose rebuild fails keeps its previous build when that build's outputs are intact
+(:func:`_keep_previous`): the manifest keeps its record (with ``last_failure``), the scene its layer, and the
+run reports it failed.
 """
 
 from __future__ import annotations
@@ -58,6 +62,9 @@ class RunResult:
     seconds: float
     manifest_path: Path
     plan: list[dict] = field(default_factory=list)  # --dry-run / --explain: each asset's plan
+    #: this run's failures: asset id -> the failed attempt's record (``error``, ``traceback``, ...), with
+    #: ``kept_previous`` True when the asset's previous build was kept (see :func:`_keep_previous`)
+    failures: dict[str, dict] = field(default_factory=dict)
 
 
 def _read_manifest(path: Path) -> dict:
@@ -160,9 +167,9 @@ def plan(
     return items, problems, warnings
 
 
-#: temporary files a run leaves in output.dir if it is killed (the atomic writes' and the scene's), which the
-#: next run deletes
-_TEMPORARY = (".*.tmp", ".*.tmp.usda")
+#: temporary files a run leaves in output.dir if it is killed (the atomic writes', the USD layers' staged by
+#: the workers and the scene's), which the next run deletes
+_TEMPORARY = (".*.tmp", ".*.tmp.usdc", ".*.tmp.usda")
 
 
 def _unusable_out_dir(cfg: Config, out_dir: Path) -> list[str]:
@@ -371,6 +378,8 @@ class _Progress:
     def advance(self, rec: dict) -> None:
         self.done += 1
         status = rec["status"] if rec["status"] != "failed" else f"FAILED ({rec.get('error', '')[:100]})"
+        if rec.get("kept_previous"):
+            status += "; its previous outputs are kept"
         if self.bar is not None:
             self.bar.update(self.task, advance=1, description=f"{rec['id']}: {status}")
         else:
@@ -436,8 +445,13 @@ def run(
         stale.unlink(missing_ok=True)
     todo = [it for it in items if force or not it.up_to_date]
     records = {k: v for k, v in manifest.get("assets", {}).items() if k in {i.asset.id for i in items}}
+    for it in items:  # up to date again (an input or a config put back): the failure was another treatment's
+        kept = records.get(it.asset.id)
+        if it.up_to_date and not force and kept is not None and "last_failure" in kept:
+            records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
     manifest = {"tool_version": __version__, "config": str(cfg.path), "assets": records}
     built = failed = 0
+    failures: dict[str, dict] = {}
     progress = _Progress(len(todo))
     by_id = {it.asset.id: it for it in todo}
     last_write, write_s = float("-inf"), 0.0
@@ -455,9 +469,12 @@ def run(
                 o["size"] = (out_dir / o["path"]).stat().st_size
             if rec["status"] == "built":
                 built += 1
+                records[rec["id"]] = rec
             else:
                 failed += 1
-            records[rec["id"]] = rec
+                kept = _keep_previous(out_dir, records.get(rec["id"]), rec)
+                records[rec["id"]] = rec if kept is None else kept
+                rec = failures[rec["id"]] = {**rec, "kept_previous": kept is not None}
             now = time.perf_counter()
             if now - last_write >= max(_MANIFEST_EVERY_S, 5 * write_s):
                 _write_manifest(manifest_path, manifest, text)
@@ -482,13 +499,36 @@ def run(
     _write_manifest(manifest_path, manifest, text)
     seconds = time.perf_counter() - t_start
     return RunResult(
-        records, built, len(items) - len(todo), failed, warnings, seconds, manifest_path, planned
+        records, built, len(items) - len(todo), failed, warnings, seconds, manifest_path, planned, failures
     )
+
+
+def _keep_previous(out_dir: Path, previous: dict | None, failed: dict) -> dict | None:
+    """The record of an asset whose rebuild failed (``failed``, the worker's record).
+
+    When the asset was built before and its outputs are all still as recorded (:func:`_output_intact`), its
+    previous build is kept: the returned record is the previous one, untouched but for ``last_failure``
+    (the failure's error, traceback, digest and seconds), so the manifest, the scene and the outputs still
+    serve the last good build and the next run tries again. Otherwise None: the failed record replaces the
+    previous one, and those of its outputs still as recorded are deleted, so no output is left that the
+    manifest does not list (a file changed since is not the run's to delete)."""
+    if previous is None or previous.get("status") != "built":
+        return None
+    outputs = [(out_dir / o["path"], o) for o in previous.get("outputs", {}).values()]
+    intact = [path for path, o in outputs if _output_intact(path, o)]
+    if len(intact) < len(outputs):
+        for path in intact:
+            path.unlink(missing_ok=True)
+        return None
+    failure = {
+        k: failed[k] for k in ("error", "traceback", "digest", "input_digest", "seconds") if k in failed
+    }
+    return {**{k: v for k, v in previous.items() if k != "last_failure"}, "last_failure": failure}
 
 
 def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
     """A scene layer that references every per-asset USD layer, one Xform each."""
-    from pxr import Tf, Usd, UsdGeom
+    from pxr import Sdf, Tf, Usd, UsdGeom
 
     layers = [
         (k, r["outputs"]["usd"]["path"])
@@ -508,3 +548,8 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
         prim.GetReferences().AddReference(f"./{layer}")
     stage.GetRootLayer().Save()
     tmp.replace(target)
+    layer = Sdf.Layer.Find(
+        str(target)
+    )  # open in this process (a caller of run): it would keep its old content
+    if layer is not None:
+        layer.Reload(force=True)
