@@ -1,6 +1,7 @@
 """``swpm-pipeline``: the command line. Small commands that compose; ``--json`` for machines.
 
-Exit codes: 0 ok, 1 invalid input (a mesh or file that cannot be used), 2 usage error.
+Exit codes: 0 ok, 1 invalid input (a mesh or file that cannot be used), 2 usage error, 130 interrupted
+(Ctrl-C: one line on stderr, no traceback).
 """
 
 from __future__ import annotations
@@ -40,7 +41,33 @@ def _lod_rows(pm, max_rows: int) -> list[dict]:
     return rows
 
 
-@click.group(cls=EncodingsHelpGroup, context_settings={"help_option_names": ["-h", "--help"]})
+#: the exit code of a command stopped by Ctrl-C (128 + SIGINT, as a shell reports it)
+EXIT_INTERRUPTED = 130
+
+
+class _Main(EncodingsHelpGroup):
+    """The command group: a Ctrl-C in any command exits 130 with one line (click's own: "Aborted!", 1)."""
+
+    def invoke(self, ctx: click.Context) -> object:
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            _exiting_on_interrupt()
+            click.echo("swpm-pipeline: interrupted", err=True)
+            ctx.exit(EXIT_INTERRUPTED)
+
+
+def _exiting_on_interrupt() -> None:
+    """Another Ctrl-C while the process exits is ignored (it would end it with a traceback, killed by SIGINT,
+    while the interpreter waits for its threads)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@click.group(cls=_Main, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="swpm-pipeline")
 def main() -> None:
     """Turn meshes into view-independent progressive meshes (vanilla, skip-strip, mixed, sliding-window).
@@ -166,6 +193,16 @@ def run_cmd(
         if as_json:
             click.echo(json.dumps({"error": "invalid configuration", "problems": exc.problems}, indent=2))
         sys.exit(2)
+    except KeyboardInterrupt:  # the run has stopped its workers and recorded what they finished
+        _exiting_on_interrupt()
+        click.echo(
+            "swpm-pipeline run: interrupted; the assets finished are recorded in the manifest, "
+            "and a rerun builds the rest",
+            err=True,
+        )
+        if as_json:
+            click.echo(json.dumps({"error": "interrupted"}, indent=2))
+        sys.exit(EXIT_INTERRUPTED)
     if as_json:
         summary = {
             "built": res.built,

@@ -418,6 +418,74 @@ def test_interrupted_run_keeps_earlier_outputs_and_rerun_finishes(tmp_path):
     assert not list((tmp_path / "out").glob(".*.tmp"))
 
 
+def _group_gone(pgid: int, seconds: float) -> bool:
+    """Has every process of the group ``pgid`` exited (within ``seconds``)?"""
+    deadline = time.time() + seconds
+    while time.time() < deadline:
+        try:
+            os.killpg(pgid, 0)
+        except ProcessLookupError:
+            return True
+        time.sleep(0.05)
+    return False
+
+
+@pytest.mark.parametrize("jobs", [2, 1])
+def test_ctrl_c_during_a_run_stops_it_cleanly(tmp_path, jobs):
+    # Ctrl-C sends SIGINT to the terminal's whole process group: the workers used to take it too and print
+    # tracebacks, and kept writing outputs after the run had stopped; in one process (--jobs 1) numba turned
+    # it into a SystemError, recorded as the asset's failure, and the run went on
+    from swpm_usd.pipeline.runner import _TEMPORARY
+
+    cfg = _project(tmp_path, ("cow.obj", "spot.obj", "bob.obj", "fandisk.obj", "teapot.obj"), "")
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'meshes/*.obj'}]\noutput: {dir: out, usd: true, scene: true}\n"
+        "defaults: {encoding: sliding-window}\n"
+    )
+    out = tmp_path / "out"
+    manifest = out / "manifest.json"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "swpm_usd.cli", "run", str(cfg), "-j", str(jobs)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        start_new_session=True,  # its own process group, as a terminal's foreground job
+    )
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and proc.poll() is None:  # the first asset recorded: workers busy
+            if manifest.exists() and json.loads(manifest.read_text())["assets"]:
+                break
+            time.sleep(0.05)
+        assert proc.poll() is None, "the run ended before it could be interrupted"
+        os.killpg(proc.pid, signal.SIGINT)
+        time.sleep(0.1)
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGINT)  # a second Ctrl-C while it stops changes nothing
+        stderr = proc.communicate(timeout=120)[1].decode()
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130, stderr
+    assert "Traceback" not in stderr and "Error" not in stderr, stderr
+    lines = [line for line in stderr.splitlines() if not line.startswith("[")]  # progress lines aside
+    assert lines == [
+        "swpm-pipeline run: interrupted; the assets finished are recorded in the manifest, and a rerun "
+        "builds the rest"
+    ], stderr
+    assert _group_gone(proc.pid, 30), "a worker outlived the run"  # nothing writes into out/ any more
+    assert not [p.name for pattern in _TEMPORARY for p in out.glob(pattern)]
+    recorded = json.loads(manifest.read_text())["assets"]
+    assert recorded and all(rec["status"] == "built" for rec in recorded.values())
+    for rec in recorded.values():
+        for o in rec["outputs"].values():
+            assert sha256_of(out / o["path"]) == o["sha256"]
+    for path in out.glob("*.swpm"):  # whole files only (an asset finished as the run stopped is not listed)
+        assert swpm_usd.validate(path).valid, path
+    res = run(cfg, jobs=2, echo=lambda m: None)
+    assert res.failed == 0 and res.built + res.skipped == 5 and res.skipped >= len(recorded)
+
+
 def test_manifest_is_not_rewritten_after_every_asset(tmp_path, monkeypatch):
     # each rewrite serialises every record: once per asset made a run quadratic in its asset count
     # (1,500 small assets: 461 s, 380 of them writing JSON; 82 s with the rewrites spaced out)

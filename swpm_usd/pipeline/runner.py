@@ -16,12 +16,15 @@ run reports it failed.
 
 from __future__ import annotations
 
+import contextlib
 import fnmatch
 import json
 import os
+import signal
 import sys
+import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,7 +32,7 @@ from typing import Any
 from .. import __version__
 from .assets import Asset, checks_no_stricter, checks_of, discover, file_digest, match_rule, treatment_digest
 from .config import Config, ConfigError, load_config
-from .worker import atomic_write_bytes, process_asset
+from .worker import atomic_write_bytes, ignore_interrupts, process_asset
 
 MANIFEST = "manifest.json"
 
@@ -168,8 +171,63 @@ def plan(
 
 
 #: temporary files a run leaves in output.dir if it is killed (the atomic writes', the USD layers' staged by
-#: the workers and the scene's), which the next run deletes
-_TEMPORARY = (".*.tmp", ".*.tmp.usdc", ".*.tmp.usda")
+#: the workers and the scene's, and usd-core's own beside those two: ``.<stem>.tmp.XXXXXX``), which the next
+#: run deletes, as a run stopped by an error or Ctrl-C does once its workers are stopped
+_TEMPORARY = (".*.tmp", ".*.tmp.usdc", ".*.tmp.usda", ".*.tmp.??????")
+
+
+def _remove_temporary(out_dir: Path) -> None:
+    for stale in [p for pattern in _TEMPORARY for p in out_dir.glob(pattern)]:
+        stale.unlink(missing_ok=True)
+
+
+@contextlib.contextmanager
+def _interrupts_deferred() -> Iterator[None]:
+    """A Ctrl-C in the block is raised (KeyboardInterrupt) when it ends, not inside it (main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    received: list[int] = []
+    old = signal.signal(signal.SIGINT, lambda signum, frame: received.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+    if received:
+        raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def _interrupts_noted() -> Iterator[list[int]]:
+    """Ctrl-C raises KeyboardInterrupt as usual in the block, and is noted in the list it yields (main
+    thread only), so one that something caught and turned into another error is still known."""
+    noted: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield noted
+        return
+
+    def note(signum: int, frame: object) -> None:
+        noted.append(signum)
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGINT, note)
+    try:
+        yield noted
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+@contextlib.contextmanager
+def _interrupts_ignored() -> Iterator[None]:
+    """Ctrl-C ignored in the block (the main thread only: elsewhere signals cannot be set, nor arrive)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
 
 
 def _unusable_out_dir(cfg: Config, out_dir: Path) -> list[str]:
@@ -308,7 +366,9 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
     }
 
 
-def execute(tasks: list[dict], jobs: int, executor: str, scheduler: str | None) -> Iterator[dict]:
+def execute(
+    tasks: list[dict], jobs: int, executor: str, scheduler: str | None
+) -> Generator[dict, None, None]:
     """Run tasks, yielding each record as it finishes (order of completion)."""
     if not tasks:
         return
@@ -335,8 +395,15 @@ def execute(tasks: list[dict], jobs: int, executor: str, scheduler: str | None) 
                 cluster.close()
         return
     if jobs <= 1:
-        for t in tasks:
-            yield process_asset(t)
+        with _interrupts_noted() as noted:
+            for t in tasks:
+                rec = process_asset(t)
+                # compiled code turns a Ctrl-C into another error (numba: SystemError), an import it cut short
+                # into errors after it, a library may swallow it: an asset done across a Ctrl-C is not
+                # recorded (its outputs are whole files, which the next run checks and builds again)
+                if noted:
+                    raise KeyboardInterrupt
+                yield rec
         return
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -345,13 +412,37 @@ def execute(tasks: list[dict], jobs: int, executor: str, scheduler: str | None) 
     ctx = mp.get_context("forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn")
     if ctx.get_start_method() == "forkserver":
         ctx.set_forkserver_preload(["swpm_usd.pipeline._warm"])  # kernels loaded once, inherited
-    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx)
+        # started with Ctrl-C ignored, which the server (warming up) and every worker it forks inherit: a
+        # Ctrl-C is the main process's alone (the initializer covers a server started elsewhere, and spawn)
+        with _interrupts_ignored():
+            from multiprocessing import forkserver
+
+            forkserver.ensure_running()
+    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=ignore_interrupts)
     try:
-        futures = [pool.submit(process_asset, t) for t in tasks]
+        # a Ctrl-C while the workers start (waiting for the server to warm up) is raised once they have all
+        # started: one interrupted half-way would leave a worker the pool does not know, to fail on its own
+        with _interrupts_deferred():
+            futures = [pool.submit(process_asset, t) for t in tasks]
         for fut in as_completed(futures):
             yield fut.result()
+    except BaseException:  # Ctrl-C, an error, or the caller stopped: the workers stop now, mid-asset
+        with _interrupts_ignored():
+            _terminate_workers(pool)
+        raise
     finally:
         pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _terminate_workers(pool: Any) -> None:
+    """Stop a process pool's workers at once and wait for them to be gone (their temporary files are then
+    the caller's to delete: :func:`_remove_temporary`). Their outputs are whole: every write is a rename."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    for p in processes:
+        if p.is_alive():
+            p.terminate()
+    for p in processes:
+        p.join(timeout=30)
 
 
 class _Progress:
@@ -441,8 +532,7 @@ def run(
             skipped = sum(i.up_to_date for i in items)
             return RunResult({}, 0, skipped, 0, warnings, 0.0, manifest_path, planned)
     _make_out_dir(cfg, out_dir)
-    for stale in [p for pattern in _TEMPORARY for p in out_dir.glob(pattern)]:  # left by a killed run
-        stale.unlink(missing_ok=True)
+    _remove_temporary(out_dir)  # left by a killed run
     todo = [it for it in items if force or not it.up_to_date]
     records = {k: v for k, v in manifest.get("assets", {}).items() if k in {i.asset.id for i in items}}
     for it in items:  # up to date again (an input or a config put back): the failure was another treatment's
@@ -456,10 +546,22 @@ def run(
     by_id = {it.asset.id: it for it in todo}
     last_write, write_s = float("-inf"), 0.0
     text = _ManifestText()
+    results: Generator[dict, None, None] | None = None
+
+    def stop() -> None:
+        """An error or Ctrl-C: the workers stopped, their temporary files deleted, every finished asset
+        recorded (a second Ctrl-C does not cut this short)."""
+        with _interrupts_ignored():
+            if results is not None:
+                results.close()  # a pool's workers are terminated and waited for
+            _remove_temporary(out_dir)
+            _write_manifest(manifest_path, manifest, text)
+
     try:
         # largest inputs first, so no worker is left with a big asset at the end (LPT scheduling)
         ordered = sorted(todo, key=lambda it: -it.asset.path.stat().st_size)
-        for rec in execute([_task(cfg, it) for it in ordered], jobs, executor, scheduler):
+        results = execute([_task(cfg, it) for it in ordered], jobs, executor, scheduler)
+        for rec in results:
             it = by_id[rec["id"]]
             if it.rule_pending:
                 it.rule = rec.pop("rule_index", None)
@@ -482,7 +584,7 @@ def run(
                 write_s = last_write - now
             progress.advance(rec)
     except BaseException:
-        _write_manifest(manifest_path, manifest, text)  # every finished asset, also on an error or Ctrl-C
+        stop()
         raise
     finally:
         progress.close()
@@ -490,13 +592,17 @@ def run(
         warnings = _unreached_rules(cfg, items)
         for w in warnings:
             echo(f"warning: {w}")
-    if cfg.data["output"].get("scene"):
-        _write_scene(out_dir, records)
-    if cfg.data["output"].get("report", True):
-        from .report import write_report
+    try:
+        if cfg.data["output"].get("scene"):
+            _write_scene(out_dir, records)
+        if cfg.data["output"].get("report", True):
+            from .report import write_report
 
-        write_report(out_dir / "report.html", manifest)
-    _write_manifest(manifest_path, manifest, text)
+            write_report(out_dir / "report.html", manifest)
+        _write_manifest(manifest_path, manifest, text)
+    except BaseException:
+        stop()
+        raise
     seconds = time.perf_counter() - t_start
     return RunResult(
         records, built, len(items) - len(todo), failed, warnings, seconds, manifest_path, planned, failures

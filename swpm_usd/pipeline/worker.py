@@ -5,6 +5,7 @@ streaming order, write the outputs atomically. Never raises: a failure comes bac
 from __future__ import annotations
 
 import hashlib
+import signal
 import time
 import traceback
 from pathlib import Path
@@ -23,6 +24,12 @@ AUTO_CANDIDATES = ("vanilla", "skip-strip", "mixed", "sliding-window")
 AUTO_SELECT = ("acmr", "misses-at-error")
 #: ``misses-at-error``: the triangle fractions whose errors are the references (see :func:`misses_at_error`)
 AUTO_ERROR_FRACTIONS = (0.5, 0.25, 0.1)
+
+
+def ignore_interrupts() -> None:
+    """A pool worker's initializer: Ctrl-C (SIGINT, sent to the terminal's whole process group) is the main
+    process's to handle, which stops the workers itself; a worker that took it would print a traceback."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def sha256_file(path: Path) -> str:
