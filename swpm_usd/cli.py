@@ -170,9 +170,10 @@ def run_cmd(
     Per asset: the first matching rule picks the encoding and its parameters; the asset is built, its
     streaming order validated and its outputs written atomically under output.dir, with manifest.json
     and report.html. Unchanged assets are skipped. An asset built before whose rebuild fails keeps its
-    previous build (outputs, manifest record, place in the scene) and is reported as failed. Exit 0 when
-    every asset built, 1 when any failed, 2 when the configuration is invalid (every problem listed as
-    FILE:LINE:COL: $.path: message).
+    previous build (outputs, manifest record, place in the scene) and is reported failed. One run at a
+    time writes in an output.dir: another fails at once. Exit 0 when every asset built, 1 when any
+    failed (or output.dir is another run's), 2 when the configuration is invalid (every problem listed
+    as FILE:LINE:COL: $.path: message), 130 on Ctrl-C.
     """
     from .pipeline import ConfigError, run
 
@@ -193,6 +194,11 @@ def run_cmd(
         if as_json:
             click.echo(json.dumps({"error": "invalid configuration", "problems": exc.problems}, indent=2))
         sys.exit(2)
+    except SwpmError as exc:  # output.dir held by another run (OutputLockedError)
+        click.echo(f"error: {exc}", err=True)
+        if as_json:
+            click.echo(json.dumps({"error": str(exc)}, indent=2))
+        sys.exit(1)
     except KeyboardInterrupt:  # the run has stopped its workers and recorded what they finished
         _exiting_on_interrupt()
         click.echo(

@@ -486,6 +486,119 @@ def test_ctrl_c_during_a_run_stops_it_cleanly(tmp_path, jobs):
     assert res.failed == 0 and res.built + res.skipped == 5 and res.skipped >= len(recorded)
 
 
+def _lock_held_elsewhere(path: Path, pid: int) -> int:
+    """Hold ``path`` as another run does (an exclusive flock on its own open file, with its pid); the fd."""
+    import fcntl
+
+    fd = os.open(path, os.O_RDWR | os.O_CREAT)
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    os.ftruncate(fd, 0)
+    os.write(fd, f"{pid}\n".encode())
+    return fd
+
+
+def _lock_is_free(path: Path) -> bool:
+    import fcntl
+
+    fd = os.open(path, os.O_RDWR)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        return True
+    except BlockingIOError:
+        return False
+    finally:
+        os.close(fd)
+
+
+def test_one_run_at_a_time_in_an_output_folder(tmp_path, monkeypatch):
+    from swpm_usd.errors import OutputLockedError
+    from swpm_usd.pipeline import runner
+
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("sliding-window", "vanilla"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    lock = out / runner.LOCK
+    assert lock.is_file() and _lock_is_free(lock)  # released at the end of the run
+    # another run is writing here: its temporary file must survive, the second run must touch nothing
+    (out / ".cow.swpm.abc123.tmp").write_bytes(b"the other run's")
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.name != runner.LOCK}
+    cfg.write_text(cfg.read_text().replace("encoding: skip-strip", "encoding: mixed"))  # work to do
+    fd = _lock_held_elsewhere(lock, 4242)
+    try:
+        t = time.perf_counter()
+        r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
+        assert time.perf_counter() - t < 10  # at once, not after waiting for the lock
+        assert r.exit_code == 1, r.output
+        message = f"{out}: another swpm-pipeline run (pid 4242) is writing in this output folder"
+        assert json.loads(r.stdout)["error"].startswith(message) and r.stderr.startswith(f"error: {message}")
+        with pytest.raises(OutputLockedError) as err:
+            run(cfg, echo=lambda m: None)
+        assert err.value.path == str(out) and err.value.pid == 4242
+        assert {p.name: p.read_bytes() for p in out.iterdir() if p.name != runner.LOCK} == before
+        assert run(cfg, dry_run=True, echo=lambda m: None).built == 0  # a dry run writes nothing: no lock
+    finally:
+        os.close(fd)
+    # the lock goes with the run however it ends: an error, Ctrl-C
+    for stop in (RuntimeError("a bug"), KeyboardInterrupt()):
+
+        def broken(task, stop=stop):
+            raise stop
+
+        monkeypatch.setattr(runner, "process_asset", broken)
+        with pytest.raises(type(stop)):
+            run(cfg, echo=lambda m: None)
+        assert _lock_is_free(lock)
+    monkeypatch.undo()
+    res = run(cfg, echo=lambda m: None)
+    assert res.built == 1 and _lock_is_free(lock)
+    assert not (out / ".cow.swpm.abc123.tmp").exists()  # once the folder is its own, a run cleans up
+    # a folder the run creates is locked too, before anything is written in it
+    cfg.write_text(cfg.read_text().replace("dir: out", "dir: fresh"))
+    seen = []
+    real = runner._remove_temporary
+    monkeypatch.setattr(
+        runner, "_remove_temporary", lambda d: (seen.append(_lock_is_free(d / runner.LOCK)), real(d))
+    )
+    assert run(cfg, echo=lambda m: None).built == 1 and seen and not any(seen)
+
+
+def test_a_second_concurrent_run_fails_fast(tmp_path):
+    # two real processes: the second exits 1 naming the folder while the first goes on to finish
+    cfg = _project(tmp_path, ("cow.obj", "spot.obj", "bob.obj", "fandisk.obj", "teapot.obj"), "")
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'meshes/*.obj'}]\noutput: {dir: out}\n"
+        "defaults: {encoding: sliding-window}\n"
+    )
+    manifest = tmp_path / "out" / "manifest.json"
+    first = subprocess.Popen(
+        [sys.executable, "-m", "swpm_usd.cli", "run", str(cfg)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and first.poll() is None:  # the first asset recorded: mid-run
+            if manifest.exists() and json.loads(manifest.read_text())["assets"]:
+                break
+            time.sleep(0.02)
+        if first.poll() is not None:
+            pytest.skip("the first run ended before a second could be started")  # (a very fast machine)
+        second = subprocess.run(
+            [sys.executable, "-m", "swpm_usd.cli", "run", str(cfg)],
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        assert first.wait(timeout=300) == 0, first.stderr.read().decode()
+    finally:
+        if first.poll() is None:
+            first.kill()
+            first.wait()
+    assert second.returncode == 1, second.stderr
+    assert f"{tmp_path / 'out'}: another swpm-pipeline run (pid {first.pid}) is writing" in second.stderr
+    assert run(cfg, echo=lambda m: None).skipped == 5  # the first run's work is whole
+
+
 def test_manifest_is_not_rewritten_after_every_asset(tmp_path, monkeypatch):
     # each rewrite serialises every record: once per asset made a run quadratic in its asset count
     # (1,500 small assets: 461 s, 380 of them writing JSON; 82 s with the rewrites spaced out)
@@ -645,7 +758,8 @@ def test_a_failed_usd_export_replaces_no_output(tmp_path, monkeypatch):
     cfg.write_text(cfg.read_text().replace("encoding: skip-strip", "encoding: vanilla"))  # another .swpm
     res = run(cfg, echo=lambda m: None)
     assert (out / "cow.swpm").read_bytes() == swpm
-    assert sorted(p.name for p in out.iterdir()) == ["cow.swpm", "cow.usdc", "manifest.json", "report.html"]
+    names = sorted(p.name for p in out.iterdir())
+    assert names == [".swpm-pipeline.lock", "cow.swpm", "cow.usdc", "manifest.json", "report.html"]
     assert res.failed == 1 and "disk full" in res.failures["meshes/cow.obj"]["error"]
     assert res.failures["meshes/cow.obj"]["kept_previous"]
 

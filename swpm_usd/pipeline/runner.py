@@ -11,7 +11,7 @@ its outputs are still there with the recorded size and sha256.
 
 An asset whose rebuild fails keeps its previous build when that build's outputs are intact
 (:func:`_keep_previous`): the manifest keeps its record (with ``last_failure``), the scene its layer, and the
-run reports it failed.
+run reports it failed. One run at a time writes in an output folder (:class:`_OutputLock`).
 """
 
 from __future__ import annotations
@@ -30,11 +30,15 @@ from pathlib import Path
 from typing import Any
 
 from .. import __version__
+from ..errors import OutputLockedError
 from .assets import Asset, checks_no_stricter, checks_of, discover, file_digest, match_rule, treatment_digest
 from .config import Config, ConfigError, load_config
 from .worker import atomic_write_bytes, ignore_interrupts, process_asset
 
 MANIFEST = "manifest.json"
+#: the lock file of output.dir: a run holds an exclusive ``flock`` on it while it writes there (see
+#: :class:`_OutputLock`); the file stays, the lock goes with the run
+LOCK = ".swpm-pipeline.lock"
 
 #: the manifest is rewritten at most this often during a run, or less often while one rewrite takes more
 #: than a fifth of it: rewriting it after every asset, each time serialising every record, made a run of
@@ -268,7 +272,7 @@ def _output_intact(path: Path, recorded: dict) -> bool:
 def planned_outputs(cfg: Config, out_dir: Path, assets: list[Asset]) -> dict[Path, str]:
     """Every file a run of ``cfg`` writes (or, for temporary files, may delete) -> what it is."""
     out = cfg.data["output"]
-    files: dict[Path, str] = {out_dir / MANIFEST: "the run manifest"}
+    files: dict[Path, str] = {out_dir / MANIFEST: "the run manifest", out_dir / LOCK: "the run's lock file"}
     if out.get("report", True):
         files[out_dir / "report.html"] = "the run report"
     if out.get("scene"):
@@ -485,6 +489,58 @@ class _Progress:
             self.bar.stop()
 
 
+class _OutputLock:
+    """One run at a time in an output folder: an exclusive, non-blocking ``flock`` on its :data:`LOCK` file.
+
+    A second run fails at once with :class:`OutputLockedError` instead of deleting the first one's temporary
+    files and interleaving manifests. The kernel drops the lock when the holder's file is closed, so it goes
+    with the run however it ends (an error, Ctrl-C, a kill); the file itself stays (deleting it would let a
+    third run lock a new file while the second still holds the old one). The holder's pid is written in it for
+    the message. Where ``flock`` is missing (Windows) or refused (a filesystem without locks), the run goes on
+    unlocked, with a warning."""
+
+    def __init__(self, out_dir: Path, echo) -> None:
+        self.path = out_dir / LOCK
+        self.echo = echo
+        self.fd: int | None = None
+        self.done = False
+
+    def acquire(self) -> None:
+        if self.done:
+            return
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - not on POSIX
+            self.done = True
+            return
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o666)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            try:
+                pid: int | None = int(os.read(fd, 32).decode().strip())
+            except (OSError, ValueError):
+                pid = None
+            os.close(fd)
+            raise OutputLockedError(self.path.parent, pid) from None
+        except OSError as exc:  # ENOLCK, EOPNOTSUPP: a filesystem that does not lock
+            os.close(fd)
+            self.done = True
+            self.echo(
+                f"warning: {self.path.parent}: cannot lock the output folder ({exc.strerror or exc}); "
+                "make sure no other run writes there at the same time"
+            )
+            return
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        self.fd, self.done = fd, True
+
+    def release(self) -> None:
+        if self.fd is not None:
+            os.close(self.fd)  # closing the only descriptor of the open file drops its lock
+            self.fd = None
+
+
 def run(
     config_path: str | Path,
     *,
@@ -496,10 +552,35 @@ def run(
     force: bool = False,
     echo=print,
 ) -> RunResult:
-    """Run the pipeline described by ``config_path``; see the module docstring."""
+    """Run the pipeline described by ``config_path``; see the module docstring.
+
+    A run that writes (not ``dry_run``) holds output.dir's lock from before it reads the manifest (or, for
+    an output.dir it creates, from then) to its end; another run there raises :class:`OutputLockedError`."""
     t_start = time.perf_counter()
     cfg = load_config(config_path)
     out_dir = cfg.base / cfg.data["output"]["dir"]
+    lock = _OutputLock(out_dir, echo)
+    try:
+        return _run(cfg, out_dir, lock, t_start, jobs, executor, scheduler, dry_run, explain, force, echo)
+    finally:
+        lock.release()
+
+
+def _run(
+    cfg: Config,
+    out_dir: Path,
+    lock: _OutputLock,
+    t_start: float,
+    jobs: int,
+    executor: str,
+    scheduler: str | None,
+    dry_run: bool,
+    explain: bool,
+    force: bool,
+    echo,
+) -> RunResult:
+    if not dry_run and out_dir.is_dir():
+        lock.acquire()  # before the manifest is read: it is this run's from here on
     manifest_path = out_dir / MANIFEST
     manifest = _read_manifest(manifest_path)
     items, errors, warnings = plan(cfg, manifest, count_triangles=dry_run or explain)
@@ -532,6 +613,7 @@ def run(
             skipped = sum(i.up_to_date for i in items)
             return RunResult({}, 0, skipped, 0, warnings, 0.0, manifest_path, planned)
     _make_out_dir(cfg, out_dir)
+    lock.acquire()  # (a folder this run created)
     _remove_temporary(out_dir)  # left by a killed run
     todo = [it for it in items if force or not it.up_to_date]
     records = {k: v for k, v in manifest.get("assets", {}).items() if k in {i.asset.id for i in items}}
