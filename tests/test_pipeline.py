@@ -538,17 +538,25 @@ def test_one_run_at_a_time_in_an_output_folder(tmp_path, monkeypatch):
         assert run(cfg, dry_run=True, echo=lambda m: None).built == 0  # a dry run writes nothing: no lock
     finally:
         os.close(fd)
-    # the lock goes with the run however it ends: an error, Ctrl-C
-    for stop in (RuntimeError("a bug"), KeyboardInterrupt()):
+    # the lock goes with the run however it ends: an error, Ctrl-C, in a worker or in the run's own loop;
+    # so does the run's Ctrl-C handler
+    handler = signal.getsignal(signal.SIGINT)
+    for where, stop in (
+        ("process_asset", RuntimeError("a bug")),
+        ("process_asset", KeyboardInterrupt()),
+        ("_keep_previous", KeyboardInterrupt()),  # (the asset fails, then the run is interrupted)
+    ):
 
-        def broken(task, stop=stop):
+        def broken(*args, stop=stop):
             raise stop
 
-        monkeypatch.setattr(runner, "process_asset", broken)
-        with pytest.raises(type(stop)):
-            run(cfg, echo=lambda m: None)
-        assert _lock_is_free(lock)
-    monkeypatch.undo()
+        with monkeypatch.context() as m:
+            m.setattr(runner, where, broken)
+            if where != "process_asset":
+                m.setattr(runner, "process_asset", lambda task: {"id": task["id"], "status": "failed"})
+            with pytest.raises(type(stop)):
+                run(cfg, echo=lambda m: None)
+        assert _lock_is_free(lock) and signal.getsignal(signal.SIGINT) is handler, where
     res = run(cfg, echo=lambda m: None)
     assert res.built == 1 and _lock_is_free(lock)
     assert not (out / ".cow.swpm.abc123.tmp").exists()  # once the folder is its own, a run cleans up

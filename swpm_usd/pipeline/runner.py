@@ -632,10 +632,10 @@ def _run(
 
     def stop() -> None:
         """An error or Ctrl-C: the workers stopped, their temporary files deleted, every finished asset
-        recorded (a second Ctrl-C does not cut this short)."""
+        recorded (a second Ctrl-C does not cut this short: a pool's workers are stopped with it ignored)."""
+        if results is not None:
+            results.close()  # first: it restores the Ctrl-C handler it set (--jobs 1)
         with _interrupts_ignored():
-            if results is not None:
-                results.close()  # a pool's workers are terminated and waited for
             _remove_temporary(out_dir)
             _write_manifest(manifest_path, manifest, text)
 
