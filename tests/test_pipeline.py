@@ -486,6 +486,21 @@ def test_ctrl_c_during_a_run_stops_it_cleanly(tmp_path, jobs):
     assert res.failed == 0 and res.built + res.skipped == 5 and res.skipped >= len(recorded)
 
 
+def test_ctrl_c_in_any_command_exits_130_with_one_line(tmp_path, monkeypatch):
+    build_module = sys.modules["swpm_usd.build"]  # (swpm_usd.build is also the function)
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(build_module, "build", interrupted)
+    obj = tmp_path / "a.obj"
+    obj.write_text(TWO_TRIANGLES)
+    for args in (["build", str(obj)], ["encode", str(obj), "-o", str(tmp_path / "a.swpm")]):
+        r = CliRunner().invoke(main, args)
+        assert r.exit_code == 130 and r.stderr == "swpm-pipeline: interrupted\n", (args, r.output)
+        assert r.stdout == "" and not (tmp_path / "a.swpm").exists()
+
+
 def _lock_held_elsewhere(path: Path, pid: int) -> int:
     """Hold ``path`` as another run does (an exclusive flock on its own open file, with its pid); the fd."""
     import fcntl
