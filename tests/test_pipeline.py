@@ -714,6 +714,8 @@ def test_a_failed_rebuild_keeps_the_previous_build(tmp_path):
     cfg = _project(tmp_path, config=MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
     out = tmp_path / "out"
     assert run(cfg, echo=lambda m: None).built == 2
+    # (the USD layer, exported to a temporary file and renamed, has the mode of the other outputs)
+    assert (out / "cow.usdc").stat().st_mode == (out / "cow.swpm").stat().st_mode
     before = json.loads((out / "manifest.json").read_text())["assets"]["meshes/cow.obj"]
     cow = tmp_path / "meshes" / "cow.obj"
     good = cow.read_bytes()

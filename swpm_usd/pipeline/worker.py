@@ -254,10 +254,15 @@ def _stage_usd(pm, target: Path) -> tuple[Path, Path]:
     import os
     import tempfile
 
+    from ..fileio import _umask
     from ..usd import write as usd_write
 
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=USD_TEMPORARY_SUFFIX, dir=target.parent)
+    try:  # the mode of a plain open() (mkstemp's is 0o600, which usd-core keeps), as atomic_write_bytes
+        os.fchmod(fd, 0o666 & ~_umask())
+    except (OSError, AttributeError):  # a filesystem without modes
+        pass
     os.close(fd)
     tmp = Path(name)
     try:
