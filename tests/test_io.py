@@ -610,6 +610,31 @@ def test_ascii_stl_cut_mid_facet_says_where(tmp_path: Path, cut: str) -> None:
     assert load_mesh(path).triangle_count == 320
 
 
+@pytest.mark.parametrize(
+    "variant",
+    ["byte-order mark", "crlf uppercase", "tabs", "name with facet", "nul padding", "comment first"],
+)
+def test_valid_ascii_stl_variants_load(tmp_path: Path, variant: str) -> None:
+    # files trimesh reads were refused by the check (as not STL, or as cut before their endsolid)
+    text = _stl_bytes("stl_ascii")
+    data = {
+        "byte-order mark": b"\xef\xbb\xbf" + text.encode(),
+        "crlf uppercase": text.upper().replace("\n", "\r\n").encode(),
+        "tabs": ("\n\t " + text.replace(" ", "\t")).encode(),
+        "name with facet": text.replace("solid", "solid facet", 1)
+        .replace("endsolid", "endsolid facet")
+        .encode(),
+        "nul padding": text.encode() + b"\x00" * 200,
+        "comment first": b"# exported by a tool\n" + text.encode(),
+    }[variant]
+    path = tmp_path / "ok.stl"
+    path.write_bytes(data)
+    assert load_mesh(path).triangle_count == 320
+    path.write_bytes(data[: data.lower().rindex(b"endsolid")])  # still reported when cut before endsolid
+    with pytest.raises(MeshLoadError, match=r"ok\.stl: truncated ASCII STL: .* after 320 complete facets"):
+        load_mesh(path)
+
+
 def test_missing_unsupported_and_directory(tmp_path: Path) -> None:
     with pytest.raises(MeshLoadError, match=r"nope\.obj: file not found"):
         load_mesh(tmp_path / "nope.obj")

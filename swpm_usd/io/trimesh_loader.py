@@ -15,6 +15,7 @@ load as "no triangles" (or as part of its triangles) instead of being reported a
 from __future__ import annotations
 
 import io
+import re
 from pathlib import Path
 
 import numpy as np
@@ -29,13 +30,22 @@ _STL_HEADER_BYTES = 84
 _STL_TRIANGLE_BYTES = 50
 
 
+#: how much of an STL's start and end the check looks at (a valid file is not read further)
+_STL_PROBE_BYTES = 1 << 16
+#: a facet's keywords (``outer loop``: ``outer``), as whole words
+_STL_FACET_WORD = re.compile(rb"\b(?:facet|outer|vertex|endloop|endfacet)\b")
+_STL_ENDSOLID = re.compile(rb"\bendsolid\b")
+
+
 def check_stl(path: Path, data: bytes) -> None:
     """Raise a :class:`MeshLoadError` if ``data`` (the bytes of the STL file ``path``) is cut short.
 
     A binary STL must be exactly 84 + 50 x (its header's triangle count) bytes (the test trimesh reads it
-    by); anything else is taken for ASCII, which starts with ``solid`` and holds no NUL byte. A file that is
-    neither is reported with the sizes: expected by its header against actual. An ASCII STL must close its
-    last facet with an ``endsolid``: text stopping earlier is reported with the line it stops at.
+    by); anything else is taken for ASCII when its start holds ``solid`` (after a byte-order mark, blanks or
+    a comment, in any case) and no NUL byte (trailing NUL padding aside). A file that is neither is reported
+    with the sizes: expected by its header against actual. An ASCII STL must close its last facet with an
+    ``endsolid``: text whose last facet keyword comes after its last ``endsolid`` line is reported with the
+    line it stops at (a solid's name, on the ``endsolid`` line, may hold any word).
     """
     size = len(data)
     if size >= _STL_HEADER_BYTES:
@@ -43,10 +53,16 @@ def check_stl(path: Path, data: bytes) -> None:
         expected = _STL_HEADER_BYTES + _STL_TRIANGLE_BYTES * count
         if size == expected:
             return
-    ascii_like = data[:256].lstrip()[:5].lower() == b"solid" and b"\x00" not in data
-    if ascii_like:
-        text = data.lower()
-        if text.rfind(b"endsolid") < text.rfind(b"facet"):  # a facet after the last endsolid, or none
+    head = data[:_STL_PROBE_BYTES].rstrip(b"\x00\x1a \t\r\n")
+    if b"solid" in head.lower() and b"\x00" not in head:
+        tail = data[-_STL_PROBE_BYTES:].rstrip(b"\x00\x1a \t\r\n").lower()
+        ends = list(_STL_ENDSOLID.finditer(tail))
+        after = tail
+        if ends:
+            line_end = tail.find(b"\n", ends[-1].end())
+            after = b"" if line_end < 0 else tail[line_end:]
+        if _STL_FACET_WORD.search(after):  # a facet after the last endsolid, or no endsolid at all
+            text = data.lower()
             lines = data.count(b"\n") + (not data.endswith(b"\n"))
             raise MeshLoadError(
                 path,
@@ -63,7 +79,7 @@ def check_stl(path: Path, data: bytes) -> None:
             f"(and not ASCII STL: it does not start with 'solid')",
         )
     what = f"header says {count} triangles ({expected} bytes), the file has {size} bytes"
-    if b"\x00" not in data:  # text, but no 'solid'
+    if b"\x00" not in head:  # text, but no 'solid'
         raise MeshLoadError(
             path, f"not an STL file: not ASCII STL (no 'solid' at the start) nor binary STL ({what})"
         )
