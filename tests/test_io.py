@@ -635,6 +635,44 @@ def test_valid_ascii_stl_variants_load(tmp_path: Path, variant: str) -> None:
         load_mesh(path)
 
 
+def test_stl_check_reads_only_the_start_and_end_of_a_large_file(tmp_path: Path) -> None:
+    # the check read the whole file (and an ASCII one twice more: a lowercase copy, a NUL scan) before
+    # trimesh read it again: loading an ASCII STL took the file's size more memory than trimesh's own
+    import tracemalloc
+
+    from swpm_usd.io.trimesh_loader import check_stl
+
+    def peak(load) -> int:
+        tracemalloc.start()
+        try:
+            load()
+            return tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+
+    tri = trimesh.creation.icosphere(subdivisions=2)
+    big = trimesh.util.concatenate([tri] * 100)  # 32,000 triangles
+    files = {"binary": big.export(file_type="stl"), "ascii": big.export(file_type="stl_ascii").encode()}
+    for kind, data in files.items():
+        path = tmp_path / f"{kind}.stl"
+        path.write_bytes(data)
+        assert len(data) > 1_500_000
+        assert peak(lambda p=path: check_stl(p)) < 500_000, kind
+    path = tmp_path / "ascii.stl"
+    load_mesh(path)  # (anything loaded once)
+    extra = peak(lambda: load_mesh(path)) - peak(lambda: trimesh.load_scene(str(path), process=False))
+    assert extra < 0.25 * path.stat().st_size
+    cut = tmp_path / "cut.stl"  # a cut ASCII file is still counted through, across the chunks it is read in
+    text = files["ascii"]
+    at = text.rindex(b"endfacet") + 3
+    cut.write_bytes(text[:at])
+    lines, facets = text.count(b"\n", 0, at) + 1, text.count(b"endfacet") - 1
+    with pytest.raises(
+        MeshLoadError, match=rf"truncated ASCII STL: the text stops at line {lines} after {facets} complete"
+    ):
+        load_mesh(cut)
+
+
 def test_missing_unsupported_and_directory(tmp_path: Path) -> None:
     with pytest.raises(MeshLoadError, match=r"nope\.obj: file not found"):
         load_mesh(tmp_path / "nope.obj")
