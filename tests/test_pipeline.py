@@ -515,7 +515,7 @@ def _lock_held_elsewhere(path: Path, pid: int) -> int:
 def _lock_is_free(path: Path) -> bool:
     import fcntl
 
-    fd = os.open(path, os.O_RDWR)
+    fd = os.open(path, os.O_RDONLY)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         return True
@@ -538,17 +538,18 @@ def test_one_run_at_a_time_in_an_output_folder(tmp_path, monkeypatch):
     (out / ".cow.swpm.abc123.tmp").write_bytes(b"the other run's")
     before = {p.name: p.read_bytes() for p in out.iterdir() if p.name != runner.LOCK}
     cfg.write_text(cfg.read_text().replace("encoding: skip-strip", "encoding: mixed"))  # work to do
-    fd = _lock_held_elsewhere(lock, 4242)
+    holder = os.getppid()  # (a running process: a pid no process has is an earlier run's, not shown)
+    fd = _lock_held_elsewhere(lock, holder)
     try:
         t = time.perf_counter()
         r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
         assert time.perf_counter() - t < 10  # at once, not after waiting for the lock
         assert r.exit_code == 1, r.output
-        message = f"{out}: another swpm-pipeline run (pid 4242) is writing in this output folder"
+        message = f"{out}: another swpm-pipeline run (pid {holder}) is writing in this output folder"
         assert json.loads(r.stdout)["error"].startswith(message) and r.stderr.startswith(f"error: {message}")
         with pytest.raises(OutputLockedError) as err:
             run(cfg, echo=lambda m: None)
-        assert err.value.path == str(out) and err.value.pid == 4242
+        assert err.value.path == str(out) and err.value.pid == holder
         assert {p.name: p.read_bytes() for p in out.iterdir() if p.name != runner.LOCK} == before
         assert run(cfg, dry_run=True, echo=lambda m: None).built == 0  # a dry run writes nothing: no lock
     finally:
@@ -583,6 +584,61 @@ def test_one_run_at_a_time_in_an_output_folder(tmp_path, monkeypatch):
         runner, "_remove_temporary", lambda d: (seen.append(_lock_is_free(d / runner.LOCK)), real(d))
     )
     assert run(cfg, echo=lambda m: None).built == 1 and seen and not any(seen)
+
+
+def test_output_lock_of_another_user_an_unwritable_folder_or_no_locks(tmp_path, monkeypatch):
+    # a lock file left by another user's run (0o644) or a folder the run cannot write in ended the run with
+    # a PermissionError traceback
+    import errno
+
+    from swpm_usd.errors import OutputLockedError
+    from swpm_usd.pipeline import runner
+
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("sliding-window", "vanilla"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    lock = out / runner.LOCK
+    real_open, real_access = os.open, os.access
+
+    def refused(path, flags, *args, **kwargs):
+        if Path(path) == lock and flags & (os.O_WRONLY | os.O_RDWR | os.O_CREAT):
+            raise PermissionError(errno.EACCES, "Permission denied", str(path))
+        return real_open(path, flags, *args, **kwargs)
+
+    monkeypatch.setattr(os, "open", refused)
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True)
+    lock.write_text(dead.stdout.decode())  # the other user's run, ended
+    seen = []
+
+    def second_run(task):  # while the run holds the lock (opened read-only), another is refused
+        with pytest.raises(OutputLockedError) as err:
+            runner._OutputLock(out, print).acquire()
+        seen.append(err.value.pid)  # (the file holds the ended run's pid: not shown)
+        return real_process_asset(task)
+
+    real_process_asset = runner.process_asset
+    monkeypatch.setattr(runner, "process_asset", second_run)
+    r = CliRunner().invoke(main, ["run", str(cfg), "--force"])
+    assert r.exit_code == 0 and r.stderr.count("\n") == 1, r.output  # (the summary alone)
+    assert seen == [None] and _lock_is_free(lock)
+    monkeypatch.setattr(runner, "process_asset", real_process_asset)
+    # a folder the run cannot write in (no lock file to open either): reported as such, exit 2
+    lock.unlink()
+    monkeypatch.setattr(os, "access", lambda p, mode, **kw: Path(p) != out and real_access(p, mode, **kw))
+    r = CliRunner().invoke(main, ["run", str(cfg), "--force"])
+    assert r.exit_code == 2 and f"cannot write in {out}: permission denied" in r.stderr, r.output
+    # a filesystem without locks (NFS without lockd): the run goes on, with a warning
+    monkeypatch.setattr(os, "open", real_open)
+    monkeypatch.setattr(os, "access", real_access)
+    import fcntl
+
+    def no_locks(fd, op):
+        raise OSError(errno.ENOLCK, "No locks available")
+
+    monkeypatch.setattr(fcntl, "flock", no_locks)
+    r = CliRunner().invoke(main, ["run", str(cfg), "--force", "--json"])
+    assert r.exit_code == 0 and json.loads(r.stdout)["built"] == 1, r.output
+    assert f"warning: {out}: cannot lock the output folder (No locks available)" in r.stderr
 
 
 def test_a_second_concurrent_run_fails_fast(tmp_path):

@@ -505,7 +505,10 @@ class _OutputLock:
         self.fd: int | None = None
         self.done = False
 
-    def acquire(self) -> None:
+    def acquire(self, folder_checked: bool = False) -> None:
+        """Take the lock, or raise :class:`OutputLockedError`. A lock file this process cannot open is
+        ignored before the folder is checked (``folder_checked``: a folder the run cannot write in is
+        reported as such, exit 2), and after it gives the warning of a filesystem without locks."""
         if self.done:
             return
         try:
@@ -513,7 +516,17 @@ class _OutputLock:
         except ImportError:  # pragma: no cover - not on POSIX
             self.done = True
             return
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o666)
+        cloexec = getattr(os, "O_CLOEXEC", 0)
+        writable = True
+        try:
+            try:
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | cloexec, 0o666)
+            except PermissionError:  # another user's lock file (0o644): flock needs no write access
+                fd, writable = os.open(self.path, os.O_RDONLY | cloexec), False
+        except OSError as exc:
+            if folder_checked:
+                self._unlocked(exc)
+            return
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
@@ -522,23 +535,42 @@ class _OutputLock:
             except (OSError, ValueError):
                 pid = None
             os.close(fd)
-            raise OutputLockedError(self.path.parent, pid) from None
+            raise OutputLockedError(
+                self.path.parent, pid if pid is not None and _running(pid) else None
+            ) from None
         except OSError as exc:  # ENOLCK, EOPNOTSUPP: a filesystem that does not lock
             os.close(fd)
-            self.done = True
-            self.echo(
-                f"warning: {self.path.parent}: cannot lock the output folder ({exc.strerror or exc}); "
-                "make sure no other run writes there at the same time"
-            )
+            self._unlocked(exc)
             return
-        os.ftruncate(fd, 0)
-        os.write(fd, f"{os.getpid()}\n".encode())
+        if writable:  # (else the file keeps an earlier run's pid, which is not running: not shown)
+            os.ftruncate(fd, 0)
+            os.write(fd, f"{os.getpid()}\n".encode())
         self.fd, self.done = fd, True
+
+    def _unlocked(self, exc: OSError) -> None:
+        self.done = True
+        self.echo(
+            f"warning: {self.path.parent}: cannot lock the output folder ({exc.strerror or exc}); "
+            "make sure no other run writes there at the same time"
+        )
 
     def release(self) -> None:
         if self.fd is not None:
             os.close(self.fd)  # closing the only descriptor of the open file drops its lock
             self.fd = None
+
+
+def _running(pid: int) -> bool:
+    """Is there a process ``pid`` (another user's too)?"""
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # EPERM: someone else's
+        return True
+    return True
 
 
 def run(
@@ -613,7 +645,7 @@ def _run(
             skipped = sum(i.up_to_date for i in items)
             return RunResult({}, 0, skipped, 0, warnings, 0.0, manifest_path, planned)
     _make_out_dir(cfg, out_dir)
-    lock.acquire()  # (a folder this run created)
+    lock.acquire(folder_checked=True)  # (a folder this run created)
     _remove_temporary(out_dir)  # left by a killed run
     todo = [it for it in items if force or not it.up_to_date]
     records = {k: v for k, v in manifest.get("assets", {}).items() if k in {i.asset.id for i in items}}
