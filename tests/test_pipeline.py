@@ -499,6 +499,8 @@ def test_ctrl_c_in_any_command_exits_130_with_one_line(tmp_path, monkeypatch):
         r = CliRunner().invoke(main, args)
         assert r.exit_code == 130 and r.stderr == "swpm-pipeline: interrupted\n", (args, r.output)
         assert r.stdout == "" and not (tmp_path / "a.swpm").exists()
+        # the exiting process ignores another Ctrl-C (the conftest fixture gives pytest its handler back)
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
 
 
 def _lock_held_elsewhere(path: Path, pid: int) -> int:
