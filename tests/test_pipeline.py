@@ -503,6 +503,29 @@ def test_ctrl_c_in_any_command_exits_130_with_one_line(tmp_path, monkeypatch):
         assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
 
 
+@pytest.mark.parametrize("disposition", ["ignored", "own handler"])
+def test_a_run_keeps_an_ignored_or_own_ctrl_c(tmp_path, monkeypatch, disposition):
+    # a background job of a script starts with Ctrl-C ignored, a caller may handle it: --jobs 1 turned it
+    # into a KeyboardInterrupt all the same
+    from swpm_usd.pipeline import runner
+
+    cfg = _project(tmp_path, ("cow.obj", "spot.obj"), MINIMAL)
+    real = runner.process_asset
+
+    def interrupted(task):
+        os.kill(os.getpid(), signal.SIGINT)
+        return real(task)
+
+    monkeypatch.setattr(runner, "process_asset", interrupted)
+    received = []
+    signal.signal(
+        signal.SIGINT, signal.SIG_IGN if disposition == "ignored" else lambda *a: received.append(1)
+    )
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.failed) == (2, 0)
+    assert received == ([] if disposition == "ignored" else [1, 1])
+
+
 def _lock_held_elsewhere(path: Path, pid: int) -> int:
     """Hold ``path`` as another run does (an exclusive flock on its own open file, with its pid); the fd."""
     import fcntl

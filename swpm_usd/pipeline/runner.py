@@ -185,10 +185,20 @@ def _remove_temporary(out_dir: Path) -> None:
         stale.unlink(missing_ok=True)
 
 
+def _interrupts_raise() -> bool:
+    """Does Ctrl-C raise KeyboardInterrupt here (Python's own handler, in the main thread)? A process started
+    with it ignored (a background job of a script) or a caller's own handler keep it as it is."""
+    return (
+        threading.current_thread() is threading.main_thread()
+        and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    )
+
+
 @contextlib.contextmanager
 def _interrupts_deferred() -> Iterator[None]:
-    """A Ctrl-C in the block is raised (KeyboardInterrupt) when it ends, not inside it (main thread only)."""
-    if threading.current_thread() is not threading.main_thread():
+    """A Ctrl-C in the block is raised (KeyboardInterrupt) when it ends, not inside it (main thread only;
+    when Ctrl-C raises KeyboardInterrupt: see :func:`_interrupts_raise`)."""
+    if not _interrupts_raise():
         yield
         return
     received: list[int] = []
@@ -204,9 +214,10 @@ def _interrupts_deferred() -> Iterator[None]:
 @contextlib.contextmanager
 def _interrupts_noted() -> Iterator[list[int]]:
     """Ctrl-C raises KeyboardInterrupt as usual in the block, and is noted in the list it yields (main
-    thread only), so one that something caught and turned into another error is still known."""
+    thread only), so one that something caught and turned into another error is still known (when Ctrl-C
+    raises KeyboardInterrupt: see :func:`_interrupts_raise`)."""
     noted: list[int] = []
-    if threading.current_thread() is not threading.main_thread():
+    if not _interrupts_raise():
         yield noted
         return
 
