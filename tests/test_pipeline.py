@@ -486,6 +486,56 @@ def test_ctrl_c_during_a_run_stops_it_cleanly(tmp_path, jobs):
     assert res.failed == 0 and res.built + res.skipped == 5 and res.skipped >= len(recorded)
 
 
+def test_ctrl_c_while_the_workers_warm_up_stops_the_run_at_once(tmp_path):
+    # the fork server loads (with a cold numba cache: compiles, minutes) the kernels before it forks the
+    # workers; a Ctrl-C then was deferred until the workers had started, so the run went on for minutes
+    (tmp_path / "slow_warm.py").write_text(
+        "import os, pathlib, time\npathlib.Path(os.environ['WARMING']).touch()\ntime.sleep(600)\n"
+    )
+    driver = tmp_path / "driver.py"
+    driver.write_text(
+        "import signal, sys\n"
+        "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
+        "from multiprocessing import forkserver\n"
+        "real = forkserver.set_forkserver_preload\n"
+        "forkserver.set_forkserver_preload = lambda names: real(['slow_warm'])  # a warm-up of 10 minutes\n"
+        "if __name__ == '__main__':  # (not in the processes the fork server starts, which import this)\n"
+        "    from swpm_usd.cli import main\n"
+        "    main(sys.argv[1:])\n"
+    )
+    cfg = _project(tmp_path, ("cow.obj", "spot.obj"), MINIMAL)
+    warming = tmp_path / "warming"
+    proc = subprocess.Popen(
+        [sys.executable, str(driver), "run", str(cfg), "-j", "2"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        start_new_session=True,
+        # (Python 3.11's fork server imports its preload modules from PYTHONPATH, not the caller's sys.path)
+        env={
+            **os.environ,
+            "WARMING": str(warming),
+            "PYTHONPATH": os.pathsep.join([str(tmp_path), *sys.path]),
+        },
+    )
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and proc.poll() is None and not warming.exists():
+            time.sleep(0.05)
+        assert warming.exists() and proc.poll() is None, proc.stderr.read().decode()
+        os.killpg(proc.pid, signal.SIGINT)
+        stderr = proc.communicate(timeout=60)[1].decode()
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130, stderr
+    assert stderr.splitlines() == [
+        "swpm-pipeline run: interrupted; the assets finished are recorded in the manifest, and a rerun "
+        "builds the rest"
+    ], stderr
+    assert _group_gone(proc.pid, 30), "the fork server outlived the run"
+
+
 def test_ctrl_c_in_any_command_exits_130_with_one_line(tmp_path, monkeypatch):
     build_module = sys.modules["swpm_usd.build"]  # (swpm_usd.build is also the function)
 

@@ -433,6 +433,7 @@ def execute(
             from multiprocessing import forkserver
 
             forkserver.ensure_running()
+        _forkserver_ready(ctx)
     pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=ignore_interrupts)
     try:
         # a Ctrl-C while the workers start (waiting for the server to warm up) is raised once they have all
@@ -447,6 +448,53 @@ def execute(
         raise
     finally:
         pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _forkserver_ready(ctx: Any) -> None:
+    """Wait for the fork server to have warmed up (it loads the numba kernels, or compiles them: minutes with
+    a cold cache, after an install or an upgrade) by having it fork a process that exits at once, in a thread:
+    the wait is the main thread's, which a Ctrl-C interrupts, stopping the server. The pool's workers are
+    then started at once (a Ctrl-C deferred while they start, :func:`_interrupts_deferred`, was held for the
+    whole warm-up)."""
+    if not _interrupts_raise():
+        return  # (nothing interrupts the wait: the pool's first worker waits for the server)
+    done = threading.Event()
+
+    def probe() -> None:
+        try:
+            p = ctx.Process(target=ignore_interrupts)
+            p.start()
+            p.join()
+        except BaseException:  # noqa: BLE001 - the server stopped, or cannot start: the pool reports it
+            pass
+        finally:
+            done.set()
+
+    threading.Thread(target=probe, name="swpm-forkserver-probe", daemon=True).start()
+    try:
+        while not done.wait(0.1):
+            pass
+    except BaseException:
+        with _interrupts_ignored():
+            _stop_forkserver()
+        raise
+
+
+def _stop_forkserver() -> None:
+    """Kill this process's fork server (warming up) and forget it (the next pool starts another)."""
+    from multiprocessing import forkserver
+
+    server = getattr(forkserver, "_forkserver", None)
+    pid = getattr(server, "_forkserver_pid", None)
+    if pid is None:
+        return
+    try:
+        os.kill(pid, signal.SIGKILL)
+    except OSError:
+        return
+    stop = getattr(server, "_stop", None)  # closes its pipe, waits for it, deletes its socket
+    if stop is not None:
+        stop()
 
 
 def _terminate_workers(pool: Any) -> None:
