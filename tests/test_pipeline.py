@@ -536,6 +536,42 @@ def test_ctrl_c_while_the_workers_warm_up_stops_the_run_at_once(tmp_path):
     assert _group_gone(proc.pid, 30), "the fork server outlived the run"
 
 
+def test_terminate_workers_stops_a_pool_mid_task():
+    # a Ctrl-C stops the workers mid-asset through the pool's private _processes (Python 3.9 to 3.13), or
+    # its public terminate_workers (3.14+): either way they must be gone, not left to finish their asset
+    import multiprocessing as mp
+    import multiprocessing.connection
+    from concurrent.futures import ProcessPoolExecutor
+
+    from swpm_usd.pipeline.runner import _terminate_workers
+
+    pool = ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("spawn"))
+    try:
+        fut = pool.submit(time.sleep, 120)
+        deadline = time.time() + 60
+        while not fut.running() and time.time() < deadline:
+            time.sleep(0.02)
+        workers = list(pool._processes.values())
+        t = time.perf_counter()
+        _terminate_workers(pool)
+        # (gone: their sentinels are ready; is_alive() may say True for a worker the pool's thread reaped)
+        gone = multiprocessing.connection.wait([p.sentinel for p in workers], timeout=0)
+        assert workers and len(gone) == len(workers) and time.perf_counter() - t < 30
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
+
+    class Pool:  # Python 3.14: terminate_workers, and no _processes once it ran
+        def __init__(self):
+            self.calls = 0
+
+        def terminate_workers(self):
+            self.calls += 1
+
+    fake = Pool()
+    _terminate_workers(fake)
+    assert fake.calls == 1
+
+
 def test_ctrl_c_in_any_command_exits_130_with_one_line(tmp_path, monkeypatch):
     build_module = sys.modules["swpm_usd.build"]  # (swpm_usd.build is also the function)
 

@@ -499,11 +499,20 @@ def _stop_forkserver() -> None:
 
 def _terminate_workers(pool: Any) -> None:
     """Stop a process pool's workers at once and wait for them to be gone (their temporary files are then
-    the caller's to delete: :func:`_remove_temporary`). Their outputs are whole: every write is a rename."""
-    processes = list((getattr(pool, "_processes", None) or {}).values())
-    for p in processes:
-        if p.is_alive():
-            p.terminate()
+    the caller's to delete: :func:`_remove_temporary`). Their outputs are whole: every write is a rename.
+
+    Python 3.14 has ``terminate_workers``; before it, the pool's ``_processes`` (pid -> process, the same
+    from 3.9 to 3.14) are terminated one by one. Either way they are waited for."""
+    processes = list(
+        (getattr(pool, "_processes", None) or {}).values()
+    )  # (before terminate_workers drops it)
+    terminate = getattr(pool, "terminate_workers", None)
+    if terminate is not None:
+        terminate()
+    else:
+        for p in processes:
+            if p.is_alive():
+                p.terminate()
     for p in processes:
         p.join(timeout=30)
 
