@@ -640,6 +640,31 @@ def test_a_run_keeps_an_ignored_or_own_ctrl_c(tmp_path, monkeypatch, disposition
     assert received == ([] if disposition == "ignored" else [1, 1])
 
 
+def test_a_second_ctrl_c_does_not_cut_the_first_ones_clean_up_short(tmp_path, monkeypatch):
+    # a Ctrl-C pressed again while the first one's KeyboardInterrupt unwinds raised another in the middle of
+    # whatever clean-up ran then (in the run's generator: restoring the Ctrl-C handler, stopping the workers)
+    from swpm_usd.pipeline import runner
+
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL)
+    cleaned = []
+
+    def interrupted_twice(task):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(5)  # (not reached: the handler raises at once)
+        except KeyboardInterrupt:
+            os.kill(os.getpid(), signal.SIGINT)  # pressed again
+            sum(range(10_000))  # (the handler runs between bytecodes)
+            cleaned.append(task["id"])
+            raise
+
+    monkeypatch.setattr(runner, "process_asset", interrupted_twice)
+    handler = signal.getsignal(signal.SIGINT)
+    with pytest.raises(KeyboardInterrupt):
+        run(cfg, echo=lambda m: None)
+    assert cleaned == ["meshes/cow.obj"] and signal.getsignal(signal.SIGINT) is handler
+
+
 def _lock_held_elsewhere(path: Path, pid: int) -> int:
     """Hold ``path`` as another run does (an exclusive flock on its own open file, with its pid); the fd."""
     import fcntl

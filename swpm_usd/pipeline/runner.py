@@ -215,7 +215,8 @@ def _interrupts_deferred() -> Iterator[None]:
 def _interrupts_noted() -> Iterator[list[int]]:
     """Ctrl-C raises KeyboardInterrupt as usual in the block, and is noted in the list it yields (main
     thread only), so one that something caught and turned into another error is still known (when Ctrl-C
-    raises KeyboardInterrupt: see :func:`_interrupts_raise`)."""
+    raises KeyboardInterrupt: see :func:`_interrupts_raise`). Only the first raises: another, while the
+    first stops the run, would cut its clean-up short (a handler not restored, workers not stopped)."""
     noted: list[int] = []
     if not _interrupts_raise():
         yield noted
@@ -223,7 +224,8 @@ def _interrupts_noted() -> Iterator[list[int]]:
 
     def note(signum: int, frame: object) -> None:
         noted.append(signum)
-        raise KeyboardInterrupt
+        if len(noted) == 1:
+            raise KeyboardInterrupt
 
     old = signal.signal(signal.SIGINT, note)
     try:
@@ -440,8 +442,9 @@ def execute(
         # started: one interrupted half-way would leave a worker the pool does not know, to fail on its own
         with _interrupts_deferred():
             futures = [pool.submit(process_asset, t) for t in tasks]
-        for fut in as_completed(futures):
-            yield fut.result()
+        with _interrupts_noted():  # (a second Ctrl-C while the first stops the workers is ignored)
+            for fut in as_completed(futures):
+                yield fut.result()
     except BaseException:  # Ctrl-C, an error, or the caller stopped: the workers stop now, mid-asset
         with _interrupts_ignored():
             _terminate_workers(pool)
