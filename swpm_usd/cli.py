@@ -15,7 +15,7 @@ import numpy as np
 
 from . import __version__
 from .errors import SwpmError
-from .format.cli import EncodingsHelpCommand, EncodingsHelpGroup
+from .format.cli import _JSON_ON_INTERRUPT, EncodingsHelpCommand, EncodingsHelpGroup, json_on_interrupt
 
 
 def _lod_rows(pm, max_rows: int) -> list[dict]:
@@ -46,7 +46,8 @@ EXIT_INTERRUPTED = 130
 
 
 class _Main(EncodingsHelpGroup):
-    """The command group: a Ctrl-C in any command exits 130 with one line (click's own: "Aborted!", 1)."""
+    """The command group: a Ctrl-C in any command exits 130 with one line (click's own: "Aborted!", 1), and
+    ``{"error": "interrupted"}`` on stdout for one given ``--json`` (:func:`json_on_interrupt`)."""
 
     def invoke(self, ctx: click.Context) -> object:
         try:
@@ -54,6 +55,9 @@ class _Main(EncodingsHelpGroup):
         except KeyboardInterrupt:
             _exiting_on_interrupt()
             click.echo("swpm-pipeline: interrupted", err=True)
+            fields = ctx.meta.get(_JSON_ON_INTERRUPT)
+            if fields is not None:
+                click.echo(json.dumps({**fields, "error": "interrupted"}, indent=2))
             ctx.exit(EXIT_INTERRUPTED)
 
 
@@ -106,6 +110,7 @@ def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int
     from .format.cli import _encoding_and_params
 
     parsed = _encoding_and_params(encoding, params)
+    json_on_interrupt(as_json, input=input_path)
     start = time.perf_counter()
     try:
         pm = build(input_path, encoding, **parsed)

@@ -615,6 +615,13 @@ def test_ctrl_c_in_any_command_exits_130_with_one_line(tmp_path, monkeypatch):
         assert r.stdout == "" and not (tmp_path / "a.swpm").exists()
         # the exiting process ignores another Ctrl-C (the conftest fixture gives pytest its handler back)
         assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        # --json: JSON on stdout, as for the command's other errors (and run --json's interruption)
+        r = CliRunner().invoke(main, [*args, "--json"])
+        assert r.exit_code == 130 and r.stderr == "swpm-pipeline: interrupted\n", (args, r.output)
+        expected = {"input": str(obj), "error": "interrupted"}
+        if args[0] == "encode":
+            expected = {"input": str(obj), "output": str(tmp_path / "a.swpm"), "error": "interrupted"}
+        assert json.loads(r.stdout) == expected
 
 
 @pytest.mark.parametrize("disposition", ["ignored", "own handler"])

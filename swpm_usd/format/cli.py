@@ -59,6 +59,18 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     return parsed
 
 
+#: ``click.Context.meta`` key: what a command given ``--json`` prints, with ``"error"``, when it is stopped by
+#: Ctrl-C (:func:`json_on_interrupt`; printed by the command group, ``swpm_usd.cli``)
+_JSON_ON_INTERRUPT = "swpm_usd.json_on_interrupt"
+
+
+def json_on_interrupt(as_json: bool, **fields: object) -> None:
+    """A command with ``--json``: stopped by Ctrl-C, it prints ``{**fields, "error": "interrupted"}`` on
+    stdout (as it prints its other errors), so a script reading its output gets JSON however it ends."""
+    if as_json:
+        click.get_current_context().meta[_JSON_ON_INTERRUPT] = fields
+
+
 #: one line per encoding for ``--help`` (an encoding registered in ``BUILDERS`` without one is listed bare)
 _ENCODING_SUMMARY = {
     "vanilla": "each instance edits its own index buffer (collapse records)",
@@ -167,6 +179,7 @@ def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, .
         raise click.BadParameter(f"{output} is the input: it would be overwritten", param_hint="--output")
     if Path(output).suffix.lower() != ".swpm":
         raise click.BadParameter(f"{output}: the output must be a .swpm file", param_hint="--output")
+    json_on_interrupt(as_json, input=input_path, output=output)
     start = time.perf_counter()
     try:
         pm = build(input_path, encoding, **parsed)
