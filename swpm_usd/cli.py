@@ -171,14 +171,16 @@ def run_cmd(
 ) -> None:
     """Run the pipeline described by CONFIG (pipeline.yaml).
 
-    \b
     Per asset: the first matching rule picks the encoding and its parameters; the asset is built, its
     streaming order validated and its outputs written atomically under output.dir, with manifest.json
-    and report.html. Unchanged assets are skipped. An asset built before whose rebuild fails keeps its
-    previous build (outputs, manifest record, place in the scene) and is reported failed. One run at a
-    time writes in an output.dir: another fails at once. Exit 0 when every asset built, 1 when any
-    failed (or output.dir is another run's), 2 when the configuration is invalid (every problem listed
-    as FILE:LINE:COL: $.path: message), 130 on Ctrl-C.
+    and report.html. Unchanged assets are skipped.
+
+    An asset built before whose rebuild fails keeps its previous build (outputs, manifest record, place
+    in the scene) and is reported failed. One run at a time writes in an output.dir: another fails at
+    once.
+
+    Exit 0 when every asset built, 1 when any failed (or output.dir is another run's), 2 when the
+    configuration is invalid (every problem listed as FILE:LINE:COL: $.path: message), 130 on Ctrl-C.
     """
     from .pipeline import ConfigError, run
 

@@ -375,6 +375,17 @@ def test_help_lists_the_registered_encodings_and_their_parameters(monkeypatch: p
     assert "knob" not in helps["group"].output and "swpm-pipeline encode --help" in helps["group"].output
 
 
+def test_every_help_fits_80_columns() -> None:
+    # run --help kept its description in one unwrapped paragraph, 100 columns wide
+    from swpm_usd.cli import main
+
+    runner = CliRunner()
+    for name in [None, *main.commands]:
+        r = runner.invoke(main, [name, "--help"] if name else ["--help"], terminal_width=80)
+        assert r.exit_code == 0, r.output
+        assert max(len(line) for line in r.output.splitlines()) <= 80, (name, r.output)
+
+
 # -- mixed ---------------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def cow_mixed() -> swpm_usd.ProgressiveMesh:
