@@ -506,9 +506,8 @@ def _terminate_workers(pool: Any) -> None:
 
     Python 3.14 has ``terminate_workers``; before it, the pool's ``_processes`` (pid -> process, the same
     from 3.9 to 3.14) are terminated one by one. Either way they are waited for."""
-    processes = list(
-        (getattr(pool, "_processes", None) or {}).values()
-    )  # (before terminate_workers drops it)
+    # (copied before terminate_workers drops the pool's)
+    processes = list((getattr(pool, "_processes", None) or {}).values())
     terminate = getattr(pool, "terminate_workers", None)
     if terminate is not None:
         terminate()
@@ -839,8 +838,6 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
         prim.GetReferences().AddReference(f"./{layer}")
     stage.GetRootLayer().Save()
     tmp.replace(target)
-    layer = Sdf.Layer.Find(
-        str(target)
-    )  # open in this process (a caller of run): it would keep its old content
+    layer = Sdf.Layer.Find(str(target))  # open in this process (a caller of run): it keeps its old content
     if layer is not None:
         layer.Reload(force=True)
