@@ -1,6 +1,7 @@
 """``swpm-pipeline``: the command line. Small commands that compose; ``--json`` for machines.
 
-Exit codes: 0 ok, 1 invalid input (a mesh or file that cannot be used), 2 usage error.
+Exit codes: 0 ok, 1 invalid input (a mesh or file that cannot be used), 2 usage error, 130 interrupted
+(Ctrl-C: one line on stderr, no traceback).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import numpy as np
 
 from . import __version__
 from .errors import SwpmError
+from .format.cli import _JSON_ON_INTERRUPT, EncodingsHelpCommand, EncodingsHelpGroup, json_on_interrupt
 
 
 def _lod_rows(pm, max_rows: int) -> list[dict]:
@@ -39,7 +41,37 @@ def _lod_rows(pm, max_rows: int) -> list[dict]:
     return rows
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+#: the exit code of a command stopped by Ctrl-C (128 + SIGINT, as a shell reports it)
+EXIT_INTERRUPTED = 130
+
+
+class _Main(EncodingsHelpGroup):
+    """The command group: a Ctrl-C in any command exits 130 with one line (click's own: "Aborted!", 1), and
+    ``{"error": "interrupted"}`` on stdout for one given ``--json`` (:func:`json_on_interrupt`)."""
+
+    def invoke(self, ctx: click.Context) -> object:
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            _exiting_on_interrupt()
+            click.echo("swpm-pipeline: interrupted", err=True)
+            fields = ctx.meta.get(_JSON_ON_INTERRUPT)
+            if fields is not None:
+                click.echo(json.dumps({**fields, "error": "interrupted"}, indent=2))
+            ctx.exit(EXIT_INTERRUPTED)
+
+
+def _exiting_on_interrupt() -> None:
+    """Another Ctrl-C while the process exits is ignored (it would end it with a traceback, killed by SIGINT,
+    while the interpreter waits for its threads)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@click.group(cls=_Main, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="swpm-pipeline")
 def main() -> None:
     """Turn meshes into view-independent progressive meshes (vanilla, skip-strip, mixed, sliding-window).
@@ -48,19 +80,23 @@ def main() -> None:
     Examples:
       swpm-pipeline build samples/spot.obj --encoding vanilla
       swpm-pipeline build samples/spot.obj --encoding vanilla --json
+      swpm-pipeline encode spot.obj -o spot.swpm -e skip-strip -p primitive=list
+      swpm-pipeline run samples/pipeline.yaml --jobs 4
     """
 
 
-@main.command("build")
+@main.command("build", cls=EncodingsHelpCommand)
 @click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
-@click.option("--encoding", "-e", default="vanilla", show_default=True, help="Encoding to build.")
+@click.option(
+    "--encoding", "-e", default="vanilla", show_default=True, help="Encoding to build (listed below)."
+)
 @click.option(
     "--param",
     "-p",
     "params",
     multiple=True,
     metavar="NAME=VALUE",
-    help="Encoding parameter (repeatable), value parsed as JSON when it can be: -p mu=0.2",
+    help="Encoding parameter (repeatable, listed below), value parsed as JSON when it can be: -p mu=0.2",
 )
 @click.option("--rows", default=12, show_default=True, help="How many LODs the table shows.")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
@@ -74,6 +110,7 @@ def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int
     from .format.cli import _encoding_and_params
 
     parsed = _encoding_and_params(encoding, params)
+    json_on_interrupt(as_json, input=input_path)
     start = time.perf_counter()
     try:
         pm = build(input_path, encoding, **parsed)
@@ -134,11 +171,16 @@ def run_cmd(
 ) -> None:
     """Run the pipeline described by CONFIG (pipeline.yaml).
 
-    \b
     Per asset: the first matching rule picks the encoding and its parameters; the asset is built, its
     streaming order validated and its outputs written atomically under output.dir, with manifest.json
-    and report.html. Unchanged assets are skipped. Exit 0 when every asset built, 1 when any failed,
-    2 when the configuration is invalid (every problem listed as FILE:LINE:COL: $.path: message).
+    and report.html. Unchanged assets are skipped.
+
+    An asset built before whose rebuild fails keeps its previous build (outputs, manifest record, place
+    in the scene) and is reported failed. One run at a time writes in an output.dir: another fails at
+    once.
+
+    Exit 0 when every asset built, 1 when any failed (or output.dir is another run's), 2 when the
+    configuration is invalid (every problem listed as FILE:LINE:COL: $.path: message), 130 on Ctrl-C.
     """
     from .pipeline import ConfigError, run
 
@@ -159,6 +201,21 @@ def run_cmd(
         if as_json:
             click.echo(json.dumps({"error": "invalid configuration", "problems": exc.problems}, indent=2))
         sys.exit(2)
+    except SwpmError as exc:  # output.dir held by another run (OutputLockedError)
+        click.echo(f"error: {exc}", err=True)
+        if as_json:
+            click.echo(json.dumps({"error": str(exc)}, indent=2))
+        sys.exit(1)
+    except KeyboardInterrupt:  # the run has stopped its workers and recorded what they finished
+        _exiting_on_interrupt()
+        click.echo(
+            "swpm-pipeline run: interrupted; the assets finished are recorded in the manifest, "
+            "and a rerun builds the rest",
+            err=True,
+        )
+        if as_json:
+            click.echo(json.dumps({"error": "interrupted"}, indent=2))
+        sys.exit(EXIT_INTERRUPTED)
     if as_json:
         summary = {
             "built": res.built,
@@ -168,9 +225,8 @@ def run_cmd(
             "seconds": res.seconds,
             "manifest": str(res.manifest_path),
             "failures": [
-                {"id": rid, "error": rec.get("error")}
-                for rid, rec in sorted(res.records.items())
-                if rec.get("status") == "failed"
+                {"id": rid, "error": rec.get("error"), "kept_previous": rec["kept_previous"]}
+                for rid, rec in sorted(res.failures.items())
             ],
         }
         if dry_run or explain:
@@ -181,9 +237,13 @@ def run_cmd(
             f"{res.built} built, {res.skipped} up to date, {res.failed} failed in {res.seconds:.1f} s; "
             f"manifest {res.manifest_path}"
         )
-        for rid, rec in sorted(res.records.items()):
-            if rec.get("status") == "failed":
-                click.echo(f"FAILED {rid}: {rec.get('error')}", err=True)
+        for rid, rec in sorted(res.failures.items()):
+            kept = (
+                "; its previous build is kept (outputs, manifest record, scene)"
+                if rec["kept_previous"]
+                else ""
+            )
+            click.echo(f"FAILED {rid}: {rec.get('error')}{kept}", err=True)
     sys.exit(1 if res.failed else 0)
 
 

@@ -24,3 +24,17 @@ class MeshLoadError(SwpmError):
 
 class BuildError(SwpmError):
     """An encoding could not be built from a mesh (bad parameters or an unsupported mesh)."""
+
+
+class OutputLockedError(SwpmError):
+    """Another pipeline run holds the output folder ``path`` (its lock file); ``pid`` is that run's process
+    id when it could be read."""
+
+    def __init__(self, path: str | Path, pid: int | None = None) -> None:
+        self.path = str(path)
+        self.pid = pid
+        who = f" (pid {pid})" if pid is not None else ""
+        super().__init__(
+            f"{self.path}: another swpm-pipeline run{who} is writing in this output folder; "
+            "wait for it to end, or choose another output.dir"
+        )

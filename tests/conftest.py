@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import signal
 from functools import cache
 from pathlib import Path
 
@@ -46,3 +47,13 @@ def edge_stats(triangles: np.ndarray, vertex_pos: np.ndarray) -> dict[str, int]:
         "nonmanifold": int((counts > 2).sum()),
         "repeated_directed": int(directed.shape[0] - uniq_dir),
     }
+
+
+@pytest.fixture(autouse=True)
+def _ctrl_c_handler_restored():
+    """Every test leaves the process's Ctrl-C handler as it found it. A command run in-process ignores Ctrl-C
+    as it exits on one (``swpm_usd.cli._exiting_on_interrupt``); left so, every subprocess a later test starts
+    would inherit the ignored signal, and a test interrupting one would find it ignores Ctrl-C."""
+    handler = signal.getsignal(signal.SIGINT)
+    yield
+    signal.signal(signal.SIGINT, handler)

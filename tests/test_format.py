@@ -305,6 +305,87 @@ def test_build_and_encode_share_usage_errors_and_encode_never_overwrites_its_inp
     assert obj.read_bytes() == before and not (tmp_path / "x.usda").exists()
 
 
+def test_encode_json_reports_the_written_file_and_failures_as_json(tmp_path: Path) -> None:
+    from swpm_usd.cli import main
+
+    obj = tmp_path / "grid.obj"
+    m = _fan_mesh()
+    obj.write_text(
+        "".join(f"v {x} {y} {z}\n" for x, y, z in m.points)
+        + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in m.triangles)
+    )
+    out = tmp_path / "grid.swpm"
+    runner = CliRunner()  # click 8.2: result.stdout holds stdout alone
+    r = runner.invoke(
+        main, ["encode", str(obj), "-o", str(out), "-e", "skip-strip", "-p", "primitive=list", "--json"]
+    )
+    assert r.exit_code == 0, r.output
+    summary = json.loads(r.stdout)
+    pm = load(out)
+    info = validate(out).summary
+    assert summary["input"] == str(obj) and summary["output"] == str(out)
+    assert summary["encoding"] == "skip-strip" and summary["params"]["primitive"] == "list"
+    assert summary["lod_count"] == pm.lod_count and summary["vertices"] == pm.vertex_count
+    assert summary["triangles"] == info["triangle_count"] == m.triangle_count
+    assert summary["coarsest_triangles"] == pm.triangle_count_at(pm.lod_count - 1)
+    assert summary["bytes"] == out.stat().st_size
+    assert (summary["global_bytes"], summary["instance_bytes"]) == (pm.global_bytes, pm.instance_bytes)
+    assert summary["source_digest"] == "sha256:" + __import__("hashlib").sha256(obj.read_bytes()).hexdigest()
+    assert summary["build_seconds"] >= 0
+    # invalid input: exit 1, the error (naming the file) as JSON on stdout and as text on stderr
+    broken = tmp_path / "broken.obj"
+    broken.write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
+    for source in (broken, tmp_path / "missing.obj"):
+        r = runner.invoke(main, ["encode", str(source), "-o", str(tmp_path / "b.swpm"), "--json"])
+        assert r.exit_code == 1, r.output
+        failure = json.loads(r.stdout)
+        assert failure["input"] == str(source) and failure["output"] == str(tmp_path / "b.swpm")
+        assert source.name in failure["error"] and r.stderr.startswith("error: ")
+    assert not (tmp_path / "b.swpm").exists()
+    # usage errors stay click's (exit 2, on stderr), as build --json's
+    r = runner.invoke(main, ["encode", str(obj), "-o", str(tmp_path / "c.swpm"), "-e", "foo", "--json"])
+    assert r.exit_code == 2 and r.stdout == "" and "--encoding" in r.stderr
+
+
+def test_help_lists_the_registered_encodings_and_their_parameters(monkeypatch: pytest.MonkeyPatch) -> None:
+    from swpm_usd.cli import main
+    from swpm_usd.encode import BUILDERS
+
+    # an encoding registered later is listed too: the help is read from the registry
+    extra = {**BUILDERS["vanilla"][1], "knob": 3, "mode": "fast", "flag": False, "auto_pick": None}
+    monkeypatch.setitem(BUILDERS, "test-encoding", (BUILDERS["vanilla"][0], extra))
+    runner = CliRunner()
+    helps = {cmd: runner.invoke(main, [cmd, "--help"]) for cmd in ("encode", "build")}
+    helps["group"] = runner.invoke(main, ["--help"])
+    for name, r in helps.items():
+        assert r.exit_code == 0, r.output
+        assert all(len(line) <= 80 for line in r.output.splitlines()), (name, r.output)
+        listed = r.output[r.output.index("Encodings (--encoding):") :]
+        for encoding in BUILDERS:
+            assert re.search(rf"^    {re.escape(encoding)}( |$)", listed, re.M), (name, encoding)
+        assert "boundary_weight=8.0 seam_weight=2.0" in listed  # the parameters every encoding takes
+    for name in ("encode", "build"):
+        text = " ".join(helps[name].output.split())
+        for encoding, (_, defaults) in BUILDERS.items():
+            for param, value in defaults.items():
+                shown = value if isinstance(value, str) else json.dumps(value)
+                assert f"{param}={shown}" in text, (name, encoding, param)
+        assert "knob=3 mode=fast flag=false auto_pick=null" in text
+        assert "-e, --encoding" in text and "-p, --param NAME=VALUE" in text  # the options keep their names
+    assert "knob" not in helps["group"].output and "swpm-pipeline encode --help" in helps["group"].output
+
+
+def test_every_help_fits_80_columns() -> None:
+    # run --help kept its description in one unwrapped paragraph, 100 columns wide
+    from swpm_usd.cli import main
+
+    runner = CliRunner()
+    for name in [None, *main.commands]:
+        r = runner.invoke(main, [name, "--help"] if name else ["--help"], terminal_width=80)
+        assert r.exit_code == 0, r.output
+        assert max(len(line) for line in r.output.splitlines()) <= 80, (name, r.output)
+
+
 # -- mixed ---------------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def cow_mixed() -> swpm_usd.ProgressiveMesh:

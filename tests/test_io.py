@@ -550,6 +550,129 @@ def test_garbage_bytes(tmp_path: Path, ext: str) -> None:
     assert err.value.path == str(path)
 
 
+def _stl_bytes(file_type: str = "stl") -> bytes | str:
+    return trimesh.creation.icosphere(subdivisions=2).export(file_type=file_type)  # 320 triangles
+
+
+@pytest.mark.parametrize(
+    ("keep", "problem"),
+    [
+        (8042, r"truncated binary STL: header says 320 triangles \(16084 bytes\), the file has 8042 bytes"),
+        (84 + 50 * 3 + 20, r"truncated binary STL: .*the file has 254 bytes"),  # inside a triangle record
+        (84, r"truncated binary STL: header says 320 triangles \(16084 bytes\), the file has 84 bytes"),
+        (60, r"truncated binary STL: 60 bytes, shorter than the 84-byte header"),
+        (0, r"no triangles: the file is empty"),
+    ],
+)
+def test_truncated_binary_stl_says_so(tmp_path: Path, keep: int, problem: str) -> None:
+    # trimesh takes a binary STL whose length disagrees with its header for ASCII and found "no triangles"
+    path = tmp_path / "cut.stl"
+    path.write_bytes(_stl_bytes()[:keep])
+    with pytest.raises(MeshLoadError, match=r"cut\.stl: " + problem) as err:
+        load_mesh(path)
+    assert err.value.path == str(path)
+
+
+def test_binary_stl_longer_than_its_header_or_not_stl(tmp_path: Path) -> None:
+    path = tmp_path / "long.stl"
+    path.write_bytes(_stl_bytes() + b"xyz")
+    with pytest.raises(MeshLoadError, match=r"long\.stl: not a valid binary STL: .*16087 bytes \(3 bytes"):
+        load_mesh(path)
+    path = tmp_path / "text.stl"
+    path.write_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n" * 8)
+    with pytest.raises(MeshLoadError, match=r"text\.stl: not an STL file: not ASCII STL \(no 'solid'"):
+        load_mesh(path)
+
+
+def test_binary_stl_whose_header_starts_with_solid_loads(tmp_path: Path) -> None:
+    # some exporters write "solid" into a binary header: its length, not its first word, makes it binary
+    data = _stl_bytes()
+    path = tmp_path / "solid.stl"
+    path.write_bytes(b"solid made by some exporter".ljust(80, b" ") + data[80:])
+    assert load_mesh(path).triangle_count == 320
+
+
+@pytest.mark.parametrize("cut", ["vertex", "endloop", "endfacet"])
+def test_ascii_stl_cut_mid_facet_says_where(tmp_path: Path, cut: str) -> None:
+    text = _stl_bytes("stl_ascii")
+    at = text.index(cut, len(text) // 2) + 3  # inside the keyword, past the middle of the file
+    path = tmp_path / "cut.stl"
+    path.write_text(text[:at])
+    facets = text[:at].count("endfacet")
+    line = text[:at].count("\n") + 1
+    with pytest.raises(
+        MeshLoadError,
+        match=rf"cut\.stl: truncated ASCII STL: the text stops at line {line} after {facets} complete facets,"
+        r" without the closing 'endsolid'",
+    ):
+        load_mesh(path)
+    path.write_text(text)  # the whole file loads
+    assert load_mesh(path).triangle_count == 320
+
+
+@pytest.mark.parametrize(
+    "variant",
+    ["byte-order mark", "crlf uppercase", "tabs", "name with facet", "nul padding", "comment first"],
+)
+def test_valid_ascii_stl_variants_load(tmp_path: Path, variant: str) -> None:
+    # files trimesh reads were refused by the check (as not STL, or as cut before their endsolid)
+    text = _stl_bytes("stl_ascii")
+    data = {
+        "byte-order mark": b"\xef\xbb\xbf" + text.encode(),
+        "crlf uppercase": text.upper().replace("\n", "\r\n").encode(),
+        "tabs": ("\n\t " + text.replace(" ", "\t")).encode(),
+        "name with facet": text.replace("solid", "solid facet", 1)
+        .replace("endsolid", "endsolid facet")
+        .encode(),
+        "nul padding": text.encode() + b"\x00" * 200,
+        "comment first": b"# exported by a tool\n" + text.encode(),
+    }[variant]
+    path = tmp_path / "ok.stl"
+    path.write_bytes(data)
+    assert load_mesh(path).triangle_count == 320
+    path.write_bytes(data[: data.lower().rindex(b"endsolid")])  # still reported when cut before endsolid
+    with pytest.raises(MeshLoadError, match=r"ok\.stl: truncated ASCII STL: .* after 320 complete facets"):
+        load_mesh(path)
+
+
+def test_stl_check_reads_only_the_start_and_end_of_a_large_file(tmp_path: Path) -> None:
+    # the check read the whole file (and an ASCII one twice more: a lowercase copy, a NUL scan) before
+    # trimesh read it again: loading an ASCII STL took the file's size more memory than trimesh's own
+    import tracemalloc
+
+    from swpm_usd.io.trimesh_loader import check_stl
+
+    def peak(load) -> int:
+        tracemalloc.start()
+        try:
+            load()
+            return tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+
+    tri = trimesh.creation.icosphere(subdivisions=2)
+    big = trimesh.util.concatenate([tri] * 100)  # 32,000 triangles
+    files = {"binary": big.export(file_type="stl"), "ascii": big.export(file_type="stl_ascii").encode()}
+    for kind, data in files.items():
+        path = tmp_path / f"{kind}.stl"
+        path.write_bytes(data)
+        assert len(data) > 1_500_000
+        assert peak(lambda p=path: check_stl(p)) < 500_000, kind
+    path = tmp_path / "ascii.stl"
+    load_mesh(path)  # (anything loaded once)
+    extra = peak(lambda: load_mesh(path)) - peak(lambda: trimesh.load_scene(str(path), process=False))
+    assert extra < 0.25 * path.stat().st_size
+    cut = tmp_path / "cut.stl"  # a cut ASCII file is still counted through, across the chunks it is read in
+    text = files["ascii"]
+    at = text.rindex(b"endfacet") + 3
+    cut.write_bytes(text[:at])
+    lines, facets = text.count(b"\n", 0, at) + 1, text.count(b"endfacet") - 1
+    with pytest.raises(
+        MeshLoadError, match=rf"truncated ASCII STL: the text stops at line {lines} after {facets} complete"
+    ):
+        load_mesh(cut)
+
+
 def test_missing_unsupported_and_directory(tmp_path: Path) -> None:
     with pytest.raises(MeshLoadError, match=r"nope\.obj: file not found"):
         load_mesh(tmp_path / "nope.obj")

@@ -23,6 +23,17 @@ from swpm_usd.pipeline import ConfigError, load_config, run
 from swpm_usd.pipeline.schema import PACKAGED_SCHEMA, SCHEMA_PATH, schema_text
 
 
+def sha256_of(path: Path) -> str:
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+#: how long a subprocess may take to build its first asset: the numba kernels are compiled on a cold cache
+#: (minutes on a loaded 2-core machine); it only costs time when a test fails
+FIRST_ASSET_S = 900
+
+
 def _project(tmp_path: Path, meshes=("cow.obj", "spot.obj"), config: str = "") -> Path:
     (tmp_path / "meshes").mkdir()
     for m in meshes:
@@ -392,7 +403,7 @@ def test_interrupted_run_keeps_earlier_outputs_and_rerun_finishes(tmp_path):
         stderr=subprocess.DEVNULL,
         start_new_session=True,
     )
-    deadline = time.time() + 120
+    deadline = time.time() + FIRST_ASSET_S
     done_before = 0
     while time.time() < deadline and proc.poll() is None:
         if manifest.exists():
@@ -410,6 +421,446 @@ def test_interrupted_run_keeps_earlier_outputs_and_rerun_finishes(tmp_path):
     assert res.failed == 0
     assert res.built + res.skipped == 5 and res.skipped >= len(recorded)
     assert not list((tmp_path / "out").glob(".*.tmp"))
+
+
+def _group_members(pgid: int) -> list[int]:
+    """The processes of the group ``pgid`` that have not exited. A zombie has: where nothing reaps orphans
+    (a container whose PID 1 is not an init), the fork server the run left stays one."""
+    proc = Path("/proc")
+    if not (proc / "self" / "stat").is_file():
+        try:
+            os.killpg(pgid, 0)
+        except ProcessLookupError:
+            return []
+        return [pgid]
+    members = []
+    for d in proc.iterdir():
+        if d.name.isdigit():
+            try:
+                stat = (d / "stat").read_text()
+            except OSError:  # gone meanwhile
+                continue
+            state, _ppid, group = stat[stat.rindex(")") + 2 :].split()[:3]
+            if int(group) == pgid and state not in "ZX":
+                members.append(int(d.name))
+    return members
+
+
+def _group_gone(pgid: int, seconds: float) -> bool:
+    """Has every process of the group ``pgid`` exited (within ``seconds``)?"""
+    deadline = time.time() + seconds
+    while time.time() < deadline:
+        if not _group_members(pgid):
+            return True
+        time.sleep(0.05)
+    return False
+
+
+@pytest.mark.parametrize("jobs", [2, 1])
+def test_ctrl_c_during_a_run_stops_it_cleanly(tmp_path, jobs):
+    # Ctrl-C sends SIGINT to the terminal's whole process group: the workers used to take it too and print
+    # tracebacks, and kept writing outputs after the run had stopped; in one process (--jobs 1) numba turned
+    # it into a SystemError, recorded as the asset's failure, and the run went on
+    from swpm_usd.pipeline.runner import _TEMPORARY
+
+    cfg = _project(tmp_path, ("cow.obj", "spot.obj", "bob.obj", "fandisk.obj", "teapot.obj"), "")
+    for i in range(4):  # work left once the first asset is recorded (some seconds), so Ctrl-C finds the run
+        shutil.copy(tmp_path / "meshes" / "spot.obj", tmp_path / "meshes" / f"spot{i}.obj")
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'meshes/*.obj'}]\noutput: {dir: out, usd: true, scene: true}\n"
+        "defaults: {encoding: sliding-window}\n"
+    )
+    out = tmp_path / "out"
+    manifest = out / "manifest.json"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "swpm_usd.cli", "run", str(cfg), "-j", str(jobs)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        start_new_session=True,  # its own process group, as a terminal's foreground job
+    )
+    try:
+        deadline = time.time() + FIRST_ASSET_S
+        while time.time() < deadline and proc.poll() is None:  # the first asset recorded: workers busy
+            if manifest.exists() and json.loads(manifest.read_text())["assets"]:
+                break
+            time.sleep(0.05)
+        assert proc.poll() is None, "the run ended before it could be interrupted"
+        os.killpg(proc.pid, signal.SIGINT)
+        time.sleep(0.1)
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGINT)  # a second Ctrl-C while it stops changes nothing
+        stderr = proc.communicate(timeout=120)[1].decode()
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130, stderr
+    assert "Traceback" not in stderr and "Error" not in stderr, stderr
+    lines = [line for line in stderr.splitlines() if not line.startswith("[")]  # progress lines aside
+    assert lines == [
+        "swpm-pipeline run: interrupted; the assets finished are recorded in the manifest, and a rerun "
+        "builds the rest"
+    ], stderr
+    assert _group_gone(proc.pid, 30), "a worker outlived the run"  # nothing writes into out/ any more
+    assert not [p.name for pattern in _TEMPORARY for p in out.glob(pattern)]
+    recorded = json.loads(manifest.read_text())["assets"]
+    assert recorded and all(rec["status"] == "built" for rec in recorded.values())
+    for rec in recorded.values():
+        for o in rec["outputs"].values():
+            assert sha256_of(out / o["path"]) == o["sha256"]
+    for path in out.glob("*.swpm"):  # whole files only (an asset finished as the run stopped is not listed)
+        assert swpm_usd.validate(path).valid, path
+    res = run(cfg, jobs=2, echo=lambda m: None)
+    assert res.failed == 0 and res.built + res.skipped == 9 and res.skipped >= len(recorded)
+
+
+def test_ctrl_c_while_the_workers_warm_up_stops_the_run_at_once(tmp_path):
+    # the fork server loads (with a cold numba cache: compiles, minutes) the kernels before it forks the
+    # workers; a Ctrl-C then was deferred until the workers had started, so the run went on for minutes
+    (tmp_path / "slow_warm.py").write_text(
+        "import os, pathlib, time\npathlib.Path(os.environ['WARMING']).touch()\ntime.sleep(600)\n"
+    )
+    driver = tmp_path / "driver.py"
+    driver.write_text(
+        "import signal, sys\n"
+        "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
+        "from multiprocessing import forkserver\n"
+        "real = forkserver.set_forkserver_preload\n"
+        "forkserver.set_forkserver_preload = lambda names: real(['slow_warm'])  # a warm-up of 10 minutes\n"
+        "if __name__ == '__main__':  # (not in the processes the fork server starts, which import this)\n"
+        "    from swpm_usd.cli import main\n"
+        "    main(sys.argv[1:])\n"
+    )
+    cfg = _project(tmp_path, ("cow.obj", "spot.obj"), MINIMAL)
+    warming = tmp_path / "warming"
+    proc = subprocess.Popen(
+        [sys.executable, str(driver), "run", str(cfg), "-j", "2"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        start_new_session=True,
+        # (Python 3.11's fork server imports its preload modules from PYTHONPATH, not the caller's sys.path)
+        env={
+            **os.environ,
+            "WARMING": str(warming),
+            "PYTHONPATH": os.pathsep.join([str(tmp_path), *sys.path]),
+        },
+    )
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and proc.poll() is None and not warming.exists():
+            time.sleep(0.05)
+        assert warming.exists() and proc.poll() is None, proc.stderr.read().decode()
+        os.killpg(proc.pid, signal.SIGINT)
+        stderr = proc.communicate(timeout=60)[1].decode()
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130, stderr
+    assert stderr.splitlines() == [
+        "swpm-pipeline run: interrupted; the assets finished are recorded in the manifest, and a rerun "
+        "builds the rest"
+    ], stderr
+    assert _group_gone(proc.pid, 30), "the fork server outlived the run"
+
+
+def test_terminate_workers_stops_a_pool_mid_task():
+    # a Ctrl-C stops the workers mid-asset through the pool's private _processes (Python 3.9 to 3.13), or
+    # its public terminate_workers (3.14+): either way they must be gone, not left to finish their asset
+    import multiprocessing as mp
+    import multiprocessing.connection
+    from concurrent.futures import ProcessPoolExecutor
+
+    from swpm_usd.pipeline.runner import _terminate_workers
+
+    pool = ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("spawn"))
+    try:
+        fut = pool.submit(time.sleep, 120)
+        deadline = time.time() + 60
+        while not fut.running() and time.time() < deadline:
+            time.sleep(0.02)
+        workers = list(pool._processes.values())
+        t = time.perf_counter()
+        _terminate_workers(pool)
+        # (gone: their sentinels are ready; is_alive() may say True for a worker the pool's thread reaped)
+        gone = multiprocessing.connection.wait([p.sentinel for p in workers], timeout=0)
+        assert workers and len(gone) == len(workers) and time.perf_counter() - t < 30
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
+
+    class Pool:  # Python 3.14: terminate_workers, and no _processes once it ran
+        def __init__(self):
+            self.calls = 0
+
+        def terminate_workers(self):
+            self.calls += 1
+
+    fake = Pool()
+    _terminate_workers(fake)
+    assert fake.calls == 1
+
+
+def test_ctrl_c_in_any_command_exits_130_with_one_line(tmp_path, monkeypatch):
+    build_module = sys.modules["swpm_usd.build"]  # (swpm_usd.build is also the function)
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(build_module, "build", interrupted)
+    obj = tmp_path / "a.obj"
+    obj.write_text(TWO_TRIANGLES)
+    for args in (["build", str(obj)], ["encode", str(obj), "-o", str(tmp_path / "a.swpm")]):
+        r = CliRunner().invoke(main, args)
+        assert r.exit_code == 130 and r.stderr == "swpm-pipeline: interrupted\n", (args, r.output)
+        assert r.stdout == "" and not (tmp_path / "a.swpm").exists()
+        # the exiting process ignores another Ctrl-C (the conftest fixture gives pytest its handler back)
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        # --json: JSON on stdout, as for the command's other errors (and run --json's interruption)
+        r = CliRunner().invoke(main, [*args, "--json"])
+        assert r.exit_code == 130 and r.stderr == "swpm-pipeline: interrupted\n", (args, r.output)
+        expected = {"input": str(obj), "error": "interrupted"}
+        if args[0] == "encode":
+            expected = {"input": str(obj), "output": str(tmp_path / "a.swpm"), "error": "interrupted"}
+        assert json.loads(r.stdout) == expected
+
+
+@pytest.mark.parametrize("disposition", ["ignored", "own handler"])
+def test_a_run_keeps_an_ignored_or_own_ctrl_c(tmp_path, monkeypatch, disposition):
+    # a background job of a script starts with Ctrl-C ignored, a caller may handle it: --jobs 1 turned it
+    # into a KeyboardInterrupt all the same
+    from swpm_usd.pipeline import runner
+
+    cfg = _project(tmp_path, ("cow.obj", "spot.obj"), MINIMAL)
+    real = runner.process_asset
+
+    def interrupted(task):
+        os.kill(os.getpid(), signal.SIGINT)
+        return real(task)
+
+    monkeypatch.setattr(runner, "process_asset", interrupted)
+    received = []
+    signal.signal(
+        signal.SIGINT, signal.SIG_IGN if disposition == "ignored" else lambda *a: received.append(1)
+    )
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.failed) == (2, 0)
+    assert received == ([] if disposition == "ignored" else [1, 1])
+
+
+def test_a_second_ctrl_c_does_not_cut_the_first_ones_clean_up_short(tmp_path, monkeypatch):
+    # a Ctrl-C pressed again while the first one's KeyboardInterrupt unwinds raised another in the middle of
+    # whatever clean-up ran then (in the run's generator: restoring the Ctrl-C handler, stopping the workers)
+    from swpm_usd.pipeline import runner
+
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL)
+    cleaned = []
+
+    def interrupted_twice(task):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(5)  # (not reached: the handler raises at once)
+        except KeyboardInterrupt:
+            os.kill(os.getpid(), signal.SIGINT)  # pressed again
+            sum(range(10_000))  # (the handler runs between bytecodes)
+            cleaned.append(task["id"])
+            raise
+
+    monkeypatch.setattr(runner, "process_asset", interrupted_twice)
+    handler = signal.getsignal(signal.SIGINT)
+    with pytest.raises(KeyboardInterrupt):
+        run(cfg, echo=lambda m: None)
+    assert cleaned == ["meshes/cow.obj"] and signal.getsignal(signal.SIGINT) is handler
+
+
+def _lock_held_elsewhere(path: Path, pid: int) -> int:
+    """Hold ``path`` as another run does (an exclusive flock on its own open file, with its pid); the fd."""
+    import fcntl
+
+    fd = os.open(path, os.O_RDWR | os.O_CREAT)
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    os.ftruncate(fd, 0)
+    os.write(fd, f"{pid}\n".encode())
+    return fd
+
+
+def _lock_is_free(path: Path) -> bool:
+    import fcntl
+
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        return True
+    except BlockingIOError:
+        return False
+    finally:
+        os.close(fd)
+
+
+def test_one_run_at_a_time_in_an_output_folder(tmp_path, monkeypatch):
+    from swpm_usd.errors import OutputLockedError
+    from swpm_usd.pipeline import runner
+
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("sliding-window", "vanilla"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    lock = out / runner.LOCK
+    assert lock.is_file() and _lock_is_free(lock)  # released at the end of the run
+    # another run is writing here: its temporary file must survive, the second run must touch nothing
+    (out / ".cow.swpm.abc123.tmp").write_bytes(b"the other run's")
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.name != runner.LOCK}
+    cfg.write_text(cfg.read_text().replace("encoding: skip-strip", "encoding: mixed"))  # work to do
+    holder = os.getppid()  # (a running process: a pid no process has is an earlier run's, not shown)
+    fd = _lock_held_elsewhere(lock, holder)
+    try:
+        t = time.perf_counter()
+        r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
+        assert time.perf_counter() - t < 10  # at once, not after waiting for the lock
+        assert r.exit_code == 1, r.output
+        message = f"{out}: another swpm-pipeline run (pid {holder}) is writing in this output folder"
+        assert json.loads(r.stdout)["error"].startswith(message) and r.stderr.startswith(f"error: {message}")
+        with pytest.raises(OutputLockedError) as err:
+            run(cfg, echo=lambda m: None)
+        assert err.value.path == str(out) and err.value.pid == holder
+        assert {p.name: p.read_bytes() for p in out.iterdir() if p.name != runner.LOCK} == before
+        assert run(cfg, dry_run=True, echo=lambda m: None).built == 0  # a dry run writes nothing: no lock
+    finally:
+        os.close(fd)
+    # the lock goes with the run however it ends: an error, Ctrl-C, in a worker or in the run's own loop;
+    # so does the run's Ctrl-C handler
+    handler = signal.getsignal(signal.SIGINT)
+    for where, stop in (
+        ("process_asset", RuntimeError("a bug")),
+        ("process_asset", KeyboardInterrupt()),
+        ("_keep_previous", KeyboardInterrupt()),  # (the asset fails, then the run is interrupted)
+    ):
+
+        def broken(*args, stop=stop):
+            raise stop
+
+        with monkeypatch.context() as m:
+            m.setattr(runner, where, broken)
+            if where != "process_asset":
+                m.setattr(runner, "process_asset", lambda task: {"id": task["id"], "status": "failed"})
+            with pytest.raises(type(stop)):
+                run(cfg, echo=lambda m: None)
+        assert _lock_is_free(lock) and signal.getsignal(signal.SIGINT) is handler, where
+    res = run(cfg, echo=lambda m: None)
+    assert res.built == 1 and _lock_is_free(lock)
+    assert not (out / ".cow.swpm.abc123.tmp").exists()  # once the folder is its own, a run cleans up
+    # a folder the run creates is locked too, before anything is written in it
+    cfg.write_text(cfg.read_text().replace("dir: out", "dir: fresh"))
+    seen = []
+    real = runner._remove_temporary
+    monkeypatch.setattr(
+        runner, "_remove_temporary", lambda d: (seen.append(_lock_is_free(d / runner.LOCK)), real(d))
+    )
+    assert run(cfg, echo=lambda m: None).built == 1 and seen and not any(seen)
+
+
+def test_output_lock_of_another_user_an_unwritable_folder_or_no_locks(tmp_path, monkeypatch):
+    # a lock file left by another user's run (0o644) or a folder the run cannot write in ended the run with
+    # a PermissionError traceback
+    import errno
+
+    from swpm_usd.errors import OutputLockedError
+    from swpm_usd.pipeline import runner
+
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("sliding-window", "vanilla"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    lock = out / runner.LOCK
+    real_open, real_access = os.open, os.access
+
+    def refused(path, flags, *args, **kwargs):
+        if Path(path) == lock and flags & (os.O_WRONLY | os.O_RDWR | os.O_CREAT):
+            raise PermissionError(errno.EACCES, "Permission denied", str(path))
+        return real_open(path, flags, *args, **kwargs)
+
+    monkeypatch.setattr(os, "open", refused)
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True)
+    lock.write_text(dead.stdout.decode())  # the other user's run, ended
+    seen = []
+
+    def second_run(task):  # while the run holds the lock (opened read-only), another is refused
+        with pytest.raises(OutputLockedError) as err:
+            runner._OutputLock(out, print).acquire()
+        seen.append(err.value.pid)  # (the file holds the ended run's pid: not shown)
+        return real_process_asset(task)
+
+    real_process_asset = runner.process_asset
+    monkeypatch.setattr(runner, "process_asset", second_run)
+    r = CliRunner().invoke(main, ["run", str(cfg), "--force"])
+    assert r.exit_code == 0 and r.stderr.count("\n") == 1, r.output  # (the summary alone)
+    assert seen == [None] and _lock_is_free(lock)
+    monkeypatch.setattr(runner, "process_asset", real_process_asset)
+    # a folder the run cannot write in (no lock file to open either): reported as such, exit 2
+    lock.unlink()
+    monkeypatch.setattr(os, "access", lambda p, mode, **kw: Path(p) != out and real_access(p, mode, **kw))
+    r = CliRunner().invoke(main, ["run", str(cfg), "--force"])
+    assert r.exit_code == 2 and f"cannot write in {out}: permission denied" in r.stderr, r.output
+    # a filesystem without locks (NFS without lockd): the run goes on, with a warning
+    monkeypatch.setattr(os, "open", real_open)
+    monkeypatch.setattr(os, "access", real_access)
+    import fcntl
+
+    def no_locks(fd, op):
+        raise OSError(errno.ENOLCK, "No locks available")
+
+    monkeypatch.setattr(fcntl, "flock", no_locks)
+    r = CliRunner().invoke(main, ["run", str(cfg), "--force", "--json"])
+    assert r.exit_code == 0 and json.loads(r.stdout)["built"] == 1, r.output
+    assert f"warning: {out}: cannot lock the output folder (No locks available)" in r.stderr
+
+
+def test_a_second_concurrent_run_fails_fast(tmp_path):
+    # two real processes: the second exits 1 naming the folder while the first goes on to finish. The first
+    # holds its first asset until the second has ended (the second's start raced the first's last assets)
+    cfg = _project(tmp_path, ("cow.obj", "spot.obj"), "")
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'meshes/*.obj'}]\noutput: {dir: out}\n"
+        "defaults: {encoding: sliding-window}\n"
+    )
+    started, release = tmp_path / "started", tmp_path / "release"
+    driver = tmp_path / "first.py"
+    driver.write_text(
+        "import pathlib, sys, time\n"
+        "from swpm_usd.pipeline import runner\n"
+        "real = runner.process_asset\n"
+        "def held(task):  # mid-run (the lock held) until the test lets it go on\n"
+        "    pathlib.Path(sys.argv[1]).touch()\n"
+        "    while not pathlib.Path(sys.argv[2]).exists():\n"
+        "        time.sleep(0.02)\n"
+        "    return real(task)\n"
+        "runner.process_asset = held\n"
+        "from swpm_usd.cli import main\n"
+        "main(sys.argv[3:])\n"
+    )
+    first = subprocess.Popen(
+        [sys.executable, str(driver), str(started), str(release), "run", str(cfg)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and first.poll() is None and not started.exists():
+            time.sleep(0.02)
+        assert started.exists() and first.poll() is None, first.stderr.read().decode()
+        second = subprocess.run(
+            [sys.executable, "-m", "swpm_usd.cli", "run", str(cfg)],
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        release.touch()
+        assert first.wait(timeout=FIRST_ASSET_S) == 0, first.stderr.read().decode()
+    finally:
+        release.touch()
+        if first.poll() is None:
+            first.kill()
+            first.wait()
+    assert second.returncode == 1, second.stderr
+    assert f"{tmp_path / 'out'}: another swpm-pipeline run (pid {first.pid}) is writing" in second.stderr
+    assert run(cfg, echo=lambda m: None).skipped == 2  # the first run's work is whole
 
 
 def test_manifest_is_not_rewritten_after_every_asset(tmp_path, monkeypatch):
@@ -489,6 +940,94 @@ def test_scene_references_every_asset_layer_by_name(tmp_path):
     assert names == ["cow_0", "spot_1"]  # the assets' names, not a0_0, a1_1
     encoded = usd.find_encoded(stage)
     assert [usd.read(p).encoding for p in encoded] == ["skip-strip", "skip-strip"]
+
+
+def _listed_outputs(out: Path) -> tuple[set[str], set[str]]:
+    """(every .swpm / .usdc file in ``out``, every output the manifest lists)."""
+    files = {p.name for p in out.iterdir() if p.suffix in (".swpm", ".usdc")}
+    assets = json.loads((out / "manifest.json").read_text())["assets"]
+    return files, {o["path"] for rec in assets.values() for o in rec.get("outputs", {}).values()}
+
+
+def test_a_failed_rebuild_keeps_the_previous_build(tmp_path):
+    from pxr import Usd
+
+    cfg = _project(tmp_path, config=MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    # (the USD layer, exported to a temporary file and renamed, has the mode of the other outputs)
+    assert (out / "cow.usdc").stat().st_mode == (out / "cow.swpm").stat().st_mode
+    before = json.loads((out / "manifest.json").read_text())["assets"]["meshes/cow.obj"]
+    cow = tmp_path / "meshes" / "cow.obj"
+    good = cow.read_bytes()
+    cow.write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")  # the input is broken: its rebuild fails
+    for _ in range(2):  # and fails again on the next run, which tries again
+        r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
+        assert r.exit_code == 1, r.output
+        summary = json.loads(r.stdout)
+        assert (summary["built"], summary["skipped"], summary["failed"]) == (0, 1, 1)
+        (failure,) = summary["failures"]
+        assert failure["id"] == "meshes/cow.obj" and failure["kept_previous"] is True
+        assert "cow.obj" in failure["error"]
+        rec = json.loads((out / "manifest.json").read_text())["assets"]["meshes/cow.obj"]
+        # the previous build's record, untouched, with the failure beside it
+        assert {k: v for k, v in rec.items() if k != "last_failure"} == before
+        assert "cow.obj" in rec["last_failure"]["error"] and rec["last_failure"]["digest"] != before["digest"]
+        for o in rec["outputs"].values():
+            assert sha256_of(out / o["path"]) == o["sha256"]
+        stage = Usd.Stage.Open(str(out / "scene.usda"))
+        assert [p.GetName() for p in stage.GetPrimAtPath("/Scene").GetChildren()] == ["cow_0", "spot_1"]
+        report = (out / "report.html").read_text()
+        assert (
+            "rebuild failed; the previous build (below) is kept" in report
+            and "keeping their previous" in report
+        )
+        files, listed = _listed_outputs(out)
+        assert files == listed == {"cow.swpm", "cow.usdc", "spot.swpm", "spot.usdc"}
+    r = CliRunner().invoke(main, ["run", str(cfg)])  # the text summary says so too
+    assert r.exit_code == 1 and "FAILED meshes/cow.obj: " in r.stderr and "previous build is kept" in r.stderr
+    # the input put back: the kept build is up to date again, and the failure goes
+    cow.write_bytes(good)
+    again = run(cfg, echo=lambda m: None)
+    assert (again.built, again.skipped, again.failed, again.failures) == (0, 2, 0, {})
+    assert json.loads((out / "manifest.json").read_text())["assets"]["meshes/cow.obj"] == before
+    # a previous build whose outputs are no longer all there is not kept: the failure replaces its record
+    # and its remaining outputs go with it (none is left that the manifest does not list)
+    (out / "cow.usdc").unlink()
+    cow.write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1 and res.failures["meshes/cow.obj"]["kept_previous"] is False
+    assert (
+        res.records["meshes/cow.obj"]["status"] == "failed"
+        and "last_failure" not in res.records["meshes/cow.obj"]
+    )
+    files, listed = _listed_outputs(out)
+    assert files == listed == {"spot.swpm", "spot.usdc"}
+    stage = Usd.Stage.Open(str(out / "scene.usda"))
+    assert [p.GetName() for p in stage.GetPrimAtPath("/Scene").GetChildren()] == ["spot_0"]
+
+
+def test_a_failed_usd_export_replaces_no_output(tmp_path, monkeypatch):
+    # the outputs are all made before any replaces its old file: a USD layer that cannot be written leaves
+    # the asset's .swpm as it was, and no temporary file
+    from swpm_usd import usd
+
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("dir: out", "{dir: out, usd: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    swpm = (out / "cow.swpm").read_bytes()
+
+    def refuse(*args, **kwargs):
+        raise OSError("disk full (test)")
+
+    monkeypatch.setattr(usd, "write", refuse)
+    cfg.write_text(cfg.read_text().replace("encoding: skip-strip", "encoding: vanilla"))  # another .swpm
+    res = run(cfg, echo=lambda m: None)
+    assert (out / "cow.swpm").read_bytes() == swpm
+    names = sorted(p.name for p in out.iterdir())
+    assert names == [".swpm-pipeline.lock", "cow.swpm", "cow.usdc", "manifest.json", "report.html"]
+    assert res.failed == 1 and "disk full" in res.failures["meshes/cow.obj"]["error"]
+    assert res.failures["meshes/cow.obj"]["kept_previous"]
 
 
 def test_parallel_jobs_and_dask_executor(tmp_path):
@@ -626,9 +1165,13 @@ def test_tightened_budgets_or_streaming_and_changed_outputs_rebuild(tmp_path):
     # a budget the asset no longer meets is checked again, not skipped as up to date
     cfg.write_text(base + "budgets: {global_bytes: 1}\n")
     res = run(cfg, echo=lambda m: None)
-    assert res.failed == 1 and "budgets.global_bytes=1" in res.records["m/a.obj"]["error"]
+    assert res.failed == 1 and "budgets.global_bytes=1" in res.failures["m/a.obj"]["error"]
+    # its previous build is kept (see test_a_failed_rebuild_keeps_the_previous_build): with the budget it
+    # passed back, it is up to date
+    assert "budgets.global_bytes=1" in res.records["m/a.obj"]["last_failure"]["error"]
     cfg.write_text(base + "budgets: {global_bytes: 1000000}\n")
-    assert run(cfg, echo=lambda m: None).built == 1
+    res = run(cfg, echo=lambda m: None)
+    assert (res.skipped, res.failed) == (1, 0) and "last_failure" not in res.records["m/a.obj"]
     # a looser or dropped limit lets through what passed before: nothing to build (a studio loosening a
     # budget over thousands of assets rebuilds none of them)
     for looser in ("budgets: {global_bytes: 2000000}\n", "", "budgets: {global_bytes: 1000000}\n"):
@@ -647,7 +1190,7 @@ def test_tightened_budgets_or_streaming_and_changed_outputs_rebuild(tmp_path):
         assert (res.built, res.skipped) == (built, 1 - built), text
     cfg.write_text(base + "budgets: {global_bytes: 1000000}\nstreaming: {coarsest_lod_bytes: 1}\n")
     res = run(cfg, echo=lambda m: None)
-    assert res.failed == 1 and "coarsest_lod_bytes" in res.records["m/a.obj"]["error"]
+    assert res.failed == 1 and "coarsest_lod_bytes" in res.failures["m/a.obj"]["error"]
     # an output changed in place (same size) is rebuilt: its sha256 is compared, not only its size
     cfg.write_text(base)
     assert run(cfg, echo=lambda m: None).built == 1

@@ -9,6 +9,8 @@ from __future__ import annotations
 import hashlib
 import json
 import sys
+import textwrap
+import time
 from pathlib import Path
 
 import click
@@ -57,7 +59,85 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     return parsed
 
 
-@click.command("encode")
+#: ``click.Context.meta`` key: what a command given ``--json`` prints, with ``"error"``, when it is stopped by
+#: Ctrl-C (:func:`json_on_interrupt`; printed by the command group, ``swpm_usd.cli``)
+_JSON_ON_INTERRUPT = "swpm_usd.json_on_interrupt"
+
+
+def json_on_interrupt(as_json: bool, **fields: object) -> None:
+    """A command with ``--json``: stopped by Ctrl-C, it prints ``{**fields, "error": "interrupted"}`` on
+    stdout (as it prints its other errors), so a script reading its output gets JSON however it ends."""
+    if as_json:
+        click.get_current_context().meta[_JSON_ON_INTERRUPT] = fields
+
+
+#: one line per encoding for ``--help`` (an encoding registered in ``BUILDERS`` without one is listed bare)
+_ENCODING_SUMMARY = {
+    "vanilla": "each instance edits its own index buffer (collapse records)",
+    "skip-strip": "multilevel skip strips or lists, cache-ordered per level",
+    "mixed": "per level a shared static and a per-instance dynamic list",
+    "sliding-window": "one static index pool; a LOD change is a table look-up",
+}
+
+
+def _param_value(value: object) -> str:
+    """A default as it is given to ``-p``: strings bare, the rest as JSON (true, null, 0.25)."""
+    return value if isinstance(value, str) else json.dumps(value)
+
+
+def encodings_help(parameters: bool = True) -> str:
+    """The encodings of :data:`swpm_usd.encode.BUILDERS` as help text: each one's name and summary, then
+    the parameters every encoding takes (with the same default) and, with ``parameters``, each encoding's
+    own, with their defaults. Paragraphs start with click's ``\\b``, so the columns are kept."""
+    from ..encode import BUILDERS
+
+    defaults = [d for _, d in BUILDERS.values()]
+    shared = {k: v for k, v in defaults[0].items() if all(k in d and d[k] == v for d in defaults)}
+    width = max(len(name) for name in BUILDERS) + 2
+
+    def assignments(values: dict) -> str:
+        return " ".join(f"{k}={_param_value(v)}" for k, v in values.items())
+
+    lines = ["\b", "Encodings (--encoding):"]
+    for name, (_, params) in BUILDERS.items():
+        lines.append(f"  {name:<{width}}{_ENCODING_SUMMARY.get(name, '')}".rstrip())
+        own = {k: v for k, v in params.items() if k not in shared}
+        if parameters and own:
+            lines += [f"  {'':<{width}}{line}" for line in textwrap.wrap(assignments(own), 76 - width)]
+    if shared:
+        lines += ["", "\b", "Parameters of every encoding (-p NAME=VALUE, defaults shown):"]
+        lines += [f"  {line}" for line in textwrap.wrap(assignments(shared), 74)]
+    if parameters and any(v is None for d in defaults for v in d.values()):
+        lines += ["", "A default of null: the encoder picks the value from the other parameters."]
+    return "\n".join(lines)
+
+
+class EncodingsHelpCommand(click.Command):
+    """A command whose ``--help`` ends with the encodings and their parameters (:func:`encodings_help`),
+    read from the registry when the help is shown (so ``--version`` and the commands import nothing more)."""
+
+    def format_epilog(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        super().format_epilog(ctx, formatter)
+        formatter.write_paragraph()
+        with formatter.indentation():
+            formatter.write_text(encodings_help(parameters=True))
+
+
+class EncodingsHelpGroup(click.Group):
+    """The command group: its ``--help`` ends with the encodings and the parameters every encoding takes."""
+
+    def format_epilog(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        super().format_epilog(ctx, formatter)
+        formatter.write_paragraph()
+        with formatter.indentation():
+            formatter.write_text(
+                encodings_help(parameters=False)
+                + "\n\nEach encoding's own parameters: swpm-pipeline encode --help. In a pipeline config,"
+                + " encoding: auto picks one of them per asset."
+            )
+
+
+@click.command("encode", cls=EncodingsHelpCommand)
 @click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
 @click.option(
     "-o",
@@ -72,7 +152,7 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     "-e",
     default="vanilla",
     show_default=True,
-    help="vanilla, sliding-window, skip-strip or mixed.",
+    help="Encoding to build (listed below).",
 )
 @click.option(
     "--param",
@@ -80,10 +160,17 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     "params",
     multiple=True,
     metavar="NAME=VALUE",
-    help="Encoding parameter (repeatable), value parsed as JSON when it can be.",
+    help="Encoding parameter (repeatable, listed below), value parsed as JSON when it can be.",
 )
-def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, ...]) -> None:
-    """Build INPUT with an encoding and write it as an SWPM v1 file."""
+@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, ...], as_json: bool) -> None:
+    """Build INPUT with an encoding and write it as an SWPM v1 file.
+
+    \b
+    Examples:
+      swpm-pipeline encode samples/spot.obj -o spot.swpm --json
+      swpm-pipeline encode spot.obj -o spot.swpm -e skip-strip -p primitive=list
+    """
     from ..build import build
     from .writer import save
 
@@ -92,19 +179,40 @@ def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, .
         raise click.BadParameter(f"{output} is the input: it would be overwritten", param_hint="--output")
     if Path(output).suffix.lower() != ".swpm":
         raise click.BadParameter(f"{output}: the output must be a .swpm file", param_hint="--output")
+    json_on_interrupt(as_json, input=input_path, output=output)
+    start = time.perf_counter()
     try:
         pm = build(input_path, encoding, **parsed)
+        seconds = time.perf_counter() - start
         digest = None
         if Path(input_path).is_file():
             digest = "sha256:" + hashlib.sha256(Path(input_path).read_bytes()).hexdigest()
         save(pm, output, source_digest=digest)
+        size = Path(output).stat().st_size
     except (SwpmError, OSError, ValueError) as exc:
         click.echo(f"error: {exc}", err=True)
+        if as_json:
+            click.echo(json.dumps({"input": input_path, "output": output, "error": str(exc)}, indent=2))
         sys.exit(1)
-    click.echo(
-        f"{output}: {pm.encoding}, {pm.lod_count} LODs, {pm.vertex_count} vertices, "
-        f"{Path(output).stat().st_size} bytes"
-    )
+    if as_json:
+        out = {
+            "input": input_path,
+            "output": output,
+            "encoding": pm.encoding,
+            "params": pm.params,
+            "lod_count": pm.lod_count,
+            "vertices": pm.vertex_count,
+            "triangles": pm.triangle_count_at(0),
+            "coarsest_triangles": pm.triangle_count_at(pm.lod_count - 1),
+            "bytes": size,
+            "global_bytes": pm.global_bytes,
+            "instance_bytes": pm.instance_bytes,
+            "source_digest": digest,
+            "build_seconds": seconds,
+        }
+        click.echo(json.dumps(out, indent=2, default=float))
+        return
+    click.echo(f"{output}: {pm.encoding}, {pm.lod_count} LODs, {pm.vertex_count} vertices, {size} bytes")
 
 
 @click.command("inspect")
@@ -244,4 +352,12 @@ def conformance_cmd(vector_dir: str, as_json: bool) -> None:
     sys.exit(1 if failed else 0)
 
 
-__all__ = ["conformance_cmd", "encode_cmd", "inspect_cmd", "validate_cmd"]
+__all__ = [
+    "EncodingsHelpCommand",
+    "EncodingsHelpGroup",
+    "conformance_cmd",
+    "encode_cmd",
+    "encodings_help",
+    "inspect_cmd",
+    "validate_cmd",
+]

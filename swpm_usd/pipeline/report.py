@@ -54,12 +54,19 @@ def _auto_table(aid: str, rec: dict) -> str:
 def write_report(path: Path, manifest: dict) -> None:
     assets = manifest.get("assets", {})
     rows, failures, plots, autos = [], [], [], []
+    kept = 0
     by_encoding: dict[str, list[dict]] = {}
     for aid, rec in sorted(assets.items()):
         e = html.escape
         if rec.get("status") != "built":
             failures.append(f"<tr><td>{e(aid)}</td><td><pre>{e(rec.get('error', '?'))}</pre></td></tr>")
             continue
+        if "last_failure" in rec:  # a failed rebuild: the previous build is kept, and listed below
+            kept += 1
+            failures.append(
+                f"<tr><td>{e(aid)}</td><td><pre>{e(rec['last_failure'].get('error', '?'))}</pre>"
+                "rebuild failed; the previous build (below) is kept</td></tr>"
+            )
         s = rec.get("summary", {})
         by_encoding.setdefault(rec["encoding"], []).append(s)
         rows.append(
@@ -87,13 +94,14 @@ def write_report(path: Path, manifest: dict) -> None:
         f"<td>{sum(x['instance_bytes'] for x in v)}</td></tr>"
         for enc, v in sorted(by_encoding.items())
     )
+    kept_note = f" ({kept} of them keeping their previous build)" if kept else ""
     doc = f"""<!doctype html><html><head><meta charset="utf-8"><title>swpm-usd run report</title>
 <style>body{{font-family:sans-serif;margin:2em}} table{{border-collapse:collapse}}
 td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}} td:first-child{{text-align:left}}
 .card{{display:inline-block;margin:8px;padding:8px;border:1px solid #ddd;vertical-align:top}}
 .card div{{display:inline-block;margin:4px}}</style></head><body>
 <h1>swpm-usd run report</h1><p>tool {html.escape(str(manifest.get("tool_version")))}, config
-{html.escape(str(manifest.get("config")))}: {len(rows)} built, {len(failures)} failed.</p>
+{html.escape(str(manifest.get("config")))}: {len(rows)} built, {len(failures)} failed{kept_note}.</p>
 <h2>Failures</h2><table><tr><th>asset</th><th>cause</th></tr>
 {"".join(failures) or "<tr><td>none</td></tr>"}</table>
 <h2>Memory by encoding</h2><table><tr><th>encoding</th><th>assets</th><th>global bytes</th>

@@ -8,26 +8,37 @@ writing one out rebuilds nothing) and the tool version equal the manifest's (for
 budgets and streaming policy it chose by), the budgets and streaming limits are as loose as those it passed
 (:func:`.assets.checks_no_stricter`: loosening a budget rebuilds nothing, tightening one checks again), and
 its outputs are still there with the recorded size and sha256.
+
+An asset whose rebuild fails keeps its previous build when that build's outputs are intact
+(:func:`_keep_previous`): the manifest keeps its record (with ``last_failure``), the scene its layer, and the
+run reports it failed. One run at a time writes in an output folder (:class:`_OutputLock`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import fnmatch
 import json
 import os
+import signal
 import sys
+import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from .. import __version__
+from ..errors import OutputLockedError
 from .assets import Asset, checks_no_stricter, checks_of, discover, file_digest, match_rule, treatment_digest
 from .config import Config, ConfigError, load_config
-from .worker import atomic_write_bytes, process_asset
+from .worker import atomic_write_bytes, ignore_interrupts, process_asset
 
 MANIFEST = "manifest.json"
+#: the lock file of output.dir: a run holds an exclusive ``flock`` on it while it writes there (see
+#: :class:`_OutputLock`); the file stays, the lock goes with the run
+LOCK = ".swpm-pipeline.lock"
 
 #: the manifest is rewritten at most this often during a run, or less often while one rewrite takes more
 #: than a fifth of it: rewriting it after every asset, each time serialising every record, made a run of
@@ -58,6 +69,9 @@ class RunResult:
     seconds: float
     manifest_path: Path
     plan: list[dict] = field(default_factory=list)  # --dry-run / --explain: each asset's plan
+    #: this run's failures: asset id -> the failed attempt's record (``error``, ``traceback``, ...), with
+    #: ``kept_previous`` True when the asset's previous build was kept (see :func:`_keep_previous`)
+    failures: dict[str, dict] = field(default_factory=dict)
 
 
 def _read_manifest(path: Path) -> dict:
@@ -160,9 +174,77 @@ def plan(
     return items, problems, warnings
 
 
-#: temporary files a run leaves in output.dir if it is killed (the atomic writes' and the scene's), which the
-#: next run deletes
-_TEMPORARY = (".*.tmp", ".*.tmp.usda")
+#: temporary files a run leaves in output.dir if it is killed (the atomic writes', the USD layers' staged by
+#: the workers and the scene's, and usd-core's own beside those two: ``.<stem>.tmp.XXXXXX``), which the next
+#: run deletes, as a run stopped by an error or Ctrl-C does once its workers are stopped
+_TEMPORARY = (".*.tmp", ".*.tmp.usdc", ".*.tmp.usda", ".*.tmp.??????")
+
+
+def _remove_temporary(out_dir: Path) -> None:
+    for stale in [p for pattern in _TEMPORARY for p in out_dir.glob(pattern)]:
+        stale.unlink(missing_ok=True)
+
+
+def _interrupts_raise() -> bool:
+    """Does Ctrl-C raise KeyboardInterrupt here (Python's own handler, in the main thread)? A process started
+    with it ignored (a background job of a script) or a caller's own handler keep it as it is."""
+    return (
+        threading.current_thread() is threading.main_thread()
+        and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    )
+
+
+@contextlib.contextmanager
+def _interrupts_deferred() -> Iterator[None]:
+    """A Ctrl-C in the block is raised (KeyboardInterrupt) when it ends, not inside it (main thread only;
+    when Ctrl-C raises KeyboardInterrupt: see :func:`_interrupts_raise`)."""
+    if not _interrupts_raise():
+        yield
+        return
+    received: list[int] = []
+    old = signal.signal(signal.SIGINT, lambda signum, frame: received.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+    if received:
+        raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def _interrupts_noted() -> Iterator[list[int]]:
+    """Ctrl-C raises KeyboardInterrupt as usual in the block, and is noted in the list it yields (main
+    thread only), so one that something caught and turned into another error is still known (when Ctrl-C
+    raises KeyboardInterrupt: see :func:`_interrupts_raise`). Only the first raises: another, while the
+    first stops the run, would cut its clean-up short (a handler not restored, workers not stopped)."""
+    noted: list[int] = []
+    if not _interrupts_raise():
+        yield noted
+        return
+
+    def note(signum: int, frame: object) -> None:
+        noted.append(signum)
+        if len(noted) == 1:
+            raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGINT, note)
+    try:
+        yield noted
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+@contextlib.contextmanager
+def _interrupts_ignored() -> Iterator[None]:
+    """Ctrl-C ignored in the block (the main thread only: elsewhere signals cannot be set, nor arrive)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
 
 
 def _unusable_out_dir(cfg: Config, out_dir: Path) -> list[str]:
@@ -203,7 +285,7 @@ def _output_intact(path: Path, recorded: dict) -> bool:
 def planned_outputs(cfg: Config, out_dir: Path, assets: list[Asset]) -> dict[Path, str]:
     """Every file a run of ``cfg`` writes (or, for temporary files, may delete) -> what it is."""
     out = cfg.data["output"]
-    files: dict[Path, str] = {out_dir / MANIFEST: "the run manifest"}
+    files: dict[Path, str] = {out_dir / MANIFEST: "the run manifest", out_dir / LOCK: "the run's lock file"}
     if out.get("report", True):
         files[out_dir / "report.html"] = "the run report"
     if out.get("scene"):
@@ -301,7 +383,9 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
     }
 
 
-def execute(tasks: list[dict], jobs: int, executor: str, scheduler: str | None) -> Iterator[dict]:
+def execute(
+    tasks: list[dict], jobs: int, executor: str, scheduler: str | None
+) -> Generator[dict, None, None]:
     """Run tasks, yielding each record as it finishes (order of completion)."""
     if not tasks:
         return
@@ -328,8 +412,15 @@ def execute(tasks: list[dict], jobs: int, executor: str, scheduler: str | None) 
                 cluster.close()
         return
     if jobs <= 1:
-        for t in tasks:
-            yield process_asset(t)
+        with _interrupts_noted() as noted:
+            for t in tasks:
+                rec = process_asset(t)
+                # compiled code turns a Ctrl-C into another error (numba: SystemError), an import it cut short
+                # into errors after it, a library may swallow it: an asset done across a Ctrl-C is not
+                # recorded (its outputs are whole files, which the next run checks and builds again)
+                if noted:
+                    raise KeyboardInterrupt
+                yield rec
         return
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -338,13 +429,94 @@ def execute(tasks: list[dict], jobs: int, executor: str, scheduler: str | None) 
     ctx = mp.get_context("forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn")
     if ctx.get_start_method() == "forkserver":
         ctx.set_forkserver_preload(["swpm_usd.pipeline._warm"])  # kernels loaded once, inherited
-    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx)
+        # started with Ctrl-C ignored, which the server (warming up) and every worker it forks inherit: a
+        # Ctrl-C is the main process's alone (the initializer covers a server started elsewhere, and spawn)
+        with _interrupts_ignored():
+            from multiprocessing import forkserver
+
+            forkserver.ensure_running()
+        _forkserver_ready(ctx)
+    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=ignore_interrupts)
     try:
-        futures = [pool.submit(process_asset, t) for t in tasks]
-        for fut in as_completed(futures):
-            yield fut.result()
+        # a Ctrl-C while the workers start (waiting for the server to warm up) is raised once they have all
+        # started: one interrupted half-way would leave a worker the pool does not know, to fail on its own
+        with _interrupts_deferred():
+            futures = [pool.submit(process_asset, t) for t in tasks]
+        with _interrupts_noted():  # (a second Ctrl-C while the first stops the workers is ignored)
+            for fut in as_completed(futures):
+                yield fut.result()
+    except BaseException:  # Ctrl-C, an error, or the caller stopped: the workers stop now, mid-asset
+        with _interrupts_ignored():
+            _terminate_workers(pool)
+        raise
     finally:
         pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _forkserver_ready(ctx: Any) -> None:
+    """Wait for the fork server to have warmed up (it loads the numba kernels, or compiles them: minutes with
+    a cold cache, after an install or an upgrade) by having it fork a process that exits at once, in a thread:
+    the wait is the main thread's, which a Ctrl-C interrupts, stopping the server. The pool's workers are
+    then started at once (a Ctrl-C deferred while they start, :func:`_interrupts_deferred`, was held for the
+    whole warm-up)."""
+    if not _interrupts_raise():
+        return  # (nothing interrupts the wait: the pool's first worker waits for the server)
+    done = threading.Event()
+
+    def probe() -> None:
+        try:
+            p = ctx.Process(target=ignore_interrupts)
+            p.start()
+            p.join()
+        except BaseException:  # noqa: BLE001 - the server stopped, or cannot start: the pool reports it
+            pass
+        finally:
+            done.set()
+
+    threading.Thread(target=probe, name="swpm-forkserver-probe", daemon=True).start()
+    try:
+        while not done.wait(0.1):
+            pass
+    except BaseException:
+        with _interrupts_ignored():
+            _stop_forkserver()
+        raise
+
+
+def _stop_forkserver() -> None:
+    """Kill this process's fork server (warming up) and forget it (the next pool starts another)."""
+    from multiprocessing import forkserver
+
+    server = getattr(forkserver, "_forkserver", None)
+    pid = getattr(server, "_forkserver_pid", None)
+    if pid is None:
+        return
+    try:
+        os.kill(pid, signal.SIGKILL)
+    except OSError:
+        return
+    stop = getattr(server, "_stop", None)  # closes its pipe, waits for it, deletes its socket
+    if stop is not None:
+        stop()
+
+
+def _terminate_workers(pool: Any) -> None:
+    """Stop a process pool's workers at once and wait for them to be gone (their temporary files are then
+    the caller's to delete: :func:`_remove_temporary`). Their outputs are whole: every write is a rename.
+
+    Python 3.14 has ``terminate_workers``; before it, the pool's ``_processes`` (pid -> process, the same
+    from 3.9 to 3.14) are terminated one by one. Either way they are waited for."""
+    # (copied before terminate_workers drops the pool's)
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    terminate = getattr(pool, "terminate_workers", None)
+    if terminate is not None:
+        terminate()
+    else:
+        for p in processes:
+            if p.is_alive():
+                p.terminate()
+    for p in processes:
+        p.join(timeout=30)
 
 
 class _Progress:
@@ -371,6 +543,8 @@ class _Progress:
     def advance(self, rec: dict) -> None:
         self.done += 1
         status = rec["status"] if rec["status"] != "failed" else f"FAILED ({rec.get('error', '')[:100]})"
+        if rec.get("kept_previous"):
+            status += "; its previous outputs are kept"
         if self.bar is not None:
             self.bar.update(self.task, advance=1, description=f"{rec['id']}: {status}")
         else:
@@ -385,6 +559,90 @@ class _Progress:
             self.bar.stop()
 
 
+class _OutputLock:
+    """One run at a time in an output folder: an exclusive, non-blocking ``flock`` on its :data:`LOCK` file.
+
+    A second run fails at once with :class:`OutputLockedError` instead of deleting the first one's temporary
+    files and interleaving manifests. The kernel drops the lock when the holder's file is closed, so it goes
+    with the run however it ends (an error, Ctrl-C, a kill); the file itself stays (deleting it would let a
+    third run lock a new file while the second still holds the old one). The holder's pid is written in it for
+    the message. Where ``flock`` is missing (Windows) or refused (a filesystem without locks), the run goes on
+    unlocked, with a warning."""
+
+    def __init__(self, out_dir: Path, echo) -> None:
+        self.path = out_dir / LOCK
+        self.echo = echo
+        self.fd: int | None = None
+        self.done = False
+
+    def acquire(self, folder_checked: bool = False) -> None:
+        """Take the lock, or raise :class:`OutputLockedError`. A lock file this process cannot open is
+        ignored before the folder is checked (``folder_checked``: a folder the run cannot write in is
+        reported as such, exit 2), and after it gives the warning of a filesystem without locks."""
+        if self.done:
+            return
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - not on POSIX
+            self.done = True
+            return
+        cloexec = getattr(os, "O_CLOEXEC", 0)
+        writable = True
+        try:
+            try:
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | cloexec, 0o666)
+            except PermissionError:  # another user's lock file (0o644): flock needs no write access
+                fd, writable = os.open(self.path, os.O_RDONLY | cloexec), False
+        except OSError as exc:
+            if folder_checked:
+                self._unlocked(exc)
+            return
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            try:
+                pid: int | None = int(os.read(fd, 32).decode().strip())
+            except (OSError, ValueError):
+                pid = None
+            os.close(fd)
+            raise OutputLockedError(
+                self.path.parent, pid if pid is not None and _running(pid) else None
+            ) from None
+        except OSError as exc:  # ENOLCK, EOPNOTSUPP: a filesystem that does not lock
+            os.close(fd)
+            self._unlocked(exc)
+            return
+        if writable:  # (else the file keeps an earlier run's pid, which is not running: not shown)
+            os.ftruncate(fd, 0)
+            os.write(fd, f"{os.getpid()}\n".encode())
+        self.fd, self.done = fd, True
+
+    def _unlocked(self, exc: OSError) -> None:
+        self.done = True
+        self.echo(
+            f"warning: {self.path.parent}: cannot lock the output folder ({exc.strerror or exc}); "
+            "make sure no other run writes there at the same time"
+        )
+
+    def release(self) -> None:
+        if self.fd is not None:
+            os.close(self.fd)  # closing the only descriptor of the open file drops its lock
+            self.fd = None
+
+
+def _running(pid: int) -> bool:
+    """Is there a process ``pid`` (another user's too)?"""
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # EPERM: someone else's
+        return True
+    return True
+
+
 def run(
     config_path: str | Path,
     *,
@@ -396,10 +654,35 @@ def run(
     force: bool = False,
     echo=print,
 ) -> RunResult:
-    """Run the pipeline described by ``config_path``; see the module docstring."""
+    """Run the pipeline described by ``config_path``; see the module docstring.
+
+    A run that writes (not ``dry_run``) holds output.dir's lock from before it reads the manifest (or, for
+    an output.dir it creates, from then) to its end; another run there raises :class:`OutputLockedError`."""
     t_start = time.perf_counter()
     cfg = load_config(config_path)
     out_dir = cfg.base / cfg.data["output"]["dir"]
+    lock = _OutputLock(out_dir, echo)
+    try:
+        return _run(cfg, out_dir, lock, t_start, jobs, executor, scheduler, dry_run, explain, force, echo)
+    finally:
+        lock.release()
+
+
+def _run(
+    cfg: Config,
+    out_dir: Path,
+    lock: _OutputLock,
+    t_start: float,
+    jobs: int,
+    executor: str,
+    scheduler: str | None,
+    dry_run: bool,
+    explain: bool,
+    force: bool,
+    echo,
+) -> RunResult:
+    if not dry_run and out_dir.is_dir():
+        lock.acquire()  # before the manifest is read: it is this run's from here on
     manifest_path = out_dir / MANIFEST
     manifest = _read_manifest(manifest_path)
     items, errors, warnings = plan(cfg, manifest, count_triangles=dry_run or explain)
@@ -432,20 +715,37 @@ def run(
             skipped = sum(i.up_to_date for i in items)
             return RunResult({}, 0, skipped, 0, warnings, 0.0, manifest_path, planned)
     _make_out_dir(cfg, out_dir)
-    for stale in [p for pattern in _TEMPORARY for p in out_dir.glob(pattern)]:  # left by a killed run
-        stale.unlink(missing_ok=True)
+    lock.acquire(folder_checked=True)  # (a folder this run created)
+    _remove_temporary(out_dir)  # left by a killed run
     todo = [it for it in items if force or not it.up_to_date]
     records = {k: v for k, v in manifest.get("assets", {}).items() if k in {i.asset.id for i in items}}
+    for it in items:  # up to date again (an input or a config put back): the failure was another treatment's
+        kept = records.get(it.asset.id)
+        if it.up_to_date and not force and kept is not None and "last_failure" in kept:
+            records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
     manifest = {"tool_version": __version__, "config": str(cfg.path), "assets": records}
     built = failed = 0
+    failures: dict[str, dict] = {}
     progress = _Progress(len(todo))
     by_id = {it.asset.id: it for it in todo}
     last_write, write_s = float("-inf"), 0.0
     text = _ManifestText()
+    results: Generator[dict, None, None] | None = None
+
+    def stop() -> None:
+        """An error or Ctrl-C: the workers stopped, their temporary files deleted, every finished asset
+        recorded (a second Ctrl-C does not cut this short: a pool's workers are stopped with it ignored)."""
+        if results is not None:
+            results.close()  # first: it restores the Ctrl-C handler it set (--jobs 1)
+        with _interrupts_ignored():
+            _remove_temporary(out_dir)
+            _write_manifest(manifest_path, manifest, text)
+
     try:
         # largest inputs first, so no worker is left with a big asset at the end (LPT scheduling)
         ordered = sorted(todo, key=lambda it: -it.asset.path.stat().st_size)
-        for rec in execute([_task(cfg, it) for it in ordered], jobs, executor, scheduler):
+        results = execute([_task(cfg, it) for it in ordered], jobs, executor, scheduler)
+        for rec in results:
             it = by_id[rec["id"]]
             if it.rule_pending:
                 it.rule = rec.pop("rule_index", None)
@@ -455,9 +755,12 @@ def run(
                 o["size"] = (out_dir / o["path"]).stat().st_size
             if rec["status"] == "built":
                 built += 1
+                records[rec["id"]] = rec
             else:
                 failed += 1
-            records[rec["id"]] = rec
+                kept = _keep_previous(out_dir, records.get(rec["id"]), rec)
+                records[rec["id"]] = rec if kept is None else kept
+                rec = failures[rec["id"]] = {**rec, "kept_previous": kept is not None}
             now = time.perf_counter()
             if now - last_write >= max(_MANIFEST_EVERY_S, 5 * write_s):
                 _write_manifest(manifest_path, manifest, text)
@@ -465,7 +768,7 @@ def run(
                 write_s = last_write - now
             progress.advance(rec)
     except BaseException:
-        _write_manifest(manifest_path, manifest, text)  # every finished asset, also on an error or Ctrl-C
+        stop()
         raise
     finally:
         progress.close()
@@ -473,22 +776,49 @@ def run(
         warnings = _unreached_rules(cfg, items)
         for w in warnings:
             echo(f"warning: {w}")
-    if cfg.data["output"].get("scene"):
-        _write_scene(out_dir, records)
-    if cfg.data["output"].get("report", True):
-        from .report import write_report
+    try:
+        if cfg.data["output"].get("scene"):
+            _write_scene(out_dir, records)
+        if cfg.data["output"].get("report", True):
+            from .report import write_report
 
-        write_report(out_dir / "report.html", manifest)
-    _write_manifest(manifest_path, manifest, text)
+            write_report(out_dir / "report.html", manifest)
+        _write_manifest(manifest_path, manifest, text)
+    except BaseException:
+        stop()
+        raise
     seconds = time.perf_counter() - t_start
     return RunResult(
-        records, built, len(items) - len(todo), failed, warnings, seconds, manifest_path, planned
+        records, built, len(items) - len(todo), failed, warnings, seconds, manifest_path, planned, failures
     )
+
+
+def _keep_previous(out_dir: Path, previous: dict | None, failed: dict) -> dict | None:
+    """The record of an asset whose rebuild failed (``failed``, the worker's record).
+
+    When the asset was built before and its outputs are all still as recorded (:func:`_output_intact`), its
+    previous build is kept: the returned record is the previous one, untouched but for ``last_failure``
+    (the failure's error, traceback, digest and seconds), so the manifest, the scene and the outputs still
+    serve the last good build and the next run tries again. Otherwise None: the failed record replaces the
+    previous one, and those of its outputs still as recorded are deleted, so no output is left that the
+    manifest does not list (a file changed since is not the run's to delete)."""
+    if previous is None or previous.get("status") != "built":
+        return None
+    outputs = [(out_dir / o["path"], o) for o in previous.get("outputs", {}).values()]
+    intact = [path for path, o in outputs if _output_intact(path, o)]
+    if len(intact) < len(outputs):
+        for path in intact:
+            path.unlink(missing_ok=True)
+        return None
+    failure = {
+        k: failed[k] for k in ("error", "traceback", "digest", "input_digest", "seconds") if k in failed
+    }
+    return {**{k: v for k, v in previous.items() if k != "last_failure"}, "last_failure": failure}
 
 
 def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
     """A scene layer that references every per-asset USD layer, one Xform each."""
-    from pxr import Tf, Usd, UsdGeom
+    from pxr import Sdf, Tf, Usd, UsdGeom
 
     layers = [
         (k, r["outputs"]["usd"]["path"])
@@ -508,3 +838,6 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
         prim.GetReferences().AddReference(f"./{layer}")
     stage.GetRootLayer().Save()
     tmp.replace(target)
+    layer = Sdf.Layer.Find(str(target))  # open in this process (a caller of run): it keeps its old content
+    if layer is not None:
+        layer.Reload(force=True)

@@ -5,6 +5,7 @@ streaming order, write the outputs atomically. Never raises: a failure comes bac
 from __future__ import annotations
 
 import hashlib
+import signal
 import time
 import traceback
 from pathlib import Path
@@ -23,6 +24,12 @@ AUTO_CANDIDATES = ("vanilla", "skip-strip", "mixed", "sliding-window")
 AUTO_SELECT = ("acmr", "misses-at-error")
 #: ``misses-at-error``: the triangle fractions whose errors are the references (see :func:`misses_at_error`)
 AUTO_ERROR_FRACTIONS = (0.5, 0.25, 0.1)
+
+
+def ignore_interrupts() -> None:
+    """A pool worker's initializer: Ctrl-C (SIGINT, sent to the terminal's whole process group) is the main
+    process's to handle, which stops the workers itself; a worker that took it would print a traceback."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def sha256_file(path: Path) -> str:
@@ -236,6 +243,52 @@ def check_streaming(pm, policy: dict) -> list[str]:
     return problems
 
 
+#: the suffix of a USD layer exported beside its target before it is renamed into place (the runner
+#: deletes files named ``.*.tmp.usdc`` a killed run left)
+USD_TEMPORARY_SUFFIX = ".tmp.usdc"
+
+
+def _stage_usd(pm, target: Path) -> tuple[Path, Path]:
+    """Export ``pm``'s USD layer (named after ``target``) to a temporary file beside ``target``, synced to
+    disk; (temporary file, target), for :func:`_place_usd`."""
+    import os
+    import tempfile
+
+    from ..fileio import _umask
+    from ..usd import write as usd_write
+
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=USD_TEMPORARY_SUFFIX, dir=target.parent)
+    try:  # the mode of a plain open() (mkstemp's is 0o600, which usd-core keeps), as atomic_write_bytes
+        os.fchmod(fd, 0o666 & ~_umask())
+    except (OSError, AttributeError):  # a filesystem without modes
+        pass
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        usd_write(pm, tmp, name=target.stem.split(".")[0] or None)
+        with open(tmp, "rb") as f:
+            os.fsync(f.fileno())
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return tmp, target
+
+
+def _place_usd(tmp: Path, target: Path) -> Path:
+    """Rename a layer :func:`_stage_usd` exported over ``target``; a layer of that name open in this
+    process is reloaded (it would keep its old content)."""
+    import os
+
+    from pxr import Sdf
+
+    os.replace(tmp, target)
+    layer = Sdf.Layer.Find(str(target))
+    if layer is not None:
+        layer.Reload(force=True)
+    return target
+
+
 def process_asset(task: dict[str, Any]) -> dict[str, Any]:
     """Do one asset. ``task`` is plain data (picklable for process pools and Dask).
 
@@ -302,25 +355,30 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
             return rec
         outputs = {}
         out_dir = Path(task["out_dir"])
-        if task["write_swpm"]:
-            from .. import format as swpm_format
+        # every output is made before any replaces its old file, so a failure leaves the asset's previous
+        # outputs as they were (the USD layer is exported beside its target, then renamed after the .swpm)
+        usd_staged = _stage_usd(pm, out_dir / f"{task['stem']}.usdc") if task["write_usd"] else None
+        try:
+            if task["write_swpm"]:
+                from .. import format as swpm_format
 
-            target = out_dir / f"{task['stem']}.swpm"
-            # validate the bytes before they replace anything: a bad build never overwrites a good file
-            data = swpm_format.encode_bytes(pm, source_digest=task["digest"])
-            report = swpm_format.validate_bytes(data, path=str(target))
-            if not report.valid:
-                problems = "; ".join(f"{p.code}: {p.message}" for p in report.errors[:5])
-                rec["error"] = "encoded file failed validation: " + problems
-                return rec
-            atomic_write_bytes(target, data)
-            outputs["swpm"] = {"path": target.name, "sha256": sha256_file(target)}
-        if task["write_usd"]:
-            from ..usd import write as usd_write
-
-            target = out_dir / f"{task['stem']}.usdc"
-            usd_write(pm, target)
-            outputs["usd"] = {"path": target.name, "sha256": sha256_file(target)}
+                target = out_dir / f"{task['stem']}.swpm"
+                # validate the bytes before they replace anything: a bad build never overwrites a good file
+                data = swpm_format.encode_bytes(pm, source_digest=task["digest"])
+                report = swpm_format.validate_bytes(data, path=str(target))
+                if not report.valid:
+                    problems = "; ".join(f"{p.code}: {p.message}" for p in report.errors[:5])
+                    rec["error"] = "encoded file failed validation: " + problems
+                    return rec
+                atomic_write_bytes(target, data)
+                outputs["swpm"] = {"path": target.name, "sha256": sha256_file(target)}
+            if usd_staged is not None:
+                target = _place_usd(*usd_staged)
+                usd_staged = None
+                outputs["usd"] = {"path": target.name, "sha256": sha256_file(target)}
+        finally:
+            if usd_staged is not None:
+                usd_staged[0].unlink(missing_ok=True)
         rec["outputs"] = outputs
         from .assets import checks_of
 
