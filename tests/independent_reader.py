@@ -33,6 +33,11 @@ now follows as written:
   ``level_collapsed_indices``; stage (c) checks ``binned`` = V-1-r, then ``kept`` < V-1-r.
 * The start arrays of ``SKIP``/``MLVL``: element 0 = 0, element n = the total, non-decreasing.
 
+A later audit settled more (vector ``record-changes-slot-twice``):
+
+* §3.6: a record's changes are made one after another in the order listed, so a slot listed twice by one
+  record no longer holds the binned vertex the second time (``SWPM_RECORD_BAD_CHANGE``).
+
 What the spec still leaves open, and how this reader decides:
 
 * ``header_size`` "past the end of the file": compared with the length of the file as given; the table
@@ -50,11 +55,9 @@ What the spec still leaves open, and how this reader decides:
 * ``level_count`` 0 is a level-table problem (``SKIP``: payload; ``MLVL``: a bad ``level_first_lod``).
 * Replays (vanilla, mixed, skip-strip) stop at their first problem: one problem per replay, so a slot that
   does not hold the binned vertex is not also a prefix violation of the same record (vector
-  ``record-changes-wrong-slot``); after a replay problem the collapsed list is not compared. A record's
-  changes are made one after another, so a slot listed twice by one record no longer holds the binned
-  vertex the second time (``SWPM_RECORD_BAD_CHANGE``). Skip-strip's collapsed-list prefix check (stage
-  (d), "then the collapsed lists' prefix") is a separate check of the stage: it runs over all levels even
-  after a replay problem.
+  ``record-changes-wrong-slot``); after a replay problem the collapsed list is not compared. Skip-strip's
+  collapsed-list prefix check (stage (d), "then the collapsed lists' prefix") is a separate check of the
+  stage: it runs over all levels even after a replay problem.
 * Sliding-window prefix property: the lowest offending element of ``INDX`` over all windows.
 * ``SMAP``: an empty (b) hull is not required to lie in a range and does not count for ``prefix_length``;
   the coverage of every band is checked before any band's ``prefix_length``.

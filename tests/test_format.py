@@ -562,3 +562,52 @@ def test_conformance_reports_an_unusable_manifest_and_finds_the_vectors_from_els
     monkeypatch.chdir(tmp_path)  # the default spec/vectors is not here: the checkout's are used
     r = CliRunner().invoke(main, ["conformance"])
     assert r.exit_code == 0 and "passed" in r.output, r.output
+
+
+# -- the points a later audit left open (format.md 3.6) ------------------------------------------------------
+@pytest.mark.parametrize("make", ["vanilla", "skip-list", "skip-strip", "mixed"])
+def test_a_record_that_changes_a_slot_twice_is_rejected(make: str) -> None:
+    """Spec 3.6 (3.7, 3.8): a record's changes are made in the order listed, so a slot it lists twice no
+    longer holds the binned vertex the second time: SWPM_RECORD_BAD_CHANGE at the record's row, the only
+    problem, although the record without the repeat (the fan's own buffers) is valid and the set of slots it
+    changes is the same."""
+    from swpm_usd.format.vectors import chunk, fan_mixed, fan_skip, fan_skip_strip
+
+    makers = {"vanilla": fan_vanilla, "skip-list": fan_skip, "skip-strip": fan_skip_strip, "mixed": fan_mixed}
+    pm = makers[make]()
+    assert validate_bytes(encode_bytes(pm)).valid  # type: ignore[arg-type]
+    own = list(pm.raw_buffers["collapse_change_offsets"])
+    assert pm.raw_buffers["collapse_change_count"] == [len(own)]  # one record
+    pm.raw_buffers["collapse_change_offsets"] = [own[0], *own]  # its first slot listed twice
+    pm.raw_buffers["collapse_change_count"] = [len(own) + 1]
+    data = encode_bytes(pm)  # type: ignore[arg-type]
+    _, rec, _ = chunk(data, {"vanilla": L.VREC, "mixed": L.MREC}.get(make, L.SREC))
+    found = [(p.code, p.offset) for p in validate_bytes(data).problems]
+    assert found == [("SWPM_RECORD_BAD_CHANGE", rec + 8)]
+
+
+@pytest.mark.parametrize(
+    ("encoding", "params"),
+    [
+        ("vanilla", {}),
+        ("skip-strip", {"primitive": "strip", "restart": True}),
+        ("skip-strip", {"primitive": "strip", "restart": False}),
+        ("skip-strip", {"primitive": "list"}),
+        ("mixed", {}),
+    ],
+)
+def test_encoders_never_list_a_slot_twice_in_one_record(encoding: str, params: dict) -> None:
+    """What the writers produce is never rejected by spec 3.6's rule: each record lists each slot once."""
+    from conftest import shared_mesh
+
+    for mesh in (_fan_mesh(), shared_mesh("cow.obj")):
+        pm = swpm_usd.build(mesh, encoding, **params)
+        b = pm.buffers()
+        counts = np.asarray(b["collapse_change_count"], np.int64)
+        record = np.repeat(np.arange(counts.shape[0]), counts)
+        slots = np.asarray(b["collapse_change_offsets"], np.int64)
+        assert slots.shape == record.shape and counts.sum() > 0
+        pairs = record * (int(slots.max()) + 1) + slots
+        assert np.unique(pairs).shape == pairs.shape, encoding
+        rep = validate_bytes(encode_bytes(pm))
+        assert rep.valid, rep.format()

@@ -150,3 +150,35 @@ def test_meta_rules(name: str, old: bytes, new: bytes, what: str) -> None:
     result = read(_fix_crcs(bytearray(data.replace(old, new))))
     meta = data.index(b'{"encoding"')
     assert result["problems"] == [{"code": "SWPM_META_BAD_" + what, "severity": "error", "offset": meta}]
+
+
+# The points a later audit settled (§3.6), on files patched here from the vectors' bytes.
+def _entries(data: bytes) -> list[tuple[bytes, int, int, int]]:
+    """(type, entry offset, payload offset, length) of every chunk-table entry."""
+    count, table = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
+    out = []
+    for i in range(count):
+        ctype, _flags, offset, length = struct.unpack_from("<4sIQQ", data, table + 32 * i)
+        out.append((ctype, table + 32 * i, offset, length))
+    return out
+
+
+def _entry(data: bytes, ctype: bytes) -> tuple[int, int, int]:
+    return next((e, o, n) for t, e, o, n in _entries(data) if t == ctype)
+
+
+def _vector(name: str) -> bytes:
+    return _load(next(v for v in MANIFEST["vectors"] if v["name"] == name))[0]
+
+
+@pytest.mark.parametrize(("name", "ctype", "at"), [("skip-strip-list", b"SREC", 16), ("mixed", b"MREC", 20)])
+def test_a_slot_listed_twice_is_a_bad_change(name: str, ctype: bytes, at: int) -> None:
+    """§3.6-3.8: the changes of a record are made in the order listed; its second slot replaced by its first
+    (slot 2 listed twice, u16 offsets at ``at``): SWPM_RECORD_BAD_CHANGE at the record's row, not a collapsed
+    list that differs."""
+    data = bytearray(_vector(name))
+    _, po, _ = _entry(bytes(data), ctype)
+    assert struct.unpack_from("<2H", data, po + at) == (2, 5)
+    struct.pack_into("<H", data, po + at + 2, 2)
+    problems = [(p["code"], p["offset"]) for p in read(_fix_crcs(data))["problems"]]
+    assert problems == [("SWPM_RECORD_BAD_CHANGE", po + 8)]

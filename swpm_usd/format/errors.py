@@ -390,7 +390,8 @@ _ENTRIES = [
         "SWPM_RECORD_BAD_CHANGE",
         ERROR,
         "record {record} changes slot {slot}, which does not hold the binned vertex",
-        "A change offset must point at a live index slot holding the binned vertex.",
+        "A change offset must point at a live index slot holding the binned vertex; a record's changes are "
+        "made in the order listed, so a slot listed twice no longer holds it the second time.",
         "the start of record r's row in VREC, SREC or MREC, not the change_offsets element; first bad "
         "record only",
     ),

@@ -439,6 +439,16 @@ def _new_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
         _write(fan_skip(buffers={"level_indices": [1, 2, 4, 2, 3, 4, 0, 1, 4, 3, 0, 4, 0, 1, 2]})),
         "INDX holds 15 indices, level_index_start ends at 12: its last element must be the INDX count",
     )
+    _settled_invalid(base, out)
+
+
+def _settled_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
+    """The vectors that pin the points a later audit left open (format.md 3.6)."""
+    out["record-changes-slot-twice"] = (
+        _write(fan_vanilla(buffers={"collapse_change_count": [3], "collapse_change_offsets": [2, 2, 5]})),
+        "one record lists slot 2 twice: its changes are made in order, so the second time slot 2 no longer"
+        " holds the binned vertex",
+    )
 
 
 def buffer_digests(data: bytes) -> dict[str, Any]:
