@@ -33,8 +33,10 @@ now follows as written:
   ``level_collapsed_indices``; stage (c) checks ``binned`` = V-1-r, then ``kept`` < V-1-r.
 * The start arrays of ``SKIP``/``MLVL``: element 0 = 0, element n = the total, non-decreasing.
 
-A later audit settled more (vector ``record-changes-slot-twice``):
+A later audit settled more (vectors ``duplicate-vert-trailing``, ``record-changes-slot-twice``):
 
+* §2.3: in the stream-order comparison a position past the end of the order (a trailing duplicate, e.g. a
+  second ``VERT`` after the first) differs.
 * §3.6: a record's changes are made one after another in the order listed, so a slot listed twice by one
   record no longer holds the binned vertex the second time (``SWPM_RECORD_BAD_CHANGE``).
 
@@ -50,8 +52,7 @@ What the spec still leaves open, and how this reader decides:
 * A padding gap before a chunk that lies (partly) outside the file is checked up to the end of the file.
   ``SWPM_CHUNK_NOT_ALLOWED`` is only checked when exactly one encoding bit is set; a chunk that is not
   allowed is not also reported as a duplicate. ``SWPM_CHUNK_MISSING`` lists absent chunks in streaming
-  order; a chunk is absent when no entry has its type. In the stream-order comparison, positions past the
-  shorter of the two sequences are not compared.
+  order; a chunk is absent when no entry has its type.
 * ``level_count`` 0 is a level-table problem (``SKIP``: payload; ``MLVL``: a bad ``level_first_lod``).
 * Replays (vanilla, mixed, skip-strip) stop at their first problem: one problem per replay, so a slot that
   does not hold the binned vertex is not also a prefix violation of the same record (vector
@@ -406,8 +407,9 @@ class _Reader:
         chunks of another encoding skipped), against ``order`` restricted to the types present."""
         expected = [t for t in order if t in self.chunks]
         listed = [c for c in self.entries if c.type in order]
-        for c, want in zip(listed, expected, strict=False):
-            if c.type != want:
+        for i, c in enumerate(listed):
+            # a position past the end of ``expected`` (a trailing duplicate) differs too
+            if i >= len(expected) or c.type != expected[i]:
                 self.add("SWPM_STREAM_ORDER", c.entry)
                 return
         vert = self.chunks.get("VERT")

@@ -564,7 +564,24 @@ def test_conformance_reports_an_unusable_manifest_and_finds_the_vectors_from_els
     assert r.exit_code == 0 and "passed" in r.output, r.output
 
 
-# -- the points a later audit left open (format.md 3.6) ------------------------------------------------------
+# -- the points a later audit left open (format.md 2.3, 3.6) -------------------------------------------------
+@pytest.mark.parametrize("dup", [L.VERT, L.INDX])
+def test_a_trailing_duplicate_is_out_of_streaming_order(dup: bytes) -> None:
+    """Spec 2.3: a duplicate listed after one entry of every type of the order is reported at that position
+    (a position past the end of the order differs), not skipped; a duplicate INDX after VERT is reported
+    there too, not at VERT. SWPM_CHUNK_DUPLICATE rejects the file either way."""
+    from swpm_usd.format.vectors import chunk, fix_crcs, reorder
+
+    base = encode_bytes(fan_vanilla())  # type: ignore[arg-type]
+    _, po, pl = chunk(base, dup)
+    data = encode_bytes(fan_vanilla(), extra_chunks=[(b"zXTR", True, base[po : po + pl])])  # type: ignore[arg-type]
+    data = bytearray(reorder(data, [0, 1, 2, 4, 5, 6, 7, 3]))  # zXTR listed (and laid out) last
+    eo, _, _ = chunk(bytes(data), b"zXTR")
+    data[eo : eo + 4] = dup
+    found = [(p.code, p.offset) for p in validate_bytes(fix_crcs(data)).problems]
+    assert found == [("SWPM_CHUNK_DUPLICATE", eo), ("SWPM_STREAM_ORDER", eo)]
+
+
 @pytest.mark.parametrize("make", ["vanilla", "skip-list", "skip-strip", "mixed"])
 def test_a_record_that_changes_a_slot_twice_is_rejected(make: str) -> None:
     """Spec 3.6 (3.7, 3.8): a record's changes are made in the order listed, so a slot it lists twice no

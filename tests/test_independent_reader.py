@@ -152,7 +152,7 @@ def test_meta_rules(name: str, old: bytes, new: bytes, what: str) -> None:
     assert result["problems"] == [{"code": "SWPM_META_BAD_" + what, "severity": "error", "offset": meta}]
 
 
-# The points a later audit settled (§3.6), on files patched here from the vectors' bytes.
+# The points a later audit settled (§2.3, §3.6), on files patched here from the vectors' bytes.
 def _entries(data: bytes) -> list[tuple[bytes, int, int, int]]:
     """(type, entry offset, payload offset, length) of every chunk-table entry."""
     count, table = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
@@ -169,6 +169,33 @@ def _entry(data: bytes, ctype: bytes) -> tuple[int, int, int]:
 
 def _vector(name: str) -> bytes:
     return _load(next(v for v in MANIFEST["vectors"] if v["name"] == name))[0]
+
+
+def _append_duplicate(data: bytes, ctype: bytes) -> tuple[bytes, int]:
+    """``data`` with one more table entry, listed and laid out last, holding a copy of ``ctype``'s payload
+    (every payload moves 32 bytes on, so the new entry fits in the table); returns it and the new entry."""
+    entries = _entries(data)
+    table = struct.unpack_from("<Q", data, 32)[0]
+    table_end = table + 32 * len(entries)
+    out = bytearray(data[:table_end])
+    struct.pack_into("<I", out, 24, len(entries) + 1)
+    for _t, eo, offset, _n in entries:
+        struct.pack_into("<Q", out, eo + 8, offset + 32)
+    eo, po, pl = _entry(data, ctype)
+    out += data[eo : eo + 32] + data[table_end:]
+    out += bytes(-len(out) % 8)
+    struct.pack_into("<Q", out, table_end + 8, len(out))
+    out += data[po : po + pl]
+    struct.pack_into("<Q", out, 40, len(out))
+    return _fix_crcs(out), table_end
+
+
+def test_a_trailing_duplicate_is_out_of_streaming_order() -> None:
+    """§2.3: a duplicate after one entry of every type (VERT VERT, VERT INDX) is reported at its position."""
+    for ctype in (b"VERT", b"INDX"):
+        data, eo = _append_duplicate(_vector("minimal-vanilla"), ctype)
+        problems = [(p["code"], p["offset"]) for p in read(data)["problems"]]
+        assert problems == [("SWPM_CHUNK_DUPLICATE", eo), ("SWPM_STREAM_ORDER", eo)], ctype
 
 
 @pytest.mark.parametrize(("name", "ctype", "at"), [("skip-strip-list", b"SREC", 16), ("mixed", b"MREC", 20)])

@@ -257,8 +257,9 @@ _ENTRIES = [
         "chunk {type} is not laid out in streaming order ({reason})",
         "Chunks are not in the coarse-to-fine order of the spec; the file decodes but does not stream.",
         "entry at the first position where the encoding's chunks, in table order with duplicates, differ "
-        "from the streaming order restricted to the types present (format.md 2.3), else the (first) VERT "
-        "entry when the last entry is not a VERT; once per file",
+        "from the streaming order restricted to the types present (format.md 2.3; a position past the end "
+        "of that order, i.e. a trailing duplicate, differs), else the (first) VERT entry when the last "
+        "entry is not a VERT; once per file",
     ),
     # -- content ------------------------------------------------------------------------------------------
     Entry(

@@ -231,13 +231,18 @@ def _structure(buf: np.ndarray, rep: Report, check_crc: bool) -> _Parsed | None:
 
 def _stream_order(p: _Parsed, rep: Report) -> None:
     """Known chunk types in table order (duplicates counted, unknown chunks skipped) against the order of
-    spec 2.3 restricted to the types present: the entry at the first position where they differ, else VERT
-    when it is not the last entry."""
+    spec 2.3 restricted to the types present: the entry at the first position where they differ (a position
+    past the end of the order, i.e. a trailing duplicate, differs), else VERT when it is not the last entry.
+    """
     want = [t for t in L.REQUIRED_CHUNKS[p.encoding or "vanilla"] if t in p.chunks]
-    have = [c for c in p.order if c.type in want]
-    for c, b in zip(have, want, strict=False):
-        if c.type != b:  # this entry (not the first chunk of its type) is where another is expected
-            rep.add("SWPM_STREAM_ORDER", c.entry_offset, type=c.name, reason=f"expected {b.decode()} here")
+    have = [c for c in p.order if c.type in want]  # every type of ``want`` at least once: never shorter
+    for i, c in enumerate(have):
+        if i >= len(want):  # a duplicate after the whole order
+            rep.add("SWPM_STREAM_ORDER", c.entry_offset, type=c.name, reason="a duplicate after the order")
+            return
+        if c.type != want[i]:  # this entry (not the first chunk of its type) is where another is expected
+            b = want[i].decode()
+            rep.add("SWPM_STREAM_ORDER", c.entry_offset, type=c.name, reason=f"expected {b} here")
             return
     if p.order and p.order[-1].type != L.VERT and L.VERT in p.chunks:
         c = p.chunks[L.VERT]

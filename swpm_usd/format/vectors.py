@@ -443,11 +443,26 @@ def _new_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
 
 
 def _settled_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
-    """The vectors that pin the points a later audit left open (format.md 3.6)."""
+    """The vectors that pin the points a later audit left open (format.md 2.3, 3.6)."""
+    _, voff, vlen = chunk(base, L.VERT)
     out["record-changes-slot-twice"] = (
         _write(fan_vanilla(buffers={"collapse_change_count": [3], "collapse_change_offsets": [2, 2, 5]})),
         "one record lists slot 2 twice: its changes are made in order, so the second time slot 2 no longer"
         " holds the binned vertex",
+    )
+    # META LODS SMAP zXTR RCNT VREC INDX VERT -> META LODS SMAP RCNT VREC INDX VERT VERT (a copy of VERT)
+    data = bytearray(
+        reorder(
+            _write(fan_vanilla(), extra_chunks=[(b"zXTR", True, base[voff : voff + vlen])]),
+            [0, 1, 2, 4, 5, 6, 7, 3],
+        )
+    )
+    eo, _, _ = chunk(bytes(data), b"zXTR")
+    data[eo : eo + 4] = L.VERT
+    out["duplicate-vert-trailing"] = (
+        fix_crcs(data),
+        "a second VERT listed after the first: a duplicate, and the stream-order warning names it (a position"
+        " past the end of the order differs)",
     )
 
 
