@@ -33,8 +33,11 @@ now follows as written:
   ``level_collapsed_indices``; stage (c) checks ``binned`` = V-1-r, then ``kept`` < V-1-r.
 * The start arrays of ``SKIP``/``MLVL``: element 0 = 0, element n = the total, non-decreasing.
 
-A later audit settled more (vectors ``duplicate-vert-trailing``, ``record-changes-slot-twice``):
+A later audit settled three more (vectors ``chunk-moved-past-end``, ``duplicate-vert-trailing``,
+``record-changes-slot-twice``):
 
+* §2.2: the padding gap before a chunk that starts past the end of the file is checked up to the end of the
+  file, after the entry's ``SWPM_CHUNK_OUT_OF_BOUNDS``.
 * §2.3: in the stream-order comparison a position past the end of the order (a trailing duplicate, e.g. a
   second ``VERT`` after the first) differs.
 * §3.6: a record's changes are made one after another in the order listed, so a slot listed twice by one
@@ -49,8 +52,7 @@ What the spec still leaves open, and how this reader decides:
 * Skip-strip ``restart_index`` is an integer when JSON gives it without fraction or exponent (``65535.0``
   and ``6.5535e4`` are ``SWPM_META_BAD_FIELD``); it is type-checked for ``"list"`` too. A missing
   ``restart_index`` reads as null.
-* A padding gap before a chunk that lies (partly) outside the file is checked up to the end of the file.
-  ``SWPM_CHUNK_NOT_ALLOWED`` is only checked when exactly one encoding bit is set; a chunk that is not
+* ``SWPM_CHUNK_NOT_ALLOWED`` is only checked when exactly one encoding bit is set; a chunk that is not
   allowed is not also reported as a duplicate. ``SWPM_CHUNK_MISSING`` lists absent chunks in streaming
   order; a chunk is absent when no entry has its type.
 * ``level_count`` 0 is a level-table problem (``SKIP``: payload; ``MLVL``: a bad ``level_first_lod``).

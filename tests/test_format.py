@@ -564,7 +564,50 @@ def test_conformance_reports_an_unusable_manifest_and_finds_the_vectors_from_els
     assert r.exit_code == 0 and "passed" in r.output, r.output
 
 
-# -- the points a later audit left open (format.md 2.3, 3.6) -------------------------------------------------
+# -- the points a later audit left open (format.md 2.2, 2.3, 3.6) --------------------------------------------
+def _vert_moved_past_end(gap: bytes | None, trailing: bytes = b"") -> bytes:
+    """The minimal file with VERT's offset moved to the first multiple of 8 past the end of the file; ``gap``
+    (if given) replaces the bytes VERT's payload left behind, ``trailing`` follows file_size."""
+    from swpm_usd.format.vectors import chunk, fix_crcs
+
+    data = bytearray(encode_bytes(fan_vanilla()))  # type: ignore[arg-type]
+    eo, vo, vl = chunk(bytes(data), L.VERT)
+    assert vo + vl == len(data)
+    if gap is not None:
+        data[vo:] = gap.ljust(vl, b"\0")
+    data[eo + 8 : eo + 16] = L.align(len(data) + 1, 8).to_bytes(8, "little")
+    return fix_crcs(data) + trailing
+
+
+GAP_CASES = {  # gap bytes (None: VERT's old payload), bytes after file_size, problems
+    "old-payload": (None, b"", ["SWPM_CHUNK_OUT_OF_BOUNDS", "SWPM_PADDING_NONZERO"]),
+    "zero-gap": (b"", b"", ["SWPM_CHUNK_OUT_OF_BOUNDS"]),
+    "last-byte": (bytes(75) + b"\1", b"", ["SWPM_CHUNK_OUT_OF_BOUNDS", "SWPM_PADDING_NONZERO"]),
+    "trailing-bytes": (b"", b"\1" * 8, ["SWPM_FILE_TRAILING_BYTES", "SWPM_CHUNK_OUT_OF_BOUNDS"]),
+}
+
+
+@pytest.mark.parametrize(("gap", "trailing", "want"), list(GAP_CASES.values()), ids=list(GAP_CASES))
+def test_padding_before_a_chunk_past_the_end_is_checked_up_to_the_end(
+    gap: bytes | None, trailing: bytes, want: list[str]
+) -> None:
+    """Spec 2.2 / 5 step 2: the gap before a chunk that starts past the end of the file is the bytes from the
+    end of the previous payload to the end of the file (its first file_size bytes); the entry's
+    SWPM_CHUNK_OUT_OF_BOUNDS comes first, then the gap's SWPM_PADDING_NONZERO at the gap's start."""
+    from swpm_usd.format.vectors import chunk
+
+    data = _vert_moved_past_end(gap, trailing)
+    eo, _, _ = chunk(data, L.VERT)
+    _, io, il = chunk(data, L.INDX)
+    found = [(p.code, p.offset) for p in validate_bytes(data).problems]
+    where = {
+        "SWPM_CHUNK_OUT_OF_BOUNDS": eo + 8,
+        "SWPM_PADDING_NONZERO": io + il,
+        "SWPM_FILE_TRAILING_BYTES": len(data) - len(trailing),
+    }
+    assert found == [(c, where[c]) for c in want]
+
+
 @pytest.mark.parametrize("dup", [L.VERT, L.INDX])
 def test_a_trailing_duplicate_is_out_of_streaming_order(dup: bytes) -> None:
     """Spec 2.3: a duplicate listed after one entry of every type of the order is reported at that position

@@ -152,7 +152,7 @@ def test_meta_rules(name: str, old: bytes, new: bytes, what: str) -> None:
     assert result["problems"] == [{"code": "SWPM_META_BAD_" + what, "severity": "error", "offset": meta}]
 
 
-# The points a later audit settled (§2.3, §3.6), on files patched here from the vectors' bytes.
+# The points a later audit settled (§2.2, §2.3, §3.6), on files patched here from the vectors' bytes.
 def _entries(data: bytes) -> list[tuple[bytes, int, int, int]]:
     """(type, entry offset, payload offset, length) of every chunk-table entry."""
     count, table = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
@@ -196,6 +196,27 @@ def test_a_trailing_duplicate_is_out_of_streaming_order() -> None:
         data, eo = _append_duplicate(_vector("minimal-vanilla"), ctype)
         problems = [(p["code"], p["offset"]) for p in read(data)["problems"]]
         assert problems == [("SWPM_CHUNK_DUPLICATE", eo), ("SWPM_STREAM_ORDER", eo)], ctype
+
+
+def test_padding_before_a_chunk_past_the_end() -> None:
+    """§2.2: the gap before a chunk that starts past the end of the file is checked up to the end of the file
+    (its first file_size bytes), after the entry's SWPM_CHUNK_OUT_OF_BOUNDS."""
+    base = _vector("minimal-vanilla")
+    eo, vo, vl = _entry(base, b"VERT")
+    moved = bytearray(base)
+    struct.pack_into("<Q", moved, eo + 8, len(base) + 4)  # the next multiple of 8 past the end
+    bounds, gap = ("SWPM_CHUNK_OUT_OF_BOUNDS", eo + 8), ("SWPM_PADDING_NONZERO", vo)
+    cases = [
+        (moved, [bounds, gap]),  # VERT's old payload is left in the gap
+        (moved[:vo] + bytes(vl), [bounds]),
+        (moved[:vo] + bytes(vl - 1) + b"\1", [bounds, gap]),
+    ]
+    for data, want in cases:
+        problems = [(p["code"], p["offset"]) for p in read(_fix_crcs(bytearray(data)))["problems"]]
+        assert problems == want
+    trailing = _fix_crcs(moved[:vo] + bytes(vl)) + b"\1" * 8  # bytes after file_size are not padding
+    problems = [(p["code"], p["offset"]) for p in read(trailing)["problems"]]
+    assert problems == [("SWPM_FILE_TRAILING_BYTES", len(base)), bounds]
 
 
 @pytest.mark.parametrize(("name", "ctype", "at"), [("skip-strip-list", b"SREC", 16), ("mixed", b"MREC", 20)])

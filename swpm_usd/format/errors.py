@@ -246,10 +246,12 @@ _ENTRIES = [
         "SWPM_PADDING_NONZERO",
         ERROR,
         "padding byte(s) at {start} are not zero",
-        "Alignment padding between or inside chunks must be zero.",
+        "Padding before the chunk table, between chunks and after the last payload must be zero (padding "
+        "inside payloads is not checked).",
         "the first byte of the gap that holds a non-zero byte, not that byte: header_size for the gap "
         "before the chunk table, else the end of the chunk table or of the preceding payload (the "
-        "highest end so far); one problem per gap",
+        "highest end so far); one problem per gap; a gap before a chunk that starts past the end of the "
+        "file is checked up to the end of the file, after that chunk's SWPM_CHUNK_OUT_OF_BOUNDS",
     ),
     Entry(
         "SWPM_STREAM_ORDER",

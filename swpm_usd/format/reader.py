@@ -185,7 +185,7 @@ def _structure(buf: np.ndarray, rep: Report, check_crc: bool) -> _Parsed | None:
         elif off < prev_end:
             rep.add("SWPM_CHUNK_OVERLAP", eo + 8, type=name, start=off, end=off + ln, other=prev_name)
             c.ok = False
-        elif off <= end and np.any(buf[prev_end:off]):
+        elif np.any(buf[prev_end : min(off, end)]):  # a gap running past the end of file: up to the end
             rep.add("SWPM_PADDING_NONZERO", prev_end, start=prev_end)
         if int(e["reserved"]) and p.minor == L.VERSION_MINOR:
             rep.add(

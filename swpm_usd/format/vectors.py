@@ -443,8 +443,14 @@ def _new_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
 
 
 def _settled_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
-    """The vectors that pin the points a later audit left open (format.md 2.3, 3.6)."""
-    _, voff, vlen = chunk(base, L.VERT)
+    """The vectors that pin the points a later audit left open (format.md 2.2, 2.3, 3.6)."""
+    veo, voff, vlen = chunk(base, L.VERT)
+    size = len(base)
+    out["chunk-moved-past-end"] = (
+        patch(base, veo + 8, "<Q", L.align(size, L.CHUNK_ALIGN)),
+        "VERT's offset moved past the end of file: SWPM_CHUNK_OUT_OF_BOUNDS, then its padding gap, checked up"
+        " to the end of file, holds VERT's old payload (SWPM_PADDING_NONZERO)",
+    )
     out["record-changes-slot-twice"] = (
         _write(fan_vanilla(buffers={"collapse_change_count": [3], "collapse_change_offsets": [2, 2, 5]})),
         "one record lists slot 2 twice: its changes are made in order, so the second time slot 2 no longer"
