@@ -247,6 +247,21 @@ def grow_stride(data: bytes, extra: int) -> bytes:
 
 
 # -- the vectors ----------------------------------------------------------------------------------------
+#: a u32 colour and an i32 attribute whose values need more than float32's 24 significant bits (usd.md,
+#: "Attribute values"): the file keeps every bit, a USD stage does not
+COLOR_U32 = np.array(
+    [
+        [0, 1, 2**24 - 1, 2**24],
+        [2**32 - 1, 2**24 + 1, 2**25 + 1, 123_456_789],
+        [2**31 - 1, 2**31, 2**31 + 1, 3_000_000_001],
+        [2**32 - 2, 2**32 - 129, 0x89ABCDEF, 0x01234567],
+        [16_843_009, 2**30 + 64, 2**30 + 128, 4_000_000_000],
+    ],
+    "<u4",
+)
+ID_I32 = np.array([[-(2**31)], [-(2**24) - 1], [2**24], [2**31 - 1], [7]], "<i4")
+
+
 def _valid() -> dict[str, tuple[bytes, str]]:
     attrs = {
         "normal": np.tile(np.array([[0, 0, 1]], np.float32), (5, 1)),
@@ -265,6 +280,11 @@ def _valid() -> dict[str, tuple[bytes, str]]:
         "skip-strip-list": (_write(fan_skip()), "skip-strip, list variant, one level"),
         "skip-strip-strip": (_write(fan_skip_strip()), "skip-strip, strips joined by restart index 0xFFFF"),
         "attributes": (_write(fan_vanilla(attributes=attrs)), "normal f32x3, uv f32x2, color u8x4"),
+        "attributes-32bit": (
+            _write(fan_vanilla(attributes={"color": COLOR_U32, "id": ID_I32})),
+            "color u32x4 and id i32 with values above 2^24: the file keeps every bit (a USD stage keeps 24"
+            " significant bits, usd.md)",
+        ),
         "single-triangle": (_write(single_triangle()), "one triangle, one LOD, no records"),
         "unknown-ancillary-chunk": (
             _write(fan_vanilla(), extra_chunks=[(b"zXTR", False, b"ignore me")]),
