@@ -33,8 +33,8 @@ now follows as written:
   ``level_collapsed_indices``; stage (c) checks ``binned`` = V-1-r, then ``kept`` < V-1-r.
 * The start arrays of ``SKIP``/``MLVL``: element 0 = 0, element n = the total, non-decreasing.
 
-A later audit settled three more (vectors ``chunk-moved-past-end``, ``duplicate-vert-trailing``,
-``record-changes-slot-twice``):
+A later audit settled these (vectors ``chunk-moved-past-end``, ``duplicate-vert-trailing``,
+``record-changes-slot-twice``), and wrote down the decisions this reader had made for itself:
 
 * §2.2: the padding gap before a chunk that starts past the end of the file is checked up to the end of the
   file, after the entry's ``SWPM_CHUNK_OUT_OF_BOUNDS``.
@@ -42,28 +42,28 @@ A later audit settled three more (vectors ``chunk-moved-past-end``, ``duplicate-
   second ``VERT`` after the first) differs.
 * §3.6: a record's changes are made one after another in the order listed, so a slot listed twice by one
   record no longer holds the binned vertex the second time (``SWPM_RECORD_BAD_CHANGE``).
+* §2.1, §5: ``header_size`` "past the end of the file" is compared with the length of the file as given;
+  the table and the chunks are bounded by the bytes read (the file, cut at ``file_size`` when longer).
+* §3.1: a leading BOM is not JSON. §3.7: a missing ``restart_index`` reads as null and it is type-checked
+  for ``"list"`` too; it is an integer when JSON gives it without fraction or exponent (``65535.0`` and
+  ``6.5535e4`` are ``SWPM_META_BAD_FIELD``). §3.7, §3.8: ``level_count`` 0 is a level-table problem
+  (``SKIP``: payload; ``MLVL``: a bad ``level_first_lod``).
+* §5 step 2: ``SWPM_CHUNK_NOT_ALLOWED`` is only checked when exactly one encoding bit is set; a chunk that
+  is not allowed is not also reported as a duplicate. ``SWPM_CHUNK_MISSING`` lists absent chunks in
+  streaming order; a chunk is absent when no entry has its type.
 
 What the spec still leaves open, and how this reader decides:
 
-* ``header_size`` "past the end of the file": compared with the length of the file as given; the table
-  and the chunks are bounded by the bytes read (the file, cut at ``file_size`` when longer).
-* ``META``: parsed by Python's ``json`` with the two RFC 8259 rules of §3.1 added; a leading BOM is not
-  JSON (rejected); a number too large for a float (``1e999``) parses and is not an integer.
-* Skip-strip ``restart_index`` is an integer when JSON gives it without fraction or exponent (``65535.0``
-  and ``6.5535e4`` are ``SWPM_META_BAD_FIELD``); it is type-checked for ``"list"`` too. A missing
-  ``restart_index`` reads as null.
-* ``SWPM_CHUNK_NOT_ALLOWED`` is only checked when exactly one encoding bit is set; a chunk that is not
-  allowed is not also reported as a duplicate. ``SWPM_CHUNK_MISSING`` lists absent chunks in streaming
-  order; a chunk is absent when no entry has its type.
-* ``level_count`` 0 is a level-table problem (``SKIP``: payload; ``MLVL``: a bad ``level_first_lod``).
+* ``META``: parsed by Python's ``json`` with the rules of §3.1 added; a number too large for a float
+  (``1e999``) parses and is not an integer (no field whose value matters can hold one validly).
 * Replays (vanilla, mixed, skip-strip) stop at their first problem: one problem per replay, so a slot that
   does not hold the binned vertex is not also a prefix violation of the same record (vector
   ``record-changes-wrong-slot``); after a replay problem the collapsed list is not compared. Skip-strip's
   collapsed-list prefix check (stage (d), "then the collapsed lists' prefix") is a separate check of the
   stage: it runs over all levels even after a replay problem.
 * Sliding-window prefix property: the lowest offending element of ``INDX`` over all windows.
-* ``SMAP``: an empty (b) hull is not required to lie in a range and does not count for ``prefix_length``;
-  the coverage of every band is checked before any band's ``prefix_length``.
+* ``SMAP`` (§4 says an empty hull needs no range and every band's ranges are checked before any
+  ``prefix_length``): an empty (b) hull does not count for ``prefix_length``.
 """
 
 from __future__ import annotations

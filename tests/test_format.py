@@ -441,6 +441,38 @@ def test_meta_must_be_strict_json(replacement: bytes) -> None:
     assert [p.code for p in validate_bytes(bad).errors] == ["SWPM_META_BAD_JSON"]
 
 
+def test_meta_with_a_byte_order_mark_is_not_json() -> None:
+    """Spec 3.1: a leading byte-order mark is not JSON (RFC 8259 lets a parser ignore it; SWPM does not)."""
+    from swpm_usd.format.vectors import chunk, fix_crcs
+
+    data = encode_bytes(fan_vanilla(), generator="swpm-usd conformance")  # type: ignore[arg-type]
+    _, mo, _ = chunk(data, L.META)
+    old = b'{"encoding":"vanilla","generator":"swpm-usd conformance"'
+    new = b"\xef\xbb\xbf" + old.replace(b"conformance", b"conforma")
+    assert data.count(old) == 1 and len(new) == len(old)
+    found = [(p.code, p.offset) for p in validate_bytes(fix_crcs(data.replace(old, new))).errors]
+    assert found == [("SWPM_META_BAD_JSON", mo)]
+
+
+@pytest.mark.parametrize("make", ["skip", "mixed"])
+def test_level_count_zero_is_a_level_table_problem(make: str) -> None:
+    """Spec 3.7 / 3.8: level_count 0 is SWPM_LEVEL_BAD_TABLE at SKIP's payload, a bad level_first_lod
+    (SWPM_MIXED_BAD_LEVELS at its start, payload + 8) in MLVL."""
+    from swpm_usd.format.vectors import chunk, fan_mixed, fan_skip, fix_crcs
+
+    pm = (fan_skip if make == "skip" else fan_mixed)(buffers={"level_first_lod": []})  # n = 0
+    for name in ("level_index_start", "level_collapsed_start", "level_static_start", "level_dynamic_start"):
+        if name in pm.raw_buffers:
+            pm.raw_buffers[name] = [0]
+    pm.raw_buffers["level_record_start"] = [0]
+    data = encode_bytes(pm)  # type: ignore[arg-type]
+    _, at, _ = chunk(data, L.SKIP if make == "skip" else L.MLVL)
+    assert np.frombuffer(data[at : at + 4], "<u4")[0] == 0
+    code = "SWPM_LEVEL_BAD_TABLE" if make == "skip" else "SWPM_MIXED_BAD_LEVELS"
+    found = [(p.code, p.offset) for p in validate_bytes(fix_crcs(data)).errors]
+    assert found == [(code, at if make == "skip" else at + 8)]
+
+
 def test_skip_strip_record_checks_all_run() -> None:
     """Spec 5, stage (c): R >= V is reported and the other record checks of the stage still run."""
     from swpm_usd.format.vectors import fan_skip

@@ -139,6 +139,13 @@ META_EDITS = [
     ("skip-strip-strip", b'"restart_index":65535', b'"restart_index":9e999', "FIELD"),
     # a strips' restart index below V = 5 is a vertex (§3.7)
     ("skip-strip-strip", b'"restart_index":65535', b'"restart_index":    4', "FIELD"),
+    # a leading byte-order mark is not JSON (§3.1)
+    (
+        "minimal-vanilla",
+        b'{"encoding":"vanilla","generator":"swpm-usd conformance"',
+        b'\xef\xbb\xbf{"encoding":"vanilla","generator":"swpm-usd conforma"',
+        "JSON",
+    ),
 ]
 
 
