@@ -703,3 +703,32 @@ def test_encoders_never_list_a_slot_twice_in_one_record(encoding: str, params: d
         assert np.unique(pairs).shape == pairs.shape, encoding
         rep = validate_bytes(encode_bytes(pm))
         assert rep.valid, rep.format()
+
+
+# -- found by reading the spec as a second implementer (format.md 3.7, 4, 5) --------------------------------
+SKIP_TABLE_CASES = {  # fan_skip buffers that break the level table by itself; INDX holds 9 (V = 5) in both
+    "collapsed-start": {
+        "level_indices": [1, 2, 4, 2, 3, 4, 0, 1, 4, 3, 0, 9],
+        "level_collapsed_start": [0, 15],
+        "level_collapsed_indices": [1, 2, 0, 2, 3, 0, 0, 1, 0, 3, 0, 0, 0, 1, 2],
+    },
+    "partial-triangle": {
+        "level_indices": [1, 2, 4, 2, 3, 4, 0, 1, 4, 3, 9],
+        "level_index_start": [0, 11],
+        "level_collapsed_start": [0, 11],
+        "level_collapsed_indices": [1, 2, 0, 2, 3, 0, 0, 1, 0, 3, 9],
+    },
+}
+
+
+@pytest.mark.parametrize("case", list(SKIP_TABLE_CASES))
+def test_skip_level_table_by_itself_is_a_stage_a_check(case: str) -> None:
+    """Spec 5 step 4, skip-strip (a): the level table by itself (its start arrays, level_collapsed_start =
+    level_index_start, whole triangles for "list") is checked before the values < V and ends the checks;
+    only its agreement with RCNT is a stage (c) check. So INDX holding 9 is not reported."""
+    from swpm_usd.format.vectors import chunk, fan_skip
+
+    data = encode_bytes(fan_skip(buffers=SKIP_TABLE_CASES[case]))  # type: ignore[arg-type]
+    _, so, _ = chunk(data, L.SKIP)
+    found = [(p.code, p.offset) for p in validate_bytes(data).problems]
+    assert found == [("SWPM_LEVEL_BAD_TABLE", so)]

@@ -872,6 +872,12 @@ def _skip(p: _Parsed, rep: Report) -> None:
         s = arrs[name].astype(np.int64)
         if s[0] != 0 or s[-1] != total or np.any(np.diff(s) < 0):
             reason = f"{name} must run from 0 to {total} without decreasing"
+    # the table among itself (spec 3.7, stage (a)); only its agreement with RCNT is a stage (c) check
+    if not reason and not np.array_equal(arrs["level_collapsed_start"], arrs["level_index_start"]):
+        reason = "level_collapsed_start must equal level_index_start"
+    elif not reason and params.get("primitive", "strip") == "list":
+        if np.any(np.diff(arrs["level_index_start"].astype(np.int64)) % 3):
+            reason = "a level's triangle list must hold whole triangles (a multiple of 3 indices)"
     if n == 0 or first[0] != 0 or np.any(np.diff(first) <= 0) or first[-1] >= Lc:
         reason = "level_first_lod must start at 0, increase and stay below the LOD count"
     if reason:
@@ -946,11 +952,7 @@ def _skip_records(
     reason = None
     params = (p.meta or {}).get("params", {})
     strip = params.get("primitive", "strip") == "strip"
-    if not np.array_equal(arrs["level_collapsed_start"], arrs["level_index_start"]):
-        reason = "level_collapsed_start must equal level_index_start"
-    elif not strip and np.any(np.diff(lstart) % 3):
-        reason = "a level's triangle list must hold whole triangles (a multiple of 3 indices)"
-    elif np.any(nrc[first] != rstart[:-1]):
+    if np.any(nrc[first] != rstart[:-1]):
         lv = int(np.flatnonzero(nrc[first] != rstart[:-1])[0])
         reason = f"level {lv} starts at record {int(rstart[lv])}, its first LOD applies {int(nrc[first[lv]])}"
     if reason:

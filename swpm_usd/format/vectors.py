@@ -490,6 +490,24 @@ def _settled_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
         "a second VERT listed after the first: a duplicate, and the stream-order warning names it (a position"
         " past the end of the order differs)",
     )
+    _review_invalid(out)
+
+
+def _review_invalid(out: dict[str, tuple[bytes, str]]) -> None:
+    """The vectors that pin what reading the spec as a second implementer found (format.md 4, 5)."""
+    out["skip-collapsed-start-not-index-start"] = (
+        _write(
+            fan_skip(
+                buffers={
+                    "level_indices": [1, 2, 4, 2, 3, 4, 0, 1, 4, 3, 0, 9],
+                    "level_collapsed_start": [0, 15],
+                    "level_collapsed_indices": [1, 2, 0, 2, 3, 0, 0, 1, 0, 3, 0, 0, 0, 1, 2],
+                }
+            )
+        ),
+        "level_collapsed_start differs from level_index_start and INDX holds 9: the level table by itself is"
+        " a stage (a) check before the values < V and ends the checks",
+    )
 
 
 def buffer_digests(data: bytes) -> dict[str, Any]:
