@@ -74,8 +74,10 @@ def test_manifest_and_expected_results_follow_the_schema() -> None:
         "duplicate-vert-trailing",
         "record-changes-slot-twice",
         "attributes-32bit",  # usd.md "Attribute values"
-        # found reading the spec as a second implementer: format.md 5 (skip-strip stage (a))
+        # found reading the spec as a second implementer: format.md 5 (skip-strip stage (a)), 4 (SMAP)
         "skip-collapsed-start-not-index-start",
+        "smap-17-ranges",  # format.md 4: the order of the SMAP checks
+        "smap-range-in-trailing-bytes",  # format.md 4, 5: the file as read
     ):
         assert need in names
 

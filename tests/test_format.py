@@ -732,3 +732,30 @@ def test_skip_level_table_by_itself_is_a_stage_a_check(case: str) -> None:
     _, so, _ = chunk(data, L.SKIP)
     found = [(p.code, p.offset) for p in validate_bytes(data).problems]
     assert found == [("SWPM_LEVEL_BAD_TABLE", so)]
+
+
+def test_smap_band_checks_come_before_the_ranges_in_the_file() -> None:
+    """Spec 4: the bands (range_count <= 16 among them) are checked before every range lies in the file;
+    one SWPM_SMAP_INVALID, at band 0 (payload + 8), not at the range table (vector smap-17-ranges)."""
+    from swpm_usd.format.vectors import chunk, fan_smap
+
+    assert validate_bytes(fan_smap([(0, 8)] * 13)).problems == []  # 16 ranges
+    data = fan_smap([(0, 8)] * 13 + [(-1, 8)])  # 17 ranges, the last outside the file
+    _, so, _ = chunk(data, L.SMAP)
+    assert [(p.code, p.offset) for p in validate_bytes(data).problems] == [("SWPM_SMAP_INVALID", so + 8)]
+    data = fan_smap([(0, 8)] * 13 + [(-1, 8)], range_count=16)  # the band names 16, the 17th is outside
+    assert [(p.code, p.offset) for p in validate_bytes(data).problems] == [("SWPM_SMAP_INVALID", so + 32)]
+    data = fan_smap([(0, 8)] * 13 + [(-1, 0)])  # 17 ranges, all in the file
+    assert [(p.code, p.offset) for p in validate_bytes(data).problems] == [("SWPM_SMAP_INVALID", so + 8)]
+
+
+def test_smap_ranges_lie_in_the_file_as_read() -> None:
+    """Spec 4, 5: the file is read as its first file_size bytes, so a range that ends in bytes after file_size
+    lies outside the file (SWPM_SMAP_INVALID at the range table; vector smap-range-in-trailing-bytes)."""
+    from swpm_usd.format.vectors import chunk, fan_smap
+
+    assert validate_bytes(fan_smap([(-1, 0)]) + bytes(8)).errors == []
+    data = fan_smap([(-1, 8)]) + bytes(8)
+    _, so, _ = chunk(data, L.SMAP)
+    found = [(p.code, p.offset) for p in validate_bytes(data).problems]
+    assert found == [("SWPM_FILE_TRAILING_BYTES", len(data) - 8), ("SWPM_SMAP_INVALID", so + 32)]

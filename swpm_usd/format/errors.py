@@ -422,11 +422,11 @@ _ENTRIES = [
         WARNING,
         "streaming map: {reason}",
         "The (ancillary) streaming map is malformed or does not cover what a LOD needs; ignore it.",
-        "SMAP payload when its length is wrong; band 0 (payload + 8) when bands do not cover the "
-        "LODs, or any band's ranges lie outside the range table or exceed 16; the range table start "
-        "(payload + 8 + 24 B, B = band_count) when any range lies outside the file; band b, the "
-        "first band not covering what its LODs need; band b's prefix_length (band + 16), first "
-        "wrong band; one problem",
+        "the first problem only, in this order (format.md 4): SMAP payload when its length is wrong; "
+        "band 0 (payload + 8) when bands do not cover the LODs, or any band's ranges lie outside the "
+        "range table or exceed 16; the range table start (payload + 8 + 24 B, B = band_count) when any "
+        "range lies outside the file (its first file_size bytes); band b, the first band not covering "
+        "what its LODs need; band b's prefix_length (band + 16), first wrong band",
     ),
     Entry(
         "SWPM_ENCODING_UNAVAILABLE",

@@ -78,6 +78,7 @@ class _Parsed:
     vert_data: int = 0
     buffers: dict[str, np.ndarray] = field(default_factory=dict)
     content_ok: bool = True
+    size: int = 0  # the end of the file as read: its first file_size bytes, fewer if it is shorter
 
 
 def _map(path: str | os.PathLike[str]) -> np.ndarray:
@@ -140,6 +141,7 @@ def _structure(buf: np.ndarray, rep: Report, check_crc: bool) -> _Parsed | None:
     elif declared < size:
         rep.add("SWPM_FILE_TRAILING_BYTES", declared, extra=size - declared)
         end = declared
+    p.size = end
     to, count = int(h["table_offset"]), int(h["chunk_count"])
     if to < hs or to % L.CHUNK_ALIGN:
         rep.add("SWPM_TABLE_BAD_OFFSET", 32, value=to)
@@ -1240,8 +1242,13 @@ def _smap(p: _Parsed, rep: Report) -> None:
     if np.any(rs + rn > N):
         rep.add("SWPM_SMAP_INVALID", c.offset + 8, reason="a band's ranges lie outside the range table")
         return
+    if int(rn.max()) > L.MAX_BAND_RANGES:  # a band check too: before the ranges against the file
+        rep.add(
+            "SWPM_SMAP_INVALID", c.offset + 8, reason=f"a band names more than {L.MAX_BAND_RANGES} ranges"
+        )
+        return
     ro, rl = ranges["offset"].astype(np.uint64), ranges["length"].astype(np.uint64)
-    fsz = np.uint64(p.buf.shape[0])
+    fsz = np.uint64(p.size)  # the file as read: bytes after file_size are not part of it
     if np.any(ro > fsz) or np.any(rl > fsz - np.minimum(ro, fsz)):
         rep.add("SWPM_SMAP_INVALID", c.offset + 8 + 24 * B, reason="a range lies outside the file")
         return
@@ -1255,11 +1262,6 @@ def _smap(p: _Parsed, rep: Report) -> None:
     vend = vert.offset + p.vert_data + np.maximum.reduceat(vc, fl) * p.vert_stride
     want_a = np.stack([np.zeros(B, np.int64), lo, np.full(B, vert.offset, np.int64)], axis=1)
     want_e = np.stack([np.full(B, indx.offset, np.int64), hi, vend], axis=1)
-    if int(rn.max()) > L.MAX_BAND_RANGES:
-        rep.add(
-            "SWPM_SMAP_INVALID", c.offset + 8, reason=f"a band names more than {L.MAX_BAND_RANGES} ranges"
-        )
-        return
     slot = rs[:, None] + np.arange(L.MAX_BAND_RANGES)[None, :]  # (B, 16) range ids, masked past rn
     used = np.arange(L.MAX_BAND_RANGES)[None, :] < rn[:, None]
     slot = np.where(used, slot, 0) if N else np.zeros_like(slot)

@@ -14,7 +14,7 @@ import hashlib
 import json
 import struct
 import zlib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -231,6 +231,51 @@ def reorder(data: bytes, order: list[int]) -> bytes:
     return fix_crcs(out)
 
 
+def with_smap(data: bytes, make: Callable[[dict[bytes, int] | None], Any]) -> bytes:
+    """``data`` with SMAP's payload replaced by ``make(offsets)`` (the payload offset of every chunk once laid
+    out again; ``make(None)`` gives the new payload's length), the chunks laid out again in table order,
+    file_size and CRCs recomputed."""
+    ents = _entries(data)
+    table_end = struct.unpack_from("<Q", data, 32)[0] + 32 * len(ents)
+    payload = {t: data[o : o + n] for t, _, o, n in ents}
+    pos, offs = L.align(table_end, L.CHUNK_ALIGN), {}
+    for t, *_ in ents:
+        offs[t] = pos
+        pos = L.align(pos + (make(None) if t == L.SMAP else len(payload[t])), L.CHUNK_ALIGN)
+    payload[L.SMAP] = make(offs)
+    out = bytearray(data[:table_end])
+    for t, eo, _, _ in ents:
+        out += bytes(offs[t] - len(out)) + payload[t]
+        struct.pack_into("<QQ", out, eo + 8, offs[t], len(payload[t]))
+    struct.pack_into("<Q", out, 40, len(out))
+    return fix_crcs(out)
+
+
+def smap_bytes(bands: list[tuple[int, int, int, int, int]], ranges: list[tuple[int, int]]) -> bytes:
+    """An SMAP payload: bands (first_lod, lod_count, range_start, range_count, prefix_length), ranges
+    (offset, length)."""
+    head = np.array([(len(bands), len(ranges))], L.SMAP_HEADER).tobytes()
+    return head + np.array(bands, L.SMAP_BAND).tobytes() + np.array(ranges, L.SMAP_RANGE).tobytes()
+
+
+def fan_smap(extra: list[tuple[int, int]], range_count: int | None = None) -> bytes:
+    """The minimal vanilla file whose one band lists its three hulls and then the ``extra`` ranges (offset
+    -1: the end of the file); ``range_count``, if given, replaces the band's count of ranges."""
+
+    def make(offs: dict[bytes, int] | None) -> int | bytes:
+        if offs is None:
+            return L.SMAP_HEADER.itemsize + L.SMAP_BAND.itemsize + L.SMAP_RANGE.itemsize * (3 + len(extra))
+        indx, vert = offs[L.INDX], offs[L.VERT]
+        end = vert + len(payload[L.VERT])
+        more = [(end if o < 0 else o, n) for o, n in extra]
+        ranges = [(0, indx), (indx, len(payload[L.INDX])), (vert, end - vert), *more]
+        return smap_bytes([(0, 2, 0, range_count or len(ranges), end)], ranges)
+
+    data = _write(fan_vanilla())
+    payload = {t: data[o : o + n] for t, _, o, n in _entries(data)}
+    return with_smap(data, make)
+
+
 def grow_stride(data: bytes, extra: int) -> bytes:
     """The file with ``extra`` zero bytes appended to every VERT record (stride, length and file_size follow;
     VERT must be the last chunk)."""
@@ -298,6 +343,23 @@ def _valid() -> dict[str, tuple[bytes, str]]:
                 _write(fan_vanilla(), extra_chunks=[(b"zXTR", False, b"ignore me")]), [0, 3, 1, 2, 4, 5, 6, 7]
             ),
             "an unknown ancillary chunk between META and LODS: no SWPM_STREAM_ORDER (format.md 2.3)",
+        ),
+        **_review_valid(),
+    }
+
+
+def _review_valid() -> dict[str, tuple[bytes, str]]:
+    """Valid files (a warning) that pin what reading the spec as a second implementer found (format.md 4)."""
+    return {
+        "smap-17-ranges": (
+            fan_smap([(0, 8)] * 13 + [(-1, 8)]),
+            "SMAP's band names 17 ranges and the last lies past the end of the file: the bands are checked"
+            " first (SWPM_SMAP_INVALID at band 0, not at the range table)",
+        ),
+        "smap-range-in-trailing-bytes": (
+            fan_smap([(-1, 8)]) + bytes(8),
+            "an SMAP range ends in the 8 bytes after file_size: the file is read as its first file_size"
+            " bytes, so the range lies outside it",
         ),
     }
 
