@@ -52,6 +52,18 @@ A later audit settled these (vectors ``chunk-moved-past-end``, ``duplicate-vert-
   is not allowed is not also reported as a duplicate. ``SWPM_CHUNK_MISSING`` lists absent chunks in
   streaming order; a chunk is absent when no entry has its type.
 
+Reading the spec as a second implementer (vectors ``skip-collapsed-start-not-index-start``,
+``smap-17-ranges``, ``smap-range-in-trailing-bytes``, ``smap-empty-index-hull``) found the reference reader
+deciding these differently; the spec now says what this reader did, and the reference reader follows:
+
+* §5 skip-strip stage (a): the level table by itself (``level_collapsed_start`` = ``level_index_start``
+  and whole triangles for ``"list"`` included) is checked before the values < V; only its agreement with
+  ``RCNT`` is a stage (c) check.
+* §4: the SMAP checks in order (length; the bands, ``range_count`` <= 16 among them; every range inside the
+  file as read, i.e. its first ``file_size`` bytes; the hulls; ``prefix_length``), the first problem only.
+  An LOD that needs no ``INDX`` element adds nothing to its band's (b) hull; an empty (b) hull needs no
+  range and does not count for ``prefix_length``.
+
 What the spec still leaves open, and how this reader decides:
 
 * ``META``: parsed by Python's ``json`` with the rules of §3.1 added; a number too large for a float
@@ -62,8 +74,6 @@ What the spec still leaves open, and how this reader decides:
   collapsed-list prefix check (stage (d), "then the collapsed lists' prefix") is a separate check of the
   stage: it runs over all levels even after a replay problem.
 * Sliding-window prefix property: the lowest offending element of ``INDX`` over all windows.
-* ``SMAP`` (§4 says an empty hull needs no range and every band's ranges are checked before any
-  ``prefix_length``): an empty (b) hull does not count for ``prefix_length``.
 """
 
 from __future__ import annotations

@@ -759,3 +759,36 @@ def test_smap_ranges_lie_in_the_file_as_read() -> None:
     _, so, _ = chunk(data, L.SMAP)
     found = [(p.code, p.offset) for p in validate_bytes(data).problems]
     assert found == [("SWPM_FILE_TRAILING_BYTES", len(data) - 8), ("SWPM_SMAP_INVALID", so + 32)]
+
+
+def _smap_table(data: bytes) -> tuple[list[tuple[int, ...]], list[tuple[int, int]]]:
+    from swpm_usd.format.vectors import chunk
+
+    _, so, _ = chunk(data, L.SMAP)
+    B, N = (int(x) for x in np.frombuffer(data[so : so + 8], "<u4"))
+    bands = np.frombuffer(data[so + 8 : so + 8 + 24 * B], L.SMAP_BAND)
+    ranges = np.frombuffer(data[so + 8 + 24 * B : so + 8 + 24 * B + 16 * N], L.SMAP_RANGE)
+    return [tuple(int(x) for x in b) for b in bands], [(int(o), int(n)) for o, n in ranges]
+
+
+def test_an_empty_window_adds_nothing_to_the_index_hull() -> None:
+    """Spec 4: the (b) hull of a band holds the INDX elements its LODs draw; an empty window adds nothing,
+    wherever its first_index points, and a band of empty windows has no (b) hull, so no range is needed and
+    prefix_length is the largest end of the other two (vector smap-empty-index-hull: VERT laid out before
+    INDX, so (a) ends at INDX's offset). The writer writes these hulls and the reader accepts only them."""
+    from swpm_usd.format.vectors import chunk, patch, quad_sliding_empty_windows, restream
+
+    data = restream(quad_sliding_empty_windows(), [0, 1, 2, 3, 5, 4])
+    _, io, il = chunk(data, L.INDX)
+    _, vo, _ = chunk(data, L.VERT)
+    assert vo < io and io + il == len(data)
+    bands, ranges = _smap_table(data)
+    assert [b[4] for b in bands] == [len(data), io]  # band 1 (LOD 2, an empty window at 9) ends at INDX
+    assert ranges[1] == (io + 2 * 3, 2 * 6)  # band 0: pool [3, 9) of LOD 0; LOD 1's empty window at 0 not
+    eo, _, _ = chunk(data, L.VERT)
+    assert [(p.code, p.offset) for p in validate_bytes(data).problems] == [("SWPM_STREAM_ORDER", eo)]
+    _, so, _ = chunk(data, L.SMAP)
+    band1 = so + 8 + 24
+    wrong = patch(data, band1 + 16, "<Q", io + 2 * 9)  # the empty window's position counted as an end
+    assert [p.code for p in validate_bytes(wrong).problems] == ["SWPM_STREAM_ORDER", "SWPM_SMAP_INVALID"]
+    assert validate_bytes(wrong).problems[1].offset == band1 + 16

@@ -31,7 +31,7 @@ from .kernels import (
     vanilla_replay,
     window_limits,
 )
-from .writer import MIXED_RECORD_COLUMNS, needed_index_ranges
+from .writer import MIXED_RECORD_COLUMNS, index_hulls, needed_index_ranges
 
 _TYPE_RE = re.compile(rb"^[A-Za-z0-9]{4}$")
 #: problems of one code beyond this many are counted in ``summary["suppressed"]``, not listed
@@ -1256,9 +1256,9 @@ def _smap(p: _Parsed, rep: Report) -> None:
     need = needed_index_ranges(p.encoding or "", p.buffers, Lc, indx.length // p.width)
     ro, rl = ro.astype(np.int64), rl.astype(np.int64)
     vc = p.lods["vertex_count"].astype(np.int64)
-    # hulls of (a) prefix before INDX, (b) INDX elements, (c) VERT prefix, per band (vectorised over bands)
-    lo = indx.offset + np.minimum.reduceat(need[:, 0], fl) * p.width
-    hi = indx.offset + np.maximum.reduceat(need[:, 1], fl) * p.width
+    # hulls of (a) prefix before INDX, (b) INDX elements, (c) VERT prefix, per band (vectorised over bands);
+    # (b) ignores LODs that need no INDX element and is empty (lo = hi) when none of the band's LODs needs one
+    lo, hi = (indx.offset + h * p.width for h in index_hulls(need, fl))
     vend = vert.offset + p.vert_data + np.maximum.reduceat(vc, fl) * p.vert_stride
     want_a = np.stack([np.zeros(B, np.int64), lo, np.full(B, vert.offset, np.int64)], axis=1)
     want_e = np.stack([np.full(B, indx.offset, np.int64), hi, vend], axis=1)
@@ -1279,7 +1279,7 @@ def _smap(p: _Parsed, rep: Report) -> None:
             f"[{int(want_a[b, j])}, {int(want_e[b, j])})",
         )
         return
-    prefix = want_e.max(axis=1)
+    prefix = np.where(want_e > want_a, want_e, 0).max(axis=1)  # the largest end of the non-empty hulls
     bad = np.flatnonzero(bands["prefix_length"].astype(np.int64) != prefix)
     if bad.size:
         b = int(bad[0])

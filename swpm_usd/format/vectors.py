@@ -23,7 +23,7 @@ import numpy as np
 
 from . import layout as L
 from .reader import _check
-from .writer import encode_bytes
+from .writer import encode_bytes, needed_index_ranges, smap_payload
 
 GENERATOR = "swpm-usd conformance"
 
@@ -151,6 +151,22 @@ def fan_mixed(**over: Any) -> RawProgressiveMesh:
     return _fan("mixed", bufs, {"cache_size": 16, "level_threshold": 0.25}, **over)
 
 
+def quad_sliding_empty_windows() -> RawProgressiveMesh:
+    """Sliding-window quad whose coarser LODs draw nothing: LOD 0 (4 vertices) draws pool [3, 9), LOD 1 (3
+    vertices) an empty window at 0, LOD 2 (2 vertices, a band of its own) an empty window at 9, the pool's
+    end. Pool elements [0, 3) belong to no window."""
+    bufs = {"index_pool": [0, 1, 2, 0, 1, 2, 0, 2, 3], "window_records": [[3, 2, 4], [0, 0, 3], [9, 0, 2]]}
+    return RawProgressiveMesh(
+        "sliding-window",
+        FAN_POINTS[:4],
+        np.array([4, 3, 2]),
+        np.array([2, 0, 0]),
+        np.array([0.0, 0.5, 1.0], np.float32),
+        bufs,
+        params={"cache_size": 16},
+    )
+
+
 def single_triangle() -> RawProgressiveMesh:
     bufs = {
         "indices": [0, 1, 2],
@@ -276,6 +292,27 @@ def fan_smap(extra: list[tuple[int, int]], range_count: int | None = None) -> by
     return with_smap(data, make)
 
 
+def restream(pm: RawProgressiveMesh, order: list[int]) -> bytes:
+    """``pm``'s file with its chunks listed and laid out in ``order`` (see :func:`reorder`) and SMAP written
+    again, as the writer would, for the new offsets of INDX and VERT."""
+    data = reorder(_write(pm), order)
+    _, vo, _ = chunk(data, L.VERT)
+    _, _, stride, vert_data = struct.unpack_from("<4I", data, vo)
+    width = 4 if struct.unpack_from("<I", data, 20)[0] & L.FEATURE_INDEX32 else 2
+    bufs = pm.buffers()
+    n_index = chunk(data, L.INDX)[2] // width
+    need = needed_index_ranges(pm.encoding, bufs, pm.lod_count, n_index)
+    vc = np.asarray(pm.vertex_counts, np.int64)
+    size = len(smap_payload(vc, need, width, 0, 0, vert_data, stride))
+
+    def make(offs: dict[bytes, int] | None) -> int | bytes:
+        if offs is None:
+            return size
+        return smap_payload(vc, need, width, offs[L.INDX], offs[L.VERT], vert_data, stride)
+
+    return with_smap(data, make)
+
+
 def grow_stride(data: bytes, extra: int) -> bytes:
     """The file with ``extra`` zero bytes appended to every VERT record (stride, length and file_size follow;
     VERT must be the last chunk)."""
@@ -355,6 +392,12 @@ def _review_valid() -> dict[str, tuple[bytes, str]]:
             fan_smap([(0, 8)] * 13 + [(-1, 8)]),
             "SMAP's band names 17 ranges and the last lies past the end of the file: the bands are checked"
             " first (SWPM_SMAP_INVALID at band 0, not at the range table)",
+        ),
+        "smap-empty-index-hull": (
+            restream(quad_sliding_empty_windows(), [0, 1, 2, 3, 5, 4]),
+            "sliding-window, VERT laid out before INDX (SWPM_STREAM_ORDER): an empty window adds nothing to"
+            " its band's INDX hull (band 0: pool [3, 9), not [0, 9)), and a band of empty windows has no INDX"
+            " hull (band 1: prefix_length ends at INDX's offset, not at its empty window's position 9)",
         ),
         "smap-range-in-trailing-bytes": (
             fan_smap([(-1, 8)]) + bytes(8),
