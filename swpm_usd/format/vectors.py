@@ -599,7 +599,14 @@ def _settled_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
 
 
 def _review_invalid(out: dict[str, tuple[bytes, str]]) -> None:
-    """The vectors that pin what reading the spec as a second implementer found (format.md 4, 5)."""
+    """The vectors that pin what reading the spec as a second implementer found (format.md 1, 4, 5)."""
+    base = _write(fan_vanilla())
+    _, voff, _ = chunk(base, L.VERT)
+    out["truncated-inside-vert"] = (
+        base[: voff + 40],
+        "the file ends 40 bytes into VERT (file_size says 620): the end of the file is its length, so VERT is"
+        " out of bounds (and not a CRC mismatch)",
+    )
     out["skip-collapsed-start-not-index-start"] = (
         _write(
             fan_skip(
