@@ -607,6 +607,17 @@ def _review_invalid(out: dict[str, tuple[bytes, str]]) -> None:
         "the file ends 40 bytes into VERT (file_size says 620): the end of the file is its length, so VERT is"
         " out of bounds (and not a CRC mismatch)",
     )
+    _, moff, mlen = chunk(base, L.META)
+    _, loff, _ = chunk(base, L.LODS)
+    gap = bytearray(base)
+    gap[moff + mlen + 1] = 7  # the padding after META
+    gap = bytearray(fix_crcs(gap))
+    gap[loff] ^= 1  # LODS no longer matches its CRC
+    out["gap-nonzero-and-crc-mismatch"] = (
+        bytes(gap),
+        "a non-zero byte in the gap before LODS and a flipped bit in LODS: the gap's SWPM_PADDING_NONZERO"
+        " does not stop LODS's CRC check (SWPM_CHUNK_CRC_MISMATCH follows)",
+    )
     out["skip-collapsed-start-not-index-start"] = (
         _write(
             fan_skip(
