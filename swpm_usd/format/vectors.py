@@ -607,6 +607,11 @@ def _review_invalid(out: dict[str, tuple[bytes, str]]) -> None:
         "the file ends 40 bytes into VERT (file_size says 620): the end of the file is its length, so VERT is"
         " out of bounds (and not a CRC mismatch)",
     )
+    out["header-size-past-file-size"] = (
+        patch(base, 12, "<I", len(base) + 8) + bytes(8),
+        "header_size 628, file_size 620, 628 bytes: header_size is compared with the file's length, not cut"
+        " at file_size (no SWPM_HEADER_BAD_SIZE); the table then starts inside the header",
+    )
     _, moff, mlen = chunk(base, L.META)
     _, loff, _ = chunk(base, L.LODS)
     gap = bytearray(base)
