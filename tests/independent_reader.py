@@ -33,31 +33,47 @@ now follows as written:
   ``level_collapsed_indices``; stage (c) checks ``binned`` = V-1-r, then ``kept`` < V-1-r.
 * The start arrays of ``SKIP``/``MLVL``: element 0 = 0, element n = the total, non-decreasing.
 
+A later audit settled these (vectors ``chunk-moved-past-end``, ``duplicate-vert-trailing``,
+``record-changes-slot-twice``), and wrote down the decisions this reader had made for itself:
+
+* §2.2: the padding gap before a chunk that starts past the end of the file is checked up to the end of the
+  file, after the entry's ``SWPM_CHUNK_OUT_OF_BOUNDS``.
+* §2.3: in the stream-order comparison a position past the end of the order (a trailing duplicate, e.g. a
+  second ``VERT`` after the first) differs.
+* §3.6: a record's changes are made one after another in the order listed, so a slot listed twice by one
+  record no longer holds the binned vertex the second time (``SWPM_RECORD_BAD_CHANGE``).
+* §2.1, §5: ``header_size`` "past the end of the file" is compared with the length of the file as given;
+  the table and the chunks are bounded by the bytes read (the file, cut at ``file_size`` when longer).
+* §3.1: a leading BOM is not JSON. §3.7: a missing ``restart_index`` reads as null and it is type-checked
+  for ``"list"`` too; it is an integer when JSON gives it without fraction or exponent (``65535.0`` and
+  ``6.5535e4`` are ``SWPM_META_BAD_FIELD``). §3.7, §3.8: ``level_count`` 0 is a level-table problem
+  (``SKIP``: payload; ``MLVL``: a bad ``level_first_lod``).
+* §5 step 2: ``SWPM_CHUNK_NOT_ALLOWED`` is only checked when exactly one encoding bit is set; a chunk that
+  is not allowed is not also reported as a duplicate. ``SWPM_CHUNK_MISSING`` lists absent chunks in
+  streaming order; a chunk is absent when no entry has its type.
+
+Reading the spec as a second implementer (vectors ``skip-collapsed-start-not-index-start``,
+``smap-17-ranges``, ``smap-range-in-trailing-bytes``, ``smap-empty-index-hull``) found the reference reader
+deciding these differently; the spec now says what this reader did, and the reference reader follows:
+
+* §5 skip-strip stage (a): the level table by itself (``level_collapsed_start`` = ``level_index_start``
+  and whole triangles for ``"list"`` included) is checked before the values < V; only its agreement with
+  ``RCNT`` is a stage (c) check.
+* §4: the SMAP checks in order (length; the bands, ``range_count`` <= 16 among them; every range inside the
+  file as read, i.e. its first ``file_size`` bytes; the hulls; ``prefix_length``), the first problem only.
+  An LOD that needs no ``INDX`` element adds nothing to its band's (b) hull; an empty (b) hull needs no
+  range and does not count for ``prefix_length``.
+
 What the spec still leaves open, and how this reader decides:
 
-* ``header_size`` "past the end of the file": compared with the length of the file as given; the table
-  and the chunks are bounded by the bytes read (the file, cut at ``file_size`` when longer).
-* ``META``: parsed by Python's ``json`` with the two RFC 8259 rules of §3.1 added; a leading BOM is not
-  JSON (rejected); a number too large for a float (``1e999``) parses and is not an integer.
-* Skip-strip ``restart_index`` is an integer when JSON gives it without fraction or exponent (``65535.0``
-  and ``6.5535e4`` are ``SWPM_META_BAD_FIELD``); it is type-checked for ``"list"`` too. A missing
-  ``restart_index`` reads as null.
-* A padding gap before a chunk that lies (partly) outside the file is checked up to the end of the file.
-  ``SWPM_CHUNK_NOT_ALLOWED`` is only checked when exactly one encoding bit is set; a chunk that is not
-  allowed is not also reported as a duplicate. ``SWPM_CHUNK_MISSING`` lists absent chunks in streaming
-  order; a chunk is absent when no entry has its type. In the stream-order comparison, positions past the
-  shorter of the two sequences are not compared.
-* ``level_count`` 0 is a level-table problem (``SKIP``: payload; ``MLVL``: a bad ``level_first_lod``).
+* ``META``: parsed by Python's ``json`` with the rules of §3.1 added; a number too large for a float
+  (``1e999``) parses and is not an integer (no field whose value matters can hold one validly).
 * Replays (vanilla, mixed, skip-strip) stop at their first problem: one problem per replay, so a slot that
   does not hold the binned vertex is not also a prefix violation of the same record (vector
-  ``record-changes-wrong-slot``); after a replay problem the collapsed list is not compared. A record's
-  changes are made one after another, so a slot listed twice by one record no longer holds the binned
-  vertex the second time (``SWPM_RECORD_BAD_CHANGE``). Skip-strip's collapsed-list prefix check (stage
-  (d), "then the collapsed lists' prefix") is a separate check of the stage: it runs over all levels even
-  after a replay problem.
+  ``record-changes-wrong-slot``); after a replay problem the collapsed list is not compared. Skip-strip's
+  collapsed-list prefix check (stage (d), "then the collapsed lists' prefix") is a separate check of the
+  stage: it runs over all levels even after a replay problem.
 * Sliding-window prefix property: the lowest offending element of ``INDX`` over all windows.
-* ``SMAP``: an empty (b) hull is not required to lie in a range and does not count for ``prefix_length``;
-  the coverage of every band is checked before any band's ``prefix_length``.
 """
 
 from __future__ import annotations
@@ -403,8 +419,9 @@ class _Reader:
         chunks of another encoding skipped), against ``order`` restricted to the types present."""
         expected = [t for t in order if t in self.chunks]
         listed = [c for c in self.entries if c.type in order]
-        for c, want in zip(listed, expected, strict=False):
-            if c.type != want:
+        for i, c in enumerate(listed):
+            # a position past the end of ``expected`` (a trailing duplicate) differs too
+            if i >= len(expected) or c.type != expected[i]:
                 self.add("SWPM_STREAM_ORDER", c.entry)
                 return
         vert = self.chunks.get("VERT")

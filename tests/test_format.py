@@ -522,6 +522,38 @@ def test_meta_must_be_strict_json(replacement: bytes) -> None:
     assert [p.code for p in validate_bytes(bad).errors] == ["SWPM_META_BAD_JSON"]
 
 
+def test_meta_with_a_byte_order_mark_is_not_json() -> None:
+    """Spec 3.1: a leading byte-order mark is not JSON (RFC 8259 lets a parser ignore it; SWPM does not)."""
+    from swpm_usd.format.vectors import chunk, fix_crcs
+
+    data = encode_bytes(fan_vanilla(), generator="swpm-usd conformance")  # type: ignore[arg-type]
+    _, mo, _ = chunk(data, L.META)
+    old = b'{"encoding":"vanilla","generator":"swpm-usd conformance"'
+    new = b"\xef\xbb\xbf" + old.replace(b"conformance", b"conforma")
+    assert data.count(old) == 1 and len(new) == len(old)
+    found = [(p.code, p.offset) for p in validate_bytes(fix_crcs(data.replace(old, new))).errors]
+    assert found == [("SWPM_META_BAD_JSON", mo)]
+
+
+@pytest.mark.parametrize("make", ["skip", "mixed"])
+def test_level_count_zero_is_a_level_table_problem(make: str) -> None:
+    """Spec 3.7 / 3.8: level_count 0 is SWPM_LEVEL_BAD_TABLE at SKIP's payload, a bad level_first_lod
+    (SWPM_MIXED_BAD_LEVELS at its start, payload + 8) in MLVL."""
+    from swpm_usd.format.vectors import chunk, fan_mixed, fan_skip, fix_crcs
+
+    pm = (fan_skip if make == "skip" else fan_mixed)(buffers={"level_first_lod": []})  # n = 0
+    for name in ("level_index_start", "level_collapsed_start", "level_static_start", "level_dynamic_start"):
+        if name in pm.raw_buffers:
+            pm.raw_buffers[name] = [0]
+    pm.raw_buffers["level_record_start"] = [0]
+    data = encode_bytes(pm)  # type: ignore[arg-type]
+    _, at, _ = chunk(data, L.SKIP if make == "skip" else L.MLVL)
+    assert np.frombuffer(data[at : at + 4], "<u4")[0] == 0
+    code = "SWPM_LEVEL_BAD_TABLE" if make == "skip" else "SWPM_MIXED_BAD_LEVELS"
+    found = [(p.code, p.offset) for p in validate_bytes(fix_crcs(data)).errors]
+    assert found == [(code, at if make == "skip" else at + 8)]
+
+
 def test_skip_strip_record_checks_all_run() -> None:
     """Spec 5, stage (c): R >= V is reported and the other record checks of the stage still run."""
     from swpm_usd.format.vectors import fan_skip
@@ -643,3 +675,201 @@ def test_conformance_reports_an_unusable_manifest_and_finds_the_vectors_from_els
     monkeypatch.chdir(tmp_path)  # the default spec/vectors is not here: the checkout's are used
     r = CliRunner().invoke(main, ["conformance"])
     assert r.exit_code == 0 and "passed" in r.output, r.output
+
+
+# -- the points a later audit left open (format.md 2.2, 2.3, 3.6) --------------------------------------------
+def _vert_moved_past_end(gap: bytes | None, trailing: bytes = b"") -> bytes:
+    """The minimal file with VERT's offset moved to the first multiple of 8 past the end of the file; ``gap``
+    (if given) replaces the bytes VERT's payload left behind, ``trailing`` follows file_size."""
+    from swpm_usd.format.vectors import chunk, fix_crcs
+
+    data = bytearray(encode_bytes(fan_vanilla()))  # type: ignore[arg-type]
+    eo, vo, vl = chunk(bytes(data), L.VERT)
+    assert vo + vl == len(data)
+    if gap is not None:
+        data[vo:] = gap.ljust(vl, b"\0")
+    data[eo + 8 : eo + 16] = L.align(len(data) + 1, 8).to_bytes(8, "little")
+    return fix_crcs(data) + trailing
+
+
+GAP_CASES = {  # gap bytes (None: VERT's old payload), bytes after file_size, problems
+    "old-payload": (None, b"", ["SWPM_CHUNK_OUT_OF_BOUNDS", "SWPM_PADDING_NONZERO"]),
+    "zero-gap": (b"", b"", ["SWPM_CHUNK_OUT_OF_BOUNDS"]),
+    "last-byte": (bytes(75) + b"\1", b"", ["SWPM_CHUNK_OUT_OF_BOUNDS", "SWPM_PADDING_NONZERO"]),
+    "trailing-bytes": (b"", b"\1" * 8, ["SWPM_FILE_TRAILING_BYTES", "SWPM_CHUNK_OUT_OF_BOUNDS"]),
+}
+
+
+@pytest.mark.parametrize(("gap", "trailing", "want"), list(GAP_CASES.values()), ids=list(GAP_CASES))
+def test_padding_before_a_chunk_past_the_end_is_checked_up_to_the_end(
+    gap: bytes | None, trailing: bytes, want: list[str]
+) -> None:
+    """Spec 2.2 / 5 step 2: the gap before a chunk that starts past the end of the file is the bytes from the
+    end of the previous payload to the end of the file (its first file_size bytes); the entry's
+    SWPM_CHUNK_OUT_OF_BOUNDS comes first, then the gap's SWPM_PADDING_NONZERO at the gap's start."""
+    from swpm_usd.format.vectors import chunk
+
+    data = _vert_moved_past_end(gap, trailing)
+    eo, _, _ = chunk(data, L.VERT)
+    _, io, il = chunk(data, L.INDX)
+    found = [(p.code, p.offset) for p in validate_bytes(data).problems]
+    where = {
+        "SWPM_CHUNK_OUT_OF_BOUNDS": eo + 8,
+        "SWPM_PADDING_NONZERO": io + il,
+        "SWPM_FILE_TRAILING_BYTES": len(data) - len(trailing),
+    }
+    assert found == [(c, where[c]) for c in want]
+
+
+@pytest.mark.parametrize("dup", [L.VERT, L.INDX])
+def test_a_trailing_duplicate_is_out_of_streaming_order(dup: bytes) -> None:
+    """Spec 2.3: a duplicate listed after one entry of every type of the order is reported at that position
+    (a position past the end of the order differs), not skipped; a duplicate INDX after VERT is reported
+    there too, not at VERT. SWPM_CHUNK_DUPLICATE rejects the file either way."""
+    from swpm_usd.format.vectors import chunk, fix_crcs, reorder
+
+    base = encode_bytes(fan_vanilla())  # type: ignore[arg-type]
+    _, po, pl = chunk(base, dup)
+    data = encode_bytes(fan_vanilla(), extra_chunks=[(b"zXTR", True, base[po : po + pl])])  # type: ignore[arg-type]
+    data = bytearray(reorder(data, [0, 1, 2, 4, 5, 6, 7, 3]))  # zXTR listed (and laid out) last
+    eo, _, _ = chunk(bytes(data), b"zXTR")
+    data[eo : eo + 4] = dup
+    found = [(p.code, p.offset) for p in validate_bytes(fix_crcs(data)).problems]
+    assert found == [("SWPM_CHUNK_DUPLICATE", eo), ("SWPM_STREAM_ORDER", eo)]
+
+
+@pytest.mark.parametrize("make", ["vanilla", "skip-list", "skip-strip", "mixed"])
+def test_a_record_that_changes_a_slot_twice_is_rejected(make: str) -> None:
+    """Spec 3.6 (3.7, 3.8): a record's changes are made in the order listed, so a slot it lists twice no
+    longer holds the binned vertex the second time: SWPM_RECORD_BAD_CHANGE at the record's row, the only
+    problem, although the record without the repeat (the fan's own buffers) is valid and the set of slots it
+    changes is the same."""
+    from swpm_usd.format.vectors import chunk, fan_mixed, fan_skip, fan_skip_strip
+
+    makers = {"vanilla": fan_vanilla, "skip-list": fan_skip, "skip-strip": fan_skip_strip, "mixed": fan_mixed}
+    pm = makers[make]()
+    assert validate_bytes(encode_bytes(pm)).valid  # type: ignore[arg-type]
+    own = list(pm.raw_buffers["collapse_change_offsets"])
+    assert pm.raw_buffers["collapse_change_count"] == [len(own)]  # one record
+    pm.raw_buffers["collapse_change_offsets"] = [own[0], *own]  # its first slot listed twice
+    pm.raw_buffers["collapse_change_count"] = [len(own) + 1]
+    data = encode_bytes(pm)  # type: ignore[arg-type]
+    _, rec, _ = chunk(data, {"vanilla": L.VREC, "mixed": L.MREC}.get(make, L.SREC))
+    found = [(p.code, p.offset) for p in validate_bytes(data).problems]
+    assert found == [("SWPM_RECORD_BAD_CHANGE", rec + 8)]
+
+
+@pytest.mark.parametrize(
+    ("encoding", "params"),
+    [
+        ("vanilla", {}),
+        ("skip-strip", {"primitive": "strip", "restart": True}),
+        ("skip-strip", {"primitive": "strip", "restart": False}),
+        ("skip-strip", {"primitive": "list"}),
+        ("mixed", {}),
+    ],
+)
+def test_encoders_never_list_a_slot_twice_in_one_record(encoding: str, params: dict) -> None:
+    """What the writers produce is never rejected by spec 3.6's rule: each record lists each slot once."""
+    from conftest import shared_mesh
+
+    for mesh in (_fan_mesh(), shared_mesh("cow.obj")):
+        pm = swpm_usd.build(mesh, encoding, **params)
+        b = pm.buffers()
+        counts = np.asarray(b["collapse_change_count"], np.int64)
+        record = np.repeat(np.arange(counts.shape[0]), counts)
+        slots = np.asarray(b["collapse_change_offsets"], np.int64)
+        assert slots.shape == record.shape and counts.sum() > 0
+        pairs = record * (int(slots.max()) + 1) + slots
+        assert np.unique(pairs).shape == pairs.shape, encoding
+        rep = validate_bytes(encode_bytes(pm))
+        assert rep.valid, rep.format()
+
+
+# -- found by reading the spec as a second implementer (format.md 3.7, 4, 5) --------------------------------
+SKIP_TABLE_CASES = {  # fan_skip buffers that break the level table by itself; INDX holds 9 (V = 5) in both
+    "collapsed-start": {
+        "level_indices": [1, 2, 4, 2, 3, 4, 0, 1, 4, 3, 0, 9],
+        "level_collapsed_start": [0, 15],
+        "level_collapsed_indices": [1, 2, 0, 2, 3, 0, 0, 1, 0, 3, 0, 0, 0, 1, 2],
+    },
+    "partial-triangle": {
+        "level_indices": [1, 2, 4, 2, 3, 4, 0, 1, 4, 3, 9],
+        "level_index_start": [0, 11],
+        "level_collapsed_start": [0, 11],
+        "level_collapsed_indices": [1, 2, 0, 2, 3, 0, 0, 1, 0, 3, 9],
+    },
+}
+
+
+@pytest.mark.parametrize("case", list(SKIP_TABLE_CASES))
+def test_skip_level_table_by_itself_is_a_stage_a_check(case: str) -> None:
+    """Spec 5 step 4, skip-strip (a): the level table by itself (its start arrays, level_collapsed_start =
+    level_index_start, whole triangles for "list") is checked before the values < V and ends the checks;
+    only its agreement with RCNT is a stage (c) check. So INDX holding 9 is not reported."""
+    from swpm_usd.format.vectors import chunk, fan_skip
+
+    data = encode_bytes(fan_skip(buffers=SKIP_TABLE_CASES[case]))  # type: ignore[arg-type]
+    _, so, _ = chunk(data, L.SKIP)
+    found = [(p.code, p.offset) for p in validate_bytes(data).problems]
+    assert found == [("SWPM_LEVEL_BAD_TABLE", so)]
+
+
+def test_smap_band_checks_come_before_the_ranges_in_the_file() -> None:
+    """Spec 4: the bands (range_count <= 16 among them) are checked before every range lies in the file;
+    one SWPM_SMAP_INVALID, at band 0 (payload + 8), not at the range table (vector smap-17-ranges)."""
+    from swpm_usd.format.vectors import chunk, fan_smap
+
+    assert validate_bytes(fan_smap([(0, 8)] * 13)).problems == []  # 16 ranges
+    data = fan_smap([(0, 8)] * 13 + [(-1, 8)])  # 17 ranges, the last outside the file
+    _, so, _ = chunk(data, L.SMAP)
+    assert [(p.code, p.offset) for p in validate_bytes(data).problems] == [("SWPM_SMAP_INVALID", so + 8)]
+    data = fan_smap([(0, 8)] * 13 + [(-1, 8)], range_count=16)  # the band names 16, the 17th is outside
+    assert [(p.code, p.offset) for p in validate_bytes(data).problems] == [("SWPM_SMAP_INVALID", so + 32)]
+    data = fan_smap([(0, 8)] * 13 + [(-1, 0)])  # 17 ranges, all in the file
+    assert [(p.code, p.offset) for p in validate_bytes(data).problems] == [("SWPM_SMAP_INVALID", so + 8)]
+
+
+def test_smap_ranges_lie_in_the_file_as_read() -> None:
+    """Spec 4, 5: the file is read as its first file_size bytes, so a range that ends in bytes after file_size
+    lies outside the file (SWPM_SMAP_INVALID at the range table; vector smap-range-in-trailing-bytes)."""
+    from swpm_usd.format.vectors import chunk, fan_smap
+
+    assert validate_bytes(fan_smap([(-1, 0)]) + bytes(8)).errors == []
+    data = fan_smap([(-1, 8)]) + bytes(8)
+    _, so, _ = chunk(data, L.SMAP)
+    found = [(p.code, p.offset) for p in validate_bytes(data).problems]
+    assert found == [("SWPM_FILE_TRAILING_BYTES", len(data) - 8), ("SWPM_SMAP_INVALID", so + 32)]
+
+
+def _smap_table(data: bytes) -> tuple[list[tuple[int, ...]], list[tuple[int, int]]]:
+    from swpm_usd.format.vectors import chunk
+
+    _, so, _ = chunk(data, L.SMAP)
+    B, N = (int(x) for x in np.frombuffer(data[so : so + 8], "<u4"))
+    bands = np.frombuffer(data[so + 8 : so + 8 + 24 * B], L.SMAP_BAND)
+    ranges = np.frombuffer(data[so + 8 + 24 * B : so + 8 + 24 * B + 16 * N], L.SMAP_RANGE)
+    return [tuple(int(x) for x in b) for b in bands], [(int(o), int(n)) for o, n in ranges]
+
+
+def test_an_empty_window_adds_nothing_to_the_index_hull() -> None:
+    """Spec 4: the (b) hull of a band holds the INDX elements its LODs draw; an empty window adds nothing,
+    wherever its first_index points, and a band of empty windows has no (b) hull, so no range is needed and
+    prefix_length is the largest end of the other two (vector smap-empty-index-hull: VERT laid out before
+    INDX, so (a) ends at INDX's offset). The writer writes these hulls and the reader accepts only them."""
+    from swpm_usd.format.vectors import chunk, patch, quad_sliding_empty_windows, restream
+
+    data = restream(quad_sliding_empty_windows(), [0, 1, 2, 3, 5, 4])
+    _, io, il = chunk(data, L.INDX)
+    _, vo, _ = chunk(data, L.VERT)
+    assert vo < io and io + il == len(data)
+    bands, ranges = _smap_table(data)
+    assert [b[4] for b in bands] == [len(data), io]  # band 1 (LOD 2, an empty window at 9) ends at INDX
+    assert ranges[1] == (io + 2 * 3, 2 * 6)  # band 0: pool [3, 9) of LOD 0; LOD 1's empty window at 0 not
+    eo, _, _ = chunk(data, L.VERT)
+    assert [(p.code, p.offset) for p in validate_bytes(data).problems] == [("SWPM_STREAM_ORDER", eo)]
+    _, so, _ = chunk(data, L.SMAP)
+    band1 = so + 8 + 24
+    wrong = patch(data, band1 + 16, "<Q", io + 2 * 9)  # the empty window's position counted as an end
+    assert [p.code for p in validate_bytes(wrong).problems] == ["SWPM_STREAM_ORDER", "SWPM_SMAP_INVALID"]
+    assert validate_bytes(wrong).problems[1].offset == band1 + 16

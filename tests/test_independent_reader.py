@@ -139,6 +139,13 @@ META_EDITS = [
     ("skip-strip-strip", b'"restart_index":65535', b'"restart_index":9e999', "FIELD"),
     # a strips' restart index below V = 5 is a vertex (§3.7)
     ("skip-strip-strip", b'"restart_index":65535', b'"restart_index":    4', "FIELD"),
+    # a leading byte-order mark is not JSON (§3.1)
+    (
+        "minimal-vanilla",
+        b'{"encoding":"vanilla","generator":"swpm-usd conformance"',
+        b'\xef\xbb\xbf{"encoding":"vanilla","generator":"swpm-usd conforma"',
+        "JSON",
+    ),
 ]
 
 
@@ -150,3 +157,83 @@ def test_meta_rules(name: str, old: bytes, new: bytes, what: str) -> None:
     result = read(_fix_crcs(bytearray(data.replace(old, new))))
     meta = data.index(b'{"encoding"')
     assert result["problems"] == [{"code": "SWPM_META_BAD_" + what, "severity": "error", "offset": meta}]
+
+
+# The points a later audit settled (§2.2, §2.3, §3.6), on files patched here from the vectors' bytes.
+def _entries(data: bytes) -> list[tuple[bytes, int, int, int]]:
+    """(type, entry offset, payload offset, length) of every chunk-table entry."""
+    count, table = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
+    out = []
+    for i in range(count):
+        ctype, _flags, offset, length = struct.unpack_from("<4sIQQ", data, table + 32 * i)
+        out.append((ctype, table + 32 * i, offset, length))
+    return out
+
+
+def _entry(data: bytes, ctype: bytes) -> tuple[int, int, int]:
+    return next((e, o, n) for t, e, o, n in _entries(data) if t == ctype)
+
+
+def _vector(name: str) -> bytes:
+    return _load(next(v for v in MANIFEST["vectors"] if v["name"] == name))[0]
+
+
+def _append_duplicate(data: bytes, ctype: bytes) -> tuple[bytes, int]:
+    """``data`` with one more table entry, listed and laid out last, holding a copy of ``ctype``'s payload
+    (every payload moves 32 bytes on, so the new entry fits in the table); returns it and the new entry."""
+    entries = _entries(data)
+    table = struct.unpack_from("<Q", data, 32)[0]
+    table_end = table + 32 * len(entries)
+    out = bytearray(data[:table_end])
+    struct.pack_into("<I", out, 24, len(entries) + 1)
+    for _t, eo, offset, _n in entries:
+        struct.pack_into("<Q", out, eo + 8, offset + 32)
+    eo, po, pl = _entry(data, ctype)
+    out += data[eo : eo + 32] + data[table_end:]
+    out += bytes(-len(out) % 8)
+    struct.pack_into("<Q", out, table_end + 8, len(out))
+    out += data[po : po + pl]
+    struct.pack_into("<Q", out, 40, len(out))
+    return _fix_crcs(out), table_end
+
+
+def test_a_trailing_duplicate_is_out_of_streaming_order() -> None:
+    """§2.3: a duplicate after one entry of every type (VERT VERT, VERT INDX) is reported at its position."""
+    for ctype in (b"VERT", b"INDX"):
+        data, eo = _append_duplicate(_vector("minimal-vanilla"), ctype)
+        problems = [(p["code"], p["offset"]) for p in read(data)["problems"]]
+        assert problems == [("SWPM_CHUNK_DUPLICATE", eo), ("SWPM_STREAM_ORDER", eo)], ctype
+
+
+def test_padding_before_a_chunk_past_the_end() -> None:
+    """§2.2: the gap before a chunk that starts past the end of the file is checked up to the end of the file
+    (its first file_size bytes), after the entry's SWPM_CHUNK_OUT_OF_BOUNDS."""
+    base = _vector("minimal-vanilla")
+    eo, vo, vl = _entry(base, b"VERT")
+    moved = bytearray(base)
+    struct.pack_into("<Q", moved, eo + 8, len(base) + 4)  # the next multiple of 8 past the end
+    bounds, gap = ("SWPM_CHUNK_OUT_OF_BOUNDS", eo + 8), ("SWPM_PADDING_NONZERO", vo)
+    cases = [
+        (moved, [bounds, gap]),  # VERT's old payload is left in the gap
+        (moved[:vo] + bytes(vl), [bounds]),
+        (moved[:vo] + bytes(vl - 1) + b"\1", [bounds, gap]),
+    ]
+    for data, want in cases:
+        problems = [(p["code"], p["offset"]) for p in read(_fix_crcs(bytearray(data)))["problems"]]
+        assert problems == want
+    trailing = _fix_crcs(moved[:vo] + bytes(vl)) + b"\1" * 8  # bytes after file_size are not padding
+    problems = [(p["code"], p["offset"]) for p in read(trailing)["problems"]]
+    assert problems == [("SWPM_FILE_TRAILING_BYTES", len(base)), bounds]
+
+
+@pytest.mark.parametrize(("name", "ctype", "at"), [("skip-strip-list", b"SREC", 16), ("mixed", b"MREC", 20)])
+def test_a_slot_listed_twice_is_a_bad_change(name: str, ctype: bytes, at: int) -> None:
+    """§3.6-3.8: the changes of a record are made in the order listed; its second slot replaced by its first
+    (slot 2 listed twice, u16 offsets at ``at``): SWPM_RECORD_BAD_CHANGE at the record's row, not a collapsed
+    list that differs."""
+    data = bytearray(_vector(name))
+    _, po, _ = _entry(bytes(data), ctype)
+    assert struct.unpack_from("<2H", data, po + at) == (2, 5)
+    struct.pack_into("<H", data, po + at + 2, 2)
+    problems = [(p["code"], p["offset"]) for p in read(_fix_crcs(data))["problems"]]
+    assert problems == [("SWPM_RECORD_BAD_CHANGE", po + 8)]

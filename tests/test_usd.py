@@ -211,6 +211,61 @@ def test_colour_of_every_component_count_round_trips(k, dtype, tmp_path):
     assert validate_stage(path) == []
 
 
+def _float32_holds(v: np.ndarray) -> np.ndarray:
+    return v.astype(np.float32).astype(np.float64) == v.astype(np.float64)
+
+
+def test_32_bit_attributes_keep_24_bits_as_spec_usd_md_says(tmp_path):
+    """spec/usd.md "Attribute values" on vector attributes-32bit: the .swpm file keeps every bit of a u32
+    color and an i32 attribute; through a stage, a u32 color component round-trips if v <= 2^24 or
+    v = 2^32 - 1, an i32 value if float32 holds it or it is the type's maximum, and every other value comes
+    back within 2^(k-24) of v (2^k <= |v| < 2^(k+1)); some do not round-trip (no exact path exists)."""
+    from swpm_usd.format import load
+    from swpm_usd.format.vectors import COLOR_U32, ID_I32
+
+    vector = Path(__file__).resolve().parents[1] / "spec" / "vectors" / "valid" / "attributes-32bit.swpm"
+    pm = load(vector)
+    for name, want in (("color", COLOR_U32), ("id", ID_I32)):
+        assert pm.attributes[name].dtype == want.dtype
+        np.testing.assert_array_equal(pm.attributes[name], want)  # the file: every bit
+    path = usd.write(pm, tmp_path / "wide.usda")
+    stage = Usd.Stage.Open(str(path))
+    back = usd.read(stage.GetDefaultPrim().GetChild("mesh"))
+    for name, v, exact in (
+        ("color", COLOR_U32, (COLOR_U32 <= 2**24) | (COLOR_U32 == 2**32 - 1)),
+        ("id", ID_I32, _float32_holds(ID_I32) | (ID_I32 == 2**31 - 1)),
+    ):
+        got = back.attributes[name]
+        assert got.dtype == v.dtype
+        v, err = v.astype(np.int64), np.abs(got.astype(np.int64) - v.astype(np.int64))
+        np.testing.assert_array_equal(err[exact], 0, err_msg=name)
+        k = np.floor(np.log2(np.maximum(np.abs(v), 1))).astype(np.int64)
+        assert np.all(err <= np.where(k >= 24, 2.0 ** (k - 24), 0)), (name, err)
+        if name == "id":  # not a color: exact exactly when float32 holds it (or it is the maximum)
+            np.testing.assert_array_equal(err == 0, exact, err_msg=name)
+    assert np.any(back.attributes["color"] != COLOR_U32) and np.any(back.attributes["id"] != ID_I32)
+
+
+@pytest.mark.parametrize("k", [24, 25, 30, 31])
+def test_u32_colour_round_trips_one_value_in_2_to_the_k_minus_23(k, tmp_path):
+    """spec/usd.md: above 2^24 a u32 color component round-trips for one value in 2^(k-23) of
+    [2^k, 2^(k+1)); sampled on 5 c consecutive values (5 vertices of c components) from a multiple of
+    2^(k-23) inside the binade."""
+    from swpm_usd.format import encode_bytes, load_bytes
+    from swpm_usd.format.vectors import fan_vanilla
+
+    step = 2 ** (k - 23)
+    c = min(step, 128)
+    start = 2**k + 3 * 2**20
+    values = np.arange(start, start + 5 * c, dtype=np.uint64).astype("<u4").reshape(5, c)
+    pm = load_bytes(encode_bytes(fan_vanilla(attributes={"color": values})))  # type: ignore[arg-type]
+    path = usd.write(pm, tmp_path / "c.usda")
+    stage = Usd.Stage.Open(str(path))
+    back = usd.read(stage.GetDefaultPrim().GetChild("mesh")).attributes["color"]
+    assert back.dtype == values.dtype
+    assert int(np.count_nonzero(back == values)) == 5 * c // step
+
+
 @pytest.mark.parametrize(("name", "k"), [("normal", 2), ("normal", 4), ("uv", 1), ("uv", 3)])
 def test_normal_and_uv_of_another_shape_round_trip(name, k, tmp_path):
     """A normal that is not 3 components or a uv that is not 2 is primvars:<name>, and read() finds it there

@@ -246,10 +246,12 @@ _ENTRIES = [
         "SWPM_PADDING_NONZERO",
         ERROR,
         "padding byte(s) at {start} are not zero",
-        "Alignment padding between or inside chunks must be zero.",
+        "Padding before the chunk table, between chunks and after the last payload must be zero (padding "
+        "inside payloads is not checked).",
         "the first byte of the gap that holds a non-zero byte, not that byte: header_size for the gap "
         "before the chunk table, else the end of the chunk table or of the preceding payload (the "
-        "highest end so far); one problem per gap",
+        "highest end so far); one problem per gap; a gap before a chunk that starts past the end of the "
+        "file is checked up to the end of the file, after that chunk's SWPM_CHUNK_OUT_OF_BOUNDS",
     ),
     Entry(
         "SWPM_STREAM_ORDER",
@@ -257,8 +259,9 @@ _ENTRIES = [
         "chunk {type} is not laid out in streaming order ({reason})",
         "Chunks are not in the coarse-to-fine order of the spec; the file decodes but does not stream.",
         "entry at the first position where the encoding's chunks, in table order with duplicates, differ "
-        "from the streaming order restricted to the types present (format.md 2.3), else the (first) VERT "
-        "entry when the last entry is not a VERT; once per file",
+        "from the streaming order restricted to the types present (format.md 2.3; a position past the end "
+        "of that order, i.e. a trailing duplicate, differs), else the (first) VERT entry when the last "
+        "entry is not a VERT; once per file",
     ),
     # -- content ------------------------------------------------------------------------------------------
     Entry(
@@ -390,7 +393,8 @@ _ENTRIES = [
         "SWPM_RECORD_BAD_CHANGE",
         ERROR,
         "record {record} changes slot {slot}, which does not hold the binned vertex",
-        "A change offset must point at a live index slot holding the binned vertex.",
+        "A change offset must point at a live index slot holding the binned vertex; a record's changes are "
+        "made in the order listed, so a slot listed twice no longer holds it the second time.",
         "the start of record r's row in VREC, SREC or MREC, not the change_offsets element; first bad "
         "record only",
     ),
@@ -418,11 +422,11 @@ _ENTRIES = [
         WARNING,
         "streaming map: {reason}",
         "The (ancillary) streaming map is malformed or does not cover what a LOD needs; ignore it.",
-        "SMAP payload when its length is wrong; band 0 (payload + 8) when bands do not cover the "
-        "LODs, or any band's ranges lie outside the range table or exceed 16; the range table start "
-        "(payload + 8 + 24 B, B = band_count) when any range lies outside the file; band b, the "
-        "first band not covering what its LODs need; band b's prefix_length (band + 16), first "
-        "wrong band; one problem",
+        "the first problem only, in this order (format.md 4): SMAP payload when its length is wrong; "
+        "band 0 (payload + 8) when bands do not cover the LODs, or any band's ranges lie outside the "
+        "range table or exceed 16; the range table start (payload + 8 + 24 B, B = band_count) when any "
+        "range lies outside the file (its first file_size bytes); band b, the first band not covering "
+        "what its LODs need; band b's prefix_length (band + 16), first wrong band",
     ),
     Entry(
         "SWPM_ENCODING_UNAVAILABLE",

@@ -31,7 +31,7 @@ from .kernels import (
     vanilla_replay,
     window_limits,
 )
-from .writer import MIXED_RECORD_COLUMNS, needed_index_ranges
+from .writer import MIXED_RECORD_COLUMNS, index_hulls, needed_index_ranges
 
 _TYPE_RE = re.compile(rb"^[A-Za-z0-9]{4}$")
 #: problems of one code beyond this many are counted in ``summary["suppressed"]``, not listed
@@ -78,6 +78,7 @@ class _Parsed:
     vert_data: int = 0
     buffers: dict[str, np.ndarray] = field(default_factory=dict)
     content_ok: bool = True
+    size: int = 0  # the end of the file as read: its first file_size bytes, fewer if it is shorter
 
 
 def _map(path: str | os.PathLike[str]) -> np.ndarray:
@@ -140,6 +141,7 @@ def _structure(buf: np.ndarray, rep: Report, check_crc: bool) -> _Parsed | None:
     elif declared < size:
         rep.add("SWPM_FILE_TRAILING_BYTES", declared, extra=size - declared)
         end = declared
+    p.size = end
     to, count = int(h["table_offset"]), int(h["chunk_count"])
     if to < hs or to % L.CHUNK_ALIGN:
         rep.add("SWPM_TABLE_BAD_OFFSET", 32, value=to)
@@ -185,7 +187,7 @@ def _structure(buf: np.ndarray, rep: Report, check_crc: bool) -> _Parsed | None:
         elif off < prev_end:
             rep.add("SWPM_CHUNK_OVERLAP", eo + 8, type=name, start=off, end=off + ln, other=prev_name)
             c.ok = False
-        elif off <= end and np.any(buf[prev_end:off]):
+        elif np.any(buf[prev_end : min(off, end)]):  # a gap running past the end of file: up to the end
             rep.add("SWPM_PADDING_NONZERO", prev_end, start=prev_end)
         if int(e["reserved"]) and p.minor == L.VERSION_MINOR:
             rep.add(
@@ -231,13 +233,18 @@ def _structure(buf: np.ndarray, rep: Report, check_crc: bool) -> _Parsed | None:
 
 def _stream_order(p: _Parsed, rep: Report) -> None:
     """Known chunk types in table order (duplicates counted, unknown chunks skipped) against the order of
-    spec 2.3 restricted to the types present: the entry at the first position where they differ, else VERT
-    when it is not the last entry."""
+    spec 2.3 restricted to the types present: the entry at the first position where they differ (a position
+    past the end of the order, i.e. a trailing duplicate, differs), else VERT when it is not the last entry.
+    """
     want = [t for t in L.REQUIRED_CHUNKS[p.encoding or "vanilla"] if t in p.chunks]
-    have = [c for c in p.order if c.type in want]
-    for c, b in zip(have, want, strict=False):
-        if c.type != b:  # this entry (not the first chunk of its type) is where another is expected
-            rep.add("SWPM_STREAM_ORDER", c.entry_offset, type=c.name, reason=f"expected {b.decode()} here")
+    have = [c for c in p.order if c.type in want]  # every type of ``want`` at least once: never shorter
+    for i, c in enumerate(have):
+        if i >= len(want):  # a duplicate after the whole order
+            rep.add("SWPM_STREAM_ORDER", c.entry_offset, type=c.name, reason="a duplicate after the order")
+            return
+        if c.type != want[i]:  # this entry (not the first chunk of its type) is where another is expected
+            b = want[i].decode()
+            rep.add("SWPM_STREAM_ORDER", c.entry_offset, type=c.name, reason=f"expected {b} here")
             return
     if p.order and p.order[-1].type != L.VERT and L.VERT in p.chunks:
         c = p.chunks[L.VERT]
@@ -867,6 +874,12 @@ def _skip(p: _Parsed, rep: Report) -> None:
         s = arrs[name].astype(np.int64)
         if s[0] != 0 or s[-1] != total or np.any(np.diff(s) < 0):
             reason = f"{name} must run from 0 to {total} without decreasing"
+    # the table among itself (spec 3.7, stage (a)); only its agreement with RCNT is a stage (c) check
+    if not reason and not np.array_equal(arrs["level_collapsed_start"], arrs["level_index_start"]):
+        reason = "level_collapsed_start must equal level_index_start"
+    elif not reason and params.get("primitive", "strip") == "list":
+        if np.any(np.diff(arrs["level_index_start"].astype(np.int64)) % 3):
+            reason = "a level's triangle list must hold whole triangles (a multiple of 3 indices)"
     if n == 0 or first[0] != 0 or np.any(np.diff(first) <= 0) or first[-1] >= Lc:
         reason = "level_first_lod must start at 0, increase and stay below the LOD count"
     if reason:
@@ -941,11 +954,7 @@ def _skip_records(
     reason = None
     params = (p.meta or {}).get("params", {})
     strip = params.get("primitive", "strip") == "strip"
-    if not np.array_equal(arrs["level_collapsed_start"], arrs["level_index_start"]):
-        reason = "level_collapsed_start must equal level_index_start"
-    elif not strip and np.any(np.diff(lstart) % 3):
-        reason = "a level's triangle list must hold whole triangles (a multiple of 3 indices)"
-    elif np.any(nrc[first] != rstart[:-1]):
+    if np.any(nrc[first] != rstart[:-1]):
         lv = int(np.flatnonzero(nrc[first] != rstart[:-1])[0])
         reason = f"level {lv} starts at record {int(rstart[lv])}, its first LOD applies {int(nrc[first[lv]])}"
     if reason:
@@ -1233,8 +1242,13 @@ def _smap(p: _Parsed, rep: Report) -> None:
     if np.any(rs + rn > N):
         rep.add("SWPM_SMAP_INVALID", c.offset + 8, reason="a band's ranges lie outside the range table")
         return
+    if int(rn.max()) > L.MAX_BAND_RANGES:  # a band check too: before the ranges against the file
+        rep.add(
+            "SWPM_SMAP_INVALID", c.offset + 8, reason=f"a band names more than {L.MAX_BAND_RANGES} ranges"
+        )
+        return
     ro, rl = ranges["offset"].astype(np.uint64), ranges["length"].astype(np.uint64)
-    fsz = np.uint64(p.buf.shape[0])
+    fsz = np.uint64(p.size)  # the file as read: bytes after file_size are not part of it
     if np.any(ro > fsz) or np.any(rl > fsz - np.minimum(ro, fsz)):
         rep.add("SWPM_SMAP_INVALID", c.offset + 8 + 24 * B, reason="a range lies outside the file")
         return
@@ -1242,17 +1256,12 @@ def _smap(p: _Parsed, rep: Report) -> None:
     need = needed_index_ranges(p.encoding or "", p.buffers, Lc, indx.length // p.width)
     ro, rl = ro.astype(np.int64), rl.astype(np.int64)
     vc = p.lods["vertex_count"].astype(np.int64)
-    # hulls of (a) prefix before INDX, (b) INDX elements, (c) VERT prefix, per band (vectorised over bands)
-    lo = indx.offset + np.minimum.reduceat(need[:, 0], fl) * p.width
-    hi = indx.offset + np.maximum.reduceat(need[:, 1], fl) * p.width
+    # hulls of (a) prefix before INDX, (b) INDX elements, (c) VERT prefix, per band (vectorised over bands);
+    # (b) ignores LODs that need no INDX element and is empty (lo = hi) when none of the band's LODs needs one
+    lo, hi = (indx.offset + h * p.width for h in index_hulls(need, fl))
     vend = vert.offset + p.vert_data + np.maximum.reduceat(vc, fl) * p.vert_stride
     want_a = np.stack([np.zeros(B, np.int64), lo, np.full(B, vert.offset, np.int64)], axis=1)
     want_e = np.stack([np.full(B, indx.offset, np.int64), hi, vend], axis=1)
-    if int(rn.max()) > L.MAX_BAND_RANGES:
-        rep.add(
-            "SWPM_SMAP_INVALID", c.offset + 8, reason=f"a band names more than {L.MAX_BAND_RANGES} ranges"
-        )
-        return
     slot = rs[:, None] + np.arange(L.MAX_BAND_RANGES)[None, :]  # (B, 16) range ids, masked past rn
     used = np.arange(L.MAX_BAND_RANGES)[None, :] < rn[:, None]
     slot = np.where(used, slot, 0) if N else np.zeros_like(slot)
@@ -1270,7 +1279,7 @@ def _smap(p: _Parsed, rep: Report) -> None:
             f"[{int(want_a[b, j])}, {int(want_e[b, j])})",
         )
         return
-    prefix = want_e.max(axis=1)
+    prefix = np.where(want_e > want_a, want_e, 0).max(axis=1)  # the largest end of the non-empty hulls
     bad = np.flatnonzero(bands["prefix_length"].astype(np.int64) != prefix)
     if bad.size:
         b = int(bad[0])

@@ -14,7 +14,7 @@ import hashlib
 import json
 import struct
 import zlib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -23,7 +23,7 @@ import numpy as np
 
 from . import layout as L
 from .reader import _check
-from .writer import encode_bytes
+from .writer import encode_bytes, needed_index_ranges, smap_payload
 
 GENERATOR = "swpm-usd conformance"
 
@@ -151,6 +151,22 @@ def fan_mixed(**over: Any) -> RawProgressiveMesh:
     return _fan("mixed", bufs, {"cache_size": 16, "level_threshold": 0.25}, **over)
 
 
+def quad_sliding_empty_windows() -> RawProgressiveMesh:
+    """Sliding-window quad whose coarser LODs draw nothing: LOD 0 (4 vertices) draws pool [3, 9), LOD 1 (3
+    vertices) an empty window at 0, LOD 2 (2 vertices, a band of its own) an empty window at 9, the pool's
+    end. Pool elements [0, 3) belong to no window."""
+    bufs = {"index_pool": [0, 1, 2, 0, 1, 2, 0, 2, 3], "window_records": [[3, 2, 4], [0, 0, 3], [9, 0, 2]]}
+    return RawProgressiveMesh(
+        "sliding-window",
+        FAN_POINTS[:4],
+        np.array([4, 3, 2]),
+        np.array([2, 0, 0]),
+        np.array([0.0, 0.5, 1.0], np.float32),
+        bufs,
+        params={"cache_size": 16},
+    )
+
+
 def single_triangle() -> RawProgressiveMesh:
     bufs = {
         "indices": [0, 1, 2],
@@ -231,6 +247,72 @@ def reorder(data: bytes, order: list[int]) -> bytes:
     return fix_crcs(out)
 
 
+def with_smap(data: bytes, make: Callable[[dict[bytes, int] | None], Any]) -> bytes:
+    """``data`` with SMAP's payload replaced by ``make(offsets)`` (the payload offset of every chunk once laid
+    out again; ``make(None)`` gives the new payload's length), the chunks laid out again in table order,
+    file_size and CRCs recomputed."""
+    ents = _entries(data)
+    table_end = struct.unpack_from("<Q", data, 32)[0] + 32 * len(ents)
+    payload = {t: data[o : o + n] for t, _, o, n in ents}
+    pos, offs = L.align(table_end, L.CHUNK_ALIGN), {}
+    for t, *_ in ents:
+        offs[t] = pos
+        pos = L.align(pos + (make(None) if t == L.SMAP else len(payload[t])), L.CHUNK_ALIGN)
+    payload[L.SMAP] = make(offs)
+    out = bytearray(data[:table_end])
+    for t, eo, _, _ in ents:
+        out += bytes(offs[t] - len(out)) + payload[t]
+        struct.pack_into("<QQ", out, eo + 8, offs[t], len(payload[t]))
+    struct.pack_into("<Q", out, 40, len(out))
+    return fix_crcs(out)
+
+
+def smap_bytes(bands: list[tuple[int, int, int, int, int]], ranges: list[tuple[int, int]]) -> bytes:
+    """An SMAP payload: bands (first_lod, lod_count, range_start, range_count, prefix_length), ranges
+    (offset, length)."""
+    head = np.array([(len(bands), len(ranges))], L.SMAP_HEADER).tobytes()
+    return head + np.array(bands, L.SMAP_BAND).tobytes() + np.array(ranges, L.SMAP_RANGE).tobytes()
+
+
+def fan_smap(extra: list[tuple[int, int]], range_count: int | None = None) -> bytes:
+    """The minimal vanilla file whose one band lists its three hulls and then the ``extra`` ranges (offset
+    -1: the end of the file); ``range_count``, if given, replaces the band's count of ranges."""
+
+    def make(offs: dict[bytes, int] | None) -> int | bytes:
+        if offs is None:
+            return L.SMAP_HEADER.itemsize + L.SMAP_BAND.itemsize + L.SMAP_RANGE.itemsize * (3 + len(extra))
+        indx, vert = offs[L.INDX], offs[L.VERT]
+        end = vert + len(payload[L.VERT])
+        more = [(end if o < 0 else o, n) for o, n in extra]
+        ranges = [(0, indx), (indx, len(payload[L.INDX])), (vert, end - vert), *more]
+        return smap_bytes([(0, 2, 0, range_count or len(ranges), end)], ranges)
+
+    data = _write(fan_vanilla())
+    payload = {t: data[o : o + n] for t, _, o, n in _entries(data)}
+    return with_smap(data, make)
+
+
+def restream(pm: RawProgressiveMesh, order: list[int]) -> bytes:
+    """``pm``'s file with its chunks listed and laid out in ``order`` (see :func:`reorder`) and SMAP written
+    again, as the writer would, for the new offsets of INDX and VERT."""
+    data = reorder(_write(pm), order)
+    _, vo, _ = chunk(data, L.VERT)
+    _, _, stride, vert_data = struct.unpack_from("<4I", data, vo)
+    width = 4 if struct.unpack_from("<I", data, 20)[0] & L.FEATURE_INDEX32 else 2
+    bufs = pm.buffers()
+    n_index = chunk(data, L.INDX)[2] // width
+    need = needed_index_ranges(pm.encoding, bufs, pm.lod_count, n_index)
+    vc = np.asarray(pm.vertex_counts, np.int64)
+    size = len(smap_payload(vc, need, width, 0, 0, vert_data, stride))
+
+    def make(offs: dict[bytes, int] | None) -> int | bytes:
+        if offs is None:
+            return size
+        return smap_payload(vc, need, width, offs[L.INDX], offs[L.VERT], vert_data, stride)
+
+    return with_smap(data, make)
+
+
 def grow_stride(data: bytes, extra: int) -> bytes:
     """The file with ``extra`` zero bytes appended to every VERT record (stride, length and file_size follow;
     VERT must be the last chunk)."""
@@ -247,6 +329,21 @@ def grow_stride(data: bytes, extra: int) -> bytes:
 
 
 # -- the vectors ----------------------------------------------------------------------------------------
+#: a u32 colour and an i32 attribute whose values need more than float32's 24 significant bits (usd.md,
+#: "Attribute values"): the file keeps every bit, a USD stage does not
+COLOR_U32 = np.array(
+    [
+        [0, 1, 2**24 - 1, 2**24],
+        [2**32 - 1, 2**24 + 1, 2**25 + 1, 123_456_789],
+        [2**31 - 1, 2**31, 2**31 + 1, 3_000_000_001],
+        [2**32 - 2, 2**32 - 129, 0x89ABCDEF, 0x01234567],
+        [16_843_009, 2**30 + 64, 2**30 + 128, 4_000_000_000],
+    ],
+    "<u4",
+)
+ID_I32 = np.array([[-(2**31)], [-(2**24) - 1], [2**24], [2**31 - 1], [7]], "<i4")
+
+
 def _valid() -> dict[str, tuple[bytes, str]]:
     attrs = {
         "normal": np.tile(np.array([[0, 0, 1]], np.float32), (5, 1)),
@@ -265,6 +362,11 @@ def _valid() -> dict[str, tuple[bytes, str]]:
         "skip-strip-list": (_write(fan_skip()), "skip-strip, list variant, one level"),
         "skip-strip-strip": (_write(fan_skip_strip()), "skip-strip, strips joined by restart index 0xFFFF"),
         "attributes": (_write(fan_vanilla(attributes=attrs)), "normal f32x3, uv f32x2, color u8x4"),
+        "attributes-32bit": (
+            _write(fan_vanilla(attributes={"color": COLOR_U32, "id": ID_I32})),
+            "color u32x4 and id i32 with values above 2^24: the file keeps every bit (a USD stage keeps 24"
+            " significant bits, usd.md)",
+        ),
         "single-triangle": (_write(single_triangle()), "one triangle, one LOD, no records"),
         "unknown-ancillary-chunk": (
             _write(fan_vanilla(), extra_chunks=[(b"zXTR", False, b"ignore me")]),
@@ -278,6 +380,29 @@ def _valid() -> dict[str, tuple[bytes, str]]:
                 _write(fan_vanilla(), extra_chunks=[(b"zXTR", False, b"ignore me")]), [0, 3, 1, 2, 4, 5, 6, 7]
             ),
             "an unknown ancillary chunk between META and LODS: no SWPM_STREAM_ORDER (format.md 2.3)",
+        ),
+        **_review_valid(),
+    }
+
+
+def _review_valid() -> dict[str, tuple[bytes, str]]:
+    """Valid files (a warning) that pin what reading the spec as a second implementer found (format.md 4)."""
+    return {
+        "smap-17-ranges": (
+            fan_smap([(0, 8)] * 13 + [(-1, 8)]),
+            "SMAP's band names 17 ranges and the last lies past the end of the file: the bands are checked"
+            " first (SWPM_SMAP_INVALID at band 0, not at the range table)",
+        ),
+        "smap-empty-index-hull": (
+            restream(quad_sliding_empty_windows(), [0, 1, 2, 3, 5, 4]),
+            "sliding-window, VERT laid out before INDX (SWPM_STREAM_ORDER): an empty window adds nothing to"
+            " its band's INDX hull (band 0: pool [3, 9), not [0, 9)), and a band of empty windows has no INDX"
+            " hull (band 1: prefix_length ends at INDX's offset, not at its empty window's position 9)",
+        ),
+        "smap-range-in-trailing-bytes": (
+            fan_smap([(-1, 8)]) + bytes(8),
+            "an SMAP range ends in the 8 bytes after file_size: the file is read as its first file_size"
+            " bytes, so the range lies outside it",
         ),
     }
 
@@ -438,6 +563,78 @@ def _new_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
     out["skip-index-past-level-table"] = (
         _write(fan_skip(buffers={"level_indices": [1, 2, 4, 2, 3, 4, 0, 1, 4, 3, 0, 4, 0, 1, 2]})),
         "INDX holds 15 indices, level_index_start ends at 12: its last element must be the INDX count",
+    )
+    _settled_invalid(base, out)
+
+
+def _settled_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
+    """The vectors that pin the points a later audit left open (format.md 2.2, 2.3, 3.6)."""
+    veo, voff, vlen = chunk(base, L.VERT)
+    size = len(base)
+    out["chunk-moved-past-end"] = (
+        patch(base, veo + 8, "<Q", L.align(size, L.CHUNK_ALIGN)),
+        "VERT's offset moved past the end of file: SWPM_CHUNK_OUT_OF_BOUNDS, then its padding gap, checked up"
+        " to the end of file, holds VERT's old payload (SWPM_PADDING_NONZERO)",
+    )
+    out["record-changes-slot-twice"] = (
+        _write(fan_vanilla(buffers={"collapse_change_count": [3], "collapse_change_offsets": [2, 2, 5]})),
+        "one record lists slot 2 twice: its changes are made in order, so the second time slot 2 no longer"
+        " holds the binned vertex",
+    )
+    # META LODS SMAP zXTR RCNT VREC INDX VERT -> META LODS SMAP RCNT VREC INDX VERT VERT (a copy of VERT)
+    data = bytearray(
+        reorder(
+            _write(fan_vanilla(), extra_chunks=[(b"zXTR", True, base[voff : voff + vlen])]),
+            [0, 1, 2, 4, 5, 6, 7, 3],
+        )
+    )
+    eo, _, _ = chunk(bytes(data), b"zXTR")
+    data[eo : eo + 4] = L.VERT
+    out["duplicate-vert-trailing"] = (
+        fix_crcs(data),
+        "a second VERT listed after the first: a duplicate, and the stream-order warning names it (a position"
+        " past the end of the order differs)",
+    )
+    _review_invalid(out)
+
+
+def _review_invalid(out: dict[str, tuple[bytes, str]]) -> None:
+    """The vectors that pin what reading the spec as a second implementer found (format.md 1, 4, 5)."""
+    base = _write(fan_vanilla())
+    _, voff, _ = chunk(base, L.VERT)
+    out["truncated-inside-vert"] = (
+        base[: voff + 40],
+        "the file ends 40 bytes into VERT (file_size says 620): the end of the file is its length, so VERT is"
+        " out of bounds (and not a CRC mismatch)",
+    )
+    out["header-size-past-file-size"] = (
+        patch(base, 12, "<I", len(base) + 8) + bytes(8),
+        "header_size 628, file_size 620, 628 bytes: header_size is compared with the file's length, not cut"
+        " at file_size (no SWPM_HEADER_BAD_SIZE); the table then starts inside the header",
+    )
+    _, moff, mlen = chunk(base, L.META)
+    _, loff, _ = chunk(base, L.LODS)
+    gap = bytearray(base)
+    gap[moff + mlen + 1] = 7  # the padding after META
+    gap = bytearray(fix_crcs(gap))
+    gap[loff] ^= 1  # LODS no longer matches its CRC
+    out["gap-nonzero-and-crc-mismatch"] = (
+        bytes(gap),
+        "a non-zero byte in the gap before LODS and a flipped bit in LODS: the gap's SWPM_PADDING_NONZERO"
+        " does not stop LODS's CRC check (SWPM_CHUNK_CRC_MISMATCH follows)",
+    )
+    out["skip-collapsed-start-not-index-start"] = (
+        _write(
+            fan_skip(
+                buffers={
+                    "level_indices": [1, 2, 4, 2, 3, 4, 0, 1, 4, 3, 0, 9],
+                    "level_collapsed_start": [0, 15],
+                    "level_collapsed_indices": [1, 2, 0, 2, 3, 0, 0, 1, 0, 3, 0, 0, 0, 1, 2],
+                }
+            )
+        ),
+        "level_collapsed_start differs from level_index_start and INDX holds 9: the level table by itself is"
+        " a stage (a) check before the values < V and ends the checks",
     )
 
 

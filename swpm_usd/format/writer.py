@@ -126,6 +126,18 @@ def needed_index_ranges(encoding: str, buffers: dict[str, np.ndarray], lods: int
     return np.tile(np.array([[0, n_index]], np.int64), (lods, 1))
 
 
+def index_hulls(need: np.ndarray, first: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per band (band b starts at LOD ``first[b]`` and ends where the next starts), the hull [lo, hi) of the
+    INDX elements its LODs ``need`` (spec 4): an LOD that needs none (an empty window or list) adds nothing,
+    wherever its empty range lies; a band whose LODs need none has the empty hull lo = hi = 0."""
+    need = np.asarray(need, np.int64)
+    empty = need[:, 1] <= need[:, 0]
+    lo = np.minimum.reduceat(np.where(empty, np.iinfo(np.int64).max, need[:, 0]), first)
+    hi = np.maximum.reduceat(np.where(empty, -1, need[:, 1]), first)
+    none = hi < 0
+    return np.where(none, 0, lo), np.where(none, 0, hi)
+
+
 def smap_payload(
     vc: np.ndarray,
     idx_need: np.ndarray,
@@ -139,13 +151,15 @@ def smap_payload(
     band = _bands(vc)
     starts = np.flatnonzero(np.r_[True, np.diff(band) != 0])
     counts = np.diff(np.r_[starts, len(vc)])
+    lows, highs = index_hulls(idx_need, starts)
     bands, ranges = [], []
     for b, (s, n) in enumerate(zip(starts, counts, strict=True)):
-        lo = int(idx_need[s : s + n, 0].min()) * width + indx_off
-        hi = int(idx_need[s : s + n, 1].max()) * width + indx_off
+        lo, hi = int(lows[b]) * width + indx_off, int(highs[b]) * width + indx_off
         vend = vert_off + vert_data + int(vc[s : s + n].max()) * stride
         rs = [(0, indx_off), (lo, hi - lo), (vert_off, vend - vert_off)]
-        bands.append((int(s), int(n), 3 * b, 3, max(r[0] + r[1] for r in rs)))
+        # an empty INDX hull (the band's LODs draw nothing from INDX) does not count for the prefix
+        prefix = max(indx_off, vend, hi if hi > lo else 0)
+        bands.append((int(s), int(n), 3 * b, 3, prefix))
         ranges.extend(rs)
     head = np.array([(len(bands), len(ranges))], L.SMAP_HEADER).tobytes()
     return head + np.array(bands, L.SMAP_BAND).tobytes() + np.array(ranges, L.SMAP_RANGE).tobytes()

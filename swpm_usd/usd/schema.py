@@ -93,7 +93,8 @@ PROPERTIES: tuple[Prop, ...] = (
         "[]",
         "Numpy dtype of each attribute (parallel to swpm:attributeNames); the float primvar is cast back to "
         "it. Unsigned-integer color components (any component count) are stored normalised to [0, 1] "
-        "(value / (2^bits - 1)) and scaled back (exact for 8 and 16 bits). Absent: float32.",
+        "(value / (2^bits - 1)) and scaled back (exact for 8 and 16 bits; 32-bit values keep 24 significant "
+        "bits, see spec/usd.md). Absent: float32.",
     ),
     Prop(
         "swpm:bufferNames",
