@@ -245,15 +245,20 @@ def test_unknown_ancillary_is_ignored_and_critical_rejected() -> None:
 
 
 # -- CLI ---------------------------------------------------------------------------------------------------
-def test_cli(tmp_path: Path) -> None:
-    from swpm_usd.cli import main
-
-    obj = tmp_path / "grid.obj"
+def _write_fan_obj(path: Path) -> Path:
+    """:func:`_fan_mesh` written as an OBJ file at ``path``."""
     m = _fan_mesh()
-    obj.write_text(
+    path.write_text(
         "".join(f"v {x} {y} {z}\n" for x, y, z in m.points)
         + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in m.triangles)
     )
+    return path
+
+
+def test_cli(tmp_path: Path) -> None:
+    from swpm_usd.cli import main
+
+    obj = _write_fan_obj(tmp_path / "grid.obj")
     out = tmp_path / "grid.swpm"
     r = CliRunner().invoke(main, ["encode", str(obj), "-o", str(out), "--encoding", "vanilla"])
     assert r.exit_code == 0, r.output
@@ -308,12 +313,7 @@ def test_build_and_encode_share_usage_errors_and_encode_never_overwrites_its_inp
 def test_encode_json_reports_the_written_file_and_failures_as_json(tmp_path: Path) -> None:
     from swpm_usd.cli import main
 
-    obj = tmp_path / "grid.obj"
-    m = _fan_mesh()
-    obj.write_text(
-        "".join(f"v {x} {y} {z}\n" for x, y, z in m.points)
-        + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in m.triangles)
-    )
+    obj = _write_fan_obj(tmp_path / "grid.obj")
     out = tmp_path / "grid.swpm"
     runner = CliRunner()  # click 8.2: result.stdout holds stdout alone
     r = runner.invoke(
@@ -326,7 +326,7 @@ def test_encode_json_reports_the_written_file_and_failures_as_json(tmp_path: Pat
     assert summary["input"] == str(obj) and summary["output"] == str(out)
     assert summary["encoding"] == "skip-strip" and summary["params"]["primitive"] == "list"
     assert summary["lod_count"] == pm.lod_count and summary["vertices"] == pm.vertex_count
-    assert summary["triangles"] == info["triangle_count"] == m.triangle_count
+    assert summary["triangles"] == info["triangle_count"] == _fan_mesh().triangle_count
     assert summary["coarsest_triangles"] == pm.triangle_count_at(pm.lod_count - 1)
     assert summary["bytes"] == out.stat().st_size
     assert (summary["global_bytes"], summary["instance_bytes"]) == (pm.global_bytes, pm.instance_bytes)
