@@ -158,6 +158,11 @@ def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int
     "--scheduler", default=None, metavar="ADDR", help="Dask scheduler address (default: a local cluster)."
 )
 @click.option("--force", is_flag=True, help="Rebuild assets even when they are up to date.")
+@click.option(
+    "--prune",
+    is_flag=True,
+    help="Delete the outputs of assets no longer in the config (those still as the manifest recorded them).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print the run summary as JSON.")
 def run_cmd(
     config: str,
@@ -167,6 +172,7 @@ def run_cmd(
     executor: str,
     scheduler: str | None,
     force: bool,
+    prune: bool,
     as_json: bool,
 ) -> None:
     """Run the pipeline described by CONFIG (pipeline.yaml).
@@ -193,6 +199,7 @@ def run_cmd(
             dry_run=dry_run,
             explain=explain,
             force=force,
+            prune=prune,
             echo=lambda m: click.echo(m, err=as_json),
         )
     except ConfigError as exc:
@@ -228,6 +235,8 @@ def run_cmd(
                 {"id": rid, "error": rec.get("error"), "kept_previous": rec["kept_previous"]}
                 for rid, rec in sorted(res.failures.items())
             ],
+            "pruned": res.pruned,
+            "unlisted": res.unlisted,
         }
         if dry_run or explain:
             summary["plan"] = res.plan
@@ -244,6 +253,13 @@ def run_cmd(
                 else ""
             )
             click.echo(f"FAILED {rid}: {rec.get('error')}{kept}", err=True)
+        if res.pruned:
+            click.echo(f"pruned {len(res.pruned)} outputs of assets no longer in the config")
+        if res.unlisted:
+            click.echo(
+                f"{len(res.unlisted)} outputs of assets no longer in the config left in output.dir "
+                "(--prune deletes them)"
+            )
     sys.exit(1 if res.failed else 0)
 
 

@@ -187,6 +187,58 @@ def test_incremental_rerun_and_changes(tmp_path):
     assert run(cfg, echo=lambda m: None).built == 1
 
 
+def test_outputs_of_removed_assets_are_named_and_pruned_only_on_request(tmp_path):
+    cfg = _project(tmp_path, config=MINIMAL.replace("sliding-window", "vanilla"))
+    cfg.write_text(cfg.read_text().replace("dir: out", "dir: out\n  usd: true"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    # spot leaves the config (its input moves out of the glob): its outputs stay, named, and recorded
+    (tmp_path / "meshes" / "spot.obj").rename(tmp_path / "spot.obj")
+    first = run(cfg, echo=lambda m: None)
+    assert sorted(first.unlisted) == ["spot.swpm", "spot.usdc"] and first.pruned == []
+    assert (out / "spot.swpm").is_file() and (out / "spot.usdc").is_file()
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert "meshes/spot.obj" not in manifest["assets"]
+    assert sorted(o["path"] for o in manifest["orphaned_outputs"]) == ["spot.swpm", "spot.usdc"]
+    # a later run still knows them; a file changed since is no longer the run's
+    with open(out / "spot.usdc", "ab") as f:
+        f.write(b"edited")
+    second = run(cfg, echo=lambda m: None)
+    assert second.unlisted == ["spot.swpm"]
+    r = CliRunner().invoke(main, ["run", str(cfg)])
+    assert r.exit_code == 0 and "1 outputs of assets no longer in the config left in output.dir" in r.output
+    r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
+    assert r.exit_code == 0 and json.loads(r.stdout)["unlisted"] == ["spot.swpm"], r.output
+    # a dry run names what --prune would delete and deletes nothing
+    lines: list[str] = []
+    dry = run(cfg, dry_run=True, prune=True, echo=lines.append)
+    assert dry.pruned == ["spot.swpm"] and (out / "spot.swpm").is_file()
+    assert any(line.startswith("spot.swpm: output of an asset no longer in the config") for line in lines)
+    # --prune deletes the recorded, unchanged ones before building; the current assets' outputs stay
+    pruned = run(cfg, prune=True, echo=lambda m: None)
+    assert pruned.pruned == ["spot.swpm"] and not (out / "spot.swpm").exists()
+    assert (out / "spot.usdc").is_file() and (out / "cow.swpm").is_file() and (out / "cow.usdc").is_file()
+    assert "orphaned_outputs" not in json.loads((out / "manifest.json").read_text())
+    assert run(cfg, echo=lambda m: None).unlisted == []
+    # an asset back under its old name is built again, and its old files never count as orphans
+    (tmp_path / "spot.obj").rename(tmp_path / "meshes" / "spot.obj")
+    back = run(cfg, prune=True, echo=lambda m: None)
+    assert back.built == 1 and back.pruned == [] and (out / "spot.swpm").is_file()
+
+
+def test_a_removed_assets_output_that_a_current_asset_writes_is_never_pruned(tmp_path):
+    cfg = _project(tmp_path, meshes=("cow.obj",), config=MINIMAL.replace("sliding-window", "vanilla"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    # the manifest says another, removed asset wrote out/cow.swpm too (a renamed asset, an edited manifest)
+    manifest = json.loads((out / "manifest.json").read_text())
+    rec = dict(manifest["assets"]["meshes/cow.obj"])
+    manifest["assets"]["meshes/old-cow.obj"] = rec
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    res = run(cfg, prune=True, echo=lambda m: None)
+    assert res.pruned == [] and (out / "cow.swpm").is_file()
+
+
 def test_one_bad_asset_does_not_stop_the_others(tmp_path):
     cfg = _project(tmp_path, config=MINIMAL.replace("sliding-window", "vanilla"))
     (tmp_path / "meshes" / "broken.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")

@@ -11,7 +11,9 @@ its outputs are still there with the recorded size and sha256.
 
 An asset whose rebuild fails keeps its previous build when that build's outputs are intact
 (:func:`_keep_previous`): the manifest keeps its record (with ``last_failure``), the scene its layer, and the
-run reports it failed. One run at a time writes in an output folder (:class:`_OutputLock`).
+run reports it failed. One run at a time writes in an output folder (:class:`_OutputLock`). The outputs of
+assets no longer in the config are left and named, and recorded under ``orphaned_outputs`` until a run with
+``prune`` deletes them (:func:`_orphaned_outputs`).
 """
 
 from __future__ import annotations
@@ -39,6 +41,8 @@ MANIFEST = "manifest.json"
 #: the lock file of output.dir: a run holds an exclusive ``flock`` on it while it writes there (see
 #: :class:`_OutputLock`); the file stays, the lock goes with the run
 LOCK = ".swpm-pipeline.lock"
+#: the manifest's list of outputs of assets removed from the config that a run left in place (no ``prune``)
+ORPHANED = "orphaned_outputs"
 
 #: the manifest is rewritten at most this often during a run, or less often while one rewrite takes more
 #: than a fifth of it: rewriting it after every asset, each time serialising every record, made a run of
@@ -72,6 +76,10 @@ class RunResult:
     #: this run's failures: asset id -> the failed attempt's record (``error``, ``traceback``, ...), with
     #: ``kept_previous`` True when the asset's previous build was kept (see :func:`_keep_previous`)
     failures: dict[str, dict] = field(default_factory=dict)
+    #: the outputs of assets no longer in the config: deleted (``prune``), or left in output.dir and named
+    #: here, as output.dir-relative paths (a dry run names what ``prune`` would delete)
+    pruned: list[str] = field(default_factory=list)
+    unlisted: list[str] = field(default_factory=list)
 
 
 def _read_manifest(path: Path) -> dict:
@@ -652,9 +660,13 @@ def run(
     dry_run: bool = False,
     explain: bool = False,
     force: bool = False,
+    prune: bool = False,
     echo=print,
 ) -> RunResult:
     """Run the pipeline described by ``config_path``; see the module docstring.
+
+    ``prune``: delete the recorded outputs of assets the config no longer has (those still as the manifest
+    recorded them and not outputs of this run's assets); without it they stay and the result names them.
 
     A run that writes (not ``dry_run``) holds output.dir's lock from before it reads the manifest (or, for
     an output.dir it creates, from then) to its end; another run there raises :class:`OutputLockedError`."""
@@ -663,7 +675,9 @@ def run(
     out_dir = cfg.base / cfg.data["output"]["dir"]
     lock = _OutputLock(out_dir, echo)
     try:
-        return _run(cfg, out_dir, lock, t_start, jobs, executor, scheduler, dry_run, explain, force, echo)
+        return _run(
+            cfg, out_dir, lock, t_start, jobs, executor, scheduler, dry_run, explain, force, prune, echo
+        )
     finally:
         lock.release()
 
@@ -679,6 +693,7 @@ def _run(
     dry_run: bool,
     explain: bool,
     force: bool,
+    prune: bool,
     echo,
 ) -> RunResult:
     if not dry_run and out_dir.is_dir():
@@ -713,17 +728,31 @@ def _run(
             )
         if dry_run:
             skipped = sum(i.up_to_date for i in items)
-            return RunResult({}, 0, skipped, 0, warnings, 0.0, manifest_path, planned)
+            orphans = [o["path"] for _, o in _orphaned_outputs(cfg, out_dir, manifest, items)]
+            for path in orphans:
+                echo(f"{path}: output of an asset no longer in the config" + ("; --prune deletes it" * prune))
+            return RunResult(
+                {}, 0, skipped, 0, warnings, 0.0, manifest_path, planned, pruned=orphans if prune else [],
+                unlisted=[] if prune else orphans,
+            )  # fmt: skip
     _make_out_dir(cfg, out_dir)
     lock.acquire(folder_checked=True)  # (a folder this run created)
     _remove_temporary(out_dir)  # left by a killed run
     todo = [it for it in items if force or not it.up_to_date]
+    # before any build: a removed asset's output path may be a current asset's, which is never deleted
+    orphans = _orphaned_outputs(cfg, out_dir, manifest, items)
+    if prune:
+        for path, _ in orphans:
+            path.unlink(missing_ok=True)
+    orphan_names = [o["path"] for _, o in orphans]
     records = {k: v for k, v in manifest.get("assets", {}).items() if k in {i.asset.id for i in items}}
     for it in items:  # up to date again (an input or a config put back): the failure was another treatment's
         kept = records.get(it.asset.id)
         if it.up_to_date and not force and kept is not None and "last_failure" in kept:
             records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
     manifest = {"tool_version": __version__, "config": str(cfg.path), "assets": records}
+    if orphans and not prune:  # so a later run with prune still finds them
+        manifest[ORPHANED] = [o for _, o in orphans]
     built = failed = 0
     failures: dict[str, dict] = {}
     progress = _Progress(len(todo))
@@ -789,8 +818,38 @@ def _run(
         raise
     seconds = time.perf_counter() - t_start
     return RunResult(
-        records, built, len(items) - len(todo), failed, warnings, seconds, manifest_path, planned, failures
-    )
+        records, built, len(items) - len(todo), failed, warnings, seconds, manifest_path, planned, failures,
+        pruned=orphan_names if prune else [], unlisted=[] if prune else orphan_names,
+    )  # fmt: skip
+
+
+def _orphaned_outputs(cfg: Config, out_dir: Path, manifest: dict, items: list) -> list[tuple[Path, dict]]:
+    """The recorded outputs (path, record) of the manifest's assets that are not among ``items`` (no longer
+    in the config) and of its ``orphaned_outputs`` (left by earlier runs without ``prune``), still as
+    recorded (:func:`_output_intact`: a file changed since is not the run's), less any file this run's
+    assets write."""
+    current = {it.asset.id for it in items}
+    keep = {_file_key(p) for p in planned_outputs(cfg, out_dir, [it.asset for it in items])}
+    recorded = [
+        o
+        for aid, rec in sorted(manifest.get("assets", {}).items())
+        if aid not in current and isinstance(rec, dict) and isinstance(rec.get("outputs"), dict)
+        for o in rec["outputs"].values()
+    ]
+    if isinstance(manifest.get(ORPHANED), list):
+        recorded += manifest[ORPHANED]
+    found, seen = [], set()
+    for o in recorded:
+        if not isinstance(o, dict) or not isinstance(o.get("path"), str):
+            continue
+        path = out_dir / o["path"]
+        # a recorded path that leaves output.dir (a hand-edited manifest) is never touched
+        if path.resolve().parent != out_dir.resolve() or _file_key(path) in keep or path in seen:
+            continue
+        if _output_intact(path, o):
+            seen.add(path)
+            found.append((path, {k: o[k] for k in ("path", "size", "sha256") if k in o}))
+    return found
 
 
 def _keep_previous(out_dir: Path, previous: dict | None, failed: dict) -> dict | None:
