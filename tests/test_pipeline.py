@@ -239,6 +239,19 @@ def test_a_removed_assets_output_that_a_current_asset_writes_is_never_pruned(tmp
     assert res.pruned == [] and (out / "cow.swpm").is_file()
 
 
+def test_a_removed_assets_output_that_a_current_asset_reads_is_never_pruned(tmp_path):
+    # spot.obj's USD layer becomes a stage input once spot.obj leaves the config: --prune keeps it
+    cfg = _project(tmp_path, config=MINIMAL.replace("sliding-window", "vanilla"))
+    cfg.write_text(cfg.read_text().replace("dir: out", "dir: out\n  usd: true"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    sha = sha256_of(out / "spot.usdc")
+    cfg.write_text(cfg.read_text().replace('"meshes/*.obj"', '"meshes/cow.obj"\n  - stage: out/spot.usdc'))
+    res = run(cfg, prune=True, echo=lambda m: None)
+    assert res.pruned == ["spot.swpm"] and not (out / "spot.swpm").exists()
+    assert (out / "spot.usdc").is_file() and sha256_of(out / "spot.usdc") == sha
+
+
 def test_one_bad_asset_does_not_stop_the_others(tmp_path):
     cfg = _project(tmp_path, config=MINIMAL.replace("sliding-window", "vanilla"))
     (tmp_path / "meshes" / "broken.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")

@@ -61,6 +61,7 @@ class PlanItem:
     digest: str = ""
     up_to_date: bool = False
     rule_pending: bool = False  # the worker matches the rule once it has counted the triangles
+    inputs: list[Path] = field(default_factory=list)  # the files the asset is built from (discover's)
 
 
 @dataclass
@@ -156,13 +157,22 @@ def plan(
         tri = prev.get("triangles_in") if prev.get("input_digest") == digest else None
         if tri is None and needs_rule_on_triangles:
             if not count_triangles:
-                items.append(PlanItem(a, digest, None, why="rule chosen by the worker", rule_pending=True))
+                items.append(
+                    PlanItem(
+                        a,
+                        digest,
+                        None,
+                        why="rule chosen by the worker",
+                        rule_pending=True,
+                        inputs=inputs[a.id],
+                    )
+                )
                 continue
             try:
                 tri = _count_triangles(a)
             except Exception:  # noqa: BLE001 - the worker reports it as this asset's failure
                 tri = None
-        item = PlanItem(a, digest, tri)
+        item = PlanItem(a, digest, tri, inputs=inputs[a.id])
         item.rule, item.treatment, item.why = match_rule(cfg, a, tri if tri is not None else 0)
         item.digest = _treatment_digest(cfg, item)
         outs = prev.get("outputs", {})
@@ -827,9 +837,10 @@ def _orphaned_outputs(cfg: Config, out_dir: Path, manifest: dict, items: list) -
     """The recorded outputs (path, record) of the manifest's assets that are not among ``items`` (no longer
     in the config) and of its ``orphaned_outputs`` (left by earlier runs without ``prune``), still as
     recorded (:func:`_output_intact`: a file changed since is not the run's), less any file this run's
-    assets write."""
+    assets write or read (an earlier output used as a stage, or a layer a stage uses) and the config."""
     current = {it.asset.id for it in items}
     keep = {_file_key(p) for p in planned_outputs(cfg, out_dir, [it.asset for it in items])}
+    keep |= {_file_key(p) for p in [cfg.path, *(p for it in items for p in it.inputs)]}
     recorded = [
         o
         for aid, rec in sorted(manifest.get("assets", {}).items())
