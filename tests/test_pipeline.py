@@ -252,6 +252,18 @@ def test_a_removed_assets_output_that_a_current_asset_reads_is_never_pruned(tmp_
     assert (out / "spot.usdc").is_file() and sha256_of(out / "spot.usdc") == sha
 
 
+def test_odd_recorded_paths_of_removed_assets_are_ignored(tmp_path):
+    cfg = _project(tmp_path, meshes=("cow.obj",), config=MINIMAL.replace("sliding-window", "vanilla"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    manifest = json.loads((out / "manifest.json").read_text())
+    manifest["assets"]["meshes/gone.obj"] = {"outputs": {"swpm": {"path": "a\u0000b.swpm", "size": 1}}}
+    manifest["orphaned_outputs"] = [{"path": "c\u0000d.swpm"}, None, {"path": 3}]
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    assert run(cfg, prune=True, echo=lambda m: None).pruned == []
+    assert run(cfg, dry_run=True, echo=lambda m: None).unlisted == []
+
+
 def test_one_bad_asset_does_not_stop_the_others(tmp_path):
     cfg = _project(tmp_path, config=MINIMAL.replace("sliding-window", "vanilla"))
     (tmp_path / "meshes" / "broken.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")

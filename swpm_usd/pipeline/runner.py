@@ -851,8 +851,8 @@ def _orphaned_outputs(cfg: Config, out_dir: Path, manifest: dict, items: list) -
         recorded += manifest[ORPHANED]
     found, seen = [], set()
     for o in recorded:
-        if not isinstance(o, dict) or not isinstance(o.get("path"), str):
-            continue
+        if not isinstance(o, dict) or not isinstance(o.get("path"), str) or "\0" in o["path"]:
+            continue  # (a hand-edited manifest: a NUL byte would raise in every path call)
         path = out_dir / o["path"]
         # a recorded path that leaves output.dir (a hand-edited manifest) is never touched
         if path.resolve().parent != out_dir.resolve() or _file_key(path) in keep or path in seen:
