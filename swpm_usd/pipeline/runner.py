@@ -839,8 +839,6 @@ def _orphaned_outputs(cfg: Config, out_dir: Path, manifest: dict, items: list) -
     recorded (:func:`_output_intact`: a file changed since is not the run's), less any file this run's
     assets write or read (an earlier output used as a stage, or a layer a stage uses) and the config."""
     current = {it.asset.id for it in items}
-    keep = {_file_key(p) for p in planned_outputs(cfg, out_dir, [it.asset for it in items])}
-    keep |= {_file_key(p) for p in [cfg.path, *(p for it in items for p in it.inputs)]}
     recorded = [
         o
         for aid, rec in sorted(manifest.get("assets", {}).items())
@@ -849,6 +847,10 @@ def _orphaned_outputs(cfg: Config, out_dir: Path, manifest: dict, items: list) -
     ]
     if isinstance(manifest.get(ORPHANED), list):
         recorded += manifest[ORPHANED]
+    if not recorded:
+        return []  # the usual run: no file stat'ed for the guard below
+    keep = {_file_key(p) for p in planned_outputs(cfg, out_dir, [it.asset for it in items])}
+    keep |= {_file_key(p) for p in [cfg.path, *(p for it in items for p in it.inputs)]}
     found, seen = [], set()
     for o in recorded:
         if not isinstance(o, dict) or not isinstance(o.get("path"), str) or "\0" in o["path"]:
