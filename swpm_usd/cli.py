@@ -15,7 +15,13 @@ import numpy as np
 
 from . import __version__
 from .errors import SwpmError
-from .format.cli import _JSON_ON_INTERRUPT, EncodingsHelpCommand, EncodingsHelpGroup, json_on_interrupt
+from .format.cli import (
+    _JSON_ON_INTERRUPT,
+    EncodingsHelpCommand,
+    EncodingsHelpGroup,
+    json_on_interrupt,
+    pm_summary,
+)
 
 
 def _lod_rows(pm, max_rows: int) -> list[dict]:
@@ -122,17 +128,7 @@ def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int
     seconds = time.perf_counter() - start
     table = _lod_rows(pm, rows)
     if as_json:
-        out = {
-            "input": input_path,
-            "encoding": pm.encoding,
-            "params": pm.params,
-            "lod_count": pm.lod_count,
-            "vertices": pm.vertex_count,
-            "build_seconds": seconds,
-            "global_bytes": pm.global_bytes,
-            "instance_bytes": pm.instance_bytes,
-            "lods": table,
-        }
+        out = {"input": input_path, **pm_summary(pm), "build_seconds": seconds, "lods": table}
         click.echo(json.dumps(out, indent=2, default=float))
         return
     click.echo(

@@ -22,6 +22,15 @@ def _umask() -> int:
     return mask
 
 
+def set_plain_mode(fd: int) -> None:
+    """Give the open file ``fd`` the mode a plain ``open()`` gives a new file, 0o666 less the umask
+    (``mkstemp``'s is always 0o600); a filesystem without modes (vfat, some network mounts) keeps its own."""
+    try:
+        os.fchmod(fd, 0o666 & ~_umask())
+    except (OSError, AttributeError):
+        pass
+
+
 def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
     """Write ``data`` to a temporary file beside ``path``, fsync it, then rename it into place.
 
@@ -34,10 +43,7 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
             f.flush()
-            try:
-                os.fchmod(f.fileno(), 0o666 & ~_umask())
-            except (OSError, AttributeError):  # a filesystem without modes (vfat, some network mounts)
-                pass
+            set_plain_mode(f.fileno())
             os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:

@@ -80,6 +80,18 @@ _ENCODING_SUMMARY = {
 }
 
 
+def pm_summary(pm) -> dict:
+    """The keys ``build --json`` and ``encode --json`` share: what was built."""
+    return {
+        "encoding": pm.encoding,
+        "params": pm.params,
+        "lod_count": pm.lod_count,
+        "vertices": pm.vertex_count,
+        "global_bytes": pm.global_bytes,
+        "instance_bytes": pm.instance_bytes,
+    }
+
+
 def _param_value(value: object) -> str:
     """A default as it is given to ``-p``: strings bare, the rest as JSON (true, null, 0.25)."""
     return value if isinstance(value, str) else json.dumps(value)
@@ -198,15 +210,10 @@ def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, .
         out = {
             "input": input_path,
             "output": output,
-            "encoding": pm.encoding,
-            "params": pm.params,
-            "lod_count": pm.lod_count,
-            "vertices": pm.vertex_count,
+            **pm_summary(pm),
             "triangles": pm.triangle_count_at(0),
             "coarsest_triangles": pm.triangle_count_at(pm.lod_count - 1),
             "bytes": size,
-            "global_bytes": pm.global_bytes,
-            "instance_bytes": pm.instance_bytes,
             "source_digest": digest,
             "build_seconds": seconds,
         }
@@ -359,5 +366,6 @@ __all__ = [
     "encode_cmd",
     "encodings_help",
     "inspect_cmd",
+    "pm_summary",
     "validate_cmd",
 ]

@@ -715,6 +715,10 @@ def _run(
         raise ConfigError(errors)
     for w in warnings:
         echo(f"warning: {w}")
+    # (before any build: a removed asset's output path may be a current asset's, which is never deleted)
+    orphans = _orphaned_outputs(cfg, out_dir, manifest, items)
+    orphan_names = [o["path"] for _, o in orphans]
+    orphan_lists = {"pruned" if prune else "unlisted": orphan_names}  # RunResult's fields
     planned = []
     if dry_run or explain:
         for it in items:
@@ -738,23 +742,16 @@ def _run(
             )
         if dry_run:
             skipped = sum(i.up_to_date for i in items)
-            orphans = [o["path"] for _, o in _orphaned_outputs(cfg, out_dir, manifest, items)]
-            for path in orphans:
+            for path in orphan_names:
                 echo(f"{path}: output of an asset no longer in the config" + ("; --prune deletes it" * prune))
-            return RunResult(
-                {}, 0, skipped, 0, warnings, 0.0, manifest_path, planned, pruned=orphans if prune else [],
-                unlisted=[] if prune else orphans,
-            )  # fmt: skip
+            return RunResult({}, 0, skipped, 0, warnings, 0.0, manifest_path, planned, **orphan_lists)
     _make_out_dir(cfg, out_dir)
     lock.acquire(folder_checked=True)  # (a folder this run created)
     _remove_temporary(out_dir)  # left by a killed run
     todo = [it for it in items if force or not it.up_to_date]
-    # before any build: a removed asset's output path may be a current asset's, which is never deleted
-    orphans = _orphaned_outputs(cfg, out_dir, manifest, items)
     if prune:
         for path, _ in orphans:
             path.unlink(missing_ok=True)
-    orphan_names = [o["path"] for _, o in orphans]
     records = {k: v for k, v in manifest.get("assets", {}).items() if k in {i.asset.id for i in items}}
     for it in items:  # up to date again (an input or a config put back): the failure was another treatment's
         kept = records.get(it.asset.id)
@@ -829,7 +826,7 @@ def _run(
     seconds = time.perf_counter() - t_start
     return RunResult(
         records, built, len(items) - len(todo), failed, warnings, seconds, manifest_path, planned, failures,
-        pruned=orphan_names if prune else [], unlisted=[] if prune else orphan_names,
+        **orphan_lists,
     )  # fmt: skip
 
 
@@ -890,7 +887,9 @@ def _keep_previous(out_dir: Path, previous: dict | None, failed: dict) -> dict |
 
 def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
     """A scene layer that references every per-asset USD layer, one Xform each."""
-    from pxr import Sdf, Tf, Usd, UsdGeom
+    from pxr import Tf, Usd, UsdGeom
+
+    from ..usd.writer import reload_if_open
 
     layers = [
         (k, r["outputs"]["usd"]["path"])
@@ -910,6 +909,4 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
         prim.GetReferences().AddReference(f"./{layer}")
     stage.GetRootLayer().Save()
     tmp.replace(target)
-    layer = Sdf.Layer.Find(str(target))  # open in this process (a caller of run): it keeps its old content
-    if layer is not None:
-        layer.Reload(force=True)
+    reload_if_open(target)  # (a caller of run may have it open)

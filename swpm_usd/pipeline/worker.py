@@ -254,15 +254,12 @@ def _stage_usd(pm, target: Path) -> tuple[Path, Path]:
     import os
     import tempfile
 
-    from ..fileio import _umask
+    from ..fileio import set_plain_mode
     from ..usd import write as usd_write
 
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=USD_TEMPORARY_SUFFIX, dir=target.parent)
-    try:  # the mode of a plain open() (mkstemp's is 0o600, which usd-core keeps), as atomic_write_bytes
-        os.fchmod(fd, 0o666 & ~_umask())
-    except (OSError, AttributeError):  # a filesystem without modes
-        pass
+    set_plain_mode(fd)  # (mkstemp's 0o600 would stay: usd-core keeps the file's mode)
     os.close(fd)
     tmp = Path(name)
     try:
@@ -280,12 +277,10 @@ def _place_usd(tmp: Path, target: Path) -> Path:
     process is reloaded (it would keep its old content)."""
     import os
 
-    from pxr import Sdf
+    from ..usd.writer import reload_if_open
 
     os.replace(tmp, target)
-    layer = Sdf.Layer.Find(str(target))
-    if layer is not None:
-        layer.Reload(force=True)
+    reload_if_open(target)
     return target
 
 

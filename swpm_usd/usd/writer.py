@@ -231,14 +231,19 @@ def _layer_args(path: Path, fmt: str | None) -> dict[str, str]:
     return {"format": fmt}
 
 
+def reload_if_open(path: str | os.PathLike[str]) -> None:
+    """A file just written at ``path``: a layer of that name already open in this process would keep its
+    stale content, so it is reloaded."""
+    layer = Sdf.Layer.Find(str(path))
+    if layer is not None:
+        layer.Reload(force=True)
+
+
 def _export(stage: Usd.Stage, path: Path, fmt: str | None) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     if not stage.GetRootLayer().Export(str(path), args=_layer_args(path, fmt)):
         raise UsdWriteError(f"could not write {path}")
-    # a layer of that name already open in this process would keep its stale content
-    layer = Sdf.Layer.Find(str(path))
-    if layer is not None:
-        layer.Reload(force=True)
+    reload_if_open(path)
     return path
 
 
