@@ -360,7 +360,7 @@ def _select(order: np.ndarray, keys: np.ndarray, lo: int, hi: int, k: int) -> No
             return
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _build_bvh(
     tv: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

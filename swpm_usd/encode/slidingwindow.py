@@ -58,6 +58,7 @@ the tests replay every window.
 
 from __future__ import annotations
 
+import itertools
 import numbers
 import os
 import threading
@@ -309,6 +310,12 @@ _DEVIATION_SHARE = 0.5
 #: nodes a sample's search may open (512: the ten shared meshes build the same pools as without a limit; a
 #: cone of 80,000 sections 24 s without, 4.1 s with it)
 _DEVIATION_BUDGET = 512
+#: levels of at least this many sampled positions search them on two threads (the main one and a helper),
+#: in blocks of ``_DEVIATION_BLOCK`` rows (:func:`_sampled_deviation`; the same costs, bit for bit)
+_DEVIATION_PARALLEL = 256
+_DEVIATION_BLOCK = 64
+#: levels of at least this many positions find their best collapses on two threads (:func:`_level_costs`)
+_COSTS_PARALLEL = 1024
 
 
 #: iterations of the centre search (:func:`sw_centres.grow_independent_set`) per eligible vertex: the
@@ -578,6 +585,7 @@ def _build_levels(
     st,
     pending: list,
     worker: ThreadPoolExecutor | None,
+    helper: ThreadPoolExecutor | None,
     mu: float,
     inner_vertices: int,
     cache_size: int,
@@ -605,9 +613,10 @@ def _build_levels(
     nstep = 0
     fresh_cost = None  # cluster=True: pool triangles per collapse a fully stored level would cost
     relax = False  # the level after a trickle: no cost limit at collapse time (see ``last`` below)
-    surface = None
+    surface_of = None
     if _RANK_BY_DEVIATION and T:
-        surface = swd.surface_bvh(st.pos_points, st.vertex_pos[mesh.triangles])
+        # the input's BVH on the helper while this thread starts level 0
+        surface_of = _beside(helper, swd.surface_bvh, st.pos_points, st.vertex_pos[mesh.triangles])
         lo, hi = st.pos_points.min(axis=0), st.pos_points.max(axis=0)
         floor2 = float((_DEVIATION_FLOOR * np.linalg.norm(hi - lo)) ** 2)
     while True:
@@ -615,10 +624,13 @@ def _build_levels(
         if alive_t.shape[0] == 0:
             break
         tp, positions = swk.level_positions(alive_t, st.tri_verts, st.vertex_pos, P)
+        # the level's position graph (for its patch centres) on the helper meanwhile
+        adjacency = _beside(helper, _adjacency, tp, P)
         stars = star_snapshot(st)  # the state is read-only until collapse_patches
-        ks, cs = swk.level_costs(st, positions, stars)
+        ks, cs = _level_costs(helper, st, positions, stars)
         rank_cs = cs
-        if surface is not None:
+        if surface_of is not None:
+            surface = surface_of()
             rank_cs = swd.deviation_costs(
                 st.pos_points, positions, ks, cs, stars.start, stars.tp, floor2, swd.SAMPLES[:0], 0, *surface
             )
@@ -626,17 +638,20 @@ def _build_levels(
                 cand = np.flatnonzero(ks >= 0)
                 n_pick = int(np.ceil(_DEVIATION_SHARE * cand.shape[0]))
                 pick = np.sort(cand[np.argsort(rank_cs[cand])[cand.shape[0] - n_pick :]])
-                rank_cs[pick] = swd.deviation_costs(
-                    st.pos_points,
-                    positions[pick],
-                    ks[pick],
-                    cs[pick],
-                    stars.start,
-                    stars.tp,
-                    floor2,
-                    swd.SAMPLES,
-                    _DEVIATION_BUDGET,
-                    *surface,
+                rank_cs[pick] = _sampled_deviation(
+                    helper,
+                    (
+                        st.pos_points,
+                        positions[pick],
+                        ks[pick],
+                        cs[pick],
+                        stars.start,
+                        stars.tp,
+                        floor2,
+                        swd.SAMPLES,
+                        _DEVIATION_BUDGET,
+                        *surface,
+                    ),
                 )
         valid = ks >= 0
         eligible = np.zeros(P, bool)
@@ -673,7 +688,7 @@ def _build_levels(
             inner_start, inner = swk.cluster_patches(st, cands, tpos, tiebreak[cands], _CLUSTER_MIN_PATCHES)
             pt_start, pt = swk.patch_triangles(st, inner_start, inner, stars)
             if fresh_cost is None:
-                fresh = _select_fresh(tp, P, eligible, tiebreak, int(inner_vertices))
+                fresh = _select_fresh(adjacency(), eligible, tiebreak, int(inner_vertices))
                 fresh_cost = 2.0 * alive_t.shape[0] / max(fresh[3].shape[0], 1) - 2.0
             linked_cost = _linked_cost(tpos, pt, inner.shape[0]) if inner.shape[0] else np.inf
             link = linked_cost <= _CLUSTER_RELINK * fresh_cost
@@ -682,7 +697,7 @@ def _build_levels(
         else:
             fresh_cost = None  # a new run of linked levels starts after this one
             adj_start, adj, inner_start, inner = fresh or _select_fresh(
-                tp, P, eligible, tiebreak, int(inner_vertices)
+                adjacency(), eligible, tiebreak, int(inner_vertices)
             )
             if inner_vertices == 1:
                 inner = _more_centres(adj_start, adj, eligible, inner)
@@ -803,6 +818,63 @@ def _build_levels(
     return levels, recs_all, info_all, gtris, ng
 
 
+def _beside(helper: ThreadPoolExecutor | None, fn, *args):
+    """``fn(*args)`` on the ``helper`` thread while this one goes on: a callable that returns its result
+    (computed on this thread if the helper has not started it by then; at once without a helper)."""
+    if helper is None:
+        value = fn(*args)
+        return lambda: value
+    future = helper.submit(fn, *args)
+    done = []
+
+    def result():
+        if not done:
+            done.append(fn(*args) if future.cancel() else future.result())
+        return done[0]
+
+    return result
+
+
+def _level_costs(helper: ThreadPoolExecutor | None, st, positions: np.ndarray, stars):
+    """:func:`.sw_kernels.level_costs`, the second half of a large level's positions on the ``helper``
+    thread (each position's best collapse reads the state alone: the same costs)."""
+    n = positions.shape[0]
+    if helper is None or n < _COSTS_PARALLEL:
+        return swk.level_costs(st, positions, stars)
+    half = n // 2
+    other = _beside(helper, swk.level_costs, st, positions[half:], stars)
+    ks, cs = swk.level_costs(st, positions[:half], stars)
+    ks2, cs2 = other()
+    return np.concatenate((ks, ks2)), np.concatenate((cs, cs2))
+
+
+def _sampled_deviation(helper: ThreadPoolExecutor | None, args: tuple) -> np.ndarray:
+    """:func:`.sw_deviation.deviation_costs` of ``args``, on this thread and the ``helper`` thread where there
+    are enough rows: blocks of :data:`_DEVIATION_BLOCK` rows taken in turn by either thread, then
+    :func:`.sw_deviation.deviation_join` (the same output, bit for bit)."""
+    n = args[1].shape[0]
+    if helper is None or n < _DEVIATION_PARALLEL:
+        return swd.deviation_costs(*args)
+    out = np.empty_like(args[3])
+    hint_at = np.empty(n, np.int64)
+    count = -(-n // _DEVIATION_BLOCK)
+    end_hint = np.zeros(count, np.int64)
+    blocks = itertools.count()  # next() is atomic: each block goes to one thread
+
+    def run() -> None:
+        for j in blocks:
+            if j >= count:
+                return
+            lo = j * _DEVIATION_BLOCK
+            end_hint[j] = swd.deviation_rows(*args, lo, min(n, lo + _DEVIATION_BLOCK), 0, out, hint_at)
+
+    other = helper.submit(run)
+    run()
+    other.result()
+    swd.deviation_join(*args, _DEVIATION_BLOCK, end_hint, out, hint_at)
+    return out
+
+
 def _build_topology(mesh: Mesh, st, *args, **kwargs):
     """:func:`_build_levels` with its levels finished (:func:`_finish_level`) on a worker thread where the
     machine has a second core, inline otherwise (the same pool either way)."""
@@ -810,8 +882,11 @@ def _build_topology(mesh: Mesh, st, *args, **kwargs):
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     threads = FINISH_IN_THREAD and not getattr(_THIS_THREAD, "inline", False) and cores > 1
     worker = ThreadPoolExecutor(max_workers=1) if threads else None
+    helper = ThreadPoolExecutor(max_workers=1) if threads else None
     try:
-        levels, recs_all, info_all, gtris, ng = _build_levels(mesh, st, pending, worker, *args, **kwargs)
+        levels, recs_all, info_all, gtris, ng = _build_levels(
+            mesh, st, pending, worker, helper, *args, **kwargs
+        )
         # the levels the worker has not started are finished here, last first, beside it
         finished = [None] * len(pending)
         for i in range(len(pending) - 1, -1, -1):
@@ -821,6 +896,8 @@ def _build_topology(mesh: Mesh, st, *args, **kwargs):
     finally:
         if worker is not None:
             worker.shutdown(wait=True, cancel_futures=True)
+        if helper is not None:
+            helper.shutdown(wait=True, cancel_futures=True)
     for li, lev in enumerate(levels):
         if lev is None:
             lev, recs_all[li], info_all[li] = next(done)
@@ -950,9 +1027,10 @@ def _absorb(st, pt_start, pt, alive_t, min_shared: int, stars, rounds: int):
     return pt_start, pt
 
 
-def _select_fresh(tp: np.ndarray, P: int, eligible: np.ndarray, tiebreak: np.ndarray, inner_vertices: int):
-    """The position graph of a level and its minimum-degree patches (the start of a fully stored level)."""
-    adj_start, adj = _adjacency(tp, P)
+def _select_fresh(adjacency: tuple, eligible: np.ndarray, tiebreak: np.ndarray, inner_vertices: int):
+    """The position graph of a level (:func:`_adjacency`) and its minimum-degree patches (the start of a fully
+    stored level)."""
+    adj_start, adj = adjacency
     inner_start, inner = swc.select_patches(adj_start, adj, eligible, tiebreak, inner_vertices)
     return adj_start, adj, inner_start, inner
 
