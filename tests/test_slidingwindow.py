@@ -1061,11 +1061,14 @@ def test_the_bounded_search_is_exact_beyond_its_bound() -> None:
     q = rng.normal(size=(400, 3)) * rng.uniform(0.5, 1.5, (400, 1))
     exact = point_triangle_distances(q, pts, s.triangles) ** 2
     stack = np.empty(_STACK, np.int64)
+    stack_d = np.empty(_STACK, np.float64)
     hint = 0
     beyond = within = 0
     for i in range(q.shape[0]):
         bound = float(rng.choice([0.0, exact[i] * 0.5, exact[i] * 2.0]))
-        d, hint = _nearest2(q[i, 0], q[i, 1], q[i, 2], bound, hint, tv, nmin, nmax, na, nb, stack, 10**6)
+        d, hint = _nearest2(
+            q[i, 0], q[i, 1], q[i, 2], bound, hint, tv, nmin, nmax, na, nb, stack, 10**6, stack_d
+        )
         if exact[i] > bound:
             assert d == pytest.approx(exact[i], rel=1e-9, abs=1e-15)
             beyond += 1
@@ -1075,7 +1078,7 @@ def test_the_bounded_search_is_exact_beyond_its_bound() -> None:
     assert beyond > 100 and within > 100
     # out of budget (no node may be opened, no hint leaf): the bound, as if the point were that near
     for i in range(20):
-        d, _ = _nearest2(q[i, 0], q[i, 1], q[i, 2], 1e-12, 0, tv, nmin, nmax, na, nb, stack, 0)
+        d, _ = _nearest2(q[i, 0], q[i, 1], q[i, 2], 1e-12, 0, tv, nmin, nmax, na, nb, stack, 0, stack_d)
         assert d == 1e-12 < exact[i]
 
 

@@ -626,7 +626,7 @@ def _build_levels(
         tp, positions = swk.level_positions(alive_t, st.tri_verts, st.vertex_pos, P)
         # the level's position graph (for its patch centres) on the helper meanwhile
         adjacency = _beside(helper, _adjacency, tp, P)
-        stars = star_snapshot(st)  # the state is read-only until collapse_patches
+        stars = star_snapshot(st, positions)  # the state is read-only until collapse_patches
         ks, cs = _level_costs(helper, st, positions, stars)
         rank_cs = cs
         if surface_of is not None:

@@ -121,6 +121,7 @@ def deviation_rows(
     ``hi - 1``. A row depends on the rows before it only through that hint, which decides where a search
     that runs out of its ``budget`` stops (:func:`swpm_usd.metrics._nearest2`)."""
     stack = np.empty(_STACK, np.int64)
+    stack_d = np.empty(_STACK, np.float64)
     for i in range(lo, hi):
         hint_at[i] = hint
         out[i] = costs[i]
@@ -150,7 +151,7 @@ def deviation_rows(
                 py = w0 * pts[c0, 1] + w1 * pts[c1, 1] + w2 * pts[c2, 1]
                 pz = w0 * pts[c0, 2] + w1 * pts[c1, 2] + w2 * pts[c2, 2]
                 d, hint = _nearest2(
-                    px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget
+                    px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d
                 )
                 if d > m:
                     m = d

@@ -140,13 +140,17 @@ def mesh_topology(mesh: Mesh) -> MeshTopology:
     two = counts == 2
     h0 = order[starts[two]]
     h1 = order[starts[two] + 1]
-    consistent = ha[h0] == hb[h1]
-    # vertices at (lo, hi) on each side; a seam when they differ
-    v0_lo = np.where(ha[h0] == lo[h0], va[h0], vb[h0])
-    v0_hi = np.where(ha[h0] == lo[h0], vb[h0], va[h0])
-    v1_lo = np.where(ha[h1] == lo[h1], va[h1], vb[h1])
-    v1_hi = np.where(ha[h1] == lo[h1], vb[h1], va[h1])
-    seam = (v0_lo != v1_lo) | (v0_hi != v1_hi)  # on inconsistently oriented edges too
+    ha0 = ha[h0]
+    ha1 = ha[h1]
+    consistent = ha0 == hb[h1]
+    # vertices at (lo, hi) on each side; a seam when they differ (each gathered once: these gathers of a
+    # value per edge were most of the time)
+    up0 = ha0 == lo[h0]
+    up1 = ha1 == lo[h1]
+    va0, vb0, va1, vb1 = va[h0], vb[h0], va[h1], vb[h1]
+    seam = (np.where(up0, va0, vb0) != np.where(up1, va1, vb1)) | (  # on inconsistently oriented edges too
+        np.where(up0, vb0, va0) != np.where(up1, vb1, va1)
+    )
     sh0 = h0[seam]
     sh1 = h1[seam]
     seam_edges = np.concatenate([np.stack([ha[sh0], hb[sh0]], 1), np.stack([ha[sh1], hb[sh1]], 1)]).astype(
