@@ -314,8 +314,10 @@ _DEVIATION_BUDGET = 512
 #: in blocks of ``_DEVIATION_BLOCK`` rows (:func:`_sampled_deviation`; the same costs, bit for bit)
 _DEVIATION_PARALLEL = 256
 _DEVIATION_BLOCK = 64
-#: levels of at least this many positions find their best collapses on two threads (:func:`_level_costs`)
+#: levels of at least this many positions find their best collapses on two threads, in blocks of
+#: ``_COSTS_BLOCK`` (:func:`_level_costs`)
 _COSTS_PARALLEL = 1024
+_COSTS_BLOCK = 256
 
 
 #: iterations of the centre search (:func:`sw_centres.grow_independent_set`) per eligible vertex: the
@@ -819,8 +821,9 @@ def _build_levels(
 
 
 def _beside(helper: ThreadPoolExecutor | None, fn, *args):
-    """``fn(*args)`` on the ``helper`` thread while this one goes on: a callable that returns its result
-    (computed on this thread if the helper has not started it by then; at once without a helper)."""
+    """``fn(*args)`` (a pure function) on the ``helper`` thread while this one goes on: a callable that
+    returns its result, or computes it on this thread if the helper has not finished it by then (this thread
+    never waits for the helper: on a loaded machine the helper may wait for a core); at once without one."""
     if helper is None:
         value = fn(*args)
         return lambda: value
@@ -829,48 +832,83 @@ def _beside(helper: ThreadPoolExecutor | None, fn, *args):
 
     def result():
         if not done:
-            done.append(fn(*args) if future.cancel() else future.result())
+            done.append(future.result() if future.done() and not future.cancelled() else fn(*args))
+            future.cancel()
         return done[0]
 
     return result
 
 
+def _share(helper: ThreadPoolExecutor, count: int, work) -> set:
+    """Items ``0 .. count - 1`` done as ``work(j, here)`` by this thread (``here`` True) and the ``helper``
+    thread (False), each taking the next item in turn; returns the items the helper finished. This thread
+    never waits for the helper: it does again those the helper has taken and not finished when none is
+    left (``work`` must give the same result on either thread, into separate outputs)."""
+    items = itertools.count()  # next() is atomic: each item goes to one thread
+    finished: list = []  # by the helper (list.append is atomic)
+
+    def run() -> None:
+        for j in items:
+            if j >= count:
+                return
+            work(j, False)
+            finished.append(j)
+
+    future = helper.submit(run)
+    mine = set()
+    for j in items:
+        if j >= count:
+            break
+        work(j, True)
+        mine.add(j)
+    future.cancel()
+    theirs = set(finished)
+    for j in range(count):
+        if j not in mine and j not in theirs:
+            work(j, True)
+    return theirs
+
+
 def _level_costs(helper: ThreadPoolExecutor | None, st, positions: np.ndarray, stars):
-    """:func:`.sw_kernels.level_costs`, the second half of a large level's positions on the ``helper``
-    thread (each position's best collapse reads the state alone: the same costs)."""
+    """:func:`.sw_kernels.level_costs`, a large level's positions in blocks of :data:`_COSTS_BLOCK` on this
+    thread and the ``helper`` thread (each position's best collapse reads the state alone: the same costs)."""
     n = positions.shape[0]
     if helper is None or n < _COSTS_PARALLEL:
         return swk.level_costs(st, positions, stars)
-    half = n // 2
-    other = _beside(helper, swk.level_costs, st, positions[half:], stars)
-    ks, cs = swk.level_costs(st, positions[:half], stars)
-    ks2, cs2 = other()
-    return np.concatenate((ks, ks2)), np.concatenate((cs, cs2))
+    count = -(-n // _COSTS_BLOCK)
+    parts = [[None] * count, [None] * count]  # by the helper, by this thread
+
+    def work(j: int, here: bool) -> None:
+        parts[here][j] = swk.level_costs(st, positions[j * _COSTS_BLOCK : (j + 1) * _COSTS_BLOCK], stars)
+
+    theirs = _share(helper, count, work)
+    got = [parts[j not in theirs][j] for j in range(count)]
+    return np.concatenate([g[0] for g in got]), np.concatenate([g[1] for g in got])
 
 
 def _sampled_deviation(helper: ThreadPoolExecutor | None, args: tuple) -> np.ndarray:
     """:func:`.sw_deviation.deviation_costs` of ``args``, on this thread and the ``helper`` thread where there
-    are enough rows: blocks of :data:`_DEVIATION_BLOCK` rows taken in turn by either thread, then
-    :func:`.sw_deviation.deviation_join` (the same output, bit for bit)."""
+    are enough rows: blocks of :data:`_DEVIATION_BLOCK` rows, each started from no search hint
+    (:func:`_share`), then :func:`.sw_deviation.deviation_join` (the same output, bit for bit)."""
     n = args[1].shape[0]
     if helper is None or n < _DEVIATION_PARALLEL:
         return swd.deviation_costs(*args)
-    out = np.empty_like(args[3])
-    hint_at = np.empty(n, np.int64)
     count = -(-n // _DEVIATION_BLOCK)
-    end_hint = np.zeros(count, np.int64)
-    blocks = itertools.count()  # next() is atomic: each block goes to one thread
+    # (out, hint_at, end_hint) of each thread: the helper's rows are copied once it has finished them
+    bufs = [(np.empty_like(args[3]), np.empty(n, np.int64), np.zeros(count, np.int64)) for _ in range(2)]
 
-    def run() -> None:
-        for j in blocks:
-            if j >= count:
-                return
-            lo = j * _DEVIATION_BLOCK
-            end_hint[j] = swd.deviation_rows(*args, lo, min(n, lo + _DEVIATION_BLOCK), 0, out, hint_at)
+    def work(j: int, here: bool) -> None:
+        out, hint_at, end_hint = bufs[here]
+        lo = j * _DEVIATION_BLOCK
+        end_hint[j] = swd.deviation_rows(*args, lo, min(n, lo + _DEVIATION_BLOCK), 0, out, hint_at)
 
-    other = helper.submit(run)
-    run()
-    other.result()
+    theirs = _share(helper, count, work)
+    out, hint_at, end_hint = bufs[True]
+    for j in theirs:
+        rows = slice(j * _DEVIATION_BLOCK, (j + 1) * _DEVIATION_BLOCK)
+        out[rows] = bufs[False][0][rows]
+        hint_at[rows] = bufs[False][1][rows]
+        end_hint[j] = bufs[False][2][j]
     swd.deviation_join(*args, _DEVIATION_BLOCK, end_hint, out, hint_at)
     return out
 
