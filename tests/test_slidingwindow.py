@@ -1178,6 +1178,7 @@ def test_deviation_costs_on_two_threads_are_the_sequential_ones(monkeypatch: pyt
         assert np.array_equal(out, want)
         monkeypatch.setattr(sw, "_DEVIATION_PARALLEL", 1)
         monkeypatch.setattr(sw, "_DEVIATION_BLOCK", 23)
+        monkeypatch.setattr(sw, "_SHARE_BLOCKS", 1000)  # blocks of 23 rows
         with ThreadPoolExecutor(max_workers=1) as helper:
             assert np.array_equal(sw._sampled_deviation(helper, args), want)
         assert np.array_equal(sw._sampled_deviation(None, args), want)

@@ -311,13 +311,17 @@ _DEVIATION_SHARE = 0.5
 #: cone of 80,000 sections 24 s without, 4.1 s with it)
 _DEVIATION_BUDGET = 512
 #: levels of at least this many sampled positions search them on two threads (the main one and a helper),
-#: in blocks of ``_DEVIATION_BLOCK`` rows (:func:`_sampled_deviation`; the same costs, bit for bit)
+#: in ``_SHARE_BLOCKS`` blocks of at least ``_DEVIATION_BLOCK`` rows (:func:`_sampled_deviation`; the same
+#: costs, bit for bit)
 _DEVIATION_PARALLEL = 256
 _DEVIATION_BLOCK = 64
-#: levels of at least this many positions find their best collapses on two threads, in blocks of
+#: levels of at least this many positions find their best collapses on two threads, in blocks of at least
 #: ``_COSTS_BLOCK`` (:func:`_level_costs`)
 _COSTS_PARALLEL = 1024
 _COSTS_BLOCK = 256
+#: blocks of a level's work shared by the two threads (:func:`_share`): more blocks balance the threads
+#: better (the main thread does again at most the block the helper is in), fewer take the GIL less often
+_SHARE_BLOCKS = 16
 
 
 #: iterations of the centre search (:func:`sw_centres.grow_independent_set`) per eligible vertex: the
@@ -870,16 +874,17 @@ def _share(helper: ThreadPoolExecutor, count: int, work) -> set:
 
 
 def _level_costs(helper: ThreadPoolExecutor | None, st, positions: np.ndarray, stars):
-    """:func:`.sw_kernels.level_costs`, a large level's positions in blocks of :data:`_COSTS_BLOCK` on this
+    """:func:`.sw_kernels.level_costs`, a large level's positions in blocks (:data:`_SHARE_BLOCKS`) on this
     thread and the ``helper`` thread (each position's best collapse reads the state alone: the same costs)."""
     n = positions.shape[0]
     if helper is None or n < _COSTS_PARALLEL:
         return swk.level_costs(st, positions, stars)
-    count = -(-n // _COSTS_BLOCK)
+    size = max(_COSTS_BLOCK, -(-n // _SHARE_BLOCKS))
+    count = -(-n // size)
     parts = [[None] * count, [None] * count]  # by the helper, by this thread
 
     def work(j: int, here: bool) -> None:
-        parts[here][j] = swk.level_costs(st, positions[j * _COSTS_BLOCK : (j + 1) * _COSTS_BLOCK], stars)
+        parts[here][j] = swk.level_costs(st, positions[j * size : (j + 1) * size], stars)
 
     theirs = _share(helper, count, work)
     got = [parts[j not in theirs][j] for j in range(count)]
@@ -888,28 +893,28 @@ def _level_costs(helper: ThreadPoolExecutor | None, st, positions: np.ndarray, s
 
 def _sampled_deviation(helper: ThreadPoolExecutor | None, args: tuple) -> np.ndarray:
     """:func:`.sw_deviation.deviation_costs` of ``args``, on this thread and the ``helper`` thread where there
-    are enough rows: blocks of :data:`_DEVIATION_BLOCK` rows, each started from no search hint
+    are enough rows: blocks of rows (:data:`_SHARE_BLOCKS`), each started from no search hint
     (:func:`_share`), then :func:`.sw_deviation.deviation_join` (the same output, bit for bit)."""
     n = args[1].shape[0]
     if helper is None or n < _DEVIATION_PARALLEL:
         return swd.deviation_costs(*args)
-    count = -(-n // _DEVIATION_BLOCK)
+    size = max(_DEVIATION_BLOCK, -(-n // _SHARE_BLOCKS))
+    count = -(-n // size)
     # (out, hint_at, end_hint) of each thread: the helper's rows are copied once it has finished them
     bufs = [(np.empty_like(args[3]), np.empty(n, np.int64), np.zeros(count, np.int64)) for _ in range(2)]
 
     def work(j: int, here: bool) -> None:
         out, hint_at, end_hint = bufs[here]
-        lo = j * _DEVIATION_BLOCK
-        end_hint[j] = swd.deviation_rows(*args, lo, min(n, lo + _DEVIATION_BLOCK), 0, out, hint_at)
+        end_hint[j] = swd.deviation_rows(*args, j * size, min(n, (j + 1) * size), 0, out, hint_at)
 
     theirs = _share(helper, count, work)
     out, hint_at, end_hint = bufs[True]
     for j in theirs:
-        rows = slice(j * _DEVIATION_BLOCK, (j + 1) * _DEVIATION_BLOCK)
+        rows = slice(j * size, (j + 1) * size)
         out[rows] = bufs[False][0][rows]
         hint_at[rows] = bufs[False][1][rows]
         end_hint[j] = bufs[False][2][j]
-    swd.deviation_join(*args, _DEVIATION_BLOCK, end_hint, out, hint_at)
+    swd.deviation_join(*args, size, end_hint, out, hint_at)
     return out
 
 
