@@ -371,7 +371,8 @@ _COARSEST_COPY_MIN_GAIN = 0.05
 #: thread while the next level is built (the kernels release the GIL; the pool is the same bit for bit).
 #: Bunny, medians of 3 alternating builds: 1.25 -> 0.98 s without the search, 2.48 -> 1.61 s with two passes
 #: of reach 3; cow 0.11 -> 0.09 s and 0.25 -> 0.17 s. False: every level is finished inline (as inside
-#: :func:`inline_finishing`, which the pipeline's workers use: ``--jobs`` is the pipeline's parallelism)
+#: :func:`inline_finishing`, which the pipeline's workers use: ``--jobs`` is the pipeline's parallelism), and
+#: no helper thread shares the main thread's work either (:func:`_share`, :func:`_beside`)
 FINISH_IN_THREAD = True
 _THIS_THREAD = threading.local()
 
@@ -919,8 +920,9 @@ def _sampled_deviation(helper: ThreadPoolExecutor | None, args: tuple) -> np.nda
 
 
 def _build_topology(mesh: Mesh, st, *args, **kwargs):
-    """:func:`_build_levels` with its levels finished (:func:`_finish_level`) on a worker thread where the
-    machine has a second core, inline otherwise (the same pool either way)."""
+    """:func:`_build_levels` with its levels finished (:func:`_finish_level`) on a worker thread and part of
+    each level's own work on a helper thread (:func:`_share`, :func:`_beside`) where the machine has a second
+    core, inline otherwise (the same pool either way)."""
     pending: list = []
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     threads = FINISH_IN_THREAD and not getattr(_THIS_THREAD, "inline", False) and cores > 1
