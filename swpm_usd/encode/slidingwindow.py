@@ -826,9 +826,9 @@ def _build_levels(
 
 
 def _beside(helper: ThreadPoolExecutor | None, fn, *args):
-    """``fn(*args)`` (a pure function) on the ``helper`` thread while this one goes on: a callable that
-    returns its result, or computes it on this thread if the helper has not finished it by then (this thread
-    never waits for the helper: on a loaded machine the helper may wait for a core); at once without one."""
+    """``fn(*args)`` on the ``helper`` thread while this one goes on: a callable that returns its result, or
+    computes it on this thread if the helper has not started it by then (bunny's BVH is 50 ms: once started,
+    the helper is nearer its end than this thread would be); at once without a helper."""
     if helper is None:
         value = fn(*args)
         return lambda: value
@@ -837,8 +837,7 @@ def _beside(helper: ThreadPoolExecutor | None, fn, *args):
 
     def result():
         if not done:
-            done.append(future.result() if future.done() and not future.cancelled() else fn(*args))
-            future.cancel()
+            done.append(fn(*args) if future.cancel() else future.result())
         return done[0]
 
     return result
