@@ -1027,7 +1027,15 @@ def _build_forsyth(mesh: Mesh, st, tolerance: float, boundary_weight: float, sea
     gtris[:T] = mesh.triangles
     cur_gid = np.arange(T, dtype=np.int64)
     (gtris, ng, level_start, level_gids, patch_level, p_start, p_out, q_start, q_out, recs, info) = (
-        sw_forsyth.forsyth_run(st, float(tolerance) * mean_error, cur_gid, gtris, T)
+        sw_forsyth.forsyth_run(
+            st,
+            float(tolerance) * mean_error,
+            cur_gid,
+            gtris,
+            T,
+            float(sw_forsyth.POOL_BUDGET),
+            float(sw_forsyth.MIN_LEVEL_GAIN),
+        )
     )
     levels = []
     bounds = np.searchsorted(patch_level, np.arange(level_start.shape[0]), side="left")
