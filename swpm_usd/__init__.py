@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__version__ = "0.5.0"
+__version__ = "0.6.0"
 
 from .usd import plugin as _usd_plugin  # noqa: F401, I001 - registers SwpmMeshAPI before any stage use
 

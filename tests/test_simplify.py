@@ -563,3 +563,60 @@ def test_a_flat_strip_is_not_binned_onto_moving_fans() -> None:
         tris, seq.binned.astype(np.int64), seq.kept.astype(np.int64), strip.vertex_count
     )[-1]
     assert corners.shape[0] <= 6 * tris.shape[0]
+
+
+def _rows(tris: np.ndarray) -> set[tuple[int, int, int]]:
+    """Triangles as a set of rows, each turned to start at its smallest index (winding kept)."""
+    t = np.asarray(tris, np.int64)
+    r = np.argmin(t, axis=1)
+    turned = np.stack([t[np.arange(len(t)), (r + i) % 3] for i in range(3)], axis=1)
+    return set(map(tuple, turned.tolist()))
+
+
+def test_step_geometric_errors_bound_the_new_triangles_distance():
+    """A LOD's error (the running maximum over its steps) is at least every step's quadric error and the
+    distance from the input of the centroids of the triangles each step created, and a step raises it to at
+    most the farthest of its new triangles' centroids and edge midpoints (the samples are each fan
+    triangle's centroid and new edge's midpoint); the exact distances here come from
+    ``metrics.point_triangle_distances``, not the kernel's bounded searches."""
+    from swpm_usd.metrics import point_triangle_distances
+
+    mesh = shared_mesh("cow.obj")
+    seq = shared_sequence("cow.obj")
+    geo = seq.step_geometric_error
+    assert geo is not None and geo.shape == seq.step_error.shape
+    assert np.all(geo >= seq.step_error)
+    lod = seq.lod_errors()
+    assert np.array_equal(lod, np.r_[0.0, np.maximum.accumulate(geo)])
+    pts = mesh.points.astype(np.float64)
+    raising = np.flatnonzero(geo > seq.step_error)  # where the samples, not the quadric, set the error
+    assert raising.shape[0] >= 10
+    for s in np.union1d(_sample_steps(seq, 40)[:-1], raising[:: max(1, raising.shape[0] // 20)]):
+        new = np.array(sorted(_rows(seq.triangles_at_step(s + 1)) - _rows(seq.triangles_at_step(s))))
+        if new.size == 0:
+            continue
+        corners = pts[new]
+        centroids = corners.mean(axis=1)
+        midpoints = ((corners + corners[:, [1, 2, 0]]) / 2).reshape(-1, 3)
+        d_c = point_triangle_distances(centroids, pts, mesh.triangles).max()
+        d_all = max(d_c, point_triangle_distances(midpoints, pts, mesh.triangles).max())
+        assert lod[s + 1] >= d_c * (1 - 1e-9) - 1e-12
+        assert lod[s + 1] <= max(lod[s], d_all, seq.step_error[s]) * (1 + 1e-9) + 1e-12
+
+
+@pytest.mark.parametrize("encoding", ["vanilla", "sliding-window"])
+def test_reported_lod_errors_are_near_the_measured_hausdorff_error(encoding):
+    """A LOD's reported error (what ``lod_for_error`` and the USD LOD thresholds select by) is within a
+    factor of its Hausdorff error measured by sampling. The quadric distance alone, reported until 0.6, was
+    2.1-2.8 times below it on spot for the quadric order (vanilla)."""
+    import swpm_usd
+    from swpm_usd.metrics import surface_error
+
+    mesh = shared_mesh("spot.obj")
+    pm = swpm_usd.build(mesh, encoding=encoding)
+    diag = float(np.linalg.norm(mesh.points.max(axis=0) - mesh.points.min(axis=0)))
+    for f in (0.5, 0.25, 0.1):
+        k = pm.lod_for_triangles(int(f * mesh.triangle_count))
+        measured = surface_error(mesh.points, mesh.triangles, pm.points, pm.triangles_at(k), samples=20000)
+        ratio = measured.hausdorff * diag / pm.error_at(k)
+        assert 0.4 <= ratio <= 1.6, (f, ratio)

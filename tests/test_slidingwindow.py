@@ -797,6 +797,37 @@ def test_a_non_manifold_hub_builds_valid_windows(settings: dict) -> None:
     _check_all(pm, mesh, closed=False, every=37)
 
 
+def test_forsyth_levels_past_the_pool_budget_remove_their_share(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Forsyth's tolerance starts a level whenever the best collapse touches the current one and no other is
+    close enough; on a random hub that happens every few dozen collapses and the pool grew with the square
+    of the mesh (20,000 triangles: lambda 94). Past ``POOL_BUDGET`` times LOD 0's triangles stored as level
+    heads, a level removes ``MIN_LEVEL_GAIN`` of its triangles before the next starts: a smaller pool, every
+    window still the replay of the sequence."""
+    from swpm_usd.encode import sw_forsyth
+
+    rng = np.random.default_rng(5)
+    n = 3000
+    corners = np.c_[np.zeros(n, int), rng.integers(1, n + 1, (n, 2))]
+    mesh = Mesh.from_arrays(rng.normal(size=(n + 1, 3)), corners)
+    free = build_sliding_window(mesh, builder="forsyth")
+    monkeypatch.setattr(sw_forsyth, "POOL_BUDGET", 4.0)
+    pm = build_sliding_window(mesh, builder="forsyth")
+    assert pm.index_pool.shape[0] < 0.85 * free.index_pool.shape[0]
+    T0 = mesh.triangle_count
+    heads, shares = 0, []
+    for level in np.unique(pm.lod_level):
+        ks = np.flatnonzero(pm.lod_level == level)
+        start = pm.triangle_count_at(int(ks[0]))
+        end = pm.triangle_count_at(min(int(ks[-1]) + 1, pm.lod_count - 1))
+        if heads > 4.0 * T0:  # this level started past the budget
+            shares.append((start - end) / start)
+        heads += start
+    assert len(shares) >= 5
+    # all but the levels where no collapse that leaves the level alone is left (the last ones)
+    assert np.mean(np.array(shares) >= sw_forsyth.MIN_LEVEL_GAIN) >= 0.75
+    _check_all(pm, mesh, closed=False, every=23)
+
+
 def _suzanne_with_fan(n: int) -> Mesh:
     """Suzanne with ``n`` extra triangles standing on one of its edges, tips scattered about it."""
     base = shared_mesh("suzanne.obj")

@@ -74,6 +74,7 @@ from ..mesh import Mesh
 from ..metrics import cache_misses
 from ..simplify import CollapseSequence, collapse_sequence, make_state, mesh_topology
 from ..simplify.kernels import star_snapshot
+from ..simplify.sequence import step_geometric_errors
 from ..vcache import apply_order, optimize_block_order
 from . import sw_centres as swc
 from . import sw_deviation as swd
@@ -1143,13 +1144,23 @@ def _linked_level(gtris, ng, head, p_start, p_out, q_start, q_out, patch_steps, 
 def _build_forsyth(mesh: Mesh, st, tolerance: float, boundary_weight: float, seam_weight: float):
     T = mesh.triangle_count
     # Forsyth's tolerance is relative to the average collapse error of the plain quadric sequence
-    ref = collapse_sequence(mesh, boundary_weight=boundary_weight, seam_weight=seam_weight)
+    ref = collapse_sequence(
+        mesh, boundary_weight=boundary_weight, seam_weight=seam_weight, geometric_error=False
+    )
     mean_error = float(ref.step_error.mean()) if ref.step_count else 0.0
     gtris = np.empty((max(16, 2 * T), 3), np.int64)
     gtris[:T] = mesh.triangles
     cur_gid = np.arange(T, dtype=np.int64)
     (gtris, ng, level_start, level_gids, patch_level, p_start, p_out, q_start, q_out, recs, info) = (
-        sw_forsyth.forsyth_run(st, float(tolerance) * mean_error, cur_gid, gtris, T)
+        sw_forsyth.forsyth_run(
+            st,
+            float(tolerance) * mean_error,
+            cur_gid,
+            gtris,
+            T,
+            float(sw_forsyth.POOL_BUDGET),
+            float(sw_forsyth.MIN_LEVEL_GAIN),
+        )
     )
     levels = []
     bounds = np.searchsorted(patch_level, np.arange(level_start.shape[0]), side="left")
@@ -1203,7 +1214,10 @@ def _assemble(
     info: np.ndarray,
     cache_size: int,
     coarsest_copy: bool = True,
+    step_geometric: np.ndarray | None = None,
 ) -> SlidingWindowProgressiveMesh:
+    """The pool, records and vertex order from the levels. ``step_geometric``: per step, the error the LODs
+    accumulate (:func:`swpm_usd.simplify.sequence.step_geometric_errors`; default the quadric error)."""
     V, T = mesh.vertex_count, mesh.triangle_count
     binned, kept, step = recs[:, 0], recs[:, 1], recs[:, 2]
     C = binned.shape[0]
@@ -1220,7 +1234,8 @@ def _assemble(
     rec_after_step = np.zeros(S + 1, np.int64)
     np.cumsum(np.bincount(step, minlength=S), out=rec_after_step[1:])
     step_err = info[:, 0] if S else np.zeros(0)
-    err_after = np.r_[0.0, np.maximum.accumulate(step_err)] if S else np.zeros(1)
+    lod_err = step_err if step_geometric is None else step_geometric
+    err_after = np.r_[0.0, np.maximum.accumulate(lod_err)] if S else np.zeros(1)
 
     parts = []
     rows = []  # per level: (first triangle, triangle count, steps done, level) of every window
@@ -1310,6 +1325,7 @@ def _assemble(
         step_offsets=step_offsets,
         binned_position=info[:, 1].astype(np.int32) if S else np.zeros(0, np.int32),
         kept_position=info[:, 2].astype(np.int32) if S else np.zeros(0, np.int32),
+        step_geometric_error=step_geometric,
     )
     pm.lod_steps = lod_steps
     pm.source_vertex = perm
@@ -1397,6 +1413,12 @@ def build_sliding_window(
         )
     else:
         gtris, levels, recs, info = _build_forsyth(mesh, st, float(tolerance), boundary_weight, seam_weight)
-    pm = _assemble(mesh, gtris, levels, recs, info, int(cache_size), bool(coarsest_copy))
+    # each step's error as the LODs report it: the quadric's, or how far its new triangles lie from LOD 0
+    # if farther (a fresh state replays the steps)
+    fresh = make_state(mesh, topo, boundary_weight=boundary_weight, seam_weight=seam_weight)
+    geometric = step_geometric_errors(
+        mesh, fresh, info[:, 1].astype(np.int64), info[:, 2].astype(np.int64), info[:, 0]
+    )
+    pm = _assemble(mesh, gtris, levels, recs, info, int(cache_size), bool(coarsest_copy), geometric)
     pm.params["order_passes"] = int(order_passes)  # what ran (None resolved)
     return pm

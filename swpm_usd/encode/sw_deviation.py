@@ -21,34 +21,10 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .. import metrics
 from ..metrics import _STACK, _nearest2, _tri_dist2
+from ..simplify.fan_deviation import SAMPLES, _fan_triangle, surface_bvh
 
-#: per fan triangle ``(k, u, v)`` (barycentric weights): its centroid and the midpoint of its new edge ``k u``
-#: (``u v`` is an edge of the mesh already; ``v k`` is the next fan triangle's ``k u``, except at the end of a
-#: boundary vertex's fan, whose last new edge goes unsampled: the boundary quadrics hold that edge)
-SAMPLES = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0]], dtype=np.float64)
-
-
-def surface_bvh(points: np.ndarray, triangles: np.ndarray) -> tuple:
-    """The input surface for :func:`deviation_costs`: its triangles sorted into a BVH (as metrics' own)."""
-    return metrics.surface_bvh(metrics._triangle_vertices(points, triangles))
-
-
-@nb.njit(cache=True, inline="always")
-def _fan_triangle(star_tp: np.ndarray, r: int, b: int, k: int) -> tuple[int, int, int]:
-    """Star row ``r`` of ``b`` after ``b`` moves onto ``k``, turned to start at ``k`` with its winding kept:
-    ``(k, u, v)``; ``(-1, -1, -1)`` if the row holds ``k`` (it collapses away)."""
-    c0 = star_tp[r, 0]
-    c1 = star_tp[r, 1]
-    c2 = star_tp[r, 2]
-    if c0 == k or c1 == k or c2 == k:
-        return -1, -1, -1
-    if c0 == b:
-        return k, c1, c2
-    if c1 == b:
-        return k, c2, c0
-    return k, c0, c1
+__all__ = ["SAMPLES", "deviation_costs", "surface_bvh"]
 
 
 @nb.njit(cache=True, inline="always")

@@ -65,12 +65,36 @@ def _stale(b: int, target: np.ndarray, grown: tuple) -> bool:
     return k >= 0 and grown[0][k] - grown[1][b] > grown[2][k] // K.HUB_SIZE
 
 
+#: the levels' starting triangles stored so far, in LOD 0's triangles, past which a level must remove at least
+#: :data:`MIN_LEVEL_GAIN` of its triangles before another starts. The tolerance alone starts a level whenever
+#: the best collapse touches the current one and no other is close enough: on a mesh where that happens after
+#: a few collapses the pool grows with the square of the mesh (a hub of 20,000 random triangles: 168 levels,
+#: lambda 94; its levels grow with the mesh, so a 1 M-triangle file asked for tens of GB). The ten shared
+#: meshes stay below it (nefertiti stores the most: 34.8 times its triangles, lambda 36.3), so their pools
+#: are unchanged.
+POOL_BUDGET = 40.0
+#: past :data:`POOL_BUDGET`: the fraction of its starting triangles a level removes, beyond the tolerance
+#: if need be, before a new level starts (the topology-driven builder's ``_MIN_LEVEL_GAIN``)
+MIN_LEVEL_GAIN = 0.05
+
+
 @nb.njit(cache=True)
-def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, gtris: np.ndarray, ng: int):
+def forsyth_run(
+    st: K.CollapseState,
+    tolerance_abs: float,
+    cur_gid: np.ndarray,
+    gtris: np.ndarray,
+    ng: int,
+    pool_budget: float = POOL_BUDGET,
+    min_level_gain: float = MIN_LEVEL_GAIN,
+):
     """Quadric-error collapses, one patch (the star of the binned position) each, grouped into levels
     (Forsyth, "Comparison of VIPM Methods", sliding window): a collapse may not touch a triangle created
     in the current level. When the best collapse would, the best one that does not is taken if its error
-    (a distance) exceeds the best one's by at most ``tolerance_abs``; otherwise a new level starts.
+    (a distance) exceeds the best one's by at most ``tolerance_abs``; otherwise a new level starts. Once the
+    levels' starting triangles pass ``pool_budget`` times LOD 0's, a level removes at least
+    ``min_level_gain`` of its triangles before another starts (the best collapse that touches no triangle of
+    it, however far from the best one).
 
     Returns ``(gtris, ng, level_start, level_gids, patch_level, p_start, p_out, q_start, q_out, recs,
     step_info)``: per level the global ids of its starting triangles (CSR), per patch (= step) its level
@@ -92,6 +116,9 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
             nlg += 1
     level_start[1] = nlg
     nlev = np.int64(1)
+    budget = pool_budget * nlg
+    level_alive = nlg  # the current level's starting triangles, and those it removed
+    level_removed = np.int64(0)
     patch_level = np.empty(max(16, P), np.int64)
     p_start = np.zeros(max(16, P) + 1, np.int64)
     q_start = np.zeros(max(16, P) + 1, np.int64)
@@ -160,6 +187,8 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
                 # back at every step (quadratic on large meshes)
                 dk, di, ds, dsize = K._heap_push(dk, di, ds, dsize, cost, b, s)
                 limit = np.sqrt(cost) + tolerance_abs
+                if nlg > budget and level_removed < min_level_gain * level_alive:
+                    limit = np.inf
                 found = -1
                 while size > 0:
                     c2, b2, s2, size = K._heap_pop(keys, ids, stamps, size)
@@ -195,6 +224,8 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
                         if alive[t]:
                             level_gids[nlg] = cur_gid[t]
                             nlg += 1
+                    level_alive = nlg - level_start[nlev]
+                    level_removed = 0
                     nlev += 1
                     level_start[nlev] = nlg
                     continue
@@ -225,6 +256,8 @@ def forsyth_run(st: K.CollapseState, tolerance_abs: float, cur_gid: np.ndarray, 
             for j in range(tris_p.shape[0]):
                 if alive[tris_p[j]]:
                     tri_level[tris_p[j]] = level
+                else:
+                    level_removed += 1
             if nstep + 1 >= patch_level.shape[0]:
                 patch_level = _grow_i64(patch_level, nstep + 2)
                 p_start = _grow_i64(p_start, nstep + 3)

@@ -254,6 +254,8 @@ class CollapseSequence:
     Per vertex collapse ``c``: ``binned[c]`` moves onto ``kept[c]`` (original vertex ids), ``step[c]`` is
     the position collapse it belongs to and ``error[c]`` that step's quadric error (a distance).
     Errors are raw (not monotone); :meth:`lod_errors` gives the non-decreasing per-step figure.
+    ``step_geometric_error[s]`` (when measured): the larger of step ``s``'s quadric error and how far its new
+    triangles lie from the input (:mod:`.fan_deviation`), the figure :meth:`lod_errors` accumulates.
     ``step_offsets[s]`` is the number of vertex collapses done after ``s`` steps (``step_count + 1``
     entries): a level of detail is a whole number of steps.
     """
@@ -267,6 +269,7 @@ class CollapseSequence:
     step_offsets: np.ndarray
     binned_position: np.ndarray
     kept_position: np.ndarray
+    step_geometric_error: np.ndarray | None = None
 
     @property
     def collapse_count(self) -> int:
@@ -296,8 +299,10 @@ class CollapseSequence:
         return t[keep]
 
     def lod_errors(self) -> np.ndarray:
-        """(step_count + 1,) error after ``s`` steps: the worst step so far (0 at full detail)."""
-        return np.r_[0.0, np.maximum.accumulate(self.step_error)] if self.step_count else np.zeros(1)
+        """(step_count + 1,) error after ``s`` steps: the worst step so far (0 at full detail), by
+        ``step_geometric_error`` when measured, else by the quadric error."""
+        err = self.step_error if self.step_geometric_error is None else self.step_geometric_error
+        return np.r_[0.0, np.maximum.accumulate(err)] if self.step_count else np.zeros(1)
 
     def triangles_at_step(self, s: int) -> np.ndarray:
         """Triangles after ``s`` whole steps (``s`` in ``[0, step_count]``)."""
@@ -310,17 +315,23 @@ def collapse_sequence(
     boundary_weight: float = 8.0,
     seam_weight: float = 2.0,
     locked_positions: np.ndarray | None = None,
+    geometric_error: bool = True,
 ) -> CollapseSequence:
-    """Collapse ``mesh`` down to its coarsest valid form in quadric-error order."""
+    """Collapse ``mesh`` down to its coarsest valid form in quadric-error order. ``geometric_error``: also
+    measure how far each step's new triangles lie from the input (``step_geometric_error``)."""
     topo = mesh_topology(mesh)
-    st = make_state(
-        mesh,
-        topo,
-        boundary_weight=boundary_weight,
-        seam_weight=seam_weight,
-        locked_positions=locked_positions,
-    )
-    binned, kept, step, step_error, step_b, step_k = kernels.run_sequence(st, 3)
+
+    def state():
+        return make_state(
+            mesh,
+            topo,
+            boundary_weight=boundary_weight,
+            seam_weight=seam_weight,
+            locked_positions=locked_positions,
+        )
+
+    binned, kept, step, step_error, step_b, step_k = kernels.run_sequence(state(), 3)
+    geometric = step_geometric_errors(mesh, state(), step_b, step_k, step_error) if geometric_error else None
     offsets = np.zeros(step_error.shape[0] + 1, np.int64)
     np.cumsum(np.bincount(step, minlength=step_error.shape[0]), out=offsets[1:])
     return CollapseSequence(
@@ -333,4 +344,31 @@ def collapse_sequence(
         step_offsets=offsets,
         binned_position=step_b,
         kept_position=step_k,
+        step_geometric_error=geometric,
+    )
+
+
+def step_geometric_errors(
+    mesh: Mesh, st: kernels.CollapseState, step_b: np.ndarray, step_k: np.ndarray, step_error: np.ndarray
+) -> np.ndarray:
+    """Per step of a sequence that starts from ``st`` (a fresh :func:`make_state` of ``mesh``, collapsed by
+    the replay): the larger of ``step_error`` and how far the step's new triangles lie from ``mesh``
+    (:func:`.fan_deviation.step_deviations`)."""
+    from . import fan_deviation as fd
+
+    if step_b.shape[0] == 0:
+        return np.zeros(0)
+    pts = st.pos_points
+    bvh, hints = fd.surface_with_hints(pts, st.vertex_pos[np.asarray(mesh.triangles)])
+    diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))) if pts.shape[0] else 0.0
+    return fd.step_deviations(
+        st,
+        np.ascontiguousarray(step_b, np.int64),
+        np.ascontiguousarray(step_k, np.int64),
+        np.ascontiguousarray(step_error, np.float64),
+        fd.SAMPLES,
+        fd.SEARCH_BUDGET,
+        fd.DISTANCE_FLOOR * diag,
+        hints,
+        *bvh,
     )

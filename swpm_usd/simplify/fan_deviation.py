@@ -1,0 +1,163 @@
+"""Fan deviation: how far the triangles a half-edge collapse creates lie from the input surface.
+
+A collapse's quadric cost (Garland and Heckbert, :func:`.kernels.collapse_cost`) is the area-weighted *mean*
+squared distance of the kept point from the planes its positions gathered. Its square root, the error every
+LOD reported until 0.6, is blind to the new triangles' interiors: at 50/25/10 % of the triangles of the ten
+shared meshes the Hausdorff error of a LOD (``metrics.surface_error``) was 0.88-7.93 times it (geometric mean
+2.79) for the quadric order, 0.60-1.61 (1.18) for the sliding window. A renderer that picks LODs by that
+error, or USD's LOD thresholds computed from it, then drew LODs with several times the error asked for,
+and more so for the quadric order's encodings than for the sliding window's.
+
+:func:`step_deviations` replays a collapse sequence and measures, before each step, the distance from the
+input surface of its new fan's sample points (each fan triangle's centroid and new-edge midpoint: the
+triangle ``(k, u, v)`` that replaces ``(b, u, v)``), exactly, in a bounding-volume hierarchy of the input's
+triangles. A step's error is the larger of that and its quadric distance, a LOD's the largest over its steps
+(:meth:`.sequence.CollapseSequence.lod_errors`). The topology-driven sliding-window builder ranks its patch
+centres by the same samples (:mod:`swpm_usd.encode.sw_deviation`).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from .. import metrics
+from ..metrics import _STACK, _leaf_min2, _nearest2
+from . import kernels as K
+
+#: per fan triangle ``(k, u, v)`` (barycentric weights): its centroid and the midpoint of its new edge ``k u``
+#: (``u v`` is an edge of the mesh already; ``v k`` is the next fan triangle's ``k u``, except at the end of a
+#: boundary vertex's fan, whose last new edge goes unsampled: the boundary quadrics hold that edge)
+SAMPLES = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0]], dtype=np.float64)
+#: distances below this fraction of the bounding-box diagonal count as 0 (rounding; a flat region's samples
+#: then stop at their first triangle instead of searching for an exact zero)
+DISTANCE_FLOOR = 1e-6
+#: nodes a sample's search may open (where thousands of long triangles meet, at a cone's apex, every box
+#: holds the point and the search would be linear in them; the search then keeps the bound it has)
+SEARCH_BUDGET = 4096
+
+
+def surface_bvh(points: np.ndarray, triangles: np.ndarray) -> tuple:
+    """The input surface for the deviation searches: its triangles sorted into a BVH (as metrics' own)."""
+    return metrics.surface_bvh(metrics._triangle_vertices(points, triangles))
+
+
+def surface_with_hints(points: np.ndarray, triangles: np.ndarray) -> tuple[tuple, np.ndarray]:
+    """:func:`surface_bvh` of ``triangles`` (rows of indices into ``points``) and, per point, a BVH leaf
+    holding one of its triangles (0, the root, for a point in none): a search for a point near it starts
+    there and most stop at once."""
+    tv = metrics._triangle_vertices(points, triangles)
+    order, node_min, node_max, node_a, node_b = metrics._build_bvh(tv)
+    leaf_of = np.zeros(tv.shape[0], np.int64)  # per BVH-order slot
+    leaves = np.flatnonzero(node_b < 0)
+    counts = -1 - node_b[leaves]
+    leaf_of[np.repeat(node_a[leaves], counts) + _ranks(counts)] = np.repeat(leaves, counts)
+    slot = np.empty(tv.shape[0], np.int64)
+    slot[order] = np.arange(tv.shape[0])
+    hint = np.zeros(points.shape[0], np.int64)
+    tri = np.asarray(triangles, np.int64)
+    for c in range(3):
+        hint[tri[:, c]] = leaf_of[slot]
+    return (np.ascontiguousarray(tv[order]), node_min, node_max, node_a, node_b), hint
+
+
+def _ranks(counts: np.ndarray) -> np.ndarray:
+    """0..c-1 for every ``c`` in ``counts``, concatenated."""
+    starts = np.repeat(np.cumsum(counts) - counts, counts)
+    return np.arange(int(counts.sum())) - starts
+
+
+@nb.njit(cache=True, inline="always")
+def _fan_triangle(star_tp: np.ndarray, r: int, b: int, k: int) -> tuple[int, int, int]:
+    """Star row ``r`` of ``b`` after ``b`` moves onto ``k``, turned to start at ``k`` with its winding kept:
+    ``(k, u, v)``; ``(-1, -1, -1)`` if the row holds ``k`` (it collapses away)."""
+    c0 = star_tp[r, 0]
+    c1 = star_tp[r, 1]
+    c2 = star_tp[r, 2]
+    if c0 == k or c1 == k or c2 == k:
+        return -1, -1, -1
+    if c0 == b:
+        return k, c1, c2
+    if c1 == b:
+        return k, c2, c0
+    return k, c0, c1
+
+
+@nb.njit(cache=True, nogil=True)
+def step_deviations(
+    st: K.CollapseState,
+    step_b: np.ndarray,
+    step_k: np.ndarray,
+    step_error: np.ndarray,
+    samples: np.ndarray,
+    budget: int,
+    floor: float,
+    hints: np.ndarray,
+    tv: np.ndarray,
+    node_min: np.ndarray,
+    node_max: np.ndarray,
+    node_a: np.ndarray,
+    node_b: np.ndarray,
+) -> np.ndarray:
+    """Per step ``s`` (position ``step_b[s]`` onto ``step_k[s]``, applied to ``st`` in order): the larger of
+    ``step_error[s]`` and the largest distance of the new fan's ``samples`` from the surface in the BVH
+    (``tv`` and the nodes: :func:`surface_with_hints`, whose ``hints`` start each search near the binned
+    position), where that distance exceeds every earlier step's value, else ``step_error[s]``: exact for
+    the running maximum, which is all a LOD's error reads (:meth:`.sequence.CollapseSequence.lod_errors`).
+    Distances up to ``floor`` count as 0. ``st`` must be the state the sequence started from; it ends
+    collapsed. A sample's search stops at the first triangle within the running maximum (a closer sample
+    changes nothing), so most stop in their first leaf."""
+    pts = st.pos_points
+    out = step_error.astype(np.float64).copy()
+    bbuf = K.star_buffers(st)
+    stack = np.empty(_STACK, np.int64)
+    stack_d = np.empty(_STACK, np.float64)
+    floor2 = floor * floor
+    run2 = 0.0  # the running maximum, squared
+    for s in range(step_b.shape[0]):
+        b = step_b[s]
+        k = step_k[s]
+        n = K._positions_into(st, b, bbuf[0], bbuf[1])
+        tris_b = bbuf[0][:n]
+        tp_b = bbuf[1][:n]
+        hint = hints[k]
+        m0 = max(out[s] * out[s], floor2, run2)
+        m = m0
+        for r in range(n):
+            c0, c1, c2 = _fan_triangle(tp_b, r, b, k)
+            if c0 < 0:
+                continue
+            for q in range(samples.shape[0]):
+                w0 = samples[q, 0]
+                w1 = samples[q, 1]
+                w2 = samples[q, 2]
+                px = w0 * pts[c0, 0] + w1 * pts[c1, 0] + w2 * pts[c2, 0]
+                py = w0 * pts[c0, 1] + w1 * pts[c1, 1] + w2 * pts[c2, 1]
+                pz = w0 * pts[c0, 2] + w1 * pts[c1, 2] + w2 * pts[c2, 2]
+                # the corners are input points: the sample is no farther from the input than from the
+                # nearest corner, so a sample that close to one cannot raise m (most, early in a sequence)
+                ub = np.inf
+                for c in (c0, c1, c2):
+                    ub = min(ub, (px - pts[c, 0]) ** 2 + (py - pts[c, 1]) ** 2 + (pz - pts[c, 2]) ** 2)
+                if ub <= m:
+                    continue
+                # then the input triangles around the corners (the BVH leaves that hold them): most samples
+                # lie that close to one of them (bunny: 59 %), and need no search from the root
+                near = False
+                for c in (c0, c1, c2):
+                    leaf = hints[c]
+                    if _leaf_min2(px, py, pz, tv, node_a[leaf], max(-1 - node_b[leaf], 0), np.inf, m) <= m:
+                        near = True
+                        break
+                if near:
+                    continue
+                d, hint = _nearest2(
+                    px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d
+                )
+                if d > m:
+                    m = d
+        if m > m0:
+            out[s] = np.sqrt(m)
+        run2 = max(run2, out[s] * out[s])
+        K.apply_collapse(st, b, k, K.vertex_map(st, b, k, tris_b, tp_b))
+    return out
