@@ -74,7 +74,7 @@ from ..mesh import Mesh
 from ..metrics import cache_misses
 from ..simplify import CollapseSequence, collapse_sequence, make_state, mesh_topology
 from ..simplify.kernels import star_snapshot
-from ..simplify.sequence import step_geometric_errors
+from ..simplify.sequence import replay_steps, replay_surface
 from ..vcache import apply_order, optimize_block_order
 from . import sw_centres as swc
 from . import sw_deviation as swd
@@ -594,6 +594,8 @@ def _build_levels(
     pending: list,
     worker: ThreadPoolExecutor | None,
     helper: ThreadPoolExecutor | None,
+    surface_of,
+    replay,
     mu: float,
     inner_vertices: int,
     cache_size: int,
@@ -621,10 +623,8 @@ def _build_levels(
     nstep = 0
     fresh_cost = None  # cluster=True: pool triangles per collapse a fully stored level would cost
     relax = False  # the level after a trickle: no cost limit at collapse time (see ``last`` below)
-    surface_of = None
-    if _RANK_BY_DEVIATION and T:
-        # the input's BVH on the helper while this thread starts level 0
-        surface_of = _beside(helper, swd.surface_bvh, st.pos_points, st.vertex_pos[mesh.triangles])
+    rank_by_deviation = _RANK_BY_DEVIATION and surface_of is not None
+    if rank_by_deviation:
         lo, hi = st.pos_points.min(axis=0), st.pos_points.max(axis=0)
         floor2 = float((_DEVIATION_FLOOR * np.linalg.norm(hi - lo)) ** 2)
     while True:
@@ -637,8 +637,8 @@ def _build_levels(
         stars = star_snapshot(st, positions)  # the state is read-only until collapse_patches
         ks, cs = _level_costs(helper, st, positions, stars)
         rank_cs = cs
-        if surface_of is not None:
-            surface = surface_of()
+        if rank_by_deviation:
+            surface = surface_of()[0]
             rank_cs = swd.deviation_costs(
                 st.pos_points, positions, ks, cs, stars.start, stars.tp, floor2, swd.SAMPLES[:0], 0, *surface
             )
@@ -804,6 +804,8 @@ def _build_levels(
             args = (gtris, start_gids, collapsed, nstep, V, P, int(cache_size), order_passes, order_reach)
             finishing = worker.submit(_finish_level, *args) if worker else _done(_finish_level(*args))
             pending.append((finishing, args))
+            if replay is not None:
+                replay.advance(pending)
             for i, (f, a) in enumerate(pending):  # a finished level's inputs are not needed any more
                 if a is not None and f.done() and not f.cancelled():
                     pending[i] = (f, None)
@@ -919,37 +921,91 @@ def _sampled_deviation(helper: ThreadPoolExecutor | None, args: tuple) -> np.nda
     return out
 
 
-def _build_topology(mesh: Mesh, st, *args, **kwargs):
+class _Replay:
+    """Each step's error as the LODs report it (:func:`swpm_usd.simplify.sequence.step_geometric_errors`: a
+    fresh state replays the steps in their final order) computed level by level on the ``helper`` thread as
+    the worker finishes the levels (which settles their steps' order), not after the last level on the main
+    thread (cow: 26 of its 185 ms). The parts carry the running maximum: the values of one replay."""
+
+    def __init__(self, helper: ThreadPoolExecutor, new_state, surface_of) -> None:
+        self.helper = helper
+        self.new_state = new_state
+        self.surface_of = surface_of
+        self.st = None
+        self.run2 = 0.0
+        self.parts: list[np.ndarray] = []
+        self.tasks: list[Future] = []  # one per level handed on, in level order
+
+    def _level(self, info: np.ndarray) -> None:
+        if self.st is None:
+            self.st = self.new_state()
+        out = replay_steps(self.surface_of(), self.st, info[:, 1], info[:, 2], info[:, 0], self.run2)
+        if out.shape[0]:
+            self.run2 = max(self.run2, float(np.max(out * out)))
+        self.parts.append(out)
+
+    def advance(self, pending: list) -> None:
+        """Hand the levels finished so far on to the helper, in order (it runs them in turn)."""
+        while len(self.tasks) < len(pending) and pending[len(self.tasks)][0].done():
+            info = pending[len(self.tasks)][0].result()[2]
+            self.tasks.append(self.helper.submit(self._level, info))
+
+    def result(self, infos: list) -> np.ndarray:
+        """The errors of every level's steps (``infos``: each level's, finished): the levels the helper has
+        not started are replayed here, in order, once it is done with the one it is on."""
+        # cancelled from the last on: the helper runs its tasks in order, so once one cannot be cancelled
+        # (started), those before it are done, and no task after it can start any more
+        first = len(self.tasks)
+        for i in range(len(self.tasks) - 1, -1, -1):
+            if not self.tasks[i].cancel():
+                break
+            first = i
+        for task in self.tasks[:first]:
+            task.result()
+        for i in range(first, len(infos)):
+            self._level(infos[i])
+        return np.concatenate(self.parts) if self.parts else np.zeros(0)
+
+
+def _build_topology(mesh: Mesh, st, new_state, *args, **kwargs):
     """:func:`_build_levels` with its levels finished (:func:`_finish_level`) on a worker thread and part of
     each level's own work on a helper thread (:func:`_share`, :func:`_beside`) where the machine has a second
-    core, inline otherwise (the same pool either way)."""
+    core, inline otherwise (the same pool either way). ``new_state``: a fresh state of ``mesh`` for the
+    replay of the LOD errors (:class:`_Replay`; None: the caller replays). Returns the triangles, levels,
+    collapse records and step info, the LOD errors' replay (None if not done) and the input surface
+    (:func:`swpm_usd.simplify.sequence.replay_surface`, None for no triangles)."""
     pending: list = []
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     threads = FINISH_IN_THREAD and not getattr(_THIS_THREAD, "inline", False) and cores > 1
     worker = ThreadPoolExecutor(max_workers=1) if threads else None
     helper = ThreadPoolExecutor(max_workers=1) if threads else None
+    # the input's BVH on the helper while this thread starts level 0
+    surface_of = _beside(helper, replay_surface, mesh, st) if mesh.triangle_count else None
+    replay = _Replay(helper, new_state, surface_of) if helper and new_state and surface_of else None
     try:
         levels, recs_all, info_all, gtris, ng = _build_levels(
-            mesh, st, pending, worker, helper, *args, **kwargs
+            mesh, st, pending, worker, helper, surface_of, replay, *args, **kwargs
         )
         # the levels the worker has not started are finished here, last first, beside it
         finished = [None] * len(pending)
         for i in range(len(pending) - 1, -1, -1):
             if pending[i][1] is not None and pending[i][0].cancel():
                 finished[i] = _finish_level(*pending[i][1])
-        done = iter([r if r is not None else f.result() for r, (f, _) in zip(finished, pending, strict=True)])
+        results = [r if r is not None else f.result() for r, (f, _) in zip(finished, pending, strict=True)]
+        geometric = replay.result([r[2] for r in results]) if replay is not None else None
     finally:
         if worker is not None:
             worker.shutdown(wait=True, cancel_futures=True)
         if helper is not None:
             helper.shutdown(wait=True, cancel_futures=True)
+    done = iter(results)
     for li, lev in enumerate(levels):
         if lev is None:
             lev, recs_all[li], info_all[li] = next(done)
             levels[li] = lev
     recs = np.concatenate(recs_all) if recs_all else np.zeros((0, 3), np.int64)
     info = np.concatenate(info_all) if info_all else np.zeros((0, 3))
-    return gtris[:ng], levels, recs, info
+    return gtris[:ng], levels, recs, info, geometric, surface_of() if surface_of is not None else None
 
 
 def _gather(starts: np.ndarray, sizes: np.ndarray) -> np.ndarray:
@@ -1396,11 +1452,16 @@ def build_sliding_window(
         mesh = optimize_mesh_connectivity(mesh, max_deviation=swap_max_deviation)
     topo = mesh_topology(mesh)
     st = make_state(mesh, topo, boundary_weight=boundary_weight, seam_weight=seam_weight)
+
+    def new_state():
+        return make_state(mesh, topo, boundary_weight=boundary_weight, seam_weight=seam_weight)
+
     if builder == "topology":
         absorb = _ABSORB_MIN_SHARED if absorb_middle else 0
-        gtris, levels, recs, info = _build_topology(
+        gtris, levels, recs, info, geometric, surface = _build_topology(
             mesh,
             st,
+            None if cluster else new_state,  # (a linked level is not finished on the worker)
             float(mu),
             int(inner_vertices),
             int(cache_size),
@@ -1413,12 +1474,16 @@ def build_sliding_window(
         )
     else:
         gtris, levels, recs, info = _build_forsyth(mesh, st, float(tolerance), boundary_weight, seam_weight)
-    # each step's error as the LODs report it: the quadric's, or how far its new triangles lie from LOD 0
-    # if farther (a fresh state replays the steps)
-    fresh = make_state(mesh, topo, boundary_weight=boundary_weight, seam_weight=seam_weight)
-    geometric = step_geometric_errors(
-        mesh, fresh, info[:, 1].astype(np.int64), info[:, 2].astype(np.int64), info[:, 0]
-    )
+        geometric = surface = None
+    if geometric is None:
+        # each step's error as the LODs report it: the quadric's, or how far its new triangles lie from LOD 0
+        # if farther (a fresh state replays the steps; :class:`_Replay` does it level by level)
+        if info.shape[0] == 0:
+            geometric = np.zeros(0)
+        else:
+            fresh = new_state()
+            surface = surface or replay_surface(mesh, fresh)
+            geometric = replay_steps(surface, fresh, info[:, 1], info[:, 2], info[:, 0])
     pm = _assemble(mesh, gtris, levels, recs, info, int(cache_size), bool(coarsest_copy), geometric)
     pm.params["order_passes"] = int(order_passes)  # what ran (None resolved)
     return pm

@@ -98,6 +98,7 @@ def step_deviations(
     node_max: np.ndarray,
     node_a: np.ndarray,
     node_b: np.ndarray,
+    start2: float = 0.0,
 ) -> np.ndarray:
     """Per step ``s`` (position ``step_b[s]`` onto ``step_k[s]``, applied to ``st`` in order): the larger of
     ``step_error[s]`` and the largest distance of the new fan's ``samples`` from the surface in the BVH
@@ -106,14 +107,15 @@ def step_deviations(
     the running maximum, which is all a LOD's error reads (:meth:`.sequence.CollapseSequence.lod_errors`).
     Distances up to ``floor`` count as 0. ``st`` must be the state the sequence started from; it ends
     collapsed. A sample's search stops at the first triangle within the running maximum (a closer sample
-    changes nothing), so most stop in their first leaf."""
+    changes nothing), so most stop in their first leaf. ``start2``: the squared running maximum of the steps
+    before these (a sequence replayed in parts: the same values)."""
     pts = st.pos_points
     out = step_error.astype(np.float64).copy()
     bbuf = K.star_buffers(st)
     stack = np.empty(_STACK, np.int64)
     stack_d = np.empty(_STACK, np.float64)
     floor2 = floor * floor
-    run2 = 0.0  # the running maximum, squared
+    run2 = start2  # the running maximum, squared
     for s in range(step_b.shape[0]):
         b = step_b[s]
         k = step_k[s]

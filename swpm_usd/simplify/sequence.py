@@ -354,13 +354,35 @@ def step_geometric_errors(
     """Per step of a sequence that starts from ``st`` (a fresh :func:`make_state` of ``mesh``, collapsed by
     the replay): the larger of ``step_error`` and how far the step's new triangles lie from ``mesh``
     (:func:`.fan_deviation.step_deviations`)."""
-    from . import fan_deviation as fd
-
     if step_b.shape[0] == 0:
         return np.zeros(0)
+    return replay_steps(replay_surface(mesh, st), st, step_b, step_k, step_error)
+
+
+def replay_surface(mesh: Mesh, st: kernels.CollapseState) -> tuple:
+    """What :func:`replay_steps` searches: the input's BVH, a BVH leaf per position and the distance floor."""
+    from . import fan_deviation as fd
+
     pts = st.pos_points
     bvh, hints = fd.surface_with_hints(pts, st.vertex_pos[np.asarray(mesh.triangles)])
     diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))) if pts.shape[0] else 0.0
+    return bvh, hints, fd.DISTANCE_FLOOR * diag
+
+
+def replay_steps(
+    surface: tuple,
+    st: kernels.CollapseState,
+    step_b: np.ndarray,
+    step_k: np.ndarray,
+    step_error: np.ndarray,
+    start2: float = 0.0,
+) -> np.ndarray:
+    """:func:`step_geometric_errors` of the steps that follow ``st``'s state (collapsed by the replay), the
+    earlier steps' squared running maximum ``start2``; ``surface``: :func:`replay_surface`. A sequence
+    replayed in consecutive parts on one state gives the values of one replay."""
+    from . import fan_deviation as fd
+
+    bvh, hints, floor = surface
     return fd.step_deviations(
         st,
         np.ascontiguousarray(step_b, np.int64),
@@ -368,7 +390,8 @@ def step_geometric_errors(
         np.ascontiguousarray(step_error, np.float64),
         fd.SAMPLES,
         fd.SEARCH_BUDGET,
-        fd.DISTANCE_FLOOR * diag,
+        floor,
         hints,
         *bvh,
+        float(start2),
     )
