@@ -1279,6 +1279,132 @@ def test_tightened_budgets_or_streaming_and_changed_outputs_rebuild(tmp_path):
     assert swpm_usd.validate(out).valid
 
 
+def _output_reads(monkeypatch, out: Path) -> list[str]:
+    """The names of the outputs (.swpm, .usdc) in ``out`` this process opens from now on, in order."""
+    import builtins
+
+    real = builtins.open
+    opened: list[str] = []
+
+    def spy(file, *args, **kwargs):
+        if isinstance(file, (str, os.PathLike)):
+            p = Path(file)
+            if p.parent == out and p.suffix in (".swpm", ".usdc"):
+                opened.append(p.name)
+        return real(file, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "open", spy)
+    return opened
+
+
+STAT_KEYS = ("mtime_ns", "ctime_ns", "ino", "dev")
+
+
+def _recorded_outputs(out: Path) -> dict[str, dict]:
+    manifest = json.loads((out / "manifest.json").read_text())
+    return {o["path"]: o for rec in manifest["assets"].values() for o in rec.get("outputs", {}).values()}
+
+
+def test_a_rerun_reads_no_output_whose_size_and_stat_are_as_recorded(tmp_path, monkeypatch):
+    # every rerun hashed (sha256) every output of every asset to find it intact: with thousands of assets,
+    # most of a rerun's time; the manifest now records each output's stat, and a file found with the same
+    # size, mtime, ctime, inode and device is not read
+    cfg = _project(tmp_path, config=MINIMAL.replace("dir: out", "{dir: out, usd: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    recorded = _recorded_outputs(out)
+    assert sorted(recorded) == ["cow.swpm", "cow.usdc", "spot.swpm", "spot.usdc"]
+    for name, o in recorded.items():
+        st = (out / name).stat()
+        assert (o["size"], o["sha256"]) == (st.st_size, sha256_of(out / name))
+        assert [o[k] for k in STAT_KEYS] == [st.st_mtime_ns, st.st_ctime_ns, st.st_ino, st.st_dev]
+    reads = _output_reads(monkeypatch, out)
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
+    # touched (mtime moved, bytes the same): hashed, up to date, its stat recorded anew; then trusted again
+    cow = out / "cow.swpm"
+    st = cow.stat()
+    os.utime(cow, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == ["cow.swpm"]
+    assert _recorded_outputs(out)["cow.swpm"]["mtime_ns"] == st.st_mtime_ns + 10**9
+    reads.clear()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
+    # the same size, other bytes, a later mtime: hashed, rebuilt
+    data = bytearray(cow.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    cow.write_bytes(bytes(data))
+    assert run(cfg, echo=lambda m: None).built == 1 and swpm_usd.validate(cow).valid
+    # the same size, other bytes, the recorded mtime set back (os.utime): the ctime moved, rebuilt
+    st = cow.stat()
+    data = bytearray(cow.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    cow.write_bytes(bytes(data))
+    os.utime(cow, ns=(st.st_atime_ns, st.st_mtime_ns))
+    assert cow.stat().st_mtime_ns == st.st_mtime_ns
+    assert run(cfg, echo=lambda m: None).built == 1 and swpm_usd.validate(cow).valid
+    # another file of the same size and mtime renamed over it (another inode): rebuilt
+    spot = out / "spot.usdc"
+    st = spot.stat()
+    other = out / "other.usdc"
+    other.write_bytes(bytes(st.st_size))
+    os.utime(other, ns=(st.st_atime_ns, st.st_mtime_ns))
+    other.replace(spot)
+    assert (
+        run(cfg, echo=lambda m: None).built == 1
+        and sha256_of(spot) == _recorded_outputs(out)["spot.usdc"]["sha256"]
+    )
+    reads.clear()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
+
+
+def test_outputs_of_an_older_manifest_are_hashed_once_then_trusted(tmp_path, monkeypatch):
+    # a manifest written before outputs had their stat recorded: each output hashed as before, its stat
+    # then recorded, and the next rerun reads none
+    cfg = _project(tmp_path, config=MINIMAL.replace("dir: out", "{dir: out, usd: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    manifest = json.loads((out / "manifest.json").read_text())
+    for rec in manifest["assets"].values():
+        for o in rec["outputs"].values():
+            for k in STAT_KEYS:
+                del o[k]
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    reads = _output_reads(monkeypatch, out)
+    assert run(cfg, echo=lambda m: None).skipped == 2
+    assert sorted(reads) == ["cow.swpm", "cow.usdc", "spot.swpm", "spot.usdc"]
+    for name, o in _recorded_outputs(out).items():
+        st = (out / name).stat()
+        assert [o[k] for k in STAT_KEYS] == [st.st_mtime_ns, st.st_ctime_ns, st.st_ino, st.st_dev]
+    reads.clear()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
+    # the outputs of a removed asset (orphaned_outputs, checked on every run until --prune) keep their stat
+    (tmp_path / "meshes" / "spot.obj").unlink()
+    res = run(cfg, echo=lambda m: None)
+    assert sorted(res.unlisted) == ["spot.swpm", "spot.usdc"] and reads == []
+    orphaned = json.loads((out / "manifest.json").read_text())["orphaned_outputs"]
+    assert all(set(STAT_KEYS) <= set(o) for o in orphaned)
+    assert sorted(run(cfg, echo=lambda m: None).unlisted) == ["spot.swpm", "spot.usdc"] and reads == []
+    assert run(cfg, prune=True, echo=lambda m: None).pruned and not (out / "spot.swpm").exists()
+
+
+def test_verify_hashes_every_output(tmp_path, monkeypatch):
+    # what the stat cannot show (bytes changed with none of size, mtime, ctime, inode moving: a disk's silent
+    # corruption), --verify finds: here the recorded sha256 is made wrong instead
+    cfg = _project(tmp_path, config=MINIMAL.replace("dir: out", "{dir: out, usd: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    manifest = json.loads((out / "manifest.json").read_text())
+    manifest["assets"]["meshes/cow.obj"]["outputs"]["usd"]["sha256"] = "0" * 64
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    reads = _output_reads(monkeypatch, out)
+    assert run(cfg, dry_run=True, echo=lambda m: None).skipped == 2 and reads == []
+    assert run(cfg, dry_run=True, verify=True, echo=lambda m: None).skipped == 1
+    assert sorted(reads) == ["cow.swpm", "cow.usdc", "spot.swpm", "spot.usdc"]
+    r = CliRunner().invoke(main, ["run", str(cfg), "--verify", "--json"])
+    assert r.exit_code == 0 and json.loads(r.stdout)["built"] == 1, r.output
+    assert _recorded_outputs(out)["cow.usdc"]["sha256"] == sha256_of(out / "cow.usdc")
+    assert "--verify" in CliRunner().invoke(main, ["run", "--help"]).output
+
+
 def test_yaml_empty_values_floats_without_a_dot_and_duplicate_keys(tmp_path):
     (tmp_path / "m").mkdir()
     (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)

@@ -23,6 +23,7 @@ import fnmatch
 import json
 import os
 import signal
+import stat
 import sys
 import threading
 import time
@@ -35,7 +36,14 @@ from .. import __version__
 from ..errors import OutputLockedError
 from .assets import Asset, checks_no_stricter, checks_of, discover, file_digest, match_rule, treatment_digest
 from .config import Config, ConfigError, load_config
-from .worker import atomic_write_bytes, ignore_interrupts, process_asset
+from .worker import (
+    STAT_KEYS,
+    atomic_write_bytes,
+    hash_with_stat,
+    ignore_interrupts,
+    process_asset,
+    stat_fields,
+)
 
 MANIFEST = "manifest.json"
 #: the lock file of output.dir: a run holds an exclusive ``flock`` on it while it writes there (see
@@ -62,6 +70,9 @@ class PlanItem:
     up_to_date: bool = False
     rule_pending: bool = False  # the worker matches the rule once it has counted the triangles
     inputs: list[Path] = field(default_factory=list)  # the files the asset is built from (discover's)
+    #: an up-to-date asset's outputs as its manifest record lists them, with the stat fields of those
+    #: hashed to be checked recorded anew (:func:`_checked_output`); None when no record changed
+    checked_outputs: dict[str, dict] | None = None
 
 
 @dataclass
@@ -136,14 +147,17 @@ def _count_triangles(asset: Asset) -> int:
 
 
 def plan(
-    cfg: Config, manifest: dict, count_triangles: bool = True
+    cfg: Config, manifest: dict, count_triangles: bool = True, verify: bool = False
 ) -> tuple[list[PlanItem], list[str], list[str]]:
     """Resolve each asset's rule and parameters; (items, errors, warnings).
 
     Rules on triangle counts need the count of every new or changed asset. ``count_triangles=False``
     leaves those items ``rule_pending`` (their rule, treatment and digest empty, never up to date): the
     worker that builds the asset loads it anyway and chooses the rule then, so the main process does not
-    load every new asset a second time, one after another (1,000 small assets: 10 of 46 s)."""
+    load every new asset a second time, one after another (1,000 small assets: 10 of 46 s).
+
+    An asset's recorded outputs are intact when their size and stat are as recorded, or else their sha256
+    (:func:`_checked_output`); ``verify`` hashes every one."""
     assets, inputs, problems = discover(cfg)
     out_dir = cfg.base / cfg.data["output"]["dir"]
     problems.extend(_unusable_out_dir(cfg, out_dir))
@@ -184,9 +198,13 @@ def plan(
                 item.treatment.get("encoding") == "auto"
                 or checks_no_stricter(checks_of(cfg.data), prev.get("checks"))
             )
-            and all(_output_intact(out_dir / o["path"], o) for o in outs.values())
             and bool(outs) == _wants_outputs(cfg)
         )
+        if item.up_to_date:
+            checked = {kind: _checked_output(out_dir / o["path"], o, verify) for kind, o in outs.items()}
+            item.up_to_date = all(o is not None for o in checked.values())
+            if item.up_to_date and any(checked[kind] is not o for kind, o in outs.items()):
+                item.checked_outputs = checked
         items.append(item)
     warnings = [] if any(i.rule_pending for i in items) else _unreached_rules(cfg, items)
     return items, problems, warnings
@@ -287,17 +305,54 @@ def _make_out_dir(cfg: Config, out_dir: Path) -> None:
         raise ConfigError([f"{cfg.where(('output', 'dir'))}: cannot write in {out_dir}: permission denied"])
 
 
-def _output_intact(path: Path, recorded: dict) -> bool:
-    """Is ``path`` still the file the manifest recorded: its size, then its sha256 (a file this tool wrote,
-    hashed again: a changed byte of a same-size file rebuilds it)."""
-    from .worker import sha256_file
+def _output_intact(path: Path, recorded: dict, verify: bool = False) -> bool:
+    """Is ``path`` still the file the manifest recorded (``recorded``, its output record)? See
+    :func:`_checked_output`."""
+    return _checked_output(path, recorded, verify) is not None
 
+
+def _checked_output(path: Path, recorded: dict, verify: bool = False) -> dict | None:
+    """``recorded`` (an output's manifest record) when ``path`` is still the file it recorded, else None.
+
+    Its size first. Then, unless ``verify``, its stat: a file with the recorded size, mtime, ctime, inode
+    and device (:data:`.worker.STAT_KEYS`) is trusted unchanged without being read (a rerun of thousands of
+    assets reads none of their outputs). Anything else is hashed: the file is intact when its sha256 is
+    the recorded one (a changed byte of a same-size file rebuilds it), and the record returned is then a
+    copy with the stat fields of the bytes hashed (recorded anew: a record of an older manifest has
+    none, a touched or copied-back file other ones), so the next run trusts it again."""
     try:
-        if not path.is_file() or path.stat().st_size != recorded.get("size", -1):
-            return False
-        return sha256_file(path) == recorded.get("sha256")
-    except OSError:
-        return False
+        st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode) or st.st_size != recorded.get("size", -1):
+            return None
+        fields = stat_fields(st)
+        if not verify and all(recorded.get(k) == v for k, v in fields.items()):
+            return recorded
+        sha, hashed = hash_with_stat(path)
+    except (OSError, ValueError):  # (ValueError: a path with a NUL byte)
+        return None
+    if sha != recorded.get("sha256"):
+        return None
+    fresh = {k: v for k, v in recorded.items() if k not in STAT_KEYS}
+    if hashed is not None and hashed.st_size == recorded.get("size"):
+        fresh.update(stat_fields(hashed))
+    return recorded if fresh == recorded else fresh
+
+
+def _complete_output_record(path: Path, recorded: dict) -> None:
+    """Complete a worker's record of an output it wrote (:func:`.worker.output_record`) as this process
+    sees the file: its size, and its stat fields when it is still the file the worker hashed (the same
+    size, mtime, ctime and inode; the device as this process numbers it, which a Dask worker on another
+    machine may not), else none, so the next run hashes it."""
+    st = path.stat()
+    seen = stat_fields(st)
+    same = recorded.get("size") == st.st_size and all(
+        recorded.get(k) == seen[k] for k in ("mtime_ns", "ctime_ns", "ino")
+    )
+    for k in ("size", *STAT_KEYS):
+        recorded.pop(k, None)
+    recorded["size"] = st.st_size
+    if same:
+        recorded.update(seen)
 
 
 def planned_outputs(cfg: Config, out_dir: Path, assets: list[Asset]) -> dict[Path, str]:
@@ -672,11 +727,17 @@ def run(
     force: bool = False,
     prune: bool = False,
     echo=print,
+    verify: bool = False,
 ) -> RunResult:
     """Run the pipeline described by ``config_path``; see the module docstring.
 
     ``prune``: delete the recorded outputs of assets the config no longer has (those still as the manifest
     recorded them and not outputs of this run's assets); without it they stay and the result names them.
+
+    ``verify``: hash every recorded output (sha256) to decide whether it is intact, where a run otherwise
+    trusts one whose size, mtime, ctime, inode and device are as recorded (:func:`_checked_output`): a file
+    whose bytes changed with none of those (a disk's silent corruption, a write within the timestamp
+    granularity of the run's own) is found and rebuilt.
 
     A run that writes (not ``dry_run``) holds output.dir's lock from before it reads the manifest (or, for
     an output.dir it creates, from then) to its end; another run there raises :class:`OutputLockedError`."""
@@ -686,7 +747,19 @@ def run(
     lock = _OutputLock(out_dir, echo)
     try:
         return _run(
-            cfg, out_dir, lock, t_start, jobs, executor, scheduler, dry_run, explain, force, prune, echo
+            cfg,
+            out_dir,
+            lock,
+            t_start,
+            jobs,
+            executor,
+            scheduler,
+            dry_run,
+            explain,
+            force,
+            prune,
+            echo,
+            verify,
         )
     finally:
         lock.release()
@@ -705,18 +778,19 @@ def _run(
     force: bool,
     prune: bool,
     echo,
+    verify: bool = False,
 ) -> RunResult:
     if not dry_run and out_dir.is_dir():
         lock.acquire()  # before the manifest is read: it is this run's from here on
     manifest_path = out_dir / MANIFEST
     manifest = _read_manifest(manifest_path)
-    items, errors, warnings = plan(cfg, manifest, count_triangles=dry_run or explain)
+    items, errors, warnings = plan(cfg, manifest, count_triangles=dry_run or explain, verify=verify)
     if errors:
         raise ConfigError(errors)
     for w in warnings:
         echo(f"warning: {w}")
     # (before any build: a removed asset's output path may be a current asset's, which is never deleted)
-    orphans = _orphaned_outputs(cfg, out_dir, manifest, items)
+    orphans = _orphaned_outputs(cfg, out_dir, manifest, items, verify)
     orphan_names = [o["path"] for _, o in orphans]
     orphan_lists = {"pruned" if prune else "unlisted": orphan_names}  # RunResult's fields
     planned = []
@@ -753,10 +827,14 @@ def _run(
         for path, _ in orphans:
             path.unlink(missing_ok=True)
     records = {k: v for k, v in manifest.get("assets", {}).items() if k in {i.asset.id for i in items}}
-    for it in items:  # up to date again (an input or a config put back): the failure was another treatment's
+    for it in items:
         kept = records.get(it.asset.id)
-        if it.up_to_date and not force and kept is not None and "last_failure" in kept:
-            records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
+        if not it.up_to_date or force or kept is None:
+            continue
+        if "last_failure" in kept:  # up to date again (an input or a config put back): another's failure
+            kept = records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
+        if it.checked_outputs is not None:  # hashed, and their stat recorded anew
+            records[it.asset.id] = {**kept, "outputs": it.checked_outputs}
     manifest = {"tool_version": __version__, "config": str(cfg.path), "assets": records}
     if orphans and not prune:  # so a later run with prune still finds them
         manifest[ORPHANED] = [o for _, o in orphans]
@@ -788,13 +866,13 @@ def _run(
             rec["input_digest"] = it.input_digest
             rec["rule"] = None if it.rule is None else cfg.data["rules"][it.rule]["name"]
             for o in rec.get("outputs", {}).values():
-                o["size"] = (out_dir / o["path"]).stat().st_size
+                _complete_output_record(out_dir / o["path"], o)
             if rec["status"] == "built":
                 built += 1
                 records[rec["id"]] = rec
             else:
                 failed += 1
-                kept = _keep_previous(out_dir, records.get(rec["id"]), rec)
+                kept = _keep_previous(out_dir, records.get(rec["id"]), rec, verify)
                 records[rec["id"]] = rec if kept is None else kept
                 rec = failures[rec["id"]] = {**rec, "kept_previous": kept is not None}
             now = time.perf_counter()
@@ -830,11 +908,14 @@ def _run(
     )  # fmt: skip
 
 
-def _orphaned_outputs(cfg: Config, out_dir: Path, manifest: dict, items: list) -> list[tuple[Path, dict]]:
+def _orphaned_outputs(
+    cfg: Config, out_dir: Path, manifest: dict, items: list, verify: bool = False
+) -> list[tuple[Path, dict]]:
     """The recorded outputs (path, record) of the manifest's assets that are not among ``items`` (no longer
     in the config) and of its ``orphaned_outputs`` (left by earlier runs without ``prune``), still as
-    recorded (:func:`_output_intact`: a file changed since is not the run's), less any file this run's
-    assets write or read (an earlier output used as a stage, or a layer a stage uses) and the config."""
+    recorded (:func:`_checked_output`: a file changed since is not the run's; its stat fields recorded
+    anew when it was hashed), less any file this run's assets write or read (an earlier output used as a
+    stage, or a layer a stage uses) and the config."""
     current = {it.asset.id for it in items}
     recorded = [
         o
@@ -856,33 +937,41 @@ def _orphaned_outputs(cfg: Config, out_dir: Path, manifest: dict, items: list) -
         # a recorded path that leaves output.dir (a hand-edited manifest) is never touched
         if path.resolve().parent != out_dir.resolve() or _file_key(path) in keep or path in seen:
             continue
-        if _output_intact(path, o):
+        checked = _checked_output(path, o, verify)
+        if checked is not None:
             seen.add(path)
-            found.append((path, {k: o[k] for k in ("path", "size", "sha256") if k in o}))
+            found.append(
+                (path, {k: checked[k] for k in ("path", "size", "sha256", *STAT_KEYS) if k in checked})
+            )
     return found
 
 
-def _keep_previous(out_dir: Path, previous: dict | None, failed: dict) -> dict | None:
+def _keep_previous(out_dir: Path, previous: dict | None, failed: dict, verify: bool = False) -> dict | None:
     """The record of an asset whose rebuild failed (``failed``, the worker's record).
 
-    When the asset was built before and its outputs are all still as recorded (:func:`_output_intact`), its
-    previous build is kept: the returned record is the previous one, untouched but for ``last_failure``
-    (the failure's error, traceback, digest and seconds), so the manifest, the scene and the outputs still
-    serve the last good build and the next run tries again. Otherwise None: the failed record replaces the
-    previous one, and those of its outputs still as recorded are deleted, so no output is left that the
-    manifest does not list (a file changed since is not the run's to delete)."""
+    When the asset was built before and its outputs are all still as recorded (:func:`_checked_output`),
+    its previous build is kept: the returned record is the previous one, untouched but for ``last_failure``
+    (the failure's error, traceback, digest and seconds) and the stat fields of outputs hashed to be
+    checked, so the manifest, the scene and the outputs still serve the last good build and the next run
+    tries again. Otherwise None: the failed record replaces the previous one, and those of its outputs
+    still as recorded are deleted, so no output is left that the manifest does not list (a file changed
+    since is not the run's to delete)."""
     if previous is None or previous.get("status") != "built":
         return None
-    outputs = [(out_dir / o["path"], o) for o in previous.get("outputs", {}).values()]
-    intact = [path for path, o in outputs if _output_intact(path, o)]
-    if len(intact) < len(outputs):
-        for path in intact:
-            path.unlink(missing_ok=True)
+    outputs = previous.get("outputs", {})
+    checked = {kind: _checked_output(out_dir / o["path"], o, verify) for kind, o in outputs.items()}
+    if any(o is None for o in checked.values()):
+        for o in checked.values():
+            if o is not None:
+                (out_dir / o["path"]).unlink(missing_ok=True)
         return None
     failure = {
         k: failed[k] for k in ("error", "traceback", "digest", "input_digest", "seconds") if k in failed
     }
-    return {**{k: v for k, v in previous.items() if k != "last_failure"}, "last_failure": failure}
+    kept = {k: v for k, v in previous.items() if k != "last_failure"}
+    if outputs:
+        kept["outputs"] = checked
+    return {**kept, "last_failure": failure}
 
 
 def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:

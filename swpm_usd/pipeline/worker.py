@@ -5,6 +5,7 @@ streaming order, write the outputs atomically. Never raises: a failure comes bac
 from __future__ import annotations
 
 import hashlib
+import os
 import signal
 import time
 import traceback
@@ -38,6 +39,48 @@ def sha256_file(path: Path) -> str:
         while chunk := f.read(1 << 20):
             h.update(chunk)
     return h.hexdigest()
+
+
+#: the fields of ``os.stat`` an output's manifest record keeps beside its ``size`` and ``sha256``: a later
+#: run that finds the file with the same size and all of these trusts it unchanged without reading it (the
+#: runner's ``_checked_output``). ``ctime_ns`` moves on any change to the file's data or metadata and cannot
+#: be set back (``os.utime`` sets the mtime, not the ctime); ``ino`` and ``dev`` change when another file is
+#: renamed or copied over it
+STAT_KEYS = ("mtime_ns", "ctime_ns", "ino", "dev")
+
+
+def stat_fields(st: os.stat_result) -> dict[str, int]:
+    """The :data:`STAT_KEYS` of a stat result."""
+    return {"mtime_ns": st.st_mtime_ns, "ctime_ns": st.st_ctime_ns, "ino": st.st_ino, "dev": st.st_dev}
+
+
+def hash_with_stat(path: Path) -> tuple[str, os.stat_result | None]:
+    """The sha256 of ``path`` and its stat, taken through the descriptor it is read from, before the read;
+    the stat is None when the file changed while it was read (its size, mtime or ctime moved), so it
+    describes the bytes hashed (a file renamed over ``path`` meanwhile is another inode, which the stat of
+    the one read does not match)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        before = os.fstat(f.fileno())
+        while chunk := f.read(1 << 20):
+            h.update(chunk)
+        after = os.fstat(f.fileno())
+    same = (before.st_size, before.st_mtime_ns, before.st_ctime_ns) == (
+        after.st_size,
+        after.st_mtime_ns,
+        after.st_ctime_ns,
+    )
+    return h.hexdigest(), before if same else None
+
+
+def output_record(path: Path) -> dict[str, Any]:
+    """A new output's manifest record: its name (``path`` is in output.dir), sha256, size, and the
+    :data:`STAT_KEYS` of the bytes hashed (none when the file changed while it was read)."""
+    sha, st = hash_with_stat(path)
+    rec: dict[str, Any] = {"path": path.name, "sha256": sha}
+    if st is not None:
+        rec.update(size=st.st_size, **stat_fields(st))
+    return rec
 
 
 def lod_change_cost(pm) -> float:
@@ -366,11 +409,11 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
                     rec["error"] = "encoded file failed validation: " + problems
                     return rec
                 atomic_write_bytes(target, data)
-                outputs["swpm"] = {"path": target.name, "sha256": sha256_file(target)}
+                outputs["swpm"] = output_record(target)
             if usd_staged is not None:
                 target = _place_usd(*usd_staged)
                 usd_staged = None
-                outputs["usd"] = {"path": target.name, "sha256": sha256_file(target)}
+                outputs["usd"] = output_record(target)
         finally:
             if usd_staged is not None:
                 usd_staged[0].unlink(missing_ok=True)
