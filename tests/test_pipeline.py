@@ -1107,6 +1107,86 @@ def test_a_failed_usd_export_replaces_no_output(tmp_path, monkeypatch):
     assert res.failures["meshes/cow.obj"]["kept_previous"]
 
 
+def test_an_output_that_cannot_be_renamed_into_place_keeps_the_previous_build(tmp_path, monkeypatch):
+    # the .swpm was renamed into place before the USD layer: when the layer's rename failed, the new .swpm
+    # stayed, listed nowhere, and the previous build (its .swpm overwritten) could not be kept
+    import errno
+
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    before = {name: sha256_of(out / name) for name in ("cow.swpm", "cow.usdc")}
+    real = os.replace
+
+    def refuse_usdc(src, dst, *args, **kwargs):
+        if os.fspath(dst).endswith(".usdc"):
+            raise OSError(errno.EIO, "rename refused (test)")
+        return real(src, dst, *args, **kwargs)
+
+    monkeypatch.setattr(os, "replace", refuse_usdc)
+    cfg.write_text(cfg.read_text().replace("encoding: skip-strip", "encoding: vanilla"))  # another .swpm
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1 and "rename refused" in res.failures["meshes/cow.obj"]["error"]
+    assert res.failures["meshes/cow.obj"]["kept_previous"]
+    assert {name: sha256_of(out / name) for name in before} == before
+    files, listed = _listed_outputs(out)
+    assert files == listed == {"cow.swpm", "cow.usdc"}
+    names = sorted(p.name for p in out.iterdir())  # no temporary file left
+    assert names == [
+        ".swpm-pipeline.lock",
+        "cow.swpm",
+        "cow.usdc",
+        "manifest.json",
+        "report.html",
+        "scene.usda",
+    ]
+    # an asset built for the first time: none of its outputs is left
+    shutil.copy(SHARED_MESHES / "spot.obj", tmp_path / "meshes" / "spot.obj")
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 2 and not res.failures["meshes/spot.obj"]["kept_previous"]
+    files, listed = _listed_outputs(out)
+    assert files == listed == {"cow.swpm", "cow.usdc"}
+    # and when the rename works again, both are built
+    monkeypatch.undo()
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.failed) == (2, 0)
+    files, listed = _listed_outputs(out)
+    assert files == listed == {"cow.swpm", "cow.usdc", "spot.swpm", "spot.usdc"}
+
+
+def test_place_outputs_is_all_or_nothing(tmp_path, monkeypatch):
+    # whichever step fails once the first output is renamed into place (the second's rename, recording the
+    # outputs), the previous files are put back and a new one without a previous file is deleted
+    from swpm_usd.pipeline import worker
+
+    def staged_pair() -> dict:
+        staged = {}
+        for kind, name in (("swpm", "a.swpm"), ("usd", "b.usdc")):
+            tmp = tmp_path / f".{name}.new.tmp"
+            tmp.write_bytes(b"new " + name.encode())
+            staged[kind] = (tmp, tmp_path / name)
+        return staged
+
+    (tmp_path / "a.swpm").write_bytes(b"old a.swpm")  # b.usdc has no previous file
+    real = worker.output_record
+
+    def fail_on_record(path):
+        if path.name == "b.usdc":
+            raise OSError("cannot read (test)")
+        return real(path)
+
+    monkeypatch.setattr(worker, "output_record", fail_on_record)
+    with pytest.raises(OSError, match="cannot read"):
+        worker._place_outputs(staged_pair())
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.swpm"]
+    assert (tmp_path / "a.swpm").read_bytes() == b"old a.swpm"
+    monkeypatch.undo()
+    records = worker._place_outputs(staged_pair())
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.swpm", "b.usdc"]
+    assert (tmp_path / "a.swpm").read_bytes() == b"new a.swpm"
+    assert records["swpm"]["sha256"] == sha256_of(tmp_path / "a.swpm") and records["usd"]["path"] == "b.usdc"
+
+
 def test_parallel_jobs_and_dask_executor(tmp_path):
     import dask.distributed  # noqa: F401 - the dask extra is part of .[dev]
 

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..fileio import atomic_write_bytes
+from ..fileio import atomic_write_bytes, keep_aside, stage_bytes  # noqa: F401 - (runner, report import it)
 
 AUTO_CANDIDATES = ("vanilla", "skip-strip", "mixed", "sliding-window")
 #: ``encoding: auto``'s ``select`` parameter: what the candidates within the budgets are ranked by.
@@ -327,6 +327,47 @@ def _place_usd(tmp: Path, target: Path) -> Path:
     return target
 
 
+def _place_outputs(staged: dict[str, tuple[Path, Path]]) -> dict[str, dict[str, Any]]:
+    """Rename each staged output (kind -> (temporary file, target), in order) over its target, all or none;
+    each one's manifest record (:func:`output_record`).
+
+    Each target's previous file is kept aside (:func:`.fileio.keep_aside`: a hard link) until every output
+    is in place and recorded. When a rename or a record fails, the outputs already renamed are undone (their
+    previous files put back, one without a previous file deleted) and the error raised: the asset's previous
+    build is left as it was, and no new file the manifest would not list (a failure after the .swpm's rename
+    left the new .swpm, listed nowhere, beside the previous .usdc)."""
+    placed: list[tuple[str, Path, Path | None]] = []  # (kind, target, its previous file kept aside)
+    aside: list[Path] = []
+    try:
+        for kind, (tmp, target) in staged.items():
+            previous = keep_aside(target)
+            if previous is not None:
+                aside.append(previous)
+            if kind == "usd":
+                _place_usd(tmp, target)
+            else:
+                os.replace(tmp, target)
+            placed.append((kind, target, previous))
+        return {kind: output_record(target) for kind, (_, target) in staged.items()}
+    except BaseException:
+        for kind, target, previous in reversed(placed):
+            try:
+                if previous is None:
+                    target.unlink(missing_ok=True)
+                else:
+                    os.replace(previous, target)
+            except OSError:  # the new file goes at least (the runner then finds the previous build broken)
+                target.unlink(missing_ok=True)
+            if kind == "usd":
+                from ..usd.writer import reload_if_open
+
+                reload_if_open(target)
+        raise
+    finally:
+        for path in aside:
+            path.unlink(missing_ok=True)
+
+
 def process_asset(task: dict[str, Any]) -> dict[str, Any]:
     """Do one asset. ``task`` is plain data (picklable for process pools and Dask).
 
@@ -391,12 +432,14 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         if problems:
             rec["error"] = "streaming/budget check failed: " + "; ".join(problems)
             return rec
-        outputs = {}
         out_dir = Path(task["out_dir"])
-        # every output is made before any replaces its old file, so a failure leaves the asset's previous
-        # outputs as they were (the USD layer is exported beside its target, then renamed after the .swpm)
-        usd_staged = _stage_usd(pm, out_dir / f"{task['stem']}.usdc") if task["write_usd"] else None
+        # every output is made (staged beside its target) before any replaces its old file, and they are
+        # renamed into place all or none (:func:`_place_outputs`): a failure leaves the asset's previous
+        # outputs as they were
+        staged: dict[str, tuple[Path, Path]] = {}
         try:
+            if task["write_usd"]:
+                staged["usd"] = _stage_usd(pm, out_dir / f"{task['stem']}.usdc")
             if task["write_swpm"]:
                 from .. import format as swpm_format
 
@@ -408,15 +451,11 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
                     problems = "; ".join(f"{p.code}: {p.message}" for p in report.errors[:5])
                     rec["error"] = "encoded file failed validation: " + problems
                     return rec
-                atomic_write_bytes(target, data)
-                outputs["swpm"] = output_record(target)
-            if usd_staged is not None:
-                target = _place_usd(*usd_staged)
-                usd_staged = None
-                outputs["usd"] = output_record(target)
+                staged["swpm"] = (stage_bytes(target, data), target)
+            outputs = _place_outputs({k: staged[k] for k in ("swpm", "usd") if k in staged})
         finally:
-            if usd_staged is not None:
-                usd_staged[0].unlink(missing_ok=True)
+            for tmp, _ in staged.values():
+                tmp.unlink(missing_ok=True)
         rec["outputs"] = outputs
         from .assets import checks_of
 
