@@ -1187,6 +1187,32 @@ def test_place_outputs_is_all_or_nothing(tmp_path, monkeypatch):
     assert records["swpm"]["sha256"] == sha256_of(tmp_path / "a.swpm") and records["usd"]["path"] == "b.usdc"
 
 
+def test_keep_aside_links_or_copies_the_previous_file(tmp_path, monkeypatch):
+    import errno
+
+    from swpm_usd.fileio import keep_aside
+
+    target = tmp_path / "a.swpm"
+    assert keep_aside(target) is None  # nothing to keep
+    target.write_bytes(b"previous")
+    os.chmod(target, 0o640)
+    aside = keep_aside(target)
+    assert aside.name.startswith(".a.swpm.") and aside.name.endswith(".prev.tmp")
+    assert aside.stat().st_ino == target.stat().st_ino  # a hard link: no data copied
+    aside.unlink()
+
+    def no_links(*args, **kwargs):
+        raise OSError(errno.EPERM, "no hard links here (test)")
+
+    monkeypatch.setattr(os, "link", no_links)
+    aside = keep_aside(target)  # a copy, with the mode and mtime of the file
+    assert aside.read_bytes() == b"previous" and aside.stat().st_ino != target.stat().st_ino
+    assert aside.stat().st_mode == target.stat().st_mode
+    assert aside.stat().st_mtime_ns == target.stat().st_mtime_ns
+    target.unlink()
+    assert keep_aside(target) is None and sorted(p.name for p in tmp_path.iterdir()) == [aside.name]
+
+
 def test_parallel_jobs_and_dask_executor(tmp_path):
     import dask.distributed  # noqa: F401 - the dask extra is part of .[dev]
 
