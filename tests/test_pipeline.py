@@ -1213,6 +1213,83 @@ def test_keep_aside_links_or_copies_the_previous_file(tmp_path, monkeypatch):
     assert keep_aside(target) is None and sorted(p.name for p in tmp_path.iterdir()) == [aside.name]
 
 
+def _hand_edited(good: dict) -> dict[str, object]:
+    """Malformed versions of the manifest record ``good`` (a built asset's, with a .swpm and a .usdc), each
+    a record this tool never writes: what a hand edit of the manifest can leave."""
+    import copy
+
+    def edit(change) -> dict:
+        rec = copy.deepcopy(good)
+        change(rec)
+        return rec
+
+    return {
+        "a list": [1, 2],
+        "a string": "built",
+        "null": None,
+        "no status": edit(lambda r: r.pop("status")),
+        "no outputs": edit(lambda r: r.pop("outputs")),
+        "no digest": edit(lambda r: r.pop("digest")),
+        "outputs a list": edit(lambda r: r.update(outputs=list(r["outputs"].values()))),
+        "an output a string": edit(lambda r: r["outputs"].update(swpm="cow.swpm")),
+        "an output without its path": edit(lambda r: r["outputs"]["usd"].pop("path")),
+        "a size that is a string": edit(
+            lambda r: r["outputs"]["swpm"].update(size=str(r["outputs"]["swpm"]["size"]))
+        ),
+        "a path outside output.dir": edit(lambda r: r["outputs"]["swpm"].update(path="../meshes/cow.obj")),
+        "triangles_in a string": edit(lambda r: r.update(triangles_in=str(r["triangles_in"]))),
+        "checks.budgets a string": edit(lambda r: r["checks"].update(budgets="none")),
+        "a budget a string": edit(lambda r: r["checks"].update(budgets={"total_bytes": "1e9"})),
+        "summary a list": edit(lambda r: r.update(summary=[])),
+        "a curve point without its error": edit(lambda r: r["summary"]["curve"][0].pop("error")),
+        "last_failure a string": edit(lambda r: r.update(last_failure="boom")),
+        "seconds a string": edit(lambda r: r.update(seconds="0.5")),
+    }
+
+
+def test_a_malformed_manifest_record_is_built_again_with_a_warning(tmp_path):
+    # a hand-edited manifest: a record of a current asset that is not a dict, lacks a key or holds a value
+    # of another type raised in plan, _keep_previous, the scene or the report; it is now ignored, named
+    from swpm_usd.pipeline.runner import _keep_previous
+
+    cfg = _project(tmp_path, config=MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    manifest = json.loads((out / "manifest.json").read_text())
+    good = manifest["assets"]["meshes/cow.obj"]
+    assert run(cfg, echo=lambda m: None).skipped == 2
+    for what, rec in _hand_edited(good).items():
+        assert _keep_previous(out, rec, {"error": "x"}) is None, what  # never raises either
+        manifest["assets"]["meshes/cow.obj"] = rec
+        (out / "manifest.json").write_text(json.dumps(manifest))
+        lines: list[str] = []
+        dry = run(cfg, dry_run=True, echo=lines.append)
+        assert dry.skipped == 1 and any(
+            "meshes/cow.obj: [to build]" in line or "meshes/cow.obj:" in line for line in lines
+        )
+        (warning,) = [w for w in dry.warnings if "meshes/cow.obj" in w]
+        assert (
+            warning.startswith("out/manifest.json: the record of meshes/cow.obj ")
+            and "built again" in warning
+        )
+        lines.clear()
+        res = run(cfg, echo=lines.append)
+        assert (res.built, res.skipped, res.failed) == (1, 1, 0), (what, res.failures)
+        assert res.warnings.count(warning) == 1 and f"warning: {warning}" in lines, (what, lines)
+        files, listed = _listed_outputs(out)
+        assert files == listed == {"cow.swpm", "cow.usdc", "spot.swpm", "spot.usdc"}, what
+        assert run(cfg, echo=lambda m: None).skipped == 2, what  # its record is whole again
+    # a rebuild that fails: the failure is recorded (no previous build to keep), the run goes on
+    manifest["assets"]["meshes/cow.obj"] = _hand_edited(good)["an output a string"]
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    (tmp_path / "meshes" / "cow.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
+    r = CliRunner().invoke(main, ["run", str(cfg)])
+    assert r.exit_code == 1 and "Traceback" not in r.output, r.output
+    assert "warning: out/manifest.json: the record of meshes/cow.obj " in r.stdout
+    rec = json.loads((out / "manifest.json").read_text())["assets"]["meshes/cow.obj"]
+    assert rec["status"] == "failed" and "outputs" not in rec
+
+
 def test_parallel_jobs_and_dask_executor(tmp_path):
     import dask.distributed  # noqa: F401 - the dask extra is part of .[dev]
 

@@ -36,6 +36,7 @@ from .. import __version__
 from ..errors import OutputLockedError
 from .assets import Asset, checks_no_stricter, checks_of, discover, file_digest, match_rule, treatment_digest
 from .config import Config, ConfigError, load_config
+from .records import record_problem
 from .worker import (
     STAT_KEYS,
     atomic_write_bytes,
@@ -73,6 +74,9 @@ class PlanItem:
     #: an up-to-date asset's outputs as its manifest record lists them, with the stat fields of those
     #: hashed to be checked recorded anew (:func:`_checked_output`); None when no record changed
     checked_outputs: dict[str, dict] | None = None
+    #: the asset's manifest record; None when the manifest has none, or one that is not a record the run
+    #: writes (a hand edit: :func:`.records.record_problem`), which is then ignored, with a warning
+    previous: dict | None = None
 
 
 @dataclass
@@ -157,17 +161,27 @@ def plan(
     load every new asset a second time, one after another (1,000 small assets: 10 of 46 s).
 
     An asset's recorded outputs are intact when their size and stat are as recorded, or else their sha256
-    (:func:`_checked_output`); ``verify`` hashes every one."""
+    (:func:`_checked_output`); ``verify`` hashes every one. A manifest record that is not one the run
+    writes (:func:`.records.record_problem`: hand-edited) is ignored, as if the asset had none, and named
+    in a warning."""
     assets, inputs, problems = discover(cfg)
     out_dir = cfg.base / cfg.data["output"]["dir"]
     problems.extend(_unusable_out_dir(cfg, out_dir))
     problems.extend(_overwritten_inputs(cfg, out_dir, assets, inputs))
     known = manifest.get("assets", {})
     items = []
+    record_warnings = []
     needs_rule_on_triangles = any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))
     for a in assets:
         digest = file_digest(inputs[a.id])
-        prev = known.get(a.id, {})
+        previous = known.get(a.id)
+        if a.id in known and (problem := record_problem(previous)) is not None:
+            record_warnings.append(
+                f"{_rel(cfg, out_dir / MANIFEST)}: the record of {a.id} is not one this tool writes "
+                f"({problem}); it is ignored and the asset built again"
+            )
+            previous = None
+        prev = previous or {}
         tri = prev.get("triangles_in") if prev.get("input_digest") == digest else None
         if tri is None and needs_rule_on_triangles:
             if not count_triangles:
@@ -179,6 +193,7 @@ def plan(
                         why="rule chosen by the worker",
                         rule_pending=True,
                         inputs=inputs[a.id],
+                        previous=previous,
                     )
                 )
                 continue
@@ -186,7 +201,7 @@ def plan(
                 tri = _count_triangles(a)
             except Exception:  # noqa: BLE001 - the worker reports it as this asset's failure
                 tri = None
-        item = PlanItem(a, digest, tri, inputs=inputs[a.id])
+        item = PlanItem(a, digest, tri, inputs=inputs[a.id], previous=previous)
         item.rule, item.treatment, item.why = match_rule(cfg, a, tri if tri is not None else 0)
         item.digest = _treatment_digest(cfg, item)
         outs = prev.get("outputs", {})
@@ -207,7 +222,7 @@ def plan(
                 item.checked_outputs = checked
         items.append(item)
     warnings = [] if any(i.rule_pending for i in items) else _unreached_rules(cfg, items)
-    return items, problems, warnings
+    return items, problems, record_warnings + warnings
 
 
 #: temporary files a run leaves in output.dir if it is killed (the atomic writes', the USD layers' staged by
@@ -826,7 +841,9 @@ def _run(
     if prune:
         for path, _ in orphans:
             path.unlink(missing_ok=True)
-    records = {k: v for k, v in manifest.get("assets", {}).items() if k in {i.asset.id for i in items}}
+    # (the records of current assets the run can use: a hand-edited one is ignored, see plan)
+    usable = {it.asset.id for it in items if it.previous is not None}
+    records = {k: v for k, v in manifest.get("assets", {}).items() if k in usable}
     for it in items:
         kept = records.get(it.asset.id)
         if not it.up_to_date or force or kept is None:
@@ -887,9 +904,10 @@ def _run(
     finally:
         progress.close()
     if any(i.rule_pending for i in items):  # the rules are known now
-        warnings = _unreached_rules(cfg, items)
-        for w in warnings:
+        unreached = _unreached_rules(cfg, items)
+        for w in unreached:
             echo(f"warning: {w}")
+        warnings = warnings + unreached
     try:
         if cfg.data["output"].get("scene"):
             _write_scene(out_dir, records)
@@ -956,8 +974,8 @@ def _keep_previous(out_dir: Path, previous: dict | None, failed: dict, verify: b
     tries again. Otherwise None: the failed record replaces the previous one, and those of its outputs
     still as recorded are deleted, so no output is left that the manifest does not list (a file changed
     since is not the run's to delete)."""
-    if previous is None or previous.get("status") != "built":
-        return None
+    if previous is None or record_problem(previous) is not None or previous.get("status") != "built":
+        return None  # (a record the run does not write, hand-edited, names no file to keep or delete)
     outputs = previous.get("outputs", {})
     checked = {kind: _checked_output(out_dir / o["path"], o, verify) for kind, o in outputs.items()}
     if any(o is None for o in checked.values()):
