@@ -1628,6 +1628,57 @@ def test_yaml_empty_values_floats_without_a_dot_and_duplicate_keys(tmp_path):
     )
 
 
+def test_an_unquoted_value_yaml_reads_as_no_string_is_named_with_the_quotes_it_needs(tmp_path):
+    # `name: 1e5` or `name: yes` where the schema wants a string said "100000.0 is not of type 'string'" or
+    # "True is not of type 'string'": neither what was written nor what to do
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+
+    def problems(text: str) -> list[str]:
+        cfg.write_text(text)
+        result = CliRunner().invoke(main, ["run", str(cfg), "--dry-run"])
+        assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+        with pytest.raises(ConfigError) as exc:
+            load_config(cfg)
+        assert result.stderr.splitlines() == exc.value.problems
+        return exc.value.problems
+
+    hint = "quote it to keep it as written:"
+    for value, read in (
+        ("1e5", "a number (100000.0)"),
+        ("yes", "a boolean (true)"),
+        ("off", "a boolean (false)"),
+        ("007", "a number (7)"),
+        ("1:20", "a number (80)"),  # (YAML 1.1's base 60)
+        ("2024-01-01", "a date"),
+    ):
+        assert problems(head + f"rules:\n  - name: {value}\n    encoding: vanilla\n") == [
+            f"c.yaml:5:11: $.rules[0].name: {value} is read by YAML as {read}, not a string; "
+            f'{hint} name: "{value}"'
+        ]
+    assert problems(head + "defaults: {encoding: skip-strip, params: {primitive: yes}}\n") == [
+        "c.yaml:4:54: $.defaults.params.primitive: yes is read by YAML as a boolean (true), not a string; "
+        f'{hint} primitive: "yes"'
+    ]
+    assert problems("version: 1\nassets: [{glob: 1e5}]\noutput: {dir: no}\n") == [
+        "c.yaml:2:17: $.assets[0].glob: 1e5 is read by YAML as a number (100000.0), not a string; "
+        f'{hint} glob: "1e5"',
+        f'c.yaml:3:15: $.output.dir: no is read by YAML as a boolean (false), not a string; {hint} dir: "no"',
+    ]
+    # quoted, they are the strings written; where the schema takes a number or a boolean, nothing changes
+    cfg.write_text(
+        head.replace("{dir: out}", "{dir: out, usd: yes}") + "rules:\n  - {name: '1e5', encoding: vanilla}\n"
+    )
+    config = load_config(cfg)
+    assert config.data["rules"][0]["name"] == "1e5" and config.data["output"]["usd"] is True
+    # an empty value keeps its own message
+    assert problems(head + "rules:\n  - name:\n    encoding: vanilla\n") == [
+        "c.yaml:5:10: $.rules[0].name: empty value (null); expected a string"
+    ]
+
+
 def test_unusable_output_dir_and_globs_are_located_config_errors(tmp_path):
     (tmp_path / "m").mkdir()
     (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
