@@ -56,6 +56,9 @@ class _Main(EncodingsHelpGroup):
     ``{"error": "interrupted"}`` on stdout for one given ``--json`` (:func:`json_on_interrupt`)."""
 
     def invoke(self, ctx: click.Context) -> object:
+        from ._startup import restore_interrupts
+
+        restore_interrupts()  # (the package's import exited on Ctrl-C at once: see swpm_usd._startup)
         try:
             return super().invoke(ctx)
         except KeyboardInterrupt:

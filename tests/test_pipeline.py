@@ -701,6 +701,75 @@ def test_ctrl_c_in_any_command_exits_130_with_one_line(tmp_path, monkeypatch):
         assert json.loads(r.stdout) == expected
 
 
+def test_ctrl_c_while_the_command_imports_the_package_exits_130_with_one_line(tmp_path):
+    # a Ctrl-C in the first second of swpm-pipeline (numpy, numba, usd-core importing) printed the traceback
+    # of the import it cut short: the console script imports the package before any code of the command runs
+    import tomllib
+
+    from conftest import ROOT
+
+    entry = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]["swpm-pipeline"]
+    module, func = entry.split(":")
+    importing = tmp_path / "importing"
+    script = tmp_path / "bin" / "swpm-pipeline"
+    script.parent.mkdir()
+    # the launcher pip writes for the entry point, after a hook that holds the package's import of numpy
+    # until the test has pressed Ctrl-C (so it lands in the import, however fast the machine)
+    script.write_text(
+        "import os, sys, time\n"
+        "class Hold:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name == 'numpy':\n"
+        "            open(os.environ['IMPORTING'], 'w').close()\n"
+        "            time.sleep(120)\n"
+        "sys.meta_path.insert(0, Hold())\n"
+        "import re\n"
+        f"from {module} import {func}\n"
+        "if __name__ == '__main__':\n"
+        "    sys.argv[0] = re.sub(r'(-script\\.pyw|\\.exe)?$', '', sys.argv[0])\n"
+        f"    sys.exit({func}())\n"
+    )
+    package_root = str(Path(swpm_usd.__file__).resolve().parents[1])
+    env = {
+        **os.environ,
+        "IMPORTING": str(importing),
+        "PYTHONPATH": os.pathsep.join([package_root, *filter(None, [os.environ.get("PYTHONPATH")])]),
+    }
+    proc = subprocess.Popen(
+        [sys.executable, str(script), "--version"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=env,
+        start_new_session=True,
+    )
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and proc.poll() is None and not importing.exists():
+            time.sleep(0.02)
+        assert importing.exists() and proc.poll() is None, proc.communicate()
+        os.killpg(proc.pid, signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert (proc.returncode, stderr.decode(), stdout) == (130, "swpm-pipeline: interrupted\n", b"")
+
+
+def test_the_command_gives_ctrl_c_back_to_python_when_it_starts(tmp_path):
+    # (the import's handler exits at once: a run needs its KeyboardInterrupt to stop its workers and record)
+    from swpm_usd import _startup
+
+    obj = tmp_path / "a.obj"
+    obj.write_text(TWO_TRIANGLES)
+    signal.signal(signal.SIGINT, _startup._interrupted)
+    assert CliRunner().invoke(main, ["build", str(obj)]).exit_code == 0
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert _startup.is_command(["/venv/bin/swpm-pipeline"], []) and not _startup.is_command(["pytest"], [])
+    assert _startup.is_command(["-m"], ["python", "-X", "dev", "-m", "swpm_usd.cli", "run"])
+    assert not _startup.is_command(["-c"], ["python", "-c", "import swpm_usd", "-m", "swpm_usd.cli"])
+
+
 @pytest.mark.parametrize("disposition", ["ignored", "own handler"])
 def test_a_run_keeps_an_ignored_or_own_ctrl_c(tmp_path, monkeypatch, disposition):
     # a background job of a script starts with Ctrl-C ignored, a caller may handle it: --jobs 1 turned it
