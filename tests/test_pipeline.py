@@ -1359,6 +1359,23 @@ def test_a_malformed_manifest_record_is_built_again_with_a_warning(tmp_path):
     assert rec["status"] == "failed" and "outputs" not in rec
 
 
+def test_an_output_turned_on_after_a_build_is_written(tmp_path):
+    # `usd: true` added to a config whose assets were built: every asset was up to date, and no .usdc was
+    # ever written (the record's outputs were only checked to be there, not to be those the config asks for)
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL)
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    cfg.write_text(cfg.read_text().replace("dir: out", "{dir: out, usd: true}"))
+    assert run(cfg, echo=lambda m: None).built == 1
+    files, listed = _listed_outputs(out)
+    assert files == listed == {"cow.swpm", "cow.usdc"}
+    # turned off again: nothing to build (the layer stays, listed)
+    cfg.write_text(cfg.read_text().replace("{dir: out, usd: true}", "dir: out"))
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    files, listed = _listed_outputs(out)
+    assert files == listed == {"cow.swpm", "cow.usdc"}
+
+
 def test_parallel_jobs_and_dask_executor(tmp_path):
     import dask.distributed  # noqa: F401 - the dask extra is part of .[dev]
 

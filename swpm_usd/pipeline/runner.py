@@ -214,6 +214,8 @@ def plan(
                 or checks_no_stricter(checks_of(cfg.data), prev.get("checks"))
             )
             and bool(outs) == _wants_outputs(cfg)
+            # (an output the config asks for that the build did not write: `usd: true` added since)
+            and _wanted_outputs(cfg) <= set(outs)
         )
         if item.up_to_date:
             checked = {kind: _checked_output(out_dir / o["path"], o, verify) for kind, o in outs.items()}
@@ -444,6 +446,14 @@ def _unreached_rules(cfg: Config, items: list[PlanItem]) -> list[str]:
 def _wants_outputs(cfg: Config) -> bool:
     out = cfg.data["output"]
     return bool(out.get("swpm", True) or out.get("usd", False))
+
+
+def _wanted_outputs(cfg: Config) -> set[str]:
+    """The kinds of output (a record's ``outputs`` keys) the config asks each asset for."""
+    out = cfg.data["output"]
+    return {
+        kind for kind, wanted in (("swpm", out.get("swpm", True)), ("usd", out.get("usd", False))) if wanted
+    }
 
 
 def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
