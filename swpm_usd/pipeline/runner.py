@@ -7,7 +7,8 @@ is up to date when the digest of its input files, its resolved rule, parameters 
 writing one out rebuilds nothing) and the tool version equal the manifest's (for ``encoding: auto`` also the
 budgets and streaming policy it chose by), the budgets and streaming limits are as loose as those it passed
 (:func:`.assets.checks_no_stricter`: loosening a budget rebuilds nothing, tightening one checks again), and
-its outputs are still there with the recorded size and sha256.
+its outputs are those the config asks for and still as recorded (their size and stat, else their sha256:
+:func:`_checked_output`). A record the run does not write (a hand edit) is ignored, with a warning.
 
 An asset whose rebuild fails keeps its previous build when that build's outputs are intact
 (:func:`_keep_previous`): the manifest keeps its record (with ``last_failure``), the scene its layer, and the
