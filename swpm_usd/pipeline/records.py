@@ -32,11 +32,11 @@ def _what(value: Any) -> str:
 
 
 def _number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
+    return type(value) is int or type(value) is float  # (a JSON value: a boolean is not a number)
 
 
 def _count(value: Any) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+    return type(value) is int and value >= 0
 
 
 def _file_name(value: Any) -> bool:
@@ -72,6 +72,11 @@ _OUTPUT: dict[str, tuple[Callable[[Any], bool], str]] = {
 _SUMMARY_FIGURES = ("lambda", "acmr", "global_bytes", "instance_bytes")
 _CURVE_FIGURES = ("lod", "triangles", "error", "acmr")
 _CANDIDATE_FIGURES = ("acmr", "misses_at_error_score", "lod_change_cost")
+#: the numeric limits of a record's ``checks``, by section (see :func:`.assets.checks_no_stricter`)
+_LIMITS = {
+    section: tuple(sorted(key for s, key in (*_MAXIMA, *_MINIMA) if s == section))
+    for section in ("budgets", "streaming")
+}
 
 
 def _fields(obj: dict, spec: dict, where: str, required: tuple[str, ...] = ()) -> str | None:
@@ -89,9 +94,14 @@ def _fields(obj: dict, spec: dict, where: str, required: tuple[str, ...] = ()) -
 
 
 def _figures(obj: dict, keys: tuple[str, ...], where: str, required: bool = False) -> str | None:
-    """:func:`_fields` for figures (numbers)."""
-    spec = dict.fromkeys(keys, (_number, "a number"))
-    return _fields(obj, spec, where, keys if required else ())
+    """:func:`_fields` for figures (numbers), the usual case (all of them numbers) without a message made."""
+    for key in keys:
+        value = obj.get(key)
+        if type(value) is not int and type(value) is not float and (required or key in obj):
+            if key not in obj:
+                return f"{where} has no {key!r}"
+            return f"{where}.{key} is {_what(value)}, not a number"
+    return None
 
 
 def record_problem(rec: Any) -> str | None:
@@ -117,8 +127,7 @@ def record_problem(rec: Any) -> str | None:
             continue
         if not isinstance(limits, dict):
             return f"checks.{section} is {_what(limits)}, not an object"
-        numeric = tuple(sorted(k for s, k in (*_MAXIMA, *_MINIMA) if s == section))
-        problem = _figures(limits, numeric, f"checks.{section}")
+        problem = _figures(limits, _LIMITS[section], f"checks.{section}")
         if problem:
             return problem
     if "summary" in rec:
@@ -129,12 +138,13 @@ def record_problem(rec: Any) -> str | None:
         curve = summary.get("curve", [])
         if not isinstance(curve, list):
             return f"summary.curve is {_what(curve)}, not a list"
-        for i, point in enumerate(curve):
-            if not isinstance(point, dict):
+        for i, point in enumerate(curve):  # (the longest part: a loop of its own, a message only when due)
+            if type(point) is not dict:
                 return f"summary.curve[{i}] is {_what(point)}, not an object"
-            problem = _figures(point, _CURVE_FIGURES, f"summary.curve[{i}]", required=True)
-            if problem:
-                return problem
+            for key in _CURVE_FIGURES:
+                value = point.get(key)
+                if type(value) is not int and type(value) is not float:
+                    return _figures(point, _CURVE_FIGURES, f"summary.curve[{i}]", required=True)
     failure = rec.get("last_failure", {})
     if "error" in failure and not isinstance(failure["error"], str):
         return f"last_failure.error is {_what(failure['error'])}, not a string"
