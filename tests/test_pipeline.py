@@ -1256,6 +1256,37 @@ def test_place_outputs_is_all_or_nothing(tmp_path, monkeypatch):
     assert records["swpm"]["sha256"] == sha256_of(tmp_path / "a.swpm") and records["usd"]["path"] == "b.usdc"
 
 
+@pytest.mark.parametrize("kind", ["swpm", "usd"])
+def test_place_outputs_undoes_a_rename_cut_short_as_it_returns(tmp_path, monkeypatch, kind):
+    # a Ctrl-C received during a rename is raised as it returns (--jobs 1: the worker is the main process),
+    # and an error of the USD layer's reload after its rename: the rename was not yet listed as done, so it
+    # was not undone, and the previous file, kept aside, was deleted with the new file left in its place
+    from swpm_usd.pipeline import worker
+
+    staged = {}
+    for k, name in (("swpm", "a.swpm"), ("usd", "a.usdc")):
+        (tmp_path / name).write_bytes(b"old " + name.encode())
+        tmp = tmp_path / f".{name}.new.tmp"
+        tmp.write_bytes(b"new " + name.encode())
+        staged[k] = (tmp, tmp_path / name)
+    real = os.replace
+
+    def replace_then_interrupted(src, dst, *args, **kwargs):
+        real(src, dst, *args, **kwargs)
+        if Path(src) == staged[kind][0]:  # (once: not the rename that puts the previous file back)
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(os, "replace", replace_then_interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        worker._place_outputs(staged)
+    monkeypatch.undo()
+    for tmp, _ in staged.values():  # (as its caller does)
+        tmp.unlink(missing_ok=True)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.swpm", "a.usdc"]
+    assert (tmp_path / "a.swpm").read_bytes() == b"old a.swpm"
+    assert (tmp_path / "a.usdc").read_bytes() == b"old a.usdc"
+
+
 def test_keep_aside_links_or_copies_the_previous_file(tmp_path, monkeypatch):
     import errno
 

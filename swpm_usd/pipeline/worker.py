@@ -336,21 +336,25 @@ def _place_outputs(staged: dict[str, tuple[Path, Path]]) -> dict[str, dict[str, 
     previous files put back, one without a previous file deleted) and the error raised: the asset's previous
     build is left as it was, and no new file the manifest would not list (a failure after the .swpm's rename
     left the new .swpm, listed nowhere, beside the previous .usdc)."""
-    placed: list[tuple[str, Path, Path | None]] = []  # (kind, target, its previous file kept aside)
+    # (kind, temporary file, target, its previous file kept aside), listed before the rename: an error or a
+    # Ctrl-C raised as it returns (a signal is handled then), or an error of the layer's reload, undoes it too
+    placed: list[tuple[str, Path, Path, Path | None]] = []
     aside: list[Path] = []
     try:
         for kind, (tmp, target) in staged.items():
             previous = keep_aside(target)
             if previous is not None:
                 aside.append(previous)
+            placed.append((kind, tmp, target, previous))
             if kind == "usd":
                 _place_usd(tmp, target)
             else:
                 os.replace(tmp, target)
-            placed.append((kind, target, previous))
         return {kind: output_record(target) for kind, (_, target) in staged.items()}
     except BaseException:
-        for kind, target, previous in reversed(placed):
+        for kind, tmp, target, previous in reversed(placed):
+            if os.path.lexists(tmp):
+                continue  # not renamed: the target is still its previous file
             try:
                 if previous is None:
                     target.unlink(missing_ok=True)
