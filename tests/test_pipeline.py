@@ -1223,6 +1223,62 @@ def test_an_output_that_cannot_be_renamed_into_place_keeps_the_previous_build(tm
     assert files == listed == {"cow.swpm", "cow.usdc", "spot.swpm", "spot.usdc"}
 
 
+def test_a_worker_killed_while_it_renames_outputs_leaves_the_previous_build(tmp_path, monkeypatch):
+    # a worker killed (a pool's worker stopped by Ctrl-C, a kill, the OOM killer) after renaming the asset's
+    # new outputs into place, before they were recorded: each previous file was kept aside
+    # (.<name>.XXXXXXXX.prev.tmp), and the next run deleted those as temporary files, so the previous build
+    # was lost (the new files, which the manifest does not list, left in its place)
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    before = {name: sha256_of(out / name) for name in ("cow.swpm", "cow.usdc")}
+    original = cfg.read_text()
+    cfg.write_text(original.replace("encoding: skip-strip", "encoding: vanilla"))  # another .swpm
+    killed = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import os, signal, sys\n"
+            "from swpm_usd.pipeline import run, worker\n"
+            "worker.output_record = lambda path: os.kill(os.getpid(), signal.SIGKILL)\n"
+            "run(sys.argv[1], echo=lambda m: None)\n",
+            str(cfg),
+        ],
+        capture_output=True,
+    )
+    assert killed.returncode == -signal.SIGKILL, killed.stderr.decode()
+    assert len(list(out.glob(".*.prev.tmp"))) == 2 and sha256_of(out / "cow.swpm") != before["cow.swpm"]
+    # a rebuild that fails keeps the previous build, which is whole
+    cfg.write_text(cfg.read_text() + "budgets: {global_bytes: 1}\n")
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1 and res.failures["meshes/cow.obj"]["kept_previous"], res.failures
+    assert {name: sha256_of(out / name) for name in before} == before
+    files, listed = _listed_outputs(out)
+    assert files == listed == {"cow.swpm", "cow.usdc"}
+    assert not list(out.glob(".*.tmp"))
+    # the config put back: up to date
+    cfg.write_text(original)
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    assert {name: sha256_of(out / name) for name in before} == before
+    # a pool's worker that Ctrl-C stopped there: the run puts the previous build back as it stops
+    from swpm_usd.fileio import keep_aside, stage_bytes
+    from swpm_usd.pipeline import runner
+
+    def stopped_while_renaming(tasks, *args):
+        for name in ("cow.swpm", "cow.usdc"):
+            keep_aside(out / name)
+            os.replace(stage_bytes(out / name, b"new"), out / name)
+        raise KeyboardInterrupt
+        yield
+
+    monkeypatch.setattr(runner, "execute", stopped_while_renaming)
+    cfg.write_text(original.replace("encoding: skip-strip", "encoding: vanilla"))
+    with pytest.raises(KeyboardInterrupt):
+        run(cfg, echo=lambda m: None)
+    assert {name: sha256_of(out / name) for name in before} == before
+    assert not list(out.glob(".*.tmp"))
+
+
 def test_place_outputs_is_all_or_nothing(tmp_path, monkeypatch):
     # whichever step fails once the first output is renamed into place (the second's rename, recording the
     # outputs), the previous files are put back and a new one without a previous file is deleted

@@ -239,6 +239,38 @@ def _remove_temporary(out_dir: Path) -> None:
         stale.unlink(missing_ok=True)
 
 
+def _restore_kept_aside(out_dir: Path, records: dict) -> None:
+    """Put back the previous outputs that a worker stopped while it renamed an asset's outputs into place
+    (a pool's worker stopped by Ctrl-C, a kill) had kept aside (:func:`.worker._place_outputs`,
+    ``.<name>.XXXXXXXX.prev.tmp``), before :func:`_remove_temporary` deletes them: one whose ``<name>`` is
+    an output a record of ``records`` (asset id -> manifest record) lists, no longer as recorded (a new file
+    the manifest does not list, or none), while the file kept aside is, is renamed back, so the asset is its
+    recorded build again, not half of one the manifest does not know."""
+    kept = list(out_dir.glob(".*.prev.tmp"))
+    if not kept:  # (the usual run)
+        return
+    recorded = {
+        o["path"]: o
+        for rec in records.values()
+        if record_problem(rec) is None
+        for o in rec.get("outputs", {}).values()
+    }
+    for aside in kept:
+        name = aside.name[1 : -len(".prev.tmp")].rpartition(".")[0]
+        o = recorded.get(name)
+        target = out_dir / name
+        if o is None or _checked_output(target, o) is not None or _checked_output(aside, o) is None:
+            continue
+        try:
+            os.replace(aside, target)
+        except OSError:
+            continue
+        if target.suffix == ".usdc":
+            from ..usd.writer import reload_if_open
+
+            reload_if_open(target)
+
+
 def _interrupts_raise() -> bool:
     """Does Ctrl-C raise KeyboardInterrupt here (Python's own handler, in the main thread)? A process started
     with it ignored (a background job of a script) or a caller's own handler keep it as it is."""
@@ -810,6 +842,8 @@ def _run(
         lock.acquire()  # before the manifest is read: it is this run's from here on
     manifest_path = out_dir / MANIFEST
     manifest = _read_manifest(manifest_path)
+    if not dry_run and out_dir.is_dir():  # (the run's from here on: before the plan checks the outputs)
+        _restore_kept_aside(out_dir, manifest["assets"])
     items, errors, warnings = plan(cfg, manifest, count_triangles=dry_run or explain, verify=verify)
     if errors:
         raise ConfigError(errors)
@@ -880,6 +914,7 @@ def _run(
         if results is not None:
             results.close()  # first: it restores the Ctrl-C handler it set (--jobs 1)
         with _interrupts_ignored():
+            _restore_kept_aside(out_dir, records)  # (a worker stopped while it renamed outputs)
             _remove_temporary(out_dir)
             _write_manifest(manifest_path, manifest, text)
 
