@@ -8,9 +8,9 @@ calls :func:`exit_on_interrupt_while_importing`: in the command's process it set
 writes the line and exits at once (nothing has been written yet), and the command puts Python's handler back
 when it starts (:func:`restore_interrupts`).
 
-Anywhere else (the package imported by a program, a notebook, a worker process) nothing changes. This
-module imports nothing the interpreter has not loaded at startup but ``signal`` (which the package imports
-anyway).
+Anywhere else (the package imported by a program, a notebook, a worker process, one the command starts with
+multiprocessing's spawn included) nothing changes. This module imports nothing the interpreter has not loaded
+at startup but ``signal`` (which the package imports anyway).
 """
 
 from __future__ import annotations
@@ -29,22 +29,31 @@ EXIT_INTERRUPTED = 130
 def is_command(argv: list[str] | None = None, orig_argv: list[str] | None = None) -> bool:
     """Is this process the ``swpm-pipeline`` command: its console script (``argv[0]`` named so, less the
     ``.exe`` or ``-script.py`` of Windows launchers), or ``python -m swpm_usd.cli`` (the interpreter's own
-    command line, ``sys.orig_argv``: while the package imports, ``sys.argv[0]`` is ``-m``)?"""
+    command line, ``sys.orig_argv``: while the package imports, ``sys.argv[0]`` is ``-m``)?
+
+    Not a process the interpreter runs code given with ``-c`` in, whatever its ``sys.argv``: one that
+    multiprocessing's spawn starts (``python -c 'from multiprocessing.spawn import spawn_main; ...'``, the
+    workers of Dask's LocalCluster) is given its parent's ``sys.argv`` and imports its parent's script."""
     argv = sys.argv if argv is None else argv
     orig_argv = getattr(sys, "orig_argv", []) if orig_argv is None else orig_argv
+    option, module = _interpreter_runs(orig_argv[1:]) if orig_argv else (None, None)
+    if option == "-m":
+        return module == COMMAND_MODULE
+    if option == "-c":
+        return False
     if argv:
         name = os.path.basename(argv[0])
         for suffix in (".exe", "-script.pyw", "-script.py"):
             name = name.removesuffix(suffix)
         if name == COMMAND:
             return True
-    return _module_run(orig_argv[1:]) == COMMAND_MODULE
+    return False
 
 
-def _module_run(args: list[str]) -> str | None:
-    """The module of ``python ... -m MODULE`` given the interpreter's arguments (``sys.orig_argv[1:]``), or
-    None (a script, ``-c``, or none): its options as CPython reads them, short ones clustered (``-Bm``) and
-    ``-X``/``-W`` taking a value (joined or the next argument)."""
+def _interpreter_runs(args: list[str]) -> tuple[str | None, str | None]:
+    """What the interpreter's arguments (``sys.orig_argv[1:]``) run: ``("-m", MODULE)``, ``("-c", None)``,
+    or ``(None, None)`` (a script, stdin, or none): its options as CPython reads them, short ones clustered
+    (``-Bm``) and ``-X``/``-W`` taking a value (joined or the next argument)."""
     i = 0
     while i < len(args):
         arg = args[i]
@@ -52,22 +61,22 @@ def _module_run(args: list[str]) -> str | None:
             i += 2
             continue
         if not arg.startswith("-") or arg in ("-", "--"):
-            return None  # a script, stdin
+            return None, None  # a script, stdin
         if arg.startswith("--"):  # --help, --version
             i += 1
             continue
         for j in range(1, len(arg)):
             opt, rest = arg[j], arg[j + 1 :]
             if opt == "c":
-                return None
+                return "-c", None
             if opt in "mXW":
                 value = rest or (args[i + 1] if i + 1 < len(args) else "")
                 if opt == "m":
-                    return value
+                    return "-m", value
                 i += 0 if rest else 1
                 break
         i += 1
-    return None
+    return None, None
 
 
 def _interrupted(signum: int, frame: object) -> None:

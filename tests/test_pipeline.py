@@ -770,6 +770,46 @@ def test_the_command_gives_ctrl_c_back_to_python_when_it_starts(tmp_path):
     assert not _startup.is_command(["-c"], ["python", "-c", "import swpm_usd", "-m", "swpm_usd.cli"])
 
 
+def test_the_command_s_spawned_processes_keep_python_s_ctrl_c(tmp_path):
+    # a process the command starts with multiprocessing's spawn (Dask's LocalCluster workers, --executor
+    # dask) is given the command's sys.argv and imports its console script, so the package's import set the
+    # handler there too, never given back: on Ctrl-C each such worker wrote "swpm-pipeline: interrupted"
+    # and exited at once
+    from swpm_usd import _startup
+
+    script = tmp_path / "bin" / "swpm-pipeline"
+    script.parent.mkdir()
+    script.write_text(
+        "import multiprocessing, signal, sys\n"
+        "from swpm_usd.cli import main\n"
+        "def handler():\n"
+        "    return signal.getsignal(signal.SIGINT).__name__\n"
+        "if __name__ == '__main__':\n"
+        "    from swpm_usd._startup import restore_interrupts\n"
+        "    restore_interrupts()  # (as the command does when it starts)\n"
+        "    with multiprocessing.get_context('spawn').Pool(1) as pool:\n"
+        "        print(handler(), pool.apply(handler))\n"
+    )
+    package_root = str(Path(swpm_usd.__file__).resolve().parents[1])
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([package_root, *filter(None, [os.environ.get("PYTHONPATH")])]),
+    }
+    r = subprocess.run([sys.executable, str(script), "run"], capture_output=True, env=env, timeout=300)
+    assert r.returncode == 0, r.stderr.decode()
+    assert r.stdout.decode().split() == ["default_int_handler", "default_int_handler"]
+    spawned = [
+        "python",
+        "-c",
+        "from multiprocessing.spawn import spawn_main; spawn_main()",
+        "--multiprocessing-fork",
+    ]
+    assert not _startup.is_command(["/venv/bin/swpm-pipeline", "run"], spawned)
+    assert _startup.is_command(
+        ["/venv/bin/swpm-pipeline", "run"], ["python", "/venv/bin/swpm-pipeline", "run"]
+    )
+
+
 @pytest.mark.parametrize("disposition", ["ignored", "own handler"])
 def test_a_run_keeps_an_ignored_or_own_ctrl_c(tmp_path, monkeypatch, disposition):
     # a background job of a script starts with Ctrl-C ignored, a caller may handle it: --jobs 1 turned it
