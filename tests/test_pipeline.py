@@ -1841,6 +1841,30 @@ def test_yaml_empty_values_floats_without_a_dot_and_duplicate_keys(tmp_path):
     )
 
 
+def test_an_unquoted_key_yaml_reads_as_no_string_is_named_with_the_quotes_it_needs(tmp_path):
+    # a key is a string in JSON and in a prim's customData: `match: {tag: {on: x}}` was read as {True: "x"},
+    # which passed the schema (a tag's keys are not checked) and silently never matched an asset
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+    head += "rules:\n  - name: r\n    encoding: vanilla\n"
+    hint = "quote it to keep it as written:"
+    for key, read in (("on", "a boolean (true)"), ("1", "a number (1)"), ("1e5", "a number (100000.0)")):
+        cfg.write_text(head + f"    match: {{tag: {{{key}: x}}}}\n")
+        with pytest.raises(ConfigError) as exc:
+            load_config(cfg)
+        assert exc.value.problems == [
+            f"c.yaml:7:19: $.rules[0].match.tag.{key}: key {key} is read by YAML as {read}, not a string; "
+            f'{hint} "{key}"'
+        ]
+    # quoted, it is the key written; a date is read back as the text written, a key of the schema's as before
+    cfg.write_text(head + "    match: {tag: {'on': x, 2024-01-01: y}}\n")
+    assert load_config(cfg).data["rules"][0]["match"]["tag"] == {"on": "x", "2024-01-01": "y"}
+    cfg.write_text(head + "    match: {tag: {k: x}}\n    params: {yes: 1}\n")
+    with pytest.raises(ConfigError) as exc:
+        load_config(cfg)
+    assert any("unknown key" in p for p in exc.value.problems), exc.value.problems
+
+
 def test_an_unquoted_value_yaml_reads_as_no_string_is_named_with_the_quotes_it_needs(tmp_path):
     # `name: 1e5` or `name: yes` where the schema wants a string said "100000.0 is not of type 'string'" or
     # "True is not of type 'string'": neither what was written nor what to do

@@ -76,19 +76,28 @@ def _to_python(
     problems: list[str],
     name: str,
     plain: dict[tuple, str] | None = None,
+    keys: list[str] | None = None,
 ) -> Any:
     """Convert a composed YAML node tree to Python values, recording each node's (line, col), and in
     ``plain`` the text of each unquoted scalar read as other than a string; a key given twice in one mapping
-    is a problem (located at its second occurrence)."""
+    is a problem (located at its second occurrence), and in ``keys`` an unquoted key read as other than the
+    string written (``on``, ``1``: a key is a string in JSON and in a prim's customData, as a tag's are)."""
     marks[path] = (node.start_mark.line + 1, node.start_mark.column + 1)
     if isinstance(node, yaml.MappingNode):
         out = {}
         first_line: dict[Any, int] = {}
         for key_node, value_node in node.value:
             key = _scalar(key_node) if isinstance(key_node, yaml.ScalarNode) else repr(key_node.value)
+            read = key
             if not isinstance(key, (str, int, float, bool)) and key is not None:
                 key = str(key)
             line, col = key_node.start_mark.line + 1, key_node.start_mark.column + 1
+            plain_key = isinstance(key_node, yaml.ScalarNode) and key_node.style is None
+            if keys is not None and plain_key and key != key_node.value:
+                keys.append(
+                    f"{name}:{line}:{col}: {format_path((*path, key_node.value))}: key "
+                    f"{_quote_hint((), key_node.value, read)}"
+                )
             if key in first_line:
                 problems.append(
                     f"{name}:{line}:{col}: {format_path((*path, key))}: duplicate key "
@@ -96,12 +105,14 @@ def _to_python(
                 )
                 continue
             first_line[key] = line
-            out[key] = _to_python(value_node, (*path, key), marks, problems, name, plain)
+            out[key] = _to_python(value_node, (*path, key), marks, problems, name, plain, keys)
             # a wrong key is best pointed at by the key itself
             marks.setdefault((*path, key, "<key>"), (line, col))
         return out
     if isinstance(node, yaml.SequenceNode):
-        return [_to_python(v, (*path, i), marks, problems, name, plain) for i, v in enumerate(node.value)]
+        return [
+            _to_python(v, (*path, i), marks, problems, name, plain, keys) for i, v in enumerate(node.value)
+        ]
     value = _scalar(node)
     if plain is not None and node.style is None and node.value and not isinstance(value, str):
         plain[path] = node.value
@@ -118,9 +129,10 @@ def load_config(path: str | Path) -> Config:
     marks: dict[tuple, tuple[int, int]] = {}
     plain: dict[tuple, str] = {}
     duplicates: list[str] = []
+    keys: list[str] = []
     try:
         node = yaml.compose(text, Loader=_Loader)
-        data = _to_python(node, (), marks, duplicates, path.name, plain) if node is not None else None
+        data = _to_python(node, (), marks, duplicates, path.name, plain, keys) if node is not None else None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
@@ -135,7 +147,7 @@ def load_config(path: str | Path) -> Config:
     if not isinstance(data, dict):
         raise ConfigError([f"{path.name}:1:1: $: the configuration must be a mapping"])
     validator = jsonschema.Draft202012Validator(load_schema())
-    problems = []
+    problems = list(keys)
     for err in sorted(validator.iter_errors(data), key=lambda e: tuple(map(str, e.absolute_path))):
         problems.extend(_describe(cfg, err))
     if problems:
