@@ -1503,6 +1503,23 @@ def test_an_output_turned_on_after_a_build_is_written(tmp_path):
     assert files == listed == {"cow.swpm", "cow.usdc"}
 
 
+def test_an_output_turned_off_when_its_asset_is_rebuilt_is_named_and_pruned(tmp_path):
+    # `swpm: false, usd: true` where the assets were built with their .swpm alone: the asset is rebuilt (the
+    # layer it lacks), and its new record lists the layer alone, so its .swpm was left listed nowhere, neither
+    # named as unlisted nor deleted by --prune, for good
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL)
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    cfg.write_text(cfg.read_text().replace("dir: out", "{dir: out, swpm: false, usd: true}"))
+    res = run(cfg, echo=lambda m: None)
+    assert res.built == 1 and res.unlisted == ["cow.swpm"]
+    res = run(cfg, echo=lambda m: None)
+    assert res.skipped == 1 and res.unlisted == ["cow.swpm"]
+    assert run(cfg, prune=True, echo=lambda m: None).pruned == ["cow.swpm"]
+    files, listed = _listed_outputs(out)
+    assert files == listed == {"cow.usdc"}
+
+
 def test_parallel_jobs_and_dask_executor(tmp_path):
     import dask.distributed  # noqa: F401 - the dask extra is part of .[dev]
 

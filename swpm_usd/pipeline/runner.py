@@ -901,6 +901,7 @@ def _run(
     if orphans and not prune:  # so a later run with prune still finds them
         manifest[ORPHANED] = [o for _, o in orphans]
     built = failed = 0
+    kept_files: set[tuple] | None = None  # (_files_kept, once an asset drops an output)
     failures: dict[str, dict] = {}
     progress = _Progress(len(todo))
     by_id = {it.asset.id: it for it in todo}
@@ -932,6 +933,17 @@ def _run(
                 _complete_output_record(out_dir / o["path"], o)
             if rec["status"] == "built":
                 built += 1
+                # (a kind of output the config no longer asks for: its file is a removed asset's output)
+                for path, o in _dropped_outputs(out_dir, records.get(rec["id"]), rec, verify):
+                    if kept_files is None:
+                        kept_files = _files_kept(cfg, out_dir, items)
+                    if _file_key(path) in kept_files:
+                        continue
+                    if prune:
+                        path.unlink(missing_ok=True)
+                    else:
+                        manifest.setdefault(ORPHANED, []).append(o)
+                    orphan_names.append(o["path"])
                 records[rec["id"]] = rec
             else:
                 failed += 1
@@ -991,8 +1003,7 @@ def _orphaned_outputs(
         recorded += manifest[ORPHANED]
     if not recorded:
         return []  # the usual run: no file stat'ed for the guard below
-    keep = {_file_key(p) for p in planned_outputs(cfg, out_dir, [it.asset for it in items])}
-    keep |= {_file_key(p) for p in [cfg.path, *(p for it in items for p in it.inputs)]}
+    keep = _files_kept(cfg, out_dir, items)
     found, seen = [], set()
     for o in recorded:
         if not isinstance(o, dict) or not isinstance(o.get("path"), str) or "\0" in o["path"]:
@@ -1006,6 +1017,36 @@ def _orphaned_outputs(
             seen.add(path)
             found.append(
                 (path, {k: checked[k] for k in ("path", "size", "sha256", *STAT_KEYS) if k in checked})
+            )
+    return found
+
+
+def _files_kept(cfg: Config, out_dir: Path, items: list) -> set[tuple]:
+    """The files (:func:`_file_key`) no output of a removed asset or kind may be taken for: those this run's
+    assets write or read (an earlier output used as a stage, or a layer a stage uses) and the config."""
+    keep = {_file_key(p) for p in planned_outputs(cfg, out_dir, [it.asset for it in items])}
+    return keep | {_file_key(p) for p in [cfg.path, *(p for it in items for p in it.inputs)]}
+
+
+def _dropped_outputs(
+    out_dir: Path, previous: dict | None, built: dict, verify: bool = False
+) -> list[tuple[Path, dict]]:
+    """The outputs of an asset's previous build (``previous``, its record) that its new one (``built``)
+    does not write (a kind the config no longer asks for: ``swpm: false`` since), still as recorded, as
+    :func:`_orphaned_outputs` gives them: the new record does not list them, so the run names them (and
+    ``prune`` deletes them) as it does a removed asset's."""
+    if previous is None:
+        return []
+    written = {o["path"] for o in built.get("outputs", {}).values()}
+    found = []
+    for o in previous.get("outputs", {}).values():
+        checked = None if o["path"] in written else _checked_output(out_dir / o["path"], o, verify)
+        if checked is not None:
+            found.append(
+                (
+                    out_dir / o["path"],
+                    {k: checked[k] for k in ("path", "size", "sha256", *STAT_KEYS) if k in checked},
+                )
             )
     return found
 
