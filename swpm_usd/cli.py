@@ -160,7 +160,8 @@ def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int
 @click.option(
     "--prune",
     is_flag=True,
-    help="Delete the outputs of assets no longer in the config (those still as the manifest recorded them).",
+    help="Delete the outputs of assets no longer in the config, and those of a kind it no longer asks for "
+    "once their asset is rebuilt (those still as the manifest recorded them).",
 )
 @click.option(
     "--verify",
