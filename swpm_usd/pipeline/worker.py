@@ -45,7 +45,7 @@ def sha256_file(path: Path) -> str:
 #: run that finds the file with the same size and all of these trusts it unchanged without reading it (the
 #: runner's ``_checked_output``). ``ctime_ns`` moves on any change to the file's data or metadata and cannot
 #: be set back (``os.utime`` sets the mtime, not the ctime); ``ino`` and ``dev`` change when another file is
-#: renamed or copied over it
+#: renamed over it (a copy written into it, ``cp`` or ``cp -p``, keeps its inode: its ctime moves)
 STAT_KEYS = ("mtime_ns", "ctime_ns", "ino", "dev")
 
 
