@@ -253,6 +253,8 @@ class CollapseSequence:
     ``step_geometric_error[s]`` (when measured): the larger of step ``s``'s quadric error and how far its new
     triangles lie from the input (:mod:`.fan_deviation`) where that raises the running maximum, else the
     quadric error: exact for the running maximum, the figure :meth:`lod_errors` accumulates.
+    ``step_offsets[s]`` is the number of vertex collapses done after ``s`` steps (``step_count + 1``
+    entries): a level of detail is a whole number of steps.
     """
 
     mesh: Mesh
