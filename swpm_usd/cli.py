@@ -56,6 +56,9 @@ class _Main(EncodingsHelpGroup):
     ``{"error": "interrupted"}`` on stdout for one given ``--json`` (:func:`json_on_interrupt`)."""
 
     def invoke(self, ctx: click.Context) -> object:
+        from ._startup import restore_interrupts
+
+        restore_interrupts()  # (the package's import exited on Ctrl-C at once: see swpm_usd._startup)
         try:
             return super().invoke(ctx)
         except KeyboardInterrupt:
@@ -157,7 +160,14 @@ def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int
 @click.option(
     "--prune",
     is_flag=True,
-    help="Delete the outputs of assets no longer in the config (those still as the manifest recorded them).",
+    help="Delete the outputs of assets no longer in the config, and those of a kind it no longer asks for "
+    "once their asset is rebuilt (those still as the manifest recorded them).",
+)
+@click.option(
+    "--verify",
+    is_flag=True,
+    help="Hash every recorded output (sha256) to decide whether it is intact, instead of trusting one whose "
+    "size, mtime, ctime and inode are as recorded; rebuilds one whose bytes changed without those (bit rot).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the run summary as JSON.")
 def run_cmd(
@@ -169,13 +179,16 @@ def run_cmd(
     scheduler: str | None,
     force: bool,
     prune: bool,
+    verify: bool,
     as_json: bool,
 ) -> None:
     """Run the pipeline described by CONFIG (pipeline.yaml).
 
     Per asset: the first matching rule picks the encoding and its parameters; the asset is built, its
     streaming order validated and its outputs written atomically under output.dir, with manifest.json
-    and report.html. Unchanged assets are skipped.
+    and report.html. Unchanged assets are skipped: an asset is up to date when its inputs (hashed), rule
+    and parameters are those recorded and its outputs are still as recorded (their size and stat, or with
+    --verify their sha256).
 
     An asset built before whose rebuild fails keeps its previous build (outputs, manifest record, place
     in the scene) and is reported failed. One run at a time writes in an output.dir: another fails at
@@ -196,6 +209,7 @@ def run_cmd(
             explain=explain,
             force=force,
             prune=prune,
+            verify=verify,
             echo=lambda m: click.echo(m, err=as_json),
         )
     except ConfigError as exc:

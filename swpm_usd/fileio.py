@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import secrets
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -31,8 +33,9 @@ def set_plain_mode(fd: int) -> None:
         pass
 
 
-def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
-    """Write ``data`` to a temporary file beside ``path``, fsync it, then rename it into place.
+def stage_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
+    """Write ``data`` to a new temporary file beside ``path`` (``.<name>.XXXXXXXX.tmp``), fsync it and
+    return its path, for the caller to rename over ``path`` (or delete).
 
     The file gets the mode a plain ``open()`` gives a new file, 0o666 less the umask (``mkstemp``'s is
     always 0o600: other users, a render farm's accounts or a web server could not read the outputs)."""
@@ -45,8 +48,52 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
             f.flush()
             set_plain_mode(f.fileno())
             os.fsync(f.fileno())
-        os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
-    return path
+    return Path(tmp)
+
+
+def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
+    """Write ``data`` to a temporary file beside ``path``, fsync it, then rename it into place
+    (:func:`stage_bytes`)."""
+    tmp = stage_bytes(path, data)
+    try:
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return Path(path)
+
+
+def keep_aside(path: str | os.PathLike[str]) -> Path | None:
+    """Keep the file now at ``path`` under a new temporary name beside it (``.<name>.XXXXXXXX.prev.tmp``),
+    so it can be renamed back after ``path`` is replaced: a hard link (no data copied), or a copy where the
+    filesystem has no hard links. None when there is no file at ``path``."""
+    path = Path(path)
+    for _ in range(100):
+        aside = path.with_name(f".{path.name}.{secrets.token_hex(4)}.prev.tmp")
+        try:
+            os.link(path, aside, follow_symlinks=False)
+            return aside
+        except FileExistsError:
+            continue
+        except FileNotFoundError:
+            return None
+        except (OSError, NotImplementedError):  # EPERM, EOPNOTSUPP, EMLINK: no (more) hard links here
+            break
+    else:  # pragma: no cover - a hundred random names taken
+        raise FileExistsError(f"no free temporary name beside {path}")
+    fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".prev.tmp", dir=path.parent)
+    os.close(fd)
+    aside = Path(name)
+    try:
+        shutil.copyfile(path, aside)
+        shutil.copystat(path, aside)
+    except FileNotFoundError:
+        aside.unlink(missing_ok=True)
+        return None
+    except BaseException:
+        aside.unlink(missing_ok=True)
+        raise
+    return aside

@@ -514,6 +514,7 @@ def _nearest2(
     stack: np.ndarray,
     budget: int,
     stack_d: np.ndarray,
+    upper: bool = False,
 ) -> tuple[float, int]:
     """Squared distance from the point to the nearest triangle (branch and bound), and the leaf that held it,
     the ``hint`` of the next, nearby query (its triangles seed the bound: coherent queries are cheap).
@@ -521,9 +522,10 @@ def _nearest2(
     With ``bound >= 0`` the search may stop at the first triangle at most that close and return its distance
     (the exact distance is returned whenever it is above ``bound``); after opening ``budget`` nodes it stops
     and returns ``bound`` (where thousands of long triangles meet, at a cone's apex or a disc's centre,
-    every box holds the point and the search would be linear in them). ``bound = -1`` and an unreachable
-    ``budget``: the exact distance always. ``stack_d``: scratch beside ``stack`` (the box distance of every
-    node on it, computed when it was pushed)."""
+    every box holds the point and the search would be linear in them), or with ``upper`` the nearest
+    triangle's distance found so far (an upper bound: a search for a distance that must not be
+    underestimated). ``bound = -1`` and an unreachable ``budget``: the exact distance always. ``stack_d``:
+    scratch beside ``stack`` (the box distance of every node on it, computed when it was pushed)."""
     best = _leaf_min2(px, py, pz, tv_sorted, node_a[hint], max(-1 - node_b[hint], 0), np.inf, bound)
     if best <= bound:
         return best, hint
@@ -533,7 +535,7 @@ def _nearest2(
     while sp > 0:
         budget -= 1
         if budget < 0:
-            return bound, hint
+            return (best if upper else bound), hint
         sp -= 1
         n = stack[sp]
         if stack_d[sp] >= best:

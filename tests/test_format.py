@@ -147,6 +147,25 @@ def test_other_encodings_round_trip(encoding: str, params: dict, tmp_path: Path)
     _same(pm, load(path))
 
 
+@pytest.mark.parametrize("encoding", ["vanilla", "skip-strip", "mixed"])
+def test_errors_beyond_float32_still_save_a_valid_file(encoding: str, tmp_path: Path) -> None:
+    """Points near float32's largest value (finite, so every loader takes them) can give a LOD an error (a
+    distance, computed in float64) beyond float32's range: it is stored as float32's largest value, not as
+    inf, which the writer wrote and every reader rejected (SWPM_LOD_NOT_MONOTONE: error is not finite)."""
+    rng = np.random.default_rng(0)
+    n = 300  # a random hub (benchmarks/bench_hostile.py): its coarse errors exceed its coordinates
+    pts = rng.normal(size=(n + 1, 3))
+    pts *= 3e38 / np.abs(pts).max()
+    mesh = Mesh.from_arrays(pts.astype(np.float32), np.c_[np.zeros(n, int), rng.integers(1, n + 1, (n, 2))])
+    pm = swpm_usd.build(mesh, encoding)
+    assert np.isfinite(pm.lod_errors).all() and pm.lod_errors[-1] == np.finfo(np.float32).max
+    assert (np.diff(pm.lod_errors) >= 0).all()
+    path = save(pm, tmp_path / "x.swpm")
+    rep = validate(path)
+    assert rep.valid, rep.format()
+    _same(pm, load(path))
+
+
 def test_hand_made_sliding_window_buffers_validate() -> None:
     """Without the sliding-window implementation the codec still writes and checks its chunks."""
     rep = validate_bytes(encode_bytes(fan_sliding()))

@@ -701,6 +701,115 @@ def test_ctrl_c_in_any_command_exits_130_with_one_line(tmp_path, monkeypatch):
         assert json.loads(r.stdout) == expected
 
 
+def test_ctrl_c_while_the_command_imports_the_package_exits_130_with_one_line(tmp_path):
+    # a Ctrl-C in the first second of swpm-pipeline (numpy, numba, usd-core importing) printed the traceback
+    # of the import it cut short: the console script imports the package before any code of the command runs
+    import tomllib
+
+    from conftest import ROOT
+
+    entry = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]["swpm-pipeline"]
+    module, func = entry.split(":")
+    importing = tmp_path / "importing"
+    script = tmp_path / "bin" / "swpm-pipeline"
+    script.parent.mkdir()
+    # the launcher pip writes for the entry point, after a hook that holds the package's import of numpy
+    # until the test has pressed Ctrl-C (so it lands in the import, however fast the machine)
+    script.write_text(
+        "import os, sys, time\n"
+        "class Hold:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name == 'numpy':\n"
+        "            open(os.environ['IMPORTING'], 'w').close()\n"
+        "            time.sleep(120)\n"
+        "sys.meta_path.insert(0, Hold())\n"
+        "import re\n"
+        f"from {module} import {func}\n"
+        "if __name__ == '__main__':\n"
+        "    sys.argv[0] = re.sub(r'(-script\\.pyw|\\.exe)?$', '', sys.argv[0])\n"
+        f"    sys.exit({func}())\n"
+    )
+    package_root = str(Path(swpm_usd.__file__).resolve().parents[1])
+    env = {
+        **os.environ,
+        "IMPORTING": str(importing),
+        "PYTHONPATH": os.pathsep.join([package_root, *filter(None, [os.environ.get("PYTHONPATH")])]),
+    }
+    proc = subprocess.Popen(
+        [sys.executable, str(script), "--version"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=env,
+        start_new_session=True,
+    )
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and proc.poll() is None and not importing.exists():
+            time.sleep(0.02)
+        assert importing.exists() and proc.poll() is None, proc.communicate()
+        os.killpg(proc.pid, signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert (proc.returncode, stderr.decode(), stdout) == (130, "swpm-pipeline: interrupted\n", b"")
+
+
+def test_the_command_gives_ctrl_c_back_to_python_when_it_starts(tmp_path):
+    # (the import's handler exits at once: a run needs its KeyboardInterrupt to stop its workers and record)
+    from swpm_usd import _startup
+
+    obj = tmp_path / "a.obj"
+    obj.write_text(TWO_TRIANGLES)
+    signal.signal(signal.SIGINT, _startup._interrupted)
+    assert CliRunner().invoke(main, ["build", str(obj)]).exit_code == 0
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert _startup.is_command(["/venv/bin/swpm-pipeline"], []) and not _startup.is_command(["pytest"], [])
+    assert _startup.is_command(["-m"], ["python", "-X", "dev", "-m", "swpm_usd.cli", "run"])
+    assert not _startup.is_command(["-c"], ["python", "-c", "import swpm_usd", "-m", "swpm_usd.cli"])
+
+
+def test_the_command_s_spawned_processes_keep_python_s_ctrl_c(tmp_path):
+    # a process the command starts with multiprocessing's spawn (Dask's LocalCluster workers, --executor
+    # dask) is given the command's sys.argv and imports its console script, so the package's import set the
+    # handler there too, never given back: on Ctrl-C each such worker wrote "swpm-pipeline: interrupted"
+    # and exited at once
+    from swpm_usd import _startup
+
+    script = tmp_path / "bin" / "swpm-pipeline"
+    script.parent.mkdir()
+    script.write_text(
+        "import multiprocessing, signal, sys\n"
+        "from swpm_usd.cli import main\n"
+        "def handler():\n"
+        "    return signal.getsignal(signal.SIGINT).__name__\n"
+        "if __name__ == '__main__':\n"
+        "    from swpm_usd._startup import restore_interrupts\n"
+        "    restore_interrupts()  # (as the command does when it starts)\n"
+        "    with multiprocessing.get_context('spawn').Pool(1) as pool:\n"
+        "        print(handler(), pool.apply(handler))\n"
+    )
+    package_root = str(Path(swpm_usd.__file__).resolve().parents[1])
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([package_root, *filter(None, [os.environ.get("PYTHONPATH")])]),
+    }
+    r = subprocess.run([sys.executable, str(script), "run"], capture_output=True, env=env, timeout=300)
+    assert r.returncode == 0, r.stderr.decode()
+    assert r.stdout.decode().split() == ["default_int_handler", "default_int_handler"]
+    spawned = [
+        "python",
+        "-c",
+        "from multiprocessing.spawn import spawn_main; spawn_main()",
+        "--multiprocessing-fork",
+    ]
+    assert not _startup.is_command(["/venv/bin/swpm-pipeline", "run"], spawned)
+    assert _startup.is_command(
+        ["/venv/bin/swpm-pipeline", "run"], ["python", "/venv/bin/swpm-pipeline", "run"]
+    )
+
+
 @pytest.mark.parametrize("disposition", ["ignored", "own handler"])
 def test_a_run_keeps_an_ignored_or_own_ctrl_c(tmp_path, monkeypatch, disposition):
     # a background job of a script starts with Ctrl-C ignored, a caller may handle it: --jobs 1 turned it
@@ -1107,6 +1216,310 @@ def test_a_failed_usd_export_replaces_no_output(tmp_path, monkeypatch):
     assert res.failures["meshes/cow.obj"]["kept_previous"]
 
 
+def test_an_output_that_cannot_be_renamed_into_place_keeps_the_previous_build(tmp_path, monkeypatch):
+    # the .swpm was renamed into place before the USD layer: when the layer's rename failed, the new .swpm
+    # stayed, listed nowhere, and the previous build (its .swpm overwritten) could not be kept
+    import errno
+
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    before = {name: sha256_of(out / name) for name in ("cow.swpm", "cow.usdc")}
+    real = os.replace
+
+    def refuse_usdc(src, dst, *args, **kwargs):
+        if os.fspath(dst).endswith(".usdc"):
+            raise OSError(errno.EIO, "rename refused (test)")
+        return real(src, dst, *args, **kwargs)
+
+    monkeypatch.setattr(os, "replace", refuse_usdc)
+    cfg.write_text(cfg.read_text().replace("encoding: skip-strip", "encoding: vanilla"))  # another .swpm
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1 and "rename refused" in res.failures["meshes/cow.obj"]["error"]
+    assert res.failures["meshes/cow.obj"]["kept_previous"]
+    assert {name: sha256_of(out / name) for name in before} == before
+    files, listed = _listed_outputs(out)
+    assert files == listed == {"cow.swpm", "cow.usdc"}
+    names = sorted(p.name for p in out.iterdir())  # no temporary file left
+    assert names == [
+        ".swpm-pipeline.lock",
+        "cow.swpm",
+        "cow.usdc",
+        "manifest.json",
+        "report.html",
+        "scene.usda",
+    ]
+    # an asset built for the first time: none of its outputs is left
+    shutil.copy(SHARED_MESHES / "spot.obj", tmp_path / "meshes" / "spot.obj")
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 2 and not res.failures["meshes/spot.obj"]["kept_previous"]
+    files, listed = _listed_outputs(out)
+    assert files == listed == {"cow.swpm", "cow.usdc"}
+    # and when the rename works again, both are built
+    monkeypatch.undo()
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.failed) == (2, 0)
+    files, listed = _listed_outputs(out)
+    assert files == listed == {"cow.swpm", "cow.usdc", "spot.swpm", "spot.usdc"}
+
+
+def test_a_worker_killed_while_it_renames_outputs_leaves_the_previous_build(tmp_path, monkeypatch):
+    # a worker killed (a pool's worker stopped by Ctrl-C, a kill, the OOM killer) after renaming the asset's
+    # new outputs into place, before they were recorded: each previous file was kept aside
+    # (.<name>.XXXXXXXX.prev.tmp), and the next run deleted those as temporary files, so the previous build
+    # was lost (the new files, which the manifest does not list, left in its place)
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    before = {name: sha256_of(out / name) for name in ("cow.swpm", "cow.usdc")}
+    original = cfg.read_text()
+    cfg.write_text(original.replace("encoding: skip-strip", "encoding: vanilla"))  # another .swpm
+    killed = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import os, signal, sys\n"
+            "from swpm_usd.pipeline import run, worker\n"
+            "worker.output_record = lambda path: os.kill(os.getpid(), signal.SIGKILL)\n"
+            "run(sys.argv[1], echo=lambda m: None)\n",
+            str(cfg),
+        ],
+        capture_output=True,
+    )
+    assert killed.returncode == -signal.SIGKILL, killed.stderr.decode()
+    assert len(list(out.glob(".*.prev.tmp"))) == 2 and sha256_of(out / "cow.swpm") != before["cow.swpm"]
+    # a rebuild that fails keeps the previous build, which is whole
+    cfg.write_text(cfg.read_text() + "budgets: {global_bytes: 1}\n")
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1 and res.failures["meshes/cow.obj"]["kept_previous"], res.failures
+    assert {name: sha256_of(out / name) for name in before} == before
+    files, listed = _listed_outputs(out)
+    assert files == listed == {"cow.swpm", "cow.usdc"}
+    assert not list(out.glob(".*.tmp"))
+    # the config put back: up to date
+    cfg.write_text(original)
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    assert {name: sha256_of(out / name) for name in before} == before
+    # a pool's worker that Ctrl-C stopped there: the run puts the previous build back as it stops
+    from swpm_usd.fileio import keep_aside, stage_bytes
+    from swpm_usd.pipeline import runner
+
+    def stopped_while_renaming(tasks, *args):
+        for name in ("cow.swpm", "cow.usdc"):
+            keep_aside(out / name)
+            os.replace(stage_bytes(out / name, b"new"), out / name)
+        raise KeyboardInterrupt
+        yield
+
+    monkeypatch.setattr(runner, "execute", stopped_while_renaming)
+    cfg.write_text(original.replace("encoding: skip-strip", "encoding: vanilla"))
+    with pytest.raises(KeyboardInterrupt):
+        run(cfg, echo=lambda m: None)
+    assert {name: sha256_of(out / name) for name in before} == before
+    assert not list(out.glob(".*.tmp"))
+
+
+def test_place_outputs_is_all_or_nothing(tmp_path, monkeypatch):
+    # whichever step fails once the first output is renamed into place (the second's rename, recording the
+    # outputs), the previous files are put back and a new one without a previous file is deleted
+    from swpm_usd.pipeline import worker
+
+    def staged_pair() -> dict:
+        staged = {}
+        for kind, name in (("swpm", "a.swpm"), ("usd", "b.usdc")):
+            tmp = tmp_path / f".{name}.new.tmp"
+            tmp.write_bytes(b"new " + name.encode())
+            staged[kind] = (tmp, tmp_path / name)
+        return staged
+
+    (tmp_path / "a.swpm").write_bytes(b"old a.swpm")  # b.usdc has no previous file
+    real = worker.output_record
+
+    def fail_on_record(path):
+        if path.name == "b.usdc":
+            raise OSError("cannot read (test)")
+        return real(path)
+
+    monkeypatch.setattr(worker, "output_record", fail_on_record)
+    with pytest.raises(OSError, match="cannot read"):
+        worker._place_outputs(staged_pair())
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.swpm"]
+    assert (tmp_path / "a.swpm").read_bytes() == b"old a.swpm"
+    monkeypatch.undo()
+    records = worker._place_outputs(staged_pair())
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.swpm", "b.usdc"]
+    assert (tmp_path / "a.swpm").read_bytes() == b"new a.swpm"
+    assert records["swpm"]["sha256"] == sha256_of(tmp_path / "a.swpm") and records["usd"]["path"] == "b.usdc"
+
+
+@pytest.mark.parametrize("kind", ["swpm", "usd"])
+def test_place_outputs_undoes_a_rename_cut_short_as_it_returns(tmp_path, monkeypatch, kind):
+    # a Ctrl-C received during a rename is raised as it returns (--jobs 1: the worker is the main process),
+    # and an error of the USD layer's reload after its rename: the rename was not yet listed as done, so it
+    # was not undone, and the previous file, kept aside, was deleted with the new file left in its place
+    from swpm_usd.pipeline import worker
+
+    staged = {}
+    for k, name in (("swpm", "a.swpm"), ("usd", "a.usdc")):
+        (tmp_path / name).write_bytes(b"old " + name.encode())
+        tmp = tmp_path / f".{name}.new.tmp"
+        tmp.write_bytes(b"new " + name.encode())
+        staged[k] = (tmp, tmp_path / name)
+    real = os.replace
+
+    def replace_then_interrupted(src, dst, *args, **kwargs):
+        real(src, dst, *args, **kwargs)
+        if Path(src) == staged[kind][0]:  # (once: not the rename that puts the previous file back)
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(os, "replace", replace_then_interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        worker._place_outputs(staged)
+    monkeypatch.undo()
+    for tmp, _ in staged.values():  # (as its caller does)
+        tmp.unlink(missing_ok=True)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.swpm", "a.usdc"]
+    assert (tmp_path / "a.swpm").read_bytes() == b"old a.swpm"
+    assert (tmp_path / "a.usdc").read_bytes() == b"old a.usdc"
+
+
+def test_keep_aside_links_or_copies_the_previous_file(tmp_path, monkeypatch):
+    import errno
+
+    from swpm_usd.fileio import keep_aside
+
+    target = tmp_path / "a.swpm"
+    assert keep_aside(target) is None  # nothing to keep
+    target.write_bytes(b"previous")
+    os.chmod(target, 0o640)
+    aside = keep_aside(target)
+    assert aside.name.startswith(".a.swpm.") and aside.name.endswith(".prev.tmp")
+    assert aside.stat().st_ino == target.stat().st_ino  # a hard link: no data copied
+    aside.unlink()
+
+    def no_links(*args, **kwargs):
+        raise OSError(errno.EPERM, "no hard links here (test)")
+
+    monkeypatch.setattr(os, "link", no_links)
+    aside = keep_aside(target)  # a copy, with the mode and mtime of the file
+    assert aside.read_bytes() == b"previous" and aside.stat().st_ino != target.stat().st_ino
+    assert aside.stat().st_mode == target.stat().st_mode
+    assert aside.stat().st_mtime_ns == target.stat().st_mtime_ns
+    target.unlink()
+    assert keep_aside(target) is None and sorted(p.name for p in tmp_path.iterdir()) == [aside.name]
+
+
+def _hand_edited(good: dict) -> dict[str, object]:
+    """Malformed versions of the manifest record ``good`` (a built asset's, with a .swpm and a .usdc), each
+    a record this tool never writes: what a hand edit of the manifest can leave."""
+    import copy
+
+    def edit(change) -> dict:
+        rec = copy.deepcopy(good)
+        change(rec)
+        return rec
+
+    return {
+        "a list": [1, 2],
+        "a string": "built",
+        "null": None,
+        "no status": edit(lambda r: r.pop("status")),
+        "no outputs": edit(lambda r: r.pop("outputs")),
+        "no digest": edit(lambda r: r.pop("digest")),
+        "outputs a list": edit(lambda r: r.update(outputs=list(r["outputs"].values()))),
+        "an output a string": edit(lambda r: r["outputs"].update(swpm="cow.swpm")),
+        "an output without its path": edit(lambda r: r["outputs"]["usd"].pop("path")),
+        "a size that is a string": edit(
+            lambda r: r["outputs"]["swpm"].update(size=str(r["outputs"]["swpm"]["size"]))
+        ),
+        "a path outside output.dir": edit(lambda r: r["outputs"]["swpm"].update(path="../meshes/cow.obj")),
+        "triangles_in a string": edit(lambda r: r.update(triangles_in=str(r["triangles_in"]))),
+        "checks.budgets a string": edit(lambda r: r["checks"].update(budgets="none")),
+        "a budget a string": edit(lambda r: r["checks"].update(budgets={"total_bytes": "1e9"})),
+        "summary a list": edit(lambda r: r.update(summary=[])),
+        "a curve point without its error": edit(lambda r: r["summary"]["curve"][0].pop("error")),
+        "last_failure a string": edit(lambda r: r.update(last_failure="boom")),
+        "seconds a string": edit(lambda r: r.update(seconds="0.5")),
+    }
+
+
+def test_a_malformed_manifest_record_is_built_again_with_a_warning(tmp_path):
+    # a hand-edited manifest: a record of a current asset that is not a dict, lacks a key or holds a value
+    # of another type raised in plan, _keep_previous, the scene or the report; it is now ignored, named
+    from swpm_usd.pipeline.runner import _keep_previous
+
+    cfg = _project(tmp_path, config=MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    manifest = json.loads((out / "manifest.json").read_text())
+    good = manifest["assets"]["meshes/cow.obj"]
+    assert run(cfg, echo=lambda m: None).skipped == 2
+    for what, rec in _hand_edited(good).items():
+        assert _keep_previous(out, rec, {"error": "x"}) is None, what  # never raises either
+        manifest["assets"]["meshes/cow.obj"] = rec
+        (out / "manifest.json").write_text(json.dumps(manifest))
+        lines: list[str] = []
+        dry = run(cfg, dry_run=True, echo=lines.append)
+        assert dry.skipped == 1 and any(
+            line.startswith("meshes/cow.obj: ") and "[to build]" in line for line in lines
+        ), lines
+        (warning,) = [w for w in dry.warnings if "meshes/cow.obj" in w]
+        assert (
+            warning.startswith("out/manifest.json: the record of meshes/cow.obj ")
+            and "built again" in warning
+        )
+        lines.clear()
+        res = run(cfg, echo=lines.append)
+        assert (res.built, res.skipped, res.failed) == (1, 1, 0), (what, res.failures)
+        assert res.warnings.count(warning) == 1 and f"warning: {warning}" in lines, (what, lines)
+        files, listed = _listed_outputs(out)
+        assert files == listed == {"cow.swpm", "cow.usdc", "spot.swpm", "spot.usdc"}, what
+        assert run(cfg, echo=lambda m: None).skipped == 2, what  # its record is whole again
+    # a rebuild that fails: the failure is recorded (no previous build to keep), the run goes on
+    manifest["assets"]["meshes/cow.obj"] = _hand_edited(good)["an output a string"]
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    (tmp_path / "meshes" / "cow.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
+    r = CliRunner().invoke(main, ["run", str(cfg)])
+    assert r.exit_code == 1 and "Traceback" not in r.output, r.output
+    assert "warning: out/manifest.json: the record of meshes/cow.obj " in r.stdout
+    rec = json.loads((out / "manifest.json").read_text())["assets"]["meshes/cow.obj"]
+    assert rec["status"] == "failed" and "outputs" not in rec
+
+
+def test_an_output_turned_on_after_a_build_is_written(tmp_path):
+    # `usd: true` added to a config whose assets were built: every asset was up to date, and no .usdc was
+    # ever written (the record's outputs were only checked to be there, not to be those the config asks for)
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL)
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    cfg.write_text(cfg.read_text().replace("dir: out", "{dir: out, usd: true}"))
+    assert run(cfg, echo=lambda m: None).built == 1
+    files, listed = _listed_outputs(out)
+    assert files == listed == {"cow.swpm", "cow.usdc"}
+    # turned off again: nothing to build (the layer stays, listed)
+    cfg.write_text(cfg.read_text().replace("{dir: out, usd: true}", "dir: out"))
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    files, listed = _listed_outputs(out)
+    assert files == listed == {"cow.swpm", "cow.usdc"}
+
+
+def test_an_output_turned_off_when_its_asset_is_rebuilt_is_named_and_pruned(tmp_path):
+    # `swpm: false, usd: true` where the assets were built with their .swpm alone: the asset is rebuilt (the
+    # layer it lacks), and its new record lists the layer alone, so its .swpm was left listed nowhere, neither
+    # named as unlisted nor deleted by --prune, for good
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL)
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    cfg.write_text(cfg.read_text().replace("dir: out", "{dir: out, swpm: false, usd: true}"))
+    res = run(cfg, echo=lambda m: None)
+    assert res.built == 1 and res.unlisted == ["cow.swpm"]
+    res = run(cfg, echo=lambda m: None)
+    assert res.skipped == 1 and res.unlisted == ["cow.swpm"]
+    assert run(cfg, prune=True, echo=lambda m: None).pruned == ["cow.swpm"]
+    files, listed = _listed_outputs(out)
+    assert files == listed == {"cow.usdc"}
+
+
 def test_parallel_jobs_and_dask_executor(tmp_path):
     import dask.distributed  # noqa: F401 - the dask extra is part of .[dev]
 
@@ -1279,6 +1692,132 @@ def test_tightened_budgets_or_streaming_and_changed_outputs_rebuild(tmp_path):
     assert swpm_usd.validate(out).valid
 
 
+def _output_reads(monkeypatch, out: Path) -> list[str]:
+    """The names of the outputs (.swpm, .usdc) in ``out`` this process opens from now on, in order."""
+    import builtins
+
+    real = builtins.open
+    opened: list[str] = []
+
+    def spy(file, *args, **kwargs):
+        if isinstance(file, (str, os.PathLike)):
+            p = Path(file)
+            if p.parent == out and p.suffix in (".swpm", ".usdc"):
+                opened.append(p.name)
+        return real(file, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "open", spy)
+    return opened
+
+
+STAT_KEYS = ("mtime_ns", "ctime_ns", "ino", "dev")
+
+
+def _recorded_outputs(out: Path) -> dict[str, dict]:
+    manifest = json.loads((out / "manifest.json").read_text())
+    return {o["path"]: o for rec in manifest["assets"].values() for o in rec.get("outputs", {}).values()}
+
+
+def test_a_rerun_reads_no_output_whose_size_and_stat_are_as_recorded(tmp_path, monkeypatch):
+    # every rerun hashed (sha256) every output of every asset to find it intact: with thousands of assets,
+    # most of a rerun's time; the manifest now records each output's stat, and a file found with the same
+    # size, mtime, ctime, inode and device is not read
+    cfg = _project(tmp_path, config=MINIMAL.replace("dir: out", "{dir: out, usd: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    recorded = _recorded_outputs(out)
+    assert sorted(recorded) == ["cow.swpm", "cow.usdc", "spot.swpm", "spot.usdc"]
+    for name, o in recorded.items():
+        st = (out / name).stat()
+        assert (o["size"], o["sha256"]) == (st.st_size, sha256_of(out / name))
+        assert [o[k] for k in STAT_KEYS] == [st.st_mtime_ns, st.st_ctime_ns, st.st_ino, st.st_dev]
+    reads = _output_reads(monkeypatch, out)
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
+    # touched (mtime moved, bytes the same): hashed, up to date, its stat recorded anew; then trusted again
+    cow = out / "cow.swpm"
+    st = cow.stat()
+    os.utime(cow, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == ["cow.swpm"]
+    assert _recorded_outputs(out)["cow.swpm"]["mtime_ns"] == st.st_mtime_ns + 10**9
+    reads.clear()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
+    # the same size, other bytes, a later mtime: hashed, rebuilt
+    data = bytearray(cow.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    cow.write_bytes(bytes(data))
+    assert run(cfg, echo=lambda m: None).built == 1 and swpm_usd.validate(cow).valid
+    # the same size, other bytes, the recorded mtime set back (os.utime): the ctime moved, rebuilt
+    st = cow.stat()
+    data = bytearray(cow.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    cow.write_bytes(bytes(data))
+    os.utime(cow, ns=(st.st_atime_ns, st.st_mtime_ns))
+    assert cow.stat().st_mtime_ns == st.st_mtime_ns
+    assert run(cfg, echo=lambda m: None).built == 1 and swpm_usd.validate(cow).valid
+    # another file of the same size and mtime renamed over it (another inode): rebuilt
+    spot = out / "spot.usdc"
+    st = spot.stat()
+    other = out / "other.usdc"
+    other.write_bytes(bytes(st.st_size))
+    os.utime(other, ns=(st.st_atime_ns, st.st_mtime_ns))
+    other.replace(spot)
+    assert (
+        run(cfg, echo=lambda m: None).built == 1
+        and sha256_of(spot) == _recorded_outputs(out)["spot.usdc"]["sha256"]
+    )
+    reads.clear()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
+
+
+def test_outputs_of_an_older_manifest_are_hashed_once_then_trusted(tmp_path, monkeypatch):
+    # a manifest written before outputs had their stat recorded: each output hashed as before, its stat
+    # then recorded, and the next rerun reads none
+    cfg = _project(tmp_path, config=MINIMAL.replace("dir: out", "{dir: out, usd: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    manifest = json.loads((out / "manifest.json").read_text())
+    for rec in manifest["assets"].values():
+        for o in rec["outputs"].values():
+            for k in STAT_KEYS:
+                del o[k]
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    reads = _output_reads(monkeypatch, out)
+    assert run(cfg, echo=lambda m: None).skipped == 2
+    assert sorted(reads) == ["cow.swpm", "cow.usdc", "spot.swpm", "spot.usdc"]
+    for name, o in _recorded_outputs(out).items():
+        st = (out / name).stat()
+        assert [o[k] for k in STAT_KEYS] == [st.st_mtime_ns, st.st_ctime_ns, st.st_ino, st.st_dev]
+    reads.clear()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
+    # the outputs of a removed asset (orphaned_outputs, checked on every run until --prune) keep their stat
+    (tmp_path / "meshes" / "spot.obj").unlink()
+    res = run(cfg, echo=lambda m: None)
+    assert sorted(res.unlisted) == ["spot.swpm", "spot.usdc"] and reads == []
+    orphaned = json.loads((out / "manifest.json").read_text())["orphaned_outputs"]
+    assert all(set(STAT_KEYS) <= set(o) for o in orphaned)
+    assert sorted(run(cfg, echo=lambda m: None).unlisted) == ["spot.swpm", "spot.usdc"] and reads == []
+    assert run(cfg, prune=True, echo=lambda m: None).pruned and not (out / "spot.swpm").exists()
+
+
+def test_verify_hashes_every_output(tmp_path, monkeypatch):
+    # what the stat cannot show (bytes changed with none of size, mtime, ctime, inode moving: a disk's silent
+    # corruption), --verify finds: here the recorded sha256 is made wrong instead
+    cfg = _project(tmp_path, config=MINIMAL.replace("dir: out", "{dir: out, usd: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    manifest = json.loads((out / "manifest.json").read_text())
+    manifest["assets"]["meshes/cow.obj"]["outputs"]["usd"]["sha256"] = "0" * 64
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    reads = _output_reads(monkeypatch, out)
+    assert run(cfg, dry_run=True, echo=lambda m: None).skipped == 2 and reads == []
+    assert run(cfg, dry_run=True, verify=True, echo=lambda m: None).skipped == 1
+    assert sorted(reads) == ["cow.swpm", "cow.usdc", "spot.swpm", "spot.usdc"]
+    r = CliRunner().invoke(main, ["run", str(cfg), "--verify", "--json"])
+    assert r.exit_code == 0 and json.loads(r.stdout)["built"] == 1, r.output
+    assert _recorded_outputs(out)["cow.usdc"]["sha256"] == sha256_of(out / "cow.usdc")
+    assert "--verify" in CliRunner().invoke(main, ["run", "--help"]).output
+
+
 def test_yaml_empty_values_floats_without_a_dot_and_duplicate_keys(tmp_path):
     (tmp_path / "m").mkdir()
     (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
@@ -1317,6 +1856,81 @@ def test_yaml_empty_values_floats_without_a_dot_and_duplicate_keys(tmp_path):
     assert problems(head.replace("'m/*.obj'", '!!python/name:os.system ""'))[0].startswith(
         "c.yaml:2:17: $: invalid"
     )
+
+
+def test_an_unquoted_key_yaml_reads_as_no_string_is_named_with_the_quotes_it_needs(tmp_path):
+    # a key is a string in JSON and in a prim's customData: `match: {tag: {on: x}}` was read as {True: "x"},
+    # which passed the schema (a tag's keys are not checked) and silently never matched an asset
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+    head += "rules:\n  - name: r\n    encoding: vanilla\n"
+    hint = "quote it to keep it as written:"
+    for key, read in (("on", "a boolean (true)"), ("1", "a number (1)"), ("1e5", "a number (100000.0)")):
+        cfg.write_text(head + f"    match: {{tag: {{{key}: x}}}}\n")
+        with pytest.raises(ConfigError) as exc:
+            load_config(cfg)
+        assert exc.value.problems == [
+            f"c.yaml:7:19: $.rules[0].match.tag.{key}: key {key} is read by YAML as {read}, not a string; "
+            f'{hint} "{key}"'
+        ]
+    # quoted, it is the key written; a date is read back as the text written, a key of the schema's as before
+    cfg.write_text(head + "    match: {tag: {'on': x, 2024-01-01: y}}\n")
+    assert load_config(cfg).data["rules"][0]["match"]["tag"] == {"on": "x", "2024-01-01": "y"}
+    cfg.write_text(head + "    match: {tag: {k: x}}\n    params: {yes: 1}\n")
+    with pytest.raises(ConfigError) as exc:
+        load_config(cfg)
+    assert any("unknown key" in p for p in exc.value.problems), exc.value.problems
+
+
+def test_an_unquoted_value_yaml_reads_as_no_string_is_named_with_the_quotes_it_needs(tmp_path):
+    # `name: 1e5` or `name: yes` where the schema wants a string said "100000.0 is not of type 'string'" or
+    # "True is not of type 'string'": neither what was written nor what to do
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+
+    def problems(text: str) -> list[str]:
+        cfg.write_text(text)
+        result = CliRunner().invoke(main, ["run", str(cfg), "--dry-run"])
+        assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+        with pytest.raises(ConfigError) as exc:
+            load_config(cfg)
+        assert result.stderr.splitlines() == exc.value.problems
+        return exc.value.problems
+
+    hint = "quote it to keep it as written:"
+    for value, read in (
+        ("1e5", "a number (100000.0)"),
+        ("yes", "a boolean (true)"),
+        ("off", "a boolean (false)"),
+        ("007", "a number (7)"),
+        ("1:20", "a number (80)"),  # (YAML 1.1's base 60)
+        ("2024-01-01", "a date"),
+    ):
+        assert problems(head + f"rules:\n  - name: {value}\n    encoding: vanilla\n") == [
+            f"c.yaml:5:11: $.rules[0].name: {value} is read by YAML as {read}, not a string; "
+            f'{hint} name: "{value}"'
+        ]
+    assert problems(head + "defaults: {encoding: skip-strip, params: {primitive: yes}}\n") == [
+        "c.yaml:4:54: $.defaults.params.primitive: yes is read by YAML as a boolean (true), not a string; "
+        f'{hint} primitive: "yes"'
+    ]
+    assert problems("version: 1\nassets: [{glob: 1e5}]\noutput: {dir: no}\n") == [
+        "c.yaml:2:17: $.assets[0].glob: 1e5 is read by YAML as a number (100000.0), not a string; "
+        f'{hint} glob: "1e5"',
+        f'c.yaml:3:15: $.output.dir: no is read by YAML as a boolean (false), not a string; {hint} dir: "no"',
+    ]
+    # quoted, they are the strings written; where the schema takes a number or a boolean, nothing changes
+    cfg.write_text(
+        head.replace("{dir: out}", "{dir: out, usd: yes}") + "rules:\n  - {name: '1e5', encoding: vanilla}\n"
+    )
+    config = load_config(cfg)
+    assert config.data["rules"][0]["name"] == "1e5" and config.data["output"]["usd"] is True
+    # an empty value keeps its own message
+    assert problems(head + "rules:\n  - name:\n    encoding: vanilla\n") == [
+        "c.yaml:5:10: $.rules[0].name: empty value (null); expected a string"
+    ]
 
 
 def test_unusable_output_dir_and_globs_are_located_config_errors(tmp_path):

@@ -54,7 +54,11 @@ class ProgressiveMesh(ABC):
         self.attributes: Mapping[str, np.ndarray] = MappingProxyType(dict(attributes))
         self.vertex_counts = np.asarray(vertex_counts, dtype=np.int64)
         self.triangle_counts = np.asarray(triangle_counts, dtype=np.int64)
-        self.lod_errors = np.asarray(lod_errors, dtype=np.float32)
+        # float32 as stored; an error beyond its range (points near its largest value: errors are distances,
+        # up to the bounding box's diagonal) is stored as its largest value, not as inf, which no reader takes
+        self.lod_errors = np.minimum(np.asarray(lod_errors, np.float64), np.finfo(np.float32).max).astype(
+            np.float32
+        )
         self.params: dict[str, Any] = dict(params or {})
         n = self.vertex_counts.shape[0]
         if n == 0 or self.triangle_counts.shape[0] != n or self.lod_errors.shape[0] != n:

@@ -6,6 +6,8 @@ offending node, 1-based), so an editor can jump to it.
 
 from __future__ import annotations
 
+import datetime
+import json
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,6 +33,9 @@ class Config:
     path: Path
     data: dict[str, Any]
     marks: dict[tuple, tuple[int, int]] = field(default_factory=dict)
+    #: the text of each unquoted scalar that YAML read as something other than a string (``1e5``, ``yes``,
+    #: ``2024-01-01``), by JSON path: an error on a field the schema types as a string quotes it
+    plain_scalars: dict[tuple, str] = field(default_factory=dict)
 
     @property
     def base(self) -> Path:
@@ -64,18 +69,35 @@ def _scalar(node: yaml.Node) -> Any:
     return _Loader("").construct_object(node, deep=True)
 
 
-def _to_python(node: yaml.Node, path: tuple, marks: dict, problems: list[str], name: str) -> Any:
-    """Convert a composed YAML node tree to Python values, recording each node's (line, col); a key given
-    twice in one mapping is a problem (located at its second occurrence)."""
+def _to_python(
+    node: yaml.Node,
+    path: tuple,
+    marks: dict,
+    problems: list[str],
+    name: str,
+    plain: dict[tuple, str] | None = None,
+    keys: list[str] | None = None,
+) -> Any:
+    """Convert a composed YAML node tree to Python values, recording each node's (line, col), and in
+    ``plain`` the text of each unquoted scalar read as other than a string; a key given twice in one mapping
+    is a problem (located at its second occurrence), and in ``keys`` an unquoted key read as other than the
+    string written (``on``, ``1``: a key is a string in JSON and in a prim's customData, as a tag's are)."""
     marks[path] = (node.start_mark.line + 1, node.start_mark.column + 1)
     if isinstance(node, yaml.MappingNode):
         out = {}
         first_line: dict[Any, int] = {}
         for key_node, value_node in node.value:
             key = _scalar(key_node) if isinstance(key_node, yaml.ScalarNode) else repr(key_node.value)
+            read = key
             if not isinstance(key, (str, int, float, bool)) and key is not None:
                 key = str(key)
             line, col = key_node.start_mark.line + 1, key_node.start_mark.column + 1
+            plain_key = isinstance(key_node, yaml.ScalarNode) and key_node.style is None
+            if keys is not None and plain_key and key != key_node.value:
+                keys.append(
+                    f"{name}:{line}:{col}: {format_path((*path, key_node.value))}: key "
+                    f"{_quote_hint((), key_node.value, read)}"
+                )
             if key in first_line:
                 problems.append(
                     f"{name}:{line}:{col}: {format_path((*path, key))}: duplicate key "
@@ -83,13 +105,18 @@ def _to_python(node: yaml.Node, path: tuple, marks: dict, problems: list[str], n
                 )
                 continue
             first_line[key] = line
-            out[key] = _to_python(value_node, (*path, key), marks, problems, name)
+            out[key] = _to_python(value_node, (*path, key), marks, problems, name, plain, keys)
             # a wrong key is best pointed at by the key itself
             marks.setdefault((*path, key, "<key>"), (line, col))
         return out
     if isinstance(node, yaml.SequenceNode):
-        return [_to_python(v, (*path, i), marks, problems, name) for i, v in enumerate(node.value)]
-    return _scalar(node)
+        return [
+            _to_python(v, (*path, i), marks, problems, name, plain, keys) for i, v in enumerate(node.value)
+        ]
+    value = _scalar(node)
+    if plain is not None and node.style is None and node.value and not isinstance(value, str):
+        plain[path] = node.value
+    return value
 
 
 def load_config(path: str | Path) -> Config:
@@ -100,10 +127,12 @@ def load_config(path: str | Path) -> Config:
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError([f"{path.name}:1:1: $: cannot read the file ({exc})"]) from None
     marks: dict[tuple, tuple[int, int]] = {}
+    plain: dict[tuple, str] = {}
     duplicates: list[str] = []
+    keys: list[str] = []
     try:
         node = yaml.compose(text, Loader=_Loader)
-        data = _to_python(node, (), marks, duplicates, path.name) if node is not None else None
+        data = _to_python(node, (), marks, duplicates, path.name, plain, keys) if node is not None else None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
@@ -112,11 +141,13 @@ def load_config(path: str | Path) -> Config:
         ) from None
     if duplicates:
         raise ConfigError(duplicates)
-    cfg = Config(path=path.resolve(), data=data if isinstance(data, dict) else {}, marks=marks)
+    cfg = Config(
+        path=path.resolve(), data=data if isinstance(data, dict) else {}, marks=marks, plain_scalars=plain
+    )
     if not isinstance(data, dict):
         raise ConfigError([f"{path.name}:1:1: $: the configuration must be a mapping"])
     validator = jsonschema.Draft202012Validator(load_schema())
-    problems = []
+    problems = list(keys)
     for err in sorted(validator.iter_errors(data), key=lambda e: tuple(map(str, e.absolute_path))):
         problems.extend(_describe(cfg, err))
     if problems:
@@ -155,6 +186,8 @@ def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
         return msgs
     if err.validator == "oneOf" and path and path[0] == "assets":
         return [f"{cfg.where(path)}: an asset source needs exactly one of 'glob' or 'stage'"]
+    if err.validator == "type" and _wants_string(err.validator_value) and path in cfg.plain_scalars:
+        return [f"{cfg.where(path)}: {_quote_hint(path, cfg.plain_scalars[path], err.instance)}"]
     if err.validator == "type" and err.instance is None:  # `rules:` with nothing after it
         expected = (
             err.validator_value if isinstance(err.validator_value, str) else " or ".join(err.validator_value)
@@ -164,3 +197,29 @@ def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
             f"{expected}"
         ]
     return [f"{cfg.where(path)}: {err.message}"]
+
+
+def _wants_string(expected: str | list[str]) -> bool:
+    return expected == "string" or (isinstance(expected, list) and "string" in expected)
+
+
+def _quote_hint(path: tuple, text: str, value: Any) -> str:
+    """The problem of an unquoted ``text`` that YAML read as ``value`` (not a string) where the schema wants
+    a string: what YAML made of it, and the line quoted."""
+    if isinstance(value, bool):
+        read = f"a boolean ({str(value).lower()})"
+    elif isinstance(value, (int, float)):
+        read = f"a number ({value!r})"
+    elif isinstance(value, datetime.datetime):
+        read = "a date and time"
+    elif isinstance(value, datetime.date):
+        read = "a date"
+    elif value is None:
+        read = "null"
+    else:
+        read = type(value).__name__
+    key = f"{path[-1]}: " if path and isinstance(path[-1], str) else ""
+    return (
+        f"{text} is read by YAML as {read}, not a string; quote it to keep it as written: "
+        f"{key}{json.dumps(text)}"
+    )

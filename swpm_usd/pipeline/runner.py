@@ -7,7 +7,8 @@ is up to date when the digest of its input files, its resolved rule, parameters 
 writing one out rebuilds nothing) and the tool version equal the manifest's (for ``encoding: auto`` also the
 budgets and streaming policy it chose by), the budgets and streaming limits are as loose as those it passed
 (:func:`.assets.checks_no_stricter`: loosening a budget rebuilds nothing, tightening one checks again), and
-its outputs are still there with the recorded size and sha256.
+its outputs are those the config asks for and still as recorded (their size and stat, else their sha256:
+:func:`_checked_output`). A record the run does not write (a hand edit) is ignored, with a warning.
 
 An asset whose rebuild fails keeps its previous build when that build's outputs are intact
 (:func:`_keep_previous`): the manifest keeps its record (with ``last_failure``), the scene its layer, and the
@@ -23,6 +24,7 @@ import fnmatch
 import json
 import os
 import signal
+import stat
 import sys
 import threading
 import time
@@ -35,7 +37,15 @@ from .. import __version__
 from ..errors import OutputLockedError
 from .assets import Asset, checks_no_stricter, checks_of, discover, file_digest, match_rule, treatment_digest
 from .config import Config, ConfigError, load_config
-from .worker import atomic_write_bytes, ignore_interrupts, process_asset
+from .records import record_problem
+from .worker import (
+    STAT_KEYS,
+    atomic_write_bytes,
+    hash_with_stat,
+    ignore_interrupts,
+    process_asset,
+    stat_fields,
+)
 
 MANIFEST = "manifest.json"
 #: the lock file of output.dir: a run holds an exclusive ``flock`` on it while it writes there (see
@@ -62,6 +72,12 @@ class PlanItem:
     up_to_date: bool = False
     rule_pending: bool = False  # the worker matches the rule once it has counted the triangles
     inputs: list[Path] = field(default_factory=list)  # the files the asset is built from (discover's)
+    #: an up-to-date asset's outputs as its manifest record lists them, with the stat fields of those
+    #: hashed to be checked recorded anew (:func:`_checked_output`); None when no record changed
+    checked_outputs: dict[str, dict] | None = None
+    #: the asset's manifest record; None when the manifest has none, or one that is not a record the run
+    #: writes (a hand edit: :func:`.records.record_problem`), which is then ignored, with a warning
+    previous: dict | None = None
 
 
 @dataclass
@@ -136,24 +152,37 @@ def _count_triangles(asset: Asset) -> int:
 
 
 def plan(
-    cfg: Config, manifest: dict, count_triangles: bool = True
+    cfg: Config, manifest: dict, count_triangles: bool = True, verify: bool = False
 ) -> tuple[list[PlanItem], list[str], list[str]]:
     """Resolve each asset's rule and parameters; (items, errors, warnings).
 
     Rules on triangle counts need the count of every new or changed asset. ``count_triangles=False``
     leaves those items ``rule_pending`` (their rule, treatment and digest empty, never up to date): the
     worker that builds the asset loads it anyway and chooses the rule then, so the main process does not
-    load every new asset a second time, one after another (1,000 small assets: 10 of 46 s)."""
+    load every new asset a second time, one after another (1,000 small assets: 10 of 46 s).
+
+    An asset's recorded outputs are intact when their size and stat are as recorded, or else their sha256
+    (:func:`_checked_output`); ``verify`` hashes every one. A manifest record that is not one the run
+    writes (:func:`.records.record_problem`: hand-edited) is ignored, as if the asset had none, and named
+    in a warning."""
     assets, inputs, problems = discover(cfg)
     out_dir = cfg.base / cfg.data["output"]["dir"]
     problems.extend(_unusable_out_dir(cfg, out_dir))
     problems.extend(_overwritten_inputs(cfg, out_dir, assets, inputs))
     known = manifest.get("assets", {})
     items = []
+    record_warnings = []
     needs_rule_on_triangles = any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))
     for a in assets:
         digest = file_digest(inputs[a.id])
-        prev = known.get(a.id, {})
+        previous = known.get(a.id)
+        if a.id in known and (problem := record_problem(previous)) is not None:
+            record_warnings.append(
+                f"{_rel(cfg, out_dir / MANIFEST)}: the record of {a.id} is not one this tool writes "
+                f"({problem}); it is ignored and the asset built again"
+            )
+            previous = None
+        prev = previous or {}
         tri = prev.get("triangles_in") if prev.get("input_digest") == digest else None
         if tri is None and needs_rule_on_triangles:
             if not count_triangles:
@@ -165,6 +194,7 @@ def plan(
                         why="rule chosen by the worker",
                         rule_pending=True,
                         inputs=inputs[a.id],
+                        previous=previous,
                     )
                 )
                 continue
@@ -172,7 +202,7 @@ def plan(
                 tri = _count_triangles(a)
             except Exception:  # noqa: BLE001 - the worker reports it as this asset's failure
                 tri = None
-        item = PlanItem(a, digest, tri, inputs=inputs[a.id])
+        item = PlanItem(a, digest, tri, inputs=inputs[a.id], previous=previous)
         item.rule, item.treatment, item.why = match_rule(cfg, a, tri if tri is not None else 0)
         item.digest = _treatment_digest(cfg, item)
         outs = prev.get("outputs", {})
@@ -184,12 +214,18 @@ def plan(
                 item.treatment.get("encoding") == "auto"
                 or checks_no_stricter(checks_of(cfg.data), prev.get("checks"))
             )
-            and all(_output_intact(out_dir / o["path"], o) for o in outs.values())
             and bool(outs) == _wants_outputs(cfg)
+            # (an output the config asks for that the build did not write: `usd: true` added since)
+            and _wanted_outputs(cfg) <= set(outs)
         )
+        if item.up_to_date:
+            checked = {kind: _checked_output(out_dir / o["path"], o, verify) for kind, o in outs.items()}
+            item.up_to_date = all(o is not None for o in checked.values())
+            if item.up_to_date and any(checked[kind] is not o for kind, o in outs.items()):
+                item.checked_outputs = checked
         items.append(item)
     warnings = [] if any(i.rule_pending for i in items) else _unreached_rules(cfg, items)
-    return items, problems, warnings
+    return items, problems, record_warnings + warnings
 
 
 #: temporary files a run leaves in output.dir if it is killed (the atomic writes', the USD layers' staged by
@@ -201,6 +237,38 @@ _TEMPORARY = (".*.tmp", ".*.tmp.usdc", ".*.tmp.usda", ".*.tmp.??????")
 def _remove_temporary(out_dir: Path) -> None:
     for stale in [p for pattern in _TEMPORARY for p in out_dir.glob(pattern)]:
         stale.unlink(missing_ok=True)
+
+
+def _restore_kept_aside(out_dir: Path, records: dict) -> None:
+    """Put back the previous outputs that a worker stopped while it renamed an asset's outputs into place
+    (a pool's worker stopped by Ctrl-C, a kill) had kept aside (:func:`.worker._place_outputs`,
+    ``.<name>.XXXXXXXX.prev.tmp``), before :func:`_remove_temporary` deletes them: one whose ``<name>`` is
+    an output a record of ``records`` (asset id -> manifest record) lists, no longer as recorded (a new file
+    the manifest does not list, or none), while the file kept aside is, is renamed back, so the asset is its
+    recorded build again, not half of one the manifest does not know."""
+    kept = list(out_dir.glob(".*.prev.tmp"))
+    if not kept:  # (the usual run)
+        return
+    recorded = {
+        o["path"]: o
+        for rec in records.values()
+        if record_problem(rec) is None
+        for o in rec.get("outputs", {}).values()
+    }
+    for aside in kept:
+        name = aside.name[1 : -len(".prev.tmp")].rpartition(".")[0]
+        o = recorded.get(name)
+        target = out_dir / name
+        if o is None or _checked_output(target, o) is not None or _checked_output(aside, o) is None:
+            continue
+        try:
+            os.replace(aside, target)
+        except OSError:
+            continue
+        if target.suffix == ".usdc":
+            from ..usd.writer import reload_if_open
+
+            reload_if_open(target)
 
 
 def _interrupts_raise() -> bool:
@@ -287,17 +355,54 @@ def _make_out_dir(cfg: Config, out_dir: Path) -> None:
         raise ConfigError([f"{cfg.where(('output', 'dir'))}: cannot write in {out_dir}: permission denied"])
 
 
-def _output_intact(path: Path, recorded: dict) -> bool:
-    """Is ``path`` still the file the manifest recorded: its size, then its sha256 (a file this tool wrote,
-    hashed again: a changed byte of a same-size file rebuilds it)."""
-    from .worker import sha256_file
+def _output_intact(path: Path, recorded: dict, verify: bool = False) -> bool:
+    """Is ``path`` still the file the manifest recorded (``recorded``, its output record)? See
+    :func:`_checked_output`."""
+    return _checked_output(path, recorded, verify) is not None
 
+
+def _checked_output(path: Path, recorded: dict, verify: bool = False) -> dict | None:
+    """``recorded`` (an output's manifest record) when ``path`` is still the file it recorded, else None.
+
+    Its size first. Then, unless ``verify``, its stat: a file with the recorded size, mtime, ctime, inode
+    and device (:data:`.worker.STAT_KEYS`) is trusted unchanged without being read (a rerun of thousands of
+    assets reads none of their outputs). Anything else is hashed: the file is intact when its sha256 is
+    the recorded one (a changed byte of a same-size file rebuilds it), and the record returned is then a
+    copy with the stat fields of the bytes hashed (recorded anew: a record of an older manifest has
+    none, a touched or copied-back file other ones), so the next run trusts it again."""
     try:
-        if not path.is_file() or path.stat().st_size != recorded.get("size", -1):
-            return False
-        return sha256_file(path) == recorded.get("sha256")
-    except OSError:
-        return False
+        st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode) or st.st_size != recorded.get("size", -1):
+            return None
+        fields = stat_fields(st)
+        if not verify and all(recorded.get(k) == v for k, v in fields.items()):
+            return recorded
+        sha, hashed = hash_with_stat(path)
+    except (OSError, ValueError):  # (ValueError: a path with a NUL byte)
+        return None
+    if sha != recorded.get("sha256"):
+        return None
+    fresh = {k: v for k, v in recorded.items() if k not in STAT_KEYS}
+    if hashed is not None and hashed.st_size == recorded.get("size"):
+        fresh.update(stat_fields(hashed))
+    return recorded if fresh == recorded else fresh
+
+
+def _complete_output_record(path: Path, recorded: dict) -> None:
+    """Complete a worker's record of an output it wrote (:func:`.worker.output_record`) as this process
+    sees the file: its size, and its stat fields when it is still the file the worker hashed (the same
+    size, mtime, ctime and inode; the device as this process numbers it, which a Dask worker on another
+    machine may not), else none, so the next run hashes it."""
+    st = path.stat()
+    seen = stat_fields(st)
+    same = recorded.get("size") == st.st_size and all(
+        recorded.get(k) == seen[k] for k in ("mtime_ns", "ctime_ns", "ino")
+    )
+    for k in ("size", *STAT_KEYS):
+        recorded.pop(k, None)
+    recorded["size"] = st.st_size
+    if same:
+        recorded.update(seen)
 
 
 def planned_outputs(cfg: Config, out_dir: Path, assets: list[Asset]) -> dict[Path, str]:
@@ -374,6 +479,14 @@ def _unreached_rules(cfg: Config, items: list[PlanItem]) -> list[str]:
 def _wants_outputs(cfg: Config) -> bool:
     out = cfg.data["output"]
     return bool(out.get("swpm", True) or out.get("usd", False))
+
+
+def _wanted_outputs(cfg: Config) -> set[str]:
+    """The kinds of output (a record's ``outputs`` keys) the config asks each asset for."""
+    out = cfg.data["output"]
+    return {
+        kind for kind, wanted in (("swpm", out.get("swpm", True)), ("usd", out.get("usd", False))) if wanted
+    }
 
 
 def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
@@ -672,11 +785,17 @@ def run(
     force: bool = False,
     prune: bool = False,
     echo=print,
+    verify: bool = False,
 ) -> RunResult:
     """Run the pipeline described by ``config_path``; see the module docstring.
 
     ``prune``: delete the recorded outputs of assets the config no longer has (those still as the manifest
     recorded them and not outputs of this run's assets); without it they stay and the result names them.
+
+    ``verify``: hash every recorded output (sha256) to decide whether it is intact, where a run otherwise
+    trusts one whose size, mtime, ctime, inode and device are as recorded (:func:`_checked_output`): a file
+    whose bytes changed with none of those (a disk's silent corruption, a write within the timestamp
+    granularity of the run's own) is found and rebuilt.
 
     A run that writes (not ``dry_run``) holds output.dir's lock from before it reads the manifest (or, for
     an output.dir it creates, from then) to its end; another run there raises :class:`OutputLockedError`."""
@@ -686,7 +805,19 @@ def run(
     lock = _OutputLock(out_dir, echo)
     try:
         return _run(
-            cfg, out_dir, lock, t_start, jobs, executor, scheduler, dry_run, explain, force, prune, echo
+            cfg,
+            out_dir,
+            lock,
+            t_start,
+            jobs,
+            executor,
+            scheduler,
+            dry_run,
+            explain,
+            force,
+            prune,
+            echo,
+            verify,
         )
     finally:
         lock.release()
@@ -705,18 +836,21 @@ def _run(
     force: bool,
     prune: bool,
     echo,
+    verify: bool = False,
 ) -> RunResult:
     if not dry_run and out_dir.is_dir():
         lock.acquire()  # before the manifest is read: it is this run's from here on
     manifest_path = out_dir / MANIFEST
     manifest = _read_manifest(manifest_path)
-    items, errors, warnings = plan(cfg, manifest, count_triangles=dry_run or explain)
+    if not dry_run and out_dir.is_dir():  # (the run's from here on: before the plan checks the outputs)
+        _restore_kept_aside(out_dir, manifest["assets"])
+    items, errors, warnings = plan(cfg, manifest, count_triangles=dry_run or explain, verify=verify)
     if errors:
         raise ConfigError(errors)
     for w in warnings:
         echo(f"warning: {w}")
     # (before any build: a removed asset's output path may be a current asset's, which is never deleted)
-    orphans = _orphaned_outputs(cfg, out_dir, manifest, items)
+    orphans = _orphaned_outputs(cfg, out_dir, manifest, items, verify)
     orphan_names = [o["path"] for _, o in orphans]
     orphan_lists = {"pruned" if prune else "unlisted": orphan_names}  # RunResult's fields
     planned = []
@@ -752,15 +886,22 @@ def _run(
     if prune:
         for path, _ in orphans:
             path.unlink(missing_ok=True)
-    records = {k: v for k, v in manifest.get("assets", {}).items() if k in {i.asset.id for i in items}}
-    for it in items:  # up to date again (an input or a config put back): the failure was another treatment's
+    # (the records of current assets the run can use: a hand-edited one is ignored, see plan)
+    usable = {it.asset.id for it in items if it.previous is not None}
+    records = {k: v for k, v in manifest.get("assets", {}).items() if k in usable}
+    for it in items:
         kept = records.get(it.asset.id)
-        if it.up_to_date and not force and kept is not None and "last_failure" in kept:
-            records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
+        if not it.up_to_date or force or kept is None:
+            continue
+        if "last_failure" in kept:  # up to date again (an input or a config put back): another's failure
+            kept = records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
+        if it.checked_outputs is not None:  # hashed, and their stat recorded anew
+            records[it.asset.id] = {**kept, "outputs": it.checked_outputs}
     manifest = {"tool_version": __version__, "config": str(cfg.path), "assets": records}
     if orphans and not prune:  # so a later run with prune still finds them
         manifest[ORPHANED] = [o for _, o in orphans]
     built = failed = 0
+    kept_files: set[tuple] | None = None  # (_files_kept, once an asset drops an output)
     failures: dict[str, dict] = {}
     progress = _Progress(len(todo))
     by_id = {it.asset.id: it for it in todo}
@@ -774,6 +915,7 @@ def _run(
         if results is not None:
             results.close()  # first: it restores the Ctrl-C handler it set (--jobs 1)
         with _interrupts_ignored():
+            _restore_kept_aside(out_dir, records)  # (a worker stopped while it renamed outputs)
             _remove_temporary(out_dir)
             _write_manifest(manifest_path, manifest, text)
 
@@ -788,13 +930,24 @@ def _run(
             rec["input_digest"] = it.input_digest
             rec["rule"] = None if it.rule is None else cfg.data["rules"][it.rule]["name"]
             for o in rec.get("outputs", {}).values():
-                o["size"] = (out_dir / o["path"]).stat().st_size
+                _complete_output_record(out_dir / o["path"], o)
             if rec["status"] == "built":
                 built += 1
+                # (a kind of output the config no longer asks for: its file is a removed asset's output)
+                for path, o in _dropped_outputs(out_dir, records.get(rec["id"]), rec, verify):
+                    if kept_files is None:
+                        kept_files = _files_kept(cfg, out_dir, items)
+                    if _file_key(path) in kept_files:
+                        continue
+                    if prune:
+                        path.unlink(missing_ok=True)
+                    else:
+                        manifest.setdefault(ORPHANED, []).append(o)
+                    orphan_names.append(o["path"])
                 records[rec["id"]] = rec
             else:
                 failed += 1
-                kept = _keep_previous(out_dir, records.get(rec["id"]), rec)
+                kept = _keep_previous(out_dir, records.get(rec["id"]), rec, verify)
                 records[rec["id"]] = rec if kept is None else kept
                 rec = failures[rec["id"]] = {**rec, "kept_previous": kept is not None}
             now = time.perf_counter()
@@ -809,9 +962,10 @@ def _run(
     finally:
         progress.close()
     if any(i.rule_pending for i in items):  # the rules are known now
-        warnings = _unreached_rules(cfg, items)
-        for w in warnings:
+        unreached = _unreached_rules(cfg, items)
+        for w in unreached:
             echo(f"warning: {w}")
+        warnings = warnings + unreached
     try:
         if cfg.data["output"].get("scene"):
             _write_scene(out_dir, records)
@@ -830,11 +984,14 @@ def _run(
     )  # fmt: skip
 
 
-def _orphaned_outputs(cfg: Config, out_dir: Path, manifest: dict, items: list) -> list[tuple[Path, dict]]:
+def _orphaned_outputs(
+    cfg: Config, out_dir: Path, manifest: dict, items: list, verify: bool = False
+) -> list[tuple[Path, dict]]:
     """The recorded outputs (path, record) of the manifest's assets that are not among ``items`` (no longer
     in the config) and of its ``orphaned_outputs`` (left by earlier runs without ``prune``), still as
-    recorded (:func:`_output_intact`: a file changed since is not the run's), less any file this run's
-    assets write or read (an earlier output used as a stage, or a layer a stage uses) and the config."""
+    recorded (:func:`_checked_output`: a file changed since is not the run's; its stat fields recorded
+    anew when it was hashed), less any file this run's assets write or read (an earlier output used as a
+    stage, or a layer a stage uses) and the config."""
     current = {it.asset.id for it in items}
     recorded = [
         o
@@ -846,8 +1003,7 @@ def _orphaned_outputs(cfg: Config, out_dir: Path, manifest: dict, items: list) -
         recorded += manifest[ORPHANED]
     if not recorded:
         return []  # the usual run: no file stat'ed for the guard below
-    keep = {_file_key(p) for p in planned_outputs(cfg, out_dir, [it.asset for it in items])}
-    keep |= {_file_key(p) for p in [cfg.path, *(p for it in items for p in it.inputs)]}
+    keep = _files_kept(cfg, out_dir, items)
     found, seen = [], set()
     for o in recorded:
         if not isinstance(o, dict) or not isinstance(o.get("path"), str) or "\0" in o["path"]:
@@ -856,33 +1012,71 @@ def _orphaned_outputs(cfg: Config, out_dir: Path, manifest: dict, items: list) -
         # a recorded path that leaves output.dir (a hand-edited manifest) is never touched
         if path.resolve().parent != out_dir.resolve() or _file_key(path) in keep or path in seen:
             continue
-        if _output_intact(path, o):
+        checked = _checked_output(path, o, verify)
+        if checked is not None:
             seen.add(path)
-            found.append((path, {k: o[k] for k in ("path", "size", "sha256") if k in o}))
+            found.append(
+                (path, {k: checked[k] for k in ("path", "size", "sha256", *STAT_KEYS) if k in checked})
+            )
     return found
 
 
-def _keep_previous(out_dir: Path, previous: dict | None, failed: dict) -> dict | None:
+def _files_kept(cfg: Config, out_dir: Path, items: list) -> set[tuple]:
+    """The files (:func:`_file_key`) no output of a removed asset or kind may be taken for: those this run's
+    assets write or read (an earlier output used as a stage, or a layer a stage uses) and the config."""
+    keep = {_file_key(p) for p in planned_outputs(cfg, out_dir, [it.asset for it in items])}
+    return keep | {_file_key(p) for p in [cfg.path, *(p for it in items for p in it.inputs)]}
+
+
+def _dropped_outputs(
+    out_dir: Path, previous: dict | None, built: dict, verify: bool = False
+) -> list[tuple[Path, dict]]:
+    """The outputs of an asset's previous build (``previous``, its record) that its new one (``built``)
+    does not write (a kind the config no longer asks for: ``swpm: false`` since), still as recorded, as
+    :func:`_orphaned_outputs` gives them: the new record does not list them, so the run names them (and
+    ``prune`` deletes them) as it does a removed asset's."""
+    if previous is None:
+        return []
+    written = {o["path"] for o in built.get("outputs", {}).values()}
+    found = []
+    for o in previous.get("outputs", {}).values():
+        checked = None if o["path"] in written else _checked_output(out_dir / o["path"], o, verify)
+        if checked is not None:
+            found.append(
+                (
+                    out_dir / o["path"],
+                    {k: checked[k] for k in ("path", "size", "sha256", *STAT_KEYS) if k in checked},
+                )
+            )
+    return found
+
+
+def _keep_previous(out_dir: Path, previous: dict | None, failed: dict, verify: bool = False) -> dict | None:
     """The record of an asset whose rebuild failed (``failed``, the worker's record).
 
-    When the asset was built before and its outputs are all still as recorded (:func:`_output_intact`), its
-    previous build is kept: the returned record is the previous one, untouched but for ``last_failure``
-    (the failure's error, traceback, digest and seconds), so the manifest, the scene and the outputs still
-    serve the last good build and the next run tries again. Otherwise None: the failed record replaces the
-    previous one, and those of its outputs still as recorded are deleted, so no output is left that the
-    manifest does not list (a file changed since is not the run's to delete)."""
-    if previous is None or previous.get("status") != "built":
-        return None
-    outputs = [(out_dir / o["path"], o) for o in previous.get("outputs", {}).values()]
-    intact = [path for path, o in outputs if _output_intact(path, o)]
-    if len(intact) < len(outputs):
-        for path in intact:
-            path.unlink(missing_ok=True)
+    When the asset was built before and its outputs are all still as recorded (:func:`_checked_output`),
+    its previous build is kept: the returned record is the previous one, untouched but for ``last_failure``
+    (the failure's error, traceback, digest and seconds) and the stat fields of outputs hashed to be
+    checked, so the manifest, the scene and the outputs still serve the last good build and the next run
+    tries again. Otherwise None: the failed record replaces the previous one, and those of its outputs
+    still as recorded are deleted, so no output is left that the manifest does not list (a file changed
+    since is not the run's to delete)."""
+    if previous is None or record_problem(previous) is not None or previous.get("status") != "built":
+        return None  # (a record the run does not write, hand-edited, names no file to keep or delete)
+    outputs = previous.get("outputs", {})
+    checked = {kind: _checked_output(out_dir / o["path"], o, verify) for kind, o in outputs.items()}
+    if any(o is None for o in checked.values()):
+        for o in checked.values():
+            if o is not None:
+                (out_dir / o["path"]).unlink(missing_ok=True)
         return None
     failure = {
         k: failed[k] for k in ("error", "traceback", "digest", "input_digest", "seconds") if k in failed
     }
-    return {**{k: v for k, v in previous.items() if k != "last_failure"}, "last_failure": failure}
+    kept = {k: v for k, v in previous.items() if k != "last_failure"}
+    if outputs:
+        kept["outputs"] = checked
+    return {**kept, "last_failure": failure}
 
 
 def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:

@@ -5,6 +5,7 @@ streaming order, write the outputs atomically. Never raises: a failure comes bac
 from __future__ import annotations
 
 import hashlib
+import os
 import signal
 import time
 import traceback
@@ -13,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..fileio import atomic_write_bytes
+from ..fileio import atomic_write_bytes, keep_aside, stage_bytes  # noqa: F401 - (runner, report import it)
 
 AUTO_CANDIDATES = ("vanilla", "skip-strip", "mixed", "sliding-window")
 #: ``encoding: auto``'s ``select`` parameter: what the candidates within the budgets are ranked by.
@@ -38,6 +39,48 @@ def sha256_file(path: Path) -> str:
         while chunk := f.read(1 << 20):
             h.update(chunk)
     return h.hexdigest()
+
+
+#: the fields of ``os.stat`` an output's manifest record keeps beside its ``size`` and ``sha256``: a later
+#: run that finds the file with the same size and all of these trusts it unchanged without reading it (the
+#: runner's ``_checked_output``). ``ctime_ns`` moves on any change to the file's data or metadata and cannot
+#: be set back (``os.utime`` sets the mtime, not the ctime); ``ino`` and ``dev`` change when another file is
+#: renamed over it (a copy written into it, ``cp`` or ``cp -p``, keeps its inode: its ctime moves)
+STAT_KEYS = ("mtime_ns", "ctime_ns", "ino", "dev")
+
+
+def stat_fields(st: os.stat_result) -> dict[str, int]:
+    """The :data:`STAT_KEYS` of a stat result."""
+    return {"mtime_ns": st.st_mtime_ns, "ctime_ns": st.st_ctime_ns, "ino": st.st_ino, "dev": st.st_dev}
+
+
+def hash_with_stat(path: Path) -> tuple[str, os.stat_result | None]:
+    """The sha256 of ``path`` and its stat, taken through the descriptor it is read from, before the read;
+    the stat is None when the file changed while it was read (its size, mtime or ctime moved), so it
+    describes the bytes hashed (a file renamed over ``path`` meanwhile is another inode, which the stat of
+    the one read does not match)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        before = os.fstat(f.fileno())
+        while chunk := f.read(1 << 20):
+            h.update(chunk)
+        after = os.fstat(f.fileno())
+    same = (before.st_size, before.st_mtime_ns, before.st_ctime_ns) == (
+        after.st_size,
+        after.st_mtime_ns,
+        after.st_ctime_ns,
+    )
+    return h.hexdigest(), before if same else None
+
+
+def output_record(path: Path) -> dict[str, Any]:
+    """A new output's manifest record: its name (``path`` is in output.dir), sha256, size, and the
+    :data:`STAT_KEYS` of the bytes hashed (none when the file changed while it was read)."""
+    sha, st = hash_with_stat(path)
+    rec: dict[str, Any] = {"path": path.name, "sha256": sha}
+    if st is not None:
+        rec.update(size=st.st_size, **stat_fields(st))
+    return rec
 
 
 def lod_change_cost(pm) -> float:
@@ -284,6 +327,51 @@ def _place_usd(tmp: Path, target: Path) -> Path:
     return target
 
 
+def _place_outputs(staged: dict[str, tuple[Path, Path]]) -> dict[str, dict[str, Any]]:
+    """Rename each staged output (kind -> (temporary file, target), in order) over its target, all or none;
+    each one's manifest record (:func:`output_record`).
+
+    Each target's previous file is kept aside (:func:`.fileio.keep_aside`: a hard link) until every output
+    is in place and recorded. When a rename or a record fails, the outputs already renamed are undone (their
+    previous files put back, one without a previous file deleted) and the error raised: the asset's previous
+    build is left as it was, and no new file the manifest would not list (a failure after the .swpm's rename
+    left the new .swpm, listed nowhere, beside the previous .usdc)."""
+    # (kind, temporary file, target, its previous file kept aside), listed before the rename: an error or a
+    # Ctrl-C raised as it returns (a signal is handled then), or an error of the layer's reload, undoes it too
+    placed: list[tuple[str, Path, Path, Path | None]] = []
+    aside: list[Path] = []
+    try:
+        for kind, (tmp, target) in staged.items():
+            previous = keep_aside(target)
+            if previous is not None:
+                aside.append(previous)
+            placed.append((kind, tmp, target, previous))
+            if kind == "usd":
+                _place_usd(tmp, target)
+            else:
+                os.replace(tmp, target)
+        return {kind: output_record(target) for kind, (_, target) in staged.items()}
+    except BaseException:
+        for kind, tmp, target, previous in reversed(placed):
+            if os.path.lexists(tmp):
+                continue  # not renamed: the target is still its previous file
+            try:
+                if previous is None:
+                    target.unlink(missing_ok=True)
+                else:
+                    os.replace(previous, target)
+            except OSError:  # the new file goes at least (the runner then finds the previous build broken)
+                target.unlink(missing_ok=True)
+            if kind == "usd":
+                from ..usd.writer import reload_if_open
+
+                reload_if_open(target)
+        raise
+    finally:
+        for path in aside:
+            path.unlink(missing_ok=True)
+
+
 def process_asset(task: dict[str, Any]) -> dict[str, Any]:
     """Do one asset. ``task`` is plain data (picklable for process pools and Dask).
 
@@ -348,12 +436,14 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         if problems:
             rec["error"] = "streaming/budget check failed: " + "; ".join(problems)
             return rec
-        outputs = {}
         out_dir = Path(task["out_dir"])
-        # every output is made before any replaces its old file, so a failure leaves the asset's previous
-        # outputs as they were (the USD layer is exported beside its target, then renamed after the .swpm)
-        usd_staged = _stage_usd(pm, out_dir / f"{task['stem']}.usdc") if task["write_usd"] else None
+        # every output is made (staged beside its target) before any replaces its old file, and they are
+        # renamed into place all or none (:func:`_place_outputs`): a failure leaves the asset's previous
+        # outputs as they were
+        staged: dict[str, tuple[Path, Path]] = {}
         try:
+            if task["write_usd"]:
+                staged["usd"] = _stage_usd(pm, out_dir / f"{task['stem']}.usdc")
             if task["write_swpm"]:
                 from .. import format as swpm_format
 
@@ -365,15 +455,11 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
                     problems = "; ".join(f"{p.code}: {p.message}" for p in report.errors[:5])
                     rec["error"] = "encoded file failed validation: " + problems
                     return rec
-                atomic_write_bytes(target, data)
-                outputs["swpm"] = {"path": target.name, "sha256": sha256_file(target)}
-            if usd_staged is not None:
-                target = _place_usd(*usd_staged)
-                usd_staged = None
-                outputs["usd"] = {"path": target.name, "sha256": sha256_file(target)}
+                staged["swpm"] = (stage_bytes(target, data), target)
+            outputs = _place_outputs({k: staged[k] for k in ("swpm", "usd") if k in staged})
         finally:
-            if usd_staged is not None:
-                usd_staged[0].unlink(missing_ok=True)
+            for tmp, _ in staged.values():
+                tmp.unlink(missing_ok=True)
         rec["outputs"] = outputs
         from .assets import checks_of
 

@@ -33,7 +33,8 @@ SAMPLES = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0]], dtype=np.float64)
 #: then stop at their first triangle instead of searching for an exact zero)
 DISTANCE_FLOOR = 1e-6
 #: nodes a sample's search may open (where thousands of long triangles meet, at a cone's apex, every box
-#: holds the point and the search would be linear in them; the search then keeps the bound it has)
+#: holds the point and the search would be linear in them; the search then keeps the nearest triangle it
+#: found, an upper bound of the distance)
 SEARCH_BUDGET = 4096
 
 
@@ -107,8 +108,9 @@ def step_deviations(
     the running maximum, which is all a LOD's error reads (:meth:`.sequence.CollapseSequence.lod_errors`).
     Distances up to ``floor`` count as 0. ``st`` must be the state the sequence started from; it ends
     collapsed. A sample's search stops at the first triangle within the running maximum (a closer sample
-    changes nothing), so most stop in their first leaf. ``start2``: the squared running maximum of the steps
-    before these (a sequence replayed in parts: the same values)."""
+    changes nothing), so most stop in their first leaf; one out of its ``budget`` of nodes counts the
+    nearest triangle it found (the value may then be above the distance, never below it). ``start2``: the
+    squared running maximum of the steps before these (a sequence replayed in parts: the same values)."""
     pts = st.pos_points
     out = step_error.astype(np.float64).copy()
     bbuf = K.star_buffers(st)
@@ -145,17 +147,19 @@ def step_deviations(
                     continue
                 # then the input triangles around the corners (the BVH leaves that hold them): most samples
                 # lie that close to one of them (bunny: 59 %), and need no search from the root
-                near = False
                 for c in (c0, c1, c2):
                     leaf = hints[c]
-                    if _leaf_min2(px, py, pz, tv, node_a[leaf], max(-1 - node_b[leaf], 0), np.inf, m) <= m:
-                        near = True
+                    ub = _leaf_min2(px, py, pz, tv, node_a[leaf], max(-1 - node_b[leaf], 0), ub, m)
+                    if ub <= m:
                         break
-                if near:
+                if ub <= m:
                     continue
+                # out of its budget the search keeps the nearest triangle it found, not m: an error may be
+                # overestimated there, never underestimated (ub: the corners and their leaves, as near)
                 d, hint = _nearest2(
-                    px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d
+                    px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d, True
                 )
+                d = min(d, ub)
                 if d > m:
                     m = d
         if m > m0:

@@ -255,7 +255,8 @@ class CollapseSequence:
     the position collapse it belongs to and ``error[c]`` that step's quadric error (a distance).
     Errors are raw (not monotone); :meth:`lod_errors` gives the non-decreasing per-step figure.
     ``step_geometric_error[s]`` (when measured): the larger of step ``s``'s quadric error and how far its new
-    triangles lie from the input (:mod:`.fan_deviation`), the figure :meth:`lod_errors` accumulates.
+    triangles lie from the input (:mod:`.fan_deviation`) where that raises the running maximum, else the
+    quadric error: exact for the running maximum, the figure :meth:`lod_errors` accumulates.
     ``step_offsets[s]`` is the number of vertex collapses done after ``s`` steps (``step_count + 1``
     entries): a level of detail is a whole number of steps.
     """
@@ -352,8 +353,8 @@ def step_geometric_errors(
     mesh: Mesh, st: kernels.CollapseState, step_b: np.ndarray, step_k: np.ndarray, step_error: np.ndarray
 ) -> np.ndarray:
     """Per step of a sequence that starts from ``st`` (a fresh :func:`make_state` of ``mesh``, collapsed by
-    the replay): the larger of ``step_error`` and how far the step's new triangles lie from ``mesh``
-    (:func:`.fan_deviation.step_deviations`)."""
+    the replay): the larger of ``step_error`` and how far the step's new triangles lie from ``mesh`` where
+    that raises the running maximum, else ``step_error`` (:func:`.fan_deviation.step_deviations`)."""
     if step_b.shape[0] == 0:
         return np.zeros(0)
     return replay_steps(replay_surface(mesh, st), st, step_b, step_k, step_error)

@@ -1,0 +1,157 @@
+"""The shape of a run manifest's asset record, checked before a run relies on one.
+
+A record is written by the run (:func:`.worker.process_asset`, completed by the runner), but the manifest is a
+JSON file a person can edit. A record of a current asset that is not what the run writes (not an object, a
+key missing, a value of another type) would raise in the planning, the scene or the report; the runner treats
+it as absent instead (the asset is built again) and names it in a warning (:func:`record_problem`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from .assets import _MAXIMA, _MINIMA
+
+
+def _what(value: Any) -> str:
+    """A JSON value's kind, as a message names it."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, (int, float)):
+        return "a number"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, list):
+        return "a list"
+    if isinstance(value, dict):
+        return "an object"
+    return type(value).__name__
+
+
+def _number(value: Any) -> bool:
+    return type(value) is int or type(value) is float  # (a JSON value: a boolean is not a number)
+
+
+def _count(value: Any) -> bool:
+    return type(value) is int and value >= 0
+
+
+def _file_name(value: Any) -> bool:
+    """A file name in output.dir: no folder, no NUL byte, not ``.`` or ``..``."""
+    return isinstance(value, str) and value not in ("", ".", "..") and not any(c in value for c in "/\\\0")
+
+
+#: key -> (check, what it must be); a record's keys the run, the scene or the report read
+_RECORD: dict[str, tuple[Callable[[Any], bool], str]] = {
+    "status": (lambda v: isinstance(v, str), "a string"),
+    "digest": (lambda v: isinstance(v, str), "a string"),
+    "input_digest": (lambda v: isinstance(v, str), "a string"),
+    "encoding": (lambda v: isinstance(v, str), "a string"),
+    "error": (lambda v: isinstance(v, str), "a string"),
+    "why": (lambda v: isinstance(v, str), "a string"),
+    "triangles_in": (_count, "a whole number"),
+    "instances": (_count, "a whole number"),
+    "seconds": (_number, "a number"),
+    "outputs": (lambda v: isinstance(v, dict), "an object"),
+    "checks": (lambda v: isinstance(v, dict), "an object"),
+    "summary": (lambda v: isinstance(v, dict), "an object"),
+    "last_failure": (lambda v: isinstance(v, dict), "an object"),
+    "auto_candidates": (lambda v: isinstance(v, dict), "an object"),
+}
+#: the keys of a built asset's record (a failed one has its status alone for sure)
+_BUILT = ("status", "digest", "input_digest", "encoding", "outputs", "summary")
+_OUTPUT: dict[str, tuple[Callable[[Any], bool], str]] = {
+    "path": (_file_name, "a file name in output.dir"),
+    "sha256": (lambda v: isinstance(v, str), "a string"),
+    "size": (_count, "a whole number"),
+}
+#: the figures of a record's summary that the report shows (``curve``: one object of these per point)
+_SUMMARY_FIGURES = ("lambda", "acmr", "global_bytes", "instance_bytes")
+_CURVE_FIGURES = ("lod", "triangles", "error", "acmr")
+_CANDIDATE_FIGURES = ("acmr", "misses_at_error_score", "lod_change_cost")
+#: the numeric limits of a record's ``checks``, by section (see :func:`.assets.checks_no_stricter`)
+_LIMITS = {
+    section: tuple(sorted(key for s, key in (*_MAXIMA, *_MINIMA) if s == section))
+    for section in ("budgets", "streaming")
+}
+
+
+def _fields(obj: dict, spec: dict, where: str, required: tuple[str, ...] = ()) -> str | None:
+    """The first of ``required`` that ``obj`` lacks, or of its keys in ``spec`` whose value fails its check,
+    as a message (``where``: the path of ``obj`` in the record, "" for the record itself)."""
+    for key in required:
+        if key not in obj:
+            return f"{where or 'the record'} has no {key!r}"
+    for key, (ok, expected) in spec.items():
+        if key in obj and not ok(obj[key]):
+            value = obj[key]
+            shown = repr(value) if ok is _file_name and isinstance(value, str) else _what(value)
+            return f"{where}{'.' * bool(where)}{key} is {shown}, not {expected}"
+    return None
+
+
+def _figures(obj: dict, keys: tuple[str, ...], where: str, required: bool = False) -> str | None:
+    """:func:`_fields` for figures (numbers), the usual case (all of them numbers) without a message made."""
+    for key in keys:
+        value = obj.get(key)
+        if type(value) is not int and type(value) is not float and (required or key in obj):
+            if key not in obj:
+                return f"{where} has no {key!r}"
+            return f"{where}.{key} is {_what(value)}, not a number"
+    return None
+
+
+def record_problem(rec: Any) -> str | None:
+    """What makes ``rec``, a manifest's record of an asset, other than a record the run writes, or None: its
+    type, a key a built asset's record has that it lacks, or a value of another type (among those the
+    runner, the scene and the report read), as a message names it (``outputs.swpm.size is a string, not a
+    whole number``)."""
+    if not isinstance(rec, dict):
+        return f"the record is {_what(rec)}, not an object"
+    problem = _fields(rec, _RECORD, "", _BUILT if rec.get("status") == "built" else ("status",))
+    if problem:
+        return problem
+    for kind, out in rec.get("outputs", {}).items():
+        if not isinstance(out, dict):
+            return f"outputs.{kind} is {_what(out)}, not an object"
+        problem = _fields(out, _OUTPUT, f"outputs.{kind}", tuple(_OUTPUT))
+        if problem:
+            return problem
+    checks = rec.get("checks", {})
+    for section in ("budgets", "streaming"):
+        limits = checks.get(section)
+        if limits is None:
+            continue
+        if not isinstance(limits, dict):
+            return f"checks.{section} is {_what(limits)}, not an object"
+        problem = _figures(limits, _LIMITS[section], f"checks.{section}")
+        if problem:
+            return problem
+    if "summary" in rec:
+        summary = rec["summary"]
+        problem = _figures(summary, _SUMMARY_FIGURES, "summary", required=rec["status"] == "built")
+        if problem:
+            return problem
+        curve = summary.get("curve", [])
+        if not isinstance(curve, list):
+            return f"summary.curve is {_what(curve)}, not a list"
+        for i, point in enumerate(curve):  # (the longest part: a loop of its own, a message only when due)
+            if type(point) is not dict:
+                return f"summary.curve[{i}] is {_what(point)}, not an object"
+            for key in _CURVE_FIGURES:
+                value = point.get(key)
+                if type(value) is not int and type(value) is not float:
+                    return _figures(point, _CURVE_FIGURES, f"summary.curve[{i}]", required=True)
+    failure = rec.get("last_failure", {})
+    if "error" in failure and not isinstance(failure["error"], str):
+        return f"last_failure.error is {_what(failure['error'])}, not a string"
+    for enc, candidate in rec.get("auto_candidates", {}).items():
+        if not isinstance(candidate, dict):
+            return f"auto_candidates.{enc} is {_what(candidate)}, not an object"
+        problem = _figures(candidate, _CANDIDATE_FIGURES, f"auto_candidates.{enc}")
+        if problem:
+            return problem
+    return None
