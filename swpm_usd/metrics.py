@@ -360,7 +360,7 @@ def _select(order: np.ndarray, keys: np.ndarray, lo: int, hi: int, k: int) -> No
             return
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _build_bvh(
     tv: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -481,9 +481,10 @@ def _box_dist2(px: float, py: float, pz: float, node_min: np.ndarray, node_max: 
 
 @njit(cache=True, inline="always")
 def _leaf_min2(
-    px: float, py: float, pz: float, tv_sorted: np.ndarray, first: int, count: int, best: float
+    px: float, py: float, pz: float, tv_sorted: np.ndarray, first: int, count: int, best: float, bound: float
 ) -> float:
-    """The smaller of ``best`` and the squared distance to the triangles ``first .. first + count - 1``."""
+    """The smaller of ``best`` and the squared distance to the triangles ``first .. first + count - 1``, or
+    the first of those distances below ``best`` that is at most ``bound`` (the bounded search stops there)."""
     for t in range(first, first + count):
         d = _tri_dist2(
             px, py, pz,
@@ -493,6 +494,8 @@ def _leaf_min2(
         )  # fmt: skip
         if d < best:
             best = d
+            if best <= bound:
+                return best
     return best
 
 
@@ -510,6 +513,7 @@ def _nearest2(
     node_b: np.ndarray,
     stack: np.ndarray,
     budget: int,
+    stack_d: np.ndarray,
     upper: bool = False,
 ) -> tuple[float, int]:
     """Squared distance from the point to the nearest triangle (branch and bound), and the leaf that held it,
@@ -520,11 +524,13 @@ def _nearest2(
     and returns ``bound`` (where thousands of long triangles meet, at a cone's apex or a disc's centre,
     every box holds the point and the search would be linear in them), or with ``upper`` the nearest
     triangle's distance found so far (an upper bound: a search for a distance that must not be
-    underestimated). ``bound = -1`` and an unreachable ``budget``: the exact distance always."""
-    best = _leaf_min2(px, py, pz, tv_sorted, node_a[hint], max(-1 - node_b[hint], 0), np.inf)
+    underestimated). ``bound = -1`` and an unreachable ``budget``: the exact distance always. ``stack_d``:
+    scratch beside ``stack`` (the box distance of every node on it, computed when it was pushed)."""
+    best = _leaf_min2(px, py, pz, tv_sorted, node_a[hint], max(-1 - node_b[hint], 0), np.inf, bound)
     if best <= bound:
         return best, hint
     stack[0] = 0
+    stack_d[0] = _box_dist2(px, py, pz, node_min, node_max, 0)
     sp = 1
     while sp > 0:
         budget -= 1
@@ -532,11 +538,11 @@ def _nearest2(
             return (best if upper else bound), hint
         sp -= 1
         n = stack[sp]
-        if _box_dist2(px, py, pz, node_min, node_max, n) >= best:
+        if stack_d[sp] >= best:
             continue
         b = node_b[n]
         if b < 0:
-            d = _leaf_min2(px, py, pz, tv_sorted, node_a[n], -1 - b, best)
+            d = _leaf_min2(px, py, pz, tv_sorted, node_a[n], -1 - b, best, bound)
             if d < best:
                 best = d
                 hint = n
@@ -550,16 +556,20 @@ def _nearest2(
         if da <= db:
             if db < best:
                 stack[sp] = b
+                stack_d[sp] = db
                 sp += 1
             if da < best:
                 stack[sp] = a
+                stack_d[sp] = da
                 sp += 1
         else:
             if da < best:
                 stack[sp] = a
+                stack_d[sp] = da
                 sp += 1
             if db < best:
                 stack[sp] = b
+                stack_d[sp] = db
                 sp += 1
     return best, hint
 
@@ -577,6 +587,7 @@ def _query_bvh(
     nq = q.shape[0]
     out = np.empty(nq, dtype=np.float64)
     stack = np.empty(_STACK, dtype=np.int64)
+    stack_d = np.empty(_STACK, dtype=np.float64)
     hint = 0  # leaf that held the previous answer: a cheap first upper bound for coherent queries
     for i in range(nq):
         best, hint = _nearest2(
@@ -592,6 +603,7 @@ def _query_bvh(
             node_b,
             stack,
             1 << 62,
+            stack_d,
         )
         out[i] = np.sqrt(best)
     return out

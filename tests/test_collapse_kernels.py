@@ -118,8 +118,16 @@ def test_star_snapshot_matches_the_corner_lists(name: str, frac: float) -> None:
         assert _dead_linked_corners(st) > 0  # the snapshot walks (and unlinks) dead corners
     alive_tp = st.vertex_pos[st.tri_verts]
     alive_tp[~st.tri_alive] = -1
+    # the snapshot of the positions with a live triangle (as a sliding-window level reads it) first: the
+    # same arrays as the whole one's
+    live = np.flatnonzero(np.bincount(alive_tp[st.tri_alive].ravel(), minlength=P))
+    some = K.star_snapshot(st, live)
     stars = K.star_snapshot(st)
     assert _dead_linked_corners(st) == 0
+    assert np.array_equal(some.start, stars.start) and np.array_equal(some.nbr_start, stars.nbr_start)
+    m, mn = stars.start[-1], stars.nbr_start[-1]  # (the rows past these are room, not snapshot)
+    assert np.array_equal(some.tris[:m], stars.tris[:m]) and np.array_equal(some.tp[:m], stars.tp[:m])
+    assert np.array_equal(some.nbr[:mn], stars.nbr[:mn])
     seams = boundary = locked = degenerate = 0
     for p in range(P):
         r = slice(stars.start[p], stars.start[p + 1])

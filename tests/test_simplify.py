@@ -604,6 +604,29 @@ def test_step_geometric_errors_bound_the_new_triangles_distance():
         assert lod[s + 1] <= max(lod[s], d_all, seq.step_error[s]) * (1 + 1e-9) + 1e-12
 
 
+def test_step_geometric_errors_replayed_in_parts_are_one_replay():
+    """``replay_steps`` on consecutive parts of a sequence, one state collapsed by them in turn and the
+    running maximum carried (as the sliding window replays each level once the worker has finished it),
+    gives ``step_geometric_errors``' values bit for bit (without the running maximum they differ)."""
+    from swpm_usd.simplify import make_state
+    from swpm_usd.simplify.sequence import replay_steps, replay_surface, step_geometric_errors
+
+    mesh = shared_mesh("cow.obj")
+    seq = shared_sequence("cow.obj")
+    topo = mesh_topology(mesh)
+    b, k, e = seq.binned_position.astype(np.int64), seq.kept_position.astype(np.int64), seq.step_error
+    whole = step_geometric_errors(mesh, make_state(mesh, topo), b, k, e)
+    assert np.array_equal(whole, seq.step_geometric_error)
+    for carry in (True, False):
+        st = make_state(mesh, topo)
+        surface = replay_surface(mesh, st)
+        parts, run2 = [], 0.0
+        for lo, hi in ((0, 1), (1, 900), (900, 901), (901, 2500), (2500, b.shape[0])):
+            parts.append(replay_steps(surface, st, b[lo:hi], k[lo:hi], e[lo:hi], run2 if carry else 0.0))
+            run2 = max(run2, float(np.max(parts[-1] ** 2)))
+        assert np.array_equal(np.concatenate(parts), whole) == carry
+
+
 @pytest.mark.parametrize("encoding", ["vanilla", "sliding-window"])
 def test_reported_lod_errors_are_near_the_measured_hausdorff_error(encoding):
     """A LOD's reported error (what ``lod_for_error`` and the USD LOD thresholds select by) is within a

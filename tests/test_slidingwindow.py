@@ -1051,8 +1051,8 @@ def test_levels_finished_in_a_thread_build_the_same_pool(
 def test_inline_finishing_builds_without_a_worker_on_this_thread_only(
     spot: Mesh, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """Inside ``inline_finishing`` (the pipeline's workers) a build starts no worker thread; the setting is
-    per thread and restored on exit, and the pool is the same."""
+    """Inside ``inline_finishing`` (the pipeline's workers) a build starts no worker or helper thread; the
+    setting is per thread and restored on exit, and the pool is the same."""
     import threading
 
     import swpm_usd.encode.slidingwindow as sw
@@ -1072,9 +1072,10 @@ def test_inline_finishing_builds_without_a_worker_on_this_thread_only(
         other.start()
         other.join()
     assert np.array_equal(inline.index_pool, threaded.index_pool)
-    assert started == [other.ident]  # the other thread still finished its levels on a worker
+    # the other thread still finished its levels on a worker, beside a helper (the fan deviation searches)
+    assert started == [other.ident, other.ident]
     build_sliding_window(spot)
-    assert len(started) == 2  # restored on exit
+    assert len(started) == 4  # restored on exit
 
 
 def test_the_bounded_search_is_exact_beyond_its_bound() -> None:
@@ -1091,11 +1092,14 @@ def test_the_bounded_search_is_exact_beyond_its_bound() -> None:
     q = rng.normal(size=(400, 3)) * rng.uniform(0.5, 1.5, (400, 1))
     exact = point_triangle_distances(q, pts, s.triangles) ** 2
     stack = np.empty(_STACK, np.int64)
+    stack_d = np.empty(_STACK, np.float64)
     hint = 0
     beyond = within = 0
     for i in range(q.shape[0]):
         bound = float(rng.choice([0.0, exact[i] * 0.5, exact[i] * 2.0]))
-        d, hint = _nearest2(q[i, 0], q[i, 1], q[i, 2], bound, hint, tv, nmin, nmax, na, nb, stack, 10**6)
+        d, hint = _nearest2(
+            q[i, 0], q[i, 1], q[i, 2], bound, hint, tv, nmin, nmax, na, nb, stack, 10**6, stack_d
+        )
         if exact[i] > bound:
             assert d == pytest.approx(exact[i], rel=1e-9, abs=1e-15)
             beyond += 1
@@ -1105,7 +1109,7 @@ def test_the_bounded_search_is_exact_beyond_its_bound() -> None:
     assert beyond > 100 and within > 100
     # out of budget (no node may be opened, no hint leaf): the bound, as if the point were that near
     for i in range(20):
-        d, _ = _nearest2(q[i, 0], q[i, 1], q[i, 2], 1e-12, 0, tv, nmin, nmax, na, nb, stack, 0)
+        d, _ = _nearest2(q[i, 0], q[i, 1], q[i, 2], 1e-12, 0, tv, nmin, nmax, na, nb, stack, 0, stack_d)
         assert d == 1e-12 < exact[i]
 
 
@@ -1170,6 +1174,48 @@ def test_deviation_costs_are_the_farthest_fan_sample_or_the_quadric_cost() -> No
             assert raised == 0 and np.array_equal(got, cs)
         else:
             assert raised > 0.5 * np.count_nonzero(ks >= 0)
+
+
+def test_deviation_costs_on_two_threads_are_the_sequential_ones(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The fan deviation searched in blocks on two threads (``_sampled_deviation``), or block by block in any
+    order and joined (``deviation_join``), gives ``deviation_costs``' output bit for bit, also where a small
+    node budget makes a row depend on the search hint the rows before it leave (cow's level 0)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from swpm_usd.encode import slidingwindow as sw
+    from swpm_usd.encode import sw_deviation as swd
+    from swpm_usd.encode import sw_kernels as swk
+    from swpm_usd.simplify import make_state
+
+    cow = shared_mesh("cow.obj")
+    st = make_state(cow, mesh_topology(cow))
+    alive_t = np.flatnonzero(st.tri_alive)
+    _, positions = swk.level_positions(alive_t, st.tri_verts, st.vertex_pos, st.pos_points.shape[0])
+    stars = K.star_snapshot(st)
+    ks, cs = swk.level_costs(st, positions, stars)
+    surface = swd.surface_bvh(st.pos_points, st.vertex_pos[cow.triangles])
+    hint_mattered = False
+    for budget in (512, 20, 24):
+        args = (st.pos_points, positions, ks, cs, stars.start, stars.tp, 1e-12, swd.SAMPLES, budget, *surface)
+        want = swd.deviation_costs(*args)
+        n, block = positions.shape[0], 37
+        out = np.empty_like(cs)
+        hint_at = np.empty(n, np.int64)
+        end_hint = np.zeros(-(-n // block), np.int64)
+        for j in range(end_hint.shape[0] - 1, -1, -1):  # last block first, each from no hint
+            end_hint[j] = swd.deviation_rows(*args, j * block, min(n, (j + 1) * block), 0, out, hint_at)
+        hint_mattered |= not np.array_equal(out, want)
+        swd.deviation_join(*args, block, end_hint, out, hint_at)
+        assert np.array_equal(out, want)
+        monkeypatch.setattr(sw, "_DEVIATION_PARALLEL", 1)
+        monkeypatch.setattr(sw, "_DEVIATION_BLOCK", 23)
+        monkeypatch.setattr(sw, "_SHARE_BLOCKS", 1000)  # blocks of 23 rows
+        with ThreadPoolExecutor(max_workers=1) as helper:
+            assert np.array_equal(sw._sampled_deviation(helper, args), want)
+        assert np.array_equal(sw._sampled_deviation(None, args), want)
+    # a search out of its budget returns its bound, and where it runs out depends on the hint: the blocks
+    # alone (each from no hint) differ from the sequential run there, and the join makes them the same
+    assert hint_mattered
 
 
 def test_ranking_by_fan_deviation_lowers_the_windows_error(monkeypatch: pytest.MonkeyPatch) -> None:

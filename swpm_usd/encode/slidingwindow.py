@@ -58,6 +58,7 @@ the tests replay every window.
 
 from __future__ import annotations
 
+import itertools
 import numbers
 import os
 import threading
@@ -73,7 +74,7 @@ from ..mesh import Mesh
 from ..metrics import cache_misses
 from ..simplify import CollapseSequence, collapse_sequence, make_state, mesh_topology
 from ..simplify.kernels import star_snapshot
-from ..simplify.sequence import step_geometric_errors
+from ..simplify.sequence import replay_steps, replay_surface
 from ..vcache import apply_order, optimize_block_order
 from . import sw_centres as swc
 from . import sw_deviation as swd
@@ -310,6 +311,18 @@ _DEVIATION_SHARE = 0.5
 #: nodes a sample's search may open (512: the ten shared meshes build the same pools as without a limit; a
 #: cone of 80,000 sections 24 s without, 4.1 s with it)
 _DEVIATION_BUDGET = 512
+#: levels of at least this many sampled positions search them on two threads (the main one and a helper),
+#: in ``_SHARE_BLOCKS`` blocks of at least ``_DEVIATION_BLOCK`` rows (:func:`_sampled_deviation`; the same
+#: costs, bit for bit)
+_DEVIATION_PARALLEL = 256
+_DEVIATION_BLOCK = 64
+#: levels of at least this many positions find their best collapses on two threads, in blocks of at least
+#: ``_COSTS_BLOCK`` (:func:`_level_costs`)
+_COSTS_PARALLEL = 1024
+_COSTS_BLOCK = 256
+#: blocks of a level's work shared by the two threads (:func:`_share`): more blocks balance the threads
+#: better (the main thread does again at most the block the helper is in), fewer take the GIL less often
+_SHARE_BLOCKS = 16
 
 
 #: iterations of the centre search (:func:`sw_centres.grow_independent_set`) per eligible vertex: the
@@ -359,7 +372,8 @@ _COARSEST_COPY_MIN_GAIN = 0.05
 #: thread while the next level is built (the kernels release the GIL; the pool is the same bit for bit).
 #: Bunny, medians of 3 alternating builds: 1.25 -> 0.98 s without the search, 2.48 -> 1.61 s with two passes
 #: of reach 3; cow 0.11 -> 0.09 s and 0.25 -> 0.17 s. False: every level is finished inline (as inside
-#: :func:`inline_finishing`, which the pipeline's workers use: ``--jobs`` is the pipeline's parallelism)
+#: :func:`inline_finishing`, which the pipeline's workers use: ``--jobs`` is the pipeline's parallelism), and
+#: no helper thread shares the main thread's work either (:func:`_share`, :func:`_beside`)
 FINISH_IN_THREAD = True
 _THIS_THREAD = threading.local()
 
@@ -579,6 +593,9 @@ def _build_levels(
     st,
     pending: list,
     worker: ThreadPoolExecutor | None,
+    helper: ThreadPoolExecutor | None,
+    surface_of,
+    replay,
     mu: float,
     inner_vertices: int,
     cache_size: int,
@@ -606,9 +623,8 @@ def _build_levels(
     nstep = 0
     fresh_cost = None  # cluster=True: pool triangles per collapse a fully stored level would cost
     relax = False  # the level after a trickle: no cost limit at collapse time (see ``last`` below)
-    surface = None
-    if _RANK_BY_DEVIATION and T:
-        surface = swd.surface_bvh(st.pos_points, st.vertex_pos[mesh.triangles])
+    rank_by_deviation = _RANK_BY_DEVIATION and surface_of is not None
+    if rank_by_deviation:
         lo, hi = st.pos_points.min(axis=0), st.pos_points.max(axis=0)
         floor2 = float((_DEVIATION_FLOOR * np.linalg.norm(hi - lo)) ** 2)
     while True:
@@ -616,10 +632,13 @@ def _build_levels(
         if alive_t.shape[0] == 0:
             break
         tp, positions = swk.level_positions(alive_t, st.tri_verts, st.vertex_pos, P)
-        stars = star_snapshot(st)  # the state is read-only until collapse_patches
-        ks, cs = swk.level_costs(st, positions, stars)
+        # the level's position graph (for its patch centres) on the helper meanwhile
+        adjacency = _beside(helper, _adjacency, tp, P)
+        stars = star_snapshot(st, positions)  # the state is read-only until collapse_patches
+        ks, cs = _level_costs(helper, st, positions, stars)
         rank_cs = cs
-        if surface is not None:
+        if rank_by_deviation:
+            surface = surface_of()[0]
             rank_cs = swd.deviation_costs(
                 st.pos_points, positions, ks, cs, stars.start, stars.tp, floor2, swd.SAMPLES[:0], 0, *surface
             )
@@ -627,17 +646,20 @@ def _build_levels(
                 cand = np.flatnonzero(ks >= 0)
                 n_pick = int(np.ceil(_DEVIATION_SHARE * cand.shape[0]))
                 pick = np.sort(cand[np.argsort(rank_cs[cand])[cand.shape[0] - n_pick :]])
-                rank_cs[pick] = swd.deviation_costs(
-                    st.pos_points,
-                    positions[pick],
-                    ks[pick],
-                    cs[pick],
-                    stars.start,
-                    stars.tp,
-                    floor2,
-                    swd.SAMPLES,
-                    _DEVIATION_BUDGET,
-                    *surface,
+                rank_cs[pick] = _sampled_deviation(
+                    helper,
+                    (
+                        st.pos_points,
+                        positions[pick],
+                        ks[pick],
+                        cs[pick],
+                        stars.start,
+                        stars.tp,
+                        floor2,
+                        swd.SAMPLES,
+                        _DEVIATION_BUDGET,
+                        *surface,
+                    ),
                 )
         valid = ks >= 0
         eligible = np.zeros(P, bool)
@@ -674,7 +696,7 @@ def _build_levels(
             inner_start, inner = swk.cluster_patches(st, cands, tpos, tiebreak[cands], _CLUSTER_MIN_PATCHES)
             pt_start, pt = swk.patch_triangles(st, inner_start, inner, stars)
             if fresh_cost is None:
-                fresh = _select_fresh(tp, P, eligible, tiebreak, int(inner_vertices))
+                fresh = _select_fresh(adjacency(), eligible, tiebreak, int(inner_vertices))
                 fresh_cost = 2.0 * alive_t.shape[0] / max(fresh[3].shape[0], 1) - 2.0
             linked_cost = _linked_cost(tpos, pt, inner.shape[0]) if inner.shape[0] else np.inf
             link = linked_cost <= _CLUSTER_RELINK * fresh_cost
@@ -683,7 +705,7 @@ def _build_levels(
         else:
             fresh_cost = None  # a new run of linked levels starts after this one
             adj_start, adj, inner_start, inner = fresh or _select_fresh(
-                tp, P, eligible, tiebreak, int(inner_vertices)
+                adjacency(), eligible, tiebreak, int(inner_vertices)
             )
             if inner_vertices == 1:
                 inner = _more_centres(adj_start, adj, eligible, inner)
@@ -782,6 +804,8 @@ def _build_levels(
             args = (gtris, start_gids, collapsed, nstep, V, P, int(cache_size), order_passes, order_reach)
             finishing = worker.submit(_finish_level, *args) if worker else _done(_finish_level(*args))
             pending.append((finishing, args))
+            if replay is not None:
+                replay.advance(pending)
             for i, (f, a) in enumerate(pending):  # a finished level's inputs are not needed any more
                 if a is not None and f.done() and not f.cancelled():
                     pending[i] = (f, None)
@@ -804,31 +828,184 @@ def _build_levels(
     return levels, recs_all, info_all, gtris, ng
 
 
-def _build_topology(mesh: Mesh, st, *args, **kwargs):
-    """:func:`_build_levels` with its levels finished (:func:`_finish_level`) on a worker thread where the
-    machine has a second core, inline otherwise (the same pool either way)."""
+def _beside(helper: ThreadPoolExecutor | None, fn, *args):
+    """``fn(*args)`` on the ``helper`` thread while this one goes on: a callable that returns its result, or
+    computes it on this thread if the helper has not started it by then (bunny's BVH is 50 ms: once started,
+    the helper is nearer its end than this thread would be); at once without a helper."""
+    if helper is None:
+        value = fn(*args)
+        return lambda: value
+    future = helper.submit(fn, *args)
+    done = []
+
+    def result():
+        if not done:
+            done.append(fn(*args) if future.cancel() else future.result())
+        return done[0]
+
+    return result
+
+
+def _share(helper: ThreadPoolExecutor, count: int, work) -> set:
+    """Items ``0 .. count - 1`` done as ``work(j, here)`` by this thread (``here`` True) and the ``helper``
+    thread (False), each taking the next item in turn; returns the items the helper finished. This thread
+    never waits for the helper: it does again those the helper has taken and not finished when none is
+    left (``work`` must give the same result on either thread, into separate outputs)."""
+    items = itertools.count()  # next() is atomic: each item goes to one thread
+    finished: list = []  # by the helper (list.append is atomic)
+
+    def run() -> None:
+        for j in items:
+            if j >= count:
+                return
+            work(j, False)
+            finished.append(j)
+
+    future = helper.submit(run)
+    mine = set()
+    for j in items:
+        if j >= count:
+            break
+        work(j, True)
+        mine.add(j)
+    future.cancel()
+    theirs = set(finished)
+    for j in range(count):
+        if j not in mine and j not in theirs:
+            work(j, True)
+    return theirs
+
+
+def _level_costs(helper: ThreadPoolExecutor | None, st, positions: np.ndarray, stars):
+    """:func:`.sw_kernels.level_costs`, a large level's positions in blocks (:data:`_SHARE_BLOCKS`) on this
+    thread and the ``helper`` thread (each position's best collapse reads the state alone: the same costs)."""
+    n = positions.shape[0]
+    if helper is None or n < _COSTS_PARALLEL:
+        return swk.level_costs(st, positions, stars)
+    size = max(_COSTS_BLOCK, -(-n // _SHARE_BLOCKS))
+    count = -(-n // size)
+    parts = [[None] * count, [None] * count]  # by the helper, by this thread
+
+    def work(j: int, here: bool) -> None:
+        parts[here][j] = swk.level_costs(st, positions[j * size : (j + 1) * size], stars)
+
+    theirs = _share(helper, count, work)
+    got = [parts[j not in theirs][j] for j in range(count)]
+    return np.concatenate([g[0] for g in got]), np.concatenate([g[1] for g in got])
+
+
+def _sampled_deviation(helper: ThreadPoolExecutor | None, args: tuple) -> np.ndarray:
+    """:func:`.sw_deviation.deviation_costs` of ``args``, on this thread and the ``helper`` thread where there
+    are enough rows: blocks of rows (:data:`_SHARE_BLOCKS`), each started from no search hint
+    (:func:`_share`), then :func:`.sw_deviation.deviation_join` (the same output, bit for bit)."""
+    n = args[1].shape[0]
+    if helper is None or n < _DEVIATION_PARALLEL:
+        return swd.deviation_costs(*args)
+    size = max(_DEVIATION_BLOCK, -(-n // _SHARE_BLOCKS))
+    count = -(-n // size)
+    # (out, hint_at, end_hint) of each thread: the helper's rows are copied once it has finished them
+    bufs = [(np.empty_like(args[3]), np.empty(n, np.int64), np.zeros(count, np.int64)) for _ in range(2)]
+
+    def work(j: int, here: bool) -> None:
+        out, hint_at, end_hint = bufs[here]
+        end_hint[j] = swd.deviation_rows(*args, j * size, min(n, (j + 1) * size), 0, out, hint_at)
+
+    theirs = _share(helper, count, work)
+    out, hint_at, end_hint = bufs[True]
+    for j in theirs:
+        rows = slice(j * size, (j + 1) * size)
+        out[rows] = bufs[False][0][rows]
+        hint_at[rows] = bufs[False][1][rows]
+        end_hint[j] = bufs[False][2][j]
+    swd.deviation_join(*args, size, end_hint, out, hint_at)
+    return out
+
+
+class _Replay:
+    """Each step's error as the LODs report it (:func:`swpm_usd.simplify.sequence.step_geometric_errors`: a
+    fresh state replays the steps in their final order) computed level by level on the ``helper`` thread as
+    the worker finishes the levels (which settles their steps' order), not after the last level on the main
+    thread (cow: 26 of its 185 ms). The parts carry the running maximum: the values of one replay."""
+
+    def __init__(self, helper: ThreadPoolExecutor, new_state, surface_of) -> None:
+        self.helper = helper
+        self.new_state = new_state
+        self.surface_of = surface_of
+        self.st = None
+        self.run2 = 0.0
+        self.parts: list[np.ndarray] = []
+        self.tasks: list[Future] = []  # one per level handed on, in level order
+
+    def _level(self, info: np.ndarray) -> None:
+        if self.st is None:
+            self.st = self.new_state()
+        out = replay_steps(self.surface_of(), self.st, info[:, 1], info[:, 2], info[:, 0], self.run2)
+        if out.shape[0]:
+            self.run2 = max(self.run2, float(np.max(out * out)))
+        self.parts.append(out)
+
+    def advance(self, pending: list) -> None:
+        """Hand the levels finished so far on to the helper, in order (it runs them in turn)."""
+        while len(self.tasks) < len(pending) and pending[len(self.tasks)][0].done():
+            info = pending[len(self.tasks)][0].result()[2]
+            self.tasks.append(self.helper.submit(self._level, info))
+
+    def result(self, infos: list) -> np.ndarray:
+        """The errors of every level's steps (``infos``: each level's, finished): the levels the helper has
+        not started are replayed here, in order, once it is done with the one it is on."""
+        # cancelled from the last on: the helper runs its tasks in order, so once one cannot be cancelled
+        # (started), those before it are done, and no task after it can start any more
+        first = len(self.tasks)
+        for i in range(len(self.tasks) - 1, -1, -1):
+            if not self.tasks[i].cancel():
+                break
+            first = i
+        for task in self.tasks[:first]:
+            task.result()
+        for i in range(first, len(infos)):
+            self._level(infos[i])
+        return np.concatenate(self.parts) if self.parts else np.zeros(0)
+
+
+def _build_topology(mesh: Mesh, st, new_state, *args, **kwargs):
+    """:func:`_build_levels` with its levels finished (:func:`_finish_level`) on a worker thread and part of
+    each level's own work on a helper thread (:func:`_share`, :func:`_beside`) where the machine has a second
+    core, inline otherwise (the same pool either way). ``new_state``: a fresh state of ``mesh`` for the
+    replay of the LOD errors (:class:`_Replay`; None: the caller replays). Returns the triangles, levels,
+    collapse records and step info, the LOD errors' replay (None if not done) and the input surface
+    (:func:`swpm_usd.simplify.sequence.replay_surface`, None for no triangles)."""
     pending: list = []
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     threads = FINISH_IN_THREAD and not getattr(_THIS_THREAD, "inline", False) and cores > 1
     worker = ThreadPoolExecutor(max_workers=1) if threads else None
+    helper = ThreadPoolExecutor(max_workers=1) if threads else None
+    # the input's BVH on the helper while this thread starts level 0
+    surface_of = _beside(helper, replay_surface, mesh, st) if mesh.triangle_count else None
+    replay = _Replay(helper, new_state, surface_of) if helper and new_state and surface_of else None
     try:
-        levels, recs_all, info_all, gtris, ng = _build_levels(mesh, st, pending, worker, *args, **kwargs)
+        levels, recs_all, info_all, gtris, ng = _build_levels(
+            mesh, st, pending, worker, helper, surface_of, replay, *args, **kwargs
+        )
         # the levels the worker has not started are finished here, last first, beside it
         finished = [None] * len(pending)
         for i in range(len(pending) - 1, -1, -1):
             if pending[i][1] is not None and pending[i][0].cancel():
                 finished[i] = _finish_level(*pending[i][1])
-        done = iter([r if r is not None else f.result() for r, (f, _) in zip(finished, pending, strict=True)])
+        results = [r if r is not None else f.result() for r, (f, _) in zip(finished, pending, strict=True)]
+        geometric = replay.result([r[2] for r in results]) if replay is not None else None
     finally:
         if worker is not None:
             worker.shutdown(wait=True, cancel_futures=True)
+        if helper is not None:
+            helper.shutdown(wait=True, cancel_futures=True)
+    done = iter(results)
     for li, lev in enumerate(levels):
         if lev is None:
             lev, recs_all[li], info_all[li] = next(done)
             levels[li] = lev
     recs = np.concatenate(recs_all) if recs_all else np.zeros((0, 3), np.int64)
     info = np.concatenate(info_all) if info_all else np.zeros((0, 3))
-    return gtris[:ng], levels, recs, info
+    return gtris[:ng], levels, recs, info, geometric, surface_of() if surface_of is not None else None
 
 
 def _gather(starts: np.ndarray, sizes: np.ndarray) -> np.ndarray:
@@ -951,9 +1128,10 @@ def _absorb(st, pt_start, pt, alive_t, min_shared: int, stars, rounds: int):
     return pt_start, pt
 
 
-def _select_fresh(tp: np.ndarray, P: int, eligible: np.ndarray, tiebreak: np.ndarray, inner_vertices: int):
-    """The position graph of a level and its minimum-degree patches (the start of a fully stored level)."""
-    adj_start, adj = _adjacency(tp, P)
+def _select_fresh(adjacency: tuple, eligible: np.ndarray, tiebreak: np.ndarray, inner_vertices: int):
+    """The position graph of a level (:func:`_adjacency`) and its minimum-degree patches (the start of a fully
+    stored level)."""
+    adj_start, adj = adjacency
     inner_start, inner = swc.select_patches(adj_start, adj, eligible, tiebreak, inner_vertices)
     return adj_start, adj, inner_start, inner
 
@@ -1274,11 +1452,16 @@ def build_sliding_window(
         mesh = optimize_mesh_connectivity(mesh, max_deviation=swap_max_deviation)
     topo = mesh_topology(mesh)
     st = make_state(mesh, topo, boundary_weight=boundary_weight, seam_weight=seam_weight)
+
+    def new_state():
+        return make_state(mesh, topo, boundary_weight=boundary_weight, seam_weight=seam_weight)
+
     if builder == "topology":
         absorb = _ABSORB_MIN_SHARED if absorb_middle else 0
-        gtris, levels, recs, info = _build_topology(
+        gtris, levels, recs, info, geometric, surface = _build_topology(
             mesh,
             st,
+            None if cluster else new_state,  # (a linked level is not finished on the worker)
             float(mu),
             int(inner_vertices),
             int(cache_size),
@@ -1291,12 +1474,16 @@ def build_sliding_window(
         )
     else:
         gtris, levels, recs, info = _build_forsyth(mesh, st, float(tolerance), boundary_weight, seam_weight)
-    # each step's error as the LODs report it: the quadric's, or how far its new triangles lie from LOD 0
-    # if farther (a fresh state replays the steps)
-    fresh = make_state(mesh, topo, boundary_weight=boundary_weight, seam_weight=seam_weight)
-    geometric = step_geometric_errors(
-        mesh, fresh, info[:, 1].astype(np.int64), info[:, 2].astype(np.int64), info[:, 0]
-    )
+        geometric = surface = None
+    if geometric is None:
+        # each step's error as the LODs report it: the quadric's, or how far its new triangles lie from LOD 0
+        # if farther (a fresh state replays the steps; :class:`_Replay` does it level by level)
+        if info.shape[0] == 0:
+            geometric = np.zeros(0)
+        else:
+            fresh = new_state()
+            surface = surface or replay_surface(mesh, fresh)
+            geometric = replay_steps(surface, fresh, info[:, 1], info[:, 2], info[:, 0])
     pm = _assemble(mesh, gtris, levels, recs, info, int(cache_size), bool(coarsest_copy), geometric)
     pm.params["order_passes"] = int(order_passes)  # what ran (None resolved)
     return pm

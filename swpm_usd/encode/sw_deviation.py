@@ -59,11 +59,48 @@ def deviation_costs(
     from the input and of the binned point from the fan; ``costs[i]`` where ``D <= floor2`` (rounding, far
     below any error that matters) or ``ks[i] < 0`` (no valid collapse). ``star_start``, ``star_tp``: a star
     snapshot's rows (:func:`swpm_usd.simplify.kernels.star_snapshot`); ``tv`` and the node arrays:
-    :func:`surface_bvh`."""
-    out = costs.copy()
+    :func:`surface_bvh`. :func:`deviation_rows` and :func:`deviation_join` give the same on several
+    threads."""
+    out = np.empty_like(costs)
+    hint_at = np.empty(positions.shape[0], np.int64)
+    deviation_rows(
+        pts, positions, ks, costs, star_start, star_tp, floor2, samples, budget, tv, node_min, node_max,
+        node_a, node_b, 0, positions.shape[0], 0, out, hint_at,
+    )  # fmt: skip
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def deviation_rows(
+    pts: np.ndarray,
+    positions: np.ndarray,
+    ks: np.ndarray,
+    costs: np.ndarray,
+    star_start: np.ndarray,
+    star_tp: np.ndarray,
+    floor2: float,
+    samples: np.ndarray,
+    budget: int,
+    tv: np.ndarray,
+    node_min: np.ndarray,
+    node_max: np.ndarray,
+    node_a: np.ndarray,
+    node_b: np.ndarray,
+    lo: int,
+    hi: int,
+    hint: int,
+    out: np.ndarray,
+    hint_at: np.ndarray,
+) -> int:
+    """Rows ``lo .. hi - 1`` of :func:`deviation_costs` into ``out``, the searches started from the BVH leaf
+    ``hint`` (0: none). ``hint_at[i]``: the hint row ``i`` started from. Returns the hint after row
+    ``hi - 1``. A row depends on the rows before it only through that hint, which decides where a search
+    that runs out of its ``budget`` stops (:func:`swpm_usd.metrics._nearest2`)."""
     stack = np.empty(_STACK, np.int64)
-    hint = 0
-    for i in range(positions.shape[0]):
+    stack_d = np.empty(_STACK, np.float64)
+    for i in range(lo, hi):
+        hint_at[i] = hint
+        out[i] = costs[i]
         k = ks[i]
         if k < 0:
             continue
@@ -90,11 +127,54 @@ def deviation_costs(
                 py = w0 * pts[c0, 1] + w1 * pts[c1, 1] + w2 * pts[c2, 1]
                 pz = w0 * pts[c0, 2] + w1 * pts[c1, 2] + w2 * pts[c2, 2]
                 d, hint = _nearest2(
-                    px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget
+                    px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d
                 )
                 if d > m:
                     m = d
                     dev = d
         if dev > floor2:
             out[i] = max(dev, costs[i])
-    return out
+    return hint
+
+
+@nb.njit(cache=True, nogil=True)
+def deviation_join(
+    pts: np.ndarray,
+    positions: np.ndarray,
+    ks: np.ndarray,
+    costs: np.ndarray,
+    star_start: np.ndarray,
+    star_tp: np.ndarray,
+    floor2: float,
+    samples: np.ndarray,
+    budget: int,
+    tv: np.ndarray,
+    node_min: np.ndarray,
+    node_max: np.ndarray,
+    node_a: np.ndarray,
+    node_b: np.ndarray,
+    block: int,
+    end_hint: np.ndarray,
+    out: np.ndarray,
+    hint_at: np.ndarray,
+) -> None:
+    """:func:`deviation_costs`' output, bit for bit, in ``out``, from blocks of ``block`` rows computed by
+    :func:`deviation_rows` in any order (on several threads), each started from hint 0 (``end_hint[j]``:
+    block ``j``'s hint after its last row). Block 0 started from the sequential run's hint; each later block's
+    rows are computed again, in order from the hint the sequential run would hold there, until that hint is
+    the one the block's row started from: from there on the block is the sequential run's (a search that
+    opens nodes leaves the leaf it ended in as the hint, whatever hint it started from, so the hints meet
+    within a row or two)."""
+    n = positions.shape[0]
+    hint = end_hint[0]
+    for j in range(1, end_hint.shape[0]):
+        i = j * block
+        end = min(n, i + block)
+        while i < end and hint_at[i] != hint:
+            hint = deviation_rows(
+                pts, positions, ks, costs, star_start, star_tp, floor2, samples, budget, tv, node_min,
+                node_max, node_a, node_b, i, i + 1, hint, out, hint_at,
+            )  # fmt: skip
+            i += 1
+        if i < end:
+            hint = end_hint[j]

@@ -99,6 +99,7 @@ def step_deviations(
     node_max: np.ndarray,
     node_a: np.ndarray,
     node_b: np.ndarray,
+    start2: float = 0.0,
 ) -> np.ndarray:
     """Per step ``s`` (position ``step_b[s]`` onto ``step_k[s]``, applied to ``st`` in order): the larger of
     ``step_error[s]`` and the largest distance of the new fan's ``samples`` from the surface in the BVH
@@ -108,13 +109,15 @@ def step_deviations(
     Distances up to ``floor`` count as 0. ``st`` must be the state the sequence started from; it ends
     collapsed. A sample's search stops at the first triangle within the running maximum (a closer sample
     changes nothing), so most stop in their first leaf; one out of its ``budget`` of nodes counts the
-    nearest triangle it found (the value may then be above the distance, never below it)."""
+    nearest triangle it found (the value may then be above the distance, never below it). ``start2``: the
+    squared running maximum of the steps before these (a sequence replayed in parts: the same values)."""
     pts = st.pos_points
     out = step_error.astype(np.float64).copy()
     bbuf = K.star_buffers(st)
     stack = np.empty(_STACK, np.int64)
+    stack_d = np.empty(_STACK, np.float64)
     floor2 = floor * floor
-    run2 = 0.0  # the running maximum, squared
+    run2 = start2  # the running maximum, squared
     for s in range(step_b.shape[0]):
         b = step_b[s]
         k = step_k[s]
@@ -146,7 +149,7 @@ def step_deviations(
                 # lie that close to one of them (bunny: 59 %), and need no search from the root
                 for c in (c0, c1, c2):
                     leaf = hints[c]
-                    ub = _leaf_min2(px, py, pz, tv, node_a[leaf], max(-1 - node_b[leaf], 0), ub)
+                    ub = _leaf_min2(px, py, pz, tv, node_a[leaf], max(-1 - node_b[leaf], 0), ub, m)
                     if ub <= m:
                         break
                 if ub <= m:
@@ -154,7 +157,7 @@ def step_deviations(
                 # out of its budget the search keeps the nearest triangle it found, not m: an error may be
                 # overestimated there, never underestimated (ub: the corners and their leaves, as near)
                 d, hint = _nearest2(
-                    px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget, True
+                    px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d, True
                 )
                 d = min(d, ub)
                 if d > m:

@@ -140,13 +140,17 @@ def mesh_topology(mesh: Mesh) -> MeshTopology:
     two = counts == 2
     h0 = order[starts[two]]
     h1 = order[starts[two] + 1]
-    consistent = ha[h0] == hb[h1]
-    # vertices at (lo, hi) on each side; a seam when they differ
-    v0_lo = np.where(ha[h0] == lo[h0], va[h0], vb[h0])
-    v0_hi = np.where(ha[h0] == lo[h0], vb[h0], va[h0])
-    v1_lo = np.where(ha[h1] == lo[h1], va[h1], vb[h1])
-    v1_hi = np.where(ha[h1] == lo[h1], vb[h1], va[h1])
-    seam = (v0_lo != v1_lo) | (v0_hi != v1_hi)  # on inconsistently oriented edges too
+    ha0 = ha[h0]
+    ha1 = ha[h1]
+    consistent = ha0 == hb[h1]
+    # vertices at (lo, hi) on each side; a seam when they differ (each gathered once: these gathers of a
+    # value per edge were most of the time)
+    up0 = ha0 == lo[h0]
+    up1 = ha1 == lo[h1]
+    va0, vb0, va1, vb1 = va[h0], vb[h0], va[h1], vb[h1]
+    seam = (np.where(up0, va0, vb0) != np.where(up1, va1, vb1)) | (  # on inconsistently oriented edges too
+        np.where(up0, vb0, va0) != np.where(up1, vb1, va1)
+    )
     sh0 = h0[seam]
     sh1 = h1[seam]
     seam_edges = np.concatenate([np.stack([ha[sh0], hb[sh0]], 1), np.stack([ha[sh1], hb[sh1]], 1)]).astype(
@@ -351,13 +355,35 @@ def step_geometric_errors(
     """Per step of a sequence that starts from ``st`` (a fresh :func:`make_state` of ``mesh``, collapsed by
     the replay): the larger of ``step_error`` and how far the step's new triangles lie from ``mesh`` where
     that raises the running maximum, else ``step_error`` (:func:`.fan_deviation.step_deviations`)."""
-    from . import fan_deviation as fd
-
     if step_b.shape[0] == 0:
         return np.zeros(0)
+    return replay_steps(replay_surface(mesh, st), st, step_b, step_k, step_error)
+
+
+def replay_surface(mesh: Mesh, st: kernels.CollapseState) -> tuple:
+    """What :func:`replay_steps` searches: the input's BVH, a BVH leaf per position and the distance floor."""
+    from . import fan_deviation as fd
+
     pts = st.pos_points
     bvh, hints = fd.surface_with_hints(pts, st.vertex_pos[np.asarray(mesh.triangles)])
     diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))) if pts.shape[0] else 0.0
+    return bvh, hints, fd.DISTANCE_FLOOR * diag
+
+
+def replay_steps(
+    surface: tuple,
+    st: kernels.CollapseState,
+    step_b: np.ndarray,
+    step_k: np.ndarray,
+    step_error: np.ndarray,
+    start2: float = 0.0,
+) -> np.ndarray:
+    """:func:`step_geometric_errors` of the steps that follow ``st``'s state (collapsed by the replay), the
+    earlier steps' squared running maximum ``start2``; ``surface``: :func:`replay_surface`. A sequence
+    replayed in consecutive parts on one state gives the values of one replay."""
+    from . import fan_deviation as fd
+
+    bvh, hints, floor = surface
     return fd.step_deviations(
         st,
         np.ascontiguousarray(step_b, np.int64),
@@ -365,7 +391,8 @@ def step_geometric_errors(
         np.ascontiguousarray(step_error, np.float64),
         fd.SAMPLES,
         fd.SEARCH_BUDGET,
-        fd.DISTANCE_FLOOR * diag,
+        floor,
         hints,
         *bvh,
+        float(start2),
     )
