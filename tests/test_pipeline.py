@@ -1818,6 +1818,19 @@ def test_verify_hashes_every_output(tmp_path, monkeypatch):
     assert "--verify" in CliRunner().invoke(main, ["run", "--help"]).output
 
 
+def _config_problems(cfg, text: str, stderr_lists_them: bool = False) -> list[str]:
+    """``text`` written to ``cfg``: a dry run exits 2 without a traceback, and the problems
+    ``load_config`` raises (``stderr_lists_them``: the run printed exactly those lines on stderr)."""
+    cfg.write_text(text)
+    result = CliRunner().invoke(main, ["run", str(cfg), "--dry-run"])
+    assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+    with pytest.raises(ConfigError) as exc:
+        load_config(cfg)
+    if stderr_lists_them:
+        assert result.stderr.splitlines() == exc.value.problems
+    return exc.value.problems
+
+
 def test_yaml_empty_values_floats_without_a_dot_and_duplicate_keys(tmp_path):
     (tmp_path / "m").mkdir()
     (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
@@ -1825,12 +1838,7 @@ def test_yaml_empty_values_floats_without_a_dot_and_duplicate_keys(tmp_path):
     head = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
 
     def problems(text: str) -> list[str]:
-        cfg.write_text(text)
-        result = CliRunner().invoke(main, ["run", str(cfg), "--dry-run"])
-        assert result.exit_code == 2 and "Traceback" not in result.output, result.output
-        with pytest.raises(ConfigError) as exc:
-            load_config(cfg)
-        return exc.value.problems
+        return _config_problems(cfg, text)
 
     # an empty value (a bare `rules:` or `params:`) is null, reported at its line
     assert problems(head + "rules:\n") == ["c.yaml:4:7: $.rules: empty value (null); expected an array"]
@@ -1891,13 +1899,7 @@ def test_an_unquoted_value_yaml_reads_as_no_string_is_named_with_the_quotes_it_n
     head = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
 
     def problems(text: str) -> list[str]:
-        cfg.write_text(text)
-        result = CliRunner().invoke(main, ["run", str(cfg), "--dry-run"])
-        assert result.exit_code == 2 and "Traceback" not in result.output, result.output
-        with pytest.raises(ConfigError) as exc:
-            load_config(cfg)
-        assert result.stderr.splitlines() == exc.value.problems
-        return exc.value.problems
+        return _config_problems(cfg, text, stderr_lists_them=True)
 
     hint = "quote it to keep it as written:"
     for value, read in (

@@ -22,7 +22,7 @@ import numba as nb
 import numpy as np
 
 from ..metrics import _STACK, _nearest2, _tri_dist2
-from ..simplify.fan_deviation import SAMPLES, _fan_triangle, surface_bvh
+from ..simplify.fan_deviation import SAMPLES, _fan_triangle, sample_point, surface_bvh
 
 __all__ = ["SAMPLES", "deviation_costs", "surface_bvh"]
 
@@ -120,12 +120,7 @@ def deviation_rows(
             if c0 < 0:
                 continue
             for s in range(samples.shape[0]):
-                w0 = samples[s, 0]
-                w1 = samples[s, 1]
-                w2 = samples[s, 2]
-                px = w0 * pts[c0, 0] + w1 * pts[c1, 0] + w2 * pts[c2, 0]
-                py = w0 * pts[c0, 1] + w1 * pts[c1, 1] + w2 * pts[c2, 1]
-                pz = w0 * pts[c0, 2] + w1 * pts[c1, 2] + w2 * pts[c2, 2]
+                px, py, pz = sample_point(pts, c0, c1, c2, samples[s])
                 d, hint = _nearest2(
                     px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d
                 )

@@ -84,6 +84,15 @@ def _fan_triangle(star_tp: np.ndarray, r: int, b: int, k: int) -> tuple[int, int
     return k, c0, c1
 
 
+@nb.njit(cache=True, inline="always")
+def sample_point(pts: np.ndarray, c0: int, c1: int, c2: int, w: np.ndarray) -> tuple[float, float, float]:
+    """The point of barycentric weights ``w`` (a row of :data:`SAMPLES`) in triangle ``(c0, c1, c2)``."""
+    px = w[0] * pts[c0, 0] + w[1] * pts[c1, 0] + w[2] * pts[c2, 0]
+    py = w[0] * pts[c0, 1] + w[1] * pts[c1, 1] + w[2] * pts[c2, 1]
+    pz = w[0] * pts[c0, 2] + w[1] * pts[c1, 2] + w[2] * pts[c2, 2]
+    return px, py, pz
+
+
 @nb.njit(cache=True, nogil=True)
 def step_deviations(
     st: K.CollapseState,
@@ -132,12 +141,7 @@ def step_deviations(
             if c0 < 0:
                 continue
             for q in range(samples.shape[0]):
-                w0 = samples[q, 0]
-                w1 = samples[q, 1]
-                w2 = samples[q, 2]
-                px = w0 * pts[c0, 0] + w1 * pts[c1, 0] + w2 * pts[c2, 0]
-                py = w0 * pts[c0, 1] + w1 * pts[c1, 1] + w2 * pts[c2, 1]
-                pz = w0 * pts[c0, 2] + w1 * pts[c1, 2] + w2 * pts[c2, 2]
+                px, py, pz = sample_point(pts, c0, c1, c2, samples[q])
                 # the corners are input points: the sample is no farther from the input than from the
                 # nearest corner, so a sample that close to one cannot raise m (most, early in a sequence)
                 ub = np.inf

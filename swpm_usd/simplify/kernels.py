@@ -298,31 +298,9 @@ def _positions_rows(
 
 
 @nb.njit(cache=True, nogil=True)
-def _star_arrays(st: CollapseState):
-    P = st.pos_points.shape[0]
-    n = st.corner_next.shape[0]
-    start = np.zeros(P + 1, np.int64)
-    tris = np.empty(n, np.int32)
-    tp = np.empty((n, 3), np.int32)
-    nbr_start = np.zeros(P + 1, np.int64)
-    nbr = np.empty(2 * n, np.int32)
-    tv = st.tri_verts
-    vp = st.vertex_pos
-    # the state's fields read once and the rows of tp walked without a slice per position: numba's
-    # reference counting costs more than the loop's work
-    head = st.corner_head
-    cnext = st.corner_next
-    talive = st.tri_alive
-    for p in range(P):
-        s1 = _positions_rows(head, cnext, talive, tv, vp, p, tris, tp, start[p])
-        start[p + 1] = s1
-        nbr_start[p + 1] = _neighbours_rows(p, tp, start[p], s1, nbr, nbr_start[p])
-    return start, tris, tp, nbr_start, nbr
-
-
-@nb.njit(cache=True, nogil=True)
 def _star_arrays_at(st: CollapseState, positions: np.ndarray):
-    """:func:`_star_arrays` with only ``positions`` (increasing) read: every other position's rows empty."""
+    """Every star's rows (start, triangles, their positions, neighbour start, neighbours) with only
+    ``positions`` (increasing) read: every other position's rows empty."""
     P = st.pos_points.shape[0]
     n = st.corner_next.shape[0]
     start = np.empty(P + 1, np.int64)
@@ -361,7 +339,7 @@ def star_snapshot(st: CollapseState, positions: np.ndarray | None = None) -> Sta
     ``positions`` (increasing): every position with a live triangle, if the caller knows them (a coarse
     level of a large mesh reads its few stars, not every position's corner list); the same snapshot."""
     if positions is None:
-        return Stars(*_star_arrays(st))
+        positions = np.arange(st.pos_points.shape[0], dtype=np.int64)
     return Stars(*_star_arrays_at(st, positions))
 
 
