@@ -1113,15 +1113,28 @@ def test_the_bounded_search_is_exact_beyond_its_bound() -> None:
         assert d == 1e-12 < exact[i]
 
 
+def _level0_costs(mesh: Mesh):
+    """Level 0 of ``mesh`` as the builder ranks it: the state, its positions, their stars, best collapses
+    (targets, costs) and the input's BVH (:func:`.sw_deviation.surface_bvh`)."""
+    from swpm_usd.encode import sw_deviation as swd
+    from swpm_usd.encode import sw_kernels as swk
+    from swpm_usd.simplify import make_state
+
+    st = make_state(mesh, mesh_topology(mesh))
+    alive_t = np.flatnonzero(st.tri_alive)
+    _, positions = swk.level_positions(alive_t, st.tri_verts, st.vertex_pos, st.pos_points.shape[0])
+    stars = K.star_snapshot(st)
+    ks, cs = swk.level_costs(st, positions, stars)
+    return st, positions, stars, ks, cs, swd.surface_bvh(st.pos_points, st.vertex_pos[mesh.triangles])
+
+
 def test_deviation_costs_are_the_farthest_fan_sample_or_the_quadric_cost() -> None:
     """Per position: the larger of its quadric cost and the squared distances of its new fan's samples from
     the input surface and of the binned point from the fan, against brute force on a bumpy sphere and a
     bumpy open grid (where a fan turned the wrong way samples other edges); a flat grid's collapses stay at
     their quadric cost (the fan lies in the plane)."""
     from swpm_usd.encode import sw_deviation as swd
-    from swpm_usd.encode import sw_kernels as swk
     from swpm_usd.metrics import point_triangle_distances
-    from swpm_usd.simplify import make_state
 
     rng = np.random.default_rng(5)
     sphere = _icosphere(2)
@@ -1136,12 +1149,7 @@ def test_deviation_costs_are_the_farthest_fan_sample_or_the_quadric_cost() -> No
     flat = Mesh.from_arrays(np.c_[g, np.zeros(36)], np.r_[quads, quads2])
     bumpy_grid = Mesh.from_arrays(np.c_[g, 0.3 * rng.random(36)], np.r_[quads, quads2])
     for mesh, is_flat in ((bumpy, False), (bumpy_grid, False), (flat, True)):
-        st = make_state(mesh, mesh_topology(mesh))
-        alive_t = np.flatnonzero(st.tri_alive)
-        _, positions = swk.level_positions(alive_t, st.tri_verts, st.vertex_pos, st.pos_points.shape[0])
-        stars = K.star_snapshot(st)
-        ks, cs = swk.level_costs(st, positions, stars)
-        surface = swd.surface_bvh(st.pos_points, st.vertex_pos[mesh.triangles])
+        st, positions, stars, ks, cs, surface = _level0_costs(mesh)
         floor2 = 1e-12
         got = swd.deviation_costs(
             st.pos_points, positions, ks, cs, stars.start, stars.tp, floor2, swd.SAMPLES, 10**6, *surface
@@ -1184,16 +1192,9 @@ def test_deviation_costs_on_two_threads_are_the_sequential_ones(monkeypatch: pyt
 
     from swpm_usd.encode import slidingwindow as sw
     from swpm_usd.encode import sw_deviation as swd
-    from swpm_usd.encode import sw_kernels as swk
-    from swpm_usd.simplify import make_state
 
     cow = shared_mesh("cow.obj")
-    st = make_state(cow, mesh_topology(cow))
-    alive_t = np.flatnonzero(st.tri_alive)
-    _, positions = swk.level_positions(alive_t, st.tri_verts, st.vertex_pos, st.pos_points.shape[0])
-    stars = K.star_snapshot(st)
-    ks, cs = swk.level_costs(st, positions, stars)
-    surface = swd.surface_bvh(st.pos_points, st.vertex_pos[cow.triangles])
+    st, positions, stars, ks, cs, surface = _level0_costs(cow)
     hint_mattered = False
     for budget in (512, 20, 24):
         args = (st.pos_points, positions, ks, cs, stars.start, stars.tp, 1e-12, swd.SAMPLES, budget, *surface)
