@@ -355,12 +355,6 @@ def _make_out_dir(cfg: Config, out_dir: Path) -> None:
         raise ConfigError([f"{cfg.where(('output', 'dir'))}: cannot write in {out_dir}: permission denied"])
 
 
-def _output_intact(path: Path, recorded: dict, verify: bool = False) -> bool:
-    """Is ``path`` still the file the manifest recorded (``recorded``, its output record)? See
-    :func:`_checked_output`."""
-    return _checked_output(path, recorded, verify) is not None
-
-
 def _checked_output(path: Path, recorded: dict, verify: bool = False) -> dict | None:
     """``recorded`` (an output's manifest record) when ``path`` is still the file it recorded, else None.
 

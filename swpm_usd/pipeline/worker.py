@@ -33,14 +33,6 @@ def ignore_interrupts() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def sha256_file(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        while chunk := f.read(1 << 20):
-            h.update(chunk)
-    return h.hexdigest()
-
-
 #: the fields of ``os.stat`` an output's manifest record keeps beside its ``size`` and ``sha256``: a later
 #: run that finds the file with the same size and all of these trusts it unchanged without reading it (the
 #: runner's ``_checked_output``). ``ctime_ns`` moves on any change to the file's data or metadata and cannot
@@ -71,6 +63,11 @@ def hash_with_stat(path: Path) -> tuple[str, os.stat_result | None]:
         after.st_ctime_ns,
     )
     return h.hexdigest(), before if same else None
+
+
+def sha256_file(path: Path) -> str:
+    """The sha256 of ``path`` (:func:`hash_with_stat`'s)."""
+    return hash_with_stat(path)[0]
 
 
 def output_record(path: Path) -> dict[str, Any]:
