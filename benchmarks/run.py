@@ -6,7 +6,13 @@ is that build's), LOD count, lambda (index dataset over the LOD-0 index count), 
 surface error (Hausdorff and RMS over the bounding-box diagonal, exact point-to-triangle distances) at 100,
 50, 25 and 10 % of the triangles. Beside them, measured in the same run on the same triangle counts:
 meshoptimizer's ``optimize_vertex_cache`` ACMR on our LOD's own triangles, and the error of its
-``simplify`` at the same triangle count.
+``simplify`` at the same triangle count; and the LOD's reported error (``error_at``, what ``lod_for_error``
+and the USD thresholds select by) over its measured Hausdorff distance.
+
+Then a summary per encoding, the figures a note quotes: lambda (mean over the meshes), ACMR ratios (FIFO 16,
+at 100/50/25/10 %) within issue 4's target (1.10) and the project's aim (1.05), Hausdorff ratios (at
+50/25/10 %) within the target (1.5) and the aim (1.25), their geometric mean, and reported over measured
+error within [2/3, 3/2].
 
     python benchmarks/run.py [MESH ...] [--encodings vanilla,sliding-window] [--no-large] [--out FILE]
 
@@ -141,7 +147,9 @@ def worker(spec: str, encoding: str, repeats: int, error_samples: int) -> dict:
             ours = surface_error(mesh.points, mesh.triangles, pm.points, tris, samples=error_samples)
             mo = meshopt_simplify(mesh, tris.shape[0])
             theirs = surface_error(mesh.points, mesh.triangles, mesh.points, mo, samples=error_samples)
+            diag = float(np.linalg.norm(mesh.points.max(axis=0) - mesh.points.min(axis=0)))
             row.update(
+                reported_error=pm.error_at(k) / diag,
                 hausdorff=ours.hausdorff,
                 rms=ours.rms,
                 meshopt_triangles=int(mo.shape[0]),
@@ -184,6 +192,69 @@ def print_table(results: list[dict]) -> None:
             )
 
 
+#: issue 4's targets and the project's aims, as ratios to meshoptimizer (see the module docstring)
+ACMR_TARGET, ACMR_AIM = 1.10, 1.05
+ERROR_TARGET, ERROR_AIM = 1.5, 1.25
+#: reported error over measured: "calibrated" inside this band
+CALIBRATION = (2 / 3, 3 / 2)
+
+
+def summarize(results: list[dict]) -> dict[str, dict]:
+    """Per encoding: how many points meet each target and aim, over every mesh with quality figures."""
+    by_encoding: dict[str, dict] = {}
+    for r in results:
+        if "failed" in r:
+            continue
+        fresh: dict[str, list] = {"lambda": [], "acmr": [], "error": [], "calibration": []}
+        acc = by_encoding.setdefault(r["encoding"], fresh)
+        acc["lambda"].append(r["lambda"])
+        for p in r["points"]:
+            acc["acmr"].append(p["acmr16"] / p["meshopt_acmr16"])
+            if p.get("hausdorff") is not None:
+                acc["error"].append(p["hausdorff"] / max(p["meshopt_hausdorff"], 1e-12))
+                acc["calibration"].append(p["reported_error"] / max(p["hausdorff"], 1e-12))
+    summary = {}
+    for enc, acc in by_encoding.items():
+        acmr_r, err_r, cal = (np.asarray(acc[k], np.float64) for k in ("acmr", "error", "calibration"))
+        summary[enc] = {
+            "meshes": len(acc["lambda"]),
+            "lambda_mean": float(np.mean(acc["lambda"])),
+            "acmr_points": int(acmr_r.size),
+            "acmr_within_target": int(np.sum(acmr_r <= ACMR_TARGET)),
+            "acmr_within_aim": int(np.sum(acmr_r <= ACMR_AIM)),
+            "acmr_ratio_mean": float(acmr_r.mean()) if acmr_r.size else None,
+            "acmr_ratio_max": float(acmr_r.max()) if acmr_r.size else None,
+            "error_points": int(err_r.size),
+            "error_within_target": int(np.sum(err_r <= ERROR_TARGET)),
+            "error_within_aim": int(np.sum(err_r <= ERROR_AIM)),
+            "error_ratio_geomean": float(np.exp(np.log(err_r).mean())) if err_r.size else None,
+            "calibrated": int(np.sum((cal >= CALIBRATION[0]) & (cal <= CALIBRATION[1]))),
+            "calibration_geomean": float(np.exp(np.log(np.maximum(cal, 1e-12)).mean())) if cal.size else None,
+        }
+    return summary
+
+
+def print_summary(summary: dict[str, dict]) -> None:
+    print(
+        f"\n{'encoding':<15} {'meshes':>6} {'lambda':>6}  {'ACMR <=1.10':>11} {'<=1.05':>7} {'mean':>5} "
+        f"{'max':>5}  {'error <=1.5':>11} {'<=1.25':>7} {'geo':>5}  {'rep/meas ok':>11} {'geo':>5}"
+    )
+    for enc, s in summary.items():
+        n_a, n_e = s["acmr_points"], s["error_points"]
+        err = (
+            f"{s['error_within_target']:>5}/{n_e:<5} {s['error_within_aim']:>3}/{n_e:<3} "
+            f"{s['error_ratio_geomean']:>5.2f}  {s['calibrated']:>5}/{n_e:<5} "
+            f"{s['calibration_geomean']:>5.2f}"
+            if n_e
+            else ""
+        )
+        print(
+            f"{enc:<15} {s['meshes']:>6} {s['lambda_mean']:>6.2f}  {s['acmr_within_target']:>5}/{n_a:<5} "
+            f"{s['acmr_within_aim']:>3}/{n_a:<3} {s['acmr_ratio_mean']:>5.3f} "
+            f"{s['acmr_ratio_max']:>5.3f}  {err}"
+        )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("meshes", nargs="*", help="mesh files (default: every mesh in ../shared/meshes)")
@@ -218,8 +289,12 @@ def main() -> None:
                 results.append(json.loads(proc.stdout.strip().splitlines()[-1]))
             print(f"  done {Path(spec).name} {enc}", file=sys.stderr)
     print_table(results)
+    summary = summarize(results)
+    print_summary(summary)
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps({"results": results, "fractions": FRACTIONS}, indent=2))
+    Path(args.out).write_text(
+        json.dumps({"results": results, "fractions": FRACTIONS, "summary": summary}, indent=2)
+    )
     print(f"\nwrote {args.out}")
 
 
