@@ -1043,7 +1043,9 @@ def test_levels_finished_in_a_thread_build_the_same_pool(
     def broken(*args):
         raise RuntimeError("worker failed")
 
-    monkeypatch.setattr(sw, "_finish_level", broken)
+    from swpm_usd.encode import sw_layout
+
+    monkeypatch.setattr(sw_layout, "finish_level", broken)
     with pytest.raises(RuntimeError, match="worker failed"):
         build_sliding_window(spot, **params)
 
@@ -1185,13 +1187,14 @@ def test_deviation_costs_are_the_farthest_fan_sample_or_the_quadric_cost() -> No
 
 
 def test_deviation_costs_on_two_threads_are_the_sequential_ones(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The fan deviation searched in blocks on two threads (``_sampled_deviation``), or block by block in any
-    order and joined (``deviation_join``), gives ``deviation_costs``' output bit for bit, also where a small
-    node budget makes a row depend on the search hint the rows before it leave (cow's level 0)."""
+    """The fan deviation searched in blocks on two threads (``sw_threads.sampled_deviation``), or block by
+    block in any order and joined (``deviation_join``), gives ``deviation_costs``' output bit for bit, also
+    where a small node budget makes a row depend on the search hint the rows before it leave (cow's level
+    0)."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from swpm_usd.encode import slidingwindow as sw
     from swpm_usd.encode import sw_deviation as swd
+    from swpm_usd.encode import sw_threads as swt
 
     cow = shared_mesh("cow.obj")
     st, positions, stars, ks, cs, surface = _level0_costs(cow)
@@ -1208,12 +1211,12 @@ def test_deviation_costs_on_two_threads_are_the_sequential_ones(monkeypatch: pyt
         hint_mattered |= not np.array_equal(out, want)
         swd.deviation_join(*args, block, end_hint, out, hint_at)
         assert np.array_equal(out, want)
-        monkeypatch.setattr(sw, "_DEVIATION_PARALLEL", 1)
-        monkeypatch.setattr(sw, "_DEVIATION_BLOCK", 23)
-        monkeypatch.setattr(sw, "_SHARE_BLOCKS", 1000)  # blocks of 23 rows
+        monkeypatch.setattr(swt, "_DEVIATION_PARALLEL", 1)
+        monkeypatch.setattr(swt, "_DEVIATION_BLOCK", 23)
+        monkeypatch.setattr(swt, "_SHARE_BLOCKS", 1000)  # blocks of 23 rows
         with ThreadPoolExecutor(max_workers=1) as helper:
-            assert np.array_equal(sw._sampled_deviation(helper, args), want)
-        assert np.array_equal(sw._sampled_deviation(None, args), want)
+            assert np.array_equal(swt.sampled_deviation(helper, args), want)
+        assert np.array_equal(swt.sampled_deviation(None, args), want)
     # a search out of its budget returns its bound, and where it runs out depends on the hint: the blocks
     # alone (each from no hint) differ from the sequential run there, and the join makes them the same
     assert hint_mattered

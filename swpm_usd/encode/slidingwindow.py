@@ -51,6 +51,13 @@ choice, what was measured and what was tried and dropped):
 
 Every ordering is for a FIFO cache of ``cache_size`` entries (default 16).
 
+Where the code is: this module builds the levels one after another (:func:`_build_levels`) and assembles the
+pool and its records (:func:`_assemble`); :mod:`.sw_layout` finishes a level (its patch order search and
+block layout), :mod:`.sw_threads` shares the main thread's work with a helper thread; the numba kernels are
+in :mod:`.sw_kernels` (levels, patches, collapses), :mod:`.sw_centres` (patch centres), :mod:`.sw_deviation`
+(fan deviation), :mod:`.sw_refine` (patch order search), :mod:`.sw_swaps` (edge swaps) and
+:mod:`.sw_forsyth` (Forsyth's builder).
+
 The builders also keep their own collapse sequence (:attr:`SlidingWindowProgressiveMesh.collapse_sequence`,
 a :class:`swpm_usd.simplify.CollapseSequence`; ``lod_steps[k]`` steps of it give LOD ``k``), against which
 the tests replay every window.
@@ -58,12 +65,11 @@ the tests replay every window.
 
 from __future__ import annotations
 
-import itertools
 import numbers
 import os
 import threading
 from collections.abc import Iterator, Mapping
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from typing import Any
 
@@ -75,12 +81,12 @@ from ..metrics import cache_misses
 from ..simplify import CollapseSequence, collapse_sequence, make_state, mesh_topology
 from ..simplify.kernels import star_snapshot
 from ..simplify.sequence import replay_steps, replay_surface
-from ..vcache import apply_order, optimize_block_order
 from . import sw_centres as swc
 from . import sw_deviation as swd
 from . import sw_forsyth, sw_swaps
 from . import sw_kernels as swk
-from . import sw_refine as swr
+from . import sw_layout as swl
+from . import sw_threads as swt
 from .base import ProgressiveMesh, lod_at_error, register
 from .vanilla import index_size
 
@@ -253,33 +259,6 @@ def screen_space_error(error: float, distance: float, fov_y: float, viewport_hei
 # --------------------------------------------------------------------------------------------------------
 # helpers
 # --------------------------------------------------------------------------------------------------------
-def _block_perm(
-    tris: np.ndarray, starts: np.ndarray, cache_size: int, tail: int | None = None, rotate: bool = False
-):
-    """The cache order of ``tris`` inside each block ``[starts[i], starts[i+1])`` (blocks stay in place),
-    by :func:`swpm_usd.vcache.optimize_block_order`: the permutation, and with ``rotate`` the per-triangle
-    rotations too. ``tail``: the offset of a level's ``Q_1`` (a block start): the head ``P_1..P_n || M`` and
-    the tail ``Q_1..Q_n`` are drawn apart (a window takes the end of one and the start of the other), so a
-    vertex's remaining-triangle count in the ordering covers its own half only (the FIFO still carries
-    over). The clustered layout keeps its levels as global triangle ids, which must stay the stored
-    triangles: it takes the permutation alone."""
-    n = tris.shape[0]
-    if n < 2:
-        perm = np.arange(n)
-        return (perm, np.zeros(n, np.int8)) if rotate else perm
-    segs = None if tail is None else np.array([tail], np.int64)
-    return optimize_block_order(
-        np.ascontiguousarray(tris), starts.astype(np.int64), cache_size, segment_starts=segs, rotate=rotate
-    )
-
-
-def _block_order(
-    tris: np.ndarray, starts: np.ndarray, cache_size: int, tail: int | None = None
-) -> np.ndarray:
-    """``tris`` in the order of :func:`_block_perm`, each triangle's indices also rotated cyclically (same
-    winding) to the rotation with the fewest misses (ACMR / meshoptimizer, the ten benchmark meshes at 20
-    fractions: -0.25 %)."""
-    return apply_order(tris, *_block_perm(tris, starts, cache_size, tail, rotate=True))
 
 
 def _adjacency(tp: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
@@ -311,18 +290,6 @@ _DEVIATION_SHARE = 0.5
 #: nodes a sample's search may open (512: the ten shared meshes build the same pools as without a limit; a
 #: cone of 80,000 sections 24 s without, 4.1 s with it)
 _DEVIATION_BUDGET = 512
-#: levels of at least this many sampled positions search them on two threads (the main one and a helper),
-#: in ``_SHARE_BLOCKS`` blocks of at least ``_DEVIATION_BLOCK`` rows (:func:`_sampled_deviation`; the same
-#: costs, bit for bit)
-_DEVIATION_PARALLEL = 256
-_DEVIATION_BLOCK = 64
-#: levels of at least this many positions find their best collapses on two threads, in blocks of at least
-#: ``_COSTS_BLOCK`` (:func:`_level_costs`)
-_COSTS_PARALLEL = 1024
-_COSTS_BLOCK = 256
-#: blocks of a level's work shared by the two threads (:func:`_share`): more blocks balance the threads
-#: better (the main thread does again at most the block the helper is in), fewer take the GIL less often
-_SHARE_BLOCKS = 16
 
 
 #: iterations of the centre search (:func:`sw_centres.grow_independent_set`) per eligible vertex: the
@@ -345,11 +312,6 @@ _CENTRE_SEARCH_SEED = 0x5EED
 _TAIL_POWER = 8.0
 _TAIL_TRIES = 3
 _TAIL_PASSES = 2
-#: ``order_passes > 0``: :func:`.sw_refine.refine_patch_order` after the greedy patch order moves runs of up
-#: to ``_REFINE_RUN`` patches by up to ``order_reach`` places (ten meshes, ACMR ratio mean over 40 fractions,
-#: no search 1.0588: one pass of reach 1 / 2 / 3 1.0463 / 1.0418 / 1.0412, two passes of reach 1 / 2
-#: 1.0442 / 1.0389; runs of up to two patches 1.0404 with reach 3 for 1.4 times the search's time)
-_REFINE_RUN = 1
 
 
 def _more_centres(adj_start: np.ndarray, adj: np.ndarray, eligible: np.ndarray, centres: np.ndarray):
@@ -368,12 +330,12 @@ COARSEST_COPY_MAX_SHARE = 1 / 32
 _COARSEST_COPY_MIN_GAIN = 0.05
 
 
-#: finish each fully stored level (its patch order search and cache order, :func:`_finish_level`) on a worker
-#: thread while the next level is built (the kernels release the GIL; the pool is the same bit for bit).
-#: Bunny, medians of 3 alternating builds: 1.25 -> 0.98 s without the search, 2.48 -> 1.61 s with two passes
-#: of reach 3; cow 0.11 -> 0.09 s and 0.25 -> 0.17 s. False: every level is finished inline (as inside
-#: :func:`inline_finishing`, which the pipeline's workers use: ``--jobs`` is the pipeline's parallelism), and
-#: no helper thread shares the main thread's work either (:func:`_share`, :func:`_beside`)
+#: finish each fully stored level (its patch order search and cache order, :func:`.sw_layout.finish_level`)
+#: on a worker thread while the next level is built (the kernels release the GIL; the pool is the same bit
+#: for bit). Bunny, medians of 3 alternating builds: 1.25 -> 0.98 s without the search, 2.48 -> 1.61 s with
+#: two passes of reach 3; cow 0.11 -> 0.09 s and 0.25 -> 0.17 s. False: every level is finished inline (as
+#: inside :func:`inline_finishing`, which the pipeline's workers use: ``--jobs`` is the pipeline's
+#: parallelism), and no helper thread shares the main thread's work either (:mod:`.sw_threads`)
 FINISH_IN_THREAD = True
 _THIS_THREAD = threading.local()
 
@@ -485,34 +447,6 @@ def _trickle(removed: int, level_triangles: int, lod0_triangles: int) -> bool:
 _CLUSTER_RELINK = 1.0
 
 
-class _Level:
-    """One level of the cascade: its starting triangles (global ids) and its patches in draw order. A level
-    finished by :func:`_finish_level` keeps its ``pool`` and lets ``start_gids``, ``p_out`` and ``q_out`` go
-    (None): :func:`_assemble` then reads only ``pool``, the offsets and ``triangle_count``."""
-
-    def __init__(self, start_gids, p_start, p_out, q_start, q_out, patch_steps, stored=None, shared=False):
-        self.start_gids = start_gids
-        self.triangle_count = int(start_gids.shape[0])
-        self.p_start = p_start
-        self.p_out = p_out
-        self.q_start = q_start
-        self.q_out = q_out
-        self.patch_steps = patch_steps
-        #: ``cluster=True``: the level's triangles appended to the pool, in their final order (None: built
-        #: by :func:`_assemble`), and whether its head ``P_1..P_n || M`` is the previous level's tail
-        #: (``start_gids`` in that order, ``p_start`` offsets into it) instead of stored anew
-        self.stored = stored
-        self.shared = shared
-        #: ``cluster=True``: the level's tail ``M || Q_1..Q_n`` (global ids, final order)
-        self.tail = None
-        #: the level's triangles as the pool stores them (vertex ids), when finished before :func:`_assemble`
-        self.pool = None
-
-    @property
-    def patch_count(self) -> int:
-        return int(self.p_start.shape[0] - 1)
-
-
 #: fold guard of the edge swaps: the two triangles of a swapped edge and the two that replace them are all
 #: within this angle (degrees) of each other (90: no triangle flips, the quad is never folded). How far the
 #: surface may move is the ``swap_max_deviation`` parameter: a distance bounds what a viewer sees, an angle
@@ -617,7 +551,7 @@ def _build_levels(
     gtris[:T] = mesh.triangles
     ng = T
     cur_gid = np.arange(T, dtype=np.int64)
-    levels: list[_Level] = []
+    levels: list[swl.Level] = []
     recs_all = []
     info_all = []
     nstep = 0
@@ -633,9 +567,9 @@ def _build_levels(
             break
         tp, positions = swk.level_positions(alive_t, st.tri_verts, st.vertex_pos, P)
         # the level's position graph (for its patch centres) on the helper meanwhile
-        adjacency = _beside(helper, _adjacency, tp, P)
+        adjacency = swt.beside(helper, _adjacency, tp, P)
         stars = star_snapshot(st, positions)  # the state is read-only until collapse_patches
-        ks, cs = _level_costs(helper, st, positions, stars)
+        ks, cs = swt.level_costs_shared(helper, st, positions, stars)
         rank_cs = cs
         if rank_by_deviation:
             surface = surface_of()[0]
@@ -646,7 +580,7 @@ def _build_levels(
                 cand = np.flatnonzero(ks >= 0)
                 n_pick = int(np.ceil(_DEVIATION_SHARE * cand.shape[0]))
                 pick = np.sort(cand[np.argsort(rank_cs[cand])[cand.shape[0] - n_pick :]])
-                rank_cs[pick] = _sampled_deviation(
+                rank_cs[pick] = swt.sampled_deviation(
                     helper,
                     (
                         st.pos_points,
@@ -802,7 +736,9 @@ def _build_levels(
             # thread finishes it while this one builds the next level (the kernels release the GIL)
             collapsed = (p_start, p_out, q_start, q_out, patch_steps, recs, info)
             args = (gtris, start_gids, collapsed, nstep, V, P, int(cache_size), order_passes, order_reach)
-            finishing = worker.submit(_finish_level, *args) if worker else _done(_finish_level(*args))
+            finishing = (
+                worker.submit(swl.finish_level, *args) if worker else swt.done_future(swl.finish_level(*args))
+            )
             pending.append((finishing, args))
             if replay is not None:
                 replay.advance(pending)
@@ -811,12 +747,12 @@ def _build_levels(
                     pending[i] = (f, None)
             levels.append(None)  # filled in from ``pending``
         elif not link:
-            lev = _first_clustered_level(
+            lev = swl.first_clustered_level(
                 gtris, start_gids, p_start, p_out, q_start, q_out, patch_steps, cache_size
             )
             levels.append(lev)
         else:
-            lev = _linked_level(
+            lev = swl.linked_level(
                 gtris, ng, levels[-1].tail, p_start, p_out, q_start, q_out, patch_steps, cache_size
             )
             levels.append(lev)
@@ -828,160 +764,21 @@ def _build_levels(
     return levels, recs_all, info_all, gtris, ng
 
 
-def _beside(helper: ThreadPoolExecutor | None, fn, *args):
-    """``fn(*args)`` on the ``helper`` thread while this one goes on: a callable that returns its result, or
-    computes it on this thread if the helper has not started it by then (bunny's BVH is 50 ms: once started,
-    the helper is nearer its end than this thread would be); at once without a helper."""
-    if helper is None:
-        value = fn(*args)
-        return lambda: value
-    future = helper.submit(fn, *args)
-    done = []
-
-    def result():
-        if not done:
-            done.append(fn(*args) if future.cancel() else future.result())
-        return done[0]
-
-    return result
-
-
-def _share(helper: ThreadPoolExecutor, count: int, work) -> set:
-    """Items ``0 .. count - 1`` done as ``work(j, here)`` by this thread (``here`` True) and the ``helper``
-    thread (False), each taking the next item in turn; returns the items the helper finished. This thread
-    never waits for the helper: it does again those the helper has taken and not finished when none is
-    left (``work`` must give the same result on either thread, into separate outputs)."""
-    items = itertools.count()  # next() is atomic: each item goes to one thread
-    finished: list = []  # by the helper (list.append is atomic)
-
-    def run() -> None:
-        for j in items:
-            if j >= count:
-                return
-            work(j, False)
-            finished.append(j)
-
-    future = helper.submit(run)
-    mine = set()
-    for j in items:
-        if j >= count:
-            break
-        work(j, True)
-        mine.add(j)
-    future.cancel()
-    theirs = set(finished)
-    for j in range(count):
-        if j not in mine and j not in theirs:
-            work(j, True)
-    return theirs
-
-
-def _level_costs(helper: ThreadPoolExecutor | None, st, positions: np.ndarray, stars):
-    """:func:`.sw_kernels.level_costs`, a large level's positions in blocks (:data:`_SHARE_BLOCKS`) on this
-    thread and the ``helper`` thread (each position's best collapse reads the state alone: the same costs)."""
-    n = positions.shape[0]
-    if helper is None or n < _COSTS_PARALLEL:
-        return swk.level_costs(st, positions, stars)
-    size = max(_COSTS_BLOCK, -(-n // _SHARE_BLOCKS))
-    count = -(-n // size)
-    parts = [[None] * count, [None] * count]  # by the helper, by this thread
-
-    def work(j: int, here: bool) -> None:
-        parts[here][j] = swk.level_costs(st, positions[j * size : (j + 1) * size], stars)
-
-    theirs = _share(helper, count, work)
-    got = [parts[j not in theirs][j] for j in range(count)]
-    return np.concatenate([g[0] for g in got]), np.concatenate([g[1] for g in got])
-
-
-def _sampled_deviation(helper: ThreadPoolExecutor | None, args: tuple) -> np.ndarray:
-    """:func:`.sw_deviation.deviation_costs` of ``args``, on this thread and the ``helper`` thread where there
-    are enough rows: blocks of rows (:data:`_SHARE_BLOCKS`), each started from no search hint
-    (:func:`_share`), then :func:`.sw_deviation.deviation_join` (the same output, bit for bit)."""
-    n = args[1].shape[0]
-    if helper is None or n < _DEVIATION_PARALLEL:
-        return swd.deviation_costs(*args)
-    size = max(_DEVIATION_BLOCK, -(-n // _SHARE_BLOCKS))
-    count = -(-n // size)
-    # (out, hint_at, end_hint) of each thread: the helper's rows are copied once it has finished them
-    bufs = [(np.empty_like(args[3]), np.empty(n, np.int64), np.zeros(count, np.int64)) for _ in range(2)]
-
-    def work(j: int, here: bool) -> None:
-        out, hint_at, end_hint = bufs[here]
-        end_hint[j] = swd.deviation_rows(*args, j * size, min(n, (j + 1) * size), 0, out, hint_at)
-
-    theirs = _share(helper, count, work)
-    out, hint_at, end_hint = bufs[True]
-    for j in theirs:
-        rows = slice(j * size, (j + 1) * size)
-        out[rows] = bufs[False][0][rows]
-        hint_at[rows] = bufs[False][1][rows]
-        end_hint[j] = bufs[False][2][j]
-    swd.deviation_join(*args, size, end_hint, out, hint_at)
-    return out
-
-
-class _Replay:
-    """Each step's error as the LODs report it (:func:`swpm_usd.simplify.sequence.step_geometric_errors`: a
-    fresh state replays the steps in their final order) computed level by level on the ``helper`` thread as
-    the worker finishes the levels (which settles their steps' order), not after the last level on the main
-    thread (cow: 26 of its 185 ms). The parts carry the running maximum: the values of one replay."""
-
-    def __init__(self, helper: ThreadPoolExecutor, new_state, surface_of) -> None:
-        self.helper = helper
-        self.new_state = new_state
-        self.surface_of = surface_of
-        self.st = None
-        self.run2 = 0.0
-        self.parts: list[np.ndarray] = []
-        self.tasks: list[Future] = []  # one per level handed on, in level order
-
-    def _level(self, info: np.ndarray) -> None:
-        if self.st is None:
-            self.st = self.new_state()
-        out = replay_steps(self.surface_of(), self.st, info[:, 1], info[:, 2], info[:, 0], self.run2)
-        if out.shape[0]:
-            self.run2 = max(self.run2, float(np.max(out * out)))
-        self.parts.append(out)
-
-    def advance(self, pending: list) -> None:
-        """Hand the levels finished so far on to the helper, in order (it runs them in turn)."""
-        while len(self.tasks) < len(pending) and pending[len(self.tasks)][0].done():
-            info = pending[len(self.tasks)][0].result()[2]
-            self.tasks.append(self.helper.submit(self._level, info))
-
-    def result(self, infos: list) -> np.ndarray:
-        """The errors of every level's steps (``infos``: each level's, finished): the levels the helper has
-        not started are replayed here, in order, once it is done with the one it is on."""
-        # cancelled from the last on: the helper runs its tasks in order, so once one cannot be cancelled
-        # (started), those before it are done, and no task after it can start any more
-        first = len(self.tasks)
-        for i in range(len(self.tasks) - 1, -1, -1):
-            if not self.tasks[i].cancel():
-                break
-            first = i
-        for task in self.tasks[:first]:
-            task.result()
-        for i in range(first, len(infos)):
-            self._level(infos[i])
-        return np.concatenate(self.parts) if self.parts else np.zeros(0)
-
-
 def _build_topology(mesh: Mesh, st, new_state, *args, **kwargs):
-    """:func:`_build_levels` with its levels finished (:func:`_finish_level`) on a worker thread and part of
-    each level's own work on a helper thread (:func:`_share`, :func:`_beside`) where the machine has a second
-    core, inline otherwise (the same pool either way). ``new_state``: a fresh state of ``mesh`` for the
-    replay of the LOD errors (:class:`_Replay`; None: the caller replays). Returns the triangles, levels,
-    collapse records and step info, the LOD errors' replay (None if not done) and the input surface
-    (:func:`swpm_usd.simplify.sequence.replay_surface`, None for no triangles)."""
+    """:func:`_build_levels` with its levels finished (:func:`.sw_layout.finish_level`) on a worker thread
+    and part of each level's own work on a helper thread (:mod:`.sw_threads`) where the machine has a
+    second core, inline otherwise (the same pool either way). ``new_state``: a fresh state of ``mesh`` for
+    the replay of the LOD errors (:class:`.sw_threads.Replay`; None: the caller replays). Returns the
+    triangles, levels, collapse records and step info, the LOD errors' replay (None if not done) and the
+    input surface (:func:`swpm_usd.simplify.sequence.replay_surface`, None for no triangles)."""
     pending: list = []
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     threads = FINISH_IN_THREAD and not getattr(_THIS_THREAD, "inline", False) and cores > 1
     worker = ThreadPoolExecutor(max_workers=1) if threads else None
     helper = ThreadPoolExecutor(max_workers=1) if threads else None
     # the input's BVH on the helper while this thread starts level 0
-    surface_of = _beside(helper, replay_surface, mesh, st) if mesh.triangle_count else None
-    replay = _Replay(helper, new_state, surface_of) if helper and new_state and surface_of else None
+    surface_of = swt.beside(helper, replay_surface, mesh, st) if mesh.triangle_count else None
+    replay = swt.Replay(helper, new_state, surface_of) if helper and new_state and surface_of else None
     try:
         levels, recs_all, info_all, gtris, ng = _build_levels(
             mesh, st, pending, worker, helper, surface_of, replay, *args, **kwargs
@@ -990,7 +787,7 @@ def _build_topology(mesh: Mesh, st, new_state, *args, **kwargs):
         finished = [None] * len(pending)
         for i in range(len(pending) - 1, -1, -1):
             if pending[i][1] is not None and pending[i][0].cancel():
-                finished[i] = _finish_level(*pending[i][1])
+                finished[i] = swl.finish_level(*pending[i][1])
         results = [r if r is not None else f.result() for r, (f, _) in zip(finished, pending, strict=True)]
         geometric = replay.result([r[2] for r in results]) if replay is not None else None
     finally:
@@ -1006,114 +803,6 @@ def _build_topology(mesh: Mesh, st, new_state, *args, **kwargs):
     recs = np.concatenate(recs_all) if recs_all else np.zeros((0, 3), np.int64)
     info = np.concatenate(info_all) if info_all else np.zeros((0, 3))
     return gtris[:ng], levels, recs, info, geometric, surface_of() if surface_of is not None else None
-
-
-def _gather(starts: np.ndarray, sizes: np.ndarray) -> np.ndarray:
-    """The concatenated ranges ``[starts[i], starts[i] + sizes[i])``."""
-    total = int(sizes.sum())
-    if total == 0:
-        return np.zeros(0, np.int64)
-    ends = np.cumsum(sizes)
-    return np.repeat(starts - (ends - sizes), sizes) + np.arange(total)
-
-
-def _level_layout(gtris, start_gids, p_start, p_out, q_start, q_out):
-    """A level's triangles (global ids) as the pool lays them out, ``P_1..P_n || M || Q_1..Q_n`` (``M``: its
-    starting triangles in no patch), and the block starts: ``n + 1`` for the patches and ``M``, then one per
-    ``Q_i`` (``starts[n + 1]`` is where ``Q_1`` begins)."""
-    in_p = np.zeros(gtris.shape[0], bool)
-    in_p[p_out] = True
-    middle = start_gids[~in_p[start_gids]]
-    # np.concatenate: np.r_ costs tens of microseconds per call
-    gids = np.concatenate((p_out, middle, q_out))
-    starts = np.concatenate((p_start, p_start[-1] + middle.shape[0] + q_start))
-    return gids, starts
-
-
-def _level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size):
-    """The level's triangles as the pool stores them: :func:`_level_layout`, each block reordered for the
-    cache in place (the FIFO carried over, the head and the tail apart: :func:`_block_order`); and the
-    block starts."""
-    gids, starts = _level_layout(gtris, start_gids, p_start, p_out, q_start, q_out)
-    n = p_start.shape[0] - 1
-    return _block_order(gtris[gids], starts, cache_size, int(starts[n + 1])), starts
-
-
-def _done(value) -> Future:
-    """A future already holding ``value`` (a level finished inline)."""
-    f: Future = Future()
-    f.set_result(value)
-    return f
-
-
-def _finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach):
-    """A fully stored level after its collapses: its patch order searched (``passes`` > 0:
-    :func:`_refine_level`) and its triangles in pool order. Returns the :class:`_Level` (with its ``pool``,
-    its triangle ids let go), its collapse records and its steps' info (renumbered by the search). Reads only
-    rows of ``gtris`` that later levels keep."""
-    pool = None
-    if passes > 0:
-        collapsed, pool = _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach)
-    p_start, p_out, q_start, q_out, patch_steps, recs, info = collapsed
-    lev = _Level(start_gids, p_start, p_out, q_start, q_out, patch_steps)
-    if pool is None:
-        pool = _level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size)[0]
-    # what _assemble needs: the pool (vertex ids, int32 where they fit), the patch offsets and step counts;
-    # the triangle ids are let go (1 M triangles: 130 MB less at the peak with the pools halved)
-    lev.pool = pool.astype(np.int32) if V <= np.iinfo(np.int32).max else pool
-    lev.start_gids = lev.p_out = lev.q_out = None
-    return lev, recs, info
-
-
-def _refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach):
-    """The level's patches in the order of :func:`.sw_refine.refine_patch_order` (fewer cache misses over
-    its windows), with their collapse records and steps renumbered to follow. ``collapsed``: the level's
-    ``(p_start, p_out, q_start, q_out, patch_steps, recs, info)`` from :func:`.sw_kernels.collapse_patches`.
-    Returns it in the same form, and the level's triangles in pool order (None for fewer than 3 patches,
-    which are not searched)."""
-    p_start, p_out, q_start, q_out, patch_steps, recs, info = collapsed
-    n = patch_steps.shape[0]
-    if n < 3:
-        return collapsed, None
-    # the blocks cache-ordered as the pool stores them, not as fans: the search then gains what the pool
-    # keeps (spot, misses over every third window: -1.2 % as fans)
-    tris, starts = _level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size)
-    step_start = np.concatenate(([0], np.cumsum(patch_steps)))
-    targets = info[: step_start[n], 2].astype(np.int64)
-    perm = swr.refine_patch_order(
-        3 * starts,
-        np.ascontiguousarray(tris, np.int64).reshape(-1),
-        n,
-        step_start,
-        targets,
-        P,
-        V,
-        cache_size,
-        reach,
-        _REFINE_RUN,
-        passes,
-    )
-    if np.array_equal(perm, np.arange(n)):
-        return collapsed, tris
-    # the pool: the blocks as ordered for the search, moved with their patches
-    block_sizes = np.diff(starts)
-    blocks = np.concatenate((perm, [n], n + 1 + perm))
-    pool = tris[_gather(starts[blocks], block_sizes[blocks])]
-    p_sizes = np.diff(p_start)[perm]
-    q_sizes = np.diff(q_start)[perm]
-    p_out = p_out[_gather(p_start[perm], p_sizes)]
-    q_out = q_out[_gather(q_start[perm], q_sizes)]
-    p_start = np.concatenate(([0], np.cumsum(p_sizes)))
-    q_start = np.concatenate(([0], np.cumsum(q_sizes)))
-    old_steps = _gather(step_start[perm], patch_steps[perm])  # old step of every new step
-    new_step = np.empty_like(old_steps)
-    new_step[old_steps] = np.arange(old_steps.shape[0])
-    info = info[old_steps]
-    rec_step = new_step[recs[:, 2] - step0]
-    by_step = np.argsort(rec_step, kind="stable")
-    recs = recs[by_step]
-    recs[:, 2] = rec_step[by_step] + step0
-    return (p_start, p_out, q_start, q_out, patch_steps[perm], recs, info), pool
 
 
 def _absorb(st, pt_start, pt, alive_t, min_shared: int, stars, rounds: int):
@@ -1140,61 +829,6 @@ def _linked_cost(tpos: np.ndarray, pt: np.ndarray, patches: int) -> float:
     """Pool triangles per collapse of a linked level, before its collapses: its ``Q`` blocks store the
     previous tail up to the end of the last patch again, less two triangles per removed centre."""
     return (int(tpos[pt].max()) + 1) / patches - 2.0
-
-
-def _first_clustered_level(gtris, start_gids, p_start, p_out, q_start, q_out, patch_steps, cache_size):
-    """Level 0 with ``cluster=True``: laid out as usual (``P_1..P_n || M || Q_1..Q_n``), but its final
-    order is fixed now, since the next level reads its patches out of this level's tail ``M || Q``."""
-    gids, starts = _level_layout(gtris, start_gids, p_start, p_out, q_start, q_out)
-    gids = gids[_block_perm(gtris[gids], starts, cache_size)]
-    lev = _Level(start_gids, p_start, p_out, q_start, q_out, patch_steps, stored=gids, shared=False)
-    lev.tail = gids[p_start[-1] :]
-    return lev
-
-
-def _linked_level(gtris, ng, head, p_start, p_out, q_start, q_out, patch_steps, cache_size):
-    """A level after the first with ``cluster=True`` (SWPM 3.2, clustered and linked patches).
-
-    The paper builds the next level's patches ``P^h_i`` as concatenations of consecutive simplified
-    patches ``Q_j`` of the previous level (a ``Q_j`` split between two consecutive, "linked" patches), so
-    the fragment ``P^h_1 || .. || P^h_m`` of the new level coincides with the fragment ``Q_1 || .. || Q_n``
-    that ends the previous one and is stored once (its ``D^h``; the formulas of the extracted text are
-    garbled, this is reconstructed from the prose). Here the previous level's tail ``head`` (its ``M || Q``
-    in final order) is this level's starting mesh; :func:`.sw_kernels.cluster_patches` chose centres whose
-    stars are disjoint intervals of it, so patch ``j`` is the run of ``head`` from its first star triangle to
-    the next patch's first one (the first patch from 0): its star plus the untouched triangles in between,
-    which reappear unchanged in ``Q_j`` (as with ``absorb_middle``). The untouched run after the last patch
-    is this level's ``M``. Only ``Q_1 .. Q_m`` are appended to the pool."""
-    place = np.full(ng, -1, np.int64)
-    place[head] = np.arange(head.shape[0])
-    m = p_start.shape[0] - 1
-    own_place = place[p_out]
-    if np.any(own_place < 0):  # pragma: no cover - every triangle of the level is in the previous tail
-        raise BuildError("cluster: a patch triangle is not in the previous level's tail")
-    pid = np.repeat(np.arange(m), np.diff(p_start))
-    lo = np.full(m, np.iinfo(np.int64).max)
-    hi = np.full(m, -1)
-    np.minimum.at(lo, pid, own_place)
-    np.maximum.at(hi, pid, own_place)
-    if np.any(lo[1:] <= hi[:-1]):  # pragma: no cover - cluster_patches picks disjoint intervals
-        raise BuildError("cluster: overlapping patches")
-    bounds = np.r_[0, lo[1:], hi[-1] + 1].astype(np.int64)
-    own = np.zeros(ng, bool)
-    own[p_out] = True
-    run = head[: bounds[-1]]
-    extra_at = np.flatnonzero(~own[run])
-    extra = run[extra_at]
-    extra_pid = np.searchsorted(bounds, extra_at, side="right") - 1
-    q_pid = np.repeat(np.arange(m), np.diff(q_start))
-    allq = np.concatenate([q_out, extra])
-    allp = np.concatenate([q_pid, extra_pid])
-    allq = allq[np.argsort(allp, kind="stable")]
-    new_q_start = np.zeros(m + 1, np.int64)
-    np.cumsum(np.bincount(allp, minlength=m), out=new_q_start[1:])
-    allq = allq[_block_perm(gtris[allq], new_q_start, cache_size)]
-    lev = _Level(head, bounds, p_out, new_q_start, allq, patch_steps, stored=allq, shared=True)
-    lev.tail = np.concatenate([head[bounds[-1] :], allq])
-    return lev
 
 
 def _build_forsyth(mesh: Mesh, st, tolerance: float, boundary_weight: float, seam_weight: float):
@@ -1225,7 +859,7 @@ def _build_forsyth(mesh: Mesh, st, tolerance: float, boundary_weight: float, sea
         if b == a:
             continue
         levels.append(
-            _Level(
+            swl.Level(
                 level_gids[level_start[li] : level_start[li + 1]],
                 p_start[a : b + 1] - p_start[a],
                 p_out[p_start[a] : p_start[b]],
@@ -1245,7 +879,7 @@ def _coarsest_copy(window: np.ndarray, pool_size: int, cache_size: int) -> np.nd
     count = window.shape[0]
     if count < 2 or count > COARSEST_COPY_MAX_SHARE * pool_size:
         return None
-    copy = _block_order(window, np.array([0, count], np.int64), cache_size)
+    copy = swl.block_order(window, np.array([0, count], np.int64), cache_size)
     if (
         cache_misses(copy, cache_size)[0]
         > (1.0 - _COARSEST_COPY_MIN_GAIN) * cache_misses(window, cache_size)[0]
@@ -1265,7 +899,7 @@ def _pool_slice(parts: list[np.ndarray], part_start: np.ndarray, first: int, cou
 def _assemble(
     mesh: Mesh,
     gtris: np.ndarray,
-    levels: list[_Level],
+    levels: list[swl.Level],
     recs: np.ndarray,
     info: np.ndarray,
     cache_size: int,
@@ -1299,7 +933,7 @@ def _assemble(
     steps_done = 0
     if not levels:  # nothing to collapse: one level, one window
         levels = [
-            _Level(
+            swl.Level(
                 np.arange(T),
                 np.zeros(1, np.int64),
                 np.zeros(0, np.int64),
@@ -1320,7 +954,7 @@ def _assemble(
         elif lev.pool is not None:
             parts.append(lev.pool)
         else:
-            tris, _ = _level_pool(
+            tris, _ = swl.level_pool(
                 gtris, lev.start_gids, lev.p_start, lev.p_out, lev.q_start, lev.q_out, cache_size
             )
             parts.append(tris)
@@ -1477,7 +1111,7 @@ def build_sliding_window(
         geometric = surface = None
     if geometric is None:
         # each step's error as the LODs report it: the quadric's, or how far its new triangles lie from LOD 0
-        # if farther (a fresh state replays the steps; :class:`_Replay` does it level by level)
+        # if farther (a fresh state replays the steps; :class:`.sw_threads.Replay` does it level by level)
         if info.shape[0] == 0:
             geometric = np.zeros(0)
         else:

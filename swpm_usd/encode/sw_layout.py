@@ -1,0 +1,236 @@
+"""A sliding-window level as the pool stores it: ``P_1..P_n || M || Q_1..Q_n``, each block cache-ordered.
+
+The topology-driven builder (:mod:`.slidingwindow`) collapses a level's patches and hands the result here:
+:func:`finish_level` searches the patch order for fewer cache misses over the level's windows
+(:func:`refine_level`, :mod:`.sw_refine`) and lays the level out (:func:`level_layout`) with every block's
+triangles ordered for the vertex cache (:func:`block_order`, :func:`swpm_usd.vcache.optimize_block_order`).
+With ``cluster=True`` (SWPM 3.2) a level's head is the previous level's tail instead
+(:func:`first_clustered_level`, :func:`linked_level`). :class:`Level` is what the pool assembly reads.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import BuildError
+from ..vcache import apply_order, optimize_block_order
+from . import sw_refine as swr
+
+
+def block_perm(
+    tris: np.ndarray, starts: np.ndarray, cache_size: int, tail: int | None = None, rotate: bool = False
+):
+    """The cache order of ``tris`` inside each block ``[starts[i], starts[i+1])`` (blocks stay in place),
+    by :func:`swpm_usd.vcache.optimize_block_order`: the permutation, and with ``rotate`` the per-triangle
+    rotations too. ``tail``: the offset of a level's ``Q_1`` (a block start): the head ``P_1..P_n || M`` and
+    the tail ``Q_1..Q_n`` are drawn apart (a window takes the end of one and the start of the other), so a
+    vertex's remaining-triangle count in the ordering covers its own half only (the FIFO still carries
+    over). The clustered layout keeps its levels as global triangle ids, which must stay the stored
+    triangles: it takes the permutation alone."""
+    n = tris.shape[0]
+    if n < 2:
+        perm = np.arange(n)
+        return (perm, np.zeros(n, np.int8)) if rotate else perm
+    segs = None if tail is None else np.array([tail], np.int64)
+    return optimize_block_order(
+        np.ascontiguousarray(tris), starts.astype(np.int64), cache_size, segment_starts=segs, rotate=rotate
+    )
+
+
+def block_order(tris: np.ndarray, starts: np.ndarray, cache_size: int, tail: int | None = None) -> np.ndarray:
+    """``tris`` in the order of :func:`block_perm`, each triangle's indices also rotated cyclically (same
+    winding) to the rotation with the fewest misses (ACMR / meshoptimizer, the ten benchmark meshes at 20
+    fractions: -0.25 %)."""
+    return apply_order(tris, *block_perm(tris, starts, cache_size, tail, rotate=True))
+
+
+#: ``order_passes > 0``: :func:`.sw_refine.refine_patch_order` after the greedy patch order moves runs of up
+#: to ``_REFINE_RUN`` patches by up to ``order_reach`` places (ten meshes, ACMR ratio mean over 40 fractions,
+#: no search 1.0588: one pass of reach 1 / 2 / 3 1.0463 / 1.0418 / 1.0412, two passes of reach 1 / 2
+#: 1.0442 / 1.0389; runs of up to two patches 1.0404 with reach 3 for 1.4 times the search's time)
+_REFINE_RUN = 1
+
+
+class Level:
+    """One level of the cascade: its starting triangles (global ids) and its patches in draw order. A level
+    finished by :func:`finish_level` keeps its ``pool`` and lets ``start_gids``, ``p_out`` and ``q_out`` go
+    (None): :func:`.slidingwindow._assemble` then reads only ``pool``, the offsets and ``triangle_count``."""
+
+    def __init__(self, start_gids, p_start, p_out, q_start, q_out, patch_steps, stored=None, shared=False):
+        self.start_gids = start_gids
+        self.triangle_count = int(start_gids.shape[0])
+        self.p_start = p_start
+        self.p_out = p_out
+        self.q_start = q_start
+        self.q_out = q_out
+        self.patch_steps = patch_steps
+        #: ``cluster=True``: the level's triangles appended to the pool, in their final order (None: built
+        #: by the assembly), and whether its head ``P_1..P_n || M`` is the previous level's tail
+        #: (``start_gids`` in that order, ``p_start`` offsets into it) instead of stored anew
+        self.stored = stored
+        self.shared = shared
+        #: ``cluster=True``: the level's tail ``M || Q_1..Q_n`` (global ids, final order)
+        self.tail = None
+        #: the level's triangles as the pool stores them (vertex ids), when finished before the assembly
+        self.pool = None
+
+    @property
+    def patch_count(self) -> int:
+        return int(self.p_start.shape[0] - 1)
+
+
+def gather(starts: np.ndarray, sizes: np.ndarray) -> np.ndarray:
+    """The concatenated ranges ``[starts[i], starts[i] + sizes[i])``."""
+    total = int(sizes.sum())
+    if total == 0:
+        return np.zeros(0, np.int64)
+    ends = np.cumsum(sizes)
+    return np.repeat(starts - (ends - sizes), sizes) + np.arange(total)
+
+
+def level_layout(gtris, start_gids, p_start, p_out, q_start, q_out):
+    """A level's triangles (global ids) as the pool lays them out, ``P_1..P_n || M || Q_1..Q_n`` (``M``: its
+    starting triangles in no patch), and the block starts: ``n + 1`` for the patches and ``M``, then one per
+    ``Q_i`` (``starts[n + 1]`` is where ``Q_1`` begins)."""
+    in_p = np.zeros(gtris.shape[0], bool)
+    in_p[p_out] = True
+    middle = start_gids[~in_p[start_gids]]
+    # np.concatenate: np.r_ costs tens of microseconds per call
+    gids = np.concatenate((p_out, middle, q_out))
+    starts = np.concatenate((p_start, p_start[-1] + middle.shape[0] + q_start))
+    return gids, starts
+
+
+def level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size):
+    """The level's triangles as the pool stores them: :func:`level_layout`, each block reordered for the
+    cache in place (the FIFO carried over, the head and the tail apart: :func:`block_order`); and the
+    block starts."""
+    gids, starts = level_layout(gtris, start_gids, p_start, p_out, q_start, q_out)
+    n = p_start.shape[0] - 1
+    return block_order(gtris[gids], starts, cache_size, int(starts[n + 1])), starts
+
+
+def finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach):
+    """A fully stored level after its collapses: its patch order searched (``passes`` > 0:
+    :func:`refine_level`) and its triangles in pool order. Returns the :class:`Level` (with its ``pool``,
+    its triangle ids let go), its collapse records and its steps' info (renumbered by the search). Reads only
+    rows of ``gtris`` that later levels keep."""
+    pool = None
+    if passes > 0:
+        collapsed, pool = refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach)
+    p_start, p_out, q_start, q_out, patch_steps, recs, info = collapsed
+    lev = Level(start_gids, p_start, p_out, q_start, q_out, patch_steps)
+    if pool is None:
+        pool = level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size)[0]
+    # what the assembly (slidingwindow._assemble) needs: the pool (vertex ids, int32 where they fit), the
+    # patch offsets and step counts; the triangle ids are let go (1 M triangles: 130 MB less at the peak
+    # with the pools halved)
+    lev.pool = pool.astype(np.int32) if V <= np.iinfo(np.int32).max else pool
+    lev.start_gids = lev.p_out = lev.q_out = None
+    return lev, recs, info
+
+
+def refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach):
+    """The level's patches in the order of :func:`.sw_refine.refine_patch_order` (fewer cache misses over
+    its windows), with their collapse records and steps renumbered to follow. ``collapsed``: the level's
+    ``(p_start, p_out, q_start, q_out, patch_steps, recs, info)`` from :func:`.sw_kernels.collapse_patches`.
+    Returns it in the same form, and the level's triangles in pool order (None for fewer than 3 patches,
+    which are not searched)."""
+    p_start, p_out, q_start, q_out, patch_steps, recs, info = collapsed
+    n = patch_steps.shape[0]
+    if n < 3:
+        return collapsed, None
+    # the blocks cache-ordered as the pool stores them, not as fans: the search then gains what the pool
+    # keeps (spot, misses over every third window: -1.2 % as fans)
+    tris, starts = level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size)
+    step_start = np.concatenate(([0], np.cumsum(patch_steps)))
+    targets = info[: step_start[n], 2].astype(np.int64)
+    perm = swr.refine_patch_order(
+        3 * starts,
+        np.ascontiguousarray(tris, np.int64).reshape(-1),
+        n,
+        step_start,
+        targets,
+        P,
+        V,
+        cache_size,
+        reach,
+        _REFINE_RUN,
+        passes,
+    )
+    if np.array_equal(perm, np.arange(n)):
+        return collapsed, tris
+    # the pool: the blocks as ordered for the search, moved with their patches
+    block_sizes = np.diff(starts)
+    blocks = np.concatenate((perm, [n], n + 1 + perm))
+    pool = tris[gather(starts[blocks], block_sizes[blocks])]
+    p_sizes = np.diff(p_start)[perm]
+    q_sizes = np.diff(q_start)[perm]
+    p_out = p_out[gather(p_start[perm], p_sizes)]
+    q_out = q_out[gather(q_start[perm], q_sizes)]
+    p_start = np.concatenate(([0], np.cumsum(p_sizes)))
+    q_start = np.concatenate(([0], np.cumsum(q_sizes)))
+    old_steps = gather(step_start[perm], patch_steps[perm])  # old step of every new step
+    new_step = np.empty_like(old_steps)
+    new_step[old_steps] = np.arange(old_steps.shape[0])
+    info = info[old_steps]
+    rec_step = new_step[recs[:, 2] - step0]
+    by_step = np.argsort(rec_step, kind="stable")
+    recs = recs[by_step]
+    recs[:, 2] = rec_step[by_step] + step0
+    return (p_start, p_out, q_start, q_out, patch_steps[perm], recs, info), pool
+
+
+def first_clustered_level(gtris, start_gids, p_start, p_out, q_start, q_out, patch_steps, cache_size):
+    """Level 0 with ``cluster=True``: laid out as usual (``P_1..P_n || M || Q_1..Q_n``), but its final
+    order is fixed now, since the next level reads its patches out of this level's tail ``M || Q``."""
+    gids, starts = level_layout(gtris, start_gids, p_start, p_out, q_start, q_out)
+    gids = gids[block_perm(gtris[gids], starts, cache_size)]
+    lev = Level(start_gids, p_start, p_out, q_start, q_out, patch_steps, stored=gids, shared=False)
+    lev.tail = gids[p_start[-1] :]
+    return lev
+
+
+def linked_level(gtris, ng, head, p_start, p_out, q_start, q_out, patch_steps, cache_size):
+    """A level after the first with ``cluster=True`` (SWPM 3.2, clustered and linked patches).
+
+    The paper builds the next level's patches ``P^h_i`` as concatenations of consecutive simplified
+    patches ``Q_j`` of the previous level (a ``Q_j`` split between two consecutive, "linked" patches), so
+    the fragment ``P^h_1 || .. || P^h_m`` of the new level coincides with the fragment ``Q_1 || .. || Q_n``
+    that ends the previous one and is stored once (its ``D^h``; the formulas of the extracted text are
+    garbled, this is reconstructed from the prose). Here the previous level's tail ``head`` (its ``M || Q``
+    in final order) is this level's starting mesh; :func:`.sw_kernels.cluster_patches` chose centres whose
+    stars are disjoint intervals of it, so patch ``j`` is the run of ``head`` from its first star triangle to
+    the next patch's first one (the first patch from 0): its star plus the untouched triangles in between,
+    which reappear unchanged in ``Q_j`` (as with ``absorb_middle``). The untouched run after the last patch
+    is this level's ``M``. Only ``Q_1 .. Q_m`` are appended to the pool."""
+    place = np.full(ng, -1, np.int64)
+    place[head] = np.arange(head.shape[0])
+    m = p_start.shape[0] - 1
+    own_place = place[p_out]
+    if np.any(own_place < 0):  # pragma: no cover - every triangle of the level is in the previous tail
+        raise BuildError("cluster: a patch triangle is not in the previous level's tail")
+    pid = np.repeat(np.arange(m), np.diff(p_start))
+    lo = np.full(m, np.iinfo(np.int64).max)
+    hi = np.full(m, -1)
+    np.minimum.at(lo, pid, own_place)
+    np.maximum.at(hi, pid, own_place)
+    if np.any(lo[1:] <= hi[:-1]):  # pragma: no cover - cluster_patches picks disjoint intervals
+        raise BuildError("cluster: overlapping patches")
+    bounds = np.r_[0, lo[1:], hi[-1] + 1].astype(np.int64)
+    own = np.zeros(ng, bool)
+    own[p_out] = True
+    run = head[: bounds[-1]]
+    extra_at = np.flatnonzero(~own[run])
+    extra = run[extra_at]
+    extra_pid = np.searchsorted(bounds, extra_at, side="right") - 1
+    q_pid = np.repeat(np.arange(m), np.diff(q_start))
+    allq = np.concatenate([q_out, extra])
+    allp = np.concatenate([q_pid, extra_pid])
+    allq = allq[np.argsort(allp, kind="stable")]
+    new_q_start = np.zeros(m + 1, np.int64)
+    np.cumsum(np.bincount(allp, minlength=m), out=new_q_start[1:])
+    allq = allq[block_perm(gtris[allq], new_q_start, cache_size)]
+    lev = Level(head, bounds, p_out, new_q_start, allq, patch_steps, stored=allq, shared=True)
+    lev.tail = np.concatenate([head[bounds[-1] :], allq])
+    return lev

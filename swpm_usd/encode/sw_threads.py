@@ -1,0 +1,189 @@
+"""The sliding-window builder's second thread: work of the main thread shared with a helper thread.
+
+The topology-driven builder (:mod:`.slidingwindow`) runs on up to three threads where the machine has a
+second core: the main thread builds the levels one after another, a *worker* finishes each fully stored
+level (:func:`.sw_layout.finish_level`), and a *helper* takes part of the main thread's own work. This
+module holds the helper's share: a call run beside the main thread (:func:`beside`), a level's work cut into
+blocks that both threads take in turn (:func:`share`: the best collapses, :func:`level_costs_shared`, and the
+fan-deviation searches, :func:`sampled_deviation`), and the replay of the LOD errors level by level
+(:class:`Replay`). Every result is the one the main thread alone computes, bit for bit: the kernels read the
+state and write separate outputs, and they release the GIL.
+"""
+
+from __future__ import annotations
+
+import itertools
+from concurrent.futures import Future, ThreadPoolExecutor
+
+import numpy as np
+
+from ..simplify.sequence import replay_steps
+from . import sw_deviation as swd
+from . import sw_kernels as swk
+
+#: levels of at least this many sampled positions search them on two threads (the main one and a helper),
+#: in ``_SHARE_BLOCKS`` blocks of at least ``_DEVIATION_BLOCK`` rows (:func:`sampled_deviation`; the same
+#: costs, bit for bit)
+_DEVIATION_PARALLEL = 256
+
+
+_DEVIATION_BLOCK = 64
+
+
+#: levels of at least this many positions find their best collapses on two threads, in blocks of at least
+#: ``_COSTS_BLOCK`` (:func:`level_costs_shared`)
+_COSTS_PARALLEL = 1024
+
+
+_COSTS_BLOCK = 256
+
+
+#: blocks of a level's work shared by the two threads (:func:`share`): more blocks balance the threads
+#: better (the main thread does again at most the block the helper is in), fewer take the GIL less often
+_SHARE_BLOCKS = 16
+
+
+def beside(helper: ThreadPoolExecutor | None, fn, *args):
+    """``fn(*args)`` on the ``helper`` thread while this one goes on: a callable that returns its result, or
+    computes it on this thread if the helper has not started it by then (bunny's BVH is 50 ms: once started,
+    the helper is nearer its end than this thread would be); at once without a helper."""
+    if helper is None:
+        value = fn(*args)
+        return lambda: value
+    future = helper.submit(fn, *args)
+    done = []
+
+    def result():
+        if not done:
+            done.append(fn(*args) if future.cancel() else future.result())
+        return done[0]
+
+    return result
+
+
+def share(helper: ThreadPoolExecutor, count: int, work) -> set:
+    """Items ``0 .. count - 1`` done as ``work(j, here)`` by this thread (``here`` True) and the ``helper``
+    thread (False), each taking the next item in turn; returns the items the helper finished. This thread
+    never waits for the helper: it does again those the helper has taken and not finished when none is
+    left (``work`` must give the same result on either thread, into separate outputs)."""
+    items = itertools.count()  # next() is atomic: each item goes to one thread
+    finished: list = []  # by the helper (list.append is atomic)
+
+    def run() -> None:
+        for j in items:
+            if j >= count:
+                return
+            work(j, False)
+            finished.append(j)
+
+    future = helper.submit(run)
+    mine = set()
+    for j in items:
+        if j >= count:
+            break
+        work(j, True)
+        mine.add(j)
+    future.cancel()
+    theirs = set(finished)
+    for j in range(count):
+        if j not in mine and j not in theirs:
+            work(j, True)
+    return theirs
+
+
+def level_costs_shared(helper: ThreadPoolExecutor | None, st, positions: np.ndarray, stars):
+    """:func:`.sw_kernels.level_costs`, a large level's positions in blocks (:data:`_SHARE_BLOCKS`) on this
+    thread and the ``helper`` thread (each position's best collapse reads the state alone: the same costs)."""
+    n = positions.shape[0]
+    if helper is None or n < _COSTS_PARALLEL:
+        return swk.level_costs(st, positions, stars)
+    size = max(_COSTS_BLOCK, -(-n // _SHARE_BLOCKS))
+    count = -(-n // size)
+    parts = [[None] * count, [None] * count]  # by the helper, by this thread
+
+    def work(j: int, here: bool) -> None:
+        parts[here][j] = swk.level_costs(st, positions[j * size : (j + 1) * size], stars)
+
+    theirs = share(helper, count, work)
+    got = [parts[j not in theirs][j] for j in range(count)]
+    return np.concatenate([g[0] for g in got]), np.concatenate([g[1] for g in got])
+
+
+def sampled_deviation(helper: ThreadPoolExecutor | None, args: tuple) -> np.ndarray:
+    """:func:`.sw_deviation.deviation_costs` of ``args``, on this thread and the ``helper`` thread where there
+    are enough rows: blocks of rows (:data:`_SHARE_BLOCKS`), each started from no search hint
+    (:func:`share`), then :func:`.sw_deviation.deviation_join` (the same output, bit for bit)."""
+    n = args[1].shape[0]
+    if helper is None or n < _DEVIATION_PARALLEL:
+        return swd.deviation_costs(*args)
+    size = max(_DEVIATION_BLOCK, -(-n // _SHARE_BLOCKS))
+    count = -(-n // size)
+    # (out, hint_at, end_hint) of each thread: the helper's rows are copied once it has finished them
+    bufs = [(np.empty_like(args[3]), np.empty(n, np.int64), np.zeros(count, np.int64)) for _ in range(2)]
+
+    def work(j: int, here: bool) -> None:
+        out, hint_at, end_hint = bufs[here]
+        end_hint[j] = swd.deviation_rows(*args, j * size, min(n, (j + 1) * size), 0, out, hint_at)
+
+    theirs = share(helper, count, work)
+    out, hint_at, end_hint = bufs[True]
+    for j in theirs:
+        rows = slice(j * size, (j + 1) * size)
+        out[rows] = bufs[False][0][rows]
+        hint_at[rows] = bufs[False][1][rows]
+        end_hint[j] = bufs[False][2][j]
+    swd.deviation_join(*args, size, end_hint, out, hint_at)
+    return out
+
+
+class Replay:
+    """Each step's error as the LODs report it (:func:`swpm_usd.simplify.sequence.step_geometric_errors`: a
+    fresh state replays the steps in their final order) computed level by level on the ``helper`` thread as
+    the worker finishes the levels (which settles their steps' order), not after the last level on the main
+    thread (cow: 26 of its 185 ms). The parts carry the running maximum: the values of one replay."""
+
+    def __init__(self, helper: ThreadPoolExecutor, new_state, surface_of) -> None:
+        self.helper = helper
+        self.new_state = new_state
+        self.surface_of = surface_of
+        self.st = None
+        self.run2 = 0.0
+        self.parts: list[np.ndarray] = []
+        self.tasks: list[Future] = []  # one per level handed on, in level order
+
+    def _level(self, info: np.ndarray) -> None:
+        if self.st is None:
+            self.st = self.new_state()
+        out = replay_steps(self.surface_of(), self.st, info[:, 1], info[:, 2], info[:, 0], self.run2)
+        if out.shape[0]:
+            self.run2 = max(self.run2, float(np.max(out * out)))
+        self.parts.append(out)
+
+    def advance(self, pending: list) -> None:
+        """Hand the levels finished so far on to the helper, in order (it runs them in turn)."""
+        while len(self.tasks) < len(pending) and pending[len(self.tasks)][0].done():
+            info = pending[len(self.tasks)][0].result()[2]
+            self.tasks.append(self.helper.submit(self._level, info))
+
+    def result(self, infos: list) -> np.ndarray:
+        """The errors of every level's steps (``infos``: each level's, finished): the levels the helper has
+        not started are replayed here, in order, once it is done with the one it is on."""
+        # cancelled from the last on: the helper runs its tasks in order, so once one cannot be cancelled
+        # (started), those before it are done, and no task after it can start any more
+        first = len(self.tasks)
+        for i in range(len(self.tasks) - 1, -1, -1):
+            if not self.tasks[i].cancel():
+                break
+            first = i
+        for task in self.tasks[:first]:
+            task.result()
+        for i in range(first, len(infos)):
+            self._level(infos[i])
+        return np.concatenate(self.parts) if self.parts else np.zeros(0)
+
+
+def done_future(value) -> Future:
+    """A future already holding ``value`` (a level finished inline)."""
+    f: Future = Future()
+    f.set_result(value)
+    return f
