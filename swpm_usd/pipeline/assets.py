@@ -11,6 +11,7 @@ from __future__ import annotations
 import fnmatch
 import hashlib
 import json
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -35,13 +36,29 @@ class Asset:
 
 
 def file_digest(paths: list[Path]) -> str:
+    """The digest of an asset's input files (their names and bytes, in order): :func:`hash_inputs`'s."""
+    return hash_inputs(paths)[0]
+
+
+def hash_inputs(paths: list[Path]) -> tuple[str, list[dict[str, Any]]]:
+    """The digest of an asset's input files and, for each, its manifest entry: ``path``, and the ``size``
+    and :data:`.worker.STAT_KEYS` of the bytes hashed (the stat taken through the descriptor read, before
+    the read) with ``hashed_ns``, the time just before that stat (the runner's guard against a "racily
+    clean" file: :func:`.runner._inputs_unchanged`); the path alone for a file that changed while it was
+    read, which the next run hashes again."""
+    from .worker import stat_fields, update_with_stat
+
     h = hashlib.sha256()
+    entries: list[dict[str, Any]] = []
     for p in paths:
         h.update(str(p.name).encode())
-        with open(p, "rb") as f:
-            while chunk := f.read(1 << 20):
-                h.update(chunk)
-    return h.hexdigest()
+        hashed_ns = time.time_ns()
+        st = update_with_stat(h, p)
+        entry: dict[str, Any] = {"path": str(p)}
+        if st is not None:
+            entry.update(size=st.st_size, **stat_fields(st), hashed_ns=hashed_ns)
+        entries.append(entry)
+    return h.hexdigest(), entries
 
 
 def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset], list[Path]]:
