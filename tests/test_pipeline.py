@@ -1853,12 +1853,14 @@ def _as_hashed(entry: dict, path: Path) -> bool:
     ]  # fmt: skip
 
 
-def _same_size_edit(path: Path) -> None:
-    """Change one digit of ``path`` (an OBJ) in place, its size the same and its mtime set back (os.utime):
-    only its ctime shows the edit."""
+def _same_size_edit(path: Path, after: bytes = b"\nv ") -> None:
+    """Change the first digit after ``after`` in ``path`` (an OBJ's first vertex), in place, its size the
+    same and its mtime set back (os.utime): only its ctime shows the edit."""
     st = path.stat()
     data = path.read_bytes()
-    i = data.index(b"\nv ") + 4
+    i = data.index(after) + len(after)
+    while data[i : i + 1] not in b"0123456789":
+        i += 1
     path.write_bytes(data[:i] + (b"7" if data[i : i + 1] != b"7" else b"8") + data[i + 1 :])
     os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns))
     assert (path.stat().st_size, path.stat().st_mtime_ns) == (st.st_size, st.st_mtime_ns)
@@ -1899,6 +1901,48 @@ def test_a_rerun_reads_no_input_whose_size_and_stat_are_as_recorded(tmp_path, mo
     assert (res.built, res.skipped) == (0, 2) and reads == ["cow.obj"]
     assert _as_hashed(_recorded_inputs(out)["meshes/cow.obj"][0], cow)
     assert res.records["meshes/cow.obj"]["input_digest"] == file_digest([cow])
+    reads.clear()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
+
+
+def test_a_stage_s_prims_share_the_hash_of_its_layers_and_a_rerun_reads_none(tmp_path, monkeypatch):
+    # a stage asset's inputs are the stage and every layer it uses: each listed with its stat, hashed once
+    # for all the stage's prims, and read by no rerun until one of them changes
+    from pxr import Usd, UsdGeom
+
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "stage").mkdir()
+    mesh = swpm_usd.load_mesh(SHARED_MESHES / "spot.obj")
+    layer = tmp_path / "stage" / "spot_asset.usda"
+    st = Usd.Stage.CreateNew(str(layer))
+    st.SetDefaultPrim(UsdGeom.Xform.Define(st, "/Spot").GetPrim())
+    for name in ("Body", "Copy"):
+        m = UsdGeom.Mesh.Define(st, f"/Spot/{name}")
+        m.CreatePointsAttr(mesh.points)
+        m.CreateFaceVertexCountsAttr([3] * mesh.triangle_count)
+        m.CreateFaceVertexIndicesAttr(mesh.triangles.reshape(-1))
+    st.GetRootLayer().Save()
+    scene = tmp_path / "stage" / "scene.usda"
+    st = Usd.Stage.CreateNew(str(scene))
+    st.DefinePrim("/World/spot", "Xform").GetReferences().AddReference("./spot_asset.usda")
+    st.GetRootLayer().Save()
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text("version: 1\nassets: [{stage: stage/scene.usda}]\noutput: {dir: out}\n")
+    reads = _input_reads(monkeypatch, tmp_path / "stage")
+    assert run(cfg, echo=lambda m: None).built == 2
+    assert sorted(reads) == ["scene.usda", "spot_asset.usda"]  # (USD reads them itself, not through open)
+    recorded = _recorded_inputs(tmp_path / "out")
+    assert len(recorded) == 2
+    for entries in recorded.values():
+        assert sorted(Path(e["path"]).name for e in entries) == ["scene.usda", "spot_asset.usda"]
+        assert all(_as_hashed(e, Path(e["path"])) for e in entries)
+    reads.clear()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
+    _same_size_edit(layer, b"points = [(")  # (the first prim's first point)
+    reads.clear()
+    assert run(cfg, echo=lambda m: None).built == 2 and sorted(reads) == ["scene.usda", "spot_asset.usda"]
     reads.clear()
     assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
 
@@ -2011,6 +2055,14 @@ def test_a_malformed_input_stat_is_hashed_not_trusted(tmp_path, monkeypatch):
         assert _as_hashed(_recorded_inputs(out)["meshes/cow.obj"][0], cow), what
         reads.clear()
         assert run(cfg, echo=lambda m: None).skipped == 2 and reads == [], what
+    # a failed asset's record without its input digest (only its status is required): built again
+    manifest = json.loads((out / "manifest.json").read_text())
+    rec = manifest["assets"]["meshes/cow.obj"]
+    rec["status"] = "failed"
+    del rec["input_digest"]
+    assert record_problem(rec) is None and recorded_inputs(rec) is not None
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    assert run(cfg, echo=lambda m: None).built == 1
 
 
 def test_a_racily_clean_input_is_hashed_again(tmp_path, monkeypatch):

@@ -223,7 +223,8 @@ def plan(
             )
             previous = None
         prev = previous or {}
-        recorded = None if verify or previous is None else recorded_inputs(prev)
+        # (a failed asset's record need not have its input digest: record_problem checks its type alone)
+        recorded = None if verify or "input_digest" not in prev else recorded_inputs(prev)
         if _inputs_unchanged(inputs[a.id], recorded):
             digest, input_stats = prev["input_digest"], recorded
         else:
