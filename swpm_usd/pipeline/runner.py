@@ -201,9 +201,8 @@ def plan(
     else they are hashed (:func:`.assets.hash_inputs`, the item's ``input_stats`` then those of the files
     hashed, which the run records); its recorded outputs are intact when their size and stat are as
     recorded, or else their sha256 (:func:`_checked_output`). ``verify`` hashes every input and output. A
-    manifest record that is not one the run
-    writes (:func:`.records.record_problem`: hand-edited) is ignored, as if the asset had none, and named
-    in a warning."""
+    manifest record that is not one the run writes (:func:`.records.record_problem`: hand-edited) is
+    ignored, as if the asset had none, and named in a warning."""
     assets, inputs, problems = discover(cfg)
     out_dir = cfg.base / cfg.data["output"]["dir"]
     problems.extend(_unusable_out_dir(cfg, out_dir))
@@ -1106,10 +1105,11 @@ def _keep_previous(out_dir: Path, previous: dict | None, failed: dict, verify: b
     When the asset was built before and its outputs are all still as recorded (:func:`_checked_output`),
     its previous build is kept: the returned record is the previous one, untouched but for ``last_failure``
     (the failure's error, traceback, digest and seconds) and the stat fields of outputs hashed to be
-    checked, so the manifest, the scene and the outputs still serve the last good build and the next run
-    tries again. Otherwise None: the failed record replaces the previous one, and those of its outputs
-    still as recorded are deleted, so no output is left that the manifest does not list (a file changed
-    since is not the run's to delete)."""
+    checked (its ``inputs`` stay: their stat goes with its input digest, not the failed attempt's), so the
+    manifest, the scene and the outputs still serve the last good build and the next run tries again.
+    Otherwise None: the failed record replaces the previous one, and those of its outputs still as recorded
+    are deleted, so no output is left that the manifest does not list (a file changed since is not the
+    run's to delete)."""
     if previous is None or record_problem(previous) is not None or previous.get("status") != "built":
         return None  # (a record the run does not write, hand-edited, names no file to keep or delete)
     outputs = previous.get("outputs", {})
