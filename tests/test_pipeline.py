@@ -1905,14 +1905,11 @@ def test_a_rerun_reads_no_input_whose_size_and_stat_are_as_recorded(tmp_path, mo
     assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
 
 
-def test_a_stage_s_prims_share_the_hash_of_its_layers_and_a_rerun_reads_none(tmp_path, monkeypatch):
-    # a stage asset's inputs are the stage and every layer it uses: each listed with its stat, hashed once
-    # for all the stage's prims, and read by no rerun until one of them changes
+def _two_layer_stage(tmp_path: Path) -> tuple[Path, Path]:
+    """stage/scene.usda referencing stage/spot_asset.usda (two Mesh prims, spot's), and a config of the
+    stage: (the config, the referenced layer)."""
     from pxr import Usd, UsdGeom
 
-    from swpm_usd.pipeline import runner
-
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
     (tmp_path / "stage").mkdir()
     mesh = swpm_usd.load_mesh(SHARED_MESHES / "spot.obj")
     layer = tmp_path / "stage" / "spot_asset.usda"
@@ -1930,6 +1927,16 @@ def test_a_stage_s_prims_share_the_hash_of_its_layers_and_a_rerun_reads_none(tmp
     st.GetRootLayer().Save()
     cfg = tmp_path / "pipeline.yaml"
     cfg.write_text("version: 1\nassets: [{stage: stage/scene.usda}]\noutput: {dir: out}\n")
+    return cfg, layer
+
+
+def test_a_stage_s_prims_share_the_hash_of_its_layers_and_a_rerun_reads_none(tmp_path, monkeypatch):
+    # a stage asset's inputs are the stage and every layer it uses: each listed with its stat, hashed once
+    # for all the stage's prims, and read by no rerun until one of them changes
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg, layer = _two_layer_stage(tmp_path)
     reads = _input_reads(monkeypatch, tmp_path / "stage")
     assert run(cfg, echo=lambda m: None).built == 2
     assert sorted(reads) == ["scene.usda", "spot_asset.usda"]  # (USD reads them itself, not through open)
@@ -1945,6 +1952,30 @@ def test_a_stage_s_prims_share_the_hash_of_its_layers_and_a_rerun_reads_none(tmp
     assert run(cfg, echo=lambda m: None).built == 2 and sorted(reads) == ["scene.usda", "spot_asset.usda"]
     reads.clear()
     assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
+
+
+def test_a_stage_s_layers_are_its_inputs_in_one_order_whatever_order_usd_gives(tmp_path, monkeypatch):
+    # Usd.Stage.GetUsedLayers returns a set of layer handles, in the order of their addresses, which differs
+    # from one process to the next: the stage's inputs were listed, hashed and compared with the record in
+    # that order, so a rerun (a new swpm-pipeline process) took the same layers for other inputs, hashed
+    # them to another digest and rebuilt every prim of the stage
+    from pxr import Usd
+
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg, _ = _two_layer_stage(tmp_path)
+    assert run(cfg, echo=lambda m: None).built == 2
+    used = Usd.Stage.GetUsedLayers
+    reads = _input_reads(monkeypatch, tmp_path / "stage")
+    for reverse in (False, True):
+
+        def by_name(stage, *args, reverse=reverse):
+            return sorted(used(stage, *args), key=lambda layer: layer.identifier, reverse=reverse)
+
+        monkeypatch.setattr(Usd.Stage, "GetUsedLayers", by_name)
+        reads.clear()
+        assert run(cfg, echo=lambda m: None).skipped == 2 and reads == [], reverse
 
 
 def test_an_input_changed_between_plan_and_build_is_hashed_again(tmp_path, monkeypatch):

@@ -95,7 +95,9 @@ def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset
         Asset(f"{rel.as_posix()}:{first_path[k]}", stage_path, first_path[k], counts[k], tags[k], index)
         for k in sorted(counts)
     ]
-    used = [Path(layer.realPath) for layer in stage.GetUsedLayers() if layer.realPath]
+    # (sorted: GetUsedLayers gives a set of layer handles in the order of their addresses, another in each
+    # process, and the inputs are hashed and compared with the record in their order)
+    used = sorted({Path(layer.realPath) for layer in stage.GetUsedLayers() if layer.realPath})
     return assets, used
 
 
