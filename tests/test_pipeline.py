@@ -1978,6 +1978,41 @@ def test_a_stage_s_layers_are_its_inputs_in_one_order_whatever_order_usd_gives(t
         assert run(cfg, echo=lambda m: None).skipped == 2 and reads == [], reverse
 
 
+def test_a_gltf_s_buffer_files_are_its_inputs(tmp_path, monkeypatch):
+    # a .gltf's vertices and triangles are in the buffer files its `buffers` name (model.gltf + *.bin), which
+    # the loader reads beside it: they were no input of the asset, so a .bin edited (new vertices) left the
+    # asset "up to date", its stale build kept
+    import numpy as np
+    import trimesh
+
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m").mkdir()
+    spot = swpm_usd.load_mesh(SHARED_MESHES / "spot.obj")
+    mesh = trimesh.Trimesh(spot.points, spot.triangles, process=False)
+    files = trimesh.Scene(mesh).export(file_type="gltf")
+    for name, data in files.items():
+        (tmp_path / "m" / name).write_bytes(data)
+    bins = sorted(tmp_path / "m" / name for name in files if name.endswith(".bin"))
+    assert bins and (tmp_path / "m" / "model.gltf").is_file()
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text("version: 1\nassets: [{glob: m/*.gltf}]\noutput: {dir: out}\n")
+    assert run(cfg, echo=lambda m: None).built == 1
+    (entries,) = _recorded_inputs(tmp_path / "out").values()
+    assert [Path(e["path"]) for e in entries] == [tmp_path / "m" / "model.gltf", *bins]
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    # the buffers of the mesh scaled by 2 (the same names and sizes), the .gltf left as it is (its accessors'
+    # min and max, which the loader does not check, no longer the data's)
+    points = swpm_usd.load_mesh(tmp_path / "m" / "model.gltf").points
+    scaled = trimesh.Scene(mesh.copy().apply_scale(2.0)).export(file_type="gltf")
+    for b in bins:
+        assert len(scaled[b.name]) == b.stat().st_size
+        b.write_bytes(scaled[b.name])
+    assert np.allclose(swpm_usd.load_mesh(tmp_path / "m" / "model.gltf").points, 2 * points)
+    assert run(cfg, echo=lambda m: None).built == 1
+
+
 def test_an_input_changed_between_plan_and_build_is_hashed_again(tmp_path, monkeypatch):
     # the worker loads the input after the plan hashed it: the record pairs the plan's digest with the stat
     # taken as it was hashed (never a later one), so an input changed in between is hashed and rebuilt next

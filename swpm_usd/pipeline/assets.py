@@ -11,6 +11,7 @@ from __future__ import annotations
 import fnmatch
 import hashlib
 import json
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -59,6 +60,33 @@ def hash_inputs(paths: list[Path]) -> tuple[str, list[dict[str, Any]]]:
             entry.update(size=st.st_size, **stat_fields(st), hashed_ns=hashed_ns)
         entries.append(entry)
     return h.hexdigest(), entries
+
+
+def _gltf_buffers(path: Path) -> list[Path]:
+    """The files beside a ``.gltf`` that hold its vertices and triangles: those its ``buffers`` name by a
+    ``uri`` (not a base64 ``data:`` one), which the loader (trimesh) reads, in its folder, by the name as
+    written, without a leading ``/``, or by its last part: every one of those found, so a change to any
+    is a change to the asset; none for another file, or a .gltf that is not JSON (its load fails)."""
+    if path.suffix.lower() != ".gltf":
+        return []
+    try:
+        buffers = json.loads(path.read_bytes()).get("buffers") or []
+    except (OSError, ValueError, AttributeError, RecursionError):
+        return []
+    found: list[Path] = []
+    for b in buffers if isinstance(buffers, list) else []:
+        uri = b.get("uri") if isinstance(b, dict) else None
+        if not isinstance(uri, str) or "base64," in uri:
+            continue
+        for name in (uri.strip(), uri.strip().lstrip("/"), os.path.split(uri)[-1]):
+            f = path.parent / name
+            try:
+                inside = f.resolve().is_relative_to(path.parent.resolve())
+                if name and inside and f not in found and f.is_file():
+                    found.append(f)
+            except (OSError, ValueError):
+                continue
+    return found
 
 
 def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset], list[Path]]:
@@ -154,7 +182,7 @@ def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]
                 if not _first_match(cfg, matched, (p.resolve(), None), i, rel, instances, problems):
                     continue
                 assets.append(Asset(rel, p, None, instances, {}, i))
-                inputs[rel] = [p]
+                inputs[rel] = [p, *_gltf_buffers(p)]
         else:
             stage_path = (cfg.base / src["stage"]).resolve()
             try:
