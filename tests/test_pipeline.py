@@ -1978,6 +1978,24 @@ def test_a_stage_s_layers_are_its_inputs_in_one_order_whatever_order_usd_gives(t
         assert run(cfg, echo=lambda m: None).skipped == 2 and reads == [], reverse
 
 
+def test_a_usdz_stage_s_input_is_its_package(tmp_path, monkeypatch):
+    # the layers of a .usdz stage are in the package, `pkg.usdz[scene.usda]`: that was taken for an input
+    # file, and the run stopped in the plan with a traceback (FileNotFoundError) hashing it
+    from pxr import Sdf, UsdUtils
+
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg, _ = _two_layer_stage(tmp_path)
+    pkg = tmp_path / "pkg.usdz"
+    assert UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(str(tmp_path / "stage" / "scene.usda")), str(pkg))
+    cfg.write_text("version: 1\nassets: [{stage: pkg.usdz}]\noutput: {dir: out}\n")
+    assert run(cfg, echo=lambda m: None).built == 2
+    for entries in _recorded_inputs(tmp_path / "out").values():
+        assert [e["path"] for e in entries] == [str(pkg)] and _as_hashed(entries[0], pkg)
+    assert run(cfg, echo=lambda m: None).skipped == 2
+
+
 def test_a_gltf_s_buffer_files_are_its_inputs(tmp_path, monkeypatch):
     # a .gltf's vertices and triangles are in the buffer files its `buffers` name (model.gltf + *.bin), which
     # the loader reads beside it: they were no input of the asset, so a .bin edited (new vertices) left the

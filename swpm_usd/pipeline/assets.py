@@ -90,7 +90,7 @@ def _gltf_buffers(path: Path) -> list[Path]:
 
 
 def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset], list[Path]]:
-    from pxr import Usd, UsdGeom
+    from pxr import Ar, Usd, UsdGeom
 
     stage = Usd.Stage.Open(str(stage_path))
     if stage is None:
@@ -124,8 +124,15 @@ def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset
         for k in sorted(counts)
     ]
     # (sorted: GetUsedLayers gives a set of layer handles in the order of their addresses, another in each
-    # process, and the inputs are hashed and compared with the record in their order)
-    used = sorted({Path(layer.realPath) for layer in stage.GetUsedLayers() if layer.realPath})
+    # process, and the inputs are hashed and compared with the record in their order; a layer in a package,
+    # `a.usdz[b.usdc]`, is the package's file)
+    used = sorted(
+        {
+            Path(Ar.SplitPackageRelativePathOuter(layer.realPath)[0])
+            for layer in stage.GetUsedLayers()
+            if layer.realPath
+        }
+    )
     return assets, used
 
 
