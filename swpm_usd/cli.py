@@ -166,8 +166,9 @@ def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int
 @click.option(
     "--verify",
     is_flag=True,
-    help="Hash every recorded output (sha256) to decide whether it is intact, instead of trusting one whose "
-    "size, mtime, ctime and inode are as recorded; rebuilds one whose bytes changed without those (bit rot).",
+    help="Hash every input file and recorded output (sha256) to decide whether it changed, instead of "
+    "trusting one whose size, mtime, ctime and inode are as recorded; rebuilds an asset whose bytes changed "
+    "without those (bit rot).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the run summary as JSON.")
 def run_cmd(
@@ -186,9 +187,9 @@ def run_cmd(
 
     Per asset: the first matching rule picks the encoding and its parameters; the asset is built, its
     streaming order validated and its outputs written atomically under output.dir, with manifest.json
-    and report.html. Unchanged assets are skipped: an asset is up to date when its inputs (hashed), rule
-    and parameters are those recorded and its outputs are still as recorded (their size and stat, or with
-    --verify their sha256).
+    and report.html. Unchanged assets are skipped: an asset is up to date when its inputs, rule and
+    parameters are those recorded and its outputs are still as recorded (inputs and outputs compared by
+    their size and stat, else hashed; with --verify by their sha256).
 
     An asset built before whose rebuild fails keeps its previous build (outputs, manifest record, place
     in the scene) and is reported failed. One run at a time writes in an output.dir: another fails at

@@ -1176,7 +1176,9 @@ def test_a_failed_rebuild_keeps_the_previous_build(tmp_path):
     cow.write_bytes(good)
     again = run(cfg, echo=lambda m: None)
     assert (again.built, again.skipped, again.failed, again.failures) == (0, 2, 0, {})
-    assert json.loads((out / "manifest.json").read_text())["assets"]["meshes/cow.obj"] == before
+    rec = json.loads((out / "manifest.json").read_text())["assets"]["meshes/cow.obj"]
+    # (but for its input's stat, recorded anew: the file put back was hashed, to the recorded digest)
+    assert {**rec, "inputs": None} == {**before, "inputs": None} and _as_hashed(rec["inputs"][0], cow)
     # a previous build whose outputs are no longer all there is not kept: the failure replaces its record
     # and its remaining outputs go with it (none is left that the manifest does not list)
     (out / "cow.usdc").unlink()
@@ -1816,6 +1818,375 @@ def test_verify_hashes_every_output(tmp_path, monkeypatch):
     assert r.exit_code == 0 and json.loads(r.stdout)["built"] == 1, r.output
     assert _recorded_outputs(out)["cow.usdc"]["sha256"] == sha256_of(out / "cow.usdc")
     assert "--verify" in CliRunner().invoke(main, ["run", "--help"]).output
+
+
+def _input_reads(monkeypatch, folder: Path) -> list[str]:
+    """The names of the files in ``folder`` (the assets' inputs) this process opens from now on, in order."""
+    import builtins
+
+    real = builtins.open
+    opened: list[str] = []
+
+    def spy(file, *args, **kwargs):
+        if isinstance(file, (str, os.PathLike)) and Path(file).parent == folder:
+            opened.append(Path(file).name)
+        return real(file, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "open", spy)
+    return opened
+
+
+INPUT_KEYS = ("size", *STAT_KEYS, "hashed_ns")
+
+
+def _recorded_inputs(out: Path) -> dict[str, list[dict]]:
+    """Asset id -> its record's ``inputs``."""
+    manifest = json.loads((out / "manifest.json").read_text())
+    return {aid: rec.get("inputs") for aid, rec in manifest["assets"].items()}
+
+
+def _as_hashed(entry: dict, path: Path) -> bool:
+    """Is ``entry`` (an input's in a record) ``path`` with its current size and stat?"""
+    st = path.stat()
+    return entry["path"] == str(path) and [entry[k] for k in ("size", *STAT_KEYS)] == [
+        st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino, st.st_dev,
+    ]  # fmt: skip
+
+
+def _same_size_edit(path: Path, after: bytes = b"\nv ") -> None:
+    """Change the first digit after ``after`` in ``path`` (an OBJ's first vertex), in place, its size the
+    same and its mtime set back (os.utime): only its ctime shows the edit."""
+    st = path.stat()
+    data = path.read_bytes()
+    i = data.index(after) + len(after)
+    while data[i : i + 1] not in b"0123456789":
+        i += 1
+    path.write_bytes(data[:i] + (b"7" if data[i : i + 1] != b"7" else b"8") + data[i + 1 :])
+    os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns))
+    assert (path.stat().st_size, path.stat().st_mtime_ns) == (st.st_size, st.st_mtime_ns)
+
+
+def test_a_rerun_reads_no_input_whose_size_and_stat_are_as_recorded(tmp_path, monkeypatch):
+    # every rerun hashed every input file of every asset (1,000 assets of 10 MB: 10 GB read with nothing
+    # changed); the manifest now records each input's size and stat as it was hashed, and a rerun that finds
+    # them unchanged takes the recorded input digest without reading the file
+    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline.assets import file_digest
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (inputs just written: see the racily clean test)
+    cfg = _project(tmp_path, config=MINIMAL)
+    out, meshes = tmp_path / "out", tmp_path / "meshes"
+    assert run(cfg, echo=lambda m: None).built == 2
+    for aid, entries in _recorded_inputs(out).items():
+        (entry,) = entries
+        assert _as_hashed(entry, tmp_path / aid) and set(entry) == {"path", *INPUT_KEYS}, entry
+    reads = _input_reads(monkeypatch, meshes)
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
+    # a same-size edit with the mtime set back: the ctime moved, hashed, rebuilt
+    spot, cow = meshes / "spot.obj", meshes / "cow.obj"
+    _same_size_edit(spot)
+    res = run(cfg, echo=lambda m: None)
+    assert res.built == 1 and res.records["meshes/spot.obj"]["input_digest"] == file_digest([spot])
+    assert _as_hashed(_recorded_inputs(out)["meshes/spot.obj"][0], spot)
+    # a copy of the same bytes and mtime renamed over an input (another inode): hashed, the digest the same,
+    # nothing rebuilt; its stat recorded anew, then trusted
+    st = cow.stat()
+    shutil.copyfile(cow, tmp_path / "cow-copy")
+    os.utime(tmp_path / "cow-copy", ns=(st.st_atime_ns, st.st_mtime_ns))
+    (tmp_path / "cow-copy").replace(cow)
+    assert cow.stat().st_ino != st.st_ino
+    reads.clear()
+    assert not _as_hashed(_recorded_inputs(out)["meshes/cow.obj"][0], cow)
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.skipped) == (0, 2) and reads == ["cow.obj"]
+    assert _as_hashed(_recorded_inputs(out)["meshes/cow.obj"][0], cow)
+    assert res.records["meshes/cow.obj"]["input_digest"] == file_digest([cow])
+    reads.clear()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
+
+
+def _two_layer_stage(tmp_path: Path) -> tuple[Path, Path]:
+    """stage/scene.usda referencing stage/spot_asset.usda (two Mesh prims, spot's), and a config of the
+    stage: (the config, the referenced layer)."""
+    from pxr import Usd, UsdGeom
+
+    (tmp_path / "stage").mkdir()
+    mesh = swpm_usd.load_mesh(SHARED_MESHES / "spot.obj")
+    layer = tmp_path / "stage" / "spot_asset.usda"
+    st = Usd.Stage.CreateNew(str(layer))
+    st.SetDefaultPrim(UsdGeom.Xform.Define(st, "/Spot").GetPrim())
+    for name in ("Body", "Copy"):
+        m = UsdGeom.Mesh.Define(st, f"/Spot/{name}")
+        m.CreatePointsAttr(mesh.points)
+        m.CreateFaceVertexCountsAttr([3] * mesh.triangle_count)
+        m.CreateFaceVertexIndicesAttr(mesh.triangles.reshape(-1))
+    st.GetRootLayer().Save()
+    scene = tmp_path / "stage" / "scene.usda"
+    st = Usd.Stage.CreateNew(str(scene))
+    st.DefinePrim("/World/spot", "Xform").GetReferences().AddReference("./spot_asset.usda")
+    st.GetRootLayer().Save()
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text("version: 1\nassets: [{stage: stage/scene.usda}]\noutput: {dir: out}\n")
+    return cfg, layer
+
+
+def test_a_stage_s_prims_share_the_hash_of_its_layers_and_a_rerun_reads_none(tmp_path, monkeypatch):
+    # a stage asset's inputs are the stage and every layer it uses: each listed with its stat, hashed once
+    # for all the stage's prims, and read by no rerun until one of them changes
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg, layer = _two_layer_stage(tmp_path)
+    reads = _input_reads(monkeypatch, tmp_path / "stage")
+    assert run(cfg, echo=lambda m: None).built == 2
+    assert sorted(reads) == ["scene.usda", "spot_asset.usda"]  # (USD reads them itself, not through open)
+    recorded = _recorded_inputs(tmp_path / "out")
+    assert len(recorded) == 2
+    for entries in recorded.values():
+        assert sorted(Path(e["path"]).name for e in entries) == ["scene.usda", "spot_asset.usda"]
+        assert all(_as_hashed(e, Path(e["path"])) for e in entries)
+    reads.clear()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
+    _same_size_edit(layer, b"points = [(")  # (the first prim's first point)
+    reads.clear()
+    assert run(cfg, echo=lambda m: None).built == 2 and sorted(reads) == ["scene.usda", "spot_asset.usda"]
+    reads.clear()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
+
+
+def test_a_stage_s_layers_are_its_inputs_in_one_order_whatever_order_usd_gives(tmp_path, monkeypatch):
+    # Usd.Stage.GetUsedLayers returns a set of layer handles, in the order of their addresses, which differs
+    # from one process to the next: the stage's inputs were listed, hashed and compared with the record in
+    # that order, so a rerun (a new swpm-pipeline process) took the same layers for other inputs, hashed
+    # them to another digest and rebuilt every prim of the stage
+    from pxr import Usd
+
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg, _ = _two_layer_stage(tmp_path)
+    assert run(cfg, echo=lambda m: None).built == 2
+    used = Usd.Stage.GetUsedLayers
+    reads = _input_reads(monkeypatch, tmp_path / "stage")
+    for reverse in (False, True):
+
+        def by_name(stage, *args, reverse=reverse):
+            return sorted(used(stage, *args), key=lambda layer: layer.identifier, reverse=reverse)
+
+        monkeypatch.setattr(Usd.Stage, "GetUsedLayers", by_name)
+        reads.clear()
+        assert run(cfg, echo=lambda m: None).skipped == 2 and reads == [], reverse
+
+
+def test_a_usdz_stage_s_input_is_its_package(tmp_path, monkeypatch):
+    # the layers of a .usdz stage are in the package, `pkg.usdz[scene.usda]`: that was taken for an input
+    # file, and the run stopped in the plan with a traceback (FileNotFoundError) hashing it
+    from pxr import Sdf, UsdUtils
+
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg, _ = _two_layer_stage(tmp_path)
+    pkg = tmp_path / "pkg.usdz"
+    assert UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(str(tmp_path / "stage" / "scene.usda")), str(pkg))
+    cfg.write_text("version: 1\nassets: [{stage: pkg.usdz}]\noutput: {dir: out}\n")
+    assert run(cfg, echo=lambda m: None).built == 2
+    for entries in _recorded_inputs(tmp_path / "out").values():
+        assert [e["path"] for e in entries] == [str(pkg)] and _as_hashed(entries[0], pkg)
+    assert run(cfg, echo=lambda m: None).skipped == 2
+
+
+def test_a_gltf_s_buffer_files_are_its_inputs(tmp_path, monkeypatch):
+    # a .gltf's vertices and triangles are in the buffer files its `buffers` name (model.gltf + *.bin), which
+    # the loader reads beside it: they were no input of the asset, so a .bin edited (new vertices) left the
+    # asset "up to date", its stale build kept
+    import numpy as np
+    import trimesh
+
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m").mkdir()
+    spot = swpm_usd.load_mesh(SHARED_MESHES / "spot.obj")
+    mesh = trimesh.Trimesh(spot.points, spot.triangles, process=False)
+    files = trimesh.Scene(mesh).export(file_type="gltf")
+    for name, data in files.items():
+        (tmp_path / "m" / name).write_bytes(data)
+    bins = sorted(tmp_path / "m" / name for name in files if name.endswith(".bin"))
+    assert bins and (tmp_path / "m" / "model.gltf").is_file()
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text("version: 1\nassets: [{glob: m/*.gltf}]\noutput: {dir: out}\n")
+    assert run(cfg, echo=lambda m: None).built == 1
+    (entries,) = _recorded_inputs(tmp_path / "out").values()
+    assert [Path(e["path"]) for e in entries] == [tmp_path / "m" / "model.gltf", *bins]
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    # the buffers of the mesh scaled by 2 (the same names and sizes), the .gltf left as it is (its accessors'
+    # min and max, which the loader does not check, no longer the data's)
+    points = swpm_usd.load_mesh(tmp_path / "m" / "model.gltf").points
+    scaled = trimesh.Scene(mesh.copy().apply_scale(2.0)).export(file_type="gltf")
+    for b in bins:
+        assert len(scaled[b.name]) == b.stat().st_size
+        b.write_bytes(scaled[b.name])
+    assert np.allclose(swpm_usd.load_mesh(tmp_path / "m" / "model.gltf").points, 2 * points)
+    assert run(cfg, echo=lambda m: None).built == 1
+
+
+def test_an_input_changed_between_plan_and_build_is_hashed_again(tmp_path, monkeypatch):
+    # the worker loads the input after the plan hashed it: the record pairs the plan's digest with the stat
+    # taken as it was hashed (never a later one), so an input changed in between is hashed and rebuilt next
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg = _project(tmp_path, meshes=("cow.obj",), config=MINIMAL)
+    cow = tmp_path / "meshes" / "cow.obj"
+    real = runner.process_asset
+
+    def edited_first(task):
+        _same_size_edit(cow)
+        return real(task)
+
+    monkeypatch.setattr(runner, "process_asset", edited_first)
+    assert run(cfg, echo=lambda m: None).built == 1
+    monkeypatch.setattr(runner, "process_asset", real)
+    assert not _as_hashed(_recorded_inputs(tmp_path / "out")["meshes/cow.obj"][0], cow)
+    assert run(cfg, echo=lambda m: None).built == 1
+    assert run(cfg, echo=lambda m: None).skipped == 1
+
+
+def test_verify_hashes_every_input(tmp_path, monkeypatch):
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg = _project(tmp_path, config=MINIMAL)
+    assert run(cfg, echo=lambda m: None).built == 2
+    reads = _input_reads(monkeypatch, tmp_path / "meshes")
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
+    assert run(cfg, dry_run=True, verify=True, echo=lambda m: None).skipped == 2
+    assert sorted(reads) == ["cow.obj", "spot.obj"]
+    reads.clear()
+    assert run(cfg, verify=True, echo=lambda m: None).skipped == 2
+    assert sorted(reads) == ["cow.obj", "spot.obj"]
+    help_text = " ".join(CliRunner().invoke(main, ["run", "--help"]).output.split())
+    assert "--verify Hash every input file and recorded output" in help_text
+
+
+def test_inputs_of_an_older_manifest_are_hashed_once_then_trusted(tmp_path, monkeypatch):
+    # a manifest written before inputs had their stat recorded: each input hashed as before (to the same
+    # digest: nothing rebuilt), its stat then recorded, and the next rerun reads none
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg = _project(tmp_path, config=MINIMAL)
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    manifest = json.loads((out / "manifest.json").read_text())
+    for rec in manifest["assets"].values():
+        del rec["inputs"]
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    reads = _input_reads(monkeypatch, tmp_path / "meshes")
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.skipped) == (0, 2) and sorted(reads) == ["cow.obj", "spot.obj"]
+    for aid, (entry,) in _recorded_inputs(out).items():
+        assert _as_hashed(entry, tmp_path / aid)
+    reads.clear()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
+
+
+def test_a_malformed_input_stat_is_hashed_not_trusted(tmp_path, monkeypatch):
+    # a hand-edited `inputs` never raises, nor makes the record one the run ignores: the input is hashed
+    # (the digest the same, nothing rebuilt) and its entry recorded anew
+    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline.records import record_problem, recorded_inputs
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg = _project(tmp_path, config=MINIMAL)
+    out, cow = tmp_path / "out", tmp_path / "meshes" / "cow.obj"
+    assert run(cfg, echo=lambda m: None).built == 2
+    manifest = json.loads((out / "manifest.json").read_text())
+    (good,) = manifest["assets"]["meshes/cow.obj"]["inputs"]
+    malformed = {
+        "a string": "cow.obj",
+        "null": None,
+        "an object": {"path": str(cow)},
+        "an entry a string": [str(cow)],
+        "no path": [{k: v for k, v in good.items() if k != "path"}],
+        "a path a number": [{**good, "path": 3}],
+        "a size a string": [{**good, "size": str(good["size"])}],
+        "an mtime a float": [{**good, "mtime_ns": float(good["mtime_ns"])}],
+        "an inode a boolean": [{**good, "ino": True}],
+        "hashed_ns null": [{**good, "hashed_ns": None}],
+    }
+    # well formed, but not trusted: the path alone (changed while hashed), a key missing, another path, one
+    # more input, none, another size
+    untrusted = {
+        "the path alone": [{"path": good["path"]}],
+        "no ctime": [{k: v for k, v in good.items() if k != "ctime_ns"}],
+        "another path": [{**good, "path": str(tmp_path / "meshes" / "spot.obj")}],
+        "two inputs": [good, good],
+        "no input": [],
+        "another size": [{**good, "size": good["size"] + 1}],
+    }
+    reads = _input_reads(monkeypatch, tmp_path / "meshes")
+    for what, value in {**malformed, **untrusted}.items():
+        rec = manifest["assets"]["meshes/cow.obj"]
+        rec["inputs"] = value
+        assert record_problem(rec) is None and (recorded_inputs(rec) is None) == (what in malformed), what
+        (out / "manifest.json").write_text(json.dumps(manifest))
+        reads.clear()
+        res = run(cfg, echo=lambda m: None)
+        assert (res.built, res.skipped) == (0, 2) and reads == ["cow.obj"], what
+        assert not [w for w in res.warnings if "manifest.json" in w], what
+        assert _as_hashed(_recorded_inputs(out)["meshes/cow.obj"][0], cow), what
+        reads.clear()
+        assert run(cfg, echo=lambda m: None).skipped == 2 and reads == [], what
+    # a failed asset's record without its input digest (only its status is required): built again
+    manifest = json.loads((out / "manifest.json").read_text())
+    rec = manifest["assets"]["meshes/cow.obj"]
+    rec["status"] = "failed"
+    del rec["input_digest"]
+    assert record_problem(rec) is None and recorded_inputs(rec) is not None
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    assert run(cfg, echo=lambda m: None).built == 1
+
+
+def test_a_racily_clean_input_is_hashed_again(tmp_path, monkeypatch):
+    # an input changed within the timestamp granularity of its hash can keep the recorded size and stat with
+    # other bytes (as git's "racily clean" files): a record whose mtime or ctime is not older than the
+    # moment of hashing by _RACY_NS is not trusted, and the input is hashed (its entry recorded anew)
+    from swpm_usd.pipeline import runner
+
+    cfg = _project(tmp_path, meshes=("cow.obj",), config=MINIMAL)
+    out, cow = tmp_path / "out", tmp_path / "meshes" / "cow.obj"
+    assert run(cfg, echo=lambda m: None).built == 1
+    manifest = json.loads((out / "manifest.json").read_text())
+    rec = manifest["assets"]["meshes/cow.obj"]
+    reads = _input_reads(monkeypatch, tmp_path / "meshes")
+
+    def trusted(hashed_ns: int) -> bool:
+        """Is cow.obj, recorded as it is now and hashed at ``hashed_ns``, trusted (not read) by a rerun?"""
+        (entry,) = _recorded_inputs(out)["meshes/cow.obj"]
+        assert _as_hashed(entry, cow)
+        rec["inputs"] = [{**entry, "hashed_ns": hashed_ns}]
+        (out / "manifest.json").write_text(json.dumps(manifest))
+        reads.clear()
+        assert run(cfg, echo=lambda m: None).skipped == 1
+        (fresh,) = _recorded_inputs(out)["meshes/cow.obj"]
+        assert _as_hashed(fresh, cow) and (fresh["hashed_ns"] == hashed_ns) == (reads == [])
+        return reads == []
+
+    st = cow.stat()
+    changed = max(st.st_mtime_ns, st.st_ctime_ns)
+    assert not trusted(changed + 10**9)  # hashed a second after its last change
+    assert not trusted(changed + runner._RACY_NS)
+    assert trusted(changed + runner._RACY_NS + 1)
+    assert trusted(changed + 60 * 10**9)
+    # the ctime counts as the mtime does (a chmod or a rename just before the hash, then an edit with the
+    # mtime set back in the same tick): an mtime a minute older than the hash does not make it trusted
+    os.utime(cow, ns=(st.st_atime_ns, st.st_mtime_ns - 60 * 10**9))
+    assert run(cfg, echo=lambda m: None).skipped == 1  # (hashed: its stat moved; recorded anew)
+    st = cow.stat()
+    assert not trusted(st.st_ctime_ns + 10**9)
+    assert trusted(st.st_ctime_ns + runner._RACY_NS + 1)
 
 
 def _config_problems(cfg, text: str, stderr_lists_them: bool = False) -> list[str]:

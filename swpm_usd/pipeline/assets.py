@@ -11,6 +11,8 @@ from __future__ import annotations
 import fnmatch
 import hashlib
 import json
+import os
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -35,17 +37,60 @@ class Asset:
 
 
 def file_digest(paths: list[Path]) -> str:
+    """The digest of an asset's input files (their names and bytes, in order): :func:`hash_inputs`'s."""
+    return hash_inputs(paths)[0]
+
+
+def hash_inputs(paths: list[Path]) -> tuple[str, list[dict[str, Any]]]:
+    """The digest of an asset's input files and, for each, its manifest entry: ``path``, and the ``size``
+    and :data:`.worker.STAT_KEYS` of the bytes hashed (the stat taken through the descriptor read, before
+    the read) with ``hashed_ns``, the time just before that stat (the runner's guard against a "racily
+    clean" file: :func:`.runner._inputs_unchanged`); the path alone for a file that changed while it was
+    read, which the next run hashes again."""
+    from .worker import stat_fields, update_with_stat
+
     h = hashlib.sha256()
+    entries: list[dict[str, Any]] = []
     for p in paths:
         h.update(str(p.name).encode())
-        with open(p, "rb") as f:
-            while chunk := f.read(1 << 20):
-                h.update(chunk)
-    return h.hexdigest()
+        hashed_ns = time.time_ns()
+        st = update_with_stat(h, p)
+        entry: dict[str, Any] = {"path": str(p)}
+        if st is not None:
+            entry.update(size=st.st_size, **stat_fields(st), hashed_ns=hashed_ns)
+        entries.append(entry)
+    return h.hexdigest(), entries
+
+
+def _gltf_buffers(path: Path) -> list[Path]:
+    """The files beside a ``.gltf`` that hold its vertices and triangles: those its ``buffers`` name by a
+    ``uri`` (not a base64 ``data:`` one), which the loader (trimesh) reads, in its folder, by the name as
+    written, without a leading ``/``, or by its last part: every one of those found, so a change to any
+    is a change to the asset; none for another file, or a .gltf that is not JSON (its load fails)."""
+    if path.suffix.lower() != ".gltf":
+        return []
+    try:
+        buffers = json.loads(path.read_bytes()).get("buffers") or []
+    except (OSError, ValueError, AttributeError, RecursionError):
+        return []
+    found: list[Path] = []
+    for b in buffers if isinstance(buffers, list) else []:
+        uri = b.get("uri") if isinstance(b, dict) else None
+        if not isinstance(uri, str) or "base64," in uri:
+            continue
+        for name in (uri.strip(), uri.strip().lstrip("/"), os.path.split(uri)[-1]):
+            f = path.parent / name
+            try:
+                inside = f.resolve().is_relative_to(path.parent.resolve())
+                if name and inside and f not in found and f.is_file():
+                    found.append(f)
+            except (OSError, ValueError):
+                continue
+    return found
 
 
 def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset], list[Path]]:
-    from pxr import Usd, UsdGeom
+    from pxr import Ar, Usd, UsdGeom
 
     stage = Usd.Stage.Open(str(stage_path))
     if stage is None:
@@ -78,7 +123,16 @@ def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset
         Asset(f"{rel.as_posix()}:{first_path[k]}", stage_path, first_path[k], counts[k], tags[k], index)
         for k in sorted(counts)
     ]
-    used = [Path(layer.realPath) for layer in stage.GetUsedLayers() if layer.realPath]
+    # (sorted: GetUsedLayers gives a set of layer handles in the order of their addresses, another in each
+    # process, and the inputs are hashed and compared with the record in their order; a layer in a package,
+    # `a.usdz[b.usdc]`, is the package's file)
+    used = sorted(
+        {
+            Path(Ar.SplitPackageRelativePathOuter(layer.realPath)[0])
+            for layer in stage.GetUsedLayers()
+            if layer.realPath
+        }
+    )
     return assets, used
 
 
@@ -135,7 +189,7 @@ def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]
                 if not _first_match(cfg, matched, (p.resolve(), None), i, rel, instances, problems):
                     continue
                 assets.append(Asset(rel, p, None, instances, {}, i))
-                inputs[rel] = [p]
+                inputs[rel] = [p, *_gltf_buffers(p)]
         else:
             stage_path = (cfg.base / src["stage"]).resolve()
             try:

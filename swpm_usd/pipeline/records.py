@@ -3,7 +3,9 @@
 A record is written by the run (:func:`.worker.process_asset`, completed by the runner), but the manifest is a
 JSON file a person can edit. A record of a current asset that is not what the run writes (not an object, a
 key missing, a value of another type) would raise in the planning, the scene or the report; the runner treats
-it as absent instead (the asset is built again) and names it in a warning (:func:`record_problem`).
+it as absent instead (the asset is built again) and names it in a warning (:func:`record_problem`). Its
+``inputs`` (each input file's size and stat as hashed) only spare a rerun reading them: malformed, they are
+not trusted and the inputs hashed, the record kept (:func:`recorded_inputs`).
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from collections.abc import Callable
 from typing import Any
 
 from .assets import _MAXIMA, _MINIMA
+from .worker import STAT_KEYS
 
 
 def _what(value: Any) -> str:
@@ -102,6 +105,29 @@ def _figures(obj: dict, keys: tuple[str, ...], where: str, required: bool = Fals
                 return f"{where} has no {key!r}"
             return f"{where}.{key} is {_what(value)}, not a number"
     return None
+
+
+#: the keys of an input's entry in a record's ``inputs`` beside its ``path`` (:func:`.assets.hash_inputs`)
+INPUT_STAT_KEYS = ("size", *STAT_KEYS, "hashed_ns")
+
+
+def recorded_inputs(rec: dict) -> list[dict[str, Any]] | None:
+    """A record's ``inputs`` (each input file's path, and its size and stat as it was hashed) when the run
+    could have written them, else None: a list of objects, each with a string ``path`` and whole numbers
+    for those of :data:`INPUT_STAT_KEYS` it has (an entry with its path alone, a file that changed while it
+    was read, is one). Unlike the keys :func:`record_problem` checks, a malformed ``inputs`` (a hand edit)
+    does not make the record one the run ignores: the stats only spare reading the inputs, so the run
+    hashes them instead (as it does an output whose stat fields are not as recorded) and records them
+    anew."""
+    entries = rec.get("inputs")
+    if not isinstance(entries, list):
+        return None
+    for entry in entries:
+        if not isinstance(entry, dict) or not isinstance(entry.get("path"), str):
+            return None
+        if any(k in entry and type(entry[k]) is not int for k in INPUT_STAT_KEYS):
+            return None
+    return entries
 
 
 def record_problem(rec: Any) -> str | None:

@@ -8,7 +8,10 @@ writing one out rebuilds nothing) and the tool version equal the manifest's (for
 budgets and streaming policy it chose by), the budgets and streaming limits are as loose as those it passed
 (:func:`.assets.checks_no_stricter`: loosening a budget rebuilds nothing, tightening one checks again), and
 its outputs are those the config asks for and still as recorded (their size and stat, else their sha256:
-:func:`_checked_output`). A record the run does not write (a hand edit) is ignored, with a warning.
+:func:`_checked_output`). The digest of its inputs is the recorded one, without reading them, when they are
+the recorded files with the size and stat recorded as they were hashed, taken a while after their last
+change (:func:`_inputs_unchanged`), else they are hashed (and recorded anew); ``verify`` hashes every input
+and output. A record the run does not write (a hand edit) is ignored, with a warning.
 
 An asset whose rebuild fails keeps its previous build when that build's outputs are intact
 (:func:`_keep_previous`): the manifest keeps its record (with ``last_failure``), the scene its layer, and the
@@ -35,9 +38,9 @@ from typing import Any
 
 from .. import __version__
 from ..errors import OutputLockedError
-from .assets import Asset, checks_no_stricter, checks_of, discover, file_digest, match_rule, treatment_digest
+from .assets import Asset, checks_no_stricter, checks_of, discover, hash_inputs, match_rule, treatment_digest
 from .config import Config, ConfigError, load_config
-from .records import record_problem
+from .records import INPUT_STAT_KEYS, record_problem, recorded_inputs
 from .worker import (
     STAT_KEYS,
     atomic_write_bytes,
@@ -78,6 +81,9 @@ class PlanItem:
     #: the asset's manifest record; None when the manifest has none, or one that is not a record the run
     #: writes (a hand edit: :func:`.records.record_problem`), which is then ignored, with a warning
     previous: dict | None = None
+    #: each input file's manifest entry (:func:`.assets.hash_inputs`): the recorded ones, when the input
+    #: digest was taken from the record (:func:`_inputs_unchanged`), else those of the files just hashed
+    input_stats: list[dict] = field(default_factory=list)
 
 
 @dataclass
@@ -151,6 +157,36 @@ def _count_triangles(asset: Asset) -> int:
     return mesh.triangle_count
 
 
+#: an input's recorded stat is trusted only when its mtime and ctime were older than the moment it was
+#: hashed by more than this, as git treats "racily clean" index entries: a file written in the timestamp
+#: tick of its hash (coarse kernel clocks, 2 s on FAT, a file server's clock a little off this machine's)
+#: can take a same-size edit that leaves its size, mtime and ctime as recorded, with other bytes. Older
+#: than that, any later write (or os.utime setting the mtime back) stamps a later ctime, which the next run
+#: sees. A racy entry is hashed by the next run, which records the stat again (trusted from then on)
+_RACY_NS = 2_000_000_000
+
+
+def _inputs_unchanged(paths: list[Path], entries: list[dict] | None) -> bool:
+    """Are ``paths``, an asset's input files, those its record's ``inputs`` (``entries``, validated by
+    :func:`.records.recorded_inputs`) describe, each with the recorded size and stat (:data:`STAT_KEYS`),
+    taken long enough after its last change (:data:`_RACY_NS`)? Then the recorded input digest still
+    describes them, and they are not read."""
+    if entries is None or [e["path"] for e in entries] != [str(p) for p in paths]:
+        return False
+    for p, e in zip(paths, entries, strict=True):
+        if not all(k in e for k in INPUT_STAT_KEYS):  # (changed while it was hashed: no stat recorded)
+            return False
+        if max(e["mtime_ns"], e["ctime_ns"]) >= e["hashed_ns"] - _RACY_NS:
+            return False
+        try:
+            st = os.stat(p)
+        except (OSError, ValueError):
+            return False
+        if st.st_size != e["size"] or any(e[k] != v for k, v in stat_fields(st).items()):
+            return False
+    return True
+
+
 def plan(
     cfg: Config, manifest: dict, count_triangles: bool = True, verify: bool = False
 ) -> tuple[list[PlanItem], list[str], list[str]]:
@@ -161,10 +197,12 @@ def plan(
     worker that builds the asset loads it anyway and chooses the rule then, so the main process does not
     load every new asset a second time, one after another (1,000 small assets: 10 of 46 s).
 
-    An asset's recorded outputs are intact when their size and stat are as recorded, or else their sha256
-    (:func:`_checked_output`); ``verify`` hashes every one. A manifest record that is not one the run
-    writes (:func:`.records.record_problem`: hand-edited) is ignored, as if the asset had none, and named
-    in a warning."""
+    An asset's input digest is its record's when its input files are as recorded (:func:`_inputs_unchanged`),
+    else they are hashed (:func:`.assets.hash_inputs`, the item's ``input_stats`` then those of the files
+    hashed, which the run records); its recorded outputs are intact when their size and stat are as
+    recorded, or else their sha256 (:func:`_checked_output`). ``verify`` hashes every input and output. A
+    manifest record that is not one the run writes (:func:`.records.record_problem`: hand-edited) is
+    ignored, as if the asset had none, and named in a warning."""
     assets, inputs, problems = discover(cfg)
     out_dir = cfg.base / cfg.data["output"]["dir"]
     problems.extend(_unusable_out_dir(cfg, out_dir))
@@ -173,8 +211,9 @@ def plan(
     items = []
     record_warnings = []
     needs_rule_on_triangles = any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))
+    # input paths -> (digest, entries) hashed by this plan: the prims of one stage share its layers
+    hashed: dict[tuple[Path, ...], tuple[str, list[dict]]] = {}
     for a in assets:
-        digest = file_digest(inputs[a.id])
         previous = known.get(a.id)
         if a.id in known and (problem := record_problem(previous)) is not None:
             record_warnings.append(
@@ -183,6 +222,15 @@ def plan(
             )
             previous = None
         prev = previous or {}
+        # (a failed asset's record need not have its input digest: record_problem checks its type alone)
+        recorded = None if verify or "input_digest" not in prev else recorded_inputs(prev)
+        if _inputs_unchanged(inputs[a.id], recorded):
+            digest, input_stats = prev["input_digest"], recorded
+        else:
+            key = tuple(inputs[a.id])
+            if key not in hashed:
+                hashed[key] = hash_inputs(inputs[a.id])
+            digest, input_stats = hashed[key]
         tri = prev.get("triangles_in") if prev.get("input_digest") == digest else None
         if tri is None and needs_rule_on_triangles:
             if not count_triangles:
@@ -195,6 +243,7 @@ def plan(
                         rule_pending=True,
                         inputs=inputs[a.id],
                         previous=previous,
+                        input_stats=input_stats,
                     )
                 )
                 continue
@@ -202,7 +251,7 @@ def plan(
                 tri = _count_triangles(a)
             except Exception:  # noqa: BLE001 - the worker reports it as this asset's failure
                 tri = None
-        item = PlanItem(a, digest, tri, inputs=inputs[a.id], previous=previous)
+        item = PlanItem(a, digest, tri, inputs=inputs[a.id], previous=previous, input_stats=input_stats)
         item.rule, item.treatment, item.why = match_rule(cfg, a, tri if tri is not None else 0)
         item.digest = _treatment_digest(cfg, item)
         outs = prev.get("outputs", {})
@@ -786,10 +835,11 @@ def run(
     ``prune``: delete the recorded outputs of assets the config no longer has (those still as the manifest
     recorded them and not outputs of this run's assets); without it they stay and the result names them.
 
-    ``verify``: hash every recorded output (sha256) to decide whether it is intact, where a run otherwise
-    trusts one whose size, mtime, ctime, inode and device are as recorded (:func:`_checked_output`): a file
-    whose bytes changed with none of those (a disk's silent corruption, a write within the timestamp
-    granularity of the run's own) is found and rebuilt.
+    ``verify``: hash every input file and recorded output (sha256) to decide whether it changed, where a
+    run otherwise trusts one whose size, mtime, ctime, inode and device are as recorded
+    (:func:`_inputs_unchanged`, :func:`_checked_output`): a file whose bytes changed with none of those (a
+    disk's silent corruption, a write within the timestamp granularity of the run's own) is found and its
+    asset rebuilt.
 
     A run that writes (not ``dry_run``) holds output.dir's lock from before it reads the manifest (or, for
     an output.dir it creates, from then) to its end; another run there raises :class:`OutputLockedError`."""
@@ -890,7 +940,9 @@ def _run(
         if "last_failure" in kept:  # up to date again (an input or a config put back): another's failure
             kept = records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
         if it.checked_outputs is not None:  # hashed, and their stat recorded anew
-            records[it.asset.id] = {**kept, "outputs": it.checked_outputs}
+            kept = records[it.asset.id] = {**kept, "outputs": it.checked_outputs}
+        if it.input_stats is not kept.get("inputs"):  # hashed (to the recorded digest): their stat anew
+            records[it.asset.id] = {**kept, "inputs": it.input_stats}
     manifest = {"tool_version": __version__, "config": str(cfg.path), "assets": records}
     if orphans and not prune:  # so a later run with prune still finds them
         manifest[ORPHANED] = [o for _, o in orphans]
@@ -921,7 +973,9 @@ def _run(
             it = by_id[rec["id"]]
             if it.rule_pending:
                 it.rule = rec.pop("rule_index", None)
-            rec["input_digest"] = it.input_digest
+            # (the stat of each input as it was hashed to this digest, never a later one: an input changed
+            # since, which the worker may have built from, has another stat, and the next run hashes it)
+            rec["input_digest"], rec["inputs"] = it.input_digest, it.input_stats
             rec["rule"] = None if it.rule is None else cfg.data["rules"][it.rule]["name"]
             for o in rec.get("outputs", {}).values():
                 _complete_output_record(out_dir / o["path"], o)
@@ -1051,10 +1105,11 @@ def _keep_previous(out_dir: Path, previous: dict | None, failed: dict, verify: b
     When the asset was built before and its outputs are all still as recorded (:func:`_checked_output`),
     its previous build is kept: the returned record is the previous one, untouched but for ``last_failure``
     (the failure's error, traceback, digest and seconds) and the stat fields of outputs hashed to be
-    checked, so the manifest, the scene and the outputs still serve the last good build and the next run
-    tries again. Otherwise None: the failed record replaces the previous one, and those of its outputs
-    still as recorded are deleted, so no output is left that the manifest does not list (a file changed
-    since is not the run's to delete)."""
+    checked (its ``inputs`` stay: their stat goes with its input digest, not the failed attempt's), so the
+    manifest, the scene and the outputs still serve the last good build and the next run tries again.
+    Otherwise None: the failed record replaces the previous one, and those of its outputs still as recorded
+    are deleted, so no output is left that the manifest does not list (a file changed since is not the
+    run's to delete)."""
     if previous is None or record_problem(previous) is not None or previous.get("status") != "built":
         return None  # (a record the run does not write, hand-edited, names no file to keep or delete)
     outputs = previous.get("outputs", {})

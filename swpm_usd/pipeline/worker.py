@@ -52,6 +52,13 @@ def hash_with_stat(path: Path) -> tuple[str, os.stat_result | None]:
     describes the bytes hashed (a file renamed over ``path`` meanwhile is another inode, which the stat of
     the one read does not match)."""
     h = hashlib.sha256()
+    st = update_with_stat(h, path)
+    return h.hexdigest(), st
+
+
+def update_with_stat(h: Any, path: Path) -> os.stat_result | None:
+    """Feed ``path``'s bytes to the hash object ``h``; its stat as :func:`hash_with_stat` takes it (None
+    when the file changed while it was read), for a digest of several files (an asset's inputs)."""
     with open(path, "rb") as f:
         before = os.fstat(f.fileno())
         while chunk := f.read(1 << 20):
@@ -62,7 +69,7 @@ def hash_with_stat(path: Path) -> tuple[str, os.stat_result | None]:
         after.st_mtime_ns,
         after.st_ctime_ns,
     )
-    return h.hexdigest(), before if same else None
+    return before if same else None
 
 
 def sha256_file(path: Path) -> str:
