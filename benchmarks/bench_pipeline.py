@@ -222,8 +222,14 @@ def main() -> None:
         print(f"{what:<40} {g['cli_s_median']:>9.2f}s {'':>10}")
         print(f"{'  (run() in process s)':<40} {g['run_s_median']:>9.2f}s")
         print(f"{'  (inputs evicted from the page cache s)':<40} {g['cold_cli_s_median']:>9.2f}s")
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(res, indent=2))
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if args.only and out.exists():  # the other sections' results of an earlier run stay
+        try:
+            res = {**json.loads(out.read_text()), **res}
+        except (ValueError, TypeError):
+            pass
+    out.write_text(json.dumps(res, indent=2))
     print(f"wrote {args.out}")
 
 
