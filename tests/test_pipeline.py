@@ -1905,6 +1905,35 @@ def test_a_rerun_reads_no_input_whose_size_and_stat_are_as_recorded(tmp_path, mo
     assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
 
 
+def test_an_input_gone_after_it_was_listed_fails_its_asset_alone(tmp_path, monkeypatch):
+    # an input listed by the glob and gone (or unreadable) when the plan hashed it stopped the whole run
+    # with a traceback (FileNotFoundError out of the plan, or out of the largest-first ordering); now that
+    # asset fails with its loader's error naming the file, its previous build is kept, the others build
+    from swpm_usd.pipeline import runner
+
+    cfg = _project(tmp_path, config=MINIMAL)
+    out, spot = tmp_path / "out", tmp_path / "meshes" / "spot.obj"
+    assert run(cfg, echo=lambda m: None).built == 2
+    listed = runner.discover
+
+    def discover_then_lose_spot(config):
+        found = listed(config)
+        spot.rename(tmp_path / "spot.away")
+        return found
+
+    monkeypatch.setattr(runner, "discover", discover_then_lose_spot)
+    res = run(cfg, force=True, echo=lambda m: None)
+    assert (res.built, res.failed) == (1, 1)
+    failure = res.failures["meshes/spot.obj"]
+    assert "spot.obj" in failure["error"] and failure["kept_previous"]
+    assert (out / "spot.swpm").exists()
+    # back in place, the same bytes: the kept build is up to date (the record kept is the previous build's)
+    monkeypatch.setattr(runner, "discover", listed)
+    (tmp_path / "spot.away").rename(spot)
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.skipped, res.failed) == (0, 2, 0)
+
+
 def _two_layer_stage(tmp_path: Path) -> tuple[Path, Path]:
     """stage/scene.usda referencing stage/spot_asset.usda (two Mesh prims, spot's), and a config of the
     stage: (the config, the referenced layer)."""

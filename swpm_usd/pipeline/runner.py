@@ -187,6 +187,14 @@ def _inputs_unchanged(paths: list[Path], entries: list[dict] | None) -> bool:
     return True
 
 
+def _input_size(path: Path) -> int:
+    """``path``'s size, 0 if it cannot be read (its asset then fails in the worker, naming the file)."""
+    try:
+        return path.stat().st_size
+    except OSError:
+        return 0
+
+
 def plan(
     cfg: Config, manifest: dict, count_triangles: bool = True, verify: bool = False
 ) -> tuple[list[PlanItem], list[str], list[str]]:
@@ -229,7 +237,13 @@ def plan(
         else:
             key = tuple(inputs[a.id])
             if key not in hashed:
-                hashed[key] = hash_inputs(inputs[a.id])
+                try:
+                    hashed[key] = hash_inputs(inputs[a.id])
+                except OSError as exc:
+                    # gone since it was listed, or unreadable: the asset is built and fails there with
+                    # its loader's error naming the file, while the others run. The digest matches no
+                    # record and no stat is recorded, so the next run hashes it again
+                    hashed[key] = (f"unreadable: {exc}", [{"path": str(p)} for p in inputs[a.id]])
             digest, input_stats = hashed[key]
         tri = prev.get("triangles_in") if prev.get("input_digest") == digest else None
         if tri is None and needs_rule_on_triangles:
@@ -967,7 +981,7 @@ def _run(
 
     try:
         # largest inputs first, so no worker is left with a big asset at the end (LPT scheduling)
-        ordered = sorted(todo, key=lambda it: -it.asset.path.stat().st_size)
+        ordered = sorted(todo, key=lambda it: -_input_size(it.asset.path))
         results = execute([_task(cfg, it) for it in ordered], jobs, executor, scheduler)
         for rec in results:
             it = by_id[rec["id"]]
