@@ -1635,8 +1635,9 @@ def test_the_run_never_overwrites_its_own_inputs(tmp_path):
     (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
     with pytest.raises(ConfigError, match=r"the run report would overwrite report.html \(the configuration"):
         run(cfg2, echo=lambda m: None)
-    (tmp_path / "m" / ".b.obj.tmp").write_text(TWO_TRIANGLES)
-    cfg.write_text("version: 1\nassets: [{glob: 'm/*.obj*'}]\noutput: {dir: m}\n")
+    # (of a mesh type: a glob's files of other types are not assets, so not inputs)
+    (tmp_path / "m" / ".b.tmp.usda").write_text("#usda 1.0\n")
+    cfg.write_text("version: 1\nassets: [{glob: 'm/*.*'}]\noutput: {dir: m}\n")
     with pytest.raises(ConfigError, match="named like a temporary file"):
         run(cfg, echo=lambda m: None)
     # apart from the inputs, the same config runs
@@ -1932,6 +1933,25 @@ def test_an_input_gone_after_it_was_listed_fails_its_asset_alone(tmp_path, monke
     (tmp_path / "spot.away").rename(spot)
     res = run(cfg, echo=lambda m: None)
     assert (res.built, res.skipped, res.failed) == (0, 2, 0)
+
+
+def test_a_glob_takes_its_mesh_files_only(tmp_path):
+    # `glob: "*.*"` (or "meshes/*" beside .mtl and texture files) took every file it matched as an asset: the
+    # config itself, a texture and a README each failed as "unsupported file type"; a glob's assets are
+    # its files of a mesh type, and a glob that matches files but no mesh says so
+    cfg = _project(tmp_path, config=MINIMAL.replace('"meshes/*.obj"', '"**/*.*"'))
+    (tmp_path / "meshes" / "albedo.png").write_bytes(b"\x89PNG")
+    (tmp_path / "meshes" / "README.TXT").write_text("where the meshes are from")
+    (tmp_path / "meshes" / "SPOT2.OBJ").write_bytes((tmp_path / "meshes" / "spot.obj").read_bytes())
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.failed) == (3, 0), res.failures
+    assert set(res.records) == {"meshes/cow.obj", "meshes/spot.obj", "meshes/SPOT2.OBJ"}
+    only_other = tmp_path / "other.yaml"
+    pngs = MINIMAL.replace('"meshes/*.obj"', '"meshes/*.png"')
+    only_other.write_text(pngs.replace("dir: out", "dir: out2"))
+    result = CliRunner().invoke(main, ["run", str(only_other)])
+    assert result.exit_code == 2, result.output
+    assert "the glob matches no mesh file (1 file of another type: meshes/albedo.png)" in result.output
 
 
 def _two_layer_stage(tmp_path: Path) -> tuple[Path, Path]:

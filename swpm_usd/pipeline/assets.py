@@ -164,6 +164,8 @@ def _first_match(
 def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]]:
     """Every asset of the config, the files each depends on, and semantic problems (located). A file (or a
     stage's prim) matched by several entries of ``assets`` is one asset, found by the first of them."""
+    from ..io import SUPPORTED_SUFFIXES  # (here: the CLI's --help and config checks import no mesh code)
+
     assets: list[Asset] = []
     inputs: dict[str, list[Path]] = {}
     problems: list[str] = []
@@ -177,12 +179,22 @@ def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]
                 )
                 continue
             try:
-                found = sorted(p for p in cfg.base.glob(src["glob"]) if p.is_file())
+                files = sorted(p for p in cfg.base.glob(src["glob"]) if p.is_file())
             except (ValueError, NotImplementedError, OSError) as exc:
                 problems.append(f"{where}: unusable glob: {exc}")
                 continue
-            if not found:
+            # a glob's assets are its mesh files: not the config, textures, .mtl or notes it also matches
+            found = [p for p in files if p.suffix.lower() in SUPPORTED_SUFFIXES]
+            if not files:
                 problems.append(f"{where}: the glob matches no file")
+            elif not found:
+                others = [p.relative_to(cfg.base).as_posix() for p in files]
+                shown = ", ".join(others[:3]) + (", ..." if len(others) > 3 else "")
+                problems.append(
+                    f"{where}: the glob matches no mesh file ({len(others)} file"
+                    f"{'s' if len(others) > 1 else ''} of another type: {shown}); mesh files end in "
+                    f"{' '.join(SUPPORTED_SUFFIXES)}"
+                )
             for p in found:
                 rel = p.relative_to(cfg.base).as_posix()
                 instances = int(src.get("instances", 1))
