@@ -310,6 +310,35 @@ def test_usd_orientation(tmp_path: Path, orientation: str) -> None:
     np.testing.assert_allclose(_geometric_normals(m), np.tile([0, 0, z], (4, 1)), atol=1e-6)
 
 
+def test_usd_hole_faces_are_not_loaded(tmp_path: Path) -> None:
+    """Faces listed in holeIndices are not rendered: they are not part of the mesh (face-varying st of the
+    other faces still lines up)."""
+    path = tmp_path / "holes.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    mesh = _define_mesh(stage, "/M", STRIP_POINTS, STRIP_COUNTS, STRIP_INDICES)
+    mesh.CreateHoleIndicesAttr(Vt.IntArray([0]))
+    pv = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(
+        "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying
+    )
+    pv.Set(Vt.Vec2fArray.FromNumpy(_strip_corner_uv(seam=True)))
+    stage.Save()
+    m = load_mesh(path)
+    assert m.triangle_count == 2
+    assert m.points[m.triangles][..., 0].min() == 1.0  # only the second quad, x in [1, 2]
+    pos = m.points[m.triangles]
+    np.testing.assert_allclose(m.attributes["uv"][m.triangles][..., 0], pos[..., 0] / 2 + 0.25)
+    mesh.CreateHoleIndicesAttr(Vt.IntArray([0, 1]))
+    stage.Save()
+    with pytest.raises(MeshLoadError, match=r"holes\.usda: no triangles.*hole"):
+        load_mesh(path)
+    mesh.CreateHoleIndicesAttr(Vt.IntArray([2]))
+    stage.Save()
+    with pytest.raises(
+        MeshLoadError, match=r"holes\.usda: /M: holeIndices\[0\] = 2 out of range for 2 faces"
+    ):
+        load_mesh(path)
+
+
 def _strip_corner_uv(seam: bool) -> np.ndarray:
     """faceVarying st for the strip: u = x / 2 across both faces, or (with a seam) face 1 shifted by 0.25."""
     corners = STRIP_POINTS[STRIP_INDICES]

@@ -2,12 +2,13 @@
 
 Every ``UsdGeom.Mesh`` prim under the pseudo-root (or under ``prim_path``), instance proxies included, is read
 at its earliest time sample, moved to world space with its local-to-world transform and concatenated.
-Polygons are fan-triangulated; ``orientation = leftHanded`` (and mirroring transforms) flip the winding so
-front faces come out counter-clockwise. Primvars: ``primvars:normals`` (else the ``normals`` attribute) ->
-``normal``, ``primvars:st`` (else the first texCoord2f[] primvar by name) -> ``uv``, ``primvars:displayColor``
-(+ ``displayOpacity`` as alpha) -> ``color``. Indexed primvars are flattened. ``vertex`` / ``varying`` /
-``constant`` values stay per point; ``faceVarying`` / ``uniform`` values are taken per face corner and each
-distinct (point, values) pair becomes one vertex, so only real seams split points. Any USD failure becomes a
+Polygons are fan-triangulated and faces listed in ``holeIndices`` (not rendered) left out; ``orientation =
+leftHanded`` (and mirroring transforms) flip the winding so front faces come out counter-clockwise. Primvars:
+``primvars:normals`` (else the ``normals`` attribute) -> ``normal``, ``primvars:st`` (else the first
+texCoord2f[] primvar by name) -> ``uv``, ``primvars:displayColor`` (+ ``displayOpacity`` as alpha) ->
+``color``. Indexed primvars are flattened. ``vertex`` / ``varying`` / ``constant`` values stay per point;
+``faceVarying`` / ``uniform`` values are taken per face corner and each distinct (point, values) pair becomes
+one vertex, so only real seams split points. Any USD failure becomes a
 :class:`~swpm_usd.errors.MeshLoadError` naming the file.
 """
 
@@ -45,7 +46,15 @@ def _tf_message(e: BaseException) -> str:
 class _Topology:
     """Fan triangulation of one mesh prim: corner indices of every triangle and the face each comes from."""
 
-    def __init__(self, counts: np.ndarray, indices: np.ndarray, n_points: int, left_handed: bool, where: str):
+    def __init__(
+        self,
+        counts: np.ndarray,
+        indices: np.ndarray,
+        n_points: int,
+        left_handed: bool,
+        where: str,
+        holes: np.ndarray | None = None,
+    ):
         if counts.shape[0] and counts.min() < 3:
             face = int(np.argmax(counts < 3))
             raise _Invalid(f"{where}: face {face} has {int(counts[face])} vertices (at least 3 needed)")
@@ -63,6 +72,14 @@ class _Topology:
         self.n_corners_in = indices.shape[0]
         self.n_points = n_points
         ntri = counts - 2
+        if holes is not None and holes.shape[0]:
+            if holes.min() < 0 or holes.max() >= self.n_faces:
+                bad = int(np.argmax((holes < 0) | (holes >= self.n_faces)))
+                raise _Invalid(
+                    f"{where}: holeIndices[{bad}] = {int(holes[bad])} out of range for {self.n_faces} faces"
+                )
+            ntri = ntri.copy()
+            ntri[holes] = 0  # a hole face is not rendered: no triangles (its corners keep their numbers)
         starts = np.cumsum(counts) - counts
         self.face = np.repeat(np.arange(self.n_faces, dtype=np.int64), ntri)
         k = np.arange(self.face.shape[0], dtype=np.int64) - (np.cumsum(ntri) - ntri)[self.face] + 1
@@ -139,7 +156,11 @@ def _read_mesh(prim: Usd.Prim, xf_cache: UsdGeom.XformCache, time: Usd.TimeCode)
     if counts.shape[0] == 0 and indices.shape[0] == 0:
         return None  # an empty placeholder mesh contributes nothing
     left = mesh.GetOrientationAttr().Get(time) == UsdGeom.Tokens.leftHanded
-    topo = _Topology(counts, indices, points.shape[0], left, where)
+    raw_holes = mesh.GetHoleIndicesAttr().Get(time)
+    holes = None if raw_holes is None else np.asarray(raw_holes, dtype=np.int64)
+    topo = _Topology(counts, indices, points.shape[0], left, where, holes)
+    if topo.points.shape[0] == 0:
+        return None  # every face a hole
 
     api = UsdGeom.PrimvarsAPI(prim)
     found: dict[str, tuple[str, np.ndarray]] = {}
@@ -236,6 +257,8 @@ def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
     if n_mesh_prims == 0:
         raise MeshLoadError(path, f"no UsdGeom.Mesh prims{under}")
     if not parts:
-        raise MeshLoadError(path, f"no triangles: the {n_mesh_prims} Mesh prims{under} have no faces")
+        raise MeshLoadError(
+            path, f"no triangles: the {n_mesh_prims} Mesh prims{under} have no faces (or only holes)"
+        )
     points, triangles, attrs = concatenate_parts(parts, path)
     return clean_mesh(points, triangles, attrs, str(path))
