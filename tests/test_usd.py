@@ -439,6 +439,31 @@ def test_overrides_reindex_primvars_and_subsets(mode, tmp_path):
     assert validate_stage(out) == []
 
 
+def test_overrides_leave_hole_faces_out(tmp_path):
+    """Faces in the source's holeIndices are not encoded, and the source's hole face numbers (which would
+    name other faces of the new triangle list) are not kept on the override."""
+    n = 6
+    src = tmp_path / "src.usda"
+    _grid_stage(src, n)
+    stage = Usd.Stage.Open(str(src))
+    holes = [14, 15, 20, 21]  # a 2 x 2 hole in the middle: x and y in [2, 4]
+    UsdGeom.Mesh(stage.GetPrimAtPath("/World/grid")).CreateHoleIndicesAttr(Vt.IntArray(holes))
+    stage.Save()
+    out = tmp_path / "ovr.usda"
+    result = usd.write_overrides(src, out)
+    stage = Usd.Stage.Open(str(out))
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/World/grid"))
+    pts = np.asarray(mesh.GetPointsAttr().Get())
+    tri = np.asarray(mesh.GetFaceVertexIndicesAttr().Get()).reshape(-1, 3)
+    assert tri.shape[0] == 2 * (n * n - len(holes)) == result["/World/grid"].triangle_count_at(0)
+    assert list(mesh.GetHoleIndicesAttr().Get() or []) == []
+    centre = pts[tri].mean(axis=1)[:, :2]
+    assert not np.any(np.all((centre > 2) & (centre < 4), axis=1))  # nothing drawn in the hole
+    subset = np.asarray(UsdGeom.Subset(stage.GetPrimAtPath("/World/grid/left")).GetIndicesAttr().Get())
+    np.testing.assert_array_equal(subset, np.flatnonzero(centre[:, 0] < n / 2))
+    assert validate_stage(out) == []
+
+
 # -- discrete LODs -----------------------------------------------------------------------------------------
 def test_lod_variants_and_usdlod(pm, tmp_path):
     asset = usd.write(pm, tmp_path / "lods.usdc", lods=4)

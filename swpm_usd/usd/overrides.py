@@ -1,13 +1,14 @@
 """Non-destructive encoding of an existing stage: a layer that sublayers (or references) the source and
 overrides each Mesh prim with SwpmMeshAPI, points in LOD order, LOD-0 topology and re-indexed primvars.
 
-Per Mesh prim (in its local space, at the default time): faces are fan-triangulated; vertices are the
-distinct (point, faceVarying values, uniform normals/st/displayColor values) combinations, so seams split
-points only where needed; degenerate triangles are dropped. Primvars are re-indexed consistently:
-``vertex`` / ``varying`` ones follow the points; ``faceVarying`` ones (and uniform normals / st /
-displayColor) become ``vertex`` primvars on the split points; other ``uniform`` ones follow the LOD-0
-triangles; ``constant`` ones are untouched; indexed primvars are written flattened (their indices blocked).
-Face GeomSubsets get the LOD-0 triangles of their faces. Instanced meshes (inside prototypes) are skipped.
+Per Mesh prim (in its local space, at the default time): faces are fan-triangulated (hole faces left out, so
+the override authors no ``holeIndices``); vertices are the distinct (point, faceVarying values, uniform
+normals/st/displayColor values) combinations, so seams split points only where needed; degenerate triangles
+are dropped. Primvars are re-indexed consistently: ``vertex`` / ``varying`` ones follow the points;
+``faceVarying`` ones (and uniform normals / st / displayColor) become ``vertex`` primvars on the split points;
+other ``uniform`` ones follow the LOD-0 triangles; ``constant`` ones are untouched; indexed primvars are
+written flattened (their indices blocked). Face GeomSubsets get the LOD-0 triangles of their faces. Instanced
+meshes (inside prototypes) are skipped.
 The source files are never written.
 """
 
@@ -19,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom
+from pxr import Sdf, Usd, UsdGeom, Vt
 
 from ..build import build
 from ..encode.base import ProgressiveMesh, from_buffers
@@ -83,7 +84,8 @@ def _extract(prim: Usd.Prim) -> tuple[Mesh, dict[str, Any]]:
     points = np.asarray(mesh.GetPointsAttr().Get(), np.float32).reshape(-1, 3)
     counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get(), np.int64)
     fvi = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), np.int64)
-    topo = _Topology(counts, fvi, points.shape[0], False, str(prim.GetPath()))
+    holes = np.asarray(mesh.GetHoleIndicesAttr().Get() or [], np.int64)
+    topo = _Topology(counts, fvi, points.shape[0], False, str(prim.GetPath()), holes)
     pvs = [p for p in _primvars(prim, topo) if p.interp != UsdGeom.Tokens.constant]
     n = topo.points.size
     cols = [np.ascontiguousarray(topo.points.reshape(-1, 1).astype("<i8")).view(np.uint8).reshape(n, -1)]
@@ -173,6 +175,8 @@ def encode_prim(prim: Usd.Prim, encoding: str = "vanilla", **params: Any) -> Pro
     mesh.GetPointsAttr().Set(np.ascontiguousarray(pm.points))
     mesh.GetFaceVertexIndicesAttr().Set(np.ascontiguousarray(tri0.reshape(-1).astype(np.int32)))
     mesh.GetFaceVertexCountsAttr().Set(np.full(tri0.shape[0], 3, np.int32))
+    if mesh.GetHoleIndicesAttr().HasValue():  # the source's hole faces were left out: no face is a hole
+        mesh.GetHoleIndicesAttr().Set(Vt.IntArray())
     if pm.vertex_count:
         mesh.GetExtentAttr().Set(np.stack([pm.points.min(axis=0), pm.points.max(axis=0)]))
     for p in info["primvars"]:
