@@ -645,3 +645,20 @@ def test_validate_reports_a_usd_file_that_does_not_open_as_a_coded_error(tmp_pat
         assert result.exit_code == 1 and "SWPM_USD_OPEN" in result.output
     assert "empty" in validate_stage(tmp_path / "empty.usda")[0].message
     assert "SWPM file" in validate_stage(tmp_path / "renamed.usda")[0].message
+
+
+def test_validate_json_of_a_missing_usd_file_is_a_report(tmp_path):
+    """``validate --json`` prints a report for a USD path that does not exist, as it does for a missing .swpm
+    file (stdout was empty: a script reading it got no JSON)."""
+    from click.testing import CliRunner
+
+    from swpm_usd.cli import main
+
+    path = tmp_path / "nope.usda"
+    result = CliRunner().invoke(main, ["validate", str(path), "--json"])
+    assert result.exit_code == 1
+    rep = json.loads(result.stdout)
+    assert rep["stage"] == str(path) and rep["errors"] == 1
+    assert rep["findings"][0]["code"] == "SWPM_USD_OPEN" and "nope.usda" in rep["findings"][0]["message"]
+    result = CliRunner().invoke(main, ["validate", str(path)])
+    assert result.exit_code == 1 and "nope.usda: file not found" in result.stderr

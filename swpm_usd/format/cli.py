@@ -315,6 +315,11 @@ def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool)
 
         if not Path(file).is_file():
             click.echo(f"error: {file}: file not found", err=True)
+            if as_json:  # the report validate_stage gives: one SWPM_USD_OPEN
+                from ..usd.validate import report, validate_stage
+
+                rep = report(validate_stage(file, builtin=False))
+                click.echo(json.dumps({"stage": file, **rep}, indent=2))
             sys.exit(1)
         ctx.invoke(validate_usd, stage=Path(file), as_json=as_json, no_builtin=no_builtin)
         return
