@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -437,6 +438,31 @@ def test_overrides_reindex_primvars_and_subsets(mode, tmp_path):
     np.testing.assert_array_equal(subset, np.flatnonzero(centre[:, 0] < n / 2))
     assert UsdGeom.GetStageUpAxis(stage) == "Z"
     assert validate_stage(out) == []
+
+
+def test_usd_writers_raise_typed_errors_naming_the_file(pm, tmp_path):
+    """A source that is missing or not USD, or an output folder that cannot be written, is a SwpmError
+    naming the file (usd-core's Tf.ErrorException, with C++ file and line noise, escaped before)."""
+    from swpm_usd.usd.overrides import UsdOverrideError
+    from swpm_usd.usd.writer import UsdWriteError
+
+    garbage = tmp_path / "garbage.usda"
+    garbage.write_bytes(b"not usd {{{")
+    for source, problem in [
+        (tmp_path / "nope.usda", "file not found"),
+        (garbage, "USD could not open it: .*not a valid usda layer"),
+    ]:
+        with pytest.raises(UsdOverrideError, match=re.escape(str(source)) + ": " + problem) as exc:
+            usd.write_overrides(source, tmp_path / "ovr.usda")
+        assert "Error in" not in str(exc.value)
+    assert not (tmp_path / "ovr.usda").exists()
+    blocker = tmp_path / "file"
+    blocker.write_bytes(b"")
+    with pytest.raises(UsdWriteError, match=re.escape(str(blocker / "a.usda")) + ": could not write"):
+        usd.write(pm, blocker / "a.usda")  # its folder is a file
+    source = usd.write(pm, tmp_path / "source.usda")
+    with pytest.raises(UsdOverrideError, match=re.escape(str(blocker / "a.usda")) + ": could not write"):
+        usd.write_overrides(source, blocker / "a.usda")
 
 
 def test_overrides_leave_hole_faces_out(tmp_path):

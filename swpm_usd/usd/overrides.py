@@ -15,17 +15,18 @@ The source files are never written.
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom, Vt
+from pxr import Sdf, Tf, Usd, UsdGeom, Vt
 
 from ..build import build
 from ..encode.base import ProgressiveMesh, from_buffers
 from ..errors import SwpmError
-from ..io.usd_loader import _Topology
+from ..io.usd_loader import _tf_message, _Topology
 from ..mesh import Mesh
 from .writer import author_swpm
 
@@ -223,14 +224,22 @@ def write_overrides(
     src_path, out_path = Path(source).resolve(), Path(path).resolve()
     if src_path == out_path:
         raise UsdOverrideError("the override layer must not be the source file")
-    src_stage = Usd.Stage.Open(str(src_path))
+    if not src_path.is_file():
+        raise UsdOverrideError(f"{source}: file not found")
+    try:
+        src_stage = Usd.Stage.Open(str(src_path))
+    except Tf.ErrorException as e:
+        raise UsdOverrideError(f"{source}: USD could not open it: {_tf_message(e)}") from e
+    if src_stage is None:
+        raise UsdOverrideError(f"{source}: USD could not open it")
     rel = os.path.relpath(src_path, out_path.parent).replace(os.sep, "/")
-    out_path.parent.mkdir(parents=True, exist_ok=True)
     layer = Sdf.Layer.Find(str(out_path))
     if layer is not None:
         layer.Clear()
     else:
-        layer = Sdf.Layer.CreateNew(str(out_path))
+        with _writing(path):
+            out_path.parent.mkdir(parents=True, exist_ok=True)
+            layer = Sdf.Layer.CreateNew(str(out_path))
     if mode == "sublayer":
         layer.subLayerPaths.append(rel)
     elif mode == "reference":
@@ -253,5 +262,18 @@ def write_overrides(
     result = {}
     for prim in _mesh_prims(stage, prims):
         result[str(prim.GetPath())] = encode_prim(prim, encoding, **params)
-    layer.Save()
+    with _writing(path):
+        if not layer.Save():
+            raise UsdOverrideError(f"{path}: could not write")
     return result
+
+
+@contextmanager
+def _writing(path: str | os.PathLike[str]) -> Iterator[None]:
+    """An OSError or usd-core error while creating or saving the override layer ``path``: a
+    :class:`UsdOverrideError` naming it."""
+    try:
+        yield
+    except (OSError, Tf.ErrorException) as e:
+        why = e.strerror or str(e) if isinstance(e, OSError) else _tf_message(e)
+        raise UsdOverrideError(f"{path}: could not write: {why}") from e

@@ -240,9 +240,17 @@ def reload_if_open(path: str | os.PathLike[str]) -> None:
 
 
 def _export(stage: Usd.Stage, path: Path, fmt: str | None) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if not stage.GetRootLayer().Export(str(path), args=_layer_args(path, fmt)):
-        raise UsdWriteError(f"could not write {path}")
+    args = _layer_args(path, fmt)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        done = stage.GetRootLayer().Export(str(path), args=args)
+    except (OSError, Tf.ErrorException) as e:
+        from ..io.usd_loader import _tf_message
+
+        why = e.strerror or str(e) if isinstance(e, OSError) else _tf_message(e)
+        raise UsdWriteError(f"{path}: could not write: {why}") from e
+    if not done:
+        raise UsdWriteError(f"{path}: could not write")
     reload_if_open(path)
     return path
 
