@@ -207,6 +207,25 @@ def test_save_is_atomic(grid_pm, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.swpm"]
 
 
+def test_a_failed_save_names_the_file_asked_for(grid_pm, tmp_path: Path) -> None:
+    """The OSError of a save that cannot write names the output, not the temporary file beside it (encode
+    printed "Permission denied: '/out/.a.swpm.x1y2z3.tmp'"), and keeps its errno subclass."""
+    with pytest.raises(IsADirectoryError) as exc:
+        save(grid_pm, tmp_path)  # a folder
+    assert exc.value.filename == str(tmp_path) and ".tmp" not in str(exc.value)
+    assert list(tmp_path.iterdir()) == []
+    (tmp_path / "file").write_bytes(b"")
+    with pytest.raises(OSError) as exc:
+        save(grid_pm, tmp_path / "file" / "a.swpm")  # its folder is a file
+    assert exc.value.filename == str(tmp_path / "file" / "a.swpm")
+    from swpm_usd.cli import main
+
+    r = CliRunner().invoke(
+        main, ["encode", str(_write_fan_obj(tmp_path / "g.obj")), "-o", str(tmp_path / "file" / "a.swpm")]
+    )
+    assert r.exit_code == 1 and f"cannot write {tmp_path / 'file' / 'a.swpm'}" in r.stderr
+
+
 def test_save_is_deterministic(grid_pm) -> None:
     assert encode_bytes(grid_pm) == encode_bytes(grid_pm)
 

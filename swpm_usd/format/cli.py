@@ -199,8 +199,11 @@ def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, .
         digest = None
         if Path(input_path).is_file():
             digest = "sha256:" + hashlib.sha256(Path(input_path).read_bytes()).hexdigest()
-        save(pm, output, source_digest=digest)
-        size = Path(output).stat().st_size
+        try:
+            save(pm, output, source_digest=digest)
+            size = Path(output).stat().st_size
+        except OSError as exc:
+            raise OSError(f"cannot write {output}: {exc.strerror or exc}") from exc
     except (SwpmError, OSError, ValueError) as exc:
         click.echo(f"error: {exc}", err=True)
         if as_json:

@@ -324,5 +324,13 @@ def _json_default(o: Any) -> Any:
 
 
 def save(pm: ProgressiveMesh, path: str | os.PathLike[str], *, source_digest: str | None = None) -> Path:
-    """Write ``pm`` to ``path`` as SWPM v1, atomically: a reader sees the old file or the complete new one."""
-    return atomic_write_bytes(path, encode_bytes(pm, source_digest=source_digest))
+    """Write ``pm`` to ``path`` as SWPM v1, atomically: a reader sees the old file or the complete new one.
+
+    An :class:`OSError` (of its errno's subclass) names ``path``, not the temporary file beside it."""
+    data = encode_bytes(pm, source_digest=source_digest)
+    try:
+        return atomic_write_bytes(path, data)
+    except OSError as e:
+        if e.errno is None:
+            raise
+        raise OSError(e.errno, e.strerror, os.fspath(path)) from e
