@@ -579,6 +579,23 @@ def test_garbage_bytes(tmp_path: Path, ext: str) -> None:
     assert err.value.path == str(path)
 
 
+@pytest.mark.parametrize(
+    ("text", "problem"),
+    [
+        (b"\x89garbage", "not UTF-8 JSON"),
+        (b'{"asset": {"version": "2.0"}, "buffers": [', "not JSON: Expecting value: line 1 column 43"),
+        (b"[1, 2, 3]", "the JSON is a list, not an object"),
+    ],
+)
+def test_gltf_that_is_not_a_json_object_says_so(tmp_path: Path, text: bytes, problem: str) -> None:
+    """trimesh said "FileNotFoundError: model.gltf" (or gltf_buffer_0.bin, or "'list' object has no attribute
+    'get'") for a .gltf that is not a JSON object."""
+    path = tmp_path / "bad.gltf"
+    path.write_bytes(text)
+    with pytest.raises(MeshLoadError, match=r"bad\.gltf: not a glTF file \(" + problem):
+        load_mesh(path)
+
+
 def _stl_bytes(file_type: str = "stl") -> bytes | str:
     return trimesh.creation.icosphere(subdivisions=2).export(file_type=file_type)  # 320 triangles
 
@@ -715,6 +732,16 @@ def test_missing_unsupported_and_directory(tmp_path: Path) -> None:
     obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     with pytest.raises(MeshLoadError, match="prim_path only applies to USD"):
         load_mesh(obj, prim_path="/M")
+
+
+@pytest.mark.parametrize("ext", ["obj", "ply", "stl", "off", "glb", "gltf", "usd", "usda", "usdc", "usdz"])
+def test_empty_file_says_so(tmp_path: Path, ext: str) -> None:
+    """A 0-byte file of every supported type is reported as empty (a .gltf said "FileNotFoundError:
+    model.gltf", a .glb "IndexError: index 0 is out of bounds", a .off "not enough values to unpack")."""
+    path = tmp_path / f"empty.{ext}"
+    path.write_bytes(b"")
+    with pytest.raises(MeshLoadError, match=rf"empty\.{ext}: no triangles: the file is empty \(0 bytes\)$"):
+        load_mesh(path)
 
 
 @pytest.mark.parametrize(

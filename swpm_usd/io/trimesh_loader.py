@@ -15,6 +15,7 @@ load as "no triangles" (or as part of its triangles) instead of being reported a
 from __future__ import annotations
 
 import io
+import json
 import os
 import re
 from pathlib import Path
@@ -154,6 +155,22 @@ def _geometry_part(geom: object) -> tuple[np.ndarray, np.ndarray, dict[str, np.n
     return points[vertex_point], triangles, new_attrs
 
 
+def _gltf_json_problem(path: Path) -> str | None:
+    """Why the .gltf file ``path`` is not a JSON object, or None if it is (asked once trimesh has failed on
+    it: trimesh then reports a file it looked for instead, "FileNotFoundError: model.gltf")."""
+    try:
+        tree = json.loads(path.read_bytes())
+    except UnicodeDecodeError:
+        return "not UTF-8 JSON"
+    except json.JSONDecodeError as e:
+        return f"not JSON: {e}"
+    except (OSError, ValueError, RecursionError) as e:
+        return f"not JSON: {type(e).__name__}: {e}"
+    if not isinstance(tree, dict):
+        return f"the JSON is a {type(tree).__name__}, not an object"
+    return None
+
+
 def load_trimesh(path: Path) -> Mesh:
     """Load an OBJ, PLY, STL, OFF, glTF or GLB file as one cleaned mesh."""
     import trimesh
@@ -191,6 +208,9 @@ def load_trimesh(path: Path) -> Mesh:
             raise MeshLoadError(path, f"not a valid {file_type.upper()} file (binary garbage?)") from e
         raise MeshLoadError(path, f"trimesh could not read it ({type(e).__name__}: {e})") from e
     except Exception as e:
+        problem = _gltf_json_problem(path) if file_type == "gltf" else None
+        if problem is not None:
+            raise MeshLoadError(path, f"not a glTF file ({problem})") from e
         raise MeshLoadError(path, f"trimesh could not read it ({type(e).__name__}: {e})") from e
     if not parts:
         raise MeshLoadError(path, "no triangles: the file holds no triangle geometry")
