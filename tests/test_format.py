@@ -320,6 +320,21 @@ def test_cli(tmp_path: Path) -> None:
     assert r.exit_code == 1
 
 
+def test_rows_below_one_is_a_usage_error(tmp_path: Path) -> None:
+    """build / inspect --rows -3 (or 0) printed a table as if nothing were wrong; it is a usage error (2)."""
+    from swpm_usd.cli import main
+
+    out = tmp_path / "g.swpm"
+    save(swpm_usd.build(_fan_mesh(), "vanilla"), out)
+    obj = _write_fan_obj(tmp_path / "g.obj")
+    for args in (["build", str(obj)], ["inspect", str(out)]):
+        for rows in ("-3", "0"):
+            r = CliRunner().invoke(main, [*args, "--rows", rows])
+            assert r.exit_code == 2 and "--rows" in r.stderr, r.output
+        r = CliRunner().invoke(main, [*args, "--rows", "1", "--json"])
+        assert r.exit_code == 0 and [row["lod"] for row in json.loads(r.stdout)["lods"]][0] == 0
+
+
 def test_build_and_encode_share_usage_errors_and_encode_never_overwrites_its_input(tmp_path: Path) -> None:
     from swpm_usd.cli import main
 

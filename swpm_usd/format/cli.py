@@ -228,7 +228,13 @@ def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, .
 @click.command("inspect")
 @click.argument("file", type=click.Path(dir_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option("--rows", default=10, show_default=True, help="LOD rows to show (spread evenly).")
+@click.option(
+    "--rows",
+    type=click.IntRange(min=1),
+    default=10,
+    show_default=True,
+    help="LOD rows to show (spread evenly, the first and the last always).",
+)
 def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
     """Show FILE's header, chunks, counts, parameters and a per-LOD table."""
     from .reader import _check, _map
