@@ -18,7 +18,7 @@ from swpm_usd.encode import BUILDERS
 from swpm_usd.mesh import Mesh
 from swpm_usd.usd import schema
 from swpm_usd.usd.reader import UsdReadError
-from swpm_usd.usd.validate import CODES, validate_stage
+from swpm_usd.usd.validate import CODES, validate_prim, validate_stage
 
 MESHES = Path(__file__).resolve().parents[2] / "shared" / "meshes"
 if not MESHES.exists():
@@ -644,6 +644,31 @@ def test_an_edited_stage_is_rejected_before_the_runtime(encoding, mesh, tmp_path
         attr.Set(Vt.UIntArray.FromNumpy(original.astype(np.uint32)))
     assert rejected >= len(arrays)  # every out-of-range value at least
     usd.read(prim)  # restored: reads again
+
+
+@pytest.mark.parametrize("encoding", ["vanilla", "mixed"])
+@pytest.mark.parametrize("dtype", ["V1000000000", "object", "complex128", "datetime64", "float16", "S4"])
+def test_a_hostile_dtype_token_is_rejected_before_anything_is_allocated(encoding, dtype, mesh, tmp_path):
+    """swpm:bufferDtypes / swpm:attributeDtypes name what the arrays are cast to: a dtype the writer never
+    stores was cast to as given. "V1000000000" allocated 1 GB per element (a validate of the stage was
+    killed by the OOM killer at 24 GB), "datetime64" raised a TypeError out of read, and "float16" index
+    buffers passed read's check to crash the runtime (draw_stream: "slice indices must be integers"; float16
+    attributes are fine)."""
+    import resource
+
+    path = usd.write(swpm_usd.build(mesh, encoding), tmp_path / "a.usda")
+    for name in ("swpm:bufferDtypes", "swpm:attributeDtypes")[: 1 if dtype == "float16" else 2]:
+        stage = Usd.Stage.Open(str(path))
+        prim = usd.find_encoded(stage)[0]
+        attr = prim.GetAttribute(name)
+        attr.Set(Vt.TokenArray([dtype] * len(attr.Get())))
+        before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        with pytest.raises(UsdReadError, match=rf"{prim.GetPath()}: {name}\[0\] = '{dtype}' is not"):
+            usd.read(prim)
+        (finding,) = validate_prim(prim)
+        assert finding.code == "SWPM_USD_TYPE" and repr(dtype) in finding.message
+        assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 100_000  # KiB
+        Sdf.Layer.Find(str(path)).Reload(force=True)
 
 
 def test_validate_reports_a_usd_file_that_does_not_open_as_a_coded_error(tmp_path):

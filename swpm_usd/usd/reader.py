@@ -16,7 +16,7 @@ from pxr import Usd, UsdGeom
 
 from ..encode.base import ProgressiveMesh, from_buffers
 from ..errors import SwpmError
-from .arrays import from_vt
+from .arrays import ATTRIBUTE_DTYPES, BUFFER_DTYPES, dtype_problem, from_vt
 from .schema import COLLAPSE_PREFIX, SCHEMA_NAME, attr_name
 
 _PROXIES = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
@@ -74,6 +74,9 @@ def read_buffers(prim: Usd.Prim) -> dict[str, np.ndarray]:
     prim = _encoded_prim(prim)
     names = list(_get(prim, "swpm:bufferNames"))
     dtypes = list(_get(prim, "swpm:bufferDtypes"))
+    problem = dtype_problem("swpm:bufferDtypes", dtypes, BUFFER_DTYPES)
+    if problem is not None:
+        raise UsdReadError(f"{prim.GetPath()}: {problem}")
     columns = np.asarray(_get(prim, "swpm:bufferColumns"))
     if not len(names) == len(dtypes) == columns.shape[0]:
         raise UsdReadError(
@@ -114,6 +117,10 @@ def _restore(name: str, a: np.ndarray, dtype: str | None) -> np.ndarray:
 
 def _attributes(prim: Usd.Prim, names: list[str], dtypes: list[str] | None = None) -> dict[str, np.ndarray]:
     """The per-vertex attributes ``names`` from their primvars, each cast back to its ``dtypes`` entry."""
+    if dtypes is not None:
+        problem = dtype_problem("swpm:attributeDtypes", dtypes, ATTRIBUTE_DTYPES)
+        if problem is not None:
+            raise UsdReadError(f"{prim.GetPath()}: {problem}")
     out = _float_attributes(prim, names)
     if dtypes is None:
         return out
