@@ -646,6 +646,25 @@ def test_an_edited_stage_is_rejected_before_the_runtime(encoding, mesh, tmp_path
     usd.read(prim)  # restored: reads again
 
 
+def test_read_flattens_indexed_primvars(pm, tmp_path):
+    """A DCC that re-saves an asset may store primvars indexed (distinct values + indices); read returned the
+    distinct values as if they were per vertex (wrong uvs and colours, or a length error)."""
+    path = usd.write(pm, tmp_path / "a.usda")
+    stage = Usd.Stage.Open(str(path))
+    prim = usd.find_encoded(stage)[0]
+    api = UsdGeom.PrimvarsAPI(prim)
+    for name, values in (("st", pm.attributes["uv"]), ("displayColor", pm.attributes["color"][:, :3])):
+        unique, inverse = np.unique(values, axis=0, return_inverse=True)
+        pv = api.GetPrimvar(name)
+        pv.Set(pv.GetAttr().Get().__class__.FromNumpy(unique[::-1].copy()))
+        pv.SetIndices(Vt.IntArray.FromNumpy((len(unique) - 1 - inverse.ravel()).astype(np.int32)))
+        assert len(unique) < len(values)
+    back = usd.read(prim)
+    for name in ("uv", "color", "normal", "weight"):
+        np.testing.assert_array_equal(back.attributes[name], pm.attributes[name])
+    assert validate_prim(prim) == []
+
+
 @pytest.mark.parametrize("encoding", ["vanilla", "mixed"])
 @pytest.mark.parametrize("dtype", ["V1000000000", "object", "complex128", "datetime64", "float16", "S4"])
 def test_a_hostile_dtype_token_is_rejected_before_anything_is_allocated(encoding, dtype, mesh, tmp_path):

@@ -137,21 +137,23 @@ def _float_attributes(prim: Usd.Prim, names: list[str]) -> dict[str, np.ndarray]
     out = {}
     for name in names:
         own = name in ("normal", "uv", "color") and api.GetPrimvar(name).HasAuthoredValue()
+        # primvars flattened: an indexed one (as a DCC may re-save it) holds distinct values + indices
         if name == "normal" and not own:
-            value = mesh.GetNormalsAttr().Get()
+            normals = api.GetPrimvar("normals")
+            value = normals.ComputeFlattened() if normals.HasAuthoredValue() else mesh.GetNormalsAttr().Get()
         elif name == "uv" and not own:
-            value = api.GetPrimvar("st").Get()
+            value = api.GetPrimvar("st").ComputeFlattened()
         elif name == "color" and not own:
-            value = api.GetPrimvar("displayColor").Get()
+            value = api.GetPrimvar("displayColor").ComputeFlattened()
             opacity = api.GetPrimvar("displayOpacity")
             if value is not None and opacity and opacity.HasAuthoredValue():
                 rgb = np.asarray(value, np.float32).reshape(-1, 3)
-                alpha = np.asarray(opacity.Get(), np.float32).reshape(-1, 1)
+                alpha = np.asarray(opacity.ComputeFlattened(), np.float32).reshape(-1, 1)
                 out[name] = np.concatenate([rgb, alpha], axis=1)
                 continue
         else:
             pv = api.GetPrimvar(name)
-            value = pv.Get() if pv else None
+            value = pv.ComputeFlattened() if pv else None
             if value is not None:
                 a = np.asarray(value, np.float32)
                 out[name] = a.reshape(a.shape[0] // pv.GetElementSize(), -1) if a.ndim == 1 else a
