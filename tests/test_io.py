@@ -339,6 +339,25 @@ def test_usd_hole_faces_are_not_loaded(tmp_path: Path) -> None:
         load_mesh(path)
 
 
+def test_usd_unrendered_meshes_are_not_loaded(tmp_path: Path) -> None:
+    """Meshes a renderer does not draw, invisible (also through an ancestor) or of purpose guide or proxy (a
+    viewport stand-in beside the render mesh), were concatenated with the asset's surface."""
+    path = tmp_path / "purpose.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    _define_mesh(stage, "/A/render", STRIP_POINTS, STRIP_COUNTS, STRIP_INDICES).CreatePurposeAttr("render")
+    _define_mesh(stage, "/A/default", STRIP_POINTS + [0, 2, 0], STRIP_COUNTS, STRIP_INDICES)
+    for name, z in (("proxy", 1), ("guide", 2)):
+        _define_mesh(stage, f"/A/{name}", STRIP_POINTS + [0, 0, z], [3], [0, 1, 4]).CreatePurposeAttr(name)
+    _define_mesh(stage, "/A/hidden", STRIP_POINTS + [0, 0, 3], [3], [0, 1, 4]).MakeInvisible()
+    UsdGeom.Xform.Define(stage, "/A/off").MakeInvisible()
+    _define_mesh(stage, "/A/off/child", STRIP_POINTS + [0, 0, 4], [3], [0, 1, 4])
+    stage.Save()
+    m = load_mesh(path)
+    assert m.triangle_count == 8 and np.all(m.points[:, 2] == 0)
+    with pytest.raises(MeshLoadError, match=r"/A/proxy .*1 of them not rendered: /A/proxy \(purpose proxy"):
+        load_mesh(path, prim_path="/A/proxy")
+
+
 def _strip_corner_uv(seam: bool) -> np.ndarray:
     """faceVarying st for the strip: u = x / 2 across both faces, or (with a seam) face 1 shifted by 0.25."""
     corners = STRIP_POINTS[STRIP_INDICES]

@@ -1,15 +1,15 @@
 """Load USD stages (.usd .usda .usdc .usdz) through usd-core into a cleaned :class:`~swpm_usd.mesh.Mesh`.
 
-Every ``UsdGeom.Mesh`` prim under the pseudo-root (or under ``prim_path``), instance proxies included, is read
-at its earliest time sample, moved to world space with its local-to-world transform and concatenated.
-Polygons are fan-triangulated and faces listed in ``holeIndices`` (not rendered) left out; ``orientation =
-leftHanded`` (and mirroring transforms) flip the winding so front faces come out counter-clockwise. Primvars:
-``primvars:normals`` (else the ``normals`` attribute) -> ``normal``, ``primvars:st`` (else the first
-texCoord2f[] primvar by name) -> ``uv``, ``primvars:displayColor`` (+ ``displayOpacity`` as alpha) ->
-``color``. Indexed primvars are flattened. ``vertex`` / ``varying`` / ``constant`` values stay per point;
-``faceVarying`` / ``uniform`` values are taken per face corner and each distinct (point, values) pair becomes
-one vertex, so only real seams split points. Any USD failure becomes a
-:class:`~swpm_usd.errors.MeshLoadError` naming the file.
+Every ``UsdGeom.Mesh`` prim under the pseudo-root (or under ``prim_path``), instance proxies included, that a
+renderer draws (not invisible, not of purpose ``guide`` or ``proxy``) is read at its earliest time sample,
+moved to world space with its local-to-world transform and concatenated. Polygons are fan-triangulated and
+faces listed in ``holeIndices`` (not rendered) left out; ``orientation = leftHanded`` (and mirroring
+transforms) flip the winding so front faces come out counter-clockwise. Primvars: ``primvars:normals`` (else
+the ``normals`` attribute) -> ``normal``, ``primvars:st`` (else the first texCoord2f[] primvar by name) ->
+``uv``, ``primvars:displayColor`` (+ ``displayOpacity`` as alpha) -> ``color``. Indexed primvars are
+flattened. ``vertex`` / ``varying`` / ``constant`` values stay per point; ``faceVarying`` / ``uniform`` values
+are taken per face corner and each distinct (point, values) pair becomes one vertex, so only real seams split
+points. Any USD failure becomes a :class:`~swpm_usd.errors.MeshLoadError` naming the file.
 """
 
 from __future__ import annotations
@@ -218,6 +218,18 @@ def _read_mesh(prim: Usd.Prim, xf_cache: UsdGeom.XformCache, time: Usd.TimeCode)
     return transform_part(part, matrix)
 
 
+def _not_rendered(prim: Usd.Prim, time: Usd.TimeCode) -> str | None:
+    """Why a renderer does not draw ``prim`` (invisible, itself or through an ancestor; purpose guide, or
+    proxy: a viewport stand-in for the render geometry), or None when it does."""
+    imageable = UsdGeom.Imageable(prim)
+    if imageable.ComputeVisibility(time) == UsdGeom.Tokens.invisible:
+        return "invisible"
+    purpose = imageable.ComputePurpose()
+    if purpose in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy):
+        return f"purpose {purpose}"
+    return None
+
+
 def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
     """Load every Mesh prim of a USD stage (or those under ``prim_path``) as one cleaned mesh."""
     try:
@@ -239,9 +251,14 @@ def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
         xf_cache = UsdGeom.XformCache(time)
         parts: list[Part] = []
         n_mesh_prims = 0
+        unrendered: list[str] = []
         for prim in Usd.PrimRange(root, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)):
             if prim.IsA(UsdGeom.Mesh):
                 n_mesh_prims += 1
+                why = _not_rendered(prim, time)
+                if why is not None:
+                    unrendered.append(f"{prim.GetPath()} ({why})")
+                    continue
                 part = _read_mesh(prim, xf_cache, time)
                 if part is not None:
                     parts.append(part)
@@ -257,8 +274,13 @@ def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
     if n_mesh_prims == 0:
         raise MeshLoadError(path, f"no UsdGeom.Mesh prims{under}")
     if not parts:
+        skipped = ""
+        if unrendered:
+            listed = ", ".join(unrendered[:3]) + (", ..." if len(unrendered) > 3 else "")
+            skipped = f"; {len(unrendered)} of them not rendered: {listed}"
         raise MeshLoadError(
-            path, f"no triangles: the {n_mesh_prims} Mesh prims{under} have no faces (or only holes)"
+            path,
+            f"no triangles: the {n_mesh_prims} Mesh prims{under} have no faces (or only holes){skipped}",
         )
     points, triangles, attrs = concatenate_parts(parts, path)
     return clean_mesh(points, triangles, attrs, str(path))
