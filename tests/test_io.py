@@ -358,6 +358,27 @@ def test_usd_unrendered_meshes_are_not_loaded(tmp_path: Path) -> None:
         load_mesh(path, prim_path="/A/proxy")
 
 
+@pytest.mark.parametrize(
+    ("header", "problem"),
+    [
+        (
+            '(\n    subLayers = [@gone.usda@]\n)\ndef Xform "X" (\n    references = @gone2.usda@\n)\n{\n}\n',
+            r"2 composition errors, the stage is incomplete; first: Could not ",
+        ),
+        (
+            'def Xform "X" (\n    references = @gone.usda@\n)\n{\n}\n',
+            r"1 composition error, the stage is incomplete; first: Could not open asset @gone\.usda@",
+        ),
+    ],
+)
+def test_usd_composition_errors_are_load_errors(tmp_path: Path, header: str, problem: str) -> None:
+    """A sublayer or reference that does not resolve dropped its meshes from the build without a word
+    (usd-core only prints a warning): the mesh of the stage's other prims was encoded as the asset."""
+    path = _write_usda(tmp_path / "c.usda", header + _mesh_usda(_TRIANGLE, *_ONE_FACE))
+    with pytest.raises(MeshLoadError, match=r"c\.usda: " + problem):
+        load_mesh(path)
+
+
 def _strip_corner_uv(seam: bool) -> np.ndarray:
     """faceVarying st for the strip: u = x / 2 across both faces, or (with a seam) face 1 shifted by 0.25."""
     corners = STRIP_POINTS[STRIP_INDICES]
@@ -525,6 +546,7 @@ def _write_usda(path: Path, body: str) -> Path:
 
 
 _TRIANGLE = "point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]"
+_ONE_FACE = ("int[] faceVertexCounts = [3]", "int[] faceVertexIndices = [0, 1, 2]")
 
 
 def _mesh_usda(*lines: str) -> str:

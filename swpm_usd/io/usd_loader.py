@@ -9,7 +9,8 @@ the ``normals`` attribute) -> ``normal``, ``primvars:st`` (else the first texCoo
 ``uv``, ``primvars:displayColor`` (+ ``displayOpacity`` as alpha) -> ``color``. Indexed primvars are
 flattened. ``vertex`` / ``varying`` / ``constant`` values stay per point; ``faceVarying`` / ``uniform`` values
 are taken per face corner and each distinct (point, values) pair becomes one vertex, so only real seams split
-points. Any USD failure becomes a :class:`~swpm_usd.errors.MeshLoadError` naming the file.
+points. Any USD failure, a composition error (a sublayer or reference that does not resolve) too, becomes a
+:class:`~swpm_usd.errors.MeshLoadError` naming the file.
 """
 
 from __future__ import annotations
@@ -239,6 +240,11 @@ def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
             raise MeshLoadError(path, f"USD could not open it: {_tf_message(e)}") from e
         if stage is None:
             raise MeshLoadError(path, "USD could not open it")
+        # a sublayer or reference that does not resolve: its meshes would be missing from the build
+        errors = stage.GetCompositionErrors()
+        if errors:
+            what = "1 composition error" if len(errors) == 1 else f"{len(errors)} composition errors"
+            raise MeshLoadError(path, f"{what}, the stage is incomplete; first: {errors[0]}")
         if prim_path is None:
             root = stage.GetPseudoRoot()
         else:
