@@ -440,6 +440,28 @@ def test_overrides_reindex_primvars_and_subsets(mode, tmp_path):
     assert validate_stage(out) == []
 
 
+@pytest.mark.parametrize(
+    ("kwargs", "problem"),
+    [
+        ({"up_axis": "X"}, "up_axis must be 'Y' or 'Z', not 'X'"),
+        ({"up_axis": ""}, "up_axis must be 'Y' or 'Z', not ''"),
+        ({"meters_per_unit": -1.0}, "meters_per_unit must be a finite number above 0, not -1.0"),
+        ({"meters_per_unit": 0}, "meters_per_unit must be a finite number above 0, not 0"),
+        ({"meters_per_unit": float("nan")}, "meters_per_unit must be a finite number above 0, not nan"),
+    ],
+)
+def test_write_rejects_stage_metadata_usd_does_not_define(pm, tmp_path, kwargs, problem):
+    """up_axis "X" (or any typo) was written as "Y" without a word, and a metersPerUnit of -1, 0 or NaN was
+    written as is: the asset then came in mirrored, rotated or scaled by nonsense."""
+    from swpm_usd.usd.writer import UsdWriteError
+
+    with pytest.raises(UsdWriteError, match=re.escape(problem)):
+        usd.write(pm, tmp_path / "a.usda", **kwargs)
+    assert not (tmp_path / "a.usda").exists()
+    stage = Usd.Stage.Open(str(usd.write(pm, tmp_path / "z.usda", up_axis="z", meters_per_unit=0.01)))
+    assert UsdGeom.GetStageUpAxis(stage) == "Z" and UsdGeom.GetStageMetersPerUnit(stage) == 0.01
+
+
 def test_usd_writers_raise_typed_errors_naming_the_file(pm, tmp_path):
     """A source that is missing or not USD, or an output folder that cannot be written, is a SwpmError
     naming the file (usd-core's Tf.ErrorException, with C++ file and line noise, escaped before)."""

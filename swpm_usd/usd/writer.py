@@ -279,14 +279,24 @@ def write(
 
     ``.usdc`` by default (also for ``.usd``); ``.usda`` for a ``.usda`` path or ``fmt="usda"``. ``lods=n``
     adds the ``LOD`` variant set of :func:`select_lods` (``lod_by`` ``"triangles"`` or ``"error"``).
+    ``up_axis`` ``"Y"`` or ``"Z"`` and ``meters_per_unit`` (above 0) are the stage's metadata; other values
+    raise :class:`UsdWriteError`.
     Returns the written path.
     """
+    if str(up_axis).upper() not in ("Y", "Z"):  # (the only two USD defines)
+        raise UsdWriteError(f"up_axis must be 'Y' or 'Z', not {up_axis!r}")
+    try:
+        scale = float(meters_per_unit)
+    except (TypeError, ValueError):
+        scale = math.nan
+    if isinstance(meters_per_unit, bool) or not (math.isfinite(scale) and scale > 0):
+        raise UsdWriteError(f"meters_per_unit must be a finite number above 0, not {meters_per_unit!r}")
     p = _resolve_path(path, fmt)
     if fmt is None and p.suffix.lower() == ".usd":
         fmt = "usdc"
     stage = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z if up_axis.upper() == "Z" else UsdGeom.Tokens.y)
-    UsdGeom.SetStageMetersPerUnit(stage, float(meters_per_unit))
+    UsdGeom.SetStageMetersPerUnit(stage, scale)
     root = UsdGeom.Xform.Define(stage, Sdf.Path.absoluteRootPath.AppendChild(_prim_name(p, name)))
     Usd.ModelAPI(root.GetPrim()).SetKind(Kind.Tokens.component)
     stage.SetDefaultPrim(root.GetPrim())
