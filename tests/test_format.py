@@ -226,6 +226,36 @@ def test_a_failed_save_names_the_file_asked_for(grid_pm, tmp_path: Path) -> None
     assert r.exit_code == 1 and f"cannot write {tmp_path / 'file' / 'a.swpm'}" in r.stderr
 
 
+@pytest.mark.parametrize(
+    ("attribute", "what"),
+    [
+        (np.arange(4, dtype=np.int64), "int64, shape (4, 1)"),
+        (np.ones((4, 300), np.float32), "float32, shape (4, 300)"),
+    ],
+)
+def test_an_attribute_the_format_cannot_store_is_a_typed_error(
+    tmp_path: Path, attribute: np.ndarray, what: str
+) -> None:
+    """save raised a bare ValueError (no SwpmError: an `except SwpmError` let it through) without saying
+    what the format can store; it is an SwpmEncodeError, still a ValueError, that lists it; nothing is
+    written."""
+    from swpm_usd.format import SwpmEncodeError
+
+    mesh = Mesh.from_arrays(
+        np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], np.float32),
+        [[0, 1, 2], [1, 3, 2]],
+        {"a": attribute},
+    )
+    pm = swpm_usd.build(mesh, "vanilla")
+    with pytest.raises(
+        SwpmEncodeError, match=rf"attribute 'a' \({re.escape(what)}\) cannot be stored in SWPM v1: "
+    ) as exc:
+        save(pm, tmp_path / "a.swpm")
+    assert isinstance(exc.value, swpm_usd.SwpmError) and isinstance(exc.value, ValueError)
+    assert "u8 i8 u16 i16 u32 i32 f16 f32 f64" in str(exc.value) and "1 to 255" in str(exc.value)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_save_is_deterministic(grid_pm) -> None:
     assert encode_bytes(grid_pm) == encode_bytes(grid_pm)
 

@@ -16,6 +16,7 @@ from .. import __version__
 from ..encode.base import ProgressiveMesh
 from ..fileio import atomic_write_bytes
 from . import layout as L
+from .errors import SwpmEncodeError
 
 #: LOD bands of the streaming map: one per halving of the vertex count
 GENERATOR = f"swpm-usd {__version__}"
@@ -62,7 +63,10 @@ def _vert_payload(pm: ProgressiveMesh) -> tuple[bytes, int, int]:
         dt = a.dtype.newbyteorder("<") if a.dtype.byteorder == ">" else a.dtype
         code = L.ELEM_CODES.get(np.dtype(dt).newbyteorder("<").str)
         if code is None or a.ndim != 2 or a.shape[0] != V or not 1 <= a.shape[1] <= 255:
-            raise ValueError(f"attribute {name!r} ({a.dtype}, shape {a.shape}) cannot be stored in SWPM v1")
+            raise SwpmEncodeError(
+                f"attribute {name!r} ({a.dtype}, shape {a.shape}) cannot be stored in SWPM v1: one row per "
+                f"vertex ({V}) of 1 to 255 components of {' '.join(L.ELEM_NAMES.values())}"
+            )
         elem = L.ELEM_TYPES[code]
         offset = L.align(offset, elem.itemsize)
         raw = name.encode("utf-8")
