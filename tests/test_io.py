@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -226,6 +227,33 @@ def test_multi_object_obj_concatenated(tmp_path: Path) -> None:
     assert m.triangle_count == 3 and m.vertex_count == 7
     assert "uv" not in m.attributes
     assert sorted(np.unique(m.points[:, 0]).tolist()) == [0.0, 1.0, 5.0, 6.0]
+
+
+@pytest.mark.parametrize(
+    ("faces", "dropped"),
+    [
+        ("f 1/1/1 2/2/1 3/3/1\nf 2/2/1 4/9/1 3/3/1\n", "uv"),  # vt index 9 of 4
+        ("f 1/1/1 2/2/1 3/3/1\nf 2/2/1 4/4/7 3/3/1\n", "normal"),  # vn index 7 of 1
+        ("f 1/1/1 2/2/1 3/3/1\nf 2 4 3\n", "normal, uv"),  # a face without them
+    ],
+)
+def test_obj_texture_coordinates_or_normals_trimesh_drops_are_reported(
+    tmp_path: Path, faces: str, dropped: str
+) -> None:
+    """trimesh drops every vt (or vn) of an OBJ when one face refers to none or to one out of range: the
+    mesh loaded without its UVs and nothing said so."""
+    path = tmp_path / "q.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\nvn 0 0 1\n" + faces)
+    with pytest.warns(UserWarning, match=rf"q\.obj: its faces refer to {dropped} .*dropped") as record:
+        m = load_mesh(path)
+    assert len(record) == 1
+    for name in dropped.split(", "):
+        assert name not in m.attributes
+    path.write_text(path.read_text().replace("4/9/1", "4/4/1").replace("4/4/7", "4/4/1"))
+    if "f 2 4 3" not in faces:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            assert sorted(load_mesh(path).attributes) == ["normal", "uv"]
 
 
 def test_obj_degenerate_and_duplicates_dropped(tmp_path: Path) -> None:

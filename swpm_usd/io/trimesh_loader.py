@@ -18,6 +18,7 @@ import io
 import json
 import os
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -176,6 +177,7 @@ def load_trimesh(path: Path) -> Mesh:
     import trimesh
 
     file_type = path.suffix.lower().lstrip(".")
+    data = b""
     try:
         if file_type == "stl":
             check_stl(path)  # (its start and end: trimesh reads the file)
@@ -214,5 +216,28 @@ def load_trimesh(path: Path) -> Mesh:
         raise MeshLoadError(path, f"trimesh could not read it ({type(e).__name__}: {e})") from e
     if not parts:
         raise MeshLoadError(path, "no triangles: the file holds no triangle geometry")
+    if file_type == "obj":
+        _report_dropped_obj_attributes(path, data, parts)
     points, triangles, attrs = concatenate_parts(parts, path)
     return clean_mesh(points, triangles, attrs, str(path))
+
+
+#: an OBJ face corner that refers to a texture coordinate (v/vt, v/vt/vn) or a normal (v//vn, v/vt/vn)
+_OBJ_FACE_UV = re.compile(rb"(?m)^[ \t]*f[ \t][^\n]*?-?\d+/-?\d")
+_OBJ_FACE_NORMAL = re.compile(rb"(?m)^[ \t]*f[ \t][^\n]*?-?\d+/-?\d*/-?\d")
+
+
+def _report_dropped_obj_attributes(path: Path, data: bytes, parts: list) -> None:
+    """Warn when the OBJ's faces refer to texture coordinates or normals that no part came out with: trimesh
+    drops all of them when one face refers to none, or to one out of range."""
+    dropped = [
+        name
+        for name, pattern in (("normal", _OBJ_FACE_NORMAL), ("uv", _OBJ_FACE_UV))
+        if not any(name in attrs for _, _, attrs in parts) and pattern.search(data)
+    ]
+    if dropped:
+        warnings.warn(
+            f"{path}: its faces refer to {', '.join(dropped)} values (vt/vn), but trimesh dropped them all "
+            "(a face that refers to none, or to one out of range?): loaded without them",
+            stacklevel=4,
+        )
