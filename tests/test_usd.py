@@ -487,6 +487,32 @@ def test_usd_writers_raise_typed_errors_naming_the_file(pm, tmp_path):
         usd.write_overrides(source, blocker / "a.usda")
 
 
+def test_a_failed_write_overrides_keeps_the_previous_layer(tmp_path):
+    """write_overrides created its output at once (Sdf.Layer.CreateNew) and saved it at the end: a run that
+    failed in between (a bad parameter, a prim that cannot be encoded) left an empty layer in place of the
+    good one written before (or cleared it in memory, when it was open). It writes a temporary layer beside
+    it and renames it into place."""
+    src = tmp_path / "src.usda"
+    _grid_stage(src, 4)
+    out = tmp_path / "ovr.usda"
+    usd.write_overrides(src, tmp_path / "first.usda")  # (a layer this process never opened at out)
+    before = (tmp_path / "first.usda").read_bytes()
+    (tmp_path / "first.usda").unlink()
+    out.write_bytes(before)
+    names = ["ovr.usda", "src.usda"]
+    for opened in (False, True):
+        layer = Sdf.Layer.FindOrOpen(str(out)) if opened else None  # open in this process too
+        with pytest.raises(swpm_usd.BuildError, match="seam_weight"):
+            usd.write_overrides(src, out, seam_weight=-5.0)
+        assert out.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == names
+    assert layer.GetPrimAtPath("/World/grid") is not None  # the open layer was not cleared either
+    usd.write_overrides(src, out, "skip-strip")  # and a later run replaces it (the open layer reloaded)
+    stage = Usd.Stage.Open(str(out))
+    assert stage.GetPrimAtPath("/World/grid").GetAttribute("swpm:encoding").Get() == "skip-strip"
+    assert layer.GetPrimAtPath("/World/grid").attributes["swpm:encoding"].default == "skip-strip"
+    assert sorted(p.name for p in tmp_path.iterdir()) == names
+
+
 def test_overrides_leave_hole_faces_out(tmp_path):
     """Faces in the source's holeIndices are not encoded, and the source's hole face numbers (which would
     name other faces of the new triangle list) are not kept on the override."""

@@ -15,6 +15,7 @@ The source files are never written.
 from __future__ import annotations
 
 import os
+import secrets
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -28,7 +29,7 @@ from ..encode.base import ProgressiveMesh, from_buffers
 from ..errors import SwpmError
 from ..io.usd_loader import _tf_message, _Topology
 from ..mesh import Mesh
-from .writer import author_swpm
+from .writer import author_swpm, reload_if_open
 
 _PROV = "_swpm_source_vertex"
 _PM_NAMES = {"normals": "normal", "st": "uv", "displayColor": "color"}
@@ -233,13 +234,37 @@ def write_overrides(
     if src_stage is None:
         raise UsdOverrideError(f"{source}: USD could not open it")
     rel = os.path.relpath(src_path, out_path.parent).replace(os.sep, "/")
-    layer = Sdf.Layer.Find(str(out_path))
-    if layer is not None:
-        layer.Clear()
-    else:
+    # a new layer under a temporary name beside the output (relative paths resolve the same), renamed into
+    # place once complete: a run that fails leaves the previous output as it was, on disk and in memory
+    tmp_path = out_path.with_name(f".{out_path.stem}.{secrets.token_hex(4)}.tmp{out_path.suffix}")
+    with _writing(path):
+        out_path.parent.mkdir(parents=True, exist_ok=True)
+        layer = Sdf.Layer.CreateNew(str(tmp_path))
+    try:
+        result = _author_overrides(layer, src_stage, src_path, rel, mode, encoding, prims, params)
         with _writing(path):
-            out_path.parent.mkdir(parents=True, exist_ok=True)
-            layer = Sdf.Layer.CreateNew(str(out_path))
+            if not layer.Save():
+                raise UsdOverrideError(f"{path}: could not write")
+            os.replace(tmp_path, out_path)
+    except BaseException:
+        tmp_path.unlink(missing_ok=True)
+        raise
+    reload_if_open(out_path)
+    return result
+
+
+def _author_overrides(
+    layer: Sdf.Layer,
+    src_stage: Usd.Stage,
+    src_path: Path,
+    rel: str,
+    mode: str,
+    encoding: str,
+    prims: Iterable[str] | None,
+    params: dict[str, Any],
+) -> dict[str, ProgressiveMesh]:
+    """Fill ``layer`` (new, empty): the sublayer or reference to the source, its metadata and the encoded
+    Mesh prims; returns prim path -> progressive mesh."""
     if mode == "sublayer":
         layer.subLayerPaths.append(rel)
     elif mode == "reference":
@@ -262,9 +287,6 @@ def write_overrides(
     result = {}
     for prim in _mesh_prims(stage, prims):
         result[str(prim.GetPath())] = encode_prim(prim, encoding, **params)
-    with _writing(path):
-        if not layer.Save():
-            raise UsdOverrideError(f"{path}: could not write")
     return result
 
 
