@@ -539,6 +539,43 @@ def test_overrides_leave_hole_faces_out(tmp_path):
 
 
 # -- discrete LODs -----------------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("kwargs", "problem"),
+    [
+        ({"pixel_error": 0}, "pixel_error must be a finite number above 0, not 0"),
+        ({"pixel_error": -1.0}, "pixel_error must be a finite number above 0, not -1.0"),
+        ({"pixel_error": float("nan")}, "pixel_error must be a finite number above 0, not nan"),
+        ({"viewport_px": 0}, "viewport_px must be at least 1, not 0"),
+        ({"fov_degrees": 0}, "fov_degrees must be in (0, 180), not 0"),
+        ({"fov_degrees": 180}, "fov_degrees must be in (0, 180), not 180"),
+    ],
+)
+def test_write_usdlod_rejects_arguments_that_make_no_thresholds(pm, tmp_path, kwargs, problem):
+    """pixel_error 0, -1 or NaN and viewport_px 0 wrote inf / NaN / negative-derived LOD thresholds, and
+    fov_degrees 0 raised ZeroDivisionError."""
+    from swpm_usd.usd.writer import UsdWriteError
+
+    asset = usd.write(pm, tmp_path / "a.usda", lods=3)
+    with pytest.raises(UsdWriteError, match=re.escape(problem)):
+        usd.write_usdlod(asset, tmp_path / "a_lod.usda", **kwargs)
+    assert not (tmp_path / "a_lod.usda").exists()
+
+
+def test_write_usdlod_errors_name_the_file(pm, tmp_path):
+    """A missing asset raised usd-core's raw Tf.ErrorException; the asset's own path as the output cleared
+    the asset's open layer and died in a RuntimeError ("Accessed invalid expired prim")."""
+    from swpm_usd.usd.writer import UsdWriteError
+
+    with pytest.raises(UsdWriteError, match=r"nope\.usda: USD could not open it"):
+        usd.write_usdlod(tmp_path / "nope.usda", tmp_path / "x.usda")
+    asset = usd.write(pm, tmp_path / "a.usda", lods=3)
+    before = asset.read_bytes()
+    with pytest.raises(UsdWriteError, match="the LOD layer must not be the asset"):
+        usd.write_usdlod(asset, asset)
+    assert asset.read_bytes() == before
+    assert usd.read(Usd.Stage.Open(str(asset)).GetDefaultPrim()).lod_count == pm.lod_count
+
+
 def test_lod_variants_and_usdlod(pm, tmp_path):
     asset = usd.write(pm, tmp_path / "lods.usdc", lods=4)
     stage = Usd.Stage.Open(str(asset))

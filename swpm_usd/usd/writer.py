@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import math
+import numbers
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -264,6 +265,17 @@ def _resolve_path(path: str | os.PathLike[str], fmt: str | None) -> Path:
     return p
 
 
+def _positive(name: str, value: object) -> float:
+    """``value`` as a float; a :class:`UsdWriteError` naming ``name`` unless it is a finite number above 0."""
+    try:
+        number = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        number = math.nan
+    if isinstance(value, bool) or not (math.isfinite(number) and number > 0):
+        raise UsdWriteError(f"{name} must be a finite number above 0, not {value!r}")
+    return number
+
+
 def write(
     pm: ProgressiveMesh,
     path: str | os.PathLike[str],
@@ -285,12 +297,7 @@ def write(
     """
     if str(up_axis).upper() not in ("Y", "Z"):  # (the only two USD defines)
         raise UsdWriteError(f"up_axis must be 'Y' or 'Z', not {up_axis!r}")
-    try:
-        scale = float(meters_per_unit)
-    except (TypeError, ValueError):
-        scale = math.nan
-    if isinstance(meters_per_unit, bool) or not (math.isfinite(scale) and scale > 0):
-        raise UsdWriteError(f"meters_per_unit must be a finite number above 0, not {meters_per_unit!r}")
+    scale = _positive("meters_per_unit", meters_per_unit)
     p = _resolve_path(path, fmt)
     if fmt is None and p.suffix.lower() == ".usd":
         fmt = "usdc"
@@ -340,8 +347,20 @@ def write_usdlod(
         from pxr import UsdLod
     except ImportError as e:  # pragma: no cover - older usd-core
         raise UsdWriteError("UsdLod needs usd-core >= 26.8; use the LOD variant set instead") from e
+    pixel_error = _positive("pixel_error", pixel_error)
+    if not (isinstance(viewport_px, numbers.Real) and math.isfinite(viewport_px) and viewport_px >= 1):
+        raise UsdWriteError(f"viewport_px must be at least 1, not {viewport_px!r}")
+    if not (isinstance(fov_degrees, numbers.Real) and 0 < fov_degrees < 180):
+        raise UsdWriteError(f"fov_degrees must be in (0, 180), not {fov_degrees!r}")
     asset = Path(asset_path)
-    src = Usd.Stage.Open(str(asset))
+    if _resolve_path(path, fmt).resolve() == asset.resolve():
+        raise UsdWriteError(f"{path}: the LOD layer must not be the asset it references")
+    try:
+        src = Usd.Stage.Open(str(asset))
+    except Tf.ErrorException as e:
+        from ..io.usd_loader import _tf_message
+
+        raise UsdWriteError(f"{asset}: USD could not open it: {_tf_message(e)}") from e
     default = src.GetDefaultPrim()
     mesh_prim = default.GetChild(MESH_NAME) if default else None
     if not mesh_prim or not mesh_prim.GetAttribute("swpm:discreteLods").HasAuthoredValue():
