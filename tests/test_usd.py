@@ -462,6 +462,21 @@ def test_write_rejects_stage_metadata_usd_does_not_define(pm, tmp_path, kwargs, 
     assert UsdGeom.GetStageUpAxis(stage) == "Z" and UsdGeom.GetStageMetersPerUnit(stage) == 0.01
 
 
+def test_write_to_a_folder_is_an_error_not_a_sibling_file(pm, tmp_path):
+    """usd.write(pm, "out") with "out" a folder wrote "out.usdc" beside the folder (the suffix added to
+    whatever the path was)."""
+    from swpm_usd.usd.writer import UsdWriteError
+
+    (tmp_path / "out").mkdir()
+    with pytest.raises(UsdWriteError, match=r"out: is a folder"):
+        usd.write(pm, tmp_path / "out")
+    (tmp_path / "out.usda").mkdir()
+    with pytest.raises(UsdWriteError, match=r"out\.usda: is a folder"):
+        usd.write(pm, tmp_path / "out.usda")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "out.usda"]
+    assert usd.write(pm, tmp_path / "out" / "a") == tmp_path / "out" / "a.usdc"  # a file name: as before
+
+
 def test_usd_writers_raise_typed_errors_naming_the_file(pm, tmp_path):
     """A source that is missing or not USD, or an output folder that cannot be written, is a SwpmError
     naming the file (usd-core's Tf.ErrorException, with C++ file and line noise, escaped before)."""

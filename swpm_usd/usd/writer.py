@@ -258,6 +258,8 @@ def _export(stage: Usd.Stage, path: Path, fmt: str | None) -> Path:
 
 def _resolve_path(path: str | os.PathLike[str], fmt: str | None) -> Path:
     p = Path(path)
+    if p.is_dir():  # (the suffix added to it would write a file beside the folder)
+        raise UsdWriteError(f"{path}: is a folder; give the path of the layer to write")
     if p.suffix.lower() not in (".usd", ".usda", ".usdc"):
         p = p.with_name(p.name + "." + (fmt or "usdc"))
     if fmt is None and p.suffix.lower() == ".usd":
