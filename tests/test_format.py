@@ -350,6 +350,17 @@ def test_cli(tmp_path: Path) -> None:
     assert r.exit_code == 1
 
 
+def test_inspect_of_a_file_it_cannot_read_shows_unknowns_as_unknown(tmp_path: Path) -> None:
+    """inspect of a truncated file printed "INVALID SWPM ? ?, index u0": the index width it could not read
+    as a width of 0 bits."""
+    from swpm_usd.cli import main
+
+    cut = tmp_path / "cut.swpm"
+    cut.write_bytes(encode_bytes(fan_vanilla())[:40])  # type: ignore[arg-type]
+    r = CliRunner().invoke(main, ["inspect", str(cut)])
+    assert r.exit_code == 1 and r.stdout.splitlines()[0] == f"{cut}: INVALID SWPM ? ?, index u?"
+
+
 def test_rows_below_one_is_a_usage_error(tmp_path: Path) -> None:
     """build / inspect --rows -3 (or 0) printed a table as if nothing were wrong; it is a usage error (2)."""
     from swpm_usd.cli import main

@@ -279,7 +279,7 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
     else:
         click.echo(
             f"{file}: {'valid' if rep.valid else 'INVALID'} SWPM {out.get('version', '?')} "
-            f"{out.get('encoding', '?')}, index u{8 * out.get('index_width', 0)}"
+            f"{out.get('encoding', '?')}, index u{8 * out['index_width'] if 'index_width' in out else '?'}"
         )
         for key in (
             "file_size",
