@@ -407,6 +407,29 @@ def test_usd_composition_errors_are_load_errors(tmp_path: Path, header: str, pro
         load_mesh(path)
 
 
+def test_usd_composition_errors_the_load_does_not_use_are_ignored(tmp_path: Path) -> None:
+    """A reference that does not resolve on a deactivated prim (how a broken reference is switched off), or
+    outside the prim_path subtree that is loaded, drops nothing from the build: the stage loads as before."""
+    off = 'def Xform "Off" (\n    active = false\n    references = @gone.usda@\n)\n{\n}\n'
+    path = _write_usda(tmp_path / "c.usda", off + _mesh_usda(_TRIANGLE, *_ONE_FACE))
+    assert load_mesh(path).triangles.shape == (1, 3)
+    other = 'def Xform "Other" (\n    references = @gone.usda@\n)\n{\n}\n'
+    world = 'def Xform "World"\n{\n' + _mesh_usda(_TRIANGLE, *_ONE_FACE) + "}\n"
+    path = _write_usda(tmp_path / "d.usda", other + world)
+    assert load_mesh(path, prim_path="/World").triangles.shape == (1, 3)
+    assert load_mesh(path, prim_path="/World/M").triangles.shape == (1, 3)
+    with pytest.raises(MeshLoadError, match=r"1 composition error, .*</Other>"):
+        load_mesh(path)  # (the whole stage: Other's meshes would be missing)
+    above = (
+        'def Xform "World" (\n    references = @gone.usda@\n)\n{\n'
+        + _mesh_usda(_TRIANGLE, *_ONE_FACE)
+        + "}\n"
+    )
+    path = _write_usda(tmp_path / "e.usda", above)  # an arc above prim_path brings opinions into it
+    with pytest.raises(MeshLoadError, match=r"1 composition error, .*</World>"):
+        load_mesh(path, prim_path="/World/M")
+
+
 def _strip_corner_uv(seam: bool) -> np.ndarray:
     """faceVarying st for the strip: u = x / 2 across both faces, or (with a seam) face 1 shifted by 0.25."""
     corners = STRIP_POINTS[STRIP_INDICES]

@@ -9,8 +9,8 @@ the ``normals`` attribute) -> ``normal``, ``primvars:st`` (else the first texCoo
 ``uv``, ``primvars:displayColor`` (+ ``displayOpacity`` as alpha) -> ``color``. Indexed primvars are
 flattened. ``vertex`` / ``varying`` / ``constant`` values stay per point; ``faceVarying`` / ``uniform`` values
 are taken per face corner and each distinct (point, values) pair becomes one vertex, so only real seams split
-points. Any USD failure, a composition error (a sublayer or reference that does not resolve) too, becomes a
-:class:`~swpm_usd.errors.MeshLoadError` naming the file.
+points. Any USD failure, a composition error (a sublayer or reference that does not resolve, on an active prim
+in or above the loaded subtree) too, becomes a :class:`~swpm_usd.errors.MeshLoadError` naming the file.
 """
 
 from __future__ import annotations
@@ -231,6 +231,29 @@ def _not_rendered(prim: Usd.Prim, time: Usd.TimeCode) -> str | None:
     return None
 
 
+def _composition_errors(stage: Usd.Stage, root: Sdf.Path) -> list[str]:
+    """The stage's composition errors that can leave meshes out of a load of ``root``'s subtree, sorted: not
+    those of a deactivated prim (or one under it: not on the stage, how a broken reference is switched off)
+    nor those of prims outside ``root``'s subtree and its ancestors (which bring opinions into it)."""
+    out = []
+    for err in stage.GetCompositionErrors():
+        site_path = getattr(getattr(err, "rootSite", None), "path", None)
+        if site_path is None or site_path.isEmpty:  # (no site to tell: it counts)
+            out.append(("", str(err)))
+            continue
+        site = site_path.StripAllVariantSelections()
+        if site != Sdf.Path.absoluteRootPath:  # (a sublayer's error is the pseudo-root's)
+            site = site.GetPrimPath()  # (a property's error: its prim's)
+        if not (site.HasPrefix(root) or root.HasPrefix(site)):
+            continue
+        if site != Sdf.Path.absoluteRootPath:
+            prim = stage.GetPrimAtPath(site)
+            if not prim or not prim.IsActive():
+                continue
+        out.append((str(site), str(err)))
+    return [message for _, message in sorted(out)]
+
+
 def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
     """Load every Mesh prim of a USD stage (or those under ``prim_path``) as one cleaned mesh."""
     try:
@@ -240,11 +263,6 @@ def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
             raise MeshLoadError(path, f"USD could not open it: {_tf_message(e)}") from e
         if stage is None:
             raise MeshLoadError(path, "USD could not open it")
-        # a sublayer or reference that does not resolve: its meshes would be missing from the build
-        errors = stage.GetCompositionErrors()
-        if errors:
-            what = "1 composition error" if len(errors) == 1 else f"{len(errors)} composition errors"
-            raise MeshLoadError(path, f"{what}, the stage is incomplete; first: {errors[0]}")
         if prim_path is None:
             root = stage.GetPseudoRoot()
         else:
@@ -253,6 +271,11 @@ def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
             root = stage.GetPrimAtPath(prim_path)
             if not root or not root.IsValid():
                 raise MeshLoadError(path, f"no prim at {prim_path}")
+        # a sublayer or reference that does not resolve: its meshes would be missing from the build
+        errors = _composition_errors(stage, root.GetPath())
+        if errors:
+            what = "1 composition error" if len(errors) == 1 else f"{len(errors)} composition errors"
+            raise MeshLoadError(path, f"{what}, the stage is incomplete; first: {errors[0]}")
         time = Usd.TimeCode.EarliestTime()
         xf_cache = UsdGeom.XformCache(time)
         parts: list[Part] = []
