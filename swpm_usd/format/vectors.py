@@ -787,7 +787,7 @@ def run_conformance(vector_dir: str | Path) -> list[Outcome]:
         }
         if rep.valid:
             got["summary"] = buffer_digests(path.read_bytes())
-        diff = [k for k in exp if exp[k] != got.get(k)]
+        diff = sorted(k for k in exp.keys() | got.keys() if exp.get(k) != got.get(k))  # (a key missing too)
         out.append(Outcome(v["name"], not diff, "ok" if not diff else f"differs in {', '.join(diff)}"))
     return out
 
