@@ -553,6 +553,23 @@ def test_overrides_leave_hole_faces_out(tmp_path):
     assert validate_stage(out) == []
 
 
+def test_overrides_of_a_mesh_with_bad_topology_are_override_errors(tmp_path):
+    """A hole index out of range (and any other topology the loader refuses) raised the loader's private
+    ValueError out of write_overrides, outside SwpmError and without naming the source file."""
+    from swpm_usd.usd.overrides import UsdOverrideError
+
+    src = tmp_path / "src.usda"
+    _grid_stage(src, 4)
+    stage = Usd.Stage.Open(str(src))
+    UsdGeom.Mesh(stage.GetPrimAtPath("/World/grid")).CreateHoleIndicesAttr(Vt.IntArray([3, 99]))
+    stage.Save()
+    out = tmp_path / "ovr.usda"
+    problem = r": /World/grid: holeIndices\[1\] = 99 out of range for 16 faces"
+    with pytest.raises(UsdOverrideError, match=re.escape(str(src)) + problem):
+        usd.write_overrides(src, out)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["src.usda"]
+
+
 # -- discrete LODs -----------------------------------------------------------------------------------------
 @pytest.mark.parametrize(
     ("kwargs", "problem"),

@@ -27,7 +27,7 @@ from pxr import Sdf, Tf, Usd, UsdGeom, Vt
 from ..build import build
 from ..encode.base import ProgressiveMesh, from_buffers
 from ..errors import SwpmError
-from ..io.usd_loader import _tf_message, _Topology
+from ..io.usd_loader import _Invalid, _tf_message, _Topology
 from ..mesh import Mesh
 from .writer import author_swpm, reload_if_open
 
@@ -87,8 +87,11 @@ def _extract(prim: Usd.Prim) -> tuple[Mesh, dict[str, Any]]:
     counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get(), np.int64)
     fvi = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), np.int64)
     holes = np.asarray(mesh.GetHoleIndicesAttr().Get() or [], np.int64)
-    topo = _Topology(counts, fvi, points.shape[0], False, str(prim.GetPath()), holes)
-    pvs = [p for p in _primvars(prim, topo) if p.interp != UsdGeom.Tokens.constant]
+    try:
+        topo = _Topology(counts, fvi, points.shape[0], False, str(prim.GetPath()), holes)
+        pvs = [p for p in _primvars(prim, topo) if p.interp != UsdGeom.Tokens.constant]
+    except _Invalid as e:  # (the loader's own, a ValueError: the message names the prim and the problem)
+        raise UsdOverrideError(str(e)) from e
     n = topo.points.size
     cols = [np.ascontiguousarray(topo.points.reshape(-1, 1).astype("<i8")).view(np.uint8).reshape(n, -1)]
     for p in pvs:
@@ -286,7 +289,10 @@ def _author_overrides(
     stage = Usd.Stage.Open(layer)
     result = {}
     for prim in _mesh_prims(stage, prims):
-        result[str(prim.GetPath())] = encode_prim(prim, encoding, **params)
+        try:
+            result[str(prim.GetPath())] = encode_prim(prim, encoding, **params)
+        except UsdOverrideError as e:
+            raise UsdOverrideError(f"{src_path}: {e}") from e
     return result
 
 
