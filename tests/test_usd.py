@@ -502,6 +502,28 @@ def test_usd_writers_raise_typed_errors_naming_the_file(pm, tmp_path):
         usd.write_overrides(source, blocker / "a.usda")
 
 
+@pytest.mark.parametrize(
+    ("name", "problem"),
+    [
+        ("ovr.usdz", "a .usdz package cannot be written as a layer"),
+        ("ovr.txt", "'.txt' is not a USD layer suffix"),
+        ("ovr", "'' is not a USD layer suffix"),
+    ],
+)
+def test_write_overrides_to_a_path_that_is_no_layer_says_why(pm, tmp_path, name, problem):
+    """Since the layer is written under a temporary name, a .usdz output said 'Cannot create new layer
+    '.../.ovr.1a2b3c4d.tmp.usdz'' (the temporary file, not the output) and a .txt one 'Failed verification:
+    ' fileFormat'."""
+    from swpm_usd.usd.overrides import UsdOverrideError
+
+    source = usd.write(pm, tmp_path / "source.usda")
+    out = tmp_path / name
+    with pytest.raises(UsdOverrideError, match=re.escape(f"{out}: could not write: {problem}")) as exc:
+        usd.write_overrides(source, out)
+    assert ".tmp" not in str(exc.value)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["source.usda"]
+
+
 def test_a_failed_write_overrides_keeps_the_previous_layer(tmp_path):
     """write_overrides created its output at once (Sdf.Layer.CreateNew) and saved it at the end: a run that
     failed in between (a bad parameter, a prim that cannot be encoded) left an empty layer in place of the

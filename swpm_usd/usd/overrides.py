@@ -236,16 +236,26 @@ def write_overrides(
         raise UsdOverrideError(f"{source}: USD could not open it: {_tf_message(e)}") from e
     if src_stage is None:
         raise UsdOverrideError(f"{source}: USD could not open it")
+    suffix = out_path.suffix.lower()
+    file_format = Sdf.FileFormat.FindByExtension(suffix[1:]) if suffix[1:] else None
+    if file_format is None:
+        raise UsdOverrideError(
+            f"{path}: could not write: {suffix!r} is not a USD layer suffix (.usda, .usdc or .usd)"
+        )
+    if file_format.IsPackage():  # (the temporary layer's name would be in usd-core's message)
+        raise UsdOverrideError(
+            f"{path}: could not write: a {suffix} package cannot be written as a layer (.usda, .usdc or .usd)"
+        )
     rel = os.path.relpath(src_path, out_path.parent).replace(os.sep, "/")
     # a new layer under a temporary name beside the output (relative paths resolve the same), renamed into
     # place once complete: a run that fails leaves the previous output as it was, on disk and in memory
     tmp_path = out_path.with_name(f".{out_path.stem}.{secrets.token_hex(4)}.tmp{out_path.suffix}")
-    with _writing(path):
+    with _writing(path, tmp_path):
         out_path.parent.mkdir(parents=True, exist_ok=True)
         layer = Sdf.Layer.CreateNew(str(tmp_path))
     try:
         result = _author_overrides(layer, src_stage, src_path, rel, mode, encoding, prims, params)
-        with _writing(path):
+        with _writing(path, tmp_path):
             if not layer.Save():
                 raise UsdOverrideError(f"{path}: could not write")
             os.replace(tmp_path, out_path)
@@ -297,11 +307,11 @@ def _author_overrides(
 
 
 @contextmanager
-def _writing(path: str | os.PathLike[str]) -> Iterator[None]:
-    """An OSError or usd-core error while creating or saving the override layer ``path``: a
-    :class:`UsdOverrideError` naming it."""
+def _writing(path: str | os.PathLike[str], tmp: Path) -> Iterator[None]:
+    """An OSError or usd-core error while creating or saving the override layer ``path`` (as ``tmp``): a
+    :class:`UsdOverrideError` naming it (not the temporary file)."""
     try:
         yield
     except (OSError, Tf.ErrorException) as e:
         why = e.strerror or str(e) if isinstance(e, OSError) else _tf_message(e)
-        raise UsdOverrideError(f"{path}: could not write: {why}") from e
+        raise UsdOverrideError(f"{path}: could not write: {why.replace(str(tmp), os.fspath(path))}") from e
