@@ -256,6 +256,42 @@ def test_obj_texture_coordinates_or_normals_trimesh_drops_are_reported(
             assert sorted(load_mesh(path).attributes) == ["normal", "uv"]
 
 
+def test_obj_dropped_attribute_check_is_linear_in_a_long_face_line(tmp_path: Path) -> None:
+    """The face patterns of the check for dropped vt/vn backtracked over every digit run of a face line for
+    every position in it: a 100 kB OBJ that trimesh loads in under a second (an index written with 100 000
+    leading zeros) took about 40 s, a 1 MB one over an hour."""
+    import time
+
+    path = tmp_path / "long.obj"
+    path.write_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 " + b"0" * 100_000 + b"3\n")
+    start = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert load_mesh(path).triangle_count == 1
+    assert time.perf_counter() - start < 10
+
+
+@pytest.mark.parametrize(
+    ("line", "refers"),
+    [
+        ("f 1 2 3", ""),
+        ("f 1/1 2/2 3/3", "uv"),
+        ("f 1//1 2//1 3//1", "normal"),
+        ("f 1/1/1 2/2/1 3/3/1", "normal uv"),
+        ("f -3/-3/-1 -2/-2/-1 -1/-1/-1", "normal uv"),
+        ("f 1//-1 2//-1 3//-1", "normal"),
+        ("  f\t1 2/2 3", "uv"),
+        ("fo 1/1/1 2/2/2", ""),
+    ],
+)
+def test_obj_face_patterns(line: str, refers: str) -> None:
+    from swpm_usd.io.trimesh_loader import _OBJ_FACE_NORMAL, _OBJ_FACE_UV
+
+    data = ("v 0 0 0\n" + line + "\n").encode()
+    found = [n for n, p in (("normal", _OBJ_FACE_NORMAL), ("uv", _OBJ_FACE_UV)) if p.search(data)]
+    assert " ".join(found) == refers
+
+
 def test_obj_degenerate_and_duplicates_dropped(tmp_path: Path) -> None:
     path = tmp_path / "dirty.obj"
     path.write_text(

@@ -222,9 +222,11 @@ def load_trimesh(path: Path) -> Mesh:
     return clean_mesh(points, triangles, attrs, str(path))
 
 
-#: an OBJ face corner that refers to a texture coordinate (v/vt, v/vt/vn) or a normal (v//vn, v/vt/vn)
-_OBJ_FACE_UV = re.compile(rb"(?m)^[ \t]*f[ \t][^\n]*?-?\d+/-?\d")
-_OBJ_FACE_NORMAL = re.compile(rb"(?m)^[ \t]*f[ \t][^\n]*?-?\d+/-?\d*/-?\d")
+#: an OBJ face corner that refers to a texture coordinate (v/vt, v/vt/vn) or a normal (v//vn, v/vt/vn); each
+#: starts at a digit before a '/' (not '-?\d+', which the lazy scan would re-try over a whole digit run at
+#: every position of it: quadratic in a long face line)
+_OBJ_FACE_UV = re.compile(rb"(?m)^[ \t]*f[ \t][^\n]*?\d/-?\d")
+_OBJ_FACE_NORMAL = re.compile(rb"(?m)^[ \t]*f[ \t][^\n]*?\d/-?\d*/-?\d")
 
 
 def _report_dropped_obj_attributes(path: Path, data: bytes, parts: list) -> None:
