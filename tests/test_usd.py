@@ -804,6 +804,32 @@ def test_read_flattens_indexed_primvars(pm, tmp_path):
     assert validate_prim(prim) == []
 
 
+@pytest.mark.parametrize("name", ["st", "displayColor", "displayOpacity", "normals", "weight"])
+def test_read_of_an_indexed_primvar_with_indices_out_of_range_says_so(pm, tmp_path, name):
+    """usd-core's ComputeFlattened gives None for indices out of range: read said the attribute 'has no
+    stored primvar' (displayOpacity: a bare ValueError out of numpy)."""
+    path = usd.write(pm, tmp_path / "a.usda")
+    stage = Usd.Stage.Open(str(path))
+    prim = usd.find_encoded(stage)[0]
+    api = UsdGeom.PrimvarsAPI(prim)
+    if name == "normals":  # (the writer stores the normals attribute: a DCC may re-save it as a primvar)
+        api.CreatePrimvar("normals", Sdf.ValueTypeNames.Normal3fArray, "vertex").Set(
+            UsdGeom.Mesh(prim).GetNormalsAttr().Get()
+        )
+    elif name == "displayOpacity":
+        api.CreatePrimvar("displayOpacity", Sdf.ValueTypeNames.FloatArray, "vertex").Set(
+            Vt.FloatArray.FromNumpy(np.ones(pm.vertex_count, np.float32))
+        )
+    pv = api.GetPrimvar(name)
+    n = len(pv.Get())
+    pv.SetIndices(Vt.IntArray([0] * (n - 1) + [n]))
+    problem = f"{prim.GetPath()}: primvar '{name}' has indices out of range for its {n} values"
+    with pytest.raises(UsdReadError, match=re.escape(problem)):
+        usd.read(prim, check=False)
+    (finding,) = validate_prim(prim)
+    assert finding.code == "SWPM_USD_REBUILD" and problem in finding.message
+
+
 @pytest.mark.parametrize("encoding", ["vanilla", "mixed"])
 @pytest.mark.parametrize("dtype", ["V1000000000", "object", "complex128", "datetime64", "float16", "S4"])
 def test_a_hostile_dtype_token_is_rejected_before_anything_is_allocated(encoding, dtype, mesh, tmp_path):

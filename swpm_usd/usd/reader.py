@@ -129,6 +129,18 @@ def _attributes(prim: Usd.Prim, names: list[str], dtypes: list[str] | None = Non
     return {n: _restore(n, out[n], str(d)) for n, d in zip(names, dtypes, strict=True)}
 
 
+def _flattened(prim: Usd.Prim, pv: UsdGeom.Primvar) -> Any:
+    """``pv``'s values, an indexed primvar's expanded by its indices (None without a value); indices out of
+    range are a :class:`UsdReadError` (usd-core's ComputeFlattened gives None, as for no value at all)."""
+    value = pv.ComputeFlattened()
+    if value is None and pv.IsIndexed() and pv.Get() is not None:
+        n = len(pv.Get())
+        raise UsdReadError(
+            f"{prim.GetPath()}: primvar {pv.GetPrimvarName()!r} has indices out of range for its {n} values"
+        )
+    return value
+
+
 def _float_attributes(prim: Usd.Prim, names: list[str]) -> dict[str, np.ndarray]:
     """As the writer stores them: normal (3 components) from normals, uv (2) from primvars:st, color (3, 4)
     from displayColor (+ displayOpacity); any other shape or name from primvars:<name>."""
@@ -140,20 +152,20 @@ def _float_attributes(prim: Usd.Prim, names: list[str]) -> dict[str, np.ndarray]
         # primvars flattened: an indexed one (as a DCC may re-save it) holds distinct values + indices
         if name == "normal" and not own:
             normals = api.GetPrimvar("normals")
-            value = normals.ComputeFlattened() if normals.HasAuthoredValue() else mesh.GetNormalsAttr().Get()
+            value = _flattened(prim, normals) if normals.HasAuthoredValue() else mesh.GetNormalsAttr().Get()
         elif name == "uv" and not own:
-            value = api.GetPrimvar("st").ComputeFlattened()
+            value = _flattened(prim, api.GetPrimvar("st"))
         elif name == "color" and not own:
-            value = api.GetPrimvar("displayColor").ComputeFlattened()
+            value = _flattened(prim, api.GetPrimvar("displayColor"))
             opacity = api.GetPrimvar("displayOpacity")
             if value is not None and opacity and opacity.HasAuthoredValue():
                 rgb = np.asarray(value, np.float32).reshape(-1, 3)
-                alpha = np.asarray(opacity.ComputeFlattened(), np.float32).reshape(-1, 1)
+                alpha = np.asarray(_flattened(prim, opacity), np.float32).reshape(-1, 1)
                 out[name] = np.concatenate([rgb, alpha], axis=1)
                 continue
         else:
             pv = api.GetPrimvar(name)
-            value = pv.ComputeFlattened() if pv else None
+            value = _flattened(prim, pv) if pv else None
             if value is not None:
                 a = np.asarray(value, np.float32)
                 out[name] = a.reshape(a.shape[0] // pv.GetElementSize(), -1) if a.ndim == 1 else a
