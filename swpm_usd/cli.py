@@ -107,7 +107,13 @@ def main() -> None:
     metavar="NAME=VALUE",
     help="Encoding parameter (repeatable, listed below), value parsed as JSON when it can be: -p mu=0.2",
 )
-@click.option("--rows", default=12, show_default=True, help="How many LODs the table shows.")
+@click.option(
+    "--rows",
+    type=click.IntRange(min=1),
+    default=12,
+    show_default=True,
+    help="How many LODs the table shows (the first and the last always).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int, as_json: bool) -> None:
     """Build INPUT (.obj .ply .stl .off .glb .gltf .usd*) and print its LOD table.

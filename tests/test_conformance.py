@@ -96,3 +96,54 @@ def test_worked_example_is_the_minimal_vector() -> None:
     dump = (VECTORS / "minimal-vanilla.hex").read_text()
     assert dump in spec
     assert f"{(VECTORS / 'valid' / 'minimal-vanilla.swpm').stat().st_size} bytes" in spec
+
+
+def _copy_vectors(tmp_path: Path, edit_entry=None, expected: dict | None = None) -> Path:  # noqa: ANN001
+    """A copy of the first valid vector (manifest, file, expected result), edited."""
+    manifest = json.loads((VECTORS / "manifest.json").read_text())
+    entry = next(v for v in manifest["vectors"] if v["valid"])
+    for key in ("file", "expected"):
+        (tmp_path / entry[key]).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / entry[key]).write_bytes((VECTORS / entry[key]).read_bytes())
+    if expected is not None:
+        (tmp_path / entry["expected"]).write_text(json.dumps(expected))
+    if edit_entry is not None:
+        edit_entry(entry, tmp_path)
+    (tmp_path / "manifest.json").write_text(json.dumps({**manifest, "vectors": [entry]}))
+    return tmp_path
+
+
+@pytest.mark.parametrize(
+    ("case", "detail"),
+    [
+        ("empty expected", "the expected result has no 'valid'"),
+        ("missing file", "differs in problems, summary, valid"),
+        ("manifest says invalid", "the manifest says valid false, the expected result true"),
+        ("file changed", "sha256 of valid/"),
+        ("summary dropped", "differs in summary"),
+    ],
+)
+def test_a_vector_passes_only_on_the_whole_expected_result(tmp_path: Path, case: str, detail: str) -> None:
+    """The runner compared only the keys the expected result happened to hold and ignored the manifest's
+    valid and sha256: an expected result of {} passed any vector, even one whose file is missing."""
+
+    def edit(entry: dict, root: Path) -> None:
+        if case == "missing file":
+            (root / entry["file"]).unlink()
+        elif case == "manifest says invalid":
+            entry["valid"] = False
+        elif case == "file changed":  # (the file as generated, the manifest's digest of another)
+            entry["sha256"] = "0" * 64
+
+    expected = None
+    if case == "empty expected":
+        expected = {}
+    elif case == "summary dropped":  # (a valid file's expected result holds its summary: spec/format.md)
+        entry = next(v for v in json.loads((VECTORS / "manifest.json").read_text())["vectors"] if v["valid"])
+        expected = json.loads((VECTORS / entry["expected"]).read_text())
+        del expected["summary"]
+    root = _copy_vectors(tmp_path, edit, expected)
+    (outcome,) = run_conformance(root)
+    assert not outcome.passed and detail in outcome.detail, outcome.detail
+    (intact,) = run_conformance(_copy_vectors(tmp_path / "intact"))
+    assert intact.passed, intact.detail

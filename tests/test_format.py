@@ -207,6 +207,55 @@ def test_save_is_atomic(grid_pm, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.swpm"]
 
 
+def test_a_failed_save_names_the_file_asked_for(grid_pm, tmp_path: Path) -> None:
+    """The OSError of a save that cannot write names the output, not the temporary file beside it (encode
+    printed "Permission denied: '/out/.a.swpm.x1y2z3.tmp'"), and keeps its errno subclass."""
+    with pytest.raises(IsADirectoryError) as exc:
+        save(grid_pm, tmp_path)  # a folder
+    assert exc.value.filename == str(tmp_path) and ".tmp" not in str(exc.value)
+    assert list(tmp_path.iterdir()) == []
+    (tmp_path / "file").write_bytes(b"")
+    with pytest.raises(OSError) as exc:
+        save(grid_pm, tmp_path / "file" / "a.swpm")  # its folder is a file
+    assert exc.value.filename == str(tmp_path / "file" / "a.swpm")
+    from swpm_usd.cli import main
+
+    r = CliRunner().invoke(
+        main, ["encode", str(_write_fan_obj(tmp_path / "g.obj")), "-o", str(tmp_path / "file" / "a.swpm")]
+    )
+    assert r.exit_code == 1 and f"cannot write {tmp_path / 'file' / 'a.swpm'}" in r.stderr
+
+
+@pytest.mark.parametrize(
+    ("attribute", "what"),
+    [
+        (np.arange(4, dtype=np.int64), "int64, shape (4, 1)"),
+        (np.ones((4, 300), np.float32), "float32, shape (4, 300)"),
+    ],
+)
+def test_an_attribute_the_format_cannot_store_is_a_typed_error(
+    tmp_path: Path, attribute: np.ndarray, what: str
+) -> None:
+    """save raised a bare ValueError (no SwpmError: an `except SwpmError` let it through) without saying
+    what the format can store; it is an SwpmEncodeError, still a ValueError, that lists it; nothing is
+    written."""
+    from swpm_usd.format import SwpmEncodeError
+
+    mesh = Mesh.from_arrays(
+        np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], np.float32),
+        [[0, 1, 2], [1, 3, 2]],
+        {"a": attribute},
+    )
+    pm = swpm_usd.build(mesh, "vanilla")
+    with pytest.raises(
+        SwpmEncodeError, match=rf"attribute 'a' \({re.escape(what)}\) cannot be stored in SWPM v1: "
+    ) as exc:
+        save(pm, tmp_path / "a.swpm")
+    assert isinstance(exc.value, swpm_usd.SwpmError) and isinstance(exc.value, ValueError)
+    assert "u8 i8 u16 i16 u32 i32 f16 f32 f64" in str(exc.value) and "1 to 255" in str(exc.value)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_save_is_deterministic(grid_pm) -> None:
     assert encode_bytes(grid_pm) == encode_bytes(grid_pm)
 
@@ -299,6 +348,32 @@ def test_cli(tmp_path: Path) -> None:
     assert r.exit_code == 0, r.output
     r = CliRunner().invoke(main, ["encode", str(tmp_path / "missing.obj"), "-o", str(out)])
     assert r.exit_code == 1
+
+
+def test_inspect_of_a_file_it_cannot_read_shows_unknowns_as_unknown(tmp_path: Path) -> None:
+    """inspect of a truncated file printed "INVALID SWPM ? ?, index u0": the index width it could not read
+    as a width of 0 bits."""
+    from swpm_usd.cli import main
+
+    cut = tmp_path / "cut.swpm"
+    cut.write_bytes(encode_bytes(fan_vanilla())[:40])  # type: ignore[arg-type]
+    r = CliRunner().invoke(main, ["inspect", str(cut)])
+    assert r.exit_code == 1 and r.stdout.splitlines()[0] == f"{cut}: INVALID SWPM ? ?, index u?"
+
+
+def test_rows_below_one_is_a_usage_error(tmp_path: Path) -> None:
+    """build / inspect --rows -3 (or 0) printed a table as if nothing were wrong; it is a usage error (2)."""
+    from swpm_usd.cli import main
+
+    out = tmp_path / "g.swpm"
+    save(swpm_usd.build(_fan_mesh(), "vanilla"), out)
+    obj = _write_fan_obj(tmp_path / "g.obj")
+    for args in (["build", str(obj)], ["inspect", str(out)]):
+        for rows in ("-3", "0"):
+            r = CliRunner().invoke(main, [*args, "--rows", rows])
+            assert r.exit_code == 2 and "--rows" in r.stderr, r.output
+        r = CliRunner().invoke(main, [*args, "--rows", "1", "--json"])
+        assert r.exit_code == 0 and [row["lod"] for row in json.loads(r.stdout)["lods"]][0] == 0
 
 
 def test_build_and_encode_share_usage_errors_and_encode_never_overwrites_its_input(tmp_path: Path) -> None:

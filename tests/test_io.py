@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -228,6 +229,69 @@ def test_multi_object_obj_concatenated(tmp_path: Path) -> None:
     assert sorted(np.unique(m.points[:, 0]).tolist()) == [0.0, 1.0, 5.0, 6.0]
 
 
+@pytest.mark.parametrize(
+    ("faces", "dropped"),
+    [
+        ("f 1/1/1 2/2/1 3/3/1\nf 2/2/1 4/9/1 3/3/1\n", "uv"),  # vt index 9 of 4
+        ("f 1/1/1 2/2/1 3/3/1\nf 2/2/1 4/4/7 3/3/1\n", "normal"),  # vn index 7 of 1
+        ("f 1/1/1 2/2/1 3/3/1\nf 2 4 3\n", "normal, uv"),  # a face without them
+    ],
+)
+def test_obj_texture_coordinates_or_normals_trimesh_drops_are_reported(
+    tmp_path: Path, faces: str, dropped: str
+) -> None:
+    """trimesh drops every vt (or vn) of an OBJ when one face refers to none or to one out of range: the
+    mesh loaded without its UVs and nothing said so."""
+    path = tmp_path / "q.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\nvn 0 0 1\n" + faces)
+    with pytest.warns(UserWarning, match=rf"q\.obj: its faces refer to {dropped} .*dropped") as record:
+        m = load_mesh(path)
+    assert len(record) == 1
+    for name in dropped.split(", "):
+        assert name not in m.attributes
+    path.write_text(path.read_text().replace("4/9/1", "4/4/1").replace("4/4/7", "4/4/1"))
+    if "f 2 4 3" not in faces:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            assert sorted(load_mesh(path).attributes) == ["normal", "uv"]
+
+
+def test_obj_dropped_attribute_check_is_linear_in_a_long_face_line(tmp_path: Path) -> None:
+    """The face patterns of the check for dropped vt/vn backtracked over every digit run of a face line for
+    every position in it: a 100 kB OBJ that trimesh loads in under a second (an index written with 100 000
+    leading zeros) took about 40 s, a 1 MB one over an hour."""
+    import time
+
+    path = tmp_path / "long.obj"
+    path.write_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 " + b"0" * 100_000 + b"3\n")
+    start = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert load_mesh(path).triangle_count == 1
+    assert time.perf_counter() - start < 10
+
+
+@pytest.mark.parametrize(
+    ("line", "refers"),
+    [
+        ("f 1 2 3", ""),
+        ("f 1/1 2/2 3/3", "uv"),
+        ("f 1//1 2//1 3//1", "normal"),
+        ("f 1/1/1 2/2/1 3/3/1", "normal uv"),
+        ("f -3/-3/-1 -2/-2/-1 -1/-1/-1", "normal uv"),
+        ("f 1//-1 2//-1 3//-1", "normal"),
+        ("  f\t1 2/2 3", "uv"),
+        ("fo 1/1/1 2/2/2", ""),
+    ],
+)
+def test_obj_face_patterns(line: str, refers: str) -> None:
+    from swpm_usd.io.trimesh_loader import _OBJ_FACE_NORMAL, _OBJ_FACE_UV
+
+    data = ("v 0 0 0\n" + line + "\n").encode()
+    found = [n for n, p in (("normal", _OBJ_FACE_NORMAL), ("uv", _OBJ_FACE_UV)) if p.search(data)]
+    assert " ".join(found) == refers
+
+
 def test_obj_degenerate_and_duplicates_dropped(tmp_path: Path) -> None:
     path = tmp_path / "dirty.obj"
     path.write_text(
@@ -308,6 +372,98 @@ def test_usd_orientation(tmp_path: Path, orientation: str) -> None:
     m = load_mesh(path)
     z = 1.0 if orientation == UsdGeom.Tokens.rightHanded else -1.0
     np.testing.assert_allclose(_geometric_normals(m), np.tile([0, 0, z], (4, 1)), atol=1e-6)
+
+
+def test_usd_hole_faces_are_not_loaded(tmp_path: Path) -> None:
+    """Faces listed in holeIndices are not rendered: they are not part of the mesh (face-varying st of the
+    other faces still lines up)."""
+    path = tmp_path / "holes.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    mesh = _define_mesh(stage, "/M", STRIP_POINTS, STRIP_COUNTS, STRIP_INDICES)
+    mesh.CreateHoleIndicesAttr(Vt.IntArray([0]))
+    pv = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(
+        "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying
+    )
+    pv.Set(Vt.Vec2fArray.FromNumpy(_strip_corner_uv(seam=True)))
+    stage.Save()
+    m = load_mesh(path)
+    assert m.triangle_count == 2
+    assert m.points[m.triangles][..., 0].min() == 1.0  # only the second quad, x in [1, 2]
+    pos = m.points[m.triangles]
+    np.testing.assert_allclose(m.attributes["uv"][m.triangles][..., 0], pos[..., 0] / 2 + 0.25)
+    mesh.CreateHoleIndicesAttr(Vt.IntArray([0, 1]))
+    stage.Save()
+    with pytest.raises(MeshLoadError, match=r"holes\.usda: no triangles.*hole"):
+        load_mesh(path)
+    mesh.CreateHoleIndicesAttr(Vt.IntArray([2]))
+    stage.Save()
+    with pytest.raises(
+        MeshLoadError, match=r"holes\.usda: /M: holeIndices\[0\] = 2 out of range for 2 faces"
+    ):
+        load_mesh(path)
+
+
+def test_usd_unrendered_meshes_are_not_loaded(tmp_path: Path) -> None:
+    """Meshes a renderer does not draw, invisible (also through an ancestor) or of purpose guide or proxy (a
+    viewport stand-in beside the render mesh), were concatenated with the asset's surface."""
+    path = tmp_path / "purpose.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    _define_mesh(stage, "/A/render", STRIP_POINTS, STRIP_COUNTS, STRIP_INDICES).CreatePurposeAttr("render")
+    _define_mesh(stage, "/A/default", STRIP_POINTS + [0, 2, 0], STRIP_COUNTS, STRIP_INDICES)
+    for name, z in (("proxy", 1), ("guide", 2)):
+        _define_mesh(stage, f"/A/{name}", STRIP_POINTS + [0, 0, z], [3], [0, 1, 4]).CreatePurposeAttr(name)
+    _define_mesh(stage, "/A/hidden", STRIP_POINTS + [0, 0, 3], [3], [0, 1, 4]).MakeInvisible()
+    UsdGeom.Xform.Define(stage, "/A/off").MakeInvisible()
+    _define_mesh(stage, "/A/off/child", STRIP_POINTS + [0, 0, 4], [3], [0, 1, 4])
+    stage.Save()
+    m = load_mesh(path)
+    assert m.triangle_count == 8 and np.all(m.points[:, 2] == 0)
+    with pytest.raises(MeshLoadError, match=r"/A/proxy .*1 of them not rendered: /A/proxy \(purpose proxy"):
+        load_mesh(path, prim_path="/A/proxy")
+
+
+@pytest.mark.parametrize(
+    ("header", "problem"),
+    [
+        (
+            '(\n    subLayers = [@gone.usda@]\n)\ndef Xform "X" (\n    references = @gone2.usda@\n)\n{\n}\n',
+            r"2 composition errors, the stage is incomplete; first: Could not ",
+        ),
+        (
+            'def Xform "X" (\n    references = @gone.usda@\n)\n{\n}\n',
+            r"1 composition error, the stage is incomplete; first: Could not open asset @gone\.usda@",
+        ),
+    ],
+)
+def test_usd_composition_errors_are_load_errors(tmp_path: Path, header: str, problem: str) -> None:
+    """A sublayer or reference that does not resolve dropped its meshes from the build without a word
+    (usd-core only prints a warning): the mesh of the stage's other prims was encoded as the asset."""
+    path = _write_usda(tmp_path / "c.usda", header + _mesh_usda(_TRIANGLE, *_ONE_FACE))
+    with pytest.raises(MeshLoadError, match=r"c\.usda: " + problem):
+        load_mesh(path)
+
+
+def test_usd_composition_errors_the_load_does_not_use_are_ignored(tmp_path: Path) -> None:
+    """A reference that does not resolve on a deactivated prim (how a broken reference is switched off), or
+    outside the prim_path subtree that is loaded, drops nothing from the build: the stage loads as before."""
+    off = 'def Xform "Off" (\n    active = false\n    references = @gone.usda@\n)\n{\n}\n'
+    path = _write_usda(tmp_path / "c.usda", off + _mesh_usda(_TRIANGLE, *_ONE_FACE))
+    assert load_mesh(path).triangles.shape == (1, 3)
+    other = 'def Xform "Other" (\n    references = @gone.usda@\n)\n{\n}\n'
+    world = 'def Xform "World"\n{\n' + _mesh_usda(_TRIANGLE, *_ONE_FACE) + "}\n"
+    path = _write_usda(tmp_path / "d.usda", other + world)
+    assert load_mesh(path, prim_path="/World").triangles.shape == (1, 3)
+    assert load_mesh(path, prim_path="/World/M").triangles.shape == (1, 3)
+    with pytest.raises(MeshLoadError, match=r"1 composition error, .*</Other>"):
+        load_mesh(path)  # (the whole stage: Other's meshes would be missing)
+    above = (
+        'def Xform "World" (\n    references = @gone.usda@\n)\n{\n'
+        + _mesh_usda(_TRIANGLE, *_ONE_FACE)
+        + "}\n"
+    )
+    path = _write_usda(tmp_path / "e.usda", above)  # an arc above prim_path brings opinions into it
+    with pytest.raises(MeshLoadError, match=r"1 composition error, .*</World>"):
+        load_mesh(path, prim_path="/World/M")
 
 
 def _strip_corner_uv(seam: bool) -> np.ndarray:
@@ -477,6 +633,7 @@ def _write_usda(path: Path, body: str) -> Path:
 
 
 _TRIANGLE = "point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]"
+_ONE_FACE = ("int[] faceVertexCounts = [3]", "int[] faceVertexIndices = [0, 1, 2]")
 
 
 def _mesh_usda(*lines: str) -> str:
@@ -548,6 +705,23 @@ def test_garbage_bytes(tmp_path: Path, ext: str) -> None:
         load_mesh(path)
     assert "garbage." + ext in str(err.value)
     assert err.value.path == str(path)
+
+
+@pytest.mark.parametrize(
+    ("text", "problem"),
+    [
+        (b"\x89garbage", "not UTF-8 JSON"),
+        (b'{"asset": {"version": "2.0"}, "buffers": [', "not JSON: Expecting value: line 1 column 43"),
+        (b"[1, 2, 3]", "the JSON is a list, not an object"),
+    ],
+)
+def test_gltf_that_is_not_a_json_object_says_so(tmp_path: Path, text: bytes, problem: str) -> None:
+    """trimesh said "FileNotFoundError: model.gltf" (or gltf_buffer_0.bin, or "'list' object has no attribute
+    'get'") for a .gltf that is not a JSON object."""
+    path = tmp_path / "bad.gltf"
+    path.write_bytes(text)
+    with pytest.raises(MeshLoadError, match=r"bad\.gltf: not a glTF file \(" + problem):
+        load_mesh(path)
 
 
 def _stl_bytes(file_type: str = "stl") -> bytes | str:
@@ -686,6 +860,16 @@ def test_missing_unsupported_and_directory(tmp_path: Path) -> None:
     obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     with pytest.raises(MeshLoadError, match="prim_path only applies to USD"):
         load_mesh(obj, prim_path="/M")
+
+
+@pytest.mark.parametrize("ext", ["obj", "ply", "stl", "off", "glb", "gltf", "usd", "usda", "usdc", "usdz"])
+def test_empty_file_says_so(tmp_path: Path, ext: str) -> None:
+    """A 0-byte file of every supported type is reported as empty (a .gltf said "FileNotFoundError:
+    model.gltf", a .glb "IndexError: index 0 is out of bounds", a .off "not enough values to unpack")."""
+    path = tmp_path / f"empty.{ext}"
+    path.write_bytes(b"")
+    with pytest.raises(MeshLoadError, match=rf"empty\.{ext}: no triangles: the file is empty \(0 bytes\)$"):
+        load_mesh(path)
 
 
 @pytest.mark.parametrize(

@@ -468,6 +468,34 @@ rules:
     assert rec["instances"] == 3 and rec["rule"] == "crowd"
 
 
+def test_usd_stage_meshes_a_renderer_does_not_draw_are_not_assets(tmp_path):
+    """Since the loader leaves out Mesh prims a renderer does not draw, each invisible, guide or proxy Mesh
+    prim of a stage asset (a viewport stand-in beside its render mesh) was an asset that failed ('no
+    triangles: ... not rendered'), where it had been built before."""
+    from pxr import Usd, UsdGeom
+
+    scene = tmp_path / "scene.usda"
+    st = Usd.Stage.CreateNew(str(scene))
+    UsdGeom.Xform.Define(st, "/World/off")
+    for name in ("render", "proxy", "guide", "hidden", "off/child"):
+        m = UsdGeom.Mesh.Define(st, f"/World/{name}")
+        m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
+        m.CreateFaceVertexCountsAttr([3, 3])
+        m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+        if name in ("render", "proxy", "guide"):
+            m.CreatePurposeAttr(name)
+    UsdGeom.Imageable(st.GetPrimAtPath("/World/hidden")).MakeInvisible()
+    UsdGeom.Imageable(st.GetPrimAtPath("/World/off")).MakeInvisible()
+    st.GetRootLayer().Save()
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{stage: scene.usda}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 0 and res.built == 1
+    assert list(res.records) == ["scene.usda:/World/render"]
+
+
 def test_interrupted_run_keeps_earlier_outputs_and_rerun_finishes(tmp_path):
     cfg = _project(tmp_path, ("cow.obj", "spot.obj", "bob.obj", "fandisk.obj", "teapot.obj"), "")
     cfg.write_text(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -17,7 +18,7 @@ from swpm_usd.encode import BUILDERS
 from swpm_usd.mesh import Mesh
 from swpm_usd.usd import schema
 from swpm_usd.usd.reader import UsdReadError
-from swpm_usd.usd.validate import CODES, validate_stage
+from swpm_usd.usd.validate import CODES, validate_prim, validate_stage
 
 MESHES = Path(__file__).resolve().parents[2] / "shared" / "meshes"
 if not MESHES.exists():
@@ -439,7 +440,196 @@ def test_overrides_reindex_primvars_and_subsets(mode, tmp_path):
     assert validate_stage(out) == []
 
 
+@pytest.mark.parametrize(
+    ("kwargs", "problem"),
+    [
+        ({"up_axis": "X"}, "up_axis must be 'Y' or 'Z', not 'X'"),
+        ({"up_axis": ""}, "up_axis must be 'Y' or 'Z', not ''"),
+        ({"meters_per_unit": -1.0}, "meters_per_unit must be a finite number above 0, not -1.0"),
+        ({"meters_per_unit": 0}, "meters_per_unit must be a finite number above 0, not 0"),
+        ({"meters_per_unit": float("nan")}, "meters_per_unit must be a finite number above 0, not nan"),
+    ],
+)
+def test_write_rejects_stage_metadata_usd_does_not_define(pm, tmp_path, kwargs, problem):
+    """up_axis "X" (or any typo) was written as "Y" without a word, and a metersPerUnit of -1, 0 or NaN was
+    written as is: the asset then came in mirrored, rotated or scaled by nonsense."""
+    from swpm_usd.usd.writer import UsdWriteError
+
+    with pytest.raises(UsdWriteError, match=re.escape(problem)):
+        usd.write(pm, tmp_path / "a.usda", **kwargs)
+    assert not (tmp_path / "a.usda").exists()
+    stage = Usd.Stage.Open(str(usd.write(pm, tmp_path / "z.usda", up_axis="z", meters_per_unit=0.01)))
+    assert UsdGeom.GetStageUpAxis(stage) == "Z" and UsdGeom.GetStageMetersPerUnit(stage) == 0.01
+
+
+def test_write_to_a_folder_is_an_error_not_a_sibling_file(pm, tmp_path):
+    """usd.write(pm, "out") with "out" a folder wrote "out.usdc" beside the folder (the suffix added to
+    whatever the path was)."""
+    from swpm_usd.usd.writer import UsdWriteError
+
+    (tmp_path / "out").mkdir()
+    with pytest.raises(UsdWriteError, match=r"out: is a folder"):
+        usd.write(pm, tmp_path / "out")
+    (tmp_path / "out.usda").mkdir()
+    with pytest.raises(UsdWriteError, match=r"out\.usda: is a folder"):
+        usd.write(pm, tmp_path / "out.usda")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "out.usda"]
+    assert usd.write(pm, tmp_path / "out" / "a") == tmp_path / "out" / "a.usdc"  # a file name: as before
+
+
+def test_usd_writers_raise_typed_errors_naming_the_file(pm, tmp_path):
+    """A source that is missing or not USD, or an output folder that cannot be written, is a SwpmError
+    naming the file (usd-core's Tf.ErrorException, with C++ file and line noise, escaped before)."""
+    from swpm_usd.usd.overrides import UsdOverrideError
+    from swpm_usd.usd.writer import UsdWriteError
+
+    garbage = tmp_path / "garbage.usda"
+    garbage.write_bytes(b"not usd {{{")
+    for source, problem in [
+        (tmp_path / "nope.usda", "file not found"),
+        (garbage, "USD could not open it: .*not a valid usda layer"),
+    ]:
+        with pytest.raises(UsdOverrideError, match=re.escape(str(source)) + ": " + problem) as exc:
+            usd.write_overrides(source, tmp_path / "ovr.usda")
+        assert "Error in" not in str(exc.value)
+    assert not (tmp_path / "ovr.usda").exists()
+    blocker = tmp_path / "file"
+    blocker.write_bytes(b"")
+    with pytest.raises(UsdWriteError, match=re.escape(str(blocker / "a.usda")) + ": could not write"):
+        usd.write(pm, blocker / "a.usda")  # its folder is a file
+    source = usd.write(pm, tmp_path / "source.usda")
+    with pytest.raises(UsdOverrideError, match=re.escape(str(blocker / "a.usda")) + ": could not write"):
+        usd.write_overrides(source, blocker / "a.usda")
+
+
+@pytest.mark.parametrize(
+    ("name", "problem"),
+    [
+        ("ovr.usdz", "a .usdz package cannot be written as a layer"),
+        ("ovr.txt", "'.txt' is not a USD layer suffix"),
+        ("ovr", "'' is not a USD layer suffix"),
+    ],
+)
+def test_write_overrides_to_a_path_that_is_no_layer_says_why(pm, tmp_path, name, problem):
+    """Since the layer is written under a temporary name, a .usdz output said 'Cannot create new layer
+    '.../.ovr.1a2b3c4d.tmp.usdz'' (the temporary file, not the output) and a .txt one 'Failed verification:
+    ' fileFormat'."""
+    from swpm_usd.usd.overrides import UsdOverrideError
+
+    source = usd.write(pm, tmp_path / "source.usda")
+    out = tmp_path / name
+    with pytest.raises(UsdOverrideError, match=re.escape(f"{out}: could not write: {problem}")) as exc:
+        usd.write_overrides(source, out)
+    assert ".tmp" not in str(exc.value)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["source.usda"]
+
+
+def test_a_failed_write_overrides_keeps_the_previous_layer(tmp_path):
+    """write_overrides created its output at once (Sdf.Layer.CreateNew) and saved it at the end: a run that
+    failed in between (a bad parameter, a prim that cannot be encoded) left an empty layer in place of the
+    good one written before (or cleared it in memory, when it was open). It writes a temporary layer beside
+    it and renames it into place."""
+    src = tmp_path / "src.usda"
+    _grid_stage(src, 4)
+    out = tmp_path / "ovr.usda"
+    usd.write_overrides(src, tmp_path / "first.usda")  # (a layer this process never opened at out)
+    before = (tmp_path / "first.usda").read_bytes()
+    (tmp_path / "first.usda").unlink()
+    out.write_bytes(before)
+    names = ["ovr.usda", "src.usda"]
+    for opened in (False, True):
+        layer = Sdf.Layer.FindOrOpen(str(out)) if opened else None  # open in this process too
+        with pytest.raises(swpm_usd.BuildError, match="seam_weight"):
+            usd.write_overrides(src, out, seam_weight=-5.0)
+        assert out.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == names
+    assert layer.GetPrimAtPath("/World/grid") is not None  # the open layer was not cleared either
+    usd.write_overrides(src, out, "skip-strip")  # and a later run replaces it (the open layer reloaded)
+    stage = Usd.Stage.Open(str(out))
+    assert stage.GetPrimAtPath("/World/grid").GetAttribute("swpm:encoding").Get() == "skip-strip"
+    assert layer.GetPrimAtPath("/World/grid").attributes["swpm:encoding"].default == "skip-strip"
+    assert sorted(p.name for p in tmp_path.iterdir()) == names
+
+
+def test_overrides_leave_hole_faces_out(tmp_path):
+    """Faces in the source's holeIndices are not encoded, and the source's hole face numbers (which would
+    name other faces of the new triangle list) are not kept on the override."""
+    n = 6
+    src = tmp_path / "src.usda"
+    _grid_stage(src, n)
+    stage = Usd.Stage.Open(str(src))
+    holes = [14, 15, 20, 21]  # a 2 x 2 hole in the middle: x and y in [2, 4]
+    UsdGeom.Mesh(stage.GetPrimAtPath("/World/grid")).CreateHoleIndicesAttr(Vt.IntArray(holes))
+    stage.Save()
+    out = tmp_path / "ovr.usda"
+    result = usd.write_overrides(src, out)
+    stage = Usd.Stage.Open(str(out))
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/World/grid"))
+    pts = np.asarray(mesh.GetPointsAttr().Get())
+    tri = np.asarray(mesh.GetFaceVertexIndicesAttr().Get()).reshape(-1, 3)
+    assert tri.shape[0] == 2 * (n * n - len(holes)) == result["/World/grid"].triangle_count_at(0)
+    assert list(mesh.GetHoleIndicesAttr().Get() or []) == []
+    centre = pts[tri].mean(axis=1)[:, :2]
+    assert not np.any(np.all((centre > 2) & (centre < 4), axis=1))  # nothing drawn in the hole
+    subset = np.asarray(UsdGeom.Subset(stage.GetPrimAtPath("/World/grid/left")).GetIndicesAttr().Get())
+    np.testing.assert_array_equal(subset, np.flatnonzero(centre[:, 0] < n / 2))
+    assert validate_stage(out) == []
+
+
+def test_overrides_of_a_mesh_with_bad_topology_are_override_errors(tmp_path):
+    """A hole index out of range (and any other topology the loader refuses) raised the loader's private
+    ValueError out of write_overrides, outside SwpmError and without naming the source file."""
+    from swpm_usd.usd.overrides import UsdOverrideError
+
+    src = tmp_path / "src.usda"
+    _grid_stage(src, 4)
+    stage = Usd.Stage.Open(str(src))
+    UsdGeom.Mesh(stage.GetPrimAtPath("/World/grid")).CreateHoleIndicesAttr(Vt.IntArray([3, 99]))
+    stage.Save()
+    out = tmp_path / "ovr.usda"
+    problem = r": /World/grid: holeIndices\[1\] = 99 out of range for 16 faces"
+    with pytest.raises(UsdOverrideError, match=re.escape(str(src)) + problem):
+        usd.write_overrides(src, out)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["src.usda"]
+
+
 # -- discrete LODs -----------------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("kwargs", "problem"),
+    [
+        ({"pixel_error": 0}, "pixel_error must be a finite number above 0, not 0"),
+        ({"pixel_error": -1.0}, "pixel_error must be a finite number above 0, not -1.0"),
+        ({"pixel_error": float("nan")}, "pixel_error must be a finite number above 0, not nan"),
+        ({"viewport_px": 0}, "viewport_px must be at least 1, not 0"),
+        ({"fov_degrees": 0}, "fov_degrees must be in (0, 180), not 0"),
+        ({"fov_degrees": 180}, "fov_degrees must be in (0, 180), not 180"),
+    ],
+)
+def test_write_usdlod_rejects_arguments_that_make_no_thresholds(pm, tmp_path, kwargs, problem):
+    """pixel_error 0, -1 or NaN and viewport_px 0 wrote inf / NaN / negative-derived LOD thresholds, and
+    fov_degrees 0 raised ZeroDivisionError."""
+    from swpm_usd.usd.writer import UsdWriteError
+
+    asset = usd.write(pm, tmp_path / "a.usda", lods=3)
+    with pytest.raises(UsdWriteError, match=re.escape(problem)):
+        usd.write_usdlod(asset, tmp_path / "a_lod.usda", **kwargs)
+    assert not (tmp_path / "a_lod.usda").exists()
+
+
+def test_write_usdlod_errors_name_the_file(pm, tmp_path):
+    """A missing asset raised usd-core's raw Tf.ErrorException; the asset's own path as the output cleared
+    the asset's open layer and died in a RuntimeError ("Accessed invalid expired prim")."""
+    from swpm_usd.usd.writer import UsdWriteError
+
+    with pytest.raises(UsdWriteError, match=r"nope\.usda: USD could not open it"):
+        usd.write_usdlod(tmp_path / "nope.usda", tmp_path / "x.usda")
+    asset = usd.write(pm, tmp_path / "a.usda", lods=3)
+    before = asset.read_bytes()
+    with pytest.raises(UsdWriteError, match="the LOD layer must not be the asset"):
+        usd.write_usdlod(asset, asset)
+    assert asset.read_bytes() == before
+    assert usd.read(Usd.Stage.Open(str(asset)).GetDefaultPrim()).lod_count == pm.lod_count
+
+
 def test_lod_variants_and_usdlod(pm, tmp_path):
     asset = usd.write(pm, tmp_path / "lods.usdc", lods=4)
     stage = Usd.Stage.Open(str(asset))
@@ -595,6 +785,76 @@ def test_an_edited_stage_is_rejected_before_the_runtime(encoding, mesh, tmp_path
     usd.read(prim)  # restored: reads again
 
 
+def test_read_flattens_indexed_primvars(pm, tmp_path):
+    """A DCC that re-saves an asset may store primvars indexed (distinct values + indices); read returned the
+    distinct values as if they were per vertex (wrong uvs and colours, or a length error)."""
+    path = usd.write(pm, tmp_path / "a.usda")
+    stage = Usd.Stage.Open(str(path))
+    prim = usd.find_encoded(stage)[0]
+    api = UsdGeom.PrimvarsAPI(prim)
+    for name, values in (("st", pm.attributes["uv"]), ("displayColor", pm.attributes["color"][:, :3])):
+        unique, inverse = np.unique(values, axis=0, return_inverse=True)
+        pv = api.GetPrimvar(name)
+        pv.Set(pv.GetAttr().Get().__class__.FromNumpy(unique[::-1].copy()))
+        pv.SetIndices(Vt.IntArray.FromNumpy((len(unique) - 1 - inverse.ravel()).astype(np.int32)))
+        assert len(unique) < len(values)
+    back = usd.read(prim)
+    for name in ("uv", "color", "normal", "weight"):
+        np.testing.assert_array_equal(back.attributes[name], pm.attributes[name])
+    assert validate_prim(prim) == []
+
+
+@pytest.mark.parametrize("name", ["st", "displayColor", "displayOpacity", "normals", "weight"])
+def test_read_of_an_indexed_primvar_with_indices_out_of_range_says_so(pm, tmp_path, name):
+    """usd-core's ComputeFlattened gives None for indices out of range: read said the attribute 'has no
+    stored primvar' (displayOpacity: a bare ValueError out of numpy)."""
+    path = usd.write(pm, tmp_path / "a.usda")
+    stage = Usd.Stage.Open(str(path))
+    prim = usd.find_encoded(stage)[0]
+    api = UsdGeom.PrimvarsAPI(prim)
+    if name == "normals":  # (the writer stores the normals attribute: a DCC may re-save it as a primvar)
+        api.CreatePrimvar("normals", Sdf.ValueTypeNames.Normal3fArray, "vertex").Set(
+            UsdGeom.Mesh(prim).GetNormalsAttr().Get()
+        )
+    elif name == "displayOpacity":
+        api.CreatePrimvar("displayOpacity", Sdf.ValueTypeNames.FloatArray, "vertex").Set(
+            Vt.FloatArray.FromNumpy(np.ones(pm.vertex_count, np.float32))
+        )
+    pv = api.GetPrimvar(name)
+    n = len(pv.Get())
+    pv.SetIndices(Vt.IntArray([0] * (n - 1) + [n]))
+    problem = f"{prim.GetPath()}: primvar '{name}' has indices out of range for its {n} values"
+    with pytest.raises(UsdReadError, match=re.escape(problem)):
+        usd.read(prim, check=False)
+    (finding,) = validate_prim(prim)
+    assert finding.code == "SWPM_USD_REBUILD" and problem in finding.message
+
+
+@pytest.mark.parametrize("encoding", ["vanilla", "mixed"])
+@pytest.mark.parametrize("dtype", ["V1000000000", "object", "complex128", "datetime64", "float16", "S4"])
+def test_a_hostile_dtype_token_is_rejected_before_anything_is_allocated(encoding, dtype, mesh, tmp_path):
+    """swpm:bufferDtypes / swpm:attributeDtypes name what the arrays are cast to: a dtype the writer never
+    stores was cast to as given. "V1000000000" allocated 1 GB per element (a validate of the stage was
+    killed by the OOM killer at 24 GB), "datetime64" raised a TypeError out of read, and "float16" index
+    buffers passed read's check to crash the runtime (draw_stream: "slice indices must be integers"; float16
+    attributes are fine)."""
+    import resource
+
+    path = usd.write(swpm_usd.build(mesh, encoding), tmp_path / "a.usda")
+    for name in ("swpm:bufferDtypes", "swpm:attributeDtypes")[: 1 if dtype == "float16" else 2]:
+        stage = Usd.Stage.Open(str(path))
+        prim = usd.find_encoded(stage)[0]
+        attr = prim.GetAttribute(name)
+        attr.Set(Vt.TokenArray([dtype] * len(attr.Get())))
+        before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        with pytest.raises(UsdReadError, match=rf"{prim.GetPath()}: {name}\[0\] = '{dtype}' is not"):
+            usd.read(prim)
+        (finding,) = validate_prim(prim)
+        assert finding.code == "SWPM_USD_TYPE" and repr(dtype) in finding.message
+        assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 100_000  # KiB
+        Sdf.Layer.Find(str(path)).Reload(force=True)
+
+
 def test_validate_reports_a_usd_file_that_does_not_open_as_a_coded_error(tmp_path):
     from click.testing import CliRunner
 
@@ -620,3 +880,20 @@ def test_validate_reports_a_usd_file_that_does_not_open_as_a_coded_error(tmp_pat
         assert result.exit_code == 1 and "SWPM_USD_OPEN" in result.output
     assert "empty" in validate_stage(tmp_path / "empty.usda")[0].message
     assert "SWPM file" in validate_stage(tmp_path / "renamed.usda")[0].message
+
+
+def test_validate_json_of_a_missing_usd_file_is_a_report(tmp_path):
+    """``validate --json`` prints a report for a USD path that does not exist, as it does for a missing .swpm
+    file (stdout was empty: a script reading it got no JSON)."""
+    from click.testing import CliRunner
+
+    from swpm_usd.cli import main
+
+    path = tmp_path / "nope.usda"
+    result = CliRunner().invoke(main, ["validate", str(path), "--json"])
+    assert result.exit_code == 1
+    rep = json.loads(result.stdout)
+    assert rep["stage"] == str(path) and rep["errors"] == 1
+    assert rep["findings"][0]["code"] == "SWPM_USD_OPEN" and "nope.usda" in rep["findings"][0]["message"]
+    result = CliRunner().invoke(main, ["validate", str(path)])
+    assert result.exit_code == 1 and "nope.usda: file not found" in result.stderr

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .errors import CATALOGUE, Problem, Report, SwpmFormatError
+from .errors import CATALOGUE, Problem, Report, SwpmEncodeError, SwpmFormatError
 from .reader import load, load_bytes, validate, validate_bytes
 from .writer import encode_bytes, save
 
@@ -10,6 +10,7 @@ __all__ = [
     "CATALOGUE",
     "Problem",
     "Report",
+    "SwpmEncodeError",
     "SwpmFormatError",
     "encode_bytes",
     "load",

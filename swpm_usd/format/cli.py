@@ -199,8 +199,11 @@ def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, .
         digest = None
         if Path(input_path).is_file():
             digest = "sha256:" + hashlib.sha256(Path(input_path).read_bytes()).hexdigest()
-        save(pm, output, source_digest=digest)
-        size = Path(output).stat().st_size
+        try:
+            save(pm, output, source_digest=digest)
+            size = Path(output).stat().st_size
+        except OSError as exc:
+            raise OSError(f"cannot write {output}: {exc.strerror or exc}") from exc
     except (SwpmError, OSError, ValueError) as exc:
         click.echo(f"error: {exc}", err=True)
         if as_json:
@@ -225,7 +228,13 @@ def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, .
 @click.command("inspect")
 @click.argument("file", type=click.Path(dir_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-@click.option("--rows", default=10, show_default=True, help="LOD rows to show (spread evenly).")
+@click.option(
+    "--rows",
+    type=click.IntRange(min=1),
+    default=10,
+    show_default=True,
+    help="LOD rows to show (spread evenly, the first and the last always).",
+)
 def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
     """Show FILE's header, chunks, counts, parameters and a per-LOD table."""
     from .reader import _check, _map
@@ -270,7 +279,7 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
     else:
         click.echo(
             f"{file}: {'valid' if rep.valid else 'INVALID'} SWPM {out.get('version', '?')} "
-            f"{out.get('encoding', '?')}, index u{8 * out.get('index_width', 0)}"
+            f"{out.get('encoding', '?')}, index u{8 * out['index_width'] if 'index_width' in out else '?'}"
         )
         for key in (
             "file_size",
@@ -315,6 +324,11 @@ def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool)
 
         if not Path(file).is_file():
             click.echo(f"error: {file}: file not found", err=True)
+            if as_json:  # the report validate_stage gives: one SWPM_USD_OPEN
+                from ..usd.validate import report, validate_stage
+
+                rep = report(validate_stage(file, builtin=False))
+                click.echo(json.dumps({"stage": file, **rep}, indent=2))
             sys.exit(1)
         ctx.invoke(validate_usd, stage=Path(file), as_json=as_json, no_builtin=no_builtin)
         return

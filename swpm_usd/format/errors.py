@@ -502,6 +502,11 @@ class Report:
         return "\n".join(lines)
 
 
+class SwpmEncodeError(SwpmError, ValueError):
+    """A progressive mesh cannot be written as SWPM v1 (an attribute of an element type or width the format
+    has no code for); a :class:`ValueError` too, as it was before it had a type of its own."""
+
+
 class SwpmFormatError(SwpmError):
     """A .swpm file could not be read; ``report`` lists every problem found (see :data:`CATALOGUE`)."""
 

@@ -742,7 +742,8 @@ def run_conformance(vector_dir: str | Path) -> list[Outcome]:
     """Validate every vector of ``manifest.json`` and compare with its expected result.
 
     A manifest that cannot be read raises :class:`ConformanceManifestError` naming it; a vector whose entry
-    or expected file is unusable fails, with the reason."""
+    or expected file is unusable (an expected result without ``valid`` and ``problems``) fails, with the
+    reason, and so does one whose file's SHA-256 or validity differs from its manifest entry's."""
     from .reader import validate
 
     vector_dir = Path(vector_dir)
@@ -761,10 +762,24 @@ def run_conformance(vector_dir: str | Path) -> list[Outcome]:
             path = vector_dir / v["file"]
             if not isinstance(exp, dict):
                 raise ValueError("the expected result is not a JSON object")
+            for key in ("valid", "problems"):  # (spec/format.md: every expected result holds both)
+                if key not in exp:
+                    raise ValueError(f"the expected result has no {key!r}")
         except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError) as exc:
             what = f"no {exc} key" if isinstance(exc, KeyError) else str(exc)
             out.append(Outcome(str(name), False, f"unusable manifest entry: {what}"))
             continue
+        if "valid" in v and v["valid"] != exp["valid"]:
+            said, expected = json.dumps(v["valid"]), json.dumps(exp["valid"])
+            detail = f"the manifest says valid {said}, the expected result {expected}"
+            out.append(Outcome(str(name), False, detail))
+            continue
+        if "sha256" in v and path.is_file():
+            digest = hashlib.sha256(path.read_bytes()).hexdigest()
+            if digest != v["sha256"]:
+                detail = f"sha256 of {v['file']} is {digest}, the manifest says {v['sha256']}"
+                out.append(Outcome(str(name), False, detail))
+                continue
         rep = validate(path)
         got = {
             "valid": rep.valid,
@@ -772,7 +787,7 @@ def run_conformance(vector_dir: str | Path) -> list[Outcome]:
         }
         if rep.valid:
             got["summary"] = buffer_digests(path.read_bytes())
-        diff = [k for k in exp if exp[k] != got.get(k)]
+        diff = sorted(k for k in exp.keys() | got.keys() if exp.get(k) != got.get(k))  # (a key missing too)
         out.append(Outcome(v["name"], not diff, "ok" if not diff else f"differs in {', '.join(diff)}"))
     return out
 

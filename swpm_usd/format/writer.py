@@ -16,6 +16,7 @@ from .. import __version__
 from ..encode.base import ProgressiveMesh
 from ..fileio import atomic_write_bytes
 from . import layout as L
+from .errors import SwpmEncodeError
 
 #: LOD bands of the streaming map: one per halving of the vertex count
 GENERATOR = f"swpm-usd {__version__}"
@@ -62,7 +63,10 @@ def _vert_payload(pm: ProgressiveMesh) -> tuple[bytes, int, int]:
         dt = a.dtype.newbyteorder("<") if a.dtype.byteorder == ">" else a.dtype
         code = L.ELEM_CODES.get(np.dtype(dt).newbyteorder("<").str)
         if code is None or a.ndim != 2 or a.shape[0] != V or not 1 <= a.shape[1] <= 255:
-            raise ValueError(f"attribute {name!r} ({a.dtype}, shape {a.shape}) cannot be stored in SWPM v1")
+            raise SwpmEncodeError(
+                f"attribute {name!r} ({a.dtype}, shape {a.shape}) cannot be stored in SWPM v1: one row per "
+                f"vertex ({V}) of 1 to 255 components of {' '.join(L.ELEM_NAMES.values())}"
+            )
         elem = L.ELEM_TYPES[code]
         offset = L.align(offset, elem.itemsize)
         raw = name.encode("utf-8")
@@ -324,5 +328,13 @@ def _json_default(o: Any) -> Any:
 
 
 def save(pm: ProgressiveMesh, path: str | os.PathLike[str], *, source_digest: str | None = None) -> Path:
-    """Write ``pm`` to ``path`` as SWPM v1, atomically: a reader sees the old file or the complete new one."""
-    return atomic_write_bytes(path, encode_bytes(pm, source_digest=source_digest))
+    """Write ``pm`` to ``path`` as SWPM v1, atomically: a reader sees the old file or the complete new one.
+
+    An :class:`OSError` (of its errno's subclass) names ``path``, not the temporary file beside it."""
+    data = encode_bytes(pm, source_digest=source_digest)
+    try:
+        return atomic_write_bytes(path, data)
+    except OSError as e:
+        if e.errno is None:
+            raise
+        raise OSError(e.errno, e.strerror, os.fspath(path)) from e

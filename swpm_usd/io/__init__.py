@@ -39,9 +39,11 @@ def load_mesh(path: str | os.PathLike[str], *, prim_path: str | None = None) -> 
         raise MeshLoadError(p, "not a regular file")
     try:
         with p.open("rb") as f:
-            f.read(1)
+            first = f.read(1)
     except OSError as e:
         raise MeshLoadError(p, f"cannot read the file ({e.strerror or e})") from e
+    if not first:  # (each reader said it its own way, or not at all: "FileNotFoundError: model.gltf")
+        raise MeshLoadError(p, "no triangles: the file is empty (0 bytes)")
     if suffix in _USD_SUFFIXES:
         from .usd_loader import load_usd
 

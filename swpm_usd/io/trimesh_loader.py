@@ -15,8 +15,10 @@ load as "no triangles" (or as part of its triangles) instead of being reported a
 from __future__ import annotations
 
 import io
+import json
 import os
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -154,11 +156,28 @@ def _geometry_part(geom: object) -> tuple[np.ndarray, np.ndarray, dict[str, np.n
     return points[vertex_point], triangles, new_attrs
 
 
+def _gltf_json_problem(path: Path) -> str | None:
+    """Why the .gltf file ``path`` is not a JSON object, or None if it is (asked once trimesh has failed on
+    it: trimesh then reports a file it looked for instead, "FileNotFoundError: model.gltf")."""
+    try:
+        tree = json.loads(path.read_bytes())
+    except UnicodeDecodeError:
+        return "not UTF-8 JSON"
+    except json.JSONDecodeError as e:
+        return f"not JSON: {e}"
+    except (OSError, ValueError, RecursionError) as e:
+        return f"not JSON: {type(e).__name__}: {e}"
+    if not isinstance(tree, dict):
+        return f"the JSON is a {type(tree).__name__}, not an object"
+    return None
+
+
 def load_trimesh(path: Path) -> Mesh:
     """Load an OBJ, PLY, STL, OFF, glTF or GLB file as one cleaned mesh."""
     import trimesh
 
     file_type = path.suffix.lower().lstrip(".")
+    data = b""
     try:
         if file_type == "stl":
             check_stl(path)  # (its start and end: trimesh reads the file)
@@ -191,8 +210,36 @@ def load_trimesh(path: Path) -> Mesh:
             raise MeshLoadError(path, f"not a valid {file_type.upper()} file (binary garbage?)") from e
         raise MeshLoadError(path, f"trimesh could not read it ({type(e).__name__}: {e})") from e
     except Exception as e:
+        problem = _gltf_json_problem(path) if file_type == "gltf" else None
+        if problem is not None:
+            raise MeshLoadError(path, f"not a glTF file ({problem})") from e
         raise MeshLoadError(path, f"trimesh could not read it ({type(e).__name__}: {e})") from e
     if not parts:
         raise MeshLoadError(path, "no triangles: the file holds no triangle geometry")
+    if file_type == "obj":
+        _report_dropped_obj_attributes(path, data, parts)
     points, triangles, attrs = concatenate_parts(parts, path)
     return clean_mesh(points, triangles, attrs, str(path))
+
+
+#: an OBJ face corner that refers to a texture coordinate (v/vt, v/vt/vn) or a normal (v//vn, v/vt/vn); each
+#: starts at a digit before a '/' (not '-?\d+', which the lazy scan would re-try over a whole digit run at
+#: every position of it: quadratic in a long face line)
+_OBJ_FACE_UV = re.compile(rb"(?m)^[ \t]*f[ \t][^\n]*?\d/-?\d")
+_OBJ_FACE_NORMAL = re.compile(rb"(?m)^[ \t]*f[ \t][^\n]*?\d/-?\d*/-?\d")
+
+
+def _report_dropped_obj_attributes(path: Path, data: bytes, parts: list) -> None:
+    """Warn when the OBJ's faces refer to texture coordinates or normals that no part came out with: trimesh
+    drops all of them when one face refers to none, or to one out of range."""
+    dropped = [
+        name
+        for name, pattern in (("normal", _OBJ_FACE_NORMAL), ("uv", _OBJ_FACE_UV))
+        if not any(name in attrs for _, _, attrs in parts) and pattern.search(data)
+    ]
+    if dropped:
+        warnings.warn(
+            f"{path}: its faces refer to {', '.join(dropped)} values (vt/vn), but trimesh dropped them all "
+            "(a face that refers to none, or to one out of range?): loaded without them",
+            stacklevel=4,
+        )

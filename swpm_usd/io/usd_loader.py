@@ -1,14 +1,16 @@
 """Load USD stages (.usd .usda .usdc .usdz) through usd-core into a cleaned :class:`~swpm_usd.mesh.Mesh`.
 
-Every ``UsdGeom.Mesh`` prim under the pseudo-root (or under ``prim_path``), instance proxies included, is read
-at its earliest time sample, moved to world space with its local-to-world transform and concatenated.
-Polygons are fan-triangulated; ``orientation = leftHanded`` (and mirroring transforms) flip the winding so
-front faces come out counter-clockwise. Primvars: ``primvars:normals`` (else the ``normals`` attribute) ->
-``normal``, ``primvars:st`` (else the first texCoord2f[] primvar by name) -> ``uv``, ``primvars:displayColor``
-(+ ``displayOpacity`` as alpha) -> ``color``. Indexed primvars are flattened. ``vertex`` / ``varying`` /
-``constant`` values stay per point; ``faceVarying`` / ``uniform`` values are taken per face corner and each
-distinct (point, values) pair becomes one vertex, so only real seams split points. Any USD failure becomes a
-:class:`~swpm_usd.errors.MeshLoadError` naming the file.
+Every ``UsdGeom.Mesh`` prim under the pseudo-root (or under ``prim_path``), instance proxies included, that a
+renderer draws (not invisible, not of purpose ``guide`` or ``proxy``) is read at its earliest time sample,
+moved to world space with its local-to-world transform and concatenated. Polygons are fan-triangulated and
+faces listed in ``holeIndices`` (not rendered) left out; ``orientation = leftHanded`` (and mirroring
+transforms) flip the winding so front faces come out counter-clockwise. Primvars: ``primvars:normals`` (else
+the ``normals`` attribute) -> ``normal``, ``primvars:st`` (else the first texCoord2f[] primvar by name) ->
+``uv``, ``primvars:displayColor`` (+ ``displayOpacity`` as alpha) -> ``color``. Indexed primvars are
+flattened. ``vertex`` / ``varying`` / ``constant`` values stay per point; ``faceVarying`` / ``uniform`` values
+are taken per face corner and each distinct (point, values) pair becomes one vertex, so only real seams split
+points. Any USD failure, a composition error (a sublayer or reference that does not resolve, on an active prim
+in or above the loaded subtree) too, becomes a :class:`~swpm_usd.errors.MeshLoadError` naming the file.
 """
 
 from __future__ import annotations
@@ -45,7 +47,15 @@ def _tf_message(e: BaseException) -> str:
 class _Topology:
     """Fan triangulation of one mesh prim: corner indices of every triangle and the face each comes from."""
 
-    def __init__(self, counts: np.ndarray, indices: np.ndarray, n_points: int, left_handed: bool, where: str):
+    def __init__(
+        self,
+        counts: np.ndarray,
+        indices: np.ndarray,
+        n_points: int,
+        left_handed: bool,
+        where: str,
+        holes: np.ndarray | None = None,
+    ):
         if counts.shape[0] and counts.min() < 3:
             face = int(np.argmax(counts < 3))
             raise _Invalid(f"{where}: face {face} has {int(counts[face])} vertices (at least 3 needed)")
@@ -63,6 +73,14 @@ class _Topology:
         self.n_corners_in = indices.shape[0]
         self.n_points = n_points
         ntri = counts - 2
+        if holes is not None and holes.shape[0]:
+            if holes.min() < 0 or holes.max() >= self.n_faces:
+                bad = int(np.argmax((holes < 0) | (holes >= self.n_faces)))
+                raise _Invalid(
+                    f"{where}: holeIndices[{bad}] = {int(holes[bad])} out of range for {self.n_faces} faces"
+                )
+            ntri = ntri.copy()
+            ntri[holes] = 0  # a hole face is not rendered: no triangles (its corners keep their numbers)
         starts = np.cumsum(counts) - counts
         self.face = np.repeat(np.arange(self.n_faces, dtype=np.int64), ntri)
         k = np.arange(self.face.shape[0], dtype=np.int64) - (np.cumsum(ntri) - ntri)[self.face] + 1
@@ -139,7 +157,11 @@ def _read_mesh(prim: Usd.Prim, xf_cache: UsdGeom.XformCache, time: Usd.TimeCode)
     if counts.shape[0] == 0 and indices.shape[0] == 0:
         return None  # an empty placeholder mesh contributes nothing
     left = mesh.GetOrientationAttr().Get(time) == UsdGeom.Tokens.leftHanded
-    topo = _Topology(counts, indices, points.shape[0], left, where)
+    raw_holes = mesh.GetHoleIndicesAttr().Get(time)
+    holes = None if raw_holes is None else np.asarray(raw_holes, dtype=np.int64)
+    topo = _Topology(counts, indices, points.shape[0], left, where, holes)
+    if topo.points.shape[0] == 0:
+        return None  # every face a hole
 
     api = UsdGeom.PrimvarsAPI(prim)
     found: dict[str, tuple[str, np.ndarray]] = {}
@@ -197,6 +219,41 @@ def _read_mesh(prim: Usd.Prim, xf_cache: UsdGeom.XformCache, time: Usd.TimeCode)
     return transform_part(part, matrix)
 
 
+def _not_rendered(prim: Usd.Prim, time: Usd.TimeCode) -> str | None:
+    """Why a renderer does not draw ``prim`` (invisible, itself or through an ancestor; purpose guide, or
+    proxy: a viewport stand-in for the render geometry), or None when it does."""
+    imageable = UsdGeom.Imageable(prim)
+    if imageable.ComputeVisibility(time) == UsdGeom.Tokens.invisible:
+        return "invisible"
+    purpose = imageable.ComputePurpose()
+    if purpose in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy):
+        return f"purpose {purpose}"
+    return None
+
+
+def _composition_errors(stage: Usd.Stage, root: Sdf.Path) -> list[str]:
+    """The stage's composition errors that can leave meshes out of a load of ``root``'s subtree, sorted: not
+    those of a deactivated prim (or one under it: not on the stage, how a broken reference is switched off)
+    nor those of prims outside ``root``'s subtree and its ancestors (which bring opinions into it)."""
+    out = []
+    for err in stage.GetCompositionErrors():
+        site_path = getattr(getattr(err, "rootSite", None), "path", None)
+        if site_path is None or site_path.isEmpty:  # (no site to tell: it counts)
+            out.append(("", str(err)))
+            continue
+        site = site_path.StripAllVariantSelections()
+        if site != Sdf.Path.absoluteRootPath:  # (a sublayer's error is the pseudo-root's)
+            site = site.GetPrimPath()  # (a property's error: its prim's)
+        if not (site.HasPrefix(root) or root.HasPrefix(site)):
+            continue
+        if site != Sdf.Path.absoluteRootPath:
+            prim = stage.GetPrimAtPath(site)
+            if not prim or not prim.IsActive():
+                continue
+        out.append((str(site), str(err)))
+    return [message for _, message in sorted(out)]
+
+
 def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
     """Load every Mesh prim of a USD stage (or those under ``prim_path``) as one cleaned mesh."""
     try:
@@ -214,13 +271,23 @@ def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
             root = stage.GetPrimAtPath(prim_path)
             if not root or not root.IsValid():
                 raise MeshLoadError(path, f"no prim at {prim_path}")
+        # a sublayer or reference that does not resolve: its meshes would be missing from the build
+        errors = _composition_errors(stage, root.GetPath())
+        if errors:
+            what = "1 composition error" if len(errors) == 1 else f"{len(errors)} composition errors"
+            raise MeshLoadError(path, f"{what}, the stage is incomplete; first: {errors[0]}")
         time = Usd.TimeCode.EarliestTime()
         xf_cache = UsdGeom.XformCache(time)
         parts: list[Part] = []
         n_mesh_prims = 0
+        unrendered: list[str] = []
         for prim in Usd.PrimRange(root, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)):
             if prim.IsA(UsdGeom.Mesh):
                 n_mesh_prims += 1
+                why = _not_rendered(prim, time)
+                if why is not None:
+                    unrendered.append(f"{prim.GetPath()} ({why})")
+                    continue
                 part = _read_mesh(prim, xf_cache, time)
                 if part is not None:
                     parts.append(part)
@@ -236,6 +303,13 @@ def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
     if n_mesh_prims == 0:
         raise MeshLoadError(path, f"no UsdGeom.Mesh prims{under}")
     if not parts:
-        raise MeshLoadError(path, f"no triangles: the {n_mesh_prims} Mesh prims{under} have no faces")
+        skipped = ""
+        if unrendered:
+            listed = ", ".join(unrendered[:3]) + (", ..." if len(unrendered) > 3 else "")
+            skipped = f"; {len(unrendered)} of them not rendered: {listed}"
+        raise MeshLoadError(
+            path,
+            f"no triangles: the {n_mesh_prims} Mesh prims{under} have no faces (or only holes){skipped}",
+        )
     points, triangles, attrs = concatenate_parts(parts, path)
     return clean_mesh(points, triangles, attrs, str(path))

@@ -92,6 +92,8 @@ def _gltf_buffers(path: Path) -> list[Path]:
 def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset], list[Path]]:
     from pxr import Ar, Usd, UsdGeom
 
+    from ..io.usd_loader import _not_rendered
+
     stage = Usd.Stage.Open(str(stage_path))
     if stage is None:
         raise OSError("the stage does not open")
@@ -99,6 +101,7 @@ def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset
     first_path: dict[str, str] = {}
     tags: dict[str, dict] = {}
     pred = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+    time = Usd.TimeCode.EarliestTime()  # (the loader's)
     instancer_counts: dict[str, int] = {}
     for prim in Usd.PrimRange(stage.GetPseudoRoot(), pred):
         if prim.IsA(UsdGeom.PointInstancer):
@@ -108,6 +111,8 @@ def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset
             for i, t in enumerate(targets):
                 instancer_counts[str(t)] = instancer_counts.get(str(t), 0) + sum(1 for x in ids if x == i)
         if not prim.IsA(UsdGeom.Mesh):
+            continue
+        if _not_rendered(prim, time) is not None:  # (invisible, guide, proxy: the loader leaves them out)
             continue
         key = str(prim.GetPrimInPrototype().GetPath()) if prim.IsInstanceProxy() else str(prim.GetPath())
         counts[key] = counts.get(key, 0) + 1
@@ -213,7 +218,10 @@ def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]
                 )
                 continue
             if not found:
-                problems.append(f"{cfg.where(('assets', i, 'stage'))}: the stage has no Mesh prims")
+                problems.append(
+                    f"{cfg.where(('assets', i, 'stage'))}: the stage has no Mesh prims a renderer draws "
+                    "(invisible, guide and proxy ones are not assets)"
+                )
             for a in found:
                 if not _first_match(cfg, matched, (stage_path, a.prim), i, a.id, a.instances, problems):
                     continue

@@ -30,6 +30,22 @@ _BY_SDF = {
 }
 
 
+#: the dtype names ``swpm:bufferDtypes`` may hold (integer buffers) and ``swpm:attributeDtypes`` (numbers):
+#: those the writer stores. A reader casts to them, so any other name (``V1000000000``: 1 GB per element) is
+#: refused.
+BUFFER_DTYPES = tuple(n for n in _BY_DTYPE if np.dtype(n).kind in "ui")
+ATTRIBUTE_DTYPES = tuple(n for n in _BY_DTYPE if np.dtype(n).kind in "uif")
+
+
+def dtype_problem(attribute: str, tokens: object, allowed: tuple[str, ...]) -> str | None:
+    """Why the dtype names ``tokens`` of ``attribute`` are not all in ``allowed`` (the first that is not), or
+    None when they are."""
+    for i, token in enumerate(tokens or []):
+        if str(token) not in allowed:
+            return f"{attribute}[{i}] = {str(token)!r} is not one of {', '.join(allowed)}"
+    return None
+
+
 class ArrayTypeError(SwpmError):
     """A buffer cannot be stored losslessly in its attribute type."""
 

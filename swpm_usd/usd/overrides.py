@@ -1,32 +1,35 @@
 """Non-destructive encoding of an existing stage: a layer that sublayers (or references) the source and
 overrides each Mesh prim with SwpmMeshAPI, points in LOD order, LOD-0 topology and re-indexed primvars.
 
-Per Mesh prim (in its local space, at the default time): faces are fan-triangulated; vertices are the
-distinct (point, faceVarying values, uniform normals/st/displayColor values) combinations, so seams split
-points only where needed; degenerate triangles are dropped. Primvars are re-indexed consistently:
-``vertex`` / ``varying`` ones follow the points; ``faceVarying`` ones (and uniform normals / st /
-displayColor) become ``vertex`` primvars on the split points; other ``uniform`` ones follow the LOD-0
-triangles; ``constant`` ones are untouched; indexed primvars are written flattened (their indices blocked).
-Face GeomSubsets get the LOD-0 triangles of their faces. Instanced meshes (inside prototypes) are skipped.
+Per Mesh prim (in its local space, at the default time): faces are fan-triangulated (hole faces left out, so
+the override authors no ``holeIndices``); vertices are the distinct (point, faceVarying values, uniform
+normals/st/displayColor values) combinations, so seams split points only where needed; degenerate triangles
+are dropped. Primvars are re-indexed consistently: ``vertex`` / ``varying`` ones follow the points;
+``faceVarying`` ones (and uniform normals / st / displayColor) become ``vertex`` primvars on the split points;
+other ``uniform`` ones follow the LOD-0 triangles; ``constant`` ones are untouched; indexed primvars are
+written flattened (their indices blocked). Face GeomSubsets get the LOD-0 triangles of their faces. Instanced
+meshes (inside prototypes) are skipped.
 The source files are never written.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable
+import secrets
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom
+from pxr import Sdf, Tf, Usd, UsdGeom, Vt
 
 from ..build import build
 from ..encode.base import ProgressiveMesh, from_buffers
 from ..errors import SwpmError
-from ..io.usd_loader import _Topology
+from ..io.usd_loader import _Invalid, _tf_message, _Topology
 from ..mesh import Mesh
-from .writer import author_swpm
+from .writer import author_swpm, reload_if_open
 
 _PROV = "_swpm_source_vertex"
 _PM_NAMES = {"normals": "normal", "st": "uv", "displayColor": "color"}
@@ -83,8 +86,12 @@ def _extract(prim: Usd.Prim) -> tuple[Mesh, dict[str, Any]]:
     points = np.asarray(mesh.GetPointsAttr().Get(), np.float32).reshape(-1, 3)
     counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get(), np.int64)
     fvi = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), np.int64)
-    topo = _Topology(counts, fvi, points.shape[0], False, str(prim.GetPath()))
-    pvs = [p for p in _primvars(prim, topo) if p.interp != UsdGeom.Tokens.constant]
+    holes = np.asarray(mesh.GetHoleIndicesAttr().Get() or [], np.int64)
+    try:
+        topo = _Topology(counts, fvi, points.shape[0], False, str(prim.GetPath()), holes)
+        pvs = [p for p in _primvars(prim, topo) if p.interp != UsdGeom.Tokens.constant]
+    except _Invalid as e:  # (the loader's own, a ValueError: the message names the prim and the problem)
+        raise UsdOverrideError(str(e)) from e
     n = topo.points.size
     cols = [np.ascontiguousarray(topo.points.reshape(-1, 1).astype("<i8")).view(np.uint8).reshape(n, -1)]
     for p in pvs:
@@ -173,6 +180,8 @@ def encode_prim(prim: Usd.Prim, encoding: str = "vanilla", **params: Any) -> Pro
     mesh.GetPointsAttr().Set(np.ascontiguousarray(pm.points))
     mesh.GetFaceVertexIndicesAttr().Set(np.ascontiguousarray(tri0.reshape(-1).astype(np.int32)))
     mesh.GetFaceVertexCountsAttr().Set(np.full(tri0.shape[0], 3, np.int32))
+    if mesh.GetHoleIndicesAttr().HasValue():  # the source's hole faces were left out: no face is a hole
+        mesh.GetHoleIndicesAttr().Set(Vt.IntArray())
     if pm.vertex_count:
         mesh.GetExtentAttr().Set(np.stack([pm.points.min(axis=0), pm.points.max(axis=0)]))
     for p in info["primvars"]:
@@ -219,14 +228,56 @@ def write_overrides(
     src_path, out_path = Path(source).resolve(), Path(path).resolve()
     if src_path == out_path:
         raise UsdOverrideError("the override layer must not be the source file")
-    src_stage = Usd.Stage.Open(str(src_path))
+    if not src_path.is_file():
+        raise UsdOverrideError(f"{source}: file not found")
+    try:
+        src_stage = Usd.Stage.Open(str(src_path))
+    except Tf.ErrorException as e:
+        raise UsdOverrideError(f"{source}: USD could not open it: {_tf_message(e)}") from e
+    if src_stage is None:
+        raise UsdOverrideError(f"{source}: USD could not open it")
+    suffix = out_path.suffix.lower()
+    file_format = Sdf.FileFormat.FindByExtension(suffix[1:]) if suffix[1:] else None
+    if file_format is None:
+        raise UsdOverrideError(
+            f"{path}: could not write: {suffix!r} is not a USD layer suffix (.usda, .usdc or .usd)"
+        )
+    if file_format.IsPackage():  # (the temporary layer's name would be in usd-core's message)
+        raise UsdOverrideError(
+            f"{path}: could not write: a {suffix} package cannot be written as a layer (.usda, .usdc or .usd)"
+        )
     rel = os.path.relpath(src_path, out_path.parent).replace(os.sep, "/")
-    out_path.parent.mkdir(parents=True, exist_ok=True)
-    layer = Sdf.Layer.Find(str(out_path))
-    if layer is not None:
-        layer.Clear()
-    else:
-        layer = Sdf.Layer.CreateNew(str(out_path))
+    # a new layer under a temporary name beside the output (relative paths resolve the same), renamed into
+    # place once complete: a run that fails leaves the previous output as it was, on disk and in memory
+    tmp_path = out_path.with_name(f".{out_path.stem}.{secrets.token_hex(4)}.tmp{out_path.suffix}")
+    with _writing(path, tmp_path):
+        out_path.parent.mkdir(parents=True, exist_ok=True)
+        layer = Sdf.Layer.CreateNew(str(tmp_path))
+    try:
+        result = _author_overrides(layer, src_stage, src_path, rel, mode, encoding, prims, params)
+        with _writing(path, tmp_path):
+            if not layer.Save():
+                raise UsdOverrideError(f"{path}: could not write")
+            os.replace(tmp_path, out_path)
+    except BaseException:
+        tmp_path.unlink(missing_ok=True)
+        raise
+    reload_if_open(out_path)
+    return result
+
+
+def _author_overrides(
+    layer: Sdf.Layer,
+    src_stage: Usd.Stage,
+    src_path: Path,
+    rel: str,
+    mode: str,
+    encoding: str,
+    prims: Iterable[str] | None,
+    params: dict[str, Any],
+) -> dict[str, ProgressiveMesh]:
+    """Fill ``layer`` (new, empty): the sublayer or reference to the source, its metadata and the encoded
+    Mesh prims; returns prim path -> progressive mesh."""
     if mode == "sublayer":
         layer.subLayerPaths.append(rel)
     elif mode == "reference":
@@ -248,6 +299,19 @@ def write_overrides(
     stage = Usd.Stage.Open(layer)
     result = {}
     for prim in _mesh_prims(stage, prims):
-        result[str(prim.GetPath())] = encode_prim(prim, encoding, **params)
-    layer.Save()
+        try:
+            result[str(prim.GetPath())] = encode_prim(prim, encoding, **params)
+        except UsdOverrideError as e:
+            raise UsdOverrideError(f"{src_path}: {e}") from e
     return result
+
+
+@contextmanager
+def _writing(path: str | os.PathLike[str], tmp: Path) -> Iterator[None]:
+    """An OSError or usd-core error while creating or saving the override layer ``path`` (as ``tmp``): a
+    :class:`UsdOverrideError` naming it (not the temporary file)."""
+    try:
+        yield
+    except (OSError, Tf.ErrorException) as e:
+        why = e.strerror or str(e) if isinstance(e, OSError) else _tf_message(e)
+        raise UsdOverrideError(f"{path}: could not write: {why.replace(str(tmp), os.fspath(path))}") from e

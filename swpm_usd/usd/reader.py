@@ -16,7 +16,7 @@ from pxr import Usd, UsdGeom
 
 from ..encode.base import ProgressiveMesh, from_buffers
 from ..errors import SwpmError
-from .arrays import from_vt
+from .arrays import ATTRIBUTE_DTYPES, BUFFER_DTYPES, dtype_problem, from_vt
 from .schema import COLLAPSE_PREFIX, SCHEMA_NAME, attr_name
 
 _PROXIES = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
@@ -74,6 +74,9 @@ def read_buffers(prim: Usd.Prim) -> dict[str, np.ndarray]:
     prim = _encoded_prim(prim)
     names = list(_get(prim, "swpm:bufferNames"))
     dtypes = list(_get(prim, "swpm:bufferDtypes"))
+    problem = dtype_problem("swpm:bufferDtypes", dtypes, BUFFER_DTYPES)
+    if problem is not None:
+        raise UsdReadError(f"{prim.GetPath()}: {problem}")
     columns = np.asarray(_get(prim, "swpm:bufferColumns"))
     if not len(names) == len(dtypes) == columns.shape[0]:
         raise UsdReadError(
@@ -114,12 +117,28 @@ def _restore(name: str, a: np.ndarray, dtype: str | None) -> np.ndarray:
 
 def _attributes(prim: Usd.Prim, names: list[str], dtypes: list[str] | None = None) -> dict[str, np.ndarray]:
     """The per-vertex attributes ``names`` from their primvars, each cast back to its ``dtypes`` entry."""
+    if dtypes is not None:
+        problem = dtype_problem("swpm:attributeDtypes", dtypes, ATTRIBUTE_DTYPES)
+        if problem is not None:
+            raise UsdReadError(f"{prim.GetPath()}: {problem}")
     out = _float_attributes(prim, names)
     if dtypes is None:
         return out
     if len(dtypes) != len(names):
         raise UsdReadError(f"{prim.GetPath()}: swpm:attributeNames and attributeDtypes differ in length")
     return {n: _restore(n, out[n], str(d)) for n, d in zip(names, dtypes, strict=True)}
+
+
+def _flattened(prim: Usd.Prim, pv: UsdGeom.Primvar) -> Any:
+    """``pv``'s values, an indexed primvar's expanded by its indices (None without a value); indices out of
+    range are a :class:`UsdReadError` (usd-core's ComputeFlattened gives None, as for no value at all)."""
+    value = pv.ComputeFlattened()
+    if value is None and pv.IsIndexed() and pv.Get() is not None:
+        n = len(pv.Get())
+        raise UsdReadError(
+            f"{prim.GetPath()}: primvar {pv.GetPrimvarName()!r} has indices out of range for its {n} values"
+        )
+    return value
 
 
 def _float_attributes(prim: Usd.Prim, names: list[str]) -> dict[str, np.ndarray]:
@@ -130,21 +149,23 @@ def _float_attributes(prim: Usd.Prim, names: list[str]) -> dict[str, np.ndarray]
     out = {}
     for name in names:
         own = name in ("normal", "uv", "color") and api.GetPrimvar(name).HasAuthoredValue()
+        # primvars flattened: an indexed one (as a DCC may re-save it) holds distinct values + indices
         if name == "normal" and not own:
-            value = mesh.GetNormalsAttr().Get()
+            normals = api.GetPrimvar("normals")
+            value = _flattened(prim, normals) if normals.HasAuthoredValue() else mesh.GetNormalsAttr().Get()
         elif name == "uv" and not own:
-            value = api.GetPrimvar("st").Get()
+            value = _flattened(prim, api.GetPrimvar("st"))
         elif name == "color" and not own:
-            value = api.GetPrimvar("displayColor").Get()
+            value = _flattened(prim, api.GetPrimvar("displayColor"))
             opacity = api.GetPrimvar("displayOpacity")
             if value is not None and opacity and opacity.HasAuthoredValue():
                 rgb = np.asarray(value, np.float32).reshape(-1, 3)
-                alpha = np.asarray(opacity.Get(), np.float32).reshape(-1, 1)
+                alpha = np.asarray(_flattened(prim, opacity), np.float32).reshape(-1, 1)
                 out[name] = np.concatenate([rgb, alpha], axis=1)
                 continue
         else:
             pv = api.GetPrimvar(name)
-            value = pv.Get() if pv else None
+            value = _flattened(prim, pv) if pv else None
             if value is not None:
                 a = np.asarray(value, np.float32)
                 out[name] = a.reshape(a.shape[0] // pv.GetElementSize(), -1) if a.ndim == 1 else a

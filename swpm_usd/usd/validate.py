@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from pxr import Usd, UsdGeom, UsdValidation
 
+from .arrays import ATTRIBUTE_DTYPES, BUFFER_DTYPES, dtype_problem
 from .reader import _snake, is_encoded
 from .schema import COLLAPSE_PREFIX, ENCODING_TOKENS, FORMAT_VERSION, PROPERTY_TYPES, attr_name
 
@@ -28,7 +29,8 @@ ERROR, WARNING = "error", "warning"
 CODES: dict[str, str] = {
     "SWPM_USD_NOT_MESH": "SwpmMeshAPI is applied to a prim that is not a Mesh.",
     "SWPM_USD_MISSING": "a required swpm: attribute (or points) has no value.",
-    "SWPM_USD_TYPE": "an attribute's type differs from the schema (or a buffer/attribute dtype is unknown).",
+    "SWPM_USD_TYPE": "an attribute's type differs from the schema (or a buffer/attribute dtype is not one "
+    "the writer stores: buffers integers, attributes numbers).",
     "SWPM_USD_ENCODING": "swpm:encoding names no known encoding.",
     "SWPM_USD_VERSION": "swpm:formatVersion is not supported by this reader.",
     "SWPM_USD_LOD_TABLE": "vertexCounts / triangleCounts / lodErrors disagree in length, order or range.",
@@ -142,12 +144,9 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
     if attr_dtypes is not None:
         if len(attr_dtypes) != len(c.get("swpm:attributeNames", required=False) or []):
             c.add("SWPM_USD_STRIDE", "swpm:attributeNames and attributeDtypes differ in length")
-        for d in attr_dtypes:
-            try:
-                np.dtype(str(d))
-            except TypeError:
-                c.add("SWPM_USD_TYPE", f"swpm:attributeDtypes names an unknown dtype {d!r}")
-                break
+        problem = dtype_problem("swpm:attributeDtypes", attr_dtypes, ATTRIBUTE_DTYPES)
+        if problem is not None:  # (read casts to it: "V1000000000" would allocate 1 GB per element)
+            c.add("SWPM_USD_TYPE", problem)
 
     points = prim.GetAttribute("points").Get()
     V = 0 if points is None else len(points)
@@ -171,12 +170,10 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
     if not len(names) == len(dtypes) == cols.shape[0]:
         c.add("SWPM_USD_STRIDE", "swpm:bufferNames, bufferDtypes and bufferColumns differ in length")
         return c.found
-    for d in dtypes:
-        try:
-            np.dtype(d)
-        except TypeError:
-            c.add("SWPM_USD_TYPE", f"swpm:bufferDtypes names an unknown dtype {d!r}")
-            return c.found
+    problem = dtype_problem("swpm:bufferDtypes", dtypes, BUFFER_DTYPES)
+    if problem is not None:
+        c.add("SWPM_USD_TYPE", problem)
+        return c.found
     fields = [COLLAPSE_PREFIX + _snake(str(f)) for f in (c.get("swpm:collapseRecordFields", False) or [])]
     buffers: dict[str, np.ndarray] = {}
     structural = len(c.found)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import math
+import numbers
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -240,20 +241,41 @@ def reload_if_open(path: str | os.PathLike[str]) -> None:
 
 
 def _export(stage: Usd.Stage, path: Path, fmt: str | None) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if not stage.GetRootLayer().Export(str(path), args=_layer_args(path, fmt)):
-        raise UsdWriteError(f"could not write {path}")
+    args = _layer_args(path, fmt)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        done = stage.GetRootLayer().Export(str(path), args=args)
+    except (OSError, Tf.ErrorException) as e:
+        from ..io.usd_loader import _tf_message
+
+        why = e.strerror or str(e) if isinstance(e, OSError) else _tf_message(e)
+        raise UsdWriteError(f"{path}: could not write: {why}") from e
+    if not done:
+        raise UsdWriteError(f"{path}: could not write")
     reload_if_open(path)
     return path
 
 
 def _resolve_path(path: str | os.PathLike[str], fmt: str | None) -> Path:
     p = Path(path)
+    if p.is_dir():  # (the suffix added to it would write a file beside the folder)
+        raise UsdWriteError(f"{path}: is a folder; give the path of the layer to write")
     if p.suffix.lower() not in (".usd", ".usda", ".usdc"):
         p = p.with_name(p.name + "." + (fmt or "usdc"))
     if fmt is None and p.suffix.lower() == ".usd":
         fmt = "usdc"
     return p
+
+
+def _positive(name: str, value: object) -> float:
+    """``value`` as a float; a :class:`UsdWriteError` naming ``name`` unless it is a finite number above 0."""
+    try:
+        number = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        number = math.nan
+    if isinstance(value, bool) or not (math.isfinite(number) and number > 0):
+        raise UsdWriteError(f"{name} must be a finite number above 0, not {value!r}")
+    return number
 
 
 def write(
@@ -271,14 +293,19 @@ def write(
 
     ``.usdc`` by default (also for ``.usd``); ``.usda`` for a ``.usda`` path or ``fmt="usda"``. ``lods=n``
     adds the ``LOD`` variant set of :func:`select_lods` (``lod_by`` ``"triangles"`` or ``"error"``).
+    ``up_axis`` ``"Y"`` or ``"Z"`` and ``meters_per_unit`` (above 0) are the stage's metadata; other values
+    raise :class:`UsdWriteError`.
     Returns the written path.
     """
+    if str(up_axis).upper() not in ("Y", "Z"):  # (the only two USD defines)
+        raise UsdWriteError(f"up_axis must be 'Y' or 'Z', not {up_axis!r}")
+    scale = _positive("meters_per_unit", meters_per_unit)
     p = _resolve_path(path, fmt)
     if fmt is None and p.suffix.lower() == ".usd":
         fmt = "usdc"
     stage = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z if up_axis.upper() == "Z" else UsdGeom.Tokens.y)
-    UsdGeom.SetStageMetersPerUnit(stage, float(meters_per_unit))
+    UsdGeom.SetStageMetersPerUnit(stage, scale)
     root = UsdGeom.Xform.Define(stage, Sdf.Path.absoluteRootPath.AppendChild(_prim_name(p, name)))
     Usd.ModelAPI(root.GetPrim()).SetKind(Kind.Tokens.component)
     stage.SetDefaultPrim(root.GetPrim())
@@ -322,8 +349,20 @@ def write_usdlod(
         from pxr import UsdLod
     except ImportError as e:  # pragma: no cover - older usd-core
         raise UsdWriteError("UsdLod needs usd-core >= 26.8; use the LOD variant set instead") from e
+    pixel_error = _positive("pixel_error", pixel_error)
+    if not (isinstance(viewport_px, numbers.Real) and math.isfinite(viewport_px) and viewport_px >= 1):
+        raise UsdWriteError(f"viewport_px must be at least 1, not {viewport_px!r}")
+    if not (isinstance(fov_degrees, numbers.Real) and 0 < fov_degrees < 180):
+        raise UsdWriteError(f"fov_degrees must be in (0, 180), not {fov_degrees!r}")
     asset = Path(asset_path)
-    src = Usd.Stage.Open(str(asset))
+    if _resolve_path(path, fmt).resolve() == asset.resolve():
+        raise UsdWriteError(f"{path}: the LOD layer must not be the asset it references")
+    try:
+        src = Usd.Stage.Open(str(asset))
+    except Tf.ErrorException as e:
+        from ..io.usd_loader import _tf_message
+
+        raise UsdWriteError(f"{asset}: USD could not open it: {_tf_message(e)}") from e
     default = src.GetDefaultPrim()
     mesh_prim = default.GetChild(MESH_NAME) if default else None
     if not mesh_prim or not mesh_prim.GetAttribute("swpm:discreteLods").HasAuthoredValue():
