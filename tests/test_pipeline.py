@@ -2482,3 +2482,32 @@ def test_checks_no_stricter_compares_limits_by_their_direction():
     )  # limits dropped
     assert not checks_no_stricter({"budgets": {"global_bytes": 100}, "streaming": {}}, then)  # order dropped
     assert not checks_no_stricter(same, None)  # a record without its checks
+
+
+def test_params_the_encoders_refuse_are_config_errors_at_their_line(tmp_path):
+    # builder: nope, cache_size: 0, .nan and .inf passed the schema and failed every asset at build time
+    # (cache_size: 0 of skip-strip/mixed a ValueError, a traceback in `build`); they are config errors now
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    text = (
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+        "defaults: {encoding: mixed, params: {boundary_weight: .nan}}\n"
+        "rules:\n"
+        "  - {name: a, encoding: sliding-window, params: {builder: nope, mu: 1.0, cache_size: 2}}\n"
+        "  - {name: b, encoding: skip-strip, params: {primitive: fan, degenerate_threshold: .nan}}\n"
+        "  - {name: c, encoding: mixed, params: {cache_size: 0}}\n"
+    )
+    assert _config_problems(cfg, text) == [
+        "c.yaml:4:55: $.defaults.params.boundary_weight: nan is not a finite number",
+        "c.yaml:6:59: $.rules[0].params.builder: 'nope' is not one of ['topology', 'forsyth']",
+        "c.yaml:6:69: $.rules[0].params.mu: 1.0 is greater than or equal to the maximum of 1",
+        "c.yaml:6:86: $.rules[0].params.cache_size: 2 is less than the minimum of 3",
+        "c.yaml:7:57: $.rules[1].params.primitive: 'fan' is not one of ['strip', 'list']",
+        "c.yaml:7:84: $.rules[1].params.degenerate_threshold: nan is not a finite number",
+        "c.yaml:8:53: $.rules[2].params.cache_size: 0 is less than the minimum of 1",
+    ]
+    result = CliRunner().invoke(main, ["build", str(tmp_path / "m" / "a.obj"), "--encoding", "mixed",
+                                       "-p", "cache_size=0"])  # fmt: skip
+    assert result.exit_code == 2 and "cache_size must be at least 1, got 0" in result.output
+    assert result.exception is None or isinstance(result.exception, SystemExit)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import datetime
 import json
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -150,9 +151,28 @@ def load_config(path: str | Path) -> Config:
     problems = list(keys)
     for err in sorted(validator.iter_errors(data), key=lambda e: tuple(map(str, e.absolute_path))):
         problems.extend(_describe(cfg, err))
+    problems.extend(_non_finite_params(cfg))
     if problems:
         raise ConfigError(sorted(set(problems), key=_line_key))
     return cfg
+
+
+def _non_finite_params(cfg: Config) -> list[str]:
+    """A parameter given as ``.nan`` or ``.inf`` (YAML's), which the schema's bounds let through (every
+    comparison with NaN is false), so that it fails at its line, not asset by asset at build time."""
+    sections = [(("defaults",), cfg.data.get("defaults"))]
+    rules = cfg.data.get("rules")
+    if isinstance(rules, list):
+        sections += [(("rules", i), rule) for i, rule in enumerate(rules)]
+    out = []
+    for where, section in sections:
+        params = section.get("params") if isinstance(section, dict) else None
+        if not isinstance(params, dict):
+            continue
+        for name, value in params.items():
+            if isinstance(value, float) and not math.isfinite(value):
+                out.append(f"{cfg.where((*where, 'params', name))}: {value} is not a finite number")
+    return out
 
 
 def _line_key(msg: str) -> tuple[int, int, str]:

@@ -18,13 +18,29 @@ SCHEMA_PATH = Path(__file__).resolve().parents[2] / "pipeline" / "pipeline.schem
 PACKAGED_SCHEMA = Path(__file__).resolve().parent / "pipeline.schema.json"
 
 
-def _param_schema(value: Any, name: str = "") -> dict[str, Any]:
+def _param_schema(value: Any, name: str = "", encoding: str = "") -> dict[str, Any]:
     from ..build import MAX_CACHE_SIZE, MAX_QUADRIC_WEIGHT
+    from ..encode.skipstrip import PRIMITIVES
     from ..encode.slidingwindow import MAX_ORDER_PASSES, MAX_ORDER_REACH
 
-    # the bounds build() checks for every encoding, so a config fails at its line, not asset by asset
+    # the bounds build() and the encoders check, so a config fails at its line, not asset by asset
     if name == "cache_size":
-        return {"type": "integer", "maximum": MAX_CACHE_SIZE}
+        least = 3 if encoding == "sliding-window" else 1
+        return {"type": "integer", "minimum": least, "maximum": MAX_CACHE_SIZE}
+    if name == "builder":
+        return {"enum": ["topology", "forsyth"]}
+    if name == "primitive":
+        return {"enum": list(PRIMITIVES)}
+    if name in ("mu", "degenerate_threshold", "level_threshold"):
+        return {"type": "number", "minimum": 0, "exclusiveMaximum": 1}
+    if name in ("tolerance", "swap_max_deviation"):
+        return {"type": "number", "minimum": 0}
+    if name == "target_slack":
+        return {"type": ["number", "null"], "minimum": 0}
+    if name == "inner_vertices":
+        return {"type": "integer", "minimum": 1}
+    if name == "absorb_rounds":
+        return {"type": "integer", "minimum": 0}
     if name == "order_passes":  # null: the encoder's default
         return {"type": ["integer", "null"], "minimum": 0, "maximum": MAX_ORDER_PASSES}
     if name == "order_reach":
@@ -87,7 +103,7 @@ def build_schema() -> dict[str, Any]:
                         "params": {
                             "type": "object",
                             "additionalProperties": False,
-                            "properties": {k: _param_schema(v, k) for k, v in sorted(defaults.items())},
+                            "properties": {k: _param_schema(v, k, enc) for k, v in sorted(defaults.items())},
                         }
                     }
                 },
