@@ -2511,3 +2511,36 @@ def test_params_the_encoders_refuse_are_config_errors_at_their_line(tmp_path):
                                        "-p", "cache_size=0"])  # fmt: skip
     assert result.exit_code == 2 and "cache_size must be at least 1, got 0" in result.output
     assert result.exception is None or isinstance(result.exception, SystemExit)
+
+
+def test_scene_and_report_no_longer_asked_for_are_named_and_pruned(tmp_path):
+    # scene: false (or report: false) since left scene.usda and report.html as the last run wrote them,
+    # named nowhere: after --prune deleted a removed asset's layer, the scene referenced a missing file
+    cfg = _project(tmp_path, meshes=("suzanne.obj",))
+    shutil.copy(tmp_path / "meshes" / "suzanne.obj", tmp_path / "meshes" / "b.obj")
+    head = "version: 1\nassets: [{glob: 'meshes/*.obj'}]\ndefaults: {encoding: vanilla}\n"
+    cfg.write_text(head + "output: {dir: out, usd: true, scene: true}\n")
+    assert run(cfg).failed == 0
+    out = tmp_path / "out"
+    assert "b.usdc" in (out / "scene.usda").read_text()
+    (tmp_path / "meshes" / "b.obj").unlink()
+    cfg.write_text(head + "output: {dir: out, usd: true, scene: false, report: false}\n")
+    res = run(cfg)
+    assert sorted(res.unlisted) == ["b.swpm", "b.usdc", "report.html", "scene.usda"]
+    res = run(cfg, prune=True)
+    assert sorted(res.pruned) == ["b.swpm", "b.usdc", "report.html", "scene.usda"]
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
+        "manifest.json",
+        "suzanne.swpm",
+        "suzanne.usdc",
+    ]
+    # asked for again: written and recorded anew, never an orphan
+    cfg.write_text(head + "output: {dir: out, usd: true, scene: true}\n")
+    res = run(cfg)
+    assert res.unlisted == [] and (out / "scene.usda").is_file() and (out / "report.html").is_file()
+    recorded = json.loads((out / "manifest.json").read_text())["run_outputs"]
+    assert sorted(recorded) == ["report", "scene"] and recorded["scene"]["path"] == "scene.usda"
+    # a file changed since the run wrote it is not the run's: left in place, named nowhere
+    (out / "report.html").write_text("mine")
+    cfg.write_text(head + "output: {dir: out, usd: true, scene: true, report: false}\n")
+    assert run(cfg, prune=True).pruned == [] and (out / "report.html").read_text() == "mine"

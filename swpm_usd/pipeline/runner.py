@@ -46,6 +46,7 @@ from .worker import (
     atomic_write_bytes,
     hash_with_stat,
     ignore_interrupts,
+    output_record,
     process_asset,
     stat_fields,
 )
@@ -56,6 +57,11 @@ MANIFEST = "manifest.json"
 LOCK = ".swpm-pipeline.lock"
 #: the manifest's list of outputs of assets removed from the config that a run left in place (no ``prune``)
 ORPHANED = "orphaned_outputs"
+#: the manifest's records of the run's own outputs (kind -> record): ``scene`` (scene.usda) and ``report``
+#: (report.html), each with its ``output`` option's default, so that when the config stops asking for one
+#: the file left (a scene referencing layers ``prune`` deletes, a report of an older run) is an orphan
+RUN_OUTPUTS = "run_outputs"
+_RUN_OUTPUT_DEFAULTS = {"scene": False, "report": True}
 
 #: the manifest is rewritten at most this often during a run, or less often while one rewrite takes more
 #: than a fifth of it: rewriting it after every asset, each time serialising every record, made a run of
@@ -1029,12 +1035,17 @@ def _run(
             echo(f"warning: {w}")
         warnings = warnings + unreached
     try:
+        run_outputs = {}
         if cfg.data["output"].get("scene"):
             _write_scene(out_dir, records)
+            run_outputs["scene"] = output_record(out_dir / "scene.usda")
         if cfg.data["output"].get("report", True):
             from .report import write_report
 
             write_report(out_dir / "report.html", manifest)
+            run_outputs["report"] = output_record(out_dir / "report.html")
+        if run_outputs:
+            manifest[RUN_OUTPUTS] = run_outputs
         _write_manifest(manifest_path, manifest, text)
     except BaseException:
         stop()
@@ -1063,6 +1074,13 @@ def _orphaned_outputs(
     ]
     if isinstance(manifest.get(ORPHANED), list):
         recorded += manifest[ORPHANED]
+    if isinstance(manifest.get(RUN_OUTPUTS), dict):  # a scene or report the config no longer asks for
+        asked = cfg.data["output"]
+        recorded += [
+            o
+            for kind, o in sorted(manifest[RUN_OUTPUTS].items())
+            if kind in _RUN_OUTPUT_DEFAULTS and not asked.get(kind, _RUN_OUTPUT_DEFAULTS[kind])
+        ]
     if not recorded:
         return []  # the usual run: no file stat'ed for the guard below
     keep = _files_kept(cfg, out_dir, items)
