@@ -2544,3 +2544,15 @@ def test_scene_and_report_no_longer_asked_for_are_named_and_pruned(tmp_path):
     (out / "report.html").write_text("mine")
     cfg.write_text(head + "output: {dir: out, usd: true, scene: true, report: false}\n")
     assert run(cfg, prune=True).pruned == [] and (out / "report.html").read_text() == "mine"
+
+
+def test_scene_without_usd_layers_is_a_config_error(tmp_path):
+    # scene: true with usd: false wrote a scene.usda with nothing in it, silently
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\n"
+    assert _config_problems(cfg, head + "output: {dir: out, scene: true}\n") == [
+        "c.yaml:3:27: $.output.scene: scene: true needs usd: true "
+        "(scene.usda references each asset's USD layer)"
+    ]

@@ -152,6 +152,13 @@ def load_config(path: str | Path) -> Config:
     for err in sorted(validator.iter_errors(data), key=lambda e: tuple(map(str, e.absolute_path))):
         problems.extend(_describe(cfg, err))
     problems.extend(_non_finite_params(cfg))
+    out = data.get("output")
+    if isinstance(out, dict) and out.get("scene") is True and out.get("usd", False) is not True:
+        # (the scene references each asset's layer: without them it was written empty, silently)
+        problems.append(
+            f"{cfg.where(('output', 'scene'))}: scene: true needs usd: true (scene.usda references each "
+            "asset's USD layer)"
+        )
     if problems:
         raise ConfigError(sorted(set(problems), key=_line_key))
     return cfg

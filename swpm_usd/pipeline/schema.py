@@ -178,7 +178,11 @@ def build_schema() -> dict[str, Any]:
                     },
                     "swpm": {"type": "boolean", "default": True},
                     "usd": {"type": "boolean", "default": False, "description": "per-asset USD layers"},
-                    "scene": {"type": "boolean", "default": False, "description": "scene layer of them all"},
+                    "scene": {
+                        "type": "boolean",
+                        "default": False,
+                        "description": "scene layer of them all (needs usd: true)",
+                    },
                     "report": {"type": "boolean", "default": True, "description": "report.html"},
                 },
             },
