@@ -2556,3 +2556,15 @@ def test_scene_without_usd_layers_is_a_config_error(tmp_path):
         "c.yaml:3:27: $.output.scene: scene: true needs usd: true "
         "(scene.usda references each asset's USD layer)"
     ]
+
+
+def test_instances_on_a_stage_source_is_a_config_error(tmp_path):
+    # `instances` beside `stage` was ignored silently (its assets had the instances the stage composes)
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    text = "version: 1\nassets: [{glob: 'm/*.obj'}, {stage: s.usda, instances: 7}]\noutput: {dir: out}\n"
+    assert _config_problems(cfg, text) == [
+        "c.yaml:2:56: $.assets[1].instances: instances is for glob assets; a stage's Mesh prims are "
+        "counted from its composition (instanceable prims, point instancers)"
+    ]

@@ -152,6 +152,13 @@ def load_config(path: str | Path) -> Config:
     for err in sorted(validator.iter_errors(data), key=lambda e: tuple(map(str, e.absolute_path))):
         problems.extend(_describe(cfg, err))
     problems.extend(_non_finite_params(cfg))
+    for i, source in enumerate(data.get("assets") if isinstance(data.get("assets"), list) else []):
+        if isinstance(source, dict) and "stage" in source and "instances" in source:
+            # (it was ignored: a stage's assets have the instances its composition counts)
+            problems.append(
+                f"{cfg.where(('assets', i, 'instances'))}: instances is for glob assets; a stage's Mesh "
+                "prims are counted from its composition (instanceable prims, point instancers)"
+            )
     out = data.get("output")
     if isinstance(out, dict) and out.get("scene") is True and out.get("usd", False) is not True:
         # (the scene references each asset's layer: without them it was written empty, silently)

@@ -160,7 +160,11 @@ def build_schema() -> dict[str, Any]:
                     "properties": {
                         "glob": {"type": "string", "description": "mesh files, relative to the config"},
                         "stage": {"type": "string", "description": "a USD stage: its Mesh prims are assets"},
-                        "instances": {"type": "integer", "minimum": 1, "description": "for glob assets"},
+                        "instances": {
+                            "type": "integer",
+                            "minimum": 1,
+                            "description": "for glob assets (a stage counts its own: an error beside stage)",
+                        },
                     },
                 },
             },
