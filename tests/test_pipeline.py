@@ -2568,3 +2568,14 @@ def test_instances_on_a_stage_source_is_a_config_error(tmp_path):
         "c.yaml:2:56: $.assets[1].instances: instances is for glob assets; a stage's Mesh prims are "
         "counted from its composition (instanceable prims, point instancers)"
     ]
+
+
+def test_a_dangling_link_a_glob_matches_is_a_failed_asset(tmp_path):
+    # a mesh-typed symlink to a missing file (a moved asset library) was dropped silently: not an asset,
+    # not a failure, its build's outputs named as those of an asset no longer in the config
+    cfg = _project(tmp_path, meshes=("suzanne.obj",))
+    (tmp_path / "meshes" / "gone.obj").symlink_to(tmp_path / "library" / "gone.obj")
+    cfg.write_text("version: 1\nassets: [{glob: 'meshes/*.obj'}]\noutput: {dir: out}\n")
+    res = run(cfg)
+    assert res.built == 1 and res.failed == 1
+    assert "meshes/gone.obj" in res.failures and "not found" in res.failures["meshes/gone.obj"]["error"]

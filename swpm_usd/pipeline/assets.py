@@ -184,7 +184,13 @@ def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]
                 )
                 continue
             try:
-                files = sorted(p for p in cfg.base.glob(src["glob"]) if p.is_file())
+                # (a dangling link of a mesh type too: its asset fails, named, rather than vanish)
+                files = sorted(
+                    p
+                    for p in cfg.base.glob(src["glob"])
+                    if p.is_file()
+                    or (p.is_symlink() and not p.exists() and p.suffix.lower() in SUPPORTED_SUFFIXES)
+                )
             except (ValueError, NotImplementedError, OSError) as exc:
                 problems.append(f"{where}: unusable glob: {exc}")
                 continue
