@@ -2579,3 +2579,39 @@ def test_a_dangling_link_a_glob_matches_is_a_failed_asset(tmp_path):
     res = run(cfg)
     assert res.built == 1 and res.failed == 1
     assert "meshes/gone.obj" in res.failures and "not found" in res.failures["meshes/gone.obj"]["error"]
+
+
+def test_a_usd_file_a_glob_matches_is_rebuilt_when_a_layer_it_uses_changes(tmp_path):
+    # a glob's .usda referencing its mesh from another layer recorded the .usda alone as its input: the
+    # layer edited (another mesh), the rerun said up to date and kept the old build
+    from pxr import Usd, UsdGeom
+
+    def mesh_layer(name: str) -> None:
+        mesh = swpm_usd.load_mesh(SHARED_MESHES / name)
+        (tmp_path / "lib").mkdir(exist_ok=True)
+        st = Usd.Stage.CreateNew(str(tmp_path / "lib" / "geo.usda"))
+        m = UsdGeom.Mesh.Define(st, "/Geo")
+        st.SetDefaultPrim(m.GetPrim())
+        m.CreatePointsAttr(mesh.points)
+        m.CreateFaceVertexCountsAttr([3] * mesh.triangle_count)
+        m.CreateFaceVertexIndicesAttr(mesh.triangles.reshape(-1))
+        st.GetRootLayer().Save()
+
+    mesh_layer("suzanne.obj")
+    (tmp_path / "assets").mkdir()
+    st = Usd.Stage.CreateNew(str(tmp_path / "assets" / "prop.usda"))
+    prop = st.DefinePrim("/Prop")
+    prop.GetReferences().AddReference("../lib/geo.usda")
+    st.SetDefaultPrim(prop)
+    st.GetRootLayer().Save()
+    del st, prop
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text("version: 1\nassets: [{glob: 'assets/*.usda'}]\noutput: {dir: out}\n")
+    res = run(cfg)
+    assert res.built == 1
+    triangles = res.records["assets/prop.usda"]["triangles_in"]
+    assert run(cfg).built == 0
+    (tmp_path / "lib" / "geo.usda").unlink()
+    mesh_layer("beetle.obj")
+    res = run(cfg)
+    assert res.built == 1 and res.records["assets/prop.usda"]["triangles_in"] != triangles
