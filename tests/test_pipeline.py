@@ -2615,3 +2615,19 @@ def test_a_usd_file_a_glob_matches_is_rebuilt_when_a_layer_it_uses_changes(tmp_p
     mesh_layer("beetle.obj")
     res = run(cfg)
     assert res.built == 1 and res.records["assets/prop.usda"]["triangles_in"] != triangles
+
+
+def test_two_rules_of_one_name_are_a_config_error(tmp_path):
+    # the manifest's `rule`, the report and --explain name the rule an asset matched: two of one name
+    # (a copied rule) made that name ambiguous, silently
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    text = (
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\nrules:\n"
+        "  - {name: props, match: {triangles: {max: 10}}, encoding: vanilla}\n"
+        "  - {name: props, encoding: mixed}\n"
+    )
+    assert _config_problems(cfg, text) == [
+        "c.yaml:6:12: $.rules[1].name: duplicate rule name (first given on line 5)"
+    ]

@@ -159,6 +159,17 @@ def load_config(path: str | Path) -> Config:
                 f"{cfg.where(('assets', i, 'instances'))}: instances is for glob assets; a stage's Mesh "
                 "prims are counted from its composition (instanceable prims, point instancers)"
             )
+    names: dict[str, int] = {}
+    for i, rule in enumerate(data.get("rules") if isinstance(data.get("rules"), list) else []):
+        name = rule.get("name") if isinstance(rule, dict) else None
+        if isinstance(name, str) and name in names:
+            # (the manifest, the report and --explain name the rule an asset matched: which one was it?)
+            first = cfg.marks.get(("rules", names[name], "name"), (1, 1))[0]
+            problems.append(
+                f"{cfg.where(('rules', i, 'name'))}: duplicate rule name (first given on line {first})"
+            )
+        elif isinstance(name, str):
+            names[name] = i
     out = data.get("output")
     if isinstance(out, dict) and out.get("scene") is True and out.get("usd", False) is not True:
         # (the scene references each asset's layer: without them it was written empty, silently)
@@ -222,6 +233,8 @@ def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
         return [f"{cfg.where(path)}: an asset source needs exactly one of 'glob' or 'stage'"]
     if err.validator == "type" and _wants_string(err.validator_value) and path in cfg.plain_scalars:
         return [f"{cfg.where(path)}: {_quote_hint(path, cfg.plain_scalars[path], err.instance)}"]
+    if err.validator == "enum" and path in cfg.plain_scalars and _wants_string(err.schema.get("type", "")):
+        return []  # (a value YAML reads as no string: the type error says so, with the quotes it needs)
     if err.validator == "type" and err.instance is None:  # `rules:` with nothing after it
         expected = (
             err.validator_value if isinstance(err.validator_value, str) else " or ".join(err.validator_value)

@@ -28,9 +28,9 @@ def _param_schema(value: Any, name: str = "", encoding: str = "") -> dict[str, A
         least = 3 if encoding == "sliding-window" else 1
         return {"type": "integer", "minimum": least, "maximum": MAX_CACHE_SIZE}
     if name == "builder":
-        return {"enum": ["topology", "forsyth"]}
+        return {"type": "string", "enum": ["topology", "forsyth"]}
     if name == "primitive":
-        return {"enum": list(PRIMITIVES)}
+        return {"type": "string", "enum": list(PRIMITIVES)}
     if name in ("mu", "degenerate_threshold", "level_threshold"):
         return {"type": "number", "minimum": 0, "exclusiveMaximum": 1}
     if name in ("tolerance", "swap_max_deviation"):
