@@ -2631,3 +2631,17 @@ def test_two_rules_of_one_name_are_a_config_error(tmp_path):
     assert _config_problems(cfg, text) == [
         "c.yaml:6:12: $.rules[1].name: duplicate rule name (first given on line 5)"
     ]
+
+
+def test_run_json_names_the_assets_built(tmp_path):
+    # `run --json` counted the assets built but named only the failed ones: a script could not tell which
+    # outputs a rerun replaced
+    cfg = _project(tmp_path, meshes=("suzanne.obj",))
+    shutil.copy(tmp_path / "meshes" / "suzanne.obj", tmp_path / "meshes" / "b.obj")
+    cfg.write_text("version: 1\nassets: [{glob: 'meshes/*.obj'}]\noutput: {dir: out}\n")
+    r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
+    assert r.exit_code == 0 and json.loads(r.stdout)["built_assets"] == ["meshes/b.obj", "meshes/suzanne.obj"]
+    (tmp_path / "meshes" / "b.obj").write_text(TWO_TRIANGLES)
+    r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
+    summary = json.loads(r.stdout)
+    assert summary["built"] == 1 and summary["built_assets"] == ["meshes/b.obj"]

@@ -109,6 +109,8 @@ class RunResult:
     #: here, as output.dir-relative paths (a dry run names what ``prune`` would delete)
     pruned: list[str] = field(default_factory=list)
     unlisted: list[str] = field(default_factory=list)
+    #: the ids of the assets this run built (``built`` counts them), in the order they finished
+    built_ids: list[str] = field(default_factory=list)
 
 
 def _read_manifest(path: Path) -> dict:
@@ -967,6 +969,7 @@ def _run(
     if orphans and not prune:  # so a later run with prune still finds them
         manifest[ORPHANED] = [o for _, o in orphans]
     built = failed = 0
+    built_ids: list[str] = []
     kept_files: set[tuple] | None = None  # (_files_kept, once an asset drops an output)
     failures: dict[str, dict] = {}
     progress = _Progress(len(todo))
@@ -1001,6 +1004,7 @@ def _run(
                 _complete_output_record(out_dir / o["path"], o)
             if rec["status"] == "built":
                 built += 1
+                built_ids.append(rec["id"])
                 # (a kind of output the config no longer asks for: its file is a removed asset's output)
                 for path, o in _dropped_outputs(out_dir, records.get(rec["id"]), rec, verify):
                     if kept_files is None:
@@ -1053,7 +1057,7 @@ def _run(
     seconds = time.perf_counter() - t_start
     return RunResult(
         records, built, len(items) - len(todo), failed, warnings, seconds, manifest_path, planned, failures,
-        **orphan_lists,
+        **orphan_lists, built_ids=built_ids,
     )  # fmt: skip
 
 
