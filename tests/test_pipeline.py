@@ -2645,3 +2645,24 @@ def test_run_json_names_the_assets_built(tmp_path):
     r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
     summary = json.loads(r.stdout)
     assert summary["built"] == 1 and summary["built_assets"] == ["meshes/b.obj"]
+
+
+def test_an_integer_parameter_given_as_a_float_is_a_config_error_at_its_line(tmp_path):
+    # `cache_size: 16.0` passed the schema (JSON Schema's integer takes 16.0) and failed every asset at build
+    # time (check_params: "must be an integer, got 16.0"); a whole float for a real-valued one still builds
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    text = (
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+        "defaults: {encoding: mixed, params: {cache_size: 16.0, level_threshold: 0}}\n"
+        "rules:\n"
+        "  - {name: a, encoding: sliding-window, params: {inner_vertices: 2.0, mu: 0, order_passes: 1.0}}\n"
+    )
+    assert _config_problems(cfg, text) == [
+        "c.yaml:4:50: $.defaults.params.cache_size: 16.0 is not an integer",
+        "c.yaml:6:66: $.rules[0].params.inner_vertices: 2.0 is not an integer",
+        "c.yaml:6:92: $.rules[0].params.order_passes: 1.0 is not an integer",
+    ]
+    cfg.write_text(text.replace("16.0", "16").replace("2.0", "2").replace("1.0", "1"))
+    assert run(cfg).built == 1

@@ -184,11 +184,19 @@ def load_config(path: str | Path) -> Config:
 
 def _non_finite_params(cfg: Config) -> list[str]:
     """A parameter given as ``.nan`` or ``.inf`` (YAML's), which the schema's bounds let through (every
-    comparison with NaN is false), so that it fails at its line, not asset by asset at build time."""
+    comparison with NaN is false), or an integer one given as a float (``16.0``, which JSON Schema's
+    integer takes and the encoders refuse), so that it fails at its line, not asset by asset at build time."""
     sections = [(("defaults",), cfg.data.get("defaults"))]
     rules = cfg.data.get("rules")
     if isinstance(rules, list):
         sections += [(("rules", i), rule) for i, rule in enumerate(rules)]
+    from ..encode import BUILDERS
+    from .schema import _param_schema
+
+    whole = {  # encoding -> the parameters its schema types as integers
+        enc: {k for k, v in defaults.items() if "integer" in str(_param_schema(v, k, enc).get("type"))}
+        for enc, (_, defaults) in BUILDERS.items()
+    }
     out = []
     for where, section in sections:
         params = section.get("params") if isinstance(section, dict) else None
@@ -197,6 +205,9 @@ def _non_finite_params(cfg: Config) -> list[str]:
         for name, value in params.items():
             if isinstance(value, float) and not math.isfinite(value):
                 out.append(f"{cfg.where((*where, 'params', name))}: {value} is not a finite number")
+            elif isinstance(value, float) and name in whole.get(str(section.get("encoding")), ()):
+                # (JSON Schema's integer takes 16.0; the encoders refuse it, asset by asset at build time)
+                out.append(f"{cfg.where((*where, 'params', name))}: {value} is not an integer")
     return out
 
 
