@@ -2666,3 +2666,27 @@ def test_an_integer_parameter_given_as_a_float_is_a_config_error_at_its_line(tmp
     ]
     cfg.write_text(text.replace("16.0", "16").replace("2.0", "2").replace("1.0", "1"))
     assert run(cfg).built == 1
+
+
+def test_scene_and_report_stay_recorded_through_an_interrupted_run(tmp_path, monkeypatch):
+    # a run stopped (Ctrl-C, an error) wrote a manifest without `run_outputs`: the scene and report the run
+    # before wrote were recorded nowhere, so once the config stopped asking for them they were never named
+    from swpm_usd.pipeline import runner
+
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\ndefaults: {encoding: vanilla}\n"
+    cfg.write_text(head + "output: {dir: out, usd: true, scene: true}\n")
+    assert run(cfg).built == 1
+
+    def interrupted(tasks, *args):
+        raise KeyboardInterrupt
+        yield
+
+    with monkeypatch.context() as m:
+        m.setattr(runner, "execute", interrupted)
+        with pytest.raises(KeyboardInterrupt):
+            run(cfg, force=True, echo=lambda m: None)
+    cfg.write_text(head + "output: {dir: out, usd: true, scene: false, report: false}\n")
+    assert sorted(run(cfg).unlisted) == ["report.html", "scene.usda"]

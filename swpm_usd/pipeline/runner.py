@@ -965,7 +965,16 @@ def _run(
             kept = records[it.asset.id] = {**kept, "outputs": it.checked_outputs}
         if it.input_stats is not kept.get("inputs"):  # hashed (to the recorded digest): their stat anew
             records[it.asset.id] = {**kept, "inputs": it.input_stats}
+    run_outputs = {  # (the files still there until the run writes them anew: a stopped run records them)
+        kind: o
+        for kind, o in (
+            manifest.get(RUN_OUTPUTS) if isinstance(manifest.get(RUN_OUTPUTS), dict) else {}
+        ).items()
+        if kind in _RUN_OUTPUT_DEFAULTS and cfg.data["output"].get(kind, _RUN_OUTPUT_DEFAULTS[kind])
+    }
     manifest = {"tool_version": __version__, "config": str(cfg.path), "assets": records}
+    if run_outputs:
+        manifest[RUN_OUTPUTS] = run_outputs
     if orphans and not prune:  # so a later run with prune still finds them
         manifest[ORPHANED] = [o for _, o in orphans]
     built = failed = 0
@@ -1039,17 +1048,19 @@ def _run(
             echo(f"warning: {w}")
         warnings = warnings + unreached
     try:
-        run_outputs = {}
+        manifest[RUN_OUTPUTS] = run_outputs  # (each recorded as written: a write that fails stops the run)
         if cfg.data["output"].get("scene"):
+            run_outputs.pop("scene", None)  # (being rewritten: no longer the file recorded)
             _write_scene(out_dir, records)
             run_outputs["scene"] = output_record(out_dir / "scene.usda")
         if cfg.data["output"].get("report", True):
             from .report import write_report
 
+            run_outputs.pop("report", None)
             write_report(out_dir / "report.html", manifest)
             run_outputs["report"] = output_record(out_dir / "report.html")
-        if run_outputs:
-            manifest[RUN_OUTPUTS] = run_outputs
+        if not run_outputs:
+            del manifest[RUN_OUTPUTS]
         _write_manifest(manifest_path, manifest, text)
     except BaseException:
         stop()
