@@ -2690,3 +2690,20 @@ def test_scene_and_report_stay_recorded_through_an_interrupted_run(tmp_path, mon
             run(cfg, force=True, echo=lambda m: None)
     cfg.write_text(head + "output: {dir: out, usd: true, scene: false, report: false}\n")
     assert sorted(run(cfg).unlisted) == ["report.html", "scene.usda"]
+
+
+def test_a_symlink_loop_a_glob_matches_is_a_failed_asset(tmp_path):
+    # a mesh-typed link in a loop (a.obj -> b.obj -> a.obj) is a link to no file, which 949b7a2 made a
+    # glob's asset; resolving it for the duplicate check raised RuntimeError, a traceback in every run
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    (tmp_path / "m" / "loop1.obj").symlink_to("loop2.obj")
+    (tmp_path / "m" / "loop2.obj").symlink_to("loop1.obj")
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    r = CliRunner().invoke(main, ["run", str(cfg), "--dry-run", "--json"])
+    assert r.exit_code == 0 and "Traceback" not in r.output, r.output
+    res = run(cfg)
+    assert res.built == 1 and sorted(res.failures) == ["m/loop1.obj", "m/loop2.obj"]

@@ -232,7 +232,9 @@ def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]
             for p in found:
                 rel = p.relative_to(cfg.base).as_posix()
                 instances = int(src.get("instances", 1))
-                if not _first_match(cfg, matched, (p.resolve(), None), i, rel, instances, problems):
+                # (realpath: a link in a loop, which fails as its asset, is a RuntimeError to resolve())
+                real = Path(os.path.realpath(p))
+                if not _first_match(cfg, matched, (real, None), i, rel, instances, problems):
                     continue
                 assets.append(Asset(rel, p, None, instances, {}, i))
                 inputs[rel] = [p, *_gltf_buffers(p), *_usd_layers(p)]

@@ -491,8 +491,8 @@ def _file_key(path: Path) -> tuple:
     try:
         st = path.stat()
         return ("inode", st.st_dev, st.st_ino)
-    except OSError:
-        return ("path", str(path.resolve()))
+    except OSError:  # (realpath: resolve() raises RuntimeError for a link in a loop)
+        return ("path", os.path.realpath(path))
 
 
 def _overwritten_inputs(
