@@ -2707,3 +2707,21 @@ def test_a_symlink_loop_a_glob_matches_is_a_failed_asset(tmp_path):
     assert r.exit_code == 0 and "Traceback" not in r.output, r.output
     res = run(cfg)
     assert res.built == 1 and sorted(res.failures) == ["m/loop1.obj", "m/loop2.obj"]
+
+
+def test_defaults_params_without_an_encoding_are_checked_as_sliding_windows(tmp_path):
+    # `defaults` without `encoding` builds sliding-window, but its params passed the schema unchecked (the
+    # encodings' params are checked under `if encoding is ...`): mu: 1.5, a name of no encoding, cache_size
+    # 16.0 failed every asset at build time
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+    problems = _config_problems(cfg, head + "defaults: {params: {mu: 1.5, nope: 1, cache_size: 16.0}}\n")
+    assert problems == [
+        "c.yaml:4:25: $.defaults.params.mu: 1.5 is greater than or equal to the maximum of 1",
+        "c.yaml:4:30: $.defaults.params.nope: unknown key (not a parameter of this rule's encoding)",
+        "c.yaml:4:51: $.defaults.params.cache_size: 16.0 is not an integer",
+    ]
+    cfg.write_text(head + "defaults: {params: {mu: 0.5, cache_size: 8}}\n")
+    assert run(cfg).built == 1

@@ -191,7 +191,7 @@ def _non_finite_params(cfg: Config) -> list[str]:
     if isinstance(rules, list):
         sections += [(("rules", i), rule) for i, rule in enumerate(rules)]
     from ..encode import BUILDERS
-    from .schema import _param_schema
+    from .schema import DEFAULT, _param_schema
 
     whole = {  # encoding -> the parameters its schema types as integers
         enc: {k for k, v in defaults.items() if "integer" in str(_param_schema(v, k, enc).get("type"))}
@@ -199,13 +199,14 @@ def _non_finite_params(cfg: Config) -> list[str]:
     }
     out = []
     for where, section in sections:
+        encoding = DEFAULT if where == ("defaults",) else None  # (a rule without one: an error of its own)
         params = section.get("params") if isinstance(section, dict) else None
         if not isinstance(params, dict):
             continue
         for name, value in params.items():
             if isinstance(value, float) and not math.isfinite(value):
                 out.append(f"{cfg.where((*where, 'params', name))}: {value} is not a finite number")
-            elif isinstance(value, float) and name in whole.get(str(section.get("encoding")), ()):
+            elif isinstance(value, float) and name in whole.get(str(section.get("encoding", encoding)), ()):
                 # (JSON Schema's integer takes 16.0; the encoders refuse it, asset by asset at build time)
                 out.append(f"{cfg.where((*where, 'params', name))}: {value} is not an integer")
     return out

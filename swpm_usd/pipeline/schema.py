@@ -14,6 +14,8 @@ from typing import Any
 
 from .worker import AUTO_SELECT
 
+#: the encoding of ``defaults`` without one (:func:`.assets.match_rule`)
+DEFAULT = "sliding-window"
 SCHEMA_PATH = Path(__file__).resolve().parents[2] / "pipeline" / "pipeline.schema.json"
 PACKAGED_SCHEMA = Path(__file__).resolve().parent / "pipeline.schema.json"
 
@@ -93,20 +95,22 @@ def build_schema() -> dict[str, Any]:
         },
     }
     by_encoding = []
+    params_of = {}
     for enc in encodings:
         defaults = BUILDERS[enc][1]
+        params_of[enc] = {
+            "properties": {
+                "params": {
+                    "type": "object",
+                    "additionalProperties": False,
+                    "properties": {k: _param_schema(v, k, enc) for k, v in sorted(defaults.items())},
+                }
+            }
+        }
         by_encoding.append(
             {
                 "if": {"properties": {"encoding": {"const": enc}}, "required": ["encoding"]},
-                "then": {
-                    "properties": {
-                        "params": {
-                            "type": "object",
-                            "additionalProperties": False,
-                            "properties": {k: _param_schema(v, k, enc) for k, v in sorted(defaults.items())},
-                        }
-                    }
-                },
+                "then": params_of[enc],
             }
         )
     by_encoding.append(
@@ -194,7 +198,11 @@ def build_schema() -> dict[str, Any]:
                 "type": "object",
                 "additionalProperties": False,
                 "properties": treatment,
-                "allOf": by_encoding,
+                # (without an encoding the defaults build sliding-window: its params are checked as such)
+                "allOf": [
+                    *by_encoding,
+                    {"if": {"not": {"required": ["encoding"]}}, "then": params_of[DEFAULT]},
+                ],
             },
             "rules": {"type": "array", "items": rule},
             "streaming": {
