@@ -41,6 +41,8 @@ def check_params(encoding: str, defaults: dict[str, Any], params: dict[str, Any]
             continue
         if not ok:
             raise BuildError(f"{encoding} parameter {name} must be {kind}, got {value!r}")
+    if params.get("cache_size", 1) < 1:  # (the cache simulations' ValueError, a traceback in `build`)
+        raise BuildError(f"cache_size must be at least 1, got {params['cache_size']}")
     if params.get("cache_size", 0) > MAX_CACHE_SIZE:
         raise BuildError(f"cache_size must be at most {MAX_CACHE_SIZE}, got {params['cache_size']}")
     for name in ("boundary_weight", "seam_weight"):

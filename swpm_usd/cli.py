@@ -254,6 +254,7 @@ def run_cmd(
             ],
             "pruned": res.pruned,
             "unlisted": res.unlisted,
+            "built_assets": sorted(res.built_ids),  # (which ones: `built` counts them)
         }
         if dry_run or explain:
             summary["plan"] = res.plan

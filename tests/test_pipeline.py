@@ -2482,3 +2482,246 @@ def test_checks_no_stricter_compares_limits_by_their_direction():
     )  # limits dropped
     assert not checks_no_stricter({"budgets": {"global_bytes": 100}, "streaming": {}}, then)  # order dropped
     assert not checks_no_stricter(same, None)  # a record without its checks
+
+
+def test_params_the_encoders_refuse_are_config_errors_at_their_line(tmp_path):
+    # builder: nope, cache_size: 0, .nan and .inf passed the schema and failed every asset at build time
+    # (cache_size: 0 of skip-strip/mixed a ValueError, a traceback in `build`); they are config errors now
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    text = (
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+        "defaults: {encoding: mixed, params: {boundary_weight: .nan}}\n"
+        "rules:\n"
+        "  - {name: a, encoding: sliding-window, params: {builder: nope, mu: 1.0, cache_size: 2}}\n"
+        "  - {name: b, encoding: skip-strip, params: {primitive: fan, degenerate_threshold: .nan}}\n"
+        "  - {name: c, encoding: mixed, params: {cache_size: 0}}\n"
+    )
+    assert _config_problems(cfg, text) == [
+        "c.yaml:4:55: $.defaults.params.boundary_weight: nan is not a finite number",
+        "c.yaml:6:59: $.rules[0].params.builder: 'nope' is not one of ['topology', 'forsyth']",
+        "c.yaml:6:69: $.rules[0].params.mu: 1.0 is greater than or equal to the maximum of 1",
+        "c.yaml:6:86: $.rules[0].params.cache_size: 2 is less than the minimum of 3",
+        "c.yaml:7:57: $.rules[1].params.primitive: 'fan' is not one of ['strip', 'list']",
+        "c.yaml:7:84: $.rules[1].params.degenerate_threshold: nan is not a finite number",
+        "c.yaml:8:53: $.rules[2].params.cache_size: 0 is less than the minimum of 1",
+    ]
+    result = CliRunner().invoke(main, ["build", str(tmp_path / "m" / "a.obj"), "--encoding", "mixed",
+                                       "-p", "cache_size=0"])  # fmt: skip
+    assert result.exit_code == 2 and "cache_size must be at least 1, got 0" in result.output
+    assert result.exception is None or isinstance(result.exception, SystemExit)
+
+
+def test_scene_and_report_no_longer_asked_for_are_named_and_pruned(tmp_path):
+    # scene: false (or report: false) since left scene.usda and report.html as the last run wrote them,
+    # named nowhere: after --prune deleted a removed asset's layer, the scene referenced a missing file
+    cfg = _project(tmp_path, meshes=("suzanne.obj",))
+    shutil.copy(tmp_path / "meshes" / "suzanne.obj", tmp_path / "meshes" / "b.obj")
+    head = "version: 1\nassets: [{glob: 'meshes/*.obj'}]\ndefaults: {encoding: vanilla}\n"
+    cfg.write_text(head + "output: {dir: out, usd: true, scene: true}\n")
+    assert run(cfg).failed == 0
+    out = tmp_path / "out"
+    assert "b.usdc" in (out / "scene.usda").read_text()
+    (tmp_path / "meshes" / "b.obj").unlink()
+    cfg.write_text(head + "output: {dir: out, usd: true, scene: false, report: false}\n")
+    res = run(cfg)
+    assert sorted(res.unlisted) == ["b.swpm", "b.usdc", "report.html", "scene.usda"]
+    res = run(cfg, prune=True)
+    assert sorted(res.pruned) == ["b.swpm", "b.usdc", "report.html", "scene.usda"]
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
+        "manifest.json",
+        "suzanne.swpm",
+        "suzanne.usdc",
+    ]
+    # asked for again: written and recorded anew, never an orphan
+    cfg.write_text(head + "output: {dir: out, usd: true, scene: true}\n")
+    res = run(cfg)
+    assert res.unlisted == [] and (out / "scene.usda").is_file() and (out / "report.html").is_file()
+    recorded = json.loads((out / "manifest.json").read_text())["run_outputs"]
+    assert sorted(recorded) == ["report", "scene"] and recorded["scene"]["path"] == "scene.usda"
+    # a file changed since the run wrote it is not the run's: left in place, named nowhere
+    (out / "report.html").write_text("mine")
+    cfg.write_text(head + "output: {dir: out, usd: true, scene: true, report: false}\n")
+    assert run(cfg, prune=True).pruned == [] and (out / "report.html").read_text() == "mine"
+
+
+def test_scene_without_usd_layers_is_a_config_error(tmp_path):
+    # scene: true with usd: false wrote a scene.usda with nothing in it, silently
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\n"
+    assert _config_problems(cfg, head + "output: {dir: out, scene: true}\n") == [
+        "c.yaml:3:27: $.output.scene: scene: true needs usd: true "
+        "(scene.usda references each asset's USD layer)"
+    ]
+
+
+def test_instances_on_a_stage_source_is_a_config_error(tmp_path):
+    # `instances` beside `stage` was ignored silently (its assets had the instances the stage composes)
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    text = "version: 1\nassets: [{glob: 'm/*.obj'}, {stage: s.usda, instances: 7}]\noutput: {dir: out}\n"
+    assert _config_problems(cfg, text) == [
+        "c.yaml:2:56: $.assets[1].instances: instances is for glob assets; a stage's Mesh prims are "
+        "counted from its composition (instanceable prims, point instancers)"
+    ]
+
+
+def test_a_dangling_link_a_glob_matches_is_a_failed_asset(tmp_path):
+    # a mesh-typed symlink to a missing file (a moved asset library) was dropped silently: not an asset,
+    # not a failure, its build's outputs named as those of an asset no longer in the config
+    cfg = _project(tmp_path, meshes=("suzanne.obj",))
+    (tmp_path / "meshes" / "gone.obj").symlink_to(tmp_path / "library" / "gone.obj")
+    cfg.write_text("version: 1\nassets: [{glob: 'meshes/*.obj'}]\noutput: {dir: out}\n")
+    res = run(cfg)
+    assert res.built == 1 and res.failed == 1
+    assert "meshes/gone.obj" in res.failures and "not found" in res.failures["meshes/gone.obj"]["error"]
+
+
+def test_a_usd_file_a_glob_matches_is_rebuilt_when_a_layer_it_uses_changes(tmp_path):
+    # a glob's .usda referencing its mesh from another layer recorded the .usda alone as its input: the
+    # layer edited (another mesh), the rerun said up to date and kept the old build
+    from pxr import Usd, UsdGeom
+
+    def mesh_layer(name: str) -> None:
+        mesh = swpm_usd.load_mesh(SHARED_MESHES / name)
+        (tmp_path / "lib").mkdir(exist_ok=True)
+        st = Usd.Stage.CreateNew(str(tmp_path / "lib" / "geo.usda"))
+        m = UsdGeom.Mesh.Define(st, "/Geo")
+        st.SetDefaultPrim(m.GetPrim())
+        m.CreatePointsAttr(mesh.points)
+        m.CreateFaceVertexCountsAttr([3] * mesh.triangle_count)
+        m.CreateFaceVertexIndicesAttr(mesh.triangles.reshape(-1))
+        st.GetRootLayer().Save()
+
+    mesh_layer("suzanne.obj")
+    (tmp_path / "assets").mkdir()
+    st = Usd.Stage.CreateNew(str(tmp_path / "assets" / "prop.usda"))
+    prop = st.DefinePrim("/Prop")
+    prop.GetReferences().AddReference("../lib/geo.usda")
+    st.SetDefaultPrim(prop)
+    st.GetRootLayer().Save()
+    del st, prop
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text("version: 1\nassets: [{glob: 'assets/*.usda'}]\noutput: {dir: out}\n")
+    res = run(cfg)
+    assert res.built == 1
+    triangles = res.records["assets/prop.usda"]["triangles_in"]
+    assert run(cfg).built == 0
+    (tmp_path / "lib" / "geo.usda").unlink()
+    mesh_layer("beetle.obj")
+    res = run(cfg)
+    assert res.built == 1 and res.records["assets/prop.usda"]["triangles_in"] != triangles
+
+
+def test_two_rules_of_one_name_are_a_config_error(tmp_path):
+    # the manifest's `rule`, the report and --explain name the rule an asset matched: two of one name
+    # (a copied rule) made that name ambiguous, silently
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    text = (
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\nrules:\n"
+        "  - {name: props, match: {triangles: {max: 10}}, encoding: vanilla}\n"
+        "  - {name: props, encoding: mixed}\n"
+    )
+    assert _config_problems(cfg, text) == [
+        "c.yaml:6:12: $.rules[1].name: duplicate rule name (first given on line 5)"
+    ]
+
+
+def test_run_json_names_the_assets_built(tmp_path):
+    # `run --json` counted the assets built but named only the failed ones: a script could not tell which
+    # outputs a rerun replaced
+    cfg = _project(tmp_path, meshes=("suzanne.obj",))
+    shutil.copy(tmp_path / "meshes" / "suzanne.obj", tmp_path / "meshes" / "b.obj")
+    cfg.write_text("version: 1\nassets: [{glob: 'meshes/*.obj'}]\noutput: {dir: out}\n")
+    r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
+    assert r.exit_code == 0 and json.loads(r.stdout)["built_assets"] == ["meshes/b.obj", "meshes/suzanne.obj"]
+    (tmp_path / "meshes" / "b.obj").write_text(TWO_TRIANGLES)
+    r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
+    summary = json.loads(r.stdout)
+    assert summary["built"] == 1 and summary["built_assets"] == ["meshes/b.obj"]
+
+
+def test_an_integer_parameter_given_as_a_float_is_a_config_error_at_its_line(tmp_path):
+    # `cache_size: 16.0` passed the schema (JSON Schema's integer takes 16.0) and failed every asset at build
+    # time (check_params: "must be an integer, got 16.0"); a whole float for a real-valued one still builds
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    text = (
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+        "defaults: {encoding: mixed, params: {cache_size: 16.0, level_threshold: 0}}\n"
+        "rules:\n"
+        "  - {name: a, encoding: sliding-window, params: {inner_vertices: 2.0, mu: 0, order_passes: 1.0}}\n"
+    )
+    assert _config_problems(cfg, text) == [
+        "c.yaml:4:50: $.defaults.params.cache_size: 16.0 is not an integer",
+        "c.yaml:6:66: $.rules[0].params.inner_vertices: 2.0 is not an integer",
+        "c.yaml:6:92: $.rules[0].params.order_passes: 1.0 is not an integer",
+    ]
+    cfg.write_text(text.replace("16.0", "16").replace("2.0", "2").replace("1.0", "1"))
+    assert run(cfg).built == 1
+
+
+def test_scene_and_report_stay_recorded_through_an_interrupted_run(tmp_path, monkeypatch):
+    # a run stopped (Ctrl-C, an error) wrote a manifest without `run_outputs`: the scene and report the run
+    # before wrote were recorded nowhere, so once the config stopped asking for them they were never named
+    from swpm_usd.pipeline import runner
+
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\ndefaults: {encoding: vanilla}\n"
+    cfg.write_text(head + "output: {dir: out, usd: true, scene: true}\n")
+    assert run(cfg).built == 1
+
+    def interrupted(tasks, *args):
+        raise KeyboardInterrupt
+        yield
+
+    with monkeypatch.context() as m:
+        m.setattr(runner, "execute", interrupted)
+        with pytest.raises(KeyboardInterrupt):
+            run(cfg, force=True, echo=lambda m: None)
+    cfg.write_text(head + "output: {dir: out, usd: true, scene: false, report: false}\n")
+    assert sorted(run(cfg).unlisted) == ["report.html", "scene.usda"]
+
+
+def test_a_symlink_loop_a_glob_matches_is_a_failed_asset(tmp_path):
+    # a mesh-typed link in a loop (a.obj -> b.obj -> a.obj) is a link to no file, which 949b7a2 made a
+    # glob's asset; resolving it for the duplicate check raised RuntimeError, a traceback in every run
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    (tmp_path / "m" / "loop1.obj").symlink_to("loop2.obj")
+    (tmp_path / "m" / "loop2.obj").symlink_to("loop1.obj")
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    r = CliRunner().invoke(main, ["run", str(cfg), "--dry-run", "--json"])
+    assert r.exit_code == 0 and "Traceback" not in r.output, r.output
+    res = run(cfg)
+    assert res.built == 1 and sorted(res.failures) == ["m/loop1.obj", "m/loop2.obj"]
+
+
+def test_defaults_params_without_an_encoding_are_checked_as_sliding_windows(tmp_path):
+    # `defaults` without `encoding` builds sliding-window, but its params passed the schema unchecked (the
+    # encodings' params are checked under `if encoding is ...`): mu: 1.5, a name of no encoding, cache_size
+    # 16.0 failed every asset at build time
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+    problems = _config_problems(cfg, head + "defaults: {params: {mu: 1.5, nope: 1, cache_size: 16.0}}\n")
+    assert problems == [
+        "c.yaml:4:25: $.defaults.params.mu: 1.5 is greater than or equal to the maximum of 1",
+        "c.yaml:4:30: $.defaults.params.nope: unknown key (not a parameter of this rule's encoding)",
+        "c.yaml:4:51: $.defaults.params.cache_size: 16.0 is not an integer",
+    ]
+    cfg.write_text(head + "defaults: {params: {mu: 0.5, cache_size: 8}}\n")
+    assert run(cfg).built == 1

@@ -89,8 +89,41 @@ def _gltf_buffers(path: Path) -> list[Path]:
     return found
 
 
+def _used_layers(stage) -> list[Path]:
+    """The files of the layers ``stage`` uses, sorted (GetUsedLayers gives a set of layer handles in the
+    order of their addresses, another in each process, and the inputs are hashed and compared with the
+    record in their order; a layer in a package, ``a.usdz[b.usdc]``, is the package's file)."""
+    from pxr import Ar
+
+    return sorted(
+        {
+            Path(Ar.SplitPackageRelativePathOuter(layer.realPath)[0])
+            for layer in stage.GetUsedLayers()
+            if layer.realPath
+        }
+    )
+
+
+def _usd_layers(path: Path) -> list[Path]:
+    """The files other than ``path`` whose layers a USD file a glob matched uses (its references,
+    sublayers, payloads), which the loader composes: a change to one is a change to the asset. None for
+    another file, or one that does not open (its load fails)."""
+    if path.suffix.lower() not in (".usd", ".usda", ".usdc", ".usdz"):
+        return []
+    try:
+        from pxr import Usd
+
+        stage = Usd.Stage.Open(str(path))
+    except Exception:  # noqa: BLE001 - the worker's load reports it, located
+        return []
+    if stage is None:
+        return []
+    here = path.resolve()
+    return [p for p in _used_layers(stage) if p.resolve() != here]
+
+
 def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset], list[Path]]:
-    from pxr import Ar, Usd, UsdGeom
+    from pxr import Usd, UsdGeom
 
     from ..io.usd_loader import _not_rendered
 
@@ -128,17 +161,7 @@ def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset
         Asset(f"{rel.as_posix()}:{first_path[k]}", stage_path, first_path[k], counts[k], tags[k], index)
         for k in sorted(counts)
     ]
-    # (sorted: GetUsedLayers gives a set of layer handles in the order of their addresses, another in each
-    # process, and the inputs are hashed and compared with the record in their order; a layer in a package,
-    # `a.usdz[b.usdc]`, is the package's file)
-    used = sorted(
-        {
-            Path(Ar.SplitPackageRelativePathOuter(layer.realPath)[0])
-            for layer in stage.GetUsedLayers()
-            if layer.realPath
-        }
-    )
-    return assets, used
+    return assets, _used_layers(stage)
 
 
 def _first_match(
@@ -184,7 +207,13 @@ def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]
                 )
                 continue
             try:
-                files = sorted(p for p in cfg.base.glob(src["glob"]) if p.is_file())
+                # (a dangling link of a mesh type too: its asset fails, named, rather than vanish)
+                files = sorted(
+                    p
+                    for p in cfg.base.glob(src["glob"])
+                    if p.is_file()
+                    or (p.is_symlink() and not p.exists() and p.suffix.lower() in SUPPORTED_SUFFIXES)
+                )
             except (ValueError, NotImplementedError, OSError) as exc:
                 problems.append(f"{where}: unusable glob: {exc}")
                 continue
@@ -203,10 +232,12 @@ def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]
             for p in found:
                 rel = p.relative_to(cfg.base).as_posix()
                 instances = int(src.get("instances", 1))
-                if not _first_match(cfg, matched, (p.resolve(), None), i, rel, instances, problems):
+                # (realpath: a link in a loop, which fails as its asset, is a RuntimeError to resolve())
+                real = Path(os.path.realpath(p))
+                if not _first_match(cfg, matched, (real, None), i, rel, instances, problems):
                     continue
                 assets.append(Asset(rel, p, None, instances, {}, i))
-                inputs[rel] = [p, *_gltf_buffers(p)]
+                inputs[rel] = [p, *_gltf_buffers(p), *_usd_layers(p)]
         else:
             stage_path = (cfg.base / src["stage"]).resolve()
             try:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import datetime
 import json
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -150,9 +151,65 @@ def load_config(path: str | Path) -> Config:
     problems = list(keys)
     for err in sorted(validator.iter_errors(data), key=lambda e: tuple(map(str, e.absolute_path))):
         problems.extend(_describe(cfg, err))
+    problems.extend(_non_finite_params(cfg))
+    for i, source in enumerate(data.get("assets") if isinstance(data.get("assets"), list) else []):
+        if isinstance(source, dict) and "stage" in source and "instances" in source:
+            # (it was ignored: a stage's assets have the instances its composition counts)
+            problems.append(
+                f"{cfg.where(('assets', i, 'instances'))}: instances is for glob assets; a stage's Mesh "
+                "prims are counted from its composition (instanceable prims, point instancers)"
+            )
+    names: dict[str, int] = {}
+    for i, rule in enumerate(data.get("rules") if isinstance(data.get("rules"), list) else []):
+        name = rule.get("name") if isinstance(rule, dict) else None
+        if isinstance(name, str) and name in names:
+            # (the manifest, the report and --explain name the rule an asset matched: which one was it?)
+            first = cfg.marks.get(("rules", names[name], "name"), (1, 1))[0]
+            problems.append(
+                f"{cfg.where(('rules', i, 'name'))}: duplicate rule name (first given on line {first})"
+            )
+        elif isinstance(name, str):
+            names[name] = i
+    out = data.get("output")
+    if isinstance(out, dict) and out.get("scene") is True and out.get("usd", False) is not True:
+        # (the scene references each asset's layer: without them it was written empty, silently)
+        problems.append(
+            f"{cfg.where(('output', 'scene'))}: scene: true needs usd: true (scene.usda references each "
+            "asset's USD layer)"
+        )
     if problems:
         raise ConfigError(sorted(set(problems), key=_line_key))
     return cfg
+
+
+def _non_finite_params(cfg: Config) -> list[str]:
+    """A parameter given as ``.nan`` or ``.inf`` (YAML's), which the schema's bounds let through (every
+    comparison with NaN is false), or an integer one given as a float (``16.0``, which JSON Schema's
+    integer takes and the encoders refuse), so that it fails at its line, not asset by asset at build time."""
+    sections = [(("defaults",), cfg.data.get("defaults"))]
+    rules = cfg.data.get("rules")
+    if isinstance(rules, list):
+        sections += [(("rules", i), rule) for i, rule in enumerate(rules)]
+    from ..encode import BUILDERS
+    from .schema import DEFAULT, _param_schema
+
+    whole = {  # encoding -> the parameters its schema types as integers
+        enc: {k for k, v in defaults.items() if "integer" in str(_param_schema(v, k, enc).get("type"))}
+        for enc, (_, defaults) in BUILDERS.items()
+    }
+    out = []
+    for where, section in sections:
+        encoding = DEFAULT if where == ("defaults",) else None  # (a rule without one: an error of its own)
+        params = section.get("params") if isinstance(section, dict) else None
+        if not isinstance(params, dict):
+            continue
+        for name, value in params.items():
+            if isinstance(value, float) and not math.isfinite(value):
+                out.append(f"{cfg.where((*where, 'params', name))}: {value} is not a finite number")
+            elif isinstance(value, float) and name in whole.get(str(section.get("encoding", encoding)), ()):
+                # (JSON Schema's integer takes 16.0; the encoders refuse it, asset by asset at build time)
+                out.append(f"{cfg.where((*where, 'params', name))}: {value} is not an integer")
+    return out
 
 
 def _line_key(msg: str) -> tuple[int, int, str]:
@@ -188,6 +245,8 @@ def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
         return [f"{cfg.where(path)}: an asset source needs exactly one of 'glob' or 'stage'"]
     if err.validator == "type" and _wants_string(err.validator_value) and path in cfg.plain_scalars:
         return [f"{cfg.where(path)}: {_quote_hint(path, cfg.plain_scalars[path], err.instance)}"]
+    if err.validator == "enum" and path in cfg.plain_scalars and _wants_string(err.schema.get("type", "")):
+        return []  # (a value YAML reads as no string: the type error says so, with the quotes it needs)
     if err.validator == "type" and err.instance is None:  # `rules:` with nothing after it
         expected = (
             err.validator_value if isinstance(err.validator_value, str) else " or ".join(err.validator_value)

@@ -46,6 +46,7 @@ from .worker import (
     atomic_write_bytes,
     hash_with_stat,
     ignore_interrupts,
+    output_record,
     process_asset,
     stat_fields,
 )
@@ -56,6 +57,11 @@ MANIFEST = "manifest.json"
 LOCK = ".swpm-pipeline.lock"
 #: the manifest's list of outputs of assets removed from the config that a run left in place (no ``prune``)
 ORPHANED = "orphaned_outputs"
+#: the manifest's records of the run's own outputs (kind -> record): ``scene`` (scene.usda) and ``report``
+#: (report.html), each with its ``output`` option's default, so that when the config stops asking for one
+#: the file left (a scene referencing layers ``prune`` deletes, a report of an older run) is an orphan
+RUN_OUTPUTS = "run_outputs"
+_RUN_OUTPUT_DEFAULTS = {"scene": False, "report": True}
 
 #: the manifest is rewritten at most this often during a run, or less often while one rewrite takes more
 #: than a fifth of it: rewriting it after every asset, each time serialising every record, made a run of
@@ -103,6 +109,8 @@ class RunResult:
     #: here, as output.dir-relative paths (a dry run names what ``prune`` would delete)
     pruned: list[str] = field(default_factory=list)
     unlisted: list[str] = field(default_factory=list)
+    #: the ids of the assets this run built (``built`` counts them), in the order they finished
+    built_ids: list[str] = field(default_factory=list)
 
 
 def _read_manifest(path: Path) -> dict:
@@ -483,8 +491,8 @@ def _file_key(path: Path) -> tuple:
     try:
         st = path.stat()
         return ("inode", st.st_dev, st.st_ino)
-    except OSError:
-        return ("path", str(path.resolve()))
+    except OSError:  # (realpath: resolve() raises RuntimeError for a link in a loop)
+        return ("path", os.path.realpath(path))
 
 
 def _overwritten_inputs(
@@ -957,10 +965,20 @@ def _run(
             kept = records[it.asset.id] = {**kept, "outputs": it.checked_outputs}
         if it.input_stats is not kept.get("inputs"):  # hashed (to the recorded digest): their stat anew
             records[it.asset.id] = {**kept, "inputs": it.input_stats}
+    run_outputs = {  # (the files still there until the run writes them anew: a stopped run records them)
+        kind: o
+        for kind, o in (
+            manifest.get(RUN_OUTPUTS) if isinstance(manifest.get(RUN_OUTPUTS), dict) else {}
+        ).items()
+        if kind in _RUN_OUTPUT_DEFAULTS and cfg.data["output"].get(kind, _RUN_OUTPUT_DEFAULTS[kind])
+    }
     manifest = {"tool_version": __version__, "config": str(cfg.path), "assets": records}
+    if run_outputs:
+        manifest[RUN_OUTPUTS] = run_outputs
     if orphans and not prune:  # so a later run with prune still finds them
         manifest[ORPHANED] = [o for _, o in orphans]
     built = failed = 0
+    built_ids: list[str] = []
     kept_files: set[tuple] | None = None  # (_files_kept, once an asset drops an output)
     failures: dict[str, dict] = {}
     progress = _Progress(len(todo))
@@ -995,6 +1013,7 @@ def _run(
                 _complete_output_record(out_dir / o["path"], o)
             if rec["status"] == "built":
                 built += 1
+                built_ids.append(rec["id"])
                 # (a kind of output the config no longer asks for: its file is a removed asset's output)
                 for path, o in _dropped_outputs(out_dir, records.get(rec["id"]), rec, verify):
                     if kept_files is None:
@@ -1029,12 +1048,19 @@ def _run(
             echo(f"warning: {w}")
         warnings = warnings + unreached
     try:
+        manifest[RUN_OUTPUTS] = run_outputs  # (each recorded as written: a write that fails stops the run)
         if cfg.data["output"].get("scene"):
+            run_outputs.pop("scene", None)  # (being rewritten: no longer the file recorded)
             _write_scene(out_dir, records)
+            run_outputs["scene"] = output_record(out_dir / "scene.usda")
         if cfg.data["output"].get("report", True):
             from .report import write_report
 
+            run_outputs.pop("report", None)
             write_report(out_dir / "report.html", manifest)
+            run_outputs["report"] = output_record(out_dir / "report.html")
+        if not run_outputs:
+            del manifest[RUN_OUTPUTS]
         _write_manifest(manifest_path, manifest, text)
     except BaseException:
         stop()
@@ -1042,7 +1068,7 @@ def _run(
     seconds = time.perf_counter() - t_start
     return RunResult(
         records, built, len(items) - len(todo), failed, warnings, seconds, manifest_path, planned, failures,
-        **orphan_lists,
+        **orphan_lists, built_ids=built_ids,
     )  # fmt: skip
 
 
@@ -1063,6 +1089,13 @@ def _orphaned_outputs(
     ]
     if isinstance(manifest.get(ORPHANED), list):
         recorded += manifest[ORPHANED]
+    if isinstance(manifest.get(RUN_OUTPUTS), dict):  # a scene or report the config no longer asks for
+        asked = cfg.data["output"]
+        recorded += [
+            o
+            for kind, o in sorted(manifest[RUN_OUTPUTS].items())
+            if kind in _RUN_OUTPUT_DEFAULTS and not asked.get(kind, _RUN_OUTPUT_DEFAULTS[kind])
+        ]
     if not recorded:
         return []  # the usual run: no file stat'ed for the guard below
     keep = _files_kept(cfg, out_dir, items)

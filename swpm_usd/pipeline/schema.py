@@ -14,17 +14,35 @@ from typing import Any
 
 from .worker import AUTO_SELECT
 
+#: the encoding of ``defaults`` without one (:func:`.assets.match_rule`)
+DEFAULT = "sliding-window"
 SCHEMA_PATH = Path(__file__).resolve().parents[2] / "pipeline" / "pipeline.schema.json"
 PACKAGED_SCHEMA = Path(__file__).resolve().parent / "pipeline.schema.json"
 
 
-def _param_schema(value: Any, name: str = "") -> dict[str, Any]:
+def _param_schema(value: Any, name: str = "", encoding: str = "") -> dict[str, Any]:
     from ..build import MAX_CACHE_SIZE, MAX_QUADRIC_WEIGHT
+    from ..encode.skipstrip import PRIMITIVES
     from ..encode.slidingwindow import MAX_ORDER_PASSES, MAX_ORDER_REACH
 
-    # the bounds build() checks for every encoding, so a config fails at its line, not asset by asset
+    # the bounds build() and the encoders check, so a config fails at its line, not asset by asset
     if name == "cache_size":
-        return {"type": "integer", "maximum": MAX_CACHE_SIZE}
+        least = 3 if encoding == "sliding-window" else 1
+        return {"type": "integer", "minimum": least, "maximum": MAX_CACHE_SIZE}
+    if name == "builder":
+        return {"type": "string", "enum": ["topology", "forsyth"]}
+    if name == "primitive":
+        return {"type": "string", "enum": list(PRIMITIVES)}
+    if name in ("mu", "degenerate_threshold", "level_threshold"):
+        return {"type": "number", "minimum": 0, "exclusiveMaximum": 1}
+    if name in ("tolerance", "swap_max_deviation"):
+        return {"type": "number", "minimum": 0}
+    if name == "target_slack":
+        return {"type": ["number", "null"], "minimum": 0}
+    if name == "inner_vertices":
+        return {"type": "integer", "minimum": 1}
+    if name == "absorb_rounds":
+        return {"type": "integer", "minimum": 0}
     if name == "order_passes":  # null: the encoder's default
         return {"type": ["integer", "null"], "minimum": 0, "maximum": MAX_ORDER_PASSES}
     if name == "order_reach":
@@ -77,20 +95,22 @@ def build_schema() -> dict[str, Any]:
         },
     }
     by_encoding = []
+    params_of = {}
     for enc in encodings:
         defaults = BUILDERS[enc][1]
+        params_of[enc] = {
+            "properties": {
+                "params": {
+                    "type": "object",
+                    "additionalProperties": False,
+                    "properties": {k: _param_schema(v, k, enc) for k, v in sorted(defaults.items())},
+                }
+            }
+        }
         by_encoding.append(
             {
                 "if": {"properties": {"encoding": {"const": enc}}, "required": ["encoding"]},
-                "then": {
-                    "properties": {
-                        "params": {
-                            "type": "object",
-                            "additionalProperties": False,
-                            "properties": {k: _param_schema(v, k) for k, v in sorted(defaults.items())},
-                        }
-                    }
-                },
+                "then": params_of[enc],
             }
         )
     by_encoding.append(
@@ -144,7 +164,11 @@ def build_schema() -> dict[str, Any]:
                     "properties": {
                         "glob": {"type": "string", "description": "mesh files, relative to the config"},
                         "stage": {"type": "string", "description": "a USD stage: its Mesh prims are assets"},
-                        "instances": {"type": "integer", "minimum": 1, "description": "for glob assets"},
+                        "instances": {
+                            "type": "integer",
+                            "minimum": 1,
+                            "description": "for glob assets (a stage counts its own: an error beside stage)",
+                        },
                     },
                 },
             },
@@ -162,7 +186,11 @@ def build_schema() -> dict[str, Any]:
                     },
                     "swpm": {"type": "boolean", "default": True},
                     "usd": {"type": "boolean", "default": False, "description": "per-asset USD layers"},
-                    "scene": {"type": "boolean", "default": False, "description": "scene layer of them all"},
+                    "scene": {
+                        "type": "boolean",
+                        "default": False,
+                        "description": "scene layer of them all (needs usd: true)",
+                    },
                     "report": {"type": "boolean", "default": True, "description": "report.html"},
                 },
             },
@@ -170,7 +198,11 @@ def build_schema() -> dict[str, Any]:
                 "type": "object",
                 "additionalProperties": False,
                 "properties": treatment,
-                "allOf": by_encoding,
+                # (without an encoding the defaults build sliding-window: its params are checked as such)
+                "allOf": [
+                    *by_encoding,
+                    {"if": {"not": {"required": ["encoding"]}}, "then": params_of[DEFAULT]},
+                ],
             },
             "rules": {"type": "array", "items": rule},
             "streaming": {
