@@ -108,7 +108,9 @@ def _usd_layers(path: Path) -> list[Path]:
     """The files other than ``path`` whose layers a USD file a glob matched uses (its references,
     sublayers, payloads), which the loader composes: a change to one is a change to the asset. None for
     another file, or one that does not open (its load fails)."""
-    if path.suffix.lower() not in (".usd", ".usda", ".usdc", ".usdz"):
+    from ..io import _USD_SUFFIXES
+
+    if path.suffix.lower() not in _USD_SUFFIXES:
         return []
     try:
         from pxr import Usd

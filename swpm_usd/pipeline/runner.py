@@ -63,6 +63,12 @@ ORPHANED = "orphaned_outputs"
 RUN_OUTPUTS = "run_outputs"
 _RUN_OUTPUT_DEFAULTS = {"scene": False, "report": True}
 
+
+def _asks_for(cfg: Config, kind: str) -> bool:
+    """Does the config ask for the run output ``kind`` (a key of :data:`_RUN_OUTPUT_DEFAULTS`)?"""
+    return bool(cfg.data["output"].get(kind, _RUN_OUTPUT_DEFAULTS[kind]))
+
+
 #: the manifest is rewritten at most this often during a run, or less often while one rewrite takes more
 #: than a fifth of it: rewriting it after every asset, each time serialising every record, made a run of
 #: 1,500 small assets spend about 380 of its 461 s writing JSON (a 6 MB manifest, 1,500 times; 82 s now)
@@ -970,14 +976,14 @@ def _run(
         for kind, o in (
             manifest.get(RUN_OUTPUTS) if isinstance(manifest.get(RUN_OUTPUTS), dict) else {}
         ).items()
-        if kind in _RUN_OUTPUT_DEFAULTS and cfg.data["output"].get(kind, _RUN_OUTPUT_DEFAULTS[kind])
+        if kind in _RUN_OUTPUT_DEFAULTS and _asks_for(cfg, kind)
     }
     manifest = {"tool_version": __version__, "config": str(cfg.path), "assets": records}
     if run_outputs:
         manifest[RUN_OUTPUTS] = run_outputs
     if orphans and not prune:  # so a later run with prune still finds them
         manifest[ORPHANED] = [o for _, o in orphans]
-    built = failed = 0
+    failed = 0
     built_ids: list[str] = []
     kept_files: set[tuple] | None = None  # (_files_kept, once an asset drops an output)
     failures: dict[str, dict] = {}
@@ -1012,7 +1018,6 @@ def _run(
             for o in rec.get("outputs", {}).values():
                 _complete_output_record(out_dir / o["path"], o)
             if rec["status"] == "built":
-                built += 1
                 built_ids.append(rec["id"])
                 # (a kind of output the config no longer asks for: its file is a removed asset's output)
                 for path, o in _dropped_outputs(out_dir, records.get(rec["id"]), rec, verify):
@@ -1049,11 +1054,11 @@ def _run(
         warnings = warnings + unreached
     try:
         manifest[RUN_OUTPUTS] = run_outputs  # (each recorded as written: a write that fails stops the run)
-        if cfg.data["output"].get("scene"):
+        if _asks_for(cfg, "scene"):
             run_outputs.pop("scene", None)  # (being rewritten: no longer the file recorded)
             _write_scene(out_dir, records)
             run_outputs["scene"] = output_record(out_dir / "scene.usda")
-        if cfg.data["output"].get("report", True):
+        if _asks_for(cfg, "report"):
             from .report import write_report
 
             run_outputs.pop("report", None)
@@ -1067,8 +1072,8 @@ def _run(
         raise
     seconds = time.perf_counter() - t_start
     return RunResult(
-        records, built, len(items) - len(todo), failed, warnings, seconds, manifest_path, planned, failures,
-        **orphan_lists, built_ids=built_ids,
+        records, len(built_ids), len(items) - len(todo), failed, warnings, seconds, manifest_path, planned,
+        failures, **orphan_lists, built_ids=built_ids,
     )  # fmt: skip
 
 
@@ -1090,11 +1095,10 @@ def _orphaned_outputs(
     if isinstance(manifest.get(ORPHANED), list):
         recorded += manifest[ORPHANED]
     if isinstance(manifest.get(RUN_OUTPUTS), dict):  # a scene or report the config no longer asks for
-        asked = cfg.data["output"]
         recorded += [
             o
             for kind, o in sorted(manifest[RUN_OUTPUTS].items())
-            if kind in _RUN_OUTPUT_DEFAULTS and not asked.get(kind, _RUN_OUTPUT_DEFAULTS[kind])
+            if kind in _RUN_OUTPUT_DEFAULTS and not _asks_for(cfg, kind)
         ]
     if not recorded:
         return []  # the usual run: no file stat'ed for the guard below
