@@ -430,6 +430,32 @@ def test_a_triangle_with_two_corners_at_one_position_still_builds():
             assert t.min() >= 0 and t.max() < pm.vertex_count_at(k)
 
 
+@pytest.mark.parametrize("width", [1e-4, 1e-6])
+@pytest.mark.parametrize("encoding", ["vanilla", "skip-strip", "mixed", "sliding-window"])
+def test_a_thin_strip_simplifies(encoding, width):
+    # a flat strip 1000 long and 1e-4 wide: its triangles' doubled areas (1e-4) were all under the zero-area
+    # guard (2e-10 of the diagonal squared, 2e-4), so every collapse of an inner column was refused (the
+    # sliding window built one LOD; the quadric order went from the two ends, error 0.52). The guard is at
+    # most half the input's smallest triangle now
+    import swpm_usd
+
+    n = 1000
+    x = np.arange(n + 1, dtype=np.float64)
+    bottom = np.c_[x, np.zeros(n + 1), np.zeros(n + 1)]
+    pts = np.concatenate([bottom, bottom + [0.0, width, 0.0]])
+    i = np.arange(n)
+    tris = np.concatenate([np.c_[i, i + 1, n + 2 + i], np.c_[i, n + 2 + i, n + 1 + i]])
+    mesh = Mesh(pts, tris, source="strip.obj")
+    pm = swpm_usd.build(mesh, encoding=encoding)
+    half = int(np.argmax(pm.triangle_counts <= n))
+    assert pm.triangle_count_at(half) == n
+    # half the triangles gone, the straight strip unchanged in shape (the quadric order took 0.37 before)
+    assert pm.error_at(half) < 1e-3
+    for k in range(0, pm.lod_count, 97):
+        t = pm.triangles_at(k)
+        assert t.size == 0 or t.max() < pm.vertex_count_at(k)
+
+
 def _hub_meshes() -> dict[str, Mesh]:
     """Meshes whose hubs (positions of thousands of triangles) are boundary or non-manifold."""
     rng = np.random.default_rng(11)

@@ -183,6 +183,32 @@ def mesh_topology(mesh: Mesh) -> MeshTopology:
     )
 
 
+#: a collapse may not leave a triangle of doubled area at most this fraction of the bounding diagonal
+#: squared (numerically flat: its normal is rounding noise) ...
+_FLAT_AREA = 2e-10
+#: ... nor smaller than this fraction of the input's smallest triangle, where the input has smaller ones
+#: (a strip 1000 long and 1e-4 wide is all below the first bound: every collapse was refused) ...
+_FLAT_INPUT_SHARE = 0.5
+#: ... but never below this fraction of the diagonal squared (float64 rounding of a cross product of
+#: edges as long as the diagonal is about 1e-16 of it)
+_FLAT_AREA_FLOOR = 1e-13
+
+
+def _min_doubled_area(pos_points: np.ndarray, tri_pos: np.ndarray, diag: float) -> float:
+    """The doubled area at or below which a triangle a collapse leaves counts as zero-area."""
+    bound = _FLAT_AREA * diag * diag
+    if tri_pos.shape[0] == 0:
+        return bound
+    p = pos_points.astype(np.float64)
+    a = np.linalg.norm(
+        np.cross(p[tri_pos[:, 1]] - p[tri_pos[:, 0]], p[tri_pos[:, 2]] - p[tri_pos[:, 0]]), axis=1
+    )
+    a = a[a > 0]
+    if a.shape[0] == 0:
+        return bound
+    return max(min(bound, _FLAT_INPUT_SHARE * float(a.min())), _FLAT_AREA_FLOOR * diag * diag)
+
+
 def make_state(
     mesh: Mesh,
     topo: MeshTopology,
@@ -215,7 +241,7 @@ def make_state(
     np.cumsum(np.bincount(topo.vertex_pos, minlength=P), out=pos_vstart[1:])
     head, nxt = kernels.build_corner_lists(topo.tri_pos, P)
     diag = float(np.linalg.norm(topo.pos_points.max(0) - topo.pos_points.min(0))) if P else 1.0
-    min_area2 = np.array([(2e-10 * diag * diag) ** 2])
+    min_area2 = np.array([_min_doubled_area(topo.pos_points, topo.tri_pos, diag) ** 2])
     # a complex position slides along its non-manifold edges (kernels.LOCK_COMPLEX) unless it is also on
     # the boundary (where a fin's free edge meets the curve): then it is fixed while it is both. An edge whose
     # two faces run the same way (inconsistent orientation) is a two-face edge like any other: collapses
