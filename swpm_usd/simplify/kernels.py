@@ -402,6 +402,19 @@ def tri_normal(pts: np.ndarray, a: int, b: int, c: int) -> tuple[float, float, f
     return uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
 
 
+@nb.njit(cache=True, nogil=True)
+def min_doubled_area2(pts: np.ndarray, tri_pos: np.ndarray) -> float:
+    """The smallest non-zero squared doubled area (:func:`tri_normal`'s length squared) of the triangles
+    ``tri_pos`` (rows of ``pts``); inf if none has an area."""
+    best = np.inf
+    for t in range(tri_pos.shape[0]):
+        n0, n1, n2 = tri_normal(pts, tri_pos[t, 0], tri_pos[t, 1], tri_pos[t, 2])
+        a2 = n0 * n0 + n1 * n1 + n2 * n2
+        if 0.0 < a2 < best:
+            best = a2
+    return best
+
+
 @nb.njit(cache=True, inline="always")
 def _has(tp: np.ndarray, j: int, p: int) -> bool:
     return tp[j, 0] == p or tp[j, 1] == p or tp[j, 2] == p

@@ -194,19 +194,11 @@ _FLAT_INPUT_SHARE = 0.5
 _FLAT_AREA_FLOOR = 1e-13
 
 
-def _min_doubled_area(pos_points: np.ndarray, tri_pos: np.ndarray, diag: float) -> float:
-    """The doubled area at or below which a triangle a collapse leaves counts as zero-area."""
+def _min_area2(pos_points: np.ndarray, tri_pos: np.ndarray, diag: float) -> float:
+    """The squared doubled area at or below which a triangle a collapse leaves counts as zero-area."""
     bound = _FLAT_AREA * diag * diag
-    if tri_pos.shape[0] == 0:
-        return bound
-    p = pos_points.astype(np.float64)
-    a = np.linalg.norm(
-        np.cross(p[tri_pos[:, 1]] - p[tri_pos[:, 0]], p[tri_pos[:, 2]] - p[tri_pos[:, 0]]), axis=1
-    )
-    a = a[a > 0]
-    if a.shape[0] == 0:
-        return bound
-    return max(min(bound, _FLAT_INPUT_SHARE * float(a.min())), _FLAT_AREA_FLOOR * diag * diag)
+    smallest2 = kernels.min_doubled_area2(pos_points, tri_pos)  # (inf: no triangle, or none with an area)
+    return max(min(bound * bound, _FLAT_INPUT_SHARE**2 * smallest2), (_FLAT_AREA_FLOOR * diag * diag) ** 2)
 
 
 def make_state(
@@ -241,7 +233,7 @@ def make_state(
     np.cumsum(np.bincount(topo.vertex_pos, minlength=P), out=pos_vstart[1:])
     head, nxt = kernels.build_corner_lists(topo.tri_pos, P)
     diag = float(np.linalg.norm(topo.pos_points.max(0) - topo.pos_points.min(0))) if P else 1.0
-    min_area2 = np.array([_min_doubled_area(topo.pos_points, topo.tri_pos, diag) ** 2])
+    min_area2 = np.array([_min_area2(topo.pos_points, topo.tri_pos, diag)])
     # a complex position slides along its non-manifold edges (kernels.LOCK_COMPLEX) unless it is also on
     # the boundary (where a fin's free edge meets the curve): then it is fixed while it is both. An edge whose
     # two faces run the same way (inconsistent orientation) is a two-face edge like any other: collapses
