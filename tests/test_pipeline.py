@@ -1151,9 +1151,26 @@ def test_scene_references_every_asset_layer_by_name(tmp_path):
     assert res.built == 2 and res.failed == 0
     stage = Usd.Stage.Open(str(tmp_path / "out" / "scene.usda"))
     names = [p.GetName() for p in stage.GetPrimAtPath("/Scene").GetChildren()]
-    assert names == ["cow_0", "spot_1"]  # the assets' names, not a0_0, a1_1
+    assert names == ["cow", "spot"]  # the assets' names, not a0_0, a1_1, nor an index that shifts
     encoded = usd.find_encoded(stage)
     assert [usd.read(p).encoding for p in encoded] == ["skip-strip", "skip-strip"]
+
+
+def test_scene_prim_names_depend_on_their_own_asset_alone():
+    # the names ended in the asset's index among the built ones (cow_0, spot_1): one asset more or less
+    # renamed the others, and a layer overriding /Scene/spot_1 lost it
+    from pxr import Sdf
+
+    from swpm_usd.pipeline.runner import _scene_prim_name
+
+    stems = ["cow", "a-b", "a b", "1cow", "a_b", "sp\u00f6t"]
+    names = [_scene_prim_name(s, set()) for s in stems]
+    assert names[0] == "cow" and names[4] == "a_b"
+    assert all(Sdf.Path.IsValidIdentifier(n) for n in names) and len(set(names)) == len(names)
+    assert names[1].startswith("a_b_") and names[2].startswith("a_b_") and names[1] != names[2]
+    used: set[str] = set()
+    assert [_scene_prim_name(s, used) for s in reversed(stems)] == list(reversed(names))
+    assert _scene_prim_name("a_b", {"a_b"}).startswith("a_b_")  # (taken: hashed, never a duplicate)
 
 
 def _listed_outputs(out: Path) -> tuple[set[str], set[str]]:
@@ -1190,7 +1207,7 @@ def test_a_failed_rebuild_keeps_the_previous_build(tmp_path):
         for o in rec["outputs"].values():
             assert sha256_of(out / o["path"]) == o["sha256"]
         stage = Usd.Stage.Open(str(out / "scene.usda"))
-        assert [p.GetName() for p in stage.GetPrimAtPath("/Scene").GetChildren()] == ["cow_0", "spot_1"]
+        assert [p.GetName() for p in stage.GetPrimAtPath("/Scene").GetChildren()] == ["cow", "spot"]
         report = (out / "report.html").read_text()
         assert (
             "rebuild failed; the previous build (below) is kept" in report
@@ -1220,7 +1237,7 @@ def test_a_failed_rebuild_keeps_the_previous_build(tmp_path):
     files, listed = _listed_outputs(out)
     assert files == listed == {"spot.swpm", "spot.usdc"}
     stage = Usd.Stage.Open(str(out / "scene.usda"))
-    assert [p.GetName() for p in stage.GetPrimAtPath("/Scene").GetChildren()] == ["spot_0"]
+    assert [p.GetName() for p in stage.GetPrimAtPath("/Scene").GetChildren()] == ["spot"]
 
 
 def test_a_failed_usd_export_replaces_no_output(tmp_path, monkeypatch):

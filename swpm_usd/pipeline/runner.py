@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import contextlib
 import fnmatch
+import hashlib
 import json
 import os
 import signal
@@ -1179,9 +1180,25 @@ def _keep_previous(out_dir: Path, previous: dict | None, failed: dict, verify: b
     return {**kept, "last_failure": failure}
 
 
+def _scene_prim_name(stem: str, used: set[str]) -> str:
+    """The scene's prim for the asset layer ``<stem>.usdc``: the stem itself where it is a valid identifier
+    (stems are unique: they are file names in output.dir), else the identifier USD makes of it and a hash of
+    the stem (``a-b`` and ``a b`` both make ``a_b``). A name depends on its own asset alone, so a layer that
+    overrides ``/Scene/cow`` still finds it when assets come or go (an index in the name shifted)."""
+    from pxr import Tf
+
+    base = Tf.MakeValidIdentifier(stem)
+    names = [base] if base == stem else []
+    digest = hashlib.sha256(stem.encode()).hexdigest()
+    names += [f"{base}_{digest[:size]}" for size in (8, 16, 64)]  # (taken by another's hashed name: 2^-32)
+    name = next(n for n in names if n not in used)
+    used.add(name)
+    return name
+
+
 def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
     """A scene layer that references every per-asset USD layer, one Xform each."""
-    from pxr import Tf, Usd, UsdGeom
+    from pxr import Usd, UsdGeom
 
     from ..usd.writer import reload_if_open
 
@@ -1197,9 +1214,9 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
     root = UsdGeom.Xform.Define(stage, "/Scene").GetPrim()
     stage.SetDefaultPrim(root)
-    for i, (_, layer) in enumerate(layers):
-        # the asset's name (unique with the index: two stems can map to one identifier)
-        prim = stage.DefinePrim(f"/Scene/{Tf.MakeValidIdentifier(Path(layer).stem)}_{i}", "Xform")
+    used: set[str] = set()
+    for _, layer in layers:
+        prim = stage.DefinePrim(f"/Scene/{_scene_prim_name(Path(layer).stem, used)}", "Xform")
         prim.GetReferences().AddReference(f"./{layer}")
     stage.GetRootLayer().Save()
     tmp.replace(target)
