@@ -669,42 +669,6 @@ def test_ctrl_c_while_the_workers_warm_up_stops_the_run_at_once(tmp_path):
     assert _group_gone(proc.pid, 30), "the fork server outlived the run"
 
 
-def test_terminate_workers_stops_a_pool_mid_task():
-    # a Ctrl-C stops the workers mid-asset through the pool's private _processes (Python 3.9 to 3.13), or
-    # its public terminate_workers (3.14+): either way they must be gone, not left to finish their asset
-    import multiprocessing as mp
-    import multiprocessing.connection
-    from concurrent.futures import ProcessPoolExecutor
-
-    from swpm_usd.pipeline.runner import _terminate_workers
-
-    pool = ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("spawn"))
-    try:
-        fut = pool.submit(time.sleep, 120)
-        deadline = time.time() + 60
-        while not fut.running() and time.time() < deadline:
-            time.sleep(0.02)
-        workers = list(pool._processes.values())
-        t = time.perf_counter()
-        _terminate_workers(pool)
-        # (gone: their sentinels are ready; is_alive() may say True for a worker the pool's thread reaped)
-        gone = multiprocessing.connection.wait([p.sentinel for p in workers], timeout=0)
-        assert workers and len(gone) == len(workers) and time.perf_counter() - t < 30
-    finally:
-        pool.shutdown(wait=False, cancel_futures=True)
-
-    class Pool:  # Python 3.14: terminate_workers, and no _processes once it ran
-        def __init__(self):
-            self.calls = 0
-
-        def terminate_workers(self):
-            self.calls += 1
-
-    fake = Pool()
-    _terminate_workers(fake)
-    assert fake.calls == 1
-
-
 def test_ctrl_c_in_any_command_exits_130_with_one_line(tmp_path, monkeypatch):
     build_module = sys.modules["swpm_usd.build"]  # (swpm_usd.build is also the function)
 
@@ -2725,3 +2689,108 @@ def test_defaults_params_without_an_encoding_are_checked_as_sliding_windows(tmp_
     ]
     cfg.write_text(head + "defaults: {params: {mu: 0.5, cache_size: 8}}\n")
     assert run(cfg).built == 1
+
+
+def _fake_asset(task):
+    """A worker's process_asset for the pool tests: dies, crashes, exits or hangs as its id says."""
+    if task["id"] == "killed":
+        os.kill(os.getpid(), signal.SIGKILL)
+    if task["id"] == "aborted":
+        import faulthandler
+
+        faulthandler.disable()  # (pytest's: its dump of the crash is noise here)
+        os.kill(os.getpid(), signal.SIGABRT)
+    if task["id"] == "exits":
+        os._exit(3)
+    if task["id"] == "hangs":
+        time.sleep(120)
+    return {"id": task["id"], "digest": task["digest"], "status": "built", "pid": os.getpid()}
+
+
+def test_a_worker_that_dies_or_overruns_fails_its_asset_alone(monkeypatch):
+    # a worker killed (the out-of-memory killer's SIGKILL), crashed in native code or exited stopped the
+    # whole run (BrokenProcessPool: every asset not yet finished failed with it); one that hung held it
+    # for ever. Now that asset alone fails, with its cause, and another worker takes the rest
+    import multiprocessing as mp
+
+    from swpm_usd.pipeline import runner, worker
+
+    monkeypatch.setattr(worker, "process_asset", _fake_asset)  # (inherited: fork)
+    ids = ["a", "killed", "b", "hangs", "c", "aborted", "d", "exits", "e", "f"]
+    t = time.monotonic()
+    recs = list(runner._local_pool([{"id": i, "digest": i} for i in ids], 2, mp.get_context("fork"), 3.0))
+    assert time.monotonic() - t < 60
+    by_id = {r["id"]: r for r in recs}
+    assert sorted(by_id) == sorted(ids) and len(recs) == len(ids)
+    for i in "abcdef":
+        assert by_id[i]["status"] == "built" and "worker_lost" not in by_id[i]
+    lost = {i: by_id[i] for i in ("killed", "hangs", "aborted", "exits")}
+    assert all(r["status"] == "failed" and r["worker_lost"] and r["digest"] == i for i, r in lost.items())
+    assert "killed by SIGKILL" in lost["killed"]["error"] and "out of memory" in lost["killed"]["error"]
+    assert "killed by SIGABRT" in lost["aborted"]["error"] and "native code" in lost["aborted"]["error"]
+    assert "exited with code 3" in lost["exits"]["error"]
+    assert lost["hangs"]["error"].startswith("stopped after 3 s (limits.seconds)")
+    assert 3.0 <= lost["hangs"]["seconds"] < 30
+    assert len({by_id[i]["pid"] for i in "abcdef"}) >= 3  # (each lost worker was replaced)
+    assert not mp.active_children()  # every worker stopped when the pool ends
+
+
+def _torus_stl(path: Path, rings: int, sides: int) -> None:
+    """A binary STL of a torus of ``2 * rings * sides`` triangles."""
+    u, v = np.meshgrid(
+        np.linspace(0, 2 * np.pi, rings, endpoint=False),
+        np.linspace(0, 2 * np.pi, sides, endpoint=False),
+        indexing="ij",
+    )
+    pts = np.stack([(3 + np.cos(v)) * np.cos(u), (3 + np.cos(v)) * np.sin(u), np.sin(v)], -1).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(rings), np.arange(sides), indexing="ij")
+    a, b = i * sides + j, ((i + 1) % rings) * sides + j
+    c, d = ((i + 1) % rings) * sides + (j + 1) % sides, i * sides + (j + 1) % sides
+    tris = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)])
+    rec = np.zeros(tris.shape[0], [("n", "<f4", 3), ("v", "<f4", (3, 3)), ("attr", "<u2")])
+    rec["v"] = pts[tris]
+    with open(path, "wb") as f:
+        f.write(b"\0" * 80 + np.uint32(tris.shape[0]).tobytes() + rec.tobytes())
+
+
+def test_limits_seconds_stops_an_asset_that_builds_too_long(tmp_path):
+    from swpm_usd.pipeline.runner import _TEMPORARY
+
+    cfg = _project(tmp_path, ("spot.obj",))
+    _torus_stl(tmp_path / "meshes" / "big.stl", 500, 500)  # 500,000 triangles: many seconds to build
+    head = "version: 1\nassets: [{glob: 'meshes/*'}]\noutput: {dir: out, usd: true}\n"
+    cfg.write_text(head)
+    (tmp_path / "meshes" / "big.stl").rename(tmp_path / "big.stl")  # built first without it
+    assert run(cfg, echo=lambda m: None).built == 1
+    (tmp_path / "big.stl").rename(tmp_path / "meshes" / "big.stl")
+    cfg.write_text(head + "limits: {seconds: 2}\ndefaults: {encoding: vanilla}\n")
+    spot_before = sha256_of(tmp_path / "out" / "spot.swpm")
+    t = time.monotonic()
+    res = run(cfg, jobs=1, echo=lambda m: None)  # (with a limit, --jobs 1 builds in a worker too)
+    assert time.monotonic() - t < 120
+    assert res.failed == 1 and res.built == 1, res.failures  # spot: its rule changed
+    err = res.failures["meshes/big.stl"]["error"]
+    assert err == "stopped after 2 s (limits.seconds): its build took longer"
+    out = tmp_path / "out"
+    assert not [p.name for pattern in _TEMPORARY for p in out.glob(pattern)]
+    assert not (out / "big.swpm").exists() and sha256_of(out / "spot.swpm") != spot_before
+    manifest = json.loads((out / "manifest.json").read_text())["assets"]
+    assert (
+        manifest["meshes/big.stl"]["status"] == "failed" and "worker_lost" not in manifest["meshes/big.stl"]
+    )
+    assert manifest["meshes/spot.obj"]["status"] == "built"
+
+
+def test_limits_are_checked(tmp_path):
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+    for bad in ("0", "-1", ".nan", ".inf", "soon"):
+        problems = _config_problems(cfg, head + f"limits: {{seconds: {bad}}}\n")
+        assert len(problems) == 1 and problems[0].startswith("c.yaml:4:") and "seconds" in problems[0], bad
+    assert _config_problems(cfg, head + "limits: {minutes: 3}\n")
+    cfg.write_text(head + "limits: {seconds: 30}\n")
+    with pytest.raises(ConfigError, match="limits.seconds needs the local executor"):
+        run(cfg, executor="dask", echo=lambda m: None)
+    assert run(cfg, echo=lambda m: None).built == 1
