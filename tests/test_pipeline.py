@@ -2704,6 +2704,8 @@ def _fake_asset(task):
         os._exit(3)
     if task["id"] == "hangs":
         time.sleep(120)
+    if task["id"] == "slow":
+        time.sleep(0.5)
     return {"id": task["id"], "digest": task["digest"], "status": "built", "pid": os.getpid()}
 
 
@@ -2794,3 +2796,99 @@ def test_limits_are_checked(tmp_path):
     with pytest.raises(ConfigError, match="limits.seconds needs the local executor"):
         run(cfg, executor="dask", echo=lambda m: None)
     assert run(cfg, echo=lambda m: None).built == 1
+
+
+def _serve_once(conn):
+    """A worker's serve for the pool tests: builds one task, sends its record and exits (a worker killed
+    right after it sent its record, while idle)."""
+    from swpm_usd.pipeline import worker
+
+    worker.ignore_interrupts()
+    task = conn.recv()
+    conn.send(worker.process_asset(task))
+    os._exit(0)
+
+
+def test_a_worker_that_dies_after_sending_its_record_is_replaced(monkeypatch):
+    # the record and the worker's end ready together (a worker killed just after it sent its record): the
+    # pool took the record and, the worker dead, gave it no task and started none in its place, so with
+    # every worker so gone the tasks left were dropped (neither built nor failed: a run that exits 0)
+    import multiprocessing as mp
+    import multiprocessing.connection
+
+    from swpm_usd.pipeline import runner, worker
+
+    monkeypatch.setattr(worker, "process_asset", _fake_asset)
+    monkeypatch.setattr(runner, "serve", _serve_once)
+    real_wait = multiprocessing.connection.wait
+
+    def wait(objects, timeout=None):  # (the worker gone by the time its record is read: both ready)
+        if real_wait(objects, timeout):
+            time.sleep(0.3)
+        return real_wait(objects, 0)
+
+    monkeypatch.setattr(multiprocessing.connection, "wait", wait)
+    ids = ["a", "b", "c", "d"]
+    for jobs in (1, 2):
+        recs = list(
+            runner._local_pool([{"id": i, "digest": i} for i in ids], jobs, mp.get_context("fork"), None)
+        )
+        assert sorted(r["id"] for r in recs) == ids and all(r["status"] == "built" for r in recs), recs
+        assert not mp.active_children()
+
+
+def test_a_worker_dead_before_its_task_is_sent_gives_it_to_another(monkeypatch):
+    # a send to a worker that had died (a broken pipe) was raised out of the pool: the whole run stopped
+    import multiprocessing as mp
+
+    from swpm_usd.pipeline import runner, worker
+
+    monkeypatch.setattr(worker, "process_asset", _fake_asset)
+    ctx = mp.get_context("fork")
+    real = runner._Worker
+    for seen_alive in (False, True):  # (its death seen, or not yet: the send is what fails)
+        made = []
+
+        def new(ctx, seen_alive=seen_alive, made=made):
+            w = real(ctx)
+            if not made:
+                w.process.kill()
+                w.process.join()
+                if seen_alive:
+                    w.process.is_alive = lambda: True
+            made.append(w)
+            return w
+
+        monkeypatch.setattr(runner, "_Worker", new)
+        recs = list(runner._local_pool([{"id": "a", "digest": "a"}], 1, ctx, None))
+        assert [(r["id"], r["status"]) for r in recs] == [("a", "built")], recs
+        assert len(made) == 2 and not mp.active_children()
+
+
+def test_a_worker_done_while_the_caller_held_the_pool_is_not_stopped_as_overrun(monkeypatch):
+    # the readiness the pool had waited for went stale while the caller handled another record (the
+    # runner hashes outputs, writes the manifest): a worker that had sent its record meanwhile was then
+    # past its deadline, and killed as overrun, its asset failed though built (its outputs in place)
+    import multiprocessing as mp
+
+    from swpm_usd.pipeline import runner, worker
+
+    monkeypatch.setattr(worker, "process_asset", _fake_asset)
+    tasks = [{"id": "a", "digest": "a"}, {"id": "slow", "digest": "slow"}]
+    recs = []
+    for rec in runner._local_pool(tasks, 2, mp.get_context("fork"), 1.0):
+        recs.append(rec)
+        time.sleep(1.5)  # (the caller busy past the other's deadline, which finished at 0.5 s)
+    assert sorted((r["id"], r["status"]) for r in recs) == [("a", "built"), ("slow", "built")], recs
+
+
+def test_a_limit_of_weeks_is_waited_for(monkeypatch):
+    # a timeout over 2**31 ms (24.8 days) made the pool's wait raise OverflowError: the run stopped
+    import multiprocessing as mp
+
+    from swpm_usd.pipeline import runner, worker
+
+    monkeypatch.setattr(worker, "process_asset", _fake_asset)
+    for limit in (3e6, 1e12):
+        recs = list(runner._local_pool([{"id": "a", "digest": "a"}], 1, mp.get_context("fork"), limit))
+        assert [(r["id"], r["status"]) for r in recs] == [("a", "built")]

@@ -682,11 +682,16 @@ class _Worker:
         self.started = 0.0
         self.deadline = float("inf")
 
-    def give(self, task: dict, limit_s: float | None) -> None:
+    def give(self, task: dict, limit_s: float | None) -> bool:
+        """Send ``task``; False when the pipe is broken (the process died before: it never had the task)."""
         self.task = task
         self.started = time.monotonic()
         self.deadline = float("inf") if limit_s is None else self.started + limit_s
-        self.conn.send(task)
+        try:
+            self.conn.send(task)
+        except OSError:  # (BrokenPipeError, ECONNRESET)
+            return False
+        return True
 
     def stop(self) -> None:
         """Kill the process and wait for it (its temporary files are the caller's)."""
@@ -734,6 +739,20 @@ def _local_pool(tasks: list[dict], jobs: int, ctx: Any, limit_s: float | None) -
 
     pending = list(reversed(tasks))  # (popped from the end: in the given order)
     workers: list[_Worker] = []
+
+    def assign(i: int) -> None:
+        """Give worker ``i`` the next task, a new worker in its place if it died idle (killed just after it
+        sent its record) or dies as the task is sent (a task never received goes to the new worker; a
+        second broken pipe leaves it to the wait, which reports the new worker's end)."""
+        task, w = pending.pop(), workers[i]
+        if not w.process.is_alive():
+            w.stop()
+            w = workers[i] = _Worker(ctx)
+        if not w.give(task, limit_s):
+            w.stop()
+            workers[i] = _Worker(ctx)
+            workers[i].give(task, limit_s)
+
     try:
         # a Ctrl-C while the workers start (waiting for the server to warm up) is raised once they have all
         # started: one interrupted half-way would be a process no list holds, left to end on its own
@@ -741,20 +760,23 @@ def _local_pool(tasks: list[dict], jobs: int, ctx: Any, limit_s: float | None) -
             for _ in range(min(jobs, len(pending))):
                 workers.append(_Worker(ctx))
         with _interrupts_noted():  # (a second Ctrl-C while the first stops the workers is ignored)
-            for w in workers:
-                w.give(pending.pop(), limit_s)
+            for i in range(len(workers)):
+                assign(i)
             while True:
                 busy = [w for w in workers if w.task is not None]
                 if not busy:
                     return
                 first = min(w.deadline for w in busy)
-                timeout = None if first == float("inf") else max(0.0, first - time.monotonic())
+                # (an hour at most: a wait over 2**31 ms, 24.8 days, raises OverflowError; it is waited again)
+                timeout = None if first == float("inf") else min(3600.0, max(0.0, first - time.monotonic()))
                 ready = set(wait([w.conn for w in busy] + [w.process.sentinel for w in busy], timeout))
                 for i, w in enumerate(workers):
                     if w.task is None:
                         continue
                     rec = None
-                    if w.conn in ready:
+                    # (``ready`` is stale once a record was yielded, the caller maybe busy past a deadline:
+                    # a record sent since is polled for before the deadline is looked at)
+                    if w.conn in ready or w.conn.poll():
                         try:
                             rec = w.conn.recv()
                         except (EOFError, OSError):  # died as it sent, or before (the pipe closed)
@@ -770,10 +792,9 @@ def _local_pool(tasks: list[dict], jobs: int, ctx: Any, limit_s: float | None) -
                         continue
                     if rec.get("worker_lost"):
                         w.stop()
-                        w = workers[i] = _Worker(ctx) if pending else w
                     w.task = None
-                    if pending and w.process.is_alive():
-                        w.give(pending.pop(), limit_s)
+                    if pending:
+                        assign(i)  # (a new worker in place of one lost, or of one that died idle since)
                     yield rec
     finally:  # Ctrl-C, an error, the caller stopped, or done
         with _interrupts_ignored():
