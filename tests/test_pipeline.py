@@ -2892,3 +2892,30 @@ def test_a_limit_of_weeks_is_waited_for(monkeypatch):
     for limit in (3e6, 1e12):
         recs = list(runner._local_pool([{"id": "a", "digest": "a"}], 1, mp.get_context("fork"), limit))
         assert [(r["id"], r["status"]) for r in recs] == [("a", "built")]
+
+
+def test_clean_after_worker_deletes_that_assets_temporaries_alone(tmp_path):
+    # usd-core writes a layer to ``.<name less .usdc>.XXXXXX`` and renames it (strace): a worker stopped as
+    # it exported its layer left ``.<stem>.XXXXXXXX.tmp.XXXXXX``, which nothing deleted until the next run
+    from swpm_usd.pipeline.runner import _clean_after_worker
+
+    def temporaries(stem):
+        return [
+            f".{stem}.swpm.ab12cd34.tmp",
+            f".{stem}.k2_9zq0x.tmp.usdc",
+            f".{stem}.k2_9zq0x.tmp.jU5dcx",  # (usd-core's, as it writes the one above)
+            f".{stem}.swpm.ab12cd34.prev.tmp",
+            f".{stem}.usdc.ab12cd34.prev.tmp",
+        ]
+
+    others = ["a.b", "ab", "[a]", "a*", "a?", "b"]
+    for stem in ["a", *others]:
+        for name in temporaries(stem) + [f"{stem}.swpm", f"{stem}.usdc"]:
+            (tmp_path / name).write_bytes(b"x")
+    _clean_after_worker(tmp_path, {}, "a")
+    left = {p.name for p in tmp_path.iterdir()}
+    assert not left & set(temporaries("a")), sorted(left & set(temporaries("a")))
+    assert {n for s in others for n in temporaries(s)} <= left and {"a.swpm", "a.usdc"} <= left
+    _clean_after_worker(tmp_path, {}, "[a]")  # (a stem with glob's characters: its own files alone)
+    assert {n for s in others if s != "[a]" for n in temporaries(s)} <= {p.name for p in tmp_path.iterdir()}
+    assert not {p.name for p in tmp_path.iterdir()} & set(temporaries("[a]"))

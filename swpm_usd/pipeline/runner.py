@@ -330,6 +330,8 @@ def _clean_after_worker(out_dir: Path, records: dict, stem: str) -> None:
     for pattern in (
         f".{swpm}.{random}.tmp",
         f".{glob.escape(stem)}.{random}{USD_TEMPORARY_SUFFIX}",
+        # (usd-core's as it exports that layer: its name less ``.usdc``, then ``.XXXXXX``, renamed over it)
+        f".{glob.escape(stem)}.{random}{USD_TEMPORARY_SUFFIX.removesuffix('.usdc')}.??????",
         f".{swpm}.{random}.prev.tmp",
         f".{usd}.{random}.prev.tmp",
     ):
