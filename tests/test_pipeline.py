@@ -669,42 +669,6 @@ def test_ctrl_c_while_the_workers_warm_up_stops_the_run_at_once(tmp_path):
     assert _group_gone(proc.pid, 30), "the fork server outlived the run"
 
 
-def test_terminate_workers_stops_a_pool_mid_task():
-    # a Ctrl-C stops the workers mid-asset through the pool's private _processes (Python 3.9 to 3.13), or
-    # its public terminate_workers (3.14+): either way they must be gone, not left to finish their asset
-    import multiprocessing as mp
-    import multiprocessing.connection
-    from concurrent.futures import ProcessPoolExecutor
-
-    from swpm_usd.pipeline.runner import _terminate_workers
-
-    pool = ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("spawn"))
-    try:
-        fut = pool.submit(time.sleep, 120)
-        deadline = time.time() + 60
-        while not fut.running() and time.time() < deadline:
-            time.sleep(0.02)
-        workers = list(pool._processes.values())
-        t = time.perf_counter()
-        _terminate_workers(pool)
-        # (gone: their sentinels are ready; is_alive() may say True for a worker the pool's thread reaped)
-        gone = multiprocessing.connection.wait([p.sentinel for p in workers], timeout=0)
-        assert workers and len(gone) == len(workers) and time.perf_counter() - t < 30
-    finally:
-        pool.shutdown(wait=False, cancel_futures=True)
-
-    class Pool:  # Python 3.14: terminate_workers, and no _processes once it ran
-        def __init__(self):
-            self.calls = 0
-
-        def terminate_workers(self):
-            self.calls += 1
-
-    fake = Pool()
-    _terminate_workers(fake)
-    assert fake.calls == 1
-
-
 def test_ctrl_c_in_any_command_exits_130_with_one_line(tmp_path, monkeypatch):
     build_module = sys.modules["swpm_usd.build"]  # (swpm_usd.build is also the function)
 
@@ -2742,3 +2706,233 @@ def test_defaults_params_without_an_encoding_are_checked_as_sliding_windows(tmp_
     ]
     cfg.write_text(head + "defaults: {params: {mu: 0.5, cache_size: 8}}\n")
     assert run(cfg).built == 1
+
+
+def _fake_asset(task):
+    """A worker's process_asset for the pool tests: dies, crashes, exits or hangs as its id says."""
+    if task["id"] == "killed":
+        os.kill(os.getpid(), signal.SIGKILL)
+    if task["id"] == "aborted":
+        import faulthandler
+
+        faulthandler.disable()  # (pytest's: its dump of the crash is noise here)
+        os.kill(os.getpid(), signal.SIGABRT)
+    if task["id"] == "exits":
+        os._exit(3)
+    if task["id"] == "hangs":
+        time.sleep(120)
+    if task["id"] == "slow":
+        time.sleep(0.5)
+    return {"id": task["id"], "digest": task["digest"], "status": "built", "pid": os.getpid()}
+
+
+def test_a_worker_that_dies_or_overruns_fails_its_asset_alone(monkeypatch):
+    # a worker killed (the out-of-memory killer's SIGKILL), crashed in native code or exited stopped the
+    # whole run (BrokenProcessPool: every asset not yet finished failed with it); one that hung held it
+    # for ever. Now that asset alone fails, with its cause, and another worker takes the rest
+    import multiprocessing as mp
+
+    from swpm_usd.pipeline import runner, worker
+
+    monkeypatch.setattr(worker, "process_asset", _fake_asset)  # (inherited: fork)
+    ids = ["a", "killed", "b", "hangs", "c", "aborted", "d", "exits", "e", "f"]
+    t = time.monotonic()
+    recs = list(runner._local_pool([{"id": i, "digest": i} for i in ids], 2, mp.get_context("fork"), 3.0))
+    assert time.monotonic() - t < 60
+    by_id = {r["id"]: r for r in recs}
+    assert sorted(by_id) == sorted(ids) and len(recs) == len(ids)
+    for i in "abcdef":
+        assert by_id[i]["status"] == "built" and "worker_lost" not in by_id[i]
+    lost = {i: by_id[i] for i in ("killed", "hangs", "aborted", "exits")}
+    assert all(r["status"] == "failed" and r["worker_lost"] and r["digest"] == i for i, r in lost.items())
+    assert "killed by SIGKILL" in lost["killed"]["error"] and "out of memory" in lost["killed"]["error"]
+    assert "killed by SIGABRT" in lost["aborted"]["error"] and "native code" in lost["aborted"]["error"]
+    assert "exited with code 3" in lost["exits"]["error"]
+    assert lost["hangs"]["error"].startswith("stopped after 3 s (limits.seconds)")
+    assert 3.0 <= lost["hangs"]["seconds"] < 30
+    assert len({by_id[i]["pid"] for i in "abcdef"}) >= 3  # (each lost worker was replaced)
+    assert not mp.active_children()  # every worker stopped when the pool ends
+
+
+def _torus_stl(path: Path, rings: int, sides: int) -> None:
+    """A binary STL of a torus of ``2 * rings * sides`` triangles."""
+    u, v = np.meshgrid(
+        np.linspace(0, 2 * np.pi, rings, endpoint=False),
+        np.linspace(0, 2 * np.pi, sides, endpoint=False),
+        indexing="ij",
+    )
+    pts = np.stack([(3 + np.cos(v)) * np.cos(u), (3 + np.cos(v)) * np.sin(u), np.sin(v)], -1).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(rings), np.arange(sides), indexing="ij")
+    a, b = i * sides + j, ((i + 1) % rings) * sides + j
+    c, d = ((i + 1) % rings) * sides + (j + 1) % sides, i * sides + (j + 1) % sides
+    tris = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)])
+    rec = np.zeros(tris.shape[0], [("n", "<f4", 3), ("v", "<f4", (3, 3)), ("attr", "<u2")])
+    rec["v"] = pts[tris]
+    with open(path, "wb") as f:
+        f.write(b"\0" * 80 + np.uint32(tris.shape[0]).tobytes() + rec.tobytes())
+
+
+def test_limits_seconds_stops_an_asset_that_builds_too_long(tmp_path):
+    from swpm_usd.pipeline.runner import _TEMPORARY
+
+    cfg = _project(tmp_path, ("spot.obj",))
+    _torus_stl(tmp_path / "meshes" / "big.stl", 500, 500)  # 500,000 triangles: many seconds to build
+    head = "version: 1\nassets: [{glob: 'meshes/*'}]\noutput: {dir: out, usd: true}\n"
+    cfg.write_text(head)
+    (tmp_path / "meshes" / "big.stl").rename(tmp_path / "big.stl")  # built first without it
+    assert run(cfg, echo=lambda m: None).built == 1
+    (tmp_path / "big.stl").rename(tmp_path / "meshes" / "big.stl")
+    cfg.write_text(head + "limits: {seconds: 2}\ndefaults: {encoding: vanilla}\n")
+    spot_before = sha256_of(tmp_path / "out" / "spot.swpm")
+    t = time.monotonic()
+    res = run(cfg, jobs=1, echo=lambda m: None)  # (with a limit, --jobs 1 builds in a worker too)
+    assert time.monotonic() - t < 120
+    assert res.failed == 1 and res.built == 1, res.failures  # spot: its rule changed
+    err = res.failures["meshes/big.stl"]["error"]
+    assert err == "stopped after 2 s (limits.seconds): its build took longer"
+    out = tmp_path / "out"
+    assert not [p.name for pattern in _TEMPORARY for p in out.glob(pattern)]
+    assert not (out / "big.swpm").exists() and sha256_of(out / "spot.swpm") != spot_before
+    manifest = json.loads((out / "manifest.json").read_text())["assets"]
+    assert (
+        manifest["meshes/big.stl"]["status"] == "failed" and "worker_lost" not in manifest["meshes/big.stl"]
+    )
+    assert manifest["meshes/spot.obj"]["status"] == "built"
+
+
+def test_limits_are_checked(tmp_path):
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+    for bad in ("0", "-1", ".nan", ".inf", "soon"):
+        problems = _config_problems(cfg, head + f"limits: {{seconds: {bad}}}\n")
+        assert len(problems) == 1 and problems[0].startswith("c.yaml:4:") and "seconds" in problems[0], bad
+    assert _config_problems(cfg, head + "limits: {minutes: 3}\n")
+    cfg.write_text(head + "limits: {seconds: 30}\n")
+    with pytest.raises(ConfigError, match="limits.seconds needs the local executor"):
+        run(cfg, executor="dask", echo=lambda m: None)
+    assert run(cfg, echo=lambda m: None).built == 1
+
+
+def _serve_once(conn):
+    """A worker's serve for the pool tests: builds one task, sends its record and exits (a worker killed
+    right after it sent its record, while idle)."""
+    from swpm_usd.pipeline import worker
+
+    worker.ignore_interrupts()
+    task = conn.recv()
+    conn.send(worker.process_asset(task))
+    os._exit(0)
+
+
+def test_a_worker_that_dies_after_sending_its_record_is_replaced(monkeypatch):
+    # the record and the worker's end ready together (a worker killed just after it sent its record): the
+    # pool took the record and, the worker dead, gave it no task and started none in its place, so with
+    # every worker so gone the tasks left were dropped (neither built nor failed: a run that exits 0)
+    import multiprocessing as mp
+    import multiprocessing.connection
+
+    from swpm_usd.pipeline import runner, worker
+
+    monkeypatch.setattr(worker, "process_asset", _fake_asset)
+    monkeypatch.setattr(runner, "serve", _serve_once)
+    real_wait = multiprocessing.connection.wait
+
+    def wait(objects, timeout=None):  # (the worker gone by the time its record is read: both ready)
+        if real_wait(objects, timeout):
+            time.sleep(0.3)
+        return real_wait(objects, 0)
+
+    monkeypatch.setattr(multiprocessing.connection, "wait", wait)
+    ids = ["a", "b", "c", "d"]
+    for jobs in (1, 2):
+        recs = list(
+            runner._local_pool([{"id": i, "digest": i} for i in ids], jobs, mp.get_context("fork"), None)
+        )
+        assert sorted(r["id"] for r in recs) == ids and all(r["status"] == "built" for r in recs), recs
+        assert not mp.active_children()
+
+
+def test_a_worker_dead_before_its_task_is_sent_gives_it_to_another(monkeypatch):
+    # a send to a worker that had died (a broken pipe) was raised out of the pool: the whole run stopped
+    import multiprocessing as mp
+
+    from swpm_usd.pipeline import runner, worker
+
+    monkeypatch.setattr(worker, "process_asset", _fake_asset)
+    ctx = mp.get_context("fork")
+    real = runner._Worker
+    for seen_alive in (False, True):  # (its death seen, or not yet: the send is what fails)
+        made = []
+
+        def new(ctx, seen_alive=seen_alive, made=made):
+            w = real(ctx)
+            if not made:
+                w.process.kill()
+                w.process.join()
+                if seen_alive:
+                    w.process.is_alive = lambda: True
+            made.append(w)
+            return w
+
+        monkeypatch.setattr(runner, "_Worker", new)
+        recs = list(runner._local_pool([{"id": "a", "digest": "a"}], 1, ctx, None))
+        assert [(r["id"], r["status"]) for r in recs] == [("a", "built")], recs
+        assert len(made) == 2 and not mp.active_children()
+
+
+def test_a_worker_done_while_the_caller_held_the_pool_is_not_stopped_as_overrun(monkeypatch):
+    # the readiness the pool had waited for went stale while the caller handled another record (the
+    # runner hashes outputs, writes the manifest): a worker that had sent its record meanwhile was then
+    # past its deadline, and killed as overrun, its asset failed though built (its outputs in place)
+    import multiprocessing as mp
+
+    from swpm_usd.pipeline import runner, worker
+
+    monkeypatch.setattr(worker, "process_asset", _fake_asset)
+    tasks = [{"id": "a", "digest": "a"}, {"id": "slow", "digest": "slow"}]
+    recs = []
+    for rec in runner._local_pool(tasks, 2, mp.get_context("fork"), 1.0):
+        recs.append(rec)
+        time.sleep(1.5)  # (the caller busy past the other's deadline, which finished at 0.5 s)
+    assert sorted((r["id"], r["status"]) for r in recs) == [("a", "built"), ("slow", "built")], recs
+
+
+def test_a_limit_of_weeks_is_waited_for(monkeypatch):
+    # a timeout over 2**31 ms (24.8 days) made the pool's wait raise OverflowError: the run stopped
+    import multiprocessing as mp
+
+    from swpm_usd.pipeline import runner, worker
+
+    monkeypatch.setattr(worker, "process_asset", _fake_asset)
+    for limit in (3e6, 1e12):
+        recs = list(runner._local_pool([{"id": "a", "digest": "a"}], 1, mp.get_context("fork"), limit))
+        assert [(r["id"], r["status"]) for r in recs] == [("a", "built")]
+
+
+def test_clean_after_worker_deletes_that_assets_temporaries_alone(tmp_path):
+    # usd-core writes a layer to ``.<name less .usdc>.XXXXXX`` and renames it (strace): a worker stopped as
+    # it exported its layer left ``.<stem>.XXXXXXXX.tmp.XXXXXX``, which nothing deleted until the next run
+    from swpm_usd.pipeline.runner import _clean_after_worker
+
+    def temporaries(stem):
+        return [
+            f".{stem}.swpm.ab12cd34.tmp",
+            f".{stem}.k2_9zq0x.tmp.usdc",
+            f".{stem}.k2_9zq0x.tmp.jU5dcx",  # (usd-core's, as it writes the one above)
+            f".{stem}.swpm.ab12cd34.prev.tmp",
+            f".{stem}.usdc.ab12cd34.prev.tmp",
+        ]
+
+    others = ["a.b", "ab", "[a]", "a*", "a?", "b"]
+    for stem in ["a", *others]:
+        for name in temporaries(stem) + [f"{stem}.swpm", f"{stem}.usdc"]:
+            (tmp_path / name).write_bytes(b"x")
+    _clean_after_worker(tmp_path, {}, "a")
+    left = {p.name for p in tmp_path.iterdir()}
+    assert not left & set(temporaries("a")), sorted(left & set(temporaries("a")))
+    assert {n for s in others for n in temporaries(s)} <= left and {"a.swpm", "a.usdc"} <= left
+    _clean_after_worker(tmp_path, {}, "[a]")  # (a stem with glob's characters: its own files alone)
+    assert {n for s in others if s != "[a]" for n in temporaries(s)} <= {p.name for p in tmp_path.iterdir()}
+    assert not {p.name for p in tmp_path.iterdir()} & set(temporaries("[a]"))

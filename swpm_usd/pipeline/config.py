@@ -183,9 +183,10 @@ def load_config(path: str | Path) -> Config:
 
 
 def _non_finite_params(cfg: Config) -> list[str]:
-    """A parameter given as ``.nan`` or ``.inf`` (YAML's), which the schema's bounds let through (every
-    comparison with NaN is false), or an integer one given as a float (``16.0``, which JSON Schema's
-    integer takes and the encoders refuse), so that it fails at its line, not asset by asset at build time."""
+    """A parameter (or ``limits.seconds``) given as ``.nan`` or ``.inf`` (YAML's), which the schema's bounds
+    let through (every comparison with NaN is false), or an integer one given as a float (``16.0``, which
+    JSON Schema's integer takes and the encoders refuse), so that it fails at its line, not asset by asset at
+    build time."""
     sections = [(("defaults",), cfg.data.get("defaults"))]
     rules = cfg.data.get("rules")
     if isinstance(rules, list):
@@ -209,6 +210,10 @@ def _non_finite_params(cfg: Config) -> list[str]:
             elif isinstance(value, float) and name in whole.get(str(section.get("encoding", encoding)), ()):
                 # (JSON Schema's integer takes 16.0; the encoders refuse it, asset by asset at build time)
                 out.append(f"{cfg.where((*where, 'params', name))}: {value} is not an integer")
+    limits = cfg.data.get("limits")
+    seconds = limits.get("seconds") if isinstance(limits, dict) else None
+    if isinstance(seconds, float) and not math.isfinite(seconds):  # (NaN would pass exclusiveMinimum)
+        out.append(f"{cfg.where(('limits', 'seconds'))}: {seconds} is not a finite number")
     return out
 
 

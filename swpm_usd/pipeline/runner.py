@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import contextlib
 import fnmatch
+import glob
 import hashlib
 import json
 import os
@@ -44,11 +45,13 @@ from .config import Config, ConfigError, load_config
 from .records import INPUT_STAT_KEYS, record_problem, recorded_inputs
 from .worker import (
     STAT_KEYS,
+    USD_TEMPORARY_SUFFIX,
     atomic_write_bytes,
     hash_with_stat,
     ignore_interrupts,
     output_record,
     process_asset,
+    serve,
     stat_fields,
 )
 
@@ -317,7 +320,27 @@ def _remove_temporary(out_dir: Path) -> None:
         stale.unlink(missing_ok=True)
 
 
-def _restore_kept_aside(out_dir: Path, records: dict) -> None:
+def _clean_after_worker(out_dir: Path, records: dict, stem: str) -> None:
+    """A worker stopped or dead while it built the asset of outputs ``stem``.*: its previous outputs that the
+    worker had kept aside are put back (:func:`_restore_kept_aside`), its temporary files deleted (those of
+    the other workers, still building, stay)."""
+    names = {f"{stem}.swpm", f"{stem}.usdc"}
+    _restore_kept_aside(out_dir, records, names)
+    random = "?" * 8  # (tempfile's random part)
+    swpm, usd = glob.escape(f"{stem}.swpm"), glob.escape(f"{stem}.usdc")
+    for pattern in (
+        f".{swpm}.{random}.tmp",
+        f".{glob.escape(stem)}.{random}{USD_TEMPORARY_SUFFIX}",
+        # (usd-core's as it exports that layer: its name less ``.usdc``, then ``.XXXXXX``, renamed over it)
+        f".{glob.escape(stem)}.{random}{USD_TEMPORARY_SUFFIX.removesuffix('.usdc')}.??????",
+        f".{swpm}.{random}.prev.tmp",
+        f".{usd}.{random}.prev.tmp",
+    ):
+        for stale in out_dir.glob(pattern):
+            stale.unlink(missing_ok=True)
+
+
+def _restore_kept_aside(out_dir: Path, records: dict, names: set[str] | None = None) -> None:
     """Put back the previous outputs that a worker stopped while it renamed an asset's outputs into place
     (a pool's worker stopped by Ctrl-C, a kill) had kept aside (:func:`.worker._place_outputs`,
     ``.<name>.XXXXXXXX.prev.tmp``), before :func:`_remove_temporary` deletes them: one whose ``<name>`` is
@@ -325,6 +348,8 @@ def _restore_kept_aside(out_dir: Path, records: dict) -> None:
     the manifest does not list, or none), while the file kept aside is, is renamed back, so the asset is its
     recorded build again, not half of one the manifest does not know."""
     kept = list(out_dir.glob(".*.prev.tmp"))
+    if names is not None:  # (those of these outputs alone)
+        kept = [p for p in kept if p.name[1 : -len(".prev.tmp")].rpartition(".")[0] in names]
     if not kept:  # (the usual run)
         return
     recorded = {
@@ -587,12 +612,18 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
 
 
 def execute(
-    tasks: list[dict], jobs: int, executor: str, scheduler: str | None
+    tasks: list[dict], jobs: int, executor: str, scheduler: str | None, limit_s: float | None = None
 ) -> Generator[dict, None, None]:
-    """Run tasks, yielding each record as it finishes (order of completion)."""
+    """Run tasks, yielding each record as it finishes (order of completion).
+
+    ``limit_s`` (``limits.seconds``): an asset still building after that many seconds has its worker stopped
+    and fails; the other assets go on. With it, ``--jobs 1`` builds in a worker process too (a build in this
+    process cannot be stopped)."""
     if not tasks:
         return
     if executor == "dask":
+        if limit_s is not None:
+            raise ValueError("limit_s needs the local executor (a Dask task cannot be stopped)")
         try:
             from dask.distributed import Client, LocalCluster, as_completed
         except ImportError as exc:
@@ -614,7 +645,7 @@ def execute(
             if cluster is not None:
                 cluster.close()
         return
-    if jobs <= 1:
+    if jobs <= 1 and limit_s is None:
         with _interrupts_noted() as noted:
             for t in tasks:
                 rec = process_asset(t)
@@ -626,34 +657,158 @@ def execute(
                 yield rec
         return
     import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
 
     # workers fork from a server that has imported the package once (fast start, no inherited threads)
     ctx = mp.get_context("forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn")
     if ctx.get_start_method() == "forkserver":
         ctx.set_forkserver_preload(["swpm_usd.pipeline._warm"])  # kernels loaded once, inherited
         # started with Ctrl-C ignored, which the server (warming up) and every worker it forks inherit: a
-        # Ctrl-C is the main process's alone (the initializer covers a server started elsewhere, and spawn)
+        # Ctrl-C is the main process's alone (each worker ignores it itself too: spawn)
         with _interrupts_ignored():
             from multiprocessing import forkserver
 
             forkserver.ensure_running()
         _forkserver_ready(ctx)
-    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=ignore_interrupts)
+    yield from _local_pool(tasks, max(1, jobs), ctx, limit_s)
+
+
+class _Worker:
+    """A worker process of the local pool (:func:`.worker.serve`), the task it builds (None: idle) and when
+    that task must be done by (``time.monotonic``)."""
+
+    def __init__(self, ctx: Any) -> None:
+        self.conn, theirs = ctx.Pipe()
+        self.process = ctx.Process(target=serve, args=(theirs,), name="swpm-pipeline-worker", daemon=True)
+        self.process.start()
+        theirs.close()
+        self.task: dict | None = None
+        self.started = 0.0
+        self.deadline = float("inf")
+
+    def give(self, task: dict, limit_s: float | None) -> bool:
+        """Send ``task``; False when the pipe is broken (the process died before: it never had the task)."""
+        self.task = task
+        self.started = time.monotonic()
+        self.deadline = float("inf") if limit_s is None else self.started + limit_s
+        try:
+            self.conn.send(task)
+        except OSError:  # (BrokenPipeError, ECONNRESET)
+            return False
+        return True
+
+    def stop(self) -> None:
+        """Kill the process and wait for it (its temporary files are the caller's)."""
+        if self.process.is_alive():
+            self.process.kill()
+        self.process.join(timeout=30)
+        self.conn.close()
+
+
+def _lost(w: _Worker, error: str) -> dict:
+    """The failure record of the asset worker ``w`` was building when it died or was stopped."""
+    task = w.task or {}
+    return {
+        "id": task.get("id"),
+        "digest": task.get("digest"),
+        "status": "failed",
+        "error": error,
+        "seconds": time.monotonic() - w.started,
+        "worker_lost": True,  # (the runner cleans up after it, then drops this key)
+    }
+
+
+def _death(exitcode: int | None) -> str:
+    """Why a worker process ended, in words."""
+    if exitcode is not None and exitcode < 0:
+        try:
+            name = signal.Signals(-exitcode).name
+        except ValueError:
+            name = f"signal {-exitcode}"
+        why = f"killed by {name}"
+        if -exitcode == signal.SIGKILL:
+            why += " (the system may have run out of memory: its out-of-memory killer sends SIGKILL)"
+        elif -exitcode in (signal.SIGSEGV, signal.SIGBUS, signal.SIGABRT, signal.SIGILL):
+            why += " (a crash in native code: usd-core, numba or a library)"
+        return why
+    return f"exited with code {exitcode}"
+
+
+def _local_pool(tasks: list[dict], jobs: int, ctx: Any, limit_s: float | None) -> Generator[dict, None, None]:
+    """Run ``tasks`` on ``jobs`` worker processes, one task each at a time, yielding each record as it
+    finishes. A worker that dies fails its asset alone (with the cause: a signal, an exit code) and another
+    takes its place; one still building ``limit_s`` seconds after it started is stopped, and its asset fails.
+    Ctrl-C or an error: every worker is stopped at once (mid-asset), and it is raised."""
+    from multiprocessing.connection import wait
+
+    pending = list(reversed(tasks))  # (popped from the end: in the given order)
+    workers: list[_Worker] = []
+
+    def assign(i: int) -> None:
+        """Give worker ``i`` the next task, a new worker in its place if it died idle (killed just after it
+        sent its record) or dies as the task is sent (a task never received goes to the new worker; a
+        second broken pipe leaves it to the wait, which reports the new worker's end)."""
+        task, w = pending.pop(), workers[i]
+        if not w.process.is_alive():
+            w.stop()
+            w = workers[i] = _Worker(ctx)
+        if not w.give(task, limit_s):
+            w.stop()
+            workers[i] = _Worker(ctx)
+            workers[i].give(task, limit_s)
+
     try:
         # a Ctrl-C while the workers start (waiting for the server to warm up) is raised once they have all
-        # started: one interrupted half-way would leave a worker the pool does not know, to fail on its own
+        # started: one interrupted half-way would be a process no list holds, left to end on its own
         with _interrupts_deferred():
-            futures = [pool.submit(process_asset, t) for t in tasks]
+            for _ in range(min(jobs, len(pending))):
+                workers.append(_Worker(ctx))
         with _interrupts_noted():  # (a second Ctrl-C while the first stops the workers is ignored)
-            for fut in as_completed(futures):
-                yield fut.result()
-    except BaseException:  # Ctrl-C, an error, or the caller stopped: the workers stop now, mid-asset
+            for i in range(len(workers)):
+                assign(i)
+            while True:
+                busy = [w for w in workers if w.task is not None]
+                if not busy:
+                    return
+                first = min(w.deadline for w in busy)
+                # (an hour at most: a wait over 2**31 ms, 24.8 days, raises OverflowError; it is waited again)
+                timeout = None if first == float("inf") else min(3600.0, max(0.0, first - time.monotonic()))
+                ready = set(wait([w.conn for w in busy] + [w.process.sentinel for w in busy], timeout))
+                for i, w in enumerate(workers):
+                    if w.task is None:
+                        continue
+                    rec = None
+                    # (``ready`` is stale once a record was yielded, the caller maybe busy past a deadline:
+                    # a record sent since is polled for before the deadline is looked at)
+                    if w.conn in ready or w.conn.poll():
+                        try:
+                            rec = w.conn.recv()
+                        except (EOFError, OSError):  # died as it sent, or before (the pipe closed)
+                            w.process.join(timeout=30)
+                            rec = _lost(w, f"the worker process building it {_death(w.process.exitcode)}")
+                    elif w.process.sentinel in ready:
+                        w.process.join(timeout=30)
+                        rec = _lost(w, f"the worker process building it {_death(w.process.exitcode)}")
+                    elif time.monotonic() >= w.deadline:
+                        rec = _lost(w, f"stopped after {limit_s:g} s (limits.seconds): its build took longer")
+                        w.stop()
+                    if rec is None:
+                        continue
+                    if rec.get("worker_lost"):
+                        w.stop()
+                    w.task = None
+                    if pending:
+                        assign(i)  # (a new worker in place of one lost, or of one that died idle since)
+                    yield rec
+    finally:  # Ctrl-C, an error, the caller stopped, or done
         with _interrupts_ignored():
-            _terminate_workers(pool)
-        raise
-    finally:
-        pool.shutdown(wait=False, cancel_futures=True)
+            for w in workers:
+                if w.task is None and w.process.is_alive():
+                    try:
+                        w.conn.send(None)  # (idle: ends by itself; a send error: killed below)
+                    except OSError:
+                        pass
+                    w.process.join(timeout=5)
+                w.stop()
 
 
 def _forkserver_ready(ctx: Any) -> None:
@@ -701,25 +856,6 @@ def _stop_forkserver() -> None:
     stop = getattr(server, "_stop", None)  # closes its pipe, waits for it, deletes its socket
     if stop is not None:
         stop()
-
-
-def _terminate_workers(pool: Any) -> None:
-    """Stop a process pool's workers at once and wait for them to be gone (their temporary files are then
-    the caller's to delete: :func:`_remove_temporary`). Their outputs are whole: every write is a rename.
-
-    Python 3.14 has ``terminate_workers``; before it, the pool's ``_processes`` (pid -> process, the same
-    from 3.9 to 3.14) are terminated one by one. Either way they are waited for."""
-    # (copied before terminate_workers drops the pool's)
-    processes = list((getattr(pool, "_processes", None) or {}).values())
-    terminate = getattr(pool, "terminate_workers", None)
-    if terminate is not None:
-        terminate()
-    else:
-        for p in processes:
-            if p.is_alive():
-                p.terminate()
-    for p in processes:
-        p.join(timeout=30)
 
 
 class _Progress:
@@ -918,6 +1054,8 @@ def _run(
     if not dry_run and out_dir.is_dir():  # (the run's from here on: before the plan checks the outputs)
         _restore_kept_aside(out_dir, manifest["assets"])
     items, errors, warnings = plan(cfg, manifest, count_triangles=dry_run or explain, verify=verify)
+    if executor == "dask" and "seconds" in cfg.data.get("limits", {}):
+        errors = [*errors, "limits.seconds needs the local executor (--executor dask cannot stop an asset)"]
     if errors:
         raise ConfigError(errors)
     for w in warnings:
@@ -1007,9 +1145,12 @@ def _run(
     try:
         # largest inputs first, so no worker is left with a big asset at the end (LPT scheduling)
         ordered = sorted(todo, key=lambda it: -_input_size(it.asset.path))
-        results = execute([_task(cfg, it) for it in ordered], jobs, executor, scheduler)
+        limit_s = cfg.data.get("limits", {}).get("seconds")
+        results = execute([_task(cfg, it) for it in ordered], jobs, executor, scheduler, limit_s)
         for rec in results:
             it = by_id[rec["id"]]
+            if rec.pop("worker_lost", False):  # stopped or died mid-asset: what it left behind goes
+                _clean_after_worker(out_dir, records, it.asset.output_stem)
             if it.rule_pending:
                 it.rule = rec.pop("rule_index", None)
             # (the stat of each input as it was hashed to this digest, never a later one: an input changed

@@ -224,6 +224,18 @@ def build_schema() -> dict[str, Any]:
                     "total_bytes": {"type": "integer", "minimum": 1},
                 },
             },
+            "limits": {
+                "type": "object",
+                "additionalProperties": False,
+                "properties": {
+                    "seconds": {
+                        "type": "number",
+                        "exclusiveMinimum": 0,
+                        "description": "wall-clock seconds one asset may take: an asset still building then "
+                        "has its worker process stopped and fails (the others go on); local executor only",
+                    },
+                },
+            },
         },
     }
 

@@ -389,6 +389,22 @@ def process_asset(task: dict[str, Any]) -> dict[str, Any]:
         return _process_asset(task)
 
 
+def serve(conn: Any) -> None:
+    """A local pool's worker process (:func:`.runner.execute`): build each task received on ``conn`` and send
+    back its record, until ``None`` or the pipe closes. One task at a time, so the runner knows which asset a
+    worker that dies (an out-of-memory kill, a crash in native code) or overruns ``limits.seconds`` was
+    building."""
+    ignore_interrupts()
+    while True:
+        try:
+            task = conn.recv()
+        except (EOFError, OSError):
+            return
+        if task is None:
+            return
+        conn.send(process_asset(task))
+
+
 def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
     start = time.perf_counter()
     rec: dict[str, Any] = {"id": task["id"], "digest": task["digest"], "status": "failed"}
