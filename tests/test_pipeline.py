@@ -2805,7 +2805,7 @@ def test_limits_are_checked(tmp_path):
     (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
     cfg = tmp_path / "c.yaml"
     head = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
-    for bad in ("0", "-1", ".nan", ".inf", "soon"):
+    for bad in ("0", "-1", ".nan", ".inf", "soon", "1" * 400):  # (a 400-digit deadline overflowed a float)
         problems = _config_problems(cfg, head + f"limits: {{seconds: {bad}}}\n")
         assert len(problems) == 1 and problems[0].startswith("c.yaml:4:") and "seconds" in problems[0], bad
     assert _config_problems(cfg, head + "limits: {minutes: 3}\n")

@@ -212,7 +212,7 @@ def _non_finite_params(cfg: Config) -> list[str]:
                 out.append(f"{cfg.where((*where, 'params', name))}: {value} is not an integer")
     limits = cfg.data.get("limits")
     seconds = limits.get("seconds") if isinstance(limits, dict) else None
-    if isinstance(seconds, float) and not math.isfinite(seconds):  # (NaN would pass exclusiveMinimum)
+    if isinstance(seconds, float) and math.isnan(seconds):  # (NaN passes the schema's bounds; inf: over 1e9)
         out.append(f"{cfg.where(('limits', 'seconds'))}: {seconds} is not a finite number")
     return out
 

@@ -231,6 +231,7 @@ def build_schema() -> dict[str, Any]:
                     "seconds": {
                         "type": "number",
                         "exclusiveMinimum": 0,
+                        "maximum": 1e9,
                         "description": "wall-clock seconds one asset may take: an asset still building then "
                         "has its worker process stopped and fails (the others go on); local executor only",
                     },
