@@ -212,6 +212,33 @@ def test_colour_of_every_component_count_round_trips(k, dtype, tmp_path):
     assert validate_stage(path) == []
 
 
+@pytest.mark.parametrize("dtype", ["bool", "<i8", "<u8"])
+def test_an_attribute_the_writer_stores_is_read_back(dtype, tmp_path):
+    """write stored a bool attribute (and an int64 / uint64 one) as a float primvar and its dtype in
+    swpm:attributeDtypes, but read refused the stage: "swpm:attributeDtypes[0] = 'bool' is not one of ..."
+    (and, for int64, the check said the arrays "do not form a valid vanilla mesh": a .swpm file cannot hold
+    that type). read gives the attribute back, type and values."""
+    from swpm_usd.encode.base import from_buffers
+    from swpm_usd.format import encode_bytes, load_bytes
+    from swpm_usd.format.vectors import fan_vanilla
+
+    flags = np.array([[1, 0], [0, 0], [1, 1], [0, 1], [1, 0]]).astype(dtype)
+    fan = load_bytes(encode_bytes(fan_vanilla()))  # type: ignore[arg-type]
+    attrs = {"flag": flags, "weight": np.arange(5, dtype=np.float32)[:, None]}
+    pm = from_buffers(
+        "vanilla", fan.points, attrs, fan.vertex_counts, fan.triangle_counts, fan.lod_errors, fan.buffers()
+    )
+    path = usd.write(pm, tmp_path / "flags.usda")
+    stage = Usd.Stage.Open(str(path))
+    prim = stage.GetDefaultPrim().GetChild("mesh")
+    assert list(prim.GetAttribute("swpm:attributeDtypes").Get()) == [np.dtype(dtype).name, "float32"]
+    back = usd.read(prim)
+    assert back.attributes["flag"].dtype == np.dtype(dtype)
+    np.testing.assert_array_equal(back.attributes["flag"], flags)
+    np.testing.assert_array_equal(back.triangles_at(0), pm.triangles_at(0))
+    assert validate_stage(path) == []
+
+
 def _float32_holds(v: np.ndarray) -> np.ndarray:
     return v.astype(np.float32).astype(np.float64) == v.astype(np.float64)
 
