@@ -403,6 +403,31 @@ def test_usd_hole_faces_are_not_loaded(tmp_path: Path) -> None:
         load_mesh(path)
 
 
+def test_usd_mesh_of_only_holes_is_not_rendered_like_an_invisible_one(tmp_path: Path) -> None:
+    """A Mesh whose holeIndices list every face renders nothing: beside other meshes it is left out (as an
+    invisible one; the pipeline then makes no asset of it), alone it is a MeshLoadError naming the file that
+    says every face is a hole (it said "have no faces (or only holes)")."""
+    path = tmp_path / "allholes.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    holes = _define_mesh(stage, "/A/holes", STRIP_POINTS, STRIP_COUNTS, STRIP_INDICES)
+    holes.CreateHoleIndicesAttr(Vt.IntArray([1, 0, 1]))  # (a repeated index: still every face)
+    _define_mesh(stage, "/A/solid", STRIP_POINTS + [0, 0, 1], STRIP_COUNTS, STRIP_INDICES)
+    stage.Save()
+    m = load_mesh(path)
+    assert m.triangle_count == 4 and np.all(m.points[:, 2] == 1)
+    with pytest.raises(MeshLoadError) as e:
+        load_mesh(path, prim_path="/A/holes")
+    assert e.value.path == str(path)
+    assert "/A/holes (every face is a hole: holeIndices lists all 2 faces)" in str(e.value)
+    stage.RemovePrim("/A/solid")
+    stage.Save()
+    with pytest.raises(MeshLoadError, match=r"allholes\.usda: no triangles.*every face is a hole"):
+        load_mesh(path)
+    holes.CreateHoleIndicesAttr(Vt.IntArray([1]))  # (one face left: loaded)
+    stage.Save()
+    assert load_mesh(path).triangle_count == 2
+
+
 def test_usd_unrendered_meshes_are_not_loaded(tmp_path: Path) -> None:
     """Meshes a renderer does not draw, invisible (also through an ancestor) or of purpose guide or proxy (a
     viewport stand-in beside the render mesh), were concatenated with the asset's surface."""

@@ -496,6 +496,39 @@ def test_usd_stage_meshes_a_renderer_does_not_draw_are_not_assets(tmp_path):
     assert list(res.records) == ["scene.usda:/World/render"]
 
 
+def test_usd_stage_mesh_of_only_holes_is_not_an_asset(tmp_path):
+    """A Mesh prim whose holeIndices list every face renders nothing, as an invisible one: it was an asset
+    of the stage that failed every run ('no triangles: ... have no faces (or only holes)'); a USD file that
+    holds only such a mesh is an asset that fails, saying every face is a hole."""
+    from pxr import Usd, UsdGeom
+
+    scene = tmp_path / "scene.usda"
+    st = Usd.Stage.CreateNew(str(scene))
+    for name in ("solid", "holes"):
+        m = UsdGeom.Mesh.Define(st, f"/World/{name}")
+        m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
+        m.CreateFaceVertexCountsAttr([3, 3])
+        m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+    UsdGeom.Mesh(st.GetPrimAtPath("/World/holes")).CreateHoleIndicesAttr([0, 1])
+    st.GetRootLayer().Save()
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{stage: scene.usda}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 0 and res.built == 1
+    assert list(res.records) == ["scene.usda:/World/solid"]
+    st.RemovePrim("/World/solid")
+    st.GetRootLayer().Export(str(tmp_path / "alone.usda"))
+    cfg.write_text(
+        "version: 1\nassets: [{glob: alone.usda}]\noutput: {dir: out2}\ndefaults: {encoding: vanilla}\n"
+    )
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1 and res.built == 0
+    (rec,) = res.records.values()
+    assert "every face is a hole" in json.dumps(rec)
+
+
 def test_interrupted_run_keeps_earlier_outputs_and_rerun_finishes(tmp_path):
     cfg = _project(tmp_path, ("cow.obj", "spot.obj", "bob.obj", "fandisk.obj", "teapot.obj"), "")
     cfg.write_text(
