@@ -657,6 +657,42 @@ def test_write_usdlod_errors_name_the_file(pm, tmp_path):
     assert usd.read(Usd.Stage.Open(str(asset)).GetDefaultPrim()).lod_count == pm.lod_count
 
 
+def test_write_usdlod_failure_leaves_the_previous_layer(pm, tmp_path, monkeypatch):
+    """write_usdlod created its layer at the output path (Sdf.Layer.CreateNew writes an empty layer at once)
+    and authored it there: a failure while authoring left an empty layer in place of the previous one. It
+    writes a temporary layer beside it and renames it into place; a layer of it open in this process is
+    reloaded once replaced, and a replaced layer keeps its mode."""
+    import os
+    import stat
+
+    from swpm_usd.usd import writer
+
+    asset = usd.write(pm, tmp_path / "a.usda", lods=3)
+    out = usd.write_usdlod(asset, tmp_path / "a_lod.usda")
+    os.chmod(out, 0o640)
+    before = out.read_bytes()
+
+    def fail(*args, **kwargs):
+        raise RuntimeError("disk on fire")
+
+    monkeypatch.setattr(writer, "_thresholds", fail)
+    with pytest.raises(RuntimeError, match="disk on fire"):
+        usd.write_usdlod(asset, out, pixel_error=2.0)
+    assert out.read_bytes() == before  # (it was an empty layer, 11 bytes)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.usda", "a_lod.usda"]  # no temporary left
+    open_layer = Sdf.Layer.FindOrOpen(str(out))
+    with pytest.raises(RuntimeError, match="disk on fire"):
+        usd.write_usdlod(asset, out, pixel_error=2.0)
+    assert not open_layer.dirty and open_layer.ExportToString() == before.decode()  # (it was cleared)
+    monkeypatch.undo()
+
+    usd.write_usdlod(asset, out, pixel_error=2.0)
+    assert out.read_bytes() != before
+    assert stat.S_IMODE(out.stat().st_mode) == 0o640
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.usda", "a_lod.usda"]
+    assert not open_layer.dirty and open_layer.ExportToString() == out.read_text()  # (reloaded)
+
+
 def test_lod_variants_and_usdlod(pm, tmp_path):
     asset = usd.write(pm, tmp_path / "lods.usdc", lods=4)
     stage = Usd.Stage.Open(str(asset))
