@@ -1196,6 +1196,32 @@ def _listed_outputs(out: Path) -> tuple[set[str], set[str]]:
     return files, {o["path"] for rec in assets.values() for o in rec.get("outputs", {}).values()}
 
 
+def test_rebuilt_outputs_keep_the_mode_of_the_files_they_replace(tmp_path):
+    """Each output is a temporary file renamed over the previous one: it took the umask's mode (0o644), so
+    outputs made private (0o600) were readable by everyone after the next run."""
+    import stat
+
+    cfg = _project(
+        tmp_path,
+        ("cow.obj",),
+        MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true, report: true}"),
+    )
+    out = tmp_path / "out"
+    old = os.umask(0o022)
+    try:
+        assert run(cfg, echo=lambda m: None).built == 1
+        names = ("cow.swpm", "cow.usdc", "scene.usda", "manifest.json", "report.html")
+        for name in names:
+            assert stat.S_IMODE((out / name).stat().st_mode) == 0o644, name
+            os.chmod(out / name, 0o600)
+        assert run(cfg, echo=lambda m: None, force=True).built == 1
+    finally:
+        os.umask(old)
+    assert {name: oct(stat.S_IMODE((out / name).stat().st_mode)) for name in names} == dict.fromkeys(
+        names, "0o600"
+    )
+
+
 def test_a_failed_rebuild_keeps_the_previous_build(tmp_path):
     from pxr import Usd
 

@@ -577,6 +577,33 @@ def test_a_failed_write_overrides_keeps_the_previous_layer(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == names
 
 
+def test_usd_layers_written_over_a_file_keep_its_mode(pm, tmp_path):
+    """write_overrides (and write_usdlod) rename a temporary layer over the output: it took the umask's mode
+    (0o644) instead of the replaced file's (0o600: a private layer became readable by everyone). usd.write
+    exports through usd-core, which keeps it too."""
+    import os
+    import stat
+
+    src = tmp_path / "src.usda"
+    _grid_stage(src, 4)
+    asset = usd.write(pm, tmp_path / "a.usda", lods=2)
+    outs = {
+        "ovr.usda": lambda p: usd.write_overrides(src, p),
+        "a_lod.usda": lambda p: usd.write_usdlod(asset, p),
+        "a.usda": lambda p: usd.write(pm, p, lods=2),
+    }
+    old = os.umask(0o022)
+    try:
+        for name, write in outs.items():
+            write(tmp_path / name)
+            assert stat.S_IMODE((tmp_path / name).stat().st_mode) == 0o644, name  # a new file: umask's
+            os.chmod(tmp_path / name, 0o600)
+            write(tmp_path / name)
+            assert stat.S_IMODE((tmp_path / name).stat().st_mode) == 0o600, name
+    finally:
+        os.umask(old)
+
+
 def test_overrides_leave_hole_faces_out(tmp_path):
     """Faces in the source's holeIndices are not encoded, and the source's hole face numbers (which would
     name other faces of the new triangle list) are not kept on the override."""

@@ -1183,6 +1183,7 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
     """A scene layer that references every per-asset USD layer, one Xform each."""
     from pxr import Tf, Usd, UsdGeom
 
+    from ..fileio import set_mode_for
     from ..usd.writer import reload_if_open
 
     layers = [
@@ -1202,5 +1203,6 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
         prim = stage.DefinePrim(f"/Scene/{Tf.MakeValidIdentifier(Path(layer).stem)}_{i}", "Xform")
         prim.GetReferences().AddReference(f"./{layer}")
     stage.GetRootLayer().Save()
+    set_mode_for(tmp, target)  # (a replaced scene keeps its mode)
     tmp.replace(target)
     reload_if_open(target)  # (a caller of run may have it open)

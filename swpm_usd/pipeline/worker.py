@@ -306,7 +306,7 @@ def _stage_usd(pm, target: Path) -> tuple[Path, Path]:
 
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=USD_TEMPORARY_SUFFIX, dir=target.parent)
-    set_plain_mode(fd)  # (mkstemp's 0o600 would stay: usd-core keeps the file's mode)
+    set_plain_mode(fd, like=target)  # (mkstemp's 0o600 would stay: usd-core keeps the file's mode)
     os.close(fd)
     tmp = Path(name)
     try:

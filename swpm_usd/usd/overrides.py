@@ -27,6 +27,7 @@ from pxr import Sdf, Tf, Usd, UsdGeom, Vt
 from ..build import build
 from ..encode.base import ProgressiveMesh, from_buffers
 from ..errors import SwpmError
+from ..fileio import set_mode_for
 from ..io.usd_loader import _Invalid, _tf_message, _Topology
 from ..mesh import Mesh
 from .writer import author_swpm, reload_if_open
@@ -258,6 +259,7 @@ def write_overrides(
         with _writing(path, tmp_path):
             if not layer.Save():
                 raise UsdOverrideError(f"{path}: could not write")
+            set_mode_for(tmp_path, out_path)  # (a replaced layer keeps its mode)
             os.replace(tmp_path, out_path)
     except BaseException:
         tmp_path.unlink(missing_ok=True)
