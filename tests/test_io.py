@@ -872,6 +872,54 @@ def test_stl_check_reads_only_the_start_and_end_of_a_large_file(tmp_path: Path) 
         load_mesh(cut)
 
 
+def _ply_cases() -> dict[str, tuple[bytes, str]]:
+    """PLY files of a 42-vertex, 80-face sphere cut (or padded) somewhere, and the problem each is."""
+    m = trimesh.creation.icosphere(1)
+    text = trimesh.exchange.ply.export_ply(m, encoding="ascii")
+    lines = text.splitlines(keepends=True)
+    body = lines.index(b"end_header\n") + 1
+    binary = trimesh.exchange.ply.export_ply(m, encoding="binary")
+    start = binary.index(b"end_header\n") + len(b"end_header\n")
+    face = 1 + 3 * 4  # (a uchar count, three int indices)
+    return {
+        "ascii, faces cut": (b"".join(lines[:-5]), "truncated ASCII PLY: element face declares 80, found 75"),
+        "ascii, inside a face": (
+            b"".join(lines[:-5]) + lines[-5][:3],
+            "truncated ASCII PLY: element face declares 80, found 75",
+        ),
+        "ascii, vertices cut": (
+            b"".join(lines[: body + 10]),
+            "truncated ASCII PLY: element vertex declares 42, found 10",
+        ),
+        "ascii, header only": (
+            b"".join(lines[:body]),
+            "truncated ASCII PLY: element vertex declares 42, found 0",
+        ),
+        "binary, faces cut": (
+            binary[: -3 * face - 2],  # (41 bytes)
+            rf"truncated binary PLY: element face declares 80, found 76 \({len(binary) - 41} bytes\)",
+        ),
+        "binary, vertices cut": (
+            binary[: start + 12 * 8 + 5],
+            r"truncated binary PLY: element vertex declares 42, found 8",
+        ),
+        "binary, bytes after": (binary + b"\0" * 7, "not a valid binary PLY: 7 bytes after the elements"),
+    }
+
+
+@pytest.mark.parametrize("case", list(_ply_cases()))
+def test_truncated_ply_says_so(tmp_path: Path, case: str) -> None:
+    """An ASCII PLY declaring more vertices than it holds said "no triangles", one with faces cut loaded the
+    faces left without a word, and a cut binary PLY said "trimesh could not read it (ValueError: PLY is
+    unexpected length!)": each says what is truncated, declared against found."""
+    data, problem = _ply_cases()[case]
+    path = tmp_path / "cut.ply"
+    path.write_bytes(data)
+    with pytest.raises(MeshLoadError, match=r"cut\.ply: " + problem) as e:
+        load_mesh(path)
+    assert e.value.path == str(path)
+
+
 def test_missing_unsupported_and_directory(tmp_path: Path) -> None:
     with pytest.raises(MeshLoadError, match=r"nope\.obj: file not found"):
         load_mesh(tmp_path / "nope.obj")

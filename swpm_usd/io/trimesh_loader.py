@@ -19,6 +19,7 @@ import json
 import os
 import re
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -119,6 +120,151 @@ def _check_stl(path: Path, size: int, head: bytes, tail: bytes, data: bytes | No
     raise MeshLoadError(path, f"not a valid binary STL: {what} ({size - expected} bytes too many)")
 
 
+#: PLY scalar types (both spellings) -> numpy dtype
+_PLY_TYPES = {
+    **dict.fromkeys(("char", "int8"), "i1"),
+    **dict.fromkeys(("uchar", "uint8"), "u1"),
+    **dict.fromkeys(("short", "int16"), "i2"),
+    **dict.fromkeys(("ushort", "uint16"), "u2"),
+    **dict.fromkeys(("int", "int32"), "i4"),
+    **dict.fromkeys(("uint", "uint32"), "u4"),
+    **dict.fromkeys(("float", "float32"), "f4"),
+    **dict.fromkeys(("double", "float64"), "f8"),
+}
+#: how much of a PLY's start the header is looked for in
+_PLY_HEADER_BYTES = 1 << 16
+#: the rows of a binary element with lists of varying length counted one by one at most (past it the
+#: message gives no count)
+_PLY_ROW_WALK = 2_000_000
+
+#: a PLY property: (dtype) for a scalar, (count dtype, item dtype) for a list
+_PlyProperty = tuple[str] | tuple[str, str]
+
+
+def _ply_header(head: bytes) -> tuple[str, int, list[tuple[str, int, list[_PlyProperty]]]] | None:
+    """(format, header length in bytes, [(element, count, properties)]) of a PLY file's start ``head``, or
+    None when it is not a header this check understands (trimesh then says what is wrong)."""
+    end = re.search(rb"(?m)^end_header[ \t]*\r?\n", head)
+    if not head.startswith(b"ply") or end is None:
+        return None
+    fmt = None
+    elements: list[tuple[str, int, list[_PlyProperty]]] = []
+    for line in head[: end.start()].decode("ascii", "replace").splitlines()[1:]:
+        words = line.split()
+        if not words or words[0] in ("comment", "obj_info"):
+            continue
+        if words[0] == "format" and len(words) >= 2:
+            fmt = words[1]
+        elif words[0] == "element" and len(words) == 3 and words[2].isdigit():
+            elements.append((words[1], int(words[2]), []))
+        elif words[0] == "property" and elements and len(words) == 3 and words[1] in _PLY_TYPES:
+            elements[-1][2].append((_PLY_TYPES[words[1]],))
+        elif (
+            words[0] == "property"
+            and elements
+            and len(words) == 5
+            and words[1] == "list"
+            and words[2] in _PLY_TYPES
+            and words[3] in _PLY_TYPES
+        ):
+            elements[-1][2].append((_PLY_TYPES[words[2]], _PLY_TYPES[words[3]]))
+        else:
+            return None
+    if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
+        return None
+    return fmt, end.end(), elements
+
+
+def _ply_ascii_rows(tokens: list[bytes], at: int, count: int, props: list[_PlyProperty]) -> tuple[int, int]:
+    """(complete rows, token index after them) of an ASCII element of ``count`` rows from ``tokens[at]``."""
+    if all(len(p) == 1 for p in props):
+        width = len(props)
+        rows = count if width == 0 else min(count, (len(tokens) - at) // width)
+        return rows, at + rows * width
+    rows = 0
+    while rows < count:
+        i = at
+        for p in props:
+            if i >= len(tokens):
+                return rows, at
+            if len(p) == 1:
+                i += 1
+                continue
+            try:
+                n = int(float(tokens[i]))
+            except ValueError:
+                return rows, at
+            i += 1 + max(n, 0)
+        if i > len(tokens):
+            return rows, at
+        rows, at = rows + 1, i
+    return rows, at
+
+
+def _ply_binary_rows(
+    data: bytes, at: int, count: int, props: list[_PlyProperty], order: str
+) -> tuple[int | None, int]:
+    """(complete rows, byte offset after them) of a binary element of ``count`` rows from ``data[at]``; None
+    rows when its lists vary in length past :data:`_PLY_ROW_WALK` rows."""
+    sizes = [np.dtype(p[0]).itemsize for p in props]
+    if all(len(p) == 1 for p in props):
+        width = sum(sizes)
+        rows = count if width == 0 else min(count, (len(data) - at) // width)
+        return rows, at + rows * width
+    rows = 0
+    while rows < count:
+        if rows >= _PLY_ROW_WALK:
+            return None, at
+        i = at
+        for p, size in zip(props, sizes, strict=True):
+            if i + size > len(data):
+                return rows, at
+            if len(p) == 2:
+                n = int(np.frombuffer(data, order + p[0], 1, i)[0])
+                i += np.dtype(p[1]).itemsize * max(n, 0)
+            i += size
+        if i > len(data):
+            return rows, at
+        rows, at = rows + 1, i
+    return rows, at
+
+
+def ply_problem(data: bytes, ascii_only: bool = False) -> str | None:
+    """Why the PLY file of bytes ``data`` holds fewer element rows than its header declares ("truncated ASCII
+    PLY: element face declares 80, found 75"), or more bytes (binary), or None when it holds them all or its
+    header is not one this check reads (trimesh then reports the file); ``ascii_only``: None for a binary one.
+
+    An ASCII file is counted row by row (tokens, whatever the lines) only when it has fewer lines than rows
+    declared (trimesh loads the rows of a cut ASCII file without a word, and says "no triangles" when its
+    vertices are cut); a binary one, whose length trimesh checks, is for the message once trimesh has refused
+    it ("PLY is unexpected length!")."""
+    header = _ply_header(data[:_PLY_HEADER_BYTES])
+    if header is None or (ascii_only and header[0] != "ascii"):
+        return None
+    fmt, at, elements = header
+    declared = sum(count for _, count, _ in elements)
+    if fmt == "ascii":
+        if data.count(b"\n", at) + 1 >= declared:
+            return None
+        tokens = data[at:].split()
+        i = 0
+        for name, count, props in elements:
+            rows, i = _ply_ascii_rows(tokens, i, count, props)
+            if rows < count:
+                return f"truncated ASCII PLY: element {name} declares {count}, found {rows}"
+        return None
+    order = "<" if fmt == "binary_little_endian" else ">"
+    for name, count, props in elements:
+        rows, at = _ply_binary_rows(data, at, count, props, order)
+        if rows is None:  # (not counted)
+            return None
+        if rows < count:
+            return f"truncated binary PLY: element {name} declares {count}, found {rows} ({len(data)} bytes)"
+    if at < len(data):
+        return f"not a valid binary PLY: {len(data) - at} bytes after the elements its header declares"
+    return None
+
+
 def _geometry_part(geom: object) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]] | None:
     import trimesh
 
@@ -172,6 +318,14 @@ def _gltf_json_problem(path: Path) -> str | None:
     return None
 
 
+def _read_problem(path: Path, check: Callable[[bytes], str | None]) -> str | None:
+    """``check`` of the bytes of ``path``, or None when it cannot be read again."""
+    try:
+        return check(path.read_bytes())
+    except (OSError, MemoryError):
+        return None
+
+
 def load_trimesh(path: Path) -> Mesh:
     """Load an OBJ, PLY, STL, OFF, glTF or GLB file as one cleaned mesh."""
     import trimesh
@@ -181,6 +335,15 @@ def load_trimesh(path: Path) -> Mesh:
     try:
         if file_type == "stl":
             check_stl(path)  # (its start and end: trimesh reads the file)
+            scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
+        elif file_type == "ply":
+            with open(path, "rb") as f:
+                head = f.read(_PLY_HEADER_BYTES)
+                # (an ASCII file is read whole for the check, only its header when it is binary)
+                data = head + f.read() if re.search(rb"(?m)^format[ \t]+ascii\b", head) else b""
+            problem = ply_problem(data, ascii_only=True) if data else None
+            if problem is not None:
+                raise MeshLoadError(path, problem)
             scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
         elif file_type in _TEXT_TYPES:
             # trimesh needs the optional charset_normalizer to guess the encoding of non-UTF-8 text and fails
@@ -213,6 +376,9 @@ def load_trimesh(path: Path) -> Mesh:
         problem = _gltf_json_problem(path) if file_type == "gltf" else None
         if problem is not None:
             raise MeshLoadError(path, f"not a glTF file ({problem})") from e
+        problem = _read_problem(path, ply_problem) if file_type == "ply" else None
+        if problem is not None:
+            raise MeshLoadError(path, problem) from e
         raise MeshLoadError(path, f"trimesh could not read it ({type(e).__name__}: {e})") from e
     if not parts:
         raise MeshLoadError(path, "no triangles: the file holds no triangle geometry")
