@@ -749,6 +749,40 @@ def test_gltf_that_is_not_a_json_object_says_so(tmp_path: Path, text: bytes, pro
         load_mesh(path)
 
 
+@pytest.mark.parametrize(
+    ("uri", "problem"),
+    [
+        ("data:application/octet-stream;base64,!!!", "buffer 0: its data URI is not valid base64"),
+        ("HALF", "buffer 0: its data URI holds 480 bytes, fewer than its byteLength 960"),
+        ("data:application/octet-stream;base64,", "buffer 0: its data URI holds 0 bytes, fewer than its"),
+        ("data:application/octet-stream,abc", r"buffer 0: its data URI is not base64"),
+        ("gone.bin", r"buffer 0: its file 'gone\.bin' is not found beside the \.gltf"),
+        ("short.bin", r"buffer 0: its file 'short\.bin' holds 10 bytes, fewer than its byteLength 960"),
+    ],
+)
+def test_gltf_with_a_bad_buffer_names_it(tmp_path: Path, uri: str, problem: str) -> None:
+    """A bad data URI (not base64, or shorter than the buffer's byteLength) was "trimesh could not read it
+    (AssertionError: )", a buffer file missing "FileNotFoundError: gone.bin": the file and its buffer are
+    named with what is wrong."""
+    import json
+
+    tree = json.loads(
+        trimesh.exchange.gltf.export_gltf(trimesh.creation.icosphere(1), embed_buffers=True)["model.gltf"]
+    )
+    good = tree["buffers"][0]["uri"]
+    head, body = good.split(",", 1)
+    tree["buffers"][0]["uri"] = head + "," + body[: len(body) // 2] if uri == "HALF" else uri
+    (tmp_path / "short.bin").write_bytes(b"\0" * 10)
+    path = tmp_path / "bad.gltf"
+    path.write_text(json.dumps(tree))
+    with pytest.raises(MeshLoadError, match=r"bad\.gltf: not a valid glTF file: " + problem) as e:
+        load_mesh(path)
+    assert e.value.path == str(path)
+    tree["buffers"][0]["uri"] = good
+    path.write_text(json.dumps(tree))
+    assert load_mesh(path).triangle_count == 80
+
+
 def _stl_bytes(file_type: str = "stl") -> bytes | str:
     return trimesh.creation.icosphere(subdivisions=2).export(file_type=file_type)  # 320 triangles
 

@@ -14,10 +14,13 @@ load as "no triangles" (or as part of its triangles) instead of being reported a
 
 from __future__ import annotations
 
+import base64
+import binascii
 import io
 import json
 import os
 import re
+import urllib.parse
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -318,6 +321,42 @@ def _gltf_json_problem(path: Path) -> str | None:
     return None
 
 
+def _gltf_buffer_problem(path: Path) -> str | None:
+    """What is wrong with a buffer of the .gltf file ``path`` (a JSON object), or None when nothing is found
+    (asked once trimesh has failed on it: a bad data URI was a bare "AssertionError: ", a buffer file it
+    could not find "FileNotFoundError: NAME")."""
+    try:
+        buffers = json.loads(path.read_bytes()).get("buffers")
+    except (OSError, ValueError, RecursionError, AttributeError):
+        return None
+    if not isinstance(buffers, list):
+        return None
+    for i, buf in enumerate(buffers):
+        if not isinstance(buf, dict) or not isinstance(buf.get("uri"), str):
+            continue
+        uri, length = buf["uri"], buf.get("byteLength")
+        name = f"buffer {i}" + (f" ({buf['name']!r})" if isinstance(buf.get("name"), str) else "")
+        if uri.startswith("data:"):
+            meta, _, body = uri.partition(",")
+            if not meta.endswith(";base64"):
+                return f"{name}: its data URI is not base64 ({meta[:60]!r})"
+            try:
+                size = len(base64.b64decode(body, validate=True))
+            except (binascii.Error, ValueError) as e:
+                return f"{name}: its data URI is not valid base64 ({e})"
+            what = "its data URI holds"
+        else:
+            file = path.parent / urllib.parse.unquote(uri)
+            try:
+                size = file.stat().st_size
+            except (OSError, ValueError):
+                return f"{name}: its file {uri!r} is not found beside the .gltf"
+            what = f"its file {uri!r} holds"
+        if isinstance(length, int) and not isinstance(length, bool) and size < length:
+            return f"{name}: {what} {size} bytes, fewer than its byteLength {length}"
+    return None
+
+
 def _read_problem(path: Path, check: Callable[[bytes], str | None]) -> str | None:
     """``check`` of the bytes of ``path``, or None when it cannot be read again."""
     try:
@@ -376,6 +415,9 @@ def load_trimesh(path: Path) -> Mesh:
         problem = _gltf_json_problem(path) if file_type == "gltf" else None
         if problem is not None:
             raise MeshLoadError(path, f"not a glTF file ({problem})") from e
+        problem = _gltf_buffer_problem(path) if file_type == "gltf" else None
+        if problem is not None:
+            raise MeshLoadError(path, f"not a valid glTF file: {problem}") from e
         problem = _read_problem(path, ply_problem) if file_type == "ply" else None
         if problem is not None:
             raise MeshLoadError(path, problem) from e
