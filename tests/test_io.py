@@ -783,6 +783,47 @@ def test_gltf_with_a_bad_buffer_names_it(tmp_path: Path, uri: str, problem: str)
     assert load_mesh(path).triangle_count == 80
 
 
+def test_off_face_and_vertex_colours_are_kept(tmp_path: Path) -> None:
+    """trimesh's OFF reader keeps only positions and indices: face colours (values after a face's indices)
+    and vertex colours (COFF) were dropped without a word. Each triangle of a face (triangles and quads,
+    which trimesh triangulates in another order) gets its face's colour, as a PLY's face colours are kept;
+    0-255 integers and 0-1 floats, RGB and RGBA."""
+    xyz = [(0, 0, 0), (1, 0, 0), (2, 0, 0), (0, 1, 0), (1, 1, 0), (2, 1, 0), (3, 0.5, 0)]
+    points = "".join(f"{x} {y} {z}\n" for x, y, z in xyz)
+    faces = [[0, 1, 4, 3], [1, 2, 4], [2, 6, 5, 4]]
+    lines = [f"{len(f)} {' '.join(map(str, f))}" for f in faces]
+    int_colours = [(255, 0, 0), (0, 255, 0), (0, 0, 128)]
+    float_colours = [(1.0, 0.0, 0.0, 0.5), (0.0, 1.0, 0.0, 1.0), (0.0, 0.0, 0.25, 1.0)]
+    for name, colours, scale in (("ints.off", int_colours, 255.0), ("floats.off", float_colours, 1.0)):
+        body = "".join(f"{f} {' '.join(map(str, c))}\n" for f, c in zip(lines, colours, strict=True))
+        path = tmp_path / name
+        path.write_text(f"OFF\n7 3 0\n{points}{body}")
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            m = load_mesh(path)
+        assert m.triangle_count == 2 + 1 + 2
+        index_of = {tuple(np.float32(c) for c in p): i for i, p in enumerate(xyz)}
+        for tri in m.triangles:
+            ids = {index_of[tuple(m.points[v])] for v in tri}
+            (face,) = [i for i, f in enumerate(faces) if ids <= set(f)]
+            want = np.ones(4, np.float32)
+            want[: len(colours[face])] = np.array(colours[face]) / scale
+            for v in tri:  # (each corner: the face's colour; vertices split where faces differ)
+                np.testing.assert_allclose(m.attributes["color"][v], want, atol=1e-6)
+    coff = tmp_path / "coff.off"
+    vertices = "0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n0 1 0 0 0 255 128\n1 1 0 9 9 9 0\n"
+    coff.write_text(f"COFF\n4 2 0\n{vertices}3 0 1 2\n3 1 3 2\n")
+    m = load_mesh(coff)
+    order = np.lexsort(m.points.T[::-1])  # (by x, then y)
+    want = [[255, 0, 0, 255], [0, 0, 255, 128], [0, 255, 0, 255], [9, 9, 9, 0]]
+    np.testing.assert_allclose(m.attributes["color"][order] * 255, want, atol=1e-4)
+    odd = tmp_path / "index.off"  # (a colour-map index: not a colour this loader reads)
+    odd.write_text(f"OFF\n7 3 0\n{points}" + "".join(f"{f} 7\n" for f in lines))
+    with pytest.warns(UserWarning, match=re.escape(f"{odd}: its face colours are not loaded")):
+        m = load_mesh(odd)
+    assert m.triangle_count == 5 and "color" not in m.attributes
+
+
 def _stl_bytes(file_type: str = "stl") -> bytes | str:
     return trimesh.creation.icosphere(subdivisions=2).export(file_type=file_type)  # 320 triangles
 

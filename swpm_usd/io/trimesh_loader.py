@@ -22,7 +22,7 @@ import os
 import re
 import urllib.parse
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -268,7 +268,11 @@ def ply_problem(data: bytes, ascii_only: bool = False) -> str | None:
     return None
 
 
-def _geometry_part(geom: object) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]] | None:
+def _geometry_part(
+    geom: object, off_colours: tuple[np.ndarray | None, np.ndarray | None] | None = None
+) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]] | None:
+    """One geometry's (points, triangles, attributes); ``off_colours``: the vertex and triangle colours of
+    the OFF file it was read from, which trimesh's OFF reader drops (:func:`_off_colours`)."""
     import trimesh
 
     if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
@@ -284,6 +288,12 @@ def _geometry_part(geom: object) -> tuple[np.ndarray, np.ndarray, dict[str, np.n
             attrs["normal"] = normals
     visual = geom.visual
     face_colors = None
+    if off_colours is not None:
+        vertex_colors, face_colors = off_colours
+        if vertex_colors is not None and vertex_colors.shape[0] == v:
+            attrs["color"] = vertex_colors
+            face_colors = None  # (both: the vertices' are kept)
+        visual = None
     if isinstance(visual, trimesh.visual.TextureVisuals):
         uv = visual.uv
         if uv is not None and np.shape(uv) == (v, 2):
@@ -402,7 +412,18 @@ def load_trimesh(path: Path) -> Mesh:
         parts = []
         for node in scene.graph.nodes_geometry:
             matrix, geom_name = scene.graph[node]
-            part = _geometry_part(scene.geometry[geom_name])
+            geom = scene.geometry[geom_name]
+            colours = None
+            if file_type == "off" and isinstance(geom, trimesh.Trimesh):
+                vertex_colours, face_colours, lost = _off_colours(data, np.asarray(geom.faces))
+                colours = (vertex_colours, face_colours)
+                if lost:
+                    warnings.warn(
+                        f"{path}: its {' and '.join(lost)} are not loaded (not 3 or 4 numbers, 0-255 or 0-1, "
+                        "on every row, or faces trimesh triangulated otherwise)",
+                        stacklevel=3,
+                    )
+            part = _geometry_part(geom, colours)
             if part is not None:
                 parts.append(transform_part(part, matrix))
     except MeshLoadError:
@@ -451,3 +472,114 @@ def _report_dropped_obj_attributes(path: Path, data: bytes, parts: list) -> None
             "(a face that refers to none, or to one out of range?): loaded without them",
             stacklevel=4,
         )
+
+
+def _off_rows(data: bytes) -> Iterator[list[bytes]]:
+    """The tokens of each non-empty line of an OFF file, comments left out, lazily."""
+    for line in io.BytesIO(data):
+        words = line.split(b"#", 1)[0].split()
+        if words:
+            yield words
+
+
+def _off_colour_values(rows: list[list[bytes]]) -> np.ndarray | None:
+    """The colours ``rows`` (each row's tokens) hold as (N, 4) float RGBA in [0, 1]: integers 0-255 (all of
+    them integers) or floats in [0, 1], 3 or 4 per row; None when the rows differ in length, hold another
+    count (a colour-map index) or a token that is not a number."""
+    k = {len(r) for r in rows}
+    if len(k) != 1 or k.pop() not in (3, 4):
+        return None
+    try:
+        values = np.array([[float(t) for t in r] for r in rows], dtype=np.float64)
+    except ValueError:
+        return None
+    if not np.isfinite(values).all():
+        return None
+    if all(t.lstrip(b"+-").isdigit() for r in rows for t in r):
+        values = values / 255.0
+    return rgba_float(values)
+
+
+def _off_may_have_colours(data: bytes) -> bool:
+    """Whether the OFF file's bytes ``data`` may hold colours (``COFF``, values after its first vertex's x y
+    z or after its last face's indices: a writer colours every row or none), looked at without reading every
+    row."""
+    rows = _off_rows(data)
+    first = next(rows, None)
+    if first is None or first[0].upper() == b"COFF":
+        return first is not None
+    if len(first) == 1:
+        next(rows, None)  # (the counts)
+    vertex = next(rows, None)
+    if vertex is not None and len(vertex) > 3:
+        return True
+    for line in reversed(data.splitlines()):
+        words = line.split(b"#", 1)[0].split()
+        if words:
+            try:
+                return len(words) > 1 + int(words[0])
+            except ValueError:
+                return True
+    return False
+
+
+def _off_colours(data: bytes, faces: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None, list[str]]:
+    """(vertex colours (V, 4), colours of trimesh's triangles ``faces`` (T, 4), colours found but not
+    kept) of an OFF file's bytes ``data``: values after a vertex's x y z (``COFF``) and after a face's
+    vertex indices, which trimesh's OFF reader drops. A face's colour goes to each triangle of its fan
+    (trimesh triangulates it so, in another order: triangles are matched by their vertices)."""
+    if not _off_may_have_colours(data):
+        return None, None, []
+    rows = list(_off_rows(data))
+    if not rows or rows[0][0].upper() not in (b"OFF", b"COFF"):
+        return None, None, []
+    at = 1 if len(rows[0]) > 1 else 2
+    counts = rows[0][1:] if len(rows[0]) > 1 else (rows[1] if len(rows) > 1 else [])
+    try:
+        n_vertices, n_faces = int(counts[0]), int(counts[1])
+    except (IndexError, ValueError):
+        return None, None, []
+    vertex_rows = rows[at : at + n_vertices]
+    face_rows = rows[at + n_vertices : at + n_vertices + n_faces]
+    if len(vertex_rows) != n_vertices or len(face_rows) != n_faces:
+        return None, None, []
+    lost: list[str] = []
+    vertex_colours = None
+    if any(len(r) > 3 for r in vertex_rows):
+        vertex_colours = _off_colour_values([r[3:] for r in vertex_rows])
+        if vertex_colours is None:
+            lost.append("vertex colours")
+    try:
+        sizes = np.array([int(r[0]) for r in face_rows], np.int64)
+    except ValueError:
+        return vertex_colours, None, lost
+    extra = [r[1 + n :] for r, n in zip(face_rows, sizes.tolist(), strict=True)]
+    if not any(extra):
+        return vertex_colours, None, lost
+    face_colours = _off_colour_values(extra)
+    complete = all(3 <= n < len(r) for r, n in zip(face_rows, sizes.tolist(), strict=True))
+    tris = np.asarray(faces, np.int64).reshape(-1, 3)
+    if face_colours is not None and complete and int((sizes - 2).sum()) == tris.shape[0] > 0:
+        # each face's fan (0, c, c + 1), vectorised over the faces' indices laid end to end
+        try:
+            flat = np.array(
+                [int(t) for r, n in zip(face_rows, sizes.tolist(), strict=True) for t in r[1 : 1 + n]]
+            )
+        except ValueError:
+            flat = None
+        if flat is not None:
+            n_tris = sizes - 2
+            face = np.repeat(np.arange(n_faces), n_tris)
+            corner = np.arange(face.shape[0]) - (np.cumsum(n_tris) - n_tris)[face] + 1
+            start = (np.cumsum(sizes) - sizes)[face]
+            fans = np.stack([flat[start], flat[start + corner], flat[start + corner + 1]], axis=1)
+            # trimesh's triangles in its order (triangles, then quads' halves, then fans): matched by vertices
+            _, key = np.unique(np.sort(np.concatenate([fans, tris]), axis=1), axis=0, return_inverse=True)
+            key = key.reshape(-1)
+            of_key = np.full(int(key.max()) + 1, -1, np.int64)
+            of_key[key[: fans.shape[0]]] = face
+            found = of_key[key[fans.shape[0] :]]
+            if (found >= 0).all():
+                return vertex_colours, face_colours[found], lost
+    lost.append("face colours")
+    return vertex_colours, None, lost
