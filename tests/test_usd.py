@@ -604,6 +604,35 @@ def test_usd_layers_written_over_a_file_keep_its_mode(pm, tmp_path):
         os.umask(old)
 
 
+def test_overrides_leave_meshes_without_faces_to_encode(tmp_path):
+    """A Mesh prim whose holeIndices list every face (or an empty placeholder Mesh) made write_overrides
+    raise a bare ValueError ("cannot reshape array of size 0"); it is left as it is, as the loader leaves
+    it out, and a source with nothing else is a UsdOverrideError naming the file and why."""
+    from swpm_usd.usd.overrides import UsdOverrideError
+
+    src = tmp_path / "src.usda"
+    stage = Usd.Stage.CreateNew(str(src))
+    for name in ("solid", "holes"):
+        m = UsdGeom.Mesh.Define(stage, f"/World/{name}")
+        m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
+        m.CreateFaceVertexCountsAttr([3, 3])
+        m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+    UsdGeom.Mesh(stage.GetPrimAtPath("/World/holes")).CreateHoleIndicesAttr([1, 0])
+    UsdGeom.Mesh.Define(stage, "/World/empty")
+    stage.Save()
+    out = tmp_path / "ovr.usda"
+    assert list(usd.write_overrides(src, out)) == ["/World/solid"]
+    encoded = Usd.Stage.Open(str(out))
+    assert [str(p.GetPath()) for p in usd.find_encoded(encoded)] == ["/World/solid"]
+    with pytest.raises(
+        UsdOverrideError, match=r"src\.usda: no Mesh prim with faces to encode: /World/empty "
+    ):
+        usd.write_overrides(src, tmp_path / "none.usda", prims=["/World/empty", "/World/holes"])
+    with pytest.raises(UsdOverrideError, match=r"/World/holes \(every face is a hole\)"):
+        usd.write_overrides(src, tmp_path / "none.usda", prims=["/World/holes"])
+    assert not (tmp_path / "none.usda").exists()
+
+
 def test_overrides_leave_hole_faces_out(tmp_path):
     """Faces in the source's holeIndices are not encoded, and the source's hole face numbers (which would
     name other faces of the new triangle list) are not kept on the override."""
