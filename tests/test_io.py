@@ -982,6 +982,20 @@ def _ply_cases() -> dict[str, tuple[bytes, str]]:
     }
 
 
+@pytest.mark.parametrize("cut", [100, 1, 2100])
+def test_truncated_glb_says_so(tmp_path: Path, cut: int) -> None:
+    """A cut .glb said "trimesh could not read it (ValueError: chunk was not expected length!)" (or a JSON
+    error, its JSON chunk cut): it says it is truncated, the length its header gives against the file's."""
+    data = trimesh.creation.icosphere(1).export(file_type="glb")
+    path = tmp_path / "cut.glb"
+    path.write_bytes(data[: len(data) - cut])
+    with pytest.raises(
+        MeshLoadError,
+        match=rf"cut\.glb: truncated GLB: its header says {len(data)} bytes, the file has {len(data) - cut}$",
+    ):
+        load_mesh(path)
+
+
 @pytest.mark.parametrize("case", list(_ply_cases()))
 def test_truncated_ply_says_so(tmp_path: Path, case: str) -> None:
     """An ASCII PLY declaring more vertices than it holds said "no triangles", one with faces cut loaded the

@@ -367,6 +367,23 @@ def _gltf_buffer_problem(path: Path) -> str | None:
     return None
 
 
+def _glb_length_problem(path: Path) -> str | None:
+    """ "truncated GLB: ..." when the .glb file ``path`` is shorter than the length its header gives (asked
+    once trimesh has failed on it: "chunk was not expected length!", or a JSON error for a cut JSON chunk)."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(12)
+            size = os.fstat(f.fileno()).st_size
+    except OSError:
+        return None
+    if len(head) < 12 or head[:4] != b"glTF":
+        return None
+    length = int.from_bytes(head[8:12], "little")
+    if size < length:
+        return f"truncated GLB: its header says {length} bytes, the file has {size}"
+    return None
+
+
 def _read_problem(path: Path, check: Callable[[bytes], str | None]) -> str | None:
     """``check`` of the bytes of ``path``, or None when it cannot be read again."""
     try:
@@ -440,6 +457,7 @@ def load_trimesh(path: Path) -> Mesh:
         if problem is not None:
             raise MeshLoadError(path, f"not a valid glTF file: {problem}") from e
         problem = _read_problem(path, ply_problem) if file_type == "ply" else None
+        problem = _glb_length_problem(path) if file_type == "glb" else problem
         if problem is not None:
             raise MeshLoadError(path, problem) from e
         raise MeshLoadError(path, f"trimesh could not read it ({type(e).__name__}: {e})") from e
