@@ -368,7 +368,7 @@ def _gltf_buffer_problem(path: Path) -> str | None:
 
 
 def _glb_length_problem(path: Path) -> str | None:
-    """ "truncated GLB: ..." when the .glb file ``path`` is shorter than the length its header gives (asked
+    """Why the .glb file ``path`` is truncated (shorter than the length its header gives), or None (asked
     once trimesh has failed on it: "chunk was not expected length!", or a JSON error for a cut JSON chunk)."""
     try:
         with open(path, "rb") as f:
