@@ -9,7 +9,10 @@ has them. Any trimesh failure becomes a :class:`~swpm_usd.errors.MeshLoadError` 
 
 STL files are checked before trimesh reads them (:func:`check_stl`): trimesh takes a binary STL whose length
 disagrees with its header for ASCII, and drops an ASCII solid without its ``endsolid``, so a cut file would
-load as "no triangles" (or as part of its triangles) instead of being reported as truncated.
+load as "no triangles" (or as part of its triangles) instead of being reported as truncated. An ASCII PLY
+is counted against its header likewise (:func:`ply_problem`), and a binary PLY, a .glb or a .gltf's buffers
+are looked at once trimesh has refused them, so the error says what is cut or wrong. An OFF file's vertex
+and face colours, which trimesh's OFF reader drops, are read here (:func:`_off_colours`).
 """
 
 from __future__ import annotations
