@@ -239,6 +239,38 @@ def test_an_attribute_the_writer_stores_is_read_back(dtype, tmp_path):
     assert validate_stage(path) == []
 
 
+@pytest.mark.parametrize("dtype", ["<i8", "<u8"])
+def test_a_64_bit_attribute_keeps_its_extremes(dtype, tmp_path):
+    """A 64-bit integer attribute is a float32 primvar: its maximum is written as 2^63 (2^64), which read
+    cast to the type unchecked (2^63 - 1 came back as -2^63, 2^64 - 1 as 0, with numpy's "invalid value
+    encountered in cast"); the type's extremes come back as they were."""
+    import warnings
+
+    from swpm_usd.encode.base import from_buffers
+    from swpm_usd.format import encode_bytes, load_bytes
+    from swpm_usd.format.vectors import fan_vanilla
+
+    info = np.iinfo(dtype)
+    ids = np.array([info.max, info.min, 0, 5, 2**40], dtype=dtype)[:, None]
+    fan = load_bytes(encode_bytes(fan_vanilla()))  # type: ignore[arg-type]
+    pm = from_buffers(
+        "vanilla",
+        fan.points,
+        {"id": ids},
+        fan.vertex_counts,
+        fan.triangle_counts,
+        fan.lod_errors,
+        fan.buffers(),
+    )
+    path = usd.write(pm, tmp_path / "ids.usda")
+    stage = Usd.Stage.Open(str(path))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        back = usd.read(stage.GetDefaultPrim().GetChild("mesh")).attributes["id"]
+    assert back.dtype == np.dtype(dtype)
+    np.testing.assert_array_equal(back, ids)
+
+
 def _float32_holds(v: np.ndarray) -> np.ndarray:
     return v.astype(np.float32).astype(np.float64) == v.astype(np.float64)
 

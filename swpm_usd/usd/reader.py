@@ -112,8 +112,13 @@ def _restore(name: str, a: np.ndarray, dtype: str | None) -> np.ndarray:
         return a != 0
     if dt.kind in "ui":
         info = np.iinfo(dt)
-        v = a.astype(np.float64) * (float(info.max) if name == "color" and dt.kind == "u" else 1.0)
-        return np.clip(np.rint(v), info.min, info.max).astype(dt)
+        v = np.rint(a.astype(np.float64) * (float(info.max) if name == "color" and dt.kind == "u" else 1.0))
+        # float(info.max) of a 64-bit type is 2^63 / 2^64, which does not fit it: values from there (the
+        # type's maximum written as float32) are the maximum, not cast (int64 2^63 - 1 came back as -2^63)
+        top = v >= float(info.max)
+        out = np.clip(np.where(top, 0.0, v), info.min, info.max).astype(dt)
+        out[top] = info.max
+        return out
     return a.astype(dt)
 
 
