@@ -979,7 +979,36 @@ def _ply_cases() -> dict[str, tuple[bytes, str]]:
             r"truncated binary PLY: element vertex declares 42, found 8",
         ),
         "binary, bytes after": (binary + b"\0" * 7, "not a valid binary PLY: 7 bytes after the elements"),
+        # (a list count that is no count: was a bare OverflowError)
+        "ascii, a list count of 1e400": (
+            b"".join(lines[:-5]) + b"1e400 0 1 2\n",
+            "truncated ASCII PLY: element face declares 80, found 75",
+        ),
+        "ascii, a list count of inf": (
+            b"".join(lines[:-5]) + b"inf 0 1 2\n",
+            "truncated ASCII PLY: element face declares 80, found 75",
+        ),
+        # (a float list count of nan, inf: was a bare ValueError, OverflowError)
+        "binary, a float list count of nan": (
+            _float_count_ply(binary, start, np.nan),
+            "truncated binary PLY: element face declares 80, found 1",
+        ),
+        "binary, a float list count of inf": (
+            _float_count_ply(binary, start, np.inf),
+            "truncated binary PLY: element face declares 80, found 1",
+        ),
     }
+
+
+def _float_count_ply(binary: bytes, start: int, count: float) -> bytes:
+    """The binary PLY ``binary`` (a 42-vertex, 80-face sphere, elements from ``start``) with float list
+    counts, the second face's ``count``."""
+    faces = np.frombuffer(binary[start + 42 * 12 :], [("n", "u1"), ("i", "<i4", (3,))])
+    floats = np.zeros(80, [("n", "<f4"), ("i", "<i4", (3,))])
+    floats["n"], floats["i"] = faces["n"], faces["i"]
+    floats["n"][1] = count
+    header = binary[:start].replace(b"property list uchar int", b"property list float int")
+    return header + binary[start : start + 42 * 12] + floats.tobytes()
 
 
 @pytest.mark.parametrize("cut", [100, 1, 2100])

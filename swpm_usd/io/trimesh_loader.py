@@ -198,7 +198,7 @@ def _ply_ascii_rows(tokens: list[bytes], at: int, count: int, props: list[_PlyPr
                 continue
             try:
                 n = int(float(tokens[i]))
-            except ValueError:
+            except (ValueError, OverflowError):  # (not a number, nan, inf, 1e400: no count)
                 return rows, at
             i += 1 + max(n, 0)
         if i > len(tokens):
@@ -226,8 +226,10 @@ def _ply_binary_rows(
             if i + size > len(data):
                 return rows, at
             if len(p) == 2:
-                n = int(np.frombuffer(data, order + p[0], 1, i)[0])
-                i += np.dtype(p[1]).itemsize * max(n, 0)
+                value = np.frombuffer(data, order + p[0], 1, i)[0]
+                if not np.isfinite(value):  # (a float count: nan or inf is no count)
+                    return rows, at
+                i += np.dtype(p[1]).itemsize * max(int(value), 0)
             i += size
         if i > len(data):
             return rows, at
