@@ -979,6 +979,11 @@ def _ply_cases() -> dict[str, tuple[bytes, str]]:
             r"truncated binary PLY: element vertex declares 42, found 8",
         ),
         "binary, bytes after": (binary + b"\0" * 7, "not a valid binary PLY: 7 bytes after the elements"),
+        # (one row short, the file ending at a line end: its lines were taken for one more than they are)
+        "ascii, last face cut at its line end": (
+            b"".join(lines[:-1]),
+            "truncated ASCII PLY: element face declares 80, found 79",
+        ),
         # (a list count that is no count: was a bare OverflowError)
         "ascii, a list count of 1e400": (
             b"".join(lines[:-5]) + b"1e400 0 1 2\n",

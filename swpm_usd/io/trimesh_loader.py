@@ -252,7 +252,9 @@ def ply_problem(data: bytes, ascii_only: bool = False) -> str | None:
     fmt, at, elements = header
     declared = sum(count for _, count, _ in elements)
     if fmt == "ascii":
-        if data.count(b"\n", at) + 1 >= declared:
+        # (its lines: a last line without its line end counts too)
+        lines = data.count(b"\n", at) + (not data.endswith(b"\n") and len(data) > at)
+        if lines >= declared:
             return None
         tokens = data[at:].split()
         i = 0
