@@ -1222,6 +1222,37 @@ def test_rebuilt_outputs_keep_the_mode_of_the_files_they_replace(tmp_path):
     )
 
 
+def test_a_read_only_usd_layer_is_rebuilt_and_stays_read_only(tmp_path, monkeypatch):
+    """The temporary USD layer took the mode of the layer it replaces before usd-core wrote it: a read-only
+    previous layer (0o444) made it read-only too, and usd-core, not root, could not write it ("Insufficient
+    permissions to write to destination file"). It is written with the plain mode and given 0o444 after."""
+    import stat
+
+    from swpm_usd import usd
+    from swpm_usd.format import encode_bytes, load_bytes
+    from swpm_usd.format.vectors import fan_vanilla
+    from swpm_usd.pipeline import worker
+
+    pm = load_bytes(encode_bytes(fan_vanilla()))  # type: ignore[arg-type]
+    target = tmp_path / "a.usdc"
+    worker._place_usd(*worker._stage_usd(pm, target))
+    os.chmod(target, 0o444)
+    modes = []
+    write = usd.write
+
+    def recording(pm, path, **kwargs):
+        modes.append(stat.S_IMODE(Path(path).stat().st_mode))
+        return write(pm, path, **kwargs)
+
+    monkeypatch.setattr(usd, "write", recording)
+    tmp, _ = worker._stage_usd(pm, target)
+    assert modes and modes[0] & stat.S_IWUSR  # (writable while usd-core writes it)
+    assert stat.S_IMODE(tmp.stat().st_mode) == 0o444
+    worker._place_usd(tmp, target)
+    assert stat.S_IMODE(target.stat().st_mode) == 0o444
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.usdc"]
+
+
 def test_a_failed_rebuild_keeps_the_previous_build(tmp_path):
     from pxr import Usd
 

@@ -301,16 +301,18 @@ def _stage_usd(pm, target: Path) -> tuple[Path, Path]:
     import os
     import tempfile
 
-    from ..fileio import set_plain_mode
+    from ..fileio import set_mode_for, set_plain_mode
     from ..usd import write as usd_write
 
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=USD_TEMPORARY_SUFFIX, dir=target.parent)
-    set_plain_mode(fd, like=target)  # (mkstemp's 0o600 would stay: usd-core keeps the file's mode)
+    set_plain_mode(fd)  # (mkstemp's 0o600 would stay: usd-core keeps the file's mode)
     os.close(fd)
     tmp = Path(name)
     try:
         usd_write(pm, tmp, name=target.stem.split(".")[0] or None)
+        # the replaced layer's mode once written (a read-only one's, given first, refused usd-core the write)
+        set_mode_for(tmp, target)
         with open(tmp, "rb") as f:
             os.fsync(f.fileno())
     except BaseException:
