@@ -758,9 +758,15 @@ def test_gltf_that_is_not_a_json_object_says_so(tmp_path: Path, text: bytes, pro
         ("data:application/octet-stream,abc", r"buffer 0: its data URI is not base64"),
         ("gone.bin", r"buffer 0: its file 'gone\.bin' is not found beside the \.gltf"),
         ("short.bin", r"buffer 0: its file 'short\.bin' holds 10 bytes, fewer than its byteLength 960"),
+        # (outside the folder: trimesh refuses it; the file was looked at and its size told, "holds N bytes")
+        (
+            "../outside.bin",
+            r"buffer 0: its file '\.\./outside\.bin' is outside the \.gltf's folder \(not read\)",
+        ),
+        (None, r"buffer 0 has no uri \(a \.gltf's buffer is a data URI or a file beside it\)$"),
     ],
 )
-def test_gltf_with_a_bad_buffer_names_it(tmp_path: Path, uri: str, problem: str) -> None:
+def test_gltf_with_a_bad_buffer_names_it(tmp_path: Path, uri: str | None, problem: str) -> None:
     """A bad data URI (not base64, or shorter than the buffer's byteLength) was "trimesh could not read it
     (AssertionError: )", a buffer file missing "FileNotFoundError: gone.bin": the file and its buffer are
     named with what is wrong."""
@@ -772,6 +778,11 @@ def test_gltf_with_a_bad_buffer_names_it(tmp_path: Path, uri: str, problem: str)
     good = tree["buffers"][0]["uri"]
     head, body = good.split(",", 1)
     tree["buffers"][0]["uri"] = head + "," + body[: len(body) // 2] if uri == "HALF" else uri
+    if uri is None:  # (a missing uri: trimesh's "KeyError: 'uri'")
+        del tree["buffers"][0]["uri"]
+    (tmp_path / "outside.bin").write_bytes(b"\0" * 10)
+    tmp_path = tmp_path / "in"
+    tmp_path.mkdir()
     (tmp_path / "short.bin").write_bytes(b"\0" * 10)
     path = tmp_path / "bad.gltf"
     path.write_text(json.dumps(tree))

@@ -349,10 +349,12 @@ def _gltf_buffer_problem(path: Path) -> str | None:
     if not isinstance(buffers, list):
         return None
     for i, buf in enumerate(buffers):
-        if not isinstance(buf, dict) or not isinstance(buf.get("uri"), str):
+        if not isinstance(buf, dict):
             continue
-        uri, length = buf["uri"], buf.get("byteLength")
         name = f"buffer {i}" + (f" ({buf['name']!r})" if isinstance(buf.get("name"), str) else "")
+        if not isinstance(buf.get("uri"), str):  # (only a .glb's buffer 0 may have none: trimesh's KeyError)
+            return f"{name} has no uri (a .gltf's buffer is a data URI or a file beside it)"
+        uri, length = buf["uri"], buf.get("byteLength")
         if uri.startswith("data:"):
             meta, _, body = uri.partition(",")
             if not meta.endswith(";base64"):
@@ -363,7 +365,15 @@ def _gltf_buffer_problem(path: Path) -> str | None:
                 return f"{name}: its data URI is not valid base64 ({e})"
             what = "its data URI holds"
         else:
-            file = path.parent / urllib.parse.unquote(uri)
+            # (resolved as trimesh's resolver does, which refuses a file outside the .gltf's folder: such a
+            # file is not looked at, and its size not told)
+            try:
+                folder = path.parent.resolve()
+                file = (folder / urllib.parse.unquote(uri).strip()).resolve()
+            except (OSError, ValueError, RuntimeError):
+                return f"{name}: its file {uri!r} is not found beside the .gltf"
+            if not file.is_relative_to(folder):
+                return f"{name}: its file {uri!r} is outside the .gltf's folder (not read)"
             try:
                 size = file.stat().st_size
             except (OSError, ValueError):
