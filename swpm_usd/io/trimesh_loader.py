@@ -548,8 +548,11 @@ def _off_may_have_colours(data: bytes) -> bool:
     vertex = next(rows, None)
     if vertex is not None and len(vertex) > 3:
         return True
-    for line in reversed(data.splitlines()):
-        words = line.split(b"#", 1)[0].split()
+    end = len(data)
+    while end > 0:  # (its lines from the last, not every line split: a copy of the file in small objects)
+        start = data.rfind(b"\n", 0, end) + 1
+        words = data[start:end].split(b"#", 1)[0].split()
+        end = start - 1
         if words:
             try:
                 return len(words) > 1 + int(words[0])
