@@ -835,6 +835,29 @@ def test_off_face_and_vertex_colours_are_kept(tmp_path: Path) -> None:
     assert m.triangle_count == 5 and "color" not in m.attributes
 
 
+def test_off_of_triangles_keeps_each_face_colour(tmp_path: Path) -> None:
+    """A triangles-only OFF's face colours (trimesh's triangles are its faces, in order: matched without the
+    sort by vertices that took 0.6 s of 327,680 faces) stay each on its triangle."""
+    xyz = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0), (2, 0, 0)]
+    faces = [(0, 1, 2), (1, 3, 2), (1, 4, 3)]
+    colours = [(255, 0, 0), (0, 255, 0), (0, 0, 255)]
+    path = tmp_path / "tris.off"
+    path.write_text(
+        "OFF\n5 3 0\n"
+        + "".join(f"{x} {y} {z}\n" for x, y, z in xyz)
+        + "".join(
+            f"3 {a} {b} {c} {r} {g} {bl}\n" for (a, b, c), (r, g, bl) in zip(faces, colours, strict=True)
+        )
+    )
+    m = load_mesh(path)
+    index_of = {tuple(np.float32(c) for c in p): i for i, p in enumerate(xyz)}
+    got = {}
+    for tri in m.triangles:
+        ids = frozenset(index_of[tuple(m.points[v])] for v in tri)
+        got[ids] = {tuple(np.round(m.attributes["color"][v] * 255).astype(int)) for v in tri}
+    assert got == {frozenset(f): {(*c, 255)} for f, c in zip(faces, colours, strict=True)}
+
+
 def test_off_without_colours_is_not_split_into_lines() -> None:
     """Whether an OFF file may hold colours is looked at in its first vertex and last face: the last face was
     found by splitting the whole file into lines (a bytes object per line: 2 MB more for this 0.75 MB

@@ -611,6 +611,8 @@ def _off_colours(data: bytes, faces: np.ndarray) -> tuple[np.ndarray | None, np.
             corner = np.arange(face.shape[0]) - (np.cumsum(n_tris) - n_tris)[face] + 1
             start = (np.cumsum(sizes) - sizes)[face]
             fans = np.stack([flat[start], flat[start + corner], flat[start + corner + 1]], axis=1)
+            if np.array_equal(fans, tris):  # (triangles only: trimesh's are the file's, in order)
+                return vertex_colours, face_colours[face], lost
             # trimesh's triangles in its order (triangles, then quads' halves, then fans): matched by vertices
             _, key = np.unique(np.sort(np.concatenate([fans, tris]), axis=1), axis=0, return_inverse=True)
             key = key.reshape(-1)
