@@ -1097,6 +1097,35 @@ def test_truncated_ply_says_so(tmp_path: Path, case: str) -> None:
     assert e.value.path == str(path)
 
 
+def test_truncated_binary_ply_rows_are_counted_at_once(tmp_path: Path, monkeypatch) -> None:
+    """A cut binary PLY's list rows were walked one by one in Python up to 2,000,000 (3 s of a 2,500,000-face
+    file, then no count: "trimesh could not read it"); rows whose lists have the first row's length are
+    counted at once, and the walk (here allowed 10 rows) goes on from the first row whose length differs."""
+    from swpm_usd.io import trimesh_loader
+
+    monkeypatch.setattr(trimesh_loader, "_PLY_ROW_WALK", 10)
+    m = trimesh.creation.icosphere(1)
+    binary = trimesh.exchange.ply.export_ply(m, encoding="binary")
+    start = binary.index(b"end_header\n") + len(b"end_header\n")
+    path = tmp_path / "cut.ply"
+    path.write_bytes(binary[:-20])
+    with pytest.raises(
+        MeshLoadError, match=r"cut\.ply: truncated binary PLY: element face declares 80, found 78 "
+    ):
+        load_mesh(path)
+    # a quad among the triangles: the rows from it are walked (5 here)
+    tri, quad = np.dtype([("n", "u1"), ("i", "<i4", (3,))]), np.dtype([("n", "u1"), ("i", "<i4", (4,))])
+    faces = np.frombuffer(binary[start + 42 * 12 :], tri)
+    q = np.zeros(1, quad)
+    q["n"], q["i"] = 4, [[0, 1, 2, 3]]
+    rows = faces[:75].tobytes() + q.tobytes() + faces[76:].tobytes()
+    path.write_bytes(binary[: start + 42 * 12] + rows[:-20])
+    with pytest.raises(
+        MeshLoadError, match=r"cut\.ply: truncated binary PLY: element face declares 80, found 78 "
+    ):
+        load_mesh(path)
+
+
 def test_missing_unsupported_and_directory(tmp_path: Path) -> None:
     with pytest.raises(MeshLoadError, match=r"nope\.obj: file not found"):
         load_mesh(tmp_path / "nope.obj")

@@ -217,10 +217,12 @@ def _ply_binary_rows(
         width = sum(sizes)
         rows = count if width == 0 else min(count, (len(data) - at) // width)
         return rows, at + rows * width
-    rows = 0
+    rows, at = _ply_uniform_rows(data, at, count, props, order)
+    walked = 0
     while rows < count:
-        if rows >= _PLY_ROW_WALK:
+        if walked >= _PLY_ROW_WALK:
             return None, at
+        walked += 1
         i = at
         for p, size in zip(props, sizes, strict=True):
             if i + size > len(data):
@@ -235,6 +237,36 @@ def _ply_binary_rows(
             return rows, at
         rows, at = rows + 1, i
     return rows, at
+
+
+def _ply_uniform_rows(
+    data: bytes, at: int, count: int, props: list[_PlyProperty], order: str
+) -> tuple[int, int]:
+    """(rows, byte offset after them) of the rows of a binary element from ``data[at]`` whose lists all have
+    the first row's lengths (a mesh's faces, all triangles), counted at once in a strided look (one by one,
+    2,000,000 faces took 3 s); the rows after them are walked."""
+    lists = []
+    i = at
+    for p in props:
+        size = np.dtype(p[0]).itemsize
+        if i + size > len(data):
+            return 0, at
+        if len(p) == 2:
+            value = np.frombuffer(data, order + p[0], 1, i)[0]
+            if not np.isfinite(value):
+                return 0, at
+            lists.append((i - at, p[0], value))
+            size += np.dtype(p[1]).itemsize * max(int(value), 0)
+        i += size
+    stride = i - at
+    n = min(count, (len(data) - at) // stride)
+    if n <= 0:
+        return 0, at
+    same = np.ones(n, bool)
+    for offset, dtype, value in lists:
+        same &= np.ndarray((n,), order + dtype, buffer=data, offset=at + offset, strides=(stride,)) == value
+    n = n if same.all() else int(np.argmin(same))
+    return n, at + n * stride
 
 
 def ply_problem(data: bytes, ascii_only: bool = False) -> str | None:
