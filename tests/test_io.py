@@ -858,6 +858,33 @@ def test_off_of_triangles_keeps_each_face_colour(tmp_path: Path) -> None:
     assert got == {frozenset(f): {(*c, 255)} for f, c in zip(faces, colours, strict=True)}
 
 
+@pytest.mark.parametrize(
+    ("keyword", "extra", "want"),
+    [
+        ("CNOFF", " 0 0 1 0 0 255 255", (0, 0, 255, 255)),  # (normal, then colour)
+        ("STCOFF", " 0 255 0 128 0.5 0.5", (0, 255, 0, 128)),  # (colour, then texture coordinates)
+        ("STCNOFF", " 0 0 1 255 0 0 255 0.5 0.5", (255, 0, 0, 255)),
+        ("NOFF", " 0 0 1", None),  # (a normal: no colour)
+        ("STOFF", " 0.5 0.5", None),
+    ],
+)
+def test_off_variants_vertex_colours(tmp_path: Path, keyword: str, extra: str, want: tuple | None) -> None:
+    """The OFF variants' vertex rows (x y z, [N] a normal, [C] a colour, [ST] texture coordinates): a CNOFF
+    or STCOFF file's colours were dropped without a word (only OFF and COFF were looked at); the colour is
+    read between the normal and the texture coordinates, and a NOFF / STOFF file has none."""
+    xyz = ["0 0 0", "1 0 0", "1 1 0", "0 1 0"]
+    path = tmp_path / "v.off"
+    path.write_text(f"{keyword}\n4 2 0\n" + "".join(v + extra + "\n" for v in xyz) + "3 0 1 2\n3 0 2 3\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = load_mesh(path)
+    assert m.triangle_count == 2
+    if want is None:
+        assert "color" not in m.attributes
+    else:
+        np.testing.assert_allclose(m.attributes["color"] * 255, [want] * 4, atol=1e-4)
+
+
 def test_off_without_colours_is_not_split_into_lines() -> None:
     """Whether an OFF file may hold colours is looked at in its first vertex and last face: the last face was
     found by splitting the whole file into lines (a bytes object per line: 2 MB more for this 0.75 MB

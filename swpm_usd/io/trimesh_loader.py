@@ -595,14 +595,18 @@ def _off_may_have_colours(data: bytes) -> bool:
 
 def _off_colours(data: bytes, faces: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None, list[str]]:
     """(vertex colours (V, 4), colours of trimesh's triangles ``faces`` (T, 4), colours found but not
-    kept) of an OFF file's bytes ``data``: values after a vertex's x y z (``COFF``) and after a face's
-    vertex indices, which trimesh's OFF reader drops. A face's colour goes to each triangle of its fan
+    kept) of an OFF file's bytes ``data``: a vertex's colour (``COFF``, ``CNOFF``, ``STCOFF``...) and the
+    values after a face's vertex indices, which trimesh's OFF reader drops. A face's colour goes to each
+    triangle of its fan
     (trimesh triangulates it so, in another order: triangles are matched by their vertices)."""
     if not _off_may_have_colours(data):
         return None, None, []
     rows = list(_off_rows(data))
-    if not rows or rows[0][0].upper() not in (b"OFF", b"COFF"):
+    # the variants' vertex rows: x y z [nx ny nz (N)] [colour (C)] [s t (ST)] (4OFF, nOFF: other rows)
+    variant = re.fullmatch(rb"(ST)?(C)?(N)?OFF", rows[0][0].upper()) if rows else None
+    if variant is None:
         return None, None, []
+    texture, colour, normal = (g is not None for g in variant.groups())
     at = 1 if len(rows[0]) > 1 else 2
     counts = rows[0][1:] if len(rows[0]) > 1 else (rows[1] if len(rows) > 1 else [])
     try:
@@ -615,8 +619,9 @@ def _off_colours(data: bytes, faces: np.ndarray) -> tuple[np.ndarray | None, np.
         return None, None, []
     lost: list[str] = []
     vertex_colours = None
-    if any(len(r) > 3 for r in vertex_rows):
-        vertex_colours = _off_colour_values([r[3:] for r in vertex_rows])
+    first, last = 3 + 3 * normal, 2 * texture
+    if (colour or not (normal or texture)) and any(len(r) > first + last for r in vertex_rows):
+        vertex_colours = _off_colour_values([r[first : len(r) - last] for r in vertex_rows])
         if vertex_colours is None:
             lost.append("vertex colours")
     try:
