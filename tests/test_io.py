@@ -1111,6 +1111,27 @@ def test_truncated_glb_says_so(tmp_path: Path, cut: int) -> None:
         load_mesh(path)
 
 
+@pytest.mark.parametrize("chunk", [0, 1])
+def test_glb_chunk_longer_than_the_file_says_so(tmp_path: Path, chunk: int) -> None:
+    """A .glb whose header length is its size but whose JSON (binary) chunk declares more bytes than follow
+    it said "trimesh could not read it (JSONDecodeError: Extra data ...)" ("ValueError: chunk was not
+    expected length!"): the chunk and its length are named."""
+    import struct
+
+    data = bytearray(trimesh.creation.icosphere(1).export(file_type="glb"))
+    at = 12 if chunk == 0 else 12 + 8 + struct.unpack_from("<I", data, 12)[0]
+    data[at : at + 4] = struct.pack("<I", 2**31)
+    path = tmp_path / "bad.glb"
+    path.write_bytes(bytes(data))
+    kind = "JSON" if chunk == 0 else "binary"
+    with pytest.raises(
+        MeshLoadError,
+        match=rf"bad\.glb: not a valid GLB: chunk {chunk} \({kind}\) declares 2147483648 bytes, "
+        rf"{len(data) - at - 8} follow it$",
+    ):
+        load_mesh(path)
+
+
 @pytest.mark.parametrize("case", list(_ply_cases()))
 def test_truncated_ply_says_so(tmp_path: Path, case: str) -> None:
     """An ASCII PLY declaring more vertices than it holds said "no triangles", one with faces cut loaded the

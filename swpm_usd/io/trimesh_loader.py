@@ -417,19 +417,35 @@ def _gltf_buffer_problem(path: Path) -> str | None:
 
 
 def _glb_length_problem(path: Path) -> str | None:
-    """Why the .glb file ``path`` is truncated (shorter than the length its header gives), or None (asked
-    once trimesh has failed on it: "chunk was not expected length!", or a JSON error for a cut JSON chunk)."""
+    """Why the .glb file ``path`` is truncated (shorter than the length its header gives) or a chunk of it
+    longer than the bytes after it, or None (asked once trimesh has failed on it: "chunk was not expected
+    length!", or a JSON error for a cut JSON chunk)."""
     try:
         with open(path, "rb") as f:
             head = f.read(12)
             size = os.fstat(f.fileno()).st_size
+            if len(head) < 12 or head[:4] != b"glTF":
+                return None
+            length = int.from_bytes(head[8:12], "little")
+            if size < length:
+                return f"truncated GLB: its header says {length} bytes, the file has {size}"
+            # a chunk longer than the bytes after it ("chunk was not expected length!", or a JSON error)
+            at = 12
+            for i in range(2):  # (the JSON chunk, then the binary one: trimesh reads those two)
+                chunk = f.read(8)
+                if len(chunk) < 8:
+                    return None
+                chunk_length = int.from_bytes(chunk[:4], "little")
+                if at + 8 + chunk_length > size:
+                    kind = "JSON" if i == 0 else "binary"
+                    return (
+                        f"not a valid GLB: chunk {i} ({kind}) declares {chunk_length} bytes, "
+                        f"{size - at - 8} follow it"
+                    )
+                at += 8 + chunk_length
+                f.seek(at)
     except OSError:
         return None
-    if len(head) < 12 or head[:4] != b"glTF":
-        return None
-    length = int.from_bytes(head[8:12], "little")
-    if size < length:
-        return f"truncated GLB: its header says {length} bytes, the file has {size}"
     return None
 
 
