@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import secrets
 import shutil
+import stat
 import tempfile
 from pathlib import Path
 
@@ -24,12 +25,37 @@ def _umask() -> int:
     return mask
 
 
-def set_plain_mode(fd: int) -> None:
-    """Give the open file ``fd`` the mode a plain ``open()`` gives a new file, 0o666 less the umask
-    (``mkstemp``'s is always 0o600); a filesystem without modes (vfat, some network mounts) keeps its own."""
+def mode_for(path: str | os.PathLike[str]) -> int:
+    """The permission bits a file written to ``path`` (a temporary file renamed over it) gets: those of the
+    regular file now at ``path`` (a replaced output keeps its mode: 0o640, 0o444 stay so), else the mode a
+    plain ``open()`` gives a new file, 0o666 less the umask. The read, write and execute bits only (no
+    set-id or sticky bit is carried over to new content)."""
     try:
-        os.fchmod(fd, 0o666 & ~_umask())
+        st = os.stat(path)
+    except (OSError, ValueError):
+        st = None
+    if st is not None and stat.S_ISREG(st.st_mode):
+        return stat.S_IMODE(st.st_mode) & 0o777
+    return 0o666 & ~_umask()
+
+
+def set_plain_mode(fd: int, like: str | os.PathLike[str] | None = None) -> None:
+    """Give the open file ``fd`` the mode a plain ``open()`` gives a new file, 0o666 less the umask
+    (``mkstemp``'s is always 0o600), or with ``like`` (the path ``fd`` is to be renamed over) :func:`mode_for`
+    it: the mode of the file it replaces. A filesystem without modes (vfat, some network mounts) keeps its
+    own."""
+    try:
+        os.fchmod(fd, 0o666 & ~_umask() if like is None else mode_for(like))
     except (OSError, AttributeError):
+        pass
+
+
+def set_mode_for(tmp: str | os.PathLike[str], target: str | os.PathLike[str]) -> None:
+    """Give the file ``tmp``, about to be renamed over ``target``, :func:`mode_for` ``target`` (for a file
+    another library created, e.g. a USD layer saved by usd-core)."""
+    try:
+        os.chmod(tmp, mode_for(target))
+    except (OSError, NotImplementedError):
         pass
 
 
@@ -37,8 +63,9 @@ def stage_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
     """Write ``data`` to a new temporary file beside ``path`` (``.<name>.XXXXXXXX.tmp``), fsync it and
     return its path, for the caller to rename over ``path`` (or delete).
 
-    The file gets the mode a plain ``open()`` gives a new file, 0o666 less the umask (``mkstemp``'s is
-    always 0o600: other users, a render farm's accounts or a web server could not read the outputs)."""
+    The file gets the mode of the file now at ``path``, which it is to replace, or for a new file the mode a
+    plain ``open()`` gives one, 0o666 less the umask (:func:`mode_for`; ``mkstemp``'s is always 0o600: other
+    users, a render farm's accounts or a web server could not read the outputs)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
@@ -46,7 +73,7 @@ def stage_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
             f.flush()
-            set_plain_mode(f.fileno())
+            set_plain_mode(f.fileno(), like=path)
             os.fsync(f.fileno())
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

@@ -746,6 +746,29 @@ def test_atomic_writes_get_the_mode_of_a_plain_open(grid_pm, tmp_path: Path, uma
         assert stat.S_IMODE((tmp_path / name).stat().st_mode) == want, name
 
 
+@pytest.mark.parametrize("mode", [0o640, 0o600, 0o444, 0o755])
+def test_atomic_writes_keep_the_mode_of_the_file_they_replace(grid_pm, tmp_path: Path, mode: int) -> None:
+    """A file replaced by a temporary file renamed over it took the umask's mode (0o644), not its own: an
+    output made private (0o600) became readable by everyone on the next write. A new file still gets a plain
+    open()'s mode."""
+    from swpm_usd.fileio import atomic_write_bytes
+
+    old = os.umask(0o022)
+    try:
+        for name in ("a.swpm", "m.json"):
+            (tmp_path / name).write_bytes(b"old")
+            os.chmod(tmp_path / name, mode)
+        save(grid_pm, tmp_path / "a.swpm")
+        atomic_write_bytes(tmp_path / "m.json", b"{}")
+        atomic_write_bytes(tmp_path / "new.json", b"{}")
+    finally:
+        os.umask(old)
+    assert (tmp_path / "m.json").read_bytes() == b"{}" and load(tmp_path / "a.swpm").lod_count
+    for name in ("a.swpm", "m.json"):
+        assert stat.S_IMODE((tmp_path / name).stat().st_mode) == mode, name
+    assert stat.S_IMODE((tmp_path / "new.json").stat().st_mode) == 0o644
+
+
 def test_conformance_reports_an_unusable_manifest_and_finds_the_vectors_from_elsewhere(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -403,6 +403,31 @@ def test_usd_hole_faces_are_not_loaded(tmp_path: Path) -> None:
         load_mesh(path)
 
 
+def test_usd_mesh_of_only_holes_is_not_rendered_like_an_invisible_one(tmp_path: Path) -> None:
+    """A Mesh whose holeIndices list every face renders nothing: beside other meshes it is left out (as an
+    invisible one; the pipeline then makes no asset of it), alone it is a MeshLoadError naming the file that
+    says every face is a hole (it said "have no faces (or only holes)")."""
+    path = tmp_path / "allholes.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    holes = _define_mesh(stage, "/A/holes", STRIP_POINTS, STRIP_COUNTS, STRIP_INDICES)
+    holes.CreateHoleIndicesAttr(Vt.IntArray([1, 0, 1]))  # (a repeated index: still every face)
+    _define_mesh(stage, "/A/solid", STRIP_POINTS + [0, 0, 1], STRIP_COUNTS, STRIP_INDICES)
+    stage.Save()
+    m = load_mesh(path)
+    assert m.triangle_count == 4 and np.all(m.points[:, 2] == 1)
+    with pytest.raises(MeshLoadError) as e:
+        load_mesh(path, prim_path="/A/holes")
+    assert e.value.path == str(path)
+    assert "/A/holes (every face is a hole: holeIndices lists all 2 faces)" in str(e.value)
+    stage.RemovePrim("/A/solid")
+    stage.Save()
+    with pytest.raises(MeshLoadError, match=r"allholes\.usda: no triangles.*every face is a hole"):
+        load_mesh(path)
+    holes.CreateHoleIndicesAttr(Vt.IntArray([1]))  # (one face left: loaded)
+    stage.Save()
+    assert load_mesh(path).triangle_count == 2
+
+
 def test_usd_unrendered_meshes_are_not_loaded(tmp_path: Path) -> None:
     """Meshes a renderer does not draw, invisible (also through an ancestor) or of purpose guide or proxy (a
     viewport stand-in beside the render mesh), were concatenated with the asset's surface."""
@@ -724,6 +749,162 @@ def test_gltf_that_is_not_a_json_object_says_so(tmp_path: Path, text: bytes, pro
         load_mesh(path)
 
 
+@pytest.mark.parametrize(
+    ("uri", "problem"),
+    [
+        ("data:application/octet-stream;base64,!!!", "buffer 0: its data URI is not valid base64"),
+        ("HALF", "buffer 0: its data URI holds 480 bytes, fewer than its byteLength 960"),
+        ("data:application/octet-stream;base64,", "buffer 0: its data URI holds 0 bytes, fewer than its"),
+        ("data:application/octet-stream,abc", r"buffer 0: its data URI is not base64"),
+        ("gone.bin", r"buffer 0: its file 'gone\.bin' is not found beside the \.gltf"),
+        ("short.bin", r"buffer 0: its file 'short\.bin' holds 10 bytes, fewer than its byteLength 960"),
+        # (outside the folder: trimesh refuses it; the file was looked at and its size told, "holds N bytes")
+        (
+            "../outside.bin",
+            r"buffer 0: its file '\.\./outside\.bin' is outside the \.gltf's folder \(not read\)",
+        ),
+        (None, r"buffer 0 has no uri \(a \.gltf's buffer is a data URI or a file beside it\)$"),
+    ],
+)
+def test_gltf_with_a_bad_buffer_names_it(tmp_path: Path, uri: str | None, problem: str) -> None:
+    """A bad data URI (not base64, or shorter than the buffer's byteLength) was "trimesh could not read it
+    (AssertionError: )", a buffer file missing "FileNotFoundError: gone.bin": the file and its buffer are
+    named with what is wrong."""
+    import json
+
+    tree = json.loads(
+        trimesh.exchange.gltf.export_gltf(trimesh.creation.icosphere(1), embed_buffers=True)["model.gltf"]
+    )
+    good = tree["buffers"][0]["uri"]
+    head, body = good.split(",", 1)
+    tree["buffers"][0]["uri"] = head + "," + body[: len(body) // 2] if uri == "HALF" else uri
+    if uri is None:  # (a missing uri: trimesh's "KeyError: 'uri'")
+        del tree["buffers"][0]["uri"]
+    (tmp_path / "outside.bin").write_bytes(b"\0" * 10)
+    tmp_path = tmp_path / "in"
+    tmp_path.mkdir()
+    (tmp_path / "short.bin").write_bytes(b"\0" * 10)
+    path = tmp_path / "bad.gltf"
+    path.write_text(json.dumps(tree))
+    with pytest.raises(MeshLoadError, match=r"bad\.gltf: not a valid glTF file: " + problem) as e:
+        load_mesh(path)
+    assert e.value.path == str(path)
+    tree["buffers"][0]["uri"] = good
+    path.write_text(json.dumps(tree))
+    assert load_mesh(path).triangle_count == 80
+
+
+def test_off_face_and_vertex_colours_are_kept(tmp_path: Path) -> None:
+    """trimesh's OFF reader keeps only positions and indices: face colours (values after a face's indices)
+    and vertex colours (COFF) were dropped without a word. Each triangle of a face (triangles and quads,
+    which trimesh triangulates in another order) gets its face's colour, as a PLY's face colours are kept;
+    0-255 integers and 0-1 floats, RGB and RGBA."""
+    xyz = [(0, 0, 0), (1, 0, 0), (2, 0, 0), (0, 1, 0), (1, 1, 0), (2, 1, 0), (3, 0.5, 0)]
+    points = "".join(f"{x} {y} {z}\n" for x, y, z in xyz)
+    faces = [[0, 1, 4, 3], [1, 2, 4], [2, 6, 5, 4]]
+    lines = [f"{len(f)} {' '.join(map(str, f))}" for f in faces]
+    int_colours = [(255, 0, 0), (0, 255, 0), (0, 0, 128)]
+    float_colours = [(1.0, 0.0, 0.0, 0.5), (0.0, 1.0, 0.0, 1.0), (0.0, 0.0, 0.25, 1.0)]
+    for name, colours, scale in (("ints.off", int_colours, 255.0), ("floats.off", float_colours, 1.0)):
+        body = "".join(f"{f} {' '.join(map(str, c))}\n" for f, c in zip(lines, colours, strict=True))
+        path = tmp_path / name
+        path.write_text(f"OFF\n7 3 0\n{points}{body}")
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            m = load_mesh(path)
+        assert m.triangle_count == 2 + 1 + 2
+        index_of = {tuple(np.float32(c) for c in p): i for i, p in enumerate(xyz)}
+        for tri in m.triangles:
+            ids = {index_of[tuple(m.points[v])] for v in tri}
+            (face,) = [i for i, f in enumerate(faces) if ids <= set(f)]
+            want = np.ones(4, np.float32)
+            want[: len(colours[face])] = np.array(colours[face]) / scale
+            for v in tri:  # (each corner: the face's colour; vertices split where faces differ)
+                np.testing.assert_allclose(m.attributes["color"][v], want, atol=1e-6)
+    coff = tmp_path / "coff.off"
+    vertices = "0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n0 1 0 0 0 255 128\n1 1 0 9 9 9 0\n"
+    coff.write_text(f"COFF\n4 2 0\n{vertices}3 0 1 2\n3 1 3 2\n")
+    m = load_mesh(coff)
+    order = np.lexsort(m.points.T[::-1])  # (by x, then y)
+    want = [[255, 0, 0, 255], [0, 0, 255, 128], [0, 255, 0, 255], [9, 9, 9, 0]]
+    np.testing.assert_allclose(m.attributes["color"][order] * 255, want, atol=1e-4)
+    odd = tmp_path / "index.off"  # (a colour-map index: not a colour this loader reads)
+    odd.write_text(f"OFF\n7 3 0\n{points}" + "".join(f"{f} 7\n" for f in lines))
+    with pytest.warns(UserWarning, match=re.escape(f"{odd}: its face colours are not loaded")):
+        m = load_mesh(odd)
+    assert m.triangle_count == 5 and "color" not in m.attributes
+
+
+def test_off_of_triangles_keeps_each_face_colour(tmp_path: Path) -> None:
+    """A triangles-only OFF's face colours (trimesh's triangles are its faces, in order: matched without the
+    sort by vertices that took 0.6 s of 327,680 faces) stay each on its triangle."""
+    xyz = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0), (2, 0, 0)]
+    faces = [(0, 1, 2), (1, 3, 2), (1, 4, 3)]
+    colours = [(255, 0, 0), (0, 255, 0), (0, 0, 255)]
+    path = tmp_path / "tris.off"
+    path.write_text(
+        "OFF\n5 3 0\n"
+        + "".join(f"{x} {y} {z}\n" for x, y, z in xyz)
+        + "".join(
+            f"3 {a} {b} {c} {r} {g} {bl}\n" for (a, b, c), (r, g, bl) in zip(faces, colours, strict=True)
+        )
+    )
+    m = load_mesh(path)
+    index_of = {tuple(np.float32(c) for c in p): i for i, p in enumerate(xyz)}
+    got = {}
+    for tri in m.triangles:
+        ids = frozenset(index_of[tuple(m.points[v])] for v in tri)
+        got[ids] = {tuple(np.round(m.attributes["color"][v] * 255).astype(int)) for v in tri}
+    assert got == {frozenset(f): {(*c, 255)} for f, c in zip(faces, colours, strict=True)}
+
+
+@pytest.mark.parametrize(
+    ("keyword", "extra", "want"),
+    [
+        ("CNOFF", " 0 0 1 0 0 255 255", (0, 0, 255, 255)),  # (normal, then colour)
+        ("STCOFF", " 0 255 0 128 0.5 0.5", (0, 255, 0, 128)),  # (colour, then texture coordinates)
+        ("STCNOFF", " 0 0 1 255 0 0 255 0.5 0.5", (255, 0, 0, 255)),
+        ("NOFF", " 0 0 1", None),  # (a normal: no colour)
+        ("STOFF", " 0.5 0.5", None),
+    ],
+)
+def test_off_variants_vertex_colours(tmp_path: Path, keyword: str, extra: str, want: tuple | None) -> None:
+    """The OFF variants' vertex rows (x y z, [N] a normal, [C] a colour, [ST] texture coordinates): a CNOFF
+    or STCOFF file's colours were dropped without a word (only OFF and COFF were looked at); the colour is
+    read between the normal and the texture coordinates, and a NOFF / STOFF file has none."""
+    xyz = ["0 0 0", "1 0 0", "1 1 0", "0 1 0"]
+    path = tmp_path / "v.off"
+    path.write_text(f"{keyword}\n4 2 0\n" + "".join(v + extra + "\n" for v in xyz) + "3 0 1 2\n3 0 2 3\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = load_mesh(path)
+    assert m.triangle_count == 2
+    if want is None:
+        assert "color" not in m.attributes
+    else:
+        np.testing.assert_allclose(m.attributes["color"] * 255, [want] * 4, atol=1e-4)
+
+
+def test_off_without_colours_is_not_split_into_lines() -> None:
+    """Whether an OFF file may hold colours is looked at in its first vertex and last face: the last face was
+    found by splitting the whole file into lines (a bytes object per line: 2 MB more for this 0.75 MB
+    file, 40 ms of a 13 MB one's load); the lines are looked at from the end."""
+    import tracemalloc
+
+    from swpm_usd.io.trimesh_loader import _off_may_have_colours
+
+    m = trimesh.creation.icosphere(5)  # (10242 vertices, 20480 faces: 0.8 MB)
+    data = trimesh.exchange.off.export_off(m).encode().rstrip() + b"\n# the end\n\n"
+    tracemalloc.start()
+    try:
+        assert not _off_may_have_colours(data)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < len(data) // 10, peak
+    assert _off_may_have_colours(data.replace(b"\n# the end", b" 255 0 0\n# the end"))
+
+
 def _stl_bytes(file_type: str = "stl") -> bytes | str:
     return trimesh.creation.icosphere(subdivisions=2).export(file_type=file_type)  # 320 triangles
 
@@ -845,6 +1026,152 @@ def test_stl_check_reads_only_the_start_and_end_of_a_large_file(tmp_path: Path) 
         MeshLoadError, match=rf"truncated ASCII STL: the text stops at line {lines} after {facets} complete"
     ):
         load_mesh(cut)
+
+
+def _ply_cases() -> dict[str, tuple[bytes, str]]:
+    """PLY files of a 42-vertex, 80-face sphere cut (or padded) somewhere, and the problem each is."""
+    m = trimesh.creation.icosphere(1)
+    text = trimesh.exchange.ply.export_ply(m, encoding="ascii")
+    lines = text.splitlines(keepends=True)
+    body = lines.index(b"end_header\n") + 1
+    binary = trimesh.exchange.ply.export_ply(m, encoding="binary")
+    start = binary.index(b"end_header\n") + len(b"end_header\n")
+    face = 1 + 3 * 4  # (a uchar count, three int indices)
+    return {
+        "ascii, faces cut": (b"".join(lines[:-5]), "truncated ASCII PLY: element face declares 80, found 75"),
+        "ascii, inside a face": (
+            b"".join(lines[:-5]) + lines[-5][:3],
+            "truncated ASCII PLY: element face declares 80, found 75",
+        ),
+        "ascii, vertices cut": (
+            b"".join(lines[: body + 10]),
+            "truncated ASCII PLY: element vertex declares 42, found 10",
+        ),
+        "ascii, header only": (
+            b"".join(lines[:body]),
+            "truncated ASCII PLY: element vertex declares 42, found 0",
+        ),
+        "binary, faces cut": (
+            binary[: -3 * face - 2],  # (41 bytes)
+            rf"truncated binary PLY: element face declares 80, found 76 \({len(binary) - 41} bytes\)",
+        ),
+        "binary, vertices cut": (
+            binary[: start + 12 * 8 + 5],
+            r"truncated binary PLY: element vertex declares 42, found 8",
+        ),
+        "binary, bytes after": (binary + b"\0" * 7, "not a valid binary PLY: 7 bytes after the elements"),
+        # (one row short, the file ending at a line end: its lines were taken for one more than they are)
+        "ascii, last face cut at its line end": (
+            b"".join(lines[:-1]),
+            "truncated ASCII PLY: element face declares 80, found 79",
+        ),
+        # (a list count that is no count: was a bare OverflowError)
+        "ascii, a list count of 1e400": (
+            b"".join(lines[:-5]) + b"1e400 0 1 2\n",
+            "truncated ASCII PLY: element face declares 80, found 75",
+        ),
+        "ascii, a list count of inf": (
+            b"".join(lines[:-5]) + b"inf 0 1 2\n",
+            "truncated ASCII PLY: element face declares 80, found 75",
+        ),
+        # (a float list count of nan, inf: was a bare ValueError, OverflowError)
+        "binary, a float list count of nan": (
+            _float_count_ply(binary, start, np.nan),
+            "truncated binary PLY: element face declares 80, found 1",
+        ),
+        "binary, a float list count of inf": (
+            _float_count_ply(binary, start, np.inf),
+            "truncated binary PLY: element face declares 80, found 1",
+        ),
+    }
+
+
+def _float_count_ply(binary: bytes, start: int, count: float) -> bytes:
+    """The binary PLY ``binary`` (a 42-vertex, 80-face sphere, elements from ``start``) with float list
+    counts, the second face's ``count``."""
+    faces = np.frombuffer(binary[start + 42 * 12 :], [("n", "u1"), ("i", "<i4", (3,))])
+    floats = np.zeros(80, [("n", "<f4"), ("i", "<i4", (3,))])
+    floats["n"], floats["i"] = faces["n"], faces["i"]
+    floats["n"][1] = count
+    header = binary[:start].replace(b"property list uchar int", b"property list float int")
+    return header + binary[start : start + 42 * 12] + floats.tobytes()
+
+
+@pytest.mark.parametrize("cut", [100, 1, 2100])
+def test_truncated_glb_says_so(tmp_path: Path, cut: int) -> None:
+    """A cut .glb said "trimesh could not read it (ValueError: chunk was not expected length!)" (or a JSON
+    error, its JSON chunk cut): it says it is truncated, the length its header gives against the file's."""
+    data = trimesh.creation.icosphere(1).export(file_type="glb")
+    path = tmp_path / "cut.glb"
+    path.write_bytes(data[: len(data) - cut])
+    with pytest.raises(
+        MeshLoadError,
+        match=rf"cut\.glb: truncated GLB: its header says {len(data)} bytes, the file has {len(data) - cut}$",
+    ):
+        load_mesh(path)
+
+
+@pytest.mark.parametrize("chunk", [0, 1])
+def test_glb_chunk_longer_than_the_file_says_so(tmp_path: Path, chunk: int) -> None:
+    """A .glb whose header length is its size but whose JSON (binary) chunk declares more bytes than follow
+    it said "trimesh could not read it (JSONDecodeError: Extra data ...)" ("ValueError: chunk was not
+    expected length!"): the chunk and its length are named."""
+    import struct
+
+    data = bytearray(trimesh.creation.icosphere(1).export(file_type="glb"))
+    at = 12 if chunk == 0 else 12 + 8 + struct.unpack_from("<I", data, 12)[0]
+    data[at : at + 4] = struct.pack("<I", 2**31)
+    path = tmp_path / "bad.glb"
+    path.write_bytes(bytes(data))
+    kind = "JSON" if chunk == 0 else "binary"
+    with pytest.raises(
+        MeshLoadError,
+        match=rf"bad\.glb: not a valid GLB: chunk {chunk} \({kind}\) declares 2147483648 bytes, "
+        rf"{len(data) - at - 8} follow it$",
+    ):
+        load_mesh(path)
+
+
+@pytest.mark.parametrize("case", list(_ply_cases()))
+def test_truncated_ply_says_so(tmp_path: Path, case: str) -> None:
+    """An ASCII PLY declaring more vertices than it holds said "no triangles", one with faces cut loaded the
+    faces left without a word, and a cut binary PLY said "trimesh could not read it (ValueError: PLY is
+    unexpected length!)": each says what is truncated, declared against found."""
+    data, problem = _ply_cases()[case]
+    path = tmp_path / "cut.ply"
+    path.write_bytes(data)
+    with pytest.raises(MeshLoadError, match=r"cut\.ply: " + problem) as e:
+        load_mesh(path)
+    assert e.value.path == str(path)
+
+
+def test_truncated_binary_ply_rows_are_counted_at_once(tmp_path: Path, monkeypatch) -> None:
+    """A cut binary PLY's list rows were walked one by one in Python up to 2,000,000 (3 s of a 2,500,000-face
+    file, then no count: "trimesh could not read it"); rows whose lists have the first row's length are
+    counted at once, and the walk (here allowed 10 rows) goes on from the first row whose length differs."""
+    from swpm_usd.io import trimesh_loader
+
+    monkeypatch.setattr(trimesh_loader, "_PLY_ROW_WALK", 10)
+    m = trimesh.creation.icosphere(1)
+    binary = trimesh.exchange.ply.export_ply(m, encoding="binary")
+    start = binary.index(b"end_header\n") + len(b"end_header\n")
+    path = tmp_path / "cut.ply"
+    path.write_bytes(binary[:-20])
+    with pytest.raises(
+        MeshLoadError, match=r"cut\.ply: truncated binary PLY: element face declares 80, found 78 "
+    ):
+        load_mesh(path)
+    # a quad among the triangles: the rows from it are walked (5 here)
+    tri, quad = np.dtype([("n", "u1"), ("i", "<i4", (3,))]), np.dtype([("n", "u1"), ("i", "<i4", (4,))])
+    faces = np.frombuffer(binary[start + 42 * 12 :], tri)
+    q = np.zeros(1, quad)
+    q["n"], q["i"] = 4, [[0, 1, 2, 3]]
+    rows = faces[:75].tobytes() + q.tobytes() + faces[76:].tobytes()
+    path.write_bytes(binary[: start + 42 * 12] + rows[:-20])
+    with pytest.raises(
+        MeshLoadError, match=r"cut\.ply: truncated binary PLY: element face declares 80, found 78 "
+    ):
+        load_mesh(path)
 
 
 def test_missing_unsupported_and_directory(tmp_path: Path) -> None:

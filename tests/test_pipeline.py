@@ -496,6 +496,39 @@ def test_usd_stage_meshes_a_renderer_does_not_draw_are_not_assets(tmp_path):
     assert list(res.records) == ["scene.usda:/World/render"]
 
 
+def test_usd_stage_mesh_of_only_holes_is_not_an_asset(tmp_path):
+    """A Mesh prim whose holeIndices list every face renders nothing, as an invisible one: it was an asset
+    of the stage that failed every run ('no triangles: ... have no faces (or only holes)'); a USD file that
+    holds only such a mesh is an asset that fails, saying every face is a hole."""
+    from pxr import Usd, UsdGeom
+
+    scene = tmp_path / "scene.usda"
+    st = Usd.Stage.CreateNew(str(scene))
+    for name in ("solid", "holes"):
+        m = UsdGeom.Mesh.Define(st, f"/World/{name}")
+        m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
+        m.CreateFaceVertexCountsAttr([3, 3])
+        m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+    UsdGeom.Mesh(st.GetPrimAtPath("/World/holes")).CreateHoleIndicesAttr([0, 1])
+    st.GetRootLayer().Save()
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{stage: scene.usda}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 0 and res.built == 1
+    assert list(res.records) == ["scene.usda:/World/solid"]
+    st.RemovePrim("/World/solid")
+    st.GetRootLayer().Export(str(tmp_path / "alone.usda"))
+    cfg.write_text(
+        "version: 1\nassets: [{glob: alone.usda}]\noutput: {dir: out2}\ndefaults: {encoding: vanilla}\n"
+    )
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1 and res.built == 0
+    (rec,) = res.records.values()
+    assert "every face is a hole" in json.dumps(rec)
+
+
 def test_interrupted_run_keeps_earlier_outputs_and_rerun_finishes(tmp_path):
     cfg = _project(tmp_path, ("cow.obj", "spot.obj", "bob.obj", "fandisk.obj", "teapot.obj"), "")
     cfg.write_text(
@@ -1142,6 +1175,63 @@ def _listed_outputs(out: Path) -> tuple[set[str], set[str]]:
     files = {p.name for p in out.iterdir() if p.suffix in (".swpm", ".usdc")}
     assets = json.loads((out / "manifest.json").read_text())["assets"]
     return files, {o["path"] for rec in assets.values() for o in rec.get("outputs", {}).values()}
+
+
+def test_rebuilt_outputs_keep_the_mode_of_the_files_they_replace(tmp_path):
+    """Each output is a temporary file renamed over the previous one: it took the umask's mode (0o644), so
+    outputs made private (0o600) were readable by everyone after the next run."""
+    import stat
+
+    cfg = _project(
+        tmp_path,
+        ("cow.obj",),
+        MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true, report: true}"),
+    )
+    out = tmp_path / "out"
+    old = os.umask(0o022)
+    try:
+        assert run(cfg, echo=lambda m: None).built == 1
+        names = ("cow.swpm", "cow.usdc", "scene.usda", "manifest.json", "report.html")
+        for name in names:
+            assert stat.S_IMODE((out / name).stat().st_mode) == 0o644, name
+            os.chmod(out / name, 0o600)
+        assert run(cfg, echo=lambda m: None, force=True).built == 1
+    finally:
+        os.umask(old)
+    assert {name: oct(stat.S_IMODE((out / name).stat().st_mode)) for name in names} == dict.fromkeys(
+        names, "0o600"
+    )
+
+
+def test_a_read_only_usd_layer_is_rebuilt_and_stays_read_only(tmp_path, monkeypatch):
+    """The temporary USD layer took the mode of the layer it replaces before usd-core wrote it: a read-only
+    previous layer (0o444) made it read-only too, and usd-core, not root, could not write it ("Insufficient
+    permissions to write to destination file"). It is written with the plain mode and given 0o444 after."""
+    import stat
+
+    from swpm_usd import usd
+    from swpm_usd.format import encode_bytes, load_bytes
+    from swpm_usd.format.vectors import fan_vanilla
+    from swpm_usd.pipeline import worker
+
+    pm = load_bytes(encode_bytes(fan_vanilla()))  # type: ignore[arg-type]
+    target = tmp_path / "a.usdc"
+    worker._place_usd(*worker._stage_usd(pm, target))
+    os.chmod(target, 0o444)
+    modes = []
+    write = usd.write
+
+    def recording(pm, path, **kwargs):
+        modes.append(stat.S_IMODE(Path(path).stat().st_mode))
+        return write(pm, path, **kwargs)
+
+    monkeypatch.setattr(usd, "write", recording)
+    tmp, _ = worker._stage_usd(pm, target)
+    assert modes and modes[0] & stat.S_IWUSR  # (writable while usd-core writes it)
+    assert stat.S_IMODE(tmp.stat().st_mode) == 0o444
+    worker._place_usd(tmp, target)
+    assert stat.S_IMODE(target.stat().st_mode) == 0o444
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.usdc"]
 
 
 def test_a_failed_rebuild_keeps_the_previous_build(tmp_path):

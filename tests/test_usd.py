@@ -212,6 +212,65 @@ def test_colour_of_every_component_count_round_trips(k, dtype, tmp_path):
     assert validate_stage(path) == []
 
 
+@pytest.mark.parametrize("dtype", ["bool", "<i8", "<u8"])
+def test_an_attribute_the_writer_stores_is_read_back(dtype, tmp_path):
+    """write stored a bool attribute (and an int64 / uint64 one) as a float primvar and its dtype in
+    swpm:attributeDtypes, but read refused the stage: "swpm:attributeDtypes[0] = 'bool' is not one of ..."
+    (and, for int64, the check said the arrays "do not form a valid vanilla mesh": a .swpm file cannot hold
+    that type). read gives the attribute back, type and values."""
+    from swpm_usd.encode.base import from_buffers
+    from swpm_usd.format import encode_bytes, load_bytes
+    from swpm_usd.format.vectors import fan_vanilla
+
+    flags = np.array([[1, 0], [0, 0], [1, 1], [0, 1], [1, 0]]).astype(dtype)
+    fan = load_bytes(encode_bytes(fan_vanilla()))  # type: ignore[arg-type]
+    attrs = {"flag": flags, "weight": np.arange(5, dtype=np.float32)[:, None]}
+    pm = from_buffers(
+        "vanilla", fan.points, attrs, fan.vertex_counts, fan.triangle_counts, fan.lod_errors, fan.buffers()
+    )
+    path = usd.write(pm, tmp_path / "flags.usda")
+    stage = Usd.Stage.Open(str(path))
+    prim = stage.GetDefaultPrim().GetChild("mesh")
+    assert list(prim.GetAttribute("swpm:attributeDtypes").Get()) == [np.dtype(dtype).name, "float32"]
+    back = usd.read(prim)
+    assert back.attributes["flag"].dtype == np.dtype(dtype)
+    np.testing.assert_array_equal(back.attributes["flag"], flags)
+    np.testing.assert_array_equal(back.triangles_at(0), pm.triangles_at(0))
+    assert validate_stage(path) == []
+
+
+@pytest.mark.parametrize("dtype", ["<i8", "<u8"])
+def test_a_64_bit_attribute_keeps_its_extremes(dtype, tmp_path):
+    """A 64-bit integer attribute is a float32 primvar: its maximum is written as 2^63 (2^64), which read
+    cast to the type unchecked (2^63 - 1 came back as -2^63, 2^64 - 1 as 0, with numpy's "invalid value
+    encountered in cast"); the type's extremes come back as they were."""
+    import warnings
+
+    from swpm_usd.encode.base import from_buffers
+    from swpm_usd.format import encode_bytes, load_bytes
+    from swpm_usd.format.vectors import fan_vanilla
+
+    info = np.iinfo(dtype)
+    ids = np.array([info.max, info.min, 0, 5, 2**40], dtype=dtype)[:, None]
+    fan = load_bytes(encode_bytes(fan_vanilla()))  # type: ignore[arg-type]
+    pm = from_buffers(
+        "vanilla",
+        fan.points,
+        {"id": ids},
+        fan.vertex_counts,
+        fan.triangle_counts,
+        fan.lod_errors,
+        fan.buffers(),
+    )
+    path = usd.write(pm, tmp_path / "ids.usda")
+    stage = Usd.Stage.Open(str(path))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        back = usd.read(stage.GetDefaultPrim().GetChild("mesh")).attributes["id"]
+    assert back.dtype == np.dtype(dtype)
+    np.testing.assert_array_equal(back, ids)
+
+
 def _float32_holds(v: np.ndarray) -> np.ndarray:
     return v.astype(np.float32).astype(np.float64) == v.astype(np.float64)
 
@@ -550,6 +609,62 @@ def test_a_failed_write_overrides_keeps_the_previous_layer(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == names
 
 
+def test_usd_layers_written_over_a_file_keep_its_mode(pm, tmp_path):
+    """write_overrides (and write_usdlod) rename a temporary layer over the output: it took the umask's mode
+    (0o644) instead of the replaced file's (0o600: a private layer became readable by everyone). usd.write
+    exports through usd-core, which keeps it too."""
+    import os
+    import stat
+
+    src = tmp_path / "src.usda"
+    _grid_stage(src, 4)
+    asset = usd.write(pm, tmp_path / "a.usda", lods=2)
+    outs = {
+        "ovr.usda": lambda p: usd.write_overrides(src, p),
+        "a_lod.usda": lambda p: usd.write_usdlod(asset, p),
+        "a.usda": lambda p: usd.write(pm, p, lods=2),
+    }
+    old = os.umask(0o022)
+    try:
+        for name, write in outs.items():
+            write(tmp_path / name)
+            assert stat.S_IMODE((tmp_path / name).stat().st_mode) == 0o644, name  # a new file: umask's
+            os.chmod(tmp_path / name, 0o600)
+            write(tmp_path / name)
+            assert stat.S_IMODE((tmp_path / name).stat().st_mode) == 0o600, name
+    finally:
+        os.umask(old)
+
+
+def test_overrides_leave_meshes_without_faces_to_encode(tmp_path):
+    """A Mesh prim whose holeIndices list every face (or an empty placeholder Mesh) made write_overrides
+    raise a bare ValueError ("cannot reshape array of size 0"); it is left as it is, as the loader leaves
+    it out, and a source with nothing else is a UsdOverrideError naming the file and why."""
+    from swpm_usd.usd.overrides import UsdOverrideError
+
+    src = tmp_path / "src.usda"
+    stage = Usd.Stage.CreateNew(str(src))
+    for name in ("solid", "holes"):
+        m = UsdGeom.Mesh.Define(stage, f"/World/{name}")
+        m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
+        m.CreateFaceVertexCountsAttr([3, 3])
+        m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+    UsdGeom.Mesh(stage.GetPrimAtPath("/World/holes")).CreateHoleIndicesAttr([1, 0])
+    UsdGeom.Mesh.Define(stage, "/World/empty")
+    stage.Save()
+    out = tmp_path / "ovr.usda"
+    assert list(usd.write_overrides(src, out)) == ["/World/solid"]
+    encoded = Usd.Stage.Open(str(out))
+    assert [str(p.GetPath()) for p in usd.find_encoded(encoded)] == ["/World/solid"]
+    with pytest.raises(
+        UsdOverrideError, match=r"src\.usda: no Mesh prim with faces to encode: /World/empty "
+    ):
+        usd.write_overrides(src, tmp_path / "none.usda", prims=["/World/empty", "/World/holes"])
+    with pytest.raises(UsdOverrideError, match=r"/World/holes \(every face is a hole\)"):
+        usd.write_overrides(src, tmp_path / "none.usda", prims=["/World/holes"])
+    assert not (tmp_path / "none.usda").exists()
+
+
 def test_overrides_leave_hole_faces_out(tmp_path):
     """Faces in the source's holeIndices are not encoded, and the source's hole face numbers (which would
     name other faces of the new triangle list) are not kept on the override."""
@@ -628,6 +743,42 @@ def test_write_usdlod_errors_name_the_file(pm, tmp_path):
         usd.write_usdlod(asset, asset)
     assert asset.read_bytes() == before
     assert usd.read(Usd.Stage.Open(str(asset)).GetDefaultPrim()).lod_count == pm.lod_count
+
+
+def test_write_usdlod_failure_leaves_the_previous_layer(pm, tmp_path, monkeypatch):
+    """write_usdlod created its layer at the output path (Sdf.Layer.CreateNew writes an empty layer at once)
+    and authored it there: a failure while authoring left an empty layer in place of the previous one. It
+    writes a temporary layer beside it and renames it into place; a layer of it open in this process is
+    reloaded once replaced, and a replaced layer keeps its mode."""
+    import os
+    import stat
+
+    from swpm_usd.usd import writer
+
+    asset = usd.write(pm, tmp_path / "a.usda", lods=3)
+    out = usd.write_usdlod(asset, tmp_path / "a_lod.usda")
+    os.chmod(out, 0o640)
+    before = out.read_bytes()
+
+    def fail(*args, **kwargs):
+        raise RuntimeError("disk on fire")
+
+    monkeypatch.setattr(writer, "_thresholds", fail)
+    with pytest.raises(RuntimeError, match="disk on fire"):
+        usd.write_usdlod(asset, out, pixel_error=2.0)
+    assert out.read_bytes() == before  # (it was an empty layer, 11 bytes)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.usda", "a_lod.usda"]  # no temporary left
+    open_layer = Sdf.Layer.FindOrOpen(str(out))
+    with pytest.raises(RuntimeError, match="disk on fire"):
+        usd.write_usdlod(asset, out, pixel_error=2.0)
+    assert not open_layer.dirty and open_layer.ExportToString() == before.decode()  # (it was cleared)
+    monkeypatch.undo()
+
+    usd.write_usdlod(asset, out, pixel_error=2.0)
+    assert out.read_bytes() != before
+    assert stat.S_IMODE(out.stat().st_mode) == 0o640
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.usda", "a_lod.usda"]
+    assert not open_layer.dirty and open_layer.ExportToString() == out.read_text()  # (reloaded)
 
 
 def test_lod_variants_and_usdlod(pm, tmp_path):

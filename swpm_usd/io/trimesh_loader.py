@@ -9,16 +9,23 @@ has them. Any trimesh failure becomes a :class:`~swpm_usd.errors.MeshLoadError` 
 
 STL files are checked before trimesh reads them (:func:`check_stl`): trimesh takes a binary STL whose length
 disagrees with its header for ASCII, and drops an ASCII solid without its ``endsolid``, so a cut file would
-load as "no triangles" (or as part of its triangles) instead of being reported as truncated.
+load as "no triangles" (or as part of its triangles) instead of being reported as truncated. An ASCII PLY
+is counted against its header likewise (:func:`ply_problem`), and a binary PLY, a .glb or a .gltf's buffers
+are looked at once trimesh has refused them, so the error says what is cut or wrong. An OFF file's vertex
+and face colours, which trimesh's OFF reader drops, are read here (:func:`_off_colours`).
 """
 
 from __future__ import annotations
 
+import base64
+import binascii
 import io
 import json
 import os
 import re
+import urllib.parse
 import warnings
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -119,7 +126,192 @@ def _check_stl(path: Path, size: int, head: bytes, tail: bytes, data: bytes | No
     raise MeshLoadError(path, f"not a valid binary STL: {what} ({size - expected} bytes too many)")
 
 
-def _geometry_part(geom: object) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]] | None:
+#: PLY scalar types (both spellings) -> numpy dtype
+_PLY_TYPES = {
+    **dict.fromkeys(("char", "int8"), "i1"),
+    **dict.fromkeys(("uchar", "uint8"), "u1"),
+    **dict.fromkeys(("short", "int16"), "i2"),
+    **dict.fromkeys(("ushort", "uint16"), "u2"),
+    **dict.fromkeys(("int", "int32"), "i4"),
+    **dict.fromkeys(("uint", "uint32"), "u4"),
+    **dict.fromkeys(("float", "float32"), "f4"),
+    **dict.fromkeys(("double", "float64"), "f8"),
+}
+#: how much of a PLY's start the header is looked for in
+_PLY_HEADER_BYTES = 1 << 16
+#: the rows of a binary element with lists of varying length counted one by one at most (past it the
+#: message gives no count)
+_PLY_ROW_WALK = 2_000_000
+
+#: a PLY property: (dtype) for a scalar, (count dtype, item dtype) for a list
+_PlyProperty = tuple[str] | tuple[str, str]
+
+
+def _ply_header(head: bytes) -> tuple[str, int, list[tuple[str, int, list[_PlyProperty]]]] | None:
+    """(format, header length in bytes, [(element, count, properties)]) of a PLY file's start ``head``, or
+    None when it is not a header this check understands (trimesh then says what is wrong)."""
+    end = re.search(rb"(?m)^end_header[ \t]*\r?\n", head)
+    if not head.startswith(b"ply") or end is None:
+        return None
+    fmt = None
+    elements: list[tuple[str, int, list[_PlyProperty]]] = []
+    for line in head[: end.start()].decode("ascii", "replace").splitlines()[1:]:
+        words = line.split()
+        if not words or words[0] in ("comment", "obj_info"):
+            continue
+        if words[0] == "format" and len(words) >= 2:
+            fmt = words[1]
+        elif words[0] == "element" and len(words) == 3 and words[2].isdigit():
+            elements.append((words[1], int(words[2]), []))
+        elif words[0] == "property" and elements and len(words) == 3 and words[1] in _PLY_TYPES:
+            elements[-1][2].append((_PLY_TYPES[words[1]],))
+        elif (
+            words[0] == "property"
+            and elements
+            and len(words) == 5
+            and words[1] == "list"
+            and words[2] in _PLY_TYPES
+            and words[3] in _PLY_TYPES
+        ):
+            elements[-1][2].append((_PLY_TYPES[words[2]], _PLY_TYPES[words[3]]))
+        else:
+            return None
+    if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
+        return None
+    return fmt, end.end(), elements
+
+
+def _ply_ascii_rows(tokens: list[bytes], at: int, count: int, props: list[_PlyProperty]) -> tuple[int, int]:
+    """(complete rows, token index after them) of an ASCII element of ``count`` rows from ``tokens[at]``."""
+    if all(len(p) == 1 for p in props):
+        width = len(props)
+        rows = count if width == 0 else min(count, (len(tokens) - at) // width)
+        return rows, at + rows * width
+    rows = 0
+    while rows < count:
+        i = at
+        for p in props:
+            if i >= len(tokens):
+                return rows, at
+            if len(p) == 1:
+                i += 1
+                continue
+            try:
+                n = int(float(tokens[i]))
+            except (ValueError, OverflowError):  # (not a number, nan, inf, 1e400: no count)
+                return rows, at
+            i += 1 + max(n, 0)
+        if i > len(tokens):
+            return rows, at
+        rows, at = rows + 1, i
+    return rows, at
+
+
+def _ply_binary_rows(
+    data: bytes, at: int, count: int, props: list[_PlyProperty], order: str
+) -> tuple[int | None, int]:
+    """(complete rows, byte offset after them) of a binary element of ``count`` rows from ``data[at]``; None
+    rows when its lists vary in length past :data:`_PLY_ROW_WALK` rows."""
+    sizes = [np.dtype(p[0]).itemsize for p in props]
+    if all(len(p) == 1 for p in props):
+        width = sum(sizes)
+        rows = count if width == 0 else min(count, (len(data) - at) // width)
+        return rows, at + rows * width
+    rows, at = _ply_uniform_rows(data, at, count, props, order)
+    walked = 0
+    while rows < count:
+        if walked >= _PLY_ROW_WALK:
+            return None, at
+        walked += 1
+        i = at
+        for p, size in zip(props, sizes, strict=True):
+            if i + size > len(data):
+                return rows, at
+            if len(p) == 2:
+                value = np.frombuffer(data, order + p[0], 1, i)[0]
+                if not np.isfinite(value):  # (a float count: nan or inf is no count)
+                    return rows, at
+                i += np.dtype(p[1]).itemsize * max(int(value), 0)
+            i += size
+        if i > len(data):
+            return rows, at
+        rows, at = rows + 1, i
+    return rows, at
+
+
+def _ply_uniform_rows(
+    data: bytes, at: int, count: int, props: list[_PlyProperty], order: str
+) -> tuple[int, int]:
+    """(rows, byte offset after them) of the rows of a binary element from ``data[at]`` whose lists all have
+    the first row's lengths (a mesh's faces, all triangles), counted at once in a strided look (one by one,
+    2,000,000 faces took 3 s); the rows after them are walked."""
+    lists = []
+    i = at
+    for p in props:
+        size = np.dtype(p[0]).itemsize
+        if i + size > len(data):
+            return 0, at
+        if len(p) == 2:
+            value = np.frombuffer(data, order + p[0], 1, i)[0]
+            if not np.isfinite(value):
+                return 0, at
+            lists.append((i - at, p[0], value))
+            size += np.dtype(p[1]).itemsize * max(int(value), 0)
+        i += size
+    stride = i - at
+    n = min(count, (len(data) - at) // stride)
+    if n <= 0:
+        return 0, at
+    same = np.ones(n, bool)
+    for offset, dtype, value in lists:
+        same &= np.ndarray((n,), order + dtype, buffer=data, offset=at + offset, strides=(stride,)) == value
+    n = n if same.all() else int(np.argmin(same))
+    return n, at + n * stride
+
+
+def ply_problem(data: bytes, ascii_only: bool = False) -> str | None:
+    """Why the PLY file of bytes ``data`` holds fewer element rows than its header declares ("truncated ASCII
+    PLY: element face declares 80, found 75"), or more bytes (binary), or None when it holds them all or its
+    header is not one this check reads (trimesh then reports the file); ``ascii_only``: None for a binary one.
+
+    An ASCII file is counted row by row (tokens, whatever the lines) only when it has fewer lines than rows
+    declared (trimesh loads the rows of a cut ASCII file without a word, and says "no triangles" when its
+    vertices are cut); a binary one, whose length trimesh checks, is for the message once trimesh has refused
+    it ("PLY is unexpected length!")."""
+    header = _ply_header(data[:_PLY_HEADER_BYTES])
+    if header is None or (ascii_only and header[0] != "ascii"):
+        return None
+    fmt, at, elements = header
+    declared = sum(count for _, count, _ in elements)
+    if fmt == "ascii":
+        # (its lines: a last line without its line end counts too)
+        lines = data.count(b"\n", at) + (not data.endswith(b"\n") and len(data) > at)
+        if lines >= declared:
+            return None
+        tokens = data[at:].split()
+        i = 0
+        for name, count, props in elements:
+            rows, i = _ply_ascii_rows(tokens, i, count, props)
+            if rows < count:
+                return f"truncated ASCII PLY: element {name} declares {count}, found {rows}"
+        return None
+    order = "<" if fmt == "binary_little_endian" else ">"
+    for name, count, props in elements:
+        rows, at = _ply_binary_rows(data, at, count, props, order)
+        if rows is None:  # (not counted)
+            return None
+        if rows < count:
+            return f"truncated binary PLY: element {name} declares {count}, found {rows} ({len(data)} bytes)"
+    if at < len(data):
+        return f"not a valid binary PLY: {len(data) - at} bytes after the elements its header declares"
+    return None
+
+
+def _geometry_part(
+    geom: object, off_colours: tuple[np.ndarray | None, np.ndarray | None] | None = None
+) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]] | None:
+    """One geometry's (points, triangles, attributes); ``off_colours``: the vertex and triangle colours of
+    the OFF file it was read from, which trimesh's OFF reader drops (:func:`_off_colours`)."""
     import trimesh
 
     if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
@@ -135,6 +327,12 @@ def _geometry_part(geom: object) -> tuple[np.ndarray, np.ndarray, dict[str, np.n
             attrs["normal"] = normals
     visual = geom.visual
     face_colors = None
+    if off_colours is not None:
+        vertex_colors, face_colors = off_colours
+        if vertex_colors is not None and vertex_colors.shape[0] == v:
+            attrs["color"] = vertex_colors
+            face_colors = None  # (both: the vertices' are kept)
+        visual = None
     if isinstance(visual, trimesh.visual.TextureVisuals):
         uv = visual.uv
         if uv is not None and np.shape(uv) == (v, 2):
@@ -172,6 +370,93 @@ def _gltf_json_problem(path: Path) -> str | None:
     return None
 
 
+def _gltf_buffer_problem(path: Path) -> str | None:
+    """What is wrong with a buffer of the .gltf file ``path`` (a JSON object), or None when nothing is found
+    (asked once trimesh has failed on it: a bad data URI was a bare "AssertionError: ", a buffer file it
+    could not find "FileNotFoundError: NAME")."""
+    try:
+        buffers = json.loads(path.read_bytes()).get("buffers")
+    except (OSError, ValueError, RecursionError, AttributeError):
+        return None
+    if not isinstance(buffers, list):
+        return None
+    for i, buf in enumerate(buffers):
+        if not isinstance(buf, dict):
+            continue
+        name = f"buffer {i}" + (f" ({buf['name']!r})" if isinstance(buf.get("name"), str) else "")
+        if not isinstance(buf.get("uri"), str):  # (only a .glb's buffer 0 may have none: trimesh's KeyError)
+            return f"{name} has no uri (a .gltf's buffer is a data URI or a file beside it)"
+        uri, length = buf["uri"], buf.get("byteLength")
+        if uri.startswith("data:"):
+            meta, _, body = uri.partition(",")
+            if not meta.endswith(";base64"):
+                return f"{name}: its data URI is not base64 ({meta[:60]!r})"
+            try:
+                size = len(base64.b64decode(body, validate=True))
+            except (binascii.Error, ValueError) as e:
+                return f"{name}: its data URI is not valid base64 ({e})"
+            what = "its data URI holds"
+        else:
+            # (resolved as trimesh's resolver does, which refuses a file outside the .gltf's folder: such a
+            # file is not looked at, and its size not told)
+            try:
+                folder = path.parent.resolve()
+                file = (folder / urllib.parse.unquote(uri).strip()).resolve()
+            except (OSError, ValueError, RuntimeError):
+                return f"{name}: its file {uri!r} is not found beside the .gltf"
+            if not file.is_relative_to(folder):
+                return f"{name}: its file {uri!r} is outside the .gltf's folder (not read)"
+            try:
+                size = file.stat().st_size
+            except (OSError, ValueError):
+                return f"{name}: its file {uri!r} is not found beside the .gltf"
+            what = f"its file {uri!r} holds"
+        if isinstance(length, int) and not isinstance(length, bool) and size < length:
+            return f"{name}: {what} {size} bytes, fewer than its byteLength {length}"
+    return None
+
+
+def _glb_length_problem(path: Path) -> str | None:
+    """Why the .glb file ``path`` is truncated (shorter than the length its header gives) or a chunk of it
+    longer than the bytes after it, or None (asked once trimesh has failed on it: "chunk was not expected
+    length!", or a JSON error for a cut JSON chunk)."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(12)
+            size = os.fstat(f.fileno()).st_size
+            if len(head) < 12 or head[:4] != b"glTF":
+                return None
+            length = int.from_bytes(head[8:12], "little")
+            if size < length:
+                return f"truncated GLB: its header says {length} bytes, the file has {size}"
+            # a chunk longer than the bytes after it ("chunk was not expected length!", or a JSON error)
+            at = 12
+            for i in range(2):  # (the JSON chunk, then the binary one: trimesh reads those two)
+                chunk = f.read(8)
+                if len(chunk) < 8:
+                    return None
+                chunk_length = int.from_bytes(chunk[:4], "little")
+                if at + 8 + chunk_length > size:
+                    kind = "JSON" if i == 0 else "binary"
+                    return (
+                        f"not a valid GLB: chunk {i} ({kind}) declares {chunk_length} bytes, "
+                        f"{size - at - 8} follow it"
+                    )
+                at += 8 + chunk_length
+                f.seek(at)
+    except OSError:
+        return None
+    return None
+
+
+def _read_problem(path: Path, check: Callable[[bytes], str | None]) -> str | None:
+    """``check`` of the bytes of ``path``, or None when it cannot be read again."""
+    try:
+        return check(path.read_bytes())
+    except (OSError, MemoryError):
+        return None
+
+
 def load_trimesh(path: Path) -> Mesh:
     """Load an OBJ, PLY, STL, OFF, glTF or GLB file as one cleaned mesh."""
     import trimesh
@@ -181,6 +466,15 @@ def load_trimesh(path: Path) -> Mesh:
     try:
         if file_type == "stl":
             check_stl(path)  # (its start and end: trimesh reads the file)
+            scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
+        elif file_type == "ply":
+            with open(path, "rb") as f:
+                head = f.read(_PLY_HEADER_BYTES)
+                # (an ASCII file is read whole for the check, only its header when it is binary)
+                data = head + f.read() if re.search(rb"(?m)^format[ \t]+ascii\b", head) else b""
+            problem = ply_problem(data, ascii_only=True) if data else None
+            if problem is not None:
+                raise MeshLoadError(path, problem)
             scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
         elif file_type in _TEXT_TYPES:
             # trimesh needs the optional charset_normalizer to guess the encoding of non-UTF-8 text and fails
@@ -200,7 +494,18 @@ def load_trimesh(path: Path) -> Mesh:
         parts = []
         for node in scene.graph.nodes_geometry:
             matrix, geom_name = scene.graph[node]
-            part = _geometry_part(scene.geometry[geom_name])
+            geom = scene.geometry[geom_name]
+            colours = None
+            if file_type == "off" and isinstance(geom, trimesh.Trimesh):
+                vertex_colours, face_colours, lost = _off_colours(data, np.asarray(geom.faces))
+                colours = (vertex_colours, face_colours)
+                if lost:
+                    warnings.warn(
+                        f"{path}: its {' and '.join(lost)} are not loaded (not 3 or 4 numbers, 0-255 or 0-1, "
+                        "on every row, or faces trimesh triangulated otherwise)",
+                        stacklevel=3,
+                    )
+            part = _geometry_part(geom, colours)
             if part is not None:
                 parts.append(transform_part(part, matrix))
     except MeshLoadError:
@@ -213,6 +518,13 @@ def load_trimesh(path: Path) -> Mesh:
         problem = _gltf_json_problem(path) if file_type == "gltf" else None
         if problem is not None:
             raise MeshLoadError(path, f"not a glTF file ({problem})") from e
+        problem = _gltf_buffer_problem(path) if file_type == "gltf" else None
+        if problem is not None:
+            raise MeshLoadError(path, f"not a valid glTF file: {problem}") from e
+        problem = _read_problem(path, ply_problem) if file_type == "ply" else None
+        problem = _glb_length_problem(path) if file_type == "glb" else problem
+        if problem is not None:
+            raise MeshLoadError(path, problem) from e
         raise MeshLoadError(path, f"trimesh could not read it ({type(e).__name__}: {e})") from e
     if not parts:
         raise MeshLoadError(path, "no triangles: the file holds no triangle geometry")
@@ -243,3 +555,124 @@ def _report_dropped_obj_attributes(path: Path, data: bytes, parts: list) -> None
             "(a face that refers to none, or to one out of range?): loaded without them",
             stacklevel=4,
         )
+
+
+def _off_rows(data: bytes) -> Iterator[list[bytes]]:
+    """The tokens of each non-empty line of an OFF file, comments left out, lazily."""
+    for line in io.BytesIO(data):
+        words = line.split(b"#", 1)[0].split()
+        if words:
+            yield words
+
+
+def _off_colour_values(rows: list[list[bytes]]) -> np.ndarray | None:
+    """The colours ``rows`` (each row's tokens) hold as (N, 4) float RGBA in [0, 1]: integers 0-255 (all of
+    them integers) or floats in [0, 1], 3 or 4 per row; None when the rows differ in length, hold another
+    count (a colour-map index) or a token that is not a number."""
+    k = {len(r) for r in rows}
+    if len(k) != 1 or k.pop() not in (3, 4):
+        return None
+    try:
+        values = np.array([[float(t) for t in r] for r in rows], dtype=np.float64)
+    except ValueError:
+        return None
+    if not np.isfinite(values).all():
+        return None
+    if all(t.lstrip(b"+-").isdigit() for r in rows for t in r):
+        values = values / 255.0
+    return rgba_float(values)
+
+
+def _off_may_have_colours(data: bytes) -> bool:
+    """Whether the OFF file's bytes ``data`` may hold colours (``COFF``, values after its first vertex's x y
+    z or after its last face's indices: a writer colours every row or none), looked at without reading every
+    row."""
+    rows = _off_rows(data)
+    first = next(rows, None)
+    if first is None or first[0].upper() == b"COFF":
+        return first is not None
+    if len(first) == 1:
+        next(rows, None)  # (the counts)
+    vertex = next(rows, None)
+    if vertex is not None and len(vertex) > 3:
+        return True
+    end = len(data)
+    while end > 0:  # (its lines from the last, not every line split: a copy of the file in small objects)
+        start = data.rfind(b"\n", 0, end) + 1
+        words = data[start:end].split(b"#", 1)[0].split()
+        end = start - 1
+        if words:
+            try:
+                return len(words) > 1 + int(words[0])
+            except ValueError:
+                return True
+    return False
+
+
+def _off_colours(data: bytes, faces: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None, list[str]]:
+    """(vertex colours (V, 4), colours of trimesh's triangles ``faces`` (T, 4), colours found but not
+    kept) of an OFF file's bytes ``data``: a vertex's colour (``COFF``, ``CNOFF``, ``STCOFF``...) and the
+    values after a face's vertex indices, which trimesh's OFF reader drops. A face's colour goes to each
+    triangle of its fan
+    (trimesh triangulates it so, in another order: triangles are matched by their vertices)."""
+    if not _off_may_have_colours(data):
+        return None, None, []
+    rows = list(_off_rows(data))
+    # the variants' vertex rows: x y z [nx ny nz (N)] [colour (C)] [s t (ST)] (4OFF, nOFF: other rows)
+    variant = re.fullmatch(rb"(ST)?(C)?(N)?OFF", rows[0][0].upper()) if rows else None
+    if variant is None:
+        return None, None, []
+    texture, colour, normal = (g is not None for g in variant.groups())
+    at = 1 if len(rows[0]) > 1 else 2
+    counts = rows[0][1:] if len(rows[0]) > 1 else (rows[1] if len(rows) > 1 else [])
+    try:
+        n_vertices, n_faces = int(counts[0]), int(counts[1])
+    except (IndexError, ValueError):
+        return None, None, []
+    vertex_rows = rows[at : at + n_vertices]
+    face_rows = rows[at + n_vertices : at + n_vertices + n_faces]
+    if len(vertex_rows) != n_vertices or len(face_rows) != n_faces:
+        return None, None, []
+    lost: list[str] = []
+    vertex_colours = None
+    first, last = 3 + 3 * normal, 2 * texture
+    if (colour or not (normal or texture)) and any(len(r) > first + last for r in vertex_rows):
+        vertex_colours = _off_colour_values([r[first : len(r) - last] for r in vertex_rows])
+        if vertex_colours is None:
+            lost.append("vertex colours")
+    try:
+        sizes = np.array([int(r[0]) for r in face_rows], np.int64)
+    except ValueError:
+        return vertex_colours, None, lost
+    extra = [r[1 + n :] for r, n in zip(face_rows, sizes.tolist(), strict=True)]
+    if not any(extra):
+        return vertex_colours, None, lost
+    face_colours = _off_colour_values(extra)
+    complete = all(3 <= n < len(r) for r, n in zip(face_rows, sizes.tolist(), strict=True))
+    tris = np.asarray(faces, np.int64).reshape(-1, 3)
+    if face_colours is not None and complete and int((sizes - 2).sum()) == tris.shape[0] > 0:
+        # each face's fan (0, c, c + 1), vectorised over the faces' indices laid end to end
+        try:
+            flat = np.array(
+                [int(t) for r, n in zip(face_rows, sizes.tolist(), strict=True) for t in r[1 : 1 + n]]
+            )
+        except ValueError:
+            flat = None
+        if flat is not None:
+            n_tris = sizes - 2
+            face = np.repeat(np.arange(n_faces), n_tris)
+            corner = np.arange(face.shape[0]) - (np.cumsum(n_tris) - n_tris)[face] + 1
+            start = (np.cumsum(sizes) - sizes)[face]
+            fans = np.stack([flat[start], flat[start + corner], flat[start + corner + 1]], axis=1)
+            if np.array_equal(fans, tris):  # (triangles only: trimesh's are the file's, in order)
+                return vertex_colours, face_colours[face], lost
+            # trimesh's triangles in its order (triangles, then quads' halves, then fans): matched by vertices
+            _, key = np.unique(np.sort(np.concatenate([fans, tris]), axis=1), axis=0, return_inverse=True)
+            key = key.reshape(-1)
+            of_key = np.full(int(key.max()) + 1, -1, np.int64)
+            of_key[key[: fans.shape[0]]] = face
+            found = of_key[key[fans.shape[0] :]]
+            if (found >= 0).all():
+                return vertex_colours, face_colours[found], lost
+    lost.append("face colours")
+    return vertex_colours, None, lost

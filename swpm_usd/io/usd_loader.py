@@ -1,16 +1,17 @@
 """Load USD stages (.usd .usda .usdc .usdz) through usd-core into a cleaned :class:`~swpm_usd.mesh.Mesh`.
 
 Every ``UsdGeom.Mesh`` prim under the pseudo-root (or under ``prim_path``), instance proxies included, that a
-renderer draws (not invisible, not of purpose ``guide`` or ``proxy``) is read at its earliest time sample,
-moved to world space with its local-to-world transform and concatenated. Polygons are fan-triangulated and
-faces listed in ``holeIndices`` (not rendered) left out; ``orientation = leftHanded`` (and mirroring
-transforms) flip the winding so front faces come out counter-clockwise. Primvars: ``primvars:normals`` (else
-the ``normals`` attribute) -> ``normal``, ``primvars:st`` (else the first texCoord2f[] primvar by name) ->
-``uv``, ``primvars:displayColor`` (+ ``displayOpacity`` as alpha) -> ``color``. Indexed primvars are
-flattened. ``vertex`` / ``varying`` / ``constant`` values stay per point; ``faceVarying`` / ``uniform`` values
-are taken per face corner and each distinct (point, values) pair becomes one vertex, so only real seams split
-points. Any USD failure, a composition error (a sublayer or reference that does not resolve, on an active prim
-in or above the loaded subtree) too, becomes a :class:`~swpm_usd.errors.MeshLoadError` naming the file.
+renderer draws (not invisible, not of purpose ``guide`` or ``proxy``, not every face a hole) is read at its
+earliest time sample, moved to world space with its local-to-world transform and concatenated. Polygons are
+fan-triangulated and faces listed in ``holeIndices`` (not rendered) left out; ``orientation = leftHanded``
+(and mirroring transforms) flip the winding so front faces come out counter-clockwise. Primvars:
+``primvars:normals`` (else the ``normals`` attribute) -> ``normal``, ``primvars:st`` (else the first
+texCoord2f[] primvar by name) -> ``uv``, ``primvars:displayColor`` (+ ``displayOpacity`` as alpha) ->
+``color``. Indexed primvars are flattened. ``vertex`` / ``varying`` / ``constant`` values stay per point;
+``faceVarying`` / ``uniform`` values are taken per face corner and each distinct (point, values) pair becomes
+one vertex, so only real seams split points. Any USD failure, a composition error (a sublayer or reference
+that does not resolve, on an active prim in or above the loaded subtree) too, becomes a
+:class:`~swpm_usd.errors.MeshLoadError` naming the file.
 """
 
 from __future__ import annotations
@@ -161,7 +162,7 @@ def _read_mesh(prim: Usd.Prim, xf_cache: UsdGeom.XformCache, time: Usd.TimeCode)
     holes = None if raw_holes is None else np.asarray(raw_holes, dtype=np.int64)
     topo = _Topology(counts, indices, points.shape[0], left, where, holes)
     if topo.points.shape[0] == 0:
-        return None  # every face a hole
+        return None  # every face a hole (_not_rendered has left such a mesh out already)
 
     api = UsdGeom.PrimvarsAPI(prim)
     found: dict[str, tuple[str, np.ndarray]] = {}
@@ -221,14 +222,33 @@ def _read_mesh(prim: Usd.Prim, xf_cache: UsdGeom.XformCache, time: Usd.TimeCode)
 
 def _not_rendered(prim: Usd.Prim, time: Usd.TimeCode) -> str | None:
     """Why a renderer does not draw ``prim`` (invisible, itself or through an ancestor; purpose guide, or
-    proxy: a viewport stand-in for the render geometry), or None when it does."""
+    proxy: a viewport stand-in for the render geometry; a Mesh whose ``holeIndices`` list every face), or None
+    when it does."""
     imageable = UsdGeom.Imageable(prim)
     if imageable.ComputeVisibility(time) == UsdGeom.Tokens.invisible:
         return "invisible"
     purpose = imageable.ComputePurpose()
     if purpose in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy):
         return f"purpose {purpose}"
+    if prim.IsA(UsdGeom.Mesh):
+        faces = _all_holes(UsdGeom.Mesh(prim), time)
+        if faces:
+            return f"every face is a hole: holeIndices lists all {faces} faces"
     return None
+
+
+def _all_holes(mesh: UsdGeom.Mesh, time: Usd.TimeCode) -> int:
+    """The number of faces of ``mesh`` when its ``holeIndices`` list every one of them (at least one), else 0
+    (indices out of range are :class:`_Topology`'s to report)."""
+    raw_holes = mesh.GetHoleIndicesAttr().Get(time)
+    if raw_holes is None or len(raw_holes) == 0:
+        return 0
+    counts = mesh.GetFaceVertexCountsAttr().Get(time)
+    n = 0 if counts is None else len(counts)
+    holes = np.asarray(raw_holes, dtype=np.int64)
+    if n == 0 or holes.min() < 0 or holes.max() >= n:
+        return 0
+    return n if np.unique(holes).shape[0] == n else 0
 
 
 def _composition_errors(stage: Usd.Stage, root: Sdf.Path) -> list[str]:

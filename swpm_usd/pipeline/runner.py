@@ -1341,6 +1341,7 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
     """A scene layer that references every per-asset USD layer, one Xform each."""
     from pxr import Usd, UsdGeom
 
+    from ..fileio import set_mode_for
     from ..usd.writer import reload_if_open
 
     layers = [
@@ -1360,5 +1361,6 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
         prim = stage.DefinePrim(f"/Scene/{_scene_prim_name(Path(layer).stem, used)}", "Xform")
         prim.GetReferences().AddReference(f"./{layer}")
     stage.GetRootLayer().Save()
+    set_mode_for(tmp, target)  # (a replaced scene keeps its mode)
     tmp.replace(target)
     reload_if_open(target)  # (a caller of run may have it open)

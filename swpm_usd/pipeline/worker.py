@@ -301,7 +301,7 @@ def _stage_usd(pm, target: Path) -> tuple[Path, Path]:
     import os
     import tempfile
 
-    from ..fileio import set_plain_mode
+    from ..fileio import set_mode_for, set_plain_mode
     from ..usd import write as usd_write
 
     target.parent.mkdir(parents=True, exist_ok=True)
@@ -311,6 +311,8 @@ def _stage_usd(pm, target: Path) -> tuple[Path, Path]:
     tmp = Path(name)
     try:
         usd_write(pm, tmp, name=target.stem.split(".")[0] or None)
+        # the replaced layer's mode once written (a read-only one's, given first, refused usd-core the write)
+        set_mode_for(tmp, target)
         with open(tmp, "rb") as f:
             os.fsync(f.fileno())
     except BaseException:

@@ -30,11 +30,11 @@ _BY_SDF = {
 }
 
 
-#: the dtype names ``swpm:bufferDtypes`` may hold (integer buffers) and ``swpm:attributeDtypes`` (numbers):
-#: those the writer stores. A reader casts to them, so any other name (``V1000000000``: 1 GB per element) is
-#: refused.
+#: the dtype names ``swpm:bufferDtypes`` may hold (integer buffers) and ``swpm:attributeDtypes`` (numbers
+#: and bool: a bool attribute is stored as a float primvar of 0 / 1): those the writer stores. A reader casts
+#: to them, so any other name (``V1000000000``: 1 GB per element) is refused.
 BUFFER_DTYPES = tuple(n for n in _BY_DTYPE if np.dtype(n).kind in "ui")
-ATTRIBUTE_DTYPES = tuple(n for n in _BY_DTYPE if np.dtype(n).kind in "uif")
+ATTRIBUTE_DTYPES = tuple(n for n in _BY_DTYPE if np.dtype(n).kind in "buif")
 
 
 def dtype_problem(attribute: str, tokens: object, allowed: tuple[str, ...]) -> str | None:

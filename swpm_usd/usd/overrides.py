@@ -27,7 +27,8 @@ from pxr import Sdf, Tf, Usd, UsdGeom, Vt
 from ..build import build
 from ..encode.base import ProgressiveMesh, from_buffers
 from ..errors import SwpmError
-from ..io.usd_loader import _Invalid, _tf_message, _Topology
+from ..fileio import set_mode_for
+from ..io.usd_loader import _all_holes, _Invalid, _tf_message, _Topology
 from ..mesh import Mesh
 from .writer import author_swpm, reload_if_open
 
@@ -258,6 +259,7 @@ def write_overrides(
         with _writing(path, tmp_path):
             if not layer.Save():
                 raise UsdOverrideError(f"{path}: could not write")
+            set_mode_for(tmp_path, out_path)  # (a replaced layer keeps its mode)
             os.replace(tmp_path, out_path)
     except BaseException:
         tmp_path.unlink(missing_ok=True)
@@ -298,12 +300,31 @@ def _author_overrides(
         layer.defaultPrim = src_stage.GetRootLayer().defaultPrim
     stage = Usd.Stage.Open(layer)
     result = {}
+    skipped = []
     for prim in _mesh_prims(stage, prims):
+        why = _nothing_to_encode(prim)
+        if why is not None:  # (left as it is: the loader leaves such a mesh out too)
+            skipped.append(f"{prim.GetPath()} ({why})")
+            continue
         try:
             result[str(prim.GetPath())] = encode_prim(prim, encoding, **params)
         except UsdOverrideError as e:
             raise UsdOverrideError(f"{src_path}: {e}") from e
+    if skipped and not result:
+        listed = ", ".join(skipped[:3]) + (", ..." if len(skipped) > 3 else "")
+        raise UsdOverrideError(f"{src_path}: no Mesh prim with faces to encode: {listed}")
     return result
+
+
+def _nothing_to_encode(prim: Usd.Prim) -> str | None:
+    """Why the Mesh ``prim`` has no triangle to encode (no faces; every face a hole), or None."""
+    mesh = UsdGeom.Mesh(prim)
+    counts = mesh.GetFaceVertexCountsAttr().Get()
+    if counts is None or len(counts) == 0:
+        return "no faces"
+    if _all_holes(mesh, Usd.TimeCode.Default()):
+        return "every face is a hole"
+    return None
 
 
 @contextmanager

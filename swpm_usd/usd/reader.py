@@ -108,10 +108,17 @@ def _restore(name: str, a: np.ndarray, dtype: str | None) -> np.ndarray:
     dt = np.dtype(dtype or np.float32)
     if dt == a.dtype:
         return a
+    if dt.kind == "b":  # (written as 0 / 1)
+        return a != 0
     if dt.kind in "ui":
         info = np.iinfo(dt)
-        v = a.astype(np.float64) * (float(info.max) if name == "color" and dt.kind == "u" else 1.0)
-        return np.clip(np.rint(v), info.min, info.max).astype(dt)
+        v = np.rint(a.astype(np.float64) * (float(info.max) if name == "color" and dt.kind == "u" else 1.0))
+        # float(info.max) of a 64-bit type is 2^63 / 2^64, which does not fit it: values from there (the
+        # type's maximum written as float32) are the maximum, not cast (int64 2^63 - 1 came back as -2^63)
+        top = v >= float(info.max)
+        out = np.clip(np.where(top, 0.0, v), info.min, info.max).astype(dt)
+        out[top] = info.max
+        return out
     return a.astype(dt)
 
 
@@ -226,7 +233,7 @@ def _check_buffers(prim: Usd.Prim, pm: ProgressiveMesh) -> None:
 
     where = _where(prim)
     try:
-        errors = validate_bytes(encode_bytes(pm)).errors
+        errors = validate_bytes(encode_bytes(_storable(pm))).errors
     except (SwpmError, ValueError, TypeError, IndexError, OverflowError) as e:
         raise UsdReadError(f"{where}: the stored arrays do not form a valid {pm.encoding} mesh: {e}") from e
     if errors:
@@ -235,3 +242,26 @@ def _check_buffers(prim: Usd.Prim, pm: ProgressiveMesh) -> None:
             f"{where}: the stored arrays fail the format's checks ({len(errors)} problem(s)); "
             f"first: {first.code}: {first.message}"
         )
+
+
+def _storable(pm: ProgressiveMesh) -> ProgressiveMesh:
+    """``pm``, or a copy whose attributes of a type a ``.swpm`` file cannot hold (bool, int64, uint64: a USD
+    stage can) are float64 of the same shape, for the format's checks (which look at the buffers, and at
+    attributes only for their shape)."""
+    from ..format.layout import ELEM_CODES
+
+    attrs = dict(pm.attributes)
+    odd = [n for n, a in attrs.items() if np.dtype(a.dtype).newbyteorder("<").str not in ELEM_CODES]
+    if not odd:
+        return pm
+    attrs.update({n: np.asarray(attrs[n], np.float64) for n in odd})
+    return from_buffers(
+        pm.encoding,
+        pm.points,
+        attrs,
+        pm.vertex_counts,
+        pm.triangle_counts,
+        pm.lod_errors,
+        pm.buffers(),
+        pm.params,
+    )

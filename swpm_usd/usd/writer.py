@@ -17,6 +17,7 @@ import json
 import math
 import numbers
 import os
+import secrets
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -26,6 +27,7 @@ from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, Vt
 
 from ..encode.base import ProgressiveMesh
 from ..errors import SwpmError
+from ..fileio import set_mode_for
 from . import plugin
 from .arrays import to_vt
 from .schema import COLLAPSE_FLAT, COLLAPSE_PREFIX, FORMAT_VERSION, SCHEMA_NAME, attr_name, camel
@@ -346,7 +348,7 @@ def write_usdlod(
     Needs usd-core >= 26.8 (UsdLod).
     """
     try:
-        from pxr import UsdLod
+        from pxr import UsdLod  # noqa: F401 - (the check: _author_usdlod uses it)
     except ImportError as e:  # pragma: no cover - older usd-core
         raise UsdWriteError("UsdLod needs usd-core >= 26.8; use the LOD variant set instead") from e
     pixel_error = _positive("pixel_error", pixel_error)
@@ -370,17 +372,54 @@ def write_usdlod(
     discrete = np.asarray(mesh_prim.GetAttribute("swpm:discreteLods").Get(), np.int64)
     errors = np.asarray(mesh_prim.GetAttribute("swpm:lodErrors").Get(), np.float64)[discrete]
     extent = np.asarray(UsdGeom.Mesh(mesh_prim).GetExtentAttr().Get(), np.float64).reshape(2, 3)
-    center = extent.mean(axis=0)
-    radius = 0.5 * float(np.linalg.norm(extent[1] - extent[0]))
 
     p = _resolve_path(path, fmt).resolve()
-    p.parent.mkdir(parents=True, exist_ok=True)
-    # a real (not anonymous) layer, so the relative reference to the asset resolves while authoring
-    layer = Sdf.Layer.Find(str(p))
-    if layer is not None:
-        layer.Clear()
-    else:
-        layer = Sdf.Layer.CreateNew(str(p), args=_layer_args(p, fmt))
+    # a real (not anonymous) layer, so the relative reference to the asset resolves while authoring, under a
+    # temporary name beside the output (the reference resolves the same), saved and renamed into place: a
+    # failure leaves the previous file (and a layer of it open in this process) as it was (Sdf.Layer.CreateNew
+    # writes an empty layer at once)
+    tmp = p.with_name(f".{p.stem}.{secrets.token_hex(4)}.tmp{p.suffix}")
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        layer = Sdf.Layer.CreateNew(str(tmp), args=_layer_args(p, fmt))
+        _author_usdlod(
+            layer, src, default, asset, p, discrete, errors, extent, pixel_error, viewport_px, fov_degrees
+        )
+        if not layer.Save():
+            raise UsdWriteError(f"could not write {p}")
+        set_mode_for(tmp, p)  # (a replaced layer keeps its mode)
+        os.replace(tmp, p)
+    except (OSError, Tf.ErrorException) as e:
+        from ..io.usd_loader import _tf_message
+
+        tmp.unlink(missing_ok=True)
+        why = e.strerror or str(e) if isinstance(e, OSError) else _tf_message(e)
+        raise UsdWriteError(f"{p}: could not write: {why.replace(str(tmp), str(p))}") from e
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    reload_if_open(p)
+    return p
+
+
+def _author_usdlod(
+    layer: Sdf.Layer,
+    src: Usd.Stage,
+    default: Usd.Prim,
+    asset: Path,
+    p: Path,
+    discrete: np.ndarray,
+    errors: np.ndarray,
+    extent: np.ndarray,
+    pixel_error: float,
+    viewport_px: float,
+    fov_degrees: float,
+) -> None:
+    """Fill the new, empty ``layer`` (to be renamed to ``p``) with :func:`write_usdlod`'s prims."""
+    from pxr import UsdLod
+
+    center = extent.mean(axis=0)
+    radius = 0.5 * float(np.linalg.norm(extent[1] - extent[0]))
     stage = Usd.Stage.Open(layer)
     UsdGeom.SetStageUpAxis(stage, UsdGeom.GetStageUpAxis(src))
     UsdGeom.SetStageMetersPerUnit(stage, UsdGeom.GetStageMetersPerUnit(src))
@@ -412,6 +451,3 @@ def write_usdlod(
     api = UsdLod.RootAPI.Apply(lod_root.GetPrim())
     api.CreateLodDefaultIndexAttr().Set(0)
     api.CreateLodHeuristicsRel().SetTargets([dh.GetPath(), sh.GetPath()])
-    if not layer.Save():
-        raise UsdWriteError(f"could not write {p}")
-    return p
