@@ -1663,11 +1663,14 @@ def test_the_run_never_overwrites_its_own_inputs(tmp_path):
     (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
     with pytest.raises(ConfigError, match=r"the run report would overwrite report.html \(the configuration"):
         run(cfg2, echo=lambda m: None)
-    # (of a mesh type: a glob's files of other types are not assets, so not inputs)
+    # (of a mesh type: a glob's files of other types are not assets, so not inputs; output.dir "." holding
+    # the config: a glob's files below another output.dir are never assets)
     (tmp_path / "m" / ".b.tmp.usda").write_text("#usda 1.0\n")
-    cfg.write_text("version: 1\nassets: [{glob: 'm/*.*'}]\noutput: {dir: m}\n")
+    cfg3 = tmp_path / "m" / "c.yaml"
+    cfg3.write_text("version: 1\nassets: [{glob: '*.*'}]\noutput: {dir: .}\n")
     with pytest.raises(ConfigError, match="named like a temporary file"):
-        run(cfg, echo=lambda m: None)
+        run(cfg3, echo=lambda m: None)
+    cfg3.unlink()
     # apart from the inputs, the same config runs
     cfg.write_text(
         "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
@@ -2725,3 +2728,42 @@ def test_defaults_params_without_an_encoding_are_checked_as_sliding_windows(tmp_
     ]
     cfg.write_text(head + "defaults: {params: {mu: 0.5, cache_size: 8}}\n")
     assert run(cfg).built == 1
+
+
+def test_a_glob_reaching_into_output_dir_never_takes_the_run_s_outputs(tmp_path):
+    # `glob: "**/*"` with output.dir below the config passed its first run, and the second took its own
+    # outputs (out/a.usdc, out/scene.usda) as assets: exit 2, "out/a.usdc and m/a.obj would both write a.swpm"
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: '**/*'}]\noutput: {dir: out, usd: true, scene: true}\n"
+        "defaults: {encoding: vanilla}\n"
+    )
+    assert run(cfg, echo=lambda m: None).built == 1
+    assert (tmp_path / "out" / "a.usdc").is_file() and (tmp_path / "out" / "scene.usda").is_file()
+    for _ in range(2):
+        result = CliRunner().invoke(main, ["run", str(cfg), "--json"])
+        assert result.exit_code == 0, result.output
+        summary = json.loads(result.stdout)
+        assert (summary["built"], summary["skipped"], summary["failed"]) == (0, 1, 0)
+    assert set(json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]) == {"m/a.obj"}
+    # output.dir "." holds the inputs too: the outputs the manifest records are left out there
+    (tmp_path / "flat").mkdir()
+    (tmp_path / "flat" / "b.obj").write_text(TWO_TRIANGLES)
+    flat = tmp_path / "flat" / "c.yaml"
+    flat.write_text(
+        "version: 1\nassets: [{glob: '*'}]\noutput: {dir: '.', usd: true, scene: true}\n"
+        "defaults: {encoding: vanilla}\n"
+    )
+    assert run(flat, echo=lambda m: None).built == 1 and (tmp_path / "flat" / "b.usdc").is_file()
+    res = run(flat, echo=lambda m: None)
+    assert (res.built, res.skipped, res.failed) == (0, 1, 0) and set(res.records) == {"b.obj"}
+    # a glob that matches nothing but the outputs is an error naming the glob and output.dir
+    cfg.write_text("version: 1\nassets: [{glob: 'out/*'}]\noutput: {dir: out}\n")
+    with pytest.raises(ConfigError) as exc:
+        run(cfg, echo=lambda m: None)
+    assert exc.value.problems[0].endswith(
+        ":2:17: $.assets[0].glob: the glob matches only files in output.dir (out), which are never assets: "
+        "the run writes there"
+    )

@@ -13,6 +13,7 @@ import hashlib
 import json
 import os
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -191,15 +192,54 @@ def _first_match(
     return False
 
 
-def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]]:
+def output_dir(cfg: Config) -> Path:
+    """The config's ``output.dir``, as a path (relative to the config's folder)."""
+    return cfg.base / cfg.data["output"]["dir"]
+
+
+def _under(path: Path, folder: Path) -> bool:
+    """Is ``path`` in ``folder`` or below it (its folder resolved: a link to a file elsewhere that sits in
+    ``folder`` is in it; ``folder`` a link itself is the folder it names)?"""
+    try:
+        return Path(os.path.realpath(path.parent)).is_relative_to(os.path.realpath(folder))
+    except (OSError, ValueError):
+        return False
+
+
+def _shown(cfg: Config, path: Path) -> str:
+    """``path`` relative to the config's folder when it is under it, else as it is."""
+    try:
+        return path.relative_to(cfg.base).as_posix()
+    except ValueError:
+        return str(path)
+
+
+def _is_output(path: Path, out_dir: Path, holds_config: bool, recorded: set[str]) -> bool:
+    """Is ``path``, a file a glob matched, the run's and not an input: in ``out_dir`` or below it, or, when
+    ``out_dir`` holds the config (output.dir ``.``: the inputs are there too), one of the ``recorded``
+    outputs (real paths) in it."""
+    if not holds_config:
+        return _under(path, out_dir)
+    return _under(path, out_dir) and os.path.realpath(path) in recorded
+
+
+def discover(
+    cfg: Config, recorded_outputs: Iterable[Path] = ()
+) -> tuple[list[Asset], dict[str, list[Path]], list[str]]:
     """Every asset of the config, the files each depends on, and semantic problems (located). A file (or a
-    stage's prim) matched by several entries of ``assets`` is one asset, found by the first of them."""
+    stage's prim) matched by several entries of ``assets`` is one asset, found by the first of them. A
+    glob never matches a file in ``output.dir`` (or below it): the run's outputs are not its inputs. When
+    ``output.dir`` holds the config (``.``, where the inputs are too), it never matches one of the
+    ``recorded_outputs`` (those the manifest lists) instead."""
     from ..io import SUPPORTED_SUFFIXES  # (here: the CLI's --help and config checks import no mesh code)
 
     assets: list[Asset] = []
     inputs: dict[str, list[Path]] = {}
     problems: list[str] = []
     matched: dict[tuple, tuple[int, int]] = {}
+    out_dir = output_dir(cfg)
+    holds_config = _under(cfg.path, out_dir)  # (output.dir ".": the inputs are there too)
+    recorded_outputs = {os.path.realpath(p) for p in recorded_outputs}
     for i, src in enumerate(cfg.data["assets"]):
         if "glob" in src:
             where = cfg.where(("assets", i, "glob"))
@@ -219,9 +259,18 @@ def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]
             except (ValueError, NotImplementedError, OSError) as exc:
                 problems.append(f"{where}: unusable glob: {exc}")
                 continue
+            # the run's own outputs are never assets: a glob reaching into output.dir (``**/*``) would take
+            # them as inputs on the next run (its .usdc layers, scene.usda), which then overwrite themselves
+            outputs = [p for p in files if _is_output(p, out_dir, holds_config, recorded_outputs)]
+            files = [p for p in files if not _is_output(p, out_dir, holds_config, recorded_outputs)]
             # a glob's assets are its mesh files: not the config, textures, .mtl or notes it also matches
             found = [p for p in files if p.suffix.lower() in SUPPORTED_SUFFIXES]
-            if not files:
+            if not files and outputs:
+                problems.append(
+                    f"{where}: the glob matches only files in output.dir ({_shown(cfg, out_dir)}), which are "
+                    "never assets: the run writes there"
+                )
+            elif not files:
                 problems.append(f"{where}: the glob matches no file")
             elif not found:
                 others = [p.relative_to(cfg.base).as_posix() for p in files]

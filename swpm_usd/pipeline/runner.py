@@ -119,6 +119,24 @@ class RunResult:
     built_ids: list[str] = field(default_factory=list)
 
 
+def _recorded_output_paths(out_dir: Path, manifest: dict) -> list[Path]:
+    """The files in ``out_dir`` that ``manifest`` records as the run's outputs (its assets', those left by
+    removed assets, scene.usda and report.html), which no glob takes as assets (:func:`.assets.discover`);
+    a hand-edited entry that is not a file name is left out."""
+    records = manifest.get("assets") if isinstance(manifest.get("assets"), dict) else {}
+    found = [
+        o
+        for rec in records.values()
+        if isinstance(rec, dict) and isinstance(rec.get("outputs"), dict)
+        for o in rec["outputs"].values()
+    ]
+    for key in (ORPHANED, RUN_OUTPUTS):
+        value = manifest.get(key)
+        found += value if isinstance(value, list) else list(value.values()) if isinstance(value, dict) else []
+    names = {o.get("path") for o in found if isinstance(o, dict)}
+    return [out_dir / n for n in names if isinstance(n, str) and n and "\0" not in n and "/" not in n]
+
+
 def _read_manifest(path: Path) -> dict:
     try:
         data = json.loads(path.read_text())
@@ -225,8 +243,8 @@ def plan(
     recorded, or else their sha256 (:func:`_checked_output`). ``verify`` hashes every input and output. A
     manifest record that is not one the run writes (:func:`.records.record_problem`: hand-edited) is
     ignored, as if the asset had none, and named in a warning."""
-    assets, inputs, problems = discover(cfg)
     out_dir = cfg.base / cfg.data["output"]["dir"]
+    assets, inputs, problems = discover(cfg, _recorded_output_paths(out_dir, manifest))
     problems.extend(_unusable_out_dir(cfg, out_dir))
     problems.extend(_overwritten_inputs(cfg, out_dir, assets, inputs))
     known = manifest.get("assets", {})
