@@ -106,9 +106,9 @@ rules:
     with pytest.raises(ConfigError) as exc:
         load_config(cfg)
     problems = exc.value.problems
-    assert any(p.startswith("pipeline.yaml:6:3: $.output.colour:") for p in problems)
-    assert any(p.startswith("pipeline.yaml:10:14: $.rules[0].params.mu:") for p in problems)
-    assert any(p.startswith("pipeline.yaml:12:15: $.rules[1].encoding:") for p in problems)
+    assert any(p.startswith(f"{cfg}:6:3: $.output.colour:") for p in problems)
+    assert any(p.startswith(f"{cfg}:10:14: $.rules[0].params.mu:") for p in problems)
+    assert any(p.startswith(f"{cfg}:12:15: $.rules[1].encoding:") for p in problems)
     result = CliRunner().invoke(main, ["run", str(cfg)])
     assert result.exit_code == 2
     assert "$.output.colour" in result.output and "$.rules[1].encoding" in result.output
@@ -128,8 +128,8 @@ def test_params_out_of_build_bounds_fail_at_their_config_line(tmp_path):
         load_config(cfg)
     problems = exc.value.problems
     assert problems == [
-        "pipeline.yaml:12:26: $.rules[1].params.cache_size: 100000 is greater than the maximum of 1024",
-        "pipeline.yaml:15:27: $.rules[2].params.seam_weight: -1.0 is less than the minimum of 0",
+        f"{cfg}:12:26: $.rules[1].params.cache_size: 100000 is greater than the maximum of 1024",
+        f"{cfg}:15:27: $.rules[2].params.seam_weight: -1.0 is less than the minimum of 0",
     ]
 
 
@@ -426,8 +426,8 @@ rules:
         load_config(cfg)
     problems = exc.value.problems
     assert problems == [
-        "pipeline.yaml:9:22: $.rules[0].params.select: 'fastest' is not one of ['acmr', 'misses-at-error']",
-        "pipeline.yaml:12:14: $.rules[1].params.mu: unknown key (not a parameter of this rule's encoding)",
+        f"{cfg}:9:22: $.rules[0].params.select: 'fastest' is not one of ['acmr', 'misses-at-error']",
+        f"{cfg}:12:14: $.rules[1].params.mu: unknown key (not a parameter of this rule's encoding)",
     ]
 
 
@@ -2271,12 +2271,16 @@ def test_a_racily_clean_input_is_hashed_again(tmp_path, monkeypatch):
 
 def _config_problems(cfg, text: str, stderr_lists_them: bool = False) -> list[str]:
     """``text`` written to ``cfg``: a dry run exits 2 without a traceback, and the problems
-    ``load_config`` raises (``stderr_lists_them``: the run printed exactly those lines on stderr)."""
+    ``load_config`` raises (``stderr_lists_them``: the run printed exactly those lines on stderr), both
+    given the config's name from its folder (so the problems name it alone, as given)."""
+    import contextlib
+
     cfg.write_text(text)
-    result = CliRunner().invoke(main, ["run", str(cfg), "--dry-run"])
-    assert result.exit_code == 2 and "Traceback" not in result.output, result.output
-    with pytest.raises(ConfigError) as exc:
-        load_config(cfg)
+    with contextlib.chdir(cfg.parent):
+        result = CliRunner().invoke(main, ["run", cfg.name, "--dry-run"])
+        assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+        with pytest.raises(ConfigError) as exc:
+            load_config(cfg.name)
     if stderr_lists_them:
         assert result.stderr.splitlines() == exc.value.problems
     return exc.value.problems
@@ -2329,7 +2333,7 @@ def test_an_unquoted_key_yaml_reads_as_no_string_is_named_with_the_quotes_it_nee
         with pytest.raises(ConfigError) as exc:
             load_config(cfg)
         assert exc.value.problems == [
-            f"c.yaml:7:19: $.rules[0].match.tag.{key}: key {key} is read by YAML as {read}, not a string; "
+            f"{cfg}:7:19: $.rules[0].match.tag.{key}: key {key} is read by YAML as {read}, not a string; "
             f'{hint} "{key}"'
         ]
     # quoted, it is the key written; a date is read back as the text written, a key of the schema's as before
@@ -2767,3 +2771,35 @@ def test_a_glob_reaching_into_output_dir_never_takes_the_run_s_outputs(tmp_path)
         ":2:17: $.assets[0].glob: the glob matches only files in output.dir (out), which are never assets: "
         "the run writes there"
     )
+
+
+def test_config_problems_name_the_config_as_given(tmp_path, monkeypatch):
+    # they named the file alone ("pipeline.yaml:4:11: ..."): from another folder, or with several configs
+    # of one name, an editor could not find it
+    (tmp_path / "proj" / "m").mkdir(parents=True)
+    (tmp_path / "proj" / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "proj" / "pipeline.yaml"
+    cfg.write_text("version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out, colour: red}\n")
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(main, ["run", "proj/pipeline.yaml"])
+    assert result.exit_code == 2
+    assert result.stderr.splitlines() == ["proj/pipeline.yaml:3:20: $.output.colour: unknown key"]
+    with pytest.raises(ConfigError) as exc:  # (an absolute path as given: it)
+        load_config(cfg)
+    assert exc.value.problems == [f"{cfg}:3:20: $.output.colour: unknown key"]
+    # the run's own checks, unreadable files and YAML errors too; problems sorted by line, colons or not
+    cfg.write_text("version: 1\nassets: [{glob: 'nothing/*.obj'}]\noutput: {dir: out}\n")
+    result = CliRunner().invoke(main, ["run", "proj/pipeline.yaml", "--dry-run"])
+    assert result.stderr.splitlines() == [
+        "proj/pipeline.yaml:2:17: $.assets[0].glob: the glob matches no file"
+    ]
+    cfg.write_text("version: 1\nassets: [\n")
+    with pytest.raises(ConfigError, match=r"^proj/pipeline.yaml:3:1: \$: invalid YAML"):
+        load_config("proj/pipeline.yaml")
+    odd = tmp_path / "a:1:2: b.yaml"
+    odd.write_text("version: 2\noutput: {dir: out, colour: red}\nassets: []\n")
+    with pytest.raises(ConfigError) as exc:
+        load_config(odd)
+    assert [p.removeprefix(f"{odd}:")[:4] for p in exc.value.problems] == ["1:10", "2:20", "3:9:"]
+    with pytest.raises(ConfigError, match=r"^missing.yaml:1:1: \$: cannot read the file"):
+        load_config("missing.yaml")
