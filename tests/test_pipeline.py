@@ -156,7 +156,7 @@ rules:
     messages = []
     res = run(cfg, dry_run=True, echo=messages.append)
     assert res.built == 0 and not (tmp_path / "out").exists()
-    assert any("rule 'never' matches no asset" in m for m in messages)
+    assert any("rule 'never' is shadowed by rule 'everything'" in m for m in messages)
     assert any(m.startswith("meshes/cow.obj: vanilla") and "rule 'everything' matched" in m for m in messages)
 
 
@@ -2803,3 +2803,37 @@ def test_config_problems_name_the_config_as_given(tmp_path, monkeypatch):
     assert [p.removeprefix(f"{odd}:")[:4] for p in exc.value.problems] == ["1:10", "2:20", "3:9:"]
     with pytest.raises(ConfigError, match=r"^missing.yaml:1:1: \$: cannot read the file"):
         load_config("missing.yaml")
+
+
+def test_a_rule_shadowed_by_earlier_rules_is_named_so(tmp_path):
+    # a rule whose every asset an earlier rule takes was reported as "matches no asset", which sent the user
+    # looking at its match conditions instead of the rule order
+    (tmp_path / "m").mkdir()
+    for name in ("a", "b"):
+        (tmp_path / "m" / f"{name}.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\nrules:\n"
+        "  - {name: first, match: {path: 'm/a.*', triangles: {max: 100}}, encoding: vanilla}\n"
+        "  - {name: second, match: {path: 'm/b.*'}, encoding: mixed}\n"
+        "  - {name: a-again, match: {path: 'm/a.obj'}, encoding: skip-strip}\n"
+        "  - {name: huge, match: {triangles: {min: 1000000}}, encoding: vanilla}\n"
+        "  - {name: rest, encoding: vanilla}\n"
+    )
+    expected = [
+        f"{cfg}:7:5: $.rules[2]: rule 'a-again' is shadowed by rule 'first': every asset it matches is taken "
+        "by an earlier rule",
+        f"{cfg}:8:5: $.rules[3]: rule 'huge' matches no asset",
+        f"{cfg}:9:5: $.rules[4]: rule 'rest' is shadowed by rules 'first' and 'second': every asset it "
+        "matches is taken by an earlier rule",
+    ]
+    # planned (the triangles counted by the plan) and run (the worker matches the rules on triangles)
+    messages: list[str] = []
+    assert run(cfg, dry_run=True, echo=messages.append).warnings == expected
+    assert [m for m in messages if m.startswith("warning:")] == [f"warning: {w}" for w in expected]
+    result = CliRunner().invoke(main, ["run", str(cfg)])
+    assert result.exit_code == 0, result.output
+    assert [line for line in result.output.splitlines() if line.startswith("warning:")] == [
+        f"warning: {w}" for w in expected
+    ]
+    assert run(cfg, echo=lambda m: None).warnings == expected  # (up to date: from the manifest's counts)

@@ -409,21 +409,28 @@ def treatment_digest(
     return hashlib.sha256(payload.encode()).hexdigest()
 
 
+def rule_checks(rule: dict[str, Any], asset: Asset, triangles: int) -> list[tuple[str, bool]]:
+    """Each of ``rule``'s match conditions, named, and whether ``asset`` (of ``triangles``) meets it: the
+    rule matches the asset when it meets them all (a rule without ``match`` matches every asset)."""
+    m = rule.get("match") or {}
+    checks = []
+    if "path" in m:
+        checks.append(("path", fnmatch.fnmatch(asset.id.split(":")[0], m["path"])))
+    if "prim" in m:
+        checks.append(("prim", asset.prim is not None and fnmatch.fnmatch(asset.prim, m["prim"])))
+    if "triangles" in m:
+        checks.append((f"triangles={triangles}", _in_range(triangles, m["triangles"])))
+    if "instances" in m:
+        checks.append((f"instances={asset.instances}", _in_range(asset.instances, m["instances"])))
+    if "tag" in m:
+        checks.append(("tag", all(asset.tags.get(k) == v for k, v in m["tag"].items())))
+    return checks
+
+
 def match_rule(cfg: Config, asset: Asset, triangles: int) -> tuple[int | None, dict[str, Any], str]:
     """(rule index or None for defaults, {'encoding', 'params'}, why) for an asset."""
     for i, rule in enumerate(cfg.data.get("rules", [])):
-        m = rule.get("match") or {}
-        checks = []
-        if "path" in m:
-            checks.append(("path", fnmatch.fnmatch(asset.id.split(":")[0], m["path"])))
-        if "prim" in m:
-            checks.append(("prim", asset.prim is not None and fnmatch.fnmatch(asset.prim, m["prim"])))
-        if "triangles" in m:
-            checks.append((f"triangles={triangles}", _in_range(triangles, m["triangles"])))
-        if "instances" in m:
-            checks.append((f"instances={asset.instances}", _in_range(asset.instances, m["instances"])))
-        if "tag" in m:
-            checks.append(("tag", all(asset.tags.get(k) == v for k, v in m["tag"].items())))
+        checks = rule_checks(rule, asset, triangles)
         if all(ok for _, ok in checks):
             why = f"rule {rule['name']!r} matched" + (
                 f" ({', '.join(name for name, _ in checks)})" if checks else " (no match conditions)"

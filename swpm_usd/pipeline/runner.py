@@ -38,7 +38,16 @@ from typing import Any
 
 from .. import __version__
 from ..errors import OutputLockedError
-from .assets import Asset, checks_no_stricter, checks_of, discover, hash_inputs, match_rule, treatment_digest
+from .assets import (
+    Asset,
+    checks_no_stricter,
+    checks_of,
+    discover,
+    hash_inputs,
+    match_rule,
+    rule_checks,
+    treatment_digest,
+)
 from .config import Config, ConfigError, load_config
 from .records import INPUT_STAT_KEYS, record_problem, recorded_inputs
 from .worker import (
@@ -557,12 +566,33 @@ def _rel(cfg: Config, path: Path) -> str:
 
 
 def _unreached_rules(cfg: Config, items: list[PlanItem]) -> list[str]:
+    """A warning for each rule no asset took: one shadowed by earlier rules (every asset it matches is
+    taken first by one of them, named) or one that matches no asset at all."""
     reached = {i.rule for i in items}
-    return [
-        f"{cfg.where(('rules', idx))}: rule {rule['name']!r} matches no asset"
-        for idx, rule in enumerate(cfg.data.get("rules", []))
-        if idx not in reached
-    ]
+    rules = cfg.data.get("rules", [])
+    warnings = []
+    for idx, rule in enumerate(rules):
+        if idx in reached:
+            continue
+        # (an asset whose rule is unknown, one that failed before the worker matched it, is left out)
+        takers = sorted(
+            {
+                it.rule
+                for it in items
+                if it.rule is not None and all(ok for _, ok in rule_checks(rule, it.asset, it.triangles or 0))
+            }
+        )
+        if takers:
+            by = ("rules " if len(takers) > 1 else "rule ") + " and ".join(
+                repr(rules[i]["name"]) for i in takers
+            )
+            warnings.append(
+                f"{cfg.where(('rules', idx))}: rule {rule['name']!r} is shadowed by {by}: every asset it "
+                "matches is taken by an earlier rule"
+            )
+        else:
+            warnings.append(f"{cfg.where(('rules', idx))}: rule {rule['name']!r} matches no asset")
+    return warnings
 
 
 def _wants_outputs(cfg: Config) -> bool:
@@ -1029,6 +1059,7 @@ def _run(
             it = by_id[rec["id"]]
             if it.rule_pending:
                 it.rule = rec.pop("rule_index", None)
+                it.triangles = rec.get("triangles_in")  # (known now: a shadowed rule is found by them)
             # (the stat of each input as it was hashed to this digest, never a later one: an input changed
             # since, which the worker may have built from, has another stat, and the next run hashes it)
             rec["input_digest"], rec["inputs"] = it.input_digest, it.input_stats
