@@ -2837,3 +2837,34 @@ def test_a_rule_shadowed_by_earlier_rules_is_named_so(tmp_path):
         f"warning: {w}" for w in expected
     ]
     assert run(cfg, echo=lambda m: None).warnings == expected  # (up to date: from the manifest's counts)
+
+
+def test_jobs_has_an_upper_bound(tmp_path, monkeypatch):
+    # `--jobs 100000` was taken: a worker process per asset, up to the asset count, started at once
+    from swpm_usd import cli
+
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    for jobs in ("100000", str(cli.MAX_JOBS + 1)):
+        result = CliRunner().invoke(main, ["run", str(cfg), "--jobs", jobs])
+        assert result.exit_code == 2 and "--jobs" in result.output and "1<=x<=256" in result.output
+        assert not (tmp_path / "out").exists()
+    assert "1<=x<=256" in CliRunner().invoke(main, ["run", "--help"]).output
+    # the bound itself is taken, and no more workers start than there are assets to build
+    import concurrent.futures
+
+    started = []
+
+    class Pool(concurrent.futures.ProcessPoolExecutor):
+        def __init__(self, max_workers=None, **kwargs):
+            started.append(max_workers)
+            super().__init__(max_workers=max_workers, **kwargs)
+
+    monkeypatch.setattr(concurrent.futures, "ProcessPoolExecutor", Pool)
+    result = CliRunner().invoke(main, ["run", str(cfg), "--jobs", str(cli.MAX_JOBS)])
+    assert result.exit_code == 0, result.output
+    assert started == [1]

@@ -650,7 +650,8 @@ def execute(
         if scheduler:
             client = Client(scheduler)
         else:
-            cluster = LocalCluster(n_workers=max(1, jobs), threads_per_worker=1, processes=True)
+            workers = max(1, min(jobs, len(tasks)))  # (no worker with nothing to do)
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True)
             client = Client(cluster)
         try:
             futures = client.map(process_asset, tasks, pure=False)
@@ -686,7 +687,9 @@ def execute(
 
             forkserver.ensure_running()
         _forkserver_ready(ctx)
-    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=ignore_interrupts)
+    pool = ProcessPoolExecutor(
+        max_workers=min(jobs, len(tasks)), mp_context=ctx, initializer=ignore_interrupts
+    )  # (no worker with nothing to do)
     try:
         # a Ctrl-C while the workers start (waiting for the server to warm up) is raised once they have all
         # started: one interrupted half-way would leave a worker the pool does not know, to fail on its own
