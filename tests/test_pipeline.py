@@ -2868,3 +2868,59 @@ def test_jobs_has_an_upper_bound(tmp_path, monkeypatch):
     result = CliRunner().invoke(main, ["run", str(cfg), "--jobs", str(cli.MAX_JOBS)])
     assert result.exit_code == 0, result.output
     assert started == [1]
+
+
+def _glb_with_external_buffer(mesh, path: Path, bin_name: str) -> None:
+    """``mesh`` (a trimesh) as a .glb whose one buffer is the file ``bin_name`` beside it, no binary chunk."""
+    import struct
+
+    import trimesh
+
+    data = trimesh.Scene(mesh).export(file_type="glb")
+    magic, version, _ = struct.unpack_from("<4sII", data, 0)
+    json_length, json_type = struct.unpack_from("<II", data, 12)
+    doc = json.loads(data[20 : 20 + json_length])
+    bin_length = struct.unpack_from("<I", data, 20 + json_length)[0]
+    used = doc["buffers"][0]["byteLength"]
+    (path.parent / bin_name).write_bytes(data[28 + json_length : 28 + json_length + bin_length][:used])
+    doc["buffers"] = [{"uri": bin_name, "byteLength": used}]
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    path.write_bytes(struct.pack("<4sIIII", magic, version, 20 + len(text), len(text), json_type) + text)
+
+
+def test_a_glb_s_external_buffer_files_are_its_inputs(tmp_path, monkeypatch):
+    # a .glb may keep its buffers in files beside it (a `uri` in its JSON chunk), which the loader reads as
+    # it does a .gltf's: they were no input of the asset, so an edited .bin left the stale build "up to date"
+    import trimesh
+
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m").mkdir()
+    spot = swpm_usd.load_mesh(SHARED_MESHES / "spot.obj")
+    mesh = trimesh.Trimesh(spot.points, spot.triangles, process=False)
+    glb, data = tmp_path / "m" / "spot.glb", tmp_path / "m" / "spot-data.bin"
+    _glb_with_external_buffer(mesh, glb, data.name)
+    points = swpm_usd.load_mesh(glb).points
+    assert len(points) > 0
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: m/*.glb}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    assert run(cfg, echo=lambda m: None).built == 1
+    (entries,) = _recorded_inputs(tmp_path / "out").values()
+    assert [Path(e["path"]) for e in entries] == [glb, data]
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    # the buffer of the mesh scaled by 2 (the same name and size), the .glb left as it is
+    _glb_with_external_buffer(mesh.copy().apply_scale(2.0), tmp_path / "scaled.glb", data.name)
+    assert (tmp_path / data.name).stat().st_size == data.stat().st_size
+    os.replace(tmp_path / data.name, data)
+    assert np.allclose(swpm_usd.load_mesh(glb).points, 2 * points)
+    assert run(cfg, echo=lambda m: None).built == 1
+    # a .glb with its own binary chunk has no other input; one whose header is not a .glb's, none either
+    trimesh.Scene(mesh).export(tmp_path / "m" / "whole.glb")
+    (tmp_path / "m" / "broken.glb").write_bytes(b"glTF" + b"\xff" * 40)
+    from swpm_usd.pipeline.assets import _gltf_buffers
+
+    assert _gltf_buffers(tmp_path / "m" / "whole.glb") == _gltf_buffers(tmp_path / "m" / "broken.glb") == []

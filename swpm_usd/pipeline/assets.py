@@ -12,6 +12,7 @@ import fnmatch
 import hashlib
 import json
 import os
+import struct
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -63,16 +64,41 @@ def hash_inputs(paths: list[Path]) -> tuple[str, list[dict[str, Any]]]:
     return h.hexdigest(), entries
 
 
-def _gltf_buffers(path: Path) -> list[Path]:
-    """The files beside a ``.gltf`` that hold its vertices and triangles: those its ``buffers`` name by a
-    ``uri`` (not a base64 ``data:`` one), which the loader (trimesh) reads, in its folder, by the name as
-    written, without a leading ``/``, or by its last part: every one of those found, so a change to any
-    is a change to the asset; none for another file, or a .gltf that is not JSON (its load fails)."""
-    if path.suffix.lower() != ".gltf":
-        return []
+#: a .glb's header (magic, version, length) and its first chunk's (length, type): its JSON
+_GLB_HEADER = struct.Struct("<4sIIII")
+_GLB_JSON = 0x4E4F534A
+
+
+def _gltf_document(path: Path) -> Any:
+    """The JSON document of a ``.gltf``, or the JSON chunk of a ``.glb`` (its header and that chunk read
+    alone, not its binary chunk); None for another file, or one that is neither (its load fails)."""
+    suffix = path.suffix.lower()
     try:
-        buffers = json.loads(path.read_bytes()).get("buffers") or []
-    except (OSError, ValueError, AttributeError, RecursionError):
+        if suffix == ".gltf":
+            return json.loads(path.read_bytes())
+        if suffix != ".glb":
+            return None
+        with open(path, "rb") as f:
+            head = f.read(_GLB_HEADER.size)
+            if len(head) < _GLB_HEADER.size:
+                return None
+            magic, _, length, chunk_length, chunk_type = _GLB_HEADER.unpack(head)
+            if magic != b"glTF" or chunk_type != _GLB_JSON or chunk_length > length:
+                return None
+            return json.loads(f.read(chunk_length))
+    except (OSError, ValueError, RecursionError):
+        return None
+
+
+def _gltf_buffers(path: Path) -> list[Path]:
+    """The files beside a ``.gltf`` or ``.glb`` that hold its vertices and triangles: those its ``buffers``
+    name by a ``uri`` (not a base64 ``data:`` one; a .glb's own binary chunk is the buffer without one),
+    which the loader (trimesh) reads, in its folder, by the name as written, without a leading ``/``, or by
+    its last part: every one of those found, so a change to any is a change to the asset; none for another
+    file, or one whose JSON does not read (its load fails)."""
+    doc = _gltf_document(path)
+    buffers = doc.get("buffers") if isinstance(doc, dict) else None
+    if not buffers:
         return []
     found: list[Path] = []
     for b in buffers if isinstance(buffers, list) else []:
