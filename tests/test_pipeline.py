@@ -1872,9 +1872,14 @@ INPUT_KEYS = ("size", *STAT_KEYS, "hashed_ns")
 
 
 def _recorded_inputs(out: Path) -> dict[str, list[dict]]:
-    """Asset id -> its record's ``inputs``."""
+    """Asset id -> its record's ``inputs`` (or the list of the manifest's ``input_lists`` its ``inputs_ref``
+    names: one several records share)."""
     manifest = json.loads((out / "manifest.json").read_text())
-    return {aid: rec.get("inputs") for aid, rec in manifest["assets"].items()}
+    tables = manifest.get("input_lists", {})
+    return {
+        aid: tables[rec["inputs_ref"]] if "inputs_ref" in rec else rec.get("inputs")
+        for aid, rec in manifest["assets"].items()
+    }
 
 
 def _as_hashed(entry: dict, path: Path) -> bool:
@@ -2924,3 +2929,57 @@ def test_a_glb_s_external_buffer_files_are_its_inputs(tmp_path, monkeypatch):
     from swpm_usd.pipeline.assets import _gltf_buffers
 
     assert _gltf_buffers(tmp_path / "m" / "whole.glb") == _gltf_buffers(tmp_path / "m" / "broken.glb") == []
+
+
+def test_a_stage_s_prims_share_one_list_of_its_layers_in_the_manifest(tmp_path, monkeypatch):
+    # each prim's record listed every layer of its stage (10,000 prims of a 50-layer stage: about 75 MB of
+    # manifest): the list is written once, in `input_lists`, and each record names it by `inputs_ref`
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg, layer = _two_layer_stage(tmp_path)
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg.write_text(
+        "version: 1\nassets: [{stage: stage/scene.usda}, {glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+        "defaults: {encoding: vanilla}\n"
+    )
+    assert run(cfg, echo=lambda m: None).built == 3
+    path = tmp_path / "out" / "manifest.json"
+    manifest = json.loads(path.read_text())
+    (key, entries), *more = manifest["input_lists"].items()
+    assert not more and sorted(Path(e["path"]).name for e in entries) == ["scene.usda", "spot_asset.usda"]
+    prims = {aid: rec for aid, rec in manifest["assets"].items() if aid.startswith("stage/")}
+    assert len(prims) == 2 and all(rec["inputs_ref"] == key and "inputs" not in rec for rec in prims.values())
+    # (an input list no other record holds stays in its record)
+    assert [e["path"] for e in manifest["assets"]["m/a.obj"]["inputs"]] == [str(tmp_path / "m" / "a.obj")]
+    assert "inputs_ref" not in manifest["assets"]["m/a.obj"]
+    # read back: a rerun trusts the shared list, reading no input
+    reads = _input_reads(monkeypatch, tmp_path / "stage")
+    assert run(cfg, echo=lambda m: None).skipped == 3 and reads == []
+    # a manifest written before (each record listing them) is read as well, and written compact again
+    for rec in prims.values():
+        rec["inputs"] = entries
+        del rec["inputs_ref"]
+    del manifest["input_lists"]
+    path.write_text(json.dumps(manifest, indent=1))
+    assert run(cfg, echo=lambda m: None).skipped == 3 and reads == []
+    rewritten = json.loads(path.read_text())
+    assert list(rewritten["input_lists"]) == [key]
+    assert rewritten["assets"] == manifest["assets"] | {
+        aid: {**{k: v for k, v in rec.items() if k != "inputs"}, "inputs_ref": key}
+        for aid, rec in prims.items()
+    }
+    # a reference to no list (a hand edit): the layers are hashed, and the prims still up to date
+    text = path.read_text().replace(f'"inputs_ref": "{key}"', '"inputs_ref": "nothing"')
+    path.write_text(text)
+    reads.clear()
+    assert run(cfg, echo=lambda m: None).skipped == 3
+    assert sorted(reads) == ["scene.usda", "spot_asset.usda"]
+    # the stage changed: both prims rebuilt, sharing the new list
+    _same_size_edit(layer, b"points = [(")
+    assert run(cfg, echo=lambda m: None).built == 2
+    recorded = _recorded_inputs(tmp_path / "out")
+    assert recorded["stage/scene.usda:/World/spot/Body"] == recorded["stage/scene.usda:/World/spot/Copy"]
+    assert all(_as_hashed(e, Path(e["path"])) for e in recorded["stage/scene.usda:/World/spot/Body"])
+    assert len(json.loads(path.read_text())["input_lists"]) == 1

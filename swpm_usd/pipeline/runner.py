@@ -146,20 +146,64 @@ def _recorded_output_paths(out_dir: Path, manifest: dict) -> list[Path]:
     return [out_dir / n for n in names if isinstance(n, str) and n and "\0" not in n and "/" not in n]
 
 
+#: the manifest's table of the ``inputs`` lists several records share (the prims of one stage: its layers),
+#: each written once (key: :func:`_inputs_key`), and a record's reference to one in place of its ``inputs``
+#: (10,000 prims of a stage of 50 layers: about 75 MB of manifest, each record listing the 50)
+INPUT_LISTS = "input_lists"
+INPUTS_REF = "inputs_ref"
+
+
+def _inputs_key(entries: list) -> str:
+    """The key of an ``inputs`` list in :data:`INPUT_LISTS`: its content's (one list, one key, in any run)."""
+    import hashlib
+
+    return hashlib.sha256(json.dumps(entries, sort_keys=True).encode()).hexdigest()[:16]
+
+
 def _read_manifest(path: Path) -> dict:
+    """The manifest at ``path``, ``{"assets": {}}`` for none (or not one); each record's :data:`INPUTS_REF`
+    replaced by the list it names (one list object for all the records that share it), and records of
+    older manifests that list the same inputs (a stage's prims) given one list object too."""
     try:
         data = json.loads(path.read_text())
-        return data if isinstance(data, dict) and isinstance(data.get("assets"), dict) else {"assets": {}}
     except (OSError, ValueError):
         return {"assets": {}}
+    if not isinstance(data, dict) or not isinstance(data.get("assets"), dict):
+        return {"assets": {}}
+    tables = data.pop(INPUT_LISTS, None)
+    tables = tables if isinstance(tables, dict) else {}
+    seen: dict[str, list] = {}
+    for rec in data["assets"].values():
+        if not isinstance(rec, dict):
+            continue
+        if INPUTS_REF in rec:
+            ref = rec.pop(INPUTS_REF)
+            entries = tables.get(ref) if isinstance(ref, str) else None
+            if isinstance(entries, list):  # (else none: the inputs are hashed, as for a malformed list)
+                rec["inputs"] = entries
+        elif isinstance(rec.get("inputs"), list) and len(rec["inputs"]) > 1:
+            rec["inputs"] = seen.setdefault(json.dumps(rec["inputs"], sort_keys=True), rec["inputs"])
+    return data
 
 
 class _ManifestText:
     """``json.dumps(manifest, indent=1)`` with every asset record serialised once: a record does not
-    change once recorded, so a rewrite joins cached texts (a 6 MB manifest: 0.6 s serialised in full)."""
+    change once recorded, so a rewrite joins cached texts (a 6 MB manifest: 0.6 s serialised in full).
+
+    An ``inputs`` list that several records hold (the same list object: the prims of one stage, hashed
+    once) is written once, in the :data:`INPUT_LISTS` table after ``assets``, and each of those records
+    names it by its :data:`INPUTS_REF` instead; :func:`_read_manifest` puts it back."""
 
     def __init__(self) -> None:
-        self._records: dict[str, tuple[dict, str]] = {}  # asset id -> (record, its text at depth 2)
+        #: asset id -> (record, its inputs' key or None, its text at depth 2)
+        self._records: dict[str, tuple[dict, str | None, str]] = {}
+        self._keys: dict[int, tuple[list, str, str]] = {}  # id(list) -> (list, key, text at depth 2)
+
+    def _shared(self, entries: list, nested) -> tuple[str, str]:
+        hit = self._keys.get(id(entries))
+        if hit is None or hit[0] is not entries:
+            hit = self._keys[id(entries)] = (entries, _inputs_key(entries), nested(entries, 2))
+        return hit[1], hit[2]
 
     def dumps(self, manifest: dict) -> str:
         def nested(value: Any, depth: int) -> str:
@@ -168,14 +212,32 @@ class _ManifestText:
         fields = []
         for key, value in manifest.items():
             if key == "assets" and isinstance(value, dict) and value:
+                holders: dict[int, int] = {}  # id(inputs list) -> how many records hold it
+                for rec in value.values():
+                    inputs = rec.get("inputs") if isinstance(rec, dict) else None
+                    if isinstance(inputs, list) and inputs:
+                        holders[id(inputs)] = holders.get(id(inputs), 0) + 1
+                tables: dict[str, str] = {}
                 rows = []
                 for aid, rec in value.items():
+                    inputs = rec.get("inputs") if isinstance(rec, dict) else None
+                    ref = None
+                    if isinstance(inputs, list) and holders.get(id(inputs), 0) > 1:
+                        ref, text = self._shared(inputs, nested)
+                        tables[ref] = text
                     hit = self._records.get(aid)
-                    if hit is None or hit[0] is not rec:
-                        hit = (rec, nested(rec, 2))
+                    if hit is None or hit[0] is not rec or hit[1] != ref:
+                        shown = rec
+                        if ref is not None:
+                            shown = {(INPUTS_REF if k == "inputs" else k): v for k, v in rec.items()}
+                            shown[INPUTS_REF] = ref
+                        hit = (rec, ref, nested(shown, 2))
                         self._records[aid] = hit
-                    rows.append(f"  {json.dumps(aid)}: {hit[1]}")
+                    rows.append(f"  {json.dumps(aid)}: {hit[2]}")
                 fields.append(' "assets": {\n' + ",\n".join(rows) + "\n }")
+                if tables:
+                    table_rows = [f"  {json.dumps(k)}: {text}" for k, text in sorted(tables.items())]
+                    fields.append(f" {json.dumps(INPUT_LISTS)}: {{\n" + ",\n".join(table_rows) + "\n }")
             else:
                 fields.append(f" {json.dumps(key)}: {nested(value, 1)}")
         return "{\n" + ",\n".join(fields) + "\n}"
