@@ -1953,8 +1953,8 @@ def test_an_input_gone_after_it_was_listed_fails_its_asset_alone(tmp_path, monke
     assert run(cfg, echo=lambda m: None).built == 2
     listed = runner.discover
 
-    def discover_then_lose_spot(config):
-        found = listed(config)
+    def discover_then_lose_spot(config, *args):
+        found = listed(config, *args)
         spot.rename(tmp_path / "spot.away")
         return found
 
@@ -2983,3 +2983,88 @@ def test_a_stage_s_prims_share_one_list_of_its_layers_in_the_manifest(tmp_path, 
     assert recorded["stage/scene.usda:/World/spot/Body"] == recorded["stage/scene.usda:/World/spot/Copy"]
     assert all(_as_hashed(e, Path(e["path"])) for e in recorded["stage/scene.usda:/World/spot/Body"])
     assert len(json.loads(path.read_text())["input_lists"]) == 1
+
+
+def test_a_rerun_takes_a_gltf_s_or_usd_file_s_inputs_from_its_record_when_they_are_as_recorded(
+    tmp_path, monkeypatch
+):
+    # a no-change rerun read every glob-matched .gltf's JSON and opened every USD file as a stage to list its
+    # inputs (about 4 ms a small .usda): the list its record holds is taken while every file in it is as
+    # recorded (the trust the input digest is taken by), and read again once one is not
+    import trimesh
+    from pxr import Usd, UsdGeom
+
+    from swpm_usd.pipeline import assets, runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m" / "geo").mkdir(parents=True)
+    mesh = trimesh.creation.icosphere(subdivisions=1)
+    for name, data in trimesh.Scene(mesh).export(file_type="gltf").items():
+        (tmp_path / "m" / name).write_bytes(data)
+
+    def geo_layer(name: str, scale: float) -> Path:
+        path = tmp_path / "m" / "geo" / name
+        st = Usd.Stage.CreateInMemory()
+        st.SetDefaultPrim(UsdGeom.Xform.Define(st, "/G").GetPrim())
+        m = UsdGeom.Mesh.Define(st, "/G/Mesh")
+        m.CreatePointsAttr((mesh.vertices * scale).tolist())
+        m.CreateFaceVertexCountsAttr([3] * len(mesh.faces))
+        m.CreateFaceVertexIndicesAttr(mesh.faces.reshape(-1).tolist())
+        st.GetRootLayer().Export(str(path))
+        return path
+
+    geo_layer("a.usda", 1.0)
+    top = tmp_path / "m" / "s.usda"
+    st = Usd.Stage.CreateNew(str(top))
+    st.SetDefaultPrim(st.DefinePrim("/S", "Xform"))
+    st.GetDefaultPrim().GetReferences().AddReference("./geo/a.usda")
+    st.GetRootLayer().Save()
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.*'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    listed: list[str] = []
+    for name in ("_gltf_buffers", "_usd_layers"):
+        real = getattr(assets, name)
+
+        def spy(path, real=real):
+            listed.append(path.name)
+            return real(path)
+
+        monkeypatch.setattr(assets, name, spy)
+    assert run(cfg, echo=lambda m: None).built == 2
+    assert sorted(set(listed)) == ["model.gltf", "s.usda"]
+    recorded = _recorded_inputs(tmp_path / "out")
+    assert [Path(e["path"]).name for e in recorded["m/s.usda"]] == ["s.usda", "a.usda"]
+    assert len(recorded["m/model.gltf"]) > 1  # (its .bin files)
+    listed.clear()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and listed == []
+    # --verify lists (and hashes) them all
+    assert run(cfg, echo=lambda m: None, verify=True).skipped == 2 and sorted(set(listed)) == [
+        "model.gltf", "s.usda"
+    ]  # fmt: skip
+    # a layer it uses changed: listed again, and rebuilt
+    listed.clear()
+    geo_layer("a.usda", 2.0)
+    res = run(cfg, echo=lambda m: None)
+    assert res.built_ids == ["m/s.usda"] and sorted(set(listed)) == ["s.usda"]
+    listed.clear()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and listed == []
+    # the file itself now references another layer: listed again, the new layer an input
+    geo_layer("b.usda", 3.0)
+    st = Usd.Stage.Open(str(top))
+    refs = st.GetDefaultPrim().GetReferences()
+    refs.ClearReferences()
+    refs.AddReference("./geo/b.usda")
+    st.GetRootLayer().Save()
+    del st, refs  # (an open layer is the one USD gives the loader, whatever the file holds)
+    assert run(cfg, echo=lambda m: None).built_ids == ["m/s.usda"] and "s.usda" in listed
+    assert [Path(e["path"]).name for e in _recorded_inputs(tmp_path / "out")["m/s.usda"]] == [
+        "s.usda",
+        "b.usda",
+    ]
+    # a failed build's record lists nothing to trust: a file of one is listed again
+    top.write_text("not a USD file\n")
+    assert run(cfg, echo=lambda m: None).failed == 1
+    listed.clear()
+    assert run(cfg, echo=lambda m: None).failed == 1 and "s.usda" in listed

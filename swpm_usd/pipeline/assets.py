@@ -14,7 +14,7 @@ import json
 import os
 import struct
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -223,11 +223,15 @@ def output_dir(cfg: Config) -> Path:
     return cfg.base / cfg.data["output"]["dir"]
 
 
-def _under(path: Path, folder: Path) -> bool:
+def _under(path: Path, folder: Path, real: dict[Path, str]) -> bool:
     """Is ``path`` in ``folder`` or below it (its folder resolved: a link to a file elsewhere that sits in
-    ``folder`` is in it; ``folder`` a link itself is the folder it names)?"""
+    ``folder`` is in it; ``folder`` a link itself is the folder it names)? ``real`` caches the folders'
+    real paths."""
     try:
-        return Path(os.path.realpath(path.parent)).is_relative_to(os.path.realpath(folder))
+        for f in (path.parent, folder):
+            if f not in real:
+                real[f] = os.path.realpath(f)
+        return Path(real[path.parent]).is_relative_to(real[folder])
     except (OSError, ValueError):
         return False
 
@@ -240,23 +244,31 @@ def _shown(cfg: Config, path: Path) -> str:
         return str(path)
 
 
-def _is_output(path: Path, out_dir: Path, holds_config: bool, recorded: set[str]) -> bool:
+def _is_output(
+    path: Path, out_dir: Path, holds_config: bool, recorded: set[str], real: dict[Path, str]
+) -> bool:
     """Is ``path``, a file a glob matched, the run's and not an input: in ``out_dir`` or below it, or, when
     ``out_dir`` holds the config (output.dir ``.``: the inputs are there too), one of the ``recorded``
-    outputs (real paths) in it."""
+    outputs (real paths) in it? ``real``: :func:`_under`'s."""
     if not holds_config:
-        return _under(path, out_dir)
-    return _under(path, out_dir) and os.path.realpath(path) in recorded
+        return _under(path, out_dir, real)
+    return _under(path, out_dir, real) and os.path.realpath(path) in recorded
 
 
 def discover(
-    cfg: Config, recorded_outputs: Iterable[Path] = ()
+    cfg: Config,
+    recorded_outputs: Iterable[Path] = (),
+    listed: Callable[[str, Path], list[Path] | None] | None = None,
 ) -> tuple[list[Asset], dict[str, list[Path]], list[str]]:
     """Every asset of the config, the files each depends on, and semantic problems (located). A file (or a
     stage's prim) matched by several entries of ``assets`` is one asset, found by the first of them. A
     glob never matches a file in ``output.dir`` (or below it): the run's outputs are not its inputs. When
     ``output.dir`` holds the config (``.``, where the inputs are too), it never matches one of the
-    ``recorded_outputs`` (those the manifest lists) instead."""
+    ``recorded_outputs`` (those the manifest lists) instead.
+
+    A glob-matched file's inputs are the file with the buffer files a glTF names or the layers a USD file
+    uses (each read to list them), unless ``listed(asset id, file)`` gives them: the runner's list of the
+    asset's manifest record, when those files are all as recorded (:func:`.runner._listed_inputs`)."""
     from ..io import SUPPORTED_SUFFIXES  # (here: the CLI's --help and config checks import no mesh code)
 
     assets: list[Asset] = []
@@ -264,7 +276,8 @@ def discover(
     problems: list[str] = []
     matched: dict[tuple, tuple[int, int]] = {}
     out_dir = output_dir(cfg)
-    holds_config = _under(cfg.path, out_dir)  # (output.dir ".": the inputs are there too)
+    folders: dict[Path, str] = {}  # a matched file's folder -> its real path (one realpath a folder)
+    holds_config = _under(cfg.path, out_dir, folders)  # (output.dir ".": the inputs are there too)
     recorded_outputs = {os.path.realpath(p) for p in recorded_outputs}
     for i, src in enumerate(cfg.data["assets"]):
         if "glob" in src:
@@ -287,8 +300,9 @@ def discover(
                 continue
             # the run's own outputs are never assets: a glob reaching into output.dir (``**/*``) would take
             # them as inputs on the next run (its .usdc layers, scene.usda), which then overwrite themselves
-            outputs = [p for p in files if _is_output(p, out_dir, holds_config, recorded_outputs)]
-            files = [p for p in files if not _is_output(p, out_dir, holds_config, recorded_outputs)]
+            is_output = {p: _is_output(p, out_dir, holds_config, recorded_outputs, folders) for p in files}
+            outputs = [p for p in files if is_output[p]]
+            files = [p for p in files if not is_output[p]]
             # a glob's assets are its mesh files: not the config, textures, .mtl or notes it also matches
             found = [p for p in files if p.suffix.lower() in SUPPORTED_SUFFIXES]
             if not files and outputs:
@@ -314,7 +328,8 @@ def discover(
                 if not _first_match(cfg, matched, (real, None), i, rel, instances, problems):
                     continue
                 assets.append(Asset(rel, p, None, instances, {}, i))
-                inputs[rel] = [p, *_gltf_buffers(p), *_usd_layers(p)]
+                known = listed(rel, p) if listed is not None else None
+                inputs[rel] = known if known is not None else [p, *_gltf_buffers(p), *_usd_layers(p)]
         else:
             stage_path = (cfg.base / src["stage"]).resolve()
             try:

@@ -290,6 +290,28 @@ def _inputs_unchanged(paths: list[Path], entries: list[dict] | None) -> bool:
     return True
 
 
+#: the files whose inputs are listed by reading them (:func:`.assets.discover`): a glTF names its buffer
+#: files, a USD file the layers it uses (opening one as a stage: about 4 ms for a small .usda)
+_LISTED_SUFFIXES = (".gltf", ".glb", ".usd", ".usda", ".usdc", ".usdz")
+
+
+def _listed_inputs(path: Path, record: Any) -> list[Path] | None:
+    """The input files of the glob-matched ``path`` as its manifest ``record`` lists them, without reading
+    ``path`` (a glTF's buffer files, a USD file's layers), when the record is of a build (every buffer or
+    layer found: the loader refuses a stage with a layer it cannot open) of ``path`` and every file it lists
+    is as recorded (:func:`_inputs_unchanged`, the trust its digest is taken by): what they name is then
+    what they named. Else None, and they are read."""
+    if path.suffix.lower() not in _LISTED_SUFFIXES or not isinstance(record, dict):
+        return None
+    if record.get("status") != "built" or "input_digest" not in record or record_problem(record) is not None:
+        return None
+    entries = recorded_inputs(record)
+    if not entries or entries[0]["path"] != str(path):
+        return None
+    paths = [Path(e["path"]) for e in entries]
+    return paths if _inputs_unchanged(paths, entries) else None
+
+
 def _input_size(path: Path) -> int:
     """``path``'s size, 0 if it cannot be read (its asset then fails in the worker, naming the file)."""
     try:
@@ -315,10 +337,18 @@ def plan(
     manifest record that is not one the run writes (:func:`.records.record_problem`: hand-edited) is
     ignored, as if the asset had none, and named in a warning."""
     out_dir = cfg.base / cfg.data["output"]["dir"]
-    assets, inputs, problems = discover(cfg, _recorded_output_paths(out_dir, manifest))
+    known = manifest.get("assets", {})
+    reused: set[str] = set()  # the assets whose inputs are their record's (as recorded: not read)
+
+    def listed(aid: str, path: Path) -> list[Path] | None:
+        found = None if verify else _listed_inputs(path, known.get(aid))
+        if found is not None:
+            reused.add(aid)
+        return found
+
+    assets, inputs, problems = discover(cfg, _recorded_output_paths(out_dir, manifest), listed)
     problems.extend(_unusable_out_dir(cfg, out_dir))
     problems.extend(_overwritten_inputs(cfg, out_dir, assets, inputs))
-    known = manifest.get("assets", {})
     items = []
     record_warnings = []
     needs_rule_on_triangles = any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))
@@ -335,7 +365,7 @@ def plan(
         prev = previous or {}
         # (a failed asset's record need not have its input digest: record_problem checks its type alone)
         recorded = None if verify or "input_digest" not in prev else recorded_inputs(prev)
-        if _inputs_unchanged(inputs[a.id], recorded):
+        if (a.id in reused and previous is not None) or _inputs_unchanged(inputs[a.id], recorded):
             digest, input_stats = prev["input_digest"], recorded
         else:
             key = tuple(inputs[a.id])
