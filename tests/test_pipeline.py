@@ -2437,7 +2437,7 @@ def test_a_file_matched_by_two_asset_entries_is_one_asset(tmp_path):
     with pytest.raises(ConfigError) as exc:
         run(cfg, echo=lambda m: None)
     assert exc.value.problems == [
-        "c.yaml:2:29: $.assets[1]: m/a.obj is also matched by $.assets[0] with instances=1, here "
+        f"{cfg}:2:29: $.assets[1]: m/a.obj is also matched by $.assets[0] with instances=1, here "
         "instances=50: one file is one asset; narrow one of the two so each file is matched once"
     ]
 
