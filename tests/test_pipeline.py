@@ -3024,7 +3024,7 @@ def test_a_rerun_takes_a_gltf_s_or_usd_file_s_inputs_from_its_record_when_they_a
         "version: 1\nassets: [{glob: 'm/*.*'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
     )
     listed: list[str] = []
-    for name in ("_gltf_buffers", "_usd_layers"):
+    for name in ("_gltf_buffer_files", "_usd_layers"):
         real = getattr(assets, name)
 
         def spy(path, real=real):
@@ -3068,3 +3068,84 @@ def test_a_rerun_takes_a_gltf_s_or_usd_file_s_inputs_from_its_record_when_they_a
     assert run(cfg, echo=lambda m: None).failed == 1
     listed.clear()
     assert run(cfg, echo=lambda m: None).failed == 1 and "s.usda" in listed
+
+
+def test_a_record_listing_a_glb_s_inputs_the_old_way_is_never_taken_as_its_list(tmp_path, monkeypatch):
+    # a record written before a .glb's buffer files were inputs (the same tool_version) lists the .glb
+    # alone: a rerun took that list as the asset's inputs (every file in it as recorded) instead of reading
+    # the .glb, so an edited .bin left the stale build "up to date" for good
+    import trimesh
+
+    from swpm_usd.pipeline import assets, runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m").mkdir()
+    spot = swpm_usd.load_mesh(SHARED_MESHES / "spot.obj")
+    mesh = trimesh.Trimesh(spot.points, spot.triangles, process=False)
+    glb, data = tmp_path / "m" / "spot.glb", tmp_path / "m" / "spot-data.bin"
+    _glb_with_external_buffer(mesh, glb, data.name)
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: m/*.glb}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    # the older version: the .glb read as no buffer file's, and no word in its record of how it was listed
+    with monkeypatch.context() as m:
+        m.setattr(assets, "_gltf_buffer_files", lambda path: ([], True))
+        assert run(cfg, echo=lambda m: None).built == 1
+    path = tmp_path / "out" / "manifest.json"
+    manifest = json.loads(path.read_text())
+    (rec,) = manifest["assets"].values()
+    rec.pop("inputs_listed", None)
+    assert [Path(e["path"]) for e in rec["inputs"]] == [glb]
+    path.write_text(json.dumps(manifest, indent=1))
+    # read again (its buffer file now an input: the digest changes, and it is built once more)
+    assert run(cfg, echo=lambda m: None).built == 1
+    (entries,) = _recorded_inputs(tmp_path / "out").values()
+    assert [Path(e["path"]) for e in entries] == [glb, data]
+    # an older record whose list is the .glb's inputs: up to date, and marked as a list to take from now on
+    manifest = json.loads(path.read_text())
+    assert manifest["assets"]["m/spot.glb"].pop("inputs_listed") == 1
+    path.write_text(json.dumps(manifest, indent=1))
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    assert json.loads(path.read_text())["assets"]["m/spot.glb"]["inputs_listed"] == 1
+    _glb_with_external_buffer(mesh.copy().apply_scale(2.0), tmp_path / "scaled.glb", data.name)
+    os.replace(tmp_path / data.name, data)
+    assert run(cfg, echo=lambda m: None).built == 1
+
+
+def test_a_gltf_buffer_found_by_its_last_name_is_listed_again_once_its_name_as_written_appears(
+    tmp_path, monkeypatch
+):
+    # the loader reads a buffer `uri: bin/data.bin` from bin/data.bin, or else from data.bin beside the
+    # .gltf: built from data.bin, the record lists it; bin/data.bin written later is what the loader reads,
+    # with every file of the record as recorded, so the record's list is not the asset's inputs any more
+    import trimesh
+
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m" / "bin").mkdir(parents=True)
+    mesh = trimesh.creation.icosphere(subdivisions=1)
+    files = trimesh.Scene(mesh).export(file_type="gltf")
+    doc = json.loads(files["model.gltf"])
+    uris = [b["uri"] for b in doc["buffers"]]
+    for b in doc["buffers"]:
+        b["uri"] = f"bin/{b['uri']}"
+    (tmp_path / "m" / "model.gltf").write_text(json.dumps(doc))
+    for uri in uris:
+        (tmp_path / "m" / uri).write_bytes(files[uri])
+    points = swpm_usd.load_mesh(tmp_path / "m" / "model.gltf").points
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: m/*.gltf}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    assert run(cfg, echo=lambda m: None).built == 1
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    scaled = trimesh.Scene(mesh.copy().apply_scale(2.0)).export(file_type="gltf")
+    for uri in uris:
+        (tmp_path / "m" / "bin" / uri).write_bytes(scaled[uri])
+    assert np.allclose(swpm_usd.load_mesh(tmp_path / "m" / "model.gltf").points, 2 * points)
+    assert run(cfg, echo=lambda m: None).built == 1
+    (entries,) = _recorded_inputs(tmp_path / "out").values()
+    assert {tmp_path / "m" / "bin" / uri for uri in uris} <= {Path(e["path"]) for e in entries}
+    assert run(cfg, echo=lambda m: None).skipped == 1

@@ -96,24 +96,40 @@ def _gltf_buffers(path: Path) -> list[Path]:
     which the loader (trimesh) reads, in its folder, by the name as written, without a leading ``/``, or by
     its last part: every one of those found, so a change to any is a change to the asset; none for another
     file, or one whose JSON does not read (its load fails)."""
+    return _gltf_buffer_files(path)[0]
+
+
+def _gltf_buffer_files(path: Path) -> tuple[list[Path], bool]:
+    """:func:`_gltf_buffers`, and whether each buffer was found by the first of its names the loader tries
+    (its name as written, in the folder): when one was found by a later name (``bin/data.bin`` read from
+    ``data.bin``), a file written later under an earlier one is what the loader reads, with every file
+    listed unchanged, so the list holds only while it is read again (:data:`LISTED_SUFFIXES`)."""
     doc = _gltf_document(path)
     buffers = doc.get("buffers") if isinstance(doc, dict) else None
     if not buffers:
-        return []
+        return [], True
     found: list[Path] = []
+    settled = True
     for b in buffers if isinstance(buffers, list) else []:
         uri = b.get("uri") if isinstance(b, dict) else None
         if not isinstance(uri, str) or "base64," in uri:
             continue
+        first = True  # (the first name of this uri inside the folder, the loader's first try)
         for name in (uri.strip(), uri.strip().lstrip("/"), os.path.split(uri)[-1]):
             f = path.parent / name
             try:
                 inside = f.resolve().is_relative_to(path.parent.resolve())
-                if name and inside and f not in found and f.is_file():
+                if not (name and inside):
+                    continue
+                exists = f.is_file()
+                if exists and f not in found:
                     found.append(f)
             except (OSError, ValueError):
                 continue
-    return found
+            if first and not exists:
+                settled = False
+            first = False
+    return found, settled
 
 
 def _used_layers(stage) -> list[Path]:
@@ -218,6 +234,11 @@ def _first_match(
     return False
 
 
+#: the files whose inputs are listed by reading them (:func:`discover`): a glTF names its buffer files, a
+#: USD file the layers it uses (opening one as a stage: about 4 ms for a small .usda)
+LISTED_SUFFIXES = (".gltf", ".glb", ".usd", ".usda", ".usdc", ".usdz")
+
+
 def output_dir(cfg: Config) -> Path:
     """The config's ``output.dir``, as a path (relative to the config's folder)."""
     return cfg.base / cfg.data["output"]["dir"]
@@ -259,6 +280,7 @@ def discover(
     cfg: Config,
     recorded_outputs: Iterable[Path] = (),
     listed: Callable[[str, Path], list[Path] | None] | None = None,
+    settled: set[str] | None = None,
 ) -> tuple[list[Asset], dict[str, list[Path]], list[str]]:
     """Every asset of the config, the files each depends on, and semantic problems (located). A file (or a
     stage's prim) matched by several entries of ``assets`` is one asset, found by the first of them. A
@@ -268,7 +290,10 @@ def discover(
 
     A glob-matched file's inputs are the file with the buffer files a glTF names or the layers a USD file
     uses (each read to list them), unless ``listed(asset id, file)`` gives them: the runner's list of the
-    asset's manifest record, when those files are all as recorded (:func:`.runner._listed_inputs`)."""
+    asset's manifest record, when those files are all as recorded (:func:`.runner._listed_inputs`). The
+    ids of those of :data:`LISTED_SUFFIXES` whose list holds while the files in it are unchanged (taken
+    from ``listed``, or read with every glTF buffer found by its name as written: a USD file with a layer
+    it cannot open does not load) are added to ``settled``: their records may keep the list for reuse."""
     from ..io import SUPPORTED_SUFFIXES  # (here: the CLI's --help and config checks import no mesh code)
 
     assets: list[Asset] = []
@@ -329,7 +354,13 @@ def discover(
                     continue
                 assets.append(Asset(rel, p, None, instances, {}, i))
                 known = listed(rel, p) if listed is not None else None
-                inputs[rel] = known if known is not None else [p, *_gltf_buffers(p), *_usd_layers(p)]
+                settles = known is not None
+                if known is None:
+                    buffers, settles = _gltf_buffer_files(p)
+                    known = [p, *buffers, *_usd_layers(p)]
+                inputs[rel] = known
+                if settled is not None and settles and p.suffix.lower() in LISTED_SUFFIXES:
+                    settled.add(rel)
         else:
             stage_path = (cfg.base / src["stage"]).resolve()
             try:

@@ -39,6 +39,7 @@ from typing import Any
 from .. import __version__
 from ..errors import OutputLockedError
 from .assets import (
+    LISTED_SUFFIXES,
     Asset,
     checks_no_stricter,
     checks_of,
@@ -105,6 +106,9 @@ class PlanItem:
     #: each input file's manifest entry (:func:`.assets.hash_inputs`): the recorded ones, when the input
     #: digest was taken from the record (:func:`_inputs_unchanged`), else those of the files just hashed
     input_stats: list[dict] = field(default_factory=list)
+    #: ``inputs`` is a list a rerun may take from the record while its files are unchanged
+    #: (:func:`.assets.discover`'s ``settled``): the record says so by :data:`INPUTS_LISTED`
+    inputs_listed: bool = False
 
 
 @dataclass
@@ -290,9 +294,13 @@ def _inputs_unchanged(paths: list[Path], entries: list[dict] | None) -> bool:
     return True
 
 
-#: the files whose inputs are listed by reading them (:func:`.assets.discover`): a glTF names its buffer
-#: files, a USD file the layers it uses (opening one as a stage: about 4 ms for a small .usda)
-_LISTED_SUFFIXES = (".gltf", ".glb", ".usd", ".usda", ".usdc", ".usdz")
+#: a record's mark that its ``inputs`` are the list of its file's inputs as this listing reads them
+#: (:data:`LISTING`), which a rerun takes while they are all unchanged (:func:`_listed_inputs`). A record
+#: without it (of an older version: a .glb listed alone, before its buffer files were inputs; a USD file
+#: before its layers were) or of another listing is read again, and marked by the run
+INPUTS_LISTED = "inputs_listed"
+#: the listing's version: one more whenever a file's inputs are listed otherwise
+LISTING = 1
 
 
 def _listed_inputs(path: Path, record: Any) -> list[Path] | None:
@@ -301,7 +309,9 @@ def _listed_inputs(path: Path, record: Any) -> list[Path] | None:
     layer found: the loader refuses a stage with a layer it cannot open) of ``path`` and every file it lists
     is as recorded (:func:`_inputs_unchanged`, the trust its digest is taken by): what they name is then
     what they named. Else None, and they are read."""
-    if path.suffix.lower() not in _LISTED_SUFFIXES or not isinstance(record, dict):
+    if path.suffix.lower() not in LISTED_SUFFIXES or not isinstance(record, dict):
+        return None
+    if record.get(INPUTS_LISTED) != LISTING:  # (an older version's list, or one that may not hold)
         return None
     if record.get("status") != "built" or "input_digest" not in record or record_problem(record) is not None:
         return None
@@ -310,6 +320,20 @@ def _listed_inputs(path: Path, record: Any) -> list[Path] | None:
         return None
     paths = [Path(e["path"]) for e in entries]
     return paths if _inputs_unchanged(paths, entries) else None
+
+
+def _listing_mark(record: dict) -> bool:
+    return record.get(INPUTS_LISTED) == LISTING
+
+
+def _with_inputs(record: dict, item: PlanItem) -> dict:
+    """``record`` with ``item``'s input digest, inputs (the stat of each as it was hashed to that digest)
+    and :data:`INPUTS_LISTED` when they are a list a rerun may take (else without it)."""
+    rec = {k: v for k, v in record.items() if k != INPUTS_LISTED}
+    rec["input_digest"], rec["inputs"] = item.input_digest, item.input_stats
+    if item.inputs_listed:
+        rec[INPUTS_LISTED] = LISTING
+    return rec
 
 
 def _input_size(path: Path) -> int:
@@ -346,7 +370,8 @@ def plan(
             reused.add(aid)
         return found
 
-    assets, inputs, problems = discover(cfg, _recorded_output_paths(out_dir, manifest), listed)
+    settled: set[str] = set()  # the assets whose inputs their record may keep for reuse
+    assets, inputs, problems = discover(cfg, _recorded_output_paths(out_dir, manifest), listed, settled)
     problems.extend(_unusable_out_dir(cfg, out_dir))
     problems.extend(_overwritten_inputs(cfg, out_dir, assets, inputs))
     items = []
@@ -391,6 +416,7 @@ def plan(
                         inputs=inputs[a.id],
                         previous=previous,
                         input_stats=input_stats,
+                        inputs_listed=a.id in settled,
                     )
                 )
                 continue
@@ -398,7 +424,15 @@ def plan(
                 tri = _count_triangles(a)
             except Exception:  # noqa: BLE001 - the worker reports it as this asset's failure
                 tri = None
-        item = PlanItem(a, digest, tri, inputs=inputs[a.id], previous=previous, input_stats=input_stats)
+        item = PlanItem(
+            a,
+            digest,
+            tri,
+            inputs=inputs[a.id],
+            previous=previous,
+            input_stats=input_stats,
+            inputs_listed=a.id in settled,
+        )
         item.rule, item.treatment, item.why = match_rule(cfg, a, tri if tri is not None else 0)
         item.digest = _treatment_digest(cfg, item)
         outs = prev.get("outputs", {})
@@ -1112,8 +1146,10 @@ def _run(
             kept = records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
         if it.checked_outputs is not None:  # hashed, and their stat recorded anew
             kept = records[it.asset.id] = {**kept, "outputs": it.checked_outputs}
-        if it.input_stats is not kept.get("inputs"):  # hashed (to the recorded digest): their stat anew
-            records[it.asset.id] = {**kept, "inputs": it.input_stats}
+        if it.input_stats is not kept.get("inputs") or _listing_mark(kept) != it.inputs_listed:
+            # hashed (to the recorded digest): their stat anew; or listed by reading the file (the record
+            # of an older version): marked as a list the next run may take
+            records[it.asset.id] = _with_inputs(kept, it)
     run_outputs = {  # (the files still there until the run writes them anew: a stopped run records them)
         kind: o
         for kind, o in (
@@ -1158,6 +1194,8 @@ def _run(
             # (the stat of each input as it was hashed to this digest, never a later one: an input changed
             # since, which the worker may have built from, has another stat, and the next run hashes it)
             rec["input_digest"], rec["inputs"] = it.input_digest, it.input_stats
+            if it.inputs_listed:  # (a list the next run may take while its files are unchanged)
+                rec[INPUTS_LISTED] = LISTING
             rec["rule"] = None if it.rule is None else cfg.data["rules"][it.rule]["name"]
             for o in rec.get("outputs", {}).values():
                 _complete_output_record(out_dir / o["path"], o)
