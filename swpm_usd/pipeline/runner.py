@@ -306,9 +306,10 @@ LISTING = 1
 def _listed_inputs(path: Path, record: Any) -> list[Path] | None:
     """The input files of the glob-matched ``path`` as its manifest ``record`` lists them, without reading
     ``path`` (a glTF's buffer files, a USD file's layers), when the record is of a build (every buffer or
-    layer found: the loader refuses a stage with a layer it cannot open) of ``path`` and every file it lists
-    is as recorded (:func:`_inputs_unchanged`, the trust its digest is taken by): what they name is then
-    what they named. Else None, and they are read."""
+    layer found: the loader refuses a stage with a layer it cannot open) of ``path``, marked as this
+    listing's (:data:`INPUTS_LISTED`: not an older version's, nor one a file written later could change),
+    and every file it lists is as recorded (:func:`_inputs_unchanged`, the trust its digest is taken by):
+    what they name is then what they named. Else None, and they are read."""
     if path.suffix.lower() not in LISTED_SUFFIXES or not isinstance(record, dict):
         return None
     if record.get(INPUTS_LISTED) != LISTING:  # (an older version's list, or one that may not hold)
