@@ -2974,8 +2974,22 @@ def test_a_stage_s_prims_share_one_list_of_its_layers_in_the_manifest(tmp_path, 
     text = path.read_text().replace(f'"inputs_ref": "{key}"', '"inputs_ref": "nothing"')
     path.write_text(text)
     reads.clear()
-    assert run(cfg, echo=lambda m: None).skipped == 3
+    res = run(cfg, echo=lambda m: None)
+    assert res.skipped == 3
     assert sorted(reads) == ["scene.usda", "spot_asset.usda"]
+    # (named in a warning, as a hand-edited record is)
+    assert sorted(w for w in res.warnings if "inputs_ref" in w) == [
+        f"out/manifest.json: the record of {aid} names no list of its inputs (inputs_ref 'nothing', which "
+        "the manifest's input_lists does not hold); they are hashed"
+        for aid in sorted(prims)
+    ]
+    # an input_lists that is not an object: the same
+    manifest = json.loads(path.read_text())
+    manifest["input_lists"] = list(manifest["input_lists"].values())
+    path.write_text(json.dumps(manifest, indent=1))
+    res = run(cfg, echo=lambda m: None)
+    assert res.skipped == 3
+    assert len([w for w in res.warnings if "input_lists is a list, not an object" in w]) == 2
     # the stage changed: both prims rebuilt, sharing the new list
     _same_size_edit(layer, b"points = [(")
     assert run(cfg, echo=lambda m: None).built == 2

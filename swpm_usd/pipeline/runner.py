@@ -50,7 +50,7 @@ from .assets import (
     treatment_digest,
 )
 from .config import Config, ConfigError, load_config
-from .records import INPUT_STAT_KEYS, record_problem, recorded_inputs
+from .records import INPUT_STAT_KEYS, _what, record_problem, recorded_inputs
 from .worker import (
     STAT_KEYS,
     atomic_write_bytes,
@@ -164,20 +164,22 @@ def _inputs_key(entries: list) -> str:
     return hashlib.sha256(json.dumps(entries, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def _read_manifest(path: Path) -> dict:
+def _read_manifest(path: Path, unresolved: dict[str, str] | None = None) -> dict:
     """The manifest at ``path``, ``{"assets": {}}`` for none (or not one); each record's :data:`INPUTS_REF`
     replaced by the list it names (one list object for all the records that share it), and records of
-    older manifests that list the same inputs (a stage's prims) given one list object too."""
+    older manifests that list the same inputs (a stage's prims) given one list object too. A reference to
+    no list (a hand edit: none of that key, or :data:`INPUT_LISTS` not an object) leaves the record without
+    ``inputs`` (hashed, as a malformed list is), and is described in ``unresolved`` (asset id -> why)."""
     try:
         data = json.loads(path.read_text())
     except (OSError, ValueError):
         return {"assets": {}}
     if not isinstance(data, dict) or not isinstance(data.get("assets"), dict):
         return {"assets": {}}
-    tables = data.pop(INPUT_LISTS, None)
-    tables = tables if isinstance(tables, dict) else {}
+    found = data.pop(INPUT_LISTS, None)
+    tables = found if isinstance(found, dict) else {}
     seen: dict[str, list] = {}
-    for rec in data["assets"].values():
+    for aid, rec in data["assets"].items():
         if not isinstance(rec, dict):
             continue
         if INPUTS_REF in rec:
@@ -185,6 +187,18 @@ def _read_manifest(path: Path) -> dict:
             entries = tables.get(ref) if isinstance(ref, str) else None
             if isinstance(entries, list):  # (else none: the inputs are hashed, as for a malformed list)
                 rec["inputs"] = entries
+            elif unresolved is not None:
+                if not isinstance(ref, str):
+                    why = f"its {INPUTS_REF} is {_what(ref)}, not a string"
+                elif found is None:
+                    why = f"{INPUTS_REF} {ref!r}, and the manifest has no {INPUT_LISTS}"
+                elif not isinstance(found, dict):
+                    why = f"{INPUTS_REF} {ref!r}; its {INPUT_LISTS} is {_what(found)}, not an object"
+                elif ref not in tables:
+                    why = f"{INPUTS_REF} {ref!r}, which the manifest's {INPUT_LISTS} does not hold"
+                else:
+                    why = f"{INPUTS_REF} {ref!r}, which is {_what(entries)} in {INPUT_LISTS}, not a list"
+                unresolved[aid] = why
         elif isinstance(rec.get("inputs"), list) and len(rec["inputs"]) > 1:
             rec["inputs"] = seen.setdefault(json.dumps(rec["inputs"], sort_keys=True), rec["inputs"])
     return data
@@ -1091,12 +1105,19 @@ def _run(
     if not dry_run and out_dir.is_dir():
         lock.acquire()  # before the manifest is read: it is this run's from here on
     manifest_path = out_dir / MANIFEST
-    manifest = _read_manifest(manifest_path)
+    unresolved: dict[str, str] = {}  # asset id -> why its record's inputs_ref names no list
+    manifest = _read_manifest(manifest_path, unresolved)
     if not dry_run and out_dir.is_dir():  # (the run's from here on: before the plan checks the outputs)
         _restore_kept_aside(out_dir, manifest["assets"])
     items, errors, warnings = plan(cfg, manifest, count_triangles=dry_run or explain, verify=verify)
     if errors:
         raise ConfigError(errors)
+    warnings = warnings + [  # (a hand edit: the inputs of a current asset's record hashed, not trusted)
+        f"{_rel(cfg, manifest_path)}: the record of {it.asset.id} names no list of its inputs "
+        f"({unresolved[it.asset.id]}); they are hashed"
+        for it in items
+        if it.asset.id in unresolved and it.previous is not None
+    ]
     for w in warnings:
         echo(f"warning: {w}")
     # (before any build: a removed asset's output path may be a current asset's, which is never deleted)
