@@ -3163,3 +3163,53 @@ def test_a_gltf_buffer_found_by_its_last_name_is_listed_again_once_its_name_as_w
     (entries,) = _recorded_inputs(tmp_path / "out").values()
     assert {tmp_path / "m" / "bin" / uri for uri in uris} <= {Path(e["path"]) for e in entries}
     assert run(cfg, echo=lambda m: None).skipped == 1
+
+
+def test_a_record_listing_a_usd_file_alone_the_old_way_is_never_taken_as_its_list(tmp_path, monkeypatch):
+    # a record written before a glob-matched USD file's layers were inputs lists the file alone: taken as
+    # its list (the file unchanged), an edited layer it references left the stale build "up to date"
+    import trimesh
+    from pxr import Usd, UsdGeom
+
+    from swpm_usd.pipeline import assets, runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m" / "geo").mkdir(parents=True)
+    mesh = trimesh.creation.icosphere(subdivisions=1)
+    layer = tmp_path / "m" / "geo" / "a.usda"
+
+    def write_layer(scale: float) -> None:
+        st = Usd.Stage.CreateInMemory()
+        st.SetDefaultPrim(UsdGeom.Xform.Define(st, "/G").GetPrim())
+        m = UsdGeom.Mesh.Define(st, "/G/Mesh")
+        m.CreatePointsAttr((mesh.vertices * scale).tolist())
+        m.CreateFaceVertexCountsAttr([3] * len(mesh.faces))
+        m.CreateFaceVertexIndicesAttr(mesh.faces.reshape(-1).tolist())
+        st.GetRootLayer().Export(str(layer))
+
+    write_layer(1.0)
+    top = tmp_path / "m" / "s.usda"
+    st = Usd.Stage.CreateNew(str(top))
+    st.SetDefaultPrim(st.DefinePrim("/S", "Xform"))
+    st.GetDefaultPrim().GetReferences().AddReference("./geo/a.usda")
+    st.GetRootLayer().Save()
+    del st
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.usda'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    with monkeypatch.context() as m:
+        m.setattr(assets, "_usd_layers", lambda path: [])
+        assert run(cfg, echo=lambda m: None).built == 1
+    path = tmp_path / "out" / "manifest.json"
+    manifest = json.loads(path.read_text())
+    manifest["assets"]["m/s.usda"].pop("inputs_listed", None)
+    assert [Path(e["path"]) for e in manifest["assets"]["m/s.usda"]["inputs"]] == [top]
+    path.write_text(json.dumps(manifest, indent=1))
+    # listed again: the layer is an input (the digest changes, and it is built once more)
+    assert run(cfg, echo=lambda m: None).built == 1
+    recorded = _recorded_inputs(tmp_path / "out")["m/s.usda"]
+    assert [Path(e["path"]).name for e in recorded] == ["s.usda", "a.usda"]
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    write_layer(2.0)
+    assert run(cfg, echo=lambda m: None).built == 1
