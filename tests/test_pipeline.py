@@ -3038,7 +3038,7 @@ def test_a_rerun_takes_a_gltf_s_or_usd_file_s_inputs_from_its_record_when_they_a
         "version: 1\nassets: [{glob: 'm/*.*'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
     )
     listed: list[str] = []
-    for name in ("_gltf_buffer_files", "_usd_layers"):
+    for name in ("_gltf_buffer_files", "_usd_layer_files"):
         real = getattr(assets, name)
 
         def spy(path, real=real):
@@ -3199,7 +3199,7 @@ def test_a_record_listing_a_usd_file_alone_the_old_way_is_never_taken_as_its_lis
         "version: 1\nassets: [{glob: 'm/*.usda'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
     )
     with monkeypatch.context() as m:
-        m.setattr(assets, "_usd_layers", lambda path: [])
+        m.setattr(assets, "_usd_layer_files", lambda path: ([], True))
         assert run(cfg, echo=lambda m: None).built == 1
     path = tmp_path / "out" / "manifest.json"
     manifest = json.loads(path.read_text())
@@ -3212,4 +3212,39 @@ def test_a_record_listing_a_usd_file_alone_the_old_way_is_never_taken_as_its_lis
     assert [Path(e["path"]).name for e in recorded] == ["s.usda", "a.usda"]
     assert run(cfg, echo=lambda m: None).skipped == 1
     write_layer(2.0)
+    assert run(cfg, echo=lambda m: None).built == 1
+
+
+def test_a_gltf_whose_json_did_not_read_while_listed_is_listed_again(tmp_path, monkeypatch):
+    # a .gltf whose JSON did not read as the run listed its inputs (being written, unreadable a moment) was
+    # listed alone, and the loader, reading it after, built it: the record of a build then kept that list
+    # for good, as the .gltf's own (unchanged), and an edited .bin left the stale build "up to date"
+    import trimesh
+
+    from swpm_usd.pipeline import assets, runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m").mkdir()
+    mesh = trimesh.creation.icosphere(subdivisions=1)
+    files = trimesh.Scene(mesh).export(file_type="gltf")
+    for name, data in files.items():
+        (tmp_path / "m" / name).write_bytes(data)
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: m/*.gltf}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    with monkeypatch.context() as m:
+        m.setattr(assets, "_gltf_document", lambda path: None)
+        assert run(cfg, echo=lambda m: None).built == 1
+    (entries,) = _recorded_inputs(tmp_path / "out").values()
+    assert [Path(e["path"]).name for e in entries] == ["model.gltf"]
+    # read again: its buffer files are inputs now (built again, the digest being another)
+    assert run(cfg, echo=lambda m: None).built == 1
+    (entries,) = _recorded_inputs(tmp_path / "out").values()
+    assert len(entries) > 1
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    scaled = trimesh.Scene(mesh.copy().apply_scale(2.0)).export(file_type="gltf")
+    for name in files:
+        if name != "model.gltf":
+            (tmp_path / "m" / name).write_bytes(scaled[name])
     assert run(cfg, echo=lambda m: None).built == 1

@@ -103,8 +103,12 @@ def _gltf_buffer_files(path: Path) -> tuple[list[Path], bool]:
     """:func:`_gltf_buffers`, and whether each buffer was found by the first of its names the loader tries
     (its name as written, in the folder): when one was found by a later name (``bin/data.bin`` read from
     ``data.bin``), a file written later under an earlier one is what the loader reads, with every file
-    listed unchanged, so the list holds only while it is read again (:data:`LISTED_SUFFIXES`)."""
+    listed unchanged, so the list holds only while it is read again (:data:`LISTED_SUFFIXES`). A glTF
+    whose JSON did not read (being written, or unreadable a moment) is not settled either: should the
+    loader read it, the list is its alone."""
     doc = _gltf_document(path)
+    if doc is None:
+        return [], path.suffix.lower() not in (".gltf", ".glb")
     buffers = doc.get("buffers") if isinstance(doc, dict) else None
     if not buffers:
         return [], True
@@ -151,20 +155,26 @@ def _usd_layers(path: Path) -> list[Path]:
     """The files other than ``path`` whose layers a USD file a glob matched uses (its references,
     sublayers, payloads), which the loader composes: a change to one is a change to the asset. None for
     another file, or one that does not open (its load fails)."""
+    return _usd_layer_files(path)[0]
+
+
+def _usd_layer_files(path: Path) -> tuple[list[Path], bool]:
+    """:func:`_usd_layers`, and whether the file opened (else, should the loader open it a moment later,
+    the list of the file alone is not its inputs: not settled, see :func:`discover`)."""
     from ..io import _USD_SUFFIXES
 
     if path.suffix.lower() not in _USD_SUFFIXES:
-        return []
+        return [], True
     try:
         from pxr import Usd
 
         stage = Usd.Stage.Open(str(path))
     except Exception:  # noqa: BLE001 - the worker's load reports it, located
-        return []
+        return [], False
     if stage is None:
-        return []
+        return [], False
     here = path.resolve()
-    return [p for p in _used_layers(stage) if p.resolve() != here]
+    return [p for p in _used_layers(stage) if p.resolve() != here], True
 
 
 def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset], list[Path]]:
@@ -356,8 +366,9 @@ def discover(
                 known = listed(rel, p) if listed is not None else None
                 settles = known is not None
                 if known is None:
-                    buffers, settles = _gltf_buffer_files(p)
-                    known = [p, *buffers, *_usd_layers(p)]
+                    buffers, buffers_settled = _gltf_buffer_files(p)
+                    layers, layers_settled = _usd_layer_files(p)
+                    known, settles = [p, *buffers, *layers], buffers_settled and layers_settled
                 inputs[rel] = known
                 if settled is not None and settles and p.suffix.lower() in LISTED_SUFFIXES:
                     settled.add(rel)
