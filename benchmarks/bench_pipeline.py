@@ -20,6 +20,9 @@
    (medians of 40, alternating with the code before, on a loaded 2-core machine). ``--work DIR`` keeps
    the built project in DIR and reuses it, so the same files can be rerun by another version of the code
    (PYTHONPATH).
+6. Rerun of USD files: 200 small glob-matched .usda assets (each referencing a layer of its own) built
+   once, then reruns with nothing changed, as `run()` in this process and as a fresh `swpm-pipeline run`
+   (medians of 7 after one settling rerun); ``--work DIR`` keeps the project, as in 5.
 
     python benchmarks/bench_pipeline.py [--out benchmarks/results/pipeline.json] [--only SECTION ...]
         [--work DIR]
@@ -175,6 +178,56 @@ def rerun_large(work: Path, source: str = "bob.obj", copies: int = 200, repeats:
     }
 
 
+def rerun_usd(work: Path, copies: int = 200, repeats: int = 7) -> dict:
+    """An up-to-date rerun of ``copies`` small glob-matched ``.usda`` assets (an icosphere each, 320
+    triangles, in a layer that references another), as ``run()`` in this process (the run's own time) and
+    as a fresh ``swpm-pipeline run`` (wall time): medians of ``repeats`` after one settling rerun. Listing
+    such a file's inputs opens it as a USD stage (its layers are its inputs), which a rerun did for every
+    asset before it took the list its manifest record holds."""
+    import trimesh
+    from pxr import Usd, UsdGeom
+
+    from swpm_usd.pipeline import run
+
+    d = work / "rerun-usd"
+    cfg = d / "pipeline.yaml"
+    if not (d / "out" / "manifest.json").is_file():  # (--work: built by an earlier call)
+        (d / "meshes" / "geo").mkdir(parents=True, exist_ok=True)
+        sphere = trimesh.creation.icosphere(subdivisions=2)
+        for i in range(copies):
+            geo = d / "meshes" / "geo" / f"geo{i:03d}.usda"  # (not matched: the layer a matched file uses)
+            layer = Usd.Stage.CreateInMemory()
+            layer.SetDefaultPrim(UsdGeom.Xform.Define(layer, "/G").GetPrim())
+            m = UsdGeom.Mesh.Define(layer, "/G/Mesh")
+            m.CreatePointsAttr((sphere.vertices * (1 + i / copies)).tolist())
+            m.CreateFaceVertexCountsAttr([3] * len(sphere.faces))
+            m.CreateFaceVertexIndicesAttr(sphere.faces.reshape(-1).tolist())
+            layer.GetRootLayer().Export(str(geo))
+            st = Usd.Stage.CreateNew(str(d / "meshes" / f"s{i:03d}.usda"))
+            st.SetDefaultPrim(st.DefinePrim("/S", "Xform"))
+            st.GetDefaultPrim().GetReferences().AddReference(f"./geo/{geo.name}")
+            st.GetRootLayer().Save()
+        cfg.write_text(
+            "version: 1\nassets: [{glob: 'meshes/*.usda'}]\noutput: {dir: out, report: false}\n"
+            "defaults: {encoding: vanilla}\n"
+        )
+        _cli(["run", str(cfg), "--jobs", "2"])
+    _cli(["run", str(cfg)])  # settle (inputs written just before the build are hashed again once)
+    inproc = []
+    for _ in range(repeats):
+        res = run(cfg, echo=lambda m: None)
+        assert res.built == 0 and res.skipped == copies, "the rerun built something: not up to date"
+        inproc.append(res.seconds)
+    cli = [_cli(["run", str(cfg)]) for _ in range(repeats)]
+    return {
+        "assets": copies,
+        "run_s_median": statistics.median(inproc),
+        "run_s_all": inproc,
+        "cli_s_median": statistics.median(cli),
+        "cli_s_all": cli,
+    }
+
+
 def _evict(folder: Path) -> None:
     """Drop the files of ``folder`` from the page cache (theirs alone: no root, no other process's files)."""
     for p in folder.iterdir():
@@ -189,6 +242,7 @@ SECTIONS = {
     "rerun": rerun,
     "many": many,
     "rerun-large": rerun_large,
+    "rerun-usd": rerun_usd,
 }
 
 
@@ -222,6 +276,11 @@ def main() -> None:
         print(f"{what:<40} {g['cli_s_median']:>9.2f}s {'':>10}")
         print(f"{'  (run() in process s)':<40} {g['run_s_median']:>9.2f}s")
         print(f"{'  (inputs evicted from the page cache s)':<40} {g['cold_cli_s_median']:>9.2f}s")
+    if "rerun-usd" in res:
+        u = res["rerun-usd"]
+        what = f"rerun, {u['assets']} small .usda unchanged"
+        print(f"{what:<40} {u['cli_s_median']:>9.2f}s {'':>10}")
+        print(f"{'  (run() in process s)':<40} {u['run_s_median']:>9.3f}s")
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     if args.only and out.exists():  # the other sections' results of an earlier run stay

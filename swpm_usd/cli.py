@@ -23,6 +23,10 @@ from .format.cli import (
     pm_summary,
 )
 
+#: the most ``run --jobs`` takes: each job is a worker process (a 4-core machine runs 4 well; a typo such as
+#: ``--jobs 100000`` was taken and started a worker per asset, up to the asset count, at once)
+MAX_JOBS = 256
+
 
 def _lod_rows(pm, max_rows: int) -> list[dict]:
     """One row per selected LOD: evenly spread triangle fractions, always the first and the last."""
@@ -154,7 +158,12 @@ def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int
 @main.command("run")
 @click.argument("config", type=click.Path(dir_okay=False))
 @click.option(
-    "--jobs", "-j", type=click.IntRange(min=1), default=1, show_default=True, help="Assets built at once."
+    "--jobs",
+    "-j",
+    type=click.IntRange(min=1, max=MAX_JOBS),
+    default=1,
+    show_default=True,
+    help="Assets built at once (each in a process of its own).",
 )
 @click.option("--dry-run", is_flag=True, help="Plan only: print each asset's rule, encoding and why.")
 @click.option("--explain", is_flag=True, help="Print the plan, then run it.")

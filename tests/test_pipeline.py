@@ -106,9 +106,9 @@ rules:
     with pytest.raises(ConfigError) as exc:
         load_config(cfg)
     problems = exc.value.problems
-    assert any(p.startswith("pipeline.yaml:6:3: $.output.colour:") for p in problems)
-    assert any(p.startswith("pipeline.yaml:10:14: $.rules[0].params.mu:") for p in problems)
-    assert any(p.startswith("pipeline.yaml:12:15: $.rules[1].encoding:") for p in problems)
+    assert any(p.startswith(f"{cfg}:6:3: $.output.colour:") for p in problems)
+    assert any(p.startswith(f"{cfg}:10:14: $.rules[0].params.mu:") for p in problems)
+    assert any(p.startswith(f"{cfg}:12:15: $.rules[1].encoding:") for p in problems)
     result = CliRunner().invoke(main, ["run", str(cfg)])
     assert result.exit_code == 2
     assert "$.output.colour" in result.output and "$.rules[1].encoding" in result.output
@@ -128,8 +128,8 @@ def test_params_out_of_build_bounds_fail_at_their_config_line(tmp_path):
         load_config(cfg)
     problems = exc.value.problems
     assert problems == [
-        "pipeline.yaml:12:26: $.rules[1].params.cache_size: 100000 is greater than the maximum of 1024",
-        "pipeline.yaml:15:27: $.rules[2].params.seam_weight: -1.0 is less than the minimum of 0",
+        f"{cfg}:12:26: $.rules[1].params.cache_size: 100000 is greater than the maximum of 1024",
+        f"{cfg}:15:27: $.rules[2].params.seam_weight: -1.0 is less than the minimum of 0",
     ]
 
 
@@ -156,7 +156,7 @@ rules:
     messages = []
     res = run(cfg, dry_run=True, echo=messages.append)
     assert res.built == 0 and not (tmp_path / "out").exists()
-    assert any("rule 'never' matches no asset" in m for m in messages)
+    assert any("rule 'never' is shadowed by rule 'everything'" in m for m in messages)
     assert any(m.startswith("meshes/cow.obj: vanilla") and "rule 'everything' matched" in m for m in messages)
 
 
@@ -426,8 +426,8 @@ rules:
         load_config(cfg)
     problems = exc.value.problems
     assert problems == [
-        "pipeline.yaml:9:22: $.rules[0].params.select: 'fastest' is not one of ['acmr', 'misses-at-error']",
-        "pipeline.yaml:12:14: $.rules[1].params.mu: unknown key (not a parameter of this rule's encoding)",
+        f"{cfg}:9:22: $.rules[0].params.select: 'fastest' is not one of ['acmr', 'misses-at-error']",
+        f"{cfg}:12:14: $.rules[1].params.mu: unknown key (not a parameter of this rule's encoding)",
     ]
 
 
@@ -1734,11 +1734,14 @@ def test_the_run_never_overwrites_its_own_inputs(tmp_path):
     (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
     with pytest.raises(ConfigError, match=r"the run report would overwrite report.html \(the configuration"):
         run(cfg2, echo=lambda m: None)
-    # (of a mesh type: a glob's files of other types are not assets, so not inputs)
+    # (of a mesh type: a glob's files of other types are not assets, so not inputs; output.dir "." holding
+    # the config: a glob's files below another output.dir are never assets)
     (tmp_path / "m" / ".b.tmp.usda").write_text("#usda 1.0\n")
-    cfg.write_text("version: 1\nassets: [{glob: 'm/*.*'}]\noutput: {dir: m}\n")
+    cfg3 = tmp_path / "m" / "c.yaml"
+    cfg3.write_text("version: 1\nassets: [{glob: '*.*'}]\noutput: {dir: .}\n")
     with pytest.raises(ConfigError, match="named like a temporary file"):
-        run(cfg, echo=lambda m: None)
+        run(cfg3, echo=lambda m: None)
+    cfg3.unlink()
     # apart from the inputs, the same config runs
     cfg.write_text(
         "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
@@ -1940,9 +1943,14 @@ INPUT_KEYS = ("size", *STAT_KEYS, "hashed_ns")
 
 
 def _recorded_inputs(out: Path) -> dict[str, list[dict]]:
-    """Asset id -> its record's ``inputs``."""
+    """Asset id -> its record's ``inputs`` (or the list of the manifest's ``input_lists`` its ``inputs_ref``
+    names: one several records share)."""
     manifest = json.loads((out / "manifest.json").read_text())
-    return {aid: rec.get("inputs") for aid, rec in manifest["assets"].items()}
+    tables = manifest.get("input_lists", {})
+    return {
+        aid: tables[rec["inputs_ref"]] if "inputs_ref" in rec else rec.get("inputs")
+        for aid, rec in manifest["assets"].items()
+    }
 
 
 def _as_hashed(entry: dict, path: Path) -> bool:
@@ -2016,8 +2024,8 @@ def test_an_input_gone_after_it_was_listed_fails_its_asset_alone(tmp_path, monke
     assert run(cfg, echo=lambda m: None).built == 2
     listed = runner.discover
 
-    def discover_then_lose_spot(config):
-        found = listed(config)
+    def discover_then_lose_spot(config, *args):
+        found = listed(config, *args)
         spot.rename(tmp_path / "spot.away")
         return found
 
@@ -2339,12 +2347,16 @@ def test_a_racily_clean_input_is_hashed_again(tmp_path, monkeypatch):
 
 def _config_problems(cfg, text: str, stderr_lists_them: bool = False) -> list[str]:
     """``text`` written to ``cfg``: a dry run exits 2 without a traceback, and the problems
-    ``load_config`` raises (``stderr_lists_them``: the run printed exactly those lines on stderr)."""
+    ``load_config`` raises (``stderr_lists_them``: the run printed exactly those lines on stderr), both
+    given the config's name from its folder (so the problems name it alone, as given)."""
+    import contextlib
+
     cfg.write_text(text)
-    result = CliRunner().invoke(main, ["run", str(cfg), "--dry-run"])
-    assert result.exit_code == 2 and "Traceback" not in result.output, result.output
-    with pytest.raises(ConfigError) as exc:
-        load_config(cfg)
+    with contextlib.chdir(cfg.parent):
+        result = CliRunner().invoke(main, ["run", cfg.name, "--dry-run"])
+        assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+        with pytest.raises(ConfigError) as exc:
+            load_config(cfg.name)
     if stderr_lists_them:
         assert result.stderr.splitlines() == exc.value.problems
     return exc.value.problems
@@ -2397,7 +2409,7 @@ def test_an_unquoted_key_yaml_reads_as_no_string_is_named_with_the_quotes_it_nee
         with pytest.raises(ConfigError) as exc:
             load_config(cfg)
         assert exc.value.problems == [
-            f"c.yaml:7:19: $.rules[0].match.tag.{key}: key {key} is read by YAML as {read}, not a string; "
+            f"{cfg}:7:19: $.rules[0].match.tag.{key}: key {key} is read by YAML as {read}, not a string; "
             f'{hint} "{key}"'
         ]
     # quoted, it is the key written; a date is read back as the text written, a key of the schema's as before
@@ -2496,7 +2508,7 @@ def test_a_file_matched_by_two_asset_entries_is_one_asset(tmp_path):
     with pytest.raises(ConfigError) as exc:
         run(cfg, echo=lambda m: None)
     assert exc.value.problems == [
-        "c.yaml:2:29: $.assets[1]: m/a.obj is also matched by $.assets[0] with instances=1, here "
+        f"{cfg}:2:29: $.assets[1]: m/a.obj is also matched by $.assets[0] with instances=1, here "
         "instances=50: one file is one asset; narrow one of the two so each file is matched once"
     ]
 
@@ -3026,3 +3038,514 @@ def test_clean_after_worker_deletes_that_assets_temporaries_alone(tmp_path):
     _clean_after_worker(tmp_path, {}, "[a]")  # (a stem with glob's characters: its own files alone)
     assert {n for s in others if s != "[a]" for n in temporaries(s)} <= {p.name for p in tmp_path.iterdir()}
     assert not {p.name for p in tmp_path.iterdir()} & set(temporaries("[a]"))
+
+
+def test_a_glob_reaching_into_output_dir_never_takes_the_run_s_outputs(tmp_path):
+    # `glob: "**/*"` with output.dir below the config passed its first run, and the second took its own
+    # outputs (out/a.usdc, out/scene.usda) as assets: exit 2, "out/a.usdc and m/a.obj would both write a.swpm"
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: '**/*'}]\noutput: {dir: out, usd: true, scene: true}\n"
+        "defaults: {encoding: vanilla}\n"
+    )
+    assert run(cfg, echo=lambda m: None).built == 1
+    assert (tmp_path / "out" / "a.usdc").is_file() and (tmp_path / "out" / "scene.usda").is_file()
+    for _ in range(2):
+        result = CliRunner().invoke(main, ["run", str(cfg), "--json"])
+        assert result.exit_code == 0, result.output
+        summary = json.loads(result.stdout)
+        assert (summary["built"], summary["skipped"], summary["failed"]) == (0, 1, 0)
+    assert set(json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]) == {"m/a.obj"}
+    # output.dir "." holds the inputs too: the outputs the manifest records are left out there
+    (tmp_path / "flat").mkdir()
+    (tmp_path / "flat" / "b.obj").write_text(TWO_TRIANGLES)
+    flat = tmp_path / "flat" / "c.yaml"
+    flat.write_text(
+        "version: 1\nassets: [{glob: '*'}]\noutput: {dir: '.', usd: true, scene: true}\n"
+        "defaults: {encoding: vanilla}\n"
+    )
+    assert run(flat, echo=lambda m: None).built == 1 and (tmp_path / "flat" / "b.usdc").is_file()
+    res = run(flat, echo=lambda m: None)
+    assert (res.built, res.skipped, res.failed) == (0, 1, 0) and set(res.records) == {"b.obj"}
+    # a glob that matches nothing but the outputs is an error naming the glob and output.dir
+    cfg.write_text("version: 1\nassets: [{glob: 'out/*'}]\noutput: {dir: out}\n")
+    with pytest.raises(ConfigError) as exc:
+        run(cfg, echo=lambda m: None)
+    assert exc.value.problems[0].endswith(
+        ":2:17: $.assets[0].glob: the glob matches only files in output.dir (out), which are never assets: "
+        "the run writes there"
+    )
+
+
+def test_config_problems_name_the_config_as_given(tmp_path, monkeypatch):
+    # they named the file alone ("pipeline.yaml:4:11: ..."): from another folder, or with several configs
+    # of one name, an editor could not find it
+    (tmp_path / "proj" / "m").mkdir(parents=True)
+    (tmp_path / "proj" / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "proj" / "pipeline.yaml"
+    cfg.write_text("version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out, colour: red}\n")
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(main, ["run", "proj/pipeline.yaml"])
+    assert result.exit_code == 2
+    assert result.stderr.splitlines() == ["proj/pipeline.yaml:3:20: $.output.colour: unknown key"]
+    with pytest.raises(ConfigError) as exc:  # (an absolute path as given: it)
+        load_config(cfg)
+    assert exc.value.problems == [f"{cfg}:3:20: $.output.colour: unknown key"]
+    # the run's own checks, unreadable files and YAML errors too; problems sorted by line, colons or not
+    cfg.write_text("version: 1\nassets: [{glob: 'nothing/*.obj'}]\noutput: {dir: out}\n")
+    result = CliRunner().invoke(main, ["run", "proj/pipeline.yaml", "--dry-run"])
+    assert result.stderr.splitlines() == [
+        "proj/pipeline.yaml:2:17: $.assets[0].glob: the glob matches no file"
+    ]
+    cfg.write_text("version: 1\nassets: [\n")
+    with pytest.raises(ConfigError, match=r"^proj/pipeline.yaml:3:1: \$: invalid YAML"):
+        load_config("proj/pipeline.yaml")
+    odd = tmp_path / "a:1:2: b.yaml"
+    odd.write_text("version: 2\noutput: {dir: out, colour: red}\nassets: []\n")
+    with pytest.raises(ConfigError) as exc:
+        load_config(odd)
+    assert [p.removeprefix(f"{odd}:")[:4] for p in exc.value.problems] == ["1:10", "2:20", "3:9:"]
+    with pytest.raises(ConfigError, match=r"^missing.yaml:1:1: \$: cannot read the file"):
+        load_config("missing.yaml")
+
+
+def test_a_rule_shadowed_by_earlier_rules_is_named_so(tmp_path):
+    # a rule whose every asset an earlier rule takes was reported as "matches no asset", which sent the user
+    # looking at its match conditions instead of the rule order
+    (tmp_path / "m").mkdir()
+    for name in ("a", "b"):
+        (tmp_path / "m" / f"{name}.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\nrules:\n"
+        "  - {name: first, match: {path: 'm/a.*', triangles: {max: 100}}, encoding: vanilla}\n"
+        "  - {name: second, match: {path: 'm/b.*'}, encoding: mixed}\n"
+        "  - {name: a-again, match: {path: 'm/a.obj'}, encoding: skip-strip}\n"
+        "  - {name: huge, match: {triangles: {min: 1000000}}, encoding: vanilla}\n"
+        "  - {name: rest, encoding: vanilla}\n"
+    )
+    expected = [
+        f"{cfg}:7:5: $.rules[2]: rule 'a-again' is shadowed by rule 'first': every asset it matches is taken "
+        "by an earlier rule",
+        f"{cfg}:8:5: $.rules[3]: rule 'huge' matches no asset",
+        f"{cfg}:9:5: $.rules[4]: rule 'rest' is shadowed by rules 'first' and 'second': every asset it "
+        "matches is taken by an earlier rule",
+    ]
+    # planned (the triangles counted by the plan) and run (the worker matches the rules on triangles)
+    messages: list[str] = []
+    assert run(cfg, dry_run=True, echo=messages.append).warnings == expected
+    assert [m for m in messages if m.startswith("warning:")] == [f"warning: {w}" for w in expected]
+    result = CliRunner().invoke(main, ["run", str(cfg)])
+    assert result.exit_code == 0, result.output
+    assert [line for line in result.output.splitlines() if line.startswith("warning:")] == [
+        f"warning: {w}" for w in expected
+    ]
+    assert run(cfg, echo=lambda m: None).warnings == expected  # (up to date: from the manifest's counts)
+
+
+def test_jobs_has_an_upper_bound(tmp_path, monkeypatch):
+    # `--jobs 100000` was taken: a worker process per asset, up to the asset count, started at once
+    from swpm_usd import cli
+
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    for jobs in ("100000", str(cli.MAX_JOBS + 1)):
+        result = CliRunner().invoke(main, ["run", str(cfg), "--jobs", jobs])
+        assert result.exit_code == 2 and "--jobs" in result.output and "1<=x<=256" in result.output
+        assert not (tmp_path / "out").exists()
+    assert "1<=x<=256" in CliRunner().invoke(main, ["run", "--help"]).output
+    # the bound itself is taken, and no more workers start than there are assets to build
+    from swpm_usd.pipeline import runner
+
+    started = []
+
+    class Worker(runner._Worker):
+        def __init__(self, ctx):
+            started.append(1)
+            super().__init__(ctx)
+
+    monkeypatch.setattr(runner, "_Worker", Worker)
+    result = CliRunner().invoke(main, ["run", str(cfg), "--jobs", str(cli.MAX_JOBS)])
+    assert result.exit_code == 0, result.output
+    assert started == [1]
+
+
+def _glb_with_external_buffer(mesh, path: Path, bin_name: str) -> None:
+    """``mesh`` (a trimesh) as a .glb whose one buffer is the file ``bin_name`` beside it, no binary chunk."""
+    import struct
+
+    import trimesh
+
+    data = trimesh.Scene(mesh).export(file_type="glb")
+    magic, version, _ = struct.unpack_from("<4sII", data, 0)
+    json_length, json_type = struct.unpack_from("<II", data, 12)
+    doc = json.loads(data[20 : 20 + json_length])
+    bin_length = struct.unpack_from("<I", data, 20 + json_length)[0]
+    used = doc["buffers"][0]["byteLength"]
+    (path.parent / bin_name).write_bytes(data[28 + json_length : 28 + json_length + bin_length][:used])
+    doc["buffers"] = [{"uri": bin_name, "byteLength": used}]
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    path.write_bytes(struct.pack("<4sIIII", magic, version, 20 + len(text), len(text), json_type) + text)
+
+
+def test_a_glb_s_external_buffer_files_are_its_inputs(tmp_path, monkeypatch):
+    # a .glb may keep its buffers in files beside it (a `uri` in its JSON chunk), which the loader reads as
+    # it does a .gltf's: they were no input of the asset, so an edited .bin left the stale build "up to date"
+    import trimesh
+
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m").mkdir()
+    spot = swpm_usd.load_mesh(SHARED_MESHES / "spot.obj")
+    mesh = trimesh.Trimesh(spot.points, spot.triangles, process=False)
+    glb, data = tmp_path / "m" / "spot.glb", tmp_path / "m" / "spot-data.bin"
+    _glb_with_external_buffer(mesh, glb, data.name)
+    points = swpm_usd.load_mesh(glb).points
+    assert len(points) > 0
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: m/*.glb}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    assert run(cfg, echo=lambda m: None).built == 1
+    (entries,) = _recorded_inputs(tmp_path / "out").values()
+    assert [Path(e["path"]) for e in entries] == [glb, data]
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    # the buffer of the mesh scaled by 2 (the same name and size), the .glb left as it is
+    _glb_with_external_buffer(mesh.copy().apply_scale(2.0), tmp_path / "scaled.glb", data.name)
+    assert (tmp_path / data.name).stat().st_size == data.stat().st_size
+    os.replace(tmp_path / data.name, data)
+    assert np.allclose(swpm_usd.load_mesh(glb).points, 2 * points)
+    assert run(cfg, echo=lambda m: None).built == 1
+    # a .glb with its own binary chunk has no other input; one whose header is not a .glb's, none either
+    trimesh.Scene(mesh).export(tmp_path / "m" / "whole.glb")
+    (tmp_path / "m" / "broken.glb").write_bytes(b"glTF" + b"\xff" * 40)
+    from swpm_usd.pipeline.assets import _gltf_buffers
+
+    assert _gltf_buffers(tmp_path / "m" / "whole.glb") == _gltf_buffers(tmp_path / "m" / "broken.glb") == []
+
+
+def test_a_stage_s_prims_share_one_list_of_its_layers_in_the_manifest(tmp_path, monkeypatch):
+    # each prim's record listed every layer of its stage (10,000 prims of a 50-layer stage: about 75 MB of
+    # manifest): the list is written once, in `input_lists`, and each record names it by `inputs_ref`
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg, layer = _two_layer_stage(tmp_path)
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg.write_text(
+        "version: 1\nassets: [{stage: stage/scene.usda}, {glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+        "defaults: {encoding: vanilla}\n"
+    )
+    assert run(cfg, echo=lambda m: None).built == 3
+    path = tmp_path / "out" / "manifest.json"
+    manifest = json.loads(path.read_text())
+    (key, entries), *more = manifest["input_lists"].items()
+    assert not more and sorted(Path(e["path"]).name for e in entries) == ["scene.usda", "spot_asset.usda"]
+    prims = {aid: rec for aid, rec in manifest["assets"].items() if aid.startswith("stage/")}
+    assert len(prims) == 2 and all(rec["inputs_ref"] == key and "inputs" not in rec for rec in prims.values())
+    # (an input list no other record holds stays in its record)
+    assert [e["path"] for e in manifest["assets"]["m/a.obj"]["inputs"]] == [str(tmp_path / "m" / "a.obj")]
+    assert "inputs_ref" not in manifest["assets"]["m/a.obj"]
+    # read back: a rerun trusts the shared list, reading no input
+    reads = _input_reads(monkeypatch, tmp_path / "stage")
+    assert run(cfg, echo=lambda m: None).skipped == 3 and reads == []
+    # a manifest written before (each record listing them) is read as well, and written compact again
+    for rec in prims.values():
+        rec["inputs"] = entries
+        del rec["inputs_ref"]
+    del manifest["input_lists"]
+    path.write_text(json.dumps(manifest, indent=1))
+    assert run(cfg, echo=lambda m: None).skipped == 3 and reads == []
+    rewritten = json.loads(path.read_text())
+    assert list(rewritten["input_lists"]) == [key]
+    assert rewritten["assets"] == manifest["assets"] | {
+        aid: {**{k: v for k, v in rec.items() if k != "inputs"}, "inputs_ref": key}
+        for aid, rec in prims.items()
+    }
+    # a reference to no list (a hand edit): the layers are hashed, and the prims still up to date
+    text = path.read_text().replace(f'"inputs_ref": "{key}"', '"inputs_ref": "nothing"')
+    path.write_text(text)
+    reads.clear()
+    res = run(cfg, echo=lambda m: None)
+    assert res.skipped == 3
+    assert sorted(reads) == ["scene.usda", "spot_asset.usda"]
+    # (named in a warning, as a hand-edited record is)
+    assert sorted(w for w in res.warnings if "inputs_ref" in w) == [
+        f"out/manifest.json: the record of {aid} names no list of its inputs (inputs_ref 'nothing', which "
+        "the manifest's input_lists does not hold); they are hashed"
+        for aid in sorted(prims)
+    ]
+    # an input_lists that is not an object: the same
+    manifest = json.loads(path.read_text())
+    manifest["input_lists"] = list(manifest["input_lists"].values())
+    path.write_text(json.dumps(manifest, indent=1))
+    res = run(cfg, echo=lambda m: None)
+    assert res.skipped == 3
+    assert len([w for w in res.warnings if "input_lists is a list, not an object" in w]) == 2
+    # the stage changed: both prims rebuilt, sharing the new list
+    _same_size_edit(layer, b"points = [(")
+    assert run(cfg, echo=lambda m: None).built == 2
+    recorded = _recorded_inputs(tmp_path / "out")
+    assert recorded["stage/scene.usda:/World/spot/Body"] == recorded["stage/scene.usda:/World/spot/Copy"]
+    assert all(_as_hashed(e, Path(e["path"])) for e in recorded["stage/scene.usda:/World/spot/Body"])
+    assert len(json.loads(path.read_text())["input_lists"]) == 1
+
+
+def test_a_rerun_takes_a_gltf_s_or_usd_file_s_inputs_from_its_record_when_they_are_as_recorded(
+    tmp_path, monkeypatch
+):
+    # a no-change rerun read every glob-matched .gltf's JSON and opened every USD file as a stage to list its
+    # inputs (about 4 ms a small .usda): the list its record holds is taken while every file in it is as
+    # recorded (the trust the input digest is taken by), and read again once one is not
+    import trimesh
+    from pxr import Usd, UsdGeom
+
+    from swpm_usd.pipeline import assets, runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m" / "geo").mkdir(parents=True)
+    mesh = trimesh.creation.icosphere(subdivisions=1)
+    for name, data in trimesh.Scene(mesh).export(file_type="gltf").items():
+        (tmp_path / "m" / name).write_bytes(data)
+
+    def geo_layer(name: str, scale: float) -> Path:
+        path = tmp_path / "m" / "geo" / name
+        st = Usd.Stage.CreateInMemory()
+        st.SetDefaultPrim(UsdGeom.Xform.Define(st, "/G").GetPrim())
+        m = UsdGeom.Mesh.Define(st, "/G/Mesh")
+        m.CreatePointsAttr((mesh.vertices * scale).tolist())
+        m.CreateFaceVertexCountsAttr([3] * len(mesh.faces))
+        m.CreateFaceVertexIndicesAttr(mesh.faces.reshape(-1).tolist())
+        st.GetRootLayer().Export(str(path))
+        return path
+
+    geo_layer("a.usda", 1.0)
+    top = tmp_path / "m" / "s.usda"
+    st = Usd.Stage.CreateNew(str(top))
+    st.SetDefaultPrim(st.DefinePrim("/S", "Xform"))
+    st.GetDefaultPrim().GetReferences().AddReference("./geo/a.usda")
+    st.GetRootLayer().Save()
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.*'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    listed: list[str] = []
+    for name in ("_gltf_buffer_files", "_usd_layer_files"):
+        real = getattr(assets, name)
+
+        def spy(path, real=real):
+            listed.append(path.name)
+            return real(path)
+
+        monkeypatch.setattr(assets, name, spy)
+    assert run(cfg, echo=lambda m: None).built == 2
+    assert sorted(set(listed)) == ["model.gltf", "s.usda"]
+    recorded = _recorded_inputs(tmp_path / "out")
+    assert [Path(e["path"]).name for e in recorded["m/s.usda"]] == ["s.usda", "a.usda"]
+    assert len(recorded["m/model.gltf"]) > 1  # (its .bin files)
+    listed.clear()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and listed == []
+    # --verify lists (and hashes) them all
+    assert run(cfg, echo=lambda m: None, verify=True).skipped == 2 and sorted(set(listed)) == [
+        "model.gltf", "s.usda"
+    ]  # fmt: skip
+    # a layer it uses changed: listed again, and rebuilt
+    listed.clear()
+    geo_layer("a.usda", 2.0)
+    res = run(cfg, echo=lambda m: None)
+    assert res.built_ids == ["m/s.usda"] and sorted(set(listed)) == ["s.usda"]
+    listed.clear()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and listed == []
+    # the file itself now references another layer: listed again, the new layer an input
+    geo_layer("b.usda", 3.0)
+    st = Usd.Stage.Open(str(top))
+    refs = st.GetDefaultPrim().GetReferences()
+    refs.ClearReferences()
+    refs.AddReference("./geo/b.usda")
+    st.GetRootLayer().Save()
+    del st, refs  # (an open layer is the one USD gives the loader, whatever the file holds)
+    assert run(cfg, echo=lambda m: None).built_ids == ["m/s.usda"] and "s.usda" in listed
+    assert [Path(e["path"]).name for e in _recorded_inputs(tmp_path / "out")["m/s.usda"]] == [
+        "s.usda",
+        "b.usda",
+    ]
+    # a failed build's record lists nothing to trust: a file of one is listed again
+    top.write_text("not a USD file\n")
+    assert run(cfg, echo=lambda m: None).failed == 1
+    listed.clear()
+    assert run(cfg, echo=lambda m: None).failed == 1 and "s.usda" in listed
+
+
+def test_a_record_listing_a_glb_s_inputs_the_old_way_is_never_taken_as_its_list(tmp_path, monkeypatch):
+    # a record written before a .glb's buffer files were inputs (the same tool_version) lists the .glb
+    # alone: a rerun took that list as the asset's inputs (every file in it as recorded) instead of reading
+    # the .glb, so an edited .bin left the stale build "up to date" for good
+    import trimesh
+
+    from swpm_usd.pipeline import assets, runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m").mkdir()
+    spot = swpm_usd.load_mesh(SHARED_MESHES / "spot.obj")
+    mesh = trimesh.Trimesh(spot.points, spot.triangles, process=False)
+    glb, data = tmp_path / "m" / "spot.glb", tmp_path / "m" / "spot-data.bin"
+    _glb_with_external_buffer(mesh, glb, data.name)
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: m/*.glb}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    # the older version: the .glb read as no buffer file's, and no word in its record of how it was listed
+    with monkeypatch.context() as m:
+        m.setattr(assets, "_gltf_buffer_files", lambda path: ([], True))
+        assert run(cfg, echo=lambda m: None).built == 1
+    path = tmp_path / "out" / "manifest.json"
+    manifest = json.loads(path.read_text())
+    (rec,) = manifest["assets"].values()
+    rec.pop("inputs_listed", None)
+    assert [Path(e["path"]) for e in rec["inputs"]] == [glb]
+    path.write_text(json.dumps(manifest, indent=1))
+    # read again (its buffer file now an input: the digest changes, and it is built once more)
+    assert run(cfg, echo=lambda m: None).built == 1
+    (entries,) = _recorded_inputs(tmp_path / "out").values()
+    assert [Path(e["path"]) for e in entries] == [glb, data]
+    # an older record whose list is the .glb's inputs: up to date, and marked as a list to take from now on
+    manifest = json.loads(path.read_text())
+    assert manifest["assets"]["m/spot.glb"].pop("inputs_listed") == 1
+    path.write_text(json.dumps(manifest, indent=1))
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    assert json.loads(path.read_text())["assets"]["m/spot.glb"]["inputs_listed"] == 1
+    _glb_with_external_buffer(mesh.copy().apply_scale(2.0), tmp_path / "scaled.glb", data.name)
+    os.replace(tmp_path / data.name, data)
+    assert run(cfg, echo=lambda m: None).built == 1
+
+
+def test_a_gltf_buffer_found_by_its_last_name_is_listed_again_once_its_name_as_written_appears(
+    tmp_path, monkeypatch
+):
+    # the loader reads a buffer `uri: bin/data.bin` from bin/data.bin, or else from data.bin beside the
+    # .gltf: built from data.bin, the record lists it; bin/data.bin written later is what the loader reads,
+    # with every file of the record as recorded, so the record's list is not the asset's inputs any more
+    import trimesh
+
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m" / "bin").mkdir(parents=True)
+    mesh = trimesh.creation.icosphere(subdivisions=1)
+    files = trimesh.Scene(mesh).export(file_type="gltf")
+    doc = json.loads(files["model.gltf"])
+    uris = [b["uri"] for b in doc["buffers"]]
+    for b in doc["buffers"]:
+        b["uri"] = f"bin/{b['uri']}"
+    (tmp_path / "m" / "model.gltf").write_text(json.dumps(doc))
+    for uri in uris:
+        (tmp_path / "m" / uri).write_bytes(files[uri])
+    points = swpm_usd.load_mesh(tmp_path / "m" / "model.gltf").points
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: m/*.gltf}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    assert run(cfg, echo=lambda m: None).built == 1
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    scaled = trimesh.Scene(mesh.copy().apply_scale(2.0)).export(file_type="gltf")
+    for uri in uris:
+        (tmp_path / "m" / "bin" / uri).write_bytes(scaled[uri])
+    assert np.allclose(swpm_usd.load_mesh(tmp_path / "m" / "model.gltf").points, 2 * points)
+    assert run(cfg, echo=lambda m: None).built == 1
+    (entries,) = _recorded_inputs(tmp_path / "out").values()
+    assert {tmp_path / "m" / "bin" / uri for uri in uris} <= {Path(e["path"]) for e in entries}
+    assert run(cfg, echo=lambda m: None).skipped == 1
+
+
+def test_a_record_listing_a_usd_file_alone_the_old_way_is_never_taken_as_its_list(tmp_path, monkeypatch):
+    # a record written before a glob-matched USD file's layers were inputs lists the file alone: taken as
+    # its list (the file unchanged), an edited layer it references left the stale build "up to date"
+    import trimesh
+    from pxr import Usd, UsdGeom
+
+    from swpm_usd.pipeline import assets, runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m" / "geo").mkdir(parents=True)
+    mesh = trimesh.creation.icosphere(subdivisions=1)
+    layer = tmp_path / "m" / "geo" / "a.usda"
+
+    def write_layer(scale: float) -> None:
+        st = Usd.Stage.CreateInMemory()
+        st.SetDefaultPrim(UsdGeom.Xform.Define(st, "/G").GetPrim())
+        m = UsdGeom.Mesh.Define(st, "/G/Mesh")
+        m.CreatePointsAttr((mesh.vertices * scale).tolist())
+        m.CreateFaceVertexCountsAttr([3] * len(mesh.faces))
+        m.CreateFaceVertexIndicesAttr(mesh.faces.reshape(-1).tolist())
+        st.GetRootLayer().Export(str(layer))
+
+    write_layer(1.0)
+    top = tmp_path / "m" / "s.usda"
+    st = Usd.Stage.CreateNew(str(top))
+    st.SetDefaultPrim(st.DefinePrim("/S", "Xform"))
+    st.GetDefaultPrim().GetReferences().AddReference("./geo/a.usda")
+    st.GetRootLayer().Save()
+    del st
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.usda'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    with monkeypatch.context() as m:
+        m.setattr(assets, "_usd_layer_files", lambda path: ([], True))
+        assert run(cfg, echo=lambda m: None).built == 1
+    path = tmp_path / "out" / "manifest.json"
+    manifest = json.loads(path.read_text())
+    manifest["assets"]["m/s.usda"].pop("inputs_listed", None)
+    assert [Path(e["path"]) for e in manifest["assets"]["m/s.usda"]["inputs"]] == [top]
+    path.write_text(json.dumps(manifest, indent=1))
+    # listed again: the layer is an input (the digest changes, and it is built once more)
+    assert run(cfg, echo=lambda m: None).built == 1
+    recorded = _recorded_inputs(tmp_path / "out")["m/s.usda"]
+    assert [Path(e["path"]).name for e in recorded] == ["s.usda", "a.usda"]
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    write_layer(2.0)
+    assert run(cfg, echo=lambda m: None).built == 1
+
+
+def test_a_gltf_whose_json_did_not_read_while_listed_is_listed_again(tmp_path, monkeypatch):
+    # a .gltf whose JSON did not read as the run listed its inputs (being written, unreadable a moment) was
+    # listed alone, and the loader, reading it after, built it: the record of a build then kept that list
+    # for good, as the .gltf's own (unchanged), and an edited .bin left the stale build "up to date"
+    import trimesh
+
+    from swpm_usd.pipeline import assets, runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m").mkdir()
+    mesh = trimesh.creation.icosphere(subdivisions=1)
+    files = trimesh.Scene(mesh).export(file_type="gltf")
+    for name, data in files.items():
+        (tmp_path / "m" / name).write_bytes(data)
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: m/*.gltf}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    with monkeypatch.context() as m:
+        m.setattr(assets, "_gltf_document", lambda path: None)
+        assert run(cfg, echo=lambda m: None).built == 1
+    (entries,) = _recorded_inputs(tmp_path / "out").values()
+    assert [Path(e["path"]).name for e in entries] == ["model.gltf"]
+    # read again: its buffer files are inputs now (built again, the digest being another)
+    assert run(cfg, echo=lambda m: None).built == 1
+    (entries,) = _recorded_inputs(tmp_path / "out").values()
+    assert len(entries) > 1
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    scaled = trimesh.Scene(mesh.copy().apply_scale(2.0)).export(file_type="gltf")
+    for name in files:
+        if name != "model.gltf":
+            (tmp_path / "m" / name).write_bytes(scaled[name])
+    assert run(cfg, echo=lambda m: None).built == 1

@@ -12,7 +12,9 @@ import fnmatch
 import hashlib
 import json
 import os
+import struct
 import time
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -62,31 +64,76 @@ def hash_inputs(paths: list[Path]) -> tuple[str, list[dict[str, Any]]]:
     return h.hexdigest(), entries
 
 
-def _gltf_buffers(path: Path) -> list[Path]:
-    """The files beside a ``.gltf`` that hold its vertices and triangles: those its ``buffers`` name by a
-    ``uri`` (not a base64 ``data:`` one), which the loader (trimesh) reads, in its folder, by the name as
-    written, without a leading ``/``, or by its last part: every one of those found, so a change to any
-    is a change to the asset; none for another file, or a .gltf that is not JSON (its load fails)."""
-    if path.suffix.lower() != ".gltf":
-        return []
+#: a .glb's header (magic, version, length) and its first chunk's (length, type): its JSON
+_GLB_HEADER = struct.Struct("<4sIIII")
+_GLB_JSON = 0x4E4F534A
+
+
+def _gltf_document(path: Path) -> Any:
+    """The JSON document of a ``.gltf``, or the JSON chunk of a ``.glb`` (its header and that chunk read
+    alone, not its binary chunk); None for another file, or one that is neither (its load fails)."""
+    suffix = path.suffix.lower()
     try:
-        buffers = json.loads(path.read_bytes()).get("buffers") or []
-    except (OSError, ValueError, AttributeError, RecursionError):
-        return []
+        if suffix == ".gltf":
+            return json.loads(path.read_bytes())
+        if suffix != ".glb":
+            return None
+        with open(path, "rb") as f:
+            head = f.read(_GLB_HEADER.size)
+            if len(head) < _GLB_HEADER.size:
+                return None
+            magic, _, length, chunk_length, chunk_type = _GLB_HEADER.unpack(head)
+            if magic != b"glTF" or chunk_type != _GLB_JSON or chunk_length > length:
+                return None
+            return json.loads(f.read(chunk_length))
+    except (OSError, ValueError, RecursionError):
+        return None
+
+
+def _gltf_buffers(path: Path) -> list[Path]:
+    """The files beside a ``.gltf`` or ``.glb`` that hold its vertices and triangles: those its ``buffers``
+    name by a ``uri`` (not a base64 ``data:`` one; a .glb's own binary chunk is the buffer without one),
+    which the loader (trimesh) reads, in its folder, by the name as written, without a leading ``/``, or by
+    its last part: every one of those found, so a change to any is a change to the asset; none for another
+    file, or one whose JSON does not read (its load fails)."""
+    return _gltf_buffer_files(path)[0]
+
+
+def _gltf_buffer_files(path: Path) -> tuple[list[Path], bool]:
+    """:func:`_gltf_buffers`, and whether each buffer was found by the first of its names the loader tries
+    (its name as written, in the folder): when one was found by a later name (``bin/data.bin`` read from
+    ``data.bin``), a file written later under an earlier one is what the loader reads, with every file
+    listed unchanged, so the list holds only while it is read again (:data:`LISTED_SUFFIXES`). A glTF
+    whose JSON did not read (being written, or unreadable a moment) is not settled either: should the
+    loader read it, the list is its alone."""
+    doc = _gltf_document(path)
+    if doc is None:
+        return [], path.suffix.lower() not in (".gltf", ".glb")
+    buffers = doc.get("buffers") if isinstance(doc, dict) else None
+    if not buffers:
+        return [], True
     found: list[Path] = []
+    settled = True
     for b in buffers if isinstance(buffers, list) else []:
         uri = b.get("uri") if isinstance(b, dict) else None
         if not isinstance(uri, str) or "base64," in uri:
             continue
+        first = True  # (the first name of this uri inside the folder, the loader's first try)
         for name in (uri.strip(), uri.strip().lstrip("/"), os.path.split(uri)[-1]):
             f = path.parent / name
             try:
                 inside = f.resolve().is_relative_to(path.parent.resolve())
-                if name and inside and f not in found and f.is_file():
+                if not (name and inside):
+                    continue
+                exists = f.is_file()
+                if exists and f not in found:
                     found.append(f)
             except (OSError, ValueError):
                 continue
-    return found
+            if first and not exists:
+                settled = False
+            first = False
+    return found, settled
 
 
 def _used_layers(stage) -> list[Path]:
@@ -108,20 +155,26 @@ def _usd_layers(path: Path) -> list[Path]:
     """The files other than ``path`` whose layers a USD file a glob matched uses (its references,
     sublayers, payloads), which the loader composes: a change to one is a change to the asset. None for
     another file, or one that does not open (its load fails)."""
+    return _usd_layer_files(path)[0]
+
+
+def _usd_layer_files(path: Path) -> tuple[list[Path], bool]:
+    """:func:`_usd_layers`, and whether the file opened (else, should the loader open it a moment later,
+    the list of the file alone is not its inputs: not settled, see :func:`discover`)."""
     from ..io import _USD_SUFFIXES
 
     if path.suffix.lower() not in _USD_SUFFIXES:
-        return []
+        return [], True
     try:
         from pxr import Usd
 
         stage = Usd.Stage.Open(str(path))
     except Exception:  # noqa: BLE001 - the worker's load reports it, located
-        return []
+        return [], False
     if stage is None:
-        return []
+        return [], False
     here = path.resolve()
-    return [p for p in _used_layers(stage) if p.resolve() != here]
+    return [p for p in _used_layers(stage) if p.resolve() != here], True
 
 
 def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset], list[Path]]:
@@ -191,15 +244,76 @@ def _first_match(
     return False
 
 
-def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]]:
+#: the files whose inputs are listed by reading them (:func:`discover`): a glTF names its buffer files, a
+#: USD file the layers it uses (opening one as a stage: about 4 ms for a small .usda)
+LISTED_SUFFIXES = (".gltf", ".glb", ".usd", ".usda", ".usdc", ".usdz")
+
+
+def output_dir(cfg: Config) -> Path:
+    """The config's ``output.dir``, as a path (relative to the config's folder)."""
+    return cfg.base / cfg.data["output"]["dir"]
+
+
+def _under(path: Path, folder: Path, real: dict[Path, str]) -> bool:
+    """Is ``path`` in ``folder`` or below it (its folder resolved: a link to a file elsewhere that sits in
+    ``folder`` is in it; ``folder`` a link itself is the folder it names)? ``real`` caches the folders'
+    real paths."""
+    try:
+        for f in (path.parent, folder):
+            if f not in real:
+                real[f] = os.path.realpath(f)
+        return Path(real[path.parent]).is_relative_to(real[folder])
+    except (OSError, ValueError):
+        return False
+
+
+def _shown(cfg: Config, path: Path) -> str:
+    """``path`` relative to the config's folder when it is under it, else as it is."""
+    try:
+        return path.relative_to(cfg.base).as_posix()
+    except ValueError:
+        return str(path)
+
+
+def _is_output(
+    path: Path, out_dir: Path, holds_config: bool, recorded: set[str], real: dict[Path, str]
+) -> bool:
+    """Is ``path``, a file a glob matched, the run's and not an input: in ``out_dir`` or below it, or, when
+    ``out_dir`` holds the config (output.dir ``.``: the inputs are there too), one of the ``recorded``
+    outputs (real paths) in it? ``real``: :func:`_under`'s."""
+    if not holds_config:
+        return _under(path, out_dir, real)
+    return _under(path, out_dir, real) and os.path.realpath(path) in recorded
+
+
+def discover(
+    cfg: Config,
+    recorded_outputs: Iterable[Path] = (),
+    listed: Callable[[str, Path], list[Path] | None] | None = None,
+    settled: set[str] | None = None,
+) -> tuple[list[Asset], dict[str, list[Path]], list[str]]:
     """Every asset of the config, the files each depends on, and semantic problems (located). A file (or a
-    stage's prim) matched by several entries of ``assets`` is one asset, found by the first of them."""
+    stage's prim) matched by several entries of ``assets`` is one asset, found by the first of them. A
+    glob never matches a file in ``output.dir`` (or below it): the run's outputs are not its inputs. When
+    ``output.dir`` holds the config (``.``, where the inputs are too), it never matches one of the
+    ``recorded_outputs`` (those the manifest lists) instead.
+
+    A glob-matched file's inputs are the file with the buffer files a glTF names or the layers a USD file
+    uses (each read to list them), unless ``listed(asset id, file)`` gives them: the runner's list of the
+    asset's manifest record, when those files are all as recorded (:func:`.runner._listed_inputs`). The
+    ids of those of :data:`LISTED_SUFFIXES` whose list holds while the files in it are unchanged (taken
+    from ``listed``, or read with every glTF buffer found by its name as written: a USD file with a layer
+    it cannot open does not load) are added to ``settled``: their records may keep the list for reuse."""
     from ..io import SUPPORTED_SUFFIXES  # (here: the CLI's --help and config checks import no mesh code)
 
     assets: list[Asset] = []
     inputs: dict[str, list[Path]] = {}
     problems: list[str] = []
     matched: dict[tuple, tuple[int, int]] = {}
+    out_dir = output_dir(cfg)
+    folders: dict[Path, str] = {}  # a matched file's folder -> its real path (one realpath a folder)
+    holds_config = _under(cfg.path, out_dir, folders)  # (output.dir ".": the inputs are there too)
+    recorded_outputs = {os.path.realpath(p) for p in recorded_outputs}
     for i, src in enumerate(cfg.data["assets"]):
         if "glob" in src:
             where = cfg.where(("assets", i, "glob"))
@@ -219,9 +333,19 @@ def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]
             except (ValueError, NotImplementedError, OSError) as exc:
                 problems.append(f"{where}: unusable glob: {exc}")
                 continue
+            # the run's own outputs are never assets: a glob reaching into output.dir (``**/*``) would take
+            # them as inputs on the next run (its .usdc layers, scene.usda), which then overwrite themselves
+            is_output = {p: _is_output(p, out_dir, holds_config, recorded_outputs, folders) for p in files}
+            outputs = [p for p in files if is_output[p]]
+            files = [p for p in files if not is_output[p]]
             # a glob's assets are its mesh files: not the config, textures, .mtl or notes it also matches
             found = [p for p in files if p.suffix.lower() in SUPPORTED_SUFFIXES]
-            if not files:
+            if not files and outputs:
+                problems.append(
+                    f"{where}: the glob matches only files in output.dir ({_shown(cfg, out_dir)}), which are "
+                    "never assets: the run writes there"
+                )
+            elif not files:
                 problems.append(f"{where}: the glob matches no file")
             elif not found:
                 others = [p.relative_to(cfg.base).as_posix() for p in files]
@@ -239,7 +363,15 @@ def discover(cfg: Config) -> tuple[list[Asset], dict[str, list[Path]], list[str]
                 if not _first_match(cfg, matched, (real, None), i, rel, instances, problems):
                     continue
                 assets.append(Asset(rel, p, None, instances, {}, i))
-                inputs[rel] = [p, *_gltf_buffers(p), *_usd_layers(p)]
+                known = listed(rel, p) if listed is not None else None
+                settles = known is not None
+                if known is None:
+                    buffers, buffers_settled = _gltf_buffer_files(p)
+                    layers, layers_settled = _usd_layer_files(p)
+                    known, settles = [p, *buffers, *layers], buffers_settled and layers_settled
+                inputs[rel] = known
+                if settled is not None and settles and p.suffix.lower() in LISTED_SUFFIXES:
+                    settled.add(rel)
         else:
             stage_path = (cfg.base / src["stage"]).resolve()
             try:
@@ -360,21 +492,28 @@ def treatment_digest(
     return hashlib.sha256(payload.encode()).hexdigest()
 
 
+def rule_checks(rule: dict[str, Any], asset: Asset, triangles: int) -> list[tuple[str, bool]]:
+    """Each of ``rule``'s match conditions, named, and whether ``asset`` (of ``triangles``) meets it: the
+    rule matches the asset when it meets them all (a rule without ``match`` matches every asset)."""
+    m = rule.get("match") or {}
+    checks = []
+    if "path" in m:
+        checks.append(("path", fnmatch.fnmatch(asset.id.split(":")[0], m["path"])))
+    if "prim" in m:
+        checks.append(("prim", asset.prim is not None and fnmatch.fnmatch(asset.prim, m["prim"])))
+    if "triangles" in m:
+        checks.append((f"triangles={triangles}", _in_range(triangles, m["triangles"])))
+    if "instances" in m:
+        checks.append((f"instances={asset.instances}", _in_range(asset.instances, m["instances"])))
+    if "tag" in m:
+        checks.append(("tag", all(asset.tags.get(k) == v for k, v in m["tag"].items())))
+    return checks
+
+
 def match_rule(cfg: Config, asset: Asset, triangles: int) -> tuple[int | None, dict[str, Any], str]:
     """(rule index or None for defaults, {'encoding', 'params'}, why) for an asset."""
     for i, rule in enumerate(cfg.data.get("rules", [])):
-        m = rule.get("match") or {}
-        checks = []
-        if "path" in m:
-            checks.append(("path", fnmatch.fnmatch(asset.id.split(":")[0], m["path"])))
-        if "prim" in m:
-            checks.append(("prim", asset.prim is not None and fnmatch.fnmatch(asset.prim, m["prim"])))
-        if "triangles" in m:
-            checks.append((f"triangles={triangles}", _in_range(triangles, m["triangles"])))
-        if "instances" in m:
-            checks.append((f"instances={asset.instances}", _in_range(asset.instances, m["instances"])))
-        if "tag" in m:
-            checks.append(("tag", all(asset.tags.get(k) == v for k, v in m["tag"].items())))
+        checks = rule_checks(rule, asset, triangles)
         if all(ok for _, ok in checks):
             why = f"rule {rule['name']!r} matched" + (
                 f" ({', '.join(name for name, _ in checks)})" if checks else " (no match conditions)"

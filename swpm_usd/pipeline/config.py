@@ -1,7 +1,8 @@
 """Reading ``pipeline.yaml``: YAML with positions, JSON Schema validation, every error at once.
 
-Each problem is reported as ``pipeline.yaml:LINE:COL: $.json.path: message`` (line and column of the
-offending node, 1-based), so an editor can jump to it.
+Each problem is reported as ``FILE:LINE:COL: $.json.path: message``: the config's path as the caller gave
+it (``configs/pipeline.yaml`` on the command line), and the line and column of the offending node, 1-based,
+so an editor (or a terminal) can jump to it from any folder.
 """
 
 from __future__ import annotations
@@ -37,6 +38,8 @@ class Config:
     #: the text of each unquoted scalar that YAML read as something other than a string (``1e5``, ``yes``,
     #: ``2024-01-01``), by JSON path: an error on a field the schema types as a string quotes it
     plain_scalars: dict[tuple, str] = field(default_factory=dict)
+    #: the config's path as the caller gave it, which its problems name (``path`` is resolved; "": it)
+    shown: str = ""
 
     @property
     def base(self) -> Path:
@@ -44,7 +47,7 @@ class Config:
 
     def where(self, json_path: tuple) -> str:
         line, col = self.marks.get(json_path, self.marks.get((), (1, 1)))
-        return f"{self.path.name}:{line}:{col}: {format_path(json_path)}"
+        return f"{self.shown or self.path}:{line}:{col}: {format_path(json_path)}"
 
 
 def format_path(parts: tuple) -> str:
@@ -123,30 +126,35 @@ def _to_python(
 def load_config(path: str | Path) -> Config:
     """Parse and validate ``path``; raise :class:`ConfigError` listing every problem."""
     path = Path(path)
+    shown = str(path)  # (as given: a problem names the file the user named, not its name alone)
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError([f"{path.name}:1:1: $: cannot read the file ({exc})"]) from None
+        raise ConfigError([f"{shown}:1:1: $: cannot read the file ({exc})"]) from None
     marks: dict[tuple, tuple[int, int]] = {}
     plain: dict[tuple, str] = {}
     duplicates: list[str] = []
     keys: list[str] = []
     try:
         node = yaml.compose(text, Loader=_Loader)
-        data = _to_python(node, (), marks, duplicates, path.name, plain, keys) if node is not None else None
+        data = _to_python(node, (), marks, duplicates, shown, plain, keys) if node is not None else None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
         raise ConfigError(
-            [f"{path.name}:{line}:{col}: $: invalid YAML: {getattr(exc, 'problem', None) or exc}"]
+            [f"{shown}:{line}:{col}: $: invalid YAML: {getattr(exc, 'problem', None) or exc}"]
         ) from None
     if duplicates:
         raise ConfigError(duplicates)
     cfg = Config(
-        path=path.resolve(), data=data if isinstance(data, dict) else {}, marks=marks, plain_scalars=plain
+        path=path.resolve(),
+        data=data if isinstance(data, dict) else {},
+        marks=marks,
+        plain_scalars=plain,
+        shown=shown,
     )
     if not isinstance(data, dict):
-        raise ConfigError([f"{path.name}:1:1: $: the configuration must be a mapping"])
+        raise ConfigError([f"{shown}:1:1: $: the configuration must be a mapping"])
     validator = jsonschema.Draft202012Validator(load_schema())
     problems = list(keys)
     for err in sorted(validator.iter_errors(data), key=lambda e: tuple(map(str, e.absolute_path))):
@@ -178,7 +186,7 @@ def load_config(path: str | Path) -> Config:
             "asset's USD layer)"
         )
     if problems:
-        raise ConfigError(sorted(set(problems), key=_line_key))
+        raise ConfigError(sorted(set(problems), key=lambda p: _line_key(p, shown)))
     return cfg
 
 
@@ -217,9 +225,11 @@ def _non_finite_params(cfg: Config) -> list[str]:
     return out
 
 
-def _line_key(msg: str) -> tuple[int, int, str]:
+def _line_key(msg: str, shown: str) -> tuple[int, int, str]:
+    """The line and column of a problem ``FILE:LINE:COL: ...`` of the config ``shown`` (a path may hold
+    colons of its own), to sort by."""
     try:
-        _, line, col, _ = msg.split(":", 3)
+        line, col, _ = msg.removeprefix(f"{shown}:").split(":", 2)
         return int(line), int(col), msg
     except ValueError:
         return 0, 0, msg
@@ -243,7 +253,8 @@ def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
             if path and path[-1] == "params":
                 hint = " (not a parameter of this rule's encoding)"
             msgs.append(
-                f"{cfg.path.name}:{where[0]}:{where[1]}: {format_path((*path, key))}: unknown key{hint}"
+                f"{cfg.shown or cfg.path}:{where[0]}:{where[1]}: {format_path((*path, key))}: "
+                f"unknown key{hint}"
             )
         return msgs
     if err.validator == "oneOf" and path and path[0] == "assets":

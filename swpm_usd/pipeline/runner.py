@@ -40,9 +40,19 @@ from typing import Any
 
 from .. import __version__
 from ..errors import OutputLockedError
-from .assets import Asset, checks_no_stricter, checks_of, discover, hash_inputs, match_rule, treatment_digest
+from .assets import (
+    LISTED_SUFFIXES,
+    Asset,
+    checks_no_stricter,
+    checks_of,
+    discover,
+    hash_inputs,
+    match_rule,
+    rule_checks,
+    treatment_digest,
+)
 from .config import Config, ConfigError, load_config
-from .records import INPUT_STAT_KEYS, record_problem, recorded_inputs
+from .records import INPUT_STAT_KEYS, _what, record_problem, recorded_inputs
 from .worker import (
     STAT_KEYS,
     USD_TEMPORARY_SUFFIX,
@@ -100,6 +110,9 @@ class PlanItem:
     #: each input file's manifest entry (:func:`.assets.hash_inputs`): the recorded ones, when the input
     #: digest was taken from the record (:func:`_inputs_unchanged`), else those of the files just hashed
     input_stats: list[dict] = field(default_factory=list)
+    #: ``inputs`` is a list a rerun may take from the record while its files are unchanged
+    #: (:func:`.assets.discover`'s ``settled``): the record says so by :data:`INPUTS_LISTED`
+    inputs_listed: bool = False
 
 
 @dataclass
@@ -123,20 +136,96 @@ class RunResult:
     built_ids: list[str] = field(default_factory=list)
 
 
-def _read_manifest(path: Path) -> dict:
+def _recorded_output_paths(out_dir: Path, manifest: dict) -> list[Path]:
+    """The files in ``out_dir`` that ``manifest`` records as the run's outputs (its assets', those left by
+    removed assets, scene.usda and report.html), which no glob takes as assets (:func:`.assets.discover`);
+    a hand-edited entry that is not a file name is left out."""
+    records = manifest.get("assets") if isinstance(manifest.get("assets"), dict) else {}
+    found = [
+        o
+        for rec in records.values()
+        if isinstance(rec, dict) and isinstance(rec.get("outputs"), dict)
+        for o in rec["outputs"].values()
+    ]
+    for key in (ORPHANED, RUN_OUTPUTS):
+        value = manifest.get(key)
+        found += value if isinstance(value, list) else list(value.values()) if isinstance(value, dict) else []
+    names = {o.get("path") for o in found if isinstance(o, dict)}
+    return [out_dir / n for n in names if isinstance(n, str) and n and "\0" not in n and "/" not in n]
+
+
+#: the manifest's table of the ``inputs`` lists several records share (the prims of one stage: its layers),
+#: each written once (key: :func:`_inputs_key`), and a record's reference to one in place of its ``inputs``
+#: (10,000 prims of a stage of 50 layers: about 75 MB of manifest, each record listing the 50)
+INPUT_LISTS = "input_lists"
+INPUTS_REF = "inputs_ref"
+
+
+def _inputs_key(entries: list) -> str:
+    """The key of an ``inputs`` list in :data:`INPUT_LISTS`: its content's (one list, one key, in any run)."""
+    import hashlib
+
+    return hashlib.sha256(json.dumps(entries, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def _read_manifest(path: Path, unresolved: dict[str, str] | None = None) -> dict:
+    """The manifest at ``path``, ``{"assets": {}}`` for none (or not one); each record's :data:`INPUTS_REF`
+    replaced by the list it names (one list object for all the records that share it), and records of
+    older manifests that list the same inputs (a stage's prims) given one list object too. A reference to
+    no list (a hand edit: none of that key, or :data:`INPUT_LISTS` not an object) leaves the record without
+    ``inputs`` (hashed, as a malformed list is), and is described in ``unresolved`` (asset id -> why)."""
     try:
         data = json.loads(path.read_text())
-        return data if isinstance(data, dict) and isinstance(data.get("assets"), dict) else {"assets": {}}
     except (OSError, ValueError):
         return {"assets": {}}
+    if not isinstance(data, dict) or not isinstance(data.get("assets"), dict):
+        return {"assets": {}}
+    found = data.pop(INPUT_LISTS, None)
+    tables = found if isinstance(found, dict) else {}
+    seen: dict[str, list] = {}
+    for aid, rec in data["assets"].items():
+        if not isinstance(rec, dict):
+            continue
+        if INPUTS_REF in rec:
+            ref = rec.pop(INPUTS_REF)
+            entries = tables.get(ref) if isinstance(ref, str) else None
+            if isinstance(entries, list):  # (else none: the inputs are hashed, as for a malformed list)
+                rec["inputs"] = entries
+            elif unresolved is not None:
+                if not isinstance(ref, str):
+                    why = f"its {INPUTS_REF} is {_what(ref)}, not a string"
+                elif found is None:
+                    why = f"{INPUTS_REF} {ref!r}, and the manifest has no {INPUT_LISTS}"
+                elif not isinstance(found, dict):
+                    why = f"{INPUTS_REF} {ref!r}; its {INPUT_LISTS} is {_what(found)}, not an object"
+                elif ref not in tables:
+                    why = f"{INPUTS_REF} {ref!r}, which the manifest's {INPUT_LISTS} does not hold"
+                else:
+                    why = f"{INPUTS_REF} {ref!r}, which is {_what(entries)} in {INPUT_LISTS}, not a list"
+                unresolved[aid] = why
+        elif isinstance(rec.get("inputs"), list) and len(rec["inputs"]) > 1:
+            rec["inputs"] = seen.setdefault(json.dumps(rec["inputs"], sort_keys=True), rec["inputs"])
+    return data
 
 
 class _ManifestText:
     """``json.dumps(manifest, indent=1)`` with every asset record serialised once: a record does not
-    change once recorded, so a rewrite joins cached texts (a 6 MB manifest: 0.6 s serialised in full)."""
+    change once recorded, so a rewrite joins cached texts (a 6 MB manifest: 0.6 s serialised in full).
+
+    An ``inputs`` list that several records hold (the same list object: the prims of one stage, hashed
+    once) is written once, in the :data:`INPUT_LISTS` table after ``assets``, and each of those records
+    names it by its :data:`INPUTS_REF` instead; :func:`_read_manifest` puts it back."""
 
     def __init__(self) -> None:
-        self._records: dict[str, tuple[dict, str]] = {}  # asset id -> (record, its text at depth 2)
+        #: asset id -> (record, its inputs' key or None, its text at depth 2)
+        self._records: dict[str, tuple[dict, str | None, str]] = {}
+        self._keys: dict[int, tuple[list, str, str]] = {}  # id(list) -> (list, key, text at depth 2)
+
+    def _shared(self, entries: list, nested) -> tuple[str, str]:
+        hit = self._keys.get(id(entries))
+        if hit is None or hit[0] is not entries:
+            hit = self._keys[id(entries)] = (entries, _inputs_key(entries), nested(entries, 2))
+        return hit[1], hit[2]
 
     def dumps(self, manifest: dict) -> str:
         def nested(value: Any, depth: int) -> str:
@@ -145,14 +234,32 @@ class _ManifestText:
         fields = []
         for key, value in manifest.items():
             if key == "assets" and isinstance(value, dict) and value:
+                holders: dict[int, int] = {}  # id(inputs list) -> how many records hold it
+                for rec in value.values():
+                    inputs = rec.get("inputs") if isinstance(rec, dict) else None
+                    if isinstance(inputs, list) and inputs:
+                        holders[id(inputs)] = holders.get(id(inputs), 0) + 1
+                tables: dict[str, str] = {}
                 rows = []
                 for aid, rec in value.items():
+                    inputs = rec.get("inputs") if isinstance(rec, dict) else None
+                    ref = None
+                    if isinstance(inputs, list) and holders.get(id(inputs), 0) > 1:
+                        ref, text = self._shared(inputs, nested)
+                        tables[ref] = text
                     hit = self._records.get(aid)
-                    if hit is None or hit[0] is not rec:
-                        hit = (rec, nested(rec, 2))
+                    if hit is None or hit[0] is not rec or hit[1] != ref:
+                        shown = rec
+                        if ref is not None:
+                            shown = {(INPUTS_REF if k == "inputs" else k): v for k, v in rec.items()}
+                            shown[INPUTS_REF] = ref
+                        hit = (rec, ref, nested(shown, 2))
                         self._records[aid] = hit
-                    rows.append(f"  {json.dumps(aid)}: {hit[1]}")
+                    rows.append(f"  {json.dumps(aid)}: {hit[2]}")
                 fields.append(' "assets": {\n' + ",\n".join(rows) + "\n }")
+                if tables:
+                    table_rows = [f"  {json.dumps(k)}: {text}" for k, text in sorted(tables.items())]
+                    fields.append(f" {json.dumps(INPUT_LISTS)}: {{\n" + ",\n".join(table_rows) + "\n }")
             else:
                 fields.append(f" {json.dumps(key)}: {nested(value, 1)}")
         return "{\n" + ",\n".join(fields) + "\n}"
@@ -205,6 +312,49 @@ def _inputs_unchanged(paths: list[Path], entries: list[dict] | None) -> bool:
     return True
 
 
+#: a record's mark that its ``inputs`` are the list of its file's inputs as this listing reads them
+#: (:data:`LISTING`), which a rerun takes while they are all unchanged (:func:`_listed_inputs`). A record
+#: without it (of an older version: a .glb listed alone, before its buffer files were inputs; a USD file
+#: before its layers were) or of another listing is read again, and marked by the run
+INPUTS_LISTED = "inputs_listed"
+#: the listing's version: one more whenever a file's inputs are listed otherwise
+LISTING = 1
+
+
+def _listed_inputs(path: Path, record: Any) -> list[Path] | None:
+    """The input files of the glob-matched ``path`` as its manifest ``record`` lists them, without reading
+    ``path`` (a glTF's buffer files, a USD file's layers), when the record is of a build (every buffer or
+    layer found: the loader refuses a stage with a layer it cannot open) of ``path``, marked as this
+    listing's (:data:`INPUTS_LISTED`: not an older version's, nor one a file written later could change),
+    and every file it lists is as recorded (:func:`_inputs_unchanged`, the trust its digest is taken by):
+    what they name is then what they named. Else None, and they are read."""
+    if path.suffix.lower() not in LISTED_SUFFIXES or not isinstance(record, dict):
+        return None
+    if record.get(INPUTS_LISTED) != LISTING:  # (an older version's list, or one that may not hold)
+        return None
+    if record.get("status") != "built" or "input_digest" not in record or record_problem(record) is not None:
+        return None
+    entries = recorded_inputs(record)
+    if not entries or entries[0]["path"] != str(path):
+        return None
+    paths = [Path(e["path"]) for e in entries]
+    return paths if _inputs_unchanged(paths, entries) else None
+
+
+def _listing_mark(record: dict) -> bool:
+    return record.get(INPUTS_LISTED) == LISTING
+
+
+def _with_inputs(record: dict, item: PlanItem) -> dict:
+    """``record`` with ``item``'s input digest, inputs (the stat of each as it was hashed to that digest)
+    and :data:`INPUTS_LISTED` when they are a list a rerun may take (else without it)."""
+    rec = {k: v for k, v in record.items() if k != INPUTS_LISTED}
+    rec["input_digest"], rec["inputs"] = item.input_digest, item.input_stats
+    if item.inputs_listed:
+        rec[INPUTS_LISTED] = LISTING
+    return rec
+
+
 def _input_size(path: Path) -> int:
     """``path``'s size, 0 if it cannot be read (its asset then fails in the worker, naming the file)."""
     try:
@@ -229,11 +379,20 @@ def plan(
     recorded, or else their sha256 (:func:`_checked_output`). ``verify`` hashes every input and output. A
     manifest record that is not one the run writes (:func:`.records.record_problem`: hand-edited) is
     ignored, as if the asset had none, and named in a warning."""
-    assets, inputs, problems = discover(cfg)
     out_dir = cfg.base / cfg.data["output"]["dir"]
+    known = manifest.get("assets", {})
+    reused: set[str] = set()  # the assets whose inputs are their record's (as recorded: not read)
+
+    def listed(aid: str, path: Path) -> list[Path] | None:
+        found = None if verify else _listed_inputs(path, known.get(aid))
+        if found is not None:
+            reused.add(aid)
+        return found
+
+    settled: set[str] = set()  # the assets whose inputs their record may keep for reuse
+    assets, inputs, problems = discover(cfg, _recorded_output_paths(out_dir, manifest), listed, settled)
     problems.extend(_unusable_out_dir(cfg, out_dir))
     problems.extend(_overwritten_inputs(cfg, out_dir, assets, inputs))
-    known = manifest.get("assets", {})
     items = []
     record_warnings = []
     needs_rule_on_triangles = any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))
@@ -250,7 +409,7 @@ def plan(
         prev = previous or {}
         # (a failed asset's record need not have its input digest: record_problem checks its type alone)
         recorded = None if verify or "input_digest" not in prev else recorded_inputs(prev)
-        if _inputs_unchanged(inputs[a.id], recorded):
+        if (a.id in reused and previous is not None) or _inputs_unchanged(inputs[a.id], recorded):
             digest, input_stats = prev["input_digest"], recorded
         else:
             key = tuple(inputs[a.id])
@@ -276,6 +435,7 @@ def plan(
                         inputs=inputs[a.id],
                         previous=previous,
                         input_stats=input_stats,
+                        inputs_listed=a.id in settled,
                     )
                 )
                 continue
@@ -283,7 +443,15 @@ def plan(
                 tri = _count_triangles(a)
             except Exception:  # noqa: BLE001 - the worker reports it as this asset's failure
                 tri = None
-        item = PlanItem(a, digest, tri, inputs=inputs[a.id], previous=previous, input_stats=input_stats)
+        item = PlanItem(
+            a,
+            digest,
+            tri,
+            inputs=inputs[a.id],
+            previous=previous,
+            input_stats=input_stats,
+            inputs_listed=a.id in settled,
+        )
         item.rule, item.treatment, item.why = match_rule(cfg, a, tri if tri is not None else 0)
         item.digest = _treatment_digest(cfg, item)
         outs = prev.get("outputs", {})
@@ -565,12 +733,33 @@ def _rel(cfg: Config, path: Path) -> str:
 
 
 def _unreached_rules(cfg: Config, items: list[PlanItem]) -> list[str]:
+    """A warning for each rule no asset took: one shadowed by earlier rules (every asset it matches is
+    taken first by one of them, named) or one that matches no asset at all."""
     reached = {i.rule for i in items}
-    return [
-        f"{cfg.where(('rules', idx))}: rule {rule['name']!r} matches no asset"
-        for idx, rule in enumerate(cfg.data.get("rules", []))
-        if idx not in reached
-    ]
+    rules = cfg.data.get("rules", [])
+    warnings = []
+    for idx, rule in enumerate(rules):
+        if idx in reached:
+            continue
+        # (an asset whose rule is unknown, one that failed before the worker matched it, is left out)
+        takers = sorted(
+            {
+                it.rule
+                for it in items
+                if it.rule is not None and all(ok for _, ok in rule_checks(rule, it.asset, it.triangles or 0))
+            }
+        )
+        if takers:
+            by = ("rules " if len(takers) > 1 else "rule ") + " and ".join(
+                repr(rules[i]["name"]) for i in takers
+            )
+            warnings.append(
+                f"{cfg.where(('rules', idx))}: rule {rule['name']!r} is shadowed by {by}: every asset it "
+                "matches is taken by an earlier rule"
+            )
+        else:
+            warnings.append(f"{cfg.where(('rules', idx))}: rule {rule['name']!r} matches no asset")
+    return warnings
 
 
 def _wants_outputs(cfg: Config) -> bool:
@@ -634,7 +823,8 @@ def execute(
         if scheduler:
             client = Client(scheduler)
         else:
-            cluster = LocalCluster(n_workers=max(1, jobs), threads_per_worker=1, processes=True)
+            workers = max(1, min(jobs, len(tasks)))  # (no worker with nothing to do)
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True)
             client = Client(cluster)
         try:
             futures = client.map(process_asset, tasks, pure=False)
@@ -1050,7 +1240,8 @@ def _run(
     if not dry_run and out_dir.is_dir():
         lock.acquire()  # before the manifest is read: it is this run's from here on
     manifest_path = out_dir / MANIFEST
-    manifest = _read_manifest(manifest_path)
+    unresolved: dict[str, str] = {}  # asset id -> why its record's inputs_ref names no list
+    manifest = _read_manifest(manifest_path, unresolved)
     if not dry_run and out_dir.is_dir():  # (the run's from here on: before the plan checks the outputs)
         _restore_kept_aside(out_dir, manifest["assets"])
     items, errors, warnings = plan(cfg, manifest, count_triangles=dry_run or explain, verify=verify)
@@ -1058,6 +1249,12 @@ def _run(
         errors = [*errors, "limits.seconds needs the local executor (--executor dask cannot stop an asset)"]
     if errors:
         raise ConfigError(errors)
+    warnings = warnings + [  # (a hand edit: the inputs of a current asset's record hashed, not trusted)
+        f"{_rel(cfg, manifest_path)}: the record of {it.asset.id} names no list of its inputs "
+        f"({unresolved[it.asset.id]}); they are hashed"
+        for it in items
+        if it.asset.id in unresolved and it.previous is not None
+    ]
     for w in warnings:
         echo(f"warning: {w}")
     # (before any build: a removed asset's output path may be a current asset's, which is never deleted)
@@ -1108,8 +1305,10 @@ def _run(
             kept = records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
         if it.checked_outputs is not None:  # hashed, and their stat recorded anew
             kept = records[it.asset.id] = {**kept, "outputs": it.checked_outputs}
-        if it.input_stats is not kept.get("inputs"):  # hashed (to the recorded digest): their stat anew
-            records[it.asset.id] = {**kept, "inputs": it.input_stats}
+        if it.input_stats is not kept.get("inputs") or _listing_mark(kept) != it.inputs_listed:
+            # hashed (to the recorded digest): their stat anew; or listed by reading the file (the record
+            # of an older version): marked as a list the next run may take
+            records[it.asset.id] = _with_inputs(kept, it)
     run_outputs = {  # (the files still there until the run writes them anew: a stopped run records them)
         kind: o
         for kind, o in (
@@ -1153,9 +1352,12 @@ def _run(
                 _clean_after_worker(out_dir, records, it.asset.output_stem)
             if it.rule_pending:
                 it.rule = rec.pop("rule_index", None)
+                it.triangles = rec.get("triangles_in")  # (known now: a shadowed rule is found by them)
             # (the stat of each input as it was hashed to this digest, never a later one: an input changed
             # since, which the worker may have built from, has another stat, and the next run hashes it)
             rec["input_digest"], rec["inputs"] = it.input_digest, it.input_stats
+            if it.inputs_listed:  # (a list the next run may take while its files are unchanged)
+                rec[INPUTS_LISTED] = LISTING
             rec["rule"] = None if it.rule is None else cfg.data["rules"][it.rule]["name"]
             for o in rec.get("outputs", {}).values():
                 _complete_output_record(out_dir / o["path"], o)

@@ -182,7 +182,8 @@ def build_schema() -> dict[str, Any]:
                         "description": "relative to the config; the run writes <name>.swpm, <name>.usdc, "
                         "scene.usda, manifest.json and report.html there, and refuses to start when one "
                         "of them would overwrite an input (a matched file, a stage or a layer it uses, the "
-                        "config)",
+                        "config); a glob never takes a file in it or below it as an asset (an output.dir "
+                        "that holds the config: the outputs its manifest records)",
                     },
                     "swpm": {"type": "boolean", "default": True},
                     "usd": {"type": "boolean", "default": False, "description": "per-asset USD layers"},
