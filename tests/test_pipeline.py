@@ -3195,6 +3195,18 @@ def _glb_with_external_buffer(mesh, path: Path, bin_name: str) -> None:
     path.write_bytes(struct.pack("<4sIIII", magic, version, 20 + len(text), len(text), json_type) + text)
 
 
+def _spot_glb_with_external_buffer(tmp_path: Path):
+    """spot as ``m/spot.glb`` keeping its buffer in ``m/spot-data.bin``: (the trimesh, the .glb, the .bin)."""
+    import trimesh
+
+    (tmp_path / "m").mkdir()
+    spot = swpm_usd.load_mesh(SHARED_MESHES / "spot.obj")
+    mesh = trimesh.Trimesh(spot.points, spot.triangles, process=False)
+    glb, data = tmp_path / "m" / "spot.glb", tmp_path / "m" / "spot-data.bin"
+    _glb_with_external_buffer(mesh, glb, data.name)
+    return mesh, glb, data
+
+
 def test_a_glb_s_external_buffer_files_are_its_inputs(tmp_path, monkeypatch):
     # a .glb may keep its buffers in files beside it (a `uri` in its JSON chunk), which the loader reads as
     # it does a .gltf's: they were no input of the asset, so an edited .bin left the stale build "up to date"
@@ -3203,11 +3215,7 @@ def test_a_glb_s_external_buffer_files_are_its_inputs(tmp_path, monkeypatch):
     from swpm_usd.pipeline import runner
 
     monkeypatch.setattr(runner, "_RACY_NS", 0)
-    (tmp_path / "m").mkdir()
-    spot = swpm_usd.load_mesh(SHARED_MESHES / "spot.obj")
-    mesh = trimesh.Trimesh(spot.points, spot.triangles, process=False)
-    glb, data = tmp_path / "m" / "spot.glb", tmp_path / "m" / "spot-data.bin"
-    _glb_with_external_buffer(mesh, glb, data.name)
+    mesh, glb, data = _spot_glb_with_external_buffer(tmp_path)
     points = swpm_usd.load_mesh(glb).points
     assert len(points) > 0
     cfg = tmp_path / "pipeline.yaml"
@@ -3389,16 +3397,11 @@ def test_a_record_listing_a_glb_s_inputs_the_old_way_is_never_taken_as_its_list(
     # a record written before a .glb's buffer files were inputs (the same tool_version) lists the .glb
     # alone: a rerun took that list as the asset's inputs (every file in it as recorded) instead of reading
     # the .glb, so an edited .bin left the stale build "up to date" for good
-    import trimesh
 
     from swpm_usd.pipeline import assets, runner
 
     monkeypatch.setattr(runner, "_RACY_NS", 0)
-    (tmp_path / "m").mkdir()
-    spot = swpm_usd.load_mesh(SHARED_MESHES / "spot.obj")
-    mesh = trimesh.Trimesh(spot.points, spot.triangles, process=False)
-    glb, data = tmp_path / "m" / "spot.glb", tmp_path / "m" / "spot-data.bin"
-    _glb_with_external_buffer(mesh, glb, data.name)
+    mesh, glb, data = _spot_glb_with_external_buffer(tmp_path)
     cfg = tmp_path / "pipeline.yaml"
     cfg.write_text(
         "version: 1\nassets: [{glob: m/*.glb}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"

@@ -184,3 +184,17 @@ def from_buffers(
     return cls._from_buffers(
         points, attributes, vertex_counts, triangle_counts, lod_errors, buffers, dict(params or {})
     )
+
+
+def with_attributes(pm: ProgressiveMesh, attributes: Mapping[str, np.ndarray]) -> ProgressiveMesh:
+    """``pm`` with other per-vertex ``attributes`` (in its vertex order), its buffers shared."""
+    return from_buffers(
+        pm.encoding,
+        pm.points,
+        attributes,
+        pm.vertex_counts,
+        pm.triangle_counts,
+        pm.lod_errors,
+        pm.buffers(),
+        pm.params,
+    )

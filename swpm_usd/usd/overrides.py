@@ -25,7 +25,7 @@ import numpy as np
 from pxr import Sdf, Tf, Usd, UsdGeom, Vt
 
 from ..build import build
-from ..encode.base import ProgressiveMesh, from_buffers
+from ..encode.base import ProgressiveMesh, with_attributes
 from ..errors import SwpmError
 from ..fileio import set_mode_for
 from ..io.usd_loader import _all_holes, _Invalid, _tf_message, _Topology
@@ -158,17 +158,7 @@ def encode_prim(prim: Usd.Prim, encoding: str = "vanilla", **params: Any) -> Pro
     mesh_in, info = _extract(prim)
     pm = build(mesh_in, encoding, **params)
     prov = np.asarray(pm.attributes[_PROV]).reshape(-1).astype(np.int64)
-    attrs = {k: v for k, v in pm.attributes.items() if k != _PROV}
-    pm = from_buffers(
-        pm.encoding,
-        pm.points,
-        attrs,
-        pm.vertex_counts,
-        pm.triangle_counts,
-        pm.lod_errors,
-        pm.buffers(),
-        pm.params,
-    )
+    pm = with_attributes(pm, {k: v for k, v in pm.attributes.items() if k != _PROV})
     topo: _Topology = info["topo"]
     corner = info["rep_corner"][prov]  # source triangle corner of each new vertex
     kept_src = np.flatnonzero(info["kept_tris"])

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from pxr import Usd, UsdGeom
 
-from ..encode.base import ProgressiveMesh, from_buffers
+from ..encode.base import ProgressiveMesh, from_buffers, with_attributes
 from ..errors import SwpmError
 from .arrays import ATTRIBUTE_DTYPES, BUFFER_DTYPES, dtype_problem, from_vt
 from .schema import COLLAPSE_PREFIX, SCHEMA_NAME, attr_name
@@ -255,13 +255,4 @@ def _storable(pm: ProgressiveMesh) -> ProgressiveMesh:
     if not odd:
         return pm
     attrs.update({n: np.asarray(attrs[n], np.float64) for n in odd})
-    return from_buffers(
-        pm.encoding,
-        pm.points,
-        attrs,
-        pm.vertex_counts,
-        pm.triangle_counts,
-        pm.lod_errors,
-        pm.buffers(),
-        pm.params,
-    )
+    return with_attributes(pm, attrs)
