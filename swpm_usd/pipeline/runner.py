@@ -84,9 +84,14 @@ def _asks_for(cfg: Config, kind: str) -> bool:
 
 
 #: the manifest is rewritten at most this often during a run, or less often while one rewrite takes more
-#: than a fifth of it: rewriting it after every asset, each time serialising every record, made a run of
-#: 1,500 small assets spend about 380 of its 461 s writing JSON (a 6 MB manifest, 1,500 times; 82 s now)
+#: than 1/_MANIFEST_BACKOFF of it: rewriting it after every asset, each time serialising every record, made
+#: a run of 1,500 small assets spend about 380 of its 461 s writing JSON (a 6 MB manifest, 1,500 times; 82 s
+#: then). With a fifth, the share of a run spent rewriting grew with the asset count up to a sixth (10,000
+#: small assets, a 47 MB manifest at 0.3-0.5 s a write, --jobs 2: 162 writes, 27 s of 218, a core the two
+#: workers then shared): a twentieth keeps it under 5 %; a run killed outright (Ctrl-C and errors write it
+#: at once) has at most 20 rewrite times of finished assets to build again
 _MANIFEST_EVERY_S = 1.0
+_MANIFEST_BACKOFF = 20
 
 
 @dataclass
@@ -217,7 +222,7 @@ class _ManifestText:
     names it by its :data:`INPUTS_REF` instead; :func:`_read_manifest` puts it back."""
 
     def __init__(self) -> None:
-        #: asset id -> (record, its inputs' key or None, its text at depth 2)
+        #: asset id -> (record, its inputs' key or None, its row: key and text at depth 2)
         self._records: dict[str, tuple[dict, str | None, str]] = {}
         self._keys: dict[int, tuple[list, str, str]] = {}  # id(list) -> (list, key, text at depth 2)
 
@@ -253,9 +258,10 @@ class _ManifestText:
                         if ref is not None:
                             shown = {(INPUTS_REF if k == "inputs" else k): v for k, v in rec.items()}
                             shown[INPUTS_REF] = ref
-                        hit = (rec, ref, nested(shown, 2))
+                        # (the row with its key: joined as it is, not copied into a new string each write)
+                        hit = (rec, ref, f"  {json.dumps(aid)}: {nested(shown, 2)}")
                         self._records[aid] = hit
-                    rows.append(f"  {json.dumps(aid)}: {hit[2]}")
+                    rows.append(hit[2])
                 fields.append(' "assets": {\n' + ",\n".join(rows) + "\n }")
                 if tables:
                     table_rows = [f"  {json.dumps(k)}: {text}" for k, text in sorted(tables.items())]
@@ -1381,7 +1387,7 @@ def _run(
                 records[rec["id"]] = rec if kept is None else kept
                 rec = failures[rec["id"]] = {**rec, "kept_previous": kept is not None}
             now = time.perf_counter()
-            if now - last_write >= max(_MANIFEST_EVERY_S, 5 * write_s):
+            if now - last_write >= max(_MANIFEST_EVERY_S, _MANIFEST_BACKOFF * write_s):
                 _write_manifest(manifest_path, manifest, text)
                 last_write = time.perf_counter()
                 write_s = last_write - now
