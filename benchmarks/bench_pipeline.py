@@ -26,9 +26,10 @@
 7. Scene at scale: scene.usda written (as every run with ``scene: true`` writes it, a rerun with nothing to
    build included) for 1,000, 5,000 and 10,000 built assets, each with a USD layer of its own (suzanne,
    vanilla, hard links of one layer), medians of 3. Authored on a stage, each reference was composed as
-   it was added, every asset layer opened: 3.4 s at 1,000, 20 s at 5,000 (a 5,000-asset rerun with
-   nothing changed 22-34 s, now 5-6 s in a fresh process); on the layer alone (Sdf) 0.15-0.33 s at
-   5,000. Target: <= 1 s at 10,000.
+   it was added, every asset layer opened: 3.4 s at 1,000, 20 s at 5,000; a rerun with nothing changed,
+   `swpm-pipeline run --jobs 2` (a fresh process) 22-34 s at 5,000 and 103-118 s at 10,000 (main process
+   948 MB), now 4.9-6.2 s and 7.3-8.7 s (506 MB). On the layer alone (Sdf): 0.04 / 0.16 / 0.32 s.
+   Target: <= 1 s at 10,000.
 
     python benchmarks/bench_pipeline.py [--out benchmarks/results/pipeline.json] [--only SECTION ...]
         [--work DIR]
