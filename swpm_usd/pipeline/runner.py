@@ -84,9 +84,14 @@ def _asks_for(cfg: Config, kind: str) -> bool:
 
 
 #: the manifest is rewritten at most this often during a run, or less often while one rewrite takes more
-#: than a fifth of it: rewriting it after every asset, each time serialising every record, made a run of
-#: 1,500 small assets spend about 380 of its 461 s writing JSON (a 6 MB manifest, 1,500 times; 82 s now)
+#: than 1/_MANIFEST_BACKOFF of it: rewriting it after every asset, each time serialising every record, made
+#: a run of 1,500 small assets spend about 380 of its 461 s writing JSON (a 6 MB manifest, 1,500 times; 82 s
+#: then). With a fifth, the share of a run spent rewriting grew with the asset count up to a sixth (10,000
+#: small assets, a 47 MB manifest at 0.3-0.5 s a write, --jobs 2: 162 writes, 27 s of 218, a core the two
+#: workers then shared): a twentieth keeps it under 5 %; a run killed outright (Ctrl-C and errors write it
+#: at once) has at most 20 rewrite times of finished assets to build again
 _MANIFEST_EVERY_S = 1.0
+_MANIFEST_BACKOFF = 20
 
 
 @dataclass
@@ -217,7 +222,7 @@ class _ManifestText:
     names it by its :data:`INPUTS_REF` instead; :func:`_read_manifest` puts it back."""
 
     def __init__(self) -> None:
-        #: asset id -> (record, its inputs' key or None, its text at depth 2)
+        #: asset id -> (record, its inputs' key or None, its row: key and text at depth 2)
         self._records: dict[str, tuple[dict, str | None, str]] = {}
         self._keys: dict[int, tuple[list, str, str]] = {}  # id(list) -> (list, key, text at depth 2)
 
@@ -253,9 +258,10 @@ class _ManifestText:
                         if ref is not None:
                             shown = {(INPUTS_REF if k == "inputs" else k): v for k, v in rec.items()}
                             shown[INPUTS_REF] = ref
-                        hit = (rec, ref, nested(shown, 2))
+                        # (the row with its key: joined as it is, not copied into a new string each write)
+                        hit = (rec, ref, f"  {json.dumps(aid)}: {nested(shown, 2)}")
                         self._records[aid] = hit
-                    rows.append(f"  {json.dumps(aid)}: {hit[2]}")
+                    rows.append(hit[2])
                 fields.append(' "assets": {\n' + ",\n".join(rows) + "\n }")
                 if tables:
                     table_rows = [f"  {json.dumps(k)}: {text}" for k, text in sorted(tables.items())]
@@ -1381,7 +1387,7 @@ def _run(
                 records[rec["id"]] = rec if kept is None else kept
                 rec = failures[rec["id"]] = {**rec, "kept_previous": kept is not None}
             now = time.perf_counter()
-            if now - last_write >= max(_MANIFEST_EVERY_S, 5 * write_s):
+            if now - last_write >= max(_MANIFEST_EVERY_S, _MANIFEST_BACKOFF * write_s):
                 _write_manifest(manifest_path, manifest, text)
                 last_write = time.perf_counter()
                 write_s = last_write - now
@@ -1540,8 +1546,12 @@ def _scene_prim_name(stem: str, used: set[str]) -> str:
 
 
 def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
-    """A scene layer that references every per-asset USD layer, one Xform each."""
-    from pxr import Usd, UsdGeom
+    """A scene layer that references every per-asset USD layer, one Xform each.
+
+    Authored on the layer itself (Sdf), never on a stage: a stage composes each reference as it is added,
+    opening every asset layer (5,000 assets: 20 s and 350 MB, on every run, a rerun with nothing to build
+    included); the layer written is the same text."""
+    from pxr import Sdf
 
     from ..fileio import set_mode_for
     from ..usd.writer import reload_if_open
@@ -1553,16 +1563,17 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
     ]
     target = out_dir / "scene.usda"
     tmp = out_dir / ".scene.tmp.usda"
-    stage = Usd.Stage.CreateNew(str(tmp))
-    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
-    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
-    root = UsdGeom.Xform.Define(stage, "/Scene").GetPrim()
-    stage.SetDefaultPrim(root)
-    used: set[str] = set()
-    for _, layer in layers:
-        prim = stage.DefinePrim(f"/Scene/{_scene_prim_name(Path(layer).stem, used)}", "Xform")
-        prim.GetReferences().AddReference(f"./{layer}")
-    stage.GetRootLayer().Save()
+    layer = Sdf.Layer.CreateNew(str(tmp))
+    with Sdf.ChangeBlock():
+        layer.pseudoRoot.SetInfo("upAxis", "Y")  # (UsdGeom.SetStageUpAxis, SetStageMetersPerUnit)
+        layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)
+        root = Sdf.PrimSpec(layer.pseudoRoot, "Scene", Sdf.SpecifierDef, "Xform")
+        layer.defaultPrim = "Scene"
+        used: set[str] = set()
+        for _, path in layers:
+            prim = Sdf.PrimSpec(root, _scene_prim_name(Path(path).stem, used), Sdf.SpecifierDef, "Xform")
+            prim.referenceList.Prepend(Sdf.Reference(f"./{path}"))
+    layer.Save()
     set_mode_for(tmp, target)  # (a replaced scene keeps its mode)
     tmp.replace(target)
     reload_if_open(target)  # (a caller of run may have it open)
