@@ -573,7 +573,8 @@ def _build_levels(
             break
         tp, positions = swk.level_positions(alive_t, st.tri_verts, st.vertex_pos, P)
         # the level's position graph (for its patch centres) on the helper meanwhile
-        adjacency = swt.beside(helper, _adjacency, tp, P)
+        small = tp.shape[0] < swt._LEVEL_HAND_OFF  # (its hand-offs cost about what they save)
+        adjacency = swt.beside(None if small else helper, _adjacency, tp, P)
         stars = star_snapshot(st, positions)  # the state is read-only until collapse_patches
         ks, cs = swt.level_costs_shared(helper, st, positions, stars)
         rank_cs = cs
@@ -742,9 +743,10 @@ def _build_levels(
             # thread finishes it while this one builds the next level (the kernels release the GIL)
             collapsed = (p_start, p_out, q_start, q_out, patch_steps, recs, info)
             args = (gtris, start_gids, collapsed, nstep, V, P, int(cache_size), order_passes, order_reach)
-            finishing = (
-                worker.submit(swl.finish_level, *args) if worker else swt.done_future(swl.finish_level(*args))
-            )
+            if worker is not None and alive_t.shape[0] >= swt._LEVEL_HAND_OFF:
+                finishing = worker.submit(swl.finish_level, *args)
+            else:
+                finishing = swt.done_future(swl.finish_level(*args))
             pending.append((finishing, args))
             if replay is not None:
                 replay.advance(pending)
