@@ -337,12 +337,6 @@ _COARSEST_COPY_MIN_GAIN = 0.05
 #: inside :func:`inline_finishing`, which the pipeline's workers use: ``--jobs`` is the pipeline's
 #: parallelism), and no helper thread shares the main thread's work either (:mod:`.sw_threads`)
 FINISH_IN_THREAD = True
-#: ... but a mesh of fewer triangles is built inline: its levels are small, and handing each one to a thread
-#: (the worker's finishing, the helper's position graph and replay) costs about what the overlap saves on
-#: an idle machine, and more with another process on the cores (medians of 40 alternating builds, threads ->
-#: inline: suzanne 25.4 -> 22.8 ms, beetle 43.4 -> 40.7 ms; cow, 5,804 triangles, gains from the threads on
-#: an idle machine)
-THREADS_MIN_TRIANGLES = 4096
 _THIS_THREAD = threading.local()
 
 
@@ -781,11 +775,15 @@ def _build_topology(mesh: Mesh, st, new_state, *args, **kwargs):
     input surface (:func:`swpm_usd.simplify.sequence.replay_surface`, None for no triangles)."""
     pending: list = []
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    # a mesh of fewer triangles than sw_threads._LEVEL_HAND_OFF (every level of it finished inline) starts no
+    # thread at all: the helper's share costs more than it saves (suzanne, medians of 30 alternating builds:
+    # 24.1 -> 22.9 ms with a core free, 25.4 -> 22.8 ms with another process on the cores; beetle, 2,053
+    # triangles: 32-34 ms with the threads, 40 ms without, with a core free)
     threads = (
         FINISH_IN_THREAD
         and not getattr(_THIS_THREAD, "inline", False)
         and cores > 1
-        and mesh.triangle_count >= THREADS_MIN_TRIANGLES
+        and mesh.triangle_count >= swt._LEVEL_HAND_OFF
     )
     worker = ThreadPoolExecutor(max_workers=1) if threads else None
     helper = ThreadPoolExecutor(max_workers=1) if threads else None
