@@ -567,7 +567,8 @@ def _build_levels(
             break
         tp, positions = swk.level_positions(alive_t, st.tri_verts, st.vertex_pos, P)
         # the level's position graph (for its patch centres) on the helper meanwhile
-        adjacency = swt.beside(helper, _adjacency, tp, P)
+        small = tp.shape[0] < swt._LEVEL_HAND_OFF  # (its hand-offs cost about what they save)
+        adjacency = swt.beside(None if small else helper, _adjacency, tp, P)
         stars = star_snapshot(st, positions)  # the state is read-only until collapse_patches
         ks, cs = swt.level_costs_shared(helper, st, positions, stars)
         rank_cs = cs
@@ -736,9 +737,10 @@ def _build_levels(
             # thread finishes it while this one builds the next level (the kernels release the GIL)
             collapsed = (p_start, p_out, q_start, q_out, patch_steps, recs, info)
             args = (gtris, start_gids, collapsed, nstep, V, P, int(cache_size), order_passes, order_reach)
-            finishing = (
-                worker.submit(swl.finish_level, *args) if worker else swt.done_future(swl.finish_level(*args))
-            )
+            if worker is not None and alive_t.shape[0] >= swt._LEVEL_HAND_OFF:
+                finishing = worker.submit(swl.finish_level, *args)
+            else:
+                finishing = swt.done_future(swl.finish_level(*args))
             pending.append((finishing, args))
             if replay is not None:
                 replay.advance(pending)
@@ -773,7 +775,16 @@ def _build_topology(mesh: Mesh, st, new_state, *args, **kwargs):
     input surface (:func:`swpm_usd.simplify.sequence.replay_surface`, None for no triangles)."""
     pending: list = []
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    threads = FINISH_IN_THREAD and not getattr(_THIS_THREAD, "inline", False) and cores > 1
+    # a mesh of fewer triangles than sw_threads._LEVEL_HAND_OFF (every level of it finished inline) starts no
+    # thread at all: the helper's share costs more than it saves (suzanne, medians of 30 alternating builds:
+    # 24.1 -> 22.9 ms with a core free, 25.4 -> 22.8 ms with another process on the cores; beetle, 2,053
+    # triangles: 32-34 ms with the threads, 40 ms without, with a core free)
+    threads = (
+        FINISH_IN_THREAD
+        and not getattr(_THIS_THREAD, "inline", False)
+        and cores > 1
+        and mesh.triangle_count >= swt._LEVEL_HAND_OFF
+    )
     worker = ThreadPoolExecutor(max_workers=1) if threads else None
     helper = ThreadPoolExecutor(max_workers=1) if threads else None
     # the input's BVH on the helper while this thread starts level 0

@@ -43,6 +43,14 @@ _COSTS_BLOCK = 256
 _SHARE_BLOCKS = 16
 
 
+#: a level of fewer triangles is finished (:func:`.sw_layout.finish_level`) and builds its position graph on
+#: the main thread, not handed to the worker and the helper: a hand-off costs about what such a level's work
+#: does (medians of 15-25 alternating builds, 0 -> 1,024: cow -1 %, spot -3 to -5 %, teapot -1.5 %, bob
+#: -1.4 %, fandisk -2.6 %, dragon-20k +2.5 %, within the noise; the process's CPU time lower on all; 3,000:
+#: +10-14 %, cow's second level then waits on the main thread)
+_LEVEL_HAND_OFF = 1024
+
+
 def beside(helper: ThreadPoolExecutor | None, fn, *args):
     """``fn(*args)`` on the ``helper`` thread while this one goes on: a callable that returns its result, or
     computes it on this thread if the helper has not started it by then (bunny's BVH is 50 ms: once started,
