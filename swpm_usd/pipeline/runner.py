@@ -76,6 +76,12 @@ ORPHANED = "orphaned_outputs"
 #: the file left (a scene referencing layers ``prune`` deletes, a report of an older run) is an orphan
 RUN_OUTPUTS = "run_outputs"
 _RUN_OUTPUT_DEFAULTS = {"scene": False, "report": True}
+_RUN_OUTPUT_FILES = {"scene": "scene.usda", "report": "report.html"}
+#: a run output's record's mark that the file was written from the records of the manifest that holds it
+#: (the run's last write of the manifest; a write during the run, or of a run stopped, leaves it out: the
+#: records have changed since the file was written, or may have). A rerun that changes no record keeps
+#: such a file while it is as recorded (:func:`_checked_output`), and writes neither it nor the manifest
+CURRENT = "current"
 
 
 def _asks_for(cfg: Config, kind: str) -> bool:
@@ -173,12 +179,16 @@ def _inputs_key(entries: list) -> str:
     return hashlib.sha256(json.dumps(entries, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def _read_manifest(path: Path, unresolved: dict[str, str] | None = None) -> dict:
+def _read_manifest(
+    path: Path, unresolved: dict[str, str] | None = None, older: list[str] | None = None
+) -> dict:
     """The manifest at ``path``, ``{"assets": {}}`` for none (or not one); each record's :data:`INPUTS_REF`
     replaced by the list it names (one list object for all the records that share it), and records of
     older manifests that list the same inputs (a stage's prims) given one list object too. A reference to
     no list (a hand edit: none of that key, or :data:`INPUT_LISTS` not an object) leaves the record without
-    ``inputs`` (hashed, as a malformed list is), and is described in ``unresolved`` (asset id -> why)."""
+    ``inputs`` (hashed, as a malformed list is), and is described in ``unresolved`` (asset id -> why).
+    ``older`` gets the ids of the records of an older manifest given one list object (which a rewrite
+    writes once, in :data:`INPUT_LISTS`)."""
     try:
         data = json.loads(path.read_text())
     except (OSError, ValueError):
@@ -209,7 +219,10 @@ def _read_manifest(path: Path, unresolved: dict[str, str] | None = None) -> dict
                     why = f"{INPUTS_REF} {ref!r}, which is {_what(entries)} in {INPUT_LISTS}, not a list"
                 unresolved[aid] = why
         elif isinstance(rec.get("inputs"), list) and len(rec["inputs"]) > 1:
-            rec["inputs"] = seen.setdefault(json.dumps(rec["inputs"], sort_keys=True), rec["inputs"])
+            own = rec["inputs"]
+            rec["inputs"] = seen.setdefault(json.dumps(own, sort_keys=True), own)
+            if older is not None and rec["inputs"] is not own:
+                older.append(aid)
     return data
 
 
@@ -1247,7 +1260,8 @@ def _run(
         lock.acquire()  # before the manifest is read: it is this run's from here on
     manifest_path = out_dir / MANIFEST
     unresolved: dict[str, str] = {}  # asset id -> why its record's inputs_ref names no list
-    manifest = _read_manifest(manifest_path, unresolved)
+    older: list[str] = []  # the records of an older manifest's lists, which a rewrite writes compact
+    manifest = previous = _read_manifest(manifest_path, unresolved, older)
     if not dry_run and out_dir.is_dir():  # (the run's from here on: before the plan checks the outputs)
         _restore_kept_aside(out_dir, manifest["assets"])
     items, errors, warnings = plan(cfg, manifest, count_triangles=dry_run or explain, verify=verify)
@@ -1323,10 +1337,26 @@ def _run(
         if kind in _RUN_OUTPUT_DEFAULTS and _asks_for(cfg, kind)
     }
     manifest = {"tool_version": __version__, "config": str(cfg.path), "assets": records}
+    if orphans and not prune:  # so a later run with prune still finds them
+        orphaned = {ORPHANED: [o for _, o in orphans]}
+    else:
+        orphaned = {}
+    # nothing to build, no record changed, nothing pruned (the manifest but its run outputs as read): the
+    # scene and report the last run wrote from these records, still as it recorded them, are kept
+    unchanged = (
+        not todo
+        and not older
+        and not (prune and orphans)
+        and {**manifest, **orphaned} == {k: v for k, v in previous.items() if k != RUN_OUTPUTS}
+    )
+    if not unchanged:  # (no longer written from the manifest's records: see CURRENT)
+        run_outputs = {
+            kind: {k: v for k, v in o.items() if k != CURRENT} if isinstance(o, dict) else o
+            for kind, o in run_outputs.items()
+        }
     if run_outputs:
         manifest[RUN_OUTPUTS] = run_outputs
-    if orphans and not prune:  # so a later run with prune still finds them
-        manifest[ORPHANED] = [o for _, o in orphans]
+    manifest.update(orphaned)
     failed = 0
     built_ids: list[str] = []
     kept_files: set[tuple] | None = None  # (_files_kept, once an asset drops an output)
@@ -1404,19 +1434,27 @@ def _run(
         warnings = warnings + unreached
     try:
         manifest[RUN_OUTPUTS] = run_outputs  # (each recorded as written: a write that fails stops the run)
-        if _asks_for(cfg, "scene"):
-            run_outputs.pop("scene", None)  # (being rewritten: no longer the file recorded)
-            _write_scene(out_dir, records)
-            run_outputs["scene"] = output_record(out_dir / "scene.usda")
-        if _asks_for(cfg, "report"):
-            from .report import write_report
+        for kind in ("scene", "report"):
+            if not _asks_for(cfg, kind):
+                continue
+            path = out_dir / _RUN_OUTPUT_FILES[kind]
+            if unchanged and isinstance(kept := run_outputs.get(kind), dict) and kept.get(CURRENT) is True:
+                checked = _checked_output(path, kept, verify)
+                if checked is not None:  # (written from these records, and as written)
+                    run_outputs[kind] = checked
+                    continue
+            run_outputs.pop(kind, None)  # (being rewritten: no longer the file recorded)
+            if kind == "scene":
+                _write_scene(out_dir, records)
+            else:
+                from .report import write_report
 
-            run_outputs.pop("report", None)
-            write_report(out_dir / "report.html", manifest)
-            run_outputs["report"] = output_record(out_dir / "report.html")
+                write_report(path, manifest)
+            run_outputs[kind] = {**output_record(path), CURRENT: True}
         if not run_outputs:
             del manifest[RUN_OUTPUTS]
-        _write_manifest(manifest_path, manifest, text)
+        if not unchanged or manifest != previous:
+            _write_manifest(manifest_path, manifest, text)
     except BaseException:
         stop()
         raise
