@@ -733,8 +733,11 @@ def _overwritten_inputs(
                 f"{cfg.where(('output', 'dir'))}: {what} would overwrite {_rel(cfg, hit[0])} "
                 f"({hit[1]}); choose an output.dir apart from the inputs (and globs not reaching into it)"
             )
+    real_out, folders = out_dir.resolve(), {}  # (a folder resolved once: 10,000 inputs in one, a second)
     for path, what in sources.values():
-        if path.parent.resolve() == out_dir.resolve() and (
+        if path.parent not in folders:
+            folders[path.parent] = path.parent.resolve()
+        if folders[path.parent] == real_out and (
             any(fnmatch.fnmatch(path.name, pattern) for pattern in _TEMPORARY)
         ):
             problems.append(
