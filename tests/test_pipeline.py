@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 import json
 import os
 import shutil
@@ -3702,3 +3703,90 @@ def test_a_run_stopped_before_its_scene_and_report_leaves_them_to_be_written_aga
     assert all(before[n] != after[n] for n in before), "the last run's scene and report were kept"
     assert "skip-strip" in (out / "report.html").read_text()
     assert run(cfg, echo=lambda m: None).skipped == 1 and _files_written(out) == after
+
+
+def _report_manifest(tmp_path: Path, monkeypatch) -> dict:
+    """The manifest of a run of two small assets, its records copied under three more ids (one an id that
+    would end a script element were it written as it is)."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "m").mkdir()
+    shutil.copy(SHARED_MESHES / "suzanne.obj", tmp_path / "m" / "a.obj")
+    (tmp_path / "m" / "b.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    assert run(cfg, echo=lambda m: None).built == 2
+    manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
+    a = manifest["assets"]["m/a.obj"]
+    manifest["assets"] |= {f"m/c{i}.obj": a for i in range(2)} | {"m/</script><b>.obj": a}
+    return manifest
+
+
+def test_a_report_of_many_assets_draws_their_curves_on_demand(tmp_path, monkeypatch):
+    # a report of 10,000 assets held 20,000 inline SVG plots (11 MB for a browser to lay out on opening):
+    # beyond INLINE_CURVES built assets each curve is a compact entry a script draws when asked
+    from swpm_usd.pipeline import report
+
+    manifest = _report_manifest(tmp_path, monkeypatch)
+    path = tmp_path / "report.html"
+    report.write_report(path, manifest)  # (5 built assets: inline, as before; no script)
+    text = path.read_text()
+    assert text.count("<svg") == 10 and "<script" not in text
+    monkeypatch.setattr(report, "INLINE_CURVES", 4)
+    report.write_report(path, manifest)
+    text = path.read_text()
+    assert text.count("<svg") == report._CURVE_SCRIPT.count("<svg")  # (the script's alone)
+    # every asset's row still, its name the link that draws its curves
+    for aid in manifest["assets"]:
+        assert f"<a class=curve href='#curves'>{html.escape(aid)}</a>" in text
+    assert "m/</script><b>.obj" not in text  # (escaped in the table and in the curve data)
+    start = text.index("<script type=application/json id=curve-data>") + len(
+        "<script type=application/json id=curve-data>"
+    )
+    table = json.loads(text[start : text.index("</script>", start)])
+    assert sorted(table) == sorted(manifest["assets"])
+    for aid, rec in manifest["assets"].items():
+        curve = rec["summary"]["curve"]
+        encoding, *figures = table[aid]
+        assert encoding == rec["encoding"] and len(curve) > 1
+        for got, key in zip(figures, ("triangles", "error", "lod", "acmr"), strict=True):
+            assert got == pytest.approx([c[key] for c in curve], rel=1e-3, abs=1e-12), (aid, key)
+    assert "click an asset's name" in text and "summary.curve" in text
+
+
+@pytest.mark.skipif(shutil.which("node") is None, reason="needs node to run the report's script")
+def test_the_report_s_script_draws_the_plots_the_report_draws_inline(tmp_path, monkeypatch):
+    from swpm_usd.pipeline import report
+
+    manifest = _report_manifest(tmp_path, monkeypatch)
+    monkeypatch.setattr(report, "INLINE_CURVES", 0)
+    path = tmp_path / "report.html"
+    report.write_report(path, manifest)
+    text = path.read_text()
+    start = text.index("id=curve-data>") + len("id=curve-data>")
+    data, script = text[start:].split("</script>", 1)
+    script = script[script.index("<script>") + len("<script>") : script.index("</script>")]
+    aid = "m/a.obj"
+    harness = (
+        "function el(t){return {children:[],className:'',textContent:'',innerHTML:'',"
+        "appendChild:function(c){this.children.push(c)},insertBefore:function(c){this.children.unshift(c)}};}"
+        "var box=el('div'),on={};var document={createElement:el,getElementById:function(id){"
+        f"if(id==='curve-data')return {{textContent:{json.dumps(data)}}};if(id==='curves')return box;"
+        "return {addEventListener:function(t,f){on[t]=f}};}};\n" + script + "\n"
+        f"on.click({{target:{{closest:function(){{return {{textContent:{json.dumps(aid)}}}}}}}}});"
+        "var c=box.children[0];console.log(JSON.stringify([c.children[0].textContent,"
+        "c.children[0].children[0].textContent,c.children[1].innerHTML,c.children[2].innerHTML]));"
+    )
+    (tmp_path / "h.js").write_text(harness)
+    done = subprocess.run(["node", str(tmp_path / "h.js")], capture_output=True, text=True, check=True)
+    title, encoding, errors, acmr = json.loads(done.stdout)
+    assert title.strip() == aid and encoding == "vanilla"
+    curve = manifest["assets"][aid]["summary"]["curve"]
+    compact = [float(f"{c['error']:.4g}") for c in curve]  # (the figures as the table holds them)
+    assert errors == "triangles (x) vs error (y, log)<br>" + report._polyline(
+        [c["triangles"] for c in curve], compact, log_y=True
+    )
+    assert acmr == "LOD (x) vs ACMR (y)<br>" + report._polyline(
+        [c["lod"] for c in curve], [float(f"{c['acmr']:.4g}") for c in curve]
+    )
