@@ -3790,3 +3790,26 @@ def test_the_report_s_script_draws_the_plots_the_report_draws_inline(tmp_path, m
     assert acmr == "LOD (x) vs ACMR (y)<br>" + report._polyline(
         [c["lod"] for c in curve], [float(f"{c['acmr']:.4g}") for c in curve]
     )
+
+
+def test_a_run_leaves_the_garbage_collector_as_it_found_it(tmp_path):
+    # the run pauses the cyclic collector while it reads the manifest and plans (10,000 assets: 0.4 s of its
+    # full collections in a 2.4 s rerun); it is running again after, or still paused if the caller paused it
+    import gc
+
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    assert gc.isenabled()
+    assert run(cfg, echo=lambda m: None).built == 1 and gc.isenabled()
+    assert run(cfg, echo=lambda m: None).skipped == 1 and gc.isenabled()
+    gc.disable()
+    try:
+        assert run(cfg, echo=lambda m: None, force=True).built == 1 and not gc.isenabled()
+    finally:
+        gc.enable()
+    (tmp_path / "m" / "a.obj").write_text("not a mesh")  # (a run that fails: the collector running again)
+    assert run(cfg, echo=lambda m: None).failed == 1 and gc.isenabled()
