@@ -3723,6 +3723,26 @@ def _report_manifest(tmp_path: Path, monkeypatch) -> dict:
     return manifest
 
 
+def test_a_report_s_curve_table_holds_a_figure_not_finite_as_null(tmp_path, monkeypatch):
+    from swpm_usd.pipeline import report
+
+    manifest = _report_manifest(tmp_path, monkeypatch)
+    rec = manifest["assets"]["m/a.obj"]
+    curve = [dict(c) for c in rec["summary"]["curve"]]
+    curve[1]["error"] = float("nan")
+    manifest["assets"]["m/a.obj"] = {**rec, "summary": {**rec["summary"], "curve": curve}}
+    monkeypatch.setattr(report, "INLINE_CURVES", 0)
+    report.write_report(tmp_path / "report.html", manifest)
+    text = (tmp_path / "report.html").read_text()
+    start = text.index("id=curve-data>") + len("id=curve-data>")
+
+    def invalid(token: str):
+        raise AssertionError(f"{token} is not JSON (a browser's JSON.parse refuses it)")
+
+    table = json.loads(text[start : text.index("</script>", start)], parse_constant=invalid)
+    assert table["m/a.obj"][2][1] is None and table["m/c0.obj"][2][1] is not None
+
+
 def test_a_report_of_many_assets_draws_their_curves_on_demand(tmp_path, monkeypatch):
     # a report of 10,000 assets held 20,000 inline SVG plots (11 MB for a browser to lay out on opening):
     # beyond INLINE_CURVES built assets each curve is a compact entry a script draws when asked

@@ -40,10 +40,11 @@ def _polyline(xs: list[float], ys: list[float], w: int = 260, h: int = 140, log_
     )
 
 
-def _compact(values: list) -> list:
-    """Curve figures for the on-demand plots: whole numbers as they are, others to four significant digits
-    (a plot is 260 pixels wide), one not finite as null."""
-    return [v if isinstance(v, int) else float(f"{v:.4g}") if math.isfinite(v) else None for v in values]
+def _compact(values: list) -> str:
+    """Curve figures for the on-demand plots, a JSON array: whole numbers as they are, others to four
+    significant digits (a plot is 260 pixels wide), one not finite as null."""
+    shown = (str(v) if type(v) is int else f"{v:.4g}" if math.isfinite(v) else "null" for v in values)
+    return f"[{','.join(shown)}]"
 
 
 #: draws the plots of an asset (its name clicked in the table) from the curve table, as _polyline does
@@ -101,7 +102,7 @@ def write_report(path: Path, manifest: dict) -> None:
     kept = 0
     by_encoding: dict[str, list[dict]] = {}
     inline = sum(rec.get("status") == "built" for rec in assets.values()) <= INLINE_CURVES
-    curves: dict[str, list] = {}  # (beyond INLINE_CURVES) asset id -> its plots' figures
+    curves: list[str] = []  # (beyond INLINE_CURVES) each asset's plots' figures, a JSON object's member
     for aid, rec in sorted(assets.items()):
         e = html.escape
         if rec.get("status") != "built":
@@ -130,7 +131,8 @@ def write_report(path: Path, manifest: dict) -> None:
         tri = [c["triangles"] for c in curve]
         if not inline:
             figures = ([c[k] for c in curve] for k in ("triangles", "error", "lod", "acmr"))
-            curves[aid] = [rec["encoding"], *(_compact(f) for f in figures)]
+            shown = ",".join([json.dumps(rec["encoding"]), *(_compact(f) for f in figures)])
+            curves.append(f"{json.dumps(aid)}:[{shown}]")
             continue
         plots.append(
             f"<div class=card><h3>{e(aid)} <small>{e(rec['encoding'])}</small></h3>"
@@ -149,7 +151,7 @@ def write_report(path: Path, manifest: dict) -> None:
     if inline:
         curve_section = "".join(plots)
     else:  # ("<" escaped: no "</script>" in an asset id ends the table)
-        table = json.dumps(curves, separators=(",", ":")).replace("<", "\\u003c")
+        table = ("{" + ",".join(curves) + "}").replace("<", "\\u003c")
         curve_section = (
             f"<p>{len(curves)} assets: click an asset's name in the table above to draw its curves here "
             f"(drawn inline for up to {INLINE_CURVES} assets; every figure is in the manifest, each "
