@@ -18,6 +18,10 @@ An asset whose rebuild fails keeps its previous build when that build's outputs 
 run reports it failed. One run at a time writes in an output folder (:class:`_OutputLock`). The outputs of
 assets no longer in the config are left and named, and recorded under ``orphaned_outputs`` until a run with
 ``prune`` deletes them (:func:`_orphaned_outputs`).
+
+A run that builds, fails and prunes nothing, and whose manifest would hold what it holds, writes neither it
+nor scene.usda nor report.html: those were written from these records (their ``run_outputs`` records marked
+:data:`CURRENT`) and are kept while they are as recorded (10,000 assets: a 47 MB manifest, 2.2 s to write).
 """
 
 from __future__ import annotations
