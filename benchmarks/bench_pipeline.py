@@ -34,8 +34,8 @@
    report asked for) built once (5-6 min with --jobs 2), then `swpm-pipeline run --jobs 2` with nothing
    changed, a fresh process (medians of 5 after one settling rerun), what it rewrote, and a cProfile of one.
    Every such rerun serialised and rewrote the 47 MB manifest (2.2 s), scene.usda (0.3 s) and the 11 MB
-   report.html (0.45 s), and discovery and the output check resolved every file's folders (1.9 s): 6.8-8.1 s,
-   now 2.7-2.9 s (writing nothing; in process 1.9 s: 0.6 reading the manifest, 1.3 planning; 0.5 s of
+   report.html (0.45 s), and discovery and the output check resolved every file's folders (1.9 s): 6.5-8.1 s,
+   now 2.6-2.9 s (writing nothing; in process 1.9 s: 0.6 reading the manifest, 1.3 planning; 0.5 s of
    imports). A report of 10,000 assets draws its plots on demand: 7.2 MB written in 0.3 s. ``--work DIR``
    keeps the built project, as in 5.
 
