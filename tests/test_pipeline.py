@@ -3621,9 +3621,9 @@ def test_a_rerun_that_changes_nothing_rewrites_no_manifest_scene_or_report(tmp_p
     assert sorted(first) == ["manifest.json", "report.html", "scene.usda"]
     res = run(cfg, echo=lambda m: None)
     assert res.skipped == 3 and _files_written(out) == first  # nothing written
-    assert all(
-        o["current"] is True for o in json.loads((out / "manifest.json").read_text())["run_outputs"].values()
-    )
+    # (the mark: the digest of the manifest's records as written, see runner.CURRENT)
+    marks = [o["current"] for o in json.loads((out / "manifest.json").read_text())["run_outputs"].values()]
+    assert len(marks) == 2 and all(isinstance(m, str) and len(m) == 16 for m in marks)
 
     def rewritten() -> list[str]:
         nonlocal first
@@ -3833,3 +3833,41 @@ def test_a_run_leaves_the_garbage_collector_as_it_found_it(tmp_path):
         gc.enable()
     (tmp_path / "m" / "a.obj").write_text("not a mesh")  # (a run that fails: the collector running again)
     assert run(cfg, echo=lambda m: None).failed == 1 and gc.isenabled()
+
+
+def test_a_manifest_whose_records_were_edited_since_its_scene_and_report_has_them_written_again(
+    tmp_path, monkeypatch
+):
+    # the scene and report a run wrote are kept only while the manifest holds the records they were written
+    # from: a record edited by hand since (its text, or the whole file reformatted) has them written again
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m").mkdir()
+    for name in ("a", "b"):
+        (tmp_path / "m" / f"{name}.obj").write_text(TWO_TRIANGLES + f"# {name}\n")
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\ndefaults: {encoding: vanilla}\n"
+        "output: {dir: out, usd: true, scene: true}\n"
+    )
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    manifest_path = out / "manifest.json"
+    text = manifest_path.read_text()
+    why = json.loads(text)["assets"]["m/a.obj"]["why"]
+    manifest_path.write_text(text.replace(json.dumps(why), json.dumps("edited by hand"), 1))
+    written = _files_written(out)
+    assert run(cfg, echo=lambda m: None).skipped == 2
+    assert "edited by hand" in (out / "report.html").read_text()
+    now = _files_written(out)
+    assert all(written[n] != now[n] for n in written), "the scene and report of other records were kept"
+    assert run(cfg, echo=lambda m: None).skipped == 2 and _files_written(out) == now
+    # the same records, the file reformatted (json.dumps): not the text the run wrote, so written again
+    manifest = json.loads(manifest_path.read_text())
+    manifest["assets"]["m/b.obj"]["rule"] = "renamed by hand"
+    manifest_path.write_text(json.dumps(manifest))
+    assert run(cfg, echo=lambda m: None).skipped == 2
+    assert "renamed by hand" in (out / "report.html").read_text()
+    now = _files_written(out)
+    assert run(cfg, echo=lambda m: None).skipped == 2 and _files_written(out) == now

@@ -85,8 +85,18 @@ _RUN_OUTPUT_FILES = {"scene": "scene.usda", "report": "report.html"}
 #: a run output's record's mark that the file was written from the records of the manifest that holds it
 #: (the run's last write of the manifest; a write during the run, or of a run stopped, leaves it out: the
 #: records have changed since the file was written, or may have). A rerun that changes no record keeps
-#: such a file while it is as recorded (:func:`_checked_output`), and writes neither it nor the manifest
+#: such a file while it is as recorded (:func:`_checked_output`), and writes neither it nor the manifest.
+#: True in memory; in the file, the digest of the manifest's text before :data:`RUN_OUTPUTS` (its records
+#: as written, :func:`_records_digest`), so that records edited by hand since leave the file not current
 CURRENT = "current"
+#: where a manifest written by :class:`_ManifestText` has its :data:`RUN_OUTPUTS` (after its records: no
+#: line within them starts with one space)
+_RUN_OUTPUTS_FIELD = f"\n {json.dumps(RUN_OUTPUTS)}: ".encode()
+
+
+def _records_digest(text: bytes | memoryview) -> str:
+    """The :data:`CURRENT` mark of a manifest whose text before :data:`_RUN_OUTPUTS_FIELD` is ``text``."""
+    return hashlib.sha256(text).hexdigest()[:16]
 
 
 def _asks_for(cfg: Config, kind: str) -> bool:
@@ -193,13 +203,27 @@ def _read_manifest(
     no list (a hand edit: none of that key, or :data:`INPUT_LISTS` not an object) leaves the record without
     ``inputs`` (hashed, as a malformed list is), and is described in ``unresolved`` (asset id -> why).
     ``older`` gets the ids of the records of an older manifest given one list object (which a rewrite
-    writes once, in :data:`INPUT_LISTS`)."""
+    writes once, in :data:`INPUT_LISTS`). A run output's :data:`CURRENT` mark is True when it is the digest
+    of the text before :data:`RUN_OUTPUTS` (the records as the run wrote them), else left out."""
     try:
-        data = json.loads(path.read_text())
+        raw = path.read_bytes()
+        data = json.loads(raw)
     except (OSError, ValueError):
         return {"assets": {}}
     if not isinstance(data, dict) or not isinstance(data.get("assets"), dict):
         return {"assets": {}}
+    runs = data.get(RUN_OUTPUTS)
+    marked = (
+        [o for o in runs.values() if isinstance(o, dict) and CURRENT in o] if isinstance(runs, dict) else []
+    )
+    if marked:
+        end = raw.find(_RUN_OUTPUTS_FIELD)
+        digest = _records_digest(memoryview(raw)[:end]) if end >= 0 else None
+        for o in marked:
+            if o[CURRENT] == digest:
+                o[CURRENT] = True
+            else:
+                del o[CURRENT]
     found = data.pop(INPUT_LISTS, None)
     tables = found if isinstance(found, dict) else {}
     seen: dict[str, list] = {}
@@ -284,6 +308,17 @@ class _ManifestText:
                 if tables:
                     table_rows = [f"  {json.dumps(k)}: {text}" for k, text in sorted(tables.items())]
                     fields.append(f" {json.dumps(INPUT_LISTS)}: {{\n" + ",\n".join(table_rows) + "\n }")
+            elif (
+                key == RUN_OUTPUTS
+                and isinstance(value, dict)
+                and any(isinstance(o, dict) and o.get(CURRENT) is True for o in value.values())
+            ):  # (the mark: the digest of the text before, see CURRENT)
+                digest = _records_digest(("{\n" + ",\n".join(fields) + ",").encode())
+                marked = {
+                    kind: {**o, CURRENT: digest} if isinstance(o, dict) and o.get(CURRENT) is True else o
+                    for kind, o in value.items()
+                }
+                fields.append(f" {json.dumps(key)}: {nested(marked, 1)}")
             else:
                 fields.append(f" {json.dumps(key)}: {nested(value, 1)}")
         return "{\n" + ",\n".join(fields) + "\n}"
