@@ -3871,3 +3871,19 @@ def test_a_manifest_whose_records_were_edited_since_its_scene_and_report_has_the
     assert "renamed by hand" in (out / "report.html").read_text()
     now = _files_written(out)
     assert run(cfg, echo=lambda m: None).skipped == 2 and _files_written(out) == now
+
+
+def test_a_report_s_link_to_an_asset_s_curves_is_its_id_as_a_browser_reads_it(tmp_path, monkeypatch):
+    # the script draws an asset's curves by the text of its link: a browser's parser reads a carriage return
+    # (a file name may hold one) as a line feed, an id no curve has, unless written as a character reference
+    from swpm_usd.pipeline import report
+
+    manifest = _report_manifest(tmp_path, monkeypatch)
+    aid = "m/two\rlines.obj"
+    manifest["assets"][aid] = manifest["assets"]["m/a.obj"]
+    monkeypatch.setattr(report, "INLINE_CURVES", 0)
+    report.write_report(tmp_path / "report.html", manifest)
+    text = (tmp_path / "report.html").read_bytes().decode()
+    assert "\r" not in text
+    links = [html.unescape(t.split("</a>")[0]) for t in text.split("<a class=curve href='#curves'>")[1:]]
+    assert aid in links and sorted(links) == sorted(manifest["assets"])

@@ -116,7 +116,10 @@ def write_report(path: Path, manifest: dict) -> None:
             )
         s = rec.get("summary", {})
         by_encoding.setdefault(rec["encoding"], []).append(s)
-        name = e(aid) if inline else f"<a class=curve href='#curves'>{e(aid)}</a>"
+        # (the script looks the name up as the link's text: a carriage return, which a browser's parser
+        # reads as a line feed, written as a character reference, read as itself)
+        link = e(aid).replace("\r", "&#13;")
+        name = e(aid) if inline else f"<a class=curve href='#curves'>{link}</a>"
         rows.append(
             f"<tr><td>{name}</td><td>{e(str(rec.get('rule')))}</td><td>{e(rec['encoding'])}</td>"
             f"<td>{s.get('triangles')}</td><td>{s.get('lod_count')}</td><td>{s.get('lambda', 0):.2f}</td>"
