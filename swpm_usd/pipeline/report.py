@@ -1,5 +1,6 @@
 """The run's HTML report: per asset, triangles vs error and ACMR vs LOD plots (inline SVG), a memory
-table by encoding, and the failures with their causes. One self-contained file, no scripts.
+table by encoding, and the failures with their causes. One self-contained file, with no script up to
+:data:`INLINE_CURVES` built assets.
 
 Beyond :data:`INLINE_CURVES` built assets the plots are not inline (10,000 assets: 20,000 SVGs, 11 MB for a
 browser to lay out on opening): each asset's curve is in a compact table (``<script type=application/json
@@ -21,8 +22,6 @@ INLINE_CURVES = 500
 
 
 def _polyline(xs: list[float], ys: list[float], w: int = 260, h: int = 140, log_y: bool = False) -> str:
-    import math
-
     if not xs:
         return "<svg></svg>"
     if log_y:
