@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 import json
 import os
 import shutil
@@ -3592,3 +3593,297 @@ def test_a_gltf_whose_json_did_not_read_while_listed_is_listed_again(tmp_path, m
         if name != "model.gltf":
             (tmp_path / "m" / name).write_bytes(scaled[name])
     assert run(cfg, echo=lambda m: None).built == 1
+
+
+def _files_written(out: Path) -> dict[str, tuple[int, int]]:
+    """manifest.json, scene.usda and report.html by (inode, mtime): each write (a temporary file renamed
+    into place) gives another inode; a file missing is absent."""
+    names = ("manifest.json", "scene.usda", "report.html")
+    return {n: (st.st_ino, st.st_mtime_ns) for n in names if (p := out / n).exists() and (st := p.stat())}
+
+
+def test_a_rerun_that_changes_nothing_rewrites_no_manifest_scene_or_report(tmp_path, monkeypatch):
+    # a rerun with nothing to build serialised and rewrote the whole manifest, the scene and the report
+    # (10,000 small assets: a 47 MB manifest, 2.5-2.9 s of a 7-9 s rerun); each is written again when what
+    # it holds would change, or when the file is not the one the last run wrote
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (inputs just written: see the racily clean test)
+    (tmp_path / "m").mkdir()
+    for name in ("a", "b", "c"):
+        (tmp_path / "m" / f"{name}.obj").write_text(TWO_TRIANGLES + f"# {name}\n")
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\ndefaults: {encoding: vanilla}\n"
+    cfg.write_text(head + "output: {dir: out, usd: true, scene: true}\n")
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 3
+    first = _files_written(out)
+    assert sorted(first) == ["manifest.json", "report.html", "scene.usda"]
+    res = run(cfg, echo=lambda m: None)
+    assert res.skipped == 3 and _files_written(out) == first  # nothing written
+    # (the mark: the digest of the manifest's records as written, see runner.CURRENT)
+    marks = [o["current"] for o in json.loads((out / "manifest.json").read_text())["run_outputs"].values()]
+    assert len(marks) == 2 and all(isinstance(m, str) and len(m) == 16 for m in marks)
+
+    def rewritten() -> list[str]:
+        nonlocal first
+        now = _files_written(out)
+        changed = sorted(n for n in set(first) | set(now) if first.get(n) != now.get(n))
+        first = now
+        return changed
+
+    # a file the user deleted or edited: written again (and its record, so the manifest)
+    (out / "report.html").unlink()
+    assert run(cfg, echo=lambda m: None).skipped == 3
+    assert rewritten() == ["manifest.json", "report.html"]
+    (out / "scene.usda").write_text("#usda 1.0\n")
+    run(cfg, echo=lambda m: None)
+    assert rewritten() == ["manifest.json", "scene.usda"] and "b.usdc" in (out / "scene.usda").read_text()
+    assert run(cfg, echo=lambda m: None).skipped == 3 and rewritten() == []
+    # the output options changed: the report no longer asked for (an orphan, recorded), then asked again
+    cfg.write_text(head + "output: {dir: out, usd: true, scene: true, report: false}\n")
+    assert run(cfg, echo=lambda m: None).unlisted == ["report.html"]
+    assert rewritten() == ["manifest.json", "scene.usda"]
+    cfg.write_text(head + "output: {dir: out, usd: true, scene: true}\n")
+    run(cfg, echo=lambda m: None)
+    assert rewritten() == ["manifest.json", "report.html", "scene.usda"]
+    assert run(cfg, echo=lambda m: None).skipped == 3 and rewritten() == []
+    # the config changed: an asset rebuilt; the config's path (the manifest and the report name it)
+    cfg.write_text(head.replace("vanilla", "skip-strip") + "output: {dir: out, usd: true, scene: true}\n")
+    assert run(cfg, echo=lambda m: None).built == 3
+    assert rewritten() == ["manifest.json", "report.html", "scene.usda"]
+    moved = tmp_path / "d.yaml"
+    shutil.copy(cfg, moved)
+    assert run(moved, echo=lambda m: None).skipped == 3
+    assert rewritten() == ["manifest.json", "report.html", "scene.usda"]
+    assert str(moved) in (out / "report.html").read_text()
+    assert run(moved, echo=lambda m: None).skipped == 3 and rewritten() == []
+    # an asset removed: its record, its layer in the scene and its row in the report go
+    (tmp_path / "m" / "b.obj").unlink()
+    assert run(moved, echo=lambda m: None, prune=True).pruned == ["b.swpm", "b.usdc"]
+    assert rewritten() == ["manifest.json", "report.html", "scene.usda"]
+    assert (
+        "b.usdc" not in (out / "scene.usda").read_text()
+        and "m/b.obj" not in (out / "report.html").read_text()
+    )
+    assert run(moved, echo=lambda m: None).skipped == 2 and rewritten() == []
+
+
+def test_a_run_stopped_before_its_scene_and_report_leaves_them_to_be_written_again(tmp_path, monkeypatch):
+    # the manifest a run writes as assets finish (or when it is stopped) holds their new records while the
+    # scene and report recorded are the last run's: the next run, with nothing left to build, writes them
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out, usd: true, scene: true}\n"
+    cfg.write_text(head + "defaults: {encoding: vanilla}\n")
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    cfg.write_text(head + "defaults: {encoding: skip-strip}\n")
+
+    def stopped(tasks, *args):  # (every asset built, then Ctrl-C: as a kill after the manifest's last write)
+        yield from execute(tasks, *args)
+        raise KeyboardInterrupt
+
+    execute = runner.execute
+    with monkeypatch.context() as m:
+        m.setattr(runner, "execute", stopped)
+        with pytest.raises(KeyboardInterrupt):
+            run(cfg, echo=lambda m: None)
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["assets"]["m/a.obj"]["encoding"] == "skip-strip"  # (recorded, the scene not written)
+    assert sorted(manifest["run_outputs"]) == ["report", "scene"]
+    assert all("current" not in o for o in manifest["run_outputs"].values())
+    before = _files_written(out)
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    after = _files_written(out)
+    assert all(before[n] != after[n] for n in before), "the last run's scene and report were kept"
+    assert "skip-strip" in (out / "report.html").read_text()
+    assert run(cfg, echo=lambda m: None).skipped == 1 and _files_written(out) == after
+
+
+def _report_manifest(tmp_path: Path, monkeypatch) -> dict:
+    """The manifest of a run of two small assets, its records copied under three more ids (one an id that
+    would end a script element were it written as it is)."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "m").mkdir()
+    shutil.copy(SHARED_MESHES / "suzanne.obj", tmp_path / "m" / "a.obj")
+    (tmp_path / "m" / "b.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    assert run(cfg, echo=lambda m: None).built == 2
+    manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
+    a = manifest["assets"]["m/a.obj"]
+    manifest["assets"] |= {f"m/c{i}.obj": a for i in range(2)} | {"m/</script><b>.obj": a}
+    return manifest
+
+
+def test_a_report_s_curve_table_holds_a_figure_not_finite_as_null(tmp_path, monkeypatch):
+    from swpm_usd.pipeline import report
+
+    manifest = _report_manifest(tmp_path, monkeypatch)
+    rec = manifest["assets"]["m/a.obj"]
+    curve = [dict(c) for c in rec["summary"]["curve"]]
+    curve[1]["error"] = float("nan")
+    manifest["assets"]["m/a.obj"] = {**rec, "summary": {**rec["summary"], "curve": curve}}
+    monkeypatch.setattr(report, "INLINE_CURVES", 0)
+    report.write_report(tmp_path / "report.html", manifest)
+    text = (tmp_path / "report.html").read_text()
+    start = text.index("id=curve-data>") + len("id=curve-data>")
+
+    def invalid(token: str):
+        raise AssertionError(f"{token} is not JSON (a browser's JSON.parse refuses it)")
+
+    table = json.loads(text[start : text.index("</script>", start)], parse_constant=invalid)
+    assert table["m/a.obj"][2][1] is None and table["m/c0.obj"][2][1] is not None
+
+
+def test_a_report_of_many_assets_draws_their_curves_on_demand(tmp_path, monkeypatch):
+    # a report of 10,000 assets held 20,000 inline SVG plots (11 MB for a browser to lay out on opening):
+    # beyond INLINE_CURVES built assets each curve is a compact entry a script draws when asked
+    from swpm_usd.pipeline import report
+
+    manifest = _report_manifest(tmp_path, monkeypatch)
+    path = tmp_path / "report.html"
+    report.write_report(path, manifest)  # (5 built assets: inline, as before; no script)
+    text = path.read_text()
+    assert text.count("<svg") == 10 and "<script" not in text
+    monkeypatch.setattr(report, "INLINE_CURVES", 4)
+    report.write_report(path, manifest)
+    text = path.read_text()
+    assert text.count("<svg") == report._CURVE_SCRIPT.count("<svg")  # (the script's alone)
+    # every asset's row still, its name the link that draws its curves
+    for aid in manifest["assets"]:
+        assert f"<a class=curve href='#curves'>{html.escape(aid)}</a>" in text
+    assert "m/</script><b>.obj" not in text  # (escaped in the table and in the curve data)
+    start = text.index("<script type=application/json id=curve-data>") + len(
+        "<script type=application/json id=curve-data>"
+    )
+    table = json.loads(text[start : text.index("</script>", start)])
+    assert sorted(table) == sorted(manifest["assets"])
+    for aid, rec in manifest["assets"].items():
+        curve = rec["summary"]["curve"]
+        encoding, *figures = table[aid]
+        assert encoding == rec["encoding"] and len(curve) > 1
+        for got, key in zip(figures, ("triangles", "error", "lod", "acmr"), strict=True):
+            assert got == pytest.approx([c[key] for c in curve], rel=1e-3, abs=1e-12), (aid, key)
+    assert "click an asset's name" in text and "summary.curve" in text
+
+
+@pytest.mark.skipif(shutil.which("node") is None, reason="needs node to run the report's script")
+def test_the_report_s_script_draws_the_plots_the_report_draws_inline(tmp_path, monkeypatch):
+    from swpm_usd.pipeline import report
+
+    manifest = _report_manifest(tmp_path, monkeypatch)
+    monkeypatch.setattr(report, "INLINE_CURVES", 0)
+    path = tmp_path / "report.html"
+    report.write_report(path, manifest)
+    text = path.read_text()
+    start = text.index("id=curve-data>") + len("id=curve-data>")
+    data, script = text[start:].split("</script>", 1)
+    script = script[script.index("<script>") + len("<script>") : script.index("</script>")]
+    aid = "m/a.obj"
+    harness = (
+        "function el(t){return {children:[],className:'',textContent:'',innerHTML:'',"
+        "appendChild:function(c){this.children.push(c)},insertBefore:function(c){this.children.unshift(c)}};}"
+        "var box=el('div'),on={};var document={createElement:el,getElementById:function(id){"
+        f"if(id==='curve-data')return {{textContent:{json.dumps(data)}}};if(id==='curves')return box;"
+        "return {addEventListener:function(t,f){on[t]=f}};}};\n" + script + "\n"
+        f"on.click({{target:{{closest:function(){{return {{textContent:{json.dumps(aid)}}}}}}}}});"
+        "var c=box.children[0];console.log(JSON.stringify([c.children[0].textContent,"
+        "c.children[0].children[0].textContent,c.children[1].innerHTML,c.children[2].innerHTML]));"
+    )
+    (tmp_path / "h.js").write_text(harness)
+    done = subprocess.run(["node", str(tmp_path / "h.js")], capture_output=True, text=True, check=True)
+    title, encoding, errors, acmr = json.loads(done.stdout)
+    assert title.strip() == aid and encoding == "vanilla"
+    curve = manifest["assets"][aid]["summary"]["curve"]
+    compact = [float(f"{c['error']:.4g}") for c in curve]  # (the figures as the table holds them)
+    assert errors == "triangles (x) vs error (y, log)<br>" + report._polyline(
+        [c["triangles"] for c in curve], compact, log_y=True
+    )
+    assert acmr == "LOD (x) vs ACMR (y)<br>" + report._polyline(
+        [c["lod"] for c in curve], [float(f"{c['acmr']:.4g}") for c in curve]
+    )
+
+
+def test_a_run_leaves_the_garbage_collector_as_it_found_it(tmp_path):
+    # the run pauses the cyclic collector while it reads the manifest and plans (10,000 assets: 0.4 s of its
+    # full collections in a 2.4 s rerun); it is running again after, or still paused if the caller paused it
+    import gc
+
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    assert gc.isenabled()
+    assert run(cfg, echo=lambda m: None).built == 1 and gc.isenabled()
+    assert run(cfg, echo=lambda m: None).skipped == 1 and gc.isenabled()
+    gc.disable()
+    try:
+        assert run(cfg, echo=lambda m: None, force=True).built == 1 and not gc.isenabled()
+    finally:
+        gc.enable()
+    (tmp_path / "m" / "a.obj").write_text("not a mesh")  # (a run that fails: the collector running again)
+    assert run(cfg, echo=lambda m: None).failed == 1 and gc.isenabled()
+
+
+def test_a_manifest_whose_records_were_edited_since_its_scene_and_report_has_them_written_again(
+    tmp_path, monkeypatch
+):
+    # the scene and report a run wrote are kept only while the manifest holds the records they were written
+    # from: a record edited by hand since (its text, or the whole file reformatted) has them written again
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m").mkdir()
+    for name in ("a", "b"):
+        (tmp_path / "m" / f"{name}.obj").write_text(TWO_TRIANGLES + f"# {name}\n")
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\ndefaults: {encoding: vanilla}\n"
+        "output: {dir: out, usd: true, scene: true}\n"
+    )
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    manifest_path = out / "manifest.json"
+    text = manifest_path.read_text()
+    why = json.loads(text)["assets"]["m/a.obj"]["why"]
+    manifest_path.write_text(text.replace(json.dumps(why), json.dumps("edited by hand"), 1))
+    written = _files_written(out)
+    assert run(cfg, echo=lambda m: None).skipped == 2
+    assert "edited by hand" in (out / "report.html").read_text()
+    now = _files_written(out)
+    assert all(written[n] != now[n] for n in written), "the scene and report of other records were kept"
+    assert run(cfg, echo=lambda m: None).skipped == 2 and _files_written(out) == now
+    # the same records, the file reformatted (json.dumps): not the text the run wrote, so written again
+    manifest = json.loads(manifest_path.read_text())
+    manifest["assets"]["m/b.obj"]["rule"] = "renamed by hand"
+    manifest_path.write_text(json.dumps(manifest))
+    assert run(cfg, echo=lambda m: None).skipped == 2
+    assert "renamed by hand" in (out / "report.html").read_text()
+    now = _files_written(out)
+    assert run(cfg, echo=lambda m: None).skipped == 2 and _files_written(out) == now
+
+
+def test_a_report_s_link_to_an_asset_s_curves_is_its_id_as_a_browser_reads_it(tmp_path, monkeypatch):
+    # the script draws an asset's curves by the text of its link: a browser's parser reads a carriage return
+    # (a file name may hold one) as a line feed, an id no curve has, unless written as a character reference
+    from swpm_usd.pipeline import report
+
+    manifest = _report_manifest(tmp_path, monkeypatch)
+    aid = "m/two\rlines.obj"
+    manifest["assets"][aid] = manifest["assets"]["m/a.obj"]
+    monkeypatch.setattr(report, "INLINE_CURVES", 0)
+    report.write_report(tmp_path / "report.html", manifest)
+    text = (tmp_path / "report.html").read_bytes().decode()
+    assert "\r" not in text
+    links = [html.unescape(t.split("</a>")[0]) for t in text.split("<a class=curve href='#curves'>")[1:]]
+    assert aid in links and sorted(links) == sorted(manifest["assets"])

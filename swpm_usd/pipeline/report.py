@@ -1,17 +1,27 @@
 """The run's HTML report: per asset, triangles vs error and ACMR vs LOD plots (inline SVG), a memory
-table by encoding, and the failures with their causes. One self-contained file, no scripts."""
+table by encoding, and the failures with their causes. One self-contained file, with no script up to
+:data:`INLINE_CURVES` built assets.
+
+Beyond :data:`INLINE_CURVES` built assets the plots are not inline (10,000 assets: 20,000 SVGs, 11 MB for a
+browser to lay out on opening): each asset's curve is in a compact table (``<script type=application/json
+id=curve-data>``: asset id -> [encoding, triangles, error, LOD, ACMR], the numbers to four significant
+digits) and a small inline script draws an asset's two plots, as they are drawn inline, when its name in
+the table is clicked. The full figures stay in the manifest (``summary.curve``)."""
 
 from __future__ import annotations
 
 import html
+import json
+import math
 from pathlib import Path
 
 from .worker import atomic_write_bytes
 
+#: the most built assets whose plots the report draws inline (beyond: drawn on demand, see the docstring)
+INLINE_CURVES = 500
+
 
 def _polyline(xs: list[float], ys: list[float], w: int = 260, h: int = 140, log_y: bool = False) -> str:
-    import math
-
     if not xs:
         return "<svg></svg>"
     if log_y:
@@ -27,6 +37,40 @@ def _polyline(xs: list[float], ys: list[float], w: int = 260, h: int = 140, log_
         f'<svg width="{w}" height="{h}" style="background:#fafafa;border:1px solid #ddd">'
         f'<polyline fill="none" stroke="#2a6" stroke-width="2" points="{pts}"/></svg>'
     )
+
+
+def _compact(values: list) -> str:
+    """Curve figures for the on-demand plots, a JSON array: whole numbers as they are, others to four
+    significant digits (a plot is 260 pixels wide), one not finite as null."""
+    shown = (str(v) if type(v) is int else f"{v:.4g}" if math.isfinite(v) else "null" for v in values)
+    return f"[{','.join(shown)}]"
+
+
+#: draws the plots of an asset (its name clicked in the table) from the curve table, as _polyline does
+_CURVE_SCRIPT = """<script>
+(function(){
+var data=JSON.parse(document.getElementById('curve-data').textContent);
+function poly(xs,ys,logY){
+ var w=260,h=140;if(!xs.length)return '<svg></svg>';
+ if(logY)ys=ys.map(function(y){return Math.log10(Math.max(y,1e-12));});
+ var x0=Math.min.apply(null,xs),x1=Math.max.apply(null,xs)||1,y0=Math.min.apply(null,ys),
+  y1=Math.max.apply(null,ys),sx=(w-20)/((x1-x0)||1),sy=(h-20)/((y1-y0)||1);
+ var pts=xs.map(function(x,i){return (10+(x-x0)*sx).toFixed(1)+','+(h-10-(ys[i]-y0)*sy).toFixed(1);});
+ return '<svg width="'+w+'" height="'+h+'" style="background:#fafafa;border:1px solid #ddd">'+
+  '<polyline fill="none" stroke="#2a6" stroke-width="2" points="'+pts.join(' ')+'"/></svg>';}
+function show(aid){
+ var c=data[aid];if(!c)return;
+ var card=document.createElement('div'),h=document.createElement('h3'),small=document.createElement('small');
+ card.className='card';h.textContent=aid+' ';small.textContent=c[0];h.appendChild(small);card.appendChild(h);
+ var a=document.createElement('div'),b=document.createElement('div');
+ a.innerHTML='triangles (x) vs error (y, log)<br>'+poly(c[1],c[2],true);
+ b.innerHTML='LOD (x) vs ACMR (y)<br>'+poly(c[3],c[4],false);
+ card.appendChild(a);card.appendChild(b);
+ var box=document.getElementById('curves');box.insertBefore(card,box.firstChild);}
+document.getElementById('assets').addEventListener('click',function(e){
+ var t=e.target.closest('a.curve');if(t){show(t.textContent);}});
+})();
+</script>"""
 
 
 def _auto_table(aid: str, rec: dict) -> str:
@@ -56,6 +100,8 @@ def write_report(path: Path, manifest: dict) -> None:
     rows, failures, plots, autos = [], [], [], []
     kept = 0
     by_encoding: dict[str, list[dict]] = {}
+    inline = sum(rec.get("status") == "built" for rec in assets.values()) <= INLINE_CURVES
+    curves: list[str] = []  # (beyond INLINE_CURVES) each asset's plots' figures, a JSON object's member
     for aid, rec in sorted(assets.items()):
         e = html.escape
         if rec.get("status") != "built":
@@ -69,8 +115,12 @@ def write_report(path: Path, manifest: dict) -> None:
             )
         s = rec.get("summary", {})
         by_encoding.setdefault(rec["encoding"], []).append(s)
+        # (the script looks the name up as the link's text: a carriage return, which a browser's parser
+        # reads as a line feed, written as a character reference, read as itself)
+        link = e(aid).replace("\r", "&#13;")
+        name = e(aid) if inline else f"<a class=curve href='#curves'>{link}</a>"
         rows.append(
-            f"<tr><td>{e(aid)}</td><td>{e(str(rec.get('rule')))}</td><td>{e(rec['encoding'])}</td>"
+            f"<tr><td>{name}</td><td>{e(str(rec.get('rule')))}</td><td>{e(rec['encoding'])}</td>"
             f"<td>{s.get('triangles')}</td><td>{s.get('lod_count')}</td><td>{s.get('lambda', 0):.2f}</td>"
             f"<td>{s.get('acmr', 0):.3f}</td><td>{s.get('global_bytes')}</td>"
             f"<td>{s.get('instance_bytes')}</td>"
@@ -81,6 +131,11 @@ def write_report(path: Path, manifest: dict) -> None:
             autos.append(_auto_table(aid, rec))
         curve = s.get("curve", [])
         tri = [c["triangles"] for c in curve]
+        if not inline:
+            figures = ([c[k] for c in curve] for k in ("triangles", "error", "lod", "acmr"))
+            shown = ",".join([json.dumps(rec["encoding"]), *(_compact(f) for f in figures)])
+            curves.append(f"{json.dumps(aid)}:[{shown}]")
+            continue
         plots.append(
             f"<div class=card><h3>{e(aid)} <small>{e(rec['encoding'])}</small></h3>"
             "<div>triangles (x) vs error (y, log)<br>"
@@ -95,6 +150,17 @@ def write_report(path: Path, manifest: dict) -> None:
         for enc, v in sorted(by_encoding.items())
     )
     kept_note = f" ({kept} of them keeping their previous build)" if kept else ""
+    if inline:
+        curve_section = "".join(plots)
+    else:  # ("<" escaped: no "</script>" in an asset id ends the table)
+        table = ("{" + ",".join(curves) + "}").replace("<", "\\u003c")
+        curve_section = (
+            f"<p>{len(curves)} assets: click an asset's name in the table above to draw its curves here "
+            f"(drawn inline for up to {INLINE_CURVES} assets; every figure is in the manifest, each "
+            "record's <code>summary.curve</code>).</p><noscript><p>(Drawing them needs JavaScript.)</p>"
+            f"</noscript><div id=curves></div><script type=application/json id=curve-data>{table}</script>"
+            + _CURVE_SCRIPT
+        )
     doc = f"""<!doctype html><html><head><meta charset="utf-8"><title>swpm-usd run report</title>
 <style>body{{font-family:sans-serif;margin:2em}} table{{border-collapse:collapse}}
 td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}} td:first-child{{text-align:left}}
@@ -106,11 +172,12 @@ td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}} td:first-child{{
 {"".join(failures) or "<tr><td>none</td></tr>"}</table>
 <h2>Memory by encoding</h2><table><tr><th>encoding</th><th>assets</th><th>global bytes</th>
 <th>instance bytes (one instance each)</th></tr>{mem}</table>
-<h2>Assets</h2><table><tr><th>asset</th><th>rule</th><th>encoding</th><th>triangles</th><th>LODs</th>
-<th>lambda</th><th>ACMR@50%</th><th>global B</th><th>instance B</th><th>instances</th><th>s</th><th></th></tr>
+<h2>Assets</h2><table id=assets><tr><th>asset</th><th>rule</th><th>encoding</th><th>triangles</th>
+<th>LODs</th><th>lambda</th><th>ACMR@50%</th><th>global B</th><th>instance B</th><th>instances</th><th>s</th>
+<th></th></tr>
 {"".join(rows)}</table>
 <h2>Encodings compared by <code>auto</code></h2>{"".join(autos) or "<p>none</p>"}
-<h2>Curves</h2>{"".join(plots)}
+<h2>Curves</h2>{curve_section}
 </body></html>
 """
     atomic_write_bytes(path, doc.encode())
