@@ -154,21 +154,27 @@ def many(work: Path, count: int = 1000) -> dict:
     return {"assets": len(res.records), "wall_s": wall, "asset_work_s": work_s, "overhead": 1 - work_s / wall}
 
 
+def _copies_built(d: Path, source: str, names: list[str], output: str) -> None:
+    """``d/meshes/<name>``: a copy of the shared mesh ``source`` each (a comment line apart, so each hashes
+    differently), built once as vanilla with ``output``; kept if ``d`` holds that build (``--work``)."""
+    if (d / "out" / "manifest.json").is_file():  # (--work: built by an earlier call)
+        return
+    (d / "meshes").mkdir(parents=True, exist_ok=True)
+    text = (SHARED / source).read_text()
+    for i, name in enumerate(names):
+        (d / "meshes" / name).write_text(f"{text}\n# copy {i}\n")
+    (d / "pipeline.yaml").write_text(
+        f"version: 1\nassets: [{{glob: 'meshes/*.obj'}}]\noutput: {output}\ndefaults: {{encoding: vanilla}}\n"
+    )
+    _cli(["run", str(d / "pipeline.yaml"), "--jobs", "2"])
+
+
 def rerun_large(work: Path, source: str = "bob.obj", copies: int = 200, repeats: int = 5) -> dict:
     from swpm_usd.pipeline import run
 
     d = work / "rerun-large"
     cfg = d / "pipeline.yaml"
-    if not (d / "out" / "manifest.json").is_file():  # (--work: built by an earlier call)
-        (d / "meshes").mkdir(parents=True, exist_ok=True)
-        text = (SHARED / source).read_text()
-        for i in range(copies):
-            (d / "meshes" / f"{i:03d}_{source}").write_text(f"{text}\n# copy {i}\n")
-        cfg.write_text(
-            "version: 1\nassets: [{glob: 'meshes/*.obj'}]\noutput: {dir: out, report: false}\n"
-            "defaults: {encoding: vanilla}\n"
-        )
-        _cli(["run", str(cfg), "--jobs", "2"])
+    _copies_built(d, source, [f"{i:03d}_{source}" for i in range(copies)], "{dir: out, report: false}")
     size = sum(p.stat().st_size for p in (d / "meshes").iterdir())
     _cli(["run", str(cfg)])  # settle (see the docstring)
     cli = [_cli(["run", str(cfg)]) for _ in range(repeats)]
@@ -289,16 +295,8 @@ def rerun_10k(work: Path, count: int = 10000, repeats: int = 5) -> dict:
     d = work / "rerun-10k"
     cfg = d / "pipeline.yaml"
     out = d / "out"
-    if not (out / "manifest.json").is_file():  # (--work: built by an earlier call)
-        (d / "meshes").mkdir(parents=True, exist_ok=True)
-        text = (SHARED / "suzanne.obj").read_text()
-        for i in range(count):
-            (d / "meshes" / f"m{i:05d}.obj").write_text(f"{text}\n# copy {i}\n")
-        cfg.write_text(
-            "version: 1\nassets: [{glob: 'meshes/*.obj'}]\n"
-            "output: {dir: out, usd: true, scene: true, report: true}\ndefaults: {encoding: vanilla}\n"
-        )
-        _cli(["run", str(cfg), "--jobs", "2"])
+    names = [f"m{i:05d}.obj" for i in range(count)]
+    _copies_built(d, "suzanne.obj", names, "{dir: out, usd: true, scene: true, report: true}")
     _cli(["run", str(cfg), "--jobs", "2"])  # settle (inputs written just before the build are hashed again)
     names = ("manifest.json", "scene.usda", "report.html")
 
