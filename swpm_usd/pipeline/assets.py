@@ -275,17 +275,6 @@ def _shown(cfg: Config, path: Path) -> str:
         return str(path)
 
 
-def _is_output(
-    path: Path, out_dir: Path, holds_config: bool, recorded: set[str], real: dict[Path, str]
-) -> bool:
-    """Is ``path``, a file a glob matched, the run's and not an input: in ``out_dir`` or below it, or, when
-    ``out_dir`` holds the config (output.dir ``.``: the inputs are there too), one of the ``recorded``
-    outputs (real paths) in it? ``real``: :func:`_under`'s."""
-    if not holds_config:
-        return _under(path, out_dir, real)
-    return _under(path, out_dir, real) and os.path.realpath(path) in recorded
-
-
 def discover(
     cfg: Config,
     recorded_outputs: Iterable[Path] = (),
@@ -318,11 +307,11 @@ def discover(
     under: dict[Path, bool] = {}  # a matched file's folder -> is it output.dir or in it
 
     def is_output(p: Path) -> bool:
-        if holds_config:
-            return _is_output(p, out_dir, holds_config, recorded_outputs, folders)
+        """Is ``p``, a file a glob matched, the run's and not an input: in output.dir or below it, and when
+        output.dir holds the config (``.``: the inputs are there too) one of the recorded outputs?"""
         if p.parent not in under:  # (the folder decides: one answer a folder)
             under[p.parent] = _under(p, out_dir, folders)
-        return under[p.parent]
+        return under[p.parent] and (not holds_config or os.path.realpath(p) in recorded_outputs)
 
     def realpath(p: Path) -> str:
         """``os.path.realpath(p)``, by its folder's (cached) when ``p`` is not a link itself."""

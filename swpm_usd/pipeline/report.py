@@ -130,12 +130,12 @@ def write_report(path: Path, manifest: dict) -> None:
         if rec.get("auto_candidates"):
             autos.append(_auto_table(aid, rec))
         curve = s.get("curve", [])
-        tri = [c["triangles"] for c in curve]
         if not inline:
             figures = ([c[k] for c in curve] for k in ("triangles", "error", "lod", "acmr"))
             shown = ",".join([json.dumps(rec["encoding"]), *(_compact(f) for f in figures)])
             curves.append(f"{json.dumps(aid)}:[{shown}]")
             continue
+        tri = [c["triangles"] for c in curve]
         plots.append(
             f"<div class=card><h3>{e(aid)} <small>{e(rec['encoding'])}</small></h3>"
             "<div>triangles (x) vs error (y, log)<br>"

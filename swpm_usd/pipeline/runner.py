@@ -53,6 +53,7 @@ from .assets import (
     discover,
     hash_inputs,
     match_rule,
+    output_dir,
     rule_checks,
     treatment_digest,
 )
@@ -189,8 +190,6 @@ INPUTS_REF = "inputs_ref"
 
 def _inputs_key(entries: list) -> str:
     """The key of an ``inputs`` list in :data:`INPUT_LISTS`: its content's (one list, one key, in any run)."""
-    import hashlib
-
     return hashlib.sha256(json.dumps(entries, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -438,7 +437,7 @@ def plan(
     recorded, or else their sha256 (:func:`_checked_output`). ``verify`` hashes every input and output. A
     manifest record that is not one the run writes (:func:`.records.record_problem`: hand-edited) is
     ignored, as if the asset had none, and named in a warning."""
-    out_dir = cfg.base / cfg.data["output"]["dir"]
+    out_dir = output_dir(cfg)
     known = manifest.get("assets", {})
     reused: set[str] = set()  # the assets whose inputs are their record's (as recorded: not read)
 
@@ -1262,7 +1261,7 @@ def run(
     an output.dir it creates, from then) to its end; another run there raises :class:`OutputLockedError`."""
     t_start = time.perf_counter()
     cfg = load_config(config_path)
-    out_dir = cfg.base / cfg.data["output"]["dir"]
+    out_dir = output_dir(cfg)
     lock = _OutputLock(out_dir, echo)
     try:
         return _run(
@@ -1451,9 +1450,7 @@ def _run(
                 it.triangles = rec.get("triangles_in")  # (known now: a shadowed rule is found by them)
             # (the stat of each input as it was hashed to this digest, never a later one: an input changed
             # since, which the worker may have built from, has another stat, and the next run hashes it)
-            rec["input_digest"], rec["inputs"] = it.input_digest, it.input_stats
-            if it.inputs_listed:  # (a list the next run may take while its files are unchanged)
-                rec[INPUTS_LISTED] = LISTING
+            rec = _with_inputs(rec, it)
             rec["rule"] = None if it.rule is None else cfg.data["rules"][it.rule]["name"]
             for o in rec.get("outputs", {}).values():
                 _complete_output_record(out_dir / o["path"], o)
