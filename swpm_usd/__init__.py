@@ -9,11 +9,28 @@ from . import _startup  # noqa: F401, I001 - (its import sets the handler: see s
 
 from .usd import plugin as _usd_plugin  # noqa: F401, I001 - registers SwpmMeshAPI before any stage use
 
+from ._lazy import lazy_attributes
+
+# (build is light, importing the encoders when called; it is not lazy: the submodule of the same name,
+# once imported, would be found where the function is expected)
 from .build import build
-from .encode import ProgressiveMesh, from_buffers
 from .errors import BuildError, MeshLoadError, SwpmError
-from .format import load, save, validate
 from .mesh import Mesh
+
+#: names re-exported from modules that load numba and the encoders, imported on first use
+#: (:mod:`swpm_usd._lazy`): ``swpm-pipeline --help``, a config check or a run with nothing to build needs none
+__getattr__, __dir__ = lazy_attributes(
+    __name__,
+    {
+        "ProgressiveMesh": "encode",
+        "from_buffers": "encode",
+        "load": "format",
+        "save": "format",
+        "validate": "format",
+        # the subpackages the package's import used to load, found as attributes after ``import swpm_usd``
+        **{sub: sub for sub in ("encode", "format", "metrics", "simplify", "vcache")},
+    },
+)
 
 
 def load_mesh(path, **kwargs):  # noqa: ANN001, ANN201 - thin re-export, see swpm_usd.io.load_mesh

@@ -5,14 +5,15 @@ from __future__ import annotations
 import math
 import numbers
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .encode import BUILDERS
-from .encode.base import ProgressiveMesh
 from .errors import BuildError
 from .mesh import Mesh
+
+if TYPE_CHECKING:  # (the encoders are imported by build() alone: see swpm_usd.encodings)
+    from .encode.base import ProgressiveMesh
 
 #: a FIFO larger than this models no GPU, and the cache simulations allocate arrays of this many entries
 #: (``cache_size=10**9`` asked for 7.5 GiB)
@@ -56,6 +57,8 @@ def build(mesh_or_path: Mesh | str | Path, encoding: str = "vanilla", **params: 
     ``params`` are the encoding's parameters (see ``swpm_usd.encode.BUILDERS[encoding][1]`` for the names
     and defaults); an unknown name raises :class:`BuildError`. The resolved parameters are in ``pm.params``.
     """
+    from .encode import BUILDERS
+
     if encoding not in BUILDERS:
         raise BuildError(f"unknown encoding {encoding!r}; choose one of {sorted(BUILDERS)}")
     fn, defaults = BUILDERS[encoding]

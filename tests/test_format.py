@@ -444,10 +444,13 @@ def test_encode_json_reports_the_written_file_and_failures_as_json(tmp_path: Pat
 def test_help_lists_the_registered_encodings_and_their_parameters(monkeypatch: pytest.MonkeyPatch) -> None:
     from swpm_usd.cli import main
     from swpm_usd.encode import BUILDERS
+    from swpm_usd.encodings import ENCODING_PARAMS
 
-    # an encoding registered later is listed too: the help is read from the registry
+    # an encoding registered later is listed too: the help is read from the registry (its parameters, which
+    # the help lists without importing the encoders)
     extra = {**BUILDERS["vanilla"][1], "knob": 3, "mode": "fast", "flag": False, "auto_pick": None}
     monkeypatch.setitem(BUILDERS, "test-encoding", (BUILDERS["vanilla"][0], extra))
+    monkeypatch.setitem(ENCODING_PARAMS, "test-encoding", extra)
     runner = CliRunner()
     helps = {cmd: runner.invoke(main, [cmd, "--help"]) for cmd in ("encode", "build")}
     helps["group"] = runner.invoke(main, ["--help"])

@@ -64,6 +64,50 @@ def test_schema_file_matches_the_encoders():
     assert PACKAGED_SCHEMA.read_text() == schema_text()
 
 
+def test_encoding_params_are_the_builders_defaults():
+    from swpm_usd.encode import BUILDERS
+    from swpm_usd.encodings import ENCODING_PARAMS
+
+    assert list(ENCODING_PARAMS) == list(BUILDERS)
+    for name, (_, defaults) in BUILDERS.items():
+        assert defaults == ENCODING_PARAMS[name], name
+
+
+#: a fresh interpreter runs the command line (``argv``) in-process and prints which heavy modules it imported
+_IMPORTS_OF = """\
+import sys
+from swpm_usd.cli import main
+try:
+    main(sys.argv[1:], prog_name="swpm-pipeline")
+except SystemExit as exc:
+    code = exc.code
+print({"exit": code, "numba": "numba" in sys.modules, "encode": "swpm_usd.encode" in sys.modules})
+"""
+
+
+def test_help_and_a_rerun_with_nothing_to_build_import_no_encoder(tmp_path):
+    # numba and the encoders cost a command about 0.4 s: a run with nothing to build (and --help) needs none
+    cfg = _project(tmp_path, ("suzanne.obj",), MINIMAL)
+    assert run(cfg, echo=lambda m: None).built == 1
+    for argv, code in ((["--help"], 0), (["run", "--help"], 0), (["run", str(cfg)], 0)):
+        proc = subprocess.run(
+            [sys.executable, "-c", _IMPORTS_OF, *argv], capture_output=True, text=True, timeout=FIRST_ASSET_S
+        )
+        last = proc.stdout.strip().splitlines()[-1]
+        assert last == str({"exit": code, "numba": False, "encode": False}), (argv, proc.stdout, proc.stderr)
+    # and a run that builds imports them (the same command, once the mesh changed)
+    mesh = tmp_path / "meshes" / "suzanne.obj"
+    mesh.write_text(mesh.read_text() + "\n# changed\n")
+    proc = subprocess.run(
+        [sys.executable, "-c", _IMPORTS_OF, "run", "--jobs", "1", str(cfg)],
+        capture_output=True,
+        text=True,
+        timeout=FIRST_ASSET_S,
+    )
+    assert "1 built" in proc.stdout, proc.stdout + proc.stderr
+    assert proc.stdout.strip().splitlines()[-1] == str({"exit": 0, "numba": True, "encode": True})
+
+
 def test_minimal_config_runs_and_writes_manifest_and_files(tmp_path):
     cfg = _project(tmp_path, ("cow.obj", "spot.obj", "stanford-bunny.obj"), MINIMAL)
     res = run(cfg, echo=lambda m: None)

@@ -1,7 +1,9 @@
 """Encoders: one module per VIPM encoding, each a pure function from a mesh / collapse sequence to buffers.
 
 ``BUILDERS`` maps an encoding name to ``(function(mesh, **params) -> ProgressiveMesh, default params)``;
-:func:`swpm_usd.build` dispatches through it, so a new encoding registers itself here.
+:func:`swpm_usd.build` dispatches through it, so a new encoding registers itself here (its builder) and in
+:data:`swpm_usd.encodings.ENCODING_PARAMS` (its parameters, which configs and the command line check without
+importing the encoders).
 """
 
 from __future__ import annotations
@@ -9,13 +11,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from ..encodings import ENCODING_PARAMS, SIMPLIFY_PARAMS
 from ..mesh import Mesh
 from ..simplify import collapse_sequence
 from .base import ENCODINGS, ProgressiveMesh, from_buffers
 from .vanilla import VanillaInstance, VanillaProgressiveMesh, build_vanilla
-
-#: parameters of the shared collapse sequence, accepted by every encoding built on it
-SIMPLIFY_PARAMS: dict[str, Any] = {"boundary_weight": 8.0, "seam_weight": 2.0}
 
 
 def _build_vanilla(mesh: Mesh, **params: Any) -> ProgressiveMesh:
@@ -25,16 +25,20 @@ def _build_vanilla(mesh: Mesh, **params: Any) -> ProgressiveMesh:
     return pm
 
 
-from .mixed import MIXED_PARAMS, build_mixed_mesh  # noqa: E402 (skip-strip / mixed entries)
-from .skipstrip import SKIPSTRIP_PARAMS, build_skipstrip_mesh  # noqa: E402
-from .slidingwindow import SLIDING_WINDOW_PARAMS  # noqa: E402
+from .mixed import build_mixed_mesh  # noqa: E402 (skip-strip / mixed entries)
+from .skipstrip import build_skipstrip_mesh  # noqa: E402
 from .slidingwindow import build_sliding_window as _build_sliding_window  # noqa: E402
 
+_BUILDER_FUNCTIONS: dict[str, Callable[..., ProgressiveMesh]] = {
+    "sliding-window": _build_sliding_window,
+    "vanilla": _build_vanilla,
+    "skip-strip": build_skipstrip_mesh,
+    "mixed": build_mixed_mesh,
+}
+#: the defaults are :data:`swpm_usd.encodings.ENCODING_PARAMS`' (the same dicts), which names and checks
+#: parameters without loading the encoders
 BUILDERS: dict[str, tuple[Callable[..., ProgressiveMesh], dict[str, Any]]] = {
-    "sliding-window": (_build_sliding_window, {**SIMPLIFY_PARAMS, **SLIDING_WINDOW_PARAMS}),
-    "vanilla": (_build_vanilla, dict(SIMPLIFY_PARAMS)),
-    "skip-strip": (build_skipstrip_mesh, {**SIMPLIFY_PARAMS, **SKIPSTRIP_PARAMS}),
-    "mixed": (build_mixed_mesh, {**SIMPLIFY_PARAMS, **MIXED_PARAMS}),
+    name: (_BUILDER_FUNCTIONS[name], defaults) for name, defaults in ENCODING_PARAMS.items()
 }
 
 __all__ = [

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from ..encodings import MIXED_PARAMS
 from ..errors import BuildError
 from ..mesh import Mesh
 from ..simplify import CollapseSequence, collapse_sequence
@@ -30,8 +31,6 @@ from .vanilla import collapse_records, index_size
 
 __all__ = ["MIXED_PARAMS", "MixedInstance", "MixedProgressiveMesh", "build_mixed", "build_mixed_mesh"]
 
-#: the encoding's own parameters and defaults (``BUILDERS`` adds the simplifier's)
-MIXED_PARAMS: dict[str, Any] = {"level_threshold": 0.25, "cache_size": 16}
 
 _BUFFER_NAMES = (
     "level_first_lod",

@@ -29,6 +29,7 @@ from typing import Any
 import numba as nb
 import numpy as np
 
+from ..encodings import PRIMITIVES, SKIPSTRIP_PARAMS
 from ..errors import BuildError
 from ..mesh import Mesh
 from ..simplify import CollapseSequence, collapse_sequence
@@ -44,15 +45,6 @@ __all__ = [
     "build_skipstrip",
     "build_skipstrip_mesh",
 ]
-
-PRIMITIVES = ("strip", "list")
-#: the encoding's own parameters and defaults (``BUILDERS`` adds the simplifier's)
-SKIPSTRIP_PARAMS: dict[str, Any] = {
-    "primitive": "strip",
-    "restart": True,
-    "degenerate_threshold": 0.25,
-    "cache_size": 16,
-}
 
 
 # ---------------------------------------------------------------------------------------------------------

@@ -75,6 +75,7 @@ from typing import Any
 
 import numpy as np
 
+from ..encodings import MAX_ORDER_PASSES, MAX_ORDER_REACH, SLIDING_WINDOW_PARAMS, SWAP_MAX_DEVIATION
 from ..errors import BuildError
 from ..mesh import Mesh
 from ..metrics import cache_misses
@@ -98,18 +99,7 @@ __all__ = [
     "screen_space_error",
 ]
 
-#: ``optimize_connectivity``: an edge swap may move the surface by at most this fraction of the bounding-box
-#: diagonal. LOD 0 then lies within that distance of the input (Hausdorff, 30,000 samples: 0.00042 - 0.00049
-#: on the ten shared meshes; the former 10-degree guard alone gave 0.0003 - 0.0044, suzanne the worst),
-#: about meshoptimizer's error at 50 % of bunny's triangles (0.00044), so the swaps cost the LODs about no
-#: error. Bunny: lambda with the swaps 5.37 -> 4.20, with clustering 3.74; at 1e-3 (LOD 0 at 0.0009):
-#: 4.01 and 3.60, with the Hausdorff ratio at 50 % 1.63 -> 2.07.
-SWAP_MAX_DEVIATION = 5e-4
 
-#: ``order_passes`` at most: the search evaluates a move over a few blocks past it, not over the whole level,
-#: so late passes can undo and redo the same moves instead of settling (spot with 10**9 passes did not end
-#: in 5 minutes); four passes gain 0.1 % over two (ACMR ratio mean over the ten meshes, 40 fractions)
-MAX_ORDER_PASSES = 8
 #: ``order_passes=None`` (the default): passes of the patch-order search for ``builder="topology"`` without
 #: ``cluster`` (whose linked levels take their order from the previous level's tail; 0 there). Ten meshes,
 #: ACMR ratio to meshoptimizer over 40 fractions from 100 to 5 % (400 points): no search 1.0588 (350 within
@@ -121,27 +111,6 @@ MAX_ORDER_PASSES = 8
 #: reach 2; bunny's LOD chain 5.1-6.1x meshoptimizer's -> 5.8-6.6x, cow's 7.9-8.6x -> 8.1-9.1x, three
 #: alternating runs)
 DEFAULT_ORDER_PASSES = 2
-#: ``order_reach`` at most (a move is evaluated over blocks up to this far apart, and all of a pass's
-#: candidates grow with it)
-MAX_ORDER_REACH = 8
-
-#: the encoding's own parameters and their defaults (the collapse quadric weights come on top)
-SLIDING_WINDOW_PARAMS: dict[str, Any] = {
-    "builder": "topology",
-    "mu": 0.1,
-    "tolerance": 0.1,
-    "optimize_connectivity": False,
-    "swap_max_deviation": SWAP_MAX_DEVIATION,
-    "cluster": False,
-    "inner_vertices": 1,
-    "cache_size": 16,
-    "absorb_middle": True,
-    "absorb_rounds": 1,
-    "target_slack": None,
-    "order_passes": None,
-    "order_reach": 2,
-    "coarsest_copy": True,
-}
 
 
 @register

@@ -2,9 +2,22 @@
 
 from __future__ import annotations
 
+from .._lazy import lazy_attributes
 from .errors import CATALOGUE, Problem, Report, SwpmEncodeError, SwpmFormatError
-from .reader import load, load_bytes, validate, validate_bytes
-from .writer import encode_bytes, save
+
+# the reader and the writer load numba and the encoders: imported on first use (:mod:`swpm_usd._lazy`), so
+# that the command line's modules (``swpm_usd.format.cli``) import without them
+__getattr__, __dir__ = lazy_attributes(
+    __name__,
+    {
+        "load": "reader",
+        "load_bytes": "reader",
+        "validate": "reader",
+        "validate_bytes": "reader",
+        "encode_bytes": "writer",
+        "save": "writer",
+    },
+)
 
 __all__ = [
     "CATALOGUE",

@@ -36,24 +36,24 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     encoding, NAME=VALUE items, names its builder takes, values of their types and shared bounds
     (:func:`..build.check_params`; a range only the encoder knows fails at the build, exit 1). Returns the
     parsed parameters."""
-    from ..encode import BUILDERS
+    from ..encodings import ENCODING_PARAMS
 
-    if encoding not in BUILDERS:
+    if encoding not in ENCODING_PARAMS:
         raise click.BadParameter(
-            f"{encoding!r}; choose one of {', '.join(sorted(BUILDERS))}", param_hint="--encoding"
+            f"{encoding!r}; choose one of {', '.join(sorted(ENCODING_PARAMS))}", param_hint="--encoding"
         )
     parsed = _parse_params(params)
-    unknown = sorted(set(parsed) - set(BUILDERS[encoding][1]))
+    unknown = sorted(set(parsed) - set(ENCODING_PARAMS[encoding]))
     if unknown:
         raise click.BadParameter(
             f"{', '.join(unknown)} not a parameter of {encoding}; "
-            f"it takes {', '.join(sorted(BUILDERS[encoding][1]))}",
+            f"it takes {', '.join(sorted(ENCODING_PARAMS[encoding]))}",
             param_hint="--param",
         )
     from ..build import check_params
 
     try:
-        check_params(encoding, BUILDERS[encoding][1], parsed)
+        check_params(encoding, ENCODING_PARAMS[encoding], parsed)
     except SwpmError as exc:
         raise click.BadParameter(str(exc), param_hint="--param") from None
     return parsed
@@ -71,7 +71,7 @@ def json_on_interrupt(as_json: bool, **fields: object) -> None:
         click.get_current_context().meta[_JSON_ON_INTERRUPT] = fields
 
 
-#: one line per encoding for ``--help`` (an encoding registered in ``BUILDERS`` without one is listed bare)
+#: one line per encoding for ``--help`` (an encoding of ``ENCODING_PARAMS`` without one is listed bare)
 _ENCODING_SUMMARY = {
     "vanilla": "each instance edits its own index buffer (collapse records)",
     "skip-strip": "multilevel skip strips or lists, cache-ordered per level",
@@ -98,20 +98,20 @@ def _param_value(value: object) -> str:
 
 
 def encodings_help(parameters: bool = True) -> str:
-    """The encodings of :data:`swpm_usd.encode.BUILDERS` as help text: each one's name and summary, then
-    the parameters every encoding takes (with the same default) and, with ``parameters``, each encoding's
-    own, with their defaults. Paragraphs start with click's ``\\b``, so the columns are kept."""
-    from ..encode import BUILDERS
+    """The encodings of :data:`swpm_usd.encodings.ENCODING_PARAMS` as help text: each one's name and summary,
+    then the parameters every encoding takes (with the same default) and, with ``parameters``, each
+    encoding's own, with their defaults. Paragraphs start with click's ``\\b``, so the columns are kept."""
+    from ..encodings import ENCODING_PARAMS
 
-    defaults = [d for _, d in BUILDERS.values()]
+    defaults = list(ENCODING_PARAMS.values())
     shared = {k: v for k, v in defaults[0].items() if all(k in d and d[k] == v for d in defaults)}
-    width = max(len(name) for name in BUILDERS) + 2
+    width = max(len(name) for name in ENCODING_PARAMS) + 2
 
     def assignments(values: dict) -> str:
         return " ".join(f"{k}={_param_value(v)}" for k, v in values.items())
 
     lines = ["\b", "Encodings (--encoding):"]
-    for name, (_, params) in BUILDERS.items():
+    for name, params in ENCODING_PARAMS.items():
         lines.append(f"  {name:<{width}}{_ENCODING_SUMMARY.get(name, '')}".rstrip())
         own = {k: v for k, v in params.items() if k not in shared}
         if parameters and own:

@@ -418,12 +418,12 @@ def canonical_treatment(treatment: dict[str, Any]) -> dict[str, Any]:
     """``treatment`` with every parameter of its encoding, defaults filled in (``auto``: ``select``), and
     whole numbers given for a real-valued parameter as floats: two configs that build the same thing
     (``mu: 0.1`` written out or left to the default, ``mu: 1`` or ``mu: 1.0``) give one treatment."""
-    from ..encode import BUILDERS
+    from ..encodings import ENCODING_PARAMS
     from .schema import real_valued
     from .worker import AUTO_SELECT
 
     encoding = treatment.get("encoding")
-    defaults = BUILDERS[encoding][1] if encoding in BUILDERS else {"select": AUTO_SELECT[0]}
+    defaults = ENCODING_PARAMS.get(encoding) or {"select": AUTO_SELECT[0]}
     params = dict(defaults)
     for name, value in (treatment.get("params") or {}).items():
         if (

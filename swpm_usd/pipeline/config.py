@@ -199,12 +199,12 @@ def _non_finite_params(cfg: Config) -> list[str]:
     rules = cfg.data.get("rules")
     if isinstance(rules, list):
         sections += [(("rules", i), rule) for i, rule in enumerate(rules)]
-    from ..encode import BUILDERS
+    from ..encodings import ENCODING_PARAMS
     from .schema import DEFAULT, _param_schema
 
     whole = {  # encoding -> the parameters its schema types as integers
         enc: {k for k, v in defaults.items() if "integer" in str(_param_schema(v, k, enc).get("type"))}
-        for enc, (_, defaults) in BUILDERS.items()
+        for enc, defaults in ENCODING_PARAMS.items()
     }
     out = []
     for where, section in sections:

@@ -22,8 +22,7 @@ PACKAGED_SCHEMA = Path(__file__).resolve().parent / "pipeline.schema.json"
 
 def _param_schema(value: Any, name: str = "", encoding: str = "") -> dict[str, Any]:
     from ..build import MAX_CACHE_SIZE, MAX_QUADRIC_WEIGHT
-    from ..encode.skipstrip import PRIMITIVES
-    from ..encode.slidingwindow import MAX_ORDER_PASSES, MAX_ORDER_REACH
+    from ..encodings import MAX_ORDER_PASSES, MAX_ORDER_REACH, PRIMITIVES
 
     # the bounds build() and the encoders check, so a config fails at its line, not asset by asset
     if name == "cache_size":
@@ -70,9 +69,9 @@ def real_valued(name: str, default: Any) -> bool:
 
 
 def build_schema() -> dict[str, Any]:
-    from ..encode import BUILDERS
+    from ..encodings import ENCODING_PARAMS
 
-    encodings = sorted(BUILDERS)
+    encodings = sorted(ENCODING_PARAMS)
     range_ = {
         "type": "object",
         "additionalProperties": False,
@@ -97,7 +96,7 @@ def build_schema() -> dict[str, Any]:
     by_encoding = []
     params_of = {}
     for enc in encodings:
-        defaults = BUILDERS[enc][1]
+        defaults = ENCODING_PARAMS[enc]
         params_of[enc] = {
             "properties": {
                 "params": {

@@ -1,0 +1,69 @@
+"""The encodings' names and parameters, without their code: what a config, its JSON Schema and the command
+line's help check and list (:mod:`swpm_usd.pipeline.config`, :mod:`swpm_usd.pipeline.schema`,
+:mod:`swpm_usd.format.cli`). Importing it loads neither numba nor an encoder, so a pipeline run with nothing
+to build, a config check or ``--help`` does not pay for them (about 0.4 s a command). The encoders import
+their defaults from here; :data:`swpm_usd.encode.BUILDERS` pairs each encoding's builder with
+:data:`ENCODING_PARAMS`' entry.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+#: parameters of the shared collapse sequence, accepted by every encoding built on it
+SIMPLIFY_PARAMS: dict[str, Any] = {"boundary_weight": 8.0, "seam_weight": 2.0}
+
+#: ``optimize_connectivity``: an edge swap may move the surface by at most this fraction of the bounding-box
+#: diagonal. LOD 0 then lies within that distance of the input (Hausdorff, 30,000 samples: 0.00042 - 0.00049
+#: on the ten shared meshes; the former 10-degree guard alone gave 0.0003 - 0.0044, suzanne the worst),
+#: about meshoptimizer's error at 50 % of bunny's triangles (0.00044), so the swaps cost the LODs about no
+#: error. Bunny: lambda with the swaps 5.37 -> 4.20, with clustering 3.74; at 1e-3 (LOD 0 at 0.0009):
+#: 4.01 and 3.60, with the Hausdorff ratio at 50 % 1.63 -> 2.07.
+SWAP_MAX_DEVIATION = 5e-4
+
+#: ``order_passes`` at most: the search evaluates a move over a few blocks past it, not over the whole level,
+#: so late passes can undo and redo the same moves instead of settling (spot with 10**9 passes did not end
+#: in 5 minutes); four passes gain 0.1 % over two (ACMR ratio mean over the ten meshes, 40 fractions)
+MAX_ORDER_PASSES = 8
+#: ``order_reach`` at most (a move is evaluated over blocks up to this far apart, and all of a pass's
+#: candidates grow with it)
+MAX_ORDER_REACH = 8
+
+#: the sliding-window encoding's own parameters and their defaults (the collapse quadric weights come on top)
+SLIDING_WINDOW_PARAMS: dict[str, Any] = {
+    "builder": "topology",
+    "mu": 0.1,
+    "tolerance": 0.1,
+    "optimize_connectivity": False,
+    "swap_max_deviation": SWAP_MAX_DEVIATION,
+    "cluster": False,
+    "inner_vertices": 1,
+    "cache_size": 16,
+    "absorb_middle": True,
+    "absorb_rounds": 1,
+    "target_slack": None,
+    "order_passes": None,
+    "order_reach": 2,
+    "coarsest_copy": True,
+}
+
+#: skip-strip ``primitive`` values
+PRIMITIVES = ("strip", "list")
+#: the skip-strip encoding's own parameters and defaults (``ENCODING_PARAMS`` adds the simplifier's)
+SKIPSTRIP_PARAMS: dict[str, Any] = {
+    "primitive": "strip",
+    "restart": True,
+    "degenerate_threshold": 0.25,
+    "cache_size": 16,
+}
+
+#: the mixed encoding's own parameters and defaults (``ENCODING_PARAMS`` adds the simplifier's)
+MIXED_PARAMS: dict[str, Any] = {"level_threshold": 0.25, "cache_size": 16}
+
+#: every encoding's parameters and their defaults, in the order ``BUILDERS`` lists them
+ENCODING_PARAMS: dict[str, dict[str, Any]] = {
+    "sliding-window": {**SIMPLIFY_PARAMS, **SLIDING_WINDOW_PARAMS},
+    "vanilla": dict(SIMPLIFY_PARAMS),
+    "skip-strip": {**SIMPLIFY_PARAMS, **SKIPSTRIP_PARAMS},
+    "mixed": {**SIMPLIFY_PARAMS, **MIXED_PARAMS},
+}
