@@ -1,12 +1,12 @@
 """A Ctrl-C while the ``swpm-pipeline`` command imports the package exits 130 with one line.
 
 The console script (``swpm-pipeline = "swpm_usd.cli:main"``) and ``python -m swpm_usd.cli`` import this
-package, numpy, numba and usd-core (about a second) before any code of the command runs: a Ctrl-C then
-printed the traceback of the import it cut short, and the command's own handling (:class:`.cli._Main`: exit
-130, one line) came too late. The package's ``__init__`` imports this module before anything else, which
-calls :func:`exit_on_interrupt_while_importing`: in the command's process it sets a Ctrl-C handler that
-writes the line and exits at once (nothing has been written yet), and the command puts Python's handler back
-when it starts (:func:`restore_interrupts`).
+package, numpy and usd-core before any code of the command runs (numba and the encoders come later, as the
+command builds): a Ctrl-C then printed the traceback of the import it cut short, and the command's own
+handling (:class:`.cli._Main`: exit 130, one line) came too late. The package's ``__init__`` imports this
+module before anything else, which calls :func:`exit_on_interrupt_while_importing`: in the command's process
+it sets a Ctrl-C handler that writes the line and exits at once (nothing has been written yet), and the
+command puts Python's handler back when it starts (:func:`restore_interrupts`).
 
 Anywhere else (the package imported by a program, a notebook, a worker process, one the command starts with
 multiprocessing's spawn included) nothing changes. This module imports nothing the interpreter has not loaded
