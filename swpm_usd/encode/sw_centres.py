@@ -265,12 +265,10 @@ def _xorshift(rng):
     return rng
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, nogil=True)
 def _queue_near(v, sol, tight, adj_start, adj, queue, nq, queued):
     """Queue the set members next to ``v`` or owning a 1-tight neighbour of ``v``: the only ones whose
-    (1,2)-swaps a change at ``v`` can create. Inlined as the set helpers (called, its six arrays were
-    reference-counted on every call: grow_independent_set -7 %, the same sets; its 60 calls in builds of
-    cow, teapot and bunny)."""
+    (1,2)-swaps a change at ``v`` can create."""
     for a in range(adj_start[v], adj_start[v + 1]):
         y = adj[a]
         if sol[y]:
