@@ -42,8 +42,8 @@ _COLD_BLOCKS = 3
 # cache if pushed in this simulation within the last ``C`` pushes: ``key`` holds ``version * _KEY + push
 # count`` of its last push, so that is ``key >= version * _KEY + t - C`` (``t >= C`` at every draw: a
 # simulation starts at ``C``), one array read per index instead of a version and a push count apart (the
-# search's time -9 %, the same orders: its 57 calls in builds of cow, teapot, suzanne and fandisk); ``log``
-# lists the pushes, so the cache is ``log[t - C:t]`` (oldest first).
+# search's time -6 to -9 %, the same orders: its 57 calls in builds of cow, teapot, suzanne and fandisk);
+# ``log`` lists the pushes, so the cache is ``log[t - C:t]`` (oldest first).
 # Every helper is inlined into :func:`refine_patch_order` (``inline="always"``): called, they took 11-13 %
 # more of the search's time (cow, fandisk, beetle: the tuples passed on every call), for ~3 s more of a cold
 # compile.
