@@ -628,6 +628,10 @@ def order_patches(
     stack = np.empty(m + 1, np.int64)
     sp = np.int64(0)
     scan = np.int64(0)
+    # the step at which each patch was last scored: a patch with several vertices in the cache is scored
+    # once per step, not once per such vertex (the same score again never wins: the same order; its 60
+    # calls in builds of cow, teapot and bunny -9 %)
+    scored = np.full(n, -1, np.int64)
     for o in range(n):
         best = -1
         best_score = np.inf
@@ -637,8 +641,9 @@ def order_patches(
                 continue
             for a in range(vp_start[v], vp_start[v + 1]):
                 p = vp[a]
-                if done[p]:
+                if done[p] or scored[p] == o:
                     continue
+                scored[p] = o
                 verts = pv[pv_start[p] : pv_start[p + 1]]
                 miss_p = _fifo_misses(verts, no_skip, stamp_p, push_p, cache_size)
                 miss_q = _fifo_misses(verts, binned_vertex, stamp_q, push_q, cache_size)
