@@ -1307,3 +1307,142 @@ def test_mesh_from_arrays_cleans() -> None:
     assert not m.points.flags.writeable
     with pytest.raises(MeshLoadError, match="b.obj"):
         Mesh.from_arrays(TRI_POINTS, [[0, 1, 5]], source="b.obj")
+
+
+def _quad_gltf(tmp_path: Path, name: str, edit, glb: bool = False) -> Path:
+    """A quad (4 points, 2 triangles) with float and normalized-uint16 uvs in one buffer, edited by ``edit``
+    (the document, then the buffer's bytes appended to), written as ``name`` (.gltf, or .glb)."""
+    import base64
+    import json
+    import struct
+
+    p = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float32)
+    uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
+    parts = [p.tobytes(), np.array([0, 1, 2, 0, 2, 3], np.uint16).tobytes(), uv.tobytes()]
+    parts.append((uv * 65535).astype(np.uint16).tobytes())
+    offsets = np.cumsum([0] + [len(b) for b in parts]).tolist()
+    doc = {
+        "asset": {"version": "2.0"},
+        "buffers": [{"byteLength": 0}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": o, "byteLength": len(b)} for o, b in zip(offsets, parts, strict=False)
+        ],
+        "accessors": [
+            {
+                "bufferView": 0,
+                "componentType": 5126,
+                "count": 4,
+                "type": "VEC3",
+                "min": [0] * 3,
+                "max": [1] * 3,
+            },
+            {"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"},
+            {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"},
+            {"bufferView": 3, "componentType": 5123, "normalized": True, "count": 4, "type": "VEC2"},
+        ],
+        "materials": [{}],
+        "meshes": [
+            {"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 2}, "indices": 1, "material": 0}]}
+        ],
+        "nodes": [{"mesh": 0}],
+        "scenes": [{"nodes": [0]}],
+        "scene": 0,
+    }
+    blob = bytearray(b"".join(parts))
+    edit(doc, blob)
+    blob.extend(b"\0" * (-len(blob) % 4))
+    doc["buffers"][0]["byteLength"] = len(blob)
+    path = tmp_path / name
+    if not glb:
+        doc["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64.b64encode(blob).decode()
+        path.write_text(json.dumps(doc))
+        return path
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    chunks = (
+        struct.pack("<II", len(text), 0x4E4F534A) + text + struct.pack("<II", len(blob), 0x004E4942) + blob
+    )
+    path.write_bytes(struct.pack("<4sII", b"glTF", 2, 12 + len(chunks)) + chunks)
+    return path
+
+
+def _sparse_position(doc: dict, blob: bytearray) -> None:
+    """Point 2 moved to (5, 5, 0) by a sparse substitution."""
+    at = len(blob)
+    blob.extend(np.array([2, 0], np.uint16).tobytes() + np.array([5, 5, 0], np.float32).tobytes())
+    doc["bufferViews"] += [
+        {"buffer": 0, "byteOffset": at, "byteLength": 2},
+        {"buffer": 0, "byteOffset": at + 4, "byteLength": 12},
+    ]
+    doc["accessors"][0]["sparse"] = {
+        "count": 1,
+        "indices": {"bufferView": 4, "componentType": 5123},
+        "values": {"bufferView": 5},
+    }
+
+
+@pytest.mark.parametrize("glb", [False, True])
+def test_gltf_sparse_accessor_is_applied(tmp_path: Path, glb: bool) -> None:
+    """trimesh ignored an accessor's sparse substitutions: the quad loaded with its base points."""
+    m = load_mesh(_quad_gltf(tmp_path, "quad.glb" if glb else "quad.gltf", _sparse_position, glb))
+    np.testing.assert_array_equal(m.points, [[0, 0, 0], [1, 0, 0], [5, 5, 0], [0, 1, 0]])
+    np.testing.assert_allclose(m.attributes["uv"], [[0, 1], [1, 1], [1, 0], [0, 0]])
+
+
+def test_gltf_normalized_texcoords_are_scaled(tmp_path: Path) -> None:
+    """A TEXCOORD_0 of normalized unsigned shorts (glTF core) came out as 0..65535 (v as 1 - v wrapped)."""
+
+    def normalized(doc: dict, blob: bytearray) -> None:
+        doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = 3
+
+    m = load_mesh(_quad_gltf(tmp_path, "quad.gltf", normalized))
+    np.testing.assert_allclose(m.attributes["uv"], [[0, 1], [1, 1], [1, 0], [0, 0]])
+
+
+def test_gltf_texcoords_without_a_material_are_kept(tmp_path: Path) -> None:
+    """trimesh read TEXCOORD_0 only for a primitive with a material: without one the uv was dropped."""
+
+    def no_material(doc: dict, blob: bytearray) -> None:
+        del doc["meshes"][0]["primitives"][0]["material"], doc["materials"]
+
+    m = load_mesh(_quad_gltf(tmp_path, "quad.gltf", no_material))
+    np.testing.assert_allclose(m.attributes["uv"], [[0, 1], [1, 1], [1, 0], [0, 0]])
+
+
+def test_gltf_triangle_fan_is_loaded(tmp_path: Path) -> None:
+    """A primitive of mode TRIANGLE_FAN (6) was dropped without a word: here the second, moved aside."""
+
+    def fan(doc: dict, blob: bytearray) -> None:
+        doc["meshes"].append({"primitives": [{"attributes": {"POSITION": 0}, "mode": 6}]})
+        doc["nodes"].append({"mesh": 1, "translation": [0, 0, 2]})
+        doc["scenes"][0]["nodes"].append(1)
+
+    with pytest.warns(UserWarning, match="missing on some"):
+        m = load_mesh(_quad_gltf(tmp_path, "quad.gltf", fan))
+    assert m.triangles.shape == (4, 3)
+    corners = m.points[m.triangles]
+    fan_points = corners[corners[:, 0, 2] == 2]
+    assert fan_points.shape == (2, 3, 3)
+    np.testing.assert_array_equal(fan_points[:, :, 2], 2)
+    np.testing.assert_allclose(np.cross(*(fan_points[:, 1:] - fan_points[:, :1]).transpose(1, 0, 2))[:, 2], 1)
+
+
+def test_gltf_without_scenes_loads_its_root_nodes(tmp_path: Path) -> None:
+    """A glTF without ``scenes`` (valid: its nodes in no scene) was "no triangles: the file holds no triangle
+    geometry"; its root nodes are loaded, with their children's transforms."""
+
+    def no_scenes(doc: dict, blob: bytearray) -> None:
+        del doc["scenes"], doc["scene"]
+        doc["nodes"] = [{"children": [1], "translation": [10, 0, 0]}, {"mesh": 0, "translation": [0, 0, 3]}]
+
+    m = load_mesh(_quad_gltf(tmp_path, "quad.gltf", no_scenes))
+    np.testing.assert_array_equal(m.points, [[10, 0, 3], [11, 0, 3], [11, 1, 3], [10, 1, 3]])
+
+
+def test_gltf_sparse_index_out_of_range_is_named(tmp_path: Path) -> None:
+    def bad(doc: dict, blob: bytearray) -> None:
+        _sparse_position(doc, blob)
+        blob[-16:-14] = np.array([9], np.uint16).tobytes()
+
+    with pytest.raises(MeshLoadError, match=r"quad\.gltf: accessor 0: a sparse index \(9\) is past its 4"):
+        load_mesh(_quad_gltf(tmp_path, "quad.gltf", bad))

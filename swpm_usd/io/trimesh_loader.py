@@ -11,7 +11,9 @@ STL files are checked before trimesh reads them (:func:`check_stl`): trimesh tak
 disagrees with its header for ASCII, and drops an ASCII solid without its ``endsolid``, so a cut file would
 load as "no triangles" (or as part of its triangles) instead of being reported as truncated. An ASCII PLY
 is counted against its header likewise (:func:`ply_problem`), and a binary PLY, a .glb or a .gltf's buffers
-are looked at once trimesh has refused them, so the error says what is cut or wrong. An OFF file's vertex
+are looked at once trimesh has refused them, so the error says what is cut or wrong. A glTF's features trimesh
+reads wrongly or drops (sparse and normalized accessors, triangle fans, a uv without a material, no scene)
+are rewritten first (:mod:`.gltf_prepare`). An OFF file's vertex
 and face colours, which trimesh's OFF reader drops, are read here (:func:`_off_colours`).
 """
 
@@ -33,6 +35,7 @@ import numpy as np
 from ..errors import MeshLoadError
 from ..mesh import Mesh
 from .clean import clean_mesh, concatenate_parts, rgba_float, split_corners, transform_part
+from .gltf_prepare import prepared_gltf
 
 _TEXT_TYPES = ("obj", "off")
 #: a binary STL: an 80-byte header, the triangle count (uint32), then 50 bytes per triangle
@@ -488,6 +491,11 @@ def load_trimesh(path: Path) -> Mesh:
             resolver = trimesh.resolvers.FilePathResolver(str(path))
             scene = trimesh.load_scene(
                 io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
+            )
+        elif file_type in ("gltf", "glb") and (prepared := prepared_gltf(path)) is not None:
+            resolver = trimesh.resolvers.FilePathResolver(str(path))
+            scene = trimesh.load_scene(
+                io.BytesIO(prepared), file_type="gltf", resolver=resolver, process=False
             )
         else:
             scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
