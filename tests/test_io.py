@@ -1446,3 +1446,63 @@ def test_gltf_sparse_index_out_of_range_is_named(tmp_path: Path) -> None:
 
     with pytest.raises(MeshLoadError, match=r"quad\.gltf: accessor 0: a sparse index \(9\) is past its 4"):
         load_mesh(_quad_gltf(tmp_path, "quad.gltf", bad))
+
+
+def _mixed_ply(fmt: str) -> bytes:
+    """A pyramid of a quad and four triangles, a colour per face after its list (red quad, green, blue...)."""
+    import struct
+
+    points = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0.5, 0.5, 1)]
+    faces = [(0, 3, 2, 1), (0, 1, 4), (1, 2, 4), (2, 3, 4), (3, 0, 4)]
+    colours = [(255, 0, 0), (0, 255, 0), (0, 0, 255), (0, 255, 255), (255, 0, 255)]
+    head = (
+        f"ply\nformat {fmt} 1.0\nelement vertex 5\nproperty float x\nproperty float y\nproperty float z\n"
+        "element face 5\nproperty list uchar int vertex_indices\n"
+        "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n"
+    ).encode()
+    if fmt == "ascii":
+        rows = [" ".join(map(str, p)) for p in points]
+        rows += [" ".join(map(str, (len(f), *f, *c))) for f, c in zip(faces, colours, strict=True)]
+        return head + "\n".join(rows).encode() + b"\n"
+    order = "<" if fmt == "binary_little_endian" else ">"
+    body = b"".join(struct.pack(order + "3f", *p) for p in points)
+    for f, c in zip(faces, colours, strict=True):
+        body += struct.pack(f"{order}B{len(f)}i3B", len(f), *f, *c)
+    return head + body
+
+
+@pytest.mark.parametrize("fmt", ["binary_big_endian", "binary_little_endian", "ascii"])
+def test_ply_faces_of_mixed_sizes_load_with_their_colours(tmp_path: Path, fmt: str) -> None:
+    """A binary PLY of triangles and quads was "trimesh could not read it (PLY is unexpected length!)"
+    (trimesh reads every list at the first one's length); an ASCII one loaded other colours than its faces'
+    (read from the wrong columns)."""
+    path = tmp_path / "pyramid.ply"
+    path.write_bytes(_mixed_ply(fmt))
+    m = load_mesh(path)
+    assert m.triangle_count == 6
+    corners = m.points[m.triangles]
+    colour = m.attributes["color"][m.triangles[:, 0], :3]
+    np.testing.assert_array_equal(
+        m.attributes["color"][m.triangles][:, :, :3], np.repeat(colour[:, None], 3, 1)
+    )
+    base = corners[:, :, 2].max(axis=1) == 0
+    assert base.sum() == 2
+    np.testing.assert_array_equal(colour[base], [[1, 0, 0], [1, 0, 0]])
+    np.testing.assert_array_equal(
+        np.cross(*(corners[base][:, 1:] - corners[base][:, :1]).transpose(1, 0, 2))[:, 2], -1
+    )
+    # the side faces keep their own colour: the one of the face of those corners
+    want = {(0, 1): (0, 1, 0), (1, 2): (0, 0, 1), (2, 3): (0, 1, 1), (0, 3): (1, 0, 1)}
+    pts = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
+    for tri, c in zip(corners[~base], colour[~base], strict=True):
+        ids = tuple(sorted(pts.index(tuple(p)) for p in tri.tolist() if p[2] == 0))
+        assert tuple(c.tolist()) == want[ids]
+
+
+def test_ply_of_mixed_faces_cut_short_still_says_so(tmp_path: Path) -> None:
+    path = tmp_path / "pyramid.ply"
+    path.write_bytes(_mixed_ply("binary_big_endian")[:-20])
+    with pytest.raises(
+        MeshLoadError, match=r"pyramid\.ply: truncated binary PLY: element face declares 5, found 3"
+    ):
+        load_mesh(path)
