@@ -1506,3 +1506,65 @@ def test_ply_of_mixed_faces_cut_short_still_says_so(tmp_path: Path) -> None:
         MeshLoadError, match=r"pyramid\.ply: truncated binary PLY: element face declares 5, found 3"
     ):
         load_mesh(path)
+
+
+_INSTANCER_USDA = """
+def Xform "World"
+{
+    double3 xformOp:translate = (0, 0, 5)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+    def PointInstancer "Scatter"
+    {
+        point3f[] positions = [(0, 0, 0), (10, 0, 0), (20, 0, 0)]
+        float3[] scales = [(1, 1, 1), (2, 2, 2), (1, 1, 1)]
+        int[] protoIndices = [0, 1, 0]
+        int64[] invisibleIds = [2]
+        rel prototypes = [</World/Scatter/Protos/A>, </Lib/B>]
+        def Scope "Protos"
+        {
+            def Xform "A"
+            {
+                double3 xformOp:translate = (0, 1, 0)
+                uniform token[] xformOpOrder = ["xformOp:translate"]
+                def Mesh "Tri"
+                {
+                    %(tri)s
+                }
+            }
+        }
+    }
+}
+over "Lib"
+{
+    def Mesh "B"
+    {
+        %(tri)s
+    }
+}
+"""
+
+
+def test_usd_point_instancer_draws_its_prototypes_at_its_instances(tmp_path: Path) -> None:
+    """A PointInstancer's prototype was loaded once, where it is defined (a scatter of leaves loaded one leaf
+    at the origin); a renderer draws it at each instance and not as itself (Hydra culls the instancer's
+    children). Instance 0: prototype A (with its own translate), 1: B (under an `over`) scaled by 2,
+    2: invisible; everything under /World's translate."""
+    tri = "\n".join([_TRIANGLE, *_ONE_FACE])
+    path = _write_usda(tmp_path / "scatter.usda", _INSTANCER_USDA % {"tri": tri})
+    m = load_mesh(path)
+    got = sorted(map(tuple, m.points[m.triangles].reshape(-1, 9).tolist()))
+    want = sorted(
+        [
+            (0, 1, 5, 1, 1, 5, 0, 2, 5),  # A at instance 0
+            (10, 0, 5, 12, 0, 5, 10, 2, 5),  # B at instance 1, scale 2
+        ]
+    )
+    assert got == want
+
+
+def test_usd_point_instancer_bad_prototype_index_is_named(tmp_path: Path) -> None:
+    tri = "\n".join([_TRIANGLE, *_ONE_FACE])
+    body = (_INSTANCER_USDA % {"tri": tri}).replace("protoIndices = [0, 1, 0]", "protoIndices = [0, 7, 0]")
+    path = _write_usda(tmp_path / "scatter.usda", body)
+    with pytest.raises(MeshLoadError, match=r"/World/Scatter: protoIndices\[1\] = 7, it has 2 prototypes"):
+        load_mesh(path)
