@@ -1568,3 +1568,27 @@ def test_usd_point_instancer_bad_prototype_index_is_named(tmp_path: Path) -> Non
     path = _write_usda(tmp_path / "scatter.usda", body)
     with pytest.raises(MeshLoadError, match=r"/World/Scatter: protoIndices\[1\] = 7, it has 2 prototypes"):
         load_mesh(path)
+
+
+def test_gltf_of_nothing_trimesh_misreads_is_not_rewritten(tmp_path: Path) -> None:
+    """Only a glTF that needs it is rewritten (inline buffers cost a base64 copy): not one of float uvs and
+    normalized unsigned-byte colours, which trimesh reads right."""
+    from swpm_usd.io.gltf_prepare import prepared_gltf
+
+    def colours(doc: dict, blob: bytearray) -> None:
+        at = len(blob)
+        blob.extend(bytes([200, 13, 255, 255, 1, 2, 3, 4, 254, 253, 127, 128, 77, 78, 79, 80]))
+        doc["bufferViews"].append({"buffer": 0, "byteOffset": at, "byteLength": 16})
+        doc["accessors"].append(
+            {"bufferView": 4, "componentType": 5121, "normalized": True, "count": 4, "type": "VEC4"}
+        )
+        doc["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = 4
+
+    for glb in (False, True):
+        path = _quad_gltf(tmp_path, "quad.glb" if glb else "quad.gltf", colours, glb)
+        assert prepared_gltf(path) is None
+        m = load_mesh(path)
+        np.testing.assert_array_equal(
+            np.round(m.attributes["color"] * 255),
+            [[200, 13, 255, 255], [1, 2, 3, 4], [254, 253, 127, 128], [77, 78, 79, 80]],
+        )

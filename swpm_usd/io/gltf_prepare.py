@@ -69,19 +69,26 @@ def _document(path: Path, data: bytes) -> tuple[dict, bytes | None]:
     return doc, binary
 
 
+def _odd(accessors: list, i: Any, name: str = "") -> bool:
+    """Whether accessor ``i`` (of the attribute ``name``, or indices) is one trimesh reads wrongly: sparse, or
+    normalized integers (but unsigned bytes of a colour, which it reads right, scaled by their maximum)."""
+    a = accessors[i] if isinstance(i, int) and 0 <= i < len(accessors) else None
+    if not isinstance(a, dict):
+        return False
+    if "sparse" in a:
+        return True
+    ubyte_colour = name.startswith("COLOR_") and a.get("componentType") == 5121
+    return bool(a.get("normalized")) and a.get("componentType") != _FLOAT and not ubyte_colour
+
+
 def _needs(doc: dict) -> bool:
     accessors = doc.get("accessors") or []
-
-    def odd(i: Any) -> bool:
-        a = accessors[i] if isinstance(i, int) and 0 <= i < len(accessors) else None
-        return isinstance(a, dict) and (
-            "sparse" in a or (a.get("normalized") and a.get("componentType") != _FLOAT)
-        )
-
     for mesh in doc.get("meshes") or []:
         for p in mesh.get("primitives") or []:
             attrs = p.get("attributes") or {}
-            if p.get("mode") == _TRIANGLE_FAN or odd(p.get("indices")) or any(map(odd, attrs.values())):
+            if p.get("mode") == _TRIANGLE_FAN or _odd(accessors, p.get("indices")):
+                return True
+            if any(_odd(accessors, i, name) for name, i in attrs.items()):
                 return True
             if "TEXCOORD_0" in attrs and "material" not in p:
                 return True
@@ -188,9 +195,9 @@ def _rewrite(path: Path, doc: dict, binary: bytes | None) -> bytes:
     accessors = doc.get("accessors") or []
     dense: dict[int, int] = {}  # an odd accessor -> its dense float (or index) copy
 
-    def plain(i: int, as_indices: bool = False) -> int:
+    def plain(i: int, name: str = "", as_indices: bool = False) -> int:
         a = accessors[i]
-        if not ("sparse" in a or (a.get("normalized") and a.get("componentType") != _FLOAT)):
+        if not _odd(accessors, i, name):
             return i
         if i not in dense:
             values = r.read(i)
@@ -206,7 +213,7 @@ def _rewrite(path: Path, doc: dict, binary: bytes | None) -> bytes:
         for p in mesh.get("primitives") or []:
             attrs = p.get("attributes") or {}
             for name, i in list(attrs.items()):
-                attrs[name] = plain(i)
+                attrs[name] = plain(i, name)
             if "indices" in p:
                 p["indices"] = plain(p["indices"], as_indices=True)
             if p.get("mode") == _TRIANGLE_FAN:
