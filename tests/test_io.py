@@ -1592,3 +1592,28 @@ def test_gltf_of_nothing_trimesh_misreads_is_not_rewritten(tmp_path: Path) -> No
             np.round(m.attributes["color"] * 255),
             [[200, 13, 255, 255], [1, 2, 3, 4], [254, 253, 127, 128], [77, 78, 79, 80]],
         )
+
+
+@pytest.mark.parametrize("extension", ["EXT_meshopt_compression", "KHR_draco_mesh_compression"])
+@pytest.mark.parametrize("glb", [False, True])
+def test_gltf_compressed_by_an_extension_not_decoded_says_so(
+    tmp_path: Path, extension: str, glb: bool
+) -> None:
+    """A geometry compressed by meshopt (or Draco, without DracoPy) loaded as trimesh's placeholder zeros:
+    "all 2 triangles are degenerate (no area)"."""
+    import importlib.util
+
+    if extension == "KHR_draco_mesh_compression" and importlib.util.find_spec("DracoPy") is not None:
+        pytest.skip("DracoPy decodes Draco here")
+
+    def compressed(doc: dict, blob: bytearray) -> None:
+        for a in doc["accessors"][:2]:
+            del a["bufferView"]
+        doc["extensionsUsed"] = doc["extensionsRequired"] = [extension]
+
+    path = _quad_gltf(tmp_path, "quad.glb" if glb else "quad.gltf", compressed, glb)
+    with pytest.raises(
+        MeshLoadError,
+        match=rf"quad\.gl[tfb]+: its geometry is compressed with the glTF extension {extension}",
+    ):
+        load_mesh(path)

@@ -9,7 +9,9 @@ trimesh (the loader behind :mod:`.trimesh_loader`) silently
 * drops a primitive of mode ``TRIANGLE_FAN`` (6);
 * drops ``TEXCOORD_0`` of a primitive without a ``material``;
 * loads nothing from a file without ``scenes`` (valid glTF: its nodes are then not in a scene), which the
-  loader reported as "no triangles".
+  loader reported as "no triangles";
+* loads a geometry compressed by an extension it cannot decode (meshopt; Draco without DracoPy) as zeros,
+  which the loader reported as "all triangles are degenerate": :func:`prepared_gltf` names the extension.
 
 :func:`prepared_gltf` returns, for a file that uses any of them, the document rewritten so trimesh reads what
 the file means (dense float accessors in one added buffer, fans as triangle lists, a plain material added for
@@ -250,6 +252,30 @@ def _rewrite(path: Path, doc: dict, binary: bytes | None) -> bytes:
     return json.dumps(doc).encode()
 
 
+#: extensions that compress a glTF's geometry, which trimesh cannot decode (Draco: without DracoPy); their
+#: accessors load as zeros ("all triangles are degenerate")
+_UNDECODED = ("EXT_meshopt_compression", "KHR_meshopt_compression", "KHR_draco_mesh_compression")
+
+
+def _check_extensions(path: Path, doc: Any) -> None:
+    """Raise a :class:`MeshLoadError` when the document requires a geometry compression trimesh cannot
+    decode here."""
+    import importlib.util
+
+    required = doc.get("extensionsRequired") if isinstance(doc, dict) else None
+    for name in required if isinstance(required, list) else []:
+        if name not in _UNDECODED:
+            continue
+        if name == "KHR_draco_mesh_compression" and importlib.util.find_spec("DracoPy") is not None:
+            continue
+        hint = " (pip install DracoPy)" if name == "KHR_draco_mesh_compression" else ""
+        raise MeshLoadError(
+            path,
+            f"its geometry is compressed with the glTF extension {name}, which this loader cannot decode"
+            f"{hint}: export it without that compression",
+        )
+
+
 def prepared_gltf(path: Path) -> bytes | None:
     """The ``.gltf`` or ``.glb`` file ``path`` rewritten as ``.gltf`` JSON (buffers inline, images still by
     their uri) for trimesh to read what it means, or None when it needs no rewrite or does not read."""
@@ -262,13 +288,18 @@ def prepared_gltf(path: Path) -> bytes | None:
                 if len(head) < _GLB_HEADER.size + _CHUNK.size:
                     return None
                 size, kind = _CHUNK.unpack_from(head, _GLB_HEADER.size)
-                if kind != _GLB_JSON or not _needs(json.loads(f.read(size))):
+                if kind != _GLB_JSON:
+                    return None
+                doc = json.loads(f.read(size))
+                _check_extensions(path, doc)
+                if not _needs(doc):
                     return None
                 f.seek(0)
                 data = f.read()
         else:
             data = path.read_bytes()
         doc, binary = _document(path, data)
+        _check_extensions(path, doc)
         if not isinstance(doc, dict) or not _needs(doc):
             return None
         return _rewrite(path, doc, binary)
