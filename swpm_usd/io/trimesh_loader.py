@@ -564,17 +564,19 @@ def load_trimesh(path: Path) -> Mesh:
             check_stl(path)  # (its start and end: trimesh reads the file)
             scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
         elif file_type == "ply":
-            data = path.read_bytes()  # (read once: trimesh reads these bytes, or their triangulated copy)
+            data = path.read_bytes()
             problem = ply_problem(data, ascii_only=True)
             if problem is not None:
                 raise MeshLoadError(path, problem)
             triangulated = ply_polygons_as_triangles(data)
-            scene = trimesh.load_scene(
-                io.BytesIO(data if triangulated is None else triangulated),
-                file_type=file_type,
-                resolver=trimesh.resolvers.FilePathResolver(str(path)),
-                process=False,
-            )
+            data = b""  # (released before trimesh reads the file: a large scan is not held twice)
+            if triangulated is None:
+                scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
+            else:
+                resolver = trimesh.resolvers.FilePathResolver(str(path))
+                scene = trimesh.load_scene(
+                    io.BytesIO(triangulated), file_type=file_type, resolver=resolver, process=False
+                )
         elif file_type in _TEXT_TYPES:
             # trimesh needs the optional charset_normalizer to guess the encoding of non-UTF-8 text and fails
             # without it: hand it UTF-8 (non-UTF-8 bytes are read as Latin-1, which only occurs in comments
