@@ -1617,3 +1617,51 @@ def test_gltf_compressed_by_an_extension_not_decoded_says_so(
         match=rf"quad\.gl[tfb]+: its geometry is compressed with the glTF extension {extension}",
     ):
         load_mesh(path)
+
+
+def test_usd_point_instancer_matches_usd_core_and_ignores_what_is_above_its_prototype(tmp_path: Path) -> None:
+    """Each instance's triangle is where usd-core's ComputeInstanceTransformsAtTime puts it (orientations as
+    quath (real, imaginary), scales, ids with invisibleIds naming ids, not indices). Prototypes kept under an
+    invisible scope of guide purpose (a common way to hide them as themselves) are still drawn at the
+    instances: UsdImaging ignores visibility and purpose above a prototype's root; they were left out as
+    "invisible" ("no triangles")."""
+    path = tmp_path / "oracle.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    world = UsdGeom.Xform.Define(stage, "/World")
+    world.AddTranslateOp().Set(Gf.Vec3d(0, 0, 5))
+    world.AddRotateZOp().Set(30.0)
+    lib = UsdGeom.Scope.Define(stage, "/World/Lib")
+    lib.GetVisibilityAttr().Set(UsdGeom.Tokens.invisible)
+    lib.GetPurposeAttr().Set(UsdGeom.Tokens.guide)
+    proto = UsdGeom.Xform.Define(stage, "/World/Lib/Leaf")
+    proto.AddTranslateOp().Set(Gf.Vec3d(0, 1, 0))
+    tri = UsdGeom.Mesh.Define(stage, "/World/Lib/Leaf/Tri")
+    tri.AddScaleOp().Set(Gf.Vec3f(1, 2, 1))
+    tri.GetPointsAttr().Set(Vt.Vec3fArray([(0, 0, 0), (1, 0, 0), (0, 1, 0)]))
+    tri.GetFaceVertexCountsAttr().Set([3])
+    tri.GetFaceVertexIndicesAttr().Set([0, 1, 2])
+    inst = UsdGeom.PointInstancer.Define(stage, "/World/Scatter")
+    inst.AddTranslateOp().Set(Gf.Vec3d(3, 0, 0))
+    inst.CreatePrototypesRel().SetTargets([Sdf.Path("/World/Lib/Leaf")])
+    inst.CreateProtoIndicesAttr([0, 0, 0, 0])
+    inst.CreatePositionsAttr(Vt.Vec3fArray([(0, 0, 0), (10, 0, 0), (20, 0, 0), (30, 0, 0)]))
+    quats = [Gf.Quath(1, 0, 0, 0), Gf.Quath(0.70710678, 0, 0, 0.70710678), Gf.Quath(0, 1, 0, 0)]
+    quats.append(Gf.Quath(0.5, 0.5, 0.5, 0.5))
+    inst.CreateOrientationsAttr(Vt.QuathArray(quats))
+    inst.CreateScalesAttr(Vt.Vec3fArray([(1, 1, 1), (2, 2, 2), (1, 3, 1), (1, 1, 0.5)]))
+    inst.CreateIdsAttr(Vt.Int64Array([10, 11, 2, 13]))
+    inst.CreateInvisibleIdsAttr(Vt.Int64Array([2]))  # (id 2: the instance at index 2, not index 2's id)
+    stage.GetRootLayer().Save()
+
+    time = Usd.TimeCode.EarliestTime()
+    xforms = inst.ComputeInstanceTransformsAtTime(time, time)  # (mask applied: index 2 left out)
+    assert len(xforms) == 3
+    to_world = UsdGeom.XformCache(time).GetLocalToWorldTransform(inst.GetPrim())
+    tri_in_proto = Gf.Matrix4d().SetScale(Gf.Vec3d(1, 2, 1))
+    want = []
+    for x in xforms:
+        m = tri_in_proto * x * to_world
+        want.append(tuple(v for p in ((0, 0, 0), (1, 0, 0), (0, 1, 0)) for v in m.Transform(Gf.Vec3d(*p))))
+    m = load_mesh(path)
+    got = sorted(map(tuple, m.points[m.triangles].reshape(-1, 9).tolist()))
+    np.testing.assert_allclose(got, sorted(want), atol=1e-3)

@@ -233,26 +233,28 @@ def _drawn_meshes(
     xf_cache: UsdGeom.XformCache,
     time: Usd.TimeCode,
     depth: int = 0,
-) -> Iterator[tuple[Usd.Prim, Gf.Matrix4d | None]]:
-    """Every Mesh prim of ``root``'s subtree with its local-to-world matrix (None: not rendered). A
-    PointInstancer's children are not drawn as themselves (Hydra culls them) and its prototypes are drawn
-    at each of its instances (mask and ``invisibleIds`` applied), wherever they are on the stage."""
+    proto_root: Usd.Prim | None = None,
+) -> Iterator[tuple[Usd.Prim, Gf.Matrix4d, Usd.Prim | None]]:
+    """Every Mesh prim of ``root``'s subtree with its local-to-world matrix and the prototype root it is
+    drawn under (None: drawn as itself). A PointInstancer's children are not drawn as themselves (Hydra
+    culls them) and its prototypes are drawn at each of its instances (mask and ``invisibleIds`` applied),
+    wherever they are on the stage."""
     it = iter(Usd.PrimRange(root, predicate))
     for prim in it:
         if prim.IsA(UsdGeom.PointInstancer):
             it.PruneChildren()
-            if _not_rendered(prim, time) is not None:
+            if _not_rendered(prim, time, proto_root) is not None:
                 continue
             if depth >= _MAX_INSTANCER_DEPTH:
                 raise _Invalid(f"{prim.GetPath()}: point instancers nested over {_MAX_INSTANCER_DEPTH} deep")
             yield from _instanced_meshes(prim, to_world(prim), xf_cache, time, depth)
         elif prim.IsA(UsdGeom.Mesh):
-            yield prim, to_world(prim)
+            yield prim, to_world(prim), proto_root
 
 
 def _instanced_meshes(
     prim: Usd.Prim, to_world: Gf.Matrix4d, xf_cache: UsdGeom.XformCache, time: Usd.TimeCode, depth: int
-) -> Iterator[tuple[Usd.Prim, Gf.Matrix4d | None]]:
+) -> Iterator[tuple[Usd.Prim, Gf.Matrix4d, Usd.Prim | None]]:
     """The meshes a PointInstancer draws: each instance's prototype, moved by the instance's transform."""
     instancer = UsdGeom.PointInstancer(prim)
     targets = instancer.GetPrototypesRel().GetForwardedTargets()
@@ -288,17 +290,31 @@ def _instanced_meshes(
             relative = Gf.Matrix4d(1.0) if q == proto else xf_cache.ComputeRelativeTransform(q, proto)[0]
             return relative * instance
 
-        yield from _drawn_meshes(proto, predicate, placed, xf_cache, time, depth + 1)
+        yield from _drawn_meshes(proto, predicate, placed, xf_cache, time, depth + 1, proto)
 
 
-def _not_rendered(prim: Usd.Prim, time: Usd.TimeCode) -> str | None:
+def _not_rendered(prim: Usd.Prim, time: Usd.TimeCode, proto_root: Usd.Prim | None = None) -> str | None:
     """Why a renderer does not draw ``prim`` (invisible, itself or through an ancestor; purpose guide, or
     proxy: a viewport stand-in for the render geometry; a Mesh whose ``holeIndices`` list every face), or None
-    when it does."""
-    imageable = UsdGeom.Imageable(prim)
-    if imageable.ComputeVisibility(time) == UsdGeom.Tokens.invisible:
-        return "invisible"
-    purpose = imageable.ComputePurpose()
+    when it does. Drawn in a point instancer's prototype ``proto_root``, its ancestors above that root do
+    not count (as in UsdImaging: prototypes are often kept under an invisible scope)."""
+    if proto_root is None:
+        imageable = UsdGeom.Imageable(prim)
+        if imageable.ComputeVisibility(time) == UsdGeom.Tokens.invisible:
+            return "invisible"
+        purpose = imageable.ComputePurpose()
+    else:
+        purpose, q = UsdGeom.Tokens.default_, prim
+        while q:
+            visibility = q.GetAttribute(UsdGeom.Tokens.visibility)
+            if visibility and visibility.Get(time) == UsdGeom.Tokens.invisible:
+                return "invisible"
+            attr = q.GetAttribute(UsdGeom.Tokens.purpose)
+            if purpose == UsdGeom.Tokens.default_ and attr and attr.HasAuthoredValue():
+                purpose = attr.Get()
+            if q == proto_root:
+                break
+            q = q.GetParent()
     if purpose in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy):
         return f"purpose {purpose}"
     if prim.IsA(UsdGeom.Mesh):
@@ -374,14 +390,14 @@ def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
         unrendered: list[str] = []
         predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
         # (a prototype's mesh, drawn at each of an instancer's instances, is read once)
-        local: dict[Sdf.Path, tuple[str | None, Part | None]] = {}
-        for prim, to_world in _drawn_meshes(
+        local: dict[tuple[Sdf.Path, Sdf.Path | None], tuple[str | None, Part | None]] = {}
+        for prim, to_world, proto_root in _drawn_meshes(
             root, predicate, xf_cache.GetLocalToWorldTransform, xf_cache, time
         ):
             n_mesh_prims += 1
-            key = prim.GetPath()
+            key = (prim.GetPath(), None if proto_root is None else proto_root.GetPath())
             if key not in local:
-                why = _not_rendered(prim, time)
+                why = _not_rendered(prim, time, proto_root)
                 local[key] = (why, None if why is not None else _read_mesh(prim, time))
             why, part = local[key]
             if why is not None:
