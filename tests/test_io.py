@@ -1665,3 +1665,46 @@ def test_usd_point_instancer_matches_usd_core_and_ignores_what_is_above_its_prot
     m = load_mesh(path)
     got = sorted(map(tuple, m.points[m.triangles].reshape(-1, 9).tolist()))
     np.testing.assert_allclose(got, sorted(want), atol=1e-3)
+
+
+@pytest.mark.parametrize("glb", [False, True])
+def test_gltf_rewrite_checks_counts_before_allocating(tmp_path: Path, glb: bool) -> None:
+    """A small file whose accessor claims 10^10 elements: the rewrite made a 75 GiB index array for a
+    TRIANGLE_FAN without indices (of its POSITION count) and a 112 GiB one for a sparse accessor without a
+    bufferView before anything checked the count; a negative byteStride let a count past the data through."""
+
+    def fan(doc: dict, blob: bytearray) -> None:
+        p = doc["meshes"][0]["primitives"][0]
+        p["mode"] = 6
+        del p["indices"]
+        doc["accessors"][0]["count"] = 10**10
+
+    def sparse_zeros(doc: dict, blob: bytearray) -> None:
+        at = len(blob)
+        blob.extend(bytes(16))
+        doc["bufferViews"] += [
+            {"buffer": 0, "byteOffset": at, "byteLength": 4},
+            {"buffer": 0, "byteOffset": at + 4, "byteLength": 12},
+        ]
+        sparse = {
+            "count": 1,
+            "indices": {"bufferView": 4, "componentType": 5125},
+            "values": {"bufferView": 5},
+        }
+        doc["accessors"].append({"componentType": 5126, "count": 10**10, "type": "VEC3", "sparse": sparse})
+        doc["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = 4
+
+    def stride(doc: dict, blob: bytearray) -> None:
+        fan(doc, blob)
+        doc["bufferViews"][0]["byteStride"] = -12
+
+    ext = ".glb" if glb else ".gltf"
+    cases = [
+        (fan, r"bufferView 0 holds 48 bytes, accessor 0 reads 120000000000"),
+        (sparse_zeros, r"accessor 4 has no bufferView and 10000000000 elements"),
+        (stride, r"bufferView 0 has byteStride -12"),
+    ]
+    for edit, message in cases:
+        path = _quad_gltf(tmp_path, edit.__name__ + ext, edit, glb)
+        with pytest.raises(MeshLoadError, match=re.escape(path.name) + ": " + message):
+            load_mesh(path)

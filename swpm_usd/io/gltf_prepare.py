@@ -40,6 +40,8 @@ _UINT = 5125
 _GLB_HEADER = struct.Struct("<4sII")
 _CHUNK = struct.Struct("<II")
 _GLB_JSON, _GLB_BIN = 0x4E4F534A, 0x004E4942
+#: the most elements of an accessor without a bufferView (zeros, sparse values applied) made dense
+_ZEROS_MAX = 1 << 24
 
 
 class _Unread(Exception):
@@ -127,29 +129,61 @@ class _Rewrite:
         return self.buffers[i]
 
     def view(self, i: int) -> tuple[bytes, int | None]:
+        if not isinstance(i, int) or not 0 <= i < len(self.views):  # (not views[-1])
+            raise _Unread
         v = self.views[i]
         start = v.get("byteOffset", 0)
+        if not isinstance(start, int) or start < 0:
+            raise _Unread
         data = self.buffer(v["buffer"])[start : start + v["byteLength"]]
         if len(data) < v["byteLength"]:
             raise _Unread
-        return data, v.get("byteStride")
+        stride = v.get("byteStride")
+        if stride is not None and (not isinstance(stride, int) or isinstance(stride, bool) or stride <= 0):
+            raise MeshLoadError(self.path, f"bufferView {i} has byteStride {stride!r}, not a positive number")
+        return data, stride
 
     def _strided(self, view: int, offset: int, count: int, dtype: np.dtype, width: int) -> np.ndarray:
         data, stride = self.view(view)
         stride = stride or dtype.itemsize * width
         end = offset + (count - 1) * stride + dtype.itemsize * width
-        if count and (offset < 0 or end > len(data)):
+        if offset < 0:
+            raise MeshLoadError(self.path, f"an accessor of bufferView {view} has byteOffset {offset}")
+        if count and end > len(data):
             raise MeshLoadError(
                 self.path, f"bufferView {view} holds {len(data)} bytes, an accessor reads {end}"
             )
         arr = np.ndarray((count, width), dtype, buffer=data, offset=offset, strides=(stride, dtype.itemsize))
         return arr.copy()
 
+    def count(self, i: int) -> int:
+        """Accessor ``i``'s element count, checked against the bytes it reads before anything is allocated
+        for it (a count of 10^10 in a small file is a MeshLoadError, not a 100 GiB array)."""
+        a = self.doc["accessors"][i]
+        count = a["count"]
+        if not isinstance(count, int) or isinstance(count, bool) or count < 0:
+            raise _Unread
+        if "bufferView" in a:
+            dtype = np.dtype(_COMPONENT[a["componentType"]])
+            data, stride = self.view(a["bufferView"])
+            size = dtype.itemsize * _WIDTH[a["type"]]
+            end = a.get("byteOffset", 0) + (count - 1) * (stride or size) + size
+            if count and end > len(data):
+                raise MeshLoadError(
+                    self.path,
+                    f"bufferView {a['bufferView']} holds {len(data)} bytes, accessor {i} reads {end}",
+                )
+        elif count > _ZEROS_MAX:
+            raise MeshLoadError(
+                self.path, f"accessor {i} has no bufferView and {count} elements (more than {_ZEROS_MAX})"
+            )
+        return count
+
     def read(self, i: int) -> np.ndarray:
         """Accessor ``i`` as a (count, width) array: its sparse values applied, normalized values as float."""
         a = self.doc["accessors"][i]
         dtype = np.dtype("<" + _COMPONENT[a["componentType"]])
-        width, count = _WIDTH[a["type"]], a["count"]
+        width, count = _WIDTH[a["type"]], self.count(i)
         if "bufferView" in a:
             values = self._strided(a["bufferView"], a.get("byteOffset", 0), count, dtype, width)
         else:
@@ -222,7 +256,7 @@ def _rewrite(path: Path, doc: dict, binary: bytes | None) -> bytes:
                 if "indices" in p:
                     flat = r.read(p["indices"])[:, 0].astype(np.int64)
                 else:
-                    flat = np.arange(accessors[attrs["POSITION"]]["count"], dtype=np.int64)
+                    flat = np.arange(r.count(attrs["POSITION"]), dtype=np.int64)
                 k = np.arange(1, max(flat.shape[0] - 1, 1))[: max(flat.shape[0] - 2, 0)]
                 fan = np.stack([np.repeat(flat[:1], k.shape[0]), flat[k], flat[k + 1]], axis=1)
                 p["indices"] = r.add(fan.reshape(-1).astype(np.uint32), "SCALAR")
