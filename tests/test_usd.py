@@ -1087,3 +1087,21 @@ def test_validate_reports_a_value_usd_core_cannot_read_as_a_coded_error(tmp_path
     assert json.loads(result.stdout)["findings"][0]["code"] == "SWPM_USD_READ"
     result = CliRunner().invoke(main, ["validate", str(path)])
     assert result.exit_code == 1 and "SWPM_USD_READ" in result.output and "Traceback" not in result.output
+
+
+def test_validate_does_not_report_a_bug_of_its_own_as_a_file_usd_core_cannot_read(tmp_path, monkeypatch):
+    """SWPM_USD_READ is usd-core's Tf.ErrorException (a RuntimeError) on a corrupt value; a Python error of
+    the validator itself (here a TypeError) was reported as "usd-core cannot read it", blaming the file."""
+    from swpm_usd.usd import validate as validate_module
+
+    path = tmp_path / "v.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.Mesh.Define(stage, "/M")
+    stage.GetRootLayer().Save()
+
+    def broken(prim):
+        raise TypeError("a bug")
+
+    monkeypatch.setattr(validate_module, "validate_prim", broken)
+    with pytest.raises(TypeError, match="a bug"):
+        validate_stage(path, builtin=False)

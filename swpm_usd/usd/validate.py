@@ -370,7 +370,7 @@ def validate_stage(path: str | os.PathLike[str] | Usd.Stage, builtin: bool = Tru
     findings: list[Finding] = []
     try:
         _validate_into(findings, stage, reg, names, ours)
-    except Exception as exc:  # noqa: BLE001 - pxr raises Tf.ErrorException for a value it cannot unpack
+    except RuntimeError as exc:  # (pxr's Tf.ErrorException, for a value it cannot unpack; not a bug of ours)
         where = stage.GetRootLayer().identifier if isinstance(path, Usd.Stage) else os.fspath(path)
         reason = _tf_messages(str(exc)) or type(exc).__name__
         findings.append(Finding("SWPM_USD_READ", ERROR, "/", f"{where}: usd-core cannot read it: {reason}"))
