@@ -1708,3 +1708,20 @@ def test_gltf_rewrite_checks_counts_before_allocating(tmp_path: Path, glb: bool)
         path = _quad_gltf(tmp_path, edit.__name__ + ext, edit, glb)
         with pytest.raises(MeshLoadError, match=re.escape(path.name) + ": " + message):
             load_mesh(path)
+
+
+def test_ply_triangulation_of_a_header_claiming_too_many_faces_allocates_nothing_for_them() -> None:
+    """A binary PLY of mixed faces cut short, its header claiming 10^12 faces: the triangulation made two
+    arrays of the header's count (16 TB: MemoryError) before walking the rows; it now sees at once that the
+    bytes cannot hold them (trimesh then says the file is truncated)."""
+    from swpm_usd.io.trimesh_loader import ply_polygons_as_triangles
+
+    header = (
+        "ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+        "property float z\nelement face 1000000000000\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    points = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], "<f4").tobytes()
+    faces = (
+        bytes([3]) + np.array([0, 1, 2], "<i4").tobytes() + bytes([4]) + np.arange(4, dtype="<i4").tobytes()
+    )
+    assert ply_polygons_as_triangles(header.encode() + points + faces) is None

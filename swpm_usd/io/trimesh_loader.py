@@ -25,6 +25,7 @@ import io
 import json
 import os
 import re
+import struct
 import urllib.parse
 import warnings
 from collections.abc import Callable, Iterator
@@ -140,6 +141,8 @@ _PLY_TYPES = {
     **dict.fromkeys(("float", "float32"), "f4"),
     **dict.fromkeys(("double", "float64"), "f8"),
 }
+#: the struct format character of each of the PLY types above
+_STRUCT_CODES = {"i1": "b", "u1": "B", "i2": "h", "u2": "H", "i4": "i", "u4": "I", "f4": "f", "f8": "d"}
 #: how much of a PLY's start the header is looked for in
 _PLY_HEADER_BYTES = 1 << 16
 #: the rows of a binary element with lists of varying length counted one by one at most (past it the
@@ -375,19 +378,29 @@ def ply_polygons_as_triangles(data: bytes) -> bytes | None:
         sizes = [np.dtype(p[0]).itemsize for p in props]
         pre, post = sum(sizes[:li]), sum(sizes[li + 1 :])
         count_type, item_type = np.dtype(order + props[li][0]), np.dtype(order + props[li][1])
-        starts = np.empty(count, np.int64)
-        counts = np.empty(count, np.int64)
-        end = i
+        if count > (len(data) - i) // (pre + count_type.itemsize + post):
+            return None  # (cut short: no array of the header's count for it)
+        # (struct, not np.frombuffer, a row: 1,000,000 mixed faces took 2 s)
+        read_count = struct.Struct(order + _STRUCT_CODES[props[li][0]]).unpack_from
+        starts_list, counts_list = [0] * count, [0] * count
+        end, fixed, width, size = i, pre + count_type.itemsize + post, item_type.itemsize, len(data)
+        floating = count_type.kind == "f"
         for r in range(count):
-            if end + pre + count_type.itemsize > len(data):
+            if end + fixed > size:
                 return None
-            c = np.frombuffer(data, count_type, 1, end + pre)[0]
-            if not np.isfinite(c):
-                return None
-            starts[r], counts[r] = end, max(int(c), 0)
-            end += pre + count_type.itemsize + int(counts[r]) * item_type.itemsize + post
-        if end > len(data):
+            (c,) = read_count(data, end + pre)
+            if floating:
+                if not np.isfinite(c):
+                    return None
+                c = int(c)
+            if c < 0:
+                c = 0
+            starts_list[r], counts_list[r] = end, c
+            end += fixed + c * width
+        if end > size:
             return None
+        starts = np.array(starts_list, np.int64)
+        counts = np.array(counts_list, np.int64)
         face, k = _fan(counts)
         raw = np.frombuffer(data, np.uint8)
         width = item_type.itemsize
