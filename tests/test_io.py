@@ -1307,3 +1307,421 @@ def test_mesh_from_arrays_cleans() -> None:
     assert not m.points.flags.writeable
     with pytest.raises(MeshLoadError, match="b.obj"):
         Mesh.from_arrays(TRI_POINTS, [[0, 1, 5]], source="b.obj")
+
+
+def _quad_gltf(tmp_path: Path, name: str, edit, glb: bool = False) -> Path:
+    """A quad (4 points, 2 triangles) with float and normalized-uint16 uvs in one buffer, edited by ``edit``
+    (the document, then the buffer's bytes appended to), written as ``name`` (.gltf, or .glb)."""
+    import base64
+    import json
+    import struct
+
+    p = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float32)
+    uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
+    parts = [p.tobytes(), np.array([0, 1, 2, 0, 2, 3], np.uint16).tobytes(), uv.tobytes()]
+    parts.append((uv * 65535).astype(np.uint16).tobytes())
+    offsets = np.cumsum([0] + [len(b) for b in parts]).tolist()
+    doc = {
+        "asset": {"version": "2.0"},
+        "buffers": [{"byteLength": 0}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": o, "byteLength": len(b)} for o, b in zip(offsets, parts, strict=False)
+        ],
+        "accessors": [
+            {
+                "bufferView": 0,
+                "componentType": 5126,
+                "count": 4,
+                "type": "VEC3",
+                "min": [0] * 3,
+                "max": [1] * 3,
+            },
+            {"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"},
+            {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"},
+            {"bufferView": 3, "componentType": 5123, "normalized": True, "count": 4, "type": "VEC2"},
+        ],
+        "materials": [{}],
+        "meshes": [
+            {"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 2}, "indices": 1, "material": 0}]}
+        ],
+        "nodes": [{"mesh": 0}],
+        "scenes": [{"nodes": [0]}],
+        "scene": 0,
+    }
+    blob = bytearray(b"".join(parts))
+    edit(doc, blob)
+    blob.extend(b"\0" * (-len(blob) % 4))
+    doc["buffers"][0]["byteLength"] = len(blob)
+    path = tmp_path / name
+    if not glb:
+        doc["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64.b64encode(blob).decode()
+        path.write_text(json.dumps(doc))
+        return path
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    chunks = (
+        struct.pack("<II", len(text), 0x4E4F534A) + text + struct.pack("<II", len(blob), 0x004E4942) + blob
+    )
+    path.write_bytes(struct.pack("<4sII", b"glTF", 2, 12 + len(chunks)) + chunks)
+    return path
+
+
+def _sparse_position(doc: dict, blob: bytearray) -> None:
+    """Point 2 moved to (5, 5, 0) by a sparse substitution."""
+    at = len(blob)
+    blob.extend(np.array([2, 0], np.uint16).tobytes() + np.array([5, 5, 0], np.float32).tobytes())
+    doc["bufferViews"] += [
+        {"buffer": 0, "byteOffset": at, "byteLength": 2},
+        {"buffer": 0, "byteOffset": at + 4, "byteLength": 12},
+    ]
+    doc["accessors"][0]["sparse"] = {
+        "count": 1,
+        "indices": {"bufferView": 4, "componentType": 5123},
+        "values": {"bufferView": 5},
+    }
+
+
+@pytest.mark.parametrize("glb", [False, True])
+def test_gltf_sparse_accessor_is_applied(tmp_path: Path, glb: bool) -> None:
+    """trimesh ignored an accessor's sparse substitutions: the quad loaded with its base points."""
+    m = load_mesh(_quad_gltf(tmp_path, "quad.glb" if glb else "quad.gltf", _sparse_position, glb))
+    np.testing.assert_array_equal(m.points, [[0, 0, 0], [1, 0, 0], [5, 5, 0], [0, 1, 0]])
+    np.testing.assert_allclose(m.attributes["uv"], [[0, 1], [1, 1], [1, 0], [0, 0]])
+
+
+def test_gltf_normalized_texcoords_are_scaled(tmp_path: Path) -> None:
+    """A TEXCOORD_0 of normalized unsigned shorts (glTF core) came out as 0..65535 (v as 1 - v wrapped)."""
+
+    def normalized(doc: dict, blob: bytearray) -> None:
+        doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = 3
+
+    m = load_mesh(_quad_gltf(tmp_path, "quad.gltf", normalized))
+    np.testing.assert_allclose(m.attributes["uv"], [[0, 1], [1, 1], [1, 0], [0, 0]])
+
+
+def test_gltf_texcoords_without_a_material_are_kept(tmp_path: Path) -> None:
+    """trimesh read TEXCOORD_0 only for a primitive with a material: without one the uv was dropped."""
+
+    def no_material(doc: dict, blob: bytearray) -> None:
+        del doc["meshes"][0]["primitives"][0]["material"], doc["materials"]
+
+    m = load_mesh(_quad_gltf(tmp_path, "quad.gltf", no_material))
+    np.testing.assert_allclose(m.attributes["uv"], [[0, 1], [1, 1], [1, 0], [0, 0]])
+
+
+def test_gltf_triangle_fan_is_loaded(tmp_path: Path) -> None:
+    """A primitive of mode TRIANGLE_FAN (6) was dropped without a word: here the second, moved aside."""
+
+    def fan(doc: dict, blob: bytearray) -> None:
+        doc["meshes"].append({"primitives": [{"attributes": {"POSITION": 0}, "mode": 6}]})
+        doc["nodes"].append({"mesh": 1, "translation": [0, 0, 2]})
+        doc["scenes"][0]["nodes"].append(1)
+
+    with pytest.warns(UserWarning, match="missing on some"):
+        m = load_mesh(_quad_gltf(tmp_path, "quad.gltf", fan))
+    assert m.triangles.shape == (4, 3)
+    corners = m.points[m.triangles]
+    fan_points = corners[corners[:, 0, 2] == 2]
+    assert fan_points.shape == (2, 3, 3)
+    np.testing.assert_array_equal(fan_points[:, :, 2], 2)
+    np.testing.assert_allclose(np.cross(*(fan_points[:, 1:] - fan_points[:, :1]).transpose(1, 0, 2))[:, 2], 1)
+
+
+def test_gltf_without_scenes_loads_its_root_nodes(tmp_path: Path) -> None:
+    """A glTF without ``scenes`` (valid: its nodes in no scene) was "no triangles: the file holds no triangle
+    geometry"; its root nodes are loaded, with their children's transforms."""
+
+    def no_scenes(doc: dict, blob: bytearray) -> None:
+        del doc["scenes"], doc["scene"]
+        doc["nodes"] = [{"children": [1], "translation": [10, 0, 0]}, {"mesh": 0, "translation": [0, 0, 3]}]
+
+    m = load_mesh(_quad_gltf(tmp_path, "quad.gltf", no_scenes))
+    np.testing.assert_array_equal(m.points, [[10, 0, 3], [11, 0, 3], [11, 1, 3], [10, 1, 3]])
+
+
+def test_gltf_sparse_index_out_of_range_is_named(tmp_path: Path) -> None:
+    def bad(doc: dict, blob: bytearray) -> None:
+        _sparse_position(doc, blob)
+        blob[-16:-14] = np.array([9], np.uint16).tobytes()
+
+    with pytest.raises(MeshLoadError, match=r"quad\.gltf: accessor 0: a sparse index \(9\) is past its 4"):
+        load_mesh(_quad_gltf(tmp_path, "quad.gltf", bad))
+
+
+def _mixed_ply(fmt: str) -> bytes:
+    """A pyramid of a quad and four triangles, a colour per face after its list (red quad, green, blue...)."""
+    import struct
+
+    points = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0.5, 0.5, 1)]
+    faces = [(0, 3, 2, 1), (0, 1, 4), (1, 2, 4), (2, 3, 4), (3, 0, 4)]
+    colours = [(255, 0, 0), (0, 255, 0), (0, 0, 255), (0, 255, 255), (255, 0, 255)]
+    head = (
+        f"ply\nformat {fmt} 1.0\nelement vertex 5\nproperty float x\nproperty float y\nproperty float z\n"
+        "element face 5\nproperty list uchar int vertex_indices\n"
+        "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n"
+    ).encode()
+    if fmt == "ascii":
+        rows = [" ".join(map(str, p)) for p in points]
+        rows += [" ".join(map(str, (len(f), *f, *c))) for f, c in zip(faces, colours, strict=True)]
+        return head + "\n".join(rows).encode() + b"\n"
+    order = "<" if fmt == "binary_little_endian" else ">"
+    body = b"".join(struct.pack(order + "3f", *p) for p in points)
+    for f, c in zip(faces, colours, strict=True):
+        body += struct.pack(f"{order}B{len(f)}i3B", len(f), *f, *c)
+    return head + body
+
+
+@pytest.mark.parametrize("fmt", ["binary_big_endian", "binary_little_endian", "ascii"])
+def test_ply_faces_of_mixed_sizes_load_with_their_colours(tmp_path: Path, fmt: str) -> None:
+    """A binary PLY of triangles and quads was "trimesh could not read it (PLY is unexpected length!)"
+    (trimesh reads every list at the first one's length); an ASCII one loaded other colours than its faces'
+    (read from the wrong columns)."""
+    path = tmp_path / "pyramid.ply"
+    path.write_bytes(_mixed_ply(fmt))
+    m = load_mesh(path)
+    assert m.triangle_count == 6
+    corners = m.points[m.triangles]
+    colour = m.attributes["color"][m.triangles[:, 0], :3]
+    np.testing.assert_array_equal(
+        m.attributes["color"][m.triangles][:, :, :3], np.repeat(colour[:, None], 3, 1)
+    )
+    base = corners[:, :, 2].max(axis=1) == 0
+    assert base.sum() == 2
+    np.testing.assert_array_equal(colour[base], [[1, 0, 0], [1, 0, 0]])
+    np.testing.assert_array_equal(
+        np.cross(*(corners[base][:, 1:] - corners[base][:, :1]).transpose(1, 0, 2))[:, 2], -1
+    )
+    # the side faces keep their own colour: the one of the face of those corners
+    want = {(0, 1): (0, 1, 0), (1, 2): (0, 0, 1), (2, 3): (0, 1, 1), (0, 3): (1, 0, 1)}
+    pts = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
+    for tri, c in zip(corners[~base], colour[~base], strict=True):
+        ids = tuple(sorted(pts.index(tuple(p)) for p in tri.tolist() if p[2] == 0))
+        assert tuple(c.tolist()) == want[ids]
+
+
+def test_ply_of_mixed_faces_cut_short_still_says_so(tmp_path: Path) -> None:
+    path = tmp_path / "pyramid.ply"
+    path.write_bytes(_mixed_ply("binary_big_endian")[:-20])
+    with pytest.raises(
+        MeshLoadError, match=r"pyramid\.ply: truncated binary PLY: element face declares 5, found 3"
+    ):
+        load_mesh(path)
+
+
+_INSTANCER_USDA = """
+def Xform "World"
+{
+    double3 xformOp:translate = (0, 0, 5)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+    def PointInstancer "Scatter"
+    {
+        point3f[] positions = [(0, 0, 0), (10, 0, 0), (20, 0, 0)]
+        float3[] scales = [(1, 1, 1), (2, 2, 2), (1, 1, 1)]
+        int[] protoIndices = [0, 1, 0]
+        int64[] invisibleIds = [2]
+        rel prototypes = [</World/Scatter/Protos/A>, </Lib/B>]
+        def Scope "Protos"
+        {
+            def Xform "A"
+            {
+                double3 xformOp:translate = (0, 1, 0)
+                uniform token[] xformOpOrder = ["xformOp:translate"]
+                def Mesh "Tri"
+                {
+                    %(tri)s
+                }
+            }
+        }
+    }
+}
+over "Lib"
+{
+    def Mesh "B"
+    {
+        %(tri)s
+    }
+}
+"""
+
+
+def test_usd_point_instancer_draws_its_prototypes_at_its_instances(tmp_path: Path) -> None:
+    """A PointInstancer's prototype was loaded once, where it is defined (a scatter of leaves loaded one leaf
+    at the origin); a renderer draws it at each instance and not as itself (Hydra culls the instancer's
+    children). Instance 0: prototype A (with its own translate), 1: B (under an `over`) scaled by 2,
+    2: invisible; everything under /World's translate."""
+    tri = "\n".join([_TRIANGLE, *_ONE_FACE])
+    path = _write_usda(tmp_path / "scatter.usda", _INSTANCER_USDA % {"tri": tri})
+    m = load_mesh(path)
+    got = sorted(map(tuple, m.points[m.triangles].reshape(-1, 9).tolist()))
+    want = sorted(
+        [
+            (0, 1, 5, 1, 1, 5, 0, 2, 5),  # A at instance 0
+            (10, 0, 5, 12, 0, 5, 10, 2, 5),  # B at instance 1, scale 2
+        ]
+    )
+    assert got == want
+
+
+def test_usd_point_instancer_bad_prototype_index_is_named(tmp_path: Path) -> None:
+    tri = "\n".join([_TRIANGLE, *_ONE_FACE])
+    body = (_INSTANCER_USDA % {"tri": tri}).replace("protoIndices = [0, 1, 0]", "protoIndices = [0, 7, 0]")
+    path = _write_usda(tmp_path / "scatter.usda", body)
+    with pytest.raises(MeshLoadError, match=r"/World/Scatter: protoIndices\[1\] = 7, it has 2 prototypes"):
+        load_mesh(path)
+
+
+def test_gltf_of_nothing_trimesh_misreads_is_not_rewritten(tmp_path: Path) -> None:
+    """Only a glTF that needs it is rewritten (inline buffers cost a base64 copy): not one of float uvs and
+    normalized unsigned-byte colours, which trimesh reads right."""
+    from swpm_usd.io.gltf_prepare import prepared_gltf
+
+    def colours(doc: dict, blob: bytearray) -> None:
+        at = len(blob)
+        blob.extend(bytes([200, 13, 255, 255, 1, 2, 3, 4, 254, 253, 127, 128, 77, 78, 79, 80]))
+        doc["bufferViews"].append({"buffer": 0, "byteOffset": at, "byteLength": 16})
+        doc["accessors"].append(
+            {"bufferView": 4, "componentType": 5121, "normalized": True, "count": 4, "type": "VEC4"}
+        )
+        doc["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = 4
+
+    for glb in (False, True):
+        path = _quad_gltf(tmp_path, "quad.glb" if glb else "quad.gltf", colours, glb)
+        assert prepared_gltf(path) is None
+        m = load_mesh(path)
+        np.testing.assert_array_equal(
+            np.round(m.attributes["color"] * 255),
+            [[200, 13, 255, 255], [1, 2, 3, 4], [254, 253, 127, 128], [77, 78, 79, 80]],
+        )
+
+
+@pytest.mark.parametrize("extension", ["EXT_meshopt_compression", "KHR_draco_mesh_compression"])
+@pytest.mark.parametrize("glb", [False, True])
+def test_gltf_compressed_by_an_extension_not_decoded_says_so(
+    tmp_path: Path, extension: str, glb: bool
+) -> None:
+    """A geometry compressed by meshopt (or Draco, without DracoPy) loaded as trimesh's placeholder zeros:
+    "all 2 triangles are degenerate (no area)"."""
+    import importlib.util
+
+    if extension == "KHR_draco_mesh_compression" and importlib.util.find_spec("DracoPy") is not None:
+        pytest.skip("DracoPy decodes Draco here")
+
+    def compressed(doc: dict, blob: bytearray) -> None:
+        for a in doc["accessors"][:2]:
+            del a["bufferView"]
+        doc["extensionsUsed"] = doc["extensionsRequired"] = [extension]
+
+    path = _quad_gltf(tmp_path, "quad.glb" if glb else "quad.gltf", compressed, glb)
+    with pytest.raises(
+        MeshLoadError,
+        match=rf"quad\.gl[tfb]+: its geometry is compressed with the glTF extension {extension}",
+    ):
+        load_mesh(path)
+
+
+def test_usd_point_instancer_matches_usd_core_and_ignores_what_is_above_its_prototype(tmp_path: Path) -> None:
+    """Each instance's triangle is where usd-core's ComputeInstanceTransformsAtTime puts it (orientations as
+    quath (real, imaginary), scales, ids with invisibleIds naming ids, not indices). Prototypes kept under an
+    invisible scope of guide purpose (a common way to hide them as themselves) are still drawn at the
+    instances: UsdImaging ignores visibility and purpose above a prototype's root; they were left out as
+    "invisible" ("no triangles")."""
+    path = tmp_path / "oracle.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    world = UsdGeom.Xform.Define(stage, "/World")
+    world.AddTranslateOp().Set(Gf.Vec3d(0, 0, 5))
+    world.AddRotateZOp().Set(30.0)
+    lib = UsdGeom.Scope.Define(stage, "/World/Lib")
+    lib.GetVisibilityAttr().Set(UsdGeom.Tokens.invisible)
+    lib.GetPurposeAttr().Set(UsdGeom.Tokens.guide)
+    proto = UsdGeom.Xform.Define(stage, "/World/Lib/Leaf")
+    proto.AddTranslateOp().Set(Gf.Vec3d(0, 1, 0))
+    tri = UsdGeom.Mesh.Define(stage, "/World/Lib/Leaf/Tri")
+    tri.AddScaleOp().Set(Gf.Vec3f(1, 2, 1))
+    tri.GetPointsAttr().Set(Vt.Vec3fArray([(0, 0, 0), (1, 0, 0), (0, 1, 0)]))
+    tri.GetFaceVertexCountsAttr().Set([3])
+    tri.GetFaceVertexIndicesAttr().Set([0, 1, 2])
+    inst = UsdGeom.PointInstancer.Define(stage, "/World/Scatter")
+    inst.AddTranslateOp().Set(Gf.Vec3d(3, 0, 0))
+    inst.CreatePrototypesRel().SetTargets([Sdf.Path("/World/Lib/Leaf")])
+    inst.CreateProtoIndicesAttr([0, 0, 0, 0])
+    inst.CreatePositionsAttr(Vt.Vec3fArray([(0, 0, 0), (10, 0, 0), (20, 0, 0), (30, 0, 0)]))
+    quats = [Gf.Quath(1, 0, 0, 0), Gf.Quath(0.70710678, 0, 0, 0.70710678), Gf.Quath(0, 1, 0, 0)]
+    quats.append(Gf.Quath(0.5, 0.5, 0.5, 0.5))
+    inst.CreateOrientationsAttr(Vt.QuathArray(quats))
+    inst.CreateScalesAttr(Vt.Vec3fArray([(1, 1, 1), (2, 2, 2), (1, 3, 1), (1, 1, 0.5)]))
+    inst.CreateIdsAttr(Vt.Int64Array([10, 11, 2, 13]))
+    inst.CreateInvisibleIdsAttr(Vt.Int64Array([2]))  # (id 2: the instance at index 2, not index 2's id)
+    stage.GetRootLayer().Save()
+
+    time = Usd.TimeCode.EarliestTime()
+    xforms = inst.ComputeInstanceTransformsAtTime(time, time)  # (mask applied: index 2 left out)
+    assert len(xforms) == 3
+    to_world = UsdGeom.XformCache(time).GetLocalToWorldTransform(inst.GetPrim())
+    tri_in_proto = Gf.Matrix4d().SetScale(Gf.Vec3d(1, 2, 1))
+    want = []
+    for x in xforms:
+        m = tri_in_proto * x * to_world
+        want.append(tuple(v for p in ((0, 0, 0), (1, 0, 0), (0, 1, 0)) for v in m.Transform(Gf.Vec3d(*p))))
+    m = load_mesh(path)
+    got = sorted(map(tuple, m.points[m.triangles].reshape(-1, 9).tolist()))
+    np.testing.assert_allclose(got, sorted(want), atol=1e-3)
+
+
+@pytest.mark.parametrize("glb", [False, True])
+def test_gltf_rewrite_checks_counts_before_allocating(tmp_path: Path, glb: bool) -> None:
+    """A small file whose accessor claims 10^10 elements: the rewrite made a 75 GiB index array for a
+    TRIANGLE_FAN without indices (of its POSITION count) and a 112 GiB one for a sparse accessor without a
+    bufferView before anything checked the count; a negative byteStride let a count past the data through."""
+
+    def fan(doc: dict, blob: bytearray) -> None:
+        p = doc["meshes"][0]["primitives"][0]
+        p["mode"] = 6
+        del p["indices"]
+        doc["accessors"][0]["count"] = 10**10
+
+    def sparse_zeros(doc: dict, blob: bytearray) -> None:
+        at = len(blob)
+        blob.extend(bytes(16))
+        doc["bufferViews"] += [
+            {"buffer": 0, "byteOffset": at, "byteLength": 4},
+            {"buffer": 0, "byteOffset": at + 4, "byteLength": 12},
+        ]
+        sparse = {
+            "count": 1,
+            "indices": {"bufferView": 4, "componentType": 5125},
+            "values": {"bufferView": 5},
+        }
+        doc["accessors"].append({"componentType": 5126, "count": 10**10, "type": "VEC3", "sparse": sparse})
+        doc["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = 4
+
+    def stride(doc: dict, blob: bytearray) -> None:
+        fan(doc, blob)
+        doc["bufferViews"][0]["byteStride"] = -12
+
+    ext = ".glb" if glb else ".gltf"
+    cases = [
+        (fan, r"bufferView 0 holds 48 bytes, accessor 0 reads 120000000000"),
+        (sparse_zeros, r"accessor 4 has no bufferView and 10000000000 elements"),
+        (stride, r"bufferView 0 has byteStride -12"),
+    ]
+    for edit, message in cases:
+        path = _quad_gltf(tmp_path, edit.__name__ + ext, edit, glb)
+        with pytest.raises(MeshLoadError, match=re.escape(path.name) + ": " + message):
+            load_mesh(path)
+
+
+def test_ply_triangulation_of_a_header_claiming_too_many_faces_allocates_nothing_for_them() -> None:
+    """A binary PLY of mixed faces cut short, its header claiming 10^12 faces: the triangulation made two
+    arrays of the header's count (16 TB: MemoryError) before walking the rows; it now sees at once that the
+    bytes cannot hold them (trimesh then says the file is truncated)."""
+    from swpm_usd.io.trimesh_loader import ply_polygons_as_triangles
+
+    header = (
+        "ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+        "property float z\nelement face 1000000000000\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    points = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], "<f4").tobytes()
+    faces = (
+        bytes([3]) + np.array([0, 1, 2], "<i4").tobytes() + bytes([4]) + np.arange(4, dtype="<i4").tobytes()
+    )
+    assert ply_polygons_as_triangles(header.encode() + points + faces) is None

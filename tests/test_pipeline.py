@@ -3931,3 +3931,25 @@ def test_a_report_s_link_to_an_asset_s_curves_is_its_id_as_a_browser_reads_it(tm
     assert "\r" not in text
     links = [html.unescape(t.split("</a>")[0]) for t in text.split("<a class=curve href='#curves'>")[1:]]
     assert aid in links and sorted(links) == sorted(manifest["assets"])
+
+
+def test_a_stage_that_does_not_open_is_named_without_usd_core_s_source_locations(tmp_path):
+    """A missing or unparsable stage was reported with usd-core's C++ function, source file and line
+    ("Error in 'pxrInternal_v0_26_11__pxrReserved__::UsdStage::Open' at line 1287 in file .../stage.cpp")."""
+    import contextlib
+
+    (tmp_path / "c.yaml").write_text("version: 1\nassets: [{stage: scene.usda}]\noutput: {dir: out}\n")
+
+    def problem() -> str:
+        with contextlib.chdir(tmp_path):
+            result = CliRunner().invoke(main, ["run", "c.yaml", "--dry-run"])
+        assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+        [line] = result.stderr.splitlines()
+        return line
+
+    assert problem() == "c.yaml:2:18: $.assets[0].stage: cannot open stage scene.usda: no such file"
+    (tmp_path / "scene.usda").write_text('#usda 1.0\ndef Mesh "M" {\n  point3f[] points = [(0,0,0)\n}\n')
+    line = problem()
+    assert line.startswith("c.yaml:2:18: $.assets[0].stage: cannot open stage scene.usda: ")
+    assert "scene.usda:4:1: parse error" in line
+    assert "Error in '" not in line and ".cpp" not in line

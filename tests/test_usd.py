@@ -1048,3 +1048,60 @@ def test_validate_json_of_a_missing_usd_file_is_a_report(tmp_path):
     assert rep["findings"][0]["code"] == "SWPM_USD_OPEN" and "nope.usda" in rep["findings"][0]["message"]
     result = CliRunner().invoke(main, ["validate", str(path)])
     assert result.exit_code == 1 and "nope.usda: file not found" in result.stderr
+
+
+def test_validate_reports_a_value_usd_core_cannot_read_as_a_coded_error(tmp_path, monkeypatch):
+    """A bit flipped in a .usdc's compressed values (found flipping bytes of a written asset) opens, then
+    makes usd-core's validation raise ("Failed to decompress data, possibly corrupt? LZ4 error code: -464",
+    "Corrupt asset ...: exception thrown unpacking a value"): ``validate`` printed a traceback. It is a
+    coded error naming the file (SWPM_USD_READ), the findings made before it kept."""
+    from click.testing import CliRunner
+
+    from swpm_usd.cli import main
+    from swpm_usd.usd import validate as validate_module
+
+    path = tmp_path / "v.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.Mesh.Define(stage, "/M")
+    stage.GetRootLayer().Save()
+
+    class Corrupt:
+        def __init__(self, validators):
+            pass
+
+        def Validate(self, stage):  # noqa: N802 - usd-core's name
+            raise RuntimeError(
+                "\n\tError in 'pxrInternal_v0_26_11__pxrReserved__::TfFastCompression::DecompressFromBuffer'"
+                " at line 102 in file /opt/USD/pxr/base/tf/fastCompression.cpp : 'Failed to decompress data, "
+                "possibly corrupt? LZ4 error code: -464'\n"
+            )
+
+    monkeypatch.setattr(validate_module.UsdValidation, "ValidationContext", Corrupt)
+    (finding,) = validate_stage(path)
+    assert finding.code == "SWPM_USD_READ" and finding.code in CODES and finding.severity == "error"
+    assert finding.message == (
+        f"{path}: usd-core cannot read it: Failed to decompress data, possibly corrupt? LZ4 error code: -464"
+    )
+    result = CliRunner().invoke(main, ["validate", str(path), "--json"])
+    assert result.exit_code == 1 and isinstance(result.exception, SystemExit | None)
+    assert json.loads(result.stdout)["findings"][0]["code"] == "SWPM_USD_READ"
+    result = CliRunner().invoke(main, ["validate", str(path)])
+    assert result.exit_code == 1 and "SWPM_USD_READ" in result.output and "Traceback" not in result.output
+
+
+def test_validate_does_not_report_a_bug_of_its_own_as_a_file_usd_core_cannot_read(tmp_path, monkeypatch):
+    """SWPM_USD_READ is usd-core's Tf.ErrorException (a RuntimeError) on a corrupt value; a Python error of
+    the validator itself (here a TypeError) was reported as "usd-core cannot read it", blaming the file."""
+    from swpm_usd.usd import validate as validate_module
+
+    path = tmp_path / "v.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.Mesh.Define(stage, "/M")
+    stage.GetRootLayer().Save()
+
+    def broken(prim):
+        raise TypeError("a bug")
+
+    monkeypatch.setattr(validate_module, "validate_prim", broken)
+    with pytest.raises(TypeError, match="a bug"):
+        validate_stage(path, builtin=False)

@@ -11,7 +11,9 @@ STL files are checked before trimesh reads them (:func:`check_stl`): trimesh tak
 disagrees with its header for ASCII, and drops an ASCII solid without its ``endsolid``, so a cut file would
 load as "no triangles" (or as part of its triangles) instead of being reported as truncated. An ASCII PLY
 is counted against its header likewise (:func:`ply_problem`), and a binary PLY, a .glb or a .gltf's buffers
-are looked at once trimesh has refused them, so the error says what is cut or wrong. An OFF file's vertex
+are looked at once trimesh has refused them, so the error says what is cut or wrong. A glTF's features trimesh
+reads wrongly or drops (sparse and normalized accessors, triangle fans, a uv without a material, no scene)
+are rewritten first (:mod:`.gltf_prepare`). An OFF file's vertex
 and face colours, which trimesh's OFF reader drops, are read here (:func:`_off_colours`).
 """
 
@@ -23,6 +25,7 @@ import io
 import json
 import os
 import re
+import struct
 import urllib.parse
 import warnings
 from collections.abc import Callable, Iterator
@@ -33,6 +36,7 @@ import numpy as np
 from ..errors import MeshLoadError
 from ..mesh import Mesh
 from .clean import clean_mesh, concatenate_parts, rgba_float, split_corners, transform_part
+from .gltf_prepare import prepared_gltf
 
 _TEXT_TYPES = ("obj", "off")
 #: a binary STL: an 80-byte header, the triangle count (uint32), then 50 bytes per triangle
@@ -137,6 +141,8 @@ _PLY_TYPES = {
     **dict.fromkeys(("float", "float32"), "f4"),
     **dict.fromkeys(("double", "float64"), "f8"),
 }
+#: the struct format character of each of the PLY types above
+_STRUCT_CODES = {"i1": "b", "u1": "B", "i2": "h", "u2": "H", "i4": "i", "u4": "I", "f4": "f", "f8": "d"}
 #: how much of a PLY's start the header is looked for in
 _PLY_HEADER_BYTES = 1 << 16
 #: the rows of a binary element with lists of varying length counted one by one at most (past it the
@@ -307,6 +313,109 @@ def ply_problem(data: bytes, ascii_only: bool = False) -> str | None:
     return None
 
 
+def _fan(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(face, its second corner's place in its list) of each fan triangle of faces of ``counts`` corners."""
+    n_tris = np.maximum(counts - 2, 0)
+    face = np.repeat(np.arange(counts.shape[0]), n_tris)
+    return face, np.arange(face.shape[0]) - np.repeat(np.cumsum(n_tris) - n_tris, n_tris) + 1
+
+
+def ply_polygons_as_triangles(data: bytes) -> bytes | None:
+    """The PLY file of bytes ``data`` with its faces fan-triangulated (each triangle keeping its face's other
+    properties) when their vertex lists vary in length; None when they do not, or the file is not one this
+    reads (a face element with other than one list, rows cut short: trimesh then reports it).
+
+    trimesh reads a binary PLY's lists at the first row's length (a mesh of triangles and quads was "PLY is
+    unexpected length!") and an ASCII one's face properties after lists of varying length from the wrong
+    columns (a mixed mesh's face colours came out as other colours)."""
+    header = _ply_header(data[:_PLY_HEADER_BYTES])
+    names = [] if header is None else [name for name, _, _ in header[2]]
+    if header is None or "face" not in names:
+        return None
+    fmt, at, elements = header
+    face_at = names.index("face")
+    _, count, props = elements[face_at]
+    lists = [j for j, p in enumerate(props) if len(p) == 2]
+    if len(lists) != 1 or count == 0:
+        return None
+    li = lists[0]
+    if fmt == "ascii":  # (a row a line, as trimesh reads it)
+        lines = data[at:].splitlines()
+        first = sum(n for _, n, _ in elements[:face_at])
+        if li == 0 and len({line.split(None, 1)[0] for line in lines[first : first + count] if line}) <= 1:
+            return None  # (every list of one length, the common case told at once)
+        faces = []
+        for line in lines[first : first + count]:
+            words = line.split()
+            try:
+                c = max(int(words[li]), 0) if li < len(words) else -1
+            except ValueError:
+                return None
+            if c < 0 or len(words) != len(props) + c:
+                return None
+            faces.append((words[:li], words[li + 1 : li + 1 + c], words[li + 1 + c :]))
+        if len(faces) < count:
+            return None
+        counts = np.array([len(corners) for _, corners, _ in faces], np.int64)
+        if (counts == counts[0]).all():
+            return None
+        rows = []
+        for f, k in zip(*(a.tolist() for a in _fan(counts)), strict=True):
+            before, corners, after = faces[f]
+            rows.append(b" ".join([*before, b"3", corners[0], corners[k], corners[k + 1], *after]))
+        body = [*lines[:first], *rows, *lines[first + count :]]
+        out = data[:at] + b"\n".join(body) + b"\n"
+    else:
+        order = "<" if fmt == "binary_little_endian" else ">"
+        i = at
+        for _, n, ps in elements[:face_at]:
+            rows, i = _ply_binary_rows(data, i, n, ps, order)
+            if rows is None or rows < n:
+                return None
+        uniform, _ = _ply_uniform_rows(data, i, count, props, order)
+        if uniform == count:  # (every list the first's length: trimesh reads it)
+            return None
+        sizes = [np.dtype(p[0]).itemsize for p in props]
+        pre, post = sum(sizes[:li]), sum(sizes[li + 1 :])
+        count_type, item_type = np.dtype(order + props[li][0]), np.dtype(order + props[li][1])
+        if count > (len(data) - i) // (pre + count_type.itemsize + post):
+            return None  # (cut short: no array of the header's count for it)
+        # (struct, not np.frombuffer, a row: 1,000,000 mixed faces took 2 s)
+        read_count = struct.Struct(order + _STRUCT_CODES[props[li][0]]).unpack_from
+        starts_list, counts_list = [0] * count, [0] * count
+        end, fixed, width, size = i, pre + count_type.itemsize + post, item_type.itemsize, len(data)
+        floating = count_type.kind == "f"
+        for r in range(count):
+            if end + fixed > size:
+                return None
+            (c,) = read_count(data, end + pre)
+            if floating:
+                if not np.isfinite(c):
+                    return None
+                c = int(c)
+            if c < 0:
+                c = 0
+            starts_list[r], counts_list[r] = end, c
+            end += fixed + c * width
+        if end > size:
+            return None
+        starts = np.array(starts_list, np.int64)
+        counts = np.array(counts_list, np.int64)
+        face, k = _fan(counts)
+        raw = np.frombuffer(data, np.uint8)
+        width = item_type.itemsize
+        items = starts[face] + pre + count_type.itemsize
+        three = np.frombuffer(np.array([3], count_type).tobytes(), np.uint8)
+        columns = [raw[starts[face][:, None] + np.arange(pre)], np.tile(three, (face.shape[0], 1))]
+        columns += [
+            raw[(items + c * width)[:, None] + np.arange(width)] for c in (np.zeros_like(k), k, k + 1)
+        ]
+        columns.append(raw[(items + counts[face] * width)[:, None] + np.arange(post)])
+        out = data[:i] + np.concatenate(columns, axis=1).tobytes() + data[end:]
+    n_tris = str(int(np.maximum(counts - 2, 0).sum())).encode()
+    return re.sub(rb"(?m)^(element[ \t]+face[ \t]+)\d+", rb"\g<1>" + n_tris, out[:at], count=1) + out[at:]
+
+
 def _geometry_part(
     geom: object, off_colours: tuple[np.ndarray | None, np.ndarray | None] | None = None
 ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]] | None:
@@ -468,14 +577,19 @@ def load_trimesh(path: Path) -> Mesh:
             check_stl(path)  # (its start and end: trimesh reads the file)
             scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
         elif file_type == "ply":
-            with open(path, "rb") as f:
-                head = f.read(_PLY_HEADER_BYTES)
-                # (an ASCII file is read whole for the check, only its header when it is binary)
-                data = head + f.read() if re.search(rb"(?m)^format[ \t]+ascii\b", head) else b""
-            problem = ply_problem(data, ascii_only=True) if data else None
+            data = path.read_bytes()
+            problem = ply_problem(data, ascii_only=True)
             if problem is not None:
                 raise MeshLoadError(path, problem)
-            scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
+            triangulated = ply_polygons_as_triangles(data)
+            data = b""  # (released before trimesh reads the file: a large scan is not held twice)
+            if triangulated is None:
+                scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
+            else:
+                resolver = trimesh.resolvers.FilePathResolver(str(path))
+                scene = trimesh.load_scene(
+                    io.BytesIO(triangulated), file_type=file_type, resolver=resolver, process=False
+                )
         elif file_type in _TEXT_TYPES:
             # trimesh needs the optional charset_normalizer to guess the encoding of non-UTF-8 text and fails
             # without it: hand it UTF-8 (non-UTF-8 bytes are read as Latin-1, which only occurs in comments
@@ -488,6 +602,11 @@ def load_trimesh(path: Path) -> Mesh:
             resolver = trimesh.resolvers.FilePathResolver(str(path))
             scene = trimesh.load_scene(
                 io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
+            )
+        elif file_type in ("gltf", "glb") and (prepared := prepared_gltf(path)) is not None:
+            resolver = trimesh.resolvers.FilePathResolver(str(path))
+            scene = trimesh.load_scene(
+                io.BytesIO(prepared), file_type="gltf", resolver=resolver, process=False
             )
         else:
             scene = trimesh.load_scene(str(path), file_type=file_type, process=False)

@@ -2,9 +2,11 @@
 
 Every ``UsdGeom.Mesh`` prim under the pseudo-root (or under ``prim_path``), instance proxies included, that a
 renderer draws (not invisible, not of purpose ``guide`` or ``proxy``, not every face a hole) is read at its
-earliest time sample, moved to world space with its local-to-world transform and concatenated. Polygons are
-fan-triangulated and faces listed in ``holeIndices`` (not rendered) left out; ``orientation = leftHanded``
-(and mirroring transforms) flip the winding so front faces come out counter-clockwise. Primvars:
+earliest time sample, moved to world space with its local-to-world transform and concatenated. A
+``PointInstancer``'s prototypes are drawn at each of its instances (their masks applied), not as themselves.
+Polygons are fan-triangulated and faces listed in ``holeIndices`` (not rendered) left out;
+``orientation = leftHanded`` (and mirroring transforms) flip the winding so front faces come out
+counter-clockwise. Primvars:
 ``primvars:normals`` (else the ``normals`` attribute) -> ``normal``, ``primvars:st`` (else the first
 texCoord2f[] primvar by name) -> ``uv``, ``primvars:displayColor`` (+ ``displayOpacity`` as alpha) ->
 ``color``. Indexed primvars are flattened. ``vertex`` / ``varying`` / ``constant`` values stay per point;
@@ -18,10 +20,11 @@ from __future__ import annotations
 
 import re
 import warnings
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
-from pxr import Sdf, Tf, Usd, UsdGeom
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom
 
 from ..errors import MeshLoadError
 from ..mesh import Mesh
@@ -144,7 +147,8 @@ def _primvar_values(
     return topo.resolve(np.asarray(flat), pv.GetInterpolation(), what)
 
 
-def _read_mesh(prim: Usd.Prim, xf_cache: UsdGeom.XformCache, time: Usd.TimeCode) -> Part | None:
+def _read_mesh(prim: Usd.Prim, time: Usd.TimeCode) -> Part | None:
+    """``prim``'s triangles and attributes in its own space (the caller moves them to world space)."""
     where = str(prim.GetPath())
     mesh = UsdGeom.Mesh(prim)
     raw_points = mesh.GetPointsAttr().Get(time)
@@ -215,19 +219,102 @@ def _read_mesh(prim: Usd.Prim, xf_cache: UsdGeom.XformCache, time: Usd.TimeCode)
         part = (points[vertex_point], triangles, attrs)
     else:
         part = (points, topo.points, point_attrs)
-    # USD matrices act on row vectors; transform_part wants the column-vector form
-    matrix = np.array(xf_cache.GetLocalToWorldTransform(prim), dtype=np.float64).T
-    return transform_part(part, matrix)
+    return part
 
 
-def _not_rendered(prim: Usd.Prim, time: Usd.TimeCode) -> str | None:
+#: point instancers nested deeper than this (a prototype that instances itself) are an error
+_MAX_INSTANCER_DEPTH = 16
+
+
+def _drawn_meshes(
+    root: Usd.Prim,
+    predicate: object,
+    to_world: Callable[[Usd.Prim], Gf.Matrix4d],
+    xf_cache: UsdGeom.XformCache,
+    time: Usd.TimeCode,
+    depth: int = 0,
+    proto_root: Usd.Prim | None = None,
+) -> Iterator[tuple[Usd.Prim, Gf.Matrix4d, Usd.Prim | None]]:
+    """Every Mesh prim of ``root``'s subtree with its local-to-world matrix and the prototype root it is
+    drawn under (None: drawn as itself). A PointInstancer's children are not drawn as themselves (Hydra
+    culls them) and its prototypes are drawn at each of its instances (mask and ``invisibleIds`` applied),
+    wherever they are on the stage."""
+    it = iter(Usd.PrimRange(root, predicate))
+    for prim in it:
+        if prim.IsA(UsdGeom.PointInstancer):
+            it.PruneChildren()
+            if _not_rendered(prim, time, proto_root) is not None:
+                continue
+            if depth >= _MAX_INSTANCER_DEPTH:
+                raise _Invalid(f"{prim.GetPath()}: point instancers nested over {_MAX_INSTANCER_DEPTH} deep")
+            yield from _instanced_meshes(prim, to_world(prim), xf_cache, time, depth)
+        elif prim.IsA(UsdGeom.Mesh):
+            yield prim, to_world(prim), proto_root
+
+
+def _instanced_meshes(
+    prim: Usd.Prim, to_world: Gf.Matrix4d, xf_cache: UsdGeom.XformCache, time: Usd.TimeCode, depth: int
+) -> Iterator[tuple[Usd.Prim, Gf.Matrix4d, Usd.Prim | None]]:
+    """The meshes a PointInstancer draws: each instance's prototype, moved by the instance's transform."""
+    instancer = UsdGeom.PointInstancer(prim)
+    targets = instancer.GetPrototypesRel().GetForwardedTargets()
+    indices = instancer.GetProtoIndicesAttr().Get(time)
+    if not targets or indices is None or len(indices) == 0:
+        return
+    ids = np.asarray(indices, dtype=np.int64)
+    bad = (ids < 0) | (ids >= len(targets))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise _Invalid(
+            f"{prim.GetPath()}: protoIndices[{i}] = {int(ids[i])}, it has {len(targets)} prototypes"
+        )
+    xforms = instancer.ComputeInstanceTransformsAtTime(
+        time, time, UsdGeom.PointInstancer.IncludeProtoXform, UsdGeom.PointInstancer.IgnoreMask
+    )
+    if xforms is None or len(xforms) != len(indices):
+        raise _Invalid(f"{prim.GetPath()}: the point instancer's instance transforms do not compute")
+    mask = instancer.ComputeMaskAtTime(time)
+    stage = prim.GetStage()
+    # (a prototype may sit under an `over` or a `class`: not defined, still drawn through the instancer)
+    predicate = Usd.TraverseInstanceProxies(Usd.PrimIsActive & Usd.PrimIsLoaded)
+    for i, proto_index in enumerate(ids.tolist()):
+        if mask and not mask[i]:
+            continue
+        proto = stage.GetPrimAtPath(targets[proto_index])
+        if not proto:
+            raise _Invalid(f"{prim.GetPath()}: prototype {targets[proto_index]} is not on the stage")
+        instance = xforms[i] * to_world
+
+        def placed(q: Usd.Prim, proto: Usd.Prim = proto, instance: Gf.Matrix4d = instance) -> Gf.Matrix4d:
+            # (the instance transform holds the prototype root's own transform)
+            relative = Gf.Matrix4d(1.0) if q == proto else xf_cache.ComputeRelativeTransform(q, proto)[0]
+            return relative * instance
+
+        yield from _drawn_meshes(proto, predicate, placed, xf_cache, time, depth + 1, proto)
+
+
+def _not_rendered(prim: Usd.Prim, time: Usd.TimeCode, proto_root: Usd.Prim | None = None) -> str | None:
     """Why a renderer does not draw ``prim`` (invisible, itself or through an ancestor; purpose guide, or
     proxy: a viewport stand-in for the render geometry; a Mesh whose ``holeIndices`` list every face), or None
-    when it does."""
-    imageable = UsdGeom.Imageable(prim)
-    if imageable.ComputeVisibility(time) == UsdGeom.Tokens.invisible:
-        return "invisible"
-    purpose = imageable.ComputePurpose()
+    when it does. Drawn in a point instancer's prototype ``proto_root``, its ancestors above that root do
+    not count (as in UsdImaging: prototypes are often kept under an invisible scope)."""
+    if proto_root is None:
+        imageable = UsdGeom.Imageable(prim)
+        if imageable.ComputeVisibility(time) == UsdGeom.Tokens.invisible:
+            return "invisible"
+        purpose = imageable.ComputePurpose()
+    else:
+        purpose, q = UsdGeom.Tokens.default_, prim
+        while q:
+            visibility = q.GetAttribute(UsdGeom.Tokens.visibility)
+            if visibility and visibility.Get(time) == UsdGeom.Tokens.invisible:
+                return "invisible"
+            attr = q.GetAttribute(UsdGeom.Tokens.purpose)
+            if purpose == UsdGeom.Tokens.default_ and attr and attr.HasAuthoredValue():
+                purpose = attr.Get()
+            if q == proto_root:
+                break
+            q = q.GetParent()
     if purpose in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy):
         return f"purpose {purpose}"
     if prim.IsA(UsdGeom.Mesh):
@@ -301,16 +388,23 @@ def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
         parts: list[Part] = []
         n_mesh_prims = 0
         unrendered: list[str] = []
-        for prim in Usd.PrimRange(root, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)):
-            if prim.IsA(UsdGeom.Mesh):
-                n_mesh_prims += 1
-                why = _not_rendered(prim, time)
-                if why is not None:
-                    unrendered.append(f"{prim.GetPath()} ({why})")
-                    continue
-                part = _read_mesh(prim, xf_cache, time)
-                if part is not None:
-                    parts.append(part)
+        predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+        # (a prototype's mesh, drawn at each of an instancer's instances, is read once)
+        local: dict[tuple[Sdf.Path, Sdf.Path | None], tuple[str | None, Part | None]] = {}
+        for prim, to_world, proto_root in _drawn_meshes(
+            root, predicate, xf_cache.GetLocalToWorldTransform, xf_cache, time
+        ):
+            n_mesh_prims += 1
+            key = (prim.GetPath(), None if proto_root is None else proto_root.GetPath())
+            if key not in local:
+                why = _not_rendered(prim, time, proto_root)
+                local[key] = (why, None if why is not None else _read_mesh(prim, time))
+            why, part = local[key]
+            if why is not None:
+                unrendered.append(f"{prim.GetPath()} ({why})")
+            elif part is not None:
+                # (USD matrices act on row vectors; transform_part wants the column-vector form)
+                parts.append(transform_part(part, np.array(to_world, dtype=np.float64).T))
     except MeshLoadError:
         raise
     except _Invalid as e:

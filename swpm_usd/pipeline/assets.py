@@ -382,7 +382,14 @@ def discover(
             try:
                 found, used = _stage_assets(cfg, i, stage_path)
             except Exception as exc:  # noqa: BLE001 - any pxr failure is reported, located
-                msg = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+                from ..io.usd_loader import _tf_message
+
+                if not stage_path.exists():
+                    msg = "no such file"
+                else:  # (usd-core's message, without its C++ function, file and line)
+                    msg = (
+                        _tf_message(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+                    )
                 problems.append(
                     f"{cfg.where(('assets', i, 'stage'))}: cannot open stage {src['stage']}: {msg}"
                 )

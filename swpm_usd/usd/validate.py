@@ -41,6 +41,7 @@ CODES: dict[str, str] = {
     "SWPM_USD_PARAMS": "swpm:params is not a JSON object.",
     "SWPM_USD_REBUILD": "the stored buffers do not rebuild a progressive mesh.",
     "SWPM_USD_OPEN": "the file is not a USD layer usd-core can open (empty, truncated or not USD at all).",
+    "SWPM_USD_READ": "usd-core opened the layer but cannot read a value in it (corrupt .usdc data).",
 }
 
 # buffers whose values are vertex ids
@@ -367,6 +368,18 @@ def validate_stage(path: str | os.PathLike[str] | Usd.Stage, builtin: bool = Tru
     if ours:
         names.append(VALIDATOR_NAME)
     findings: list[Finding] = []
+    try:
+        _validate_into(findings, stage, reg, names, ours)
+    except RuntimeError as exc:  # (pxr's Tf.ErrorException, for a value it cannot unpack; not a bug of ours)
+        where = stage.GetRootLayer().identifier if isinstance(path, Usd.Stage) else os.fspath(path)
+        reason = _tf_messages(str(exc)) or type(exc).__name__
+        findings.append(Finding("SWPM_USD_READ", ERROR, "/", f"{where}: usd-core cannot read it: {reason}"))
+    findings.sort(key=lambda f: (f.prim, f.code, f.message))
+    return findings
+
+
+def _validate_into(findings: list[Finding], stage: Usd.Stage, reg: Any, names: list[str], ours: bool) -> None:
+    """:func:`validate_stage`'s findings, appended to ``findings`` as they come."""
     if names:
         ctx = UsdValidation.ValidationContext(reg.GetOrLoadValidatorsByName(names))
         for err in ctx.Validate(stage):
@@ -384,8 +397,6 @@ def validate_stage(path: str | os.PathLike[str] | Usd.Stage, builtin: bool = Tru
         rng = Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate))
         for prim in rng:
             findings.extend(validate_prim(prim))
-    findings.sort(key=lambda f: (f.prim, f.code, f.message))
-    return findings
 
 
 def report(findings: list[Finding]) -> dict[str, Any]:

@@ -1,0 +1,343 @@
+"""Rewrite the glTF 2.0 features trimesh reads wrongly or drops, before it reads the file.
+
+trimesh (the loader behind :mod:`.trimesh_loader`) silently
+
+* ignores an accessor's ``sparse`` substitutions (a ``POSITION`` with sparse values loads its base values, or
+  all zeros when it has no ``bufferView``);
+* reads a ``normalized`` integer accessor as raw integers (a ``TEXCOORD_0`` of unsigned shorts, which glTF's
+  core allows, came out as uv 0..65535, and flipped to ``1 - v`` in 16-bit arithmetic);
+* drops a primitive of mode ``TRIANGLE_FAN`` (6);
+* drops ``TEXCOORD_0`` of a primitive without a ``material``;
+* loads nothing from a file without ``scenes`` (valid glTF: its nodes are then not in a scene), which the
+  loader reported as "no triangles";
+* loads a geometry compressed by an extension it cannot decode (meshopt; Draco without DracoPy) as zeros,
+  which the loader reported as "all triangles are degenerate": :func:`prepared_gltf` names the extension.
+
+:func:`prepared_gltf` returns, for a file that uses any of them, the document rewritten so trimesh reads what
+the file means (dense float accessors in one added buffer, fans as triangle lists, a plain material added for
+the uv to be read, a scene of every root node), as ``.gltf`` JSON with its buffers inline; None for a file
+that uses none of them (read as before) or whose structure does not read (trimesh then says what is wrong).
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import struct
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import MeshLoadError
+
+_COMPONENT = {5120: "i1", 5121: "u1", 5122: "i2", 5123: "u2", 5125: "u4", 5126: "f4"}
+_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
+_TRIANGLE_FAN = 6
+_TRIANGLES = 4
+_FLOAT = 5126
+_UINT = 5125
+_GLB_HEADER = struct.Struct("<4sII")
+_CHUNK = struct.Struct("<II")
+_GLB_JSON, _GLB_BIN = 0x4E4F534A, 0x004E4942
+#: the most elements of an accessor without a bufferView (zeros, sparse values applied) made dense
+_ZEROS_MAX = 1 << 24
+
+
+class _Unread(Exception):
+    """The document's structure is not one this rewrite reads (trimesh reports the file)."""
+
+
+def _document(path: Path, data: bytes) -> tuple[dict, bytes | None]:
+    """(JSON document, a .glb's binary chunk or None) of the file's bytes ``data``."""
+    if path.suffix.lower() != ".glb":
+        return json.loads(data), None
+    if len(data) < _GLB_HEADER.size + _CHUNK.size:
+        raise _Unread
+    magic, _, length = _GLB_HEADER.unpack_from(data)
+    if magic != b"glTF" or length > len(data):
+        raise _Unread
+    at, doc, binary = _GLB_HEADER.size, None, None
+    while at + _CHUNK.size <= length:
+        size, kind = _CHUNK.unpack_from(data, at)
+        body = data[at + _CHUNK.size : at + _CHUNK.size + size]
+        if len(body) < size:
+            raise _Unread
+        if kind == _GLB_JSON and doc is None:
+            doc = json.loads(body)
+        elif kind == _GLB_BIN and binary is None:
+            binary = body
+        at += _CHUNK.size + size
+    if doc is None:
+        raise _Unread
+    return doc, binary
+
+
+def _odd(accessors: list, i: Any, name: str = "") -> bool:
+    """Whether accessor ``i`` (of the attribute ``name``, or indices) is one trimesh reads wrongly: sparse, or
+    normalized integers (but unsigned bytes of a colour, which it reads right, scaled by their maximum)."""
+    a = accessors[i] if isinstance(i, int) and 0 <= i < len(accessors) else None
+    if not isinstance(a, dict):
+        return False
+    if "sparse" in a:
+        return True
+    ubyte_colour = name.startswith("COLOR_") and a.get("componentType") == 5121
+    return bool(a.get("normalized")) and a.get("componentType") != _FLOAT and not ubyte_colour
+
+
+def _needs(doc: dict) -> bool:
+    accessors = doc.get("accessors") or []
+    for mesh in doc.get("meshes") or []:
+        for p in mesh.get("primitives") or []:
+            attrs = p.get("attributes") or {}
+            if p.get("mode") == _TRIANGLE_FAN or _odd(accessors, p.get("indices")):
+                return True
+            if any(_odd(accessors, i, name) for name, i in attrs.items()):
+                return True
+            if "TEXCOORD_0" in attrs and "material" not in p:
+                return True
+    return "scenes" not in doc and bool(doc.get("nodes") or doc.get("meshes"))
+
+
+class _Rewrite:
+    """The document's accessors read as arrays; new arrays appended to one buffer."""
+
+    def __init__(self, path: Path, doc: dict, binary: bytes | None):
+        import trimesh
+
+        self.path, self.doc, self.binary = path, doc, binary
+        self.resolver = trimesh.resolvers.FilePathResolver(str(path))
+        self.buffers: dict[int, bytes] = {}
+        self.extra = bytearray()
+        self.views = doc.setdefault("bufferViews", [])
+        self.extra_buffer = len(doc.setdefault("buffers", []))
+
+    def buffer(self, i: int) -> bytes:
+        if i == self.extra_buffer:
+            return bytes(self.extra)
+        if i not in self.buffers:
+            b = self.doc["buffers"][i]
+            uri = b.get("uri")
+            if uri is None:
+                if self.binary is None or i != 0:
+                    raise _Unread
+                self.buffers[i] = self.binary
+            elif "base64," in uri:
+                self.buffers[i] = base64.b64decode(uri[uri.index("base64,") + 7 :])
+            else:
+                self.buffers[i] = self.resolver[uri]
+        return self.buffers[i]
+
+    def view(self, i: int) -> tuple[bytes, int | None]:
+        if not isinstance(i, int) or not 0 <= i < len(self.views):  # (not views[-1])
+            raise _Unread
+        v = self.views[i]
+        start = v.get("byteOffset", 0)
+        if not isinstance(start, int) or start < 0:
+            raise _Unread
+        data = self.buffer(v["buffer"])[start : start + v["byteLength"]]
+        if len(data) < v["byteLength"]:
+            raise _Unread
+        stride = v.get("byteStride")
+        if stride is not None and (not isinstance(stride, int) or isinstance(stride, bool) or stride <= 0):
+            raise MeshLoadError(self.path, f"bufferView {i} has byteStride {stride!r}, not a positive number")
+        return data, stride
+
+    def _strided(self, view: int, offset: int, count: int, dtype: np.dtype, width: int) -> np.ndarray:
+        data, stride = self.view(view)
+        stride = stride or dtype.itemsize * width
+        end = offset + (count - 1) * stride + dtype.itemsize * width
+        if offset < 0:
+            raise MeshLoadError(self.path, f"an accessor of bufferView {view} has byteOffset {offset}")
+        if count and end > len(data):
+            raise MeshLoadError(
+                self.path, f"bufferView {view} holds {len(data)} bytes, an accessor reads {end}"
+            )
+        arr = np.ndarray((count, width), dtype, buffer=data, offset=offset, strides=(stride, dtype.itemsize))
+        return arr.copy()
+
+    def count(self, i: int) -> int:
+        """Accessor ``i``'s element count, checked against the bytes it reads before anything is allocated
+        for it (a count of 10^10 in a small file is a MeshLoadError, not a 100 GiB array)."""
+        a = self.doc["accessors"][i]
+        count = a["count"]
+        if not isinstance(count, int) or isinstance(count, bool) or count < 0:
+            raise _Unread
+        if "bufferView" in a:
+            dtype = np.dtype(_COMPONENT[a["componentType"]])
+            data, stride = self.view(a["bufferView"])
+            size = dtype.itemsize * _WIDTH[a["type"]]
+            end = a.get("byteOffset", 0) + (count - 1) * (stride or size) + size
+            if count and end > len(data):
+                raise MeshLoadError(
+                    self.path,
+                    f"bufferView {a['bufferView']} holds {len(data)} bytes, accessor {i} reads {end}",
+                )
+        elif count > _ZEROS_MAX:
+            raise MeshLoadError(
+                self.path, f"accessor {i} has no bufferView and {count} elements (more than {_ZEROS_MAX})"
+            )
+        return count
+
+    def read(self, i: int) -> np.ndarray:
+        """Accessor ``i`` as a (count, width) array: its sparse values applied, normalized values as float."""
+        a = self.doc["accessors"][i]
+        dtype = np.dtype("<" + _COMPONENT[a["componentType"]])
+        width, count = _WIDTH[a["type"]], self.count(i)
+        if "bufferView" in a:
+            values = self._strided(a["bufferView"], a.get("byteOffset", 0), count, dtype, width)
+        else:
+            values = np.zeros((count, width), dtype)
+        sparse = a.get("sparse")
+        if sparse:
+            n, si, sv = sparse["count"], sparse["indices"], sparse["values"]
+            idt = np.dtype("<" + _COMPONENT[si["componentType"]])
+            where = self._strided(si["bufferView"], si.get("byteOffset", 0), n, idt, 1)[:, 0].astype(np.int64)
+            if n and (where.min() < 0 or where.max() >= count):
+                raise MeshLoadError(
+                    self.path,
+                    f"accessor {i}: a sparse index ({int(where.max())}) is past its {count} elements",
+                )
+            values[where] = self._strided(sv["bufferView"], sv.get("byteOffset", 0), n, dtype, width)
+        if a.get("normalized") and dtype.kind in "iu":
+            top = np.float32(np.iinfo(dtype).max)
+            values = values.astype(np.float32) / top
+            if dtype.kind == "i":
+                values = np.maximum(values, np.float32(-1.0))
+        return values
+
+    def add(self, values: np.ndarray, type_name: str) -> int:
+        """A new accessor of ``values`` (float32 or uint32), its index."""
+        values = np.ascontiguousarray(values, values.dtype.newbyteorder("<"))
+        self.extra.extend(b"\0" * (-len(self.extra) % 4))
+        self.views.append(
+            {"buffer": self.extra_buffer, "byteOffset": len(self.extra), "byteLength": values.nbytes}
+        )
+        self.extra.extend(values.tobytes())
+        accessor = {
+            "bufferView": len(self.views) - 1,
+            "componentType": _FLOAT if values.dtype.kind == "f" else _UINT,
+            "count": values.shape[0],
+            "type": type_name,
+        }
+        if type_name != "SCALAR" and values.shape[0]:
+            accessor.update(min=values.min(axis=0).tolist(), max=values.max(axis=0).tolist())
+        self.doc["accessors"].append(accessor)
+        return len(self.doc["accessors"]) - 1
+
+
+def _rewrite(path: Path, doc: dict, binary: bytes | None) -> bytes:
+    r = _Rewrite(path, doc, binary)
+    accessors = doc.get("accessors") or []
+    dense: dict[int, int] = {}  # an odd accessor -> its dense float (or index) copy
+
+    def plain(i: int, name: str = "", as_indices: bool = False) -> int:
+        a = accessors[i]
+        if not _odd(accessors, i, name):
+            return i
+        if i not in dense:
+            values = r.read(i)
+            if as_indices:
+                values = values.astype(np.uint32)
+            elif values.dtype.kind != "f":
+                values = values.astype(np.float32)
+            dense[i] = r.add(values[:, 0] if a["type"] == "SCALAR" else values, a["type"])
+        return dense[i]
+
+    material = None
+    for mesh in doc.get("meshes") or []:
+        for p in mesh.get("primitives") or []:
+            attrs = p.get("attributes") or {}
+            for name, i in list(attrs.items()):
+                attrs[name] = plain(i, name)
+            if "indices" in p:
+                p["indices"] = plain(p["indices"], as_indices=True)
+            if p.get("mode") == _TRIANGLE_FAN:
+                if "indices" in p:
+                    flat = r.read(p["indices"])[:, 0].astype(np.int64)
+                else:
+                    flat = np.arange(r.count(attrs["POSITION"]), dtype=np.int64)
+                k = np.arange(1, max(flat.shape[0] - 1, 1))[: max(flat.shape[0] - 2, 0)]
+                fan = np.stack([np.repeat(flat[:1], k.shape[0]), flat[k], flat[k + 1]], axis=1)
+                p["indices"] = r.add(fan.reshape(-1).astype(np.uint32), "SCALAR")
+                p["mode"] = _TRIANGLES
+            if "TEXCOORD_0" in attrs and "material" not in p:
+                if material is None:
+                    doc.setdefault("materials", []).append({"name": "swpm-usd default (for the uv to load)"})
+                    material = len(doc["materials"]) - 1
+                p["material"] = material
+    if "scenes" not in doc:
+        nodes = doc.get("nodes") or []
+        if not nodes:  # (meshes and no node: each mesh at the origin)
+            nodes = doc["nodes"] = [{"mesh": i} for i in range(len(doc.get("meshes") or []))]
+        children = {c for n in nodes if isinstance(n, dict) for c in n.get("children") or []}
+        doc["scenes"] = [{"nodes": [i for i in range(len(nodes)) if i not in children]}]
+        doc["scene"] = 0
+    for i, b in enumerate(doc["buffers"]):  # (inline, the .glb's binary chunk included: one JSON document)
+        if b.get("uri") is None:
+            b["uri"] = "data:application/octet-stream;base64," + base64.b64encode(r.buffer(i)).decode()
+    if r.extra:
+        doc["buffers"].append(
+            {
+                "byteLength": len(r.extra),
+                "uri": "data:application/octet-stream;base64," + base64.b64encode(bytes(r.extra)).decode(),
+            }
+        )
+    return json.dumps(doc).encode()
+
+
+#: extensions that compress a glTF's geometry, which trimesh cannot decode (Draco: without DracoPy); their
+#: accessors load as zeros ("all triangles are degenerate")
+_UNDECODED = ("EXT_meshopt_compression", "KHR_meshopt_compression", "KHR_draco_mesh_compression")
+
+
+def _check_extensions(path: Path, doc: Any) -> None:
+    """Raise a :class:`MeshLoadError` when the document requires a geometry compression trimesh cannot
+    decode here."""
+    import importlib.util
+
+    required = doc.get("extensionsRequired") if isinstance(doc, dict) else None
+    for name in required if isinstance(required, list) else []:
+        if name not in _UNDECODED:
+            continue
+        if name == "KHR_draco_mesh_compression" and importlib.util.find_spec("DracoPy") is not None:
+            continue
+        hint = " (pip install DracoPy)" if name == "KHR_draco_mesh_compression" else ""
+        raise MeshLoadError(
+            path,
+            f"its geometry is compressed with the glTF extension {name}, which this loader cannot decode"
+            f"{hint}: export it without that compression",
+        )
+
+
+def prepared_gltf(path: Path) -> bytes | None:
+    """The ``.gltf`` or ``.glb`` file ``path`` rewritten as ``.gltf`` JSON (buffers inline, images still by
+    their uri) for trimesh to read what it means, or None when it needs no rewrite or does not read."""
+    try:
+        if path.suffix.lower() == ".glb":
+            with open(
+                path, "rb"
+            ) as f:  # (its JSON chunk first: a file that needs nothing is read no further)
+                head = f.read(_GLB_HEADER.size + _CHUNK.size)
+                if len(head) < _GLB_HEADER.size + _CHUNK.size:
+                    return None
+                size, kind = _CHUNK.unpack_from(head, _GLB_HEADER.size)
+                if kind != _GLB_JSON:
+                    return None
+                doc = json.loads(f.read(size))
+                _check_extensions(path, doc)
+                if not _needs(doc):
+                    return None
+                f.seek(0)
+                data = f.read()
+        else:
+            data = path.read_bytes()
+        doc, binary = _document(path, data)
+        _check_extensions(path, doc)
+        if not isinstance(doc, dict) or not _needs(doc):
+            return None
+        return _rewrite(path, doc, binary)
+    except MeshLoadError:
+        raise
+    except (_Unread, OSError, ValueError, KeyError, IndexError, TypeError, AttributeError, RecursionError):
+        return None
