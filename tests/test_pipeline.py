@@ -3931,3 +3931,31 @@ def test_a_report_s_link_to_an_asset_s_curves_is_its_id_as_a_browser_reads_it(tm
     assert "\r" not in text
     links = [html.unescape(t.split("</a>")[0]) for t in text.split("<a class=curve href='#curves'>")[1:]]
     assert aid in links and sorted(links) == sorted(manifest["assets"])
+
+
+def test_a_path_rule_matches_a_file_whose_name_holds_a_colon(tmp_path):
+    # the rule's path was the asset id cut at its first ':' (a stage asset's id is "<stage>:<prim>"), so
+    # `m/x:y.obj` was matched as `m/x` and fell to the defaults, and a stage in `d:1/` was matched as `d`
+    from pxr import Usd, UsdGeom
+
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "x:y.obj").write_text(TWO_TRIANGLES)
+    (tmp_path / "d:1").mkdir()
+    st = Usd.Stage.CreateNew(str(tmp_path / "d:1" / "s.usda"))
+    m = UsdGeom.Mesh.Define(st, "/World/solid")
+    m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
+    m.CreateFaceVertexCountsAttr([3, 3])
+    m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+    st.GetRootLayer().Save()
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}, {stage: 'd:1/s.usda'}]\noutput: {dir: out}\n"
+        "defaults: {encoding: vanilla}\nrules:\n"
+        "  - {name: objs, match: {path: 'm/*.obj'}, encoding: skip-strip}\n"
+        "  - {name: stage, match: {path: 'd:1/s.usda', prim: '/World/*'}, encoding: mixed}\n"
+    )
+    res = run(cfg, dry_run=True, echo=lambda m: None)
+    assert {p["id"]: p["encoding"] for p in res.plan} == {
+        "m/x:y.obj": "skip-strip",
+        "d:1/s.usda:/World/solid": "mixed",
+    }

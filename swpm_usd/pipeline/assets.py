@@ -503,7 +503,9 @@ def rule_checks(rule: dict[str, Any], asset: Asset, triangles: int) -> list[tupl
     m = rule.get("match") or {}
     checks = []
     if "path" in m:
-        checks.append(("path", fnmatch.fnmatch(asset.id.split(":")[0], m["path"])))
+        # (a stage asset's id is "<stage>:<prim>"; a file's name may hold ':' itself: `x:y.obj`)
+        rel = asset.id[: -len(asset.prim) - 1] if asset.prim is not None else asset.id
+        checks.append(("path", fnmatch.fnmatch(rel, m["path"])))
     if "prim" in m:
         checks.append(("prim", asset.prim is not None and fnmatch.fnmatch(asset.prim, m["prim"])))
     if "triangles" in m:
