@@ -3959,3 +3959,29 @@ def test_a_path_rule_matches_a_file_whose_name_holds_a_colon(tmp_path):
         "m/x:y.obj": "skip-strip",
         "d:1/s.usda:/World/solid": "mixed",
     }
+
+
+def test_an_up_to_date_record_names_the_rule_that_chooses_it_today(tmp_path):
+    # a rule renamed, or another rule giving the same treatment (the defaults' before it), kept the build, as
+    # it should, and its record's `rule` and `why` as the first build wrote them: the manifest and the
+    # report named a rule the config no longer has, or "defaults" for an asset a rule takes
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = (
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out, report: true}\n"
+        "defaults: {encoding: vanilla}\n"
+    )
+    cfg.write_text(head)
+    assert run(cfg, echo=lambda m: None).built == 1
+    for name in ("small", "tiny"):
+        cfg.write_text(
+            head + f"rules:\n  - {{name: {name}, match: {{triangles: {{max: 10}}}}, encoding: vanilla}}\n"
+        )
+        res = run(cfg, echo=lambda m: None)
+        assert (res.built, res.skipped) == (0, 1)
+        rec = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]["m/a.obj"]
+        assert (rec["rule"], rec["why"]) == (name, f"rule '{name}' matched (triangles=2)")
+        assert f"<td>{name}</td>" in (tmp_path / "out" / "report.html").read_text()
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.skipped, res.records["m/a.obj"]["rule"]) == (0, 1, "tiny")

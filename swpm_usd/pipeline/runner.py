@@ -1384,6 +1384,11 @@ def _run(
             kept = records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
         if it.checked_outputs is not None:  # hashed, and their stat recorded anew
             kept = records[it.asset.id] = {**kept, "outputs": it.checked_outputs}
+        rule = _rule_name(cfg, it)
+        if kept.get("rule") != rule or kept.get("why") != it.why:
+            # another rule (renamed, reordered, added) now gives the asset the same treatment: the build is
+            # current, and its record names the rule that chose it today (the report shows it)
+            kept = records[it.asset.id] = {**kept, "rule": rule, "why": it.why}
         if it.input_stats is not kept.get("inputs") or _listing_mark(kept) != it.inputs_listed:
             # hashed (to the recorded digest): their stat anew; or listed by reading the file (the record
             # of an older version): marked as a list the next run may take
@@ -1451,7 +1456,7 @@ def _run(
             # (the stat of each input as it was hashed to this digest, never a later one: an input changed
             # since, which the worker may have built from, has another stat, and the next run hashes it)
             rec = _with_inputs(rec, it)
-            rec["rule"] = None if it.rule is None else cfg.data["rules"][it.rule]["name"]
+            rec["rule"] = _rule_name(cfg, it)
             for o in rec.get("outputs", {}).values():
                 _complete_output_record(out_dir / o["path"], o)
             if rec["status"] == "built":
@@ -1520,6 +1525,11 @@ def _run(
         records, len(built_ids), len(items) - len(todo), failed, warnings, seconds, manifest_path, planned,
         failures, **orphan_lists, built_ids=built_ids,
     )  # fmt: skip
+
+
+def _rule_name(cfg: Config, item: PlanItem) -> str | None:
+    """The name of the rule that chose ``item``'s treatment (None: the defaults)."""
+    return None if item.rule is None else cfg.data["rules"][item.rule]["name"]
 
 
 def _orphaned_outputs(
