@@ -3985,3 +3985,35 @@ def test_an_up_to_date_record_names_the_rule_that_chooses_it_today(tmp_path):
         assert f"<td>{name}</td>" in (tmp_path / "out" / "report.html").read_text()
     res = run(cfg, echo=lambda m: None)
     assert (res.built, res.skipped, res.records["m/a.obj"]["rule"]) == (0, 1, "tiny")
+
+
+def test_deleting_the_outputs_of_a_kind_no_longer_asked_for_rebuilds_nothing(tmp_path):
+    # `usd: false`, then the .usdc layers deleted (the config no longer wants them): every asset was rebuilt,
+    # its .swpm current, as a recorded output was missing; the record now drops it, and `usd: true` again
+    # builds the layers
+    (tmp_path / "m").mkdir()
+    for name in ("a", "b"):
+        (tmp_path / "m" / f"{name}.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    config = (
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out, usd: %s}\n"
+        "defaults: {encoding: vanilla}\n"
+    )
+    cfg.write_text(config % "true")
+    assert run(cfg, echo=lambda m: None).built == 2
+    cfg.write_text(config % "false")
+    (tmp_path / "out" / "a.usdc").unlink()
+    (tmp_path / "out" / "b.usdc").write_text("edited")
+    swpm = (tmp_path / "out" / "a.swpm").stat().st_mtime_ns
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.skipped) == (0, 2)
+    assert (tmp_path / "out" / "a.swpm").stat().st_mtime_ns == swpm
+    assert {k: set(r["outputs"]) for k, r in res.records.items()} == {
+        "m/a.obj": {"swpm"},
+        "m/b.obj": {"swpm"},
+    }
+    assert (tmp_path / "out" / "b.usdc").read_text() == "edited"  # (not the run's: left alone)
+    cfg.write_text(config % "true")
+    res = run(cfg, echo=lambda m: None)
+    assert res.built == 2 and all(set(r["outputs"]) == {"swpm", "usd"} for r in res.records.values())
+    assert (tmp_path / "out" / "a.usdc").is_file()

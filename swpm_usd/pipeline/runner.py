@@ -129,7 +129,8 @@ class PlanItem:
     rule_pending: bool = False  # the worker matches the rule once it has counted the triangles
     inputs: list[Path] = field(default_factory=list)  # the files the asset is built from (discover's)
     #: an up-to-date asset's outputs as its manifest record lists them, with the stat fields of those
-    #: hashed to be checked recorded anew (:func:`_checked_output`); None when no record changed
+    #: hashed to be checked recorded anew (:func:`_checked_output`) and those of a kind the config no
+    #: longer asks for left out when deleted or changed since; None when no record changed
     checked_outputs: dict[str, dict] | None = None
     #: the asset's manifest record; None when the manifest has none, or one that is not a record the run
     #: writes (a hand edit: :func:`.records.record_problem`), which is then ignored, with a warning
@@ -527,9 +528,12 @@ def plan(
         )
         if item.up_to_date:
             checked = {kind: _checked_output(out_dir / o["path"], o, verify) for kind, o in outs.items()}
-            item.up_to_date = all(o is not None for o in checked.values())
+            # (an output of a kind the config no longer asks for, deleted or changed since: no longer the
+            # run's, it leaves the record; the build is still current; `usd: false`, then the layers deleted)
+            wanted = _wanted_outputs(cfg)
+            item.up_to_date = all(o is not None for kind, o in checked.items() if kind in wanted)
             if item.up_to_date and any(checked[kind] is not o for kind, o in outs.items()):
-                item.checked_outputs = checked
+                item.checked_outputs = {kind: o for kind, o in checked.items() if o is not None}
         items.append(item)
     warnings = [] if any(i.rule_pending for i in items) else _unreached_rules(cfg, items)
     return items, problems, record_warnings + warnings
