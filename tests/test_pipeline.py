@@ -3899,20 +3899,21 @@ def test_a_manifest_whose_records_were_edited_since_its_scene_and_report_has_the
     assert run(cfg, echo=lambda m: None).built == 2
     manifest_path = out / "manifest.json"
     text = manifest_path.read_text()
-    why = json.loads(text)["assets"]["m/a.obj"]["why"]
-    manifest_path.write_text(text.replace(json.dumps(why), json.dumps("edited by hand"), 1))
+    # (a field the run keeps as recorded: a rule or why it corrects to today's, see the test after it)
+    seconds = json.loads(text)["assets"]["m/a.obj"]["seconds"]
+    manifest_path.write_text(text.replace(json.dumps(seconds), "1234.5", 1))
     written = _files_written(out)
     assert run(cfg, echo=lambda m: None).skipped == 2
-    assert "edited by hand" in (out / "report.html").read_text()
+    assert "<td>1234.50</td>" in (out / "report.html").read_text()
     now = _files_written(out)
     assert all(written[n] != now[n] for n in written), "the scene and report of other records were kept"
     assert run(cfg, echo=lambda m: None).skipped == 2 and _files_written(out) == now
     # the same records, the file reformatted (json.dumps): not the text the run wrote, so written again
     manifest = json.loads(manifest_path.read_text())
-    manifest["assets"]["m/b.obj"]["rule"] = "renamed by hand"
+    manifest["assets"]["m/b.obj"]["seconds"] = 4321.0
     manifest_path.write_text(json.dumps(manifest))
     assert run(cfg, echo=lambda m: None).skipped == 2
-    assert "renamed by hand" in (out / "report.html").read_text()
+    assert "<td>4321.00</td>" in (out / "report.html").read_text()
     now = _files_written(out)
     assert run(cfg, echo=lambda m: None).skipped == 2 and _files_written(out) == now
 
