@@ -4018,3 +4018,31 @@ def test_deleting_the_outputs_of_a_kind_no_longer_asked_for_rebuilds_nothing(tmp
     res = run(cfg, echo=lambda m: None)
     assert res.built == 2 and all(set(r["outputs"]) == {"swpm", "usd"} for r in res.records.values())
     assert (tmp_path / "out" / "a.usdc").is_file()
+
+
+def test_two_configs_sharing_an_output_dir_are_warned_of(tmp_path):
+    # two configs writing in one output.dir take each other's assets as removed: each run rebuilt the other's
+    # assets, and `--prune` deleted its outputs, without a word on why
+    (tmp_path / "m").mkdir()
+    for name in ("a", "b"):
+        (tmp_path / "m" / f"{name}.obj").write_text(TWO_TRIANGLES)
+        (tmp_path / f"{name}.yaml").write_text(
+            f"version: 1\nassets: [{{glob: 'm/{name}.obj'}}]\noutput: {{dir: out}}\n"
+            "defaults: {encoding: vanilla}\n"
+        )
+    a, b = tmp_path / "a.yaml", tmp_path / "b.yaml"
+    assert run(a, echo=lambda m: None).warnings == []
+    expected = (
+        f"out/manifest.json was written by a run of another config ({a}): 1 of its assets is not in {b} "
+        "and taken as removed (outputs left unlisted, rebuilt by that config's next run); give each config "
+        "its own output.dir"
+    )
+    assert run(b, dry_run=True, echo=lambda m: None).warnings == [expected]
+    assert run(b, echo=lambda m: None).warnings == [expected]
+    assert run(b, echo=lambda m: None).warnings == []  # (its own manifest now)
+    # the config moved or renamed (the file it was is gone): not another config
+    (tmp_path / "m" / "c.obj").write_text(TWO_TRIANGLES)
+    b.rename(tmp_path / "c.yaml")
+    (tmp_path / "c.yaml").write_text((tmp_path / "c.yaml").read_text().replace("m/b.obj", "m/c.obj"))
+    res = run(tmp_path / "c.yaml", echo=lambda m: None)
+    assert res.warnings == [] and sorted(res.unlisted) == ["a.swpm", "b.swpm"]

@@ -1338,6 +1338,13 @@ def _run(
         for it in items
         if it.asset.id in unresolved and it.previous is not None
     ]
+    if shared := _shared_with(cfg, manifest, items):
+        warnings.append(
+            f"{_rel(cfg, manifest_path)} was written by a run of another config ({shared[0]}): "
+            f"{shared[1]} of its assets {'is' if shared[1] == 1 else 'are'} not in {cfg.shown or cfg.path} "
+            f"and taken as removed (outputs {'deleted' if prune else 'left unlisted'}, rebuilt by that "
+            "config's next run); give each config its own output.dir"
+        )
     for w in warnings:
         echo(f"warning: {w}")
     # (before any build: a removed asset's output path may be a current asset's, which is never deleted)
@@ -1529,6 +1536,23 @@ def _run(
         records, len(built_ids), len(items) - len(todo), failed, warnings, seconds, manifest_path, planned,
         failures, **orphan_lists, built_ids=built_ids,
     )  # fmt: skip
+
+
+def _shared_with(cfg: Config, manifest: dict, items: list[PlanItem]) -> tuple[str, int] | None:
+    """(the other config, how many of its assets this one has not) when ``manifest`` was written by a run
+    of another config file, still there (not this one moved or renamed), whose assets this one lacks: two
+    configs sharing an output.dir take each other's assets as removed, and each run rebuilds the other's."""
+    other = manifest.get("config")
+    if not isinstance(other, str) or "\0" in other or not isinstance(manifest.get("assets"), dict):
+        return None
+    current = {it.asset.id for it in items}
+    dropped = sum(aid not in current for aid in manifest["assets"])
+    try:
+        if not dropped or not os.path.isfile(other) or os.path.samefile(other, cfg.path):
+            return None
+    except OSError:
+        return None
+    return other, dropped
 
 
 def _rule_name(cfg: Config, item: PlanItem) -> str | None:
