@@ -4046,3 +4046,26 @@ def test_two_configs_sharing_an_output_dir_are_warned_of(tmp_path):
     (tmp_path / "c.yaml").write_text((tmp_path / "c.yaml").read_text().replace("m/b.obj", "m/c.obj"))
     res = run(tmp_path / "c.yaml", echo=lambda m: None)
     assert res.warnings == [] and sorted(res.unlisted) == ["a.swpm", "b.swpm"]
+
+
+def test_a_matched_link_to_another_matched_file_is_named_in_a_warning(tmp_path):
+    # a mesh replaced by a link to another the glob matches (a library deduplicated by links) is one asset
+    # with it: the link's asset, its outputs and its place in the scene went, without a word
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    (tmp_path / "m" / "b.obj").symlink_to("a.obj")
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    expected = [
+        f"{cfg}:2:17: $.assets[0].glob: m/b.obj and m/a.obj are one file (a link to the other or to one "
+        "file), one asset built as m/a.obj: m/b.obj has no outputs of its own (copy the file to build it "
+        "apart)"
+    ]
+    assert run(cfg, dry_run=True, echo=lambda m: None).warnings == expected
+    res = run(cfg, echo=lambda m: None)
+    assert res.warnings == expected and list(res.records) == ["m/a.obj"]
+    # the same file matched by two entries under one name is not a link: no warning
+    cfg.write_text(cfg.read_text().replace("[{glob: 'm/*.obj'}]", "[{glob: 'm/a.obj'}, {glob: 'm/a.*'}]"))
+    assert run(cfg, echo=lambda m: None).warnings == []

@@ -449,7 +449,10 @@ def plan(
         return found
 
     settled: set[str] = set()  # the assets whose inputs their record may keep for reuse
-    assets, inputs, problems = discover(cfg, _recorded_output_paths(out_dir, manifest), listed, settled)
+    aliases: list[str] = []  # (warnings: a matched link to another matched file, one asset)
+    assets, inputs, problems = discover(
+        cfg, _recorded_output_paths(out_dir, manifest), listed, settled, aliases
+    )
     problems.extend(_unusable_out_dir(cfg, out_dir))
     problems.extend(_overwritten_inputs(cfg, out_dir, assets, inputs))
     items = []
@@ -536,7 +539,7 @@ def plan(
                 item.checked_outputs = {kind: o for kind, o in checked.items() if o is not None}
         items.append(item)
     warnings = [] if any(i.rule_pending for i in items) else _unreached_rules(cfg, items)
-    return items, problems, record_warnings + warnings
+    return items, problems, aliases + record_warnings + warnings
 
 
 #: temporary files a run leaves in output.dir if it is killed (the atomic writes', the USD layers' staged by
