@@ -4069,3 +4069,21 @@ def test_a_matched_link_to_another_matched_file_is_named_in_a_warning(tmp_path):
     # the same file matched by two entries under one name is not a link: no warning
     cfg.write_text(cfg.read_text().replace("[{glob: 'm/*.obj'}]", "[{glob: 'm/a.obj'}, {glob: 'm/a.*'}]"))
     assert run(cfg, echo=lambda m: None).warnings == []
+
+
+def test_a_dry_run_with_force_counts_no_asset_up_to_date(tmp_path):
+    # `--dry-run --force` planned every asset "to build" and counted them `skipped` (up to date) in the
+    # summary (`--json`)
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    assert run(cfg, echo=lambda m: None).built == 1
+    res = run(cfg, dry_run=True, echo=lambda m: None)
+    assert res.skipped == 1 and [p["state"] for p in res.plan] == ["up to date"]
+    res = run(cfg, dry_run=True, force=True, echo=lambda m: None)
+    assert res.skipped == 0 and [p["state"] for p in res.plan] == ["to build"]
+    r = CliRunner().invoke(main, ["run", str(cfg), "--dry-run", "--force", "--json"])
+    assert r.exit_code == 0 and json.loads(r.stdout)["skipped"] == 0

@@ -1376,7 +1376,7 @@ def _run(
                 }
             )
         if dry_run:
-            skipped = sum(i.up_to_date for i in items)
+            skipped = 0 if force else sum(i.up_to_date for i in items)  # (force: each "to build")
             for path in orphan_names:
                 echo(f"{path}: output of an asset no longer in the config" + ("; --prune deletes it" * prune))
             return RunResult({}, 0, skipped, 0, warnings, 0.0, manifest_path, planned, **orphan_lists)
