@@ -4087,3 +4087,32 @@ def test_a_dry_run_with_force_counts_no_asset_up_to_date(tmp_path):
     assert res.skipped == 0 and [p["state"] for p in res.plan] == ["to build"]
     r = CliRunner().invoke(main, ["run", str(cfg), "--dry-run", "--force", "--json"])
     assert r.exit_code == 0 and json.loads(r.stdout)["skipped"] == 0
+
+
+def test_a_manifest_that_does_not_read_is_named_in_a_warning(tmp_path):
+    # a cut or hand-broken manifest.json was taken for none without a word: every asset built again (hours
+    # of a studio's library) and the outputs it recorded forgotten (never listed or pruned)
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    assert run(cfg, echo=lambda m: None).built == 1
+    manifest = tmp_path / "out" / "manifest.json"
+    text = manifest.read_text()
+    tail = "; the run takes it for no manifest: every asset is built again, and the outputs it recorded are "
+    tail += "no longer known (not pruned)"
+    for broken, why in [
+        (text[:40], "it does not read (JSONDecodeError: "),
+        ("[]", "it is a list, not an object"),
+        ('{"assets": 1}', "its assets is a number, not an object"),
+    ]:
+        manifest.write_text(broken)
+        (warning,) = run(cfg, dry_run=True, echo=lambda m: None).warnings
+        assert warning.startswith(f"out/manifest.json: {why}") and warning.endswith(tail), warning
+    res = run(cfg, echo=lambda m: None)
+    assert res.built == 1 and len(res.warnings) == 1
+    assert run(cfg, echo=lambda m: None).warnings == []
+    manifest.unlink()  # (none at all: no warning)
+    assert run(cfg, echo=lambda m: None).warnings == []

@@ -195,7 +195,10 @@ def _inputs_key(entries: list) -> str:
 
 
 def _read_manifest(
-    path: Path, unresolved: dict[str, str] | None = None, older: list[str] | None = None
+    path: Path,
+    unresolved: dict[str, str] | None = None,
+    older: list[str] | None = None,
+    unreadable: list[str] | None = None,
 ) -> dict:
     """The manifest at ``path``, ``{"assets": {}}`` for none (or not one); each record's :data:`INPUTS_REF`
     replaced by the list it names (one list object for all the records that share it), and records of
@@ -204,13 +207,25 @@ def _read_manifest(
     ``inputs`` (hashed, as a malformed list is), and is described in ``unresolved`` (asset id -> why).
     ``older`` gets the ids of the records of an older manifest given one list object (which a rewrite
     writes once, in :data:`INPUT_LISTS`). A run output's :data:`CURRENT` mark is True when it is the digest
-    of the text before :data:`RUN_OUTPUTS` (the records as the run wrote them), else left out."""
+    of the text before :data:`RUN_OUTPUTS` (the records as the run wrote them), else left out. A file
+    there that is not a manifest (cut, not JSON, edited into another shape) is described in ``unreadable``.
+    """
     try:
         raw = path.read_bytes()
         data = json.loads(raw)
-    except (OSError, ValueError):
+    except FileNotFoundError:
+        return {"assets": {}}
+    except (OSError, ValueError) as exc:
+        if unreadable is not None:
+            unreadable.append(f"it does not read ({type(exc).__name__}: {exc})")
         return {"assets": {}}
     if not isinstance(data, dict) or not isinstance(data.get("assets"), dict):
+        if unreadable is not None:
+            unreadable.append(
+                f"it is {_what(data)}, not an object"
+                if not isinstance(data, dict)
+                else f"its assets is {_what(data.get('assets'))}, not an object"
+            )
         return {"assets": {}}
     runs = data.get(RUN_OUTPUTS)
     marked = (
@@ -1324,8 +1339,9 @@ def _run(
     manifest_path = out_dir / MANIFEST
     unresolved: dict[str, str] = {}  # asset id -> why its record's inputs_ref names no list
     older: list[str] = []  # the records of an older manifest's lists, which a rewrite writes compact
+    unreadable: list[str] = []  # why the file at the manifest's path is no manifest (cut, not JSON)
     with _gc_paused():
-        manifest = previous = _read_manifest(manifest_path, unresolved, older)
+        manifest = previous = _read_manifest(manifest_path, unresolved, older, unreadable)
     if not dry_run and out_dir.is_dir():  # (the run's from here on: before the plan checks the outputs)
         _restore_kept_aside(out_dir, manifest["assets"])
     # (not while it loads meshes to count their triangles: a loader's garbage may be cyclic)
@@ -1335,12 +1351,22 @@ def _run(
         errors = [*errors, "limits.seconds needs the local executor (--executor dask cannot stop an asset)"]
     if errors:
         raise ConfigError(errors)
-    warnings = warnings + [  # (a hand edit: the inputs of a current asset's record hashed, not trusted)
-        f"{_rel(cfg, manifest_path)}: the record of {it.asset.id} names no list of its inputs "
-        f"({unresolved[it.asset.id]}); they are hashed"
-        for it in items
-        if it.asset.id in unresolved and it.previous is not None
+    # (no record to go by: every asset built again, and the outputs it recorded no longer known)
+    lost = [
+        f"{_rel(cfg, manifest_path)}: {why}; the run takes it for no manifest: every asset is built "
+        "again, and the outputs it recorded are no longer known (not pruned)"
+        for why in unreadable
     ]
+    warnings = (
+        lost
+        + warnings
+        + [  # (a hand edit: the inputs of a current asset's record hashed, not trusted)
+            f"{_rel(cfg, manifest_path)}: the record of {it.asset.id} names no list of its inputs "
+            f"({unresolved[it.asset.id]}); they are hashed"
+            for it in items
+            if it.asset.id in unresolved and it.previous is not None
+        ]
+    )
     if shared := _shared_with(cfg, manifest, items):
         warnings.append(
             f"{_rel(cfg, manifest_path)} was written by a run of another config ({shared[0]}): "
