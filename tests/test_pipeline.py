@@ -4116,3 +4116,19 @@ def test_a_manifest_that_does_not_read_is_named_in_a_warning(tmp_path):
     assert run(cfg, echo=lambda m: None).warnings == []
     manifest.unlink()  # (none at all: no warning)
     assert run(cfg, echo=lambda m: None).warnings == []
+
+
+def test_a_stage_that_is_a_link_in_a_loop_is_a_config_error(tmp_path):
+    # resolving the stage's path raised out of the run (a RuntimeError's traceback) instead of a located error
+    (tmp_path / "a.usda").symlink_to("b.usda")
+    (tmp_path / "b.usda").symlink_to("a.usda")
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{stage: a.usda}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    with pytest.raises(ConfigError) as exc:
+        run(cfg, dry_run=True, echo=lambda m: None)
+    (problem,) = exc.value.problems
+    assert problem.startswith(f"{cfg}:2:18: $.assets[0].stage: cannot open stage a.usda: Symlink loop")
+    r = CliRunner().invoke(main, ["run", str(cfg)])
+    assert r.exit_code == 2 and "Traceback" not in r.output

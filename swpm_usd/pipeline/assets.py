@@ -389,8 +389,9 @@ def discover(
                 if settled is not None and settles and p.suffix.lower() in LISTED_SUFFIXES:
                     settled.add(rel)
         else:
-            stage_path = (cfg.base / src["stage"]).resolve()
             try:
+                # (in the try: a link in a loop is a RuntimeError to resolve(), reported as the stage's)
+                stage_path = (cfg.base / src["stage"]).resolve()
                 found, used = _stage_assets(cfg, i, stage_path)
             except Exception as exc:  # noqa: BLE001 - any pxr failure is reported, located
                 msg = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
