@@ -4132,3 +4132,39 @@ def test_a_stage_that_is_a_link_in_a_loop_is_a_config_error(tmp_path):
     assert problem.startswith(f"{cfg}:2:18: $.assets[0].stage: cannot open stage a.usda: Symlink loop")
     r = CliRunner().invoke(main, ["run", str(cfg)])
     assert r.exit_code == 2 and "Traceback" not in r.output
+
+
+def test_a_stage_given_as_a_link_keeps_its_assets_names_as_it_is_pointed_elsewhere(tmp_path):
+    # the stage's path was resolved before naming its prims' assets: `scene.usda -> versions/v1.usda` gave
+    # ids `versions/v1.usda:/World/m` and outputs `v1__World_m.*`, so pointing the link at v2 renamed every
+    # asset (all rebuilt, the old outputs unlisted, the scene's prims renamed), and a rule's `path:
+    # scene.usda` never matched; a glob's link keeps its own name
+    from pxr import Usd, UsdGeom
+
+    (tmp_path / "versions").mkdir()
+    for version, x in (("v1", 1.0), ("v2", 2.0)):
+        st = Usd.Stage.CreateNew(str(tmp_path / "versions" / f"{version}.usda"))
+        m = UsdGeom.Mesh.Define(st, "/World/m")
+        m.CreatePointsAttr([(0, 0, 0), (x, 0, 0), (0, 1, 0), (x, 1, 0)])
+        m.CreateFaceVertexCountsAttr([3, 3])
+        m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+        st.GetRootLayer().Save()
+    (tmp_path / "scene.usda").symlink_to("versions/v1.usda")
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{stage: scene.usda}]\noutput: {dir: out, usd: true, scene: true}\n"
+        "defaults: {encoding: vanilla}\nrules: [{name: s, match: {path: scene.usda}, encoding: skip-strip}]\n"
+    )
+    res = run(cfg, echo=lambda m: None)
+    assert (
+        res.built_ids == ["scene.usda:/World/m"]
+        and res.records["scene.usda:/World/m"]["encoding"] == "skip-strip"
+    )
+    assert (tmp_path / "out" / "scene__World_m.usdc").is_file()
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    (tmp_path / "scene.usda").unlink()
+    (tmp_path / "scene.usda").symlink_to("versions/v2.usda")
+    res = run(cfg, echo=lambda m: None)
+    assert res.built_ids == ["scene.usda:/World/m"] and res.unlisted == []
+    stage = Usd.Stage.Open(str(tmp_path / "out" / "scene.usda"))
+    assert [p.GetName() for p in stage.GetPrimAtPath("/Scene").GetChildren()] == ["scene__World_m"]

@@ -391,8 +391,13 @@ def discover(
         else:
             try:
                 # (in the try: a link in a loop is a RuntimeError to resolve(), reported as the stage's)
-                stage_path = (cfg.base / src["stage"]).resolve()
-                found, used = _stage_assets(cfg, i, stage_path)
+                given = cfg.base / src["stage"]
+                stage_path = given.resolve()
+                # its prims' ids and outputs named after the stage as written, as a glob's files are: a link
+                # (scene.usda -> versions/scene_v3.usda) keeps them, the scene's prims and the rules' paths
+                # as it is pointed at the next version (one with `..` in it: its real path, as before)
+                named = given if ".." not in given.parts else stage_path
+                found, used = _stage_assets(cfg, i, named)
             except Exception as exc:  # noqa: BLE001 - any pxr failure is reported, located
                 msg = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
                 problems.append(
