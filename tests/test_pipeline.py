@@ -3899,20 +3899,21 @@ def test_a_manifest_whose_records_were_edited_since_its_scene_and_report_has_the
     assert run(cfg, echo=lambda m: None).built == 2
     manifest_path = out / "manifest.json"
     text = manifest_path.read_text()
-    why = json.loads(text)["assets"]["m/a.obj"]["why"]
-    manifest_path.write_text(text.replace(json.dumps(why), json.dumps("edited by hand"), 1))
+    # (a field the run keeps as recorded: a rule or why it corrects to today's, see the test after it)
+    seconds = json.loads(text)["assets"]["m/a.obj"]["seconds"]
+    manifest_path.write_text(text.replace(json.dumps(seconds), "1234.5", 1))
     written = _files_written(out)
     assert run(cfg, echo=lambda m: None).skipped == 2
-    assert "edited by hand" in (out / "report.html").read_text()
+    assert "<td>1234.50</td>" in (out / "report.html").read_text()
     now = _files_written(out)
     assert all(written[n] != now[n] for n in written), "the scene and report of other records were kept"
     assert run(cfg, echo=lambda m: None).skipped == 2 and _files_written(out) == now
     # the same records, the file reformatted (json.dumps): not the text the run wrote, so written again
     manifest = json.loads(manifest_path.read_text())
-    manifest["assets"]["m/b.obj"]["rule"] = "renamed by hand"
+    manifest["assets"]["m/b.obj"]["seconds"] = 4321.0
     manifest_path.write_text(json.dumps(manifest))
     assert run(cfg, echo=lambda m: None).skipped == 2
-    assert "renamed by hand" in (out / "report.html").read_text()
+    assert "<td>4321.00</td>" in (out / "report.html").read_text()
     now = _files_written(out)
     assert run(cfg, echo=lambda m: None).skipped == 2 and _files_written(out) == now
 
@@ -3953,3 +3954,239 @@ def test_a_stage_that_does_not_open_is_named_without_usd_core_s_source_locations
     assert line.startswith("c.yaml:2:18: $.assets[0].stage: cannot open stage scene.usda: ")
     assert "scene.usda:4:1: parse error" in line
     assert "Error in '" not in line and ".cpp" not in line
+
+
+def test_a_path_rule_matches_a_file_whose_name_holds_a_colon(tmp_path):
+    # the rule's path was the asset id cut at its first ':' (a stage asset's id is "<stage>:<prim>"), so
+    # `m/x:y.obj` was matched as `m/x` and fell to the defaults, and a stage in `d:1/` was matched as `d`
+    from pxr import Usd, UsdGeom
+
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "x:y.obj").write_text(TWO_TRIANGLES)
+    (tmp_path / "d:1").mkdir()
+    st = Usd.Stage.CreateNew(str(tmp_path / "d:1" / "s.usda"))
+    m = UsdGeom.Mesh.Define(st, "/World/solid")
+    m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
+    m.CreateFaceVertexCountsAttr([3, 3])
+    m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+    st.GetRootLayer().Save()
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}, {stage: 'd:1/s.usda'}]\noutput: {dir: out}\n"
+        "defaults: {encoding: vanilla}\nrules:\n"
+        "  - {name: objs, match: {path: 'm/*.obj'}, encoding: skip-strip}\n"
+        "  - {name: stage, match: {path: 'd:1/s.usda', prim: '/World/*'}, encoding: mixed}\n"
+    )
+    res = run(cfg, dry_run=True, echo=lambda m: None)
+    assert {p["id"]: p["encoding"] for p in res.plan} == {
+        "m/x:y.obj": "skip-strip",
+        "d:1/s.usda:/World/solid": "mixed",
+    }
+
+
+def test_an_up_to_date_record_names_the_rule_that_chooses_it_today(tmp_path):
+    # a rule renamed, or another rule giving the same treatment (the defaults' before it), kept the build, as
+    # it should, and its record's `rule` and `why` as the first build wrote them: the manifest and the
+    # report named a rule the config no longer has, or "defaults" for an asset a rule takes
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = (
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out, report: true}\n"
+        "defaults: {encoding: vanilla}\n"
+    )
+    cfg.write_text(head)
+    assert run(cfg, echo=lambda m: None).built == 1
+    for name in ("small", "tiny"):
+        cfg.write_text(
+            head + f"rules:\n  - {{name: {name}, match: {{triangles: {{max: 10}}}}, encoding: vanilla}}\n"
+        )
+        res = run(cfg, echo=lambda m: None)
+        assert (res.built, res.skipped) == (0, 1)
+        rec = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]["m/a.obj"]
+        assert (rec["rule"], rec["why"]) == (name, f"rule '{name}' matched (triangles=2)")
+        assert f"<td>{name}</td>" in (tmp_path / "out" / "report.html").read_text()
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.skipped, res.records["m/a.obj"]["rule"]) == (0, 1, "tiny")
+
+
+def test_deleting_the_outputs_of_a_kind_no_longer_asked_for_rebuilds_nothing(tmp_path):
+    # `usd: false`, then the .usdc layers deleted (the config no longer wants them): every asset was rebuilt,
+    # its .swpm current, as a recorded output was missing; the record now drops it, and `usd: true` again
+    # builds the layers
+    (tmp_path / "m").mkdir()
+    for name in ("a", "b"):
+        (tmp_path / "m" / f"{name}.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    config = (
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out, usd: %s}\n"
+        "defaults: {encoding: vanilla}\n"
+    )
+    cfg.write_text(config % "true")
+    assert run(cfg, echo=lambda m: None).built == 2
+    cfg.write_text(config % "false")
+    (tmp_path / "out" / "a.usdc").unlink()
+    (tmp_path / "out" / "b.usdc").write_text("edited")
+    swpm = (tmp_path / "out" / "a.swpm").stat().st_mtime_ns
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.skipped) == (0, 2)
+    assert (tmp_path / "out" / "a.swpm").stat().st_mtime_ns == swpm
+    assert {k: set(r["outputs"]) for k, r in res.records.items()} == {
+        "m/a.obj": {"swpm"},
+        "m/b.obj": {"swpm"},
+    }
+    assert (tmp_path / "out" / "b.usdc").read_text() == "edited"  # (not the run's: left alone)
+    cfg.write_text(config % "true")
+    res = run(cfg, echo=lambda m: None)
+    assert res.built == 2 and all(set(r["outputs"]) == {"swpm", "usd"} for r in res.records.values())
+    assert (tmp_path / "out" / "a.usdc").is_file()
+
+
+def test_two_configs_sharing_an_output_dir_are_warned_of(tmp_path):
+    # two configs writing in one output.dir take each other's assets as removed: each run rebuilt the other's
+    # assets, and `--prune` deleted its outputs, without a word on why
+    (tmp_path / "m").mkdir()
+    for name in ("a", "b"):
+        (tmp_path / "m" / f"{name}.obj").write_text(TWO_TRIANGLES)
+        (tmp_path / f"{name}.yaml").write_text(
+            f"version: 1\nassets: [{{glob: 'm/{name}.obj'}}]\noutput: {{dir: out}}\n"
+            "defaults: {encoding: vanilla}\n"
+        )
+    a, b = tmp_path / "a.yaml", tmp_path / "b.yaml"
+    assert run(a, echo=lambda m: None).warnings == []
+    expected = (
+        f"out/manifest.json was written by a run of another config ({a}): 1 of its assets is not in {b} "
+        "and taken as removed (outputs left unlisted, rebuilt by that config's next run); give each config "
+        "its own output.dir"
+    )
+    assert run(b, dry_run=True, echo=lambda m: None).warnings == [expected]
+    assert run(b, echo=lambda m: None).warnings == [expected]
+    assert run(b, echo=lambda m: None).warnings == []  # (its own manifest now)
+    # the config moved or renamed (the file it was is gone): not another config
+    (tmp_path / "m" / "c.obj").write_text(TWO_TRIANGLES)
+    b.rename(tmp_path / "c.yaml")
+    (tmp_path / "c.yaml").write_text((tmp_path / "c.yaml").read_text().replace("m/b.obj", "m/c.obj"))
+    res = run(tmp_path / "c.yaml", echo=lambda m: None)
+    assert res.warnings == [] and sorted(res.unlisted) == ["a.swpm", "b.swpm"]
+
+
+def test_a_matched_link_to_another_matched_file_is_named_in_a_warning(tmp_path):
+    # a mesh replaced by a link to another the glob matches (a library deduplicated by links) is one asset
+    # with it: the link's asset, its outputs and its place in the scene went, without a word
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    (tmp_path / "m" / "b.obj").symlink_to("a.obj")
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    expected = [
+        f"{cfg}:2:17: $.assets[0].glob: m/b.obj and m/a.obj are one file (a link to the other or to one "
+        "file), one asset built as m/a.obj: m/b.obj has no outputs of its own (copy the file to build it "
+        "apart)"
+    ]
+    assert run(cfg, dry_run=True, echo=lambda m: None).warnings == expected
+    res = run(cfg, echo=lambda m: None)
+    assert res.warnings == expected and list(res.records) == ["m/a.obj"]
+    # the same file matched by two entries under one name is not a link: no warning
+    cfg.write_text(cfg.read_text().replace("[{glob: 'm/*.obj'}]", "[{glob: 'm/a.obj'}, {glob: 'm/a.*'}]"))
+    assert run(cfg, echo=lambda m: None).warnings == []
+
+
+def test_a_dry_run_with_force_counts_no_asset_up_to_date(tmp_path):
+    # `--dry-run --force` planned every asset "to build" and counted them `skipped` (up to date) in the
+    # summary (`--json`)
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    assert run(cfg, echo=lambda m: None).built == 1
+    res = run(cfg, dry_run=True, echo=lambda m: None)
+    assert res.skipped == 1 and [p["state"] for p in res.plan] == ["up to date"]
+    res = run(cfg, dry_run=True, force=True, echo=lambda m: None)
+    assert res.skipped == 0 and [p["state"] for p in res.plan] == ["to build"]
+    r = CliRunner().invoke(main, ["run", str(cfg), "--dry-run", "--force", "--json"])
+    assert r.exit_code == 0 and json.loads(r.stdout)["skipped"] == 0
+
+
+def test_a_manifest_that_does_not_read_is_named_in_a_warning(tmp_path):
+    # a cut or hand-broken manifest.json was taken for none without a word: every asset built again (hours
+    # of a studio's library) and the outputs it recorded forgotten (never listed or pruned)
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    assert run(cfg, echo=lambda m: None).built == 1
+    manifest = tmp_path / "out" / "manifest.json"
+    text = manifest.read_text()
+    tail = "; the run takes it for no manifest: every asset is built again, and the outputs it recorded are "
+    tail += "no longer known (not pruned)"
+    for broken, why in [
+        (text[:40], "it does not read (JSONDecodeError: "),
+        ("[]", "it is a list, not an object"),
+        ('{"assets": 1}', "its assets is a number, not an object"),
+    ]:
+        manifest.write_text(broken)
+        (warning,) = run(cfg, dry_run=True, echo=lambda m: None).warnings
+        assert warning.startswith(f"out/manifest.json: {why}") and warning.endswith(tail), warning
+    res = run(cfg, echo=lambda m: None)
+    assert res.built == 1 and len(res.warnings) == 1
+    assert run(cfg, echo=lambda m: None).warnings == []
+    manifest.unlink()  # (none at all: no warning)
+    assert run(cfg, echo=lambda m: None).warnings == []
+
+
+def test_a_stage_that_is_a_link_in_a_loop_is_a_config_error(tmp_path):
+    # resolving the stage's path raised out of the run (a RuntimeError's traceback) instead of a located error
+    (tmp_path / "a.usda").symlink_to("b.usda")
+    (tmp_path / "b.usda").symlink_to("a.usda")
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{stage: a.usda}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    with pytest.raises(ConfigError) as exc:
+        run(cfg, dry_run=True, echo=lambda m: None)
+    (problem,) = exc.value.problems
+    assert problem.startswith(f"{cfg}:2:18: $.assets[0].stage: cannot open stage a.usda: Symlink loop")
+    r = CliRunner().invoke(main, ["run", str(cfg)])
+    assert r.exit_code == 2 and "Traceback" not in r.output
+
+
+def test_a_stage_given_as_a_link_keeps_its_assets_names_as_it_is_pointed_elsewhere(tmp_path):
+    # the stage's path was resolved before naming its prims' assets: `scene.usda -> versions/v1.usda` gave
+    # ids `versions/v1.usda:/World/m` and outputs `v1__World_m.*`, so pointing the link at v2 renamed every
+    # asset (all rebuilt, the old outputs unlisted, the scene's prims renamed), and a rule's `path:
+    # scene.usda` never matched; a glob's link keeps its own name
+    from pxr import Usd, UsdGeom
+
+    (tmp_path / "versions").mkdir()
+    for version, x in (("v1", 1.0), ("v2", 2.0)):
+        st = Usd.Stage.CreateNew(str(tmp_path / "versions" / f"{version}.usda"))
+        m = UsdGeom.Mesh.Define(st, "/World/m")
+        m.CreatePointsAttr([(0, 0, 0), (x, 0, 0), (0, 1, 0), (x, 1, 0)])
+        m.CreateFaceVertexCountsAttr([3, 3])
+        m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+        st.GetRootLayer().Save()
+    (tmp_path / "scene.usda").symlink_to("versions/v1.usda")
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{stage: scene.usda}]\noutput: {dir: out, usd: true, scene: true}\n"
+        "defaults: {encoding: vanilla}\nrules: [{name: s, match: {path: scene.usda}, encoding: skip-strip}]\n"
+    )
+    res = run(cfg, echo=lambda m: None)
+    assert (
+        res.built_ids == ["scene.usda:/World/m"]
+        and res.records["scene.usda:/World/m"]["encoding"] == "skip-strip"
+    )
+    assert (tmp_path / "out" / "scene__World_m.usdc").is_file()
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    (tmp_path / "scene.usda").unlink()
+    (tmp_path / "scene.usda").symlink_to("versions/v2.usda")
+    res = run(cfg, echo=lambda m: None)
+    assert res.built_ids == ["scene.usda:/World/m"] and res.unlisted == []
+    stage = Usd.Stage.Open(str(tmp_path / "out" / "scene.usda"))
+    assert [p.GetName() for p in stage.GetPrimAtPath("/Scene").GetChildren()] == ["scene__World_m"]

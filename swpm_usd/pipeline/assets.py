@@ -280,6 +280,7 @@ def discover(
     recorded_outputs: Iterable[Path] = (),
     listed: Callable[[str, Path], list[Path] | None] | None = None,
     settled: set[str] | None = None,
+    aliases: list[str] | None = None,
 ) -> tuple[list[Asset], dict[str, list[Path]], list[str]]:
     """Every asset of the config, the files each depends on, and semantic problems (located). A file (or a
     stage's prim) matched by several entries of ``assets`` is one asset, found by the first of them. A
@@ -292,13 +293,16 @@ def discover(
     asset's manifest record, when those files are all as recorded (:func:`.runner._listed_inputs`). The
     ids of those of :data:`LISTED_SUFFIXES` whose list holds while the files in it are unchanged (taken
     from ``listed``, or read with every glTF buffer found by its name as written: a USD file with a layer
-    it cannot open does not load) are added to ``settled``: their records may keep the list for reuse."""
+    it cannot open does not load) are added to ``settled``: their records may keep the list for reuse.
+    A matched path that is another matched path's file (a link to it) is that asset: ``aliases`` gets a
+    warning naming both (located), as the path is no asset of its own."""
     from ..io import SUPPORTED_SUFFIXES  # (here: the CLI's --help and config checks import no mesh code)
 
     assets: list[Asset] = []
     inputs: dict[str, list[Path]] = {}
     problems: list[str] = []
     matched: dict[tuple, tuple[int, int]] = {}
+    matched_as: dict[Path, str] = {}  # a glob-matched file's real path -> the id of its asset
     out_dir = output_dir(cfg)
     folders: dict[Path, str] = {}  # a matched file's folder -> its real path (one realpath a folder)
     holds_config = _under(cfg.path, out_dir, folders)  # (output.dir ".": the inputs are there too)
@@ -366,7 +370,14 @@ def discover(
                 # (realpath: a link in a loop, which fails as its asset, is a RuntimeError to resolve())
                 real = Path(realpath(p))
                 if not _first_match(cfg, matched, (real, None), i, rel, instances, problems):
+                    if aliases is not None and matched_as[real] != rel:
+                        aliases.append(
+                            f"{where}: {rel} and {matched_as[real]} are one file (a link to the other or to "
+                            f"one file), one asset built as {matched_as[real]}: {rel} has no outputs of its "
+                            "own (copy the file to build it apart)"
+                        )
                     continue
+                matched_as[real] = rel
                 assets.append(Asset(rel, p, None, instances, {}, i))
                 known = listed(rel, p) if listed is not None else None
                 settles = known is not None
@@ -378,9 +389,15 @@ def discover(
                 if settled is not None and settles and p.suffix.lower() in LISTED_SUFFIXES:
                     settled.add(rel)
         else:
-            stage_path = (cfg.base / src["stage"]).resolve()
             try:
-                found, used = _stage_assets(cfg, i, stage_path)
+                # (in the try: a link in a loop is a RuntimeError to resolve(), reported as the stage's)
+                given = cfg.base / src["stage"]
+                stage_path = given.resolve()
+                # its prims' ids and outputs named after the stage as written, as a glob's files are: a link
+                # (scene.usda -> versions/scene_v3.usda) keeps them, the scene's prims and the rules' paths
+                # as it is pointed at the next version (one with `..` in it: its real path, as before)
+                named = given if ".." not in given.parts else stage_path
+                found, used = _stage_assets(cfg, i, named)
             except Exception as exc:  # noqa: BLE001 - any pxr failure is reported, located
                 from ..io.usd_loader import _tf_message
 
@@ -510,7 +527,9 @@ def rule_checks(rule: dict[str, Any], asset: Asset, triangles: int) -> list[tupl
     m = rule.get("match") or {}
     checks = []
     if "path" in m:
-        checks.append(("path", fnmatch.fnmatch(asset.id.split(":")[0], m["path"])))
+        # (a stage asset's id is "<stage>:<prim>"; a file's name may hold ':' itself: `x:y.obj`)
+        rel = asset.id[: -len(asset.prim) - 1] if asset.prim is not None else asset.id
+        checks.append(("path", fnmatch.fnmatch(rel, m["path"])))
     if "prim" in m:
         checks.append(("prim", asset.prim is not None and fnmatch.fnmatch(asset.prim, m["prim"])))
     if "triangles" in m:

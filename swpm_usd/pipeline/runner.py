@@ -129,7 +129,8 @@ class PlanItem:
     rule_pending: bool = False  # the worker matches the rule once it has counted the triangles
     inputs: list[Path] = field(default_factory=list)  # the files the asset is built from (discover's)
     #: an up-to-date asset's outputs as its manifest record lists them, with the stat fields of those
-    #: hashed to be checked recorded anew (:func:`_checked_output`); None when no record changed
+    #: hashed to be checked recorded anew (:func:`_checked_output`) and those of a kind the config no
+    #: longer asks for left out when deleted or changed since; None when no record changed
     checked_outputs: dict[str, dict] | None = None
     #: the asset's manifest record; None when the manifest has none, or one that is not a record the run
     #: writes (a hand edit: :func:`.records.record_problem`), which is then ignored, with a warning
@@ -194,7 +195,10 @@ def _inputs_key(entries: list) -> str:
 
 
 def _read_manifest(
-    path: Path, unresolved: dict[str, str] | None = None, older: list[str] | None = None
+    path: Path,
+    unresolved: dict[str, str] | None = None,
+    older: list[str] | None = None,
+    unreadable: list[str] | None = None,
 ) -> dict:
     """The manifest at ``path``, ``{"assets": {}}`` for none (or not one); each record's :data:`INPUTS_REF`
     replaced by the list it names (one list object for all the records that share it), and records of
@@ -203,13 +207,25 @@ def _read_manifest(
     ``inputs`` (hashed, as a malformed list is), and is described in ``unresolved`` (asset id -> why).
     ``older`` gets the ids of the records of an older manifest given one list object (which a rewrite
     writes once, in :data:`INPUT_LISTS`). A run output's :data:`CURRENT` mark is True when it is the digest
-    of the text before :data:`RUN_OUTPUTS` (the records as the run wrote them), else left out."""
+    of the text before :data:`RUN_OUTPUTS` (the records as the run wrote them), else left out. A file
+    there that is not a manifest (cut, not JSON, edited into another shape) is described in ``unreadable``.
+    """
     try:
         raw = path.read_bytes()
         data = json.loads(raw)
-    except (OSError, ValueError):
+    except FileNotFoundError:
+        return {"assets": {}}
+    except (OSError, ValueError) as exc:
+        if unreadable is not None:
+            unreadable.append(f"it does not read ({type(exc).__name__}: {exc})")
         return {"assets": {}}
     if not isinstance(data, dict) or not isinstance(data.get("assets"), dict):
+        if unreadable is not None:
+            unreadable.append(
+                f"it is {_what(data)}, not an object"
+                if not isinstance(data, dict)
+                else f"its assets is {_what(data.get('assets'))}, not an object"
+            )
         return {"assets": {}}
     runs = data.get(RUN_OUTPUTS)
     marked = (
@@ -448,7 +464,10 @@ def plan(
         return found
 
     settled: set[str] = set()  # the assets whose inputs their record may keep for reuse
-    assets, inputs, problems = discover(cfg, _recorded_output_paths(out_dir, manifest), listed, settled)
+    aliases: list[str] = []  # (warnings: a matched link to another matched file, one asset)
+    assets, inputs, problems = discover(
+        cfg, _recorded_output_paths(out_dir, manifest), listed, settled, aliases
+    )
     problems.extend(_unusable_out_dir(cfg, out_dir))
     problems.extend(_overwritten_inputs(cfg, out_dir, assets, inputs))
     items = []
@@ -527,12 +546,15 @@ def plan(
         )
         if item.up_to_date:
             checked = {kind: _checked_output(out_dir / o["path"], o, verify) for kind, o in outs.items()}
-            item.up_to_date = all(o is not None for o in checked.values())
+            # (an output of a kind the config no longer asks for, deleted or changed since: no longer the
+            # run's, it leaves the record; the build is still current; `usd: false`, then the layers deleted)
+            wanted = _wanted_outputs(cfg)
+            item.up_to_date = all(o is not None for kind, o in checked.items() if kind in wanted)
             if item.up_to_date and any(checked[kind] is not o for kind, o in outs.items()):
-                item.checked_outputs = checked
+                item.checked_outputs = {kind: o for kind, o in checked.items() if o is not None}
         items.append(item)
     warnings = [] if any(i.rule_pending for i in items) else _unreached_rules(cfg, items)
-    return items, problems, record_warnings + warnings
+    return items, problems, aliases + record_warnings + warnings
 
 
 #: temporary files a run leaves in output.dir if it is killed (the atomic writes', the USD layers' staged by
@@ -1317,8 +1339,9 @@ def _run(
     manifest_path = out_dir / MANIFEST
     unresolved: dict[str, str] = {}  # asset id -> why its record's inputs_ref names no list
     older: list[str] = []  # the records of an older manifest's lists, which a rewrite writes compact
+    unreadable: list[str] = []  # why the file at the manifest's path is no manifest (cut, not JSON)
     with _gc_paused():
-        manifest = previous = _read_manifest(manifest_path, unresolved, older)
+        manifest = previous = _read_manifest(manifest_path, unresolved, older, unreadable)
     if not dry_run and out_dir.is_dir():  # (the run's from here on: before the plan checks the outputs)
         _restore_kept_aside(out_dir, manifest["assets"])
     # (not while it loads meshes to count their triangles: a loader's garbage may be cyclic)
@@ -1328,12 +1351,29 @@ def _run(
         errors = [*errors, "limits.seconds needs the local executor (--executor dask cannot stop an asset)"]
     if errors:
         raise ConfigError(errors)
-    warnings = warnings + [  # (a hand edit: the inputs of a current asset's record hashed, not trusted)
-        f"{_rel(cfg, manifest_path)}: the record of {it.asset.id} names no list of its inputs "
-        f"({unresolved[it.asset.id]}); they are hashed"
-        for it in items
-        if it.asset.id in unresolved and it.previous is not None
+    # (no record to go by: every asset built again, and the outputs it recorded no longer known)
+    lost = [
+        f"{_rel(cfg, manifest_path)}: {why}; the run takes it for no manifest: every asset is built "
+        "again, and the outputs it recorded are no longer known (not pruned)"
+        for why in unreadable
     ]
+    warnings = (
+        lost
+        + warnings
+        + [  # (a hand edit: the inputs of a current asset's record hashed, not trusted)
+            f"{_rel(cfg, manifest_path)}: the record of {it.asset.id} names no list of its inputs "
+            f"({unresolved[it.asset.id]}); they are hashed"
+            for it in items
+            if it.asset.id in unresolved and it.previous is not None
+        ]
+    )
+    if shared := _shared_with(cfg, manifest, items):
+        warnings.append(
+            f"{_rel(cfg, manifest_path)} was written by a run of another config ({shared[0]}): "
+            f"{shared[1]} of its assets {'is' if shared[1] == 1 else 'are'} not in {cfg.shown or cfg.path} "
+            f"and taken as removed (outputs {'deleted' if prune else 'left unlisted'}, rebuilt by that "
+            "config's next run); give each config its own output.dir"
+        )
     for w in warnings:
         echo(f"warning: {w}")
     # (before any build: a removed asset's output path may be a current asset's, which is never deleted)
@@ -1362,7 +1402,7 @@ def _run(
                 }
             )
         if dry_run:
-            skipped = sum(i.up_to_date for i in items)
+            skipped = 0 if force else sum(i.up_to_date for i in items)  # (force: each "to build")
             for path in orphan_names:
                 echo(f"{path}: output of an asset no longer in the config" + ("; --prune deletes it" * prune))
             return RunResult({}, 0, skipped, 0, warnings, 0.0, manifest_path, planned, **orphan_lists)
@@ -1384,6 +1424,11 @@ def _run(
             kept = records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
         if it.checked_outputs is not None:  # hashed, and their stat recorded anew
             kept = records[it.asset.id] = {**kept, "outputs": it.checked_outputs}
+        rule = _rule_name(cfg, it)
+        if kept.get("rule") != rule or kept.get("why") != it.why:
+            # another rule (renamed, reordered, added) now gives the asset the same treatment: the build is
+            # current, and its record names the rule that chose it today (the report shows it)
+            kept = records[it.asset.id] = {**kept, "rule": rule, "why": it.why}
         if it.input_stats is not kept.get("inputs") or _listing_mark(kept) != it.inputs_listed:
             # hashed (to the recorded digest): their stat anew; or listed by reading the file (the record
             # of an older version): marked as a list the next run may take
@@ -1451,7 +1496,7 @@ def _run(
             # (the stat of each input as it was hashed to this digest, never a later one: an input changed
             # since, which the worker may have built from, has another stat, and the next run hashes it)
             rec = _with_inputs(rec, it)
-            rec["rule"] = None if it.rule is None else cfg.data["rules"][it.rule]["name"]
+            rec["rule"] = _rule_name(cfg, it)
             for o in rec.get("outputs", {}).values():
                 _complete_output_record(out_dir / o["path"], o)
             if rec["status"] == "built":
@@ -1520,6 +1565,28 @@ def _run(
         records, len(built_ids), len(items) - len(todo), failed, warnings, seconds, manifest_path, planned,
         failures, **orphan_lists, built_ids=built_ids,
     )  # fmt: skip
+
+
+def _shared_with(cfg: Config, manifest: dict, items: list[PlanItem]) -> tuple[str, int] | None:
+    """(the other config, how many of its assets this one has not) when ``manifest`` was written by a run
+    of another config file, still there (not this one moved or renamed), whose assets this one lacks: two
+    configs sharing an output.dir take each other's assets as removed, and each run rebuilds the other's."""
+    other = manifest.get("config")
+    if not isinstance(other, str) or "\0" in other or not isinstance(manifest.get("assets"), dict):
+        return None
+    current = {it.asset.id for it in items}
+    dropped = sum(aid not in current for aid in manifest["assets"])
+    try:
+        if not dropped or not os.path.isfile(other) or os.path.samefile(other, cfg.path):
+            return None
+    except OSError:
+        return None
+    return other, dropped
+
+
+def _rule_name(cfg: Config, item: PlanItem) -> str | None:
+    """The name of the rule that chose ``item``'s treatment (None: the defaults)."""
+    return None if item.rule is None else cfg.data["rules"][item.rule]["name"]
 
 
 def _orphaned_outputs(
