@@ -3988,6 +3988,37 @@ def test_an_up_to_date_record_names_the_rule_that_chooses_it_today(tmp_path):
     assert (res.built, res.skipped, res.records["m/a.obj"]["rule"]) == (0, 1, "tiny")
 
 
+def test_an_up_to_date_auto_record_keeps_the_choice_its_build_recorded(tmp_path, monkeypatch):
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (inputs just written: see the racily clean test)
+    # an `auto` asset's why is the rule's and then auto's choice ("...; auto: vanilla has ..."): a rerun that
+    # changed nothing took the rule's alone as changed, rewrote the manifest, scene and report, and dropped
+    # the choice from the record; a renamed rule keeps it too
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    text = (
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out, report: true, scene: true, usd: true}\n"
+        "rules: [{name: pick, encoding: auto}]\n"
+    )
+    cfg.write_text(text)
+    assert run(cfg, echo=lambda m: None).built == 1
+    out = tmp_path / "out"
+    why = json.loads((out / "manifest.json").read_text())["assets"]["m/a.obj"]["why"]
+    assert why.startswith("rule 'pick' matched (no match conditions); auto: ")
+    names = ("manifest.json", "scene.usda", "report.html")
+    files = {n: ((out / n).read_bytes(), (out / n).stat().st_mtime_ns) for n in names}
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.skipped, res.records["m/a.obj"]["why"]) == (0, 1, why)
+    assert {n: ((out / n).read_bytes(), (out / n).stat().st_mtime_ns) for n in names} == files
+    cfg.write_text(text.replace("name: pick", "name: chosen"))
+    res = run(cfg, echo=lambda m: None)
+    rec = json.loads((out / "manifest.json").read_text())["assets"]["m/a.obj"]
+    assert (res.built, rec["rule"]) == (0, "chosen")
+    assert rec["why"] == why.replace("rule 'pick'", "rule 'chosen'")
+
+
 def test_deleting_the_outputs_of_a_kind_no_longer_asked_for_rebuilds_nothing(tmp_path):
     # `usd: false`, then the .usdc layers deleted (the config no longer wants them): every asset was rebuilt,
     # its .swpm current, as a recorded output was missing; the record now drops it, and `usd: true` again

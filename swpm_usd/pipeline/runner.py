@@ -1398,11 +1398,11 @@ def _run(
             kept = records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
         if it.checked_outputs is not None:  # hashed, and their stat recorded anew
             kept = records[it.asset.id] = {**kept, "outputs": it.checked_outputs}
-        rule = _rule_name(cfg, it)
-        if kept.get("rule") != rule or kept.get("why") != it.why:
+        rule, why = _rule_name(cfg, it), _current_why(kept.get("why"), it)
+        if kept.get("rule") != rule or kept.get("why") != why:
             # another rule (renamed, reordered, added) now gives the asset the same treatment: the build is
             # current, and its record names the rule that chose it today (the report shows it)
-            kept = records[it.asset.id] = {**kept, "rule": rule, "why": it.why}
+            kept = records[it.asset.id] = {**kept, "rule": rule, "why": why}
         if it.input_stats is not kept.get("inputs") or _listing_mark(kept) != it.inputs_listed:
             # hashed (to the recorded digest): their stat anew; or listed by reading the file (the record
             # of an older version): marked as a list the next run may take
@@ -1556,6 +1556,17 @@ def _shared_with(cfg: Config, manifest: dict, items: list[PlanItem]) -> tuple[st
     except OSError:
         return None
     return other, dropped
+
+
+def _current_why(recorded: Any, item: PlanItem) -> str:
+    """The ``why`` of an up-to-date asset's record today: the rule that chooses its treatment now
+    (``item.why``), and for ``encoding: auto`` the choice its build recorded after it (``; auto: ...``,
+    :func:`.worker.choose_auto`'s, which the build alone measures: this treatment's, as the digest is)."""
+    if item.treatment.get("encoding") == "auto" and isinstance(recorded, str):
+        cut = recorded.rfind("; auto: ")  # (the last: the choice holds none, a rule's name might)
+        if cut >= 0:
+            return item.why + recorded[cut:]
+    return item.why
 
 
 def _rule_name(cfg: Config, item: PlanItem) -> str | None:
