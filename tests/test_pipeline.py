@@ -4079,6 +4079,34 @@ def test_two_configs_sharing_an_output_dir_are_warned_of(tmp_path):
     assert res.warnings == [] and sorted(res.unlisted) == ["a.swpm", "b.swpm"]
 
 
+def test_a_copied_project_is_not_warned_of_as_sharing_its_output_dir(tmp_path):
+    # the project copied with its output.dir (cp -r): the copy's manifest names the original config, still
+    # there; an asset removed from the copy warned that another config shared its output.dir, which it does
+    # not (the original writes in its own)
+    proj = tmp_path / "proj"
+    (proj / "m").mkdir(parents=True)
+    for name in ("a", "b"):
+        (proj / "m" / f"{name}.obj").write_text(TWO_TRIANGLES)
+    (proj / "c.yaml").write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    assert run(proj / "c.yaml", echo=lambda m: None).built == 2
+    shutil.copytree(proj, tmp_path / "copy")
+    (tmp_path / "copy" / "m" / "b.obj").unlink()
+    res = run(tmp_path / "copy" / "c.yaml", echo=lambda m: None)
+    assert res.warnings == [] and res.unlisted == ["b.swpm"]
+    # the original pointed at the copy's output.dir: it is another config writing there
+    (proj / "c.yaml").write_text((proj / "c.yaml").read_text().replace("dir: out", "dir: ../copy/out"))
+    shutil.copy(proj / "m" / "b.obj", tmp_path / "copy" / "m" / "b.obj")
+    assert run(proj / "c.yaml", echo=lambda m: None).warnings == []  # (a superset: nothing lost)
+    (tmp_path / "copy" / "m" / "b.obj").unlink()
+    res = run(tmp_path / "copy" / "c.yaml", echo=lambda m: None)
+    assert len(res.warnings) == 1
+    assert res.warnings[0].startswith(
+        f"out/manifest.json was written by a run of another config ({proj / 'c.yaml'})"
+    )
+
+
 def test_a_matched_link_to_another_matched_file_is_named_in_a_warning(tmp_path):
     # a mesh replaced by a link to another the glob matches (a library deduplicated by links) is one asset
     # with it: the link's asset, its outputs and its place in the scene went, without a word

@@ -1543,8 +1543,9 @@ def _run(
 
 def _shared_with(cfg: Config, manifest: dict, items: list[PlanItem]) -> tuple[str, int] | None:
     """(the other config, how many of its assets this one has not) when ``manifest`` was written by a run
-    of another config file, still there (not this one moved or renamed), whose assets this one lacks: two
-    configs sharing an output.dir take each other's assets as removed, and each run rebuilds the other's."""
+    of another config file, still there (not this one moved or renamed) and writing in this output.dir (not
+    the original of a copied project), whose assets this one lacks: two configs sharing an output.dir take
+    each other's assets as removed, and each run rebuilds the other's."""
     other = manifest.get("config")
     if not isinstance(other, str) or "\0" in other or not isinstance(manifest.get("assets"), dict):
         return None
@@ -1554,6 +1555,13 @@ def _shared_with(cfg: Config, manifest: dict, items: list[PlanItem]) -> tuple[st
         if not dropped or not os.path.isfile(other) or os.path.samefile(other, cfg.path):
             return None
     except OSError:
+        return None
+    try:  # (a copy of the project, its manifest naming the original config: that one writes elsewhere)
+        if not os.path.samefile(output_dir(load_config(other)), output_dir(cfg)):
+            return None
+    except ConfigError:  # (one this version cannot read: it wrote here, as far as the manifest tells)
+        pass
+    except (OSError, ValueError):  # (its output.dir missing: not this one)
         return None
     return other, dropped
 
