@@ -4130,6 +4130,32 @@ def test_a_matched_link_to_another_matched_file_is_named_in_a_warning(tmp_path):
     assert run(cfg, echo=lambda m: None).warnings == []
 
 
+def test_matched_links_to_one_missing_file_fail_each_and_a_linked_folder_is_one_warning(tmp_path):
+    # two dangling links to one missing file were one asset (the second left out, against "a link to a
+    # missing file is an asset that fails"), and then named as "one file" with the first; a linked folder
+    # doubling a library gave a warning for each of its files
+    (tmp_path / "m").mkdir()
+    for name in ("a", "b", "c", "d"):
+        (tmp_path / "m" / f"{name}.obj").write_text(TWO_TRIANGLES + f"# {name}\n")
+    (tmp_path / "m" / "x.obj").symlink_to("missing.obj")
+    (tmp_path / "m" / "y.obj").symlink_to("missing.obj")
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: '*/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    res = run(cfg, echo=lambda m: None)
+    assert res.warnings == [] and (res.built, res.failed) == (4, 2)
+    assert all("file not found" in res.failures[f"m/{n}.obj"]["error"] for n in "xy")
+    (tmp_path / "n").symlink_to("m")
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.skipped, res.failed) == (0, 4, 2) and len(res.warnings) == 1
+    assert res.warnings[0] == (
+        f"{cfg}:2:17: $.assets[0].glob: 6 matched paths are each one file with another (a link to it or to "
+        "one file, a linked folder), one asset built under the other's name, and have no outputs of their "
+        "own: n/a.obj as m/a.obj, n/b.obj as m/b.obj, n/c.obj as m/c.obj, ... (copy a file to build it apart)"
+    )
+
+
 def test_a_dry_run_with_force_counts_no_asset_up_to_date(tmp_path):
     # `--dry-run --force` planned every asset "to build" and counted them `skipped` (up to date) in the
     # summary (`--json`)
