@@ -1547,7 +1547,9 @@ def _shared_with(cfg: Config, manifest: dict, items: list[PlanItem]) -> tuple[st
     the original of a copied project), whose assets this one lacks: two configs sharing an output.dir take
     each other's assets as removed, and each run rebuilds the other's."""
     other = manifest.get("config")
-    if not isinstance(other, str) or "\0" in other or not isinstance(manifest.get("assets"), dict):
+    if other == str(cfg.path) or not isinstance(other, str) or "\0" in other:
+        return None  # (this config's: a rerun reads no more)
+    if not isinstance(manifest.get("assets"), dict):
         return None
     current = {it.asset.id for it in items}
     dropped = sum(aid not in current for aid in manifest["assets"])
