@@ -4010,6 +4010,37 @@ def test_an_up_to_date_record_names_the_rule_that_chooses_it_today(tmp_path):
     assert (res.built, res.skipped, res.records["m/a.obj"]["rule"]) == (0, 1, "tiny")
 
 
+def test_an_up_to_date_auto_record_keeps_the_choice_its_build_recorded(tmp_path, monkeypatch):
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (inputs just written: see the racily clean test)
+    # an `auto` asset's why is the rule's and then auto's choice ("...; auto: vanilla has ..."): a rerun that
+    # changed nothing took the rule's alone as changed, rewrote the manifest, scene and report, and dropped
+    # the choice from the record; a renamed rule keeps it too
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    text = (
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out, report: true, scene: true, usd: true}\n"
+        "rules: [{name: pick, encoding: auto}]\n"
+    )
+    cfg.write_text(text)
+    assert run(cfg, echo=lambda m: None).built == 1
+    out = tmp_path / "out"
+    why = json.loads((out / "manifest.json").read_text())["assets"]["m/a.obj"]["why"]
+    assert why.startswith("rule 'pick' matched (no match conditions); auto: ")
+    names = ("manifest.json", "scene.usda", "report.html")
+    files = {n: ((out / n).read_bytes(), (out / n).stat().st_mtime_ns) for n in names}
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.skipped, res.records["m/a.obj"]["why"]) == (0, 1, why)
+    assert {n: ((out / n).read_bytes(), (out / n).stat().st_mtime_ns) for n in names} == files
+    cfg.write_text(text.replace("name: pick", "name: chosen"))
+    res = run(cfg, echo=lambda m: None)
+    rec = json.loads((out / "manifest.json").read_text())["assets"]["m/a.obj"]
+    assert (res.built, rec["rule"]) == (0, "chosen")
+    assert rec["why"] == why.replace("rule 'pick'", "rule 'chosen'")
+
+
 def test_deleting_the_outputs_of_a_kind_no_longer_asked_for_rebuilds_nothing(tmp_path):
     # `usd: false`, then the .usdc layers deleted (the config no longer wants them): every asset was rebuilt,
     # its .swpm current, as a recorded output was missing; the record now drops it, and `usd: true` again
@@ -4070,6 +4101,34 @@ def test_two_configs_sharing_an_output_dir_are_warned_of(tmp_path):
     assert res.warnings == [] and sorted(res.unlisted) == ["a.swpm", "b.swpm"]
 
 
+def test_a_copied_project_is_not_warned_of_as_sharing_its_output_dir(tmp_path):
+    # the project copied with its output.dir (cp -r): the copy's manifest names the original config, still
+    # there; an asset removed from the copy warned that another config shared its output.dir, which it does
+    # not (the original writes in its own)
+    proj = tmp_path / "proj"
+    (proj / "m").mkdir(parents=True)
+    for name in ("a", "b"):
+        (proj / "m" / f"{name}.obj").write_text(TWO_TRIANGLES)
+    (proj / "c.yaml").write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    assert run(proj / "c.yaml", echo=lambda m: None).built == 2
+    shutil.copytree(proj, tmp_path / "copy")
+    (tmp_path / "copy" / "m" / "b.obj").unlink()
+    res = run(tmp_path / "copy" / "c.yaml", echo=lambda m: None)
+    assert res.warnings == [] and res.unlisted == ["b.swpm"]
+    # the original pointed at the copy's output.dir: it is another config writing there
+    (proj / "c.yaml").write_text((proj / "c.yaml").read_text().replace("dir: out", "dir: ../copy/out"))
+    shutil.copy(proj / "m" / "b.obj", tmp_path / "copy" / "m" / "b.obj")
+    assert run(proj / "c.yaml", echo=lambda m: None).warnings == []  # (a superset: nothing lost)
+    (tmp_path / "copy" / "m" / "b.obj").unlink()
+    res = run(tmp_path / "copy" / "c.yaml", echo=lambda m: None)
+    assert len(res.warnings) == 1
+    assert res.warnings[0].startswith(
+        f"out/manifest.json was written by a run of another config ({proj / 'c.yaml'})"
+    )
+
+
 def test_a_matched_link_to_another_matched_file_is_named_in_a_warning(tmp_path):
     # a mesh replaced by a link to another the glob matches (a library deduplicated by links) is one asset
     # with it: the link's asset, its outputs and its place in the scene went, without a word
@@ -4091,6 +4150,32 @@ def test_a_matched_link_to_another_matched_file_is_named_in_a_warning(tmp_path):
     # the same file matched by two entries under one name is not a link: no warning
     cfg.write_text(cfg.read_text().replace("[{glob: 'm/*.obj'}]", "[{glob: 'm/a.obj'}, {glob: 'm/a.*'}]"))
     assert run(cfg, echo=lambda m: None).warnings == []
+
+
+def test_matched_links_to_one_missing_file_fail_each_and_a_linked_folder_is_one_warning(tmp_path):
+    # two dangling links to one missing file were one asset (the second left out, against "a link to a
+    # missing file is an asset that fails"), and then named as "one file" with the first; a linked folder
+    # doubling a library gave a warning for each of its files
+    (tmp_path / "m").mkdir()
+    for name in ("a", "b", "c", "d"):
+        (tmp_path / "m" / f"{name}.obj").write_text(TWO_TRIANGLES + f"# {name}\n")
+    (tmp_path / "m" / "x.obj").symlink_to("missing.obj")
+    (tmp_path / "m" / "y.obj").symlink_to("missing.obj")
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: '*/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    res = run(cfg, echo=lambda m: None)
+    assert res.warnings == [] and (res.built, res.failed) == (4, 2)
+    assert all("file not found" in res.failures[f"m/{n}.obj"]["error"] for n in "xy")
+    (tmp_path / "n").symlink_to("m")
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.skipped, res.failed) == (0, 4, 2) and len(res.warnings) == 1
+    assert res.warnings[0] == (
+        f"{cfg}:2:17: $.assets[0].glob: 6 matched paths are each one file with another (a link to it or to "
+        "one file, a linked folder), one asset built under the other's name, and have no outputs of their "
+        "own: n/a.obj as m/a.obj, n/b.obj as m/b.obj, n/c.obj as m/c.obj, ... (copy a file to build it apart)"
+    )
 
 
 def test_a_dry_run_with_force_counts_no_asset_up_to_date(tmp_path):

@@ -331,14 +331,17 @@ def discover(
                     f"{where}: a glob must be a non-empty pattern relative to the config's folder"
                 )
                 continue
+            dangling: set[Path] = set()
             try:
                 # (a dangling link of a mesh type too: its asset fails, named, rather than vanish)
-                files = sorted(
-                    p
-                    for p in cfg.base.glob(src["glob"])
-                    if p.is_file()
-                    or (p.is_symlink() and not p.exists() and p.suffix.lower() in SUPPORTED_SUFFIXES)
-                )
+                files = []
+                for p in cfg.base.glob(src["glob"]):
+                    if p.is_file():
+                        files.append(p)
+                    elif p.is_symlink() and not p.exists() and p.suffix.lower() in SUPPORTED_SUFFIXES:
+                        files.append(p)
+                        dangling.add(p)
+                files.sort()
             except (ValueError, NotImplementedError, OSError) as exc:
                 problems.append(f"{where}: unusable glob: {exc}")
                 continue
@@ -364,18 +367,16 @@ def discover(
                     f"{'s' if len(others) > 1 else ''} of another type: {shown}); mesh files end in "
                     f"{' '.join(SUPPORTED_SUFFIXES)}"
                 )
+            same: list[tuple[str, str]] = []  # (a matched path, the asset it is one file with)
             for p in found:
                 rel = p.relative_to(cfg.base).as_posix()
                 instances = int(src.get("instances", 1))
-                # (realpath: a link in a loop, which fails as its asset, is a RuntimeError to resolve())
-                real = Path(realpath(p))
+                # (realpath: a link in a loop, which fails as its asset, is a RuntimeError to resolve(); a
+                # dangling link is itself, its folder resolved: two to one missing file fail, each named)
+                real = Path(os.path.join(realpath(p.parent), p.name) if p in dangling else realpath(p))
                 if not _first_match(cfg, matched, (real, None), i, rel, instances, problems):
-                    if aliases is not None and matched_as[real] != rel:
-                        aliases.append(
-                            f"{where}: {rel} and {matched_as[real]} are one file (a link to the other or to "
-                            f"one file), one asset built as {matched_as[real]}: {rel} has no outputs of its "
-                            "own (copy the file to build it apart)"
-                        )
+                    if matched_as[real] != rel:
+                        same.append((rel, matched_as[real]))
                     continue
                 matched_as[real] = rel
                 assets.append(Asset(rel, p, None, instances, {}, i))
@@ -388,6 +389,21 @@ def discover(
                 inputs[rel] = known
                 if settled is not None and settles and p.suffix.lower() in LISTED_SUFFIXES:
                     settled.add(rel)
+            if aliases is not None and len(same) == 1:
+                ((rel, first),) = same
+                aliases.append(
+                    f"{where}: {rel} and {first} are one file (a link to the other or to one file), one "
+                    f"asset built as {first}: {rel} has no outputs of its own (copy the file to build it "
+                    "apart)"
+                )
+            elif aliases is not None and same:  # (one warning: a linked folder doubles every file in it)
+                shown = ", ".join(f"{rel} as {first}" for rel, first in same[:3])
+                aliases.append(
+                    f"{where}: {len(same)} matched paths are each one file with another (a link to it or "
+                    "to one file, a linked folder), one asset built under the other's name, and have no "
+                    f"outputs of their own: {shown}{', ...' if len(same) > 3 else ''} (copy a file to build "
+                    "it apart)"
+                )
         else:
             try:
                 # (in the try: a link in a loop is a RuntimeError to resolve(), reported as the stage's)

@@ -1424,11 +1424,11 @@ def _run(
             kept = records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
         if it.checked_outputs is not None:  # hashed, and their stat recorded anew
             kept = records[it.asset.id] = {**kept, "outputs": it.checked_outputs}
-        rule = _rule_name(cfg, it)
-        if kept.get("rule") != rule or kept.get("why") != it.why:
+        rule, why = _rule_name(cfg, it), _current_why(kept.get("why"), it)
+        if kept.get("rule") != rule or kept.get("why") != why:
             # another rule (renamed, reordered, added) now gives the asset the same treatment: the build is
             # current, and its record names the rule that chose it today (the report shows it)
-            kept = records[it.asset.id] = {**kept, "rule": rule, "why": it.why}
+            kept = records[it.asset.id] = {**kept, "rule": rule, "why": why}
         if it.input_stats is not kept.get("inputs") or _listing_mark(kept) != it.inputs_listed:
             # hashed (to the recorded digest): their stat anew; or listed by reading the file (the record
             # of an older version): marked as a list the next run may take
@@ -1569,10 +1569,13 @@ def _run(
 
 def _shared_with(cfg: Config, manifest: dict, items: list[PlanItem]) -> tuple[str, int] | None:
     """(the other config, how many of its assets this one has not) when ``manifest`` was written by a run
-    of another config file, still there (not this one moved or renamed), whose assets this one lacks: two
-    configs sharing an output.dir take each other's assets as removed, and each run rebuilds the other's."""
+    of another config file, still there (not this one moved or renamed) and writing in this output.dir (not
+    the original of a copied project), whose assets this one lacks: two configs sharing an output.dir take
+    each other's assets as removed, and each run rebuilds the other's."""
     other = manifest.get("config")
-    if not isinstance(other, str) or "\0" in other or not isinstance(manifest.get("assets"), dict):
+    if other == str(cfg.path) or not isinstance(other, str) or "\0" in other:
+        return None  # (this config's: a rerun reads no more)
+    if not isinstance(manifest.get("assets"), dict):
         return None
     current = {it.asset.id for it in items}
     dropped = sum(aid not in current for aid in manifest["assets"])
@@ -1581,7 +1584,25 @@ def _shared_with(cfg: Config, manifest: dict, items: list[PlanItem]) -> tuple[st
             return None
     except OSError:
         return None
+    try:  # (a copy of the project, its manifest naming the original config: that one writes elsewhere)
+        if not os.path.samefile(output_dir(load_config(other)), output_dir(cfg)):
+            return None
+    except ConfigError:  # (one this version cannot read: it wrote here, as far as the manifest tells)
+        pass
+    except (OSError, ValueError):  # (its output.dir missing: not this one)
+        return None
     return other, dropped
+
+
+def _current_why(recorded: Any, item: PlanItem) -> str:
+    """The ``why`` of an up-to-date asset's record today: the rule that chooses its treatment now
+    (``item.why``), and for ``encoding: auto`` the choice its build recorded after it (``; auto: ...``,
+    :func:`.worker.choose_auto`'s, which the build alone measures: this treatment's, as the digest is)."""
+    if item.treatment.get("encoding") == "auto" and isinstance(recorded, str):
+        cut = recorded.rfind("; auto: ")  # (the last: the choice holds none, a rule's name might)
+        if cut >= 0:
+            return item.why + recorded[cut:]
+    return item.why
 
 
 def _rule_name(cfg: Config, item: PlanItem) -> str | None:
