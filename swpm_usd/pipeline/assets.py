@@ -405,9 +405,10 @@ def discover(
                     "it apart)"
                 )
         else:
+            given = cfg.base / src["stage"]
+            stage_path = None
             try:
                 # (in the try: a link in a loop is a RuntimeError to resolve(), reported as the stage's)
-                given = cfg.base / src["stage"]
                 stage_path = given.resolve()
                 # its prims' ids and outputs named after the stage as written, as a glob's files are: a link
                 # (scene.usda -> versions/scene_v3.usda) keeps them, the scene's prims and the rules' paths
@@ -417,7 +418,9 @@ def discover(
             except Exception as exc:  # noqa: BLE001 - any pxr failure is reported, located
                 from ..io.usd_loader import _tf_message
 
-                if not stage_path.exists():
+                if stage_path is None:  # (its path does not resolve: "Symlink loop from ...")
+                    msg = str(exc).strip() or type(exc).__name__
+                elif not stage_path.exists():
                     msg = "no such file"
                 else:  # (usd-core's message, without its C++ function, file and line)
                     msg = (
