@@ -1763,6 +1763,21 @@ def test_whole_numbers_for_an_optional_real_parameter_give_one_treatment():
 TWO_TRIANGLES = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n"
 
 
+#: a config building every ``m/*.obj`` beside it as vanilla, outputs in ``out``
+VANILLA_M = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+
+
+def _vanilla_project(tmp_path: Path, *names: str) -> Path:
+    """``tmp_path/m/<name>.obj`` (two triangles) for each of ``names`` (``a`` alone by default) and
+    ``tmp_path/c.yaml`` (:data:`VANILLA_M`): the config's path."""
+    (tmp_path / "m").mkdir()
+    for name in names or ("a",):
+        (tmp_path / "m" / f"{name}.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(VANILLA_M)
+    return cfg
+
+
 def _digest(path: Path) -> str:
     import hashlib
 
@@ -2863,14 +2878,9 @@ def test_scene_and_report_stay_recorded_through_an_interrupted_run(tmp_path, mon
 def test_a_symlink_loop_a_glob_matches_is_a_failed_asset(tmp_path):
     # a mesh-typed link in a loop (a.obj -> b.obj -> a.obj) is a link to no file, which 949b7a2 made a
     # glob's asset; resolving it for the duplicate check raised RuntimeError, a traceback in every run
-    (tmp_path / "m").mkdir()
-    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = _vanilla_project(tmp_path)
     (tmp_path / "m" / "loop1.obj").symlink_to("loop2.obj")
     (tmp_path / "m" / "loop2.obj").symlink_to("loop1.obj")
-    cfg = tmp_path / "c.yaml"
-    cfg.write_text(
-        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
-    )
     r = CliRunner().invoke(main, ["run", str(cfg), "--dry-run", "--json"])
     assert r.exit_code == 0 and "Traceback" not in r.output, r.output
     res = run(cfg)
@@ -3234,12 +3244,7 @@ def test_jobs_has_an_upper_bound(tmp_path, monkeypatch):
     # `--jobs 100000` was taken: a worker process per asset, up to the asset count, started at once
     from swpm_usd import cli
 
-    (tmp_path / "m").mkdir()
-    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
-    cfg = tmp_path / "c.yaml"
-    cfg.write_text(
-        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
-    )
+    cfg = _vanilla_project(tmp_path)
     for jobs in ("100000", str(cli.MAX_JOBS + 1)):
         result = CliRunner().invoke(main, ["run", str(cfg), "--jobs", jobs])
         assert result.exit_code == 2 and "--jobs" in result.output and "1<=x<=256" in result.output
@@ -3861,12 +3866,7 @@ def test_a_run_leaves_the_garbage_collector_as_it_found_it(tmp_path):
     # full collections in a 2.4 s rerun); it is running again after, or still paused if the caller paused it
     import gc
 
-    (tmp_path / "m").mkdir()
-    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
-    cfg = tmp_path / "c.yaml"
-    cfg.write_text(
-        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
-    )
+    cfg = _vanilla_project(tmp_path)
     assert gc.isenabled()
     assert run(cfg, echo=lambda m: None).built == 1 and gc.isenabled()
     assert run(cfg, echo=lambda m: None).skipped == 1 and gc.isenabled()
@@ -4132,13 +4132,8 @@ def test_a_copied_project_is_not_warned_of_as_sharing_its_output_dir(tmp_path):
 def test_a_matched_link_to_another_matched_file_is_named_in_a_warning(tmp_path):
     # a mesh replaced by a link to another the glob matches (a library deduplicated by links) is one asset
     # with it: the link's asset, its outputs and its place in the scene went, without a word
-    (tmp_path / "m").mkdir()
-    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = _vanilla_project(tmp_path)
     (tmp_path / "m" / "b.obj").symlink_to("a.obj")
-    cfg = tmp_path / "c.yaml"
-    cfg.write_text(
-        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
-    )
     expected = [
         f"{cfg}:2:17: $.assets[0].glob: m/b.obj and m/a.obj are one file (a link to the other or to one "
         "file), one asset built as m/a.obj: m/b.obj has no outputs of its own (copy the file to build it "
@@ -4181,12 +4176,7 @@ def test_matched_links_to_one_missing_file_fail_each_and_a_linked_folder_is_one_
 def test_a_dry_run_with_force_counts_no_asset_up_to_date(tmp_path):
     # `--dry-run --force` planned every asset "to build" and counted them `skipped` (up to date) in the
     # summary (`--json`)
-    (tmp_path / "m").mkdir()
-    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
-    cfg = tmp_path / "c.yaml"
-    cfg.write_text(
-        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
-    )
+    cfg = _vanilla_project(tmp_path)
     assert run(cfg, echo=lambda m: None).built == 1
     res = run(cfg, dry_run=True, echo=lambda m: None)
     assert res.skipped == 1 and [p["state"] for p in res.plan] == ["up to date"]
@@ -4199,12 +4189,7 @@ def test_a_dry_run_with_force_counts_no_asset_up_to_date(tmp_path):
 def test_a_manifest_that_does_not_read_is_named_in_a_warning(tmp_path):
     # a cut or hand-broken manifest.json was taken for none without a word: every asset built again (hours
     # of a studio's library) and the outputs it recorded forgotten (never listed or pruned)
-    (tmp_path / "m").mkdir()
-    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
-    cfg = tmp_path / "c.yaml"
-    cfg.write_text(
-        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
-    )
+    cfg = _vanilla_project(tmp_path)
     assert run(cfg, echo=lambda m: None).built == 1
     manifest = tmp_path / "out" / "manifest.json"
     text = manifest.read_text()
