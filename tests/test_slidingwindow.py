@@ -1373,3 +1373,25 @@ def test_the_spare_state_is_a_fresh_state_and_builds_the_same(monkeypatch: pytes
         assert np.array_equal(
             spare.collapse_sequence.step_geometric_error, fresh.collapse_sequence.step_geometric_error
         )
+
+
+def test_public_functions_of_refine_and_vcache_are_annotated() -> None:
+    """Every public function of :mod:`.sw_refine` and :mod:`swpm_usd.vcache` (kernels by their Python
+    function) has type hints on its parameters and its return, as the project's conventions ask and as both
+    modules had before ``reorder_patches`` (2026-12-04) was added without them."""
+    import inspect
+
+    from swpm_usd import vcache
+    from swpm_usd.encode import sw_refine
+
+    missing = []
+    for mod in (sw_refine, vcache):
+        for name, fn in vars(mod).items():
+            fn = getattr(fn, "py_func", fn)
+            if name.startswith("_") or not inspect.isfunction(fn) or fn.__module__ != mod.__name__:
+                continue
+            sig = inspect.signature(fn)
+            bare = [p for p, v in sig.parameters.items() if v.annotation is inspect.Parameter.empty]
+            if bare or sig.return_annotation is inspect.Signature.empty:
+                missing.append(f"{mod.__name__}.{name}: {bare or 'return'}")
+    assert not missing, missing

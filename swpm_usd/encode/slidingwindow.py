@@ -80,7 +80,7 @@ from ..errors import BuildError
 from ..mesh import Mesh
 from ..metrics import cache_misses
 from ..simplify import CollapseSequence, collapse_sequence, make_state, mesh_topology
-from ..simplify.kernels import star_snapshot
+from ..simplify.kernels import CollapseState, star_snapshot
 from ..simplify.sequence import replay_steps, replay_surface
 from . import sw_centres as swc
 from . import sw_deviation as swd
@@ -1012,7 +1012,7 @@ def _assemble(
 _SPARE_STATE_MAX = 100_000
 
 
-def _copy_state(st):
+def _copy_state(st: CollapseState) -> CollapseState:
     """A copy of the simplifier state ``st`` (every array copied: the same values, dtypes and layouts)."""
     return type(st)(*(a.copy() for a in st))
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import itertools
 from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Any
 
 import numpy as np
 
@@ -198,7 +199,7 @@ class Done:
 
     __slots__ = ("_value",)
 
-    def __init__(self, value) -> None:
+    def __init__(self, value: Any) -> None:
         self._value = value
 
     def done(self) -> bool:
@@ -210,10 +211,10 @@ class Done:
     def cancel(self) -> bool:
         return False  # as a finished Future's
 
-    def result(self, timeout: float | None = None):
+    def result(self, timeout: float | None = None) -> Any:
         return self._value
 
 
-def done_future(value) -> Done:
+def done_future(value: Any) -> Done:
     """A future already holding ``value`` (a level finished inline): :class:`Done`."""
     return Done(value)
