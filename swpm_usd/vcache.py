@@ -765,6 +765,47 @@ def optimize_block_order(
     return (perm, shift) if rotate else perm
 
 
+#: :func:`_score_tables` per cache size, for :func:`block_order_trusted` (the kernels only read them)
+_TABLES: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def block_order_trusted(
+    triangles: np.ndarray, block_starts: np.ndarray, cache_size: int, segment_start: int | None, rotate: bool
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+    """:func:`optimize_block_order` without a cache state, for the package's own callers whose inputs are
+    valid by construction (the sliding-window layout, :mod:`swpm_usd.encode.sw_layout`, calls it once per
+    level and a level of a small mesh costs tens of microseconds): ``triangles`` (n >= 1, 3) of
+    non-negative integer vertex ids, ``block_starts`` non-decreasing from 0 to ``n``, ``segment_start``
+    one of them (or None). None of the public function's checks, the score tables computed once per cache
+    size; the same kernel on the same arrays, so the same permutation (and rotations), bit for bit."""
+    tri = np.ascontiguousarray(triangles, dtype=np.int64)
+    starts = np.ascontiguousarray(block_starts, dtype=np.int64)
+    c = int(cache_size)
+    nvert = int(tri.max()) + 1
+    tri, nvert, _, _ = _compact(tri, nvert)
+    tables = _TABLES.get(c)
+    if tables is None:
+        tables = _TABLES[c] = _score_tables(c)
+    if segment_start is None:
+        segments = np.zeros(0, np.int64)
+    else:
+        segments = np.array([np.searchsorted(starts, segment_start, side="left")], np.int64)
+    perm, shift, _ = _order_blocks(
+        tri,
+        starts,
+        c,
+        np.zeros(nvert, np.int64),
+        np.full(c, -1, np.int64),
+        0,
+        tables[0],
+        tables[1],
+        bool(rotate),
+        segments,
+        _HEAVY,
+    )
+    return (perm, shift) if rotate else perm
+
+
 @njit(cache=True, nogil=True)
 def _rotate_rows(out: np.ndarray, shift: np.ndarray) -> None:
     """Rotate row ``i`` of ``out`` (n, 3) left cyclically by ``shift[i]`` (any integer), in place."""

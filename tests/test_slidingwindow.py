@@ -1247,3 +1247,151 @@ def test_ranking_by_fan_deviation_lowers_the_windows_error(monkeypatch: pytest.M
     ratio = errors[True] / errors[False]
     assert np.exp(np.log(ratio).mean()) < 0.9, ratio
     assert abs(pools[True] - pools[False]) < 0.03 * pools[False]
+
+
+def _reorder_by_numpy(perm, starts, tris, p_start, p_out, q_start, q_out, patch_steps, info, recs, step0):
+    """The renumbering :func:`.sw_refine.reorder_patches` does, in numpy (as ``sw_layout.refine_level`` did
+    it before, 2026-12-04): the reference its one pass must equal."""
+    from swpm_usd.encode.sw_layout import gather
+
+    n = perm.shape[0]
+    step_start = np.concatenate(([0], np.cumsum(patch_steps)))
+    block_sizes = np.diff(starts)
+    blocks = np.concatenate((perm, [n], n + 1 + perm))
+    pool = tris[gather(starts[blocks], block_sizes[blocks])]
+    p_sizes = np.diff(p_start)[perm]
+    q_sizes = np.diff(q_start)[perm]
+    p_out = p_out[gather(p_start[perm], p_sizes)]
+    q_out = q_out[gather(q_start[perm], q_sizes)]
+    p_start = np.concatenate(([0], np.cumsum(p_sizes)))
+    q_start = np.concatenate(([0], np.cumsum(q_sizes)))
+    old_steps = gather(step_start[perm], patch_steps[perm])
+    new_step = np.empty_like(old_steps)
+    new_step[old_steps] = np.arange(old_steps.shape[0])
+    info = info[old_steps]
+    rec_step = new_step[recs[:, 2] - step0]
+    by_step = np.argsort(rec_step, kind="stable")
+    recs = recs[by_step]
+    recs[:, 2] = rec_step[by_step] + step0
+    return (p_start, p_out, q_start, q_out, patch_steps[perm], recs, info), pool
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_reorder_patches_is_the_numpy_renumbering(seed: int) -> None:
+    """A level's patches, blocks, steps and records put in a searched order by one kernel pass: the same
+    arrays (values and dtypes) as the numpy renumbering it replaced, on random levels with empty ``Q``
+    blocks, several steps per patch and several records per step."""
+    from swpm_usd.encode.sw_refine import reorder_patches
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(3, 40))
+    p_sizes = rng.integers(1, 9, n)
+    q_sizes = rng.integers(0, 7, n)
+    m = int(rng.integers(0, 20))
+    p_start = np.concatenate(([0], np.cumsum(p_sizes))).astype(np.int64)
+    q_start = np.concatenate(([0], np.cumsum(q_sizes))).astype(np.int64)
+    p_out = rng.permutation(1000)[: p_start[-1]].astype(np.int64)
+    q_out = rng.permutation(1000)[: q_start[-1]].astype(np.int64)
+    starts = np.concatenate((p_start, p_start[-1] + m + q_start)).astype(np.int64)
+    tris = rng.integers(0, 500, (int(starts[-1]), 3)).astype(np.int64)
+    patch_steps = rng.integers(1, 4, n).astype(np.int64)
+    S = int(patch_steps.sum())
+    step0 = int(rng.integers(0, 50))
+    info = rng.random((S, 3))
+    rec_steps = np.sort(rng.integers(0, S, 3 * S))
+    recs = np.stack([rng.integers(0, 900, 3 * S), rng.integers(0, 900, 3 * S), rec_steps + step0], axis=1)
+    perm = rng.permutation(n).astype(np.int64)
+    args = (
+        perm,
+        starts,
+        tris,
+        p_start,
+        p_out,
+        q_start,
+        q_out,
+        patch_steps,
+        info,
+        recs.astype(np.int64),
+        step0,
+    )
+    want = _reorder_by_numpy(*args)
+    got = reorder_patches(*args)
+    for w, g in zip((*want[0], want[1]), (*got[0], got[1]), strict=True):
+        assert g.dtype == w.dtype and g.shape == w.shape
+        assert np.array_equal(g, w)
+    assert not np.array_equal(got[1], tris)  # a real reordering
+
+
+def test_done_future_is_a_finished_future() -> None:
+    """A level finished inline is held in :class:`.sw_threads.Done`, which answers as a finished
+    ``Future``."""
+    from concurrent.futures import Future
+
+    from swpm_usd.encode import sw_threads as swt
+
+    value = ("level", 3)
+    f: Future = Future()
+    f.set_result(value)
+    d = swt.done_future(value)
+    for name in ("done", "cancelled", "cancel"):
+        assert getattr(d, name)() == getattr(f, name)(), name
+    assert d.result() is value and f.result() is value
+
+
+def test_the_spare_state_is_a_fresh_state_and_builds_the_same(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The copy of the fresh simplifier state kept for the replay of the LOD errors holds what
+    ``make_state`` makes again (values, dtypes, layouts, separate memory), and a build that makes the state
+    again instead (``_SPARE_STATE_MAX = 0``) gives the same errors and pool, inline and threaded."""
+    import swpm_usd.encode.slidingwindow as sw
+    from swpm_usd.simplify import make_state
+
+    mesh = shared_mesh("suzanne.obj")
+    topo = mesh_topology(mesh)
+    st = make_state(mesh, topo)
+    copy = sw._copy_state(st)
+    again = make_state(mesh, topo)
+    for name, a, b, c in zip(st._fields, st, copy, again, strict=True):
+        assert b.dtype == c.dtype and b.flags.c_contiguous == c.flags.c_contiguous, name
+        assert np.array_equal(b, c) and not np.shares_memory(a, b), name
+    made = []
+
+    def counting(*args, **kwargs):
+        made.append(1)
+        return make_state(*args, **kwargs)
+
+    monkeypatch.setattr(sw, "make_state", counting)
+    for m in (mesh, shared_mesh("beetle.obj")):  # beetle: over sw_threads._LEVEL_HAND_OFF, with the threads
+        made.clear()
+        spare = build_sliding_window(m)
+        assert len(made) == 1  # the replay took the copy
+        with monkeypatch.context() as mp:
+            mp.setattr(sw, "_SPARE_STATE_MAX", 0)
+            fresh = build_sliding_window(m)
+        assert len(made) == 3
+        for name in ("index_pool", "window_records", "lod_errors"):
+            assert np.array_equal(getattr(spare, name), getattr(fresh, name)), name
+        assert np.array_equal(
+            spare.collapse_sequence.step_geometric_error, fresh.collapse_sequence.step_geometric_error
+        )
+
+
+def test_public_functions_of_refine_and_vcache_are_annotated() -> None:
+    """Every public function of :mod:`.sw_refine` and :mod:`swpm_usd.vcache` (kernels by their Python
+    function) has type hints on its parameters and its return, as the project's conventions ask and as both
+    modules had before ``reorder_patches`` (2026-12-04) was added without them."""
+    import inspect
+
+    from swpm_usd import vcache
+    from swpm_usd.encode import sw_refine
+
+    missing = []
+    for mod in (sw_refine, vcache):
+        for name, fn in vars(mod).items():
+            fn = getattr(fn, "py_func", fn)
+            if name.startswith("_") or not inspect.isfunction(fn) or fn.__module__ != mod.__name__:
+                continue
+            sig = inspect.signature(fn)
+            bare = [p for p, v in sig.parameters.items() if v.annotation is inspect.Parameter.empty]
+            if bare or sig.return_annotation is inspect.Signature.empty:
+                missing.append(f"{mod.__name__}.{name}: {bare or 'return'}")
+    assert not missing, missing

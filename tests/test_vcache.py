@@ -250,6 +250,26 @@ def test_block_start_conventions(cow: np.ndarray) -> None:
     assert np.array_equal(whole, optimize_triangle_order(tris))  # one block = the whole-list optimiser
 
 
+def test_trusted_block_order_is_the_public_one(cow: np.ndarray) -> None:
+    # the sliding-window layout's path without the checks: the same permutation and rotations, with empty
+    # blocks, a segment start (the tail), several cache sizes and sparse ids (renumbered inside)
+    tris = _shuffle_within(cow[:900], np.array([0, 300, 900]), seed=7)
+    starts = np.array([0, 120, 120, 300, 410, 700, 700, 900], np.int64)
+    for cache_size in (3, 16, 32):
+        for tail in (None, 300, 700):
+            segs = None if tail is None else np.array([tail])
+            want = optimize_block_order(tris, starts, cache_size, segment_starts=segs, rotate=True)
+            got = vcache.block_order_trusted(tris, starts, cache_size, tail, True)
+            assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+            plain = optimize_block_order(tris, starts, cache_size, segment_starts=segs)
+            assert np.array_equal(vcache.block_order_trusted(tris, starts, cache_size, tail, False), plain)
+    sparse = tris.astype(np.int32) * 1000 + 7  # int32 ids far apart: compacted, the order unchanged
+    want = optimize_block_order(sparse, starts, rotate=True, segment_starts=np.array([410]))
+    got = vcache.block_order_trusted(sparse, starts, 16, 410, True)
+    assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+    assert not np.array_equal(want[0], np.arange(900))  # the blocks were shuffled: a real reordering
+
+
 def test_cache_state_carries_over(cow: np.ndarray) -> None:
     tris = cow[optimize_triangle_order(cow)][:600]
     starts = np.array([0, 250, 600])

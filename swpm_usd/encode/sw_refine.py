@@ -370,3 +370,100 @@ def window_misses(
         parts += [blocks[block_start[n + 1 + p] : block_start[n + 2 + p]] for p in order[:j]]
         total += cache_misses(np.concatenate(parts), cache_size)[0]
     return int(total)
+
+
+@nb.njit(cache=True, nogil=True)
+def _reorder(perm, starts, tris, p_start, p_out, q_start, q_out, patch_steps, info, recs, step0):
+    """:func:`reorder_patches` on flat arrays (rows of 3: ``tris``, ``info``, ``recs``), all int64 but
+    ``info``: few array types, so little to compile (about a second of a cold build's 45 s)."""
+    n = perm.shape[0]
+    pool = np.empty(tris.shape[0], np.int64)
+    w = 0
+    for x in range(2 * n + 1):
+        b = perm[x] if x < n else (n if x == n else n + 1 + perm[x - n - 1])
+        for t in range(3 * starts[b], 3 * starts[b + 1]):
+            pool[w] = tris[t]
+            w += 1
+    new_p_start = np.zeros(n + 1, np.int64)
+    new_q_start = np.zeros(n + 1, np.int64)
+    new_p_out = np.empty(p_start[n], np.int64)
+    new_q_out = np.empty(q_start[n], np.int64)
+    new_patch_steps = np.empty(n, np.int64)
+    step_start = np.zeros(n + 1, np.int64)
+    for p in range(n):
+        step_start[p + 1] = step_start[p] + patch_steps[p]
+    S = step_start[n]
+    new_step = np.empty(S, np.int64)
+    new_info = np.empty(3 * S, np.float64)
+    a = 0
+    b = 0
+    s = 0
+    for x in range(n):
+        p = perm[x]
+        for i in range(p_start[p], p_start[p + 1]):
+            new_p_out[a] = p_out[i]
+            a += 1
+        new_p_start[x + 1] = a
+        for i in range(q_start[p], q_start[p + 1]):
+            new_q_out[b] = q_out[i]
+            b += 1
+        new_q_start[x + 1] = b
+        new_patch_steps[x] = patch_steps[p]
+        for i in range(step_start[p], step_start[p + 1]):
+            new_step[i] = s
+            for c in range(3):
+                new_info[3 * s + c] = info[3 * i + c]
+            s += 1
+    # the records by their new step, stably (a counting sort: numpy's stable argsort of the new steps)
+    R = recs.shape[0] // 3
+    first = np.zeros(S + 1, np.int64)
+    for r in range(R):
+        first[new_step[recs[3 * r + 2] - step0] + 1] += 1
+    for i in range(S):
+        first[i + 1] += first[i]
+    new_recs = np.empty(3 * R, np.int64)
+    for r in range(R):
+        k = new_step[recs[3 * r + 2] - step0]
+        j = first[k]
+        first[k] += 1
+        new_recs[3 * j] = recs[3 * r]
+        new_recs[3 * j + 1] = recs[3 * r + 1]
+        new_recs[3 * j + 2] = k + step0
+    return pool, new_p_start, new_p_out, new_q_start, new_q_out, new_patch_steps, new_info, new_recs
+
+
+def reorder_patches(
+    perm: np.ndarray,
+    starts: np.ndarray,
+    tris: np.ndarray,
+    p_start: np.ndarray,
+    p_out: np.ndarray,
+    q_start: np.ndarray,
+    q_out: np.ndarray,
+    patch_steps: np.ndarray,
+    info: np.ndarray,
+    recs: np.ndarray,
+    step0: int,
+) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+    """A level's patches put in the order ``perm`` (old patch per place, :func:`refine_patch_order`), in one
+    kernel pass where numpy took about 45 calls (0.06-0.09 ms per level of 10-150 patches): the pool
+    ``tris`` (rows of 3, blocks ``starts``: ``P`` of the patches, ``M``, ``Q`` of the patches) as its blocks
+    moved with their patches; the ``P`` and ``Q`` CSRs (``p_start``, ``p_out``, ``q_start``, ``q_out``);
+    ``patch_steps``; each step's ``info`` row in its new order; and the collapse records ``recs`` (binned,
+    kept, step from ``step0``) with their steps renumbered, ordered by the new step (the records of one step
+    in their old order). The arrays are int64 (``info`` float64), rows of 3 for ``tris``, ``info`` and
+    ``recs``. Returns ``(p_start, p_out, q_start, q_out, patch_steps, recs, info)`` and the pool."""
+    pool, ps, po, qs, qo, steps, new_info, new_recs = _reorder(
+        np.ascontiguousarray(perm, np.int64),
+        np.ascontiguousarray(starts, np.int64),
+        np.ascontiguousarray(tris, np.int64).reshape(-1),
+        np.ascontiguousarray(p_start, np.int64),
+        np.ascontiguousarray(p_out, np.int64),
+        np.ascontiguousarray(q_start, np.int64),
+        np.ascontiguousarray(q_out, np.int64),
+        np.ascontiguousarray(patch_steps, np.int64),
+        np.ascontiguousarray(info, np.float64).reshape(-1),
+        np.ascontiguousarray(recs, np.int64).reshape(-1),
+        int(step0),
+    )
+    return (ps, po, qs, qo, steps, new_recs.reshape(-1, 3), new_info.reshape(-1, 3)), pool.reshape(-1, 3)

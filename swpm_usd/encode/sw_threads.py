@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import itertools
 from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Any
 
 import numpy as np
 
@@ -190,8 +191,30 @@ class Replay:
         return np.concatenate(self.parts) if self.parts else np.zeros(0)
 
 
-def done_future(value) -> Future:
-    """A future already holding ``value`` (a level finished inline)."""
-    f: Future = Future()
-    f.set_result(value)
-    return f
+class Done:
+    """A finished future holding ``value`` (a level finished inline): ``done``, ``cancelled``, ``cancel`` and
+    ``result`` as :class:`concurrent.futures.Future`'s for a future that has its result, without its lock
+    and condition (a ``Future`` made and filled cost about 15 us per level: suzanne's 14 levels, 0.2 ms of
+    a 25 ms build)."""
+
+    __slots__ = ("_value",)
+
+    def __init__(self, value: Any) -> None:
+        self._value = value
+
+    def done(self) -> bool:
+        return True
+
+    def cancelled(self) -> bool:
+        return False
+
+    def cancel(self) -> bool:
+        return False  # as a finished Future's
+
+    def result(self, timeout: float | None = None) -> Any:
+        return self._value
+
+
+def done_future(value: Any) -> Done:
+    """A future already holding ``value`` (a level finished inline): :class:`Done`."""
+    return Done(value)
