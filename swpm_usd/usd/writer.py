@@ -34,6 +34,8 @@ from .schema import COLLAPSE_FLAT, COLLAPSE_PREFIX, FORMAT_VERSION, SCHEMA_NAME,
 
 MESH_NAME = "mesh"
 LOD_VARIANT_SET = "LOD"
+#: the class prim of write_usdlod's layer holding each LOD item's source (the asset, its variant selected)
+LOD_SOURCES = "sources"
 _UNIFORM = Sdf.VariabilityUniform
 
 
@@ -339,12 +341,13 @@ def write_usdlod(
     """Write a UsdLod layer over an asset written with ``lods``: one LOD item per discrete LOD.
 
     Layout: ``/<Name>LOD`` (Xform, default prim) / ``lod`` (LODRootAPI; items ``LOD0``.. each an instanceable
-    reference to the asset with that variant selected) and ``/<Name>LOD/heuristics`` (beside the root, not
-    in it) holding an ``LODDistanceHeuristic`` and an ``LODScreenSizeHeuristic``. Item i switches to i+1
-    when the error of LOD i+1 projects to at most ``pixel_error`` pixels on a ``viewport_px`` tall view with
-    a ``fov_degrees`` vertical field of view: distance ``d = err * f / pixel_error`` with
-    ``f = viewport_px / (2 tan(fov / 2))``, screen size ``s = 2 r f / (d * viewport_px)`` (r: bounding
-    radius).
+    internal reference to ``/<Name>LOD/sources/LOD<i>``, a class prim referencing the asset with that variant
+    selected) and ``/<Name>LOD/heuristics`` (beside the root, not in it) holding an
+    ``LODDistanceHeuristic`` and an ``LODScreenSizeHeuristic``. Item i switches to i+1 when the error of
+    LOD i+1 projects to at most ``pixel_error`` pixels on a ``viewport_px`` tall view with a ``fov_degrees``
+    vertical field of view: distance ``d = err * f / pixel_error`` with
+    ``f = viewport_px / (2 tan(fov / 2))``, screen size ``s = 2 r f / (d * viewport_px)``
+    (r: bounding radius).
     Needs usd-core >= 26.8 (UsdLod).
     """
     try:
@@ -428,14 +431,21 @@ def _author_usdlod(
     Usd.ModelAPI(top.GetPrim()).SetKind(Kind.Tokens.assembly)
     lod_root = UsdGeom.Xform.Define(stage, top.GetPath().AppendChild("lod"))
     rel_asset = os.path.relpath(asset.resolve(), p.resolve().parent).replace(os.sep, "/")
+    # USD ignores opinions authored under an instanceable prim (an `over "mesh"` with the variant selection
+    # beneath the item left every item drawing LOD0): each selection is made on a class prim beside the LOD
+    # root, `sources/LOD<i>` (abstract: neither drawn nor traversed), that references the asset, and each item
+    # is an instanceable internal reference to its source, so the selection is part of its prototype (four
+    # prototypes, shared by every reference to this layer)
+    sources = stage.CreateClassPrim(top.GetPath().AppendChild(LOD_SOURCES))
     for i in range(discrete.shape[0]):
-        item = UsdGeom.Xform.Define(stage, lod_root.GetPath().AppendChild(f"LOD{i}")).GetPrim()
-        item.GetReferences().AddReference(rel_asset)
-        item.SetInstanceable(True)
-        # the item is instanceable: author the selection in the layer, not through the (proxy) prim
-        over = Sdf.CreatePrimInLayer(layer, item.GetPath().AppendChild(MESH_NAME))
+        source = stage.CreateClassPrim(sources.GetPath().AppendChild(f"LOD{i}"))
+        source.GetReferences().AddReference(rel_asset)
+        over = Sdf.CreatePrimInLayer(layer, source.GetPath().AppendChild(MESH_NAME))
         over.specifier = Sdf.SpecifierOver
         over.variantSelections[LOD_VARIANT_SET] = f"LOD{i}"
+        item = UsdGeom.Xform.Define(stage, lod_root.GetPath().AppendChild(f"LOD{i}")).GetPrim()
+        item.GetReferences().AddInternalReference(source.GetPath())
+        item.SetInstanceable(True)
     heur = UsdGeom.Scope.Define(stage, top.GetPath().AppendChild("heuristics"))
     focal = viewport_px / (2.0 * math.tan(math.radians(fov_degrees) / 2.0))
     dist = _thresholds(errors[1:] * focal / pixel_error)
