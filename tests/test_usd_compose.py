@@ -7,7 +7,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
+from pxr import Sdf, Usd, UsdGeom, Vt
 
 import swpm_usd
 from swpm_usd import usd
@@ -55,3 +57,70 @@ print(sorted(str(p.GetPath()) for p in usd.find_encoded(stage)))
     assert lines[1] == f"{expected} {expected} 4"  # three references share the four LOD prototypes
     assert lines[2] == str([f"/SpotLOD/lod/LOD{i}/mesh" for i in range(4)])
     assert usd.validate_stage(layer) == []
+
+
+# -- override layers over animated meshes ------------------------------------------------------------------
+def _deforming_stage(path: Path, *, default: bool, topology_changes: bool = False) -> None:
+    """A 12 x 12 quad grid whose points are time-sampled (1, 5, 10: scaled by 1, 1.5, 2), a vertex primvar
+    ``height`` sampled with them (each point's y), its extent sampled too; ``default``: a default value
+    of the points besides (what a renderer never sees once there are samples)."""
+    n = 12
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageUpAxis(stage, "Z")
+    UsdGeom.SetStageMetersPerUnit(stage, 0.01)
+    world = UsdGeom.Xform.Define(stage, "/World")
+    stage.SetDefaultPrim(world.GetPrim())
+    xs, ys = np.meshgrid(np.arange(n + 1), np.arange(n + 1))
+    pts = np.stack([xs.ravel(), ys.ravel(), np.sin(xs.ravel() * 0.7) * np.cos(ys.ravel() * 0.5)], 1)
+    pts = pts.astype(np.float32)
+    a = (np.arange(n)[None, :] + (n + 1) * np.arange(n)[:, None]).ravel()
+    faces = np.stack([a, a + 1, a + n + 2, a + n + 1], 1).astype(np.int32)
+    mesh = UsdGeom.Mesh.Define(stage, "/World/sheet")
+    mesh.GetFaceVertexCountsAttr().Set(Vt.IntArray.FromNumpy(np.full(len(faces), 4, np.int32)))
+    mesh.GetFaceVertexIndicesAttr().Set(Vt.IntArray.FromNumpy(faces.ravel()))
+    height = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("height", Sdf.ValueTypeNames.FloatArray, "vertex")
+    if default:
+        mesh.GetPointsAttr().Set(Vt.Vec3fArray.FromNumpy(pts * 7))
+    for t, k in ((1.0, 1.0), (5.0, 1.5), (10.0, 2.0)):
+        p = pts * np.float32(k)
+        mesh.GetPointsAttr().Set(Vt.Vec3fArray.FromNumpy(p), t)
+        height.Set(Vt.FloatArray.FromNumpy(np.ascontiguousarray(p[:, 1])), t)
+        mesh.GetExtentAttr().Set(Vt.Vec3fArray.FromNumpy(np.stack([p.min(0), p.max(0)])), t)
+    if topology_changes:
+        mesh.GetFaceVertexIndicesAttr().Set(Vt.IntArray.FromNumpy(faces.ravel()), 1.0)
+        mesh.GetFaceVertexIndicesAttr().Set(Vt.IntArray.FromNumpy(faces[:, ::-1].ravel()), 10.0)
+    stage.Save()
+
+
+@pytest.mark.parametrize("default", [False, True])
+def test_overrides_of_a_deforming_mesh_keep_its_animation(default, tmp_path):
+    src = tmp_path / "anim.usda"
+    _deforming_stage(src, default=default)
+    result = usd.write_overrides(src, tmp_path / "anim_swpm.usda", "vanilla")
+    assert list(result) == ["/World/sheet"]
+    stage = Usd.Stage.Open(str(tmp_path / "anim_swpm.usda"))
+    prim = stage.GetPrimAtPath("/World/sheet")
+    mesh = UsdGeom.Mesh(prim)
+    pm = usd.read(prim)
+    assert mesh.GetPointsAttr().GetTimeSamples() == [1.0, 5.0, 10.0]
+    first = np.asarray(mesh.GetPointsAttr().Get(1.0))
+    np.testing.assert_array_equal(first, pm.points)  # the encoding is of the first sample, what is drawn
+    for t, k in ((1.0, 1.0), (5.0, 1.5), (10.0, 2.0)):
+        pts = np.asarray(mesh.GetPointsAttr().Get(t))
+        np.testing.assert_allclose(pts, first * k, rtol=1e-6)  # the same vertex order at every sample
+        height = np.asarray(UsdGeom.PrimvarsAPI(prim).GetPrimvar("height").ComputeFlattened(t))
+        np.testing.assert_array_equal(height, pts[:, 1])
+        np.testing.assert_array_equal(np.asarray(mesh.GetExtentAttr().Get(t)), [pts.min(0), pts.max(0)])
+    fvi = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(5.0))
+    np.testing.assert_array_equal(fvi, pm.triangles_at(0).ravel())
+    assert usd.validate_stage(stage) == []
+
+
+def test_overrides_of_a_mesh_whose_topology_changes_over_time_say_so(tmp_path):
+    from swpm_usd.usd.overrides import UsdOverrideError
+
+    src = tmp_path / "anim.usda"
+    _deforming_stage(src, default=False, topology_changes=True)
+    with pytest.raises(UsdOverrideError, match=r"anim\.usda: /World/sheet\.faceVertexIndices: the topology"):
+        usd.write_overrides(src, tmp_path / "anim_swpm.usda", "vanilla")
+    assert not (tmp_path / "anim_swpm.usda").exists()

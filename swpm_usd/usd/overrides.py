@@ -1,7 +1,8 @@
 """Non-destructive encoding of an existing stage: a layer that sublayers (or references) the source and
 overrides each Mesh prim with SwpmMeshAPI, points in LOD order, LOD-0 topology and re-indexed primvars.
 
-Per Mesh prim (in its local space, at the default time): faces are fan-triangulated (hole faces left out, so
+Per Mesh prim (in its local space, at its earliest time sample, the default where it has none: the time
+the loader reads): faces are fan-triangulated (hole faces left out, so
 the override authors no ``holeIndices``); vertices are the distinct (point, faceVarying values, uniform
 normals/st/displayColor values) combinations, so seams split points only where needed; degenerate triangles
 are dropped. Primvars are re-indexed consistently: ``vertex`` / ``varying`` ones follow the points;
@@ -9,6 +10,9 @@ are dropped. Primvars are re-indexed consistently: ``vertex`` / ``varying`` ones
 other ``uniform`` ones follow the LOD-0 triangles; ``constant`` ones are untouched; indexed primvars are
 written flattened (their indices blocked). Face GeomSubsets get the LOD-0 triangles of their faces. Instanced
 meshes (inside prototypes) are skipped.
+Time-sampled points, normals and primvars (a deforming mesh) are re-indexed at every sample of the source,
+the extent computed at each sample of the points: an override's default alone would be stronger than the
+source's samples and stop the animation. Topology that changes over time cannot be re-indexed: an error.
 The source files are never written.
 """
 
@@ -16,7 +20,7 @@ from __future__ import annotations
 
 import os
 import secrets
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -33,6 +37,8 @@ from ..mesh import Mesh
 from .writer import author_swpm, reload_if_open
 
 _PROV = "_swpm_source_vertex"
+#: the time the source is read at (a mesh's earliest time sample, else its default value: as the loader reads)
+_TIME = Usd.TimeCode.EarliestTime()
 _PM_NAMES = {"normals": "normal", "st": "uv", "displayColor": "color"}
 
 
@@ -48,13 +54,30 @@ class _Primvar:
         self.values = values  # (n_elements, ...) flattened values, one row per element
         self.rows = values.reshape(values.shape[0], -1)
 
+    def times(self) -> list[float]:
+        """The source's time samples of the values (and of an indexed primvar's indices)."""
+        return list(self.pv.GetTimeSamples() if self.pv is not None else self.attr.GetTimeSamples())
+
+    def rows_at(self, time: float) -> np.ndarray:
+        """The rows at time sample ``time`` (as :attr:`rows`); an error unless there are as many."""
+        flat = self.pv.ComputeFlattened(time) if self.pv is not None else self.attr.Get(time)
+        a = np.asarray(flat if flat is not None else [])
+        es = max(self.pv.GetElementSize(), 1) if self.pv is not None else 1
+        rows = a.reshape(a.shape[0] // es, -1) if a.size else a.reshape(0, self.rows.shape[1])
+        if rows.shape != self.rows.shape:
+            raise UsdOverrideError(
+                f"{self.attr.GetPath()}: {rows.shape[0]} values at time {time}, {self.rows.shape[0]} at "
+                "its first: values that change in number over time cannot be re-indexed"
+            )
+        return rows
+
 
 def _primvars(prim: Usd.Prim, topo: _Topology) -> list[_Primvar]:
     mesh = UsdGeom.Mesh(prim)
     out = []
     api = UsdGeom.PrimvarsAPI(prim)
     for pv in api.GetPrimvarsWithValues():
-        flat = pv.ComputeFlattened()
+        flat = pv.ComputeFlattened(_TIME)
         if flat is None:
             continue
         a = np.asarray(flat)
@@ -62,18 +85,19 @@ def _primvars(prim: Usd.Prim, topo: _Topology) -> list[_Primvar]:
         a = a.reshape(a.shape[0] // es, es, *a.shape[1:]) if es > 1 else a
         out.append(_Primvar(str(pv.GetPrimvarName()), a, str(pv.GetInterpolation()), pv, pv.GetAttr()))
     if not any(p.name == "normals" for p in out) and mesh.GetNormalsAttr().HasValue():
-        a = np.asarray(mesh.GetNormalsAttr().Get())
+        a = np.asarray(mesh.GetNormalsAttr().Get(_TIME))
         out.append(_Primvar("normals", a, str(mesh.GetNormalsInterpolation()), None, mesh.GetNormalsAttr()))
     return out
 
 
-def _corner_rows(p: _Primvar, topo: _Topology) -> np.ndarray:
-    """Values of ``p`` at each triangle corner (3T, k)."""
+def _corner_rows(p: _Primvar, topo: _Topology, rows: np.ndarray | None = None) -> np.ndarray:
+    """Values of ``p`` (its ``rows``, default those read) at each triangle corner (3T, k)."""
+    rows = p.rows if rows is None else rows
     if p.interp == UsdGeom.Tokens.faceVarying:
-        return p.rows[topo.corners.reshape(-1)]
+        return rows[topo.corners.reshape(-1)]
     if p.interp == UsdGeom.Tokens.uniform:
-        return p.rows[np.repeat(topo.face, 3)]
-    return p.rows[topo.points.reshape(-1)]
+        return rows[np.repeat(topo.face, 3)]
+    return rows[topo.points.reshape(-1)]
 
 
 def _splits(p: _Primvar) -> bool:
@@ -84,10 +108,11 @@ def _splits(p: _Primvar) -> bool:
 
 def _extract(prim: Usd.Prim) -> tuple[Mesh, dict[str, Any]]:
     mesh = UsdGeom.Mesh(prim)
-    points = np.asarray(mesh.GetPointsAttr().Get(), np.float32).reshape(-1, 3)
-    counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get(), np.int64)
-    fvi = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), np.int64)
-    holes = np.asarray(mesh.GetHoleIndicesAttr().Get() or [], np.int64)
+    _fixed_topology(prim)
+    points = np.asarray(mesh.GetPointsAttr().Get(_TIME), np.float32).reshape(-1, 3)
+    counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get(_TIME), np.int64)
+    fvi = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(_TIME), np.int64)
+    holes = np.asarray(mesh.GetHoleIndicesAttr().Get(_TIME) or [], np.int64)
     try:
         topo = _Topology(counts, fvi, points.shape[0], False, str(prim.GetPath()), holes)
         pvs = [p for p in _primvars(prim, topo) if p.interp != UsdGeom.Tokens.constant]
@@ -126,6 +151,22 @@ def _extract(prim: Usd.Prim) -> tuple[Mesh, dict[str, Any]]:
     return m, info
 
 
+def _fixed_topology(prim: Usd.Prim) -> None:
+    """An error naming the attribute when ``prim``'s topology changes between its time samples."""
+    for name in ("faceVertexCounts", "faceVertexIndices", "holeIndices"):
+        attr = prim.GetAttribute(name)
+        times = attr.GetTimeSamples() if attr else []
+        if len(times) < 2:
+            continue
+        first = np.asarray(attr.Get(times[0]))
+        for t in times[1:]:
+            if not np.array_equal(np.asarray(attr.Get(t)), first):
+                raise UsdOverrideError(
+                    f"{attr.GetPath()}: the topology changes over time (at {t}, from its value at "
+                    f"{times[0]}): a mesh of changing topology cannot be encoded"
+                )
+
+
 def _match_triangles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """For each row of ``b`` the row of ``a`` holding the same vertex set (a and b: same multiset)."""
     sa, sb = np.sort(a, axis=1), np.sort(b, axis=1)
@@ -138,11 +179,19 @@ def _match_triangles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
-def _set_values(p: _Primvar, rows: np.ndarray, interp: str) -> None:
-    values = (
-        rows.reshape(-1, *p.values.shape[2:]) if p.values.ndim > 2 else rows.reshape(-1, *p.values.shape[1:])
-    )
-    p.attr.Set(np.ascontiguousarray(values))
+def _set_values(p: _Primvar, remap: Callable[[np.ndarray], np.ndarray], interp: str) -> None:
+    """Author ``remap(rows)`` of ``p`` (its default and, for each of the source's time samples, its rows at
+    that time remapped), with interpolation ``interp``; an indexed primvar's indices blocked."""
+
+    def values(rows: np.ndarray) -> np.ndarray:
+        shape = p.values.shape[2:] if p.values.ndim > 2 else p.values.shape[1:]
+        return np.ascontiguousarray(rows.reshape(-1, *shape))
+
+    # (the source's samples read before any opinion is authored: the override's default hides them)
+    samples = [(t, p.rows_at(t)) for t in p.times()]
+    p.attr.Set(values(remap(p.rows)))
+    for t, rows in samples:
+        p.attr.Set(values(remap(rows)), t)
     if p.pv is not None:
         if p.pv.IsIndexed():
             p.pv.BlockIndices()
@@ -150,6 +199,26 @@ def _set_values(p: _Primvar, rows: np.ndarray, interp: str) -> None:
             p.pv.SetInterpolation(interp)
     elif interp != p.interp:
         UsdGeom.Mesh(p.attr.GetPrim()).SetNormalsInterpolation(interp)
+
+
+def _animate_points(mesh: UsdGeom.Mesh, point_of: np.ndarray, n_points: int, extent: bool) -> None:
+    """The source's time samples of points (``n_points`` each), re-indexed (new vertex i is source point
+    ``point_of[i]``), each with its extent: the override's default alone would hide the source's samples.
+    Called before the override's default points are authored (they would hide the samples from it)."""
+    attr = mesh.GetPointsAttr()
+    # (every sample read before one is authored: the override's samples hide the source's between them)
+    samples = [(t, attr.Get(t)) for t in attr.GetTimeSamples()]
+    for t, value in samples:
+        pts = np.asarray(value, np.float32).reshape(-1, 3)
+        if pts.shape[0] != n_points:
+            raise UsdOverrideError(
+                f"{attr.GetPath()}: {pts.shape[0]} points at time {t}: points that change in number over "
+                "time cannot be re-indexed"
+            )
+        moved = np.ascontiguousarray(pts[point_of])
+        attr.Set(moved, t)
+        if extent:
+            mesh.GetExtentAttr().Set(np.stack([moved.min(axis=0), moved.max(axis=0)]), t)
 
 
 def encode_prim(prim: Usd.Prim, encoding: str = "vanilla", **params: Any) -> ProgressiveMesh:
@@ -168,6 +237,8 @@ def encode_prim(prim: Usd.Prim, encoding: str = "vanilla", **params: Any) -> Pro
     src_face = topo.face[src_tri]
 
     mesh = UsdGeom.Mesh(prim)
+    point_of = info["src_point"][prov]  # source point of each new vertex
+    _animate_points(mesh, point_of, topo.n_points, pm.vertex_count > 0)
     mesh.GetPointsAttr().Set(np.ascontiguousarray(pm.points))
     mesh.GetFaceVertexIndicesAttr().Set(np.ascontiguousarray(tri0.reshape(-1).astype(np.int32)))
     mesh.GetFaceVertexCountsAttr().Set(np.full(tri0.shape[0], 3, np.int32))
@@ -177,11 +248,11 @@ def encode_prim(prim: Usd.Prim, encoding: str = "vanilla", **params: Any) -> Pro
         mesh.GetExtentAttr().Set(np.stack([pm.points.min(axis=0), pm.points.max(axis=0)]))
     for p in info["primvars"]:
         if p.interp in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying):
-            _set_values(p, p.rows[info["src_point"][prov]], p.interp)
+            _set_values(p, lambda rows: rows[point_of], p.interp)
         elif _splits(p):
-            _set_values(p, _corner_rows(p, topo)[corner], UsdGeom.Tokens.vertex)
+            _set_values(p, lambda rows, p=p: _corner_rows(p, topo, rows)[corner], UsdGeom.Tokens.vertex)
         elif p.interp == UsdGeom.Tokens.uniform:
-            _set_values(p, p.rows[src_face], p.interp)
+            _set_values(p, lambda rows: rows[src_face], p.interp)
     for subset in UsdGeom.Subset.GetAllGeomSubsets(mesh):
         if subset.GetElementTypeAttr().Get() != UsdGeom.Tokens.face:
             continue
@@ -309,10 +380,10 @@ def _author_overrides(
 def _nothing_to_encode(prim: Usd.Prim) -> str | None:
     """Why the Mesh ``prim`` has no triangle to encode (no faces; every face a hole), or None."""
     mesh = UsdGeom.Mesh(prim)
-    counts = mesh.GetFaceVertexCountsAttr().Get()
+    counts = mesh.GetFaceVertexCountsAttr().Get(_TIME)
     if counts is None or len(counts) == 0:
         return "no faces"
-    if _all_holes(mesh, Usd.TimeCode.Default()):
+    if _all_holes(mesh, _TIME):
         return "every face is a hole"
     return None
 
