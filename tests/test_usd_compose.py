@@ -3,6 +3,7 @@ instances, pipeline outputs of USD inputs, and errors located in the layer that 
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -124,3 +125,49 @@ def test_overrides_of_a_mesh_whose_topology_changes_over_time_say_so(tmp_path):
     with pytest.raises(UsdOverrideError, match=r"anim\.usda: /World/sheet\.faceVertexIndices: the topology"):
         usd.write_overrides(src, tmp_path / "anim_swpm.usda", "vanilla")
     assert not (tmp_path / "anim_swpm.usda").exists()
+
+
+# -- crowds of instances -----------------------------------------------------------------------------------
+def _crowd(folder: Path, asset: Path, n: int) -> Path:
+    stage = Usd.Stage.CreateNew(str(folder / f"crowd_{asset.stem}.usda"))
+    UsdGeom.SetStageUpAxis(stage, "Y")
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    world = UsdGeom.Xform.Define(stage, "/World")
+    stage.SetDefaultPrim(world.GetPrim())
+    for i in range(n):
+        x = UsdGeom.Xform.Define(stage, f"/World/c{i}")
+        x.AddTranslateOp().Set((float(i), 0.0, 0.0))
+        x.GetPrim().GetReferences().AddReference(f"./{asset.name}")
+        x.GetPrim().SetInstanceable(True)
+    stage.Save()
+    return folder / f"crowd_{asset.stem}.usda"
+
+
+def test_validate_checks_a_crowd_once_per_prototype(spot_pm, tmp_path, monkeypatch):
+    """Each instance proxy of a prototype has its values: the buffers are read once, not once a proxy."""
+    from swpm_usd.usd import reader
+
+    crowd = _crowd(tmp_path, usd.write(spot_pm, tmp_path / "spot.usdc"), 40)
+    reads = []
+    real_read = reader.read
+    monkeypatch.setattr(reader, "read", lambda prim, *a, **k: reads.append(prim.GetPath()) or real_read(prim))
+    assert usd.validate_stage(crowd) == []
+    # (usd-core runs the validator on its worker threads: those that start together each read it once)
+    assert 1 <= len(reads) <= min(os.cpu_count() or 1, 4)
+    assert len(usd.find_encoded(Usd.Stage.Open(str(crowd)))) == 40
+
+
+def test_validate_names_every_instance_of_a_broken_asset(spot_pm, tmp_path):
+    """Checked once per prototype, a problem is still reported at each instance proxy, under its own path."""
+    asset = usd.write(spot_pm, tmp_path / "spot.usda")
+    layer = Sdf.Layer.FindOrOpen(str(asset))
+    pool = layer.GetAttributeAtPath("/Spot/mesh.swpm:indices")
+    pool.default = Vt.UIntArray.FromNumpy(np.asarray(pool.default)[:-3].copy())
+    layer.Save()
+    crowd = _crowd(tmp_path, asset, 3)
+    findings = [f for f in usd.validate_stage(crowd) if f.code.startswith("SWPM_")]
+    assert [f.prim for f in findings] == [f"/World/c{i}/mesh" for i in range(3)]
+    assert {f.code for f in findings} == {"SWPM_USD_REBUILD"}
+    for i, f in enumerate(findings):  # (the message names the stage and the prim, each its own)
+        assert f"crowd_spot.usda: /World/c{i}/mesh: " in f.message and "SWPM_RECORD_BAD_COUNTS" in f.message
+    assert usd.validate_stage(crowd, builtin=False) == usd.validate_stage(crowd)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import threading
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -267,10 +268,42 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
 
 _registered = False
 
+#: while :func:`validate_stage` runs (``_memo_users`` > 0): the findings of each instance prototype's prim,
+#: (stage's layers, prim path in the prototype) -> (instance proxy path they were found at, findings). Every
+#: instance proxy of one prototype has the prototype's values, so a crowd of 500 instances of one asset is
+#: checked once, not 500 times (each a full read of the buffers: 15 s instead of 2.6 s for one asset). A
+#: module global, not a context variable: usd-core calls the validator from its own worker threads.
+_memo: dict[tuple[str, str, str], tuple[str, list[Finding]]] = {}
+_memo_users = 0
+_memo_lock = threading.Lock()
+
+
+def _validate_cached(prim: Usd.Prim) -> list[Finding]:
+    """:func:`validate_prim`, once per instance prototype while :func:`validate_stage` runs (the findings of
+    another proxy of the prototype, their prim paths and messages naming this one)."""
+    if not _memo_users or not prim.IsInstanceProxy() or not is_encoded(prim):
+        return validate_prim(prim)
+    stage = prim.GetStage()
+    key = (
+        stage.GetRootLayer().identifier,
+        stage.GetSessionLayer().identifier if stage.GetSessionLayer() else "",
+        str(prim.GetPrimInPrototype().GetPath()),
+    )
+    with _memo_lock:
+        hit = _memo.get(key)
+    here = str(prim.GetPath())
+    if hit is None:
+        found = validate_prim(prim)
+        with _memo_lock:
+            _memo[key] = (here, found)
+        return found
+    there, found = hit
+    return [Finding(f.code, f.severity, here, f.message.replace(there, here)) for f in found]
+
 
 def _validator_fn(prim: Usd.Prim, *_: Any) -> list[Any]:
     errors = []
-    for f in validate_prim(prim):
+    for f in _validate_cached(prim):
         kind = (
             UsdValidation.ValidationErrorType.Error
             if f.severity == ERROR
@@ -368,12 +401,20 @@ def validate_stage(path: str | os.PathLike[str] | Usd.Stage, builtin: bool = Tru
     if ours:
         names.append(VALIDATOR_NAME)
     findings: list[Finding] = []
+    global _memo_users
+    with _memo_lock:
+        _memo_users += 1
     try:
         _validate_into(findings, stage, reg, names, ours)
     except RuntimeError as exc:  # (pxr's Tf.ErrorException, for a value it cannot unpack; not a bug of ours)
         where = stage.GetRootLayer().identifier if isinstance(path, Usd.Stage) else os.fspath(path)
         reason = _tf_messages(str(exc)) or type(exc).__name__
         findings.append(Finding("SWPM_USD_READ", ERROR, "/", f"{where}: usd-core cannot read it: {reason}"))
+    finally:
+        with _memo_lock:
+            _memo_users -= 1
+            if not _memo_users:
+                _memo.clear()
     findings.sort(key=lambda f: (f.prim, f.code, f.message))
     return findings
 
@@ -396,7 +437,7 @@ def _validate_into(findings: list[Finding], stage: Usd.Stage, reg: Any, names: l
     if not ours:
         rng = Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate))
         for prim in rng:
-            findings.extend(validate_prim(prim))
+            findings.extend(_validate_cached(prim))
 
 
 def report(findings: list[Finding]) -> dict[str, Any]:
