@@ -171,3 +171,30 @@ def test_validate_names_every_instance_of_a_broken_asset(spot_pm, tmp_path):
     for i, f in enumerate(findings):  # (the message names the stage and the prim, each its own)
         assert f"crowd_spot.usda: /World/c{i}/mesh: " in f.message and "SWPM_RECORD_BAD_COUNTS" in f.message
     assert usd.validate_stage(crowd, builtin=False) == usd.validate_stage(crowd)
+
+
+# -- pipeline outputs of USD inputs ------------------------------------------------------------------------
+def test_pipeline_layers_keep_the_up_axis_and_units_of_a_usd_input(tmp_path):
+    """The loader keeps a stage's coordinates, so the asset layer says what they are: Z-up centimetres stay
+    Z-up centimetres; a stage that authors neither has USD's fallbacks (Y, centimetres); an OBJ the
+    defaults."""
+    from swpm_usd.pipeline import run
+
+    (tmp_path / "in").mkdir()
+    _deforming_stage(tmp_path / "in" / "sheet.usda", default=True)  # Z-up, metersPerUnit 0.01
+    bare = Usd.Stage.CreateNew(str(tmp_path / "in" / "bare.usda"))
+    UsdGeom.Mesh.Define(bare, "/m").GetPrim().GetReferences().AddReference("./sheet.usda", "/World/sheet")
+    bare.Save()
+    (tmp_path / "in" / "spot.obj").write_bytes((MESHES / "spot.obj").read_bytes())
+    cfg = tmp_path / "p.yaml"
+    cfg.write_text(
+        'version: 1\nassets:\n  - glob: "in/*"\noutput:\n  dir: out\n  usd: true\n  swpm: false\n'
+        "defaults:\n  encoding: vanilla\n"
+    )
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 0 and res.built == 3
+    got = {}
+    for stem in ("sheet", "bare", "spot"):
+        stage = Usd.Stage.Open(str(tmp_path / "out" / f"{stem}.usdc"))
+        got[stem] = (str(UsdGeom.GetStageUpAxis(stage)), UsdGeom.GetStageMetersPerUnit(stage))
+    assert got == {"sheet": ("Z", 0.01), "bare": (str(UsdGeom.GetFallbackUpAxis()), 0.01), "spot": ("Y", 1.0)}

@@ -320,6 +320,36 @@ def write(
     return _export(stage, p, fmt)
 
 
+#: suffixes of the files :func:`stage_metadata` reads (USD layers and packages)
+USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
+
+
+def stage_metadata(source: str | os.PathLike[str]) -> dict[str, Any]:
+    """:func:`write`'s ``up_axis`` and ``meters_per_unit`` for a mesh loaded from ``source``: a USD file's
+    (its root layer's, USD's fallbacks where it authors none: the fallback up axis, Y unless the environment
+    says otherwise, and centimetres), since the loader keeps the stage's coordinates; ``{}`` for any other
+    file (OBJ, PLY, ... say nothing: the defaults). An up axis USD does not define is left out too."""
+    if Path(source).suffix.lower() not in USD_SUFFIXES:
+        return {}
+    try:
+        layer = Sdf.Layer.FindOrOpen(os.fspath(source))
+    except Tf.ErrorException as e:
+        from ..io.usd_loader import _tf_message
+
+        raise UsdWriteError(f"{source}: USD could not open it: {_tf_message(e)}") from e
+    if layer is None:
+        raise UsdWriteError(f"{source}: USD could not open it")
+    info = layer.pseudoRoot
+    up = str(info.GetInfo("upAxis")) if info.HasInfo("upAxis") else str(UsdGeom.GetFallbackUpAxis())
+    scale = float(info.GetInfo("metersPerUnit")) if info.HasInfo("metersPerUnit") else 0.01
+    out: dict[str, Any] = {}
+    if up.upper() in ("Y", "Z"):
+        out["up_axis"] = up.upper()
+    if math.isfinite(scale) and scale > 0:
+        out["meters_per_unit"] = scale
+    return out
+
+
 def _thresholds(errors: np.ndarray) -> np.ndarray:
     """Strictly increasing positive copy of ``errors`` (so heuristics get a valid threshold list)."""
     e = np.maximum.accumulate(np.maximum(np.asarray(errors, np.float64), 1e-12))
