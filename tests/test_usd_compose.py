@@ -14,6 +14,7 @@ from pxr import Sdf, Usd, UsdGeom, Vt
 
 import swpm_usd
 from swpm_usd import usd
+from swpm_usd.usd.reader import UsdReadError
 
 MESHES = Path(__file__).resolve().parents[2] / "shared" / "meshes"
 if not MESHES.exists():
@@ -42,6 +43,7 @@ def test_usdlod_items_each_draw_their_own_lod(spot_pm, tmp_path):
     code = f"""
 from pxr import Usd, UsdGeom
 from swpm_usd import usd
+from swpm_usd.usd.reader import UsdReadError
 def counts(stage, root):
     meshes = [UsdGeom.Mesh(stage.GetPrimAtPath(f"{{root}}/lod/LOD{{i}}/mesh")) for i in range(4)]
     return [len(m.GetFaceVertexIndicesAttr().Get()) for m in meshes]
@@ -198,3 +200,74 @@ def test_pipeline_layers_keep_the_up_axis_and_units_of_a_usd_input(tmp_path):
         stage = Usd.Stage.Open(str(tmp_path / "out" / f"{stem}.usdc"))
         got[stem] = (str(UsdGeom.GetStageUpAxis(stage)), UsdGeom.GetStageMetersPerUnit(stage))
     assert got == {"sheet": ("Z", 0.01), "bare": (str(UsdGeom.GetFallbackUpAxis()), 0.01), "spot": ("Y", 1.0)}
+
+
+# -- located problems on composed stages -------------------------------------------------------------------
+def _overridden_scene(folder: Path, asset: Path, edit) -> Path:
+    """``shot.usda``: sublayers ``fix.usda`` (where ``edit(prim)`` authors its overrides) over ``set.usda``,
+    which references ``asset`` at /World/spot (a prim of another name and path than the asset's)."""
+    base = Usd.Stage.CreateNew(str(folder / "set.usda"))
+    UsdGeom.SetStageUpAxis(base, "Y")
+    UsdGeom.SetStageMetersPerUnit(base, 1.0)
+    UsdGeom.Xform.Define(base, "/World")
+    base.SetDefaultPrim(base.GetPrimAtPath("/World"))
+    spot = UsdGeom.Xform.Define(base, "/World/spot")
+    spot.AddTranslateOp().Set((5.0, 0.0, 0.0))
+    spot.GetPrim().GetReferences().AddReference(f"./{asset.name}")
+    base.Save()
+    Sdf.Layer.CreateNew(str(folder / "fix.usda")).Save()
+    shot = Sdf.Layer.CreateNew(str(folder / "shot.usda"))
+    shot.subLayerPaths.append("./fix.usda")
+    shot.subLayerPaths.append("./set.usda")
+    shot.Save()
+    stage = Usd.Stage.Open(str(folder / "shot.usda"))
+    stage.SetEditTarget(Usd.EditTarget(Sdf.Layer.FindOrOpen(str(folder / "fix.usda"))))
+    edit(stage.GetPrimAtPath("/World/spot/mesh"))
+    stage.GetEditTarget().GetLayer().Save()
+    return folder / "shot.usda"
+
+
+def test_a_broken_override_is_named_with_its_layer(spot_pm, tmp_path):
+    """An override of the buffers in a sublayer: read and validate name the stage, the composed prim, and
+    the layer that holds the override (the one to fix), not only the asset it overrides."""
+    asset = usd.write(spot_pm, tmp_path / "spot.usdc")
+
+    def cut_indices(prim):
+        a = prim.GetAttribute("swpm:indices")
+        a.Set(Vt.UIntArray.FromNumpy(np.asarray(a.Get())[:-3].copy()))
+
+    shot = _overridden_scene(tmp_path, asset, cut_indices)
+    stage = Usd.Stage.Open(str(shot))
+    fix = str(tmp_path / "fix.usda")
+    with pytest.raises(UsdReadError) as e:
+        usd.read(stage.GetPrimAtPath("/World/spot"))
+    assert str(e.value).startswith(f"{shot}: /World/spot/mesh: ")
+    assert str(e.value).endswith(f"; overridden over {asset}: swpm:indices in {fix}")
+    [finding] = [f for f in usd.validate_stage(shot) if f.code.startswith("SWPM_")]
+    assert finding.prim == "/World/spot/mesh" and f"swpm:indices in {fix}" in finding.message
+    # the buffers themselves, untouched, read as written through the same composition
+    base = Usd.Stage.Open(str(tmp_path / "set.usda"))
+    ok = usd.read_buffers(base.GetPrimAtPath("/World/spot"))
+    assert all(ok[k].tobytes() == v.tobytes() for k, v in spot_pm.buffers().items())
+
+
+def test_a_blocked_attribute_is_named_with_the_layer_that_blocks_it(spot_pm, tmp_path):
+    """A value block in an override: with the schema registered the attribute still HasValue() (its
+    fallback), so validate found nothing at all while read failed."""
+    asset = usd.write(spot_pm, tmp_path / "spot.usdc")
+    shot = _overridden_scene(tmp_path, asset, lambda prim: prim.GetAttribute("swpm:lodErrors").Block())
+    stage = Usd.Stage.Open(str(shot))
+    with pytest.raises(UsdReadError, match=f"^{shot}: /World/spot/mesh: attribute swpm:lodErrors"):
+        usd.read(stage.GetPrimAtPath("/World"))
+    [finding] = [f for f in usd.validate_stage(shot) if f.code.startswith("SWPM_")]
+    assert finding.code == "SWPM_USD_MISSING"
+    assert finding.message == (
+        f"swpm:lodErrors has no value (it is blocked) (swpm:lodErrors in {tmp_path / 'fix.usda'})"
+    )
+
+
+def test_read_errors_name_the_stage(spot_pm, tmp_path):
+    stage = Usd.Stage.Open(str(_overridden_scene(tmp_path, usd.write(spot_pm, tmp_path / "s.usdc"), id)))
+    UsdGeom.Xform.Define(stage, "/World/empty")
+    with pytest.raises(UsdReadError, match=f"^{tmp_path / 'shot.usda'}: /World/empty: no SwpmMeshAPI"):
+        usd.read(stage.GetPrimAtPath("/World/empty"))

@@ -88,14 +88,27 @@ class _Check:
         self.where = str(prim.GetPath())
         self.found: list[Finding] = []
 
-    def add(self, code: str, message: str, severity: str = ERROR) -> None:
-        self.found.append(Finding(code, severity, self.where, message))
+    def add(self, code: str, message: str, severity: str = ERROR, attrs: tuple[str, ...] = ()) -> None:
+        """A finding; ``attrs``: the attributes it is about, each named with the layer of its strongest
+        opinion (on a composed stage, the layer to fix: the sublayer whose override broke the buffers, not
+        the asset it overrides)."""
+        self.found.append(Finding(code, severity, self.where, message + self.authored(attrs)))
+
+    def authored(self, attrs: tuple[str, ...]) -> str:
+        """`` (swpm:indexPool in over.usda; ...)``: the layer of each attribute's strongest opinion."""
+        parts = []
+        for name in attrs:
+            attr = self.prim.GetAttribute(name)
+            stack = attr.GetPropertyStack() if attr else []
+            if stack:
+                parts.append(f"{name} in {stack[0].layer.identifier}")
+        return f" ({'; '.join(parts)})" if parts else ""
 
     def get(self, name: str, required: bool = True) -> Any:
         attr = self.prim.GetAttribute(name)
         if not attr or not attr.HasValue():
             if required:
-                self.add("SWPM_USD_MISSING", f"{name} has no value")
+                self.add("SWPM_USD_MISSING", f"{name} has no value", attrs=(name,))
             return None
         expected = PROPERTY_TYPES.get(name)
         if expected is not None:
@@ -103,9 +116,19 @@ class _Check:
             stack = attr.GetPropertyStack()
             authored = str(stack[0].typeName) if stack else str(attr.GetTypeName())
             if authored != expected:
-                self.add("SWPM_USD_TYPE", f"{name} is authored as {authored}, expected {expected}")
+                self.add(
+                    "SWPM_USD_TYPE", f"{name} is authored as {authored}, expected {expected}", attrs=(name,)
+                )
                 return None
-        return attr.Get()
+        value = attr.Get()
+        if value is None and required:  # (a value block: HasValue is True while the schema has a fallback)
+            self.add("SWPM_USD_MISSING", f"{name} has no value (it is blocked)", attrs=(name,))
+        return value
+
+
+def _stored_in(buffer: str, fields: list[str]) -> str:
+    """The attribute that stores ``buffer``: swpm:collapseRecords for a column of it (``fields``)."""
+    return "swpm:collapseRecords" if buffer in fields else attr_name(buffer)
 
 
 def _array(value: Any, dtype: Any = np.int64) -> np.ndarray:
@@ -127,7 +150,11 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
 
     encoding = str(values["swpm:encoding"])
     if encoding not in ENCODING_TOKENS or encoding not in ENCODINGS:
-        c.add("SWPM_USD_ENCODING", f"swpm:encoding {encoding!r} is not one of {sorted(ENCODINGS)}")
+        c.add(
+            "SWPM_USD_ENCODING",
+            f"swpm:encoding {encoding!r} is not one of {sorted(ENCODINGS)}",
+            attrs=("swpm:encoding",),
+        )
     if int(values["swpm:formatVersion"]) != FORMAT_VERSION:
         c.add(
             "SWPM_USD_VERSION",
@@ -158,13 +185,23 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
     L = vc.shape[0]
     if L == 0 or tc.shape[0] != L or err.shape[0] != L:
         c.add(
-            "SWPM_USD_LOD_TABLE", f"{L} vertexCounts, {tc.shape[0]} triangleCounts, {err.shape[0]} lodErrors"
+            "SWPM_USD_LOD_TABLE",
+            f"{L} vertexCounts, {tc.shape[0]} triangleCounts, {err.shape[0]} lodErrors",
+            attrs=("swpm:vertexCounts", "swpm:triangleCounts", "swpm:lodErrors"),
         )
     else:
         if np.any(np.diff(vc) > 0) or np.any(np.diff(tc) > 0) or np.any(np.diff(err) < 0):
-            c.add("SWPM_USD_LOD_TABLE", "counts must not grow and errors must not shrink from LOD to LOD")
+            c.add(
+                "SWPM_USD_LOD_TABLE",
+                "counts must not grow and errors must not shrink from LOD to LOD",
+                attrs=("swpm:vertexCounts", "swpm:triangleCounts", "swpm:lodErrors"),
+            )
         if int(vc[0]) != V:
-            c.add("SWPM_USD_LOD_TABLE", f"vertexCounts[0] = {int(vc[0])} but the prim has {V} points")
+            c.add(
+                "SWPM_USD_LOD_TABLE",
+                f"vertexCounts[0] = {int(vc[0])} but the prim has {V} points",
+                attrs=("swpm:vertexCounts", "points"),
+            )
 
     names = [str(n) for n in values["swpm:bufferNames"]]
     dtypes = [str(d) for d in values["swpm:bufferDtypes"]]
@@ -188,6 +225,7 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
             c.add(
                 "SWPM_USD_STRIDE",
                 f"swpm:collapseRecords has {table.shape[0]} entries for {len(fields)} fields",
+                attrs=("swpm:collapseRecords", "swpm:collapseRecordFields"),
             )
             return c.found
         table = table.reshape(-1, len(fields))
@@ -200,7 +238,11 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
             continue
         a = _array(a)
         if width and a.shape[0] % width:
-            c.add("SWPM_USD_STRIDE", f"{attr_name(name)} has {a.shape[0]} entries, not a multiple of {width}")
+            c.add(
+                "SWPM_USD_STRIDE",
+                f"{attr_name(name)} has {a.shape[0]} entries, not a multiple of {width}",
+                attrs=(attr_name(name),),
+            )
             continue
         buffers[name] = a.reshape(-1, width) if width else a
     if len(c.found) > structural:
@@ -223,12 +265,20 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
             bad &= ~np.isin(a, list(restart))
         if bad.any():
             i = int(np.argmax(bad))
-            c.add("SWPM_USD_INDEX_RANGE", f"{attr_name(name)}[{i}] = {int(a.reshape(-1)[i])} >= {V} vertices")
+            c.add(
+                "SWPM_USD_INDEX_RANGE",
+                f"{attr_name(name)}[{i}] = {int(a.reshape(-1)[i])} >= {V} vertices",
+                attrs=(_stored_in(name, fields), "points"),
+            )
     if "window_records" in buffers:
         w = buffers["window_records"].reshape(-1, 3)
         pool = buffers.get("index_pool", np.zeros(0, np.int64))
         if w.shape[0] != L:
-            c.add("SWPM_USD_STRIDE", f"swpm:windowRecords has {w.shape[0]} rows for {L} LODs")
+            c.add(
+                "SWPM_USD_STRIDE",
+                f"swpm:windowRecords has {w.shape[0]} rows for {L} LODs",
+                attrs=("swpm:windowRecords", "swpm:vertexCounts"),
+            )
         end = w[:, 0] + 3 * w[:, 1]
         out = end > pool.shape[0]
         if out.any():
@@ -236,13 +286,22 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
             c.add(
                 "SWPM_USD_WINDOW_RANGE",
                 f"window of LOD {k} [{int(w[k, 0])}, {int(end[k])}) outside indexPool of {pool.shape[0]}",
+                attrs=("swpm:windowRecords", "swpm:indexPool"),
             )
         if (w[:, 2] > V).any():
             k = int(np.argmax(w[:, 2] > V))
-            c.add("SWPM_USD_INDEX_RANGE", f"window of LOD {k} uses {int(w[k, 2])} vertices of {V}")
+            c.add(
+                "SWPM_USD_INDEX_RANGE",
+                f"window of LOD {k} uses {int(w[k, 2])} vertices of {V}",
+                attrs=("swpm:windowRecords", "points"),
+            )
     if "collapse_change_offsets" in buffers and "collapse_change_count" in buffers:
         if int(buffers["collapse_change_count"].sum()) != buffers["collapse_change_offsets"].shape[0]:
-            c.add("SWPM_USD_STRIDE", "collapse change counts do not sum to the number of change offsets")
+            c.add(
+                "SWPM_USD_STRIDE",
+                "collapse change counts do not sum to the number of change offsets",
+                attrs=("swpm:collapseRecords", "swpm:collapseChangeOffsets"),
+            )
 
     fvc = prim.GetAttribute("faceVertexCounts").Get()
     fvi = prim.GetAttribute("faceVertexIndices").Get()
