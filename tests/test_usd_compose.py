@@ -271,3 +271,29 @@ def test_read_errors_name_the_stage(spot_pm, tmp_path):
     UsdGeom.Xform.Define(stage, "/World/empty")
     with pytest.raises(UsdReadError, match=f"^{tmp_path / 'shot.usda'}: /World/empty: no SwpmMeshAPI"):
         usd.read(stage.GetPrimAtPath("/World/empty"))
+
+
+# -- the schema in other USD applications ------------------------------------------------------------------
+def test_the_schema_plugin_found_through_the_environment(spot_pm, tmp_path):
+    """What README and plugin.py tell other USD applications to do: PXR_PLUGINPATH_NAME set before pxr is
+    imported (this package never imported). The stage opens, the schema is applied and known."""
+    import os
+
+    from swpm_usd.usd.plugin import PLUGIN_PATH
+
+    asset = usd.write(spot_pm, tmp_path / "spot.usdc")
+    code = f"""
+from pxr import Usd, UsdGeom
+stage = Usd.Stage.Open({str(asset)!r})
+prim = stage.GetPrimAtPath("/Spot/mesh")
+t = Usd.SchemaRegistry.GetTypeFromSchemaTypeName("SwpmMeshAPI")
+xf = UsdGeom.Xform.Define(stage, "/x").GetPrim()
+print(prim.HasAPI("SwpmMeshAPI"), Usd.SchemaRegistry.IsAppliedAPISchema(t), prim.CanApplyAPI(t)[0],
+      xf.CanApplyAPI(t)[0], prim.GetAttribute("swpm:encoding").Get())
+import sys
+print("swpm_usd" in sys.modules)
+"""
+    env = dict(os.environ, PXR_PLUGINPATH_NAME=PLUGIN_PATH)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split("\n")[:2] == ["True True True False vanilla", "False"]
