@@ -297,3 +297,22 @@ print("swpm_usd" in sys.modules)
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split("\n")[:2] == ["True True True False vanilla", "False"]
+
+
+def test_overrides_of_an_encoded_stage_leave_no_buffer_of_the_old_encoding(tmp_path):
+    """Re-encoding an asset (skip-strip with discrete LODs -> sliding window): the old buffers and
+    swpm:discreteLods, authored in the weaker layer, are blocked, not left beside the new ones."""
+    pm = swpm_usd.build(swpm_usd.load_mesh(MESHES / "fandisk.obj"), "skip-strip")
+    asset = usd.write(pm, tmp_path / "fan.usda", lods=3)
+    usd.write_overrides(asset, tmp_path / "fan_sw.usda", "sliding-window")
+    stage = Usd.Stage.Open(str(tmp_path / "fan_sw.usda"))
+    prim = stage.GetPrimAtPath("/Fan/mesh")
+    new = usd.read(prim)
+    assert new.encoding == "sliding-window"
+    from swpm_usd.usd.writer import swpm_values
+
+    names = {a.GetName() for a in prim.GetAttributes() if a.GetName().startswith("swpm:")}
+    with_values = {n for n in names if prim.GetAttribute(n).HasAuthoredValue()}
+    assert with_values == set(swpm_values(new)) and "swpm:levelIndices" in names
+    assert "swpm:levelIndices" not in with_values and "swpm:discreteLods" not in with_values
+    assert usd.validate_stage(stage) == []

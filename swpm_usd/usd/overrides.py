@@ -8,8 +8,9 @@ normals/st/displayColor values) combinations, so seams split points only where n
 are dropped. Primvars are re-indexed consistently: ``vertex`` / ``varying`` ones follow the points;
 ``faceVarying`` ones (and uniform normals / st / displayColor) become ``vertex`` primvars on the split points;
 other ``uniform`` ones follow the LOD-0 triangles; ``constant`` ones are untouched; indexed primvars are
-written flattened (their indices blocked). Face GeomSubsets get the LOD-0 triangles of their faces. Instanced
-meshes (inside prototypes) are skipped.
+written flattened (their indices blocked). A source encoded before keeps no ``swpm:`` value the new encoding
+does not author (another encoding's buffers, ``swpm:discreteLods``): they are blocked. Face GeomSubsets get
+the LOD-0 triangles of their faces. Instanced meshes (inside prototypes) are skipped.
 Time-sampled points, normals and primvars (a deforming mesh) are re-indexed at every sample of the source,
 the extent computed at each sample of the points: an override's default alone would be stronger than the
 source's samples and stop the animation. Topology that changes over time cannot be re-indexed: an error.
@@ -34,7 +35,7 @@ from ..errors import SwpmError
 from ..fileio import set_mode_for
 from ..io.usd_loader import _all_holes, _Invalid, _tf_message, _Topology
 from ..mesh import Mesh
-from .writer import author_swpm, reload_if_open
+from .writer import author_swpm, reload_if_open, swpm_values
 
 _PROV = "_swpm_source_vertex"
 #: the time the source is read at (a mesh's earliest time sample, else its default value: as the loader reads)
@@ -259,6 +260,12 @@ def encode_prim(prim: Usd.Prim, encoding: str = "vanilla", **params: Any) -> Pro
         faces = np.asarray(subset.GetIndicesAttr().Get() or [], np.int64)
         subset.GetIndicesAttr().Set(np.flatnonzero(np.isin(src_face, faces)).astype(np.int32))
     author_swpm(prim, pm)
+    # a source encoded before (another encoding, discrete LODs) keeps its swpm: values in the weaker layer:
+    # blocked, so the prim holds this encoding's buffers alone (swpm:discreteLods named the old LODs)
+    ours = set(swpm_values(pm))
+    for attr in prim.GetAttributes():
+        if attr.GetName().startswith("swpm:") and attr.GetName() not in ours and attr.HasAuthoredValue():
+            attr.Block()
     return pm
 
 
