@@ -316,3 +316,25 @@ def test_overrides_of_an_encoded_stage_leave_no_buffer_of_the_old_encoding(tmp_p
     assert with_values == set(swpm_values(new)) and "swpm:levelIndices" in names
     assert "swpm:levelIndices" not in with_values and "swpm:discreteLods" not in with_values
     assert usd.validate_stage(stage) == []
+
+
+# -- model hierarchy ---------------------------------------------------------------------------------------
+def test_assets_are_models_in_the_scene_and_the_lod_layer(spot_pm, tmp_path):
+    """An asset's root is a component; a component is a model only when every ancestor is a group model
+    (assembly, group): /Scene of scene.usda and the LOD root of a UsdLod layer must be ones."""
+    from swpm_usd.pipeline import run
+
+    (tmp_path / "in").mkdir()
+    (tmp_path / "in" / "spot.obj").write_bytes((MESHES / "spot.obj").read_bytes())
+    cfg = tmp_path / "p.yaml"
+    cfg.write_text(
+        'version: 1\nassets:\n  - glob: "in/*.obj"\noutput:\n  dir: out\n  usd: true\n  scene: true\n'
+        "defaults:\n  encoding: vanilla\n"
+    )
+    assert run(cfg, echo=lambda m: None).built == 1
+    scene = Usd.Stage.Open(str(tmp_path / "out" / "scene.usda"))
+    assert scene.GetPrimAtPath("/Scene").IsGroup()
+    assert scene.GetPrimAtPath("/Scene/spot").IsComponent()
+    asset = usd.write(spot_pm, tmp_path / "spot_lods.usdc", lods=3)
+    lod = Usd.Stage.Open(str(usd.write_usdlod(asset, tmp_path / "spot_lod.usda")))
+    assert all(lod.GetPrimAtPath(f"/Spot_lodsLOD/lod/LOD{i}").IsComponent() for i in range(3))

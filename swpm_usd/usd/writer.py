@@ -460,6 +460,8 @@ def _author_usdlod(
     stage.SetDefaultPrim(top.GetPrim())
     Usd.ModelAPI(top.GetPrim()).SetKind(Kind.Tokens.assembly)
     lod_root = UsdGeom.Xform.Define(stage, top.GetPath().AppendChild("lod"))
+    # a group model between the assembly and the items (component models: models only under group models)
+    Usd.ModelAPI(lod_root.GetPrim()).SetKind(Kind.Tokens.group)
     rel_asset = os.path.relpath(asset.resolve(), p.resolve().parent).replace(os.sep, "/")
     # USD ignores opinions authored under an instanceable prim (an `over "mesh"` with the variant selection
     # beneath the item left every item drawing LOD0): each selection is made on a class prim beside the LOD
