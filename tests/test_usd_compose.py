@@ -338,3 +338,36 @@ def test_assets_are_models_in_the_scene_and_the_lod_layer(spot_pm, tmp_path):
     asset = usd.write(spot_pm, tmp_path / "spot_lods.usdc", lods=3)
     lod = Usd.Stage.Open(str(usd.write_usdlod(asset, tmp_path / "spot_lod.usda")))
     assert all(lod.GetPrimAtPath(f"/Spot_lodsLOD/lod/LOD{i}").IsComponent() for i in range(3))
+
+
+# -- composition a set dresser uses ------------------------------------------------------------------------
+def test_read_through_a_variant_of_encodings_a_mesh_reference_and_a_moved_prim(spot_pm, tmp_path):
+    """A variant set holding two encodings of one asset, a reference to the Mesh prim itself (no default
+    prim), and a reference that targets the asset's root under another name: each reads its own buffers."""
+    sw = swpm_usd.build(swpm_usd.load_mesh(MESHES / "spot.obj"), "sliding-window")
+    v_asset = usd.write(spot_pm, tmp_path / "spot_v.usdc")
+    sw_asset = usd.write(sw, tmp_path / "spot_sw.usda")
+    stage = Usd.Stage.CreateNew(str(tmp_path / "set.usda"))
+    dressed = UsdGeom.Xform.Define(stage, "/Set/cow").GetPrim()
+    vset = dressed.GetVariantSets().AddVariantSet("encoding")
+    for name, path in (("vanilla", v_asset), ("window", sw_asset)):
+        vset.AddVariant(name)
+        vset.SetVariantSelection(name)
+        with vset.GetVariantEditContext():
+            dressed.GetReferences().AddReference(f"./{path.name}")
+    stage.DefinePrim("/Set/bare").GetReferences().AddReference(f"./{sw_asset.name}", "/Spot_sw/mesh")
+    stage.DefinePrim("/Set/moved").GetReferences().AddReference(f"./{v_asset.name}", "/Spot_v")
+    stage.Save()
+    for name, pm in (("vanilla", spot_pm), ("window", sw)):
+        vset.SetVariantSelection(name)
+        got = usd.read(dressed)
+        assert got.encoding == pm.encoding
+        assert all(got.buffers()[k].tobytes() == v.tobytes() for k, v in pm.buffers().items())
+        assert usd.validate_stage(stage, builtin=False) == []
+    assert usd.read(stage.GetPrimAtPath("/Set/bare")).encoding == "sliding-window"
+    assert usd.read(stage.GetPrimAtPath("/Set/moved")).encoding == "vanilla"
+    assert sorted(str(p.GetPath()) for p in usd.find_encoded(stage)) == [
+        "/Set/bare",
+        "/Set/cow/mesh",
+        "/Set/moved/mesh",
+    ]
