@@ -11,6 +11,7 @@ other ``uniform`` ones follow the LOD-0 triangles; ``constant`` ones are untouch
 written flattened (their indices blocked). A source encoded before keeps no ``swpm:`` value the new encoding
 does not author (another encoding's buffers, ``swpm:discreteLods``): they are blocked. Face GeomSubsets get
 the LOD-0 triangles of their faces. Instanced meshes (inside prototypes) are skipped.
+``velocities`` and ``accelerations`` follow the points as ``vertex`` primvars do.
 Time-sampled points, normals and primvars (a deforming mesh) are re-indexed at every sample of the source,
 the extent computed at each sample of the points: an override's default alone would be stronger than the
 source's samples and stop the animation. Topology that changes over time cannot be re-indexed: an error.
@@ -88,6 +89,12 @@ def _primvars(prim: Usd.Prim, topo: _Topology) -> list[_Primvar]:
     if not any(p.name == "normals" for p in out) and mesh.GetNormalsAttr().HasValue():
         a = np.asarray(mesh.GetNormalsAttr().Get(_TIME))
         out.append(_Primvar("normals", a, str(mesh.GetNormalsInterpolation()), None, mesh.GetNormalsAttr()))
+    # per-point motion (a deforming mesh's, for motion blur): re-indexed with the points, not left in the
+    # source's order beside them (one of another length than the points is not per point: left alone)
+    for attr in (mesh.GetVelocitiesAttr(), mesh.GetAccelerationsAttr()):
+        value = attr.Get(_TIME) if attr.HasValue() else None
+        if value is not None and len(value) == topo.n_points:
+            out.append(_Primvar(attr.GetName(), np.asarray(value), UsdGeom.Tokens.vertex, None, attr))
     return out
 
 
