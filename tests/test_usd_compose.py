@@ -65,8 +65,9 @@ print(sorted(str(p.GetPath()) for p in usd.find_encoded(stage)))
 # -- override layers over animated meshes ------------------------------------------------------------------
 def _deforming_stage(path: Path, *, default: bool, topology_changes: bool = False) -> None:
     """A 12 x 12 quad grid whose points are time-sampled (1, 5, 10: scaled by 1, 1.5, 2), a vertex primvar
-    ``height`` sampled with them (each point's y), velocities (half each point), its extent sampled too;
-    ``default``: a default value of the points besides (what a renderer never sees once there are samples)."""
+    ``height`` sampled with them (each point's y), velocities (half each point), its extent sampled too, a
+    point GeomSubset ``pins`` (the points at x = 0); ``default``: a default value of the points besides
+    (what a renderer never sees once there are samples)."""
     n = 12
     stage = Usd.Stage.CreateNew(str(path))
     UsdGeom.SetStageUpAxis(stage, "Z")
@@ -90,6 +91,8 @@ def _deforming_stage(path: Path, *, default: bool, topology_changes: bool = Fals
         height.Set(Vt.FloatArray.FromNumpy(np.ascontiguousarray(p[:, 1])), t)
         mesh.GetVelocitiesAttr().Set(Vt.Vec3fArray.FromNumpy(p * np.float32(0.5)), t)
         mesh.GetExtentAttr().Set(Vt.Vec3fArray.FromNumpy(np.stack([p.min(0), p.max(0)])), t)
+    pins = np.flatnonzero(pts[:, 0] == 0).astype(np.int32)  # the left edge's points
+    UsdGeom.Subset.CreateGeomSubset(mesh, "pins", UsdGeom.Tokens.point, Vt.IntArray.FromNumpy(pins))
     if topology_changes:
         mesh.GetFaceVertexIndicesAttr().Set(Vt.IntArray.FromNumpy(faces.ravel()), 1.0)
         mesh.GetFaceVertexIndicesAttr().Set(Vt.IntArray.FromNumpy(faces[:, ::-1].ravel()), 10.0)
@@ -116,6 +119,8 @@ def test_overrides_of_a_deforming_mesh_keep_its_animation(default, tmp_path):
         np.testing.assert_array_equal(height, pts[:, 1])
         np.testing.assert_array_equal(np.asarray(mesh.GetVelocitiesAttr().Get(t)), pts * np.float32(0.5))
         np.testing.assert_array_equal(np.asarray(mesh.GetExtentAttr().Get(t)), [pts.min(0), pts.max(0)])
+    pins = UsdGeom.Subset(stage.GetPrimAtPath("/World/sheet/pins")).GetIndicesAttr().Get()
+    assert sorted(pins) == np.flatnonzero(first[:, 0] == 0).tolist() and len(pins) == 13
     fvi = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(5.0))
     np.testing.assert_array_equal(fvi, pm.triangles_at(0).ravel())
     assert usd.validate_stage(stage) == []

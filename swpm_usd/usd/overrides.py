@@ -10,8 +10,9 @@ are dropped. Primvars are re-indexed consistently: ``vertex`` / ``varying`` ones
 other ``uniform`` ones follow the LOD-0 triangles; ``constant`` ones are untouched; indexed primvars are
 written flattened (their indices blocked). A source encoded before keeps no ``swpm:`` value the new encoding
 does not author (another encoding's buffers, ``swpm:discreteLods``): they are blocked. Face GeomSubsets get
-the LOD-0 triangles of their faces. Instanced meshes (inside prototypes) are skipped.
-``velocities`` and ``accelerations`` follow the points as ``vertex`` primvars do.
+the LOD-0 triangles of their faces, point GeomSubsets the new vertices of their points (edge ones are left
+as they are). Instanced meshes (inside prototypes) are skipped. ``velocities`` and ``accelerations`` follow
+the points as ``vertex`` primvars do.
 Time-sampled points, normals and primvars (a deforming mesh) are re-indexed at every sample of the source,
 the extent computed at each sample of the points: an override's default alone would be stronger than the
 source's samples and stop the animation. Topology that changes over time cannot be re-indexed: an error.
@@ -262,10 +263,12 @@ def encode_prim(prim: Usd.Prim, encoding: str = "vanilla", **params: Any) -> Pro
         elif p.interp == UsdGeom.Tokens.uniform:
             _set_values(p, lambda rows: rows[src_face], p.interp)
     for subset in UsdGeom.Subset.GetAllGeomSubsets(mesh):
-        if subset.GetElementTypeAttr().Get() != UsdGeom.Tokens.face:
-            continue
-        faces = np.asarray(subset.GetIndicesAttr().Get() or [], np.int64)
-        subset.GetIndicesAttr().Set(np.flatnonzero(np.isin(src_face, faces)).astype(np.int32))
+        element = subset.GetElementTypeAttr().Get()
+        indices = np.asarray(subset.GetIndicesAttr().Get(_TIME) or [], np.int64)
+        if element == UsdGeom.Tokens.face:  # the LOD-0 triangles of its faces
+            subset.GetIndicesAttr().Set(np.flatnonzero(np.isin(src_face, indices)).astype(np.int32))
+        elif element == UsdGeom.Tokens.point:  # the new vertices of its points (split ones each)
+            subset.GetIndicesAttr().Set(np.flatnonzero(np.isin(point_of, indices)).astype(np.int32))
     author_swpm(prim, pm)
     # a source encoded before (another encoding, discrete LODs) keeps its swpm: values in the weaker layer:
     # blocked, so the prim holds this encoding's buffers alone (swpm:discreteLods named the old LODs)
