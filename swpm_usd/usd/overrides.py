@@ -37,7 +37,7 @@ from ..errors import SwpmError
 from ..fileio import set_mode_for
 from ..io.usd_loader import _all_holes, _Invalid, _tf_message, _Topology
 from ..mesh import Mesh
-from .writer import author_swpm, reload_if_open, swpm_values
+from .writer import author_swpm, reload_if_open
 
 _PROV = "_swpm_source_vertex"
 #: the time the source is read at (a mesh's earliest time sample, else its default value: as the loader reads)
@@ -269,10 +269,9 @@ def encode_prim(prim: Usd.Prim, encoding: str = "vanilla", **params: Any) -> Pro
             subset.GetIndicesAttr().Set(np.flatnonzero(np.isin(src_face, indices)).astype(np.int32))
         elif element == UsdGeom.Tokens.point:  # the new vertices of its points (split ones each)
             subset.GetIndicesAttr().Set(np.flatnonzero(np.isin(point_of, indices)).astype(np.int32))
-    author_swpm(prim, pm)
+    ours = author_swpm(prim, pm)
     # a source encoded before (another encoding, discrete LODs) keeps its swpm: values in the weaker layer:
     # blocked, so the prim holds this encoding's buffers alone (swpm:discreteLods named the old LODs)
-    ours = set(swpm_values(pm))
     for attr in prim.GetAttributes():
         if attr.GetName().startswith("swpm:") and attr.GetName() not in ours and attr.HasAuthoredValue():
             attr.Block()

@@ -106,8 +106,8 @@ def swpm_values(pm: ProgressiveMesh) -> dict[str, tuple[Sdf.ValueTypeName, Any]]
     return out
 
 
-def author_swpm(prim: Usd.Prim, pm: ProgressiveMesh) -> None:
-    """Apply SwpmMeshAPI to the Mesh ``prim`` and author every swpm: attribute explicitly."""
+def author_swpm(prim: Usd.Prim, pm: ProgressiveMesh) -> set[str]:
+    """Apply SwpmMeshAPI to the Mesh ``prim`` and author every swpm: attribute explicitly; their names."""
     if not prim.IsA(UsdGeom.Mesh):
         raise UsdWriteError(
             f"{prim.GetPath()}: SwpmMeshAPI only applies to Mesh prims, not {prim.GetTypeName()!r}"
@@ -119,9 +119,11 @@ def author_swpm(prim: Usd.Prim, pm: ProgressiveMesh) -> None:
             if not ok:
                 raise UsdWriteError(f"{prim.GetPath()}: cannot apply {SCHEMA_NAME}: {why}")
     prim.AddAppliedSchema(SCHEMA_NAME)
-    for name, (sdf_type, value) in swpm_values(pm).items():
+    values = swpm_values(pm)
+    for name, (sdf_type, value) in values.items():
         attr = prim.CreateAttribute(name, sdf_type, custom=False, variability=_UNIFORM)
         attr.Set(value)
+    return set(values)
 
 
 def _vec(a: np.ndarray, k: int) -> Any:
