@@ -214,7 +214,7 @@ def read(prim: Usd.Prim, check: bool = True) -> ProgressiveMesh:
         raise
     except (SwpmError, ValueError, TypeError, IndexError, KeyError) as e:
         raise UsdReadError(
-            f"{_where(prim)}: the stored arrays do not form a progressive mesh: {e}{overridden(prim)}"
+            f"{_where(prim)}: the stored arrays do not form a progressive mesh: {e}{_overridden(prim)}"
         ) from e
     if check:
         _check_buffers(prim, pm)
@@ -226,11 +226,11 @@ def _where(prim: Usd.Prim) -> str:
     return f"{prim.GetStage().GetRootLayer().identifier}: {prim.GetPath()}"
 
 
-def overridden(prim: Usd.Prim) -> str:
+def _overridden(prim: Usd.Prim) -> str:
     """Where the encoded ``prim``'s values may have been broken: its ``swpm:`` attributes and ``points`` whose
     strongest opinion is in another layer than its ``swpm:bufferNames`` (the writer authors them together,
-    so on a composed stage these are the overrides), as ``"; overridden: swpm:indexPool in over.usda"``, or
-    ``""`` when there is none."""
+    so on a composed stage these are the overrides), as ``"; overridden over a.usdc: swpm:indexPool in
+    over.usda"``, or ``""`` when there is none."""
     ref = prim.GetAttribute("swpm:bufferNames")
     stack = ref.GetPropertyStack() if ref else []
     if not stack:
@@ -259,13 +259,13 @@ def _check_buffers(prim: Usd.Prim, pm: ProgressiveMesh) -> None:
         errors = validate_bytes(encode_bytes(_storable(pm))).errors
     except (SwpmError, ValueError, TypeError, IndexError, OverflowError) as e:
         raise UsdReadError(
-            f"{where}: the stored arrays do not form a valid {pm.encoding} mesh: {e}{overridden(prim)}"
+            f"{where}: the stored arrays do not form a valid {pm.encoding} mesh: {e}{_overridden(prim)}"
         ) from e
     if errors:
         first = errors[0]
         raise UsdReadError(
             f"{where}: the stored arrays fail the format's checks ({len(errors)} problem(s)); "
-            f"first: {first.code}: {first.message}{overridden(prim)}"
+            f"first: {first.code}: {first.message}{_overridden(prim)}"
         )
 
 
