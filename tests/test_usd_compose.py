@@ -378,3 +378,26 @@ def test_read_through_a_variant_of_encodings_a_mesh_reference_and_a_moved_prim(s
         "/Set/cow/mesh",
         "/Set/moved/mesh",
     ]
+
+
+def test_overrides_of_a_set_of_instances_say_why_nothing_is_encoded(tmp_path):
+    """A set whose meshes are all in instances (USD ignores overrides of instance proxies) wrote an override
+    layer that encoded nothing and returned {}: an error that says so, and nothing written."""
+    from swpm_usd.usd.overrides import UsdOverrideError
+
+    _deforming_stage(tmp_path / "sheet.usda", default=True)
+    crowd = _crowd(tmp_path, tmp_path / "sheet.usda", 3)
+    out = tmp_path / "crowd_swpm.usda"
+    with pytest.raises(
+        UsdOverrideError, match=r"crowd_sheet\.usda: no Mesh prim to encode: the 3 Mesh prims are in"
+    ):
+        usd.write_overrides(crowd, out)
+    with pytest.raises(UsdOverrideError, match=r"crowd_sheet\.usda: no prim at /World/nope$"):
+        usd.write_overrides(crowd, out, prims=["/World/c0", "/World/nope"])
+    empty = Usd.Stage.CreateNew(str(tmp_path / "empty.usda"))
+    UsdGeom.Xform.Define(empty, "/World")
+    empty.Save()
+    with pytest.raises(UsdOverrideError, match=r"empty\.usda: no Mesh prim to encode$"):
+        usd.write_overrides(tmp_path / "empty.usda", out)
+    assert not out.exists()
+    assert list(usd.write_overrides(tmp_path / "sheet.usda", out)) == ["/World/sheet"]  # the asset itself

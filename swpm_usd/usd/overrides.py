@@ -11,7 +11,8 @@ other ``uniform`` ones follow the LOD-0 triangles; ``constant`` ones are untouch
 written flattened (their indices blocked). A source encoded before keeps no ``swpm:`` value the new encoding
 does not author (another encoding's buffers, ``swpm:discreteLods``): they are blocked. Face GeomSubsets get
 the LOD-0 triangles of their faces, point GeomSubsets the new vertices of their points (edge ones are left
-as they are). Instanced meshes (inside prototypes) are skipped. ``velocities`` and ``accelerations`` follow
+as they are). Instanced meshes (inside prototypes) are skipped (USD ignores overrides of them); a source with
+no Mesh prim to encode is an error that says why. ``velocities`` and ``accelerations`` follow
 the points as ``vertex`` primvars do.
 Time-sampled points, normals and primvars (a deforming mesh) are re-indexed at every sample of the source,
 the extent computed at each sample of the points: an override's default alone would be stronger than the
@@ -278,14 +279,38 @@ def encode_prim(prim: Usd.Prim, encoding: str = "vanilla", **params: Any) -> Pro
     return pm
 
 
-def _mesh_prims(stage: Usd.Stage, prims: Iterable[str] | None) -> list[Usd.Prim]:
-    roots = [stage.GetPseudoRoot()] if prims is None else [stage.GetPrimAtPath(p) for p in prims]
+def _mesh_roots(stage: Usd.Stage, prims: Iterable[str] | None, src: Path) -> list[Usd.Prim]:
+    """The prims to encode under: the pseudo-root, or each of ``prims`` (an error naming ``src`` and the
+    path of one that is not on the stage)."""
+    if prims is None:
+        return [stage.GetPseudoRoot()]
+    roots = []
+    for path in prims:
+        root = stage.GetPrimAtPath(path) if Sdf.Path.IsValidPathString(str(path)) else None
+        if not root:
+            raise UsdOverrideError(f"{src}: no prim at {path}")
+        roots.append(root)
+    return roots
+
+
+def _mesh_prims(roots: list[Usd.Prim]) -> list[Usd.Prim]:
+    """The Mesh prims at or under ``roots`` that can be overridden (not those in instances)."""
     out = []
     for root in roots:
-        if not root:
-            raise UsdOverrideError(f"no prim at {root.GetPath() if root else prims}")
         out.extend(p for p in Usd.PrimRange(root) if p.IsA(UsdGeom.Mesh) and not p.IsInstanceProxy())
     return out
+
+
+def _instanced_meshes(roots: list[Usd.Prim]) -> list[str]:
+    """The paths of the Mesh prims in instances at or under ``roots`` (instance proxies: an override of one
+    is ignored by USD, so they are not encoded)."""
+    proxies = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+    return [
+        str(p.GetPath())
+        for root in roots
+        for p in Usd.PrimRange(root, proxies)
+        if p.IsInstanceProxy() and p.IsA(UsdGeom.Mesh)
+    ]
 
 
 def write_overrides(
@@ -378,7 +403,8 @@ def _author_overrides(
     stage = Usd.Stage.Open(layer)
     result = {}
     skipped = []
-    for prim in _mesh_prims(stage, prims):
+    roots = _mesh_roots(stage, prims, src_path)
+    for prim in _mesh_prims(roots):
         why = _nothing_to_encode(prim)
         if why is not None:  # (left as it is: the loader leaves such a mesh out too)
             skipped.append(f"{prim.GetPath()} ({why})")
@@ -390,6 +416,16 @@ def _author_overrides(
     if skipped and not result:
         listed = ", ".join(skipped[:3]) + (", ..." if len(skipped) > 3 else "")
         raise UsdOverrideError(f"{src_path}: no Mesh prim with faces to encode: {listed}")
+    if not result:  # (an override layer that encodes nothing, returned as {}, told no one why)
+        instanced = _instanced_meshes(roots)
+        if instanced:
+            listed = ", ".join(instanced[:3]) + (", ..." if len(instanced) > 3 else "")
+            raise UsdOverrideError(
+                f"{src_path}: no Mesh prim to encode: the {len(instanced)} Mesh prims are in instances "
+                f"({listed}), which USD lets no layer override; encode the layers the instances reference"
+            )
+        under = "" if prims is None else f" under {', '.join(str(p) for p in prims)}"
+        raise UsdOverrideError(f"{src_path}: no Mesh prim to encode{under}")
     return result
 
 
