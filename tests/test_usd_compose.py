@@ -4,6 +4,7 @@ instances, pipeline outputs of USD inputs, and errors located in the layer that 
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -401,3 +402,27 @@ def test_overrides_of_a_set_of_instances_say_why_nothing_is_encoded(tmp_path):
         usd.write_overrides(tmp_path / "empty.usda", out)
     assert not out.exists()
     assert list(usd.write_overrides(tmp_path / "sheet.usda", out)) == ["/World/sheet"]  # the asset itself
+
+
+def test_reading_an_unloaded_payload_says_it_is_not_loaded(spot_pm, tmp_path):
+    """A stage opened with LoadNone (as a set dresser opens a big set): the encoded mesh sits in a payload
+    not loaded; the error says so instead of only finding no SwpmMeshAPI prim."""
+    asset = usd.write(spot_pm, tmp_path / "spot.usdc")
+    stage = Usd.Stage.CreateNew(str(tmp_path / "set.usda"))
+    UsdGeom.Xform.Define(stage, "/World/a").GetPrim().GetPayloads().AddPayload(f"./{asset.name}")
+    stage.Save()
+    lazy = Usd.Stage.Open(str(tmp_path / "set.usda"), Usd.Stage.LoadNone)
+    message = (
+        f"{tmp_path / 'set.usda'}: /World: no SwpmMeshAPI Mesh prims at or under it (need exactly one); "
+    )
+    with pytest.raises(
+        UsdReadError, match=re.escape(message + "payloads at or under it not loaded (1): /World/a")
+    ):
+        usd.read(lazy.GetPrimAtPath("/World"))
+    lazy.Load("/World/a")
+    assert usd.read(lazy.GetPrimAtPath("/World")).lod_count == spot_pm.lod_count
+    UsdGeom.Xform.Define(lazy, "/World/b")
+    with pytest.raises(
+        UsdReadError, match=r"/World/b: no SwpmMeshAPI Mesh prims at or under it \(need exactly one\)$"
+    ):
+        usd.read(lazy.GetPrimAtPath("/World/b"))

@@ -55,8 +55,24 @@ def _encoded_prim(prim: Usd.Prim) -> Usd.Prim:
     found = find_encoded(prim)
     if len(found) != 1:
         what = "no" if not found else f"{len(found)}"
-        raise UsdReadError(f"{_where(prim)}: {what} SwpmMeshAPI Mesh prims at or under it (need exactly one)")
+        raise UsdReadError(
+            f"{_where(prim)}: {what} SwpmMeshAPI Mesh prims at or under it (need exactly one)"
+            + ("" if found else _unloaded(prim))
+        )
     return found[0]
+
+
+def _unloaded(prim: Usd.Prim) -> str:
+    """``"; payloads at or under it not loaded (1): /World/a (stage.Load(path) loads one)"``: what hides an
+    encoded mesh from a stage opened with ``Usd.Stage.LoadNone`` (or unloaded since), or ``""``."""
+    every = Usd.TraverseInstanceProxies(Usd.PrimAllPrimsPredicate)
+    paths = [
+        str(p.GetPath()) for p in Usd.PrimRange(prim, every) if p.HasAuthoredPayloads() and not p.IsLoaded()
+    ]
+    if not paths:
+        return ""
+    listed = ", ".join(paths[:3]) + (", ..." if len(paths) > 3 else "")
+    return f"; payloads at or under it not loaded ({len(paths)}): {listed} (stage.Load(path) loads one)"
 
 
 def _get(prim: Usd.Prim, name: str, required: bool = True) -> Any:
