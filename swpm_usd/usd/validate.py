@@ -330,7 +330,7 @@ _registered = False
 #: while :func:`validate_stage` runs (``_memo_users`` > 0): the findings of each instance prototype's prim,
 #: (stage's layers, prim path in the prototype) -> (instance proxy path they were found at, findings). Every
 #: instance proxy of one prototype has the prototype's values, so a crowd of 500 instances of one asset is
-#: checked once, not 500 times (each a full read of the buffers: 15 s instead of 2.6 s for one asset). A
+#: checked once, not 500 times (each a full read of the buffers: 5.8-15.3 s, now 1.5-2.4 s). A
 #: module global, not a context variable: usd-core calls the validator from its own worker threads.
 _memo: dict[tuple[str, str, str], tuple[str, list[Finding]]] = {}
 _memo_users = 0
