@@ -426,3 +426,44 @@ def test_reading_an_unloaded_payload_says_it_is_not_loaded(spot_pm, tmp_path):
         UsdReadError, match=r"/World/b: no SwpmMeshAPI Mesh prims at or under it \(need exactly one\)$"
     ):
         usd.read(lazy.GetPrimAtPath("/World/b"))
+
+
+def test_validate_gives_no_stale_findings_while_another_validation_runs(spot_pm, tmp_path, monkeypatch):
+    """The prototype memo is one validate_stage call's: a stage validated, edited, validated again (while
+    another thread's validation runs, as in a tool that validates in the background) is checked as it is
+    now, not answered with its findings from before the edit (a broken asset reported clean)."""
+    import threading
+
+    from swpm_usd.usd import validate as v
+
+    asset = usd.write(spot_pm, tmp_path / "spot.usda")
+    other_asset = usd.write(spot_pm, tmp_path / "other.usdc")
+    stage = Usd.Stage.Open(str(_crowd(tmp_path, asset, 3)))
+    started, release = threading.Event(), threading.Event()
+    real = v._validate_into
+
+    def held(*args, **kwargs):
+        if threading.current_thread().name == "background":
+            started.set()
+            release.wait(120)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(v, "_validate_into", held)
+    background = threading.Thread(target=usd.validate_stage, args=(other_asset,), name="background")
+    background.start()
+    try:
+        assert started.wait(120)
+        assert usd.validate_stage(stage, builtin=False) == []
+        layer = Sdf.Layer.FindOrOpen(str(asset))
+        pool = layer.GetAttributeAtPath("/Spot/mesh.swpm:indices")
+        written = np.asarray(pool.default).copy()
+        pool.default = Vt.UIntArray.FromNumpy(written[:-3].copy())
+        findings = usd.validate_stage(stage, builtin=False)
+        expected = [(f"/World/c{i}/mesh", "SWPM_USD_REBUILD") for i in range(3)]
+        assert [(f.prim, f.code) for f in findings] == expected
+        pool.default = Vt.UIntArray.FromNumpy(written)  # fixed: clean again
+        assert usd.validate_stage(stage, builtin=False) == []
+    finally:
+        release.set()
+        background.join(120)
+    assert not background.is_alive() and not v._memos

@@ -327,34 +327,36 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
 
 _registered = False
 
-#: while :func:`validate_stage` runs (``_memo_users`` > 0): the findings of each instance prototype's prim,
-#: (stage's layers, prim path in the prototype) -> (instance proxy path they were found at, findings). Every
-#: instance proxy of one prototype has the prototype's values, so a crowd of 500 instances of one asset is
-#: checked once, not 500 times (each a full read of the buffers: 5.8-15.3 s, now 1.5-2.4 s). A
-#: module global, not a context variable: usd-core calls the validator from its own worker threads.
-_memo: dict[tuple[str, str, str], tuple[str, list[Finding]]] = {}
-_memo_users = 0
+#: while :func:`validate_stage` runs on a stage: the findings of each instance prototype's prim, prim path in
+#: the prototype -> (instance proxy path they were found at, findings), one memo per call, kept under the
+#: stage (the stage itself, alive during the call: an identifier would be reused, a root layer's and an
+#: anonymous session layer's address alike, once the stage is gone) and dropped when the call returns, so
+#: a later call never sees findings of a stage since edited or of another stage. Every instance proxy of one
+#: prototype has the prototype's values, so a crowd of 500 instances of one asset is checked once, not 500
+#: times (each a full read of the buffers: 5.8-15.3 s, now 1.5-2.4 s). Module globals, not context
+#: variables: usd-core calls the validator from its own worker threads.
+_memos: dict[Usd.Stage, list[dict[str, tuple[str, list[Finding]]]]] = {}
 _memo_lock = threading.Lock()
 
 
 def _validate_cached(prim: Usd.Prim) -> list[Finding]:
-    """:func:`validate_prim`, once per instance prototype while :func:`validate_stage` runs (the findings of
-    another proxy of the prototype, their prim paths and messages naming this one)."""
-    if not _memo_users or not prim.IsInstanceProxy() or not is_encoded(prim):
+    """:func:`validate_prim`, once per instance prototype while :func:`validate_stage` runs on ``prim``'s
+    stage (the findings of another proxy of the prototype, their prim paths and messages naming this one)."""
+    if not _memos or not prim.IsInstanceProxy() or not is_encoded(prim):
         return validate_prim(prim)
-    stage = prim.GetStage()
-    key = (
-        stage.GetRootLayer().identifier,
-        stage.GetSessionLayer().identifier if stage.GetSessionLayer() else "",
-        str(prim.GetPrimInPrototype().GetPath()),
-    )
     with _memo_lock:
-        hit = _memo.get(key)
+        calls = _memos.get(prim.GetStage())
+        memo = calls[-1] if calls else None  # (the latest call's: it read the stage as it is now)
+    if memo is None:
+        return validate_prim(prim)
+    key = str(prim.GetPrimInPrototype().GetPath())
+    with _memo_lock:
+        hit = memo.get(key)
     here = str(prim.GetPath())
     if hit is None:
         found = validate_prim(prim)
         with _memo_lock:
-            _memo[key] = (here, found)
+            memo[key] = (here, found)
         return found
     there, found = hit
     return [Finding(f.code, f.severity, here, f.message.replace(there, here)) for f in found]
@@ -460,9 +462,9 @@ def validate_stage(path: str | os.PathLike[str] | Usd.Stage, builtin: bool = Tru
     if ours:
         names.append(VALIDATOR_NAME)
     findings: list[Finding] = []
-    global _memo_users
+    memo: dict[str, tuple[str, list[Finding]]] = {}
     with _memo_lock:
-        _memo_users += 1
+        _memos.setdefault(stage, []).append(memo)
     try:
         _validate_into(findings, stage, reg, names, ours)
     except RuntimeError as exc:  # (pxr's Tf.ErrorException, for a value it cannot unpack; not a bug of ours)
@@ -471,9 +473,11 @@ def validate_stage(path: str | os.PathLike[str] | Usd.Stage, builtin: bool = Tru
         findings.append(Finding("SWPM_USD_READ", ERROR, "/", f"{where}: usd-core cannot read it: {reason}"))
     finally:
         with _memo_lock:
-            _memo_users -= 1
-            if not _memo_users:
-                _memo.clear()
+            calls = [m for m in _memos[stage] if m is not memo]  # (by identity: two empty memos are equal)
+            if calls:
+                _memos[stage] = calls
+            else:
+                del _memos[stage]
     findings.sort(key=lambda f: (f.prim, f.code, f.message))
     return findings
 
