@@ -327,38 +327,64 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
 
 _registered = False
 
-#: while :func:`validate_stage` runs on a stage: the findings of each instance prototype's prim, prim path in
-#: the prototype -> (instance proxy path they were found at, findings), one memo per call, kept under the
+#: while :func:`validate_stage` runs on a stage: the check of each instance prototype's prim, prim path in
+#: the prototype -> :class:`_Checked` (proxy path it was made at, findings), one memo per call, kept under the
 #: stage (the stage itself, alive during the call: an identifier would be reused, a root layer's and an
 #: anonymous session layer's address alike, once the stage is gone) and dropped when the call returns, so
 #: a later call never sees findings of a stage since edited or of another stage. Every instance proxy of one
 #: prototype has the prototype's values, so a crowd of 500 instances of one asset is checked once, not 500
 #: times (each a full read of the buffers: 5.8-15.3 s, now 1.5-2.4 s). Module globals, not context
 #: variables: usd-core calls the validator from its own worker threads.
-_memos: dict[Usd.Stage, list[dict[str, tuple[str, list[Finding]]]]] = {}
+_memos: dict[Usd.Stage, list[dict[str, _Checked]]] = {}
 _memo_lock = threading.Lock()
+#: how long a worker waits for another's check of the same prototype prim before checking it itself
+_MEMO_WAIT_SECONDS = 60.0
+
+
+class _Checked:
+    """One prototype prim's check in a memo: the thread making it, then the proxy path and the findings
+    (``None`` until made, and if the check raised)."""
+
+    __slots__ = ("by", "done", "result")
+
+    def __init__(self) -> None:
+        self.by = threading.get_ident()
+        self.done = threading.Event()
+        self.result: tuple[str, list[Finding]] | None = None
 
 
 def _validate_cached(prim: Usd.Prim) -> list[Finding]:
     """:func:`validate_prim`, once per instance prototype while :func:`validate_stage` runs on ``prim``'s
-    stage (the findings of another proxy of the prototype, their prim paths and messages naming this one)."""
+    stage (the findings of another proxy of the prototype, their prim paths and messages naming this one).
+    A worker reaching a prototype prim another is checking waits for that check rather than repeating it:
+    every worker thread starting on a crowd read the buffers once each (as many reads as cores)."""
     if not _memos or not prim.IsInstanceProxy() or not is_encoded(prim):
-        return validate_prim(prim)
-    with _memo_lock:
-        calls = _memos.get(prim.GetStage())
-        memo = calls[-1] if calls else None  # (the latest call's: it read the stage as it is now)
-    if memo is None:
         return validate_prim(prim)
     key = str(prim.GetPrimInPrototype().GetPath())
     with _memo_lock:
-        hit = memo.get(key)
+        calls = _memos.get(prim.GetStage())
+        memo = calls[-1] if calls else None  # (the latest call's: it read the stage as it is now)
+        if memo is None:
+            entry, mine = None, False
+        else:
+            entry = memo.get(key)
+            mine = entry is None
+            if mine:
+                entry = memo[key] = _Checked()
     here = str(prim.GetPath())
-    if hit is None:
-        found = validate_prim(prim)
-        with _memo_lock:
-            memo[key] = (here, found)
+    if entry is None:
+        return validate_prim(prim)
+    if mine:
+        try:
+            found = validate_prim(prim)
+            entry.result = (here, found)
+        finally:
+            entry.done.set()
         return found
-    there, found = hit
+    # (the thread making the check, re-entered, does not wait for itself; nor does anyone wait forever)
+    if entry.by == threading.get_ident() or not entry.done.wait(_MEMO_WAIT_SECONDS) or entry.result is None:
+        return validate_prim(prim)
+    there, found = entry.result
     return [Finding(f.code, f.severity, here, f.message.replace(there, here)) for f in found]
 
 
@@ -462,7 +488,7 @@ def validate_stage(path: str | os.PathLike[str] | Usd.Stage, builtin: bool = Tru
     if ours:
         names.append(VALIDATOR_NAME)
     findings: list[Finding] = []
-    memo: dict[str, tuple[str, list[Finding]]] = {}
+    memo: dict[str, _Checked] = {}
     with _memo_lock:
         _memos.setdefault(stage, []).append(memo)
     try:
