@@ -127,6 +127,36 @@ def test_overrides_of_a_deforming_mesh_keep_its_animation(default, tmp_path):
     assert usd.validate_stage(stage) == []
 
 
+@pytest.mark.parametrize("mode", ["sublayer", "reference"])
+def test_overrides_of_a_deforming_mesh_keep_its_timing(mode, tmp_path):
+    """The override layer is the stage's root layer: it takes the source's timeCodesPerSecond, frame rate and
+    time range. Without them a source at 48 time codes a second had its samples 1, 5, 10 scaled into the
+    new layer's 24 (re-authored at 0.5, 2.5, 5: frame 10 drew the source's last frame at 5) and no range."""
+    src = tmp_path / "anim.usda"
+    _deforming_stage(src, default=False)
+    stage = Usd.Stage.Open(str(src))
+    stage.SetTimeCodesPerSecond(48)
+    stage.SetFramesPerSecond(48)
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(10)
+    stage.Save()
+    usd.write_overrides(src, tmp_path / "anim_swpm.usda", "vanilla", mode=mode)
+    out = Usd.Stage.Open(str(tmp_path / "anim_swpm.usda"))
+    timing = (
+        out.GetTimeCodesPerSecond(),
+        out.GetFramesPerSecond(),
+        out.GetStartTimeCode(),
+        out.GetEndTimeCode(),
+    )
+    assert timing == (48.0, 48.0, 1.0, 10.0)
+    mesh = UsdGeom.Mesh(out.GetPrimAtPath("/World/sheet"))
+    assert mesh.GetPointsAttr().GetTimeSamples() == [1.0, 5.0, 10.0]
+    assert UsdGeom.PrimvarsAPI(mesh).GetPrimvar("height").GetTimeSamples() == [1.0, 5.0, 10.0]
+    source = UsdGeom.Mesh(stage.GetPrimAtPath("/World/sheet"))
+    for t in (1.0, 5.0, 10.0):  # each frame the source's shape (its extent: the points, reordered)
+        np.testing.assert_array_equal(mesh.GetExtentAttr().Get(t), source.GetExtentAttr().Get(t))
+
+
 def test_overrides_of_a_mesh_whose_topology_changes_over_time_say_so(tmp_path):
     from swpm_usd.usd.overrides import UsdOverrideError
 

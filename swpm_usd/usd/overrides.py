@@ -44,6 +44,16 @@ _PROV = "_swpm_source_vertex"
 #: the time the source is read at (a mesh's earliest time sample, else its default value: as the loader reads)
 _TIME = Usd.TimeCode.EarliestTime()
 _PM_NAMES = {"normals": "normal", "st": "uv", "displayColor": "color"}
+#: the source stage's metadata the override layer (the stage's new root layer) takes, where the source
+#: authors it: its units and its timing (the time samples re-authored are in its time codes)
+_STAGE_METADATA = (
+    "upAxis",
+    "metersPerUnit",
+    "timeCodesPerSecond",
+    "framesPerSecond",
+    "startTimeCode",
+    "endTimeCode",
+)
 
 
 class UsdOverrideError(SwpmError):
@@ -395,7 +405,9 @@ def _author_overrides(
         layer.defaultPrim = default.GetName()
     else:
         raise UsdOverrideError(f"mode must be 'sublayer' or 'reference', not {mode!r}")
-    for key in ("upAxis", "metersPerUnit"):
+    # (before the stage is opened: a source of other timeCodesPerSecond than the new layer's 24 had its time
+    # samples scaled into it, 1, 5, 10 at 48 read and re-authored as 0.5, 2.5, 5, with no time range left)
+    for key in _STAGE_METADATA:
         if src_stage.HasAuthoredMetadata(key):
             layer.pseudoRoot.SetInfo(key, src_stage.GetMetadata(key))
     if mode == "sublayer" and src_stage.GetRootLayer().defaultPrim:
