@@ -381,8 +381,12 @@ def _validate_cached(prim: Usd.Prim) -> list[Finding]:
         finally:
             entry.done.set()
         return found
-    # (the thread making the check, re-entered, does not wait for itself; nor does anyone wait forever)
-    if entry.by == threading.get_ident() or not entry.done.wait(_MEMO_WAIT_SECONDS) or entry.result is None:
+    if not entry.done.is_set():
+        # (the thread making the check, re-entered while making it, does not wait for itself; nor does anyone
+        # wait forever)
+        if entry.by == threading.get_ident() or not entry.done.wait(_MEMO_WAIT_SECONDS):
+            return validate_prim(prim)
+    if entry.result is None:  # (the check raised: this proxy's own raises the same)
         return validate_prim(prim)
     there, found = entry.result
     return [Finding(f.code, f.severity, here, f.message.replace(there, here)) for f in found]
