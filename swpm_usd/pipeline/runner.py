@@ -1751,6 +1751,9 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
         layer.pseudoRoot.SetInfo("upAxis", "Y")  # (UsdGeom.SetStageUpAxis, SetStageMetersPerUnit)
         layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)
         root = Sdf.PrimSpec(layer.pseudoRoot, "Scene", Sdf.SpecifierDef, "Xform")
+        # an assembly: each asset's root is a component model, a model only under group models (without it
+        # no asset of the scene was one, IsModel() False: model traversal, selection, draw modes)
+        root.SetInfo("kind", "assembly")
         layer.defaultPrim = "Scene"
         used: set[str] = set()
         for _, path in layers:

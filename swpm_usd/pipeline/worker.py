@@ -295,14 +295,17 @@ def check_streaming(pm, policy: dict) -> list[str]:
 USD_TEMPORARY_SUFFIX = ".tmp.usdc"
 
 
-def _stage_usd(pm, target: Path) -> tuple[Path, Path]:
+def _stage_usd(pm, target: Path, source: str | None = None) -> tuple[Path, Path]:
     """Export ``pm``'s USD layer (named after ``target``) to a temporary file beside ``target``, synced to
-    disk; (temporary file, target), for :func:`_place_usd`."""
+    disk; (temporary file, target), for :func:`_place_usd`. A mesh of a USD ``source`` keeps its stage's
+    upAxis and metersPerUnit (the loader keeps its coordinates): a Z-up stage in centimetres written as Y-up
+    metres stood 100 times too large, on its side."""
     import os
     import tempfile
 
     from ..fileio import set_mode_for, set_plain_mode
     from ..usd import write as usd_write
+    from ..usd.writer import stage_metadata
 
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=USD_TEMPORARY_SUFFIX, dir=target.parent)
@@ -310,7 +313,8 @@ def _stage_usd(pm, target: Path) -> tuple[Path, Path]:
     os.close(fd)
     tmp = Path(name)
     try:
-        usd_write(pm, tmp, name=target.stem.split(".")[0] or None)
+        meta = stage_metadata(source) if source is not None else {}
+        usd_write(pm, tmp, name=target.stem.split(".")[0] or None, **meta)
         # the replaced layer's mode once written (a read-only one's, given first, refused usd-core the write)
         set_mode_for(tmp, target)
         with open(tmp, "rb") as f:
@@ -465,7 +469,7 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         staged: dict[str, tuple[Path, Path]] = {}
         try:
             if task["write_usd"]:
-                staged["usd"] = _stage_usd(pm, out_dir / f"{task['stem']}.usdc")
+                staged["usd"] = _stage_usd(pm, out_dir / f"{task['stem']}.usdc", task["path"])
             if task["write_swpm"]:
                 from .. import format as swpm_format
 

@@ -1,14 +1,22 @@
 """Non-destructive encoding of an existing stage: a layer that sublayers (or references) the source and
 overrides each Mesh prim with SwpmMeshAPI, points in LOD order, LOD-0 topology and re-indexed primvars.
 
-Per Mesh prim (in its local space, at the default time): faces are fan-triangulated (hole faces left out, so
+Per Mesh prim (in its local space, at its earliest time sample, the default where it has none: the time
+the loader reads): faces are fan-triangulated (hole faces left out, so
 the override authors no ``holeIndices``); vertices are the distinct (point, faceVarying values, uniform
 normals/st/displayColor values) combinations, so seams split points only where needed; degenerate triangles
 are dropped. Primvars are re-indexed consistently: ``vertex`` / ``varying`` ones follow the points;
 ``faceVarying`` ones (and uniform normals / st / displayColor) become ``vertex`` primvars on the split points;
 other ``uniform`` ones follow the LOD-0 triangles; ``constant`` ones are untouched; indexed primvars are
-written flattened (their indices blocked). Face GeomSubsets get the LOD-0 triangles of their faces. Instanced
-meshes (inside prototypes) are skipped.
+written flattened (their indices blocked). A source encoded before keeps no ``swpm:`` value the new encoding
+does not author (another encoding's buffers, ``swpm:discreteLods``): they are blocked. Face GeomSubsets get
+the LOD-0 triangles of their faces, point GeomSubsets the new vertices of their points (edge ones are left
+as they are). Instanced meshes (inside prototypes) are skipped (USD ignores overrides of them); a source with
+no Mesh prim to encode is an error that says why. ``velocities`` and ``accelerations`` follow
+the points as ``vertex`` primvars do.
+Time-sampled points, normals and primvars (a deforming mesh) are re-indexed at every sample of the source,
+the extent computed at each sample of the points: an override's default alone would be stronger than the
+source's samples and stop the animation. Topology that changes over time cannot be re-indexed: an error.
 The source files are never written.
 """
 
@@ -16,7 +24,7 @@ from __future__ import annotations
 
 import os
 import secrets
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -33,7 +41,19 @@ from ..mesh import Mesh
 from .writer import author_swpm, reload_if_open
 
 _PROV = "_swpm_source_vertex"
+#: the time the source is read at (a mesh's earliest time sample, else its default value: as the loader reads)
+_TIME = Usd.TimeCode.EarliestTime()
 _PM_NAMES = {"normals": "normal", "st": "uv", "displayColor": "color"}
+#: the source stage's metadata the override layer (the stage's new root layer) takes, where the source
+#: authors it: its units and its timing (the time samples re-authored are in its time codes)
+_STAGE_METADATA = (
+    "upAxis",
+    "metersPerUnit",
+    "timeCodesPerSecond",
+    "framesPerSecond",
+    "startTimeCode",
+    "endTimeCode",
+)
 
 
 class UsdOverrideError(SwpmError):
@@ -48,13 +68,30 @@ class _Primvar:
         self.values = values  # (n_elements, ...) flattened values, one row per element
         self.rows = values.reshape(values.shape[0], -1)
 
+    def times(self) -> list[float]:
+        """The source's time samples of the values (and of an indexed primvar's indices)."""
+        return list(self.pv.GetTimeSamples() if self.pv is not None else self.attr.GetTimeSamples())
+
+    def rows_at(self, time: float) -> np.ndarray:
+        """The rows at time sample ``time`` (as :attr:`rows`); an error unless there are as many."""
+        flat = self.pv.ComputeFlattened(time) if self.pv is not None else self.attr.Get(time)
+        a = np.asarray(flat if flat is not None else [])
+        es = max(self.pv.GetElementSize(), 1) if self.pv is not None else 1
+        rows = a.reshape(a.shape[0] // es, -1) if a.size else a.reshape(0, self.rows.shape[1])
+        if rows.shape != self.rows.shape:
+            raise UsdOverrideError(
+                f"{self.attr.GetPath()}: {rows.shape[0]} values at time {time}, {self.rows.shape[0]} at "
+                "its first: values that change in number over time cannot be re-indexed"
+            )
+        return rows
+
 
 def _primvars(prim: Usd.Prim, topo: _Topology) -> list[_Primvar]:
     mesh = UsdGeom.Mesh(prim)
     out = []
     api = UsdGeom.PrimvarsAPI(prim)
     for pv in api.GetPrimvarsWithValues():
-        flat = pv.ComputeFlattened()
+        flat = pv.ComputeFlattened(_TIME)
         if flat is None:
             continue
         a = np.asarray(flat)
@@ -62,18 +99,25 @@ def _primvars(prim: Usd.Prim, topo: _Topology) -> list[_Primvar]:
         a = a.reshape(a.shape[0] // es, es, *a.shape[1:]) if es > 1 else a
         out.append(_Primvar(str(pv.GetPrimvarName()), a, str(pv.GetInterpolation()), pv, pv.GetAttr()))
     if not any(p.name == "normals" for p in out) and mesh.GetNormalsAttr().HasValue():
-        a = np.asarray(mesh.GetNormalsAttr().Get())
+        a = np.asarray(mesh.GetNormalsAttr().Get(_TIME))
         out.append(_Primvar("normals", a, str(mesh.GetNormalsInterpolation()), None, mesh.GetNormalsAttr()))
+    # per-point motion (a deforming mesh's, for motion blur): re-indexed with the points, not left in the
+    # source's order beside them (one of another length than the points is not per point: left alone)
+    for attr in (mesh.GetVelocitiesAttr(), mesh.GetAccelerationsAttr()):
+        value = attr.Get(_TIME) if attr.HasValue() else None
+        if value is not None and len(value) == topo.n_points:
+            out.append(_Primvar(attr.GetName(), np.asarray(value), UsdGeom.Tokens.vertex, None, attr))
     return out
 
 
-def _corner_rows(p: _Primvar, topo: _Topology) -> np.ndarray:
-    """Values of ``p`` at each triangle corner (3T, k)."""
+def _corner_rows(p: _Primvar, topo: _Topology, rows: np.ndarray | None = None) -> np.ndarray:
+    """Values of ``p`` (its ``rows``, default those read) at each triangle corner (3T, k)."""
+    rows = p.rows if rows is None else rows
     if p.interp == UsdGeom.Tokens.faceVarying:
-        return p.rows[topo.corners.reshape(-1)]
+        return rows[topo.corners.reshape(-1)]
     if p.interp == UsdGeom.Tokens.uniform:
-        return p.rows[np.repeat(topo.face, 3)]
-    return p.rows[topo.points.reshape(-1)]
+        return rows[np.repeat(topo.face, 3)]
+    return rows[topo.points.reshape(-1)]
 
 
 def _splits(p: _Primvar) -> bool:
@@ -84,10 +128,11 @@ def _splits(p: _Primvar) -> bool:
 
 def _extract(prim: Usd.Prim) -> tuple[Mesh, dict[str, Any]]:
     mesh = UsdGeom.Mesh(prim)
-    points = np.asarray(mesh.GetPointsAttr().Get(), np.float32).reshape(-1, 3)
-    counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get(), np.int64)
-    fvi = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), np.int64)
-    holes = np.asarray(mesh.GetHoleIndicesAttr().Get() or [], np.int64)
+    _fixed_topology(prim)
+    points = np.asarray(mesh.GetPointsAttr().Get(_TIME), np.float32).reshape(-1, 3)
+    counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get(_TIME), np.int64)
+    fvi = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(_TIME), np.int64)
+    holes = np.asarray(mesh.GetHoleIndicesAttr().Get(_TIME) or [], np.int64)
     try:
         topo = _Topology(counts, fvi, points.shape[0], False, str(prim.GetPath()), holes)
         pvs = [p for p in _primvars(prim, topo) if p.interp != UsdGeom.Tokens.constant]
@@ -126,6 +171,22 @@ def _extract(prim: Usd.Prim) -> tuple[Mesh, dict[str, Any]]:
     return m, info
 
 
+def _fixed_topology(prim: Usd.Prim) -> None:
+    """An error naming the attribute when ``prim``'s topology changes between its time samples."""
+    for name in ("faceVertexCounts", "faceVertexIndices", "holeIndices"):
+        attr = prim.GetAttribute(name)
+        times = attr.GetTimeSamples() if attr else []
+        if len(times) < 2:
+            continue
+        first = np.asarray(attr.Get(times[0]))
+        for t in times[1:]:
+            if not np.array_equal(np.asarray(attr.Get(t)), first):
+                raise UsdOverrideError(
+                    f"{attr.GetPath()}: the topology changes over time (at {t}, from its value at "
+                    f"{times[0]}): a mesh of changing topology cannot be encoded"
+                )
+
+
 def _match_triangles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """For each row of ``b`` the row of ``a`` holding the same vertex set (a and b: same multiset)."""
     sa, sb = np.sort(a, axis=1), np.sort(b, axis=1)
@@ -138,11 +199,19 @@ def _match_triangles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
-def _set_values(p: _Primvar, rows: np.ndarray, interp: str) -> None:
-    values = (
-        rows.reshape(-1, *p.values.shape[2:]) if p.values.ndim > 2 else rows.reshape(-1, *p.values.shape[1:])
-    )
-    p.attr.Set(np.ascontiguousarray(values))
+def _set_values(p: _Primvar, remap: Callable[[np.ndarray], np.ndarray], interp: str) -> None:
+    """Author ``remap(rows)`` of ``p`` (its default and, for each of the source's time samples, its rows at
+    that time remapped), with interpolation ``interp``; an indexed primvar's indices blocked."""
+
+    def values(rows: np.ndarray) -> np.ndarray:
+        shape = p.values.shape[2:] if p.values.ndim > 2 else p.values.shape[1:]
+        return np.ascontiguousarray(rows.reshape(-1, *shape))
+
+    # (the source's samples read before any opinion is authored: the override's default hides them)
+    samples = [(t, p.rows_at(t)) for t in p.times()]
+    p.attr.Set(values(remap(p.rows)))
+    for t, rows in samples:
+        p.attr.Set(values(remap(rows)), t)
     if p.pv is not None:
         if p.pv.IsIndexed():
             p.pv.BlockIndices()
@@ -150,6 +219,26 @@ def _set_values(p: _Primvar, rows: np.ndarray, interp: str) -> None:
             p.pv.SetInterpolation(interp)
     elif interp != p.interp:
         UsdGeom.Mesh(p.attr.GetPrim()).SetNormalsInterpolation(interp)
+
+
+def _animate_points(mesh: UsdGeom.Mesh, point_of: np.ndarray, n_points: int, extent: bool) -> None:
+    """The source's time samples of points (``n_points`` each), re-indexed (new vertex i is source point
+    ``point_of[i]``), each with its extent: the override's default alone would hide the source's samples.
+    Called before the override's default points are authored (they would hide the samples from it)."""
+    attr = mesh.GetPointsAttr()
+    # (every sample read before one is authored: the override's samples hide the source's between them)
+    samples = [(t, attr.Get(t)) for t in attr.GetTimeSamples()]
+    for t, value in samples:
+        pts = np.asarray(value, np.float32).reshape(-1, 3)
+        if pts.shape[0] != n_points:
+            raise UsdOverrideError(
+                f"{attr.GetPath()}: {pts.shape[0]} points at time {t}: points that change in number over "
+                "time cannot be re-indexed"
+            )
+        moved = np.ascontiguousarray(pts[point_of])
+        attr.Set(moved, t)
+        if extent:
+            mesh.GetExtentAttr().Set(np.stack([moved.min(axis=0), moved.max(axis=0)]), t)
 
 
 def encode_prim(prim: Usd.Prim, encoding: str = "vanilla", **params: Any) -> ProgressiveMesh:
@@ -168,6 +257,8 @@ def encode_prim(prim: Usd.Prim, encoding: str = "vanilla", **params: Any) -> Pro
     src_face = topo.face[src_tri]
 
     mesh = UsdGeom.Mesh(prim)
+    point_of = info["src_point"][prov]  # source point of each new vertex
+    _animate_points(mesh, point_of, topo.n_points, pm.vertex_count > 0)
     mesh.GetPointsAttr().Set(np.ascontiguousarray(pm.points))
     mesh.GetFaceVertexIndicesAttr().Set(np.ascontiguousarray(tri0.reshape(-1).astype(np.int32)))
     mesh.GetFaceVertexCountsAttr().Set(np.full(tri0.shape[0], 3, np.int32))
@@ -177,28 +268,59 @@ def encode_prim(prim: Usd.Prim, encoding: str = "vanilla", **params: Any) -> Pro
         mesh.GetExtentAttr().Set(np.stack([pm.points.min(axis=0), pm.points.max(axis=0)]))
     for p in info["primvars"]:
         if p.interp in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying):
-            _set_values(p, p.rows[info["src_point"][prov]], p.interp)
+            _set_values(p, lambda rows: rows[point_of], p.interp)
         elif _splits(p):
-            _set_values(p, _corner_rows(p, topo)[corner], UsdGeom.Tokens.vertex)
+            _set_values(p, lambda rows, p=p: _corner_rows(p, topo, rows)[corner], UsdGeom.Tokens.vertex)
         elif p.interp == UsdGeom.Tokens.uniform:
-            _set_values(p, p.rows[src_face], p.interp)
+            _set_values(p, lambda rows: rows[src_face], p.interp)
     for subset in UsdGeom.Subset.GetAllGeomSubsets(mesh):
-        if subset.GetElementTypeAttr().Get() != UsdGeom.Tokens.face:
-            continue
-        faces = np.asarray(subset.GetIndicesAttr().Get() or [], np.int64)
-        subset.GetIndicesAttr().Set(np.flatnonzero(np.isin(src_face, faces)).astype(np.int32))
-    author_swpm(prim, pm)
+        element = subset.GetElementTypeAttr().Get()
+        indices = np.asarray(subset.GetIndicesAttr().Get(_TIME) or [], np.int64)
+        if element == UsdGeom.Tokens.face:  # the LOD-0 triangles of its faces
+            subset.GetIndicesAttr().Set(np.flatnonzero(np.isin(src_face, indices)).astype(np.int32))
+        elif element == UsdGeom.Tokens.point:  # the new vertices of its points (split ones each)
+            subset.GetIndicesAttr().Set(np.flatnonzero(np.isin(point_of, indices)).astype(np.int32))
+    ours = author_swpm(prim, pm)
+    # a source encoded before (another encoding, discrete LODs) keeps its swpm: values in the weaker layer:
+    # blocked, so the prim holds this encoding's buffers alone (swpm:discreteLods named the old LODs)
+    for attr in prim.GetAttributes():
+        if attr.GetName().startswith("swpm:") and attr.GetName() not in ours and attr.HasAuthoredValue():
+            attr.Block()
     return pm
 
 
-def _mesh_prims(stage: Usd.Stage, prims: Iterable[str] | None) -> list[Usd.Prim]:
-    roots = [stage.GetPseudoRoot()] if prims is None else [stage.GetPrimAtPath(p) for p in prims]
+def _mesh_roots(stage: Usd.Stage, prims: Iterable[str] | None, src: Path) -> list[Usd.Prim]:
+    """The prims to encode under: the pseudo-root, or each of ``prims`` (an error naming ``src`` and the
+    path of one that is not on the stage)."""
+    if prims is None:
+        return [stage.GetPseudoRoot()]
+    roots = []
+    for path in prims:
+        root = stage.GetPrimAtPath(path) if Sdf.Path.IsValidPathString(str(path)) else None
+        if not root:
+            raise UsdOverrideError(f"{src}: no prim at {path}")
+        roots.append(root)
+    return roots
+
+
+def _mesh_prims(roots: list[Usd.Prim]) -> list[Usd.Prim]:
+    """The Mesh prims at or under ``roots`` that can be overridden (not those in instances)."""
     out = []
     for root in roots:
-        if not root:
-            raise UsdOverrideError(f"no prim at {root.GetPath() if root else prims}")
         out.extend(p for p in Usd.PrimRange(root) if p.IsA(UsdGeom.Mesh) and not p.IsInstanceProxy())
     return out
+
+
+def _instanced_meshes(roots: list[Usd.Prim]) -> list[str]:
+    """The paths of the Mesh prims in instances at or under ``roots`` (instance proxies: an override of one
+    is ignored by USD, so they are not encoded)."""
+    proxies = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+    return [
+        str(p.GetPath())
+        for root in roots
+        for p in Usd.PrimRange(root, proxies)
+        if p.IsInstanceProxy() and p.IsA(UsdGeom.Mesh)
+    ]
 
 
 def write_overrides(
@@ -283,7 +405,9 @@ def _author_overrides(
         layer.defaultPrim = default.GetName()
     else:
         raise UsdOverrideError(f"mode must be 'sublayer' or 'reference', not {mode!r}")
-    for key in ("upAxis", "metersPerUnit"):
+    # (before the stage is opened: a source of other timeCodesPerSecond than the new layer's 24 had its time
+    # samples scaled into it, 1, 5, 10 at 48 read and re-authored as 0.5, 2.5, 5, with no time range left)
+    for key in _STAGE_METADATA:
         if src_stage.HasAuthoredMetadata(key):
             layer.pseudoRoot.SetInfo(key, src_stage.GetMetadata(key))
     if mode == "sublayer" and src_stage.GetRootLayer().defaultPrim:
@@ -291,7 +415,8 @@ def _author_overrides(
     stage = Usd.Stage.Open(layer)
     result = {}
     skipped = []
-    for prim in _mesh_prims(stage, prims):
+    roots = _mesh_roots(stage, prims, src_path)
+    for prim in _mesh_prims(roots):
         why = _nothing_to_encode(prim)
         if why is not None:  # (left as it is: the loader leaves such a mesh out too)
             skipped.append(f"{prim.GetPath()} ({why})")
@@ -303,16 +428,26 @@ def _author_overrides(
     if skipped and not result:
         listed = ", ".join(skipped[:3]) + (", ..." if len(skipped) > 3 else "")
         raise UsdOverrideError(f"{src_path}: no Mesh prim with faces to encode: {listed}")
+    if not result:  # (an override layer that encodes nothing, returned as {}, told no one why)
+        instanced = _instanced_meshes(roots)
+        if instanced:
+            listed = ", ".join(instanced[:3]) + (", ..." if len(instanced) > 3 else "")
+            raise UsdOverrideError(
+                f"{src_path}: no Mesh prim to encode: the {len(instanced)} Mesh prims are in instances "
+                f"({listed}), which USD lets no layer override; encode the layers the instances reference"
+            )
+        under = "" if prims is None else f" under {', '.join(str(p) for p in prims)}"
+        raise UsdOverrideError(f"{src_path}: no Mesh prim to encode{under}")
     return result
 
 
 def _nothing_to_encode(prim: Usd.Prim) -> str | None:
     """Why the Mesh ``prim`` has no triangle to encode (no faces; every face a hole), or None."""
     mesh = UsdGeom.Mesh(prim)
-    counts = mesh.GetFaceVertexCountsAttr().Get()
+    counts = mesh.GetFaceVertexCountsAttr().Get(_TIME)
     if counts is None or len(counts) == 0:
         return "no faces"
-    if _all_holes(mesh, Usd.TimeCode.Default()):
+    if _all_holes(mesh, _TIME):
         return "every face is a hole"
     return None
 

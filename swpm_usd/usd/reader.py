@@ -56,16 +56,30 @@ def _encoded_prim(prim: Usd.Prim) -> Usd.Prim:
     if len(found) != 1:
         what = "no" if not found else f"{len(found)}"
         raise UsdReadError(
-            f"{prim.GetPath()}: {what} SwpmMeshAPI Mesh prims at or under it (need exactly one)"
+            f"{_where(prim)}: {what} SwpmMeshAPI Mesh prims at or under it (need exactly one)"
+            + ("" if found else _unloaded(prim))
         )
     return found[0]
+
+
+def _unloaded(prim: Usd.Prim) -> str:
+    """``"; payloads at or under it not loaded (1): /World/a (stage.Load(path) loads one)"``: what hides an
+    encoded mesh from a stage opened with ``Usd.Stage.LoadNone`` (or unloaded since), or ``""``."""
+    every = Usd.TraverseInstanceProxies(Usd.PrimAllPrimsPredicate)
+    paths = [
+        str(p.GetPath()) for p in Usd.PrimRange(prim, every) if p.HasAuthoredPayloads() and not p.IsLoaded()
+    ]
+    if not paths:
+        return ""
+    listed = ", ".join(paths[:3]) + (", ..." if len(paths) > 3 else "")
+    return f"; payloads at or under it not loaded ({len(paths)}): {listed} (stage.Load(path) loads one)"
 
 
 def _get(prim: Usd.Prim, name: str, required: bool = True) -> Any:
     attr = prim.GetAttribute(name)
     value = attr.Get() if attr else None
     if value is None and required:
-        raise UsdReadError(f"{prim.GetPath()}: attribute {name} is missing")
+        raise UsdReadError(f"{_where(prim)}: attribute {name} is missing")
     return value
 
 
@@ -76,11 +90,11 @@ def read_buffers(prim: Usd.Prim) -> dict[str, np.ndarray]:
     dtypes = list(_get(prim, "swpm:bufferDtypes"))
     problem = dtype_problem("swpm:bufferDtypes", dtypes, BUFFER_DTYPES)
     if problem is not None:
-        raise UsdReadError(f"{prim.GetPath()}: {problem}")
+        raise UsdReadError(f"{_where(prim)}: {problem}")
     columns = np.asarray(_get(prim, "swpm:bufferColumns"))
     if not len(names) == len(dtypes) == columns.shape[0]:
         raise UsdReadError(
-            f"{prim.GetPath()}: swpm:bufferNames / bufferDtypes / bufferColumns differ in length"
+            f"{_where(prim)}: swpm:bufferNames / bufferDtypes / bufferColumns differ in length"
         )
     fields = list(_get(prim, "swpm:collapseRecordFields", required=False) or [])
     table = None
@@ -88,7 +102,7 @@ def read_buffers(prim: Usd.Prim) -> dict[str, np.ndarray]:
         table = from_vt(_get(prim, "swpm:collapseRecords"), np.uint32)
         if table.shape[0] % len(fields):
             raise UsdReadError(
-                f"{prim.GetPath()}: swpm:collapseRecords has {table.shape[0]} entries, "
+                f"{_where(prim)}: swpm:collapseRecords has {table.shape[0]} entries, "
                 f"not a multiple of {len(fields)} fields"
             )
         table = table.reshape(-1, len(fields))
@@ -127,12 +141,12 @@ def _attributes(prim: Usd.Prim, names: list[str], dtypes: list[str] | None = Non
     if dtypes is not None:
         problem = dtype_problem("swpm:attributeDtypes", dtypes, ATTRIBUTE_DTYPES)
         if problem is not None:
-            raise UsdReadError(f"{prim.GetPath()}: {problem}")
+            raise UsdReadError(f"{_where(prim)}: {problem}")
     out = _float_attributes(prim, names)
     if dtypes is None:
         return out
     if len(dtypes) != len(names):
-        raise UsdReadError(f"{prim.GetPath()}: swpm:attributeNames and attributeDtypes differ in length")
+        raise UsdReadError(f"{_where(prim)}: swpm:attributeNames and attributeDtypes differ in length")
     return {n: _restore(n, out[n], str(d)) for n, d in zip(names, dtypes, strict=True)}
 
 
@@ -143,7 +157,7 @@ def _flattened(prim: Usd.Prim, pv: UsdGeom.Primvar) -> Any:
     if value is None and pv.IsIndexed() and pv.Get() is not None:
         n = len(pv.Get())
         raise UsdReadError(
-            f"{prim.GetPath()}: primvar {pv.GetPrimvarName()!r} has indices out of range for its {n} values"
+            f"{_where(prim)}: primvar {pv.GetPrimvarName()!r} has indices out of range for its {n} values"
         )
     return value
 
@@ -178,7 +192,7 @@ def _float_attributes(prim: Usd.Prim, names: list[str]) -> dict[str, np.ndarray]
                 out[name] = a.reshape(a.shape[0] // pv.GetElementSize(), -1) if a.ndim == 1 else a
                 continue
         if value is None:
-            raise UsdReadError(f"{prim.GetPath()}: attribute {name!r} has no stored primvar")
+            raise UsdReadError(f"{_where(prim)}: attribute {name!r} has no stored primvar")
         a = np.asarray(value, np.float32)
         out[name] = a.reshape(a.shape[0], -1)
     return out
@@ -215,7 +229,9 @@ def read(prim: Usd.Prim, check: bool = True) -> ProgressiveMesh:
     except UsdReadError:
         raise
     except (SwpmError, ValueError, TypeError, IndexError, KeyError) as e:
-        raise UsdReadError(f"{_where(prim)}: the stored arrays do not form a progressive mesh: {e}") from e
+        raise UsdReadError(
+            f"{_where(prim)}: the stored arrays do not form a progressive mesh: {e}{_overridden(prim)}"
+        ) from e
     if check:
         _check_buffers(prim, pm)
     return pm
@@ -224,6 +240,29 @@ def read(prim: Usd.Prim, check: bool = True) -> ProgressiveMesh:
 def _where(prim: Usd.Prim) -> str:
     """The stage's root layer and the prim's path, for a message."""
     return f"{prim.GetStage().GetRootLayer().identifier}: {prim.GetPath()}"
+
+
+def _overridden(prim: Usd.Prim) -> str:
+    """Where the encoded ``prim``'s values may have been broken: its ``swpm:`` attributes and ``points`` whose
+    strongest opinion is in another layer than its ``swpm:bufferNames`` (the writer authors them together,
+    so on a composed stage these are the overrides), as ``"; overridden over a.usdc: swpm:indexPool in
+    over.usda"``, or ``""`` when there is none."""
+    ref = prim.GetAttribute("swpm:bufferNames")
+    stack = ref.GetPropertyStack() if ref else []
+    if not stack:
+        return ""
+    home = stack[0].layer
+    out = []
+    for attr in prim.GetAttributes():
+        name = attr.GetName()
+        if not (name.startswith("swpm:") or name in ("points", "faceVertexIndices", "faceVertexCounts")):
+            continue
+        specs = attr.GetPropertyStack()
+        if specs and specs[0].layer != home:
+            out.append(f"{name} in {specs[0].layer.identifier}")
+    if not out:
+        return ""
+    return f"; overridden over {home.identifier}: {', '.join(out)}"
 
 
 def _check_buffers(prim: Usd.Prim, pm: ProgressiveMesh) -> None:
@@ -235,12 +274,14 @@ def _check_buffers(prim: Usd.Prim, pm: ProgressiveMesh) -> None:
     try:
         errors = validate_bytes(encode_bytes(_storable(pm))).errors
     except (SwpmError, ValueError, TypeError, IndexError, OverflowError) as e:
-        raise UsdReadError(f"{where}: the stored arrays do not form a valid {pm.encoding} mesh: {e}") from e
+        raise UsdReadError(
+            f"{where}: the stored arrays do not form a valid {pm.encoding} mesh: {e}{_overridden(prim)}"
+        ) from e
     if errors:
         first = errors[0]
         raise UsdReadError(
             f"{where}: the stored arrays fail the format's checks ({len(errors)} problem(s)); "
-            f"first: {first.code}: {first.message}"
+            f"first: {first.code}: {first.message}{_overridden(prim)}"
         )
 
 

@@ -34,6 +34,8 @@ from .schema import COLLAPSE_FLAT, COLLAPSE_PREFIX, FORMAT_VERSION, SCHEMA_NAME,
 
 MESH_NAME = "mesh"
 LOD_VARIANT_SET = "LOD"
+#: the class prim of write_usdlod's layer holding each LOD item's source (the asset, its variant selected)
+LOD_SOURCES = "sources"
 _UNIFORM = Sdf.VariabilityUniform
 
 
@@ -104,8 +106,8 @@ def swpm_values(pm: ProgressiveMesh) -> dict[str, tuple[Sdf.ValueTypeName, Any]]
     return out
 
 
-def author_swpm(prim: Usd.Prim, pm: ProgressiveMesh) -> None:
-    """Apply SwpmMeshAPI to the Mesh ``prim`` and author every swpm: attribute explicitly."""
+def author_swpm(prim: Usd.Prim, pm: ProgressiveMesh) -> set[str]:
+    """Apply SwpmMeshAPI to the Mesh ``prim`` and author every swpm: attribute explicitly; their names."""
     if not prim.IsA(UsdGeom.Mesh):
         raise UsdWriteError(
             f"{prim.GetPath()}: SwpmMeshAPI only applies to Mesh prims, not {prim.GetTypeName()!r}"
@@ -117,9 +119,11 @@ def author_swpm(prim: Usd.Prim, pm: ProgressiveMesh) -> None:
             if not ok:
                 raise UsdWriteError(f"{prim.GetPath()}: cannot apply {SCHEMA_NAME}: {why}")
     prim.AddAppliedSchema(SCHEMA_NAME)
-    for name, (sdf_type, value) in swpm_values(pm).items():
+    values = swpm_values(pm)
+    for name, (sdf_type, value) in values.items():
         attr = prim.CreateAttribute(name, sdf_type, custom=False, variability=_UNIFORM)
         attr.Set(value)
+    return set(values)
 
 
 def _vec(a: np.ndarray, k: int) -> Any:
@@ -318,6 +322,36 @@ def write(
     return _export(stage, p, fmt)
 
 
+#: suffixes of the files :func:`stage_metadata` reads (USD layers and packages)
+USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
+
+
+def stage_metadata(source: str | os.PathLike[str]) -> dict[str, Any]:
+    """:func:`write`'s ``up_axis`` and ``meters_per_unit`` for a mesh loaded from ``source``: a USD file's
+    (its root layer's, USD's fallbacks where it authors none: the fallback up axis, Y unless the environment
+    says otherwise, and centimetres), since the loader keeps the stage's coordinates; ``{}`` for any other
+    file (OBJ, PLY, ... say nothing: the defaults). An up axis USD does not define is left out too."""
+    if Path(source).suffix.lower() not in USD_SUFFIXES:
+        return {}
+    try:
+        layer = Sdf.Layer.FindOrOpen(os.fspath(source))
+    except Tf.ErrorException as e:
+        from ..io.usd_loader import _tf_message
+
+        raise UsdWriteError(f"{source}: USD could not open it: {_tf_message(e)}") from e
+    if layer is None:
+        raise UsdWriteError(f"{source}: USD could not open it")
+    info = layer.pseudoRoot
+    up = str(info.GetInfo("upAxis")) if info.HasInfo("upAxis") else str(UsdGeom.GetFallbackUpAxis())
+    scale = float(info.GetInfo("metersPerUnit")) if info.HasInfo("metersPerUnit") else 0.01
+    out: dict[str, Any] = {}
+    if up.upper() in ("Y", "Z"):
+        out["up_axis"] = up.upper()
+    if math.isfinite(scale) and scale > 0:
+        out["meters_per_unit"] = scale
+    return out
+
+
 def _thresholds(errors: np.ndarray) -> np.ndarray:
     """Strictly increasing positive copy of ``errors`` (so heuristics get a valid threshold list)."""
     e = np.maximum.accumulate(np.maximum(np.asarray(errors, np.float64), 1e-12))
@@ -339,12 +373,13 @@ def write_usdlod(
     """Write a UsdLod layer over an asset written with ``lods``: one LOD item per discrete LOD.
 
     Layout: ``/<Name>LOD`` (Xform, default prim) / ``lod`` (LODRootAPI; items ``LOD0``.. each an instanceable
-    reference to the asset with that variant selected) and ``/<Name>LOD/heuristics`` (beside the root, not
-    in it) holding an ``LODDistanceHeuristic`` and an ``LODScreenSizeHeuristic``. Item i switches to i+1
-    when the error of LOD i+1 projects to at most ``pixel_error`` pixels on a ``viewport_px`` tall view with
-    a ``fov_degrees`` vertical field of view: distance ``d = err * f / pixel_error`` with
-    ``f = viewport_px / (2 tan(fov / 2))``, screen size ``s = 2 r f / (d * viewport_px)`` (r: bounding
-    radius).
+    internal reference to ``/<Name>LOD/sources/LOD<i>``, a class prim referencing the asset with that variant
+    selected) and ``/<Name>LOD/heuristics`` (beside the root, not in it) holding an
+    ``LODDistanceHeuristic`` and an ``LODScreenSizeHeuristic``. Item i switches to i+1 when the error of
+    LOD i+1 projects to at most ``pixel_error`` pixels on a ``viewport_px`` tall view with a ``fov_degrees``
+    vertical field of view: distance ``d = err * f / pixel_error`` with
+    ``f = viewport_px / (2 tan(fov / 2))``, screen size ``s = 2 r f / (d * viewport_px)``
+    (r: bounding radius).
     Needs usd-core >= 26.8 (UsdLod).
     """
     try:
@@ -427,15 +462,24 @@ def _author_usdlod(
     stage.SetDefaultPrim(top.GetPrim())
     Usd.ModelAPI(top.GetPrim()).SetKind(Kind.Tokens.assembly)
     lod_root = UsdGeom.Xform.Define(stage, top.GetPath().AppendChild("lod"))
+    # a group model between the assembly and the items (component models: models only under group models)
+    Usd.ModelAPI(lod_root.GetPrim()).SetKind(Kind.Tokens.group)
     rel_asset = os.path.relpath(asset.resolve(), p.resolve().parent).replace(os.sep, "/")
+    # USD ignores opinions authored under an instanceable prim (an `over "mesh"` with the variant selection
+    # beneath the item left every item drawing LOD0): each selection is made on a class prim beside the LOD
+    # root, `sources/LOD<i>` (abstract: neither drawn nor traversed), that references the asset, and each item
+    # is an instanceable internal reference to its source, so the selection is part of its prototype (four
+    # prototypes, shared by every reference to this layer)
+    sources = stage.CreateClassPrim(top.GetPath().AppendChild(LOD_SOURCES))
     for i in range(discrete.shape[0]):
-        item = UsdGeom.Xform.Define(stage, lod_root.GetPath().AppendChild(f"LOD{i}")).GetPrim()
-        item.GetReferences().AddReference(rel_asset)
-        item.SetInstanceable(True)
-        # the item is instanceable: author the selection in the layer, not through the (proxy) prim
-        over = Sdf.CreatePrimInLayer(layer, item.GetPath().AppendChild(MESH_NAME))
+        source = stage.CreateClassPrim(sources.GetPath().AppendChild(f"LOD{i}"))
+        source.GetReferences().AddReference(rel_asset)
+        over = Sdf.CreatePrimInLayer(layer, source.GetPath().AppendChild(MESH_NAME))
         over.specifier = Sdf.SpecifierOver
         over.variantSelections[LOD_VARIANT_SET] = f"LOD{i}"
+        item = UsdGeom.Xform.Define(stage, lod_root.GetPath().AppendChild(f"LOD{i}")).GetPrim()
+        item.GetReferences().AddInternalReference(source.GetPath())
+        item.SetInstanceable(True)
     heur = UsdGeom.Scope.Define(stage, top.GetPath().AppendChild("heuristics"))
     focal = viewport_px / (2.0 * math.tan(math.radians(fov_degrees) / 2.0))
     dist = _thresholds(errors[1:] * focal / pixel_error)
