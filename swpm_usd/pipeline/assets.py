@@ -165,6 +165,10 @@ def _usd_layer_files(path: Path) -> tuple[list[Path], bool]:
 
     if path.suffix.lower() not in _USD_SUFFIXES:
         return [], True
+    from ..usd.probe import check
+
+    if check(path) is not None:  # (a crate file that crashes usd-core: not opened here, the worker fails it)
+        return [], False
     try:
         from pxr import Usd
 
@@ -181,7 +185,11 @@ def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset
     from pxr import Usd, UsdGeom
 
     from ..io.usd_loader import _not_rendered
+    from ..usd.probe import check
 
+    probed = check(stage_path)  # (a crate file that would crash this process: not opened here)
+    if probed is not None:
+        raise OSError(probed.message.removeprefix(f"{stage_path}: "))
     stage = Usd.Stage.Open(str(stage_path))
     if stage is None:
         raise OSError("the stage does not open")

@@ -1,0 +1,247 @@
+"""Open an untrusted binary USD file (crate, ``.usdc``) in a probe process before this one opens it.
+
+usd-core does not survive every corrupt crate file: a byte flipped in a value or in a section's header makes
+``Usd.Stage.Open`` or a value's read crash the process (SIGSEGV), or ask for a giant allocation (the system
+kills the process, or another one). :func:`check` has the file opened first by a probe process (``python
+-c`` :data:`_PROBE`: the stage opened, every prim's and property's metadata and values read, every spec of
+every layer it uses), under a memory and a time limit. Only when the probe reads it cleanly does the caller
+open the file itself; a probe that dies by a signal or overruns its time, or in which usd-core cannot open
+the file or read a value, is a :class:`Problem` (one line naming the file) the caller turns into its typed
+error (``validate``: ``SWPM_USD_CRASH``, ``SWPM_USD_OPEN`` or ``SWPM_USD_READ``; the loader:
+:class:`~swpm_usd.errors.MeshLoadError`).
+
+Only crate files are probed (their first bytes are ``PXR-USDC``: a ``.usdc``, or a ``.usd`` written binary;
+usd-core's text parser fails cleanly), and each once per process (the answer is kept by path, size, mtime
+and inode). One probe process serves every file of this one (its start, Python and usd-core's import, costs
+about 0.3 s once; a small file then about 10 ms) and is started again after a file crashed it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import select
+import signal
+import subprocess
+import sys
+import threading
+from pathlib import Path
+from typing import NamedTuple
+
+#: the first bytes of a crate (binary USD) file
+CRATE_MAGIC = b"PXR-USDC"
+#: seconds a probe may take (a crate file usd-core hangs on); ``SWPM_USD_PROBE_SECONDS`` overrides it
+PROBE_SECONDS = 300.0
+#: address space a probe may use: this much plus :data:`PROBE_MEMORY_PER_BYTE` times the file's size (a
+#: corrupt array or section size asks usd-core for terabytes; under the limit that is an error, not a kill
+#: by the system's out-of-memory killer, which may pick another process)
+PROBE_MEMORY_BASE = 4 << 30
+PROBE_MEMORY_PER_BYTE = 64
+#: a probe's answers: usd-core opened and read the file, raised an error opening it, or reading a value in
+#: it (its first message beside)
+_CLEAN, _OPEN_FAILED, _READ_FAILED = 0, 3, 4
+
+#: the probe process's program: argv[1] the schema plugin's folder (registered as this process registers
+#: it: its fallbacks are values read too; through PXR_PLUGINPATH_NAME, usd-core 26.11 raises "There already
+#: is a type named 'SwpmMeshAPI'" at the first stage's open). It reads requests, one JSON line each (the
+#: file, its seconds and its address-space limit in bytes), and answers each with a JSON line (code,
+#: message); it ends when its input does. A file it crashes on ends it (the asker sees the signal), one it
+#: overruns its seconds on too (SIGALRM)
+_PROBE = r"""
+import json, resource, signal, sys
+signal.signal(signal.SIGINT, signal.SIG_IGN)
+from pxr import Plug, Sdf, Tf, Usd
+try:
+    Plug.Registry().RegisterPlugins(sys.argv[1])
+except Exception:
+    pass
+def probe(path):
+    try:
+        stage = Usd.Stage.Open(path)
+    except Exception as exc:
+        return 3, str(exc)
+    if stage is None:
+        return 3, ""
+    failed = []
+    def attempt(fn, *args):
+        try:
+            return fn(*args)
+        except Tf.ErrorException as exc:
+            failed.append(str(exc))
+        except Exception:
+            pass
+        return None
+    def read_prim(prim):
+        attempt(prim.GetAllMetadata)
+        for prop in attempt(prim.GetProperties) or []:
+            attempt(prop.GetAllMetadata)
+            if isinstance(prop, Usd.Attribute):
+                attempt(prop.Get)
+                times = attempt(prop.GetTimeSamples) or []
+                for t in times[:1] + times[-1:]:
+                    attempt(prop.Get, t)
+            else:
+                attempt(prop.GetTargets)
+    for root in [stage.GetPseudoRoot()] + list(attempt(stage.GetPrototypes) or []):
+        for prim in Usd.PrimRange.AllPrims(root):
+            read_prim(prim)
+    attempt(stage.GetCompositionErrors)
+    def read_spec(layer, path):
+        spec = attempt(layer.GetObjectAtPath, path)
+        if spec is None:
+            return
+        for key in attempt(spec.ListInfoKeys) or []:
+            attempt(spec.GetInfo, key)
+        for t in attempt(layer.ListTimeSamplesForPath, path) or []:
+            attempt(layer.QueryTimeSample, path, t)
+    for layer in attempt(stage.GetUsedLayers) or []:
+        attempt(layer.Traverse, Sdf.Path.absoluteRootPath, lambda p, layer=layer: read_spec(layer, p))
+    return (4, failed[0]) if failed else (0, "")
+for line in sys.stdin:
+    path, seconds, memory = json.loads(line)
+    try:
+        resource.setrlimit(resource.RLIMIT_AS, (memory, resource.RLIM_INFINITY))
+    except (ValueError, OSError):
+        pass
+    signal.alarm(max(1, int(seconds)))
+    code, message = probe(path)
+    signal.alarm(0)
+    try:
+        resource.setrlimit(resource.RLIMIT_AS, (resource.RLIM_INFINITY, resource.RLIM_INFINITY))
+    except (ValueError, OSError):
+        pass
+    sys.stdout.write(json.dumps([code, message]) + "\n")
+    sys.stdout.flush()
+"""
+
+
+class Problem(NamedTuple):
+    """What a probe found: ``kind`` "crash" (usd-core died by a signal), "timeout", "open" (it raised an
+    error opening the file) or "read" (opening it, but reading a value in it: corrupt data, which read in
+    this process could ask for a giant allocation), and ``message``, one line naming the file."""
+
+    kind: str
+    message: str
+
+
+#: (real path, size, mtime_ns, inode) -> the problem found (None: none)
+_answers: dict[tuple[str, int, int, int], Problem | None] = {}
+
+
+def is_crate(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is a crate (binary USD) file: its first bytes are :data:`CRATE_MAGIC`."""
+    try:
+        with open(path, "rb") as f:
+            return f.read(len(CRATE_MAGIC)) == CRATE_MAGIC
+    except OSError:
+        return False
+
+
+def _seconds() -> float:
+    try:
+        return max(1.0, float(os.environ.get("SWPM_USD_PROBE_SECONDS", PROBE_SECONDS)))
+    except ValueError:
+        return PROBE_SECONDS
+
+
+def _signal_name(number: int) -> str:
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return f"signal {number}"
+
+
+def check(path: str | os.PathLike[str]) -> Problem | None:
+    """None when ``path`` is not a crate file or a probe process opened and read it cleanly (the caller may
+    then open it in its own process), else the :class:`Problem`: usd-core crashed on it (the signal), did
+    not finish within :data:`PROBE_SECONDS`, or raised an error opening it or reading a value (its message).
+    Asked again for the same file (path, size, mtime, inode), the first answer is given without a probe."""
+    p = os.fspath(path)
+    try:
+        st = os.stat(p)
+    except OSError:
+        return None  # (the caller's own open reports a missing or unreadable file)
+    if not is_crate(p):
+        return None
+    key = (os.path.realpath(p), st.st_size, st.st_mtime_ns, st.st_ino)
+    if key not in _answers:
+        _answers[key] = _probe(p, st.st_size)
+    return _answers[key]
+
+
+#: the probe process this one asks (started on the first crate file, again after one crashed it)
+_server: subprocess.Popen[bytes] | None = None
+_server_pid = 0
+_lock = threading.Lock()
+
+
+def _probe(path: str, size: int) -> Problem | None:
+    global _server, _server_pid
+    seconds = _seconds()
+    memory = PROBE_MEMORY_BASE + PROBE_MEMORY_PER_BYTE * size
+    request = json.dumps([str(Path(path).absolute()), seconds, memory]).encode() + b"\n"
+    with _lock:
+        try:
+            if _server is None or _server_pid != os.getpid() or _server.poll() is not None:
+                from .plugin import PLUGIN_PATH
+
+                _server = subprocess.Popen(
+                    [sys.executable, "-c", _PROBE, PLUGIN_PATH],
+                    stdin=subprocess.PIPE,
+                    stdout=subprocess.PIPE,
+                    stderr=subprocess.DEVNULL,
+                )
+                _server_pid = os.getpid()  # (a process forked from this one starts its own)
+            server = _server
+            assert server.stdin is not None and server.stdout is not None
+            server.stdin.write(request)
+            server.stdin.flush()
+            ready, _, _ = select.select([server.stdout], [], [], seconds + 30)
+            line = server.stdout.readline() if ready else None
+        except OSError:  # (no process can be started, or it went as it was asked: see below)
+            line = b""
+            server = _server
+        if line is None:  # (it hangs past its own alarm)
+            _stop(server)
+            return _overran(path, seconds)
+        if not line:  # it died on the file (or could not start)
+            code = None if server is None else server.wait()
+            _server = None
+            if code is None or code >= 0:
+                return None  # (the probe itself failed, not usd-core on the file: the caller opens it)
+            if code == -signal.SIGALRM:
+                return _overran(path, seconds)
+            return Problem(
+                "crash",
+                f"{path}: usd-core crashed opening or reading it (a probe process died by "
+                f"{_signal_name(-code)}): the file is corrupt; it was not opened in this process",
+            )
+    try:
+        code, text = json.loads(line)
+    except ValueError:
+        return None
+    if code == _CLEAN:
+        return None
+    from ..io.usd_loader import _tf_message
+
+    reason = _tf_message(RuntimeError(text)) if text.strip() else "usd-core returned no stage"
+    if code == _OPEN_FAILED:
+        return Problem("open", f"{path}: usd-core cannot open it as a USD layer: {reason}")
+    return Problem("read", f"{path}: usd-core cannot read it: {reason}")
+
+
+def _stop(server: subprocess.Popen[bytes] | None) -> None:
+    """Kill the probe process (hung) and forget it."""
+    global _server
+    if server is not None:
+        server.kill()
+        server.wait()
+    _server = None
+
+
+def _overran(path: str, seconds: float) -> Problem:
+    return Problem(
+        "timeout",
+        f"{path}: usd-core did not finish opening and reading it within {seconds:g} s (a probe process was "
+        "stopped): the file is corrupt, or larger than SWPM_USD_PROBE_SECONDS allows",
+    )
