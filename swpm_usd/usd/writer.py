@@ -359,6 +359,11 @@ def write_usdlod(
     asset = Path(asset_path)
     if _resolve_path(path, fmt).resolve() == asset.resolve():
         raise UsdWriteError(f"{path}: the LOD layer must not be the asset it references")
+    from .probe import check
+
+    probed = check(asset)  # (a corrupt crate file that would crash this process: not opened here)
+    if probed is not None:
+        raise UsdWriteError(probed.message)
     try:
         src = Usd.Stage.Open(str(asset))
     except Tf.ErrorException as e:
