@@ -14,6 +14,7 @@ import json
 import os
 import struct
 import time
+import unicodedata
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -449,14 +450,28 @@ def discover(
                 assets.append(a)
                 inputs[a.id] = used
     seen: dict[str, str] = {}
+    # (a stem folded as a case-insensitive filesystem folds it -> the first asset and its stem)
+    folded: dict[str, tuple[str, str]] = {}
     for a in assets:
-        if a.output_stem in seen and seen[a.output_stem] != a.id:
+        stem = a.output_stem
+        where = cfg.where(("assets", a.source_index))
+        if stem in seen and seen[stem] != a.id:
+            problems.append(f"{where}: {a.id} and {seen[stem]} would both write {stem}.swpm")
+        elif _folded(stem) in folded and folded[_folded(stem)][1] != stem:
+            other, other_stem = folded[_folded(stem)]
             problems.append(
-                f"{cfg.where(('assets', a.source_index))}: {a.id} and {seen[a.output_stem]} would both write "
-                f"{a.output_stem}.swpm"
+                f"{where}: {a.id} and {other} would both write {stem}.swpm on a case-insensitive filesystem "
+                f"(macOS, Windows): {stem}.swpm and {other_stem}.swpm differ only in case; rename one"
             )
-        seen[a.output_stem] = a.id
+        seen[stem] = a.id
+        folded.setdefault(_folded(stem), (a.id, stem))
     return assets, inputs, problems
+
+
+def _folded(name: str) -> str:
+    """``name`` as a case-insensitive filesystem compares it: its case folded and, as macOS's APFS and HFS+
+    compare names, its Unicode normalized (``é`` one code point or ``e`` and an accent)."""
+    return unicodedata.normalize("NFC", name).casefold()
 
 
 def _in_range(value: float, rng: dict | None) -> bool:
