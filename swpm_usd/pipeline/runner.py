@@ -1736,8 +1736,7 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
     included); the layer written is the same text."""
     from pxr import Sdf
 
-    from ..fileio import set_mode_for
-    from ..usd.writer import reload_if_open
+    from ..fileio import new_layer_replacing
 
     layers = [
         (k, r["outputs"]["usd"]["path"])
@@ -1746,8 +1745,8 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
     ]
     target = out_dir / "scene.usda"
     tmp = out_dir / ".scene.tmp.usda"
-    layer = Sdf.Layer.CreateNew(str(tmp))
-    with Sdf.ChangeBlock():
+    # (renamed over the scene once saved, which keeps its mode; a caller of run may have it open: reloaded)
+    with new_layer_replacing(target, tmp) as layer, Sdf.ChangeBlock():
         layer.pseudoRoot.SetInfo("upAxis", "Y")  # (UsdGeom.SetStageUpAxis, SetStageMetersPerUnit)
         layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)
         root = Sdf.PrimSpec(layer.pseudoRoot, "Scene", Sdf.SpecifierDef, "Xform")
@@ -1756,7 +1755,3 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
         for _, path in layers:
             prim = Sdf.PrimSpec(root, _scene_prim_name(Path(path).stem, used), Sdf.SpecifierDef, "Xform")
             prim.referenceList.Prepend(Sdf.Reference(f"./{path}"))
-    layer.Save()
-    set_mode_for(tmp, target)  # (a replaced scene keeps its mode)
-    tmp.replace(target)
-    reload_if_open(target)  # (a caller of run may have it open)

@@ -10,10 +10,11 @@ the file or read a value, is a :class:`Problem` (one line naming the file) the c
 error (``validate``: ``SWPM_USD_CRASH``, ``SWPM_USD_OPEN`` or ``SWPM_USD_READ``; the loader:
 :class:`~swpm_usd.errors.MeshLoadError`).
 
-Only crate files are probed (their first bytes are ``PXR-USDC``: a ``.usdc``, or a ``.usd`` written binary;
-usd-core's text parser fails cleanly), and each once per process (the answer is kept by path, size, mtime
-and inode). One probe process serves every file of this one (its start, Python and usd-core's import, costs
-about 0.3 s once; a small file then about 10 ms) and is started again after a file crashed it.
+Only files usd-core reads as crate are probed (:func:`is_crate`: a ``.usdc``, a ``.usdz``, a ``.usd`` whose
+first bytes are ``PXR-USDC``; its text parser fails cleanly), and each once per process (the answer is kept
+by path, size, mtime and inode). One probe process serves every file of this one (its start, Python and
+usd-core's import, costs about 0.3 s once; a small file then about 10 ms) and is started again after a file
+crashed it.
 """
 
 from __future__ import annotations
@@ -129,7 +130,15 @@ _answers: dict[tuple[str, int, int, int], Problem | None] = {}
 
 
 def is_crate(path: str | os.PathLike[str]) -> bool:
-    """Whether ``path`` is a crate (binary USD) file: its first bytes are :data:`CRATE_MAGIC`."""
+    """Whether usd-core reads ``path`` with its crate (binary) reader, as it chooses by the name: a ``.usdc``
+    always, a ``.usdz`` package (its layers may be crate files) too, a ``.usda`` never (the text parser,
+    whatever the bytes), and a ``.usd`` (or another name) when its first bytes are :data:`CRATE_MAGIC` (a
+    ``.usda`` is not read here: a rerun of a pipeline whose stage is up to date reads none of its inputs)."""
+    suffix = Path(path).suffix.lower()
+    if suffix in (".usdc", ".usdz"):
+        return True
+    if suffix == ".usda":
+        return False
     try:
         with open(path, "rb") as f:
             return f.read(len(CRATE_MAGIC)) == CRATE_MAGIC
