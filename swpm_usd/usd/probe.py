@@ -12,9 +12,9 @@ error (``validate``: ``SWPM_USD_CRASH``, ``SWPM_USD_OPEN`` or ``SWPM_USD_READ``;
 
 Only files usd-core reads as crate are probed (:func:`is_crate`: a ``.usdc``, a ``.usdz``, a ``.usd`` whose
 first bytes are ``PXR-USDC``; its text parser fails cleanly), and each once per process (the answer is kept
-by path, size, mtime and inode). One probe process serves every file of this one (its start, Python and
-usd-core's import, costs about 0.3 s once; a small file then about 10 ms) and is started again after a file
-crashed it.
+by path, size, mtime and inode). One probe server serves every file of this process: started once (Python
+and usd-core's import, about 0.3 s), it forks a fresh process for each file (about 35 ms for a small one),
+so a file that crashes or corrupts a probe leaves the next one a clean process.
 """
 
 from __future__ import annotations
@@ -42,14 +42,15 @@ PROBE_MEMORY_PER_BYTE = 64
 #: it (its first message beside)
 _CLEAN, _OPEN_FAILED, _READ_FAILED = 0, 3, 4
 
-#: the probe process's program: argv[1] the schema plugin's folder (registered as this process registers
-#: it: its fallbacks are values read too; through PXR_PLUGINPATH_NAME, usd-core 26.11 raises "There already
-#: is a type named 'SwpmMeshAPI'" at the first stage's open). It reads requests, one JSON line each (the
-#: file, its seconds and its address-space limit in bytes), and answers each with a JSON line (code,
-#: message); it ends when its input does. A file it crashes on ends it (the asker sees the signal), one it
-#: overruns its seconds on too (SIGALRM)
+#: the probe server's program: argv[1] the schema plugin's folder (registered as this process registers it:
+#: its fallbacks are values read too; through PXR_PLUGINPATH_NAME, usd-core 26.11 raises "There already is
+#: a type named 'SwpmMeshAPI'" at the first stage's open). It reads requests, one JSON line each (the file,
+#: its seconds and its address-space limit in bytes), forks a process that probes the file under those
+#: limits, and answers each with a JSON line: [code, message], the code the probe's (``_CLEAN``,
+#: ``_OPEN_FAILED``, ``_READ_FAILED``) or minus the signal it died by (SIGALRM: out of time). It ends when
+#: its input does
 _PROBE = r"""
-import json, resource, signal, sys
+import json, os, resource, signal, sys
 signal.signal(signal.SIGINT, signal.SIG_IGN)
 from pxr import Plug, Sdf, Tf, Usd
 try:
@@ -100,18 +101,31 @@ def probe(path):
     return (4, failed[0]) if failed else (0, "")
 for line in sys.stdin:
     path, seconds, memory = json.loads(line)
-    try:
-        resource.setrlimit(resource.RLIMIT_AS, (memory, resource.RLIM_INFINITY))
-    except (ValueError, OSError):
-        pass
-    signal.alarm(max(1, int(seconds)))
-    code, message = probe(path)
-    signal.alarm(0)
-    try:
-        resource.setrlimit(resource.RLIMIT_AS, (resource.RLIM_INFINITY, resource.RLIM_INFINITY))
-    except (ValueError, OSError):
-        pass
-    sys.stdout.write(json.dumps([code, message]) + "\n")
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:
+        os.close(r)
+        try:
+            resource.setrlimit(resource.RLIMIT_AS, (memory, resource.RLIM_INFINITY))
+        except (ValueError, OSError):
+            pass
+        signal.alarm(max(1, int(seconds)))
+        code, message = probe(path)
+        with os.fdopen(w, "w") as out:
+            out.write(json.dumps([code, message]))
+        os._exit(0)
+    os.close(w)
+    with os.fdopen(r) as got:
+        text = got.read()
+    _, status = os.waitpid(pid, 0)
+    if os.WIFSIGNALED(status):
+        answer = [-os.WTERMSIG(status), ""]
+    else:
+        try:
+            answer = json.loads(text)
+        except ValueError:
+            answer = [5, ""]
+    sys.stdout.write(json.dumps(answer) + "\n")
     sys.stdout.flush()
 """
 
@@ -199,6 +213,9 @@ def _probe(path: str, size: int) -> Problem | None:
                     stdin=subprocess.PIPE,
                     stdout=subprocess.PIPE,
                     stderr=subprocess.DEVNULL,
+                    # (no worker threads in the process each probe is forked from: a fork keeps only the
+                    # thread that forks, and a pool of usd-core's whose threads are gone would hang)
+                    env={**os.environ, "PXR_WORK_THREAD_LIMIT": "1"},
                 )
                 _server_pid = os.getpid()  # (a process forked from this one starts its own)
             server = _server
@@ -207,30 +224,30 @@ def _probe(path: str, size: int) -> Problem | None:
             server.stdin.flush()
             ready, _, _ = select.select([server.stdout], [], [], seconds + 30)
             line = server.stdout.readline() if ready else None
-        except OSError:  # (no process can be started, or it went as it was asked: see below)
+        except OSError:  # (no process can be started, or it went: the caller opens the file as before)
             line = b""
-            server = _server
-        if line is None:  # (it hangs past its own alarm)
-            _stop(server)
+        if line is None:  # (a probe hangs past its own alarm)
+            _stop(_server)
             return _overran(path, seconds)
-        if not line:  # it died on the file (or could not start)
-            code = None if server is None else server.wait()
-            _server = None
-            if code is None or code >= 0:
-                return None  # (the probe itself failed, not usd-core on the file: the caller opens it)
-            if code == -signal.SIGALRM:
-                return _overran(path, seconds)
-            return Problem(
-                "crash",
-                f"{path}: usd-core crashed opening or reading it (a probe process died by "
-                f"{_signal_name(-code)}): the file is corrupt; it was not opened in this process",
-            )
+        if not line:
+            _stop(_server)
+            return None
     try:
         code, text = json.loads(line)
     except ValueError:
         return None
     if code == _CLEAN:
         return None
+    if code == -signal.SIGALRM:
+        return _overran(path, seconds)
+    if code < 0:
+        return Problem(
+            "crash",
+            f"{path}: usd-core crashed opening or reading it (a probe process died by "
+            f"{_signal_name(-code)}): the file is corrupt; it was not opened in this process",
+        )
+    if code not in (_OPEN_FAILED, _READ_FAILED):
+        return None  # (the probe itself failed, not usd-core on the file: the caller opens it as before)
     from ..io.usd_loader import _tf_message
 
     reason = _tf_message(RuntimeError(text)) if text.strip() else "usd-core returned no stage"
@@ -240,7 +257,7 @@ def _probe(path: str, size: int) -> Problem | None:
 
 
 def _stop(server: subprocess.Popen[bytes] | None) -> None:
-    """Kill the probe process (hung) and forget it."""
+    """Kill the probe server (hung, or gone) and forget it."""
     global _server
     if server is not None:
         server.kill()
