@@ -207,3 +207,34 @@ def test_each_file_is_probed_in_a_fresh_process_and_a_crash_leaves_the_server(tm
     assert found is not None and found.kind == "crash" and f"died by {signal.SIGSEGV.name}" in found.message
     assert probe._server is server and server.poll() is None
     assert probe.check(_seed(tmp_path / "good.usdc")) is None
+
+
+def test_a_token_that_is_not_utf8_is_a_value_usd_core_cannot_read(tmp_path):
+    # found by the sweep over byte flips of a vanilla asset layer: a flip in its compressed tokens gives
+    # swpm:bufferNames a token that is not UTF-8, and `validate` printed a traceback (UnicodeDecodeError, as
+    # Python reads the token) where the loader had not read that value. The probe reads every value: it is
+    # SWPM_USD_READ, and the loader's MeshLoadError
+    import swpm_usd
+    from swpm_usd import usd
+
+    obj = tmp_path / "seed.obj"
+    spot = load_mesh(SAMPLES / "spot.obj")
+    trimesh.Trimesh(spot.points, spot.triangles, process=False).submesh([np.arange(200)], append=True).export(
+        obj
+    )
+    layer = usd.write(swpm_usd.build(obj, encoding="vanilla"), tmp_path / "seed_vanilla.usdc")
+    data = bytearray(layer.read_bytes())
+    data[6990] ^= 0xFF
+    bad = tmp_path / "bad.usdc"
+    bad.write_bytes(bytes(data))
+    stage = Usd.Stage.Open(str(bad))  # (the value as Python reads it: the defect's precondition)
+    with pytest.raises(UnicodeDecodeError):
+        list(usd.find_encoded(stage)[0].GetAttribute("swpm:bufferNames").Get())
+    del stage
+    done = _cli("validate", str(bad), "--json")
+    assert done.returncode == 1, (done.stdout, done.stderr)
+    (finding,) = json.loads(done.stdout)["findings"]
+    assert finding["code"] == "SWPM_USD_READ" and finding["message"].startswith(
+        f"{bad}: usd-core cannot read it"
+    )
+    assert "not UTF-8" in finding["message"] and "Traceback" not in done.stderr

@@ -70,6 +70,8 @@ def probe(path):
             return fn(*args)
         except Tf.ErrorException as exc:
             failed.append(str(exc))
+        except UnicodeDecodeError as exc:
+            failed.append(f"a text value (token or string) is not UTF-8: {exc}")
         except Exception:
             pass
         return None
@@ -78,7 +80,9 @@ def probe(path):
         for prop in attempt(prim.GetProperties) or []:
             attempt(prop.GetAllMetadata)
             if isinstance(prop, Usd.Attribute):
-                attempt(prop.Get)
+                value = attempt(prop.Get)
+                if type(value).__name__ in ("TokenArray", "StringArray"):  # (made Python text as read)
+                    attempt(lambda value=value: [str(v) for v in value])
                 times = attempt(prop.GetTimeSamples) or []
                 for t in times[:1] + times[-1:]:
                     attempt(prop.Get, t)
