@@ -59,3 +59,25 @@ def test_validate_usd_alone_prints_its_usage_error_as_json():
     result = CliRunner().invoke(validate_usd, ["--json"])
     assert result.exit_code == 2
     assert json.loads(result.stdout) == {"error": "Missing argument 'STAGE'.", "usage_error": True}
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["encode", "x.obj", "-o", "--json", "--bogus"],
+        ["encode", "x.obj", "--output", "--json", "--bogus"],
+        ["build", "x.obj", "-p", "--json", "--rows", "0"],
+        ["build", "x.obj", "--param", "--json", "--bogus"],
+        ["run", "c.yaml", "-j", "--json"],
+    ],
+    ids=lambda a: " ".join(a),
+)
+def test_json_given_as_an_options_value_is_not_the_option(args):
+    # `-o --json` is the output named "--json" (click takes it as -o's value), not the flag: the usage error
+    # is click's text alone, as without --json (stdout was a JSON object the command was not asked for)
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2 and result.stdout == "", result.stdout
+    assert "Error: " in result.stderr
+    # the same options with --json given as the flag too print the JSON error
+    result = CliRunner().invoke(main, [*args, "--json"])
+    assert result.exit_code == 2 and json.loads(result.stdout)["usage_error"] is True

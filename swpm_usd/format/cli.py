@@ -130,13 +130,22 @@ def encodings_help(parameters: bool = True) -> str:
 _JSON_USAGE_FIELDS = {"input_path": "input", "output": "output"}
 
 
-def _wants_json(args: list[str]) -> bool:
-    """Whether ``--json`` is among a command's options (before a ``--``, after which all is arguments)."""
-    for arg in args:
+def _wants_json(command: click.Command, args: list[str]) -> bool:
+    """Whether ``--json`` is among ``command``'s options in ``args``, as its parser reads them: not after a
+    ``--`` (all is arguments there), nor as the value of an option that takes one (``-o --json`` names the
+    output ``--json``, as click reads it)."""
+    takes: dict[str, int] = {}  # (an option's name -> how many values follow it)
+    for param in command.params:
+        if isinstance(param, click.Option) and not param.is_flag and not param.count:
+            takes.update(dict.fromkeys(param.opts + param.secondary_opts, param.nargs))
+    i = 0
+    while i < len(args):
+        arg = args[i]
         if arg == "--":
             return False
         if arg == "--json":
             return True
+        i += 1 + takes.get(arg, 0)  # (``--output=x`` and ``-ox``, the value attached, are one word)
     return False
 
 
@@ -156,7 +165,7 @@ class JsonUsageCommand(click.Command):
     def make_context(
         self, info_name: str | None, args: list[str], parent: click.Context | None = None, **extra: object
     ) -> click.Context:
-        wants_json = _wants_json(args)  # (before the parser, which consumes the list)
+        wants_json = _wants_json(self, args)  # (before the parser, which consumes the list)
         try:
             return super().make_context(info_name, args, parent=parent, **extra)
         except click.UsageError as exc:
