@@ -4281,8 +4281,19 @@ def test_outputs_whose_names_differ_only_in_case_are_a_collision(tmp_path):
     (tmp_path / "m" / "rock.obj").unlink()
     (tmp_path / "m" / "caf\u00e9.obj").write_text(TWO_TRIANGLES)
     (tmp_path / "m" / "cafe\u0301.obj").write_text(TWO_TRIANGLES)
-    with pytest.raises(ConfigError, match="differ only in case") as exc:
+    with pytest.raises(ConfigError, match="differ only in Unicode normalization") as exc:
         run(cfg, echo=lambda m: None)
     assert len(exc.value.problems) == 1
     (tmp_path / "m" / "cafe\u0301.obj").unlink()
     assert run(cfg, echo=lambda m: None).built == 2  # (Rock.obj and café.obj: no collision)
+
+
+def test_a_collision_by_unicode_normalization_alone_is_not_called_a_case_difference(tmp_path):
+    # café.obj composed and decomposed write café.swpm twice on macOS: the names have one case, and the
+    # message said they "differ only in case" (both shown alike): it names what differs
+    cfg = _vanilla_project(tmp_path, "caf\u00e9", "cafe\u0301")
+    with pytest.raises(ConfigError) as exc:
+        run(cfg, echo=lambda m: None)
+    (problem,) = exc.value.problems
+    assert "differ only in Unicode normalization" in problem and "differ only in case" not in problem
+    assert "m/caf\u00e9.obj" in problem and "m/cafe\u0301.obj" in problem

@@ -459,9 +459,11 @@ def discover(
             problems.append(f"{where}: {a.id} and {seen[stem]} would both write {stem}.swpm")
         elif _folded(stem) in folded and folded[_folded(stem)][1] != stem:
             other, other_stem = folded[_folded(stem)]
+            same_text = unicodedata.normalize("NFC", stem) == unicodedata.normalize("NFC", other_stem)
+            differ = "Unicode normalization" if same_text else "case"
             problems.append(
                 f"{where}: {a.id} and {other} would both write {stem}.swpm on a case-insensitive filesystem "
-                f"(macOS, Windows): {stem}.swpm and {other_stem}.swpm differ only in case; rename one"
+                f"(macOS, Windows): {stem}.swpm and {other_stem}.swpm differ only in {differ}; rename one"
             )
         seen[stem] = a.id
         folded.setdefault(_folded(stem), (a.id, stem))
