@@ -249,11 +249,13 @@ def test_a_small_files_probe_does_not_pay_usd_cores_start_each_time(tmp_path):
 
     seed = _seed(tmp_path / "seed.usdc")
     assert probe.check(seed) is None  # (the server started)
-    times = []
-    for i in range(8):
+    times: list[float] = []
+    for i in range(20):  # (until one is fast: on a machine busy with other processes, the most are slower)
         copy = tmp_path / f"c{i}.usdc"
         copy.write_bytes(seed.read_bytes())
         start = time.perf_counter()
         assert probe.check(copy) is None
         times.append(time.perf_counter() - start)
+        if times[-1] < 0.02:
+            break
     assert min(times) < 0.02, times
