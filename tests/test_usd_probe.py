@@ -259,3 +259,26 @@ def test_a_small_files_probe_does_not_pay_usd_cores_start_each_time(tmp_path):
         if times[-1] < 0.02:
             break
     assert min(times) < 0.02, times
+
+
+def test_a_probe_interrupted_while_waiting_does_not_give_its_answer_to_the_next_file(tmp_path, monkeypatch):
+    # Ctrl-C (KeyboardInterrupt) while this process waited for a probe's answer left the answer in the
+    # server's output: the next file's check read it, the crash of the file interrupted given as another's
+    # (or a clean answer as a crashing file's: then opened in this process)
+    bad = _crashing(tmp_path / "bad.usdc")
+    good = _seed(tmp_path / "good.usdc")
+    real_select = probe.select.select
+    interrupted: list[bool] = []
+
+    def select_interrupted_once(*args):
+        if not interrupted:
+            interrupted.append(True)
+            raise KeyboardInterrupt
+        return real_select(*args)
+
+    monkeypatch.setattr(probe.select, "select", select_interrupted_once)
+    with pytest.raises(KeyboardInterrupt):
+        probe.check(bad)
+    assert probe.check(good) is None
+    found = probe.check(bad)
+    assert found is not None and found.kind == "crash", found

@@ -247,6 +247,9 @@ def _probe(path: str, size: int) -> Problem | None:
             line = server.stdout.readline() if ready else None
         except OSError:  # (no process can be started, or it went: the caller opens the file as before)
             line = b""
+        except BaseException:  # (Ctrl-C while waiting: the answer not read would be the next file's)
+            _stop(_server)
+            raise
         if line is None:  # (a probe hangs past its own alarm)
             _stop(_server)
             return _overran(path, seconds)
