@@ -282,3 +282,35 @@ def test_a_probe_interrupted_while_waiting_does_not_give_its_answer_to_the_next_
     assert probe.check(good) is None
     found = probe.check(bad)
     assert found is not None and found.kind == "crash", found
+
+
+def test_a_pipeline_worker_does_not_probe_again_a_usdc_the_run_probed_as_it_planned(tmp_path, monkeypatch):
+    # the planning probes a new .usdc asset (it opens its stage for the layers it uses); each worker is
+    # another process, and probed it again: a build of many small .usdc assets, --jobs 2, paid two probes
+    # an asset. The task carries the planning's answer (the file's key); a file changed since is probed
+    from swpm_usd.pipeline import runner, worker
+    from swpm_usd.pipeline.assets import Asset
+    from swpm_usd.pipeline.config import load_config
+
+    (tmp_path / "m").mkdir()
+    seed = _seed(tmp_path / "m" / "a.usdc")
+    cfg_path = tmp_path / "c.yaml"
+    cfg_path.write_text(
+        "version: 1\nassets: [{glob: 'm/*'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    cfg = load_config(cfg_path)
+    assert probe.check(seed) is None  # (as the run planned)
+    item = runner.PlanItem(
+        Asset("m/a.usdc", seed, None, 1, {}, 0), "0" * 64, None, treatment={"encoding": "vanilla"}, digest="d"
+    )
+    task = runner._task(cfg, item)
+    asked: list[str] = []
+    real = probe._probe
+    monkeypatch.setattr(probe, "_probe", lambda path, size: asked.append(path) or real(path, size))
+    monkeypatch.setattr(probe, "_answers", {})  # (a worker: another process, nothing probed)
+    rec = worker._process_asset(task)
+    assert rec["status"] == "built" and asked == [], (rec, asked)
+    monkeypatch.setattr(probe, "_answers", {})
+    os.utime(seed, ns=(1, 1))  # (changed since the planning: its answer is not this file's)
+    rec = worker._process_asset(task)
+    assert rec["status"] == "built" and asked == [str(seed)], (rec, asked)

@@ -859,6 +859,8 @@ def _wanted_outputs(cfg: Config) -> set[str]:
 
 
 def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
+    from ..usd.probe import cleared
+
     out = cfg.data["output"]
     return {
         "id": item.asset.id,
@@ -880,6 +882,8 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
         "config_data": cfg.data if item.rule_pending else None,
         "config_path": str(cfg.path),
         "tags": item.asset.tags,
+        # a crate file the planning probed clean (it opened the stage): the worker does not probe it again
+        "probed": cleared(item.asset.path),
     }
 
 

@@ -27,6 +27,7 @@ import signal
 import subprocess
 import sys
 import threading
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
@@ -201,16 +202,38 @@ def check(path: str | os.PathLike[str]) -> Problem | None:
     not finish within :data:`PROBE_SECONDS`, or raised an error opening it or reading a value (its message).
     Asked again for the same file (path, size, mtime, inode), the first answer is given without a probe."""
     p = os.fspath(path)
-    try:
-        st = os.stat(p)
-    except OSError:
+    key = _key(p)
+    if key is None:
         return None  # (the caller's own open reports a missing or unreadable file)
     if not is_crate(p):
         return None
-    key = (os.path.realpath(p), st.st_size, st.st_mtime_ns, st.st_ino)
     if key not in _answers:
-        _answers[key] = _probe(p, st.st_size)
+        _answers[key] = _probe(p, key[1])
     return _answers[key]
+
+
+def _key(path: str) -> tuple[str, int, int, int] | None:
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return (os.path.realpath(path), st.st_size, st.st_mtime_ns, st.st_ino)
+
+
+def cleared(path: str | os.PathLike[str]) -> list[tuple[str, int, int, int]]:
+    """Whether this process probed ``path`` clean, as it is now: its key (path, size, mtime, inode) in a list,
+    else ``[]``. Handed to another process that opens the file (a pipeline's worker: the run's planning
+    probed the asset) with :func:`trust`, the file is not probed again there."""
+    key = _key(os.fspath(path))
+    return [key] if key is not None and key in _answers and _answers[key] is None else []
+
+
+def trust(keys: Iterable[Sequence[str | int]]) -> None:
+    """Take the keys :func:`cleared` gave in another process as probed clean here (a file changed since has
+    another key: probed again)."""
+    for key in keys:
+        path, size, mtime_ns, ino = key
+        _answers.setdefault((str(path), int(size), int(mtime_ns), int(ino)), None)
 
 
 #: the probe process this one asks (started on the first crate file, again after one crashed it)
