@@ -19,6 +19,7 @@ from .format.cli import (
     _JSON_ON_INTERRUPT,
     EncodingsHelpCommand,
     EncodingsHelpGroup,
+    JsonUsageCommand,
     json_on_interrupt,
     pm_summary,
 )
@@ -155,7 +156,7 @@ def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int
         )
 
 
-@main.command("run")
+@main.command("run", cls=JsonUsageCommand)
 @click.argument("config", type=click.Path(dir_okay=False))
 @click.option(
     "--jobs",

@@ -7,7 +7,10 @@ import secrets
 import shutil
 import stat
 import tempfile
+from collections.abc import Callable, Iterator
+from contextlib import AbstractContextManager, contextmanager, nullcontext
 from pathlib import Path
+from typing import Any
 
 
 def _umask() -> int:
@@ -124,3 +127,43 @@ def keep_aside(path: str | os.PathLike[str]) -> Path | None:
         aside.unlink(missing_ok=True)
         raise
     return aside
+
+
+@contextmanager
+def new_layer_replacing(
+    target: str | os.PathLike[str],
+    tmp: str | os.PathLike[str],
+    args: dict[str, str] | None = None,
+    errors: Callable[[], AbstractContextManager[Any]] = nullcontext,
+) -> Iterator[Any]:
+    """A new, empty USD layer (``Sdf.Layer.CreateNew``) at the temporary path ``tmp`` beside ``target`` (a
+    real layer: relative asset paths authored in it resolve as they will from ``target``), for the ``with``
+    block to fill. After the block it is saved, given ``target``'s mode (:func:`set_mode_for`: a replaced
+    layer keeps its mode), renamed over ``target``, and a layer of ``target``'s name open in this process
+    reloaded (it would keep its old content). Any failure, the block's, the save's or the rename's, deletes
+    ``tmp`` and is raised: ``target`` is left as it was, on disk and in memory. ``errors`` (a context manager
+    factory: an error translation) is entered around the layer's creation and around its save and rename,
+    not around the block. A save usd-core refuses (``Save()`` False) is an :class:`OSError`.
+
+    The one way ``write_usdlod``, ``write_overrides`` and the pipeline's ``scene.usda`` write a layer they
+    author (``Sdf.Layer.CreateNew`` writes an empty layer at once: at the target, a failure would leave it
+    empty)."""
+    from pxr import Sdf
+
+    from .usd.writer import reload_if_open
+
+    target, tmp = Path(target), Path(tmp)
+    with errors():
+        target.parent.mkdir(parents=True, exist_ok=True)
+        layer = Sdf.Layer.CreateNew(str(tmp), args=args or {})
+    try:
+        yield layer
+        with errors():
+            if not layer.Save():
+                raise OSError(f"usd-core did not save the layer {target}")
+            set_mode_for(tmp, target)
+            os.replace(tmp, target)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    reload_if_open(target)

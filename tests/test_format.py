@@ -436,9 +436,13 @@ def test_encode_json_reports_the_written_file_and_failures_as_json(tmp_path: Pat
         assert failure["input"] == str(source) and failure["output"] == str(tmp_path / "b.swpm")
         assert source.name in failure["error"] and r.stderr.startswith("error: ")
     assert not (tmp_path / "b.swpm").exists()
-    # usage errors stay click's (exit 2, on stderr), as build --json's
+    # a usage error exits 2 with click's text on stderr, and --json prints it as JSON too, as build --json's
+    # (stdout was empty: tests/test_cli_json.py)
     r = runner.invoke(main, ["encode", str(obj), "-o", str(tmp_path / "c.swpm"), "-e", "foo", "--json"])
-    assert r.exit_code == 2 and r.stdout == "" and "--encoding" in r.stderr
+    assert r.exit_code == 2 and "--encoding" in r.stderr
+    failure = json.loads(r.stdout)
+    assert failure["input"] == str(obj) and failure["output"] == str(tmp_path / "c.swpm")
+    assert "--encoding" in failure["error"] and failure["usage_error"] is True
 
 
 def test_help_lists_the_registered_encodings_and_their_parameters(monkeypatch: pytest.MonkeyPatch) -> None:

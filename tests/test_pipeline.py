@@ -4260,3 +4260,40 @@ def test_a_stage_given_as_a_link_keeps_its_assets_names_as_it_is_pointed_elsewhe
     assert res.built_ids == ["scene.usda:/World/m"] and res.unlisted == []
     stage = Usd.Stage.Open(str(tmp_path / "out" / "scene.usda"))
     assert [p.GetName() for p in stage.GetPrimAtPath("/Scene").GetChildren()] == ["scene__World_m"]
+
+
+def test_outputs_whose_names_differ_only_in_case_are_a_collision(tmp_path):
+    # m/Rock.obj and m/rock.obj wrote out/Rock.swpm and out/rock.swpm: one file on a case-insensitive
+    # filesystem (macOS, Windows), where the second build replaced the first and the manifest listed both.
+    # It is reported as two assets writing one name are (exit 2, before anything is built); so is a name
+    # that differs only in its Unicode normalization (macOS compares "café" composed and decomposed alike)
+    cfg = _vanilla_project(tmp_path, "Rock", "rock")
+    with pytest.raises(ConfigError) as exc:
+        run(cfg, echo=lambda m: None)
+    assert exc.value.problems == [
+        f"{cfg}:2:10: $.assets[0]: m/rock.obj and m/Rock.obj would both write rock.swpm on a "
+        "case-insensitive filesystem (macOS, Windows): rock.swpm and Rock.swpm differ only in case; "
+        "rename one"
+    ]
+    assert not (tmp_path / "out").exists()
+    result = CliRunner().invoke(main, ["run", str(cfg), "--json"])
+    assert result.exit_code == 2 and "differ only in case" in json.loads(result.stdout)["problems"][0]
+    (tmp_path / "m" / "rock.obj").unlink()
+    (tmp_path / "m" / "caf\u00e9.obj").write_text(TWO_TRIANGLES)
+    (tmp_path / "m" / "cafe\u0301.obj").write_text(TWO_TRIANGLES)
+    with pytest.raises(ConfigError, match="differ only in Unicode normalization") as exc:
+        run(cfg, echo=lambda m: None)
+    assert len(exc.value.problems) == 1
+    (tmp_path / "m" / "cafe\u0301.obj").unlink()
+    assert run(cfg, echo=lambda m: None).built == 2  # (Rock.obj and café.obj: no collision)
+
+
+def test_a_collision_by_unicode_normalization_alone_is_not_called_a_case_difference(tmp_path):
+    # café.obj composed and decomposed write café.swpm twice on macOS: the names have one case, and the
+    # message said they "differ only in case" (both shown alike): it names what differs
+    cfg = _vanilla_project(tmp_path, "caf\u00e9", "cafe\u0301")
+    with pytest.raises(ConfigError) as exc:
+        run(cfg, echo=lambda m: None)
+    (problem,) = exc.value.problems
+    assert "differ only in Unicode normalization" in problem and "differ only in case" not in problem
+    assert "m/caf\u00e9.obj" in problem and "m/cafe\u0301.obj" in problem

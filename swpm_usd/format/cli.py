@@ -124,7 +124,65 @@ def encodings_help(parameters: bool = True) -> str:
     return "\n".join(lines)
 
 
-class EncodingsHelpCommand(click.Command):
+#: a command's ``--json`` error object on a usage error: its parameters (parsed before the error) that name
+#: what it was given, under the keys its other errors use (``build``: ``input``; ``encode``: ``input`` and
+#: ``output``)
+_JSON_USAGE_FIELDS = {"input_path": "input", "output": "output"}
+
+
+def _wants_json(command: click.Command, args: list[str]) -> bool:
+    """Whether ``--json`` is among ``command``'s options in ``args``, as its parser reads them: not after a
+    ``--`` (all is arguments there), nor as the value of an option that takes one (``-o --json`` names the
+    output ``--json``, as click reads it)."""
+    takes: dict[str, int] = {}  # (an option's name -> how many values follow it)
+    for param in command.params:
+        if isinstance(param, click.Option) and not param.is_flag and not param.count:
+            takes.update(dict.fromkeys(param.opts + param.secondary_opts, param.nargs))
+    i = 0
+    while i < len(args):
+        arg = args[i]
+        if arg == "--":
+            return False
+        if arg == "--json":
+            return True
+        i += 1 + takes.get(arg, 0)  # (``--output=x`` and ``-ox``, the value attached, are one word)
+    return False
+
+
+def _echo_json_usage(exc: click.UsageError, params: dict) -> None:
+    """Print a usage error as the command's JSON error object on stdout (click prints its usage and the
+    message on stderr, and exits 2, as it does without ``--json``)."""
+    fields = {key: params[name] for name, key in _JSON_USAGE_FIELDS.items() if params.get(name) is not None}
+    click.echo(json.dumps({**fields, "error": exc.format_message(), "usage_error": True}, indent=2))
+
+
+class JsonUsageCommand(click.Command):
+    """A command with ``--json``: a usage error (a bad option or argument, ``click.UsageError`` or
+    ``click.BadParameter``, raised as its arguments are parsed or by its body) given ``--json`` also prints
+    ``{..., "error": message, "usage_error": true}`` on stdout, the shape of its other JSON errors, so a
+    script reading its output gets JSON however it ends; still exit 2, click's text on stderr."""
+
+    def make_context(
+        self, info_name: str | None, args: list[str], parent: click.Context | None = None, **extra: object
+    ) -> click.Context:
+        wants_json = _wants_json(self, args)  # (before the parser, which consumes the list)
+        try:
+            return super().make_context(info_name, args, parent=parent, **extra)
+        except click.UsageError as exc:
+            if wants_json:
+                _echo_json_usage(exc, exc.ctx.params if exc.ctx is not None else {})
+            raise
+
+    def invoke(self, ctx: click.Context) -> object:
+        try:
+            return super().invoke(ctx)
+        except click.UsageError as exc:
+            if ctx.params.get("as_json"):
+                _echo_json_usage(exc, ctx.params)
+            raise
+
+
+class EncodingsHelpCommand(JsonUsageCommand):
     """A command whose ``--help`` ends with the encodings and their parameters (:func:`encodings_help`),
     read from the registry when the help is shown (so ``--version`` and the commands import nothing more)."""
 
@@ -225,7 +283,7 @@ def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, .
     click.echo(f"{output}: {pm.encoding}, {pm.lod_count} LODs, {pm.vertex_count} vertices, {size} bytes")
 
 
-@click.command("inspect")
+@click.command("inspect", cls=JsonUsageCommand)
 @click.argument("file", type=click.Path(dir_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @click.option(
@@ -308,7 +366,7 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
     sys.exit(0 if rep.valid else 1)
 
 
-@click.command("validate")
+@click.command("validate", cls=JsonUsageCommand)
 @click.argument("file", type=click.Path(dir_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 @click.option("--no-builtin", is_flag=True, help="USD stages: run only our validator, not usd-core's.")
@@ -344,7 +402,7 @@ _DEFAULT_VECTORS = "spec/vectors"
 _REPO_VECTORS = Path(__file__).resolve().parents[2] / "spec" / "vectors"
 
 
-@click.command("conformance")
+@click.command("conformance", cls=JsonUsageCommand)
 @click.argument("vector_dir", required=False, default=_DEFAULT_VECTORS, type=click.Path(file_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def conformance_cmd(vector_dir: str, as_json: bool) -> None:

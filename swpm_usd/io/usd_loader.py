@@ -362,7 +362,16 @@ def _composition_errors(stage: Usd.Stage, root: Sdf.Path) -> list[str]:
 
 
 def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
-    """Load every Mesh prim of a USD stage (or those under ``prim_path``) as one cleaned mesh."""
+    """Load every Mesh prim of a USD stage (or those under ``prim_path``) as one cleaned mesh.
+
+    A crate file (``.usdc``) is opened first in a probe process (:func:`swpm_usd.usd.probe.check`): one that
+    crashes usd-core there, hangs it or makes it fail is a :class:`MeshLoadError` with what the probe found,
+    without being opened in this process."""
+    from ..usd.probe import check
+
+    probed = check(path)
+    if probed is not None:
+        raise MeshLoadError(path, probed.message.removeprefix(f"{path}: "))
     try:
         try:
             stage = Usd.Stage.Open(str(path))

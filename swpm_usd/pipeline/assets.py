@@ -14,6 +14,7 @@ import json
 import os
 import struct
 import time
+import unicodedata
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -165,6 +166,10 @@ def _usd_layer_files(path: Path) -> tuple[list[Path], bool]:
 
     if path.suffix.lower() not in _USD_SUFFIXES:
         return [], True
+    from ..usd.probe import check
+
+    if check(path) is not None:  # (a crate file that crashes usd-core: not opened here, the worker fails it)
+        return [], False
     try:
         from pxr import Usd
 
@@ -181,7 +186,11 @@ def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset
     from pxr import Usd, UsdGeom
 
     from ..io.usd_loader import _not_rendered
+    from ..usd.probe import check
 
+    probed = check(stage_path)  # (a crate file that would crash this process: not opened here)
+    if probed is not None:
+        raise OSError(probed.message.removeprefix(f"{stage_path}: "))
     stage = Usd.Stage.Open(str(stage_path))
     if stage is None:
         raise OSError("the stage does not open")
@@ -441,14 +450,30 @@ def discover(
                 assets.append(a)
                 inputs[a.id] = used
     seen: dict[str, str] = {}
+    # (a stem folded as a case-insensitive filesystem folds it -> the first asset and its stem)
+    folded: dict[str, tuple[str, str]] = {}
     for a in assets:
-        if a.output_stem in seen and seen[a.output_stem] != a.id:
+        stem = a.output_stem
+        where = cfg.where(("assets", a.source_index))
+        if stem in seen and seen[stem] != a.id:
+            problems.append(f"{where}: {a.id} and {seen[stem]} would both write {stem}.swpm")
+        elif _folded(stem) in folded and folded[_folded(stem)][1] != stem:
+            other, other_stem = folded[_folded(stem)]
+            same_text = unicodedata.normalize("NFC", stem) == unicodedata.normalize("NFC", other_stem)
+            differ = "Unicode normalization" if same_text else "case"
             problems.append(
-                f"{cfg.where(('assets', a.source_index))}: {a.id} and {seen[a.output_stem]} would both write "
-                f"{a.output_stem}.swpm"
+                f"{where}: {a.id} and {other} would both write {stem}.swpm on a case-insensitive filesystem "
+                f"(macOS, Windows): {stem}.swpm and {other_stem}.swpm differ only in {differ}; rename one"
             )
-        seen[a.output_stem] = a.id
+        seen[stem] = a.id
+        folded.setdefault(_folded(stem), (a.id, stem))
     return assets, inputs, problems
+
+
+def _folded(name: str) -> str:
+    """``name`` as a case-insensitive filesystem compares it: its case folded and, as macOS's APFS and HFS+
+    compare names, its Unicode normalized (``é`` one code point or ``e`` and an accent)."""
+    return unicodedata.normalize("NFC", name).casefold()
 
 
 def _in_range(value: float, rng: dict | None) -> bool:

@@ -859,6 +859,8 @@ def _wanted_outputs(cfg: Config) -> set[str]:
 
 
 def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
+    from ..usd.probe import cleared
+
     out = cfg.data["output"]
     return {
         "id": item.asset.id,
@@ -880,6 +882,8 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
         "config_data": cfg.data if item.rule_pending else None,
         "config_path": str(cfg.path),
         "tags": item.asset.tags,
+        # a crate file the planning probed clean (it opened the stage): the worker does not probe it again
+        "probed": cleared(item.asset.path),
     }
 
 
@@ -1736,8 +1740,7 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
     included); the layer written is the same text."""
     from pxr import Sdf
 
-    from ..fileio import set_mode_for
-    from ..usd.writer import reload_if_open
+    from ..fileio import new_layer_replacing
 
     layers = [
         (k, r["outputs"]["usd"]["path"])
@@ -1746,8 +1749,8 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
     ]
     target = out_dir / "scene.usda"
     tmp = out_dir / ".scene.tmp.usda"
-    layer = Sdf.Layer.CreateNew(str(tmp))
-    with Sdf.ChangeBlock():
+    # (renamed over the scene once saved, which keeps its mode; a caller of run may have it open: reloaded)
+    with new_layer_replacing(target, tmp) as layer, Sdf.ChangeBlock():
         layer.pseudoRoot.SetInfo("upAxis", "Y")  # (UsdGeom.SetStageUpAxis, SetStageMetersPerUnit)
         layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)
         root = Sdf.PrimSpec(layer.pseudoRoot, "Scene", Sdf.SpecifierDef, "Xform")
@@ -1759,7 +1762,3 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
         for _, path in layers:
             prim = Sdf.PrimSpec(root, _scene_prim_name(Path(path).stem, used), Sdf.SpecifierDef, "Xform")
             prim.referenceList.Prepend(Sdf.Reference(f"./{path}"))
-    layer.Save()
-    set_mode_for(tmp, target)  # (a replaced scene keeps its mode)
-    tmp.replace(target)
-    reload_if_open(target)  # (a caller of run may have it open)

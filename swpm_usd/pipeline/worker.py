@@ -417,7 +417,9 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
     try:
         from .. import build as build_pm
         from ..io import load_mesh
+        from ..usd.probe import trust
 
+        trust(task.get("probed", ()))  # (probed clean as the run planned: not again in this process)
         mesh = load_mesh(task["path"], prim_path=task["prim"]) if task["prim"] else load_mesh(task["path"])
         rec["triangles_in"] = mesh.triangle_count
         encoding, params = task["encoding"], task["params"]

@@ -11,8 +11,10 @@ from pathlib import Path
 
 import click
 
+from ..format.cli import JsonUsageCommand
 
-@click.command("validate-usd")
+
+@click.command("validate-usd", cls=JsonUsageCommand)
 @click.argument("stage", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON report instead of one line per finding.")
 @click.option("--no-builtin", is_flag=True, help="Run only the swpm validator, not usd-core's built-in ones.")

@@ -35,10 +35,10 @@ from pxr import Sdf, Tf, Usd, UsdGeom, Vt
 from ..build import build
 from ..encode.base import ProgressiveMesh, with_attributes
 from ..errors import SwpmError
-from ..fileio import set_mode_for
+from ..fileio import new_layer_replacing
 from ..io.usd_loader import _all_holes, _Invalid, _tf_message, _Topology
 from ..mesh import Mesh
-from .writer import author_swpm, reload_if_open
+from .writer import author_swpm
 
 _PROV = "_swpm_source_vertex"
 #: the time the source is read at (a mesh's earliest time sample, else its default value: as the loader reads)
@@ -343,6 +343,11 @@ def write_overrides(
         raise UsdOverrideError("the override layer must not be the source file")
     if not src_path.is_file():
         raise UsdOverrideError(f"{source}: file not found")
+    from .probe import check
+
+    probed = check(src_path)  # (a corrupt crate file that would crash this process: not opened here)
+    if probed is not None:
+        raise UsdOverrideError(f"{source}: {probed.message.removeprefix(f'{src_path}: ')}")
     try:
         src_stage = Usd.Stage.Open(str(src_path))
     except Tf.ErrorException as e:
@@ -363,20 +368,8 @@ def write_overrides(
     # a new layer under a temporary name beside the output (relative paths resolve the same), renamed into
     # place once complete: a run that fails leaves the previous output as it was, on disk and in memory
     tmp_path = out_path.with_name(f".{out_path.stem}.{secrets.token_hex(4)}.tmp{out_path.suffix}")
-    with _writing(path, tmp_path):
-        out_path.parent.mkdir(parents=True, exist_ok=True)
-        layer = Sdf.Layer.CreateNew(str(tmp_path))
-    try:
+    with new_layer_replacing(out_path, tmp_path, errors=lambda: _writing(path, tmp_path)) as layer:
         result = _author_overrides(layer, src_stage, src_path, rel, mode, encoding, prims, params)
-        with _writing(path, tmp_path):
-            if not layer.Save():
-                raise UsdOverrideError(f"{path}: could not write")
-            set_mode_for(tmp_path, out_path)  # (a replaced layer keeps its mode)
-            os.replace(tmp_path, out_path)
-    except BaseException:
-        tmp_path.unlink(missing_ok=True)
-        raise
-    reload_if_open(out_path)
     return result
 
 

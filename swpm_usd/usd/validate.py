@@ -43,6 +43,8 @@ CODES: dict[str, str] = {
     "SWPM_USD_REBUILD": "the stored buffers do not rebuild a progressive mesh.",
     "SWPM_USD_OPEN": "the file is not a USD layer usd-core can open (empty, truncated or not USD at all).",
     "SWPM_USD_READ": "usd-core opened the layer but cannot read a value in it (corrupt .usdc data).",
+    "SWPM_USD_CRASH": "usd-core crashed (died by a signal) or hung opening or reading the .usdc file in a "
+    "probe process (corrupt data); it is not opened in the validating process.",
 }
 
 # buffers whose values are vertex ids
@@ -483,6 +485,14 @@ def validate_stage(path: str | os.PathLike[str] | Usd.Stage, builtin: bool = Tru
     if isinstance(path, Usd.Stage):
         stage = path
     else:
+        from .probe import check
+
+        # a corrupt crate file can crash usd-core (SIGSEGV) or make it ask for a giant allocation: opened
+        # first in a probe process, and here only if that ends cleanly
+        probed = check(path)
+        if probed is not None:
+            code = {"open": "SWPM_USD_OPEN", "read": "SWPM_USD_READ"}.get(probed.kind, "SWPM_USD_CRASH")
+            return [Finding(code, ERROR, "/", probed.message)]
         stage, problem = _open(os.fspath(path))
         if stage is None:
             return [Finding("SWPM_USD_OPEN", ERROR, "/", problem)]

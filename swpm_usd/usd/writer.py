@@ -27,7 +27,7 @@ from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, Vt
 
 from ..encode.base import ProgressiveMesh
 from ..errors import SwpmError
-from ..fileio import set_mode_for
+from ..fileio import new_layer_replacing
 from . import plugin
 from .arrays import to_vt
 from .schema import COLLAPSE_FLAT, COLLAPSE_PREFIX, FORMAT_VERSION, SCHEMA_NAME, attr_name, camel
@@ -394,6 +394,11 @@ def write_usdlod(
     asset = Path(asset_path)
     if _resolve_path(path, fmt).resolve() == asset.resolve():
         raise UsdWriteError(f"{path}: the LOD layer must not be the asset it references")
+    from .probe import check
+
+    probed = check(asset)  # (a corrupt crate file that would crash this process: not opened here)
+    if probed is not None:
+        raise UsdWriteError(probed.message)
     try:
         src = Usd.Stage.Open(str(asset))
     except Tf.ErrorException as e:
@@ -415,25 +420,15 @@ def write_usdlod(
     # writes an empty layer at once)
     tmp = p.with_name(f".{p.stem}.{secrets.token_hex(4)}.tmp{p.suffix}")
     try:
-        p.parent.mkdir(parents=True, exist_ok=True)
-        layer = Sdf.Layer.CreateNew(str(tmp), args=_layer_args(p, fmt))
-        _author_usdlod(
-            layer, src, default, asset, p, discrete, errors, extent, pixel_error, viewport_px, fov_degrees
-        )
-        if not layer.Save():
-            raise UsdWriteError(f"could not write {p}")
-        set_mode_for(tmp, p)  # (a replaced layer keeps its mode)
-        os.replace(tmp, p)
+        with new_layer_replacing(p, tmp, _layer_args(p, fmt)) as layer:
+            _author_usdlod(
+                layer, src, default, asset, p, discrete, errors, extent, pixel_error, viewport_px, fov_degrees
+            )
     except (OSError, Tf.ErrorException) as e:
         from ..io.usd_loader import _tf_message
 
-        tmp.unlink(missing_ok=True)
         why = e.strerror or str(e) if isinstance(e, OSError) else _tf_message(e)
         raise UsdWriteError(f"{p}: could not write: {why.replace(str(tmp), str(p))}") from e
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    reload_if_open(p)
     return p
 
 

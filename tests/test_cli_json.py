@@ -1,0 +1,83 @@
+"""``--json`` on the command line: a usage error (click's UsageError or BadParameter, from the parser or the
+command's own checks) prints a JSON object on stdout as the command's other errors do, and still exits 2
+with click's usage text on stderr (stdout was empty: a script reading it got no JSON)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from swpm_usd.cli import main
+from swpm_usd.usd.cli import validate_usd
+
+#: (arguments, what the message says, the fields naming the input the error object carries)
+CASES = [
+    (
+        ["build", "x.obj", "--encoding", "nope", "--json"],
+        "Invalid value for --encoding: 'nope'",
+        {"input": "x.obj"},
+    ),
+    (["build", "x.obj", "-p", "zz=1", "--json"], "zz not a parameter of vanilla", {"input": "x.obj"}),
+    (["build", "--json", "x.obj", "--rows", "0"], "Invalid value for '--rows'", {}),
+    (["encode", "x.obj", "--json"], "Missing option '-o' / '--output'", {"input": "x.obj"}),
+    (
+        ["encode", "x.obj", "-o", "y.txt", "--json"],
+        "the output must be a .swpm file",
+        {"input": "x.obj", "output": "y.txt"},
+    ),
+    (["run", "c.yaml", "--jobs", "0", "--json"], "Invalid value for '--jobs' / '-j'", {}),
+    (["run", "--json"], "Missing argument 'CONFIG'", {}),
+    (["inspect", "x.swpm", "--rows", "0", "--json"], "Invalid value for '--rows'", {}),
+    (["validate", "a.swpm", "b.swpm", "--json"], "Got unexpected extra argument (b.swpm)", {}),
+    (["validate", "a.swpm", "--jsn", "--json"], "No such option '--jsn'", {}),
+    (["conformance", "/nonexistent/vectors", "--json"], "/nonexistent/vectors has no manifest.json", {}),
+]
+
+
+@pytest.mark.parametrize(("args", "says", "fields"), CASES, ids=[" ".join(c[0]) for c in CASES])
+def test_a_usage_error_with_json_prints_a_json_error_and_exits_2(args, says, fields):
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2, (result.output, result.exception)
+    out = json.loads(result.stdout)
+    assert says in out["error"] and out["usage_error"] is True
+    assert {k: v for k, v in out.items() if k not in ("error", "usage_error")} == fields
+    assert "Usage:" in result.stderr and f"Error: {out['error']}" in result.stderr
+    # without --json: stdout stays empty, the same text on stderr
+    plain = [a for a in args if a != "--json"]
+    result = CliRunner().invoke(main, plain)
+    assert result.exit_code == 2 and result.stdout == "" and f"Error: {out['error']}" in result.stderr
+
+
+def test_json_after_a_double_dash_is_an_argument_not_the_option():
+    result = CliRunner().invoke(main, ["build", "--rows", "0", "--", "--json"])
+    assert result.exit_code == 2 and result.stdout == ""
+
+
+def test_validate_usd_alone_prints_its_usage_error_as_json():
+    result = CliRunner().invoke(validate_usd, ["--json"])
+    assert result.exit_code == 2
+    assert json.loads(result.stdout) == {"error": "Missing argument 'STAGE'.", "usage_error": True}
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["encode", "x.obj", "-o", "--json", "--bogus"],
+        ["encode", "x.obj", "--output", "--json", "--bogus"],
+        ["build", "x.obj", "-p", "--json", "--rows", "0"],
+        ["build", "x.obj", "--param", "--json", "--bogus"],
+        ["run", "c.yaml", "-j", "--json"],
+    ],
+    ids=lambda a: " ".join(a),
+)
+def test_json_given_as_an_options_value_is_not_the_option(args):
+    # `-o --json` is the output named "--json" (click takes it as -o's value), not the flag: the usage error
+    # is click's text alone, as without --json (stdout was a JSON object the command was not asked for)
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2 and result.stdout == "", result.stdout
+    assert "Error: " in result.stderr
+    # the same options with --json given as the flag too print the JSON error
+    result = CliRunner().invoke(main, [*args, "--json"])
+    assert result.exit_code == 2 and json.loads(result.stdout)["usage_error"] is True
