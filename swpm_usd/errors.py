@@ -2,7 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
+
+
+def first_few(items: Sequence[str], count: int = 3) -> str:
+    """The first ``count`` of ``items`` joined by commas, ``", ..."`` after them when there are more: how a
+    message names what it is about without listing thousands."""
+    return ", ".join(items[:count]) + (", ..." if len(items) > count else "")
 
 
 class SwpmError(Exception):

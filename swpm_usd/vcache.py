@@ -63,6 +63,8 @@ Fans (:func:`fan_order`, :func:`fan_order_nb`)
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from numba import njit
 
@@ -83,8 +85,10 @@ _CACHE_SCORES = np.array([0.765, 0.870, 0.918, 0.936, 0.883, 0.714])
 _LIVE_SCORES = np.array([0.471, 0.680, 0.438, 0.257, 0.286, 0.298, 0.058, 0.076])
 
 
+@functools.cache
 def _score_tables(cache_size: int) -> tuple[np.ndarray, np.ndarray]:
-    """(cache-position score per position 0..cache_size-1, score per remaining-triangle count 0..8)."""
+    """(cache-position score per position 0..cache_size-1, score per remaining-triangle count 0..8): once
+    per cache size (the kernels only read them; a small sliding-window level costs tens of microseconds)."""
     x = np.arange(cache_size, dtype=np.float64) / max(cache_size - 1, 1)
     cache_tab = np.interp(x, _CACHE_KNOTS, _CACHE_SCORES)
     live_tab = np.concatenate([[0.0], _LIVE_SCORES])
@@ -689,14 +693,7 @@ def optimize_triangle_order(
     if n == 0:
         perm = np.zeros(0, np.int64)
         return (perm, np.zeros(0, np.int8)) if rotate else perm
-    tri, nvert, _, _ = _compact(tri, nvert)
-    cache_tab, live_tab = _score_tables(c)
-    stamp, ring, pushes = _seed_state(None, c, nvert)
-    starts = np.array([0, n], np.int64)
-    perm, shift, _ = _order_blocks(
-        tri, starts, c, stamp, ring, pushes, cache_tab, live_tab, bool(rotate), np.zeros(0, np.int64), _HEAVY
-    )
-    return (perm, shift) if rotate else perm
+    return _run_order_blocks(tri, nvert, np.array([0, n], np.int64), c, None, np.zeros(0, np.int64), rotate)
 
 
 def optimize_block_order(
@@ -737,9 +734,6 @@ def optimize_block_order(
         perm = np.zeros(0, np.int64)
         return (perm, np.zeros(0, np.int8)) if rotate else perm
     nvert = _vertex_count(tri, None, state)
-    tri, nvert, state, _ = _compact(tri, nvert, state)
-    cache_tab, live_tab = _score_tables(c)
-    stamp, ring, pushes = _seed_state(state, c, nvert)
     if segment_starts is None:
         segments = np.zeros(0, np.int64)
     else:
@@ -749,24 +743,7 @@ def optimize_block_order(
         if np.any(at >= starts.shape[0]) or np.any(starts[np.minimum(at, starts.shape[0] - 1)] != seg):
             raise ValueError("segment_starts must be block starts")
         segments = np.unique(at).astype(np.int64)
-    perm, shift, _ = _order_blocks(
-        tri,
-        np.ascontiguousarray(starts),
-        c,
-        stamp,
-        ring,
-        pushes,
-        cache_tab,
-        live_tab,
-        bool(rotate),
-        segments,
-        _HEAVY,
-    )
-    return (perm, shift) if rotate else perm
-
-
-#: :func:`_score_tables` per cache size, for :func:`block_order_trusted` (the kernels only read them)
-_TABLES: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    return _run_order_blocks(tri, nvert, np.ascontiguousarray(starts), c, state, segments, rotate)
 
 
 def block_order_trusted(
@@ -776,32 +753,34 @@ def block_order_trusted(
     valid by construction (the sliding-window layout, :mod:`swpm_usd.encode.sw_layout`, calls it once per
     level and a level of a small mesh costs tens of microseconds): ``triangles`` (n >= 1, 3) of
     non-negative integer vertex ids, ``block_starts`` non-decreasing from 0 to ``n``, ``segment_start``
-    one of them (or None). None of the public function's checks, the score tables computed once per cache
-    size; the same kernel on the same arrays, so the same permutation (and rotations), bit for bit."""
+    one of them (or None). None of the public function's checks; the same kernel on the same arrays, so
+    the same permutation (and rotations), bit for bit."""
     tri = np.ascontiguousarray(triangles, dtype=np.int64)
     starts = np.ascontiguousarray(block_starts, dtype=np.int64)
-    c = int(cache_size)
-    nvert = int(tri.max()) + 1
-    tri, nvert, _, _ = _compact(tri, nvert)
-    tables = _TABLES.get(c)
-    if tables is None:
-        tables = _TABLES[c] = _score_tables(c)
     if segment_start is None:
         segments = np.zeros(0, np.int64)
     else:
         segments = np.array([np.searchsorted(starts, segment_start, side="left")], np.int64)
+    return _run_order_blocks(tri, int(tri.max()) + 1, starts, int(cache_size), None, segments, rotate)
+
+
+def _run_order_blocks(
+    tri: np.ndarray,
+    nvert: int,
+    starts: np.ndarray,
+    cache_size: int,
+    state: np.ndarray | None,
+    segments: np.ndarray,
+    rotate: bool,
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+    """The block-ordering kernel on checked arrays (``tri`` int64 (n >= 1, 3), ``starts`` int64 block
+    starts from 0 to n, ``segments`` indices into ``starts``): ids compacted, the cache seeded with
+    ``state``; the tail the three ordering functions share."""
+    tri, nvert, state, _ = _compact(tri, nvert, state)
+    cache_tab, live_tab = _score_tables(cache_size)
+    stamp, ring, pushes = _seed_state(state, cache_size, nvert)
     perm, shift, _ = _order_blocks(
-        tri,
-        starts,
-        c,
-        np.zeros(nvert, np.int64),
-        np.full(c, -1, np.int64),
-        0,
-        tables[0],
-        tables[1],
-        bool(rotate),
-        segments,
-        _HEAVY,
+        tri, starts, cache_size, stamp, ring, pushes, cache_tab, live_tab, bool(rotate), segments, _HEAVY
     )
     return (perm, shift) if rotate else perm
 

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom
 
-from ..errors import MeshLoadError
+from ..errors import MeshLoadError, first_few
 from ..mesh import Mesh
 from .clean import Part, clean_mesh, concatenate_parts, rgba_float, split_corners, transform_part
 
@@ -428,7 +428,7 @@ def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
     if not parts:
         skipped = ""
         if unrendered:
-            listed = ", ".join(unrendered[:3]) + (", ..." if len(unrendered) > 3 else "")
+            listed = first_few(unrendered)
             skipped = f"; {len(unrendered)} of them not rendered: {listed}"
         raise MeshLoadError(
             path,

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..errors import first_few
 from .config import Config
 
 
@@ -370,7 +371,7 @@ def discover(
                 problems.append(f"{where}: the glob matches no file")
             elif not found:
                 others = [p.relative_to(cfg.base).as_posix() for p in files]
-                shown = ", ".join(others[:3]) + (", ..." if len(others) > 3 else "")
+                shown = first_few(others)
                 problems.append(
                     f"{where}: the glob matches no mesh file ({len(others)} file"
                     f"{'s' if len(others) > 1 else ''} of another type: {shown}); mesh files end in "

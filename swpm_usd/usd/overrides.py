@@ -34,7 +34,7 @@ from pxr import Sdf, Tf, Usd, UsdGeom, Vt
 
 from ..build import build
 from ..encode.base import ProgressiveMesh, with_attributes
-from ..errors import SwpmError
+from ..errors import SwpmError, first_few
 from ..fileio import new_layer_replacing
 from ..io.usd_loader import _all_holes, _Invalid, _tf_message, _Topology
 from ..mesh import Mesh
@@ -419,12 +419,12 @@ def _author_overrides(
         except UsdOverrideError as e:
             raise UsdOverrideError(f"{src_path}: {e}") from e
     if skipped and not result:
-        listed = ", ".join(skipped[:3]) + (", ..." if len(skipped) > 3 else "")
+        listed = first_few(skipped)
         raise UsdOverrideError(f"{src_path}: no Mesh prim with faces to encode: {listed}")
     if not result:  # (an override layer that encodes nothing, returned as {}, told no one why)
         instanced = _instanced_meshes(roots)
         if instanced:
-            listed = ", ".join(instanced[:3]) + (", ..." if len(instanced) > 3 else "")
+            listed = first_few(instanced)
             raise UsdOverrideError(
                 f"{src_path}: no Mesh prim to encode: the {len(instanced)} Mesh prims are in instances "
                 f"({listed}), which USD lets no layer override; encode the layers the instances reference"

@@ -15,7 +15,7 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from ..encode.base import ProgressiveMesh, from_buffers, with_attributes
-from ..errors import SwpmError
+from ..errors import SwpmError, first_few
 from .arrays import ATTRIBUTE_DTYPES, BUFFER_DTYPES, dtype_problem, from_vt
 from .schema import COLLAPSE_PREFIX, SCHEMA_NAME, attr_name
 
@@ -71,7 +71,7 @@ def _unloaded(prim: Usd.Prim) -> str:
     ]
     if not paths:
         return ""
-    listed = ", ".join(paths[:3]) + (", ..." if len(paths) > 3 else "")
+    listed = first_few(paths)
     return f"; payloads at or under it not loaded ({len(paths)}): {listed} (stage.Load(path) loads one)"
 
 

@@ -322,16 +322,14 @@ def write(
     return _export(stage, p, fmt)
 
 
-#: suffixes of the files :func:`stage_metadata` reads (USD layers and packages)
-USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
-
-
 def stage_metadata(source: str | os.PathLike[str]) -> dict[str, Any]:
     """:func:`write`'s ``up_axis`` and ``meters_per_unit`` for a mesh loaded from ``source``: a USD file's
     (its root layer's, USD's fallbacks where it authors none: the fallback up axis, Y unless the environment
     says otherwise, and centimetres), since the loader keeps the stage's coordinates; ``{}`` for any other
     file (OBJ, PLY, ... say nothing: the defaults). An up axis USD does not define is left out too."""
-    if Path(source).suffix.lower() not in USD_SUFFIXES:
+    from ..io import _USD_SUFFIXES  # (the loader's: the files it reads with usd-core)
+
+    if Path(source).suffix.lower() not in _USD_SUFFIXES:
         return {}
     try:
         layer = Sdf.Layer.FindOrOpen(os.fspath(source))
