@@ -77,7 +77,9 @@ What the spec still leaves open, and how this reader decides:
   ``record-changes-wrong-slot``); after a replay problem the collapsed list is not compared. Skip-strip's
   collapsed-list prefix check (stage (d), "then the collapsed lists' prefix") is a separate check of the
   stage: it runs over all levels even after a replay problem.
-* Sliding-window prefix property: the lowest offending element of ``INDX`` over all windows.
+
+(The sliding-window prefix property's lowest offending element of ``INDX`` over all windows, which this
+reader chose, is §3.5's rule since the third audit.)
 """
 
 from __future__ import annotations
