@@ -332,8 +332,10 @@ def _json_depth(text: str) -> int:
     return deepest
 
 
-#: a string literal (skipped whole, escapes included) or a bracket
-_JSON_STRUCTURE = re.compile(r'"(?:[^"\\]|\\.)*"|[\[\]{}]')
+#: a string literal (skipped whole, escapes included) or a bracket. An unterminated string runs to the end
+#: of the text (``"?``; possessive, no backtracking): a scan restarted at each of its escaped quotes would be
+#: quadratic (40 KB of ``\\"`` took 10 s), and such text is not JSON whatever its depth.
+_JSON_STRUCTURE = re.compile(r'"(?:[^"\\]++|\\.)*+"?|[\[\]{}]', re.DOTALL)
 
 
 def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
