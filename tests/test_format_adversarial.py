@@ -18,7 +18,7 @@ from typing import Any
 
 import pytest
 
-from swpm_usd.format import SwpmFormatError, load_bytes, validate_bytes
+from swpm_usd.format import SwpmEncodeError, SwpmFormatError, encode_bytes, load_bytes, validate_bytes
 
 VALID = Path(__file__).resolve().parents[1] / "spec" / "vectors" / "valid"
 FEATURE = {"vanilla": 2, "sliding-window": 4, "skip-strip": 8, "mixed": 16}
@@ -222,6 +222,40 @@ def test_meta_depth_scan_is_linear_on_an_unterminated_string() -> None:
     start = time.perf_counter()
     assert _problems(data) == [("SWPM_META_BAD_JSON", _entry(data, b"META")[1])]
     assert time.perf_counter() - start < 2.0
+
+
+def _nest(depth: int) -> list[Any]:
+    out: list[Any] = []
+    for _ in range(depth - 1):
+        out = [out]
+    return out
+
+
+@pytest.mark.parametrize(
+    "value, written",
+    [
+        (_nest(126), True),  # META depth 128: the object, params, then 126 lists
+        (_nest(127), False),
+        (10**400, False),
+        (-(10**400), False),
+        (2**1024 - 2**970, False),  # rounds to infinity
+        (2**1024 - 2**970 - 1, True),
+    ],
+    ids=["depth-128", "depth-129", "1e400", "-1e400", "rounds-to-inf", "largest-finite"],
+)
+def test_the_writer_does_not_write_meta_the_reader_rejects(value: Any, written: bool) -> None:
+    """A params value that makes META nest deeper than spec 3.1 allows, or an integer too large for binary64,
+    is refused by the writer (SwpmEncodeError, a ValueError as NaN's is); it wrote a file its own reader
+    rejected as SWPM_META_BAD_JSON. What it writes, the reader reads back."""
+    pm = load_bytes((VALID / "minimal-vanilla.swpm").read_bytes())
+    pm.params["x"] = value
+    if not written:
+        with pytest.raises(SwpmEncodeError, match=r"spec 3\.1"):
+            encode_bytes(pm)
+        return
+    data = encode_bytes(pm)
+    assert validate_bytes(data).valid
+    assert load_bytes(data).params["x"] == value
 
 
 # -- exact arithmetic (spec 1): sums and products do not wrap ------------------------------------------------

@@ -505,7 +505,8 @@ class Report:
 
 class SwpmEncodeError(SwpmError, ValueError):
     """A progressive mesh cannot be written as SWPM v1 (an attribute of an element type or width the format
-    has no code for); a :class:`ValueError` too, as it was before it had a type of its own."""
+    has no code for, params a reader would reject as META: spec 3.1's limits); a :class:`ValueError` too, as
+    it was before it had a type of its own."""
 
 
 class SwpmFormatError(SwpmError):

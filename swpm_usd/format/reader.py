@@ -345,22 +345,28 @@ def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def parse_meta_json(text: str) -> Any:
+    """``text`` read as JSON with the rules of spec 3.1 (no NaN or Infinity, no duplicate key, at most
+    ``META_MAX_DEPTH`` deep, every number finite in binary64); a :class:`ValueError` names what breaks them.
+    The writer checks its ``META`` with it too, so that it never writes one this reader rejects."""
+    # a fixed depth limit (spec 3.1): how deep Python's parser recurses depends on the caller's stack
+    if _json_depth(text) > L.META_MAX_DEPTH:
+        raise ValueError(f"arrays and objects nest deeper than {L.META_MAX_DEPTH}")
+    return json.loads(
+        text,
+        parse_constant=_reject_constant,
+        parse_float=_finite_float,
+        parse_int=_finite_int,
+        object_pairs_hook=_unique_keys,
+    )
+
+
 def _meta(p: _Parsed, rep: Report) -> None:
     c = _get(p, L.META)
     if c is None:
         return
     try:
-        text = p.buf[c.offset : c.offset + c.length].tobytes().decode("utf-8")
-        # a fixed depth limit (spec 3.1): how deep Python's parser recurses depends on the caller's stack
-        if _json_depth(text) > L.META_MAX_DEPTH:
-            raise ValueError(f"arrays and objects nest deeper than {L.META_MAX_DEPTH}")
-        meta = json.loads(
-            text,
-            parse_constant=_reject_constant,
-            parse_float=_finite_float,
-            parse_int=_finite_int,
-            object_pairs_hook=_unique_keys,
-        )
+        meta = parse_meta_json(p.buf[c.offset : c.offset + c.length].tobytes().decode("utf-8"))
     except (UnicodeDecodeError, ValueError, RecursionError) as exc:
         rep.add("SWPM_META_BAD_JSON", c.offset, reason=str(exc)[:200])
         p.content_ok = False
