@@ -33,6 +33,12 @@ now follows as written:
   ``level_collapsed_indices``; stage (c) checks ``binned`` = V-1-r, then ``kept`` < V-1-r.
 * The start arrays of ``SKIP``/``MLVL``: element 0 = 0, element n = the total, non-decreasing.
 
+A third audit (a reader written from the spec alone) found ``META`` open where RFC 8259 lets parsers set
+limits, and the reference reader's answer depending on its environment (how deep the caller's stack was,
+``PYTHONINTMAXSTRDIGITS``); §3.1 now fixes them: arrays and objects nest at most 128 deep, a number that
+rounds to infinity in binary64 (``1e400``) is not JSON as ``Infinity`` is not, an integer below that is
+exact, an escaped unpaired surrogate is accepted.
+
 A later audit settled these (vectors ``chunk-moved-past-end``, ``duplicate-vert-trailing``,
 ``record-changes-slot-twice``), and wrote down the decisions this reader had made for itself:
 
@@ -66,14 +72,14 @@ deciding these differently; the spec now says what this reader did, and the refe
 
 What the spec still leaves open, and how this reader decides:
 
-* ``META``: parsed by Python's ``json`` with the rules of §3.1 added; a number too large for a float
-  (``1e999``) parses and is not an integer (no field whose value matters can hold one validly).
 * Replays (vanilla, mixed, skip-strip) stop at their first problem: one problem per replay, so a slot that
   does not hold the binned vertex is not also a prefix violation of the same record (vector
   ``record-changes-wrong-slot``); after a replay problem the collapsed list is not compared. Skip-strip's
   collapsed-list prefix check (stage (d), "then the collapsed lists' prefix") is a separate check of the
   stage: it runs over all levels even after a replay problem.
-* Sliding-window prefix property: the lowest offending element of ``INDX`` over all windows.
+
+(The sliding-window prefix property's lowest offending element of ``INDX`` over all windows, which this
+reader chose, is §3.5's rule since the third audit.)
 """
 
 from __future__ import annotations
@@ -86,6 +92,29 @@ import zlib
 from typing import Any
 
 import numpy as np
+
+
+def nesting(text: str) -> int:
+    """The deepest nesting of arrays and objects in JSON ``text``, brackets inside strings not counted."""
+    depth = deepest = 0
+    in_string = escaped = False
+    for ch in text:
+        if in_string:
+            if escaped:
+                escaped = False
+            elif ch == "\\":
+                escaped = True
+            elif ch == '"':
+                in_string = False
+        elif ch == '"':
+            in_string = True
+        elif ch in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif ch in "]}":
+            depth -= 1
+    return deepest
+
 
 MAGIC = b"SWPM\r\n\x1a\n"
 HEADER_SIZE = 64
@@ -460,9 +489,26 @@ class _Reader:
                 raise ValueError("duplicate key")
             return obj
 
+        def finite(text: str) -> float:
+            if not math.isfinite(float(text)):  # §3.1: a number that rounds to infinity is not accepted
+                raise ValueError(text)
+            return float(text)
+
+        def integer(text: str) -> int:
+            finite(text)
+            return int(text)
+
         try:
             text = self.data[c.offset : c.offset + c.length].decode("utf-8")
-            meta = json.loads(text, parse_constant=no_constants, object_pairs_hook=unique_keys)
+            if nesting(text) > 128:  # §3.1: arrays and objects nest at most 128 deep
+                raise ValueError("too deep")
+            meta = json.loads(
+                text,
+                parse_constant=no_constants,
+                parse_float=finite,
+                parse_int=integer,
+                object_pairs_hook=unique_keys,
+            )
         except (UnicodeDecodeError, ValueError, RecursionError):
             meta = None
         if not isinstance(meta, dict):

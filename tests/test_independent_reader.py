@@ -136,7 +136,9 @@ META_EDITS = [
     # restart_index a boolean (§3.7)
     ("skip-strip-strip", b'"restart_index":65535', b'"restart_index":true ', "FIELD"),
     # restart_index at or above 2^32 (§3.7)
-    ("skip-strip-strip", b'"restart_index":65535', b'"restart_index":9e999', "FIELD"),
+    ("skip-strip-strip", b'"restart_index":65535', b'"restart_index":4.3e9', "FIELD"),
+    # a number that rounds to infinity in binary64 is not JSON, as Infinity is not (§3.1)
+    ("skip-strip-strip", b'"restart_index":65535', b'"restart_index":9e999', "JSON"),
     # a strips' restart index below V = 5 is a vertex (§3.7)
     ("skip-strip-strip", b'"restart_index":65535', b'"restart_index":    4', "FIELD"),
     # a leading byte-order mark is not JSON (§3.1)

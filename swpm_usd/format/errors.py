@@ -384,7 +384,8 @@ _ENTRIES = [
         "change counts do not sum to offset_count: the record table (payload + 8); prev_change_count "
         "of record r wrong: that field, payload + 8 + W x (c r + c - 1) with c columns (4, MREC 5), "
         "for the first such r; RCNT not from 0, decreasing or above R: RCNT "
-        "payload; R >= V: the record chunk's payload; too many triangles removed: record 0's "
+        "payload (one problem however many of the three); R >= V: the record chunk's payload; too many "
+        "triangles removed: record 0's "
         "tris_removed (table + W; MREC: static + W, dynamic + 2 W, whatever the level, one problem per "
         "column); LODS triangle_count differs (vanilla: also row 0 against T0 = INDX count / 3): the "
         "start of the first differing LODS row",
@@ -504,7 +505,8 @@ class Report:
 
 class SwpmEncodeError(SwpmError, ValueError):
     """A progressive mesh cannot be written as SWPM v1 (an attribute of an element type or width the format
-    has no code for); a :class:`ValueError` too, as it was before it had a type of its own."""
+    has no code for, params a reader would reject as META: spec 3.1's limits); a :class:`ValueError` too, as
+    it was before it had a type of its own."""
 
 
 class SwpmFormatError(SwpmError):

@@ -14,6 +14,8 @@ VERSION_MAJOR = 1
 VERSION_MINOR = 0
 CHUNK_ALIGN = 8
 MAX_CHUNKS = 1024
+#: META: arrays and objects nest at most this deep (the top-level object is depth 1; spec 3.1)
+META_MAX_DEPTH = 128
 MAX_ATTRIBUTES = 255
 MAX_BAND_RANGES = 16
 ARRAY_ALIGN = 4

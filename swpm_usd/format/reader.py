@@ -10,6 +10,7 @@ cannot make the reader allocate much more than its own size.
 from __future__ import annotations
 
 import json
+import math
 import mmap
 import os
 import re
@@ -301,6 +302,42 @@ def _reject_constant(name: str) -> Any:
     raise ValueError(f"{name} is not JSON")
 
 
+def _finite_float(text: str) -> float:
+    """A JSON number with a fraction or exponent; one that rounds to infinity (1e400) is rejected, as
+    Infinity is (spec 3.1)."""
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"number {text[:20]}... is too large for binary64")
+    return value
+
+
+def _finite_int(text: str) -> int:
+    """A JSON integer, exact; one too large for binary64 is rejected (spec 3.1), before ``int`` could meet
+    Python's digit limit for str-to-int conversion (which the environment can lower)."""
+    if not math.isfinite(float(text)):
+        raise ValueError(f"number {text[:20]}... is too large for binary64")
+    return int(text)  # at most 309 digits here, below the lowest digit limit Python allows (640)
+
+
+def _json_depth(text: str) -> int:
+    """How deep arrays and objects nest in ``text`` (outside strings); exact for valid JSON."""
+    depth = deepest = 0
+    for m in _JSON_STRUCTURE.finditer(text):
+        tok = m.group()
+        if tok in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif tok in "]}":
+            depth -= 1
+    return deepest
+
+
+#: a string literal (skipped whole, escapes included) or a bracket. An unterminated string runs to the end
+#: of the text (``"?``; possessive, no backtracking): a scan restarted at each of its escaped quotes would be
+#: quadratic (40 KB of ``\\"`` took 10 s), and such text is not JSON whatever its depth.
+_JSON_STRUCTURE = re.compile(r'"(?:[^"\\]++|\\.)*+"?|[\[\]{}]', re.DOTALL)
+
+
 def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     out = dict(pairs)
     if len(out) != len(pairs):
@@ -308,16 +345,28 @@ def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def parse_meta_json(text: str) -> Any:
+    """``text`` read as JSON with the rules of spec 3.1 (no NaN or Infinity, no duplicate key, at most
+    ``META_MAX_DEPTH`` deep, every number finite in binary64); a :class:`ValueError` names what breaks them.
+    The writer checks its ``META`` with it too, so that it never writes one this reader rejects."""
+    # a fixed depth limit (spec 3.1): how deep Python's parser recurses depends on the caller's stack
+    if _json_depth(text) > L.META_MAX_DEPTH:
+        raise ValueError(f"arrays and objects nest deeper than {L.META_MAX_DEPTH}")
+    return json.loads(
+        text,
+        parse_constant=_reject_constant,
+        parse_float=_finite_float,
+        parse_int=_finite_int,
+        object_pairs_hook=_unique_keys,
+    )
+
+
 def _meta(p: _Parsed, rep: Report) -> None:
     c = _get(p, L.META)
     if c is None:
         return
     try:
-        meta = json.loads(
-            p.buf[c.offset : c.offset + c.length].tobytes().decode("utf-8"),
-            parse_constant=_reject_constant,
-            object_pairs_hook=_unique_keys,
-        )
+        meta = parse_meta_json(p.buf[c.offset : c.offset + c.length].tobytes().decode("utf-8"))
     except (UnicodeDecodeError, ValueError, RecursionError) as exc:
         rep.add("SWPM_META_BAD_JSON", c.offset, reason=str(exc)[:200])
         p.content_ok = False

@@ -179,7 +179,9 @@ def encode_bytes(
     index_width: int | None = None,
 ) -> bytes:
     """The complete file for ``pm``. ``extra_chunks`` (type, critical, payload) go right after SMAP;
-    ``index_width`` (2 or 4) overrides the smallest width that fits (u32 is always allowed)."""
+    ``index_width`` (2 or 4) overrides the smallest width that fits (u32 is always allowed).
+    :class:`SwpmEncodeError` when ``pm.params`` would make a ``META`` the reader rejects (spec 3.1: nested
+    more than 128 deep, an integer too large for binary64); NaN or infinity is a ``ValueError``."""
     enc = pm.encoding
     if enc not in L.ENCODING_FEATURES:
         raise ValueError(f"encoding {enc!r} has no SWPM v1 layout")
@@ -193,12 +195,17 @@ def encode_bytes(
         "params": pm.params,
         "source_digest": source_digest,
     }
-    payload: dict[bytes, bytes] = {
-        # allow_nan=False: NaN and Infinity are not JSON; a reader rejects them (ValueError here)
-        L.META: json.dumps(
-            meta, sort_keys=True, separators=(",", ":"), default=_json_default, allow_nan=False
-        ).encode("utf-8"),
-    }
+    # allow_nan=False: NaN and Infinity are not JSON; a reader rejects them (ValueError here)
+    meta_text = json.dumps(
+        meta, sort_keys=True, separators=(",", ":"), default=_json_default, allow_nan=False
+    )
+    from .reader import parse_meta_json  # (the reader imports this module)
+
+    try:  # nor do we write what a reader rejects under spec 3.1's limits: params 200 deep, an integer 10^400
+        parse_meta_json(meta_text)
+    except (ValueError, RecursionError) as e:
+        raise SwpmEncodeError(f"META (params) is not JSON a reader accepts (spec 3.1): {e}") from e
+    payload: dict[bytes, bytes] = {L.META: meta_text.encode("utf-8")}
     rows = np.zeros(lods, L.LOD_ROW)
     rows["vertex_count"] = pm.vertex_counts
     rows["triangle_count"] = pm.triangle_counts
