@@ -2326,6 +2326,55 @@ def test_verify_hashes_every_input(tmp_path, monkeypatch):
     assert "--verify Hash every input file and recorded output" in help_text
 
 
+def _files_as_written(out: Path) -> dict[str, tuple[int, int, int]]:
+    """Each file of ``out`` but the lock (written by every run) -> its inode, mtime and ctime."""
+    return {
+        p.name: (p.stat().st_ino, p.stat().st_mtime_ns, p.stat().st_ctime_ns)
+        for p in sorted(out.iterdir())
+        if p.name != ".swpm-pipeline.lock"
+    }
+
+
+def test_verify_of_an_unchanged_tree_writes_nothing_and_rebuilds_what_it_finds_changed(tmp_path, monkeypatch):
+    # --verify hashed every input, then recorded each input anew (its hashed_ns moved): the manifest changed,
+    # so the manifest, scene.usda and report.html were all written again on every verify of an unchanged tree
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (inputs trusted as soon as they were hashed)
+    cfg = _project(tmp_path, config=MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    written = _files_as_written(out)
+    assert {"manifest.json", "scene.usda", "report.html", "cow.swpm", "spot.usdc"} <= set(written)
+    for _ in range(2):
+        res = run(cfg, verify=True, echo=lambda m: None)
+        assert (res.built, res.skipped) == (0, 2)
+        assert _files_as_written(out) == written
+    # bytes changed with a stat that does not show it (the manifest given the files' stat after the change)
+    swpm = out / "cow.swpm"
+    st = swpm.stat()
+    data = bytearray(swpm.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    swpm.write_bytes(bytes(data))
+    os.utime(swpm, ns=(st.st_atime_ns, st.st_mtime_ns))
+    spot = tmp_path / "meshes" / "spot.obj"
+    _same_size_edit(spot)
+    manifest = json.loads((out / "manifest.json").read_text())
+    cow_out = manifest["assets"]["meshes/cow.obj"]["outputs"]["swpm"]
+    cow_out.update(mtime_ns=swpm.stat().st_mtime_ns, ctime_ns=swpm.stat().st_ctime_ns)
+    (spot_in,) = manifest["assets"]["meshes/spot.obj"]["inputs"]
+    spot_in.update(ctime_ns=spot.stat().st_ctime_ns, hashed_ns=spot.stat().st_ctime_ns + 1)
+    old_digest = manifest["assets"]["meshes/spot.obj"]["input_digest"]
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    assert run(cfg, dry_run=True, echo=lambda m: None).skipped == 2  # (the stat trusted: not seen)
+    res = run(cfg, verify=True, echo=lambda m: None)
+    assert sorted(res.built_ids) == ["meshes/cow.obj", "meshes/spot.obj"]
+    assert _recorded_outputs(out)["cow.swpm"]["sha256"] == sha256_of(swpm)
+    assert res.records["meshes/spot.obj"]["input_digest"] != old_digest
+    written = _files_as_written(out)
+    assert run(cfg, verify=True, echo=lambda m: None).skipped == 2 and _files_as_written(out) == written
+
+
 def test_inputs_of_an_older_manifest_are_hashed_once_then_trusted(tmp_path, monkeypatch):
     # a manifest written before inputs had their stat recorded: each input hashed as before (to the same
     # digest: nothing rebuilt), its stat then recorded, and the next rerun reads none

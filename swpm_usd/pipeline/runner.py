@@ -386,6 +386,15 @@ def _inputs_unchanged(paths: list[Path], entries: list[dict] | None) -> bool:
     return True
 
 
+def _same_stat(entries: list[dict], recorded: list[dict] | None) -> bool:
+    """Are ``entries``, inputs just hashed (:func:`.assets.hash_inputs`), the ``recorded`` ones: the same
+    paths, sizes and stat fields (the time each was hashed aside)?"""
+    keys = ("path", "size", *STAT_KEYS)
+    return recorded is not None and [[e.get(k) for k in keys] for e in entries] == [
+        [e.get(k) for k in keys] for e in recorded
+    ]
+
+
 #: a record's mark that its ``inputs`` are the list of its file's inputs as this listing reads them
 #: (:data:`LISTING`), which a rerun takes while they are all unchanged (:func:`_listed_inputs`). A record
 #: without it (of an older version: a .glb listed alone, before its buffer files were inputs; a USD file
@@ -485,8 +494,12 @@ def plan(
             previous = None
         prev = previous or {}
         # (a failed asset's record need not have its input digest: record_problem checks its type alone)
-        recorded = None if verify or "input_digest" not in prev else recorded_inputs(prev)
-        if (a.id in reused and previous is not None) or _inputs_unchanged(inputs[a.id], recorded):
+        recorded = None if "input_digest" not in prev else recorded_inputs(prev)
+        reuse = (
+            not verify and a.id in reused and previous is not None
+        )  # (listed from the record: as recorded)
+        trusted = not reuse and _inputs_unchanged(inputs[a.id], recorded)
+        if reuse or (trusted and not verify):
             digest, input_stats = prev["input_digest"], recorded
         else:
             key = tuple(inputs[a.id])
@@ -499,6 +512,10 @@ def plan(
                     # record and no stat is recorded, so the next run hashes it again
                     hashed[key] = (f"unreadable: {exc}", [{"path": str(p)} for p in inputs[a.id]])
             digest, input_stats = hashed[key]
+            if trusted and digest == prev["input_digest"] and _same_stat(input_stats, recorded):
+                # (verify: the bytes a run would have trusted unread are the recorded ones, their stat as
+                # recorded: the record stands as it is, not rewritten for a new hashed_ns)
+                input_stats = recorded
         tri = prev.get("triangles_in") if prev.get("input_digest") == digest else None
         if tri is None and needs_rule_on_triangles:
             if not count_triangles:
