@@ -2790,6 +2790,63 @@ def test_scene_without_usd_layers_is_a_config_error(tmp_path):
     ]
 
 
+def test_instances_changed_rebuild_only_what_depends_on_them(tmp_path):
+    # the instance count was in every asset's digest: a source's `instances` changed rebuilt assets whose
+    # build it does not change (an encoding named by a rule, not auto), as if their mesh had changed
+    config = """\
+version: 1
+assets:
+  - {glob: "meshes/cow.obj", instances: 1}
+  - {glob: "meshes/spot.obj", instances: 1}
+output: {dir: out, usd: true, scene: true}
+rules:
+  - {name: hero, match: {path: "meshes/spot.obj"}, encoding: auto}
+  - {name: crowd, match: {instances: {min: 1000}}, encoding: skip-strip}
+defaults: {encoding: vanilla}
+"""
+    cfg = _project(tmp_path, config=config)
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    cow_swpm = _files_as_written(out)["cow.swpm"]
+    scene = (out / "scene.usda").read_text()
+
+    def instances(cow: int, spot: int, budget: str = "") -> None:
+        text = config.replace('cow.obj", instances: 1', f'cow.obj", instances: {cow}')
+        cfg.write_text(text.replace('spot.obj", instances: 1', f'spot.obj", instances: {spot}') + budget)
+
+    instances(40, 40)
+    res = run(cfg, echo=lambda m: None)
+    assert res.built_ids == ["meshes/spot.obj"] and res.skipped == 1  # (auto chooses by the count)
+    assert (
+        res.records["meshes/cow.obj"]["instances"] == 40 and res.records["meshes/spot.obj"]["instances"] == 40
+    )
+    assert _files_as_written(out)["cow.swpm"] == cow_swpm
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["assets"]["meshes/cow.obj"]["instances"] == 40
+    assert "<td>40</td>" in (out / "report.html").read_text().split("meshes/cow.obj", 1)[1].split("</tr>")[0]
+    assert (out / "scene.usda").read_text() == scene  # (one prim an asset, whatever its count)
+    assert run(cfg, echo=lambda m: None).skipped == 2
+    # a rule on the count that now picks another treatment rebuilds it
+    instances(1000, 40)
+    res = run(cfg, echo=lambda m: None)
+    assert res.built_ids == ["meshes/cow.obj"] and res.records["meshes/cow.obj"]["encoding"] == "skip-strip"
+    instances(40, 40)
+    assert run(cfg, echo=lambda m: None).built_ids == ["meshes/cow.obj"]
+    # budgets.total_bytes: checked again with the new count, from the recorded memory
+    s = json.loads((out / "manifest.json").read_text())["assets"]["meshes/cow.obj"]["summary"]
+    budget = f"budgets: {{total_bytes: {s['global_bytes'] + 50 * s['instance_bytes']}}}\n"
+    instances(40, 40, budget)
+    built = run(cfg, echo=lambda m: None).built_ids
+    assert sorted(built) == ["meshes/cow.obj", "meshes/spot.obj"]  # (a budget added: checked)
+    instances(50, 40, budget)
+    res = run(cfg, echo=lambda m: None)
+    assert res.skipped == 2 and res.records["meshes/cow.obj"]["instances"] == 50  # (fits: not rebuilt)
+    instances(51, 40, budget)
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1 and "total_bytes" in res.failures["meshes/cow.obj"]["error"]
+    assert res.failures["meshes/cow.obj"]["kept_previous"]
+
+
 def test_instances_on_a_stage_source_is_a_config_error(tmp_path):
     # `instances` beside `stage` was ignored silently (its assets had the instances the stage composes)
     (tmp_path / "m").mkdir()

@@ -344,6 +344,24 @@ def _write_manifest(path: Path, manifest: dict, text: _ManifestText | None = Non
     atomic_write_bytes(path, (body + "\n").encode())
 
 
+def _total_fits(cfg: Config, record: dict, item: PlanItem) -> bool:
+    """Does the build ``record`` holds still meet ``budgets.total_bytes`` with ``item``'s instance count
+    (global bytes + instances x instance bytes, as the worker checks it)? The count is not in the digest of
+    an encoding other than ``auto`` (:func:`.assets.treatment_digest`), so more instances than it passed
+    with check it again, from the memory the record holds (a record without it: built again)."""
+    limit = (cfg.data.get("budgets") or {}).get("total_bytes")
+    if (
+        limit is None
+        or item.treatment.get("encoding") == "auto"
+        or record.get("instances") == item.asset.instances
+    ):
+        return True
+    summary = record.get("summary") or {}
+    if not all(isinstance(summary.get(k), (int, float)) for k in ("global_bytes", "instance_bytes")):
+        return False
+    return summary["global_bytes"] + item.asset.instances * summary["instance_bytes"] <= limit
+
+
 def _treatment_digest(cfg: Config, item: PlanItem) -> str:
     checks = checks_of(cfg.data) if item.treatment.get("encoding") == "auto" else None
     return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, checks)
@@ -557,6 +575,7 @@ def plan(
                 item.treatment.get("encoding") == "auto"
                 or checks_no_stricter(checks_of(cfg.data), prev.get("checks"))
             )
+            and _total_fits(cfg, prev, item)
             and bool(outs) == _wants_outputs(cfg)
             # (an output the config asks for that the build did not write: `usd: true` added since)
             and _wanted_outputs(cfg) <= set(outs)
@@ -1450,6 +1469,9 @@ def _run(
             # another rule (renamed, reordered, added) now gives the asset the same treatment: the build is
             # current, and its record names the rule that chose it today (the report shows it)
             kept = records[it.asset.id] = {**kept, "rule": rule, "why": why}
+        if "instances" in kept and kept["instances"] != it.asset.instances:
+            # (another instance count, the same build: an encoding other than auto; the report shows it)
+            kept = records[it.asset.id] = {**kept, "instances": it.asset.instances}
         if it.input_stats is not kept.get("inputs") or _listing_mark(kept) != it.inputs_listed:
             # hashed (to the recorded digest): their stat anew; or listed by reading the file (the record
             # of an older version): marked as a list the next run may take
