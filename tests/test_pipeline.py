@@ -1849,6 +1849,50 @@ def test_the_run_never_overwrites_its_own_inputs(tmp_path):
     assert run(cfg, echo=lambda m: None).built == 1
 
 
+@pytest.mark.parametrize(
+    ("stage", "glob", "output", "message"),
+    [
+        ("Scene.usda", None, "usd: true, scene: true", "the scene layer would overwrite out/Scene.usda"),
+        # (Café in NFD, the run's Café.usdc in NFC: one name to macOS)
+        (
+            "Cafe\u0301.usdc",
+            "m/Caf\u00e9.obj",
+            "usd: true",
+            "of m/Caf\u00e9.obj would overwrite out/Cafe\u0301.usdc",
+        ),
+    ],
+)
+def test_an_output_named_as_an_input_but_for_case_or_normalization_is_refused(
+    tmp_path, stage, glob, output, message
+):
+    # the inputs were compared with the outputs by their exact paths: on a case-insensitive filesystem
+    # out/scene.usda, which the run writes, is out/Scene.usda, a stage of the config
+    from pxr import Sdf, Usd, UsdGeom
+
+    (tmp_path / "out").mkdir()
+    layer = tmp_path / "quad.usda"
+    st = Usd.Stage.CreateNew(str(layer))
+    m = UsdGeom.Mesh.Define(st, "/Quad")
+    m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
+    m.CreateFaceVertexCountsAttr([3, 3])
+    m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+    st.GetRootLayer().Save()
+    Sdf.Layer.FindOrOpen(str(layer)).Export(str(tmp_path / "out" / stage))
+    before = _digest(tmp_path / "out" / stage)
+    assets = f"[{{stage: 'out/{stage}'}}]"
+    if glob is not None:
+        (tmp_path / "m").mkdir()
+        (tmp_path / glob).write_text(TWO_TRIANGLES)
+        assets = f"[{{stage: 'out/{stage}'}}, {{glob: 'm/*.obj'}}]"
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        f"version: 1\nassets: {assets}\noutput: {{dir: out, {output}}}\ndefaults: {{encoding: vanilla}}\n"
+    )
+    with pytest.raises(ConfigError, match=message):
+        run(cfg, echo=lambda m: None)
+    assert _digest(tmp_path / "out" / stage) == before and not (tmp_path / "out" / "manifest.json").exists()
+
+
 def test_tightened_budgets_or_streaming_and_changed_outputs_rebuild(tmp_path):
     (tmp_path / "m").mkdir()
     (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)

@@ -48,6 +48,7 @@ from ..errors import OutputLockedError
 from .assets import (
     LISTED_SUFFIXES,
     Asset,
+    _folded,
     checks_no_stricter,
     checks_of,
     discover,
@@ -816,27 +817,38 @@ def _overwritten_inputs(
 ) -> list[str]:
     """The run never writes over its own inputs: a file it would write (:func:`planned_outputs`) or a stale
     temporary file it would delete must not be a matched mesh, a stage, a layer a stage uses, or the config
-    itself. Located at ``output.dir``."""
+    itself. Located at ``output.dir``.
+
+    A file to write that exists is compared as a file (its device and inode: ``os.path.samefile``); one
+    that does not yet is compared by name with the inputs in output.dir as a case-insensitive filesystem
+    compares names (:func:`.assets._folded`: ``out/Scene.usda``, a stage, is the ``out/scene.usda`` the
+    run writes on macOS or Windows), as output names that differ only so collide (:func:`.assets.discover`).
+    A folder is output.dir when it is that folder (the same device and inode), however its path is spelt."""
     sources: dict[tuple, tuple[Path, str]] = {_file_key(cfg.path): (cfg.path, "the configuration file")}
     for a in assets:
         for p in inputs.get(a.id, []):
             what = "an input of" if p != a.path else "the input of"
             sources.setdefault(_file_key(p), (p, f"{what} {a.id}"))
+    out_key = _file_key(out_dir)
+    folders: dict[Path, bool] = {}  # (a folder looked up once: 10,000 inputs in one, a second)
+    in_out: list[tuple[Path, str]] = []  # the inputs in output.dir
+    for path, what in sources.values():
+        if path.parent not in folders:
+            folders[path.parent] = out_key[0] == "inode" and _file_key(path.parent) == out_key
+        if folders[path.parent]:
+            in_out.append((path, what))
+    by_name = {_folded(path.name): (path, what) for path, what in in_out}
     problems = []
     for target, what in planned_outputs(cfg, out_dir, assets).items():
-        hit = sources.get(_file_key(target))
+        key = _file_key(target)
+        hit = sources.get(key) if key[0] == "inode" else by_name.get(_folded(target.name)) or sources.get(key)
         if hit is not None:
             problems.append(
                 f"{cfg.where(('output', 'dir'))}: {what} would overwrite {_rel(cfg, hit[0])} "
                 f"({hit[1]}); choose an output.dir apart from the inputs (and globs not reaching into it)"
             )
-    real_out, folders = out_dir.resolve(), {}  # (a folder resolved once: 10,000 inputs in one, a second)
-    for path, what in sources.values():
-        if path.parent not in folders:
-            folders[path.parent] = path.parent.resolve()
-        if folders[path.parent] == real_out and (
-            any(fnmatch.fnmatch(path.name, pattern) for pattern in _TEMPORARY)
-        ):
+    for path, what in in_out:
+        if any(fnmatch.fnmatch(path.name, pattern) for pattern in _TEMPORARY):
             problems.append(
                 f"{cfg.where(('output', 'dir'))}: {_rel(cfg, path)} ({what}) is named like a temporary file "
                 f"the run deletes from output.dir; rename it or choose another output.dir"
