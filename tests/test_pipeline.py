@@ -2098,9 +2098,14 @@ def _recorded_inputs(out: Path) -> dict[str, list[dict]]:
 
 
 def _as_hashed(entry: dict, path: Path) -> bool:
-    """Is ``entry`` (an input's in a record) ``path`` with its current size and stat?"""
+    """Is ``entry`` (an input's in a record: its path relative to the config's folder, or absolute) ``path``
+    with its current size and stat?"""
     st = path.stat()
-    return entry["path"] == str(path) and [entry[k] for k in ("size", *STAT_KEYS)] == [
+    recorded = Path(entry["path"])
+    same = (
+        recorded == path if recorded.is_absolute() else path.parts[-len(recorded.parts) :] == recorded.parts
+    )
+    return same and [entry[k] for k in ("size", *STAT_KEYS)] == [
         st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino, st.st_dev,
     ]  # fmt: skip
 
@@ -2244,7 +2249,7 @@ def test_a_stage_s_prims_share_the_hash_of_its_layers_and_a_rerun_reads_none(tmp
     assert len(recorded) == 2
     for entries in recorded.values():
         assert sorted(Path(e["path"]).name for e in entries) == ["scene.usda", "spot_asset.usda"]
-        assert all(_as_hashed(e, Path(e["path"])) for e in entries)
+        assert all(_as_hashed(e, tmp_path / e["path"]) for e in entries)
     reads.clear()
     assert run(cfg, echo=lambda m: None).skipped == 2 and reads == []
     _same_size_edit(layer, b"points = [(")  # (the first prim's first point)
@@ -2292,7 +2297,7 @@ def test_a_usdz_stage_s_input_is_its_package(tmp_path, monkeypatch):
     cfg.write_text("version: 1\nassets: [{stage: pkg.usdz}]\noutput: {dir: out}\n")
     assert run(cfg, echo=lambda m: None).built == 2
     for entries in _recorded_inputs(tmp_path / "out").values():
-        assert [e["path"] for e in entries] == [str(pkg)] and _as_hashed(entries[0], pkg)
+        assert [e["path"] for e in entries] == ["pkg.usdz"] and _as_hashed(entries[0], pkg)
     assert run(cfg, echo=lambda m: None).skipped == 2
 
 
@@ -2318,7 +2323,7 @@ def test_a_gltf_s_buffer_files_are_its_inputs(tmp_path, monkeypatch):
     cfg.write_text("version: 1\nassets: [{glob: m/*.gltf}]\noutput: {dir: out}\n")
     assert run(cfg, echo=lambda m: None).built == 1
     (entries,) = _recorded_inputs(tmp_path / "out").values()
-    assert [Path(e["path"]) for e in entries] == [tmp_path / "m" / "model.gltf", *bins]
+    assert [(tmp_path / e["path"]) for e in entries] == [tmp_path / "m" / "model.gltf", *bins]
     assert run(cfg, echo=lambda m: None).skipped == 1
     # the buffers of the mesh scaled by 2 (the same names and sizes), the .gltf left as it is (its accessors'
     # min and max, which the loader does not check, no longer the data's)
@@ -2417,6 +2422,53 @@ def test_verify_of_an_unchanged_tree_writes_nothing_and_rebuilds_what_it_finds_c
     assert res.records["meshes/spot.obj"]["input_digest"] != old_digest
     written = _files_as_written(out)
     assert run(cfg, verify=True, echo=lambda m: None).skipped == 2 and _files_as_written(out) == written
+
+
+def test_a_moved_project_is_a_rerun_that_changes_nothing(tmp_path, monkeypatch):
+    # records held each input's absolute path and the config's: a project folder renamed (its config,
+    # inputs and output.dir with it) had every input hashed again and the manifest, scene and report
+    # rewritten. They are relative to the config's folder (the config's to output.dir) now; an input given
+    # by an absolute path elsewhere (a stage in a shared library) keeps its absolute path
+    from pxr import Usd, UsdGeom
+
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (inputs trusted as soon as they were hashed)
+    library = tmp_path / "library"
+    library.mkdir()
+    quad = library / "quad.usda"
+    st = Usd.Stage.CreateNew(str(quad))
+    m = UsdGeom.Mesh.Define(st, "/Quad")
+    m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
+    m.CreateFaceVertexCountsAttr([3, 3])
+    m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+    st.GetRootLayer().Save()
+    project = tmp_path / "a"
+    project.mkdir()
+    cfg = _project(
+        project,
+        meshes=("cow.obj",),
+        config=f"version: 1\nassets:\n  - glob: 'meshes/*.obj'\n  - stage: '{quad}'\n"
+        "output: {dir: out, usd: true, scene: true}\ndefaults: {encoding: vanilla}\n",
+    )
+    assert run(cfg, echo=lambda m: None).built == 2
+    manifest = json.loads((project / "out" / "manifest.json").read_text())
+    assert manifest["config"] == "../pipeline.yaml"
+    recorded = _recorded_inputs(project / "out")
+    assert [e["path"] for e in recorded["meshes/cow.obj"]] == ["meshes/cow.obj"]
+    assert [e["path"] for e in recorded[f"{quad}:/Quad"]] == [str(quad)]
+    written = _files_as_written(project / "out")
+    moved = tmp_path / "b"
+    os.rename(project, moved)
+    reads = _input_reads(monkeypatch, moved / "meshes")
+    res = run(moved / "pipeline.yaml", echo=lambda m: None)
+    assert (res.built, res.skipped) == (0, 2) and reads == [] and not res.warnings
+    assert _files_as_written(moved / "out") == written
+    # a copy (other inodes): its inputs and outputs hashed once, nothing rebuilt, the original left alone
+    shutil.copytree(moved, project)
+    res = run(project / "pipeline.yaml", echo=lambda m: None)
+    assert (res.built, res.skipped) == (0, 2) and not res.warnings
+    assert _files_as_written(moved / "out") == written
 
 
 def test_inputs_of_an_older_manifest_are_hashed_once_then_trusted(tmp_path, monkeypatch):
@@ -3464,7 +3516,7 @@ def test_a_glb_s_external_buffer_files_are_its_inputs(tmp_path, monkeypatch):
     )
     assert run(cfg, echo=lambda m: None).built == 1
     (entries,) = _recorded_inputs(tmp_path / "out").values()
-    assert [Path(e["path"]) for e in entries] == [glb, data]
+    assert [(tmp_path / e["path"]) for e in entries] == [glb, data]
     assert run(cfg, echo=lambda m: None).skipped == 1
     # the buffer of the mesh scaled by 2 (the same name and size), the .glb left as it is
     _glb_with_external_buffer(mesh.copy().apply_scale(2.0), tmp_path / "scaled.glb", data.name)
@@ -3501,7 +3553,7 @@ def test_a_stage_s_prims_share_one_list_of_its_layers_in_the_manifest(tmp_path, 
     prims = {aid: rec for aid, rec in manifest["assets"].items() if aid.startswith("stage/")}
     assert len(prims) == 2 and all(rec["inputs_ref"] == key and "inputs" not in rec for rec in prims.values())
     # (an input list no other record holds stays in its record)
-    assert [e["path"] for e in manifest["assets"]["m/a.obj"]["inputs"]] == [str(tmp_path / "m" / "a.obj")]
+    assert [e["path"] for e in manifest["assets"]["m/a.obj"]["inputs"]] == ["m/a.obj"]
     assert "inputs_ref" not in manifest["assets"]["m/a.obj"]
     # read back: a rerun trusts the shared list, reading no input
     reads = _input_reads(monkeypatch, tmp_path / "stage")
@@ -3544,7 +3596,7 @@ def test_a_stage_s_prims_share_one_list_of_its_layers_in_the_manifest(tmp_path, 
     assert run(cfg, echo=lambda m: None).built == 2
     recorded = _recorded_inputs(tmp_path / "out")
     assert recorded["stage/scene.usda:/World/spot/Body"] == recorded["stage/scene.usda:/World/spot/Copy"]
-    assert all(_as_hashed(e, Path(e["path"])) for e in recorded["stage/scene.usda:/World/spot/Body"])
+    assert all(_as_hashed(e, tmp_path / e["path"]) for e in recorded["stage/scene.usda:/World/spot/Body"])
     assert len(json.loads(path.read_text())["input_lists"]) == 1
 
 
@@ -3654,12 +3706,12 @@ def test_a_record_listing_a_glb_s_inputs_the_old_way_is_never_taken_as_its_list(
     manifest = json.loads(path.read_text())
     (rec,) = manifest["assets"].values()
     rec.pop("inputs_listed", None)
-    assert [Path(e["path"]) for e in rec["inputs"]] == [glb]
+    assert [(tmp_path / e["path"]) for e in rec["inputs"]] == [glb]
     path.write_text(json.dumps(manifest, indent=1))
     # read again (its buffer file now an input: the digest changes, and it is built once more)
     assert run(cfg, echo=lambda m: None).built == 1
     (entries,) = _recorded_inputs(tmp_path / "out").values()
-    assert [Path(e["path"]) for e in entries] == [glb, data]
+    assert [(tmp_path / e["path"]) for e in entries] == [glb, data]
     # an older record whose list is the .glb's inputs: up to date, and marked as a list to take from now on
     manifest = json.loads(path.read_text())
     assert manifest["assets"]["m/spot.glb"].pop("inputs_listed") == 1
@@ -3705,7 +3757,7 @@ def test_a_gltf_buffer_found_by_its_last_name_is_listed_again_once_its_name_as_w
     assert np.allclose(swpm_usd.load_mesh(tmp_path / "m" / "model.gltf").points, 2 * points)
     assert run(cfg, echo=lambda m: None).built == 1
     (entries,) = _recorded_inputs(tmp_path / "out").values()
-    assert {tmp_path / "m" / "bin" / uri for uri in uris} <= {Path(e["path"]) for e in entries}
+    assert {tmp_path / "m" / "bin" / uri for uri in uris} <= {(tmp_path / e["path"]) for e in entries}
     assert run(cfg, echo=lambda m: None).skipped == 1
 
 
@@ -3748,7 +3800,7 @@ def test_a_record_listing_a_usd_file_alone_the_old_way_is_never_taken_as_its_lis
     path = tmp_path / "out" / "manifest.json"
     manifest = json.loads(path.read_text())
     manifest["assets"]["m/s.usda"].pop("inputs_listed", None)
-    assert [Path(e["path"]) for e in manifest["assets"]["m/s.usda"]["inputs"]] == [top]
+    assert [(tmp_path / e["path"]) for e in manifest["assets"]["m/s.usda"]["inputs"]] == [top]
     path.write_text(json.dumps(manifest, indent=1))
     # listed again: the layer is an input (the digest changes, and it is built once more)
     assert run(cfg, echo=lambda m: None).built == 1

@@ -384,12 +384,36 @@ def _count_triangles(asset: Asset) -> int:
 _RACY_NS = 2_000_000_000
 
 
-def _inputs_unchanged(paths: list[Path], entries: list[dict] | None) -> bool:
+def recorded_path(base: Path, path: Path) -> str:
+    """An input file's ``path`` as a record holds it: relative to the config's folder ``base`` when it is
+    under it (so a project folder moved or renamed, its config, inputs and output.dir with it, is a rerun
+    that changes nothing), else absolute (a stage given by an absolute path elsewhere)."""
+    try:
+        return path.relative_to(base).as_posix()
+    except ValueError:
+        return str(path)
+
+
+def _recorded_paths(base: Path, entries: list[dict]) -> list[dict]:
+    """Input entries (:func:`.assets.hash_inputs`, absolute paths) with their paths as a record holds them."""
+    return [{**e, "path": recorded_path(base, Path(e["path"]))} for e in entries]
+
+
+def _is_recorded_path(entry_path: str, path: Path, base: Path | None) -> bool:
+    """Is ``entry_path``, a record's, the file ``path``: :func:`recorded_path`'s, or the absolute path a
+    record of an older version holds?"""
+    return entry_path == str(path) or (base is not None and entry_path == recorded_path(base, path))
+
+
+def _inputs_unchanged(paths: list[Path], entries: list[dict] | None, base: Path | None = None) -> bool:
     """Are ``paths``, an asset's input files, those its record's ``inputs`` (``entries``, validated by
-    :func:`.records.recorded_inputs`) describe, each with the recorded size and stat (:data:`STAT_KEYS`),
-    taken long enough after its last change (:data:`_RACY_NS`)? Then the recorded input digest still
-    describes them, and they are not read."""
-    if entries is None or [e["path"] for e in entries] != [str(p) for p in paths]:
+    :func:`.records.recorded_inputs`; paths relative to the config's folder ``base``, or absolute)
+    describe, each with the recorded size and stat (:data:`STAT_KEYS`), taken long enough after its last
+    change (:data:`_RACY_NS`)? Then the recorded input digest still describes them, and they are not
+    read."""
+    if entries is None or len(entries) != len(paths):
+        return False
+    if not all(_is_recorded_path(e["path"], p, base) for p, e in zip(paths, entries, strict=True)):
         return False
     for p, e in zip(paths, entries, strict=True):
         if not all(k in e for k in INPUT_STAT_KEYS):  # (changed while it was hashed: no stat recorded)
@@ -423,7 +447,7 @@ INPUTS_LISTED = "inputs_listed"
 LISTING = 1
 
 
-def _listed_inputs(path: Path, record: Any) -> list[Path] | None:
+def _listed_inputs(path: Path, record: Any, base: Path | None = None) -> list[Path] | None:
     """The input files of the glob-matched ``path`` as its manifest ``record`` lists them, without reading
     ``path`` (a glTF's buffer files, a USD file's layers), when the record is of a build (every buffer or
     layer found: the loader refuses a stage with a layer it cannot open) of ``path``, marked as this
@@ -437,10 +461,10 @@ def _listed_inputs(path: Path, record: Any) -> list[Path] | None:
     if record.get("status") != "built" or "input_digest" not in record or record_problem(record) is not None:
         return None
     entries = recorded_inputs(record)
-    if not entries or entries[0]["path"] != str(path):
+    if not entries or not _is_recorded_path(entries[0]["path"], path, base):
         return None
-    paths = [Path(e["path"]) for e in entries]
-    return paths if _inputs_unchanged(paths, entries) else None
+    paths = [path, *(Path(e["path"]) if base is None else base / e["path"] for e in entries[1:])]
+    return paths if _inputs_unchanged(paths, entries, base) else None
 
 
 def _listing_mark(record: dict) -> bool:
@@ -486,7 +510,7 @@ def plan(
     reused: set[str] = set()  # the assets whose inputs are their record's (as recorded: not read)
 
     def listed(aid: str, path: Path) -> list[Path] | None:
-        found = None if verify else _listed_inputs(path, known.get(aid))
+        found = None if verify else _listed_inputs(path, known.get(aid), cfg.base)
         if found is not None:
             reused.add(aid)
         return found
@@ -517,19 +541,21 @@ def plan(
         reuse = (
             not verify and a.id in reused and previous is not None
         )  # (listed from the record: as recorded)
-        trusted = not reuse and _inputs_unchanged(inputs[a.id], recorded)
+        trusted = not reuse and _inputs_unchanged(inputs[a.id], recorded, cfg.base)
         if reuse or (trusted and not verify):
             digest, input_stats = prev["input_digest"], recorded
         else:
             key = tuple(inputs[a.id])
             if key not in hashed:
                 try:
-                    hashed[key] = hash_inputs(inputs[a.id])
+                    found_digest, entries = hash_inputs(inputs[a.id])
+                    hashed[key] = (found_digest, _recorded_paths(cfg.base, entries))
                 except OSError as exc:
                     # gone since it was listed, or unreadable: the asset is built and fails there with
                     # its loader's error naming the file, while the others run. The digest matches no
                     # record and no stat is recorded, so the next run hashes it again
-                    hashed[key] = (f"unreadable: {exc}", [{"path": str(p)} for p in inputs[a.id]])
+                    unread = [{"path": recorded_path(cfg.base, p)} for p in inputs[a.id]]
+                    hashed[key] = (f"unreadable: {exc}", unread)
             digest, input_stats = hashed[key]
             if trusted and digest == prev["input_digest"] and _same_stat(input_stats, recorded):
                 # (verify: the bytes a run would have trusted unread are the recorded ones, their stat as
@@ -1495,7 +1521,7 @@ def _run(
         ).items()
         if kind in _RUN_OUTPUT_DEFAULTS and _asks_for(cfg, kind)
     }
-    manifest = {"tool_version": __version__, "config": str(cfg.path), "assets": records}
+    manifest = {"tool_version": __version__, "config": _config_ref(cfg, out_dir), "assets": records}
     if orphans and not prune:  # so a later run with prune still finds them
         orphaned = {ORPHANED: [o for _, o in orphans]}
     else:
@@ -1622,14 +1648,30 @@ def _run(
     )  # fmt: skip
 
 
+def _config_ref(cfg: Config, out_dir: Path) -> str:
+    """The manifest's ``config``: the config file's path relative to output.dir (``../pipeline.yaml``), so a
+    project folder moved or renamed whole names it as before; absolute where no relative path leads there
+    (another drive)."""
+    try:
+        return Path(os.path.relpath(cfg.path, out_dir.resolve())).as_posix()
+    except ValueError:
+        return str(cfg.path)
+
+
 def _shared_with(cfg: Config, manifest: dict, items: list[PlanItem]) -> tuple[str, int] | None:
     """(the other config, how many of its assets this one has not) when ``manifest`` was written by a run
     of another config file, still there (not this one moved or renamed) and writing in this output.dir (not
     the original of a copied project), whose assets this one lacks: two configs sharing an output.dir take
     each other's assets as removed, and each run rebuilds the other's."""
     other = manifest.get("config")
-    if other == str(cfg.path) or not isinstance(other, str) or "\0" in other:
+    if (
+        not isinstance(other, str)
+        or "\0" in other
+        or other in (str(cfg.path), _config_ref(cfg, output_dir(cfg)))
+    ):
         return None  # (this config's: a rerun reads no more)
+    # (relative to output.dir, or absolute: written so by an older version)
+    other = os.path.normpath(os.path.join(output_dir(cfg).resolve(), other))
     if not isinstance(manifest.get("assets"), dict):
         return None
     current = {it.asset.id for it in items}
