@@ -2471,6 +2471,30 @@ def test_a_moved_project_is_a_rerun_that_changes_nothing(tmp_path, monkeypatch):
     assert _files_as_written(moved / "out") == written
 
 
+def test_a_record_s_curve_is_written_a_point_a_line(tmp_path, monkeypatch):
+    # summary.curve, written a key a line (indent=1), was two thirds of each record: each point is one line
+    # now, the same JSON value (every reader of the manifest reads what it read), the record a third smaller
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (inputs trusted as soon as they were hashed)
+    cfg = _project(tmp_path, meshes=("cow.obj",), config=MINIMAL)
+    assert run(cfg, echo=lambda m: None).built == 1
+    text = (tmp_path / "out" / "manifest.json").read_text()
+    manifest = json.loads(text)
+    rec = manifest["assets"]["meshes/cow.obj"]
+    curve = rec["summary"]["curve"]
+    assert len(curve) > 10
+    assert all(set(c) == {"lod", "triangles", "vertices", "error", "acmr"} for c in curve)
+    lines = [line.strip().removesuffix(",") for line in text.splitlines()]
+    assert all(json.dumps(c, separators=(",", ":")) in lines for c in curve)
+    row = text[text.index('  "meshes/cow.obj": ') : text.index("\n  }") + 4]
+    assert json.loads("{" + row + "}") == {"meshes/cow.obj": rec}
+    assert len(row) < 0.8 * len(json.dumps(rec, indent=1).replace("\n", "\n  "))
+    # read back as written: the rerun is up to date and writes nothing
+    written = _files_as_written(tmp_path / "out")
+    assert run(cfg, echo=lambda m: None).skipped == 1 and _files_as_written(tmp_path / "out") == written
+
+
 def test_inputs_of_an_older_manifest_are_hashed_once_then_trusted(tmp_path, monkeypatch):
     # a manifest written before inputs had their stat recorded: each input hashed as before (to the same
     # digest: nothing rebuilt), its stat then recorded, and the next rerun reads none

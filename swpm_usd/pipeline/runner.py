@@ -271,6 +271,28 @@ def _read_manifest(
     return data
 
 
+#: what a record's ``summary.curve`` is serialised as before its rows replace it (:func:`_record_text`): a
+#: JSON string whose quotes no string value's text can hold unescaped
+_CURVE_MARK = json.dumps("\0summary.curve\0")
+
+
+def _record_text(rec: Any, depth: int) -> str:
+    """``json.dumps(rec, indent=1)`` indented to ``depth``, but for its ``summary.curve``: a line a point
+    (``{"lod":0,"triangles":5804,...}``), the same JSON value, which every reader reads as before. Written a
+    key a line, the curve (21 points of 5 figures) was two thirds of a record: 2,000 records of suzanne
+    (vanilla, usd) took 9.39 MB, 4,695 bytes each, and 7.46 MB now, 3,729 bytes each (0.99 s to serialise
+    then, 0.83 s now)."""
+    summary = rec.get("summary") if isinstance(rec, dict) else None
+    curve = summary.get("curve") if isinstance(summary, dict) else None
+    if not isinstance(curve, list) or not curve:
+        return json.dumps(rec, indent=1, default=float).replace("\n", "\n" + " " * depth)
+    marked = {**rec, "summary": {**summary, "curve": json.loads(_CURVE_MARK)}}
+    text = json.dumps(marked, indent=1, default=float).replace("\n", "\n" + " " * depth)
+    pad = "\n" + " " * (depth + 3)
+    rows = ",".join(pad + json.dumps(point, default=float, separators=(",", ":")) for point in curve)
+    return text.replace(f'"curve": {_CURVE_MARK}', f'"curve": [{rows}\n{" " * (depth + 2)}]', 1)
+
+
 class _ManifestText:
     """``json.dumps(manifest, indent=1)`` with every asset record serialised once: a record does not
     change once recorded, so a rewrite joins cached texts (a 6 MB manifest: 0.6 s serialised in full).
@@ -317,7 +339,7 @@ class _ManifestText:
                             shown = {(INPUTS_REF if k == "inputs" else k): v for k, v in rec.items()}
                             shown[INPUTS_REF] = ref
                         # (the row with its key: joined as it is, not copied into a new string each write)
-                        hit = (rec, ref, f"  {json.dumps(aid)}: {nested(shown, 2)}")
+                        hit = (rec, ref, f"  {json.dumps(aid)}: {_record_text(shown, 2)}")
                         self._records[aid] = hit
                     rows.append(hit[2])
                 fields.append(' "assets": {\n' + ",\n".join(rows) + "\n }")
