@@ -560,9 +560,8 @@ def plan(
         prev = previous or {}
         # (a failed asset's record need not have its input digest: record_problem checks its type alone)
         recorded = None if "input_digest" not in prev else recorded_inputs(prev)
-        reuse = (
-            not verify and a.id in reused and previous is not None
-        )  # (listed from the record: as recorded)
+        # (inputs listed from the record: as recorded)
+        reuse = not verify and a.id in reused and previous is not None
         trusted = not reuse and _inputs_unchanged(inputs[a.id], recorded, cfg.base)
         if reuse or (trusted and not verify):
             digest, input_stats = prev["input_digest"], recorded
