@@ -2478,6 +2478,21 @@ def test_a_moved_project_is_a_rerun_that_changes_nothing(tmp_path, monkeypatch):
     assert _files_as_written(moved / "out") == written
 
 
+def test_the_report_names_the_config_when_output_dir_is_a_link(tmp_path):
+    # the manifest's config is relative to output.dir's real folder; the report joined it to output.dir as
+    # spelt, so a link to a folder elsewhere (out -> /data/out) named a config that is not there
+    # (/home/home/p/pipeline.yaml for /home/p/pipeline.yaml)
+    project, data = tmp_path / "home" / "p", tmp_path / "data" / "out"
+    project.mkdir(parents=True)
+    data.mkdir(parents=True)
+    cfg = _project(project, meshes=("cow.obj",), config=MINIMAL)
+    (project / "out").symlink_to(data)
+    assert run(cfg, echo=lambda m: None).built == 1
+    assert json.loads((data / "manifest.json").read_text())["config"] == "../../home/p/pipeline.yaml"
+    report = (data / "report.html").read_text()
+    assert f"config\n{cfg}:" in report
+
+
 def test_a_record_s_curve_is_written_a_point_a_line(tmp_path, monkeypatch):
     # summary.curve, written a key a line (indent=1), was two thirds of each record: each point is one line
     # now, the same JSON value (every reader of the manifest reads what it read), the record a third smaller

@@ -96,12 +96,19 @@ def _auto_table(aid: str, rec: dict) -> str:
     return f"<h3>{e(aid)}</h3><p>{e(rec.get('why', ''))}</p><table><tr>{head}</tr>{''.join(body)}</table>"
 
 
+def config_named(out_dir: Path, config: object) -> str | None:
+    """The config file a manifest's ``config`` names, as an absolute path: it is relative to ``out_dir``'s
+    real folder (:func:`.runner._config_ref`: output.dir a link to a folder elsewhere is that folder), or
+    absolute (an older version's). None for a value that is no path."""
+    if not isinstance(config, str) or "\0" in config:
+        return None
+    return os.path.normpath(os.path.join(os.path.realpath(out_dir), config))
+
+
 def _config_shown(path: Path, config: object) -> str:
-    """The manifest's ``config`` as the report shows it: absolute (the manifest holds it relative to
-    output.dir, where the report is)."""
-    if isinstance(config, str) and "\0" not in config and not os.path.isabs(config):
-        return os.path.normpath(os.path.join(os.path.abspath(path.parent), config))
-    return str(config)
+    """The manifest's ``config`` as the report ``path`` shows it: absolute (:func:`config_named`)."""
+    named = config_named(path.parent, config)
+    return str(config) if named is None else named
 
 
 def write_report(path: Path, manifest: dict) -> None:

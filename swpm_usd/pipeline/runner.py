@@ -1691,9 +1691,10 @@ def _shared_with(cfg: Config, manifest: dict, items: list[PlanItem]) -> tuple[st
         or other in (str(cfg.path), _config_ref(cfg, output_dir(cfg)))
     ):
         return None  # (this config's: a rerun reads no more)
-    # (relative to output.dir, or absolute: written so by an older version)
-    other = os.path.normpath(os.path.join(output_dir(cfg).resolve(), other))
-    if not isinstance(manifest.get("assets"), dict):
+    from .report import config_named
+
+    other = config_named(output_dir(cfg), other)  # (relative to output.dir, or an older version's absolute)
+    if other is None or not isinstance(manifest.get("assets"), dict):
         return None
     current = {it.asset.id for it in items}
     dropped = sum(aid not in current for aid in manifest["assets"])
