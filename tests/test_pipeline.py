@@ -2493,6 +2493,43 @@ def test_the_report_names_the_config_when_output_dir_is_a_link(tmp_path):
     assert f"config\n{cfg}:" in report
 
 
+def test_a_no_change_rerun_compares_recorded_input_paths_as_text(tmp_path, monkeypatch):
+    # a record's input paths are relative to the config's folder: each rerun turned every input of every
+    # asset into that path (Path.relative_to, 14 us) to compare it, and a stage's prims each compare all
+    # its layers: 1,000 prims of a 51-layer stage, a no-change rerun (best of 5) 1.06-1.10 s before the
+    # paths were relative, 1.27-1.52 s with them, 1.13-1.17 s compared as text
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg, _ = _two_layer_stage(tmp_path)
+    cfg.write_text(
+        "version: 1\nassets: [{stage: stage/scene.usda}, {glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+        "defaults: {encoding: vanilla}\n"
+    )
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    assert run(cfg, echo=lambda m: None).built == 3
+    made = []
+    real = runner.recorded_path
+    monkeypatch.setattr(runner, "recorded_path", lambda base, path: made.append(path) or real(base, path))
+    reads = _input_reads(monkeypatch, tmp_path / "stage")
+    assert run(cfg, echo=lambda m: None).skipped == 3 and reads == [] and made == []
+    # compared as they were: the same files up to date, another file's record not taken for them
+    inputs = _recorded_inputs(tmp_path / "out")
+    assert [e["path"] for e in inputs["m/a.obj"]] == ["m/a.obj"]
+    entries = inputs["stage/scene.usda:/World/spot/Body"]
+    paths = [tmp_path / e["path"] for e in entries]
+    assert runner._inputs_unchanged(paths, entries, tmp_path)
+    assert not runner._inputs_unchanged(paths[::-1], entries, tmp_path)
+    assert not runner._inputs_unchanged(paths, entries, tmp_path / "stage")
+    # the text compared is the path recorded_path makes (or the absolute one an older record holds)
+    for base in (tmp_path, Path("/"), tmp_path / "m"):
+        for path in (tmp_path / "m" / "a.obj", tmp_path / "m" / ".." / "a.obj", tmp_path / "mx" / "a.obj"):
+            for text in ("m/a.obj", "a.obj", "../a.obj", "m/../a.obj", "m//a.obj", "./m/a.obj", str(path)):
+                expected = text in (str(path), runner.recorded_path(base, path))
+                assert runner._is_recorded_path(text, path, base) == expected, (text, path, base)
+
+
 def test_a_record_s_curve_is_written_a_point_a_line(tmp_path, monkeypatch):
     # summary.curve, written a key a line (indent=1), was two thirds of each record: each point is one line
     # now, the same JSON value (every reader of the manifest reads what it read), the record a third smaller

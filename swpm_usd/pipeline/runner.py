@@ -423,8 +423,18 @@ def _recorded_paths(base: Path, entries: list[dict]) -> list[dict]:
 
 def _is_recorded_path(entry_path: str, path: Path, base: Path | None) -> bool:
     """Is ``entry_path``, a record's, the file ``path``: :func:`recorded_path`'s, or the absolute path a
-    record of an older version holds?"""
-    return entry_path == str(path) or (base is not None and entry_path == recorded_path(base, path))
+    record of an older version holds? Compared as text (``base``, a separator and the relative path are
+    ``path`` as pathlib spells it), not by :func:`recorded_path`: a rerun compares every input of every asset,
+    a stage's layers once for each of its prims (``Path.relative_to``, 14 us a path: a no-change rerun of
+    1,000 prims of a 51-layer stage took 1.27-1.52 s instead of 1.06-1.10; 1.13-1.17 s compared as text)."""
+    text = str(path)
+    if entry_path == text:
+        return True
+    if base is None or os.path.isabs(entry_path):
+        return False
+    folder = str(base)
+    sep = "" if folder.endswith(os.sep) else os.sep  # (a root: "/")
+    return text == f"{folder}{sep}{entry_path.replace('/', os.sep)}"
 
 
 def _inputs_unchanged(paths: list[Path], entries: list[dict] | None, base: Path | None = None) -> bool:
