@@ -3026,6 +3026,49 @@ defaults: {encoding: vanilla}
     assert res.failures["meshes/cow.obj"]["kept_previous"]
 
 
+def test_a_build_recorded_with_its_count_in_the_digest_is_not_built_again(tmp_path, monkeypatch):
+    # the instance count left the digest of an encoding other than auto: a record of such an asset of
+    # another count than 1, written before, held a digest with the count in it, and each was built again
+    # once (a crowd of vanilla assets of 100 instances: every one), its outputs the same
+    import hashlib
+
+    from swpm_usd import __version__
+    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline.assets import canonical_treatment
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    config = MINIMAL.replace('glob: "meshes/*.obj"', 'glob: "meshes/*.obj"\n    instances: 40')
+    cfg = _project(tmp_path, meshes=("cow.obj",), config=config)
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    path = out / "manifest.json"
+    manifest = json.loads(path.read_text())
+    rec = manifest["assets"]["meshes/cow.obj"]
+    assert rec["instances"] == 40 and rec["encoding"] == "skip-strip"
+    digest = rec["digest"]
+
+    def before(count: int) -> str:  # (the digest as it was: the count in it, whatever the encoding)
+        treatment = canonical_treatment({"encoding": "skip-strip", "params": {}})  # (the rule "small"'s)
+        payload = [rec["input_digest"], None, count, treatment, {}, __version__]
+        return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
+
+    assert before(1) == digest  # (the default count: the digest it had)
+    rec["digest"] = before(40)
+    path.write_text(json.dumps(manifest, indent=1))
+    swpm = _files_as_written(out)["cow.swpm"]
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.skipped) == (0, 1) and res.records["meshes/cow.obj"]["digest"] == digest
+    assert json.loads(path.read_text())["assets"]["meshes/cow.obj"]["digest"] == digest
+    assert _files_as_written(out)["cow.swpm"] == swpm  # (its record given the digest of today: rewritten)
+    now = _files_as_written(out)
+    assert run(cfg, echo=lambda m: None).skipped == 1 and _files_as_written(out) == now
+    # a digest of another count than the record's is not that build's: built again
+    manifest = json.loads(path.read_text())
+    manifest["assets"]["meshes/cow.obj"]["digest"] = before(39)
+    path.write_text(json.dumps(manifest, indent=1))
+    assert run(cfg, echo=lambda m: None).built == 1
+
+
 def test_instances_on_a_stage_source_is_a_config_error(tmp_path):
     # `instances` beside `stage` was ignored silently (its assets had the instances the stage composes)
     (tmp_path / "m").mkdir()

@@ -390,6 +390,17 @@ def _treatment_digest(cfg: Config, item: PlanItem) -> str:
     return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, checks)
 
 
+def _digest_with_count(item: PlanItem, record: dict) -> str | None:
+    """The digest ``record``, of an asset other than ``auto``, was built under by a version that put every
+    asset's instance count in its digest (its count then: the record's ``instances``), so a build current
+    but for that is not built again; None for an ``auto`` asset or a record of the default count (the
+    digest is the same)."""
+    count = record.get("instances")
+    if item.treatment.get("encoding") == "auto" or type(count) is not int or count == 1:
+        return None
+    return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, instances=count)
+
+
 def _count_triangles(asset: Asset) -> int:
     from ..io import load_mesh
 
@@ -627,7 +638,7 @@ def plan(
         outs = prev.get("outputs", {})
         item.up_to_date = (
             prev.get("status") == "built"
-            and prev.get("digest") == item.digest
+            and (prev.get("digest") == item.digest or prev.get("digest") == _digest_with_count(item, prev))
             # (auto's checks are in its digest; another encoding passes limits as loose as it passed before)
             and (
                 item.treatment.get("encoding") == "auto"
@@ -1538,6 +1549,8 @@ def _run(
             # another rule (renamed, reordered, added) now gives the asset the same treatment: the build is
             # current, and its record names the rule that chose it today (the report shows it)
             kept = records[it.asset.id] = {**kept, "rule": rule, "why": why}
+        if kept.get("digest") != it.digest:  # (of a version whose digest held the count: as it is now)
+            kept = records[it.asset.id] = {**kept, "digest": it.digest}
         if "instances" in kept and kept["instances"] != it.asset.instances:
             # (another instance count, the same build: an encoding other than auto; the report shows it)
             kept = records[it.asset.id] = {**kept, "instances": it.asset.instances}
