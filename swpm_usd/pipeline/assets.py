@@ -554,13 +554,24 @@ def treatment_digest(
     treatment: dict[str, Any],
     version: str,
     checks: dict[str, Any] | None = None,
+    *,
+    instances: int | None = None,
 ) -> str:
-    """What decides whether an asset's outputs are current: its inputs, prim, instances, encoding and
-    parameters (:func:`canonical_treatment`: a default written out changes nothing), for ``encoding: auto``
-    the budgets and streaming policy it chose by (:func:`checks_of`; other encodings keep their checks in
-    their record, and :func:`checks_no_stricter` decides), and the tool's version."""
+    """What decides whether an asset's outputs are current: its inputs, prim, encoding and parameters
+    (:func:`canonical_treatment`: a default written out changes nothing), for ``encoding: auto`` its
+    instances and the budgets and streaming policy it chose by (:func:`checks_of`; other encodings keep
+    their checks in their record, and :func:`checks_no_stricter` decides), and the tool's version.
+
+    Another encoding builds the same outputs for any instance count (a rule on ``instances`` that picks
+    another treatment changes the digest by that treatment): its digest takes the count as 1, the default,
+    so an asset of the default count keeps the digest it had when every count was in it, and a source's
+    ``instances`` changed rebuilds only its ``auto`` assets (the runner checks ``budgets.total_bytes``
+    against the recorded memory and the new count: :func:`.runner.plan`). ``instances`` given is the count
+    the digest takes instead (a record's, built when every count was in the digest: :func:`.runner.plan`)."""
+    if instances is None:
+        instances = asset.instances if treatment.get("encoding") == "auto" else 1
     payload = json.dumps(
-        [input_digest, asset.prim, asset.instances, canonical_treatment(treatment), checks or {}, version],
+        [input_digest, asset.prim, instances, canonical_treatment(treatment), checks or {}, version],
         sort_keys=True,
     )
     return hashlib.sha256(payload.encode()).hexdigest()

@@ -13,6 +13,7 @@ from __future__ import annotations
 import html
 import json
 import math
+import os
 from pathlib import Path
 
 from .worker import atomic_write_bytes
@@ -95,6 +96,21 @@ def _auto_table(aid: str, rec: dict) -> str:
     return f"<h3>{e(aid)}</h3><p>{e(rec.get('why', ''))}</p><table><tr>{head}</tr>{''.join(body)}</table>"
 
 
+def config_named(out_dir: Path, config: object) -> str | None:
+    """The config file a manifest's ``config`` names, as an absolute path: it is relative to ``out_dir``'s
+    real folder (:func:`.runner._config_ref`: output.dir a link to a folder elsewhere is that folder), or
+    absolute (an older version's). None for a value that is no path."""
+    if not isinstance(config, str) or "\0" in config:
+        return None
+    return os.path.normpath(os.path.join(os.path.realpath(out_dir), config))
+
+
+def _config_shown(path: Path, config: object) -> str:
+    """The manifest's ``config`` as the report ``path`` shows it: absolute (:func:`config_named`)."""
+    named = config_named(path.parent, config)
+    return str(config) if named is None else named
+
+
 def write_report(path: Path, manifest: dict) -> None:
     assets = manifest.get("assets", {})
     rows, failures, plots, autos = [], [], [], []
@@ -161,13 +177,14 @@ def write_report(path: Path, manifest: dict) -> None:
             f"</noscript><div id=curves></div><script type=application/json id=curve-data>{table}</script>"
             + _CURVE_SCRIPT
         )
+    config = _config_shown(path, manifest.get("config"))
     doc = f"""<!doctype html><html><head><meta charset="utf-8"><title>swpm-usd run report</title>
 <style>body{{font-family:sans-serif;margin:2em}} table{{border-collapse:collapse}}
 td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}} td:first-child{{text-align:left}}
 .card{{display:inline-block;margin:8px;padding:8px;border:1px solid #ddd;vertical-align:top}}
 .card div{{display:inline-block;margin:4px}}</style></head><body>
 <h1>swpm-usd run report</h1><p>tool {html.escape(str(manifest.get("tool_version")))}, config
-{html.escape(str(manifest.get("config")))}: {len(rows)} built, {len(failures)} failed{kept_note}.</p>
+{html.escape(config)}: {len(rows)} built, {len(failures)} failed{kept_note}.</p>
 <h2>Failures</h2><table><tr><th>asset</th><th>cause</th></tr>
 {"".join(failures) or "<tr><td>none</td></tr>"}</table>
 <h2>Memory by encoding</h2><table><tr><th>encoding</th><th>assets</th><th>global bytes</th>

@@ -48,6 +48,7 @@ from ..errors import OutputLockedError
 from .assets import (
     LISTED_SUFFIXES,
     Asset,
+    _folded,
     checks_no_stricter,
     checks_of,
     discover,
@@ -270,6 +271,28 @@ def _read_manifest(
     return data
 
 
+#: what a record's ``summary.curve`` is serialised as before its rows replace it (:func:`_record_text`): a
+#: JSON string whose quotes no string value's text can hold unescaped
+_CURVE_MARK = json.dumps("\0summary.curve\0")
+
+
+def _record_text(rec: Any, depth: int) -> str:
+    """``json.dumps(rec, indent=1)`` indented to ``depth``, but for its ``summary.curve``: a line a point
+    (``{"lod":0,"triangles":5804,...}``), the same JSON value, which every reader reads as before. Written a
+    key a line, the curve (21 points of 5 figures) was two thirds of a record: 2,000 records of suzanne
+    (vanilla, usd) took 9.39 MB, 4,695 bytes each, and 7.46 MB now, 3,729 bytes each (0.99 s to serialise
+    then, 0.83 s now)."""
+    summary = rec.get("summary") if isinstance(rec, dict) else None
+    curve = summary.get("curve") if isinstance(summary, dict) else None
+    if not isinstance(curve, list) or not curve:
+        return json.dumps(rec, indent=1, default=float).replace("\n", "\n" + " " * depth)
+    marked = {**rec, "summary": {**summary, "curve": json.loads(_CURVE_MARK)}}
+    text = json.dumps(marked, indent=1, default=float).replace("\n", "\n" + " " * depth)
+    pad = "\n" + " " * (depth + 3)
+    rows = ",".join(pad + json.dumps(point, default=float, separators=(",", ":")) for point in curve)
+    return text.replace(f'"curve": {_CURVE_MARK}', f'"curve": [{rows}\n{" " * (depth + 2)}]', 1)
+
+
 class _ManifestText:
     """``json.dumps(manifest, indent=1)`` with every asset record serialised once: a record does not
     change once recorded, so a rewrite joins cached texts (a 6 MB manifest: 0.6 s serialised in full).
@@ -316,7 +339,7 @@ class _ManifestText:
                             shown = {(INPUTS_REF if k == "inputs" else k): v for k, v in rec.items()}
                             shown[INPUTS_REF] = ref
                         # (the row with its key: joined as it is, not copied into a new string each write)
-                        hit = (rec, ref, f"  {json.dumps(aid)}: {nested(shown, 2)}")
+                        hit = (rec, ref, f"  {json.dumps(aid)}: {_record_text(shown, 2)}")
                         self._records[aid] = hit
                     rows.append(hit[2])
                 fields.append(' "assets": {\n' + ",\n".join(rows) + "\n }")
@@ -344,9 +367,38 @@ def _write_manifest(path: Path, manifest: dict, text: _ManifestText | None = Non
     atomic_write_bytes(path, (body + "\n").encode())
 
 
+def _total_fits(cfg: Config, record: dict, item: PlanItem) -> bool:
+    """Does the build ``record`` holds still meet ``budgets.total_bytes`` with ``item``'s instance count
+    (global bytes + instances x instance bytes, as the worker checks it)? The count is not in the digest of
+    an encoding other than ``auto`` (:func:`.assets.treatment_digest`), so more instances than it passed
+    with check it again, from the memory the record holds (a record without it: built again)."""
+    limit = (cfg.data.get("budgets") or {}).get("total_bytes")
+    if (
+        limit is None
+        or item.treatment.get("encoding") == "auto"
+        or record.get("instances") == item.asset.instances
+    ):
+        return True
+    summary = record.get("summary") or {}
+    if not all(isinstance(summary.get(k), (int, float)) for k in ("global_bytes", "instance_bytes")):
+        return False
+    return summary["global_bytes"] + item.asset.instances * summary["instance_bytes"] <= limit
+
+
 def _treatment_digest(cfg: Config, item: PlanItem) -> str:
     checks = checks_of(cfg.data) if item.treatment.get("encoding") == "auto" else None
     return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, checks)
+
+
+def _digest_with_count(item: PlanItem, record: dict) -> str | None:
+    """The digest ``record``, of an asset other than ``auto``, was built under by a version that put every
+    asset's instance count in its digest (its count then: the record's ``instances``), so a build current
+    but for that is not built again; None for an ``auto`` asset or a record of the default count (the
+    digest is the same)."""
+    count = record.get("instances")
+    if item.treatment.get("encoding") == "auto" or type(count) is not int or count == 1:
+        return None
+    return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, instances=count)
 
 
 def _count_triangles(asset: Asset) -> int:
@@ -365,12 +417,46 @@ def _count_triangles(asset: Asset) -> int:
 _RACY_NS = 2_000_000_000
 
 
-def _inputs_unchanged(paths: list[Path], entries: list[dict] | None) -> bool:
+def recorded_path(base: Path, path: Path) -> str:
+    """An input file's ``path`` as a record holds it: relative to the config's folder ``base`` when it is
+    under it (so a project folder moved or renamed, its config, inputs and output.dir with it, is a rerun
+    that changes nothing), else absolute (a stage given by an absolute path elsewhere)."""
+    try:
+        return path.relative_to(base).as_posix()
+    except ValueError:
+        return str(path)
+
+
+def _recorded_paths(base: Path, entries: list[dict]) -> list[dict]:
+    """Input entries (:func:`.assets.hash_inputs`, absolute paths) with their paths as a record holds them."""
+    return [{**e, "path": recorded_path(base, Path(e["path"]))} for e in entries]
+
+
+def _is_recorded_path(entry_path: str, path: Path, base: Path | None) -> bool:
+    """Is ``entry_path``, a record's, the file ``path``: :func:`recorded_path`'s, or the absolute path a
+    record of an older version holds? Compared as text (``base``, a separator and the relative path are
+    ``path`` as pathlib spells it), not by :func:`recorded_path`: a rerun compares every input of every asset,
+    a stage's layers once for each of its prims (``Path.relative_to``, 14 us a path: a no-change rerun of
+    1,000 prims of a 51-layer stage took 1.27-1.52 s instead of 1.06-1.10; 1.13-1.17 s compared as text)."""
+    text = str(path)
+    if entry_path == text:
+        return True
+    if base is None or os.path.isabs(entry_path):
+        return False
+    folder = str(base)
+    sep = "" if folder.endswith(os.sep) else os.sep  # (a root: "/")
+    return text == f"{folder}{sep}{entry_path.replace('/', os.sep)}"
+
+
+def _inputs_unchanged(paths: list[Path], entries: list[dict] | None, base: Path | None = None) -> bool:
     """Are ``paths``, an asset's input files, those its record's ``inputs`` (``entries``, validated by
-    :func:`.records.recorded_inputs`) describe, each with the recorded size and stat (:data:`STAT_KEYS`),
-    taken long enough after its last change (:data:`_RACY_NS`)? Then the recorded input digest still
-    describes them, and they are not read."""
-    if entries is None or [e["path"] for e in entries] != [str(p) for p in paths]:
+    :func:`.records.recorded_inputs`; paths relative to the config's folder ``base``, or absolute)
+    describe, each with the recorded size and stat (:data:`STAT_KEYS`), taken long enough after its last
+    change (:data:`_RACY_NS`)? Then the recorded input digest still describes them, and they are not
+    read."""
+    if entries is None or len(entries) != len(paths):
+        return False
+    if not all(_is_recorded_path(e["path"], p, base) for p, e in zip(paths, entries, strict=True)):
         return False
     for p, e in zip(paths, entries, strict=True):
         if not all(k in e for k in INPUT_STAT_KEYS):  # (changed while it was hashed: no stat recorded)
@@ -386,6 +472,15 @@ def _inputs_unchanged(paths: list[Path], entries: list[dict] | None) -> bool:
     return True
 
 
+def _same_stat(entries: list[dict], recorded: list[dict] | None) -> bool:
+    """Are ``entries``, inputs just hashed (:func:`.assets.hash_inputs`), the ``recorded`` ones: the same
+    paths, sizes and stat fields (the time each was hashed aside)?"""
+    keys = ("path", "size", *STAT_KEYS)
+    return recorded is not None and [[e.get(k) for k in keys] for e in entries] == [
+        [e.get(k) for k in keys] for e in recorded
+    ]
+
+
 #: a record's mark that its ``inputs`` are the list of its file's inputs as this listing reads them
 #: (:data:`LISTING`), which a rerun takes while they are all unchanged (:func:`_listed_inputs`). A record
 #: without it (of an older version: a .glb listed alone, before its buffer files were inputs; a USD file
@@ -395,7 +490,7 @@ INPUTS_LISTED = "inputs_listed"
 LISTING = 1
 
 
-def _listed_inputs(path: Path, record: Any) -> list[Path] | None:
+def _listed_inputs(path: Path, record: Any, base: Path | None = None) -> list[Path] | None:
     """The input files of the glob-matched ``path`` as its manifest ``record`` lists them, without reading
     ``path`` (a glTF's buffer files, a USD file's layers), when the record is of a build (every buffer or
     layer found: the loader refuses a stage with a layer it cannot open) of ``path``, marked as this
@@ -409,10 +504,10 @@ def _listed_inputs(path: Path, record: Any) -> list[Path] | None:
     if record.get("status") != "built" or "input_digest" not in record or record_problem(record) is not None:
         return None
     entries = recorded_inputs(record)
-    if not entries or entries[0]["path"] != str(path):
+    if not entries or not _is_recorded_path(entries[0]["path"], path, base):
         return None
-    paths = [Path(e["path"]) for e in entries]
-    return paths if _inputs_unchanged(paths, entries) else None
+    paths = [path, *(Path(e["path"]) if base is None else base / e["path"] for e in entries[1:])]
+    return paths if _inputs_unchanged(paths, entries, base) else None
 
 
 def _listing_mark(record: dict) -> bool:
@@ -458,7 +553,7 @@ def plan(
     reused: set[str] = set()  # the assets whose inputs are their record's (as recorded: not read)
 
     def listed(aid: str, path: Path) -> list[Path] | None:
-        found = None if verify else _listed_inputs(path, known.get(aid))
+        found = None if verify else _listed_inputs(path, known.get(aid), cfg.base)
         if found is not None:
             reused.add(aid)
         return found
@@ -485,20 +580,29 @@ def plan(
             previous = None
         prev = previous or {}
         # (a failed asset's record need not have its input digest: record_problem checks its type alone)
-        recorded = None if verify or "input_digest" not in prev else recorded_inputs(prev)
-        if (a.id in reused and previous is not None) or _inputs_unchanged(inputs[a.id], recorded):
+        recorded = None if "input_digest" not in prev else recorded_inputs(prev)
+        # (inputs listed from the record: as recorded)
+        reuse = not verify and a.id in reused and previous is not None
+        trusted = not reuse and _inputs_unchanged(inputs[a.id], recorded, cfg.base)
+        if reuse or (trusted and not verify):
             digest, input_stats = prev["input_digest"], recorded
         else:
             key = tuple(inputs[a.id])
             if key not in hashed:
                 try:
-                    hashed[key] = hash_inputs(inputs[a.id])
+                    found_digest, entries = hash_inputs(inputs[a.id])
+                    hashed[key] = (found_digest, _recorded_paths(cfg.base, entries))
                 except OSError as exc:
                     # gone since it was listed, or unreadable: the asset is built and fails there with
                     # its loader's error naming the file, while the others run. The digest matches no
                     # record and no stat is recorded, so the next run hashes it again
-                    hashed[key] = (f"unreadable: {exc}", [{"path": str(p)} for p in inputs[a.id]])
+                    unread = [{"path": recorded_path(cfg.base, p)} for p in inputs[a.id]]
+                    hashed[key] = (f"unreadable: {exc}", unread)
             digest, input_stats = hashed[key]
+            if trusted and digest == prev["input_digest"] and _same_stat(input_stats, recorded):
+                # (verify: the bytes a run would have trusted unread are the recorded ones, their stat as
+                # recorded: the record stands as it is, not rewritten for a new hashed_ns)
+                input_stats = recorded
         tri = prev.get("triangles_in") if prev.get("input_digest") == digest else None
         if tri is None and needs_rule_on_triangles:
             if not count_triangles:
@@ -534,12 +638,13 @@ def plan(
         outs = prev.get("outputs", {})
         item.up_to_date = (
             prev.get("status") == "built"
-            and prev.get("digest") == item.digest
+            and (prev.get("digest") == item.digest or prev.get("digest") == _digest_with_count(item, prev))
             # (auto's checks are in its digest; another encoding passes limits as loose as it passed before)
             and (
                 item.treatment.get("encoding") == "auto"
                 or checks_no_stricter(checks_of(cfg.data), prev.get("checks"))
             )
+            and _total_fits(cfg, prev, item)
             and bool(outs) == _wants_outputs(cfg)
             # (an output the config asks for that the build did not write: `usd: true` added since)
             and _wanted_outputs(cfg) <= set(outs)
@@ -780,27 +885,38 @@ def _overwritten_inputs(
 ) -> list[str]:
     """The run never writes over its own inputs: a file it would write (:func:`planned_outputs`) or a stale
     temporary file it would delete must not be a matched mesh, a stage, a layer a stage uses, or the config
-    itself. Located at ``output.dir``."""
+    itself. Located at ``output.dir``.
+
+    A file to write that exists is compared as a file (its device and inode: ``os.path.samefile``); one
+    that does not yet is compared by name with the inputs in output.dir as a case-insensitive filesystem
+    compares names (:func:`.assets._folded`: ``out/Scene.usda``, a stage, is the ``out/scene.usda`` the
+    run writes on macOS or Windows), as output names that differ only so collide (:func:`.assets.discover`).
+    A folder is output.dir when it is that folder (the same device and inode), however its path is spelt."""
     sources: dict[tuple, tuple[Path, str]] = {_file_key(cfg.path): (cfg.path, "the configuration file")}
     for a in assets:
         for p in inputs.get(a.id, []):
             what = "an input of" if p != a.path else "the input of"
             sources.setdefault(_file_key(p), (p, f"{what} {a.id}"))
+    out_key = _file_key(out_dir)
+    folders: dict[Path, bool] = {}  # (a folder looked up once: 10,000 inputs in one, a second)
+    in_out: list[tuple[Path, str]] = []  # the inputs in output.dir
+    for path, what in sources.values():
+        if path.parent not in folders:
+            folders[path.parent] = out_key[0] == "inode" and _file_key(path.parent) == out_key
+        if folders[path.parent]:
+            in_out.append((path, what))
+    by_name = {_folded(path.name): (path, what) for path, what in in_out}
     problems = []
     for target, what in planned_outputs(cfg, out_dir, assets).items():
-        hit = sources.get(_file_key(target))
+        key = _file_key(target)
+        hit = sources.get(key) if key[0] == "inode" else by_name.get(_folded(target.name)) or sources.get(key)
         if hit is not None:
             problems.append(
                 f"{cfg.where(('output', 'dir'))}: {what} would overwrite {_rel(cfg, hit[0])} "
                 f"({hit[1]}); choose an output.dir apart from the inputs (and globs not reaching into it)"
             )
-    real_out, folders = out_dir.resolve(), {}  # (a folder resolved once: 10,000 inputs in one, a second)
-    for path, what in sources.values():
-        if path.parent not in folders:
-            folders[path.parent] = path.parent.resolve()
-        if folders[path.parent] == real_out and (
-            any(fnmatch.fnmatch(path.name, pattern) for pattern in _TEMPORARY)
-        ):
+    for path, what in in_out:
+        if any(fnmatch.fnmatch(path.name, pattern) for pattern in _TEMPORARY):
             problems.append(
                 f"{cfg.where(('output', 'dir'))}: {_rel(cfg, path)} ({what}) is named like a temporary file "
                 f"the run deletes from output.dir; rename it or choose another output.dir"
@@ -1433,6 +1549,11 @@ def _run(
             # another rule (renamed, reordered, added) now gives the asset the same treatment: the build is
             # current, and its record names the rule that chose it today (the report shows it)
             kept = records[it.asset.id] = {**kept, "rule": rule, "why": why}
+        if kept.get("digest") != it.digest:  # (of a version whose digest held the count: as it is now)
+            kept = records[it.asset.id] = {**kept, "digest": it.digest}
+        if "instances" in kept and kept["instances"] != it.asset.instances:
+            # (another instance count, the same build: an encoding other than auto; the report shows it)
+            kept = records[it.asset.id] = {**kept, "instances": it.asset.instances}
         if it.input_stats is not kept.get("inputs") or _listing_mark(kept) != it.inputs_listed:
             # hashed (to the recorded digest): their stat anew; or listed by reading the file (the record
             # of an older version): marked as a list the next run may take
@@ -1444,7 +1565,7 @@ def _run(
         ).items()
         if kind in _RUN_OUTPUT_DEFAULTS and _asks_for(cfg, kind)
     }
-    manifest = {"tool_version": __version__, "config": str(cfg.path), "assets": records}
+    manifest = {"tool_version": __version__, "config": _config_ref(cfg, out_dir), "assets": records}
     if orphans and not prune:  # so a later run with prune still finds them
         orphaned = {ORPHANED: [o for _, o in orphans]}
     else:
@@ -1571,15 +1692,32 @@ def _run(
     )  # fmt: skip
 
 
+def _config_ref(cfg: Config, out_dir: Path) -> str:
+    """The manifest's ``config``: the config file's path relative to output.dir (``../pipeline.yaml``), so a
+    project folder moved or renamed whole names it as before; absolute where no relative path leads there
+    (another drive)."""
+    try:
+        return Path(os.path.relpath(cfg.path, out_dir.resolve())).as_posix()
+    except ValueError:
+        return str(cfg.path)
+
+
 def _shared_with(cfg: Config, manifest: dict, items: list[PlanItem]) -> tuple[str, int] | None:
     """(the other config, how many of its assets this one has not) when ``manifest`` was written by a run
     of another config file, still there (not this one moved or renamed) and writing in this output.dir (not
     the original of a copied project), whose assets this one lacks: two configs sharing an output.dir take
     each other's assets as removed, and each run rebuilds the other's."""
     other = manifest.get("config")
-    if other == str(cfg.path) or not isinstance(other, str) or "\0" in other:
+    if (
+        not isinstance(other, str)
+        or "\0" in other
+        or other in (str(cfg.path), _config_ref(cfg, output_dir(cfg)))
+    ):
         return None  # (this config's: a rerun reads no more)
-    if not isinstance(manifest.get("assets"), dict):
+    from .report import config_named
+
+    other = config_named(output_dir(cfg), other)  # (relative to output.dir, or an older version's absolute)
+    if other is None or not isinstance(manifest.get("assets"), dict):
         return None
     current = {it.asset.id for it in items}
     dropped = sum(aid not in current for aid in manifest["assets"])
