@@ -1743,7 +1743,7 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
     from ..fileio import new_layer_replacing
 
     layers = [
-        (k, r["outputs"]["usd"]["path"])
+        (r["outputs"]["usd"]["path"], r["outputs"]["usd"])
         for k, r in sorted(records.items())
         if r.get("status") == "built" and "usd" in r.get("outputs", {})
     ]
@@ -1759,6 +1759,45 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
         root.SetInfo("kind", "assembly")
         layer.defaultPrim = "Scene"
         used: set[str] = set()
-        for _, path in layers:
+        for path, usd_record in layers:
             prim = Sdf.PrimSpec(root, _scene_prim_name(Path(path).stem, used), Sdf.SpecifierDef, "Xform")
             prim.referenceList.Prepend(Sdf.Reference(f"./{path}"))
+            _author_units_correction(prim, usd_record.get("up_axis"), usd_record.get("meters_per_unit"))
+
+
+#: the scene's up axis and metersPerUnit (USD converts neither across a reference: each asset whose layer
+#: says otherwise gets a corrective transform on its prim, :func:`_author_units_correction`)
+SCENE_UP_AXIS, SCENE_METERS_PER_UNIT = "Y", 1.0
+#: the corrective ops' names (suffixed: beside, not instead of, a layout's own xformOp:translate ...)
+UP_AXIS_OP, UNITS_OP = "xformOp:rotateX:swpmUpAxis", "xformOp:scale:swpmMetersPerUnit"
+
+
+def _author_units_correction(prim, up_axis: str | None, meters_per_unit: float | None) -> None:
+    """On the scene's prim ``prim`` (an Sdf.PrimSpec referencing an asset layer of ``up_axis`` and
+    ``meters_per_unit``, its manifest record's; None for a record that has neither, one of an earlier version
+    taken as the scene's), the transform that puts the asset in the scene's units: a uniform scale of
+    ``meters_per_unit / SCENE_METERS_PER_UNIT`` and, for a Z-up asset, -90 degrees about X (its +Z becomes
+    the scene's +Y), in that order (scale applied to the points first). The asset's own root (the Xform
+    :func:`.usd.write` makes) authors no xformOps, so the prim's ``xformOpOrder`` replaces none. What was
+    applied is in the prim's customData too (``swpm:assetUpAxis``, ``swpm:assetMetersPerUnit``, as
+    ``GetCustomDataByKey`` names them)."""
+    from pxr import Gf, Sdf, Vt
+
+    ops = []
+    rotate = up_axis is not None and up_axis != SCENE_UP_AXIS
+    scale = meters_per_unit is not None and float(meters_per_unit) != SCENE_METERS_PER_UNIT
+    if rotate:
+        attr = Sdf.AttributeSpec(prim, UP_AXIS_OP, Sdf.ValueTypeNames.Double)
+        attr.default = -90.0
+        ops.append(UP_AXIS_OP)
+    if scale:
+        s = float(meters_per_unit) / SCENE_METERS_PER_UNIT
+        attr = Sdf.AttributeSpec(prim, UNITS_OP, Sdf.ValueTypeNames.Double3)
+        attr.default = Gf.Vec3d(s, s, s)
+        ops.append(UNITS_OP)
+    if not ops:
+        return
+    order = Sdf.AttributeSpec(prim, "xformOpOrder", Sdf.ValueTypeNames.TokenArray, Sdf.VariabilityUniform)
+    order.default = Vt.TokenArray(ops)
+    applied = {"assetUpAxis": up_axis, "assetMetersPerUnit": meters_per_unit}
+    prim.customData = {"swpm": {k: v for k, v in applied.items() if v is not None}}

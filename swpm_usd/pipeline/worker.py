@@ -295,17 +295,30 @@ def check_streaming(pm, policy: dict) -> list[str]:
 USD_TEMPORARY_SUFFIX = ".tmp.usdc"
 
 
-def _stage_usd(pm, target: Path, source: str | None = None) -> tuple[Path, Path]:
+def layer_units(source: str | None) -> dict[str, Any]:
+    """The ``up_axis`` and ``meters_per_unit`` of the asset layer of a mesh loaded from ``source``: a USD
+    file's (:func:`.usd.writer.stage_metadata`), :func:`.usd.write`'s defaults (Y, 1) for what a USD file
+    does not say and for any other file. Recorded with the layer (its manifest record), so the scene
+    corrects the asset to its own units without opening the layer (:func:`.runner._write_scene`)."""
+    from ..usd.writer import stage_metadata
+
+    meta = stage_metadata(source) if source is not None else {}
+    return {"up_axis": meta.get("up_axis", "Y"), "meters_per_unit": float(meta.get("meters_per_unit", 1.0))}
+
+
+def _stage_usd(
+    pm, target: Path, source: str | None = None, units: dict[str, Any] | None = None
+) -> tuple[Path, Path]:
     """Export ``pm``'s USD layer (named after ``target``) to a temporary file beside ``target``, synced to
     disk; (temporary file, target), for :func:`_place_usd`. A mesh of a USD ``source`` keeps its stage's
     upAxis and metersPerUnit (the loader keeps its coordinates): a Z-up stage in centimetres written as Y-up
-    metres stood 100 times too large, on its side."""
+    metres stood 100 times too large, on its side. ``units``: :func:`layer_units` of ``source`` when the
+    caller has them."""
     import os
     import tempfile
 
     from ..fileio import set_mode_for, set_plain_mode
     from ..usd import write as usd_write
-    from ..usd.writer import stage_metadata
 
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=USD_TEMPORARY_SUFFIX, dir=target.parent)
@@ -313,7 +326,7 @@ def _stage_usd(pm, target: Path, source: str | None = None) -> tuple[Path, Path]
     os.close(fd)
     tmp = Path(name)
     try:
-        meta = stage_metadata(source) if source is not None else {}
+        meta = layer_units(source) if units is None else units
         usd_write(pm, tmp, name=target.stem.split(".")[0] or None, **meta)
         # the replaced layer's mode once written (a read-only one's, given first, refused usd-core the write)
         set_mode_for(tmp, target)
@@ -469,9 +482,10 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         # renamed into place all or none (:func:`_place_outputs`): a failure leaves the asset's previous
         # outputs as they were
         staged: dict[str, tuple[Path, Path]] = {}
+        units = layer_units(task["path"]) if task["write_usd"] else None
         try:
             if task["write_usd"]:
-                staged["usd"] = _stage_usd(pm, out_dir / f"{task['stem']}.usdc", task["path"])
+                staged["usd"] = _stage_usd(pm, out_dir / f"{task['stem']}.usdc", task["path"], units)
             if task["write_swpm"]:
                 from .. import format as swpm_format
 
@@ -488,6 +502,8 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         finally:
             for tmp, _ in staged.values():
                 tmp.unlink(missing_ok=True)
+        if units is not None:  # (the scene corrects the asset to its units from them: runner._write_scene)
+            outputs["usd"].update(units)
         rec["outputs"] = outputs
         from .assets import checks_of
 
