@@ -305,8 +305,10 @@ def test_scene_corrects_each_asset_to_its_units_and_up_axis(tmp_path):
         asset = Usd.Stage.Open(str(out / "zcow.usdc"))
         assert not UsdGeom.Xformable(asset.GetDefaultPrim()).GetOrderedXformOps()
     records = json.loads((out / "manifest.json").read_text())["assets"]
-    units = {Path(k).stem: (r["outputs"]["usd"]["up_axis"], r["outputs"]["usd"]["meters_per_unit"])
-             for k, r in records.items()}
+    units = {
+        Path(k).stem: (r["outputs"]["usd"]["up_axis"], r["outputs"]["usd"]["meters_per_unit"])
+        for k, r in records.items()
+    }
     assert units == {"cow": ("Y", 1.0), "zcow": ("Z", 0.01)}
 
 
