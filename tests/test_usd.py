@@ -747,6 +747,52 @@ def test_a_failed_write_overrides_keeps_the_previous_layer(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == names
 
 
+def test_a_failed_reload_after_a_write_is_reported_as_written(pm, tmp_path, monkeypatch):
+    """write_usdlod reported an error of usd-core reloading the layer open in this process, after the file
+    was written and renamed into place, as "could not write" (and write_overrides and write raised the raw
+    Tf.ErrorException): the file is written, and the error says so, typed."""
+    from swpm_usd.usd.overrides import UsdOverrideError
+    from swpm_usd.usd.writer import UsdWriteError
+
+    asset = usd.write(pm, tmp_path / "a.usda", lods=3)
+    src = tmp_path / "src.usda"
+    _grid_stage(src, 4)
+    lod, ovr, plain = tmp_path / "lod.usda", tmp_path / "ovr.usda", tmp_path / "plain.usda"
+    usd.write_usdlod(asset, lod, pixel_error=1.0)
+    usd.write_overrides(src, ovr, "vanilla")
+    usd.write(pm, plain)
+    layers = [Sdf.Layer.FindOrOpen(str(p)) for p in (lod, ovr, plain)]  # open in this process
+
+    def failing_reload(self, force=False):
+        Sdf.Layer.CreateNew("")  # (a real usd-core error: "cannot use empty identifier")
+
+    monkeypatch.setattr(Sdf.Layer, "Reload", failing_reload)
+    calls = [
+        (lod, UsdWriteError, lambda: usd.write_usdlod(asset, lod, pixel_error=4.0)),
+        (ovr, UsdOverrideError, lambda: usd.write_overrides(src, ovr, "skip-strip")),
+        (plain, UsdWriteError, lambda: usd.write(pm, plain, up_axis="Z")),
+    ]
+    for path, error, call in calls:
+        with pytest.raises(error) as exc:
+            call()
+        message = str(exc.value)
+        assert "could not write" not in message, message
+        assert message.startswith(
+            f"{path}: written, but the layer of that name open in this process could not"
+        )
+        assert "cannot use empty identifier" in message
+        reload_error = exc.value if error is UsdWriteError else exc.value.__cause__
+        assert type(reload_error).__name__ == "LayerReloadError"  # (a UsdWriteError, for callers to tell)
+    monkeypatch.undo()
+    # each file is the new one (what the message says)
+    fresh = [Sdf.Layer.OpenAsAnonymous(str(p)) for p in (lod, ovr, plain)]
+    heuristic = fresh[0].GetAttributeAtPath("/ALOD/heuristics/distance.thresholds")
+    old = layers[0].GetAttributeAtPath("/ALOD/heuristics/distance.thresholds")
+    np.testing.assert_allclose(np.asarray(heuristic.default) * 4.0, np.asarray(old.default), rtol=1e-6)
+    assert fresh[1].GetAttributeAtPath("/World/grid.swpm:encoding").default == "skip-strip"
+    assert fresh[2].pseudoRoot.GetInfo("upAxis") == "Z"
+
+
 def test_usd_layers_written_over_a_file_keep_its_mode(pm, tmp_path):
     """write_overrides (and write_usdlod) rename a temporary layer over the output: it took the umask's mode
     (0o644) instead of the replaced file's (0o600: a private layer became readable by everyone). usd.write

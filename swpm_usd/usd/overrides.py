@@ -37,11 +37,11 @@ from pxr import Sdf, Tf, Usd, UsdGeom, Vt
 
 from ..build import build
 from ..encode.base import ProgressiveMesh, with_attributes
-from ..errors import SwpmError, first_few
+from ..errors import SwpmError, first_few, tf_message
 from ..fileio import new_layer_replacing
-from ..io.usd_loader import _all_holes, _Invalid, _tf_message, _Topology
+from ..io.usd_loader import _all_holes, _Invalid, _Topology
 from ..mesh import Mesh
-from .writer import author_swpm
+from .writer import LayerReloadError, author_swpm
 
 _PROV = "_swpm_source_vertex"
 #: the time the source is read at (a mesh's earliest time sample, else its default value: as the loader reads)
@@ -424,7 +424,7 @@ def write_overrides(
     try:
         src_stage = Usd.Stage.Open(str(src_path))
     except Tf.ErrorException as e:
-        raise UsdOverrideError(f"{source}: USD could not open it: {_tf_message(e)}") from e
+        raise UsdOverrideError(f"{source}: USD could not open it: {tf_message(e)}") from e
     if src_stage is None:
         raise UsdOverrideError(f"{source}: USD could not open it")
     suffix = out_path.suffix.lower()
@@ -441,8 +441,11 @@ def write_overrides(
     # a new layer under a temporary name beside the output (relative paths resolve the same), renamed into
     # place once complete: a run that fails leaves the previous output as it was, on disk and in memory
     tmp_path = out_path.with_name(f".{out_path.stem}.{secrets.token_hex(4)}.tmp{out_path.suffix}")
-    with new_layer_replacing(out_path, tmp_path, errors=lambda: _writing(path, tmp_path)) as layer:
-        result = _author_overrides(layer, src_stage, src_path, rel, mode, encoding, prims, params)
+    try:
+        with new_layer_replacing(out_path, tmp_path, errors=lambda: _writing(path, tmp_path)) as layer:
+            result = _author_overrides(layer, src_stage, src_path, rel, mode, encoding, prims, params)
+    except LayerReloadError as e:  # (written: the layer open in this process was not reloaded)
+        raise UsdOverrideError(str(e)) from e
     return result
 
 
@@ -525,5 +528,5 @@ def _writing(path: str | os.PathLike[str], tmp: Path) -> Iterator[None]:
     try:
         yield
     except (OSError, Tf.ErrorException) as e:
-        why = e.strerror or str(e) if isinstance(e, OSError) else _tf_message(e)
+        why = e.strerror or str(e) if isinstance(e, OSError) else tf_message(e)
         raise UsdOverrideError(f"{path}: could not write: {why.replace(str(tmp), os.fspath(path))}") from e
