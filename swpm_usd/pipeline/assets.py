@@ -407,11 +407,11 @@ def discover(
                     "apart)"
                 )
             elif aliases is not None and same:  # (one warning: a linked folder doubles every file in it)
-                shown = ", ".join(f"{rel} as {first}" for rel, first in same[:3])
+                shown = first_few([f"{rel} as {first}" for rel, first in same[:4]])
                 aliases.append(
                     f"{where}: {len(same)} matched paths are each one file with another (a link to it or "
                     "to one file, a linked folder), one asset built under the other's name, and have no "
-                    f"outputs of their own: {shown}{', ...' if len(same) > 3 else ''} (copy a file to build "
+                    f"outputs of their own: {shown} (copy a file to build "
                     "it apart)"
                 )
         else:
