@@ -15,11 +15,11 @@ the LOD-0 triangles of their faces, point GeomSubsets the new vertices of their 
 face has is left out), at every time sample of their indices. Instanced meshes (inside prototypes) are
 skipped (USD ignores overrides of them); a source with no Mesh prim to encode is an error that says why.
 ``velocities`` and ``accelerations`` follow the points as ``vertex`` primvars do. A mesh's ``normals``
-attribute is re-indexed beside ``primvars:normals`` (which USD uses when both are authored; the primvar alone
-splits points). Time-sampled points, normals, primvars and subset indices (a deforming mesh) are re-indexed
-at every sample of the source, the extent computed at each sample of the points: an override's default alone
-would be stronger than the source's samples and stop the animation. A blocked sample stays blocked. Topology
-that changes over time cannot be re-indexed: an error.
+attribute is re-indexed beside ``primvars:normals`` (which USD uses when both are authored; a uniform
+``normals`` attribute then stays uniform). Time-sampled points, normals, primvars and subset indices (a
+deforming mesh) are re-indexed at every sample of the source, the extent computed at each sample of the
+points: an override's default alone would be stronger than the source's samples and stop the animation. A
+blocked sample stays blocked. Topology that changes over time cannot be re-indexed: an error.
 The source files are never written.
 """
 
@@ -123,8 +123,8 @@ def _primvars(prim: Usd.Prim, topo: _Topology) -> list[_Primvar]:
     if value is not None:
         # primvars:normals, when authored, is what USD draws (UsdGeomPointBased: it wins over normals); the
         # normals attribute beside it is re-indexed all the same (left in the source's order, of another
-        # length than the new points, it was invalid), by its own interpolation, without splitting points
-        # (a uniform one follows the LOD-0 triangles)
+        # length than the new points, it was invalid), by its own interpolation: a faceVarying one splits
+        # points as a primvar does, a uniform one stays uniform (it follows the LOD-0 triangles)
         name = _SHADOWED_NORMALS if any(p.name == "normals" for p in out) else "normals"
         out.append(_Primvar(name, np.asarray(value), str(mesh.GetNormalsInterpolation()), None, normals))
     # per-point motion (a deforming mesh's, for motion blur): re-indexed with the points, not left in the
