@@ -4,6 +4,7 @@ streaming order, write the outputs atomically. Never raises: a failure comes bac
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import signal
@@ -374,7 +375,9 @@ def _place_outputs(staged: dict[str, tuple[Path, Path]]) -> dict[str, dict[str, 
             else:
                 os.replace(tmp, target)
         return {kind: output_record(target) for kind, (_, target) in staged.items()}
-    except BaseException:
+    except BaseException as exc:
+        from ..usd.writer import LayerReloadError, reload_if_open
+
         for kind, tmp, target, previous in reversed(placed):
             if os.path.lexists(tmp):
                 continue  # not renamed: the target is still its previous file
@@ -386,9 +389,18 @@ def _place_outputs(staged: dict[str, tuple[Path, Path]]) -> dict[str, dict[str, 
             except OSError:  # the new file goes at least (the runner then finds the previous build broken)
                 target.unlink(missing_ok=True)
             if kind == "usd":
-                from ..usd.writer import reload_if_open
-
-                reload_if_open(target)
+                # (a reload that fails again leaves the open layer as it was, the previous file's: the other
+                # outputs are still undone; raised here, it left the new .swpm beside the previous .usdc)
+                with contextlib.suppress(LayerReloadError):
+                    reload_if_open(target)
+        if isinstance(exc, LayerReloadError):  # (not "written": undone, the asset's previous build kept)
+            why = f" ({exc.reason})" if exc.reason else ""
+            raise LayerReloadError(
+                exc.path,
+                exc.reason,
+                f"{exc.path}: the layer of that name open in this process could not be reloaded{why}: the "
+                "asset's new outputs were taken back, its previous build is as it was",
+            ) from exc
         raise
     finally:
         for path in aside:

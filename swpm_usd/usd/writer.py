@@ -240,7 +240,17 @@ def _layer_args(path: Path, fmt: str | None) -> dict[str, str]:
 
 class LayerReloadError(UsdWriteError):
     """A layer file was written (it is on disk, complete), but the layer of its name open in this process
-    could not be reloaded: that layer object keeps its previous content."""
+    could not be reloaded: that layer object keeps its previous content. ``path``: the file; ``reason``:
+    usd-core's message ("" when it gave none)."""
+
+    def __init__(self, path: str | os.PathLike[str], reason: str = "", message: str | None = None) -> None:
+        self.path, self.reason = os.fspath(path), reason
+        why = f": {reason}" if reason else ""
+        super().__init__(
+            message
+            or f"{self.path}: written, but the layer of that name open in this process could not be reloaded "
+            f"(it keeps its previous content; open the file anew){why}"
+        )
 
 
 def reload_if_open(path: str | os.PathLike[str]) -> None:
@@ -252,14 +262,11 @@ def reload_if_open(path: str | os.PathLike[str]) -> None:
         return
     try:
         done = layer.Reload(force=True)
-        why = "" if done else ": usd-core did not reload it"
+        why = "" if done else "usd-core did not reload it"
     except Tf.ErrorException as e:
-        done, why = False, f": {tf_message(e)}"
+        done, why = False, tf_message(e)
     if not done:
-        raise LayerReloadError(
-            f"{path}: written, but the layer of that name open in this process could not be reloaded (it "
-            f"keeps its previous content; open the file anew){why}"
-        )
+        raise LayerReloadError(path, why)
 
 
 def _export(stage: Usd.Stage, path: Path, fmt: str | None) -> Path:
