@@ -60,6 +60,7 @@ from .assets import (
 from .config import Config, ConfigError, load_config
 from .records import INPUT_STAT_KEYS, _what, record_problem, recorded_inputs
 from .worker import (
+    LAYER_UNIT_KEYS,
     STAT_KEYS,
     USD_TEMPORARY_SUFFIX,
     atomic_write_bytes,
@@ -67,6 +68,7 @@ from .worker import (
     ignore_interrupts,
     output_record,
     process_asset,
+    recorded_layer_units,
     serve,
     stat_fields,
 )
@@ -130,7 +132,8 @@ class PlanItem:
     inputs: list[Path] = field(default_factory=list)  # the files the asset is built from (discover's)
     #: an up-to-date asset's outputs as its manifest record lists them, with the stat fields of those
     #: hashed to be checked recorded anew (:func:`_checked_output`) and those of a kind the config no
-    #: longer asks for left out when deleted or changed since; None when no record changed
+    #: longer asks for left out when deleted or changed since, a USD layer's units added to a record
+    #: written before they were (:func:`.worker.recorded_layer_units`); None when no record changed
     checked_outputs: dict[str, dict] | None = None
     #: the asset's manifest record; None when the manifest has none, or one that is not a record the run
     #: writes (a hand edit: :func:`.records.record_problem`), which is then ignored, with a warning
@@ -552,6 +555,15 @@ def plan(
             item.up_to_date = all(o is not None for kind, o in checked.items() if kind in wanted)
             if item.up_to_date and any(checked[kind] is not o for kind, o in outs.items()):
                 item.checked_outputs = {kind: o for kind, o in checked.items() if o is not None}
+            layer = checked.get("usd")
+            if item.up_to_date and layer is not None and not all(k in layer for k in LAYER_UNIT_KEYS):
+                # (a record of 0.7.2 written before the layers' units were: the scene would reference the
+                # layer uncorrected; read from its metadata once, then recorded, else the asset rebuilt)
+                units = recorded_layer_units(out_dir / layer["path"])
+                item.up_to_date = units is not None
+                if units is not None:
+                    kept = item.checked_outputs if item.checked_outputs is not None else dict(outs)
+                    item.checked_outputs = {**kept, "usd": {**layer, **units}}
         items.append(item)
     warnings = [] if any(i.rule_pending for i in items) else _unreached_rules(cfg, items)
     return items, problems, aliases + record_warnings + warnings

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import math
 import os
 import signal
 import time
@@ -305,6 +306,30 @@ def layer_units(source: str | None) -> dict[str, Any]:
 
     meta = stage_metadata(source) if source is not None else {}
     return {"up_axis": meta.get("up_axis", "Y"), "meters_per_unit": float(meta.get("meters_per_unit", 1.0))}
+
+
+#: the keys of :func:`layer_units`, which a USD layer's manifest record holds (one of 0.7.2 before they were
+#: recorded has neither: :func:`recorded_layer_units`)
+LAYER_UNIT_KEYS = ("up_axis", "meters_per_unit")
+
+
+def recorded_layer_units(path: Path) -> dict[str, Any] | None:
+    """The :func:`layer_units` an asset layer at ``path`` was written with (:func:`_stage_usd` authors both),
+    read from its metadata alone (none of its prims); None when it does not read or authors other units.
+    For a layer whose record predates the units' (the scene would reference it uncorrected)."""
+    from pxr import Sdf, Tf
+
+    try:
+        layer = Sdf.Layer.OpenAsAnonymous(os.fspath(path), metadataOnly=True)
+    except Tf.ErrorException:
+        return None
+    info = layer.pseudoRoot if layer is not None else None
+    if info is None or not all(info.HasInfo(k) for k in ("upAxis", "metersPerUnit")):
+        return None
+    up, scale = str(info.GetInfo("upAxis")), info.GetInfo("metersPerUnit")
+    if up not in ("Y", "Z") or not isinstance(scale, float) or not math.isfinite(scale) or scale <= 0:
+        return None
+    return {"up_axis": up, "meters_per_unit": scale}
 
 
 def _stage_usd(
