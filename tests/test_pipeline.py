@@ -1608,6 +1608,38 @@ def test_place_outputs_undoes_every_output_when_the_open_layer_does_not_reload(t
     assert "written" not in message
 
 
+def test_restoring_kept_aside_layers_goes_on_when_an_open_layer_does_not_reload(tmp_path, monkeypatch):
+    # a run stopped while a worker renamed outputs puts the previous ones back (_restore_kept_aside) and
+    # reloads a layer of that name open in this process: a reload that failed raised out of it (from the
+    # run's stop(), before the temporary files were deleted and the manifest written), the other layers
+    # kept aside left as they were
+    from pxr import Sdf
+
+    from swpm_usd.fileio import keep_aside, stage_bytes
+    from swpm_usd.pipeline import runner
+
+    cfg = _project(tmp_path, ("cow.obj", "spot.obj"), MINIMAL.replace("dir: out", "{dir: out, usd: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    records = json.loads((out / "manifest.json").read_text())["assets"]
+    names = ("cow.usdc", "spot.usdc")
+    before = {name: sha256_of(out / name) for name in names}
+    opened = [Sdf.Layer.FindOrOpen(str(out / name)) for name in names]  # (open in this process)
+    for name in names:  # (a worker stopped between the renames and their records)
+        keep_aside(out / name)
+        os.replace(stage_bytes(out / name, b"new"), out / name)
+
+    def failing_reload(self, force=False):
+        Sdf.Layer.CreateNew("")  # (a real usd-core error: "cannot use empty identifier")
+
+    monkeypatch.setattr(Sdf.Layer, "Reload", failing_reload)
+    runner._restore_kept_aside(out, records)
+    monkeypatch.undo()
+    assert {name: sha256_of(out / name) for name in names} == before
+    assert not list(out.glob(".*.prev.tmp"))
+    assert all(layer.rootPrims for layer in opened)  # (their previous content: not reloaded)
+
+
 def test_keep_aside_links_or_copies_the_previous_file(tmp_path, monkeypatch):
     import errno
 

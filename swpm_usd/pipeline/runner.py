@@ -629,9 +629,12 @@ def _restore_kept_aside(out_dir: Path, records: dict, names: set[str] | None = N
         except OSError:
             continue
         if target.suffix == ".usdc":
-            from ..usd.writer import reload_if_open
+            from ..usd.writer import LayerReloadError, reload_if_open
 
-            reload_if_open(target)
+            # (a reload that fails leaves that open layer as it was: the other files are still put back, and
+            # the stopped run still deletes its temporary files and writes its manifest)
+            with contextlib.suppress(LayerReloadError):
+                reload_if_open(target)
 
 
 def _interrupts_raise() -> bool:
