@@ -721,6 +721,29 @@ def test_write_overrides_to_a_path_that_is_no_layer_says_why(pm, tmp_path, name,
     assert sorted(p.name for p in tmp_path.iterdir()) == ["source.usda"]
 
 
+def test_overrides_an_edge_subset_pair_outside_the_points_names_no_edge(tmp_path):
+    """An edge GeomSubset's pair with an index outside the points (``(0, n + 2)``, ``(-1, n + 1)``, n
+    points) was keyed as another pair, ``(1, 2)``, ``(0, 1)``: it named a real edge of the new mesh. It names
+    none, as a face or point subset's index outside its elements names none."""
+    src = tmp_path / "src.usda"
+    _grid_stage(src, 4)
+    stage = Usd.Stage.Open(str(src))
+    mesh, pts, _ = _grid_mesh(stage)
+    n = len(pts)
+    UsdGeom.Subset.CreateGeomSubset(mesh, "bad", "edge", Vt.IntArray([0, n + 2, -1, n + 1]))
+    UsdGeom.Subset.CreateGeomSubset(mesh, "good", "edge", Vt.IntArray([0, 1, 0, n + 2]))
+    stage.Save()
+    out = tmp_path / "ovr.usda"
+    usd.write_overrides(src, out)
+    stage = Usd.Stage.Open(str(out))
+    _, new_pts, _ = _grid_mesh(stage)
+    bad = UsdGeom.Subset(stage.GetPrimAtPath("/World/grid/bad")).GetIndicesAttr().Get()
+    assert len(bad) == 0, np.asarray(bad)
+    good = np.asarray(UsdGeom.Subset(stage.GetPrimAtPath("/World/grid/good")).GetIndicesAttr().Get())
+    got = {tuple(p) for p in np.sort(new_pts[good.reshape(-1, 2)], axis=1).reshape(-1, 6).round(6)}
+    assert got == {tuple(np.sort(pts[[0, 1]], axis=0).reshape(-1).round(6))}  # (0, 1) alone
+
+
 def test_a_failed_write_overrides_keeps_the_previous_layer(tmp_path):
     """write_overrides created its output at once (Sdf.Layer.CreateNew) and saved it at the end: a run that
     failed in between (a bad parameter, a prim that cannot be encoded) left an empty layer in place of the

@@ -321,7 +321,8 @@ def _subset_remap(
     each one's source point; a split point's each), an edge subset's (pairs of point indices) the edges of
     the LOD-0 triangles ``tri0`` between the new vertices of its points, each once, as (lower, higher)
     pairs in order (an edge that no kept face has, one of hole faces alone, is no edge of the new mesh: left
-    out). Any other element type (none a Mesh has) is an error naming the subset."""
+    out; a pair with an index outside the points names none). Any other element type (none a Mesh has) is an
+    error naming the subset."""
     element = subset.GetElementTypeAttr().Get()
     where = subset.GetPath()
     if element == UsdGeom.Tokens.face:
@@ -341,6 +342,9 @@ def _subset_remap(
                 f"{where}: an edge GeomSubset holds pairs of point indices, not {idx.shape[0]} indices"
             )
         pairs = np.sort(idx.reshape(-1, 2), axis=1)
+        # (a pair with an index outside the points names no edge: keyed, it was another pair's, (0, n + 2)
+        # that of (1, 2))
+        pairs = pairs[(pairs[:, 0] >= 0) & (pairs[:, 1] < n_points)]
         return edges[np.isin(src_key, pairs[:, 0] * n_points + pairs[:, 1])].reshape(-1)
 
     return remap
