@@ -319,11 +319,13 @@ def test_scene_corrects_each_asset_to_its_units_and_up_axis(tmp_path):
     assert units == {"cow": ("Y", 1.0), "zcow": ("Z", 0.01)}
 
 
-def test_scene_corrects_the_assets_of_records_written_before_their_units(tmp_path, monkeypatch):
+@pytest.mark.parametrize("rebuild", ["none", "failed"])
+def test_scene_corrects_the_assets_of_records_written_before_their_units(rebuild, tmp_path, monkeypatch):
     """A manifest whose USD records hold no units (written by 0.7.2 before they were recorded: the same tool
     version, so its builds are up to date) beside the scene that version wrote, with no correction: a rerun
     kept that scene, the Z-up centimetre cow 100 times too large and on its side (a rewrite of it corrected
-    nothing either). The units are read from each such layer's metadata, once, and recorded."""
+    nothing either), as did one whose rebuilds failed, keeping the previous builds. The units are read from
+    each such layer's metadata, once, and recorded."""
     from swpm_usd.pipeline import run, runner
     from swpm_usd.pipeline.worker import output_record
 
@@ -343,10 +345,14 @@ def test_scene_corrects_the_assets_of_records_written_before_their_units(tmp_pat
     stage = Usd.Stage.Open(str(out / "scene.usda"))
     assert not np.allclose(_world_range(stage, "/Scene/zcow"), _world_range(stage, "/Scene/cow"), atol=1e-3)
     del stage
+    if rebuild == "failed":  # (stricter budgets: rebuilt, each fails them, its previous build kept)
+        cfg.write_text(cfg.read_text() + "budgets: {global_bytes: 1}\n")
     for again in (False, True):  # (once recorded, the layers are not read again)
         if again:
             monkeypatch.setattr(runner, "recorded_layer_units", lambda path: pytest.fail(f"read {path}"))
-        assert run(cfg, echo=lambda m: None).built == 0
+        res = run(cfg, echo=lambda m: None)
+        assert res.built == 0 and res.failed == (2 if rebuild == "failed" else 0)
+        assert all(f["kept_previous"] for f in res.failures.values())
         stage = Usd.Stage.Open(str(out / "scene.usda"))
         plain, corrected = _world_range(stage, "/Scene/cow"), _world_range(stage, "/Scene/zcow")
         np.testing.assert_allclose(plain, [p.min(0), p.max(0)], atol=1e-6)

@@ -556,14 +556,12 @@ def plan(
             if item.up_to_date and any(checked[kind] is not o for kind, o in outs.items()):
                 item.checked_outputs = {kind: o for kind, o in checked.items() if o is not None}
             layer = checked.get("usd")
-            if item.up_to_date and layer is not None and not all(k in layer for k in LAYER_UNIT_KEYS):
-                # (a record of 0.7.2 written before the layers' units were: the scene would reference the
-                # layer uncorrected; read from its metadata once, then recorded, else the asset rebuilt)
-                units = recorded_layer_units(out_dir / layer["path"])
-                item.up_to_date = units is not None
-                if units is not None:
+            if item.up_to_date and layer is not None:
+                with_units = _layer_with_units(out_dir, layer)
+                item.up_to_date = with_units is not None  # (else rebuilt, its units recorded)
+                if with_units is not None and with_units is not layer:
                     kept = item.checked_outputs if item.checked_outputs is not None else dict(outs)
-                    item.checked_outputs = {**kept, "usd": {**layer, **units}}
+                    item.checked_outputs = {**kept, "usd": with_units}
         items.append(item)
     warnings = [] if any(i.rule_pending for i in items) else _unreached_rules(cfg, items)
     return items, problems, aliases + record_warnings + warnings
@@ -1728,7 +1726,22 @@ def _keep_previous(out_dir: Path, previous: dict | None, failed: dict, verify: b
     kept = {k: v for k, v in previous.items() if k != "last_failure"}
     if outputs:
         kept["outputs"] = checked
+        layer = checked.get("usd")
+        with_units = _layer_with_units(out_dir, layer) if layer is not None else None
+        if with_units is not None and with_units is not layer:  # (for the scene: none read, it has none)
+            kept["outputs"] = {**checked, "usd": with_units}
     return {**kept, "last_failure": failure}
+
+
+def _layer_with_units(out_dir: Path, layer: dict) -> dict | None:
+    """``layer`` (the record of an asset's USD layer, intact) as the scene needs it, with the layer's units
+    (:data:`.worker.LAYER_UNIT_KEYS`): itself when it has them; a copy with those the layer's metadata
+    authors when it has none, a record of 0.7.2 written before they were (the scene referenced the layer
+    uncorrected: :func:`.worker.recorded_layer_units`); None when they do not read."""
+    if all(k in layer for k in LAYER_UNIT_KEYS):
+        return layer
+    units = recorded_layer_units(out_dir / layer["path"])
+    return None if units is None else {**layer, **units}
 
 
 def _scene_prim_name(stem: str, used: set[str]) -> str:
