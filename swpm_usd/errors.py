@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -10,6 +11,14 @@ def first_few(items: Sequence[str], count: int = 3) -> str:
     """The first ``count`` of ``items`` joined by commas, ``", ..."`` after them when there are more: how a
     message names what it is about without listing thousands."""
     return ", ".join(items[:count]) + (", ..." if len(items) > count else "")
+
+
+def tf_message(e: BaseException) -> str:
+    """The messages of a usd-core error (a ``Tf.ErrorException``, or its text in any exception), without
+    the C++ function / file / line noise: what a message of this package quotes of usd-core."""
+    chunks = re.split(r"\s*Error in '[^']*' at line \d+ in file \S+ : ", str(e))
+    found = [" ".join(c.split()).strip("'") for c in chunks if c.strip()]
+    return "; ".join(found) if found else (str(e).strip() or type(e).__name__)
 
 
 class SwpmError(Exception):

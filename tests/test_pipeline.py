@@ -1576,6 +1576,77 @@ def test_place_outputs_undoes_a_rename_cut_short_as_it_returns(tmp_path, monkeyp
     assert (tmp_path / "a.usdc").read_bytes() == b"old a.usdc"
 
 
+def test_place_outputs_undoes_every_output_when_the_open_layer_does_not_reload(tmp_path, monkeypatch):
+    # the .usdc's reload (a layer of its name open in this process) failing after its rename: the undo
+    # reloaded it again, which raised again out of the undo and left the new .swpm beside the previous .usdc
+    from pxr import Sdf
+
+    from swpm_usd.pipeline import worker
+
+    def layer_file(path: Path, note: str) -> None:
+        layer = Sdf.Layer.CreateNew(str(path))
+        layer.comment = note
+        assert layer.Save()
+
+    (tmp_path / "a.swpm").write_bytes(b"old a.swpm")
+    layer_file(tmp_path / "a.usdc", "old")
+    layer_file(tmp_path / ".a.new.usdc", "new")
+    (tmp_path / ".a.swpm.new.tmp").write_bytes(b"new a.swpm")
+    staged = {
+        "swpm": (tmp_path / ".a.swpm.new.tmp", tmp_path / "a.swpm"),
+        "usd": (tmp_path / ".a.new.usdc", tmp_path / "a.usdc"),
+    }
+    before = {name: sha256_of(tmp_path / name) for name in ("a.swpm", "a.usdc")}
+    opened = Sdf.Layer.FindOrOpen(str(tmp_path / "a.usdc"))  # (open in this process)
+
+    def failing_reload(self, force=False):
+        Sdf.Layer.CreateNew("")  # (a real usd-core error: "cannot use empty identifier")
+
+    monkeypatch.setattr(Sdf.Layer, "Reload", failing_reload)
+    with pytest.raises(Exception) as exc:  # noqa: B017 - (its type checked below, after the files)
+        worker._place_outputs(staged)
+    monkeypatch.undo()
+    assert {name: sha256_of(tmp_path / name) for name in before} == before  # both outputs undone
+    assert opened.comment == "old"
+    assert type(exc.value).__name__ == "LayerReloadError"  # (a SwpmError, no raw Tf.ErrorException)
+    message = str(exc.value)
+    assert message.startswith(f"{tmp_path / 'a.usdc'}: the layer of that name open in this process could not")
+    assert "cannot use empty identifier" in message and "previous build is as it was" in message
+    assert "written" not in message
+
+
+def test_restoring_kept_aside_layers_goes_on_when_an_open_layer_does_not_reload(tmp_path, monkeypatch):
+    # a run stopped while a worker renamed outputs puts the previous ones back (_restore_kept_aside) and
+    # reloads a layer of that name open in this process: a reload that failed raised out of it (from the
+    # run's stop(), before the temporary files were deleted and the manifest written), the other layers
+    # kept aside left as they were
+    from pxr import Sdf
+
+    from swpm_usd.fileio import keep_aside, stage_bytes
+    from swpm_usd.pipeline import runner
+
+    cfg = _project(tmp_path, ("cow.obj", "spot.obj"), MINIMAL.replace("dir: out", "{dir: out, usd: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    records = json.loads((out / "manifest.json").read_text())["assets"]
+    names = ("cow.usdc", "spot.usdc")
+    before = {name: sha256_of(out / name) for name in names}
+    opened = [Sdf.Layer.FindOrOpen(str(out / name)) for name in names]  # (open in this process)
+    for name in names:  # (a worker stopped between the renames and their records)
+        keep_aside(out / name)
+        os.replace(stage_bytes(out / name, b"new"), out / name)
+
+    def failing_reload(self, force=False):
+        Sdf.Layer.CreateNew("")  # (a real usd-core error: "cannot use empty identifier")
+
+    monkeypatch.setattr(Sdf.Layer, "Reload", failing_reload)
+    runner._restore_kept_aside(out, records)
+    monkeypatch.undo()
+    assert {name: sha256_of(out / name) for name in names} == before
+    assert not list(out.glob(".*.prev.tmp"))
+    assert all(layer.rootPrims for layer in opened)  # (their previous content: not reloaded)
+
+
 def test_keep_aside_links_or_copies_the_previous_file(tmp_path, monkeypatch):
     import errno
 
@@ -1633,6 +1704,9 @@ def _hand_edited(good: dict) -> dict[str, object]:
         "a curve point without its error": edit(lambda r: r["summary"]["curve"][0].pop("error")),
         "last_failure a string": edit(lambda r: r.update(last_failure="boom")),
         "seconds a string": edit(lambda r: r.update(seconds="0.5")),
+        # (the scene corrects the asset's layer by its units: runner._author_units_correction)
+        "an up axis X": edit(lambda r: r["outputs"]["usd"].update(up_axis="X")),
+        "metersPerUnit 0": edit(lambda r: r["outputs"]["usd"].update(meters_per_unit=0)),
     }
 
 

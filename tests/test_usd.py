@@ -499,6 +499,144 @@ def test_overrides_reindex_primvars_and_subsets(mode, tmp_path):
     assert validate_stage(out) == []
 
 
+def _grid_mesh(stage: Usd.Stage) -> tuple[UsdGeom.Mesh, np.ndarray, np.ndarray]:
+    """The grid of :func:`_grid_stage` in ``stage``: its mesh, points and quads (as the source has them)."""
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/World/grid"))
+    pts = np.asarray(mesh.GetPointsAttr().Get(), np.float64)
+    quads = np.asarray(mesh.GetFaceVertexIndicesAttr().Get()).reshape(-1, 4)
+    return mesh, pts, quads
+
+
+def _point_normal(pts: np.ndarray) -> np.ndarray:
+    """A normal that is a function of the point (so a re-indexed one can be checked against the points)."""
+    v = np.c_[pts[:, 0] - 3.0, pts[:, 1] + 1.0, np.full(len(pts), 7.0)]
+    return (v / np.linalg.norm(v, axis=1, keepdims=True)).astype(np.float32)
+
+
+def test_overrides_reindex_the_normals_attribute_beside_primvars_normals(tmp_path):
+    """A mesh with both a ``normals`` attribute and ``primvars:normals``: only the primvar (which USD uses)
+    was re-indexed; the attribute kept the source's order and length beside the new points (invalid)."""
+    n = 10
+    src = tmp_path / "src.usda"
+    _grid_stage(src, n)
+    stage = Usd.Stage.Open(str(src))
+    mesh, pts, quads = _grid_mesh(stage)
+    mesh.GetNormalsAttr().Set(Vt.Vec3fArray.FromNumpy(_point_normal(pts)))  # vertex interpolation
+    # faceVarying primvars:normals: up on the left half, tilted on the right (a seam at x = n / 2)
+    right = np.repeat(pts[quads[:, 0], 0] >= n / 2, 4)
+    fv = np.where(right[:, None], [0.0, 0.6, 0.8], [0.0, 0.0, 1.0]).astype(np.float32)
+    pv = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("normals", Sdf.ValueTypeNames.Normal3fArray, "faceVarying")
+    pv.Set(Vt.Vec3fArray.FromNumpy(fv))
+    stage.Save()
+    out = tmp_path / "ovr.usda"
+    usd.write_overrides(src, out)
+    stage = Usd.Stage.Open(str(out))
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/World/grid"))
+    new_pts = np.asarray(mesh.GetPointsAttr().Get(), np.float64)
+    tri = np.asarray(mesh.GetFaceVertexIndicesAttr().Get()).reshape(-1, 3)
+    assert new_pts.shape[0] == (n + 1) ** 2 + (n + 1)  # split along the primvar's seam
+    attr = np.asarray(mesh.GetNormalsAttr().Get())
+    assert mesh.GetNormalsInterpolation() == "vertex" and attr.shape == new_pts.shape
+    np.testing.assert_allclose(attr, _point_normal(new_pts), atol=1e-6)  # each its own point's
+    prim_normals = UsdGeom.PrimvarsAPI(mesh).GetPrimvar("normals")
+    assert prim_normals.GetInterpolation() == "vertex"
+    got = np.asarray(prim_normals.Get())
+    assert got.shape == new_pts.shape
+    centre_right = new_pts[tri].mean(axis=1)[:, 0] >= n / 2
+    expected = np.where(centre_right[:, None, None], [0.0, 0.6, 0.8], [0.0, 0.0, 1.0])
+    np.testing.assert_allclose(got[tri], np.broadcast_to(expected, (len(tri), 3, 3)), atol=1e-6)
+    assert validate_stage(out) == []
+
+
+@pytest.mark.parametrize("blocked", [5.0, 1.0])
+def test_overrides_keep_a_blocked_time_sample_blocked(blocked, tmp_path):
+    """A value-blocked time sample of a primvar (its first included) failed with "0 values at time t": it
+    stays blocked, and the other samples are re-indexed."""
+    n = 6
+    src = tmp_path / "src.usda"
+    _grid_stage(src, n)
+    stage = Usd.Stage.Open(str(src))
+    mesh, pts, _ = _grid_mesh(stage)
+    heat = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("heat", Sdf.ValueTypeNames.FloatArray, "vertex")
+    vel = mesh.GetVelocitiesAttr()
+    for t in (1.0, 5.0, 10.0):
+        if t == blocked:
+            heat.GetAttr().Set(Sdf.ValueBlock(), t)
+            vel.Set(Sdf.ValueBlock(), t)
+        else:
+            heat.Set(Vt.FloatArray.FromNumpy((pts[:, 0] * 10 + pts[:, 1] + t).astype(np.float32)), t)
+            vel.Set(Vt.Vec3fArray.FromNumpy((pts * t).astype(np.float32)), t)
+    stage.Save()
+    out = tmp_path / "ovr.usda"
+    usd.write_overrides(src, out)
+    stage = Usd.Stage.Open(str(out))
+    mesh, new_pts, _ = _grid_mesh(stage)
+    heat = UsdGeom.PrimvarsAPI(mesh).GetPrimvar("heat")
+    vel = mesh.GetVelocitiesAttr()
+    assert heat.GetAttr().GetTimeSamples() == vel.GetTimeSamples() == [1.0, 5.0, 10.0]
+    for t in (1.0, 5.0, 10.0):
+        if t == blocked:
+            assert heat.Get(t) is None and vel.Get(t) is None
+        else:
+            np.testing.assert_allclose(np.asarray(heat.Get(t)), new_pts[:, 0] * 10 + new_pts[:, 1] + t)
+            np.testing.assert_allclose(np.asarray(vel.Get(t)), new_pts * t, rtol=1e-6)
+
+
+def test_overrides_reindex_edge_subsets_and_time_sampled_subsets(tmp_path):
+    """Edge GeomSubsets (pairs of point indices) and time-sampled subset indices kept the source's order: an
+    edge subset now names the new mesh's edges between the new vertices of its points (both sides of a
+    split seam), and every time sample of a subset is re-indexed (a blocked one stays blocked)."""
+    n = 10
+    src = tmp_path / "src.usda"
+    _grid_stage(src, n)
+    stage = Usd.Stage.Open(str(src))
+    mesh, pts, quads = _grid_mesh(stage)
+    # the seam column x = n / 2 (split by st) from y = 0 to 3, and one edge along the bottom row
+    col = [int(i) for i in np.flatnonzero(pts[:, 0] == n / 2) if pts[i, 1] <= 3]
+    col.sort(key=lambda i: pts[i, 1])
+    pairs = [(col[k + 1], col[k]) for k in range(len(col) - 1)] + [(0, 1)]
+    UsdGeom.Subset.CreateGeomSubset(
+        mesh, "crease", "edge", Vt.IntArray([i for p in pairs for i in p]), "creases"
+    )
+    moving = UsdGeom.Subset.CreateGeomSubset(mesh, "moving", "face", Vt.IntArray([0]))
+    moving.GetIndicesAttr().Set(Vt.IntArray([0, 1]), 1.0)
+    moving.GetIndicesAttr().Set(Sdf.ValueBlock(), 5.0)
+    moving.GetIndicesAttr().Set(Vt.IntArray([len(quads) - 1]), 10.0)
+    stage.Save()
+    out = tmp_path / "ovr.usda"
+    usd.write_overrides(src, out)
+    stage = Usd.Stage.Open(str(out))
+    mesh, new_pts, _ = _grid_mesh(stage)
+    tri = np.asarray(mesh.GetFaceVertexIndicesAttr().Get()).reshape(-1, 3)
+    crease = UsdGeom.Subset(stage.GetPrimAtPath("/World/grid/crease"))
+    edges = np.asarray(crease.GetIndicesAttr().Get()).reshape(-1, 2)
+    # every pair an edge of the new mesh, between the new vertices of a source pair's points
+    key = {tuple(p) for p in np.sort(pts[np.array(pairs)], axis=1).reshape(len(pairs), -1).round(6)}
+    got = {tuple(p) for p in np.sort(new_pts[edges], axis=1).reshape(len(edges), -1).round(6)}
+    assert got == key
+    tri_edges = {tuple(sorted(e)) for t in tri for e in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0]))}
+    assert all(tuple(sorted(e)) in tri_edges for e in edges.tolist())
+    assert len(edges) == 2 * (len(col) - 1) + 1  # the seam's edges on both of its sides, the bottom one once
+    ok, why = UsdGeom.Subset.ValidateFamily(mesh, "edge", "creases")  # (each pair an edge of the mesh)
+    assert ok, why
+    moving = UsdGeom.Subset(stage.GetPrimAtPath("/World/grid/moving")).GetIndicesAttr()
+    assert moving.GetTimeSamples() == [1.0, 5.0, 10.0] and moving.Get(5.0) is None
+    centre = new_pts[tri].mean(axis=1)
+    face = np.floor(centre[:, 0]).astype(int) + n * np.floor(centre[:, 1]).astype(int)
+    np.testing.assert_array_equal(np.asarray(moving.Get(1.0)), np.flatnonzero(np.isin(face, [0, 1])))
+    np.testing.assert_array_equal(np.asarray(moving.Get(10.0)), np.flatnonzero(face == len(quads) - 1))
+    # an edge subset of an odd number of indices names no pairs: a located error
+    from swpm_usd.usd.overrides import UsdOverrideError
+
+    stage = Usd.Stage.Open(str(src))
+    UsdGeom.Subset(stage.GetPrimAtPath("/World/grid/crease")).GetIndicesAttr().Set(Vt.IntArray([0, 1, 2]))
+    stage.Save()
+    with pytest.raises(
+        UsdOverrideError, match=r"src\.usda: /World/grid/crease: an edge GeomSubset holds pairs"
+    ):
+        usd.write_overrides(src, tmp_path / "bad.usda")
+
+
 @pytest.mark.parametrize(
     ("kwargs", "problem"),
     [
@@ -583,6 +721,29 @@ def test_write_overrides_to_a_path_that_is_no_layer_says_why(pm, tmp_path, name,
     assert sorted(p.name for p in tmp_path.iterdir()) == ["source.usda"]
 
 
+def test_overrides_an_edge_subset_pair_outside_the_points_names_no_edge(tmp_path):
+    """An edge GeomSubset's pair with an index outside the points (``(0, n + 2)``, ``(-1, n + 1)``, n
+    points) was keyed as another pair, ``(1, 2)``, ``(0, 1)``: it named a real edge of the new mesh. It names
+    none, as a face or point subset's index outside its elements names none."""
+    src = tmp_path / "src.usda"
+    _grid_stage(src, 4)
+    stage = Usd.Stage.Open(str(src))
+    mesh, pts, _ = _grid_mesh(stage)
+    n = len(pts)
+    UsdGeom.Subset.CreateGeomSubset(mesh, "bad", "edge", Vt.IntArray([0, n + 2, -1, n + 1]))
+    UsdGeom.Subset.CreateGeomSubset(mesh, "good", "edge", Vt.IntArray([0, 1, 0, n + 2]))
+    stage.Save()
+    out = tmp_path / "ovr.usda"
+    usd.write_overrides(src, out)
+    stage = Usd.Stage.Open(str(out))
+    _, new_pts, _ = _grid_mesh(stage)
+    bad = UsdGeom.Subset(stage.GetPrimAtPath("/World/grid/bad")).GetIndicesAttr().Get()
+    assert len(bad) == 0, np.asarray(bad)
+    good = np.asarray(UsdGeom.Subset(stage.GetPrimAtPath("/World/grid/good")).GetIndicesAttr().Get())
+    got = {tuple(p) for p in np.sort(new_pts[good.reshape(-1, 2)], axis=1).reshape(-1, 6).round(6)}
+    assert got == {tuple(np.sort(pts[[0, 1]], axis=0).reshape(-1).round(6))}  # (0, 1) alone
+
+
 def test_a_failed_write_overrides_keeps_the_previous_layer(tmp_path):
     """write_overrides created its output at once (Sdf.Layer.CreateNew) and saved it at the end: a run that
     failed in between (a bad parameter, a prim that cannot be encoded) left an empty layer in place of the
@@ -607,6 +768,52 @@ def test_a_failed_write_overrides_keeps_the_previous_layer(tmp_path):
     assert stage.GetPrimAtPath("/World/grid").GetAttribute("swpm:encoding").Get() == "skip-strip"
     assert layer.GetPrimAtPath("/World/grid").attributes["swpm:encoding"].default == "skip-strip"
     assert sorted(p.name for p in tmp_path.iterdir()) == names
+
+
+def test_a_failed_reload_after_a_write_is_reported_as_written(pm, tmp_path, monkeypatch):
+    """write_usdlod reported an error of usd-core reloading the layer open in this process, after the file
+    was written and renamed into place, as "could not write" (and write_overrides and write raised the raw
+    Tf.ErrorException): the file is written, and the error says so, typed."""
+    from swpm_usd.usd.overrides import UsdOverrideError
+    from swpm_usd.usd.writer import UsdWriteError
+
+    asset = usd.write(pm, tmp_path / "a.usda", lods=3)
+    src = tmp_path / "src.usda"
+    _grid_stage(src, 4)
+    lod, ovr, plain = tmp_path / "lod.usda", tmp_path / "ovr.usda", tmp_path / "plain.usda"
+    usd.write_usdlod(asset, lod, pixel_error=1.0)
+    usd.write_overrides(src, ovr, "vanilla")
+    usd.write(pm, plain)
+    layers = [Sdf.Layer.FindOrOpen(str(p)) for p in (lod, ovr, plain)]  # open in this process
+
+    def failing_reload(self, force=False):
+        Sdf.Layer.CreateNew("")  # (a real usd-core error: "cannot use empty identifier")
+
+    monkeypatch.setattr(Sdf.Layer, "Reload", failing_reload)
+    calls = [
+        (lod, UsdWriteError, lambda: usd.write_usdlod(asset, lod, pixel_error=4.0)),
+        (ovr, UsdOverrideError, lambda: usd.write_overrides(src, ovr, "skip-strip")),
+        (plain, UsdWriteError, lambda: usd.write(pm, plain, up_axis="Z")),
+    ]
+    for path, error, call in calls:
+        with pytest.raises(error) as exc:
+            call()
+        message = str(exc.value)
+        assert "could not write" not in message, message
+        assert message.startswith(
+            f"{path}: written, but the layer of that name open in this process could not"
+        )
+        assert "cannot use empty identifier" in message
+        reload_error = exc.value if error is UsdWriteError else exc.value.__cause__
+        assert type(reload_error).__name__ == "LayerReloadError"  # (a UsdWriteError, for callers to tell)
+    monkeypatch.undo()
+    # each file is the new one (what the message says)
+    fresh = [Sdf.Layer.OpenAsAnonymous(str(p)) for p in (lod, ovr, plain)]
+    heuristic = fresh[0].GetAttributeAtPath("/ALOD/heuristics/distance.thresholds")
+    old = layers[0].GetAttributeAtPath("/ALOD/heuristics/distance.thresholds")
+    np.testing.assert_allclose(np.asarray(heuristic.default) * 4.0, np.asarray(old.default), rtol=1e-6)
+    assert fresh[1].GetAttributeAtPath("/World/grid.swpm:encoding").default == "skip-strip"
+    assert fresh[2].pseudoRoot.GetInfo("upAxis") == "Z"
 
 
 def test_usd_layers_written_over_a_file_keep_its_mode(pm, tmp_path):

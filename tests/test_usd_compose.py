@@ -3,6 +3,7 @@ instances, pipeline outputs of USD inputs, and errors located in the layer that 
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import subprocess
@@ -247,6 +248,121 @@ def test_pipeline_layers_keep_the_up_axis_and_units_of_a_usd_input(tmp_path):
         stage = Usd.Stage.Open(str(tmp_path / "out" / f"{stem}.usdc"))
         got[stem] = (str(UsdGeom.GetStageUpAxis(stage)), UsdGeom.GetStageMetersPerUnit(stage))
     assert got == {"sheet": ("Z", 0.01), "bare": (str(UsdGeom.GetFallbackUpAxis()), 0.01), "spot": ("Y", 1.0)}
+
+
+def _world_range(stage: Usd.Stage, path: str) -> np.ndarray:
+    """The world-space bounds (2, 3) of the prim at ``path``."""
+    cache = UsdGeom.BBoxCache(Usd.TimeCode.Default(), [UsdGeom.Tokens.default_])
+    box = cache.ComputeWorldBound(stage.GetPrimAtPath(path)).ComputeAlignedRange()
+    return np.array([box.GetMin(), box.GetMax()], np.float64)
+
+
+def _cow_and_zcow(tmp_path: Path) -> tuple[Path, np.ndarray]:
+    """A pipeline config (its path) building the cow twice into ``out``, with a scene: as the OBJ (Y-up
+    metres) and as a Z-up centimetre stage ``in/zcow.usda``; and the cow's points (Y-up metres)."""
+    (tmp_path / "in").mkdir()
+    cow = swpm_usd.load_mesh(MESHES / "cow.obj")
+    (tmp_path / "in" / "cow.obj").write_bytes((MESHES / "cow.obj").read_bytes())
+    src = Usd.Stage.CreateNew(str(tmp_path / "in" / "zcow.usda"))
+    UsdGeom.SetStageUpAxis(src, "Z")
+    UsdGeom.SetStageMetersPerUnit(src, 0.01)
+    UsdGeom.Xform.Define(src, "/World")
+    src.SetDefaultPrim(src.GetPrimAtPath("/World"))
+    mesh = UsdGeom.Mesh.Define(src, "/World/cow")
+    p = np.asarray(cow.points, np.float64)
+    zup_cm = (np.stack([p[:, 0], -p[:, 2], p[:, 1]], 1) * 100).astype(np.float32)  # Y-up m -> Z-up cm
+    mesh.GetPointsAttr().Set(Vt.Vec3fArray.FromNumpy(zup_cm))
+    tris = np.asarray(cow.triangles, np.int32)
+    mesh.GetFaceVertexCountsAttr().Set(Vt.IntArray.FromNumpy(np.full(len(tris), 3, np.int32)))
+    mesh.GetFaceVertexIndicesAttr().Set(Vt.IntArray.FromNumpy(tris.ravel()))
+    src.Save()
+    cfg = tmp_path / "p.yaml"
+    cfg.write_text(
+        'version: 1\nassets:\n  - glob: "in/*"\noutput:\n  dir: out\n  usd: true\n  swpm: false\n'
+        "  scene: true\ndefaults:\n  encoding: vanilla\n"
+    )
+    return cfg, p
+
+
+def test_scene_corrects_each_asset_to_its_units_and_up_axis(tmp_path):
+    """USD converts neither up axis nor units across a reference: a Z-up centimetre asset in the Y-up metre
+    scene stood 100 times too large, on its side. The same cow as an OBJ (Y-up metres) and as a Z-up
+    centimetre stage must have the same world bounds in scene.usda, also once the scene is rewritten from
+    the manifest on a rerun that builds nothing."""
+    from swpm_usd.pipeline import run
+
+    cfg, p = _cow_and_zcow(tmp_path)
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 0 and res.built == 2
+    out = tmp_path / "out"
+    for rerun in (False, True):
+        if rerun:  # the scene rewritten from the records alone (the layers' units are in the manifest)
+            (out / "scene.usda").unlink()
+            assert run(cfg, echo=lambda m: None).built == 0
+        stage = Usd.Stage.Open(str(out / "scene.usda"))
+        assert UsdGeom.GetStageUpAxis(stage) == "Y" and UsdGeom.GetStageMetersPerUnit(stage) == 1.0
+        plain, corrected = _world_range(stage, "/Scene/cow"), _world_range(stage, "/Scene/zcow")
+        np.testing.assert_allclose(plain, [p.min(0), p.max(0)], atol=1e-6)
+        np.testing.assert_allclose(corrected, plain, atol=1e-5)  # not 100 times larger, nor on its side
+        zcow = stage.GetPrimAtPath("/Scene/zcow")
+        assert zcow.GetCustomDataByKey("swpm:assetUpAxis") == "Z"
+        assert zcow.GetCustomDataByKey("swpm:assetMetersPerUnit") == 0.01
+        # the Y-up metre asset gets no transform, and the asset's own root authors none for ours to replace
+        assert not UsdGeom.Xformable(stage.GetPrimAtPath("/Scene/cow")).GetOrderedXformOps()
+        asset = Usd.Stage.Open(str(out / "zcow.usdc"))
+        assert not UsdGeom.Xformable(asset.GetDefaultPrim()).GetOrderedXformOps()
+    records = json.loads((out / "manifest.json").read_text())["assets"]
+    units = {
+        Path(k).stem: (r["outputs"]["usd"]["up_axis"], r["outputs"]["usd"]["meters_per_unit"])
+        for k, r in records.items()
+    }
+    assert units == {"cow": ("Y", 1.0), "zcow": ("Z", 0.01)}
+
+
+@pytest.mark.parametrize("rebuild", ["none", "failed"])
+def test_scene_corrects_the_assets_of_records_written_before_their_units(rebuild, tmp_path, monkeypatch):
+    """A manifest whose USD records hold no units (written by 0.7.2 before they were recorded: the same tool
+    version, so its builds are up to date) beside the scene that version wrote, with no correction: a rerun
+    kept that scene, the Z-up centimetre cow 100 times too large and on its side (a rewrite of it corrected
+    nothing either), as did one whose rebuilds failed, keeping the previous builds. The units are read from
+    each such layer's metadata, once, and recorded."""
+    from swpm_usd.pipeline import run, runner
+    from swpm_usd.pipeline.worker import output_record
+
+    cfg, p = _cow_and_zcow(tmp_path)
+    assert run(cfg, echo=lambda m: None).built == 2
+    out = tmp_path / "out"
+    # the output folder as that version left it: records without units, the scene without corrections
+    manifest = runner._read_manifest(out / "manifest.json")
+    for rec in manifest["assets"].values():
+        for key in ("up_axis", "meters_per_unit"):
+            del rec["outputs"]["usd"][key]
+    with monkeypatch.context() as m:
+        m.setattr(runner, "_author_units_correction", lambda *args: None)
+        runner._write_scene(out, manifest["assets"])
+    manifest[runner.RUN_OUTPUTS]["scene"] = {**output_record(out / "scene.usda"), runner.CURRENT: True}
+    runner._write_manifest(out / "manifest.json", manifest)
+    stage = Usd.Stage.Open(str(out / "scene.usda"))
+    assert not np.allclose(_world_range(stage, "/Scene/zcow"), _world_range(stage, "/Scene/cow"), atol=1e-3)
+    del stage
+    if rebuild == "failed":  # (stricter budgets: rebuilt, each fails them, its previous build kept)
+        cfg.write_text(cfg.read_text() + "budgets: {global_bytes: 1}\n")
+    for again in (False, True):  # (once recorded, the layers are not read again)
+        if again:
+            monkeypatch.setattr(runner, "recorded_layer_units", lambda path: pytest.fail(f"read {path}"))
+        res = run(cfg, echo=lambda m: None)
+        assert res.built == 0 and res.failed == (2 if rebuild == "failed" else 0)
+        assert all(f["kept_previous"] for f in res.failures.values())
+        stage = Usd.Stage.Open(str(out / "scene.usda"))
+        plain, corrected = _world_range(stage, "/Scene/cow"), _world_range(stage, "/Scene/zcow")
+        np.testing.assert_allclose(plain, [p.min(0), p.max(0)], atol=1e-6)
+        np.testing.assert_allclose(corrected, plain, atol=1e-5)
+        records = json.loads((out / "manifest.json").read_text())["assets"]
+        units = {
+            Path(k).stem: (r["outputs"]["usd"]["up_axis"], r["outputs"]["usd"]["meters_per_unit"])
+            for k, r in records.items()
+        }
+        assert units == {"cow": ("Y", 1.0), "zcow": ("Z", 0.01)}
 
 
 # -- located problems on composed stages -------------------------------------------------------------------

@@ -18,7 +18,6 @@ that does not resolve, on an active prim in or above the loaded subtree) too, be
 
 from __future__ import annotations
 
-import re
 import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -26,7 +25,7 @@ from pathlib import Path
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom
 
-from ..errors import MeshLoadError, first_few
+from ..errors import MeshLoadError, first_few, tf_message
 from ..mesh import Mesh
 from .clean import Part, clean_mesh, concatenate_parts, rgba_float, split_corners, transform_part
 
@@ -39,13 +38,6 @@ _TEXCOORD2_TYPES = {
 
 class _Invalid(ValueError):
     """Something in the stage's data is not a valid mesh (the message says what and where)."""
-
-
-def _tf_message(e: BaseException) -> str:
-    """The messages of a Tf.ErrorException, without the C++ function / file / line noise."""
-    chunks = re.split(r"\s*Error in '[^']*' at line \d+ in file \S+ : ", str(e))
-    found = [" ".join(c.split()).strip("'") for c in chunks if c.strip()]
-    return "; ".join(found) if found else (str(e).strip() or type(e).__name__)
 
 
 class _Topology:
@@ -376,7 +368,7 @@ def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
         try:
             stage = Usd.Stage.Open(str(path))
         except Tf.ErrorException as e:
-            raise MeshLoadError(path, f"USD could not open it: {_tf_message(e)}") from e
+            raise MeshLoadError(path, f"USD could not open it: {tf_message(e)}") from e
         if stage is None:
             raise MeshLoadError(path, "USD could not open it")
         if prim_path is None:
@@ -419,7 +411,7 @@ def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
     except _Invalid as e:
         raise MeshLoadError(path, str(e)) from e
     except Tf.ErrorException as e:
-        raise MeshLoadError(path, f"USD error: {_tf_message(e)}") from e
+        raise MeshLoadError(path, f"USD error: {tf_message(e)}") from e
     except Exception as e:
         raise MeshLoadError(path, f"{type(e).__name__}: {e}") from e
     under = "" if prim_path is None else f" under {prim_path}"

@@ -407,11 +407,11 @@ def discover(
                     "apart)"
                 )
             elif aliases is not None and same:  # (one warning: a linked folder doubles every file in it)
-                shown = ", ".join(f"{rel} as {first}" for rel, first in same[:3])
+                shown = first_few([f"{rel} as {first}" for rel, first in same[:4]])
                 aliases.append(
                     f"{where}: {len(same)} matched paths are each one file with another (a link to it or "
                     "to one file, a linked folder), one asset built under the other's name, and have no "
-                    f"outputs of their own: {shown}{', ...' if len(same) > 3 else ''} (copy a file to build "
+                    f"outputs of their own: {shown} (copy a file to build "
                     "it apart)"
                 )
         else:
@@ -426,16 +426,14 @@ def discover(
                 named = given if ".." not in given.parts else stage_path
                 found, used = _stage_assets(cfg, i, named)
             except Exception as exc:  # noqa: BLE001 - any pxr failure is reported, located
-                from ..io.usd_loader import _tf_message
+                from ..errors import tf_message
 
                 if stage_path is None:  # (its path does not resolve: "Symlink loop from ...")
                     msg = str(exc).strip() or type(exc).__name__
                 elif not stage_path.exists():
                     msg = "no such file"
                 else:  # (usd-core's message, without its C++ function, file and line)
-                    msg = (
-                        _tf_message(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
-                    )
+                    msg = tf_message(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
                 problems.append(
                     f"{cfg.where(('assets', i, 'stage'))}: cannot open stage {src['stage']}: {msg}"
                 )

@@ -10,6 +10,7 @@ not trusted and the inputs hashed, the record kept (:func:`recorded_inputs`).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -71,6 +72,11 @@ _OUTPUT: dict[str, tuple[Callable[[Any], bool], str]] = {
     "sha256": (lambda v: isinstance(v, str), "a string"),
     "size": (_count, "a whole number"),
 }
+#: the units of a USD layer's record (:func:`.worker.layer_units`; a record of an earlier version has none)
+_UNITS: dict[str, tuple[Callable[[Any], bool], str]] = {
+    "up_axis": (lambda v: v in ("Y", "Z"), '"Y" or "Z"'),
+    "meters_per_unit": (lambda v: _number(v) and math.isfinite(v) and v > 0, "a number above 0"),
+}
 #: the figures of a record's summary that the report shows (``curve``: one object of these per point)
 _SUMMARY_FIGURES = ("lambda", "acmr", "global_bytes", "instance_bytes")
 _CURVE_FIGURES = ("lod", "triangles", "error", "acmr")
@@ -91,7 +97,7 @@ def _fields(obj: dict, spec: dict, where: str, required: tuple[str, ...] = ()) -
     for key, (ok, expected) in spec.items():
         if key in obj and not ok(obj[key]):
             value = obj[key]
-            shown = repr(value) if ok is _file_name and isinstance(value, str) else _what(value)
+            shown = repr(value) if isinstance(value, str) else _what(value)  # (a file name, an up axis)
             return f"{where}{'.' * bool(where)}{key} is {shown}, not {expected}"
     return None
 
@@ -146,6 +152,10 @@ def record_problem(rec: Any) -> str | None:
         problem = _fields(out, _OUTPUT, f"outputs.{kind}", tuple(_OUTPUT))
         if problem:
             return problem
+        if kind == "usd":
+            problem = _fields(out, _UNITS, f"outputs.{kind}")
+            if problem:
+                return problem
     checks = rec.get("checks", {})
     for section in ("budgets", "streaming"):
         limits = checks.get(section)

@@ -61,6 +61,7 @@ from .assets import (
 from .config import Config, ConfigError, load_config
 from .records import INPUT_STAT_KEYS, _what, record_problem, recorded_inputs
 from .worker import (
+    LAYER_UNIT_KEYS,
     STAT_KEYS,
     USD_TEMPORARY_SUFFIX,
     atomic_write_bytes,
@@ -68,6 +69,7 @@ from .worker import (
     ignore_interrupts,
     output_record,
     process_asset,
+    recorded_layer_units,
     serve,
     stat_fields,
 )
@@ -131,7 +133,8 @@ class PlanItem:
     inputs: list[Path] = field(default_factory=list)  # the files the asset is built from (discover's)
     #: an up-to-date asset's outputs as its manifest record lists them, with the stat fields of those
     #: hashed to be checked recorded anew (:func:`_checked_output`) and those of a kind the config no
-    #: longer asks for left out when deleted or changed since; None when no record changed
+    #: longer asks for left out when deleted or changed since, a USD layer's units added to a record
+    #: written before they were (:func:`.worker.recorded_layer_units`); None when no record changed
     checked_outputs: dict[str, dict] | None = None
     #: the asset's manifest record; None when the manifest has none, or one that is not a record the run
     #: writes (a hand edit: :func:`.records.record_problem`), which is then ignored, with a warning
@@ -657,6 +660,13 @@ def plan(
             item.up_to_date = all(o is not None for kind, o in checked.items() if kind in wanted)
             if item.up_to_date and any(checked[kind] is not o for kind, o in outs.items()):
                 item.checked_outputs = {kind: o for kind, o in checked.items() if o is not None}
+            layer = checked.get("usd")
+            if item.up_to_date and layer is not None:
+                with_units = _layer_with_units(out_dir, layer)
+                item.up_to_date = with_units is not None  # (else rebuilt, its units recorded)
+                if with_units is not None and with_units is not layer:
+                    kept = item.checked_outputs if item.checked_outputs is not None else dict(outs)
+                    item.checked_outputs = {**kept, "usd": with_units}
         items.append(item)
     warnings = [] if any(i.rule_pending for i in items) else _unreached_rules(cfg, items)
     return items, problems, aliases + record_warnings + warnings
@@ -722,9 +732,12 @@ def _restore_kept_aside(out_dir: Path, records: dict, names: set[str] | None = N
         except OSError:
             continue
         if target.suffix == ".usdc":
-            from ..usd.writer import reload_if_open
+            from ..usd.writer import LayerReloadError, reload_if_open
 
-            reload_if_open(target)
+            # (a reload that fails leaves that open layer as it was: the other files are still put back, and
+            # the stopped run still deletes its temporary files and writes its manifest)
+            with contextlib.suppress(LayerReloadError):
+                reload_if_open(target)
 
 
 def _interrupts_raise() -> bool:
@@ -1851,7 +1864,22 @@ def _keep_previous(out_dir: Path, previous: dict | None, failed: dict, verify: b
     kept = {k: v for k, v in previous.items() if k != "last_failure"}
     if outputs:
         kept["outputs"] = checked
+        layer = checked.get("usd")
+        with_units = _layer_with_units(out_dir, layer) if layer is not None else None
+        if with_units is not None and with_units is not layer:  # (for the scene: none read, it has none)
+            kept["outputs"] = {**checked, "usd": with_units}
     return {**kept, "last_failure": failure}
+
+
+def _layer_with_units(out_dir: Path, layer: dict) -> dict | None:
+    """``layer`` (the record of an asset's USD layer, intact) as the scene needs it, with the layer's units
+    (:data:`.worker.LAYER_UNIT_KEYS`): itself when it has them; a copy with those the layer's metadata
+    authors when it has none, a record of 0.7.2 written before they were (the scene referenced the layer
+    uncorrected: :func:`.worker.recorded_layer_units`); None when they do not read."""
+    if all(k in layer for k in LAYER_UNIT_KEYS):
+        return layer
+    units = recorded_layer_units(out_dir / layer["path"])
+    return None if units is None else {**layer, **units}
 
 
 def _scene_prim_name(stem: str, used: set[str]) -> str:
@@ -1881,7 +1909,7 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
     from ..fileio import new_layer_replacing
 
     layers = [
-        (k, r["outputs"]["usd"]["path"])
+        (r["outputs"]["usd"]["path"], r["outputs"]["usd"])
         for k, r in sorted(records.items())
         if r.get("status") == "built" and "usd" in r.get("outputs", {})
     ]
@@ -1897,6 +1925,45 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
         root.SetInfo("kind", "assembly")
         layer.defaultPrim = "Scene"
         used: set[str] = set()
-        for _, path in layers:
+        for path, usd_record in layers:
             prim = Sdf.PrimSpec(root, _scene_prim_name(Path(path).stem, used), Sdf.SpecifierDef, "Xform")
             prim.referenceList.Prepend(Sdf.Reference(f"./{path}"))
+            _author_units_correction(prim, usd_record.get("up_axis"), usd_record.get("meters_per_unit"))
+
+
+#: the scene's up axis and metersPerUnit (USD converts neither across a reference: each asset whose layer
+#: says otherwise gets a corrective transform on its prim, :func:`_author_units_correction`)
+SCENE_UP_AXIS, SCENE_METERS_PER_UNIT = "Y", 1.0
+#: the corrective ops' names (suffixed: beside, not instead of, a layout's own xformOp:translate ...)
+UP_AXIS_OP, UNITS_OP = "xformOp:rotateX:swpmUpAxis", "xformOp:scale:swpmMetersPerUnit"
+
+
+def _author_units_correction(prim, up_axis: str | None, meters_per_unit: float | None) -> None:
+    """On the scene's prim ``prim`` (an Sdf.PrimSpec referencing an asset layer of ``up_axis`` and
+    ``meters_per_unit``, its manifest record's; None for a record that has neither, one of an earlier version
+    taken as the scene's), the transform that puts the asset in the scene's units: a uniform scale of
+    ``meters_per_unit / SCENE_METERS_PER_UNIT`` and, for a Z-up asset, -90 degrees about X (its +Z becomes
+    the scene's +Y), in that order (scale applied to the points first). The asset's own root (the Xform
+    :func:`.usd.write` makes) authors no xformOps, so the prim's ``xformOpOrder`` replaces none. What was
+    applied is in the prim's customData too (``swpm:assetUpAxis``, ``swpm:assetMetersPerUnit``, as
+    ``GetCustomDataByKey`` names them)."""
+    from pxr import Gf, Sdf, Vt
+
+    ops = []
+    rotate = up_axis is not None and up_axis != SCENE_UP_AXIS
+    scale = meters_per_unit is not None and float(meters_per_unit) != SCENE_METERS_PER_UNIT
+    if rotate:
+        attr = Sdf.AttributeSpec(prim, UP_AXIS_OP, Sdf.ValueTypeNames.Double)
+        attr.default = -90.0
+        ops.append(UP_AXIS_OP)
+    if scale:
+        s = float(meters_per_unit) / SCENE_METERS_PER_UNIT
+        attr = Sdf.AttributeSpec(prim, UNITS_OP, Sdf.ValueTypeNames.Double3)
+        attr.default = Gf.Vec3d(s, s, s)
+        ops.append(UNITS_OP)
+    if not ops:
+        return
+    order = Sdf.AttributeSpec(prim, "xformOpOrder", Sdf.ValueTypeNames.TokenArray, Sdf.VariabilityUniform)
+    order.default = Vt.TokenArray(ops)
+    applied = {"assetUpAxis": up_axis, "assetMetersPerUnit": meters_per_unit}
+    prim.customData = {"swpm": {k: v for k, v in applied.items() if v is not None}}

@@ -4,7 +4,9 @@ streaming order, write the outputs atomically. Never raises: a failure comes bac
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import math
 import os
 import signal
 import time
@@ -295,17 +297,54 @@ def check_streaming(pm, policy: dict) -> list[str]:
 USD_TEMPORARY_SUFFIX = ".tmp.usdc"
 
 
-def _stage_usd(pm, target: Path, source: str | None = None) -> tuple[Path, Path]:
+def layer_units(source: str | None) -> dict[str, Any]:
+    """The ``up_axis`` and ``meters_per_unit`` of the asset layer of a mesh loaded from ``source``: a USD
+    file's (:func:`.usd.writer.stage_metadata`), :func:`.usd.write`'s defaults (Y, 1) for what a USD file
+    does not say and for any other file. Recorded with the layer (its manifest record), so the scene
+    corrects the asset to its own units without opening the layer (:func:`.runner._write_scene`)."""
+    from ..usd.writer import stage_metadata
+
+    meta = stage_metadata(source) if source is not None else {}
+    return {"up_axis": meta.get("up_axis", "Y"), "meters_per_unit": float(meta.get("meters_per_unit", 1.0))}
+
+
+#: the keys of :func:`layer_units`, which a USD layer's manifest record holds (one of 0.7.2 before they were
+#: recorded has neither: :func:`recorded_layer_units`)
+LAYER_UNIT_KEYS = ("up_axis", "meters_per_unit")
+
+
+def recorded_layer_units(path: Path) -> dict[str, Any] | None:
+    """The :func:`layer_units` an asset layer at ``path`` was written with (:func:`_stage_usd` authors both),
+    read from its metadata alone (none of its prims); None when it does not read or authors other units.
+    For a layer whose record predates the units' (the scene would reference it uncorrected)."""
+    from pxr import Sdf, Tf
+
+    try:
+        layer = Sdf.Layer.OpenAsAnonymous(os.fspath(path), metadataOnly=True)
+    except Tf.ErrorException:
+        return None
+    info = layer.pseudoRoot if layer is not None else None
+    if info is None or not all(info.HasInfo(k) for k in ("upAxis", "metersPerUnit")):
+        return None
+    up, scale = str(info.GetInfo("upAxis")), info.GetInfo("metersPerUnit")
+    if up not in ("Y", "Z") or not isinstance(scale, float) or not math.isfinite(scale) or scale <= 0:
+        return None
+    return {"up_axis": up, "meters_per_unit": scale}
+
+
+def _stage_usd(
+    pm, target: Path, source: str | None = None, units: dict[str, Any] | None = None
+) -> tuple[Path, Path]:
     """Export ``pm``'s USD layer (named after ``target``) to a temporary file beside ``target``, synced to
     disk; (temporary file, target), for :func:`_place_usd`. A mesh of a USD ``source`` keeps its stage's
     upAxis and metersPerUnit (the loader keeps its coordinates): a Z-up stage in centimetres written as Y-up
-    metres stood 100 times too large, on its side."""
+    metres stood 100 times too large, on its side. ``units``: :func:`layer_units` of ``source`` when the
+    caller has them."""
     import os
     import tempfile
 
     from ..fileio import set_mode_for, set_plain_mode
     from ..usd import write as usd_write
-    from ..usd.writer import stage_metadata
 
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=USD_TEMPORARY_SUFFIX, dir=target.parent)
@@ -313,7 +352,7 @@ def _stage_usd(pm, target: Path, source: str | None = None) -> tuple[Path, Path]
     os.close(fd)
     tmp = Path(name)
     try:
-        meta = stage_metadata(source) if source is not None else {}
+        meta = layer_units(source) if units is None else units
         usd_write(pm, tmp, name=target.stem.split(".")[0] or None, **meta)
         # the replaced layer's mode once written (a read-only one's, given first, refused usd-core the write)
         set_mode_for(tmp, target)
@@ -361,7 +400,9 @@ def _place_outputs(staged: dict[str, tuple[Path, Path]]) -> dict[str, dict[str, 
             else:
                 os.replace(tmp, target)
         return {kind: output_record(target) for kind, (_, target) in staged.items()}
-    except BaseException:
+    except BaseException as exc:
+        from ..usd.writer import LayerReloadError, reload_if_open
+
         for kind, tmp, target, previous in reversed(placed):
             if os.path.lexists(tmp):
                 continue  # not renamed: the target is still its previous file
@@ -373,9 +414,18 @@ def _place_outputs(staged: dict[str, tuple[Path, Path]]) -> dict[str, dict[str, 
             except OSError:  # the new file goes at least (the runner then finds the previous build broken)
                 target.unlink(missing_ok=True)
             if kind == "usd":
-                from ..usd.writer import reload_if_open
-
-                reload_if_open(target)
+                # (a reload that fails again leaves the open layer as it was, the previous file's: the other
+                # outputs are still undone; raised here, it left the new .swpm beside the previous .usdc)
+                with contextlib.suppress(LayerReloadError):
+                    reload_if_open(target)
+        if isinstance(exc, LayerReloadError):  # (not "written": undone, the asset's previous build kept)
+            why = f" ({exc.reason})" if exc.reason else ""
+            raise LayerReloadError(
+                exc.path,
+                exc.reason,
+                f"{exc.path}: the layer of that name open in this process could not be reloaded{why}: the "
+                "asset's new outputs were taken back, its previous build is as it was",
+            ) from exc
         raise
     finally:
         for path in aside:
@@ -469,9 +519,10 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         # renamed into place all or none (:func:`_place_outputs`): a failure leaves the asset's previous
         # outputs as they were
         staged: dict[str, tuple[Path, Path]] = {}
+        units = layer_units(task["path"]) if task["write_usd"] else None
         try:
             if task["write_usd"]:
-                staged["usd"] = _stage_usd(pm, out_dir / f"{task['stem']}.usdc", task["path"])
+                staged["usd"] = _stage_usd(pm, out_dir / f"{task['stem']}.usdc", task["path"], units)
             if task["write_swpm"]:
                 from .. import format as swpm_format
 
@@ -488,6 +539,8 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         finally:
             for tmp, _ in staged.values():
                 tmp.unlink(missing_ok=True)
+        if units is not None:  # (the scene corrects the asset to its units from them: runner._write_scene)
+            outputs["usd"].update(units)
         rec["outputs"] = outputs
         from .assets import checks_of
 

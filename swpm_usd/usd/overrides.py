@@ -10,13 +10,16 @@ are dropped. Primvars are re-indexed consistently: ``vertex`` / ``varying`` ones
 other ``uniform`` ones follow the LOD-0 triangles; ``constant`` ones are untouched; indexed primvars are
 written flattened (their indices blocked). A source encoded before keeps no ``swpm:`` value the new encoding
 does not author (another encoding's buffers, ``swpm:discreteLods``): they are blocked. Face GeomSubsets get
-the LOD-0 triangles of their faces, point GeomSubsets the new vertices of their points (edge ones are left
-as they are). Instanced meshes (inside prototypes) are skipped (USD ignores overrides of them); a source with
-no Mesh prim to encode is an error that says why. ``velocities`` and ``accelerations`` follow
-the points as ``vertex`` primvars do.
-Time-sampled points, normals and primvars (a deforming mesh) are re-indexed at every sample of the source,
-the extent computed at each sample of the points: an override's default alone would be stronger than the
-source's samples and stop the animation. Topology that changes over time cannot be re-indexed: an error.
+the LOD-0 triangles of their faces, point GeomSubsets the new vertices of their points, edge GeomSubsets
+(pairs of point indices) the LOD-0 triangle edges between the new vertices of their points (an edge no kept
+face has is left out), at every time sample of their indices. Instanced meshes (inside prototypes) are
+skipped (USD ignores overrides of them); a source with no Mesh prim to encode is an error that says why.
+``velocities`` and ``accelerations`` follow the points as ``vertex`` primvars do. A mesh's ``normals``
+attribute is re-indexed beside ``primvars:normals`` (which USD uses when both are authored; a uniform
+``normals`` attribute then stays uniform). Time-sampled points, normals, primvars and subset indices (a
+deforming mesh) are re-indexed at every sample of the source, the extent computed at each sample of the
+points: an override's default alone would be stronger than the source's samples and stop the animation. A
+blocked sample stays blocked. Topology that changes over time cannot be re-indexed: an error.
 The source files are never written.
 """
 
@@ -34,16 +37,18 @@ from pxr import Sdf, Tf, Usd, UsdGeom, Vt
 
 from ..build import build
 from ..encode.base import ProgressiveMesh, with_attributes
-from ..errors import SwpmError, first_few
+from ..errors import SwpmError, first_few, tf_message
 from ..fileio import new_layer_replacing
-from ..io.usd_loader import _all_holes, _Invalid, _tf_message, _Topology
+from ..io.usd_loader import _all_holes, _Invalid, _Topology
 from ..mesh import Mesh
-from .writer import author_swpm
+from .writer import LayerReloadError, author_swpm
 
 _PROV = "_swpm_source_vertex"
 #: the time the source is read at (a mesh's earliest time sample, else its default value: as the loader reads)
 _TIME = Usd.TimeCode.EarliestTime()
 _PM_NAMES = {"normals": "normal", "st": "uv", "displayColor": "color"}
+#: the internal name of a mesh's ``normals`` attribute when ``primvars:normals`` (which USD uses) is beside it
+_SHADOWED_NORMALS = "normals attribute"
 #: the source stage's metadata the override layer (the stage's new root layer) takes, where the source
 #: authors it: its units and its timing (the time samples re-authored are in its time codes)
 _STAGE_METADATA = (
@@ -72,8 +77,11 @@ class _Primvar:
         """The source's time samples of the values (and of an indexed primvar's indices)."""
         return list(self.pv.GetTimeSamples() if self.pv is not None else self.attr.GetTimeSamples())
 
-    def rows_at(self, time: float) -> np.ndarray:
-        """The rows at time sample ``time`` (as :attr:`rows`); an error unless there are as many."""
+    def rows_at(self, time: float) -> np.ndarray | None:
+        """The rows at time sample ``time`` (as :attr:`rows`), None where the sample is blocked (it stays
+        blocked); an error unless there are as many."""
+        if self.attr.Get(time) is None:  # (a value block: "0 values at time t" before)
+            return None
         flat = self.pv.ComputeFlattened(time) if self.pv is not None else self.attr.Get(time)
         a = np.asarray(flat if flat is not None else [])
         es = max(self.pv.GetElementSize(), 1) if self.pv is not None else 1
@@ -86,25 +94,43 @@ class _Primvar:
         return rows
 
 
+def _first_value(get: Callable[[Any], Any], attr: Usd.Attribute) -> Any:
+    """``get(time)`` at the time the loader reads (:data:`_TIME`), else at the first of ``attr``'s time
+    samples that is not blocked; None when every one is (or there is no value)."""
+    value = get(_TIME)
+    for t in attr.GetTimeSamples() if value is None else ():
+        value = get(t)
+        if value is not None:
+            break
+    return value
+
+
 def _primvars(prim: Usd.Prim, topo: _Topology) -> list[_Primvar]:
     mesh = UsdGeom.Mesh(prim)
     out = []
     api = UsdGeom.PrimvarsAPI(prim)
     for pv in api.GetPrimvarsWithValues():
-        flat = pv.ComputeFlattened(_TIME)
+        # (its first sample blocked: read at the first it has, every sample re-indexed, the blocked kept)
+        flat = _first_value(pv.ComputeFlattened, pv.GetAttr())
         if flat is None:
             continue
         a = np.asarray(flat)
         es = max(pv.GetElementSize(), 1)
         a = a.reshape(a.shape[0] // es, es, *a.shape[1:]) if es > 1 else a
         out.append(_Primvar(str(pv.GetPrimvarName()), a, str(pv.GetInterpolation()), pv, pv.GetAttr()))
-    if not any(p.name == "normals" for p in out) and mesh.GetNormalsAttr().HasValue():
-        a = np.asarray(mesh.GetNormalsAttr().Get(_TIME))
-        out.append(_Primvar("normals", a, str(mesh.GetNormalsInterpolation()), None, mesh.GetNormalsAttr()))
+    normals = mesh.GetNormalsAttr()
+    value = _first_value(normals.Get, normals) if normals.HasValue() else None
+    if value is not None:
+        # primvars:normals, when authored, is what USD draws (UsdGeomPointBased: it wins over normals); the
+        # normals attribute beside it is re-indexed all the same (left in the source's order, of another
+        # length than the new points, it was invalid), by its own interpolation: a faceVarying one splits
+        # points as a primvar does, a uniform one stays uniform (it follows the LOD-0 triangles)
+        name = _SHADOWED_NORMALS if any(p.name == "normals" for p in out) else "normals"
+        out.append(_Primvar(name, np.asarray(value), str(mesh.GetNormalsInterpolation()), None, normals))
     # per-point motion (a deforming mesh's, for motion blur): re-indexed with the points, not left in the
     # source's order beside them (one of another length than the points is not per point: left alone)
     for attr in (mesh.GetVelocitiesAttr(), mesh.GetAccelerationsAttr()):
-        value = attr.Get(_TIME) if attr.HasValue() else None
+        value = _first_value(attr.Get, attr) if attr.HasValue() else None
         if value is not None and len(value) == topo.n_points:
             out.append(_Primvar(attr.GetName(), np.asarray(value), UsdGeom.Tokens.vertex, None, attr))
     return out
@@ -210,8 +236,8 @@ def _set_values(p: _Primvar, remap: Callable[[np.ndarray], np.ndarray], interp: 
     # (the source's samples read before any opinion is authored: the override's default hides them)
     samples = [(t, p.rows_at(t)) for t in p.times()]
     p.attr.Set(values(remap(p.rows)))
-    for t, rows in samples:
-        p.attr.Set(values(remap(rows)), t)
+    for t, rows in samples:  # (a blocked sample stays blocked)
+        p.attr.Set(Sdf.ValueBlock() if rows is None else values(remap(rows)), t)
     if p.pv is not None:
         if p.pv.IsIndexed():
             p.pv.BlockIndices()
@@ -229,6 +255,9 @@ def _animate_points(mesh: UsdGeom.Mesh, point_of: np.ndarray, n_points: int, ext
     # (every sample read before one is authored: the override's samples hide the source's between them)
     samples = [(t, attr.Get(t)) for t in attr.GetTimeSamples()]
     for t, value in samples:
+        if value is None:  # (a blocked sample stays blocked)
+            attr.Set(Sdf.ValueBlock(), t)
+            continue
         pts = np.asarray(value, np.float32).reshape(-1, 3)
         if pts.shape[0] != n_points:
             raise UsdOverrideError(
@@ -274,12 +303,7 @@ def encode_prim(prim: Usd.Prim, encoding: str = "vanilla", **params: Any) -> Pro
         elif p.interp == UsdGeom.Tokens.uniform:
             _set_values(p, lambda rows: rows[src_face], p.interp)
     for subset in UsdGeom.Subset.GetAllGeomSubsets(mesh):
-        element = subset.GetElementTypeAttr().Get()
-        indices = np.asarray(subset.GetIndicesAttr().Get(_TIME) or [], np.int64)
-        if element == UsdGeom.Tokens.face:  # the LOD-0 triangles of its faces
-            subset.GetIndicesAttr().Set(np.flatnonzero(np.isin(src_face, indices)).astype(np.int32))
-        elif element == UsdGeom.Tokens.point:  # the new vertices of its points (split ones each)
-            subset.GetIndicesAttr().Set(np.flatnonzero(np.isin(point_of, indices)).astype(np.int32))
+        _reindex_subset(subset, _subset_remap(subset, src_face, point_of, tri0, topo.n_points))
     ours = author_swpm(prim, pm)
     # a source encoded before (another encoding, discrete LODs) keeps its swpm: values in the weaker layer:
     # blocked, so the prim holds this encoding's buffers alone (swpm:discreteLods named the old LODs)
@@ -287,6 +311,59 @@ def encode_prim(prim: Usd.Prim, encoding: str = "vanilla", **params: Any) -> Pro
         if attr.GetName().startswith("swpm:") and attr.GetName() not in ours and attr.HasAuthoredValue():
             attr.Block()
     return pm
+
+
+def _subset_remap(
+    subset: UsdGeom.Subset, src_face: np.ndarray, point_of: np.ndarray, tri0: np.ndarray, n_points: int
+) -> Callable[[np.ndarray], np.ndarray]:
+    """The re-indexing of ``subset``'s indices: a face subset's become the LOD-0 triangles of its faces
+    (``src_face``: each one's source face), a point subset's the new vertices of its points (``point_of``:
+    each one's source point; a split point's each), an edge subset's (pairs of point indices) the edges of
+    the LOD-0 triangles ``tri0`` between the new vertices of its points, each once, as (lower, higher)
+    pairs in order (an edge that no kept face has, one of hole faces alone, is no edge of the new mesh: left
+    out; a pair with an index outside the points names none). Any other element type (none a Mesh has) is an
+    error naming the subset."""
+    element = subset.GetElementTypeAttr().Get()
+    where = subset.GetPath()
+    if element == UsdGeom.Tokens.face:
+        return lambda idx: np.flatnonzero(np.isin(src_face, idx))
+    if element == UsdGeom.Tokens.point:
+        return lambda idx: np.flatnonzero(np.isin(point_of, idx))
+    if element != UsdGeom.Tokens.edge:
+        raise UsdOverrideError(f"{where}: a GeomSubset of elementType {element!r} cannot be re-indexed")
+    edges = np.sort(tri0[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    edges = np.unique(edges, axis=0)  # (each new edge once, in order)
+    src = np.sort(point_of[edges], axis=1)
+    src_key = src[:, 0] * n_points + src[:, 1]
+
+    def remap(idx: np.ndarray) -> np.ndarray:
+        if idx.shape[0] % 2:
+            raise UsdOverrideError(
+                f"{where}: an edge GeomSubset holds pairs of point indices, not {idx.shape[0]} indices"
+            )
+        pairs = np.sort(idx.reshape(-1, 2), axis=1)
+        # (a pair with an index outside the points names no edge: keyed, it was another pair's, (0, n + 2)
+        # that of (1, 2))
+        pairs = pairs[(pairs[:, 0] >= 0) & (pairs[:, 1] < n_points)]
+        return edges[np.isin(src_key, pairs[:, 0] * n_points + pairs[:, 1])].reshape(-1)
+
+    return remap
+
+
+def _reindex_subset(subset: UsdGeom.Subset, remap: Callable[[np.ndarray], np.ndarray]) -> None:
+    """Author ``remap`` of ``subset``'s indices: its value at :data:`_TIME` (none: empty) and each of its
+    time samples (the override's default alone would hide them; a blocked one stays blocked)."""
+    attr = subset.GetIndicesAttr()
+    # (every sample read before one is authored: the override's opinions hide the source's)
+    samples = [(t, attr.Get(t)) for t in attr.GetTimeSamples()]
+    first = attr.Get(_TIME)
+
+    def new(value: Any) -> np.ndarray:
+        return np.ascontiguousarray(remap(np.asarray(value if value is not None else [], np.int64)), np.int32)
+
+    attr.Set(new(first))
+    for t, value in samples:
+        attr.Set(Sdf.ValueBlock() if value is None else new(value), t)
 
 
 def _mesh_roots(stage: Usd.Stage, prims: Iterable[str] | None, src: Path) -> list[Usd.Prim]:
@@ -351,7 +428,7 @@ def write_overrides(
     try:
         src_stage = Usd.Stage.Open(str(src_path))
     except Tf.ErrorException as e:
-        raise UsdOverrideError(f"{source}: USD could not open it: {_tf_message(e)}") from e
+        raise UsdOverrideError(f"{source}: USD could not open it: {tf_message(e)}") from e
     if src_stage is None:
         raise UsdOverrideError(f"{source}: USD could not open it")
     suffix = out_path.suffix.lower()
@@ -368,8 +445,11 @@ def write_overrides(
     # a new layer under a temporary name beside the output (relative paths resolve the same), renamed into
     # place once complete: a run that fails leaves the previous output as it was, on disk and in memory
     tmp_path = out_path.with_name(f".{out_path.stem}.{secrets.token_hex(4)}.tmp{out_path.suffix}")
-    with new_layer_replacing(out_path, tmp_path, errors=lambda: _writing(path, tmp_path)) as layer:
-        result = _author_overrides(layer, src_stage, src_path, rel, mode, encoding, prims, params)
+    try:
+        with new_layer_replacing(out_path, tmp_path, errors=lambda: _writing(path, tmp_path)) as layer:
+            result = _author_overrides(layer, src_stage, src_path, rel, mode, encoding, prims, params)
+    except LayerReloadError as e:  # (written: the layer open in this process was not reloaded)
+        raise UsdOverrideError(str(e)) from e
     return result
 
 
@@ -452,5 +532,5 @@ def _writing(path: str | os.PathLike[str], tmp: Path) -> Iterator[None]:
     try:
         yield
     except (OSError, Tf.ErrorException) as e:
-        why = e.strerror or str(e) if isinstance(e, OSError) else _tf_message(e)
+        why = e.strerror or str(e) if isinstance(e, OSError) else tf_message(e)
         raise UsdOverrideError(f"{path}: could not write: {why.replace(str(tmp), os.fspath(path))}") from e

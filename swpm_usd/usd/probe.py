@@ -295,9 +295,9 @@ def _probe(path: str, size: int) -> Problem | None:
         )
     if code not in (_OPEN_FAILED, _READ_FAILED):
         return None  # (the probe itself failed, not usd-core on the file: the caller opens it as before)
-    from ..io.usd_loader import _tf_message
+    from ..errors import tf_message
 
-    reason = _tf_message(RuntimeError(text)) if text.strip() else "usd-core returned no stage"
+    reason = tf_message(RuntimeError(text)) if text.strip() else "usd-core returned no stage"
     if code == _OPEN_FAILED:
         return Problem("open", f"{path}: usd-core cannot open it as a USD layer: {reason}")
     return Problem("read", f"{path}: usd-core cannot read it: {reason}")

@@ -26,7 +26,7 @@ import numpy as np
 from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, Vt
 
 from ..encode.base import ProgressiveMesh
-from ..errors import SwpmError
+from ..errors import SwpmError, tf_message
 from ..fileio import new_layer_replacing
 from . import plugin
 from .arrays import to_vt
@@ -238,12 +238,35 @@ def _layer_args(path: Path, fmt: str | None) -> dict[str, str]:
     return {"format": fmt}
 
 
+class LayerReloadError(UsdWriteError):
+    """A layer file was written (it is on disk, complete), but the layer of its name open in this process
+    could not be reloaded: that layer object keeps its previous content. ``path``: the file; ``reason``:
+    usd-core's message ("" when it gave none)."""
+
+    def __init__(self, path: str | os.PathLike[str], reason: str = "", message: str | None = None) -> None:
+        self.path, self.reason = os.fspath(path), reason
+        why = f": {reason}" if reason else ""
+        super().__init__(
+            message
+            or f"{self.path}: written, but the layer of that name open in this process could not be reloaded "
+            f"(it keeps its previous content; open the file anew){why}"
+        )
+
+
 def reload_if_open(path: str | os.PathLike[str]) -> None:
     """A file just written at ``path``: a layer of that name already open in this process would keep its
-    stale content, so it is reloaded."""
+    stale content, so it is reloaded. A reload usd-core fails is a :class:`LayerReloadError` that says the
+    file was written (it was reported as "could not write")."""
     layer = Sdf.Layer.Find(str(path))
-    if layer is not None:
-        layer.Reload(force=True)
+    if layer is None:
+        return
+    try:
+        done = layer.Reload(force=True)
+        why = "" if done else "usd-core did not reload it"
+    except Tf.ErrorException as e:
+        done, why = False, tf_message(e)
+    if not done:
+        raise LayerReloadError(path, why)
 
 
 def _export(stage: Usd.Stage, path: Path, fmt: str | None) -> Path:
@@ -252,9 +275,7 @@ def _export(stage: Usd.Stage, path: Path, fmt: str | None) -> Path:
         path.parent.mkdir(parents=True, exist_ok=True)
         done = stage.GetRootLayer().Export(str(path), args=args)
     except (OSError, Tf.ErrorException) as e:
-        from ..io.usd_loader import _tf_message
-
-        why = e.strerror or str(e) if isinstance(e, OSError) else _tf_message(e)
+        why = e.strerror or str(e) if isinstance(e, OSError) else tf_message(e)
         raise UsdWriteError(f"{path}: could not write: {why}") from e
     if not done:
         raise UsdWriteError(f"{path}: could not write")
@@ -334,9 +355,7 @@ def stage_metadata(source: str | os.PathLike[str]) -> dict[str, Any]:
     try:
         layer = Sdf.Layer.FindOrOpen(os.fspath(source))
     except Tf.ErrorException as e:
-        from ..io.usd_loader import _tf_message
-
-        raise UsdWriteError(f"{source}: USD could not open it: {_tf_message(e)}") from e
+        raise UsdWriteError(f"{source}: USD could not open it: {tf_message(e)}") from e
     if layer is None:
         raise UsdWriteError(f"{source}: USD could not open it")
     info = layer.pseudoRoot
@@ -400,9 +419,7 @@ def write_usdlod(
     try:
         src = Usd.Stage.Open(str(asset))
     except Tf.ErrorException as e:
-        from ..io.usd_loader import _tf_message
-
-        raise UsdWriteError(f"{asset}: USD could not open it: {_tf_message(e)}") from e
+        raise UsdWriteError(f"{asset}: USD could not open it: {tf_message(e)}") from e
     default = src.GetDefaultPrim()
     mesh_prim = default.GetChild(MESH_NAME) if default else None
     if not mesh_prim or not mesh_prim.GetAttribute("swpm:discreteLods").HasAuthoredValue():
@@ -423,9 +440,7 @@ def write_usdlod(
                 layer, src, default, asset, p, discrete, errors, extent, pixel_error, viewport_px, fov_degrees
             )
     except (OSError, Tf.ErrorException) as e:
-        from ..io.usd_loader import _tf_message
-
-        why = e.strerror or str(e) if isinstance(e, OSError) else _tf_message(e)
+        why = e.strerror or str(e) if isinstance(e, OSError) else tf_message(e)
         raise UsdWriteError(f"{p}: could not write: {why.replace(str(tmp), str(p))}") from e
     return p
 
