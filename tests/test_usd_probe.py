@@ -162,8 +162,10 @@ def test_a_crate_file_is_probed_once_per_process_and_a_text_one_never(tmp_path, 
     text = tmp_path / "a.usda"
     Usd.Stage.Open(str(seed)).Export(str(text))
     asked: list[str] = []
-    real = probe._probe
-    monkeypatch.setattr(probe, "_probe", lambda path, size: asked.append(path) or real(path, size))
+    real = probe._probe_all
+    monkeypatch.setattr(
+        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
+    )
     assert load_mesh(seed).triangle_count == 200 and load_mesh(seed).triangle_count == 200
     assert load_mesh(text).triangle_count == 200
     assert asked == [str(seed)]
@@ -305,8 +307,10 @@ def test_a_pipeline_worker_does_not_probe_again_a_usdc_the_run_probed_as_it_plan
     )
     task = runner._task(cfg, item)
     asked: list[str] = []
-    real = probe._probe
-    monkeypatch.setattr(probe, "_probe", lambda path, size: asked.append(path) or real(path, size))
+    real = probe._probe_all
+    monkeypatch.setattr(
+        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
+    )
     monkeypatch.setattr(probe, "_answers", {})  # (a worker: another process, nothing probed)
     rec = worker._process_asset(task)
     assert rec["status"] == "built" and asked == [], (rec, asked)
