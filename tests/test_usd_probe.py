@@ -22,6 +22,7 @@ import pytest
 import trimesh
 from pxr import Usd, UsdGeom, Vt
 
+from swpm_usd.errors import MeshLoadError
 from swpm_usd.io import load_mesh
 from swpm_usd.usd import probe
 
@@ -318,3 +319,287 @@ def test_a_pipeline_worker_does_not_probe_again_a_usdc_the_run_probed_as_it_plan
     os.utime(seed, ns=(1, 1))  # (changed since the planning: its answer is not this file's)
     rec = worker._process_asset(task)
     assert rec["status"] == "built" and asked == [str(seed)], (rec, asked)
+
+
+def _text_root(path: Path, arc: str, target: Path) -> Path:
+    """A .usda at ``path`` whose stage opens ``target`` by ``arc``: a sublayer, a reference or a payload
+    (of /m, the seed's mesh, as the default prim ``/a``)."""
+    rel = os.path.relpath(target, path.parent)
+    if arc == "sublayer":
+        path.write_text(f"#usda 1.0\n(\n    subLayers = [@./{rel}@]\n)\n")
+    else:
+        arcs = {"reference": "references", "payload": "payload"}
+        path.write_text(
+            f'#usda 1.0\n(\n    defaultPrim = "a"\n)\ndef "a" ({arcs[arc]} = @./{rel}@</m>) {{}}\n'
+        )
+    return path
+
+
+def _giant(path: Path) -> Path:
+    """:func:`_seed` (written beside ``path`` as ``seed-<name>``) with the fourth byte of its STRINGS section
+    flipped, at ``path`` (found by a sweep over the sections' first bytes, the file referenced from a .usda):
+    usd-core asks for a giant allocation reading it; a read in a child without a memory limit ran past 20 s
+    (not repeated here: it may take the machine's memory), under the probe's limit it is std::bad_alloc."""
+    data = bytearray(_seed(path.with_name("seed-" + path.name)).read_bytes())
+    (toc,) = struct.unpack_from("<q", data, 16)
+    (count,) = struct.unpack_from("<Q", data, toc)
+    for i in range(count):
+        name, start, _ = struct.unpack_from("<16sqq", data, toc + 8 + 32 * i)
+        if name.rstrip(b"\0") == b"STRINGS":
+            data[start + 3] ^= 0xFF
+    path.write_bytes(bytes(data))
+    return path
+
+
+@pytest.mark.parametrize("arc", ["sublayer", "reference", "payload"])
+def test_a_usda_that_opens_a_corrupt_usdc_is_probed(tmp_path, arc):
+    # the probe was keyed on the root's suffix: a .usda naming a corrupt .usdc was opened in the process,
+    # which died by SIGSEGV (a sublayer of the crashing file: validate, the loader, build) or asked for a
+    # giant allocation (a reference or payload of the other; in the probe, a composition error usd-core
+    # reports as it skips the layer, which the process asking then opened without a limit). Its composed
+    # stage is probed, and a crate layer that exists but does not open there is an error
+    (tmp_path / "assets").mkdir()
+    if arc == "sublayer":
+        bad = _crashing(tmp_path / "assets" / "bad.usdc")
+        code, start = "SWPM_USD_CRASH", "usd-core crashed opening or reading it"
+    else:
+        bad = _giant(tmp_path / "assets" / "bad.usdc")
+        code, start = "SWPM_USD_OPEN", f"usd-core cannot open a crate layer its stage uses, {bad}: "
+    root = _text_root(tmp_path / "root.usda", arc, bad)
+    if arc == "sublayer":
+        raw = subprocess.run([sys.executable, "-c", _RAW_READ, str(root)], capture_output=True, timeout=120)
+        assert raw.returncode < 0, raw.returncode  # (usd-core alone dies on the .usda)
+    done = _cli("validate", str(root), "--json")
+    assert done.returncode == 1, (done.returncode, done.stdout, done.stderr)
+    (finding,) = json.loads(done.stdout)["findings"]
+    assert finding["code"] == code and finding["message"].startswith(f"{root}: {start}"), finding
+    assert "bad_alloc" in finding["message"] or arc == "sublayer"
+    done = _cli("build", str(root), "--json")
+    assert done.returncode == 1, (done.returncode, done.stdout, done.stderr)
+    assert json.loads(done.stdout)["error"] == finding["message"]
+    # the good seed through the same arc builds (the probe reads the composed stage clean)
+    good = _text_root(tmp_path / "good.usda", arc, tmp_path / "assets" / "seed-bad.usdc")
+    assert probe.needs_probe(good) and probe.check(good) is None
+    assert load_mesh(good).triangle_count == 200
+
+
+def test_write_overrides_write_usdlod_and_a_pipeline_refuse_a_usda_over_a_corrupt_usdc(tmp_path):
+    bad = _crashing(tmp_path / "bad.usdc")
+    root = _text_root(tmp_path / "root.usda", "sublayer", bad)
+    code = (
+        "import sys\nfrom swpm_usd import usd\nfrom swpm_usd.errors import SwpmError\n"
+        "for write in (lambda: usd.write_overrides(sys.argv[1], sys.argv[2]),\n"
+        "              lambda: usd.write_usdlod(sys.argv[1], sys.argv[3])):\n"
+        "    try:\n        write()\n    except SwpmError as e:\n        print(type(e).__name__, e)\n"
+    )
+    args = [str(root), str(tmp_path / "over.usda"), str(tmp_path / "lod.usda")]
+    done = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, (done.returncode, done.stderr)
+    lines = done.stdout.splitlines()
+    assert len(lines) == 2 and all("usd-core crashed opening or reading it" in line for line in lines), lines
+    assert lines[0].startswith(f"UsdOverrideError {root}: ") and lines[1].startswith(
+        f"UsdWriteError {root}: "
+    )
+    assert not (tmp_path / "over.usda").exists() and not (tmp_path / "lod.usda").exists()
+    # a pipeline: a glob's .usda asset over a corrupt layer fails alone; a stage: source is a config error
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    _text_root(tmp_path / "m" / "b.usda", "payload", _giant(tmp_path / "giant.usdc"))
+    _text_root(tmp_path / "m" / "c.usda", "sublayer", bad)
+    (tmp_path / "c.yaml").write_text(
+        "version: 1\nassets: [{glob: 'm/*'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    done = _cli("run", str(tmp_path / "c.yaml"), "--json")
+    assert done.returncode == 1, (done.returncode, done.stdout, done.stderr)
+    summary = json.loads(done.stdout)
+    assert summary["built_assets"] == ["m/a.obj"] and summary["failed"] == 2, summary
+    failures = {f["id"]: f["error"] for f in summary["failures"]}
+    assert "usd-core cannot open a crate layer its stage uses" in failures["m/b.usda"], failures
+    assert "usd-core crashed opening or reading it" in failures["m/c.usda"], failures
+    (tmp_path / "s.yaml").write_text("version: 1\nassets: [{stage: root.usda}]\noutput: {dir: out2}\n")
+    done = _cli("run", str(tmp_path / "s.yaml"))
+    assert done.returncode == 2 and "cannot open stage root.usda: usd-core crashed" in done.stderr, (
+        done.stderr
+    )
+
+
+def test_a_text_root_naming_no_crate_file_is_not_probed(tmp_path, monkeypatch):
+    seed = _seed(tmp_path / "seed.usdc")
+    text = tmp_path / "seed.usda"
+    Usd.Stage.Open(str(seed)).Export(str(text))
+    root = _text_root(tmp_path / "root.usda", "reference", text)
+    (tmp_path / "tex.usda").write_text('#usda 1.0\ndef "t" {\n    asset file = @./seed.png@\n}\n')
+    asked: list[str] = []
+    real = probe._probe_all
+    monkeypatch.setattr(
+        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
+    )
+    for path in (root, text, tmp_path / "tex.usda"):
+        assert not probe.needs_probe(path) and probe.check(path) is None
+    assert load_mesh(root).triangle_count == 200 and asked == []
+    # a layer it names becomes a crate file: probed (the answer depended on that layer)
+    text.unlink()
+    _text_root(text, "sublayer", seed)
+    assert probe.check(root) is None and asked == [str(root)]
+
+
+def test_a_cached_answer_holds_only_while_the_layers_the_probe_opened_are_unchanged(tmp_path, monkeypatch):
+    # the answer was kept by the root file's key alone: a sublayer replaced by a corrupt one since was
+    # taken as probed clean, and opened in this process (which died)
+    seed = _seed(tmp_path / "sub.usdc")
+    stage = Usd.Stage.CreateNew(str(tmp_path / "root.usdc"))
+    stage.GetRootLayer().subLayerPaths.append("./sub.usdc")
+    stage.GetRootLayer().Save()
+    del stage
+    root = tmp_path / "root.usdc"
+    asked: list[str] = []
+    real = probe._probe_all
+    monkeypatch.setattr(
+        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
+    )
+    assert probe.check(root) is None and probe.check(root) is None and asked == [str(root)]
+    (key,) = probe.cleared(root)
+    assert [d[0] for d in key[4]] == [str(seed.resolve())]  # (the layer the probe opened, with its stamp)
+    crashing = _crashing(tmp_path / "c.usdc").read_bytes()
+    seed.write_bytes(crashing)
+    os.utime(seed, ns=(2, 2))  # (a stamp of its own: rewrites within one clock tick keep the mtime)
+    found = probe.check(root)
+    assert found is not None and found.kind == "crash" and asked == [str(root)] * 2, found
+    assert probe.cleared(root) == []
+    # a worker trusts the planning's key only while the sublayer is as the planning probed it
+    seed.write_bytes((tmp_path / "seed-c.usdc").read_bytes())
+    os.utime(seed, ns=(3, 3))
+    assert probe.check(root) is None and len(asked) == 3
+    handed = probe.cleared(root)
+    monkeypatch.setattr(probe, "_answers", {})
+    probe.trust(json.loads(json.dumps(handed)))  # (as a task carries it: plain data)
+    assert probe.check(root) is None and len(asked) == 3
+    monkeypatch.setattr(probe, "_answers", {})
+    probe.trust(handed)
+    os.utime(seed, ns=(1, 1))
+    assert probe.check(root) is None and len(asked) == 4
+
+
+def _patched_program(monkeypatch, old: str, new: str) -> None:
+    """The probe server's program with ``old`` replaced by ``new``, in a fresh server."""
+    assert old in probe._PROBE
+    monkeypatch.setattr(probe, "_PROBE", probe._PROBE.replace(old, new))
+    probe._stop(probe._server)
+
+
+def test_a_probe_that_fails_itself_is_probed_again_then_a_located_error(tmp_path, monkeypatch):
+    # an exception in the probe outside its guarded reads was "no answer", and the file was then opened in
+    # this process, unprobed: it is tried once more in a fresh server, then an error naming the file
+    from swpm_usd.usd.validate import CODES, validate_stage
+
+    good = _seed(tmp_path / "good.usdc")
+    marker = tmp_path / "fail-once"
+    _patched_program(
+        monkeypatch,
+        "    used = attempt(stage.GetUsedLayers) or []\n",
+        "    used = attempt(stage.GetUsedLayers) or []\n"
+        f"    if os.path.exists({str(marker)!r}):\n"
+        f"        os.remove({str(marker)!r})\n"
+        "        raise RuntimeError('a bug of the probe')\n",
+    )
+    try:
+        marker.touch()
+        assert probe.check(good) is None and not marker.exists()  # (failed once: probed again, clean)
+        _patched_program(
+            monkeypatch,
+            "    used = attempt(stage.GetUsedLayers) or []\n",
+            "    raise RuntimeError('a bug of the probe')\n",
+        )
+        other = _seed(tmp_path / "other.usdc")
+        found = probe.check(other)
+        assert found is not None and found.kind == "probe", found
+        assert found.message.startswith(f"{other}: the process probing it failed (RuntimeError: a bug")
+        assert found.message.endswith("it was not opened in this process")
+        monkeypatch.setattr(probe, "_answers", {})
+        (finding,) = validate_stage(other)
+        assert finding.code == "SWPM_USD_PROBE" and finding.code in CODES and finding.message == found.message
+        with pytest.raises(MeshLoadError, match="the process probing it failed"):
+            load_mesh(other)
+    finally:
+        probe._stop(probe._server)  # (the next test's server runs the real program)
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                stat = Path(f"/proc/{entry}/stat").read_text()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                out.append(int(entry))
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_a_probe_server_ends_with_the_process_that_asks(tmp_path):
+    # a worker killed while a probe ran left its probe server (and the probe) alive until the probe's alarm,
+    # up to 300 s. A FIFO named .usdc hangs usd-core's open (no writer): the probe waits as on a slow file
+    import time
+
+    fifo = tmp_path / "slow.usdc"
+    os.mkfifo(fifo)
+    code = "import sys\nfrom swpm_usd.usd import probe\nprobe.check(sys.argv[1])\n"
+    env = {**os.environ, "SWPM_USD_PROBE_SECONDS": "300"}
+    worker = subprocess.Popen([sys.executable, "-c", code, str(fifo)], env=env)
+    try:
+        deadline = time.monotonic() + 120
+        servers: list[int] = []
+        probes: list[int] = []
+        while time.monotonic() < deadline and not probes:
+            servers = _children(worker.pid)
+            probes = [p for s in servers for p in _children(s)]
+            time.sleep(0.1)
+        assert servers and probes, "no probe started"
+        time.sleep(0.5)
+        assert worker.poll() is None and all(map(_alive, servers + probes))
+    finally:
+        worker.kill()
+        worker.wait()
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and any(map(_alive, servers + probes)):
+        time.sleep(0.1)
+    assert not any(map(_alive, servers + probes)), [p for p in servers + probes if _alive(p)]
+
+
+def test_check_many_probes_several_at_once_with_the_answers_of_one_at_a_time(tmp_path, monkeypatch):
+    good = [_seed(tmp_path / f"g{i}.usdc") for i in range(4)]
+    bad = _crashing(tmp_path / "bad.usdc")
+    (tmp_path / "empty.usdc").write_bytes(b"")
+    text = _text_root(tmp_path / "t.usda", "sublayer", bad)
+    paths = [good[0], bad, good[1], tmp_path / "empty.usdc", good[2], text, good[3], good[0], tmp_path / "nx"]
+    one_by_one = []
+    for p in paths:
+        one_by_one.append(probe.check(p))
+    monkeypatch.setattr(probe, "_answers", {})
+    in_flight: list[int] = []
+    real_serve = probe._serve
+    monkeypatch.setattr(
+        probe, "_serve", lambda queue, *a: in_flight.append(len(queue)) or real_serve(queue, *a)
+    )
+    assert probe.check_many(paths, jobs=3) == one_by_one
+    assert in_flight == [7]  # (the distinct files probed, in one pass of up to 3 at once)
+    assert [f.kind if f else None for f in one_by_one] == [
+        None,
+        "crash",
+        None,
+        "open",
+        None,
+        "crash",
+        None,
+        None,
+        None,
+    ]

@@ -43,7 +43,7 @@ PROBE_MEMORY_BASE = 4 << 30
 PROBE_MEMORY_PER_BYTE = 64
 #: a probe's answers: usd-core opened and read the file, raised an error opening it, or reading a value in
 #: it (its first message beside)
-_CLEAN, _OPEN_FAILED, _READ_FAILED = 0, 3, 4
+_CLEAN, _OPEN_FAILED, _READ_FAILED, _LAYER_FAILED = 0, 3, 4, 6
 
 #: the probe server's program: argv[1] the schema plugin's folder (registered as this process registers it:
 #: its fallbacks are values read too; through PXR_PLUGINPATH_NAME, usd-core 26.11 raises "There already is
@@ -53,7 +53,7 @@ _CLEAN, _OPEN_FAILED, _READ_FAILED = 0, 3, 4
 #: ``_OPEN_FAILED``, ``_READ_FAILED``) or minus the signal it died by (SIGALRM: out of time). It ends when
 #: its input does
 _PROBE = r"""
-import ctypes, json, os, resource, select, signal, sys
+import ctypes, json, os, re, resource, select, signal, sys
 signal.signal(signal.SIGINT, signal.SIG_IGN)
 PARENT = int(sys.argv[2])
 from pxr import Plug, Sdf, Tf, Usd
@@ -111,7 +111,16 @@ def probe(path):
     for root in [stage.GetPseudoRoot()] + list(attempt(stage.GetPrototypes) or []):
         for prim in Usd.PrimRange.AllPrims(root):
             read_prim(prim)
-    attempt(stage.GetCompositionErrors)
+    used = attempt(stage.GetUsedLayers) or []
+    # the files of the layers it used (a package's inner layer: the package)
+    layers = sorted({layer.realPath.split("[", 1)[0] for layer in used if layer.realPath})
+    for error in attempt(stage.GetCompositionErrors) or []:
+        # a crate file the stage names that exists but did not open here (under the memory limit: one
+        # asking for a giant allocation), which the caller's process, without the limit, would open
+        named = re.search(r"@([^@]+)@", str(error))
+        asset = os.path.realpath(named.group(1).split("[", 1)[0]) if named else ""
+        if os.path.isabs(asset) and asset not in layers and os.path.isfile(asset) and crate(asset):
+            return 6, f"{asset}: {error}", layers
     def read_spec(layer, path):
         spec = attempt(layer.GetObjectAtPath, path)
         if spec is None:
@@ -120,12 +129,17 @@ def probe(path):
             attempt(spec.GetInfo, key)
         for t in attempt(layer.ListTimeSamplesForPath, path) or []:
             attempt(layer.QueryTimeSample, path, t)
-    used = attempt(stage.GetUsedLayers) or []
     for layer in used:
         attempt(layer.Traverse, Sdf.Path.absoluteRootPath, lambda p, layer=layer: read_spec(layer, p))
-    # the files of the layers it used (a package's inner layer: the package)
-    layers = sorted({layer.realPath.split("[", 1)[0] for layer in used if layer.realPath})
     return (4, failed[0], layers) if failed else (0, "", layers)
+def crate(path):
+    if path.lower().endswith((".usdc", ".usdz")):
+        return True
+    try:
+        with open(path, "rb") as f:
+            return not path.lower().endswith(".usda") and f.read(8) == b"PXR-USDC"
+    except OSError:
+        return False
 def start(line):
     tag, path, seconds, memory = json.loads(line)
     r, w = os.pipe()
@@ -370,7 +384,9 @@ def check_many(paths: Sequence[str | os.PathLike[str]], jobs: int | None = None)
     found = _probe_all([(p, key[1]) for p, (key, _, _) in todo.items()], jobs)
     for p, (key, where, named) in todo.items():
         problem, layers = found[p]
-        files = {n for n in (*named, *layers) if n != key[0]}
+        # (and those of an earlier answer for this file as it is: a probe that crashed names none)
+        earlier = [n for n, _ in _answers[key][1]] if key in _answers else []
+        files = {n for n in (*named, *layers, *earlier) if n != key[0]}
         _answers[key] = (problem, tuple((n, _stamp(n)) for n in sorted(files)))
         for i in where:
             answers[i] = problem
@@ -525,7 +541,7 @@ def _serve(
                     for path, _ in flight.values():
                         failed[path] = "an answer that is not one"
                     return failed
-                if code >= 0 and code not in (_CLEAN, _OPEN_FAILED, _READ_FAILED):
+                if code >= 0 and code not in (_CLEAN, _OPEN_FAILED, _READ_FAILED, _LAYER_FAILED):
                     failed[path] = text or f"its answer {code}"
                 else:
                     out[path] = (_problem(path, code, text, seconds), [str(p) for p in layers])
@@ -555,6 +571,8 @@ def _problem(path: str, code: int, text: str, seconds: float) -> Problem | None:
     reason = _tf_message(RuntimeError(text)) if text.strip() else "usd-core returned no stage"
     if code == _OPEN_FAILED:
         return Problem("open", f"{path}: usd-core cannot open it as a USD layer: {reason}")
+    if code == _LAYER_FAILED:
+        return Problem("open", f"{path}: usd-core cannot open a crate layer its stage uses, {reason}")
     return Problem("read", f"{path}: usd-core cannot read it: {reason}")
 
 
