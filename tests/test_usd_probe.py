@@ -603,3 +603,58 @@ def test_check_many_probes_several_at_once_with_the_answers_of_one_at_a_time(tmp
         None,
         None,
     ]
+
+
+def test_a_dask_run_fails_a_corrupt_usdc_and_a_usda_over_it_alone(tmp_path):
+    # --executor dask had never met a crashing input: its workers (a local cluster's processes) probe as the
+    # local pool's do. The one skip allowed: dask is an optional extra
+    pytest.importorskip("dask.distributed")
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    bad = _crashing(tmp_path / "bad.usdc")  # (its seed beside it, not an asset)
+    (tmp_path / "m" / "bad.usdc").write_bytes(bad.read_bytes())
+    _text_root(tmp_path / "m" / "c.usda", "sublayer", bad)
+    (tmp_path / "c.yaml").write_text(
+        "version: 1\nassets: [{glob: 'm/*'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    done = _cli("run", str(tmp_path / "c.yaml"), "--executor", "dask", "--jobs", "2", "--json")
+    assert done.returncode == 1, (done.returncode, done.stdout, done.stderr)
+    summary = json.loads(done.stdout)
+    assert summary["built_assets"] == ["m/a.obj"] and summary["failed"] == 2, summary
+    failures = {f["id"]: f["error"] for f in summary["failures"]}
+    assert set(failures) == {"m/bad.usdc", "m/c.usda"}
+    assert all("usd-core crashed opening or reading it" in e for e in failures.values()), failures
+    assert (tmp_path / "out" / "a.swpm").is_file()
+
+
+def test_the_planner_probes_its_new_usd_assets_in_one_batch(tmp_path, monkeypatch):
+    # the planning probed each new .usdc asset as it came to it, one after another (2,000 assets: 20 s); it
+    # now hands them to check_many together (several at once), and the inputs it finds are as before
+    from swpm_usd.pipeline.assets import discover
+    from swpm_usd.pipeline.config import load_config
+
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    seeds = [_seed(tmp_path / "m" / f"s{i}.usdc") for i in range(3)]
+    root = _text_root(tmp_path / "m" / "t.usda", "sublayer", seeds[0])
+    _crashing(tmp_path / "bad.usdc").rename(tmp_path / "m" / "bad.usdc")
+    (tmp_path / "c.yaml").write_text("version: 1\nassets: [{glob: 'm/*'}]\noutput: {dir: out}\n")
+    batches: list[list[str]] = []
+    real = probe.check_many
+    monkeypatch.setattr(
+        probe,
+        "check_many",
+        lambda paths, jobs=None: batches.append([str(p) for p in paths]) or real(paths, jobs),
+    )
+    assets, inputs, problems = discover(load_config(tmp_path / "c.yaml"))
+    assert problems == [] and [a.id for a in assets] == [
+        "m/a.obj",
+        "m/bad.usdc",
+        *[f"m/s{i}.usdc" for i in range(3)],
+        "m/t.usda",
+    ]
+    assert batches[0] == [
+        str(tmp_path / "m" / n) for n in ("bad.usdc", "s0.usdc", "s1.usdc", "s2.usdc", "t.usda")
+    ]
+    assert inputs["m/t.usda"] == [root, seeds[0]] and inputs["m/s1.usdc"] == [seeds[1]]
+    assert inputs["m/bad.usdc"] == [tmp_path / "m" / "bad.usdc"] and list(inputs) == [a.id for a in assets]
