@@ -6,16 +6,24 @@ kills the process, or another one). :func:`check` has the file opened first by a
 -c`` :data:`_PROBE`: the stage opened, every prim's and property's metadata and values read, every spec of
 every layer it uses), under a memory and a time limit. Only when the probe reads it cleanly does the caller
 open the file itself; a probe that dies by a signal or overruns its time, or in which usd-core cannot open
-the file or read a value, is a :class:`Problem` (one line naming the file) the caller turns into its typed
-error (``validate``: ``SWPM_USD_CRASH``, ``SWPM_USD_OPEN`` or ``SWPM_USD_READ``; the loader:
-:class:`~swpm_usd.errors.MeshLoadError`).
+the file or read a value (or a crate layer its stage uses), is a :class:`Problem` (one line naming the
+file) the caller turns into its typed error (``validate``: ``SWPM_USD_CRASH``, ``SWPM_USD_OPEN``,
+``SWPM_USD_READ`` or ``SWPM_USD_PROBE``; the loader: :class:`~swpm_usd.errors.MeshLoadError`).
 
-Only files usd-core reads as crate are probed (:func:`is_crate`: a ``.usdc``, a ``.usdz``, a ``.usd`` whose
-first bytes are ``PXR-USDC``; its text parser fails cleanly), and each once per process (the answer is kept
-by path, size, mtime and inode). One probe server serves every file of this process: started once (Python
-and usd-core's import, about 0.3 s), it forks a fresh process for each file (about 12 ms for a small one: the
-server has built usd-core's schema registry once, on a stage of its own in memory, which each fork inherits),
-so a file that crashes or corrupts a probe leaves the next one a clean process.
+A stage is probed when opening it opens a crate file (:func:`needs_probe`): its root is one (:func:`is_crate`:
+a ``.usdc``, a ``.usdz``, a ``.usd`` whose first bytes are ``PXR-USDC``; usd-core's text parser fails
+cleanly), or a text root whose sublayers, references, payloads, clips or other asset paths, through text
+layers as deep as they go, resolve to one (those text layers are read in this process: a file with no ``@``
+names nothing). Each answer is kept for this process while the file and every file it depends on (the layers
+the probe opened, the files its text layers name) keep their path, size, mtime and inode. One probe server
+serves every file of this process: started once (Python and usd-core's import, about 0.3 s), it forks a
+fresh process for each file (about 12 ms for a small one: the server has built usd-core's schema registry
+once, on a stage of its own in memory, which each fork inherits), several at once for :func:`check_many`, so
+a file that crashes or corrupts a probe leaves the next one a clean process. The server ends when the
+process that started it does (its input's end, or its parent process gone: checked every 0.25 s), killing
+its probes (each also dies with the server: ``PR_SET_PDEATHSIG``). A probe that fails itself (an error of
+its own, no answer, no process started) is tried once more in a fresh server, then is a "probe" problem:
+the file is never opened in this process unprobed.
 """
 
 from __future__ import annotations
@@ -47,11 +55,13 @@ _CLEAN, _OPEN_FAILED, _READ_FAILED, _LAYER_FAILED = 0, 3, 4, 6
 
 #: the probe server's program: argv[1] the schema plugin's folder (registered as this process registers it:
 #: its fallbacks are values read too; through PXR_PLUGINPATH_NAME, usd-core 26.11 raises "There already is
-#: a type named 'SwpmMeshAPI'" at the first stage's open). It reads requests, one JSON line each (the file,
-#: its seconds and its address-space limit in bytes), forks a process that probes the file under those
-#: limits, and answers each with a JSON line: [code, message], the code the probe's (``_CLEAN``,
-#: ``_OPEN_FAILED``, ``_READ_FAILED``) or minus the signal it died by (SIGALRM: out of time). It ends when
-#: its input does
+#: a type named 'SwpmMeshAPI'" at the first stage's open), argv[2] the pid of the process that asks. It reads
+#: requests, one JSON line each (a tag, the file, its seconds and its address-space limit in bytes), forks a
+#: process that probes the file under those limits (several at once), and answers each with a JSON line:
+#: [tag, code, message, the files of the layers the stage used], the code the probe's (``_CLEAN``,
+#: ``_OPEN_FAILED``, ``_READ_FAILED``, ``_LAYER_FAILED``: a crate file the stage names exists but did not
+#: open, 5: the probe failed itself) or minus the signal it died by (SIGALRM: out of time). It ends, killing
+#: its probes, when its input does or its parent process is gone
 _PROBE = r"""
 import ctypes, json, os, re, resource, select, signal, sys
 signal.signal(signal.SIGINT, signal.SIG_IGN)
