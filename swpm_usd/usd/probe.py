@@ -13,9 +13,10 @@ file) the caller turns into its typed error (``validate``: ``SWPM_USD_CRASH``, `
 A stage is probed when opening it opens a crate file (:func:`needs_probe`): its root is one (:func:`is_crate`:
 a ``.usdc``, a ``.usdz``, a ``.usd`` whose first bytes are ``PXR-USDC``; usd-core's text parser fails
 cleanly), or a text root whose sublayers, references, payloads, clips or other asset paths, through text
-layers as deep as they go, resolve to one (those text layers are read in this process: a file with no ``@``
-names nothing). Each answer is kept for this process while the file and every file it depends on (the layers
-the probe opened, the files its text layers name) keep their path, size, mtime and inode. One probe server
+layers as deep as they go, resolve to one (those text layers are parsed in this process: each text layer of a
+stage is parsed twice, the price of knowing before the stage's open). Each answer is kept for this
+process while the file and every file it depends on (the layers the probe opened, the files its text layers
+name) keep their path, size, mtime and inode. One probe server
 serves every file of this process: started once (Python and usd-core's import, about 0.3 s), it forks a
 fresh process for each file (about 12 ms for a small one: the server has built usd-core's schema registry
 once, on a stage of its own in memory, which each fork inherits), several at once for :func:`check_many`, so
@@ -288,9 +289,6 @@ def _named_files(path: str) -> tuple[bool, list[str]]:
         if len(seen) > _TEXT_LAYERS_READ:
             return True, sorted(seen)  # (a stack this large: probed rather than read here)
         try:
-            with open(layer, "rb") as f:
-                if b"@" not in f.read():  # (a text layer names an asset path between @s: this one none)
-                    continue
             named = [p for group in UsdUtils.ExtractExternalReferences(layer) for p in group]
         except Exception:  # noqa: BLE001 - a text layer that does not parse: the stage's open reports it
             continue
