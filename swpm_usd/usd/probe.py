@@ -303,11 +303,12 @@ def _named_files(path: str) -> tuple[bool, list[str]]:
             if real in seen:
                 continue
             seen.add(real)
-            if not os.path.isfile(real):
-                continue
+            suffix = Path(real).suffix.lower()
+            if not os.path.isfile(real) or suffix not in (".usda", ".usd", ".usdc", ".usdz"):
+                continue  # (a texture or another asset: no layer usd-core opens as crate)
             if is_crate(real):
                 crate = True
-            elif Path(real).suffix.lower() in (".usda", ".usd"):
+            else:
                 todo.append(real)
     return crate, sorted(seen)
 
