@@ -243,25 +243,40 @@ def test_a_token_that_is_not_utf8_is_a_value_usd_core_cannot_read(tmp_path):
     assert "not UTF-8" in finding["message"] and "Traceback" not in done.stderr
 
 
-def test_a_small_files_probe_does_not_pay_usd_cores_start_each_time(tmp_path):
+def test_a_small_files_probe_does_not_pay_usd_cores_start_each_time(tmp_path, monkeypatch):
     # each probe is a fresh fork of the server: one that had not built usd-core's schema registry (its first
     # stage does, ~25 ms) paid it in every fork, ~35-40 ms a small file, a pipeline's planning of thousands of
     # .usdc assets that much each, serially (a build of 60 small .usdc assets, --jobs 1, took twice main's
-    # time). The fastest of a few probes (the least disturbed by other processes) is well below that
-    import time
-
-    seed = _seed(tmp_path / "seed.usdc")
-    assert probe.check(seed) is None  # (the server started)
-    times: list[float] = []
-    for i in range(20):  # (until one is fast: on a machine busy with other processes, the most are slower)
-        copy = tmp_path / f"c{i}.usdc"
-        copy.write_bytes(seed.read_bytes())
-        start = time.perf_counter()
-        assert probe.check(copy) is None
-        times.append(time.perf_counter() - start)
-        if times[-1] < 0.02:
-            break
-    assert min(times) < 0.02, times
+    # time; the speed itself is benchmarks/' to measure). Asserted by structure, not by a wall time: the
+    # server is started once and warms usd-core (its schema registry) once, before its first probe, and
+    # every probe is a process forked from it (inheriting that), a fresh one per file
+    log = tmp_path / "log"
+    program = probe._PROBE
+    for kind, line in (("warm", "def warm():\n"), ("probe", "def probe(path):\n")):
+        assert line in program
+        record = f"open({str(log)!r}, 'a').write(f'{kind} {{os.getpid()}} {{os.getppid()}}\\n')"
+        program = program.replace(line, f"{line}    {record}\n")
+    monkeypatch.setattr(probe, "_PROBE", program)
+    probe._stop(probe._server)  # (a fresh server runs it)
+    try:
+        seed = _seed(tmp_path / "seed.usdc")
+        copies = [seed]
+        for i in range(4):
+            copies.append(tmp_path / f"c{i}.usdc")
+            copies[-1].write_bytes(seed.read_bytes())
+        for copy in copies[:3]:
+            assert probe.check(copy) is None
+        assert probe.check_many(copies[3:]) == [None, None]
+        server = probe._server
+        assert server is not None and server.poll() is None
+        lines = [line.split() for line in log.read_text().splitlines()]
+        assert lines[0] == ["warm", str(server.pid), str(os.getpid())], lines  # (started once, by us)
+        probes = [(int(pid), int(parent)) for kind, pid, parent in lines[1:] if kind == "probe"]
+        assert len(lines) == 1 + len(copies) and len(probes) == len(copies), lines  # (warmed once)
+        assert all(parent == server.pid for _, parent in probes), (server.pid, probes)  # (forked by it)
+        assert len({pid for pid, _ in probes} | {server.pid}) == len(copies) + 1, probes  # (fresh each)
+    finally:
+        probe._stop(probe._server)  # (the next test's server runs the real program)
 
 
 def test_a_probe_interrupted_while_waiting_does_not_give_its_answer_to_the_next_file(tmp_path, monkeypatch):
@@ -569,7 +584,9 @@ def test_a_probe_server_ends_with_the_process_that_asks(tmp_path):
     finally:
         worker.kill()
         worker.wait()
-    deadline = time.monotonic() + 10
+    # (they end within a second, polled every 0.25 s; the bound only tells that from the probe's 300 s alarm,
+    # with room for a loaded machine)
+    deadline = time.monotonic() + 60
     while time.monotonic() < deadline and any(map(_alive, servers + probes)):
         time.sleep(0.1)
     assert not any(map(_alive, servers + probes)), [p for p in servers + probes if _alive(p)]
