@@ -495,6 +495,63 @@ def test_a_cached_answer_holds_only_while_the_layers_the_probe_opened_are_unchan
     assert probe.check(root) is None and len(asked) == 4
 
 
+@pytest.mark.parametrize("root_kind", ["usdc", "usda"])
+def test_a_cached_answer_is_probed_again_when_a_layer_missing_at_its_probe_appears(
+    tmp_path, monkeypatch, root_kind
+):
+    # the answer was keyed on the layers the probe opened: a crate layer's sublayer that was missing then
+    # (skipped by usd-core) and written since as a corrupt file kept the clean answer, and the stage was
+    # opened in this process (which died). A .usdc root, or a .usda over a .usdc (whose sublayers the text
+    # walk does not read): the missing file the stage's composition errors name is a file it depends on
+    asked: list[str] = []
+    real = probe._probe_all
+    monkeypatch.setattr(
+        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
+    )
+    stage = Usd.Stage.CreateNew(str(tmp_path / "mid.usdc"))
+    stage.GetRootLayer().subLayerPaths.append("./later.usdc")
+    stage.GetRootLayer().Save()
+    del stage
+    root = (
+        tmp_path / "mid.usdc"
+        if root_kind == "usdc"
+        else _text_root(tmp_path / "root.usda", "sublayer", tmp_path / "mid.usdc")
+    )
+    assert probe.check(root) is None and probe.check(root) is None and asked == [str(root)]
+    _crashing(tmp_path / "later.usdc")
+    found = probe.check(root)
+    assert found is not None and found.kind == "crash" and asked == [str(root)] * 2, found
+
+
+def test_a_stage_reached_through_a_linked_folder_is_not_failed_for_a_crate_layer_it_opened(
+    tmp_path, monkeypatch
+):
+    # a composition error naming a crate layer that opened (a reference to a prim it does not have) was taken
+    # for "a crate layer that did not open" when the folder was reached through a link (the layer's path as
+    # usd-core gives it against the error's path resolved): SWPM_USD_OPEN, a crate layer "that does not open"
+    from swpm_usd.usd.validate import validate_stage
+
+    (tmp_path / "real").mkdir()
+    (tmp_path / "link").symlink_to(tmp_path / "real")
+    _seed(tmp_path / "real" / "good.usdc")
+    (tmp_path / "real" / "root.usda").write_text(
+        '#usda 1.0\n(\n    defaultPrim = "a"\n)\n'
+        'def "a" (references = @./good.usdc@</m>) {}\ndef "b" (references = @./good.usdc@</nope>) {}\n'
+    )
+    for folder in ("real", "link"):
+        root = tmp_path / folder / "root.usda"
+        monkeypatch.setattr(probe, "_answers", {})  # (one file: the real folder's answer is the link's)
+        stage = Usd.Stage.Open(str(root))  # (the error the probe sees: the layer opened)
+        assert any("Unresolved reference prim path" in str(e) for e in stage.GetCompositionErrors())
+        del stage
+        assert probe.check(root) is None, folder
+        codes = {f.code for f in validate_stage(root)}
+        assert codes and not codes & {"SWPM_USD_OPEN", "SWPM_USD_CRASH"}, (folder, codes)
+        # (the loader's own refusal of an incomplete stage, as for the real folder: not the probe's)
+        with pytest.raises(MeshLoadError, match="1 composition error, the stage is incomplete"):
+            load_mesh(root)
+
+
 def _patched_program(monkeypatch, old: str, new: str) -> None:
     """The probe server's program with ``old`` replaced by ``new``, in a fresh server."""
     assert old in probe._PROBE

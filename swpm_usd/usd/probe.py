@@ -14,17 +14,17 @@ A stage is probed when opening it opens a crate file (:func:`needs_probe`): its 
 a ``.usdc``, a ``.usdz``, a ``.usd`` whose first bytes are ``PXR-USDC``; usd-core's text parser fails
 cleanly), or a text root whose sublayers, references, payloads, clips or other asset paths, through text
 layers as deep as they go, resolve to one (those text layers are parsed in this process: each text layer of a
-stage is parsed twice, the price of knowing before the stage's open). Each answer is kept for this
-process while the file and every file it depends on (the layers the probe opened, the files its text layers
-name) keep their path, size, mtime and inode. One probe server
-serves every file of this process: started once (Python and usd-core's import, about 0.3 s), it forks a
-fresh process for each file (about 12 ms for a small one: the server has built usd-core's schema registry
-once, on a stage of its own in memory, which each fork inherits), several at once for :func:`check_many`, so
-a file that crashes or corrupts a probe leaves the next one a clean process. The server ends when the
-process that started it does (its input's end, or its parent process gone: checked every 0.25 s), killing
-its probes (each also dies with the server: ``PR_SET_PDEATHSIG``). A probe that fails itself (an error of
-its own, no answer, no process started) is tried once more in a fresh server, then is a "probe" problem:
-the file is never opened in this process unprobed.
+stage is parsed twice, the price of knowing before the stage's open). Each answer is kept for this process
+while the file and every file it depends on (the layers the probe opened, the files its text layers or the
+stage's composition errors name: one missing, should it appear) keep their path, size, mtime and inode. One
+probe server serves every file of this process: started once (Python and usd-core's import, about 0.3 s), it
+forks a fresh process for each file (about 12 ms for a small one: the server has built usd-core's schema
+registry once, on a stage of its own in memory, which each fork inherits), several at once for
+:func:`check_many`, so a file that crashes or corrupts a probe leaves the next one a clean process. The server
+ends when the process that started it does (its input's end, or its parent process gone: checked every 0.25
+s), killing its probes (each also dies with the server: ``PR_SET_PDEATHSIG``). A probe that fails itself (an
+error of its own, no answer, no process started) is tried once more in a fresh server, then is a "probe"
+problem: the file is never opened in this process unprobed.
 """
 
 from __future__ import annotations
@@ -59,10 +59,10 @@ _CLEAN, _OPEN_FAILED, _READ_FAILED, _LAYER_FAILED = 0, 3, 4, 6
 #: a type named 'SwpmMeshAPI'" at the first stage's open), argv[2] the pid of the process that asks. It reads
 #: requests, one JSON line each (a tag, the file, its seconds and its address-space limit in bytes), forks a
 #: process that probes the file under those limits (several at once), and answers each with a JSON line:
-#: [tag, code, message, the files of the layers the stage used], the code the probe's (``_CLEAN``,
-#: ``_OPEN_FAILED``, ``_READ_FAILED``, ``_LAYER_FAILED``: a crate file the stage names exists but did not
-#: open, 5: the probe failed itself) or minus the signal it died by (SIGALRM: out of time). It ends, killing
-#: its probes, when its input does or its parent process is gone
+#: [tag, code, message, the real files of the layers the stage used and those its composition errors name],
+#: the code the probe's (``_CLEAN``, ``_OPEN_FAILED``, ``_READ_FAILED``, ``_LAYER_FAILED``: a crate file the
+#: stage names exists but did not open, 5: the probe failed itself) or minus the signal it died by (SIGALRM:
+#: out of time). It ends, killing its probes, when its input does or its parent process is gone
 _PROBE = r"""
 import ctypes, json, os, re, resource, select, signal, sys
 signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -123,15 +123,19 @@ def probe(path):
         for prim in Usd.PrimRange.AllPrims(root):
             read_prim(prim)
     used = attempt(stage.GetUsedLayers) or []
-    # the files of the layers it used (a package's inner layer: the package)
-    layers = sorted({layer.realPath.split("[", 1)[0] for layer in used if layer.realPath})
+    # the real files of the layers it used (a package's inner layer: the package; a layer reached through a
+    # linked folder: its file, as the root's key and the files a text root names are)
+    opened = {os.path.realpath(layer.realPath.split("[", 1)[0]) for layer in used if layer.realPath}
+    named = set()  # (the files its composition errors name: one not there now is a file it depends on)
     for error in attempt(stage.GetCompositionErrors) or []:
+        assets = [os.path.realpath(a.split("[", 1)[0]) for a in re.findall(r"@([^@]+)@", str(error))]
+        named.update(a for a in assets if os.path.isabs(a))
         # a crate file the stage names that exists but did not open here (under the memory limit: one
         # asking for a giant allocation), which the caller's process, without the limit, would open
-        named = re.search(r"@([^@]+)@", str(error))
-        asset = os.path.realpath(named.group(1).split("[", 1)[0]) if named else ""
-        if os.path.isabs(asset) and asset not in layers and os.path.isfile(asset) and crate(asset):
-            return 6, f"{asset}: {error}", layers
+        asset = assets[0] if assets else ""
+        if os.path.isabs(asset) and asset not in opened and os.path.isfile(asset) and crate(asset):
+            return 6, f"{asset}: {error}", sorted(opened | named)
+    layers = sorted(opened | named)
     def read_spec(layer, path):
         spec = attempt(layer.GetObjectAtPath, path)
         if spec is None:
@@ -359,8 +363,8 @@ def check(path: str | os.PathLike[str]) -> Problem | None:
     opened and read it cleanly (the caller may then open it in its own process), else the :class:`Problem`:
     usd-core crashed on it (the signal), did not finish within :data:`PROBE_SECONDS`, or raised an error
     opening it or reading a value (its message), or the probe failed twice. Asked again while the file and
-    every file its answer depends on (the layers the probe opened, those its text layers name) are as they
-    were (path, size, mtime, inode), the first answer is given without a probe."""
+    every file its answer depends on (the layers the probe opened, those its text layers or its composition
+    errors name) are as they were (path, size, mtime, inode), the first answer is given without a probe."""
     return check_many([path])[0]
 
 
