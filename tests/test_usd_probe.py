@@ -552,6 +552,26 @@ def test_a_stage_reached_through_a_linked_folder_is_not_failed_for_a_crate_layer
             load_mesh(root)
 
 
+def test_the_text_walk_counts_the_layers_it_reads_not_the_files_they_name(tmp_path, monkeypatch):
+    # its bound on the text layers read below a root counted every file named (textures too): a .usda with
+    # a material library's textures and one text sublayer was probed (its whole stage read in a probe) as
+    # a layer stack too large to walk
+    monkeypatch.setattr(probe, "_TEXT_LAYERS_READ", 3)
+    textures = "".join(f"    asset t{i} = @./tex/t{i}.png@\n" for i in range(10))
+    (tmp_path / "sub.usda").write_text("#usda 1.0\n")
+    (tmp_path / "root.usda").write_text(
+        f'#usda 1.0\n(\n    subLayers = [@./sub.usda@]\n)\ndef "a" {{\n{textures}}}\n'
+    )
+    crate, named = probe._named_files(str(tmp_path / "root.usda"))
+    assert not crate and len(named) == 12 and not probe.needs_probe(tmp_path / "root.usda"), named
+    # a stack of more text layers than the bound is probed, not walked to its end
+    for i in range(4):
+        _text_root(tmp_path / f"chain{i}.usda", "sublayer", tmp_path / f"chain{i + 1}.usda")
+    (tmp_path / "chain4.usda").write_text("#usda 1.0\n")
+    assert probe.needs_probe(tmp_path / "chain0.usda")
+    assert not probe.needs_probe(tmp_path / "chain2.usda")  # (three layers: within it)
+
+
 def _patched_program(monkeypatch, old: str, new: str) -> None:
     """The probe server's program with ``old`` replaced by ``new``, in a fresh server."""
     assert old in probe._PROBE

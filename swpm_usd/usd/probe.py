@@ -288,10 +288,12 @@ def _named_files(path: str) -> tuple[bool, list[str]]:
     seen: set[str] = {os.path.realpath(path)}
     todo = [os.path.realpath(path)]
     crate = False
+    read = 0  # (text layers read: the textures and other files named are no layers, counted apart)
     while todo:
         layer = todo.pop()
-        if len(seen) > _TEXT_LAYERS_READ:
+        if read >= _TEXT_LAYERS_READ:
             return True, sorted(seen)  # (a stack this large: probed rather than read here)
+        read += 1
         try:
             named = [p for group in UsdUtils.ExtractExternalReferences(layer) for p in group]
         except Exception:  # noqa: BLE001 - a text layer that does not parse: the stage's open reports it
