@@ -128,12 +128,16 @@ def probe(path):
     opened = {os.path.realpath(layer.realPath.split("[", 1)[0]) for layer in used if layer.realPath}
     named = set()  # (the files its composition errors name: one not there now is a file it depends on)
     for error in attempt(stage.GetCompositionErrors) or []:
-        assets = [os.path.realpath(a.split("[", 1)[0]) for a in re.findall(r"@([^@]+)@", str(error))]
-        named.update(a for a in assets if os.path.isabs(a))
+        # (an absolute path: a file; not an anonymous layer's or a search path's name)
+        assets = [
+            os.path.realpath(a.split("[", 1)[0]) if os.path.isabs(a) else ""
+            for a in re.findall(r"@([^@]+)@", str(error))
+        ]
+        named.update(a for a in assets if a)
         # a crate file the stage names that exists but did not open here (under the memory limit: one
         # asking for a giant allocation), which the caller's process, without the limit, would open
         asset = assets[0] if assets else ""
-        if os.path.isabs(asset) and asset not in opened and os.path.isfile(asset) and crate(asset):
+        if asset and asset not in opened and os.path.isfile(asset) and crate(asset):
             return 6, f"{asset}: {error}", sorted(opened | named)
     layers = sorted(opened | named)
     def read_spec(layer, path):
