@@ -684,8 +684,30 @@ def test_check_many_probes_several_at_once_with_the_answers_of_one_at_a_time(tmp
     monkeypatch.setattr(
         probe, "_serve", lambda queue, *a: in_flight.append(len(queue)) or real_serve(queue, *a)
     )
-    assert probe.check_many(paths, jobs=3) == one_by_one
+    # several at once: each probe marks its start, then waits (up to 60 s, in vain when one runs alone) for
+    # another probe's mark and logs the marks it saw. The first probe sees a second one started as it runs
+    marks = tmp_path / "marks"
+    marks.mkdir()
+    _patched_program(
+        monkeypatch,
+        "def probe(path):\n",
+        "def probe(path):\n"
+        "    import time\n"
+        f"    open(os.path.join({str(marks)!r}, str(os.getpid())), 'w').close()\n"
+        "    for _ in range(1200):\n"
+        f"        if len(os.listdir({str(marks)!r})) >= 2:\n"
+        "            break\n"
+        "        time.sleep(0.05)\n"
+        f"    seen = len(os.listdir({str(marks)!r}))\n"
+        f"    open({str(tmp_path / 'seen')!r}, 'a').write(str(seen) + '\\n')\n",
+    )
+    try:
+        assert probe.check_many(paths, jobs=3) == one_by_one
+    finally:
+        probe._stop(probe._server)  # (the next test's server runs the real program)
     assert in_flight == [7]  # (the distinct files probed, in one pass of up to 3 at once)
+    seen = [int(n) for n in (tmp_path / "seen").read_text().split()]
+    assert len(seen) == 7 and seen[0] >= 2, seen
     assert [f.kind if f else None for f in one_by_one] == [
         None,
         "crash",
@@ -697,6 +719,23 @@ def test_check_many_probes_several_at_once_with_the_answers_of_one_at_a_time(tmp
         None,
         None,
     ]
+
+
+def test_a_probe_server_that_ends_before_its_queue_does_is_no_traceback(tmp_path, monkeypatch):
+    # the server gone with files not yet asked of it (more files than probes at once): those were in no
+    # answer, and check_many raised KeyError (validate's and the planning's traceback). They are asked of
+    # the fresh server, their own try unspent; a server that ends at every request fails each file alone
+    files = [_seed(tmp_path / f"g{i}.usdc") for i in range(3)]
+    _patched_program(monkeypatch, "def start(line):\n", "def start(line):\n    os._exit(3)\n")
+    try:
+        found = probe.check_many(files, jobs=1)
+    finally:
+        probe._stop(probe._server)  # (the next test's server runs the real program)
+    assert [f.kind if f else None for f in found] == ["probe"] * 3, found
+    for path, problem in zip(files, found, strict=True):
+        assert problem.message.startswith(
+            f"{path}: the process probing it failed (it ended without an answer)"
+        )
 
 
 def test_a_dask_run_fails_a_corrupt_usdc_and_a_usda_over_it_alone(tmp_path):

@@ -481,7 +481,8 @@ def _probe_all(files: list[tuple[str, int]], jobs: int | None) -> dict[str, tupl
     with _lock:
         while queue:
             failed = _serve(queue, sizes, seconds, jobs, out)
-            queue = []
+            # (the files not asked yet when the server went: asked the fresh one, no try of their own spent)
+            queue = [path for path in queue if path not in out and path not in failed]
             for path, why in failed.items():
                 tries[path] += 1
                 if tries[path] < 2:
