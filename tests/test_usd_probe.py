@@ -22,6 +22,7 @@ import pytest
 import trimesh
 from pxr import Usd, UsdGeom, Vt
 
+from swpm_usd.errors import MeshLoadError
 from swpm_usd.io import load_mesh
 from swpm_usd.usd import probe
 
@@ -162,8 +163,10 @@ def test_a_crate_file_is_probed_once_per_process_and_a_text_one_never(tmp_path, 
     text = tmp_path / "a.usda"
     Usd.Stage.Open(str(seed)).Export(str(text))
     asked: list[str] = []
-    real = probe._probe
-    monkeypatch.setattr(probe, "_probe", lambda path, size: asked.append(path) or real(path, size))
+    real = probe._probe_all
+    monkeypatch.setattr(
+        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
+    )
     assert load_mesh(seed).triangle_count == 200 and load_mesh(seed).triangle_count == 200
     assert load_mesh(text).triangle_count == 200
     assert asked == [str(seed)]
@@ -240,25 +243,40 @@ def test_a_token_that_is_not_utf8_is_a_value_usd_core_cannot_read(tmp_path):
     assert "not UTF-8" in finding["message"] and "Traceback" not in done.stderr
 
 
-def test_a_small_files_probe_does_not_pay_usd_cores_start_each_time(tmp_path):
+def test_a_small_files_probe_does_not_pay_usd_cores_start_each_time(tmp_path, monkeypatch):
     # each probe is a fresh fork of the server: one that had not built usd-core's schema registry (its first
     # stage does, ~25 ms) paid it in every fork, ~35-40 ms a small file, a pipeline's planning of thousands of
     # .usdc assets that much each, serially (a build of 60 small .usdc assets, --jobs 1, took twice main's
-    # time). The fastest of a few probes (the least disturbed by other processes) is well below that
-    import time
-
-    seed = _seed(tmp_path / "seed.usdc")
-    assert probe.check(seed) is None  # (the server started)
-    times: list[float] = []
-    for i in range(20):  # (until one is fast: on a machine busy with other processes, the most are slower)
-        copy = tmp_path / f"c{i}.usdc"
-        copy.write_bytes(seed.read_bytes())
-        start = time.perf_counter()
-        assert probe.check(copy) is None
-        times.append(time.perf_counter() - start)
-        if times[-1] < 0.02:
-            break
-    assert min(times) < 0.02, times
+    # time; the speed itself is benchmarks/' to measure). Asserted by structure, not by a wall time: the
+    # server is started once and warms usd-core (its schema registry) once, before its first probe, and
+    # every probe is a process forked from it (inheriting that), a fresh one per file
+    log = tmp_path / "log"
+    program = probe._PROBE
+    for kind, line in (("warm", "def warm():\n"), ("probe", "def probe(path):\n")):
+        assert line in program
+        record = f"open({str(log)!r}, 'a').write(f'{kind} {{os.getpid()}} {{os.getppid()}}\\n')"
+        program = program.replace(line, f"{line}    {record}\n")
+    monkeypatch.setattr(probe, "_PROBE", program)
+    probe._stop(probe._server)  # (a fresh server runs it)
+    try:
+        seed = _seed(tmp_path / "seed.usdc")
+        copies = [seed]
+        for i in range(4):
+            copies.append(tmp_path / f"c{i}.usdc")
+            copies[-1].write_bytes(seed.read_bytes())
+        for copy in copies[:3]:
+            assert probe.check(copy) is None
+        assert probe.check_many(copies[3:]) == [None, None]
+        server = probe._server
+        assert server is not None and server.poll() is None
+        lines = [line.split() for line in log.read_text().splitlines()]
+        assert lines[0] == ["warm", str(server.pid), str(os.getpid())], lines  # (started once, by us)
+        probes = [(int(pid), int(parent)) for kind, pid, parent in lines[1:] if kind == "probe"]
+        assert len(lines) == 1 + len(copies) and len(probes) == len(copies), lines  # (warmed once)
+        assert all(parent == server.pid for _, parent in probes), (server.pid, probes)  # (forked by it)
+        assert len({pid for pid, _ in probes} | {server.pid}) == len(copies) + 1, probes  # (fresh each)
+    finally:
+        probe._stop(probe._server)  # (the next test's server runs the real program)
 
 
 def test_a_probe_interrupted_while_waiting_does_not_give_its_answer_to_the_next_file(tmp_path, monkeypatch):
@@ -305,8 +323,10 @@ def test_a_pipeline_worker_does_not_probe_again_a_usdc_the_run_probed_as_it_plan
     )
     task = runner._task(cfg, item)
     asked: list[str] = []
-    real = probe._probe
-    monkeypatch.setattr(probe, "_probe", lambda path, size: asked.append(path) or real(path, size))
+    real = probe._probe_all
+    monkeypatch.setattr(
+        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
+    )
     monkeypatch.setattr(probe, "_answers", {})  # (a worker: another process, nothing probed)
     rec = worker._process_asset(task)
     assert rec["status"] == "built" and asked == [], (rec, asked)
@@ -314,3 +334,460 @@ def test_a_pipeline_worker_does_not_probe_again_a_usdc_the_run_probed_as_it_plan
     os.utime(seed, ns=(1, 1))  # (changed since the planning: its answer is not this file's)
     rec = worker._process_asset(task)
     assert rec["status"] == "built" and asked == [str(seed)], (rec, asked)
+
+
+def _text_root(path: Path, arc: str, target: Path) -> Path:
+    """A .usda at ``path`` whose stage opens ``target`` by ``arc``: a sublayer, a reference or a payload
+    (of /m, the seed's mesh, as the default prim ``/a``)."""
+    rel = os.path.relpath(target, path.parent)
+    if arc == "sublayer":
+        path.write_text(f"#usda 1.0\n(\n    subLayers = [@./{rel}@]\n)\n")
+    else:
+        arcs = {"reference": "references", "payload": "payload"}
+        path.write_text(
+            f'#usda 1.0\n(\n    defaultPrim = "a"\n)\ndef "a" ({arcs[arc]} = @./{rel}@</m>) {{}}\n'
+        )
+    return path
+
+
+def _giant(path: Path) -> Path:
+    """:func:`_seed` (written beside ``path`` as ``seed-<name>``) with the fourth byte of its STRINGS section
+    flipped, at ``path`` (found by a sweep over the sections' first bytes, the file referenced from a .usda):
+    usd-core asks for a giant allocation reading it; a read in a child without a memory limit ran past 20 s
+    (not repeated here: it may take the machine's memory), under the probe's limit it is std::bad_alloc."""
+    data = bytearray(_seed(path.with_name("seed-" + path.name)).read_bytes())
+    (toc,) = struct.unpack_from("<q", data, 16)
+    (count,) = struct.unpack_from("<Q", data, toc)
+    for i in range(count):
+        name, start, _ = struct.unpack_from("<16sqq", data, toc + 8 + 32 * i)
+        if name.rstrip(b"\0") == b"STRINGS":
+            data[start + 3] ^= 0xFF
+    path.write_bytes(bytes(data))
+    return path
+
+
+@pytest.mark.parametrize("arc", ["sublayer", "reference", "payload"])
+def test_a_usda_that_opens_a_corrupt_usdc_is_probed(tmp_path, arc):
+    # the probe was keyed on the root's suffix: a .usda naming a corrupt .usdc was opened in the process,
+    # which died by SIGSEGV (a sublayer of the crashing file: validate, the loader, build) or asked for a
+    # giant allocation (a reference or payload of the other; in the probe, a composition error usd-core
+    # reports as it skips the layer, which the process asking then opened without a limit). Its composed
+    # stage is probed, and a crate layer that exists but does not open there is an error
+    (tmp_path / "assets").mkdir()
+    if arc == "sublayer":
+        bad = _crashing(tmp_path / "assets" / "bad.usdc")
+        code, start = "SWPM_USD_CRASH", "usd-core crashed opening or reading it"
+    else:
+        bad = _giant(tmp_path / "assets" / "bad.usdc")
+        code, start = "SWPM_USD_OPEN", f"usd-core cannot open a crate layer its stage uses, {bad}: "
+    root = _text_root(tmp_path / "root.usda", arc, bad)
+    if arc == "sublayer":
+        raw = subprocess.run([sys.executable, "-c", _RAW_READ, str(root)], capture_output=True, timeout=120)
+        assert raw.returncode < 0, raw.returncode  # (usd-core alone dies on the .usda)
+    done = _cli("validate", str(root), "--json")
+    assert done.returncode == 1, (done.returncode, done.stdout, done.stderr)
+    (finding,) = json.loads(done.stdout)["findings"]
+    assert finding["code"] == code and finding["message"].startswith(f"{root}: {start}"), finding
+    assert "bad_alloc" in finding["message"] or arc == "sublayer"
+    done = _cli("build", str(root), "--json")
+    assert done.returncode == 1, (done.returncode, done.stdout, done.stderr)
+    assert json.loads(done.stdout)["error"] == finding["message"]
+    # the good seed through the same arc builds (the probe reads the composed stage clean)
+    good = _text_root(tmp_path / "good.usda", arc, tmp_path / "assets" / "seed-bad.usdc")
+    assert probe.needs_probe(good) and probe.check(good) is None
+    assert load_mesh(good).triangle_count == 200
+
+
+def test_write_overrides_write_usdlod_and_a_pipeline_refuse_a_usda_over_a_corrupt_usdc(tmp_path):
+    bad = _crashing(tmp_path / "bad.usdc")
+    root = _text_root(tmp_path / "root.usda", "sublayer", bad)
+    code = (
+        "import sys\nfrom swpm_usd import usd\nfrom swpm_usd.errors import SwpmError\n"
+        "for write in (lambda: usd.write_overrides(sys.argv[1], sys.argv[2]),\n"
+        "              lambda: usd.write_usdlod(sys.argv[1], sys.argv[3])):\n"
+        "    try:\n        write()\n    except SwpmError as e:\n        print(type(e).__name__, e)\n"
+    )
+    args = [str(root), str(tmp_path / "over.usda"), str(tmp_path / "lod.usda")]
+    done = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, (done.returncode, done.stderr)
+    lines = done.stdout.splitlines()
+    assert len(lines) == 2 and all("usd-core crashed opening or reading it" in line for line in lines), lines
+    assert lines[0].startswith(f"UsdOverrideError {root}: ") and lines[1].startswith(
+        f"UsdWriteError {root}: "
+    )
+    assert not (tmp_path / "over.usda").exists() and not (tmp_path / "lod.usda").exists()
+    # a pipeline: a glob's .usda asset over a corrupt layer fails alone; a stage: source is a config error
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    _text_root(tmp_path / "m" / "b.usda", "payload", _giant(tmp_path / "giant.usdc"))
+    _text_root(tmp_path / "m" / "c.usda", "sublayer", bad)
+    (tmp_path / "c.yaml").write_text(
+        "version: 1\nassets: [{glob: 'm/*'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    done = _cli("run", str(tmp_path / "c.yaml"), "--json")
+    assert done.returncode == 1, (done.returncode, done.stdout, done.stderr)
+    summary = json.loads(done.stdout)
+    assert summary["built_assets"] == ["m/a.obj"] and summary["failed"] == 2, summary
+    failures = {f["id"]: f["error"] for f in summary["failures"]}
+    assert "usd-core cannot open a crate layer its stage uses" in failures["m/b.usda"], failures
+    assert "usd-core crashed opening or reading it" in failures["m/c.usda"], failures
+    (tmp_path / "s.yaml").write_text("version: 1\nassets: [{stage: root.usda}]\noutput: {dir: out2}\n")
+    done = _cli("run", str(tmp_path / "s.yaml"))
+    assert done.returncode == 2 and "cannot open stage root.usda: usd-core crashed" in done.stderr, (
+        done.stderr
+    )
+
+
+def test_a_text_root_naming_no_crate_file_is_not_probed(tmp_path, monkeypatch):
+    seed = _seed(tmp_path / "seed.usdc")
+    text = tmp_path / "seed.usda"
+    Usd.Stage.Open(str(seed)).Export(str(text))
+    root = _text_root(tmp_path / "root.usda", "reference", text)
+    (tmp_path / "tex.usda").write_text('#usda 1.0\ndef "t" {\n    asset file = @./seed.png@\n}\n')
+    asked: list[str] = []
+    real = probe._probe_all
+    monkeypatch.setattr(
+        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
+    )
+    for path in (root, text, tmp_path / "tex.usda"):
+        assert not probe.needs_probe(path) and probe.check(path) is None
+    assert load_mesh(root).triangle_count == 200 and asked == []
+    # a layer it names becomes a crate file: probed (the answer depended on that layer)
+    text.unlink()
+    _text_root(text, "sublayer", seed)
+    assert probe.check(root) is None and asked == [str(root)]
+
+
+def test_a_cached_answer_holds_only_while_the_layers_the_probe_opened_are_unchanged(tmp_path, monkeypatch):
+    # the answer was kept by the root file's key alone: a sublayer replaced by a corrupt one since was
+    # taken as probed clean, and opened in this process (which died)
+    seed = _seed(tmp_path / "sub.usdc")
+    stage = Usd.Stage.CreateNew(str(tmp_path / "root.usdc"))
+    stage.GetRootLayer().subLayerPaths.append("./sub.usdc")
+    stage.GetRootLayer().Save()
+    del stage
+    root = tmp_path / "root.usdc"
+    asked: list[str] = []
+    real = probe._probe_all
+    monkeypatch.setattr(
+        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
+    )
+    assert probe.check(root) is None and probe.check(root) is None and asked == [str(root)]
+    (key,) = probe.cleared(root)
+    assert [d[0] for d in key[4]] == [str(seed.resolve())]  # (the layer the probe opened, with its stamp)
+    crashing = _crashing(tmp_path / "c.usdc").read_bytes()
+    seed.write_bytes(crashing)
+    os.utime(seed, ns=(2, 2))  # (a stamp of its own: rewrites within one clock tick keep the mtime)
+    found = probe.check(root)
+    assert found is not None and found.kind == "crash" and asked == [str(root)] * 2, found
+    assert probe.cleared(root) == []
+    # a worker trusts the planning's key only while the sublayer is as the planning probed it
+    seed.write_bytes((tmp_path / "seed-c.usdc").read_bytes())
+    os.utime(seed, ns=(3, 3))
+    assert probe.check(root) is None and len(asked) == 3
+    handed = probe.cleared(root)
+    monkeypatch.setattr(probe, "_answers", {})
+    probe.trust(json.loads(json.dumps(handed)))  # (as a task carries it: plain data)
+    assert probe.check(root) is None and len(asked) == 3
+    monkeypatch.setattr(probe, "_answers", {})
+    probe.trust(handed)
+    os.utime(seed, ns=(1, 1))
+    assert probe.check(root) is None and len(asked) == 4
+
+
+@pytest.mark.parametrize("root_kind", ["usdc", "usda"])
+def test_a_cached_answer_is_probed_again_when_a_layer_missing_at_its_probe_appears(
+    tmp_path, monkeypatch, root_kind
+):
+    # the answer was keyed on the layers the probe opened: a crate layer's sublayer that was missing then
+    # (skipped by usd-core) and written since as a corrupt file kept the clean answer, and the stage was
+    # opened in this process (which died). A .usdc root, or a .usda over a .usdc (whose sublayers the text
+    # walk does not read): the missing file the stage's composition errors name is a file it depends on
+    asked: list[str] = []
+    real = probe._probe_all
+    monkeypatch.setattr(
+        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
+    )
+    stage = Usd.Stage.CreateNew(str(tmp_path / "mid.usdc"))
+    stage.GetRootLayer().subLayerPaths.append("./later.usdc")
+    stage.GetRootLayer().Save()
+    del stage
+    root = (
+        tmp_path / "mid.usdc"
+        if root_kind == "usdc"
+        else _text_root(tmp_path / "root.usda", "sublayer", tmp_path / "mid.usdc")
+    )
+    assert probe.check(root) is None and probe.check(root) is None and asked == [str(root)]
+    _crashing(tmp_path / "later.usdc")
+    found = probe.check(root)
+    assert found is not None and found.kind == "crash" and asked == [str(root)] * 2, found
+
+
+def test_a_stage_reached_through_a_linked_folder_is_not_failed_for_a_crate_layer_it_opened(
+    tmp_path, monkeypatch
+):
+    # a composition error naming a crate layer that opened (a reference to a prim it does not have) was taken
+    # for "a crate layer that did not open" when the folder was reached through a link (the layer's path as
+    # usd-core gives it against the error's path resolved): SWPM_USD_OPEN, a crate layer "that does not open"
+    from swpm_usd.usd.validate import validate_stage
+
+    (tmp_path / "real").mkdir()
+    (tmp_path / "link").symlink_to(tmp_path / "real")
+    _seed(tmp_path / "real" / "good.usdc")
+    (tmp_path / "real" / "root.usda").write_text(
+        '#usda 1.0\n(\n    defaultPrim = "a"\n)\n'
+        'def "a" (references = @./good.usdc@</m>) {}\ndef "b" (references = @./good.usdc@</nope>) {}\n'
+    )
+    for folder in ("real", "link"):
+        root = tmp_path / folder / "root.usda"
+        monkeypatch.setattr(probe, "_answers", {})  # (one file: the real folder's answer is the link's)
+        stage = Usd.Stage.Open(str(root))  # (the error the probe sees: the layer opened)
+        assert any("Unresolved reference prim path" in str(e) for e in stage.GetCompositionErrors())
+        del stage
+        assert probe.check(root) is None, folder
+        codes = {f.code for f in validate_stage(root)}
+        assert codes and not codes & {"SWPM_USD_OPEN", "SWPM_USD_CRASH"}, (folder, codes)
+        # (the loader's own refusal of an incomplete stage, as for the real folder: not the probe's)
+        with pytest.raises(MeshLoadError, match="1 composition error, the stage is incomplete"):
+            load_mesh(root)
+
+
+def test_the_text_walk_counts_the_layers_it_reads_not_the_files_they_name(tmp_path, monkeypatch):
+    # its bound on the text layers read below a root counted every file named (textures too): a .usda with
+    # a material library's textures and one text sublayer was probed (its whole stage read in a probe) as
+    # a layer stack too large to walk
+    monkeypatch.setattr(probe, "_TEXT_LAYERS_READ", 3)
+    textures = "".join(f"    asset t{i} = @./tex/t{i}.png@\n" for i in range(10))
+    (tmp_path / "sub.usda").write_text("#usda 1.0\n")
+    (tmp_path / "root.usda").write_text(
+        f'#usda 1.0\n(\n    subLayers = [@./sub.usda@]\n)\ndef "a" {{\n{textures}}}\n'
+    )
+    crate, named = probe._named_files(str(tmp_path / "root.usda"))
+    assert not crate and len(named) == 12 and not probe.needs_probe(tmp_path / "root.usda"), named
+    # a stack of more text layers than the bound is probed, not walked to its end
+    for i in range(4):
+        _text_root(tmp_path / f"chain{i}.usda", "sublayer", tmp_path / f"chain{i + 1}.usda")
+    (tmp_path / "chain4.usda").write_text("#usda 1.0\n")
+    assert probe.needs_probe(tmp_path / "chain0.usda")
+    assert not probe.needs_probe(tmp_path / "chain2.usda")  # (three layers: within it)
+
+
+def _patched_program(monkeypatch, old: str, new: str) -> None:
+    """The probe server's program with ``old`` replaced by ``new``, in a fresh server."""
+    assert old in probe._PROBE
+    monkeypatch.setattr(probe, "_PROBE", probe._PROBE.replace(old, new))
+    probe._stop(probe._server)
+
+
+def test_a_probe_that_fails_itself_is_probed_again_then_a_located_error(tmp_path, monkeypatch):
+    # an exception in the probe outside its guarded reads was "no answer", and the file was then opened in
+    # this process, unprobed: it is tried once more in a fresh server, then an error naming the file
+    from swpm_usd.usd.validate import CODES, validate_stage
+
+    good = _seed(tmp_path / "good.usdc")
+    marker = tmp_path / "fail-once"
+    _patched_program(
+        monkeypatch,
+        "    used = attempt(stage.GetUsedLayers) or []\n",
+        "    used = attempt(stage.GetUsedLayers) or []\n"
+        f"    if os.path.exists({str(marker)!r}):\n"
+        f"        os.remove({str(marker)!r})\n"
+        "        raise RuntimeError('a bug of the probe')\n",
+    )
+    try:
+        marker.touch()
+        assert probe.check(good) is None and not marker.exists()  # (failed once: probed again, clean)
+        _patched_program(
+            monkeypatch,
+            "    used = attempt(stage.GetUsedLayers) or []\n",
+            "    raise RuntimeError('a bug of the probe')\n",
+        )
+        other = _seed(tmp_path / "other.usdc")
+        found = probe.check(other)
+        assert found is not None and found.kind == "probe", found
+        assert found.message.startswith(f"{other}: the process probing it failed (RuntimeError: a bug")
+        assert found.message.endswith("it was not opened in this process")
+        monkeypatch.setattr(probe, "_answers", {})
+        (finding,) = validate_stage(other)
+        assert finding.code == "SWPM_USD_PROBE" and finding.code in CODES and finding.message == found.message
+        with pytest.raises(MeshLoadError, match="the process probing it failed"):
+            load_mesh(other)
+    finally:
+        probe._stop(probe._server)  # (the next test's server runs the real program)
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                stat = Path(f"/proc/{entry}/stat").read_text()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                out.append(int(entry))
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_a_probe_server_ends_with_the_process_that_asks(tmp_path):
+    # a worker killed while a probe ran left its probe server (and the probe) alive until the probe's alarm,
+    # up to 300 s. A FIFO named .usdc hangs usd-core's open (no writer): the probe waits as on a slow file
+    import time
+
+    fifo = tmp_path / "slow.usdc"
+    os.mkfifo(fifo)
+    code = "import sys\nfrom swpm_usd.usd import probe\nprobe.check(sys.argv[1])\n"
+    env = {**os.environ, "SWPM_USD_PROBE_SECONDS": "300"}
+    worker = subprocess.Popen([sys.executable, "-c", code, str(fifo)], env=env)
+    try:
+        deadline = time.monotonic() + 120
+        servers: list[int] = []
+        probes: list[int] = []
+        while time.monotonic() < deadline and not probes:
+            servers = _children(worker.pid)
+            probes = [p for s in servers for p in _children(s)]
+            time.sleep(0.1)
+        assert servers and probes, "no probe started"
+        time.sleep(0.5)
+        assert worker.poll() is None and all(map(_alive, servers + probes))
+    finally:
+        worker.kill()
+        worker.wait()
+    # (they end within a second, polled every 0.25 s; the bound only tells that from the probe's 300 s alarm,
+    # with room for a loaded machine)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and any(map(_alive, servers + probes)):
+        time.sleep(0.1)
+    assert not any(map(_alive, servers + probes)), [p for p in servers + probes if _alive(p)]
+
+
+def test_check_many_probes_several_at_once_with_the_answers_of_one_at_a_time(tmp_path, monkeypatch):
+    good = [_seed(tmp_path / f"g{i}.usdc") for i in range(4)]
+    bad = _crashing(tmp_path / "bad.usdc")
+    (tmp_path / "empty.usdc").write_bytes(b"")
+    text = _text_root(tmp_path / "t.usda", "sublayer", bad)
+    paths = [good[0], bad, good[1], tmp_path / "empty.usdc", good[2], text, good[3], good[0], tmp_path / "nx"]
+    one_by_one = []
+    for p in paths:
+        one_by_one.append(probe.check(p))
+    monkeypatch.setattr(probe, "_answers", {})
+    in_flight: list[int] = []
+    real_serve = probe._serve
+    monkeypatch.setattr(
+        probe, "_serve", lambda queue, *a: in_flight.append(len(queue)) or real_serve(queue, *a)
+    )
+    # several at once: each probe marks its start, then waits (up to 60 s, in vain when one runs alone) for
+    # another probe's mark and logs the marks it saw. The first probe sees a second one started as it runs
+    marks = tmp_path / "marks"
+    marks.mkdir()
+    _patched_program(
+        monkeypatch,
+        "def probe(path):\n",
+        "def probe(path):\n"
+        "    import time\n"
+        f"    open(os.path.join({str(marks)!r}, str(os.getpid())), 'w').close()\n"
+        "    for _ in range(1200):\n"
+        f"        if len(os.listdir({str(marks)!r})) >= 2:\n"
+        "            break\n"
+        "        time.sleep(0.05)\n"
+        f"    seen = len(os.listdir({str(marks)!r}))\n"
+        f"    open({str(tmp_path / 'seen')!r}, 'a').write(str(seen) + '\\n')\n",
+    )
+    try:
+        assert probe.check_many(paths, jobs=3) == one_by_one
+    finally:
+        probe._stop(probe._server)  # (the next test's server runs the real program)
+    assert in_flight == [7]  # (the distinct files probed, in one pass of up to 3 at once)
+    seen = [int(n) for n in (tmp_path / "seen").read_text().split()]
+    assert len(seen) == 7 and seen[0] >= 2, seen
+    assert [f.kind if f else None for f in one_by_one] == [
+        None,
+        "crash",
+        None,
+        "open",
+        None,
+        "crash",
+        None,
+        None,
+        None,
+    ]
+
+
+def test_a_probe_server_that_ends_before_its_queue_does_is_no_traceback(tmp_path, monkeypatch):
+    # the server gone with files not yet asked of it (more files than probes at once): those were in no
+    # answer, and check_many raised KeyError (validate's and the planning's traceback). They are asked of
+    # the fresh server, their own try unspent; a server that ends at every request fails each file alone
+    files = [_seed(tmp_path / f"g{i}.usdc") for i in range(3)]
+    _patched_program(monkeypatch, "def start(line):\n", "def start(line):\n    os._exit(3)\n")
+    try:
+        found = probe.check_many(files, jobs=1)
+    finally:
+        probe._stop(probe._server)  # (the next test's server runs the real program)
+    assert [f.kind if f else None for f in found] == ["probe"] * 3, found
+    for path, problem in zip(files, found, strict=True):
+        assert problem.message.startswith(
+            f"{path}: the process probing it failed (it ended without an answer)"
+        )
+
+
+def test_a_dask_run_fails_a_corrupt_usdc_and_a_usda_over_it_alone(tmp_path):
+    # --executor dask had never met a crashing input: its workers (a local cluster's processes) probe as the
+    # local pool's do. The one skip allowed: dask is an optional extra
+    pytest.importorskip("dask.distributed")
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    bad = _crashing(tmp_path / "bad.usdc")  # (its seed beside it, not an asset)
+    (tmp_path / "m" / "bad.usdc").write_bytes(bad.read_bytes())
+    _text_root(tmp_path / "m" / "c.usda", "sublayer", bad)
+    (tmp_path / "c.yaml").write_text(
+        "version: 1\nassets: [{glob: 'm/*'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    done = _cli("run", str(tmp_path / "c.yaml"), "--executor", "dask", "--jobs", "2", "--json")
+    assert done.returncode == 1, (done.returncode, done.stdout, done.stderr)
+    summary = json.loads(done.stdout)
+    assert summary["built_assets"] == ["m/a.obj"] and summary["failed"] == 2, summary
+    failures = {f["id"]: f["error"] for f in summary["failures"]}
+    assert set(failures) == {"m/bad.usdc", "m/c.usda"}
+    assert all("usd-core crashed opening or reading it" in e for e in failures.values()), failures
+    assert (tmp_path / "out" / "a.swpm").is_file()
+
+
+def test_the_planner_probes_its_new_usd_assets_in_one_batch(tmp_path, monkeypatch):
+    # the planning probed each new .usdc asset as it came to it, one after another (2,000 assets: 20 s); it
+    # now hands them to check_many together (several at once), and the inputs it finds are as before
+    from swpm_usd.pipeline.assets import discover
+    from swpm_usd.pipeline.config import load_config
+
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    seeds = [_seed(tmp_path / "m" / f"s{i}.usdc") for i in range(3)]
+    root = _text_root(tmp_path / "m" / "t.usda", "sublayer", seeds[0])
+    _crashing(tmp_path / "bad.usdc").rename(tmp_path / "m" / "bad.usdc")
+    (tmp_path / "c.yaml").write_text("version: 1\nassets: [{glob: 'm/*'}]\noutput: {dir: out}\n")
+    batches: list[list[str]] = []
+    real = probe.check_many
+    monkeypatch.setattr(
+        probe,
+        "check_many",
+        lambda paths, jobs=None: batches.append([str(p) for p in paths]) or real(paths, jobs),
+    )
+    assets, inputs, problems = discover(load_config(tmp_path / "c.yaml"))
+    assert problems == [] and [a.id for a in assets] == [
+        "m/a.obj",
+        "m/bad.usdc",
+        *[f"m/s{i}.usdc" for i in range(3)],
+        "m/t.usda",
+    ]
+    assert batches[0] == [
+        str(tmp_path / "m" / n) for n in ("bad.usdc", "s0.usdc", "s1.usdc", "s2.usdc", "t.usda")
+    ]
+    assert inputs["m/t.usda"] == [root, seeds[0]] and inputs["m/s1.usdc"] == [seeds[1]]
+    assert inputs["m/bad.usdc"] == [tmp_path / "m" / "bad.usdc"] and list(inputs) == [a.id for a in assets]

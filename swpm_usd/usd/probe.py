@@ -6,16 +6,25 @@ kills the process, or another one). :func:`check` has the file opened first by a
 -c`` :data:`_PROBE`: the stage opened, every prim's and property's metadata and values read, every spec of
 every layer it uses), under a memory and a time limit. Only when the probe reads it cleanly does the caller
 open the file itself; a probe that dies by a signal or overruns its time, or in which usd-core cannot open
-the file or read a value, is a :class:`Problem` (one line naming the file) the caller turns into its typed
-error (``validate``: ``SWPM_USD_CRASH``, ``SWPM_USD_OPEN`` or ``SWPM_USD_READ``; the loader:
-:class:`~swpm_usd.errors.MeshLoadError`).
+the file or read a value (or a crate layer its stage uses), is a :class:`Problem` (one line naming the
+file) the caller turns into its typed error (``validate``: ``SWPM_USD_CRASH``, ``SWPM_USD_OPEN``,
+``SWPM_USD_READ`` or ``SWPM_USD_PROBE``; the loader: :class:`~swpm_usd.errors.MeshLoadError`).
 
-Only files usd-core reads as crate are probed (:func:`is_crate`: a ``.usdc``, a ``.usdz``, a ``.usd`` whose
-first bytes are ``PXR-USDC``; its text parser fails cleanly), and each once per process (the answer is kept
-by path, size, mtime and inode). One probe server serves every file of this process: started once (Python
-and usd-core's import, about 0.3 s), it forks a fresh process for each file (about 12 ms for a small one: the
-server has built usd-core's schema registry once, on a stage of its own in memory, which each fork inherits),
-so a file that crashes or corrupts a probe leaves the next one a clean process.
+A stage is probed when opening it opens a crate file (:func:`needs_probe`): its root is one (:func:`is_crate`:
+a ``.usdc``, a ``.usdz``, a ``.usd`` whose first bytes are ``PXR-USDC``; usd-core's text parser fails
+cleanly), or a text root whose sublayers, references, payloads, clips or other asset paths, through text
+layers as deep as they go, resolve to one (those text layers are parsed in this process: each text layer of a
+stage is parsed twice, the price of knowing before the stage's open). Each answer is kept for this process
+while the file and every file it depends on (the layers the probe opened, the files its text layers or the
+stage's composition errors name: one missing, should it appear) keep their path, size, mtime and inode. One
+probe server serves every file of this process: started once (Python and usd-core's import, about 0.3 s), it
+forks a fresh process for each file (about 12 ms for a small one: the server has built usd-core's schema
+registry once, on a stage of its own in memory, which each fork inherits), several at once for
+:func:`check_many`, so a file that crashes or corrupts a probe leaves the next one a clean process. The server
+ends when the process that started it does (its input's end, or its parent process gone: checked every 0.25
+s), killing its probes (each also dies with the server: ``PR_SET_PDEATHSIG``). A probe that fails itself (an
+error of its own, no answer, no process started) is tried once more in a fresh server, then is a "probe"
+problem: the file is never opened in this process unprobed.
 """
 
 from __future__ import annotations
@@ -27,6 +36,7 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import NamedTuple
@@ -42,18 +52,21 @@ PROBE_MEMORY_BASE = 4 << 30
 PROBE_MEMORY_PER_BYTE = 64
 #: a probe's answers: usd-core opened and read the file, raised an error opening it, or reading a value in
 #: it (its first message beside)
-_CLEAN, _OPEN_FAILED, _READ_FAILED = 0, 3, 4
+_CLEAN, _OPEN_FAILED, _READ_FAILED, _LAYER_FAILED = 0, 3, 4, 6
 
 #: the probe server's program: argv[1] the schema plugin's folder (registered as this process registers it:
 #: its fallbacks are values read too; through PXR_PLUGINPATH_NAME, usd-core 26.11 raises "There already is
-#: a type named 'SwpmMeshAPI'" at the first stage's open). It reads requests, one JSON line each (the file,
-#: its seconds and its address-space limit in bytes), forks a process that probes the file under those
-#: limits, and answers each with a JSON line: [code, message], the code the probe's (``_CLEAN``,
-#: ``_OPEN_FAILED``, ``_READ_FAILED``) or minus the signal it died by (SIGALRM: out of time). It ends when
-#: its input does
+#: a type named 'SwpmMeshAPI'" at the first stage's open), argv[2] the pid of the process that asks. It reads
+#: requests, one JSON line each (a tag, the file, its seconds and its address-space limit in bytes), forks a
+#: process that probes the file under those limits (several at once), and answers each with a JSON line:
+#: [tag, code, message, the real files of the layers the stage used and those its composition errors name],
+#: the code the probe's (``_CLEAN``, ``_OPEN_FAILED``, ``_READ_FAILED``, ``_LAYER_FAILED``: a crate file the
+#: stage names exists but did not open, 5: the probe failed itself) or minus the signal it died by (SIGALRM:
+#: out of time). It ends, killing its probes, when its input does or its parent process is gone
 _PROBE = r"""
-import json, os, resource, signal, sys
+import ctypes, json, os, re, resource, select, signal, sys
 signal.signal(signal.SIGINT, signal.SIG_IGN)
+PARENT = int(sys.argv[2])
 from pxr import Plug, Sdf, Tf, Usd
 try:
     Plug.Registry().RegisterPlugins(sys.argv[1])
@@ -79,9 +92,9 @@ def probe(path):
     try:
         stage = Usd.Stage.Open(path)
     except Exception as exc:
-        return 3, str(exc)
+        return 3, str(exc), []
     if stage is None:
-        return 3, ""
+        return 3, "", []
     failed = []
     def attempt(fn, *args):
         try:
@@ -109,7 +122,24 @@ def probe(path):
     for root in [stage.GetPseudoRoot()] + list(attempt(stage.GetPrototypes) or []):
         for prim in Usd.PrimRange.AllPrims(root):
             read_prim(prim)
-    attempt(stage.GetCompositionErrors)
+    used = attempt(stage.GetUsedLayers) or []
+    # the real files of the layers it used (a package's inner layer: the package; a layer reached through a
+    # linked folder: its file, as the root's key and the files a text root names are)
+    opened = {os.path.realpath(layer.realPath.split("[", 1)[0]) for layer in used if layer.realPath}
+    named = set()  # (the files its composition errors name: one not there now is a file it depends on)
+    for error in attempt(stage.GetCompositionErrors) or []:
+        # (an absolute path: a file; not an anonymous layer's or a search path's name)
+        assets = [
+            os.path.realpath(a.split("[", 1)[0]) if os.path.isabs(a) else ""
+            for a in re.findall(r"@([^@]+)@", str(error))
+        ]
+        named.update(a for a in assets if a)
+        # a crate file the stage names that exists but did not open here (under the memory limit: one
+        # asking for a giant allocation), which the caller's process, without the limit, would open
+        asset = assets[0] if assets else ""
+        if asset and asset not in opened and os.path.isfile(asset) and crate(asset):
+            return 6, f"{asset}: {error}", sorted(opened | named)
+    layers = sorted(opened | named)
     def read_spec(layer, path):
         spec = attempt(layer.GetObjectAtPath, path)
         if spec is None:
@@ -118,51 +148,116 @@ def probe(path):
             attempt(spec.GetInfo, key)
         for t in attempt(layer.ListTimeSamplesForPath, path) or []:
             attempt(layer.QueryTimeSample, path, t)
-    for layer in attempt(stage.GetUsedLayers) or []:
+    for layer in used:
         attempt(layer.Traverse, Sdf.Path.absoluteRootPath, lambda p, layer=layer: read_spec(layer, p))
-    return (4, failed[0]) if failed else (0, "")
-for line in sys.stdin:
-    path, seconds, memory = json.loads(line)
+    return (4, failed[0], layers) if failed else (0, "", layers)
+def crate(path):
+    if path.lower().endswith((".usdc", ".usdz")):
+        return True
+    try:
+        with open(path, "rb") as f:
+            return not path.lower().endswith(".usda") and f.read(8) == b"PXR-USDC"
+    except OSError:
+        return False
+def start(line):
+    tag, path, seconds, memory = json.loads(line)
     r, w = os.pipe()
     pid = os.fork()
     if pid == 0:
         os.close(r)
         try:
+            # (killed with this server, should it be killed itself: no probe outlives it)
+            ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+        except Exception:
+            pass
+        if os.getppid() != SERVER:
+            os._exit(1)
+        try:
             resource.setrlimit(resource.RLIMIT_AS, (memory, resource.RLIM_INFINITY))
         except (ValueError, OSError):
             pass
         signal.alarm(max(1, int(seconds)))
-        code, message = probe(path)
+        try:
+            answer = probe(path)
+        except BaseException as exc:  # (the probe's own failure, outside its guarded reads)
+            answer = 5, f"{type(exc).__name__}: {exc}", []
         with os.fdopen(w, "w") as out:
-            out.write(json.dumps([code, message]))
+            out.write(json.dumps(answer))
         os._exit(0)
     os.close(w)
-    with os.fdopen(r) as got:
-        text = got.read()
+    running[r] = (tag, pid, [])
+def finish(fd):
+    tag, pid, chunks = running.pop(fd)
+    os.close(fd)
     _, status = os.waitpid(pid, 0)
     if os.WIFSIGNALED(status):
-        answer = [-os.WTERMSIG(status), ""]
+        answer = [-os.WTERMSIG(status), "", []]
     else:
         try:
-            answer = json.loads(text)
+            answer = json.loads(b"".join(chunks))
         except ValueError:
-            answer = [5, ""]
-    sys.stdout.write(json.dumps(answer) + "\n")
-    sys.stdout.flush()
+            code = os.waitstatus_to_exitcode(status)
+            answer = [5, f"the probe process ended (exit {code}) without an answer", []]
+    os.write(1, (json.dumps([tag, *answer]) + "\n").encode())
+def stop():
+    for _, pid, _ in running.values():
+        try:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+        except OSError:
+            pass
+    os._exit(0)
+SERVER = os.getpid()
+running = {}
+pending = b""
+while True:
+    # the process that asks is gone (killed: its end of our input may live on in a process it forked):
+    # this server and its probes end now, not at their alarm
+    if os.getppid() != PARENT:
+        stop()
+    try:
+        ready, _, _ = select.select([0, *running], [], [], 0.25)
+    except InterruptedError:
+        continue
+    for fd in ready:
+        if fd != 0:
+            data = os.read(fd, 1 << 16)
+            if data:
+                running[fd][2].append(data)
+            else:
+                finish(fd)
+            continue
+        data = os.read(0, 1 << 16)
+        if not data:  # (our input ended: nobody reads the answers)
+            stop()
+        pending += data
+        while b"\n" in pending:
+            line, pending = pending.split(b"\n", 1)
+            try:
+                start(line)
+            except OSError as exc:  # (no process can be forked now)
+                tag = json.loads(line)[0]
+                answer = [tag, 5, f"cannot start a probe process: {exc}", []]
+                os.write(1, (json.dumps(answer) + "\n").encode())
 """
 
 
 class Problem(NamedTuple):
     """What a probe found: ``kind`` "crash" (usd-core died by a signal), "timeout", "open" (it raised an
-    error opening the file) or "read" (opening it, but reading a value in it: corrupt data, which read in
-    this process could ask for a giant allocation), and ``message``, one line naming the file."""
+    error opening the file), "read" (opening it, but reading a value in it: corrupt data, which read in
+    this process could ask for a giant allocation) or "probe" (the probe itself failed twice, not usd-core:
+    the file was not opened, here or there), and ``message``, one line naming the file."""
 
     kind: str
     message: str
 
 
-#: (real path, size, mtime_ns, inode) -> the problem found (None: none)
-_answers: dict[tuple[str, int, int, int], Problem | None] = {}
+#: a file's stamp: (size, mtime_ns, inode), None for a file that is not there
+_Stamp = tuple[int, int, int] | None
+#: (real path, size, mtime_ns, inode) of a file checked -> (the problem found, None: none; the real path and
+#: stamp of every other file its answer depends on: the layers the probe opened, the layers and crate files
+#: a text root names). The answer holds while each of those files is as it was
+_answers: dict[tuple[str, int, int, int], tuple[Problem | None, tuple[tuple[str, _Stamp], ...]]] = {}
 
 
 def is_crate(path: str | os.PathLike[str]) -> bool:
@@ -182,6 +277,59 @@ def is_crate(path: str | os.PathLike[str]) -> bool:
         return False
 
 
+#: how many text layers :func:`_named_files` reads below a root at most (a deeper stack is probed)
+_TEXT_LAYERS_READ = 256
+
+
+def _named_files(path: str) -> tuple[bool, list[str]]:
+    """Whether the stage of ``path``, a text (non-crate) root layer, opens a crate file (its sublayers,
+    references, payloads, value clips or another asset path it names, through text layers as deep as they
+    go, resolve to one), and the real paths of the files read or named on the way (their stamps key the
+    answer). Text layers are read here (usd-core's text parser fails cleanly); a crate file never is."""
+    from pxr import Ar, UsdUtils
+
+    resolver = Ar.GetResolver()
+    seen: set[str] = {os.path.realpath(path)}
+    todo = [os.path.realpath(path)]
+    crate = False
+    read = 0  # (text layers read: the textures and other files named are no layers, counted apart)
+    while todo:
+        layer = todo.pop()
+        if read >= _TEXT_LAYERS_READ:
+            return True, sorted(seen)  # (a stack this large: probed rather than read here)
+        read += 1
+        try:
+            named = [p for group in UsdUtils.ExtractExternalReferences(layer) for p in group]
+        except Exception:  # noqa: BLE001 - a text layer that does not parse: the stage's open reports it
+            continue
+        for asset in named:
+            try:
+                found = str(resolver.Resolve(resolver.CreateIdentifier(asset, Ar.ResolvedPath(layer))))
+            except Exception:  # noqa: BLE001 - an asset path the resolver refuses: nothing opened
+                found = ""
+            if not found:  # (not there now: keyed as missing, should it appear)
+                found = os.path.join(os.path.dirname(layer), asset.split("[", 1)[0])
+            real = os.path.realpath(found.split("[", 1)[0] if found.endswith("]") else found)
+            if real in seen:
+                continue
+            seen.add(real)
+            suffix = Path(real).suffix.lower()
+            if not os.path.isfile(real) or suffix not in (".usda", ".usd", ".usdc", ".usdz"):
+                continue  # (a texture or another asset: no layer usd-core opens as crate)
+            if is_crate(real):
+                crate = True
+            else:
+                todo.append(real)
+    return crate, sorted(seen)
+
+
+def needs_probe(path: str | os.PathLike[str]) -> bool:
+    """Whether opening ``path``'s stage opens a crate file: ``path`` is one (:func:`is_crate`), or a text
+    layer whose layer stack, references, payloads or clips (through other text layers) resolve to one."""
+    p = os.fspath(path)
+    return is_crate(p) or _named_files(p)[0]
+
+
 def _seconds() -> float:
     try:
         return max(1.0, float(os.environ.get("SWPM_USD_PROBE_SECONDS", PROBE_SECONDS)))
@@ -196,44 +344,96 @@ def _signal_name(number: int) -> str:
         return f"signal {number}"
 
 
-def check(path: str | os.PathLike[str]) -> Problem | None:
-    """None when ``path`` is not a crate file or a probe process opened and read it cleanly (the caller may
-    then open it in its own process), else the :class:`Problem`: usd-core crashed on it (the signal), did
-    not finish within :data:`PROBE_SECONDS`, or raised an error opening it or reading a value (its message).
-    Asked again for the same file (path, size, mtime, inode), the first answer is given without a probe."""
-    p = os.fspath(path)
-    key = _key(p)
-    if key is None:
-        return None  # (the caller's own open reports a missing or unreadable file)
-    if not is_crate(p):
-        return None
-    if key not in _answers:
-        _answers[key] = _probe(p, key[1])
-    return _answers[key]
-
-
-def _key(path: str) -> tuple[str, int, int, int] | None:
+def _stamp(path: str) -> _Stamp:
     try:
         st = os.stat(path)
     except OSError:
         return None
-    return (os.path.realpath(path), st.st_size, st.st_mtime_ns, st.st_ino)
+    return (st.st_size, st.st_mtime_ns, st.st_ino)
 
 
-def cleared(path: str | os.PathLike[str]) -> list[tuple[str, int, int, int]]:
-    """Whether this process probed ``path`` clean, as it is now: its key (path, size, mtime, inode) in a list,
-    else ``[]``. Handed to another process that opens the file (a pipeline's worker: the run's planning
-    probed the asset) with :func:`trust`, the file is not probed again there."""
+def _key(path: str) -> tuple[str, int, int, int] | None:
+    stamp = _stamp(path)
+    return None if stamp is None else (os.path.realpath(path), *stamp)
+
+
+def _known(key: tuple[str, int, int, int]) -> bool:
+    """Whether this process has an answer for the file of ``key`` that still holds (the files it depends on
+    unchanged)."""
+    known = _answers.get(key)
+    return known is not None and all(_stamp(p) == stamp for p, stamp in known[1])
+
+
+def check(path: str | os.PathLike[str]) -> Problem | None:
+    """None when opening ``path``'s stage opens no crate file (:func:`needs_probe`) or a probe process
+    opened and read it cleanly (the caller may then open it in its own process), else the :class:`Problem`:
+    usd-core crashed on it (the signal), did not finish within :data:`PROBE_SECONDS`, or raised an error
+    opening it or reading a value (its message), or the probe failed twice. Asked again while the file and
+    every file its answer depends on (the layers the probe opened, those its text layers or its composition
+    errors name) are as they were (path, size, mtime, inode), the first answer is given without a probe."""
+    return check_many([path])[0]
+
+
+def check_many(paths: Sequence[str | os.PathLike[str]], jobs: int | None = None) -> list[Problem | None]:
+    """:func:`check` of each of ``paths`` (in order), probing up to ``jobs`` at once (default: the usable
+    cores); the answers are those of :func:`check`, one file at a time."""
+    answers: list[Problem | None] = [None] * len(paths)
+    todo: dict[str, tuple[tuple[str, int, int, int], list[int], list[str]]] = {}
+    for i, path in enumerate(paths):
+        p = os.fspath(path)
+        key = _key(p)
+        if key is None:
+            continue  # (the caller's own open reports a missing or unreadable file)
+        if _known(key):
+            answers[i] = _answers[key][0]
+            continue
+        if p in todo:
+            todo[p][1].append(i)
+            continue
+        if is_crate(p):
+            named: list[str] = []
+        else:
+            crate, named = _named_files(p)
+            if not crate:
+                _answers[key] = (None, tuple((n, _stamp(n)) for n in named if n != key[0]))
+                continue
+        todo[p] = (key, [i], named)
+    if not todo:
+        return answers
+    found = _probe_all([(p, key[1]) for p, (key, _, _) in todo.items()], jobs)
+    for p, (key, where, named) in todo.items():
+        problem, layers = found[p]
+        # (and those of an earlier answer for this file as it is: a probe that crashed names none)
+        earlier = [n for n, _ in _answers[key][1]] if key in _answers else []
+        files = {n for n in (*named, *layers, *earlier) if n != key[0]}
+        _answers[key] = (problem, tuple((n, _stamp(n)) for n in sorted(files)))
+        for i in where:
+            answers[i] = problem
+    return answers
+
+
+def cleared(path: str | os.PathLike[str]) -> list[list]:
+    """Whether this process found ``path`` clean, as it is now with every file its answer depends on: its
+    key (path, size, mtime, inode, then those files' ``[path, size, mtime, inode]``, ``[path]`` for one not
+    there) in a list, else ``[]``. Handed to another process that opens the file (a pipeline's worker: the
+    run's planning probed the asset) with :func:`trust`, the file is not probed again there."""
     key = _key(os.fspath(path))
-    return [key] if key is not None and key in _answers and _answers[key] is None else []
+    if key is None or not _known(key) or _answers[key][0] is not None:
+        return []
+    return [[*key, [[p, *stamp] if stamp is not None else [p] for p, stamp in _answers[key][1]]]]
 
 
-def trust(keys: Iterable[Sequence[str | int]]) -> None:
-    """Take the keys :func:`cleared` gave in another process as probed clean here (a file changed since has
-    another key: probed again)."""
+def trust(keys: Iterable[Sequence]) -> None:
+    """Take the keys :func:`cleared` gave in another process as found clean here (a file changed since, or
+    one of the files its answer depends on, has another key: probed again). A key of four items (path,
+    size, mtime, inode) depends on no other file."""
     for key in keys:
-        path, size, mtime_ns, ino = key
-        _answers.setdefault((str(path), int(size), int(mtime_ns), int(ino)), None)
+        path, size, mtime_ns, ino = key[:4]
+        deps = tuple(
+            (str(d[0]), (int(d[1]), int(d[2]), int(d[3])) if len(d) == 4 else None)
+            for d in (key[4] if len(key) > 4 else ())
+        )
+        _answers.setdefault((str(path), int(size), int(mtime_ns), int(ino)), (None, deps))
 
 
 #: the probe process this one asks (started on the first crate file, again after one crashed it)
@@ -242,47 +442,140 @@ _server_pid = 0
 _lock = threading.Lock()
 
 
-def _probe(path: str, size: int) -> Problem | None:
-    global _server, _server_pid
-    seconds = _seconds()
-    memory = PROBE_MEMORY_BASE + PROBE_MEMORY_PER_BYTE * size
-    request = json.dumps([str(Path(path).absolute()), seconds, memory]).encode() + b"\n"
-    with _lock:
-        try:
-            if _server is None or _server_pid != os.getpid() or _server.poll() is not None:
-                from .plugin import PLUGIN_PATH
-
-                _server = subprocess.Popen(
-                    [sys.executable, "-c", _PROBE, PLUGIN_PATH],
-                    stdin=subprocess.PIPE,
-                    stdout=subprocess.PIPE,
-                    stderr=subprocess.DEVNULL,
-                    # (no worker threads in the process each probe is forked from: a fork keeps only the
-                    # thread that forks, and a pool of usd-core's whose threads are gone would hang)
-                    env={**os.environ, "PXR_WORK_THREAD_LIMIT": "1"},
-                )
-                _server_pid = os.getpid()  # (a process forked from this one starts its own)
-            server = _server
-            assert server.stdin is not None and server.stdout is not None
-            server.stdin.write(request)
-            server.stdin.flush()
-            ready, _, _ = select.select([server.stdout], [], [], seconds + 30)
-            line = server.stdout.readline() if ready else None
-        except OSError:  # (no process can be started, or it went: the caller opens the file as before)
-            line = b""
-        except BaseException:  # (Ctrl-C while waiting: the answer not read would be the next file's)
-            _stop(_server)
-            raise
-        if line is None:  # (a probe hangs past its own alarm)
-            _stop(_server)
-            return _overran(path, seconds)
-        if not line:
-            _stop(_server)
-            return None
+def _cores() -> int:
     try:
-        code, text = json.loads(line)
-    except ValueError:
-        return None
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
+
+
+def _start_server() -> subprocess.Popen[bytes]:
+    global _server, _server_pid
+    if _server is None or _server_pid != os.getpid() or _server.poll() is not None:
+        from .plugin import PLUGIN_PATH
+
+        _server = subprocess.Popen(
+            [sys.executable, "-c", _PROBE, PLUGIN_PATH, str(os.getpid())],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            # (no worker threads in the process each probe is forked from: a fork keeps only the
+            # thread that forks, and a pool of usd-core's whose threads are gone would hang)
+            env={**os.environ, "PXR_WORK_THREAD_LIMIT": "1"},
+        )
+        _server_pid = os.getpid()  # (a process forked from this one starts its own)
+    return _server
+
+
+def _probe_all(files: list[tuple[str, int]], jobs: int | None) -> dict[str, tuple[Problem | None, list[str]]]:
+    """Probe each (path, size) of ``files``, up to ``jobs`` at once: path -> (the problem, the real paths
+    of the layer files the probe opened). A probe that fails itself (it raised an error outside its
+    guarded reads, gave no answer, or no process could be started) is tried once more in a fresh server,
+    then a "probe" :class:`Problem`: the file is not opened in this process."""
+    seconds = _seconds()
+    jobs = max(1, jobs if jobs is not None else _cores())
+    out: dict[str, tuple[Problem | None, list[str]]] = {}
+    tries = {path: 0 for path, _ in files}
+    sizes = dict(files)
+    queue = [path for path, _ in files]
+    with _lock:
+        while queue:
+            failed = _serve(queue, sizes, seconds, jobs, out)
+            # (the files not asked yet when the server went: asked the fresh one, no try of their own spent)
+            queue = [path for path in queue if path not in out and path not in failed]
+            for path, why in failed.items():
+                tries[path] += 1
+                if tries[path] < 2:
+                    queue.append(path)
+                else:
+                    out[path] = (
+                        Problem(
+                            "probe",
+                            f"{path}: the process probing it failed ({why}); it was not opened in this "
+                            "process",
+                        ),
+                        [],
+                    )
+            if queue:
+                _stop(_server)  # (a fresh server for the second try)
+    return out
+
+
+def _serve(
+    queue: list[str],
+    sizes: dict[str, int],
+    seconds: float,
+    jobs: int,
+    out: dict[str, tuple[Problem | None, list[str]]],
+) -> dict[str, str]:
+    """Ask the probe server about each path of ``queue``, ``jobs`` in flight at most, into ``out``; the paths
+    whose probe failed itself, each with why."""
+    failed: dict[str, str] = {}
+    flight: dict[int, tuple[str, float]] = {}  # tag -> (path, when asked)
+    tags = iter(range(1 << 62))
+    queue = list(queue)
+    pending = b""
+    try:
+        server = _start_server()
+        assert server.stdin is not None and server.stdout is not None
+        fd = server.stdout.fileno()
+        while queue or flight:
+            while queue and len(flight) < jobs:
+                path = queue.pop(0)
+                tag = next(tags)
+                memory = PROBE_MEMORY_BASE + PROBE_MEMORY_PER_BYTE * sizes[path]
+                request = json.dumps([tag, str(Path(path).absolute()), seconds, memory]).encode() + b"\n"
+                server.stdin.write(request)
+                server.stdin.flush()
+                flight[tag] = (path, time.monotonic())
+            oldest = min(asked for _, asked in flight.values())
+            wait = oldest + seconds + 30 - time.monotonic()
+            ready, _, _ = select.select([fd], [], [], max(0.0, wait))
+            if not ready:  # (a probe hangs past its own alarm: every probe in flight is asked again)
+                _stop(server)
+                for path, asked in flight.values():
+                    if asked == oldest:
+                        out[path] = (_overran(path, seconds), [])
+                    else:
+                        queue.append(path)
+                flight.clear()
+                pending = b""
+                server = _start_server()
+                assert server.stdin is not None and server.stdout is not None
+                fd = server.stdout.fileno()
+                continue
+            data = os.read(fd, 1 << 16)
+            if not data:  # (the server went: the probes in flight gave no answer)
+                _stop(server)
+                for path, _ in flight.values():
+                    failed[path] = "it ended without an answer"
+                return failed
+            pending += data
+            while b"\n" in pending:
+                line, pending = pending.split(b"\n", 1)
+                try:
+                    tag, code, text, layers = json.loads(line)
+                    path, _ = flight.pop(tag)
+                except (ValueError, KeyError, TypeError):
+                    _stop(server)
+                    for path, _ in flight.values():
+                        failed[path] = "an answer that is not one"
+                    return failed
+                if code >= 0 and code not in (_CLEAN, _OPEN_FAILED, _READ_FAILED, _LAYER_FAILED):
+                    failed[path] = text or f"its answer {code}"
+                else:
+                    out[path] = (_problem(path, code, text, seconds), [str(p) for p in layers])
+    except OSError as exc:  # (no process can be started, or it went)
+        _stop(_server)
+        for path in [*(p for p, _ in flight.values()), *queue]:
+            failed[path] = f"{type(exc).__name__}: {exc}"
+    except BaseException:  # (Ctrl-C while waiting: the answers not read would be the next files')
+        _stop(_server)
+        raise
+    return failed
+
+
+def _problem(path: str, code: int, text: str, seconds: float) -> Problem | None:
     if code == _CLEAN:
         return None
     if code == -signal.SIGALRM:
@@ -293,13 +586,13 @@ def _probe(path: str, size: int) -> Problem | None:
             f"{path}: usd-core crashed opening or reading it (a probe process died by "
             f"{_signal_name(-code)}): the file is corrupt; it was not opened in this process",
         )
-    if code not in (_OPEN_FAILED, _READ_FAILED):
-        return None  # (the probe itself failed, not usd-core on the file: the caller opens it as before)
     from ..errors import tf_message
 
     reason = tf_message(RuntimeError(text)) if text.strip() else "usd-core returned no stage"
     if code == _OPEN_FAILED:
         return Problem("open", f"{path}: usd-core cannot open it as a USD layer: {reason}")
+    if code == _LAYER_FAILED:
+        return Problem("open", f"{path}: usd-core cannot open a crate layer its stage uses, {reason}")
     return Problem("read", f"{path}: usd-core cannot read it: {reason}")
 
 

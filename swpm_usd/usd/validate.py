@@ -45,6 +45,8 @@ CODES: dict[str, str] = {
     "SWPM_USD_READ": "usd-core opened the layer but cannot read a value in it (corrupt .usdc data).",
     "SWPM_USD_CRASH": "usd-core crashed (died by a signal) or hung opening or reading the .usdc file in a "
     "probe process (corrupt data); it is not opened in the validating process.",
+    "SWPM_USD_PROBE": "the probe process that opens a crate file first failed itself, twice (not usd-core on "
+    "the file); the file is not opened in the validating process.",
 }
 
 # buffers whose values are vertex ids
@@ -491,7 +493,8 @@ def validate_stage(path: str | os.PathLike[str] | Usd.Stage, builtin: bool = Tru
         # first in a probe process, and here only if that ends cleanly
         probed = check(path)
         if probed is not None:
-            code = {"open": "SWPM_USD_OPEN", "read": "SWPM_USD_READ"}.get(probed.kind, "SWPM_USD_CRASH")
+            kinds = {"open": "SWPM_USD_OPEN", "read": "SWPM_USD_READ", "probe": "SWPM_USD_PROBE"}
+            code = kinds.get(probed.kind, "SWPM_USD_CRASH")
             return [Finding(code, ERROR, "/", probed.message)]
         stage, problem = _open(os.fspath(path))
         if stage is None:
