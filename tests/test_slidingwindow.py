@@ -939,6 +939,25 @@ def test_refine_patch_order_lowers_the_windows_misses(spot: Mesh) -> None:
         assert not np.array_equal(order, np.arange(n))
 
 
+def test_refine_patch_order_skips_only_swaps_that_cannot_win(spot: Mesh) -> None:
+    """The search does not evaluate again a swap of neighbouring patches already tried from the place before
+    with no move made since (``skip_tried_swaps``): the orders are those of the search that evaluates every
+    candidate, with and without common targets, at several reaches, run lengths and pass counts."""
+    from swpm_usd.encode.sw_refine import refine_patch_order
+
+    pm = build_sliding_window(spot, order_passes=0)  # the greedy order
+    for level in (0, 1, 4):
+        n, block_start, blocks = _level_blocks(pm, level)
+        no_targets = np.zeros(n + 1, np.int64), np.zeros(0, np.int64), 1
+        pairs = np.arange(n + 1, dtype=np.int64), np.arange(n, dtype=np.int64) // 2, n
+        for targets in (no_targets, pairs):
+            for reach, max_run, passes in ((1, 1, 2), (2, 1, 2), (3, 2, 3)):
+                args = (block_start, blocks, n, *targets, pm.vertex_count, 16, reach, max_run, passes)
+                order = refine_patch_order(*args)
+                assert not np.array_equal(order, np.arange(n))
+                assert np.array_equal(order, refine_patch_order(*args, False)), (level, reach, max_run)
+
+
 def test_order_passes_warm_the_windows_with_the_same_pool_and_errors(spot: Mesh) -> None:
     """``order_passes`` reorders each level's patches (records renumbered with them): every window is still
     the collapse sequence replayed, the pool, the levels and every collapse's error are unchanged, and the
