@@ -1087,6 +1087,46 @@ def test_corruptions_are_reported_with_path_and_code(mesh, asset, tmp_path):
         json.dumps([f.to_dict() for f in findings])
 
 
+@pytest.mark.parametrize(
+    "params",
+    ['{"a": NaN}', '{"a": 1e400}', '{"a": 1, "a": 2}', '{"a": ' + "[" * 140 + "]" * 140 + "}"],
+    ids=["nan", "infinite", "duplicate-key", "140-deep"],
+)
+def test_params_follow_the_swpm_meta_rules_in_a_stage_too(asset, tmp_path, params):
+    # swpm:params was read with plain json.loads: a stage could hold params its .swpm twin's reader rejects
+    # (spec/format.md 3.1), and validate, read and the writer each answered otherwise
+    bad = _corrupt(asset, tmp_path / "bad.usdc", lambda p: p.GetAttribute("swpm:params").Set(params))
+    assert [f.code for f in validate_stage(bad) if f.code == "SWPM_USD_PARAMS"] == ["SWPM_USD_PARAMS"]
+    stage = Usd.Stage.Open(str(bad))
+    with pytest.raises(UsdReadError, match="bad.usdc"):
+        usd.read(stage.GetPrimAtPath(stage.GetDefaultPrim().GetPath().AppendChild("mesh")))
+
+
+def test_the_writer_refuses_params_a_reader_rejects(pm, tmp_path):
+    import copy
+
+    from swpm_usd.usd.writer import UsdWriteError
+
+    def with_params(extra: dict):
+        out = copy.copy(pm)
+        out.params = {**pm.params, **extra}
+        return out
+
+    deep: list = []
+    for _ in range(140):
+        deep = [deep]
+    for bad in ({"tolerance": float("nan")}, {"n": 10**400}, {"deep": deep}):
+        with pytest.raises(UsdWriteError, match="swpm:params"):
+            usd.write(with_params(bad), tmp_path / "out.usdc")
+        assert not (tmp_path / "out.usdc").exists()
+    for _ in range(20):  # 120 deep in an object: within the 128 levels a reader takes
+        deep = deep[0]
+    ok = usd.write(with_params({"deep": deep}), tmp_path / "ok.usdc")
+    assert validate_stage(ok) == []
+    stage = Usd.Stage.Open(str(ok))
+    assert usd.read(stage.GetDefaultPrim()).params["deep"] == deep
+
+
 def test_cli_reports_json_and_exit_code(asset, tmp_path):
     from click.testing import CliRunner
 

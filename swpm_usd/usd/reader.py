@@ -8,7 +8,6 @@ the reader needs is authored explicitly.
 
 from __future__ import annotations
 
-import json
 from typing import Any
 
 import numpy as np
@@ -16,6 +15,7 @@ from pxr import Usd, UsdGeom
 
 from ..encode.base import ProgressiveMesh, from_buffers, with_attributes
 from ..errors import SwpmError, first_few
+from ..format.reader import parse_meta_json
 from .arrays import ATTRIBUTE_DTYPES, BUFFER_DTYPES, dtype_problem, from_vt
 from .schema import COLLAPSE_PREFIX, SCHEMA_NAME, attr_name
 
@@ -211,7 +211,7 @@ def read(prim: Usd.Prim, check: bool = True) -> ProgressiveMesh:
     encoding = str(_get(prim, "swpm:encoding"))
     points = np.asarray(_get(prim, "points"), np.float32).reshape(-1, 3)
     try:
-        params = json.loads(_get(prim, "swpm:params", required=False) or "{}")
+        params = parse_meta_json(_get(prim, "swpm:params", required=False) or "{}")
         pm = from_buffers(
             encoding,
             points,
@@ -228,7 +228,7 @@ def read(prim: Usd.Prim, check: bool = True) -> ProgressiveMesh:
         )
     except UsdReadError:
         raise
-    except (SwpmError, ValueError, TypeError, IndexError, KeyError) as e:
+    except (SwpmError, ValueError, TypeError, IndexError, KeyError, RecursionError) as e:
         raise UsdReadError(
             f"{_where(prim)}: the stored arrays do not form a progressive mesh: {e}{_overridden(prim)}"
         ) from e

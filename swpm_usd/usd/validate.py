@@ -9,7 +9,6 @@ runs it together with usd-core's built-in validators on a stage (instance proxie
 
 from __future__ import annotations
 
-import json
 import os
 import re
 import threading
@@ -19,6 +18,7 @@ from typing import Any
 import numpy as np
 from pxr import Usd, UsdGeom, UsdValidation
 
+from ..format.reader import parse_meta_json
 from .arrays import ATTRIBUTE_DTYPES, BUFFER_DTYPES, dtype_problem
 from .reader import _snake, is_encoded
 from .schema import COLLAPSE_PREFIX, ENCODING_TOKENS, FORMAT_VERSION, PROPERTY_TYPES, attr_name
@@ -39,7 +39,7 @@ CODES: dict[str, str] = {
     "SWPM_USD_WINDOW_RANGE": "a sliding window lies (partly) outside swpm:indexPool.",
     "SWPM_USD_INDEX_RANGE": "a vertex index is not below the vertex count.",
     "SWPM_USD_TOPOLOGY": "faceVertexIndices / Counts are not a triangle list of one of the LODs.",
-    "SWPM_USD_PARAMS": "swpm:params is not a JSON object.",
+    "SWPM_USD_PARAMS": "swpm:params is not a JSON object a .swpm META may hold (spec/format.md 3.1).",
     "SWPM_USD_REBUILD": "the stored buffers do not rebuild a progressive mesh.",
     "SWPM_USD_OPEN": "the file is not a USD layer usd-core can open (empty, truncated or not USD at all).",
     "SWPM_USD_READ": "usd-core opened the layer but cannot read a value in it (corrupt .usdc data).",
@@ -166,10 +166,11 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
         )
     params = c.get("swpm:params", required=False)
     try:
-        params = json.loads(params) if params is not None else {}
+        # the rules of a .swpm file's META (spec/format.md 3.1), so the stage and its .swpm agree
+        params = parse_meta_json(params) if params is not None else {}
         if not isinstance(params, dict):
             raise ValueError("not an object")
-    except ValueError as e:
+    except (ValueError, RecursionError) as e:
         c.add("SWPM_USD_PARAMS", f"swpm:params: {e}")
         params = {}
 

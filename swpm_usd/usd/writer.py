@@ -64,6 +64,20 @@ def _collapse_fields(buffers: dict[str, np.ndarray]) -> list[str]:
     return [n for n in names if buffers[n].shape[0] == r and buffers[n].dtype.kind in "ui"]
 
 
+def params_text(params: dict) -> str:
+    """``swpm:params`` for ``params``: JSON that a reader accepts under the rules of a ``.swpm`` file's META
+    (spec/format.md 3.1: no NaN or infinity, at most 128 deep, every number finite in binary64), else
+    :class:`UsdWriteError`, so a stage is never written that :func:`.reader.read` refuses."""
+    from ..format.reader import parse_meta_json
+
+    try:
+        text = json.dumps(params, sort_keys=True, default=_json_default, allow_nan=False)
+        parse_meta_json(text)
+    except (ValueError, RecursionError) as e:
+        raise UsdWriteError(f"swpm:params is not JSON a reader accepts (spec/format.md 3.1): {e}") from e
+    return text
+
+
 def swpm_values(pm: ProgressiveMesh) -> dict[str, tuple[Sdf.ValueTypeName, Any]]:
     """Every swpm: attribute of ``pm``: name -> (Sdf type, value). Exactly what the prim stores."""
     buffers = {n: np.asarray(a) for n, a in pm.buffers().items()}
@@ -76,7 +90,7 @@ def swpm_values(pm: ProgressiveMesh) -> dict[str, tuple[Sdf.ValueTypeName, Any]]
         "swpm:vertexCounts": to_vt("swpm:vertexCounts", pm.vertex_counts),
         "swpm:triangleCounts": to_vt("swpm:triangleCounts", pm.triangle_counts),
         "swpm:lodErrors": to_vt("swpm:lodErrors", pm.lod_errors),
-        "swpm:params": (T.String, json.dumps(pm.params, sort_keys=True, default=_json_default)),
+        "swpm:params": (T.String, params_text(pm.params)),
         "swpm:attributeNames": (T.TokenArray, list(pm.attributes)),
         "swpm:attributeDtypes": (T.TokenArray, [np.asarray(a).dtype.name for a in pm.attributes.values()]),
         "swpm:bufferNames": (T.TokenArray, list(buffers)),
