@@ -369,10 +369,10 @@ def _giant(path: Path) -> Path:
 @pytest.mark.parametrize("arc", ["sublayer", "reference", "payload"])
 def test_a_usda_that_opens_a_corrupt_usdc_is_probed(tmp_path, arc):
     # the probe was keyed on the root's suffix: a .usda naming a corrupt .usdc was opened in the process,
-    # which died by SIGSEGV (a sublayer of the crashing file: validate, the loader, build) or asked for a
-    # giant allocation (a reference or payload of the other; in the probe, a composition error usd-core
-    # reports as it skips the layer, which the process asking then opened without a limit). Its composed
-    # stage is probed, and a crate layer that exists but does not open there is an error
+    # which died by SIGSEGV (a sublayer of the crashing file: validate, the loader, build), or, a reference
+    # or payload of the other (a giant count), read in the process with no limit (SWPM_USD_READ there, after
+    # the allocation; in the probe, a composition error usd-core reports as it skips the layer). Its
+    # composed stage is probed, and a crate layer that exists but does not open there is an error
     (tmp_path / "assets").mkdir()
     if arc == "sublayer":
         bad = _crashing(tmp_path / "assets" / "bad.usdc")

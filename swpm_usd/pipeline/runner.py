@@ -41,7 +41,7 @@ import time
 from collections.abc import Generator, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .. import __version__
 from ..errors import OutputLockedError
@@ -73,6 +73,9 @@ from .worker import (
     serve,
     stat_fields,
 )
+
+if TYPE_CHECKING:  # (pxr is imported where a USD output is written: a run without one never loads it)
+    from pxr import Sdf
 
 MANIFEST = "manifest.json"
 #: the lock file of output.dir: a run holds an exclusive ``flock`` on it while it writes there (see
@@ -297,7 +300,8 @@ def _record_text(rec: Any, depth: int) -> str:
 
 
 class _ManifestText:
-    """``json.dumps(manifest, indent=1)`` with every asset record serialised once: a record does not
+    """``json.dumps(manifest, indent=1)``, but a record's ``summary.curve`` one point a line (the same JSON
+    value), with every asset record serialised once: a record does not
     change once recorded, so a rewrite joins cached texts (a 6 MB manifest: 0.6 s serialised in full).
 
     An ``inputs`` list that several records hold (the same list object: the prims of one stage, hashed
@@ -1938,7 +1942,7 @@ SCENE_UP_AXIS, SCENE_METERS_PER_UNIT = "Y", 1.0
 UP_AXIS_OP, UNITS_OP = "xformOp:rotateX:swpmUpAxis", "xformOp:scale:swpmMetersPerUnit"
 
 
-def _author_units_correction(prim, up_axis: str | None, meters_per_unit: float | None) -> None:
+def _author_units_correction(prim: Sdf.PrimSpec, up_axis: str | None, meters_per_unit: float | None) -> None:
     """On the scene's prim ``prim`` (an Sdf.PrimSpec referencing an asset layer of ``up_axis`` and
     ``meters_per_unit``, its manifest record's; None for a record that has neither, one of an earlier version
     taken as the scene's), the transform that puts the asset in the scene's units: a uniform scale of
