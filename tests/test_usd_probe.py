@@ -791,3 +791,23 @@ def test_the_planner_probes_its_new_usd_assets_in_one_batch(tmp_path, monkeypatc
     ]
     assert inputs["m/t.usda"] == [root, seeds[0]] and inputs["m/s1.usdc"] == [seeds[1]]
     assert inputs["m/bad.usdc"] == [tmp_path / "m" / "bad.usdc"] and list(inputs) == [a.id for a in assets]
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs on this platform")
+@pytest.mark.parametrize("case", ["fifo.usd", "fifo.usda", "sublayer-fifo.usda"])
+def test_a_fifo_given_as_a_layer_is_probed_not_read_here(tmp_path, case):
+    # a FIFO named .usd was read here for its magic bytes, and a .usda one (or one a text root sublayers)
+    # parsed here: each read waited for a writer for ever. Such a file is probed: the alarm ends the wait
+    fifo = tmp_path / ("slow.usda" if case != "fifo.usd" else "slow.usd")
+    os.mkfifo(fifo)
+    target = fifo
+    if case == "sublayer-fifo.usda":
+        target = tmp_path / "root.usda"
+        target.write_text(f"#usda 1.0\n(\n    subLayers = [@{fifo.name}@]\n)\n")
+    code = "import sys\nfrom swpm_usd.usd import probe\nprint(probe.check(sys.argv[1]))\n"
+    env = {**os.environ, "SWPM_USD_PROBE_SECONDS": "1"}
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(target)], env=env, capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    assert "kind='timeout'" in done.stdout and str(target) in done.stdout, done.stdout

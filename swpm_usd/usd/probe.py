@@ -33,6 +33,7 @@ import json
 import os
 import select
 import signal
+import stat
 import subprocess
 import sys
 import threading
@@ -260,6 +261,16 @@ _Stamp = tuple[int, int, int] | None
 _answers: dict[tuple[str, int, int, int], tuple[Problem | None, tuple[tuple[str, _Stamp], ...]]] = {}
 
 
+def _regular(path: str) -> bool:
+    """Whether ``path`` is a regular file, or not there (the caller's open reports that). A FIFO, a device
+    or a folder is never read in this process: reading a FIFO waits until something writes to it, so such a
+    file is probed, where :data:`PROBE_SECONDS` ends the wait."""
+    try:
+        return stat.S_ISREG(os.stat(path).st_mode)
+    except OSError:
+        return True
+
+
 def is_crate(path: str | os.PathLike[str]) -> bool:
     """Whether usd-core reads ``path`` with its crate (binary) reader, as it chooses by the name: a ``.usdc``
     always, a ``.usdz`` package (its layers may be crate files) too, a ``.usda`` never (the text parser,
@@ -270,6 +281,8 @@ def is_crate(path: str | os.PathLike[str]) -> bool:
         return True
     if suffix == ".usda":
         return False
+    if not _regular(os.fspath(path)):
+        return True  # (not read here: a FIFO's read waits for a writer; the probe's alarm ends that wait)
     try:
         with open(path, "rb") as f:
             return f.read(len(CRATE_MAGIC)) == CRATE_MAGIC
@@ -314,9 +327,9 @@ def _named_files(path: str) -> tuple[bool, list[str]]:
                 continue
             seen.add(real)
             suffix = Path(real).suffix.lower()
-            if not os.path.isfile(real) or suffix not in (".usda", ".usd", ".usdc", ".usdz"):
+            if suffix not in (".usda", ".usd", ".usdc", ".usdz") or not os.path.exists(real):
                 continue  # (a texture or another asset: no layer usd-core opens as crate)
-            if is_crate(real):
+            if is_crate(real) or not _regular(real):
                 crate = True
             else:
                 todo.append(real)
@@ -327,7 +340,7 @@ def needs_probe(path: str | os.PathLike[str]) -> bool:
     """Whether opening ``path``'s stage opens a crate file: ``path`` is one (:func:`is_crate`), or a text
     layer whose layer stack, references, payloads or clips (through other text layers) resolve to one."""
     p = os.fspath(path)
-    return is_crate(p) or _named_files(p)[0]
+    return is_crate(p) or not _regular(p) or _named_files(p)[0]
 
 
 def _seconds() -> float:
@@ -390,7 +403,7 @@ def check_many(paths: Sequence[str | os.PathLike[str]], jobs: int | None = None)
         if p in todo:
             todo[p][1].append(i)
             continue
-        if is_crate(p):
+        if is_crate(p) or not _regular(p):
             named: list[str] = []
         else:
             crate, named = _named_files(p)
