@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import os
-import signal
 import struct
 import subprocess
 import sys
@@ -37,6 +36,10 @@ for prim in stage.Traverse():
     for attr in prim.GetAttributes():
         attr.Get()
 """
+
+
+#: the signals usd-core dies by on the crashing file: which one depends on the memory the corrupt read hits
+_CRASHES = ("SIGSEGV", "SIGABRT", "SIGBUS")
 
 
 def _seed(path: Path) -> Path:
@@ -88,7 +91,9 @@ def test_validate_reports_a_usdc_that_crashes_usd_core_as_a_coded_error(tmp_path
         assert rep["errors"] == 1 and len(rep["findings"]) == 1
         finding = rep["findings"][0]
         assert finding["code"] == "SWPM_USD_CRASH" and finding["severity"] == "error"
-        assert finding["message"].startswith(f"{path}: usd-core crashed") and "SIGSEGV" in finding["message"]
+        assert finding["message"].startswith(f"{path}: usd-core crashed") and any(
+            s in finding["message"] for s in _CRASHES
+        )
     done = _cli("validate", str(bad))
     assert done.returncode == 1 and "SWPM_USD_CRASH" in done.stdout and "Traceback" not in done.stderr
     # the seed it was made from validates clean through the same probe (our validator: it has no
@@ -207,7 +212,10 @@ def test_each_file_is_probed_in_a_fresh_process_and_a_crash_leaves_the_server(tm
     server = probe._server
     bad = _crashing(tmp_path / "bad.usdc")
     found = probe.check(bad)
-    assert found is not None and found.kind == "crash" and f"died by {signal.SIGSEGV.name}" in found.message
+    # (SIGSEGV mostly; SIGABRT when the allocator notices the corruption first: CI saw it once)
+    assert (
+        found is not None and found.kind == "crash" and any(f"died by {s}" in found.message for s in _CRASHES)
+    )
     assert probe._server is server and server.poll() is None
     assert probe.check(_seed(tmp_path / "good.usdc")) is None
 
