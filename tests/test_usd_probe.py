@@ -116,19 +116,25 @@ def test_the_loader_and_build_fail_a_usdc_that_crashes_usd_core_with_a_mesh_load
     assert done.returncode == 1 and json.loads(done.stdout)["error"] == message, done.stdout + done.stderr
 
 
-def test_write_overrides_and_write_usdlod_refuse_a_usdc_that_crashes_usd_core(tmp_path):
-    # each opens a stage it is given (the source of the overrides, the asset the LOD layer references)
-    bad = _crashing(tmp_path / "bad.usdc")
+def _write_overrides_and_usdlod(source: Path, tmp_path: Path) -> list[str]:
+    """The errors ``write_overrides`` and ``write_usdlod`` of ``source`` raise (a line each: type, message),
+    run in a child process (on a crashing file, one that survives)."""
     code = (
         "import sys\nfrom swpm_usd import usd\nfrom swpm_usd.errors import SwpmError\n"
         "for write in (lambda: usd.write_overrides(sys.argv[1], sys.argv[2]),\n"
         "              lambda: usd.write_usdlod(sys.argv[1], sys.argv[3])):\n"
         "    try:\n        write()\n    except SwpmError as e:\n        print(type(e).__name__, e)\n"
     )
-    args = [str(bad), str(tmp_path / "over.usda"), str(tmp_path / "lod.usda")]
+    args = [str(source), str(tmp_path / "over.usda"), str(tmp_path / "lod.usda")]
     done = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, (done.returncode, done.stderr)
-    lines = done.stdout.splitlines()
+    return done.stdout.splitlines()
+
+
+def test_write_overrides_and_write_usdlod_refuse_a_usdc_that_crashes_usd_core(tmp_path):
+    # each opens a stage it is given (the source of the overrides, the asset the LOD layer references)
+    bad = _crashing(tmp_path / "bad.usdc")
+    lines = _write_overrides_and_usdlod(bad, tmp_path)
     assert len(lines) == 2 and all("usd-core crashed opening or reading it" in line for line in lines), lines
     assert lines[0].startswith(f"UsdOverrideError {bad}: ") and lines[1].startswith(f"UsdWriteError {bad}: ")
     assert not (tmp_path / "over.usda").exists() and not (tmp_path / "lod.usda").exists()
@@ -409,16 +415,7 @@ def test_a_usda_that_opens_a_corrupt_usdc_is_probed(tmp_path, arc):
 def test_write_overrides_write_usdlod_and_a_pipeline_refuse_a_usda_over_a_corrupt_usdc(tmp_path):
     bad = _crashing(tmp_path / "bad.usdc")
     root = _text_root(tmp_path / "root.usda", "sublayer", bad)
-    code = (
-        "import sys\nfrom swpm_usd import usd\nfrom swpm_usd.errors import SwpmError\n"
-        "for write in (lambda: usd.write_overrides(sys.argv[1], sys.argv[2]),\n"
-        "              lambda: usd.write_usdlod(sys.argv[1], sys.argv[3])):\n"
-        "    try:\n        write()\n    except SwpmError as e:\n        print(type(e).__name__, e)\n"
-    )
-    args = [str(root), str(tmp_path / "over.usda"), str(tmp_path / "lod.usda")]
-    done = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, (done.returncode, done.stderr)
-    lines = done.stdout.splitlines()
+    lines = _write_overrides_and_usdlod(root, tmp_path)
     assert len(lines) == 2 and all("usd-core crashed opening or reading it" in line for line in lines), lines
     assert lines[0].startswith(f"UsdOverrideError {root}: ") and lines[1].startswith(
         f"UsdWriteError {root}: "

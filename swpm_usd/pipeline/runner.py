@@ -282,6 +282,11 @@ def _read_manifest(
 _CURVE_MARK = json.dumps("\0summary.curve\0")
 
 
+def _indented(value: Any, depth: int) -> str:
+    """``json.dumps(value, indent=1)`` nested ``depth`` spaces in, as a value inside the manifest."""
+    return json.dumps(value, indent=1, default=float).replace("\n", "\n" + " " * depth)
+
+
 def _record_text(rec: Any, depth: int) -> str:
     """``json.dumps(rec, indent=1)`` indented to ``depth``, but for its ``summary.curve``: a line a point
     (``{"lod":0,"triangles":5804,...}``), the same JSON value, which every reader reads as before. Written a
@@ -291,9 +296,8 @@ def _record_text(rec: Any, depth: int) -> str:
     summary = rec.get("summary") if isinstance(rec, dict) else None
     curve = summary.get("curve") if isinstance(summary, dict) else None
     if not isinstance(curve, list) or not curve:
-        return json.dumps(rec, indent=1, default=float).replace("\n", "\n" + " " * depth)
-    marked = {**rec, "summary": {**summary, "curve": json.loads(_CURVE_MARK)}}
-    text = json.dumps(marked, indent=1, default=float).replace("\n", "\n" + " " * depth)
+        return _indented(rec, depth)
+    text = _indented({**rec, "summary": {**summary, "curve": json.loads(_CURVE_MARK)}}, depth)
     pad = "\n" + " " * (depth + 3)
     rows = ",".join(pad + json.dumps(point, default=float, separators=(",", ":")) for point in curve)
     return text.replace(f'"curve": {_CURVE_MARK}', f'"curve": [{rows}\n{" " * (depth + 2)}]', 1)
@@ -313,16 +317,13 @@ class _ManifestText:
         self._records: dict[str, tuple[dict, str | None, str]] = {}
         self._keys: dict[int, tuple[list, str, str]] = {}  # id(list) -> (list, key, text at depth 2)
 
-    def _shared(self, entries: list, nested) -> tuple[str, str]:
+    def _shared(self, entries: list) -> tuple[str, str]:
         hit = self._keys.get(id(entries))
         if hit is None or hit[0] is not entries:
-            hit = self._keys[id(entries)] = (entries, _inputs_key(entries), nested(entries, 2))
+            hit = self._keys[id(entries)] = (entries, _inputs_key(entries), _indented(entries, 2))
         return hit[1], hit[2]
 
     def dumps(self, manifest: dict) -> str:
-        def nested(value: Any, depth: int) -> str:
-            return json.dumps(value, indent=1, default=float).replace("\n", "\n" + " " * depth)
-
         fields = []
         for key, value in manifest.items():
             if key == "assets" and isinstance(value, dict) and value:
@@ -337,7 +338,7 @@ class _ManifestText:
                     inputs = rec.get("inputs") if isinstance(rec, dict) else None
                     ref = None
                     if isinstance(inputs, list) and holders.get(id(inputs), 0) > 1:
-                        ref, text = self._shared(inputs, nested)
+                        ref, text = self._shared(inputs)
                         tables[ref] = text
                     hit = self._records.get(aid)
                     if hit is None or hit[0] is not rec or hit[1] != ref:
@@ -363,9 +364,9 @@ class _ManifestText:
                     kind: {**o, CURRENT: digest} if isinstance(o, dict) and o.get(CURRENT) is True else o
                     for kind, o in value.items()
                 }
-                fields.append(f" {json.dumps(key)}: {nested(marked, 1)}")
+                fields.append(f" {json.dumps(key)}: {_indented(marked, 1)}")
             else:
-                fields.append(f" {json.dumps(key)}: {nested(value, 1)}")
+                fields.append(f" {json.dumps(key)}: {_indented(value, 1)}")
         return "{\n" + ",\n".join(fields) + "\n}"
 
 

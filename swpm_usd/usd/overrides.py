@@ -80,9 +80,10 @@ class _Primvar:
     def rows_at(self, time: float) -> np.ndarray | None:
         """The rows at time sample ``time`` (as :attr:`rows`), None where the sample is blocked (it stays
         blocked); an error unless there are as many."""
-        if self.attr.Get(time) is None:  # (a value block: "0 values at time t" before)
+        value = self.attr.Get(time)
+        if value is None:  # (a value block: "0 values at time t" before)
             return None
-        flat = self.pv.ComputeFlattened(time) if self.pv is not None else self.attr.Get(time)
+        flat = self.pv.ComputeFlattened(time) if self.pv is not None else value
         a = np.asarray(flat if flat is not None else [])
         es = max(self.pv.GetElementSize(), 1) if self.pv is not None else 1
         rows = a.reshape(a.shape[0] // es, -1) if a.size else a.reshape(0, self.rows.shape[1])
