@@ -4699,3 +4699,67 @@ def test_a_collision_by_unicode_normalization_alone_is_not_called_a_case_differe
     (problem,) = exc.value.problems
     assert "differ only in Unicode normalization" in problem and "differ only in case" not in problem
     assert "m/caf\u00e9.obj" in problem and "m/cafe\u0301.obj" in problem
+
+
+def _quad_stage(path: Path) -> None:
+    from pxr import Usd, UsdGeom
+
+    st = Usd.Stage.CreateNew(str(path))
+    m = UsdGeom.Mesh.Define(st, "/Quad")
+    m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
+    m.CreateFaceVertexCountsAttr([3, 3])
+    m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+    st.GetRootLayer().Save()
+
+
+def test_an_input_named_like_a_temporary_file_but_for_case_is_refused(tmp_path):
+    # the temporary-file names were matched case-sensitively: on a case-insensitive filesystem an input
+    # out/.B.TMP.USDA is the .b.tmp.usda the run deletes (or a scene's temporary file it writes)
+    for name in (".B.TMP.USDA", ".Quad.Tmp.usdc"):
+        d = tmp_path / name.strip(".")
+        (d / "out").mkdir(parents=True)
+        _quad_stage(d / "quad.usda")
+        from pxr import Sdf
+
+        suffix = Path(name).suffix.lower()
+        stage = d / "out" / name
+        Sdf.Layer.FindOrOpen(str(d / "quad.usda")).Export(
+            str(stage), args={"format": "usdc" if suffix != ".usda" else "usda"}
+        )
+        before = _digest(stage)
+        cfg = d / "c.yaml"
+        cfg.write_text(
+            f"version: 1\nassets: [{{stage: 'out/{name}'}}]\noutput: {{dir: out}}\n"
+            "defaults: {encoding: vanilla}\n"
+        )
+        with pytest.raises(ConfigError, match="is named like a temporary file the run deletes"):
+            run(cfg, echo=lambda m: None)
+        assert _digest(stage) == before and not (d / "out" / "manifest.json").exists(), name
+
+
+def test_the_folded_name_refusal_is_the_configs_alone_not_the_history_of_the_outputs(tmp_path):
+    # an output not yet written was compared with the inputs by folded name, one written by an earlier run
+    # by inode alone: on a case-sensitive filesystem a stage out/Scene.usda was refused by a first run and
+    # allowed once an earlier run had written out/scene.usda (other inodes), which a case-insensitive one
+    # then wrote over
+    from pxr import Sdf
+
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}"
+    tail = "]\noutput: {dir: out, usd: true, scene: true}\ndefaults: {encoding: vanilla}\n"
+    cfg.write_text(head + tail)
+    assert run(cfg, echo=lambda m: None).built == 1
+    assert (tmp_path / "out" / "scene.usda").is_file()
+    _quad_stage(tmp_path / "quad.usda")
+    Sdf.Layer.FindOrOpen(str(tmp_path / "quad.usda")).Export(str(tmp_path / "out" / "Scene.usda"))
+    written = _files_as_written(tmp_path / "out")
+    cfg.write_text(head + ", {stage: out/Scene.usda}" + tail)
+    with pytest.raises(ConfigError, match="the scene layer would overwrite out/Scene.usda"):
+        run(cfg, echo=lambda m: None)
+    assert _files_as_written(tmp_path / "out") == written
+    # and as a first run does (no scene.usda yet)
+    (tmp_path / "out" / "scene.usda").unlink()
+    with pytest.raises(ConfigError, match="the scene layer would overwrite out/Scene.usda"):
+        run(cfg, echo=lambda m: None)

@@ -905,10 +905,12 @@ def _overwritten_inputs(
     temporary file it would delete must not be a matched mesh, a stage, a layer a stage uses, or the config
     itself. Located at ``output.dir``.
 
-    A file to write that exists is compared as a file (its device and inode: ``os.path.samefile``); one
-    that does not yet is compared by name with the inputs in output.dir as a case-insensitive filesystem
-    compares names (:func:`.assets._folded`: ``out/Scene.usda``, a stage, is the ``out/scene.usda`` the
-    run writes on macOS or Windows), as output names that differ only so collide (:func:`.assets.discover`).
+    A file to write that exists is compared as a file (its device and inode: ``os.path.samefile``); every
+    one, written yet or not, is also compared by name with the inputs in output.dir as a case-insensitive
+    filesystem compares names (:func:`.assets._folded`: ``out/Scene.usda``, a stage, is the
+    ``out/scene.usda`` the run writes on macOS or Windows), as output names that differ only so collide
+    (:func:`.assets.discover`): on any filesystem, whether an earlier run wrote the file or not, so the
+    refusal is the config's alone. Names of temporary files are compared so too.
     A folder is output.dir when it is that folder (the same device and inode), however its path is spelt."""
     sources: dict[tuple, tuple[Path, str]] = {_file_key(cfg.path): (cfg.path, "the configuration file")}
     for a in assets:
@@ -927,14 +929,18 @@ def _overwritten_inputs(
     problems = []
     for target, what in planned_outputs(cfg, out_dir, assets).items():
         key = _file_key(target)
-        hit = sources.get(key) if key[0] == "inode" else by_name.get(_folded(target.name)) or sources.get(key)
+        # (by name as well when it exists: on a case-sensitive filesystem out/scene.usda, written by an
+        # earlier run, is another file than the input out/Scene.usda, and the config alone decides)
+        hit = sources.get(key) or by_name.get(_folded(target.name))
         if hit is not None:
             problems.append(
                 f"{cfg.where(('output', 'dir'))}: {what} would overwrite {_rel(cfg, hit[0])} "
                 f"({hit[1]}); choose an output.dir apart from the inputs (and globs not reaching into it)"
             )
     for path, what in in_out:
-        if any(fnmatch.fnmatch(path.name, pattern) for pattern in _TEMPORARY):
+        # (folded as a case-insensitive filesystem compares names: .COW.SWPM.ABCDEFGH.TMP is a temporary
+        # file of ours there; the patterns are lower case)
+        if any(fnmatch.fnmatchcase(_folded(path.name), pattern) for pattern in _TEMPORARY):
             problems.append(
                 f"{cfg.where(('output', 'dir'))}: {_rel(cfg, path)} ({what}) is named like a temporary file "
                 f"the run deletes from output.dir; rename it or choose another output.dir"
