@@ -2457,11 +2457,10 @@ def test_verify_hashes_every_input(tmp_path, monkeypatch):
 
 
 def _files_as_written(out: Path) -> dict[str, tuple[int, int, int]]:
-    """Each file of ``out`` but the lock (written by every run) -> its inode, mtime and ctime."""
+    """Each file of ``out`` (the lock's too: a run that writes nothing leaves it as it was) -> its inode,
+    mtime and ctime."""
     return {
-        p.name: (p.stat().st_ino, p.stat().st_mtime_ns, p.stat().st_ctime_ns)
-        for p in sorted(out.iterdir())
-        if p.name != ".swpm-pipeline.lock"
+        p.name: (p.stat().st_ino, p.stat().st_mtime_ns, p.stat().st_ctime_ns) for p in sorted(out.iterdir())
     }
 
 
@@ -4763,3 +4762,38 @@ def test_the_folded_name_refusal_is_the_configs_alone_not_the_history_of_the_out
     (tmp_path / "out" / "scene.usda").unlink()
     with pytest.raises(ConfigError, match="the scene layer would overwrite out/Scene.usda"):
         run(cfg, echo=lambda m: None)
+
+
+def test_a_rerun_with_nothing_to_do_leaves_the_lock_file_as_it_was_and_still_excludes(tmp_path, monkeypatch):
+    # every run truncated the lock file and wrote its pid in it, a no-change rerun too (which writes nothing
+    # else in output.dir): its pid is written once the run writes there, the lock taken as before
+    from swpm_usd.errors import OutputLockedError
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("sliding-window", "vanilla"))
+    out = tmp_path / "out"
+    lock = out / runner.LOCK
+    assert run(cfg, echo=lambda m: None).built == 1
+    assert lock.read_text() == f"{os.getpid()}\n"  # (a run that writes: its pid, for a run it stops)
+    lock.write_text("999999999\n")  # (an ended run's)
+    written = _files_as_written(out)
+    refused = []
+    real_plan = runner.plan
+
+    def plan_and_try(*args, **kwargs):  # a second run while the first holds the lock
+        with pytest.raises(OutputLockedError) as err:
+            runner._OutputLock(out, print).acquire()
+        refused.append(err.value.pid)
+        return real_plan(*args, **kwargs)
+
+    monkeypatch.setattr(runner, "plan", plan_and_try)
+    for _ in range(2):
+        res = run(cfg, echo=lambda m: None)
+        assert (res.built, res.skipped) == (0, 1)
+        assert _files_as_written(out) == written and lock.read_text() == "999999999\n"
+    assert refused == [None, None] and _lock_is_free(lock)  # (excluded; the ended run's pid not shown)
+    # a run that writes (here the report, deleted) writes its pid
+    (out / "report.html").unlink()
+    assert run(cfg, echo=lambda m: None).skipped == 1 and refused[-1] is None
+    assert lock.read_text() == f"{os.getpid()}\n" and _lock_is_free(lock)

@@ -1322,14 +1322,19 @@ class _OutputLock:
     files and interleaving manifests. The kernel drops the lock when the holder's file is closed, so it goes
     with the run however it ends (an error, Ctrl-C, a kill); the file itself stays (deleting it would let a
     third run lock a new file while the second still holds the old one). The holder's pid is written in it for
-    the message. Where ``flock`` is missing (Windows) or refused (a filesystem without locks), the run goes on
-    unlocked, with a warning."""
+    the message, by :meth:`claim`, once the run writes in the folder: a run that writes nothing there (a
+    rerun with nothing to do) holds the lock as any other, and leaves the file as it was (the pid in it is
+    then an ended run's, which a run it stops does not show unless a process has that pid again). Where
+    ``flock`` is missing (Windows) or refused (a filesystem without locks), the run goes on unlocked, with
+    a warning."""
 
     def __init__(self, out_dir: Path, echo) -> None:
         self.path = out_dir / LOCK
         self.echo = echo
         self.fd: int | None = None
         self.done = False
+        self.writable = False  # (the lock file opened for writing: its pid can be written)
+        self.claimed = False  # (this run's pid written in it)
 
     def acquire(self, folder_checked: bool = False) -> None:
         """Take the lock, or raise :class:`OutputLockedError`. A lock file this process cannot open is
@@ -1368,10 +1373,17 @@ class _OutputLock:
             os.close(fd)
             self._unlocked(exc)
             return
-        if writable:  # (else the file keeps an earlier run's pid, which is not running: not shown)
-            os.ftruncate(fd, 0)
-            os.write(fd, f"{os.getpid()}\n".encode())
-        self.fd, self.done = fd, True
+        self.fd, self.done, self.writable = fd, True, writable
+
+    def claim(self) -> None:
+        """Write this process's pid in the lock file held (once; nothing without the lock, or when the file
+        is not writable: it keeps an earlier run's pid, which is not running, so not shown). The run calls
+        it before it first writes in output.dir."""
+        if self.fd is None or not self.writable or self.claimed:
+            return
+        self.claimed = True
+        os.ftruncate(self.fd, 0)
+        os.pwrite(self.fd, f"{os.getpid()}\n".encode(), 0)
 
     def _unlocked(self, exc: OSError) -> None:
         self.done = True
@@ -1554,7 +1566,8 @@ def _run(
     lock.acquire(folder_checked=True)  # (a folder this run created)
     _remove_temporary(out_dir)  # left by a killed run
     todo = [it for it in items if force or not it.up_to_date]
-    if prune:
+    if prune and orphans:
+        lock.claim()
         for path, _ in orphans:
             path.unlink(missing_ok=True)
     # (the records of current assets the run can use: a hand-edited one is ignored, see plan)
@@ -1603,6 +1616,7 @@ def _run(
         and {**manifest, **orphaned} == {k: v for k, v in previous.items() if k != RUN_OUTPUTS}
     )
     if not unchanged:  # (no longer written from the manifest's records: see CURRENT)
+        lock.claim()  # (the run writes here: its pid in the lock file, for the message of a run it stops)
         run_outputs = {
             kind: {k: v for k, v in o.items() if k != CURRENT} if isinstance(o, dict) else o
             for kind, o in run_outputs.items()
@@ -1626,6 +1640,7 @@ def _run(
         if results is not None:
             results.close()  # first: it restores the Ctrl-C handler it set (--jobs 1)
         with _interrupts_ignored():
+            lock.claim()
             _restore_kept_aside(out_dir, records)  # (a worker stopped while it renamed outputs)
             _remove_temporary(out_dir)
             _write_manifest(manifest_path, manifest, text)
@@ -1695,6 +1710,7 @@ def _run(
                     run_outputs[kind] = checked
                     continue
             run_outputs.pop(kind, None)  # (being rewritten: no longer the file recorded)
+            lock.claim()
             if kind == "scene":
                 _write_scene(out_dir, records)
             else:
@@ -1705,6 +1721,7 @@ def _run(
         if not run_outputs:
             del manifest[RUN_OUTPUTS]
         if not unchanged or manifest != previous:
+            lock.claim()
             _write_manifest(manifest_path, manifest, text)
     except BaseException:
         stop()
