@@ -4797,3 +4797,49 @@ def test_a_rerun_with_nothing_to_do_leaves_the_lock_file_as_it_was_and_still_exc
     (out / "report.html").unlink()
     assert run(cfg, echo=lambda m: None).skipped == 1 and refused[-1] is None
     assert lock.read_text() == f"{os.getpid()}\n" and _lock_is_free(lock)
+
+
+def test_a_scene_written_whose_open_layer_does_not_reload_is_recorded_before_the_error(tmp_path, monkeypatch):
+    # scene.usda renamed into place, then the layer of its name open in this process failing to reload: the
+    # error was raised at once, the manifest written by the run's stop() without the scene (on disk, new,
+    # unrecorded: never pruned, rewritten by the next run) and this run's report never written. The scene is
+    # recorded as written, the report and the manifest written, and the error raised after them
+    from pxr import Sdf
+
+    from swpm_usd.usd.writer import LayerReloadError
+
+    monkeypatch.setattr("swpm_usd.pipeline.runner._RACY_NS", 0)
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    opened = Sdf.Layer.FindOrOpen(str(out / "scene.usda"))  # (open in this process)
+    assert [p.name for p in opened.GetPrimAtPath("/Scene").nameChildren] == ["cow"]
+    shutil.copy(SHARED_MESHES / "spot.obj", tmp_path / "meshes" / "spot.obj")
+
+    def failing_reload(self, force=False):
+        Sdf.Layer.CreateNew("")  # (a real usd-core error: "cannot use empty identifier")
+
+    with monkeypatch.context() as m, pytest.raises(LayerReloadError) as err:
+        m.setattr(Sdf.Layer, "Reload", failing_reload)
+        run(cfg, echo=lambda m: None)
+    assert err.value.path == str(out / "scene.usda")
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert sorted(manifest["assets"]) == ["meshes/cow.obj", "meshes/spot.obj"]
+    recorded = manifest["run_outputs"]
+    # the scene on disk is the new one, with both assets, and the manifest records it as it is
+    assert recorded["scene"]["sha256"] == sha256_of(out / "scene.usda")
+    scene = Sdf.Layer.OpenAsAnonymous(str(out / "scene.usda"))
+    assert sorted(p.name for p in scene.GetPrimAtPath("/Scene").nameChildren) == ["cow", "spot"]
+    # this run's report, written and recorded
+    assert recorded["report"]["sha256"] == sha256_of(out / "report.html")
+    assert "meshes/spot.obj" in (out / "report.html").read_text()
+    assert all(o.get("current") for o in recorded.values())
+    # so a rerun has nothing to do, and writes nothing
+    written = _files_as_written(out)
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.skipped) == (0, 2) and _files_as_written(out) == written
+    # and the error held (as a caller may keep it), the scene is written again in this process: the error
+    # does not keep the temporary layer alive, which usd-core then refused to create anew
+    (out / "scene.usda").unlink()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and err.value.path == str(out / "scene.usda")
+    assert Sdf.Layer.OpenAsAnonymous(str(out / "scene.usda")) is not None

@@ -1698,6 +1698,7 @@ def _run(
         for w in unreached:
             echo(f"warning: {w}")
         warnings = warnings + unreached
+    stale: Exception | None = None  # (scene.usda written, but the layer of its name open here not reloaded)
     try:
         manifest[RUN_OUTPUTS] = run_outputs  # (each recorded as written: a write that fails stops the run)
         for kind in ("scene", "report"):
@@ -1712,7 +1713,17 @@ def _run(
             run_outputs.pop(kind, None)  # (being rewritten: no longer the file recorded)
             lock.claim()
             if kind == "scene":
-                _write_scene(out_dir, records)
+                from ..usd.writer import LayerReloadError
+
+                try:
+                    _write_scene(out_dir, records)
+                except LayerReloadError as exc:
+                    # the file is written, whole, from these records: it is recorded, the report and the
+                    # manifest written, and the error raised once they are (raised here, the manifest
+                    # left the scene on disk unrecorded, and the report of this run unwritten). Without its
+                    # traceback, whose frames hold the layer written at .scene.tmp.usda: kept alive, usd-core
+                    # refused to create that layer again, the next scene written in this process failing
+                    stale = exc.with_traceback(None)
             else:
                 from .report import write_report
 
@@ -1726,6 +1737,8 @@ def _run(
     except BaseException:
         stop()
         raise
+    if stale is not None:
+        raise stale
     seconds = time.perf_counter() - t_start
     return RunResult(
         records, len(built_ids), len(items) - len(todo), failed, warnings, seconds, manifest_path, planned,
