@@ -2537,13 +2537,28 @@ def test_a_moved_project_is_a_rerun_that_changes_nothing(tmp_path, monkeypatch):
     recorded = _recorded_inputs(project / "out")
     assert [e["path"] for e in recorded["meshes/cow.obj"]] == ["meshes/cow.obj"]
     assert [e["path"] for e in recorded[f"{quad}:/Quad"]] == [str(quad)]
+    assert f"config\n{cfg}:" in (project / "out" / "report.html").read_text()
     written = _files_as_written(project / "out")
     moved = tmp_path / "b"
     os.rename(project, moved)
     reads = _input_reads(monkeypatch, moved / "meshes")
     res = run(moved / "pipeline.yaml", echo=lambda m: None)
     assert (res.built, res.skipped) == (0, 2) and reads == [] and not res.warnings
-    assert _files_as_written(moved / "out") == written
+    # the report named the old path until a run wrote it for another reason: it is rewritten (with the
+    # manifest, which records it, and the lock file given the pid of a run that writes), the rest as it was
+    rewritten = {"report.html", "manifest.json", ".swpm-pipeline.lock"}
+    now = _files_as_written(moved / "out")
+    assert {k: v for k, v in now.items() if k not in rewritten} == {
+        k: v for k, v in written.items() if k not in rewritten
+    }
+    assert f"config\n{moved / 'pipeline.yaml'}:" in (moved / "out" / "report.html").read_text()
+    manifest = json.loads((moved / "out" / "manifest.json").read_text())
+    assert manifest["run_outputs"]["report"]["config"] == str(moved / "pipeline.yaml")
+    assert manifest["config"] == "../pipeline.yaml"
+    assert all(o.get("current") for o in manifest["run_outputs"].values())  # (both still as written)
+    written = now
+    res = run(moved / "pipeline.yaml", echo=lambda m: None)  # (then a rerun writes nothing)
+    assert (res.built, res.skipped) == (0, 2) and reads == [] and _files_as_written(moved / "out") == written
     # a copy (other inodes): its inputs and outputs hashed once, nothing rebuilt, the original left alone
     shutil.copytree(moved, project)
     res = run(project / "pipeline.yaml", echo=lambda m: None)
@@ -4843,3 +4858,27 @@ def test_a_scene_written_whose_open_layer_does_not_reload_is_recorded_before_the
     (out / "scene.usda").unlink()
     assert run(cfg, echo=lambda m: None).skipped == 2 and err.value.path == str(out / "scene.usda")
     assert Sdf.Layer.OpenAsAnonymous(str(out / "scene.usda")) is not None
+
+
+def test_a_manifest_whose_report_record_names_no_config_has_the_report_written_once(tmp_path, monkeypatch):
+    # a manifest of the version before the report's record held the config it names: read as it is, the
+    # report written once (no asset rebuilt, no input read), its record given the config; then nothing
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("sliding-window", "vanilla"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    text = (out / "manifest.json").read_text()
+    older = text.replace(f',\n   "config": {json.dumps(str(cfg))}', "")
+    assert older != text and json.loads(text)["run_outputs"]["report"]["config"] == str(cfg)
+    (out / "manifest.json").write_text(older)
+    assert json.loads(older)["run_outputs"]["report"]["current"]  # (still the records' mark)
+    written = _files_as_written(out)
+    reads = _input_reads(monkeypatch, tmp_path / "meshes")
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.skipped) == (0, 1) and reads == []
+    now = _files_as_written(out)
+    assert now["cow.swpm"] == written["cow.swpm"] and now["report.html"] != written["report.html"]
+    assert json.loads((out / "manifest.json").read_text())["run_outputs"]["report"]["config"] == str(cfg)
+    assert run(cfg, echo=lambda m: None).skipped == 1 and _files_as_written(out) == now

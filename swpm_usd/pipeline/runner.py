@@ -89,6 +89,10 @@ ORPHANED = "orphaned_outputs"
 RUN_OUTPUTS = "run_outputs"
 _RUN_OUTPUT_DEFAULTS = {"scene": False, "report": True}
 _RUN_OUTPUT_FILES = {"scene": "scene.usda", "report": "report.html"}
+#: the report's :data:`RUN_OUTPUTS` record's config file as the report names it (an absolute path: the
+#: manifest's ``config`` is relative to output.dir), so that a rerun of a project moved whole, which changes
+#: no record, rewrites the report that names the old path (and the manifest, for its record) and no more
+REPORT_CONFIG = "config"
 #: a run output's record's mark that the file was written from the records of the manifest that holds it
 #: (the run's last write of the manifest; a write during the run, or of a run stopped, leaves it out: the
 #: records have changed since the file was written, or may have). A rerun that changes no record keeps
@@ -1705,7 +1709,17 @@ def _run(
             if not _asks_for(cfg, kind):
                 continue
             path = out_dir / _RUN_OUTPUT_FILES[kind]
-            if unchanged and isinstance(kept := run_outputs.get(kind), dict) and kept.get(CURRENT) is True:
+            shown = {}  # (the report's: the config as it names it, absolute, so a moved tree's is rewritten)
+            if kind == "report":
+                from .report import config_shown
+
+                shown = {REPORT_CONFIG: config_shown(path, manifest["config"])}
+            if (
+                unchanged
+                and isinstance(kept := run_outputs.get(kind), dict)
+                and kept.get(CURRENT) is True
+                and all(kept.get(k) == v for k, v in shown.items())  # (a record without it: rewritten once)
+            ):
                 checked = _checked_output(path, kept, verify)
                 if checked is not None:  # (written from these records, and as written)
                     run_outputs[kind] = checked
@@ -1728,7 +1742,7 @@ def _run(
                 from .report import write_report
 
                 write_report(path, manifest)
-            run_outputs[kind] = {**output_record(path), CURRENT: True}
+            run_outputs[kind] = {**output_record(path), **shown, CURRENT: True}
         if not run_outputs:
             del manifest[RUN_OUTPUTS]
         if not unchanged or manifest != previous:
