@@ -4882,3 +4882,59 @@ def test_a_manifest_whose_report_record_names_no_config_has_the_report_written_o
     assert now["cow.swpm"] == written["cow.swpm"] and now["report.html"] != written["report.html"]
     assert json.loads((out / "manifest.json").read_text())["run_outputs"]["report"]["config"] == str(cfg)
     assert run(cfg, echo=lambda m: None).skipped == 1 and _files_as_written(out) == now
+
+
+def _quads_over_a_sublayer(d: Path, prims: int) -> Path:
+    """d/stage/scene.usda: ``prims`` quads over the sublayer d/stage/sub.usda; the config of the stage."""
+    from pxr import Sdf, Usd, UsdGeom
+
+    (d / "stage").mkdir(parents=True)
+    sub = Sdf.Layer.CreateNew(str(d / "stage" / "sub.usda"))
+    Sdf.CreatePrimInLayer(sub, "/World/extra")
+    sub.Save()
+    st = Usd.Stage.CreateNew(str(d / "stage" / "scene.usda"))
+    st.GetRootLayer().subLayerPaths = ["./sub.usda"]
+    for i in range(prims):
+        m = UsdGeom.Mesh.Define(st, f"/World/q{i}")
+        m.CreatePointsAttr([(0, 0, i), (1, 0, i), (0, 1, i), (1, 1, i)])
+        m.CreateFaceVertexCountsAttr([3, 3])
+        m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+    st.GetRootLayer().Save()
+    cfg = d / "pipeline.yaml"
+    cfg.write_text("version: 1\nassets: [{stage: stage/scene.usda}]\noutput: {dir: out}\n")
+    return cfg
+
+
+def test_a_rerun_stats_a_stage_s_layers_once_not_once_a_prim(tmp_path, monkeypatch):
+    # a no-change rerun checked the recorded stat of every layer of a stage for each of its prims (and
+    # looked each up again to guard the inputs from the outputs): 1,000 prims of a 51-layer stage, 51,000
+    # stats of 51 files. A stage's layer list is checked once a run; the result is the same, an edited
+    # layer rebuilding every prim
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    stats = {}
+    for prims in (1, 8):
+        cfg = _quads_over_a_sublayer(tmp_path / str(prims), prims)
+        assert run(cfg, echo=lambda m: None).built == prims
+        assert run(cfg, echo=lambda m: None).skipped == prims  # (settled)
+        sub = str(tmp_path / str(prims) / "stage" / "sub.usda")
+        seen = []
+        real_stat = os.stat
+
+        def counting(path, *args, real_stat=real_stat, sub=sub, seen=seen, **kwargs):
+            if os.fspath(path) == sub:
+                seen.append(path)
+            return real_stat(path, *args, **kwargs)
+
+        with monkeypatch.context() as m:
+            m.setattr(os, "stat", counting)
+            res = run(cfg, echo=lambda m: None)
+        assert (res.built, res.skipped) == (0, prims)
+        stats[prims] = len(seen)
+    assert stats[8] == stats[1] and stats[1] >= 1, stats
+    # the layer edited (its stat moved): hashed, every prim rebuilt
+    sub = tmp_path / "8" / "stage" / "sub.usda"
+    sub.write_text(sub.read_text().replace("extra", "other"))
+    res = run(tmp_path / "8" / "pipeline.yaml", echo=lambda m: None)
+    assert res.built == 8
