@@ -21,7 +21,10 @@ assets no longer in the config are left and named, and recorded under ``orphaned
 
 A run that builds, fails and prunes nothing, and whose manifest would hold what it holds, writes neither it
 nor scene.usda nor report.html: those were written from these records (their ``run_outputs`` records marked
-:data:`CURRENT`) and are kept while they are as recorded (10,000 assets: a 47 MB manifest, 2.2 s to write).
+:data:`CURRENT`) and are kept while they are as recorded (10,000 assets: a 47 MB manifest, 2.2 s to write),
+the report while it names the config where it is now (:data:`REPORT_CONFIG`: a project moved whole has its
+report and manifest written); nor the lock file, which holds the pid of the last run that wrote
+(:meth:`_OutputLock.claim`).
 """
 
 from __future__ import annotations
