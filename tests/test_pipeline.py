@@ -928,6 +928,10 @@ def test_a_second_ctrl_c_does_not_cut_the_first_ones_clean_up_short(tmp_path, mo
     assert cleaned == ["meshes/cow.obj"] and signal.getsignal(signal.SIGINT) is handler
 
 
+#: Linux lists the holder of each flock in /proc/locks: a run refused names it (else the pid in the lock file)
+_KERNEL_LISTS_LOCKS = Path("/proc/locks").is_file()
+
+
 def _lock_held_elsewhere(path: Path, pid: int) -> int:
     """Hold ``path`` as another run does (an exclusive flock on its own open file, with its pid); the fd."""
     import fcntl
@@ -965,7 +969,7 @@ def test_one_run_at_a_time_in_an_output_folder(tmp_path, monkeypatch):
     (out / ".cow.swpm.abc123.tmp").write_bytes(b"the other run's")
     before = {p.name: p.read_bytes() for p in out.iterdir() if p.name != runner.LOCK}
     cfg.write_text(cfg.read_text().replace("encoding: skip-strip", "encoding: mixed"))  # work to do
-    holder = os.getppid()  # (a running process: a pid no process has is an earlier run's, not shown)
+    holder = os.getpid()  # (the process that holds the lock: the kernel lists it so, and so does the file)
     fd = _lock_held_elsewhere(lock, holder)
     try:
         t = time.perf_counter()
@@ -1040,14 +1044,14 @@ def test_output_lock_of_another_user_an_unwritable_folder_or_no_locks(tmp_path, 
     def second_run(task):  # while the run holds the lock (opened read-only), another is refused
         with pytest.raises(OutputLockedError) as err:
             runner._OutputLock(out, print).acquire()
-        seen.append(err.value.pid)  # (the file holds the ended run's pid: not shown)
+        seen.append(err.value.pid)  # (the file holds the ended run's pid: not shown, the holder's instead)
         return real_process_asset(task)
 
     real_process_asset = runner.process_asset
     monkeypatch.setattr(runner, "process_asset", second_run)
     r = CliRunner().invoke(main, ["run", str(cfg), "--force"])
     assert r.exit_code == 0 and r.stderr.count("\n") == 1, r.output  # (the summary alone)
-    assert seen == [None] and _lock_is_free(lock)
+    assert seen == [os.getpid() if _KERNEL_LISTS_LOCKS else None] and _lock_is_free(lock)
     monkeypatch.setattr(runner, "process_asset", real_process_asset)
     # a folder the run cannot write in (no lock file to open either): reported as such, exit 2
     lock.unlink()
@@ -4807,10 +4811,11 @@ def test_a_rerun_with_nothing_to_do_leaves_the_lock_file_as_it_was_and_still_exc
         res = run(cfg, echo=lambda m: None)
         assert (res.built, res.skipped) == (0, 1)
         assert _files_as_written(out) == written and lock.read_text() == "999999999\n"
-    assert refused == [None, None] and _lock_is_free(lock)  # (excluded; the ended run's pid not shown)
+    # (excluded; the ended run's pid not shown, the holder's, this process's, where the kernel lists it)
+    assert refused == [os.getpid() if _KERNEL_LISTS_LOCKS else None] * 2 and _lock_is_free(lock)
     # a run that writes (here the report, deleted) writes its pid
     (out / "report.html").unlink()
-    assert run(cfg, echo=lambda m: None).skipped == 1 and refused[-1] is None
+    assert run(cfg, echo=lambda m: None).skipped == 1 and refused[-1] == refused[0]
     assert lock.read_text() == f"{os.getpid()}\n" and _lock_is_free(lock)
 
 
@@ -4938,3 +4943,59 @@ def test_a_rerun_stats_a_stage_s_layers_once_not_once_a_prim(tmp_path, monkeypat
     sub.write_text(sub.read_text().replace("extra", "other"))
     res = run(tmp_path / "8" / "pipeline.yaml", echo=lambda m: None)
     assert res.built == 8
+
+
+@pytest.mark.skipif(not _KERNEL_LISTS_LOCKS, reason="the holder of a lock is known from /proc/locks (Linux)")
+def test_a_run_refused_while_another_plans_or_has_nothing_to_do_names_that_one(tmp_path, monkeypatch):
+    # a run writes its pid in the lock file once it writes in output.dir: a run refused while another planned
+    # or reran with nothing to do read the pid of the last run that wrote, and named it when a process had
+    # it: here this process, which wrote last (a notebook that ran the pipeline), named as the holder by the
+    # run it started itself. The holder is the kernel's (/proc/locks), and the lock file still as it was
+    from swpm_usd.errors import OutputLockedError
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (and in the other process: a rerun that writes nothing)
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("sliding-window", "vanilla"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    lock = out / runner.LOCK
+    assert lock.read_text() == f"{os.getpid()}\n"
+    before = _files_as_written(out)
+    started, release = tmp_path / "started", tmp_path / "release"
+    driver = tmp_path / "first.py"
+    driver.write_text(
+        "import pathlib, sys, time\n"
+        "from swpm_usd.pipeline import runner\n"
+        "real = runner.plan\n"
+        "def held(*args, **kwargs):  # planning (the lock held) until the test lets it go on\n"
+        "    pathlib.Path(sys.argv[1]).touch()\n"
+        "    while not pathlib.Path(sys.argv[2]).exists():\n"
+        "        time.sleep(0.02)\n"
+        "    return real(*args, **kwargs)\n"
+        "runner.plan = held\n"
+        "runner._RACY_NS = 0\n"
+        "from swpm_usd.cli import main\n"
+        "main(sys.argv[3:])\n"
+    )
+    first = subprocess.Popen(
+        [sys.executable, str(driver), str(started), str(release), "run", str(cfg)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and first.poll() is None and not started.exists():
+            time.sleep(0.02)
+        assert started.exists() and first.poll() is None, first.stderr.read().decode()
+        with pytest.raises(OutputLockedError) as err:
+            run(cfg, echo=lambda m: None)
+        release.touch()
+        assert first.wait(timeout=FIRST_ASSET_S) == 0, first.stderr.read().decode()
+    finally:
+        release.touch()
+        if first.poll() is None:
+            first.kill()
+            first.wait()
+    assert err.value.pid == first.pid, (err.value.pid, first.pid, os.getpid())
+    assert f"another swpm-pipeline run (pid {first.pid}) is writing" in str(err.value)
+    assert _files_as_written(out) == before and lock.read_text() == f"{os.getpid()}\n"  # (nothing to do)

@@ -1359,7 +1359,8 @@ class _OutputLock:
     third run lock a new file while the second still holds the old one). The holder's pid is written in it for
     the message, by :meth:`claim`, once the run writes in the folder: a run that writes nothing there (a
     rerun with nothing to do) holds the lock as any other, and leaves the file as it was (the pid in it is
-    then an ended run's, which a run it stops does not show unless a process has that pid again). Where
+    then an ended run's: a run it stops names the holder as the kernel lists it, :func:`_lock_holder`,
+    and the pid in the file only where there is no such list, if a process has that pid). Where
     ``flock`` is missing (Windows) or refused (a filesystem without locks), the run goes on unlocked, with
     a warning."""
 
@@ -1396,10 +1397,12 @@ class _OutputLock:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            try:
-                pid: int | None = int(os.read(fd, 32).decode().strip())
-            except (OSError, ValueError):
-                pid = None
+            pid = _lock_holder(fd)  # (the holder as the kernel lists it: it may not have written its pid)
+            if pid is None:
+                try:
+                    pid = int(os.read(fd, 32).decode().strip())
+                except (OSError, ValueError):
+                    pid = None
             os.close(fd)
             raise OutputLockedError(
                 self.path.parent, pid if pid is not None and _running(pid) else None
@@ -1431,6 +1434,31 @@ class _OutputLock:
         if self.fd is not None:
             os.close(self.fd)  # closing the only descriptor of the open file drops its lock
             self.fd = None
+
+
+def _lock_holder(fd: int) -> int | None:
+    """The pid of the process holding a ``flock`` on the file open at ``fd``, as Linux lists it in
+    ``/proc/locks`` (``1: FLOCK  ADVISORY  WRITE 4117 fe:00:2148341 0 EOF``: pid, device, inode): the run
+    that holds the lock, whether or not it has written its pid in the file yet (a run writes it once it
+    writes in output.dir: while it plans, or all through a rerun with nothing to do, the file holds an
+    ended run's, which a process may have again). None where there is no such list (not Linux) or the
+    lock is not in it (its holder has just let it go; a filesystem whose device the list numbers
+    otherwise): the pid in the file is then shown, if a process has it."""
+    try:
+        st = os.fstat(fd)
+        with open("/proc/locks", encoding="ascii", errors="replace") as f:
+            lines = f.read().splitlines()
+    except OSError:
+        return None
+    where = f"{os.major(st.st_dev):02x}:{os.minor(st.st_dev):02x}:{st.st_ino}"
+    for line in lines:
+        fields = line.split()  # (a waiter's line has "->" after the number: never the holder)
+        if len(fields) >= 6 and fields[1] == "FLOCK" and fields[5] == where:
+            try:
+                return int(fields[4])
+            except ValueError:
+                return None
+    return None
 
 
 def _running(pid: int) -> bool:
