@@ -4999,3 +4999,52 @@ def test_a_run_refused_while_another_plans_or_has_nothing_to_do_names_that_one(t
     assert err.value.pid == first.pid, (err.value.pid, first.pid, os.getpid())
     assert f"another swpm-pipeline run (pid {first.pid}) is writing" in str(err.value)
     assert _files_as_written(out) == before and lock.read_text() == f"{os.getpid()}\n"  # (nothing to do)
+
+
+def test_the_holder_of_the_lock_as_the_kernel_lists_it(tmp_path, monkeypatch):
+    # /proc/locks numbers a file by the device of the filesystem that holds it: on an overlayfs (a container)
+    # or a btrfs subvolume another device than stat's, where the one lock of the inode is the holder's
+    from swpm_usd.pipeline import runner
+
+    lock = tmp_path / "lock"
+    lock.write_text("")
+    fd = os.open(lock, os.O_RDONLY)
+    try:
+        st = os.fstat(fd)
+        ours = f"{os.major(st.st_dev):02x}:{os.minor(st.st_dev):02x}:{st.st_ino}"
+        other = f"{os.major(st.st_dev) + 1:02x}:{os.minor(st.st_dev):02x}:{st.st_ino}"
+        listed = tmp_path / "locks"
+        monkeypatch.setattr(runner, "_PROC_LOCKS", str(listed))
+        for lines, holder in (
+            ([f"1: FLOCK  ADVISORY  WRITE 4117 {ours} 0 EOF"], 4117),
+            ([f"1: FLOCK  ADVISORY  WRITE 4117 {other} 0 EOF"], 4117),  # (another device: the one lock)
+            (
+                [
+                    f"1: FLOCK  ADVISORY  WRITE 7 {other} 0 EOF",
+                    f"2: FLOCK  ADVISORY  WRITE 4117 {ours} 0 EOF",
+                ],
+                4117,
+            ),
+            (
+                [
+                    f"1: FLOCK  ADVISORY  WRITE 7 {other} 0 EOF",
+                    f"2: FLOCK  ADVISORY  WRITE 8 {os.major(st.st_dev) + 2:02x}:00:{st.st_ino} 0 EOF",
+                ],
+                None,
+            ),  # (two files of that inode elsewhere: which is not known)
+            (
+                [f"1: -> FLOCK  ADVISORY  WRITE 9 {ours} 0 EOF", f"1: POSIX  ADVISORY  WRITE 5 {ours} 0 EOF"],
+                None,
+            ),
+            (
+                [f"1: FLOCK  ADVISORY  WRITE 4117 {ours[:-1]}{int(ours[-1]) ^ 1} 0 EOF"],
+                None,
+            ),  # (another inode)
+            ([], None),
+        ):
+            listed.write_text("".join(f"{line}\n" for line in lines))
+            assert runner._lock_holder(fd) == holder, lines
+        listed.unlink()  # (no list: not Linux)
+        assert runner._lock_holder(fd) is None
+    finally:
+        os.close(fd)

@@ -1436,29 +1436,36 @@ class _OutputLock:
             self.fd = None
 
 
+_PROC_LOCKS = "/proc/locks"  # (Linux: the locks held, and by which process)
+
+
 def _lock_holder(fd: int) -> int | None:
     """The pid of the process holding a ``flock`` on the file open at ``fd``, as Linux lists it in
     ``/proc/locks`` (``1: FLOCK  ADVISORY  WRITE 4117 fe:00:2148341 0 EOF``: pid, device, inode): the run
     that holds the lock, whether or not it has written its pid in the file yet (a run writes it once it
     writes in output.dir: while it plans, or all through a rerun with nothing to do, the file holds an
-    ended run's, which a process may have again). None where there is no such list (not Linux) or the
-    lock is not in it (its holder has just let it go; a filesystem whose device the list numbers
-    otherwise): the pid in the file is then shown, if a process has it."""
+    ended run's, which a process may have again). The lock of the file's device and inode; where the list
+    numbers the device otherwise (an overlayfs or a btrfs subvolume: the device of the filesystem below),
+    the one lock of its inode. None where there is no such list (not Linux) or the lock is not in it (its
+    holder has just let it go): the pid in the file is then shown, if a process has it."""
     try:
         st = os.fstat(fd)
-        with open("/proc/locks", encoding="ascii", errors="replace") as f:
+        with open(_PROC_LOCKS, encoding="ascii", errors="replace") as f:
             lines = f.read().splitlines()
     except OSError:
         return None
-    where = f"{os.major(st.st_dev):02x}:{os.minor(st.st_dev):02x}:{st.st_ino}"
+    device = f"{os.major(st.st_dev):02x}:{os.minor(st.st_dev):02x}"
+    same_inode: dict[str, int] = {}  # device -> pid of the flock held on a file of this inode number
     for line in lines:
         fields = line.split()  # (a waiter's line has "->" after the number: never the holder)
-        if len(fields) >= 6 and fields[1] == "FLOCK" and fields[5] == where:
-            try:
-                return int(fields[4])
-            except ValueError:
-                return None
-    return None
+        if len(fields) < 6 or fields[1] != "FLOCK" or not fields[4].lstrip("-").isdigit():
+            continue
+        dev, _, ino = fields[5].rpartition(":")
+        if ino == str(st.st_ino):
+            same_inode[dev] = int(fields[4])
+    if device in same_inode:
+        return same_inode[device]
+    return next(iter(same_inode.values())) if len(same_inode) == 1 else None
 
 
 def _running(pid: int) -> bool:
@@ -1768,7 +1775,8 @@ def _run(
             if not _asks_for(cfg, kind):
                 continue
             path = out_dir / _RUN_OUTPUT_FILES[kind]
-            shown = {}  # (the report's: the config as it names it, absolute, so a moved tree's is rewritten)
+            # (the report's: the config as it names it, absolute, so a moved tree's is rewritten)
+            shown: dict[str, str] = {}
             if kind == "report":
                 from .report import config_shown
 
