@@ -166,4 +166,7 @@ def new_layer_replacing(
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+    # (a reload that fails raises with this frame in its traceback: a caller that keeps the error would keep
+    # the layer authored at ``tmp``, renamed since, alive; a caller binding it ``as`` drops its name too)
+    del layer
     reload_if_open(target)

@@ -928,6 +928,10 @@ def test_a_second_ctrl_c_does_not_cut_the_first_ones_clean_up_short(tmp_path, mo
     assert cleaned == ["meshes/cow.obj"] and signal.getsignal(signal.SIGINT) is handler
 
 
+#: Linux lists the holder of each flock in /proc/locks: a run refused names it (else the pid in the lock file)
+_KERNEL_LISTS_LOCKS = Path("/proc/locks").is_file()
+
+
 def _lock_held_elsewhere(path: Path, pid: int) -> int:
     """Hold ``path`` as another run does (an exclusive flock on its own open file, with its pid); the fd."""
     import fcntl
@@ -965,7 +969,7 @@ def test_one_run_at_a_time_in_an_output_folder(tmp_path, monkeypatch):
     (out / ".cow.swpm.abc123.tmp").write_bytes(b"the other run's")
     before = {p.name: p.read_bytes() for p in out.iterdir() if p.name != runner.LOCK}
     cfg.write_text(cfg.read_text().replace("encoding: skip-strip", "encoding: mixed"))  # work to do
-    holder = os.getppid()  # (a running process: a pid no process has is an earlier run's, not shown)
+    holder = os.getpid()  # (the process that holds the lock: the kernel lists it so, and so does the file)
     fd = _lock_held_elsewhere(lock, holder)
     try:
         t = time.perf_counter()
@@ -1040,14 +1044,14 @@ def test_output_lock_of_another_user_an_unwritable_folder_or_no_locks(tmp_path, 
     def second_run(task):  # while the run holds the lock (opened read-only), another is refused
         with pytest.raises(OutputLockedError) as err:
             runner._OutputLock(out, print).acquire()
-        seen.append(err.value.pid)  # (the file holds the ended run's pid: not shown)
+        seen.append(err.value.pid)  # (the file holds the ended run's pid: not shown, the holder's instead)
         return real_process_asset(task)
 
     real_process_asset = runner.process_asset
     monkeypatch.setattr(runner, "process_asset", second_run)
     r = CliRunner().invoke(main, ["run", str(cfg), "--force"])
     assert r.exit_code == 0 and r.stderr.count("\n") == 1, r.output  # (the summary alone)
-    assert seen == [None] and _lock_is_free(lock)
+    assert seen == [os.getpid() if _KERNEL_LISTS_LOCKS else None] and _lock_is_free(lock)
     monkeypatch.setattr(runner, "process_asset", real_process_asset)
     # a folder the run cannot write in (no lock file to open either): reported as such, exit 2
     lock.unlink()
@@ -2457,11 +2461,10 @@ def test_verify_hashes_every_input(tmp_path, monkeypatch):
 
 
 def _files_as_written(out: Path) -> dict[str, tuple[int, int, int]]:
-    """Each file of ``out`` but the lock (written by every run) -> its inode, mtime and ctime."""
+    """Each file of ``out`` (the lock's too: a run that writes nothing leaves it as it was) -> its inode,
+    mtime and ctime."""
     return {
-        p.name: (p.stat().st_ino, p.stat().st_mtime_ns, p.stat().st_ctime_ns)
-        for p in sorted(out.iterdir())
-        if p.name != ".swpm-pipeline.lock"
+        p.name: (p.stat().st_ino, p.stat().st_mtime_ns, p.stat().st_ctime_ns) for p in sorted(out.iterdir())
     }
 
 
@@ -2538,13 +2541,28 @@ def test_a_moved_project_is_a_rerun_that_changes_nothing(tmp_path, monkeypatch):
     recorded = _recorded_inputs(project / "out")
     assert [e["path"] for e in recorded["meshes/cow.obj"]] == ["meshes/cow.obj"]
     assert [e["path"] for e in recorded[f"{quad}:/Quad"]] == [str(quad)]
+    assert f"config\n{cfg}:" in (project / "out" / "report.html").read_text()
     written = _files_as_written(project / "out")
     moved = tmp_path / "b"
     os.rename(project, moved)
     reads = _input_reads(monkeypatch, moved / "meshes")
     res = run(moved / "pipeline.yaml", echo=lambda m: None)
     assert (res.built, res.skipped) == (0, 2) and reads == [] and not res.warnings
-    assert _files_as_written(moved / "out") == written
+    # the report named the old path until a run wrote it for another reason: it is rewritten (with the
+    # manifest, which records it, and the lock file given the pid of a run that writes), the rest as it was
+    rewritten = {"report.html", "manifest.json", ".swpm-pipeline.lock"}
+    now = _files_as_written(moved / "out")
+    assert {k: v for k, v in now.items() if k not in rewritten} == {
+        k: v for k, v in written.items() if k not in rewritten
+    }
+    assert f"config\n{moved / 'pipeline.yaml'}:" in (moved / "out" / "report.html").read_text()
+    manifest = json.loads((moved / "out" / "manifest.json").read_text())
+    assert manifest["run_outputs"]["report"]["config"] == str(moved / "pipeline.yaml")
+    assert manifest["config"] == "../pipeline.yaml"
+    assert all(o.get("current") for o in manifest["run_outputs"].values())  # (both still as written)
+    written = now
+    res = run(moved / "pipeline.yaml", echo=lambda m: None)  # (then a rerun writes nothing)
+    assert (res.built, res.skipped) == (0, 2) and reads == [] and _files_as_written(moved / "out") == written
     # a copy (other inodes): its inputs and outputs hashed once, nothing rebuilt, the original left alone
     shutil.copytree(moved, project)
     res = run(project / "pipeline.yaml", echo=lambda m: None)
@@ -4699,3 +4717,334 @@ def test_a_collision_by_unicode_normalization_alone_is_not_called_a_case_differe
     (problem,) = exc.value.problems
     assert "differ only in Unicode normalization" in problem and "differ only in case" not in problem
     assert "m/caf\u00e9.obj" in problem and "m/cafe\u0301.obj" in problem
+
+
+def _quad_stage(path: Path) -> None:
+    from pxr import Usd, UsdGeom
+
+    st = Usd.Stage.CreateNew(str(path))
+    m = UsdGeom.Mesh.Define(st, "/Quad")
+    m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
+    m.CreateFaceVertexCountsAttr([3, 3])
+    m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+    st.GetRootLayer().Save()
+
+
+def test_an_input_named_like_a_temporary_file_but_for_case_is_refused(tmp_path):
+    # the temporary-file names were matched case-sensitively: on a case-insensitive filesystem an input
+    # out/.B.TMP.USDA is the .b.tmp.usda the run deletes (or a scene's temporary file it writes)
+    for name in (".B.TMP.USDA", ".Quad.Tmp.usdc"):
+        d = tmp_path / name.strip(".")
+        (d / "out").mkdir(parents=True)
+        _quad_stage(d / "quad.usda")
+        from pxr import Sdf
+
+        suffix = Path(name).suffix.lower()
+        stage = d / "out" / name
+        Sdf.Layer.FindOrOpen(str(d / "quad.usda")).Export(
+            str(stage), args={"format": "usdc" if suffix != ".usda" else "usda"}
+        )
+        before = _digest(stage)
+        cfg = d / "c.yaml"
+        cfg.write_text(
+            f"version: 1\nassets: [{{stage: 'out/{name}'}}]\noutput: {{dir: out}}\n"
+            "defaults: {encoding: vanilla}\n"
+        )
+        with pytest.raises(ConfigError, match="is named like a temporary file the run deletes"):
+            run(cfg, echo=lambda m: None)
+        assert _digest(stage) == before and not (d / "out" / "manifest.json").exists(), name
+
+
+def test_the_folded_name_refusal_is_the_configs_alone_not_the_history_of_the_outputs(tmp_path):
+    # an output not yet written was compared with the inputs by folded name, one written by an earlier run
+    # by inode alone: on a case-sensitive filesystem a stage out/Scene.usda was refused by a first run and
+    # allowed once an earlier run had written out/scene.usda (other inodes), which a case-insensitive one
+    # then wrote over
+    from pxr import Sdf
+
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}"
+    tail = "]\noutput: {dir: out, usd: true, scene: true}\ndefaults: {encoding: vanilla}\n"
+    cfg.write_text(head + tail)
+    assert run(cfg, echo=lambda m: None).built == 1
+    assert (tmp_path / "out" / "scene.usda").is_file()
+    _quad_stage(tmp_path / "quad.usda")
+    Sdf.Layer.FindOrOpen(str(tmp_path / "quad.usda")).Export(str(tmp_path / "out" / "Scene.usda"))
+    written = _files_as_written(tmp_path / "out")
+    cfg.write_text(head + ", {stage: out/Scene.usda}" + tail)
+    with pytest.raises(ConfigError, match="the scene layer would overwrite out/Scene.usda"):
+        run(cfg, echo=lambda m: None)
+    assert _files_as_written(tmp_path / "out") == written
+    # and as a first run does (no scene.usda yet)
+    (tmp_path / "out" / "scene.usda").unlink()
+    with pytest.raises(ConfigError, match="the scene layer would overwrite out/Scene.usda"):
+        run(cfg, echo=lambda m: None)
+
+
+def test_a_rerun_with_nothing_to_do_leaves_the_lock_file_as_it_was_and_still_excludes(tmp_path, monkeypatch):
+    # every run truncated the lock file and wrote its pid in it, a no-change rerun too (which writes nothing
+    # else in output.dir): its pid is written once the run writes there, the lock taken as before
+    from swpm_usd.errors import OutputLockedError
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("sliding-window", "vanilla"))
+    out = tmp_path / "out"
+    lock = out / runner.LOCK
+    assert run(cfg, echo=lambda m: None).built == 1
+    assert lock.read_text() == f"{os.getpid()}\n"  # (a run that writes: its pid, for a run it stops)
+    lock.write_text("999999999\n")  # (an ended run's)
+    written = _files_as_written(out)
+    refused = []
+    real_plan = runner.plan
+
+    def plan_and_try(*args, **kwargs):  # a second run while the first holds the lock
+        with pytest.raises(OutputLockedError) as err:
+            runner._OutputLock(out, print).acquire()
+        refused.append(err.value.pid)
+        return real_plan(*args, **kwargs)
+
+    monkeypatch.setattr(runner, "plan", plan_and_try)
+    for _ in range(2):
+        res = run(cfg, echo=lambda m: None)
+        assert (res.built, res.skipped) == (0, 1)
+        assert _files_as_written(out) == written and lock.read_text() == "999999999\n"
+    # (excluded; the ended run's pid not shown, the holder's, this process's, where the kernel lists it)
+    assert refused == [os.getpid() if _KERNEL_LISTS_LOCKS else None] * 2 and _lock_is_free(lock)
+    # a run that writes (here the report, deleted) writes its pid
+    (out / "report.html").unlink()
+    assert run(cfg, echo=lambda m: None).skipped == 1 and refused[-1] == refused[0]
+    assert lock.read_text() == f"{os.getpid()}\n" and _lock_is_free(lock)
+
+
+def test_a_scene_written_whose_open_layer_does_not_reload_is_recorded_before_the_error(tmp_path, monkeypatch):
+    # scene.usda renamed into place, then the layer of its name open in this process failing to reload: the
+    # error was raised at once, the manifest written by the run's stop() without the scene (on disk, new,
+    # unrecorded: never pruned, rewritten by the next run) and this run's report never written. The scene is
+    # recorded as written, the report and the manifest written, and the error raised after them
+    from pxr import Sdf
+
+    from swpm_usd.usd.writer import LayerReloadError
+
+    monkeypatch.setattr("swpm_usd.pipeline.runner._RACY_NS", 0)
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    opened = Sdf.Layer.FindOrOpen(str(out / "scene.usda"))  # (open in this process)
+    assert [p.name for p in opened.GetPrimAtPath("/Scene").nameChildren] == ["cow"]
+    shutil.copy(SHARED_MESHES / "spot.obj", tmp_path / "meshes" / "spot.obj")
+
+    def failing_reload(self, force=False):
+        Sdf.Layer.CreateNew("")  # (a real usd-core error: "cannot use empty identifier")
+
+    with monkeypatch.context() as m, pytest.raises(LayerReloadError) as err:
+        m.setattr(Sdf.Layer, "Reload", failing_reload)
+        run(cfg, echo=lambda m: None)
+    assert err.value.path == str(out / "scene.usda")
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert sorted(manifest["assets"]) == ["meshes/cow.obj", "meshes/spot.obj"]
+    recorded = manifest["run_outputs"]
+    # the scene on disk is the new one, with both assets, and the manifest records it as it is
+    assert recorded["scene"]["sha256"] == sha256_of(out / "scene.usda")
+    scene = Sdf.Layer.OpenAsAnonymous(str(out / "scene.usda"))
+    assert sorted(p.name for p in scene.GetPrimAtPath("/Scene").nameChildren) == ["cow", "spot"]
+    # this run's report, written and recorded
+    assert recorded["report"]["sha256"] == sha256_of(out / "report.html")
+    assert "meshes/spot.obj" in (out / "report.html").read_text()
+    assert all(o.get("current") for o in recorded.values())
+    # so a rerun has nothing to do, and writes nothing
+    written = _files_as_written(out)
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.skipped) == (0, 2) and _files_as_written(out) == written
+    # and the error held (as a caller may keep it), the scene is written again in this process: the error
+    # does not keep the temporary layer alive, which usd-core then refused to create anew
+    (out / "scene.usda").unlink()
+    assert run(cfg, echo=lambda m: None).skipped == 2 and err.value.path == str(out / "scene.usda")
+    assert Sdf.Layer.OpenAsAnonymous(str(out / "scene.usda")) is not None
+
+
+def test_a_manifest_whose_report_record_names_no_config_has_the_report_written_once(tmp_path, monkeypatch):
+    # a manifest of the version before the report's record held the config it names: read as it is, the
+    # report written once (no asset rebuilt, no input read), its record given the config; then nothing
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("sliding-window", "vanilla"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    text = (out / "manifest.json").read_text()
+    older = text.replace(f',\n   "config": {json.dumps(str(cfg))}', "")
+    assert older != text and json.loads(text)["run_outputs"]["report"]["config"] == str(cfg)
+    (out / "manifest.json").write_text(older)
+    assert json.loads(older)["run_outputs"]["report"]["current"]  # (still the records' mark)
+    written = _files_as_written(out)
+    reads = _input_reads(monkeypatch, tmp_path / "meshes")
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.skipped) == (0, 1) and reads == []
+    now = _files_as_written(out)
+    assert now["cow.swpm"] == written["cow.swpm"] and now["report.html"] != written["report.html"]
+    assert json.loads((out / "manifest.json").read_text())["run_outputs"]["report"]["config"] == str(cfg)
+    assert run(cfg, echo=lambda m: None).skipped == 1 and _files_as_written(out) == now
+
+
+def _quads_over_a_sublayer(d: Path, prims: int) -> Path:
+    """d/stage/scene.usda: ``prims`` quads over the sublayer d/stage/sub.usda; the config of the stage."""
+    from pxr import Sdf, Usd, UsdGeom
+
+    (d / "stage").mkdir(parents=True)
+    sub = Sdf.Layer.CreateNew(str(d / "stage" / "sub.usda"))
+    Sdf.CreatePrimInLayer(sub, "/World/extra")
+    sub.Save()
+    st = Usd.Stage.CreateNew(str(d / "stage" / "scene.usda"))
+    st.GetRootLayer().subLayerPaths = ["./sub.usda"]
+    for i in range(prims):
+        m = UsdGeom.Mesh.Define(st, f"/World/q{i}")
+        m.CreatePointsAttr([(0, 0, i), (1, 0, i), (0, 1, i), (1, 1, i)])
+        m.CreateFaceVertexCountsAttr([3, 3])
+        m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+    st.GetRootLayer().Save()
+    cfg = d / "pipeline.yaml"
+    cfg.write_text("version: 1\nassets: [{stage: stage/scene.usda}]\noutput: {dir: out}\n")
+    return cfg
+
+
+def test_a_rerun_stats_a_stage_s_layers_once_not_once_a_prim(tmp_path, monkeypatch):
+    # a no-change rerun checked the recorded stat of every layer of a stage for each of its prims (and
+    # looked each up again to guard the inputs from the outputs): 1,000 prims of a 51-layer stage, 51,000
+    # stats of 51 files. A stage's layer list is checked once a run; the result is the same, an edited
+    # layer rebuilding every prim
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    stats = {}
+    for prims in (1, 8):
+        cfg = _quads_over_a_sublayer(tmp_path / str(prims), prims)
+        assert run(cfg, echo=lambda m: None).built == prims
+        assert run(cfg, echo=lambda m: None).skipped == prims  # (settled)
+        sub = str(tmp_path / str(prims) / "stage" / "sub.usda")
+        seen = []
+        real_stat = os.stat
+
+        def counting(path, *args, real_stat=real_stat, sub=sub, seen=seen, **kwargs):
+            if os.fspath(path) == sub:
+                seen.append(path)
+            return real_stat(path, *args, **kwargs)
+
+        with monkeypatch.context() as m:
+            m.setattr(os, "stat", counting)
+            res = run(cfg, echo=lambda m: None)
+        assert (res.built, res.skipped) == (0, prims)
+        stats[prims] = len(seen)
+    assert stats[8] == stats[1] and stats[1] >= 1, stats
+    # the layer edited (its stat moved): hashed, every prim rebuilt
+    sub = tmp_path / "8" / "stage" / "sub.usda"
+    sub.write_text(sub.read_text().replace("extra", "other"))
+    res = run(tmp_path / "8" / "pipeline.yaml", echo=lambda m: None)
+    assert res.built == 8
+
+
+@pytest.mark.skipif(not _KERNEL_LISTS_LOCKS, reason="the holder of a lock is known from /proc/locks (Linux)")
+def test_a_run_refused_while_another_plans_or_has_nothing_to_do_names_that_one(tmp_path, monkeypatch):
+    # a run writes its pid in the lock file once it writes in output.dir: a run refused while another planned
+    # or reran with nothing to do read the pid of the last run that wrote, and named it when a process had
+    # it: here this process, which wrote last (a notebook that ran the pipeline), named as the holder by the
+    # run it started itself. The holder is the kernel's (/proc/locks), and the lock file still as it was
+    from swpm_usd.errors import OutputLockedError
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (and in the other process: a rerun that writes nothing)
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("sliding-window", "vanilla"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    lock = out / runner.LOCK
+    assert lock.read_text() == f"{os.getpid()}\n"
+    before = _files_as_written(out)
+    started, release = tmp_path / "started", tmp_path / "release"
+    driver = tmp_path / "first.py"
+    driver.write_text(
+        "import pathlib, sys, time\n"
+        "from swpm_usd.pipeline import runner\n"
+        "real = runner.plan\n"
+        "def held(*args, **kwargs):  # planning (the lock held) until the test lets it go on\n"
+        "    pathlib.Path(sys.argv[1]).touch()\n"
+        "    while not pathlib.Path(sys.argv[2]).exists():\n"
+        "        time.sleep(0.02)\n"
+        "    return real(*args, **kwargs)\n"
+        "runner.plan = held\n"
+        "runner._RACY_NS = 0\n"
+        "from swpm_usd.cli import main\n"
+        "main(sys.argv[3:])\n"
+    )
+    first = subprocess.Popen(
+        [sys.executable, str(driver), str(started), str(release), "run", str(cfg)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and first.poll() is None and not started.exists():
+            time.sleep(0.02)
+        assert started.exists() and first.poll() is None, first.stderr.read().decode()
+        with pytest.raises(OutputLockedError) as err:
+            run(cfg, echo=lambda m: None)
+        release.touch()
+        assert first.wait(timeout=FIRST_ASSET_S) == 0, first.stderr.read().decode()
+    finally:
+        release.touch()
+        if first.poll() is None:
+            first.kill()
+            first.wait()
+    assert err.value.pid == first.pid, (err.value.pid, first.pid, os.getpid())
+    assert f"another swpm-pipeline run (pid {first.pid}) is writing" in str(err.value)
+    assert _files_as_written(out) == before and lock.read_text() == f"{os.getpid()}\n"  # (nothing to do)
+
+
+def test_the_holder_of_the_lock_as_the_kernel_lists_it(tmp_path, monkeypatch):
+    # /proc/locks numbers a file by the device of the filesystem that holds it: on an overlayfs (a container)
+    # or a btrfs subvolume another device than stat's, where the one lock of the inode is the holder's
+    from swpm_usd.pipeline import runner
+
+    lock = tmp_path / "lock"
+    lock.write_text("")
+    fd = os.open(lock, os.O_RDONLY)
+    try:
+        st = os.fstat(fd)
+        ours = f"{os.major(st.st_dev):02x}:{os.minor(st.st_dev):02x}:{st.st_ino}"
+        other = f"{os.major(st.st_dev) + 1:02x}:{os.minor(st.st_dev):02x}:{st.st_ino}"
+        listed = tmp_path / "locks"
+        monkeypatch.setattr(runner, "_PROC_LOCKS", str(listed))
+        for lines, holder in (
+            ([f"1: FLOCK  ADVISORY  WRITE 4117 {ours} 0 EOF"], 4117),
+            ([f"1: FLOCK  ADVISORY  WRITE 4117 {other} 0 EOF"], 4117),  # (another device: the one lock)
+            (
+                [
+                    f"1: FLOCK  ADVISORY  WRITE 7 {other} 0 EOF",
+                    f"2: FLOCK  ADVISORY  WRITE 4117 {ours} 0 EOF",
+                ],
+                4117,
+            ),
+            (
+                [
+                    f"1: FLOCK  ADVISORY  WRITE 7 {other} 0 EOF",
+                    f"2: FLOCK  ADVISORY  WRITE 8 {os.major(st.st_dev) + 2:02x}:00:{st.st_ino} 0 EOF",
+                ],
+                None,
+            ),  # (two files of that inode elsewhere: which is not known)
+            (
+                [f"1: -> FLOCK  ADVISORY  WRITE 9 {ours} 0 EOF", f"1: POSIX  ADVISORY  WRITE 5 {ours} 0 EOF"],
+                None,
+            ),
+            (
+                [f"1: FLOCK  ADVISORY  WRITE 4117 {ours[:-1]}{int(ours[-1]) ^ 1} 0 EOF"],
+                None,
+            ),  # (another inode)
+            ([], None),
+        ):
+            listed.write_text("".join(f"{line}\n" for line in lines))
+            assert runner._lock_holder(fd) == holder, lines
+        listed.unlink()  # (no list: not Linux)
+        assert runner._lock_holder(fd) is None
+    finally:
+        os.close(fd)

@@ -1352,3 +1352,54 @@ def test_validate_does_not_report_a_bug_of_its_own_as_a_file_usd_core_cannot_rea
     monkeypatch.setattr(validate_module, "validate_prim", broken)
     with pytest.raises(TypeError, match="a bug"):
         validate_stage(path, builtin=False)
+
+
+def test_a_failed_reload_kept_by_the_caller_does_not_keep_the_temporary_layer(pm, tmp_path, monkeypatch):
+    """write_usdlod and write_overrides author a layer at a temporary name, renamed over the output, then
+    reload the layer of that name open in this process: a reload that failed raised an error whose traceback
+    held the temporary layer (the frames of the write and of fileio.new_layer_replacing), so a caller that
+    kept the error (a log, a notebook's last error) kept that layer, all its meshes, in memory and in
+    usd-core's registry of loaded layers, named after a file that no longer exists."""
+    import gc
+
+    from swpm_usd.usd.overrides import UsdOverrideError
+    from swpm_usd.usd.writer import UsdWriteError
+
+    asset = usd.write(pm, tmp_path / "a.usda", lods=3)
+    src = tmp_path / "src.usda"
+    _grid_stage(src, 4)
+    lod, ovr = tmp_path / "lod.usda", tmp_path / "ovr.usda"
+    usd.write_usdlod(asset, lod, pixel_error=1.0)
+    usd.write_overrides(src, ovr, "vanilla")
+    opened = [Sdf.Layer.FindOrOpen(str(p)) for p in (lod, ovr)]  # open in this process
+
+    def failing_reload(self, force=False):
+        Sdf.Layer.CreateNew("")  # (a real usd-core error: "cannot use empty identifier")
+
+    def temporary_layers() -> list[str]:
+        gc.collect()
+        return [
+            layer.identifier
+            for layer in Sdf.Layer.GetLoadedLayers()
+            if Path(layer.identifier).parent == tmp_path and ".tmp." in Path(layer.identifier).name
+        ]
+
+    kept = []
+    with monkeypatch.context() as m:
+        m.setattr(Sdf.Layer, "Reload", failing_reload)
+        for error, call in (
+            (UsdWriteError, lambda: usd.write_usdlod(asset, lod, pixel_error=4.0)),
+            (UsdOverrideError, lambda: usd.write_overrides(src, ovr, "skip-strip")),
+        ):
+            with pytest.raises(error) as exc:
+                call()
+            assert "written, but the layer of that name open in this process could not" in str(exc.value)
+            kept.append(exc)  # (the error kept, with its traceback and cause)
+    assert temporary_layers() == []
+    assert all(layer.rootPrims for layer in opened)  # (their previous content: not reloaded)
+    # each file is the new one, and written again in this process
+    assert Sdf.Layer.OpenAsAnonymous(str(ovr)).GetAttributeAtPath("/World/grid.swpm:encoding").default == (
+        "skip-strip"
+    )
+    usd.write_overrides(src, ovr, "vanilla")
+    assert len(kept) == 2 and temporary_layers() == []

@@ -105,7 +105,7 @@ def config_named(out_dir: Path, config: object) -> str | None:
     return os.path.normpath(os.path.join(os.path.realpath(out_dir), config))
 
 
-def _config_shown(path: Path, config: object) -> str:
+def config_shown(path: Path, config: object) -> str:
     """The manifest's ``config`` as the report ``path`` shows it: absolute (:func:`config_named`)."""
     named = config_named(path.parent, config)
     return str(config) if named is None else named
@@ -177,7 +177,7 @@ def write_report(path: Path, manifest: dict) -> None:
             f"</noscript><div id=curves></div><script type=application/json id=curve-data>{table}</script>"
             + _CURVE_SCRIPT
         )
-    config = _config_shown(path, manifest.get("config"))
+    config = config_shown(path, manifest.get("config"))
     doc = f"""<!doctype html><html><head><meta charset="utf-8"><title>swpm-usd run report</title>
 <style>body{{font-family:sans-serif;margin:2em}} table{{border-collapse:collapse}}
 td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}} td:first-child{{text-align:left}}

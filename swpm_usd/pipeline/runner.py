@@ -21,7 +21,10 @@ assets no longer in the config are left and named, and recorded under ``orphaned
 
 A run that builds, fails and prunes nothing, and whose manifest would hold what it holds, writes neither it
 nor scene.usda nor report.html: those were written from these records (their ``run_outputs`` records marked
-:data:`CURRENT`) and are kept while they are as recorded (10,000 assets: a 47 MB manifest, 2.2 s to write).
+:data:`CURRENT`) and are kept while they are as recorded (10,000 assets: a 47 MB manifest, 2.2 s to write),
+the report while it names the config where it is now (:data:`REPORT_CONFIG`: a project moved whole has its
+report and manifest written); nor the lock file, which holds the pid of the last run that wrote
+(:meth:`_OutputLock.claim`).
 """
 
 from __future__ import annotations
@@ -89,6 +92,10 @@ ORPHANED = "orphaned_outputs"
 RUN_OUTPUTS = "run_outputs"
 _RUN_OUTPUT_DEFAULTS = {"scene": False, "report": True}
 _RUN_OUTPUT_FILES = {"scene": "scene.usda", "report": "report.html"}
+#: the report's :data:`RUN_OUTPUTS` record's config file as the report names it (an absolute path: the
+#: manifest's ``config`` is relative to output.dir), so that a rerun of a project moved whole, which changes
+#: no record, rewrites the report that names the old path (and the manifest, for its record) and no more
+REPORT_CONFIG = "config"
 #: a run output's record's mark that the file was written from the records of the manifest that holds it
 #: (the run's last write of the manifest; a write during the run, or of a run stopped, leaves it out: the
 #: records have changed since the file was written, or may have). A rerun that changes no record keeps
@@ -578,6 +585,29 @@ def plan(
     needs_rule_on_triangles = any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))
     # input paths -> (digest, entries) hashed by this plan: the prims of one stage share its layers
     hashed: dict[tuple[Path, ...], tuple[str, list[dict]]] = {}
+    # the prims of one stage share its list of layers (discover's) and their records one list of entries
+    # (read_manifest's): each pair checked once a run (its files stat'ed once), not once a prim (1,000 prims
+    # of a 51-layer stage: 51,000 stats and path comparisons, a third of a no-change rerun). Keyed by the
+    # lists' ids, each entry holding its lists so no id is reused while the plan runs
+    checked_inputs: dict[tuple[int, int], tuple[list, list, bool]] = {}
+    valid_inputs: dict[int, tuple[Any, list[dict] | None]] = {}  # id(a record's inputs) -> recorded_inputs
+
+    def recorded_of(rec: dict) -> list[dict] | None:
+        listed = rec.get("inputs")
+        hit = valid_inputs.get(id(listed))
+        if hit is None or hit[0] is not listed:
+            hit = valid_inputs[id(listed)] = (listed, recorded_inputs(rec))
+        return hit[1]
+
+    def unchanged(paths: list[Path], entries: list[dict] | None) -> bool:
+        if entries is None:
+            return False
+        hit = checked_inputs.get((id(paths), id(entries)))
+        if hit is None or hit[0] is not paths or hit[1] is not entries:
+            hit = (paths, entries, _inputs_unchanged(paths, entries, cfg.base))
+            checked_inputs[(id(paths), id(entries))] = hit
+        return hit[2]
+
     for a in assets:
         previous = known.get(a.id)
         if a.id in known and (problem := record_problem(previous)) is not None:
@@ -588,10 +618,10 @@ def plan(
             previous = None
         prev = previous or {}
         # (a failed asset's record need not have its input digest: record_problem checks its type alone)
-        recorded = None if "input_digest" not in prev else recorded_inputs(prev)
+        recorded = None if "input_digest" not in prev else recorded_of(prev)
         # (inputs listed from the record: as recorded)
         reuse = not verify and a.id in reused and previous is not None
-        trusted = not reuse and _inputs_unchanged(inputs[a.id], recorded, cfg.base)
+        trusted = not reuse and unchanged(inputs[a.id], recorded)
         if reuse or (trusted and not verify):
             digest, input_stats = prev["input_digest"], recorded
         else:
@@ -905,14 +935,21 @@ def _overwritten_inputs(
     temporary file it would delete must not be a matched mesh, a stage, a layer a stage uses, or the config
     itself. Located at ``output.dir``.
 
-    A file to write that exists is compared as a file (its device and inode: ``os.path.samefile``); one
-    that does not yet is compared by name with the inputs in output.dir as a case-insensitive filesystem
-    compares names (:func:`.assets._folded`: ``out/Scene.usda``, a stage, is the ``out/scene.usda`` the
-    run writes on macOS or Windows), as output names that differ only so collide (:func:`.assets.discover`).
+    A file to write that exists is compared as a file (its device and inode: ``os.path.samefile``); every
+    one, written yet or not, is also compared by name with the inputs in output.dir as a case-insensitive
+    filesystem compares names (:func:`.assets._folded`: ``out/Scene.usda``, a stage, is the
+    ``out/scene.usda`` the run writes on macOS or Windows), as output names that differ only so collide
+    (:func:`.assets.discover`): on any filesystem, whether an earlier run wrote the file or not, so the
+    refusal is the config's alone. Names of temporary files are compared so too.
     A folder is output.dir when it is that folder (the same device and inode), however its path is spelt."""
     sources: dict[tuple, tuple[Path, str]] = {_file_key(cfg.path): (cfg.path, "the configuration file")}
+    seen: set[int] = set()  # (the prims of a stage share one list of its layers: looked up once)
     for a in assets:
-        for p in inputs.get(a.id, []):
+        listed = inputs.get(a.id, [])
+        if id(listed) in seen:  # (its files, all, named by an earlier asset: setdefault would keep those)
+            continue
+        seen.add(id(listed))
+        for p in listed:
             what = "an input of" if p != a.path else "the input of"
             sources.setdefault(_file_key(p), (p, f"{what} {a.id}"))
     out_key = _file_key(out_dir)
@@ -927,14 +964,18 @@ def _overwritten_inputs(
     problems = []
     for target, what in planned_outputs(cfg, out_dir, assets).items():
         key = _file_key(target)
-        hit = sources.get(key) if key[0] == "inode" else by_name.get(_folded(target.name)) or sources.get(key)
+        # (by name as well when it exists: on a case-sensitive filesystem out/scene.usda, written by an
+        # earlier run, is another file than the input out/Scene.usda, and the config alone decides)
+        hit = sources.get(key) or by_name.get(_folded(target.name))
         if hit is not None:
             problems.append(
                 f"{cfg.where(('output', 'dir'))}: {what} would overwrite {_rel(cfg, hit[0])} "
                 f"({hit[1]}); choose an output.dir apart from the inputs (and globs not reaching into it)"
             )
     for path, what in in_out:
-        if any(fnmatch.fnmatch(path.name, pattern) for pattern in _TEMPORARY):
+        # (folded as a case-insensitive filesystem compares names: .COW.SWPM.ABCDEFGH.TMP is a temporary
+        # file of ours there; the patterns are lower case)
+        if any(fnmatch.fnmatchcase(_folded(path.name), pattern) for pattern in _TEMPORARY):
             problems.append(
                 f"{cfg.where(('output', 'dir'))}: {_rel(cfg, path)} ({what}) is named like a temporary file "
                 f"the run deletes from output.dir; rename it or choose another output.dir"
@@ -1316,14 +1357,20 @@ class _OutputLock:
     files and interleaving manifests. The kernel drops the lock when the holder's file is closed, so it goes
     with the run however it ends (an error, Ctrl-C, a kill); the file itself stays (deleting it would let a
     third run lock a new file while the second still holds the old one). The holder's pid is written in it for
-    the message. Where ``flock`` is missing (Windows) or refused (a filesystem without locks), the run goes on
-    unlocked, with a warning."""
+    the message, by :meth:`claim`, once the run writes in the folder: a run that writes nothing there (a
+    rerun with nothing to do) holds the lock as any other, and leaves the file as it was (the pid in it is
+    then an ended run's: a run it stops names the holder as the kernel lists it, :func:`_lock_holder`,
+    and the pid in the file only where there is no such list, if a process has that pid). Where
+    ``flock`` is missing (Windows) or refused (a filesystem without locks), the run goes on unlocked, with
+    a warning."""
 
     def __init__(self, out_dir: Path, echo) -> None:
         self.path = out_dir / LOCK
         self.echo = echo
         self.fd: int | None = None
         self.done = False
+        self.writable = False  # (the lock file opened for writing: its pid can be written)
+        self.claimed = False  # (this run's pid written in it)
 
     def acquire(self, folder_checked: bool = False) -> None:
         """Take the lock, or raise :class:`OutputLockedError`. A lock file this process cannot open is
@@ -1350,10 +1397,12 @@ class _OutputLock:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            try:
-                pid: int | None = int(os.read(fd, 32).decode().strip())
-            except (OSError, ValueError):
-                pid = None
+            pid = _lock_holder(fd)  # (the holder as the kernel lists it: it may not have written its pid)
+            if pid is None:
+                try:
+                    pid = int(os.read(fd, 32).decode().strip())
+                except (OSError, ValueError):
+                    pid = None
             os.close(fd)
             raise OutputLockedError(
                 self.path.parent, pid if pid is not None and _running(pid) else None
@@ -1362,10 +1411,17 @@ class _OutputLock:
             os.close(fd)
             self._unlocked(exc)
             return
-        if writable:  # (else the file keeps an earlier run's pid, which is not running: not shown)
-            os.ftruncate(fd, 0)
-            os.write(fd, f"{os.getpid()}\n".encode())
-        self.fd, self.done = fd, True
+        self.fd, self.done, self.writable = fd, True, writable
+
+    def claim(self) -> None:
+        """Write this process's pid in the lock file held (once; nothing without the lock, or when the file
+        is not writable: it keeps an earlier run's pid, which is not running, so not shown). The run calls
+        it before it first writes in output.dir."""
+        if self.fd is None or not self.writable or self.claimed:
+            return
+        self.claimed = True
+        os.ftruncate(self.fd, 0)
+        os.pwrite(self.fd, f"{os.getpid()}\n".encode(), 0)
 
     def _unlocked(self, exc: OSError) -> None:
         self.done = True
@@ -1378,6 +1434,38 @@ class _OutputLock:
         if self.fd is not None:
             os.close(self.fd)  # closing the only descriptor of the open file drops its lock
             self.fd = None
+
+
+_PROC_LOCKS = "/proc/locks"  # (Linux: the locks held, and by which process)
+
+
+def _lock_holder(fd: int) -> int | None:
+    """The pid of the process holding a ``flock`` on the file open at ``fd``, as Linux lists it in
+    ``/proc/locks`` (``1: FLOCK  ADVISORY  WRITE 4117 fe:00:2148341 0 EOF``: pid, device, inode): the run
+    that holds the lock, whether or not it has written its pid in the file yet (a run writes it once it
+    writes in output.dir: while it plans, or all through a rerun with nothing to do, the file holds an
+    ended run's, which a process may have again). The lock of the file's device and inode; where the list
+    numbers the device otherwise (an overlayfs or a btrfs subvolume: the device of the filesystem below),
+    the one lock of its inode. None where there is no such list (not Linux) or the lock is not in it (its
+    holder has just let it go): the pid in the file is then shown, if a process has it."""
+    try:
+        st = os.fstat(fd)
+        with open(_PROC_LOCKS, encoding="ascii", errors="replace") as f:
+            lines = f.read().splitlines()
+    except OSError:
+        return None
+    device = f"{os.major(st.st_dev):02x}:{os.minor(st.st_dev):02x}"
+    same_inode: dict[str, int] = {}  # device -> pid of the flock held on a file of this inode number
+    for line in lines:
+        fields = line.split()  # (a waiter's line has "->" after the number: never the holder)
+        if len(fields) < 6 or fields[1] != "FLOCK" or not fields[4].lstrip("-").isdigit():
+            continue
+        dev, _, ino = fields[5].rpartition(":")
+        if ino == str(st.st_ino):
+            same_inode[dev] = int(fields[4])
+    if device in same_inode:
+        return same_inode[device]
+    return next(iter(same_inode.values())) if len(same_inode) == 1 else None
 
 
 def _running(pid: int) -> bool:
@@ -1548,7 +1636,8 @@ def _run(
     lock.acquire(folder_checked=True)  # (a folder this run created)
     _remove_temporary(out_dir)  # left by a killed run
     todo = [it for it in items if force or not it.up_to_date]
-    if prune:
+    if prune and orphans:
+        lock.claim()
         for path, _ in orphans:
             path.unlink(missing_ok=True)
     # (the records of current assets the run can use: a hand-edited one is ignored, see plan)
@@ -1597,6 +1686,7 @@ def _run(
         and {**manifest, **orphaned} == {k: v for k, v in previous.items() if k != RUN_OUTPUTS}
     )
     if not unchanged:  # (no longer written from the manifest's records: see CURRENT)
+        lock.claim()  # (the run writes here: its pid in the lock file, for the message of a run it stops)
         run_outputs = {
             kind: {k: v for k, v in o.items() if k != CURRENT} if isinstance(o, dict) else o
             for kind, o in run_outputs.items()
@@ -1620,6 +1710,7 @@ def _run(
         if results is not None:
             results.close()  # first: it restores the Ctrl-C handler it set (--jobs 1)
         with _interrupts_ignored():
+            lock.claim()
             _restore_kept_aside(out_dir, records)  # (a worker stopped while it renamed outputs)
             _remove_temporary(out_dir)
             _write_manifest(manifest_path, manifest, text)
@@ -1677,32 +1768,58 @@ def _run(
         for w in unreached:
             echo(f"warning: {w}")
         warnings = warnings + unreached
+    stale: Exception | None = None  # (scene.usda written, but the layer of its name open here not reloaded)
     try:
         manifest[RUN_OUTPUTS] = run_outputs  # (each recorded as written: a write that fails stops the run)
         for kind in ("scene", "report"):
             if not _asks_for(cfg, kind):
                 continue
             path = out_dir / _RUN_OUTPUT_FILES[kind]
-            if unchanged and isinstance(kept := run_outputs.get(kind), dict) and kept.get(CURRENT) is True:
+            # (the report's: the config as it names it, absolute, so a moved tree's is rewritten)
+            shown: dict[str, str] = {}
+            if kind == "report":
+                from .report import config_shown
+
+                shown = {REPORT_CONFIG: config_shown(path, manifest["config"])}
+            if (
+                unchanged
+                and isinstance(kept := run_outputs.get(kind), dict)
+                and kept.get(CURRENT) is True
+                and all(kept.get(k) == v for k, v in shown.items())  # (a record without it: rewritten once)
+            ):
                 checked = _checked_output(path, kept, verify)
                 if checked is not None:  # (written from these records, and as written)
                     run_outputs[kind] = checked
                     continue
             run_outputs.pop(kind, None)  # (being rewritten: no longer the file recorded)
+            lock.claim()
             if kind == "scene":
-                _write_scene(out_dir, records)
+                from ..usd.writer import LayerReloadError
+
+                try:
+                    _write_scene(out_dir, records)
+                except LayerReloadError as exc:
+                    # the file is written, whole, from these records: it is recorded, the report and the
+                    # manifest written, and the error raised once they are (raised here, the manifest
+                    # left the scene on disk unrecorded, and the report of this run unwritten). Without its
+                    # traceback, whose frames hold the layer written at .scene.tmp.usda: kept alive, usd-core
+                    # refused to create that layer again, the next scene written in this process failing
+                    stale = exc.with_traceback(None)
             else:
                 from .report import write_report
 
                 write_report(path, manifest)
-            run_outputs[kind] = {**output_record(path), CURRENT: True}
+            run_outputs[kind] = {**output_record(path), **shown, CURRENT: True}
         if not run_outputs:
             del manifest[RUN_OUTPUTS]
         if not unchanged or manifest != previous:
+            lock.claim()
             _write_manifest(manifest_path, manifest, text)
     except BaseException:
         stop()
         raise
+    if stale is not None:
+        raise stale
     seconds = time.perf_counter() - t_start
     return RunResult(
         records, len(built_ids), len(items) - len(todo), failed, warnings, seconds, manifest_path, planned,

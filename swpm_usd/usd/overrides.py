@@ -450,6 +450,7 @@ def write_overrides(
         with new_layer_replacing(out_path, tmp_path, errors=lambda: _writing(path, tmp_path)) as layer:
             result = _author_overrides(layer, src_stage, src_path, rel, mode, encoding, prims, params)
     except LayerReloadError as e:  # (written: the layer open in this process was not reloaded)
+        del layer  # (not kept alive by the error's traceback: see fileio.new_layer_replacing)
         raise UsdOverrideError(str(e)) from e
     return result
 

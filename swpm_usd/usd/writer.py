@@ -453,6 +453,9 @@ def write_usdlod(
             _author_usdlod(
                 layer, src, default, asset, p, discrete, errors, extent, pixel_error, viewport_px, fov_degrees
             )
+    except LayerReloadError:  # (written; the layer at tmp not kept alive by the error's traceback)
+        del layer
+        raise
     except (OSError, Tf.ErrorException) as e:
         why = e.strerror or str(e) if isinstance(e, OSError) else tf_message(e)
         raise UsdWriteError(f"{p}: could not write: {why.replace(str(tmp), str(p))}") from e
