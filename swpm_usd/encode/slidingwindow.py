@@ -389,6 +389,10 @@ _ABSORB_ROUNDS = 64
 #: has at least this many patches (fewer levels, less build time)
 _CLUSTER_MIN_PATCHES = 16
 
+#: ``cluster=True, inner_vertices > 1``: a linked patch takes one more inner position if that moves its
+#: end in the previous level's tail by at most this many places (:func:`.sw_kernels.cluster_components`)
+_CLUSTER_REACH = 8
+
 #: a fully stored level after the first is built only if its centres remove at least this fraction of its
 #: triangles (two per inner vertex, estimated before collapsing), or if it has at most ``_SMALL_LEVEL`` of LOD
 #: 0's triangles. A mesh that gets stuck (boundaries it cannot close, welded points) otherwise trickles down
@@ -597,7 +601,21 @@ def _build_levels(
             tpos = np.full(st.tri_verts.shape[0], -1, np.int64)
             tpos[alive_t] = place[cur_gid[alive_t]]
             cands = np.flatnonzero(eligible).astype(np.int64)
-            inner_start, inner = swk.cluster_patches(st, cands, tpos, tiebreak[cands], _CLUSTER_MIN_PATCHES)
+            if inner_vertices == 1:
+                inner_start, inner = swk.cluster_patches(
+                    st, cands, tpos, tiebreak[cands], _CLUSTER_MIN_PATCHES
+                )
+            else:  # patches of several inner positions whose stars span disjoint intervals of the tail
+                inner_start, inner = swk.cluster_components(
+                    st,
+                    cands,
+                    tpos,
+                    tiebreak[cands],
+                    _CLUSTER_MIN_PATCHES,
+                    *adjacency(),
+                    int(inner_vertices),
+                    _CLUSTER_REACH,
+                )
             pt_start, pt = swk.patch_triangles(st, inner_start, inner, stars)
             if fresh_cost is None:
                 fresh = _select_fresh(adjacency(), eligible, tiebreak, int(inner_vertices))
@@ -1064,8 +1082,8 @@ def build_sliding_window(
         raise BuildError(f"target_slack must be a finite number >= 0 or None, got {target_slack!r}")
     if not _is_integer(absorb_rounds) or absorb_rounds < 0:
         raise BuildError(f"absorb_rounds must be an integer >= 0, got {absorb_rounds!r}")
-    if cluster and (builder != "topology" or int(inner_vertices) != 1):
-        raise BuildError("cluster=True needs builder='topology' and inner_vertices=1")
+    if cluster and builder != "topology":
+        raise BuildError("cluster=True needs builder='topology'")
     if order_passes is None:  # a linked level's patch order is its tail's: no search with cluster
         order_passes = DEFAULT_ORDER_PASSES if builder == "topology" and not cluster else 0
     if not _is_integer(order_passes) or not 0 <= order_passes <= MAX_ORDER_PASSES:

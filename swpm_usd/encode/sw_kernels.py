@@ -366,6 +366,107 @@ def cluster_patches(
 
 
 @nb.njit(cache=True, nogil=True)
+def cluster_components(
+    st: K.CollapseState,
+    cands: np.ndarray,
+    tpos: np.ndarray,
+    rank: np.ndarray,
+    min_picks: int,
+    adj_start: np.ndarray,
+    adj: np.ndarray,
+    inner_vertices: int,
+    reach: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`cluster_patches` for patches of up to ``inner_vertices`` adjacent inner positions (SWPM 3.2
+    with 3.3, the papers' case (d)). A patch spans the interval of tail places of the union of its inner
+    positions' stars; the patches' intervals are pairwise disjoint (so the patches share no triangle, and no
+    inner position of one is next to one of another: an edge lies on a triangle of both stars). Greedy by
+    earliest end as :func:`cluster_patches`: the candidate of earliest star end not overlapping the last
+    patch starts a patch, which then takes, one at a time, the neighbour (``adj_start``, ``adj``: the
+    position graph) of its inner positions whose star starts after the last patch and ends earliest, while
+    that moves the patch's end by at most ``reach`` places (0: only stars within the patch's interval). The
+    level keeps the first ``r >= min_picks`` patches that minimise ``(end of the r-th patch + 1) / (inner
+    positions of the first r)``. Returns the CSR ``(inner_start, inner)`` in tail order."""
+    n = cands.shape[0]
+    big = np.int64(1) << 62
+    P = adj_start.shape[0] - 1
+    lo = np.empty(n, np.int64)
+    hi = np.empty(n, np.int64)
+    idx = np.full(P, -1, np.int64)
+    for i in range(n):
+        idx[cands[i]] = i
+        tris = K.gather_triangles(st, cands[i])
+        a = big
+        b = np.int64(-1)
+        for j in range(tris.shape[0]):
+            p = tpos[tris[j]]
+            if p < 0:
+                b = big  # not in the tail: never an inner position
+            a = min(a, p)
+            b = max(b, p)
+        if tris.shape[0] == 0:
+            b = big
+        lo[i] = a
+        hi[i] = b
+    by_rank = np.argsort(rank, kind="mergesort")
+    span = np.int64(tpos.shape[0] + 1)
+    key = np.empty(n, np.int64)
+    for r in range(n):
+        i = by_rank[r]
+        key[r] = min(hi[i], span) * span + (span - 1 - min(lo[i], span - 1))
+    order = by_rank[np.argsort(key, kind="mergesort")]
+    used = np.zeros(n, np.bool_)
+    inner = np.empty(n, np.int64)
+    start = np.zeros(n + 1, np.int64)
+    pick_hi = np.empty(n, np.int64)
+    m = 0
+    q = 0
+    last = np.int64(-1)
+    for r in range(n):
+        i = order[r]
+        if used[i] or hi[i] >= big or lo[i] <= last:
+            continue
+        used[i] = True
+        inner[q] = cands[i]
+        q += 1
+        cnt = 1
+        end = hi[i]
+        while cnt < inner_vertices:
+            best = np.int64(-1)
+            best_end = big
+            for s in range(q - cnt, q):
+                v = inner[s]
+                for e in range(adj_start[v], adj_start[v + 1]):
+                    j = idx[adj[e]]
+                    if j < 0 or used[j] or hi[j] >= big or lo[j] <= last:
+                        continue
+                    h = max(hi[j], end)
+                    if h < best_end or (h == best_end and rank[j] < rank[best]):
+                        best = j
+                        best_end = h
+            if best < 0 or best_end - end > reach:
+                break
+            used[best] = True
+            inner[q] = cands[best]
+            q += 1
+            cnt += 1
+            end = best_end
+        pick_hi[m] = end
+        m += 1
+        start[m] = q
+        last = end
+    best_m = m
+    best_ratio = np.inf
+    for r in range(min_picks - 1, m):
+        ratio = (pick_hi[r] + 1.0) / start[r + 1]
+        if ratio < best_ratio:
+            best_ratio = ratio
+            best_m = r + 1
+    m = min(m, best_m)
+    return start[: m + 1].copy(), inner[: start[m]].copy()
+
+
+@nb.njit(cache=True, nogil=True)
 def patch_triangles(
     st: K.CollapseState, inner_start: np.ndarray, inner: np.ndarray, stars: K.Stars
 ) -> tuple[np.ndarray, np.ndarray]:
