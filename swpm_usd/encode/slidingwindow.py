@@ -47,7 +47,8 @@ choice, what was measured and what was tried and dropped):
   surface by at most ``swap_max_deviation`` of the bounding-box diagonal (:mod:`.sw_swaps`).
 * ``cluster=True`` (SWPM 3.2): a level's patches read out of the previous level's tail, so consecutive
   levels share storage, where that costs fewer pool triangles per collapse
-  (:func:`.sw_kernels.cluster_patches`).
+  (:func:`.sw_kernels.cluster_patches`; with ``inner_vertices > 1`` patches of several adjacent positions,
+  :func:`.sw_kernels.cluster_components`).
 
 Every ordering is for a FIFO cache of ``cache_size`` entries (default 16).
 
