@@ -295,11 +295,79 @@ def test_cluster_open_mesh() -> None:
     _check_all(pm, mesh, closed=False, every=5)
 
 
-def test_cluster_needs_single_inner_topology() -> None:
-    with pytest.raises(BuildError):
+def test_cluster_needs_topology() -> None:
+    with pytest.raises(BuildError, match="cluster=True needs builder='topology'"):
         build_sliding_window(_icosphere(1), cluster=True, builder="forsyth")
-    with pytest.raises(BuildError):
-        build_sliding_window(_icosphere(1), cluster=True, inner_vertices=2)
+
+
+def _linked_lods(pm: SlidingWindowProgressiveMesh) -> np.ndarray:
+    """Mask of the LODs in linked levels: levels whose first window starts inside the previous level's last
+    one (a linked level's head is the previous level's tail; a fully stored level starts past it)."""
+    rec = pm.window_records.astype(np.int64)
+    first_of_level = np.flatnonzero(np.diff(pm.lod_level) != 0) + 1
+    linked = [pm.lod_level[k] for k in first_of_level if rec[k, 0] < rec[k - 1, 0] + 3 * rec[k - 1, 1]]
+    return np.isin(pm.lod_level, linked)
+
+
+def _linked_levels(pm: SlidingWindowProgressiveMesh) -> int:
+    """The number of linked levels (see :func:`_linked_lods`)."""
+    return int(np.unique(pm.lod_level[_linked_lods(pm)]).shape[0])
+
+
+@pytest.mark.parametrize("swap", [False, True])
+def test_cluster_inner_vertices_icosphere_every_lod(swap: bool) -> None:
+    """Clustered / linked patches of several inner vertices (SWPM 3.2 with 3.3, the papers' case (d)):
+    every window a contiguous slice equal to the replay, a closed manifold within its vertex prefix, and
+    patches of more than one collapse in linked levels."""
+    mesh = _icosphere(3)
+    pm = swpm_usd.build(
+        mesh, encoding="sliding-window", cluster=True, inner_vertices=3, optimize_connectivity=swap
+    )
+    assert pm.params["cluster"] is True and pm.params["inner_vertices"] == 3
+    assert pm.lod_count > 20 and pm.level_count > 2
+    assert _linked_levels(pm) > 0
+    # some windows of the linked levels remove more than one vertex (a linked patch of several inner
+    # vertices; the fully stored levels have such patches with or without linking)
+    assert np.any((np.diff(pm.lod_steps) > 1) & _linked_lods(pm)[1:])
+    _check_all(pm, pm.collapse_sequence.mesh, closed=True)
+
+
+def test_cluster_inner_vertices_spot(spot: Mesh) -> None:
+    """On spot (closed manifold) with the edge swaps: valid, linked, and a smaller pool than both three
+    inner vertices alone (lambda 3.19 against 3.26) and clustered patches of one inner vertex."""
+    kw = dict(optimize_connectivity=True)
+    pm = build_sliding_window(spot, cluster=True, inner_vertices=3, **kw)
+    inner3 = build_sliding_window(spot, inner_vertices=3, **kw)
+    cluster1 = build_sliding_window(spot, cluster=True, **kw)
+    assert _linked_levels(pm) > 2
+    assert pm.index_pool.shape[0] < inner3.index_pool.shape[0]
+    assert pm.index_pool.shape[0] < cluster1.index_pool.shape[0]
+    assert pm.triangle_count_at(pm.lod_count - 1) < 0.02 * spot.triangle_count
+    _check_all(pm, pm.collapse_sequence.mesh, closed=True, every=3)
+
+
+def test_cluster_inner_vertices_open_mesh() -> None:
+    path = MESHES / "cow.obj"
+    assert path.exists(), "shared meshes not available"
+    mesh = swpm_usd.load_mesh(path)
+    pm = build_sliding_window(mesh, cluster=True, inner_vertices=2)
+    assert _linked_levels(pm) > 0
+    assert pm.index_pool.shape[0] < build_sliding_window(mesh, inner_vertices=2).index_pool.shape[0]
+    _check_all(pm, mesh, closed=False, every=5)
+
+
+def test_cluster_inner_vertices_bunny_lambda() -> None:
+    """Issue 4's target for three inner vertices per patch, the papers' Table 1 (d): bunny's pool at most
+    2.8 LOD 0's indices with the edge swaps and clustered patches (three inner vertices with the swaps alone:
+    2.88)."""
+    path = MESHES / "stanford-bunny.obj"
+    assert path.exists(), "shared meshes not available"
+    mesh = swpm_usd.load_mesh(path)
+    pm = build_sliding_window(mesh, cluster=True, inner_vertices=3, optimize_connectivity=True)
+    lam = pm.index_pool.shape[0] / (3 * mesh.triangle_count)
+    assert lam <= 2.8
+    assert _linked_levels(pm) > 5
+    _check_all(pm, pm.collapse_sequence.mesh, closed=False, every=401)
 
 
 def test_absorb_middle_trades_pool_size_for_cache(spot: Mesh) -> None:

@@ -188,7 +188,8 @@ def linked_level(gtris, ng, head, p_start, p_out, q_start, q_out, patch_steps, c
     that ends the previous one and is stored once (its ``D^h``; the formulas of the extracted text are
     garbled, this is reconstructed from the prose). Here the previous level's tail ``head`` (its ``M || Q``
     in final order) is this level's starting mesh; :func:`.sw_kernels.cluster_patches` chose centres whose
-    stars are disjoint intervals of it, so patch ``j`` is the run of ``head`` from its first star triangle to
+    stars are disjoint intervals of it (:func:`.sw_kernels.cluster_components`: patches of several inner
+    positions whose star unions are), so patch ``j`` is the run of ``head`` from its first star triangle to
     the next patch's first one (the first patch from 0): its star plus the untouched triangles in between,
     which reappear unchanged in ``Q_j`` (as with ``absorb_middle``). The untouched run after the last patch
     is this level's ``M``. Only ``Q_1 .. Q_m`` are appended to the pool."""
@@ -203,7 +204,7 @@ def linked_level(gtris, ng, head, p_start, p_out, q_start, q_out, patch_steps, c
     hi = np.full(m, -1)
     np.minimum.at(lo, pid, own_place)
     np.maximum.at(hi, pid, own_place)
-    if np.any(lo[1:] <= hi[:-1]):  # pragma: no cover - cluster_patches picks disjoint intervals
+    if np.any(lo[1:] <= hi[:-1]):  # pragma: no cover - the cluster kernels pick disjoint intervals
         raise BuildError("cluster: overlapping patches")
     bounds = np.r_[0, lo[1:], hi[-1] + 1].astype(np.int64)
     own = np.zeros(ng, bool)
