@@ -1,0 +1,152 @@
+"""Worst cases of the mesh loaders found by an adversarial campaign (header and structure mutations of each
+format): each is a clear MeshLoadError naming the file, or a load, without a long wait or an allocation far
+beyond the file's size."""
+
+from __future__ import annotations
+
+import base64
+import json
+import struct
+import time
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from swpm_usd.errors import MeshLoadError
+from swpm_usd.io import load_mesh
+from swpm_usd.io.trimesh_loader import _geometry_transforms
+
+#: a tetrahedron: 4 points, 4 triangles
+POINTS = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+
+
+def _gltf_doc() -> dict:
+    """The tetrahedron as a .gltf document, its buffers as data URIs."""
+    files = trimesh.Trimesh(POINTS, FACES, process=False).export(file_type="gltf")
+    doc = json.loads(files["model.gltf"])
+    for b in doc["buffers"]:
+        b["uri"] = "data:application/octet-stream;base64," + base64.b64encode(files[b["uri"]]).decode()
+    return doc
+
+
+def _glb() -> tuple[bytes, int]:
+    """The tetrahedron as a .glb, and the offset of its second chunk's header."""
+    data = trimesh.Trimesh(POINTS, FACES, process=False).export(file_type="glb")
+    return data, 20 + struct.unpack_from("<I", data, 12)[0]
+
+
+def _load_peak(path: Path) -> tuple[str, int]:
+    """(the MeshLoadError's message, the peak of memory traced while loading ``path``)."""
+    tracemalloc.start()
+    try:
+        with pytest.raises(MeshLoadError) as e:
+            load_mesh(path)
+        return str(e.value), tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+def test_a_deep_chain_of_nodes_loads_in_linear_time(tmp_path: Path) -> None:
+    """1,500 glTF nodes in a chain, each holding the mesh: each node's transform was looked up from the root
+    anew (trimesh's ``graph[node]``: a path search and a product per node), so 3,000 nodes (98 KB) took
+    174 s and 1,000 took 7 s; now one pass down the tree."""
+    doc = _gltf_doc()
+    n = 1500
+    doc["nodes"] = [{"mesh": 0, "children": [i + 1]} for i in range(n)] + [{"mesh": 0}]
+    doc["scenes"] = [{"nodes": [0]}]
+    path = tmp_path / "chain.gltf"
+    path.write_text(json.dumps(doc))
+    start = time.perf_counter()
+    mesh = load_mesh(path)
+    assert time.perf_counter() - start < 5.0
+    assert mesh.triangle_count == 4  # (the 1,501 copies in one place are welded by cleaning)
+
+
+def test_transforms_down_the_tree_are_trimeshs(tmp_path: Path) -> None:
+    """The transforms computed in one pass are those trimesh's ``graph[node]`` gives, node by node, in a tree
+    of translations, rotations, scales and matrices; and the loaded points are moved by them."""
+    doc = _gltf_doc()
+    rotation = [0.0, np.sin(0.3), 0.0, np.cos(0.3)]
+    matrix = np.diag([2.0, 1.0, 0.5, 1.0])
+    matrix[:3, 3] = [1, 2, 3]
+    doc["nodes"] = [
+        {"children": [1, 2], "translation": [1.0, 0.0, 0.0]},
+        {"mesh": 0, "rotation": rotation, "children": [3]},
+        {"mesh": 0, "scale": [1.0, 2.0, 3.0], "children": [4]},
+        {"mesh": 0, "matrix": matrix.T.reshape(-1).tolist()},  # (glTF: column-major)
+        {"children": [5], "translation": [0.0, 5.0, 0.0]},
+        {"mesh": 0, "translation": [0.0, 0.0, 7.0]},
+    ]
+    doc["scenes"] = [{"nodes": [0]}]
+    path = tmp_path / "tree.gltf"
+    path.write_text(json.dumps(doc))
+    scene = trimesh.load_scene(str(path), process=False)
+    ours = _geometry_transforms(scene.graph)
+    assert sorted(map(str, ours)) == sorted(map(str, scene.graph.nodes_geometry))
+    for node, (m, geometry) in ours.items():
+        want, want_geometry = scene.graph[node]
+        assert geometry == want_geometry
+        np.testing.assert_allclose(m, want, rtol=0, atol=1e-12)
+    mesh = load_mesh(path)
+    assert mesh.triangle_count == 16
+    # the last node: the root's translation, node 2's scale, node 4's and its own translations
+    last = POINTS * [1.0, 2.0, 3.0] + [1.0, 10.0, 21.0]
+    for p in last:
+        assert np.abs(mesh.points - p).max(axis=1).min() < 1e-6
+
+
+@pytest.mark.parametrize("chunk", [0, 1, 2])
+def test_a_glb_chunk_longer_than_the_file_is_refused_before_it_is_read(tmp_path: Path, chunk: int) -> None:
+    """A chunk length of 2^32 - 1 in a 1 KB .glb: its JSON chunk was read with ``read(length)`` (by the glTF
+    rewrite's look at it, then by trimesh), which asks for 4.3 GB before finding fewer bytes; a third chunk
+    likewise. Now the chunks are walked first and the file refused, naming the chunk."""
+    data, second = _glb()
+    if chunk == 0:
+        data = data[:12] + struct.pack("<I", 0xFFFFFFFF) + data[16:]
+    elif chunk == 1:
+        data = data[:second] + struct.pack("<I", 0xFFFFFFFF) + data[second + 4 :]
+    else:
+        data = data + struct.pack("<I4s", 0xFFFFFFFF, b"XTRA")
+        data = data[:8] + struct.pack("<I", len(data)) + data[12:]
+    path = tmp_path / "lying.glb"
+    path.write_bytes(data)
+    message, peak = _load_peak(path)
+    assert str(path) in message and f"chunk {chunk}" in message and "declares 4294967295 bytes" in message
+    assert peak < 50 * len(data) + (1 << 20)
+
+
+@pytest.mark.parametrize("count", [10**12, 2**53])
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+def test_an_accessor_without_a_buffer_view_is_not_allocated_from_its_count(
+    tmp_path: Path, count: int, suffix: str
+) -> None:
+    """An accessor without a bufferView (zeros, by glTF) of 10^12 or 2^53 elements: trimesh allocated its
+    zeros from the count alone (11.2 GiB for 10^9 in an 871-byte file), a MemoryError at best
+    ("trimesh could not read it"); now refused by its count before trimesh reads the file."""
+    doc = _gltf_doc()
+    position = doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"]
+    del doc["accessors"][position]["bufferView"]
+    doc["accessors"][position]["count"] = count
+    path = tmp_path / ("zeros" + suffix)
+    if suffix == ".gltf":
+        path.write_text(json.dumps(doc))
+    else:
+        binary = b"".join(base64.b64decode(b.pop("uri").split(",", 1)[1]) for b in doc["buffers"])
+        doc["buffers"] = [{"byteLength": len(binary)}]
+        text = json.dumps(doc).encode()
+        text += b" " * (-len(text) % 4)
+        binary += b"\0" * (-len(binary) % 4)
+        body = (
+            struct.pack("<I4s", len(text), b"JSON")
+            + text
+            + struct.pack("<I4s", len(binary), b"BIN\0")
+            + binary
+        )
+        path.write_bytes(struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body)
+    message, peak = _load_peak(path)
+    assert str(path) in message and f"accessor {position} has no bufferView and {count} elements" in message
+    assert peak < (16 << 20)
