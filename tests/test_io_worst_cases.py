@@ -135,7 +135,12 @@ def test_an_accessor_without_a_buffer_view_is_not_allocated_from_its_count(
     if suffix == ".gltf":
         path.write_text(json.dumps(doc))
     else:
-        binary = b"".join(base64.b64decode(b.pop("uri").split(",", 1)[1]) for b in doc["buffers"])
+        binary = b""
+        for view in doc["bufferViews"]:  # (the buffers as one binary chunk)
+            uri = doc["buffers"][view["buffer"]]["uri"]
+            view.update(buffer=0, byteOffset=len(binary) + view.get("byteOffset", 0))
+            binary += base64.b64decode(uri.split(",", 1)[1])
+            binary += b"\0" * (-len(binary) % 4)
         doc["buffers"] = [{"byteLength": len(binary)}]
         text = json.dumps(doc).encode()
         text += b" " * (-len(text) % 4)
