@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import base64
 import json
+import re
 import struct
 import time
 import tracemalloc
@@ -37,6 +38,28 @@ def _glb() -> tuple[bytes, int]:
     """The tetrahedron as a .glb, and the offset of its second chunk's header."""
     data = trimesh.Trimesh(POINTS, FACES, process=False).export(file_type="glb")
     return data, 20 + struct.unpack_from("<I", data, 12)[0]
+
+
+def _glb_of(doc: dict) -> bytes:
+    """The .gltf document ``doc`` (buffers as data URIs) as a .glb: its buffers one binary chunk."""
+    doc = json.loads(json.dumps(doc))
+    binary = b""
+    starts = []
+    for b in doc["buffers"]:
+        starts.append(len(binary))
+        binary += base64.b64decode(b["uri"].split(",", 1)[1])
+        binary += b"\0" * (-len(binary) % 4)
+    for view in doc["bufferViews"]:  # (a view of a buffer that is not there keeps its index)
+        b = view.get("buffer")
+        if isinstance(b, int) and 0 <= b < len(starts):
+            view.update(buffer=0, byteOffset=starts[b] + view.get("byteOffset", 0))
+    doc["buffers"] = [{"byteLength": len(binary)}]
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    body = (
+        struct.pack("<I4s", len(text), b"JSON") + text + struct.pack("<I4s", len(binary), b"BIN\0") + binary
+    )
+    return struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body
 
 
 def _load_peak(path: Path) -> tuple[str, int]:
@@ -135,23 +158,62 @@ def test_an_accessor_without_a_buffer_view_is_not_allocated_from_its_count(
     if suffix == ".gltf":
         path.write_text(json.dumps(doc))
     else:
-        binary = b""
-        for view in doc["bufferViews"]:  # (the buffers as one binary chunk)
-            uri = doc["buffers"][view["buffer"]]["uri"]
-            view.update(buffer=0, byteOffset=len(binary) + view.get("byteOffset", 0))
-            binary += base64.b64decode(uri.split(",", 1)[1])
-            binary += b"\0" * (-len(binary) % 4)
-        doc["buffers"] = [{"byteLength": len(binary)}]
-        text = json.dumps(doc).encode()
-        text += b" " * (-len(text) % 4)
-        binary += b"\0" * (-len(binary) % 4)
-        body = (
-            struct.pack("<I4s", len(text), b"JSON")
-            + text
-            + struct.pack("<I4s", len(binary), b"BIN\0")
-            + binary
-        )
-        path.write_bytes(struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body)
+        path.write_bytes(_glb_of(doc))
     message, peak = _load_peak(path)
     assert str(path) in message and f"accessor {position} has no bufferView and {count} elements" in message
     assert peak < (16 << 20)
+
+
+def _set(doc: dict, where: str, value: object) -> None:
+    *path, last = where.split(".")
+    obj = doc
+    for key in path:
+        obj = obj[int(key)] if isinstance(obj, list) else obj[key]
+    obj[last] = value
+
+
+@pytest.mark.parametrize(
+    "where, value, problem",
+    [
+        (
+            "bufferViews.0.byteOffset",
+            2**31 - 1,
+            r"bufferView 0 ends at byte \d+, past buffer 0's (48|96) bytes",
+        ),
+        (
+            "bufferViews.0.byteLength",
+            10**9,
+            r"bufferView 0 ends at byte 1000000000, past buffer 0's (48|96) bytes",
+        ),
+        ("bufferViews.0.byteLength", -1, r"bufferView 0 has byteOffset 0 and byteLength -1, not both counts"),
+        ("bufferViews.1.buffer", 7, r"bufferView 1 refers to buffer 7, the file has [12]"),
+        ("bufferViews.1.byteStride", -4, r"bufferView 1 has byteStride -4, not 4 to 252"),
+        ("accessors.0.bufferView", 2**31 - 1, r"accessor 0 refers to bufferView 2147483647, the file has 2"),
+        ("accessors.0.componentType", 9999, r"accessor 0 has componentType 9999, not a glTF component type"),
+        ("accessors.1.count", 2**31, r"accessor 1 reads \d+ bytes of bufferView 1, which holds 48"),
+        ("accessors.1.byteOffset", 2**63, r"accessor 1 reads \d+ bytes of bufferView 1, which holds 48"),
+        (
+            "meshes.0.primitives.0.indices",
+            5,
+            r"mesh 0 primitive 0: its indices refers to accessor 5, the file has 2",
+        ),
+    ],
+)
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+def test_a_gltf_structure_trimesh_refuses_is_named(
+    tmp_path: Path, where: str, value: object, problem: str, suffix: str
+) -> None:
+    """A bufferView past its buffer, an accessor past its view or of an unknown type, an index to nothing:
+    trimesh said "AssertionError: ", "IndexError: list index out of range", "KeyError: 9999" or "cannot
+    reshape array of size 0 into shape (4,3)"; now what is wrong, with the numbers."""
+    doc = _gltf_doc()
+    _set(doc, where, value)
+    path = tmp_path / ("bad" + suffix)
+    if suffix == ".gltf":
+        path.write_text(json.dumps(doc))
+    else:
+        path.write_bytes(_glb_of(doc))
+    with pytest.raises(MeshLoadError) as e:
+        load_mesh(path)
+    kind = suffix[1:].upper()
+    assert re.fullmatch(re.escape(f"{path}: not a valid {kind} file: ") + problem, str(e.value)), str(e.value)

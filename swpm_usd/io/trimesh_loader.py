@@ -10,8 +10,9 @@ has them. Any trimesh failure becomes a :class:`~swpm_usd.errors.MeshLoadError` 
 STL files are checked before trimesh reads them (:func:`check_stl`): trimesh takes a binary STL whose length
 disagrees with its header for ASCII, and drops an ASCII solid without its ``endsolid``, so a cut file would
 load as "no triangles" (or as part of its triangles) instead of being reported as truncated. An ASCII PLY
-is counted against its header likewise (:func:`ply_problem`), and a binary PLY, a .glb or a .gltf's buffers
-are looked at once trimesh has refused them, so the error says what is cut or wrong. A glTF's features trimesh
+is counted against its header likewise (:func:`ply_problem`), and a binary PLY, a .glb or a .gltf's buffers,
+views, accessors and primitives are looked at once trimesh has refused them, so the error says what is cut
+or wrong (a .glb's chunk lengths before: :func:`glb_chunk_problem`). A glTF's features trimesh
 reads wrongly or drops (sparse and normalized accessors, triangle fans, a uv without a material, no scene)
 are rewritten first (:mod:`.gltf_prepare`). An OFF file's vertex
 and face colours, which trimesh's OFF reader drops, are read here (:func:`_off_colours`).
@@ -558,6 +559,121 @@ def _gltf_buffer_problem(path: Path) -> str | None:
     return None
 
 
+#: glTF's accessor component types (their sizes in bytes) and element types (their widths)
+_GLTF_COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
+_GLTF_TYPE_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+
+
+def _gltf_document(path: Path) -> tuple[dict, int | None] | None:
+    """(the JSON document, the byte length of a .glb's binary chunk or None) of the .gltf or .glb file
+    ``path``, or None when it does not read (the checks before say why)."""
+    try:
+        data = path.read_bytes()
+        if path.suffix.lower() != ".glb":
+            doc, binary = json.loads(data), None
+        else:
+            json_length = int.from_bytes(data[12:16], "little")
+            doc = json.loads(data[20 : 20 + json_length])
+            at = 20 + json_length
+            binary = int.from_bytes(data[at : at + 4], "little") if len(data) >= at + 8 else None
+    except (OSError, ValueError, RecursionError):
+        return None
+    return (doc, binary) if isinstance(doc, dict) else None
+
+
+def _gltf_buffer_size(path: Path, buf: Any, i: int, binary: int | None) -> int | None:
+    """The byte length of buffer ``i`` (``buf``) of the glTF file ``path``, or None when not known."""
+    if not isinstance(buf, dict):
+        return None
+    uri = buf.get("uri")
+    if uri is None:
+        return binary if i == 0 else None
+    if not isinstance(uri, str):
+        return None
+    if uri.startswith("data:"):
+        try:
+            return len(base64.b64decode(uri.partition(",")[2], validate=True))
+        except (binascii.Error, ValueError):
+            return None
+    try:
+        folder = path.parent.resolve()
+        file = (folder / urllib.parse.unquote(uri).strip()).resolve()
+        return file.stat().st_size if file.is_relative_to(folder) and file.is_file() else None
+    except (OSError, ValueError, RuntimeError):
+        return None
+
+
+def _index(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def _gltf_structure_problem(path: Path) -> str | None:
+    """What is wrong with the bufferViews, accessors or primitives of the .gltf or .glb file ``path`` (a view
+    past its buffer, an accessor past its view, an index to nothing, an unknown type), or None (asked once
+    trimesh has failed on it: it said "AssertionError: ", "IndexError: list index out of range", "KeyError:
+    5" or "cannot reshape array of size 0 into shape (206,3)")."""
+    read = _gltf_document(path)
+    if read is None:
+        return None
+    doc, binary = read
+    buffers, views, accessors = (doc.get(k) for k in ("buffers", "bufferViews", "accessors"))
+    buffers = buffers if isinstance(buffers, list) else []
+    views = views if isinstance(views, list) else []
+    accessors = accessors if isinstance(accessors, list) else []
+    sizes = [_gltf_buffer_size(path, b, i, binary) for i, b in enumerate(buffers)]
+    for i, v in enumerate(views):
+        if not isinstance(v, dict):
+            return f"bufferView {i} is not an object"
+        b, offset, length = v.get("buffer"), v.get("byteOffset", 0), v.get("byteLength")
+        if not _index(b) or b >= len(buffers):
+            return f"bufferView {i} refers to buffer {b!r}, the file has {len(buffers)}"
+        if not _index(offset) or not _index(length):
+            return f"bufferView {i} has byteOffset {offset!r} and byteLength {length!r}, not both counts"
+        if sizes[b] is not None and offset + length > sizes[b]:
+            return f"bufferView {i} ends at byte {offset + length}, past buffer {b}'s {sizes[b]} bytes"
+        stride = v.get("byteStride")
+        if stride is not None and (not _index(stride) or not 4 <= stride <= 252):
+            return f"bufferView {i} has byteStride {stride!r}, not 4 to 252"
+    for i, a in enumerate(accessors):
+        if not isinstance(a, dict):
+            return f"accessor {i} is not an object"
+        component, kind, count = a.get("componentType"), a.get("type"), a.get("count")
+        if component not in _GLTF_COMPONENT_BYTES or isinstance(component, bool):
+            return f"accessor {i} has componentType {component!r}, not a glTF component type"
+        if kind not in _GLTF_TYPE_WIDTH:
+            return f"accessor {i} has type {kind!r}, not a glTF accessor type"
+        if not _index(count):
+            return f"accessor {i} has count {count!r}, not a count"
+        if "bufferView" not in a:
+            continue
+        view, offset = a["bufferView"], a.get("byteOffset", 0)
+        if not _index(view) or view >= len(views):
+            return f"accessor {i} refers to bufferView {view!r}, the file has {len(views)}"
+        if not _index(offset):
+            return f"accessor {i} has byteOffset {offset!r}, not a count"
+        size = _GLTF_COMPONENT_BYTES[component] * _GLTF_TYPE_WIDTH[kind]
+        end = offset + (count - 1) * (views[view].get("byteStride") or size) + size if count else offset
+        if end > views[view]["byteLength"]:
+            held = views[view]["byteLength"]
+            return f"accessor {i} reads {end} bytes of bufferView {view}, which holds {held}"
+        if offset % _GLTF_COMPONENT_BYTES[component]:
+            return f"accessor {i} has byteOffset {offset}, not a multiple of its component's size"
+    meshes = doc.get("meshes")
+    for m, mesh in enumerate(meshes if isinstance(meshes, list) else []):
+        primitives = mesh.get("primitives") if isinstance(mesh, dict) else None
+        for k, prim in enumerate(primitives if isinstance(primitives, list) else []):
+            if not isinstance(prim, dict):
+                continue
+            attrs = prim.get("attributes")
+            refs = list(attrs.items()) if isinstance(attrs, dict) else []
+            refs += [("indices", prim["indices"])] if "indices" in prim else []
+            for name, ref in refs:
+                if not _index(ref) or ref >= len(accessors):
+                    n = len(accessors)
+                    return f"mesh {m} primitive {k}: its {name} refers to accessor {ref!r}, the file has {n}"
+    return None
+
+
 def _glb_length_problem(path: Path) -> str | None:
     """Why the .glb file ``path`` is truncated (shorter than the length its header gives) or a chunk of it
     longer than the bytes after it, or None (asked once trimesh has failed on it: "chunk was not expected
@@ -656,7 +772,7 @@ def load_trimesh(path: Path) -> Mesh:
                 io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
             )
         elif file_type == "glb" and (problem := glb_chunk_problem(path)) is not None:
-            raise MeshLoadError(path, problem)
+            raise MeshLoadError(path, _glb_length_problem(path) or problem)  # ("truncated" when it is)
         elif file_type in ("gltf", "glb") and (prepared := prepared_gltf(path)) is not None:
             resolver = trimesh.resolvers.FilePathResolver(str(path))
             scene = trimesh.load_scene(
@@ -695,6 +811,9 @@ def load_trimesh(path: Path) -> Mesh:
             raise MeshLoadError(path, f"not a valid glTF file: {problem}") from e
         problem = _read_problem(path, ply_problem) if file_type == "ply" else None
         problem = _glb_length_problem(path) if file_type == "glb" else problem
+        if problem is None and file_type in ("gltf", "glb"):
+            problem = _gltf_structure_problem(path)
+            problem = None if problem is None else f"not a valid {file_type.upper()} file: {problem}"
         if problem is not None:
             raise MeshLoadError(path, problem) from e
         raise MeshLoadError(path, f"trimesh could not read it ({type(e).__name__}: {e})") from e
