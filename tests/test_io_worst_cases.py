@@ -190,6 +190,8 @@ def _set(doc: dict, where: str, value: object) -> None:
         ("bufferViews.1.byteStride", -4, r"bufferView 1 has byteStride -4, not 4 to 252"),
         ("accessors.0.bufferView", 2**31 - 1, r"accessor 0 refers to bufferView 2147483647, the file has 2"),
         ("accessors.0.componentType", 9999, r"accessor 0 has componentType 9999, not a glTF component type"),
+        ("accessors.0.componentType", [], r"accessor 0 has componentType \[\], not a glTF component type"),
+        ("accessors.1.type", {}, r"accessor 1 has type \{\}, not a glTF accessor type"),
         ("accessors.1.count", 2**31, r"accessor 1 reads \d+ bytes of bufferView 1, which holds 48"),
         ("accessors.1.byteOffset", 2**63, r"accessor 1 reads \d+ bytes of bufferView 1, which holds 48"),
         (
