@@ -329,41 +329,61 @@ def _json_depth(text: str) -> int:
     string and opens one outside it. Each quote is therefore "toggle" (after an even run) or "set inside"
     (after an odd run): the state after a quote is 1 after the last "set inside" before it, flipped by the
     toggles since. Same answers as a scan of string literals and brackets, valid JSON or not (a closing
-    bracket too many makes the depth negative, the deepest point stays the maximum reached)."""
-    b = np.frombuffer(text.encode("utf-8", "surrogatepass"), np.uint8)
-    n = b.size
-    # +1 at [ and {, -1 at ] and }, 0 elsewhere: one byte each (not a table lookup, whose index is 8 bytes)
-    step = ((b == 91) | (b == 123)).view(np.int8) - ((b == 93) | (b == 125)).view(np.int8)
-    quotes = np.flatnonzero(b == 34)
-    if quotes.size:
-        after_odd_run = np.zeros(quotes.size, bool)  # the quotes after an odd run of backslashes
-        slashes = np.flatnonzero(b == 92)
-        if slashes.size:
-            breaks = np.flatnonzero(np.diff(slashes) != 1)
-            starts = slashes[np.concatenate(([0], breaks + 1))]
-            ends = slashes[np.concatenate((breaks, [slashes.size - 1]))]
-            nxt = ends[(ends - starts) % 2 == 0] + 1  # after an odd run (of length end - start + 1)
-            nxt = nxt[nxt < n]
-            at = np.searchsorted(quotes, nxt)
-            hit = at < quotes.size
-            hit[hit] = quotes[at[hit]] == nxt[hit]
-            after_odd_run[at[hit]] = True
-        toggles = np.cumsum(~after_odd_run)
-        last_set = np.maximum.accumulate(np.where(after_odd_run, np.arange(quotes.size), -1))
-        since = np.where(last_set >= 0, toggles - toggles[np.maximum(last_set, 0)], toggles)
-        in_string = ((since & 1) == 1) ^ (last_set >= 0)  # after each quote
-        change = np.zeros(n, np.uint8)
-        change[quotes] = in_string ^ np.concatenate(([False], in_string[:-1]))
-        step[np.bitwise_xor.accumulate(change).view(bool)] = 0  # (a bracket is in a string or not after it)
+    bracket too many makes the depth negative, the deepest point stays the maximum reached).
+
+    The text is scanned :data:`_JSON_BLOCK` bytes at a time, carrying the depth, whether a string is open
+    and the parity of the run of backslashes the block starts in: the arrays of a block's quotes and
+    backslashes are 8-byte positions (about 48 bytes per byte of a text of quotes), so memory stays a
+    block's worth plus the encoded text."""
+    data = text.encode("utf-8", "surrogatepass")
     deepest = depth = 0
-    for i in range(0, n, _JSON_BLOCK):  # (a running sum a block at a time: 16 bytes per byte of one block)
-        running = np.cumsum(step[i : i + _JSON_BLOCK], dtype=np.int64)
+    inside = False  # a string open at the block's start
+    odd = False  # the block starts after an odd run of backslashes
+    for i in range(0, len(data), _JSON_BLOCK):
+        b = np.frombuffer(data, np.uint8, min(_JSON_BLOCK, len(data) - i), i)
+        n = b.size
+        # +1 at [ and {, -1 at ] and }, 0 elsewhere: one byte each (not a table lookup: its index is 8 bytes)
+        step = ((b == 91) | (b == 123)).view(np.int8) - ((b == 93) | (b == 125)).view(np.int8)
+        quotes = np.flatnonzero(b == 34)
+        if quotes.size:
+            slashes = np.flatnonzero(b == 92)
+            after_odd_run = np.zeros(quotes.size, bool)  # the quotes after an odd run of backslashes
+            after_odd_run[0] = odd and quotes[0] == 0
+            if slashes.size:
+                breaks = np.flatnonzero(np.diff(slashes) != 1)
+                starts = slashes[np.concatenate(([0], breaks + 1))]
+                ends = slashes[np.concatenate((breaks, [slashes.size - 1]))]
+                lengths = ends - starts + 1
+                if odd and starts[0] == 0:  # (the run goes on from the block before)
+                    lengths[0] += 1
+                nxt = ends[lengths % 2 == 1] + 1  # after an odd run
+                nxt = nxt[nxt < n]
+                at = np.searchsorted(quotes, nxt)
+                hit = at < quotes.size
+                hit[hit] = quotes[at[hit]] == nxt[hit]
+                after_odd_run[at[hit]] = True
+            toggles = np.cumsum(~after_odd_run)
+            last_set = np.maximum.accumulate(np.where(after_odd_run, np.arange(quotes.size), -1))
+            since = np.where(last_set >= 0, toggles - toggles[np.maximum(last_set, 0)], toggles)
+            in_string = ((since & 1) == 1) ^ np.where(last_set >= 0, True, inside)  # after each quote
+            change = np.zeros(n, np.uint8)
+            change[quotes] = in_string ^ np.concatenate(([inside], in_string[:-1]))
+            state = np.bitwise_xor.accumulate(change).view(bool)
+            step[state ^ inside] = 0  # (a bracket is in a string or not after it)
+            inside = bool(in_string[-1])
+        elif inside:
+            step[:] = 0
+        # the parity of the run of backslashes the block ends with (with the block before's if it is all one)
+        other = b[::-1] != 92
+        trailing = int(other.argmax()) if b[-1] == 92 and other.any() else (n if b[-1] == 92 else 0)
+        odd = trailing % 2 == 1 if trailing < n else odd != (n % 2 == 1)
+        running = np.cumsum(step, dtype=np.int64)
         deepest = max(deepest, depth + int(running.max()))
         depth += int(running[-1])
     return deepest
 
 
-#: the bytes of text summed at a time by :func:`_json_depth`
+#: the bytes of text scanned at a time by :func:`_json_depth`
 _JSON_BLOCK = 1 << 16
 
 
