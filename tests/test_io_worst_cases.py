@@ -122,6 +122,41 @@ def test_transforms_down_the_tree_are_trimeshs(tmp_path: Path) -> None:
         assert np.abs(mesh.points - p).max(axis=1).min() < 1e-6
 
 
+def test_transforms_leave_out_near_identities_as_trimesh_does(tmp_path: Path) -> None:
+    """trimesh's ``graph[node]`` leaves an edge's matrix within 1e-8 of the identity out of a path's product
+    (and takes a child of the base frame's edge as it is): the one-pass transforms do the same, so a file of
+    such nodes (an exporter's 1e-9 noise) loads with the same bits as before. With the near identities
+    multiplied in, 98 of 150 random trees of such nodes loaded other float32 points than before, and a
+    transform here was 5e-9 off; up to two matrices on a path, the bits are trimesh's."""
+    doc = _gltf_doc()
+    rotation = [0.0, float(np.sin(0.3)), 0.0, float(np.cos(0.3))]
+    near = [
+        {"translation": [5e-9, 0.0, -3e-9]},
+        {"scale": [1.0 + 3e-9, 1.0, 1.0]},
+        {"matrix": np.eye(4).ravel().tolist()},
+    ]
+    doc["nodes"] = [
+        {"children": [1, 4], **near[0]},
+        {"rotation": rotation, "children": [2], "mesh": 0},
+        {"children": [3], **near[1]},
+        {"mesh": 0, "translation": [1.0, -2.0, 0.5], "scale": [2.0, 1.0, 1.0]},
+        {"mesh": 0, "children": [5], **near[2]},
+        {"mesh": 0, "rotation": [0.0, 0.0, 1.0, 0.0]},  # (a half turn: -0.0 in its matrix)
+        {"mesh": 0, **near[1], "children": [7]},
+        {"mesh": 0, "rotation": rotation, "translation": [0.0, 1.0, 0.0]},
+    ]
+    doc["scenes"] = [{"nodes": [0, 6]}]
+    path = tmp_path / "near.gltf"
+    path.write_text(json.dumps(doc))
+    scene = trimesh.load_scene(str(path), process=False)
+    ours = _geometry_transforms(scene.graph)
+    assert sorted(map(str, ours)) == sorted(map(str, scene.graph.nodes_geometry))
+    for node, (m, geometry) in ours.items():
+        want, want_geometry = scene.graph[node]
+        assert geometry == want_geometry
+        assert m.tobytes() == np.asarray(want, np.float64).tobytes(), (node, m - want)
+
+
 @pytest.mark.parametrize("chunk", [0, 1, 2])
 def test_a_glb_chunk_longer_than_the_file_is_refused_before_it_is_read(tmp_path: Path, chunk: int) -> None:
     """A chunk length of 2^32 - 1 in a 1 KB .glb: its JSON chunk was read with ``read(length)`` (by the glTF

@@ -469,28 +469,42 @@ def _geometry_transforms(graph: Any) -> dict[Any, tuple[np.ndarray, Any]]:
     """{node: (its transform from the scene's base frame, its geometry's name)} of each node of the trimesh
     scene ``graph`` that has a geometry, in one pass down the tree: a transform is its parent's times its own
     edge's, each computed once. ``graph[node]`` looked up each node's path from the root, and multiplied it,
-    anew: a .gltf of 3,000 nodes in a chain (98 KB) took 174 s. The result is trimesh's (its rigid repair
-    applied to each product); a node whose parents do not lead to the base frame (a cycle, a broken chain)
-    is left to ``graph[node]``."""
+    anew: a .gltf of 3,000 nodes in a chain (98 KB) took 174 s. The result is trimesh's: an edge's matrix
+    within 1e-8 of the identity is left out of a product as ``graph[node]`` leaves it out (a child of the base
+    frame takes its edge's matrix as it is), and its rigid repair is applied to each product; the same bits
+    as trimesh's up to two matrices on the path, within rounding below (trimesh multiplies the path from its
+    end). A node whose parents do not lead to the base frame (a cycle, a broken chain) is left to
+    ``graph[node]``."""
     from trimesh.transformations import fix_rigid
 
     forest = graph.transforms
     parents, edges, base = forest.parents, forest.edge_data, graph.base_frame
-    world: dict[Any, np.ndarray] = {base: np.eye(4)}
+    # {node: the product of the matrices on its path not within 1e-8 of the identity, None for none}
+    product: dict[Any, np.ndarray | None] = {base: None}
+    identity = np.eye(4)
     out = {}
     for node in graph.nodes_geometry:
         chain = []
         at = node
-        while at not in world and at in parents and len(chain) <= len(parents):
+        while at not in product and at in parents and len(chain) <= len(parents):
             chain.append(at)
             at = parents[at]
-        if at not in world:  # (not under the base frame)
+        if at not in product:  # (not under the base frame)
             out[node] = graph[node]
             continue
         for child in reversed(chain):
+            before = product[parents[child]]
             matrix = edges.get((parents[child], child), {}).get("matrix")
-            world[child] = world[parents[child]] if matrix is None else world[parents[child]] @ matrix
-        matrix = world[node]
+            if matrix is None or np.abs(matrix - identity).max() <= 1e-8:
+                product[child] = before
+            else:
+                product[child] = matrix if before is None else before @ matrix
+        if node == base:
+            matrix = identity
+        elif parents.get(node) == base:  # (trimesh's edge as it is)
+            matrix = edges.get((base, node), {}).get("matrix", identity)
+        else:
+            matrix = identity if product[node] is None else product[node]
         if graph.repair_rigid is not None:
             matrix = fix_rigid(matrix, max_deviance=graph.repair_rigid)
         out[node] = (matrix, forest.node_data[node].get("geometry"))
