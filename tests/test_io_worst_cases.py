@@ -157,18 +157,19 @@ def test_transforms_leave_out_near_identities_as_trimesh_does(tmp_path: Path) ->
         assert m.tobytes() == np.asarray(want, np.float64).tobytes(), (node, m - want)
 
 
-@pytest.mark.parametrize("chunk", [0, 1, 2])
+@pytest.mark.parametrize("chunk", [0, 1, 2, 5002])
 def test_a_glb_chunk_longer_than_the_file_is_refused_before_it_is_read(tmp_path: Path, chunk: int) -> None:
     """A chunk length of 2^32 - 1 in a 1 KB .glb: its JSON chunk was read with ``read(length)`` (by the glTF
     rewrite's look at it, then by trimesh), which asks for 4.3 GB before finding fewer bytes; a third chunk
-    likewise. Now the chunks are walked first and the file refused, naming the chunk."""
+    likewise, and one after 5,000 empty chunks (a walk stopped after 4,096 let trimesh ask for the 4.3 GB).
+    Now the chunks are walked first and the file refused, naming the chunk."""
     data, second = _glb()
     if chunk == 0:
         data = data[:12] + struct.pack("<I", 0xFFFFFFFF) + data[16:]
     elif chunk == 1:
         data = data[:second] + struct.pack("<I", 0xFFFFFFFF) + data[second + 4 :]
     else:
-        data = data + struct.pack("<I4s", 0xFFFFFFFF, b"XTRA")
+        data = data + struct.pack("<I4s", 0, b"XTRA") * (chunk - 2) + struct.pack("<I4s", 0xFFFFFFFF, b"XTRA")
         data = data[:8] + struct.pack("<I", len(data)) + data[12:]
     path = tmp_path / "lying.glb"
     path.write_bytes(data)
