@@ -255,3 +255,21 @@ def test_a_gltf_structure_trimesh_refuses_is_named(
         load_mesh(path)
     kind = suffix[1:].upper()
     assert re.fullmatch(re.escape(f"{path}: not a valid {kind} file: ") + problem, str(e.value)), str(e.value)
+
+
+def test_a_glb_structure_is_looked_at_in_its_binary_chunk_wherever_it_is(tmp_path: Path) -> None:
+    """A .glb with a chunk of an unknown type between its JSON and binary chunks (which a reader ignores, and
+    trimesh does): the structure's look took the chunk after the JSON one for the binary one, so a file
+    trimesh refused for an unknown componentType was said to have a bufferView past "buffer 0's 8 bytes"."""
+    doc = _gltf_doc()
+    _set(doc, "accessors.0.componentType", 9999)
+    data = _glb_of(doc)
+    second = 20 + struct.unpack_from("<I", data, 12)[0]
+    data = data[:second] + struct.pack("<I4s", 8, b"XTRA") + b"01234567" + data[second:]
+    data = data[:8] + struct.pack("<I", len(data)) + data[12:]
+    path = tmp_path / "extra.glb"
+    path.write_bytes(data)
+    with pytest.raises(MeshLoadError) as e:
+        load_mesh(path)
+    want = f"{path}: not a valid GLB file: accessor 0 has componentType 9999, not a glTF component type"
+    assert str(e.value) == want

@@ -39,7 +39,7 @@ import numpy as np
 from ..errors import MeshLoadError
 from ..mesh import Mesh
 from .clean import clean_mesh, concatenate_parts, rgba_float, split_corners, transform_part
-from .gltf_prepare import prepared_gltf
+from .gltf_prepare import _COMPONENT, _WIDTH, _document, _Unread, prepared_gltf
 
 _TEXT_TYPES = ("obj", "off")
 #: a binary STL: an 80-byte header, the triangle count (uint32), then 50 bytes per triangle
@@ -575,25 +575,20 @@ def _gltf_buffer_problem(path: Path) -> str | None:
 
 
 #: glTF's accessor component types (their sizes in bytes) and element types (their widths)
-_GLTF_COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
-_GLTF_TYPE_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+_GLTF_COMPONENT_BYTES = {k: np.dtype(v).itemsize for k, v in _COMPONENT.items()}
+_GLTF_TYPE_WIDTH = {**_WIDTH, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 
 
 def _gltf_document(path: Path) -> tuple[dict, int | None] | None:
     """(the JSON document, the byte length of a .glb's binary chunk or None) of the .gltf or .glb file
-    ``path``, or None when it does not read (the checks before say why)."""
+    ``path``, or None when it does not read (the checks before say why). The chunks are found as the glTF
+    rewrite finds them (:func:`.gltf_prepare._document`: the first JSON and the first binary chunk, whatever
+    comes between them)."""
     try:
-        data = path.read_bytes()
-        if path.suffix.lower() != ".glb":
-            doc, binary = json.loads(data), None
-        else:
-            json_length = int.from_bytes(data[12:16], "little")
-            doc = json.loads(data[20 : 20 + json_length])
-            at = 20 + json_length
-            binary = int.from_bytes(data[at : at + 4], "little") if len(data) >= at + 8 else None
-    except (OSError, ValueError, RecursionError):
+        doc, binary = _document(path, path.read_bytes())
+    except (_Unread, OSError, ValueError, RecursionError):
         return None
-    return (doc, binary) if isinstance(doc, dict) else None
+    return (doc, None if binary is None else len(binary)) if isinstance(doc, dict) else None
 
 
 def _gltf_buffer_size(path: Path, buf: Any, i: int, binary: int | None) -> int | None:
