@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import base64
 import json
+import os
 import struct
 from pathlib import Path
 from typing import Any
@@ -310,6 +311,20 @@ def _check_extensions(path: Path, doc: Any) -> None:
         )
 
 
+def _check_counts(path: Path, doc: Any) -> None:
+    """Raise a :class:`MeshLoadError` for an accessor without a ``bufferView`` of more than
+    :data:`_ZEROS_MAX` elements: trimesh allocates its zeros from the count alone (an 871-byte file's count
+    of 10^9 asked for 11.2 GiB, one of 2^53 for 96 PiB), as the rewrite here would
+    (:meth:`_Rewrite.count`)."""
+    accessors = doc.get("accessors") if isinstance(doc, dict) else None
+    for i, a in enumerate(accessors if isinstance(accessors, list) else []):
+        count = a.get("count") if isinstance(a, dict) and "bufferView" not in a else None
+        if isinstance(count, int) and not isinstance(count, bool) and count > _ZEROS_MAX:
+            raise MeshLoadError(
+                path, f"accessor {i} has no bufferView and {count} elements (more than {_ZEROS_MAX})"
+            )
+
+
 def prepared_gltf(path: Path) -> bytes | None:
     """The ``.gltf`` or ``.glb`` file ``path`` rewritten as ``.gltf`` JSON (buffers inline, images still by
     their uri) for trimesh to read what it means, or None when it needs no rewrite or does not read."""
@@ -322,10 +337,11 @@ def prepared_gltf(path: Path) -> bytes | None:
                 if len(head) < _GLB_HEADER.size + _CHUNK.size:
                     return None
                 size, kind = _CHUNK.unpack_from(head, _GLB_HEADER.size)
-                if kind != _GLB_JSON:
+                if kind != _GLB_JSON or size > os.fstat(f.fileno()).st_size:  # (read(size) asks for size)
                     return None
                 doc = json.loads(f.read(size))
                 _check_extensions(path, doc)
+                _check_counts(path, doc)
                 if not _needs(doc):
                     return None
                 f.seek(0)
@@ -334,6 +350,7 @@ def prepared_gltf(path: Path) -> bytes | None:
             data = path.read_bytes()
         doc, binary = _document(path, data)
         _check_extensions(path, doc)
+        _check_counts(path, doc)
         if not isinstance(doc, dict) or not _needs(doc):
             return None
         return _rewrite(path, doc, binary)

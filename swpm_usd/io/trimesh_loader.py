@@ -10,8 +10,9 @@ has them. Any trimesh failure becomes a :class:`~swpm_usd.errors.MeshLoadError` 
 STL files are checked before trimesh reads them (:func:`check_stl`): trimesh takes a binary STL whose length
 disagrees with its header for ASCII, and drops an ASCII solid without its ``endsolid``, so a cut file would
 load as "no triangles" (or as part of its triangles) instead of being reported as truncated. An ASCII PLY
-is counted against its header likewise (:func:`ply_problem`), and a binary PLY, a .glb or a .gltf's buffers
-are looked at once trimesh has refused them, so the error says what is cut or wrong. A glTF's features trimesh
+is counted against its header likewise (:func:`ply_problem`), and a binary PLY, a .glb or a .gltf's buffers,
+views, accessors and primitives are looked at once trimesh has refused them, so the error says what is cut
+or wrong (a .glb's chunk lengths before: :func:`glb_chunk_problem`). A glTF's features trimesh
 reads wrongly or drops (sparse and normalized accessors, triangle fans, a uv without a material, no scene)
 are rewritten first (:mod:`.gltf_prepare`). An OFF file's vertex
 and face colours, which trimesh's OFF reader drops, are read here (:func:`_off_colours`).
@@ -22,6 +23,7 @@ from __future__ import annotations
 import base64
 import binascii
 import io
+import itertools
 import json
 import os
 import re
@@ -30,13 +32,14 @@ import urllib.parse
 import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..errors import MeshLoadError
 from ..mesh import Mesh
 from .clean import clean_mesh, concatenate_parts, rgba_float, split_corners, transform_part
-from .gltf_prepare import prepared_gltf
+from .gltf_prepare import _COMPONENT, _WIDTH, _document, _Unread, prepared_gltf
 
 _TEXT_TYPES = ("obj", "off")
 #: a binary STL: an 80-byte header, the triangle count (uint32), then 50 bytes per triangle
@@ -463,6 +466,52 @@ def _geometry_part(
     return points[vertex_point], triangles, new_attrs
 
 
+def _geometry_transforms(graph: Any) -> dict[Any, tuple[np.ndarray, Any]]:
+    """{node: (its transform from the scene's base frame, its geometry's name)} of each node of the trimesh
+    scene ``graph`` that has a geometry, in one pass down the tree: a transform is its parent's times its own
+    edge's, each computed once. ``graph[node]`` looked up each node's path from the root, and multiplied it,
+    anew: a .gltf of 3,000 nodes in a chain (98 KB) took 174 s. The result is trimesh's: an edge's matrix
+    within 1e-8 of the identity is left out of a product as ``graph[node]`` leaves it out (a child of the base
+    frame takes its edge's matrix as it is), and its rigid repair is applied to each product; the same bits
+    as trimesh's up to two matrices on the path, within rounding below (trimesh multiplies the path from its
+    end). A node whose parents do not lead to the base frame (a cycle, a broken chain) is left to
+    ``graph[node]``."""
+    from trimesh.transformations import fix_rigid
+
+    forest = graph.transforms
+    parents, edges, base = forest.parents, forest.edge_data, graph.base_frame
+    # {node: the product of the matrices on its path not within 1e-8 of the identity, None for none}
+    product: dict[Any, np.ndarray | None] = {base: None}
+    identity = np.eye(4)
+    out = {}
+    for node in graph.nodes_geometry:
+        chain = []
+        at = node
+        while at not in product and at in parents and len(chain) <= len(parents):
+            chain.append(at)
+            at = parents[at]
+        if at not in product:  # (not under the base frame)
+            out[node] = graph[node]
+            continue
+        for child in reversed(chain):
+            before = product[parents[child]]
+            matrix = edges.get((parents[child], child), {}).get("matrix")
+            if matrix is None or np.abs(matrix - identity).max() <= 1e-8:
+                product[child] = before
+            else:
+                product[child] = matrix if before is None else before @ matrix
+        if node == base:
+            matrix = identity
+        elif parents.get(node) == base:  # (trimesh's edge as it is)
+            matrix = edges.get((base, node), {}).get("matrix", identity)
+        else:
+            matrix = identity if product[node] is None else product[node]
+        if graph.repair_rigid is not None:
+            matrix = fix_rigid(matrix, max_deviance=graph.repair_rigid)
+        out[node] = (matrix, forest.node_data[node].get("geometry"))
+    return out
+
+
 def _gltf_json_problem(path: Path) -> str | None:
     """Why the .gltf file ``path`` is not a JSON object, or None if it is (asked once trimesh has failed on
     it: trimesh then reports a file it looked for instead, "FileNotFoundError: model.gltf")."""
@@ -525,6 +574,120 @@ def _gltf_buffer_problem(path: Path) -> str | None:
     return None
 
 
+#: glTF's accessor component types (their sizes in bytes) and element types (their widths)
+_GLTF_COMPONENT_BYTES = {k: np.dtype(v).itemsize for k, v in _COMPONENT.items()}
+_GLTF_TYPE_WIDTH = {**_WIDTH, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+
+
+def _gltf_document(path: Path) -> tuple[dict, int | None] | None:
+    """(the JSON document, the byte length of a .glb's binary chunk or None) of the .gltf or .glb file
+    ``path``, or None when it does not read (the checks before say why). The chunks are found as the glTF
+    rewrite finds them (:func:`.gltf_prepare._document`: the first JSON and the first binary chunk, whatever
+    comes between them)."""
+    try:
+        doc, binary = _document(path, path.read_bytes())
+    except (_Unread, OSError, ValueError, RecursionError):
+        return None
+    return (doc, None if binary is None else len(binary)) if isinstance(doc, dict) else None
+
+
+def _gltf_buffer_size(path: Path, buf: Any, i: int, binary: int | None) -> int | None:
+    """The byte length of buffer ``i`` (``buf``) of the glTF file ``path``, or None when not known."""
+    if not isinstance(buf, dict):
+        return None
+    uri = buf.get("uri")
+    if uri is None:
+        return binary if i == 0 else None
+    if not isinstance(uri, str):
+        return None
+    if uri.startswith("data:"):
+        try:
+            return len(base64.b64decode(uri.partition(",")[2], validate=True))
+        except (binascii.Error, ValueError):
+            return None
+    try:
+        folder = path.parent.resolve()
+        file = (folder / urllib.parse.unquote(uri).strip()).resolve()
+        return file.stat().st_size if file.is_relative_to(folder) and file.is_file() else None
+    except (OSError, ValueError, RuntimeError):
+        return None
+
+
+def _index(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def _gltf_structure_problem(path: Path) -> str | None:
+    """What is wrong with the bufferViews, accessors or primitives of the .gltf or .glb file ``path`` (a view
+    past its buffer, an accessor past its view, an index to nothing, an unknown type), or None (asked once
+    trimesh has failed on it: it said "AssertionError: ", "IndexError: list index out of range", "KeyError:
+    5" or "cannot reshape array of size 0 into shape (206,3)")."""
+    read = _gltf_document(path)
+    if read is None:
+        return None
+    doc, binary = read
+    buffers, views, accessors = (doc.get(k) for k in ("buffers", "bufferViews", "accessors"))
+    buffers = buffers if isinstance(buffers, list) else []
+    views = views if isinstance(views, list) else []
+    accessors = accessors if isinstance(accessors, list) else []
+    sizes = [_gltf_buffer_size(path, b, i, binary) for i, b in enumerate(buffers)]
+    for i, v in enumerate(views):
+        if not isinstance(v, dict):
+            return f"bufferView {i} is not an object"
+        b, offset, length = v.get("buffer"), v.get("byteOffset", 0), v.get("byteLength")
+        if not _index(b) or b >= len(buffers):
+            return f"bufferView {i} refers to buffer {b!r}, the file has {len(buffers)}"
+        if not _index(offset) or not _index(length):
+            return f"bufferView {i} has byteOffset {offset!r} and byteLength {length!r}, not both counts"
+        if sizes[b] is not None and offset + length > sizes[b]:
+            return f"bufferView {i} ends at byte {offset + length}, past buffer {b}'s {sizes[b]} bytes"
+        stride = v.get("byteStride")
+        if stride is not None and (not _index(stride) or not 4 <= stride <= 252):
+            return f"bufferView {i} has byteStride {stride!r}, not 4 to 252"
+    for i, a in enumerate(accessors):
+        if not isinstance(a, dict):
+            return f"accessor {i} is not an object"
+        component, kind, count = a.get("componentType"), a.get("type"), a.get("count")
+        if (
+            not isinstance(component, int)
+            or isinstance(component, bool)
+            or component not in _GLTF_COMPONENT_BYTES
+        ):
+            return f"accessor {i} has componentType {component!r}, not a glTF component type"
+        if not isinstance(kind, str) or kind not in _GLTF_TYPE_WIDTH:
+            return f"accessor {i} has type {kind!r}, not a glTF accessor type"
+        if not _index(count):
+            return f"accessor {i} has count {count!r}, not a count"
+        if "bufferView" not in a:
+            continue
+        view, offset = a["bufferView"], a.get("byteOffset", 0)
+        if not _index(view) or view >= len(views):
+            return f"accessor {i} refers to bufferView {view!r}, the file has {len(views)}"
+        if not _index(offset):
+            return f"accessor {i} has byteOffset {offset!r}, not a count"
+        size = _GLTF_COMPONENT_BYTES[component] * _GLTF_TYPE_WIDTH[kind]
+        end = offset + (count - 1) * (views[view].get("byteStride") or size) + size if count else offset
+        if end > views[view]["byteLength"]:
+            held = views[view]["byteLength"]
+            return f"accessor {i} reads {end} bytes of bufferView {view}, which holds {held}"
+        if offset % _GLTF_COMPONENT_BYTES[component]:
+            return f"accessor {i} has byteOffset {offset}, not a multiple of its component's size"
+    meshes = doc.get("meshes")
+    for m, mesh in enumerate(meshes if isinstance(meshes, list) else []):
+        primitives = mesh.get("primitives") if isinstance(mesh, dict) else None
+        for k, prim in enumerate(primitives if isinstance(primitives, list) else []):
+            if not isinstance(prim, dict):
+                continue
+            attrs = prim.get("attributes")
+            refs = list(attrs.items()) if isinstance(attrs, dict) else []
+            refs += [("indices", prim["indices"])] if "indices" in prim else []
+            for name, ref in refs:
+                if not _index(ref) or ref >= len(accessors):
+                    n = len(accessors)
+                    return f"mesh {m} primitive {k}: its {name} refers to accessor {ref!r}, the file has {n}"
+    return None
+
+
 def _glb_length_problem(path: Path) -> str | None:
     """Why the .glb file ``path`` is truncated (shorter than the length its header gives) or a chunk of it
     longer than the bytes after it, or None (asked once trimesh has failed on it: "chunk was not expected
@@ -533,22 +696,38 @@ def _glb_length_problem(path: Path) -> str | None:
         with open(path, "rb") as f:
             head = f.read(12)
             size = os.fstat(f.fileno()).st_size
+    except OSError:
+        return None
+    if len(head) < 12 or head[:4] != b"glTF":
+        return None
+    length = int.from_bytes(head[8:12], "little")
+    if size < length:
+        return f"truncated GLB: its header says {length} bytes, the file has {size}"
+    return glb_chunk_problem(path)
+
+
+def glb_chunk_problem(path: Path) -> str | None:
+    """Why a chunk of the .glb file ``path`` is longer than the bytes after it, or None. Asked before trimesh
+    reads the file: trimesh reads each chunk with ``read(its length)``, which asks for that many bytes before
+    it finds fewer (a 5.6 KB file whose chunk declared 4,294,967,295 bytes had 4.3 GB asked for, a
+    MemoryError wherever the address space is limited). Every chunk is walked, as trimesh reads every one: a
+    walk stopped after 4,096 let a lying chunk after 5,000 empty ones (40 KB) have 4.3 GB asked for."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(12)
+            size = os.fstat(f.fileno()).st_size
             if len(head) < 12 or head[:4] != b"glTF":
                 return None
-            length = int.from_bytes(head[8:12], "little")
-            if size < length:
-                return f"truncated GLB: its header says {length} bytes, the file has {size}"
-            # a chunk longer than the bytes after it ("chunk was not expected length!", or a JSON error)
             at = 12
-            for i in range(2):  # (the JSON chunk, then the binary one: trimesh reads those two)
+            for i in itertools.count():  # (every chunk: trimesh reads on while bytes follow)
                 chunk = f.read(8)
                 if len(chunk) < 8:
                     return None
                 chunk_length = int.from_bytes(chunk[:4], "little")
                 if at + 8 + chunk_length > size:
-                    kind = "JSON" if i == 0 else "binary"
+                    kind = {0: " (JSON)", 1: " (binary)"}.get(i, "")
                     return (
-                        f"not a valid GLB: chunk {i} ({kind}) declares {chunk_length} bytes, "
+                        f"not a valid GLB: chunk {i}{kind} declares {chunk_length} bytes, "
                         f"{size - at - 8} follow it"
                     )
                 at += 8 + chunk_length
@@ -603,6 +782,8 @@ def load_trimesh(path: Path) -> Mesh:
             scene = trimesh.load_scene(
                 io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
             )
+        elif file_type == "glb" and (problem := glb_chunk_problem(path)) is not None:
+            raise MeshLoadError(path, _glb_length_problem(path) or problem)  # ("truncated" when it is)
         elif file_type in ("gltf", "glb") and (prepared := prepared_gltf(path)) is not None:
             resolver = trimesh.resolvers.FilePathResolver(str(path))
             scene = trimesh.load_scene(
@@ -611,8 +792,7 @@ def load_trimesh(path: Path) -> Mesh:
         else:
             scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
         parts = []
-        for node in scene.graph.nodes_geometry:
-            matrix, geom_name = scene.graph[node]
+        for matrix, geom_name in _geometry_transforms(scene.graph).values():
             geom = scene.geometry[geom_name]
             colours = None
             if file_type == "off" and isinstance(geom, trimesh.Trimesh):
@@ -642,6 +822,12 @@ def load_trimesh(path: Path) -> Mesh:
             raise MeshLoadError(path, f"not a valid glTF file: {problem}") from e
         problem = _read_problem(path, ply_problem) if file_type == "ply" else None
         problem = _glb_length_problem(path) if file_type == "glb" else problem
+        if problem is None and file_type in ("gltf", "glb"):
+            try:
+                problem = _gltf_structure_problem(path)
+            except Exception:  # noqa: BLE001 - (a look for the message: trimesh's is given without it)
+                problem = None
+            problem = None if problem is None else f"not a valid {file_type.upper()} file: {problem}"
         if problem is not None:
             raise MeshLoadError(path, problem) from e
         raise MeshLoadError(path, f"trimesh could not read it ({type(e).__name__}: {e})") from e
