@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from pxr import Usd, UsdGeom, Vt
+from pxr import Sdf, Usd, UsdGeom, Vt
 
 from swpm_usd.errors import MeshLoadError
 from swpm_usd.io import load_mesh
@@ -644,14 +644,19 @@ def _alive(pid: int) -> bool:
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
 def test_a_probe_server_ends_with_the_process_that_asks(tmp_path):
     # a worker killed while a probe ran left its probe server (and the probe) alive until the probe's alarm,
-    # up to 300 s. A FIFO named .usdc hangs usd-core's open (no writer): the probe waits as on a slow file
+    # up to 300 s. The worker's probes hang (a sleep where usd-core would work: as on a slow file; a FIFO,
+    # which hung usd-core's open, is now answered without a probe)
     import time
 
-    fifo = tmp_path / "slow.usdc"
-    os.mkfifo(fifo)
-    code = "import sys\nfrom swpm_usd.usd import probe\nprobe.check(sys.argv[1])\n"
+    seed = _seed(tmp_path / "slow.usdc")
+    code = (
+        "import sys\nfrom swpm_usd.usd import probe\n"
+        "probe._PROBE = probe._PROBE.replace('def probe(path):\\n', "
+        "'def probe(path):\\n    import time\\n    time.sleep(600)\\n')\n"
+        "probe.check(sys.argv[1])\n"
+    )
     env = {**os.environ, "SWPM_USD_PROBE_SECONDS": "300"}
-    worker = subprocess.Popen([sys.executable, "-c", code, str(fifo)], env=env)
+    worker = subprocess.Popen([sys.executable, "-c", code, str(seed)], env=env)
     try:
         deadline = time.monotonic() + 120
         servers: list[int] = []
@@ -799,20 +804,66 @@ def test_the_planner_probes_its_new_usd_assets_in_one_batch(tmp_path, monkeypatc
 
 
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs on this platform")
-@pytest.mark.parametrize("case", ["fifo.usd", "fifo.usda", "sublayer-fifo.usda"])
-def test_a_fifo_given_as_a_layer_is_probed_not_read_here(tmp_path, case):
-    # a FIFO named .usd was read here for its magic bytes, and a .usda one (or one a text root sublayers)
-    # parsed here: each read waited for a writer for ever. Such a file is probed: the alarm ends the wait
-    fifo = tmp_path / ("slow.usda" if case != "fifo.usd" else "slow.usd")
-    os.mkfifo(fifo)
-    target = fifo
+@pytest.mark.parametrize(
+    "case", ["fifo.usd", "fifo.usda", "fifo.usdc", "sublayer-fifo.usda", "sublayer-fifo.usdc", "folder.usda"]
+)
+def test_a_layer_that_is_not_a_regular_file_is_an_open_error_at_once(tmp_path, case):
+    # a FIFO given as a layer (the root, a layer a text root names, or one a crate root names, which only the
+    # probe reads) was probed, and its open waited for a writer until the probe's alarm: 300 s before a
+    # timeout. It is reported at once, by os.stat, as the open error it is, naming the file; never opened
+    import time
+
+    odd = tmp_path / (
+        "slow.usd" if case == "fifo.usd" else "slow.usdc" if case == "fifo.usdc" else "slow.usda"
+    )
+    if case == "folder.usda":
+        odd.mkdir()
+    else:
+        os.mkfifo(odd)
+    target = odd
     if case == "sublayer-fifo.usda":
         target = tmp_path / "root.usda"
-        target.write_text(f"#usda 1.0\n(\n    subLayers = [@{fifo.name}@]\n)\n")
-    code = "import sys\nfrom swpm_usd.usd import probe\nprint(probe.check(sys.argv[1]))\n"
-    env = {**os.environ, "SWPM_USD_PROBE_SECONDS": "1"}
-    done = subprocess.run(
-        [sys.executable, "-c", code, str(target)], env=env, capture_output=True, text=True, timeout=120
+        target.write_text(f"#usda 1.0\n(\n    subLayers = [@./{odd.name}@]\n)\n")
+    elif case == "sublayer-fifo.usdc":
+        target = _seed(tmp_path / "root.usdc")
+        layer = Sdf.Layer.FindOrOpen(str(target))  # (a layer, not a stage: which would open the sublayer)
+        layer.subLayerPaths.append(f"./{odd.name}")
+        layer.Save()
+        del layer
+    what = "a folder" if case == "folder.usda" else "a FIFO"
+    if target == odd:
+        message = f"{target}: it is not a regular file ({what}); it was not opened"
+    else:
+        message = (
+            f"{target}: a layer its stage opens, {odd}, is not a regular file ({what}); it was not opened"
+        )
+    code = (
+        "import sys\nfrom swpm_usd.usd import probe\nfrom swpm_usd.usd.validate import validate_stage\n"
+        "print(repr(probe.check(sys.argv[1])))\n"
+        "print(repr([(f.code, f.message) for f in validate_stage(sys.argv[1])]))\n"
     )
+    env = {**os.environ, "SWPM_USD_PROBE_SECONDS": "300"}
+    start = time.monotonic()
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(target)], env=env, capture_output=True, text=True, timeout=240
+    )
+    took = time.monotonic() - start
     assert done.returncode == 0, done.stderr
-    assert "kind='timeout'" in done.stdout and str(target) in done.stdout, done.stdout
+    found, findings = done.stdout.splitlines()
+    assert found == repr(probe.Problem("open", message)), found
+    assert eval(findings) == [("SWPM_USD_OPEN", message)], findings  # noqa: S307 - our own repr
+    assert took < 120, took  # (not the alarm's 300 s: on a loaded machine, two starts of Python and usd-core)
+
+
+def test_a_probe_that_hangs_is_a_timeout_at_its_alarm(tmp_path, monkeypatch):
+    # the alarm stays the backstop for what os.stat cannot tell before the open (a layer usd-core hangs on)
+    monkeypatch.setenv("SWPM_USD_PROBE_SECONDS", "1")
+    _patched_program(
+        monkeypatch, "def probe(path):\n", "def probe(path):\n    import time\n    time.sleep(60)\n"
+    )
+    try:
+        seed = _seed(tmp_path / "slow.usdc")
+        found = probe.check(seed)
+    finally:
+        probe._stop(probe._server)  # (the next test's server runs the real program)
+    assert found is not None and found.kind == "timeout" and found.message.startswith(f"{seed}: "), found
