@@ -388,7 +388,12 @@ def is_crate(path: str | os.PathLike[str]) -> bool:
     if suffix == ".usda":
         return False
     if not _regular(os.fspath(path)):
-        return True  # (not read here: a FIFO's read waits for a writer; the probe's alarm ends that wait)
+        return True  # (not read here: a FIFO's read waits for a writer; check reports it at once)
+    return _crate_magic(os.fspath(path))
+
+
+def _crate_magic(path: str) -> bool:
+    """Whether the file at ``path`` (a regular file) starts with :data:`CRATE_MAGIC`."""
     try:
         with open(path, "rb") as f:
             return f.read(len(CRATE_MAGIC)) == CRATE_MAGIC
@@ -547,9 +552,8 @@ def check_many(paths: Sequence[str | os.PathLike[str]], jobs: int | None = None)
             _answers[key] = (_not_regular(p, None, st.st_mode), (), p)
             answers[i] = _answers[key][0]
             continue
-        if Path(p).suffix.lower() in (".usdc", ".usdz") or (
-            Path(p).suffix.lower() != ".usda" and is_crate(p)
-        ):
+        suffix = Path(p).suffix.lower()
+        if suffix in (".usdc", ".usdz") or (suffix != ".usda" and _crate_magic(p)):  # (is_crate, stat'ed)
             named: list[str] = []
         else:
             try:

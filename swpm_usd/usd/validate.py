@@ -488,16 +488,17 @@ def validate_stage(path: str | os.PathLike[str] | Usd.Stage, builtin: bool = Tru
     if isinstance(path, Usd.Stage):
         stage = path
     else:
-        from .probe import check
+        from .probe import checked
 
         # a corrupt crate file can crash usd-core (SIGSEGV) or make it ask for a giant allocation: opened
-        # first in a probe process, and here only if that ends cleanly
-        probed = check(path)
-        if probed is not None:
-            kinds = {"open": "SWPM_USD_OPEN", "read": "SWPM_USD_READ", "probe": "SWPM_USD_PROBE"}
-            code = kinds.get(probed.kind, "SWPM_USD_CRASH")
-            return [Finding(code, ERROR, "/", probed.message)]
-        stage, problem = _open(os.fspath(path))
+        # first in a probe process, and here only if that ends cleanly (the text layers the check parsed
+        # here held for the open: parsed once)
+        with checked(path) as probed:
+            if probed is not None:
+                kinds = {"open": "SWPM_USD_OPEN", "read": "SWPM_USD_READ", "probe": "SWPM_USD_PROBE"}
+                code = kinds.get(probed.kind, "SWPM_USD_CRASH")
+                return [Finding(code, ERROR, "/", probed.message)]
+            stage, problem = _open(os.fspath(path))
         if stage is None:
             return [Finding("SWPM_USD_OPEN", ERROR, "/", problem)]
     reg = UsdValidation.ValidationRegistry()
