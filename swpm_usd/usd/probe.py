@@ -13,10 +13,16 @@ file) the caller turns into its typed error (``validate``: ``SWPM_USD_CRASH``, `
 A stage is probed when opening it opens a crate file (:func:`needs_probe`): its root is one (:func:`is_crate`:
 a ``.usdc``, a ``.usdz``, a ``.usd`` whose first bytes are ``PXR-USDC``; usd-core's text parser fails
 cleanly), or a text root whose sublayers, references, payloads, clips or other asset paths, through text
-layers as deep as they go, resolve to one (those text layers are parsed in this process: each text layer of a
-stage is parsed twice, the price of knowing before the stage's open). Each answer is kept for this process
-while the file and every file it depends on (the layers the probe opened, the files its text layers or the
-stage's composition errors name: one missing, should it appear) keep their path, size, mtime and inode. One
+layers as deep as they go, resolve to one (those text layers are parsed in this process; a caller that opens
+the stage in a :func:`checked` block finds them parsed, held for its open: each parsed once). A layer that is
+not a regular file (a FIFO, whose open waits for a writer; a folder; a device), the root or one a layer names,
+is an "open" problem at once, decided by ``os.stat`` and never opened: here for the root and the layers text
+layers name, in the probe (which opens the stage's layers one by one before the stage) for those a crate layer
+names; the probe's alarm is left for what cannot be named before the open. Each answer is kept for this
+process while the file and every file it depends on (the layers the probe opened or was opening when it
+crashed or ran out of time: it names each to the server before it opens it; the files its text layers or the
+stage's composition errors name: one missing, should it appear) keep their path, size, mtime and inode; one
+file given in two spellings (a link, ``d/..``) is one file, probed once. One
 probe server serves every file of this process: started once (Python and usd-core's import, about 0.3 s), it
 forks a fresh process for each file (about 12 ms for a small one: the server has built usd-core's schema
 registry once, on a stage of its own in memory, which each fork inherits), several at once for
