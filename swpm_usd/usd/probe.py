@@ -17,7 +17,8 @@ layers as deep as they go, resolve to one (those text layers are parsed in this 
 the stage in a :func:`checked` block finds them parsed, held for its open: each parsed once). A layer that is
 not a regular file (a FIFO, whose open waits for a writer; a folder; a device), the root or one a layer names,
 is an "open" problem at once, decided by ``os.stat`` and never opened: here for the root and the layers text
-layers name, in the probe (which opens the stage's layers one by one before the stage) for those a crate layer
+layers name, in the probe (which opens the stage's layers one by one before the stage; one only a variant
+names is named, not opened: the stage opens it only when the variant is selected) for those a crate layer
 names; the probe's alarm is left for what cannot be named before the open. Each answer is kept for this
 process while the file and every file it depends on (the layers the probe opened or was opening when it
 crashed or ran out of time: it names each to the server before it opens it; the files its text layers or the
@@ -111,11 +112,27 @@ def kind(mode):
         if test(mode):
             return what
     return "not a regular file"
+def arcs(layer):
+    # the asset paths of a layer's references and payloads outside variants (the stage's open opens them
+    # whatever the selections), and those inside a variant (opened only when it is selected)
+    always, varied, todo = [], [], [(child, False) for child in layer.pseudoRoot.nameChildren]
+    while todo:
+        spec, inside = todo.pop()
+        for items in (spec.referenceList, spec.payloadList):
+            for item in items.GetAddedOrExplicitItems():
+                if item.assetPath:
+                    (varied if inside else always).append(item.assetPath)
+        todo.extend((child, inside) for child in spec.nameChildren)
+        for variants in spec.variantSets.values():
+            todo.extend((variant.primSpec, True) for variant in variants.variants.values())
+    return always, varied
 def preopen(path):
     # the stage's layers (sublayers, references, payloads, through every layer they name) opened one by one
     # before the stage (held: its open finds them), each named to the server first; one that is not a
     # regular file (a FIFO, whose open waits for a writer) is answered at once, never opened (the alarm is
-    # left for a layer named no other way). A layer that does not open is left to the stage's open
+    # left for a layer named no other way). A layer that does not open is left to the stage's open. A layer
+    # only a variant names is named, not opened (the stage opens it only if the variant is selected: one
+    # that crashes usd-core in a variant not selected is no crash of the stage)
     resolver = Ar.GetResolver()
     root = os.path.abspath(path)
     held, seen, todo = [], set(), [root]
@@ -137,17 +154,25 @@ def preopen(path):
         try:
             layer = Sdf.Layer.FindOrOpen(spelled)
             assets = list(layer.GetCompositionAssetDependencies()) if layer else []
+            varied = []
+            if set(assets) - set(layer.subLayerPaths):  # (references or payloads: in a variant, maybe)
+                always, varied = arcs(layer)
+                assets = [*layer.subLayerPaths, *always]
         except Exception:
             continue
         held.append(layer)
-        for asset in assets:
+        for asset in [*assets, *varied]:
             try:
                 found = str(resolver.Resolve(resolver.CreateIdentifier(asset, layer.resolvedPath)))
             except Exception:
                 found = ""
             if not found:
                 found = os.path.join(os.path.dirname(str(layer.resolvedPath)), asset)
-            todo.append(found.split("[", 1)[0])
+            found = found.split("[", 1)[0]
+            if asset in assets:
+                todo.append(found)
+            elif found.lower().endswith((".usd", ".usda", ".usdc", ".usdz")):
+                note(os.path.realpath(found))  # (a crash of the stage's open in it: keyed on it too)
     return "", held
 def probe(path):
     odd, held = preopen(path)
