@@ -118,13 +118,14 @@ def arcs(layer):
     always, varied, todo = [], [], [(child, False) for child in layer.pseudoRoot.nameChildren]
     while todo:
         spec, inside = todo.pop()
-        for items in (spec.referenceList, spec.payloadList):
-            for item in items.GetAddedOrExplicitItems():
+        for has, items in ((spec.hasReferences, spec.referenceList), (spec.hasPayloads, spec.payloadList)):
+            for item in items.GetAddedOrExplicitItems() if has else ():
                 if item.assetPath:
                     (varied if inside else always).append(item.assetPath)
         todo.extend((child, inside) for child in spec.nameChildren)
-        for variants in spec.variantSets.values():
-            todo.extend((variant.primSpec, True) for variant in variants.variants.values())
+        if spec.variantSets:
+            for variants in spec.variantSets.values():
+                todo.extend((variant.primSpec, True) for variant in variants.variants.values())
     return always, varied
 def preopen(path):
     # the stage's layers (sublayers, references, payloads, through every layer they name) opened one by one
@@ -154,13 +155,17 @@ def preopen(path):
         try:
             layer = Sdf.Layer.FindOrOpen(spelled)
             assets = list(layer.GetCompositionAssetDependencies()) if layer else []
-            varied = []
-            if set(assets) - set(layer.subLayerPaths):  # (references or payloads: in a variant, maybe)
-                always, varied = arcs(layer)
-                assets = [*layer.subLayerPaths, *always]
         except Exception:
             continue
         held.append(layer)
+        varied = []
+        if layer and set(assets) - set(layer.subLayerPaths):  # (references or payloads: in a variant, maybe)
+            try:
+                always, varied = arcs(layer)
+                assets = [*layer.subLayerPaths, *always]
+            except Exception:
+                varied = []  # (each layer it names opened)
+        opens = set(assets)
         for asset in [*assets, *varied]:
             try:
                 found = str(resolver.Resolve(resolver.CreateIdentifier(asset, layer.resolvedPath)))
@@ -169,7 +174,7 @@ def preopen(path):
             if not found:
                 found = os.path.join(os.path.dirname(str(layer.resolvedPath)), asset)
             found = found.split("[", 1)[0]
-            if asset in assets:
+            if asset in opens:
                 todo.append(found)
             elif found.lower().endswith((".usd", ".usda", ".usdc", ".usdz")):
                 note(os.path.realpath(found))  # (a crash of the stage's open in it: keyed on it too)
