@@ -359,61 +359,62 @@ def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
     A crate file (``.usdc``) is opened first in a probe process (:func:`swpm_usd.usd.probe.check`): one that
     crashes usd-core there, hangs it or makes it fail is a :class:`MeshLoadError` with what the probe found,
     without being opened in this process."""
-    from ..usd.probe import check
+    from ..usd.probe import checked
 
-    probed = check(path)
-    if probed is not None:
-        raise MeshLoadError(path, probed.message.removeprefix(f"{path}: "))
-    try:
+    # (the text layers the check parsed here are held while the stage opens: each parsed once)
+    with checked(path) as probed:
+        if probed is not None:
+            raise MeshLoadError(path, probed.message.removeprefix(f"{path}: "))
         try:
-            stage = Usd.Stage.Open(str(path))
+            try:
+                stage = Usd.Stage.Open(str(path))
+            except Tf.ErrorException as e:
+                raise MeshLoadError(path, f"USD could not open it: {tf_message(e)}") from e
+            if stage is None:
+                raise MeshLoadError(path, "USD could not open it")
+            if prim_path is None:
+                root = stage.GetPseudoRoot()
+            else:
+                if not Sdf.Path.IsValidPathString(prim_path) or not Sdf.Path(prim_path).IsAbsolutePath():
+                    raise MeshLoadError(path, f"prim_path {prim_path!r} is not an absolute USD prim path")
+                root = stage.GetPrimAtPath(prim_path)
+                if not root or not root.IsValid():
+                    raise MeshLoadError(path, f"no prim at {prim_path}")
+            # a sublayer or reference that does not resolve: its meshes would be missing from the build
+            errors = _composition_errors(stage, root.GetPath())
+            if errors:
+                what = "1 composition error" if len(errors) == 1 else f"{len(errors)} composition errors"
+                raise MeshLoadError(path, f"{what}, the stage is incomplete; first: {errors[0]}")
+            time = Usd.TimeCode.EarliestTime()
+            xf_cache = UsdGeom.XformCache(time)
+            parts: list[Part] = []
+            n_mesh_prims = 0
+            unrendered: list[str] = []
+            predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+            # (a prototype's mesh, drawn at each of an instancer's instances, is read once)
+            local: dict[tuple[Sdf.Path, Sdf.Path | None], tuple[str | None, Part | None]] = {}
+            for prim, to_world, proto_root in _drawn_meshes(
+                root, predicate, xf_cache.GetLocalToWorldTransform, xf_cache, time
+            ):
+                n_mesh_prims += 1
+                key = (prim.GetPath(), None if proto_root is None else proto_root.GetPath())
+                if key not in local:
+                    why = _not_rendered(prim, time, proto_root)
+                    local[key] = (why, None if why is not None else _read_mesh(prim, time))
+                why, part = local[key]
+                if why is not None:
+                    unrendered.append(f"{prim.GetPath()} ({why})")
+                elif part is not None:
+                    # (USD matrices act on row vectors; transform_part wants the column-vector form)
+                    parts.append(transform_part(part, np.array(to_world, dtype=np.float64).T))
+        except MeshLoadError:
+            raise
+        except _Invalid as e:
+            raise MeshLoadError(path, str(e)) from e
         except Tf.ErrorException as e:
-            raise MeshLoadError(path, f"USD could not open it: {tf_message(e)}") from e
-        if stage is None:
-            raise MeshLoadError(path, "USD could not open it")
-        if prim_path is None:
-            root = stage.GetPseudoRoot()
-        else:
-            if not Sdf.Path.IsValidPathString(prim_path) or not Sdf.Path(prim_path).IsAbsolutePath():
-                raise MeshLoadError(path, f"prim_path {prim_path!r} is not an absolute USD prim path")
-            root = stage.GetPrimAtPath(prim_path)
-            if not root or not root.IsValid():
-                raise MeshLoadError(path, f"no prim at {prim_path}")
-        # a sublayer or reference that does not resolve: its meshes would be missing from the build
-        errors = _composition_errors(stage, root.GetPath())
-        if errors:
-            what = "1 composition error" if len(errors) == 1 else f"{len(errors)} composition errors"
-            raise MeshLoadError(path, f"{what}, the stage is incomplete; first: {errors[0]}")
-        time = Usd.TimeCode.EarliestTime()
-        xf_cache = UsdGeom.XformCache(time)
-        parts: list[Part] = []
-        n_mesh_prims = 0
-        unrendered: list[str] = []
-        predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
-        # (a prototype's mesh, drawn at each of an instancer's instances, is read once)
-        local: dict[tuple[Sdf.Path, Sdf.Path | None], tuple[str | None, Part | None]] = {}
-        for prim, to_world, proto_root in _drawn_meshes(
-            root, predicate, xf_cache.GetLocalToWorldTransform, xf_cache, time
-        ):
-            n_mesh_prims += 1
-            key = (prim.GetPath(), None if proto_root is None else proto_root.GetPath())
-            if key not in local:
-                why = _not_rendered(prim, time, proto_root)
-                local[key] = (why, None if why is not None else _read_mesh(prim, time))
-            why, part = local[key]
-            if why is not None:
-                unrendered.append(f"{prim.GetPath()} ({why})")
-            elif part is not None:
-                # (USD matrices act on row vectors; transform_part wants the column-vector form)
-                parts.append(transform_part(part, np.array(to_world, dtype=np.float64).T))
-    except MeshLoadError:
-        raise
-    except _Invalid as e:
-        raise MeshLoadError(path, str(e)) from e
-    except Tf.ErrorException as e:
-        raise MeshLoadError(path, f"USD error: {tf_message(e)}") from e
-    except Exception as e:
-        raise MeshLoadError(path, f"{type(e).__name__}: {e}") from e
+            raise MeshLoadError(path, f"USD error: {tf_message(e)}") from e
+        except Exception as e:
+            raise MeshLoadError(path, f"{type(e).__name__}: {e}") from e
     under = "" if prim_path is None else f" under {prim_path}"
     if n_mesh_prims == 0:
         raise MeshLoadError(path, f"no UsdGeom.Mesh prims{under}")

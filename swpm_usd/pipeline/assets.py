@@ -167,16 +167,17 @@ def _usd_layer_files(path: Path) -> tuple[list[Path], bool]:
 
     if path.suffix.lower() not in _USD_SUFFIXES:
         return [], True
-    from ..usd.probe import check
+    from ..usd.probe import checked
 
-    if check(path) is not None:  # (a crate file that crashes usd-core: not opened here, the worker fails it)
-        return [], False
-    try:
-        from pxr import Usd
+    with checked(path) as probed:
+        if probed is not None:  # (a crate file that crashes usd-core: not opened here, the worker fails it)
+            return [], False
+        try:
+            from pxr import Usd
 
-        stage = Usd.Stage.Open(str(path))
-    except Exception:  # noqa: BLE001 - the worker's load reports it, located
-        return [], False
+            stage = Usd.Stage.Open(str(path))
+        except Exception:  # noqa: BLE001 - the worker's load reports it, located
+            return [], False
     if stage is None:
         return [], False
     here = path.resolve()
@@ -187,12 +188,12 @@ def _stage_assets(cfg: Config, index: int, stage_path: Path) -> tuple[list[Asset
     from pxr import Usd, UsdGeom
 
     from ..io.usd_loader import _not_rendered
-    from ..usd.probe import check
+    from ..usd.probe import checked
 
-    probed = check(stage_path)  # (a crate file that would crash this process: not opened here)
-    if probed is not None:
-        raise OSError(probed.message.removeprefix(f"{stage_path}: "))
-    stage = Usd.Stage.Open(str(stage_path))
+    with checked(stage_path) as probed:  # (a crate file that would crash this process: not opened here)
+        if probed is not None:
+            raise OSError(probed.message.removeprefix(f"{stage_path}: "))
+        stage = Usd.Stage.Open(str(stage_path))
     if stage is None:
         raise OSError("the stage does not open")
     counts: dict[str, int] = {}

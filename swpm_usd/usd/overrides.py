@@ -421,15 +421,15 @@ def write_overrides(
         raise UsdOverrideError("the override layer must not be the source file")
     if not src_path.is_file():
         raise UsdOverrideError(f"{source}: file not found")
-    from .probe import check
+    from .probe import checked
 
-    probed = check(src_path)  # (a corrupt crate file that would crash this process: not opened here)
-    if probed is not None:
-        raise UsdOverrideError(f"{source}: {probed.message.removeprefix(f'{src_path}: ')}")
-    try:
-        src_stage = Usd.Stage.Open(str(src_path))
-    except Tf.ErrorException as e:
-        raise UsdOverrideError(f"{source}: USD could not open it: {tf_message(e)}") from e
+    with checked(src_path) as probed:  # (a corrupt crate file that would crash this process: not opened here)
+        if probed is not None:
+            raise UsdOverrideError(f"{source}: {probed.message.removeprefix(f'{src_path}: ')}")
+        try:
+            src_stage = Usd.Stage.Open(str(src_path))
+        except Tf.ErrorException as e:
+            raise UsdOverrideError(f"{source}: USD could not open it: {tf_message(e)}") from e
     if src_stage is None:
         raise UsdOverrideError(f"{source}: USD could not open it")
     suffix = out_path.suffix.lower()

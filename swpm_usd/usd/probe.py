@@ -13,10 +13,17 @@ file) the caller turns into its typed error (``validate``: ``SWPM_USD_CRASH``, `
 A stage is probed when opening it opens a crate file (:func:`needs_probe`): its root is one (:func:`is_crate`:
 a ``.usdc``, a ``.usdz``, a ``.usd`` whose first bytes are ``PXR-USDC``; usd-core's text parser fails
 cleanly), or a text root whose sublayers, references, payloads, clips or other asset paths, through text
-layers as deep as they go, resolve to one (those text layers are parsed in this process: each text layer of a
-stage is parsed twice, the price of knowing before the stage's open). Each answer is kept for this process
-while the file and every file it depends on (the layers the probe opened, the files its text layers or the
-stage's composition errors name: one missing, should it appear) keep their path, size, mtime and inode. One
+layers as deep as they go, resolve to one (those text layers are parsed in this process; a caller that opens
+the stage in a :func:`checked` block finds them parsed, held for its open: each parsed once). A layer that is
+not a regular file (a FIFO, whose open waits for a writer; a folder; a device), the root or one a layer names,
+is an "open" problem at once, decided by ``os.stat`` and never opened: here for the root and the layers text
+layers name, in the probe (which opens the stage's layers one by one before the stage; one only a variant
+names is named, not opened: the stage opens it only when the variant is selected) for those a crate layer
+names; the probe's alarm is left for what cannot be named before the open. Each answer is kept for this
+process while the file and every file it depends on (the layers the probe opened or was opening when it
+crashed or ran out of time: it names each to the server before it opens it; the files its text layers or the
+stage's composition errors name: one missing, should it appear) keep their path, size, mtime and inode; one
+file given in two spellings (a link, ``d/..``) is one file, probed once. One
 probe server serves every file of this process: started once (Python and usd-core's import, about 0.3 s), it
 forks a fresh process for each file (about 12 ms for a small one: the server has built usd-core's schema
 registry once, on a stage of its own in memory, which each fork inherits), several at once for
@@ -29,6 +36,7 @@ problem: the file is never opened in this process unprobed.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import select
@@ -38,7 +46,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
@@ -54,6 +62,8 @@ PROBE_MEMORY_PER_BYTE = 64
 #: a probe's answers: usd-core opened and read the file, raised an error opening it, or reading a value in
 #: it (its first message beside)
 _CLEAN, _OPEN_FAILED, _READ_FAILED, _LAYER_FAILED = 0, 3, 4, 6
+#: a probe's answer: a layer its stage names is not a regular file (message: what it is, "|", its real path)
+_NOT_REGULAR = 7
 
 #: the probe server's program: argv[1] the schema plugin's folder (registered as this process registers it:
 #: its fallbacks are values read too; through PXR_PLUGINPATH_NAME, usd-core 26.11 raises "There already is
@@ -62,13 +72,16 @@ _CLEAN, _OPEN_FAILED, _READ_FAILED, _LAYER_FAILED = 0, 3, 4, 6
 #: process that probes the file under those limits (several at once), and answers each with a JSON line:
 #: [tag, code, message, the real files of the layers the stage used and those its composition errors name],
 #: the code the probe's (``_CLEAN``, ``_OPEN_FAILED``, ``_READ_FAILED``, ``_LAYER_FAILED``: a crate file the
-#: stage names exists but did not open, 5: the probe failed itself) or minus the signal it died by (SIGALRM:
-#: out of time). It ends, killing its probes, when its input does or its parent process is gone
+#: stage names exists but did not open, ``_NOT_REGULAR``, 5: the probe failed itself) or minus the signal it
+#: died by (SIGALRM: out of time). A probe names each layer to the server (a JSON string, a line) before it
+#: opens it: the layers of an answer are those too, all a probe that crashed or hung reached. It ends,
+#: killing its probes, when its input does or its parent process is gone
 _PROBE = r"""
-import ctypes, json, os, re, resource, select, signal, sys
+import ctypes, json, os, re, resource, select, signal, stat, sys
 signal.signal(signal.SIGINT, signal.SIG_IGN)
 PARENT = int(sys.argv[2])
-from pxr import Plug, Sdf, Tf, Usd
+OUT = None  # (a probe's end of its pipe to the server)
+from pxr import Ar, Plug, Sdf, Tf, Usd
 try:
     Plug.Registry().RegisterPlugins(sys.argv[1])
 except Exception:
@@ -89,13 +102,97 @@ try:
     warm()
 except Exception:
     pass
+def note(real):
+    # a layer named to the server before it is opened: a probe that crashes or hangs is keyed on it
+    os.write(OUT, (json.dumps(real) + "\n").encode())
+def kind(mode):
+    kinds = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISDIR, "a folder"), (stat.S_ISCHR, "a character device"),
+             (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+    for test, what in kinds:
+        if test(mode):
+            return what
+    return "not a regular file"
+def arcs(layer):
+    # the asset paths of a layer's references and payloads outside variants (the stage's open opens them
+    # whatever the selections), and those inside a variant (opened only when it is selected)
+    always, varied, todo = [], [], [(child, False) for child in layer.pseudoRoot.nameChildren]
+    while todo:
+        spec, inside = todo.pop()
+        for has, items in ((spec.hasReferences, spec.referenceList), (spec.hasPayloads, spec.payloadList)):
+            for item in items.GetAddedOrExplicitItems() if has else ():
+                if item.assetPath:
+                    (varied if inside else always).append(item.assetPath)
+        todo.extend((child, inside) for child in spec.nameChildren)
+        if spec.variantSets:
+            for variants in spec.variantSets.values():
+                todo.extend((variant.primSpec, True) for variant in variants.variants.values())
+    return always, varied
+def preopen(path):
+    # the stage's layers (sublayers, references, payloads, through every layer they name) opened one by one
+    # before the stage (held: its open finds them), each named to the server first; one that is not a
+    # regular file (a FIFO, whose open waits for a writer) is answered at once, never opened (the alarm is
+    # left for a layer named no other way). A layer that does not open is left to the stage's open. A layer
+    # only a variant names is named, not opened (the stage opens it only if the variant is selected: one
+    # that crashes usd-core in a variant not selected is no crash of the stage)
+    resolver = Ar.GetResolver()
+    root = os.path.abspath(path)
+    held, seen, todo = [], set(), [root]
+    while todo:
+        spelled = todo.pop()
+        real = os.path.realpath(spelled)
+        if real in seen:
+            continue
+        seen.add(real)
+        if spelled != root and not real.lower().endswith((".usd", ".usda", ".usdc", ".usdz")):
+            continue
+        note(real)
+        try:
+            mode = os.stat(real).st_mode
+        except OSError:
+            continue
+        if not stat.S_ISREG(mode):
+            return f"{kind(mode)}|{real}", held
+        try:
+            layer = Sdf.Layer.FindOrOpen(spelled)
+            assets = list(layer.GetCompositionAssetDependencies()) if layer else []
+        except Exception:
+            continue
+        held.append(layer)
+        varied = []
+        if layer and set(assets) - set(layer.subLayerPaths):  # (references or payloads: in a variant, maybe)
+            try:
+                always, varied = arcs(layer)
+                assets = [*layer.subLayerPaths, *always]
+            except Exception:
+                varied = []  # (each layer it names opened)
+        opens = set(assets)
+        for asset in [*assets, *varied]:
+            try:
+                found = str(resolver.Resolve(resolver.CreateIdentifier(asset, layer.resolvedPath)))
+            except Exception:
+                found = ""
+            if not found:
+                found = os.path.join(os.path.dirname(str(layer.resolvedPath)), asset)
+            found = found.split("[", 1)[0]
+            if asset in opens:
+                todo.append(found)
+            elif found.lower().endswith((".usd", ".usda", ".usdc", ".usdz")):
+                note(os.path.realpath(found))  # (a crash of the stage's open in it: keyed on it too)
+    return "", held
 def probe(path):
+    odd, held = preopen(path)
+    if odd:
+        return 7, odd, []
     try:
         stage = Usd.Stage.Open(path)
     except Exception as exc:
         return 3, str(exc), []
     if stage is None:
         return 3, "", []
+    del held
+    for layer in stage.GetUsedLayers():  # (the layers its values are read from, named before they are)
+        if layer.realPath:
+            note(os.path.realpath(layer.realPath.split("[", 1)[0]))
     failed = []
     def attempt(fn, *args):
         try:
@@ -165,7 +262,9 @@ def start(line):
     r, w = os.pipe()
     pid = os.fork()
     if pid == 0:
+        global OUT
         os.close(r)
+        OUT = w
         try:
             # (killed with this server, should it be killed itself: no probe outlives it)
             ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
@@ -191,14 +290,23 @@ def finish(fd):
     tag, pid, chunks = running.pop(fd)
     os.close(fd)
     _, status = os.waitpid(pid, 0)
-    if os.WIFSIGNALED(status):
-        answer = [-os.WTERMSIG(status), "", []]
-    else:
+    layers, answer = set(), None  # (the layers it named as it went, its answer: the last line)
+    for line in b"".join(chunks).split(b"\n"):
         try:
-            answer = json.loads(b"".join(chunks))
-        except ValueError:
-            code = os.waitstatus_to_exitcode(status)
-            answer = [5, f"the probe process ended (exit {code}) without an answer", []]
+            item = json.loads(line)
+        except ValueError:  # (a line cut short by its death)
+            continue
+        if isinstance(item, str):
+            layers.add(item)
+        elif isinstance(item, list) and len(item) == 3:
+            answer = item
+    if os.WIFSIGNALED(status):
+        answer = [-os.WTERMSIG(status), "", sorted(layers)]
+    elif answer is None:
+        code = os.waitstatus_to_exitcode(status)
+        answer = [5, f"the probe process ended (exit {code}) without an answer", []]
+    else:
+        answer[2] = sorted(layers.union(answer[2]))
     os.write(1, (json.dumps([tag, *answer]) + "\n").encode())
 def stop():
     for _, pid, _ in running.values():
@@ -257,18 +365,52 @@ class Problem(NamedTuple):
 _Stamp = tuple[int, int, int] | None
 #: (real path, size, mtime_ns, inode) of a file checked -> (the problem found, None: none; the real path and
 #: stamp of every other file its answer depends on: the layers the probe opened, the layers and crate files
-#: a text root names). The answer holds while each of those files is as it was
-_answers: dict[tuple[str, int, int, int], tuple[Problem | None, tuple[tuple[str, _Stamp], ...]]] = {}
+#: a text root names; the path the problem's message names the file by). The answer holds while each of
+#: those files is as it was
+_answers: dict[tuple[str, int, int, int], tuple[Problem | None, tuple[tuple[str, _Stamp], ...], str]] = {}
 
 
 def _regular(path: str) -> bool:
     """Whether ``path`` is a regular file, or not there (the caller's open reports that). A FIFO, a device
-    or a folder is never read in this process: reading a FIFO waits until something writes to it, so such a
-    file is probed, where :data:`PROBE_SECONDS` ends the wait."""
+    or a folder is never read in this process (reading a FIFO waits until something writes to it)."""
     try:
         return stat.S_ISREG(os.stat(path).st_mode)
     except OSError:
         return True
+
+
+def _file_kind(mode: int) -> str:
+    """What a file that is not a regular file is, by its ``st_mode``."""
+    kinds = (
+        (stat.S_ISFIFO, "a FIFO"),
+        (stat.S_ISDIR, "a folder"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    )
+    return next((what for test, what in kinds if test(mode)), "not a regular file")
+
+
+def _not_regular(path: str, layer: str | None, mode: int) -> Problem:
+    """The "open" :class:`Problem` of ``path`` when it (``layer`` None) or a layer its stage opens is not a
+    regular file: reported at once, the file never opened (here or in a probe, where a FIFO's open would
+    wait for a writer until :data:`PROBE_SECONDS`)."""
+    what = "it is" if layer is None else f"a layer its stage opens, {layer}, is"
+    return Problem("open", f"{path}: {what} not a regular file ({_file_kind(mode)}); it was not opened")
+
+
+class _NotRegular(Exception):
+    """A layer a text root names is not a regular file: ``layer`` (its real path), its ``mode``, and the real
+    paths of the files read or named up to it (``named``)."""
+
+    def __init__(self, layer: str, mode: int, named: list[str]) -> None:
+        super().__init__(layer)
+        self.layer, self.mode, self.named = layer, mode, named
+
+
+#: the text layers :func:`_named_files` parses are kept open (usd-core's layer registry) in this list while a
+#: :func:`checked` block of this thread runs: the block's own open of the stage finds them parsed
+_holding = threading.local()
 
 
 def is_crate(path: str | os.PathLike[str]) -> bool:
@@ -282,7 +424,12 @@ def is_crate(path: str | os.PathLike[str]) -> bool:
     if suffix == ".usda":
         return False
     if not _regular(os.fspath(path)):
-        return True  # (not read here: a FIFO's read waits for a writer; the probe's alarm ends that wait)
+        return True  # (not read here: a FIFO's read waits for a writer; check reports it at once)
+    return _crate_magic(os.fspath(path))
+
+
+def _crate_magic(path: str) -> bool:
+    """Whether the file at ``path`` (a regular file) starts with :data:`CRATE_MAGIC`."""
     try:
         with open(path, "rb") as f:
             return f.read(len(CRATE_MAGIC)) == CRATE_MAGIC
@@ -298,12 +445,16 @@ def _named_files(path: str) -> tuple[bool, list[str]]:
     """Whether the stage of ``path``, a text (non-crate) root layer, opens a crate file (its sublayers,
     references, payloads, value clips or another asset path it names, through text layers as deep as they
     go, resolve to one), and the real paths of the files read or named on the way (their stamps key the
-    answer). Text layers are read here (usd-core's text parser fails cleanly); a crate file never is."""
-    from pxr import Ar, UsdUtils
+    answer). Text layers are read here (usd-core's text parser fails cleanly); a crate file never is, nor a
+    layer that is not a regular file (:class:`_NotRegular` is raised at the first one named). Each text layer
+    is opened by the path the stage's own open gives it (the root as given, the others anchored on the layer
+    naming them), so that, held (:func:`checked`), the stage's open finds it parsed."""
+    from pxr import Ar, Sdf, UsdUtils
 
     resolver = Ar.GetResolver()
+    held = getattr(_holding, "layers", None)
     seen: set[str] = {os.path.realpath(path)}
-    todo = [os.path.realpath(path)]
+    todo = [os.path.abspath(path)]
     crate = False
     read = 0  # (text layers read: the textures and other files named are no layers, counted apart)
     while todo:
@@ -312,9 +463,13 @@ def _named_files(path: str) -> tuple[bool, list[str]]:
             return True, sorted(seen)  # (a stack this large: probed rather than read here)
         read += 1
         try:
+            # (parsed once: the extraction finds it in usd-core's layer registry while it is held here)
+            opened = Sdf.Layer.FindOrOpen(layer)
             named = [p for group in UsdUtils.ExtractExternalReferences(layer) for p in group]
         except Exception:  # noqa: BLE001 - a text layer that does not parse: the stage's open reports it
             continue
+        if held is not None and opened is not None:
+            held.append(opened)
         for asset in named:
             try:
                 found = str(resolver.Resolve(resolver.CreateIdentifier(asset, Ar.ResolvedPath(layer))))
@@ -322,17 +477,24 @@ def _named_files(path: str) -> tuple[bool, list[str]]:
                 found = ""
             if not found:  # (not there now: keyed as missing, should it appear)
                 found = os.path.join(os.path.dirname(layer), asset.split("[", 1)[0])
-            real = os.path.realpath(found.split("[", 1)[0] if found.endswith("]") else found)
+            spelled = found.split("[", 1)[0] if found.endswith("]") else found
+            real = os.path.realpath(spelled)
             if real in seen:
                 continue
             seen.add(real)
             suffix = Path(real).suffix.lower()
-            if suffix not in (".usda", ".usd", ".usdc", ".usdz") or not os.path.exists(real):
+            if suffix not in (".usda", ".usd", ".usdc", ".usdz"):
                 continue  # (a texture or another asset: no layer usd-core opens as crate)
-            if is_crate(real) or not _regular(real):
+            try:
+                mode = os.stat(real).st_mode
+            except OSError:
+                continue  # (not there: keyed as missing, should it appear)
+            if not stat.S_ISREG(mode):
+                raise _NotRegular(real, mode, sorted(seen))
+            if is_crate(real):
                 crate = True
             else:
-                todo.append(real)
+                todo.append(spelled)
     return crate, sorted(seen)
 
 
@@ -340,7 +502,12 @@ def needs_probe(path: str | os.PathLike[str]) -> bool:
     """Whether opening ``path``'s stage opens a crate file: ``path`` is one (:func:`is_crate`), or a text
     layer whose layer stack, references, payloads or clips (through other text layers) resolve to one."""
     p = os.fspath(path)
-    return is_crate(p) or not _regular(p) or _named_files(p)[0]
+    if is_crate(p) or not _regular(p):
+        return True
+    try:
+        return _named_files(p)[0]
+    except _NotRegular:
+        return True  # (a layer that is not a regular file: check reports it, opening nothing)
 
 
 def _seconds() -> float:
@@ -370,6 +537,15 @@ def _key(path: str) -> tuple[str, int, int, int] | None:
     return None if stamp is None else (os.path.realpath(path), *stamp)
 
 
+def _answer(key: tuple[str, int, int, int], path: str) -> Problem | None:
+    """The answer kept for the file of ``key``, its message naming the file as ``path`` spells it (another
+    spelling of the same file, a link to it, may have been probed: the callers strip their own)."""
+    problem, _, spelled = _answers[key]
+    if problem is None or spelled == path or not problem.message.startswith(f"{spelled}: "):
+        return problem
+    return problem._replace(message=f"{path}: {problem.message[len(spelled) + 2 :]}")
+
+
 def _known(key: tuple[str, int, int, int]) -> bool:
     """Whether this process has an answer for the file of ``key`` that still holds (the files it depends on
     unchanged)."""
@@ -389,40 +565,76 @@ def check(path: str | os.PathLike[str]) -> Problem | None:
 
 def check_many(paths: Sequence[str | os.PathLike[str]], jobs: int | None = None) -> list[Problem | None]:
     """:func:`check` of each of ``paths`` (in order), probing up to ``jobs`` at once (default: the usable
-    cores); the answers are those of :func:`check`, one file at a time."""
+    cores); the answers are those of :func:`check`, one file at a time. A file given twice, in one spelling
+    or two (a link to it, ``a/../b``), is probed once (its real path, size, mtime and inode); each file is
+    stat'ed once here, and one that is not a regular file is an answer at once (never opened)."""
     answers: list[Problem | None] = [None] * len(paths)
-    todo: dict[str, tuple[tuple[str, int, int, int], list[int], list[str]]] = {}
+    # key -> (the path as first given, its indices, the files its text layers name)
+    todo: dict[tuple[str, int, int, int], tuple[str, list[int], list[str]]] = {}
     for i, path in enumerate(paths):
         p = os.fspath(path)
-        key = _key(p)
-        if key is None:
+        try:
+            st = os.stat(p)
+        except OSError:
             continue  # (the caller's own open reports a missing or unreadable file)
+        key = (os.path.realpath(p), st.st_size, st.st_mtime_ns, st.st_ino)
+        if key in todo:
+            todo[key][1].append(i)
+            continue
         if _known(key):
+            answers[i] = _answer(key, p)
+            continue
+        if not stat.S_ISREG(st.st_mode):  # (a FIFO's open would wait for a writer: never opened)
+            _answers[key] = (_not_regular(p, None, st.st_mode), (), p)
             answers[i] = _answers[key][0]
             continue
-        if p in todo:
-            todo[p][1].append(i)
-            continue
-        if is_crate(p) or not _regular(p):
+        suffix = Path(p).suffix.lower()
+        if suffix in (".usdc", ".usdz") or (suffix != ".usda" and _crate_magic(p)):  # (is_crate, stat'ed)
             named: list[str] = []
         else:
-            crate, named = _named_files(p)
-            if not crate:
-                _answers[key] = (None, tuple((n, _stamp(n)) for n in named if n != key[0]))
+            try:
+                crate, named = _named_files(p)
+            except _NotRegular as odd:
+                files = (n for n in odd.named if n != key[0])
+                _answers[key] = (
+                    _not_regular(p, odd.layer, odd.mode),
+                    tuple((n, _stamp(n)) for n in files),
+                    p,
+                )
+                answers[i] = _answers[key][0]
                 continue
-        todo[p] = (key, [i], named)
+            if not crate:
+                _answers[key] = (None, tuple((n, _stamp(n)) for n in named if n != key[0]), p)
+                continue
+        todo[key] = (p, [i], named)
     if not todo:
         return answers
-    found = _probe_all([(p, key[1]) for p, (key, _, _) in todo.items()], jobs)
-    for p, (key, where, named) in todo.items():
+    found = _probe_all([(p, key[1]) for key, (p, _, _) in todo.items()], jobs)
+    for key, (p, where, named) in todo.items():
+        # (the files this probe opened or was opening, named to the server before each opened: a probe
+        # that crashed or hung is keyed on the layers it reached, not on an earlier answer's)
         problem, layers = found[p]
-        # (and those of an earlier answer for this file as it is: a probe that crashed names none)
-        earlier = [n for n, _ in _answers[key][1]] if key in _answers else []
-        files = {n for n in (*named, *layers, *earlier) if n != key[0]}
-        _answers[key] = (problem, tuple((n, _stamp(n)) for n in sorted(files)))
+        files = {n for n in (*named, *layers) if n != key[0]}
+        _answers[key] = (problem, tuple((n, _stamp(n)) for n in sorted(files)), p)
         for i in where:
-            answers[i] = problem
+            answers[i] = _answer(key, os.fspath(paths[i]))
     return answers
+
+
+@contextlib.contextmanager
+def checked(path: str | os.PathLike[str]) -> Iterator[Problem | None]:
+    """:func:`check` of ``path``, the text layers it parsed in this process (to know whether the stage opens
+    a crate file) kept open in usd-core's layer registry while the block runs: the block's own
+    ``Usd.Stage.Open(path)`` finds them parsed (a text layer parsed once, not twice). They are let go as the
+    block ends: a later open reads the files anew."""
+    outer = getattr(_holding, "layers", None)
+    if outer is None:
+        _holding.layers = []
+    try:
+        yield check(path)
+    finally:
+        if outer is None:
+            _holding.layers = None
 
 
 def cleared(path: str | os.PathLike[str]) -> list[list]:
@@ -446,7 +658,7 @@ def trust(keys: Iterable[Sequence]) -> None:
             (str(d[0]), (int(d[1]), int(d[2]), int(d[3])) if len(d) == 4 else None)
             for d in (key[4] if len(key) > 4 else ())
         )
-        _answers.setdefault((str(path), int(size), int(mtime_ns), int(ino)), (None, deps))
+        _answers.setdefault((str(path), int(size), int(mtime_ns), int(ino)), (None, deps, str(path)))
 
 
 #: the probe process this one asks (started on the first crate file, again after one crashed it)
@@ -574,7 +786,13 @@ def _serve(
                     for path, _ in flight.values():
                         failed[path] = "an answer that is not one"
                     return failed
-                if code >= 0 and code not in (_CLEAN, _OPEN_FAILED, _READ_FAILED, _LAYER_FAILED):
+                if code >= 0 and code not in (
+                    _CLEAN,
+                    _OPEN_FAILED,
+                    _READ_FAILED,
+                    _LAYER_FAILED,
+                    _NOT_REGULAR,
+                ):
                     failed[path] = text or f"its answer {code}"
                 else:
                     out[path] = (_problem(path, code, text, seconds), [str(p) for p in layers])
@@ -598,6 +816,12 @@ def _problem(path: str, code: int, text: str, seconds: float) -> Problem | None:
             "crash",
             f"{path}: usd-core crashed opening or reading it (a probe process died by "
             f"{_signal_name(-code)}): the file is corrupt; it was not opened in this process",
+        )
+    if code == _NOT_REGULAR:
+        what, _, layer = text.partition("|")
+        return Problem(
+            "open",
+            f"{path}: a layer its stage opens, {layer}, is not a regular file ({what}); it was not opened",
         )
     from ..errors import tf_message
 

@@ -41,7 +41,8 @@ CODES: dict[str, str] = {
     "SWPM_USD_TOPOLOGY": "faceVertexIndices / Counts are not a triangle list of one of the LODs.",
     "SWPM_USD_PARAMS": "swpm:params is not a JSON object a .swpm META may hold (spec/format.md 3.1).",
     "SWPM_USD_REBUILD": "the stored buffers do not rebuild a progressive mesh.",
-    "SWPM_USD_OPEN": "the file is not a USD layer usd-core can open (empty, truncated or not USD at all).",
+    "SWPM_USD_OPEN": "the file is not a USD layer usd-core can open (empty, truncated or not USD at all), "
+    "or it or a layer its stage opens is not a regular file (a FIFO, a folder, a device: never opened).",
     "SWPM_USD_READ": "usd-core opened the layer but cannot read a value in it (corrupt .usdc data).",
     "SWPM_USD_CRASH": "usd-core crashed (died by a signal) or hung opening or reading the .usdc file in a "
     "probe process (corrupt data); it is not opened in the validating process.",
@@ -488,16 +489,17 @@ def validate_stage(path: str | os.PathLike[str] | Usd.Stage, builtin: bool = Tru
     if isinstance(path, Usd.Stage):
         stage = path
     else:
-        from .probe import check
+        from .probe import checked
 
         # a corrupt crate file can crash usd-core (SIGSEGV) or make it ask for a giant allocation: opened
-        # first in a probe process, and here only if that ends cleanly
-        probed = check(path)
-        if probed is not None:
-            kinds = {"open": "SWPM_USD_OPEN", "read": "SWPM_USD_READ", "probe": "SWPM_USD_PROBE"}
-            code = kinds.get(probed.kind, "SWPM_USD_CRASH")
-            return [Finding(code, ERROR, "/", probed.message)]
-        stage, problem = _open(os.fspath(path))
+        # first in a probe process, and here only if that ends cleanly (the text layers the check parsed
+        # here held for the open: parsed once)
+        with checked(path) as probed:
+            if probed is not None:
+                kinds = {"open": "SWPM_USD_OPEN", "read": "SWPM_USD_READ", "probe": "SWPM_USD_PROBE"}
+                code = kinds.get(probed.kind, "SWPM_USD_CRASH")
+                return [Finding(code, ERROR, "/", probed.message)]
+            stage, problem = _open(os.fspath(path))
         if stage is None:
             return [Finding("SWPM_USD_OPEN", ERROR, "/", problem)]
     reg = UsdValidation.ValidationRegistry()

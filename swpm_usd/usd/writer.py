@@ -425,15 +425,15 @@ def write_usdlod(
     asset = Path(asset_path)
     if _resolve_path(path, fmt).resolve() == asset.resolve():
         raise UsdWriteError(f"{path}: the LOD layer must not be the asset it references")
-    from .probe import check
+    from .probe import checked
 
-    probed = check(asset)  # (a corrupt crate file that would crash this process: not opened here)
-    if probed is not None:
-        raise UsdWriteError(probed.message)
-    try:
-        src = Usd.Stage.Open(str(asset))
-    except Tf.ErrorException as e:
-        raise UsdWriteError(f"{asset}: USD could not open it: {tf_message(e)}") from e
+    with checked(asset) as probed:  # (a corrupt crate file that would crash this process: not opened here)
+        if probed is not None:
+            raise UsdWriteError(probed.message)
+        try:
+            src = Usd.Stage.Open(str(asset))
+        except Tf.ErrorException as e:
+            raise UsdWriteError(f"{asset}: USD could not open it: {tf_message(e)}") from e
     default = src.GetDefaultPrim()
     mesh_prim = default.GetChild(MESH_NAME) if default else None
     if not mesh_prim or not mesh_prim.GetAttribute("swpm:discreteLods").HasAuthoredValue():
