@@ -611,6 +611,34 @@ def test_the_text_walk_counts_the_layers_it_reads_not_the_files_they_name(tmp_pa
     assert not probe.needs_probe(tmp_path / "chain2.usda")  # (three layers: within it)
 
 
+def test_a_probe_ended_by_usd_cores_fatal_error_says_what_usd_core_said_and_leaves_no_crash_report(
+    tmp_path, monkeypatch
+):
+    # usd-core's fatal error handler (SIGABRT: how the corrupt test file ends a probe since the probe opens
+    # its layers one by one) wrote a crash report, st_python3.11.<pid>, to /var/tmp for each file probed,
+    # never removed (249 of them after a day of tests), and what it said was lost. The server's TMPDIR is a
+    # folder of its own: the report's first line is read into the answer and the file removed
+    _patched_program(
+        monkeypatch,
+        "def probe(path):\n",
+        "def probe(path):\n"
+        "    if path.endswith('bad.usdc'):\n"
+        "        Tf.Fatal('swpm test: a corrupt section')\n",
+    )
+    try:
+        bad = _seed(tmp_path / "bad.usdc")
+        found = probe.check(bad)
+        assert found is not None and found.kind == "crash" and "died by SIGABRT" in found.message, found
+        assert "usd-core said: FATAL ERROR: Python Fatal Error: swpm test: a corrupt section" in found.message
+        server = probe._server
+        assert server is not None and server.poll() is None
+        folder = probe._crash_dir()
+        assert folder != "/var/tmp" and os.listdir(folder) == []  # (read, then removed)
+        assert probe.check(_seed(tmp_path / "good.usdc")) is None
+    finally:
+        probe._stop(probe._server)
+
+
 def _patched_program(monkeypatch, old: str, new: str) -> None:
     """The probe server's program with ``old`` replaced by ``new``, in a fresh server."""
     assert old in probe._PROBE

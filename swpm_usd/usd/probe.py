@@ -36,14 +36,17 @@ problem: the file is never opened in this process unprobed.
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import json
 import os
 import select
+import shutil
 import signal
 import stat
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from collections.abc import Iterable, Iterator, Sequence
@@ -301,13 +304,35 @@ def finish(fd):
         elif isinstance(item, list) and len(item) == 3:
             answer = item
     if os.WIFSIGNALED(status):
-        answer = [-os.WTERMSIG(status), "", sorted(layers)]
+        answer = [-os.WTERMSIG(status), crash_report(pid), sorted(layers)]
     elif answer is None:
         code = os.waitstatus_to_exitcode(status)
         answer = [5, f"the probe process ended (exit {code}) without an answer", []]
     else:
         answer[2] = sorted(layers.union(answer[2]))
     os.write(1, (json.dumps([tag, *answer]) + "\n").encode())
+def crash_report(pid):
+    # usd-core's fatal error handler writes st_<program>.<pid> to its temporary folder (TMPDIR: one of
+    # this server's own, not /var/tmp, where every corrupt file probed would leave one): its first line is
+    # what usd-core said; the file is removed
+    folder = os.environ.get("SWPM_PROBE_CRASH_DIR")
+    if not folder:
+        return ""
+    said = ""
+    try:
+        names = [n for n in os.listdir(folder) if n.startswith("st_") and n.endswith(f".{pid}")]
+    except OSError:
+        return ""
+    for name in names:
+        try:
+            with open(os.path.join(folder, name), "rb") as f:
+                head = f.read(4096).decode("utf-8", "replace").splitlines()
+            os.unlink(os.path.join(folder, name))
+        except OSError:
+            continue
+        if head and not said:
+            said = head[0].partition(" crashed. ")[2] or head[0]
+    return said.strip()[:500]
 def stop():
     for _, pid, _ in running.values():
         try:
@@ -664,6 +689,7 @@ def trust(keys: Iterable[Sequence]) -> None:
 #: the probe process this one asks (started on the first crate file, again after one crashed it)
 _server: subprocess.Popen[bytes] | None = None
 _server_pid = 0
+_crash_folder: tuple[int, str] | None = None  # (the process that made it, the folder)
 _lock = threading.Lock()
 
 
@@ -674,11 +700,22 @@ def _cores() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+def _crash_dir() -> str:
+    """The probe servers' temporary folder (one a process, removed when it exits)."""
+    global _crash_folder
+    if _crash_folder is None or _crash_folder[0] != os.getpid():
+        folder = tempfile.mkdtemp(prefix="swpm-probe-")
+        _crash_folder = (os.getpid(), folder)
+        atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    return _crash_folder[1]
+
+
 def _start_server() -> subprocess.Popen[bytes]:
     global _server, _server_pid
     if _server is None or _server_pid != os.getpid() or _server.poll() is not None:
         from .plugin import PLUGIN_PATH
 
+        crash_dir = _crash_dir()
         _server = subprocess.Popen(
             [sys.executable, "-c", _PROBE, PLUGIN_PATH, str(os.getpid())],
             stdin=subprocess.PIPE,
@@ -686,7 +723,14 @@ def _start_server() -> subprocess.Popen[bytes]:
             stderr=subprocess.DEVNULL,
             # (no worker threads in the process each probe is forked from: a fork keeps only the
             # thread that forks, and a pool of usd-core's whose threads are gone would hang)
-            env={**os.environ, "PXR_WORK_THREAD_LIMIT": "1"},
+            env={
+                **os.environ,
+                "PXR_WORK_THREAD_LIMIT": "1",
+                # (usd-core writes a crash report of each probe its fatal error handler ends to TMPDIR: a
+                # folder of this server's, read into the answer and removed, not one left in /var/tmp)
+                "TMPDIR": crash_dir,
+                "SWPM_PROBE_CRASH_DIR": crash_dir,
+            },
         )
         _server_pid = os.getpid()  # (a process forked from this one starts its own)
     return _server
@@ -812,10 +856,11 @@ def _problem(path: str, code: int, text: str, seconds: float) -> Problem | None:
     if code == -signal.SIGALRM:
         return _overran(path, seconds)
     if code < 0:
+        said = f"; usd-core said: {text}" if text else ""
         return Problem(
             "crash",
             f"{path}: usd-core crashed opening or reading it (a probe process died by "
-            f"{_signal_name(-code)}): the file is corrupt; it was not opened in this process",
+            f"{_signal_name(-code)}{said}): the file is corrupt; it was not opened in this process",
         )
     if code == _NOT_REGULAR:
         what, _, layer = text.partition("|")
