@@ -34,8 +34,9 @@ def _parse_params(params: tuple[str, ...]) -> dict:
 def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     """``--encoding`` and ``--param`` checked alike for every command (usage errors, exit 2): a known
     encoding, NAME=VALUE items, names its builder takes, values of their types and shared bounds
-    (:func:`..build.check_params`; a range only the encoder knows fails at the build, exit 1). Returns the
-    parsed parameters."""
+    (:func:`..build.check_params`) and each one's bounds in a pipeline config's schema
+    (:func:`_out_of_bounds`; a combination only the encoder knows, ``cluster`` with ``inner_vertices=3``,
+    fails at the build, exit 1). Returns the parsed parameters."""
     from ..encodings import ENCODING_PARAMS
 
     if encoding not in ENCODING_PARAMS:
@@ -56,7 +57,45 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
         check_params(encoding, ENCODING_PARAMS[encoding], parsed)
     except SwpmError as exc:
         raise click.BadParameter(str(exc), param_hint="--param") from None
+    for name, value in parsed.items():
+        problem = _out_of_bounds(encoding, name, value, ENCODING_PARAMS[encoding][name])
+        if problem:
+            raise click.BadParameter(problem, param_hint="--param")
     return parsed
+
+
+def _out_of_bounds(encoding: str, name: str, value: object, default: object) -> str | None:
+    """What is wrong with ``value`` for ``name`` by the bounds a pipeline config's schema gives it (the
+    encoders' own: ``mu`` in [0, 1), ``order_passes`` in [0, 8], a sliding window's ``cache_size`` at least
+    3), or None. Checked before the mesh is read, as a usage error (exit 2): ``-p mu=2`` read the mesh and
+    built its collapse sequence (minutes on a large mesh) before the encoder refused it, exit 1."""
+    import numbers
+
+    from ..pipeline.schema import _param_schema
+
+    schema = _param_schema(default, name, encoding)
+    if value is None:
+        return None if "null" in str(schema.get("type")) else f"{name} must not be null"
+    if "enum" in schema and value not in schema["enum"]:
+        return f"{name} must be one of {', '.join(map(str, schema['enum']))}, got {value!r}"
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        kinds = str(schema.get("type"))
+        if "integer" in kinds or "number" in kinds:
+            return f"{name} must be {'an integer' if 'number' not in kinds else 'a number'}, got {value!r}"
+        return None
+    if "integer" in str(schema.get("type")) and not isinstance(value, numbers.Integral):
+        return f"{name} must be an integer, got {value!r}"
+    low, high, below = schema.get("minimum"), schema.get("maximum"), schema.get("exclusiveMaximum")
+    if (
+        (low is not None and value < low)
+        or (high is not None and value > high)
+        or (below is not None and value >= below)
+    ):
+        if high is None and below is None:
+            return f"{name} must be at least {low}, got {value}"
+        upper = f"{high:g}]" if high is not None else f"{below:g})"
+        return f"{name} must be in [{low:g}, {upper}, got {value}"
+    return None
 
 
 #: ``click.Context.meta`` key: what a command given ``--json`` prints, with ``"error"``, when it is stopped by
@@ -166,12 +205,26 @@ class JsonUsageCommand(click.Command):
         self, info_name: str | None, args: list[str], parent: click.Context | None = None, **extra: object
     ) -> click.Context:
         wants_json = _wants_json(self, args)  # (before the parser, which consumes the list)
+        given = list(args)
         try:
             return super().make_context(info_name, args, parent=parent, **extra)
         except click.UsageError as exc:
             if wants_json:
-                _echo_json_usage(exc, exc.ctx.params if exc.ctx is not None else {})
+                params = exc.ctx.params if exc.ctx is not None else {}
+                _echo_json_usage(exc, {**self._given(info_name, given, parent), **params})
             raise
+
+    def _given(self, info_name: str | None, args: list[str], parent: click.Context | None) -> dict:
+        """The values ``args`` gives the command's parameters, as written (before their types check them):
+        a usage error in one (``--rows 0``, an input that is a folder) still names the input and output
+        given, as the README says (click parses into its context only the values it took before the
+        error). Empty when the arguments do not parse."""
+        try:
+            ctx = click.Context(self, info_name=info_name, parent=parent)
+            values, _, _ = self.make_parser(ctx).parse_args(args=args)
+        except click.UsageError:
+            return {}
+        return {name: value for name, value in values.items() if isinstance(value, str)}
 
     def invoke(self, ctx: click.Context) -> object:
         try:
@@ -300,7 +353,7 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
     try:
         buf = _map(file)
     except OSError as exc:
-        click.echo(f"error: {exc}", err=True)
+        click.echo(f"error: {file}: cannot read file: {exc.strerror or exc}", err=True)
         if as_json:  # the report validate gives: one SWPM_IO_ERROR
             from .reader import validate
 
