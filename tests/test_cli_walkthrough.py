@@ -117,3 +117,41 @@ def test_inspect_of_a_missing_file_names_it_in_one_plain_line(tmp_path):
     assert result.exit_code == 1
     # it was Python's "error: [Errno 2] No such file or directory: '...'"
     assert result.stderr == f"error: {tmp_path / 'nope.swpm'}: cannot read file: No such file or directory\n"
+
+
+def test_encode_refuses_an_output_below_a_file_before_it_builds(tmp_path):
+    (tmp_path / "a.obj").write_text("not a folder")
+    out = tmp_path / "a.obj" / "x.swpm"
+    # the input is missing: the output is refused first (it was built, then "cannot write ...: File exists")
+    result = CliRunner().invoke(main, ["encode", str(tmp_path / "missing.obj"), "-o", str(out), "--json"])
+    assert result.exit_code == 2, result.output
+    says = f"{out}: {tmp_path / 'a.obj'} is not a folder"
+    assert f"Error: Invalid value for --output: {says}" in result.stderr
+    assert json.loads(result.stdout)["output"] == str(out)
+
+
+def test_encode_refuses_an_output_in_a_folder_it_cannot_write_before_it_builds(tmp_path, monkeypatch):
+    # (a read-only folder: os.access as an unprivileged user finds it; the tests may run as root, where a
+    # chmod does not stop a write, so the permission check is given its answer)
+    real_access = os.access
+
+    def access(path, mode):
+        return False if str(path) == str(tmp_path) else real_access(path, mode)
+
+    monkeypatch.setattr(os, "access", access)
+    out = tmp_path / "new" / "x.swpm"
+    result = CliRunner().invoke(main, ["encode", str(tmp_path / "missing.obj"), "-o", str(out)])
+    assert result.exit_code == 2, result.output
+    assert f"{out}: the folder {tmp_path} is not writable" in result.stderr
+    assert not (tmp_path / "new").exists()
+
+
+def test_encode_makes_a_missing_output_folder(tmp_path):
+    from conftest import ROOT
+
+    out = tmp_path / "new" / "deeper" / "spot.swpm"
+    result = CliRunner().invoke(main, ["encode", str(ROOT / "samples" / "spot.obj"), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    from swpm_usd.format.reader import validate
+
+    assert validate(out).valid

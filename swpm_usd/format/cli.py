@@ -260,6 +260,22 @@ class EncodingsHelpGroup(click.Group):
             )
 
 
+def _output_folder_problem(output: Path) -> str | None:
+    """Why ``output`` cannot be written in its folder, or None: checked before the build, which it followed
+    (minutes on a large mesh, then ``cannot write x.obj/y.swpm: File exists``). A folder missing is made (the
+    nearest one that exists must be a writable folder)."""
+    import os
+
+    folder = output.parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        return f"{output}: {folder} is not a folder"
+    if not os.access(folder, os.W_OK | os.X_OK):
+        return f"{output}: the folder {folder} is not writable"
+    return None
+
+
 @click.command("encode", cls=EncodingsHelpCommand)
 @click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
 @click.option(
@@ -268,7 +284,7 @@ class EncodingsHelpGroup(click.Group):
     "output",
     required=True,
     type=click.Path(dir_okay=False),
-    help="The .swpm file to write (atomically); never the input.",
+    help="The .swpm file to write (atomically; a missing folder is made); never the input.",
 )
 @click.option(
     "--encoding",
@@ -302,6 +318,9 @@ def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, .
         raise click.BadParameter(f"{output} is the input: it would be overwritten", param_hint="--output")
     if Path(output).suffix.lower() != ".swpm":
         raise click.BadParameter(f"{output}: the output must be a .swpm file", param_hint="--output")
+    problem = _output_folder_problem(Path(output))
+    if problem:
+        raise click.BadParameter(problem, param_hint="--output")
     json_on_interrupt(as_json, input=input_path, output=output)
     start = time.perf_counter()
     try:
