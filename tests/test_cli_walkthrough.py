@@ -124,10 +124,14 @@ def test_encode_refuses_an_output_below_a_file_before_it_builds(tmp_path):
     out = tmp_path / "a.obj" / "x.swpm"
     # the input is missing: the output is refused first (it was built, then "cannot write ...: File exists")
     result = CliRunner().invoke(main, ["encode", str(tmp_path / "missing.obj"), "-o", str(out), "--json"])
-    assert result.exit_code == 2, result.output
-    says = f"{out}: {tmp_path / 'a.obj'} is not a folder"
-    assert f"Error: Invalid value for --output: {says}" in result.stderr
-    assert json.loads(result.stdout)["output"] == str(out)
+    assert result.exit_code == 1, result.output
+    says = f"cannot write {out}: {tmp_path / 'a.obj'} is not a folder"
+    assert result.stderr == f"error: {says}\n"
+    assert json.loads(result.stdout) == {
+        "input": str(tmp_path / "missing.obj"),
+        "output": str(out),
+        "error": says,
+    }
 
 
 def test_encode_refuses_an_output_in_a_folder_it_cannot_write_before_it_builds(tmp_path, monkeypatch):
@@ -141,8 +145,8 @@ def test_encode_refuses_an_output_in_a_folder_it_cannot_write_before_it_builds(t
     monkeypatch.setattr(os, "access", access)
     out = tmp_path / "new" / "x.swpm"
     result = CliRunner().invoke(main, ["encode", str(tmp_path / "missing.obj"), "-o", str(out)])
-    assert result.exit_code == 2, result.output
-    assert f"{out}: the folder {tmp_path} is not writable" in result.stderr
+    assert result.exit_code == 1, result.output
+    assert result.stderr == f"error: cannot write {out}: the folder {tmp_path} is not writable\n"
     assert not (tmp_path / "new").exists()
 
 

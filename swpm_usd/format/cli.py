@@ -270,9 +270,9 @@ def _output_folder_problem(output: Path) -> str | None:
     while not folder.exists() and folder != folder.parent:
         folder = folder.parent
     if not folder.is_dir():
-        return f"{output}: {folder} is not a folder"
+        return f"cannot write {output}: {folder} is not a folder"
     if not os.access(folder, os.W_OK | os.X_OK):
-        return f"{output}: the folder {folder} is not writable"
+        return f"cannot write {output}: the folder {folder} is not writable"
     return None
 
 
@@ -318,10 +318,13 @@ def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, .
         raise click.BadParameter(f"{output} is the input: it would be overwritten", param_hint="--output")
     if Path(output).suffix.lower() != ".swpm":
         raise click.BadParameter(f"{output}: the output must be a .swpm file", param_hint="--output")
-    problem = _output_folder_problem(Path(output))
-    if problem:
-        raise click.BadParameter(problem, param_hint="--output")
     json_on_interrupt(as_json, input=input_path, output=output)
+    problem = _output_folder_problem(Path(output))
+    if problem:  # (exit 1, as the write that would fail after the build)
+        click.echo(f"error: {problem}", err=True)
+        if as_json:
+            click.echo(json.dumps({"input": input_path, "output": output, "error": problem}, indent=2))
+        sys.exit(1)
     start = time.perf_counter()
     try:
         pm = build(input_path, encoding, **parsed)
