@@ -25,6 +25,9 @@ OUT_OF_BOUNDS = [
     ("sliding-window", "order_passes=-3", "order_passes must be in [0, 8], got -3"),
     ("sliding-window", "order_passes=x", "order_passes must be an integer, got 'x'"),
     ("sliding-window", "target_slack=-1", "target_slack must be at least 0, got -1"),
+    # (json reads these; check_params does not check a None default's number finite: the encoder did)
+    ("sliding-window", "target_slack=Infinity", "target_slack must be a finite number, got inf"),
+    ("sliding-window", "target_slack=NaN", "target_slack must be a finite number, got nan"),
     ("sliding-window", "order_reach=99", "order_reach must be in [1, 8], got 99"),
     ("sliding-window", "builder=foo", "builder must be one of topology, forsyth, got 'foo'"),
     ("skip-strip", "degenerate_threshold=2", "degenerate_threshold must be in [0, 1), got 2"),
@@ -87,6 +90,21 @@ def test_a_fifo_given_as_a_swpm_file_is_refused_at_once(tmp_path, command):
     if "--json" in command:
         problems = json.loads(result.stdout)["problems"]
         assert [p["code"] for p in problems] == ["SWPM_IO_ERROR"]
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="a FIFO needs a POSIX system")
+@pytest.mark.parametrize("as_json", [False, True])
+def test_a_fifo_given_as_a_usd_stage_is_refused_at_once(tmp_path, as_json):
+    # (it said "file not found"; with --json the report's usd-core open waited for a writer for ever)
+    os.mkfifo(tmp_path / "pipe.usda")
+    result = _cli("validate", "pipe.usda", *(["--json"] if as_json else []), cwd=tmp_path)
+    assert result.returncode == 1, result.stderr
+    assert result.stderr == "error: pipe.usda: not a regular file\n"
+    if as_json:
+        findings = json.loads(result.stdout)["findings"]
+        assert [(f["code"], f["message"]) for f in findings] == [
+            ("SWPM_USD_OPEN", "pipe.usda: not a regular file; it was not opened")
+        ]
 
 
 @pytest.mark.skipif(not hasattr(signal, "SIGALRM"), reason="a FIFO needs a POSIX system")

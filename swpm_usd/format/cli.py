@@ -35,8 +35,8 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     """``--encoding`` and ``--param`` checked alike for every command (usage errors, exit 2): a known
     encoding, NAME=VALUE items, names its builder takes, values of their types and shared bounds
     (:func:`..build.check_params`) and each one's bounds in a pipeline config's schema
-    (:func:`_out_of_bounds`; a combination only the encoder knows, ``cluster`` with ``inner_vertices=3``,
-    fails at the build, exit 1). Returns the parsed parameters."""
+    (:func:`_out_of_bounds`; a combination only the encoder knows, ``order_passes=2`` with
+    ``builder=forsyth``, fails at the build, exit 1). Returns the parsed parameters."""
     from ..encodings import ENCODING_PARAMS
 
     if encoding not in ENCODING_PARAMS:
@@ -69,6 +69,7 @@ def _out_of_bounds(encoding: str, name: str, value: object, default: object) -> 
     encoders' own: ``mu`` in [0, 1), ``order_passes`` in [0, 8], a sliding window's ``cache_size`` at least
     3), or None. Checked before the mesh is read, as a usage error (exit 2): ``-p mu=2`` read the mesh and
     built its collapse sequence (minutes on a large mesh) before the encoder refused it, exit 1."""
+    import math
     import numbers
 
     from ..pipeline.schema import _param_schema
@@ -85,6 +86,8 @@ def _out_of_bounds(encoding: str, name: str, value: object, default: object) -> 
         return None
     if "integer" in str(schema.get("type")) and not isinstance(value, numbers.Integral):
         return f"{name} must be an integer, got {value!r}"
+    if not math.isfinite(value):  # (json reads Infinity and NaN; a None default's number, target_slack)
+        return f"{name} must be a finite number, got {value}"
     low, high, below = schema.get("minimum"), schema.get("maximum"), schema.get("exclusiveMaximum")
     if (
         (low is not None and value < low)
@@ -456,11 +459,18 @@ def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool)
         from ..usd.cli import validate_usd
 
         if not Path(file).is_file():
-            click.echo(f"error: {file}: file not found", err=True)
+            # a FIFO or a device is never opened (a FIFO's open waits for a writer: --json's report, opened
+            # by usd-core, waited for ever); both say so in one SWPM_USD_OPEN, as the USD probe does
+            problem = "not a regular file" if Path(file).exists() else "file not found"
+            click.echo(f"error: {file}: {problem}", err=True)
             if as_json:  # the report validate_stage gives: one SWPM_USD_OPEN
-                from ..usd.validate import report, validate_stage
+                from ..usd.validate import ERROR, Finding, report, validate_stage
 
-                rep = report(validate_stage(file, builtin=False))
+                if problem == "file not found":
+                    rep = report(validate_stage(file, builtin=False))
+                else:
+                    message = f"{file}: {problem}; it was not opened"
+                    rep = report([Finding("SWPM_USD_OPEN", ERROR, "/", message)])
                 click.echo(json.dumps({"stage": file, **rep}, indent=2))
             sys.exit(1)
         ctx.invoke(validate_usd, stage=Path(file), as_json=as_json, no_builtin=no_builtin)
