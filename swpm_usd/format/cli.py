@@ -322,14 +322,11 @@ def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, .
     if Path(output).suffix.lower() != ".swpm":
         raise click.BadParameter(f"{output}: the output must be a .swpm file", param_hint="--output")
     json_on_interrupt(as_json, input=input_path, output=output)
-    problem = _output_folder_problem(Path(output))
-    if problem:  # (exit 1, as the write that would fail after the build)
-        click.echo(f"error: {problem}", err=True)
-        if as_json:
-            click.echo(json.dumps({"input": input_path, "output": output, "error": problem}, indent=2))
-        sys.exit(1)
     start = time.perf_counter()
     try:
+        problem = _output_folder_problem(Path(output))
+        if problem:  # (before the build: exit 1, as the write that would fail after it)
+            raise OSError(problem)
         pm = build(input_path, encoding, **parsed)
         seconds = time.perf_counter() - start
         digest = None
