@@ -95,7 +95,7 @@ def test_a_fifo_given_as_a_swpm_file_is_refused_at_once(tmp_path, command):
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="a FIFO needs a POSIX system")
 @pytest.mark.parametrize("as_json", [False, True])
 def test_a_fifo_given_as_a_usd_stage_is_refused_at_once(tmp_path, as_json):
-    # (it said "file not found"; with --json the report's usd-core open waited for a writer for ever)
+    # (it said "file not found"; with --json the report waited for the probe's alarm, 300 s by default)
     os.mkfifo(tmp_path / "pipe.usda")
     result = _cli("validate", "pipe.usda", *(["--json"] if as_json else []), cwd=tmp_path)
     assert result.returncode == 1, result.stderr
@@ -103,7 +103,7 @@ def test_a_fifo_given_as_a_usd_stage_is_refused_at_once(tmp_path, as_json):
     if as_json:
         findings = json.loads(result.stdout)["findings"]
         assert [(f["code"], f["message"]) for f in findings] == [
-            ("SWPM_USD_OPEN", "pipe.usda: not a regular file; it was not opened")
+            ("SWPM_USD_OPEN", "pipe.usda: it is not a regular file; it was not opened")
         ]
 
 

@@ -457,7 +457,7 @@ def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool)
 
         if not Path(file).is_file():
             # a FIFO or a device is never opened (a FIFO's open waits for a writer: --json's report, opened
-            # by usd-core, waited for ever); both say so in one SWPM_USD_OPEN, as the USD probe does
+            # by a probe, waited for its alarm); both say so in one SWPM_USD_OPEN, as the USD probe does
             problem = "not a regular file" if Path(file).exists() else "file not found"
             click.echo(f"error: {file}: {problem}", err=True)
             if as_json:  # the report validate_stage gives: one SWPM_USD_OPEN
@@ -466,7 +466,7 @@ def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool)
                 if problem == "file not found":
                     rep = report(validate_stage(file, builtin=False))
                 else:
-                    message = f"{file}: {problem}; it was not opened"
+                    message = f"{file}: it is {problem}; it was not opened"
                     rep = report([Finding("SWPM_USD_OPEN", ERROR, "/", message)])
                 click.echo(json.dumps({"stage": file, **rep}, indent=2))
             sys.exit(1)
