@@ -3,6 +3,7 @@ documented exit code (1 invalid input, 2 usage), no traceback and no wait."""
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import signal
@@ -177,3 +178,19 @@ def test_encode_makes_a_missing_output_folder(tmp_path):
     from swpm_usd.format.reader import validate
 
     assert validate(out).valid
+
+
+def test_a_folder_given_to_the_reader_is_named_and_not_left_open(tmp_path):
+    # (the FIFO check opened it as a descriptor: the error named the descriptor, "Is a directory: 3", and
+    # the descriptor stayed open; as open(path) it said "[Errno 21] Is a directory: '<path>'")
+    from swpm_usd.format.errors import SwpmFormatError
+    from swpm_usd.format.reader import load, validate
+
+    fds = os.listdir("/proc/self/fd") if os.path.isdir("/proc/self/fd") else None
+    rep = validate(tmp_path)
+    says = f"cannot read file: [Errno {errno.EISDIR}] Is a directory: {str(tmp_path)!r}"
+    assert [p.message for p in rep.problems] == [says]
+    with pytest.raises(SwpmFormatError, match="Is a directory"):
+        load(tmp_path)
+    if fds is not None:
+        assert len(os.listdir("/proc/self/fd")) == len(fds)

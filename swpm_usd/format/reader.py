@@ -89,9 +89,16 @@ def _map(path: str | os.PathLike[str]) -> np.ndarray:
     is not a regular file: a FIFO is opened without waiting for a writer (``open`` waited for ever) and
     refused, as a device is."""
     fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
-    with open(fd, "rb") as f:
-        if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+    try:  # (checked on the descriptor: ``open(fd)`` of a folder named the error by the number, kept it open)
+        mode = os.fstat(fd).st_mode
+        if stat.S_ISDIR(mode):
+            raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), os.fspath(path))
+        if not stat.S_ISREG(mode):
             raise OSError(errno.EINVAL, "not a regular file", os.fspath(path))
+    except OSError:
+        os.close(fd)
+        raise
+    with open(fd, "rb") as f:
         size = os.fstat(f.fileno()).st_size
         if size == 0:
             return np.zeros(0, np.uint8)
