@@ -20,7 +20,16 @@ CASES = [
         {"input": "x.obj"},
     ),
     (["build", "x.obj", "-p", "zz=1", "--json"], "zz not a parameter of vanilla", {"input": "x.obj"}),
-    (["build", "--json", "x.obj", "--rows", "0"], "Invalid value for '--rows'", {}),
+    # the input given is named though the error is another option's (the README: "with `input`, and
+    # `output` for `encode`, when given"; it was left out when click had not parsed it yet)
+    (["build", "--json", "x.obj", "--rows", "0"], "Invalid value for '--rows'", {"input": "x.obj"}),
+    (["build", "x.obj", "--rows", "0", "--json"], "Invalid value for '--rows'", {"input": "x.obj"}),
+    (["build", "/", "--json"], "Invalid value for 'INPUT'", {"input": "/"}),
+    (
+        ["encode", "x.obj", "-o", "/", "--json"],
+        "Invalid value for '-o' / '--output'",
+        {"input": "x.obj", "output": "/"},
+    ),
     (["encode", "x.obj", "--json"], "Missing option '-o' / '--output'", {"input": "x.obj"}),
     (
         ["encode", "x.obj", "-o", "y.txt", "--json"],

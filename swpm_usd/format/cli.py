@@ -34,8 +34,9 @@ def _parse_params(params: tuple[str, ...]) -> dict:
 def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     """``--encoding`` and ``--param`` checked alike for every command (usage errors, exit 2): a known
     encoding, NAME=VALUE items, names its builder takes, values of their types and shared bounds
-    (:func:`..build.check_params`; a range only the encoder knows fails at the build, exit 1). Returns the
-    parsed parameters."""
+    (:func:`..build.check_params`) and each one's bounds in a pipeline config's schema
+    (:func:`_out_of_bounds`; a combination only the encoder knows, ``order_passes=2`` with
+    ``builder=forsyth``, fails at the build, exit 1). Returns the parsed parameters."""
     from ..encodings import ENCODING_PARAMS
 
     if encoding not in ENCODING_PARAMS:
@@ -56,7 +57,48 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
         check_params(encoding, ENCODING_PARAMS[encoding], parsed)
     except SwpmError as exc:
         raise click.BadParameter(str(exc), param_hint="--param") from None
+    for name, value in parsed.items():
+        problem = _out_of_bounds(encoding, name, value, ENCODING_PARAMS[encoding][name])
+        if problem:
+            raise click.BadParameter(problem, param_hint="--param")
     return parsed
+
+
+def _out_of_bounds(encoding: str, name: str, value: object, default: object) -> str | None:
+    """What is wrong with ``value`` for ``name`` by the bounds a pipeline config's schema gives it (the
+    encoders' own: ``mu`` in [0, 1), ``order_passes`` in [0, 8], a sliding window's ``cache_size`` at least
+    3), or None. Checked before the mesh is read, as a usage error (exit 2): ``-p mu=2`` read the mesh and
+    built its collapse sequence (minutes on a large mesh) before the encoder refused it, exit 1."""
+    import math
+    import numbers
+
+    from ..pipeline.schema import _param_schema
+
+    schema = _param_schema(default, name, encoding)
+    if value is None:
+        return None if "null" in str(schema.get("type")) else f"{name} must not be null"
+    if "enum" in schema and value not in schema["enum"]:
+        return f"{name} must be one of {', '.join(map(str, schema['enum']))}, got {value!r}"
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        kinds = str(schema.get("type"))
+        if "integer" in kinds or "number" in kinds:
+            return f"{name} must be {'an integer' if 'number' not in kinds else 'a number'}, got {value!r}"
+        return None
+    if "integer" in str(schema.get("type")) and not isinstance(value, numbers.Integral):
+        return f"{name} must be an integer, got {value!r}"
+    if not math.isfinite(value):  # (json reads Infinity and NaN; a None default's number, target_slack)
+        return f"{name} must be a finite number, got {value}"
+    low, high, below = schema.get("minimum"), schema.get("maximum"), schema.get("exclusiveMaximum")
+    if (
+        (low is not None and value < low)
+        or (high is not None and value > high)
+        or (below is not None and value >= below)
+    ):
+        if high is None and below is None:
+            return f"{name} must be at least {low}, got {value}"
+        upper = f"{high:g}]" if high is not None else f"{below:g})"
+        return f"{name} must be in [{low:g}, {upper}, got {value}"
+    return None
 
 
 #: ``click.Context.meta`` key: what a command given ``--json`` prints, with ``"error"``, when it is stopped by
@@ -166,12 +208,26 @@ class JsonUsageCommand(click.Command):
         self, info_name: str | None, args: list[str], parent: click.Context | None = None, **extra: object
     ) -> click.Context:
         wants_json = _wants_json(self, args)  # (before the parser, which consumes the list)
+        given = list(args)
         try:
             return super().make_context(info_name, args, parent=parent, **extra)
         except click.UsageError as exc:
             if wants_json:
-                _echo_json_usage(exc, exc.ctx.params if exc.ctx is not None else {})
+                params = exc.ctx.params if exc.ctx is not None else {}
+                _echo_json_usage(exc, {**self._given(info_name, given, parent), **params})
             raise
+
+    def _given(self, info_name: str | None, args: list[str], parent: click.Context | None) -> dict:
+        """The values ``args`` gives the command's parameters, as written (before their types check them):
+        a usage error in one (``--rows 0``, an input that is a folder) still names the input and output
+        given, as the README says (click parses into its context only the values it took before the
+        error). Empty when the arguments do not parse."""
+        try:
+            ctx = click.Context(self, info_name=info_name, parent=parent)
+            values, _, _ = self.make_parser(ctx).parse_args(args=args)
+        except click.UsageError:
+            return {}
+        return {name: value for name, value in values.items() if isinstance(value, str)}
 
     def invoke(self, ctx: click.Context) -> object:
         try:
@@ -207,6 +263,22 @@ class EncodingsHelpGroup(click.Group):
             )
 
 
+def _output_folder_problem(output: Path) -> str | None:
+    """Why ``output`` cannot be written in its folder, or None: checked before the build, which it followed
+    (minutes on a large mesh, then ``cannot write x.obj/y.swpm: File exists``). A folder missing is made (the
+    nearest one that exists must be a writable folder)."""
+    import os
+
+    folder = output.parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        return f"cannot write {output}: {folder} is not a folder"
+    if not os.access(folder, os.W_OK | os.X_OK):
+        return f"cannot write {output}: the folder {folder} is not writable"
+    return None
+
+
 @click.command("encode", cls=EncodingsHelpCommand)
 @click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
 @click.option(
@@ -215,7 +287,7 @@ class EncodingsHelpGroup(click.Group):
     "output",
     required=True,
     type=click.Path(dir_okay=False),
-    help="The .swpm file to write (atomically); never the input.",
+    help="The .swpm file to write (atomically; a missing folder is made); never the input.",
 )
 @click.option(
     "--encoding",
@@ -252,6 +324,9 @@ def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, .
     json_on_interrupt(as_json, input=input_path, output=output)
     start = time.perf_counter()
     try:
+        problem = _output_folder_problem(Path(output))
+        if problem:  # (before the build: exit 1, as the write that would fail after it)
+            raise OSError(problem)
         pm = build(input_path, encoding, **parsed)
         seconds = time.perf_counter() - start
         digest = None
@@ -300,7 +375,7 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
     try:
         buf = _map(file)
     except OSError as exc:
-        click.echo(f"error: {exc}", err=True)
+        click.echo(f"error: {file}: cannot read file: {exc.strerror or exc}", err=True)
         if as_json:  # the report validate gives: one SWPM_IO_ERROR
             from .reader import validate
 
@@ -381,11 +456,18 @@ def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool)
         from ..usd.cli import validate_usd
 
         if not Path(file).is_file():
-            click.echo(f"error: {file}: file not found", err=True)
+            # a FIFO or a device is never opened (a FIFO's open waits for a writer: --json's report, opened
+            # by a probe, waited for its alarm); both say so in one SWPM_USD_OPEN, as the USD probe does
+            problem = "not a regular file" if Path(file).exists() else "file not found"
+            click.echo(f"error: {file}: {problem}", err=True)
             if as_json:  # the report validate_stage gives: one SWPM_USD_OPEN
-                from ..usd.validate import report, validate_stage
+                from ..usd.validate import ERROR, Finding, report, validate_stage
 
-                rep = report(validate_stage(file, builtin=False))
+                if problem == "file not found":
+                    rep = report(validate_stage(file, builtin=False))
+                else:
+                    message = f"{file}: it is {problem}; it was not opened"
+                    rep = report([Finding("SWPM_USD_OPEN", ERROR, "/", message)])
                 click.echo(json.dumps({"stage": file, **rep}, indent=2))
             sys.exit(1)
         ctx.invoke(validate_usd, stage=Path(file), as_json=as_json, no_builtin=no_builtin)

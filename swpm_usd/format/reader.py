@@ -9,11 +9,13 @@ cannot make the reader allocate much more than its own size.
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import mmap
 import os
 import re
+import stat
 import zlib
 from dataclasses import dataclass, field
 from typing import Any
@@ -83,7 +85,20 @@ class _Parsed:
 
 
 def _map(path: str | os.PathLike[str]) -> np.ndarray:
-    with open(path, "rb") as f:
+    """The file at ``path`` mapped read-only. An :class:`OSError` naming ``path`` when it cannot be read or
+    is not a regular file: a FIFO is opened without waiting for a writer (``open`` waited for ever) and
+    refused, as a device is."""
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    try:  # (checked on the descriptor: ``open(fd)`` of a folder named the error by the number, kept it open)
+        mode = os.fstat(fd).st_mode
+        if stat.S_ISDIR(mode):
+            raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), os.fspath(path))
+        if not stat.S_ISREG(mode):
+            raise OSError(errno.EINVAL, "not a regular file", os.fspath(path))
+    except OSError:
+        os.close(fd)
+        raise
+    with open(fd, "rb") as f:
         size = os.fstat(f.fileno()).st_size
         if size == 0:
             return np.zeros(0, np.uint8)

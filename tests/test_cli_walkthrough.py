@@ -1,0 +1,196 @@
+"""What a new user gets wrong on the command line: each is a clear error naming what is wrong, with the
+documented exit code (1 invalid input, 2 usage), no traceback and no wait."""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import signal
+import subprocess
+import sys
+
+import pytest
+from click.testing import CliRunner
+
+from swpm_usd.cli import main
+
+#: (encoding, parameter, what the error says): values out of the bounds the pipeline config's schema gives
+#: them. Each was taken by the command line, the mesh read and (but for the sliding window) its collapse
+#: sequence built before the encoder refused it, exit 1 as an invalid input.
+OUT_OF_BOUNDS = [
+    ("sliding-window", "mu=2", "mu must be in [0, 1), got 2"),
+    ("sliding-window", "mu=-0.1", "mu must be in [0, 1), got -0.1"),
+    ("sliding-window", "cache_size=2", "cache_size must be in [3, 1024], got 2"),
+    ("sliding-window", "inner_vertices=0", "inner_vertices must be at least 1, got 0"),
+    ("sliding-window", "order_passes=-3", "order_passes must be in [0, 8], got -3"),
+    ("sliding-window", "order_passes=x", "order_passes must be an integer, got 'x'"),
+    ("sliding-window", "target_slack=-1", "target_slack must be at least 0, got -1"),
+    # (json reads these; check_params does not check a None default's number finite: the encoder did)
+    ("sliding-window", "target_slack=Infinity", "target_slack must be a finite number, got inf"),
+    ("sliding-window", "target_slack=NaN", "target_slack must be a finite number, got nan"),
+    ("sliding-window", "order_reach=99", "order_reach must be in [1, 8], got 99"),
+    ("sliding-window", "builder=foo", "builder must be one of topology, forsyth, got 'foo'"),
+    ("skip-strip", "degenerate_threshold=2", "degenerate_threshold must be in [0, 1), got 2"),
+    ("skip-strip", "primitive=fan", "primitive must be one of strip, list, got 'fan'"),
+    ("mixed", "level_threshold=-0.5", "level_threshold must be in [0, 1), got -0.5"),
+]
+
+
+@pytest.mark.parametrize("command", ["build", "encode"])
+@pytest.mark.parametrize(("encoding", "param", "says"), OUT_OF_BOUNDS, ids=[c[1] for c in OUT_OF_BOUNDS])
+def test_a_parameter_out_of_its_bounds_is_a_usage_error_before_the_mesh_is_read(
+    tmp_path, command, encoding, param, says
+):
+    # the input does not exist: the parameter is refused before it is looked for (it was "file not found")
+    missing = str(tmp_path / "missing.obj")
+    args = [command, missing, "-e", encoding, "-p", param, "--json"]
+    if command == "encode":
+        args += ["-o", str(tmp_path / "out.swpm")]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2, (result.output, result.exception)
+    assert f"Error: Invalid value for --param: {says}" in result.stderr
+    out = json.loads(result.stdout)
+    assert out["usage_error"] is True and says in out["error"] and out["input"] == missing
+    assert not (tmp_path / "out.swpm").exists()
+
+
+@pytest.mark.parametrize(
+    ("encoding", "param"),
+    [("sliding-window", "order_passes=null"), ("sliding-window", "mu=0"), ("skip-strip", "primitive=list")],
+)
+def test_a_parameter_within_its_bounds_is_taken(tmp_path, encoding, param):
+    # (the input is missing: the command gets past its parameters to the file, exit 1)
+    result = CliRunner().invoke(main, ["build", str(tmp_path / "missing.obj"), "-e", encoding, "-p", param])
+    assert result.exit_code == 1 and "file not found" in result.stderr
+
+
+def _cli(*args: str, cwd) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    return subprocess.run(
+        [sys.executable, "-m", "swpm_usd.cli", *args],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,  # (each waited for ever, for a writer that never came)
+    )
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="a FIFO needs a POSIX system")
+@pytest.mark.parametrize(
+    "command", [["validate"], ["inspect"], ["inspect", "--json"], ["validate", "--json"]]
+)
+def test_a_fifo_given_as_a_swpm_file_is_refused_at_once(tmp_path, command):
+    os.mkfifo(tmp_path / "pipe.swpm")
+    result = _cli(*command, "pipe.swpm", cwd=tmp_path)
+    assert result.returncode == 1, result.stderr
+    assert "Traceback" not in result.stderr
+    text = result.stdout + result.stderr
+    assert "pipe.swpm" in text and "not a regular file" in text
+    if "--json" in command:
+        problems = json.loads(result.stdout)["problems"]
+        assert [p["code"] for p in problems] == ["SWPM_IO_ERROR"]
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="a FIFO needs a POSIX system")
+@pytest.mark.parametrize("as_json", [False, True])
+def test_a_fifo_given_as_a_usd_stage_is_refused_at_once(tmp_path, as_json):
+    # (it said "file not found"; with --json the report waited for the probe's alarm, 300 s by default)
+    os.mkfifo(tmp_path / "pipe.usda")
+    result = _cli("validate", "pipe.usda", *(["--json"] if as_json else []), cwd=tmp_path)
+    assert result.returncode == 1, result.stderr
+    assert result.stderr == "error: pipe.usda: not a regular file\n"
+    if as_json:
+        findings = json.loads(result.stdout)["findings"]
+        assert [(f["code"], f["message"]) for f in findings] == [
+            ("SWPM_USD_OPEN", "pipe.usda: it is not a regular file; it was not opened")
+        ]
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGALRM"), reason="a FIFO needs a POSIX system")
+def test_a_fifo_is_refused_by_load_and_validate(tmp_path):
+    from swpm_usd.format.errors import SwpmFormatError
+    from swpm_usd.format.reader import load, validate
+
+    fifo = tmp_path / "pipe.swpm"
+    os.mkfifo(fifo)
+
+    def waited(*_):
+        raise AssertionError("the reader waited for a writer of the FIFO")
+
+    previous = signal.signal(signal.SIGALRM, waited)
+    signal.alarm(20)  # (the code before waited in open() for ever)
+    try:
+        rep = validate(fifo)
+        assert not rep.valid and [p.code for p in rep.problems] == ["SWPM_IO_ERROR"]
+        with pytest.raises(SwpmFormatError, match="not a regular file"):
+            load(fifo)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def test_inspect_of_a_missing_file_names_it_in_one_plain_line(tmp_path):
+    result = CliRunner().invoke(main, ["inspect", str(tmp_path / "nope.swpm")])
+    assert result.exit_code == 1
+    # it was Python's "error: [Errno 2] No such file or directory: '...'"
+    assert result.stderr == f"error: {tmp_path / 'nope.swpm'}: cannot read file: No such file or directory\n"
+
+
+def test_encode_refuses_an_output_below_a_file_before_it_builds(tmp_path):
+    (tmp_path / "a.obj").write_text("not a folder")
+    out = tmp_path / "a.obj" / "x.swpm"
+    # the input is missing: the output is refused first (it was built, then "cannot write ...: File exists")
+    result = CliRunner().invoke(main, ["encode", str(tmp_path / "missing.obj"), "-o", str(out), "--json"])
+    assert result.exit_code == 1, result.output
+    says = f"cannot write {out}: {tmp_path / 'a.obj'} is not a folder"
+    assert result.stderr == f"error: {says}\n"
+    assert json.loads(result.stdout) == {
+        "input": str(tmp_path / "missing.obj"),
+        "output": str(out),
+        "error": says,
+    }
+
+
+def test_encode_refuses_an_output_in_a_folder_it_cannot_write_before_it_builds(tmp_path, monkeypatch):
+    # (a read-only folder: os.access as an unprivileged user finds it; the tests may run as root, where a
+    # chmod does not stop a write, so the permission check is given its answer)
+    real_access = os.access
+
+    def access(path, mode):
+        return False if str(path) == str(tmp_path) else real_access(path, mode)
+
+    monkeypatch.setattr(os, "access", access)
+    out = tmp_path / "new" / "x.swpm"
+    result = CliRunner().invoke(main, ["encode", str(tmp_path / "missing.obj"), "-o", str(out)])
+    assert result.exit_code == 1, result.output
+    assert result.stderr == f"error: cannot write {out}: the folder {tmp_path} is not writable\n"
+    assert not (tmp_path / "new").exists()
+
+
+def test_encode_makes_a_missing_output_folder(tmp_path):
+    from conftest import ROOT
+
+    out = tmp_path / "new" / "deeper" / "spot.swpm"
+    result = CliRunner().invoke(main, ["encode", str(ROOT / "samples" / "spot.obj"), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    from swpm_usd.format.reader import validate
+
+    assert validate(out).valid
+
+
+def test_a_folder_given_to_the_reader_is_named_and_not_left_open(tmp_path):
+    # (the FIFO check opened it as a descriptor: the error named the descriptor, "Is a directory: 3", and
+    # the descriptor stayed open; as open(path) it said "[Errno 21] Is a directory: '<path>'")
+    from swpm_usd.format.errors import SwpmFormatError
+    from swpm_usd.format.reader import load, validate
+
+    fds = os.listdir("/proc/self/fd") if os.path.isdir("/proc/self/fd") else None
+    rep = validate(tmp_path)
+    says = f"cannot read file: [Errno {errno.EISDIR}] Is a directory: {str(tmp_path)!r}"
+    assert [p.message for p in rep.problems] == [says]
+    with pytest.raises(SwpmFormatError, match="Is a directory"):
+        load(tmp_path)
+    if fds is not None:
+        assert len(os.listdir("/proc/self/fd")) == len(fds)
