@@ -104,7 +104,7 @@ def test_a_fifo_given_as_a_usd_stage_is_refused_at_once(tmp_path, as_json):
     if as_json:
         findings = json.loads(result.stdout)["findings"]
         assert [(f["code"], f["message"]) for f in findings] == [
-            ("SWPM_USD_OPEN", "pipe.usda: it is not a regular file; it was not opened")
+            ("SWPM_USD_OPEN", "pipe.usda: it is not a regular file (a FIFO); it was not opened")
         ]
 
 

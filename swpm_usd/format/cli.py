@@ -456,18 +456,14 @@ def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool)
         from ..usd.cli import validate_usd
 
         if not Path(file).is_file():
-            # a FIFO or a device is never opened (a FIFO's open waits for a writer: --json's report, opened
-            # by a probe, waited for its alarm); both say so in one SWPM_USD_OPEN, as the USD probe does
+            # a FIFO or a device is never opened (a FIFO's open waits for a writer); validate_stage says
+            # so at once, in one SWPM_USD_OPEN naming its kind
             problem = "not a regular file" if Path(file).exists() else "file not found"
             click.echo(f"error: {file}: {problem}", err=True)
-            if as_json:  # the report validate_stage gives: one SWPM_USD_OPEN
-                from ..usd.validate import ERROR, Finding, report, validate_stage
+            if as_json:
+                from ..usd.validate import report, validate_stage
 
-                if problem == "file not found":
-                    rep = report(validate_stage(file, builtin=False))
-                else:
-                    message = f"{file}: it is {problem}; it was not opened"
-                    rep = report([Finding("SWPM_USD_OPEN", ERROR, "/", message)])
+                rep = report(validate_stage(file, builtin=False))
                 click.echo(json.dumps({"stage": file, **rep}, indent=2))
             sys.exit(1)
         ctx.invoke(validate_usd, stage=Path(file), as_json=as_json, no_builtin=no_builtin)
