@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import html
 import json
 import os
@@ -1072,26 +1073,23 @@ def test_output_lock_of_another_user_an_unwritable_folder_or_no_locks(tmp_path, 
     assert f"warning: {out}: cannot lock the output folder (No locks available)" in r.stderr
 
 
-def test_a_second_concurrent_run_fails_fast(tmp_path):
-    # two real processes: the second exits 1 naming the folder while the first goes on to finish. The first
-    # holds its first asset until the second has ended (the second's start raced the first's last assets)
-    cfg = _project(tmp_path, ("cow.obj", "spot.obj"), "")
-    cfg.write_text(
-        "version: 1\nassets: [{glob: 'meshes/*.obj'}]\noutput: {dir: out}\n"
-        "defaults: {encoding: sliding-window}\n"
-    )
+@contextlib.contextmanager
+def _run_held_in(tmp_path: Path, cfg: Path, hook: str, setup: str = ""):
+    """``swpm-pipeline run cfg`` in another process, held in ``runner.<hook>`` (the lock held) until
+    ``release`` exists; yields (the process, release) once it is there, and ends it if the block did not."""
     started, release = tmp_path / "started", tmp_path / "release"
     driver = tmp_path / "first.py"
     driver.write_text(
         "import pathlib, sys, time\n"
         "from swpm_usd.pipeline import runner\n"
-        "real = runner.process_asset\n"
-        "def held(task):  # mid-run (the lock held) until the test lets it go on\n"
+        f"real = runner.{hook}\n"
+        "def held(*args, **kwargs):  # there until the test lets it go on\n"
         "    pathlib.Path(sys.argv[1]).touch()\n"
         "    while not pathlib.Path(sys.argv[2]).exists():\n"
         "        time.sleep(0.02)\n"
-        "    return real(task)\n"
-        "runner.process_asset = held\n"
+        "    return real(*args, **kwargs)\n"
+        f"runner.{hook} = held\n"
+        f"{setup}"
         "from swpm_usd.cli import main\n"
         "main(sys.argv[3:])\n"
     )
@@ -1105,6 +1103,23 @@ def test_a_second_concurrent_run_fails_fast(tmp_path):
         while time.time() < deadline and first.poll() is None and not started.exists():
             time.sleep(0.02)
         assert started.exists() and first.poll() is None, first.stderr.read().decode()
+        yield first, release
+    finally:
+        release.touch()
+        if first.poll() is None:
+            first.kill()
+            first.wait()
+
+
+def test_a_second_concurrent_run_fails_fast(tmp_path):
+    # two real processes: the second exits 1 naming the folder while the first goes on to finish. The first
+    # holds its first asset until the second has ended (the second's start raced the first's last assets)
+    cfg = _project(tmp_path, ("cow.obj", "spot.obj"), "")
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'meshes/*.obj'}]\noutput: {dir: out}\n"
+        "defaults: {encoding: sliding-window}\n"
+    )
+    with _run_held_in(tmp_path, cfg, "process_asset") as (first, release):  # (mid-run, the lock held)
         second = subprocess.run(
             [sys.executable, "-m", "swpm_usd.cli", "run", str(cfg)],
             capture_output=True,
@@ -1113,11 +1128,6 @@ def test_a_second_concurrent_run_fails_fast(tmp_path):
         )
         release.touch()
         assert first.wait(timeout=FIRST_ASSET_S) == 0, first.stderr.read().decode()
-    finally:
-        release.touch()
-        if first.poll() is None:
-            first.kill()
-            first.wait()
     assert second.returncode == 1, second.stderr
     assert f"{tmp_path / 'out'}: another swpm-pipeline run (pid {first.pid}) is writing" in second.stderr
     assert run(cfg, echo=lambda m: None).skipped == 2  # the first run's work is whole
@@ -4961,41 +4971,11 @@ def test_a_run_refused_while_another_plans_or_has_nothing_to_do_names_that_one(t
     lock = out / runner.LOCK
     assert lock.read_text() == f"{os.getpid()}\n"
     before = _files_as_written(out)
-    started, release = tmp_path / "started", tmp_path / "release"
-    driver = tmp_path / "first.py"
-    driver.write_text(
-        "import pathlib, sys, time\n"
-        "from swpm_usd.pipeline import runner\n"
-        "real = runner.plan\n"
-        "def held(*args, **kwargs):  # planning (the lock held) until the test lets it go on\n"
-        "    pathlib.Path(sys.argv[1]).touch()\n"
-        "    while not pathlib.Path(sys.argv[2]).exists():\n"
-        "        time.sleep(0.02)\n"
-        "    return real(*args, **kwargs)\n"
-        "runner.plan = held\n"
-        "runner._RACY_NS = 0\n"
-        "from swpm_usd.cli import main\n"
-        "main(sys.argv[3:])\n"
-    )
-    first = subprocess.Popen(
-        [sys.executable, str(driver), str(started), str(release), "run", str(cfg)],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-    )
-    try:
-        deadline = time.time() + 120
-        while time.time() < deadline and first.poll() is None and not started.exists():
-            time.sleep(0.02)
-        assert started.exists() and first.poll() is None, first.stderr.read().decode()
+    with _run_held_in(tmp_path, cfg, "plan", "runner._RACY_NS = 0\n") as (first, release):  # (planning)
         with pytest.raises(OutputLockedError) as err:
             run(cfg, echo=lambda m: None)
         release.touch()
         assert first.wait(timeout=FIRST_ASSET_S) == 0, first.stderr.read().decode()
-    finally:
-        release.touch()
-        if first.poll() is None:
-            first.kill()
-            first.wait()
     assert err.value.pid == first.pid, (err.value.pid, first.pid, os.getpid())
     assert f"another swpm-pipeline run (pid {first.pid}) is writing" in str(err.value)
     assert _files_as_written(out) == before and lock.read_text() == f"{os.getpid()}\n"  # (nothing to do)
