@@ -5028,3 +5028,25 @@ def test_the_holder_of_the_lock_as_the_kernel_lists_it(tmp_path, monkeypatch):
         assert runner._lock_holder(fd) is None
     finally:
         os.close(fd)
+
+
+def test_a_lock_file_the_disk_cannot_take_the_pid_of_is_no_raw_error(tmp_path, monkeypatch):
+    # the pid a run writes in the lock file once it writes in output.dir only names it to a run it refuses
+    # (the kernel's list of locks names it too): a full disk there raised a bare OSError out of `run`
+    # before any output was attempted; the run goes on, and its own writes report the disk
+    import errno
+
+    from swpm_usd.pipeline import runner
+
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("sliding-window", "vanilla"))
+    real_pwrite = os.pwrite
+
+    def full(fd, data, offset):
+        if os.path.basename(os.readlink(f"/proc/self/fd/{fd}")) == runner.LOCK:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return real_pwrite(fd, data, offset)
+
+    monkeypatch.setattr(os, "pwrite", full)
+    res = run(cfg, echo=lambda m: None)
+    assert res.built == 1 and res.failed == 0
+    assert (tmp_path / "out" / runner.LOCK).read_text() == ""  # (no pid: the write failed)

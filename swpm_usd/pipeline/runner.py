@@ -1420,8 +1420,11 @@ class _OutputLock:
         if self.fd is None or not self.writable or self.claimed:
             return
         self.claimed = True
-        os.ftruncate(self.fd, 0)
-        os.pwrite(self.fd, f"{os.getpid()}\n".encode(), 0)
+        try:
+            os.ftruncate(self.fd, 0)
+            os.pwrite(self.fd, f"{os.getpid()}\n".encode(), 0)
+        except OSError:  # (a full disk: the pid only names the holder, which /proc/locks names too; the
+            pass  # run's own writes meet the full disk next, each as the typed error naming its file)
 
     def _unlocked(self, exc: OSError) -> None:
         self.done = True
