@@ -4875,6 +4875,37 @@ def test_a_scene_written_whose_open_layer_does_not_reload_is_recorded_before_the
     assert Sdf.Layer.OpenAsAnonymous(str(out / "scene.usda")) is not None
 
 
+def test_a_report_that_fails_after_the_scene_did_not_reload_says_both(tmp_path, monkeypatch):
+    # the scene's reload error is raised once the report and the manifest are written: a report that then
+    # failed was raised alone, and the reload's error (the layer open in this process is stale) was lost
+    from pxr import Sdf
+
+    from swpm_usd.pipeline import report
+
+    monkeypatch.setattr("swpm_usd.pipeline.runner._RACY_NS", 0)
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    opened = Sdf.Layer.FindOrOpen(str(out / "scene.usda"))  # (open in this process)
+    assert opened is not None
+    shutil.copy(SHARED_MESHES / "spot.obj", tmp_path / "meshes" / "spot.obj")
+
+    def failing_reload(self, force=False):
+        Sdf.Layer.CreateNew("")  # (a real usd-core error: "cannot use empty identifier")
+
+    def failing_report(path, manifest):
+        raise OSError(28, "No space left on device", str(path))
+
+    with monkeypatch.context() as m, pytest.raises(OSError) as err:
+        m.setattr(Sdf.Layer, "Reload", failing_reload)
+        m.setattr(report, "write_report", failing_report)
+        run(cfg, echo=lambda m: None)
+    assert "No space left on device" in str(err.value)
+    notes = getattr(err.value, "__notes__", [])
+    assert len(notes) == 1 and notes[0].startswith("before it: LayerReloadError: "), notes
+    assert str(out / "scene.usda") in notes[0]
+
+
 def test_a_manifest_whose_report_record_names_no_config_has_the_report_written_once(tmp_path, monkeypatch):
     # a manifest of the version before the report's record held the config it names: read as it is, the
     # report written once (no asset rebuilt, no input read), its record given the config; then nothing

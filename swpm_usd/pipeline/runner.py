@@ -1818,8 +1818,10 @@ def _run(
         if not unchanged or manifest != previous:
             lock.claim()
             _write_manifest(manifest_path, manifest, text)
-    except BaseException:
+    except BaseException as exc:
         stop()
+        if stale is not None:  # (the scene's reload failed first: said too, not lost behind this error)
+            exc.add_note(f"before it: {type(stale).__name__}: {stale}")
         raise
     if stale is not None:
         raise stale
