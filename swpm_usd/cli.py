@@ -235,10 +235,17 @@ def run_cmd(
         if as_json:
             click.echo(json.dumps({"error": "invalid configuration", "problems": exc.problems}, indent=2))
         sys.exit(2)
-    except SwpmError as exc:  # output.dir held by another run (OutputLockedError)
-        click.echo(f"error: {exc}", err=True)
+    except (SwpmError, OSError) as exc:
+        # output.dir held by another run (OutputLockedError), or the run's own files (manifest, report,
+        # scene) not written: a full disk, no permission (a traceback before). The assets built are kept
+        if isinstance(exc, OSError) and exc.filename is not None:
+            message = f"{exc.filename}: {exc.strerror or exc}"
+        else:
+            message = str(exc)
+        message = "; ".join([message, *getattr(exc, "__notes__", ())])
+        click.echo(f"error: {message}", err=True)
         if as_json:
-            click.echo(json.dumps({"error": str(exc)}, indent=2))
+            click.echo(json.dumps({"error": message}, indent=2))
         sys.exit(1)
     except KeyboardInterrupt:  # the run has stopped its workers and recorded what they finished
         _exiting_on_interrupt()

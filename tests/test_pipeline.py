@@ -5081,3 +5081,26 @@ def test_a_lock_file_the_disk_cannot_take_the_pid_of_is_no_raw_error(tmp_path, m
     res = run(cfg, echo=lambda m: None)
     assert res.built == 1 and res.failed == 0
     assert (tmp_path / "out" / runner.LOCK).read_text() == ""  # (no pid: the write failed)
+
+
+def test_a_run_whose_own_files_cannot_be_written_is_an_error_not_a_traceback(tmp_path, monkeypatch):
+    # a full disk (or no permission) writing the run's report: `swpm-pipeline run` printed a traceback
+    # (OSError out of click); it is one line naming the file, exit 1, and --json says it too
+    import errno
+
+    from swpm_usd.pipeline import report
+
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("sliding-window", "vanilla"))
+
+    def full(path, manifest):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+
+    monkeypatch.setattr(report, "write_report", full)
+    for args in ([], ["--json"]):
+        r = CliRunner().invoke(main, ["run", str(cfg), "--force", *args])
+        assert r.exit_code == 1 and not isinstance(r.exception, OSError), (r.exception, r.output)
+        where = tmp_path / "out" / "report.html"
+        assert f"error: {where}: No space left on device" in r.stderr, r.stderr
+        assert "Traceback" not in r.output + r.stderr
+        if args:
+            assert json.loads(r.stdout)["error"] == f"{where}: No space left on device"
