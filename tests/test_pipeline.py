@@ -4829,6 +4829,27 @@ def test_a_rerun_with_nothing_to_do_leaves_the_lock_file_as_it_was_and_still_exc
     assert lock.read_text() == f"{os.getpid()}\n" and _lock_is_free(lock)
 
 
+def _scene_open_here_and_an_asset_added(tmp_path: Path, monkeypatch):
+    """A project of cow built with ``scene: true``, its scene.usda open in this process, then spot added:
+    (the config, output.dir, the open layer)."""
+    from pxr import Sdf
+
+    monkeypatch.setattr("swpm_usd.pipeline.runner._RACY_NS", 0)
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    opened = Sdf.Layer.FindOrOpen(str(out / "scene.usda"))  # (open in this process)
+    shutil.copy(SHARED_MESHES / "spot.obj", tmp_path / "meshes" / "spot.obj")
+    return cfg, out, opened
+
+
+def _failing_reload(self, force=False):
+    """``Sdf.Layer.Reload`` failing as usd-core does (a real error: "cannot use empty identifier")."""
+    from pxr import Sdf
+
+    Sdf.Layer.CreateNew("")
+
+
 def test_a_scene_written_whose_open_layer_does_not_reload_is_recorded_before_the_error(tmp_path, monkeypatch):
     # scene.usda renamed into place, then the layer of its name open in this process failing to reload: the
     # error was raised at once, the manifest written by the run's stop() without the scene (on disk, new,
@@ -4838,19 +4859,10 @@ def test_a_scene_written_whose_open_layer_does_not_reload_is_recorded_before_the
 
     from swpm_usd.usd.writer import LayerReloadError
 
-    monkeypatch.setattr("swpm_usd.pipeline.runner._RACY_NS", 0)
-    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
-    out = tmp_path / "out"
-    assert run(cfg, echo=lambda m: None).built == 1
-    opened = Sdf.Layer.FindOrOpen(str(out / "scene.usda"))  # (open in this process)
+    cfg, out, opened = _scene_open_here_and_an_asset_added(tmp_path, monkeypatch)
     assert [p.name for p in opened.GetPrimAtPath("/Scene").nameChildren] == ["cow"]
-    shutil.copy(SHARED_MESHES / "spot.obj", tmp_path / "meshes" / "spot.obj")
-
-    def failing_reload(self, force=False):
-        Sdf.Layer.CreateNew("")  # (a real usd-core error: "cannot use empty identifier")
-
     with monkeypatch.context() as m, pytest.raises(LayerReloadError) as err:
-        m.setattr(Sdf.Layer, "Reload", failing_reload)
+        m.setattr(Sdf.Layer, "Reload", _failing_reload)
         run(cfg, echo=lambda m: None)
     assert err.value.path == str(out / "scene.usda")
     manifest = json.loads((out / "manifest.json").read_text())
@@ -4882,22 +4894,14 @@ def test_a_report_that_fails_after_the_scene_did_not_reload_says_both(tmp_path, 
 
     from swpm_usd.pipeline import report
 
-    monkeypatch.setattr("swpm_usd.pipeline.runner._RACY_NS", 0)
-    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
-    out = tmp_path / "out"
-    assert run(cfg, echo=lambda m: None).built == 1
-    opened = Sdf.Layer.FindOrOpen(str(out / "scene.usda"))  # (open in this process)
+    cfg, out, opened = _scene_open_here_and_an_asset_added(tmp_path, monkeypatch)
     assert opened is not None
-    shutil.copy(SHARED_MESHES / "spot.obj", tmp_path / "meshes" / "spot.obj")
-
-    def failing_reload(self, force=False):
-        Sdf.Layer.CreateNew("")  # (a real usd-core error: "cannot use empty identifier")
 
     def failing_report(path, manifest):
         raise OSError(28, "No space left on device", str(path))
 
     with monkeypatch.context() as m, pytest.raises(OSError) as err:
-        m.setattr(Sdf.Layer, "Reload", failing_reload)
+        m.setattr(Sdf.Layer, "Reload", _failing_reload)
         m.setattr(report, "write_report", failing_report)
         run(cfg, echo=lambda m: None)
     assert "No space left on device" in str(err.value)

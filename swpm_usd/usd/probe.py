@@ -65,7 +65,7 @@ PROBE_MEMORY_PER_BYTE = 64
 #: a probe's answers: usd-core opened and read the file, raised an error opening it, or reading a value in
 #: it (its first message beside)
 _CLEAN, _OPEN_FAILED, _READ_FAILED, _LAYER_FAILED = 0, 3, 4, 6
-#: a probe's answer: a layer its stage names is not a regular file (message: what it is, "|", its real path)
+#: a probe's answer: a layer its stage names is not a regular file (message: its st_mode, "|", its real path)
 _NOT_REGULAR = 7
 
 #: the probe server's program: argv[1] the schema plugin's folder (registered as this process registers it:
@@ -108,13 +108,6 @@ except Exception:
 def note(real):
     # a layer named to the server before it is opened: a probe that crashes or hangs is keyed on it
     os.write(OUT, (json.dumps(real) + "\n").encode())
-def kind(mode):
-    kinds = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISDIR, "a folder"), (stat.S_ISCHR, "a character device"),
-             (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
-    for test, what in kinds:
-        if test(mode):
-            return what
-    return "not a regular file"
 def arcs(layer):
     # the asset paths of a layer's references and payloads outside variants (the stage's open opens them
     # whatever the selections), and those inside a variant (opened only when it is selected)
@@ -154,7 +147,7 @@ def preopen(path):
         except OSError:
             continue
         if not stat.S_ISREG(mode):
-            return f"{kind(mode)}|{real}", held
+            return f"{mode}|{real}", held  # (the asking process says what it is: _file_kind)
         try:
             layer = Sdf.Layer.FindOrOpen(spelled)
             assets = list(layer.GetCompositionAssetDependencies()) if layer else []
@@ -863,11 +856,8 @@ def _problem(path: str, code: int, text: str, seconds: float) -> Problem | None:
             f"{_signal_name(-code)}{said}): the file is corrupt; it was not opened in this process",
         )
     if code == _NOT_REGULAR:
-        what, _, layer = text.partition("|")
-        return Problem(
-            "open",
-            f"{path}: a layer its stage opens, {layer}, is not a regular file ({what}); it was not opened",
-        )
+        mode, _, layer = text.partition("|")
+        return _not_regular(path, layer, int(mode))
     from ..errors import tf_message
 
     reason = tf_message(RuntimeError(text)) if text.strip() else "usd-core returned no stage"
