@@ -1962,16 +1962,11 @@ def test_an_output_named_as_an_input_but_for_case_or_normalization_is_refused(
 ):
     # the inputs were compared with the outputs by their exact paths: on a case-insensitive filesystem
     # out/scene.usda, which the run writes, is out/Scene.usda, a stage of the config
-    from pxr import Sdf, Usd, UsdGeom
+    from pxr import Sdf
 
     (tmp_path / "out").mkdir()
     layer = tmp_path / "quad.usda"
-    st = Usd.Stage.CreateNew(str(layer))
-    m = UsdGeom.Mesh.Define(st, "/Quad")
-    m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
-    m.CreateFaceVertexCountsAttr([3, 3])
-    m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
-    st.GetRootLayer().Save()
+    _quad_stage(layer)
     Sdf.Layer.FindOrOpen(str(layer)).Export(str(tmp_path / "out" / stage))
     before = _digest(tmp_path / "out" / stage)
     assets = f"[{{stage: 'out/{stage}'}}]"
@@ -2523,7 +2518,6 @@ def test_a_moved_project_is_a_rerun_that_changes_nothing(tmp_path, monkeypatch):
     # inputs and output.dir with it) had every input hashed again and the manifest, scene and report
     # rewritten. They are relative to the config's folder (the config's to output.dir) now; an input given
     # by an absolute path elsewhere (a stage in a shared library) keeps its absolute path
-    from pxr import Usd, UsdGeom
 
     from swpm_usd.pipeline import runner
 
@@ -2531,12 +2525,7 @@ def test_a_moved_project_is_a_rerun_that_changes_nothing(tmp_path, monkeypatch):
     library = tmp_path / "library"
     library.mkdir()
     quad = library / "quad.usda"
-    st = Usd.Stage.CreateNew(str(quad))
-    m = UsdGeom.Mesh.Define(st, "/Quad")
-    m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
-    m.CreateFaceVertexCountsAttr([3, 3])
-    m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
-    st.GetRootLayer().Save()
+    _quad_stage(quad)
     project = tmp_path / "a"
     project.mkdir()
     cfg = _project(
