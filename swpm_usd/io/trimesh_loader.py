@@ -38,8 +38,9 @@ import numpy as np
 
 from ..errors import MeshLoadError
 from ..mesh import Mesh
+from . import over_budget
 from .clean import clean_mesh, concatenate_parts, rgba_float, split_corners, transform_part
-from .gltf_prepare import _COMPONENT, _WIDTH, _document, _Unread, prepared_gltf
+from .gltf_prepare import _COMPONENT, _WIDTH, _document, _Unread, gltf_triangle_count, prepared_gltf
 
 _TEXT_TYPES = ("obj", "off")
 #: a binary STL: an 80-byte header, the triangle count (uint32), then 50 bytes per triangle
@@ -745,13 +746,53 @@ def _read_problem(path: Path, check: Callable[[bytes], str | None]) -> str | Non
         return None
 
 
-def load_trimesh(path: Path) -> Mesh:
-    """Load an OBJ, PLY, STL, OFF, glTF or GLB file as one cleaned mesh."""
+def _budget_before_parsing(path: Path, file_type: str, data: bytes, max_triangles: int) -> None:
+    """Raise a :class:`MeshLoadError` when the count the file's header (PLY, OFF, binary STL) declares, or its
+    OBJ face lines, or its glTF primitives times their nodes, are over ``max_triangles``: checked before
+    trimesh parses anything (a PLY's or OFF's face and an OBJ's face line are at least one triangle)."""
+    if file_type == "stl":
+        size = path.stat().st_size
+        with open(path, "rb") as f:
+            head = f.read(_STL_HEADER_BYTES)
+        count = int.from_bytes(head[80:84], "little") if len(head) == _STL_HEADER_BYTES else -1
+        if size == _STL_HEADER_BYTES + _STL_TRIANGLE_BYTES * count:  # (binary: check_stl's test)
+            over_budget(path, count, max_triangles, " (declared by its binary STL header)")
+    elif file_type == "ply":
+        header = _ply_header(data[:_PLY_HEADER_BYTES])
+        for name, count, _ in header[2] if header is not None else []:
+            if name == "face":
+                over_budget(path, count, max_triangles, f" (at least: its PLY header declares {count} faces)")
+    elif file_type == "off":
+        rows = _off_rows(data)
+        first = next(rows, [])
+        counts = first[1:] if len(first) > 1 else next(rows, [])
+        if len(counts) >= 2 and counts[1].isdigit():
+            n = int(counts[1])
+            over_budget(path, n, max_triangles, f" (at least: its OFF header declares {n} faces)")
+    elif file_type == "obj":
+        n = len(_OBJ_FACE_LINE.findall(data))
+        over_budget(path, n, max_triangles, f" (at least: it has {n} face lines)")
+    elif file_type in ("gltf", "glb"):
+        n = gltf_triangle_count(path)
+        if n is not None:
+            over_budget(path, n, max_triangles, " (declared by its primitives' accessors, times their nodes)")
+
+
+#: an OBJ face line's start
+_OBJ_FACE_LINE = re.compile(rb"(?m)^[ \t]*f[ \t]")
+
+
+def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
+    """Load an OBJ, PLY, STL, OFF, glTF or GLB file as one cleaned mesh (``max_triangles``: see
+    :func:`swpm_usd.io.load_mesh`)."""
     import trimesh
 
     file_type = path.suffix.lower().lstrip(".")
     data = b""
     try:
+        if max_triangles is not None and file_type not in ("ply", "obj", "off"):  # (those: once read)
+            if file_type != "glb" or glb_chunk_problem(path) is None:  # (not read(a chunk's length))
+                _budget_before_parsing(path, file_type, data, max_triangles)
         if file_type == "stl":
             check_stl(path)  # (its start and end: trimesh reads the file)
             scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
@@ -760,6 +801,8 @@ def load_trimesh(path: Path) -> Mesh:
             problem = ply_problem(data, ascii_only=True)
             if problem is not None:
                 raise MeshLoadError(path, problem)
+            if max_triangles is not None:
+                _budget_before_parsing(path, file_type, data, max_triangles)
             triangulated = ply_polygons_as_triangles(data)
             data = b""  # (released before trimesh reads the file: a large scan is not held twice)
             if triangulated is None:
@@ -778,6 +821,8 @@ def load_trimesh(path: Path) -> Mesh:
                 data.decode("utf-8")
             except UnicodeDecodeError:
                 data = data.decode("latin-1").encode("utf-8")
+            if max_triangles is not None:
+                _budget_before_parsing(path, file_type, data, max_triangles)
             resolver = trimesh.resolvers.FilePathResolver(str(path))
             scene = trimesh.load_scene(
                 io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
@@ -792,7 +837,11 @@ def load_trimesh(path: Path) -> Mesh:
         else:
             scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
         parts = []
-        for matrix, geom_name in _geometry_transforms(scene.graph).values():
+        placed = _geometry_transforms(scene.graph)
+        if max_triangles is not None:  # (parsed: the exact count, before anything is transformed or cleaned)
+            n = sum(len(getattr(scene.geometry.get(g), "faces", ())) for _, g in placed.values())
+            over_budget(path, n, max_triangles)
+        for matrix, geom_name in placed.values():
             geom = scene.geometry[geom_name]
             colours = None
             if file_type == "off" and isinstance(geom, trimesh.Trimesh):
