@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import base64
 import binascii
+import functools
 import io
 import itertools
 import json
@@ -778,6 +779,71 @@ def _budget_before_parsing(path: Path, file_type: str, data: bytes, max_triangle
             over_budget(path, n, max_triangles, " (declared by its primitives' accessors, times their nodes)")
 
 
+#: an OBJ face corner of each form (v, v/vt, v//vn, v/vt/vn) -> the columns of its texture and normal indices
+_OBJ_CORNER_FORMS = {
+    "{i}": (None, None),
+    "{i}/{i}": (1, None),
+    "{i}//{i}": (None, 1),
+    "{i}/{i}/{i}": (1, 2),
+}
+#: an index as the vectorised reading below takes it (anything else: trimesh's own reading)
+_OBJ_INDEX = "-?[0-9]{1,18}"
+
+
+def _obj_faces_fallback(lines: list[str], original: Callable) -> tuple:
+    """trimesh's ``_parse_faces_fallback`` (``original``: OBJ face lines of differing lengths, which it reads
+    corner by corner in Python: a 200,000-corner polygon beside a triangle took 4.5 s) in numpy, with the
+    same triangles in the same order (a quad as (0, 1, 2), (2, 3, 0), a polygon of more corners as the fan
+    (0, k, k + 1), a line of fewer than 3 corners skipped) and the same indices. Only when every corner has
+    the first's form and plain integer indices; any other lines are ``original``'s."""
+    rows = [line.strip().split("\n")[0].split() for line in lines]
+    counts = np.fromiter(map(len, rows), np.int64, len(rows))
+    if counts.shape[0] == 0 or (counts < 3).all():
+        return original(lines)
+    first = rows[int(np.argmax(counts >= 3))][0]
+    form = re.sub(r"[^/]+", "{i}", first)
+    if form not in _OBJ_CORNER_FORMS:
+        return original(lines)
+    text = " ".join(itertools.chain.from_iterable(rows))
+    token = form.replace("{i}", _OBJ_INDEX)
+    if re.fullmatch(f"{token}(?: {token})*", text) is None:
+        return original(lines)
+    width = form.count("{i}")
+    values = np.array(text.replace("/", " ").split(), np.int64).reshape(-1, width)
+    n_tris = np.where(counts >= 3, counts - 2, 0)
+    face = np.repeat(np.arange(counts.shape[0]), n_tris)
+    k = np.arange(face.shape[0]) - (np.cumsum(n_tris) - n_tris)[face]  # (the triangle's place in its face)
+    corners = np.stack([np.zeros_like(k), k + 1, k + 2], axis=1)
+    corners[(counts[face] == 4) & (k == 1)] = (2, 3, 0)  # (trimesh's quad split)
+    read = values[(np.cumsum(counts) - counts)[face][:, None] + corners]
+
+    def column(c: int | None) -> np.ndarray | None:
+        if c is None:
+            return None
+        out = np.ascontiguousarray(read[:, :, c])
+        out[out > 0] -= 1  # (1-based; negative indices count from the end, as trimesh leaves them)
+        return out
+
+    tex, norm = _OBJ_CORNER_FORMS[form]
+    return column(0), column(tex), column(norm)
+
+
+def _install_obj_faces_fallback() -> None:
+    """Have trimesh's OBJ reader use :func:`_obj_faces_fallback` (once; the same result as its own)."""
+    import trimesh.exchange.obj as obj
+
+    original = obj._parse_faces_fallback
+    if getattr(original, "swpm_usd", False):
+        return
+
+    @functools.wraps(original)  # (its __wrapped__: trimesh's own)
+    def fallback(lines: list[str]) -> tuple:
+        return _obj_faces_fallback(lines, original)
+
+    fallback.swpm_usd = True  # type: ignore[attr-defined]
+    obj._parse_faces_fallback = fallback
+
+
 #: an OBJ face line's start
 _OBJ_FACE_LINE = re.compile(rb"(?m)^[ \t]*f[ \t]")
 
@@ -823,6 +889,8 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
                 data = data.decode("latin-1").encode("utf-8")
             if max_triangles is not None:
                 _budget_before_parsing(path, file_type, data, max_triangles)
+            if file_type == "obj":
+                _install_obj_faces_fallback()
             resolver = trimesh.resolvers.FilePathResolver(str(path))
             scene = trimesh.load_scene(
                 io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
