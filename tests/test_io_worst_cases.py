@@ -336,3 +336,38 @@ def test_a_long_polygon_beside_triangles_is_not_read_corner_by_corner(
     pts = np.array([[float(x) for x in r.split()[1:]] for r in rows[:n]], np.float32)  # (as written)
     want = {tuple(t) for t in pts[fan].reshape(-1, 9).tolist()}
     assert want <= got
+
+
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+@pytest.mark.parametrize("camera_holds", ["children", "mesh"])
+def test_a_camera_node_over_geometry_loads_it_as_an_empty_node_would(
+    tmp_path: Path, suffix: str, camera_holds: str
+) -> None:
+    """A node holding a camera and children (or a mesh): trimesh left it out of the scene ("No path from
+    world->1") or dropped its mesh; its geometry loads where the same file with an empty node puts it."""
+    doc = _gltf_doc()
+    mesh = next(n["mesh"] for n in doc["nodes"] if "mesh" in n)
+    doc["cameras"] = [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}]
+    child = {"mesh": mesh, "translation": [0, 2, 0], "scale": [2, 2, 2]}
+    if camera_holds == "children":
+        top = {"camera": 0, "translation": [5, 0, 0], "rotation": [0, 0, 0.6, 0.8], "children": [1]}
+        doc["nodes"] = [top, child]
+    else:
+        doc["nodes"] = [{"camera": 0, "translation": [5, 0, 0], "rotation": [0, 0, 0.6, 0.8], "mesh": mesh}]
+    doc["scenes"], doc["scene"] = [{"nodes": [0]}], 0
+    empty = json.loads(json.dumps(doc))
+    del empty["nodes"][0]["camera"]
+    paths = []
+    for name, d in (("camera", doc), ("empty", empty)):
+        path = tmp_path / f"{name}{suffix}"
+        path.write_bytes(_glb_of(d) if suffix == ".glb" else json.dumps(d).encode())
+        paths.append(path)
+    with_camera, without = (load_mesh(p) for p in paths)
+    assert with_camera.triangle_count == without.triangle_count == 4
+    np.testing.assert_array_equal(with_camera.points, without.points)
+    np.testing.assert_array_equal(with_camera.triangles, without.triangles)
+    # (moved by the node's transforms: a rotation of (0, 0, 0.6, 0.8) about z, cos 0.28, sin 0.96)
+    local = POINTS * 2 + [0, 2, 0] if camera_holds == "children" else POINTS
+    rotation = np.array([[0.28, -0.96, 0], [0.96, 0.28, 0], [0, 0, 1]])
+    want = local @ rotation.T + [5, 0, 0]
+    np.testing.assert_allclose(np.sort(without.points, axis=0), np.sort(want, axis=0), atol=1e-5)

@@ -8,6 +8,7 @@ trimesh (the loader behind :mod:`.trimesh_loader`) silently
   core allows, came out as uv 0..65535, and flipped to ``1 - v`` in 16-bit arithmetic);
 * drops a primitive of mode ``TRIANGLE_FAN`` (6);
 * drops ``TEXCOORD_0`` of a primitive without a ``material``;
+* leaves a node holding a camera out of the scene, with its mesh and children ("No path from world->3");
 * loads nothing from a file without ``scenes`` (valid glTF: its nodes are then not in a scene), which the
   loader reported as "no triangles";
 * loads a geometry compressed by an extension it cannot decode (meshopt; Draco without DracoPy) as zeros,
@@ -15,8 +16,9 @@ trimesh (the loader behind :mod:`.trimesh_loader`) silently
 
 :func:`prepared_gltf` returns, for a file that uses any of them, the document rewritten so trimesh reads what
 the file means (dense float accessors in one added buffer, fans as triangle lists, a plain material added for
-the uv to be read, a scene of every root node), as ``.gltf`` JSON with its buffers inline; None for a file
-that uses none of them (read as before) or whose structure does not read (trimesh then says what is wrong).
+the uv to be read, a camera taken off a node with a mesh or children, a scene of every root node), as
+``.gltf`` JSON with its buffers inline; None for a file that uses none of them (read as before)
+or whose structure does not read (trimesh then says what is wrong).
 """
 
 from __future__ import annotations
@@ -97,7 +99,20 @@ def _needs(doc: dict) -> bool:
                 return True
             if "TEXCOORD_0" in attrs and "material" not in p:
                 return True
+    if any(_camera_over_geometry(n) for n in doc.get("nodes") or []):
+        return True
     return "scenes" not in doc and bool(doc.get("nodes") or doc.get("meshes"))
+
+
+def _camera_over_geometry(node: Any) -> bool:
+    """Whether ``node`` holds a camera and a mesh or children: trimesh takes a camera node for the camera
+    alone and leaves it out of the scene graph, its mesh dropped and its children with no path to the root
+    ("No path from world->3")."""
+    return (
+        isinstance(node, dict)
+        and "camera" in node
+        and bool(node.get("mesh") is not None or node.get("children"))
+    )
 
 
 class _Rewrite:
@@ -267,6 +282,9 @@ def _rewrite(path: Path, doc: dict, binary: bytes | None) -> bytes:
                     doc.setdefault("materials", []).append({"name": "swpm-usd default (for the uv to load)"})
                     material = len(doc["materials"]) - 1
                 p["material"] = material
+    for node in doc.get("nodes") or []:
+        if _camera_over_geometry(node):  # (the camera is not loaded: its node stays, as an empty node)
+            del node["camera"]
     if "scenes" not in doc:
         nodes = doc.get("nodes") or []
         if not nodes:  # (meshes and no node: each mesh at the origin)
