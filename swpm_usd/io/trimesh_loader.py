@@ -530,6 +530,32 @@ def _gltf_json_problem(path: Path) -> str | None:
     return None
 
 
+def _buffer_uri_size(path: Path, uri: str) -> int | str:
+    """The byte size of the buffer of ``uri`` (a base64 data URI, or a file beside the .gltf file ``path``),
+    or why there is none (the end of a message: "its data URI is not valid base64 (...)"). A file is resolved
+    as trimesh's resolver does, which refuses a file outside the .gltf's folder: such a file is not looked
+    at, and its size not told."""
+    if uri.startswith("data:"):
+        meta, _, body = uri.partition(",")
+        if not meta.endswith(";base64"):
+            return f"its data URI is not base64 ({meta[:60]!r})"
+        try:
+            return len(base64.b64decode(body, validate=True))
+        except (binascii.Error, ValueError) as e:
+            return f"its data URI is not valid base64 ({e})"
+    try:
+        folder = path.parent.resolve()
+        file = (folder / urllib.parse.unquote(uri).strip()).resolve()
+    except (OSError, ValueError, RuntimeError):
+        return f"its file {uri!r} is not found beside the .gltf"
+    if not file.is_relative_to(folder):
+        return f"its file {uri!r} is outside the .gltf's folder (not read)"
+    try:
+        return file.stat().st_size
+    except (OSError, ValueError):
+        return f"its file {uri!r} is not found beside the .gltf"
+
+
 def _gltf_buffer_problem(path: Path) -> str | None:
     """What is wrong with a buffer of the .gltf file ``path`` (a JSON object), or None when nothing is found
     (asked once trimesh has failed on it: a bad data URI was a bare "AssertionError: ", a buffer file it
@@ -547,30 +573,10 @@ def _gltf_buffer_problem(path: Path) -> str | None:
         if not isinstance(buf.get("uri"), str):  # (only a .glb's buffer 0 may have none: trimesh's KeyError)
             return f"{name} has no uri (a .gltf's buffer is a data URI or a file beside it)"
         uri, length = buf["uri"], buf.get("byteLength")
-        if uri.startswith("data:"):
-            meta, _, body = uri.partition(",")
-            if not meta.endswith(";base64"):
-                return f"{name}: its data URI is not base64 ({meta[:60]!r})"
-            try:
-                size = len(base64.b64decode(body, validate=True))
-            except (binascii.Error, ValueError) as e:
-                return f"{name}: its data URI is not valid base64 ({e})"
-            what = "its data URI holds"
-        else:
-            # (resolved as trimesh's resolver does, which refuses a file outside the .gltf's folder: such a
-            # file is not looked at, and its size not told)
-            try:
-                folder = path.parent.resolve()
-                file = (folder / urllib.parse.unquote(uri).strip()).resolve()
-            except (OSError, ValueError, RuntimeError):
-                return f"{name}: its file {uri!r} is not found beside the .gltf"
-            if not file.is_relative_to(folder):
-                return f"{name}: its file {uri!r} is outside the .gltf's folder (not read)"
-            try:
-                size = file.stat().st_size
-            except (OSError, ValueError):
-                return f"{name}: its file {uri!r} is not found beside the .gltf"
-            what = f"its file {uri!r} holds"
+        size = _buffer_uri_size(path, uri)
+        if isinstance(size, str):
+            return f"{name}: {size}"
+        what = "its data URI holds" if uri.startswith("data:") else f"its file {uri!r} holds"
         if isinstance(length, int) and not isinstance(length, bool) and size < length:
             return f"{name}: {what} {size} bytes, fewer than its byteLength {length}"
     return None
@@ -600,19 +606,8 @@ def _gltf_buffer_size(path: Path, buf: Any, i: int, binary: int | None) -> int |
     uri = buf.get("uri")
     if uri is None:
         return binary if i == 0 else None
-    if not isinstance(uri, str):
-        return None
-    if uri.startswith("data:"):
-        try:
-            return len(base64.b64decode(uri.partition(",")[2], validate=True))
-        except (binascii.Error, ValueError):
-            return None
-    try:
-        folder = path.parent.resolve()
-        file = (folder / urllib.parse.unquote(uri).strip()).resolve()
-        return file.stat().st_size if file.is_relative_to(folder) and file.is_file() else None
-    except (OSError, ValueError, RuntimeError):
-        return None
+    size = _buffer_uri_size(path, uri) if isinstance(uri, str) else None
+    return size if isinstance(size, int) else None
 
 
 def _index(value: Any) -> bool:
