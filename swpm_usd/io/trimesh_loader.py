@@ -734,6 +734,174 @@ def glb_chunk_problem(path: Path) -> str | None:
     return None
 
 
+def _numbered_rows(data: bytes) -> Iterator[tuple[int, list[bytes]]]:
+    """(line number from 1, tokens) of each line of a text mesh file holding any, comments left out."""
+    for number, line in enumerate(data.split(b"\n"), 1):
+        words = line.split(b"#", 1)[0].split()
+        if words:
+            yield number, words
+
+
+def _not_numbers(words: list[bytes]) -> bytes | None:
+    """The first of ``words`` that is not a number, or None."""
+    for w in words:
+        try:
+            float(w)
+        except ValueError:
+            return w
+    return None
+
+
+def _shown(word: bytes) -> str:
+    return repr(word[:40].decode("utf-8", "replace"))
+
+
+def _obj_problem(data: bytes) -> str | None:
+    """What is wrong with a row of the OBJ file of bytes ``data`` (a ``v``/``vt``/``vn`` value that is not a
+    number, or too few; a face corner whose index is not an integer, or refers to no vertex), or None (asked
+    once trimesh has failed on it: "string or file could not be read to its end due to unmatched data",
+    "invalid literal for int() with base 10", "index 3000 is out of bounds for axis 0")."""
+    vertices = 0
+    for number, words in _numbered_rows(data):
+        key = words[0]
+        if key in (b"v", b"vt", b"vn"):
+            bad = _not_numbers(words[1:])
+            if bad is not None:
+                return f"line {number}: a '{key.decode()}' row holds {_shown(bad)}, not a number"
+            need = 1 if key == b"vt" else 3
+            if len(words) - 1 < need:
+                return f"line {number}: a '{key.decode()}' row holds {len(words) - 1} values, not {need}"
+            vertices += key == b"v"
+    for number, words in _numbered_rows(data):
+        if words[0] != b"f":
+            continue
+        for corner in words[1:]:
+            for kind, part in zip(("vertex", "uv", "normal"), corner.split(b"/"), strict=False):
+                if part == b"" and kind != "vertex":
+                    continue
+                try:
+                    index = int(part)
+                except ValueError:
+                    return (
+                        f"line {number}: face corner {_shown(corner)}: its {kind} index is not a whole number"
+                    )
+                if kind == "vertex" and not (-vertices <= index <= vertices and index != 0):
+                    where = f"line {number}: face corner {_shown(corner)}"
+                    return f"{where} refers to vertex {index}, the file has {vertices}"
+    return None
+
+
+_OFF_HEADER = re.compile(rb"(ST)?C?N?4?n?OFF", re.IGNORECASE)
+
+
+def _off_problem(data: bytes) -> str | None:
+    """What is wrong with the header or a row of the OFF file of bytes ``data`` (counts that are not whole
+    numbers; a vertex row of too few values, or one that is not a number; a face row whose corner count or
+    index is not a whole number, with fewer corners than it declares, or an index to no vertex), or None
+    (asked once trimesh has failed on it: "invalid literal for int() with base 10: '0.5'", "setting an array
+    element with a sequence", "cannot reshape array of size 14 into shape (5,3)")."""
+    rows = _numbered_rows(data)
+    first = next(rows, None)
+    if first is None or _OFF_HEADER.fullmatch(first[1][0]) is None:
+        return None
+    number, counts = (first[0], first[1][1:]) if len(first[1]) > 1 else next(rows, (first[0], []))
+    try:
+        n_vertices, n_faces = int(counts[0]), int(counts[1])
+    except (IndexError, ValueError):
+        return f"line {number}: the counts line {_shown(b' '.join(counts))} is not vertices, faces, edges"
+    for k in range(n_vertices):
+        number, words = next(rows, (None, []))
+        if number is None:
+            return f"the header declares {n_vertices} vertices, the file has {k}"
+        bad = _not_numbers(words[:3])
+        if bad is not None:
+            return f"line {number}: vertex {k} holds {_shown(bad)}, not a number"
+        if len(words) < 3:
+            return f"line {number}: vertex {k} holds {len(words)} values, not 3"
+    for k in range(n_faces):
+        number, words = next(rows, (None, []))
+        if number is None:
+            return f"the header declares {n_faces} faces, the file has {k}"
+        try:
+            corners = [int(w) for w in words[: 1 + max(int(words[0]), 0)]]
+        except ValueError:
+            return f"line {number}: face {k}: {_shown(b' '.join(words[:8]))} are not whole numbers"
+        if len(corners) - 1 < corners[0] or corners[0] < 3:
+            return f"line {number}: face {k} declares {corners[0]} corners and lists {len(words) - 1} values"
+        out = [i for i in corners[1:] if not 0 <= i < n_vertices]
+        if out:
+            return f"line {number}: face {k} refers to vertex {out[0]}, the file has {n_vertices}"
+    return None
+
+
+_STL_NUMBERS = {b"vertex": 3, b"normal": 3}
+
+
+def _stl_ascii_problem(data: bytes) -> str | None:
+    """What is wrong with a row of the ASCII STL file of bytes ``data`` (a ``vertex`` or ``facet normal``
+    row whose values are not 3 numbers, a facet without 3 vertices), or None (asked once trimesh has failed
+    on it: "string or file could not be read to its end", "incorrect number of vertices")."""
+    if data.lstrip()[:5].lower() != b"solid":
+        return None
+    corners = None
+    for number, words in _numbered_rows(data):
+        key = words[0].lower()
+        values = words[2:] if key == b"facet" else words[1:]
+        if key == b"facet" or key == b"vertex":
+            bad = _not_numbers(values)
+            if bad is not None:
+                return f"line {number}: a '{key.decode()}' row holds {_shown(bad)}, not a number"
+            if len(values) != 3 and (key == b"vertex" or values):
+                return f"line {number}: a '{key.decode()}' row holds {len(values)} values, not 3"
+        if key == b"facet":
+            corners = 0
+        elif key == b"vertex":
+            corners = (corners or 0) + 1
+        elif key == b"endfacet":
+            if corners != 3:
+                return f"line {number}: a facet of {corners or 0} vertices, not 3"
+            corners = None
+    return None
+
+
+def _ply_ascii_problem(data: bytes) -> str | None:
+    """What is wrong with a row of the ASCII PLY file of bytes ``data`` (a value that is not a number, a row
+    of another length than its element's properties), or None (asked once trimesh has failed on it:
+    "string or file could not be read to its end", "setting an array element with a sequence")."""
+    header = _ply_header(data[:_PLY_HEADER_BYTES])
+    if header is None or header[0] != "ascii":
+        return None
+    _, at, elements = header
+    lines = iter(data[at:].split(b"\n"))
+    number = data[:at].count(b"\n")
+    for name, count, props in elements:
+        fixed = all(len(p) == 1 for p in props)
+        for k in range(count):
+            line = next(lines, None)
+            number += 1
+            if line is None:
+                return None  # (cut short: ply_problem's)
+            words = line.split()
+            bad = _not_numbers(words)
+            if bad is not None:
+                return f"line {number}: {name} {k} holds {_shown(bad)}, not a number"
+            if fixed and len(words) != len(props):
+                return f"line {number}: {name} {k} holds {len(words)} values, its element has {len(props)}"
+            if not fixed and len(props) == 1 and words and len(words) != 1 + int(float(words[0])):
+                declared = int(float(words[0]))
+                return f"line {number}: {name} {k} declares {declared} values and lists {len(words) - 1}"
+    return None
+
+
+#: the check of a text file's rows, by type, asked once trimesh has failed on it
+_ROW_PROBLEMS: dict[str, Callable[[bytes], str | None]] = {
+    "obj": _obj_problem,
+    "off": _off_problem,
+    "stl": _stl_ascii_problem,
+    "ply": _ply_ascii_problem,
+}
+
+
 def _read_problem(path: Path, check: Callable[[bytes], str | None]) -> str | None:
     """``check`` of the bytes of ``path``, or None when it cannot be read again."""
     try:
@@ -937,6 +1105,12 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
         if problem is None and file_type in ("gltf", "glb"):
             try:
                 problem = _gltf_structure_problem(path)
+            except Exception:  # noqa: BLE001 - (a look for the message: trimesh's is given without it)
+                problem = None
+            problem = None if problem is None else f"not a valid {file_type.upper()} file: {problem}"
+        if problem is None and file_type in _ROW_PROBLEMS:
+            try:
+                problem = _read_problem(path, _ROW_PROBLEMS[file_type])
             except Exception:  # noqa: BLE001 - (a look for the message: trimesh's is given without it)
                 problem = None
             problem = None if problem is None else f"not a valid {file_type.upper()} file: {problem}"
