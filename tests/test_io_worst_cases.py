@@ -426,3 +426,30 @@ def test_a_text_row_trimesh_cannot_read_is_named_by_its_line(
     message = str(e.value)
     assert message.startswith(f"{path}: not a valid {path.suffix[1:].upper()} file: "), message
     assert says in message, message
+
+
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+@pytest.mark.parametrize(
+    ("change", "says"),
+    [
+        (lambda d: d["meshes"][0].update(primitives=3), "meshes[0].primitives is not an array of objects"),
+        (lambda d: d["nodes"][0].update(children="1"), "nodes[0].children is not an array of indices"),
+        (
+            lambda d: d["scenes"][0].update(nodes=[7]),
+            "scenes[0].nodes is not an array of indices of its 1 nodes",
+        ),
+        (lambda d: d["nodes"][0].update(translation=[1, 2]), "nodes[0].translation is not 3 numbers"),
+    ],
+)
+def test_a_gltf_part_of_the_wrong_type_is_named(tmp_path: Path, suffix: str, change, says: str) -> None:
+    """A glTF part of the wrong JSON type (an array that is a number, children that are not node indices)
+    made trimesh fail in its own words ("'int' object is not iterable", "KeyError: 0"); the message names
+    the part."""
+    doc = _gltf_doc()
+    change(doc)
+    path = tmp_path / f"bad{suffix}"
+    path.write_bytes(_glb_of(doc) if suffix == ".glb" else json.dumps(doc).encode())
+    with pytest.raises(MeshLoadError) as e:
+        load_mesh(path)
+    assert str(e.value).startswith(f"{path}: not a valid {suffix[1:].upper()} file: "), str(e.value)
+    assert says in str(e.value)

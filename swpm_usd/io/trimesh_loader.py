@@ -685,6 +685,74 @@ def _gltf_structure_problem(path: Path) -> str | None:
     return None
 
 
+#: the glTF document's arrays of objects
+_GLTF_ARRAYS = ("accessors", "bufferViews", "buffers", "meshes", "nodes", "scenes", "materials", "cameras")
+#: node fields: those that are an index, and those that are (so many) numbers
+_NODE_INDICES = ("mesh", "camera", "skin")
+_NODE_NUMBERS = {"matrix": 16, "translation": 3, "rotation": 4, "scale": 3}
+
+
+def _kind(value: Any) -> str:
+    return {dict: "an object", list: "an array", str: "a string", bool: "a boolean"}.get(
+        type(value), "null" if value is None else "a number"
+    )
+
+
+def _gltf_shape_problem(doc: Any) -> str | None:
+    """Which part of the glTF JSON document ``doc`` is not of the type glTF gives it (an array that is a
+    number, a node that is a string, children that are not node indices, a primitive without attributes),
+    or None (asked once trimesh has failed on it: "'int' object is not subscriptable", "KeyError: 0")."""
+    if not isinstance(doc, dict):
+        return f"the JSON is {_kind(doc)}, not an object"
+    for name in _GLTF_ARRAYS:
+        items = doc.get(name, [])
+        if not isinstance(items, list):
+            return f"its {name!r} is {_kind(items)}, not an array"
+        for i, item in enumerate(items):
+            if not isinstance(item, dict):
+                return f"{name}[{i}] is {_kind(item)}, not an object"
+    n_nodes = len(doc.get("nodes", []))
+
+    def node_list(value: Any) -> bool:
+        return isinstance(value, list) and all(_index(c) and c < n_nodes for c in value)
+
+    if "scene" in doc and not (_index(doc["scene"]) and doc["scene"] < len(doc.get("scenes", []))):
+        n = len(doc.get("scenes", []))
+        return f"its 'scene' is {doc['scene']!r}, not the index of one of its {n} scenes"
+    for i, scene in enumerate(doc.get("scenes", [])):
+        if "nodes" in scene and not node_list(scene["nodes"]):
+            return f"scenes[{i}].nodes is not an array of indices of its {n_nodes} nodes"
+    for i, node in enumerate(doc.get("nodes", [])):
+        if "children" in node and not node_list(node["children"]):
+            return f"nodes[{i}].children is not an array of indices of its {n_nodes} nodes"
+        for key in _NODE_INDICES:
+            if key in node and not _index(node[key]):
+                return f"nodes[{i}].{key} is {node[key]!r}, not an index"
+        if "mesh" in node and node["mesh"] >= len(doc.get("meshes", [])):
+            return f"nodes[{i}].mesh is {node['mesh']}, the file has {len(doc.get('meshes', []))} meshes"
+        for key, n in _NODE_NUMBERS.items():
+            value = node.get(key, [0.0] * n)
+            numbers = isinstance(value, list) and all(
+                isinstance(v, int | float) and not isinstance(v, bool) for v in value
+            )
+            if not numbers or len(value) != n:
+                return f"nodes[{i}].{key} is not {n} numbers"
+    for m, mesh in enumerate(doc.get("meshes", [])):
+        primitives = mesh.get("primitives")
+        if not isinstance(primitives, list) or not all(isinstance(q, dict) for q in primitives):
+            return f"meshes[{m}].primitives is not an array of objects"
+        for k, prim in enumerate(primitives):
+            if not isinstance(prim.get("attributes"), dict):
+                return f"meshes[{m}].primitives[{k}].attributes is not an object"
+            for key in ("indices", "material", "mode"):
+                if key in prim and not _index(prim[key]):
+                    return f"meshes[{m}].primitives[{k}].{key} is {prim[key]!r}, not an index"
+    for i, buf in enumerate(doc.get("buffers", [])):
+        if not _index(buf.get("byteLength")):
+            return f"buffers[{i}].byteLength is {buf.get('byteLength')!r}, not a byte count"
+    return None
+
+
 def _glb_length_problem(path: Path) -> str | None:
     """Why the .glb file ``path`` is truncated (shorter than the length its header gives) or a chunk of it
     longer than the bytes after it, or None (asked once trimesh has failed on it: "chunk was not expected
@@ -1105,6 +1173,8 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
         if problem is None and file_type in ("gltf", "glb"):
             try:
                 problem = _gltf_structure_problem(path)
+                read = _gltf_document(path) if problem is None else None
+                problem = problem if read is None else _gltf_shape_problem(read[0])
             except Exception:  # noqa: BLE001 - (a look for the message: trimesh's is given without it)
                 problem = None
             problem = None if problem is None else f"not a valid {file_type.upper()} file: {problem}"
