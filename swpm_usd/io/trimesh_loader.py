@@ -1208,7 +1208,8 @@ def _report_dropped_obj_attributes(path: Path, data: bytes, parts: list) -> None
     dropped = [
         name
         for name, pattern in (("normal", _OBJ_FACE_NORMAL), ("uv", _OBJ_FACE_UV))
-        if not any(name in attrs for _, _, attrs in parts) and pattern.search(data)
+        # (no '/' in the file, no corner that refers to either: the scan of every line start is skipped)
+        if not any(name in attrs for _, _, attrs in parts) and b"/" in data and pattern.search(data)
     ]
     if dropped:
         warnings.warn(
