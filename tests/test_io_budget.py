@@ -78,7 +78,7 @@ def test_glb_over_budget_is_refused_before_trimesh_reads_it(
         load_mesh(path, max_triangles=3)
 
 
-@pytest.mark.parametrize("ext", ["obj", "ply", "stl", "off"])
+@pytest.mark.parametrize("ext", ["obj", "stl"])
 def test_header_or_face_lines_over_budget_are_refused_before_trimesh_parses(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, ext: str
 ) -> None:
@@ -88,6 +88,44 @@ def test_header_or_face_lines_over_budget_are_refused_before_trimesh_parses(
     with pytest.raises(MeshLoadError) as e:
         load_mesh(path, max_triangles=3)
     assert str(path) in str(e.value) and "4 triangles" in str(e.value) and "max_triangles=3" in str(e.value)
+
+
+@pytest.mark.parametrize("ext", ["ply", "off"])
+def test_ply_and_off_over_budget_are_refused_once_parsed(tmp_path: Path, ext: str) -> None:
+    path = _write(tmp_path / f"tet.{ext}")
+    assert load_mesh(path, max_triangles=4).triangle_count == 4
+    with pytest.raises(MeshLoadError) as e:
+        load_mesh(path, max_triangles=3)
+    assert str(path) in str(e.value) and "4 triangles" in str(e.value) and "max_triangles=3" in str(e.value)
+
+
+_SQUARE = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
+_PLY_HEAD = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+
+
+@pytest.mark.parametrize(
+    "name, text",
+    [
+        ("short.obj", _SQUARE + "f 1 2 3\n" + "f 1 2\n" * 5),
+        ("empty.obj", _SQUARE + "f 1 2 3\n" + "f \n" * 5),
+        ("indented.obj", _SQUARE + "f 1 2 3\n" + "  f 2 4 3\n" * 3),
+        ("tab.obj", _SQUARE + "f 1 2 3\n" + "f\t2 4 3\n" * 3),
+        (
+            "two.ply",
+            _PLY_HEAD
+            + "element face 4\nproperty list uchar int vertex_indices\nend_header\n"
+            + "0 0 0\n1 0 0\n0 1 0\n1 1 0\n3 0 1 2\n2 0 1\n2 1 2\n2 2 3\n",
+        ),
+        ("two.off", "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n3 0 1 2\n2 0 1\n2 1 2\n2 2 3\n"),
+    ],
+)
+def test_a_file_within_budget_is_not_refused_by_a_lower_bound(tmp_path: Path, name: str, text: str) -> None:
+    """Face lines or header faces that trimesh reads as no triangle (fewer than 3 corners, an indented or
+    tab-led OBJ 'f' line) are no part of the early count: one triangle loads under a budget of 1."""
+    path = tmp_path / name
+    path.write_text(text)
+    assert load_mesh(path).triangle_count == 1
+    assert load_mesh(path, max_triangles=1).triangle_count == 1
 
 
 def test_polygons_are_counted_as_their_triangles_once_parsed(tmp_path: Path) -> None:

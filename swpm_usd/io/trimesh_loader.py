@@ -979,9 +979,11 @@ def _read_problem(path: Path, check: Callable[[bytes], str | None]) -> str | Non
 
 
 def _budget_before_parsing(path: Path, file_type: str, data: bytes, max_triangles: int) -> None:
-    """Raise a :class:`MeshLoadError` when the count the file's header (PLY, OFF, binary STL) declares, or its
-    OBJ face lines, or its glTF primitives times their nodes, are over ``max_triangles``: checked before
-    trimesh parses anything (a PLY's or OFF's face and an OBJ's face line are at least one triangle)."""
+    """Raise a :class:`MeshLoadError` when the count a binary STL's header declares, or its OBJ face lines of
+    3 or more corners, or its glTF primitives times their nodes, are over ``max_triangles``: checked before
+    trimesh parses anything (an OBJ face line of 3 corners is at least one triangle). A PLY's or OFF's header
+    face count is no lower bound (a face of 2 corners or none is no triangle, and trimesh keeps the file), so
+    those are checked once parsed."""
     if file_type == "stl":
         size = path.stat().st_size
         with open(path, "rb") as f:
@@ -989,21 +991,9 @@ def _budget_before_parsing(path: Path, file_type: str, data: bytes, max_triangle
         count = int.from_bytes(head[80:84], "little") if len(head) == _STL_HEADER_BYTES else -1
         if size == _STL_HEADER_BYTES + _STL_TRIANGLE_BYTES * count:  # (binary: check_stl's test)
             over_budget(path, count, max_triangles, " (declared by its binary STL header)")
-    elif file_type == "ply":
-        header = _ply_header(data[:_PLY_HEADER_BYTES])
-        for name, count, _ in header[2] if header is not None else []:
-            if name == "face":
-                over_budget(path, count, max_triangles, f" (at least: its PLY header declares {count} faces)")
-    elif file_type == "off":
-        rows = _off_rows(data)
-        first = next(rows, [])
-        counts = first[1:] if len(first) > 1 else next(rows, [])
-        if len(counts) >= 2 and counts[1].isdigit():
-            n = int(counts[1])
-            over_budget(path, n, max_triangles, f" (at least: its OFF header declares {n} faces)")
     elif file_type == "obj":
         n = len(_OBJ_FACE_LINE.findall(data))
-        over_budget(path, n, max_triangles, f" (at least: it has {n} face lines)")
+        over_budget(path, n, max_triangles, f" (at least: it has {n} face lines of 3 or more corners)")
     elif file_type in ("gltf", "glb"):
         n = gltf_triangle_count(path)
         if n is not None:
@@ -1075,8 +1065,10 @@ def _install_obj_faces_fallback() -> None:
     obj._parse_faces_fallback = fallback
 
 
-#: an OBJ face line's start
-_OBJ_FACE_LINE = re.compile(rb"(?m)^[ \t]*f[ \t]")
+#: an OBJ face line of at least 3 corners, as trimesh reads them (from a line's start: an indented 'f' line
+#: is not a face to it, nor one with a tab after the f; a line of fewer corners is skipped; '#' starts a
+#: comment): each is at least a triangle
+_OBJ_FACE_LINE = re.compile(rb"(?m)^f [ \t]*[^\s#]+(?:[ \t]+[^\s#]+){2}")
 
 
 def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
@@ -1087,7 +1079,7 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
     file_type = path.suffix.lower().lstrip(".")
     data = b""
     try:
-        if max_triangles is not None and file_type not in ("ply", "obj", "off"):  # (those: once read)
+        if max_triangles is not None and file_type not in ("ply", "obj", "off"):  # (obj: once read)
             if file_type != "glb" or glb_chunk_problem(path) is None:  # (not read(a chunk's length))
                 _budget_before_parsing(path, file_type, data, max_triangles)
         if file_type == "stl":
@@ -1098,8 +1090,6 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
             problem = ply_problem(data, ascii_only=True)
             if problem is not None:
                 raise MeshLoadError(path, problem)
-            if max_triangles is not None:
-                _budget_before_parsing(path, file_type, data, max_triangles)
             triangulated = ply_polygons_as_triangles(data)
             data = b""  # (released before trimesh reads the file: a large scan is not held twice)
             if triangulated is None:
@@ -1118,7 +1108,7 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
                 data.decode("utf-8")
             except UnicodeDecodeError:
                 data = data.decode("latin-1").encode("utf-8")
-            if max_triangles is not None:
+            if max_triangles is not None and file_type == "obj":
                 _budget_before_parsing(path, file_type, data, max_triangles)
             if file_type == "obj":
                 _install_obj_faces_fallback()
