@@ -453,3 +453,32 @@ def test_a_gltf_part_of_the_wrong_type_is_named(tmp_path: Path, suffix: str, cha
         load_mesh(path)
     assert str(e.value).startswith(f"{path}: not a valid {suffix[1:].upper()} file: "), str(e.value)
     assert says in str(e.value)
+
+
+def test_a_users_own_trimesh_obj_reads_run_trimeshs_code(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Our numpy reading of OBJ faces of differing lengths is for our loads only: after load_mesh, and from
+    another thread while one of ours is reading, trimesh's own loads run its own face reading."""
+    import threading
+
+    import trimesh
+
+    from swpm_usd.io import trimesh_loader
+
+    path = tmp_path / "mixed.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 2 1 0\nf 1 2 3\nf 2 4 5 3\n")
+    assert load_mesh(path).triangle_count == 3  # (ours: the wrapper is in place from here)
+
+    def refused(lines: list[str], original: object) -> tuple:
+        raise AssertionError("a user's trimesh load took swpm_usd's face reading")
+
+    monkeypatch.setattr(trimesh_loader, "_obj_faces_fallback", refused)
+    want = [[0, 1, 2], [1, 3, 4], [4, 2, 1]]
+    assert trimesh.load(str(path), process=False).faces.tolist() == want
+    seen: list[object] = []
+    with trimesh_loader._obj_faces_in_numpy():  # (one of ours reading, in this thread)
+        thread = threading.Thread(target=lambda: seen.append(trimesh.load(str(path), process=False).faces))
+        thread.start()
+        thread.join()
+    assert len(seen) == 1 and np.asarray(seen[0]).tolist() == want

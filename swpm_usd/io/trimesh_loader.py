@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import base64
 import binascii
+import contextlib
+import contextvars
 import functools
 import io
 import itertools
@@ -1049,20 +1051,41 @@ def _obj_faces_fallback(lines: list[str], original: Callable) -> tuple:
     return column(0), column(tex), column(norm)
 
 
+#: set (in this thread or task only) while :func:`load_trimesh` has trimesh read an OBJ: only those reads
+#: take :func:`_obj_faces_fallback`; any other code's trimesh calls in the process get trimesh's own function
+_OBJ_FACES_IN_NUMPY: contextvars.ContextVar[bool] = contextvars.ContextVar("swpm_obj_faces", default=False)
+
+
 def _install_obj_faces_fallback() -> None:
-    """Have trimesh's OBJ reader use :func:`_obj_faces_fallback` (once; the same result as its own)."""
+    """Put a wrapper in place of trimesh's ``_parse_faces_fallback`` (once; ``__wrapped__`` is trimesh's own):
+    it calls trimesh's own function unless :data:`_OBJ_FACES_IN_NUMPY` is set, so a user's trimesh calls in
+    the same process (other threads included) run trimesh's code unchanged; our OBJ reads, inside
+    :func:`_obj_faces_in_numpy`, take :func:`_obj_faces_fallback` (the same result, fuzzed against it)."""
     import trimesh.exchange.obj as obj
 
     original = obj._parse_faces_fallback
     if getattr(original, "swpm_usd", False):
         return
 
-    @functools.wraps(original)  # (its __wrapped__: trimesh's own)
+    @functools.wraps(original)
     def fallback(lines: list[str]) -> tuple:
+        if not _OBJ_FACES_IN_NUMPY.get():
+            return original(lines)
         return _obj_faces_fallback(lines, original)
 
     fallback.swpm_usd = True  # type: ignore[attr-defined]
     obj._parse_faces_fallback = fallback
+
+
+@contextlib.contextmanager
+def _obj_faces_in_numpy() -> Iterator[None]:
+    """Within it, trimesh's OBJ reads in this thread or task take :func:`_obj_faces_fallback`."""
+    _install_obj_faces_fallback()
+    token = _OBJ_FACES_IN_NUMPY.set(True)
+    try:
+        yield
+    finally:
+        _OBJ_FACES_IN_NUMPY.reset(token)
 
 
 #: an OBJ face line of at least 3 corners, as trimesh reads them (from a line's start: an indented 'f' line
@@ -1110,12 +1133,11 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
                 data = data.decode("latin-1").encode("utf-8")
             if max_triangles is not None and file_type == "obj":
                 _budget_before_parsing(path, file_type, data, max_triangles)
-            if file_type == "obj":
-                _install_obj_faces_fallback()
             resolver = trimesh.resolvers.FilePathResolver(str(path))
-            scene = trimesh.load_scene(
-                io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
-            )
+            with _obj_faces_in_numpy() if file_type == "obj" else contextlib.nullcontext():
+                scene = trimesh.load_scene(
+                    io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
+                )
         elif file_type == "glb" and (problem := glb_chunk_problem(path)) is not None:
             raise MeshLoadError(path, _glb_length_problem(path) or problem)  # ("truncated" when it is)
         elif file_type in ("gltf", "glb") and (prepared := prepared_gltf(path)) is not None:
