@@ -287,7 +287,7 @@ max_triangles_option = click.option(
     default=None,
     metavar="N",
     help="Refuse (exit 1) an input of more than N triangles, checked before it is read where its format "
-    "tells the count (glTF instances, USD faceVertexCounts, PLY/OFF/STL headers, OBJ face lines).",
+    "tells the count (glTF instances, USD faceVertexCounts, binary STL header, OBJ face lines).",
 )
 
 

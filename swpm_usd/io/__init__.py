@@ -31,9 +31,10 @@ def load_mesh(
 
     ``max_triangles``: a file holding more triangles than this (counted before cleaning, each instance of a
     glTF mesh or USD prototype counted) is a :class:`MeshLoadError`, raised as early as the format tells the
-    count: a glTF's or USD's from its declared counts before any geometry is read, a PLY's or OFF's face
-    count and a binary STL's triangle count from the header, an OBJ's face lines counted before parsing,
-    and in any case once parsed, before cleaning.
+    count: a glTF's or USD's from its declared counts before any geometry is read, a binary STL's triangle
+    count from the header, an OBJ's face lines of 3 or more corners counted before parsing, and in any case
+    (PLY, OFF: a face of fewer than 3 corners is no triangle, so their header is no bound) once parsed,
+    before cleaning.
     """
     check_budget(max_triangles)
     p = Path(path)
