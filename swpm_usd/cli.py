@@ -21,6 +21,8 @@ from .format.cli import (
     EncodingsHelpGroup,
     JsonUsageCommand,
     json_on_interrupt,
+    max_triangles_option,
+    mesh_input,
     pm_summary,
 )
 
@@ -119,8 +121,16 @@ def main() -> None:
     show_default=True,
     help="How many LODs the table shows (the first and the last always).",
 )
+@max_triangles_option
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
-def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int, as_json: bool) -> None:
+def build_cmd(
+    input_path: str,
+    encoding: str,
+    params: tuple[str, ...],
+    rows: int,
+    max_triangles: int | None,
+    as_json: bool,
+) -> None:
     """Build INPUT (.obj .ply .stl .off .glb .gltf .usd*) and print its LOD table.
 
     The table lists LOD, triangles, vertices, error (mesh units) and ACMR (FIFO cache of the encoding's
@@ -133,7 +143,7 @@ def build_cmd(input_path: str, encoding: str, params: tuple[str, ...], rows: int
     json_on_interrupt(as_json, input=input_path)
     start = time.perf_counter()
     try:
-        pm = build(input_path, encoding, **parsed)
+        pm = build(mesh_input(input_path, max_triangles), encoding, **parsed)
     except SwpmError as exc:
         click.echo(f"error: {exc}", err=True)
         if as_json:

@@ -90,3 +90,20 @@ def test_json_given_as_an_options_value_is_not_the_option(args):
     # the same options with --json given as the flag too print the JSON error
     result = CliRunner().invoke(main, [*args, "--json"])
     assert result.exit_code == 2 and json.loads(result.stdout)["usage_error"] is True
+
+
+@pytest.mark.parametrize("command", ["build", "encode"])
+def test_max_triangles_refuses_an_input_over_it(tmp_path, command):
+    """``--max-triangles N``: an input over it exits 1, the error naming the file, its count and the budget;
+    at its count it builds."""
+    mesh = tmp_path / "quads.obj"
+    mesh.write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nv 2 1 0\nf 1 2 3 4\nf 2 5 6 3\n")
+    out = ["-o", str(tmp_path / "q.swpm")] if command == "encode" else []
+    result = CliRunner().invoke(main, [command, str(mesh), *out, "--max-triangles", "3", "--json"])
+    assert result.exit_code == 1, (result.output, result.exception)
+    error = json.loads(result.stdout)["error"]
+    assert str(mesh) in error and "4 triangles" in error and "max_triangles=3" in error
+    result = CliRunner().invoke(main, [command, str(mesh), *out, "--max-triangles", "4", "--json"])
+    assert result.exit_code == 0, (result.output, result.exception)
+    result = CliRunner().invoke(main, [command, str(mesh), *out, "--max-triangles", "-1"])
+    assert result.exit_code == 2

@@ -5097,3 +5097,28 @@ def test_a_run_whose_own_files_cannot_be_written_is_an_error_not_a_traceback(tmp
         assert "Traceback" not in r.output + r.stderr
         if args:
             assert json.loads(r.stdout)["error"] == f"{where}: No space left on device"
+
+
+def test_limits_max_triangles_fails_an_asset_over_it_and_builds_the_others(tmp_path):
+    """``limits.max_triangles``: the asset over it fails with the loader's message naming the file, the count
+    and the budget; the others are built; a budget lowered under an asset built before fails it on the next
+    run (its record is not taken as current)."""
+    cfg = _project(tmp_path, ("spot.obj", "suzanne.obj"))
+    head = "version: 1\nassets: [{glob: 'meshes/*'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    cfg.write_text(head)
+    assert run(cfg, echo=lambda m: None).built == 2
+    cfg.write_text(head + "limits: {max_triangles: 1000}\n")  # suzanne: 968 triangles, spot: 5856
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1, res.failures
+    err = res.failures["meshes/spot.obj"]["error"]
+    assert "spot.obj" in err and "5856 triangles" in err and "max_triangles=1000" in err
+    manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]
+    assert "max_triangles=1000" in manifest["meshes/spot.obj"]["last_failure"]["error"]  # (its build kept)
+    assert manifest["meshes/suzanne.obj"]["status"] == "built"
+    (tmp_path / "meshes" / "cow.obj").write_bytes((SHARED_MESHES / "cow.obj").read_bytes())  # never built
+    res = run(cfg, echo=lambda m: None)
+    assert sorted(res.failures) == ["meshes/cow.obj", "meshes/spot.obj"] and res.built == 0
+    assert "max_triangles=1000" in res.failures["meshes/cow.obj"]["error"]
+    manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]
+    assert manifest["meshes/cow.obj"]["status"] == "failed"
+    assert _config_problems(cfg, head + "limits: {max_triangles: -1}\n")

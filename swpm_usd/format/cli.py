@@ -279,6 +279,28 @@ def _output_folder_problem(output: Path) -> str | None:
     return None
 
 
+#: ``--max-triangles N`` of the commands that load a mesh (:func:`swpm_usd.io.load_mesh`'s ``max_triangles``)
+max_triangles_option = click.option(
+    "--max-triangles",
+    "max_triangles",
+    type=click.IntRange(min=0),
+    default=None,
+    metavar="N",
+    help="Refuse (exit 1) an input of more than N triangles, checked before it is read where its format "
+    "tells the count (glTF instances, USD faceVertexCounts, binary STL header, OBJ face lines).",
+)
+
+
+def mesh_input(input_path: str, max_triangles: int | None) -> object:
+    """What a command builds from ``input_path``: the path itself (loaded by ``build``), or the mesh loaded
+    under the budget ``max_triangles``."""
+    if max_triangles is None:
+        return input_path
+    from ..io import load_mesh
+
+    return load_mesh(input_path, max_triangles=max_triangles)
+
+
 @click.command("encode", cls=EncodingsHelpCommand)
 @click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
 @click.option(
@@ -304,8 +326,16 @@ def _output_folder_problem(output: Path) -> str | None:
     metavar="NAME=VALUE",
     help="Encoding parameter (repeatable, listed below), value parsed as JSON when it can be.",
 )
+@max_triangles_option
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
-def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, ...], as_json: bool) -> None:
+def encode_cmd(
+    input_path: str,
+    output: str,
+    encoding: str,
+    params: tuple[str, ...],
+    max_triangles: int | None,
+    as_json: bool,
+) -> None:
     """Build INPUT with an encoding and write it as an SWPM v1 file.
 
     \b
@@ -327,7 +357,7 @@ def encode_cmd(input_path: str, output: str, encoding: str, params: tuple[str, .
         problem = _output_folder_problem(Path(output))
         if problem:  # (before the build: exit 1, as the write that would fail after it)
             raise OSError(problem)
-        pm = build(input_path, encoding, **parsed)
+        pm = build(mesh_input(input_path, max_triangles), encoding, **parsed)
         seconds = time.perf_counter() - start
         digest = None
         if Path(input_path).is_file():

@@ -20,13 +20,23 @@ _USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 SUPPORTED_SUFFIXES = _TRIMESH_SUFFIXES + _USD_SUFFIXES
 
 
-def load_mesh(path: str | os.PathLike[str], *, prim_path: str | None = None) -> Mesh:
+def load_mesh(
+    path: str | os.PathLike[str], *, prim_path: str | None = None, max_triangles: int | None = None
+) -> Mesh:
     """Load the mesh file at ``path`` (type chosen by suffix) as one cleaned triangle mesh.
 
     Several geometries (glTF nodes, OBJ objects, USD Mesh prims) are concatenated with their transforms
     applied. ``prim_path`` (USD only) restricts loading to the Mesh prims at and under that prim. UV and
     normal seams are kept: vertices sharing a position but not their attributes stay distinct.
+
+    ``max_triangles``: a file holding more triangles than this (counted before cleaning, each instance of a
+    glTF mesh or USD prototype counted) is a :class:`MeshLoadError`, raised as early as the format tells the
+    count: a glTF's or USD's from its declared counts before any geometry is read, a binary STL's triangle
+    count from the header, an OBJ's face lines of 3 or more corners counted before parsing, and in any case
+    (PLY, OFF: a face of fewer than 3 corners is no triangle, so their header is no bound) once parsed,
+    before cleaning.
     """
+    check_budget(max_triangles)
     p = Path(path)
     suffix = p.suffix.lower()
     if suffix not in SUPPORTED_SUFFIXES:
@@ -47,9 +57,29 @@ def load_mesh(path: str | os.PathLike[str], *, prim_path: str | None = None) -> 
     if suffix in _USD_SUFFIXES:
         from .usd_loader import load_usd
 
-        return load_usd(p, prim_path=prim_path)
+        return load_usd(p, prim_path=prim_path, max_triangles=max_triangles)
     if prim_path is not None:
         raise MeshLoadError(p, "prim_path only applies to USD files")
     from .trimesh_loader import load_trimesh
 
-    return load_trimesh(p)
+    return load_trimesh(p, max_triangles=max_triangles)
+
+
+def check_budget(max_triangles: object) -> None:
+    """Raise a TypeError or ValueError unless ``max_triangles`` is None or a count (an int >= 0)."""
+    if max_triangles is None:
+        return
+    if not isinstance(max_triangles, int) or isinstance(max_triangles, bool):
+        raise TypeError(f"max_triangles must be an int or None, not {type(max_triangles).__name__}")
+    if max_triangles < 0:
+        raise ValueError(f"max_triangles must be >= 0, not {max_triangles}")
+
+
+def over_budget(path: Path, triangles: int, max_triangles: int | None, how: str = "") -> None:
+    """Raise a :class:`MeshLoadError` when ``triangles`` (counted ``how``: " (at least: its header declares
+    9 faces)") is over the budget ``max_triangles``."""
+    if max_triangles is not None and triangles > max_triangles:
+        raise MeshLoadError(
+            path,
+            f"over the triangle budget: {triangles} triangles{how}, more than max_triangles={max_triangles}",
+        )

@@ -8,6 +8,7 @@ trimesh (the loader behind :mod:`.trimesh_loader`) silently
   core allows, came out as uv 0..65535, and flipped to ``1 - v`` in 16-bit arithmetic);
 * drops a primitive of mode ``TRIANGLE_FAN`` (6);
 * drops ``TEXCOORD_0`` of a primitive without a ``material``;
+* leaves a node holding a camera out of the scene, with its mesh and children ("No path from world->3");
 * loads nothing from a file without ``scenes`` (valid glTF: its nodes are then not in a scene), which the
   loader reported as "no triangles";
 * loads a geometry compressed by an extension it cannot decode (meshopt; Draco without DracoPy) as zeros,
@@ -15,8 +16,9 @@ trimesh (the loader behind :mod:`.trimesh_loader`) silently
 
 :func:`prepared_gltf` returns, for a file that uses any of them, the document rewritten so trimesh reads what
 the file means (dense float accessors in one added buffer, fans as triangle lists, a plain material added for
-the uv to be read, a scene of every root node), as ``.gltf`` JSON with its buffers inline; None for a file
-that uses none of them (read as before) or whose structure does not read (trimesh then says what is wrong).
+the uv to be read, a camera taken off a node with a mesh or children, a scene of every root node), as
+``.gltf`` JSON with its buffers inline; None for a file that uses none of them (read as before)
+or whose structure does not read (trimesh then says what is wrong).
 """
 
 from __future__ import annotations
@@ -97,7 +99,20 @@ def _needs(doc: dict) -> bool:
                 return True
             if "TEXCOORD_0" in attrs and "material" not in p:
                 return True
+    if any(_camera_over_geometry(n) for n in doc.get("nodes") or []):
+        return True
     return "scenes" not in doc and bool(doc.get("nodes") or doc.get("meshes"))
+
+
+def _camera_over_geometry(node: Any) -> bool:
+    """Whether ``node`` holds a camera and a mesh or children: trimesh takes a camera node for the camera
+    alone and leaves it out of the scene graph, its mesh dropped and its children with no path to the root
+    ("No path from world->3")."""
+    return (
+        isinstance(node, dict)
+        and "camera" in node
+        and bool(node.get("mesh") is not None or node.get("children"))
+    )
 
 
 class _Rewrite:
@@ -267,6 +282,9 @@ def _rewrite(path: Path, doc: dict, binary: bytes | None) -> bytes:
                     doc.setdefault("materials", []).append({"name": "swpm-usd default (for the uv to load)"})
                     material = len(doc["materials"]) - 1
                 p["material"] = material
+    for node in doc.get("nodes") or []:
+        if _camera_over_geometry(node):  # (the camera is not loaded: its node stays, as an empty node)
+            del node["camera"]
     if "scenes" not in doc:
         nodes = doc.get("nodes") or []
         if not nodes:  # (meshes and no node: each mesh at the origin)
@@ -323,6 +341,83 @@ def _check_counts(path: Path, doc: Any) -> None:
             raise MeshLoadError(
                 path, f"accessor {i} has no bufferView and {count} elements (more than {_ZEROS_MAX})"
             )
+
+
+def _json_document(path: Path) -> Any:
+    """The JSON document of the .gltf or .glb file ``path`` (a .glb's JSON chunk alone is read); raises
+    :class:`_Unread` (or what reading or parsing raises) when there is none."""
+    if path.suffix.lower() != ".glb":
+        return json.loads(path.read_bytes())
+    with open(path, "rb") as f:
+        head = f.read(_GLB_HEADER.size + _CHUNK.size)
+        if len(head) < _GLB_HEADER.size + _CHUNK.size:
+            raise _Unread
+        size, kind = _CHUNK.unpack_from(head, _GLB_HEADER.size)
+        if kind != _GLB_JSON or size > os.fstat(f.fileno()).st_size:  # (read(size) asks for size)
+            raise _Unread
+        return json.loads(f.read(size))
+
+
+def _count(value: Any) -> int | None:
+    return value if isinstance(value, int) and not isinstance(value, bool) and value >= 0 else None
+
+
+def gltf_triangle_count(path: Path) -> int | None:
+    """The triangles the .gltf or .glb file ``path`` declares, read from its JSON alone (no buffer): each
+    node of its scene (as trimesh loads it: the ``scene``, else the first; every root node when there is
+    none) with a mesh counts that mesh's triangles (a primitive's ``indices`` count / 3, or its
+    ``POSITION`` count / 3; strips and fans: count - 2; points and lines none). None when the document does
+    not read (the load then says why)."""
+    try:
+        doc = _json_document(path)
+    except (_Unread, OSError, ValueError, RecursionError):
+        return None
+    if not isinstance(doc, dict):
+        return None
+    lists = [doc.get(k) for k in ("accessors", "meshes", "nodes", "scenes")]
+    accessors, meshes, nodes, scenes = (x if isinstance(x, list) else [] for x in lists)
+
+    def accessor_count(ref: Any) -> int:
+        a = accessors[ref] if _count(ref) is not None and ref < len(accessors) else None
+        return (_count(a.get("count")) or 0) if isinstance(a, dict) else 0
+
+    per_mesh = []
+    for mesh in meshes:
+        n = 0
+        primitives = mesh.get("primitives") if isinstance(mesh, dict) else None
+        for prim in primitives if isinstance(primitives, list) else []:
+            if not isinstance(prim, dict):
+                continue
+            attrs = prim.get("attributes")
+            position = attrs.get("POSITION") if isinstance(attrs, dict) else None
+            count = accessor_count(prim["indices"] if "indices" in prim else position)
+            mode = prim.get("mode", _TRIANGLES)
+            n += count // 3 if mode == _TRIANGLES else max(count - 2, 0) if mode in (5, _TRIANGLE_FAN) else 0
+        per_mesh.append(n)
+
+    def children(node: Any) -> list:
+        c = node.get("children") if isinstance(node, dict) else None
+        return [i for i in c if _count(i) is not None and i < len(nodes)] if isinstance(c, list) else []
+
+    if scenes:
+        at = doc.get("scene", 0)
+        scene = scenes[at] if _count(at) is not None and at < len(scenes) else None
+        roots = children({"children": scene.get("nodes")} if isinstance(scene, dict) else None)
+    else:
+        below = {c for n in nodes for c in children(n)}
+        roots = [i for i in range(len(nodes)) if i not in below]
+        if not nodes:  # (meshes and no node: each mesh once, as the rewrite places them)
+            return sum(per_mesh)
+    seen, stack, total = set(roots), list(roots), 0  # (a node once, however many parents: as trimesh)
+    while stack:
+        node = nodes[stack.pop()]
+        m = node.get("mesh") if isinstance(node, dict) else None
+        total += per_mesh[m] if _count(m) is not None and m < len(per_mesh) else 0
+        for c in children(node):
+            if c not in seen:
+                seen.add(c)
+                stack.append(c)
+    return total
 
 
 def prepared_gltf(path: Path) -> bytes | None:

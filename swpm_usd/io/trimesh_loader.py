@@ -22,6 +22,9 @@ from __future__ import annotations
 
 import base64
 import binascii
+import contextlib
+import contextvars
+import functools
 import io
 import itertools
 import json
@@ -38,8 +41,9 @@ import numpy as np
 
 from ..errors import MeshLoadError
 from ..mesh import Mesh
+from . import over_budget
 from .clean import clean_mesh, concatenate_parts, rgba_float, split_corners, transform_part
-from .gltf_prepare import _COMPONENT, _WIDTH, _document, _Unread, prepared_gltf
+from .gltf_prepare import _COMPONENT, _WIDTH, _document, _Unread, gltf_triangle_count, prepared_gltf
 
 _TEXT_TYPES = ("obj", "off")
 #: a binary STL: an 80-byte header, the triangle count (uint32), then 50 bytes per triangle
@@ -528,6 +532,32 @@ def _gltf_json_problem(path: Path) -> str | None:
     return None
 
 
+def _buffer_uri_size(path: Path, uri: str) -> int | str:
+    """The byte size of the buffer of ``uri`` (a base64 data URI, or a file beside the .gltf file ``path``),
+    or why there is none (the end of a message: "its data URI is not valid base64 (...)"). A file is resolved
+    as trimesh's resolver does, which refuses a file outside the .gltf's folder: such a file is not looked
+    at, and its size not told."""
+    if uri.startswith("data:"):
+        meta, _, body = uri.partition(",")
+        if not meta.endswith(";base64"):
+            return f"its data URI is not base64 ({meta[:60]!r})"
+        try:
+            return len(base64.b64decode(body, validate=True))
+        except (binascii.Error, ValueError) as e:
+            return f"its data URI is not valid base64 ({e})"
+    try:
+        folder = path.parent.resolve()
+        file = (folder / urllib.parse.unquote(uri).strip()).resolve()
+    except (OSError, ValueError, RuntimeError):
+        return f"its file {uri!r} is not found beside the .gltf"
+    if not file.is_relative_to(folder):
+        return f"its file {uri!r} is outside the .gltf's folder (not read)"
+    try:
+        return file.stat().st_size
+    except (OSError, ValueError):
+        return f"its file {uri!r} is not found beside the .gltf"
+
+
 def _gltf_buffer_problem(path: Path) -> str | None:
     """What is wrong with a buffer of the .gltf file ``path`` (a JSON object), or None when nothing is found
     (asked once trimesh has failed on it: a bad data URI was a bare "AssertionError: ", a buffer file it
@@ -545,30 +575,10 @@ def _gltf_buffer_problem(path: Path) -> str | None:
         if not isinstance(buf.get("uri"), str):  # (only a .glb's buffer 0 may have none: trimesh's KeyError)
             return f"{name} has no uri (a .gltf's buffer is a data URI or a file beside it)"
         uri, length = buf["uri"], buf.get("byteLength")
-        if uri.startswith("data:"):
-            meta, _, body = uri.partition(",")
-            if not meta.endswith(";base64"):
-                return f"{name}: its data URI is not base64 ({meta[:60]!r})"
-            try:
-                size = len(base64.b64decode(body, validate=True))
-            except (binascii.Error, ValueError) as e:
-                return f"{name}: its data URI is not valid base64 ({e})"
-            what = "its data URI holds"
-        else:
-            # (resolved as trimesh's resolver does, which refuses a file outside the .gltf's folder: such a
-            # file is not looked at, and its size not told)
-            try:
-                folder = path.parent.resolve()
-                file = (folder / urllib.parse.unquote(uri).strip()).resolve()
-            except (OSError, ValueError, RuntimeError):
-                return f"{name}: its file {uri!r} is not found beside the .gltf"
-            if not file.is_relative_to(folder):
-                return f"{name}: its file {uri!r} is outside the .gltf's folder (not read)"
-            try:
-                size = file.stat().st_size
-            except (OSError, ValueError):
-                return f"{name}: its file {uri!r} is not found beside the .gltf"
-            what = f"its file {uri!r} holds"
+        size = _buffer_uri_size(path, uri)
+        if isinstance(size, str):
+            return f"{name}: {size}"
+        what = "its data URI holds" if uri.startswith("data:") else f"its file {uri!r} holds"
         if isinstance(length, int) and not isinstance(length, bool) and size < length:
             return f"{name}: {what} {size} bytes, fewer than its byteLength {length}"
     return None
@@ -598,19 +608,8 @@ def _gltf_buffer_size(path: Path, buf: Any, i: int, binary: int | None) -> int |
     uri = buf.get("uri")
     if uri is None:
         return binary if i == 0 else None
-    if not isinstance(uri, str):
-        return None
-    if uri.startswith("data:"):
-        try:
-            return len(base64.b64decode(uri.partition(",")[2], validate=True))
-        except (binascii.Error, ValueError):
-            return None
-    try:
-        folder = path.parent.resolve()
-        file = (folder / urllib.parse.unquote(uri).strip()).resolve()
-        return file.stat().st_size if file.is_relative_to(folder) and file.is_file() else None
-    except (OSError, ValueError, RuntimeError):
-        return None
+    size = _buffer_uri_size(path, uri) if isinstance(uri, str) else None
+    return size if isinstance(size, int) else None
 
 
 def _index(value: Any) -> bool:
@@ -688,6 +687,74 @@ def _gltf_structure_problem(path: Path) -> str | None:
     return None
 
 
+#: the glTF document's arrays of objects
+_GLTF_ARRAYS = ("accessors", "bufferViews", "buffers", "meshes", "nodes", "scenes", "materials", "cameras")
+#: node fields: those that are an index, and those that are (so many) numbers
+_NODE_INDICES = ("mesh", "camera", "skin")
+_NODE_NUMBERS = {"matrix": 16, "translation": 3, "rotation": 4, "scale": 3}
+
+
+def _kind(value: Any) -> str:
+    return {dict: "an object", list: "an array", str: "a string", bool: "a boolean"}.get(
+        type(value), "null" if value is None else "a number"
+    )
+
+
+def _gltf_shape_problem(doc: Any) -> str | None:
+    """Which part of the glTF JSON document ``doc`` is not of the type glTF gives it (an array that is a
+    number, a node that is a string, children that are not node indices, a primitive without attributes),
+    or None (asked once trimesh has failed on it: "'int' object is not subscriptable", "KeyError: 0")."""
+    if not isinstance(doc, dict):
+        return f"the JSON is {_kind(doc)}, not an object"
+    for name in _GLTF_ARRAYS:
+        items = doc.get(name, [])
+        if not isinstance(items, list):
+            return f"its {name!r} is {_kind(items)}, not an array"
+        for i, item in enumerate(items):
+            if not isinstance(item, dict):
+                return f"{name}[{i}] is {_kind(item)}, not an object"
+    n_nodes = len(doc.get("nodes", []))
+
+    def node_list(value: Any) -> bool:
+        return isinstance(value, list) and all(_index(c) and c < n_nodes for c in value)
+
+    if "scene" in doc and not (_index(doc["scene"]) and doc["scene"] < len(doc.get("scenes", []))):
+        n = len(doc.get("scenes", []))
+        return f"its 'scene' is {doc['scene']!r}, not the index of one of its {n} scenes"
+    for i, scene in enumerate(doc.get("scenes", [])):
+        if "nodes" in scene and not node_list(scene["nodes"]):
+            return f"scenes[{i}].nodes is not an array of indices of its {n_nodes} nodes"
+    for i, node in enumerate(doc.get("nodes", [])):
+        if "children" in node and not node_list(node["children"]):
+            return f"nodes[{i}].children is not an array of indices of its {n_nodes} nodes"
+        for key in _NODE_INDICES:
+            if key in node and not _index(node[key]):
+                return f"nodes[{i}].{key} is {node[key]!r}, not an index"
+        if "mesh" in node and node["mesh"] >= len(doc.get("meshes", [])):
+            return f"nodes[{i}].mesh is {node['mesh']}, the file has {len(doc.get('meshes', []))} meshes"
+        for key, n in _NODE_NUMBERS.items():
+            value = node.get(key, [0.0] * n)
+            numbers = isinstance(value, list) and all(
+                isinstance(v, int | float) and not isinstance(v, bool) for v in value
+            )
+            if not numbers or len(value) != n:
+                return f"nodes[{i}].{key} is not {n} numbers"
+    for m, mesh in enumerate(doc.get("meshes", [])):
+        primitives = mesh.get("primitives")
+        if not isinstance(primitives, list) or not all(isinstance(q, dict) for q in primitives):
+            return f"meshes[{m}].primitives is not an array of objects"
+        for k, prim in enumerate(primitives):
+            if not isinstance(prim.get("attributes"), dict):
+                return f"meshes[{m}].primitives[{k}].attributes is not an object"
+            for key in ("indices", "material", "mode"):
+                if key in prim and not _index(prim[key]):
+                    return f"meshes[{m}].primitives[{k}].{key} is {prim[key]!r}, not an index"
+    for i, buf in enumerate(doc.get("buffers", [])):
+        if not _index(buf.get("byteLength")):
+            return f"buffers[{i}].byteLength is {buf.get('byteLength')!r}, not a byte count"
+    return None
+
+
 def _glb_length_problem(path: Path) -> str | None:
     """Why the .glb file ``path`` is truncated (shorter than the length its header gives) or a chunk of it
     longer than the bytes after it, or None (asked once trimesh has failed on it: "chunk was not expected
@@ -737,6 +804,174 @@ def glb_chunk_problem(path: Path) -> str | None:
     return None
 
 
+def _numbered_rows(data: bytes) -> Iterator[tuple[int, list[bytes]]]:
+    """(line number from 1, tokens) of each line of a text mesh file holding any, comments left out."""
+    for number, line in enumerate(data.split(b"\n"), 1):
+        words = line.split(b"#", 1)[0].split()
+        if words:
+            yield number, words
+
+
+def _not_numbers(words: list[bytes]) -> bytes | None:
+    """The first of ``words`` that is not a number, or None."""
+    for w in words:
+        try:
+            float(w)
+        except ValueError:
+            return w
+    return None
+
+
+def _shown(word: bytes) -> str:
+    return repr(word[:40].decode("utf-8", "replace"))
+
+
+def _obj_problem(data: bytes) -> str | None:
+    """What is wrong with a row of the OBJ file of bytes ``data`` (a ``v``/``vt``/``vn`` value that is not a
+    number, or too few; a face corner whose index is not an integer, or refers to no vertex), or None (asked
+    once trimesh has failed on it: "string or file could not be read to its end due to unmatched data",
+    "invalid literal for int() with base 10", "index 3000 is out of bounds for axis 0")."""
+    vertices = 0
+    for number, words in _numbered_rows(data):
+        key = words[0]
+        if key in (b"v", b"vt", b"vn"):
+            bad = _not_numbers(words[1:])
+            if bad is not None:
+                return f"line {number}: a '{key.decode()}' row holds {_shown(bad)}, not a number"
+            need = 1 if key == b"vt" else 3
+            if len(words) - 1 < need:
+                return f"line {number}: a '{key.decode()}' row holds {len(words) - 1} values, not {need}"
+            vertices += key == b"v"
+    for number, words in _numbered_rows(data):
+        if words[0] != b"f":
+            continue
+        for corner in words[1:]:
+            for kind, part in zip(("vertex", "uv", "normal"), corner.split(b"/"), strict=False):
+                if part == b"" and kind != "vertex":
+                    continue
+                try:
+                    index = int(part)
+                except ValueError:
+                    return (
+                        f"line {number}: face corner {_shown(corner)}: its {kind} index is not a whole number"
+                    )
+                if kind == "vertex" and not (-vertices <= index <= vertices and index != 0):
+                    where = f"line {number}: face corner {_shown(corner)}"
+                    return f"{where} refers to vertex {index}, the file has {vertices}"
+    return None
+
+
+_OFF_HEADER = re.compile(rb"(ST)?C?N?4?n?OFF", re.IGNORECASE)
+
+
+def _off_problem(data: bytes) -> str | None:
+    """What is wrong with the header or a row of the OFF file of bytes ``data`` (counts that are not whole
+    numbers; a vertex row of too few values, or one that is not a number; a face row whose corner count or
+    index is not a whole number, with fewer corners than it declares, or an index to no vertex), or None
+    (asked once trimesh has failed on it: "invalid literal for int() with base 10: '0.5'", "setting an array
+    element with a sequence", "cannot reshape array of size 14 into shape (5,3)")."""
+    rows = _numbered_rows(data)
+    first = next(rows, None)
+    if first is None or _OFF_HEADER.fullmatch(first[1][0]) is None:
+        return None
+    number, counts = (first[0], first[1][1:]) if len(first[1]) > 1 else next(rows, (first[0], []))
+    try:
+        n_vertices, n_faces = int(counts[0]), int(counts[1])
+    except (IndexError, ValueError):
+        return f"line {number}: the counts line {_shown(b' '.join(counts))} is not vertices, faces, edges"
+    for k in range(n_vertices):
+        number, words = next(rows, (None, []))
+        if number is None:
+            return f"the header declares {n_vertices} vertices, the file has {k}"
+        bad = _not_numbers(words[:3])
+        if bad is not None:
+            return f"line {number}: vertex {k} holds {_shown(bad)}, not a number"
+        if len(words) < 3:
+            return f"line {number}: vertex {k} holds {len(words)} values, not 3"
+    for k in range(n_faces):
+        number, words = next(rows, (None, []))
+        if number is None:
+            return f"the header declares {n_faces} faces, the file has {k}"
+        try:
+            corners = [int(w) for w in words[: 1 + max(int(words[0]), 0)]]
+        except ValueError:
+            return f"line {number}: face {k}: {_shown(b' '.join(words[:8]))} are not whole numbers"
+        if len(corners) - 1 < corners[0] or corners[0] < 3:
+            return f"line {number}: face {k} declares {corners[0]} corners and lists {len(words) - 1} values"
+        out = [i for i in corners[1:] if not 0 <= i < n_vertices]
+        if out:
+            return f"line {number}: face {k} refers to vertex {out[0]}, the file has {n_vertices}"
+    return None
+
+
+_STL_NUMBERS = {b"vertex": 3, b"normal": 3}
+
+
+def _stl_ascii_problem(data: bytes) -> str | None:
+    """What is wrong with a row of the ASCII STL file of bytes ``data`` (a ``vertex`` or ``facet normal``
+    row whose values are not 3 numbers, a facet without 3 vertices), or None (asked once trimesh has failed
+    on it: "string or file could not be read to its end", "incorrect number of vertices")."""
+    if data.lstrip()[:5].lower() != b"solid":
+        return None
+    corners = None
+    for number, words in _numbered_rows(data):
+        key = words[0].lower()
+        values = words[2:] if key == b"facet" else words[1:]
+        if key == b"facet" or key == b"vertex":
+            bad = _not_numbers(values)
+            if bad is not None:
+                return f"line {number}: a '{key.decode()}' row holds {_shown(bad)}, not a number"
+            if len(values) != 3 and (key == b"vertex" or values):
+                return f"line {number}: a '{key.decode()}' row holds {len(values)} values, not 3"
+        if key == b"facet":
+            corners = 0
+        elif key == b"vertex":
+            corners = (corners or 0) + 1
+        elif key == b"endfacet":
+            if corners != 3:
+                return f"line {number}: a facet of {corners or 0} vertices, not 3"
+            corners = None
+    return None
+
+
+def _ply_ascii_problem(data: bytes) -> str | None:
+    """What is wrong with a row of the ASCII PLY file of bytes ``data`` (a value that is not a number, a row
+    of another length than its element's properties), or None (asked once trimesh has failed on it:
+    "string or file could not be read to its end", "setting an array element with a sequence")."""
+    header = _ply_header(data[:_PLY_HEADER_BYTES])
+    if header is None or header[0] != "ascii":
+        return None
+    _, at, elements = header
+    lines = iter(data[at:].split(b"\n"))
+    number = data[:at].count(b"\n")
+    for name, count, props in elements:
+        fixed = all(len(p) == 1 for p in props)
+        for k in range(count):
+            line = next(lines, None)
+            number += 1
+            if line is None:
+                return None  # (cut short: ply_problem's)
+            words = line.split()
+            bad = _not_numbers(words)
+            if bad is not None:
+                return f"line {number}: {name} {k} holds {_shown(bad)}, not a number"
+            if fixed and len(words) != len(props):
+                return f"line {number}: {name} {k} holds {len(words)} values, its element has {len(props)}"
+            if not fixed and len(props) == 1 and words and len(words) != 1 + int(float(words[0])):
+                declared = int(float(words[0]))
+                return f"line {number}: {name} {k} declares {declared} values and lists {len(words) - 1}"
+    return None
+
+
+#: the check of a text file's rows, by type, asked once trimesh has failed on it
+_ROW_PROBLEMS: dict[str, Callable[[bytes], str | None]] = {
+    "obj": _obj_problem,
+    "off": _off_problem,
+    "stl": _stl_ascii_problem,
+    "ply": _ply_ascii_problem,
+}
+
+
 def _read_problem(path: Path, check: Callable[[bytes], str | None]) -> str | None:
     """``check`` of the bytes of ``path``, or None when it cannot be read again."""
     try:
@@ -745,13 +980,131 @@ def _read_problem(path: Path, check: Callable[[bytes], str | None]) -> str | Non
         return None
 
 
-def load_trimesh(path: Path) -> Mesh:
-    """Load an OBJ, PLY, STL, OFF, glTF or GLB file as one cleaned mesh."""
+def _budget_before_parsing(path: Path, file_type: str, data: bytes, max_triangles: int) -> None:
+    """Raise a :class:`MeshLoadError` when the count a binary STL's header declares, or its OBJ face lines of
+    3 or more corners, or its glTF primitives times their nodes, are over ``max_triangles``: checked before
+    trimesh parses anything (an OBJ face line of 3 corners is at least one triangle). A PLY's or OFF's header
+    face count is no lower bound (a face of 2 corners or none is no triangle, and trimesh keeps the file), so
+    those are checked once parsed."""
+    if file_type == "stl":
+        size = path.stat().st_size
+        with open(path, "rb") as f:
+            head = f.read(_STL_HEADER_BYTES)
+        count = int.from_bytes(head[80:84], "little") if len(head) == _STL_HEADER_BYTES else -1
+        if size == _STL_HEADER_BYTES + _STL_TRIANGLE_BYTES * count:  # (binary: check_stl's test)
+            over_budget(path, count, max_triangles, " (declared by its binary STL header)")
+    elif file_type == "obj":
+        n = len(_OBJ_FACE_LINE.findall(data))
+        over_budget(path, n, max_triangles, f" (at least: it has {n} face lines of 3 or more corners)")
+    elif file_type in ("gltf", "glb"):
+        n = gltf_triangle_count(path)
+        if n is not None:
+            over_budget(path, n, max_triangles, " (declared by its primitives' accessors, times their nodes)")
+
+
+#: an OBJ face corner of each form (v, v/vt, v//vn, v/vt/vn) -> the columns of its texture and normal indices
+_OBJ_CORNER_FORMS = {
+    "{i}": (None, None),
+    "{i}/{i}": (1, None),
+    "{i}//{i}": (None, 1),
+    "{i}/{i}/{i}": (1, 2),
+}
+#: an index as the vectorised reading below takes it (anything else: trimesh's own reading)
+_OBJ_INDEX = "-?[0-9]{1,18}"
+
+
+def _obj_faces_fallback(lines: list[str], original: Callable) -> tuple:
+    """trimesh's ``_parse_faces_fallback`` (``original``: OBJ face lines of differing lengths, which it reads
+    corner by corner in Python: a 200,000-corner polygon beside a triangle took 4.5 s) in numpy, with the
+    same triangles in the same order (a quad as (0, 1, 2), (2, 3, 0), a polygon of more corners as the fan
+    (0, k, k + 1), a line of fewer than 3 corners skipped) and the same indices. Only when every corner has
+    the first's form and plain integer indices; any other lines are ``original``'s."""
+    rows = [line.strip().split("\n")[0].split() for line in lines]
+    counts = np.fromiter(map(len, rows), np.int64, len(rows))
+    if counts.shape[0] == 0 or (counts < 3).all():
+        return original(lines)
+    first = rows[int(np.argmax(counts >= 3))][0]
+    form = re.sub(r"[^/]+", "{i}", first)
+    if form not in _OBJ_CORNER_FORMS:
+        return original(lines)
+    text = " ".join(itertools.chain.from_iterable(rows))
+    token = form.replace("{i}", _OBJ_INDEX)
+    if re.fullmatch(f"{token}(?: {token})*", text) is None:
+        return original(lines)
+    width = form.count("{i}")
+    values = np.array(text.replace("/", " ").split(), np.int64).reshape(-1, width)
+    n_tris = np.where(counts >= 3, counts - 2, 0)
+    face = np.repeat(np.arange(counts.shape[0]), n_tris)
+    k = np.arange(face.shape[0]) - (np.cumsum(n_tris) - n_tris)[face]  # (the triangle's place in its face)
+    corners = np.stack([np.zeros_like(k), k + 1, k + 2], axis=1)
+    corners[(counts[face] == 4) & (k == 1)] = (2, 3, 0)  # (trimesh's quad split)
+    read = values[(np.cumsum(counts) - counts)[face][:, None] + corners]
+
+    def column(c: int | None) -> np.ndarray | None:
+        if c is None:
+            return None
+        out = np.ascontiguousarray(read[:, :, c])
+        out[out > 0] -= 1  # (1-based; negative indices count from the end, as trimesh leaves them)
+        return out
+
+    tex, norm = _OBJ_CORNER_FORMS[form]
+    return column(0), column(tex), column(norm)
+
+
+#: set (in this thread or task only) while :func:`load_trimesh` has trimesh read an OBJ: only those reads
+#: take :func:`_obj_faces_fallback`; any other code's trimesh calls in the process get trimesh's own function
+_OBJ_FACES_IN_NUMPY: contextvars.ContextVar[bool] = contextvars.ContextVar("swpm_obj_faces", default=False)
+
+
+def _install_obj_faces_fallback() -> None:
+    """Put a wrapper in place of trimesh's ``_parse_faces_fallback`` (once; ``__wrapped__`` is trimesh's own):
+    it calls trimesh's own function unless :data:`_OBJ_FACES_IN_NUMPY` is set, so a user's trimesh calls in
+    the same process (other threads included) run trimesh's code unchanged; our OBJ reads, inside
+    :func:`_obj_faces_in_numpy`, take :func:`_obj_faces_fallback` (the same result, fuzzed against it)."""
+    import trimesh.exchange.obj as obj
+
+    original = obj._parse_faces_fallback
+    if getattr(original, "swpm_usd", False):
+        return
+
+    @functools.wraps(original)
+    def fallback(lines: list[str]) -> tuple:
+        if not _OBJ_FACES_IN_NUMPY.get():
+            return original(lines)
+        return _obj_faces_fallback(lines, original)
+
+    fallback.swpm_usd = True  # type: ignore[attr-defined]
+    obj._parse_faces_fallback = fallback
+
+
+@contextlib.contextmanager
+def _obj_faces_in_numpy() -> Iterator[None]:
+    """Within it, trimesh's OBJ reads in this thread or task take :func:`_obj_faces_fallback`."""
+    _install_obj_faces_fallback()
+    token = _OBJ_FACES_IN_NUMPY.set(True)
+    try:
+        yield
+    finally:
+        _OBJ_FACES_IN_NUMPY.reset(token)
+
+
+#: an OBJ face line of at least 3 corners, as trimesh reads them (from a line's start: an indented 'f' line
+#: is not a face to it, nor one with a tab after the f; a line of fewer corners is skipped; '#' starts a
+#: comment): each is at least a triangle
+_OBJ_FACE_LINE = re.compile(rb"(?m)^f [ \t]*[^\s#]+(?:[ \t]+[^\s#]+){2}")
+
+
+def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
+    """Load an OBJ, PLY, STL, OFF, glTF or GLB file as one cleaned mesh (``max_triangles``: see
+    :func:`swpm_usd.io.load_mesh`)."""
     import trimesh
 
     file_type = path.suffix.lower().lstrip(".")
     data = b""
     try:
+        if max_triangles is not None and file_type not in ("ply", "obj", "off"):  # (obj: once read)
+            if file_type != "glb" or glb_chunk_problem(path) is None:  # (not read(a chunk's length))
+                _budget_before_parsing(path, file_type, data, max_triangles)
         if file_type == "stl":
             check_stl(path)  # (its start and end: trimesh reads the file)
             scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
@@ -778,10 +1131,13 @@ def load_trimesh(path: Path) -> Mesh:
                 data.decode("utf-8")
             except UnicodeDecodeError:
                 data = data.decode("latin-1").encode("utf-8")
+            if max_triangles is not None and file_type == "obj":
+                _budget_before_parsing(path, file_type, data, max_triangles)
             resolver = trimesh.resolvers.FilePathResolver(str(path))
-            scene = trimesh.load_scene(
-                io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
-            )
+            with _obj_faces_in_numpy() if file_type == "obj" else contextlib.nullcontext():
+                scene = trimesh.load_scene(
+                    io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
+                )
         elif file_type == "glb" and (problem := glb_chunk_problem(path)) is not None:
             raise MeshLoadError(path, _glb_length_problem(path) or problem)  # ("truncated" when it is)
         elif file_type in ("gltf", "glb") and (prepared := prepared_gltf(path)) is not None:
@@ -792,7 +1148,11 @@ def load_trimesh(path: Path) -> Mesh:
         else:
             scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
         parts = []
-        for matrix, geom_name in _geometry_transforms(scene.graph).values():
+        placed = _geometry_transforms(scene.graph)
+        if max_triangles is not None:  # (parsed: the exact count, before anything is transformed or cleaned)
+            n = sum(len(getattr(scene.geometry.get(g), "faces", ())) for _, g in placed.values())
+            over_budget(path, n, max_triangles)
+        for matrix, geom_name in placed.values():
             geom = scene.geometry[geom_name]
             colours = None
             if file_type == "off" and isinstance(geom, trimesh.Trimesh):
@@ -825,6 +1185,14 @@ def load_trimesh(path: Path) -> Mesh:
         if problem is None and file_type in ("gltf", "glb"):
             try:
                 problem = _gltf_structure_problem(path)
+                read = _gltf_document(path) if problem is None else None
+                problem = problem if read is None else _gltf_shape_problem(read[0])
+            except Exception:  # noqa: BLE001 - (a look for the message: trimesh's is given without it)
+                problem = None
+            problem = None if problem is None else f"not a valid {file_type.upper()} file: {problem}"
+        if problem is None and file_type in _ROW_PROBLEMS:
+            try:
+                problem = _read_problem(path, _ROW_PROBLEMS[file_type])
             except Exception:  # noqa: BLE001 - (a look for the message: trimesh's is given without it)
                 problem = None
             problem = None if problem is None else f"not a valid {file_type.upper()} file: {problem}"
@@ -852,7 +1220,8 @@ def _report_dropped_obj_attributes(path: Path, data: bytes, parts: list) -> None
     dropped = [
         name
         for name, pattern in (("normal", _OBJ_FACE_NORMAL), ("uv", _OBJ_FACE_UV))
-        if not any(name in attrs for _, _, attrs in parts) and pattern.search(data)
+        # (no '/' in the file, no corner that refers to either: the scan of every line start is skipped)
+        if not any(name in attrs for _, _, attrs in parts) and b"/" in data and pattern.search(data)
     ]
     if dropped:
         warnings.warn(

@@ -19,7 +19,7 @@ that does not resolve, on an active prim in or above the loaded subtree) too, be
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +27,7 @@ from pxr import Gf, Sdf, Tf, Usd, UsdGeom
 
 from ..errors import MeshLoadError, first_few, tf_message
 from ..mesh import Mesh
+from . import over_budget
 from .clean import Part, clean_mesh, concatenate_parts, rgba_float, split_corners, transform_part
 
 _TEXCOORD2_TYPES = {
@@ -353,8 +354,20 @@ def _composition_errors(stage: Usd.Stage, root: Sdf.Path) -> list[str]:
     return [message for _, message in sorted(out)]
 
 
-def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
-    """Load every Mesh prim of a USD stage (or those under ``prim_path``) as one cleaned mesh.
+def _declared_triangles(prim: Usd.Prim, time: Usd.TimeCode) -> int:
+    """The triangles of the Mesh ``prim``'s faces (a face of n >= 3 corners: n - 2), from its
+    ``faceVertexCounts`` alone (its points not read)."""
+    counts = UsdGeom.Mesh(prim).GetFaceVertexCountsAttr().Get(time)
+    if counts is None or len(counts) == 0:
+        return 0
+    n = np.asarray(counts, dtype=np.int64)
+    return int(np.maximum(n - 2, 0).sum())
+
+
+def load_usd(path: Path, prim_path: str | None = None, *, max_triangles: int | None = None) -> Mesh:
+    """Load every Mesh prim of a USD stage (or those under ``prim_path``) as one cleaned mesh
+    (``max_triangles``: see :func:`swpm_usd.io.load_mesh`; counted from ``faceVertexCounts`` of every drawn
+    mesh, each instance counted, before any points are read).
 
     A crate file (``.usdc``) is opened first in a probe process (:func:`swpm_usd.usd.probe.check`): one that
     crashes usd-core there, hangs it or makes it fail is a :class:`MeshLoadError` with what the probe found,
@@ -393,9 +406,21 @@ def load_usd(path: Path, prim_path: str | None = None) -> Mesh:
             predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
             # (a prototype's mesh, drawn at each of an instancer's instances, is read once)
             local: dict[tuple[Sdf.Path, Sdf.Path | None], tuple[str | None, Part | None]] = {}
-            for prim, to_world, proto_root in _drawn_meshes(
+            drawn: Iterable[tuple[Usd.Prim, Gf.Matrix4d, Usd.Prim | None]] = _drawn_meshes(
                 root, predicate, xf_cache.GetLocalToWorldTransform, xf_cache, time
-            ):
+            )
+            if max_triangles is not None:
+                drawn = list(drawn)
+                declared: dict[tuple[Sdf.Path, Sdf.Path | None], int] = {}
+                for prim, _, proto_root in drawn:
+                    key = (prim.GetPath(), None if proto_root is None else proto_root.GetPath())
+                    if key not in declared:
+                        unseen = _not_rendered(prim, time, proto_root) is None
+                        declared[key] = _declared_triangles(prim, time) if unseen else 0
+                total = sum(declared[(q.GetPath(), None if r is None else r.GetPath())] for q, _, r in drawn)
+                how = " (declared by the faceVertexCounts of the meshes drawn, each instance counted)"
+                over_budget(path, total, max_triangles, how)
+            for prim, to_world, proto_root in drawn:
                 n_mesh_prims += 1
                 key = (prim.GetPath(), None if proto_root is None else proto_root.GetPath())
                 if key not in local:

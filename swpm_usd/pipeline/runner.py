@@ -416,11 +416,24 @@ def _digest_with_count(item: PlanItem, record: dict) -> str | None:
     return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, instances=count)
 
 
-def _count_triangles(asset: Asset) -> int:
+def _count_triangles(asset: Asset, max_triangles: int | None = None) -> int:
     from ..io import load_mesh
 
-    mesh = load_mesh(asset.path, prim_path=asset.prim) if asset.prim else load_mesh(asset.path)
+    mesh = load_mesh(asset.path, prim_path=asset.prim, max_triangles=max_triangles)
     return mesh.triangle_count
+
+
+def _max_triangles(cfg: Config) -> int | None:
+    """``limits.max_triangles``, or None."""
+    limits = cfg.data.get("limits")
+    return limits.get("max_triangles") if isinstance(limits, dict) else None
+
+
+def _within_triangle_budget(cfg: Config, record: dict) -> bool:
+    """Whether the asset a record built holds no more triangles than ``limits.max_triangles`` (a budget set
+    or lowered since: an asset over it is loaded again, and fails)."""
+    budget, tri = _max_triangles(cfg), record.get("triangles_in")
+    return budget is None or (type(tri) is int and tri <= budget)
 
 
 #: an input's recorded stat is trusted only when its mtime and ctime were older than the moment it was
@@ -659,7 +672,7 @@ def plan(
                 )
                 continue
             try:
-                tri = _count_triangles(a)
+                tri = _count_triangles(a, _max_triangles(cfg))
             except Exception:  # noqa: BLE001 - the worker reports it as this asset's failure
                 tri = None
         item = PlanItem(
@@ -683,6 +696,7 @@ def plan(
                 or checks_no_stricter(checks_of(cfg.data), prev.get("checks"))
             )
             and _total_fits(cfg, prev, item)
+            and _within_triangle_budget(cfg, prev)
             and bool(outs) == _wants_outputs(cfg)
             # (an output the config asks for that the build did not write: `usd: true` added since)
             and _wanted_outputs(cfg) <= set(outs)
@@ -1049,6 +1063,7 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
         "why": item.why,
         "streaming": cfg.data.get("streaming", {}),
         "budgets": cfg.data.get("budgets", {}),
+        "max_triangles": _max_triangles(cfg),
         "out_dir": str(cfg.base / out["dir"]),
         "write_swpm": bool(out.get("swpm", True)),
         "write_usd": bool(out.get("usd", False)),

@@ -235,6 +235,13 @@ def build_schema() -> dict[str, Any]:
                         "description": "wall-clock seconds one asset may take: an asset still building then "
                         "has its worker process stopped and fails (the others go on); local executor only",
                     },
+                    "max_triangles": {
+                        "type": "integer",
+                        "minimum": 0,
+                        "description": "the most triangles an asset's file may hold (each instance of a glTF "
+                        "mesh or USD prototype counted, before cleaning): an asset over it fails, refused "
+                        "before its file is read where the format tells the count; the others are built",
+                    },
                 },
             },
         },

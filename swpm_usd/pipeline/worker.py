@@ -470,7 +470,7 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         from ..usd.probe import trust
 
         trust(task.get("probed", ()))  # (probed clean as the run planned: not again in this process)
-        mesh = load_mesh(task["path"], prim_path=task["prim"]) if task["prim"] else load_mesh(task["path"])
+        mesh = load_mesh(task["path"], prim_path=task["prim"], max_triangles=task.get("max_triangles"))
         rec["triangles_in"] = mesh.triangle_count
         encoding, params = task["encoding"], task["params"]
         reason = task["why"]
