@@ -5097,3 +5097,23 @@ def test_a_run_whose_own_files_cannot_be_written_is_an_error_not_a_traceback(tmp
         assert "Traceback" not in r.output + r.stderr
         if args:
             assert json.loads(r.stdout)["error"] == f"{where}: No space left on device"
+
+
+def test_progress_line_of_a_failed_asset_keeps_its_cause_under_a_deep_folder(tmp_path, capsys):
+    """The progress line keeps 100 characters of a failure; the error names the asset's file by its absolute
+    path, which a studio's nested folders make longer than that: the line showed the path and no cause."""
+    deep = Path("meshes", *["a folder of props, rocks and stones"] * 4)
+    (tmp_path / deep).mkdir(parents=True)
+    (tmp_path / deep / "broken.obj").write_bytes(b"")
+    shutil.copy(SHARED_MESHES / "suzanne.obj", tmp_path / deep / "suzanne.obj")
+    cfg = tmp_path / "pipeline.yaml"
+    config = MINIMAL.replace("meshes/*.obj", "meshes/**/*.obj")
+    cfg.write_text(config.replace("dir: out", "{dir: out, report: false}"))
+    capsys.readouterr()
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1 and res.built == 1
+    lines = [ln for ln in capsys.readouterr().err.splitlines() if "broken.obj: FAILED" in ln]
+    assert len(lines) == 1, lines
+    # the asset is named once (its id, relative), and the cause follows
+    assert "MeshLoadError: no triangles: the file is empty (0 bytes)" in lines[0]
+    assert str(tmp_path) not in lines[0]

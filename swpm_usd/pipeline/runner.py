@@ -1331,9 +1331,15 @@ class _Progress:
             self.bar.start()
             self.task = self.bar.add_task("", total=total)
 
-    def advance(self, rec: dict) -> None:
+    def advance(self, rec: dict, path: str | None = None) -> None:
+        """One more asset done; ``path``, its file as the worker's error names it, is left out of the line
+        (which names the asset already): a deep folder's path filled the 100 characters kept of the error,
+        and the line lost its cause (the summary after the run prints the error whole)."""
         self.done += 1
-        status = rec["status"] if rec["status"] != "failed" else f"FAILED ({rec.get('error', '')[:100]})"
+        error = rec.get("error", "")
+        if path:
+            error = error.replace(f"{path}: ", "", 1)
+        status = rec["status"] if rec["status"] != "failed" else f"FAILED ({error[:100]})"
         if rec.get("kept_previous"):
             status += "; its previous outputs are kept"
         if self.bar is not None:
@@ -1760,7 +1766,7 @@ def _run(
                 _write_manifest(manifest_path, manifest, text)
                 last_write = time.perf_counter()
                 write_s = last_write - now
-            progress.advance(rec)
+            progress.advance(rec, str(it.asset.path))
     except BaseException:
         stop()
         raise
