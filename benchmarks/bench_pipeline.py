@@ -440,6 +440,28 @@ def _scale_assets(d: Path, count: int) -> list[Path]:
     return good
 
 
+def _edit_input(p: Path) -> None:
+    """Change the bytes of the input ``p`` (one of :func:`_scale_assets`'s) and not its mesh: the file still
+    loads, to the same triangles. (A trailing byte is no such edit for binary PLY and STL, whose loaders
+    refuse bytes after the data their header declares: the "edited" assets failed instead of rebuilding.)"""
+    if p.suffix in (".obj", ".usda", ".gltf"):
+        with open(p, "a") as f:
+            f.write("\n")
+    elif p.suffix == ".ply":  # a comment line in the header
+        data = p.read_bytes()
+        end = data.index(b"\n") + 1
+        p.write_bytes(data[:end] + b"comment edited\n" + data[end:])
+    elif p.suffix == ".stl":  # binary: the 80-byte header is free text (kept from starting with "solid")
+        with open(p, "r+b") as f:
+            f.seek(79)
+            byte = f.read(1)
+            f.seek(79)
+            f.write(b"x" if byte != b"x" else b"y")
+    else:  # .glb: bytes after the chunks its header counts are ignored
+        with open(p, "ab") as f:
+            f.write(b"\0")
+
+
 def _cli_rusage(args: list[str], cwd: Path) -> tuple[float, int, str]:
     """Wall time, peak RSS (KB, the largest process of the run: ``wait4``'s) and stdout of a fresh
     ``swpm-pipeline`` process running the code this one imports (as :func:`_cli`)."""
@@ -477,12 +499,7 @@ def scale(work: Path, counts: tuple[int, ...] = (500, 1000, 2000, 4000)) -> dict
         touched_s, _, text = _cli_rusage(cmd, d)
         touched_built = json.loads(text)["built"]
         for p in some:
-            if p.suffix in (".obj", ".usda", ".gltf"):
-                with open(p, "a") as f:
-                    f.write("\n")
-            else:
-                with open(p, "ab") as f:  # (binary formats: a trailing byte, which the loaders ignore)
-                    f.write(b"\0")
+            _edit_input(p)
         edited_s, _, text = _cli_rusage(cmd, d)
         edited = json.loads(text)
         out = d / "out"

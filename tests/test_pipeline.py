@@ -5117,3 +5117,24 @@ def test_progress_line_of_a_failed_asset_keeps_its_cause_under_a_deep_folder(tmp
     # the asset is named once (its id, relative), and the cause follows
     assert "MeshLoadError: no triangles: the file is empty (0 bytes)" in lines[0]
     assert str(tmp_path) not in lines[0]
+
+
+def test_bench_scale_edits_an_input_without_breaking_it(tmp_path):
+    """bench_pipeline's scale section times a rerun after editing 1 % of the inputs: each edit must change the
+    file's bytes and leave its mesh readable (a trailing byte made binary PLY and STL fail, not rebuild)."""
+    import importlib.util
+
+    from swpm_usd.io import load_mesh
+
+    spec = importlib.util.spec_from_file_location(
+        "bench_pipeline", Path(swpm_usd.__file__).resolve().parents[1] / "benchmarks" / "bench_pipeline.py"
+    )
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    good = bench._scale_assets(tmp_path, 12)
+    assert {p.suffix for p in good} == {".obj", ".ply", ".stl", ".glb", ".gltf", ".usda"}
+    for p in good:
+        before, triangles = p.read_bytes(), len(load_mesh(p).triangles)
+        bench._edit_input(p)
+        assert p.read_bytes() != before, p
+        assert len(load_mesh(p).triangles) == triangles, p
