@@ -3515,6 +3515,32 @@ def test_a_worker_done_while_the_caller_held_the_pool_is_not_stopped_as_overrun(
     assert sorted((r["id"], r["status"]) for r in recs) == [("a", "built"), ("slow", "built")], recs
 
 
+def _serve_late(conn):
+    """A worker's serve for the pool tests, reached 2 s after the process started (a fork from the server
+    under load, with its imports)."""
+    from swpm_usd.pipeline import worker
+
+    time.sleep(2.0)
+    worker.serve(conn)
+
+
+def test_a_limit_times_the_build_not_the_worker_start_up(monkeypatch):
+    # the deadline started when the task was sent: a worker started for it (the first, or one in place of a
+    # worker stopped) spent its start-up, 1 s and more of a 2 s limit on a loaded 2-core machine, on the
+    # limit, and an asset that builds in a moment was stopped (tests' spot.obj beside an overrunning asset)
+    import multiprocessing as mp
+
+    from swpm_usd.pipeline import runner, worker
+
+    monkeypatch.setattr(worker, "process_asset", _fake_asset)
+    monkeypatch.setattr(runner, "serve", _serve_late)
+    tasks = [{"id": "a", "digest": "a"}, {"id": "hangs", "digest": "hangs"}, {"id": "b", "digest": "b"}]
+    recs = {r["id"]: r for r in runner._local_pool(tasks, 1, mp.get_context("fork"), 1.0)}
+    assert recs["a"]["status"] == "built" and recs["b"]["status"] == "built", recs  # (b: a new worker)
+    assert recs["hangs"]["error"] == "stopped after 1 s (limits.seconds): its build took longer"
+    assert not mp.active_children()
+
+
 def test_a_limit_of_weeks_is_waited_for(monkeypatch):
     # a timeout over 2**31 ms (24.8 days) made the pool's wait raise OverflowError: the run stopped
     import multiprocessing as mp
