@@ -39,9 +39,18 @@
    imports). A report of 10,000 assets draws its plots on demand: 7.2 MB written in 0.3 s. Since 0.7.1 such
    a rerun imports neither numba nor the encoders (``swpm_usd.encodings``): at 2,000 assets 1.08 -> 0.73 s,
    medians of 5 alternating runs. ``--work DIR`` keeps the built project, as in 5.
+9. Scale (``--only scale --assets N ...``, default 500 1000 2000 4000): N small assets of every mesh type
+   (OBJ, PLY, STL, GLB, glTF with its own buffer files or embedded, USDA) in nested folders, names with
+   spaces and non-ASCII letters, ~3 % byte-for-byte duplicates, ~2 % broken (empty, a PLY that declares
+   2e9 vertices, an OBJ indexing a vertex it lacks), four rules (on path and triangles). For each N, fresh
+   `swpm-pipeline run --jobs 2` processes: the first run (wall, peak RSS of the largest process), a
+   `--dry-run` (the planning alone), a no-change rerun (the broken assets are tried again, as the README
+   says: the worker pool starts for them), a rerun after touching 1 % of the inputs (stat moved, bytes
+   not: hashed, nothing built) and one after editing 1 % (those rebuilt); the manifest's, report's,
+   scene's and `--json` output's sizes. Each grows linearly if nothing costs time in the number of assets.
 
     python benchmarks/bench_pipeline.py [--out benchmarks/results/pipeline.json] [--only SECTION ...]
-        [--work DIR]
+        [--work DIR] [--assets N ...]
 """
 
 from __future__ import annotations
@@ -348,6 +357,174 @@ def rerun_10k(work: Path, count: int = 10000, repeats: int = 5) -> dict:
     }
 
 
+SCALE_CONFIG = """version: 1
+assets: [{glob: "assets/**/*.*", instances: 2}]
+output: {dir: out, swpm: true, usd: true, scene: true, report: true}
+defaults: {encoding: vanilla}
+rules:
+  - {name: chars, match: {path: "assets/chars/**"}, encoding: skip-strip}
+  - {name: tiny, match: {triangles: {max: 400}}, encoding: vanilla}
+  - {name: vfx, match: {path: "assets/vfx/*"}, encoding: sliding-window, params: {cache_size: 16}}
+  - {name: rest, encoding: vanilla}
+"""
+
+
+def _scale_assets(d: Path, count: int) -> list[Path]:
+    """``count`` small assets under ``d/assets`` (see section 9 of the docstring); the good ones, in order."""
+    import numpy as np
+    import trimesh
+    from trimesh.exchange.gltf import export_gltf
+
+    base = [
+        trimesh.load(SHARED / "suzanne.obj", force="mesh"),
+        trimesh.creation.icosphere(subdivisions=2),
+        trimesh.creation.icosphere(subdivisions=3),
+        trimesh.creation.capsule(count=[12, 12]),
+        trimesh.creation.cylinder(0.5, 1.0, sections=24),
+    ]
+    folders = [
+        "props",
+        "props/small",
+        "chars/héros",
+        "env/rocks and stones",
+        "env/trees/oak",
+        "vfx",
+        "misc/日本",
+    ]
+    exts = ["obj", "ply", "stl", "glb", "gltf", "usda"]
+    good: list[Path] = []
+    for i in range(count):
+        folder = d / "assets" / folders[i % len(folders)]
+        folder.mkdir(parents=True, exist_ok=True)
+        stem = f"asset_{i:05d}" if i % 17 else f"asset {i:05d} ünï"
+        p = folder / f"{stem}.{exts[i % len(exts)]}"
+        if i % 50 == 49:  # broken: 2 %
+            kind = (i // 50) % 3
+            if kind == 0:
+                p.write_bytes(b"")
+            elif kind == 1:
+                p.with_suffix(".ply").write_bytes(
+                    b"ply\nformat binary_little_endian 1.0\nelement vertex 2000000000\nproperty float x\n"
+                    b"property float y\nproperty float z\nend_header\n" + b"\0" * 64
+                )
+            else:
+                p.with_suffix(".obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 9\n")
+            continue
+        if i % 31 == 30 and good and good[-1].suffix == p.suffix and good[-1].suffix != ".gltf":
+            shutil.copyfile(good[-1], p)  # a duplicate, byte for byte
+            good.append(p)
+            continue
+        m = base[i % len(base)].copy()
+        m.apply_scale(1.0 + (i % 7) * 0.1)
+        m.vertices = m.vertices + np.random.default_rng(i).normal(scale=1e-3, size=m.vertices.shape)
+        if p.suffix == ".usda":
+            pts = ",".join(f"({x:.6g},{y:.6g},{z:.6g})" for x, y, z in m.vertices)
+            idx = ",".join(str(int(v)) for v in m.faces.ravel())
+            counts = ",".join(["3"] * len(m.faces))
+            p.write_text(
+                '#usda 1.0\n(\n    defaultPrim = "m"\n    upAxis = "Y"\n    metersPerUnit = 1\n)\n'
+                f'def Mesh "m"\n{{\n    int[] faceVertexCounts = [{counts}]\n'
+                f"    int[] faceVertexIndices = [{idx}]\n    point3f[] points = [{pts}]\n}}\n"
+            )
+        elif p.suffix == ".gltf":
+            files = export_gltf(m, embed_buffers=bool(i % 2))
+            text = files["model.gltf"].decode()
+            for name, data in files.items():
+                if name.endswith(".bin"):  # (a name of its own: trimesh names every one gltf_buffer_N.bin)
+                    (folder / f"{stem}_{name}").write_bytes(data)
+                    text = text.replace(f'"{name}"', f'"{stem}_{name}"')
+            p.write_text(text)
+        else:
+            m.export(p)
+        good.append(p)
+    return good
+
+
+def _edit_input(p: Path) -> None:
+    """Change the bytes of the input ``p`` (one of :func:`_scale_assets`'s) and not its mesh: the file still
+    loads, to the same triangles. (A trailing byte is no such edit for binary PLY and STL, whose loaders
+    refuse bytes after the data their header declares: the "edited" assets failed instead of rebuilding.)"""
+    if p.suffix in (".obj", ".usda", ".gltf"):
+        with open(p, "a") as f:
+            f.write("\n")
+    elif p.suffix == ".ply":  # a comment line in the header
+        data = p.read_bytes()
+        end = data.index(b"\n") + 1
+        p.write_bytes(data[:end] + b"comment edited\n" + data[end:])
+    elif p.suffix == ".stl":  # binary: the 80-byte header is free text (kept from starting with "solid")
+        with open(p, "r+b") as f:
+            f.seek(79)
+            byte = f.read(1)
+            f.seek(79)
+            f.write(b"x" if byte != b"x" else b"y")
+    else:  # .glb: bytes after the chunks its header counts are ignored
+        with open(p, "ab") as f:
+            f.write(b"\0")
+
+
+def _cli_rusage(args: list[str], cwd: Path) -> tuple[float, int, str]:
+    """Wall time, peak RSS (KB, the largest process of the run: ``wait4``'s) and stdout of a fresh
+    ``swpm-pipeline`` process running the code this one imports (as :func:`_cli`)."""
+    import swpm_usd
+
+    root = str(Path(swpm_usd.__file__).resolve().parents[1])
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH")) if p)}
+    t = time.perf_counter()
+    with tempfile.TemporaryFile() as out:
+        proc = subprocess.Popen(CLI + args, cwd=cwd, env=env, stdout=out, stderr=subprocess.DEVNULL)
+        _, _, usage = os.wait4(proc.pid, 0)
+        proc.returncode = 0  # (reaped by wait4)
+        wall = time.perf_counter() - t
+        out.seek(0)
+        return wall, usage.ru_maxrss, out.read().decode()
+
+
+def scale(work: Path, counts: tuple[int, ...] = (500, 1000, 2000, 4000)) -> dict:
+    res = {}
+    for n in counts:
+        d = work / f"scale-{n}"
+        if d.exists():
+            shutil.rmtree(d)
+        good = _scale_assets(d, n)
+        (d / "pipeline.yaml").write_text(SCALE_CONFIG)
+        cmd = ["run", str(d / "pipeline.yaml"), "--jobs", "2", "--json"]
+        first_s, first_rss, text = _cli_rusage(cmd, d)
+        first = json.loads(text)
+        dry_s, _, _ = _cli_rusage([*cmd, "--dry-run"], d)
+        _cli_rusage(cmd, d)  # (settling: inputs written just before the build are hashed again once)
+        rerun_s, rerun_rss, _ = _cli_rusage(cmd, d)
+        some = good[:: max(1, len(good) // max(1, n // 100))][: max(1, n // 100)]  # 1 %, spread
+        for p in some:
+            os.utime(p)
+        touched_s, _, text = _cli_rusage(cmd, d)
+        touched_built = json.loads(text)["built"]
+        for p in some:
+            _edit_input(p)
+        edited_s, _, text = _cli_rusage(cmd, d)
+        edited = json.loads(text)
+        out = d / "out"
+        res[str(n)] = {
+            "built": first["built"],
+            "failed": first["failed"],
+            "first_run_s": first_s,
+            "first_run_max_rss_kb": first_rss,
+            "dry_run_s": dry_s,
+            "rerun_s": rerun_s,
+            "rerun_max_rss_kb": rerun_rss,
+            "touched": len(some),
+            "touched_rerun_s": touched_s,
+            "touched_built": touched_built,
+            "edited_rerun_s": edited_s,
+            "edited_built": edited["built"],
+            "edited_failed": edited["failed"],
+            "bytes": {
+                **{f: (out / f).stat().st_size for f in ("manifest.json", "report.html", "scene.usda")},
+                "json": len(text),
+            },
+        }
+    return res
+
+
 def _evict(folder: Path) -> None:
     """Drop the files of ``folder`` from the page cache (theirs alone: no root, no other process's files)."""
     for p in folder.iterdir():
@@ -365,6 +542,7 @@ SECTIONS = {
     "rerun-usd": rerun_usd,
     "scene": scene,
     "rerun-10k": rerun_10k,
+    "scale": scale,
 }
 
 
@@ -373,7 +551,10 @@ def main() -> None:
     ap.add_argument("--out", default=str(HERE / "results" / "pipeline.json"))
     ap.add_argument("--only", nargs="+", choices=list(SECTIONS), help="run these sections alone")
     ap.add_argument("--work", help="work in this folder (kept; rerun-large reuses its build)")
+    ap.add_argument("--assets", nargs="+", type=int, help="scale: these asset counts (500 1000 2000 4000)")
     args = ap.parse_args()
+    if args.assets:
+        SECTIONS["scale"] = lambda work: scale(work, tuple(args.assets))
     with contextlib.ExitStack() as stack:
         work = Path(args.work) if args.work else Path(stack.enter_context(tempfile.TemporaryDirectory()))
         res = {name: SECTIONS[name](work) for name in (args.only or SECTIONS)}
@@ -420,6 +601,16 @@ def main() -> None:
         print("\n".join("    " + line for line in r["profile_cumulative"]))
         print("  own time:")
         print("\n".join("    " + line for line in r["profile_own"]))
+    if "scale" in res:
+        print(f"{'scale, jobs 2 (s; MB)':<24} {'first':>7} {'dry':>6} {'rerun':>6} {'touch':>6} {'edit':>6} "
+              f"{'RSS':>5} {'manif':>6} {'report':>6} {'json':>6}")  # fmt: skip
+        for n, v in res["scale"].items():
+            b = v["bytes"]
+            print(f"{int(n):>6,} assets ({v['failed']:>3} fail) {v['first_run_s']:>7.1f} "
+                  f"{v['dry_run_s']:>6.2f} "
+                  f"{v['rerun_s']:>6.2f} {v['touched_rerun_s']:>6.2f} {v['edited_rerun_s']:>6.2f} "
+                  f"{v['first_run_max_rss_kb'] / 1024:>5.0f} {b['manifest.json'] / 1e6:>6.2f} "
+                  f"{b['report.html'] / 1e6:>6.2f} {b['json'] / 1e6:>6.3f}")  # fmt: skip
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     if args.only and out.exists():  # the other sections' results of an earlier run stay

@@ -3515,6 +3515,32 @@ def test_a_worker_done_while_the_caller_held_the_pool_is_not_stopped_as_overrun(
     assert sorted((r["id"], r["status"]) for r in recs) == [("a", "built"), ("slow", "built")], recs
 
 
+def _serve_late(conn):
+    """A worker's serve for the pool tests, reached 2 s after the process started (a fork from the server
+    under load, with its imports)."""
+    from swpm_usd.pipeline import worker
+
+    time.sleep(2.0)
+    worker.serve(conn)
+
+
+def test_a_limit_times_the_build_not_the_worker_start_up(monkeypatch):
+    # the deadline started when the task was sent: a worker started for it (the first, or one in place of a
+    # worker stopped) spent its start-up, 1 s and more of a 2 s limit on a loaded 2-core machine, on the
+    # limit, and an asset that builds in a moment was stopped (tests' spot.obj beside an overrunning asset)
+    import multiprocessing as mp
+
+    from swpm_usd.pipeline import runner, worker
+
+    monkeypatch.setattr(worker, "process_asset", _fake_asset)
+    monkeypatch.setattr(runner, "serve", _serve_late)
+    tasks = [{"id": "a", "digest": "a"}, {"id": "hangs", "digest": "hangs"}, {"id": "b", "digest": "b"}]
+    recs = {r["id"]: r for r in runner._local_pool(tasks, 1, mp.get_context("fork"), 1.0)}
+    assert recs["a"]["status"] == "built" and recs["b"]["status"] == "built", recs  # (b: a new worker)
+    assert recs["hangs"]["error"] == "stopped after 1 s (limits.seconds): its build took longer"
+    assert not mp.active_children()
+
+
 def test_a_limit_of_weeks_is_waited_for(monkeypatch):
     # a timeout over 2**31 ms (24.8 days) made the pool's wait raise OverflowError: the run stopped
     import multiprocessing as mp
@@ -5122,3 +5148,44 @@ def test_limits_max_triangles_fails_an_asset_over_it_and_builds_the_others(tmp_p
     manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]
     assert manifest["meshes/cow.obj"]["status"] == "failed"
     assert _config_problems(cfg, head + "limits: {max_triangles: -1}\n")
+
+
+def test_progress_line_of_a_failed_asset_keeps_its_cause_under_a_deep_folder(tmp_path, capsys):
+    """The progress line keeps 100 characters of a failure; the error names the asset's file by its absolute
+    path, which a studio's nested folders make longer than that: the line showed the path and no cause."""
+    deep = Path("meshes", *["a folder of props, rocks and stones"] * 4)
+    (tmp_path / deep).mkdir(parents=True)
+    (tmp_path / deep / "broken.obj").write_bytes(b"")
+    shutil.copy(SHARED_MESHES / "suzanne.obj", tmp_path / deep / "suzanne.obj")
+    cfg = tmp_path / "pipeline.yaml"
+    config = MINIMAL.replace("meshes/*.obj", "meshes/**/*.obj")
+    cfg.write_text(config.replace("dir: out", "{dir: out, report: false}"))
+    capsys.readouterr()
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1 and res.built == 1
+    lines = [ln for ln in capsys.readouterr().err.splitlines() if "broken.obj: FAILED" in ln]
+    assert len(lines) == 1, lines
+    # the asset is named once (its id, relative), and the cause follows
+    assert "MeshLoadError: no triangles: the file is empty (0 bytes)" in lines[0]
+    assert str(tmp_path) not in lines[0]
+
+
+def test_bench_scale_edits_an_input_without_breaking_it(tmp_path):
+    """bench_pipeline's scale section times a rerun after editing 1 % of the inputs: each edit must change the
+    file's bytes and leave its mesh readable (a trailing byte made binary PLY and STL fail, not rebuild)."""
+    import importlib.util
+
+    from swpm_usd.io import load_mesh
+
+    spec = importlib.util.spec_from_file_location(
+        "bench_pipeline", Path(swpm_usd.__file__).resolve().parents[1] / "benchmarks" / "bench_pipeline.py"
+    )
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    good = bench._scale_assets(tmp_path, 12)
+    assert {p.suffix for p in good} == {".obj", ".ply", ".stl", ".glb", ".gltf", ".usda"}
+    for p in good:
+        before, triangles = p.read_bytes(), len(load_mesh(p).triangles)
+        bench._edit_input(p)
+        assert p.read_bytes() != before, p
+        assert len(load_mesh(p).triangles) == triangles, p

@@ -65,6 +65,7 @@ from .config import Config, ConfigError, load_config
 from .records import INPUT_STAT_KEYS, _what, record_problem, recorded_inputs
 from .worker import (
     LAYER_UNIT_KEYS,
+    READY,
     STAT_KEYS,
     USD_TEMPORARY_SUFFIX,
     atomic_write_bytes,
@@ -127,6 +128,9 @@ def _asks_for(cfg: Config, kind: str) -> bool:
 #: at once) has at most 20 rewrite times of finished assets to build again
 _MANIFEST_EVERY_S = 1.0
 _MANIFEST_BACKOFF = 20
+#: how long a worker process may take to start (fork from the server, or spawn) before its task's
+#: ``limits.seconds`` counts: its start-up is the pool's, not the asset's (a hung start still ends)
+_START_S = 60.0
 
 
 @dataclass
@@ -1151,17 +1155,32 @@ class _Worker:
         self.task: dict | None = None
         self.started = 0.0
         self.deadline = float("inf")
+        self.limit_s: float | None = None
+        self.is_ready = False  # (until it sends worker.READY: its start-up is not its task's time)
 
     def give(self, task: dict, limit_s: float | None) -> bool:
-        """Send ``task``; False when the pipe is broken (the process died before: it never had the task)."""
+        """Send ``task``; False when the pipe is broken (the process died before: it never had the task).
+        A worker still starting has :data:`_START_S` more to its deadline; :meth:`ready` moves it."""
         self.task = task
         self.started = time.monotonic()
-        self.deadline = float("inf") if limit_s is None else self.started + limit_s
+        self.limit_s = limit_s
+        if limit_s is None:
+            self.deadline = float("inf")
+        else:
+            self.deadline = self.started + limit_s + (0.0 if self.is_ready else _START_S)
         try:
             self.conn.send(task)
         except OSError:  # (BrokenPipeError, ECONNRESET)
             return False
         return True
+
+    def ready(self, when: float) -> None:
+        """The worker has started (at ``when``, its ``time.monotonic``): its task's time counts from then."""
+        self.is_ready = True
+        if self.task is not None:
+            self.started = min(time.monotonic(), max(self.started, when))
+            if self.limit_s is not None:
+                self.deadline = self.started + self.limit_s
 
     def stop(self) -> None:
         """Kill the process and wait for it (its temporary files are the caller's)."""
@@ -1252,6 +1271,10 @@ def _local_pool(tasks: list[dict], jobs: int, ctx: Any, limit_s: float | None) -
                         except (EOFError, OSError):  # died as it sent, or before (the pipe closed)
                             w.process.join(timeout=30)
                             rec = _lost(w, f"the worker process building it {_death(w.process.exitcode)}")
+                        else:
+                            if isinstance(rec, tuple) and rec[:1] == (READY,):
+                                w.ready(rec[1])
+                                continue
                     elif w.process.sentinel in ready:
                         w.process.join(timeout=30)
                         rec = _lost(w, f"the worker process building it {_death(w.process.exitcode)}")
@@ -1346,9 +1369,15 @@ class _Progress:
             self.bar.start()
             self.task = self.bar.add_task("", total=total)
 
-    def advance(self, rec: dict) -> None:
+    def advance(self, rec: dict, path: str | None = None) -> None:
+        """One more asset done; ``path``, its file as the worker's error names it, is left out of the line
+        (which names the asset already): a deep folder's path filled the 100 characters kept of the error,
+        and the line lost its cause (the summary after the run prints the error whole)."""
         self.done += 1
-        status = rec["status"] if rec["status"] != "failed" else f"FAILED ({rec.get('error', '')[:100]})"
+        error = rec.get("error", "")
+        if path:
+            error = error.replace(f"{path}: ", "", 1)
+        status = rec["status"] if rec["status"] != "failed" else f"FAILED ({error[:100]})"
         if rec.get("kept_previous"):
             status += "; its previous outputs are kept"
         if self.bar is not None:
@@ -1775,7 +1804,7 @@ def _run(
                 _write_manifest(manifest_path, manifest, text)
                 last_write = time.perf_counter()
                 write_s = last_write - now
-            progress.advance(rec)
+            progress.advance(rec, str(it.asset.path))
     except BaseException:
         stop()
         raise

@@ -445,12 +445,22 @@ def process_asset(task: dict[str, Any]) -> dict[str, Any]:
         return _process_asset(task)
 
 
+READY = "ready"
+"""What a worker process (:func:`serve`) sends first, with the time it was ready."""
+
+
 def serve(conn: Any) -> None:
     """A local pool's worker process (:func:`.runner.execute`): build each task received on ``conn`` and send
     back its record, until ``None`` or the pipe closes. One task at a time, so the runner knows which asset a
     worker that dies (an out-of-memory kill, a crash in native code) or overruns ``limits.seconds`` was
-    building."""
+    building. It first sends :data:`READY` and when (``time.monotonic``): the limit times the asset's build
+    from then, not the process's start-up (a fork from the server, under load a second or more of a 2 s
+    limit: an asset that builds in 1 s was stopped)."""
     ignore_interrupts()
+    try:
+        conn.send((READY, time.monotonic()))
+    except OSError:
+        return
     while True:
         try:
             task = conn.recv()
