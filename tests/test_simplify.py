@@ -653,6 +653,99 @@ def test_step_geometric_errors_replayed_in_parts_are_one_replay():
         assert np.array_equal(np.concatenate(parts), whole) == carry
 
 
+def _live_stars(head, cnext, alive, tri_pos) -> list:
+    """Every position's live star rows, in the order its corner list gives them (what a replay reads)."""
+    stars = []
+    for p in range(head.shape[0]):
+        rows, c = [], int(head[p])
+        while c >= 0:
+            if alive[c // 3]:
+                rows.append(tuple(int(x) for x in tri_pos[c // 3]))
+            c = int(cnext[c])
+        stars.append(rows)
+    return stars
+
+
+@pytest.mark.parametrize(
+    ("name", "options"),
+    [
+        ("suzanne.obj", {}),
+        ("cow.obj", {}),
+        ("beetle.obj", {"inner_vertices": 3, "optimize_connectivity": True}),
+        ("fandisk.obj", {"cluster": True}),
+        ("cow.obj", "vanilla"),
+    ],
+)
+def test_the_light_replay_is_the_full_states_replay(name, options):
+    """``replay_deviations`` on a ``ReplayState`` (corner positions and lists only) gives
+    ``step_deviations``' values on the full simplifier state bit for bit, on the sliding window's step orders
+    (several options) and a quadric order, and leaves every position's star with the same rows in the same
+    order (which decides a search's hints): a corner at the binned position taken to the kept one whatever
+    vertex it lands on, the lists spliced as ``apply_collapse`` splices them."""
+    import swpm_usd
+
+    mesh = shared_mesh(name)
+    if options == "vanilla":
+        seq = collapse_sequence(mesh)
+    else:
+        pm = swpm_usd.build(mesh, encoding="sliding-window", **options)
+        mesh, seq = pm.collapse_sequence.mesh, pm.collapse_sequence
+    _assert_light_replay_is_full(mesh, seq)
+
+
+def _assert_light_replay_is_full(mesh: Mesh, seq) -> None:
+    """``seq``'s steps replayed in two parts on a ``ReplayState`` and on the full state of ``mesh``: the same
+    values (and the sequence's), the same live triangles, corner positions and stars in list order."""
+    from swpm_usd.simplify import fan_deviation as fd
+    from swpm_usd.simplify import make_state
+    from swpm_usd.simplify.sequence import replay_surface
+
+    b, k, e = seq.binned_position.astype(np.int64), seq.kept_position.astype(np.int64), seq.step_error
+    topo = mesh_topology(mesh)
+    full = make_state(mesh, topo)
+    light = fd.replay_state(make_state(mesh, topo))
+    bvh, hints, floor = replay_surface(mesh, full)
+    cut = b.shape[0] // 2  # in two parts, as the sliding window replays its levels
+    want, got, run2 = [], [], 0.0
+    for lo, hi in ((0, cut), (cut, b.shape[0])):
+        args = (b[lo:hi], k[lo:hi], e[lo:hi], fd.SAMPLES, fd.SEARCH_BUDGET, floor, hints, *bvh, run2)
+        want.append(fd.step_deviations(full, *args))
+        got.append(fd.replay_deviations(light, *args))
+        if want[-1].size:
+            run2 = max(run2, float(np.max(want[-1] ** 2)))
+    assert np.array_equal(np.concatenate(got), np.concatenate(want))
+    assert np.array_equal(np.concatenate(want), seq.step_geometric_error)
+    assert np.array_equal(light.tri_alive, full.tri_alive)
+    full_pos = full.vertex_pos[full.tri_verts]
+    assert np.array_equal(light.tri_pos[full.tri_alive], full_pos[full.tri_alive])
+    assert _live_stars(light.corner_head, light.corner_next, light.tri_alive, light.tri_pos) == _live_stars(
+        full.corner_head, full.corner_next, full.tri_alive, full_pos
+    )
+
+
+@pytest.mark.parametrize(
+    ("kind", "made", "options"),
+    [
+        ("split", "from_arrays", {}),  # uv seams: positions of several vertices
+        ("fins", "from_arrays", {"cluster": True}),  # non-manifold edges (complex positions)
+        ("fin-strips", "from_arrays", {"inner_vertices": 3}),
+        ("holes", "from_arrays", {"builder": "forsyth"}),  # boundaries, the Forsyth builder
+        ("flat", "direct", {}),  # coincident points not welded: triangles with corners at one position
+    ],
+)
+def test_the_light_replay_is_the_full_states_replay_on_hostile_meshes(kind, made, options):
+    """The light replay equals the full state's on the fuzz tests' hostile meshes (seams, fins, boundaries,
+    unwelded coincident points), where a collapse moves several vertices or kills a sliver."""
+    from test_fuzz_build import _mutated
+
+    import swpm_usd
+
+    _, points, tris = _mutated(kind)
+    mesh = Mesh.from_arrays(points, tris) if made == "from_arrays" else Mesh(points, tris)
+    pm = swpm_usd.build(mesh, encoding="sliding-window", **options)
+    _assert_light_replay_is_full(pm.collapse_sequence.mesh, pm.collapse_sequence)
+
+
 @pytest.mark.parametrize("encoding", ["vanilla", "sliding-window"])
 def test_reported_lod_errors_are_near_the_measured_hausdorff_error(encoding):
     """A LOD's reported error (what ``lod_for_error`` and the USD LOD thresholds select by) is within a

@@ -81,7 +81,8 @@ from ..errors import BuildError
 from ..mesh import Mesh
 from ..metrics import cache_misses
 from ..simplify import CollapseSequence, collapse_sequence, make_state, mesh_topology
-from ..simplify.kernels import CollapseState, star_snapshot
+from ..simplify.fan_deviation import replay_state
+from ..simplify.kernels import star_snapshot
 from ..simplify.sequence import replay_steps, replay_surface
 from . import sw_centres as swc
 from . import sw_deviation as swd
@@ -1035,15 +1036,11 @@ def _assemble(
     return pm
 
 
-#: meshes of at most this many triangles keep a copy of their fresh simplifier state for the replay of the
-#: LOD errors instead of making it again (``make_state``: suzanne 0.35 ms, cow 1.5 ms, bunny 24 ms; the copy
-#: 0.03 / 0.07 / 0.8 ms); a larger mesh's copy would be held through its first level, at the peak of memory
+#: meshes of at most this many triangles keep what the replay of the LOD errors reads of their fresh
+#: simplifier state (:func:`.fan_deviation.replay_state`) instead of making the state again (``make_state``:
+#: suzanne 0.35 ms, cow 1.5 ms, bunny 24 ms; a copy of the whole state 0.03 / 0.07 / 0.8 ms); a larger
+#: mesh's would be held through its first level, at the peak of memory
 _SPARE_STATE_MAX = 100_000
-
-
-def _copy_state(st: CollapseState) -> CollapseState:
-    """A copy of the simplifier state ``st`` (every array copied: the same values, dtypes and layouts)."""
-    return type(st)(*(a.copy() for a in st))
 
 
 def _is_integer(value: Any) -> bool:
@@ -1109,14 +1106,15 @@ def build_sliding_window(
         mesh = optimize_mesh_connectivity(mesh, max_deviation=swap_max_deviation)
     topo = mesh_topology(mesh)
     st = make_state(mesh, topo, boundary_weight=boundary_weight, seam_weight=seam_weight)
-    # the replay of the LOD errors needs a fresh state once: a copy of this one before the build changes it
-    # (the same arrays; a copy costs 3-6 % of making it again), held from now on where that is small
-    spare = [_copy_state(st)] if mesh.triangle_count <= _SPARE_STATE_MAX else []
+    # the replay of the LOD errors needs a fresh state once, only what its collapses read of it
+    # (:func:`.fan_deviation.replay_state`): taken from this one before the build changes it, held from now
+    # on where that is small
+    spare = [replay_state(st)] if mesh.triangle_count <= _SPARE_STATE_MAX else []
 
     def new_state():
         if spare:
             return spare.pop()
-        return make_state(mesh, topo, boundary_weight=boundary_weight, seam_weight=seam_weight)
+        return replay_state(make_state(mesh, topo, boundary_weight=boundary_weight, seam_weight=seam_weight))
 
     if builder == "topology":
         absorb = _ABSORB_MIN_SHARED if absorb_middle else 0
@@ -1144,7 +1142,7 @@ def build_sliding_window(
             geometric = np.zeros(0)
         else:
             fresh = new_state()
-            surface = surface or replay_surface(mesh, fresh)
+            surface = surface or replay_surface(mesh, st)  # (its points and vertex positions never change)
             geometric = replay_steps(surface, fresh, info[:, 1], info[:, 2], info[:, 0])
     pm = _assemble(mesh, gtris, levels, recs, info, int(cache_size), bool(coarsest_copy), geometric)
     pm.params["order_passes"] = int(order_passes)  # what ran (None resolved)

@@ -147,9 +147,10 @@ def sampled_deviation(helper: ThreadPoolExecutor | None, args: tuple) -> np.ndar
 
 class Replay:
     """Each step's error as the LODs report it (:func:`swpm_usd.simplify.sequence.step_geometric_errors`: a
-    fresh state replays the steps in their final order) computed level by level on the ``helper`` thread as
-    the worker finishes the levels (which settles their steps' order), not after the last level on the main
-    thread (cow: 26 of its 185 ms). The parts carry the running maximum: the values of one replay."""
+    fresh state, its :class:`swpm_usd.simplify.fan_deviation.ReplayState`, replays the steps in their final
+    order) computed level by level on the ``helper`` thread as the worker finishes the levels (which
+    settles their steps' order), not after the last level on the main thread (cow: 26 of its 185 ms). The
+    parts carry the running maximum: the values of one replay."""
 
     def __init__(self, helper: ThreadPoolExecutor, new_state, surface_of) -> None:
         self.helper = helper

@@ -18,6 +18,8 @@ centres by the same samples (:mod:`swpm_usd.encode.sw_deviation`).
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numba as nb
 import numpy as np
 
@@ -36,6 +38,21 @@ DISTANCE_FLOOR = 1e-6
 #: holds the point and the search would be linear in them; the search then keeps the nearest triangle it
 #: found, an upper bound of the distance)
 SEARCH_BUDGET = 4096
+
+#: what a replay of the steps reads of a simplifier state (:func:`replay_deviations`): the positions, each
+#: triangle's corner positions and the corner lists, without the vertices, quadrics and locks a collapse
+#: also keeps (:func:`.kernels.apply_collapse`: its vertex map, hub edges and quadric sums were 40-60 % of
+#: a replay's collapses)
+ReplayState = namedtuple(
+    "ReplayState",
+    [
+        "pos_points",  # (P,3) f64, as the CollapseState's (read only)
+        "tri_pos",  # (T,3) i32 each triangle's corner positions (edited by the collapses)
+        "corner_head",  # (P,) i32 as the CollapseState's
+        "corner_next",  # (3T,) i32
+        "tri_alive",  # (T,) bool
+    ],
+)
 
 
 def surface_bvh(points: np.ndarray, triangles: np.ndarray) -> tuple:
@@ -93,6 +110,64 @@ def sample_point(pts: np.ndarray, c0: int, c1: int, c2: int, w: np.ndarray) -> t
     return px, py, pz
 
 
+@nb.njit(cache=True, inline="always")
+def _fan_max2(
+    pts: np.ndarray,
+    tp_b: np.ndarray,
+    n: int,
+    b: int,
+    k: int,
+    m0: float,
+    samples: np.ndarray,
+    budget: int,
+    hints: np.ndarray,
+    tv: np.ndarray,
+    node_min: np.ndarray,
+    node_max: np.ndarray,
+    node_a: np.ndarray,
+    node_b: np.ndarray,
+    stack: np.ndarray,
+    stack_d: np.ndarray,
+) -> float:
+    """The larger of ``m0`` and the largest squared distance from the surface of the ``samples`` of the fan
+    that binning ``b`` onto ``k`` makes of ``b``'s star rows ``tp_b[:n]`` (:func:`step_deviations`' search,
+    each sample's stopping at the running value; the rows' order decides the hints a search out of its
+    budget starts from)."""
+    hint = hints[k]
+    m = m0
+    for r in range(n):
+        c0, c1, c2 = _fan_triangle(tp_b, r, b, k)
+        if c0 < 0:
+            continue
+        for q in range(samples.shape[0]):
+            px, py, pz = sample_point(pts, c0, c1, c2, samples[q])
+            # the corners are input points: the sample is no farther from the input than from the
+            # nearest corner, so a sample that close to one cannot raise m (most, early in a sequence)
+            ub = np.inf
+            for c in (c0, c1, c2):
+                ub = min(ub, (px - pts[c, 0]) ** 2 + (py - pts[c, 1]) ** 2 + (pz - pts[c, 2]) ** 2)
+            if ub <= m:
+                continue
+            # then the input triangles around the corners (the BVH leaves that hold them): most samples
+            # lie that close to one of them (bunny: 59 %), and need no search from the root
+            for c in (c0, c1, c2):
+                leaf = hints[c]
+                ub = _leaf_min2(px, py, pz, tv, node_a[leaf], max(-1 - node_b[leaf], 0), ub, m)
+                if ub <= m:
+                    break
+            if ub <= m:
+                continue
+            # out of its budget the search keeps the nearest triangle it found, not m: an error may be
+            # overestimated there, never underestimated (ub: the corners and their leaves, as near)
+            d, hint = _nearest2(
+                px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d, True
+            )
+            d = min(d, ub)
+            if d > m:
+                m = d
+    return m
+
+
 @nb.njit(cache=True, nogil=True)
 def step_deviations(
     st: K.CollapseState,
@@ -133,41 +208,87 @@ def step_deviations(
         n = K._positions_into(st, b, bbuf[0], bbuf[1])
         tris_b = bbuf[0][:n]
         tp_b = bbuf[1][:n]
-        hint = hints[k]
         m0 = max(out[s] * out[s], floor2, run2)
-        m = m0
-        for r in range(n):
-            c0, c1, c2 = _fan_triangle(tp_b, r, b, k)
-            if c0 < 0:
-                continue
-            for q in range(samples.shape[0]):
-                px, py, pz = sample_point(pts, c0, c1, c2, samples[q])
-                # the corners are input points: the sample is no farther from the input than from the
-                # nearest corner, so a sample that close to one cannot raise m (most, early in a sequence)
-                ub = np.inf
-                for c in (c0, c1, c2):
-                    ub = min(ub, (px - pts[c, 0]) ** 2 + (py - pts[c, 1]) ** 2 + (pz - pts[c, 2]) ** 2)
-                if ub <= m:
-                    continue
-                # then the input triangles around the corners (the BVH leaves that hold them): most samples
-                # lie that close to one of them (bunny: 59 %), and need no search from the root
-                for c in (c0, c1, c2):
-                    leaf = hints[c]
-                    ub = _leaf_min2(px, py, pz, tv, node_a[leaf], max(-1 - node_b[leaf], 0), ub, m)
-                    if ub <= m:
-                        break
-                if ub <= m:
-                    continue
-                # out of its budget the search keeps the nearest triangle it found, not m: an error may be
-                # overestimated there, never underestimated (ub: the corners and their leaves, as near)
-                d, hint = _nearest2(
-                    px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d, True
-                )
-                d = min(d, ub)
-                if d > m:
-                    m = d
+        m = _fan_max2(pts, tp_b, n, b, k, m0, samples, budget, hints, tv, node_min, node_max, node_a, node_b,
+                      stack, stack_d)  # fmt: skip
         if m > m0:
             out[s] = np.sqrt(m)
         run2 = max(run2, out[s] * out[s])
         K.apply_collapse(st, b, k, K.vertex_map(st, b, k, tris_b, tp_b))
+    return out
+
+
+def replay_state(st: K.CollapseState) -> ReplayState:
+    """What :func:`replay_deviations` reads of ``st`` (a fresh state), in new arrays (``st`` may be collapsed
+    afterwards; ``pos_points``, which no collapse changes, shared)."""
+    tri_pos = np.ascontiguousarray(st.vertex_pos[st.tri_verts], np.int32)
+    return ReplayState(
+        st.pos_points, tri_pos, st.corner_head.copy(), st.corner_next.copy(), st.tri_alive.copy()
+    )
+
+
+@nb.njit(cache=True, nogil=True)
+def replay_deviations(
+    rs: ReplayState,
+    step_b: np.ndarray,
+    step_k: np.ndarray,
+    step_error: np.ndarray,
+    samples: np.ndarray,
+    budget: int,
+    floor: float,
+    hints: np.ndarray,
+    tv: np.ndarray,
+    node_min: np.ndarray,
+    node_max: np.ndarray,
+    node_a: np.ndarray,
+    node_b: np.ndarray,
+    start2: float = 0.0,
+) -> np.ndarray:
+    """:func:`step_deviations` on a :class:`ReplayState` (:func:`replay_state` of the state the sequence
+    started from; it ends collapsed): the same values, bit for bit. A collapse binning ``b`` onto ``k``
+    moves every corner at ``b`` onto ``k`` whatever vertex at ``k`` it takes, so the corner positions, the
+    corner lists (spliced as :func:`.kernels.apply_collapse` splices them) and hence every star's rows, in
+    their order, are the full state's."""
+    pts = rs.pos_points
+    tri_pos = rs.tri_pos
+    head = rs.corner_head
+    cnext = rs.corner_next
+    alive = rs.tri_alive
+    out = step_error.astype(np.float64).copy()
+    tris = np.empty(tri_pos.shape[0], np.int32)
+    tp = np.empty((tri_pos.shape[0], 3), np.int32)
+    stack = np.empty(_STACK, np.int64)
+    stack_d = np.empty(_STACK, np.float64)
+    floor2 = floor * floor
+    run2 = start2  # the running maximum, squared
+    for s in range(step_b.shape[0]):
+        b = step_b[s]
+        k = step_k[s]
+        n = K._gather_rows(head, cnext, alive, b, tris, 0)
+        for j in range(n):
+            for i in range(3):
+                tp[j, i] = tri_pos[tris[j], i]
+        m0 = max(out[s] * out[s], floor2, run2)
+        m = _fan_max2(pts, tp, n, b, k, m0, samples, budget, hints, tv, node_min, node_max, node_a, node_b,
+                      stack, stack_d)  # fmt: skip
+        if m > m0:
+            out[s] = np.sqrt(m)
+        run2 = max(run2, out[s] * out[s])
+        # apply_collapse's edits of the corners and their lists: b's triangles on the edge die, its others
+        # take k at its corner, its list goes in front of k's
+        c = head[b]
+        last = -1
+        while c >= 0:
+            t = c // 3
+            if alive[t]:
+                if tri_pos[t, 0] == k or tri_pos[t, 1] == k or tri_pos[t, 2] == k:
+                    alive[t] = False
+                else:
+                    tri_pos[t, c - 3 * t] = k
+            last = c
+            c = cnext[c]
+        if last >= 0:
+            cnext[last] = head[k]
+            head[k] = head[b]
+        head[b] = -1
     return out
