@@ -17,23 +17,30 @@ from swpm_usd.cli import main
 
 #: (encoding, parameter, what the error says): values out of the bounds the pipeline config's schema gives
 #: them. Each was taken by the command line, the mesh read and (but for the sliding window) its collapse
-#: sequence built before the encoder refused it, exit 1 as an invalid input.
+#: sequence built before the encoder refused it, exit 1 as an invalid input. The words are a config's own
+#: for the same value (test_a_bad_parameter_is_worded_alike_on_the_command_line_and_in_a_config)
 OUT_OF_BOUNDS = [
-    ("sliding-window", "mu=2", "mu must be in [0, 1), got 2"),
-    ("sliding-window", "mu=-0.1", "mu must be in [0, 1), got -0.1"),
-    ("sliding-window", "cache_size=2", "cache_size must be in [3, 1024], got 2"),
-    ("sliding-window", "inner_vertices=0", "inner_vertices must be at least 1, got 0"),
-    ("sliding-window", "order_passes=-3", "order_passes must be in [0, 8], got -3"),
-    ("sliding-window", "order_passes=x", "order_passes must be an integer, got 'x'"),
-    ("sliding-window", "target_slack=-1", "target_slack must be at least 0, got -1"),
+    ("sliding-window", "mu=2", "mu: 2 is greater than or equal to the maximum of 1"),
+    ("sliding-window", "mu=-0.1", "mu: -0.1 is less than the minimum of 0"),
+    ("sliding-window", "cache_size=2", "cache_size: 2 is less than the minimum of 3"),
+    ("sliding-window", "inner_vertices=0", "inner_vertices: 0 is less than the minimum of 1"),
+    ("sliding-window", "order_passes=-3", "order_passes: -3 is less than the minimum of 0"),
+    ("sliding-window", "order_passes=x", "order_passes: 'x' is not of type 'integer', 'null'"),
+    ("sliding-window", "target_slack=-1", "target_slack: -1 is less than the minimum of 0"),
     # (json reads these; check_params does not check a None default's number finite: the encoder did)
-    ("sliding-window", "target_slack=Infinity", "target_slack must be a finite number, got inf"),
-    ("sliding-window", "target_slack=NaN", "target_slack must be a finite number, got nan"),
-    ("sliding-window", "order_reach=99", "order_reach must be in [1, 8], got 99"),
-    ("sliding-window", "builder=foo", "builder must be one of topology, forsyth, got 'foo'"),
-    ("skip-strip", "degenerate_threshold=2", "degenerate_threshold must be in [0, 1), got 2"),
-    ("skip-strip", "primitive=fan", "primitive must be one of strip, list, got 'fan'"),
-    ("mixed", "level_threshold=-0.5", "level_threshold must be in [0, 1), got -0.5"),
+    ("sliding-window", "target_slack=Infinity", "target_slack: inf is not a finite number"),
+    ("sliding-window", "target_slack=NaN", "target_slack: nan is not a finite number"),
+    ("sliding-window", "order_reach=99", "order_reach: 99 is greater than the maximum of 8"),
+    ("sliding-window", "builder=foo", "builder: 'foo' is not one of ['topology', 'forsyth']"),
+    ("sliding-window", "cache_size=16.0", "cache_size: 16.0 is not an integer"),
+    (
+        "skip-strip",
+        "degenerate_threshold=2",
+        "degenerate_threshold: 2 is greater than or equal to the maximum of 1",
+    ),
+    ("skip-strip", "primitive=fan", "primitive: 'fan' is not one of ['strip', 'list']"),
+    ("mixed", "level_threshold=-0.5", "level_threshold: -0.5 is less than the minimum of 0"),
+    ("mixed", "cache_size=0", "cache_size: 0 is less than the minimum of 1"),
 ]
 
 
@@ -63,6 +70,28 @@ def test_a_parameter_within_its_bounds_is_taken(tmp_path, encoding, param):
     # (the input is missing: the command gets past its parameters to the file, exit 1)
     result = CliRunner().invoke(main, ["build", str(tmp_path / "missing.obj"), "-e", encoding, "-p", param])
     assert result.exit_code == 1 and "file not found" in result.stderr
+
+
+@pytest.mark.parametrize(("encoding", "param", "says"), OUT_OF_BOUNDS, ids=[c[1] for c in OUT_OF_BOUNDS])
+def test_a_bad_parameter_is_worded_alike_on_the_command_line_and_in_a_config(tmp_path, encoding, param, says):
+    # `-p` was checked by a reader of the schema's bounds of its own ("mu must be in [0, 1), got 2"), a
+    # config's params by JSON Schema ("2 is greater than or equal to the maximum of 1"): one value, two
+    # wordings. Both are now schema.param_problem's
+    from swpm_usd.pipeline import ConfigError, load_config
+
+    name, value = param.split("=", 1)
+    written = {"Infinity": ".inf", "NaN": ".nan"}.get(value, value)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: '*.obj'}]\noutput: {dir: out}\n"
+        f"rules:\n  - {{name: r, encoding: {encoding}, params: {{{name}: {written}}}}}\n"
+    )
+    with pytest.raises(ConfigError) as err:
+        load_config(cfg)
+    worded = [p.split(f"$.rules[0].params.{name}: ", 1)[1] for p in err.value.problems]
+    assert worded == [says.removeprefix(f"{name}: ")], err.value.problems
+    result = CliRunner().invoke(main, ["build", str(tmp_path / "missing.obj"), "-e", encoding, "-p", param])
+    assert result.exit_code == 2 and f"Invalid value for --param: {name}: {worded[0]}" in result.output
 
 
 def _cli(*args: str, cwd) -> subprocess.CompletedProcess:

@@ -61,6 +61,33 @@ def _param_schema(value: Any, name: str = "", encoding: str = "") -> dict[str, A
     return {}
 
 
+def param_problem(encoding: str, name: str, value: Any) -> str | None:
+    """What is wrong with ``value`` for the parameter ``name`` of ``encoding``, or None: the one check of a
+    parameter's value, the command line's ``-p`` (:func:`..format.cli._encoding_and_params`) and a config's
+    ``params`` (:func:`.config.load_config`) alike, in the words of the config's JSON Schema validation (its
+    messages on the parameter's own schema), then what JSON Schema lets through (:func:`beyond_schema`)."""
+    import jsonschema
+
+    from ..encodings import ENCODING_PARAMS
+
+    schema = _param_schema(ENCODING_PARAMS[encoding][name], name, encoding)
+    error = jsonschema.exceptions.best_match(jsonschema.Draft202012Validator(schema).iter_errors(value))
+    return error.message if error is not None else beyond_schema(schema, value)
+
+
+def beyond_schema(schema: dict[str, Any], value: Any) -> str | None:
+    """What is wrong with ``value`` by a parameter's ``schema`` that JSON Schema lets through, or None: a
+    number not finite (every bound's comparison with NaN is false; json and YAML read both) or a whole float
+    where an integer is wanted (JSON Schema's integer takes ``16.0``; the encoders refuse it)."""
+    import math
+
+    if isinstance(value, float) and not math.isfinite(value):
+        return f"{value} is not a finite number"
+    if isinstance(value, float) and "integer" in str(schema.get("type")):
+        return f"{value} is not an integer"
+    return None
+
+
 def real_valued(name: str, default: Any) -> bool:
     """Is the encoding parameter ``name`` (default ``default``) a real number in the config's schema: a float
     default, or an optional number (``None`` leaves the choice to the encoder)?"""
