@@ -15,6 +15,8 @@ from click.testing import CliRunner
 
 from swpm_usd.cli import main
 
+TWO_TRIANGLES = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n"
+
 #: (encoding, parameter, what the error says): values out of the bounds the pipeline config's schema gives
 #: them. Each was taken by the command line, the mesh read and (but for the sliding window) its collapse
 #: sequence built before the encoder refused it, exit 1 as an invalid input. The words are a config's own
@@ -180,6 +182,25 @@ def test_encode_refuses_an_output_below_a_file_before_it_builds(tmp_path):
         "output": str(out),
         "error": says,
     }
+
+
+@pytest.mark.parametrize("below", ["link", "link/deeper"])
+def test_encode_refuses_an_output_under_a_dangling_link_before_it_builds(tmp_path, below):
+    # a folder of the output that is a link to nothing: the build ran (minutes on a large mesh), then the
+    # folder's making failed on the link, "cannot write ...: File exists"
+    (tmp_path / "a.obj").write_text(TWO_TRIANGLES)
+    (tmp_path / "link").symlink_to(tmp_path / "gone" / "folder")
+    out = tmp_path / below / "x.swpm"
+    built: list[str] = []
+    module = sys.modules["swpm_usd.build"]  # (swpm_usd.build is the function the package exports)
+    real = module.build
+    with pytest.MonkeyPatch.context() as m:
+        m.setattr(module, "build", lambda *a, **k: built.append("built") or real(*a, **k))
+        result = CliRunner().invoke(main, ["encode", str(tmp_path / "a.obj"), "-o", str(out), "--json"])
+    assert result.exit_code == 1, result.output
+    says = f"cannot write {out}: {tmp_path / 'link'} is a dangling link (to {tmp_path / 'gone' / 'folder'})"
+    assert result.stderr == f"error: {says}\n" and json.loads(result.stdout)["error"] == says
+    assert built == [] and not (tmp_path / "gone").exists()
 
 
 def test_encode_refuses_an_output_in_a_folder_it_cannot_write_before_it_builds(tmp_path, monkeypatch):

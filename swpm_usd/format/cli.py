@@ -232,11 +232,14 @@ class EncodingsHelpGroup(click.Group):
 def _output_folder_problem(output: Path) -> str | None:
     """Why ``output`` cannot be written in its folder, or None: checked before the build, which it followed
     (minutes on a large mesh, then ``cannot write x.obj/y.swpm: File exists``). A folder missing is made (the
-    nearest one that exists must be a writable folder)."""
+    nearest one that exists must be a writable folder; a link on the way that leads nowhere is refused: the
+    folder's making failed on it after the build, ``File exists``)."""
     import os
 
     folder = output.parent
     while not folder.exists() and folder != folder.parent:
+        if folder.is_symlink():  # (exists() follows the link: it leads nowhere, or round in a loop)
+            return f"cannot write {output}: {folder} is a dangling link (to {os.readlink(folder)})"
         folder = folder.parent
     if not folder.is_dir():
         return f"cannot write {output}: {folder} is not a folder"
