@@ -917,6 +917,47 @@ def test_a_layer_that_is_not_a_regular_file_is_an_open_error_at_once(tmp_path, c
     assert took < 120, took  # (not the alarm's 300 s: on a loaded machine, two starts of Python and usd-core)
 
 
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs on this platform")
+def test_a_fifo_an_attribute_names_is_no_layer_and_one_a_reference_names_is(tmp_path):
+    # a FIFO (or a folder) a texture's asset path names is resolved, never opened: no open error, no wait. (A
+    # texture path with a layer's suffix, @./pipe.usd@, stays an open error: usd-core's own validators open
+    # it as a layer, UsdUtils.ComputeAllDependencies, and wait on a FIFO for ever.) A FIFO a reference names
+    # is an open error at once
+    os.mkfifo(tmp_path / "pipe.png")
+    os.mkfifo(tmp_path / "pipe.usd")
+    (tmp_path / "dir.png").mkdir()
+    seed = _seed(tmp_path / "seed.usdc")
+    textured = tmp_path / "textured.usda"
+    textured.write_text(
+        f'#usda 1.0\ndef "a" (\n    references = @./{seed.name}@</m>\n)\n{{\n'
+        "    asset inputs:file = @./pipe.png@\n    asset[] inputs:files = [@./dir.png@]\n}\n"
+    )
+    referencing = tmp_path / "referencing.usda"
+    referencing.write_text('#usda 1.0\ndef "a" (\n    references = @./pipe.usd@\n)\n{\n}\n')
+    code = (
+        "import sys\nfrom swpm_usd.usd import probe\nfrom swpm_usd.usd.validate import validate_stage\n"
+        "for path in sys.argv[1:]:\n"
+        "    print(repr((probe.check(path), [(f.code, f.message) for f in validate_stage(path)])))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(textured), str(referencing)],
+        env={**os.environ, "SWPM_USD_PROBE_SECONDS": "300"},
+        capture_output=True,
+        text=True,
+        timeout=240,  # (a FIFO opened waits for a writer: the probe's alarm is 300 s)
+    )
+    assert done.returncode == 0, done.stderr
+    (found, findings), (odd, odd_findings) = (
+        eval(line, {"Problem": probe.Problem}) for line in done.stdout.splitlines()
+    )  # noqa: S307
+    assert found is None and not [f for f in findings if f[0] == "SWPM_USD_OPEN"], (found, findings)
+    message = (
+        f"{referencing}: a layer its stage opens, {tmp_path / 'pipe.usd'}, is not a regular file (a FIFO); "
+        "it was not opened"
+    )
+    assert odd == ("open", message) and odd_findings == [("SWPM_USD_OPEN", message)], (odd, odd_findings)
+
+
 def test_a_probe_that_hangs_is_a_timeout_at_its_alarm(tmp_path, monkeypatch):
     # the alarm stays the backstop for what os.stat cannot tell before the open (a layer usd-core hangs on)
     monkeypatch.setenv("SWPM_USD_PROBE_SECONDS", "1")
