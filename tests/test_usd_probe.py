@@ -1108,3 +1108,50 @@ def test_a_layer_only_a_variant_not_selected_names_is_not_opened_by_the_probe(tm
         assert probe.check(selected) == found and len(asked) == 2  # (probed again)
     finally:
         probe._stop(probe._server)  # (the next test's server runs the real program)
+
+
+def test_a_crash_in_a_layer_a_selected_variants_layer_names_is_keyed_on_that_layer(tmp_path, monkeypatch):
+    # the probe named a variant's own layer (mid.usda) before the stage's open, not the layers it names in
+    # turn: a crash of the open in bad.usdc, which only mid.usda names, was keyed on mid.usda alone, and
+    # kept after bad.usdc changed (mended: never probed again). A text layer only a variant names is read
+    # (the text parser fails cleanly) and the layers it names are named too; a crate one is named, not opened
+    bad = _seed(tmp_path / "bad.usdc")
+    (tmp_path / "mid.usda").write_text('#usda 1.0\ndef "m" (\n    references = @./bad.usdc@</m>\n)\n{\n}\n')
+    _seed(tmp_path / "good.usdc")
+    text = tmp_path / "root.usda"
+    text.write_text(
+        '#usda 1.0\n(\n    defaultPrim = "a"\n)\n'
+        'def "a" (\n    variants = { string lod = "broken" }\n    prepend variantSets = "lod"\n)\n{\n'
+        '    variantSet "lod" = {\n'
+        '        "hi" ( references = @./good.usdc@</m> ) { }\n'
+        '        "broken" ( references = @./mid.usda@</m> ) { }\n'
+        "    }\n}\n"
+    )
+    root = tmp_path / "root.usdc"
+    layer = Sdf.Layer.FindOrOpen(str(text))  # (a layer, not a stage)
+    assert layer.Export(str(root))
+    del layer
+    text.unlink()
+    asked: list[str] = []
+    real = probe._probe_all
+    monkeypatch.setattr(
+        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
+    )
+    # (the stage's open crashes, as usd-core would on bad.usdc were it corrupt: after the layers named)
+    _patched_program(
+        monkeypatch,
+        "        stage = Usd.Stage.Open(path)\n",
+        "        if path.endswith('root.usdc'):\n"
+        "            os.kill(os.getpid(), signal.SIGSEGV)\n"
+        "        stage = Usd.Stage.Open(path)\n",
+    )
+    try:
+        found = probe.check(root)
+        assert found is not None and found.kind == "crash", found
+        keyed = [n for n, _ in probe._answers[probe._key(str(root))][1]]
+        assert str(bad.resolve()) in keyed and str((tmp_path / "mid.usda").resolve()) in keyed, keyed
+        assert probe.check(root) == found and len(asked) == 1  # (kept while its layers are unchanged)
+        os.utime(bad, ns=(5, 5))
+        assert probe.check(root) == found and len(asked) == 2  # (probed again)
+    finally:
+        probe._stop(probe._server)  # (the next test's server runs the real program)

@@ -129,19 +129,23 @@ def preopen(path):
     # regular file (a FIFO, whose open waits for a writer) is answered at once, never opened (the alarm is
     # left for a layer named no other way). A layer that does not open is left to the stage's open. A layer
     # only a variant names is named, not opened (the stage opens it only if the variant is selected: one
-    # that crashes usd-core in a variant not selected is no crash of the stage)
+    # that crashes usd-core in a variant not selected is no crash of the stage), but for a text one (whose
+    # parser fails cleanly): read, the layers it names are named too (a crash in one, its variant selected,
+    # is keyed on it, not on the layers naming it), as only a variant names them
     resolver = Ar.GetResolver()
     root = os.path.abspath(path)
-    held, seen, todo = [], set(), [root]
+    held, seen, todo = [], {}, [(root, False)]  # (seen: real path -> whether only a variant names it)
     while todo:
-        spelled = todo.pop()
+        spelled, varied_only = todo.pop()
         real = os.path.realpath(spelled)
-        if real in seen:
+        if real in seen and (varied_only or not seen[real]):
             continue
-        seen.add(real)
+        seen[real] = varied_only
         if spelled != root and not real.lower().endswith((".usd", ".usda", ".usdc", ".usdz")):
             continue
         note(real)
+        if varied_only and (not os.path.isfile(real) or crate(real)):
+            continue  # (named, not opened)
         try:
             mode = os.stat(real).st_mode
         except OSError:
@@ -170,10 +174,8 @@ def preopen(path):
             if not found:
                 found = os.path.join(os.path.dirname(str(layer.resolvedPath)), asset)
             found = found.split("[", 1)[0]
-            if asset in opens:
-                todo.append(found)
-            elif found.lower().endswith((".usd", ".usda", ".usdc", ".usdz")):
-                note(os.path.realpath(found))  # (a crash of the stage's open in it: keyed on it too)
+            # (one only a variant names: a crash of the stage's open in it is keyed on it too)
+            todo.append((found, varied_only or asset not in opens))
     return "", held
 def probe(path):
     odd, held = preopen(path)
