@@ -49,7 +49,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
@@ -583,11 +583,20 @@ def check(path: str | os.PathLike[str]) -> Problem | None:
     return check_many([path])[0]
 
 
-def check_many(paths: Sequence[str | os.PathLike[str]], jobs: int | None = None) -> list[Problem | None]:
+def check_many(
+    paths: Sequence[str | os.PathLike[str]],
+    jobs: int | None = None,
+    opened: Callable[[int], object] | None = None,
+) -> list[Problem | None]:
     """:func:`check` of each of ``paths`` (in order), probing up to ``jobs`` at once (default: the usable
     cores); the answers are those of :func:`check`, one file at a time. A file given twice, in one spelling
     or two (a link to it, ``a/../b``), is probed once (its real path, size, mtime and inode); each file is
-    stat'ed once here, and one that is not a regular file is an answer at once (never opened)."""
+    stat'ed once here, and one that is not a regular file is an answer at once (never opened).
+
+    ``opened(i)`` is called for each text root ``paths[i]`` found clean here, naming no crate file (no probe),
+    while the text layers parsed to know it are held (as in a :func:`checked` block): a caller that opens it
+    then finds them parsed (a text root parsed once, not twice: the pipeline's planner), and they are let go
+    as it returns, before the next file's (a batch's layers are not held together)."""
     answers: list[Problem | None] = [None] * len(paths)
     # key -> (the path as first given, its indices, the files its text layers name)
     todo: dict[tuple[str, int, int, int], tuple[str, list[int], list[str]]] = {}
@@ -612,20 +621,29 @@ def check_many(paths: Sequence[str | os.PathLike[str]], jobs: int | None = None)
         if suffix in (".usdc", ".usdz") or (suffix != ".usda" and _crate_magic(p)):  # (is_crate, stat'ed)
             named: list[str] = []
         else:
+            holds = opened is not None and getattr(_holding, "layers", None) is None
+            if holds:  # (this root's text layers held while the caller opens it, then let go: one at a time)
+                _holding.layers = []
             try:
-                crate, named = _named_files(p)
-            except _NotRegular as odd:
-                files = (n for n in odd.named if n != key[0])
-                _answers[key] = (
-                    _not_regular(p, odd.layer, odd.mode),
-                    tuple((n, _stamp(n)) for n in files),
-                    p,
-                )
-                answers[i] = _answers[key][0]
-                continue
-            if not crate:
-                _answers[key] = (None, tuple((n, _stamp(n)) for n in named if n != key[0]), p)
-                continue
+                try:
+                    crate, named = _named_files(p)
+                except _NotRegular as odd:
+                    files = (n for n in odd.named if n != key[0])
+                    _answers[key] = (
+                        _not_regular(p, odd.layer, odd.mode),
+                        tuple((n, _stamp(n)) for n in files),
+                        p,
+                    )
+                    answers[i] = _answers[key][0]
+                    continue
+                if not crate:
+                    _answers[key] = (None, tuple((n, _stamp(n)) for n in named if n != key[0]), p)
+                    if opened is not None:
+                        opened(i)
+                    continue
+            finally:
+                if holds:
+                    _holding.layers = None
         todo[key] = (p, [i], named)
     if not todo:
         return answers
