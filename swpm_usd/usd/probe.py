@@ -18,8 +18,9 @@ the stage in a :func:`checked` block finds them parsed, held for its open: each 
 not a regular file (a FIFO, whose open waits for a writer; a folder; a device), the root or one a layer names,
 is an "open" problem at once, decided by ``os.stat`` and never opened: here for the root and the layers text
 layers name, in the probe (which opens the stage's layers one by one before the stage; one only a variant
-names is named, not opened: the stage opens it only when the variant is selected) for those a crate layer
-names; the probe's alarm is left for what cannot be named before the open. Each answer is kept for this
+names is named, not opened: the stage opens it only when the variant is selected; a text one is read, the
+layers it names named in turn) for those a crate layer names; the probe's alarm is left for what cannot be
+named before the open. Each answer is kept for this
 process while the file and every file it depends on (the layers the probe opened or was opening when it
 crashed or ran out of time: it names each to the server before it opens it; the files its text layers or the
 stage's composition errors name: one missing, should it appear) keep their path, size, mtime and inode; one
