@@ -22,27 +22,27 @@ TWO_TRIANGLES = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n"
 #: sequence built before the encoder refused it, exit 1 as an invalid input. The words are a config's own
 #: for the same value (test_a_bad_parameter_is_worded_alike_on_the_command_line_and_in_a_config)
 OUT_OF_BOUNDS = [
-    ("sliding-window", "mu=2", "mu: 2 is greater than or equal to the maximum of 1"),
-    ("sliding-window", "mu=-0.1", "mu: -0.1 is less than the minimum of 0"),
-    ("sliding-window", "cache_size=2", "cache_size: 2 is less than the minimum of 3"),
-    ("sliding-window", "inner_vertices=0", "inner_vertices: 0 is less than the minimum of 1"),
-    ("sliding-window", "order_passes=-3", "order_passes: -3 is less than the minimum of 0"),
+    ("sliding-window", "mu=2", "mu: must be in [0, 1), got 2"),
+    ("sliding-window", "mu=-0.1", "mu: must be in [0, 1), got -0.1"),
+    ("sliding-window", "cache_size=2", "cache_size: must be in [3, 1024], got 2"),
+    ("sliding-window", "inner_vertices=0", "inner_vertices: must be at least 1, got 0"),
+    ("sliding-window", "order_passes=-3", "order_passes: must be in [0, 8], got -3"),
     ("sliding-window", "order_passes=x", "order_passes: 'x' is not of type 'integer', 'null'"),
-    ("sliding-window", "target_slack=-1", "target_slack: -1 is less than the minimum of 0"),
+    ("sliding-window", "target_slack=-1", "target_slack: must be at least 0, got -1"),
     # (json reads these; check_params does not check a None default's number finite: the encoder did)
     ("sliding-window", "target_slack=Infinity", "target_slack: inf is not a finite number"),
     ("sliding-window", "target_slack=NaN", "target_slack: nan is not a finite number"),
-    ("sliding-window", "order_reach=99", "order_reach: 99 is greater than the maximum of 8"),
+    ("sliding-window", "order_reach=99", "order_reach: must be in [1, 8], got 99"),
     ("sliding-window", "builder=foo", "builder: 'foo' is not one of ['topology', 'forsyth']"),
     ("sliding-window", "cache_size=16.0", "cache_size: 16.0 is not an integer"),
     (
         "skip-strip",
         "degenerate_threshold=2",
-        "degenerate_threshold: 2 is greater than or equal to the maximum of 1",
+        "degenerate_threshold: must be in [0, 1), got 2",
     ),
     ("skip-strip", "primitive=fan", "primitive: 'fan' is not one of ['strip', 'list']"),
-    ("mixed", "level_threshold=-0.5", "level_threshold: -0.5 is less than the minimum of 0"),
-    ("mixed", "cache_size=0", "cache_size: 0 is less than the minimum of 1"),
+    ("mixed", "level_threshold=-0.5", "level_threshold: must be in [0, 1), got -0.5"),
+    ("mixed", "cache_size=0", "cache_size: must be in [1, 1024], got 0"),
 ]
 
 
@@ -78,7 +78,7 @@ def test_a_parameter_within_its_bounds_is_taken(tmp_path, encoding, param):
 def test_a_bad_parameter_is_worded_alike_on_the_command_line_and_in_a_config(tmp_path, encoding, param, says):
     # `-p` was checked by a reader of the schema's bounds of its own ("mu must be in [0, 1), got 2"), a
     # config's params by JSON Schema ("2 is greater than or equal to the maximum of 1"): one value, two
-    # wordings. Both are now schema.param_problem's
+    # wordings. Both are now schema.param_problem's, a bound missed in the interval's words (schema.worded)
     from swpm_usd.pipeline import ConfigError, load_config
 
     name, value = param.split("=", 1)
@@ -244,3 +244,20 @@ def test_a_folder_given_to_the_reader_is_named_and_not_left_open(tmp_path):
         load(tmp_path)
     if fds is not None:
         assert len(os.listdir("/proc/self/fd")) == len(fds)
+
+
+def test_a_bound_missed_anywhere_in_a_config_is_worded_by_its_interval(tmp_path):
+    # (schema.worded: jsonschema's "-1 is less than the minimum of 0" named one end; a config's other bounds
+    # are worded as its params' and -p's are)
+    from swpm_usd.pipeline import ConfigError, load_config
+
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: '*.obj'}]\noutput: {dir: out}\n"
+        "rules:\n  - {name: r, match: {triangles: {min: -1}}, encoding: sliding-window}\n"
+    )
+    with pytest.raises(ConfigError) as err:
+        load_config(cfg)
+    assert [p.split(": ", 1)[1] for p in err.value.problems] == [
+        "$.rules[0].match.triangles.min: must be at least 0, got -1"
+    ], err.value.problems

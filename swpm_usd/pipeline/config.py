@@ -269,7 +269,9 @@ def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
             f"{cfg.where(path)}: empty value (null); expected {'an' if expected[0] in 'aeiou' else 'a'} "
             f"{expected}"
         ]
-    return [f"{cfg.where(path)}: {err.message}"]
+    from .schema import worded
+
+    return [f"{cfg.where(path)}: {worded(err)}"]  # (a bound missed: in -p's words, schema.param_problem)
 
 
 def _wants_string(expected: str | list[str]) -> bool:

@@ -72,7 +72,38 @@ def param_problem(encoding: str, name: str, value: Any) -> str | None:
 
     schema = _param_schema(ENCODING_PARAMS[encoding][name], name, encoding)
     error = jsonschema.exceptions.best_match(jsonschema.Draft202012Validator(schema).iter_errors(value))
-    return error.message if error is not None else beyond_schema(schema, value)
+    return worded(error) if error is not None else beyond_schema(schema, value)
+
+
+_BOUNDS = ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum")
+
+
+def worded(error: Any) -> str:
+    """The message of a JSON Schema ``error`` (a ``jsonschema.ValidationError``) as a user reads it: a bound
+    missed is worded by the interval of its schema, ``must be in [0, 1), got 2`` (jsonschema's own, ``2 is
+    greater than or equal to the maximum of 1``, names one end, and in words); any other, jsonschema's. The
+    command line's ``-p`` (:func:`param_problem`) and a config (:func:`.config.load_config`) both word theirs
+    so."""
+    if error.validator not in _BOUNDS or not isinstance(error.schema, dict):
+        return str(error.message)
+    bounds = error.schema
+    # (a whole bound shown whole: 1e6, MAX_QUADRIC_WEIGHT, as 1000000, not 1000000.0)
+    low, above, high, below = (
+        int(x) if isinstance(x, float) and x.is_integer() else x
+        for x in map(bounds.get, ("minimum", "exclusiveMinimum", "maximum", "exclusiveMaximum"))
+    )
+    got = error.instance
+    if (low is not None or above is not None) and (high is not None or below is not None):
+        lower = f"[{low}" if low is not None else f"({above}"
+        upper = f"{high}]" if high is not None else f"{below})"
+        return f"must be in {lower}, {upper}, got {got}"
+    if low is not None:
+        return f"must be at least {low}, got {got}"
+    if above is not None:
+        return f"must be greater than {above}, got {got}"
+    return (
+        f"must be at most {high}, got {got}" if high is not None else f"must be less than {below}, got {got}"
+    )
 
 
 def beyond_schema(schema: dict[str, Any], value: Any) -> str | None:
