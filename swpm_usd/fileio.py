@@ -10,7 +10,9 @@ import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager, nullcontext
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
+
+_T = TypeVar("_T")
 
 
 def _umask() -> int:
@@ -170,3 +172,20 @@ def new_layer_replacing(
     # the layer authored at ``tmp``, renamed since, alive; a caller binding it ``as`` drops its name too)
     del layer
     reload_if_open(target)
+
+
+def fill_layer_replacing(
+    target: str | os.PathLike[str],
+    tmp: str | os.PathLike[str],
+    fill: Callable[[Any], _T],
+    args: dict[str, str] | None = None,
+    errors: Callable[[], AbstractContextManager[Any]] = nullcontext,
+) -> _T:
+    """:func:`new_layer_replacing`, the new layer filled by ``fill`` (its result returned) and bound in no
+    frame of the caller's: a ``LayerReloadError`` (the file written, the layer of its name open here not
+    reloaded) that a caller keeps does not keep the layer authored at ``tmp`` alive (the error's traceback
+    holds each frame it went through, with the names bound in it)."""
+    with new_layer_replacing(target, tmp, args, errors) as layer:
+        result = fill(layer)
+        del layer  # (before the save, the rename and the reload)
+    return result

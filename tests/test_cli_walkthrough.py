@@ -15,25 +15,34 @@ from click.testing import CliRunner
 
 from swpm_usd.cli import main
 
+TWO_TRIANGLES = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n"
+
 #: (encoding, parameter, what the error says): values out of the bounds the pipeline config's schema gives
 #: them. Each was taken by the command line, the mesh read and (but for the sliding window) its collapse
-#: sequence built before the encoder refused it, exit 1 as an invalid input.
+#: sequence built before the encoder refused it, exit 1 as an invalid input. The words are a config's own
+#: for the same value (test_a_bad_parameter_is_worded_alike_on_the_command_line_and_in_a_config)
 OUT_OF_BOUNDS = [
-    ("sliding-window", "mu=2", "mu must be in [0, 1), got 2"),
-    ("sliding-window", "mu=-0.1", "mu must be in [0, 1), got -0.1"),
-    ("sliding-window", "cache_size=2", "cache_size must be in [3, 1024], got 2"),
-    ("sliding-window", "inner_vertices=0", "inner_vertices must be at least 1, got 0"),
-    ("sliding-window", "order_passes=-3", "order_passes must be in [0, 8], got -3"),
-    ("sliding-window", "order_passes=x", "order_passes must be an integer, got 'x'"),
-    ("sliding-window", "target_slack=-1", "target_slack must be at least 0, got -1"),
+    ("sliding-window", "mu=2", "mu: must be in [0, 1), got 2"),
+    ("sliding-window", "mu=-0.1", "mu: must be in [0, 1), got -0.1"),
+    ("sliding-window", "cache_size=2", "cache_size: must be in [3, 1024], got 2"),
+    ("sliding-window", "inner_vertices=0", "inner_vertices: must be at least 1, got 0"),
+    ("sliding-window", "order_passes=-3", "order_passes: must be in [0, 8], got -3"),
+    ("sliding-window", "order_passes=x", "order_passes: 'x' is not of type 'integer', 'null'"),
+    ("sliding-window", "target_slack=-1", "target_slack: must be at least 0, got -1"),
     # (json reads these; check_params does not check a None default's number finite: the encoder did)
-    ("sliding-window", "target_slack=Infinity", "target_slack must be a finite number, got inf"),
-    ("sliding-window", "target_slack=NaN", "target_slack must be a finite number, got nan"),
-    ("sliding-window", "order_reach=99", "order_reach must be in [1, 8], got 99"),
-    ("sliding-window", "builder=foo", "builder must be one of topology, forsyth, got 'foo'"),
-    ("skip-strip", "degenerate_threshold=2", "degenerate_threshold must be in [0, 1), got 2"),
-    ("skip-strip", "primitive=fan", "primitive must be one of strip, list, got 'fan'"),
-    ("mixed", "level_threshold=-0.5", "level_threshold must be in [0, 1), got -0.5"),
+    ("sliding-window", "target_slack=Infinity", "target_slack: inf is not a finite number"),
+    ("sliding-window", "target_slack=NaN", "target_slack: nan is not a finite number"),
+    ("sliding-window", "order_reach=99", "order_reach: must be in [1, 8], got 99"),
+    ("sliding-window", "builder=foo", "builder: 'foo' is not one of ['topology', 'forsyth']"),
+    ("sliding-window", "cache_size=16.0", "cache_size: 16.0 is not an integer"),
+    (
+        "skip-strip",
+        "degenerate_threshold=2",
+        "degenerate_threshold: must be in [0, 1), got 2",
+    ),
+    ("skip-strip", "primitive=fan", "primitive: 'fan' is not one of ['strip', 'list']"),
+    ("mixed", "level_threshold=-0.5", "level_threshold: must be in [0, 1), got -0.5"),
+    ("mixed", "cache_size=0", "cache_size: must be in [1, 1024], got 0"),
 ]
 
 
@@ -63,6 +72,28 @@ def test_a_parameter_within_its_bounds_is_taken(tmp_path, encoding, param):
     # (the input is missing: the command gets past its parameters to the file, exit 1)
     result = CliRunner().invoke(main, ["build", str(tmp_path / "missing.obj"), "-e", encoding, "-p", param])
     assert result.exit_code == 1 and "file not found" in result.stderr
+
+
+@pytest.mark.parametrize(("encoding", "param", "says"), OUT_OF_BOUNDS, ids=[c[1] for c in OUT_OF_BOUNDS])
+def test_a_bad_parameter_is_worded_alike_on_the_command_line_and_in_a_config(tmp_path, encoding, param, says):
+    # `-p` was checked by a reader of the schema's bounds of its own ("mu must be in [0, 1), got 2"), a
+    # config's params by JSON Schema ("2 is greater than or equal to the maximum of 1"): one value, two
+    # wordings. Both are now schema.param_problem's, a bound missed in the interval's words (schema.worded)
+    from swpm_usd.pipeline import ConfigError, load_config
+
+    name, value = param.split("=", 1)
+    written = {"Infinity": ".inf", "NaN": ".nan"}.get(value, value)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: '*.obj'}]\noutput: {dir: out}\n"
+        f"rules:\n  - {{name: r, encoding: {encoding}, params: {{{name}: {written}}}}}\n"
+    )
+    with pytest.raises(ConfigError) as err:
+        load_config(cfg)
+    worded = [p.split(f"$.rules[0].params.{name}: ", 1)[1] for p in err.value.problems]
+    assert worded == [says.removeprefix(f"{name}: ")], err.value.problems
+    result = CliRunner().invoke(main, ["build", str(tmp_path / "missing.obj"), "-e", encoding, "-p", param])
+    assert result.exit_code == 2 and f"Invalid value for --param: {name}: {worded[0]}" in result.output
 
 
 def _cli(*args: str, cwd) -> subprocess.CompletedProcess:
@@ -153,6 +184,25 @@ def test_encode_refuses_an_output_below_a_file_before_it_builds(tmp_path):
     }
 
 
+@pytest.mark.parametrize("below", ["link", "link/deeper"])
+def test_encode_refuses_an_output_under_a_dangling_link_before_it_builds(tmp_path, below):
+    # a folder of the output that is a link to nothing: the build ran (minutes on a large mesh), then the
+    # folder's making failed on the link, "cannot write ...: File exists"
+    (tmp_path / "a.obj").write_text(TWO_TRIANGLES)
+    (tmp_path / "link").symlink_to(tmp_path / "gone" / "folder")
+    out = tmp_path / below / "x.swpm"
+    built: list[str] = []
+    module = sys.modules["swpm_usd.build"]  # (swpm_usd.build is the function the package exports)
+    real = module.build
+    with pytest.MonkeyPatch.context() as m:
+        m.setattr(module, "build", lambda *a, **k: built.append("built") or real(*a, **k))
+        result = CliRunner().invoke(main, ["encode", str(tmp_path / "a.obj"), "-o", str(out), "--json"])
+    assert result.exit_code == 1, result.output
+    says = f"cannot write {out}: {tmp_path / 'link'} is a dangling link (to {tmp_path / 'gone' / 'folder'})"
+    assert result.stderr == f"error: {says}\n" and json.loads(result.stdout)["error"] == says
+    assert built == [] and not (tmp_path / "gone").exists()
+
+
 def test_encode_refuses_an_output_in_a_folder_it_cannot_write_before_it_builds(tmp_path, monkeypatch):
     # (a read-only folder: os.access as an unprivileged user finds it; the tests may run as root, where a
     # chmod does not stop a write, so the permission check is given its answer)
@@ -194,3 +244,20 @@ def test_a_folder_given_to_the_reader_is_named_and_not_left_open(tmp_path):
         load(tmp_path)
     if fds is not None:
         assert len(os.listdir("/proc/self/fd")) == len(fds)
+
+
+def test_a_bound_missed_anywhere_in_a_config_is_worded_by_its_interval(tmp_path):
+    # (schema.worded: jsonschema's "-1 is less than the minimum of 0" named one end; a config's other bounds
+    # are worded as its params' and -p's are)
+    from swpm_usd.pipeline import ConfigError, load_config
+
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: '*.obj'}]\noutput: {dir: out}\n"
+        "rules:\n  - {name: r, match: {triangles: {min: -1}}, encoding: sliding-window}\n"
+    )
+    with pytest.raises(ConfigError) as err:
+        load_config(cfg)
+    assert [p.split(": ", 1)[1] for p in err.value.problems] == [
+        "$.rules[0].match.triangles.min: must be at least 0, got -1"
+    ], err.value.problems

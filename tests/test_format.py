@@ -386,7 +386,7 @@ def test_build_and_encode_share_usage_errors_and_encode_never_overwrites_its_inp
     for args, message in (
         (["-e", "foo"], "--encoding"),
         (["-e", "mixed", "-p", "foo=1"], "foo not a parameter of mixed"),
-        (["-e", "sliding-window", "-p", "mu=abc"], "mu must be a finite number"),
+        (["-e", "sliding-window", "-p", "mu=abc"], "mu: 'abc' is not of type 'number'"),
         (["-p", "cache_size"], "--param expects NAME=VALUE"),
     ):
         for cmd in (["build", str(obj)], ["encode", str(obj), "-o", out]):

@@ -174,8 +174,8 @@ def test_params_out_of_build_bounds_fail_at_their_config_line(tmp_path):
         load_config(cfg)
     problems = exc.value.problems
     assert problems == [
-        f"{cfg}:12:26: $.rules[1].params.cache_size: 100000 is greater than the maximum of 1024",
-        f"{cfg}:15:27: $.rules[2].params.seam_weight: -1.0 is less than the minimum of 0",
+        f"{cfg}:12:26: $.rules[1].params.cache_size: must be in [3, 1024], got 100000",
+        f"{cfg}:15:27: $.rules[2].params.seam_weight: must be in [0, 1000000], got -1.0",
     ]
 
 
@@ -3003,15 +3003,15 @@ def test_params_the_encoders_refuse_are_config_errors_at_their_line(tmp_path):
     assert _config_problems(cfg, text) == [
         "c.yaml:4:55: $.defaults.params.boundary_weight: nan is not a finite number",
         "c.yaml:6:59: $.rules[0].params.builder: 'nope' is not one of ['topology', 'forsyth']",
-        "c.yaml:6:69: $.rules[0].params.mu: 1.0 is greater than or equal to the maximum of 1",
-        "c.yaml:6:86: $.rules[0].params.cache_size: 2 is less than the minimum of 3",
+        "c.yaml:6:69: $.rules[0].params.mu: must be in [0, 1), got 1.0",
+        "c.yaml:6:86: $.rules[0].params.cache_size: must be in [3, 1024], got 2",
         "c.yaml:7:57: $.rules[1].params.primitive: 'fan' is not one of ['strip', 'list']",
         "c.yaml:7:84: $.rules[1].params.degenerate_threshold: nan is not a finite number",
-        "c.yaml:8:53: $.rules[2].params.cache_size: 0 is less than the minimum of 1",
+        "c.yaml:8:53: $.rules[2].params.cache_size: must be in [1, 1024], got 0",
     ]
     result = CliRunner().invoke(main, ["build", str(tmp_path / "m" / "a.obj"), "--encoding", "mixed",
                                        "-p", "cache_size=0"])  # fmt: skip
-    assert result.exit_code == 2 and "cache_size must be at least 1, got 0" in result.output
+    assert result.exit_code == 2 and "cache_size: must be in [1, 1024], got 0" in result.output
     assert result.exception is None or isinstance(result.exception, SystemExit)
 
 
@@ -3316,7 +3316,7 @@ def test_defaults_params_without_an_encoding_are_checked_as_sliding_windows(tmp_
     head = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
     problems = _config_problems(cfg, head + "defaults: {params: {mu: 1.5, nope: 1, cache_size: 16.0}}\n")
     assert problems == [
-        "c.yaml:4:25: $.defaults.params.mu: 1.5 is greater than or equal to the maximum of 1",
+        "c.yaml:4:25: $.defaults.params.mu: must be in [0, 1), got 1.5",
         "c.yaml:4:30: $.defaults.params.nope: unknown key (not a parameter of this rule's encoding)",
         "c.yaml:4:51: $.defaults.params.cache_size: 16.0 is not an integer",
     ]

@@ -33,10 +33,12 @@ def _parse_params(params: tuple[str, ...]) -> dict:
 
 def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     """``--encoding`` and ``--param`` checked alike for every command (usage errors, exit 2): a known
-    encoding, NAME=VALUE items, names its builder takes, values of their types and shared bounds
-    (:func:`..build.check_params`) and each one's bounds in a pipeline config's schema
-    (:func:`_out_of_bounds`; a combination only the encoder knows, ``order_passes=2`` with
-    ``builder=forsyth``, fails at the build, exit 1). Returns the parsed parameters."""
+    encoding, NAME=VALUE items, names its builder takes, and values by the check a pipeline config's
+    ``params`` get, in its words (:func:`..pipeline.schema.param_problem`: the type and bounds its schema
+    gives each, a number finite, an integer no float), then :func:`..build.check_params`. Checked before the
+    mesh is read: ``-p mu=2`` read the mesh and built its collapse sequence (minutes on a large mesh) before
+    the encoder refused it, exit 1. A combination only the encoder knows, ``order_passes=2`` with
+    ``builder=forsyth``, fails at the build, exit 1. Returns the parsed parameters."""
     from ..encodings import ENCODING_PARAMS
 
     if encoding not in ENCODING_PARAMS:
@@ -52,53 +54,17 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
             param_hint="--param",
         )
     from ..build import check_params
+    from ..pipeline.schema import param_problem
 
+    for name, value in parsed.items():
+        problem = param_problem(encoding, name, value)
+        if problem:
+            raise click.BadParameter(f"{name}: {problem}", param_hint="--param")
     try:
         check_params(encoding, ENCODING_PARAMS[encoding], parsed)
     except SwpmError as exc:
         raise click.BadParameter(str(exc), param_hint="--param") from None
-    for name, value in parsed.items():
-        problem = _out_of_bounds(encoding, name, value, ENCODING_PARAMS[encoding][name])
-        if problem:
-            raise click.BadParameter(problem, param_hint="--param")
     return parsed
-
-
-def _out_of_bounds(encoding: str, name: str, value: object, default: object) -> str | None:
-    """What is wrong with ``value`` for ``name`` by the bounds a pipeline config's schema gives it (the
-    encoders' own: ``mu`` in [0, 1), ``order_passes`` in [0, 8], a sliding window's ``cache_size`` at least
-    3), or None. Checked before the mesh is read, as a usage error (exit 2): ``-p mu=2`` read the mesh and
-    built its collapse sequence (minutes on a large mesh) before the encoder refused it, exit 1."""
-    import math
-    import numbers
-
-    from ..pipeline.schema import _param_schema
-
-    schema = _param_schema(default, name, encoding)
-    if value is None:
-        return None if "null" in str(schema.get("type")) else f"{name} must not be null"
-    if "enum" in schema and value not in schema["enum"]:
-        return f"{name} must be one of {', '.join(map(str, schema['enum']))}, got {value!r}"
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        kinds = str(schema.get("type"))
-        if "integer" in kinds or "number" in kinds:
-            return f"{name} must be {'an integer' if 'number' not in kinds else 'a number'}, got {value!r}"
-        return None
-    if "integer" in str(schema.get("type")) and not isinstance(value, numbers.Integral):
-        return f"{name} must be an integer, got {value!r}"
-    if not math.isfinite(value):  # (json reads Infinity and NaN; a None default's number, target_slack)
-        return f"{name} must be a finite number, got {value}"
-    low, high, below = schema.get("minimum"), schema.get("maximum"), schema.get("exclusiveMaximum")
-    if (
-        (low is not None and value < low)
-        or (high is not None and value > high)
-        or (below is not None and value >= below)
-    ):
-        if high is None and below is None:
-            return f"{name} must be at least {low}, got {value}"
-        upper = f"{high:g}]" if high is not None else f"{below:g})"
-        return f"{name} must be in [{low:g}, {upper}, got {value}"
-    return None
 
 
 #: ``click.Context.meta`` key: what a command given ``--json`` prints, with ``"error"``, when it is stopped by
@@ -266,11 +232,14 @@ class EncodingsHelpGroup(click.Group):
 def _output_folder_problem(output: Path) -> str | None:
     """Why ``output`` cannot be written in its folder, or None: checked before the build, which it followed
     (minutes on a large mesh, then ``cannot write x.obj/y.swpm: File exists``). A folder missing is made (the
-    nearest one that exists must be a writable folder)."""
+    nearest one that exists must be a writable folder; a link on the way that leads nowhere is refused: the
+    folder's making failed on it after the build, ``File exists``)."""
     import os
 
     folder = output.parent
     while not folder.exists() and folder != folder.parent:
+        if folder.is_symlink():  # (exists() follows the link: it leads nowhere, or round in a loop)
+            return f"cannot write {output}: {folder} is a dangling link (to {os.readlink(folder)})"
         folder = folder.parent
     if not folder.is_dir():
         return f"cannot write {output}: {folder} is not a folder"

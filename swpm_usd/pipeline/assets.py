@@ -406,14 +406,21 @@ def discover(
                 inputs[rel] = known
                 if settled is not None and settles and p.suffix.lower() in LISTED_SUFFIXES:
                     settled.add(rel)
+            done: dict[int, tuple[list[Path], bool]] = {}  # (deferred's index -> its _usd_layer_files)
             if deferred:
                 from ..usd.probe import check_many
 
                 # the crate files among them are probed before one is opened here, up to a core each at
-                # once (one after another, 2,000 new .usdc assets took 20 s): the answers are then known
-                check_many([p for _, p, _, _ in deferred])
-            for rel, p, buffers, buffers_settled in deferred:
-                layers, layers_settled = _usd_layer_files(p)
+                # once (one after another, 2,000 new .usdc assets took 20 s): the answers are then known. A
+                # text root naming no crate file is opened as it is found so (its text parsed once, not again
+                # here: the planning of one 3.8 MB .usda asset, 3.28 s median was 1.76 s)
+                roots = [p for _, p, _, _ in deferred]
+                check_many(
+                    roots,
+                    opened=lambda i, roots=roots, done=done: done.update({i: _usd_layer_files(roots[i])}),
+                )
+            for j, (rel, p, buffers, buffers_settled) in enumerate(deferred):
+                layers, layers_settled = done[j] if j in done else _usd_layer_files(p)
                 inputs[rel] = [p, *buffers, *layers]
                 if (
                     settled is not None

@@ -200,24 +200,22 @@ def _non_finite_params(cfg: Config) -> list[str]:
     if isinstance(rules, list):
         sections += [(("rules", i), rule) for i, rule in enumerate(rules)]
     from ..encodings import ENCODING_PARAMS
-    from .schema import DEFAULT, _param_schema
+    from .schema import DEFAULT, _param_schema, beyond_schema
 
-    whole = {  # encoding -> the parameters its schema types as integers
-        enc: {k for k, v in defaults.items() if "integer" in str(_param_schema(v, k, enc).get("type"))}
-        for enc, defaults in ENCODING_PARAMS.items()
-    }
     out = []
     for where, section in sections:
         encoding = DEFAULT if where == ("defaults",) else None  # (a rule without one: an error of its own)
         params = section.get("params") if isinstance(section, dict) else None
         if not isinstance(params, dict):
             continue
+        enc = str(section.get("encoding", encoding))
+        defaults = ENCODING_PARAMS.get(enc, {})
         for name, value in params.items():
-            if isinstance(value, float) and not math.isfinite(value):
-                out.append(f"{cfg.where((*where, 'params', name))}: {value} is not a finite number")
-            elif isinstance(value, float) and name in whole.get(str(section.get("encoding", encoding)), ()):
-                # (JSON Schema's integer takes 16.0; the encoders refuse it, asset by asset at build time)
-                out.append(f"{cfg.where((*where, 'params', name))}: {value} is not an integer")
+            # (the check the command line's -p makes too, in the same words: schema.param_problem)
+            schema = _param_schema(defaults[name], name, enc) if name in defaults else {}
+            problem = beyond_schema(schema, value)
+            if problem:
+                out.append(f"{cfg.where((*where, 'params', name))}: {problem}")
     limits = cfg.data.get("limits")
     seconds = limits.get("seconds") if isinstance(limits, dict) else None
     if isinstance(seconds, float) and math.isnan(seconds):  # (NaN passes the schema's bounds; inf: over 1e9)
@@ -271,7 +269,9 @@ def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
             f"{cfg.where(path)}: empty value (null); expected {'an' if expected[0] in 'aeiou' else 'a'} "
             f"{expected}"
         ]
-    return [f"{cfg.where(path)}: {err.message}"]
+    from .schema import worded
+
+    return [f"{cfg.where(path)}: {worded(err)}"]  # (a bound missed: in -p's words, schema.param_problem)
 
 
 def _wants_string(expected: str | list[str]) -> bool:

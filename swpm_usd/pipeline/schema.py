@@ -61,6 +61,64 @@ def _param_schema(value: Any, name: str = "", encoding: str = "") -> dict[str, A
     return {}
 
 
+def param_problem(encoding: str, name: str, value: Any) -> str | None:
+    """What is wrong with ``value`` for the parameter ``name`` of ``encoding``, or None: the one check of a
+    parameter's value, the command line's ``-p`` (:func:`..format.cli._encoding_and_params`) and a config's
+    ``params`` (:func:`.config.load_config`) alike, in the words of the config's JSON Schema validation (its
+    messages on the parameter's own schema), then what JSON Schema lets through (:func:`beyond_schema`)."""
+    import jsonschema
+
+    from ..encodings import ENCODING_PARAMS
+
+    schema = _param_schema(ENCODING_PARAMS[encoding][name], name, encoding)
+    error = jsonschema.exceptions.best_match(jsonschema.Draft202012Validator(schema).iter_errors(value))
+    return worded(error) if error is not None else beyond_schema(schema, value)
+
+
+_BOUNDS = ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum")
+
+
+def worded(error: Any) -> str:
+    """The message of a JSON Schema ``error`` (a ``jsonschema.ValidationError``) as a user reads it: a bound
+    missed is worded by the interval of its schema, ``must be in [0, 1), got 2`` (jsonschema's own, ``2 is
+    greater than or equal to the maximum of 1``, names one end, and in words); any other, jsonschema's. The
+    command line's ``-p`` (:func:`param_problem`) and a config (:func:`.config.load_config`) both word theirs
+    so."""
+    if error.validator not in _BOUNDS or not isinstance(error.schema, dict):
+        return str(error.message)
+    bounds = error.schema
+    # (a whole bound shown whole: 1e6, MAX_QUADRIC_WEIGHT, as 1000000, not 1000000.0)
+    low, above, high, below = (
+        int(x) if isinstance(x, float) and x.is_integer() else x
+        for x in map(bounds.get, ("minimum", "exclusiveMinimum", "maximum", "exclusiveMaximum"))
+    )
+    got = error.instance
+    if (low is not None or above is not None) and (high is not None or below is not None):
+        lower = f"[{low}" if low is not None else f"({above}"
+        upper = f"{high}]" if high is not None else f"{below})"
+        return f"must be in {lower}, {upper}, got {got}"
+    if low is not None:
+        return f"must be at least {low}, got {got}"
+    if above is not None:
+        return f"must be greater than {above}, got {got}"
+    return (
+        f"must be at most {high}, got {got}" if high is not None else f"must be less than {below}, got {got}"
+    )
+
+
+def beyond_schema(schema: dict[str, Any], value: Any) -> str | None:
+    """What is wrong with ``value`` by a parameter's ``schema`` that JSON Schema lets through, or None: a
+    number not finite (every bound's comparison with NaN is false; json and YAML read both) or a whole float
+    where an integer is wanted (JSON Schema's integer takes ``16.0``; the encoders refuse it)."""
+    import math
+
+    if isinstance(value, float) and not math.isfinite(value):
+        return f"{value} is not a finite number"
+    if isinstance(value, float) and "integer" in str(schema.get("type")):
+        return f"{value} is not an integer"
+    return None
+
+
 def real_valued(name: str, default: Any) -> bool:
     """Is the encoding parameter ``name`` (default ``default``) a real number in the config's schema: a float
     default, or an optional number (``None`` leaves the choice to the encoder)?"""

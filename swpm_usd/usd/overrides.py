@@ -38,7 +38,7 @@ from pxr import Sdf, Tf, Usd, UsdGeom, Vt
 from ..build import build
 from ..encode.base import ProgressiveMesh, with_attributes
 from ..errors import SwpmError, first_few, tf_message
-from ..fileio import new_layer_replacing
+from ..fileio import fill_layer_replacing
 from ..io.usd_loader import _all_holes, _Invalid, _Topology
 from ..mesh import Mesh
 from .writer import LayerReloadError, author_swpm
@@ -447,10 +447,13 @@ def write_overrides(
     # place once complete: a run that fails leaves the previous output as it was, on disk and in memory
     tmp_path = out_path.with_name(f".{out_path.stem}.{secrets.token_hex(4)}.tmp{out_path.suffix}")
     try:
-        with new_layer_replacing(out_path, tmp_path, errors=lambda: _writing(path, tmp_path)) as layer:
-            result = _author_overrides(layer, src_stage, src_path, rel, mode, encoding, prims, params)
+        result = fill_layer_replacing(
+            out_path,
+            tmp_path,
+            lambda layer: _author_overrides(layer, src_stage, src_path, rel, mode, encoding, prims, params),
+            errors=lambda: _writing(path, tmp_path),
+        )
     except LayerReloadError as e:  # (written: the layer open in this process was not reloaded)
-        del layer  # (not kept alive by the error's traceback: see fileio.new_layer_replacing)
         raise UsdOverrideError(str(e)) from e
     return result
 

@@ -18,8 +18,9 @@ the stage in a :func:`checked` block finds them parsed, held for its open: each 
 not a regular file (a FIFO, whose open waits for a writer; a folder; a device), the root or one a layer names,
 is an "open" problem at once, decided by ``os.stat`` and never opened: here for the root and the layers text
 layers name, in the probe (which opens the stage's layers one by one before the stage; one only a variant
-names is named, not opened: the stage opens it only when the variant is selected) for those a crate layer
-names; the probe's alarm is left for what cannot be named before the open. Each answer is kept for this
+names is named, not opened: the stage opens it only when the variant is selected; a text one is read, the
+layers it names named in turn) for those a crate layer names; the probe's alarm is left for what cannot be
+named before the open. Each answer is kept for this
 process while the file and every file it depends on (the layers the probe opened or was opening when it
 crashed or ran out of time: it names each to the server before it opens it; the files its text layers or the
 stage's composition errors name: one missing, should it appear) keep their path, size, mtime and inode; one
@@ -49,7 +50,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
@@ -129,19 +130,23 @@ def preopen(path):
     # regular file (a FIFO, whose open waits for a writer) is answered at once, never opened (the alarm is
     # left for a layer named no other way). A layer that does not open is left to the stage's open. A layer
     # only a variant names is named, not opened (the stage opens it only if the variant is selected: one
-    # that crashes usd-core in a variant not selected is no crash of the stage)
+    # that crashes usd-core in a variant not selected is no crash of the stage), but for a text one (whose
+    # parser fails cleanly): read, the layers it names are named too (a crash in one, its variant selected,
+    # is keyed on it, not on the layers naming it), as only a variant names them
     resolver = Ar.GetResolver()
     root = os.path.abspath(path)
-    held, seen, todo = [], set(), [root]
+    held, seen, todo = [], {}, [(root, False)]  # (seen: real path -> whether only a variant names it)
     while todo:
-        spelled = todo.pop()
+        spelled, varied_only = todo.pop()
         real = os.path.realpath(spelled)
-        if real in seen:
+        if real in seen and (varied_only or not seen[real]):
             continue
-        seen.add(real)
+        seen[real] = varied_only
         if spelled != root and not real.lower().endswith((".usd", ".usda", ".usdc", ".usdz")):
             continue
         note(real)
+        if varied_only and (not os.path.isfile(real) or crate(real)):
+            continue  # (named, not opened)
         try:
             mode = os.stat(real).st_mode
         except OSError:
@@ -170,10 +175,8 @@ def preopen(path):
             if not found:
                 found = os.path.join(os.path.dirname(str(layer.resolvedPath)), asset)
             found = found.split("[", 1)[0]
-            if asset in opens:
-                todo.append(found)
-            elif found.lower().endswith((".usd", ".usda", ".usdc", ".usdz")):
-                note(os.path.realpath(found))  # (a crash of the stage's open in it: keyed on it too)
+            # (one only a variant names: a crash of the stage's open in it is keyed on it too)
+            todo.append((found, varied_only or asset not in opens))
     return "", held
 def probe(path):
     odd, held = preopen(path)
@@ -581,11 +584,20 @@ def check(path: str | os.PathLike[str]) -> Problem | None:
     return check_many([path])[0]
 
 
-def check_many(paths: Sequence[str | os.PathLike[str]], jobs: int | None = None) -> list[Problem | None]:
+def check_many(
+    paths: Sequence[str | os.PathLike[str]],
+    jobs: int | None = None,
+    opened: Callable[[int], object] | None = None,
+) -> list[Problem | None]:
     """:func:`check` of each of ``paths`` (in order), probing up to ``jobs`` at once (default: the usable
     cores); the answers are those of :func:`check`, one file at a time. A file given twice, in one spelling
     or two (a link to it, ``a/../b``), is probed once (its real path, size, mtime and inode); each file is
-    stat'ed once here, and one that is not a regular file is an answer at once (never opened)."""
+    stat'ed once here, and one that is not a regular file is an answer at once (never opened).
+
+    ``opened(i)`` is called for each text root ``paths[i]`` found clean here, naming no crate file (no probe),
+    while the text layers parsed to know it are held (as in a :func:`checked` block): a caller that opens it
+    then finds them parsed (a text root parsed once, not twice: the pipeline's planner), and they are let go
+    as it returns, before the next file's (a batch's layers are not held together)."""
     answers: list[Problem | None] = [None] * len(paths)
     # key -> (the path as first given, its indices, the files its text layers name)
     todo: dict[tuple[str, int, int, int], tuple[str, list[int], list[str]]] = {}
@@ -610,20 +622,29 @@ def check_many(paths: Sequence[str | os.PathLike[str]], jobs: int | None = None)
         if suffix in (".usdc", ".usdz") or (suffix != ".usda" and _crate_magic(p)):  # (is_crate, stat'ed)
             named: list[str] = []
         else:
+            holds = opened is not None and getattr(_holding, "layers", None) is None
+            if holds:  # (this root's text layers held while the caller opens it, then let go: one at a time)
+                _holding.layers = []
             try:
-                crate, named = _named_files(p)
-            except _NotRegular as odd:
-                files = (n for n in odd.named if n != key[0])
-                _answers[key] = (
-                    _not_regular(p, odd.layer, odd.mode),
-                    tuple((n, _stamp(n)) for n in files),
-                    p,
-                )
-                answers[i] = _answers[key][0]
-                continue
-            if not crate:
-                _answers[key] = (None, tuple((n, _stamp(n)) for n in named if n != key[0]), p)
-                continue
+                try:
+                    crate, named = _named_files(p)
+                except _NotRegular as odd:
+                    files = (n for n in odd.named if n != key[0])
+                    _answers[key] = (
+                        _not_regular(p, odd.layer, odd.mode),
+                        tuple((n, _stamp(n)) for n in files),
+                        p,
+                    )
+                    answers[i] = _answers[key][0]
+                    continue
+                if not crate:
+                    _answers[key] = (None, tuple((n, _stamp(n)) for n in named if n != key[0]), p)
+                    if opened is not None:
+                        opened(i)
+                    continue
+            finally:
+                if holds:
+                    _holding.layers = None
         todo[key] = (p, [i], named)
     if not todo:
         return answers

@@ -27,7 +27,7 @@ from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, Vt
 
 from ..encode.base import ProgressiveMesh
 from ..errors import SwpmError, tf_message
-from ..fileio import new_layer_replacing
+from ..fileio import fill_layer_replacing
 from . import plugin
 from .arrays import to_vt
 from .schema import COLLAPSE_FLAT, COLLAPSE_PREFIX, FORMAT_VERSION, SCHEMA_NAME, attr_name, camel
@@ -449,14 +449,15 @@ def write_usdlod(
     # writes an empty layer at once)
     tmp = p.with_name(f".{p.stem}.{secrets.token_hex(4)}.tmp{p.suffix}")
     try:
-        with new_layer_replacing(p, tmp, _layer_args(p, fmt)) as layer:
-            _author_usdlod(
+        fill_layer_replacing(
+            p,
+            tmp,
+            lambda layer: _author_usdlod(
                 layer, src, default, asset, p, discrete, errors, extent, pixel_error, viewport_px, fov_degrees
-            )
-    except LayerReloadError:  # (written; the layer at tmp not kept alive by the error's traceback)
-        del layer
-        raise
-    except (OSError, Tf.ErrorException) as e:
+            ),
+            _layer_args(p, fmt),
+        )
+    except (OSError, Tf.ErrorException) as e:  # (a LayerReloadError, written, is neither: raised as it is)
         why = e.strerror or str(e) if isinstance(e, OSError) else tf_message(e)
         raise UsdWriteError(f"{p}: could not write: {why.replace(str(tmp), str(p))}") from e
     return p
