@@ -74,6 +74,8 @@ OPTIONS = {
     "cluster": {"cluster": True},
     "cluster-swap": {"cluster": True, "optimize_connectivity": True},
     "inner3-cluster-swap": {"cluster": True, "inner_vertices": 3, "optimize_connectivity": True},
+    "inner4-cluster-swap": {"cluster": True, "inner_vertices": 4, "optimize_connectivity": True},
+    "inner5-cluster-swap": {"cluster": True, "inner_vertices": 5, "optimize_connectivity": True},
     "inner3-swap-slack1": {"inner_vertices": 3, "optimize_connectivity": True, "target_slack": 1.0},
     "topology-mu0.2-slack1": {"mu": 0.2, "target_slack": 1.0},
     "cluster-swap-slack1": {"cluster": True, "optimize_connectivity": True, "target_slack": 1.0},
