@@ -398,11 +398,12 @@ _CLUSTER_MIN_PATCHES = 16
 _CLUSTER_REACH = 4
 #: ``cluster=True, inner_vertices > 1``: :data:`_CLUSTER_RELINK` for patches of several inner positions,
 #: against the pool triangles per collapse of the fully stored level's own grown patches (those of
-#: :func:`_grow_patches`). Until 2026-12-04 it was 0.7 against their minimum-degree start, which removes up
-#: to half as many positions: bob linked 2 of its 12 levels (lambda 3.18). Beetle, five inner vertices with
-#: the swaps: 0.8 / 0.85 / 0.9 / 1.0 lambda 3.08 / 2.82 / 2.97 / 2.97 (its stuck coarse levels make it
-#: jumpy). Ten meshes, ``--options inner5-cluster-swap --samples 30000``: at 0.85 / 1.0 lambda mean 2.634 /
-#: 2.601 (max 2.815 / 2.965), ACMR within 1.10 24 / 19 of 40, Hausdorff geomean 1.79 / 1.98 (slidingwindow.md)
+#: :func:`_grow_patches`). Until 2026-12-04 it was 0.7 against their minimum-degree start, which removes
+#: fewer positions: bob linked 2 of its 12 levels (lambda 3.18; now 8 of 16, 3.00). Beetle, five inner
+#: vertices with the swaps: 0.8 / 0.85 / 0.9 / 1.0 lambda 3.08 / 2.82 / 2.97 / 2.97 (its stuck coarse levels
+#: make it jumpy). Ten meshes, ``--options inner5-cluster-swap --samples 30000``: at 0.85 / 1.0 lambda
+#: mean 2.634 / 2.601 (max 2.815 / 2.965), ACMR within 1.10 24 / 19 of 40, Hausdorff geomean 1.79 / 1.98
+#: (slidingwindow.md)
 _CLUSTER_RELINK_INNER = 0.85
 
 #: a fully stored level after the first is built only if its centres remove at least this fraction of its
@@ -634,8 +635,7 @@ def _build_levels(
                 fresh = _select_fresh(adjacency(), eligible, tiebreak, int(inner_vertices))
                 if inner_vertices > 1:
                     # the fully stored level's own patches (grown, merged, searched), not its minimum-degree
-                    # start: that removes up to twice as many positions, so it costs fewer pool triangles
-                    # per collapse than the start suggests
+                    # start: they remove more positions, so cost fewer pool triangles per collapse
                     grown = True
                     grown_patches = _grow_patches(
                         fresh[0], fresh[1], eligible, tiebreak, inner_vertices, fresh[3]
