@@ -370,6 +370,35 @@ def test_cluster_inner_vertices_bunny_lambda() -> None:
     _check_all(pm, pm.collapse_sequence.mesh, closed=False, every=401)
 
 
+def test_cluster_inner_vertices_relink_against_the_grown_level() -> None:
+    """A linked level of several inner vertices is weighed against the fully stored level's own grown
+    patches (not their minimum-degree start): bob, three inner vertices with the swaps, links 2 of its 12
+    levels otherwise (lambda 3.18) and half of them now (8 of 16, lambda 3.00)."""
+    path = MESHES / "bob.obj"
+    assert path.exists(), "shared meshes not available"
+    mesh = swpm_usd.load_mesh(path)
+    pm = build_sliding_window(mesh, cluster=True, inner_vertices=3, optimize_connectivity=True)
+    assert _linked_levels(pm) >= pm.level_count // 2
+    assert pm.index_pool.shape[0] / (3 * mesh.triangle_count) < 3.1
+    _check_all(pm, pm.collapse_sequence.mesh, closed=False, every=97)
+
+
+@pytest.mark.parametrize("name", ["beetle", "bob"])
+def test_cluster_inner5_pool_at_most_three(name: str) -> None:
+    """The project's aim, a pool of at most 3 LOD 0's indices with every approximation kept, met on every
+    shared mesh by five inner vertices with the swaps and clustered patches (``inner5-cluster-swap``):
+    beetle, the largest of them (3.08 before the linked levels were weighed against grown ones), and bob.
+    No level is dropped for it: every window down to the coarsest LOD is checked."""
+    path = MESHES / f"{name}.obj"
+    assert path.exists(), "shared meshes not available"
+    mesh = swpm_usd.load_mesh(path)
+    kw = dict(inner_vertices=5, optimize_connectivity=True)
+    pm = build_sliding_window(mesh, cluster=True, **kw)
+    assert pm.index_pool.shape[0] / (3 * mesh.triangle_count) <= 3.0
+    assert _linked_levels(pm) > 0
+    _check_all(pm, pm.collapse_sequence.mesh, closed=False, every=37)
+
+
 def test_absorb_middle_trades_pool_size_for_cache(spot: Mesh) -> None:
     """Without absorption the static middle stays one block: a smaller pool, a colder cache."""
     from swpm_usd.metrics import acmr

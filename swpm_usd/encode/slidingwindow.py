@@ -397,12 +397,15 @@ _CLUSTER_MIN_PATCHES = 16
 #: :data:`_CLUSTER_RELINK_INNER` at 0.8: reach 4 / 8 / 16 lambda mean 2.90 / 2.82 / 2.83 (bunny 2.67 / 2.57
 #: / 2.59), ACMR ratio mean 1.102 / 1.129 / 1.125 (within 1.10: 12 / 9 / 10 of 20)
 _CLUSTER_REACH = 4
-#: ``cluster=True, inner_vertices > 1``: :data:`_CLUSTER_RELINK` for patches of several inner positions. A
-#: linked level of them scatters the tail faster (bunny: 48 levels at 1.0 and reach 8, against 17 unlinked).
-#: Same five meshes, reach 4: 0.6 / 0.7 / 0.8 lambda mean 3.08 / 2.96 / 2.90 (bunny 2.88 / 2.67 / 2.67),
-#: ACMR ratio mean 1.092 / 1.087 / 1.102 (14 / 15 / 12 of 20 within 1.10); reach 8 at 1.0: 2.84 (2.58),
-#: 1.147 (9 of 20)
-_CLUSTER_RELINK_INNER = 0.7
+#: ``cluster=True, inner_vertices > 1``: :data:`_CLUSTER_RELINK` for patches of several inner positions,
+#: against the pool triangles per collapse of the fully stored level's own grown patches (those of
+#: :func:`_grow_patches`). Until 2026-12-04 it was 0.7 against their minimum-degree start, which removes
+#: fewer positions: bob linked 2 of its 12 levels (lambda 3.18; now 8 of 16, 3.00). Beetle, five inner
+#: vertices with the swaps: 0.8 / 0.85 / 0.9 / 1.0 lambda 3.08 / 2.82 / 2.97 / 2.97 (its stuck coarse levels
+#: make it jumpy). Ten meshes, ``--options inner5-cluster-swap --samples 30000``: at 0.85 / 1.0 lambda
+#: mean 2.634 / 2.601 (max 2.815 / 2.965), ACMR within 1.10 24 / 19 of 40, Hausdorff geomean 1.79 / 1.98
+#: (slidingwindow.md)
+_CLUSTER_RELINK_INNER = 0.85
 
 #: a fully stored level after the first is built only if its centres remove at least this fraction of its
 #: triangles (two per inner vertex, estimated before collapsing), or if it has at most ``_SMALL_LEVEL`` of LOD
@@ -603,6 +606,7 @@ def _build_levels(
             break
         link = False
         fresh = None
+        grown = False  # ``fresh`` holds a fully stored level's grown patches (several inner vertices)
         if cluster and levels:
             # SWPM 3.2: this level's patches read out of the previous level's tail, if that costs no more
             # pool triangles per collapse than storing the level in full
@@ -630,6 +634,14 @@ def _build_levels(
             pt_start, pt = swk.patch_triangles(st, inner_start, inner, stars)
             if fresh_cost is None:
                 fresh = _select_fresh(adjacency(), eligible, tiebreak, int(inner_vertices))
+                if inner_vertices > 1:
+                    # the fully stored level's own patches (grown, merged, searched), not its minimum-degree
+                    # start: they remove more positions, so cost fewer pool triangles per collapse
+                    grown = True
+                    grown_patches = _grow_patches(
+                        fresh[0], fresh[1], eligible, tiebreak, inner_vertices, fresh[3]
+                    )
+                    fresh = (fresh[0], fresh[1], *grown_patches)
                 fresh_cost = 2.0 * alive_t.shape[0] / max(fresh[3].shape[0], 1) - 2.0
             linked_cost = _linked_cost(tpos, pt, inner.shape[0]) if inner.shape[0] else np.inf
             relink = _CLUSTER_RELINK if inner_vertices == 1 else _CLUSTER_RELINK_INNER
@@ -649,29 +661,8 @@ def _build_levels(
                     adj_start, adj, eligible, inner, rank, _TAIL_POWER, _TAIL_TRIES, _TAIL_PASSES
                 )
                 inner_start = np.arange(inner.shape[0] + 1, dtype=np.int64)
-            else:
-                # two ways to several inner vertices: grow patches, or merge two levels; keep the one that
-                # removes more vertices (bunny with the edge swaps, three inner vertices: lambda 3.72 by
-                # growing alone, 3.37 with both)
-                _, centres = swc.select_patches(adj_start, adj, eligible, tiebreak, 1)
-                centres = _more_centres(adj_start, adj, eligible, centres)
-                merged = swc.merge_patches(adj_start, adj, eligible, tiebreak, int(inner_vertices), centres)
-                if merged[1].shape[0] > inner.shape[0]:
-                    inner_start, inner = merged
-                # then a large-neighbourhood search for more inner vertices (components of at most
-                # ``inner_vertices``)
-                iterations = int(_PATCH_SEARCH * np.count_nonzero(eligible))
-                inner_start, inner = swc.grow_component_set(
-                    adj_start,
-                    adj,
-                    eligible,
-                    tiebreak,
-                    int(inner_vertices),
-                    inner,
-                    iterations,
-                    _CENTRE_SEARCH_SEED,
-                    _PATCH_SEARCH_JITTER,
-                )
+            elif not grown:
+                inner_start, inner = _grow_patches(adj_start, adj, eligible, tiebreak, inner_vertices, inner)
             pt_start, pt = swk.patch_triangles(st, inner_start, inner, stars)
             own_start = pt_start
             absorb = (
@@ -825,6 +816,38 @@ def _absorb(st, pt_start, pt, alive_t, min_shared: int, stars, rounds: int):
             break
         pt_start, pt = grown_start, grown
     return pt_start, pt
+
+
+def _grow_patches(
+    adj_start: np.ndarray,
+    adj: np.ndarray,
+    eligible: np.ndarray,
+    tiebreak: np.ndarray,
+    inner_vertices: int,
+    inner: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """A fully stored level's patches of up to ``inner_vertices`` positions, from its minimum-degree patches
+    ``inner`` (:func:`_select_fresh`): ``(inner_start, inner)``."""
+    # two ways to several inner vertices: grow patches, or merge two levels; keep the one that removes more
+    # vertices (bunny with the edge swaps, three inner vertices: lambda 3.72 by growing alone, 3.37 with both)
+    _, centres = swc.select_patches(adj_start, adj, eligible, tiebreak, 1)
+    centres = _more_centres(adj_start, adj, eligible, centres)
+    merged = swc.merge_patches(adj_start, adj, eligible, tiebreak, int(inner_vertices), centres)
+    if merged[1].shape[0] > inner.shape[0]:
+        inner = merged[1]
+    # then a large-neighbourhood search for more inner vertices (components of at most ``inner_vertices``)
+    iterations = int(_PATCH_SEARCH * np.count_nonzero(eligible))
+    return swc.grow_component_set(
+        adj_start,
+        adj,
+        eligible,
+        tiebreak,
+        int(inner_vertices),
+        inner,
+        iterations,
+        _CENTRE_SEARCH_SEED,
+        _PATCH_SEARCH_JITTER,
+    )
 
 
 def _select_fresh(adjacency: tuple, eligible: np.ndarray, tiebreak: np.ndarray, inner_vertices: int):
