@@ -424,25 +424,13 @@ def prepared_gltf(path: Path) -> bytes | None:
     """The ``.gltf`` or ``.glb`` file ``path`` rewritten as ``.gltf`` JSON (buffers inline, images still by
     their uri) for trimesh to read what it means, or None when it needs no rewrite or does not read."""
     try:
-        if path.suffix.lower() == ".glb":
-            with open(
-                path, "rb"
-            ) as f:  # (its JSON chunk first: a file that needs nothing is read no further)
-                head = f.read(_GLB_HEADER.size + _CHUNK.size)
-                if len(head) < _GLB_HEADER.size + _CHUNK.size:
-                    return None
-                size, kind = _CHUNK.unpack_from(head, _GLB_HEADER.size)
-                if kind != _GLB_JSON or size > os.fstat(f.fileno()).st_size:  # (read(size) asks for size)
-                    return None
-                doc = json.loads(f.read(size))
-                _check_extensions(path, doc)
-                _check_counts(path, doc)
-                if not _needs(doc):
-                    return None
-                f.seek(0)
-                data = f.read()
-        else:
-            data = path.read_bytes()
+        if path.suffix.lower() == ".glb":  # (its JSON chunk first: one that needs nothing is read no further)
+            doc = _json_document(path)
+            _check_extensions(path, doc)
+            _check_counts(path, doc)
+            if not _needs(doc):
+                return None
+        data = path.read_bytes()
         doc, binary = _document(path, data)
         _check_extensions(path, doc)
         _check_counts(path, doc)
