@@ -89,6 +89,22 @@ def test_a_deep_chain_of_nodes_loads_in_linear_time(tmp_path: Path) -> None:
     assert mesh.triangle_count == 4  # (the 1,501 copies in one place are welded by cleaning)
 
 
+def _ours_and_trimeshs_transforms(path: Path, doc: dict) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``doc`` written to ``path`` and loaded by trimesh: per node with a mesh, the one-pass transform
+    (:func:`_geometry_transforms`) and trimesh's own ``graph[node]``, checked to name the same nodes and
+    geometry."""
+    path.write_text(json.dumps(doc))
+    scene = trimesh.load_scene(str(path), process=False)
+    ours = _geometry_transforms(scene.graph)
+    assert sorted(map(str, ours)) == sorted(map(str, scene.graph.nodes_geometry))
+    pairs = []
+    for node, (m, geometry) in ours.items():
+        want, want_geometry = scene.graph[node]
+        assert geometry == want_geometry
+        pairs.append((m, want))
+    return pairs
+
+
 def test_transforms_down_the_tree_are_trimeshs(tmp_path: Path) -> None:
     """The transforms computed in one pass are those trimesh's ``graph[node]`` gives, node by node, in a tree
     of translations, rotations, scales and matrices; and the loaded points are moved by them."""
@@ -106,13 +122,7 @@ def test_transforms_down_the_tree_are_trimeshs(tmp_path: Path) -> None:
     ]
     doc["scenes"] = [{"nodes": [0]}]
     path = tmp_path / "tree.gltf"
-    path.write_text(json.dumps(doc))
-    scene = trimesh.load_scene(str(path), process=False)
-    ours = _geometry_transforms(scene.graph)
-    assert sorted(map(str, ours)) == sorted(map(str, scene.graph.nodes_geometry))
-    for node, (m, geometry) in ours.items():
-        want, want_geometry = scene.graph[node]
-        assert geometry == want_geometry
+    for m, want in _ours_and_trimeshs_transforms(path, doc):
         np.testing.assert_allclose(m, want, rtol=0, atol=1e-12)
     mesh = load_mesh(path)
     assert mesh.triangle_count == 16
@@ -146,15 +156,8 @@ def test_transforms_leave_out_near_identities_as_trimesh_does(tmp_path: Path) ->
         {"mesh": 0, "rotation": rotation, "translation": [0.0, 1.0, 0.0]},
     ]
     doc["scenes"] = [{"nodes": [0, 6]}]
-    path = tmp_path / "near.gltf"
-    path.write_text(json.dumps(doc))
-    scene = trimesh.load_scene(str(path), process=False)
-    ours = _geometry_transforms(scene.graph)
-    assert sorted(map(str, ours)) == sorted(map(str, scene.graph.nodes_geometry))
-    for node, (m, geometry) in ours.items():
-        want, want_geometry = scene.graph[node]
-        assert geometry == want_geometry
-        assert m.tobytes() == np.asarray(want, np.float64).tobytes(), (node, m - want)
+    for m, want in _ours_and_trimeshs_transforms(tmp_path / "near.gltf", doc):
+        assert m.tobytes() == np.asarray(want, np.float64).tobytes(), m - want
 
 
 @pytest.mark.parametrize("chunk", [0, 1, 2, 5002])

@@ -79,6 +79,17 @@ def _cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str
     )
 
 
+def _files_probed(monkeypatch) -> list[str]:
+    """The files the probe server is asked to probe, each batch's appended as it is asked (the real probe
+    still runs)."""
+    asked: list[str] = []
+    real = probe._probe_all
+    monkeypatch.setattr(
+        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
+    )
+    return asked
+
+
 def test_validate_reports_a_usdc_that_crashes_usd_core_as_a_coded_error(tmp_path):
     # `swpm-pipeline validate bad.usdc` died by SIGSEGV (no output, exit -11)
     bad = _crashing(tmp_path / "bad.usdc")
@@ -173,11 +184,7 @@ def test_a_crate_file_is_probed_once_per_process_and_a_text_one_never(tmp_path, 
     seed = _seed(tmp_path / "a.usdc")
     text = tmp_path / "a.usda"
     Usd.Stage.Open(str(seed)).Export(str(text))
-    asked: list[str] = []
-    real = probe._probe_all
-    monkeypatch.setattr(
-        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
-    )
+    asked = _files_probed(monkeypatch)
     assert load_mesh(seed).triangle_count == 200 and load_mesh(seed).triangle_count == 200
     assert load_mesh(text).triangle_count == 200
     assert asked == [str(seed)]
@@ -370,11 +377,7 @@ def test_a_pipeline_worker_does_not_probe_again_a_usdc_the_run_probed_as_it_plan
         Asset("m/a.usdc", seed, None, 1, {}, 0), "0" * 64, None, treatment={"encoding": "vanilla"}, digest="d"
     )
     task = runner._task(cfg, item)
-    asked: list[str] = []
-    real = probe._probe_all
-    monkeypatch.setattr(
-        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
-    )
+    asked = _files_probed(monkeypatch)
     monkeypatch.setattr(probe, "_answers", {})  # (a worker: another process, nothing probed)
     rec = worker._process_asset(task)
     assert rec["status"] == "built" and asked == [], (rec, asked)
@@ -483,11 +486,7 @@ def test_a_text_root_naming_no_crate_file_is_not_probed(tmp_path, monkeypatch):
     Usd.Stage.Open(str(seed)).Export(str(text))
     root = _text_root(tmp_path / "root.usda", "reference", text)
     (tmp_path / "tex.usda").write_text('#usda 1.0\ndef "t" {\n    asset file = @./seed.png@\n}\n')
-    asked: list[str] = []
-    real = probe._probe_all
-    monkeypatch.setattr(
-        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
-    )
+    asked = _files_probed(monkeypatch)
     for path in (root, text, tmp_path / "tex.usda"):
         assert not probe.needs_probe(path) and probe.check(path) is None
     assert load_mesh(root).triangle_count == 200 and asked == []
@@ -506,11 +505,7 @@ def test_a_cached_answer_holds_only_while_the_layers_the_probe_opened_are_unchan
     stage.GetRootLayer().Save()
     del stage
     root = tmp_path / "root.usdc"
-    asked: list[str] = []
-    real = probe._probe_all
-    monkeypatch.setattr(
-        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
-    )
+    asked = _files_probed(monkeypatch)
     assert probe.check(root) is None and probe.check(root) is None and asked == [str(root)]
     (key,) = probe.cleared(root)
     assert [d[0] for d in key[4]] == [str(seed.resolve())]  # (the layer the probe opened, with its stamp)
@@ -542,11 +537,7 @@ def test_a_cached_answer_is_probed_again_when_a_layer_missing_at_its_probe_appea
     # (skipped by usd-core) and written since as a corrupt file kept the clean answer, and the stage was
     # opened in this process (which died). A .usdc root, or a .usda over a .usdc (whose sublayers the text
     # walk does not read): the missing file the stage's composition errors name is a file it depends on
-    asked: list[str] = []
-    real = probe._probe_all
-    monkeypatch.setattr(
-        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
-    )
+    asked = _files_probed(monkeypatch)
     stage = Usd.Stage.CreateNew(str(tmp_path / "mid.usdc"))
     stage.GetRootLayer().subLayerPaths.append("./later.usdc")
     stage.GetRootLayer().Save()
@@ -1009,11 +1000,7 @@ def test_check_many_probes_one_file_given_in_two_spellings_once_and_stats_each_f
 ):
     # check_many deduplicated by the path string: a file and a link to it (or `d/../file`) were two probes of
     # one file; and it stat'ed each file twice (its key, then whether it is a regular file)
-    asked: list[str] = []
-    real = probe._probe_all
-    monkeypatch.setattr(
-        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
-    )
+    asked = _files_probed(monkeypatch)
     bad = _crashing(tmp_path / "bad.usdc")
     (tmp_path / "link.usdc").symlink_to(bad)
     (tmp_path / "d").mkdir()
@@ -1039,11 +1026,7 @@ def test_a_crashed_probes_answer_is_keyed_on_the_layers_it_reached(tmp_path, mon
     # a crash names no layers: its answer was keyed on the layers of an earlier answer for the file, or on
     # none. A crate root over a crashing sublayer kept its crash after the sublayer was mended (never probed
     # again). Each probe names each layer before it opens it: a crash is keyed on those
-    asked: list[str] = []
-    real = probe._probe_all
-    monkeypatch.setattr(
-        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
-    )
+    asked = _files_probed(monkeypatch)
     sub = _crashing(tmp_path / "sub.usdc")
     layer = Sdf.Layer.CreateNew(str(tmp_path / "root.usdc"))
     layer.subLayerPaths.append("./sub.usdc")
@@ -1118,11 +1101,7 @@ def test_a_layer_only_a_variant_not_selected_names_is_not_opened_by_the_probe(tm
     del stage
     # (the variant selected: a probe that crashes in the stage's open, as usd-core would on a file it
     # cannot read, is keyed on the variant's layer, named before the open)
-    asked: list[str] = []
-    real = probe._probe_all
-    monkeypatch.setattr(
-        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
-    )
+    asked = _files_probed(monkeypatch)
     _patched_program(
         monkeypatch,
         "        stage = Usd.Stage.Open(path)\n",
@@ -1164,11 +1143,7 @@ def test_a_crash_in_a_layer_a_selected_variants_layer_names_is_keyed_on_that_lay
     assert layer.Export(str(root))
     del layer
     text.unlink()
-    asked: list[str] = []
-    real = probe._probe_all
-    monkeypatch.setattr(
-        probe, "_probe_all", lambda files, jobs: asked.extend(p for p, _ in files) or real(files, jobs)
-    )
+    asked = _files_probed(monkeypatch)
     # (the stage's open crashes, as usd-core would on bad.usdc were it corrupt: after the layers named)
     _patched_program(
         monkeypatch,
