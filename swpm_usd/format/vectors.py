@@ -704,6 +704,11 @@ def _blind_invalid(out: dict[str, tuple[bytes, str]]) -> None:
     (format.md 2.1-2.3, 3.1, 3.2, 3.5, 3.6, 3.8, 5)."""
     base = _write(fan_vanilla())
     ents = {t: (eo, off, ln) for t, eo, off, ln in _entries(base)}
+    out["table-too-large"] = (
+        patch(base, 24, "<I", 1025, crc=False),
+        "chunk_count 1025: SWPM_TABLE_TOO_LARGE (the limit is 1024) ends the checks, before the table's end"
+        " and the file CRC (left as it was) are checked",
+    )
     out["header-size-below-64"] = (
         patch(base, 12, "<I", 60),
         "header_size 60: SWPM_HEADER_BAD_SIZE ends the checks",
