@@ -109,13 +109,25 @@ def test_manifest_and_expected_results_follow_the_schema() -> None:
         assert need in names
 
 
+def _cited_vectors(text: str) -> set[str]:
+    """The vector names a spec text cites: every name of "vector `a`" or "vectors `a`, `b` and `c`", a line
+    break allowed anywhere between the words."""
+    runs = re.findall(r"\bvectors?\s+(`[^`]+`(?:(?:,\s*|\s+and\s+)`[^`]+`)*)", text, re.I)
+    return {name for run in runs for name in re.findall(r"`([^`]+)`", run)}
+
+
+def test_cited_vectors_reads_lists_and_line_breaks() -> None:
+    text = "(vector\n   `a-b`), vectors `c`, `d-e`\nand `f`; the vectors `g`; see `h`, vector `i`,\n`j`"
+    assert _cited_vectors(text) == {"a-b", "c", "d-e", "f", "g", "i", "j"}
+
+
 def test_every_vector_the_spec_cites_exists_and_every_code_is_exercised() -> None:
     """A vector named in format.md is in the manifest, and every code of errors.md that a file can cause is
     expected by some vector (SWPM_IO_ERROR, _INDEX_WIDTH, _ENCODING_UNAVAILABLE and _BUFFERS_REJECTED are not
     problems of a file's bytes)."""
     spec = (ROOT / "spec" / "format.md").read_text()
     names = {v["name"] for v in json.loads((VECTORS / "manifest.json").read_text())["vectors"]}
-    cited = set(re.findall(r"vectors? `([a-z0-9-]+)`", spec, re.I))
+    cited = _cited_vectors(spec)
     assert cited and cited <= names, sorted(cited - names)
     codes = set(re.findall(r"^\| `(SWPM_[A-Z0-9_]+)`", (ROOT / "spec" / "errors.md").read_text(), re.M))
     seen = set()
@@ -127,6 +139,7 @@ def test_every_vector_the_spec_cites_exists_and_every_code_is_exercised() -> Non
         "SWPM_ENCODING_UNAVAILABLE",
         "SWPM_BUFFERS_REJECTED",
     }
+    assert not_of_bytes < codes, sorted(not_of_bytes - codes)  # errors.md's table was read
     assert sorted(codes - not_of_bytes - seen) == []
 
 
