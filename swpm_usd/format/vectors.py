@@ -775,6 +775,12 @@ def _blind_invalid(out: dict[str, tuple[bytes, str]]) -> None:
         "META's encoding is mixed in a vanilla file and the record keeps its binned vertex: the field is"
         " reported and the encoding's checks still run",
     )
+    params = _write(fan_vanilla(buffers={"collapse_kept": [4]})).replace(b'"params":{}', b'"params":[]')
+    out["meta-params-not-object"] = (
+        fix_crcs(params),
+        "META's params is an array and the record keeps its binned vertex: SWPM_META_BAD_FIELD ends the"
+        " checks of META and the encoding's checks do not run (no SWPM_RECORD_BAD_KEPT)",
+    )
     out["skip-counts-and-level-table"] = (
         _write(fan_skip(buffers={"collapse_prev_change_count": [1], "level_first_lod": [1]})),
         "a wrong prev_change_count and level_first_lod not 0: a problem of the counts of 3.6 does not end"
