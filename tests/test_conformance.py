@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import jsonschema
@@ -82,8 +83,65 @@ def test_manifest_and_expected_results_follow_the_schema() -> None:
         "smap-17-ranges",  # format.md 4: the order of the SMAP checks
         "smap-range-in-trailing-bytes",  # format.md 4, 5: the file as read
         "smap-empty-index-hull",  # format.md 4: an empty window adds nothing to the INDX hull
+        # found by a blind reader of the spec (format.md 2.1-2.3, 3.1-3.8, 4, 5): its guesses and the rules
+        # no vector checked
+        "header-size-below-64",
+        "table-too-large",
+        "two-encodings-and-duplicate",
+        "chunk-misaligned",
+        "chunks-out-of-order",
+        "chunk-missing",
+        "chunk-not-allowed",
+        "chunk-bad-flags",
+        "lods-empty",
+        "lods-row0-not-vertex-count",
+        "window-count-mismatch",
+        "vanilla-binned-vertex-left",
+        "meta-encoding-differs",
+        "meta-params-not-object",  # format.md 3.1: a bad params stops the encoding's checks
+        "skip-counts-and-level-table",
+        "mixed-two-bad-level-arrays",
+        "mixed-removes-too-many",
+        "reserved-fields-nonzero",
+        "vert-nonfinite-point",
+        "skip-list-restart-below-vertex-count",
+        "smap-hull-split-across-ranges",
     ):
         assert need in names
+
+
+def _cited_vectors(text: str) -> set[str]:
+    """The vector names a spec text cites: every name of "vector `a`" or "vectors `a`, `b` and `c`", a line
+    break allowed anywhere between the words."""
+    runs = re.findall(r"\bvectors?\s+(`[^`]+`(?:(?:,\s*|\s+and\s+)`[^`]+`)*)", text, re.I)
+    return {name for run in runs for name in re.findall(r"`([^`]+)`", run)}
+
+
+def test_cited_vectors_reads_lists_and_line_breaks() -> None:
+    text = "(vector\n   `a-b`), vectors `c`, `d-e`\nand `f`; the vectors `g`; see `h`, vector `i`,\n`j`"
+    assert _cited_vectors(text) == {"a-b", "c", "d-e", "f", "g", "i", "j"}
+
+
+def test_every_vector_the_spec_cites_exists_and_every_code_is_exercised() -> None:
+    """A vector named in format.md is in the manifest, and every code of errors.md that a file can cause is
+    expected by some vector (SWPM_IO_ERROR, _INDEX_WIDTH, _ENCODING_UNAVAILABLE and _BUFFERS_REJECTED are not
+    problems of a file's bytes)."""
+    spec = (ROOT / "spec" / "format.md").read_text()
+    names = {v["name"] for v in json.loads((VECTORS / "manifest.json").read_text())["vectors"]}
+    cited = _cited_vectors(spec)
+    assert cited and cited <= names, sorted(cited - names)
+    codes = set(re.findall(r"^\| `(SWPM_[A-Z0-9_]+)`", (ROOT / "spec" / "errors.md").read_text(), re.M))
+    seen = set()
+    for path in VECTORS.glob("*/*.json"):
+        seen |= {p["code"] for p in json.loads(path.read_text())["problems"]}
+    not_of_bytes = {
+        "SWPM_IO_ERROR",
+        "SWPM_INDEX_WIDTH",
+        "SWPM_ENCODING_UNAVAILABLE",
+        "SWPM_BUFFERS_REJECTED",
+    }
+    assert not_of_bytes < codes, sorted(not_of_bytes - codes)  # errors.md's table was read
+    assert sorted(codes - not_of_bytes - seen) == []
 
 
 @pytest.mark.parametrize("outcome", run_conformance(VECTORS), ids=lambda o: o.name)

@@ -16,11 +16,12 @@ import zlib
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from independent_reader import read  # noqa: E402
+from independent_reader import _Reader, read  # noqa: E402
 
 VECTORS = Path(__file__).resolve().parent.parent / "spec" / "vectors"
 MANIFEST = json.loads((VECTORS / "manifest.json").read_text())
@@ -239,3 +240,82 @@ def test_a_slot_listed_twice_is_a_bad_change(name: str, ctype: bytes, at: int) -
     struct.pack_into("<H", data, po + at + 2, 2)
     problems = [(p["code"], p["offset"]) for p in read(_fix_crcs(data))["problems"]]
     assert problems == [("SWPM_RECORD_BAD_CHANGE", po + 8)]
+
+
+# The LODs as format.md defines them, decoded from the independent reader's arrays (§3.4-3.8): every LOD draws
+# only vertices below its vertex count and as many triangles as LODS says.
+def _strip_triangles(lst: np.ndarray, primitive: str, restart: int | None) -> np.ndarray:
+    """The triangles of a skip-strip level list (§3.7), degenerate ones included."""
+    if primitive == "list":
+        return lst.reshape(-1, 3)
+    strips = np.split(lst, np.flatnonzero(lst == restart)) if restart is not None else [lst]
+    tris = []
+    for n, s in enumerate(strips):
+        s = s[1:] if n else s  # after a restart index
+        for i in range(len(s) - 2):
+            tris.append((s[i], s[i + 1], s[i + 2]) if i % 2 == 0 else (s[i + 1], s[i], s[i + 2]))
+    return np.array(tris, np.int64).reshape(-1, 3)
+
+
+def _decode_lods(data: bytes) -> tuple[dict[str, np.ndarray], list[np.ndarray]]:
+    """Every LOD's drawn triangles: vanilla and mixed the live ones, sliding-window its window, skip-strip the
+    non-degenerate ones of its level's list after RCNT[k] records."""
+    rd = _Reader(data)
+    assert rd.run()["valid"]
+    b = {k: np.asarray(v).astype(np.int64) for k, v in rd.buffers.items() if np.asarray(v).dtype.kind in "iu"}
+    L, V = len(b["vertex_counts"]), len(rd.buffers["points"])
+    enc = rd.encoding
+    if enc == "sliding-window":
+        return b, [b["index_pool"][f : f + 3 * t].reshape(-1, 3) for f, t, _v in b["window_records"]]
+    cc = b["collapse_change_count"]
+    cstart = np.concatenate([[0], np.cumsum(cc)])
+    offs, kept, rcnt = b["collapse_change_offsets"], b["collapse_kept"], b["lod_record_counts"]
+    lods = []
+    for k in range(L):
+        if enc == "vanilla":
+            lst, first_rec = b["indices"].copy(), 0
+        else:
+            first = b["level_first_lod"]
+            lv = int(np.searchsorted(first, k, side="right") - 1)
+            first_rec = int(b["level_record_start"][lv])
+            if enc == "skip-strip":
+                s = b["level_index_start"]
+                lst = b["level_indices"][s[lv] : s[lv + 1]].copy()
+            else:
+                s, d = b["level_static_start"], b["level_dynamic_start"]
+                static = b["level_static_indices"][s[lv] : s[lv + 1]]
+                lst = b["level_dynamic_indices"][d[lv] : d[lv + 1]].copy()
+        for r in range(first_rec, int(rcnt[k])):
+            assert (lst[offs[cstart[r] : cstart[r + 1]]] == V - 1 - r).all()
+            lst[offs[cstart[r] : cstart[r + 1]]] = kept[r]
+        applied = slice(first_rec, int(rcnt[k]))
+        if enc == "vanilla":
+            tris = lst[: len(lst) - 3 * int(b["collapse_tris_removed"][applied].sum())].reshape(-1, 3)
+        elif enc == "mixed":
+            live_d = len(lst) // 3 - int(b["collapse_dynamic_tris_removed"][applied].sum())
+            live_s = len(static) // 3 - int(b["collapse_static_tris_removed"][applied].sum())
+            tris = np.concatenate([lst[: 3 * live_d], static[: 3 * live_s]]).reshape(-1, 3)
+        else:
+            primitive = rd.params.get("primitive", "strip")
+            restart = rd.params.get("restart_index") if primitive == "strip" else None
+            tris = _strip_triangles(lst, primitive, restart)
+            tris = tris[(tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])]
+        lods.append(tris)
+    return b, lods
+
+
+@pytest.mark.parametrize("vector", [c for c in CASES if c.values[0]["valid"]])
+def test_every_lod_keeps_the_vertex_prefix_and_its_triangle_count(vector: dict[str, Any]) -> None:
+    """§3.2-3.8 decoded independently of the codec: LOD k draws only vertices [0, vertex_count(k)) and
+    triangle_count(k) triangles, and the same triangles as the codec's ``triangles_at(k)``."""
+    import swpm_usd
+
+    data, _expected = _load(vector)
+    b, lods = _decode_lods(data)
+    pm = swpm_usd.load(VECTORS / vector["file"])
+    for k, tris in enumerate(lods):
+        assert tris.size == 0 or int(tris.max()) < int(b["vertex_counts"][k]), k
+        assert len(tris) == int(b["triangle_counts"][k]), k
+        ours = sorted(map(tuple, np.sort(tris, axis=1).tolist()))
+        theirs = sorted(map(tuple, np.sort(np.asarray(pm.triangles_at(k)), axis=1).tolist()))
+        assert ours == theirs, k

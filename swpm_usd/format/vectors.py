@@ -382,6 +382,7 @@ def _valid() -> dict[str, tuple[bytes, str]]:
             "an unknown ancillary chunk between META and LODS: no SWPM_STREAM_ORDER (format.md 2.3)",
         ),
         **_review_valid(),
+        **_blind_valid(),
     }
 
 
@@ -596,6 +597,7 @@ def _settled_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
         " past the end of the order differs)",
     )
     _review_invalid(out)
+    _blind_invalid(out)
 
 
 def _review_invalid(out: dict[str, tuple[bytes, str]]) -> None:
@@ -635,6 +637,164 @@ def _review_invalid(out: dict[str, tuple[bytes, str]]) -> None:
         ),
         "level_collapsed_start differs from level_index_start and INDX holds 9: the level table by itself is"
         " a stage (a) check before the values < V and ends the checks",
+    )
+
+
+def relayout(data: bytes, payloads: dict[bytes, bytes]) -> bytes:
+    """``data`` with the payloads of the chunks named in ``payloads`` replaced, every chunk laid out again in
+    table order (8-byte aligned), file_size and CRCs recomputed (SMAP's ranges are not rewritten)."""
+    ents = _entries(data)
+    out = bytearray(data[: struct.unpack_from("<Q", data, 32)[0] + 32 * len(ents)])
+    for t, eo, off, ln in ents:
+        body = payloads.get(t, data[off : off + ln])
+        out += bytes(L.align(len(out), L.CHUNK_ALIGN) - len(out))
+        struct.pack_into("<QQ", out, eo + 8, len(out), len(body))
+        out += body
+    struct.pack_into("<Q", out, 40, len(out))
+    return fix_crcs(out)
+
+
+def _blind_valid() -> dict[str, tuple[bytes, str]]:
+    """Valid files (warnings) that pin what a blind reader of the spec had to guess (format.md 2.1, 3.3, 3.7,
+    4)."""
+    base = _write(fan_vanilla())
+    eo, _, _ = chunk(base, L.INDX)
+    reserved = patch(base, 28, "<I", 1, crc=False)
+    reserved = patch(reserved, 56, "<I", 2, crc=False)
+    reserved = patch(reserved, eo + 28, "<I", 3)
+    nan = FAN_POINTS.copy()
+    nan[3, 1] = np.nan
+    list_restart = fan_skip()
+    list_restart.params["restart_index"] = 2
+    _, _, vlen = chunk(base, L.VERT)
+
+    def split_hull(offs: dict[bytes, int] | None) -> int | bytes:
+        # the (a) hull [0, INDX) given as two ranges that abut at 64: no one range holds it
+        if offs is None:
+            return L.SMAP_HEADER.itemsize + L.SMAP_BAND.itemsize + L.SMAP_RANGE.itemsize * 4
+        indx, vert = offs[L.INDX], offs[L.VERT]
+        ranges = [(0, 64), (64, indx - 64), (indx, 24), (vert, vlen)]
+        return smap_bytes([(0, 2, 0, 4, vert + vlen)], ranges)
+
+    return {
+        "reserved-fields-nonzero": (
+            reserved,
+            "header reserved0 = 1, reserved1's second word = 2, INDX's entry reserved = 3: three"
+            " SWPM_HEADER_RESERVED_NONZERO warnings (one for the three words at 52), the file stays valid",
+        ),
+        "vert-nonfinite-point": (
+            _write(fan_vanilla(points=nan)),
+            "vertex 3's y is NaN: SWPM_VERT_NONFINITE, a warning at the first vertex record, not at vertex 3",
+        ),
+        "skip-list-restart-below-vertex-count": (
+            _write(list_restart),
+            "skip-strip lists with params.restart_index 2, a vertex: lists ignore it (only a strips' restart"
+            " index below V is rejected) and LODS counts the triangles that hold vertex 2",
+        ),
+        "smap-hull-split-across-ranges": (
+            with_smap(base, split_hull),
+            "SMAP's band covers the bytes before INDX with two ranges that abut: each hull must lie inside"
+            " one range (SWPM_SMAP_INVALID at band 0)",
+        ),
+    }
+
+
+def _blind_invalid(out: dict[str, tuple[bytes, str]]) -> None:
+    """The vectors that pin what a blind reader of the spec had to guess, and rules no vector checked
+    (format.md 2.1-2.3, 3.1, 3.2, 3.5, 3.6, 3.8, 5)."""
+    base = _write(fan_vanilla())
+    ents = {t: (eo, off, ln) for t, eo, off, ln in _entries(base)}
+    out["table-too-large"] = (
+        patch(base, 24, "<I", 1025, crc=False),
+        "chunk_count 1025: SWPM_TABLE_TOO_LARGE (the limit is 1024) ends the checks, before the table's end"
+        " and the file CRC (left as it was) are checked",
+    )
+    out["header-size-below-64"] = (
+        patch(base, 12, "<I", 60),
+        "header_size 60: SWPM_HEADER_BAD_SIZE ends the checks",
+    )
+    dup = bytearray(out["duplicate-meta-misplaced"][0])
+    struct.pack_into("<I", dup, 20, L.FEATURE_VANILLA | L.FEATURE_SLIDING_WINDOW)
+    out["two-encodings-and-duplicate"] = (
+        fix_crcs(dup),
+        "two encoding bits and a second META: the duplicate is still reported, but with no encoding neither"
+        " SWPM_CHUNK_MISSING nor SWPM_STREAM_ORDER is checked",
+    )
+    leo, loff, _ = ents[L.LODS]
+    out["chunk-misaligned"] = (
+        patch(base, leo + 8, "<Q", loff - 4),
+        "LODS's offset moved 4 bytes back, into META's padding: misaligned (its CRC is then not checked), and"
+        " the gap after it holds LODS's last 4 bytes",
+    )
+    swapped = bytearray(base)
+    (reo, _, _), (veo, _, _) = ents[L.RCNT], ents[L.VREC]
+    swapped[reo : reo + 32], swapped[veo : veo + 32] = base[veo : veo + 32], base[reo : reo + 32]
+    out["chunks-out-of-order"] = (
+        fix_crcs(swapped),
+        "the RCNT and VREC entries swapped in the table, payloads unmoved: RCNT's entry is out of order, and"
+        " VREC listed before RCNT is out of streaming order",
+    )
+    missing = bytearray(base)
+    missing[reo : reo + 8] = b"zXTR" + bytes(4)
+    out["chunk-missing"] = (
+        fix_crcs(missing),
+        "RCNT's entry renamed zXTR, ancillary: an unknown ancillary chunk, and RCNT is missing (offset null)",
+    )
+    out["chunk-not-allowed"] = (
+        _write(fan_vanilla(), extra_chunks=[(L.WREC, True, bytes(12))]),
+        "a sliding-window WREC chunk in a vanilla file",
+    )
+    seo, _, _ = ents[L.SMAP]
+    out["chunk-bad-flags"] = (
+        patch(base, seo + 4, "<I", L.CHUNK_CRITICAL),
+        "SMAP marked critical: SWPM_CHUNK_BAD_FLAGS at its flags field",
+    )
+    out["lods-empty"] = (
+        relayout(base, {L.LODS: b""}),
+        "LODS of 0 bytes: SWPM_LOD_EMPTY; no encoding check runs",
+    )
+    out["lods-row0-not-vertex-count"] = (
+        _write(fan_vanilla(vertex_counts=np.array([6, 4]))),
+        "LODS row 0 says 6 vertices, VERT holds 5: reported in step 3 and again, at the same offset, by the"
+        " vanilla check of LODS against RCNT (stage b)",
+    )
+    out["window-count-mismatch"] = (
+        _write(fan_sliding(buffers={"window_records": [[0, 4, 5], [12, 2, 3]]})),
+        "the coarse window says 3 vertices, LODS 4: SWPM_WINDOW_COUNT_MISMATCH at its vertex_count field (its"
+        " prefix violation, vertex 3, is a stage (b) check that then does not run)",
+    )
+    out["vanilla-binned-vertex-left"] = (
+        _write(fan_vanilla(buffers={"collapse_change_count": [1], "collapse_change_offsets": [2]})),
+        "the collapse changes slot 2 only: vertex 4 stays in slot 5 of a live triangle, found by the replay"
+        " (SWPM_PREFIX_VIOLATION at the record's row)",
+    )
+    enc = _write(fan_vanilla(buffers={"collapse_kept": [4]}))
+    enc = enc.replace(b'"encoding":"vanilla",', b'"encoding":"mixed"  ,')
+    out["meta-encoding-differs"] = (
+        fix_crcs(enc),
+        "META's encoding is mixed in a vanilla file and the record keeps its binned vertex: the field is"
+        " reported and the encoding's checks still run",
+    )
+    params = _write(fan_vanilla(buffers={"collapse_kept": [4]})).replace(b'"params":{}', b'"params":[]')
+    out["meta-params-not-object"] = (
+        fix_crcs(params),
+        "META's params is an array and the record keeps its binned vertex: SWPM_META_BAD_FIELD ends the"
+        " checks of META and the encoding's checks do not run (no SWPM_RECORD_BAD_KEPT)",
+    )
+    out["skip-counts-and-level-table"] = (
+        _write(fan_skip(buffers={"collapse_prev_change_count": [1], "level_first_lod": [1]})),
+        "a wrong prev_change_count and level_first_lod not 0: a problem of the counts of 3.6 does not end"
+        " skip-strip stage (a), the level table is still checked",
+    )
+    out["mixed-two-bad-level-arrays"] = (
+        _write(fan_mixed(buffers={"level_static_start": [0, 9], "level_record_start": [0, 2]})),
+        "level_static_start and level_record_start both bad: one SWPM_MIXED_BAD_LEVELS, at the last bad array"
+        " in the order static, dynamic, record",
+    )
+    out["mixed-removes-too-many"] = (
+        _write(fan_mixed(buffers={"collapse_static_tris_removed": [3]}, triangle_counts=np.array([4, 1]))),
+        "the mixed record removes 3 static triangles from a static list of 2: SWPM_RECORD_BAD_COUNTS at"
+        " record 0's static_tris_removed",
     )
 
 
