@@ -653,6 +653,38 @@ def test_step_geometric_errors_replayed_in_parts_are_one_replay():
         assert np.array_equal(np.concatenate(parts), whole) == carry
 
 
+@pytest.mark.parametrize(("name", "early"), [("suzanne.obj", True), ("spot.obj", True), ("spot.obj", False)])
+def test_the_quadric_sequence_replays_its_errors_on_a_light_state(name, early, monkeypatch):
+    """``collapse_sequence`` makes the simplifier state once: the LOD errors' replay collapses the state's
+    ``replay_state`` taken before the sequence collapses it, not a second ``make_state`` (above
+    ``_REPLAY_STATE_EARLY_MAX`` triangles: a second one, after the sequence), and ``step_geometric_errors``
+    leaves the state it is given as it was; the values are the full state's replay (``step_deviations`` on
+    a fresh state) bit for bit."""
+    from swpm_usd.simplify import fan_deviation as fd
+    from swpm_usd.simplify import sequence
+    from swpm_usd.simplify.sequence import replay_surface, step_geometric_errors
+
+    mesh = shared_mesh(name)
+    made = []
+    real = sequence.make_state
+    monkeypatch.setattr(sequence, "make_state", lambda *a, **k: made.append(1) or real(*a, **k))
+    if not early:
+        monkeypatch.setattr(sequence, "_REPLAY_STATE_EARLY_MAX", mesh.triangle_count - 1)
+    seq = collapse_sequence(mesh)
+    assert len(made) == (1 if early else 2)
+    monkeypatch.undo()
+    b, k, e = seq.binned_position.astype(np.int64), seq.kept_position.astype(np.int64), seq.step_error
+    topo = mesh_topology(mesh)
+    full = real(mesh, topo)
+    bvh, hints, floor = replay_surface(mesh, full)
+    want = fd.step_deviations(full, b, k, e, fd.SAMPLES, fd.SEARCH_BUDGET, floor, hints, *bvh, 0.0)
+    assert np.array_equal(seq.step_geometric_error, want)
+    given = real(mesh, topo)
+    alive = given.tri_alive.copy()
+    assert np.array_equal(step_geometric_errors(mesh, given, b, k, e), want)
+    assert np.array_equal(given.tri_alive, alive)
+
+
 def _live_stars(head, cnext, alive, tri_pos) -> list:
     """Every position's live star rows, in the order its corner list gives them (what a replay reads)."""
     stars = []
