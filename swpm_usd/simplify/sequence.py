@@ -332,12 +332,6 @@ class CollapseSequence:
         return self.triangles_after(int(self.step_offsets[s]))
 
 
-#: meshes of at most this many triangles take the LOD errors' replay state before the collapses (held through
-#: them); a larger one's is made after them, when the collapsed state is let go (the peak of memory), as the
-#: sliding window's ``_SPARE_STATE_MAX``
-_REPLAY_STATE_EARLY_MAX = 100_000
-
-
 def collapse_sequence(
     mesh: Mesh,
     *,
@@ -359,18 +353,24 @@ def collapse_sequence(
             locked_positions=locked_positions,
         )
 
+    from . import fan_deviation as fd
+
     st = state()
-    # the LOD errors' replay collapses the light copy of a fresh state (what its searches read: corners and
-    # their lists), taken before the sequence collapses ``st`` where that is small (a second ``make_state``
-    # saved: suzanne, beetle, cow -10 to -15 % of a vanilla build), after it from a new state otherwise
-    replay = geometric_error and mesh.triangle_count > 0
-    early = replay and mesh.triangle_count <= _REPLAY_STATE_EARLY_MAX
-    replayed = _replay_start(mesh, st) if early else None
+    # the LOD errors' replay collapses a light copy of the fresh state (what its searches read: corner
+    # positions and lists), taken before the sequence collapses ``st``: one ``make_state``, not two (suzanne,
+    # beetle, cow -10 to -15 % of a vanilla build). The collapsed state is let go before the input's BVH is
+    # built, so the two are never held together (a 1.1M-triangle bunny's peak: 309 MB above the start, not
+    # 343 MB)
+    light = fd.replay_state(st) if geometric_error else None
     binned, kept, step, step_error, step_b, step_k = kernels.run_sequence(st, 3)
-    if replay and not early:
-        del st  # (the collapsed state let go before the new one is made)
-        replayed = _replay_start(mesh, state())
-    geometric = _replay_all(replayed, step_b, step_k, step_error) if geometric_error else None
+    del st
+    geometric = None
+    if geometric_error:
+        geometric = np.zeros(0)
+        if step_b.shape[0]:
+            # (the surface from ``topo``: the positions and vertex positions the state had, which no
+            # collapse changes)
+            geometric = replay_steps(replay_surface(mesh, topo), light, step_b, step_k, step_error)
     offsets = np.zeros(step_error.shape[0] + 1, np.int64)
     np.cumsum(np.bincount(step, minlength=step_error.shape[0]), out=offsets[1:])
     return CollapseSequence(
@@ -397,27 +397,15 @@ def step_geometric_errors(
     bit for bit)."""
     if step_b.shape[0] == 0:
         return np.zeros(0)
-    return _replay_all(_replay_start(mesh, st), step_b, step_k, step_error)
-
-
-def _replay_start(mesh: Mesh, st: kernels.CollapseState) -> tuple:
-    """What :func:`_replay_all` needs of a fresh state ``st``: its surface and light replay state."""
     from . import fan_deviation as fd
 
-    return replay_surface(mesh, st), fd.replay_state(st)
+    return replay_steps(replay_surface(mesh, st), fd.replay_state(st), step_b, step_k, step_error)
 
 
-def _replay_all(
-    replayed: tuple | None, step_b: np.ndarray, step_k: np.ndarray, step_error: np.ndarray
-) -> np.ndarray:
-    """:func:`replay_steps` of a whole sequence from :func:`_replay_start` (None: no triangles, no steps)."""
-    if step_b.shape[0] == 0 or replayed is None:
-        return np.zeros(0)
-    return replay_steps(*replayed, step_b, step_k, step_error)
-
-
-def replay_surface(mesh: Mesh, st: kernels.CollapseState) -> tuple:
-    """What :func:`replay_steps` searches: the input's BVH, a BVH leaf per position and the distance floor."""
+def replay_surface(mesh: Mesh, st: kernels.CollapseState | MeshTopology) -> tuple:
+    """What :func:`replay_steps` searches: the input's BVH, a BVH leaf per position and the distance floor
+    (``st``: a simplifier state of ``mesh`` or its topology; only their positions and vertex positions,
+    which no collapse changes, are read)."""
     from . import fan_deviation as fd
 
     pts = st.pos_points
