@@ -653,6 +653,66 @@ def test_step_geometric_errors_replayed_in_parts_are_one_replay():
         assert np.array_equal(np.concatenate(parts), whole) == carry
 
 
+@pytest.mark.parametrize(
+    ("name", "made"),
+    [
+        ("suzanne.obj", None),
+        ("spot.obj", None),
+        ("fins", "from_arrays"),
+        ("flat", "direct"),
+        ("split", "from_arrays"),
+    ],
+)
+def test_the_quadric_sequence_replays_its_errors_on_a_light_state(name, made, monkeypatch):
+    """``collapse_sequence`` makes the simplifier state once, whatever the mesh's size: the LOD errors' replay
+    collapses the state's ``replay_state`` taken before the sequence collapses it, not a second
+    ``make_state``, and the collapsed state is let go before the input's BVH is built (the two never held
+    together: the peak of memory); ``step_geometric_errors`` leaves the state it is given as it was; the
+    values are the full state's replay (``step_deviations`` on a fresh state) bit for bit, on shared meshes
+    and the fuzz tests' hostile ones (non-manifold fins, unwelded coincident points, seams)."""
+    import weakref
+
+    from swpm_usd.simplify import fan_deviation as fd
+    from swpm_usd.simplify import sequence
+    from swpm_usd.simplify.sequence import replay_surface, step_geometric_errors
+
+    if made is None:
+        mesh = shared_mesh(name)
+    else:
+        from test_fuzz_build import _mutated
+
+        _, points, tris = _mutated(name)
+        mesh = Mesh.from_arrays(points, tris) if made == "from_arrays" else Mesh(points, tris)
+    states, live_at_surface = [], []
+    real, real_surface = sequence.make_state, fd.surface_with_hints
+
+    def make_state(*a, **k):
+        st = real(*a, **k)
+        states.append(weakref.ref(st.quadric))  # (an array no output of the sequence shares)
+        return st
+
+    def surface_with_hints(*a, **k):
+        live_at_surface.append(sum(ref() is not None for ref in states))
+        return real_surface(*a, **k)
+
+    monkeypatch.setattr(sequence, "make_state", make_state)
+    monkeypatch.setattr(fd, "surface_with_hints", surface_with_hints)
+    seq = collapse_sequence(mesh)
+    assert len(states) == 1
+    assert live_at_surface == [0]
+    monkeypatch.undo()
+    b, k, e = seq.binned_position.astype(np.int64), seq.kept_position.astype(np.int64), seq.step_error
+    topo = mesh_topology(mesh)
+    full = real(mesh, topo)
+    bvh, hints, floor = replay_surface(mesh, full)
+    want = fd.step_deviations(full, b, k, e, fd.SAMPLES, fd.SEARCH_BUDGET, floor, hints, *bvh, 0.0)
+    assert np.array_equal(seq.step_geometric_error, want)
+    given = real(mesh, topo)
+    alive = given.tri_alive.copy()
+    assert np.array_equal(step_geometric_errors(mesh, given, b, k, e), want)
+    assert np.array_equal(given.tri_alive, alive)
+
+
 def _live_stars(head, cnext, alive, tri_pos) -> list:
     """Every position's live star rows, in the order its corner list gives them (what a replay reads)."""
     stars = []
