@@ -42,8 +42,25 @@ import numpy as np
 from ..errors import MeshLoadError
 from ..mesh import Mesh
 from . import over_budget
-from .clean import clean_mesh, concatenate_parts, rgba_float, split_corners, transform_part
-from .gltf_prepare import _COMPONENT, _WIDTH, _document, _Unread, gltf_triangle_count, prepared_gltf
+from .clean import (
+    clean_mesh,
+    concatenate_parts,
+    rgba_float,
+    split_corners,
+    transform_instances,
+    transform_part,
+)
+from .gltf_prepare import (
+    _COMPONENT,
+    _WIDTH,
+    INSTANCES_KEY,
+    INSTANCING,
+    InstancingUnread,
+    _document,
+    _Unread,
+    gltf_triangle_count,
+    prepare_gltf,
+)
 
 _TEXT_TYPES = ("obj", "off")
 #: a binary STL: an 80-byte header, the triangle count (uint32), then 50 bytes per triangle
@@ -513,6 +530,28 @@ def _geometry_transforms(graph: Any) -> dict[Any, tuple[np.ndarray, Any]]:
         if graph.repair_rigid is not None:
             matrix = fix_rigid(matrix, max_deviance=graph.repair_rigid)
         out[node] = (matrix, forest.node_data[node].get("geometry"))
+    return out
+
+
+def _node_instances(
+    graph: Any, placed: dict[Any, tuple[np.ndarray, Any]], instances: dict[int, np.ndarray]
+) -> dict[Any, np.ndarray]:
+    """{node of trimesh's scene ``graph``: its instances' transforms} of the nodes of ``placed`` that the
+    glTF rewrite marked as the ``EXT_mesh_gpu_instancing`` node of ``instances`` (trimesh keeps a node's
+    extensions in the metadata of the edge to it, and those of a mesh of several primitives on each
+    primitive's edge)."""
+    if not instances:
+        return {}
+    forest = graph.transforms
+    out = {}
+    for node in placed:
+        edge = forest.edge_data.get((forest.parents.get(node), node), {})
+        meta = edge.get("metadata") if isinstance(edge, dict) else None
+        extensions = meta.get("gltf_extensions") if isinstance(meta, dict) else None
+        ext = extensions.get(INSTANCING) if isinstance(extensions, dict) else None
+        key = ext.get(INSTANCES_KEY) if isinstance(ext, dict) else None
+        if isinstance(key, int) and key in instances:
+            out[node] = instances[key]
     return out
 
 
@@ -1101,6 +1140,7 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
 
     file_type = path.suffix.lower().lstrip(".")
     data = b""
+    instances: dict[int, np.ndarray] = {}  # (a glTF's EXT_mesh_gpu_instancing nodes: their transforms)
     try:
         if max_triangles is not None and file_type not in ("ply", "obj", "off"):  # (obj: once read)
             if file_type != "glb" or glb_chunk_problem(path) is None:  # (not read(a chunk's length))
@@ -1140,19 +1180,24 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
                 )
         elif file_type == "glb" and (problem := glb_chunk_problem(path)) is not None:
             raise MeshLoadError(path, _glb_length_problem(path) or problem)  # ("truncated" when it is)
-        elif file_type in ("gltf", "glb") and (prepared := prepared_gltf(path)) is not None:
+        elif file_type in ("gltf", "glb") and (prepared := prepare_gltf(path)) is not None:
             resolver = trimesh.resolvers.FilePathResolver(str(path))
             scene = trimesh.load_scene(
-                io.BytesIO(prepared), file_type="gltf", resolver=resolver, process=False
+                io.BytesIO(prepared.data), file_type="gltf", resolver=resolver, process=False
             )
+            instances = prepared.instances
         else:
             scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
         parts = []
         placed = _geometry_transforms(scene.graph)
+        instanced = _node_instances(scene.graph, placed, instances)
         if max_triangles is not None:  # (parsed: the exact count, before anything is transformed or cleaned)
-            n = sum(len(getattr(scene.geometry.get(g), "faces", ())) for _, g in placed.values())
+            n = sum(
+                len(getattr(scene.geometry.get(g), "faces", ())) * len(instanced.get(k, (None,)))
+                for k, (_, g) in placed.items()
+            )
             over_budget(path, n, max_triangles)
-        for matrix, geom_name in placed.values():
+        for node, (matrix, geom_name) in placed.items():
             geom = scene.geometry[geom_name]
             colours = None
             if file_type == "off" and isinstance(geom, trimesh.Trimesh):
@@ -1165,7 +1210,10 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
                         stacklevel=3,
                     )
             part = _geometry_part(geom, colours)
-            if part is not None:
+            if part is not None and node in instanced:
+                if len(instanced[node]):  # (no instances: nothing drawn)
+                    parts.append(transform_instances(part, matrix, instanced[node]))
+            elif part is not None:
                 parts.append(transform_part(part, matrix))
     except MeshLoadError:
         raise
@@ -1198,6 +1246,8 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
             problem = None if problem is None else f"not a valid {file_type.upper()} file: {problem}"
         if problem is not None:
             raise MeshLoadError(path, problem) from e
+        if isinstance(e, InstancingUnread):
+            raise MeshLoadError(path, f"its {INSTANCING} nodes could not be read ({e})") from e
         raise MeshLoadError(path, f"trimesh could not read it ({type(e).__name__}: {e})") from e
     if not parts:
         raise MeshLoadError(path, "no triangles: the file holds no triangle geometry")
