@@ -911,11 +911,15 @@ def _off_problem(data: bytes) -> str | None:
     element with a sequence", "cannot reshape array of size 14 into shape (5,3)")."""
     rows = _numbered_rows(data)
     first = next(rows, None)
-    if first is None or _OFF_HEADER.fullmatch(first[1][0]) is None:
+    if first is None:
         return None
+    if _OFF_HEADER.fullmatch(first[1][0]) is None:
+        return f"line {first[0]}: {_shown(first[1][0])} is not 'OFF' (nor a variant of it: COFF, NOFF...)"
     number, counts = (first[0], first[1][1:]) if len(first[1]) > 1 else next(rows, (first[0], []))
     try:
         n_vertices, n_faces = int(counts[0]), int(counts[1])
+        if len(counts) > 2:
+            int(counts[2])  # (the edge count: trimesh reads it as a whole number too)
     except (IndexError, ValueError):
         return f"line {number}: the counts line {_shown(b' '.join(counts))} is not vertices, faces, edges"
     for k in range(n_vertices):
@@ -1000,6 +1004,107 @@ def _ply_ascii_problem(data: bytes) -> str | None:
                 declared = int(float(words[0]))
                 return f"line {number}: {name} {k} declares {declared} values and lists {len(words) - 1}"
     return None
+
+
+def _undecoded(data: bytes, at: int, e: UnicodeDecodeError) -> str:
+    """Where the bytes ``data`` (from byte ``at`` of the file) stop being UTF-8, as a message's end."""
+    offset = at + e.start
+    line = data.count(b"\n", 0, e.start) + 1
+    return f"byte 0x{data[e.start]:02x} at byte offset {offset} (line {line}) is not UTF-8 text"
+
+
+def _glb_json_problem(data: bytes) -> str | None:
+    """What is wrong with the header or the JSON chunk of the .glb file of bytes ``data`` (not 'glTF', not
+    version 2, a first chunk that is not JSON, JSON that does not parse: where, as a byte offset of the
+    file), or None (asked once trimesh has failed on it: "incorrect header on GLB file", a JSONDecodeError
+    of the chunk without a word of where it is, "'utf-8' codec can't decode byte")."""
+    if len(data) < 20:
+        return f"not a valid GLB file: {len(data)} bytes, shorter than its 12-byte header and a chunk's 8"
+    magic, version, _ = struct.unpack_from("<4sII", data)
+    if magic != b"glTF":
+        return f"not a GLB file: it starts with {magic!r}, not b'glTF'"
+    if version != 2:
+        return f"not a valid GLB file: its header says version {version}, not 2"
+    size, kind = struct.unpack_from("<II", data, 12)
+    if kind != 0x4E4F534A:
+        return f"not a valid GLB file: its first chunk is of type 0x{kind:08x}, not JSON (0x4e4f534a)"
+    chunk = data[20 : 20 + size]
+    try:
+        text = chunk.decode("utf-8")
+    except UnicodeDecodeError as e:
+        return f"not a valid GLB file: its JSON chunk: {_undecoded(chunk, 20, e)}"
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as e:
+        where = f"byte offset {20 + len(text[: e.pos].encode())} (line {e.lineno} of the chunk)"
+        return f"not a valid GLB file: its JSON chunk is not JSON: {e.msg} at {where}"
+    except (ValueError, RecursionError) as e:
+        return f"not a valid GLB file: its JSON chunk is not JSON ({type(e).__name__})"
+    if not isinstance(doc, dict):
+        return f"not a valid GLB file: its JSON chunk is {_kind(doc)}, not an object"
+    return None
+
+
+def _ply_header_problem(data: bytes) -> str | None:
+    """What is wrong with the header of the PLY file of bytes ``data`` (no 'ply' line, no 'end_header', a
+    byte that is not ASCII, a line that is not a PLY header line, a type or a count that is not one), with
+    its line; or None (asked once trimesh has failed on it: "Not a ply file!", "'utf-8' codec can't
+    decode byte 0xec in position 0", "PLY is unexpected length!", a KeyError of a type)."""
+    if not data.startswith(b"ply"):
+        return f"not a PLY file: it starts with {data[:8]!r}, not b'ply'"
+    end = re.search(rb"(?m)^end_header[ \t]*\r?$", data[:_PLY_HEADER_BYTES])
+    if end is None:
+        within = f" in its first {_PLY_HEADER_BYTES} bytes" if len(data) > _PLY_HEADER_BYTES else ""
+        return f"not a valid PLY file: no 'end_header' line{within}"
+    head = data[: end.start()]
+    try:
+        text = head.decode("ascii")
+    except UnicodeDecodeError as e:
+        return f"not a valid PLY file: its header's {_undecoded(head, 0, e).replace('UTF-8', 'ASCII')}"
+    elements: dict[str, list[str]] = {}  # {element: its properties' names}
+    for number, line in enumerate(text.split("\n"), 1):
+        words = line.split()
+        if number == 1:
+            if line.strip() != "ply":
+                return f"not a valid PLY file: line 1 is {line[:40]!r}, not 'ply'"
+            continue
+        if not words or words[0] in ("comment", "obj_info"):
+            continue
+        shown = repr(line.strip()[:60])
+        if words[0] == "format":
+            if len(words) != 3 or words[1] not in ("ascii", "binary_little_endian", "binary_big_endian"):
+                return f"not a valid PLY file: line {number}: {shown} is not a PLY format"
+        elif words[0] == "element":
+            if len(words) != 3 or not words[2].isdigit():
+                return f"not a valid PLY file: line {number}: {shown} is not 'element NAME COUNT'"
+            elements[words[1]] = []
+        elif words[0] == "property":
+            if not elements:
+                return f"not a valid PLY file: line {number}: {shown} is a property before any element"
+            listed = len(words) == 5 and words[1] == "list"
+            types = words[2:4] if listed else words[1:2] if len(words) == 3 else []
+            bad = [t for t in types if t not in _PLY_TYPES]
+            if not types or bad:
+                what = f"{bad[0]!r} is not a PLY type" if bad else "not 'property TYPE NAME'"
+                if not bad and words[1] == "list":
+                    what = "not 'property list COUNT_TYPE ITEM_TYPE NAME'"
+                return f"not a valid PLY file: line {number}: {shown}: {what}"
+            elements[list(elements)[-1]].append(words[-1])
+        else:
+            return f"not a valid PLY file: line {number}: {shown} is not a PLY header line"
+    if not re.search(rb"(?m)^format ", head):
+        return "not a valid PLY file: its header has no 'format' line"
+    missing = [c for c in ("x", "y", "z") if c not in elements.get("vertex", ["x", "y", "z"])]
+    if missing:
+        return f"not a valid PLY file: its element vertex has no property {missing[0]!r}"
+    return None
+
+
+#: the check of a file's header (or a .glb's JSON chunk), by type, asked once trimesh has failed on it
+_HEADER_PROBLEMS: dict[str, Callable[[bytes], str | None]] = {
+    "glb": _glb_json_problem,
+    "ply": _ply_header_problem,
+}
 
 
 #: the check of a text file's rows, by type, asked once trimesh has failed on it
@@ -1230,6 +1335,11 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
             raise MeshLoadError(path, f"not a valid glTF file: {problem}") from e
         problem = _read_problem(path, ply_problem) if file_type == "ply" else None
         problem = _glb_length_problem(path) if file_type == "glb" else problem
+        if problem is None and file_type in _HEADER_PROBLEMS:
+            try:
+                problem = _read_problem(path, _HEADER_PROBLEMS[file_type])
+            except Exception:  # noqa: BLE001 - (a look for the message: trimesh's is given without it)
+                problem = None
         if problem is None and file_type in ("gltf", "glb"):
             try:
                 problem = _gltf_structure_problem(path)

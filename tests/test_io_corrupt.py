@@ -1,0 +1,125 @@
+"""Corrupt files the loaders refused in trimesh's words ("trimesh could not read it (JSONDecodeError:
+Expecting ',' delimiter: line 1 column 35)", "Not a ply file!", "'utf-8' codec can't decode byte 0xec in
+position 0", "no field of name z", "not enough values to unpack"), found by a corruption campaign
+(``benchmarks/corrupt_campaign.py``): each is named in our words, with where it is (a byte offset or a
+line)."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from swpm_usd.errors import MeshLoadError
+from swpm_usd.io import load_mesh
+
+POINTS = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+
+
+def _export(file_type: str, **kwargs: object) -> bytes:
+    data = trimesh.Trimesh(POINTS, FACES, process=False).export(file_type=file_type, **kwargs)
+    return data.encode() if isinstance(data, str) else data
+
+
+def _refused(path: Path, data: bytes, says: str) -> str:
+    path.write_bytes(data)
+    with pytest.raises(MeshLoadError) as e:
+        load_mesh(path)
+    assert e.value.path == str(path)
+    assert "trimesh could not read it" not in e.value.problem
+    assert says in e.value.problem, e.value.problem
+    return e.value.problem
+
+
+def _glb_json(edit) -> bytes:
+    """The tetrahedron's .glb with its JSON chunk's text edited by ``edit`` (bytes -> bytes of the same
+    length)."""
+    data = _export("glb")
+    n = struct.unpack_from("<I", data, 12)[0]
+    text = edit(data[20 : 20 + n])
+    assert len(text) == n
+    return data[:20] + text + data[20 + n :]
+
+
+def test_a_glb_json_chunk_that_is_not_json_is_named_with_its_byte_offset(tmp_path: Path) -> None:
+    def comma(text: bytes) -> bytes:
+        at = text.index(b":")
+        return text[:at] + b"," + text[at + 1 :]
+
+    at = 20 + _glb_json(lambda t: t)[20:].index(b":")
+    problem = _refused(tmp_path / "m.glb", _glb_json(comma), "its JSON chunk is not JSON: Expecting ':'")
+    assert f"at byte offset {at} (line 1 of the chunk)" in problem
+
+
+def test_a_glb_json_chunk_that_is_not_utf8_is_named_with_its_byte_offset(tmp_path: Path) -> None:
+    def bad(text: bytes) -> bytes:
+        return text[:30] + b"\xff" + text[31:]
+
+    _refused(
+        tmp_path / "m.glb",
+        _glb_json(bad),
+        "its JSON chunk: byte 0xff at byte offset 50 (line 1) is not UTF-8",
+    )
+
+
+@pytest.mark.parametrize(
+    ("edit", "says"),
+    [
+        (lambda d: b"solid" + d[5:], "not a GLB file: it starts with b'soli', not b'glTF'"),
+        (lambda d: d[:4] + struct.pack("<I", 1) + d[8:], "its header says version 1, not 2"),
+        (lambda d: d[:16] + b"ABCD" + d[20:], "its first chunk is of type 0x44434241, not JSON"),
+    ],
+    ids=["magic", "version", "chunk-type"],
+)
+def test_a_glb_header_trimesh_refuses_is_named(tmp_path: Path, edit, says: str) -> None:
+    _refused(tmp_path / "m.glb", edit(_export("glb")), says)
+
+
+@pytest.mark.parametrize("encoding", ["binary", "ascii"])
+def test_a_ply_header_that_is_not_ascii_is_named_with_its_byte_offset(tmp_path: Path, encoding: str) -> None:
+    data = _export("ply", encoding=encoding)
+    at = data.index(b"element vertex")
+    data = data[:at] + b"\xc3(" + data[at:]
+    line = data[:at].count(b"\n") + 1
+    _refused(
+        tmp_path / "m.ply", data, f"its header's byte 0xc3 at byte offset {at} (line {line}) is not ASCII"
+    )
+
+
+@pytest.mark.parametrize("encoding", ["binary", "ascii"])
+@pytest.mark.parametrize(
+    ("old", "new", "says"),
+    [
+        (b"property float z", b"property float binary_big_endian", "its element vertex has no property 'z'"),
+        (b"property float y", b"property nan y", "'property nan y': 'nan' is not a PLY type"),
+        (b"property float x", b"4294967295 float x", "'4294967295 float x' is not a PLY header line"),
+        (b"property float x", b"property float", "'property float': not 'property TYPE NAME'"),
+        (b"end_header", b"end_heade", "no 'end_header' line"),
+        (b"ply\n", b"OFF\n", "not a PLY file: it starts with b'OFF"),
+    ],
+    ids=["no-z", "type", "line", "short-property", "no-end", "magic"],
+)
+def test_a_ply_header_trimesh_refuses_is_named_with_its_line(
+    tmp_path: Path, encoding: str, old: bytes, new: bytes, says: str
+) -> None:
+    data = _export("ply", encoding=encoding)
+    assert old in data
+    _refused(tmp_path / "m.ply", data.replace(old, new, 1), says)
+
+
+@pytest.mark.parametrize(
+    ("edit", "says"),
+    [
+        (lambda d: b"x" + d[3:], "line 1: 'x' is not 'OFF'"),
+        (lambda d: d.replace(b"4 4 0", b"4 4 nan", 1), "line 2: the counts line '4 4 nan' is not vertices"),
+    ],
+    ids=["magic", "edges"],
+)
+def test_an_off_header_trimesh_refuses_is_named_with_its_line(tmp_path: Path, edit, says: str) -> None:
+    data = _export("off")
+    assert data.startswith(b"OFF\n4 4 0\n"), data[:20]
+    _refused(tmp_path / "m.off", edit(data), says)
