@@ -313,7 +313,7 @@ def transform_instances(part: Part, matrix: np.ndarray, instances: np.ndarray) -
     m = np.asarray(matrix, dtype=np.float64) @ np.asarray(instances, dtype=np.float64)
     n, v = m.shape[0], points.shape[0]
     lin = m[:, :3, :3]
-    placed = np.einsum("nij,vj->nvi", lin, points.astype(np.float64)) + m[:, None, :3, 3]
+    placed = points.astype(np.float64)[None] @ lin.transpose(0, 2, 1) + m[:, None, :3, 3]
     out = {name: np.tile(a, (n,) + (1,) * (a.ndim - 1)) for name, a in attrs.items()}
     det = np.linalg.det(lin)
     if "normal" in attrs:
@@ -322,7 +322,7 @@ def transform_instances(part: Part, matrix: np.ndarray, instances: np.ndarray) -
         regular = det != 0
         inverse[regular] = np.linalg.inv(lin[regular])
         inverse[~regular] = np.linalg.pinv(lin[~regular]) if (~regular).any() else inverse[~regular]
-        normals = np.einsum("vj,nji->nvi", attrs["normal"].astype(np.float64), inverse)
+        normals = attrs["normal"].astype(np.float64)[None] @ inverse
         length = np.linalg.norm(normals, axis=2, keepdims=True)
         out["normal"] = (normals / np.where(length > 0, length, 1.0)).astype(np.float32).reshape(n * v, 3)
     copies = np.broadcast_to(triangles, (n, *triangles.shape))
