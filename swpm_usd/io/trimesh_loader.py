@@ -559,9 +559,10 @@ def _gltf_json_problem(path: Path) -> str | None:
     """Why the .gltf file ``path`` is not a JSON object, or None if it is (asked once trimesh has failed on
     it: trimesh then reports a file it looked for instead, "FileNotFoundError: model.gltf")."""
     try:
-        tree = json.loads(path.read_bytes())
-    except UnicodeDecodeError:
-        return "not UTF-8 JSON"
+        data = path.read_bytes()
+        tree = json.loads(data.decode("utf-8-sig"))  # (UTF-8, as glTF says: not json's guess of UTF-16)
+    except UnicodeDecodeError as e:
+        return f"not UTF-8 JSON: {_undecoded(data, 0, e)}"
     except json.JSONDecodeError as e:
         return f"not JSON: {e}"
     except (OSError, ValueError, RecursionError) as e:
