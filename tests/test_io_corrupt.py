@@ -123,3 +123,40 @@ def test_an_off_header_trimesh_refuses_is_named_with_its_line(tmp_path: Path, ed
     data = _export("off")
     assert data.startswith(b"OFF\n4 4 0\n"), data[:20]
     _refused(tmp_path / "m.off", edit(data), says)
+
+
+@pytest.mark.parametrize("encoding", ["binary", "ascii"])
+def test_a_ply_comment_holding_end_header_is_named(tmp_path: Path, encoding: str) -> None:
+    """trimesh ends the header at any line holding the word (and then misreads the rest: "PLY is unexpected
+    length!", or "no field of name x")."""
+    data = _export("ply", encoding=encoding)
+    at = data.index(b"\n", data.index(b"format ")) + 1
+    data = data[:at] + b"comment end_header\n" + data[at:]
+    _refused(
+        tmp_path / "m.ply", data, "line 3: 'comment end_header' holds 'end_header' before the header's end"
+    )
+
+
+def test_an_ascii_ply_row_that_is_not_utf8_is_named_with_its_line(tmp_path: Path) -> None:
+    """A control character in a comment (a line end to ``splitlines``, not to trimesh) had the header not
+    read here, and a byte that is not UTF-8 in a row was trimesh's UnicodeDecodeError."""
+    data = _export("ply", encoding="ascii").replace(b"ply\n", b"ply\ncomment a\x1db\n", 1)
+    at = data.index(b"end_header\n") + len(b"end_header\n")
+    row = data[at:].index(b" ")
+    data = data[: at + row] + b"\xe9" + data[at + row :]
+    line = data[:at].count(b"\n") + 1
+    _refused(tmp_path / "m.ply", data, f"line {line}: vertex 0 holds")
+
+
+@pytest.mark.parametrize("part", ["nodes", "meshes"])
+def test_a_gltf_name_that_is_not_a_string_is_named(tmp_path: Path, part: str) -> None:
+    """trimesh said "TypeError: object of type 'int' has no len()"."""
+    import json
+
+    files = trimesh.Trimesh(POINTS, FACES, process=False).export(file_type="gltf")
+    doc = json.loads(files["model.gltf"])
+    doc[part][0]["name"] = -1
+    for name, data in files.items():
+        if name != "model.gltf":
+            (tmp_path / name).write_bytes(data)
+    _refused(tmp_path / "m.gltf", json.dumps(doc).encode(), f"{part}[0].name is a number, not a string")

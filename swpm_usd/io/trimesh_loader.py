@@ -185,7 +185,8 @@ def _ply_header(head: bytes) -> tuple[str, int, list[tuple[str, int, list[_PlyPr
         return None
     fmt = None
     elements: list[tuple[str, int, list[_PlyProperty]]] = []
-    for line in head[: end.start()].decode("ascii", "replace").splitlines()[1:]:
+    # (lines split at '\n' alone, as trimesh reads them: splitlines() also splits at '\x1c'-'\x1e', '\x85')
+    for line in head[: end.start()].decode("ascii", "replace").split("\n")[1:]:
         words = line.split()
         if not words or words[0] in ("comment", "obj_info"):
             continue
@@ -753,6 +754,8 @@ def _gltf_shape_problem(doc: Any) -> str | None:
         for i, item in enumerate(items):
             if not isinstance(item, dict):
                 return f"{name}[{i}] is {_kind(item)}, not an object"
+            if "name" in item and not isinstance(item["name"], str):
+                return f"{name}[{i}].name is {_kind(item['name'])}, not a string"
     n_nodes = len(doc.get("nodes", []))
 
     def node_list(value: Any) -> bool:
@@ -1069,9 +1072,11 @@ def _ply_header_problem(data: bytes) -> str | None:
             if line.strip() != "ply":
                 return f"not a valid PLY file: line 1 is {line[:40]!r}, not 'ply'"
             continue
+        shown = repr(line.strip()[:60])
+        if "end_header" in words:  # (trimesh ends the header at any line holding the word, a comment too)
+            return f"not a valid PLY file: line {number}: {shown} holds 'end_header' before the header's end"
         if not words or words[0] in ("comment", "obj_info"):
             continue
-        shown = repr(line.strip()[:60])
         if words[0] == "format":
             if len(words) != 3 or words[1] not in ("ascii", "binary_little_endian", "binary_big_endian"):
                 return f"not a valid PLY file: line {number}: {shown} is not a PLY format"
