@@ -346,3 +346,27 @@ def test_a_required_extension_the_loader_does_not_read_is_refused(tmp_path: Path
     assert e.value.path == str(path)
     b.doc["extensionsRequired"] = ["EXT_mesh_gpu_instancing", "KHR_materials_unlit", "KHR_texture_transform"]
     assert load_mesh(b.write(tmp_path / f"reads{suffix}")).triangle_count == 16
+
+
+def test_a_required_quantization_is_read(tmp_path: Path) -> None:
+    """KHR_mesh_quantization, which the loader reads (integer positions, normalized normals), is not
+    refused: its points come out as the node's scale makes them."""
+    b = Builder()
+    points = b.accessor((POINTS * 1000).astype(np.uint16), "VEC3", 5123)
+    normals = b.accessor(np.round(NORMALS * 127).astype(np.int8), "VEC3", 5120, normalized=True)
+    b.doc["meshes"] = [
+        {
+            "primitives": [
+                {
+                    "attributes": {"POSITION": points, "NORMAL": normals},
+                    "indices": b.accessor(FACES.reshape(-1), "SCALAR", 5123),
+                }
+            ]
+        }
+    ]
+    b.doc["nodes"] = [{"mesh": 0, "scale": [0.001, 0.001, 0.001]}]
+    b.doc["scenes"][0]["nodes"] = [0]
+    b.doc["extensionsRequired"] = b.doc["extensionsUsed"] = ["KHR_mesh_quantization"]
+    mesh = load_mesh(b.write(tmp_path / "quantized.glb"))
+    np.testing.assert_allclose(mesh.points[mesh.triangles], POINTS[FACES], atol=1e-6)
+    np.testing.assert_allclose(mesh.attributes["normal"][mesh.triangles], NORMALS[FACES], atol=0.02)
