@@ -49,14 +49,18 @@ class Builder:
             "scene": 0,
         }
 
-    def accessor(self, values: np.ndarray, kind: str, component: int, **extra: object) -> int:
+    def view(self, values: np.ndarray) -> int:
+        """A new bufferView of ``values``' bytes, its index."""
         self.blob.extend(b"\0" * (-len(self.blob) % 4))
         data = np.ascontiguousarray(values).tobytes()
         self.doc["bufferViews"].append({"buffer": 0, "byteOffset": len(self.blob), "byteLength": len(data)})
         self.blob.extend(data)
+        return len(self.doc["bufferViews"]) - 1
+
+    def accessor(self, values: np.ndarray, kind: str, component: int, **extra: object) -> int:
         count = values.shape[0] if values.ndim else 1
         self.doc["accessors"].append(
-            {"bufferView": len(self.doc["bufferViews"]) - 1, "componentType": component, "count": count}
+            {"bufferView": self.view(values), "componentType": component, "count": count}
             | {"type": kind}
             | extra
         )
@@ -370,3 +374,29 @@ def test_a_required_quantization_is_read(tmp_path: Path) -> None:
     mesh = load_mesh(b.write(tmp_path / "quantized.glb"))
     np.testing.assert_allclose(mesh.points[mesh.triangles], POINTS[FACES], atol=1e-6)
     np.testing.assert_allclose(mesh.attributes["normal"][mesh.triangles], NORMALS[FACES], atol=0.02)
+
+
+def test_instances_without_a_buffer_view_are_placed_once_each_where_they_differ(tmp_path: Path) -> None:
+    """A TRANSLATION of zeros but its sparse values: the 998 instances at no sparse index are one
+    transform, placed once (2^24 of them asked for 5.7 GiB); the mesh is the one of every instance written
+    out, whose copies at the origin cleaning drops as duplicates."""
+    n, where, moved = 1000, np.array([3, 7], np.uint16), np.array([[5, 0, 0], [0, 5, 0]], np.float32)
+    sparse = _instanced({"TRANSLATION": _translation})
+    ref = sparse.doc["nodes"][1]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["TRANSLATION"]
+    a = sparse.doc["accessors"][ref]
+    del a["bufferView"]
+    a["count"] = n
+    a["sparse"] = {
+        "count": 2,
+        "indices": {"bufferView": sparse.view(where), "componentType": 5123},
+        "values": {"bufferView": sparse.view(moved)},
+    }
+    dense_values = np.zeros((n, 3), np.float32)
+    dense_values[where] = moved
+    dense = _instanced({"TRANSLATION": lambda b: b.accessor(dense_values, "VEC3", 5126)})
+    got = load_mesh(sparse.write(tmp_path / "sparse.gltf"))
+    assert got.triangle_count == 4 * 3 + 4
+    expected = load_mesh(dense.write(tmp_path / "dense.glb"))
+    np.testing.assert_array_equal(got.points[got.triangles], expected.points[expected.triangles])
+    with pytest.raises(MeshLoadError, match="4004 triangles"):  # (the budget counts every instance)
+        load_mesh(tmp_path / "sparse.gltf", max_triangles=4003)
