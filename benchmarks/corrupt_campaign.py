@@ -4,10 +4,11 @@ chunks), each loaded by ``load_mesh`` in a forked process of its own (address sp
 time limit), and the outcomes counted: loaded, refused in our words, refused in trimesh's words ("trimesh
 could not read it (...)"), another exception, a crash or a hang; with the most memory and time a mutant took.
 
-    python benchmarks/corrupt_campaign.py [--mutants 3000] [--seed 126] [--show 60] [--out DIR]
+    python benchmarks/corrupt_campaign.py [--mutants 3000] [--seed 126] [--show 60] [--out DIR] [--only TEXT]
 
 The seeds are suzanne (967 triangles) and 300 triangles of spot (with vertex colours), written by trimesh
-as OBJ, binary and ASCII PLY and STL, OFF, GLB and .gltf (buffers inline).
+as OBJ, binary and ASCII PLY and STL, OFF, GLB and .gltf (buffers inline), and suzanne's GLB placed at 3
+instances by EXT_mesh_gpu_instancing (``--only instanced``: its mutants alone).
 """
 
 from __future__ import annotations
@@ -86,7 +87,37 @@ def seeds(folder: Path) -> dict[str, bytes]:
         for b in doc["buffers"]:
             b["uri"] = "data:application/octet-stream;base64," + base64.b64encode(files[b["uri"]]).decode()
         out[f"{stem}_gltf.gltf"] = json.dumps(doc, indent=1).encode()
+    out["suzanne_instanced.glb"] = _instanced(out["suzanne_glb.glb"])
     return out
+
+
+def _instanced(glb: bytes) -> bytes:
+    """The .glb ``glb`` with its mesh node placed at 3 instances (EXT_mesh_gpu_instancing: a float
+    TRANSLATION, a normalized short ROTATION, a float SCALE)."""
+    text, rest = _glb_parts(glb)
+    doc = json.loads(text)
+    n = struct.unpack_from("<I", rest)[0]
+    binary = bytearray(rest[8 : 8 + n])
+    attributes = {}
+    for name, values, component in [
+        ("TRANSLATION", np.array([[0, 0, 0], [5, 0, 0], [0, 5, 0]], np.float32), 5126),
+        ("ROTATION", np.array([[0, 0, 0, 32767], [0, 23170, 0, 23170], [0, 0, 32767, 0]], np.int16), 5122),
+        ("SCALE", np.array([[1, 1, 1], [2, 2, 2], [1, -1, 1]], np.float32), 5126),
+    ]:
+        binary.extend(b"\0" * (-len(binary) % 4))
+        doc["bufferViews"].append({"buffer": 0, "byteOffset": len(binary), "byteLength": values.nbytes})
+        binary.extend(values.tobytes())
+        kind = {3: "VEC3", 4: "VEC4"}[values.shape[1]]
+        accessor = {"bufferView": len(doc["bufferViews"]) - 1, "componentType": component, "count": 3}
+        normalized = {"normalized": True} if component == 5122 else {}
+        doc["accessors"].append(accessor | {"type": kind} | normalized)
+        attributes[name] = len(doc["accessors"]) - 1
+    binary.extend(b"\0" * (-len(binary) % 4))
+    doc["buffers"][0]["byteLength"] = len(binary)
+    node = next(node for node in doc["nodes"] if "mesh" in node)
+    node["extensions"] = {"EXT_mesh_gpu_instancing": {"attributes": attributes}}
+    doc["extensionsUsed"] = ["EXT_mesh_gpu_instancing"]
+    return _glb(json.dumps(doc).encode(), struct.pack("<II", len(binary), 0x004E4942) + bytes(binary))
 
 
 def _glb_parts(data: bytes) -> tuple[bytes, bytes] | None:
@@ -262,6 +293,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=126)
     parser.add_argument("--show", type=int, default=60, help="messages in trimesh's words (and worse) shown")
     parser.add_argument("--out", type=Path, default=None, help="keep the mutants worth a look here")
+    parser.add_argument("--only", default="", help="only the seeds whose name holds this")
     args = parser.parse_args()
 
     with tempfile.TemporaryDirectory(prefix="campaign-") as tmp:
@@ -279,7 +311,7 @@ def run(args: argparse.Namespace, folder: Path) -> None:
     counts: collections.Counter = collections.Counter()
     worst_rss = worst_time = (0, "")
     shown = []
-    names = sorted(base)
+    names = sorted(name for name in base if args.only in name)
     for k in range(args.mutants):
         name = names[k % len(names)]
         what, data = mutate(name, base[name], rng)
