@@ -160,3 +160,40 @@ def test_a_gltf_name_that_is_not_a_string_is_named(tmp_path: Path, part: str) ->
         if name != "model.gltf":
             (tmp_path / name).write_bytes(data)
     _refused(tmp_path / "m.gltf", json.dumps(doc).encode(), f"{part}[0].name is a number, not a string")
+
+
+@pytest.mark.parametrize(
+    ("asset", "says"),
+    [({"version": "1.0"}, "its asset.version is '1.0'"), (5, "its asset is a number")],
+    ids=["version", "not-object"],
+)
+def test_a_gltf_asset_that_is_not_gltf_2_is_named(tmp_path: Path, asset: object, says: str) -> None:
+    """trimesh said "NotImplementedError: only GLTF 2 is supported not `1`", or "'int' object has no
+    attribute 'get'"."""
+    import json
+
+    files = trimesh.Trimesh(POINTS, FACES, process=False).export(file_type="gltf")
+    doc = json.loads(files["model.gltf"])
+    doc["asset"] = asset
+    for name, data in files.items():
+        if name != "model.gltf":
+            (tmp_path / name).write_bytes(data)
+    _refused(tmp_path / "m.gltf", json.dumps(doc).encode(), f"{says}, not glTF 2's")
+
+
+def test_an_ascii_ply_face_list_of_another_name_is_named(tmp_path: Path) -> None:
+    """trimesh said "UnboundLocalError: cannot access local variable 'faces'"."""
+    data = _export("ply", encoding="ascii").replace(b"vertex_indices", b"corners", 1)
+    _refused(
+        tmp_path / "m.ply", data, "its element face has no property 'vertex_indices' (nor 'vertex_index')"
+    )
+
+
+def test_an_obj_line_of_f_and_more_is_named_with_its_line(tmp_path: Path) -> None:
+    """trimesh reads a line starting 'f5 ...' as a face and said "string or file could not be read to its
+    end due to unmatched data"."""
+    data = _export("obj")
+    lines = data.split(b"\n")
+    k = next(i for i, line in enumerate(lines) if line.startswith(b"v "))
+    lines[k] = b"f5" + lines[k][1:]
+    _refused(tmp_path / "m.obj", b"\n".join(lines), f"line {k + 1}: 'f5 ")

@@ -756,6 +756,11 @@ def _gltf_shape_problem(doc: Any) -> str | None:
                 return f"{name}[{i}] is {_kind(item)}, not an object"
             if "name" in item and not isinstance(item["name"], str):
                 return f"{name}[{i}].name is {_kind(item['name'])}, not a string"
+    asset = doc.get("asset")
+    version = asset.get("version") if isinstance(asset, dict) else None
+    if not isinstance(version, str) or not version.startswith("2."):
+        what = f"asset.version is {version!r}" if isinstance(asset, dict) else f"asset is {_kind(asset)}"
+        return f"its {what}, not glTF 2's ('version': '2.0')"
     n_nodes = len(doc.get("nodes", []))
 
     def node_list(value: Any) -> bool:
@@ -886,6 +891,8 @@ def _obj_problem(data: bytes) -> str | None:
                 return f"line {number}: a '{key.decode()}' row holds {len(words) - 1} values, not {need}"
             vertices += key == b"v"
     for number, words in _numbered_rows(data):
+        if words[0].startswith(b"f") and words[0] != b"f":  # (trimesh reads a line of 'f' and more as one)
+            return f"line {number}: {_shown(b' '.join(words[:6]))} starts with 'f', not a face ('f ...')"
         if words[0] != b"f":
             continue
         for corner in words[1:]:
@@ -1103,6 +1110,10 @@ def _ply_header_problem(data: bytes) -> str | None:
     missing = [c for c in ("x", "y", "z") if c not in elements.get("vertex", ["x", "y", "z"])]
     if missing:
         return f"not a valid PLY file: its element vertex has no property {missing[0]!r}"
+    face = elements.get("face", ["vertex_indices"])
+    named = {"vertex_indices", "vertex_index"} & set(face)  # (trimesh's names; a binary one's only list too)
+    if not named and (len(face) > 1 or re.search(rb"(?m)^format[ \t]+ascii", head)):
+        return "not a valid PLY file: its element face has no property 'vertex_indices' (nor 'vertex_index')"
     return None
 
 
