@@ -197,3 +197,32 @@ def test_an_obj_line_of_f_and_more_is_named_with_its_line(tmp_path: Path) -> Non
     k = next(i for i, line in enumerate(lines) if line.startswith(b"v "))
     lines[k] = b"f5" + lines[k][1:]
     _refused(tmp_path / "m.obj", b"\n".join(lines), f"line {k + 1}: 'f5 ")
+
+
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+def test_a_gltf_primitive_without_position_is_named(tmp_path: Path, suffix: str) -> None:
+    """trimesh said "KeyError: 'POSITION'"."""
+    import json
+
+    data = _export("glb")
+    n = struct.unpack_from("<I", data, 12)[0]
+    doc = json.loads(data[20 : 20 + n])
+    prim = doc["meshes"][0]["primitives"][0]
+    prim["attributes"] = {"POS]TION": prim["attributes"]["POSITION"]}
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    rest = data[20 + n :]
+    if suffix == ".gltf":
+        import base64
+
+        blob = rest[8 : 8 + struct.unpack_from("<I", rest)[0]]
+        doc["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64.b64encode(blob).decode()
+        out = json.dumps(doc).encode()
+    else:
+        body = struct.pack("<II", len(text), 0x4E4F534A) + text + rest
+        out = struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body
+    _refused(
+        tmp_path / f"m{suffix}",
+        out,
+        "meshes[0].primitives[0] has no POSITION attribute (its attributes: 'POS]TION')",
+    )

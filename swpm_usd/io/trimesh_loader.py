@@ -794,6 +794,9 @@ def _gltf_shape_problem(doc: Any) -> str | None:
         for k, prim in enumerate(primitives):
             if not isinstance(prim.get("attributes"), dict):
                 return f"meshes[{m}].primitives[{k}].attributes is not an object"
+            if "POSITION" not in prim["attributes"]:  # (trimesh's KeyError: 'POSITION')
+                names = ", ".join(repr(str(a)[:30]) for a in list(prim["attributes"])[:4]) or "none"
+                return f"meshes[{m}].primitives[{k}] has no POSITION attribute (its attributes: {names})"
             for key in ("indices", "material", "mode"):
                 if key in prim and not _index(prim[key]):
                     return f"meshes[{m}].primitives[{k}].{key} is {prim[key]!r}, not an index"
