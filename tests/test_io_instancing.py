@@ -400,3 +400,28 @@ def test_instances_without_a_buffer_view_are_placed_once_each_where_they_differ(
     np.testing.assert_array_equal(got.points[got.triangles], expected.points[expected.triangles])
     with pytest.raises(MeshLoadError, match="4004 triangles"):  # (the budget counts every instance)
         load_mesh(tmp_path / "sparse.gltf", max_triangles=4003)
+
+
+@pytest.mark.parametrize(
+    "extension",
+    [
+        "MSFT_texture_dds",
+        "EXT_texture_webp",
+        "KHR_texture_basisu",
+        "MSFT_packing_occlusionRoughnessMetallic",
+        "ADOBE_materials_thin_transparency",
+        "KHR_animation_pointer",
+        "EXT_structural_metadata",
+        "EXT_mesh_features",
+        "CESIUM_primitive_outline",
+    ],
+)
+def test_a_required_extension_about_what_is_not_loaded_is_left_aside(tmp_path: Path, extension: str) -> None:
+    """A texture format, a material packing, animation or metadata leaves the triangles as they are: main
+    loaded and drew such a file, and it is not refused for requiring one."""
+    b = Builder()
+    b.doc["nodes"] = [{"mesh": b.mesh(normals=False)}]
+    b.doc["scenes"][0]["nodes"] = [0]
+    b.doc["extensionsRequired"] = b.doc["extensionsUsed"] = [extension]
+    mesh = load_mesh(b.write(tmp_path / "required.glb"))
+    np.testing.assert_array_equal(mesh.points[mesh.triangles], POINTS[FACES])

@@ -464,21 +464,31 @@ _UNDECODED = ("EXT_meshopt_compression", "KHR_meshopt_compression", "KHR_draco_m
 
 #: the extensions a file may require that this loader reads (instancing: the rewrite; quantization: integer
 #: accessors, normalized ones rewritten) or may leave aside, being about what it does not load (materials,
-#: textures and their images, lights, metadata); glTF 2.0's loaders must refuse a file requiring any other
+#: textures and their images, lights, animation, metadata and feature ids, outlines: the triangles are the
+#: same without them, and main drew such files); glTF 2.0's loaders must refuse a file requiring any other
 _KNOWN_REQUIRED = frozenset(
     (
         INSTANCING,
         "KHR_mesh_quantization",
-        "KHR_texture_transform",
-        "KHR_texture_basisu",
-        "EXT_texture_webp",
-        "EXT_texture_avif",
         "KHR_lights_punctual",
         "EXT_lights_image_based",
         "KHR_xmp_json_ld",
+        "KHR_animation_pointer",
+        "EXT_structural_metadata",
+        "EXT_mesh_features",
+        "EXT_instance_features",
+        "CESIUM_primitive_outline",
     )
 )
-_KNOWN_PREFIXES = ("KHR_materials_",)
+#: families of the same kind: materials, texture formats and transforms, packed material textures
+_KNOWN_PREFIXES = (
+    "KHR_materials_",
+    "KHR_texture_",
+    "EXT_texture_",
+    "MSFT_texture_",
+    "MSFT_packing_",
+    "ADOBE_materials_",
+)
 
 
 def _check_extensions(path: Path, doc: Any) -> None:
