@@ -19,6 +19,7 @@ from trimesh import transformations as tf
 
 from swpm_usd.errors import MeshLoadError
 from swpm_usd.io import load_mesh
+from swpm_usd.io.gltf_prepare import prepare_gltf
 
 #: a tetrahedron: 4 points, 4 triangles, a normal a point
 POINTS = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], np.float32)
@@ -425,3 +426,41 @@ def test_a_required_extension_about_what_is_not_loaded_is_left_aside(tmp_path: P
     b.doc["extensionsRequired"] = b.doc["extensionsUsed"] = [extension]
     mesh = load_mesh(b.write(tmp_path / "required.glb"))
     np.testing.assert_array_equal(mesh.points[mesh.triangles], POINTS[FACES])
+
+
+def test_instances_without_a_buffer_view_are_not_written_out_for_each_node(tmp_path: Path) -> None:
+    """Four nodes reading one TRANSLATION of 2^24 zeros (no bufferView) and a sparse value: each node's
+    instances are read at the kept rows alone. Each node's read wrote out the 2^24 zeros (192 MiB, a second
+    of work: a 4.5 kB file of 40 such nodes took 33 s, against 1.8 s on main); the rewrite's peak is now
+    below 32 MiB."""
+    import tracemalloc
+
+    b = Builder()
+    mesh = b.mesh(normals=False)
+    b.doc["accessors"].append(
+        {
+            "componentType": 5126,
+            "count": 1 << 24,
+            "type": "VEC3",
+            "sparse": {
+                "count": 1,
+                "indices": {"bufferView": b.view(np.array([9], np.uint32)), "componentType": 5125},
+                "values": {"bufferView": b.view(np.array([[5, 0, 0]], np.float32))},
+            },
+        }
+    )
+    ext = {"EXT_mesh_gpu_instancing": {"attributes": {"TRANSLATION": len(b.doc["accessors"]) - 1}}}
+    b.doc["nodes"] = [{"mesh": mesh, "translation": [0, 0, 10.0 * k], "extensions": ext} for k in range(4)]
+    b.doc["scenes"][0]["nodes"] = [0, 1, 2, 3]
+    path = b.write(tmp_path / "zeros.gltf")
+    tracemalloc.start()
+    try:  # (the rewrite's: trimesh then reads the accessor's zeros once, for the file)
+        prepared = prepare_gltf(path)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert prepared is not None and [len(m) for m in prepared.instances.values()] == [2] * 4
+    mesh = load_mesh(path)
+    assert mesh.triangle_count == 4 * 2 * 4  # (each node: the copy at 0, the one at the sparse value)
+    assert np.isclose(mesh.points[:, 0].max(), 6) and np.isclose(mesh.points[:, 2].max(), 31)
+    assert peak < 32 << 20, f"{peak / 2**20:.0f} MiB"

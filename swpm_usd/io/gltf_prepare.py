@@ -225,15 +225,17 @@ class _Rewrite:
             )
         return count
 
-    def read(self, i: int) -> np.ndarray:
-        """Accessor ``i`` as a (count, width) array: its sparse values applied, normalized values as float."""
+    def read(self, i: int, rows: np.ndarray | None = None) -> np.ndarray:
+        """Accessor ``i`` as a (count, width) array: its sparse values applied, normalized values as float.
+        ``rows`` (sorted, holding every sparse index), for an accessor without a bufferView: those rows alone
+        (its zeros are not allocated for every element)."""
         a = self.doc["accessors"][i]
         dtype = np.dtype("<" + _COMPONENT[a["componentType"]])
         width, count = _WIDTH[a["type"]], self.count(i)
         if "bufferView" in a:
-            values = self._strided(a["bufferView"], a.get("byteOffset", 0), count, dtype, width)
+            values, rows = self._strided(a["bufferView"], a.get("byteOffset", 0), count, dtype, width), None
         else:
-            values = np.zeros((count, width), dtype)
+            values = np.zeros((count if rows is None else rows.shape[0], width), dtype)
         sparse = a.get("sparse")
         if sparse:
             n, si, sv = sparse["count"], sparse["indices"], sparse["values"]
@@ -244,7 +246,8 @@ class _Rewrite:
                     self.path,
                     f"accessor {i}: a sparse index ({int(where.max())}) is past its {count} elements",
                 )
-            values[where] = self._strided(sv["bufferView"], sv.get("byteOffset", 0), n, dtype, width)
+            at = where if rows is None else np.searchsorted(rows, where)
+            values[at] = self._strided(sv["bufferView"], sv.get("byteOffset", 0), n, dtype, width)
         if a.get("normalized") and dtype.kind in "iu":
             top = np.float32(np.iinfo(dtype).max)
             values = values.astype(np.float32) / top
@@ -319,27 +322,44 @@ def _instance_matrices(r: _Rewrite, i: int, ext: dict) -> np.ndarray:
     if len(set(counts.values())) > 1:
         shown = ", ".join(f"{name} {n}" for name, n in counts.items())
         raise MeshLoadError(r.path, f"{where} attributes differ in count ({shown}), the extension needs one")
-    values = {}
+    unread = (_Unread, KeyError, IndexError, TypeError, ValueError, OSError)
     for name in attrs:  # (each count checked against its bytes before anything is allocated for it)
         try:
             r.count(attrs[name])
-            if name not in _INSTANCE_ATTRIBUTES:
-                continue
-            v = r.read(attrs[name])
         except MeshLoadError as e:
             raise MeshLoadError(r.path, f"{where} {name} (accessor {attrs[name]}): {e.problem}") from e
-        except (_Unread, KeyError, IndexError, TypeError, ValueError, OSError) as e:
+        except unread as e:
             raise MeshLoadError(
                 r.path, f"{where} {name} (accessor {attrs[name]}) does not read from its bufferView"
             ) from e
+    n = next(iter(counts.values()), 0)
+    try:
+        keep = _distinct_instances(r, attrs, n)
+    except MeshLoadError as e:
+        raise MeshLoadError(r.path, f"{where} sparse indices: {e.problem}") from e
+    except unread as e:
+        raise MeshLoadError(r.path, f"{where} sparse indices do not read from their bufferView") from e
+    values = {}
+    for name in attrs:
+        if name not in _INSTANCE_ATTRIBUTES:  # (an application's own: its count alone is checked)
+            continue
+        try:  # (the kept instances alone: an accessor of zeros is not written out for each node reading it)
+            v = r.read(attrs[name], rows=keep if "bufferView" not in accessors[attrs[name]] else None)
+        except MeshLoadError as e:
+            raise MeshLoadError(r.path, f"{where} {name} (accessor {attrs[name]}): {e.problem}") from e
+        except unread as e:
+            raise MeshLoadError(
+                r.path, f"{where} {name} (accessor {attrs[name]}) does not read from its bufferView"
+            ) from e
+        if "bufferView" in accessors[attrs[name]]:
+            v = v[keep]
         bad = ~np.isfinite(v).all(axis=1)
         if bad.any():
             k = int(np.argmax(bad))
-            raise MeshLoadError(r.path, f"{where} {name} of instance {k} is {v[k].tolist()}, not finite")
-        values[name] = v
-    n = next(iter(counts.values()), 0)
-    keep = _distinct_instances(r, attrs, n)
-    values = {name: v[keep].astype(np.float64) for name, v in values.items()}
+            raise MeshLoadError(
+                r.path, f"{where} {name} of instance {int(keep[k])} is {v[k].tolist()}, not finite"
+            )
+        values[name] = v.astype(np.float64)
     matrices = np.broadcast_to(np.eye(4), (keep.shape[0], 4, 4)).copy()
     if "ROTATION" in values:
         q = values["ROTATION"]
@@ -373,7 +393,7 @@ def _distinct_instances(r: _Rewrite, attrs: dict, n: int) -> np.ndarray:
         return np.arange(n)
     sparse = [np.zeros(0, np.int64)]
     for a in accessors:
-        if a.get("sparse"):  # (read, and its indices checked, by _Rewrite.read)
+        if a.get("sparse"):  # (its indices checked against the count by _Rewrite.read, next)
             si = a["sparse"]["indices"]
             idt = np.dtype("<" + _COMPONENT[si["componentType"]])
             where = r._strided(si["bufferView"], si.get("byteOffset", 0), a["sparse"]["count"], idt, 1)
