@@ -200,13 +200,17 @@ def test_an_obj_line_of_f_and_more_is_named_with_its_line(tmp_path: Path) -> Non
 
 
 @pytest.mark.parametrize("suffix", [".gltf", ".glb"])
-def test_a_gltf_primitive_without_position_is_named(tmp_path: Path, suffix: str) -> None:
-    """trimesh said "KeyError: 'POSITION'"."""
+@pytest.mark.parametrize("asset", [True, False])
+def test_a_gltf_primitive_without_position_is_named(tmp_path: Path, suffix: str, asset: bool) -> None:
+    """trimesh said "KeyError: 'POSITION'". A file without its ``asset`` (which trimesh reads) is named for
+    the primitive too, not for the asset."""
     import json
 
     data = _export("glb")
     n = struct.unpack_from("<I", data, 12)[0]
     doc = json.loads(data[20 : 20 + n])
+    if not asset:
+        del doc["asset"]
     prim = doc["meshes"][0]["primitives"][0]
     prim["attributes"] = {"POS]TION": prim["attributes"]["POSITION"]}
     text = json.dumps(doc).encode()

@@ -756,11 +756,6 @@ def _gltf_shape_problem(doc: Any) -> str | None:
                 return f"{name}[{i}] is {_kind(item)}, not an object"
             if "name" in item and not isinstance(item["name"], str):
                 return f"{name}[{i}].name is {_kind(item['name'])}, not a string"
-    asset = doc.get("asset")
-    version = asset.get("version") if isinstance(asset, dict) else None
-    if not isinstance(version, str) or not version.startswith("2."):
-        what = f"asset.version is {version!r}" if isinstance(asset, dict) else f"asset is {_kind(asset)}"
-        return f"its {what}, not glTF 2's ('version': '2.0')"
     n_nodes = len(doc.get("nodes", []))
 
     def node_list(value: Any) -> bool:
@@ -803,6 +798,12 @@ def _gltf_shape_problem(doc: Any) -> str | None:
     for i, buf in enumerate(doc.get("buffers", [])):
         if not _index(buf.get("byteLength")):
             return f"buffers[{i}].byteLength is {buf.get('byteLength')!r}, not a byte count"
+    # (last: trimesh reads a file without an asset, so a problem above is the more likely cause)
+    asset = doc.get("asset")
+    version = asset.get("version") if isinstance(asset, dict) else None
+    if not isinstance(version, str) or not version.startswith("2."):
+        what = f"asset.version is {version!r}" if isinstance(asset, dict) else f"asset is {_kind(asset)}"
+        return f"its {what}, not glTF 2's ('version': '2.0')"
     return None
 
 
