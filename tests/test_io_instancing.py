@@ -464,3 +464,16 @@ def test_instances_without_a_buffer_view_are_not_written_out_for_each_node(tmp_p
     assert mesh.triangle_count == 4 * 2 * 4  # (each node: the copy at 0, the one at the sparse value)
     assert np.isclose(mesh.points[:, 0].max(), 6) and np.isclose(mesh.points[:, 2].max(), 31)
     assert peak < 32 << 20, f"{peak / 2**20:.0f} MiB"
+
+
+def test_an_instanced_file_whose_buffer_file_is_missing_names_it(tmp_path: Path) -> None:
+    """trimesh names a missing buffer file ("FileNotFoundError: forest.bin"); the instances' read said its
+    accessor "does not read from its bufferView"."""
+    b = _instanced({"TRANSLATION": _translation})
+    path = b.write(tmp_path / "forest.gltf")
+    doc = json.loads(path.read_text())
+    doc["buffers"][0]["uri"] = "forest.bin"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(MeshLoadError, match=r"FileNotFoundError.*forest\.bin") as e:
+        load_mesh(path)
+    assert e.value.path == str(path)

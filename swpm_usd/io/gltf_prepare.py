@@ -329,9 +329,7 @@ def _instance_matrices(r: _Rewrite, i: int, ext: dict) -> np.ndarray:
         except MeshLoadError as e:
             raise MeshLoadError(r.path, f"{where} {name} (accessor {attrs[name]}): {e.problem}") from e
         except unread as e:
-            raise MeshLoadError(
-                r.path, f"{where} {name} (accessor {attrs[name]}) does not read from its bufferView"
-            ) from e
+            raise MeshLoadError(r.path, f"{where} {name} (accessor {attrs[name]}) {_unread_why(e)}") from e
     n = next(iter(counts.values()), 0)
     try:
         keep = _distinct_instances(r, attrs, n)
@@ -348,9 +346,7 @@ def _instance_matrices(r: _Rewrite, i: int, ext: dict) -> np.ndarray:
         except MeshLoadError as e:
             raise MeshLoadError(r.path, f"{where} {name} (accessor {attrs[name]}): {e.problem}") from e
         except unread as e:
-            raise MeshLoadError(
-                r.path, f"{where} {name} (accessor {attrs[name]}) does not read from its bufferView"
-            ) from e
+            raise MeshLoadError(r.path, f"{where} {name} (accessor {attrs[name]}) {_unread_why(e)}") from e
         if "bufferView" in accessors[attrs[name]]:
             v = v[keep]
         bad = ~np.isfinite(v).all(axis=1)
@@ -380,6 +376,14 @@ def _instance_matrices(r: _Rewrite, i: int, ext: dict) -> np.ndarray:
     if "TRANSLATION" in values:
         matrices[:, :3, 3] = values["TRANSLATION"]
     return matrices
+
+
+def _unread_why(e: Exception) -> str:
+    """Why an instance accessor did not read, as a message's end: its buffer's file (missing, say: named by
+    the OSError) or its bufferView."""
+    if isinstance(e, OSError):
+        return f"does not read: its buffer's file does not read ({type(e).__name__}: {e})"
+    return "does not read from its bufferView"
 
 
 def _distinct_instances(r: _Rewrite, attrs: dict, n: int) -> np.ndarray:
