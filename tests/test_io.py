@@ -735,7 +735,7 @@ def test_garbage_bytes(tmp_path: Path, ext: str) -> None:
 @pytest.mark.parametrize(
     ("text", "problem"),
     [
-        (b"\x89garbage", "not UTF-8 JSON"),
+        (b"\x89garbage", "not UTF-8 JSON: byte 0x89 at byte offset 0"),
         (b'{"asset": {"version": "2.0"}, "buffers": [', "not JSON: Expecting value: line 1 column 43"),
         (b"[1, 2, 3]", "the JSON is a list, not an object"),
     ],

@@ -26,8 +26,9 @@ def load_mesh(
     """Load the mesh file at ``path`` (type chosen by suffix) as one cleaned triangle mesh.
 
     Several geometries (glTF nodes, OBJ objects, USD Mesh prims) are concatenated with their transforms
-    applied. ``prim_path`` (USD only) restricts loading to the Mesh prims at and under that prim. UV and
-    normal seams are kept: vertices sharing a position but not their attributes stay distinct.
+    applied (a glTF node's ``EXT_mesh_gpu_instancing`` instances each placed). ``prim_path`` (USD only)
+    restricts loading to the Mesh prims at and under that prim. UV and normal seams are kept: vertices
+    sharing a position but not their attributes stay distinct.
 
     ``max_triangles``: a file holding more triangles than this (counted before cleaning, each instance of a
     glTF mesh or USD prototype counted) is a :class:`MeshLoadError`, raised as early as the format tells the

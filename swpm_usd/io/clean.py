@@ -302,3 +302,30 @@ def transform_part(part: Part, matrix: np.ndarray) -> Part:
     if np.linalg.det(lin) < 0:
         triangles = triangles[:, ::-1]
     return points, triangles, attrs
+
+
+def transform_instances(part: Part, matrix: np.ndarray, instances: np.ndarray) -> Part:
+    """The part placed at each of ``instances`` ((N, 4, 4) transforms, column vectors) and then by
+    ``matrix`` (its node's transform: ``matrix @ instance``), the copies concatenated in the instances'
+    order; each copy is :func:`transform_part`'s, computed for all of them at once (a mirroring instance's
+    copy flips its winding)."""
+    points, triangles, attrs = part
+    m = np.asarray(matrix, dtype=np.float64) @ np.asarray(instances, dtype=np.float64)
+    n, v = m.shape[0], points.shape[0]
+    lin = m[:, :3, :3]
+    placed = points.astype(np.float64)[None] @ lin.transpose(0, 2, 1) + m[:, None, :3, 3]
+    out = {name: np.tile(a, (n,) + (1,) * (a.ndim - 1)) for name, a in attrs.items()}
+    det = np.linalg.det(lin)
+    if "normal" in attrs:
+        # the inverse transpose of each (row vectors: n @ inv(lin)); pinv keeps a collapsed axis finite
+        inverse = np.empty_like(lin)
+        regular = det != 0
+        inverse[regular] = np.linalg.inv(lin[regular])
+        inverse[~regular] = np.linalg.pinv(lin[~regular]) if (~regular).any() else inverse[~regular]
+        normals = attrs["normal"].astype(np.float64)[None] @ inverse
+        length = np.linalg.norm(normals, axis=2, keepdims=True)
+        out["normal"] = (normals / np.where(length > 0, length, 1.0)).astype(np.float32).reshape(n * v, 3)
+    copies = np.broadcast_to(triangles, (n, *triangles.shape))
+    copies = np.where((det < 0)[:, None, None], copies[:, :, ::-1], copies)
+    copies = copies + (np.arange(n, dtype=triangles.dtype) * v)[:, None, None]
+    return placed.reshape(n * v, 3), copies.reshape(-1, 3), out

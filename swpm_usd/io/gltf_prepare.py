@@ -12,13 +12,18 @@ trimesh (the loader behind :mod:`.trimesh_loader`) silently
 * loads nothing from a file without ``scenes`` (valid glTF: its nodes are then not in a scene), which the
   loader reported as "no triangles";
 * loads a geometry compressed by an extension it cannot decode (meshopt; Draco without DracoPy) as zeros,
-  which the loader reported as "all triangles are degenerate": :func:`prepared_gltf` names the extension.
+  which the loader reported as "all triangles are degenerate": :func:`prepared_gltf` names the extension;
+* reads a node of ``EXT_mesh_gpu_instancing`` as one copy of its mesh: :func:`prepare_gltf` reads its
+  instances' transforms (:func:`_instance_matrices`), which the loader applies to the node's mesh;
+* reads a file whatever extension its ``extensionsRequired`` lists: one this loader neither implements
+  nor can leave aside (:data:`_KNOWN_REQUIRED`) is refused.
 
 :func:`prepared_gltf` returns, for a file that uses any of them, the document rewritten so trimesh reads what
 the file means (dense float accessors in one added buffer, fans as triangle lists, a plain material added for
 the uv to be read, a camera taken off a node with a mesh or children, a scene of every root node), as
 ``.gltf`` JSON with its buffers inline; None for a file that uses none of them (read as before)
-or whose structure does not read (trimesh then says what is wrong).
+or whose structure does not read (trimesh then says what is wrong). :func:`prepare_gltf` returns the
+instances' transforms with it.
 """
 
 from __future__ import annotations
@@ -28,7 +33,7 @@ import json
 import os
 import struct
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -45,6 +50,20 @@ _CHUNK = struct.Struct("<II")
 _GLB_JSON, _GLB_BIN = 0x4E4F534A, 0x004E4942
 #: the most elements of an accessor without a bufferView (zeros, sparse values applied) made dense
 _ZEROS_MAX = 1 << 24
+
+
+#: the glTF extension placing a node's mesh at each of its instances
+INSTANCING = "EXT_mesh_gpu_instancing"
+#: the key the rewrite puts in an instanced node's extension (its node index) for the loader to find its
+#: instances in trimesh's scene graph, which keeps a node's extensions in its edge's metadata
+INSTANCES_KEY = "swpm_usd_instances"
+#: EXT_mesh_gpu_instancing's attributes read here: (accessor type, the component types allowed, of which
+#: those that must be normalized)
+_INSTANCE_ATTRIBUTES = {
+    "TRANSLATION": ("VEC3", (_FLOAT,), ()),
+    "ROTATION": ("VEC4", (_FLOAT, 5120, 5122), (5120, 5122)),
+    "SCALE": ("VEC3", (_FLOAT,), ()),
+}
 
 
 class _Unread(Exception):
@@ -99,7 +118,7 @@ def _needs(doc: dict) -> bool:
                 return True
             if "TEXCOORD_0" in attrs and "material" not in p:
                 return True
-    if any(_camera_over_geometry(n) for n in doc.get("nodes") or []):
+    if any(_camera_over_geometry(n) or _instancing(n) is not None for n in doc.get("nodes") or []):
         return True
     return "scenes" not in doc and bool(doc.get("nodes") or doc.get("meshes"))
 
@@ -113,6 +132,17 @@ def _camera_over_geometry(node: Any) -> bool:
         and "camera" in node
         and bool(node.get("mesh") is not None or node.get("children"))
     )
+
+
+def _instancing(node: Any) -> dict | None:
+    """The ``EXT_mesh_gpu_instancing`` object of ``node`` when it places the node's mesh at instances (a
+    node with a mesh and an attribute; the extension defines nothing for a node without a mesh, and a node
+    without attributes is drawn as a plain node, as three.js draws it), else None."""
+    if not isinstance(node, dict) or node.get("mesh") is None:
+        return None
+    extensions = node.get("extensions")
+    ext = extensions.get(INSTANCING) if isinstance(extensions, dict) else None
+    return ext if isinstance(ext, dict) and "attributes" in ext and ext["attributes"] != {} else None
 
 
 class _Rewrite:
@@ -195,15 +225,17 @@ class _Rewrite:
             )
         return count
 
-    def read(self, i: int) -> np.ndarray:
-        """Accessor ``i`` as a (count, width) array: its sparse values applied, normalized values as float."""
+    def read(self, i: int, rows: np.ndarray | None = None) -> np.ndarray:
+        """Accessor ``i`` as a (count, width) array: its sparse values applied, normalized values as float.
+        ``rows`` (sorted, holding every sparse index), for an accessor without a bufferView: those rows alone
+        (its zeros are not allocated for every element)."""
         a = self.doc["accessors"][i]
         dtype = np.dtype("<" + _COMPONENT[a["componentType"]])
         width, count = _WIDTH[a["type"]], self.count(i)
         if "bufferView" in a:
-            values = self._strided(a["bufferView"], a.get("byteOffset", 0), count, dtype, width)
+            values, rows = self._strided(a["bufferView"], a.get("byteOffset", 0), count, dtype, width), None
         else:
-            values = np.zeros((count, width), dtype)
+            values = np.zeros((count if rows is None else rows.shape[0], width), dtype)
         sparse = a.get("sparse")
         if sparse:
             n, si, sv = sparse["count"], sparse["indices"], sparse["values"]
@@ -214,7 +246,8 @@ class _Rewrite:
                     self.path,
                     f"accessor {i}: a sparse index ({int(where.max())}) is past its {count} elements",
                 )
-            values[where] = self._strided(sv["bufferView"], sv.get("byteOffset", 0), n, dtype, width)
+            at = where if rows is None else np.searchsorted(rows, where)
+            values[at] = self._strided(sv["bufferView"], sv.get("byteOffset", 0), n, dtype, width)
         if a.get("normalized") and dtype.kind in "iu":
             top = np.float32(np.iinfo(dtype).max)
             values = values.astype(np.float32) / top
@@ -242,7 +275,143 @@ class _Rewrite:
         return len(self.doc["accessors"]) - 1
 
 
-def _rewrite(path: Path, doc: dict, binary: bytes | None) -> bytes:
+def _node_name(doc: dict, i: int) -> str:
+    name = doc["nodes"][i].get("name")
+    return f"node {i}" + (f" ({name[:60]!r})" if isinstance(name, str) else "")
+
+
+def _instance_matrices(r: _Rewrite, i: int, ext: dict) -> np.ndarray:
+    """The (instances, 4, 4) transforms (column vectors: translation x rotation x scale, each optional) of
+    node ``i``'s ``EXT_mesh_gpu_instancing`` object ``ext``; a :class:`MeshLoadError` naming the node for an
+    attribute that is not an accessor of the type the extension gives it, counts that differ, a value that is
+    not finite or a rotation of length 0."""
+    doc, where = r.doc, f"{_node_name(r.doc, i)}: its {INSTANCING}"
+    attrs, accessors = ext.get("attributes"), doc.get("accessors")
+    if not isinstance(attrs, dict):
+        raise MeshLoadError(r.path, f"{where} attributes are not an object")
+    accessors = accessors if isinstance(accessors, list) else []
+    counts = {}
+    for name, ref in attrs.items():
+        a = accessors[ref] if _index(ref) and ref < len(accessors) else None
+        if not isinstance(a, dict):
+            raise MeshLoadError(r.path, f"{where} {name} is accessor {ref!r}, the file has {len(accessors)}")
+        count = a.get("count")
+        if not _index(count):
+            raise MeshLoadError(r.path, f"{where} {name} (accessor {ref}) has count {count!r}, not a count")
+        counts[name] = count
+        if name not in _INSTANCE_ATTRIBUTES:  # (an application's own, "_ID": its count alone is checked)
+            continue
+        kind, components, normalized = _INSTANCE_ATTRIBUTES[name]
+        component = a.get("componentType")
+        if (
+            a.get("type") != kind
+            or component not in components
+            or (component in normalized) != bool(a.get("normalized", False))
+        ):
+            allowed = (
+                " or ".join(f"{'normalized ' if c in normalized else ''}{_COMPONENT[c]}" for c in components)
+                .replace("f4", "float")
+                .replace("i1", "byte")
+                .replace("i2", "short")
+            )
+            raise MeshLoadError(
+                r.path,
+                f"{where} {name} (accessor {ref}) is {a.get('type')!r} of componentType {component!r}"
+                f"{' normalized' if a.get('normalized') else ''}, not {kind} of {allowed}",
+            )
+    if len(set(counts.values())) > 1:
+        shown = ", ".join(f"{name} {n}" for name, n in counts.items())
+        raise MeshLoadError(r.path, f"{where} attributes differ in count ({shown}), the extension needs one")
+    unread = (_Unread, KeyError, IndexError, TypeError, ValueError, OSError)
+    for name in attrs:  # (each count checked against its bytes before anything is allocated for it)
+        try:
+            r.count(attrs[name])
+        except MeshLoadError as e:
+            raise MeshLoadError(r.path, f"{where} {name} (accessor {attrs[name]}): {e.problem}") from e
+        except unread as e:
+            raise MeshLoadError(r.path, f"{where} {name} (accessor {attrs[name]}) {_unread_why(e)}") from e
+    n = next(iter(counts.values()), 0)
+    try:
+        keep = _distinct_instances(r, attrs, n)
+    except MeshLoadError as e:
+        raise MeshLoadError(r.path, f"{where} sparse indices: {e.problem}") from e
+    except unread as e:
+        raise MeshLoadError(r.path, f"{where} sparse indices do not read from their bufferView") from e
+    values = {}
+    for name in attrs:
+        if name not in _INSTANCE_ATTRIBUTES:  # (an application's own: its count alone is checked)
+            continue
+        try:  # (the kept instances alone: an accessor of zeros is not written out for each node reading it)
+            v = r.read(attrs[name], rows=keep if "bufferView" not in accessors[attrs[name]] else None)
+        except MeshLoadError as e:
+            raise MeshLoadError(r.path, f"{where} {name} (accessor {attrs[name]}): {e.problem}") from e
+        except unread as e:
+            raise MeshLoadError(r.path, f"{where} {name} (accessor {attrs[name]}) {_unread_why(e)}") from e
+        if "bufferView" in accessors[attrs[name]]:
+            v = v[keep]
+        bad = ~np.isfinite(v).all(axis=1)
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise MeshLoadError(
+                r.path, f"{where} {name} of instance {int(keep[k])} is {v[k].tolist()}, not finite"
+            )
+        values[name] = v.astype(np.float64)
+    matrices = np.broadcast_to(np.eye(4), (keep.shape[0], 4, 4)).copy()
+    if "ROTATION" in values:
+        q = values["ROTATION"]
+        length = np.linalg.norm(q, axis=1)
+        if (length == 0).any():
+            k = int(keep[np.argmax(length == 0)])
+            raise MeshLoadError(r.path, f"{where} ROTATION of instance {k} is a quaternion of length 0")
+        x, y, z, w = (q / length[:, None]).T  # (normalized ints are rounded; a float one may be off too)
+        matrices[:, :3, :3] = np.stack(
+            [
+                [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+            ]
+        ).transpose(2, 0, 1)
+    if "SCALE" in values:  # (R x S: each column of the rotation scaled)
+        matrices[:, :3, :3] *= values["SCALE"][:, None, :]
+    if "TRANSLATION" in values:
+        matrices[:, :3, 3] = values["TRANSLATION"]
+    return matrices
+
+
+def _unread_why(e: Exception) -> str:
+    """Why an instance accessor did not read, as a message's end: its buffer's file (missing, say: named by
+    the OSError) or its bufferView."""
+    if isinstance(e, OSError):
+        return f"does not read: its buffer's file does not read ({type(e).__name__}: {e})"
+    return "does not read from its bufferView"
+
+
+def _distinct_instances(r: _Rewrite, attrs: dict, n: int) -> np.ndarray:
+    """The instances (of ``n``) to place: all of them, but when no TRANSLATION, ROTATION or SCALE has a
+    bufferView (each one zeros but its sparse values), those at none of the sparse indices are one
+    transform: the first of them stands for them all (their copies would be the same triangles, which
+    cleaning drops). A 762-byte .gltf's TRANSLATION of 2^24 zeros asked for 5.7 GiB and 95 s before a
+    MemoryError."""
+    accessors = [r.doc["accessors"][attrs[name]] for name in _INSTANCE_ATTRIBUTES if name in attrs]
+    if any("bufferView" in a for a in accessors):
+        return np.arange(n)
+    sparse = [np.zeros(0, np.int64)]
+    for a in accessors:
+        if a.get("sparse"):  # (its indices checked against the count by _Rewrite.read, next)
+            si = a["sparse"]["indices"]
+            idt = np.dtype("<" + _COMPONENT[si["componentType"]])
+            where = r._strided(si["bufferView"], si.get("byteOffset", 0), a["sparse"]["count"], idt, 1)
+            sparse.append(where[:, 0].astype(np.int64))
+    placed = np.unique(np.concatenate(sparse))
+    rest = np.setdiff1d(np.arange(min(n, placed.shape[0] + 1)), placed)[:1]  # (the first at no index)
+    return np.union1d(placed, rest)
+
+
+def _index(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def _rewrite(path: Path, doc: dict, binary: bytes | None) -> tuple[bytes, dict[int, np.ndarray]]:
     r = _Rewrite(path, doc, binary)
     accessors = doc.get("accessors") or []
     dense: dict[int, int] = {}  # an odd accessor -> its dense float (or index) copy
@@ -282,9 +451,16 @@ def _rewrite(path: Path, doc: dict, binary: bytes | None) -> bytes:
                     doc.setdefault("materials", []).append({"name": "swpm-usd default (for the uv to load)"})
                     material = len(doc["materials"]) - 1
                 p["material"] = material
-    for node in doc.get("nodes") or []:
+    instances: dict[int, np.ndarray] = {}
+    for i, node in enumerate(doc.get("nodes") or []):
         if _camera_over_geometry(node):  # (the camera is not loaded: its node stays, as an empty node)
             del node["camera"]
+        ext = _instancing(node)
+        if ext is not None:
+            instances[i] = _instance_matrices(r, i, ext)
+            node["extensions"][INSTANCING] = {INSTANCES_KEY: i}
+        elif isinstance(node, dict) and isinstance(node.get("extensions"), dict):
+            node["extensions"].pop(INSTANCING, None)  # (a file's own key is not taken for the rewrite's)
     if "scenes" not in doc:
         nodes = doc.get("nodes") or []
         if not nodes:  # (meshes and no node: each mesh at the origin)
@@ -302,7 +478,7 @@ def _rewrite(path: Path, doc: dict, binary: bytes | None) -> bytes:
                 "uri": "data:application/octet-stream;base64," + base64.b64encode(bytes(r.extra)).decode(),
             }
         )
-    return json.dumps(doc).encode()
+    return json.dumps(doc).encode(), instances
 
 
 #: extensions that compress a glTF's geometry, which trimesh cannot decode (Draco: without DracoPy); their
@@ -310,15 +486,52 @@ def _rewrite(path: Path, doc: dict, binary: bytes | None) -> bytes:
 _UNDECODED = ("EXT_meshopt_compression", "KHR_meshopt_compression", "KHR_draco_mesh_compression")
 
 
+#: the extensions a file may require that this loader reads (instancing: the rewrite; quantization: integer
+#: accessors, normalized ones rewritten) or may leave aside, being about what it does not load (materials,
+#: textures and their images, lights, animation, metadata and feature ids, outlines: the triangles are the
+#: same without them, and main drew such files); glTF 2.0's loaders must refuse a file requiring any other
+_KNOWN_REQUIRED = frozenset(
+    (
+        INSTANCING,
+        "KHR_mesh_quantization",
+        "KHR_lights_punctual",
+        "EXT_lights_image_based",
+        "KHR_xmp_json_ld",
+        "KHR_animation_pointer",
+        "EXT_structural_metadata",
+        "EXT_mesh_features",
+        "EXT_instance_features",
+        "CESIUM_primitive_outline",
+    )
+)
+#: families of the same kind: materials, texture formats and transforms, packed material textures
+_KNOWN_PREFIXES = (
+    "KHR_materials_",
+    "KHR_texture_",
+    "EXT_texture_",
+    "MSFT_texture_",
+    "MSFT_packing_",
+    "ADOBE_materials_",
+)
+
+
 def _check_extensions(path: Path, doc: Any) -> None:
     """Raise a :class:`MeshLoadError` when the document requires a geometry compression trimesh cannot
-    decode here."""
+    decode here, or an extension this loader neither reads nor may leave aside (trimesh read any, with
+    what it changes ignored)."""
     import importlib.util
 
     required = doc.get("extensionsRequired") if isinstance(doc, dict) else None
     for name in required if isinstance(required, list) else []:
         if name not in _UNDECODED:
-            continue
+            if isinstance(name, str) and (name in _KNOWN_REQUIRED or name.startswith(_KNOWN_PREFIXES)):
+                continue
+            shown = repr(name[:80]) if isinstance(name, str) else f"{name!r:.80}"
+            raise MeshLoadError(
+                path,
+                f"it requires the glTF extension {shown} (extensionsRequired), which this loader does not "
+                "read: export it without that extension",
+            )
         if name == "KHR_draco_mesh_compression" and importlib.util.find_spec("DracoPy") is not None:
             continue
         hint = " (pip install DracoPy)" if name == "KHR_draco_mesh_compression" else ""
@@ -366,8 +579,8 @@ def gltf_triangle_count(path: Path) -> int | None:
     """The triangles the .gltf or .glb file ``path`` declares, read from its JSON alone (no buffer): each
     node of its scene (as trimesh loads it: the ``scene``, else the first; every root node when there is
     none) with a mesh counts that mesh's triangles (a primitive's ``indices`` count / 3, or its
-    ``POSITION`` count / 3; strips and fans: count - 2; points and lines none). None when the document does
-    not read (the load then says why)."""
+    ``POSITION`` count / 3; strips and fans: count - 2; points and lines none), times its
+    ``EXT_mesh_gpu_instancing`` instances. None when the document does not read (the load then says why)."""
     try:
         doc = _json_document(path)
     except (_Unread, OSError, ValueError, RecursionError):
@@ -380,6 +593,14 @@ def gltf_triangle_count(path: Path) -> int | None:
     def accessor_count(ref: Any) -> int:
         a = accessors[ref] if _count(ref) is not None and ref < len(accessors) else None
         return (_count(a.get("count")) or 0) if isinstance(a, dict) else 0
+
+    def instances(node: Any) -> int:
+        """How many times the node's mesh is placed: its instances' count (the most its attributes give)."""
+        ext = _instancing(node)
+        attrs = ext.get("attributes") if ext is not None else None
+        if not isinstance(attrs, dict):
+            return 1
+        return max((accessor_count(ref) for ref in attrs.values()), default=1)
 
     per_mesh = []
     for mesh in meshes:
@@ -412,7 +633,7 @@ def gltf_triangle_count(path: Path) -> int | None:
     while stack:
         node = nodes[stack.pop()]
         m = node.get("mesh") if isinstance(node, dict) else None
-        total += per_mesh[m] if _count(m) is not None and m < len(per_mesh) else 0
+        total += per_mesh[m] * instances(node) if _count(m) is not None and m < len(per_mesh) else 0
         for c in children(node):
             if c not in seen:
                 seen.add(c)
@@ -420,9 +641,37 @@ def gltf_triangle_count(path: Path) -> int | None:
     return total
 
 
+#: what a rewrite of a document whose structure it does not read raises
+_UNREAD = (_Unread, OSError, ValueError, KeyError, IndexError, TypeError, AttributeError, RecursionError)
+
+
+class Prepared(NamedTuple):
+    """A glTF rewritten for trimesh (:func:`prepare_gltf`)."""
+
+    #: the document as ``.gltf`` JSON, buffers inline
+    data: bytes
+    #: {node index: its (instances, 4, 4) ``EXT_mesh_gpu_instancing`` transforms}; the node's extension in
+    #: ``data`` holds its index under :data:`INSTANCES_KEY`
+    instances: dict[int, np.ndarray]
+
+
+class InstancingUnread(Exception):
+    """A glTF with ``EXT_mesh_gpu_instancing`` nodes whose rewrite failed: trimesh alone would read each
+    such node as one copy of its mesh."""
+
+
 def prepared_gltf(path: Path) -> bytes | None:
     """The ``.gltf`` or ``.glb`` file ``path`` rewritten as ``.gltf`` JSON (buffers inline, images still by
     their uri) for trimesh to read what it means, or None when it needs no rewrite or does not read."""
+    prepared = prepare_gltf(path)
+    return None if prepared is None else prepared.data
+
+
+def prepare_gltf(path: Path) -> Prepared | None:
+    """:func:`prepared_gltf` with the instances of its ``EXT_mesh_gpu_instancing`` nodes. Raises
+    :class:`InstancingUnread` when the file has such nodes and its rewrite fails (trimesh, left to read it,
+    says what is wrong with it, or would read those nodes as one copy)."""
+    doc: Any = None
     try:
         if path.suffix.lower() == ".glb":  # (its JSON chunk first: one that needs nothing is read no further)
             doc = _json_document(path)
@@ -436,8 +685,11 @@ def prepared_gltf(path: Path) -> bytes | None:
         _check_counts(path, doc)
         if not isinstance(doc, dict) or not _needs(doc):
             return None
-        return _rewrite(path, doc, binary)
+        return Prepared(*_rewrite(path, doc, binary))
     except MeshLoadError:
         raise
-    except (_Unread, OSError, ValueError, KeyError, IndexError, TypeError, AttributeError, RecursionError):
+    except _UNREAD as e:
+        nodes = doc.get("nodes") if isinstance(doc, dict) else None
+        if isinstance(nodes, list) and any(_instancing(n) is not None for n in nodes):
+            raise InstancingUnread(f"{type(e).__name__}: {e}") from e
         return None

@@ -42,8 +42,25 @@ import numpy as np
 from ..errors import MeshLoadError
 from ..mesh import Mesh
 from . import over_budget
-from .clean import clean_mesh, concatenate_parts, rgba_float, split_corners, transform_part
-from .gltf_prepare import _COMPONENT, _WIDTH, _document, _Unread, gltf_triangle_count, prepared_gltf
+from .clean import (
+    clean_mesh,
+    concatenate_parts,
+    rgba_float,
+    split_corners,
+    transform_instances,
+    transform_part,
+)
+from .gltf_prepare import (
+    _COMPONENT,
+    _WIDTH,
+    INSTANCES_KEY,
+    INSTANCING,
+    InstancingUnread,
+    _document,
+    _Unread,
+    gltf_triangle_count,
+    prepare_gltf,
+)
 
 _TEXT_TYPES = ("obj", "off")
 #: a binary STL: an 80-byte header, the triangle count (uint32), then 50 bytes per triangle
@@ -168,7 +185,8 @@ def _ply_header(head: bytes) -> tuple[str, int, list[tuple[str, int, list[_PlyPr
         return None
     fmt = None
     elements: list[tuple[str, int, list[_PlyProperty]]] = []
-    for line in head[: end.start()].decode("ascii", "replace").splitlines()[1:]:
+    # (lines split at '\n' alone, as trimesh reads them: splitlines() also splits at '\x1c'-'\x1e', '\x85')
+    for line in head[: end.start()].decode("ascii", "replace").split("\n")[1:]:
         words = line.split()
         if not words or words[0] in ("comment", "obj_info"):
             continue
@@ -516,13 +534,36 @@ def _geometry_transforms(graph: Any) -> dict[Any, tuple[np.ndarray, Any]]:
     return out
 
 
+def _node_instances(
+    graph: Any, placed: dict[Any, tuple[np.ndarray, Any]], instances: dict[int, np.ndarray]
+) -> dict[Any, np.ndarray]:
+    """{node of trimesh's scene ``graph``: its instances' transforms} of the nodes of ``placed`` that the
+    glTF rewrite marked as the ``EXT_mesh_gpu_instancing`` node of ``instances`` (trimesh keeps a node's
+    extensions in the metadata of the edge to it, and those of a mesh of several primitives on each
+    primitive's edge)."""
+    if not instances:
+        return {}
+    forest = graph.transforms
+    out = {}
+    for node in placed:
+        edge = forest.edge_data.get((forest.parents.get(node), node), {})
+        meta = edge.get("metadata") if isinstance(edge, dict) else None
+        extensions = meta.get("gltf_extensions") if isinstance(meta, dict) else None
+        ext = extensions.get(INSTANCING) if isinstance(extensions, dict) else None
+        key = ext.get(INSTANCES_KEY) if isinstance(ext, dict) else None
+        if isinstance(key, int) and key in instances:
+            out[node] = instances[key]
+    return out
+
+
 def _gltf_json_problem(path: Path) -> str | None:
     """Why the .gltf file ``path`` is not a JSON object, or None if it is (asked once trimesh has failed on
     it: trimesh then reports a file it looked for instead, "FileNotFoundError: model.gltf")."""
     try:
-        tree = json.loads(path.read_bytes())
-    except UnicodeDecodeError:
-        return "not UTF-8 JSON"
+        data = path.read_bytes()
+        tree = json.loads(data.decode("utf-8-sig"))  # (UTF-8, as glTF says: not json's guess of UTF-16)
+    except UnicodeDecodeError as e:
+        return f"not UTF-8 JSON: {_undecoded(data, 0, e)}"
     except json.JSONDecodeError as e:
         return f"not JSON: {e}"
     except (OSError, ValueError, RecursionError) as e:
@@ -713,6 +754,8 @@ def _gltf_shape_problem(doc: Any) -> str | None:
         for i, item in enumerate(items):
             if not isinstance(item, dict):
                 return f"{name}[{i}] is {_kind(item)}, not an object"
+            if "name" in item and not isinstance(item["name"], str):
+                return f"{name}[{i}].name is {_kind(item['name'])}, not a string"
     n_nodes = len(doc.get("nodes", []))
 
     def node_list(value: Any) -> bool:
@@ -746,12 +789,21 @@ def _gltf_shape_problem(doc: Any) -> str | None:
         for k, prim in enumerate(primitives):
             if not isinstance(prim.get("attributes"), dict):
                 return f"meshes[{m}].primitives[{k}].attributes is not an object"
+            if "POSITION" not in prim["attributes"]:  # (trimesh's KeyError: 'POSITION')
+                names = ", ".join(repr(str(a)[:30]) for a in list(prim["attributes"])[:4]) or "none"
+                return f"meshes[{m}].primitives[{k}] has no POSITION attribute (its attributes: {names})"
             for key in ("indices", "material", "mode"):
                 if key in prim and not _index(prim[key]):
                     return f"meshes[{m}].primitives[{k}].{key} is {prim[key]!r}, not an index"
     for i, buf in enumerate(doc.get("buffers", [])):
         if not _index(buf.get("byteLength")):
             return f"buffers[{i}].byteLength is {buf.get('byteLength')!r}, not a byte count"
+    # (last: trimesh reads a file without an asset, so a problem above is the more likely cause)
+    asset = doc.get("asset")
+    version = asset.get("version") if isinstance(asset, dict) else None
+    if not isinstance(version, str) or not version.startswith("2."):
+        what = f"asset.version is {version!r}" if isinstance(asset, dict) else f"asset is {_kind(asset)}"
+        return f"its {what}, not glTF 2's ('version': '2.0')"
     return None
 
 
@@ -843,6 +895,8 @@ def _obj_problem(data: bytes) -> str | None:
                 return f"line {number}: a '{key.decode()}' row holds {len(words) - 1} values, not {need}"
             vertices += key == b"v"
     for number, words in _numbered_rows(data):
+        if words[0].startswith(b"f") and words[0] != b"f":  # (trimesh reads a line of 'f' and more as one)
+            return f"line {number}: {_shown(b' '.join(words[:6]))} starts with 'f', not a face ('f ...')"
         if words[0] != b"f":
             continue
         for corner in words[1:]:
@@ -872,11 +926,15 @@ def _off_problem(data: bytes) -> str | None:
     element with a sequence", "cannot reshape array of size 14 into shape (5,3)")."""
     rows = _numbered_rows(data)
     first = next(rows, None)
-    if first is None or _OFF_HEADER.fullmatch(first[1][0]) is None:
+    if first is None:
         return None
+    if _OFF_HEADER.fullmatch(first[1][0]) is None:
+        return f"line {first[0]}: {_shown(first[1][0])} is not 'OFF' (nor a variant of it: COFF, NOFF...)"
     number, counts = (first[0], first[1][1:]) if len(first[1]) > 1 else next(rows, (first[0], []))
     try:
         n_vertices, n_faces = int(counts[0]), int(counts[1])
+        if len(counts) > 2:
+            int(counts[2])  # (the edge count: trimesh reads it as a whole number too)
     except (IndexError, ValueError):
         return f"line {number}: the counts line {_shown(b' '.join(counts))} is not vertices, faces, edges"
     for k in range(n_vertices):
@@ -961,6 +1019,113 @@ def _ply_ascii_problem(data: bytes) -> str | None:
                 declared = int(float(words[0]))
                 return f"line {number}: {name} {k} declares {declared} values and lists {len(words) - 1}"
     return None
+
+
+def _undecoded(data: bytes, at: int, e: UnicodeDecodeError) -> str:
+    """Where the bytes ``data`` (from byte ``at`` of the file) stop being UTF-8, as a message's end."""
+    offset = at + e.start
+    line = data.count(b"\n", 0, e.start) + 1
+    return f"byte 0x{data[e.start]:02x} at byte offset {offset} (line {line}) is not UTF-8 text"
+
+
+def _glb_json_problem(data: bytes) -> str | None:
+    """What is wrong with the header or the JSON chunk of the .glb file of bytes ``data`` (not 'glTF', not
+    version 2, a first chunk that is not JSON, JSON that does not parse: where, as a byte offset of the
+    file), or None (asked once trimesh has failed on it: "incorrect header on GLB file", a JSONDecodeError
+    of the chunk without a word of where it is, "'utf-8' codec can't decode byte")."""
+    if len(data) < 20:
+        return f"not a valid GLB file: {len(data)} bytes, shorter than its 12-byte header and a chunk's 8"
+    magic, version, _ = struct.unpack_from("<4sII", data)
+    if magic != b"glTF":
+        return f"not a GLB file: it starts with {magic!r}, not b'glTF'"
+    if version != 2:
+        return f"not a valid GLB file: its header says version {version}, not 2"
+    size, kind = struct.unpack_from("<II", data, 12)
+    if kind != 0x4E4F534A:
+        return f"not a valid GLB file: its first chunk is of type 0x{kind:08x}, not JSON (0x4e4f534a)"
+    chunk = data[20 : 20 + size]
+    try:
+        text = chunk.decode("utf-8")
+    except UnicodeDecodeError as e:
+        return f"not a valid GLB file: its JSON chunk: {_undecoded(chunk, 20, e)}"
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as e:
+        where = f"byte offset {20 + len(text[: e.pos].encode())} (line {e.lineno} of the chunk)"
+        return f"not a valid GLB file: its JSON chunk is not JSON: {e.msg} at {where}"
+    except (ValueError, RecursionError) as e:
+        return f"not a valid GLB file: its JSON chunk is not JSON ({type(e).__name__})"
+    if not isinstance(doc, dict):
+        return f"not a valid GLB file: its JSON chunk is {_kind(doc)}, not an object"
+    return None
+
+
+def _ply_header_problem(data: bytes) -> str | None:
+    """What is wrong with the header of the PLY file of bytes ``data`` (no 'ply' line, no 'end_header', a
+    byte that is not ASCII, a line that is not a PLY header line, a type or a count that is not one), with
+    its line; or None (asked once trimesh has failed on it: "Not a ply file!", "'utf-8' codec can't
+    decode byte 0xec in position 0", "PLY is unexpected length!", a KeyError of a type)."""
+    if not data.startswith(b"ply"):
+        return f"not a PLY file: it starts with {data[:8]!r}, not b'ply'"
+    end = re.search(rb"(?m)^end_header[ \t]*\r?$", data[:_PLY_HEADER_BYTES])
+    if end is None:
+        within = f" in its first {_PLY_HEADER_BYTES} bytes" if len(data) > _PLY_HEADER_BYTES else ""
+        return f"not a valid PLY file: no 'end_header' line{within}"
+    head = data[: end.start()]
+    try:
+        text = head.decode("ascii")
+    except UnicodeDecodeError as e:
+        return f"not a valid PLY file: its header's {_undecoded(head, 0, e).replace('UTF-8', 'ASCII')}"
+    elements: dict[str, list[str]] = {}  # {element: its properties' names}
+    for number, line in enumerate(text.split("\n"), 1):
+        words = line.split()
+        if number == 1:
+            if line.strip() != "ply":
+                return f"not a valid PLY file: line 1 is {line[:40]!r}, not 'ply'"
+            continue
+        shown = repr(line.strip()[:60])
+        if "end_header" in words:  # (trimesh ends the header at any line holding the word, a comment too)
+            return f"not a valid PLY file: line {number}: {shown} holds 'end_header' before the header's end"
+        if not words or words[0] in ("comment", "obj_info"):
+            continue
+        if words[0] == "format":
+            if len(words) != 3 or words[1] not in ("ascii", "binary_little_endian", "binary_big_endian"):
+                return f"not a valid PLY file: line {number}: {shown} is not a PLY format"
+        elif words[0] == "element":
+            if len(words) != 3 or not words[2].isdigit():
+                return f"not a valid PLY file: line {number}: {shown} is not 'element NAME COUNT'"
+            elements[words[1]] = []
+        elif words[0] == "property":
+            if not elements:
+                return f"not a valid PLY file: line {number}: {shown} is a property before any element"
+            listed = len(words) == 5 and words[1] == "list"
+            types = words[2:4] if listed else words[1:2] if len(words) == 3 else []
+            bad = [t for t in types if t not in _PLY_TYPES]
+            if not types or bad:
+                what = f"{bad[0]!r} is not a PLY type" if bad else "not 'property TYPE NAME'"
+                if not bad and words[1] == "list":
+                    what = "not 'property list COUNT_TYPE ITEM_TYPE NAME'"
+                return f"not a valid PLY file: line {number}: {shown}: {what}"
+            elements[list(elements)[-1]].append(words[-1])
+        else:
+            return f"not a valid PLY file: line {number}: {shown} is not a PLY header line"
+    if not re.search(rb"(?m)^format ", head):
+        return "not a valid PLY file: its header has no 'format' line"
+    missing = [c for c in ("x", "y", "z") if c not in elements.get("vertex", ["x", "y", "z"])]
+    if missing:
+        return f"not a valid PLY file: its element vertex has no property {missing[0]!r}"
+    face = elements.get("face", ["vertex_indices"])
+    named = {"vertex_indices", "vertex_index"} & set(face)  # (trimesh's names; a binary one's only list too)
+    if not named and (len(face) > 1 or re.search(rb"(?m)^format[ \t]+ascii", head)):
+        return "not a valid PLY file: its element face has no property 'vertex_indices' (nor 'vertex_index')"
+    return None
+
+
+#: the check of a file's header (or a .glb's JSON chunk), by type, asked once trimesh has failed on it
+_HEADER_PROBLEMS: dict[str, Callable[[bytes], str | None]] = {
+    "glb": _glb_json_problem,
+    "ply": _ply_header_problem,
+}
 
 
 #: the check of a text file's rows, by type, asked once trimesh has failed on it
@@ -1101,6 +1266,7 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
 
     file_type = path.suffix.lower().lstrip(".")
     data = b""
+    instances: dict[int, np.ndarray] = {}  # (a glTF's EXT_mesh_gpu_instancing nodes: their transforms)
     try:
         if max_triangles is not None and file_type not in ("ply", "obj", "off"):  # (obj: once read)
             if file_type != "glb" or glb_chunk_problem(path) is None:  # (not read(a chunk's length))
@@ -1140,19 +1306,24 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
                 )
         elif file_type == "glb" and (problem := glb_chunk_problem(path)) is not None:
             raise MeshLoadError(path, _glb_length_problem(path) or problem)  # ("truncated" when it is)
-        elif file_type in ("gltf", "glb") and (prepared := prepared_gltf(path)) is not None:
+        elif file_type in ("gltf", "glb") and (prepared := prepare_gltf(path)) is not None:
             resolver = trimesh.resolvers.FilePathResolver(str(path))
             scene = trimesh.load_scene(
-                io.BytesIO(prepared), file_type="gltf", resolver=resolver, process=False
+                io.BytesIO(prepared.data), file_type="gltf", resolver=resolver, process=False
             )
+            instances = prepared.instances
         else:
             scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
         parts = []
         placed = _geometry_transforms(scene.graph)
+        instanced = _node_instances(scene.graph, placed, instances)
         if max_triangles is not None:  # (parsed: the exact count, before anything is transformed or cleaned)
-            n = sum(len(getattr(scene.geometry.get(g), "faces", ())) for _, g in placed.values())
+            n = sum(
+                len(getattr(scene.geometry.get(g), "faces", ())) * len(instanced.get(k, (None,)))
+                for k, (_, g) in placed.items()
+            )
             over_budget(path, n, max_triangles)
-        for matrix, geom_name in placed.values():
+        for node, (matrix, geom_name) in placed.items():
             geom = scene.geometry[geom_name]
             colours = None
             if file_type == "off" and isinstance(geom, trimesh.Trimesh):
@@ -1165,7 +1336,10 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
                         stacklevel=3,
                     )
             part = _geometry_part(geom, colours)
-            if part is not None:
+            if part is not None and node in instanced:
+                if len(instanced[node]):  # (no instances: nothing drawn)
+                    parts.append(transform_instances(part, matrix, instanced[node]))
+            elif part is not None:
                 parts.append(transform_part(part, matrix))
     except MeshLoadError:
         raise
@@ -1182,6 +1356,11 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
             raise MeshLoadError(path, f"not a valid glTF file: {problem}") from e
         problem = _read_problem(path, ply_problem) if file_type == "ply" else None
         problem = _glb_length_problem(path) if file_type == "glb" else problem
+        if problem is None and file_type in _HEADER_PROBLEMS:
+            try:
+                problem = _read_problem(path, _HEADER_PROBLEMS[file_type])
+            except Exception:  # noqa: BLE001 - (a look for the message: trimesh's is given without it)
+                problem = None
         if problem is None and file_type in ("gltf", "glb"):
             try:
                 problem = _gltf_structure_problem(path)
@@ -1198,6 +1377,8 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
             problem = None if problem is None else f"not a valid {file_type.upper()} file: {problem}"
         if problem is not None:
             raise MeshLoadError(path, problem) from e
+        if isinstance(e, InstancingUnread):
+            raise MeshLoadError(path, f"its {INSTANCING} nodes could not be read ({e})") from e
         raise MeshLoadError(path, f"trimesh could not read it ({type(e).__name__}: {e})") from e
     if not parts:
         raise MeshLoadError(path, "no triangles: the file holds no triangle geometry")

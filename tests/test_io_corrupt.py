@@ -1,0 +1,232 @@
+"""Corrupt files the loaders refused in trimesh's words ("trimesh could not read it (JSONDecodeError:
+Expecting ',' delimiter: line 1 column 35)", "Not a ply file!", "'utf-8' codec can't decode byte 0xec in
+position 0", "no field of name z", "not enough values to unpack"), found by a corruption campaign
+(``benchmarks/corrupt_campaign.py``): each is named in our words, with where it is (a byte offset or a
+line)."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from swpm_usd.errors import MeshLoadError
+from swpm_usd.io import load_mesh
+
+POINTS = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+
+
+def _export(file_type: str, **kwargs: object) -> bytes:
+    data = trimesh.Trimesh(POINTS, FACES, process=False).export(file_type=file_type, **kwargs)
+    return data.encode() if isinstance(data, str) else data
+
+
+def _refused(path: Path, data: bytes, says: str) -> str:
+    path.write_bytes(data)
+    with pytest.raises(MeshLoadError) as e:
+        load_mesh(path)
+    assert e.value.path == str(path)
+    assert "trimesh could not read it" not in e.value.problem
+    assert says in e.value.problem, e.value.problem
+    return e.value.problem
+
+
+def _glb_json(edit) -> bytes:
+    """The tetrahedron's .glb with its JSON chunk's text edited by ``edit`` (bytes -> bytes of the same
+    length)."""
+    data = _export("glb")
+    n = struct.unpack_from("<I", data, 12)[0]
+    text = edit(data[20 : 20 + n])
+    assert len(text) == n
+    return data[:20] + text + data[20 + n :]
+
+
+def test_a_glb_json_chunk_that_is_not_json_is_named_with_its_byte_offset(tmp_path: Path) -> None:
+    def comma(text: bytes) -> bytes:
+        at = text.index(b":")
+        return text[:at] + b"," + text[at + 1 :]
+
+    at = 20 + _glb_json(lambda t: t)[20:].index(b":")
+    problem = _refused(tmp_path / "m.glb", _glb_json(comma), "its JSON chunk is not JSON: Expecting ':'")
+    assert f"at byte offset {at} (line 1 of the chunk)" in problem
+
+
+def test_a_glb_json_chunk_that_is_not_utf8_is_named_with_its_byte_offset(tmp_path: Path) -> None:
+    def bad(text: bytes) -> bytes:
+        return text[:30] + b"\xff" + text[31:]
+
+    _refused(
+        tmp_path / "m.glb",
+        _glb_json(bad),
+        "its JSON chunk: byte 0xff at byte offset 50 (line 1) is not UTF-8",
+    )
+
+
+@pytest.mark.parametrize(
+    ("edit", "says"),
+    [
+        (lambda d: b"solid" + d[5:], "not a GLB file: it starts with b'soli', not b'glTF'"),
+        (lambda d: d[:4] + struct.pack("<I", 1) + d[8:], "its header says version 1, not 2"),
+        (lambda d: d[:16] + b"ABCD" + d[20:], "its first chunk is of type 0x44434241, not JSON"),
+    ],
+    ids=["magic", "version", "chunk-type"],
+)
+def test_a_glb_header_trimesh_refuses_is_named(tmp_path: Path, edit, says: str) -> None:
+    _refused(tmp_path / "m.glb", edit(_export("glb")), says)
+
+
+@pytest.mark.parametrize("encoding", ["binary", "ascii"])
+def test_a_ply_header_that_is_not_ascii_is_named_with_its_byte_offset(tmp_path: Path, encoding: str) -> None:
+    data = _export("ply", encoding=encoding)
+    at = data.index(b"element vertex")
+    data = data[:at] + b"\xc3(" + data[at:]
+    line = data[:at].count(b"\n") + 1
+    _refused(
+        tmp_path / "m.ply", data, f"its header's byte 0xc3 at byte offset {at} (line {line}) is not ASCII"
+    )
+
+
+@pytest.mark.parametrize("encoding", ["binary", "ascii"])
+@pytest.mark.parametrize(
+    ("old", "new", "says"),
+    [
+        (b"property float z", b"property float binary_big_endian", "its element vertex has no property 'z'"),
+        (b"property float y", b"property nan y", "'property nan y': 'nan' is not a PLY type"),
+        (b"property float x", b"4294967295 float x", "'4294967295 float x' is not a PLY header line"),
+        (b"property float x", b"property float", "'property float': not 'property TYPE NAME'"),
+        (b"end_header", b"end_heade", "no 'end_header' line"),
+        (b"ply\n", b"OFF\n", "not a PLY file: it starts with b'OFF"),
+    ],
+    ids=["no-z", "type", "line", "short-property", "no-end", "magic"],
+)
+def test_a_ply_header_trimesh_refuses_is_named_with_its_line(
+    tmp_path: Path, encoding: str, old: bytes, new: bytes, says: str
+) -> None:
+    data = _export("ply", encoding=encoding)
+    assert old in data
+    _refused(tmp_path / "m.ply", data.replace(old, new, 1), says)
+
+
+@pytest.mark.parametrize(
+    ("edit", "says"),
+    [
+        (lambda d: b"x" + d[3:], "line 1: 'x' is not 'OFF'"),
+        (lambda d: d.replace(b"4 4 0", b"4 4 nan", 1), "line 2: the counts line '4 4 nan' is not vertices"),
+    ],
+    ids=["magic", "edges"],
+)
+def test_an_off_header_trimesh_refuses_is_named_with_its_line(tmp_path: Path, edit, says: str) -> None:
+    data = _export("off")
+    assert data.startswith(b"OFF\n4 4 0\n"), data[:20]
+    _refused(tmp_path / "m.off", edit(data), says)
+
+
+@pytest.mark.parametrize("encoding", ["binary", "ascii"])
+def test_a_ply_comment_holding_end_header_is_named(tmp_path: Path, encoding: str) -> None:
+    """trimesh ends the header at any line holding the word (and then misreads the rest: "PLY is unexpected
+    length!", or "no field of name x")."""
+    data = _export("ply", encoding=encoding)
+    at = data.index(b"\n", data.index(b"format ")) + 1
+    data = data[:at] + b"comment end_header\n" + data[at:]
+    _refused(
+        tmp_path / "m.ply", data, "line 3: 'comment end_header' holds 'end_header' before the header's end"
+    )
+
+
+def test_an_ascii_ply_row_that_is_not_utf8_is_named_with_its_line(tmp_path: Path) -> None:
+    """A control character in a comment (a line end to ``splitlines``, not to trimesh) had the header not
+    read here, and a byte that is not UTF-8 in a row was trimesh's UnicodeDecodeError."""
+    data = _export("ply", encoding="ascii").replace(b"ply\n", b"ply\ncomment a\x1db\n", 1)
+    at = data.index(b"end_header\n") + len(b"end_header\n")
+    row = data[at:].index(b" ")
+    data = data[: at + row] + b"\xe9" + data[at + row :]
+    line = data[:at].count(b"\n") + 1
+    _refused(tmp_path / "m.ply", data, f"line {line}: vertex 0 holds")
+
+
+@pytest.mark.parametrize("part", ["nodes", "meshes"])
+def test_a_gltf_name_that_is_not_a_string_is_named(tmp_path: Path, part: str) -> None:
+    """trimesh said "TypeError: object of type 'int' has no len()"."""
+    import json
+
+    files = trimesh.Trimesh(POINTS, FACES, process=False).export(file_type="gltf")
+    doc = json.loads(files["model.gltf"])
+    doc[part][0]["name"] = -1
+    for name, data in files.items():
+        if name != "model.gltf":
+            (tmp_path / name).write_bytes(data)
+    _refused(tmp_path / "m.gltf", json.dumps(doc).encode(), f"{part}[0].name is a number, not a string")
+
+
+@pytest.mark.parametrize(
+    ("asset", "says"),
+    [({"version": "1.0"}, "its asset.version is '1.0'"), (5, "its asset is a number")],
+    ids=["version", "not-object"],
+)
+def test_a_gltf_asset_that_is_not_gltf_2_is_named(tmp_path: Path, asset: object, says: str) -> None:
+    """trimesh said "NotImplementedError: only GLTF 2 is supported not `1`", or "'int' object has no
+    attribute 'get'"."""
+    import json
+
+    files = trimesh.Trimesh(POINTS, FACES, process=False).export(file_type="gltf")
+    doc = json.loads(files["model.gltf"])
+    doc["asset"] = asset
+    for name, data in files.items():
+        if name != "model.gltf":
+            (tmp_path / name).write_bytes(data)
+    _refused(tmp_path / "m.gltf", json.dumps(doc).encode(), f"{says}, not glTF 2's")
+
+
+def test_an_ascii_ply_face_list_of_another_name_is_named(tmp_path: Path) -> None:
+    """trimesh said "UnboundLocalError: cannot access local variable 'faces'"."""
+    data = _export("ply", encoding="ascii").replace(b"vertex_indices", b"corners", 1)
+    _refused(
+        tmp_path / "m.ply", data, "its element face has no property 'vertex_indices' (nor 'vertex_index')"
+    )
+
+
+def test_an_obj_line_of_f_and_more_is_named_with_its_line(tmp_path: Path) -> None:
+    """trimesh reads a line starting 'f5 ...' as a face and said "string or file could not be read to its
+    end due to unmatched data"."""
+    data = _export("obj")
+    lines = data.split(b"\n")
+    k = next(i for i, line in enumerate(lines) if line.startswith(b"v "))
+    lines[k] = b"f5" + lines[k][1:]
+    _refused(tmp_path / "m.obj", b"\n".join(lines), f"line {k + 1}: 'f5 ")
+
+
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+@pytest.mark.parametrize("asset", [True, False])
+def test_a_gltf_primitive_without_position_is_named(tmp_path: Path, suffix: str, asset: bool) -> None:
+    """trimesh said "KeyError: 'POSITION'". A file without its ``asset`` (which trimesh reads) is named for
+    the primitive too, not for the asset."""
+    import json
+
+    data = _export("glb")
+    n = struct.unpack_from("<I", data, 12)[0]
+    doc = json.loads(data[20 : 20 + n])
+    if not asset:
+        del doc["asset"]
+    prim = doc["meshes"][0]["primitives"][0]
+    prim["attributes"] = {"POS]TION": prim["attributes"]["POSITION"]}
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    rest = data[20 + n :]
+    if suffix == ".gltf":
+        import base64
+
+        blob = rest[8 : 8 + struct.unpack_from("<I", rest)[0]]
+        doc["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64.b64encode(blob).decode()
+        out = json.dumps(doc).encode()
+    else:
+        body = struct.pack("<II", len(text), 0x4E4F534A) + text + rest
+        out = struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body
+    _refused(
+        tmp_path / f"m{suffix}",
+        out,
+        "meshes[0].primitives[0] has no POSITION attribute (its attributes: 'POS]TION')",
+    )
