@@ -5407,3 +5407,31 @@ def test_bench_cli_rusage_fails_on_a_run_that_did_not_end_as_expected(tmp_path):
     spec.loader.exec_module(bench)
     with pytest.raises(RuntimeError, match="exited with code 2"):
         bench._cli_rusage(["run", str(tmp_path / "missing.yaml"), "--json"], tmp_path)
+
+
+def test_a_dry_run_routes_by_an_objs_lower_bound_only_where_no_rule_above_it_matches_otherwise(
+    tmp_path, monkeypatch
+):
+    # suzanne.obj: 500 face lines, 967 triangles once cleaned. Under `max: 600` its lower bound (500) named
+    # rule tiny, which the run, counting 967, did not use: the dry run's plan was another encoding
+    import swpm_usd.io as io
+
+    (tmp_path / "m").mkdir()
+    shutil.copy(SHARED_MESHES / "suzanne.obj", tmp_path / "m" / "s.obj")
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    loaded: list[str] = []
+    real = io.load_mesh
+    monkeypatch.setattr(io, "load_mesh", lambda p, **kw: (loaded.append(Path(p).name), real(p, **kw))[1])
+    for bounds, encoding, count in (
+        ("{max: 600}", "vanilla", (967, "exact")),  # (loaded: 500 is under the max, 967 is not)
+        ("{min: 600}", "skip-strip", (967, "exact")),  # (a min above the bound: loaded too)
+        ("{max: 100}", "vanilla", (500, "lower bound")),  # (over the max at 500: over it at any count up)
+        ("{min: 400}", "skip-strip", (500, "lower bound")),
+    ):
+        rule = f"{{name: tiny, match: {{triangles: {bounds}}}, encoding: skip-strip}}"
+        cfg.write_text(head + f"rules:\n  - {rule}\n")
+        loaded.clear()
+        (plan,) = run(cfg, dry_run=True, echo=lambda m: None).plan
+        assert (plan["encoding"], (plan["triangles"], plan["triangles_count"])) == (encoding, count), bounds
+        assert loaded == ([] if count[1] == "lower bound" else ["s.obj"]), bounds

@@ -36,6 +36,7 @@ import gc
 import glob
 import hashlib
 import json
+import math
 import os
 import signal
 import stat
@@ -447,6 +448,20 @@ def _early_count(asset: Asset) -> tuple[int, bool] | None:
     return early_triangle_count(asset.path, prim_path=asset.prim)
 
 
+def _same_rule_from(cfg: Config, asset: Asset, lowest: int) -> bool:
+    """Does ``asset`` match the same rule (or the defaults) at every triangle count from ``lowest`` up? A
+    lower bound (an OBJ's face lines: a quad is two triangles) routes the asset by its count only then: under
+    a rule's ``max`` it named that rule where the mesh, loaded, had more triangles and matched another."""
+    counts = {lowest}
+    for rule in cfg.data.get("rules", []):
+        rng = (rule.get("match") or {}).get("triangles") or {}
+        if "min" in rng and rng["min"] > lowest:
+            counts.add(math.ceil(rng["min"]))
+        if "max" in rng and rng["max"] >= lowest:
+            counts.add(math.floor(rng["max"]) + 1)
+    return len({match_rule(cfg, asset, n)[0] for n in counts}) == 1
+
+
 def _max_triangles(cfg: Config) -> int | None:
     """``limits.max_triangles``, or None."""
     limits = cfg.data.get("limits")
@@ -707,6 +722,8 @@ def plan(
                 )
                 continue
             early = _early_count(a) if early_counts else None
+            if early is not None and not early[1] and not _same_rule_from(cfg, a, early[0]):
+                early = None  # (a lower bound under a rule's max: the count it routes by is loaded)
             if early is not None:
                 tri, how = early[0], "declared before cleaning" if early[1] else "lower bound"
             else:
