@@ -5435,3 +5435,46 @@ def test_a_dry_run_routes_by_an_objs_lower_bound_only_where_no_rule_above_it_mat
         (plan,) = run(cfg, dry_run=True, echo=lambda m: None).plan
         assert (plan["encoding"], (plan["triangles"], plan["triangles_count"])) == (encoding, count), bounds
         assert loaded == ([] if count[1] == "lower bound" else ["s.obj"]), bounds
+
+
+def test_a_fork_server_that_warmed_less_than_a_later_run_uses_is_started_again(monkeypatch):
+    # the server outlives its run: one started for a rerun of broken inputs alone (nothing warmed, no
+    # usd-core) served every later run of the process, whose workers then loaded their kernels each
+    import multiprocessing.forkserver as forkserver
+
+    from swpm_usd.pipeline import runner
+
+    server = forkserver._forkserver
+    started: list[tuple[str | None, list[str]]] = []
+    stopped: list[int] = []
+    preload: list[str] = []
+    monkeypatch.setattr(server, "_forkserver_pid", None)  # (a real one, of another test, left alone)
+    monkeypatch.setattr(runner, "_SERVER_GIVEN", {})
+
+    def ensure_running() -> None:
+        if server._forkserver_pid is None:
+            started.append((os.environ.get(WARM_ENCODINGS_ENV), list(preload)))
+            server._forkserver_pid = -len(started)  # (no process: never signalled, see stop)
+
+    def stop() -> None:
+        stopped.append(server._forkserver_pid)
+        server._forkserver_pid = None
+
+    monkeypatch.setattr(
+        forkserver, "set_forkserver_preload", lambda names: preload.__setitem__(slice(None), names)
+    )
+    monkeypatch.setattr(forkserver, "ensure_running", ensure_running)
+    monkeypatch.setattr(runner, "_stop_forkserver", stop)
+    monkeypatch.setattr(runner, "_forkserver_ready", lambda ctx: None)
+    monkeypatch.setattr(runner, "_local_pool", lambda *a: iter(()))
+    task = {"path": "a.obj", "encoding": "vanilla", "write_usd": False, "config_data": None}
+    warm = ["swpm_usd.pipeline._warm"]
+    usd = [*warm, "swpm_usd.usd.writer", "swpm_usd.io.usd_loader"]
+    list(runner.execute([{**task, "failed_loading": True}], 2, "local", None))
+    assert started == [("", warm)] and stopped == []
+    list(runner.execute([task], 2, "local", None))  # (vanilla: not warmed by the first server)
+    assert started[1:] == [("vanilla", warm)] and stopped == [-1]
+    list(runner.execute([task, {**task, "failed_loading": True}], 2, "local", None))  # (covered: kept)
+    assert len(started) == 2 and stopped == [-1]
+    list(runner.execute([{**task, "encoding": "mixed", "write_usd": True}], 2, "local", None))
+    assert started[2:] == [("vanilla,mixed", usd)] and stopped == [-1, -2]

@@ -1199,15 +1199,40 @@ def execute(
     # workers fork from a server that has imported the package once (fast start, no inherited threads)
     ctx = mp.get_context("forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn")
     if ctx.get_start_method() == "forkserver":
-        ctx.set_forkserver_preload(_forkserver_preload(tasks))  # loaded once, inherited
+        warm, preload = _warm_encodings(tasks), _forkserver_preload(tasks)
+        given = _SERVER_GIVEN.get(_forkserver_pid())
+        if given is not None and not (set(warm) <= set(given[0]) and set(preload) <= set(given[1])):
+            # the server of an earlier run in this process warmed or preloaded less than this run uses (it
+            # kept them: a first run retrying broken inputs alone left every later run's workers cold): a
+            # new one, with both runs' (the pool's workers fork from it, never from the one it replaces)
+            warm = [*given[0], *(e for e in warm if e not in given[0])]
+            preload = [*given[1], *(m for m in preload if m not in given[1])]
+            with _interrupts_ignored():
+                _stop_forkserver()
+        ctx.set_forkserver_preload(preload)  # loaded once, inherited
         # started with Ctrl-C ignored, which the server (warming up) and every worker it forks inherit: a
         # Ctrl-C is the main process's alone (each worker ignores it itself too: spawn)
-        with _interrupts_ignored(), _environ(WARM_ENCODINGS_ENV, ",".join(_warm_encodings(tasks))):
+        with _interrupts_ignored(), _environ(WARM_ENCODINGS_ENV, ",".join(warm)):
             from multiprocessing import forkserver
 
             forkserver.ensure_running()
+        if (pid := _forkserver_pid()) is not None and pid not in _SERVER_GIVEN:
+            _SERVER_GIVEN.clear()  # (one server at a time)
+            _SERVER_GIVEN[pid] = (warm, preload)
         _forkserver_ready(ctx)
     yield from _local_pool(tasks, max(1, jobs), ctx, limit_s)
+
+
+#: the fork server this process started (its pid) -> (the encodings it warmed, the modules it preloaded): a
+#: server outlives the run that started it, and serves the later runs of the process (:func:`execute`)
+_SERVER_GIVEN: dict[int, tuple[list[str], list[str]]] = {}
+
+
+def _forkserver_pid() -> int | None:
+    """The pid of this process's fork server, or None when none is running (or known)."""
+    from multiprocessing import forkserver
+
+    return getattr(getattr(forkserver, "_forkserver", None), "_forkserver_pid", None)
 
 
 def _warm_encodings(tasks: list[dict]) -> list[str]:
