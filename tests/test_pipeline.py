@@ -5217,6 +5217,7 @@ def _forkserver_start(monkeypatch, tasks: list[dict]) -> tuple[str | None, list[
 
     monkeypatch.setattr(forkserver, "set_forkserver_preload", lambda names: seen.update(preload=list(names)))
     monkeypatch.setattr(forkserver, "ensure_running", ensure_running)
+    monkeypatch.setattr(runner, "_SERVER_GIVEN", {})  # (a server of an earlier test: not this run's sets)
     with pytest.raises(Started):
         next(runner.execute(tasks, 2, "local", None))
     assert WARM_ENCODINGS_ENV not in os.environ  # (set for the server's start alone)
