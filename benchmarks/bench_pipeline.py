@@ -462,21 +462,38 @@ def _edit_input(p: Path) -> None:
             f.write(b"\0")
 
 
-def _cli_rusage(args: list[str], cwd: Path) -> tuple[float, int, str]:
+def _cli_rusage(args: list[str], cwd: Path, failed: int = 0) -> tuple[float, int, str]:
     """Wall time, peak RSS (KB, the largest process of the run: ``wait4``'s) and stdout of a fresh
-    ``swpm-pipeline`` process running the code this one imports (as :func:`_cli`)."""
+    ``swpm-pipeline`` process running the code this one imports (as :func:`_cli`). A run that does not end
+    as expected raises, with its stderr: exit 0, or with ``failed`` assets exit 1 and ``--json``'s
+    ``failed`` that count (a run that failed for another reason, a usage error or a crash, timed no run)."""
     import swpm_usd
 
     root = str(Path(swpm_usd.__file__).resolve().parents[1])
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH")) if p)}
     t = time.perf_counter()
-    with tempfile.TemporaryFile() as out:
-        proc = subprocess.Popen(CLI + args, cwd=cwd, env=env, stdout=out, stderr=subprocess.DEVNULL)
-        _, _, usage = os.wait4(proc.pid, 0)
-        proc.returncode = 0  # (reaped by wait4)
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
+        proc = subprocess.Popen(CLI + args, cwd=cwd, env=env, stdout=out, stderr=err)
+        _, status, usage = os.wait4(proc.pid, 0)
+        proc.returncode = code = os.waitstatus_to_exitcode(status)  # (reaped by wait4)
         wall = time.perf_counter() - t
         out.seek(0)
-        return wall, usage.ru_maxrss, out.read().decode()
+        text = out.read().decode()
+        err.seek(0)
+        problem = None
+        if code != (1 if failed else 0):
+            problem = f"exited with code {code}"
+        elif failed and "--json" in args:
+            try:
+                got = json.loads(text).get("failed")
+            except (ValueError, AttributeError):
+                got = "no JSON"
+            if got != failed:
+                problem = f"failed {got} assets, not the {failed} broken"
+        if problem is not None:
+            tail = err.read().decode(errors="replace")[-2000:]
+            raise RuntimeError(f"swpm-pipeline {' '.join(args)} (in {cwd}) {problem}:\n{tail}")
+        return wall, usage.ru_maxrss, text
 
 
 def scale(work: Path, counts: tuple[int, ...] = (500, 1000, 2000, 4000)) -> dict:
@@ -488,19 +505,20 @@ def scale(work: Path, counts: tuple[int, ...] = (500, 1000, 2000, 4000)) -> dict
         good = _scale_assets(d, n)
         (d / "pipeline.yaml").write_text(SCALE_CONFIG)
         cmd = ["run", str(d / "pipeline.yaml"), "--jobs", "2", "--json"]
-        first_s, first_rss, text = _cli_rusage(cmd, d)
+        broken = n // 50  # (each run fails those: exit 1)
+        first_s, first_rss, text = _cli_rusage(cmd, d, broken)
         first = json.loads(text)
         dry_s, _, _ = _cli_rusage([*cmd, "--dry-run"], d)
-        _cli_rusage(cmd, d)  # (settling: inputs written just before the build are hashed again once)
-        rerun_s, rerun_rss, _ = _cli_rusage(cmd, d)
+        _cli_rusage(cmd, d, broken)  # (settling: inputs written just before the build are hashed again once)
+        rerun_s, rerun_rss, _ = _cli_rusage(cmd, d, broken)
         some = good[:: max(1, len(good) // max(1, n // 100))][: max(1, n // 100)]  # 1 %, spread
         for p in some:
             os.utime(p)
-        touched_s, _, text = _cli_rusage(cmd, d)
+        touched_s, _, text = _cli_rusage(cmd, d, broken)
         touched_built = json.loads(text)["built"]
         for p in some:
             _edit_input(p)
-        edited_s, _, text = _cli_rusage(cmd, d)
+        edited_s, _, text = _cli_rusage(cmd, d, broken)
         edited = json.loads(text)
         out = d / "out"
         res[str(n)] = {

@@ -5193,3 +5193,289 @@ def test_bench_scale_edits_an_input_without_breaking_it(tmp_path):
         bench._edit_input(p)
         assert p.read_bytes() != before, p
         assert len(load_mesh(p).triangles) == triangles, p
+
+
+#: :data:`swpm_usd.pipeline.worker.WARM_ENCODINGS_ENV`
+WARM_ENCODINGS_ENV = "SWPM_USD_WARM_ENCODINGS"
+
+
+def _forkserver_start(monkeypatch, tasks: list[dict]) -> tuple[str | None, list[str]]:
+    """(the encodings the fork server is told to warm, the modules it preloads) when :func:`runner.execute`
+    starts it for ``tasks`` (stopped there: no server started)."""
+    import multiprocessing.forkserver as forkserver
+
+    from swpm_usd.pipeline import runner
+
+    seen: dict[str, object] = {}
+
+    class Started(Exception):
+        pass
+
+    def ensure_running() -> None:
+        seen["env"] = os.environ.get(WARM_ENCODINGS_ENV)
+        raise Started
+
+    monkeypatch.setattr(forkserver, "set_forkserver_preload", lambda names: seen.update(preload=list(names)))
+    monkeypatch.setattr(forkserver, "ensure_running", ensure_running)
+    monkeypatch.setattr(runner, "_SERVER_GIVEN", {})  # (a server of an earlier test: not this run's sets)
+    with pytest.raises(Started):
+        next(runner.execute(tasks, 2, "local", None))
+    assert WARM_ENCODINGS_ENV not in os.environ  # (set for the server's start alone)
+    return seen["env"], seen["preload"]
+
+
+def test_the_fork_server_warms_the_pending_tasks_encodings_and_preloads_usd_when_used(monkeypatch):
+    # a rerun whose only tasks were a few broken assets (retried) had the server warm every encoding, and
+    # each worker of a run writing USD imported usd-core itself (the server had not)
+    task = {"path": "a.obj", "encoding": "vanilla", "write_usd": False, "config_data": None}
+    assert _forkserver_start(monkeypatch, [task, {**task, "path": "b.ply"}]) == (
+        "vanilla",
+        ["swpm_usd.pipeline._warm"],
+    )
+    env, preload = _forkserver_start(monkeypatch, [{**task, "write_usd": True}])
+    assert env == "vanilla" and "swpm_usd.usd.writer" in preload
+    env, preload = _forkserver_start(monkeypatch, [{**task, "path": "a.usda", "encoding": "skip-strip"}])
+    assert env == "skip-strip" and "swpm_usd.io.usd_loader" in preload
+    # a rule left to the worker (on triangles): any rule's encoding or the defaults'; auto: its candidates
+    rules = {"rules": [{"encoding": "skip-strip"}, {"encoding": "vanilla"}]}
+    rules["defaults"] = {"encoding": "mixed"}
+    env, _ = _forkserver_start(monkeypatch, [{**task, "encoding": None, "config_data": rules}])
+    assert env == "skip-strip,vanilla,mixed"
+    env, _ = _forkserver_start(monkeypatch, [{**task, "encoding": "auto"}])
+    assert set(env.split(",")) == set(BUILDERS)
+    # a broken input retried (it failed to load, and is the same file): nothing to warm for it
+    broken = {**task, "write_usd": True, "failed_loading": True}
+    assert _forkserver_start(monkeypatch, [broken]) == ("", ["swpm_usd.pipeline._warm"])
+    # nothing pending: no server
+    monkeypatch.setattr("multiprocessing.forkserver.ensure_running", lambda: pytest.fail("started"))
+    from swpm_usd.pipeline import runner
+
+    assert list(runner.execute([], 2, "local", None)) == []
+
+
+def test_the_warm_up_builds_the_encodings_it_is_given_alone(monkeypatch):
+    from swpm_usd.pipeline import _warm
+
+    build_module = sys.modules["swpm_usd.build"]  # (swpm_usd.build is the function of that name)
+
+    built: list[str] = []
+    real = build_module.build
+    monkeypatch.setattr(build_module, "build", lambda m, enc, **kw: (built.append(enc), real(m, enc))[1])
+    monkeypatch.setattr(_warm, "WARMED", [])
+    _warm.warm(["skip-strip", "not-an-encoding"])
+    assert built == ["skip-strip"] and _warm.WARMED == ["skip-strip"]
+    monkeypatch.setenv("SWPM_USD_WARM_ENCODINGS", "")
+    _warm.warm()
+    assert built == ["skip-strip"]  # (none named: none built)
+    monkeypatch.setenv("SWPM_USD_WARM_ENCODINGS", "vanilla,mixed")
+    _warm.warm()
+    assert built == ["skip-strip", "vanilla", "mixed"]
+    # every encoding warmed whole: skip-strip's strip read as a triangle list ended the warm-up before mixed
+    monkeypatch.delenv("SWPM_USD_WARM_ENCODINGS")
+    _warm.WARMED.clear()
+    _warm.warm()
+    assert _warm.WARMED == list(BUILDERS)
+
+
+def test_a_failure_that_fails_again_the_same_way_rewrites_nothing(tmp_path, monkeypatch):
+    # retried, as the README promises (and reported failed), but its record, and so the manifest, the
+    # scene and the report, are as they were: a rerun of 500 assets with 10 broken rewrote all three
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (inputs just written: see the racily clean test)
+    (tmp_path / "m").mkdir()
+    for name in ("a", "b"):
+        (tmp_path / "m" / f"{name}.obj").write_text(TWO_TRIANGLES + f"# {name}\n")
+    (tmp_path / "m" / "broken.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 9\n")
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\ndefaults: {encoding: vanilla}\n"
+        "output: {dir: out, usd: true, scene: true}\n"
+    )
+    out = tmp_path / "out"
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.failed) == (2, 1)
+    first = _files_written(out)
+    tried = []
+    real = runner.process_asset
+    monkeypatch.setattr(runner, "process_asset", lambda t: (tried.append(t["id"]), real(t))[1])
+    res = run(cfg, echo=lambda m: None)
+    assert tried == ["m/broken.obj"] and res.failed == 1 and "vertex" in res.failures["m/broken.obj"]["error"]
+    assert (res.built, res.skipped) == (0, 2)
+    assert _files_written(out) == first  # nothing written
+    # a build kept after a failure (its input broken since): the second failure the same, nothing written
+    (tmp_path / "m" / "a.obj").write_text("v 0 0 0\nf 1 1 1\n")
+    res = run(cfg, echo=lambda m: None)
+    assert res.failures["m/a.obj"]["kept_previous"] and _files_written(out) != first
+    first = _files_written(out)
+    tried.clear()
+    res = run(cfg, echo=lambda m: None)
+    assert sorted(tried) == ["m/a.obj", "m/broken.obj"] and res.failed == 2 and _files_written(out) == first
+    # another failure: its record changes, so the manifest and report (the scene: its layers are the same)
+    (tmp_path / "m" / "broken.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 2
+    now = _files_written(out)
+    assert now["manifest.json"] != first["manifest.json"] and now["report.html"] != first["report.html"]
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert "7" in manifest["assets"]["m/broken.obj"]["error"]
+    first = now
+    assert run(cfg, echo=lambda m: None).failed == 2 and _files_written(out) == first
+
+
+def test_a_dry_run_counts_triangles_from_what_the_files_tell_before_their_geometry(tmp_path, monkeypatch):
+    # a dry run loaded every new asset to count its triangles (1,000 assets: one after another); it takes
+    # the count the loaders check max_triangles by early, and says how each count is known
+    import trimesh
+
+    import swpm_usd.io as io
+
+    (tmp_path / "m").mkdir()
+    shutil.copy(SHARED_MESHES / "suzanne.obj", tmp_path / "m" / "s.obj")
+    sphere = trimesh.creation.icosphere(subdivisions=1)  # 80 triangles
+    sphere.export(tmp_path / "m" / "b.stl")
+    sphere.export(tmp_path / "m" / "c.glb")
+    sphere.export(tmp_path / "m" / "d.ply")
+    (tmp_path / "m" / "e.usda").write_text(
+        '#usda 1.0\ndef Mesh "m"\n{\n    int[] faceVertexCounts = [3, 4]\n'
+        "    int[] faceVertexIndices = [0, 1, 2, 0, 2, 3, 1]\n"
+        "    point3f[] points = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]\n}\n"
+    )
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    cfg.write_text(head + "rules:\n  - {name: tiny, match: {triangles: {max: 100}}, encoding: skip-strip}\n")
+    loaded: list[str] = []
+    real = io.load_mesh
+    monkeypatch.setattr(io, "load_mesh", lambda p, **kw: (loaded.append(Path(p).name), real(p, **kw))[1])
+    lines: list[str] = []
+    res = run(cfg, dry_run=True, echo=lines.append)
+    assert loaded == ["d.ply"]  # (a PLY's header tells no lower bound)
+    got = {p["id"]: (p["triangles"], p["triangles_count"], p["encoding"]) for p in res.plan}
+    assert got == {
+        "m/b.stl": (80, "declared before cleaning", "skip-strip"),
+        "m/c.glb": (80, "declared before cleaning", "skip-strip"),
+        "m/d.ply": (80, "exact", "skip-strip"),
+        "m/e.usda": (3, "declared before cleaning", "skip-strip"),
+        "m/s.obj": (500, "lower bound", "vanilla"),  # (500 face lines: 968 triangles)
+    }
+    shown = {ln.split(":")[0]: ln for ln in lines}
+    assert "triangles>=500 (at least" in shown["m/s.obj"]
+    assert "triangles=80 (declared, before cleaning)" in shown["m/b.stl"]
+    assert "triangles=80 " in shown["m/d.ply"]
+    # no rule on triangles: none counted, and the plan says why
+    cfg.write_text(head)
+    loaded.clear()
+    res = run(cfg, dry_run=True, echo=lines.append)
+    assert loaded == [] and {p["triangles_count"] for p in res.plan} == {"not needed"}
+    assert "triangles=? (not needed: no rule on triangles)" in lines[-1]
+
+
+def test_a_triangle_budget_set_since_is_checked_on_the_count_before_cleaning(tmp_path):
+    # limits.max_triangles counts a file's triangles before cleaning; a build recorded before the budget was
+    # compared by its cleaned count, so a file over it only by duplicate triangles stayed current
+    (tmp_path / "m").mkdir()
+    faces = "f 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n"
+    (tmp_path / "m" / "t.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n" + faces * 2)  # 8, 4 kept
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    cfg.write_text(head)
+    assert run(cfg, echo=lambda m: None).built == 1
+    cfg.write_text(head + "limits: {max_triangles: 6}\n")
+    res = run(cfg, echo=lambda m: None)
+    assert res.failed == 1 and "max_triangles=6" in res.failures["m/t.obj"]["error"], res.failures
+    record = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]["m/t.obj"]
+    assert (record["triangles_in"], record["triangles_read"]) == (4, 8)  # (the build kept)
+    cfg.write_text(head + "limits: {max_triangles: 8}\n")
+    assert run(cfg, echo=lambda m: None).skipped == 1
+    # a record of a version before the count: built again (and counted)
+    path = tmp_path / "out" / "manifest.json"
+    manifest = json.loads(path.read_text())
+    del manifest["assets"]["m/t.obj"]["triangles_read"]
+    path.write_text(json.dumps(manifest))
+    assert run(cfg, echo=lambda m: None).built == 1
+    assert json.loads(path.read_text())["assets"]["m/t.obj"]["triangles_read"] == 8
+
+
+def test_bench_cli_rusage_fails_on_a_run_that_did_not_end_as_expected(tmp_path):
+    """bench_pipeline's scale section read the exit status of none of its runs: a run that failed outright
+    (a usage error, a crash) was timed as one that did the work."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "bench_pipeline", Path(swpm_usd.__file__).resolve().parents[1] / "benchmarks" / "bench_pipeline.py"
+    )
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    with pytest.raises(RuntimeError, match="exited with code 2"):
+        bench._cli_rusage(["run", str(tmp_path / "missing.yaml"), "--json"], tmp_path)
+
+
+def test_a_dry_run_routes_by_an_objs_lower_bound_only_where_no_rule_above_it_matches_otherwise(
+    tmp_path, monkeypatch
+):
+    # suzanne.obj: 500 face lines, 967 triangles once cleaned. Under `max: 600` its lower bound (500) named
+    # rule tiny, which the run, counting 967, did not use: the dry run's plan was another encoding
+    import swpm_usd.io as io
+
+    (tmp_path / "m").mkdir()
+    shutil.copy(SHARED_MESHES / "suzanne.obj", tmp_path / "m" / "s.obj")
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    loaded: list[str] = []
+    real = io.load_mesh
+    monkeypatch.setattr(io, "load_mesh", lambda p, **kw: (loaded.append(Path(p).name), real(p, **kw))[1])
+    for bounds, encoding, count in (
+        ("{max: 600}", "vanilla", (967, "exact")),  # (loaded: 500 is under the max, 967 is not)
+        ("{min: 600}", "skip-strip", (967, "exact")),  # (a min above the bound: loaded too)
+        ("{max: 100}", "vanilla", (500, "lower bound")),  # (over the max at 500: over it at any count up)
+        ("{min: 400}", "skip-strip", (500, "lower bound")),
+    ):
+        rule = f"{{name: tiny, match: {{triangles: {bounds}}}, encoding: skip-strip}}"
+        cfg.write_text(head + f"rules:\n  - {rule}\n")
+        loaded.clear()
+        (plan,) = run(cfg, dry_run=True, echo=lambda m: None).plan
+        assert (plan["encoding"], (plan["triangles"], plan["triangles_count"])) == (encoding, count), bounds
+        assert loaded == ([] if count[1] == "lower bound" else ["s.obj"]), bounds
+
+
+def test_a_fork_server_that_warmed_less_than_a_later_run_uses_is_started_again(monkeypatch):
+    # the server outlives its run: one started for a rerun of broken inputs alone (nothing warmed, no
+    # usd-core) served every later run of the process, whose workers then loaded their kernels each
+    import multiprocessing.forkserver as forkserver
+
+    from swpm_usd.pipeline import runner
+
+    server = forkserver._forkserver
+    started: list[tuple[str | None, list[str]]] = []
+    stopped: list[int] = []
+    preload: list[str] = []
+    monkeypatch.setattr(server, "_forkserver_pid", None)  # (a real one, of another test, left alone)
+    monkeypatch.setattr(runner, "_SERVER_GIVEN", {})
+
+    def ensure_running() -> None:
+        if server._forkserver_pid is None:
+            started.append((os.environ.get(WARM_ENCODINGS_ENV), list(preload)))
+            server._forkserver_pid = -len(started)  # (no process: never signalled, see stop)
+
+    def stop() -> None:
+        stopped.append(server._forkserver_pid)
+        server._forkserver_pid = None
+
+    monkeypatch.setattr(
+        forkserver, "set_forkserver_preload", lambda names: preload.__setitem__(slice(None), names)
+    )
+    monkeypatch.setattr(forkserver, "ensure_running", ensure_running)
+    monkeypatch.setattr(runner, "_stop_forkserver", stop)
+    monkeypatch.setattr(runner, "_forkserver_ready", lambda ctx: None)
+    monkeypatch.setattr(runner, "_local_pool", lambda *a: iter(()))
+    task = {"path": "a.obj", "encoding": "vanilla", "write_usd": False, "config_data": None}
+    warm = ["swpm_usd.pipeline._warm"]
+    usd = [*warm, "swpm_usd.usd.writer", "swpm_usd.io.usd_loader"]
+    list(runner.execute([{**task, "failed_loading": True}], 2, "local", None))
+    assert started == [("", warm)] and stopped == []
+    list(runner.execute([task], 2, "local", None))  # (vanilla: not warmed by the first server)
+    assert started[1:] == [("vanilla", warm)] and stopped == [-1]
+    list(runner.execute([task, {**task, "failed_loading": True}], 2, "local", None))  # (covered: kept)
+    assert len(started) == 2 and stopped == [-1]
+    list(runner.execute([{**task, "encoding": "mixed", "write_usd": True}], 2, "local", None))
+    assert started[2:] == [("vanilla,mixed", usd)] and stopped == [-1, -2]

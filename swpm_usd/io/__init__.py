@@ -66,6 +66,34 @@ def load_mesh(
     return load_trimesh(p, max_triangles=max_triangles)
 
 
+def early_triangle_count(
+    path: str | os.PathLike[str], *, prim_path: str | None = None
+) -> tuple[int, bool] | None:
+    """(count, exact) of the triangles the file at ``path`` tells before its geometry is read, where
+    ``max_triangles`` checks it early (see :func:`load_mesh`): exact (the count before cleaning, each
+    instance counted) from a glTF's JSON, a binary STL's header or a USD stage's ``faceVertexCounts``; a
+    lower bound (``exact`` False) from an OBJ's face lines of 3 or more corners. None for a PLY, OFF or
+    ASCII STL (known once parsed), or a file that does not read that far (its load says why)."""
+    p = Path(path)
+    suffix = p.suffix.lower()
+    try:
+        if suffix in _USD_SUFFIXES:
+            from .usd_loader import declared_triangle_count as usd_count
+
+            n = usd_count(p, prim_path)
+            return None if n is None else (n, True)
+        if suffix not in _TRIMESH_SUFFIXES or prim_path is not None:
+            return None
+        from .trimesh_loader import declared_triangle_count, glb_chunk_problem
+
+        if suffix == ".glb" and glb_chunk_problem(p) is not None:
+            return None  # (its JSON not read: a chunk length past the file's end)
+        found = declared_triangle_count(p, suffix.lstrip("."))
+    except (OSError, MemoryError):
+        return None
+    return None if found is None else found[:2]
+
+
 def check_budget(max_triangles: object) -> None:
     """Raise a TypeError or ValueError unless ``max_triangles`` is None or a count (an int >= 0)."""
     if max_triangles is None:
@@ -74,6 +102,13 @@ def check_budget(max_triangles: object) -> None:
         raise TypeError(f"max_triangles must be an int or None, not {type(max_triangles).__name__}")
     if max_triangles < 0:
         raise ValueError(f"max_triangles must be >= 0, not {max_triangles}")
+
+
+def triangles_read(mesh: Mesh) -> int:
+    """The triangles the file of the loaded ``mesh`` holds as ``max_triangles`` counts them: before cleaning
+    (its degenerate and duplicate triangles, which cleaning drops, counted; each instance counted)."""
+    dropped = ("degenerate_dropped", "duplicate_dropped")
+    return mesh.triangle_count + sum(mesh.stats.get(k, 0) for k in dropped)
 
 
 def over_budget(path: Path, triangles: int, max_triangles: int | None, how: str = "") -> None:

@@ -1145,26 +1145,36 @@ def _read_problem(path: Path, check: Callable[[bytes], str | None]) -> str | Non
         return None
 
 
-def _budget_before_parsing(path: Path, file_type: str, data: bytes, max_triangles: int) -> None:
-    """Raise a :class:`MeshLoadError` when the count a binary STL's header declares, or its OBJ face lines of
-    3 or more corners, or its glTF primitives times their nodes, are over ``max_triangles``: checked before
-    trimesh parses anything (an OBJ face line of 3 corners is at least one triangle). A PLY's or OFF's header
-    face count is no lower bound (a face of 2 corners or none is no triangle, and trimesh keeps the file), so
-    those are checked once parsed."""
+def declared_triangle_count(path: Path, file_type: str, data: bytes = b"") -> tuple[int, bool, str] | None:
+    """(count, exact, how) of the triangles the file ``path`` of ``file_type`` tells before trimesh parses
+    anything: a binary STL's header count and a glTF's primitives times their nodes (exact: the count before
+    cleaning), or its OBJ face lines of 3 or more corners (a lower bound: each is at least a triangle; the
+    file's bytes are ``data``, read when not given). None for the others: a PLY's or OFF's header face
+    count is no lower bound (a face of 2 corners or none is no triangle, and trimesh keeps the file), an
+    ASCII STL declares none."""
     if file_type == "stl":
         size = path.stat().st_size
         with open(path, "rb") as f:
             head = f.read(_STL_HEADER_BYTES)
         count = int.from_bytes(head[80:84], "little") if len(head) == _STL_HEADER_BYTES else -1
         if size == _STL_HEADER_BYTES + _STL_TRIANGLE_BYTES * count:  # (binary: check_stl's test)
-            over_budget(path, count, max_triangles, " (declared by its binary STL header)")
+            return count, True, " (declared by its binary STL header)"
     elif file_type == "obj":
-        n = len(_OBJ_FACE_LINE.findall(data))
-        over_budget(path, n, max_triangles, f" (at least: it has {n} face lines of 3 or more corners)")
+        n = len(_OBJ_FACE_LINE.findall(data or path.read_bytes()))
+        return n, False, f" (at least: it has {n} face lines of 3 or more corners)"
     elif file_type in ("gltf", "glb"):
         n = gltf_triangle_count(path)
         if n is not None:
-            over_budget(path, n, max_triangles, " (declared by its primitives' accessors, times their nodes)")
+            return n, True, " (declared by its primitives' accessors, times their nodes)"
+    return None
+
+
+def _budget_before_parsing(path: Path, file_type: str, data: bytes, max_triangles: int) -> None:
+    """Raise a :class:`MeshLoadError` when the count the file declares before it is parsed
+    (:func:`declared_triangle_count`) is over ``max_triangles``; the others are checked once parsed."""
+    declared = declared_triangle_count(path, file_type, data)
+    if declared is not None:
+        over_budget(path, declared[0], max_triangles, declared[2])
 
 
 #: an OBJ face corner of each form (v, v/vt, v//vn, v/vt/vn) -> the columns of its texture and normal indices

@@ -364,6 +364,43 @@ def _declared_triangles(prim: Usd.Prim, time: Usd.TimeCode) -> int:
     return int(np.maximum(n - 2, 0).sum())
 
 
+def _declared_total(drawn: list[tuple[Usd.Prim, Gf.Matrix4d, Usd.Prim | None]], time: Usd.TimeCode) -> int:
+    """The triangles the ``drawn`` meshes (:func:`_drawn_meshes`') declare (:func:`_declared_triangles`), each
+    instance counted, those not rendered not (each mesh's counts read once)."""
+    declared: dict[tuple[Sdf.Path, Sdf.Path | None], int] = {}
+    for prim, _, proto_root in drawn:
+        key = (prim.GetPath(), None if proto_root is None else proto_root.GetPath())
+        if key not in declared:
+            unseen = _not_rendered(prim, time, proto_root) is None
+            declared[key] = _declared_triangles(prim, time) if unseen else 0
+    return sum(declared[(q.GetPath(), None if r is None else r.GetPath())] for q, _, r in drawn)
+
+
+def declared_triangle_count(path: Path, prim_path: str | None = None) -> int | None:
+    """The triangles the USD stage at ``path`` (under ``prim_path``) declares, as ``max_triangles`` counts
+    them before any points are read (:func:`load_usd`): from the ``faceVertexCounts`` of every drawn mesh,
+    each instance counted. None when the stage does not open whole (the load says why)."""
+    from ..usd.probe import checked
+
+    try:
+        with checked(path) as probed:
+            if probed is not None:
+                return None
+            stage = Usd.Stage.Open(str(path))
+            if stage is None:
+                return None
+            root = stage.GetPseudoRoot() if prim_path is None else stage.GetPrimAtPath(prim_path)
+            if not root or not root.IsValid() or _composition_errors(stage, root.GetPath()):
+                return None
+            time = Usd.TimeCode.EarliestTime()
+            xf_cache = UsdGeom.XformCache(time)
+            predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+            drawn = list(_drawn_meshes(root, predicate, xf_cache.GetLocalToWorldTransform, xf_cache, time))
+            return _declared_total(drawn, time)
+    except Exception:  # noqa: BLE001 - no count: the load reports the problem
+        return None
+
+
 def load_usd(path: Path, prim_path: str | None = None, *, max_triangles: int | None = None) -> Mesh:
     """Load every Mesh prim of a USD stage (or those under ``prim_path``) as one cleaned mesh
     (``max_triangles``: see :func:`swpm_usd.io.load_mesh`; counted from ``faceVertexCounts`` of every drawn
@@ -411,15 +448,8 @@ def load_usd(path: Path, prim_path: str | None = None, *, max_triangles: int | N
             )
             if max_triangles is not None:
                 drawn = list(drawn)
-                declared: dict[tuple[Sdf.Path, Sdf.Path | None], int] = {}
-                for prim, _, proto_root in drawn:
-                    key = (prim.GetPath(), None if proto_root is None else proto_root.GetPath())
-                    if key not in declared:
-                        unseen = _not_rendered(prim, time, proto_root) is None
-                        declared[key] = _declared_triangles(prim, time) if unseen else 0
-                total = sum(declared[(q.GetPath(), None if r is None else r.GetPath())] for q, _, r in drawn)
                 how = " (declared by the faceVertexCounts of the meshes drawn, each instance counted)"
-                over_budget(path, total, max_triangles, how)
+                over_budget(path, _declared_total(drawn, time), max_triangles, how)
             for prim, to_world, proto_root in drawn:
                 n_mesh_prims += 1
                 key = (prim.GetPath(), None if proto_root is None else proto_root.GetPath())

@@ -1,16 +1,34 @@
-"""Imported once by the pipeline's forkserver: build a tiny mesh with every encoding so the numba kernels are
-loaded from their on-disk cache before the workers fork (each worker then starts with them in memory
-instead of loading them again). Never raises: a failure only costs the workers their own warm-up."""
+"""Imported once by the pipeline's forkserver: build a tiny mesh with each encoding the run's pending tasks
+use (:data:`.worker.WARM_ENCODINGS_ENV`, set by :func:`.runner.execute`; every encoding when it is not
+set) so their numba kernels are loaded from their on-disk cache before the workers fork (each worker then
+starts with them in memory instead of loading them again). Never raises: a failure only costs the workers
+their own warm-up."""
 
 from __future__ import annotations
 
+import os
+from collections.abc import Iterable
 
-def warm() -> None:
+#: the encodings this process warmed (in the fork server: those its workers start with)
+WARMED: list[str] = []
+
+
+def warm(encodings: Iterable[str] | None = None) -> None:
+    """Build the tiny mesh with each of ``encodings`` (None: those :data:`.worker.WARM_ENCODINGS_ENV`
+    names, or every encoding when it is not set); a name that is no encoding's is passed over."""
     try:
+        from ..encode import BUILDERS
+        from .worker import WARM_ENCODINGS_ENV
+
+        if encodings is None:
+            named = os.environ.get(WARM_ENCODINGS_ENV)
+            encodings = list(BUILDERS) if named is None else [e for e in named.split(",") if e]
+        chosen = [e for e in BUILDERS if e in set(encodings)]
+        if not chosen:
+            return  # (nothing to build: numba and the encoders not even imported)
         import numpy as np
 
         from ..build import build
-        from ..encode import BUILDERS
         from ..format import encode_bytes, validate_bytes
         from ..mesh import Mesh
         from ..metrics import acmr
@@ -27,14 +45,17 @@ def warm() -> None:
             [np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)]
         )
         mesh = Mesh(points=pts.reshape(-1, 3), triangles=tris)
-        for enc in BUILDERS:
-            pm = build(mesh, enc)
-            summarize(pm)
-            acmr(pm.draw_stream(0)[1])
-            try:
+        for enc in chosen:
+            try:  # (each its own: skip-strip's strip, read as a triangle list, raised and ended the warm-up
+                # before mixed was warmed, and before skip-strip's file was encoded)
+                pm = build(mesh, enc)
+                summarize(pm)
+                kind, stream = pm.draw_stream(0)
+                acmr(stream, kind=kind, restart_index=pm.restart_index)
                 validate_bytes(encode_bytes(pm))
-            except ValueError:
-                pass
+            except Exception:  # noqa: BLE001 - warming is an optimisation only
+                continue
+            WARMED.append(enc)
     except Exception:  # noqa: BLE001 - warming is an optimisation only
         pass
 

@@ -57,6 +57,7 @@ _RECORD: dict[str, tuple[Callable[[Any], bool], str]] = {
     "error": (lambda v: isinstance(v, str), "a string"),
     "why": (lambda v: isinstance(v, str), "a string"),
     "triangles_in": (_count, "a whole number"),
+    "triangles_read": (_count, "a whole number"),
     "instances": (_count, "a whole number"),
     "seconds": (_number, "a number"),
     "outputs": (lambda v: isinstance(v, dict), "an object"),

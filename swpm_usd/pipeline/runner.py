@@ -19,8 +19,9 @@ run reports it failed. One run at a time writes in an output folder (:class:`_Ou
 assets no longer in the config are left and named, and recorded under ``orphaned_outputs`` until a run with
 ``prune`` deletes them (:func:`_orphaned_outputs`).
 
-A run that builds, fails and prunes nothing, and whose manifest would hold what it holds, writes neither it
-nor scene.usda nor report.html: those were written from these records (their ``run_outputs`` records marked
+A run that builds and prunes nothing, whose failures each fail again as recorded (:func:`_same_failure`:
+retried, their records kept), and whose manifest would hold what it holds, writes neither it nor scene.usda
+nor report.html: those were written from these records (their ``run_outputs`` records marked
 :data:`CURRENT`) and are kept while they are as recorded (10,000 assets: a 47 MB manifest, 2.2 s to write),
 the report while it names the config where it is now (:data:`REPORT_CONFIG`: a project moved whole has its
 report and manifest written); nor the lock file, which holds the pid of the last run that wrote
@@ -35,6 +36,7 @@ import gc
 import glob
 import hashlib
 import json
+import math
 import os
 import signal
 import stat
@@ -67,7 +69,9 @@ from .worker import (
     LAYER_UNIT_KEYS,
     READY,
     STAT_KEYS,
+    TRIANGLES_READ,
     USD_TEMPORARY_SUFFIX,
+    WARM_ENCODINGS_ENV,
     atomic_write_bytes,
     hash_with_stat,
     ignore_interrupts,
@@ -159,6 +163,16 @@ class PlanItem:
     #: ``inputs`` is a list a rerun may take from the record while its files are unchanged
     #: (:func:`.assets.discover`'s ``settled``): the record says so by :data:`INPUTS_LISTED`
     inputs_listed: bool = False
+    #: how ``triangles`` is known (:data:`TRIANGLE_COUNTS`): a dry run takes the count a file tells before
+    #: its geometry is read where the rules need one (:func:`.io.early_triangle_count`)
+    triangles_how: str = "exact"
+
+
+#: how a plan's triangle count is known: the cleaned mesh's (recorded, or the file loaded), the count the
+#: file declares before cleaning (a dry run: a glTF's JSON, a binary STL's header, a USD stage's
+#: faceVertexCounts), at least that (a dry run: an OBJ's face lines), none needed (no rule on triangles and
+#: no record), or none (the file does not load: its build fails)
+TRIANGLE_COUNTS = ("exact", "declared before cleaning", "lower bound", "not needed", "unknown")
 
 
 @dataclass
@@ -427,6 +441,27 @@ def _count_triangles(asset: Asset, max_triangles: int | None = None) -> int:
     return mesh.triangle_count
 
 
+def _early_count(asset: Asset) -> tuple[int, bool] | None:
+    """:func:`.io.early_triangle_count` of ``asset``'s file (a prim's of its stage)."""
+    from ..io import early_triangle_count
+
+    return early_triangle_count(asset.path, prim_path=asset.prim)
+
+
+def _same_rule_from(cfg: Config, asset: Asset, lowest: int) -> bool:
+    """Does ``asset`` match the same rule (or the defaults) at every triangle count from ``lowest`` up? A
+    lower bound (an OBJ's face lines: a quad is two triangles) routes the asset by its count only then: under
+    a rule's ``max`` it named that rule where the mesh, loaded, had more triangles and matched another."""
+    counts = {lowest}
+    for rule in cfg.data.get("rules", []):
+        rng = (rule.get("match") or {}).get("triangles") or {}
+        if "min" in rng and rng["min"] > lowest:
+            counts.add(math.ceil(rng["min"]))
+        if "max" in rng and rng["max"] >= lowest:
+            counts.add(math.floor(rng["max"]) + 1)
+    return len({match_rule(cfg, asset, n)[0] for n in counts}) == 1
+
+
 def _max_triangles(cfg: Config) -> int | None:
     """``limits.max_triangles``, or None."""
     limits = cfg.data.get("limits")
@@ -435,8 +470,11 @@ def _max_triangles(cfg: Config) -> int | None:
 
 def _within_triangle_budget(cfg: Config, record: dict) -> bool:
     """Whether the asset a record built holds no more triangles than ``limits.max_triangles`` (a budget set
-    or lowered since: an asset over it is loaded again, and fails)."""
-    budget, tri = _max_triangles(cfg), record.get("triangles_in")
+    or lowered since: an asset over it is loaded again, and fails), counted as the budget counts them, before
+    cleaning (:data:`.worker.TRIANGLES_READ`; the cleaned ``triangles_in`` left a file over it by duplicate
+    or degenerate triangles alone current). A record without that count (of a version before it) is built
+    again, and then has it."""
+    budget, tri = _max_triangles(cfg), record.get(TRIANGLES_READ)
     return budget is None or (type(tri) is int and tri <= budget)
 
 
@@ -565,7 +603,11 @@ def _input_size(path: Path) -> int:
 
 
 def plan(
-    cfg: Config, manifest: dict, count_triangles: bool = True, verify: bool = False
+    cfg: Config,
+    manifest: dict,
+    count_triangles: bool = True,
+    verify: bool = False,
+    early_counts: bool = False,
 ) -> tuple[list[PlanItem], list[str], list[str]]:
     """Resolve each asset's rule and parameters; (items, errors, warnings).
 
@@ -573,6 +615,9 @@ def plan(
     leaves those items ``rule_pending`` (their rule, treatment and digest empty, never up to date): the
     worker that builds the asset loads it anyway and chooses the rule then, so the main process does not
     load every new asset a second time, one after another (1,000 small assets: 10 of 46 s).
+    ``early_counts`` (a dry run, which builds nothing from the plan): the count a file tells before its
+    geometry is read (:func:`.io.early_triangle_count`; ``triangles_how`` says which) where it tells one,
+    else it is loaded.
 
     An asset's input digest is its record's when its input files are as recorded (:func:`_inputs_unchanged`),
     else they are hashed (:func:`.assets.hash_inputs`, the item's ``input_stats`` then those of the files
@@ -659,6 +704,7 @@ def plan(
                 # recorded: the record stands as it is, not rewritten for a new hashed_ns)
                 input_stats = recorded
         tri = prev.get("triangles_in") if prev.get("input_digest") == digest else None
+        how = "exact" if tri is not None or needs_rule_on_triangles else "not needed"
         if tri is None and needs_rule_on_triangles:
             if not count_triangles:
                 items.append(
@@ -675,10 +721,16 @@ def plan(
                     )
                 )
                 continue
-            try:
-                tri = _count_triangles(a, _max_triangles(cfg))
-            except Exception:  # noqa: BLE001 - the worker reports it as this asset's failure
-                tri = None
+            early = _early_count(a) if early_counts else None
+            if early is not None and not early[1] and not _same_rule_from(cfg, a, early[0]):
+                early = None  # (a lower bound under a rule's max: the count it routes by is loaded)
+            if early is not None:
+                tri, how = early[0], "declared before cleaning" if early[1] else "lower bound"
+            else:
+                try:
+                    tri = _count_triangles(a, _max_triangles(cfg))
+                except Exception:  # noqa: BLE001 - the worker reports it as this asset's failure
+                    tri, how = None, "unknown"
         item = PlanItem(
             a,
             digest,
@@ -687,6 +739,7 @@ def plan(
             previous=previous,
             input_stats=input_stats,
             inputs_listed=a.id in settled,
+            triangles_how=how,
         )
         item.rule, item.treatment, item.why = match_rule(cfg, a, tri if tri is not None else 0)
         item.digest = _treatment_digest(cfg, item)
@@ -1078,7 +1131,21 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
         "tags": item.asset.tags,
         # a crate file the planning probed clean (it opened the stage): the worker does not probe it again
         "probed": cleared(item.asset.path),
+        # its input failed to load last time, and is the same file: no encoding or USD to warm for it
+        "failed_loading": _failed_loading(item),
     }
+
+
+def _failed_loading(item: PlanItem) -> bool:
+    """Did ``item``'s asset fail last run before its mesh was loaded (a broken file: no ``triangles_in``),
+    with the input digest it has now? Its retry most likely fails the same way, before any build."""
+    prev = item.previous
+    return (
+        isinstance(prev, dict)
+        and prev.get("status") == "failed"
+        and "triangles_in" not in prev
+        and prev.get("input_digest") == item.input_digest
+    )
 
 
 def execute(
@@ -1132,15 +1199,92 @@ def execute(
     # workers fork from a server that has imported the package once (fast start, no inherited threads)
     ctx = mp.get_context("forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn")
     if ctx.get_start_method() == "forkserver":
-        ctx.set_forkserver_preload(["swpm_usd.pipeline._warm"])  # kernels loaded once, inherited
+        warm, preload = _warm_encodings(tasks), _forkserver_preload(tasks)
+        given = _SERVER_GIVEN.get(_forkserver_pid())
+        if given is not None and not (set(warm) <= set(given[0]) and set(preload) <= set(given[1])):
+            # the server of an earlier run in this process warmed or preloaded less than this run uses (it
+            # kept them: a first run retrying broken inputs alone left every later run's workers cold): a
+            # new one, with both runs' (the pool's workers fork from it, never from the one it replaces)
+            warm = [*given[0], *(e for e in warm if e not in given[0])]
+            preload = [*given[1], *(m for m in preload if m not in given[1])]
+            with _interrupts_ignored():
+                _stop_forkserver()
+        ctx.set_forkserver_preload(preload)  # loaded once, inherited
         # started with Ctrl-C ignored, which the server (warming up) and every worker it forks inherit: a
         # Ctrl-C is the main process's alone (each worker ignores it itself too: spawn)
-        with _interrupts_ignored():
+        with _interrupts_ignored(), _environ(WARM_ENCODINGS_ENV, ",".join(warm)):
             from multiprocessing import forkserver
 
             forkserver.ensure_running()
+        if (pid := _forkserver_pid()) is not None and pid not in _SERVER_GIVEN:
+            _SERVER_GIVEN.clear()  # (one server at a time)
+            _SERVER_GIVEN[pid] = (warm, preload)
         _forkserver_ready(ctx)
     yield from _local_pool(tasks, max(1, jobs), ctx, limit_s)
+
+
+#: the fork server this process started (its pid) -> (the encodings it warmed, the modules it preloaded): a
+#: server outlives the run that started it, and serves the later runs of the process (:func:`execute`)
+_SERVER_GIVEN: dict[int, tuple[list[str], list[str]]] = {}
+
+
+def _forkserver_pid() -> int | None:
+    """The pid of this process's fork server, or None when none is running (or known)."""
+    from multiprocessing import forkserver
+
+    return getattr(getattr(forkserver, "_forkserver", None), "_forkserver_pid", None)
+
+
+def _warm_encodings(tasks: list[dict]) -> list[str]:
+    """The encodings the fork server warms (:mod:`._warm`) for ``tasks``: each task's, every candidate of
+    ``auto``, and for a task whose rule waits for its triangle count (``config_data``) those of every rule
+    and of the defaults (each once, in the order first named); none for a broken input retried
+    (``failed_loading``: a rerun of 500 assets whose only tasks were its 10 broken ones warmed all four)."""
+    from .worker import AUTO_CANDIDATES
+
+    found: dict[str, None] = {}
+    for t in tasks:
+        if t.get("failed_loading"):
+            continue  # (a broken input retried: it fails before any build, most likely)
+        data = t.get("config_data")
+        if data is None:
+            names = [t.get("encoding")]
+        else:
+            names = [r.get("encoding") for r in data.get("rules", [])]
+            names.append((data.get("defaults") or {}).get("encoding", "sliding-window"))
+        for name in names:
+            for enc in AUTO_CANDIDATES if name == "auto" else (name,):
+                if isinstance(enc, str):
+                    found.setdefault(enc)
+    return list(found)
+
+
+def _forkserver_preload(tasks: list[dict]) -> list[str]:
+    """The modules the fork server imports before it forks a worker: the warm-up of the tasks' encodings
+    (:func:`_warm_encodings`), and usd-core's writer and loader when a task writes a USD layer or reads a
+    USD file (each worker forked from a server without them imported pxr itself: ~0.5 s a worker loaded)."""
+    from ..io import _USD_SUFFIXES
+
+    usd = any(
+        t.get("write_usd") or Path(t["path"]).suffix.lower() in _USD_SUFFIXES
+        for t in tasks
+        if not t.get("failed_loading")  # (a broken input retried: it fails before any USD)
+    )
+    return ["swpm_usd.pipeline._warm", *(["swpm_usd.usd.writer", "swpm_usd.io.usd_loader"] if usd else [])]
+
+
+@contextlib.contextmanager
+def _environ(name: str, value: str) -> Iterator[None]:
+    """``os.environ[name]`` set to ``value`` within (then as it was)."""
+    before = os.environ.get(name)
+    os.environ[name] = value
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(name, None)
+        else:
+            os.environ[name] = before
 
 
 class _Worker:
@@ -1619,7 +1763,9 @@ def _run(
         _restore_kept_aside(out_dir, manifest["assets"])
     # (not while it loads meshes to count their triangles: a loader's garbage may be cyclic)
     with contextlib.nullcontext() if dry_run or explain else _gc_paused():
-        items, errors, warnings = plan(cfg, manifest, count_triangles=dry_run or explain, verify=verify)
+        items, errors, warnings = plan(
+            cfg, manifest, count_triangles=dry_run or explain, verify=verify, early_counts=dry_run
+        )
     if executor == "dask" and "seconds" in cfg.data.get("limits", {}):
         errors = [*errors, "limits.seconds needs the local executor (--executor dask cannot stop an asset)"]
     if errors:
@@ -1657,11 +1803,10 @@ def _run(
     if dry_run or explain:
         for it in items:
             state = "up to date" if it.up_to_date and not force else "to build"
-            tri = "?" if it.triangles is None else it.triangles
             echo(
                 f"{it.asset.id}: {it.treatment['encoding']} "
                 f"{json.dumps(it.treatment['params'], sort_keys=True)} "
-                f"[{state}] triangles={tri} instances={it.asset.instances}; {it.why}"
+                f"[{state}] {_triangles_shown(it)} instances={it.asset.instances}; {it.why}"
             )
             planned.append(
                 {
@@ -1670,6 +1815,7 @@ def _run(
                     "params": it.treatment["params"],
                     "state": state,
                     "triangles": it.triangles,
+                    "triangles_count": it.triangles_how,
                     "instances": it.asset.instances,
                     "why": it.why,
                 }
@@ -1724,23 +1870,38 @@ def _run(
         orphaned = {ORPHANED: [o for _, o in orphans]}
     else:
         orphaned = {}
-    # nothing to build, no record changed, nothing pruned (the manifest but its run outputs as read): the
-    # scene and report the last run wrote from these records, still as it recorded them, are kept
-    unchanged = (
-        not todo
-        and not older
+    # no record changed, nothing pruned (the manifest but its run outputs as read): the scene and report
+    # the last run wrote from these records, still as it recorded them, are kept while each asset to build
+    # fails again as its record says it failed (:func:`_same_failure`: retried, as the README promises, and
+    # nothing to write: 500 assets, 10 broken, a rerun rewrote the manifest, report and scene each time)
+    settled = (
+        not older
         and not (prune and orphans)
         and {**manifest, **orphaned} == {k: v for k, v in previous.items() if k != RUN_OUTPUTS}
     )
-    if not unchanged:  # (no longer written from the manifest's records: see CURRENT)
+    unchanged = True  # (until a record changes: changed())
+    if run_outputs:
+        manifest[RUN_OUTPUTS] = run_outputs
+    manifest.update(orphaned)
+
+    def changed() -> None:
+        """A record changes: the run writes here, and its scene and report are no longer those of the
+        manifest's records (:data:`CURRENT`)."""
+        nonlocal unchanged, run_outputs
+        if not unchanged:
+            return
+        unchanged = False
         lock.claim()  # (the run writes here: its pid in the lock file, for the message of a run it stops)
         run_outputs = {
             kind: {k: v for k, v in o.items() if k != CURRENT} if isinstance(o, dict) else o
             for kind, o in run_outputs.items()
         }
-    if run_outputs:
-        manifest[RUN_OUTPUTS] = run_outputs
-    manifest.update(orphaned)
+        if run_outputs:
+            manifest[RUN_OUTPUTS] = run_outputs
+
+    # (an asset that did not fail before, built or failing: the records change)
+    if not settled or not all(_failed_before(records.get(it.asset.id)) for it in todo):
+        changed()
     failed = 0
     built_ids: list[str] = []
     kept_files: set[tuple] | None = None  # (_files_kept, once an asset drops an output)
@@ -1796,11 +1957,20 @@ def _run(
                 records[rec["id"]] = rec
             else:
                 failed += 1
-                kept = _keep_previous(out_dir, records.get(rec["id"]), rec, verify)
-                records[rec["id"]] = rec if kept is None else kept
+                before = records.get(rec["id"])
+                kept = _keep_previous(out_dir, before, rec, verify)
+                after = rec if kept is None else kept
+                if _same_failure(before, after):
+                    after = before  # (its record as it was: the seconds it took aside, nothing changed)
+                else:
+                    changed()
+                records[rec["id"]] = after
                 rec = failures[rec["id"]] = {**rec, "kept_previous": kept is not None}
+            if rec["status"] == "built":
+                changed()
             now = time.perf_counter()
-            if now - last_write >= max(_MANIFEST_EVERY_S, _MANIFEST_BACKOFF * write_s):
+            # (unchanged: each asset so far failed again as recorded, nothing to write)
+            if not unchanged and now - last_write >= max(_MANIFEST_EVERY_S, _MANIFEST_BACKOFF * write_s):
                 _write_manifest(manifest_path, manifest, text)
                 last_write = time.perf_counter()
                 write_s = last_write - now
@@ -1874,6 +2044,18 @@ def _run(
         records, len(built_ids), len(items) - len(todo), failed, warnings, seconds, manifest_path, planned,
         failures, **orphan_lists, built_ids=built_ids,
     )  # fmt: skip
+
+
+def _triangles_shown(item: PlanItem) -> str:
+    """A plan line's triangle count, with how it is known when it is not the cleaned mesh's."""
+    tri, how = item.triangles, item.triangles_how
+    if how == "declared before cleaning":
+        return f"triangles={tri} (declared, before cleaning)"
+    if how == "lower bound":
+        return f"triangles>={tri} (at least: a lower bound)"
+    if how == "not needed":
+        return "triangles=? (not needed: no rule on triangles)"
+    return f"triangles={'?' if tri is None else tri}"
 
 
 def _config_ref(cfg: Config, out_dir: Path) -> str:
@@ -2009,6 +2191,26 @@ def _dropped_outputs(
     return found
 
 
+def _failed_before(record: dict | None) -> bool:
+    """Did the asset of manifest record ``record`` fail in the run that wrote it (a failed record, or a
+    build kept with its ``last_failure``)? Only such an asset can fail again with its record unchanged."""
+    return isinstance(record, dict) and (record.get("status") == "failed" or "last_failure" in record)
+
+
+def _same_failure(before: dict | None, after: dict) -> bool:
+    """Is ``after``, the record of an asset that failed again, ``before`` (its manifest record) but for the
+    seconds the attempt took: the same error, traceback, digests and inputs, the same previous build
+    kept? Then the record stays as it was and the run writes nothing for it."""
+
+    def timeless(rec: dict) -> dict:
+        out = {k: v for k, v in rec.items() if k != "seconds"}
+        if isinstance(out.get("last_failure"), dict):
+            out["last_failure"] = {k: v for k, v in out["last_failure"].items() if k != "seconds"}
+        return out
+
+    return before is not None and _failed_before(before) and timeless(before) == timeless(after)
+
+
 def _keep_previous(out_dir: Path, previous: dict | None, failed: dict, verify: bool = False) -> dict | None:
     """The record of an asset whose rebuild failed (``failed``, the worker's record).
 
@@ -2077,29 +2279,32 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
     included); the layer written is the same text."""
     from pxr import Sdf
 
-    from ..fileio import new_layer_replacing
+    from ..fileio import fill_layer_replacing
 
     layers = [
         (r["outputs"]["usd"]["path"], r["outputs"]["usd"])
         for k, r in sorted(records.items())
         if r.get("status") == "built" and "usd" in r.get("outputs", {})
     ]
-    target = out_dir / "scene.usda"
-    tmp = out_dir / ".scene.tmp.usda"
-    # (renamed over the scene once saved, which keeps its mode; a caller of run may have it open: reloaded)
-    with new_layer_replacing(target, tmp) as layer, Sdf.ChangeBlock():
-        layer.pseudoRoot.SetInfo("upAxis", "Y")  # (UsdGeom.SetStageUpAxis, SetStageMetersPerUnit)
-        layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)
-        root = Sdf.PrimSpec(layer.pseudoRoot, "Scene", Sdf.SpecifierDef, "Xform")
-        # an assembly: each asset's root is a component model, a model only under group models (without it
-        # no asset of the scene was one, IsModel() False: model traversal, selection, draw modes)
-        root.SetInfo("kind", "assembly")
-        layer.defaultPrim = "Scene"
-        used: set[str] = set()
-        for path, usd_record in layers:
-            prim = Sdf.PrimSpec(root, _scene_prim_name(Path(path).stem, used), Sdf.SpecifierDef, "Xform")
-            prim.referenceList.Prepend(Sdf.Reference(f"./{path}"))
-            _author_units_correction(prim, usd_record.get("up_axis"), usd_record.get("meters_per_unit"))
+
+    def fill(layer: Sdf.Layer) -> None:
+        with Sdf.ChangeBlock():
+            layer.pseudoRoot.SetInfo("upAxis", "Y")  # (UsdGeom.SetStageUpAxis, SetStageMetersPerUnit)
+            layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)
+            root = Sdf.PrimSpec(layer.pseudoRoot, "Scene", Sdf.SpecifierDef, "Xform")
+            # an assembly: each asset's root is a component model, a model only under group models (without
+            # it no asset of the scene was one, IsModel() False: model traversal, selection, draw modes)
+            root.SetInfo("kind", "assembly")
+            layer.defaultPrim = "Scene"
+            used: set[str] = set()
+            for path, usd_record in layers:
+                prim = Sdf.PrimSpec(root, _scene_prim_name(Path(path).stem, used), Sdf.SpecifierDef, "Xform")
+                prim.referenceList.Prepend(Sdf.Reference(f"./{path}"))
+                _author_units_correction(prim, usd_record.get("up_axis"), usd_record.get("meters_per_unit"))
+
+    # (renamed over the scene once saved, which keeps its mode; a caller of run may have it open: reloaded.
+    # The layer is bound in fill's frame alone: a LayerReloadError kept does not keep it alive)
+    fill_layer_replacing(out_dir / "scene.usda", out_dir / ".scene.tmp.usda", fill)
 
 
 #: the scene's up axis and metersPerUnit (USD converts neither across a reference: each asset whose layer

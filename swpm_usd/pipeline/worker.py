@@ -445,8 +445,17 @@ def process_asset(task: dict[str, Any]) -> dict[str, Any]:
         return _process_asset(task)
 
 
+#: a record's count of the triangles its input file holds before cleaning (:func:`..io.triangles_read`), the
+#: count ``limits.max_triangles`` is on; ``triangles_in`` is the cleaned mesh's, which the rules match
+TRIANGLES_READ = "triangles_read"
+
 READY = "ready"
 """What a worker process (:func:`serve`) sends first, with the time it was ready."""
+#: the environment variable naming the encodings the fork server warms (:mod:`._warm`), comma separated
+#: ("" for none; unset: every one), set by :func:`.runner.execute` for the encodings its tasks use: the server
+#: inherits the environment of the process that starts it. Warming all four for a rerun whose only tasks
+#: were a few broken assets (retried, failing before any build) cost the run the encoders' kernels
+WARM_ENCODINGS_ENV = "SWPM_USD_WARM_ENCODINGS"
 
 
 def serve(conn: Any) -> None:
@@ -476,12 +485,14 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
     rec: dict[str, Any] = {"id": task["id"], "digest": task["digest"], "status": "failed"}
     try:
         from .. import build as build_pm
-        from ..io import load_mesh
+        from ..io import load_mesh, triangles_read
         from ..usd.probe import trust
 
         trust(task.get("probed", ()))  # (probed clean as the run planned: not again in this process)
         mesh = load_mesh(task["path"], prim_path=task["prim"], max_triangles=task.get("max_triangles"))
         rec["triangles_in"] = mesh.triangle_count
+        # (the count limits.max_triangles is on: a budget set or lowered since is checked against it)
+        rec[TRIANGLES_READ] = triangles_read(mesh)
         encoding, params = task["encoding"], task["params"]
         reason = task["why"]
         if task.get("config_data") is not None:  # the planner left the rule to the triangle count
