@@ -90,6 +90,21 @@ def _files_probed(monkeypatch) -> list[str]:
     return asked
 
 
+def test_a_process_that_probed_a_file_exits_without_a_resource_warning(tmp_path):
+    # the probe server a load starts used to be left running at exit, its pipes open: Python warned of
+    # "subprocess ... is still running" and of two unclosed files at the exit of a process that loaded a crate
+    seed = _seed(tmp_path / "seed.usdc")
+    code = "import sys\nfrom swpm_usd.io import load_mesh\nprint(load_mesh(sys.argv[1]).triangle_count)\n"
+    done = subprocess.run(
+        [sys.executable, "-W", "always::ResourceWarning", "-c", code, str(seed)],
+        capture_output=True,
+        text=True,
+        timeout=240,
+    )
+    assert done.returncode == 0 and done.stdout == "200\n", done.stderr
+    assert "ResourceWarning" not in done.stderr, done.stderr
+
+
 def test_validate_reports_a_usdc_that_crashes_usd_core_as_a_coded_error(tmp_path):
     # `swpm-pipeline validate bad.usdc` died by SIGSEGV (no output, exit -11)
     bad = _crashing(tmp_path / "bad.usdc")
