@@ -648,31 +648,62 @@ def test_ctrl_c_during_a_run_stops_it_cleanly(tmp_path, jobs):
     from swpm_usd.pipeline.runner import _TEMPORARY
 
     cfg = _project(tmp_path, ("cow.obj", "spot.obj", "bob.obj", "fandisk.obj", "teapot.obj"), "")
-    for i in range(4):  # work left once the first asset is recorded (some seconds), so Ctrl-C finds the run
+    for i in range(4):
         shutil.copy(tmp_path / "meshes" / "spot.obj", tmp_path / "meshes" / f"spot{i}.obj")
     cfg.write_text(
         "version: 1\nassets: [{glob: 'meshes/*.obj'}]\noutput: {dir: out, usd: true, scene: true}\n"
         "defaults: {encoding: sliding-window}\n"
     )
+    # the run must still be going when Ctrl-C comes: the second asset a process builds is built again and
+    # again (real builds, so the Ctrl-C lands in one as before) until the test has pressed Ctrl-C. (The rest
+    # of the run once the first asset was recorded took a second or so: with a cold numba cache under load
+    # the run could end before the test's Ctrl-C)
+    holding, released = tmp_path / "holding", tmp_path / "released"
+    driver = tmp_path / "driver.py"
+    driver.write_text(
+        "import os, pathlib, sys\n"
+        "import swpm_usd\n"
+        "real, builds = swpm_usd.build, []\n"
+        "def build(*args, **kwargs):  # (the worker builds through the package's build)\n"
+        "    builds.append(1)\n"
+        "    if len(builds) == 2:\n"
+        "        pathlib.Path(os.environ['HOLDING']).touch()\n"
+        "        while not os.path.exists(os.environ['RELEASED']):\n"
+        "            real(*args, **kwargs)\n"
+        "    return real(*args, **kwargs)\n"
+        "swpm_usd.build = build\n"
+        "if __name__ == '__main__':  # (not in the workers, which import this)\n"
+        "    from swpm_usd.cli import main\n"
+        "    main(sys.argv[1:])\n"
+    )
     out = tmp_path / "out"
     manifest = out / "manifest.json"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "swpm_usd.cli", "run", str(cfg), "-j", str(jobs)],
+        [sys.executable, str(driver), "run", str(cfg), "-j", str(jobs)],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         start_new_session=True,  # its own process group, as a terminal's foreground job
+        # (the workers import the driver from PYTHONPATH)
+        env={
+            **os.environ,
+            "HOLDING": str(holding),
+            "RELEASED": str(released),
+            "PYTHONPATH": os.pathsep.join([str(tmp_path), *sys.path]),
+        },
     )
     try:
         deadline = time.time() + FIRST_ASSET_S
-        while time.time() < deadline and proc.poll() is None:  # the first asset recorded: workers busy
-            if manifest.exists() and json.loads(manifest.read_text())["assets"]:
+        while time.time() < deadline and proc.poll() is None:  # an asset recorded, another building
+            if holding.exists() and manifest.exists() and json.loads(manifest.read_text())["assets"]:
                 break
             time.sleep(0.05)
         assert proc.poll() is None, "the run ended before it could be interrupted"
+        assert holding.exists(), "no second asset started"
         os.killpg(proc.pid, signal.SIGINT)
         time.sleep(0.1)
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGINT)  # a second Ctrl-C while it stops changes nothing
+        released.touch()  # (with --jobs 1 the Ctrl-C stops the run once the asset it came in is built)
         stderr = proc.communicate(timeout=120)[1].decode()
     finally:
         if proc.poll() is None:
