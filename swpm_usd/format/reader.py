@@ -790,9 +790,13 @@ def _vanilla(p: _Parsed, rep: Report) -> None:
         n = rc.astype(np.int64)
         ok &= _lod_counts_check(p, rep, V - n, T0 - cum[n])
     if ok:
-        kind, r, s = vanilla_replay(
-            indices, rec["collapse_kept"], rec["collapse_tris_removed"], rec["collapse_change_count"], offs, V
+        # (contiguous copies of the record fields: the strided views of some layouts compiled the replay
+        # a second time for each index type)
+        kept_c, removed_c, changes_c = (
+            np.ascontiguousarray(rec[f])
+            for f in ("collapse_kept", "collapse_tris_removed", "collapse_change_count")
         )
+        kind, r, s = vanilla_replay(indices, kept_c, removed_c, changes_c, offs, V)
         if kind == 1:
             rep.add(
                 "SWPM_RECORD_BAD_CHANGE",
