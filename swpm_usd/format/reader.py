@@ -790,13 +790,15 @@ def _vanilla(p: _Parsed, rep: Report) -> None:
         n = rc.astype(np.int64)
         ok &= _lod_counts_check(p, rep, V - n, T0 - cum[n])
     if ok:
-        # (contiguous copies of the record fields: the strided views of some layouts compiled the replay
-        # a second time for each index type)
-        kept_c, removed_c, changes_c = (
-            np.ascontiguousarray(rec[f])
-            for f in ("collapse_kept", "collapse_tris_removed", "collapse_change_count")
-        )
-        kind, r, s = vanilla_replay(indices, kept_c, removed_c, changes_c, offs, V)
+        # (contiguous read-only views of every array: the strided, or copied and writable, record fields of
+        # some layouts compiled the replay again for each index type)
+        args = []
+        fields = (rec[f] for f in ("collapse_kept", "collapse_tris_removed", "collapse_change_count"))
+        for a in (indices, *fields, offs):
+            view = np.ascontiguousarray(a).view()
+            view.setflags(write=False)
+            args.append(view)
+        kind, r, s = vanilla_replay(*args, V)
         if kind == 1:
             rep.add(
                 "SWPM_RECORD_BAD_CHANGE",
