@@ -914,12 +914,17 @@ def _problem(path: str, code: int, text: str, seconds: float) -> Problem | None:
 
 
 def _stop(server: subprocess.Popen[bytes] | None) -> None:
-    """Kill the probe server (hung, or gone) and forget it."""
+    """Kill the probe server (hung, or gone) and forget it. One the process this one was forked from started
+    (a child whose own server failed to start, or Ctrl-C before it had one) is that process's: only this
+    process's copies of its pipes are closed, not the server killed under its parent."""
     global _server
     if server is not None:
-        server.kill()
-        server.wait()
-        _close_pipes(server)
+        if server is _server and _server_pid != os.getpid():
+            _close_pipes(server)
+        else:
+            server.kill()
+            server.wait()
+            _close_pipes(server)
     _server = None
 
 
