@@ -798,6 +798,14 @@ def _rotate_rows(out: np.ndarray, shift: np.ndarray) -> None:
                 out[i, 0], out[i, 1], out[i, 2] = c, a, b
 
 
+def _read_only(a: np.ndarray) -> np.ndarray:
+    """A read-only view of ``a``, for :func:`_rotate_rows`: numba compiles a kernel once for writable and once
+    for read-only arrays, and the shifts came as both (a cold suite: 6 signatures, 3 dtypes of rows)."""
+    view = a.view()
+    view.setflags(write=False)
+    return view
+
+
 def apply_order(triangles: np.ndarray, perm: np.ndarray, shift: np.ndarray | None = None) -> np.ndarray:
     """``triangles[perm]``, row ``i`` rotated left cyclically by ``shift[i]`` when ``shift`` is given."""
     tri = np.asarray(triangles)
@@ -807,7 +815,7 @@ def apply_order(triangles: np.ndarray, perm: np.ndarray, shift: np.ndarray | Non
     s = np.asarray(shift, dtype=np.int64).reshape(-1)
     if out.ndim == 2 and out.shape[1] == 3 and np.issubdtype(out.dtype, np.integer) and out.dtype.isnative:
         # the kernel reads shift[i] unchecked: a shorter shift must fail (or broadcast) as it did before
-        s = np.ascontiguousarray(np.broadcast_to(s, out.shape[:1]))
+        s = _read_only(np.ascontiguousarray(np.broadcast_to(s, out.shape[:1])))
         _rotate_rows(out, s)  # in place, one pass (take_along_axis cost ~1 ms per 10,000 rows)
         return out
     cols = (np.arange(3)[None, :] + s.reshape(-1, 1)) % 3

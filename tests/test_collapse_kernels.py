@@ -245,3 +245,20 @@ def test_chain_order_in_reused_buffers_matches_fresh_ones() -> None:
         assert np.array_equal(np.sort(got), np.arange(n))
         if closed:  # a closed fan comes out as a fan: consecutive triangles share an edge
             assert all(len(set(tv[a]) & set(tv[b])) == 2 for a, b in zip(got[:-1], got[1:], strict=True))
+
+
+def test_the_validity_test_asks_for_no_literal_specialisation() -> None:
+    # every numba specialisation is a whole compile (seconds each on a fresh machine): valid_collapse passed
+    # literal 0s, and valid_collapse_in and three of its callees compiled again apart from the sliding
+    # window's int64s. A copy of valid_collapse compiled here (not loaded from the cache, which does not
+    # type its callees) asks valid_collapse_in for the specialisation its arguments' types need
+    import numba as nb
+    from numba.core import types
+
+    mesh = shared_mesh("cow.obj")
+    st = make_state(mesh, mesh_topology(mesh))
+    fresh = nb.njit(K.valid_collapse.py_func)
+    tris, tp, nbr = _plain_star(st, 0)
+    fresh(st, 0, int(nbr[0]), tris, tp, nbr, None)
+    literal = [s for s in K.valid_collapse_in.signatures if any(isinstance(t, types.Literal) for t in s)]
+    assert K.valid_collapse_in.signatures and not literal, literal

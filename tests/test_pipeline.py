@@ -640,6 +640,60 @@ def _group_gone(pgid: int, seconds: float) -> bool:
     return False
 
 
+def _holding_driver(folder: Path) -> Path:
+    """``folder``/driver.py: the CLI, whose second build in a process touches $HOLDING, then builds again and
+    again until $RELEASED exists, or for $HOLD_SECONDS at most (a test that failed or was killed before it
+    released the run leaves no process building for ever: the run then ends, and the test fails)."""
+    driver = folder / "driver.py"
+    driver.write_text(
+        "import os, pathlib, sys, time\n"
+        "import swpm_usd\n"
+        "real, builds = swpm_usd.build, []\n"
+        "def build(*args, **kwargs):  # (the worker builds through the package's build)\n"
+        "    builds.append(1)\n"
+        "    if len(builds) == 2:\n"
+        "        pathlib.Path(os.environ['HOLDING']).touch()\n"
+        "        give_up = time.monotonic() + float(os.environ['HOLD_SECONDS'])\n"
+        "        while not os.path.exists(os.environ['RELEASED']) and time.monotonic() < give_up:\n"
+        "            real(*args, **kwargs)\n"
+        "    return real(*args, **kwargs)\n"
+        "swpm_usd.build = build\n"
+        "if __name__ == '__main__':  # (not in the workers, which import this)\n"
+        "    from swpm_usd.cli import main\n"
+        "    main(sys.argv[1:])\n"
+    )
+    return driver
+
+
+def test_the_ctrl_c_tests_driver_holds_a_build_for_its_time_at_most(tmp_path, monkeypatch):
+    # the driver held the second build until the test released it, with no end: a test that failed before
+    # (or was killed) left a process group rebuilding a mesh for ever
+    import importlib.util
+    import threading
+
+    calls = []
+
+    def fake_build(*args, **kwargs):
+        calls.append(args)
+        time.sleep(0.01)
+        return len(calls)
+
+    monkeypatch.setattr(swpm_usd, "build", fake_build)
+    monkeypatch.setenv("HOLDING", str(tmp_path / "holding"))
+    monkeypatch.setenv("RELEASED", str(tmp_path / "never-released"))
+    monkeypatch.setenv("HOLD_SECONDS", "1")
+    spec = importlib.util.spec_from_file_location("holding_driver", _holding_driver(tmp_path))
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)  # (it replaces swpm_usd.build: monkeypatch puts the real one back)
+    assert swpm_usd.build(1) == 1
+    second = threading.Thread(target=swpm_usd.build, args=(2,), daemon=True)
+    second.start()
+    second.join(timeout=60)
+    assert not second.is_alive(), "the driver held the build past its time"
+    assert (tmp_path / "holding").exists() and len(calls) > 3  # it did hold it, building
+
+
 @pytest.mark.parametrize("jobs", [2, 1])
 def test_ctrl_c_during_a_run_stops_it_cleanly(tmp_path, jobs):
     # Ctrl-C sends SIGINT to the terminal's whole process group: the workers used to take it too and print
@@ -648,31 +702,47 @@ def test_ctrl_c_during_a_run_stops_it_cleanly(tmp_path, jobs):
     from swpm_usd.pipeline.runner import _TEMPORARY
 
     cfg = _project(tmp_path, ("cow.obj", "spot.obj", "bob.obj", "fandisk.obj", "teapot.obj"), "")
-    for i in range(4):  # work left once the first asset is recorded (some seconds), so Ctrl-C finds the run
+    for i in range(4):
         shutil.copy(tmp_path / "meshes" / "spot.obj", tmp_path / "meshes" / f"spot{i}.obj")
     cfg.write_text(
         "version: 1\nassets: [{glob: 'meshes/*.obj'}]\noutput: {dir: out, usd: true, scene: true}\n"
         "defaults: {encoding: sliding-window}\n"
     )
+    # the run must still be going when Ctrl-C comes: the second asset a process builds is built again and
+    # again (real builds, so the Ctrl-C lands in one as before) until the test has pressed Ctrl-C. (The rest
+    # of the run once the first asset was recorded took a second or so: with a cold numba cache under load
+    # the run could end before the test's Ctrl-C)
+    holding, released = tmp_path / "holding", tmp_path / "released"
+    driver = _holding_driver(tmp_path)
     out = tmp_path / "out"
     manifest = out / "manifest.json"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "swpm_usd.cli", "run", str(cfg), "-j", str(jobs)],
+        [sys.executable, str(driver), "run", str(cfg), "-j", str(jobs)],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         start_new_session=True,  # its own process group, as a terminal's foreground job
+        # (the workers import the driver from PYTHONPATH)
+        env={
+            **os.environ,
+            "HOLDING": str(holding),
+            "RELEASED": str(released),
+            "HOLD_SECONDS": str(FIRST_ASSET_S + 300),
+            "PYTHONPATH": os.pathsep.join([str(tmp_path), *sys.path]),
+        },
     )
     try:
         deadline = time.time() + FIRST_ASSET_S
-        while time.time() < deadline and proc.poll() is None:  # the first asset recorded: workers busy
-            if manifest.exists() and json.loads(manifest.read_text())["assets"]:
+        while time.time() < deadline and proc.poll() is None:  # an asset recorded, another building
+            if holding.exists() and manifest.exists() and json.loads(manifest.read_text())["assets"]:
                 break
             time.sleep(0.05)
         assert proc.poll() is None, "the run ended before it could be interrupted"
+        assert holding.exists(), "no second asset started"
         os.killpg(proc.pid, signal.SIGINT)
         time.sleep(0.1)
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGINT)  # a second Ctrl-C while it stops changes nothing
+        released.touch()  # (with --jobs 1 the Ctrl-C stops the run once the asset it came in is built)
         stderr = proc.communicate(timeout=120)[1].decode()
     finally:
         if proc.poll() is None:

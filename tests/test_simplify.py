@@ -538,7 +538,9 @@ def test_a_collapse_onto_a_hub_is_tested_from_the_binned_ring(name):
         st = make_state(mesh, topo)
         if steps is None:  # half the sequence applied
             seq = kernels.run_sequence(make_state(mesh, topo), 3)
-            for b, k in zip(seq[4][: len(seq[4]) // 2], seq[5][: len(seq[5]) // 2], strict=True):
+            # (Python ints, as the package passes int64s: numpy int32 scalars compiled each kernel again)
+            half = len(seq[4]) // 2
+            for b, k in zip(seq[4][:half].tolist(), seq[5][:half].tolist(), strict=True):
                 tris_b = kernels.gather_triangles(st, b)
                 vmap = kernels.vertex_map(st, b, k, tris_b, kernels.triangle_positions(st, tris_b))
                 kernels.apply_collapse(st, b, k, vmap)
@@ -547,7 +549,7 @@ def test_a_collapse_onto_a_hub_is_tested_from_the_binned_ring(name):
         for k in hubs:
             tk = kernels.triangle_positions(st, kernels.gather_triangles(st, k))
             nk = kernels.neighbours(k, tk)
-            for b in nk:
+            for b in nk.tolist():
                 tris_b = kernels.gather_triangles(st, b)
                 tp_b = kernels.triangle_positions(st, tris_b)
                 nbr_b = kernels.neighbours(b, tp_b)
@@ -640,7 +642,8 @@ def test_step_geometric_errors_replayed_in_parts_are_one_replay():
     mesh = shared_mesh("cow.obj")
     seq = shared_sequence("cow.obj")
     topo = mesh_topology(mesh)
-    b, k, e = seq.binned_position.astype(np.int64), seq.kept_position.astype(np.int64), seq.step_error
+    b, k = seq.binned_position.astype(np.int64), seq.kept_position.astype(np.int64)
+    e = np.ascontiguousarray(seq.step_error, np.float64)  # (as replay_steps passes it: one compile)
     whole = step_geometric_errors(mesh, make_state(mesh, topo), b, k, e)
     assert np.array_equal(whole, seq.step_geometric_error)
     for carry in (True, False):
@@ -760,7 +763,8 @@ def _assert_light_replay_is_full(mesh: Mesh, seq) -> None:
     from swpm_usd.simplify import make_state
     from swpm_usd.simplify.sequence import replay_surface
 
-    b, k, e = seq.binned_position.astype(np.int64), seq.kept_position.astype(np.int64), seq.step_error
+    b, k = seq.binned_position.astype(np.int64), seq.kept_position.astype(np.int64)
+    e = np.ascontiguousarray(seq.step_error, np.float64)  # (as replay_steps passes it: one compile)
     topo = mesh_topology(mesh)
     full = make_state(mesh, topo)
     light = fd.replay_state(make_state(mesh, topo))

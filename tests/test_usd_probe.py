@@ -90,6 +90,47 @@ def _files_probed(monkeypatch) -> list[str]:
     return asked
 
 
+def test_a_process_that_probed_a_file_exits_without_a_resource_warning(tmp_path):
+    # the probe server a load starts used to be left running at exit, its pipes open: Python warned of
+    # "subprocess ... is still running" and of two unclosed files at the exit of a process that loaded a crate
+    seed = _seed(tmp_path / "seed.usdc")
+    code = "import sys\nfrom swpm_usd.io import load_mesh\nprint(load_mesh(sys.argv[1]).triangle_count)\n"
+    done = subprocess.run(
+        [sys.executable, "-W", "always::ResourceWarning", "-c", code, str(seed)],
+        capture_output=True,
+        text=True,
+        timeout=240,
+    )
+    assert done.returncode == 0 and done.stdout == "200\n", done.stderr
+    assert "ResourceWarning" not in done.stderr, done.stderr
+
+
+def test_a_forked_process_whose_server_cannot_start_leaves_its_parents_server_running(tmp_path, monkeypatch):
+    # a process forked after its parent started a probe server has the parent's server as its own `_server`;
+    # when its own could not start (OSError), or on Ctrl-C before it had one, it killed the parent's
+    seed = _seed(tmp_path / "seed.usdc")
+    parents = subprocess.Popen(
+        [sys.executable, "-c", "import sys; sys.stdin.read()"], stdin=subprocess.PIPE, stdout=subprocess.PIPE
+    )
+    try:
+        monkeypatch.setattr(probe, "_server", parents)
+        monkeypatch.setattr(probe, "_server_pid", os.getpid() + 1)  # (as in a process forked from it)
+
+        def no_process(*args, **kwargs):
+            raise OSError("no process can be started")
+
+        monkeypatch.setattr(probe.subprocess, "Popen", no_process)
+        problem, _ = probe._probe_all([(str(seed), seed.stat().st_size)], 1)[str(seed)]
+        assert problem is not None and problem.kind == "probe", problem
+        assert "no process can be started" in problem.message, problem
+        assert parents.poll() is None, "the parent's server was killed"
+    finally:
+        parents.kill()
+        parents.wait()
+        for pipe in (parents.stdin, parents.stdout):
+            pipe.close()
+
+
 def test_validate_reports_a_usdc_that_crashes_usd_core_as_a_coded_error(tmp_path):
     # `swpm-pipeline validate bad.usdc` died by SIGSEGV (no output, exit -11)
     bad = _crashing(tmp_path / "bad.usdc")

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import BuildError
-from ..vcache import _rotate_rows, block_order_trusted
+from ..vcache import _read_only, _rotate_rows, block_order_trusted
 from . import sw_refine as swr
 
 
@@ -43,7 +43,7 @@ def block_order(tris: np.ndarray, starts: np.ndarray, cache_size: int, tail: int
     perm, shift = block_perm(tris, starts, cache_size, tail, rotate=True)
     out = tris[perm]  # as :func:`swpm_usd.vcache.apply_order`, whose checks these arrays pass
     if out.shape[0]:
-        _rotate_rows(out, shift.astype(np.int64))
+        _rotate_rows(out, _read_only(shift.astype(np.int64)))  # (read-only: apply_order's one compile)
     return out
 
 

@@ -107,6 +107,15 @@ def _map(path: str | os.PathLike[str]) -> np.ndarray:
     return np.frombuffer(mm, np.uint8)
 
 
+def _frozen(a: np.ndarray) -> np.ndarray:
+    """``a`` as a contiguous read-only array, for the replay kernels: numba compiles a kernel again for a
+    strided ('A') record field, and again for a writable copy of one (cold suite: vanilla_replay 4
+    signatures, mixed_replay and skip_replay 3 each, where one per index type does). ``a`` is untouched."""
+    view = np.ascontiguousarray(a).view()
+    view.setflags(write=False)
+    return view
+
+
 def _view(buf: np.ndarray, start: int, count: int, dtype: np.dtype | str) -> np.ndarray:
     dt = np.dtype(dtype)
     return buf[start : start + count * dt.itemsize].view(dt)
@@ -790,9 +799,8 @@ def _vanilla(p: _Parsed, rep: Report) -> None:
         n = rc.astype(np.int64)
         ok &= _lod_counts_check(p, rep, V - n, T0 - cum[n])
     if ok:
-        kind, r, s = vanilla_replay(
-            indices, rec["collapse_kept"], rec["collapse_tris_removed"], rec["collapse_change_count"], offs, V
-        )
+        fields = (rec[f] for f in ("collapse_kept", "collapse_tris_removed", "collapse_change_count"))
+        kind, r, s = vanilla_replay(*(_frozen(a) for a in (indices, *fields, offs)), V)
         if kind == 1:
             rep.add(
                 "SWPM_RECORD_BAD_CHANGE",
@@ -1093,8 +1101,8 @@ def _skip_records(
         arrs["level_collapsed_indices"],
         rstart,
         kept,
-        rec["collapse_change_count"],
-        rec["collapse_change_offsets"],
+        _frozen(rec["collapse_change_count"]),
+        _frozen(rec["collapse_change_offsets"]),
         V,
         strip,
         -1 if restart is None else int(restart),
@@ -1291,11 +1299,11 @@ def _mixed(p: _Parsed, rep: Report) -> None:
                 col,
                 dstart,
                 rstart,
-                rec["collapse_kept"],
-                rec["collapse_static_tris_removed"],
-                rec["collapse_dynamic_tris_removed"],
-                rec["collapse_change_count"],
-                rec["collapse_change_offsets"],
+                _frozen(rec["collapse_kept"]),
+                _frozen(rec["collapse_static_tris_removed"]),
+                _frozen(rec["collapse_dynamic_tris_removed"]),
+                _frozen(rec["collapse_change_count"]),
+                _frozen(rec["collapse_change_offsets"]),
                 V,
             )
         )

@@ -558,6 +558,8 @@ def valid_collapse(
     else:
         tk = stars.tp[stars.start[k] : stars.start[k + 1]]
         nk = stars.nbr[stars.nbr_start[k] : stars.nbr_start[k + 1]]
+    # (not literal 0s: numba compiled valid_collapse_in and three of its callees a second time for them)
+    z = np.int64(0)
     return valid_collapse_in(
         pos_alive,
         st.pos_locked,
@@ -571,16 +573,16 @@ def valid_collapse(
         k,
         tris_b,
         tp_b,
-        0,
+        z,
         tp_b.shape[0],
         nbr_b,
-        0,
+        z,
         nbr_b.shape[0],
         tk,
-        0,
+        z,
         tk.shape[0],
         nk,
-        0,
+        z,
         nk.shape[0],
     )
 

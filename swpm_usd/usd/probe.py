@@ -747,7 +747,31 @@ def _start_server() -> subprocess.Popen[bytes]:
             },
         )
         _server_pid = os.getpid()  # (a process forked from this one starts its own)
+        atexit.register(_end_server, _server)
     return _server
+
+
+def _end_server(server: subprocess.Popen[bytes]) -> None:
+    """At exit: end the server this process started (its input closed: it ends on that) and close its pipes,
+    not leave it running for Python to warn of ("subprocess ... is still running") with its pipes open."""
+    if _server_pid != os.getpid() or server.returncode is not None:
+        _close_pipes(server)
+        return
+    with contextlib.suppress(OSError):
+        server.stdin.close()  # type: ignore[union-attr]
+    try:
+        server.wait(timeout=5)
+    except subprocess.TimeoutExpired:
+        server.kill()
+        server.wait()
+    _close_pipes(server)
+
+
+def _close_pipes(server: subprocess.Popen[bytes]) -> None:
+    for pipe in (server.stdin, server.stdout):
+        if pipe is not None:
+            with contextlib.suppress(OSError):
+                pipe.close()
 
 
 def _probe_all(files: list[tuple[str, int]], jobs: int | None) -> dict[str, tuple[Problem | None, list[str]]]:
@@ -890,11 +914,17 @@ def _problem(path: str, code: int, text: str, seconds: float) -> Problem | None:
 
 
 def _stop(server: subprocess.Popen[bytes] | None) -> None:
-    """Kill the probe server (hung, or gone) and forget it."""
+    """Kill the probe server (hung, or gone) and forget it. One the process this one was forked from started
+    (a child whose own server failed to start, or Ctrl-C before it had one) is that process's: only this
+    process's copies of its pipes are closed, not the server killed under its parent."""
     global _server
     if server is not None:
-        server.kill()
-        server.wait()
+        if server is _server and _server_pid != os.getpid():
+            _close_pipes(server)
+        else:
+            server.kill()
+            server.wait()
+            _close_pipes(server)
     _server = None
 
 
