@@ -34,7 +34,9 @@ OUT_OF_BOUNDS = [
     ("sliding-window", "target_slack=NaN", "target_slack: nan is not a finite number"),
     ("sliding-window", "order_reach=99", "order_reach: must be in [1, 8], got 99"),
     ("sliding-window", "builder=foo", "builder: 'foo' is not one of ['topology', 'forsyth']"),
-    ("sliding-window", "cache_size=16.0", "cache_size: 16.0 is not an integer"),
+    ("sliding-window", "cache_size=16.0", "cache_size: must be an integer, got 16.0"),
+    # (one line in a config, as here: it was three, the type twice and the bound)
+    ("sliding-window", "cache_size=2.5", "cache_size: must be an integer, got 2.5"),
     (
         "skip-strip",
         "degenerate_threshold=2",

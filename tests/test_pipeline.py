@@ -3262,9 +3262,9 @@ def test_an_integer_parameter_given_as_a_float_is_a_config_error_at_its_line(tmp
         "  - {name: a, encoding: sliding-window, params: {inner_vertices: 2.0, mu: 0, order_passes: 1.0}}\n"
     )
     assert _config_problems(cfg, text) == [
-        "c.yaml:4:50: $.defaults.params.cache_size: 16.0 is not an integer",
-        "c.yaml:6:66: $.rules[0].params.inner_vertices: 2.0 is not an integer",
-        "c.yaml:6:92: $.rules[0].params.order_passes: 1.0 is not an integer",
+        "c.yaml:4:50: $.defaults.params.cache_size: must be an integer, got 16.0",
+        "c.yaml:6:66: $.rules[0].params.inner_vertices: must be an integer, got 2.0",
+        "c.yaml:6:92: $.rules[0].params.order_passes: must be an integer, got 1.0",
     ]
     cfg.write_text(text.replace("16.0", "16").replace("2.0", "2").replace("1.0", "1"))
     assert run(cfg).built == 1
@@ -3318,7 +3318,7 @@ def test_defaults_params_without_an_encoding_are_checked_as_sliding_windows(tmp_
     assert problems == [
         "c.yaml:4:25: $.defaults.params.mu: must be in [0, 1), got 1.5",
         "c.yaml:4:30: $.defaults.params.nope: unknown key (not a parameter of this rule's encoding)",
-        "c.yaml:4:51: $.defaults.params.cache_size: 16.0 is not an integer",
+        "c.yaml:4:51: $.defaults.params.cache_size: must be an integer, got 16.0",
     ]
     cfg.write_text(head + "defaults: {params: {mu: 0.5, cache_size: 8}}\n")
     assert run(cfg).built == 1
