@@ -263,3 +263,38 @@ def test_a_bound_missed_anywhere_in_a_config_is_worded_by_its_interval(tmp_path)
     assert [p.split(": ", 1)[1] for p in err.value.problems] == [
         "$.rules[0].match.triangles.min: must be at least 0, got -1"
     ], err.value.problems
+
+
+@pytest.mark.parametrize("below", ["loop", "loop/deeper"])
+def test_encode_calls_an_output_folder_in_a_link_loop_a_loop(tmp_path, below):
+    # a folder of the output that is a link leading round in a loop was "a dangling link": a user looked for
+    # a folder that was missing, when none was
+    (tmp_path / "a.obj").write_text(TWO_TRIANGLES)
+    (tmp_path / "loop").symlink_to(tmp_path / "round")
+    (tmp_path / "round").symlink_to(tmp_path / "loop")
+    out = tmp_path / below / "x.swpm"
+    result = CliRunner().invoke(main, ["encode", str(tmp_path / "a.obj"), "-o", str(out), "--json"])
+    assert result.exit_code == 1, result.output
+    says = f"cannot write {out}: {tmp_path / 'loop'} is a link loop (to {tmp_path / 'round'})"
+    assert result.stderr == f"error: {says}\n" and json.loads(result.stdout)["error"] == says
+
+
+@pytest.mark.parametrize("command", ["build", "encode", "validate"])
+@pytest.mark.parametrize("where", ["itself", "folder"])
+def test_an_input_in_a_link_loop_is_called_a_link_loop(tmp_path, command, where):
+    # was "file not found": the file was never missing, a link leads round (a.obj -> b.obj -> a.obj)
+    suffix = ".usda" if command == "validate" else ".obj"
+    if where == "itself":
+        (tmp_path / f"a{suffix}").symlink_to(f"b{suffix}")
+        (tmp_path / f"b{suffix}").symlink_to(f"a{suffix}")
+        given = tmp_path / f"a{suffix}"
+        says = f"{given}: a link loop (to b{suffix}): following it comes back round, to no file"
+    else:
+        (tmp_path / "d").symlink_to("e")
+        (tmp_path / "e").symlink_to("d")
+        given = tmp_path / "d" / f"a{suffix}"
+        loop = f"{tmp_path / 'd'} is a link loop (to e)"
+        says = f"{given}: its folder {loop}: following it comes back round, to no file"
+    args = [command, str(given)] + (["-o", str(tmp_path / "x.swpm")] if command == "encode" else [])
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1 and result.stderr == f"error: {says}\n", result.output

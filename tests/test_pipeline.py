@@ -3304,6 +3304,10 @@ def test_a_symlink_loop_a_glob_matches_is_a_failed_asset(tmp_path):
     assert r.exit_code == 0 and "Traceback" not in r.output, r.output
     res = run(cfg)
     assert res.built == 1 and sorted(res.failures) == ["m/loop1.obj", "m/loop2.obj"]
+    # (named a link loop, not "file not found": no file was missing)
+    assert res.failures["m/loop1.obj"]["error"].endswith(
+        "m/loop1.obj: a link loop (to loop2.obj): following it comes back round, to no file"
+    )
 
 
 def test_defaults_params_without_an_encoding_are_checked_as_sliding_windows(tmp_path):

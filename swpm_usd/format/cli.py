@@ -236,9 +236,14 @@ def _output_folder_problem(output: Path) -> str | None:
     folder's making failed on it after the build, ``File exists``)."""
     import os
 
+    from ..fileio import link_loop
+
+    loop = link_loop(output.parent)
+    if loop is not None:  # (it was called a dangling link: a user looked for a folder that was never missing)
+        return f"cannot write {output}: {loop[0]} is a link loop (to {loop[1]})"
     folder = output.parent
     while not folder.exists() and folder != folder.parent:
-        if folder.is_symlink():  # (exists() follows the link: it leads nowhere, or round in a loop)
+        if folder.is_symlink():  # (exists() follows the link: it leads nowhere)
             return f"cannot write {output}: {folder} is a dangling link (to {os.readlink(folder)})"
         folder = folder.parent
     if not folder.is_dir():
@@ -457,7 +462,9 @@ def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool)
         if not Path(file).is_file():
             # a FIFO or a device is never opened (a FIFO's open waits for a writer); validate_stage says
             # so at once, in one SWPM_USD_OPEN naming its kind
-            problem = "not a regular file" if Path(file).exists() else "file not found"
+            from ..fileio import missing_file_problem
+
+            problem = "not a regular file" if Path(file).exists() else missing_file_problem(file)
             click.echo(f"error: {file}: {problem}", err=True)
             if as_json:
                 from ..usd.validate import report, validate_stage
