@@ -883,9 +883,30 @@ def test_the_planner_parses_a_new_text_root_once_and_holds_one_at_a_time(tmp_pat
     assets, inputs, problems = discover(load_config(tmp_path / "c.yaml"))
     assert problems == [] and [a.id for a in assets] == ["m/p.usda", "m/q.usda", "m/t.usda"]
     # (each plain root parsed by the check when it is opened, and no other; the root over a crate file,
-    # probed in the batch, is not held: opened in a checked block of its own, which finds its answer kept)
-    assert seen == {"p.usda": [True, False, False], "q.usda": [False, True, False], "t.usda": [False] * 3}
+    # probed in the batch, is not opened here: the probe listed its layers)
+    assert seen == {"p.usda": [True, False, False], "q.usda": [False, True, False]}
     assert inputs["m/p.usda"] == [plain[0]] and inputs["m/t.usda"] == [over, seed]
+
+
+def test_the_planner_opens_no_stage_a_probe_opened(tmp_path, monkeypatch):
+    # a crate asset, or a text root over a crate layer, was parsed by the probe, then opened again by the
+    # planner for the files of its layers (and a third time by the worker's build): the probe lists them now
+    from swpm_usd.pipeline.assets import discover
+    from swpm_usd.pipeline.config import load_config
+
+    (tmp_path / "m").mkdir()
+    seed = _seed(tmp_path / "seed.usdc")
+    crate = _seed(tmp_path / "m" / "c.usdc")
+    over = _text_root(tmp_path / "m" / "t.usda", "reference", seed)
+    (tmp_path / "c.yaml").write_text("version: 1\nassets: [{glob: 'm/*'}]\noutput: {dir: out}\n")
+    opened: list[str] = []
+    real = Usd.Stage.Open
+    monkeypatch.setattr(
+        Usd.Stage, "Open", lambda path, *a, **k: opened.append(str(path)) or real(path, *a, **k)
+    )
+    assets, inputs, problems = discover(load_config(tmp_path / "c.yaml"))
+    assert problems == [] and [a.id for a in assets] == ["m/c.usdc", "m/t.usda"]
+    assert opened == [] and inputs == {"m/c.usdc": [crate], "m/t.usda": [over, seed]}, (opened, inputs)
 
 
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs on this platform")

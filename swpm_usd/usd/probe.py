@@ -247,7 +247,10 @@ def probe(path):
             attempt(layer.QueryTimeSample, path, t)
     for layer in used:
         attempt(layer.Traverse, Sdf.Path.absoluteRootPath, lambda p, layer=layer: read_spec(layer, p))
-    return (4, failed[0], layers) if failed else (0, "", layers)
+    # the files of the layers the stage uses, as the asking process lists them (a package's inner layer:
+    # the package), so that it need not open the stage itself to know them (a large crate parsed once more)
+    files = sorted({Ar.SplitPackageRelativePathOuter(layer.realPath)[0] for layer in used if layer.realPath})
+    return (4, failed[0], layers) if failed else (0, "", layers, files)
 def crate(path):
     if path.lower().endswith((".usdc", ".usdz")):
         return True
@@ -297,13 +300,13 @@ def finish(fd):
             continue
         if isinstance(item, str):
             layers.add(item)
-        elif isinstance(item, list) and len(item) == 3:
-            answer = item
+        elif isinstance(item, list) and len(item) in (3, 4):
+            answer = [*item, []][:4]  # (the files of the layers its stage uses: a clean answer's alone)
     if os.WIFSIGNALED(status):
-        answer = [-os.WTERMSIG(status), crash_report(pid), sorted(layers)]
+        answer = [-os.WTERMSIG(status), crash_report(pid), sorted(layers), []]
     elif answer is None:
         code = os.waitstatus_to_exitcode(status)
-        answer = [5, f"the probe process ended (exit {code}) without an answer", []]
+        answer = [5, f"the probe process ended (exit {code}) without an answer", [], []]
     else:
         answer[2] = sorted(layers.union(answer[2]))
     os.write(1, (json.dumps([tag, *answer]) + "\n").encode())
@@ -367,7 +370,7 @@ while True:
                 start(line)
             except OSError as exc:  # (no process can be forked now)
                 tag = json.loads(line)[0]
-                answer = [tag, 5, f"cannot start a probe process: {exc}", []]
+                answer = [tag, 5, f"cannot start a probe process: {exc}", [], []]
                 os.write(1, (json.dumps(answer) + "\n").encode())
 """
 
@@ -389,6 +392,11 @@ _Stamp = tuple[int, int, int] | None
 #: a text root names; the path the problem's message names the file by). The answer holds while each of
 #: those files is as it was
 _answers: dict[tuple[str, int, int, int], tuple[Problem | None, tuple[tuple[str, _Stamp], ...], str]] = {}
+#: the key of a file a probe found clean -> the files of the layers its stage uses (:func:`used_layers`)
+_used: dict[tuple[str, int, int, int], list[str]] = {}
+#: a probe's path -> the files of the layers its stage uses, as the probe server answered (a clean answer),
+#: taken into :data:`_used` by :func:`check_many`
+_probed_used: dict[str, list[str]] = {}
 
 
 def _regular(path: str) -> bool:
@@ -655,9 +663,25 @@ def check_many(
         problem, layers = found[p]
         files = {n for n in (*named, *layers) if n != key[0]}
         _answers[key] = (problem, tuple((n, _stamp(n)) for n in sorted(files)), p)
+        used = _probed_used.pop(p, None)
+        if problem is None and used is not None:
+            _used[key] = used
         for i in where:
             answers[i] = _answer(key, os.fspath(paths[i]))
     return answers
+
+
+def used_layers(path: str | os.PathLike[str]) -> list[str] | None:
+    """The files of the layers ``path``'s stage uses (its own, its sublayers, references, payloads; a
+    package's inner layer as the package), sorted, as the probe that found it clean listed them after its
+    open: a caller that wants only those (the pipeline's planner, the inputs of a USD asset) need not open the
+    stage in its own process, which parsed a large crate file a second time (the probe's, then the worker's
+    build, are the two it must have). None when this process has no such clean answer for the file as it is
+    now (not probed: a text root naming no crate file; changed since; probed by an older server)."""
+    key = _key(os.fspath(path))
+    if key is None or key not in _used or not _known(key) or _answers[key][0] is not None:
+        return None
+    return list(_used[key])
 
 
 @contextlib.contextmanager
@@ -837,7 +861,7 @@ def _serve(
             while b"\n" in pending:
                 line, pending = pending.split(b"\n", 1)
                 try:
-                    tag, code, text, layers = json.loads(line)
+                    tag, code, text, layers, used = json.loads(line)
                     path, _ = flight.pop(tag)
                 except (ValueError, KeyError, TypeError):
                     _stop(server)
@@ -853,7 +877,10 @@ def _serve(
                 ):
                     failed[path] = text or f"its answer {code}"
                 else:
-                    out[path] = (_problem(path, code, text, seconds), [str(p) for p in layers])
+                    problem = _problem(path, code, text, seconds)
+                    out[path] = (problem, [str(p) for p in layers])
+                    if problem is None:
+                        _probed_used[path] = [str(p) for p in used]
     except OSError as exc:  # (no process can be started, or it went)
         _stop(_server)
         for path in [*(p for p, _ in flight.values()), *queue]:
