@@ -1183,3 +1183,48 @@ def test_a_crash_in_a_layer_a_selected_variants_layer_names_is_keyed_on_that_lay
         assert probe.check(root) == found and len(asked) == 2  # (probed again)
     finally:
         probe._stop(probe._server)  # (the next test's server runs the real program)
+
+
+def test_a_crash_in_a_layer_a_selected_variants_crate_layer_names_is_keyed_on_that_layer(
+    tmp_path, monkeypatch
+):
+    # as for a text layer only a variant names (the test above), but the variant's layer a crate file: it was
+    # named, not opened, so the layers it names were not known before the stage's open; a crash of the open
+    # in bad.usdc, which only mid.usdc names, was keyed on mid.usdc alone and kept after bad.usdc changed.
+    # mid.usdc is read in a process of its own (a crash there is not the stage's) and what it names named
+    bad = _seed(tmp_path / "bad.usdc")
+    mid_text = tmp_path / "mid.usda"
+    mid_text.write_text('#usda 1.0\ndef "m" (\n    references = @./bad.usdc@</m>\n)\n{\n}\n')
+    mid = tmp_path / "mid.usdc"
+    layer = Sdf.Layer.FindOrOpen(str(mid_text))
+    assert layer.Export(str(mid))
+    del layer
+    mid_text.unlink()
+    _seed(tmp_path / "good.usdc")
+    text = tmp_path / "root.usda"
+    text.write_text(
+        '#usda 1.0\n(\n    defaultPrim = "a"\n)\n'
+        'def "a" (\n    variants = { string lod = "broken" }\n    prepend variantSets = "lod"\n)\n{\n'
+        '    variantSet "lod" = {\n'
+        '        "hi" ( references = @./good.usdc@</m> ) { }\n'
+        '        "broken" ( references = @./mid.usdc@</m> ) { }\n'
+        "    }\n}\n"
+    )
+    asked = _files_probed(monkeypatch)
+    _patched_program(
+        monkeypatch,
+        "        stage = Usd.Stage.Open(path)\n",
+        "        if path.endswith('root.usda'):\n"
+        "            os.kill(os.getpid(), signal.SIGSEGV)\n"
+        "        stage = Usd.Stage.Open(path)\n",
+    )
+    try:
+        found = probe.check(text)
+        assert found is not None and found.kind == "crash", found
+        keyed = [n for n, _ in probe._answers[probe._key(str(text))][1]]
+        assert str(bad.resolve()) in keyed and str(mid.resolve()) in keyed, keyed
+        assert probe.check(text) == found and len(asked) == 1  # (kept while its layers are unchanged)
+        os.utime(bad, ns=(5, 5))
+        assert probe.check(text) == found and len(asked) == 2  # (probed again)
+    finally:
+        probe._stop(probe._server)  # (the next test's server runs the real program)

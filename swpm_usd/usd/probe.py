@@ -18,9 +18,9 @@ the stage in a :func:`checked` block finds them parsed, held for its open: each 
 not a regular file (a FIFO, whose open waits for a writer; a folder; a device), the root or one a layer names,
 is an "open" problem at once, decided by ``os.stat`` and never opened: here for the root and the layers text
 layers name, in the probe (which opens the stage's layers one by one before the stage; one only a variant
-names is named, not opened: the stage opens it only when the variant is selected; a text one is read, the
-layers it names named in turn) for those a crate layer names; the probe's alarm is left for what cannot be
-named before the open. Each answer is kept for this
+names is named, not opened: the stage opens it only when the variant is selected; a text one is read, a
+crate one read in a process of its own, the layers it names named in turn) for those a crate layer
+names; the probe's alarm is left for what cannot be named before the open. Each answer is kept for this
 process while the file and every file it depends on (the layers the probe opened or was opening when it
 crashed or ran out of time: it names each to the server before it opens it; the files its text layers or the
 stage's composition errors name: one missing, should it appear) keep their path, size, mtime and inode; one
@@ -132,8 +132,8 @@ def preopen(path):
     # only a variant names is named, not opened (the stage opens it only if the variant is selected: one
     # that crashes usd-core in a variant not selected is no crash of the stage), but for a text one (whose
     # parser fails cleanly): read, the layers it names are named too (a crash in one, its variant selected,
-    # is keyed on it, not on the layers naming it), as only a variant names them
-    resolver = Ar.GetResolver()
+    # is keyed on it, not on the layers naming it), as only a variant names them; a crate one's are named
+    # so too, read in a process of its own (crate_names)
     root = os.path.abspath(path)
     held, seen, todo = [], {}, [(root, False)]  # (seen: real path -> whether only a variant names it)
     while todo:
@@ -145,8 +145,12 @@ def preopen(path):
         if spelled != root and not real.lower().endswith((".usd", ".usda", ".usdc", ".usdz")):
             continue
         note(real)
-        if varied_only and (not os.path.isfile(real) or crate(real)):
+        if varied_only and not os.path.isfile(real):
             continue  # (named, not opened)
+        if varied_only and crate(real):
+            # (named, not opened here; what it names is read in a process of its own, and named in turn)
+            todo.extend((found, True) for found in crate_names(spelled))
+            continue
         try:
             mode = os.stat(real).st_mode
         except OSError:
@@ -168,16 +172,60 @@ def preopen(path):
                 varied = []  # (each layer it names opened)
         opens = set(assets)
         for asset in [*assets, *varied]:
-            try:
-                found = str(resolver.Resolve(resolver.CreateIdentifier(asset, layer.resolvedPath)))
-            except Exception:
-                found = ""
-            if not found:
-                found = os.path.join(os.path.dirname(str(layer.resolvedPath)), asset)
-            found = found.split("[", 1)[0]
             # (one only a variant names: a crash of the stage's open in it is keyed on it too)
-            todo.append((found, varied_only or asset not in opens))
+            todo.append((resolved(asset, layer), varied_only or asset not in opens))
     return "", held
+def resolved(asset, layer):
+    # the file an asset path of ``layer`` names, as the stage's open resolves it (no package's inner part)
+    resolver = Ar.GetResolver()
+    try:
+        found = str(resolver.Resolve(resolver.CreateIdentifier(asset, layer.resolvedPath)))
+    except Exception:
+        found = ""
+    if not found:
+        found = os.path.join(os.path.dirname(str(layer.resolvedPath)), asset)
+    return found.split("[", 1)[0]
+def crate_names(spelled):
+    # the files a crate layer only a variant names names in turn (its sublayers, references, payloads),
+    # read in a process forked from this probe: a crash in it (its variant maybe not selected) is not the
+    # stage's, and the layers it names are named to the server before the stage's open, so that a crash of
+    # the open in one of them, its variant selected, is keyed on it (as for a text layer a variant names). []
+    # when it does not read (the stage's open meets it, if its variant is selected)
+    r, w = os.pipe()
+    try:
+        pid = os.fork()
+    except OSError:
+        os.close(r)
+        os.close(w)
+        return []
+    if pid == 0:
+        os.close(r)
+        found = []
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG: dies with us
+            layer = Sdf.Layer.FindOrOpen(spelled)
+            if layer:
+                always, varied = arcs(layer)
+                names = [*layer.GetCompositionAssetDependencies(), *always, *varied]
+                found = sorted({resolved(asset, layer) for asset in names if asset})
+        except Exception:
+            pass
+        os.write(w, json.dumps(found).encode())
+        os._exit(0)
+    os.close(w)
+    chunks = []
+    while True:
+        data = os.read(r, 1 << 16)
+        if not data:
+            break
+        chunks.append(data)
+    os.close(r)
+    os.waitpid(pid, 0)
+    try:
+        found = json.loads(b"".join(chunks))
+    except ValueError:  # (it died: cut short, or nothing)
+        return []
+    return [str(f) for f in found] if isinstance(found, list) else []
 def probe(path):
     odd, held = preopen(path)
     if odd:
