@@ -298,3 +298,41 @@ def test_an_input_in_a_link_loop_is_called_a_link_loop(tmp_path, command, where)
     args = [command, str(given)] + (["-o", str(tmp_path / "x.swpm")] if command == "encode" else [])
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 1 and result.stderr == f"error: {says}\n", result.output
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["build", ""],
+        ["encode", "", "-o", "x.swpm"],
+        ["encode", "a.obj", "-o", ""],
+        ["inspect", ""],
+        ["validate", ""],
+        ["run", ""],
+    ],
+)
+def test_an_empty_path_is_a_usage_error_said_alike(tmp_path, monkeypatch, args):
+    # "" (an unset shell variable, "$MESH") was the current folder, each command saying it its own way:
+    # build ".: unsupported file type", inspect ": cannot read file" (exit 1), run ".:1:1: $: cannot read the
+    # file ([Errno 21] Is a directory: '.')"
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "a.obj").write_text(TWO_TRIANGLES)
+    result = CliRunner().invoke(main, [*args, "--json"])
+    assert result.exit_code == 2, result.output
+    assert "the path is empty (an unset shell variable?)" in result.stderr
+    out = json.loads(result.stdout)
+    assert out["usage_error"] is True and "the path is empty" in out["error"]
+
+
+def test_run_refuses_a_scheduler_without_the_dask_executor(tmp_path):
+    # --scheduler ADDR without --executor dask was ignored: every asset built here, none on the cluster
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    result = CliRunner().invoke(main, ["run", str(cfg), "--scheduler", "tcp://10.0.0.1:8786", "--json"])
+    assert result.exit_code == 2, result.output
+    assert "needs --executor dask" in result.stderr and json.loads(result.stdout)["usage_error"] is True
+    assert not (tmp_path / "out").exists()

@@ -253,6 +253,21 @@ def _output_folder_problem(output: Path) -> str | None:
     return None
 
 
+class FilePath(click.Path):
+    """A file argument (``click.Path(dir_okay=False)``) that is not empty: ``""`` (a shell variable unset,
+    ``"$MESH"``) was taken as the current folder, each command saying it its own way (``.: unsupported file
+    type``, ``: cannot read file``, ``.:1:1: $: cannot read the file ([Errno 21] Is a directory: '.')``). A
+    usage error (exit 2), said alike by every command."""
+
+    def __init__(self, **kwargs: object) -> None:
+        super().__init__(dir_okay=False, **kwargs)  # type: ignore[arg-type]
+
+    def convert(self, value: object, param: click.Parameter | None, ctx: click.Context | None) -> object:
+        if isinstance(value, str) and value == "":
+            self.fail("the path is empty (an unset shell variable?)", param, ctx)
+        return super().convert(value, param, ctx)
+
+
 #: ``--max-triangles N`` of the commands that load a mesh (:func:`swpm_usd.io.load_mesh`'s ``max_triangles``)
 max_triangles_option = click.option(
     "--max-triangles",
@@ -276,13 +291,13 @@ def mesh_input(input_path: str, max_triangles: int | None) -> object:
 
 
 @click.command("encode", cls=EncodingsHelpCommand)
-@click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
+@click.argument("input_path", metavar="INPUT", type=FilePath())
 @click.option(
     "-o",
     "--output",
     "output",
     required=True,
-    type=click.Path(dir_okay=False),
+    type=FilePath(),
     help="The .swpm file to write (atomically; a missing folder is made); never the input.",
 )
 @click.option(
@@ -363,7 +378,7 @@ def encode_cmd(
 
 
 @click.command("inspect", cls=JsonUsageCommand)
-@click.argument("file", type=click.Path(dir_okay=False))
+@click.argument("file", type=FilePath())
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @click.option(
     "--rows",
@@ -373,7 +388,8 @@ def encode_cmd(
     help="LOD rows to show (spread evenly, the first and the last always).",
 )
 def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
-    """Show FILE's header, chunks, counts, parameters and a per-LOD table."""
+    """Show FILE's (an .swpm file's) header, chunks, counts, parameters and a per-LOD table, and the
+    problems ``validate`` finds. Exit 0 valid, 1 invalid or unreadable."""
     from .reader import _check, _map
 
     try:
@@ -446,7 +462,7 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
 
 
 @click.command("validate", cls=JsonUsageCommand)
-@click.argument("file", type=click.Path(dir_okay=False))
+@click.argument("file", type=FilePath())
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 @click.option("--no-builtin", is_flag=True, help="USD stages: run only our validator, not usd-core's.")
 @click.pass_context
