@@ -336,3 +336,21 @@ def test_run_refuses_a_scheduler_without_the_dask_executor(tmp_path):
     assert result.exit_code == 2, result.output
     assert "needs --executor dask" in result.stderr and json.loads(result.stdout)["usage_error"] is True
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("command", ["inspect", "validate"])
+def test_a_mesh_given_as_an_swpm_file_gets_a_hint(tmp_path, command):
+    # `validate spot.obj` (or inspect) said "magic is 7620302e33343837, expected ..." and no more: a user
+    # who meant to check a mesh is told what to run. The report (and its JSON) are as before
+    mesh = tmp_path / "a.obj"
+    mesh.write_text(TWO_TRIANGLES)
+    result = CliRunner().invoke(main, [command, str(mesh), "--json"])
+    assert result.exit_code == 1
+    assert json.loads(result.stdout)["problems"][0]["code"] == "SWPM_HEADER_BAD_MAGIC"
+    assert result.stderr == (
+        f"hint: {mesh} is a mesh file (.obj), not an SWPM file: swpm-pipeline encode {mesh} -o a.swpm "
+        f"writes one, swpm-pipeline build {mesh} shows its LODs\n"
+    )
+    (tmp_path / "b.swpm").write_text(TWO_TRIANGLES)  # (an .swpm that is not one: no hint)
+    result = CliRunner().invoke(main, [command, str(tmp_path / "b.swpm")])
+    assert result.exit_code == 1 and "hint" not in result.stderr

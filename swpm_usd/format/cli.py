@@ -377,6 +377,21 @@ def encode_cmd(
     click.echo(f"{output}: {pm.encoding}, {pm.lod_count} LODs, {pm.vertex_count} vertices, {size} bytes")
 
 
+def _mesh_hint(file: str, problems: list) -> None:
+    """A mesh file given to ``inspect`` or ``validate`` as an SWPM file (its magic wrong, its name a mesh
+    type's): one line on stderr saying what to run instead (the report alone, ``magic is 7620302e33343837``,
+    left a user to find out why a mesh is an invalid file)."""
+    from ..io import SUPPORTED_SUFFIXES
+
+    suffix = Path(file).suffix.lower()
+    if suffix in SUPPORTED_SUFFIXES and any(q.code == "SWPM_HEADER_BAD_MAGIC" for q in problems):
+        click.echo(
+            f"hint: {file} is a mesh file ({suffix}), not an SWPM file: swpm-pipeline encode {file} -o "
+            f"{Path(file).with_suffix('.swpm').name} writes one, swpm-pipeline build {file} shows its LODs",
+            err=True,
+        )
+
+
 @click.command("inspect", cls=JsonUsageCommand)
 @click.argument("file", type=FilePath())
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
@@ -427,6 +442,7 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
                 }
             )
     out["lods"] = table
+    _mesh_hint(file, rep.problems)
     if as_json:
         click.echo(json.dumps(out, indent=2, default=str))
     else:
@@ -493,6 +509,7 @@ def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool)
     from .reader import validate
 
     rep = validate(file)
+    _mesh_hint(file, rep.problems)
     click.echo(rep.to_json(indent=2) if as_json else rep.format())
     sys.exit(0 if rep.valid else 1)
 
