@@ -354,3 +354,20 @@ def test_a_mesh_given_as_an_swpm_file_gets_a_hint(tmp_path, command):
     (tmp_path / "b.swpm").write_text(TWO_TRIANGLES)  # (an .swpm that is not one: no hint)
     result = CliRunner().invoke(main, [command, str(tmp_path / "b.swpm")])
     assert result.exit_code == 1 and "hint" not in result.stderr
+
+
+@pytest.mark.parametrize(
+    "params, says",
+    [
+        (["mu=0.5", "mu=0.1"], "Invalid value for --param: mu given twice ('0.5', then '0.1'); give it once"),
+        (["=5"], "--param expects NAME=VALUE, got '=5'"),
+    ],
+)
+def test_a_parameter_given_twice_or_without_a_name_is_a_usage_error(tmp_path, params, says):
+    # `-p mu=0.5 -p mu=0.1` built with the last, silently; `-p =5` said " not a parameter of vanilla"
+    args = ["build", str(tmp_path / "missing.obj"), "-e", "sliding-window"]
+    for p in params:
+        args += ["-p", p]
+    result = CliRunner().invoke(main, [*args, "--json"])
+    assert result.exit_code == 2 and says in result.stderr, result.output
+    assert json.loads(result.stdout)["error"] == says

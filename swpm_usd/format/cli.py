@@ -20,10 +20,16 @@ from ..errors import SwpmError
 
 def _parse_params(params: tuple[str, ...]) -> dict:
     parsed = {}
+    given: dict[str, str] = {}
     for item in params:
-        if "=" not in item:
+        if "=" not in item or not item.split("=", 1)[0].strip():  # (``=5``: " not a parameter of vanilla")
             raise click.UsageError(f"--param expects NAME=VALUE, got {item!r}")
         name, value = item.split("=", 1)
+        if name in given:  # (the last one was taken, silently: which did the user mean?)
+            raise click.BadParameter(
+                f"{name} given twice ({given[name]!r}, then {value!r}); give it once", param_hint="--param"
+            )
+        given[name] = value
         try:
             parsed[name] = json.loads(value)
         except json.JSONDecodeError:
