@@ -5197,3 +5197,26 @@ def test_bench_scale_edits_an_input_without_breaking_it(tmp_path):
         bench._edit_input(p)
         assert p.read_bytes() != before, p
         assert len(load_mesh(p).triangles) == triangles, p
+
+
+@pytest.mark.parametrize("link", ["loop", "loop-under", "nothing"])
+def test_an_output_dir_that_is_a_link_loop_or_to_nothing_is_a_config_error(tmp_path, link):
+    # output.dir a link in a loop: a traceback (RuntimeError: Symlink loop from '.../manifest.json'), exit 1,
+    # no JSON; a link to nothing: "cannot create ...: File exists"
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    if link == "nothing":
+        (tmp_path / "out").symlink_to("nowhere")
+        says = f"{tmp_path / 'out'} is a link to nothing (to nowhere), not a folder"
+        out = "out"
+    else:
+        (tmp_path / "out").symlink_to("round")
+        (tmp_path / "round").symlink_to("out")
+        out = "out" if link == "loop" else "out/deeper"
+        under = "" if link == "loop" else f": its folder {tmp_path / 'out'}"
+        says = f"{tmp_path / out}{under} is a link loop (to round), not a folder"
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(f"version: 1\nassets: [{{glob: 'm/*.obj'}}]\noutput: {{dir: {out}}}\n")
+    r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
+    assert r.exit_code == 2 and "Traceback" not in r.output, r.output
+    assert json.loads(r.stdout)["problems"] == [f"{cfg}:3:15: $.output.dir: {says}"]
