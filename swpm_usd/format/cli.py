@@ -505,10 +505,16 @@ def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool)
             problem = "not a regular file" if Path(file).exists() else missing_file_problem(file)
             click.echo(f"error: {file}: {problem}", err=True)
             if as_json:
-                from ..usd.validate import report, validate_stage
+                from ..usd.validate import ERROR, Finding, report, validate_stage
 
-                rep = report(validate_stage(file, builtin=False))
-                click.echo(json.dumps({"stage": file, **rep}, indent=2))
+                # (a missing file, or a link loop, in the words of the line above: usd-core's were
+                # "cannot open it as a USD layer (No such file or directory): Failed to open layer @x@")
+                findings = (
+                    validate_stage(file, builtin=False)
+                    if Path(file).exists()
+                    else [Finding("SWPM_USD_OPEN", ERROR, "/", f"{file}: {problem}")]
+                )
+                click.echo(json.dumps({"stage": file, **report(findings)}, indent=2))
             sys.exit(1)
         ctx.invoke(validate_usd, stage=Path(file), as_json=as_json, no_builtin=no_builtin)
         return
