@@ -1228,3 +1228,25 @@ def test_a_crash_in_a_layer_a_selected_variants_crate_layer_names_is_keyed_on_th
         assert probe.check(text) == found and len(asked) == 2  # (probed again)
     finally:
         probe._stop(probe._server)  # (the next test's server runs the real program)
+
+
+def test_the_planner_uses_no_stale_layer_list_once_a_sublayer_names_no_crate(tmp_path):
+    # a probe's list of the layers a stage uses was kept for the root's key alone: once a sublayer changed to
+    # name no crate file (no probe: the root checked here, in text), the old list was still taken, so the
+    # asset's inputs named the crate it no longer uses and not the layer it does (a change there went unseen)
+    from swpm_usd.pipeline.assets import _usd_layer_files
+
+    seed = _seed(tmp_path / "seed.usdc")
+    other = tmp_path / "other.usda"
+    other.write_text('#usda 1.0\ndef "m" {\n}\n')
+    sub = tmp_path / "sub.usda"
+    sub.write_text(f'#usda 1.0\ndef "m" (\n    references = @{seed}@</m>\n)\n{{\n}}\n')
+    root = tmp_path / "root.usda"
+    root.write_text('#usda 1.0\n(\n    subLayers = [@./sub.usda@]\n)\n')
+    files, ok = _usd_layer_files(root)
+    assert ok and sorted(files) == sorted([sub, seed]), files
+    sub.write_text(f'#usda 1.0\ndef "m" (\n    references = @{other}@</m>\n)\n{{\n}}\n')
+    os.utime(sub, ns=(7, 7))
+    assert probe.used_layers(root) is None  # (its answer's layers changed: no list)
+    files, ok = _usd_layer_files(root)
+    assert ok and sorted(files) == sorted([sub, other]), files

@@ -440,8 +440,10 @@ _Stamp = tuple[int, int, int] | None
 #: a text root names; the path the problem's message names the file by). The answer holds while each of
 #: those files is as it was
 _answers: dict[tuple[str, int, int, int], tuple[Problem | None, tuple[tuple[str, _Stamp], ...], str]] = {}
-#: the key of a file a probe found clean -> the files of the layers its stage uses (:func:`used_layers`)
-_used: dict[tuple[str, int, int, int], list[str]] = {}
+#: the key of a file a probe found clean -> (that answer, of :data:`_answers`; the files of the layers its stage
+#: uses) (:func:`used_layers`): the list holds while that answer is the file's (one given since, its
+#: sublayer changed to name no crate file and found clean in text, has no list: the old one was stale)
+_used: dict[tuple[str, int, int, int], tuple[tuple, list[str]]] = {}
 #: a probe's path -> the files of the layers its stage uses, as the probe server answered (a clean answer),
 #: taken into :data:`_used` by :func:`check_many`
 _probed_used: dict[str, list[str]] = {}
@@ -713,7 +715,7 @@ def check_many(
         _answers[key] = (problem, tuple((n, _stamp(n)) for n in sorted(files)), p)
         used = _probed_used.pop(p, None)
         if problem is None and used is not None:
-            _used[key] = used
+            _used[key] = (_answers[key], used)
         for i in where:
             answers[i] = _answer(key, os.fspath(paths[i]))
     return answers
@@ -729,7 +731,8 @@ def used_layers(path: str | os.PathLike[str]) -> list[str] | None:
     key = _key(os.fspath(path))
     if key is None or key not in _used or not _known(key) or _answers[key][0] is not None:
         return None
-    return list(_used[key])
+    answer, used = _used[key]
+    return list(used) if answer is _answers[key] else None
 
 
 @contextlib.contextmanager
