@@ -1250,3 +1250,34 @@ def test_the_planner_uses_no_stale_layer_list_once_a_sublayer_names_no_crate(tmp
     assert probe.used_layers(root) is None  # (its answer's layers changed: no list)
     files, ok = _usd_layer_files(root)
     assert ok and sorted(files) == sorted([sub, other]), files
+
+
+def test_a_crate_layer_only_an_unselected_variant_names_that_hangs_is_no_timeout_of_the_stage(
+    tmp_path, monkeypatch
+):
+    # the process the probe forks to read a crate layer only a variant names (crate_names) had no time limit
+    # of its own: the probe waited for it, and one that hung (usd-core on a corrupt file, in a variant not
+    # selected) took the probe's whole time, a timeout of a stage that opens cleanly. It has half the probe's
+    # time left, then is killed; the stage's open has the rest
+    monkeypatch.setenv("SWPM_USD_PROBE_SECONDS", "6")
+    _seed(tmp_path / "good.usdc")
+    _seed(tmp_path / "mid.usdc")
+    root = tmp_path / "root.usda"
+    root.write_text(
+        '#usda 1.0\n(\n    defaultPrim = "a"\n)\n'
+        'def "a" (\n    variants = { string lod = "hi" }\n    prepend variantSets = "lod"\n)\n{\n'
+        '    variantSet "lod" = {\n'
+        '        "hi" ( references = @./good.usdc@</m> ) { }\n'
+        '        "broken" ( references = @./mid.usdc@</m> ) { }\n'
+        "    }\n}\n"
+    )
+    _patched_program(  # (the forked reader hangs, as usd-core might on a corrupt crate file)
+        monkeypatch,
+        "        found = []\n        try:\n",
+        "        found = []\n        import time\n        time.sleep(600)\n        try:\n",
+    )
+    try:
+        found = probe.check(root)
+    finally:
+        probe._stop(probe._server)  # (the next test's server runs the real program)
+    assert found is None, found  # (not a timeout: the stage opens good.usdc alone)

@@ -190,7 +190,11 @@ def crate_names(spelled):
     # read in a process forked from this probe: a crash in it (its variant maybe not selected) is not the
     # stage's, and the layers it names are named to the server before the stage's open, so that a crash of
     # the open in one of them, its variant selected, is keyed on it (as for a text layer a variant names). []
-    # when it does not read (the stage's open meets it, if its variant is selected)
+    # when it does not read (the stage's open meets it, if its variant is selected). It has half of this
+    # probe's time left (its own alarm): one that hangs is killed then, and the stage's open has the rest (it
+    # took all of the probe's, a hang in a variant not selected a timeout of the stage)
+    left = signal.alarm(0)
+    signal.alarm(left)
     r, w = os.pipe()
     try:
         pid = os.fork()
@@ -200,6 +204,11 @@ def crate_names(spelled):
         return []
     if pid == 0:
         os.close(r)
+        signal.alarm(max(1, left // 2) if left else 0)
+        try:
+            os.close(OUT)  # (the server's end of this probe's answer is not held open by this one)
+        except (OSError, TypeError):
+            pass
         found = []
         try:
             ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG: dies with us
