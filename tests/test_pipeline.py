@@ -3294,20 +3294,23 @@ def test_scene_and_report_stay_recorded_through_an_interrupted_run(tmp_path, mon
     assert sorted(run(cfg).unlisted) == ["report.html", "scene.usda"]
 
 
-def test_a_symlink_loop_a_glob_matches_is_a_failed_asset(tmp_path):
+@pytest.mark.parametrize("suffix", [".obj", ".usda"])
+def test_a_symlink_loop_a_glob_matches_is_a_failed_asset(tmp_path, suffix):
     # a mesh-typed link in a loop (a.obj -> b.obj -> a.obj) is a link to no file, which 949b7a2 made a
-    # glob's asset; resolving it for the duplicate check raised RuntimeError, a traceback in every run
+    # glob's asset; resolving it for the duplicate check raised RuntimeError, a traceback in every run. A
+    # .usda one raised it again, resolved for the files of its layers before it was known to be no file
     cfg = _vanilla_project(tmp_path)
-    (tmp_path / "m" / "loop1.obj").symlink_to("loop2.obj")
-    (tmp_path / "m" / "loop2.obj").symlink_to("loop1.obj")
+    cfg.write_text(VANILLA_M.replace("m/*.obj", "m/*"))
+    (tmp_path / "m" / f"loop1{suffix}").symlink_to(f"loop2{suffix}")
+    (tmp_path / "m" / f"loop2{suffix}").symlink_to(f"loop1{suffix}")
     r = CliRunner().invoke(main, ["run", str(cfg), "--dry-run", "--json"])
     assert r.exit_code == 0 and "Traceback" not in r.output, r.output
     res = run(cfg)
-    assert res.built == 1 and sorted(res.failures) == ["m/loop1.obj", "m/loop2.obj"]
+    assert res.built == 1 and sorted(res.failures) == [f"m/loop1{suffix}", f"m/loop2{suffix}"]
     # (named a link loop, not "file not found": no file was missing)
-    assert res.failures["m/loop1.obj"]["error"].endswith(
-        "m/loop1.obj: a link loop (to loop2.obj): following it comes back round, to no file"
-    )
+    assert res.failures[f"m/loop1{suffix}"]["error"].endswith(
+        f"m/loop1{suffix}: a link loop (to loop2{suffix}): following it comes back round, to no file"
+    ), res.failures
 
 
 def test_defaults_params_without_an_encoding_are_checked_as_sliding_windows(tmp_path):
