@@ -57,12 +57,28 @@ def link_loop(path: str | os.PathLike[str]) -> tuple[Path, str] | None:
         try:
             os.stat(p)
         except OSError as exc:
-            if exc.errno == errno.ELOOP:
+            if exc.errno == errno.ELOOP and _comes_back(p):
                 try:
                     return p, os.readlink(p)
                 except OSError:
                     return p, "?"
     return None
+
+
+def _comes_back(link: Path) -> bool:
+    """Whether following ``link`` link by link comes back to one already followed (a loop), where ELOOP is
+    also the system's word for a chain of more links than it follows (40 on Linux) ending at a file."""
+    seen: set[str] = set()
+    here = os.path.abspath(link)
+    while os.path.islink(here):
+        if here in seen or len(seen) > 100_000:
+            return True
+        seen.add(here)
+        try:
+            here = os.path.normpath(os.path.join(os.path.dirname(here), os.readlink(here)))
+        except OSError:
+            return False
+    return False
 
 
 def missing_file_problem(path: str | os.PathLike[str]) -> str:
@@ -71,6 +87,11 @@ def missing_file_problem(path: str | os.PathLike[str]) -> str:
     not found``."""
     loop = link_loop(path)
     if loop is None:
+        try:
+            os.stat(path)
+        except OSError as exc:
+            if exc.errno == errno.ELOOP:  # (a chain of links longer than the system follows, not a loop)
+                return "too many links to follow on the way to it (a chain longer than the system follows)"
         return "file not found"
     link, target = loop
     if link == Path(path):

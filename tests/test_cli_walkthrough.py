@@ -300,6 +300,25 @@ def test_an_input_in_a_link_loop_is_called_a_link_loop(tmp_path, command, where)
     assert result.exit_code == 1 and result.stderr == f"error: {says}\n", result.output
 
 
+def test_an_input_at_the_end_of_a_chain_of_too_many_links_is_no_link_loop(tmp_path):
+    # ELOOP is also the system's word for a chain of more links than it follows (40 on Linux) that ends at a
+    # file: it was called "a link loop ... comes back round, to no file" (the file is there); and a long
+    # loop (2000 links) is still a loop, found at once
+    (tmp_path / "real.obj").write_text(TWO_TRIANGLES)
+    prev = "real.obj"
+    for i in range(60):
+        (tmp_path / f"l{i}.obj").symlink_to(prev)
+        prev = f"l{i}.obj"
+    result = CliRunner().invoke(main, ["build", str(tmp_path / prev)])  # (Linux follows 40)
+    says = "too many links to follow on the way to it (a chain longer than the system follows)"
+    assert result.exit_code == 1 and result.stderr == f"error: {tmp_path / prev}: {says}\n", result.output
+    for i in range(2000):
+        (tmp_path / f"r{i}.obj").symlink_to(f"r{(i + 1) % 2000}.obj")
+    result = CliRunner().invoke(main, ["build", str(tmp_path / "r0.obj")])
+    says = "a link loop (to r1.obj): following it comes back round, to no file"
+    assert result.exit_code == 1 and result.stderr == f"error: {tmp_path / 'r0.obj'}: {says}\n", result.output
+
+
 @pytest.mark.parametrize(
     "args",
     [

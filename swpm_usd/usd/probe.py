@@ -449,8 +449,8 @@ _Stamp = tuple[int, int, int] | None
 #: a text root names; the path the problem's message names the file by). The answer holds while each of
 #: those files is as it was
 _answers: dict[tuple[str, int, int, int], tuple[Problem | None, tuple[tuple[str, _Stamp], ...], str]] = {}
-#: the key of a file a probe found clean -> (that answer, of :data:`_answers`; the files of the layers its stage
-#: uses) (:func:`used_layers`): the list holds while that answer is the file's (one given since, its
+#: the key of a file a probe found clean -> (that answer, of :data:`_answers`; the files of the layers its
+#: stage uses) (:func:`used_layers`): the list holds while that answer is the file's (one given since, its
 #: sublayer changed to name no crate file and found clean in text, has no list: the old one was stale)
 _used: dict[tuple[str, int, int, int], tuple[tuple, list[str]]] = {}
 #: a probe's path -> the files of the layers its stage uses, as the probe server answered (a clean answer),
