@@ -1242,7 +1242,7 @@ def test_the_planner_uses_no_stale_layer_list_once_a_sublayer_names_no_crate(tmp
     sub = tmp_path / "sub.usda"
     sub.write_text(f'#usda 1.0\ndef "m" (\n    references = @{seed}@</m>\n)\n{{\n}}\n')
     root = tmp_path / "root.usda"
-    root.write_text('#usda 1.0\n(\n    subLayers = [@./sub.usda@]\n)\n')
+    root.write_text("#usda 1.0\n(\n    subLayers = [@./sub.usda@]\n)\n")
     files, ok = _usd_layer_files(root)
     assert ok and sorted(files) == sorted([sub, seed]), files
     sub.write_text(f'#usda 1.0\ndef "m" (\n    references = @{other}@</m>\n)\n{{\n}}\n')
