@@ -19,6 +19,7 @@ from .format.cli import (
     _JSON_ON_INTERRUPT,
     EncodingsHelpCommand,
     EncodingsHelpGroup,
+    FilePath,
     JsonUsageCommand,
     json_on_interrupt,
     max_triangles_option,
@@ -102,7 +103,7 @@ def main() -> None:
 
 
 @main.command("build", cls=EncodingsHelpCommand)
-@click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
+@click.argument("input_path", metavar="INPUT", type=FilePath())
 @click.option(
     "--encoding", "-e", default="vanilla", show_default=True, help="Encoding to build (listed below)."
 )
@@ -167,7 +168,7 @@ def build_cmd(
 
 
 @main.command("run", cls=JsonUsageCommand)
-@click.argument("config", type=click.Path(dir_okay=False))
+@click.argument("config", type=FilePath())
 @click.option(
     "--jobs",
     "-j",
@@ -178,9 +179,19 @@ def build_cmd(
 )
 @click.option("--dry-run", is_flag=True, help="Plan only: print each asset's rule, encoding and why.")
 @click.option("--explain", is_flag=True, help="Print the plan, then run it.")
-@click.option("--executor", type=click.Choice(["local", "dask"]), default="local", show_default=True)
 @click.option(
-    "--scheduler", default=None, metavar="ADDR", help="Dask scheduler address (default: a local cluster)."
+    "--executor",
+    type=click.Choice(["local", "dask"]),
+    default="local",
+    show_default=True,
+    help="Where assets are built: worker processes of this machine, or a dask cluster (needs dask and "
+    "distributed installed; no limits.seconds).",
+)
+@click.option(
+    "--scheduler",
+    default=None,
+    metavar="ADDR",
+    help="Dask scheduler address, with --executor dask (default: a local cluster).",
 )
 @click.option("--force", is_flag=True, help="Rebuild assets even when they are up to date.")
 @click.option(
@@ -226,6 +237,11 @@ def run_cmd(
     """
     from .pipeline import ConfigError, run
 
+    if scheduler is not None and executor != "dask":
+        # (it was ignored: the assets were built here while the user waited for the cluster to be used)
+        raise click.BadParameter(
+            f"{scheduler!r} is a dask scheduler's address: it needs --executor dask", param_hint="--scheduler"
+        )
     try:
         res = run(
             config,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import os
 import secrets
 import shutil
@@ -42,6 +43,60 @@ def mode_for(path: str | os.PathLike[str]) -> int:
     if st is not None and stat.S_ISREG(st.st_mode):
         return stat.S_IMODE(st.st_mode) & 0o777
     return 0o666 & ~_umask()
+
+
+def link_loop(path: str | os.PathLike[str]) -> tuple[Path, str] | None:
+    """The link on the way to ``path`` (``path`` itself or one of its folders) that leads round in a loop
+    (``a -> b -> a``: following it fails with ELOOP), nearest the root, and what it names; None when there is
+    none. A path that names no file for this reason was called "not found" or "a dangling link", which sends
+    a user looking for a file that was never missing."""
+    path = Path(path)
+    for p in reversed([path, *path.parents]):
+        if not p.is_symlink():  # (False too where lstat fails: below a loop, p is never reached)
+            continue
+        try:
+            os.stat(p)
+        except OSError as exc:
+            if exc.errno == errno.ELOOP and _comes_back(p):
+                try:
+                    return p, os.readlink(p)
+                except OSError:
+                    return p, "?"
+    return None
+
+
+def _comes_back(link: Path) -> bool:
+    """Whether following ``link`` link by link comes back to one already followed (a loop), where ELOOP is
+    also the system's word for a chain of more links than it follows (40 on Linux) ending at a file."""
+    seen: set[str] = set()
+    here = os.path.abspath(link)
+    while os.path.islink(here):
+        if here in seen or len(seen) > 100_000:
+            return True
+        seen.add(here)
+        try:
+            here = os.path.normpath(os.path.join(os.path.dirname(here), os.readlink(here)))
+        except OSError:
+            return False
+    return False
+
+
+def missing_file_problem(path: str | os.PathLike[str]) -> str:
+    """Why ``path``, which names no file, does not: ``a link loop (to b.obj)`` for a link that leads round in
+    a loop, ``its folder d is a link loop (to e)`` for one on the way to it (:func:`link_loop`), else ``file
+    not found``."""
+    loop = link_loop(path)
+    if loop is None:
+        try:
+            os.stat(path)
+        except OSError as exc:
+            if exc.errno == errno.ELOOP:  # (a chain of links longer than the system follows, not a loop)
+                return "too many links to follow on the way to it (a chain longer than the system follows)"
+        return "file not found"
+    link, target = loop
+    if link == Path(path):
+        return f"a link loop (to {target}): following it comes back round, to no file"
+    return f"its folder {link} is a link loop (to {target}): following it comes back round, to no file"
 
 
 def set_plain_mode(fd: int, like: str | os.PathLike[str] | None = None) -> None:

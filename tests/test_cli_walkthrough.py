@@ -34,7 +34,9 @@ OUT_OF_BOUNDS = [
     ("sliding-window", "target_slack=NaN", "target_slack: nan is not a finite number"),
     ("sliding-window", "order_reach=99", "order_reach: must be in [1, 8], got 99"),
     ("sliding-window", "builder=foo", "builder: 'foo' is not one of ['topology', 'forsyth']"),
-    ("sliding-window", "cache_size=16.0", "cache_size: 16.0 is not an integer"),
+    ("sliding-window", "cache_size=16.0", "cache_size: must be an integer, got 16.0"),
+    # (one line in a config, as here: it was three, the type twice and the bound)
+    ("sliding-window", "cache_size=2.5", "cache_size: must be an integer, got 2.5"),
     (
         "skip-strip",
         "degenerate_threshold=2",
@@ -261,3 +263,130 @@ def test_a_bound_missed_anywhere_in_a_config_is_worded_by_its_interval(tmp_path)
     assert [p.split(": ", 1)[1] for p in err.value.problems] == [
         "$.rules[0].match.triangles.min: must be at least 0, got -1"
     ], err.value.problems
+
+
+@pytest.mark.parametrize("below", ["loop", "loop/deeper"])
+def test_encode_calls_an_output_folder_in_a_link_loop_a_loop(tmp_path, below):
+    # a folder of the output that is a link leading round in a loop was "a dangling link": a user looked for
+    # a folder that was missing, when none was
+    (tmp_path / "a.obj").write_text(TWO_TRIANGLES)
+    (tmp_path / "loop").symlink_to(tmp_path / "round")
+    (tmp_path / "round").symlink_to(tmp_path / "loop")
+    out = tmp_path / below / "x.swpm"
+    result = CliRunner().invoke(main, ["encode", str(tmp_path / "a.obj"), "-o", str(out), "--json"])
+    assert result.exit_code == 1, result.output
+    says = f"cannot write {out}: {tmp_path / 'loop'} is a link loop (to {tmp_path / 'round'})"
+    assert result.stderr == f"error: {says}\n" and json.loads(result.stdout)["error"] == says
+
+
+@pytest.mark.parametrize("command", ["build", "encode", "validate"])
+@pytest.mark.parametrize("where", ["itself", "folder"])
+def test_an_input_in_a_link_loop_is_called_a_link_loop(tmp_path, command, where):
+    # was "file not found": the file was never missing, a link leads round (a.obj -> b.obj -> a.obj)
+    suffix = ".usda" if command == "validate" else ".obj"
+    if where == "itself":
+        (tmp_path / f"a{suffix}").symlink_to(f"b{suffix}")
+        (tmp_path / f"b{suffix}").symlink_to(f"a{suffix}")
+        given = tmp_path / f"a{suffix}"
+        says = f"{given}: a link loop (to b{suffix}): following it comes back round, to no file"
+    else:
+        (tmp_path / "d").symlink_to("e")
+        (tmp_path / "e").symlink_to("d")
+        given = tmp_path / "d" / f"a{suffix}"
+        loop = f"{tmp_path / 'd'} is a link loop (to e)"
+        says = f"{given}: its folder {loop}: following it comes back round, to no file"
+    args = [command, str(given)] + (["-o", str(tmp_path / "x.swpm")] if command == "encode" else [])
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1 and result.stderr == f"error: {says}\n", result.output
+
+
+def test_an_input_at_the_end_of_a_chain_of_too_many_links_is_no_link_loop(tmp_path):
+    # ELOOP is also the system's word for a chain of more links than it follows (40 on Linux) that ends at a
+    # file: it was called "a link loop ... comes back round, to no file" (the file is there); and a long
+    # loop (2000 links) is still a loop, found at once
+    (tmp_path / "real.obj").write_text(TWO_TRIANGLES)
+    prev = "real.obj"
+    for i in range(60):
+        (tmp_path / f"l{i}.obj").symlink_to(prev)
+        prev = f"l{i}.obj"
+    result = CliRunner().invoke(main, ["build", str(tmp_path / prev)])  # (Linux follows 40)
+    says = "too many links to follow on the way to it (a chain longer than the system follows)"
+    assert result.exit_code == 1 and result.stderr == f"error: {tmp_path / prev}: {says}\n", result.output
+    for i in range(2000):
+        (tmp_path / f"r{i}.obj").symlink_to(f"r{(i + 1) % 2000}.obj")
+    result = CliRunner().invoke(main, ["build", str(tmp_path / "r0.obj")])
+    says = "a link loop (to r1.obj): following it comes back round, to no file"
+    assert result.exit_code == 1 and result.stderr == f"error: {tmp_path / 'r0.obj'}: {says}\n", result.output
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["build", ""],
+        ["encode", "", "-o", "x.swpm"],
+        ["encode", "a.obj", "-o", ""],
+        ["inspect", ""],
+        ["validate", ""],
+        ["run", ""],
+    ],
+)
+def test_an_empty_path_is_a_usage_error_said_alike(tmp_path, monkeypatch, args):
+    # "" (an unset shell variable, "$MESH") was the current folder, each command saying it its own way:
+    # build ".: unsupported file type", inspect ": cannot read file" (exit 1), run ".:1:1: $: cannot read the
+    # file ([Errno 21] Is a directory: '.')"
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "a.obj").write_text(TWO_TRIANGLES)
+    result = CliRunner().invoke(main, [*args, "--json"])
+    assert result.exit_code == 2, result.output
+    assert "the path is empty (an unset shell variable?)" in result.stderr
+    out = json.loads(result.stdout)
+    assert out["usage_error"] is True and "the path is empty" in out["error"]
+
+
+def test_run_refuses_a_scheduler_without_the_dask_executor(tmp_path):
+    # --scheduler ADDR without --executor dask was ignored: every asset built here, none on the cluster
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+    result = CliRunner().invoke(main, ["run", str(cfg), "--scheduler", "tcp://10.0.0.1:8786", "--json"])
+    assert result.exit_code == 2, result.output
+    assert "needs --executor dask" in result.stderr and json.loads(result.stdout)["usage_error"] is True
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("command", ["inspect", "validate"])
+def test_a_mesh_given_as_an_swpm_file_gets_a_hint(tmp_path, command):
+    # `validate spot.obj` (or inspect) said "magic is 7620302e33343837, expected ..." and no more: a user
+    # who meant to check a mesh is told what to run. The report (and its JSON) are as before
+    mesh = tmp_path / "a.obj"
+    mesh.write_text(TWO_TRIANGLES)
+    result = CliRunner().invoke(main, [command, str(mesh), "--json"])
+    assert result.exit_code == 1
+    assert json.loads(result.stdout)["problems"][0]["code"] == "SWPM_HEADER_BAD_MAGIC"
+    assert result.stderr == (
+        f"hint: {mesh} is a mesh file (.obj), not an SWPM file: swpm-pipeline encode {mesh} -o a.swpm "
+        f"writes one, swpm-pipeline build {mesh} shows its LODs\n"
+    )
+    (tmp_path / "b.swpm").write_text(TWO_TRIANGLES)  # (an .swpm that is not one: no hint)
+    result = CliRunner().invoke(main, [command, str(tmp_path / "b.swpm")])
+    assert result.exit_code == 1 and "hint" not in result.stderr
+
+
+@pytest.mark.parametrize(
+    "params, says",
+    [
+        (["mu=0.5", "mu=0.1"], "Invalid value for --param: mu given twice ('0.5', then '0.1'); give it once"),
+        (["=5"], "--param expects NAME=VALUE, got '=5'"),
+    ],
+)
+def test_a_parameter_given_twice_or_without_a_name_is_a_usage_error(tmp_path, params, says):
+    # `-p mu=0.5 -p mu=0.1` built with the last, silently; `-p =5` said " not a parameter of vanilla"
+    args = ["build", str(tmp_path / "missing.obj"), "-e", "sliding-window"]
+    for p in params:
+        args += ["-p", p]
+    result = CliRunner().invoke(main, [*args, "--json"])
+    assert result.exit_code == 2 and says in result.stderr, result.output
+    assert json.loads(result.stdout)["error"] == says

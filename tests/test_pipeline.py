@@ -3332,9 +3332,9 @@ def test_an_integer_parameter_given_as_a_float_is_a_config_error_at_its_line(tmp
         "  - {name: a, encoding: sliding-window, params: {inner_vertices: 2.0, mu: 0, order_passes: 1.0}}\n"
     )
     assert _config_problems(cfg, text) == [
-        "c.yaml:4:50: $.defaults.params.cache_size: 16.0 is not an integer",
-        "c.yaml:6:66: $.rules[0].params.inner_vertices: 2.0 is not an integer",
-        "c.yaml:6:92: $.rules[0].params.order_passes: 1.0 is not an integer",
+        "c.yaml:4:50: $.defaults.params.cache_size: must be an integer, got 16.0",
+        "c.yaml:6:66: $.rules[0].params.inner_vertices: must be an integer, got 2.0",
+        "c.yaml:6:92: $.rules[0].params.order_passes: must be an integer, got 1.0",
     ]
     cfg.write_text(text.replace("16.0", "16").replace("2.0", "2").replace("1.0", "1"))
     assert run(cfg).built == 1
@@ -3364,16 +3364,23 @@ def test_scene_and_report_stay_recorded_through_an_interrupted_run(tmp_path, mon
     assert sorted(run(cfg).unlisted) == ["report.html", "scene.usda"]
 
 
-def test_a_symlink_loop_a_glob_matches_is_a_failed_asset(tmp_path):
+@pytest.mark.parametrize("suffix", [".obj", ".usda"])
+def test_a_symlink_loop_a_glob_matches_is_a_failed_asset(tmp_path, suffix):
     # a mesh-typed link in a loop (a.obj -> b.obj -> a.obj) is a link to no file, which 949b7a2 made a
-    # glob's asset; resolving it for the duplicate check raised RuntimeError, a traceback in every run
+    # glob's asset; resolving it for the duplicate check raised RuntimeError, a traceback in every run. A
+    # .usda one raised it again, resolved for the files of its layers before it was known to be no file
     cfg = _vanilla_project(tmp_path)
-    (tmp_path / "m" / "loop1.obj").symlink_to("loop2.obj")
-    (tmp_path / "m" / "loop2.obj").symlink_to("loop1.obj")
+    cfg.write_text(VANILLA_M.replace("m/*.obj", "m/*"))
+    (tmp_path / "m" / f"loop1{suffix}").symlink_to(f"loop2{suffix}")
+    (tmp_path / "m" / f"loop2{suffix}").symlink_to(f"loop1{suffix}")
     r = CliRunner().invoke(main, ["run", str(cfg), "--dry-run", "--json"])
     assert r.exit_code == 0 and "Traceback" not in r.output, r.output
     res = run(cfg)
-    assert res.built == 1 and sorted(res.failures) == ["m/loop1.obj", "m/loop2.obj"]
+    assert res.built == 1 and sorted(res.failures) == [f"m/loop1{suffix}", f"m/loop2{suffix}"]
+    # (named a link loop, not "file not found": no file was missing)
+    assert res.failures[f"m/loop1{suffix}"]["error"].endswith(
+        f"m/loop1{suffix}: a link loop (to loop2{suffix}): following it comes back round, to no file"
+    ), res.failures
 
 
 def test_defaults_params_without_an_encoding_are_checked_as_sliding_windows(tmp_path):
@@ -3388,7 +3395,7 @@ def test_defaults_params_without_an_encoding_are_checked_as_sliding_windows(tmp_
     assert problems == [
         "c.yaml:4:25: $.defaults.params.mu: must be in [0, 1), got 1.5",
         "c.yaml:4:30: $.defaults.params.nope: unknown key (not a parameter of this rule's encoding)",
-        "c.yaml:4:51: $.defaults.params.cache_size: 16.0 is not an integer",
+        "c.yaml:4:51: $.defaults.params.cache_size: must be an integer, got 16.0",
     ]
     cfg.write_text(head + "defaults: {params: {mu: 0.5, cache_size: 8}}\n")
     assert run(cfg).built == 1
@@ -5549,3 +5556,26 @@ def test_a_fork_server_that_warmed_less_than_a_later_run_uses_is_started_again(m
     assert len(started) == 2 and stopped == [-1]
     list(runner.execute([{**task, "encoding": "mixed", "write_usd": True}], 2, "local", None))
     assert started[2:] == [("vanilla,mixed", usd)] and stopped == [-1, -2]
+
+
+@pytest.mark.parametrize("link", ["loop", "loop-under", "nothing"])
+def test_an_output_dir_that_is_a_link_loop_or_to_nothing_is_a_config_error(tmp_path, link):
+    # output.dir a link in a loop: a traceback (RuntimeError: Symlink loop from '.../manifest.json'), exit 1,
+    # no JSON; a link to nothing: "cannot create ...: File exists"
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    if link == "nothing":
+        (tmp_path / "out").symlink_to("nowhere")
+        says = f"{tmp_path / 'out'} is a link to nothing (to nowhere), not a folder"
+        out = "out"
+    else:
+        (tmp_path / "out").symlink_to("round")
+        (tmp_path / "round").symlink_to("out")
+        out = "out" if link == "loop" else "out/deeper"
+        under = "" if link == "loop" else f": its folder {tmp_path / 'out'}"
+        says = f"{tmp_path / out}{under} is a link loop (to round), not a folder"
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(f"version: 1\nassets: [{{glob: 'm/*.obj'}}]\noutput: {{dir: {out}}}\n")
+    r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
+    assert r.exit_code == 2 and "Traceback" not in r.output, r.output
+    assert json.loads(r.stdout)["problems"] == [f"{cfg}:3:15: $.output.dir: {says}"]

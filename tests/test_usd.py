@@ -1293,6 +1293,11 @@ def test_validate_json_of_a_missing_usd_file_is_a_report(tmp_path):
     rep = json.loads(result.stdout)
     assert rep["stage"] == str(path) and rep["errors"] == 1
     assert rep["findings"][0]["code"] == "SWPM_USD_OPEN" and "nope.usda" in rep["findings"][0]["message"]
+    # (in the words of the line on stderr: usd-core's were "... (No such file or directory): Failed to ...")
+    assert (
+        rep["findings"][0]["message"] == f"{path}: file not found"
+        and result.stderr == f"error: {path}: file not found\n"
+    )
     result = CliRunner().invoke(main, ["validate", str(path)])
     assert result.exit_code == 1 and "nope.usda: file not found" in result.stderr
 

@@ -924,9 +924,30 @@ def test_the_planner_parses_a_new_text_root_once_and_holds_one_at_a_time(tmp_pat
     assets, inputs, problems = discover(load_config(tmp_path / "c.yaml"))
     assert problems == [] and [a.id for a in assets] == ["m/p.usda", "m/q.usda", "m/t.usda"]
     # (each plain root parsed by the check when it is opened, and no other; the root over a crate file,
-    # probed in the batch, is not held: opened in a checked block of its own, which finds its answer kept)
-    assert seen == {"p.usda": [True, False, False], "q.usda": [False, True, False], "t.usda": [False] * 3}
+    # probed in the batch, is not opened here: the probe listed its layers)
+    assert seen == {"p.usda": [True, False, False], "q.usda": [False, True, False]}
     assert inputs["m/p.usda"] == [plain[0]] and inputs["m/t.usda"] == [over, seed]
+
+
+def test_the_planner_opens_no_stage_a_probe_opened(tmp_path, monkeypatch):
+    # a crate asset, or a text root over a crate layer, was parsed by the probe, then opened again by the
+    # planner for the files of its layers (and a third time by the worker's build): the probe lists them now
+    from swpm_usd.pipeline.assets import discover
+    from swpm_usd.pipeline.config import load_config
+
+    (tmp_path / "m").mkdir()
+    seed = _seed(tmp_path / "seed.usdc")
+    crate = _seed(tmp_path / "m" / "c.usdc")
+    over = _text_root(tmp_path / "m" / "t.usda", "reference", seed)
+    (tmp_path / "c.yaml").write_text("version: 1\nassets: [{glob: 'm/*'}]\noutput: {dir: out}\n")
+    opened: list[str] = []
+    real = Usd.Stage.Open
+    monkeypatch.setattr(
+        Usd.Stage, "Open", lambda path, *a, **k: opened.append(str(path)) or real(path, *a, **k)
+    )
+    assets, inputs, problems = discover(load_config(tmp_path / "c.yaml"))
+    assert problems == [] and [a.id for a in assets] == ["m/c.usdc", "m/t.usda"]
+    assert opened == [] and inputs == {"m/c.usdc": [crate], "m/t.usda": [over, seed]}, (opened, inputs)
 
 
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs on this platform")
@@ -1203,3 +1224,101 @@ def test_a_crash_in_a_layer_a_selected_variants_layer_names_is_keyed_on_that_lay
         assert probe.check(root) == found and len(asked) == 2  # (probed again)
     finally:
         probe._stop(probe._server)  # (the next test's server runs the real program)
+
+
+def test_a_crash_in_a_layer_a_selected_variants_crate_layer_names_is_keyed_on_that_layer(
+    tmp_path, monkeypatch
+):
+    # as for a text layer only a variant names (the test above), but the variant's layer a crate file: it was
+    # named, not opened, so the layers it names were not known before the stage's open; a crash of the open
+    # in bad.usdc, which only mid.usdc names, was keyed on mid.usdc alone and kept after bad.usdc changed.
+    # mid.usdc is read in a process of its own (a crash there is not the stage's) and what it names named
+    bad = _seed(tmp_path / "bad.usdc")
+    mid_text = tmp_path / "mid.usda"
+    mid_text.write_text('#usda 1.0\ndef "m" (\n    references = @./bad.usdc@</m>\n)\n{\n}\n')
+    mid = tmp_path / "mid.usdc"
+    layer = Sdf.Layer.FindOrOpen(str(mid_text))
+    assert layer.Export(str(mid))
+    del layer
+    mid_text.unlink()
+    _seed(tmp_path / "good.usdc")
+    text = tmp_path / "root.usda"
+    text.write_text(
+        '#usda 1.0\n(\n    defaultPrim = "a"\n)\n'
+        'def "a" (\n    variants = { string lod = "broken" }\n    prepend variantSets = "lod"\n)\n{\n'
+        '    variantSet "lod" = {\n'
+        '        "hi" ( references = @./good.usdc@</m> ) { }\n'
+        '        "broken" ( references = @./mid.usdc@</m> ) { }\n'
+        "    }\n}\n"
+    )
+    asked = _files_probed(monkeypatch)
+    _patched_program(
+        monkeypatch,
+        "        stage = Usd.Stage.Open(path)\n",
+        "        if path.endswith('root.usda'):\n"
+        "            os.kill(os.getpid(), signal.SIGSEGV)\n"
+        "        stage = Usd.Stage.Open(path)\n",
+    )
+    try:
+        found = probe.check(text)
+        assert found is not None and found.kind == "crash", found
+        keyed = [n for n, _ in probe._answers[probe._key(str(text))][1]]
+        assert str(bad.resolve()) in keyed and str(mid.resolve()) in keyed, keyed
+        assert probe.check(text) == found and len(asked) == 1  # (kept while its layers are unchanged)
+        os.utime(bad, ns=(5, 5))
+        assert probe.check(text) == found and len(asked) == 2  # (probed again)
+    finally:
+        probe._stop(probe._server)  # (the next test's server runs the real program)
+
+
+def test_the_planner_uses_no_stale_layer_list_once_a_sublayer_names_no_crate(tmp_path):
+    # a probe's list of the layers a stage uses was kept for the root's key alone: once a sublayer changed to
+    # name no crate file (no probe: the root checked here, in text), the old list was still taken, so the
+    # asset's inputs named the crate it no longer uses and not the layer it does (a change there went unseen)
+    from swpm_usd.pipeline.assets import _usd_layer_files
+
+    seed = _seed(tmp_path / "seed.usdc")
+    other = tmp_path / "other.usda"
+    other.write_text('#usda 1.0\ndef "m" {\n}\n')
+    sub = tmp_path / "sub.usda"
+    sub.write_text(f'#usda 1.0\ndef "m" (\n    references = @{seed}@</m>\n)\n{{\n}}\n')
+    root = tmp_path / "root.usda"
+    root.write_text("#usda 1.0\n(\n    subLayers = [@./sub.usda@]\n)\n")
+    files, ok = _usd_layer_files(root)
+    assert ok and sorted(files) == sorted([sub, seed]), files
+    sub.write_text(f'#usda 1.0\ndef "m" (\n    references = @{other}@</m>\n)\n{{\n}}\n')
+    os.utime(sub, ns=(7, 7))
+    assert probe.used_layers(root) is None  # (its answer's layers changed: no list)
+    files, ok = _usd_layer_files(root)
+    assert ok and sorted(files) == sorted([sub, other]), files
+
+
+def test_a_crate_layer_only_an_unselected_variant_names_that_hangs_is_no_timeout_of_the_stage(
+    tmp_path, monkeypatch
+):
+    # the process the probe forks to read a crate layer only a variant names (crate_names) had no time limit
+    # of its own: the probe waited for it, and one that hung (usd-core on a corrupt file, in a variant not
+    # selected) took the probe's whole time, a timeout of a stage that opens cleanly. It has half the probe's
+    # time left, then is killed; the stage's open has the rest
+    monkeypatch.setenv("SWPM_USD_PROBE_SECONDS", "6")
+    _seed(tmp_path / "good.usdc")
+    _seed(tmp_path / "mid.usdc")
+    root = tmp_path / "root.usda"
+    root.write_text(
+        '#usda 1.0\n(\n    defaultPrim = "a"\n)\n'
+        'def "a" (\n    variants = { string lod = "hi" }\n    prepend variantSets = "lod"\n)\n{\n'
+        '    variantSet "lod" = {\n'
+        '        "hi" ( references = @./good.usdc@</m> ) { }\n'
+        '        "broken" ( references = @./mid.usdc@</m> ) { }\n'
+        "    }\n}\n"
+    )
+    _patched_program(  # (the forked reader hangs, as usd-core might on a corrupt crate file)
+        monkeypatch,
+        "        found = []\n        try:\n",
+        "        found = []\n        import time\n        time.sleep(600)\n        try:\n",
+    )
+    try:
+        found = probe.check(root)
+    finally:
+        probe._stop(probe._server)  # (the next test's server runs the real program)
+    assert found is None, found  # (not a timeout: the stage opens good.usdc alone)

@@ -20,10 +20,16 @@ from ..errors import SwpmError
 
 def _parse_params(params: tuple[str, ...]) -> dict:
     parsed = {}
+    given: dict[str, str] = {}
     for item in params:
-        if "=" not in item:
+        if "=" not in item or not item.split("=", 1)[0].strip():  # (``=5``: " not a parameter of vanilla")
             raise click.UsageError(f"--param expects NAME=VALUE, got {item!r}")
         name, value = item.split("=", 1)
+        if name in given:  # (the last one was taken, silently: which did the user mean?)
+            raise click.BadParameter(
+                f"{name} given twice ({given[name]!r}, then {value!r}); give it once", param_hint="--param"
+            )
+        given[name] = value
         try:
             parsed[name] = json.loads(value)
         except json.JSONDecodeError:
@@ -236,9 +242,14 @@ def _output_folder_problem(output: Path) -> str | None:
     folder's making failed on it after the build, ``File exists``)."""
     import os
 
+    from ..fileio import link_loop
+
+    loop = link_loop(output.parent)
+    if loop is not None:  # (it was called a dangling link: a user looked for a folder that was never missing)
+        return f"cannot write {output}: {loop[0]} is a link loop (to {loop[1]})"
     folder = output.parent
     while not folder.exists() and folder != folder.parent:
-        if folder.is_symlink():  # (exists() follows the link: it leads nowhere, or round in a loop)
+        if folder.is_symlink():  # (exists() follows the link: it leads nowhere)
             return f"cannot write {output}: {folder} is a dangling link (to {os.readlink(folder)})"
         folder = folder.parent
     if not folder.is_dir():
@@ -246,6 +257,21 @@ def _output_folder_problem(output: Path) -> str | None:
     if not os.access(folder, os.W_OK | os.X_OK):
         return f"cannot write {output}: the folder {folder} is not writable"
     return None
+
+
+class FilePath(click.Path):
+    """A file argument (``click.Path(dir_okay=False)``) that is not empty: ``""`` (a shell variable unset,
+    ``"$MESH"``) was taken as the current folder, each command saying it its own way (``.: unsupported file
+    type``, ``: cannot read file``, ``.:1:1: $: cannot read the file ([Errno 21] Is a directory: '.')``). A
+    usage error (exit 2), said alike by every command."""
+
+    def __init__(self, **kwargs: object) -> None:
+        super().__init__(dir_okay=False, **kwargs)  # type: ignore[arg-type]
+
+    def convert(self, value: object, param: click.Parameter | None, ctx: click.Context | None) -> object:
+        if isinstance(value, str) and value == "":
+            self.fail("the path is empty (an unset shell variable?)", param, ctx)
+        return super().convert(value, param, ctx)
 
 
 #: ``--max-triangles N`` of the commands that load a mesh (:func:`swpm_usd.io.load_mesh`'s ``max_triangles``)
@@ -271,13 +297,13 @@ def mesh_input(input_path: str, max_triangles: int | None) -> object:
 
 
 @click.command("encode", cls=EncodingsHelpCommand)
-@click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
+@click.argument("input_path", metavar="INPUT", type=FilePath())
 @click.option(
     "-o",
     "--output",
     "output",
     required=True,
-    type=click.Path(dir_okay=False),
+    type=FilePath(),
     help="The .swpm file to write (atomically; a missing folder is made); never the input.",
 )
 @click.option(
@@ -357,8 +383,23 @@ def encode_cmd(
     click.echo(f"{output}: {pm.encoding}, {pm.lod_count} LODs, {pm.vertex_count} vertices, {size} bytes")
 
 
+def _mesh_hint(file: str, problems: list) -> None:
+    """A mesh file given to ``inspect`` or ``validate`` as an SWPM file (its magic wrong, its name a mesh
+    type's): one line on stderr saying what to run instead (the report alone, ``magic is 7620302e33343837``,
+    left a user to find out why a mesh is an invalid file)."""
+    from ..io import SUPPORTED_SUFFIXES
+
+    suffix = Path(file).suffix.lower()
+    if suffix in SUPPORTED_SUFFIXES and any(q.code == "SWPM_HEADER_BAD_MAGIC" for q in problems):
+        click.echo(
+            f"hint: {file} is a mesh file ({suffix}), not an SWPM file: swpm-pipeline encode {file} -o "
+            f"{Path(file).with_suffix('.swpm').name} writes one, swpm-pipeline build {file} shows its LODs",
+            err=True,
+        )
+
+
 @click.command("inspect", cls=JsonUsageCommand)
-@click.argument("file", type=click.Path(dir_okay=False))
+@click.argument("file", type=FilePath())
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @click.option(
     "--rows",
@@ -368,7 +409,8 @@ def encode_cmd(
     help="LOD rows to show (spread evenly, the first and the last always).",
 )
 def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
-    """Show FILE's header, chunks, counts, parameters and a per-LOD table."""
+    """Show FILE's (an .swpm file's) header, chunks, counts, parameters and a per-LOD table, and the
+    problems ``validate`` finds. Exit 0 valid, 1 invalid or unreadable."""
     from .reader import _check, _map
 
     try:
@@ -406,6 +448,7 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
                 }
             )
     out["lods"] = table
+    _mesh_hint(file, rep.problems)
     if as_json:
         click.echo(json.dumps(out, indent=2, default=str))
     else:
@@ -441,7 +484,7 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
 
 
 @click.command("validate", cls=JsonUsageCommand)
-@click.argument("file", type=click.Path(dir_okay=False))
+@click.argument("file", type=FilePath())
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 @click.option("--no-builtin", is_flag=True, help="USD stages: run only our validator, not usd-core's.")
 @click.pass_context
@@ -457,19 +500,28 @@ def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool)
         if not Path(file).is_file():
             # a FIFO or a device is never opened (a FIFO's open waits for a writer); validate_stage says
             # so at once, in one SWPM_USD_OPEN naming its kind
-            problem = "not a regular file" if Path(file).exists() else "file not found"
+            from ..fileio import missing_file_problem
+
+            problem = "not a regular file" if Path(file).exists() else missing_file_problem(file)
             click.echo(f"error: {file}: {problem}", err=True)
             if as_json:
-                from ..usd.validate import report, validate_stage
+                from ..usd.validate import ERROR, Finding, report, validate_stage
 
-                rep = report(validate_stage(file, builtin=False))
-                click.echo(json.dumps({"stage": file, **rep}, indent=2))
+                # (a missing file, or a link loop, in the words of the line above: usd-core's were
+                # "cannot open it as a USD layer (No such file or directory): Failed to open layer @x@")
+                findings = (
+                    validate_stage(file, builtin=False)
+                    if Path(file).exists()
+                    else [Finding("SWPM_USD_OPEN", ERROR, "/", f"{file}: {problem}")]
+                )
+                click.echo(json.dumps({"stage": file, **report(findings)}, indent=2))
             sys.exit(1)
         ctx.invoke(validate_usd, stage=Path(file), as_json=as_json, no_builtin=no_builtin)
         return
     from .reader import validate
 
     rep = validate(file)
+    _mesh_hint(file, rep.problems)
     click.echo(rep.to_json(indent=2) if as_json else rep.format())
     sys.exit(0 if rep.valid else 1)
 

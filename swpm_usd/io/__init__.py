@@ -45,7 +45,9 @@ def load_mesh(
             p, f"unsupported file type {suffix or '(no suffix)'!r}; supported: {' '.join(SUPPORTED_SUFFIXES)}"
         )
     if not p.exists():
-        raise MeshLoadError(p, "file not found")
+        from ..fileio import missing_file_problem
+
+        raise MeshLoadError(p, missing_file_problem(p))
     if not p.is_file():
         raise MeshLoadError(p, "not a regular file")
     try:

@@ -167,11 +167,17 @@ def _usd_layer_files(path: Path) -> tuple[list[Path], bool]:
 
     if path.suffix.lower() not in _USD_SUFFIXES:
         return [], True
-    from ..usd.probe import checked
+    from ..usd.probe import checked, used_layers
 
     with checked(path) as probed:
         if probed is not None:  # (a crate file that crashes usd-core: not opened here, the worker fails it)
             return [], False
+        # a file the probe opened (a crate, or a text root naming one) is not opened again here: the probe
+        # listed its layers (a 12 MB crate asset's planning parsed it twice, the probe's and this one)
+        used = used_layers(path)
+        if used is not None:  # (a file, probed clean: its path resolves, where a link loop's raised)
+            here = path.resolve()
+            return [p for p in map(Path, used) if p.resolve() != here], True
         try:
             from pxr import Usd
 

@@ -194,13 +194,13 @@ def _non_finite_params(cfg: Config) -> list[str]:
     """A parameter (or ``limits.seconds``) given as ``.nan`` or ``.inf`` (YAML's), which the schema's bounds
     let through (every comparison with NaN is false), or an integer one given as a float (``16.0``, which
     JSON Schema's integer takes and the encoders refuse), so that it fails at its line, not asset by asset at
-    build time."""
+    build time; and every other problem of a number given a parameter, in one line each
+    (:func:`.schema.param_problem`, the command line's ``-p`` check)."""
     sections = [(("defaults",), cfg.data.get("defaults"))]
     rules = cfg.data.get("rules")
     if isinstance(rules, list):
         sections += [(("rules", i), rule) for i, rule in enumerate(rules)]
-    from ..encodings import ENCODING_PARAMS
-    from .schema import DEFAULT, _param_schema, beyond_schema
+    from .schema import DEFAULT, param_problem
 
     out = []
     for where, section in sections:
@@ -209,11 +209,12 @@ def _non_finite_params(cfg: Config) -> list[str]:
         if not isinstance(params, dict):
             continue
         enc = str(section.get("encoding", encoding))
-        defaults = ENCODING_PARAMS.get(enc, {})
         for name, value in params.items():
-            # (the check the command line's -p makes too, in the same words: schema.param_problem)
-            schema = _param_schema(defaults[name], name, enc) if name in defaults else {}
-            problem = beyond_schema(schema, value)
+            if not _numeric_param(cfg, (*where, "params", name)):
+                continue  # (a string's problems, and an unknown name's, are the schema's: _describe)
+            # (the check the command line's -p makes, in the same words, and the one line of a number's
+            # problem: the schema's errors on it are dropped, _describe)
+            problem = param_problem(enc, name, value)
             if problem:
                 out.append(f"{cfg.where((*where, 'params', name))}: {problem}")
     limits = cfg.data.get("limits")
@@ -221,6 +222,33 @@ def _non_finite_params(cfg: Config) -> list[str]:
     if isinstance(seconds, float) and math.isnan(seconds):  # (NaN passes the schema's bounds; inf: over 1e9)
         out.append(f"{cfg.where(('limits', 'seconds'))}: {seconds} is not a finite number")
     return out
+
+
+def _numeric_param(cfg: Config, path: tuple) -> bool:
+    """Is ``path`` (``defaults.params.NAME``, ``rules[i].params.NAME``) a number (not a boolean) given to a
+    parameter of its section's encoding? Its problems are :func:`.schema.param_problem`'s alone, one line
+    (``cache_size: 2.5`` was three: not an integer, not of type 'integer', and a bound missed)."""
+    from ..encodings import ENCODING_PARAMS
+    from .schema import DEFAULT
+
+    if len(path) < 3 or path[-2] != "params" or path[0] not in ("defaults", "rules"):
+        return False
+    section: Any = cfg.data
+    for key in path[:-2]:
+        try:
+            section = section[key]
+        except (KeyError, IndexError, TypeError):
+            return False
+    if not isinstance(section, dict) or not isinstance(section.get("params"), dict):
+        return False
+    encoding = section.get("encoding", DEFAULT if path[0] == "defaults" else None)
+    value = section["params"].get(path[-1])
+    return (
+        isinstance(encoding, str)
+        and path[-1] in ENCODING_PARAMS.get(encoding, {})
+        and isinstance(value, (int, float))
+        and not isinstance(value, bool)
+    )
 
 
 def _line_key(msg: str, shown: str) -> tuple[int, int, str]:
@@ -242,6 +270,8 @@ def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
         if out and err.validator != "oneOf":
             return out
     path = tuple(err.absolute_path)
+    if _numeric_param(cfg, path):
+        return []  # (worded once by _non_finite_params, as -p words it)
     if err.validator == "additionalProperties":
         extra = sorted(set(err.instance) - set(err.schema.get("properties", {})))
         msgs = []

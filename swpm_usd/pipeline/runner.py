@@ -909,12 +909,23 @@ def _interrupts_ignored() -> Iterator[None]:
 
 
 def _unusable_out_dir(cfg: Config, out_dir: Path) -> list[str]:
-    """output.dir must be a folder, or creatable: not an existing file, nor under one."""
+    """output.dir must be a folder, or creatable: not an existing file, nor under one, nor a link (or under
+    one) that leads round in a loop (a traceback, ``RuntimeError: Symlink loop``, once the run resolved its
+    manifest's path) or to nothing (``cannot create ...: File exists``)."""
+    from ..fileio import link_loop
+
+    where = cfg.where(("output", "dir"))
+    loop = link_loop(out_dir)
+    if loop is not None:
+        under = "" if loop[0] == out_dir else f": its folder {loop[0]}"
+        return [f"{where}: {out_dir}{under} is a link loop (to {loop[1]}), not a folder"]
+    if out_dir.is_symlink() and not out_dir.exists():
+        return [f"{where}: {out_dir} is a link to nothing (to {os.readlink(out_dir)}), not a folder"]
     for p in (out_dir, *out_dir.parents):
         if p.exists():
             if not p.is_dir():
                 what = "is a file" if p == out_dir else f"is under {p}, which is a file"
-                return [f"{cfg.where(('output', 'dir'))}: {out_dir} {what}, not a folder"]
+                return [f"{where}: {out_dir} {what}, not a folder"]
             return []
     return []
 

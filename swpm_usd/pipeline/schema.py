@@ -65,14 +65,18 @@ def param_problem(encoding: str, name: str, value: Any) -> str | None:
     """What is wrong with ``value`` for the parameter ``name`` of ``encoding``, or None: the one check of a
     parameter's value, the command line's ``-p`` (:func:`..format.cli._encoding_and_params`) and a config's
     ``params`` (:func:`.config.load_config`) alike, in the words of the config's JSON Schema validation (its
-    messages on the parameter's own schema), then what JSON Schema lets through (:func:`beyond_schema`)."""
+    messages on the parameter's own schema), after what JSON Schema lets through (:func:`beyond_schema`):
+    one problem a value, ``cache_size: 2.5`` an integer wanted, not also a bound missed."""
     import jsonschema
 
     from ..encodings import ENCODING_PARAMS
 
     schema = _param_schema(ENCODING_PARAMS[encoding][name], name, encoding)
+    beyond = beyond_schema(schema, value)
+    if beyond is not None:
+        return beyond
     error = jsonschema.exceptions.best_match(jsonschema.Draft202012Validator(schema).iter_errors(value))
-    return worded(error) if error is not None else beyond_schema(schema, value)
+    return worded(error) if error is not None else None
 
 
 _BOUNDS = ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum")
@@ -108,14 +112,15 @@ def worded(error: Any) -> str:
 
 def beyond_schema(schema: dict[str, Any], value: Any) -> str | None:
     """What is wrong with ``value`` by a parameter's ``schema`` that JSON Schema lets through, or None: a
-    number not finite (every bound's comparison with NaN is false; json and YAML read both) or a whole float
-    where an integer is wanted (JSON Schema's integer takes ``16.0``; the encoders refuse it)."""
+    number not finite (every bound's comparison with NaN is false; json and YAML read both) or a float where
+    an integer is wanted (JSON Schema's integer takes ``16.0``, the encoders refuse it; ``2.5`` is worded
+    alike, the one problem of that value: not also a bound it misses)."""
     import math
 
     if isinstance(value, float) and not math.isfinite(value):
         return f"{value} is not a finite number"
     if isinstance(value, float) and "integer" in str(schema.get("type")):
-        return f"{value} is not an integer"
+        return f"must be an integer, got {value}"
     return None
 
 

@@ -18,9 +18,9 @@ the stage in a :func:`checked` block finds them parsed, held for its open: each 
 not a regular file (a FIFO, whose open waits for a writer; a folder; a device), the root or one a layer names,
 is an "open" problem at once, decided by ``os.stat`` and never opened: here for the root and the layers text
 layers name, in the probe (which opens the stage's layers one by one before the stage; one only a variant
-names is named, not opened: the stage opens it only when the variant is selected; a text one is read, the
-layers it names named in turn) for those a crate layer names; the probe's alarm is left for what cannot be
-named before the open. Each answer is kept for this
+names is named, not opened: the stage opens it only when the variant is selected; a text one is read, a
+crate one read in a process of its own, the layers it names named in turn) for those a crate layer
+names; the probe's alarm is left for what cannot be named before the open. Each answer is kept for this
 process while the file and every file it depends on (the layers the probe opened or was opening when it
 crashed or ran out of time: it names each to the server before it opens it; the files its text layers or the
 stage's composition errors name: one missing, should it appear) keep their path, size, mtime and inode; one
@@ -132,8 +132,8 @@ def preopen(path):
     # only a variant names is named, not opened (the stage opens it only if the variant is selected: one
     # that crashes usd-core in a variant not selected is no crash of the stage), but for a text one (whose
     # parser fails cleanly): read, the layers it names are named too (a crash in one, its variant selected,
-    # is keyed on it, not on the layers naming it), as only a variant names them
-    resolver = Ar.GetResolver()
+    # is keyed on it, not on the layers naming it), as only a variant names them; a crate one's are named
+    # so too, read in a process of its own (crate_names)
     root = os.path.abspath(path)
     held, seen, todo = [], {}, [(root, False)]  # (seen: real path -> whether only a variant names it)
     while todo:
@@ -145,8 +145,12 @@ def preopen(path):
         if spelled != root and not real.lower().endswith((".usd", ".usda", ".usdc", ".usdz")):
             continue
         note(real)
-        if varied_only and (not os.path.isfile(real) or crate(real)):
+        if varied_only and not os.path.isfile(real):
             continue  # (named, not opened)
+        if varied_only and crate(real):
+            # (named, not opened here; what it names is read in a process of its own, and named in turn)
+            todo.extend((found, True) for found in crate_names(spelled))
+            continue
         try:
             mode = os.stat(real).st_mode
         except OSError:
@@ -168,16 +172,69 @@ def preopen(path):
                 varied = []  # (each layer it names opened)
         opens = set(assets)
         for asset in [*assets, *varied]:
-            try:
-                found = str(resolver.Resolve(resolver.CreateIdentifier(asset, layer.resolvedPath)))
-            except Exception:
-                found = ""
-            if not found:
-                found = os.path.join(os.path.dirname(str(layer.resolvedPath)), asset)
-            found = found.split("[", 1)[0]
             # (one only a variant names: a crash of the stage's open in it is keyed on it too)
-            todo.append((found, varied_only or asset not in opens))
+            todo.append((resolved(asset, layer), varied_only or asset not in opens))
     return "", held
+def resolved(asset, layer):
+    # the file an asset path of ``layer`` names, as the stage's open resolves it (no package's inner part)
+    resolver = Ar.GetResolver()
+    try:
+        found = str(resolver.Resolve(resolver.CreateIdentifier(asset, layer.resolvedPath)))
+    except Exception:
+        found = ""
+    if not found:
+        found = os.path.join(os.path.dirname(str(layer.resolvedPath)), asset)
+    return found.split("[", 1)[0]
+def crate_names(spelled):
+    # the files a crate layer only a variant names names in turn (its sublayers, references, payloads),
+    # read in a process forked from this probe: a crash in it (its variant maybe not selected) is not the
+    # stage's, and the layers it names are named to the server before the stage's open, so that a crash of
+    # the open in one of them, its variant selected, is keyed on it (as for a text layer a variant names). []
+    # when it does not read (the stage's open meets it, if its variant is selected). It has half of this
+    # probe's time left (its own alarm): one that hangs is killed then, and the stage's open has the rest (it
+    # took all of the probe's, a hang in a variant not selected a timeout of the stage)
+    left = signal.alarm(0)
+    signal.alarm(left)
+    r, w = os.pipe()
+    try:
+        pid = os.fork()
+    except OSError:
+        os.close(r)
+        os.close(w)
+        return []
+    if pid == 0:
+        os.close(r)
+        signal.alarm(max(1, left // 2) if left else 0)
+        try:
+            os.close(OUT)  # (the server's end of this probe's answer is not held open by this one)
+        except (OSError, TypeError):
+            pass
+        found = []
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG: dies with us
+            layer = Sdf.Layer.FindOrOpen(spelled)
+            if layer:
+                always, varied = arcs(layer)
+                names = [*layer.GetCompositionAssetDependencies(), *always, *varied]
+                found = sorted({resolved(asset, layer) for asset in names if asset})
+        except Exception:
+            pass
+        os.write(w, json.dumps(found).encode())
+        os._exit(0)
+    os.close(w)
+    chunks = []
+    while True:
+        data = os.read(r, 1 << 16)
+        if not data:
+            break
+        chunks.append(data)
+    os.close(r)
+    os.waitpid(pid, 0)
+    try:
+        found = json.loads(b"".join(chunks))
+    except ValueError:  # (it died: cut short, or nothing)
+        return []
+    return [str(f) for f in found] if isinstance(found, list) else []
 def probe(path):
     odd, held = preopen(path)
     if odd:
@@ -247,7 +304,10 @@ def probe(path):
             attempt(layer.QueryTimeSample, path, t)
     for layer in used:
         attempt(layer.Traverse, Sdf.Path.absoluteRootPath, lambda p, layer=layer: read_spec(layer, p))
-    return (4, failed[0], layers) if failed else (0, "", layers)
+    # the files of the layers the stage uses, as the asking process lists them (a package's inner layer:
+    # the package), so that it need not open the stage itself to know them (a large crate parsed once more)
+    files = sorted({Ar.SplitPackageRelativePathOuter(layer.realPath)[0] for layer in used if layer.realPath})
+    return (4, failed[0], layers) if failed else (0, "", layers, files)
 def crate(path):
     if path.lower().endswith((".usdc", ".usdz")):
         return True
@@ -297,13 +357,13 @@ def finish(fd):
             continue
         if isinstance(item, str):
             layers.add(item)
-        elif isinstance(item, list) and len(item) == 3:
-            answer = item
+        elif isinstance(item, list) and len(item) in (3, 4):
+            answer = [*item, []][:4]  # (the files of the layers its stage uses: a clean answer's alone)
     if os.WIFSIGNALED(status):
-        answer = [-os.WTERMSIG(status), crash_report(pid), sorted(layers)]
+        answer = [-os.WTERMSIG(status), crash_report(pid), sorted(layers), []]
     elif answer is None:
         code = os.waitstatus_to_exitcode(status)
-        answer = [5, f"the probe process ended (exit {code}) without an answer", []]
+        answer = [5, f"the probe process ended (exit {code}) without an answer", [], []]
     else:
         answer[2] = sorted(layers.union(answer[2]))
     os.write(1, (json.dumps([tag, *answer]) + "\n").encode())
@@ -367,7 +427,7 @@ while True:
                 start(line)
             except OSError as exc:  # (no process can be forked now)
                 tag = json.loads(line)[0]
-                answer = [tag, 5, f"cannot start a probe process: {exc}", []]
+                answer = [tag, 5, f"cannot start a probe process: {exc}", [], []]
                 os.write(1, (json.dumps(answer) + "\n").encode())
 """
 
@@ -389,6 +449,13 @@ _Stamp = tuple[int, int, int] | None
 #: a text root names; the path the problem's message names the file by). The answer holds while each of
 #: those files is as it was
 _answers: dict[tuple[str, int, int, int], tuple[Problem | None, tuple[tuple[str, _Stamp], ...], str]] = {}
+#: the key of a file a probe found clean -> (that answer, of :data:`_answers`; the files of the layers its
+#: stage uses) (:func:`used_layers`): the list holds while that answer is the file's (one given since, its
+#: sublayer changed to name no crate file and found clean in text, has no list: the old one was stale)
+_used: dict[tuple[str, int, int, int], tuple[tuple, list[str]]] = {}
+#: a probe's path -> the files of the layers its stage uses, as the probe server answered (a clean answer),
+#: taken into :data:`_used` by :func:`check_many`
+_probed_used: dict[str, list[str]] = {}
 
 
 def _regular(path: str) -> bool:
@@ -655,9 +722,26 @@ def check_many(
         problem, layers = found[p]
         files = {n for n in (*named, *layers) if n != key[0]}
         _answers[key] = (problem, tuple((n, _stamp(n)) for n in sorted(files)), p)
+        used = _probed_used.pop(p, None)
+        if problem is None and used is not None:
+            _used[key] = (_answers[key], used)
         for i in where:
             answers[i] = _answer(key, os.fspath(paths[i]))
     return answers
+
+
+def used_layers(path: str | os.PathLike[str]) -> list[str] | None:
+    """The files of the layers ``path``'s stage uses (its own, its sublayers, references, payloads; a
+    package's inner layer as the package), sorted, as the probe that found it clean listed them after its
+    open: a caller that wants only those (the pipeline's planner, the inputs of a USD asset) need not open the
+    stage in its own process, which parsed a large crate file a second time (the probe's, then the worker's
+    build, are the two it must have). None when this process has no such clean answer for the file as it is
+    now (not probed: a text root naming no crate file; changed since; probed by an older server)."""
+    key = _key(os.fspath(path))
+    if key is None or key not in _used or not _known(key) or _answers[key][0] is not None:
+        return None
+    answer, used = _used[key]
+    return list(used) if answer is _answers[key] else None
 
 
 @contextlib.contextmanager
@@ -861,7 +945,7 @@ def _serve(
             while b"\n" in pending:
                 line, pending = pending.split(b"\n", 1)
                 try:
-                    tag, code, text, layers = json.loads(line)
+                    tag, code, text, layers, used = json.loads(line)
                     path, _ = flight.pop(tag)
                 except (ValueError, KeyError, TypeError):
                     _stop(server)
@@ -877,7 +961,10 @@ def _serve(
                 ):
                     failed[path] = text or f"its answer {code}"
                 else:
-                    out[path] = (_problem(path, code, text, seconds), [str(p) for p in layers])
+                    problem = _problem(path, code, text, seconds)
+                    out[path] = (problem, [str(p) for p in layers])
+                    if problem is None:
+                        _probed_used[path] = [str(p) for p in used]
     except OSError as exc:  # (no process can be started, or it went)
         _stop(_server)
         for path in [*(p for p, _ in flight.values()), *queue]:
