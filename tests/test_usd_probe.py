@@ -678,6 +678,33 @@ def _patched_program(monkeypatch, old: str, new: str) -> None:
     probe._stop(probe._server)
 
 
+def _crash_of_the_open_is_keyed_on(
+    monkeypatch, root: Path, crashing: str, keyed: list[Path], touched: Path
+) -> None:
+    """The probe server's open of ``root`` crashes where the path opened ends with ``crashing`` (as usd-core
+    would on a file it cannot read: after the layers named); the crash is keyed on each of ``keyed``, kept
+    while they are unchanged, and probed again once ``touched`` changes."""
+    asked = _files_probed(monkeypatch)
+    _patched_program(
+        monkeypatch,
+        "        stage = Usd.Stage.Open(path)\n",
+        f"        if path.endswith({crashing!r}):\n"
+        "            os.kill(os.getpid(), signal.SIGSEGV)\n"
+        "        stage = Usd.Stage.Open(path)\n",
+    )
+    try:
+        found = probe.check(root)
+        assert found is not None and found.kind == "crash", found
+        names = [n for n, _ in probe._answers[probe._key(str(root))][1]]
+        for path in keyed:
+            assert str(path.resolve()) in names, names
+        assert probe.check(root) == found and len(asked) == 1  # (kept while its layers are unchanged)
+        os.utime(touched, ns=(5, 5))
+        assert probe.check(root) == found and len(asked) == 2  # (probed again)
+    finally:
+        probe._stop(probe._server)  # (the next test's server runs the real program)
+
+
 def test_a_probe_that_fails_itself_is_probed_again_then_a_located_error(tmp_path, monkeypatch):
     # an exception in the probe outside its guarded reads was "no answer", and the file was then opened in
     # this process, unprobed: it is tried once more in a fresh server, then an error naming the file
@@ -1163,24 +1190,8 @@ def test_a_layer_only_a_variant_not_selected_names_is_not_opened_by_the_probe(tm
     del stage
     # (the variant selected: a probe that crashes in the stage's open, as usd-core would on a file it
     # cannot read, is keyed on the variant's layer, named before the open)
-    asked = _files_probed(monkeypatch)
-    _patched_program(
-        monkeypatch,
-        "        stage = Usd.Stage.Open(path)\n",
-        "        if path.endswith('selected.usdc'):\n"
-        "            os.kill(os.getpid(), signal.SIGSEGV)\n"
-        "        stage = Usd.Stage.Open(path)\n",
-    )
-    try:
-        selected = _variant_root(tmp_path / "selected.usdc", "broken")
-        found = probe.check(selected)
-        assert found is not None and found.kind == "crash", found
-        assert str(bad.resolve()) in [n for n, _ in probe._answers[probe._key(str(selected))][1]]
-        assert probe.check(selected) == found and len(asked) == 1  # (kept while its layers are unchanged)
-        os.utime(bad, ns=(5, 5))
-        assert probe.check(selected) == found and len(asked) == 2  # (probed again)
-    finally:
-        probe._stop(probe._server)  # (the next test's server runs the real program)
+    selected = _variant_root(tmp_path / "selected.usdc", "broken")
+    _crash_of_the_open_is_keyed_on(monkeypatch, selected, "selected.usdc", [bad], bad)
 
 
 def test_a_crash_in_a_layer_a_selected_variants_layer_names_is_keyed_on_that_layer(tmp_path, monkeypatch):
@@ -1205,25 +1216,8 @@ def test_a_crash_in_a_layer_a_selected_variants_layer_names_is_keyed_on_that_lay
     assert layer.Export(str(root))
     del layer
     text.unlink()
-    asked = _files_probed(monkeypatch)
     # (the stage's open crashes, as usd-core would on bad.usdc were it corrupt: after the layers named)
-    _patched_program(
-        monkeypatch,
-        "        stage = Usd.Stage.Open(path)\n",
-        "        if path.endswith('root.usdc'):\n"
-        "            os.kill(os.getpid(), signal.SIGSEGV)\n"
-        "        stage = Usd.Stage.Open(path)\n",
-    )
-    try:
-        found = probe.check(root)
-        assert found is not None and found.kind == "crash", found
-        keyed = [n for n, _ in probe._answers[probe._key(str(root))][1]]
-        assert str(bad.resolve()) in keyed and str((tmp_path / "mid.usda").resolve()) in keyed, keyed
-        assert probe.check(root) == found and len(asked) == 1  # (kept while its layers are unchanged)
-        os.utime(bad, ns=(5, 5))
-        assert probe.check(root) == found and len(asked) == 2  # (probed again)
-    finally:
-        probe._stop(probe._server)  # (the next test's server runs the real program)
+    _crash_of_the_open_is_keyed_on(monkeypatch, root, "root.usdc", [bad, tmp_path / "mid.usda"], bad)
 
 
 def test_a_crash_in_a_layer_a_selected_variants_crate_layer_names_is_keyed_on_that_layer(
@@ -1251,24 +1245,7 @@ def test_a_crash_in_a_layer_a_selected_variants_crate_layer_names_is_keyed_on_th
         '        "broken" ( references = @./mid.usdc@</m> ) { }\n'
         "    }\n}\n"
     )
-    asked = _files_probed(monkeypatch)
-    _patched_program(
-        monkeypatch,
-        "        stage = Usd.Stage.Open(path)\n",
-        "        if path.endswith('root.usda'):\n"
-        "            os.kill(os.getpid(), signal.SIGSEGV)\n"
-        "        stage = Usd.Stage.Open(path)\n",
-    )
-    try:
-        found = probe.check(text)
-        assert found is not None and found.kind == "crash", found
-        keyed = [n for n, _ in probe._answers[probe._key(str(text))][1]]
-        assert str(bad.resolve()) in keyed and str(mid.resolve()) in keyed, keyed
-        assert probe.check(text) == found and len(asked) == 1  # (kept while its layers are unchanged)
-        os.utime(bad, ns=(5, 5))
-        assert probe.check(text) == found and len(asked) == 2  # (probed again)
-    finally:
-        probe._stop(probe._server)  # (the next test's server runs the real program)
+    _crash_of_the_open_is_keyed_on(monkeypatch, text, "root.usda", [bad, mid], bad)
 
 
 def test_the_planner_uses_no_stale_layer_list_once_a_sublayer_names_no_crate(tmp_path):
