@@ -32,6 +32,8 @@ import base64
 import json
 import os
 import struct
+import urllib.parse
+import warnings
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -64,6 +66,42 @@ _INSTANCE_ATTRIBUTES = {
     "ROTATION": ("VEC4", (_FLOAT, 5120, 5122), (5120, 5122)),
     "SCALE": ("VEC3", (_FLOAT,), ()),
 }
+
+
+def uri_names(uri: str) -> list[str]:
+    """The names, relative to a glTF's folder, under which the loader looks for the file of a buffer's or
+    image's ``uri``, in order: the uri percent-decoded (RFC 3986, as glTF 2.0 asks: ``my%20mesh.bin`` is
+    ``my mesh.bin``), then as written (a file named with a literal ``%``, which trimesh alone read); each as
+    it is, without a leading ``/``, and by its last part (trimesh's tries: ``bin/data.bin`` is read from
+    ``data.bin``). A name that leads out of the folder (``..``, an absolute path) is not read there
+    (:class:`UriResolver`), so a file cannot make the loader read another file silently; a ``scheme:``
+    uri (``file:``, ``http:``) is not fetched, only its names inside the folder are looked at."""
+    names: list[str] = []
+    for written in dict.fromkeys((urllib.parse.unquote(uri), uri)):
+        for name in (written.strip(), written.strip().lstrip("/"), os.path.split(written)[-1]):
+            if name not in names:
+                names.append(name)
+    return names
+
+
+def uri_resolver(path: Path) -> Any:
+    """A trimesh resolver of the files beside the glTF file ``path`` that finds a uri's file under
+    :func:`uri_names` (trimesh's own looks under the uri as written alone)."""
+    import trimesh
+
+    class UriResolver(trimesh.resolvers.FilePathResolver):
+        def get(self, name: str) -> bytes:
+            for candidate in uri_names(name):
+                try:
+                    file = self.absolute(candidate)  # (a ValueError for a name out of the folder)
+                except ValueError:
+                    continue
+                if file.exists():
+                    return file.read_bytes()
+            self.absolute(name)  # (the name out of the folder raises, as trimesh's resolver does)
+            raise FileNotFoundError(name)
+
+    return UriResolver(str(path))
 
 
 class _Unread(Exception):
@@ -114,6 +152,8 @@ def _needs(doc: dict) -> bool:
             attrs = p.get("attributes") or {}
             if p.get("mode") == _TRIANGLE_FAN or _odd(accessors, p.get("indices")):
                 return True
+            if isinstance(attrs, dict) and "POSITION" not in attrs:
+                return True
             if any(_odd(accessors, i, name) for name, i in attrs.items()):
                 return True
             if "TEXCOORD_0" in attrs and "material" not in p:
@@ -149,10 +189,8 @@ class _Rewrite:
     """The document's accessors read as arrays; new arrays appended to one buffer."""
 
     def __init__(self, path: Path, doc: dict, binary: bytes | None):
-        import trimesh
-
         self.path, self.doc, self.binary = path, doc, binary
-        self.resolver = trimesh.resolvers.FilePathResolver(str(path))
+        self.resolver = uri_resolver(path)
         self.buffers: dict[int, bytes] = {}
         self.extra = bytearray()
         self.views = doc.setdefault("bufferViews", [])
@@ -430,8 +468,13 @@ def _rewrite(path: Path, doc: dict, binary: bytes | None) -> tuple[bytes, dict[i
         return dense[i]
 
     material = None
-    for mesh in doc.get("meshes") or []:
-        for p in mesh.get("primitives") or []:
+    unplaced = []  # (primitives without POSITION)
+    for m, mesh in enumerate(doc.get("meshes") or []):
+        primitives = mesh.get("primitives") or []
+        drawn = ["POSITION" in (p.get("attributes") or {}) for p in primitives]
+        unplaced += [f"meshes[{m}].primitives[{k}]" for k, d in enumerate(drawn) if not d]
+        mesh["primitives"] = primitives = [p for p, d in zip(primitives, drawn, strict=True) if d]
+        for p in primitives:
             attrs = p.get("attributes") or {}
             for name, i in list(attrs.items()):
                 attrs[name] = plain(i, name)
@@ -451,6 +494,9 @@ def _rewrite(path: Path, doc: dict, binary: bytes | None) -> tuple[bytes, dict[i
                     doc.setdefault("materials", []).append({"name": "swpm-usd default (for the uv to load)"})
                     material = len(doc["materials"]) - 1
                 p["material"] = material
+    if unplaced:  # (glTF 2.0: a primitive without POSITION is not rendered; clients should skip it)
+        shown = ", ".join(unplaced[:5]) + (f" and {len(unplaced) - 5} more" if len(unplaced) > 5 else "")
+        warnings.warn(f"{path}: {shown} without a POSITION attribute, not drawn", stacklevel=4)
     instances: dict[int, np.ndarray] = {}
     for i, node in enumerate(doc.get("nodes") or []):
         if _camera_over_geometry(node):  # (the camera is not loaded: its node stays, as an empty node)
@@ -611,6 +657,8 @@ def gltf_triangle_count(path: Path) -> int | None:
                 continue
             attrs = prim.get("attributes")
             position = attrs.get("POSITION") if isinstance(attrs, dict) else None
+            if isinstance(attrs, dict) and position is None:  # (not drawn: the rewrite leaves it out)
+                continue
             count = accessor_count(prim["indices"] if "indices" in prim else position)
             mode = prim.get("mode", _TRIANGLES)
             n += count // 3 if mode == _TRIANGLES else max(count - 2, 0) if mode in (5, _TRIANGLE_FAN) else 0

@@ -1,0 +1,111 @@
+"""glTF 2.0 conformance of the loader for what changes the triangles drawn: a buffer's uri is a
+percent-encoded relative URI (its file found by the decoded name, never outside the .gltf's folder), and a
+primitive without POSITION is not drawn (the others are). The files are written here (numpy and json), as
+in test_io_instancing.py."""
+
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_io_instancing import FACES, POINTS, Builder
+
+from swpm_usd.errors import MeshLoadError
+from swpm_usd.io import load_mesh
+from swpm_usd.pipeline.assets import _gltf_buffers
+
+
+def _tetrahedron(b: Builder, *, offset: float = 0.0) -> dict:
+    """A primitive of the tetrahedron (moved by ``offset`` along x)."""
+    points = POINTS + np.float32([offset, 0, 0])
+    pos = b.accessor(points, "VEC3", 5126, min=points.min(0).tolist(), max=points.max(0).tolist())
+    return {"attributes": {"POSITION": pos}, "indices": b.accessor(FACES.reshape(-1), "SCALAR", 5123)}
+
+
+def _placed(b: Builder, *primitives: dict) -> Builder:
+    b.doc["meshes"].append({"primitives": list(primitives)})
+    b.doc["nodes"].append({"mesh": len(b.doc["meshes"]) - 1})
+    b.doc["scenes"][0]["nodes"].append(len(b.doc["nodes"]) - 1)
+    return b
+
+
+def _with_buffer_file(tmp_path: Path, b: Builder, file_name: str, uri: str) -> Path:
+    """``b`` written as a .gltf whose buffer is the file ``file_name`` beside it, named by ``uri``."""
+    b.blob.extend(b"\0" * (-len(b.blob) % 4))
+    (tmp_path / file_name).write_bytes(bytes(b.blob))
+    doc = json.loads(json.dumps(b.doc))
+    doc["buffers"][0].update(byteLength=len(b.blob), uri=uri)
+    path = tmp_path / "model.gltf"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+@pytest.mark.parametrize(
+    ("file_name", "uri"),
+    [
+        ("my mesh.bin", "my%20mesh.bin"),
+        ("maillage é.bin", "maillage%20%C3%A9.bin"),
+        ("data/a b.bin", "data/a%20b.bin"),
+        ("100%.bin", "100%.bin"),  # (not a valid escape: the name as written, as before)
+    ],
+)
+def test_a_buffer_uri_is_percent_decoded(tmp_path: Path, file_name: str, uri: str) -> None:
+    (tmp_path / "data").mkdir()
+    b = _placed(b := Builder(), _tetrahedron(b))
+    path = _with_buffer_file(tmp_path, b, file_name, uri)
+    mesh = load_mesh(path)
+    assert np.array_equal(np.unique(mesh.points, axis=0), np.unique(POINTS, axis=0))
+    assert mesh.triangles.shape == (4, 3)
+    # the pipeline hashes the file the loader reads (a change to it rebuilds the asset)
+    assert _gltf_buffers(path) == [tmp_path / file_name]
+
+
+def test_the_decoded_name_is_read_before_the_name_as_written(tmp_path: Path) -> None:
+    b = _placed(b := Builder(), _tetrahedron(b, offset=5.0))
+    path = _with_buffer_file(tmp_path, b, "a b.bin", "a%20b.bin")
+    decoy = _placed(d := Builder(), _tetrahedron(d))
+    decoy.blob.extend(b"\0" * (-len(decoy.blob) % 4))
+    (tmp_path / "a%20b.bin").write_bytes(bytes(decoy.blob))
+    assert load_mesh(path).points[:, 0].min() == 5.0
+
+
+def test_a_decoded_uri_does_not_lead_out_of_the_folder(tmp_path: Path) -> None:
+    """``%2e%2e/`` is ``../``: the file above the .gltf's folder is not read (the loader looks inside the
+    folder alone), and one by that last name inside the folder is, as for a uri written ``../``."""
+    inner = tmp_path / "inner"
+    inner.mkdir()
+    b = _placed(b := Builder(), _tetrahedron(b))
+    path = _with_buffer_file(tmp_path, b, "secret.bin", "%2e%2e/secret.bin")
+    moved = inner / "model.gltf"
+    path.rename(moved)
+    with pytest.raises(MeshLoadError, match="secret.bin"):
+        load_mesh(moved)
+    (inner / "secret.bin").write_bytes((tmp_path / "secret.bin").read_bytes())
+    assert load_mesh(moved).triangles.shape == (4, 3)
+
+
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+def test_a_primitive_without_position_is_skipped_with_a_warning(tmp_path: Path, suffix: str) -> None:
+    b = Builder()
+    drawn = _tetrahedron(b)
+    _placed(b, drawn, {"attributes": {}, "indices": drawn["indices"]})
+    _placed(b, {"attributes": {"NORMAL": drawn["attributes"]["POSITION"]}})
+    with pytest.warns(
+        UserWarning, match=r"meshes\[0\]\.primitives\[1\], meshes\[1\]\.primitives\[0\] without"
+    ):
+        mesh = load_mesh(b.write(tmp_path / f"m{suffix}"))
+    assert mesh.triangles.shape == (4, 3)
+    assert np.array_equal(np.unique(mesh.points, axis=0), np.unique(POINTS, axis=0))
+
+
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+def test_a_file_of_primitives_without_position_alone_has_no_triangles(tmp_path: Path, suffix: str) -> None:
+    b = Builder()
+    _placed(b, {"attributes": {}, "indices": _tetrahedron(b)["indices"]})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(MeshLoadError, match="no triangles"):
+            load_mesh(b.write(tmp_path / f"m{suffix}"))
