@@ -109,3 +109,87 @@ def test_a_file_of_primitives_without_position_alone_has_no_triangles(tmp_path: 
         warnings.simplefilter("ignore")
         with pytest.raises(MeshLoadError, match="no triangles"):
             load_mesh(b.write(tmp_path / f"m{suffix}"))
+
+
+#: a morph target's displacements of the tetrahedron's points (and of its normals, along +x)
+MOVE = np.array([[0, 0, 10], [0, 0, 0], [0, 2, 0], [1, 1, 1]], np.float32)
+
+
+def _morph(b: Builder, normals: bool = False) -> dict:
+    """The tetrahedron's primitive with one morph target (MOVE; normals all +z, moved along +x)."""
+    p = _tetrahedron(b)
+    p["targets"] = [{"POSITION": b.accessor(MOVE, "VEC3", 5126, min=[0, 0, 0], max=[1, 2, 10])}]
+    if normals:
+        p["attributes"]["NORMAL"] = b.accessor(np.tile(np.float32([0, 0, 1]), (4, 1)), "VEC3", 5126)
+        p["targets"][0]["NORMAL"] = b.accessor(np.tile(np.float32([1, 0, 0]), (4, 1)), "VEC3", 5126)
+    return p
+
+
+def _point_set(points: np.ndarray) -> np.ndarray:
+    return np.unique(np.round(points.astype(np.float64), 5), axis=0)
+
+
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+def test_a_mesh_is_drawn_at_its_default_morph_weights(tmp_path: Path, suffix: str) -> None:
+    """glTF 2.0: the rendered POSITION is POSITION + sum(weights[i] * targets[i].POSITION), the mesh's
+    ``weights`` being the default; NORMAL likewise."""
+    b = Builder()
+    _placed(b, _morph(b, normals=True))
+    b.doc["meshes"][0]["weights"] = [0.5]
+    mesh = load_mesh(b.write(tmp_path / f"m{suffix}"))
+    assert np.array_equal(_point_set(mesh.points), _point_set(POINTS + 0.5 * MOVE))
+    expected = np.float32([0.5, 0, 1]) / np.linalg.norm([0.5, 0, 1])
+    assert np.allclose(mesh.attributes["normal"], expected, atol=1e-6)
+
+
+def test_a_node_s_morph_weights_override_its_mesh_s(tmp_path: Path) -> None:
+    """Two nodes of one mesh: one with its own weights (drawn at them), one without (the mesh's: zero when
+    the mesh has none), the mesh's own unchanged for it."""
+    b = Builder()
+    _placed(b, _morph(b))
+    b.doc["nodes"][0]["weights"] = [1.0]
+    b.doc["nodes"].append({"mesh": 0, "translation": [20.0, 0.0, 0.0]})
+    b.doc["scenes"][0]["nodes"].append(1)
+    mesh = load_mesh(b.write(tmp_path / "m.gltf"))
+    expected = np.concatenate([POINTS + MOVE, POINTS + np.float32([20, 0, 0])])
+    assert np.array_equal(_point_set(mesh.points), _point_set(expected))
+
+
+def test_a_sparse_morph_target_without_a_buffer_view_is_applied(tmp_path: Path) -> None:
+    """Exporters write a target that moves few points as zeros with sparse values (no bufferView)."""
+    b = Builder()
+    p = _tetrahedron(b)
+    where, moved = b.view(np.array([2], np.uint16)), b.view(np.float32([[0, 0, -3]]))
+    sparse = {
+        "count": 1,
+        "indices": {"bufferView": where, "componentType": 5123},
+        "values": {"bufferView": moved},
+    }
+    b.doc["accessors"].append({"componentType": 5126, "count": 4, "type": "VEC3", "sparse": sparse})
+    p["targets"] = [{"POSITION": len(b.doc["accessors"]) - 1}]
+    _placed(b, p)
+    b.doc["meshes"][0]["weights"] = [2.0]
+    mesh = load_mesh(b.write(tmp_path / "m.gltf"))
+    assert np.array_equal(
+        _point_set(mesh.points),
+        _point_set(POINTS + np.float32([[0, 0, 0], [0, 0, 0], [0, 0, -6], [0, 0, 0]])),
+    )
+
+
+@pytest.mark.parametrize(
+    ("weights", "problem"),
+    [
+        (["a"], "morph weights .* are not all finite numbers"),
+        ([1.0], "morph target's POSITION .* has 3 elements"),
+    ],
+)
+def test_bad_morph_weights_or_targets_are_named(tmp_path: Path, weights: list, problem: str) -> None:
+    b = Builder()
+    p = _morph(b)
+    short = b.accessor(MOVE[:3], "VEC3", 5126)
+    if weights == [1.0]:
+        p["targets"][0]["POSITION"] = short
+    _placed(b, p)
+    b.doc["meshes"][0]["weights"] = weights
+    with pytest.raises(MeshLoadError, match=problem):
+        load_mesh(b.write(tmp_path / "m.gltf"))

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import base64
 import json
+import math
 import os
 import struct
 import urllib.parse
@@ -160,7 +161,66 @@ def _needs(doc: dict) -> bool:
                 return True
     if any(_camera_over_geometry(n) or _instancing(n) is not None for n in doc.get("nodes") or []):
         return True
+    if any(_morph_weights(doc, n) is not None for n in doc.get("nodes") or []):
+        return True
+    if not doc.get("nodes") and any(
+        _morph_weights(doc, {"mesh": m}) for m in range(len(doc.get("meshes") or []))
+    ):
+        return True  # (meshes and no node: each drawn once, with its own weights)
     return "scenes" not in doc and bool(doc.get("nodes") or doc.get("meshes"))
+
+
+def _morph_weights(doc: dict, node: Any) -> tuple[float, ...] | None:
+    """The morph target weights the mesh of ``node`` is drawn with (glTF 2.0: the node's ``weights``, else
+    its mesh's, the targets' default weights; zero when neither is given), or None when its mesh has no
+    targets or they are all zero (the mesh is drawn as it is). A weight that is not a finite number is a
+    :class:`MeshLoadError`."""
+    meshes = doc.get("meshes") or []
+    m = node.get("mesh") if isinstance(node, dict) else None
+    if not _index(m) or m >= len(meshes) or not isinstance(meshes[m], dict):
+        return None
+    primitives = meshes[m].get("primitives") or []
+    if not any(isinstance(p, dict) and p.get("targets") for p in primitives):
+        return None
+    weights = node["weights"] if "weights" in node else meshes[m].get("weights")
+    if not isinstance(weights, list):
+        return None
+    if not all(isinstance(w, int | float) and not isinstance(w, bool) and math.isfinite(w) for w in weights):
+        where = "its node's" if "weights" in node else f"meshes[{m}]'s"
+        raise MeshLoadError(None, f"{where} morph weights {weights!r:.80} are not all finite numbers")
+    return tuple(float(w) for w in weights) if any(weights) else None
+
+
+def _morphed(r: _Rewrite, m: int, weights: tuple[float, ...]) -> int:
+    """A copy of mesh ``m`` (its accessors already rewritten) with its morph targets applied at ``weights``:
+    each primitive's POSITION and NORMAL plus the weighted sum of its targets' (normals then of length 1),
+    as a renderer draws it; the copy's index."""
+    mesh = json.loads(json.dumps(r.doc["meshes"][m]))
+    for k, p in enumerate(mesh.get("primitives") or []):
+        targets = p.pop("targets", None) or []
+        attrs = p["attributes"]
+        for name in ("POSITION", "NORMAL"):
+            moves = [(w, t[name]) for w, t in zip(weights, targets, strict=False) if w and name in t]
+            if name not in attrs or not moves:
+                continue
+            values = r.read(attrs[name]).astype(np.float64)
+            for w, t in moves:
+                delta = r.read(t)
+                if delta.shape != values.shape:
+                    raise MeshLoadError(
+                        r.path,
+                        f"meshes[{m}].primitives[{k}]: a morph target's {name} (accessor {t}) has "
+                        f"{delta.shape[0]} elements of width {delta.shape[1]}, the attribute "
+                        f"{values.shape[0]} of width {values.shape[1]}",
+                    )
+                values += w * delta.astype(np.float64)
+            if name == "NORMAL":
+                length = np.linalg.norm(values, axis=1, keepdims=True)
+                values /= np.where(length > 0, length, 1.0)
+            attrs[name] = r.add(values.astype(np.float32), "VEC3")
+    mesh.pop("weights", None)
+    r.doc["meshes"].append(mesh)
+    return len(r.doc["meshes"]) - 1
 
 
 def _camera_over_geometry(node: Any) -> bool:
@@ -514,6 +574,14 @@ def _rewrite(path: Path, doc: dict, binary: bytes | None) -> tuple[bytes, dict[i
         children = {c for n in nodes if isinstance(n, dict) for c in n.get("children") or []}
         doc["scenes"] = [{"nodes": [i for i in range(len(nodes)) if i not in children]}]
         doc["scene"] = 0
+    morphs: dict[tuple[int, tuple[float, ...]], int] = {}  # (mesh, weights) -> its morphed copy
+    for node in doc.get("nodes") or []:
+        weights = _morph_weights(doc, node)
+        if weights is not None:
+            key = (node["mesh"], weights)
+            if key not in morphs:
+                morphs[key] = _morphed(r, *key)
+            node["mesh"] = morphs[key]
     for i, b in enumerate(doc["buffers"]):  # (inline, the .glb's binary chunk included: one JSON document)
         if b.get("uri") is None:
             b["uri"] = "data:application/octet-stream;base64," + base64.b64encode(r.buffer(i)).decode()
@@ -734,7 +802,9 @@ def prepare_gltf(path: Path) -> Prepared | None:
         if not isinstance(doc, dict) or not _needs(doc):
             return None
         return Prepared(*_rewrite(path, doc, binary))
-    except MeshLoadError:
+    except MeshLoadError as e:
+        if e.path is None:  # (found in the JSON alone: its file named here)
+            raise MeshLoadError(path, e.problem) from e
         raise
     except _UNREAD as e:
         nodes = doc.get("nodes") if isinstance(doc, dict) else None
