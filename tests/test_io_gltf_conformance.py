@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from test_io_instancing import FACES, POINTS, Builder
+from trimesh import transformations as tf
 
 from swpm_usd.errors import MeshLoadError
 from swpm_usd.io import load_mesh
@@ -193,3 +194,62 @@ def test_bad_morph_weights_or_targets_are_named(tmp_path: Path, weights: list, p
     b.doc["meshes"][0]["weights"] = weights
     with pytest.raises(MeshLoadError, match=problem):
         load_mesh(b.write(tmp_path / "m.gltf"))
+
+
+def _skinned(b: Builder, joints: np.ndarray, weights: np.ndarray) -> None:
+    """The tetrahedron skinned by two joints: node 1 (the root joint, at 2 0 0) and its child node 2 (at
+    0 1 0 from it, turned 90 degrees about z, bound where it would be unturned); the skinned node 0 has a
+    transform of its own, which glTF 2.0 says is ignored."""
+    p = _tetrahedron(b)
+    p["attributes"]["JOINTS_0"] = b.accessor(joints.astype(np.uint8), "VEC4", 5121)
+    p["attributes"]["WEIGHTS_0"] = b.accessor(weights.astype(np.float32), "VEC4", 5126)
+    bind = np.stack([tf.translation_matrix([2, 0, 0]), tf.translation_matrix([2, 1, 0])])
+    inverse_bind = np.linalg.inv(bind).transpose(0, 2, 1).reshape(2, 16).astype(np.float32)  # (column-major)
+    _placed(b, p)
+    b.doc["nodes"][0].update(skin=0, translation=[100.0, 0.0, 0.0])
+    b.doc["skins"] = [{"joints": [1, 2], "inverseBindMatrices": b.accessor(inverse_bind, "MAT4", 5126)}]
+    b.doc["nodes"] += [
+        {"translation": [2.0, 0.0, 0.0], "children": [2]},
+        {"translation": [0.0, 1.0, 0.0], "rotation": [0.0, 0.0, float(np.sqrt(0.5)), float(np.sqrt(0.5))]},
+    ]
+    b.doc["scenes"][0]["nodes"].append(1)
+
+
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+def test_a_skinned_mesh_is_drawn_at_its_joints_pose_not_its_node_transform(
+    tmp_path: Path, suffix: str
+) -> None:
+    """glTF 2.0: a skinned vertex is sum(weight_k * joint_k's world x its inverse bind matrix) x POSITION,
+    and the skinned node's own transform is ignored. Points 0 and 1 follow the root joint (at its bind
+    pose: unmoved), point 3 the turned joint, point 2 half each."""
+    joints = np.array([[0, 0, 0, 0], [0, 0, 0, 0], [0, 1, 0, 0], [1, 0, 0, 0]])
+    weights = np.array([[1, 0, 0, 0], [1, 0, 0, 0], [0.5, 0.5, 0, 0], [1, 0, 0, 0]])
+    b = Builder()
+    _skinned(b, joints, weights)
+    mesh = load_mesh(b.write(tmp_path / f"m{suffix}"))
+    turned = tf.translation_matrix([2, 1, 0]) @ tf.rotation_matrix(np.pi / 2, [0, 0, 1])
+    turned = turned @ np.linalg.inv(tf.translation_matrix([2, 1, 0]))
+    moved = [np.eye(4), np.eye(4), 0.5 * np.eye(4) + 0.5 * turned, turned]
+    expected = np.array([(m @ np.append(v, 1.0))[:3] for m, v in zip(moved, POINTS, strict=True)])
+    assert np.array_equal(_point_set(mesh.points), _point_set(expected))
+
+
+def test_a_skinned_vertex_of_a_joint_the_skin_lacks_is_named(tmp_path: Path) -> None:
+    b = Builder()
+    _skinned(b, np.array([[0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [5, 0, 0, 0]]), np.eye(4)[[0, 0, 0, 0]])
+    with pytest.raises(MeshLoadError, match=r"JOINTS_0 names joint 5 of skins\[0\]'s 2"):
+        load_mesh(b.write(tmp_path / "m.gltf"))
+
+
+def test_a_skinned_mesh_at_its_bind_pose_loads_as_its_plain_mesh(tmp_path: Path) -> None:
+    """The exporters' usual file: the joints where they were bound, the skinned node's transform the
+    skeleton's; the same arrays as the mesh without its skin, to the bit."""
+    b = Builder()
+    _skinned(b, np.zeros((4, 4)), np.eye(4)[[0, 0, 0, 0]])
+    b.doc["nodes"][2].pop("rotation")
+    b.doc["nodes"][0]["translation"] = [0.0, 0.0, 0.0]
+    skinned = load_mesh(b.write(tmp_path / "skinned.gltf"))
+    del b.doc["nodes"][0]["skin"], b.doc["skins"]
+    plain = load_mesh(b.write(tmp_path / "plain.gltf"))
+    assert np.array_equal(skinned.points, plain.points)
+    assert np.array_equal(skinned.triangles, plain.triangles)

@@ -44,6 +44,8 @@ from ..errors import MeshLoadError
 
 _COMPONENT = {5120: "i1", 5121: "u1", 5122: "i2", 5123: "u2", 5125: "u4", 5126: "f4"}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
+#: the widths of the matrix accessors read here (a skin's inverse bind matrices: floats, no padding)
+_MATRIX_WIDTH = {"MAT4": 16}
 _TRIANGLE_FAN = 6
 _TRIANGLES = 4
 _FLOAT = 5126
@@ -161,13 +163,24 @@ def _needs(doc: dict) -> bool:
                 return True
     if any(_camera_over_geometry(n) or _instancing(n) is not None for n in doc.get("nodes") or []):
         return True
-    if any(_morph_weights(doc, n) is not None for n in doc.get("nodes") or []):
+    if any(_morph_weights(doc, n) is not None or _skinned_node(n) for n in doc.get("nodes") or []):
         return True
     if not doc.get("nodes") and any(
         _morph_weights(doc, {"mesh": m}) for m in range(len(doc.get("meshes") or []))
     ):
         return True  # (meshes and no node: each drawn once, with its own weights)
     return "scenes" not in doc and bool(doc.get("nodes") or doc.get("meshes"))
+
+
+def _skinned_node(node: Any) -> bool:
+    """Whether ``node`` draws its mesh with a skin (not an instanced node's: its instances are placed in
+    the node's frame, which skinning leaves aside)."""
+    return (
+        isinstance(node, dict)
+        and node.get("mesh") is not None
+        and "skin" in node
+        and _instancing(node) is None
+    )
 
 
 def _morph_weights(doc: dict, node: Any) -> tuple[float, ...] | None:
@@ -189,6 +202,108 @@ def _morph_weights(doc: dict, node: Any) -> tuple[float, ...] | None:
         where = "its node's" if "weights" in node else f"meshes[{m}]'s"
         raise MeshLoadError(None, f"{where} morph weights {weights!r:.80} are not all finite numbers")
     return tuple(float(w) for w in weights) if any(weights) else None
+
+
+def _local_matrix(node: dict) -> np.ndarray:
+    """A node's transform: its ``matrix`` (column-major), else translation x rotation x scale."""
+    if "matrix" in node:
+        return np.array(node["matrix"], np.float64).reshape(4, 4).T
+    x, y, z, w = np.array(node.get("rotation", (0, 0, 0, 1)), np.float64)
+    m = np.eye(4)
+    m[:3, :3] = [
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ]
+    m[:3, :3] *= np.array(node.get("scale", (1, 1, 1)), np.float64)[None, :]
+    m[:3, 3] = node.get("translation", (0, 0, 0))
+    return m
+
+
+def _world_matrices(nodes: list) -> list[np.ndarray]:
+    """Each node's transform from the scene's root (its parents' times its own)."""
+    parent = {c: i for i, n in enumerate(nodes) for c in n.get("children") or []}
+    world: dict[int, np.ndarray] = {}
+    for i in range(len(nodes)):
+        chain, at = [], i
+        while at not in world:
+            chain.append(at)
+            if at not in parent:
+                break
+            at = parent[at]
+            if len(chain) > len(nodes):
+                raise _Unread  # (a cycle)
+        above = world.get(at, np.eye(4))  # (the root's frame, or the first parent placed before)
+        for k in reversed(chain):
+            above = world[k] = above @ _local_matrix(nodes[k])
+    return [world[i] for i in range(len(nodes))]
+
+
+def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
+    """A copy of the mesh of node ``i`` (which has a skin) posed as glTF 2.0 draws it at the nodes' own
+    transforms: each POSITION (NORMAL: its direction) moved by the blend of its joints' world transform x
+    inverse bind matrix, weighted by WEIGHTS_n over JOINTS_n; the skinned node's own transform is not applied
+    (the spec's "MUST be ignored"), so the copy's points are taken back by its inverse, which the loader
+    then applies; the copy's index."""
+    node, doc = r.doc["nodes"][i], r.doc
+    skin = doc["skins"][node["skin"]]
+    joints = skin["joints"]
+    where = f"skins[{node['skin']}]"
+    if "inverseBindMatrices" in skin:
+        a = doc["accessors"][skin["inverseBindMatrices"]]
+        if a.get("type") != "MAT4" or a.get("componentType") != _FLOAT:
+            raise MeshLoadError(r.path, f"{where}: its inverseBindMatrices are not MAT4 of float")
+        inverse_bind = r.read(skin["inverseBindMatrices"]).reshape(-1, 4, 4).transpose(0, 2, 1)
+        if inverse_bind.shape[0] < len(joints):
+            raise MeshLoadError(
+                r.path, f"{where}: {inverse_bind.shape[0]} inverseBindMatrices for {len(joints)} joints"
+            )
+    else:
+        inverse_bind = np.broadcast_to(np.eye(4), (len(joints), 4, 4))
+    # (joint k's matrix, taken back to the skinned node's frame, which the loader applies after)
+    node_world = world[i]
+    if abs(np.linalg.det(node_world[:3, :3])) < 1e-12:
+        raise MeshLoadError(r.path, f"node {i}: a skinned node whose transform is singular")
+    pose = (
+        np.linalg.inv(node_world)[None] @ np.stack([world[j] for j in joints]) @ inverse_bind[: len(joints)]
+    )
+    if np.allclose(pose, np.eye(4), rtol=0, atol=1e-5):  # (at its bind pose: drawn as it is, same bits)
+        return node["mesh"]
+    mesh = json.loads(json.dumps(doc["meshes"][node["mesh"]]))
+    for k, p in enumerate(mesh.get("primitives") or []):
+        attrs = p["attributes"]
+        sets = [n for n in range(len(attrs)) if f"JOINTS_{n}" in attrs and f"WEIGHTS_{n}" in attrs]
+        if not sets:
+            continue
+        blend = np.zeros((r.count(attrs["POSITION"]), 4, 4))
+        for n in sets:
+            index = r.read(attrs[f"JOINTS_{n}"]).astype(np.int64)
+            weight = r.read(attrs[f"WEIGHTS_{n}"]).astype(np.float64)
+            if index.shape != weight.shape or index.shape[0] != blend.shape[0]:
+                raise MeshLoadError(
+                    r.path,
+                    f"meshes[{node['mesh']}].primitives[{k}]: JOINTS_{n} and WEIGHTS_{n} differ in shape",
+                )
+            if index.size and (index.min() < 0 or index.max() >= len(joints)):
+                raise MeshLoadError(
+                    r.path,
+                    f"meshes[{node['mesh']}].primitives[{k}]: JOINTS_{n} names joint {int(index.max())} of "
+                    f"{where}'s {len(joints)}",
+                )
+            blend += np.einsum("vc,vcij->vij", weight, pose[index])
+        for name in ("POSITION", "NORMAL"):
+            if name not in attrs:
+                continue
+            values = r.read(attrs[name]).astype(np.float64)
+            if name == "POSITION":
+                values = np.einsum("vij,vj->vi", blend[:, :3, :3], values) + blend[:, :3, 3]
+            else:
+                values = np.einsum("vij,vj->vi", blend[:, :3, :3], values)
+                length = np.linalg.norm(values, axis=1, keepdims=True)
+                values /= np.where(length > 0, length, 1.0)
+            attrs[name] = r.add(values.astype(np.float32), "VEC3")
+    doc["meshes"].append(mesh)
+    return len(doc["meshes"]) - 1
 
 
 def _morphed(r: _Rewrite, m: int, weights: tuple[float, ...]) -> int:
@@ -310,7 +425,7 @@ class _Rewrite:
         if "bufferView" in a:
             dtype = np.dtype(_COMPONENT[a["componentType"]])
             data, stride = self.view(a["bufferView"])
-            size = dtype.itemsize * _WIDTH[a["type"]]
+            size = dtype.itemsize * {**_WIDTH, **_MATRIX_WIDTH}[a["type"]]
             end = a.get("byteOffset", 0) + (count - 1) * (stride or size) + size
             if count and end > len(data):
                 raise MeshLoadError(
@@ -329,7 +444,7 @@ class _Rewrite:
         (its zeros are not allocated for every element)."""
         a = self.doc["accessors"][i]
         dtype = np.dtype("<" + _COMPONENT[a["componentType"]])
-        width, count = _WIDTH[a["type"]], self.count(i)
+        width, count = {**_WIDTH, **_MATRIX_WIDTH}[a["type"]], self.count(i)
         if "bufferView" in a:
             values, rows = self._strided(a["bufferView"], a.get("byteOffset", 0), count, dtype, width), None
         else:
@@ -582,6 +697,12 @@ def _rewrite(path: Path, doc: dict, binary: bytes | None) -> tuple[bytes, dict[i
             if key not in morphs:
                 morphs[key] = _morphed(r, *key)
             node["mesh"] = morphs[key]
+    nodes = doc.get("nodes") or []
+    if any(_skinned_node(n) for n in nodes):
+        world = _world_matrices(nodes)
+        for i, node in enumerate(nodes):
+            if _skinned_node(node):
+                node["mesh"] = _skinned(r, i, world)
     for i, b in enumerate(doc["buffers"]):  # (inline, the .glb's binary chunk included: one JSON document)
         if b.get("uri") is None:
             b["uri"] = "data:application/octet-stream;base64," + base64.b64encode(r.buffer(i)).decode()
