@@ -17,10 +17,35 @@ trimesh (the loader behind :mod:`.trimesh_loader`) silently
   instances' transforms (:func:`_instance_matrices`), which the loader applies to the node's mesh;
 * reads a file whatever extension its ``extensionsRequired`` lists: one this loader neither implements
   nor can leave aside (:data:`_KNOWN_REQUIRED`) is refused.
+* fails on a primitive without ``POSITION`` (a KeyError), which glTF 2.0 says is not rendered: it is left
+  out, with a warning naming it ("no triangles" when nothing else is drawn);
+* ignores morph targets: a mesh is drawn at its weights (the node's ``weights``, else the mesh's, the
+  default ones; zero when neither), its POSITION and NORMAL plus the weighted targets', a copy of the mesh
+  for each distinct weights (:func:`_morphed`);
+* ignores skins, drawing the stored vertices placed by the skinned node: glTF 2.0 draws them posed by the
+  joints (the blend of each joint's world transform x inverse bind matrix) and says the skinned node's own
+  transform is ignored; the file's pose is drawn (its nodes' transforms, no animation), and a mesh at its
+  bind pose is left as it is (:func:`_skinned`);
+* reads a buffer's or image's ``uri`` as written: it is a URI, percent-decoded (``my%20mesh.bin``) by
+  :func:`uri_names`, whose resolver (:func:`uri_resolver`) the loader gives trimesh for every glTF.
+
+What glTF 2.0 says of the rest that changes the triangles, and what the loader does (each checked with a
+file written in the tests): modes TRIANGLES, TRIANGLE_STRIP (its odd triangles' winding swapped, as the
+spec lists them) and TRIANGLE_FAN are drawn, POINTS and LINE* primitives are not; without ``indices`` a
+primitive's vertices are taken in order; ``byteStride`` interleaving, integer positions (normalized or
+not, KHR_mesh_quantization) and sparse accessors (on POSITION and on indices) read as the spec defines;
+a node's ``matrix`` or its T x R x S; a mesh of several nodes is drawn at each; a node whose world
+transform mirrors (negative determinant) has its triangles' winding reversed, so the front faces stay
+front faces; cameras and lights are not drawn. The scene drawn is ``scene``, else the first of ``scenes``
+(the spec lets a loader draw nothing then: drawing the first is what viewers do), else every root node.
+Left as trimesh does: a skinned node's transform when it mirrors (its winding is flipped as a plain
+node's), and the loader never fetches a ``scheme:`` uri (``http:``, ``file:``) nor reads a file outside
+the glTF's folder.
 
 :func:`prepared_gltf` returns, for a file that uses any of them, the document rewritten so trimesh reads what
 the file means (dense float accessors in one added buffer, fans as triangle lists, a plain material added for
-the uv to be read, a camera taken off a node with a mesh or children, a scene of every root node), as
+the uv to be read, a camera taken off a node with a mesh or children, a scene of every root node, a primitive
+without POSITION left out, a morphed or skinned mesh's posed copy), as
 ``.gltf`` JSON with its buffers inline; None for a file that uses none of them (read as before)
 or whose structure does not read (trimesh then says what is wrong). :func:`prepare_gltf` returns the
 instances' transforms with it.
@@ -290,7 +315,8 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
                     f"meshes[{node['mesh']}].primitives[{k}]: JOINTS_{n} names joint {int(index.max())} of "
                     f"{where}'s {len(joints)}",
                 )
-            blend += np.einsum("vc,vcij->vij", weight, pose[index])
+            for c in range(index.shape[1]):  # (each influence at once: not a (V, 4, 4, 4) array)
+                blend += weight[:, c, None, None] * pose[index[:, c]]
         for name in ("POSITION", "NORMAL"):
             if name not in attrs:
                 continue
