@@ -253,3 +253,15 @@ def test_a_skinned_mesh_at_its_bind_pose_loads_as_its_plain_mesh(tmp_path: Path)
     plain = load_mesh(b.write(tmp_path / "plain.gltf"))
     assert np.array_equal(skinned.points, plain.points)
     assert np.array_equal(skinned.triangles, plain.triangles)
+
+
+@pytest.mark.parametrize("change", [{"skin": 3}, {"joints": [1, 9]}])
+def test_a_skin_that_is_not_one_is_named(tmp_path: Path, change: dict) -> None:
+    b = Builder()
+    _skinned(b, np.zeros((4, 4)), np.eye(4)[[0, 0, 0, 0]])
+    if "skin" in change:
+        b.doc["nodes"][0]["skin"] = change["skin"]
+    else:
+        b.doc["skins"][0]["joints"] = change["joints"]
+    with pytest.raises(MeshLoadError, match="node 0's skin .* is not a skin of joints that are nodes"):
+        load_mesh(b.write(tmp_path / "m.gltf"))

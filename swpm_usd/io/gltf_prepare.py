@@ -271,9 +271,13 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
     (the spec's "MUST be ignored"), so the copy's points are taken back by its inverse, which the loader
     then applies; the copy's index."""
     node, doc = r.doc["nodes"][i], r.doc
-    skin = doc["skins"][node["skin"]]
-    joints = skin["joints"]
-    where = f"skins[{node['skin']}]"
+    skins = doc.get("skins")
+    at = node["skin"]
+    skin = skins[at] if isinstance(skins, list) and _index(at) and at < len(skins) else None
+    joints = skin.get("joints") if isinstance(skin, dict) else None
+    if not isinstance(joints, list) or not all(_index(j) and j < len(world) for j in joints):
+        raise MeshLoadError(r.path, f"node {i}'s skin {at!r:.40} is not a skin of joints that are nodes")
+    where = f"skins[{at}]"
     if "inverseBindMatrices" in skin:
         a = doc["accessors"][skin["inverseBindMatrices"]]
         if a.get("type") != "MAT4" or a.get("componentType") != _FLOAT:
