@@ -587,18 +587,17 @@ def _buffer_uri_size(path: Path, uri: str) -> int | str:
             return len(base64.b64decode(body, validate=True))
         except (binascii.Error, ValueError) as e:
             return f"its data URI is not valid base64 ({e})"
-    outside = True
+    outside = None  # (whether the first name, the uri decoded, leads out of the folder)
     for name in uri_names(uri):  # (the loader's resolver's names, in its order)
         try:
             folder = path.parent.resolve()
             file = (folder / name).resolve()
-            if not file.is_relative_to(folder):
-                continue
-            outside = False
-            if file.is_file():
+            inside = file.is_relative_to(folder)
+            outside = not inside if outside is None else outside
+            if inside and file.is_file():
                 return file.stat().st_size
         except (OSError, ValueError, RuntimeError):
-            outside = False
+            outside = False if outside is None else outside
     if outside:
         return f"its file {uri!r} is outside the .gltf's folder (not read)"
     return f"its file {uri!r} is not found beside the .gltf"
