@@ -173,7 +173,9 @@ def _odd(accessors: list, i: Any, name: str = "") -> bool:
     return bool(a.get("normalized")) and a.get("componentType") != _FLOAT and not ubyte_colour
 
 
-def _needs(doc: dict) -> bool:
+def _needs(doc: dict, skins: bool = True) -> bool:
+    """Whether the document uses a feature the rewrite is for (``skins``: counting a skinned node, which
+    needs one only when it is not at its bind pose: known once its buffers are read)."""
     accessors = doc.get("accessors") or []
     for mesh in doc.get("meshes") or []:
         for p in mesh.get("primitives") or []:
@@ -188,7 +190,9 @@ def _needs(doc: dict) -> bool:
                 return True
     if any(_camera_over_geometry(n) or _instancing(n) is not None for n in doc.get("nodes") or []):
         return True
-    if any(_morph_weights(doc, n) is not None or _skinned_node(n) for n in doc.get("nodes") or []):
+    if any(
+        _morph_weights(doc, n) is not None or (skins and _skinned_node(n)) for n in doc.get("nodes") or []
+    ):
         return True
     if not doc.get("nodes") and any(
         _morph_weights(doc, {"mesh": m}) for m in range(len(doc.get("meshes") or []))
@@ -654,7 +658,10 @@ def _index(value: Any) -> bool:
     return isinstance(value, int) and not isinstance(value, bool) and value >= 0
 
 
-def _rewrite(path: Path, doc: dict, binary: bytes | None) -> tuple[bytes, dict[int, np.ndarray]]:
+def _rewrite(path: Path, doc: dict, binary: bytes | None) -> tuple[bytes, dict[int, np.ndarray]] | None:
+    """The rewritten document and its instances; None when it needed the rewrite for skinned nodes alone
+    and all are at their bind pose (read as they are: not inlined)."""
+    skins_alone = not _needs(doc, skins=False)
     r = _Rewrite(path, doc, binary)
     accessors = doc.get("accessors") or []
     dense: dict[int, int] = {}  # an odd accessor -> its dense float (or index) copy
@@ -733,6 +740,8 @@ def _rewrite(path: Path, doc: dict, binary: bytes | None) -> tuple[bytes, dict[i
         for i, node in enumerate(nodes):
             if _skinned_node(node):
                 node["mesh"] = _skinned(r, i, world)
+    if skins_alone and not r.extra:  # (no posed copy)
+        return None
     for i, b in enumerate(doc["buffers"]):  # (inline, the .glb's binary chunk included: one JSON document)
         if b.get("uri") is None:
             b["uri"] = "data:application/octet-stream;base64," + base64.b64encode(r.buffer(i)).decode()
@@ -952,7 +961,8 @@ def prepare_gltf(path: Path) -> Prepared | None:
         _check_counts(path, doc)
         if not isinstance(doc, dict) or not _needs(doc):
             return None
-        return Prepared(*_rewrite(path, doc, binary))
+        rewritten = _rewrite(path, doc, binary)
+        return None if rewritten is None else Prepared(*rewritten)
     except MeshLoadError as e:
         if e.path is None:  # (found in the JSON alone: its file named here)
             raise MeshLoadError(path, e.problem) from e
