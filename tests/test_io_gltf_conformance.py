@@ -265,3 +265,23 @@ def test_a_skin_that_is_not_one_is_named(tmp_path: Path, change: dict) -> None:
         b.doc["skins"][0]["joints"] = change["joints"]
     with pytest.raises(MeshLoadError, match="node 0's skin .* is not a skin of joints that are nodes"):
         load_mesh(b.write(tmp_path / "m.gltf"))
+
+
+def _skinned_points(tmp_path: Path, weights: np.ndarray, **node: object) -> np.ndarray:
+    """The points of _skinned's tetrahedron (points 0 and 1 on the root joint, 2 half each, 3 on the turned
+    joint) loaded with the weights ``weights``, its skinned node given ``node``'s properties."""
+    joints = np.array([[0, 0, 0, 0], [0, 0, 0, 0], [0, 1, 0, 0], [1, 0, 0, 0]])
+    b = Builder()
+    _skinned(b, joints, weights)
+    b.doc["nodes"][0].update(node)
+    return _point_set(load_mesh(b.write(tmp_path / "m.gltf")).points)
+
+
+_WEIGHTS = np.array([[1, 0, 0, 0], [1, 0, 0, 0], [0.5, 0.5, 0, 0], [1, 0, 0, 0]], np.float64)
+
+
+def test_a_skinned_node_s_rotation_is_ignored_even_of_a_quaternion_not_of_length_1(tmp_path: Path) -> None:
+    """trimesh places the node by its quaternion taken to length 1: the skin's taking the node's transform
+    back must use the same, or the node's rotation (0 0 1 1), of length sqrt 2, showed in the points."""
+    expected = _skinned_points(tmp_path, _WEIGHTS)
+    assert np.array_equal(_skinned_points(tmp_path, _WEIGHTS, rotation=[0.0, 0.0, 1.0, 1.0]), expected)

@@ -234,18 +234,19 @@ def _morph_weights(doc: dict, node: Any) -> tuple[float, ...] | None:
 
 
 def _local_matrix(node: dict) -> np.ndarray:
-    """A node's transform: its ``matrix`` (column-major), else translation x rotation x scale."""
-    if "matrix" in node:
-        return np.array(node["matrix"], np.float64).reshape(4, 4).T
-    x, y, z, w = np.array(node.get("rotation", (0, 0, 0, 1)), np.float64)
-    m = np.eye(4)
-    m[:3, :3] = [
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ]
-    m[:3, :3] *= np.array(node.get("scale", (1, 1, 1)), np.float64)[None, :]
-    m[:3, 3] = node.get("translation", (0, 0, 0))
+    """A node's transform as trimesh places the node (the loader draws the skinned node by trimesh's matrix,
+    so the skin's taking it back must be the same one): its ``matrix`` (column-major), times translation x
+    rotation x scale; the rotation's quaternion taken to length 1 (trimesh's ``quaternion_matrix``: glTF 2.0
+    asks for unit quaternions, and a file's may be off; a zero one is no rotation)."""
+    from trimesh import transformations
+
+    m = np.array(node["matrix"], np.float64).reshape(4, 4).T if "matrix" in node else np.eye(4)
+    if "translation" in node:
+        m = m @ transformations.translation_matrix(node["translation"])
+    if "rotation" in node:
+        m = m @ transformations.quaternion_matrix(np.reshape(node["rotation"], 4)[[3, 0, 1, 2]])
+    if "scale" in node:
+        m = m @ np.diag(np.concatenate((np.asarray(node["scale"], np.float64), [1.0])))
     return m
 
 
