@@ -285,3 +285,13 @@ def test_a_skinned_node_s_rotation_is_ignored_even_of_a_quaternion_not_of_length
     back must use the same, or the node's rotation (0 0 1 1), of length sqrt 2, showed in the points."""
     expected = _skinned_points(tmp_path, _WEIGHTS)
     assert np.array_equal(_skinned_points(tmp_path, _WEIGHTS, rotation=[0.0, 0.0, 1.0, 1.0]), expected)
+
+
+@pytest.mark.parametrize("accessor", [99, "x", -1])
+def test_a_skin_s_inverse_bind_matrices_not_an_accessor_are_named(tmp_path: Path, accessor: object) -> None:
+    """Not a silent fallback to trimesh's read, which drew the stored vertices placed by the skinned node."""
+    b = Builder()
+    _skinned(b, np.zeros((4, 4)), _WEIGHTS)
+    b.doc["skins"][0]["inverseBindMatrices"] = accessor
+    with pytest.raises(MeshLoadError, match=r"skins\[0\]: its inverseBindMatrices .* is not one of the"):
+        load_mesh(b.write(tmp_path / "m.gltf"))

@@ -284,7 +284,13 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
         raise MeshLoadError(r.path, f"node {i}'s skin {at!r:.40} is not a skin of joints that are nodes")
     where = f"skins[{at}]"
     if "inverseBindMatrices" in skin:
-        a = doc["accessors"][skin["inverseBindMatrices"]]
+        ibm, accessors = skin["inverseBindMatrices"], doc.get("accessors") or []
+        if not _index(ibm) or ibm >= len(accessors) or not isinstance(accessors[ibm], dict):
+            raise MeshLoadError(
+                r.path,
+                f"{where}: its inverseBindMatrices {ibm!r:.40} is not one of the {len(accessors)} accessors",
+            )
+        a = accessors[ibm]
         if a.get("type") != "MAT4" or a.get("componentType") != _FLOAT:
             raise MeshLoadError(r.path, f"{where}: its inverseBindMatrices are not MAT4 of float")
         inverse_bind = r.read(skin["inverseBindMatrices"]).reshape(-1, 4, 4).transpose(0, 2, 1)
