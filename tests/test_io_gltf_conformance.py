@@ -280,6 +280,17 @@ def _skinned_points(tmp_path: Path, weights: np.ndarray, **node: object) -> np.n
 _WEIGHTS = np.array([[1, 0, 0, 0], [1, 0, 0, 0], [0.5, 0.5, 0, 0], [1, 0, 0, 0]], np.float64)
 
 
+@pytest.mark.parametrize("last", [[0.5, 0, 0, 0], [0.0, 0, 0, 0], [2.0, 0, 0, 0]])
+def test_skin_weights_are_drawn_scaled_to_sum_to_one(tmp_path: Path, last: list) -> None:
+    """three.js scales each vertex's weights to sum to 1 (a vertex of none to its first joint at weight 1),
+    Blender's armature divides by their sum: point 3 follows its joint, the turned one, whatever its weight.
+    Unscaled, 0.5 drew it halfway to the skinned node's origin (which glTF 2.0 ignores) and 0 at it."""
+    expected = _skinned_points(tmp_path, _WEIGHTS)
+    weights = _WEIGHTS.copy()
+    weights[3] = last
+    assert np.array_equal(_skinned_points(tmp_path, weights), expected)
+
+
 def test_a_skinned_node_s_rotation_is_ignored_even_of_a_quaternion_not_of_length_1(tmp_path: Path) -> None:
     """trimesh places the node by its quaternion taken to length 1: the skin's taking the node's transform
     back must use the same, or the node's rotation (0 0 1 1), of length sqrt 2, showed in the points."""

@@ -316,6 +316,7 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
         if not sets:
             continue
         blend = np.zeros((r.count(attrs["POSITION"]), 4, 4))
+        total = np.zeros(blend.shape[0])  # (each vertex's weights' sum, by which its blend is divided)
         for n in sets:
             index = r.read(attrs[f"JOINTS_{n}"]).astype(np.int64)
             weight = r.read(attrs[f"WEIGHTS_{n}"]).astype(np.float64)
@@ -332,6 +333,17 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
                 )
             for c in range(index.shape[1]):  # (each influence at once: not a (V, 4, 4, 4) array)
                 blend += weight[:, c, None, None] * pose[index[:, c]]
+            total += np.abs(weight).sum(axis=1)
+            if n == sets[0]:
+                first = index[:, 0]
+        # (weights that do not sum to 1 are scaled to, and a vertex of no weight follows its first joint at
+        # weight 1, as three.js draws them (SkinnedMesh.normalizeSkinWeights; Blender's armature also
+        # divides by the sum): unscaled, a vertex of weights summing to 0.5 was drawn halfway to the
+        # skinned node's origin, one of no weight at it)
+        unweighted = total <= 0
+        if unweighted.any():
+            blend[unweighted], total[unweighted] = pose[first[unweighted]], 1.0
+        blend /= total[:, None, None]
         for name in ("POSITION", "NORMAL"):
             if name not in attrs:
                 continue
