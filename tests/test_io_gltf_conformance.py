@@ -306,3 +306,14 @@ def test_a_skin_s_inverse_bind_matrices_not_an_accessor_are_named(tmp_path: Path
     b.doc["skins"][0]["inverseBindMatrices"] = accessor
     with pytest.raises(MeshLoadError, match=r"skins\[0\]: its inverseBindMatrices .* is not one of the"):
         load_mesh(b.write(tmp_path / "m.gltf"))
+
+
+def test_a_folder_of_the_decoded_name_does_not_hide_the_file_named_as_written(tmp_path: Path) -> None:
+    """``a%20b.bin`` is looked for as ``a b.bin`` first: a folder of that name is passed over (the pipeline
+    hashes files alone), not read as the buffer (IsADirectoryError), and the file ``a%20b.bin`` is read."""
+    b = _placed(b := Builder(), _tetrahedron(b))
+    path = _with_buffer_file(tmp_path, b, "a%20b.bin", "a%20b.bin")
+    (tmp_path / "a b.bin").mkdir()
+    mesh = load_mesh(path)
+    assert np.array_equal(np.unique(mesh.points, axis=0), np.unique(POINTS, axis=0))
+    assert _gltf_buffers(path) == [tmp_path / "a%20b.bin"]

@@ -124,7 +124,7 @@ def uri_resolver(path: Path) -> Any:
                     file = self.absolute(candidate)  # (a ValueError for a name out of the folder)
                 except ValueError:
                     continue
-                if file.exists():
+                if file.is_file():  # (a folder of that name is passed over, as the pipeline does)
                     return file.read_bytes()
             self.absolute(name)  # (the name out of the folder raises, as trimesh's resolver does)
             raise FileNotFoundError(name)

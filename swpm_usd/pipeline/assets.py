@@ -104,7 +104,7 @@ def _gltf_buffers(path: Path) -> list[Path]:
 
 def _gltf_buffer_files(path: Path) -> tuple[list[Path], bool]:
     """:func:`_gltf_buffers`, and whether each buffer was found by the first of its names the loader tries
-    (its name as written, in the folder): when one was found by a later name (``bin/data.bin`` read from
+    (its name percent-decoded, in the folder): when one was found by a later name (``bin/data.bin`` read from
     ``data.bin``), a file written later under an earlier one is what the loader reads, with every file
     listed unchanged, so the list holds only while it is read again (:data:`LISTED_SUFFIXES`). A glTF
     whose JSON did not read (being written, or unreadable a moment) is not settled either: should the
