@@ -317,3 +317,27 @@ def test_a_folder_of_the_decoded_name_does_not_hide_the_file_named_as_written(tm
     mesh = load_mesh(path)
     assert np.array_equal(np.unique(mesh.points, axis=0), np.unique(POINTS, axis=0))
     assert _gltf_buffers(path) == [tmp_path / "a%20b.bin"]
+
+
+@pytest.mark.parametrize("far", [1000.0, 12345.678])
+def test_a_skinned_mesh_bound_far_from_the_origin_at_its_bind_pose_loads_as_its_plain_mesh(
+    tmp_path: Path, far: float
+) -> None:
+    """As an exporter writes a skeleton far out (a scene in centimetres): the skinned node at the origin,
+    the inverse bind matrices inv(joint world) in float32, whose translations' rounding grows with the
+    distance. At 1000 units the pose was taken for a posed one and drawn to other bits (3e-5 off)."""
+    b = Builder()
+    _skinned(b, np.zeros((4, 4)), np.eye(4)[[0, 0, 0, 0]])
+    turn = np.array([0.1, 0.2, 0.3, 0.9]) / np.linalg.norm([0.1, 0.2, 0.3, 0.9])
+    b.doc["nodes"][0]["translation"] = [0.0, 0.0, 0.0]
+    b.doc["nodes"][1].update(translation=[far, far / 3, -far / 7], rotation=turn.tolist())
+    b.doc["nodes"][2].pop("rotation")
+    root = tf.translation_matrix([far, far / 3, -far / 7]) @ tf.quaternion_matrix(turn[[3, 0, 1, 2]])
+    bind = np.stack([root, root @ tf.translation_matrix([0, 1, 0])])
+    inverse_bind = np.linalg.inv(bind).transpose(0, 2, 1).reshape(2, 16).astype(np.float32)
+    b.doc["skins"][0]["inverseBindMatrices"] = b.accessor(inverse_bind, "MAT4", 5126)
+    skinned = load_mesh(b.write(tmp_path / "skinned.gltf"))
+    del b.doc["nodes"][0]["skin"], b.doc["skins"]
+    plain = load_mesh(b.write(tmp_path / "plain.gltf"))
+    assert np.array_equal(skinned.points, plain.points)
+    assert np.array_equal(skinned.triangles, plain.triangles)

@@ -304,10 +304,18 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
     node_world = world[i]
     if abs(np.linalg.det(node_world[:3, :3])) < 1e-12:
         raise MeshLoadError(r.path, f"node {i}: a skinned node whose transform is singular")
-    pose = (
-        np.linalg.inv(node_world)[None] @ np.stack([world[j] for j in joints]) @ inverse_bind[: len(joints)]
-    )
-    if np.allclose(pose, np.eye(4), rtol=0, atol=1e-5):  # (at its bind pose: drawn as it is, same bits)
+    joint_world = np.stack([world[j] for j in joints])
+    pose = np.linalg.inv(node_world)[None] @ joint_world @ inverse_bind[: len(joints)]
+    # (at its bind pose: drawn as it is, same bits. The pose's translations are off by the float32 rounding
+    # of the inverse bind matrices' translations, which grows with the skeleton's distance from the origin:
+    # their tolerance grows with it, or a skeleton bound 1000 units out was posed, to other bits)
+    reach = max(1.0, np.abs(joint_world[:, :3, 3]).max(), np.abs(inverse_bind[: len(joints), :3, 3]).max())
+    translation = pose[:, :3, 3].copy()
+    pose_frame = pose.copy()
+    pose_frame[:, :3, 3] = 0.0
+    if np.allclose(pose_frame, np.eye(4), rtol=0, atol=1e-5) and np.allclose(
+        translation, 0, atol=1e-5 * reach
+    ):
         return node["mesh"]
     mesh = json.loads(json.dumps(doc["meshes"][node["mesh"]]))
     for k, p in enumerate(mesh.get("primitives") or []):
