@@ -255,7 +255,7 @@ def test_a_skinned_mesh_at_its_bind_pose_loads_as_its_plain_mesh(tmp_path: Path)
     assert np.array_equal(skinned.triangles, plain.triangles)
 
 
-@pytest.mark.parametrize("change", [{"skin": 3}, {"joints": [1, 9]}])
+@pytest.mark.parametrize("change", [{"skin": 3}, {"joints": [1, 9]}, {"joints": []}])
 def test_a_skin_that_is_not_one_is_named(tmp_path: Path, change: dict) -> None:
     b = Builder()
     _skinned(b, np.zeros((4, 4)), np.eye(4)[[0, 0, 0, 0]])

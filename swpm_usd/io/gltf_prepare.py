@@ -280,7 +280,7 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
     at = node["skin"]
     skin = skins[at] if isinstance(skins, list) and _index(at) and at < len(skins) else None
     joints = skin.get("joints") if isinstance(skin, dict) else None
-    if not isinstance(joints, list) or not all(_index(j) and j < len(world) for j in joints):
+    if not isinstance(joints, list) or not joints or not all(_index(j) and j < len(world) for j in joints):
         raise MeshLoadError(r.path, f"node {i}'s skin {at!r:.40} is not a skin of joints that are nodes")
     where = f"skins[{at}]"
     if "inverseBindMatrices" in skin:
