@@ -17,10 +17,35 @@ trimesh (the loader behind :mod:`.trimesh_loader`) silently
   instances' transforms (:func:`_instance_matrices`), which the loader applies to the node's mesh;
 * reads a file whatever extension its ``extensionsRequired`` lists: one this loader neither implements
   nor can leave aside (:data:`_KNOWN_REQUIRED`) is refused.
+* fails on a primitive without ``POSITION`` (a KeyError), which glTF 2.0 says is not rendered: it is left
+  out, with a warning naming it ("no triangles" when nothing else is drawn);
+* ignores morph targets: a mesh is drawn at its weights (the node's ``weights``, else the mesh's, the
+  default ones; zero when neither), its POSITION and NORMAL plus the weighted targets', a copy of the mesh
+  for each distinct weights (:func:`_morphed`);
+* ignores skins, drawing the stored vertices placed by the skinned node: glTF 2.0 draws them posed by the
+  joints (the blend of each joint's world transform x inverse bind matrix) and says the skinned node's own
+  transform is ignored; the file's pose is drawn (its nodes' transforms, no animation), and a mesh at its
+  bind pose is left as it is (:func:`_skinned`);
+* reads a buffer's or image's ``uri`` as written: it is a URI, percent-decoded (``my%20mesh.bin``) by
+  :func:`uri_names`, whose resolver (:func:`uri_resolver`) the loader gives trimesh for every glTF.
+
+What glTF 2.0 says of the rest that changes the triangles, and what the loader does (each checked with a
+file written in the tests): modes TRIANGLES, TRIANGLE_STRIP (its odd triangles' winding swapped, as the
+spec lists them) and TRIANGLE_FAN are drawn, POINTS and LINE* primitives are not; without ``indices`` a
+primitive's vertices are taken in order; ``byteStride`` interleaving, integer positions (normalized or
+not, KHR_mesh_quantization) and sparse accessors (on POSITION and on indices) read as the spec defines;
+a node's ``matrix`` or its T x R x S; a mesh of several nodes is drawn at each; a node whose world
+transform mirrors (negative determinant) has its triangles' winding reversed, so the front faces stay
+front faces; cameras and lights are not drawn. The scene drawn is ``scene``, else the first of ``scenes``
+(the spec lets a loader draw nothing then: drawing the first is what viewers do), else every root node.
+Left as trimesh does: a skinned node's transform when it mirrors (its winding is flipped as a plain
+node's), and the loader never fetches a ``scheme:`` uri (``http:``, ``file:``) nor reads a file outside
+the glTF's folder.
 
 :func:`prepared_gltf` returns, for a file that uses any of them, the document rewritten so trimesh reads what
 the file means (dense float accessors in one added buffer, fans as triangle lists, a plain material added for
-the uv to be read, a camera taken off a node with a mesh or children, a scene of every root node), as
+the uv to be read, a camera taken off a node with a mesh or children, a scene of every root node, a primitive
+without POSITION left out, a morphed or skinned mesh's posed copy), as
 ``.gltf`` JSON with its buffers inline; None for a file that uses none of them (read as before)
 or whose structure does not read (trimesh then says what is wrong). :func:`prepare_gltf` returns the
 instances' transforms with it.
@@ -30,8 +55,11 @@ from __future__ import annotations
 
 import base64
 import json
+import math
 import os
 import struct
+import urllib.parse
+import warnings
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -41,6 +69,8 @@ from ..errors import MeshLoadError
 
 _COMPONENT = {5120: "i1", 5121: "u1", 5122: "i2", 5123: "u2", 5125: "u4", 5126: "f4"}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
+#: the widths of the matrix accessors read here (a skin's inverse bind matrices: floats, no padding)
+_MATRIX_WIDTH = {"MAT4": 16}
 _TRIANGLE_FAN = 6
 _TRIANGLES = 4
 _FLOAT = 5126
@@ -64,6 +94,42 @@ _INSTANCE_ATTRIBUTES = {
     "ROTATION": ("VEC4", (_FLOAT, 5120, 5122), (5120, 5122)),
     "SCALE": ("VEC3", (_FLOAT,), ()),
 }
+
+
+def uri_names(uri: str) -> list[str]:
+    """The names, relative to a glTF's folder, under which the loader looks for the file of a buffer's or
+    image's ``uri``, in order: the uri percent-decoded (RFC 3986, as glTF 2.0 asks: ``my%20mesh.bin`` is
+    ``my mesh.bin``), then as written (a file named with a literal ``%``, which trimesh alone read); each as
+    it is, without a leading ``/``, and by its last part (trimesh's tries: ``bin/data.bin`` is read from
+    ``data.bin``). A name that leads out of the folder (``..``, an absolute path) is not read there
+    (:class:`UriResolver`), so a file cannot make the loader read another file silently; a ``scheme:``
+    uri (``file:``, ``http:``) is not fetched, only its names inside the folder are looked at."""
+    names: list[str] = []
+    for written in dict.fromkeys((urllib.parse.unquote(uri), uri)):
+        for name in (written.strip(), written.strip().lstrip("/"), os.path.split(written)[-1]):
+            if name not in names:
+                names.append(name)
+    return names
+
+
+def uri_resolver(path: Path) -> Any:
+    """A trimesh resolver of the files beside the glTF file ``path`` that finds a uri's file under
+    :func:`uri_names` (trimesh's own looks under the uri as written alone)."""
+    import trimesh
+
+    class UriResolver(trimesh.resolvers.FilePathResolver):
+        def get(self, name: str) -> bytes:
+            for candidate in uri_names(name):
+                try:
+                    file = self.absolute(candidate)  # (a ValueError for a name out of the folder)
+                except ValueError:
+                    continue
+                if file.is_file():  # (a folder of that name is passed over, as the pipeline does)
+                    return file.read_bytes()
+            self.absolute(name)  # (the name out of the folder raises, as trimesh's resolver does)
+            raise FileNotFoundError(name)
+
+    return UriResolver(str(path))
 
 
 class _Unread(Exception):
@@ -107,12 +173,16 @@ def _odd(accessors: list, i: Any, name: str = "") -> bool:
     return bool(a.get("normalized")) and a.get("componentType") != _FLOAT and not ubyte_colour
 
 
-def _needs(doc: dict) -> bool:
+def _needs(doc: dict, skins: bool = True) -> bool:
+    """Whether the document uses a feature the rewrite is for (``skins``: counting a skinned node, which
+    needs one only when it is not at its bind pose: known once its buffers are read)."""
     accessors = doc.get("accessors") or []
     for mesh in doc.get("meshes") or []:
         for p in mesh.get("primitives") or []:
             attrs = p.get("attributes") or {}
             if p.get("mode") == _TRIANGLE_FAN or _odd(accessors, p.get("indices")):
+                return True
+            if isinstance(attrs, dict) and "POSITION" not in attrs:
                 return True
             if any(_odd(accessors, i, name) for name, i in attrs.items()):
                 return True
@@ -120,7 +190,213 @@ def _needs(doc: dict) -> bool:
                 return True
     if any(_camera_over_geometry(n) or _instancing(n) is not None for n in doc.get("nodes") or []):
         return True
+    if any(
+        _morph_weights(doc, n) is not None or (skins and _skinned_node(n)) for n in doc.get("nodes") or []
+    ):
+        return True
+    if not doc.get("nodes") and any(
+        _morph_weights(doc, {"mesh": m}) for m in range(len(doc.get("meshes") or []))
+    ):
+        return True  # (meshes and no node: each drawn once, with its own weights)
     return "scenes" not in doc and bool(doc.get("nodes") or doc.get("meshes"))
+
+
+def _skinned_node(node: Any) -> bool:
+    """Whether ``node`` draws its mesh with a skin (not an instanced node's: its instances are placed in
+    the node's frame, which skinning leaves aside)."""
+    return (
+        isinstance(node, dict)
+        and node.get("mesh") is not None
+        and "skin" in node
+        and _instancing(node) is None
+    )
+
+
+def _morph_weights(doc: dict, node: Any) -> tuple[float, ...] | None:
+    """The morph target weights the mesh of ``node`` is drawn with (glTF 2.0: the node's ``weights``, else
+    its mesh's, the targets' default weights; zero when neither is given), or None when its mesh has no
+    targets or they are all zero (the mesh is drawn as it is). A weight that is not a finite number is a
+    :class:`MeshLoadError`."""
+    meshes = doc.get("meshes") or []
+    m = node.get("mesh") if isinstance(node, dict) else None
+    if not _index(m) or m >= len(meshes) or not isinstance(meshes[m], dict):
+        return None
+    primitives = meshes[m].get("primitives") or []
+    if not any(isinstance(p, dict) and p.get("targets") for p in primitives):
+        return None
+    weights = node["weights"] if "weights" in node else meshes[m].get("weights")
+    if not isinstance(weights, list):
+        return None
+    if not all(isinstance(w, int | float) and not isinstance(w, bool) and math.isfinite(w) for w in weights):
+        where = "its node's" if "weights" in node else f"meshes[{m}]'s"
+        raise MeshLoadError(None, f"{where} morph weights {weights!r:.80} are not all finite numbers")
+    return tuple(float(w) for w in weights) if any(weights) else None
+
+
+def _local_matrix(node: dict) -> np.ndarray:
+    """A node's transform as trimesh places the node (the loader draws the skinned node by trimesh's matrix,
+    so the skin's taking it back must be the same one): its ``matrix`` (column-major), times translation x
+    rotation x scale; the rotation's quaternion taken to length 1 (trimesh's ``quaternion_matrix``: glTF 2.0
+    asks for unit quaternions, and a file's may be off; a zero one is no rotation)."""
+    from trimesh import transformations
+
+    m = np.array(node["matrix"], np.float64).reshape(4, 4).T if "matrix" in node else np.eye(4)
+    if "translation" in node:
+        m = m @ transformations.translation_matrix(node["translation"])
+    if "rotation" in node:
+        m = m @ transformations.quaternion_matrix(np.reshape(node["rotation"], 4)[[3, 0, 1, 2]])
+    if "scale" in node:
+        m = m @ np.diag(np.concatenate((np.asarray(node["scale"], np.float64), [1.0])))
+    return m
+
+
+def _world_matrices(nodes: list) -> list[np.ndarray]:
+    """Each node's transform from the scene's root (its parents' times its own)."""
+    parent = {c: i for i, n in enumerate(nodes) for c in n.get("children") or []}
+    world: dict[int, np.ndarray] = {}
+    for i in range(len(nodes)):
+        chain, at = [], i
+        while at not in world:
+            chain.append(at)
+            if at not in parent:
+                break
+            at = parent[at]
+            if len(chain) > len(nodes):
+                raise _Unread  # (a cycle)
+        above = world.get(at, np.eye(4))  # (the root's frame, or the first parent placed before)
+        for k in reversed(chain):
+            above = world[k] = above @ _local_matrix(nodes[k])
+    return [world[i] for i in range(len(nodes))]
+
+
+def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
+    """A copy of the mesh of node ``i`` (which has a skin) posed as glTF 2.0 draws it at the nodes' own
+    transforms: each POSITION (NORMAL: its direction) moved by the blend of its joints' world transform x
+    inverse bind matrix, weighted by WEIGHTS_n over JOINTS_n; the skinned node's own transform is not applied
+    (the spec's "MUST be ignored"), so the copy's points are taken back by its inverse, which the loader
+    then applies; the copy's index."""
+    node, doc = r.doc["nodes"][i], r.doc
+    skins = doc.get("skins")
+    at = node["skin"]
+    skin = skins[at] if isinstance(skins, list) and _index(at) and at < len(skins) else None
+    joints = skin.get("joints") if isinstance(skin, dict) else None
+    if not isinstance(joints, list) or not joints or not all(_index(j) and j < len(world) for j in joints):
+        raise MeshLoadError(r.path, f"node {i}'s skin {at!r:.40} is not a skin of joints that are nodes")
+    where = f"skins[{at}]"
+    if "inverseBindMatrices" in skin:
+        ibm, accessors = skin["inverseBindMatrices"], doc.get("accessors") or []
+        if not _index(ibm) or ibm >= len(accessors) or not isinstance(accessors[ibm], dict):
+            raise MeshLoadError(
+                r.path,
+                f"{where}: its inverseBindMatrices {ibm!r:.40} is not one of the {len(accessors)} accessors",
+            )
+        a = accessors[ibm]
+        if a.get("type") != "MAT4" or a.get("componentType") != _FLOAT:
+            raise MeshLoadError(r.path, f"{where}: its inverseBindMatrices are not MAT4 of float")
+        inverse_bind = r.read(skin["inverseBindMatrices"]).reshape(-1, 4, 4).transpose(0, 2, 1)
+        if inverse_bind.shape[0] < len(joints):
+            raise MeshLoadError(
+                r.path, f"{where}: {inverse_bind.shape[0]} inverseBindMatrices for {len(joints)} joints"
+            )
+    else:
+        inverse_bind = np.broadcast_to(np.eye(4), (len(joints), 4, 4))
+    # (joint k's matrix, taken back to the skinned node's frame, which the loader applies after)
+    node_world = world[i]
+    if abs(np.linalg.det(node_world[:3, :3])) < 1e-12:
+        raise MeshLoadError(r.path, f"node {i}: a skinned node whose transform is singular")
+    joint_world = np.stack([world[j] for j in joints])
+    pose = np.linalg.inv(node_world)[None] @ joint_world @ inverse_bind[: len(joints)]
+    # (at its bind pose: drawn as it is, same bits. The pose's translations are off by the float32 rounding
+    # of the inverse bind matrices' translations, which grows with the skeleton's distance from the origin:
+    # their tolerance grows with it, or a skeleton bound 1000 units out was posed, to other bits)
+    reach = max(1.0, np.abs(joint_world[:, :3, 3]).max(), np.abs(inverse_bind[: len(joints), :3, 3]).max())
+    translation = pose[:, :3, 3].copy()
+    pose_frame = pose.copy()
+    pose_frame[:, :3, 3] = 0.0
+    if np.allclose(pose_frame, np.eye(4), rtol=0, atol=1e-5) and np.allclose(
+        translation, 0, atol=1e-5 * reach
+    ):
+        return node["mesh"]
+    mesh = json.loads(json.dumps(doc["meshes"][node["mesh"]]))
+    for k, p in enumerate(mesh.get("primitives") or []):
+        attrs = p["attributes"]
+        sets = [n for n in range(len(attrs)) if f"JOINTS_{n}" in attrs and f"WEIGHTS_{n}" in attrs]
+        if not sets:
+            continue
+        blend = np.zeros((r.count(attrs["POSITION"]), 4, 4))
+        total = np.zeros(blend.shape[0])  # (each vertex's weights' sum, by which its blend is divided)
+        for n in sets:
+            index = r.read(attrs[f"JOINTS_{n}"]).astype(np.int64)
+            weight = r.read(attrs[f"WEIGHTS_{n}"]).astype(np.float64)
+            if index.shape != weight.shape or index.shape[0] != blend.shape[0]:
+                raise MeshLoadError(
+                    r.path,
+                    f"meshes[{node['mesh']}].primitives[{k}]: JOINTS_{n} and WEIGHTS_{n} differ in shape",
+                )
+            if index.size and (index.min() < 0 or index.max() >= len(joints)):
+                raise MeshLoadError(
+                    r.path,
+                    f"meshes[{node['mesh']}].primitives[{k}]: JOINTS_{n} names joint {int(index.max())} of "
+                    f"{where}'s {len(joints)}",
+                )
+            for c in range(index.shape[1]):  # (each influence at once: not a (V, 4, 4, 4) array)
+                blend += weight[:, c, None, None] * pose[index[:, c]]
+            total += np.abs(weight).sum(axis=1)
+            if n == sets[0]:
+                first = index[:, 0]
+        # (weights that do not sum to 1 are scaled to, and a vertex of no weight follows its first joint at
+        # weight 1, as three.js draws them (SkinnedMesh.normalizeSkinWeights; Blender's armature also
+        # divides by the sum): unscaled, a vertex of weights summing to 0.5 was drawn halfway to the
+        # skinned node's origin, one of no weight at it)
+        unweighted = total <= 0
+        if unweighted.any():
+            blend[unweighted], total[unweighted] = pose[first[unweighted]], 1.0
+        blend /= total[:, None, None]
+        for name in ("POSITION", "NORMAL"):
+            if name not in attrs:
+                continue
+            values = r.read(attrs[name]).astype(np.float64)
+            if name == "POSITION":
+                values = np.einsum("vij,vj->vi", blend[:, :3, :3], values) + blend[:, :3, 3]
+            else:
+                values = np.einsum("vij,vj->vi", blend[:, :3, :3], values)
+                length = np.linalg.norm(values, axis=1, keepdims=True)
+                values /= np.where(length > 0, length, 1.0)
+            attrs[name] = r.add(values.astype(np.float32), "VEC3")
+    doc["meshes"].append(mesh)
+    return len(doc["meshes"]) - 1
+
+
+def _morphed(r: _Rewrite, m: int, weights: tuple[float, ...]) -> int:
+    """A copy of mesh ``m`` (its accessors already rewritten) with its morph targets applied at ``weights``:
+    each primitive's POSITION and NORMAL plus the weighted sum of its targets' (normals then of length 1),
+    as a renderer draws it; the copy's index."""
+    mesh = json.loads(json.dumps(r.doc["meshes"][m]))
+    for k, p in enumerate(mesh.get("primitives") or []):
+        targets = p.pop("targets", None) or []
+        attrs = p["attributes"]
+        for name in ("POSITION", "NORMAL"):
+            moves = [(w, t[name]) for w, t in zip(weights, targets, strict=False) if w and name in t]
+            if name not in attrs or not moves:
+                continue
+            values = r.read(attrs[name]).astype(np.float64)
+            for w, t in moves:
+                delta = r.read(t)
+                if delta.shape != values.shape:
+                    raise MeshLoadError(
+                        r.path,
+                        f"meshes[{m}].primitives[{k}]: a morph target's {name} (accessor {t}) has "
+                        f"{delta.shape[0]} elements of width {delta.shape[1]}, the attribute "
+                        f"{values.shape[0]} of width {values.shape[1]}",
+                    )
+                values += w * delta.astype(np.float64)
+            if name == "NORMAL":
+                length = np.linalg.norm(values, axis=1, keepdims=True)
+                values /= np.where(length > 0, length, 1.0)
+            attrs[name] = r.add(values.astype(np.float32), "VEC3")
+    mesh.pop("weights", None)
+    r.doc["meshes"].append(mesh)
+    return len(r.doc["meshes"]) - 1
 
 
 def _camera_over_geometry(node: Any) -> bool:
@@ -149,10 +425,8 @@ class _Rewrite:
     """The document's accessors read as arrays; new arrays appended to one buffer."""
 
     def __init__(self, path: Path, doc: dict, binary: bytes | None):
-        import trimesh
-
         self.path, self.doc, self.binary = path, doc, binary
-        self.resolver = trimesh.resolvers.FilePathResolver(str(path))
+        self.resolver = uri_resolver(path)
         self.buffers: dict[int, bytes] = {}
         self.extra = bytearray()
         self.views = doc.setdefault("bufferViews", [])
@@ -212,7 +486,7 @@ class _Rewrite:
         if "bufferView" in a:
             dtype = np.dtype(_COMPONENT[a["componentType"]])
             data, stride = self.view(a["bufferView"])
-            size = dtype.itemsize * _WIDTH[a["type"]]
+            size = dtype.itemsize * {**_WIDTH, **_MATRIX_WIDTH}[a["type"]]
             end = a.get("byteOffset", 0) + (count - 1) * (stride or size) + size
             if count and end > len(data):
                 raise MeshLoadError(
@@ -231,7 +505,7 @@ class _Rewrite:
         (its zeros are not allocated for every element)."""
         a = self.doc["accessors"][i]
         dtype = np.dtype("<" + _COMPONENT[a["componentType"]])
-        width, count = _WIDTH[a["type"]], self.count(i)
+        width, count = {**_WIDTH, **_MATRIX_WIDTH}[a["type"]], self.count(i)
         if "bufferView" in a:
             values, rows = self._strided(a["bufferView"], a.get("byteOffset", 0), count, dtype, width), None
         else:
@@ -411,7 +685,10 @@ def _index(value: Any) -> bool:
     return isinstance(value, int) and not isinstance(value, bool) and value >= 0
 
 
-def _rewrite(path: Path, doc: dict, binary: bytes | None) -> tuple[bytes, dict[int, np.ndarray]]:
+def _rewrite(path: Path, doc: dict, binary: bytes | None) -> tuple[bytes, dict[int, np.ndarray]] | None:
+    """The rewritten document and its instances; None when it needed the rewrite for skinned nodes alone
+    and all are at their bind pose (read as they are: not inlined)."""
+    skins_alone = not _needs(doc, skins=False)
     r = _Rewrite(path, doc, binary)
     accessors = doc.get("accessors") or []
     dense: dict[int, int] = {}  # an odd accessor -> its dense float (or index) copy
@@ -430,8 +707,13 @@ def _rewrite(path: Path, doc: dict, binary: bytes | None) -> tuple[bytes, dict[i
         return dense[i]
 
     material = None
-    for mesh in doc.get("meshes") or []:
-        for p in mesh.get("primitives") or []:
+    unplaced = []  # (primitives without POSITION)
+    for m, mesh in enumerate(doc.get("meshes") or []):
+        primitives = mesh.get("primitives") or []
+        drawn = ["POSITION" in (p.get("attributes") or {}) for p in primitives]
+        unplaced += [f"meshes[{m}].primitives[{k}]" for k, d in enumerate(drawn) if not d]
+        mesh["primitives"] = primitives = [p for p, d in zip(primitives, drawn, strict=True) if d]
+        for p in primitives:
             attrs = p.get("attributes") or {}
             for name, i in list(attrs.items()):
                 attrs[name] = plain(i, name)
@@ -451,6 +733,9 @@ def _rewrite(path: Path, doc: dict, binary: bytes | None) -> tuple[bytes, dict[i
                     doc.setdefault("materials", []).append({"name": "swpm-usd default (for the uv to load)"})
                     material = len(doc["materials"]) - 1
                 p["material"] = material
+    if unplaced:  # (glTF 2.0: a primitive without POSITION is not rendered; clients should skip it)
+        shown = ", ".join(unplaced[:5]) + (f" and {len(unplaced) - 5} more" if len(unplaced) > 5 else "")
+        warnings.warn(f"{path}: {shown} without a POSITION attribute, not drawn", stacklevel=4)
     instances: dict[int, np.ndarray] = {}
     for i, node in enumerate(doc.get("nodes") or []):
         if _camera_over_geometry(node):  # (the camera is not loaded: its node stays, as an empty node)
@@ -468,6 +753,22 @@ def _rewrite(path: Path, doc: dict, binary: bytes | None) -> tuple[bytes, dict[i
         children = {c for n in nodes if isinstance(n, dict) for c in n.get("children") or []}
         doc["scenes"] = [{"nodes": [i for i in range(len(nodes)) if i not in children]}]
         doc["scene"] = 0
+    morphs: dict[tuple[int, tuple[float, ...]], int] = {}  # (mesh, weights) -> its morphed copy
+    for node in doc.get("nodes") or []:
+        weights = _morph_weights(doc, node)
+        if weights is not None:
+            key = (node["mesh"], weights)
+            if key not in morphs:
+                morphs[key] = _morphed(r, *key)
+            node["mesh"] = morphs[key]
+    nodes = doc.get("nodes") or []
+    if any(_skinned_node(n) for n in nodes):
+        world = _world_matrices(nodes)
+        for i, node in enumerate(nodes):
+            if _skinned_node(node):
+                node["mesh"] = _skinned(r, i, world)
+    if skins_alone and not r.extra:  # (no posed copy)
+        return None
     for i, b in enumerate(doc["buffers"]):  # (inline, the .glb's binary chunk included: one JSON document)
         if b.get("uri") is None:
             b["uri"] = "data:application/octet-stream;base64," + base64.b64encode(r.buffer(i)).decode()
@@ -611,6 +912,8 @@ def gltf_triangle_count(path: Path) -> int | None:
                 continue
             attrs = prim.get("attributes")
             position = attrs.get("POSITION") if isinstance(attrs, dict) else None
+            if isinstance(attrs, dict) and position is None:  # (not drawn: the rewrite leaves it out)
+                continue
             count = accessor_count(prim["indices"] if "indices" in prim else position)
             mode = prim.get("mode", _TRIANGLES)
             n += count // 3 if mode == _TRIANGLES else max(count - 2, 0) if mode in (5, _TRIANGLE_FAN) else 0
@@ -685,8 +988,11 @@ def prepare_gltf(path: Path) -> Prepared | None:
         _check_counts(path, doc)
         if not isinstance(doc, dict) or not _needs(doc):
             return None
-        return Prepared(*_rewrite(path, doc, binary))
-    except MeshLoadError:
+        rewritten = _rewrite(path, doc, binary)
+        return None if rewritten is None else Prepared(*rewritten)
+    except MeshLoadError as e:
+        if e.path is None:  # (found in the JSON alone: its file named here)
+            raise MeshLoadError(path, e.problem) from e
         raise
     except _UNREAD as e:
         nodes = doc.get("nodes") if isinstance(doc, dict) else None

@@ -31,7 +31,6 @@ import json
 import os
 import re
 import struct
-import urllib.parse
 import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -60,6 +59,8 @@ from .gltf_prepare import (
     _Unread,
     gltf_triangle_count,
     prepare_gltf,
+    uri_names,
+    uri_resolver,
 )
 
 _TEXT_TYPES = ("obj", "off")
@@ -576,8 +577,8 @@ def _gltf_json_problem(path: Path) -> str | None:
 def _buffer_uri_size(path: Path, uri: str) -> int | str:
     """The byte size of the buffer of ``uri`` (a base64 data URI, or a file beside the .gltf file ``path``),
     or why there is none (the end of a message: "its data URI is not valid base64 (...)"). A file is resolved
-    as trimesh's resolver does, which refuses a file outside the .gltf's folder: such a file is not looked
-    at, and its size not told."""
+    as the loader's resolver does (:func:`.gltf_prepare.uri_names`), which refuses a file outside the .gltf's
+    folder: such a file is not looked at, and its size not told."""
     if uri.startswith("data:"):
         meta, _, body = uri.partition(",")
         if not meta.endswith(";base64"):
@@ -586,17 +587,20 @@ def _buffer_uri_size(path: Path, uri: str) -> int | str:
             return len(base64.b64decode(body, validate=True))
         except (binascii.Error, ValueError) as e:
             return f"its data URI is not valid base64 ({e})"
-    try:
-        folder = path.parent.resolve()
-        file = (folder / urllib.parse.unquote(uri).strip()).resolve()
-    except (OSError, ValueError, RuntimeError):
-        return f"its file {uri!r} is not found beside the .gltf"
-    if not file.is_relative_to(folder):
+    outside = None  # (whether the first name, the uri decoded, leads out of the folder)
+    for name in uri_names(uri):  # (the loader's resolver's names, in its order)
+        try:
+            folder = path.parent.resolve()
+            file = (folder / name).resolve()
+            inside = file.is_relative_to(folder)
+            outside = not inside if outside is None else outside
+            if inside and file.is_file():
+                return file.stat().st_size
+        except (OSError, ValueError, RuntimeError):
+            outside = False if outside is None else outside
+    if outside:
         return f"its file {uri!r} is outside the .gltf's folder (not read)"
-    try:
-        return file.stat().st_size
-    except (OSError, ValueError):
-        return f"its file {uri!r} is not found beside the .gltf"
+    return f"its file {uri!r} is not found beside the .gltf"
 
 
 def _gltf_buffer_problem(path: Path) -> str | None:
@@ -1317,11 +1321,14 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
         elif file_type == "glb" and (problem := glb_chunk_problem(path)) is not None:
             raise MeshLoadError(path, _glb_length_problem(path) or problem)  # ("truncated" when it is)
         elif file_type in ("gltf", "glb") and (prepared := prepare_gltf(path)) is not None:
-            resolver = trimesh.resolvers.FilePathResolver(str(path))
             scene = trimesh.load_scene(
-                io.BytesIO(prepared.data), file_type="gltf", resolver=resolver, process=False
+                io.BytesIO(prepared.data), file_type="gltf", resolver=uri_resolver(path), process=False
             )
             instances = prepared.instances
+        elif file_type in ("gltf", "glb"):  # (its buffers' and images' uris percent-decoded)
+            scene = trimesh.load_scene(
+                str(path), file_type=file_type, resolver=uri_resolver(path), process=False
+            )
         else:
             scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
         parts = []

@@ -95,19 +95,22 @@ def _gltf_document(path: Path) -> Any:
 def _gltf_buffers(path: Path) -> list[Path]:
     """The files beside a ``.gltf`` or ``.glb`` that hold its vertices and triangles: those its ``buffers``
     name by a ``uri`` (not a base64 ``data:`` one; a .glb's own binary chunk is the buffer without one),
-    which the loader (trimesh) reads, in its folder, by the name as written, without a leading ``/``, or by
-    its last part: every one of those found, so a change to any is a change to the asset; none for another
-    file, or one whose JSON does not read (its load fails)."""
+    which the loader reads, in its folder, by the names of :func:`swpm_usd.io.gltf_prepare.uri_names` (the
+    uri percent-decoded, then as written; each without a leading ``/``, or by its last part): every one of
+    those found, so a change to any is a change to the asset; none for another file, or one whose JSON does
+    not read (its load fails)."""
     return _gltf_buffer_files(path)[0]
 
 
 def _gltf_buffer_files(path: Path) -> tuple[list[Path], bool]:
     """:func:`_gltf_buffers`, and whether each buffer was found by the first of its names the loader tries
-    (its name as written, in the folder): when one was found by a later name (``bin/data.bin`` read from
+    (its name percent-decoded, in the folder): when one was found by a later name (``bin/data.bin`` read from
     ``data.bin``), a file written later under an earlier one is what the loader reads, with every file
     listed unchanged, so the list holds only while it is read again (:data:`LISTED_SUFFIXES`). A glTF
     whose JSON did not read (being written, or unreadable a moment) is not settled either: should the
     loader read it, the list is its alone."""
+    from ..io.gltf_prepare import uri_names
+
     doc = _gltf_document(path)
     if doc is None:
         return [], path.suffix.lower() not in (".gltf", ".glb")
@@ -121,7 +124,7 @@ def _gltf_buffer_files(path: Path) -> tuple[list[Path], bool]:
         if not isinstance(uri, str) or "base64," in uri:
             continue
         first = True  # (the first name of this uri inside the folder, the loader's first try)
-        for name in (uri.strip(), uri.strip().lstrip("/"), os.path.split(uri)[-1]):
+        for name in uri_names(uri):  # (percent-decoded first, as the loader reads it)
             f = path.parent / name
             try:
                 inside = f.resolve().is_relative_to(path.parent.resolve())

@@ -1,0 +1,343 @@
+"""glTF 2.0 conformance of the loader for what changes the triangles drawn: a buffer's uri is a
+percent-encoded relative URI (its file found by the decoded name, never outside the .gltf's folder), and a
+primitive without POSITION is not drawn (the others are). The files are written here (numpy and json), as
+in test_io_instancing.py."""
+
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_io_instancing import FACES, POINTS, Builder
+from trimesh import transformations as tf
+
+from swpm_usd.errors import MeshLoadError
+from swpm_usd.io import load_mesh
+from swpm_usd.pipeline.assets import _gltf_buffers
+
+
+def _tetrahedron(b: Builder, *, offset: float = 0.0) -> dict:
+    """A primitive of the tetrahedron (moved by ``offset`` along x)."""
+    points = POINTS + np.float32([offset, 0, 0])
+    pos = b.accessor(points, "VEC3", 5126, min=points.min(0).tolist(), max=points.max(0).tolist())
+    return {"attributes": {"POSITION": pos}, "indices": b.accessor(FACES.reshape(-1), "SCALAR", 5123)}
+
+
+def _placed(b: Builder, *primitives: dict) -> Builder:
+    b.doc["meshes"].append({"primitives": list(primitives)})
+    b.doc["nodes"].append({"mesh": len(b.doc["meshes"]) - 1})
+    b.doc["scenes"][0]["nodes"].append(len(b.doc["nodes"]) - 1)
+    return b
+
+
+def _with_buffer_file(tmp_path: Path, b: Builder, file_name: str, uri: str) -> Path:
+    """``b`` written as a .gltf whose buffer is the file ``file_name`` beside it, named by ``uri``."""
+    b.blob.extend(b"\0" * (-len(b.blob) % 4))
+    (tmp_path / file_name).write_bytes(bytes(b.blob))
+    doc = json.loads(json.dumps(b.doc))
+    doc["buffers"][0].update(byteLength=len(b.blob), uri=uri)
+    path = tmp_path / "model.gltf"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+@pytest.mark.parametrize(
+    ("file_name", "uri"),
+    [
+        ("my mesh.bin", "my%20mesh.bin"),
+        ("maillage é.bin", "maillage%20%C3%A9.bin"),
+        ("data/a b.bin", "data/a%20b.bin"),
+        ("100%.bin", "100%.bin"),  # (not a valid escape: the name as written, as before)
+    ],
+)
+def test_a_buffer_uri_is_percent_decoded(tmp_path: Path, file_name: str, uri: str) -> None:
+    (tmp_path / "data").mkdir()
+    b = _placed(b := Builder(), _tetrahedron(b))
+    path = _with_buffer_file(tmp_path, b, file_name, uri)
+    mesh = load_mesh(path)
+    assert np.array_equal(np.unique(mesh.points, axis=0), np.unique(POINTS, axis=0))
+    assert mesh.triangles.shape == (4, 3)
+    # the pipeline hashes the file the loader reads (a change to it rebuilds the asset)
+    assert _gltf_buffers(path) == [tmp_path / file_name]
+
+
+def test_the_decoded_name_is_read_before_the_name_as_written(tmp_path: Path) -> None:
+    b = _placed(b := Builder(), _tetrahedron(b, offset=5.0))
+    path = _with_buffer_file(tmp_path, b, "a b.bin", "a%20b.bin")
+    decoy = _placed(d := Builder(), _tetrahedron(d))
+    decoy.blob.extend(b"\0" * (-len(decoy.blob) % 4))
+    (tmp_path / "a%20b.bin").write_bytes(bytes(decoy.blob))
+    assert load_mesh(path).points[:, 0].min() == 5.0
+
+
+def test_a_decoded_uri_does_not_lead_out_of_the_folder(tmp_path: Path) -> None:
+    """``%2e%2e/`` is ``../``: the file above the .gltf's folder is not read (the loader looks inside the
+    folder alone), and one by that last name inside the folder is, as for a uri written ``../``."""
+    inner = tmp_path / "inner"
+    inner.mkdir()
+    b = _placed(b := Builder(), _tetrahedron(b))
+    path = _with_buffer_file(tmp_path, b, "secret.bin", "%2e%2e/secret.bin")
+    moved = inner / "model.gltf"
+    path.rename(moved)
+    with pytest.raises(MeshLoadError, match="secret.bin"):
+        load_mesh(moved)
+    (inner / "secret.bin").write_bytes((tmp_path / "secret.bin").read_bytes())
+    assert load_mesh(moved).triangles.shape == (4, 3)
+
+
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+def test_a_primitive_without_position_is_skipped_with_a_warning(tmp_path: Path, suffix: str) -> None:
+    b = Builder()
+    drawn = _tetrahedron(b)
+    _placed(b, drawn, {"attributes": {}, "indices": drawn["indices"]})
+    _placed(b, {"attributes": {"NORMAL": drawn["attributes"]["POSITION"]}})
+    with pytest.warns(
+        UserWarning, match=r"meshes\[0\]\.primitives\[1\], meshes\[1\]\.primitives\[0\] without"
+    ):
+        mesh = load_mesh(b.write(tmp_path / f"m{suffix}"))
+    assert mesh.triangles.shape == (4, 3)
+    assert np.array_equal(np.unique(mesh.points, axis=0), np.unique(POINTS, axis=0))
+
+
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+def test_a_file_of_primitives_without_position_alone_has_no_triangles(tmp_path: Path, suffix: str) -> None:
+    b = Builder()
+    _placed(b, {"attributes": {}, "indices": _tetrahedron(b)["indices"]})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(MeshLoadError, match="no triangles"):
+            load_mesh(b.write(tmp_path / f"m{suffix}"))
+
+
+#: a morph target's displacements of the tetrahedron's points (and of its normals, along +x)
+MOVE = np.array([[0, 0, 10], [0, 0, 0], [0, 2, 0], [1, 1, 1]], np.float32)
+
+
+def _morph(b: Builder, normals: bool = False) -> dict:
+    """The tetrahedron's primitive with one morph target (MOVE; normals all +z, moved along +x)."""
+    p = _tetrahedron(b)
+    p["targets"] = [{"POSITION": b.accessor(MOVE, "VEC3", 5126, min=[0, 0, 0], max=[1, 2, 10])}]
+    if normals:
+        p["attributes"]["NORMAL"] = b.accessor(np.tile(np.float32([0, 0, 1]), (4, 1)), "VEC3", 5126)
+        p["targets"][0]["NORMAL"] = b.accessor(np.tile(np.float32([1, 0, 0]), (4, 1)), "VEC3", 5126)
+    return p
+
+
+def _point_set(points: np.ndarray) -> np.ndarray:
+    return np.unique(np.round(points.astype(np.float64), 5), axis=0)
+
+
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+def test_a_mesh_is_drawn_at_its_default_morph_weights(tmp_path: Path, suffix: str) -> None:
+    """glTF 2.0: the rendered POSITION is POSITION + sum(weights[i] * targets[i].POSITION), the mesh's
+    ``weights`` being the default; NORMAL likewise."""
+    b = Builder()
+    _placed(b, _morph(b, normals=True))
+    b.doc["meshes"][0]["weights"] = [0.5]
+    mesh = load_mesh(b.write(tmp_path / f"m{suffix}"))
+    assert np.array_equal(_point_set(mesh.points), _point_set(POINTS + 0.5 * MOVE))
+    expected = np.float32([0.5, 0, 1]) / np.linalg.norm([0.5, 0, 1])
+    assert np.allclose(mesh.attributes["normal"], expected, atol=1e-6)
+
+
+def test_a_node_s_morph_weights_override_its_mesh_s(tmp_path: Path) -> None:
+    """Two nodes of one mesh: one with its own weights (drawn at them), one without (the mesh's: zero when
+    the mesh has none), the mesh's own unchanged for it."""
+    b = Builder()
+    _placed(b, _morph(b))
+    b.doc["nodes"][0]["weights"] = [1.0]
+    b.doc["nodes"].append({"mesh": 0, "translation": [20.0, 0.0, 0.0]})
+    b.doc["scenes"][0]["nodes"].append(1)
+    mesh = load_mesh(b.write(tmp_path / "m.gltf"))
+    expected = np.concatenate([POINTS + MOVE, POINTS + np.float32([20, 0, 0])])
+    assert np.array_equal(_point_set(mesh.points), _point_set(expected))
+
+
+def test_a_sparse_morph_target_without_a_buffer_view_is_applied(tmp_path: Path) -> None:
+    """Exporters write a target that moves few points as zeros with sparse values (no bufferView)."""
+    b = Builder()
+    p = _tetrahedron(b)
+    where, moved = b.view(np.array([2], np.uint16)), b.view(np.float32([[0, 0, -3]]))
+    sparse = {
+        "count": 1,
+        "indices": {"bufferView": where, "componentType": 5123},
+        "values": {"bufferView": moved},
+    }
+    b.doc["accessors"].append({"componentType": 5126, "count": 4, "type": "VEC3", "sparse": sparse})
+    p["targets"] = [{"POSITION": len(b.doc["accessors"]) - 1}]
+    _placed(b, p)
+    b.doc["meshes"][0]["weights"] = [2.0]
+    mesh = load_mesh(b.write(tmp_path / "m.gltf"))
+    assert np.array_equal(
+        _point_set(mesh.points),
+        _point_set(POINTS + np.float32([[0, 0, 0], [0, 0, 0], [0, 0, -6], [0, 0, 0]])),
+    )
+
+
+@pytest.mark.parametrize(
+    ("weights", "problem"),
+    [
+        (["a"], "morph weights .* are not all finite numbers"),
+        ([1.0], "morph target's POSITION .* has 3 elements"),
+    ],
+)
+def test_bad_morph_weights_or_targets_are_named(tmp_path: Path, weights: list, problem: str) -> None:
+    b = Builder()
+    p = _morph(b)
+    short = b.accessor(MOVE[:3], "VEC3", 5126)
+    if weights == [1.0]:
+        p["targets"][0]["POSITION"] = short
+    _placed(b, p)
+    b.doc["meshes"][0]["weights"] = weights
+    with pytest.raises(MeshLoadError, match=problem):
+        load_mesh(b.write(tmp_path / "m.gltf"))
+
+
+def _skinned(b: Builder, joints: np.ndarray, weights: np.ndarray) -> None:
+    """The tetrahedron skinned by two joints: node 1 (the root joint, at 2 0 0) and its child node 2 (at
+    0 1 0 from it, turned 90 degrees about z, bound where it would be unturned); the skinned node 0 has a
+    transform of its own, which glTF 2.0 says is ignored."""
+    p = _tetrahedron(b)
+    p["attributes"]["JOINTS_0"] = b.accessor(joints.astype(np.uint8), "VEC4", 5121)
+    p["attributes"]["WEIGHTS_0"] = b.accessor(weights.astype(np.float32), "VEC4", 5126)
+    bind = np.stack([tf.translation_matrix([2, 0, 0]), tf.translation_matrix([2, 1, 0])])
+    inverse_bind = np.linalg.inv(bind).transpose(0, 2, 1).reshape(2, 16).astype(np.float32)  # (column-major)
+    _placed(b, p)
+    b.doc["nodes"][0].update(skin=0, translation=[100.0, 0.0, 0.0])
+    b.doc["skins"] = [{"joints": [1, 2], "inverseBindMatrices": b.accessor(inverse_bind, "MAT4", 5126)}]
+    b.doc["nodes"] += [
+        {"translation": [2.0, 0.0, 0.0], "children": [2]},
+        {"translation": [0.0, 1.0, 0.0], "rotation": [0.0, 0.0, float(np.sqrt(0.5)), float(np.sqrt(0.5))]},
+    ]
+    b.doc["scenes"][0]["nodes"].append(1)
+
+
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+def test_a_skinned_mesh_is_drawn_at_its_joints_pose_not_its_node_transform(
+    tmp_path: Path, suffix: str
+) -> None:
+    """glTF 2.0: a skinned vertex is sum(weight_k * joint_k's world x its inverse bind matrix) x POSITION,
+    and the skinned node's own transform is ignored. Points 0 and 1 follow the root joint (at its bind
+    pose: unmoved), point 3 the turned joint, point 2 half each."""
+    joints = np.array([[0, 0, 0, 0], [0, 0, 0, 0], [0, 1, 0, 0], [1, 0, 0, 0]])
+    weights = np.array([[1, 0, 0, 0], [1, 0, 0, 0], [0.5, 0.5, 0, 0], [1, 0, 0, 0]])
+    b = Builder()
+    _skinned(b, joints, weights)
+    mesh = load_mesh(b.write(tmp_path / f"m{suffix}"))
+    turned = tf.translation_matrix([2, 1, 0]) @ tf.rotation_matrix(np.pi / 2, [0, 0, 1])
+    turned = turned @ np.linalg.inv(tf.translation_matrix([2, 1, 0]))
+    moved = [np.eye(4), np.eye(4), 0.5 * np.eye(4) + 0.5 * turned, turned]
+    expected = np.array([(m @ np.append(v, 1.0))[:3] for m, v in zip(moved, POINTS, strict=True)])
+    assert np.array_equal(_point_set(mesh.points), _point_set(expected))
+
+
+def test_a_skinned_vertex_of_a_joint_the_skin_lacks_is_named(tmp_path: Path) -> None:
+    b = Builder()
+    _skinned(b, np.array([[0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [5, 0, 0, 0]]), np.eye(4)[[0, 0, 0, 0]])
+    with pytest.raises(MeshLoadError, match=r"JOINTS_0 names joint 5 of skins\[0\]'s 2"):
+        load_mesh(b.write(tmp_path / "m.gltf"))
+
+
+def test_a_skinned_mesh_at_its_bind_pose_loads_as_its_plain_mesh(tmp_path: Path) -> None:
+    """The exporters' usual file: the joints where they were bound, the skinned node's transform the
+    skeleton's; the same arrays as the mesh without its skin, to the bit."""
+    b = Builder()
+    _skinned(b, np.zeros((4, 4)), np.eye(4)[[0, 0, 0, 0]])
+    b.doc["nodes"][2].pop("rotation")
+    b.doc["nodes"][0]["translation"] = [0.0, 0.0, 0.0]
+    skinned = load_mesh(b.write(tmp_path / "skinned.gltf"))
+    del b.doc["nodes"][0]["skin"], b.doc["skins"]
+    plain = load_mesh(b.write(tmp_path / "plain.gltf"))
+    assert np.array_equal(skinned.points, plain.points)
+    assert np.array_equal(skinned.triangles, plain.triangles)
+
+
+@pytest.mark.parametrize("change", [{"skin": 3}, {"joints": [1, 9]}, {"joints": []}])
+def test_a_skin_that_is_not_one_is_named(tmp_path: Path, change: dict) -> None:
+    b = Builder()
+    _skinned(b, np.zeros((4, 4)), np.eye(4)[[0, 0, 0, 0]])
+    if "skin" in change:
+        b.doc["nodes"][0]["skin"] = change["skin"]
+    else:
+        b.doc["skins"][0]["joints"] = change["joints"]
+    with pytest.raises(MeshLoadError, match="node 0's skin .* is not a skin of joints that are nodes"):
+        load_mesh(b.write(tmp_path / "m.gltf"))
+
+
+def _skinned_points(tmp_path: Path, weights: np.ndarray, **node: object) -> np.ndarray:
+    """The points of _skinned's tetrahedron (points 0 and 1 on the root joint, 2 half each, 3 on the turned
+    joint) loaded with the weights ``weights``, its skinned node given ``node``'s properties."""
+    joints = np.array([[0, 0, 0, 0], [0, 0, 0, 0], [0, 1, 0, 0], [1, 0, 0, 0]])
+    b = Builder()
+    _skinned(b, joints, weights)
+    b.doc["nodes"][0].update(node)
+    return _point_set(load_mesh(b.write(tmp_path / "m.gltf")).points)
+
+
+_WEIGHTS = np.array([[1, 0, 0, 0], [1, 0, 0, 0], [0.5, 0.5, 0, 0], [1, 0, 0, 0]], np.float64)
+
+
+@pytest.mark.parametrize("last", [[0.5, 0, 0, 0], [0.0, 0, 0, 0], [2.0, 0, 0, 0]])
+def test_skin_weights_are_drawn_scaled_to_sum_to_one(tmp_path: Path, last: list) -> None:
+    """three.js scales each vertex's weights to sum to 1 (a vertex of none to its first joint at weight 1),
+    Blender's armature divides by their sum: point 3 follows its joint, the turned one, whatever its weight.
+    Unscaled, 0.5 drew it halfway to the skinned node's origin (which glTF 2.0 ignores) and 0 at it."""
+    expected = _skinned_points(tmp_path, _WEIGHTS)
+    weights = _WEIGHTS.copy()
+    weights[3] = last
+    assert np.array_equal(_skinned_points(tmp_path, weights), expected)
+
+
+def test_a_skinned_node_s_rotation_is_ignored_even_of_a_quaternion_not_of_length_1(tmp_path: Path) -> None:
+    """trimesh places the node by its quaternion taken to length 1: the skin's taking the node's transform
+    back must use the same, or the node's rotation (0 0 1 1), of length sqrt 2, showed in the points."""
+    expected = _skinned_points(tmp_path, _WEIGHTS)
+    assert np.array_equal(_skinned_points(tmp_path, _WEIGHTS, rotation=[0.0, 0.0, 1.0, 1.0]), expected)
+
+
+@pytest.mark.parametrize("accessor", [99, "x", -1])
+def test_a_skin_s_inverse_bind_matrices_not_an_accessor_are_named(tmp_path: Path, accessor: object) -> None:
+    """Not a silent fallback to trimesh's read, which drew the stored vertices placed by the skinned node."""
+    b = Builder()
+    _skinned(b, np.zeros((4, 4)), _WEIGHTS)
+    b.doc["skins"][0]["inverseBindMatrices"] = accessor
+    with pytest.raises(MeshLoadError, match=r"skins\[0\]: its inverseBindMatrices .* is not one of the"):
+        load_mesh(b.write(tmp_path / "m.gltf"))
+
+
+def test_a_folder_of_the_decoded_name_does_not_hide_the_file_named_as_written(tmp_path: Path) -> None:
+    """``a%20b.bin`` is looked for as ``a b.bin`` first: a folder of that name is passed over (the pipeline
+    hashes files alone), not read as the buffer (IsADirectoryError), and the file ``a%20b.bin`` is read."""
+    b = _placed(b := Builder(), _tetrahedron(b))
+    path = _with_buffer_file(tmp_path, b, "a%20b.bin", "a%20b.bin")
+    (tmp_path / "a b.bin").mkdir()
+    mesh = load_mesh(path)
+    assert np.array_equal(np.unique(mesh.points, axis=0), np.unique(POINTS, axis=0))
+    assert _gltf_buffers(path) == [tmp_path / "a%20b.bin"]
+
+
+@pytest.mark.parametrize("far", [1000.0, 12345.678])
+def test_a_skinned_mesh_bound_far_from_the_origin_at_its_bind_pose_loads_as_its_plain_mesh(
+    tmp_path: Path, far: float
+) -> None:
+    """As an exporter writes a skeleton far out (a scene in centimetres): the skinned node at the origin,
+    the inverse bind matrices inv(joint world) in float32, whose translations' rounding grows with the
+    distance. At 1000 units the pose was taken for a posed one and drawn to other bits (3e-5 off)."""
+    b = Builder()
+    _skinned(b, np.zeros((4, 4)), np.eye(4)[[0, 0, 0, 0]])
+    turn = np.array([0.1, 0.2, 0.3, 0.9]) / np.linalg.norm([0.1, 0.2, 0.3, 0.9])
+    b.doc["nodes"][0]["translation"] = [0.0, 0.0, 0.0]
+    b.doc["nodes"][1].update(translation=[far, far / 3, -far / 7], rotation=turn.tolist())
+    b.doc["nodes"][2].pop("rotation")
+    root = tf.translation_matrix([far, far / 3, -far / 7]) @ tf.quaternion_matrix(turn[[3, 0, 1, 2]])
+    bind = np.stack([root, root @ tf.translation_matrix([0, 1, 0])])
+    inverse_bind = np.linalg.inv(bind).transpose(0, 2, 1).reshape(2, 16).astype(np.float32)
+    b.doc["skins"][0]["inverseBindMatrices"] = b.accessor(inverse_bind, "MAT4", 5126)
+    skinned = load_mesh(b.write(tmp_path / "skinned.gltf"))
+    del b.doc["nodes"][0]["skin"], b.doc["skins"]
+    plain = load_mesh(b.write(tmp_path / "plain.gltf"))
+    assert np.array_equal(skinned.points, plain.points)
+    assert np.array_equal(skinned.triangles, plain.triangles)
