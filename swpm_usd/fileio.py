@@ -135,6 +135,13 @@ def stage_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
             f.flush()
             set_plain_mode(f.fileno(), like=path)
             os.fsync(f.fileno())
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        if exc.filename is None and exc.errno is not None:
+            # a write's or fsync's error names no file (a full disk said "No space left on device" alone):
+            # named after the file it was to replace, which the caller's message can show
+            raise OSError(exc.errno, exc.strerror, os.fspath(path)) from exc
+        raise
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
