@@ -6,6 +6,10 @@ from __future__ import annotations
 import errno
 import json
 import os
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 from click.testing import CliRunner
@@ -90,3 +94,74 @@ def test_a_full_disk_mid_run_names_the_files_and_loses_nothing(tmp_path, monkeyp
     assert (out / "a.swpm").read_bytes() == before["a.swpm"] and (out / "b.swpm").read_bytes() != before[
         "b.swpm"
     ]
+
+
+#: on the path of a run's processes (the fork server and its workers import it as they start): a worker
+#: holds each asset, before building it, until the test lets it go on
+_HOLD = """\
+import os, time
+if os.environ.get("SWPM_TEST_HOLD"):
+    from swpm_usd.pipeline import worker
+
+    real, hold = worker._process_asset, os.environ["SWPM_TEST_HOLD"]
+
+    def held(task):
+        open(os.path.join(hold, f"worker-{os.getpid()}"), "w").close()
+        while not os.path.exists(os.path.join(hold, "release")):
+            time.sleep(0.02)
+        return real(task)
+
+    worker._process_asset = held
+"""
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    try:  # (a zombie, ended but not reaped, is no worker)
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def test_workers_end_with_a_runner_killed_by_sigkill(tmp_path):
+    # a runner killed with SIGKILL (a farm's job killed, the out-of-memory killer) left its pool's workers
+    # building: each renamed its outputs into place after the run had ended, unlisted in the manifest, while
+    # a rerun planned or built the same assets. They end with it now, and the rerun builds everything whole
+    cfg = _project(tmp_path, ("a", "b", "c"))
+    out, hold = tmp_path / "out", tmp_path / "hold"
+    hold.mkdir()
+    (tmp_path / "hook").mkdir()
+    (tmp_path / "hook" / "sitecustomize.py").write_text(_HOLD)
+    path = os.pathsep.join([str(tmp_path / "hook"), *filter(None, [os.environ.get("PYTHONPATH")])])
+    runner = subprocess.Popen(
+        [sys.executable, "-m", "swpm_usd.cli", "run", str(cfg), "--jobs", "2"],
+        env={**os.environ, "PYTHONPATH": path, "SWPM_TEST_HOLD": str(hold)},
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    workers: list[int] = []
+    try:
+        deadline = time.monotonic() + 600  # (the workers' start: the encoders compiled on a cold cache)
+        while len(workers) < 2 and time.monotonic() < deadline and runner.poll() is None:
+            workers = [int(p.name.split("-")[1]) for p in hold.glob("worker-*")]
+            time.sleep(0.05)
+        assert len(workers) == 2, "the run's workers did not start"
+        runner.send_signal(signal.SIGKILL)
+        runner.wait()
+        deadline = time.monotonic() + 60
+        while any(_alive(p) for p in workers) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        alive = [p for p in workers if _alive(p)]
+    finally:
+        (hold / "release").touch()
+    assert not alive, "workers still building after their runner was killed"
+    time.sleep(0.5)
+    assert not list(out.glob("*.swpm"))  # (none written after the run ended)
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.failed) == (3, 0)
+    assert sorted(p.name for p in out.iterdir()) == [
+        ".swpm-pipeline.lock", "a.swpm", "b.swpm", "c.swpm", "manifest.json",
+    ]  # fmt: skip

@@ -8,7 +8,9 @@ import contextlib
 import hashlib
 import math
 import os
+import select
 import signal
+import threading
 import time
 import traceback
 from pathlib import Path
@@ -458,6 +460,31 @@ READY = "ready"
 WARM_ENCODINGS_ENV = "SWPM_USD_WARM_ENCODINGS"
 
 
+def _end_with_the_runner(conn: Any) -> None:
+    """End this worker process once the runner's end of ``conn`` closes, mid-task too (a thread waiting for
+    the hang-up, Linux's ``POLLRDHUP``, which data waiting to be read does not raise). A runner killed with
+    SIGKILL (a farm's job killed, the out-of-memory killer) left its workers building: each renamed its
+    outputs into place after the run had ended, unlisted in the manifest, while a rerun planned or built the
+    same assets. (The kernel's parent-death signal cannot do it: a worker's parent is the fork server, which
+    every worker keeps alive.) The runner closes its end only once it no longer wants the worker; what a
+    worker ended mid-task leaves, the next run cleans as a killed worker's. Elsewhere a worker ends at its
+    next task, finding the pipe closed."""
+    hangup = getattr(select, "POLLRDHUP", None)
+    if hangup is None:
+        return
+    fd = conn.fileno()
+
+    def watch() -> None:
+        poller = select.poll()
+        poller.register(fd, hangup)
+        while True:
+            for _, event in poller.poll():
+                if event & (hangup | select.POLLHUP | select.POLLERR | select.POLLNVAL):
+                    os._exit(1)
+
+    threading.Thread(target=watch, name="swpm-pipeline-runner-watch", daemon=True).start()
+
+
 def serve(conn: Any) -> None:
     """A local pool's worker process (:func:`.runner.execute`): build each task received on ``conn`` and send
     back its record, until ``None`` or the pipe closes. One task at a time, so the runner knows which asset a
@@ -466,6 +493,7 @@ def serve(conn: Any) -> None:
     from then, not the process's start-up (a fork from the server, under load a second or more of a 2 s
     limit: an asset that builds in 1 s was stopped)."""
     ignore_interrupts()
+    _end_with_the_runner(conn)
     try:
         conn.send((READY, time.monotonic()))
     except OSError:
