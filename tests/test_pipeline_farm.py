@@ -165,3 +165,34 @@ def test_workers_end_with_a_runner_killed_by_sigkill(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == [
         ".swpm-pipeline.lock", "a.swpm", "b.swpm", "c.swpm", "manifest.json",
     ]  # fmt: skip
+
+
+def test_a_dry_run_routes_a_file_that_does_not_load_as_the_run_does(tmp_path):
+    # a file whose triangle count did not read was planned as if it held 0 triangles: the dry run named the
+    # rule of small meshes, which the run never gave it (the run leaves the rule to the worker, which fails
+    # to load it). The plan says the count is unknown and leaves the rule to the worker, as the run does
+    cfg = _project(tmp_path, ("a",))
+    (tmp_path / "meshes" / "broken.ply").write_bytes(
+        b"ply\nformat ascii 1.0\nelement vertex 3\nend_header\n1 2\n"
+    )
+    cfg.write_text(
+        cfg.read_text().replace("*.obj", "*")
+        + "rules:\n  - {name: tiny, match: {triangles: {max: 100}}, encoding: skip-strip}\n"
+    )
+    lines: list[str] = []
+    res = run(cfg, dry_run=True, echo=lines.append)
+    plan = {p["id"]: p for p in res.plan}
+    assert plan["meshes/a.obj"]["encoding"] == "vanilla"  # (128 triangles)
+    broken = plan["meshes/broken.ply"]
+    assert (broken["encoding"], broken["triangles"], broken["triangles_count"]) == (None, None, "unknown")
+    assert broken["why"].startswith(
+        "rule chosen by the worker: the file did not load to count its triangles ("
+    )
+    shown = next(ln for ln in lines if ln.startswith("meshes/broken.ply: "))
+    assert shown.startswith("meshes/broken.ply: ? {} [to build] triangles=? (unknown: the file did not load)")
+    warned = [ln for ln in lines if ln.startswith("warning")]
+    assert len(warned) == 1 and warned[0].endswith("rule 'tiny' matches no asset"), warned
+    res = run(cfg, echo=lambda m: None)  # the run: the file fails, before any rule
+    assert (res.built, res.failed) == (1, 1)
+    assert res.warnings == [warned[0].removeprefix("warning: ")]
+    assert res.records["meshes/broken.ply"]["rule"] is None, res.records["meshes/broken.ply"]

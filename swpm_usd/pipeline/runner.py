@@ -729,8 +729,25 @@ def plan(
             else:
                 try:
                     tri = _count_triangles(a, _max_triangles(cfg))
-                except Exception:  # noqa: BLE001 - the worker reports it as this asset's failure
-                    tri, how = None, "unknown"
+                except Exception as exc:  # noqa: BLE001 - the worker reports it as this asset's failure
+                    # routed as the run routes it: by the worker, once the file loads (it was routed as if
+                    # it held 0 triangles, a rule the run never gave it). Its build fails unless it loads then
+                    items.append(
+                        PlanItem(
+                            a,
+                            digest,
+                            None,
+                            why=f"rule chosen by the worker: the file did not load to count its triangles "
+                            f"({type(exc).__name__}: {exc})",
+                            rule_pending=True,
+                            inputs=inputs[a.id],
+                            previous=previous,
+                            input_stats=input_stats,
+                            inputs_listed=a.id in settled,
+                            triangles_how="unknown",
+                        )
+                    )
+                    continue
         item = PlanItem(
             a,
             digest,
@@ -774,7 +791,7 @@ def plan(
                     kept = item.checked_outputs if item.checked_outputs is not None else dict(outs)
                     item.checked_outputs = {**kept, "usd": with_units}
         items.append(item)
-    warnings = [] if any(i.rule_pending for i in items) else _unreached_rules(cfg, items)
+    warnings = [] if _rules_pending(items) else _unreached_rules(cfg, items)
     return items, problems, aliases + record_warnings + warnings
 
 
@@ -1070,6 +1087,12 @@ def _rel(cfg: Config, path: Path) -> str:
         return path.resolve().relative_to(cfg.base).as_posix()
     except ValueError:
         return str(path)
+
+
+def _rules_pending(items: list[PlanItem]) -> bool:
+    """Are rules left to the workers that would route by them (not those of files that did not load to be
+    counted: their builds fail before any rule, as an asset whose rule is unknown)?"""
+    return any(i.rule_pending and i.triangles_how != "unknown" for i in items)
 
 
 def _unreached_rules(cfg: Config, items: list[PlanItem]) -> list[str]:
@@ -1814,16 +1837,17 @@ def _run(
     if dry_run or explain:
         for it in items:
             state = "up to date" if it.up_to_date and not force else "to build"
+            encoding, params = it.treatment.get("encoding"), it.treatment.get("params", {})  # (none: pending)
             echo(
-                f"{it.asset.id}: {it.treatment['encoding']} "
-                f"{json.dumps(it.treatment['params'], sort_keys=True)} "
+                f"{it.asset.id}: {encoding or '?'} "
+                f"{json.dumps(params, sort_keys=True)} "
                 f"[{state}] {_triangles_shown(it)} instances={it.asset.instances}; {it.why}"
             )
             planned.append(
                 {
                     "id": it.asset.id,
-                    "encoding": it.treatment["encoding"],
-                    "params": it.treatment["params"],
+                    "encoding": encoding,
+                    "params": params,
                     "state": state,
                     "triangles": it.triangles,
                     "triangles_count": it.triangles_how,
@@ -1991,7 +2015,7 @@ def _run(
         raise
     finally:
         progress.close()
-    if any(i.rule_pending for i in items):  # the rules are known now
+    if _rules_pending(items):  # the rules are known now
         unreached = _unreached_rules(cfg, items)
         for w in unreached:
             echo(f"warning: {w}")
@@ -2066,6 +2090,8 @@ def _triangles_shown(item: PlanItem) -> str:
         return f"triangles>={tri} (at least: a lower bound)"
     if how == "not needed":
         return "triangles=? (not needed: no rule on triangles)"
+    if how == "unknown":
+        return "triangles=? (unknown: the file did not load)"
     return f"triangles={'?' if tri is None else tri}"
 
 
