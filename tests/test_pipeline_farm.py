@@ -196,3 +196,37 @@ def test_a_dry_run_routes_a_file_that_does_not_load_as_the_run_does(tmp_path):
     assert (res.built, res.failed) == (1, 1)
     assert res.warnings == [warned[0].removeprefix("warning: ")]
     assert res.records["meshes/broken.ply"]["rule"] is None, res.records["meshes/broken.ply"]
+
+
+def test_an_input_that_changes_while_it_is_read_fails_its_asset_alone(tmp_path, monkeypatch):
+    # an exporter still writing a file as the worker read it: the mesh read could be part of two versions,
+    # and it was built and replaced the asset's previous build. The asset fails, saying so, its previous
+    # build kept; the others are built, and the next run builds it from the file as it now is
+    import swpm_usd.io as io
+
+    cfg = _project(tmp_path)
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    previous = (out / "b.swpm").read_bytes()
+    b = tmp_path / "meshes" / "b.obj"
+    b.write_text(_grid_obj(9, "b being written"))
+    real = io.load_mesh
+
+    def written_as_read(path, **kw):
+        if Path(path).name == "b.obj":
+            mesh = real(path, **kw)
+            with open(b, "a") as f:  # (the rest of the file, written as the loader ends)
+                f.write("# more\n")
+            return mesh
+        return real(path, **kw)
+
+    (tmp_path / "meshes" / "a.obj").write_text(_grid_obj(9, "a edited"))
+    with monkeypatch.context() as m:
+        m.setattr(io, "load_mesh", written_as_read)
+        res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.failed) == (1, 1), res.failures
+    failure = res.failures["meshes/b.obj"]
+    assert failure["error"].startswith(f"InputChangedError: {b}: changed while it was read (size "), failure
+    assert failure["kept_previous"] and (out / "b.swpm").read_bytes() == previous
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.skipped, res.failed) == (1, 1, 0)

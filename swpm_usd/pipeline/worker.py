@@ -508,6 +508,33 @@ def serve(conn: Any) -> None:
         conn.send(process_asset(task))
 
 
+class InputChangedError(RuntimeError):
+    """The input file changed while the worker read it (an exporter still writing it, a sync replacing it):
+    the mesh read may be part of one version and part of another, so it is not built (the asset's previous
+    build is kept), and the next run, finding the file's stat moved, hashes and builds it again."""
+
+
+def _stat_of(path: str) -> os.stat_result | None:
+    try:
+        return os.stat(path)
+    except OSError:  # (gone: the loader says so, naming the file)
+        return None
+
+
+def _check_unchanged_by_the_read(path: str, before: os.stat_result | None) -> None:
+    """Raise :class:`InputChangedError` when the file at ``path`` is not the one stat ``before`` saw as the
+    read began (its size, mtime, ctime or inode moved). A change before the read began is not one: that file
+    is read whole, and the next run hashes it (the record keeps the stat taken as the plan hashed it)."""
+    after = _stat_of(path)
+    if before is None or after is None:
+        return
+    if (before.st_size, *stat_fields(before).values()) != (after.st_size, *stat_fields(after).values()):
+        raise InputChangedError(
+            f"{path}: changed while it was read (size {before.st_size} -> {after.st_size} bytes): not built "
+            "from it; the next run builds it again"
+        )
+
+
 def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
     start = time.perf_counter()
     rec: dict[str, Any] = {"id": task["id"], "digest": task["digest"], "status": "failed"}
@@ -517,7 +544,9 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         from ..usd.probe import trust
 
         trust(task.get("probed", ()))  # (probed clean as the run planned: not again in this process)
+        before = _stat_of(task["path"])
         mesh = load_mesh(task["path"], prim_path=task["prim"], max_triangles=task.get("max_triangles"))
+        _check_unchanged_by_the_read(task["path"], before)
         rec["triangles_in"] = mesh.triangle_count
         # (the count limits.max_triangles is on: a budget set or lowered since is checked against it)
         rec[TRIANGLES_READ] = triangles_read(mesh)
