@@ -230,3 +230,47 @@ def test_an_input_that_changes_while_it_is_read_fails_its_asset_alone(tmp_path, 
     assert failure["kept_previous"] and (out / "b.swpm").read_bytes() == previous
     res = run(cfg, echo=lambda m: None)
     assert (res.built, res.skipped, res.failed) == (1, 1, 0)
+
+
+def test_a_usd_layer_that_cannot_be_written_is_named_as_its_output(tmp_path, monkeypatch):
+    # the layer is exported to a temporary file beside it: a full disk there was named by that file alone
+    # (".b.k2j4x9qa.tmp.usdc"), or by none (the sync's error); it is named as the output, as a .swpm is
+    import swpm_usd.usd as usd
+    from swpm_usd.usd.writer import UsdWriteError
+
+    cfg = _project(tmp_path)
+    cfg.write_text(cfg.read_text().replace("report: false", "report: false, usd: true"))
+    out = tmp_path / "out"
+    real_fsync = os.fsync
+
+    def fsync(fd):
+        if os.path.basename(os.readlink(f"/proc/self/fd/{fd}")).startswith(".b."):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return real_fsync(fd)
+
+    with monkeypatch.context() as m:
+        m.setattr(os, "fsync", fsync)
+        res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.failed) == (1, 1)
+    assert (
+        res.failures["meshes/b.obj"]["error"]
+        == f"OSError: [Errno 28] No space left on device: '{out / 'b.usdc'}'"
+    )
+    real_write = usd.write
+
+    def write(pm, path, **kw):
+        if Path(path).name.startswith(".b."):
+            raise UsdWriteError(
+                f"{path}: could not write: Error occurred writing file: No space left on device"
+            )
+        return real_write(pm, path, **kw)
+
+    with monkeypatch.context() as m:
+        m.setattr(usd, "write", write)
+        res = run(cfg, echo=lambda m: None)
+    assert res.failures["meshes/b.obj"]["error"] == (
+        f"UsdWriteError: {out / 'b.usdc'}: could not write: Error occurred writing file: "
+        "No space left on device"
+    )
+    assert [p.name for p in out.glob(".*")] == [".swpm-pipeline.lock"]  # (no temporary left)
+    assert run(cfg, echo=lambda m: None).built == 1

@@ -347,6 +347,7 @@ def _stage_usd(
 
     from ..fileio import set_mode_for, set_plain_mode
     from ..usd import write as usd_write
+    from ..usd.writer import UsdWriteError
 
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=USD_TEMPORARY_SUFFIX, dir=target.parent)
@@ -360,8 +361,12 @@ def _stage_usd(
         set_mode_for(tmp, target)
         with open(tmp, "rb") as f:
             os.fsync(f.fileno())
-    except BaseException:
+    except BaseException as exc:
         tmp.unlink(missing_ok=True)
+        if isinstance(exc, OSError) and exc.filename is None and exc.errno is not None:
+            raise OSError(exc.errno, exc.strerror, os.fspath(target)) from exc  # (fsync's names no file)
+        if type(exc) is UsdWriteError and str(tmp) in str(exc):  # (named as the file it was to replace, as
+            raise UsdWriteError(str(exc).replace(str(tmp), str(target))) from exc  # a .swpm's is)
         raise
     return tmp, target
 
