@@ -274,3 +274,68 @@ def test_a_usd_layer_that_cannot_be_written_is_named_as_its_output(tmp_path, mon
     )
     assert [p.name for p in out.glob(".*")] == [".swpm-pipeline.lock"]  # (no temporary left)
     assert run(cfg, echo=lambda m: None).built == 1
+
+
+def test_a_gltf_buffer_that_changes_while_it_is_read_fails_its_asset_alone(tmp_path, monkeypatch):
+    # a .gltf's triangles are in the .bin beside it, an input of the asset as the plan lists it: a .bin still
+    # being written as the worker read it was not checked (the .gltf alone was), and the mesh read from it
+    # was built and replaced the previous build
+    import trimesh
+
+    import swpm_usd.io as io
+
+    (tmp_path / "m").mkdir()
+    grid = _grid_obj(8)
+    points = [[float(c) for c in line.split()[1:]] for line in grid.splitlines() if line.startswith("v ")]
+    faces = [[int(c) - 1 for c in line.split()[1:]] for line in grid.splitlines() if line.startswith("f ")]
+    files = trimesh.Scene(trimesh.Trimesh(points, faces, process=False)).export(file_type="gltf")
+    for name, data in files.items():
+        (tmp_path / "m" / name).write_bytes(data)
+    buffer = sorted(tmp_path / "m" / name for name in files if name.endswith(".bin"))[0]
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.gltf'}]\noutput: {dir: out, report: false}\n"
+        "defaults: {encoding: vanilla}\n"
+    )
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 1
+    (swpm,) = out.glob("*.swpm")
+    previous = swpm.read_bytes()
+    buffer.write_bytes(buffer.read_bytes() + b"\0" * 8)  # (past its byteLength: the mesh read is the same)
+    real = io.load_mesh
+
+    def written_as_read(path, **kw):
+        mesh = real(path, **kw)
+        with open(buffer, "ab") as f:  # (its exporter still writing it as the loader ends)
+            f.write(b"\0" * 8)
+        return mesh
+
+    with monkeypatch.context() as m:
+        m.setattr(io, "load_mesh", written_as_read)
+        res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.failed) == (0, 1), res.failures
+    (failure,) = res.failures.values()
+    said = f"InputChangedError: {buffer}: changed while it was read (size "
+    assert failure["error"].startswith(said), failure
+    assert failure["kept_previous"] and swpm.read_bytes() == previous
+    assert run(cfg, echo=lambda m: None).built == 1
+
+
+def test_an_input_changed_at_its_size_is_said_to_be_modified_not_resized(tmp_path):
+    # an input rewritten at its size (an exporter rewriting it in place) said "size 88 -> 88 bytes"
+    from swpm_usd.pipeline.worker import InputChangedError, _check_unchanged_by_the_read
+
+    f = tmp_path / "a.obj"
+    f.write_text("v 0 0 0\n")
+    before = os.stat(f)
+    os.utime(f, ns=(before.st_atime_ns, before.st_mtime_ns + 5_000_000_000))
+    try:
+        _check_unchanged_by_the_read(str(f), before)
+    except InputChangedError as exc:
+        assert str(exc) == (
+            f"{f}: changed while it was read (same size, modified or replaced): not built from it; the next "
+            "run builds it again"
+        )
+    else:
+        raise AssertionError("not raised")
+    _check_unchanged_by_the_read(str(f), os.stat(f))  # (unchanged: nothing raised)

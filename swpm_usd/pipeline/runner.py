@@ -1159,6 +1159,9 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
         "write_swpm": bool(out.get("swpm", True)),
         "write_usd": bool(out.get("usd", False)),
         "input_digest": item.input_digest,
+        # the files the asset is read from (its own first, then a glTF's buffers, a stage's layers): the
+        # worker fails it when one changes while it reads them
+        "inputs": [str(p) for p in item.inputs] or [str(item.asset.path)],
         # a pending rule: the worker runs match_rule on the config (plain data, picklable)
         "config_data": cfg.data if item.rule_pending else None,
         "config_path": str(cfg.path),

@@ -534,9 +534,13 @@ def _check_unchanged_by_the_read(path: str, before: os.stat_result | None) -> No
     if before is None or after is None:
         return
     if (before.st_size, *stat_fields(before).values()) != (after.st_size, *stat_fields(after).values()):
+        moved = (
+            f"size {before.st_size} -> {after.st_size} bytes"
+            if before.st_size != after.st_size
+            else "same size, modified or replaced"
+        )
         raise InputChangedError(
-            f"{path}: changed while it was read (size {before.st_size} -> {after.st_size} bytes): not built "
-            "from it; the next run builds it again"
+            f"{path}: changed while it was read ({moved}): not built from it; the next run builds it again"
         )
 
 
@@ -549,9 +553,11 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         from ..usd.probe import trust
 
         trust(task.get("probed", ()))  # (probed clean as the run planned: not again in this process)
-        before = _stat_of(task["path"])
+        # the file and those the loader reads beside it (a glTF's buffers, a stage's layers: the plan's list)
+        before = {path: _stat_of(path) for path in task.get("inputs") or [task["path"]]}
         mesh = load_mesh(task["path"], prim_path=task["prim"], max_triangles=task.get("max_triangles"))
-        _check_unchanged_by_the_read(task["path"], before)
+        for path, stat in before.items():
+            _check_unchanged_by_the_read(path, stat)
         rec["triangles_in"] = mesh.triangle_count
         # (the count limits.max_triangles is on: a budget set or lowered since is checked against it)
         rec[TRIANGLES_READ] = triangles_read(mesh)
