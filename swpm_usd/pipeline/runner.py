@@ -791,7 +791,7 @@ def plan(
                     kept = item.checked_outputs if item.checked_outputs is not None else dict(outs)
                     item.checked_outputs = {**kept, "usd": with_units}
         items.append(item)
-    warnings = [] if _rules_pending(items) else _unreached_rules(cfg, items)
+    warnings = [] if _rules_pending(items, dry_run=early_counts) else _unreached_rules(cfg, items)
     return items, problems, aliases + record_warnings + warnings
 
 
@@ -1089,10 +1089,12 @@ def _rel(cfg: Config, path: Path) -> str:
         return str(path)
 
 
-def _rules_pending(items: list[PlanItem]) -> bool:
-    """Are rules left to the workers that would route by them (not those of files that did not load to be
-    counted: their builds fail before any rule, as an asset whose rule is unknown)?"""
-    return any(i.rule_pending and i.triangles_how != "unknown" for i in items)
+def _rules_pending(items: list[PlanItem], dry_run: bool = False) -> bool:
+    """Are rules left to the workers, so the rules no asset reaches are known only once they have built? A
+    dry run's plan leaves out the files that did not load to be counted (a run's worker fails them before any
+    rule, if they load no better then); a run (``--explain`` counts as it plans) waits for its workers: such a
+    file may load whole by then (an exporter was still writing it) and take a rule."""
+    return any(i.rule_pending and not (dry_run and i.triangles_how == "unknown") for i in items)
 
 
 def _unreached_rules(cfg: Config, items: list[PlanItem]) -> list[str]:
