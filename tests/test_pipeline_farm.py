@@ -16,6 +16,7 @@ from click.testing import CliRunner
 
 from swpm_usd.cli import main
 from swpm_usd.pipeline import run
+from swpm_usd.pipeline.worker import USD_TEMPORARY_SUFFIX
 
 
 def _grid_obj(n: int, note: str = "") -> str:
@@ -366,3 +367,34 @@ def test_explain_warns_of_an_unreached_rule_once_the_worker_routed_a_file_that_d
     res = run(cfg, explain=True, echo=lines.append)
     assert res.built == 1 and res.records["meshes/a.obj"]["rule"] == "tiny", res.records
     assert res.warnings == [] and not [ln for ln in lines if ln.startswith("warning")], lines
+
+
+def test_an_output_whose_temporary_file_cannot_be_created_is_named_as_the_output(tmp_path, monkeypatch):
+    # each output is written to a temporary file beside it, then renamed: a disk quota met (or a folder
+    # refusing files) as that file was created named it (".b.swpm.k2j4x9qa.tmp", a file that is not there)
+    # where the output's name was meant, for the .swpm and the USD layer alike
+    cfg = _project(tmp_path)
+    cfg.write_text(cfg.read_text().replace("report: false", "report: false, usd: true"))
+    out = tmp_path / "out"
+    assert run(cfg, echo=lambda m: None).built == 2
+    (tmp_path / "meshes" / "b.obj").write_text(_grid_obj(9, "b edited"))
+    for refused, named in ((".b.swpm.", "b.swpm"), (USD_TEMPORARY_SUFFIX, "b.usdc")):
+        with monkeypatch.context() as m:
+            m.setattr(os, "open", _over_quota(os.open, refused))
+            res = run(cfg, echo=lambda m: None)
+        assert (res.built, res.failed) == (0, 1), res.failures
+        error = res.failures["meshes/b.obj"]["error"]
+        assert error == f"OSError: [Errno {errno.EDQUOT}] {os.strerror(errno.EDQUOT)}: '{out / named}'", error
+        assert not [p.name for p in out.iterdir() if ".tmp" in p.name]
+
+
+def _over_quota(real_open, refused: str):
+    """``os.open`` refusing to create a file whose name starts or ends with ``refused``: a disk quota met."""
+
+    def refuse(path, flags, *a, **kw):
+        name = os.path.basename(os.fspath(path))
+        if (name.startswith(refused) or name.endswith(refused)) and flags & os.O_CREAT:
+            raise OSError(errno.EDQUOT, os.strerror(errno.EDQUOT), os.fspath(path))
+        return real_open(path, flags, *a, **kw)
+
+    return refuse

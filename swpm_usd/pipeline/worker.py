@@ -343,18 +343,19 @@ def _stage_usd(
     metres stood 100 times too large, on its side. ``units``: :func:`layer_units` of ``source`` when the
     caller has them."""
     import os
-    import tempfile
 
-    from ..fileio import set_mode_for, set_plain_mode
+    from ..fileio import set_mode_for, set_plain_mode, temporary_beside
     from ..usd import write as usd_write
     from ..usd.writer import UsdWriteError
 
     target.parent.mkdir(parents=True, exist_ok=True)
-    fd, name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=USD_TEMPORARY_SUFFIX, dir=target.parent)
-    set_plain_mode(fd)  # (mkstemp's 0o600 would stay: usd-core keeps the file's mode)
-    os.close(fd)
+    fd, name = temporary_beside(target, f".{target.stem}.", USD_TEMPORARY_SUFFIX)
     tmp = Path(name)
     try:
+        try:
+            set_plain_mode(fd)  # (mkstemp's 0o600 would stay: usd-core keeps the file's mode)
+        finally:
+            os.close(fd)
         meta = layer_units(source) if units is None else units
         usd_write(pm, tmp, name=target.stem.split(".")[0] or None, **meta)
         # the replaced layer's mode once written (a read-only one's, given first, refused usd-core the write)
