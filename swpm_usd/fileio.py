@@ -119,6 +119,18 @@ def set_mode_for(tmp: str | os.PathLike[str], target: str | os.PathLike[str]) ->
         pass
 
 
+def temporary_beside(path: Path, prefix: str, suffix: str) -> tuple[int, str]:
+    """``tempfile.mkstemp`` in ``path``'s folder: (descriptor, name). An error creating it (a disk quota
+    met, a folder that refuses files) names ``path``, the file it is for, not the temporary one, which is
+    not there."""
+    try:
+        return tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=path.parent)
+    except OSError as exc:
+        if exc.errno is None or (exc.filename is not None and Path(exc.filename).parent != path.parent):
+            raise
+        raise OSError(exc.errno, exc.strerror, os.fspath(path)) from exc
+
+
 def stage_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
     """Write ``data`` to a new temporary file beside ``path`` (``.<name>.XXXXXXXX.tmp``), fsync it and
     return its path, for the caller to rename over ``path`` (or delete).
@@ -128,13 +140,20 @@ def stage_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
     users, a render farm's accounts or a web server could not read the outputs)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = temporary_beside(path, f".{path.name}.", ".tmp")
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
             f.flush()
             set_plain_mode(f.fileno(), like=path)
             os.fsync(f.fileno())
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        if exc.filename is None and exc.errno is not None:
+            # a write's or fsync's error names no file (a full disk said "No space left on device" alone):
+            # named after the file it was to replace, which the caller's message can show
+            raise OSError(exc.errno, exc.strerror, os.fspath(path)) from exc
+        raise
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

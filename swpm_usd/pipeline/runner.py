@@ -729,8 +729,25 @@ def plan(
             else:
                 try:
                     tri = _count_triangles(a, _max_triangles(cfg))
-                except Exception:  # noqa: BLE001 - the worker reports it as this asset's failure
-                    tri, how = None, "unknown"
+                except Exception as exc:  # noqa: BLE001 - the worker reports it as this asset's failure
+                    # routed as the run routes it: by the worker, once the file loads (it was routed as if
+                    # it held 0 triangles, a rule the run never gave it). Its build fails unless it loads then
+                    items.append(
+                        PlanItem(
+                            a,
+                            digest,
+                            None,
+                            why=f"rule chosen by the worker: the file did not load to count its triangles "
+                            f"({type(exc).__name__}: {exc})",
+                            rule_pending=True,
+                            inputs=inputs[a.id],
+                            previous=previous,
+                            input_stats=input_stats,
+                            inputs_listed=a.id in settled,
+                            triangles_how="unknown",
+                        )
+                    )
+                    continue
         item = PlanItem(
             a,
             digest,
@@ -774,7 +791,7 @@ def plan(
                     kept = item.checked_outputs if item.checked_outputs is not None else dict(outs)
                     item.checked_outputs = {**kept, "usd": with_units}
         items.append(item)
-    warnings = [] if any(i.rule_pending for i in items) else _unreached_rules(cfg, items)
+    warnings = [] if _rules_pending(items, dry_run=early_counts) else _unreached_rules(cfg, items)
     return items, problems, aliases + record_warnings + warnings
 
 
@@ -1072,6 +1089,14 @@ def _rel(cfg: Config, path: Path) -> str:
         return str(path)
 
 
+def _rules_pending(items: list[PlanItem], dry_run: bool = False) -> bool:
+    """Are rules left to the workers, so the rules no asset reaches are known only once they have built? A
+    dry run's plan leaves out the files that did not load to be counted (a run's worker fails them before any
+    rule, if they load no better then); a run (``--explain`` counts as it plans) waits for its workers: such a
+    file may load whole by then (an exporter was still writing it) and take a rule."""
+    return any(i.rule_pending and not (dry_run and i.triangles_how == "unknown") for i in items)
+
+
 def _unreached_rules(cfg: Config, items: list[PlanItem]) -> list[str]:
     """A warning for each rule no asset took: one shadowed by earlier rules (every asset it matches is
     taken first by one of them, named) or one that matches no asset at all."""
@@ -1136,6 +1161,9 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
         "write_swpm": bool(out.get("swpm", True)),
         "write_usd": bool(out.get("usd", False)),
         "input_digest": item.input_digest,
+        # the files the asset is read from (its own first, then a glTF's buffers, a stage's layers): the
+        # worker fails it when one changes while it reads them
+        "inputs": [str(p) for p in item.inputs] or [str(item.asset.path)],
         # a pending rule: the worker runs match_rule on the config (plain data, picklable)
         "config_data": cfg.data if item.rule_pending else None,
         "config_path": str(cfg.path),
@@ -1814,16 +1842,17 @@ def _run(
     if dry_run or explain:
         for it in items:
             state = "up to date" if it.up_to_date and not force else "to build"
+            encoding, params = it.treatment.get("encoding"), it.treatment.get("params", {})  # (none: pending)
             echo(
-                f"{it.asset.id}: {it.treatment['encoding']} "
-                f"{json.dumps(it.treatment['params'], sort_keys=True)} "
+                f"{it.asset.id}: {encoding or '?'} "
+                f"{json.dumps(params, sort_keys=True)} "
                 f"[{state}] {_triangles_shown(it)} instances={it.asset.instances}; {it.why}"
             )
             planned.append(
                 {
                     "id": it.asset.id,
-                    "encoding": it.treatment["encoding"],
-                    "params": it.treatment["params"],
+                    "encoding": encoding,
+                    "params": params,
                     "state": state,
                     "triangles": it.triangles,
                     "triangles_count": it.triangles_how,
@@ -1991,7 +2020,7 @@ def _run(
         raise
     finally:
         progress.close()
-    if any(i.rule_pending for i in items):  # the rules are known now
+    if _rules_pending(items):  # the rules are known now
         unreached = _unreached_rules(cfg, items)
         for w in unreached:
             echo(f"warning: {w}")
@@ -2066,6 +2095,8 @@ def _triangles_shown(item: PlanItem) -> str:
         return f"triangles>={tri} (at least: a lower bound)"
     if how == "not needed":
         return "triangles=? (not needed: no rule on triangles)"
+    if how == "unknown":
+        return "triangles=? (unknown: the file did not load)"
     return f"triangles={'?' if tri is None else tri}"
 
 

@@ -8,7 +8,9 @@ import contextlib
 import hashlib
 import math
 import os
+import select
 import signal
+import threading
 import time
 import traceback
 from pathlib import Path
@@ -341,25 +343,31 @@ def _stage_usd(
     metres stood 100 times too large, on its side. ``units``: :func:`layer_units` of ``source`` when the
     caller has them."""
     import os
-    import tempfile
 
-    from ..fileio import set_mode_for, set_plain_mode
+    from ..fileio import set_mode_for, set_plain_mode, temporary_beside
     from ..usd import write as usd_write
+    from ..usd.writer import UsdWriteError
 
     target.parent.mkdir(parents=True, exist_ok=True)
-    fd, name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=USD_TEMPORARY_SUFFIX, dir=target.parent)
-    set_plain_mode(fd)  # (mkstemp's 0o600 would stay: usd-core keeps the file's mode)
-    os.close(fd)
+    fd, name = temporary_beside(target, f".{target.stem}.", USD_TEMPORARY_SUFFIX)
     tmp = Path(name)
     try:
+        try:
+            set_plain_mode(fd)  # (mkstemp's 0o600 would stay: usd-core keeps the file's mode)
+        finally:
+            os.close(fd)
         meta = layer_units(source) if units is None else units
         usd_write(pm, tmp, name=target.stem.split(".")[0] or None, **meta)
         # the replaced layer's mode once written (a read-only one's, given first, refused usd-core the write)
         set_mode_for(tmp, target)
         with open(tmp, "rb") as f:
             os.fsync(f.fileno())
-    except BaseException:
+    except BaseException as exc:
         tmp.unlink(missing_ok=True)
+        if isinstance(exc, OSError) and exc.filename is None and exc.errno is not None:
+            raise OSError(exc.errno, exc.strerror, os.fspath(target)) from exc  # (fsync's names no file)
+        if type(exc) is UsdWriteError and str(tmp) in str(exc):  # (named as the file it was to replace, as
+            raise UsdWriteError(str(exc).replace(str(tmp), str(target))) from exc  # a .swpm's is)
         raise
     return tmp, target
 
@@ -458,6 +466,31 @@ READY = "ready"
 WARM_ENCODINGS_ENV = "SWPM_USD_WARM_ENCODINGS"
 
 
+def _end_with_the_runner(conn: Any) -> None:
+    """End this worker process once the runner's end of ``conn`` closes, mid-task too (a thread waiting for
+    the hang-up, Linux's ``POLLRDHUP``, which data waiting to be read does not raise). A runner killed with
+    SIGKILL (a farm's job killed, the out-of-memory killer) left its workers building: each renamed its
+    outputs into place after the run had ended, unlisted in the manifest, while a rerun planned or built the
+    same assets. (The kernel's parent-death signal cannot do it: a worker's parent is the fork server, which
+    every worker keeps alive.) The runner closes its end only once it no longer wants the worker; what a
+    worker ended mid-task leaves, the next run cleans as a killed worker's. Elsewhere a worker ends at its
+    next task, finding the pipe closed."""
+    hangup = getattr(select, "POLLRDHUP", None)
+    if hangup is None:
+        return
+    fd = conn.fileno()
+
+    def watch() -> None:
+        poller = select.poll()
+        poller.register(fd, hangup)
+        while True:
+            for _, event in poller.poll():
+                if event & (hangup | select.POLLHUP | select.POLLERR | select.POLLNVAL):
+                    os._exit(1)
+
+    threading.Thread(target=watch, name="swpm-pipeline-runner-watch", daemon=True).start()
+
+
 def serve(conn: Any) -> None:
     """A local pool's worker process (:func:`.runner.execute`): build each task received on ``conn`` and send
     back its record, until ``None`` or the pipe closes. One task at a time, so the runner knows which asset a
@@ -466,6 +499,7 @@ def serve(conn: Any) -> None:
     from then, not the process's start-up (a fork from the server, under load a second or more of a 2 s
     limit: an asset that builds in 1 s was stopped)."""
     ignore_interrupts()
+    _end_with_the_runner(conn)
     try:
         conn.send((READY, time.monotonic()))
     except OSError:
@@ -480,6 +514,37 @@ def serve(conn: Any) -> None:
         conn.send(process_asset(task))
 
 
+class InputChangedError(RuntimeError):
+    """The input file changed while the worker read it (an exporter still writing it, a sync replacing it):
+    the mesh read may be part of one version and part of another, so it is not built (the asset's previous
+    build is kept), and the next run, finding the file's stat moved, hashes and builds it again."""
+
+
+def _stat_of(path: str) -> os.stat_result | None:
+    try:
+        return os.stat(path)
+    except OSError:  # (gone: the loader says so, naming the file)
+        return None
+
+
+def _check_unchanged_by_the_read(path: str, before: os.stat_result | None) -> None:
+    """Raise :class:`InputChangedError` when the file at ``path`` is not the one stat ``before`` saw as the
+    read began (its size, mtime, ctime or inode moved). A change before the read began is not one: that file
+    is read whole, and the next run hashes it (the record keeps the stat taken as the plan hashed it)."""
+    after = _stat_of(path)
+    if before is None or after is None:
+        return
+    if (before.st_size, *stat_fields(before).values()) != (after.st_size, *stat_fields(after).values()):
+        moved = (
+            f"size {before.st_size} -> {after.st_size} bytes"
+            if before.st_size != after.st_size
+            else "same size, modified or replaced"
+        )
+        raise InputChangedError(
+            f"{path}: changed while it was read ({moved}): not built from it; the next run builds it again"
+        )
+
+
 def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
     start = time.perf_counter()
     rec: dict[str, Any] = {"id": task["id"], "digest": task["digest"], "status": "failed"}
@@ -489,7 +554,11 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         from ..usd.probe import trust
 
         trust(task.get("probed", ()))  # (probed clean as the run planned: not again in this process)
+        # the file and those the loader reads beside it (a glTF's buffers, a stage's layers: the plan's list)
+        before = {path: _stat_of(path) for path in task.get("inputs") or [task["path"]]}
         mesh = load_mesh(task["path"], prim_path=task["prim"], max_triangles=task.get("max_triangles"))
+        for path, stat in before.items():
+            _check_unchanged_by_the_read(path, stat)
         rec["triangles_in"] = mesh.triangle_count
         # (the count limits.max_triangles is on: a budget set or lowered since is checked against it)
         rec[TRIANGLES_READ] = triangles_read(mesh)
