@@ -836,9 +836,9 @@ def test_ctrl_c_in_any_command_exits_130_with_one_line(tmp_path, monkeypatch):
         # --json: JSON on stdout, as for the command's other errors (and run --json's interruption)
         r = CliRunner().invoke(main, [*args, "--json"])
         assert r.exit_code == 130 and r.stderr == "swpm-pipeline: interrupted\n", (args, r.output)
-        expected = {"input": str(obj), "error": "interrupted"}
+        expected = {"input": str(obj), "error": "interrupted", "code": "INTERRUPTED", "severity": "error"}
         if args[0] == "encode":
-            expected = {"input": str(obj), "output": str(tmp_path / "a.swpm"), "error": "interrupted"}
+            expected = {"output": str(tmp_path / "a.swpm"), **expected}
         assert json.loads(r.stdout) == expected
 
 

@@ -23,10 +23,15 @@ from .schema import load_schema
 
 
 class ConfigError(SwpmError):
-    """The pipeline configuration is invalid; ``problems`` lists every located message."""
+    """The pipeline configuration is invalid; ``problems`` lists every located message. ``code``:
+    ``CONFIG_INVALID``, or ``INPUT_NOT_FOUND`` / ``INPUT_UNREADABLE`` for a config file that does not read."""
 
-    def __init__(self, problems: list[str]) -> None:
+    code = "CONFIG_INVALID"
+
+    def __init__(self, problems: list[str], *, code: str | None = None) -> None:
         self.problems = problems
+        if code is not None:
+            self.code = code
         super().__init__("\n".join(problems))
 
 
@@ -129,8 +134,15 @@ def load_config(path: str | Path) -> Config:
     shown = str(path)  # (as given: a problem names the file the user named, not its name alone)
     try:
         text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        from ..fileio import missing_file_problem
+
+        # (it said "cannot read the file ([Errno 2] No such file or directory: ...)": Python's words)
+        raise ConfigError([f"{shown}:1:1: $: {missing_file_problem(path)}"], code="INPUT_NOT_FOUND") from None
     except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError([f"{shown}:1:1: $: cannot read the file ({exc})"]) from None
+        raise ConfigError(
+            [f"{shown}:1:1: $: cannot read the file ({exc})"], code="INPUT_UNREADABLE"
+        ) from None
     marks: dict[tuple, tuple[int, int]] = {}
     plain: dict[tuple, str] = {}
     duplicates: list[str] = []
