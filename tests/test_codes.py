@@ -181,6 +181,11 @@ def produce(code: str, tmp: Path, monkeypatch) -> dict:
     if code in ("TIME_LIMIT_EXCEEDED", "WORKER_LOST"):
         return _pool_failures(monkeypatch)["hangs" if code == "TIME_LIMIT_EXCEEDED" else "killed"]
     if code == "OUTPUT_UNWRITABLE":
+        if Path("/proc/self").is_dir():  # a run's output.dir whose parent cannot be made, even by root
+            cfg = _project(tmp, "", {"a.obj": TWO_TRIANGLES})
+            cfg.write_text(cfg.read_text().replace("{dir: out}", "{dir: /proc/nope/out}"))
+            out = _cli(["run", str(cfg), "--json"], exit_code=2)
+            assert out["code"] == code and "cannot create /proc/nope/out" in out["problems"][0], out
         (tmp / "a.obj").write_text(TWO_TRIANGLES)
         out = _cli(["encode", str(tmp / "a.obj"), "-o", str(tmp / "a.obj" / "x.swpm"), "--json"])
         assert out["file"] == str(tmp / "a.obj" / "x.swpm")

@@ -936,10 +936,14 @@ def _make_out_dir(cfg: Config, out_dir: Path) -> None:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise ConfigError(
-            [f"{cfg.where(('output', 'dir'))}: cannot create {out_dir}: {exc.strerror or exc}"]
+            [f"{cfg.where(('output', 'dir'))}: cannot create {out_dir}: {exc.strerror or exc}"],
+            code="OUTPUT_UNWRITABLE",
         ) from None
     if not os.access(out_dir, os.W_OK | os.X_OK):
-        raise ConfigError([f"{cfg.where(('output', 'dir'))}: cannot write in {out_dir}: permission denied"])
+        raise ConfigError(
+            [f"{cfg.where(('output', 'dir'))}: cannot write in {out_dir}: permission denied"],
+            code="OUTPUT_UNWRITABLE",
+        )
 
 
 def _checked_output(path: Path, recorded: dict, verify: bool = False) -> dict | None:
