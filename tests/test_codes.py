@@ -186,6 +186,12 @@ def produce(code: str, tmp: Path, monkeypatch) -> dict:
             cfg.write_text(cfg.read_text().replace("{dir: out}", "{dir: /proc/nope/out}"))
             out = _cli(["run", str(cfg), "--json"], exit_code=2)
             assert out["code"] == code and "cannot create /proc/nope/out" in out["problems"][0], out
+        # a run's asset whose output cannot be renamed into place (a folder holds its name)
+        cfg = _project(tmp, "", {"b.obj": TWO_TRIANGLES})
+        (tmp / "out" / "b.swpm").mkdir(parents=True)
+        (tmp / "out" / "b.swpm" / "x").write_text("")
+        failure = _cli(["run", str(cfg), "--json"])["failures"][0]
+        assert failure["code"] == code and "Is a directory" in failure["error"], failure
         (tmp / "a.obj").write_text(TWO_TRIANGLES)
         out = _cli(["encode", str(tmp / "a.obj"), "-o", str(tmp / "a.obj" / "x.swpm"), "--json"])
         assert out["file"] == str(tmp / "a.obj" / "x.swpm")
