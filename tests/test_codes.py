@@ -363,6 +363,15 @@ def test_run_of_a_missing_config_says_file_not_found(tmp_path):
     result = CliRunner().invoke(main, ["run", str(tmp_path / "missing.yaml")])
     assert result.exit_code == 2
     assert result.stderr == f"{tmp_path / 'missing.yaml'}:1:1: $: file not found\n"  # (not "[Errno 2] ...")
+    # a link in a loop is named so, as a mesh's is ("[Errno 40] Too many levels of symbolic links")
+    (tmp_path / "a.yaml").symlink_to(tmp_path / "b.yaml")
+    (tmp_path / "b.yaml").symlink_to(tmp_path / "a.yaml")
+    out = _cli(["run", str(tmp_path / "a.yaml"), "--json"], exit_code=2)
+    assert out["code"] == "INPUT_NOT_FOUND", out
+    assert out["problems"] == [
+        f"{tmp_path / 'a.yaml'}:1:1: $: a link loop (to {tmp_path / 'b.yaml'}): following it comes back "
+        "round, to no file"
+    ]
 
 
 def test_a_dry_run_with_prune_lists_what_it_would_delete_not_as_pruned(tmp_path):

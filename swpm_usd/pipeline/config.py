@@ -8,6 +8,7 @@ so an editor (or a terminal) can jump to it from any folder.
 from __future__ import annotations
 
 import datetime
+import errno
 import json
 import math
 import re
@@ -134,12 +135,17 @@ def load_config(path: str | Path) -> Config:
     shown = str(path)  # (as given: a problem names the file the user named, not its name alone)
     try:
         text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
+    except OSError as exc:
+        if exc.errno not in (errno.ENOENT, errno.ELOOP):
+            raise ConfigError(
+                [f"{shown}:1:1: $: cannot read the file ({exc})"], code="INPUT_UNREADABLE"
+            ) from None
         from ..fileio import missing_file_problem
 
-        # (it said "cannot read the file ([Errno 2] No such file or directory: ...)": Python's words)
+        # (it said "cannot read the file ([Errno 2] No such file or directory: ...)": Python's words; a link
+        # in a loop is named so, as a mesh's is)
         raise ConfigError([f"{shown}:1:1: $: {missing_file_problem(path)}"], code="INPUT_NOT_FOUND") from None
-    except (OSError, UnicodeDecodeError) as exc:
+    except UnicodeDecodeError as exc:
         raise ConfigError(
             [f"{shown}:1:1: $: cannot read the file ({exc})"], code="INPUT_UNREADABLE"
         ) from None
