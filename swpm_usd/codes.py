@@ -211,11 +211,13 @@ def located(problem: str, path: str | Path | None) -> tuple[int | None, int | No
 def problem_fields(exc: BaseException) -> dict[str, Any]:
     """The keys a JSON error or a run's failure record gives beside its ``error`` text: ``code`` and
     ``severity``, then ``file``, ``format``, ``line`` and ``offset`` where the error knows them."""
-    code = getattr(exc, "code", None)
-    if code not in CODES:
-        code = "INTERRUPTED" if isinstance(exc, KeyboardInterrupt) else "INTERNAL_ERROR"
+    from .errors import SwpmError
+
+    # (another library's exception may have attributes of these names, a SyntaxError its offset: not ours)
+    ours = isinstance(exc, SwpmError) and exc.code in CODES
+    code = exc.code if ours else "INTERRUPTED" if isinstance(exc, KeyboardInterrupt) else "INTERNAL_ERROR"
     fields: dict[str, Any] = {"code": code, "severity": CODES[code].severity}
-    for key in ("file", "format", "line", "offset"):
+    for key in ("file", "format", "line", "offset") if ours else ():
         value = getattr(exc, key, None)
         if value is not None:
             fields[key] = value

@@ -386,3 +386,11 @@ def test_a_dry_run_with_prune_lists_what_it_would_delete_not_as_pruned(tmp_path)
     out = _cli(["run", str(cfg), "--prune", "--json"], exit_code=0)
     assert out["pruned"] == ["b.swpm"] and "would_prune" not in out
     assert not (tmp_path / "out" / "b.swpm").exists()
+
+
+def test_another_librarys_exception_is_an_internal_error_without_its_attributes():
+    from swpm_usd.codes import problem_fields
+
+    err = SyntaxError("x", ("f.py", 3, 7, "text"))  # (its offset and line are a Python file's)
+    assert problem_fields(err) == {"code": "INTERNAL_ERROR", "severity": "error"}
+    assert problem_fields(KeyboardInterrupt()) == {"code": "INTERRUPTED", "severity": "error"}
