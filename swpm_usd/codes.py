@@ -187,8 +187,13 @@ _FORMATS = {
 }
 #: formats whose loaders' messages name a line of the file (a .glb's, of its JSON chunk, are not the file's)
 _TEXT_FORMATS = ("obj", "ply", "stl", "off", "gltf")
-_LINE = re.compile(r"\bline (\d+)\b(?! of the chunk)")
-_OFFSET = re.compile(r"\bbyte offset (\d+)\b")
+#: where the loaders put a location: the problem's start, after ": ", "at " or "(" (not inside a path or a
+#: name: "buffer 0: its file 'line 7.bin'", "@./byte offset 3.usda@", "(to /tmp/line 5/a.obj)")
+_LINE = re.compile(r"(?:^|: |\bat |\()line (\d+)\b(?! of the chunk)")
+_OFFSET = re.compile(r"(?:^|: |\bat |\()byte offset (\d+)\b")
+#: what a message quotes (the file's content, a name, a path): a Python repr in '...' or "...", a USD
+#: asset path in @...@; its words are not the loader's
+_QUOTED = re.compile(r"""(?<!\w)'(?:[^'\\\n]|\\.)*'|(?<!\w)"(?:[^"\\\n]|\\.)*"|@[^@\n]*@""")
 
 
 #: the keys of :func:`problem_fields` a run's failure record holds (``file`` aside: the asset names it)
@@ -202,9 +207,11 @@ def format_of(path: str | Path | None) -> str | None:
 
 def located(problem: str, path: str | Path | None) -> tuple[int | None, int | None]:
     """(line, byte offset) a loader's ``problem`` names, each None when it names none: the loaders say
-    where as ``line N`` (from 1, in the text formats) and ``byte offset N`` (from 0)."""
-    line = _LINE.search(problem) if format_of(path) in _TEXT_FORMATS else None
-    offset = _OFFSET.search(problem)
+    where as ``line N`` (from 1, in the text formats) and ``byte offset N`` (from 0), never inside what
+    they quote."""
+    own = _QUOTED.sub("''", problem)
+    line = _LINE.search(own) if format_of(path) in _TEXT_FORMATS else None
+    offset = _OFFSET.search(own)
     return (int(line.group(1)) if line else None, int(offset.group(1)) if offset else None)
 
 

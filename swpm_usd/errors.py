@@ -61,7 +61,9 @@ class MeshLoadError(SwpmError):
         if code is not None:
             self.code = code
         self.file, self.format = self.path, format_of(path)
-        found = located(problem, path)  # (each loader says where in its message: "line 3", "byte offset 8")
+        # (each loader says where in its message, "line 3", "byte offset 8", of a file that does not parse:
+        # the other kinds name no place in the file, and may name a path, "a link loop (to /x/line 5/a.obj)")
+        found = located(problem, path) if self.code == "INPUT_MALFORMED" else (None, None)
         self.line = line if line is not None else found[0]
         self.offset = offset if offset is not None else found[1]
         where = self.path if self.path is not None else "<mesh>"

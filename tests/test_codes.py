@@ -330,6 +330,20 @@ def test_a_kept_previous_build_records_the_code_of_its_last_failure(tmp_path):
         ("a.glb", "its JSON chunk: byte 0xff at byte offset 29 (line 1) is not UTF-8 text", (None, 29)),
         ("a.usda", "USD could not open it: syntax error at line 3", (None, None)),
         ("a.obj", "no triangles: the file holds no triangle geometry", (None, None)),
+        # what a message quotes (a name, a path, the file's content) is not where: the loader's own words are
+        (
+            "a.gltf",
+            "not a valid glTF file: buffer 0: its file 'line 7.bin' is not found beside the .gltf",
+            (None, None),
+        ),
+        ("a.gltf", 'buffer 0: its file "it\'s byte offset 3.bin" is not found', (None, None)),
+        ("a.obj", "not a valid OBJ file: line 4: 'line 9' starts with 'f', not a face", (4, None)),
+        (
+            "a.usda",
+            "first: Could not load sublayer @/x/byte offset 3.usda@ of layer @/x/a.usda@",
+            (None, None),
+        ),
+        ("a.obj", "a link loop (to /tmp/line 5/a.obj): following it comes back round", (None, None)),
     ],
 )
 def test_where_a_loader_says_the_problem_is(path, problem, where):
@@ -338,6 +352,46 @@ def test_where_a_loader_says_the_problem_is(path, problem, where):
     assert located(problem, path) == where
     err = MeshLoadError(path, problem)
     assert (err.line, err.offset) == where and str(err) == f"{path}: {problem}"
+
+
+def test_a_name_or_path_in_a_message_is_not_taken_for_where_the_problem_is(tmp_path):
+    """A missing .gltf buffer named "line 7.bin", a USD sublayer named "byte offset 3.usda", a mesh that is a
+    link in a loop through a folder named "line 5": none of these names a place in the file."""
+    gltf = {
+        "asset": {"version": "2.0"},
+        "buffers": [{"uri": "line 7.bin", "byteLength": 36}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}],
+        "accessors": [
+            {
+                "bufferView": 0,
+                "componentType": 5126,
+                "count": 3,
+                "type": "VEC3",
+                "max": [1, 1, 0],
+                "min": [0] * 3,
+            }
+        ],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "nodes": [{"mesh": 0}],
+        "scenes": [{"nodes": [0]}],
+        "scene": 0,
+    }
+    (tmp_path / "a.gltf").write_text(json.dumps(gltf))
+    (tmp_path / "b.usda").write_text(
+        '#usda 1.0\n(\n    subLayers = [@./byte offset 3.usda@]\n)\ndef Mesh "m" {\n'
+        "    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n    int[] faceVertexCounts = [3]\n"
+        "    int[] faceVertexIndices = [0, 1, 2]\n}\n"
+    )
+    (tmp_path / "line 5").mkdir()
+    (tmp_path / "c.obj").symlink_to(tmp_path / "line 5" / "d.obj")
+    (tmp_path / "line 5" / "d.obj").symlink_to(tmp_path / "c.obj")
+    for name, code in (
+        ("a.gltf", "INPUT_INCOMPLETE"),
+        ("b.usda", "INPUT_INCOMPLETE"),
+        ("c.obj", "INPUT_NOT_FOUND"),
+    ):
+        out = _cli(["build", str(tmp_path / name), "--json"])
+        assert out["code"] == code and "line" not in out and "offset" not in out, out
 
 
 def test_a_glb_whose_json_does_not_parse_reports_its_byte_offset(tmp_path):
