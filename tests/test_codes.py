@@ -428,6 +428,14 @@ def test_run_of_a_missing_config_says_file_not_found(tmp_path):
     ]
 
 
+def test_a_config_that_is_not_utf8_is_invalid_not_unreadable(tmp_path):
+    """Its bytes were read: a config whose text is not UTF-8 is invalid (exit 2, as before), as a mesh's
+    would be malformed; INPUT_UNREADABLE is a file that cannot be read (a folder, no permission)."""
+    (tmp_path / "c.yaml").write_bytes(b"version: 1\nassets: [{glob: '\xff.obj'}]\n")
+    out = _cli(["run", str(tmp_path / "c.yaml"), "--json"], exit_code=2)
+    assert out["code"] == "CONFIG_INVALID" and "cannot read the file" in out["problems"][0], out
+
+
 def test_a_dry_run_with_prune_lists_what_it_would_delete_not_as_pruned(tmp_path):
     cfg = _project(tmp_path, "", {"a.obj": TWO_TRIANGLES, "b.obj": TWO_TRIANGLES})
     run(cfg, echo=lambda m: None)

@@ -25,7 +25,8 @@ from .schema import load_schema
 
 class ConfigError(SwpmError):
     """The pipeline configuration is invalid; ``problems`` lists every located message. ``code``:
-    ``CONFIG_INVALID``, or ``INPUT_NOT_FOUND`` / ``INPUT_UNREADABLE`` for a config file that does not read."""
+    ``CONFIG_INVALID``, or ``INPUT_NOT_FOUND`` / ``INPUT_UNREADABLE`` for a config file that does not read,
+    ``OUTPUT_UNWRITABLE`` for an ``output.dir`` that cannot be made or written in."""
 
     code = "CONFIG_INVALID"
 
@@ -145,10 +146,10 @@ def load_config(path: str | Path) -> Config:
         # (it said "cannot read the file ([Errno 2] No such file or directory: ...)": Python's words; a link
         # in a loop is named so, as a mesh's is)
         raise ConfigError([f"{shown}:1:1: $: {missing_file_problem(path)}"], code="INPUT_NOT_FOUND") from None
-    except UnicodeDecodeError as exc:
-        raise ConfigError(
-            [f"{shown}:1:1: $: cannot read the file ({exc})"], code="INPUT_UNREADABLE"
-        ) from None
+    except (
+        UnicodeDecodeError
+    ) as exc:  # (it reads: its text is not a config's, as a mesh's would be malformed)
+        raise ConfigError([f"{shown}:1:1: $: cannot read the file ({exc})"]) from None
     marks: dict[tuple, tuple[int, int]] = {}
     plain: dict[tuple, str] = {}
     duplicates: list[str] = []
