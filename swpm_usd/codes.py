@@ -187,6 +187,8 @@ _FORMATS = {
 }
 #: formats whose loaders' messages name a line of the file (a .glb's, of its JSON chunk, are not the file's)
 _TEXT_FORMATS = ("obj", "ply", "stl", "off", "gltf")
+#: formats whose loaders' messages name a byte offset of the file (usd-core's, and the .swpm reader's, do not)
+_OFFSET_FORMATS = (*_TEXT_FORMATS, "glb")
 #: where the loaders put a location: the problem's start, after ": ", "at " or "(" (not inside a path or a
 #: name: "buffer 0: its file 'line 7.bin'", "@./byte offset 3.usda@", "(to /tmp/line 5/a.obj)")
 _LINE = re.compile(r"(?:^|: |\bat |\()line (\d+)\b(?! of the chunk)")
@@ -210,8 +212,9 @@ def located(problem: str, path: str | Path | None) -> tuple[int | None, int | No
     where as ``line N`` (from 1, in the text formats) and ``byte offset N`` (from 0), never inside what
     they quote."""
     own = _QUOTED.sub("''", problem)
-    line = _LINE.search(own) if format_of(path) in _TEXT_FORMATS else None
-    offset = _OFFSET.search(own)
+    kind = format_of(path)
+    line = _LINE.search(own) if kind in _TEXT_FORMATS else None
+    offset = _OFFSET.search(own) if kind in _OFFSET_FORMATS else None
     return (int(line.group(1)) if line else None, int(offset.group(1)) if offset else None)
 
 

@@ -344,6 +344,8 @@ def test_a_kept_previous_build_records_the_code_of_its_last_failure(tmp_path):
             (None, None),
         ),
         ("a.obj", "a link loop (to /tmp/line 5/a.obj): following it comes back round", (None, None)),
+        # usd-core's words, which may echo a path as given: "byte offset 3.usda:4:1: parse error"
+        ("byte offset 3.usda", "USD could not open it: byte offset 3.usda:4:1: parse error", (None, None)),
     ],
 )
 def test_where_a_loader_says_the_problem_is(path, problem, where):
