@@ -74,7 +74,11 @@ class _Main(EncodingsHelpGroup):
             click.echo("swpm-pipeline: interrupted", err=True)
             fields = ctx.meta.get(_JSON_ON_INTERRUPT)
             if fields is not None:
-                click.echo(json.dumps({**fields, "error": "interrupted"}, indent=2))
+                from .codes import fields_of
+
+                click.echo(
+                    json.dumps({**fields, "error": "interrupted", **fields_of("INTERRUPTED")}, indent=2)
+                )
             ctx.exit(EXIT_INTERRUPTED)
 
 
@@ -146,9 +150,11 @@ def build_cmd(
     try:
         pm = build(mesh_input(input_path, max_triangles), encoding, **parsed)
     except SwpmError as exc:
+        from .codes import problem_fields
+
         click.echo(f"error: {exc}", err=True)
         if as_json:
-            click.echo(json.dumps({"input": input_path, "error": str(exc)}, indent=2))
+            click.echo(json.dumps({"input": input_path, "error": str(exc), **problem_fields(exc)}, indent=2))
         sys.exit(1)
     seconds = time.perf_counter() - start
     table = _lod_rows(pm, rows)
@@ -235,6 +241,7 @@ def run_cmd(
     Exit 0 when every asset built, 1 when any failed (or output.dir is another run's), 2 when the
     configuration is invalid (every problem listed as FILE:LINE:COL: $.path: message), 130 on Ctrl-C.
     """
+    from .codes import PROBLEM_KEYS
     from .pipeline import ConfigError, run
 
     if scheduler is not None and executor != "dask":
@@ -256,12 +263,17 @@ def run_cmd(
             echo=lambda m: click.echo(m, err=as_json),
         )
     except ConfigError as exc:
+        from .codes import problem_fields
+
         for p in exc.problems:
             click.echo(p, err=True)
         if as_json:
-            click.echo(json.dumps({"error": "invalid configuration", "problems": exc.problems}, indent=2))
+            error = {"error": "invalid configuration", "problems": exc.problems, **problem_fields(exc)}
+            click.echo(json.dumps({**error, "file": config}, indent=2))
         sys.exit(2)
     except (SwpmError, OSError) as exc:
+        from .codes import fields_of, problem_fields
+
         # output.dir held by another run (OutputLockedError), or the run's own files (manifest, report,
         # scene) not written: a full disk, no permission (a traceback before). The assets built are kept
         if isinstance(exc, OSError) and exc.filename is not None:
@@ -271,7 +283,13 @@ def run_cmd(
         message = "; ".join([message, *getattr(exc, "__notes__", ())])
         click.echo(f"error: {message}", err=True)
         if as_json:
-            click.echo(json.dumps({"error": message}, indent=2))
+            if isinstance(exc, OSError):  # (the run's own files: its inputs' are the assets' failures)
+                fields = fields_of(
+                    "OUTPUT_UNWRITABLE", file=None if exc.filename is None else str(exc.filename)
+                )
+            else:
+                fields = problem_fields(exc)
+            click.echo(json.dumps({"error": message, **fields}, indent=2))
         sys.exit(1)
     except KeyboardInterrupt:  # the run has stopped its workers and recorded what they finished
         _exiting_on_interrupt()
@@ -281,7 +299,9 @@ def run_cmd(
             err=True,
         )
         if as_json:
-            click.echo(json.dumps({"error": "interrupted"}, indent=2))
+            from .codes import fields_of
+
+            click.echo(json.dumps({"error": "interrupted", **fields_of("INTERRUPTED")}, indent=2))
         sys.exit(EXIT_INTERRUPTED)
     if as_json:
         summary = {
@@ -292,13 +312,22 @@ def run_cmd(
             "seconds": res.seconds,
             "manifest": str(res.manifest_path),
             "failures": [
-                {"id": rid, "error": rec.get("error"), "kept_previous": rec["kept_previous"]}
+                {
+                    "id": rid,
+                    "error": rec.get("error"),
+                    "kept_previous": rec["kept_previous"],
+                    **{k: rec[k] for k in PROBLEM_KEYS if k in rec},
+                }
                 for rid, rec in sorted(res.failures.items())
             ],
             "pruned": res.pruned,
             "unlisted": res.unlisted,
             "built_assets": sorted(res.built_ids),  # (which ones: `built` counts them)
         }
+        if dry_run:
+            # a dry run deletes nothing: what --prune would delete is named as such, and left in output.dir
+            # (it was listed as `pruned`, which a script took for deleted)
+            summary.update(pruned=[], unlisted=res.pruned or res.unlisted, would_prune=res.pruned)
         if dry_run or explain:
             summary["plan"] = res.plan
         click.echo(json.dumps(summary, indent=2, default=float))

@@ -51,7 +51,8 @@ def test_a_usage_error_with_json_prints_a_json_error_and_exits_2(args, says, fie
     assert result.exit_code == 2, (result.output, result.exception)
     out = json.loads(result.stdout)
     assert says in out["error"] and out["usage_error"] is True
-    assert {k: v for k, v in out.items() if k not in ("error", "usage_error")} == fields
+    assert (out["code"], out["severity"]) == ("USAGE_ERROR", "error")  # (swpm_usd/codes.py)
+    assert {k: v for k, v in out.items() if k not in ("error", "usage_error", "code", "severity")} == fields
     assert "Usage:" in result.stderr and f"Error: {out['error']}" in result.stderr
     # without --json: stdout stays empty, the same text on stderr
     plain = [a for a in args if a != "--json"]
@@ -67,7 +68,12 @@ def test_json_after_a_double_dash_is_an_argument_not_the_option():
 def test_validate_usd_alone_prints_its_usage_error_as_json():
     result = CliRunner().invoke(validate_usd, ["--json"])
     assert result.exit_code == 2
-    assert json.loads(result.stdout) == {"error": "Missing argument 'STAGE'.", "usage_error": True}
+    assert json.loads(result.stdout) == {
+        "error": "Missing argument 'STAGE'.",
+        "usage_error": True,
+        "code": "USAGE_ERROR",
+        "severity": "error",
+    }
 
 
 @pytest.mark.parametrize(

@@ -183,6 +183,9 @@ def test_encode_refuses_an_output_below_a_file_before_it_builds(tmp_path):
         "input": str(tmp_path / "missing.obj"),
         "output": str(out),
         "error": says,
+        "code": "OUTPUT_UNWRITABLE",
+        "severity": "error",
+        "file": str(out),
     }
 
 

@@ -836,9 +836,9 @@ def test_ctrl_c_in_any_command_exits_130_with_one_line(tmp_path, monkeypatch):
         # --json: JSON on stdout, as for the command's other errors (and run --json's interruption)
         r = CliRunner().invoke(main, [*args, "--json"])
         assert r.exit_code == 130 and r.stderr == "swpm-pipeline: interrupted\n", (args, r.output)
-        expected = {"input": str(obj), "error": "interrupted"}
+        expected = {"input": str(obj), "error": "interrupted", "code": "INTERRUPTED", "severity": "error"}
         if args[0] == "encode":
-            expected = {"input": str(obj), "output": str(tmp_path / "a.swpm"), "error": "interrupted"}
+            expected = {"output": str(tmp_path / "a.swpm"), **expected}
         assert json.loads(r.stdout) == expected
 
 
@@ -3013,7 +3013,7 @@ def test_json_output_on_failure_is_json(tmp_path):
     rep = json.loads(r.stdout)
     assert r.exit_code == 1 and not rep["valid"] and rep["problems"][0]["code"] == "SWPM_IO_ERROR"
     r = runner.invoke(main, ["run", str(tmp_path / "nope.yaml"), "--json"])
-    assert r.exit_code == 2 and "nope.yaml:1:1: $: cannot read" in json.loads(r.stdout)["problems"][0]
+    assert r.exit_code == 2 and "nope.yaml:1:1: $: file not found" in json.loads(r.stdout)["problems"][0]
     cfg = tmp_path / "c.yaml"
     cfg.write_text(
         "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
@@ -3728,7 +3728,7 @@ def test_config_problems_name_the_config_as_given(tmp_path, monkeypatch):
     with pytest.raises(ConfigError) as exc:
         load_config(odd)
     assert [p.removeprefix(f"{odd}:")[:4] for p in exc.value.problems] == ["1:10", "2:20", "3:9:"]
-    with pytest.raises(ConfigError, match=r"^missing.yaml:1:1: \$: cannot read the file"):
+    with pytest.raises(ConfigError, match=r"^missing.yaml:1:1: \$: file not found$"):
         load_config("missing.yaml")
 
 

@@ -62,11 +62,17 @@ class ProgressiveMesh(ABC):
         self.params: dict[str, Any] = dict(params or {})
         n = self.vertex_counts.shape[0]
         if n == 0 or self.triangle_counts.shape[0] != n or self.lod_errors.shape[0] != n:
-            raise BuildError("vertex_counts, triangle_counts and lod_errors need one entry per LOD (>= 1)")
+            raise BuildError(
+                "vertex_counts, triangle_counts and lod_errors need one entry per LOD (>= 1)",
+                code="BUILD_FAILED",
+            )
         vc = self.vertex_counts
         if vc[0] != self.points.shape[0] or (np.diff(vc) > 0).any() or vc.min() < 0:
             # LOD k draws the prefix [0, vertex_counts[k]): the format writer sizes its chunks from these
-            raise BuildError(f"vertex_counts must start at the {self.points.shape[0]} points and not grow")
+            raise BuildError(
+                f"vertex_counts must start at the {self.points.shape[0]} points and not grow",
+                code="BUILD_FAILED",
+            )
 
     # -- LOD table -------------------------------------------------------------------------------------
     @property

@@ -140,7 +140,7 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
         self.index_pool = np.asarray(index_pool).reshape(-1)
         self.window_records = np.asarray(window_records).reshape(-1, 3)
         if self.window_records.shape[0] != self.lod_count:
-            raise BuildError("window_records needs one row per LOD")
+            raise BuildError("window_records needs one row per LOD", code="BUILD_FAILED")
         #: build-time extras (not stored in buffers): the builder's own collapse sequence, the number of its
         #: steps behind every LOD, the source vertex of every stored vertex and the level of every LOD
         self.collapse_sequence: CollapseSequence | None = None

@@ -198,14 +198,14 @@ def linked_level(gtris, ng, head, p_start, p_out, q_start, q_out, patch_steps, c
     m = p_start.shape[0] - 1
     own_place = place[p_out]
     if np.any(own_place < 0):  # pragma: no cover - every triangle of the level is in the previous tail
-        raise BuildError("cluster: a patch triangle is not in the previous level's tail")
+        raise BuildError("cluster: a patch triangle is not in the previous level's tail", code="BUILD_FAILED")
     pid = np.repeat(np.arange(m), np.diff(p_start))
     lo = np.full(m, np.iinfo(np.int64).max)
     hi = np.full(m, -1)
     np.minimum.at(lo, pid, own_place)
     np.maximum.at(hi, pid, own_place)
     if np.any(lo[1:] <= hi[:-1]):  # pragma: no cover - the cluster kernels pick disjoint intervals
-        raise BuildError("cluster: overlapping patches")
+        raise BuildError("cluster: overlapping patches", code="BUILD_FAILED")
     bounds = np.r_[0, lo[1:], hi[-1] + 1].astype(np.int64)
     own = np.zeros(ng, bool)
     own[p_out] = True

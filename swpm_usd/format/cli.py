@@ -166,8 +166,11 @@ def _wants_json(command: click.Command, args: list[str]) -> bool:
 def _echo_json_usage(exc: click.UsageError, params: dict) -> None:
     """Print a usage error as the command's JSON error object on stdout (click prints its usage and the
     message on stderr, and exits 2, as it does without ``--json``)."""
+    from ..codes import fields_of
+
     fields = {key: params[name] for name, key in _JSON_USAGE_FIELDS.items() if params.get(name) is not None}
-    click.echo(json.dumps({**fields, "error": exc.format_message(), "usage_error": True}, indent=2))
+    error = {"error": exc.format_message(), "usage_error": True, **fields_of("USAGE_ERROR")}
+    click.echo(json.dumps({**fields, **error}, indent=2))
 
 
 class JsonUsageCommand(click.Command):
@@ -363,9 +366,15 @@ def encode_cmd(
         except OSError as exc:
             raise OSError(f"cannot write {output}: {exc.strerror or exc}") from exc
     except (SwpmError, OSError, ValueError) as exc:
+        from ..codes import fields_of, problem_fields
+
         click.echo(f"error: {exc}", err=True)
         if as_json:
-            click.echo(json.dumps({"input": input_path, "output": output, "error": str(exc)}, indent=2))
+            # (an OSError here is the output's: the input's are MeshLoadErrors)
+            fields = fields_of("OUTPUT_UNWRITABLE", file=output) if isinstance(exc, OSError) else None
+            fields = fields or problem_fields(exc)
+            error = {"input": input_path, "output": output, "error": str(exc), **fields}
+            click.echo(json.dumps(error, indent=2))
         sys.exit(1)
     if as_json:
         out = {

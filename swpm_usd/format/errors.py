@@ -508,13 +508,20 @@ class SwpmEncodeError(SwpmError, ValueError):
     has no code for, params a reader would reject as META: spec 3.1's limits); a :class:`ValueError` too, as
     it was before it had a type of its own."""
 
+    code = "OUTPUT_UNSUPPORTED"
+
 
 class SwpmFormatError(SwpmError):
-    """A .swpm file could not be read; ``report`` lists every problem found (see :data:`CATALOGUE`)."""
+    """A .swpm file could not be read; ``report`` lists every problem found (see :data:`CATALOGUE`). Its
+    ``code`` is ``INPUT_MALFORMED`` (:mod:`swpm_usd.codes`), ``offset`` the first error's."""
+
+    code = "INPUT_MALFORMED"
+    format = "swpm"
 
     def __init__(self, report: Report) -> None:
         self.report = report
         first = report.errors[0] if report.errors else None
+        self.file, self.offset = report.path, None if first is None else first.offset
         detail = f"{first.code}: {first.message}" if first else "invalid file"
         more = len(report.errors) - 1
         suffix = f" (+{more} more)" if more > 0 else ""
@@ -548,7 +555,9 @@ def render_markdown() -> str:
     for e in _ENTRIES:
         template = e.template.replace("|", "/")
         lines.append(f"| `{e.code}` | {e.severity} | {template} | {e.meaning} | {e.offset} |")
-    return "\n".join(lines) + "\n"
+    from ..codes import render_markdown as codes_table  # (the other codes of the package, documented here)
+
+    return "\n".join(lines) + "\n\n" + codes_table()
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -42,27 +42,29 @@ def load_mesh(
     suffix = p.suffix.lower()
     if suffix not in SUPPORTED_SUFFIXES:
         raise MeshLoadError(
-            p, f"unsupported file type {suffix or '(no suffix)'!r}; supported: {' '.join(SUPPORTED_SUFFIXES)}"
+            p,
+            f"unsupported file type {suffix or '(no suffix)'!r}; supported: {' '.join(SUPPORTED_SUFFIXES)}",
+            code="INPUT_UNSUPPORTED",
         )
     if not p.exists():
         from ..fileio import missing_file_problem
 
-        raise MeshLoadError(p, missing_file_problem(p))
+        raise MeshLoadError(p, missing_file_problem(p), code="INPUT_NOT_FOUND")
     if not p.is_file():
-        raise MeshLoadError(p, "not a regular file")
+        raise MeshLoadError(p, "not a regular file", code="INPUT_UNREADABLE")
     try:
         with p.open("rb") as f:
             first = f.read(1)
     except OSError as e:
-        raise MeshLoadError(p, f"cannot read the file ({e.strerror or e})") from e
+        raise MeshLoadError(p, f"cannot read the file ({e.strerror or e})", code="INPUT_UNREADABLE") from e
     if not first:  # (each reader said it its own way, or not at all: "FileNotFoundError: model.gltf")
-        raise MeshLoadError(p, "no triangles: the file is empty (0 bytes)")
+        raise MeshLoadError(p, "no triangles: the file is empty (0 bytes)", code="INPUT_EMPTY")
     if suffix in _USD_SUFFIXES:
         from .usd_loader import load_usd
 
         return load_usd(p, prim_path=prim_path, max_triangles=max_triangles)
     if prim_path is not None:
-        raise MeshLoadError(p, "prim_path only applies to USD files")
+        raise MeshLoadError(p, "prim_path only applies to USD files", code="PARAMETER_INVALID")
     from .trimesh_loader import load_trimesh
 
     return load_trimesh(p, max_triangles=max_triangles)
@@ -120,4 +122,5 @@ def over_budget(path: Path, triangles: int, max_triangles: int | None, how: str 
         raise MeshLoadError(
             path,
             f"over the triangle budget: {triangles} triangles{how}, more than max_triangles={max_triangles}",
+            code="INPUT_TOO_LARGE",
         )

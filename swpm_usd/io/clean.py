@@ -103,7 +103,11 @@ def _as_points(points: np.ndarray, source: str | None) -> np.ndarray:
     if raw.dtype.kind not in "iuf":
         raise MeshLoadError(source, f"points must be numbers, got dtype {raw.dtype}")
     if raw.shape[0] > _MAX_INDEX:
-        raise MeshLoadError(source, f"{raw.shape[0]} points is more than int32 triangle indices can address")
+        raise MeshLoadError(
+            source,
+            f"{raw.shape[0]} points is more than int32 triangle indices can address",
+            code="INPUT_TOO_LARGE",
+        )
     with np.errstate(over="ignore", invalid="ignore"):
         pts = raw.astype(np.float32)
     bad = ~np.isfinite(pts).all(axis=1)
@@ -124,7 +128,7 @@ def _as_triangles(triangles: np.ndarray, n_points: int, source: str | None) -> n
     except Exception as e:
         raise MeshLoadError(source, f"triangles are not an array: {e}") from e
     if tri.size == 0:
-        raise MeshLoadError(source, "mesh has no triangles")
+        raise MeshLoadError(source, "mesh has no triangles", code="INPUT_EMPTY")
     if tri.ndim != 2 or tri.shape[1] != 3:
         raise MeshLoadError(source, f"triangles must have shape (T, 3), got {tri.shape}")
     if tri.dtype.kind not in "iu":
@@ -221,7 +225,7 @@ def clean_mesh(
     kept_tri = good[first_dup]
     duplicate_dropped = good.shape[0] - kept_tri.shape[0]
     if kept_tri.shape[0] == 0:
-        raise MeshLoadError(src, f"all {tri.shape[0]} triangles are degenerate (no area)")
+        raise MeshLoadError(src, f"all {tri.shape[0]} triangles are degenerate (no area)", code="INPUT_EMPTY")
     new_tri = merged_tri[kept_tri]
     del merged_tri
 

@@ -832,6 +832,7 @@ def _check_extensions(path: Path, doc: Any) -> None:
                 path,
                 f"it requires the glTF extension {shown} (extensionsRequired), which this loader does not "
                 "read: export it without that extension",
+                code="INPUT_UNSUPPORTED",
             )
         if name == "KHR_draco_mesh_compression" and importlib.util.find_spec("DracoPy") is not None:
             continue
@@ -840,6 +841,7 @@ def _check_extensions(path: Path, doc: Any) -> None:
             path,
             f"its geometry is compressed with the glTF extension {name}, which this loader cannot decode"
             f"{hint}: export it without that compression",
+            code="INPUT_UNSUPPORTED",
         )
 
 

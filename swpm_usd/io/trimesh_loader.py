@@ -138,7 +138,7 @@ def _check_stl(path: Path, size: int, head: bytes, tail: bytes, data: bytes | No
             )
         return
     if size == 0:
-        raise MeshLoadError(path, "no triangles: the file is empty (0 bytes)")
+        raise MeshLoadError(path, "no triangles: the file is empty (0 bytes)", code="INPUT_EMPTY")
     if size < _STL_HEADER_BYTES:
         raise MeshLoadError(
             path,
@@ -1370,7 +1370,7 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
             raise MeshLoadError(path, f"not a glTF file ({problem})") from e
         problem = _gltf_buffer_problem(path) if file_type == "gltf" else None
         if problem is not None:
-            raise MeshLoadError(path, f"not a valid glTF file: {problem}") from e
+            raise MeshLoadError(path, f"not a valid glTF file: {problem}", code="INPUT_INCOMPLETE") from e
         problem = _read_problem(path, ply_problem) if file_type == "ply" else None
         problem = _glb_length_problem(path) if file_type == "glb" else problem
         if problem is None and file_type in _HEADER_PROBLEMS:
@@ -1398,7 +1398,7 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
             raise MeshLoadError(path, f"its {INSTANCING} nodes could not be read ({e})") from e
         raise MeshLoadError(path, f"trimesh could not read it ({type(e).__name__}: {e})") from e
     if not parts:
-        raise MeshLoadError(path, "no triangles: the file holds no triangle geometry")
+        raise MeshLoadError(path, "no triangles: the file holds no triangle geometry", code="INPUT_EMPTY")
     if file_type == "obj":
         _report_dropped_obj_attributes(path, data, parts)
     points, triangles, attrs = concatenate_parts(parts, path)

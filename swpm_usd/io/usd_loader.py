@@ -426,15 +426,21 @@ def load_usd(path: Path, prim_path: str | None = None, *, max_triangles: int | N
                 root = stage.GetPseudoRoot()
             else:
                 if not Sdf.Path.IsValidPathString(prim_path) or not Sdf.Path(prim_path).IsAbsolutePath():
-                    raise MeshLoadError(path, f"prim_path {prim_path!r} is not an absolute USD prim path")
+                    raise MeshLoadError(
+                        path,
+                        f"prim_path {prim_path!r} is not an absolute USD prim path",
+                        code="PARAMETER_INVALID",
+                    )
                 root = stage.GetPrimAtPath(prim_path)
                 if not root or not root.IsValid():
-                    raise MeshLoadError(path, f"no prim at {prim_path}")
+                    raise MeshLoadError(path, f"no prim at {prim_path}", code="PARAMETER_INVALID")
             # a sublayer or reference that does not resolve: its meshes would be missing from the build
             errors = _composition_errors(stage, root.GetPath())
             if errors:
                 what = "1 composition error" if len(errors) == 1 else f"{len(errors)} composition errors"
-                raise MeshLoadError(path, f"{what}, the stage is incomplete; first: {errors[0]}")
+                raise MeshLoadError(
+                    path, f"{what}, the stage is incomplete; first: {errors[0]}", code="INPUT_INCOMPLETE"
+                )
             time = Usd.TimeCode.EarliestTime()
             xf_cache = UsdGeom.XformCache(time)
             parts: list[Part] = []
@@ -472,7 +478,7 @@ def load_usd(path: Path, prim_path: str | None = None, *, max_triangles: int | N
             raise MeshLoadError(path, f"{type(e).__name__}: {e}") from e
     under = "" if prim_path is None else f" under {prim_path}"
     if n_mesh_prims == 0:
-        raise MeshLoadError(path, f"no UsdGeom.Mesh prims{under}")
+        raise MeshLoadError(path, f"no UsdGeom.Mesh prims{under}", code="INPUT_EMPTY")
     if not parts:
         skipped = ""
         if unrendered:
@@ -481,6 +487,7 @@ def load_usd(path: Path, prim_path: str | None = None, *, max_triangles: int | N
         raise MeshLoadError(
             path,
             f"no triangles: the {n_mesh_prims} Mesh prims{under} have no faces (or only holes){skipped}",
+            code="INPUT_EMPTY",
         )
     points, triangles, attrs = concatenate_parts(parts, path)
     return clean_mesh(points, triangles, attrs, str(path))

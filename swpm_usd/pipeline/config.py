@@ -8,6 +8,7 @@ so an editor (or a terminal) can jump to it from any folder.
 from __future__ import annotations
 
 import datetime
+import errno
 import json
 import math
 import re
@@ -23,10 +24,16 @@ from .schema import load_schema
 
 
 class ConfigError(SwpmError):
-    """The pipeline configuration is invalid; ``problems`` lists every located message."""
+    """The pipeline configuration is invalid; ``problems`` lists every located message. ``code``:
+    ``CONFIG_INVALID``, or ``INPUT_NOT_FOUND`` / ``INPUT_UNREADABLE`` for a config file that does not read,
+    ``OUTPUT_UNWRITABLE`` for an ``output.dir`` that cannot be made or written in."""
 
-    def __init__(self, problems: list[str]) -> None:
+    code = "CONFIG_INVALID"
+
+    def __init__(self, problems: list[str], *, code: str | None = None) -> None:
         self.problems = problems
+        if code is not None:
+            self.code = code
         super().__init__("\n".join(problems))
 
 
@@ -129,7 +136,19 @@ def load_config(path: str | Path) -> Config:
     shown = str(path)  # (as given: a problem names the file the user named, not its name alone)
     try:
         text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
+    except OSError as exc:
+        if exc.errno not in (errno.ENOENT, errno.ELOOP):
+            raise ConfigError(
+                [f"{shown}:1:1: $: cannot read the file ({exc})"], code="INPUT_UNREADABLE"
+            ) from None
+        from ..fileio import missing_file_problem
+
+        # (it said "cannot read the file ([Errno 2] No such file or directory: ...)": Python's words; a link
+        # in a loop is named so, as a mesh's is)
+        raise ConfigError([f"{shown}:1:1: $: {missing_file_problem(path)}"], code="INPUT_NOT_FOUND") from None
+    except (
+        UnicodeDecodeError
+    ) as exc:  # (it reads: its text is not a config's, as a mesh's would be malformed)
         raise ConfigError([f"{shown}:1:1: $: cannot read the file ({exc})"]) from None
     marks: dict[tuple, tuple[int, int]] = {}
     plain: dict[tuple, str] = {}

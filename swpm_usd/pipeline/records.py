@@ -55,6 +55,7 @@ _RECORD: dict[str, tuple[Callable[[Any], bool], str]] = {
     "input_digest": (lambda v: isinstance(v, str), "a string"),
     "encoding": (lambda v: isinstance(v, str), "a string"),
     "error": (lambda v: isinstance(v, str), "a string"),
+    "code": (lambda v: isinstance(v, str), "a string"),
     "why": (lambda v: isinstance(v, str), "a string"),
     "triangles_in": (_count, "a whole number"),
     "triangles_read": (_count, "a whole number"),

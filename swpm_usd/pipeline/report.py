@@ -111,6 +111,13 @@ def config_shown(path: Path, config: object) -> str:
     return str(config) if named is None else named
 
 
+def _code(failure: dict) -> str:
+    """A failure's stable code (:mod:`swpm_usd.codes`) as the report shows it before its message; "" for a
+    record without one (written by an earlier version)."""
+    code = failure.get("code")
+    return f"<code>{html.escape(code)}</code>" if isinstance(code, str) else ""
+
+
 def write_report(path: Path, manifest: dict) -> None:
     assets = manifest.get("assets", {})
     rows, failures, plots, autos = [], [], [], []
@@ -121,12 +128,15 @@ def write_report(path: Path, manifest: dict) -> None:
     for aid, rec in sorted(assets.items()):
         e = html.escape
         if rec.get("status") != "built":
-            failures.append(f"<tr><td>{e(aid)}</td><td><pre>{e(rec.get('error', '?'))}</pre></td></tr>")
+            failures.append(
+                f"<tr><td>{e(aid)}</td><td>{_code(rec)}<pre>{e(rec.get('error', '?'))}</pre></td></tr>"
+            )
             continue
         if "last_failure" in rec:  # a failed rebuild: the previous build is kept, and listed below
             kept += 1
             failures.append(
-                f"<tr><td>{e(aid)}</td><td><pre>{e(rec['last_failure'].get('error', '?'))}</pre>"
+                f"<tr><td>{e(aid)}</td><td>{_code(rec['last_failure'])}"
+                f"<pre>{e(rec['last_failure'].get('error', '?'))}</pre>"
                 "rebuild failed; the previous build (below) is kept</td></tr>"
             )
         s = rec.get("summary", {})

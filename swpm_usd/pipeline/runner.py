@@ -49,6 +49,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .. import __version__
+from ..codes import PROBLEM_KEYS
 from ..errors import OutputLockedError
 from .assets import (
     LISTED_SUFFIXES,
@@ -952,10 +953,14 @@ def _make_out_dir(cfg: Config, out_dir: Path) -> None:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise ConfigError(
-            [f"{cfg.where(('output', 'dir'))}: cannot create {out_dir}: {exc.strerror or exc}"]
+            [f"{cfg.where(('output', 'dir'))}: cannot create {out_dir}: {exc.strerror or exc}"],
+            code="OUTPUT_UNWRITABLE",
         ) from None
     if not os.access(out_dir, os.W_OK | os.X_OK):
-        raise ConfigError([f"{cfg.where(('output', 'dir'))}: cannot write in {out_dir}: permission denied"])
+        raise ConfigError(
+            [f"{cfg.where(('output', 'dir'))}: cannot write in {out_dir}: permission denied"],
+            code="OUTPUT_UNWRITABLE",
+        )
 
 
 def _checked_output(path: Path, recorded: dict, verify: bool = False) -> dict | None:
@@ -1373,14 +1378,18 @@ class _Worker:
         self.conn.close()
 
 
-def _lost(w: _Worker, error: str) -> dict:
-    """The failure record of the asset worker ``w`` was building when it died or was stopped."""
+def _lost(w: _Worker, error: str, code: str = "WORKER_LOST") -> dict:
+    """The failure record of the asset worker ``w`` was building when it died or was stopped (``code``:
+    ``WORKER_LOST``, or ``TIME_LIMIT_EXCEEDED`` when the run stopped it)."""
+    from ..codes import fields_of
+
     task = w.task or {}
     return {
         "id": task.get("id"),
         "digest": task.get("digest"),
         "status": "failed",
         "error": error,
+        **fields_of(code),
         "seconds": time.monotonic() - w.started,
         "worker_lost": True,  # (the runner cleans up after it, then drops this key)
     }
@@ -1462,7 +1471,11 @@ def _local_pool(tasks: list[dict], jobs: int, ctx: Any, limit_s: float | None) -
                         w.process.join(timeout=30)
                         rec = _lost(w, f"the worker process building it {_death(w.process.exitcode)}")
                     elif time.monotonic() >= w.deadline:
-                        rec = _lost(w, f"stopped after {limit_s:g} s (limits.seconds): its build took longer")
+                        rec = _lost(
+                            w,
+                            f"stopped after {limit_s:g} s (limits.seconds): its build took longer",
+                            "TIME_LIMIT_EXCEEDED",
+                        )
                         w.stop()
                     if rec is None:
                         continue
@@ -2273,9 +2286,8 @@ def _keep_previous(out_dir: Path, previous: dict | None, failed: dict, verify: b
             if o is not None:
                 (out_dir / o["path"]).unlink(missing_ok=True)
         return None
-    failure = {
-        k: failed[k] for k in ("error", "traceback", "digest", "input_digest", "seconds") if k in failed
-    }
+    keys = ("error", *PROBLEM_KEYS, "traceback", "digest", "input_digest", "seconds")
+    failure = {k: failed[k] for k in keys if k in failed}
     kept = {k: v for k, v in previous.items() if k != "last_failure"}
     if outputs:
         kept["outputs"] = checked

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from ..codes import PROBLEM_KEYS, fields_of, problem_fields
 from ..fileio import atomic_write_bytes, keep_aside, stage_bytes  # noqa: F401 - (runner, report import it)
 
 AUTO_CANDIDATES = ("vanilla", "skip-strip", "mixed", "sliding-window")
@@ -548,6 +549,7 @@ def _check_unchanged_by_the_read(path: str, before: os.stat_result | None) -> No
 def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
     start = time.perf_counter()
     rec: dict[str, Any] = {"id": task["id"], "digest": task["digest"], "status": "failed"}
+    writing = False  # (an OSError once the outputs are written is theirs: OUTPUT_UNWRITABLE)
     try:
         from .. import build as build_pm
         from ..io import load_mesh, triangles_read
@@ -603,6 +605,7 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         rec["summary"] = summarize(pm, int(pm.params.get("cache_size", 16)))
         if problems:
             rec["error"] = "streaming/budget check failed: " + "; ".join(problems)
+            rec.update(fields_of("BUDGET_EXCEEDED"))
             return rec
         out_dir = Path(task["out_dir"])
         # every output is made (staged beside its target) before any replaces its old file, and they are
@@ -610,6 +613,7 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         # outputs as they were
         staged: dict[str, tuple[Path, Path]] = {}
         units = layer_units(task["path"]) if task["write_usd"] else None
+        writing = True
         try:
             if task["write_usd"]:
                 staged["usd"] = _stage_usd(pm, out_dir / f"{task['stem']}.usdc", task["path"], units)
@@ -623,6 +627,7 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
                 if not report.valid:
                     problems = "; ".join(f"{p.code}: {p.message}" for p in report.errors[:5])
                     rec["error"] = "encoded file failed validation: " + problems
+                    rec.update(fields_of("BUILD_FAILED"))
                     return rec
                 staged["swpm"] = (stage_bytes(target, data), target)
             outputs = _place_outputs({k: staged[k] for k in ("swpm", "usd") if k in staged})
@@ -638,6 +643,10 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         rec["status"] = "built"
     except Exception as exc:  # noqa: BLE001 - one asset's failure must not stop the others
         rec["error"] = f"{type(exc).__name__}: {exc}"
+        fields = (
+            fields_of("OUTPUT_UNWRITABLE") if writing and isinstance(exc, OSError) else problem_fields(exc)
+        )
+        rec.update({k: fields[k] for k in PROBLEM_KEYS if k in fields})
         rec["traceback"] = traceback.format_exc(limit=6)
     finally:
         rec["seconds"] = time.perf_counter() - start

@@ -54,7 +54,9 @@ def _weld(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _unbuildable(mesh: Mesh, problem: str) -> BuildError:
     where = mesh.source if mesh.source is not None else "<mesh>"
-    return BuildError(f"{where}: {problem} (Mesh.from_arrays and load_mesh check and clean a mesh)")
+    return BuildError(
+        f"{where}: {problem} (Mesh.from_arrays and load_mesh check and clean a mesh)", code="MESH_INVALID"
+    )
 
 
 def check_buildable(mesh: Mesh) -> None:

@@ -49,6 +49,8 @@ def dtype_problem(attribute: str, tokens: object, allowed: tuple[str, ...]) -> s
 class ArrayTypeError(SwpmError):
     """A buffer cannot be stored losslessly in its attribute type."""
 
+    code = "OUTPUT_UNSUPPORTED"
+
 
 def storage_for(name: str, dtype: np.dtype) -> tuple[Sdf.ValueTypeName, type, np.dtype]:
     """Sdf type, Vt class and storage dtype of attribute ``name`` holding ``dtype`` data."""

@@ -64,6 +64,8 @@ _STAGE_METADATA = (
 class UsdOverrideError(SwpmError):
     """A source stage or prim cannot be encoded in place."""
 
+    code = "OUTPUT_UNSUPPORTED"
+
 
 class _Primvar:
     def __init__(

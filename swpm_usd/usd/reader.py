@@ -25,6 +25,9 @@ _PROXIES = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
 class UsdReadError(SwpmError):
     """A prim does not hold a readable progressive mesh."""
 
+    code = "INPUT_MALFORMED"
+    format = "usd"
+
 
 def _snake(name: str) -> str:
     return "".join("_" + c.lower() if c.isupper() else c for c in name)

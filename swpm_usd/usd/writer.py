@@ -42,6 +42,8 @@ _UNIFORM = Sdf.VariabilityUniform
 class UsdWriteError(SwpmError):
     """The progressive mesh cannot be written to USD as asked."""
 
+    code = "OUTPUT_UNSUPPORTED"
+
 
 def _json_default(o: Any) -> Any:
     if isinstance(o, np.generic):
@@ -257,8 +259,11 @@ class LayerReloadError(UsdWriteError):
     could not be reloaded: that layer object keeps its previous content. ``path``: the file; ``reason``:
     usd-core's message ("" when it gave none)."""
 
+    code = "OUTPUT_UNWRITABLE"
+
     def __init__(self, path: str | os.PathLike[str], reason: str = "", message: str | None = None) -> None:
         self.path, self.reason = os.fspath(path), reason
+        self.file = self.path
         why = f": {reason}" if reason else ""
         super().__init__(
             message
