@@ -53,6 +53,7 @@ PINNED = [
     "USAGE_ERROR",
     "INTERRUPTED",
     "INTERNAL_ERROR",
+    "INPUT_CHANGED",
 ]
 
 
@@ -242,6 +243,20 @@ def produce(code: str, tmp: Path, monkeypatch) -> dict:
         record = json.loads((tmp / "out" / "manifest.json").read_text())["assets"]["m/a.obj"]
         assert record["code"] == code and "RuntimeError: a bug" in record["traceback"]
         return failure
+    if code == "INPUT_CHANGED":  # its exporter still writing it while the worker reads it
+        from swpm_usd import io
+
+        cfg = _project(tmp, "", {"a.obj": TWO_TRIANGLES})
+        real = io.load_mesh
+
+        def written_as_read(path, **kw):
+            mesh = real(path, **kw)
+            with open(path, "a") as f:
+                f.write("# more\n")
+            return mesh
+
+        monkeypatch.setattr(io, "load_mesh", written_as_read)
+        return _cli(["run", str(cfg), "--json"])["failures"][0]
     raise AssertionError(f"no input produces {code}")
 
 

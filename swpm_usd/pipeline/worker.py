@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..codes import PROBLEM_KEYS, fields_of, problem_fields
+from ..errors import SwpmError
 from ..fileio import atomic_write_bytes, keep_aside, stage_bytes  # noqa: F401 - (runner, report import it)
 
 AUTO_CANDIDATES = ("vanilla", "skip-strip", "mixed", "sliding-window")
@@ -515,10 +516,12 @@ def serve(conn: Any) -> None:
         conn.send(process_asset(task))
 
 
-class InputChangedError(RuntimeError):
+class InputChangedError(SwpmError, RuntimeError):
     """The input file changed while the worker read it (an exporter still writing it, a sync replacing it):
     the mesh read may be part of one version and part of another, so it is not built (the asset's previous
     build is kept), and the next run, finding the file's stat moved, hashes and builds it again."""
+
+    code = "INPUT_CHANGED"
 
 
 def _stat_of(path: str) -> os.stat_result | None:
