@@ -102,7 +102,7 @@ def main() -> None:
     """
 
 
-@main.command("build", cls=EncodingsHelpCommand)
+@main.command("build", cls=EncodingsHelpCommand, short_help="Build a mesh and print its LOD table.")
 @click.argument("input_path", metavar="INPUT", type=FilePath())
 @click.option(
     "--encoding", "-e", default="vanilla", show_default=True, help="Encoding to build (listed below)."

@@ -398,7 +398,7 @@ def _mesh_hint(file: str, problems: list) -> None:
         )
 
 
-@click.command("inspect", cls=JsonUsageCommand)
+@click.command("inspect", cls=JsonUsageCommand, short_help="Show an .swpm file's header, chunks and LODs.")
 @click.argument("file", type=FilePath())
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @click.option(
@@ -410,7 +410,7 @@ def _mesh_hint(file: str, problems: list) -> None:
 )
 def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
     """Show FILE's (an .swpm file's) header, chunks, counts, parameters and a per-LOD table, and the
-    problems ``validate`` finds. Exit 0 valid, 1 invalid or unreadable."""
+    problems validate finds. Exit 0 valid, 1 invalid or unreadable."""
     from .reader import _check, _map
 
     try:
@@ -452,10 +452,12 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
     if as_json:
         click.echo(json.dumps(out, indent=2, default=str))
     else:
-        click.echo(
-            f"{file}: {'valid' if rep.valid else 'INVALID'} SWPM {out.get('version', '?')} "
-            f"{out.get('encoding', '?')}, index u{8 * out['index_width'] if 'index_width' in out else '?'}"
-        )
+        # what the header told: none of it for a file that is no SWPM file (it printed "SWPM ? ?, index u?")
+        version = f"SWPM {out['version']}" if "version" in out else ""
+        kind = " ".join(x for x in (version, out.get("encoding")) if x)
+        if "index_width" in out:
+            kind += f", index u{8 * out['index_width']}"
+        click.echo(f"{file}: {'valid' if rep.valid else 'INVALID'}" + (f" {kind}" if kind else ""))
         for key in (
             "file_size",
             "lod_count",
@@ -531,7 +533,7 @@ _DEFAULT_VECTORS = "spec/vectors"
 _REPO_VECTORS = Path(__file__).resolve().parents[2] / "spec" / "vectors"
 
 
-@click.command("conformance", cls=JsonUsageCommand)
+@click.command("conformance", cls=JsonUsageCommand, short_help="Run the reader over the conformance vectors.")
 @click.argument("vector_dir", required=False, default=_DEFAULT_VECTORS, type=click.Path(file_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def conformance_cmd(vector_dir: str, as_json: bool) -> None:
@@ -541,6 +543,12 @@ def conformance_cmd(vector_dir: str, as_json: bool) -> None:
 
     if vector_dir == _DEFAULT_VECTORS and not Path(vector_dir).is_dir() and _REPO_VECTORS.is_dir():
         vector_dir = str(_REPO_VECTORS)  # run from elsewhere than the repository root
+    if vector_dir == _DEFAULT_VECTORS and not Path(vector_dir).is_dir():
+        # (an installed wheel has no spec/: "spec/vectors has no manifest.json" left a user looking for it)
+        raise click.UsageError(
+            f"no {_DEFAULT_VECTORS} here, and this install is no source checkout: run it from the "
+            "repository's root, or give VECTOR_DIR (python -m swpm_usd.format.vectors VECTOR_DIR writes them)"
+        )
     if not (Path(vector_dir) / "manifest.json").is_file():
         raise click.UsageError(f"{vector_dir} has no manifest.json")
     try:

@@ -1,0 +1,96 @@
+"""What a new user meets in a first hour with the README and the command line: a run that says what it is
+doing before numba's first compile, a screen-space LOD pick for every encoding, a command list that is not
+cut off, and ``inspect`` of a file that is no SWPM file saying so without placeholders."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from conftest import shared_mesh
+
+import swpm_usd
+from swpm_usd.cli import main
+from swpm_usd.pipeline import run
+
+
+@pytest.mark.parametrize("encoding", ["vanilla", "sliding-window"])
+def test_lod_for_screen_error_is_the_coarsest_lod_within_the_pixels(encoding):
+    pm = swpm_usd.build(shared_mesh("suzanne.obj"), encoding=encoding)
+    errs = pm.lod_errors.astype(np.float64)
+    distance, fov_y, height = 12.0, math.radians(60.0), 1080
+    pixels_per_unit = height / (2.0 * distance * math.tan(0.5 * fov_y))
+    # an error halfway between two distinct LOD errors: the LOD is the last one at or below it
+    i = int(np.searchsorted(errs, errs[-1] / 4))
+    j = int(np.searchsorted(errs, errs[i], side="right"))
+    target = 0.5 * (errs[i] + errs[j])
+    expected = int(np.searchsorted(errs, target, side="right")) - 1
+    k = pm.lod_for_screen_error(target * pixels_per_unit, distance, fov_y, height)
+    assert k == expected == pm.lod_for_error(target) and 0 < k < pm.lod_count - 1
+    # farther away, the same pixels allow a coarser LOD; a fraction of a pixel up close, no error
+    assert pm.lod_for_screen_error(target * pixels_per_unit, 10 * distance, fov_y, height) > k
+    assert pm.lod_for_screen_error(1e-9, distance, fov_y, height) == pm.lod_for_error(1e-9 / pixels_per_unit)
+    assert pm.lod_errors[pm.lod_for_screen_error(1e-9, distance, fov_y, height)] <= 1e-9
+    if encoding == "sliding-window":  # the window record the sliding window's own helper gives
+        rec = pm.record_for_screen_error(target * pixels_per_unit, distance, fov_y, height)
+        assert np.array_equal(rec, pm.window_records[k])
+
+
+def test_the_command_list_shows_each_command_whole():
+    """click cut each summary at 45 characters (``build  Build INPUT (.obj .ply .stl .off .glb .gltf
+    .usd*) and...``), and ``inspect --help`` showed the docstring's reST quotes."""
+    result = CliRunner().invoke(main, ["--help"])
+    assert result.exit_code == 0
+    commands = result.output.split("Commands:")[1].split("Encodings")[0]
+    assert "..." not in commands, commands
+    for name in ("build", "conformance", "encode", "inspect", "run", "validate"):
+        assert f"  {name} " in commands
+    result = CliRunner().invoke(main, ["inspect", "--help"])
+    assert result.exit_code == 0 and "``" not in result.output, result.output
+
+
+def test_inspect_of_a_file_that_is_no_swpm_file_shows_no_placeholders(tmp_path):
+    """It printed ``x.swpm: INVALID SWPM ? ?, index u?``: the header was never read."""
+    path = tmp_path / "x.swpm"
+    path.write_text("hello\n")
+    result = CliRunner().invoke(main, ["inspect", str(path)])
+    assert result.exit_code == 1
+    first, *rest = result.stdout.splitlines()
+    assert first == f"{path}: INVALID" and "?" not in result.stdout, result.stdout
+    assert any("SWPM_HEADER_TRUNCATED" in line for line in rest)
+
+
+def test_a_run_says_it_is_building_before_its_first_asset(tmp_path, capsys):
+    """A first run on a new machine printed nothing for minutes (numba compiling in the fork server) before
+    its first progress line: users took it for a hang."""
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "meshes" / "a.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text('version: 1\nassets: [{glob: "meshes/*.obj"}]\noutput: {dir: out, report: false}\n')
+    capsys.readouterr()
+    res = run(cfg, echo=lambda m: None)
+    assert res.built == 1
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[0].startswith("[0/1] building 1 asset; on a new machine numba compiles"), lines
+    assert any(line.startswith("[1/1] meshes/a.obj: built") for line in lines), lines
+    # nothing to build: no such line
+    run(cfg, echo=lambda m: None)
+    assert "building" not in capsys.readouterr().err
+
+
+def test_conformance_without_vectors_says_where_they_are(tmp_path, monkeypatch):
+    """Installed from a wheel, run outside the repository: it said ``spec/vectors has no manifest.json``."""
+    import swpm_usd.format.cli as format_cli
+
+    monkeypatch.setattr(format_cli, "_REPO_VECTORS", tmp_path / "none")
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(main, ["conformance"])
+    assert result.exit_code == 2 and "no spec/vectors here" in result.stderr, result.output
+    assert "python -m swpm_usd.format.vectors VECTOR_DIR" in result.stderr
+    # the command it names writes vectors the command then passes
+    from swpm_usd.format.vectors import write_all
+
+    write_all(str(tmp_path / "v"))
+    assert CliRunner().invoke(main, ["conformance", str(tmp_path / "v")]).exit_code == 0
