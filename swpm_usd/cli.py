@@ -21,6 +21,7 @@ from .format.cli import (
     EncodingsHelpGroup,
     FilePath,
     JsonUsageCommand,
+    ctrl_c_through_compiled_code,
     json_on_interrupt,
     max_triangles_option,
     mesh_input,
@@ -144,7 +145,8 @@ def build_cmd(
     json_on_interrupt(as_json, input=input_path)
     start = time.perf_counter()
     try:
-        pm = build(mesh_input(input_path, max_triangles), encoding, **parsed)
+        with ctrl_c_through_compiled_code():
+            pm = build(mesh_input(input_path, max_triangles), encoding, **parsed)
     except SwpmError as exc:
         click.echo(f"error: {exc}", err=True)
         if as_json:

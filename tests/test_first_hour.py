@@ -94,3 +94,34 @@ def test_conformance_without_vectors_says_where_they_are(tmp_path, monkeypatch):
 
     write_all(str(tmp_path / "v"))
     assert CliRunner().invoke(main, ["conformance", str(tmp_path / "v")]).exit_code == 0
+
+
+@pytest.mark.parametrize("command", ["build", "encode"])
+def test_ctrl_c_in_a_compiled_kernel_exits_130_with_one_line(tmp_path, monkeypatch, command):
+    """Ctrl-C while a build ran in a numba kernel printed numba's ``SystemError: CPUDispatcher(<function
+    absorb_middle ...>) returned a result with an exception set`` traceback and exited 1 (found with
+    ``swpm-pipeline build nefertiti.obj -e sliding-window`` and Ctrl-C after 12 s)."""
+    import signal
+    import sys
+
+    build_module = sys.modules["swpm_usd.build"]  # (swpm_usd.build is also the function)
+
+    def interrupted_in_a_kernel(*args, **kwargs):
+        try:
+            signal.raise_signal(signal.SIGINT)  # the handler raises KeyboardInterrupt, as in compiled code
+        except KeyboardInterrupt:
+            pass  # which numba's dispatcher turns into this:
+        raise SystemError("CPUDispatcher(<function absorb_middle>) returned a result with an exception set")
+
+    monkeypatch.setattr(build_module, "build", interrupted_in_a_kernel)
+    obj = tmp_path / "a.obj"
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
+    args = [command, str(obj)] + (["-o", str(tmp_path / "a.swpm")] if command == "encode" else [])
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 130 and result.stderr == "swpm-pipeline: interrupted\n", result.output
+    assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN  # (the exiting process ignores another)
+    # a SystemError of its own, with no Ctrl-C, is no interruption
+    monkeypatch.setattr(build_module, "build", lambda *a, **k: (_ for _ in ()).throw(SystemError("own")))
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1 and isinstance(result.exception, SystemError)

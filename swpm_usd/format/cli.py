@@ -6,11 +6,13 @@ They are plain :class:`click.Command` objects; ``swpm_usd/cli.py`` adds them to 
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import sys
 import textwrap
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import click
@@ -286,6 +288,38 @@ max_triangles_option = click.option(
 )
 
 
+@contextlib.contextmanager
+def ctrl_c_through_compiled_code() -> Iterator[None]:
+    """Ctrl-C in the block raises KeyboardInterrupt, also where compiled code turned it into another error
+    (numba: ``SystemError: CPUDispatcher(...) returned a result with an exception set``, a traceback and exit
+    1 from a build stopped in a kernel). Only where Ctrl-C raises KeyboardInterrupt (Python's own handler,
+    the main thread): a caller's own handler is kept."""
+    import signal
+    import threading
+
+    if (
+        threading.current_thread() is not threading.main_thread()
+        or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
+    ):
+        yield
+        return
+    noted: list[int] = []
+
+    def note(signum: int, frame: object) -> None:
+        noted.append(signum)
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGINT, note)
+    try:
+        yield
+    except Exception as exc:
+        if noted:
+            raise KeyboardInterrupt from exc
+        raise
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
 def mesh_input(input_path: str, max_triangles: int | None) -> object:
     """What a command builds from ``input_path``: the path itself (loaded by ``build``), or the mesh loaded
     under the budget ``max_triangles``."""
@@ -352,7 +386,8 @@ def encode_cmd(
         problem = _output_folder_problem(Path(output))
         if problem:  # (before the build: exit 1, as the write that would fail after it)
             raise OSError(problem)
-        pm = build(mesh_input(input_path, max_triangles), encoding, **parsed)
+        with ctrl_c_through_compiled_code():
+            pm = build(mesh_input(input_path, max_triangles), encoding, **parsed)
         seconds = time.perf_counter() - start
         digest = None
         if Path(input_path).is_file():
