@@ -487,12 +487,10 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
     if as_json:
         click.echo(json.dumps(out, indent=2, default=str))
     else:
-        # what the header told: none of it for a file that is no SWPM file (it printed "SWPM ? ?, index u?")
-        version = f"SWPM {out['version']}" if "version" in out else ""
-        kind = " ".join(x for x in (version, out.get("encoding")) if x)
-        if "index_width" in out:
-            kind += f", index u{8 * out['index_width']}"
-        click.echo(f"{file}: {'valid' if rep.valid else 'INVALID'}" + (f" {kind}" if kind else ""))
+        click.echo(
+            f"{file}: {'valid' if rep.valid else 'INVALID'} SWPM {out.get('version', '?')} "
+            f"{out.get('encoding', '?')}, index u{8 * out['index_width'] if 'index_width' in out else '?'}"
+        )
         for key in (
             "file_size",
             "lod_count",
