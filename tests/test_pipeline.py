@@ -811,7 +811,10 @@ def test_ctrl_c_while_the_workers_warm_up_stops_the_run_at_once(tmp_path):
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
     assert proc.returncode == 130, stderr
-    assert [line for line in stderr.splitlines() if not line.startswith("[")] == [  # progress lines aside
+    lines = stderr.splitlines()
+    # the run's start line, and no asset done (the warm-up never ends): only the interruption after it
+    assert lines[:1] and lines[0].startswith("[0/2] building 2 assets"), stderr
+    assert lines[1:] == [
         "swpm-pipeline run: interrupted; the assets finished are recorded in the manifest, and a rerun "
         "builds the rest"
     ], stderr
