@@ -86,13 +86,17 @@ def test_conformance_without_vectors_says_where_they_are(tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize("command", ["build", "encode"])
-def test_ctrl_c_in_a_compiled_kernel_exits_130_with_one_line(tmp_path, monkeypatch, command):
+def test_ctrl_c_in_a_compiled_kernel_exits_130_with_one_line(tmp_path, monkeypatch, request, command):
     """Ctrl-C while a build ran in a numba kernel printed numba's ``SystemError: CPUDispatcher(<function
     absorb_middle ...>) returned a result with an exception set`` traceback and exited 1 (found with
     ``swpm-pipeline build nefertiti.obj -e sliding-window`` and Ctrl-C after 12 s)."""
     import signal
     import sys
 
+    original = signal.getsignal(
+        signal.SIGINT
+    )  # (the CLI leaves SIGINT ignored as it exits: pytest's back after)
+    request.addfinalizer(lambda: signal.signal(signal.SIGINT, original))
     build_module = sys.modules["swpm_usd.build"]  # (swpm_usd.build is also the function)
 
     def interrupted_in_a_kernel(*args, **kwargs):
