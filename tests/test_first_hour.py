@@ -93,9 +93,8 @@ def test_ctrl_c_in_a_compiled_kernel_exits_130_with_one_line(tmp_path, monkeypat
     import signal
     import sys
 
-    original = signal.getsignal(
-        signal.SIGINT
-    )  # (the CLI leaves SIGINT ignored as it exits: pytest's back after)
+    # (the CLI leaves SIGINT ignored as it exits: pytest's own handler is back after, whatever the outcome)
+    original = signal.getsignal(signal.SIGINT)
     request.addfinalizer(lambda: signal.signal(signal.SIGINT, original))
     build_module = sys.modules["swpm_usd.build"]  # (swpm_usd.build is also the function)
 
