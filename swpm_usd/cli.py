@@ -21,6 +21,7 @@ from .format.cli import (
     EncodingsHelpGroup,
     FilePath,
     JsonUsageCommand,
+    ctrl_c_through_compiled_code,
     json_on_interrupt,
     max_triangles_option,
     mesh_input,
@@ -106,7 +107,7 @@ def main() -> None:
     """
 
 
-@main.command("build", cls=EncodingsHelpCommand)
+@main.command("build", cls=EncodingsHelpCommand, short_help="Build a mesh and print its LOD table.")
 @click.argument("input_path", metavar="INPUT", type=FilePath())
 @click.option(
     "--encoding", "-e", default="vanilla", show_default=True, help="Encoding to build (listed below)."
@@ -148,7 +149,8 @@ def build_cmd(
     json_on_interrupt(as_json, input=input_path)
     start = time.perf_counter()
     try:
-        pm = build(mesh_input(input_path, max_triangles), encoding, **parsed)
+        with ctrl_c_through_compiled_code():
+            pm = build(mesh_input(input_path, max_triangles), encoding, **parsed)
     except SwpmError as exc:
         from .codes import problem_fields
 

@@ -112,6 +112,17 @@ class ProgressiveMesh(ABC):
         """The coarsest LOD whose error does not exceed ``max_error`` (LOD 0 if none is that good)."""
         return lod_at_error(self.lod_errors, max_error)
 
+    def lod_for_screen_error(
+        self, max_pixels: float, distance: float, fov_y: float, viewport_height: int
+    ) -> int:
+        """The coarsest LOD whose error projects to at most ``max_pixels`` on screen for an object at
+        ``distance`` (mesh units) seen with vertical field of view ``fov_y`` (radians) on a viewport
+        ``viewport_height`` pixels high: what an engine asks each frame (the sliding window's
+        ``record_for_screen_error`` gives the same LOD's window record)."""
+        # pixels per mesh unit at that distance (perspective): 1 / it is the error one pixel covers
+        pixels_per_unit = float(viewport_height) / (2.0 * float(distance) * np.tan(0.5 * float(fov_y)))
+        return self.lod_for_error(float(max_pixels) / pixels_per_unit)
+
     # -- drawing ---------------------------------------------------------------------------------------
     @abstractmethod
     def triangles_at(self, k: int) -> np.ndarray:

@@ -6,11 +6,13 @@ They are plain :class:`click.Command` objects; ``swpm_usd/cli.py`` adds them to 
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import sys
 import textwrap
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import click
@@ -289,6 +291,38 @@ max_triangles_option = click.option(
 )
 
 
+@contextlib.contextmanager
+def ctrl_c_through_compiled_code() -> Iterator[None]:
+    """Ctrl-C in the block raises KeyboardInterrupt, also where compiled code turned it into another error
+    (numba: ``SystemError: CPUDispatcher(...) returned a result with an exception set``, a traceback and exit
+    1 from a build stopped in a kernel). Only where Ctrl-C raises KeyboardInterrupt (Python's own handler,
+    the main thread): a caller's own handler is kept."""
+    import signal
+    import threading
+
+    if (
+        threading.current_thread() is not threading.main_thread()
+        or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
+    ):
+        yield
+        return
+    noted: list[int] = []
+
+    def note(signum: int, frame: object) -> None:
+        noted.append(signum)
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGINT, note)
+    try:
+        yield
+    except Exception as exc:
+        if noted:
+            raise KeyboardInterrupt from exc
+        raise
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
 def mesh_input(input_path: str, max_triangles: int | None) -> object:
     """What a command builds from ``input_path``: the path itself (loaded by ``build``), or the mesh loaded
     under the budget ``max_triangles``."""
@@ -355,7 +389,8 @@ def encode_cmd(
         problem = _output_folder_problem(Path(output))
         if problem:  # (before the build: exit 1, as the write that would fail after it)
             raise OSError(problem)
-        pm = build(mesh_input(input_path, max_triangles), encoding, **parsed)
+        with ctrl_c_through_compiled_code():
+            pm = build(mesh_input(input_path, max_triangles), encoding, **parsed)
         seconds = time.perf_counter() - start
         digest = None
         if Path(input_path).is_file():
@@ -407,7 +442,7 @@ def _mesh_hint(file: str, problems: list) -> None:
         )
 
 
-@click.command("inspect", cls=JsonUsageCommand)
+@click.command("inspect", cls=JsonUsageCommand, short_help="Show an .swpm file's header, chunks and LODs.")
 @click.argument("file", type=FilePath())
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @click.option(
@@ -419,7 +454,7 @@ def _mesh_hint(file: str, problems: list) -> None:
 )
 def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
     """Show FILE's (an .swpm file's) header, chunks, counts, parameters and a per-LOD table, and the
-    problems ``validate`` finds. Exit 0 valid, 1 invalid or unreadable."""
+    problems validate finds. Exit 0 valid, 1 invalid or unreadable."""
     from .reader import _check, _map
 
     try:
@@ -540,7 +575,7 @@ _DEFAULT_VECTORS = "spec/vectors"
 _REPO_VECTORS = Path(__file__).resolve().parents[2] / "spec" / "vectors"
 
 
-@click.command("conformance", cls=JsonUsageCommand)
+@click.command("conformance", cls=JsonUsageCommand, short_help="Run the reader over the conformance vectors.")
 @click.argument("vector_dir", required=False, default=_DEFAULT_VECTORS, type=click.Path(file_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def conformance_cmd(vector_dir: str, as_json: bool) -> None:
@@ -550,6 +585,12 @@ def conformance_cmd(vector_dir: str, as_json: bool) -> None:
 
     if vector_dir == _DEFAULT_VECTORS and not Path(vector_dir).is_dir() and _REPO_VECTORS.is_dir():
         vector_dir = str(_REPO_VECTORS)  # run from elsewhere than the repository root
+    if vector_dir == _DEFAULT_VECTORS and not Path(vector_dir).is_dir():
+        # (an installed wheel has no spec/: "spec/vectors has no manifest.json" left a user looking for it)
+        raise click.UsageError(
+            f"no {_DEFAULT_VECTORS} here, and this install is no source checkout: run it from the "
+            "repository's root, or give VECTOR_DIR (python -m swpm_usd.format.vectors VECTOR_DIR writes them)"
+        )
     if not (Path(vector_dir) / "manifest.json").is_file():
         raise click.UsageError(f"{vector_dir} has no manifest.json")
     try:

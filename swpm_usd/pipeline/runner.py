@@ -1551,6 +1551,13 @@ class _Progress:
         self.total = total
         self.done = 0
         self.bar = None
+        if total:  # (a first run printed nothing for minutes while numba compiled: users took it for a hang)
+            print(
+                f"[0/{total}] building {total} asset{'s' * (total != 1)}; on a new machine numba compiles "
+                "its kernels first (a minute or more, once)",
+                file=sys.stderr,
+                flush=True,
+            )
         if sys.stderr.isatty() and total:
             from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
