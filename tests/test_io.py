@@ -1170,6 +1170,19 @@ def test_files_our_checks_refuse_do_not_import_trimesh(tmp_path: Path) -> None:
     assert lines[-1] == "False", lines
 
 
+def test_a_failed_trimesh_import_is_not_blamed_on_the_file(tmp_path: Path, monkeypatch) -> None:
+    """With trimesh imported lazily inside load_trimesh's ``try``, a broken installation (trimesh or scipy
+    missing) said "<file>: trimesh could not read it (ModuleNotFoundError ...)" for every file: the import
+    error is raised as it was when trimesh was imported first."""
+    import sys
+
+    path = tmp_path / "tri.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    monkeypatch.setitem(sys.modules, "trimesh", None)  # (import trimesh: ModuleNotFoundError)
+    with pytest.raises(ModuleNotFoundError, match="trimesh"):
+        load_mesh(path)
+
+
 def test_truncated_binary_ply_rows_are_counted_at_once(tmp_path: Path, monkeypatch) -> None:
     """A cut binary PLY's list rows were walked one by one in Python up to 2,000,000 (3 s of a 2,500,000-face
     file, then no count: "trimesh could not read it"); rows whose lists have the first row's length are

@@ -1269,11 +1269,18 @@ def _obj_faces_in_numpy() -> Iterator[None]:
 _OBJ_FACE_LINE = re.compile(rb"(?m)^f [ \t]*[^\s#]+(?:[ \t]+[^\s#]+){2}")
 
 
+class _TrimeshImportFailed(Exception):
+    """trimesh's own import failed inside :func:`load_trimesh`'s ``try``: the installation's fault, not the
+    file's, so it is raised as the import error it was (as when trimesh was imported before the ``try``)."""
+
+
 def _trimesh() -> Any:
     """trimesh, imported when a file is first handed to it: its import (scipy's) takes 2-3 s, which a file
     our own checks refuse first (a cut PLY or STL, a .glb's chunk, a budget) does not wait for."""
-    import trimesh
-
+    try:
+        import trimesh
+    except ImportError as e:
+        raise _TrimeshImportFailed from e
     return trimesh
 
 
@@ -1361,6 +1368,8 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
                 parts.append(transform_part(part, matrix))
     except MeshLoadError:
         raise
+    except _TrimeshImportFailed as e:
+        raise e.__cause__ from None  # (not "trimesh could not read it": no file was handed to it)
     except ModuleNotFoundError as e:
         if e.name == "charset_normalizer":  # trimesh's last resort for bytes that are not UTF-8
             raise MeshLoadError(path, f"not a valid {file_type.upper()} file (binary garbage?)") from e
