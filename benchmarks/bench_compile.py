@@ -7,6 +7,12 @@ builds MESH (default: cow) with every encoding in turn: sliding-window (the topo
 builder, vanilla, skip-strip, mixed. A step's cold time includes the compile of the kernels no earlier
 step compiled; the warm time is the same build again in the same process. ``--alone`` gives every encoding
 a fresh process and cache of its own (its whole compile). Prints the medians and writes JSON.
+
+Each cold process also lists the kernels numba compiled for more than one signature (``.signatures``:
+int32 against int64 scalars, a literal ``0`` or ``True``, an argument omitted or passed, C against A
+layout): every extra one is a whole compile on a fresh machine. ``--check`` exits 1 when one of
+``ONE_SIGNATURE`` has more than one (a cold cache is what types a caller's callees: a warm one loads the
+caller whole, so this is a benchmark, not a unit test).
 No target: what a user waits for on first use, and a yardstick for changes to the kernels.
 """
 
@@ -23,6 +29,19 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 DEFAULT = HERE.parent.parent / "shared" / "meshes" / "cow.obj"
+#: kernels whose callers agree on one signature (on 0.7.3, two to five each in a cold run of the tests)
+ONE_SIGNATURE = (
+    "swpm_usd.metrics._nearest2",
+    "swpm_usd.simplify.kernels.best_collapse",
+    "swpm_usd.simplify.kernels.best_collapse_sized",
+    "swpm_usd.simplify.kernels._neighbours_rows_sorted",
+    "swpm_usd.simplify.kernels.run_sequence",
+    "swpm_usd.vcache._tree_set",
+    "swpm_usd.encode.sw_forsyth._refresh",
+    "swpm_usd.encode.sw_kernels._cheapest_prefix",
+    "swpm_usd.encode.sw_refine.refine_patch_order",
+    "swpm_usd.encode.sw_deviation.deviation_rows",
+)
 STEPS = {
     "sliding-window": ("sliding-window", {}),
     "sliding-window forsyth": ("sliding-window", {"builder": "forsyth"}),
@@ -32,7 +51,7 @@ STEPS = {
 }
 
 CHILD = """
-import json, sys, time
+import json, resource, sys, time
 steps = json.loads(sys.argv[2])
 t = time.perf_counter()
 import swpm_usd
@@ -44,6 +63,15 @@ for name, (encoding, params) in steps.items():
     t1 = time.perf_counter()
     swpm_usd.build(mesh, encoding=encoding, **params)
     out[name] = {"cold_s": t1 - t, "warm_s": time.perf_counter() - t1}
+ru = resource.getrusage(resource.RUSAGE_SELF)
+out["cpu_s"] = ru.ru_utime + ru.ru_stime  # (the whole process: steadier than wall time on a loaded machine)
+from numba.core.registry import CPUDispatcher
+sigs = {}
+for mod in list(sys.modules.values()):
+    for obj in list(vars(mod).values()) if getattr(mod, "__name__", "").startswith("swpm_usd") else ():
+        if isinstance(obj, CPUDispatcher) and len(obj.signatures) > 1:
+            sigs[f"{obj.py_func.__module__}.{obj.py_func.__name__}"] = [str(s) for s in obj.signatures]
+out["signatures"] = sigs
 print(json.dumps(out))
 """
 
@@ -67,18 +95,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=3, help="fresh processes per measurement (default 3)")
     ap.add_argument("--alone", action="store_true", help="every encoding in a fresh process of its own")
     ap.add_argument("--out", default=str(HERE / "results" / "compile.json"))
+    ap.add_argument("--check", action="store_true", help="exit 1 if a kernel of ONE_SIGNATURE has several")
     args = ap.parse_args(argv)
     if args.repeats < 1:
         ap.error("--repeats must be at least 1")
     runs: dict[str, list[dict]] = {name: [] for name in STEPS}
+    cpu: list[float] = []
+    several: dict[str, list[str]] = {}
     for _ in range(args.repeats):
-        if args.alone:
-            for name, step in STEPS.items():
-                runs[name].append(_run(args.mesh, {name: step})[name])
-        else:
-            out = _run(args.mesh, STEPS)
+        outs = [_run(args.mesh, {name: step}) for name, step in STEPS.items()] if args.alone else []
+        outs = outs or [_run(args.mesh, STEPS)]
+        for out in outs:
             for name in STEPS:
-                runs[name].append(out[name])
+                if name in out:
+                    runs[name].append(out[name])
+            several.update(out["signatures"])
+        cpu.append(sum(out["cpu_s"] for out in outs))
     rows = []
     print(f"{'step':24s} {'cold s (median)':>16s} {'warm s':>8s}  cold runs")
     for name, rs in runs.items():
@@ -94,6 +126,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{name:24s} {row['cold_s']:16.1f} {row['warm_s']:8.3f}  {' '.join(f'{c:.1f}' for c in cold)}")
     total = sum(r["cold_s"] for r in rows)
     print(f"{'total':24s} {total:16.1f}")
+    print(f"process CPU s (median): {statistics.median(cpu):.1f}  runs {' '.join(f'{c:.1f}' for c in cpu)}")
+    for name, sigs in sorted(several.items()):
+        print(f"{len(sigs)} signatures: {name}")
+        for sig in sigs:
+            print(f"    {sig}")
     out_path = Path(args.out)
     out_path.parent.mkdir(parents=True, exist_ok=True)
     doc = {
@@ -102,9 +139,15 @@ def main(argv: list[str] | None = None) -> int:
         "repeats": args.repeats,
         "rows": rows,
         "total_cold_s": total,
+        "cpu_s": cpu,
+        "several_signatures": several,
     }
     out_path.write_text(json.dumps(doc, indent=2))
     print(f"wrote {out_path}")
+    bad = sorted(set(several) & set(ONE_SIGNATURE))
+    if args.check and bad:
+        print(f"FAIL: several signatures: {' '.join(bad)}")
+        return 1
     return 0
 
 

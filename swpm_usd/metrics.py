@@ -604,6 +604,7 @@ def _query_bvh(
             stack,
             1 << 62,
             stack_d,
+            np.bool_(False),  # (not omitted, nor a literal: the other callers' one compile of _nearest2)
         )
         out[i] = np.sqrt(best)
     return out

@@ -422,8 +422,9 @@ def _order_blocks(
                         for k2 in range(3):
                             if not _is_repeat(tris, lo + moved, k2) and loc[tris[lo + moved, k2]] == lv:
                                 cslot[3 * moved + k2] = q
-                        _tree_set(tree, tsc, adj, off[lv], d, q - off[lv], True)
-                    _tree_set(tree, tsc, adj, off[lv], d, last - off[lv], False)
+                        # (np.bool_, not a literal True / False: one compile of _tree_set, not two)
+                        _tree_set(tree, tsc, adj, off[lv], d, q - off[lv], np.bool_(True))
+                    _tree_set(tree, tsc, adj, off[lv], d, last - off[lv], np.bool_(False))
                 else:
                     last = off[lv] + live[lv] - 1
                     for q in range(off[lv], last + 1):
@@ -477,7 +478,7 @@ def _order_blocks(
                                             off[hl],
                                             off[hl + 1] - off[hl],
                                             cslot[3 * ht + k] - off[hl],
-                                            True,
+                                            np.bool_(True),
                                         )
             best = -1
             best_score = -1.0

@@ -1145,6 +1145,44 @@ def test_truncated_ply_says_so(tmp_path: Path, case: str) -> None:
     assert e.value.path == str(path)
 
 
+def test_files_our_checks_refuse_do_not_import_trimesh(tmp_path: Path) -> None:
+    """trimesh's import (scipy's, 2-3 s) waited in every pipeline worker for a cut PLY or STL that our own
+    checks refuse before trimesh reads anything: a fresh process refusing them leaves it unimported."""
+    import subprocess
+    import sys
+
+    ply = tmp_path / "cut.ply"
+    ply.write_bytes(_ply_cases()["ascii, vertices cut"][0])
+    stl = tmp_path / "cut.stl"
+    stl.write_bytes(b"\0" * 80 + (5).to_bytes(4, "little") + b"\0" * 60)  # (5 triangles declared, 1.2 held)
+    code = (
+        "import sys\nfrom swpm_usd.errors import MeshLoadError\nfrom swpm_usd.io import load_mesh\n"
+        "for p in sys.argv[1:]:\n"
+        "    try:\n        load_mesh(p)\n    except MeshLoadError as e:\n        print(e)\n"
+        "print('trimesh' in sys.modules)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(ply), str(stl)], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert "truncated ASCII PLY" in lines[0] and "cut.stl" in lines[1], lines
+    assert lines[-1] == "False", lines
+
+
+def test_a_failed_trimesh_import_is_not_blamed_on_the_file(tmp_path: Path, monkeypatch) -> None:
+    """With trimesh imported lazily inside load_trimesh's ``try``, a broken installation (trimesh or scipy
+    missing) said "<file>: trimesh could not read it (ModuleNotFoundError ...)" for every file: the import
+    error is raised as it was when trimesh was imported first."""
+    import sys
+
+    path = tmp_path / "tri.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    monkeypatch.setitem(sys.modules, "trimesh", None)  # (import trimesh: ModuleNotFoundError)
+    with pytest.raises(ModuleNotFoundError, match="trimesh"):
+        load_mesh(path)
+
+
 def test_truncated_binary_ply_rows_are_counted_at_once(tmp_path: Path, monkeypatch) -> None:
     """A cut binary PLY's list rows were walked one by one in Python up to 2,000,000 (3 s of a 2,500,000-face
     file, then no count: "trimesh could not read it"); rows whose lists have the first row's length are

@@ -1183,6 +1183,7 @@ def _run_held_in(tmp_path: Path, cfg: Path, hook: str, setup: str = ""):
         if first.poll() is None:
             first.kill()
             first.wait()
+        first.stderr.close()  # (read only when an assertion fails: left open, a ResourceWarning later)
 
 
 def test_a_second_concurrent_run_fails_fast(tmp_path):

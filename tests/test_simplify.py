@@ -499,7 +499,7 @@ def test_hub_edge_counts_follow_the_mesh(name):
     runs, states = [], []
     for counted in (True, False):
         st = make_state(mesh, topo, count_hub_edges=counted)
-        runs.append(kernels.run_sequence(st, 3))
+        runs.append(kernels.run_sequence(st, 3, False))
         states.append(st)
     assert runs[0][3].shape[0] > 100  # it collapsed a good part of the mesh
     for a, b in zip(*runs, strict=True):
@@ -537,7 +537,7 @@ def test_a_collapse_onto_a_hub_is_tested_from_the_binned_ring(name):
     for steps in (0, None):
         st = make_state(mesh, topo)
         if steps is None:  # half the sequence applied
-            seq = kernels.run_sequence(make_state(mesh, topo), 3)
+            seq = kernels.run_sequence(make_state(mesh, topo), 3, False)
             # (Python ints, as the package passes int64s: numpy int32 scalars compiled each kernel again)
             half = len(seq[4]) // 2
             for b, k in zip(seq[4][:half].tolist(), seq[5][:half].tolist(), strict=True):

@@ -63,9 +63,10 @@ def deviation_costs(
     threads."""
     out = np.empty_like(costs)
     hint_at = np.empty(positions.shape[0], np.int64)
+    # (np.int64, not a literal 0: deviation_rows and _nearest2 compiled once more for it)
     deviation_rows(
         pts, positions, ks, costs, star_start, star_tp, floor2, samples, budget, tv, node_min, node_max,
-        node_a, node_b, 0, positions.shape[0], 0, out, hint_at,
+        node_a, node_b, np.int64(0), positions.shape[0], np.int64(0), out, hint_at,
     )  # fmt: skip
     return out
 
@@ -121,9 +122,11 @@ def deviation_rows(
                 continue
             for s in range(samples.shape[0]):
                 px, py, pz = sample_point(pts, c0, c1, c2, samples[s])
+                # (upper passed as a non-literal, as every caller passes it: one compile of _nearest2)
                 d, hint = _nearest2(
-                    px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d
-                )
+                    px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d,
+                    np.bool_(False),
+                )  # fmt: skip
                 if d > m:
                     m = d
                     dev = d

@@ -151,8 +151,9 @@ def forsyth_run(
     for _ in range(3):
         progress = 0
         for p in range(P):
+            # (validate as np.bool_ at every call: a literal True / False compiled _refresh twice)
             keys, ids, stamps, size = _refresh(
-                st, p, keys, ids, stamps, size, stamp, target, True, wait, grown
+                st, p, keys, ids, stamps, size, stamp, target, np.bool_(True), wait, grown
             )
         while size > 0 or dsize > 0:
             # the best valid collapse: the deferred heap's top (it touches the level) or the main heap's
@@ -167,7 +168,7 @@ def forsyth_run(
                     continue
                 if _stale(b, target, grown):
                     keys, ids, stamps, size = _refresh(
-                        st, b, keys, ids, stamps, size, stamp, target, False, wait, grown
+                        st, b, keys, ids, stamps, size, stamp, target, np.bool_(False), wait, grown
                     )
                     continue
                 from_deferred = False
@@ -176,7 +177,7 @@ def forsyth_run(
             k = target[b]
             if not _valid_target(st, b, k):
                 keys, ids, stamps, size = _refresh(
-                    st, b, keys, ids, stamps, size, stamp, target, True, wait, grown
+                    st, b, keys, ids, stamps, size, stamp, target, np.bool_(True), wait, grown
                 )
                 continue
             cost = K.collapse_cost(st, b, k)
@@ -196,7 +197,7 @@ def forsyth_run(
                         continue
                     if _stale(b2, target, grown):
                         keys, ids, stamps, size = _refresh(
-                            st, b2, keys, ids, stamps, size, stamp, target, False, wait, grown
+                            st, b2, keys, ids, stamps, size, stamp, target, np.bool_(False), wait, grown
                         )
                         continue
                     if np.sqrt(c2) > limit:
@@ -204,7 +205,7 @@ def forsyth_run(
                         break
                     if not _valid_target(st, b2, target[b2]):
                         keys, ids, stamps, size = _refresh(
-                            st, b2, keys, ids, stamps, size, stamp, target, True, wait, grown
+                            st, b2, keys, ids, stamps, size, stamp, target, np.bool_(True), wait, grown
                         )
                         continue
                     if not _touches_level(st, b2, tri_level, level):
@@ -292,7 +293,7 @@ def forsyth_run(
                 if q == k:
                     wait[k] = 0  # its star grew by b's: checked now, as run_sequence checks it
                 keys, ids, stamps, size = _refresh(
-                    st, q, keys, ids, stamps, size, stamp, target, False, wait, grown
+                    st, q, keys, ids, stamps, size, stamp, target, np.bool_(False), wait, grown
                 )
         if progress == 0:
             break

@@ -368,7 +368,7 @@ def cluster_patches(
     lo, hi, order = _tail_intervals(st, cands, tpos, rank)
     inner = np.empty(n, np.int64)
     pick_hi = np.empty(n, np.int64)
-    m = 0
+    m = np.int64(0)  # (not a literal 0: it reached _cheapest_prefix as one, a second compile)
     last = np.int64(-1)
     for r in range(n):
         i = order[r]
@@ -415,7 +415,7 @@ def cluster_components(
     inner = np.empty(n, np.int64)
     start = np.zeros(n + 1, np.int64)
     pick_hi = np.empty(n, np.int64)
-    m = 0
+    m = np.int64(0)
     q = 0
     last = np.int64(-1)
     for r in range(n):

@@ -160,6 +160,7 @@ def refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, 
         reach,
         _REFINE_RUN,
         passes,
+        True,  # (skip_tried_swaps passed, not omitted: the omitted and the passed flag compile twice)
     )
     if np.array_equal(perm, np.arange(n)):
         return collapsed, tris

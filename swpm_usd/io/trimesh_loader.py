@@ -1273,11 +1273,24 @@ def _obj_faces_in_numpy() -> Iterator[None]:
 _OBJ_FACE_LINE = re.compile(rb"(?m)^f [ \t]*[^\s#]+(?:[ \t]+[^\s#]+){2}")
 
 
+class _TrimeshImportFailed(Exception):
+    """trimesh's own import failed inside :func:`load_trimesh`'s ``try``: the installation's fault, not the
+    file's, so it is raised as the import error it was (as when trimesh was imported before the ``try``)."""
+
+
+def _trimesh() -> Any:
+    """trimesh, imported when a file is first handed to it: its import (scipy's) takes 2-3 s, which a file
+    our own checks refuse first (a cut PLY or STL, a .glb's chunk, a budget) does not wait for."""
+    try:
+        import trimesh
+    except ImportError as e:
+        raise _TrimeshImportFailed from e
+    return trimesh
+
+
 def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
     """Load an OBJ, PLY, STL, OFF, glTF or GLB file as one cleaned mesh (``max_triangles``: see
     :func:`swpm_usd.io.load_mesh`)."""
-    import trimesh
-
     file_type = path.suffix.lower().lstrip(".")
     data = b""
     instances: dict[int, np.ndarray] = {}  # (a glTF's EXT_mesh_gpu_instancing nodes: their transforms)
@@ -1287,7 +1300,7 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
                 _budget_before_parsing(path, file_type, data, max_triangles)
         if file_type == "stl":
             check_stl(path)  # (its start and end: trimesh reads the file)
-            scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
+            scene = _trimesh().load_scene(str(path), file_type=file_type, process=False)
         elif file_type == "ply":
             data = path.read_bytes()
             problem = ply_problem(data, ascii_only=True)
@@ -1296,10 +1309,10 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
             triangulated = ply_polygons_as_triangles(data)
             data = b""  # (released before trimesh reads the file: a large scan is not held twice)
             if triangulated is None:
-                scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
+                scene = _trimesh().load_scene(str(path), file_type=file_type, process=False)
             else:
-                resolver = trimesh.resolvers.FilePathResolver(str(path))
-                scene = trimesh.load_scene(
+                resolver = _trimesh().resolvers.FilePathResolver(str(path))
+                scene = _trimesh().load_scene(
                     io.BytesIO(triangulated), file_type=file_type, resolver=resolver, process=False
                 )
         elif file_type in _TEXT_TYPES:
@@ -1313,24 +1326,26 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
                 data = data.decode("latin-1").encode("utf-8")
             if max_triangles is not None and file_type == "obj":
                 _budget_before_parsing(path, file_type, data, max_triangles)
-            resolver = trimesh.resolvers.FilePathResolver(str(path))
+            resolver = _trimesh().resolvers.FilePathResolver(str(path))
             with _obj_faces_in_numpy() if file_type == "obj" else contextlib.nullcontext():
-                scene = trimesh.load_scene(
+                scene = _trimesh().load_scene(
                     io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
                 )
         elif file_type == "glb" and (problem := glb_chunk_problem(path)) is not None:
             raise MeshLoadError(path, _glb_length_problem(path) or problem)  # ("truncated" when it is)
         elif file_type in ("gltf", "glb") and (prepared := prepare_gltf(path)) is not None:
-            scene = trimesh.load_scene(
+            scene = _trimesh().load_scene(  # (trimesh imported before the resolver's import of it)
                 io.BytesIO(prepared.data), file_type="gltf", resolver=uri_resolver(path), process=False
             )
             instances = prepared.instances
         elif file_type in ("gltf", "glb"):  # (its buffers' and images' uris percent-decoded)
-            scene = trimesh.load_scene(
+            scene = _trimesh().load_scene(
                 str(path), file_type=file_type, resolver=uri_resolver(path), process=False
             )
         else:
-            scene = trimesh.load_scene(str(path), file_type=file_type, process=False)
+            scene = _trimesh().load_scene(str(path), file_type=file_type, process=False)
+        import trimesh  # (imported by now: the scene is trimesh's)
+
         parts = []
         placed = _geometry_transforms(scene.graph)
         instanced = _node_instances(scene.graph, placed, instances)
@@ -1360,6 +1375,8 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
                 parts.append(transform_part(part, matrix))
     except MeshLoadError:
         raise
+    except _TrimeshImportFailed as e:
+        raise e.__cause__ from None  # (not "trimesh could not read it": no file was handed to it)
     except ModuleNotFoundError as e:
         if e.name == "charset_normalizer":  # trimesh's last resort for bytes that are not UTF-8
             raise MeshLoadError(path, f"not a valid {file_type.upper()} file (binary garbage?)") from e

@@ -159,9 +159,11 @@ def _fan_max2(
                 continue
             # out of its budget the search keeps the nearest triangle it found, not m: an error may be
             # overestimated there, never underestimated (ub: the corners and their leaves, as near)
+            # (np.bool_, not a literal True: the other callers' one compile of _nearest2)
             d, hint = _nearest2(
-                px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d, True
-            )
+                px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d,
+                np.bool_(True),
+            )  # fmt: skip
             d = min(d, ub)
             if d > m:
                 m = d

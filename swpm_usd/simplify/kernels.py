@@ -258,7 +258,8 @@ def _neighbours_rows_sorted(p: int, tp: np.ndarray, j0: int, j1: int, buf: np.nd
 def _neighbours_rows(p: int, tp: np.ndarray, j0: int, j1: int, buf: np.ndarray, m0: int) -> int:
     """:func:`_neighbours_into` for rows ``j0:j1`` of ``tp`` (no slice: numba's reference counting)."""
     if j1 - j0 > _LARGE_STAR:
-        return _neighbours_rows_sorted(p, tp, j0, j1, buf, m0)
+        # (np.int64: inlined, a caller's literal 0 would compile the sorted search once more)
+        return _neighbours_rows_sorted(p, tp, np.int64(j0), j1, buf, np.int64(m0))
     m = m0
     for j in range(j0, j1):
         for i in range(3):
@@ -1322,7 +1323,7 @@ def run_sequence(st: CollapseState, max_passes: int, full_ring_update: bool = Fa
     for _ in range(max_passes):
         progress = 0
         for p in range(P):
-            k, cost = best_collapse(st, p, False)
+            k, cost = best_collapse(st, p, np.bool_(False))  # (np.bool_: one compile, not one per literal)
             wait[p] = 0
             stamp[p] += 1
             target[p] = k
@@ -1340,7 +1341,7 @@ def run_sequence(st: CollapseState, max_passes: int, full_ring_update: bool = Fa
                 # the target is a hub that took more than star // HUB_SIZE collapses since b's entry was
                 # pushed: evaluate b again (after each one, most of the heap's top was such entries: 3.2
                 # million evaluations for 5,819 collapses)
-                k2, c2 = best_collapse(st, b, False)
+                k2, c2 = best_collapse(st, b, np.bool_(False))
                 stamp[b] += 1
                 target[b] = k2
                 target_cost[b] = c2
@@ -1353,7 +1354,7 @@ def run_sequence(st: CollapseState, max_passes: int, full_ring_update: bool = Fa
             tp_b = triangle_positions(st, tris_b)
             nbr_b = neighbours(b, tp_b)
             if k < 0 or not valid_collapse(st, b, k, tris_b, tp_b, nbr_b, None):
-                k2, c2 = best_collapse(st, b)
+                k2, c2 = best_collapse(st, b, np.bool_(True))
                 wait[b] = tris_b.shape[0] // HUB_SIZE
                 stamp[b] += 1
                 target[b] = k2
@@ -1415,7 +1416,7 @@ def run_sequence(st: CollapseState, max_passes: int, full_ring_update: bool = Fa
                         continue  # a tie keeps the old target (a whole star's first minimum may differ)
                     k2 = k
                 else:
-                    k2, c2, n_q = best_collapse_sized(st, q, False, None)
+                    k2, c2, n_q = best_collapse_sized(st, q, np.bool_(False), None)
                     if q != k:
                         wait[q] = n_q // HUB_SIZE
                 stamp[q] += 1

@@ -364,7 +364,8 @@ def collapse_sequence(
     # built, so the two are never held together (a 1.1M-triangle bunny's peak: 309 MB above the start, not
     # 343 MB)
     light = fd.replay_state(st) if geometric_error else None
-    binned, kept, step, step_error, step_b, step_k = kernels.run_sequence(st, 3)
+    # (full_ring_update passed, not omitted: the omitted and the passed flag are two compiles of run_sequence)
+    binned, kept, step, step_error, step_b, step_k = kernels.run_sequence(st, 3, False)
     del st
     geometric = None
     if geometric_error:
