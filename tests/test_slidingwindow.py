@@ -1515,3 +1515,39 @@ def test_public_functions_of_refine_and_vcache_are_annotated() -> None:
             if bare or sig.return_annotation is inspect.Signature.empty:
                 missing.append(f"{mod.__name__}.{name}: {bare or 'return'}")
     assert not missing, missing
+
+
+@pytest.mark.parametrize("sparse", [False, True])
+def test_level_pool_in_one_pass_is_the_layout_block_ordered(sparse: bool) -> None:
+    """:func:`.sw_layout.level_pool` gathers the layout in one kernel pass (:func:`._level_triangles`): the
+    same triangles and rotations as :func:`.sw_layout.level_layout` ordered by :func:`.sw_layout.block_order`
+    with the tail apart, where blocks are empty (no ``M``: the tail's segment starts at the first of the
+    empty blocks' equal starts, as ``np.searchsorted`` finds it) and where vertex ids are sparse (renumbered
+    for the ordering, stored as they were)."""
+    from swpm_usd.encode import sw_layout as swl
+
+    rng = np.random.default_rng(7)
+    ng = 400
+    gtris = rng.integers(0, 60, (ng, 3)).astype(np.int64) * (10**5 if sparse else 1)
+    gtris[:, 1] += 1  # (no repeated corner: every row a triangle)
+    gtris[:, 2] += 2
+    for n_mid in (0, 5):
+        start_gids = np.arange(0, 40 + n_mid, dtype=np.int64)
+        # patches 0 and 2 empty, their P and Q blocks of zero triangles
+        p_start = np.array([0, 0, 12, 12, 25, 40], np.int64)
+        p_out = np.arange(40, dtype=np.int64)[::-1].copy()  # P in another order than start_gids
+        q_start = np.array([0, 0, 8, 8, 20, 30], np.int64)
+        q_out = np.arange(300, 330, dtype=np.int64)
+        n = p_start.shape[0] - 1
+        tris, starts, tail, nvert = swl._level_triangles(gtris, start_gids, p_start, p_out, q_start, q_out)
+        gids, ref_starts = swl.level_layout(gtris, start_gids, p_start, p_out, q_start, q_out)
+        assert np.array_equal(tris, gtris[gids]) and np.array_equal(starts, ref_starts)
+        assert tail == np.searchsorted(ref_starts, ref_starts[n + 1], side="left")
+        assert (tail < n + 1) == (n_mid == 0)  # no M: Q_1's start is M's, an earlier block's
+        assert nvert == gtris[gids].max() + 1
+        pool, pool_starts = swl.level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, 16)
+        ref = swl.block_order(gtris[gids], ref_starts, 16, int(ref_starts[n + 1]))
+        assert np.array_equal(pool_starts, ref_starts)
+        assert pool.dtype == ref.dtype and np.array_equal(pool, ref)
+    one = swl.level_pool(gtris, np.array([3], np.int64), *[np.zeros(1, np.int64), np.zeros(0, np.int64)] * 2, 16)
+    assert np.array_equal(one[0], gtris[[3]]) and np.array_equal(one[1], [0, 1])
