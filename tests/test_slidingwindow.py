@@ -1549,5 +1549,48 @@ def test_level_pool_in_one_pass_is_the_layout_block_ordered(sparse: bool) -> Non
         ref = swl.block_order(gtris[gids], ref_starts, 16, int(ref_starts[n + 1]))
         assert np.array_equal(pool_starts, ref_starts)
         assert pool.dtype == ref.dtype and np.array_equal(pool, ref)
-    one = swl.level_pool(gtris, np.array([3], np.int64), *[np.zeros(1, np.int64), np.zeros(0, np.int64)] * 2, 16)
+    empty = [np.zeros(1, np.int64), np.zeros(0, np.int64)] * 2  # no patches: P and Q offsets [0], no ids
+    one = swl.level_pool(gtris, np.array([3], np.int64), *empty, 16)
     assert np.array_equal(one[0], gtris[[3]]) and np.array_equal(one[1], [0, 1])
+
+
+def test_rank_centres_is_the_numpy_ranking() -> None:
+    """:func:`.sw_kernels.rank_centres` (a level's ranking in one pass) gives what the numpy block it replaced
+    gave: eligibility, tiebreaks and the mu cut, with tied costs, no valid position, no exclusion and every
+    valid position excluded."""
+    from swpm_usd.encode import sw_kernels as swk
+
+    def numpy_ranking(positions, ks, cs, rank_cs, P, mu):
+        valid = ks >= 0
+        eligible = np.zeros(P, bool)
+        eligible[positions[valid]] = True
+        n_excl = min(int(round(mu * positions.shape[0])), int(valid.sum()))
+        tiebreak = np.zeros(P)
+        max_cost = np.inf
+        if valid.any():
+            vc = rank_cs[valid]
+            rank = np.empty(vc.shape[0])
+            order = np.argsort(vc, kind="stable")
+            rank[order] = 2.0 * np.arange(vc.shape[0]) / vc.shape[0]
+            tiebreak[positions[valid]] = rank
+            if n_excl > 0:
+                eligible[positions[valid][order[vc.shape[0] - n_excl :]]] = False
+                left = order[: vc.shape[0] - n_excl]
+                max_cost = float(cs[valid][left].max()) if left.shape[0] else 0.0
+        return eligible, tiebreak, max_cost
+
+    rng = np.random.default_rng(3)
+    P = 50
+    for trial in range(40):
+        positions = np.sort(rng.choice(P, size=int(rng.integers(0, 30)), replace=False)).astype(np.int64)
+        n = positions.shape[0]
+        ks = np.where(rng.random(n) < (0.0 if trial == 0 else 0.8), 1, -1).astype(np.int32)
+        cs = rng.random(n)
+        rank_cs = np.round(rng.random(n), 1)  # ties
+        mu = [0.0, 0.1, 0.3, 1.0][trial % 4]
+        vc = rank_cs[ks >= 0]
+        order = swk.ties_by_index(vc, np.argsort(vc))
+        got = swk.rank_centres(positions, ks, cs, order, P, int(round(mu * n)), 2.0)
+        eligible, tiebreak, max_cost = numpy_ranking(positions, ks, cs, rank_cs, P, mu)
+        assert np.array_equal(got[0], eligible) and np.array_equal(got[1], tiebreak)
+        assert got[2] == max_cost and got[3] == eligible.any()
