@@ -1594,3 +1594,27 @@ def test_rank_centres_is_the_numpy_ranking() -> None:
         eligible, tiebreak, max_cost = numpy_ranking(positions, ks, cs, rank_cs, P, mu)
         assert np.array_equal(got[0], eligible) and np.array_equal(got[1], tiebreak)
         assert got[2] == max_cost and got[3] == eligible.any()
+
+
+@pytest.mark.parametrize("dtype", [np.int32, np.uint16])
+def test_level_pool_keeps_the_triangles_dtype(dtype) -> None:
+    """:func:`.sw_layout.level_pool` stores the triangles in ``gtris``'s own dtype, as ``gtris[gids]``
+    ordered by :func:`.sw_layout.block_order` did before the one-pass kernel (which gathers as int64),
+    with several triangles and with one."""
+    from swpm_usd.encode import sw_layout as swl
+
+    rng = np.random.default_rng(11)
+    gtris = (rng.integers(0, 30, (80, 3)) + np.arange(3)).astype(dtype)
+    start_gids = np.arange(20, dtype=np.int64)
+    p_start = np.array([0, 6, 12], np.int64)
+    p_out = np.arange(12, dtype=np.int64)
+    q_start = np.array([0, 5, 9], np.int64)
+    q_out = np.arange(40, 49, dtype=np.int64)
+    pool, starts = swl.level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, 16)
+    gids, ref_starts = swl.level_layout(gtris, start_gids, p_start, p_out, q_start, q_out)
+    ref = swl.block_order(gtris[gids], ref_starts, 16, int(ref_starts[p_start.shape[0]]))
+    assert pool.dtype == ref.dtype == gtris.dtype and np.array_equal(pool, ref)
+    empty = [np.zeros(1, np.int64), np.zeros(0, np.int64)] * 2
+    one = swl.level_pool(gtris, np.array([3], np.int64), *empty, 16)[0]
+    assert one.dtype == gtris.dtype and np.array_equal(one, gtris[[3]])
+

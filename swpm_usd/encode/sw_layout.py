@@ -182,7 +182,7 @@ def level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size):
     calls a level less, the same kernel :func:`.vcache._order_blocks` on the same arrays.)"""
     tris, starts, tail, nvert = _level_triangles(gtris, start_gids, p_start, p_out, q_start, q_out)
     if tris.shape[0] < 2:
-        return tris, starts
+        return tris.astype(gtris.dtype, copy=False), starts  # (gathered as int64: gtris's dtype)
     ids, nvert, _, _ = _compact(tris, nvert, None)  # (as block_order_trusted: the same ids but sparse)
     cache_tab, live_tab = _score_tables(int(cache_size))
     perm, shift, _ = _order_blocks(
@@ -198,7 +198,7 @@ def level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size):
         np.array([tail], np.int64),
         _HEAVY,
     )
-    return _permuted_rows(tris, perm, shift), starts
+    return _permuted_rows(tris, perm, shift).astype(gtris.dtype, copy=False), starts
 
 
 def finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach):
