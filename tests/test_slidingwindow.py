@@ -1618,3 +1618,21 @@ def test_level_pool_keeps_the_triangles_dtype(dtype) -> None:
     one = swl.level_pool(gtris, np.array([3], np.int64), *empty, 16)[0]
     assert one.dtype == gtris.dtype and np.array_equal(one, gtris[[3]])
 
+
+def test_rank_centres_excludes_none_for_a_negative_count() -> None:
+    """:func:`.sw_kernels.rank_centres` with a negative exclusion count excludes nothing (as the numpy
+    block's ``n_excl > 0`` test did): with no valid position none is eligible (the level loop must stop),
+    with valid ones the result is that of a count of 0."""
+    from swpm_usd.encode import sw_kernels as swk
+
+    positions = np.array([1, 4, 6], np.int64)
+    cs = np.array([0.3, 0.1, 0.2])
+    none_valid = np.full(3, -1, np.int32)
+    got = swk.rank_centres(positions, none_valid, cs, np.zeros(0, np.int64), 8, -2, 2.0)
+    assert not got[0].any() and not got[3] and got[2] == np.inf
+    ks = np.array([1, -1, 1], np.int32)
+    order = np.array([1, 0], np.int64)
+    neg = swk.rank_centres(positions, ks, cs, order, 8, -1, 2.0)
+    zero = swk.rank_centres(positions, ks, cs, order, 8, 0, 2.0)
+    assert np.array_equal(neg[0], zero[0]) and np.array_equal(neg[1], zero[1])
+    assert neg[2] == zero[2] == np.inf and neg[3] and zero[3]

@@ -217,7 +217,7 @@ def rank_centres(
             idx[m] = i
             m += 1
             eligible[positions[i]] = True
-    n_excl = min(n_excl, m)
+    n_excl = max(0, min(n_excl, m))  # (a negative count excludes none: any eligible iff m > 0)
     cut = np.inf
     for j in range(m):
         tiebreak[positions[idx[order[j]]]] = weight * j / m
