@@ -1515,3 +1515,124 @@ def test_public_functions_of_refine_and_vcache_are_annotated() -> None:
             if bare or sig.return_annotation is inspect.Signature.empty:
                 missing.append(f"{mod.__name__}.{name}: {bare or 'return'}")
     assert not missing, missing
+
+
+@pytest.mark.parametrize("sparse", [False, True])
+def test_level_pool_in_one_pass_is_the_layout_block_ordered(sparse: bool) -> None:
+    """:func:`.sw_layout.level_pool` gathers the layout in one kernel pass (:func:`._level_triangles`): the
+    same triangles and rotations as :func:`.sw_layout.level_layout` ordered by :func:`.sw_layout.block_order`
+    with the tail apart, where blocks are empty (no ``M``: the tail's segment starts at the first of the
+    empty blocks' equal starts, as ``np.searchsorted`` finds it) and where vertex ids are sparse (renumbered
+    for the ordering, stored as they were)."""
+    from swpm_usd.encode import sw_layout as swl
+
+    rng = np.random.default_rng(7)
+    ng = 400
+    gtris = rng.integers(0, 60, (ng, 3)).astype(np.int64) * (10**5 if sparse else 1)
+    gtris[:, 1] += 1  # (no repeated corner: every row a triangle)
+    gtris[:, 2] += 2
+    for n_mid in (0, 5):
+        start_gids = np.arange(0, 40 + n_mid, dtype=np.int64)
+        # patches 0 and 2 empty, their P and Q blocks of zero triangles
+        p_start = np.array([0, 0, 12, 12, 25, 40], np.int64)
+        p_out = np.arange(40, dtype=np.int64)[::-1].copy()  # P in another order than start_gids
+        q_start = np.array([0, 0, 8, 8, 20, 30], np.int64)
+        q_out = np.arange(300, 330, dtype=np.int64)
+        n = p_start.shape[0] - 1
+        tris, starts, tail, nvert = swl._level_triangles(gtris, start_gids, p_start, p_out, q_start, q_out)
+        gids, ref_starts = swl.level_layout(gtris, start_gids, p_start, p_out, q_start, q_out)
+        assert np.array_equal(tris, gtris[gids]) and np.array_equal(starts, ref_starts)
+        assert tail == np.searchsorted(ref_starts, ref_starts[n + 1], side="left")
+        assert (tail < n + 1) == (n_mid == 0)  # no M: Q_1's start is M's, an earlier block's
+        assert nvert == gtris[gids].max() + 1
+        pool, pool_starts = swl.level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, 16)
+        ref = swl.block_order(gtris[gids], ref_starts, 16, int(ref_starts[n + 1]))
+        assert np.array_equal(pool_starts, ref_starts)
+        assert pool.dtype == ref.dtype and np.array_equal(pool, ref)
+    empty = [np.zeros(1, np.int64), np.zeros(0, np.int64)] * 2  # no patches: P and Q offsets [0], no ids
+    one = swl.level_pool(gtris, np.array([3], np.int64), *empty, 16)
+    assert np.array_equal(one[0], gtris[[3]]) and np.array_equal(one[1], [0, 1])
+
+
+def test_rank_centres_is_the_numpy_ranking() -> None:
+    """:func:`.sw_kernels.rank_centres` (a level's ranking in one pass) gives what the numpy block it replaced
+    gave: eligibility, tiebreaks and the mu cut, with tied costs, no valid position, no exclusion and every
+    valid position excluded."""
+    from swpm_usd.encode import sw_kernels as swk
+
+    def numpy_ranking(positions, ks, cs, rank_cs, P, mu):
+        valid = ks >= 0
+        eligible = np.zeros(P, bool)
+        eligible[positions[valid]] = True
+        n_excl = min(int(round(mu * positions.shape[0])), int(valid.sum()))
+        tiebreak = np.zeros(P)
+        max_cost = np.inf
+        if valid.any():
+            vc = rank_cs[valid]
+            rank = np.empty(vc.shape[0])
+            order = np.argsort(vc, kind="stable")
+            rank[order] = 2.0 * np.arange(vc.shape[0]) / vc.shape[0]
+            tiebreak[positions[valid]] = rank
+            if n_excl > 0:
+                eligible[positions[valid][order[vc.shape[0] - n_excl :]]] = False
+                left = order[: vc.shape[0] - n_excl]
+                max_cost = float(cs[valid][left].max()) if left.shape[0] else 0.0
+        return eligible, tiebreak, max_cost
+
+    rng = np.random.default_rng(3)
+    P = 50
+    for trial in range(40):
+        positions = np.sort(rng.choice(P, size=int(rng.integers(0, 30)), replace=False)).astype(np.int64)
+        n = positions.shape[0]
+        ks = np.where(rng.random(n) < (0.0 if trial == 0 else 0.8), 1, -1).astype(np.int32)
+        cs = rng.random(n)
+        rank_cs = np.round(rng.random(n), 1)  # ties
+        mu = [0.0, 0.1, 0.3, 1.0][trial % 4]
+        vc = rank_cs[ks >= 0]
+        order = swk.ties_by_index(vc, np.argsort(vc))
+        got = swk.rank_centres(positions, ks, cs, order, P, int(round(mu * n)), 2.0)
+        eligible, tiebreak, max_cost = numpy_ranking(positions, ks, cs, rank_cs, P, mu)
+        assert np.array_equal(got[0], eligible) and np.array_equal(got[1], tiebreak)
+        assert got[2] == max_cost and got[3] == eligible.any()
+
+
+@pytest.mark.parametrize("dtype", [np.int32, np.uint16])
+def test_level_pool_keeps_the_triangles_dtype(dtype) -> None:
+    """:func:`.sw_layout.level_pool` stores the triangles in ``gtris``'s own dtype, as ``gtris[gids]``
+    ordered by :func:`.sw_layout.block_order` did before the one-pass kernel (which gathers as int64),
+    with several triangles and with one."""
+    from swpm_usd.encode import sw_layout as swl
+
+    rng = np.random.default_rng(11)
+    gtris = (rng.integers(0, 30, (80, 3)) + np.arange(3)).astype(dtype)
+    start_gids = np.arange(20, dtype=np.int64)
+    p_start = np.array([0, 6, 12], np.int64)
+    p_out = np.arange(12, dtype=np.int64)
+    q_start = np.array([0, 5, 9], np.int64)
+    q_out = np.arange(40, 49, dtype=np.int64)
+    pool, starts = swl.level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, 16)
+    gids, ref_starts = swl.level_layout(gtris, start_gids, p_start, p_out, q_start, q_out)
+    ref = swl.block_order(gtris[gids], ref_starts, 16, int(ref_starts[p_start.shape[0]]))
+    assert pool.dtype == ref.dtype == gtris.dtype and np.array_equal(pool, ref)
+    empty = [np.zeros(1, np.int64), np.zeros(0, np.int64)] * 2
+    one = swl.level_pool(gtris, np.array([3], np.int64), *empty, 16)[0]
+    assert one.dtype == gtris.dtype and np.array_equal(one, gtris[[3]])
+
+
+def test_rank_centres_excludes_none_for_a_negative_count() -> None:
+    """:func:`.sw_kernels.rank_centres` with a negative exclusion count excludes nothing (as the numpy
+    block's ``n_excl > 0`` test did): with no valid position none is eligible (the level loop must stop),
+    with valid ones the result is that of a count of 0."""
+    from swpm_usd.encode import sw_kernels as swk
+
+    positions = np.array([1, 4, 6], np.int64)
+    cs = np.array([0.3, 0.1, 0.2])
+    none_valid = np.full(3, -1, np.int32)
+    got = swk.rank_centres(positions, none_valid, cs, np.zeros(0, np.int64), 8, -2, 2.0)
+    assert not got[0].any() and not got[3] and got[2] == np.inf
+    ks = np.array([1, -1, 1], np.int32)
+    order = np.array([1, 0], np.int64)
+    neg = swk.rank_centres(positions, ks, cs, order, 8, -1, 2.0)
+    zero = swk.rank_centres(positions, ks, cs, order, 8, 0, 2.0)
+    assert np.array_equal(neg[0], zero[0]) and np.array_equal(neg[1], zero[1])
+    assert neg[2] == zero[2] == np.inf and neg[3] and zero[3]

@@ -583,26 +583,17 @@ def _build_levels(
                         *surface,
                     ),
                 )
-        valid = ks >= 0
-        eligible = np.zeros(P, bool)
-        eligible[positions[valid]] = True
-        n_excl = min(int(round(mu * positions.shape[0])), int(valid.sum()))
-        tiebreak = np.zeros(P)
-        max_cost = np.inf
-        if valid.any():
-            vc = rank_cs[valid]
-            rank = np.empty(vc.shape[0])
-            order = swk.ties_by_index(vc, np.argsort(vc))  # np.argsort(vc, kind="stable"), faster
-            rank[order] = _ERROR_WEIGHT * np.arange(vc.shape[0]) / vc.shape[0]
-            tiebreak[positions[valid]] = rank
-            if n_excl > 0:
-                eligible[positions[valid][order[vc.shape[0] - n_excl :]]] = False
-                # no collapse in this level may cost more than the mu cut (later inner vertices of a patch,
-                # or a centre whose best collapse got worse after its neighbours' patches)
-                # (in quadric cost, as the collapses are checked: the costliest of the centres left)
-                left = order[: vc.shape[0] - n_excl]
-                max_cost = float(cs[valid][left].max()) if left.shape[0] else 0.0
-        if not eligible.any():
+        vc = rank_cs[ks >= 0]
+        order = swk.ties_by_index(vc, np.argsort(vc))  # np.argsort(vc, kind="stable"), faster
+        # the valid positions eligible but the mu fraction of them ranked costliest, each with its rank as
+        # a tiebreak; no collapse in this level may cost more than the mu cut (later inner vertices of a
+        # patch, or a centre whose best collapse got worse after its neighbours' patches), in quadric cost,
+        # as the collapses are checked: the costliest of the centres left
+        eligible, tiebreak, max_cost, any_eligible = swk.rank_centres(
+            positions, ks, cs, order, P, int(round(mu * positions.shape[0])), _ERROR_WEIGHT
+        )
+        max_cost = float(max_cost)
+        if not any_eligible:
             break
         link = False
         fresh = None

@@ -192,6 +192,49 @@ def ties_by_index(keys: np.ndarray, order: np.ndarray) -> np.ndarray:
 
 
 @nb.njit(cache=True, nogil=True)
+def rank_centres(
+    positions: np.ndarray,
+    ks: np.ndarray,
+    cs: np.ndarray,
+    order: np.ndarray,
+    P: int,
+    n_excl: int,
+    weight: float,
+) -> tuple[np.ndarray, np.ndarray, float, bool]:
+    """A level's ranking of its patch centres in one pass (about 20 numpy calls a level before, ~50 us on
+    suzanne's small levels): ``positions`` with a valid collapse (``ks >= 0``) are eligible, each with the
+    tiebreak ``weight * j / m`` of its place ``j`` among the ``m`` valid ones in ``order`` (their stable
+    order by rank cost); the last ``min(n_excl, m)`` of that order are not eligible, and the largest
+    quadric cost ``cs`` of the others is the level's cost cut (inf if none is excluded, 0 if none is
+    left; NaN propagates as in ``np.max``). Returns ``(eligible, tiebreak, cut, any eligible)``."""
+    n = positions.shape[0]
+    eligible = np.zeros(P, np.bool_)
+    tiebreak = np.zeros(P)
+    idx = np.empty(n, np.int64)
+    m = 0
+    for i in range(n):
+        if ks[i] >= 0:
+            idx[m] = i
+            m += 1
+            eligible[positions[i]] = True
+    n_excl = max(0, min(n_excl, m))  # (a negative count excludes none: any eligible iff m > 0)
+    cut = np.inf
+    for j in range(m):
+        tiebreak[positions[idx[order[j]]]] = weight * j / m
+    if m > 0 and n_excl > 0:
+        for j in range(m - n_excl, m):
+            eligible[positions[idx[order[j]]]] = False
+        cut = -np.inf if m > n_excl else 0.0
+        for j in range(m - n_excl):
+            c = cs[idx[order[j]]]
+            if c != c:
+                cut = c
+                break
+            cut = max(cut, c)
+    return eligible, tiebreak, cut, m > n_excl
+
+
+@nb.njit(cache=True, nogil=True)
 def position_graph(tp: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
     """CSR ``(start, nbr)`` of the edge graph of the triangles ``tp`` (positions; each neighbour once, in
     increasing order)."""

@@ -10,11 +10,23 @@ With ``cluster=True`` (SWPM 3.2) a level's head is the previous level's tail ins
 
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 
 from ..errors import BuildError
-from ..vcache import _read_only, _rotate_rows, block_order_trusted
+from ..vcache import (
+    _HEAVY,
+    _compact,
+    _order_blocks,
+    _read_only,
+    _rotate_rows,
+    _score_tables,
+    block_order_trusted,
+)
 from . import sw_refine as swr
+
+#: the largest vertex id a level's pool stores as int32 (np.iinfo costs microseconds a call)
+_INT32_MAX = int(np.iinfo(np.int32).max)
 
 
 def block_perm(
@@ -104,13 +116,89 @@ def level_layout(gtris, start_gids, p_start, p_out, q_start, q_out):
     return gids, starts
 
 
+@nb.njit(cache=True, nogil=True)
+def _level_triangles(gtris, start_gids, p_start, p_out, q_start, q_out):
+    """``gtris[gids]`` and ``starts`` of :func:`level_layout` in one pass, with what
+    :func:`.vcache.block_order_trusted` computes of them: the first block starting at ``Q_1``
+    (``np.searchsorted(starts, starts[n + 1])``, the tail's segment) and the largest vertex id plus one."""
+    n = p_start.shape[0] - 1
+    in_p = np.zeros(gtris.shape[0], np.bool_)
+    for i in range(p_out.shape[0]):
+        in_p[p_out[i]] = True
+    n_mid = 0
+    for i in range(start_gids.shape[0]):
+        if not in_p[start_gids[i]]:
+            n_mid += 1
+    tris = np.empty((p_out.shape[0] + n_mid + q_out.shape[0], 3), np.int64)
+    w = 0
+    for i in range(p_out.shape[0]):
+        for j in range(3):
+            tris[w, j] = gtris[p_out[i], j]
+        w += 1
+    for i in range(start_gids.shape[0]):
+        g = start_gids[i]
+        if not in_p[g]:
+            for j in range(3):
+                tris[w, j] = gtris[g, j]
+            w += 1
+    for i in range(q_out.shape[0]):
+        for j in range(3):
+            tris[w, j] = gtris[q_out[i], j]
+        w += 1
+    starts = np.empty(2 * n + 2, np.int64)
+    for i in range(n + 1):
+        starts[i] = p_start[i]
+        starts[n + 1 + i] = p_start[n] + n_mid + q_start[i]
+    tail = 0
+    while starts[tail] < starts[n + 1]:
+        tail += 1
+    top = -1
+    for i in range(tris.shape[0]):
+        for j in range(3):
+            top = max(top, tris[i, j])
+    return tris, starts, tail, top + 1
+
+
+@nb.njit(cache=True, nogil=True)
+def _permuted_rows(tris, perm, shift):
+    """``tris[perm]``, row ``i`` rotated left cyclically by ``shift[i]`` (:func:`.vcache._rotate_rows`)."""
+    out = np.empty((perm.shape[0], 3), tris.dtype)
+    for i in range(perm.shape[0]):
+        r = shift[i] % 3
+        a, b, c = tris[perm[i], 0], tris[perm[i], 1], tris[perm[i], 2]
+        if r == 0:
+            out[i, 0], out[i, 1], out[i, 2] = a, b, c
+        elif r == 1:
+            out[i, 0], out[i, 1], out[i, 2] = b, c, a
+        else:
+            out[i, 0], out[i, 1], out[i, 2] = c, a, b
+    return out
+
+
 def level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size):
     """The level's triangles as the pool stores them: :func:`level_layout`, each block reordered for the
     cache in place (the FIFO carried over, the head and the tail apart: :func:`block_order`); and the
-    block starts."""
-    gids, starts = level_layout(gtris, start_gids, p_start, p_out, q_start, q_out)
-    n = p_start.shape[0] - 1
-    return block_order(gtris[gids], starts, cache_size, int(starts[n + 1])), starts
+    block starts. (:func:`block_order`'s steps with the layout gathered in one kernel pass: about 20 numpy
+    calls a level less, the same kernel :func:`.vcache._order_blocks` on the same arrays.)"""
+    tris, starts, tail, nvert = _level_triangles(gtris, start_gids, p_start, p_out, q_start, q_out)
+    if tris.shape[0] < 2:
+        return tris.astype(gtris.dtype, copy=False), starts  # (gathered as int64: gtris's dtype)
+    ids, nvert, _, _ = _compact(tris, nvert, None)  # (as block_order_trusted: the same ids but sparse)
+    cache_tab, live_tab = _score_tables(int(cache_size))
+    perm, shift, _ = _order_blocks(
+        ids,
+        starts,
+        int(cache_size),
+        np.zeros(nvert, np.int64),
+        np.full(int(cache_size), -1, np.int64),
+        0,
+        cache_tab,
+        live_tab,
+        True,
+        np.array([tail], np.int64),
+        _HEAVY,
+    )
+    return _permuted_rows(tris, perm, shift).astype(gtris.dtype, copy=False), starts
 
 
 def finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach):
@@ -128,7 +216,7 @@ def finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, 
     # what the assembly (slidingwindow._assemble) needs: the pool (vertex ids, int32 where they fit), the
     # patch offsets and step counts; the triangle ids are let go (1 M triangles: 130 MB less at the peak
     # with the pools halved)
-    lev.pool = pool.astype(np.int32) if V <= np.iinfo(np.int32).max else pool
+    lev.pool = pool.astype(np.int32) if V <= _INT32_MAX else pool
     lev.start_gids = lev.p_out = lev.q_out = None
     return lev, recs, info
 
