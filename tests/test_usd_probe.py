@@ -1194,6 +1194,18 @@ def test_a_layer_only_a_variant_not_selected_names_is_not_opened_by_the_probe(tm
     _crash_of_the_open_is_keyed_on(monkeypatch, selected, "selected.usdc", [bad], bad)
 
 
+def _broken_variant_root(mid: str) -> str:
+    """A root layer whose selected variant, "broken", references ``mid`` (the other, "hi", good.usdc)."""
+    return (
+        '#usda 1.0\n(\n    defaultPrim = "a"\n)\n'
+        'def "a" (\n    variants = { string lod = "broken" }\n    prepend variantSets = "lod"\n)\n{\n'
+        '    variantSet "lod" = {\n'
+        '        "hi" ( references = @./good.usdc@</m> ) { }\n'
+        f'        "broken" ( references = @./{mid}@</m> ) {{ }}\n'
+        "    }\n}\n"
+    )
+
+
 def test_a_crash_in_a_layer_a_selected_variants_layer_names_is_keyed_on_that_layer(tmp_path, monkeypatch):
     # the probe named a variant's own layer (mid.usda) before the stage's open, not the layers it names in
     # turn: a crash of the open in bad.usdc, which only mid.usda names, was keyed on mid.usda alone, and
@@ -1203,14 +1215,7 @@ def test_a_crash_in_a_layer_a_selected_variants_layer_names_is_keyed_on_that_lay
     (tmp_path / "mid.usda").write_text('#usda 1.0\ndef "m" (\n    references = @./bad.usdc@</m>\n)\n{\n}\n')
     _seed(tmp_path / "good.usdc")
     text = tmp_path / "root.usda"
-    text.write_text(
-        '#usda 1.0\n(\n    defaultPrim = "a"\n)\n'
-        'def "a" (\n    variants = { string lod = "broken" }\n    prepend variantSets = "lod"\n)\n{\n'
-        '    variantSet "lod" = {\n'
-        '        "hi" ( references = @./good.usdc@</m> ) { }\n'
-        '        "broken" ( references = @./mid.usda@</m> ) { }\n'
-        "    }\n}\n"
-    )
+    text.write_text(_broken_variant_root("mid.usda"))
     root = tmp_path / "root.usdc"
     layer = Sdf.Layer.FindOrOpen(str(text))  # (a layer, not a stage)
     assert layer.Export(str(root))
@@ -1237,14 +1242,7 @@ def test_a_crash_in_a_layer_a_selected_variants_crate_layer_names_is_keyed_on_th
     mid_text.unlink()
     _seed(tmp_path / "good.usdc")
     text = tmp_path / "root.usda"
-    text.write_text(
-        '#usda 1.0\n(\n    defaultPrim = "a"\n)\n'
-        'def "a" (\n    variants = { string lod = "broken" }\n    prepend variantSets = "lod"\n)\n{\n'
-        '    variantSet "lod" = {\n'
-        '        "hi" ( references = @./good.usdc@</m> ) { }\n'
-        '        "broken" ( references = @./mid.usdc@</m> ) { }\n'
-        "    }\n}\n"
-    )
+    text.write_text(_broken_variant_root("mid.usdc"))
     _crash_of_the_open_is_keyed_on(monkeypatch, text, "root.usda", [bad, mid], bad)
 
 
