@@ -662,7 +662,13 @@ def _build_levels(
             )
             if absorb:
                 pt_start, pt = _absorb(
-                    st, pt_start, pt, alive_t.astype(np.int64), absorb_min_shared, stars, absorb_rounds
+                    st,
+                    pt_start,
+                    pt,
+                    alive_t.astype(np.int64, copy=False),
+                    absorb_min_shared,
+                    stars,
+                    absorb_rounds,
                 )
             inner_pos = np.zeros(P, bool)
             inner_pos[inner] = True
@@ -686,7 +692,7 @@ def _build_levels(
         # a trickle of a fully stored level, dearer than the few triangles it removes
         if not link and levels and _trickle(2 * inner.shape[0], alive_t.shape[0], T):
             break
-        start_gids = cur_gid[alive_t].copy()
+        start_gids = cur_gid[alive_t]  # (fancy indexing copies already)
         gtris, ng, p_start, p_out, q_start, q_out, recs, info, patch_steps = swk.collapse_patches(
             st,
             order,
