@@ -25,7 +25,10 @@ trimesh (the loader behind :mod:`.trimesh_loader`) silently
 * ignores skins, drawing the stored vertices placed by the skinned node: glTF 2.0 draws them posed by the
   joints (the blend of each joint's world transform x inverse bind matrix) and says the skinned node's own
   transform is ignored; the file's pose is drawn (its nodes' transforms, no animation), and a mesh at its
-  bind pose is left as it is (:func:`_skinned`);
+  bind pose is left as it is (:func:`_skinned`). The winding follows the skin, not the ignored node: a
+  triangle the skin mirrors (its blend's determinant negative at the triangle's centre) is reversed, as a
+  mirroring node's is (:func:`_wind_as_posed`), where the skinned node's mirror had flipped every triangle
+  or none;
 * reads a buffer's or image's ``uri`` as written: it is a URI, percent-decoded (``my%20mesh.bin``) by
   :func:`uri_names`, whose resolver (:func:`uri_resolver`) the loader gives trimesh for every glTF.
 
@@ -38,9 +41,12 @@ a node's ``matrix`` or its T x R x S; a mesh of several nodes is drawn at each; 
 transform mirrors (negative determinant) has its triangles' winding reversed, so the front faces stay
 front faces; cameras and lights are not drawn. The scene drawn is ``scene``, else the first of ``scenes``
 (the spec lets a loader draw nothing then: drawing the first is what viewers do), else every root node.
-Left as trimesh does: a skinned node's transform when it mirrors (its winding is flipped as a plain
-node's), and the loader never fetches a ``scheme:`` uri (``http:``, ``file:``) nor reads a file outside
-the glTF's folder.
+A skinned mesh's winding: glTF 2.0 says the determinant of the node's global transform decides it, and
+that a skinned node's transform is ignored, the joints' transforms placing the mesh instead; the loader
+decides it per triangle by the skin's blend at the triangle's centre, a blend of mirrored and unmirrored
+joints by its mean (three.js's renderer decides front faces by the drawn object's world matrix alone, for a
+skinned mesh the skinned node's). Left as trimesh does: the loader never fetches a ``scheme:`` uri
+(``http:``, ``file:``) nor reads a file outside the glTF's folder.
 
 :func:`prepared_gltf` returns, for a file that uses any of them, the document rewritten so trimesh reads what
 the file means (dense float accessors in one added buffer, fans as triangle lists, a plain material added for
@@ -73,6 +79,7 @@ _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
 _MATRIX_WIDTH = {"MAT4": 16}
 _TRIANGLE_FAN = 6
 _TRIANGLES = 4
+_TRIANGLE_STRIP = 5
 _FLOAT = 5126
 _UINT = 5125
 _GLB_HEADER = struct.Struct("<4sII")
@@ -352,6 +359,7 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
         if unweighted.any():
             blend[unweighted], total[unweighted] = pose[first[unweighted]], 1.0
         blend /= total[:, None, None]
+        _wind_as_posed(r, p, blend, f"meshes[{node['mesh']}].primitives[{k}]")
         for name in ("POSITION", "NORMAL"):
             if name not in attrs:
                 continue
@@ -365,6 +373,43 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
             attrs[name] = r.add(values.astype(np.float32), "VEC3")
     doc["meshes"].append(mesh)
     return len(doc["meshes"]) - 1
+
+
+def _triangles(r: _Rewrite, p: dict, where: str) -> np.ndarray | None:
+    """The (T, 3) vertex indices of primitive ``p``'s triangles as glTF 2.0 lists them (TRIANGLES; a
+    TRIANGLE_STRIP's triangle i is v_i, v_(i+1+i%2), v_(i+2-i%2)); None for points and lines (no winding).
+    Fans are triangle lists by now (:func:`_rewrite`)."""
+    mode = p.get("mode", _TRIANGLES)
+    if mode not in (_TRIANGLES, _TRIANGLE_STRIP):
+        return None
+    count = r.count(p["attributes"]["POSITION"])
+    flat = r.read(p["indices"])[:, 0].astype(np.int64) if "indices" in p else np.arange(count)
+    if flat.size and (flat.min() < 0 or flat.max() >= count):
+        raise MeshLoadError(r.path, f"{where}: index {int(flat.max())} is past its {count} vertices")
+    if mode == _TRIANGLES:
+        return flat[: flat.shape[0] // 3 * 3].reshape(-1, 3)
+    i = np.arange(max(flat.shape[0] - 2, 0))
+    return np.stack([flat[i], flat[i + 1 + i % 2], flat[i + 2 - i % 2]], axis=1)
+
+
+def _wind_as_posed(r: _Rewrite, p: dict, blend: np.ndarray, where: str) -> None:
+    """Reverse the winding of each triangle of the skinned primitive ``p`` (its posed copy) that its skin
+    mirrors, as glTF 2.0 reverses a mirroring node's (front faces stay front), the joints standing for the
+    skinned node's ignored transform. A triangle is mirrored when the determinant of the skin's blend at its
+    centre (the mean of its corners' blends: the transform skinning gives its centre) is negative; corners
+    of mixed joints are so decided by their mean, not their majority, and a triangle flattened to det 0 is
+    left as it is. ``blend`` is each vertex's (V, 4, 4) in the skinned node's frame (the skin's blend taken
+    back by the node's transform, which the loader applies after, flipping the whole copy when it mirrors):
+    flipped here where it is negative, a triangle is flipped once in all when the skin's own blend mirrors
+    it, and not or twice when it does not. Changed: ``p``'s indices (then a triangle list)."""
+    triangles = _triangles(r, p, where)
+    if triangles is None or not triangles.size:
+        return
+    linear = blend[:, :3, :3]
+    mirrored = np.linalg.det(linear[triangles[:, 0]] + linear[triangles[:, 1]] + linear[triangles[:, 2]]) < 0
+    if mirrored.any():  # (none: the primitive's indices as they were, its bits too)
+        triangles = np.where(mirrored[:, None], triangles[:, ::-1], triangles)
+        p["indices"], p["mode"] = r.add(triangles.reshape(-1).astype(np.uint32), "SCALAR"), _TRIANGLES
 
 
 def _morphed(r: _Rewrite, m: int, weights: tuple[float, ...]) -> int:
