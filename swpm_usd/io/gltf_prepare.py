@@ -14,7 +14,13 @@ trimesh (the loader behind :mod:`.trimesh_loader`) silently
 * loads a geometry compressed by an extension it cannot decode (meshopt; Draco without DracoPy) as zeros,
   which the loader reported as "all triangles are degenerate": :func:`prepared_gltf` names the extension;
 * reads a node of ``EXT_mesh_gpu_instancing`` as one copy of its mesh: :func:`prepare_gltf` reads its
-  instances' transforms (:func:`_instance_matrices`), which the loader applies to the node's mesh;
+  instances' transforms (:func:`_instance_matrices`), which the loader applies to the node's mesh. The
+  extension's accessor types are read and no other: TRANSLATION and SCALE VEC3 of FLOAT, ROTATION VEC4 of
+  FLOAT or of normalized BYTE or SHORT (decoded as glTF 2.0's max(c / 127, -1), max(c / 32767, -1); no
+  unsigned type, which the extension leaves out); another is a :class:`MeshLoadError` naming the node and
+  the accessor. A node with both a ``skin`` and instances, which the extension does not define (its
+  instances are placed by the node's transform, which skinning ignores), is refused naming the node
+  (:func:`_check_instanced_skins`), where it was drawn instanced with its skin left aside;
 * reads a file whatever extension its ``extensionsRequired`` lists: one this loader neither implements
   nor can leave aside (:data:`_KNOWN_REQUIRED`) is refused.
 * fails on a primitive without ``POSITION`` (a KeyError), which glTF 2.0 says is not rendered: it is left
@@ -210,7 +216,7 @@ def _needs(doc: dict, skins: bool = True) -> bool:
 
 def _skinned_node(node: Any) -> bool:
     """Whether ``node`` draws its mesh with a skin (not an instanced node's: its instances are placed in
-    the node's frame, which skinning leaves aside)."""
+    the node's frame, which skinning leaves aside; :func:`prepare_gltf` refuses such a node)."""
     return (
         isinstance(node, dict)
         and node.get("mesh") is not None
@@ -904,6 +910,24 @@ def _check_counts(path: Path, doc: Any) -> None:
             )
 
 
+def _check_instanced_skins(path: Path, doc: Any) -> None:
+    """Raise a :class:`MeshLoadError` (``INPUT_UNSUPPORTED``) naming the first node that has both a ``skin``
+    and ``EXT_mesh_gpu_instancing`` instances: the extension places the mesh by the node's world transform x
+    each instance's, which skinning ignores (the joints place the mesh), and says nothing of the two
+    together (KhronosGroup/glTF#2404 proposed that such a node should not be written; three.js draws no
+    such node): drawn as an instanced node, its skin left aside, it was neither."""
+    nodes = doc.get("nodes") if isinstance(doc, dict) else None
+    for i, node in enumerate(nodes if isinstance(nodes, list) else []):
+        if _instancing(node) is not None and "skin" in node:
+            raise MeshLoadError(
+                path,
+                f"{_node_name(doc, i)} has both a skin and {INSTANCING} instances, which the extension does "
+                "not define (skinning ignores the node's transform the instances are placed by): export the "
+                "instances as nodes, or the mesh without its skin",
+                code="INPUT_UNSUPPORTED",
+            )
+
+
 def _json_document(path: Path) -> Any:
     """The JSON document of the .gltf or .glb file ``path`` (a .glb's JSON chunk alone is read); raises
     :class:`_Unread` (or what reading or parsing raises) when there is none."""
@@ -1027,12 +1051,14 @@ def prepare_gltf(path: Path) -> Prepared | None:
             doc = _json_document(path)
             _check_extensions(path, doc)
             _check_counts(path, doc)
+            _check_instanced_skins(path, doc)
             if not _needs(doc):
                 return None
         data = path.read_bytes()
         doc, binary = _document(path, data)
         _check_extensions(path, doc)
         _check_counts(path, doc)
+        _check_instanced_skins(path, doc)
         if not isinstance(doc, dict) or not _needs(doc):
             return None
         rewritten = _rewrite(path, doc, binary)
