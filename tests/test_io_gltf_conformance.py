@@ -430,19 +430,49 @@ def test_a_mirrored_skinned_node_does_not_flip_what_its_joints_do_not_mirror(tmp
     assert _volume(corners) == pytest.approx(1 / 6)
 
 
-def test_a_triangle_of_mixed_joints_winds_as_the_blend_at_its_centre(tmp_path: Path) -> None:
+@pytest.mark.parametrize(("on_mirror", "flipped"), [(0.4, True), (0.0, False)])
+def test_a_triangle_of_mixed_joints_winds_as_the_blend_at_its_centre(
+    tmp_path: Path, on_mirror: float, flipped: bool
+) -> None:
     """A triangle whose corners blend mirrored and unmirrored joints follows the sign of the determinant of
     the skin's blend at its centre (the mean of its corners' blends, as skinning places the centre): one
     corner wholly on the mirroring joint, two at 0.4 on it (x scaled by 0.2), so the centre's x scale is
-    (-1 + 0.2 + 0.2) / 3 < 0 and the triangle is flipped, where its corners' majority would not be."""
+    (-1 + 0.2 + 0.2) / 3 < 0 and the triangle is flipped, where its corners' majority would not be; the two
+    wholly on the plain joint, (-1 + 1 + 1) / 3 > 0: not flipped, though a corner is on the mirror."""
     points = np.array([[1, 0, 0], [1, 1, 0], [1, 0, 1]], np.float32)
     b = Builder()
-    _mirror_skinned(b, points, np.array([1.0, 0.4, 0.4]), np.array([[0, 1, 2]]))
+    _mirror_skinned(b, points, np.array([1.0, on_mirror, on_mirror]), np.array([[0, 1, 2]]))
     corners = _skinned_corners(tmp_path, b)
     assert len(corners) == 1
-    np.testing.assert_allclose(
-        np.sort(corners[0], axis=0), np.sort([[-1, 0, 0], [0.2, 1, 0], [0.2, 0, 1]], axis=0), atol=1e-6
-    )
+    x = 1 - 2 * on_mirror
+    posed = np.float64([[-1, 0, 0], [x, 1, 0], [x, 0, 1]])
+    np.testing.assert_allclose(np.sort(corners[0], axis=0), np.sort(posed, axis=0), atol=1e-6)
     normal = np.cross(corners[0, 1] - corners[0, 0], corners[0, 2] - corners[0, 0])
-    stored = np.cross(np.float64([0.2, 1, 0]) - [-1, 0, 0], np.float64([0.2, 0, 1]) - [-1, 0, 0])
-    assert np.dot(normal, stored) < 0  # (wound the other way round from the stored order)
+    stored = np.cross(posed[1] - posed[0], posed[2] - posed[0])
+    assert (np.dot(normal, stored) < 0) == flipped  # (flipped: wound the other way round from the stored)
+
+
+def test_a_triangle_twisted_by_joints_that_do_not_mirror_keeps_its_stored_winding(tmp_path: Path) -> None:
+    """No joint mirrors (each a rotation, det +1), so nothing reverses the winding, as a renderer draws it
+    (three.js: by the skinned node's world matrix, here the identity). The triangle's corners are on three
+    joints turned half a turn about different axes: the mean of their blends, diag(1, -1, 1) / 3, has a
+    negative determinant, and the triangle was reversed as if the skin mirrored it."""
+    points = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1]], np.float32)
+    b = Builder()
+    p = {"attributes": {"POSITION": b.accessor(points, "VEC3", 5126)}}
+    p["indices"] = b.accessor(np.uint16([0, 1, 2]), "SCALAR", 5123)
+    p["attributes"]["JOINTS_0"] = b.accessor(
+        np.uint8([[0, 0, 0, 0], [1, 0, 0, 0], [2, 0, 0, 0]]), "VEC4", 5121
+    )
+    p["attributes"]["WEIGHTS_0"] = b.accessor(np.float32([[1, 0, 0, 0]] * 3), "VEC4", 5126)
+    _placed(b, p)
+    b.doc["nodes"][0]["skin"] = 0
+    b.doc["skins"] = [{"joints": [1, 2, 3]}]
+    b.doc["nodes"] += [{}, {"rotation": [0.0, 0.0, 1.0, 0.0]}, {"rotation": [1.0, 0.0, 0.0, 0.0]}]
+    b.doc["scenes"][0]["nodes"] += [1, 2, 3]
+    corners = _skinned_corners(tmp_path, b)
+    assert len(corners) == 1
+    posed = np.float64([[1, 0, 0], [0, -1, 0], [0, 0, -1]])  # (each corner turned by its joint)
+    assert _point_set(corners[0]).tolist() == _point_set(posed).tolist()
+    normal = np.cross(corners[0, 1] - corners[0, 0], corners[0, 2] - corners[0, 0])
+    assert np.dot(normal, np.cross(posed[1] - posed[0], posed[2] - posed[0])) > 0  # (the stored order)

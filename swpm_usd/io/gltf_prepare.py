@@ -331,6 +331,8 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
     ):
         return node["mesh"]
     mesh = json.loads(json.dumps(doc["meshes"][node["mesh"]]))
+    determinants = np.linalg.det(pose[:, :3, :3])
+    mirrors, keeps = determinants < 0, determinants > 0  # (each joint's, in the skinned node's frame)
     for k, p in enumerate(mesh.get("primitives") or []):
         attrs = p["attributes"]
         sets = [n for n in range(len(attrs)) if f"JOINTS_{n}" in attrs and f"WEIGHTS_{n}" in attrs]
@@ -338,6 +340,9 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
             continue
         blend = np.zeros((r.count(attrs["POSITION"]), 4, 4))
         total = np.zeros(blend.shape[0])  # (each vertex's weights' sum, by which its blend is divided)
+        # (whether each vertex is moved by a joint that mirrors it (in the skinned node's frame), by one that
+        # does not: a triangle on no mirroring joint is not reversed however its joints twist it)
+        on_mirror, on_plain = np.zeros(blend.shape[0], bool), np.zeros(blend.shape[0], bool)
         for n in sets:
             index = r.read(attrs[f"JOINTS_{n}"]).astype(np.int64)
             weight = r.read(attrs[f"WEIGHTS_{n}"]).astype(np.float64)
@@ -354,6 +359,9 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
                 )
             for c in range(index.shape[1]):  # (each influence at once: not a (V, 4, 4, 4) array)
                 blend += weight[:, c, None, None] * pose[index[:, c]]
+                if mirrors.any():
+                    on_mirror |= mirrors[index[:, c]] & (weight[:, c] != 0)
+                    on_plain |= keeps[index[:, c]] & (weight[:, c] != 0)
             total += np.abs(weight).sum(axis=1)
             if n == sets[0]:
                 first = index[:, 0]
@@ -364,8 +372,10 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
         unweighted = total <= 0
         if unweighted.any():
             blend[unweighted], total[unweighted] = pose[first[unweighted]], 1.0
+            on_mirror[unweighted], on_plain[unweighted] = mirrors[first[unweighted]], keeps[first[unweighted]]
         blend /= total[:, None, None]
-        _wind_as_posed(r, p, blend, f"meshes[{node['mesh']}].primitives[{k}]")
+        if on_mirror.any():
+            _wind_as_posed(r, p, blend, f"meshes[{node['mesh']}].primitives[{k}]", on_mirror, on_plain)
         for name in ("POSITION", "NORMAL"):
             if name not in attrs:
                 continue
@@ -398,25 +408,35 @@ def _triangles(r: _Rewrite, p: dict, where: str) -> np.ndarray | None:
     return np.stack([flat[i], flat[i + 1 + i % 2], flat[i + 2 - i % 2]], axis=1)
 
 
-def _wind_as_posed(r: _Rewrite, p: dict, blend: np.ndarray, where: str) -> None:
+def _wind_as_posed(
+    r: _Rewrite, p: dict, blend: np.ndarray, where: str, on_mirror: np.ndarray, on_plain: np.ndarray
+) -> None:
     """Reverse the winding of each triangle of the skinned primitive ``p`` (its posed copy) that its skin
     mirrors, as glTF 2.0 reverses a mirroring node's (front faces stay front), the joints standing for the
-    skinned node's ignored transform. A triangle is mirrored when the determinant of the skin's blend at its
-    centre (the mean of its corners' blends: the transform skinning gives its centre) is negative; corners
-    of mixed joints are so decided by their mean, not their majority, and a triangle flattened to det 0 is
-    left as it is. ``blend`` is each vertex's (V, 4, 4) in the skinned node's frame (the skin's blend taken
-    back by the node's transform, which the loader applies after, flipping the whole copy when it mirrors):
-    flipped here where it is negative, a triangle is flipped once in all when the skin's own blend mirrors
-    it, and not or twice when it does not. Changed: ``p``'s indices (then a triangle list)."""
+    skinned node's ignored transform. ``on_mirror`` and ``on_plain`` say of each vertex whether a joint of
+    negative determinant moves it (at a weight not 0), and one of positive determinant. A triangle on
+    mirroring joints alone is reversed, one on no mirroring joint is not (however far its joints twist it:
+    the mean of three rotations may have a negative determinant, and no renderer reverses such a triangle);
+    one on both is mirrored when the determinant of the skin's blend at its centre (the mean of its
+    corners' blends: the transform skinning gives its centre) is negative, not by its corners' majority,
+    and left as it is at det 0. ``blend`` is each vertex's (V, 4, 4) and the determinants are taken in the
+    skinned node's frame (the skin's taken back by the node's transform, which the loader applies after,
+    flipping the whole copy when it mirrors): flipped here where it is negative, a triangle is flipped once
+    in all when the skin's own blend mirrors it, and not or twice when it does not. Changed: ``p``'s indices
+    (then a triangle list)."""
     triangles = _triangles(r, p, where)
     if triangles is None or not triangles.size:
         return
-    # (each vertex's 3x3 as one contiguous row, gathered whole, and the determinant written out: the
-    # strided view's gathers and np.linalg.det took 76 ms of a 69k-triangle mesh's prepare_gltf)
-    linear = np.ascontiguousarray(blend[:, :3, :3]).reshape(-1, 9)
-    centre = linear[triangles[:, 0]] + linear[triangles[:, 1]] + linear[triangles[:, 2]]
-    a, b, c, d, e, f, g, h, k = centre.T
-    mirrored = a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) < 0
+    mirrored = on_mirror[triangles].any(axis=1)
+    mixed = mirrored & on_plain[triangles].any(axis=1)
+    if mixed.any():
+        # (each vertex's 3x3 as one contiguous row, gathered whole, and the determinant written out: the
+        # strided view's gathers and np.linalg.det took 76 ms of a 69k-triangle mesh's prepare_gltf)
+        linear = np.ascontiguousarray(blend[:, :3, :3]).reshape(-1, 9)
+        t = triangles[mixed]
+        centre = linear[t[:, 0]] + linear[t[:, 1]] + linear[t[:, 2]]
+        a, b, c, d, e, f, g, h, k = centre.T
+        mirrored[mixed] = a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) < 0
     if mirrored.any():  # (none: the primitive's indices as they were, its bits too)
         triangles = np.where(mirrored[:, None], triangles[:, ::-1], triangles)
         p["indices"], p["mode"] = r.add(triangles.reshape(-1).astype(np.uint32), "SCALAR"), _TRIANGLES
