@@ -476,3 +476,24 @@ def test_a_triangle_twisted_by_joints_that_do_not_mirror_keeps_its_stored_windin
     assert _point_set(corners[0]).tolist() == _point_set(posed).tolist()
     normal = np.cross(corners[0, 1] - corners[0, 0], corners[0, 2] - corners[0, 0])
     assert np.dot(normal, np.cross(posed[1] - posed[0], posed[2] - posed[0])) > 0  # (the stored order)
+
+
+@pytest.mark.parametrize("layout", ["indexed", "strip"])
+@pytest.mark.parametrize("on_mirror", [1.0, 0.0])
+def test_an_index_past_a_skinned_primitives_vertices_names_its_triangle(
+    tmp_path: Path, layout: str, on_mirror: float
+) -> None:
+    """An index past the vertices of a posed skinned primitive is refused as any primitive's is, naming the
+    triangle, the index and the count, whether a joint mirrors it or not (the winding pass had its own, more
+    meagre message for a primitive on a mirroring joint)."""
+    indices = FACES.copy() if layout == "indexed" else STRIP.copy()
+    indices.reshape(-1)[0] = 99
+    b = Builder()
+    _mirror_skinned(b, POINTS, np.full(4, on_mirror), indices, 4 if layout == "indexed" else 5)
+    b.doc["nodes"][2]["rotation"] = [0.0, 0.0, 0.5**0.5, 0.5**0.5]  # (posed, whether it mirrors or not)
+    path = b.write(tmp_path / "m.gltf")
+    with pytest.raises(
+        MeshLoadError, match=r"triangle 0 has vertex index 99 out of range for 4 vertices"
+    ) as e:
+        load_mesh(path)
+    assert e.value.path == str(path) and e.value.code == "INPUT_MALFORMED"

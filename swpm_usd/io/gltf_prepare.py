@@ -375,7 +375,7 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
             on_mirror[unweighted], on_plain[unweighted] = mirrors[first[unweighted]], keeps[first[unweighted]]
         blend /= total[:, None, None]
         if on_mirror.any():
-            _wind_as_posed(r, p, blend, f"meshes[{node['mesh']}].primitives[{k}]", on_mirror, on_plain)
+            _wind_as_posed(r, p, blend, on_mirror, on_plain)
         for name in ("POSITION", "NORMAL"):
             if name not in attrs:
                 continue
@@ -391,17 +391,18 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
     return len(doc["meshes"]) - 1
 
 
-def _triangles(r: _Rewrite, p: dict, where: str) -> np.ndarray | None:
+def _triangles(r: _Rewrite, p: dict) -> np.ndarray | None:
     """The (T, 3) vertex indices of primitive ``p``'s triangles as glTF 2.0 lists them (TRIANGLES; a
-    TRIANGLE_STRIP's triangle i is v_i, v_(i+1+i%2), v_(i+2-i%2)); None for points and lines (no winding).
-    Fans are triangle lists by now (:func:`_rewrite`)."""
+    TRIANGLE_STRIP's triangle i is v_i, v_(i+1+i%2), v_(i+2-i%2)); None for points and lines (no winding),
+    and for an index past the vertices: the loader refuses the file, naming the triangle and the index, as
+    for any primitive. Fans are triangle lists by now (:func:`_rewrite`)."""
     mode = p.get("mode", _TRIANGLES)
     if mode not in (_TRIANGLES, _TRIANGLE_STRIP):
         return None
     count = r.count(p["attributes"]["POSITION"])
     flat = r.read(p["indices"])[:, 0].astype(np.int64) if "indices" in p else np.arange(count)
     if flat.size and (flat.min() < 0 or flat.max() >= count):
-        raise MeshLoadError(r.path, f"{where}: index {int(flat.max())} is past its {count} vertices")
+        return None
     if mode == _TRIANGLES:
         return flat[: flat.shape[0] // 3 * 3].reshape(-1, 3)
     i = np.arange(max(flat.shape[0] - 2, 0))
@@ -409,7 +410,7 @@ def _triangles(r: _Rewrite, p: dict, where: str) -> np.ndarray | None:
 
 
 def _wind_as_posed(
-    r: _Rewrite, p: dict, blend: np.ndarray, where: str, on_mirror: np.ndarray, on_plain: np.ndarray
+    r: _Rewrite, p: dict, blend: np.ndarray, on_mirror: np.ndarray, on_plain: np.ndarray
 ) -> None:
     """Reverse the winding of each triangle of the skinned primitive ``p`` (its posed copy) that its skin
     mirrors, as glTF 2.0 reverses a mirroring node's (front faces stay front), the joints standing for the
@@ -424,7 +425,7 @@ def _wind_as_posed(
     flipping the whole copy when it mirrors): flipped here where it is negative, a triangle is flipped once
     in all when the skin's own blend mirrors it, and not or twice when it does not. Changed: ``p``'s indices
     (then a triangle list)."""
-    triangles = _triangles(r, p, where)
+    triangles = _triangles(r, p)
     if triangles is None or not triangles.size:
         return
     mirrored = on_mirror[triangles].any(axis=1)
