@@ -32,9 +32,9 @@ trimesh (the loader behind :mod:`.trimesh_loader`) silently
   joints (the blend of each joint's world transform x inverse bind matrix) and says the skinned node's own
   transform is ignored; the file's pose is drawn (its nodes' transforms, no animation), and a mesh at its
   bind pose is left as it is (:func:`_skinned`). The winding follows the skin, not the ignored node: a
-  triangle the skin mirrors (its blend's determinant negative at the triangle's centre) is reversed, as a
-  mirroring node's is (:func:`_wind_as_posed`), where the skinned node's mirror had flipped every triangle
-  or none;
+  triangle the skin mirrors (on mirroring joints alone; on mirroring and other joints, its blend's
+  determinant negative at the triangle's centre) is reversed, as a mirroring node's is
+  (:func:`_wind_as_posed`), where the skinned node's mirror had flipped every triangle or none;
 * reads a buffer's or image's ``uri`` as written: it is a URI, percent-decoded (``my%20mesh.bin``) by
   :func:`uri_names`, whose resolver (:func:`uri_resolver`) the loader gives trimesh for every glTF.
 
@@ -49,10 +49,11 @@ front faces; cameras and lights are not drawn. The scene drawn is ``scene``, els
 (the spec lets a loader draw nothing then: drawing the first is what viewers do), else every root node.
 A skinned mesh's winding: glTF 2.0 says the determinant of the node's global transform decides it, and
 that a skinned node's transform is ignored, the joints' transforms placing the mesh instead; the loader
-decides it per triangle by the skin's blend at the triangle's centre, a blend of mirrored and unmirrored
-joints by its mean (three.js's renderer decides front faces by the drawn object's world matrix alone, for a
-skinned mesh the skinned node's). Left as trimesh does: the loader never fetches a ``scheme:`` uri
-(``http:``, ``file:``) nor reads a file outside the glTF's folder.
+decides it per triangle by its joints: none mirroring, not reversed (however they twist it); all, reversed;
+a blend of mirrored and unmirrored joints by the sign of its mean's determinant at the centre (three.js's
+renderer decides front faces by the drawn object's world matrix alone, for a skinned mesh the skinned
+node's, so never reverses a triangle of no mirroring joint either). Left as trimesh does: the loader never
+fetches a ``scheme:`` uri (``http:``, ``file:``) nor reads a file outside the glTF's folder.
 
 :func:`prepared_gltf` returns, for a file that uses any of them, the document rewritten so trimesh reads what
 the file means (dense float accessors in one added buffer, fans as triangle lists, a plain material added for
