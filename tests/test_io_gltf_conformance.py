@@ -341,3 +341,159 @@ def test_a_skinned_mesh_bound_far_from_the_origin_at_its_bind_pose_loads_as_its_
     plain = load_mesh(b.write(tmp_path / "plain.gltf"))
     assert np.array_equal(skinned.points, plain.points)
     assert np.array_equal(skinned.triangles, plain.triangles)
+
+
+def _mirror_skinned(
+    b: Builder,
+    points: np.ndarray,
+    on_mirror: np.ndarray,
+    indices: np.ndarray | None,
+    mode: int = 4,
+) -> None:
+    """A primitive of ``points`` (by ``indices``, or in order) skinned by two joints: node 1, unmoved, and
+    node 2, which mirrors x (scale -1 1 1, as a left arm made of a right one); each point on node 2 at
+    ``on_mirror``'s weight, on node 1 at the rest; no inverse bind matrices (each the identity). The skinned
+    node 0 has no transform of its own."""
+    p = {"attributes": {"POSITION": b.accessor(points.astype(np.float32), "VEC3", 5126)}, "mode": mode}
+    if indices is not None:
+        p["indices"] = b.accessor(indices.astype(np.uint16).reshape(-1), "SCALAR", 5123)
+    weights = np.zeros((len(points), 4), np.float32)
+    weights[:, 0], weights[:, 1] = 1 - on_mirror, on_mirror
+    joints = np.tile(np.uint8([0, 1, 0, 0]), (len(points), 1))
+    p["attributes"]["JOINTS_0"] = b.accessor(joints, "VEC4", 5121)
+    p["attributes"]["WEIGHTS_0"] = b.accessor(weights, "VEC4", 5126)
+    _placed(b, p)
+    b.doc["nodes"][0]["skin"] = 0
+    b.doc["skins"] = [{"joints": [1, 2]}]
+    b.doc["nodes"] += [{}, {"scale": [-1.0, 1.0, 1.0]}]
+    b.doc["scenes"][0]["nodes"] += [1, 2]
+
+
+def _volume(corners: np.ndarray) -> float:
+    """The signed volume of a closed surface's triangles ((T, 3, 3) corners): positive when they wind
+    counter-clockwise seen from outside (front faces out), as the tetrahedron's FACES do."""
+    return float(np.einsum("ti,ti->t", corners[:, 0], np.cross(corners[:, 1], corners[:, 2])).sum() / 6)
+
+
+#: the tetrahedron's FACES as one TRIANGLE_STRIP (glTF 2.0's triangle i: v_i, v_(i+1+i%2), v_(i+2-i%2))
+STRIP = np.array([0, 2, 1, 3, 0, 2])
+
+
+def _skinned_corners(tmp_path: Path, b: Builder, suffix: str = ".gltf") -> np.ndarray:
+    mesh = load_mesh(b.write(tmp_path / f"m{suffix}"))
+    return mesh.points[mesh.triangles].astype(np.float64)
+
+
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+@pytest.mark.parametrize("layout", ["indexed", "in-order", "strip"])
+def test_a_mesh_skinned_by_a_mirroring_joint_keeps_its_front_faces_out(
+    tmp_path: Path, suffix: str, layout: str
+) -> None:
+    """glTF 2.0: a transform of negative determinant reverses the winding, so front faces stay front; for a
+    skinned mesh the joints' transforms stand for the skinned node's, which is ignored. The tetrahedron on
+    the mirroring joint is drawn mirrored with its faces out (positive volume): the loader flipped by the
+    skinned node's transform alone, and drew it inside out."""
+    if layout == "indexed":
+        points, indices, mode = POINTS, FACES, 4
+    elif layout == "in-order":  # (no indices: each triangle's corners in order)
+        points, indices, mode = POINTS[FACES.reshape(-1)], None, 4
+    else:
+        points, indices, mode = POINTS, STRIP, 5
+    b = Builder()
+    _mirror_skinned(b, points, np.ones(len(points)), indices, mode)
+    corners = _skinned_corners(tmp_path, b, suffix)
+    assert _point_set(corners.reshape(-1, 3)).tolist() == _point_set(POINTS * [-1, 1, 1]).tolist()
+    assert len(corners) == 4 and _volume(corners) == pytest.approx(1 / 6)
+
+
+def test_mirrored_and_unmirrored_joints_of_one_primitive_each_keep_their_faces_out(tmp_path: Path) -> None:
+    """The winding is decided per triangle: one primitive of two tetrahedra (at x 5..6), one on the plain
+    joint, one on the mirroring joint (drawn at x -6..-5); both with their faces out."""
+    points = np.concatenate([POINTS + [5, 0, 0], POINTS + [5, 0, 0]])
+    b = Builder()
+    _mirror_skinned(b, points, np.repeat([0.0, 1.0], 4), np.concatenate([FACES, FACES + 4]))
+    corners = _skinned_corners(tmp_path, b)
+    mirrored = corners.mean(axis=1)[:, 0] < 0
+    assert mirrored.sum() == 4 and len(corners) == 8
+    assert _volume(corners[mirrored]) == pytest.approx(1 / 6)
+    assert _volume(corners[~mirrored]) == pytest.approx(1 / 6)
+
+
+def test_a_mirrored_skinned_node_does_not_flip_what_its_joints_do_not_mirror(tmp_path: Path) -> None:
+    """The skinned node's own transform (here a mirror) is ignored, for the winding too: its joints place
+    the tetrahedron unmirrored, faces out. The loader flipped it by the node's mirror: inside out."""
+    b = Builder()
+    _mirror_skinned(b, POINTS, np.zeros(4), FACES)
+    b.doc["nodes"][0]["scale"] = [1.0, -1.0, 1.0]
+    corners = _skinned_corners(tmp_path, b)
+    assert _point_set(corners.reshape(-1, 3)).tolist() == _point_set(POINTS).tolist()
+    assert _volume(corners) == pytest.approx(1 / 6)
+
+
+@pytest.mark.parametrize(("on_mirror", "flipped"), [(0.4, True), (0.0, False)])
+def test_a_triangle_of_mixed_joints_winds_as_the_blend_at_its_centre(
+    tmp_path: Path, on_mirror: float, flipped: bool
+) -> None:
+    """A triangle whose corners blend mirrored and unmirrored joints follows the sign of the determinant of
+    the skin's blend at its centre (the mean of its corners' blends, as skinning places the centre): one
+    corner wholly on the mirroring joint, two at 0.4 on it (x scaled by 0.2), so the centre's x scale is
+    (-1 + 0.2 + 0.2) / 3 < 0 and the triangle is flipped, where its corners' majority would not be; the two
+    wholly on the plain joint, (-1 + 1 + 1) / 3 > 0: not flipped, though a corner is on the mirror."""
+    points = np.array([[1, 0, 0], [1, 1, 0], [1, 0, 1]], np.float32)
+    b = Builder()
+    _mirror_skinned(b, points, np.array([1.0, on_mirror, on_mirror]), np.array([[0, 1, 2]]))
+    corners = _skinned_corners(tmp_path, b)
+    assert len(corners) == 1
+    x = 1 - 2 * on_mirror
+    posed = np.float64([[-1, 0, 0], [x, 1, 0], [x, 0, 1]])
+    np.testing.assert_allclose(np.sort(corners[0], axis=0), np.sort(posed, axis=0), atol=1e-6)
+    normal = np.cross(corners[0, 1] - corners[0, 0], corners[0, 2] - corners[0, 0])
+    stored = np.cross(posed[1] - posed[0], posed[2] - posed[0])
+    assert (np.dot(normal, stored) < 0) == flipped  # (flipped: wound the other way round from the stored)
+
+
+def test_a_triangle_twisted_by_joints_that_do_not_mirror_keeps_its_stored_winding(tmp_path: Path) -> None:
+    """No joint mirrors (each a rotation, det +1), so nothing reverses the winding, as a renderer draws it
+    (three.js: by the skinned node's world matrix, here the identity). The triangle's corners are on three
+    joints turned half a turn about different axes: the mean of their blends, diag(1, -1, 1) / 3, has a
+    negative determinant, and the triangle was reversed as if the skin mirrored it."""
+    points = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1]], np.float32)
+    b = Builder()
+    p = {"attributes": {"POSITION": b.accessor(points, "VEC3", 5126)}}
+    p["indices"] = b.accessor(np.uint16([0, 1, 2]), "SCALAR", 5123)
+    p["attributes"]["JOINTS_0"] = b.accessor(
+        np.uint8([[0, 0, 0, 0], [1, 0, 0, 0], [2, 0, 0, 0]]), "VEC4", 5121
+    )
+    p["attributes"]["WEIGHTS_0"] = b.accessor(np.float32([[1, 0, 0, 0]] * 3), "VEC4", 5126)
+    _placed(b, p)
+    b.doc["nodes"][0]["skin"] = 0
+    b.doc["skins"] = [{"joints": [1, 2, 3]}]
+    b.doc["nodes"] += [{}, {"rotation": [0.0, 0.0, 1.0, 0.0]}, {"rotation": [1.0, 0.0, 0.0, 0.0]}]
+    b.doc["scenes"][0]["nodes"] += [1, 2, 3]
+    corners = _skinned_corners(tmp_path, b)
+    assert len(corners) == 1
+    posed = np.float64([[1, 0, 0], [0, -1, 0], [0, 0, -1]])  # (each corner turned by its joint)
+    assert _point_set(corners[0]).tolist() == _point_set(posed).tolist()
+    normal = np.cross(corners[0, 1] - corners[0, 0], corners[0, 2] - corners[0, 0])
+    assert np.dot(normal, np.cross(posed[1] - posed[0], posed[2] - posed[0])) > 0  # (the stored order)
+
+
+@pytest.mark.parametrize("layout", ["indexed", "strip"])
+@pytest.mark.parametrize("on_mirror", [1.0, 0.0])
+def test_an_index_past_a_skinned_primitives_vertices_names_its_triangle(
+    tmp_path: Path, layout: str, on_mirror: float
+) -> None:
+    """An index past the vertices of a posed skinned primitive is refused as any primitive's is, naming the
+    triangle, the index and the count, whether a joint mirrors it or not (the winding pass had its own, more
+    meagre message for a primitive on a mirroring joint)."""
+    indices = FACES.copy() if layout == "indexed" else STRIP.copy()
+    indices.reshape(-1)[0] = 99
+    b = Builder()
+    _mirror_skinned(b, POINTS, np.full(4, on_mirror), indices, 4 if layout == "indexed" else 5)
+    b.doc["nodes"][2]["rotation"] = [0.0, 0.0, 0.5**0.5, 0.5**0.5]  # (posed, whether it mirrors or not)
+    path = b.write(tmp_path / "m.gltf")
+    with pytest.raises(
+        MeshLoadError, match=r"triangle 0 has vertex index 99 out of range for 4 vertices"
+    ) as e:
+        load_mesh(path)
+    assert e.value.path == str(path) and e.value.code == "INPUT_MALFORMED"

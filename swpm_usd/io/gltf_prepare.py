@@ -14,7 +14,13 @@ trimesh (the loader behind :mod:`.trimesh_loader`) silently
 * loads a geometry compressed by an extension it cannot decode (meshopt; Draco without DracoPy) as zeros,
   which the loader reported as "all triangles are degenerate": :func:`prepared_gltf` names the extension;
 * reads a node of ``EXT_mesh_gpu_instancing`` as one copy of its mesh: :func:`prepare_gltf` reads its
-  instances' transforms (:func:`_instance_matrices`), which the loader applies to the node's mesh;
+  instances' transforms (:func:`_instance_matrices`), which the loader applies to the node's mesh. The
+  extension's accessor types are read and no other: TRANSLATION and SCALE VEC3 of FLOAT, ROTATION VEC4 of
+  FLOAT or of normalized BYTE or SHORT (decoded as glTF 2.0's max(c / 127, -1), max(c / 32767, -1); no
+  unsigned type, which the extension leaves out); another is a :class:`MeshLoadError` naming the node and
+  the accessor. A node with both a ``skin`` and instances, which the extension does not define (its
+  instances are placed by the node's transform, which skinning ignores), is refused naming the node
+  (:func:`_check_instanced_skins`), where it was drawn instanced with its skin left aside;
 * reads a file whatever extension its ``extensionsRequired`` lists: one this loader neither implements
   nor can leave aside (:data:`_KNOWN_REQUIRED`) is refused.
 * fails on a primitive without ``POSITION`` (a KeyError), which glTF 2.0 says is not rendered: it is left
@@ -25,7 +31,10 @@ trimesh (the loader behind :mod:`.trimesh_loader`) silently
 * ignores skins, drawing the stored vertices placed by the skinned node: glTF 2.0 draws them posed by the
   joints (the blend of each joint's world transform x inverse bind matrix) and says the skinned node's own
   transform is ignored; the file's pose is drawn (its nodes' transforms, no animation), and a mesh at its
-  bind pose is left as it is (:func:`_skinned`);
+  bind pose is left as it is (:func:`_skinned`). The winding follows the skin, not the ignored node: a
+  triangle the skin mirrors (on mirroring joints alone; on mirroring and other joints, its blend's
+  determinant negative at the triangle's centre) is reversed, as a mirroring node's is
+  (:func:`_wind_as_posed`), where the skinned node's mirror had flipped every triangle or none;
 * reads a buffer's or image's ``uri`` as written: it is a URI, percent-decoded (``my%20mesh.bin``) by
   :func:`uri_names`, whose resolver (:func:`uri_resolver`) the loader gives trimesh for every glTF.
 
@@ -38,9 +47,13 @@ a node's ``matrix`` or its T x R x S; a mesh of several nodes is drawn at each; 
 transform mirrors (negative determinant) has its triangles' winding reversed, so the front faces stay
 front faces; cameras and lights are not drawn. The scene drawn is ``scene``, else the first of ``scenes``
 (the spec lets a loader draw nothing then: drawing the first is what viewers do), else every root node.
-Left as trimesh does: a skinned node's transform when it mirrors (its winding is flipped as a plain
-node's), and the loader never fetches a ``scheme:`` uri (``http:``, ``file:``) nor reads a file outside
-the glTF's folder.
+A skinned mesh's winding: glTF 2.0 says the determinant of the node's global transform decides it, and
+that a skinned node's transform is ignored, the joints' transforms placing the mesh instead; the loader
+decides it per triangle by its joints: none mirroring, not reversed (however they twist it); all, reversed;
+a blend of mirrored and unmirrored joints by the sign of its mean's determinant at the centre (three.js's
+renderer decides front faces by the drawn object's world matrix alone, for a skinned mesh the skinned
+node's, so never reverses a triangle of no mirroring joint either). Left as trimesh does: the loader never
+fetches a ``scheme:`` uri (``http:``, ``file:``) nor reads a file outside the glTF's folder.
 
 :func:`prepared_gltf` returns, for a file that uses any of them, the document rewritten so trimesh reads what
 the file means (dense float accessors in one added buffer, fans as triangle lists, a plain material added for
@@ -73,6 +86,7 @@ _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
 _MATRIX_WIDTH = {"MAT4": 16}
 _TRIANGLE_FAN = 6
 _TRIANGLES = 4
+_TRIANGLE_STRIP = 5
 _FLOAT = 5126
 _UINT = 5125
 _GLB_HEADER = struct.Struct("<4sII")
@@ -203,7 +217,7 @@ def _needs(doc: dict, skins: bool = True) -> bool:
 
 def _skinned_node(node: Any) -> bool:
     """Whether ``node`` draws its mesh with a skin (not an instanced node's: its instances are placed in
-    the node's frame, which skinning leaves aside)."""
+    the node's frame, which skinning leaves aside; :func:`prepare_gltf` refuses such a node)."""
     return (
         isinstance(node, dict)
         and node.get("mesh") is not None
@@ -318,6 +332,8 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
     ):
         return node["mesh"]
     mesh = json.loads(json.dumps(doc["meshes"][node["mesh"]]))
+    determinants = np.linalg.det(pose[:, :3, :3])
+    mirrors, keeps = determinants < 0, determinants > 0  # (each joint's, in the skinned node's frame)
     for k, p in enumerate(mesh.get("primitives") or []):
         attrs = p["attributes"]
         sets = [n for n in range(len(attrs)) if f"JOINTS_{n}" in attrs and f"WEIGHTS_{n}" in attrs]
@@ -325,6 +341,9 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
             continue
         blend = np.zeros((r.count(attrs["POSITION"]), 4, 4))
         total = np.zeros(blend.shape[0])  # (each vertex's weights' sum, by which its blend is divided)
+        # (whether each vertex is moved by a joint that mirrors it (in the skinned node's frame), by one that
+        # does not: a triangle on no mirroring joint is not reversed however its joints twist it)
+        on_mirror, on_plain = np.zeros(blend.shape[0], bool), np.zeros(blend.shape[0], bool)
         for n in sets:
             index = r.read(attrs[f"JOINTS_{n}"]).astype(np.int64)
             weight = r.read(attrs[f"WEIGHTS_{n}"]).astype(np.float64)
@@ -341,6 +360,9 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
                 )
             for c in range(index.shape[1]):  # (each influence at once: not a (V, 4, 4, 4) array)
                 blend += weight[:, c, None, None] * pose[index[:, c]]
+                if mirrors.any():
+                    on_mirror |= mirrors[index[:, c]] & (weight[:, c] != 0)
+                    on_plain |= keeps[index[:, c]] & (weight[:, c] != 0)
             total += np.abs(weight).sum(axis=1)
             if n == sets[0]:
                 first = index[:, 0]
@@ -351,7 +373,10 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
         unweighted = total <= 0
         if unweighted.any():
             blend[unweighted], total[unweighted] = pose[first[unweighted]], 1.0
+            on_mirror[unweighted], on_plain[unweighted] = mirrors[first[unweighted]], keeps[first[unweighted]]
         blend /= total[:, None, None]
+        if on_mirror.any():
+            _wind_as_posed(r, p, blend, on_mirror, on_plain)
         for name in ("POSITION", "NORMAL"):
             if name not in attrs:
                 continue
@@ -365,6 +390,58 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
             attrs[name] = r.add(values.astype(np.float32), "VEC3")
     doc["meshes"].append(mesh)
     return len(doc["meshes"]) - 1
+
+
+def _triangles(r: _Rewrite, p: dict) -> np.ndarray | None:
+    """The (T, 3) vertex indices of primitive ``p``'s triangles as glTF 2.0 lists them (TRIANGLES; a
+    TRIANGLE_STRIP's triangle i is v_i, v_(i+1+i%2), v_(i+2-i%2)); None for points and lines (no winding),
+    and for an index past the vertices: the loader refuses the file, naming the triangle and the index, as
+    for any primitive. Fans are triangle lists by now (:func:`_rewrite`)."""
+    mode = p.get("mode", _TRIANGLES)
+    if mode not in (_TRIANGLES, _TRIANGLE_STRIP):
+        return None
+    count = r.count(p["attributes"]["POSITION"])
+    flat = r.read(p["indices"])[:, 0].astype(np.int64) if "indices" in p else np.arange(count)
+    if flat.size and (flat.min() < 0 or flat.max() >= count):
+        return None
+    if mode == _TRIANGLES:
+        return flat[: flat.shape[0] // 3 * 3].reshape(-1, 3)
+    i = np.arange(max(flat.shape[0] - 2, 0))
+    return np.stack([flat[i], flat[i + 1 + i % 2], flat[i + 2 - i % 2]], axis=1)
+
+
+def _wind_as_posed(
+    r: _Rewrite, p: dict, blend: np.ndarray, on_mirror: np.ndarray, on_plain: np.ndarray
+) -> None:
+    """Reverse the winding of each triangle of the skinned primitive ``p`` (its posed copy) that its skin
+    mirrors, as glTF 2.0 reverses a mirroring node's (front faces stay front), the joints standing for the
+    skinned node's ignored transform. ``on_mirror`` and ``on_plain`` say of each vertex whether a joint of
+    negative determinant moves it (at a weight not 0), and one of positive determinant. A triangle on
+    mirroring joints alone is reversed, one on no mirroring joint is not (however far its joints twist it:
+    the mean of three rotations may have a negative determinant, and no renderer reverses such a triangle);
+    one on both is mirrored when the determinant of the skin's blend at its centre (the mean of its
+    corners' blends: the transform skinning gives its centre) is negative, not by its corners' majority,
+    and left as it is at det 0. ``blend`` is each vertex's (V, 4, 4) and the determinants are taken in the
+    skinned node's frame (the skin's taken back by the node's transform, which the loader applies after,
+    flipping the whole copy when it mirrors): flipped here where it is negative, a triangle is flipped once
+    in all when the skin's own blend mirrors it, and not or twice when it does not. Changed: ``p``'s indices
+    (then a triangle list)."""
+    triangles = _triangles(r, p)
+    if triangles is None or not triangles.size:
+        return
+    mirrored = on_mirror[triangles].any(axis=1)
+    mixed = mirrored & on_plain[triangles].any(axis=1)
+    if mixed.any():
+        # (each vertex's 3x3 as one contiguous row, gathered whole, and the determinant written out: the
+        # strided view's gathers and np.linalg.det took 76 ms of a 69k-triangle mesh's prepare_gltf)
+        linear = np.ascontiguousarray(blend[:, :3, :3]).reshape(-1, 9)
+        t = triangles[mixed]
+        centre = linear[t[:, 0]] + linear[t[:, 1]] + linear[t[:, 2]]
+        a, b, c, d, e, f, g, h, k = centre.T
+        mirrored[mixed] = a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) < 0
+    if mirrored.any():  # (none: the primitive's indices as they were, its bits too)
+        triangles = np.where(mirrored[:, None], triangles[:, ::-1], triangles)
+        p["indices"], p["mode"] = r.add(triangles.reshape(-1).astype(np.uint32), "SCALAR"), _TRIANGLES
 
 
 def _morphed(r: _Rewrite, m: int, weights: tuple[float, ...]) -> int:
@@ -859,6 +936,24 @@ def _check_counts(path: Path, doc: Any) -> None:
             )
 
 
+def _check_instanced_skins(path: Path, doc: Any) -> None:
+    """Raise a :class:`MeshLoadError` (``INPUT_UNSUPPORTED``) naming the first node that has both a ``skin``
+    and ``EXT_mesh_gpu_instancing`` instances: the extension places the mesh by the node's world transform x
+    each instance's, which skinning ignores (the joints place the mesh), and says nothing of the two
+    together (KhronosGroup/glTF#2404 proposed that such a node should not be written; three.js draws no
+    such node): drawn as an instanced node, its skin left aside, it was neither."""
+    nodes = doc.get("nodes") if isinstance(doc, dict) else None
+    for i, node in enumerate(nodes if isinstance(nodes, list) else []):
+        if _instancing(node) is not None and "skin" in node:
+            raise MeshLoadError(
+                path,
+                f"{_node_name(doc, i)} has both a skin and {INSTANCING} instances, which the extension does "
+                "not define (skinning ignores the node's transform the instances are placed by): export the "
+                "instances as nodes, or the mesh without its skin",
+                code="INPUT_UNSUPPORTED",
+            )
+
+
 def _json_document(path: Path) -> Any:
     """The JSON document of the .gltf or .glb file ``path`` (a .glb's JSON chunk alone is read); raises
     :class:`_Unread` (or what reading or parsing raises) when there is none."""
@@ -982,12 +1077,14 @@ def prepare_gltf(path: Path) -> Prepared | None:
             doc = _json_document(path)
             _check_extensions(path, doc)
             _check_counts(path, doc)
+            _check_instanced_skins(path, doc)
             if not _needs(doc):
                 return None
         data = path.read_bytes()
         doc, binary = _document(path, data)
         _check_extensions(path, doc)
         _check_counts(path, doc)
+        _check_instanced_skins(path, doc)
         if not isinstance(doc, dict) or not _needs(doc):
             return None
         rewritten = _rewrite(path, doc, binary)
