@@ -1450,8 +1450,9 @@ def test_a_failed_rebuild_keeps_the_previous_build(tmp_path):
         )
         files, listed = _listed_outputs(out)
         assert files == listed == {"cow.swpm", "cow.usdc", "spot.swpm", "spot.usdc"}
-    r = CliRunner().invoke(main, ["run", str(cfg)])  # the text summary says so too
-    assert r.exit_code == 1 and "FAILED meshes/cow.obj: " in r.stderr and "previous build is kept" in r.stderr
+    r = CliRunner().invoke(main, ["run", str(cfg)])  # the text summary says so too (with the problem's code)
+    assert r.exit_code == 1 and "FAILED [INPUT_MALFORMED] meshes/cow.obj: " in r.stderr
+    assert "previous build is kept" in r.stderr
     # the input put back: the kept build is up to date again, and the failure goes
     cow.write_bytes(good)
     again = run(cfg, echo=lambda m: None)
@@ -5254,6 +5255,27 @@ def test_progress_line_of_a_failed_asset_keeps_its_cause_under_a_deep_folder(tmp
     # the asset is named once (its id, relative), and the cause follows
     assert "MeshLoadError: no triangles: the file is empty (0 bytes)" in lines[0]
     assert str(tmp_path) not in lines[0]
+
+
+def test_plain_text_failed_lines_carry_the_problem_code(tmp_path):
+    """--json and the manifest give a failed asset's ``code``; the plain-text progress and summary lines gave
+    English alone, so a studio's log of thousands of assets could not be grepped by cause: both now bracket
+    the code after FAILED, the same code --json gives."""
+    cfg = _project(
+        tmp_path, meshes=("suzanne.obj",), config=MINIMAL.replace("dir: out", "{dir: out, report: false}")
+    )
+    (tmp_path / "meshes" / "empty.obj").write_bytes(b"")
+    (tmp_path / "meshes" / "bad.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 x 1\nf 1 2 3\n")
+    r = CliRunner().invoke(main, ["run", str(cfg)])
+    assert r.exit_code == 1
+    lines = r.stderr.splitlines()
+    r = CliRunner().invoke(main, ["run", str(cfg), "--json"])  # (the failures retried: the same codes)
+    codes = {f["id"]: f["code"] for f in json.loads(r.stdout)["failures"]}
+    assert codes == {"meshes/empty.obj": "INPUT_EMPTY", "meshes/bad.obj": "INPUT_MALFORMED"}, codes
+    for rid, code in codes.items():
+        summary = [ln for ln in lines if ln.startswith(f"FAILED [{code}] {rid}: ")]
+        progress = [ln for ln in lines if f"{rid}: FAILED [{code}] (" in ln]
+        assert len(summary) == 1 and len(progress) == 1, (rid, code, lines)
 
 
 def test_bench_scale_edits_an_input_without_breaking_it(tmp_path):

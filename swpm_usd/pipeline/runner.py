@@ -1580,7 +1580,11 @@ class _Progress:
         error = rec.get("error", "")
         if path:
             error = error.replace(f"{path}: ", "", 1)
-        status = rec["status"] if rec["status"] != "failed" else f"FAILED ({error[:100]})"
+        status = rec["status"]
+        if status == "failed":
+            # the problem code first, bracketed, as the summary's FAILED line has it: a log greps by cause
+            code = f" [{rec['code']}]" if rec.get("code") else ""
+            status = f"FAILED{code} ({error[:100]})"
         if rec.get("kept_previous"):
             status += "; its previous outputs are kept"
         if self.bar is not None:
