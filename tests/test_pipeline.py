@@ -5518,16 +5518,21 @@ def test_a_dry_run_routes_by_an_objs_lower_bound_only_where_no_rule_above_it_mat
     tmp_path, monkeypatch
 ):
     # suzanne.obj: 500 face lines, 967 triangles once cleaned. Under `max: 600` its lower bound (500) named
-    # rule tiny, which the run, counting 967, did not use: the dry run's plan was another encoding
-    import swpm_usd.io as io
+    # rule tiny, which the run, counting 967, did not use: the dry run's plan was another encoding. The file
+    # loaded after its face lines were counted is read once, not once for each (the count's bytes loaded)
+    import swpm_usd.io.trimesh_loader as loader
 
     (tmp_path / "m").mkdir()
     shutil.copy(SHARED_MESHES / "suzanne.obj", tmp_path / "m" / "s.obj")
     cfg = tmp_path / "c.yaml"
     head = "version: 1\nassets: [{glob: 'm/*'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
     loaded: list[str] = []
-    real = io.load_mesh
-    monkeypatch.setattr(io, "load_mesh", lambda p, **kw: (loaded.append(Path(p).name), real(p, **kw))[1])
+    read: list[str] = []
+    real, real_read = loader.load_trimesh, Path.read_bytes
+    monkeypatch.setattr(
+        loader, "load_trimesh", lambda p, **kw: (loaded.append(Path(p).name), real(p, **kw))[1]
+    )
+    monkeypatch.setattr(Path, "read_bytes", lambda p: (read.append(p.name), real_read(p))[1])
     for bounds, encoding, count in (
         ("{max: 600}", "vanilla", (967, "exact")),  # (loaded: 500 is under the max, 967 is not)
         ("{min: 600}", "skip-strip", (967, "exact")),  # (a min above the bound: loaded too)
@@ -5537,9 +5542,11 @@ def test_a_dry_run_routes_by_an_objs_lower_bound_only_where_no_rule_above_it_mat
         rule = f"{{name: tiny, match: {{triangles: {bounds}}}, encoding: skip-strip}}"
         cfg.write_text(head + f"rules:\n  - {rule}\n")
         loaded.clear()
+        read.clear()
         (plan,) = run(cfg, dry_run=True, echo=lambda m: None).plan
         assert (plan["encoding"], (plan["triangles"], plan["triangles_count"])) == (encoding, count), bounds
         assert loaded == ([] if count[1] == "lower bound" else ["s.obj"]), bounds
+        assert read.count("s.obj") == 1, (bounds, read)
 
 
 def test_a_fork_server_that_warmed_less_than_a_later_run_uses_is_started_again(monkeypatch):

@@ -435,18 +435,35 @@ def _digest_with_count(item: PlanItem, record: dict) -> str | None:
     return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, instances=count)
 
 
-def _count_triangles(asset: Asset, max_triangles: int | None = None) -> int:
+def _count_triangles(asset: Asset, max_triangles: int | None = None, data: bytes = b"") -> int:
+    """The triangles of ``asset``'s mesh, loaded; ``data``, when not empty, its OBJ file's bytes as
+    :func:`_early_count` read them (not read again)."""
+    if data:
+        from ..io.trimesh_loader import load_trimesh
+
+        return load_trimesh(asset.path, max_triangles=max_triangles, data=data).triangle_count
     from ..io import load_mesh
 
     mesh = load_mesh(asset.path, prim_path=asset.prim, max_triangles=max_triangles)
     return mesh.triangle_count
 
 
-def _early_count(asset: Asset) -> tuple[int, bool] | None:
-    """:func:`.io.early_triangle_count` of ``asset``'s file (a prim's of its stage)."""
+def _early_count(asset: Asset) -> tuple[tuple[int, bool] | None, bytes]:
+    """:func:`.io.early_triangle_count` of ``asset``'s file (a prim's of its stage), and an OBJ's bytes it
+    read for it: a lower bound under a rule's ``max`` is loaded (:func:`_count_triangles`), and a dry run
+    read each such OBJ twice."""
     from ..io import early_triangle_count
 
-    return early_triangle_count(asset.path, prim_path=asset.prim)
+    if asset.prim is None and asset.path.suffix.lower() == ".obj":
+        from ..io.trimesh_loader import declared_triangle_count
+
+        try:
+            data = asset.path.read_bytes()
+        except (OSError, MemoryError):  # (as early_triangle_count: its load says why)
+            return None, b""
+        found = declared_triangle_count(asset.path, "obj", data) if data else None
+        return (None if found is None else (found[0], found[1])), data
+    return early_triangle_count(asset.path, prim_path=asset.prim), b""
 
 
 def _same_rule_from(cfg: Config, asset: Asset, lowest: int) -> bool:
@@ -722,14 +739,14 @@ def plan(
                     )
                 )
                 continue
-            early = _early_count(a) if early_counts else None
+            early, data = _early_count(a) if early_counts else (None, b"")
             if early is not None and not early[1] and not _same_rule_from(cfg, a, early[0]):
                 early = None  # (a lower bound under a rule's max: the count it routes by is loaded)
             if early is not None:
                 tri, how = early[0], "declared before cleaning" if early[1] else "lower bound"
             else:
                 try:
-                    tri = _count_triangles(a, _max_triangles(cfg))
+                    tri = _count_triangles(a, _max_triangles(cfg), data)
                 except Exception as exc:  # noqa: BLE001 - the worker reports it as this asset's failure
                     # routed as the run routes it: by the worker, once the file loads (it was routed as if
                     # it held 0 triangles, a rule the run never gave it). Its build fails unless it loads then
