@@ -5332,14 +5332,18 @@ def test_the_fork_server_warms_the_pending_tasks_encodings_and_preloads_usd_when
     # a rerun whose only tasks were a few broken assets (retried) had the server warm every encoding, and
     # each worker of a run writing USD imported usd-core itself (the server had not)
     task = {"path": "a.obj", "encoding": "vanilla", "write_usd": False, "config_data": None}
+    # (and trimesh, scipy's import, for an OBJ, PLY, STL, OFF or glTF: each worker imported it on its first)
+    trimesh = ["trimesh", "swpm_usd.io.trimesh_loader"]
     assert _forkserver_start(monkeypatch, [task, {**task, "path": "b.ply"}]) == (
         "vanilla",
-        ["swpm_usd.pipeline._warm"],
+        ["swpm_usd.pipeline._warm", *trimesh],
     )
     env, preload = _forkserver_start(monkeypatch, [{**task, "write_usd": True}])
-    assert env == "vanilla" and "swpm_usd.usd.writer" in preload
+    assert env == "vanilla" and "swpm_usd.usd.writer" in preload and "trimesh" in preload
     env, preload = _forkserver_start(monkeypatch, [{**task, "path": "a.usda", "encoding": "skip-strip"}])
     assert env == "skip-strip" and "swpm_usd.io.usd_loader" in preload
+    assert "trimesh" not in preload  # (a run of USD assets alone does not import it)
+    assert "trimesh" not in _forkserver_start(monkeypatch, [{**task, "failed_loading": True}])[1]
     # a rule left to the worker (on triangles): any rule's encoding or the defaults'; auto: its candidates
     rules = {"rules": [{"encoding": "skip-strip"}, {"encoding": "vanilla"}]}
     rules["defaults"] = {"encoding": "mixed"}
@@ -5581,11 +5585,12 @@ def test_a_fork_server_that_warmed_less_than_a_later_run_uses_is_started_again(m
     monkeypatch.setattr(runner, "_local_pool", lambda *a: iter(()))
     task = {"path": "a.obj", "encoding": "vanilla", "write_usd": False, "config_data": None}
     warm = ["swpm_usd.pipeline._warm"]
-    usd = [*warm, "swpm_usd.usd.writer", "swpm_usd.io.usd_loader"]
+    meshes = [*warm, "trimesh", "swpm_usd.io.trimesh_loader"]
+    usd = [*meshes, "swpm_usd.usd.writer", "swpm_usd.io.usd_loader"]
     list(runner.execute([{**task, "failed_loading": True}], 2, "local", None))
     assert started == [("", warm)] and stopped == []
     list(runner.execute([task], 2, "local", None))  # (vanilla: not warmed by the first server)
-    assert started[1:] == [("vanilla", warm)] and stopped == [-1]
+    assert started[1:] == [("vanilla", meshes)] and stopped == [-1]
     list(runner.execute([task, {**task, "failed_loading": True}], 2, "local", None))  # (covered: kept)
     assert len(started) == 2 and stopped == [-1]
     list(runner.execute([{**task, "encoding": "mixed", "write_usd": True}], 2, "local", None))

@@ -1324,14 +1324,17 @@ def _forkserver_preload(tasks: list[dict]) -> list[str]:
     """The modules the fork server imports before it forks a worker: the warm-up of the tasks' encodings
     (:func:`_warm_encodings`), and usd-core's writer and loader when a task writes a USD layer or reads a
     USD file (each worker forked from a server without them imported pxr itself: ~0.5 s a worker loaded)."""
-    from ..io import _USD_SUFFIXES
+    from ..io import _TRIMESH_SUFFIXES, _USD_SUFFIXES
 
-    usd = any(
-        t.get("write_usd") or Path(t["path"]).suffix.lower() in _USD_SUFFIXES
-        for t in tasks
-        if not t.get("failed_loading")  # (a broken input retried: it fails before any USD)
-    )
-    return ["swpm_usd.pipeline._warm", *(["swpm_usd.usd.writer", "swpm_usd.io.usd_loader"] if usd else [])]
+    live = [t for t in tasks if not t.get("failed_loading")]  # (a broken input retried: it fails first)
+    usd = any(t.get("write_usd") or Path(t["path"]).suffix.lower() in _USD_SUFFIXES for t in live)
+    # trimesh (scipy) for an OBJ, PLY, STL, OFF or glTF: imported once here, not by each worker
+    meshes = any(Path(t["path"]).suffix.lower() in _TRIMESH_SUFFIXES for t in live)
+    return [
+        "swpm_usd.pipeline._warm",
+        *(["swpm_usd.usd.writer", "swpm_usd.io.usd_loader"] if usd else []),
+        *(["trimesh", "swpm_usd.io.trimesh_loader"] if meshes else []),
+    ]
 
 
 @contextlib.contextmanager
