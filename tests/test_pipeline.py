@@ -5553,9 +5553,8 @@ def test_a_dry_run_routes_by_an_objs_lower_bound_only_where_no_rule_above_it_mat
         assert read.count("s.obj") == 1, (bounds, read)
 
 
-def test_a_fork_server_that_warmed_less_than_a_later_run_uses_is_started_again(monkeypatch):
-    # the server outlives its run: one started for a rerun of broken inputs alone (nothing warmed, no
-    # usd-core) served every later run of the process, whose workers then loaded their kernels each
+def _fake_forkserver(monkeypatch) -> tuple[list[tuple[str | None, list[str]]], list[int]]:
+    """:func:`runner.execute`'s fork server faked: (each start's warmed encodings and preloads, each stop)."""
     import multiprocessing.forkserver as forkserver
 
     from swpm_usd.pipeline import runner
@@ -5583,6 +5582,15 @@ def test_a_fork_server_that_warmed_less_than_a_later_run_uses_is_started_again(m
     monkeypatch.setattr(runner, "_stop_forkserver", stop)
     monkeypatch.setattr(runner, "_forkserver_ready", lambda ctx: None)
     monkeypatch.setattr(runner, "_local_pool", lambda *a: iter(()))
+    return started, stopped
+
+
+def test_a_fork_server_that_warmed_less_than_a_later_run_uses_is_started_again(monkeypatch):
+    # the server outlives its run: one started for a rerun of broken inputs alone (nothing warmed, no
+    # usd-core) served every later run of the process, whose workers then loaded their kernels each
+    from swpm_usd.pipeline import runner
+
+    started, stopped = _fake_forkserver(monkeypatch)
     task = {"path": "a.obj", "encoding": "vanilla", "write_usd": False, "config_data": None}
     warm = ["swpm_usd.pipeline._warm"]
     meshes = [*warm, "trimesh", "swpm_usd.io.trimesh_loader"]
@@ -5595,6 +5603,23 @@ def test_a_fork_server_that_warmed_less_than_a_later_run_uses_is_started_again(m
     assert len(started) == 2 and stopped == [-1]
     list(runner.execute([{**task, "encoding": "mixed", "write_usd": True}], 2, "local", None))
     assert started[2:] == [("vanilla,mixed", usd)] and stopped == [-1, -2]
+
+
+def test_a_fork_server_without_trimesh_is_not_started_again_for_it_alone(monkeypatch):
+    # trimesh is preloaded for an OBJ, PLY, STL, OFF or glTF (~0.6 s a worker saved, in parallel: about
+    # wall-neutral): a later run of the process with an OBJ stopped a server that had warmed its encodings
+    # for USD assets alone, and waited for a new one's whole warm-up (seconds) to save that import
+    from swpm_usd.pipeline import runner
+
+    started, stopped = _fake_forkserver(monkeypatch)
+    task = {"path": "a.usda", "encoding": "vanilla", "write_usd": True, "config_data": None}
+    list(runner.execute([task], 2, "local", None))
+    assert len(started) == 1 and "trimesh" not in started[0][1]
+    list(runner.execute([{**task, "path": "b.obj"}], 2, "local", None))
+    assert len(started) == 1 and stopped == [], started
+    # started again for another reason (an encoding it did not warm): trimesh preloaded then too
+    list(runner.execute([{**task, "path": "b.obj", "encoding": "mixed"}], 2, "local", None))
+    assert stopped == [-1] and started[1][0] == "vanilla,mixed" and "trimesh" in started[1][1], started
 
 
 @pytest.mark.parametrize("link", ["loop", "loop-under", "nothing"])

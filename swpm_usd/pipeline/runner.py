@@ -1262,7 +1262,10 @@ def execute(
     if ctx.get_start_method() == "forkserver":
         warm, preload = _warm_encodings(tasks), _forkserver_preload(tasks)
         given = _SERVER_GIVEN.get(_forkserver_pid())
-        if given is not None and not (set(warm) <= set(given[0]) and set(preload) <= set(given[1])):
+        # (trimesh alone missing is no reason to start it again: each worker imports it, ~0.6 s in parallel,
+        # where a new server's warm-up costs seconds first)
+        needed = {m for m in preload if m not in _TRIMESH_PRELOAD}
+        if given is not None and not (set(warm) <= set(given[0]) and needed <= set(given[1])):
             # the server of an earlier run in this process warmed or preloaded less than this run uses (it
             # kept them: a first run retrying broken inputs alone left every later run's workers cold): a
             # new one, with both runs' (the pool's workers fork from it, never from the one it replaces)
@@ -1320,6 +1323,10 @@ def _warm_encodings(tasks: list[dict]) -> list[str]:
     return list(found)
 
 
+#: what the fork server preloads for an OBJ, PLY, STL, OFF or glTF (:func:`_forkserver_preload`)
+_TRIMESH_PRELOAD = ("trimesh", "swpm_usd.io.trimesh_loader")
+
+
 def _forkserver_preload(tasks: list[dict]) -> list[str]:
     """The modules the fork server imports before it forks a worker: the warm-up of the tasks' encodings
     (:func:`_warm_encodings`), and usd-core's writer and loader when a task writes a USD layer or reads a
@@ -1333,7 +1340,7 @@ def _forkserver_preload(tasks: list[dict]) -> list[str]:
     return [
         "swpm_usd.pipeline._warm",
         *(["swpm_usd.usd.writer", "swpm_usd.io.usd_loader"] if usd else []),
-        *(["trimesh", "swpm_usd.io.trimesh_loader"] if meshes else []),
+        *(_TRIMESH_PRELOAD if meshes else []),
     ]
 
 
