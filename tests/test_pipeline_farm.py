@@ -225,6 +225,33 @@ def test_the_fork_server_ends_with_a_runner_killed_during_its_warm_up(tmp_path):
     assert not alive, "the fork server still warming up after its runner was killed"
 
 
+def test_a_fork_server_whose_runner_is_gone_before_it_watches_it_ends(monkeypatch):
+    # the server watches its parent from its first preload, after importing the package (~0.4 s): a runner
+    # SIGKILLed before then left the server reparented, its watch on its new parent (init), never ending, and
+    # its warm-up (minutes on a cold cache) run to the end. The runner names itself: another parent ends it
+    import pytest
+
+    from swpm_usd.pipeline.worker import RUNNER_PID_ENV, WARM_ENCODINGS_ENV
+
+    monkeypatch.setenv(WARM_ENCODINGS_ENV, "")  # (its import builds nothing)
+    from swpm_usd.pipeline import _warm
+
+    def exit_(code: int) -> None:
+        raise SystemExit(code)
+
+    def no_pidfd(pid: int) -> int:  # (no watch thread, nor fork hook, in the test's process)
+        raise OSError(errno.ENOSYS, "no pidfd")
+
+    monkeypatch.setattr(_warm, "_in_the_fork_server", lambda *a, **k: True)
+    monkeypatch.setattr(os, "_exit", exit_)
+    monkeypatch.setattr(os, "pidfd_open", no_pidfd, raising=False)
+    monkeypatch.setenv(RUNNER_PID_ENV, str(os.getppid()))  # (its runner still its parent: goes on)
+    _warm.end_with_the_runner()
+    monkeypatch.setenv(RUNNER_PID_ENV, str(os.getppid() + 1))  # (reparented: another parent)
+    with pytest.raises(SystemExit):
+        _warm.end_with_the_runner()
+
+
 def test_a_dry_run_routes_a_file_that_does_not_load_as_the_run_does(tmp_path):
     # a file whose triangle count did not read was planned as if it held 0 triangles: the dry run named the
     # rule of small meshes, which the run never gave it (the run leaves the rule to the worker, which fails

@@ -75,10 +75,16 @@ def end_with_the_runner() -> None:
     compiling, on a busy farm node, to the end. A thread waits on the parent's pidfd (no polling) and exits
     the process; it is stopped before the server loop's first fork (a worker then starts with no other
     thread; the loop watches the runner's pipe from then, as it did)."""
-    pidfd_open = getattr(os, "pidfd_open", None)
-    if pidfd_open is None or not _in_the_fork_server():
+    if not _in_the_fork_server():
         return
+    from .worker import RUNNER_PID_ENV
+
     parent = os.getppid()
+    if os.environ.get(RUNNER_PID_ENV, str(parent)) != str(parent):  # (its runner gone already: reparented)
+        os._exit(1)
+    pidfd_open = getattr(os, "pidfd_open", None)
+    if pidfd_open is None:
+        return
     try:
         runner = pidfd_open(parent)
     except OSError:  # (a kernel without pidfds: the warm-up runs to its end, as before)

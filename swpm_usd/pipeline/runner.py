@@ -69,6 +69,7 @@ from .records import INPUT_STAT_KEYS, _what, record_problem, recorded_inputs
 from .worker import (
     LAYER_UNIT_KEYS,
     READY,
+    RUNNER_PID_ENV,
     STAT_KEYS,
     TRIANGLES_READ,
     USD_TEMPORARY_SUFFIX,
@@ -1276,7 +1277,11 @@ def execute(
         ctx.set_forkserver_preload(preload)  # loaded once, inherited
         # started with Ctrl-C ignored, which the server (warming up) and every worker it forks inherit: a
         # Ctrl-C is the main process's alone (each worker ignores it itself too: spawn)
-        with _interrupts_ignored(), _environ(WARM_ENCODINGS_ENV, ",".join(warm)):
+        with (
+            _interrupts_ignored(),
+            _environ(WARM_ENCODINGS_ENV, ",".join(warm)),
+            _environ(RUNNER_PID_ENV, str(os.getpid())),  # (a server reparented at its start ends: ._warm)
+        ):
             from multiprocessing import forkserver
 
             forkserver.ensure_running()
