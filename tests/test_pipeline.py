@@ -5553,6 +5553,33 @@ def test_a_dry_run_routes_by_an_objs_lower_bound_only_where_no_rule_above_it_mat
         assert read.count("s.obj") == 1, (bounds, read)
 
 
+def test_a_dry_run_holds_one_objs_bytes_at_a_time(tmp_path):
+    # the dry run keeps an OBJ's bytes its face lines were counted from, to load them when that lower bound
+    # does not settle its rule: they were kept past it, so the next OBJ was read with them still held (a
+    # folder of large scans planned at twice the memory of the largest)
+    import tracemalloc
+
+    (tmp_path / "m").mkdir()
+    size = 16 * 2**20
+    for name in ("a", "b", "c"):
+        # (a comment of 16 MB: one face line, a lower bound of 1 that no rule above it matches)
+        body = b"# " + b"x" * size + b"\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+        (tmp_path / "m" / f"{name}.obj").write_bytes(body)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+        "rules:\n  - {name: none, match: {triangles: {max: 0}}, encoding: skip-strip}\n"
+    )
+    tracemalloc.start()
+    try:
+        plans = run(cfg, dry_run=True, echo=lambda m: None).plan
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert [(p["triangles"], p["triangles_count"]) for p in plans] == [(1, "lower bound")] * 3, plans
+    assert peak < 1.5 * size, f"{peak / 2**20:.1f} MiB held for OBJs of 16 MiB"
+
+
 def _fake_forkserver(monkeypatch) -> tuple[list[tuple[str | None, list[str]]], list[int]]:
     """:func:`runner.execute`'s fork server faked: (each start's warmed encodings and preloads, each stop)."""
     import multiprocessing.forkserver as forkserver

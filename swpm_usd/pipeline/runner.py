@@ -744,6 +744,7 @@ def plan(
             if early is not None and not early[1] and not _same_rule_from(cfg, a, early[0]):
                 early = None  # (a lower bound under a rule's max: the count it routes by is loaded)
             if early is not None:
+                data = b""  # (not loaded: released before the next asset's file is read)
                 tri, how = early[0], "declared before cleaning" if early[1] else "lower bound"
             else:
                 try:
@@ -767,6 +768,8 @@ def plan(
                         )
                     )
                     continue
+                finally:
+                    data = b""  # (released before the next asset's file is read)
         item = PlanItem(
             a,
             digest,
