@@ -222,6 +222,9 @@ def test_the_fork_server_ends_with_a_runner_killed_during_its_warm_up(tmp_path):
         alive = _alive(server[0])
     finally:
         (hold / "release").touch()
+        if runner.poll() is None:  # (the server never started warming up: the runner not left behind)
+            runner.kill()
+            runner.wait()
     assert not alive, "the fork server still warming up after its runner was killed"
 
 
