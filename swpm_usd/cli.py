@@ -344,7 +344,9 @@ def run_cmd(
                 if rec["kept_previous"]
                 else ""
             )
-            click.echo(f"FAILED {rid}: {rec.get('error')}{kept}", err=True)
+            # the problem code bracketed after FAILED (`grep 'FAILED \[INPUT_MALFORMED\]'`), as --json has it
+            code = f" [{rec['code']}]" if rec.get("code") else ""
+            click.echo(f"FAILED{code} {rid}: {rec.get('error')}{kept}", err=True)
         if res.pruned:
             click.echo(f"pruned {len(res.pruned)} outputs of assets no longer in the config")
         if res.unlisted:

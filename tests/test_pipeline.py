@@ -1450,8 +1450,9 @@ def test_a_failed_rebuild_keeps_the_previous_build(tmp_path):
         )
         files, listed = _listed_outputs(out)
         assert files == listed == {"cow.swpm", "cow.usdc", "spot.swpm", "spot.usdc"}
-    r = CliRunner().invoke(main, ["run", str(cfg)])  # the text summary says so too
-    assert r.exit_code == 1 and "FAILED meshes/cow.obj: " in r.stderr and "previous build is kept" in r.stderr
+    r = CliRunner().invoke(main, ["run", str(cfg)])  # the text summary says so too (with the problem's code)
+    assert r.exit_code == 1 and "FAILED [INPUT_MALFORMED] meshes/cow.obj: " in r.stderr
+    assert "previous build is kept" in r.stderr
     # the input put back: the kept build is up to date again, and the failure goes
     cow.write_bytes(good)
     again = run(cfg, echo=lambda m: None)
@@ -5256,6 +5257,27 @@ def test_progress_line_of_a_failed_asset_keeps_its_cause_under_a_deep_folder(tmp
     assert str(tmp_path) not in lines[0]
 
 
+def test_plain_text_failed_lines_carry_the_problem_code(tmp_path):
+    """--json and the manifest give a failed asset's ``code``; the plain-text progress and summary lines gave
+    English alone, so a studio's log of thousands of assets could not be grepped by cause: both now bracket
+    the code after FAILED, the same code --json gives."""
+    cfg = _project(
+        tmp_path, meshes=("suzanne.obj",), config=MINIMAL.replace("dir: out", "{dir: out, report: false}")
+    )
+    (tmp_path / "meshes" / "empty.obj").write_bytes(b"")
+    (tmp_path / "meshes" / "bad.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 x 1\nf 1 2 3\n")
+    r = CliRunner().invoke(main, ["run", str(cfg)])
+    assert r.exit_code == 1
+    lines = r.stderr.splitlines()
+    r = CliRunner().invoke(main, ["run", str(cfg), "--json"])  # (the failures retried: the same codes)
+    codes = {f["id"]: f["code"] for f in json.loads(r.stdout)["failures"]}
+    assert codes == {"meshes/empty.obj": "INPUT_EMPTY", "meshes/bad.obj": "INPUT_MALFORMED"}, codes
+    for rid, code in codes.items():
+        summary = [ln for ln in lines if ln.startswith(f"FAILED [{code}] {rid}: ")]
+        progress = [ln for ln in lines if f"{rid}: FAILED [{code}] (" in ln]
+        assert len(summary) == 1 and len(progress) == 1, (rid, code, lines)
+
+
 def test_bench_scale_edits_an_input_without_breaking_it(tmp_path):
     """bench_pipeline's scale section times a rerun after editing 1 % of the inputs: each edit must change the
     file's bytes and leave its mesh readable (a trailing byte made binary PLY and STL fail, not rebuild)."""
@@ -5310,14 +5332,18 @@ def test_the_fork_server_warms_the_pending_tasks_encodings_and_preloads_usd_when
     # a rerun whose only tasks were a few broken assets (retried) had the server warm every encoding, and
     # each worker of a run writing USD imported usd-core itself (the server had not)
     task = {"path": "a.obj", "encoding": "vanilla", "write_usd": False, "config_data": None}
+    # (and trimesh, scipy's import, for an OBJ, PLY, STL, OFF or glTF: each worker imported it on its first)
+    trimesh = ["trimesh", "swpm_usd.io.trimesh_loader"]
     assert _forkserver_start(monkeypatch, [task, {**task, "path": "b.ply"}]) == (
         "vanilla",
-        ["swpm_usd.pipeline._warm"],
+        ["swpm_usd.pipeline._warm", *trimesh],
     )
     env, preload = _forkserver_start(monkeypatch, [{**task, "write_usd": True}])
-    assert env == "vanilla" and "swpm_usd.usd.writer" in preload
+    assert env == "vanilla" and "swpm_usd.usd.writer" in preload and "trimesh" in preload
     env, preload = _forkserver_start(monkeypatch, [{**task, "path": "a.usda", "encoding": "skip-strip"}])
     assert env == "skip-strip" and "swpm_usd.io.usd_loader" in preload
+    assert "trimesh" not in preload  # (a run of USD assets alone does not import it)
+    assert "trimesh" not in _forkserver_start(monkeypatch, [{**task, "failed_loading": True}])[1]
     # a rule left to the worker (on triangles): any rule's encoding or the defaults'; auto: its candidates
     rules = {"rules": [{"encoding": "skip-strip"}, {"encoding": "vanilla"}]}
     rules["defaults"] = {"encoding": "mixed"}
@@ -5496,16 +5522,21 @@ def test_a_dry_run_routes_by_an_objs_lower_bound_only_where_no_rule_above_it_mat
     tmp_path, monkeypatch
 ):
     # suzanne.obj: 500 face lines, 967 triangles once cleaned. Under `max: 600` its lower bound (500) named
-    # rule tiny, which the run, counting 967, did not use: the dry run's plan was another encoding
-    import swpm_usd.io as io
+    # rule tiny, which the run, counting 967, did not use: the dry run's plan was another encoding. The file
+    # loaded after its face lines were counted is read once, not once for each (the count's bytes loaded)
+    import swpm_usd.io.trimesh_loader as loader
 
     (tmp_path / "m").mkdir()
     shutil.copy(SHARED_MESHES / "suzanne.obj", tmp_path / "m" / "s.obj")
     cfg = tmp_path / "c.yaml"
     head = "version: 1\nassets: [{glob: 'm/*'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
     loaded: list[str] = []
-    real = io.load_mesh
-    monkeypatch.setattr(io, "load_mesh", lambda p, **kw: (loaded.append(Path(p).name), real(p, **kw))[1])
+    read: list[str] = []
+    real, real_read = loader.load_trimesh, Path.read_bytes
+    monkeypatch.setattr(
+        loader, "load_trimesh", lambda p, **kw: (loaded.append(Path(p).name), real(p, **kw))[1]
+    )
+    monkeypatch.setattr(Path, "read_bytes", lambda p: (read.append(p.name), real_read(p))[1])
     for bounds, encoding, count in (
         ("{max: 600}", "vanilla", (967, "exact")),  # (loaded: 500 is under the max, 967 is not)
         ("{min: 600}", "skip-strip", (967, "exact")),  # (a min above the bound: loaded too)
@@ -5515,14 +5546,42 @@ def test_a_dry_run_routes_by_an_objs_lower_bound_only_where_no_rule_above_it_mat
         rule = f"{{name: tiny, match: {{triangles: {bounds}}}, encoding: skip-strip}}"
         cfg.write_text(head + f"rules:\n  - {rule}\n")
         loaded.clear()
+        read.clear()
         (plan,) = run(cfg, dry_run=True, echo=lambda m: None).plan
         assert (plan["encoding"], (plan["triangles"], plan["triangles_count"])) == (encoding, count), bounds
         assert loaded == ([] if count[1] == "lower bound" else ["s.obj"]), bounds
+        assert read.count("s.obj") == 1, (bounds, read)
 
 
-def test_a_fork_server_that_warmed_less_than_a_later_run_uses_is_started_again(monkeypatch):
-    # the server outlives its run: one started for a rerun of broken inputs alone (nothing warmed, no
-    # usd-core) served every later run of the process, whose workers then loaded their kernels each
+def test_a_dry_run_holds_one_objs_bytes_at_a_time(tmp_path):
+    # the dry run keeps an OBJ's bytes its face lines were counted from, to load them when that lower bound
+    # does not settle its rule: they were kept past it, so the next OBJ was read with them still held (a
+    # folder of large scans planned at twice the memory of the largest)
+    import tracemalloc
+
+    (tmp_path / "m").mkdir()
+    size = 16 * 2**20
+    for name in ("a", "b", "c"):
+        # (a comment of 16 MB: one face line, a lower bound of 1 that no rule above it matches)
+        body = b"# " + b"x" * size + b"\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+        (tmp_path / "m" / f"{name}.obj").write_bytes(body)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+        "rules:\n  - {name: none, match: {triangles: {max: 0}}, encoding: skip-strip}\n"
+    )
+    tracemalloc.start()
+    try:
+        plans = run(cfg, dry_run=True, echo=lambda m: None).plan
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert [(p["triangles"], p["triangles_count"]) for p in plans] == [(1, "lower bound")] * 3, plans
+    assert peak < 1.5 * size, f"{peak / 2**20:.1f} MiB held for OBJs of 16 MiB"
+
+
+def _fake_forkserver(monkeypatch) -> tuple[list[tuple[str | None, list[str]]], list[int]]:
+    """:func:`runner.execute`'s fork server faked: (each start's warmed encodings and preloads, each stop)."""
     import multiprocessing.forkserver as forkserver
 
     from swpm_usd.pipeline import runner
@@ -5550,17 +5609,44 @@ def test_a_fork_server_that_warmed_less_than_a_later_run_uses_is_started_again(m
     monkeypatch.setattr(runner, "_stop_forkserver", stop)
     monkeypatch.setattr(runner, "_forkserver_ready", lambda ctx: None)
     monkeypatch.setattr(runner, "_local_pool", lambda *a: iter(()))
+    return started, stopped
+
+
+def test_a_fork_server_that_warmed_less_than_a_later_run_uses_is_started_again(monkeypatch):
+    # the server outlives its run: one started for a rerun of broken inputs alone (nothing warmed, no
+    # usd-core) served every later run of the process, whose workers then loaded their kernels each
+    from swpm_usd.pipeline import runner
+
+    started, stopped = _fake_forkserver(monkeypatch)
     task = {"path": "a.obj", "encoding": "vanilla", "write_usd": False, "config_data": None}
     warm = ["swpm_usd.pipeline._warm"]
-    usd = [*warm, "swpm_usd.usd.writer", "swpm_usd.io.usd_loader"]
+    meshes = [*warm, "trimesh", "swpm_usd.io.trimesh_loader"]
+    usd = [*meshes, "swpm_usd.usd.writer", "swpm_usd.io.usd_loader"]
     list(runner.execute([{**task, "failed_loading": True}], 2, "local", None))
     assert started == [("", warm)] and stopped == []
     list(runner.execute([task], 2, "local", None))  # (vanilla: not warmed by the first server)
-    assert started[1:] == [("vanilla", warm)] and stopped == [-1]
+    assert started[1:] == [("vanilla", meshes)] and stopped == [-1]
     list(runner.execute([task, {**task, "failed_loading": True}], 2, "local", None))  # (covered: kept)
     assert len(started) == 2 and stopped == [-1]
     list(runner.execute([{**task, "encoding": "mixed", "write_usd": True}], 2, "local", None))
     assert started[2:] == [("vanilla,mixed", usd)] and stopped == [-1, -2]
+
+
+def test_a_fork_server_without_trimesh_is_not_started_again_for_it_alone(monkeypatch):
+    # trimesh is preloaded for an OBJ, PLY, STL, OFF or glTF (~0.6 s a worker saved, in parallel: about
+    # wall-neutral): a later run of the process with an OBJ stopped a server that had warmed its encodings
+    # for USD assets alone, and waited for a new one's whole warm-up (seconds) to save that import
+    from swpm_usd.pipeline import runner
+
+    started, stopped = _fake_forkserver(monkeypatch)
+    task = {"path": "a.usda", "encoding": "vanilla", "write_usd": True, "config_data": None}
+    list(runner.execute([task], 2, "local", None))
+    assert len(started) == 1 and "trimesh" not in started[0][1]
+    list(runner.execute([{**task, "path": "b.obj"}], 2, "local", None))
+    assert len(started) == 1 and stopped == [], started
+    # started again for another reason (an encoding it did not warm): trimesh preloaded then too
+    list(runner.execute([{**task, "path": "b.obj", "encoding": "mixed"}], 2, "local", None))
+    assert stopped == [-1] and started[1][0] == "vanilla,mixed" and "trimesh" in started[1][1], started
 
 
 @pytest.mark.parametrize("link", ["loop", "loop-under", "nothing"])

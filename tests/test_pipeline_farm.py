@@ -171,6 +171,90 @@ def test_workers_end_with_a_runner_killed_by_sigkill(tmp_path):
     ]  # fmt: skip
 
 
+#: on the path of a run's processes: the fork server, warming up, holds in its first build (its pid named in
+#: SWPM_TEST_WARM) until the test lets it go on, as it does compiling the kernels on a cold cache
+_HOLD_WARM_UP = """\
+import os, sys, time
+if os.environ.get("SWPM_TEST_WARM") and "forkserver" in " ".join(sys.orig_argv):
+    import swpm_usd.build
+
+    module = sys.modules["swpm_usd.build"]  # (the package's `build` is the function)
+    real, hold = module.build, os.environ["SWPM_TEST_WARM"]
+
+    def held(*args, **kwargs):
+        open(os.path.join(hold, f"server-{os.getpid()}"), "w").close()
+        while not os.path.exists(os.path.join(hold, "release")):
+            time.sleep(0.02)
+        return real(*args, **kwargs)
+
+    module.build = held
+"""
+
+
+def test_the_fork_server_ends_with_a_runner_killed_during_its_warm_up(tmp_path):
+    # the fork server reads its pipe from the runner only once its preloads are imported: a runner killed
+    # with SIGKILL while the server warmed up (minutes compiling the kernels on a cold cache) left it
+    # compiling on a busy farm node until the end. It ends with the runner now
+    cfg = _project(tmp_path, ("a", "b"))
+    hold = tmp_path / "hold"
+    hold.mkdir()
+    (tmp_path / "hook").mkdir()
+    (tmp_path / "hook" / "sitecustomize.py").write_text(_HOLD_WARM_UP)
+    path = os.pathsep.join([str(tmp_path / "hook"), *filter(None, [os.environ.get("PYTHONPATH")])])
+    runner = subprocess.Popen(
+        [sys.executable, "-m", "swpm_usd.cli", "run", str(cfg), "--jobs", "2"],
+        env={**os.environ, "PYTHONPATH": path, "SWPM_TEST_WARM": str(hold)},
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    server: list[int] = []
+    try:
+        deadline = time.monotonic() + 600  # (the server's start: importing the encoders under load)
+        while not server and time.monotonic() < deadline and runner.poll() is None:
+            server = [int(p.name.split("-")[1]) for p in hold.glob("server-*")]
+            time.sleep(0.05)
+        assert server, "the fork server did not start warming up"
+        runner.send_signal(signal.SIGKILL)
+        runner.wait()
+        deadline = time.monotonic() + 60
+        while _alive(server[0]) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        alive = _alive(server[0])
+    finally:
+        (hold / "release").touch()
+        if runner.poll() is None:  # (the server never started warming up: the runner not left behind)
+            runner.kill()
+            runner.wait()
+    assert not alive, "the fork server still warming up after its runner was killed"
+
+
+def test_a_fork_server_whose_runner_is_gone_before_it_watches_it_ends(monkeypatch):
+    # the server watches its parent from its first preload, after importing the package (~0.4 s): a runner
+    # SIGKILLed before then left the server reparented, its watch on its new parent (init), never ending, and
+    # its warm-up (minutes on a cold cache) run to the end. The runner names itself: another parent ends it
+    import pytest
+
+    from swpm_usd.pipeline.worker import RUNNER_PID_ENV, WARM_ENCODINGS_ENV
+
+    monkeypatch.setenv(WARM_ENCODINGS_ENV, "")  # (its import builds nothing)
+    from swpm_usd.pipeline import _warm
+
+    def exit_(code: int) -> None:
+        raise SystemExit(code)
+
+    def no_pidfd(pid: int) -> int:  # (no watch thread, nor fork hook, in the test's process)
+        raise OSError(errno.ENOSYS, "no pidfd")
+
+    monkeypatch.setattr(_warm, "_in_the_fork_server", lambda *a, **k: True)
+    monkeypatch.setattr(os, "_exit", exit_)
+    monkeypatch.setattr(os, "pidfd_open", no_pidfd, raising=False)
+    monkeypatch.setenv(RUNNER_PID_ENV, str(os.getppid()))  # (its runner still its parent: goes on)
+    _warm.end_with_the_runner()
+    monkeypatch.setenv(RUNNER_PID_ENV, str(os.getppid() + 1))  # (reparented: another parent)
+    with pytest.raises(SystemExit):
+        _warm.end_with_the_runner()
+
+
 def test_a_dry_run_routes_a_file_that_does_not_load_as_the_run_does(tmp_path):
     # a file whose triangle count did not read was planned as if it held 0 triangles: the dry run named the
     # rule of small meshes, which the run never gave it (the run leaves the rule to the worker, which fails

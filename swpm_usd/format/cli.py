@@ -323,6 +323,21 @@ def ctrl_c_through_compiled_code() -> Iterator[None]:
         signal.signal(signal.SIGINT, old)
 
 
+class _OutputError(OSError):
+    """An OSError of ``encode``'s output (its folder, its write): ``OUTPUT_UNWRITABLE``."""
+
+
+def _input_error(exc: OSError, input_path: str) -> SwpmError:
+    """``exc``, raised reading ``input_path`` (or a file it names), as the MeshLoadError naming it."""
+    import errno
+
+    from ..errors import MeshLoadError
+
+    code = "INPUT_NOT_FOUND" if exc.errno == errno.ENOENT else "INPUT_UNREADABLE"
+    path = input_path if exc.filename is None else exc.filename
+    return MeshLoadError(path, f"cannot read the file ({exc.strerror or exc})", code=code)
+
+
 def mesh_input(input_path: str, max_triangles: int | None) -> object:
     """What a command builds from ``input_path``: the path itself (loaded by ``build``), or the mesh loaded
     under the budget ``max_triangles``."""
@@ -388,25 +403,30 @@ def encode_cmd(
     try:
         problem = _output_folder_problem(Path(output))
         if problem:  # (before the build: exit 1, as the write that would fail after it)
-            raise OSError(problem)
-        with ctrl_c_through_compiled_code():
-            pm = build(mesh_input(input_path, max_triangles), encoding, **parsed)
-        seconds = time.perf_counter() - start
-        digest = None
-        if Path(input_path).is_file():
-            digest = "sha256:" + hashlib.sha256(Path(input_path).read_bytes()).hexdigest()
+            raise _OutputError(problem)
+        try:
+            with ctrl_c_through_compiled_code():
+                pm = build(mesh_input(input_path, max_triangles), encoding, **parsed)
+            seconds = time.perf_counter() - start
+            digest = None
+            if Path(input_path).is_file():
+                digest = "sha256:" + hashlib.sha256(Path(input_path).read_bytes()).hexdigest()
+        except OSError as exc:
+            # the input's (read again for its digest: gone or unreadable since the build; a raw read),
+            # never the output's: it was labelled OUTPUT_UNWRITABLE
+            raise _input_error(exc, input_path) from exc
         try:
             save(pm, output, source_digest=digest)
             size = Path(output).stat().st_size
         except OSError as exc:
-            raise OSError(f"cannot write {output}: {exc.strerror or exc}") from exc
+            raise _OutputError(f"cannot write {output}: {exc.strerror or exc}") from exc
     except (SwpmError, OSError, ValueError) as exc:
         from ..codes import fields_of, problem_fields
 
         click.echo(f"error: {exc}", err=True)
         if as_json:
-            # (an OSError here is the output's: the input's are MeshLoadErrors)
-            fields = fields_of("OUTPUT_UNWRITABLE", file=output) if isinstance(exc, OSError) else None
+            # (the output's OSErrors are _OutputErrors; the input's are MeshLoadErrors)
+            fields = fields_of("OUTPUT_UNWRITABLE", file=output) if isinstance(exc, _OutputError) else None
             fields = fields or problem_fields(exc)
             error = {"input": input_path, "output": output, "error": str(exc), **fields}
             click.echo(json.dumps(error, indent=2))

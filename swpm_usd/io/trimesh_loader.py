@@ -1288,11 +1288,12 @@ def _trimesh() -> Any:
     return trimesh
 
 
-def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
+def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = b"") -> Mesh:
     """Load an OBJ, PLY, STL, OFF, glTF or GLB file as one cleaned mesh (``max_triangles``: see
-    :func:`swpm_usd.io.load_mesh`)."""
+    :func:`swpm_usd.io.load_mesh`); ``data``, when not empty, the OBJ's bytes already read (a dry run's
+    planner, which counted its face lines)."""
     file_type = path.suffix.lower().lstrip(".")
-    data = b""
+    given, data = (data if file_type == "obj" else b""), b""
     instances: dict[int, np.ndarray] = {}  # (a glTF's EXT_mesh_gpu_instancing nodes: their transforms)
     try:
         if max_triangles is not None and file_type not in ("ply", "obj", "off"):  # (obj: once read)
@@ -1319,7 +1320,7 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None) -> Mesh:
             # trimesh needs the optional charset_normalizer to guess the encoding of non-UTF-8 text and fails
             # without it: hand it UTF-8 (non-UTF-8 bytes are read as Latin-1, which only occurs in comments
             # and names of a valid file)
-            data = path.read_bytes()
+            data = given or path.read_bytes()
             try:
                 data.decode("utf-8")
             except UnicodeDecodeError:

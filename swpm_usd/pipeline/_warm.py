@@ -7,7 +7,11 @@ their own warm-up."""
 from __future__ import annotations
 
 import os
+import select
+import sys
+import threading
 from collections.abc import Iterable
+from typing import Any
 
 #: the encodings this process warmed (in the fork server: those its workers start with)
 WARMED: list[str] = []
@@ -60,4 +64,70 @@ def warm(encodings: Iterable[str] | None = None) -> None:
         pass
 
 
+_SERVER_MODULE = "multiprocessing.forkserver"
+
+
+def end_with_the_runner() -> None:
+    """End the fork server once the runner that started it (its parent) is gone, during its warm-up too. The
+    server watches its pipe from the runner only once every module is preloaded, and a runner's fork request
+    queued on the server's socket holds that pipe open (the runner's end, in flight): a runner killed with
+    SIGKILL (a farm's job killed) while the server compiled the kernels (minutes with a cold cache) left it
+    compiling, on a busy farm node, to the end. A thread waits on the parent's pidfd (no polling) and exits
+    the process; it is stopped before the server loop's first fork (a worker then starts with no other
+    thread; the loop watches the runner's pipe from then, as it did)."""
+    if not _in_the_fork_server():
+        return
+    from .worker import RUNNER_PID_ENV
+
+    parent = os.getppid()
+    if os.environ.get(RUNNER_PID_ENV, str(parent)) != str(parent):  # (its runner gone already: reparented)
+        os._exit(1)
+    pidfd_open = getattr(os, "pidfd_open", None)
+    if pidfd_open is None:
+        return
+    try:
+        runner = pidfd_open(parent)
+    except OSError:  # (a kernel without pidfds: the warm-up runs to its end, as before)
+        return
+    if os.getppid() != parent:  # (gone before its pidfd was open)
+        os._exit(1)
+    wake_r, wake_w = os.pipe()
+
+    def watch() -> None:
+        poller = select.poll()
+        poller.register(runner, select.POLLIN)
+        poller.register(wake_r, select.POLLIN)
+        for ready, _ in poller.poll():
+            if ready == runner:
+                os._exit(1)
+        # (woken: the server loop forks, and watches the runner's pipe from then)
+
+    thread = threading.Thread(target=watch, name="swpm-forkserver-runner-watch", daemon=True)
+
+    def stop() -> None:
+        # (only the server loop's fork: an import that forks must not end the watch)
+        if thread.is_alive() and _in_the_fork_server(sys._getframe(1), loop=True):
+            os.write(wake_w, b"x")
+            thread.join()
+            for fd in (wake_r, wake_w, runner):
+                os.close(fd)
+
+    os.register_at_fork(before=stop)
+    thread.start()
+
+
+def _in_the_fork_server(frame: Any = None, loop: bool = False) -> bool:
+    """Whether this code runs in :func:`multiprocessing.forkserver.main` (its preload; ``loop``: called from
+    it directly, its loop forking a worker), which ``frame`` or a caller of it is."""
+    frame = sys._getframe(1) if frame is None else frame
+    while frame is not None:
+        if frame.f_code.co_name == "main" and frame.f_globals.get("__name__") == _SERVER_MODULE:
+            return True
+        if loop:
+            return False
+        frame = frame.f_back
+    return False
+
+
+end_with_the_runner()
 warm()

@@ -69,6 +69,7 @@ from .records import INPUT_STAT_KEYS, _what, record_problem, recorded_inputs
 from .worker import (
     LAYER_UNIT_KEYS,
     READY,
+    RUNNER_PID_ENV,
     STAT_KEYS,
     TRIANGLES_READ,
     USD_TEMPORARY_SUFFIX,
@@ -435,18 +436,35 @@ def _digest_with_count(item: PlanItem, record: dict) -> str | None:
     return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, instances=count)
 
 
-def _count_triangles(asset: Asset, max_triangles: int | None = None) -> int:
+def _count_triangles(asset: Asset, max_triangles: int | None = None, data: bytes = b"") -> int:
+    """The triangles of ``asset``'s mesh, loaded; ``data``, when not empty, its OBJ file's bytes as
+    :func:`_early_count` read them (not read again)."""
+    if data:
+        from ..io.trimesh_loader import load_trimesh
+
+        return load_trimesh(asset.path, max_triangles=max_triangles, data=data).triangle_count
     from ..io import load_mesh
 
     mesh = load_mesh(asset.path, prim_path=asset.prim, max_triangles=max_triangles)
     return mesh.triangle_count
 
 
-def _early_count(asset: Asset) -> tuple[int, bool] | None:
-    """:func:`.io.early_triangle_count` of ``asset``'s file (a prim's of its stage)."""
+def _early_count(asset: Asset) -> tuple[tuple[int, bool] | None, bytes]:
+    """:func:`.io.early_triangle_count` of ``asset``'s file (a prim's of its stage), and an OBJ's bytes it
+    read for it: a lower bound under a rule's ``max`` is loaded (:func:`_count_triangles`), and a dry run
+    read each such OBJ twice."""
     from ..io import early_triangle_count
 
-    return early_triangle_count(asset.path, prim_path=asset.prim)
+    if asset.prim is None and asset.path.suffix.lower() == ".obj":
+        from ..io.trimesh_loader import declared_triangle_count
+
+        try:
+            data = asset.path.read_bytes()
+        except (OSError, MemoryError):  # (as early_triangle_count: its load says why)
+            return None, b""
+        found = declared_triangle_count(asset.path, "obj", data) if data else None
+        return (None if found is None else (found[0], found[1])), data
+    return early_triangle_count(asset.path, prim_path=asset.prim), b""
 
 
 def _same_rule_from(cfg: Config, asset: Asset, lowest: int) -> bool:
@@ -722,14 +740,15 @@ def plan(
                     )
                 )
                 continue
-            early = _early_count(a) if early_counts else None
+            early, data = _early_count(a) if early_counts else (None, b"")
             if early is not None and not early[1] and not _same_rule_from(cfg, a, early[0]):
                 early = None  # (a lower bound under a rule's max: the count it routes by is loaded)
             if early is not None:
+                data = b""  # (not loaded: released before the next asset's file is read)
                 tri, how = early[0], "declared before cleaning" if early[1] else "lower bound"
             else:
                 try:
-                    tri = _count_triangles(a, _max_triangles(cfg))
+                    tri = _count_triangles(a, _max_triangles(cfg), data)
                 except Exception as exc:  # noqa: BLE001 - the worker reports it as this asset's failure
                     # routed as the run routes it: by the worker, once the file loads (it was routed as if
                     # it held 0 triangles, a rule the run never gave it). Its build fails unless it loads then
@@ -749,6 +768,8 @@ def plan(
                         )
                     )
                     continue
+                finally:
+                    data = b""  # (released before the next asset's file is read)
         item = PlanItem(
             a,
             digest,
@@ -1245,7 +1266,10 @@ def execute(
     if ctx.get_start_method() == "forkserver":
         warm, preload = _warm_encodings(tasks), _forkserver_preload(tasks)
         given = _SERVER_GIVEN.get(_forkserver_pid())
-        if given is not None and not (set(warm) <= set(given[0]) and set(preload) <= set(given[1])):
+        # (trimesh alone missing is no reason to start it again: each worker imports it, ~0.6 s in parallel,
+        # where a new server's warm-up costs seconds first)
+        needed = {m for m in preload if m not in _TRIMESH_PRELOAD}
+        if given is not None and not (set(warm) <= set(given[0]) and needed <= set(given[1])):
             # the server of an earlier run in this process warmed or preloaded less than this run uses (it
             # kept them: a first run retrying broken inputs alone left every later run's workers cold): a
             # new one, with both runs' (the pool's workers fork from it, never from the one it replaces)
@@ -1256,7 +1280,11 @@ def execute(
         ctx.set_forkserver_preload(preload)  # loaded once, inherited
         # started with Ctrl-C ignored, which the server (warming up) and every worker it forks inherit: a
         # Ctrl-C is the main process's alone (each worker ignores it itself too: spawn)
-        with _interrupts_ignored(), _environ(WARM_ENCODINGS_ENV, ",".join(warm)):
+        with (
+            _interrupts_ignored(),
+            _environ(WARM_ENCODINGS_ENV, ",".join(warm)),
+            _environ(RUNNER_PID_ENV, str(os.getpid())),  # (a server reparented at its start ends: ._warm)
+        ):
             from multiprocessing import forkserver
 
             forkserver.ensure_running()
@@ -1303,18 +1331,25 @@ def _warm_encodings(tasks: list[dict]) -> list[str]:
     return list(found)
 
 
+#: what the fork server preloads for an OBJ, PLY, STL, OFF or glTF (:func:`_forkserver_preload`)
+_TRIMESH_PRELOAD = ("trimesh", "swpm_usd.io.trimesh_loader")
+
+
 def _forkserver_preload(tasks: list[dict]) -> list[str]:
     """The modules the fork server imports before it forks a worker: the warm-up of the tasks' encodings
     (:func:`_warm_encodings`), and usd-core's writer and loader when a task writes a USD layer or reads a
     USD file (each worker forked from a server without them imported pxr itself: ~0.5 s a worker loaded)."""
-    from ..io import _USD_SUFFIXES
+    from ..io import _TRIMESH_SUFFIXES, _USD_SUFFIXES
 
-    usd = any(
-        t.get("write_usd") or Path(t["path"]).suffix.lower() in _USD_SUFFIXES
-        for t in tasks
-        if not t.get("failed_loading")  # (a broken input retried: it fails before any USD)
-    )
-    return ["swpm_usd.pipeline._warm", *(["swpm_usd.usd.writer", "swpm_usd.io.usd_loader"] if usd else [])]
+    live = [t for t in tasks if not t.get("failed_loading")]  # (a broken input retried: it fails first)
+    usd = any(t.get("write_usd") or Path(t["path"]).suffix.lower() in _USD_SUFFIXES for t in live)
+    # trimesh (scipy) for an OBJ, PLY, STL, OFF or glTF: imported once here, not by each worker
+    meshes = any(Path(t["path"]).suffix.lower() in _TRIMESH_SUFFIXES for t in live)
+    return [
+        "swpm_usd.pipeline._warm",
+        *(["swpm_usd.usd.writer", "swpm_usd.io.usd_loader"] if usd else []),
+        *(_TRIMESH_PRELOAD if meshes else []),
+    ]
 
 
 @contextlib.contextmanager
@@ -1580,7 +1615,11 @@ class _Progress:
         error = rec.get("error", "")
         if path:
             error = error.replace(f"{path}: ", "", 1)
-        status = rec["status"] if rec["status"] != "failed" else f"FAILED ({error[:100]})"
+        status = rec["status"]
+        if status == "failed":
+            # the problem code first, bracketed, as the summary's FAILED line has it: a log greps by cause
+            code = f" [{rec['code']}]" if rec.get("code") else ""
+            status = f"FAILED{code} ({error[:100]})"
         if rec.get("kept_previous"):
             status += "; its previous outputs are kept"
         if self.bar is not None:

@@ -466,6 +466,10 @@ READY = "ready"
 #: inherits the environment of the process that starts it. Warming all four for a rerun whose only tasks
 #: were a few broken assets (retried, failing before any build) cost the run the encoders' kernels
 WARM_ENCODINGS_ENV = "SWPM_USD_WARM_ENCODINGS"
+#: the environment variable naming the process that starts the fork server (its pid, set by
+#: :func:`.runner.execute`): a server whose parent is another process by the time it watches its runner
+#: (:mod:`._warm`: the runner killed while the server imported the package, the server reparented) ends
+RUNNER_PID_ENV = "SWPM_USD_RUNNER_PID"
 
 
 def _end_with_the_runner(conn: Any) -> None:
