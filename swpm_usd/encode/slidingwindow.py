@@ -901,6 +901,9 @@ def _coarsest_copy(window: np.ndarray, pool_size: int, cache_size: int) -> np.nd
     count = window.shape[0]
     if count < 2 or count > COARSEST_COPY_MAX_SHARE * pool_size:
         return None
+    # int32 whichever builder's pool it comes from (Forsyth's and the clustered layout's are int64): one
+    # compile of vcache._rotate_rows, not two; the copy only indexes the new vertex ids
+    window = window.astype(np.int32, copy=False)
     copy = swl.block_order(window, np.array([0, count], np.int64), cache_size)
     if (
         cache_misses(copy, cache_size)[0]
