@@ -107,3 +107,32 @@ def test_error_and_triangle_budgets_take_numbers_at_least_0(grid_pms, encoding):
             pm.record_for_triangles(float("nan"))
         with pytest.raises(ValueError, match="max_error"):
             pm.record_for_error(-1.0)
+
+
+@pytest.mark.parametrize("encoding", ENCODINGS)
+def test_numpy_0d_arrays_and_integers_past_float_range_are_numbers(grid_pms, encoding):
+    """A 0-d array (what ``np.asarray`` or a reduction with ``keepdims`` hands an engine) picked as its value
+    does on main; a TypeError "must be a number" refused it. A Python integer past float's range is no
+    OverflowError: ``lod_for_triangles(10**400)`` is LOD 0 as on main, ``lod_for_error`` the coarsest, and a
+    view argument that large a ValueError naming it."""
+    pm = grid_pms[encoding]
+    assert pm.lod_for_error(np.array(0.5)) == pm.lod_for_error(0.5)
+    assert pm.lod_for_triangles(np.array(40)) == pm.lod_for_triangles(40)
+    view = (np.array(1.0), np.array(10.0), np.array(1.0), np.array(1080))
+    assert pm.lod_for_screen_error(*view) == pm.lod_for_screen_error(1.0, 10.0, 1.0, 1080)
+    assert screen_space_error(np.array(0.5), *view[1:]) == screen_space_error(0.5, 10.0, 1.0, 1080)
+    if encoding == "sliding-window":
+        rec = pm.record_for_screen_error(*view)
+        assert np.array_equal(rec, pm.record_for_screen_error(1.0, 10.0, 1.0, 1080))
+    with pytest.raises(ValueError, match="max_error"):
+        pm.lod_for_error(np.array(float("nan")))
+    assert pm.lod_for_triangles(10**400) == 0
+    assert pm.lod_for_error(10**400) == pm.lod_count - 1
+    with pytest.raises(ValueError, match="target"):
+        pm.lod_for_triangles(-(10**400))
+    with pytest.raises(ValueError, match="distance"):
+        pm.lod_for_screen_error(1.0, 10**400, 1.0, 1080)
+    with pytest.raises(ValueError, match="max_pixels"):
+        pm.lod_for_screen_error(10**400, 10.0, 1.0, 1080)
+    with pytest.raises(TypeError, match="max_error"):
+        pm.lod_for_error(np.array([0.5, 1.0]))  # (an array of several values is no budget)

@@ -23,12 +23,24 @@ def _shown(v: float) -> str:
     return "NaN" if math.isnan(v) else repr(v)
 
 
+def _real(name: str, value: float) -> float:
+    """``value`` as a float, else a :class:`TypeError` naming ``name``. A numpy scalar or 0-d array is its
+    value (main took them: ``np.asarray`` or a ``keepdims`` reduction hands an engine one); an integer past
+    float's range is ``inf`` of its sign (``float()`` raised OverflowError)."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    if not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a number, got {value!r}")
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
+
+
 def budget(name: str, value: float) -> float:
     """``value`` as a float: a real number, not NaN and not negative (``inf`` allowed: no limit), else a
     :class:`ValueError` (a :class:`TypeError` for a non-number) naming ``name``."""
-    if not isinstance(value, numbers.Real):
-        raise TypeError(f"{name} must be a number, got {value!r}")
-    v = float(value)
+    v = _real(name, value)
     if not v >= 0.0:  # (NaN fails every comparison)
         raise ValueError(f"{name} must be a number >= 0, got {_shown(v)}")
     return v
@@ -38,9 +50,7 @@ def _view(distance: float, fov_y: float, viewport_height: float) -> tuple[float,
     """The view's arguments as floats, each checked: finite, ``fov_y`` in (0, pi), ``viewport_height > 0``."""
     out = []
     for name, value in (("distance", distance), ("fov_y", fov_y), ("viewport_height", viewport_height)):
-        if not isinstance(value, numbers.Real):
-            raise TypeError(f"{name} must be a number, got {value!r}")
-        v = float(value)
+        v = _real(name, value)
         if not math.isfinite(v):
             raise ValueError(f"{name} must be finite, got {_shown(v)}")
         out.append(v)
