@@ -41,6 +41,8 @@ ONE_SIGNATURE = (
     "swpm_usd.encode.sw_kernels._cheapest_prefix",
     "swpm_usd.encode.sw_refine.refine_patch_order",
     "swpm_usd.encode.sw_deviation.deviation_rows",
+    "swpm_usd.simplify.kernels.triangle_positions",
+    "swpm_usd.vcache._rotate_rows",
 )
 STEPS = {
     "sliding-window": ("sliding-window", {}),

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import re
 import subprocess
 import sys
@@ -1033,6 +1034,19 @@ def _corrupt(src: Path, dst: Path, edit) -> Path:
     edit(stage.GetPrimAtPath(stage.GetDefaultPrim().GetPath().AppendChild("mesh")))
     stage.GetRootLayer().Export(str(dst))
     return dst
+
+
+def test_select_lods_names_a_ratio_that_is_negative_or_nan(pm):
+    """lod_for_triangles refuses a negative or NaN target (helper-138): a ratio that made one is named as
+    the ratio, not as a "target" the caller never passed (main: a negative ratio's odd levels were the
+    coarsest LOD, NaN "cannot convert float NaN to integer")."""
+    from swpm_usd.usd.writer import UsdWriteError
+
+    for bad in (-0.5, float("nan"), math.inf):
+        with pytest.raises(UsdWriteError, match="ratio"):
+            usd.select_lods(pm, 3, ratio=bad)
+    assert usd.select_lods(pm, 3, ratio=0.0) == [0, pm.lod_for_triangles(0)]  # (0**0 is 1: LOD 0 first)
+    assert usd.select_lods(pm, 3, ratio=1.0) == [0]
 
 
 def _retype(prim, name, type_name, value):

@@ -159,7 +159,8 @@ def test_a_lod_number_must_be_an_integer_in_range(encoding):
     with pytest.raises(ValueError, match="NaN"):
         pm.lod_for_error(float("nan"))  # was the coarsest LOD
     assert pm.lod_for_error(float("inf")) == pm.lod_count - 1
-    assert pm.lod_for_error(-1.0) == 0
+    with pytest.raises(ValueError, match="max_error"):
+        pm.lod_for_error(-1.0)  # was LOD 0: a negative bound is a mistake (test_lod_selection.py)
 
 
 @pytest.mark.parametrize(

@@ -9,6 +9,8 @@ rebuild the object with :func:`from_buffers`.
 
 from __future__ import annotations
 
+import math
+import numbers
 import operator
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
@@ -18,6 +20,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..errors import BuildError
+from .screen import budget, error_for_pixels
 
 ENCODINGS: dict[str, type[ProgressiveMesh]] = {}
 
@@ -102,14 +105,25 @@ class ProgressiveMesh(ABC):
         return float(self.lod_errors[self._check_lod(k)])
 
     def lod_for_triangles(self, target: int) -> int:
-        """The finest LOD that draws at most ``target`` triangles (the coarsest LOD if none does)."""
+        """The finest LOD that draws at most ``target`` triangles (the coarsest LOD if none does; LOD 0 for
+        ``inf``). ``target`` is a number >= 0 (a fraction is rounded down: at most 99.5 triangles is at most
+        99); NaN or a negative one is a :class:`ValueError`."""
+        t = budget("target", target)
         tc = self.triangle_counts
+        t0 = int(tc[0])
+        # (an integer exactly, a float rounded down; past LOD 0's count (inf, a huge integer): LOD 0's count)
+        if isinstance(target, numbers.Integral):
+            t_int = min(operator.index(target), t0)
+        else:
+            t_int = math.floor(min(t, t0))
         # triangle counts are non-increasing with k: first k with tc[k] <= target
-        k = int(np.searchsorted(-tc, -int(target), side="left"))
+        k = int(np.searchsorted(-tc, -t_int, side="left"))
         return min(k, self.lod_count - 1)
 
     def lod_for_error(self, max_error: float) -> int:
-        """The coarsest LOD whose error does not exceed ``max_error`` (LOD 0 if none is that good)."""
+        """The coarsest LOD whose error does not exceed ``max_error`` (LOD 0 if none is that good; the
+        coarsest for ``inf``). ``max_error`` is a number >= 0; NaN or a negative one is a
+        :class:`ValueError`."""
         return lod_at_error(self.lod_errors, max_error)
 
     def lod_for_screen_error(
@@ -118,10 +132,13 @@ class ProgressiveMesh(ABC):
         """The coarsest LOD whose error projects to at most ``max_pixels`` on screen for an object at
         ``distance`` (mesh units) seen with vertical field of view ``fov_y`` (radians) on a viewport
         ``viewport_height`` pixels high: what an engine asks each frame (the sliding window's
-        ``record_for_screen_error`` gives the same LOD's window record)."""
-        # pixels per mesh unit at that distance (perspective): 1 / it is the error one pixel covers
-        pixels_per_unit = float(viewport_height) / (2.0 * float(distance) * np.tan(0.5 * float(fov_y)))
-        return self.lod_for_error(float(max_pixels) / pixels_per_unit)
+        ``record_for_screen_error`` gives the same LOD's window record).
+
+        ``distance <= 0`` (the camera at or inside the object) picks LOD 0. A non-finite argument,
+        ``max_pixels < 0``, ``fov_y`` outside (0, pi) or ``viewport_height <= 0`` is a :class:`ValueError`
+        naming it (:mod:`swpm_usd.encode.screen`: the one projection)."""
+        e = error_for_pixels(max_pixels, distance, fov_y, viewport_height)
+        return 0 if e is None else lod_at_error(self.lod_errors, e)
 
     # -- drawing ---------------------------------------------------------------------------------------
     @abstractmethod
@@ -175,11 +192,17 @@ class ProgressiveMesh(ABC):
         )
 
 
+_F32_MAX = float(np.finfo(np.float32).max)
+
+
 def lod_at_error(lod_errors: np.ndarray, max_error: float) -> int:
-    """The last LOD whose error in ``lod_errors`` (non-decreasing) is at most ``max_error``, or 0."""
-    if np.isnan(max_error):
-        raise ValueError("max_error is NaN")
-    k = int(np.searchsorted(lod_errors, np.float32(max_error), side="right")) - 1
+    """The last LOD whose error in ``lod_errors`` (non-decreasing) is at most ``max_error``, or 0.
+    ``max_error`` as :func:`.screen.budget` checks it (a number >= 0, ``inf`` allowed)."""
+    max_error = budget("max_error", max_error)
+    # (the errors are float32: a finite bound above its range admits them all, as its largest value;
+    # np.float32 of it warned of an overflow)
+    bound = np.float32(max_error if max_error <= _F32_MAX or math.isinf(max_error) else _F32_MAX)
+    k = int(np.searchsorted(lod_errors, bound, side="right")) - 1
     return max(0, min(k, lod_errors.shape[0] - 1))
 
 

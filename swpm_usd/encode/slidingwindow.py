@@ -91,6 +91,7 @@ from . import sw_kernels as swk
 from . import sw_layout as swl
 from . import sw_threads as swt
 from .base import ProgressiveMesh, lod_at_error, register
+from .screen import error_for_pixels, screen_space_error
 from .vanilla import index_size
 
 __all__ = [
@@ -165,12 +166,13 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
         return int(np.unique(self.lod_level).shape[0]) if self.lod_level is not None else 0
 
     def record_for_triangles(self, target: int) -> np.ndarray:
-        """The window record of the finest LOD drawing at most ``target`` triangles."""
+        """The window record of the finest LOD drawing at most ``target`` triangles
+        (:meth:`~.ProgressiveMesh.lod_for_triangles`: NaN or a negative target is a :class:`ValueError`)."""
         return self.window_records[self.lod_for_triangles(target)]
 
     def record_for_error(self, max_error: float, lod_errors: np.ndarray | None = None) -> np.ndarray:
         """The window record of the coarsest LOD whose error (``lod_errors``, default this mesh's,
-        non-decreasing, one per LOD) is at most ``max_error``."""
+        non-decreasing, one per LOD) is at most ``max_error`` (a number >= 0, ``inf`` allowed)."""
         errs = self.lod_errors if lod_errors is None else np.asarray(lod_errors, np.float32)
         return self.window_records[min(lod_at_error(errs, max_error), self.lod_count - 1)]
 
@@ -183,10 +185,11 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
         lod_errors: np.ndarray | None = None,
     ) -> np.ndarray:
         """The window record whose object-space error projects to at most ``max_pixels`` on screen for an
-        object at ``distance`` seen with vertical field of view ``fov_y`` (radians)."""
-        return self.record_for_error(
-            max_pixels / screen_space_error(1.0, distance, fov_y, viewport_height), lod_errors
-        )
+        object at ``distance`` seen with vertical field of view ``fov_y`` (radians): the record of
+        :meth:`~.ProgressiveMesh.lod_for_screen_error`'s LOD (LOD 0's at ``distance <= 0``; its arguments
+        checked the same)."""
+        e = error_for_pixels(max_pixels, distance, fov_y, viewport_height)
+        return self.window_records[0] if e is None else self.record_for_error(e, lod_errors)
 
     # -- memory --------------------------------------------------------------------------------------------
     @property
@@ -220,11 +223,6 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
             window_records=buffers["window_records"],
             params=params,
         )
-
-
-def screen_space_error(error: float, distance: float, fov_y: float, viewport_height: int) -> float:
-    """Pixels covered by an object-space ``error`` at ``distance`` (perspective, vertical fov in radians)."""
-    return float(error) * float(viewport_height) / (2.0 * float(distance) * np.tan(0.5 * float(fov_y)))
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -909,6 +907,9 @@ def _coarsest_copy(window: np.ndarray, pool_size: int, cache_size: int) -> np.nd
     count = window.shape[0]
     if count < 2 or count > COARSEST_COPY_MAX_SHARE * pool_size:
         return None
+    # int32 whichever builder's pool it comes from (Forsyth's and the clustered layout's are int64): one
+    # compile of vcache._rotate_rows, not two; the copy only indexes the new vertex ids
+    window = window.astype(np.int32, copy=False)
     copy = swl.block_order(window, np.array([0, count], np.int64), cache_size)
     if (
         cache_misses(copy, cache_size)[0]

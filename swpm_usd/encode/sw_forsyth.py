@@ -234,12 +234,14 @@ def forsyth_run(
                 k = target[b]
                 cost = K.collapse_cost(st, b, k)
             # do the collapse b -> k as one patch
-            tris_p = K.gather_triangles(st, b).astype(np.int64)  # int64 as collapse_patches' (_emit_into)
+            tris_g = K.gather_triangles(st, b)
+            tris_p = tris_g.astype(np.int64)  # int64 as collapse_patches' (_emit_into)
             # a hub's ring is most of the mesh: after a collapse onto it only b's ring (whose stars changed)
             # and the hub are refreshed (a non-manifold hub in 10,000 triangles: 86 s, quadratic)
             k_hub = K._alive_more_than(st, k, K.HUB_SIZE)
             if k_hub:
-                ring = K.neighbours(b, K.triangle_positions(st, tris_p))
+                # (the int32 ids every other caller passes: one compile of triangle_positions, not two)
+                ring = K.neighbours(b, K.triangle_positions(st, tris_g))
             p_out = _grow_i64(p_out, npo + tris_p.shape[0])
             sub = np.empty((tris_p.shape[0], 3), np.int64)
             for j in range(tris_p.shape[0]):

@@ -356,7 +356,8 @@ def mesh_input(input_path: str, max_triangles: int | None) -> object:
     "output",
     required=True,
     type=FilePath(),
-    help="The .swpm file to write (atomically; a missing folder is made); never the input.",
+    help="The .swpm file to write (atomically; a missing folder is made); never the input. A link there "
+    "is replaced by the file, its target left as it was, as run replaces its outputs (and sed -i a file).",
 )
 @click.option(
     "--encoding",

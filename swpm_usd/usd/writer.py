@@ -227,6 +227,9 @@ def select_lods(pm: ProgressiveMesh, count: int, by: str = "triangles", ratio: f
     if count < 1:
         raise UsdWriteError("the number of discrete LODs must be at least 1")
     if by == "triangles":
+        # (lod_for_triangles refuses a negative or NaN target: name the ratio that made it)
+        if not (isinstance(ratio, numbers.Real) and 0.0 <= ratio < math.inf):
+            raise UsdWriteError(f"ratio must be a finite number >= 0 (triangles per LOD), not {ratio!r}")
         t0 = pm.triangle_count_at(0)
         picks = [pm.lod_for_triangles(int(math.floor(t0 * ratio**i))) for i in range(count)]
     elif by == "error":
