@@ -130,22 +130,29 @@ def _alive(pid: int) -> bool:
         return False
 
 
+def _held_runner(tmp_path, cfg, hook: str, hold_env: str) -> subprocess.Popen:
+    """``run cfg --jobs 2`` in a process whose ``sitecustomize`` is ``hook``, told the folder ``tmp_path /
+    "hold"`` (made here) in ``hold_env``: the hook marks its process there and holds until ``release``."""
+    hold = tmp_path / "hold"
+    hold.mkdir()
+    (tmp_path / "hook").mkdir()
+    (tmp_path / "hook" / "sitecustomize.py").write_text(hook)
+    path = os.pathsep.join([str(tmp_path / "hook"), *filter(None, [os.environ.get("PYTHONPATH")])])
+    return subprocess.Popen(
+        [sys.executable, "-m", "swpm_usd.cli", "run", str(cfg), "--jobs", "2"],
+        env={**os.environ, "PYTHONPATH": path, hold_env: str(hold)},
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+
+
 def test_workers_end_with_a_runner_killed_by_sigkill(tmp_path):
     # a runner killed with SIGKILL (a farm's job killed, the out-of-memory killer) left its pool's workers
     # building: each renamed its outputs into place after the run had ended, unlisted in the manifest, while
     # a rerun planned or built the same assets. They end with it now, and the rerun builds everything whole
     cfg = _project(tmp_path, ("a", "b", "c"))
     out, hold = tmp_path / "out", tmp_path / "hold"
-    hold.mkdir()
-    (tmp_path / "hook").mkdir()
-    (tmp_path / "hook" / "sitecustomize.py").write_text(_HOLD)
-    path = os.pathsep.join([str(tmp_path / "hook"), *filter(None, [os.environ.get("PYTHONPATH")])])
-    runner = subprocess.Popen(
-        [sys.executable, "-m", "swpm_usd.cli", "run", str(cfg), "--jobs", "2"],
-        env={**os.environ, "PYTHONPATH": path, "SWPM_TEST_HOLD": str(hold)},
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
+    runner = _held_runner(tmp_path, cfg, _HOLD, "SWPM_TEST_HOLD")
     workers: list[int] = []
     try:
         deadline = time.monotonic() + 600  # (the workers' start: the encoders compiled on a cold cache)
@@ -197,16 +204,7 @@ def test_the_fork_server_ends_with_a_runner_killed_during_its_warm_up(tmp_path):
     # compiling on a busy farm node until the end. It ends with the runner now
     cfg = _project(tmp_path, ("a", "b"))
     hold = tmp_path / "hold"
-    hold.mkdir()
-    (tmp_path / "hook").mkdir()
-    (tmp_path / "hook" / "sitecustomize.py").write_text(_HOLD_WARM_UP)
-    path = os.pathsep.join([str(tmp_path / "hook"), *filter(None, [os.environ.get("PYTHONPATH")])])
-    runner = subprocess.Popen(
-        [sys.executable, "-m", "swpm_usd.cli", "run", str(cfg), "--jobs", "2"],
-        env={**os.environ, "PYTHONPATH": path, "SWPM_TEST_WARM": str(hold)},
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
+    runner = _held_runner(tmp_path, cfg, _HOLD_WARM_UP, "SWPM_TEST_WARM")
     server: list[int] = []
     try:
         deadline = time.monotonic() + 600  # (the server's start: importing the encoders under load)

@@ -25,7 +25,7 @@ def _shown(v: float) -> str:
 
 def _real(name: str, value: float) -> float:
     """``value`` as a float, else a :class:`TypeError` naming ``name``. A numpy scalar or 0-d array is its
-    value (main took them: ``np.asarray`` or a ``keepdims`` reduction hands an engine one); an integer past
+    value (0.7.4 took them: ``np.asarray`` or a ``keepdims`` reduction hands an engine one); an integer past
     float's range is ``inf`` of its sign (``float()`` raised OverflowError)."""
     if isinstance(value, np.ndarray) and value.ndim == 0:
         value = value[()]
