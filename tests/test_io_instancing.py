@@ -554,3 +554,13 @@ def test_an_instance_rotation_normalized_1_is_refused_naming_the_accessor(tmp_pa
     with pytest.raises(MeshLoadError, match=r"accessor 3 has normalized 1, not true or false") as e:
         load_mesh(path)
     assert e.value.path == str(path) and e.value.code == "INPUT_MALFORMED"
+
+
+def test_an_instance_accessor_whose_type_is_not_a_string_is_named(tmp_path: Path) -> None:
+    """Its ``type`` as the file holds it: an array is no glTF type name (nor a key to look one up by)."""
+    b = _instanced({"TRANSLATION": _translation})
+    translation = b.doc["nodes"][1]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["TRANSLATION"]
+    b.doc["accessors"][translation]["type"] = ["VEC3"]
+    path = b.write(tmp_path / "forest.gltf")
+    with pytest.raises(MeshLoadError, match=r"TRANSLATION \(accessor 3\) is \['VEC3'\] of FLOAT \(5126\)"):
+        load_mesh(path)

@@ -6,6 +6,8 @@ trimesh (the loader behind :mod:`.trimesh_loader`) silently
   all zeros when it has no ``bufferView``);
 * reads a ``normalized`` integer accessor as raw integers (a ``TEXCOORD_0`` of unsigned shorts, which glTF's
   core allows, came out as uv 0..65535, and flipped to ``1 - v`` in 16-bit arithmetic);
+  a ``normalized`` that is not a JSON boolean, as glTF 2.0 says it is (the string ``"false"``, ``1``), is
+  refused naming the accessor (:func:`_check_normalized`), where it was read as a truth value;
 * drops a primitive of mode ``TRIANGLE_FAN`` (6);
 * drops ``TEXCOORD_0`` of a primitive without a ``material``;
 * leaves a node holding a camera out of the scene, with its mesh and children ("No path from world->3");
@@ -193,7 +195,8 @@ def _component(value: Any) -> str:
 
 def _accessor_type(value: Any) -> str:
     """An accessor's ``type`` as glTF 2.0 names it (``VEC3``); another value as the file holds it."""
-    return value if value in _WIDTH or value in ("MAT2", "MAT3", "MAT4") else f"{value!r:.40}"
+    known = isinstance(value, str) and (value in _WIDTH or value in ("MAT2", "MAT3", "MAT4"))
+    return value if known else f"{value!r:.40}"
 
 
 def _odd(accessors: list, i: Any, name: str = "") -> bool:
