@@ -497,3 +497,36 @@ def test_an_index_past_a_skinned_primitives_vertices_names_its_triangle(
     ) as e:
         load_mesh(path)
     assert e.value.path == str(path) and e.value.code == "INPUT_MALFORMED"
+
+
+def test_a_skin_s_inverse_bind_matrices_of_another_type_are_named_as_gltf_names_them(tmp_path: Path) -> None:
+    """The accessor's type and componentType as glTF 2.0 names them, with the number the file holds (it
+    said "not MAT4 of float", what it was left out)."""
+    b = Builder()
+    _skinned(b, np.zeros((4, 4)), _WEIGHTS)
+    b.doc["skins"][0]["inverseBindMatrices"] = b.accessor(np.zeros((8, 4), np.uint16), "VEC4", 5123)
+    with pytest.raises(MeshLoadError) as e:
+        load_mesh(b.write(tmp_path / "m.gltf"))
+    assert str(tmp_path / "m.gltf") in str(e.value)
+    assert (
+        "skins[0]: its inverseBindMatrices (accessor 5) are VEC4 of UNSIGNED_SHORT (5123), not MAT4 of FLOAT "
+        "(5126)" in str(e.value)
+    )
+
+
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+@pytest.mark.parametrize("value", ["false", 1, 0, None])
+def test_normalized_that_is_not_a_boolean_is_refused_naming_the_accessor(
+    tmp_path: Path, suffix: str, value: object
+) -> None:
+    """glTF 2.0's ``normalized`` is a JSON boolean: the string "false" (true as a truth value) read the
+    normals as normalized, 0 read them as raw integers; each was a guess, now refused."""
+    b = Builder()
+    p = _tetrahedron(b)
+    normals = np.round(np.eye(4, 3) * 127).astype(np.int8)
+    p["attributes"]["NORMAL"] = b.accessor(normals, "VEC3", 5120, normalized=value)
+    path = _placed(b, p).write(tmp_path / f"m{suffix}")
+    with pytest.raises(MeshLoadError) as e:
+        load_mesh(path)
+    assert e.value.path == str(path) and e.value.code == "INPUT_MALFORMED"
+    assert f"accessor 2 has normalized {value!r}, not true or false" in str(e.value)

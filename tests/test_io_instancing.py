@@ -19,7 +19,7 @@ from trimesh import transformations as tf
 
 from swpm_usd.errors import MeshLoadError
 from swpm_usd.io import load_mesh
-from swpm_usd.io.gltf_prepare import prepare_gltf
+from swpm_usd.io.gltf_prepare import gltf_triangle_count, prepare_gltf
 
 #: a tetrahedron: 4 points, 4 triangles, a normal a point
 POINTS = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], np.float32)
@@ -279,25 +279,28 @@ def _retyped(kind: str, component: int, normalized: bool = False):
     [
         (
             {"TRANSLATION": _retyped("VEC4", 5126)},
-            r"TRANSLATION \(accessor 3\) is 'VEC4' of componentType 5126",
+            r"TRANSLATION \(accessor 3\) is VEC4 of FLOAT \(5126\), not VEC3 of FLOAT \(5126\)",
         ),
         (
             {"SCALE": _retyped("VEC3", 5122)},
-            r"SCALE \(accessor 3\) is 'VEC3' of componentType 5122, not VEC3",
+            r"SCALE \(accessor 3\) is VEC3 of SHORT \(5122\), not VEC3",
         ),
         (
             {"ROTATION": _retyped("VEC4", 5121, True)},
-            r"ROTATION \(accessor 3\) is 'VEC4' of componentType 5121",
+            r"ROTATION \(accessor 3\) is VEC4 of normalized UNSIGNED_BYTE \(5121\),",
         ),
-        ({"ROTATION": _retyped("VEC4", 5122)}, r"ROTATION .* 5122, not VEC4 of float or normalized byte"),
+        (
+            {"ROTATION": _retyped("VEC4", 5122)},
+            r"ROTATION .* SHORT \(5122\), not VEC4 of FLOAT \(5126\) or normalized BYTE",
+        ),
         (
             {"ROTATION": _retyped("VEC4", 5123, True)},
-            r"ROTATION \(accessor 3\) is 'VEC4' of componentType 5123 normalized, not VEC4 of float or "
-            r"normalized byte or normalized short",
+            r"ROTATION \(accessor 3\) is VEC4 of normalized UNSIGNED_SHORT \(5123\), not VEC4 of FLOAT "
+            r"\(5126\) or normalized BYTE \(5120\) or normalized SHORT \(5122\)",
         ),
         (
             {"ROTATION": _retyped("VEC4", 5126, True)},
-            r"ROTATION \(accessor 3\) is 'VEC4' of componentType 5126 normalized",
+            r"ROTATION \(accessor 3\) is VEC4 of normalized FLOAT \(5126\),",
         ),
         ({"TRANSLATION": lambda b: 99}, r"TRANSLATION is accessor 99, the file has 3"),
         (
@@ -523,3 +526,41 @@ def test_an_instanced_skinned_node_is_refused_with_its_name(tmp_path: Path, suff
     ) as e:
         load_mesh(path)
     assert e.value.path == str(path) and e.value.code == "INPUT_UNSUPPORTED"
+
+
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+def test_an_instanced_skinned_node_is_refused_for_what_it_is_not_its_instances_count(
+    tmp_path: Path, suffix: str
+) -> None:
+    """The budget counted before the buffers are read leaves out a node the load refuses (a skin and
+    instances): its million instances said "over max_triangles" of a file refused for its skin."""
+    b = _instanced({"TRANSLATION": _translation})
+    b.doc["nodes"][1]["skin"] = 0
+    b.doc["skins"] = [{"joints": [0]}]
+    translation = b.doc["nodes"][1]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["TRANSLATION"]
+    b.doc["accessors"][translation]["count"] = 1_000_000
+    path = b.write(tmp_path / f"army{suffix}")
+    assert gltf_triangle_count(path) == 4  # (the plain node's tetrahedron)
+    with pytest.raises(MeshLoadError, match=r"node 1 \('trees'\) has both a skin and EXT_mesh_gpu") as e:
+        load_mesh(path, max_triangles=100)
+    assert e.value.path == str(path) and e.value.code == "INPUT_UNSUPPORTED"
+
+
+def test_an_instance_rotation_normalized_1_is_refused_naming_the_accessor(tmp_path: Path) -> None:
+    """Its ``normalized`` is a JSON boolean: 1 was read as true (the bytes decoded as normalized)."""
+    rotation = np.round(R * 127).astype(np.int8)
+    b = _instanced({"ROTATION": lambda b: b.accessor(rotation, "VEC4", 5120, normalized=1)})
+    path = b.write(tmp_path / "forest.glb")
+    with pytest.raises(MeshLoadError, match=r"accessor 3 has normalized 1, not true or false") as e:
+        load_mesh(path)
+    assert e.value.path == str(path) and e.value.code == "INPUT_MALFORMED"
+
+
+def test_an_instance_accessor_whose_type_is_not_a_string_is_named(tmp_path: Path) -> None:
+    """Its ``type`` as the file holds it: an array is no glTF type name (nor a key to look one up by)."""
+    b = _instanced({"TRANSLATION": _translation})
+    translation = b.doc["nodes"][1]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["TRANSLATION"]
+    b.doc["accessors"][translation]["type"] = ["VEC3"]
+    path = b.write(tmp_path / "forest.gltf")
+    with pytest.raises(MeshLoadError, match=r"TRANSLATION \(accessor 3\) is \['VEC3'\] of FLOAT \(5126\)"):
+        load_mesh(path)

@@ -6,6 +6,8 @@ trimesh (the loader behind :mod:`.trimesh_loader`) silently
   all zeros when it has no ``bufferView``);
 * reads a ``normalized`` integer accessor as raw integers (a ``TEXCOORD_0`` of unsigned shorts, which glTF's
   core allows, came out as uv 0..65535, and flipped to ``1 - v`` in 16-bit arithmetic);
+  a ``normalized`` that is not a JSON boolean, as glTF 2.0 says it is (the string ``"false"``, ``1``), is
+  refused naming the accessor (:func:`_check_normalized`), where it was read as a truth value;
 * drops a primitive of mode ``TRIANGLE_FAN`` (6);
 * drops ``TEXCOORD_0`` of a primitive without a ``material``;
 * leaves a node holding a camera out of the scene, with its mesh and children ("No path from world->3");
@@ -81,6 +83,15 @@ import numpy as np
 from ..errors import MeshLoadError
 
 _COMPONENT = {5120: "i1", 5121: "u1", 5122: "i2", 5123: "u2", 5125: "u4", 5126: "f4"}
+#: the component types' names in glTF 2.0, which messages give with the number the file holds
+_COMPONENT_NAME = {
+    5120: "BYTE",
+    5121: "UNSIGNED_BYTE",
+    5122: "SHORT",
+    5123: "UNSIGNED_SHORT",
+    5125: "UNSIGNED_INT",
+    5126: "FLOAT",
+}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
 #: the widths of the matrix accessors read here (a skin's inverse bind matrices: floats, no padding)
 _MATRIX_WIDTH = {"MAT4": 16}
@@ -175,6 +186,19 @@ def _document(path: Path, data: bytes) -> tuple[dict, bytes | None]:
     return doc, binary
 
 
+def _component(value: Any) -> str:
+    """An accessor's ``componentType`` as glTF 2.0 names it, ``UNSIGNED_SHORT (5123)``; another value as
+    the file holds it (shortened)."""
+    known = isinstance(value, int) and not isinstance(value, bool) and value in _COMPONENT_NAME
+    return f"{_COMPONENT_NAME[value]} ({value})" if known else f"{value!r:.40}"
+
+
+def _accessor_type(value: Any) -> str:
+    """An accessor's ``type`` as glTF 2.0 names it (``VEC3``); another value as the file holds it."""
+    known = isinstance(value, str) and (value in _WIDTH or value in ("MAT2", "MAT3", "MAT4"))
+    return value if known else f"{value!r:.40}"
+
+
 def _odd(accessors: list, i: Any, name: str = "") -> bool:
     """Whether accessor ``i`` (of the attribute ``name``, or indices) is one trimesh reads wrongly: sparse, or
     normalized integers (but unsigned bytes of a colour, which it reads right, scaled by their maximum)."""
@@ -184,7 +208,7 @@ def _odd(accessors: list, i: Any, name: str = "") -> bool:
     if "sparse" in a:
         return True
     ubyte_colour = name.startswith("COLOR_") and a.get("componentType") == 5121
-    return bool(a.get("normalized")) and a.get("componentType") != _FLOAT and not ubyte_colour
+    return a.get("normalized") is True and a.get("componentType") != _FLOAT and not ubyte_colour
 
 
 def _needs(doc: dict, skins: bool = True) -> bool:
@@ -306,7 +330,11 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
             )
         a = accessors[ibm]
         if a.get("type") != "MAT4" or a.get("componentType") != _FLOAT:
-            raise MeshLoadError(r.path, f"{where}: its inverseBindMatrices are not MAT4 of float")
+            raise MeshLoadError(
+                r.path,
+                f"{where}: its inverseBindMatrices (accessor {ibm}) are {_accessor_type(a.get('type'))} of "
+                f"{_component(a.get('componentType'))}, not MAT4 of {_component(_FLOAT)}",
+            )
         inverse_bind = r.read(skin["inverseBindMatrices"]).reshape(-1, 4, 4).transpose(0, 2, 1)
         if inverse_bind.shape[0] < len(joints):
             raise MeshLoadError(
@@ -599,7 +627,7 @@ class _Rewrite:
                 )
             at = where if rows is None else np.searchsorted(rows, where)
             values[at] = self._strided(sv["bufferView"], sv.get("byteOffset", 0), n, dtype, width)
-        if a.get("normalized") and dtype.kind in "iu":
+        if a.get("normalized") is True and dtype.kind in "iu":
             top = np.float32(np.iinfo(dtype).max)
             values = values.astype(np.float32) / top
             if dtype.kind == "i":
@@ -657,18 +685,16 @@ def _instance_matrices(r: _Rewrite, i: int, ext: dict) -> np.ndarray:
         if (
             a.get("type") != kind
             or component not in components
-            or (component in normalized) != bool(a.get("normalized", False))
+            or (component in normalized) != (a.get("normalized", False) is True)
         ):
-            allowed = (
-                " or ".join(f"{'normalized ' if c in normalized else ''}{_COMPONENT[c]}" for c in components)
-                .replace("f4", "float")
-                .replace("i1", "byte")
-                .replace("i2", "short")
+            allowed = " or ".join(
+                f"{'normalized ' if c in normalized else ''}{_component(c)}" for c in components
             )
             raise MeshLoadError(
                 r.path,
-                f"{where} {name} (accessor {ref}) is {a.get('type')!r} of componentType {component!r}"
-                f"{' normalized' if a.get('normalized') else ''}, not {kind} of {allowed}",
+                f"{where} {name} (accessor {ref}) is {_accessor_type(a.get('type'))} of "
+                f"{'normalized ' if a.get('normalized') is True else ''}{_component(component)}, "
+                f"not {kind} of {allowed}",
             )
     if len(set(counts.values())) > 1:
         shown = ", ".join(f"{name} {n}" for name, n in counts.items())
@@ -936,6 +962,17 @@ def _check_counts(path: Path, doc: Any) -> None:
             )
 
 
+def _check_normalized(path: Path, doc: Any) -> None:
+    """Raise a :class:`MeshLoadError` naming the first accessor whose ``normalized`` is not a JSON boolean,
+    which glTF 2.0 says it is: read as a truth value, the string ``"false"`` was normalized and ``0`` was
+    not, each a guess at what the file means."""
+    accessors = doc.get("accessors") if isinstance(doc, dict) else None
+    for i, a in enumerate(accessors if isinstance(accessors, list) else []):
+        value = a.get("normalized", False) if isinstance(a, dict) else False
+        if not isinstance(value, bool):
+            raise MeshLoadError(path, f"accessor {i} has normalized {value!r:.40}, not true or false")
+
+
 def _check_instanced_skins(path: Path, doc: Any) -> None:
     """Raise a :class:`MeshLoadError` (``INPUT_UNSUPPORTED``) naming the first node that has both a ``skin``
     and ``EXT_mesh_gpu_instancing`` instances: the extension places the mesh by the node's world transform x
@@ -978,7 +1015,9 @@ def gltf_triangle_count(path: Path) -> int | None:
     node of its scene (as trimesh loads it: the ``scene``, else the first; every root node when there is
     none) with a mesh counts that mesh's triangles (a primitive's ``indices`` count / 3, or its
     ``POSITION`` count / 3; strips and fans: count - 2; points and lines none), times its
-    ``EXT_mesh_gpu_instancing`` instances. None when the document does not read (the load then says why)."""
+    ``EXT_mesh_gpu_instancing`` instances. A node with instances and a skin counts none: the load refuses
+    it (:func:`_check_instanced_skins`), which its instances, counted, pre-empted with a budget error. None
+    when the document does not read (the load then says why)."""
     try:
         doc = _json_document(path)
     except (_Unread, OSError, ValueError, RecursionError):
@@ -1032,7 +1071,8 @@ def gltf_triangle_count(path: Path) -> int | None:
     seen, stack, total = set(roots), list(roots), 0  # (a node once, however many parents: as trimesh)
     while stack:
         node = nodes[stack.pop()]
-        m = node.get("mesh") if isinstance(node, dict) else None
+        refused = isinstance(node, dict) and "skin" in node and _instancing(node) is not None
+        m = node.get("mesh") if isinstance(node, dict) and not refused else None
         total += per_mesh[m] * instances(node) if _count(m) is not None and m < len(per_mesh) else 0
         for c in children(node):
             if c not in seen:
@@ -1077,6 +1117,7 @@ def prepare_gltf(path: Path) -> Prepared | None:
             doc = _json_document(path)
             _check_extensions(path, doc)
             _check_counts(path, doc)
+            _check_normalized(path, doc)
             _check_instanced_skins(path, doc)
             if not _needs(doc):
                 return None
@@ -1084,6 +1125,7 @@ def prepare_gltf(path: Path) -> Prepared | None:
         doc, binary = _document(path, data)
         _check_extensions(path, doc)
         _check_counts(path, doc)
+        _check_normalized(path, doc)
         _check_instanced_skins(path, doc)
         if not isinstance(doc, dict) or not _needs(doc):
             return None
