@@ -502,6 +502,9 @@ def test_encode_labels_an_oserror_reading_its_input_as_the_inputs(raised, code, 
     err = _cli(["encode", str(src), "-o", str(out), "--json"])
     assert (err["code"], err["file"], err["output"]) == (code, str(src), str(out)), err
     assert str(src) in err["error"] and not out.exists()
+    # in the loader's words for its code: a file gone is "file not found" (it said "cannot read the file (No
+    # such file or directory)" here, "file not found" from the loader)
+    assert ("file not found" in err["error"]) == (code == "INPUT_NOT_FOUND"), err
     # the output's own OSError is still the output's
     monkeypatch.setattr(Path, "read_bytes", real)
     monkeypatch.setattr(module, "build", real_build)

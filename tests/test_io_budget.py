@@ -167,3 +167,26 @@ def test_a_budget_that_is_not_a_count_is_refused(tmp_path: Path, value: object, 
     path = _write(tmp_path / "tet.obj")
     with pytest.raises(error, match="max_triangles must be"):
         load_mesh(path, max_triangles=value)  # type: ignore[arg-type]
+
+
+def test_early_count_of_an_obj_is_one_implementation_with_the_bytes_it_read(tmp_path):
+    """The dry run counted an OBJ's face lines with a copy of early_triangle_count's OBJ part (to keep the
+    bytes for the load): the copy said None for an empty OBJ (its load says "empty"), early_triangle_count
+    a lower bound of 0. One implementation now, which also hands back the bytes it read."""
+    from swpm_usd.io import early_triangle_count
+
+    empty = tmp_path / "empty.obj"
+    empty.write_bytes(b"")
+    assert early_triangle_count(empty) is None
+    from swpm_usd.io import early_triangle_count_and_data
+
+    assert early_triangle_count_and_data(empty) == (None, b"")
+    text = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3 4\nf 1 2 3\nf 1 2\n"
+    quad = tmp_path / "quad.obj"
+    quad.write_bytes(text)
+    assert early_triangle_count(quad) == (2, False)  # (face lines of 3 or more corners: a lower bound)
+    assert early_triangle_count_and_data(quad) == ((2, False), text)
+    assert early_triangle_count_and_data(quad, prim_path="/a") == (None, b"")  # (a prim: USD only)
+    assert early_triangle_count_and_data(tmp_path / "gone.obj") == (None, b"")  # (its load says why)
+    gltf = _instanced_gltf(tmp_path / "t.gltf", 3)
+    assert early_triangle_count_and_data(gltf) == ((12, True), b"")  # (other types: no bytes kept)

@@ -166,6 +166,19 @@ def test_lod_selection(spot: Mesh) -> None:
     assert np.array_equal(pm.record_for_screen_error(px, 10.0, 1.0, 1080), pm.record_for_error(e))
 
 
+def test_record_for_error_checks_the_length_of_lod_errors(spot: Mesh) -> None:
+    """A ``lod_errors`` of another length than the LOD count picked a record without a word (a shorter one
+    never reached the last LODs): a ValueError naming it, from the screen-space query too."""
+    pm = build_sliding_window(spot)
+    errs = np.asarray(pm.lod_errors)
+    assert np.array_equal(pm.record_for_error(1e30, errs), pm.window_records[-1])  # (one per LOD: as before)
+    for wrong in (errs[:-1], np.append(errs, errs[-1]), errs[:0], errs.reshape(1, -1)):
+        with pytest.raises(ValueError, match=rf"lod_errors .*\({pm.lod_count}\)"):
+            pm.record_for_error(1e30, wrong)
+        with pytest.raises(ValueError, match="lod_errors"):
+            pm.record_for_screen_error(1.0, 10.0, 1.0, 1080, wrong)
+
+
 def test_parameters_are_checked() -> None:
     mesh = _icosphere(1)
     with pytest.raises(BuildError):

@@ -172,8 +172,13 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
 
     def record_for_error(self, max_error: float, lod_errors: np.ndarray | None = None) -> np.ndarray:
         """The window record of the coarsest LOD whose error (``lod_errors``, default this mesh's,
-        non-decreasing, one per LOD) is at most ``max_error`` (a number >= 0, ``inf`` allowed)."""
+        non-decreasing, one per LOD) is at most ``max_error`` (a number >= 0, ``inf`` allowed). A
+        ``lod_errors`` not one per LOD is a :class:`ValueError` naming it (a shorter one never reached the
+        last LODs, a longer one picked past them, clamped to the last, without a word)."""
         errs = self.lod_errors if lod_errors is None else np.asarray(lod_errors, np.float32)
+        if errs.shape != (self.lod_count,):
+            n = self.lod_count
+            raise ValueError(f"lod_errors must hold one error per LOD ({n}), got shape {errs.shape}")
         return self.window_records[min(lod_at_error(errs, max_error), self.lod_count - 1)]
 
     def record_for_screen_error(

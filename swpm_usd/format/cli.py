@@ -332,10 +332,12 @@ def _input_error(exc: OSError, input_path: str) -> SwpmError:
     import errno
 
     from ..errors import MeshLoadError
+    from ..fileio import missing_file_problem
 
-    code = "INPUT_NOT_FOUND" if exc.errno == errno.ENOENT else "INPUT_UNREADABLE"
     path = input_path if exc.filename is None else exc.filename
-    return MeshLoadError(path, f"cannot read the file ({exc.strerror or exc})", code=code)
+    if exc.errno == errno.ENOENT:  # (in the loader's words for the same code: "file not found", or a loop)
+        return MeshLoadError(path, missing_file_problem(path), code="INPUT_NOT_FOUND")
+    return MeshLoadError(path, f"cannot read the file ({exc.strerror or exc})", code="INPUT_UNREADABLE")
 
 
 def mesh_input(input_path: str, max_triangles: int | None) -> object:

@@ -77,25 +77,38 @@ def early_triangle_count(
     ``max_triangles`` checks it early (see :func:`load_mesh`): exact (the count before cleaning, each
     instance counted) from a glTF's JSON, a binary STL's header or a USD stage's ``faceVertexCounts``; a
     lower bound (``exact`` False) from an OBJ's face lines of 3 or more corners. None for a PLY, OFF or
-    ASCII STL (known once parsed), or a file that does not read that far (its load says why)."""
+    ASCII STL (known once parsed), or a file that does not read that far or is empty (its load says why)."""
+    return early_triangle_count_and_data(path, prim_path=prim_path)[0]
+
+
+def early_triangle_count_and_data(
+    path: str | os.PathLike[str], *, prim_path: str | None = None
+) -> tuple[tuple[int, bool] | None, bytes]:
+    """:func:`early_triangle_count`, and the bytes of an OBJ it read to count its face lines (``b""`` for
+    the other types): a caller that loads the file next (``load_trimesh(data=...)``) reads it once."""
     p = Path(path)
     suffix = p.suffix.lower()
+    data = b""
     try:
         if suffix in _USD_SUFFIXES:
             from .usd_loader import declared_triangle_count as usd_count
 
             n = usd_count(p, prim_path)
-            return None if n is None else (n, True)
+            return (None if n is None else (n, True)), b""
         if suffix not in _TRIMESH_SUFFIXES or prim_path is not None:
-            return None
+            return None, b""
         from .trimesh_loader import declared_triangle_count, glb_chunk_problem
 
         if suffix == ".glb" and glb_chunk_problem(p) is not None:
-            return None  # (its JSON not read: a chunk length past the file's end)
-        found = declared_triangle_count(p, suffix.lstrip("."))
+            return None, b""  # (its JSON not read: a chunk length past the file's end)
+        if suffix == ".obj":
+            data = p.read_bytes()
+            if not data:  # (no lower bound worth routing by: its load says "empty")
+                return None, b""
+        found = declared_triangle_count(p, suffix.lstrip("."), data)
     except (OSError, MemoryError):
-        return None
-    return None if found is None else found[:2]
+        return None, b""
+    return (None if found is None else (found[0], found[1])), data
 
 
 def check_budget(max_triangles: object) -> None:

@@ -438,7 +438,7 @@ def _digest_with_count(item: PlanItem, record: dict) -> str | None:
 
 def _count_triangles(asset: Asset, max_triangles: int | None = None, data: bytes = b"") -> int:
     """The triangles of ``asset``'s mesh, loaded; ``data``, when not empty, its OBJ file's bytes as
-    :func:`_early_count` read them (not read again)."""
+    :func:`.io.early_triangle_count_and_data` read them (not read again)."""
     if data:
         from ..io.trimesh_loader import load_trimesh
 
@@ -447,24 +447,6 @@ def _count_triangles(asset: Asset, max_triangles: int | None = None, data: bytes
 
     mesh = load_mesh(asset.path, prim_path=asset.prim, max_triangles=max_triangles)
     return mesh.triangle_count
-
-
-def _early_count(asset: Asset) -> tuple[tuple[int, bool] | None, bytes]:
-    """:func:`.io.early_triangle_count` of ``asset``'s file (a prim's of its stage), and an OBJ's bytes it
-    read for it: a lower bound under a rule's ``max`` is loaded (:func:`_count_triangles`), and a dry run
-    read each such OBJ twice."""
-    from ..io import early_triangle_count
-
-    if asset.prim is None and asset.path.suffix.lower() == ".obj":
-        from ..io.trimesh_loader import declared_triangle_count
-
-        try:
-            data = asset.path.read_bytes()
-        except (OSError, MemoryError):  # (as early_triangle_count: its load says why)
-            return None, b""
-        found = declared_triangle_count(asset.path, "obj", data) if data else None
-        return (None if found is None else (found[0], found[1])), data
-    return early_triangle_count(asset.path, prim_path=asset.prim), b""
 
 
 def _same_rule_from(cfg: Config, asset: Asset, lowest: int) -> bool:
@@ -740,7 +722,11 @@ def plan(
                     )
                 )
                 continue
-            early, data = _early_count(a) if early_counts else (None, b"")
+            early, data = None, b""
+            if early_counts:  # (an OBJ's bytes kept: loaded from them below, not read twice)
+                from ..io import early_triangle_count_and_data
+
+                early, data = early_triangle_count_and_data(a.path, prim_path=a.prim)
             if early is not None and not early[1] and not _same_rule_from(cfg, a, early[0]):
                 early = None  # (a lower bound under a rule's max: the count it routes by is loaded)
             if early is not None:

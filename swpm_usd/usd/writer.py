@@ -26,6 +26,7 @@ import numpy as np
 from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, Vt
 
 from ..encode.base import ProgressiveMesh
+from ..encode.screen import screen_space_error
 from ..errors import SwpmError, tf_message
 from ..fileio import fill_layer_replacing
 from . import plugin
@@ -515,7 +516,9 @@ def _author_usdlod(
         item.GetReferences().AddInternalReference(source.GetPath())
         item.SetInstanceable(True)
     heur = UsdGeom.Scope.Define(stage, top.GetPath().AppendChild("heuristics"))
-    focal = viewport_px / (2.0 * math.tan(math.radians(fov_degrees) / 2.0))
+    # the focal length in pixels, f = viewport_px / (2 tan(fov / 2)), as the one projection of the LOD queries
+    # gives it: the pixels one unit covers at distance 1 (the same float, bit for bit, as f computed inline)
+    focal = screen_space_error(1.0, 1.0, math.radians(fov_degrees), viewport_px)
     dist = _thresholds(errors[1:] * focal / pixel_error)
     screen = 2.0 * radius * focal / (dist * viewport_px)
     dh = UsdLod.DistanceHeuristic.Define(stage, heur.GetPath().AppendChild("distance"))
