@@ -175,8 +175,10 @@ def test_record_for_error_checks_the_length_of_lod_errors(spot: Mesh) -> None:
     for wrong in (errs[:-1], np.append(errs, errs[-1]), errs[:0], errs.reshape(1, -1)):
         with pytest.raises(ValueError, match=rf"lod_errors .*\({pm.lod_count}\)"):
             pm.record_for_error(1e30, wrong)
-        with pytest.raises(ValueError, match="lod_errors"):
-            pm.record_for_screen_error(1.0, 10.0, 1.0, 1080, wrong)
+        for distance in (10.0, 0.0):  # (at distance 0, LOD 0 whatever the errors: they are checked still)
+            with pytest.raises(ValueError, match="lod_errors"):
+                pm.record_for_screen_error(1.0, distance, 1.0, 1080, wrong)
+    assert np.array_equal(pm.record_for_screen_error(1.0, 0.0, 1.0, 1080, errs), pm.window_records[0])
 
 
 def test_parameters_are_checked() -> None:

@@ -175,11 +175,16 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
         non-decreasing, one per LOD) is at most ``max_error`` (a number >= 0, ``inf`` allowed). A
         ``lod_errors`` not one per LOD is a :class:`ValueError` naming it (a shorter one never reached the
         last LODs, a longer one picked past them, clamped to the last, without a word)."""
+        errs = self._checked_lod_errors(lod_errors)
+        return self.window_records[min(lod_at_error(errs, max_error), self.lod_count - 1)]
+
+    def _checked_lod_errors(self, lod_errors: np.ndarray | None) -> np.ndarray:
+        """``lod_errors`` as float32, one per LOD (this mesh's when None), else a :class:`ValueError`."""
         errs = self.lod_errors if lod_errors is None else np.asarray(lod_errors, np.float32)
         if errs.shape != (self.lod_count,):
             n = self.lod_count
             raise ValueError(f"lod_errors must hold one error per LOD ({n}), got shape {errs.shape}")
-        return self.window_records[min(lod_at_error(errs, max_error), self.lod_count - 1)]
+        return errs
 
     def record_for_screen_error(
         self,
@@ -192,9 +197,12 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
         """The window record whose object-space error projects to at most ``max_pixels`` on screen for an
         object at ``distance`` seen with vertical field of view ``fov_y`` (radians): the record of
         :meth:`~.ProgressiveMesh.lod_for_screen_error`'s LOD (LOD 0's at ``distance <= 0``; its arguments
-        checked the same)."""
+        checked the same; ``lod_errors`` too, at any distance)."""
         e = error_for_pixels(max_pixels, distance, fov_y, viewport_height)
-        return self.window_records[0] if e is None else self.record_for_error(e, lod_errors)
+        if e is None:  # (the camera at or inside the object: LOD 0, whatever the errors say)
+            self._checked_lod_errors(lod_errors)
+            return self.window_records[0]
+        return self.record_for_error(e, lod_errors)
 
     # -- memory --------------------------------------------------------------------------------------------
     @property
