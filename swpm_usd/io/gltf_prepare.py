@@ -962,6 +962,21 @@ def _check_counts(path: Path, doc: Any) -> None:
             )
 
 
+def _check_document(path: Path, doc: Any) -> None:
+    """The checks of the JSON alone, before any buffer is read: the extensions required, the counts, the
+    ``normalized`` flags and the instanced skinned nodes."""
+    _check_extensions(path, doc)
+    _check_counts(path, doc)
+    _check_normalized(path, doc)
+    _check_instanced_skins(path, doc)
+
+
+def _instanced_skin(node: Any) -> bool:
+    """Whether ``node`` has both a ``skin`` and ``EXT_mesh_gpu_instancing`` instances (refused:
+    :func:`_check_instanced_skins`)."""
+    return _instancing(node) is not None and "skin" in node
+
+
 def _check_normalized(path: Path, doc: Any) -> None:
     """Raise a :class:`MeshLoadError` naming the first accessor whose ``normalized`` is not a JSON boolean,
     which glTF 2.0 says it is: read as a truth value, the string ``"false"`` was normalized and ``0`` was
@@ -981,7 +996,7 @@ def _check_instanced_skins(path: Path, doc: Any) -> None:
     such node): drawn as an instanced node, its skin left aside, it was neither."""
     nodes = doc.get("nodes") if isinstance(doc, dict) else None
     for i, node in enumerate(nodes if isinstance(nodes, list) else []):
-        if _instancing(node) is not None and "skin" in node:
+        if _instanced_skin(node):
             raise MeshLoadError(
                 path,
                 f"{_node_name(doc, i)} has both a skin and {INSTANCING} instances, which the extension does "
@@ -1071,8 +1086,7 @@ def gltf_triangle_count(path: Path) -> int | None:
     seen, stack, total = set(roots), list(roots), 0  # (a node once, however many parents: as trimesh)
     while stack:
         node = nodes[stack.pop()]
-        refused = isinstance(node, dict) and "skin" in node and _instancing(node) is not None
-        m = node.get("mesh") if isinstance(node, dict) and not refused else None
+        m = node.get("mesh") if isinstance(node, dict) and not _instanced_skin(node) else None
         total += per_mesh[m] * instances(node) if _count(m) is not None and m < len(per_mesh) else 0
         for c in children(node):
             if c not in seen:
@@ -1113,20 +1127,16 @@ def prepare_gltf(path: Path) -> Prepared | None:
     says what is wrong with it, or would read those nodes as one copy)."""
     doc: Any = None
     try:
-        if path.suffix.lower() == ".glb":  # (its JSON chunk first: one that needs nothing is read no further)
+        glb = path.suffix.lower() == ".glb"
+        if glb:  # (its JSON chunk first: one that needs nothing is read no further)
             doc = _json_document(path)
-            _check_extensions(path, doc)
-            _check_counts(path, doc)
-            _check_normalized(path, doc)
-            _check_instanced_skins(path, doc)
+            _check_document(path, doc)
             if not _needs(doc):
                 return None
         data = path.read_bytes()
         doc, binary = _document(path, data)
-        _check_extensions(path, doc)
-        _check_counts(path, doc)
-        _check_normalized(path, doc)
-        _check_instanced_skins(path, doc)
+        if not glb:  # (a .glb's JSON, the same chunk, was checked above)
+            _check_document(path, doc)
         if not isinstance(doc, dict) or not _needs(doc):
             return None
         rewritten = _rewrite(path, doc, binary)
