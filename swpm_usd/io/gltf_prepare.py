@@ -31,12 +31,13 @@ trimesh (the loader behind :mod:`.trimesh_loader`) silently
   default ones; zero when neither), its POSITION and NORMAL plus the weighted targets', a copy of the mesh
   for each distinct weights (:func:`_morphed`);
 * ignores skins, drawing the stored vertices placed by the skinned node: glTF 2.0 draws them posed by the
-  joints (the blend of each joint's world transform x inverse bind matrix) and says the skinned node's own
-  transform is ignored; the file's pose is drawn (its nodes' transforms, no animation), and a mesh at its
-  bind pose is left as it is (:func:`_skinned`). The winding follows the skin, not the ignored node: a
-  triangle the skin mirrors (on mirroring joints alone; on mirroring and other joints, its blend's
-  determinant negative at the triangle's centre) is reversed, as a mirroring node's is
-  (:func:`_wind_as_posed`), where the skinned node's mirror had flipped every triangle or none;
+  joints (the blend of each joint's world transform x inverse bind matrix; a normal by its inverse
+  transpose, where a joint scaled (1, 4, 1) had tilted a slanted triangle's by 60 degrees) and says the
+  skinned node's own transform is ignored; the file's pose is drawn (its nodes' transforms, no
+  animation), and a mesh at its bind pose is left as it is (:func:`_skinned`). The winding follows the
+  skin, not the ignored node: a triangle the skin mirrors (on mirroring joints alone; on mirroring and
+  other joints, its blend's determinant negative at the triangle's centre) is reversed, as a mirroring
+  node's is (:func:`_wind_as_posed`), where the skinned node's mirror had flipped every triangle or none;
 * reads a buffer's or image's ``uri`` as written: it is a URI, percent-decoded (``my%20mesh.bin``) by
   :func:`uri_names`, whose resolver (:func:`uri_resolver`) the loader gives trimesh for every glTF.
 
@@ -309,8 +310,11 @@ def _world_matrices(nodes: list) -> list[np.ndarray]:
 
 def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
     """A copy of the mesh of node ``i`` (which has a skin) posed as glTF 2.0 draws it at the nodes' own
-    transforms: each POSITION (NORMAL: its direction) moved by the blend of its joints' world transform x
-    inverse bind matrix, weighted by WEIGHTS_n over JOINTS_n; the skinned node's own transform is not applied
+    transforms: each POSITION moved by the blend of its joints' world transform x inverse bind matrix,
+    weighted by WEIGHTS_n over JOINTS_n (its NORMAL by the inverse transpose: :func:`_posed_normals`, as
+    Bevy's skinning shader does; the Khronos sample viewer blends each joint's inverse transpose instead,
+    which differs where one vertex blends joints of different rotations or scales); the skinned node's own
+    transform is not applied
     (the spec's "MUST be ignored"), so the copy's points are taken back by its inverse, which the loader
     then applies; the copy's index."""
     node, doc = r.doc["nodes"][i], r.doc
@@ -412,12 +416,39 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
             if name == "POSITION":
                 values = np.einsum("vij,vj->vi", blend[:, :3, :3], values) + blend[:, :3, 3]
             else:
-                values = np.einsum("vij,vj->vi", blend[:, :3, :3], values)
-                length = np.linalg.norm(values, axis=1, keepdims=True)
-                values /= np.where(length > 0, length, 1.0)
+                values = _posed_normals(blend[:, :3, :3], values)
             attrs[name] = r.add(values.astype(np.float32), "VEC3")
     doc["meshes"].append(mesh)
     return len(doc["meshes"]) - 1
+
+
+#: how far (relative to its scale squared) a vertex's blend may be from a similarity (M^T M = s^2 I) and its
+#: normal be moved by the blend itself: a rigid joint's, off by the float32 rounding of the inverse bind
+#: matrices (about 1e-7), which moved by the inverse transpose would change the normals' bits
+_SIMILAR = 1e-6
+
+
+def _posed_normals(linear: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """``normals`` (V, 3) moved by the inverse transpose of each vertex's blended (V, 3, 3) ``linear`` map and
+    taken to length 1, as a surface's normals move: by the map itself a joint scaled (1, 4, 1) tilted a
+    slanted triangle's normal off its perpendicular. A similarity's (a rotation, a uniform scale, a mirror:
+    the inverse transpose is the map over its scale squared, the same direction) by the map itself, bit for
+    bit as before. The others by the cofactor matrix (the determinant x the inverse transpose: finite where
+    a blend of mirrored and unmirrored joints is singular), negated where the determinant is negative, so a
+    mirrored normal points out of the mirrored surface, which :func:`_wind_as_posed` winds the other way."""
+    moved = np.einsum("vij,vj->vi", linear, normals)
+    gram = np.einsum("vki,vkj->vij", linear, linear)
+    scale2 = np.trace(gram, axis1=1, axis2=2) / 3
+    off = np.abs(gram - scale2[:, None, None] * np.eye(3)).max(axis=(1, 2)) > _SIMILAR * scale2
+    if off.any():
+        m, n = linear[off], normals[off]
+        cofactor = np.stack(
+            [np.cross(m[:, 1], m[:, 2]), np.cross(m[:, 2], m[:, 0]), np.cross(m[:, 0], m[:, 1])], 1
+        )
+        det = np.einsum("vi,vi->v", m[:, 0], cofactor[:, 0])
+        moved[off] = np.where(det < 0, -1.0, 1.0)[:, None] * np.einsum("vij,vj->vi", cofactor, n)
+    length = np.linalg.norm(moved, axis=1, keepdims=True)
+    return moved / np.where(length > 0, length, 1.0)
 
 
 def _triangles(r: _Rewrite, p: dict) -> np.ndarray | None:
