@@ -558,7 +558,9 @@ def _slanted(b: Builder, scale: list[float], on_joint: float | None) -> None:
     b.doc["scenes"][0]["nodes"] += [1, 2]
 
 
-@pytest.mark.parametrize("scale", [[1.0, 4.0, 1.0], [-1.0, 4.0, 1.0], [2.0, 0.5, 3.0], [3.0, 3.0, 3.0]])
+@pytest.mark.parametrize(
+    "scale", [[1.0, 4.0, 1.0], [-1.0, 4.0, 1.0], [2.0, 0.5, 3.0], [3.0, 3.0, 3.0], [-1.0, 1.0, 1.0]]
+)
 @pytest.mark.parametrize("on_joint", [1.0, 0.5, None], ids=["skinned", "half-skinned", "node"])
 def test_a_normal_stays_perpendicular_to_its_triangle_under_a_non_uniform_scale(
     tmp_path: Path, scale: list[float], on_joint: float | None
@@ -579,3 +581,45 @@ def test_a_normal_stays_perpendicular_to_its_triangle_under_a_non_uniform_scale(
     face /= np.linalg.norm(face)
     normals = mesh.attributes["normal"][mesh.triangles[0]].astype(np.float64)
     np.testing.assert_allclose(normals, np.tile(face, (3, 1)), atol=1e-6)
+
+
+def _glb_failing_its_json(b: Builder, path: Path, bin_length: int | None) -> Path:
+    """``b`` written as a .glb whose JSON fails a check of the JSON alone (an accessor's ``normalized`` the
+    string "false"); ``bin_length``, when given, the length its BIN chunk's header declares (beyond the
+    file's end: its bytes were never written)."""
+    b.doc["accessors"][0]["normalized"] = "false"
+    b.write(path)
+    if bin_length is not None:
+        data = bytearray(path.read_bytes())
+        json_length = int.from_bytes(data[12:16], "little")
+        data[20 + json_length : 24 + json_length] = bin_length.to_bytes(4, "little")
+        path.write_bytes(bytes(data))
+    return path
+
+
+@pytest.mark.parametrize("bin_length", [None, 0xFFFFFFF0], ids=["whole", "declared-beyond-the-file"])
+def test_a_glb_s_json_is_checked_before_its_binary_chunk_is_read(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, bin_length: int | None
+) -> None:
+    """The checks of a .glb's JSON run on its JSON chunk alone, before the file is read whole: a .glb whose
+    JSON fails one is refused for it (naming the accessor) with its BIN chunk unread, whether that chunk is
+    there (8 MB here; reading the whole file, or handing it to trimesh, fails this test) or declares 4 GB
+    past the file's end, which was refused as a cut chunk before its JSON was looked at."""
+    b = Builder()
+    b.mesh()
+    b.view(np.zeros(2 * 2**20, np.float32))  # (8 MB of binary chunk)
+    path = _glb_failing_its_json(b, tmp_path / "m.glb", bin_length)
+    real_read_bytes = Path.read_bytes
+
+    def read_bytes(self: Path) -> bytes:
+        assert self.name != path.name, "the whole .glb was read"
+        return real_read_bytes(self)
+
+    def load_scene(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the .glb was handed to trimesh")
+
+    monkeypatch.setattr(Path, "read_bytes", read_bytes)
+    monkeypatch.setattr("trimesh.load_scene", load_scene)
+    with pytest.raises(MeshLoadError, match="accessor 0 has normalized 'false', not true or false") as e:
+        load_mesh(path)
+    assert str(e.value.path) == str(path)

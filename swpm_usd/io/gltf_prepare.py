@@ -1052,6 +1052,23 @@ def _json_document(path: Path) -> Any:
         return json.loads(f.read(size))
 
 
+def check_glb_json(path: Path) -> None:
+    """Run the checks of the JSON alone (:func:`_check_document`) on the .glb ``path``'s JSON chunk, read
+    alone, when it is whole and parses (nothing otherwise): asked before the loader refuses a later chunk
+    that declares more bytes than follow it, so a JSON that fails a check is refused for it, as it is when
+    the file is whole (it was refused as a cut chunk, its JSON never looked at)."""
+    try:
+        doc = _json_document(path)
+    except _UNREAD:
+        return
+    try:
+        _check_document(path, doc)
+    except MeshLoadError as e:
+        if e.path is None:  # (found in the JSON alone: its file named here)
+            raise MeshLoadError(path, e.problem) from e
+        raise
+
+
 def _count(value: Any) -> int | None:
     return value if isinstance(value, int) and not isinstance(value, bool) and value >= 0 else None
 

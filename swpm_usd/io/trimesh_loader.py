@@ -57,6 +57,7 @@ from .gltf_prepare import (
     InstancingUnread,
     _document,
     _Unread,
+    check_glb_json,
     gltf_triangle_count,
     prepare_gltf,
     uri_names,
@@ -1333,6 +1334,7 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
                     io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
                 )
         elif file_type == "glb" and (problem := glb_chunk_problem(path)) is not None:
+            check_glb_json(path)  # (its JSON's problem first, when its chunk is whole: as a whole file's)
             raise MeshLoadError(path, _glb_length_problem(path) or problem)  # ("truncated" when it is)
         elif file_type in ("gltf", "glb") and (prepared := prepare_gltf(path)) is not None:
             scene = _trimesh().load_scene(  # (trimesh imported before the resolver's import of it)
