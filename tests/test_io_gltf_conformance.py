@@ -568,10 +568,10 @@ def test_a_normal_stays_perpendicular_to_its_triangle_under_a_non_uniform_scale(
     """A normal moves by the inverse transpose of the map that moves its surface: the loaded normal of the
     slanted triangle is its loaded (front) face's, under a node's scale and a joint's. A skinned normal moved
     by the blend itself was tilted off the posed triangle's perpendicular (by 60.5 degrees under (1, 4, 1),
-    43-67 under the others not uniform: 6 of these cases failed). Mirrored ((-1, 4, 1)), the triangle wound
-    the other way round, the normal still points out of its front face; half on the mirroring joint the
-    blend is singular (the triangle flattened onto x = 0) and the normal is the flattened triangle's (it was
-    at 90 degrees to it)."""
+    43-67 under the others not uniform: 7 of these 15 cases failed). Mirrored ((-1, 4, 1)), the triangle
+    wound the other way round, the normal still points out of its front face; half on a mirroring joint
+    the blend is singular (the triangle flattened onto x = 0) and the normal is the flattened triangle's
+    (it was at 90 degrees to it)."""
     b = Builder()
     _slanted(b, scale, on_joint)
     mesh = load_mesh(b.write(tmp_path / "slanted.gltf"))
