@@ -6,6 +6,7 @@ in test_io_instancing.py."""
 from __future__ import annotations
 
 import json
+import math
 import warnings
 from pathlib import Path
 
@@ -16,6 +17,7 @@ from trimesh import transformations as tf
 
 from swpm_usd.errors import MeshLoadError
 from swpm_usd.io import load_mesh
+from swpm_usd.mesh import Mesh
 from swpm_usd.pipeline.assets import _gltf_buffers
 
 
@@ -574,13 +576,48 @@ def test_a_normal_stays_perpendicular_to_its_triangle_under_a_non_uniform_scale(
     (it was at 90 degrees to it)."""
     b = Builder()
     _slanted(b, scale, on_joint)
-    mesh = load_mesh(b.write(tmp_path / "slanted.gltf"))
+    _assert_normals_are_the_face_s(load_mesh(b.write(tmp_path / "slanted.gltf")))
+
+
+def _assert_normals_are_the_face_s(mesh: Mesh) -> None:
+    """``mesh``'s one triangle has its (front) face's normal at each corner."""
     corners = mesh.points[mesh.triangles].astype(np.float64)
     assert len(corners) == 1
     face = np.cross(corners[0, 1] - corners[0, 0], corners[0, 2] - corners[0, 0])
     face /= np.linalg.norm(face)
     normals = mesh.attributes["normal"][mesh.triangles[0]].astype(np.float64)
     np.testing.assert_allclose(normals, np.tile(face, (3, 1)), atol=1e-6)
+
+
+@pytest.mark.parametrize("scale", [[1.0, 4.0, 1.0], [-1.0, 4.0, 1.0]])
+@pytest.mark.parametrize("on_joint", [1.0, 0.5, None], ids=["skinned", "half-skinned", "node"])
+def test_a_normal_stays_perpendicular_to_its_triangle_under_a_rotated_non_uniform_scale(
+    tmp_path: Path, scale: list[float], on_joint: float | None
+) -> None:
+    """The scaled joint (or node) also turned 90 degrees about z: its map R S is not symmetric, so its
+    inverse transpose (R S^-1, what moves a normal) differs from its inverse (S^-1 R^T). Under the scales
+    alone every map was diagonal and the two were the same: a cofactor matrix used transposed (the inverse)
+    passed every case of the test above, and fails the skinned ones here."""
+    b = Builder()
+    _slanted(b, scale, on_joint)
+    b.doc["nodes"][-1]["rotation"] = [0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5)]  # (the joint; or the node)
+    _assert_normals_are_the_face_s(load_mesh(b.write(tmp_path / "slanted.gltf")))
+
+
+@pytest.mark.parametrize("node_scale", [[1.0, 4.0, 1.0], [-1.0, 4.0, 1.0]])
+def test_a_skinned_normal_is_not_moved_by_its_own_node_s_non_uniform_scale(
+    tmp_path: Path, node_scale: list[float]
+) -> None:
+    """The skinned node's own transform is ignored (glTF 2.0), here a non-uniform scale, the joints unmoved:
+    the skin's blend, taken back by that transform (S^-1), is not a similarity, and the loader then applies
+    the transform to the copy (its normals by S^-T). Each step by its inverse transpose, the normal is the
+    unmoved triangle's; by the blend itself it was tilted (S^-2)."""
+    b = Builder()
+    _slanted(b, [1.0, 1.0, 1.0], 1.0)
+    b.doc["nodes"][0]["scale"] = node_scale
+    mesh = load_mesh(b.write(tmp_path / "slanted.gltf"))
+    np.testing.assert_allclose(mesh.points[mesh.triangles[0]], SLANTED, atol=1e-6)  # (its scale ignored)
+    _assert_normals_are_the_face_s(mesh)
 
 
 def _glb_failing_its_json(b: Builder, path: Path, bin_length: int | None) -> Path:
