@@ -660,3 +660,21 @@ def test_a_glb_s_json_is_checked_before_its_binary_chunk_is_read(
     with pytest.raises(MeshLoadError, match="accessor 0 has normalized 'false', not true or false") as e:
         load_mesh(path)
     assert str(e.value.path) == str(path)
+
+
+def test_a_glb_whose_json_chunk_is_cut_is_refused_for_the_cut_chunk(tmp_path: Path) -> None:
+    """The JSON is checked early only when its chunk is whole: a JSON chunk declaring 4 bytes more than follow
+    it (its text, whole but for that, parses and fails a check) is refused as the cut chunk it is, as it was
+    before the early check (which read what there was of the chunk and reported its JSON)."""
+    b = Builder()
+    b.mesh()
+    path = _glb_failing_its_json(b, tmp_path / "m.glb", None)
+    data = bytearray(path.read_bytes())
+    json_length = int.from_bytes(data[12:16], "little")
+    data = data[: 20 + json_length]  # (the JSON chunk alone, which declares 4 bytes more)
+    data[8:12], data[12:16] = len(data).to_bytes(4, "little"), (json_length + 4).to_bytes(4, "little")
+    path.write_bytes(bytes(data))
+    with pytest.raises(
+        MeshLoadError, match=rf"chunk 0 \(JSON\) declares {json_length + 4} bytes, {json_length} "
+    ):
+        load_mesh(path)

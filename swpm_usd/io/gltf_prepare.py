@@ -1047,9 +1047,10 @@ def _check_instanced_skins(path: Path, doc: Any) -> None:
             )
 
 
-def _json_document(path: Path) -> Any:
-    """The JSON document of the .gltf or .glb file ``path`` (a .glb's JSON chunk alone is read); raises
-    :class:`_Unread` (or what reading or parsing raises) when there is none."""
+def _json_document(path: Path, *, whole: bool = False) -> Any:
+    """The JSON document of the .gltf or .glb file ``path`` (a .glb's JSON chunk alone is read; ``whole``:
+    only when all the bytes that chunk declares follow its header); raises :class:`_Unread` (or what reading
+    or parsing raises) when there is none."""
     if path.suffix.lower() != ".glb":
         return json.loads(path.read_bytes())
     with open(path, "rb") as f:
@@ -1057,7 +1058,8 @@ def _json_document(path: Path) -> Any:
         if len(head) < _GLB_HEADER.size + _CHUNK.size:
             raise _Unread
         size, kind = _CHUNK.unpack_from(head, _GLB_HEADER.size)
-        if kind != _GLB_JSON or size > os.fstat(f.fileno()).st_size:  # (read(size) asks for size)
+        room = os.fstat(f.fileno()).st_size - (len(head) if whole else 0)
+        if kind != _GLB_JSON or size > room:  # (read(size) asks for size)
             raise _Unread
         return json.loads(f.read(size))
 
@@ -1068,7 +1070,7 @@ def check_glb_json(path: Path) -> None:
     that declares more bytes than follow it, so a JSON that fails a check is refused for it, as it is when
     the file is whole (it was refused as a cut chunk, its JSON never looked at)."""
     try:
-        doc = _json_document(path)
+        doc = _json_document(path, whole=True)  # (a cut JSON chunk, even one that parses: the chunk's error)
     except _UNREAD:
         return
     try:
