@@ -678,3 +678,18 @@ def test_a_glb_whose_json_chunk_is_cut_is_refused_for_the_cut_chunk(tmp_path: Pa
         MeshLoadError, match=rf"chunk 0 \(JSON\) declares {json_length + 4} bytes, {json_length} "
     ):
         load_mesh(path)
+
+
+def test_a_glb_chunk_too_long_is_named_by_its_type_not_its_place(tmp_path: Path) -> None:
+    """A .glb whose binary chunk comes first (glTF 2.0 puts the JSON first) and declares more bytes than
+    follow it: the chunk is named "chunk 0 (binary)"; named by its place, it was "chunk 0 (JSON)"."""
+    b = Builder()
+    b.mesh()
+    path = b.write(tmp_path / "m.glb")
+    data = path.read_bytes()
+    json_length = int.from_bytes(data[12:16], "little")
+    json_chunk, bin_chunk = data[12 : 20 + json_length], bytearray(data[20 + json_length :])
+    bin_chunk[:4] = (2**32 - 16).to_bytes(4, "little")
+    path.write_bytes(data[:12] + bytes(bin_chunk) + json_chunk)
+    with pytest.raises(MeshLoadError, match=r"chunk 0 \(binary\) declares 4294967280 bytes"):
+        load_mesh(path)

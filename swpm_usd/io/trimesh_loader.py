@@ -51,6 +51,8 @@ from .clean import (
 )
 from .gltf_prepare import (
     _COMPONENT,
+    _GLB_BIN,
+    _GLB_JSON,
     _WIDTH,
     INSTANCES_KEY,
     INSTANCING,
@@ -847,9 +849,10 @@ def glb_chunk_problem(path: Path) -> str | None:
                 chunk = f.read(8)
                 if len(chunk) < 8:
                     return None
-                chunk_length = int.from_bytes(chunk[:4], "little")
+                chunk_length, chunk_type = struct.unpack("<II", chunk)
                 if at + 8 + chunk_length > size:
-                    kind = {0: " (JSON)", 1: " (binary)"}.get(i, "")
+                    # (named by its type, not its place: a binary chunk first was called "chunk 0 (JSON)")
+                    kind = {_GLB_JSON: " (JSON)", _GLB_BIN: " (binary)"}.get(chunk_type, "")
                     return (
                         f"not a valid GLB: chunk {i}{kind} declares {chunk_length} bytes, "
                         f"{size - at - 8} follow it"
