@@ -12,6 +12,7 @@ import pytest
 
 import swpm_usd
 from swpm_usd.encode import slidingwindow
+from swpm_usd.encode.base import lod_at_error
 from swpm_usd.encode.slidingwindow import screen_space_error
 from swpm_usd.mesh import Mesh
 
@@ -185,3 +186,32 @@ def test_a_callers_float64_errors_are_compared_with_the_bound_unrounded():
     assert np.array_equal(pm.record_for_error(bound, errors), pm.window_records[k - 1])
     # (rounded to float32, LOD k's error is the bound itself: the case)
     assert np.float32(errors[k]) == np.float32(bound)
+
+
+def test_the_float32_bound_at_float32_s_edges_and_errors_of_other_types():
+    """``lod_at_error`` at the edges of float32 (its subnormals, -0.0, its largest value and past it: no
+    overflow warning) and for a caller's errors of other types (float16, float64, integers: compared
+    exactly, not with a bound rounded to float32). Each bound below lies under an error that rounding to
+    the nearest float32 made it equal to (that LOD was picked)."""
+    tiny, big = np.finfo(np.float32).smallest_subnormal, np.finfo(np.float32).max
+    errors = np.array([0.0, tiny, 1.0, big], np.float32)
+    ulp_of_big = float(big) - float(np.nextafter(big, np.float32(0)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert lod_at_error(errors, -0.0) == 0
+        assert lod_at_error(errors, float(tiny) * 0.75) == 0  # (np.float32 of it: tiny)
+        assert lod_at_error(errors, float(tiny)) == 1
+        assert lod_at_error(errors, float(big) - ulp_of_big / 4) == 2  # (np.float32 of it: big)
+        assert (
+            lod_at_error(errors, float(big))
+            == lod_at_error(errors, 1e39)
+            == lod_at_error(errors, math.inf)
+            == 3
+        )
+        for other in (np.float16, np.float64, np.int64):
+            e = np.array([0, 1, 2], other)
+            assert lod_at_error(e, math.nextafter(1.0, 0.0)) == 0  # (np.float32 of it: 1.0)
+            assert lod_at_error(e, 1.0) == 1
+        half = np.array([0, 0.1, 0.2], np.float16)  # (0.1 as float16 is 0.0999755859375)
+        assert lod_at_error(half, math.nextafter(float(half[1]), 0.0)) == 0
+        assert lod_at_error(half, 0.1) == 1
