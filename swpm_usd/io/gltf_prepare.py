@@ -1073,12 +1073,7 @@ def check_glb_json(path: Path) -> None:
         doc = _json_document(path, whole=True)  # (a cut JSON chunk, even one that parses: the chunk's error)
     except _UNREAD:
         return
-    try:
-        _check_document(path, doc)
-    except MeshLoadError as e:
-        if e.path is None:  # (found in the JSON alone: its file named here)
-            raise MeshLoadError(path, e.problem) from e
-        raise
+    _check_document(path, doc)  # (each check names the file)
 
 
 def _count(value: Any) -> int | None:
