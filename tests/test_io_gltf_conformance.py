@@ -6,6 +6,7 @@ in test_io_instancing.py."""
 from __future__ import annotations
 
 import json
+import math
 import warnings
 from pathlib import Path
 
@@ -16,6 +17,7 @@ from trimesh import transformations as tf
 
 from swpm_usd.errors import MeshLoadError
 from swpm_usd.io import load_mesh
+from swpm_usd.mesh import Mesh
 from swpm_usd.pipeline.assets import _gltf_buffers
 
 
@@ -530,3 +532,164 @@ def test_normalized_that_is_not_a_boolean_is_refused_naming_the_accessor(
         load_mesh(path)
     assert e.value.path == str(path) and e.value.code == "INPUT_MALFORMED"
     assert f"accessor 2 has normalized {value!r}, not true or false" in str(e.value)
+
+
+#: a triangle slanted to every axis; its front face's normal (counter-clockwise) is (-1, -1, 1) / sqrt(3)
+SLANTED = np.array([[0, 0, 0], [1, 0, 1], [0, 1, 1]], np.float32)
+
+
+def _slanted(b: Builder, scale: list[float], on_joint: float | None) -> None:
+    """SLANTED with its face normal at each corner, placed by ``scale``: skinned by two joints (node 1
+    unmoved, node 2 scaled by ``scale``; no inverse bind matrices), each corner on node 2 at weight
+    ``on_joint`` and on node 1 at the rest; or, ``on_joint`` None, not skinned, its node scaled."""
+    normal = np.cross(SLANTED[1] - SLANTED[0], SLANTED[2] - SLANTED[0])
+    normals = np.tile(normal / np.linalg.norm(normal), (3, 1)).astype(np.float32)
+    attrs = {"POSITION": b.accessor(SLANTED, "VEC3", 5126), "NORMAL": b.accessor(normals, "VEC3", 5126)}
+    if on_joint is not None:
+        weights = np.zeros((3, 4), np.float32)
+        weights[:, 0], weights[:, 1] = 1 - on_joint, on_joint
+        attrs["JOINTS_0"] = b.accessor(np.tile(np.uint8([0, 1, 0, 0]), (3, 1)), "VEC4", 5121)
+        attrs["WEIGHTS_0"] = b.accessor(weights, "VEC4", 5126)
+    _placed(b, {"attributes": attrs})
+    if on_joint is None:
+        b.doc["nodes"][0]["scale"] = scale
+        return
+    b.doc["nodes"][0]["skin"] = 0
+    b.doc["skins"] = [{"joints": [1, 2]}]
+    b.doc["nodes"] += [{}, {"scale": scale}]
+    b.doc["scenes"][0]["nodes"] += [1, 2]
+
+
+@pytest.mark.parametrize(
+    "scale", [[1.0, 4.0, 1.0], [-1.0, 4.0, 1.0], [2.0, 0.5, 3.0], [3.0, 3.0, 3.0], [-1.0, 1.0, 1.0]]
+)
+@pytest.mark.parametrize("on_joint", [1.0, 0.5, None], ids=["skinned", "half-skinned", "node"])
+def test_a_normal_stays_perpendicular_to_its_triangle_under_a_non_uniform_scale(
+    tmp_path: Path, scale: list[float], on_joint: float | None
+) -> None:
+    """A normal moves by the inverse transpose of the map that moves its surface: the loaded normal of the
+    slanted triangle is its loaded (front) face's, under a node's scale and a joint's. A skinned normal moved
+    by the blend itself was tilted off the posed triangle's perpendicular (by 60.5 degrees under (1, 4, 1),
+    43-67 under the others not uniform: 7 of these 15 cases failed). Mirrored ((-1, 4, 1)), the triangle
+    wound the other way round, the normal still points out of its front face; half on a mirroring joint
+    the blend is singular (the triangle flattened onto x = 0) and the normal is the flattened triangle's
+    (it was at 90 degrees to it)."""
+    b = Builder()
+    _slanted(b, scale, on_joint)
+    _assert_normals_are_the_face_s(load_mesh(b.write(tmp_path / "slanted.gltf")))
+
+
+def _assert_normals_are_the_face_s(mesh: Mesh) -> None:
+    """``mesh``'s one triangle has its (front) face's normal at each corner."""
+    corners = mesh.points[mesh.triangles].astype(np.float64)
+    assert len(corners) == 1
+    face = np.cross(corners[0, 1] - corners[0, 0], corners[0, 2] - corners[0, 0])
+    face /= np.linalg.norm(face)
+    normals = mesh.attributes["normal"][mesh.triangles[0]].astype(np.float64)
+    np.testing.assert_allclose(normals, np.tile(face, (3, 1)), atol=1e-6)
+
+
+@pytest.mark.parametrize("scale", [[1.0, 4.0, 1.0], [-1.0, 4.0, 1.0]])
+@pytest.mark.parametrize("on_joint", [1.0, 0.5, None], ids=["skinned", "half-skinned", "node"])
+def test_a_normal_stays_perpendicular_to_its_triangle_under_a_rotated_non_uniform_scale(
+    tmp_path: Path, scale: list[float], on_joint: float | None
+) -> None:
+    """The scaled joint (or node) also turned 90 degrees about z: its map R S is not symmetric, so its
+    inverse transpose (R S^-1, what moves a normal) differs from its inverse (S^-1 R^T). Under the scales
+    alone every map was diagonal and the two were the same: a cofactor matrix used transposed (the inverse)
+    passed every case of the test above, and fails the skinned ones here."""
+    b = Builder()
+    _slanted(b, scale, on_joint)
+    b.doc["nodes"][-1]["rotation"] = [0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5)]  # (the joint; or the node)
+    _assert_normals_are_the_face_s(load_mesh(b.write(tmp_path / "slanted.gltf")))
+
+
+@pytest.mark.parametrize("node_scale", [[1.0, 4.0, 1.0], [-1.0, 4.0, 1.0]])
+def test_a_skinned_normal_is_not_moved_by_its_own_node_s_non_uniform_scale(
+    tmp_path: Path, node_scale: list[float]
+) -> None:
+    """The skinned node's own transform is ignored (glTF 2.0), here a non-uniform scale, the joints unmoved:
+    the skin's blend, taken back by that transform (S^-1), is not a similarity, and the loader then applies
+    the transform to the copy (its normals by S^-T). Each step by its inverse transpose, the normal is the
+    unmoved triangle's; by the blend itself it was tilted (S^-2)."""
+    b = Builder()
+    _slanted(b, [1.0, 1.0, 1.0], 1.0)
+    b.doc["nodes"][0]["scale"] = node_scale
+    mesh = load_mesh(b.write(tmp_path / "slanted.gltf"))
+    np.testing.assert_allclose(mesh.points[mesh.triangles[0]], SLANTED, atol=1e-6)  # (its scale ignored)
+    _assert_normals_are_the_face_s(mesh)
+
+
+def _glb_failing_its_json(b: Builder, path: Path, bin_length: int | None) -> Path:
+    """``b`` written as a .glb whose JSON fails a check of the JSON alone (an accessor's ``normalized`` the
+    string "false"); ``bin_length``, when given, the length its BIN chunk's header declares (beyond the
+    file's end: its bytes were never written)."""
+    b.doc["accessors"][0]["normalized"] = "false"
+    b.write(path)
+    if bin_length is not None:
+        data = bytearray(path.read_bytes())
+        json_length = int.from_bytes(data[12:16], "little")
+        data[20 + json_length : 24 + json_length] = bin_length.to_bytes(4, "little")
+        path.write_bytes(bytes(data))
+    return path
+
+
+@pytest.mark.parametrize("bin_length", [None, 0xFFFFFFF0], ids=["whole", "declared-beyond-the-file"])
+def test_a_glb_s_json_is_checked_before_its_binary_chunk_is_read(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, bin_length: int | None
+) -> None:
+    """The checks of a .glb's JSON run on its JSON chunk alone, before the file is read whole: a .glb whose
+    JSON fails one is refused for it (naming the accessor) with its BIN chunk unread, whether that chunk is
+    there (8 MB here; reading the whole file, or handing it to trimesh, fails this test) or declares 4 GB
+    past the file's end, which was refused as a cut chunk before its JSON was looked at."""
+    b = Builder()
+    b.mesh()
+    b.view(np.zeros(2 * 2**20, np.float32))  # (8 MB of binary chunk)
+    path = _glb_failing_its_json(b, tmp_path / "m.glb", bin_length)
+    real_read_bytes = Path.read_bytes
+
+    def read_bytes(self: Path) -> bytes:
+        assert self.name != path.name, "the whole .glb was read"
+        return real_read_bytes(self)
+
+    def load_scene(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the .glb was handed to trimesh")
+
+    monkeypatch.setattr(Path, "read_bytes", read_bytes)
+    monkeypatch.setattr("trimesh.load_scene", load_scene)
+    with pytest.raises(MeshLoadError, match="accessor 0 has normalized 'false', not true or false") as e:
+        load_mesh(path)
+    assert str(e.value.path) == str(path)
+
+
+def test_a_glb_whose_json_chunk_is_cut_is_refused_for_the_cut_chunk(tmp_path: Path) -> None:
+    """The JSON is checked early only when its chunk is whole: a JSON chunk declaring 4 bytes more than follow
+    it (its text, whole but for that, parses and fails a check) is refused as the cut chunk it is, as it was
+    before the early check (which read what there was of the chunk and reported its JSON)."""
+    b = Builder()
+    b.mesh()
+    path = _glb_failing_its_json(b, tmp_path / "m.glb", None)
+    data = bytearray(path.read_bytes())
+    json_length = int.from_bytes(data[12:16], "little")
+    data = data[: 20 + json_length]  # (the JSON chunk alone, which declares 4 bytes more)
+    data[8:12], data[12:16] = len(data).to_bytes(4, "little"), (json_length + 4).to_bytes(4, "little")
+    path.write_bytes(bytes(data))
+    with pytest.raises(
+        MeshLoadError, match=rf"chunk 0 \(JSON\) declares {json_length + 4} bytes, {json_length} "
+    ):
+        load_mesh(path)
+
+
+def test_a_glb_chunk_too_long_is_named_by_its_type_not_its_place(tmp_path: Path) -> None:
+    """A .glb whose binary chunk comes first (glTF 2.0 puts the JSON first) and declares more bytes than
+    follow it: the chunk is named "chunk 0 (binary)"; named by its place, it was "chunk 0 (JSON)"."""
+    b = Builder()
+    b.mesh()
+    path = b.write(tmp_path / "m.glb")
+    data = path.read_bytes()
+    json_length = int.from_bytes(data[12:16], "little")
+    json_chunk, bin_chunk = data[12 : 20 + json_length], bytearray(data[20 + json_length :])
+    bin_chunk[:4] = (2**32 - 16).to_bytes(4, "little")
+    path.write_bytes(data[:12] + bytes(bin_chunk) + json_chunk)
+    with pytest.raises(MeshLoadError, match=r"chunk 0 \(binary\) declares 4294967280 bytes"):
+        load_mesh(path)

@@ -12,6 +12,7 @@ import pytest
 
 import swpm_usd
 from swpm_usd.encode import slidingwindow
+from swpm_usd.encode.base import lod_at_error
 from swpm_usd.encode.slidingwindow import screen_space_error
 from swpm_usd.mesh import Mesh
 
@@ -136,3 +137,81 @@ def test_numpy_0d_arrays_and_integers_past_float_range_are_numbers(grid_pms, enc
         pm.lod_for_screen_error(10**400, 10.0, 1.0, 1080)
     with pytest.raises(TypeError, match="max_error"):
         pm.lod_for_error(np.array([0.5, 1.0]))  # (an array of several values is no budget)
+
+
+def _bumpy_grid(n: int = 8) -> Mesh:
+    """:func:`_flat_grid` lifted off its plane: its LODs have distinct positive errors."""
+    mesh = _flat_grid(n)
+    pts = mesh.points.copy()
+    pts[:, 2] = np.sin(pts[:, 0] * 1.3) * np.cos(pts[:, 1] * 0.7)
+    return Mesh(pts, mesh.triangles)
+
+
+def _just_below(e: np.float32) -> float:
+    """A float64 below the float32 ``e`` that np.float32 rounds up to ``e``: just above the midpoint of ``e``
+    and the float32 before it."""
+    below = np.nextafter(e, np.float32(0))
+    x = float(np.nextafter((float(below) + float(e)) / 2, math.inf))
+    assert x < float(e) and np.float32(x) == e  # (the case: rounded to nearest, the bound is e)
+    return x
+
+
+@pytest.mark.parametrize("encoding", ENCODINGS)
+def test_an_lod_whose_float32_error_is_above_the_bound_is_not_picked(encoding):
+    """``lod_for_error(x)`` is the last LOD whose error is <= x, x a float64 and the errors float32: x was
+    rounded to the nearest float32, up when it lay in the upper half of the ulp below an error, and the LOD
+    of that error, 1 ulp of float32 above x, was picked. The bound is the largest float32 <= x."""
+    pm = swpm_usd.build(_bumpy_grid(), encoding=encoding)
+    errors = pm.lod_errors
+    steps = [k for k in range(1, pm.lod_count) if errors[k] > errors[k - 1]]
+    assert len(steps) > 5
+    for k in steps:
+        x = _just_below(errors[k])
+        expected = int(np.flatnonzero(errors.astype(np.float64) <= x)[-1])
+        assert expected < k
+        assert pm.lod_for_error(x) == expected
+        assert pm.lod_for_error(float(errors[k])) >= k  # (an error equal to the bound still passes)
+        if encoding == "sliding-window":
+            assert np.array_equal(pm.record_for_error(x), pm.window_records[expected])
+
+
+def test_a_callers_float64_errors_are_compared_with_the_bound_unrounded():
+    """``record_for_error``'s own ``lod_errors``, given as float64, are compared exactly: rounded to float32
+    (as they were), an error just above the bound became the bound itself, and its LOD was picked."""
+    pm = swpm_usd.build(_bumpy_grid(), encoding="sliding-window")
+    errors = pm.lod_errors.astype(np.float64)
+    k = pm.lod_count // 2
+    bound = float(np.float32(errors[k]))
+    errors[k:] = np.maximum(errors[k:], np.nextafter(bound, math.inf))  # (k on: just above the bound)
+    assert np.array_equal(pm.record_for_error(bound, errors), pm.window_records[k - 1])
+    # (rounded to float32, LOD k's error is the bound itself: the case)
+    assert np.float32(errors[k]) == np.float32(bound)
+
+
+def test_the_float32_bound_at_float32_s_edges_and_errors_of_other_types():
+    """``lod_at_error`` at the edges of float32 (its subnormals, -0.0, its largest value and past it: no
+    overflow warning) and for a caller's errors of other types (float16, float64, integers: compared
+    exactly, not with a bound rounded to float32). Each bound below lies under an error that rounding to
+    the nearest float32 made it equal to (that LOD was picked)."""
+    tiny, big = np.finfo(np.float32).smallest_subnormal, np.finfo(np.float32).max
+    errors = np.array([0.0, tiny, 1.0, big], np.float32)
+    ulp_of_big = float(big) - float(np.nextafter(big, np.float32(0)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert lod_at_error(errors, -0.0) == 0
+        assert lod_at_error(errors, float(tiny) * 0.75) == 0  # (np.float32 of it: tiny)
+        assert lod_at_error(errors, float(tiny)) == 1
+        assert lod_at_error(errors, float(big) - ulp_of_big / 4) == 2  # (np.float32 of it: big)
+        assert (
+            lod_at_error(errors, float(big))
+            == lod_at_error(errors, 1e39)
+            == lod_at_error(errors, math.inf)
+            == 3
+        )
+        for other in (np.float16, np.float64, np.int64):
+            e = np.array([0, 1, 2], other)
+            assert lod_at_error(e, math.nextafter(1.0, 0.0)) == 0  # (np.float32 of it: 1.0)
+            assert lod_at_error(e, 1.0) == 1
+        half = np.array([0, 0.1, 0.2], np.float16)  # (0.1 as float16 is 0.0999755859375)
+        assert lod_at_error(half, math.nextafter(float(half[1]), 0.0)) == 0
+        assert lod_at_error(half, 0.1) == 1

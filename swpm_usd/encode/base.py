@@ -195,15 +195,28 @@ class ProgressiveMesh(ABC):
 _F32_MAX = float(np.finfo(np.float32).max)
 
 
+def _float32_at_most(x: float) -> np.float32:
+    """The largest float32 <= ``x`` (a float64 >= 0 or ``inf``): the bound a float32 error is compared
+    with. ``np.float32(x)`` rounds to nearest, up as often as down: an error 1 ulp above ``x`` passed."""
+    if x > _F32_MAX:
+        # (a finite bound above float32's range admits every error, as its largest value: np.float32 of it
+        # warned of an overflow)
+        return np.float32(math.inf if math.isinf(x) else _F32_MAX)
+    bound = np.float32(x)
+    return bound if float(bound) <= x else np.nextafter(bound, np.float32(-math.inf))
+
+
 def lod_at_error(lod_errors: np.ndarray, max_error: float) -> int:
     """The last LOD whose error in ``lod_errors`` (non-decreasing) is at most ``max_error``, or 0.
     ``max_error`` as :func:`.screen.budget` checks it (a number >= 0, ``inf`` allowed)."""
     max_error = budget("max_error", max_error)
-    # (the errors are float32: a finite bound above its range admits them all, as its largest value;
-    # np.float32 of it warned of an overflow)
-    bound = np.float32(max_error if max_error <= _F32_MAX or math.isinf(max_error) else _F32_MAX)
-    k = int(np.searchsorted(lod_errors, bound, side="right")) - 1
-    return max(0, min(k, lod_errors.shape[0] - 1))
+    errors = np.asarray(lod_errors)
+    if errors.dtype == np.float32:
+        bound = _float32_at_most(max_error)
+    else:  # (a caller's errors of another type: compared as float64, each exactly)
+        errors, bound = errors.astype(np.float64, copy=False), np.float64(max_error)
+    k = int(np.searchsorted(errors, bound, side="right")) - 1
+    return max(0, min(k, errors.shape[0] - 1))
 
 
 def from_buffers(

@@ -31,12 +31,13 @@ trimesh (the loader behind :mod:`.trimesh_loader`) silently
   default ones; zero when neither), its POSITION and NORMAL plus the weighted targets', a copy of the mesh
   for each distinct weights (:func:`_morphed`);
 * ignores skins, drawing the stored vertices placed by the skinned node: glTF 2.0 draws them posed by the
-  joints (the blend of each joint's world transform x inverse bind matrix) and says the skinned node's own
-  transform is ignored; the file's pose is drawn (its nodes' transforms, no animation), and a mesh at its
-  bind pose is left as it is (:func:`_skinned`). The winding follows the skin, not the ignored node: a
-  triangle the skin mirrors (on mirroring joints alone; on mirroring and other joints, its blend's
-  determinant negative at the triangle's centre) is reversed, as a mirroring node's is
-  (:func:`_wind_as_posed`), where the skinned node's mirror had flipped every triangle or none;
+  joints (the blend of each joint's world transform x inverse bind matrix; a normal by its inverse
+  transpose, where a joint scaled (1, 4, 1) had tilted a slanted triangle's by 60 degrees) and says the
+  skinned node's own transform is ignored; the file's pose is drawn (its nodes' transforms, no
+  animation), and a mesh at its bind pose is left as it is (:func:`_skinned`). The winding follows the
+  skin, not the ignored node: a triangle the skin mirrors (on mirroring joints alone; on mirroring and
+  other joints, its blend's determinant negative at the triangle's centre) is reversed, as a mirroring
+  node's is (:func:`_wind_as_posed`), where the skinned node's mirror had flipped every triangle or none;
 * reads a buffer's or image's ``uri`` as written: it is a URI, percent-decoded (``my%20mesh.bin``) by
   :func:`uri_names`, whose resolver (:func:`uri_resolver`) the loader gives trimesh for every glTF.
 
@@ -309,8 +310,11 @@ def _world_matrices(nodes: list) -> list[np.ndarray]:
 
 def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
     """A copy of the mesh of node ``i`` (which has a skin) posed as glTF 2.0 draws it at the nodes' own
-    transforms: each POSITION (NORMAL: its direction) moved by the blend of its joints' world transform x
-    inverse bind matrix, weighted by WEIGHTS_n over JOINTS_n; the skinned node's own transform is not applied
+    transforms: each POSITION moved by the blend of its joints' world transform x inverse bind matrix,
+    weighted by WEIGHTS_n over JOINTS_n (its NORMAL by the inverse transpose: :func:`_posed_normals`, as
+    Bevy's skinning shader does; the Khronos sample viewer blends each joint's inverse transpose instead,
+    which differs where one vertex blends joints of different rotations or scales); the skinned node's own
+    transform is not applied
     (the spec's "MUST be ignored"), so the copy's points are taken back by its inverse, which the loader
     then applies; the copy's index."""
     node, doc = r.doc["nodes"][i], r.doc
@@ -412,12 +416,49 @@ def _skinned(r: _Rewrite, i: int, world: list[np.ndarray]) -> int:
             if name == "POSITION":
                 values = np.einsum("vij,vj->vi", blend[:, :3, :3], values) + blend[:, :3, 3]
             else:
-                values = np.einsum("vij,vj->vi", blend[:, :3, :3], values)
-                length = np.linalg.norm(values, axis=1, keepdims=True)
-                values /= np.where(length > 0, length, 1.0)
+                values = _posed_normals(blend[:, :3, :3], values)
             attrs[name] = r.add(values.astype(np.float32), "VEC3")
     doc["meshes"].append(mesh)
     return len(doc["meshes"]) - 1
+
+
+#: how far (relative to its scale squared) a vertex's blend may be from a similarity (M^T M = s^2 I) and its
+#: normal be moved by the blend itself: a rigid joint's, off by the float32 rounding of the inverse bind
+#: matrices (about 1e-7), which moved by the inverse transpose would change the normals' bits
+_SIMILAR = 1e-6
+
+
+def _posed_normals(linear: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """``normals`` (V, 3) moved by the inverse transpose of each vertex's blended (V, 3, 3) ``linear`` map and
+    taken to length 1, as a surface's normals move: by the map itself a joint scaled (1, 4, 1) tilted a
+    slanted triangle's normal off its perpendicular. A similarity's (a rotation, a uniform scale, a mirror:
+    the inverse transpose is the map over its scale squared, the same direction) by the map itself, bit for
+    bit as before. The others by the cofactor matrix (the determinant x the inverse transpose: finite where
+    a blend of mirrored and unmirrored joints is singular), negated where the determinant is negative, so a
+    mirrored normal points out of the mirrored surface, which :func:`_wind_as_posed` winds the other way."""
+    moved = np.einsum("vij,vj->vi", linear, normals)
+    # (the rows (a b c) (d e f) (g h k) as contiguous columns, each sum written out: np.einsum's M^T M and
+    # np.cross took 220 ms of 200k vertices, these 30)
+    a, b, c, d, e, f, g, h, k = np.ascontiguousarray(linear).reshape(-1, 9).T
+    diagonal = a * a + d * d + g * g, b * b + e * e + h * h, c * c + f * f + k * k
+    scale2 = (diagonal[0] + diagonal[1] + diagonal[2]) / 3
+    apart = np.maximum.reduce(
+        [np.abs(x - scale2) for x in diagonal]
+        + [np.abs(a * b + d * e + g * h), np.abs(a * c + d * f + g * k), np.abs(b * c + e * f + h * k)]
+    )
+    off = apart > _SIMILAR * scale2
+    if off.any():
+        a, b, c, d, e, f, g, h, k = (x[off] for x in (a, b, c, d, e, f, g, h, k))
+        cofactor = (
+            (e * k - f * h, f * g - d * k, d * h - e * g),
+            (h * c - k * b, k * a - g * c, g * b - h * a),
+            (b * f - c * e, c * d - a * f, a * e - b * d),
+        )
+        x, y, z = normals[off].T
+        sign = np.where(a * cofactor[0][0] + b * cofactor[0][1] + c * cofactor[0][2] < 0, -1.0, 1.0)
+        moved[off] = np.stack([sign * (r[0] * x + r[1] * y + r[2] * z) for r in cofactor], axis=1)
+    length = np.linalg.norm(moved, axis=1, keepdims=True)
+    return moved / np.where(length > 0, length, 1.0)
 
 
 def _triangles(r: _Rewrite, p: dict) -> np.ndarray | None:
@@ -1006,9 +1047,10 @@ def _check_instanced_skins(path: Path, doc: Any) -> None:
             )
 
 
-def _json_document(path: Path) -> Any:
-    """The JSON document of the .gltf or .glb file ``path`` (a .glb's JSON chunk alone is read); raises
-    :class:`_Unread` (or what reading or parsing raises) when there is none."""
+def _json_document(path: Path, *, whole: bool = False) -> Any:
+    """The JSON document of the .gltf or .glb file ``path`` (a .glb's JSON chunk alone is read; ``whole``:
+    only when all the bytes that chunk declares follow its header); raises :class:`_Unread` (or what reading
+    or parsing raises) when there is none."""
     if path.suffix.lower() != ".glb":
         return json.loads(path.read_bytes())
     with open(path, "rb") as f:
@@ -1016,9 +1058,22 @@ def _json_document(path: Path) -> Any:
         if len(head) < _GLB_HEADER.size + _CHUNK.size:
             raise _Unread
         size, kind = _CHUNK.unpack_from(head, _GLB_HEADER.size)
-        if kind != _GLB_JSON or size > os.fstat(f.fileno()).st_size:  # (read(size) asks for size)
+        room = os.fstat(f.fileno()).st_size - (len(head) if whole else 0)
+        if kind != _GLB_JSON or size > room:  # (read(size) asks for size)
             raise _Unread
         return json.loads(f.read(size))
+
+
+def check_glb_json(path: Path) -> None:
+    """Run the checks of the JSON alone (:func:`_check_document`) on the .glb ``path``'s JSON chunk, read
+    alone, when it is whole and parses (nothing otherwise): asked before the loader refuses a later chunk
+    that declares more bytes than follow it, so a JSON that fails a check is refused for it, as it is when
+    the file is whole (it was refused as a cut chunk, its JSON never looked at)."""
+    try:
+        doc = _json_document(path, whole=True)  # (a cut JSON chunk, even one that parses: the chunk's error)
+    except _UNREAD:
+        return
+    _check_document(path, doc)  # (each check names the file)
 
 
 def _count(value: Any) -> int | None:

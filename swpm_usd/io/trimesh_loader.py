@@ -51,12 +51,15 @@ from .clean import (
 )
 from .gltf_prepare import (
     _COMPONENT,
+    _GLB_BIN,
+    _GLB_JSON,
     _WIDTH,
     INSTANCES_KEY,
     INSTANCING,
     InstancingUnread,
     _document,
     _Unread,
+    check_glb_json,
     gltf_triangle_count,
     prepare_gltf,
     uri_names,
@@ -846,9 +849,10 @@ def glb_chunk_problem(path: Path) -> str | None:
                 chunk = f.read(8)
                 if len(chunk) < 8:
                     return None
-                chunk_length = int.from_bytes(chunk[:4], "little")
+                chunk_length, chunk_type = struct.unpack("<II", chunk)
                 if at + 8 + chunk_length > size:
-                    kind = {0: " (JSON)", 1: " (binary)"}.get(i, "")
+                    # (named by its type, not its place: a binary chunk first was called "chunk 0 (JSON)")
+                    kind = {_GLB_JSON: " (JSON)", _GLB_BIN: " (binary)"}.get(chunk_type, "")
                     return (
                         f"not a valid GLB: chunk {i}{kind} declares {chunk_length} bytes, "
                         f"{size - at - 8} follow it"
@@ -1333,6 +1337,7 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
                     io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
                 )
         elif file_type == "glb" and (problem := glb_chunk_problem(path)) is not None:
+            check_glb_json(path)  # (its JSON's problem first, when its chunk is whole: as a whole file's)
             raise MeshLoadError(path, _glb_length_problem(path) or problem)  # ("truncated" when it is)
         elif file_type in ("gltf", "glb") and (prepared := prepare_gltf(path)) is not None:
             scene = _trimesh().load_scene(  # (trimesh imported before the resolver's import of it)
