@@ -7,6 +7,10 @@ fall off the end and which index slots change from the binned vertex to the kept
 arrays (one entry per record, plus one flat array of slot offsets) instead of variable-length structs;
 ``collapse_prev_change_count`` is kept so a reader walking records backwards (splits) needs no prefix sum.
 
+The triangle order is the collapse order reversed, near-random for the vertex cache (ACMR 3.34 times
+meshoptimizer's on the ten shared meshes). Reordering the collapses that commute was measured on 2026-12-05
+and not landed (9 % better within the error, 2.69 times at best): see ``vanilla.md``.
+
 :func:`collapse_records` is shared with the skip-strip encoder: it replays vertex collapses over any
 triangle list and reports, per collapse, the triangles it removes and the index slots it changes.
 """
