@@ -173,7 +173,7 @@ _CODES = [
         ERROR,
         "An input file (or a glTF buffer, a stage's layer it reads) changed while it was read: an exporter "
         "still writing it. Not built; the asset's previous build is kept and the next run builds it.",
-        "InputChangedError (a run's asset)",
+        "InputChangedError (a run's asset; encode, exit 1)",
     ),
 ]
 CODES: dict[str, Code] = {c.code: c for c in _CODES}

@@ -2503,8 +2503,9 @@ def test_a_gltf_s_buffer_files_are_its_inputs(tmp_path, monkeypatch):
 
 
 def test_an_input_changed_between_plan_and_build_is_hashed_again(tmp_path, monkeypatch):
-    # the worker loads the input after the plan hashed it: the record pairs the plan's digest with the stat
-    # taken as it was hashed (never a later one), so an input changed in between is hashed and rebuilt next
+    # the worker loads the input after the plan hashed it: an input changed in between was built, its record
+    # (and its .swpm's source digest) holding the digest of the bytes the plan hashed, not those it was built
+    # from. The worker fails it (INPUT_CHANGED, nothing written), and the next run hashes and builds it
     from swpm_usd.pipeline import runner
 
     monkeypatch.setattr(runner, "_RACY_NS", 0)
@@ -2517,10 +2518,14 @@ def test_an_input_changed_between_plan_and_build_is_hashed_again(tmp_path, monke
         return real(task)
 
     monkeypatch.setattr(runner, "process_asset", edited_first)
-    assert run(cfg, echo=lambda m: None).built == 1
+    res = run(cfg, echo=lambda m: None)
+    (failure,) = res.failures.values()
+    assert (res.built, failure["code"]) == (0, "INPUT_CHANGED"), failure
+    assert f"{cow}: changed since the run hashed it" in failure["error"], failure
+    assert not (tmp_path / "out" / "cow.swpm").exists()
     monkeypatch.setattr(runner, "process_asset", real)
-    assert not _as_hashed(_recorded_inputs(tmp_path / "out")["meshes/cow.obj"][0], cow)
     assert run(cfg, echo=lambda m: None).built == 1
+    assert _as_hashed(_recorded_inputs(tmp_path / "out")["meshes/cow.obj"][0], cow)
     assert run(cfg, echo=lambda m: None).skipped == 1
 
 

@@ -1176,6 +1176,9 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
         # the files the asset is read from (its own first, then a glTF's buffers, a stage's layers): the
         # worker fails it when one changes while it reads them
         "inputs": [str(p) for p in item.inputs] or [str(item.asset.path)],
+        # the stat of each input as the plan hashed it (or trusted it unread): the worker fails the asset when
+        # the file it loads is another (its digest would be of bytes it was not built from)
+        "input_stats": _planned_stats(cfg, item),
         # a pending rule: the worker runs match_rule on the config (plain data, picklable)
         "config_data": cfg.data if item.rule_pending else None,
         "config_path": str(cfg.path),
@@ -1184,6 +1187,19 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
         "probed": cleared(item.asset.path),
         # its input failed to load last time, and is the same file: no encoding or USD to warm for it
         "failed_loading": _failed_loading(item),
+    }
+
+
+def _planned_stats(cfg: Config, item: PlanItem) -> dict[str, list[int]]:
+    """Each input's size and :data:`.worker.STAT_KEYS` as the plan hashed (or trusted) it, by path; an input
+    it has none for (hashed while it changed, unreadable) is left out."""
+    entries, paths = item.input_stats, item.inputs or [item.asset.path]
+    if len(entries) != len(paths):
+        return {}
+    return {
+        str(p): [e["size"], *(e[k] for k in STAT_KEYS)]
+        for p, e in zip(paths, entries, strict=True)
+        if "size" in e and all(k in e for k in STAT_KEYS) and _is_recorded_path(e["path"], p, cfg.base)
     }
 
 

@@ -553,6 +553,19 @@ def _check_unchanged_by_the_read(path: str, before: os.stat_result | None) -> No
         )
 
 
+def _check_as_planned(path: str, planned: list[int], before: os.stat_result | None) -> None:
+    """Raise :class:`InputChangedError` when the file at ``path`` (its stat ``before`` the load) is not the
+    one the plan hashed (``planned``: its size and :data:`STAT_KEYS`): the asset's digest is of those bytes
+    (a file replaced between the plan and the load was built, its record holding the old file's digest)."""
+    if before is None:  # (gone: the loader says so, naming the file)
+        return
+    if [before.st_size, *stat_fields(before).values()] != planned:
+        raise InputChangedError(
+            f"{path}: changed since the run hashed it (an exporter still writing it?): not built from it; "
+            "the next run builds it again"
+        )
+
+
 def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
     start = time.perf_counter()
     rec: dict[str, Any] = {"id": task["id"], "digest": task["digest"], "status": "failed"}
@@ -565,6 +578,8 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         trust(task.get("probed", ()))  # (probed clean as the run planned: not again in this process)
         # the file and those the loader reads beside it (a glTF's buffers, a stage's layers: the plan's list)
         before = {path: _stat_of(path) for path in task.get("inputs") or [task["path"]]}
+        for path, planned in (task.get("input_stats") or {}).items():
+            _check_as_planned(path, planned, before.get(path))
         mesh = load_mesh(task["path"], prim_path=task["prim"], max_triangles=task.get("max_triangles"))
         for path, stat in before.items():
             _check_unchanged_by_the_read(path, stat)
