@@ -54,6 +54,7 @@ PINNED = [
     "INTERRUPTED",
     "INTERNAL_ERROR",
     "INPUT_CHANGED",
+    "EXTRA_MISSING",
 ]
 
 
@@ -257,6 +258,16 @@ def produce(code: str, tmp: Path, monkeypatch) -> dict:
 
         monkeypatch.setattr(io, "load_mesh", written_as_read)
         return _cli(["run", str(cfg), "--json"])["failures"][0]
+    if code == "EXTRA_MISSING":  # --executor dask without the dask extra (None in sys.modules: no import)
+        cfg = _project(tmp, "", {"a.obj": TWO_TRIANGLES})
+        monkeypatch.setitem(sys.modules, "dask.distributed", None)
+        result = CliRunner().invoke(main, ["run", str(cfg), "--executor", "dask", "--json"])
+        # a valid config: not CONFIG_INVALID (exit 2, "invalid configuration"), and said before the plan
+        assert result.exit_code == 1 and not (tmp / "out").exists(), result.output
+        assert "pip install 'swpm-usd[dask]'" in result.stderr, result.stderr
+        out = json.loads(result.stdout)
+        assert out["error"].startswith("--executor dask needs the dask extra, not installed ("), out
+        return out
     raise AssertionError(f"no input produces {code}")
 
 

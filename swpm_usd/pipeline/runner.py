@@ -50,7 +50,7 @@ from typing import TYPE_CHECKING, Any
 
 from .. import __version__
 from ..codes import PROBLEM_KEYS
-from ..errors import OutputLockedError
+from ..errors import MissingExtraError, OutputLockedError
 from .assets import (
     LISTED_SUFFIXES,
     Asset,
@@ -1215,6 +1215,16 @@ def _failed_loading(item: PlanItem) -> bool:
     )
 
 
+def require_dask() -> None:
+    """Raise :class:`..errors.MissingExtraError` unless dask's distributed scheduler imports (the ``dask``
+    extra): it was a ``ConfigError`` (``CONFIG_INVALID``, exit 2), raised once every input was hashed and
+    planned, of a config that was valid."""
+    try:
+        import dask.distributed  # noqa: F401 - (imported to see that it is installed)
+    except ImportError as exc:
+        raise MissingExtraError("--executor dask", "dask", exc) from None
+
+
 def execute(
     tasks: list[dict], jobs: int, executor: str, scheduler: str | None, limit_s: float | None = None
 ) -> Generator[dict, None, None]:
@@ -1231,9 +1241,7 @@ def execute(
         try:
             from dask.distributed import Client, LocalCluster, as_completed
         except ImportError as exc:
-            raise ConfigError(
-                [f"--executor dask needs the extra: pip install 'swpm-usd[dask]' ({exc})"]
-            ) from None
+            raise MissingExtraError("--executor dask", "dask", exc) from None
         cluster = None
         if scheduler:
             client = Client(scheduler)
@@ -1800,6 +1808,8 @@ def run(
     an output.dir it creates, from then) to its end; another run there raises :class:`OutputLockedError`."""
     t_start = time.perf_counter()
     cfg = load_config(config_path)
+    if executor == "dask" and not dry_run:  # (before the plan hashes the inputs: minutes on a large tree)
+        require_dask()
     out_dir = output_dir(cfg)
     lock = _OutputLock(out_dir, echo)
     try:
