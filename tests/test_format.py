@@ -528,6 +528,7 @@ def test_encode_refuses_an_input_loaded_by_path_that_changed_before_it_was_hashe
     assert r.exit_code == 1, r.output
     failure = json.loads(r.stdout)
     assert failure["code"] == "INPUT_CHANGED" and str(ply) in failure["error"], failure
+    assert (failure["file"], failure["format"]) == (str(ply), "ply"), failure
     assert "changed while it was read" in r.stderr and not out.exists()
 
 

@@ -379,7 +379,7 @@ def _loaded_and_digest(input_path: str, max_triangles: int | None) -> tuple[obje
     h = hashlib.sha256()
     read = update_with_stat(h, path)
     if read is None or (before.st_size, stat_fields(before)) != (read.st_size, stat_fields(read)):
-        raise InputChangedError(f"{input_path}: changed while it was read: not built from it")
+        raise InputChangedError(f"{input_path}: changed while it was read: not built from it", input_path)
     return mesh, "sha256:" + h.hexdigest()
 
 

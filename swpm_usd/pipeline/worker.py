@@ -523,9 +523,16 @@ def serve(conn: Any) -> None:
 class InputChangedError(SwpmError, RuntimeError):
     """The input file changed while the worker read it (an exporter still writing it, a sync replacing it):
     the mesh read may be part of one version and part of another, so it is not built (the asset's previous
-    build is kept), and the next run, finding the file's stat moved, hashes and builds it again."""
+    build is kept), and the next run, finding the file's stat moved, hashes and builds it again. ``path``:
+    the file, for a JSON error's ``file`` and ``format`` (``encode``'s; a run's record names its asset)."""
 
     code = "INPUT_CHANGED"
+
+    def __init__(self, message: str, path: str | None = None) -> None:
+        from ..codes import format_of
+
+        super().__init__(message)
+        self.file, self.format = path, format_of(path)
 
 
 def _stat_of(path: str) -> os.stat_result | None:
