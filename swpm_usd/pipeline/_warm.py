@@ -103,19 +103,28 @@ def end_with_the_runner() -> None:
         # (woken: the server forks, and starts a new watch once it has)
 
     watching: list[threading.Thread] = []
+    # (the server's alone: the at-fork hooks stay registered in its children, and a worker that forks in
+    # turn must neither watch the descriptors it closed, their numbers reused by its own files, nor close
+    # them again in its child)
+    in_the_server = [True]
 
     def start() -> None:
+        if not in_the_server:
+            return
         thread = threading.Thread(target=watch, name=WATCH_THREAD, daemon=True)
         watching[:] = [thread]
         thread.start()
 
     def stop() -> None:
-        if watching and watching[0].is_alive():
+        if in_the_server and watching and watching[0].is_alive():
             os.write(wake_w, b"x")
             watching[0].join()
             os.read(wake_r, 1)  # (the wake-up taken: the next watch waits again)
 
     def close() -> None:  # (in the child: a worker does not watch its server's runner)
+        if not in_the_server:
+            return
+        in_the_server.clear()
         watching.clear()
         for fd in (wake_r, wake_w, runner):
             os.close(fd)
