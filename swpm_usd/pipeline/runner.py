@@ -645,7 +645,7 @@ def plan(
     problems.extend(_overwritten_inputs(cfg, out_dir, assets, inputs))
     items = []
     record_warnings = []
-    needs_rule_on_triangles = any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))
+    needs_rule_on_triangles = _routes_by_triangles(cfg)
     # input paths -> (digest, entries) hashed by this plan: the prims of one stage share its layers
     hashed: dict[tuple[Path, ...], tuple[str, list[dict]]] = {}
     # the prims of one stage share its list of layers (discover's) and their records one list of entries
@@ -1179,6 +1179,9 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
         # the stat of each input as the plan hashed it (or trusted it unread): the worker fails the asset when
         # the file it loads is another (its digest would be of bytes it was not built from)
         "input_stats": _planned_stats(cfg, item),
+        # the count its rule was chosen by, when a rule matches on triangles: an input changed since the plan
+        # is built from the bytes loaded when they hold as many (else its rule may be another's)
+        "rule_triangles": item.triangles if not item.rule_pending and _routes_by_triangles(cfg) else None,
         # a pending rule: the worker runs match_rule on the config (plain data, picklable)
         "config_data": cfg.data if item.rule_pending else None,
         "config_path": str(cfg.path),
@@ -1188,6 +1191,11 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
         # its input failed to load last time, and is the same file: no encoding or USD to warm for it
         "failed_loading": _failed_loading(item),
     }
+
+
+def _routes_by_triangles(cfg: Config) -> bool:
+    """Does a rule match on triangle counts (so an asset's rule depends on its count)?"""
+    return any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))
 
 
 def _planned_stats(cfg: Config, item: PlanItem) -> dict[str, list[int]]:
@@ -2047,7 +2055,11 @@ def _run(
                 it.rule = rec.pop("rule_index", None)
                 it.triangles = rec.get("triangles_in")  # (known now: a shadowed rule is found by them)
             # (the stat of each input as it was hashed to this digest, never a later one: an input changed
-            # since, which the worker may have built from, has another stat, and the next run hashes it)
+            # since the plan, the worker hashed once it had loaded it, and its digest and stat are those)
+            if "input_digest" in rec:
+                it.input_digest = rec.pop("input_digest")
+                it.input_stats = _recorded_paths(cfg.base, rec.pop("inputs"))
+                it.digest = rec["digest"]
             rec = _with_inputs(rec, it)
             rec["rule"] = _rule_name(cfg, it)
             for o in rec.get("outputs", {}).values():
