@@ -500,6 +500,28 @@ def test_encode_reads_an_obj_once_and_digests_the_bytes_it_built_from(
     assert len(opened) == 1, opened  # (the load's and the digest's read are one)
 
 
+def test_encode_loads_an_obj_from_its_bytes_through_load_mesh(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # encode's OBJ, read once, was parsed by the OBJ loader called directly, past load_mesh and its checks:
+    # a second entry point, which a check added to load_mesh would not reach
+    import swpm_usd.io
+    from swpm_usd.cli import main
+
+    obj = _write_fan_obj(tmp_path / "grid.obj")
+    calls: list[tuple[str, bool]] = []
+    real = swpm_usd.io.load_mesh
+
+    def recorded(path, **kwargs):
+        calls.append((str(path), bool(kwargs.get("data"))))
+        return real(path, **kwargs)
+
+    monkeypatch.setattr(swpm_usd.io, "load_mesh", recorded)
+    r = CliRunner().invoke(main, ["encode", str(obj), "-o", str(tmp_path / "grid.swpm"), "--json"])
+    assert r.exit_code == 0, r.output
+    assert calls == [(str(obj), True)], calls
+
+
 def test_encode_refuses_an_input_loaded_by_path_that_changed_before_it_was_hashed(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -354,11 +354,13 @@ def _loaded_and_digest(input_path: str, max_triangles: int | None) -> tuple[obje
     """``encode``'s input, loaded, and the digest (``sha256:...``) of the bytes it was loaded from (None for
     a path that is no regular file: its load says why). It was hashed by a second read after the build: a
     file replaced meanwhile got the new file's digest, on an output built from the old one. An OBJ is read
-    once, its bytes hashed and parsed (:func:`..io.trimesh_loader.load_trimesh`'s ``data``). The other
+    once, its bytes hashed and parsed (:func:`..io.load_mesh`'s ``data``: its checks as for a path). The other
     loaders read by path (usd-core, trimesh's binary readers, a glTF's buffers beside it), so the file is
     hashed once loaded, through one descriptor, and refused (``INPUT_CHANGED``) unless that is the file
     the load began on, unchanged since (its size, mtime, ctime and inode: a ctime cannot be set back)."""
     import os
+
+    from ..io import load_mesh
 
     path = Path(input_path)
     if not path.is_file():
@@ -367,11 +369,8 @@ def _loaded_and_digest(input_path: str, max_triangles: int | None) -> tuple[obje
         with open(path, "rb") as f:
             data = f.read()
         if data:  # (an empty one: its load says so)
-            from ..io.trimesh_loader import load_trimesh
-
-            mesh = load_trimesh(path, max_triangles=max_triangles, data=data)
+            mesh = load_mesh(path, max_triangles=max_triangles, data=data)
             return mesh, "sha256:" + hashlib.sha256(data).hexdigest()
-    from ..io import load_mesh
     from ..pipeline.worker import InputChangedError, stat_fields, update_with_stat
 
     before = os.stat(path)

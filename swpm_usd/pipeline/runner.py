@@ -439,13 +439,9 @@ def _digest_with_count(item: PlanItem, record: dict) -> str | None:
 def _count_triangles(asset: Asset, max_triangles: int | None = None, data: bytes = b"") -> int:
     """The triangles of ``asset``'s mesh, loaded; ``data``, when not empty, its OBJ file's bytes as
     :func:`.io.early_triangle_count_and_data` read them (not read again)."""
-    if data:
-        from ..io.trimesh_loader import load_trimesh
-
-        return load_trimesh(asset.path, max_triangles=max_triangles, data=data).triangle_count
     from ..io import load_mesh
 
-    mesh = load_mesh(asset.path, prim_path=asset.prim, max_triangles=max_triangles)
+    mesh = load_mesh(asset.path, prim_path=asset.prim, max_triangles=max_triangles, data=data)
     return mesh.triangle_count
 
 
