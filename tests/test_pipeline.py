@@ -2546,6 +2546,30 @@ def test_an_input_changed_between_plan_and_build_is_built_and_recorded_as_loaded
     assert run(cfg, echo=lambda m: None).skipped == 1
 
 
+def test_an_input_the_plan_hashed_while_it_changed_is_hashed_by_the_worker_once_loaded(tmp_path, monkeypatch):
+    # the plan's hash saw it change (no stat recorded, a digest of no one version): built, its record held
+    # that digest; the worker hashes the bytes it loaded, and the next run skips it
+    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline.assets import file_digest
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg = _project(tmp_path, meshes=("cow.obj",), config=_NO_COUNT_RULE)
+    cow = tmp_path / "meshes" / "cow.obj"
+    real = runner.hash_inputs
+
+    def unsettled(paths):
+        _, entries = real(paths)
+        return "0" * 64, [{"path": e["path"]} for e in entries]
+
+    monkeypatch.setattr(runner, "hash_inputs", unsettled)
+    assert run(cfg, echo=lambda m: None).built == 1
+    monkeypatch.setattr(runner, "hash_inputs", real)
+    rec = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]["meshes/cow.obj"]
+    assert rec["input_digest"] == file_digest([cow])
+    assert _as_hashed(_recorded_inputs(tmp_path / "out")["meshes/cow.obj"][0], cow)
+    assert run(cfg, echo=lambda m: None).skipped == 1
+
+
 def test_an_input_changed_since_the_plan_and_again_once_loaded_is_refused(tmp_path, monkeypatch):
     # changed since the plan, it is hashed once loaded: another file by then (changed again after the load),
     # the digest would be of bytes it was not built from

@@ -1194,16 +1194,20 @@ def _routes_by_triangles(cfg: Config) -> bool:
     return any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))
 
 
-def _planned_stats(cfg: Config, item: PlanItem) -> dict[str, list[int]]:
-    """Each input's size and :data:`.worker.STAT_KEYS` as the plan hashed (or trusted) it, by path; an input
-    it has none for (hashed while it changed, unreadable) is left out."""
+def _planned_stats(cfg: Config, item: PlanItem) -> dict[str, list[int] | None]:
+    """Each input's size and :data:`.worker.STAT_KEYS` as the plan hashed (or trusted) it, by path; None for
+    an input it has none for (hashed while it changed, unreadable: its digest is of no bytes the worker
+    loads); none when the entries are not the inputs'."""
     entries, paths = item.input_stats, item.inputs or [item.asset.path]
-    if len(entries) != len(paths):
+    if len(entries) != len(paths) or not all(
+        _is_recorded_path(e["path"], p, cfg.base) for p, e in zip(paths, entries, strict=True)
+    ):
         return {}
     return {
         str(p): [e["size"], *(e[k] for k in STAT_KEYS)]
+        if "size" in e and all(k in e for k in STAT_KEYS)
+        else None
         for p, e in zip(paths, entries, strict=True)
-        if "size" in e and all(k in e for k in STAT_KEYS) and _is_recorded_path(e["path"], p, cfg.base)
     }
 
 

@@ -562,16 +562,14 @@ def _check_unchanged_by_the_read(path: str, before: os.stat_result | None) -> No
 
 def _moved_since_the_plan(task: dict[str, Any], before: dict[str, os.stat_result | None]) -> list[str]:
     """The inputs whose stat ``before`` the load is not the one the plan hashed (or trusted) them at (the
-    task's ``input_stats``: each input's size and :data:`STAT_KEYS`; one it has none for, hashed while it
-    changed or unreadable, is one): the task's input digest is not of the bytes the worker loads. A file gone
-    is not one (the loader says so, naming it); a task without ``input_stats``, none."""
-    planned = task.get("input_stats")
-    if planned is None:
-        return []
+    task's ``input_stats``: each input's size and :data:`STAT_KEYS`; None for one it has no stat for, hashed
+    while it changed or unreadable, which is one): the task's input digest is not of the bytes the worker
+    loads. A file gone is not one (the loader says so, naming it), nor one ``input_stats`` does not name."""
+    planned = task.get("input_stats") or {}
     return [
         path
         for path, st in before.items()
-        if st is not None and planned.get(path) != [st.st_size, *stat_fields(st).values()]
+        if st is not None and path in planned and planned[path] != [st.st_size, *stat_fields(st).values()]
     ]
 
 
