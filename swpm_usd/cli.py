@@ -1,7 +1,8 @@
 """``swpm-pipeline``: the command line. Small commands that compose; ``--json`` for machines.
 
-Exit codes: 0 ok, 1 invalid input (a mesh or file that cannot be used), 2 usage error, 130 interrupted
-(Ctrl-C: one line on stderr, no traceback).
+Exit codes: 0 ok, 1 invalid input (a mesh or file that cannot be used) or a missing optional dependency
+(``run --executor dask`` without the dask extra), 2 usage error, 130 interrupted (Ctrl-C: one line on
+stderr, no traceback).
 """
 
 from __future__ import annotations
@@ -240,7 +241,8 @@ def run_cmd(
     in the scene) and is reported failed. One run at a time writes in an output.dir: another fails at
     once.
 
-    Exit 0 when every asset built, 1 when any failed (or output.dir is another run's), 2 when the
+    Exit 0 when every asset built, 1 when any failed (or output.dir is another run's, or --executor dask
+    is asked without the dask extra: pip install 'swpm-usd[dask]'), 2 when the
     configuration is invalid (every problem listed as FILE:LINE:COL: $.path: message), 130 on Ctrl-C.
     """
     from .codes import PROBLEM_KEYS

@@ -173,7 +173,14 @@ _CODES = [
         ERROR,
         "An input file (or a glTF buffer, a stage's layer it reads) changed while it was read: an exporter "
         "still writing it. Not built; the asset's previous build is kept and the next run builds it.",
-        "InputChangedError (a run's asset)",
+        "InputChangedError (a run's asset; encode, exit 1)",
+    ),
+    Code(
+        "EXTRA_MISSING",
+        ERROR,
+        "An optional dependency the command needs is not installed: `run --executor dask` without the dask "
+        "extra (`pip install 'swpm-usd[dask]'`); the same command runs once it is.",
+        "MissingExtraError (run, exit 1)",
     ),
 ]
 CODES: dict[str, Code] = {c.code: c for c in _CODES}

@@ -96,3 +96,18 @@ class OutputLockedError(SwpmError):
             f"{self.path}: another swpm-pipeline run{who} is writing in this output folder; "
             "wait for it to end, or choose another output.dir"
         )
+
+
+class MissingExtraError(SwpmError, ImportError):
+    """An optional dependency the command needs is not installed: ``extra`` names the package's extra that
+    installs it (``pip install 'swpm-usd[dask]'``). Not the config's fault, nor the input's: the same command
+    runs once it is installed."""
+
+    code = "EXTRA_MISSING"
+
+    def __init__(self, what: str, extra: str, exc: ImportError | None = None) -> None:
+        self.extra = extra
+        missing = f" ({exc})" if exc is not None else ""
+        super().__init__(
+            f"{what} needs the {extra} extra, not installed{missing}: pip install 'swpm-usd[{extra}]'"
+        )

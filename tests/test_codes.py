@@ -54,6 +54,7 @@ PINNED = [
     "INTERRUPTED",
     "INTERNAL_ERROR",
     "INPUT_CHANGED",
+    "EXTRA_MISSING",
 ]
 
 
@@ -257,6 +258,16 @@ def produce(code: str, tmp: Path, monkeypatch) -> dict:
 
         monkeypatch.setattr(io, "load_mesh", written_as_read)
         return _cli(["run", str(cfg), "--json"])["failures"][0]
+    if code == "EXTRA_MISSING":  # --executor dask without the dask extra (None in sys.modules: no import)
+        cfg = _project(tmp, "", {"a.obj": TWO_TRIANGLES})
+        monkeypatch.setitem(sys.modules, "dask.distributed", None)
+        result = CliRunner().invoke(main, ["run", str(cfg), "--executor", "dask", "--json"])
+        # a valid config: not CONFIG_INVALID (exit 2, "invalid configuration"), and said before the plan
+        assert result.exit_code == 1 and not (tmp / "out").exists(), result.output
+        assert "pip install 'swpm-usd[dask]'" in result.stderr, result.stderr
+        out = json.loads(result.stdout)
+        assert out["error"].startswith("--executor dask needs the dask extra, not installed ("), out
+        return out
     raise AssertionError(f"no input produces {code}")
 
 
@@ -480,34 +491,28 @@ def test_another_librarys_exception_is_an_internal_error_without_its_attributes(
 )
 def test_encode_labels_an_oserror_reading_its_input_as_the_inputs(raised, code, tmp_path, monkeypatch):
     """encode labelled any OSError OUTPUT_UNWRITABLE: one reading the input (its digest read after the build,
-    the file gone or unreadable since) named the output, which was never the problem, and wrote nothing."""
-    import swpm_usd.build  # noqa: F401 - (the package's `build` is the function)
+    the file gone or unreadable since) named the output, which was never the problem, and wrote nothing. The
+    digest's read is now the load's (an OBJ read once): refused or gone as it is read, it is the input's."""
+    import builtins
 
-    module = sys.modules["swpm_usd.build"]
     src, out = tmp_path / "a.obj", tmp_path / "out" / "a.swpm"
     src.write_text(TWO_TRIANGLES)
-    real, real_build = Path.read_bytes, module.build
+    real = builtins.open
 
-    def read_bytes(self: Path) -> bytes:
-        if self == src:
-            raise raised(13 if raised is PermissionError else 2, "refused", str(self))
-        return real(self)
+    def refusing_open(file, *args, **kwargs):  # (the file there as the command starts, not as it is read)
+        if isinstance(file, (str, os.PathLike)) and Path(file) == src:
+            raise raised(13 if raised is PermissionError else 2, "refused", str(file))
+        return real(file, *args, **kwargs)
 
-    def build(*args, **kwargs):  # (the input read by the build, then refused or gone: its digest's read)
-        pm = real_build(*args, **kwargs)
-        monkeypatch.setattr(Path, "read_bytes", read_bytes)
-        return pm
-
-    monkeypatch.setattr(module, "build", build)
+    monkeypatch.setattr(builtins, "open", refusing_open)
     err = _cli(["encode", str(src), "-o", str(out), "--json"])
+    monkeypatch.setattr(builtins, "open", real)
     assert (err["code"], err["file"], err["output"]) == (code, str(src), str(out)), err
     assert str(src) in err["error"] and not out.exists()
     # in the loader's words for its code: a file gone is "file not found" (it said "cannot read the file (No
     # such file or directory)" here, "file not found" from the loader)
     assert ("file not found" in err["error"]) == (code == "INPUT_NOT_FOUND"), err
     # the output's own OSError is still the output's
-    monkeypatch.setattr(Path, "read_bytes", real)
-    monkeypatch.setattr(module, "build", real_build)
     (tmp_path / "file").write_text("")
     err = _cli(["encode", str(src), "-o", str(tmp_path / "file" / "a.swpm"), "--json"])
     assert (err["code"], err["file"]) == ("OUTPUT_UNWRITABLE", str(tmp_path / "file" / "a.swpm")), err

@@ -6,6 +6,7 @@ import json
 import os
 import re
 import stat
+import sys
 import tracemalloc
 from pathlib import Path
 
@@ -443,6 +444,114 @@ def test_encode_json_reports_the_written_file_and_failures_as_json(tmp_path: Pat
     failure = json.loads(r.stdout)
     assert failure["input"] == str(obj) and failure["output"] == str(tmp_path / "c.swpm")
     assert "--encoding" in failure["error"] and failure["usage_error"] is True
+
+
+_TWO_TRIANGLES_OBJ = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n"
+_TWO_TRIANGLES_PLY = (
+    "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+    "element face 2\nproperty list uchar int vertex_indices\nend_header\n"
+    "0 0 0\n1 0 0\n0 1 0\n1 1 0\n3 0 1 2\n3 1 3 2\n"
+)
+
+
+def _sha256(data: bytes) -> str:
+    return "sha256:" + __import__("hashlib").sha256(data).hexdigest()
+
+
+def test_encode_reads_an_obj_once_and_digests_the_bytes_it_built_from(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # encode read its input a second time after the build for its source_digest: a file replaced meanwhile
+    # (an exporter writing the next version) got the new file's digest on an output built from the old one
+    import builtins
+    import io
+
+    from swpm_usd.cli import main
+
+    obj = _write_fan_obj(tmp_path / "grid.obj")
+    built_from = obj.read_bytes()
+    opened: list[str] = []
+    build_module = sys.modules["swpm_usd.build"]
+    real_open, real_build = builtins.open, build_module.build
+
+    def counting_open(file, *args, **kwargs):  # (io.open: pathlib's; builtins.open: the rest)
+        if isinstance(file, (str, os.PathLike)) and Path(file) == obj:
+            opened.append(str(file))
+        return real_open(file, *args, **kwargs)
+
+    def build_then_replace(*args, **kwargs):
+        pm = real_build(*args, **kwargs)
+        tmp = tmp_path / "next.obj"
+        tmp.write_text(_TWO_TRIANGLES_OBJ)
+        os.replace(tmp, obj)  # (the next version, renamed over it as an exporter writes it)
+        return pm
+
+    monkeypatch.setattr(builtins, "open", counting_open)
+    monkeypatch.setattr(io, "open", counting_open)
+    monkeypatch.setattr(build_module, "build", build_then_replace)
+    out = tmp_path / "grid.swpm"
+    r = CliRunner().invoke(main, ["encode", str(obj), "-o", str(out), "--json"])
+    monkeypatch.undo()
+    assert r.exit_code == 0, r.output
+    summary = json.loads(r.stdout)
+    assert summary["triangles"] == _fan_mesh().triangle_count  # (built from the first version)
+    assert summary["source_digest"] == _sha256(built_from) != _sha256(obj.read_bytes())
+    assert summary["source_digest"].encode() in out.read_bytes()  # (the file's own record of it)
+    assert len(opened) == 1, opened  # (the load's and the digest's read are one)
+
+
+def test_encode_loads_an_obj_from_its_bytes_through_load_mesh(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # encode's OBJ, read once, was parsed by the OBJ loader called directly, past load_mesh and its checks:
+    # a second entry point, which a check added to load_mesh would not reach
+    import swpm_usd.io
+    from swpm_usd.cli import main
+
+    obj = _write_fan_obj(tmp_path / "grid.obj")
+    calls: list[tuple[str, bool]] = []
+    real = swpm_usd.io.load_mesh
+
+    def recorded(path, **kwargs):
+        calls.append((str(path), bool(kwargs.get("data"))))
+        return real(path, **kwargs)
+
+    monkeypatch.setattr(swpm_usd.io, "load_mesh", recorded)
+    r = CliRunner().invoke(main, ["encode", str(obj), "-o", str(tmp_path / "grid.swpm"), "--json"])
+    assert r.exit_code == 0, r.output
+    assert calls == [(str(obj), True)], calls
+
+
+def test_encode_refuses_an_input_loaded_by_path_that_changed_before_it_was_hashed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a PLY (as a USD stage, a GLB) is read by its loader through its path: the digest, taken once it is
+    # loaded, would be of another file's bytes than the mesh's, so encode says so (exit 1) and writes nothing
+    from swpm_usd import io
+    from swpm_usd.cli import main
+
+    ply = tmp_path / "a.ply"
+    ply.write_text(_TWO_TRIANGLES_PLY)
+    out = tmp_path / "a.swpm"
+    r = CliRunner().invoke(main, ["encode", str(ply), "-o", str(out), "--json"])
+    assert r.exit_code == 0 and json.loads(r.stdout)["source_digest"] == _sha256(ply.read_bytes())
+    out.unlink()
+    real = io.load_mesh
+
+    def load_then_replace(path, **kwargs):
+        mesh = real(path, **kwargs)
+        tmp = tmp_path / "next.ply"
+        tmp.write_text(_TWO_TRIANGLES_PLY.replace("1 1 0\n", "2 2 0\n"))
+        os.replace(tmp, ply)
+        return mesh
+
+    monkeypatch.setattr(io, "load_mesh", load_then_replace)
+    r = CliRunner().invoke(main, ["encode", str(ply), "-o", str(out), "--json"])
+    assert r.exit_code == 1, r.output
+    failure = json.loads(r.stdout)
+    assert failure["code"] == "INPUT_CHANGED" and str(ply) in failure["error"], failure
+    assert (failure["file"], failure["format"]) == (str(ply), "ply"), failure
+    assert "changed while it was read" in r.stderr and not out.exists()
 
 
 def test_help_lists_the_registered_encodings_and_their_parameters(monkeypatch: pytest.MonkeyPatch) -> None:

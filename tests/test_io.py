@@ -1767,3 +1767,36 @@ def test_ply_triangulation_of_a_header_claiming_too_many_faces_allocates_nothing
         bytes([3]) + np.array([0, 1, 2], "<i4").tobytes() + bytes([4]) + np.arange(4, dtype="<i4").tobytes()
     )
     assert ply_polygons_as_triangles(header.encode() + points + faces) is None
+
+
+def test_load_mesh_parses_an_obj_s_bytes_given_with_a_path_s_checks(tmp_path, monkeypatch):
+    # encode hashes an OBJ's bytes and parses them (one read): it called the OBJ loader itself, past
+    # load_mesh's checks (its budget's, its suffix, the file's), a second entry point that could drift
+    import builtins
+    import io
+
+    obj = tmp_path / "a.obj"
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
+    data = obj.read_bytes()
+    by_path = load_mesh(obj)
+    real_open = builtins.open
+
+    def no_read_of_obj(file, *args, **kwargs):
+        assert not (isinstance(file, (str, Path)) and Path(file) == obj), "read again"
+        return real_open(file, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "open", no_read_of_obj)
+    monkeypatch.setattr(io, "open", no_read_of_obj)
+    given = load_mesh(obj, data=data)
+    monkeypatch.undo()
+    assert np.array_equal(given.points, by_path.points) and np.array_equal(given.triangles, by_path.triangles)
+    with pytest.raises(MeshLoadError, match="more than max_triangles=1"):
+        load_mesh(obj, max_triangles=1, data=data)
+    with pytest.raises(ValueError, match="max_triangles must be >= 0"):
+        load_mesh(obj, max_triangles=-1, data=data)
+    with pytest.raises(MeshLoadError, match="unsupported file type"):
+        load_mesh(tmp_path / "a.txt", data=data)
+    ply = tmp_path / "a.ply"
+    ply.write_bytes(b"ply\n")
+    with pytest.raises(ValueError, match="OBJ's bytes"):
+        load_mesh(ply, data=data)

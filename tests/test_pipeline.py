@@ -2502,14 +2502,34 @@ def test_a_gltf_s_buffer_files_are_its_inputs(tmp_path, monkeypatch):
     assert run(cfg, echo=lambda m: None).built == 1
 
 
-def test_an_input_changed_between_plan_and_build_is_hashed_again(tmp_path, monkeypatch):
-    # the worker loads the input after the plan hashed it: the record pairs the plan's digest with the stat
-    # taken as it was hashed (never a later one), so an input changed in between is hashed and rebuilt next
+def test_a_swpm_whose_rule_the_worker_chose_holds_its_asset_s_digest(tmp_path):
+    # a rule on triangle counts leaves a new asset's rule to the worker, which computes its digest: the .swpm
+    # held the plan's, empty ("source_digest":"")
+    cfg = _project(tmp_path, meshes=("cow.obj",), config=MINIMAL)
+    assert run(cfg, echo=lambda m: None).built == 1
+    rec = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]["meshes/cow.obj"]
+    assert len(rec["digest"]) == 64
+    assert f'"source_digest":"{rec["digest"]}"'.encode() in (tmp_path / "out" / "cow.swpm").read_bytes()
+
+
+_NO_COUNT_RULE = "version: 1\nassets: [{glob: meshes/*.obj}]\noutput: {dir: out}\n"
+
+
+@pytest.mark.parametrize("config", [MINIMAL, _NO_COUNT_RULE], ids=["rule-by-the-worker", "rule-planned"])
+def test_an_input_changed_between_plan_and_build_is_built_and_recorded_as_loaded(
+    tmp_path, monkeypatch, config
+):
+    # the worker loads the input after the plan hashed it: an input changed in between was built, its record
+    # (and its .swpm's source digest) holding the digest and stat of the bytes the plan hashed, not those it
+    # was built from. Stable across the worker's own load, it is built and hashed once loaded: the record
+    # holds the digest and stat of the bytes loaded, the .swpm its digest, and the next run skips it
     from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline.assets import file_digest
 
     monkeypatch.setattr(runner, "_RACY_NS", 0)
-    cfg = _project(tmp_path, meshes=("cow.obj",), config=MINIMAL)
+    cfg = _project(tmp_path, meshes=("cow.obj",), config=config)
     cow = tmp_path / "meshes" / "cow.obj"
+    planned = file_digest([cow])
     real = runner.process_asset
 
     def edited_first(task):
@@ -2519,8 +2539,141 @@ def test_an_input_changed_between_plan_and_build_is_hashed_again(tmp_path, monke
     monkeypatch.setattr(runner, "process_asset", edited_first)
     assert run(cfg, echo=lambda m: None).built == 1
     monkeypatch.setattr(runner, "process_asset", real)
-    assert not _as_hashed(_recorded_inputs(tmp_path / "out")["meshes/cow.obj"][0], cow)
+    rec = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]["meshes/cow.obj"]
+    assert rec["input_digest"] == file_digest([cow]) != planned
+    assert _as_hashed(_recorded_inputs(tmp_path / "out")["meshes/cow.obj"][0], cow)
+    assert f'"source_digest":"{rec["digest"]}"'.encode() in (tmp_path / "out" / "cow.swpm").read_bytes()
+    assert run(cfg, echo=lambda m: None).skipped == 1
+
+
+def test_an_input_the_plan_hashed_while_it_changed_is_hashed_by_the_worker_once_loaded(tmp_path, monkeypatch):
+    # the plan's hash saw it change (no stat recorded, a digest of no one version): built, its record held
+    # that digest; the worker hashes the bytes it loaded, and the next run skips it
+    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline.assets import file_digest
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg = _project(tmp_path, meshes=("cow.obj",), config=_NO_COUNT_RULE)
+    cow = tmp_path / "meshes" / "cow.obj"
+    real = runner.hash_inputs
+
+    def unsettled(paths):
+        _, entries = real(paths)
+        return "0" * 64, [{"path": e["path"]} for e in entries]
+
+    monkeypatch.setattr(runner, "hash_inputs", unsettled)
     assert run(cfg, echo=lambda m: None).built == 1
+    monkeypatch.setattr(runner, "hash_inputs", real)
+    rec = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]["meshes/cow.obj"]
+    assert rec["input_digest"] == file_digest([cow])
+    assert _as_hashed(_recorded_inputs(tmp_path / "out")["meshes/cow.obj"][0], cow)
+    assert run(cfg, echo=lambda m: None).skipped == 1
+
+
+def test_an_input_changed_since_the_plan_and_again_once_loaded_is_refused(tmp_path, monkeypatch):
+    # changed since the plan, it is hashed once loaded: another file by then (changed again after the load),
+    # the digest would be of bytes it was not built from
+    from swpm_usd.pipeline import assets, runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg = _project(tmp_path, meshes=("cow.obj",), config=_NO_COUNT_RULE)
+    cow = tmp_path / "meshes" / "cow.obj"
+    real, hash_inputs = runner.process_asset, assets.hash_inputs
+
+    def edited_first(task):
+        _same_size_edit(cow)
+        return real(task)
+
+    def edited_again(paths):  # (the worker's hash, once the load has read the file)
+        _same_size_edit(cow)
+        return hash_inputs(paths)
+
+    monkeypatch.setattr(runner, "process_asset", edited_first)
+    monkeypatch.setattr(assets, "hash_inputs", edited_again)
+    res = run(cfg, echo=lambda m: None)
+    (failure,) = res.failures.values()
+    assert (res.built, failure["code"]) == (0, "INPUT_CHANGED"), failure
+    assert f"{cow}: changed while it was read (hashed once loaded" in failure["error"], failure
+    assert not (tmp_path / "out" / "cow.swpm").exists()
+
+
+def test_an_input_changed_since_the_plan_with_another_triangle_count_than_its_rule_s_is_refused(
+    tmp_path, monkeypatch
+):
+    # its rule chosen by the plan for the count the record held: built from bytes of another count, the
+    # asset would be recorded with a rule that is not the one its triangles match
+    from swpm_usd.pipeline import runner
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    cfg = _project(tmp_path, meshes=("cow.obj",), config=MINIMAL)
+    cow = tmp_path / "meshes" / "cow.obj"
+    assert run(cfg, echo=lambda m: None).built == 1
+    (
+        tmp_path / "out" / "cow.swpm"
+    ).unlink()  # (its input unchanged: the plan routes it by its record's count)
+    real = runner.process_asset
+
+    def one_face_less(task):
+        assert task["rule_triangles"] is not None
+        data = cow.read_bytes()
+        face = data.rindex(b"\nf ") + 1  # (its last face line removed)
+        end = data.find(b"\n", face)
+        cow.write_bytes(data[:face] + (data[end + 1 :] if end >= 0 else b""))
+        return real(task)
+
+    monkeypatch.setattr(runner, "process_asset", one_face_less)
+    res = run(cfg, echo=lambda m: None)
+    (failure,) = res.failures.values()
+    assert (res.built, failure["code"]) == (0, "INPUT_CHANGED"), failure
+    assert "its rule chosen for" in failure["error"], failure
+    monkeypatch.setattr(runner, "process_asset", real)
+    assert run(cfg, echo=lambda m: None).built == 1
+    assert run(cfg, echo=lambda m: None).skipped == 1
+
+
+def test_a_file_naming_other_inputs_changed_since_the_plan_is_refused(tmp_path, monkeypatch):
+    # a glTF names its buffers: changed since the plan, the loader may read others than the plan listed,
+    # which the record would list unread by the next run. Its buffers changed alone are built and recorded
+    import trimesh
+
+    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline.assets import file_digest
+
+    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    (tmp_path / "m").mkdir()
+    spot = swpm_usd.load_mesh(SHARED_MESHES / "spot.obj")
+    files = trimesh.Scene(trimesh.Trimesh(spot.points, spot.triangles, process=False)).export(
+        file_type="gltf"
+    )
+    for name, data in files.items():
+        (tmp_path / "m" / name).write_bytes(data)
+    gltf = tmp_path / "m" / "model.gltf"
+    bins = sorted(tmp_path / "m" / name for name in files if name.endswith(".bin"))
+    buffer = bins[0]
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text("version: 1\nassets: [{glob: m/*.gltf}]\noutput: {dir: out}\n")
+    real = runner.process_asset
+
+    def touched(path):
+        def edit(task):
+            os.utime(path, ns=(path.stat().st_atime_ns, path.stat().st_mtime_ns + 1_000_000_000))
+            return real(task)
+
+        return edit
+
+    monkeypatch.setattr(runner, "process_asset", touched(gltf))
+    res = run(cfg, echo=lambda m: None)
+    (failure,) = res.failures.values()
+    assert (
+        failure["code"] == "INPUT_CHANGED" and f"{gltf}: changed since the run hashed it" in failure["error"]
+    )
+    monkeypatch.setattr(runner, "process_asset", touched(buffer))
+    assert run(cfg, echo=lambda m: None).built == 1
+    monkeypatch.setattr(runner, "process_asset", real)
+    (entries,) = _recorded_inputs(tmp_path / "out").values()
+    assert len(entries) == 1 + len(bins) and all(map(_as_hashed, entries, [gltf, *bins]))
+    rec = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]["m/model.gltf"]
+    assert rec["input_digest"] == file_digest([gltf, *bins])
     assert run(cfg, echo=lambda m: None).skipped == 1
 
 

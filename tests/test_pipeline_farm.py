@@ -253,6 +253,113 @@ def test_a_fork_server_whose_runner_is_gone_before_it_watches_it_ends(monkeypatc
         _warm.end_with_the_runner()
 
 
+_FORK_WATCHED = """
+import json, os, sys, threading
+from swpm_usd.pipeline import _warm
+from swpm_usd.pipeline.worker import RUNNER_PID_ENV
+
+os.environ[RUNNER_PID_ENV] = str(os.getppid())
+at_fork = []  # (registered first, so run after the watch's own hook: before-hooks run last registered first)
+os.register_at_fork(before=lambda: at_fork.append(sorted(t.name for t in threading.enumerate())))
+server = {"__name__": "multiprocessing.forkserver"}  # (the watch is the fork server's preload alone)
+exec("from swpm_usd.pipeline import _warm\\ndef main():\\n    _warm.end_with_the_runner()", server)
+
+
+def open_fds():  # (those open once the listing's own is closed)
+    def is_open(fd):
+        try:
+            return os.fstat(int(fd)) is not None
+        except OSError:
+            return False
+
+    return {fd for fd in os.listdir("/proc/self/fd") if is_open(fd)}
+
+
+fds = open_fds()
+server["main"]()
+ours = sorted(open_fds() - fds)  # (the watch's)
+watched = sorted(t.name for t in threading.enumerate())
+r, w = os.pipe()
+pid = os.fork()  # (not from the server loop: an import's fork during the warm-up, another Python's loop)
+if pid == 0:
+    os.write(w, json.dumps(sorted(set(ours) & open_fds())).encode())
+    os._exit(0)
+os.waitpid(pid, 0)
+os.close(w)
+after = sorted(t.name for t in threading.enumerate())
+print(json.dumps([watched, at_fork, after, json.loads(os.read(r, 4096)), len(ours)]))
+"""
+
+
+def test_the_fork_servers_watch_is_stopped_before_any_fork_and_watches_again_after(tmp_path):
+    # the watch was stopped before the server loop's fork alone, which it told by the frame of
+    # multiprocessing.forkserver.main calling os.fork (CPython 3.11's layout): another fork (an import's
+    # during the warm-up, a Python whose loop forks elsewhere) forked the process with the thread running.
+    # Every fork stops it now (os.register_at_fork), and the server watches its runner again once forked
+    from swpm_usd.pipeline.worker import WARM_ENCODINGS_ENV
+
+    env = {**os.environ, WARM_ENCODINGS_ENV: ""}  # (its import builds nothing)
+    done = subprocess.run(
+        [sys.executable, "-c", _FORK_WATCHED], env=env, capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0, done.stderr
+    watched, at_fork, after, kept, opened = json.loads(done.stdout)
+    watch = "swpm-forkserver-runner-watch"
+    assert watch in watched, watched
+    assert at_fork == [["MainThread"]], at_fork  # (the child starts with no other thread)
+    assert watch in after, after  # (the server still ends with its runner)
+    # (nor with the watch's descriptors: the runner's pidfd, its wake-up pipe)
+    assert opened == 3 and kept == [], (opened, kept)
+
+
+_WORKER_FORKS = """
+import json, os, threading, time
+from swpm_usd.pipeline.worker import RUNNER_PID_ENV
+
+os.environ[RUNNER_PID_ENV] = str(os.getppid())
+server = {"__name__": "multiprocessing.forkserver"}  # (the watch is the fork server's preload alone)
+exec("from swpm_usd.pipeline import _warm\\ndef main():\\n    _warm.end_with_the_runner()", server)
+server["main"]()
+r, w = os.pipe()
+pid = os.fork()  # (the server forks a worker)
+if pid == 0:
+    os.close(r)
+    a, b = os.pipe()  # (the worker's own files: the numbers of the watch's descriptors, closed, reused)
+    c, d = os.pipe()
+    child = os.fork()  # (the worker forks in turn: a library's os.fork)
+    if child == 0:
+        os._exit(0 if os.write(b, b"") == 0 and os.write(d, b"") == 0 else 3)  # (its pipes still open)
+    _, status = os.waitpid(child, 0)
+    threads = sorted(t.name for t in threading.enumerate())
+    os.write(b, b"x")  # (data on the worker's own pipes: no watch of its server's runner ends it)
+    os.write(d, b"x")
+    time.sleep(0.3)
+    os.write(w, json.dumps([threads, os.waitstatus_to_exitcode(status)]).encode())
+    os._exit(0)
+os.close(w)
+_, status = os.waitpid(pid, 0)
+print(json.dumps([os.waitstatus_to_exitcode(status), json.loads(os.read(r, 4096) or b"null")]))
+"""
+
+
+def test_a_worker_that_forks_does_not_watch_its_fork_servers_runner(tmp_path):
+    # the at-fork hooks that stop and restart the fork server's watch stayed registered in its workers: a
+    # worker that forked in turn started a watch there, on the descriptors it had closed, whose numbers its
+    # own files held by then (data on one of them ended the worker, exit 1), and its child closed them again
+    from swpm_usd.pipeline.worker import WARM_ENCODINGS_ENV
+
+    env = {**os.environ, WARM_ENCODINGS_ENV: ""}  # (its import builds nothing)
+    done = subprocess.run(
+        [sys.executable, "-c", _WORKER_FORKS], env=env, capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0, done.stderr
+    worker_exit, seen = json.loads(done.stdout)
+    assert worker_exit == 0 and seen is not None, (worker_exit, seen)
+    threads, grandchild_exit = seen
+    assert threads == ["MainThread"], threads  # (no watch started in the worker)
+    assert grandchild_exit == 0  # (its child found the worker's pipes open)
+
+
 def test_a_dry_run_routes_a_file_that_does_not_load_as_the_run_does(tmp_path):
     # a file whose triangle count did not read was planned as if it held 0 triangles: the dry run named the
     # rule of small meshes, which the run never gave it (the run leaves the rule to the worker, which fails

@@ -350,6 +350,38 @@ def mesh_input(input_path: str, max_triangles: int | None) -> object:
     return load_mesh(input_path, max_triangles=max_triangles)
 
 
+def _loaded_and_digest(input_path: str, max_triangles: int | None) -> tuple[object, str | None]:
+    """``encode``'s input, loaded, and the digest (``sha256:...``) of the bytes it was loaded from (None for
+    a path that is no regular file: its load says why). It was hashed by a second read after the build: a
+    file replaced meanwhile got the new file's digest, on an output built from the old one. An OBJ is read
+    once, its bytes hashed and parsed (:func:`..io.load_mesh`'s ``data``: its checks as for a path). The other
+    loaders read by path (usd-core, trimesh's binary readers, a glTF's buffers beside it), so the file is
+    hashed once loaded, through one descriptor, and refused (``INPUT_CHANGED``) unless that is the file
+    the load began on, unchanged since (its size, mtime, ctime and inode: a ctime cannot be set back)."""
+    import os
+
+    from ..io import load_mesh
+
+    path = Path(input_path)
+    if not path.is_file():
+        return mesh_input(input_path, max_triangles), None
+    if path.suffix.lower() == ".obj":
+        with open(path, "rb") as f:
+            data = f.read()
+        if data:  # (an empty one: its load says so)
+            mesh = load_mesh(path, max_triangles=max_triangles, data=data)
+            return mesh, "sha256:" + hashlib.sha256(data).hexdigest()
+    from ..pipeline.worker import InputChangedError, stat_fields, update_with_stat
+
+    before = os.stat(path)
+    mesh = load_mesh(path, max_triangles=max_triangles)
+    h = hashlib.sha256()
+    read = update_with_stat(h, path)
+    if read is None or (before.st_size, stat_fields(before)) != (read.st_size, stat_fields(read)):
+        raise InputChangedError(f"{input_path}: changed while it was read: not built from it", input_path)
+    return mesh, "sha256:" + h.hexdigest()
+
+
 @click.command("encode", cls=EncodingsHelpCommand)
 @click.argument("input_path", metavar="INPUT", type=FilePath())
 @click.option(
@@ -409,14 +441,12 @@ def encode_cmd(
             raise _OutputError(problem)
         try:
             with ctrl_c_through_compiled_code():
-                pm = build(mesh_input(input_path, max_triangles), encoding, **parsed)
+                mesh, digest = _loaded_and_digest(input_path, max_triangles)
+                pm = build(mesh, encoding, **parsed)
             seconds = time.perf_counter() - start
-            digest = None
-            if Path(input_path).is_file():
-                digest = "sha256:" + hashlib.sha256(Path(input_path).read_bytes()).hexdigest()
         except OSError as exc:
-            # the input's (read again for its digest: gone or unreadable since the build; a raw read),
-            # never the output's: it was labelled OUTPUT_UNWRITABLE
+            # the input's (read raw for its digest: gone or unreadable since its stat), never the output's:
+            # it was labelled OUTPUT_UNWRITABLE
             raise _input_error(exc, input_path) from exc
         try:
             save(pm, output, source_digest=digest)

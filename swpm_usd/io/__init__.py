@@ -21,7 +21,11 @@ SUPPORTED_SUFFIXES = _TRIMESH_SUFFIXES + _USD_SUFFIXES
 
 
 def load_mesh(
-    path: str | os.PathLike[str], *, prim_path: str | None = None, max_triangles: int | None = None
+    path: str | os.PathLike[str],
+    *,
+    prim_path: str | None = None,
+    max_triangles: int | None = None,
+    data: bytes = b"",
 ) -> Mesh:
     """Load the mesh file at ``path`` (type chosen by suffix) as one cleaned triangle mesh.
 
@@ -36,6 +40,11 @@ def load_mesh(
     count from the header, an OBJ's face lines of 3 or more corners counted before parsing, and in any case
     (PLY, OFF: a face of fewer than 3 corners is no triangle, so their header is no bound) once parsed,
     before cleaning.
+
+    ``data``, when not empty, the bytes of the OBJ at ``path``, already read by the caller (which hashed
+    them): the mesh is parsed from them, the file not read again, with the same checks and result. Other
+    types are read by their loaders from the path (a glTF's buffers, a stage's layers beside it): ``data``
+    for one is a ValueError.
     """
     check_budget(max_triangles)
     p = Path(path)
@@ -52,9 +61,14 @@ def load_mesh(
         raise MeshLoadError(p, missing_file_problem(p), code="INPUT_NOT_FOUND")
     if not p.is_file():
         raise MeshLoadError(p, "not a regular file", code="INPUT_UNREADABLE")
+    if data and suffix != ".obj":
+        raise ValueError(f"{p}: data is an OBJ's bytes; a {suffix} file is read from its path")
     try:
-        with p.open("rb") as f:
-            first = f.read(1)
+        if data:
+            first = data[:1]
+        else:
+            with p.open("rb") as f:
+                first = f.read(1)
     except OSError as e:
         raise MeshLoadError(p, f"cannot read the file ({e.strerror or e})", code="INPUT_UNREADABLE") from e
     if not first:  # (each reader said it its own way, or not at all: "FileNotFoundError: model.gltf")
@@ -67,7 +81,7 @@ def load_mesh(
         raise MeshLoadError(p, "prim_path only applies to USD files", code="PARAMETER_INVALID")
     from .trimesh_loader import load_trimesh
 
-    return load_trimesh(p, max_triangles=max_triangles)
+    return load_trimesh(p, max_triangles=max_triangles, data=data)
 
 
 def early_triangle_count(

@@ -11,7 +11,6 @@ import select
 import sys
 import threading
 from collections.abc import Iterable
-from typing import Any
 
 #: the encodings this process warmed (in the fork server: those its workers start with)
 WARMED: list[str] = []
@@ -73,8 +72,9 @@ def end_with_the_runner() -> None:
     queued on the server's socket holds that pipe open (the runner's end, in flight): a runner killed with
     SIGKILL (a farm's job killed) while the server compiled the kernels (minutes with a cold cache) left it
     compiling, on a busy farm node, to the end. A thread waits on the parent's pidfd (no polling) and exits
-    the process; it is stopped before the server loop's first fork (a worker then starts with no other
-    thread; the loop watches the runner's pipe from then, as it did)."""
+    the process. It is stopped before any fork of the server (``os.register_at_fork``: a worker then starts
+    with no other thread, and no fork is told from another by the frames of CPython's forkserver, whose
+    layout is its own) and started again in the server once it has forked; a child closes its descriptors."""
     if not _in_the_fork_server():
         return
     from .worker import RUNNER_PID_ENV
@@ -100,31 +100,50 @@ def end_with_the_runner() -> None:
         for ready, _ in poller.poll():
             if ready == runner:
                 os._exit(1)
-        # (woken: the server loop forks, and watches the runner's pipe from then)
+        # (woken: the server forks, and starts a new watch once it has)
 
-    thread = threading.Thread(target=watch, name="swpm-forkserver-runner-watch", daemon=True)
+    watching: list[threading.Thread] = []
+    # (the server's alone: the at-fork hooks stay registered in its children, and a worker that forks in
+    # turn must neither watch the descriptors it closed, their numbers reused by its own files, nor close
+    # them again in its child)
+    in_the_server = [True]
+
+    def start() -> None:
+        if not in_the_server:
+            return
+        thread = threading.Thread(target=watch, name=WATCH_THREAD, daemon=True)
+        watching[:] = [thread]
+        thread.start()
 
     def stop() -> None:
-        # (only the server loop's fork: an import that forks must not end the watch)
-        if thread.is_alive() and _in_the_fork_server(sys._getframe(1), loop=True):
+        if in_the_server and watching and watching[0].is_alive():
             os.write(wake_w, b"x")
-            thread.join()
-            for fd in (wake_r, wake_w, runner):
-                os.close(fd)
+            watching[0].join()
+            os.read(wake_r, 1)  # (the wake-up taken: the next watch waits again)
 
-    os.register_at_fork(before=stop)
-    thread.start()
+    def close() -> None:  # (in the child: a worker does not watch its server's runner)
+        if not in_the_server:
+            return
+        in_the_server.clear()
+        watching.clear()
+        for fd in (wake_r, wake_w, runner):
+            os.close(fd)
+
+    os.register_at_fork(before=stop, after_in_parent=start, after_in_child=close)
+    start()
 
 
-def _in_the_fork_server(frame: Any = None, loop: bool = False) -> bool:
-    """Whether this code runs in :func:`multiprocessing.forkserver.main` (its preload; ``loop``: called from
-    it directly, its loop forking a worker), which ``frame`` or a caller of it is."""
-    frame = sys._getframe(1) if frame is None else frame
+#: the name of the thread that ends the fork server with its runner (:func:`end_with_the_runner`)
+WATCH_THREAD = "swpm-forkserver-runner-watch"
+
+
+def _in_the_fork_server() -> bool:
+    """Whether this code runs in :func:`multiprocessing.forkserver.main` (its preload): a caller's frame is
+    that function's (its name and module, whatever calls it in between)."""
+    frame = sys._getframe(1)
     while frame is not None:
         if frame.f_code.co_name == "main" and frame.f_globals.get("__name__") == _SERVER_MODULE:
             return True
-        if loop:
-            return False
         frame = frame.f_back
     return False
 

@@ -50,7 +50,7 @@ from typing import TYPE_CHECKING, Any
 
 from .. import __version__
 from ..codes import PROBLEM_KEYS
-from ..errors import OutputLockedError
+from ..errors import MissingExtraError, OutputLockedError
 from .assets import (
     LISTED_SUFFIXES,
     Asset,
@@ -439,13 +439,9 @@ def _digest_with_count(item: PlanItem, record: dict) -> str | None:
 def _count_triangles(asset: Asset, max_triangles: int | None = None, data: bytes = b"") -> int:
     """The triangles of ``asset``'s mesh, loaded; ``data``, when not empty, its OBJ file's bytes as
     :func:`.io.early_triangle_count_and_data` read them (not read again)."""
-    if data:
-        from ..io.trimesh_loader import load_trimesh
-
-        return load_trimesh(asset.path, max_triangles=max_triangles, data=data).triangle_count
     from ..io import load_mesh
 
-    mesh = load_mesh(asset.path, prim_path=asset.prim, max_triangles=max_triangles)
+    mesh = load_mesh(asset.path, prim_path=asset.prim, max_triangles=max_triangles, data=data)
     return mesh.triangle_count
 
 
@@ -645,7 +641,7 @@ def plan(
     problems.extend(_overwritten_inputs(cfg, out_dir, assets, inputs))
     items = []
     record_warnings = []
-    needs_rule_on_triangles = any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))
+    needs_rule_on_triangles = _routes_by_triangles(cfg)
     # input paths -> (digest, entries) hashed by this plan: the prims of one stage share its layers
     hashed: dict[tuple[Path, ...], tuple[str, list[dict]]] = {}
     # the prims of one stage share its list of layers (discover's) and their records one list of entries
@@ -1176,6 +1172,12 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
         # the files the asset is read from (its own first, then a glTF's buffers, a stage's layers): the
         # worker fails it when one changes while it reads them
         "inputs": [str(p) for p in item.inputs] or [str(item.asset.path)],
+        # the stat of each input as the plan hashed it (or trusted it unread): the worker fails the asset when
+        # the file it loads is another (its digest would be of bytes it was not built from)
+        "input_stats": _planned_stats(cfg, item),
+        # the count its rule was chosen by, when a rule matches on triangles: an input changed since the plan
+        # is built from the bytes loaded when they hold as many (else its rule may be another's)
+        "rule_triangles": item.triangles if not item.rule_pending and _routes_by_triangles(cfg) else None,
         # a pending rule: the worker runs match_rule on the config (plain data, picklable)
         "config_data": cfg.data if item.rule_pending else None,
         "config_path": str(cfg.path),
@@ -1184,6 +1186,28 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
         "probed": cleared(item.asset.path),
         # its input failed to load last time, and is the same file: no encoding or USD to warm for it
         "failed_loading": _failed_loading(item),
+    }
+
+
+def _routes_by_triangles(cfg: Config) -> bool:
+    """Does a rule match on triangle counts (so an asset's rule depends on its count)?"""
+    return any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))
+
+
+def _planned_stats(cfg: Config, item: PlanItem) -> dict[str, list[int] | None]:
+    """Each input's size and :data:`.worker.STAT_KEYS` as the plan hashed (or trusted) it, by path; None for
+    an input it has none for (hashed while it changed, unreadable: its digest is of no bytes the worker
+    loads); none when the entries are not the inputs'."""
+    entries, paths = item.input_stats, item.inputs or [item.asset.path]
+    if len(entries) != len(paths) or not all(
+        _is_recorded_path(e["path"], p, cfg.base) for p, e in zip(paths, entries, strict=True)
+    ):
+        return {}
+    return {
+        str(p): [e["size"], *(e[k] for k in STAT_KEYS)]
+        if "size" in e and all(k in e for k in STAT_KEYS)
+        else None
+        for p, e in zip(paths, entries, strict=True)
     }
 
 
@@ -1197,6 +1221,16 @@ def _failed_loading(item: PlanItem) -> bool:
         and "triangles_in" not in prev
         and prev.get("input_digest") == item.input_digest
     )
+
+
+def require_dask() -> None:
+    """Raise :class:`..errors.MissingExtraError` unless dask's distributed scheduler imports (the ``dask``
+    extra): it was a ``ConfigError`` (``CONFIG_INVALID``, exit 2), raised once every input was hashed and
+    planned, of a config that was valid."""
+    try:
+        import dask.distributed  # noqa: F401 - (imported to see that it is installed)
+    except ImportError as exc:
+        raise MissingExtraError("--executor dask", "dask", exc) from None
 
 
 def execute(
@@ -1215,9 +1249,7 @@ def execute(
         try:
             from dask.distributed import Client, LocalCluster, as_completed
         except ImportError as exc:
-            raise ConfigError(
-                [f"--executor dask needs the extra: pip install 'swpm-usd[dask]' ({exc})"]
-            ) from None
+            raise MissingExtraError("--executor dask", "dask", exc) from None
         cluster = None
         if scheduler:
             client = Client(scheduler)
@@ -1784,6 +1816,8 @@ def run(
     an output.dir it creates, from then) to its end; another run there raises :class:`OutputLockedError`."""
     t_start = time.perf_counter()
     cfg = load_config(config_path)
+    if executor == "dask" and not dry_run:  # (before the plan hashes the inputs: minutes on a large tree)
+        require_dask()
     out_dir = output_dir(cfg)
     lock = _OutputLock(out_dir, echo)
     try:
@@ -2021,7 +2055,11 @@ def _run(
                 it.rule = rec.pop("rule_index", None)
                 it.triangles = rec.get("triangles_in")  # (known now: a shadowed rule is found by them)
             # (the stat of each input as it was hashed to this digest, never a later one: an input changed
-            # since, which the worker may have built from, has another stat, and the next run hashes it)
+            # since the plan, the worker hashed once it had loaded it, and its digest and stat are those)
+            if "input_digest" in rec:
+                it.input_digest = rec.pop("input_digest")
+                it.input_stats = _recorded_paths(cfg.base, rec.pop("inputs"))
+                it.digest = rec["digest"]
             rec = _with_inputs(rec, it)
             rec["rule"] = _rule_name(cfg, it)
             for o in rec.get("outputs", {}).values():

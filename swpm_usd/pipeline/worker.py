@@ -523,9 +523,16 @@ def serve(conn: Any) -> None:
 class InputChangedError(SwpmError, RuntimeError):
     """The input file changed while the worker read it (an exporter still writing it, a sync replacing it):
     the mesh read may be part of one version and part of another, so it is not built (the asset's previous
-    build is kept), and the next run, finding the file's stat moved, hashes and builds it again."""
+    build is kept), and the next run, finding the file's stat moved, hashes and builds it again. ``path``:
+    the file, for a JSON error's ``file`` and ``format`` (``encode``'s; a run's record names its asset)."""
 
     code = "INPUT_CHANGED"
+
+    def __init__(self, message: str, path: str | None = None) -> None:
+        from ..codes import format_of
+
+        super().__init__(message)
+        self.file, self.format = path, format_of(path)
 
 
 def _stat_of(path: str) -> os.stat_result | None:
@@ -553,6 +560,68 @@ def _check_unchanged_by_the_read(path: str, before: os.stat_result | None) -> No
         )
 
 
+def _moved_since_the_plan(task: dict[str, Any], before: dict[str, os.stat_result | None]) -> list[str]:
+    """The inputs whose stat ``before`` the load is not the one the plan hashed (or trusted) them at (the
+    task's ``input_stats``: each input's size and :data:`STAT_KEYS`; None for one it has no stat for, hashed
+    while it changed or unreadable, which is one): the task's input digest is not of the bytes the worker
+    loads. A file gone is not one (the loader says so, naming it), nor one ``input_stats`` does not name."""
+    planned = task.get("input_stats") or {}
+    return [
+        path
+        for path, st in before.items()
+        if st is not None and path in planned and planned[path] != [st.st_size, *stat_fields(st).values()]
+    ]
+
+
+def _refuse_a_moved_listing(moved: list[str]) -> None:
+    """Raise :class:`InputChangedError` for an input moved since the plan whose bytes list the asset's other
+    inputs (a glTF's buffers, a USD file's layers: :data:`.assets.LISTED_SUFFIXES`): the files the loader
+    reads may be others than the plan's, which the record would list as the asset's, unread by the next run
+    (it takes a built record's list while the files it names are unchanged)."""
+    from .assets import LISTED_SUFFIXES
+
+    for path in moved:
+        if Path(path).suffix.lower() in LISTED_SUFFIXES:
+            raise InputChangedError(
+                f"{path}: changed since the run hashed it (an exporter still writing it?): not built from "
+                "it (the files it names may be others); the next run builds it again"
+            )
+
+
+def _hashed_as_loaded(
+    inputs: list[str], before: dict[str, os.stat_result | None]
+) -> tuple[str, list[dict[str, Any]]]:
+    """The digest of ``inputs`` and their entries (:func:`.assets.hash_inputs`), hashed once the load has
+    read them, each the file stat ``before`` saw as the load began (so the bytes loaded): else
+    :class:`InputChangedError`."""
+    from .assets import hash_inputs
+
+    digest, entries = hash_inputs([Path(p) for p in inputs])
+    for path, entry in zip(inputs, entries, strict=True):
+        st = before.get(path)
+        seen = None if st is None else {"size": st.st_size, **stat_fields(st)}
+        if seen is None or {k: entry.get(k) for k in seen} != seen:
+            raise InputChangedError(
+                f"{path}: changed while it was read (hashed once loaded, it was another): not built from it; "
+                "the next run builds it again"
+            )
+    return digest, entries
+
+
+def _treatment_digest_of(task: dict[str, Any], input_digest: str) -> str:
+    """The task's digest (:func:`.assets.treatment_digest`: the runner's, of its planned rule) with
+    ``input_digest`` for the plan's."""
+    from .. import __version__
+    from .assets import Asset, checks_of, treatment_digest
+
+    asset = Asset(task["id"], Path(task["path"]), task["prim"], task["instances"], task["tags"])
+    treatment = {"encoding": task["encoding"], "params": task["params"]}
+    checks = checks_of(task) if task["encoding"] == "auto" else None
+    if treatment_digest(task["input_digest"], asset, treatment, __version__, checks) != task["digest"]:
+        raise RuntimeError(f"{task['path']}: the plan's digest is not reproduced from its task")  # (a bug)
+    return treatment_digest(input_digest, asset, treatment, __version__, checks)
+
+
 def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
     start = time.perf_counter()
     rec: dict[str, Any] = {"id": task["id"], "digest": task["digest"], "status": "failed"}
@@ -565,9 +634,25 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         trust(task.get("probed", ()))  # (probed clean as the run planned: not again in this process)
         # the file and those the loader reads beside it (a glTF's buffers, a stage's layers: the plan's list)
         before = {path: _stat_of(path) for path in task.get("inputs") or [task["path"]]}
+        # (an input changed since the plan hashed it: built from the bytes loaded, and those hashed once
+        # loaded, their digest and stat recorded, so the record and the .swpm's source digest are of them)
+        moved = _moved_since_the_plan(task, before)
+        _refuse_a_moved_listing(moved)
         mesh = load_mesh(task["path"], prim_path=task["prim"], max_triangles=task.get("max_triangles"))
         for path, stat in before.items():
             _check_unchanged_by_the_read(path, stat)
+        input_digest = task["input_digest"]
+        if moved:
+            input_digest, rec["inputs"] = _hashed_as_loaded(list(before), before)
+            rec["input_digest"] = input_digest
+            routed_by = task.get("rule_triangles")
+            if routed_by is not None and mesh.triangle_count != routed_by:
+                raise InputChangedError(
+                    f"{moved[0]}: changed since the run hashed it: {mesh.triangle_count} triangles, its rule "
+                    f"chosen for {routed_by}: not built; the next run builds it again"
+                )
+            if task.get("config_data") is None:
+                rec["digest"] = _treatment_digest_of(task, input_digest)
         rec["triangles_in"] = mesh.triangle_count
         # (the count limits.max_triangles is on: a budget set or lowered since is checked against it)
         rec[TRIANGLES_READ] = triangles_read(mesh)
@@ -585,7 +670,7 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
             encoding, params = treatment["encoding"], treatment["params"]
             rec["rule_index"] = rule
             checks = checks_of(task["config_data"]) if treatment["encoding"] == "auto" else None
-            rec["digest"] = treatment_digest(task["input_digest"], asset, treatment, __version__, checks)
+            rec["digest"] = treatment_digest(input_digest, asset, treatment, __version__, checks)
         candidates = None
         if encoding == "auto":
             storable = None
@@ -629,7 +714,7 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
 
                 target = out_dir / f"{task['stem']}.swpm"
                 # validate the bytes before they replace anything: a bad build never overwrites a good file
-                data = swpm_format.encode_bytes(pm, source_digest=task["digest"])
+                data = swpm_format.encode_bytes(pm, source_digest=rec["digest"])
                 report = swpm_format.validate_bytes(data, path=str(target))
                 if not report.valid:
                     problems = "; ".join(f"{p.code}: {p.message}" for p in report.errors[:5])
