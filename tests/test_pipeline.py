@@ -2513,9 +2513,21 @@ def test_a_swpm_whose_rule_the_worker_chose_holds_its_asset_s_digest(tmp_path):
 
 
 _NO_COUNT_RULE = "version: 1\nassets: [{glob: meshes/*.obj}]\noutput: {dir: out}\n"
+# (auto, with instances and budgets: every part of the digest the worker computes again)
+_AUTO_RULE = """\
+version: 1
+assets: [{glob: meshes/*.obj, instances: 500}]
+output: {dir: out}
+budgets: {total_bytes: 100000000}
+rules: [{name: auto, encoding: auto}]
+"""
 
 
-@pytest.mark.parametrize("config", [MINIMAL, _NO_COUNT_RULE], ids=["rule-by-the-worker", "rule-planned"])
+@pytest.mark.parametrize(
+    "config",
+    [MINIMAL, _NO_COUNT_RULE, _AUTO_RULE],
+    ids=["rule-by-the-worker", "rule-planned", "auto-with-instances-and-budgets"],
+)
 def test_an_input_changed_between_plan_and_build_is_built_and_recorded_as_loaded(
     tmp_path, monkeypatch, config
 ):
