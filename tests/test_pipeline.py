@@ -2509,7 +2509,7 @@ def test_a_swpm_whose_rule_the_worker_chose_holds_its_asset_s_digest(tmp_path):
     assert run(cfg, echo=lambda m: None).built == 1
     rec = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]["meshes/cow.obj"]
     assert len(rec["digest"]) == 64
-    assert f'"source_digest":"{rec["digest"]}"'.encode() in (tmp_path / "out" / "cow.swpm").read_bytes()
+    assert f'"source_digest":"asset:{rec["digest"]}"'.encode() in (tmp_path / "out" / "cow.swpm").read_bytes()
 
 
 _NO_COUNT_RULE = "version: 1\nassets: [{glob: meshes/*.obj}]\noutput: {dir: out}\n"
@@ -2554,7 +2554,7 @@ def test_an_input_changed_between_plan_and_build_is_built_and_recorded_as_loaded
     rec = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]["meshes/cow.obj"]
     assert rec["input_digest"] == file_digest([cow]) != planned
     assert _as_hashed(_recorded_inputs(tmp_path / "out")["meshes/cow.obj"][0], cow)
-    assert f'"source_digest":"{rec["digest"]}"'.encode() in (tmp_path / "out" / "cow.swpm").read_bytes()
+    assert f'"source_digest":"asset:{rec["digest"]}"'.encode() in (tmp_path / "out" / "cow.swpm").read_bytes()
     assert run(cfg, echo=lambda m: None).skipped == 1
 
 

@@ -714,7 +714,9 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
 
                 target = out_dir / f"{task['stem']}.swpm"
                 # validate the bytes before they replace anything: a bad build never overwrites a good file
-                data = swpm_format.encode_bytes(pm, source_digest=rec["digest"])
+                # ("asset:" + the record's digest, of its input files, treatment and version: spec/format.md
+                # 3.1; "sha256:" is encode's, of one file's bytes alone)
+                data = swpm_format.encode_bytes(pm, source_digest="asset:" + rec["digest"])
                 report = swpm_format.validate_bytes(data, path=str(target))
                 if not report.valid:
                     problems = "; ".join(f"{p.code}: {p.message}" for p in report.errors[:5])
