@@ -172,7 +172,9 @@ _CODES = [
         "INPUT_CHANGED",
         ERROR,
         "An input file (or a glTF buffer, a stage's layer it reads) changed while it was read: an exporter "
-        "still writing it. Not built; the asset's previous build is kept and the next run builds it.",
+        "still writing it; in a run also a glTF or USD file changed since the plan hashed it (the files it "
+        "names may be others), or one whose triangle count no longer fits the rule chosen for it. Not built; "
+        "the asset's previous build is kept and the next run builds it.",
         "InputChangedError (a run's asset; encode, exit 1)",
     ),
     Code(
