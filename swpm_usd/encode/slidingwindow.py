@@ -179,11 +179,9 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
         return self.window_records[min(lod_at_error(errs, max_error), self.lod_count - 1)]
 
     def _checked_lod_errors(self, lod_errors: np.ndarray | None) -> np.ndarray:
-        """``lod_errors`` one per LOD (this mesh's when None), else a :class:`ValueError`; a caller's float32
-        as they are, others as float64 (rounded to float32, an error just above the bound could pass it)."""
+        """``lod_errors`` one per LOD (this mesh's when None), else a :class:`ValueError`; kept in their own
+        type (:func:`.lod_at_error` compares a float32 bound with float32 errors, others as float64)."""
         errs = self.lod_errors if lod_errors is None else np.asarray(lod_errors)
-        if errs.dtype != np.float32:
-            errs = errs.astype(np.float64)
         if errs.shape != (self.lod_count,):
             n = self.lod_count
             raise ValueError(f"lod_errors must hold one error per LOD ({n}), got shape {errs.shape}")

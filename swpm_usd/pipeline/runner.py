@@ -1246,10 +1246,9 @@ def execute(
     if executor == "dask":
         if limit_s is not None:
             raise ValueError("limit_s needs the local executor (a Dask task cannot be stopped)")
-        try:
-            from dask.distributed import Client, LocalCluster, as_completed
-        except ImportError as exc:
-            raise MissingExtraError("--executor dask", "dask", exc) from None
+        require_dask()
+        from dask.distributed import Client, LocalCluster, as_completed
+
         cluster = None
         if scheduler:
             client = Client(scheduler)
