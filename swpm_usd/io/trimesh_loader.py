@@ -65,6 +65,7 @@ from .gltf_prepare import (
     uri_names,
     uri_resolver,
 )
+from .text_rows import _not_numbers, _numbered_rows, _shown, _undecoded
 
 _TEXT_TYPES = ("obj", "off")
 #: a binary STL: an 80-byte header, the triangle count (uint32), then 50 bytes per triangle
@@ -864,28 +865,6 @@ def glb_chunk_problem(path: Path) -> str | None:
     return None
 
 
-def _numbered_rows(data: bytes) -> Iterator[tuple[int, list[bytes]]]:
-    """(line number from 1, tokens) of each line of a text mesh file holding any, comments left out."""
-    for number, line in enumerate(data.split(b"\n"), 1):
-        words = line.split(b"#", 1)[0].split()
-        if words:
-            yield number, words
-
-
-def _not_numbers(words: list[bytes]) -> bytes | None:
-    """The first of ``words`` that is not a number, or None."""
-    for w in words:
-        try:
-            float(w)
-        except ValueError:
-            return w
-    return None
-
-
-def _shown(word: bytes) -> str:
-    return repr(word[:40].decode("utf-8", "replace"))
-
-
 def _obj_problem(data: bytes) -> str | None:
     """What is wrong with a row of the OBJ file of bytes ``data`` (a ``v``/``vt``/``vn`` value that is not a
     number, or too few; a face corner whose index is not an integer, or refers to no vertex), or None (asked
@@ -1027,13 +1006,6 @@ def _ply_ascii_problem(data: bytes) -> str | None:
                 declared = int(float(words[0]))
                 return f"line {number}: {name} {k} declares {declared} values and lists {len(words) - 1}"
     return None
-
-
-def _undecoded(data: bytes, at: int, e: UnicodeDecodeError) -> str:
-    """Where the bytes ``data`` (from byte ``at`` of the file) stop being UTF-8, as a message's end."""
-    offset = at + e.start
-    line = data.count(b"\n", 0, e.start) + 1
-    return f"byte 0x{data[e.start]:02x} at byte offset {offset} (line {line}) is not UTF-8 text"
 
 
 def _glb_json_problem(data: bytes) -> str | None:
