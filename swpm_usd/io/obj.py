@@ -107,8 +107,9 @@ def _obj_faces_fallback(lines: list[str], original: Callable) -> tuple:
     return column(0), column(tex), column(norm)
 
 
-#: set (in this thread or task only) while :func:`load_trimesh` has trimesh read an OBJ: only those reads
-#: take :func:`_obj_faces_fallback`; any other code's trimesh calls in the process get trimesh's own function
+#: set (in this thread or task only) while :func:`.trimesh_loader.load_trimesh` has trimesh read an OBJ:
+#: only those reads take :func:`_obj_faces_fallback`; any other code's trimesh calls in the process get
+#: trimesh's own function
 _OBJ_FACES_IN_NUMPY: contextvars.ContextVar[bool] = contextvars.ContextVar("swpm_obj_faces", default=False)
 
 

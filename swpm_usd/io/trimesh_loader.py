@@ -7,15 +7,20 @@ triangle geometry of the scene is taken with its scene-graph transform applied a
 concatenated; per-vertex ``normal``, ``uv`` and ``color`` (RGBA float in [0, 1]) are kept when every part
 has them. Any trimesh failure becomes a :class:`~swpm_usd.errors.MeshLoadError` naming the file.
 
-STL files are checked before trimesh reads them (:func:`check_stl`): trimesh takes a binary STL whose length
-disagrees with its header for ASCII, and drops an ASCII solid without its ``endsolid``, so a cut file would
-load as "no triangles" (or as part of its triangles) instead of being reported as truncated. An ASCII PLY
-is counted against its header likewise (:func:`ply_problem`), and a binary PLY, a .glb or a .gltf's buffers,
-views, accessors and primitives are looked at once trimesh has refused them, so the error says what is cut
-or wrong (a .glb's chunk lengths before: :func:`glb_chunk_problem`). A glTF's features trimesh
-reads wrongly or drops (sparse and normalized accessors, triangle fans, a uv without a material, no scene)
-are rewritten first (:mod:`.gltf_prepare`). An OFF file's vertex
-and face colours, which trimesh's OFF reader drops, are read here (:func:`_off_colours`).
+STL files are checked before trimesh reads them (:func:`.stl.check_stl`): trimesh takes a binary STL whose
+length disagrees with its header for ASCII, and drops an ASCII solid without its ``endsolid``, so a cut file
+would load as "no triangles" (or as part of its triangles) instead of being reported as truncated. An ASCII
+PLY is counted against its header likewise (:func:`.ply.ply_problem`), and a binary PLY, a .glb or a .gltf's
+buffers, views, accessors and primitives are looked at once trimesh has refused them, so the error says what
+is cut or wrong (:mod:`.gltf_checks`; a .glb's chunk lengths before: :func:`.gltf_checks.glb_chunk_problem`).
+A glTF's features trimesh reads wrongly or drops (sparse and normalized accessors, triangle fans, a uv without
+a material, no scene) are rewritten first (:mod:`.gltf_prepare`). An OFF file's vertex and face colours,
+which trimesh's OFF reader drops, are read by :func:`.off._off_colours`.
+
+This module is :func:`load_trimesh`, the order of those checks around trimesh's read, and the counts a file
+declares before it is parsed (:func:`declared_triangle_count`). What it knows of each format is in a module
+of its own: :mod:`.stl`, :mod:`.ply`, :mod:`.obj`, :mod:`.off`, :mod:`.gltf_checks` (their shared text
+helpers in :mod:`.text_rows`), and what it takes from the scene trimesh read in :mod:`.trimesh_scene`.
 """
 
 from __future__ import annotations

@@ -19,7 +19,7 @@ def _geometry_part(
     geom: object, off_colours: tuple[np.ndarray | None, np.ndarray | None] | None = None
 ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]] | None:
     """One geometry's (points, triangles, attributes); ``off_colours``: the vertex and triangle colours of
-    the OFF file it was read from, which trimesh's OFF reader drops (:func:`_off_colours`)."""
+    the OFF file it was read from, which trimesh's OFF reader drops (:func:`.off._off_colours`)."""
     import trimesh
 
     if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
