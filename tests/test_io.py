@@ -1187,9 +1187,9 @@ def test_truncated_binary_ply_rows_are_counted_at_once(tmp_path: Path, monkeypat
     """A cut binary PLY's list rows were walked one by one in Python up to 2,000,000 (3 s of a 2,500,000-face
     file, then no count: "trimesh could not read it"); rows whose lists have the first row's length are
     counted at once, and the walk (here allowed 10 rows) goes on from the first row whose length differs."""
-    from swpm_usd.io import trimesh_loader
+    from swpm_usd.io import ply
 
-    monkeypatch.setattr(trimesh_loader, "_PLY_ROW_WALK", 10)
+    monkeypatch.setattr(ply, "_PLY_ROW_WALK", 10)
     m = trimesh.creation.icosphere(1)
     binary = trimesh.exchange.ply.export_ply(m, encoding="binary")
     start = binary.index(b"end_header\n") + len(b"end_header\n")

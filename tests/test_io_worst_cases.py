@@ -467,7 +467,7 @@ def test_a_users_own_trimesh_obj_reads_run_trimeshs_code(
 
     import trimesh
 
-    from swpm_usd.io import trimesh_loader
+    from swpm_usd.io import obj
 
     path = tmp_path / "mixed.obj"
     path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 2 1 0\nf 1 2 3\nf 2 4 5 3\n")
@@ -476,11 +476,11 @@ def test_a_users_own_trimesh_obj_reads_run_trimeshs_code(
     def refused(lines: list[str], original: object) -> tuple:
         raise AssertionError("a user's trimesh load took swpm_usd's face reading")
 
-    monkeypatch.setattr(trimesh_loader, "_obj_faces_fallback", refused)
+    monkeypatch.setattr(obj, "_obj_faces_fallback", refused)
     want = [[0, 1, 2], [1, 3, 4], [4, 2, 1]]
     assert trimesh.load(str(path), process=False).faces.tolist() == want
     seen: list[object] = []
-    with trimesh_loader._obj_faces_in_numpy():  # (one of ours reading, in this thread)
+    with obj._obj_faces_in_numpy():  # (one of ours reading, in this thread)
         thread = threading.Thread(target=lambda: seen.append(trimesh.load(str(path), process=False).faces))
         thread.start()
         thread.join()

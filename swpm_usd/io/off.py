@@ -1,0 +1,181 @@
+"""The OFF handling of the loader around trimesh's reader: the vertex and face colours trimesh's OFF reader
+drops, read from the file (:func:`_off_colours`: ``COFF`` vertex colours, values after a face's indices),
+and what is wrong with the header or a row trimesh failed on (:func:`_off_problem`)."""
+
+from __future__ import annotations
+
+import io
+import re
+from collections.abc import Iterator
+
+import numpy as np
+
+from .clean import rgba_float
+from .text_rows import _not_numbers, _numbered_rows, _shown
+
+_OFF_HEADER = re.compile(rb"(ST)?C?N?4?n?OFF", re.IGNORECASE)
+
+
+def _off_problem(data: bytes) -> str | None:
+    """What is wrong with the header or a row of the OFF file of bytes ``data`` (counts that are not whole
+    numbers; a vertex row of too few values, or one that is not a number; a face row whose corner count or
+    index is not a whole number, with fewer corners than it declares, or an index to no vertex), or None
+    (asked once trimesh has failed on it: "invalid literal for int() with base 10: '0.5'", "setting an array
+    element with a sequence", "cannot reshape array of size 14 into shape (5,3)")."""
+    rows = _numbered_rows(data)
+    first = next(rows, None)
+    if first is None:
+        return None
+    if _OFF_HEADER.fullmatch(first[1][0]) is None:
+        return f"line {first[0]}: {_shown(first[1][0])} is not 'OFF' (nor a variant of it: COFF, NOFF...)"
+    number, counts = (first[0], first[1][1:]) if len(first[1]) > 1 else next(rows, (first[0], []))
+    try:
+        n_vertices, n_faces = int(counts[0]), int(counts[1])
+        if len(counts) > 2:
+            int(counts[2])  # (the edge count: trimesh reads it as a whole number too)
+    except (IndexError, ValueError):
+        return f"line {number}: the counts line {_shown(b' '.join(counts))} is not vertices, faces, edges"
+    for k in range(n_vertices):
+        number, words = next(rows, (None, []))
+        if number is None:
+            return f"the header declares {n_vertices} vertices, the file has {k}"
+        bad = _not_numbers(words[:3])
+        if bad is not None:
+            return f"line {number}: vertex {k} holds {_shown(bad)}, not a number"
+        if len(words) < 3:
+            return f"line {number}: vertex {k} holds {len(words)} values, not 3"
+    for k in range(n_faces):
+        number, words = next(rows, (None, []))
+        if number is None:
+            return f"the header declares {n_faces} faces, the file has {k}"
+        try:
+            corners = [int(w) for w in words[: 1 + max(int(words[0]), 0)]]
+        except ValueError:
+            return f"line {number}: face {k}: {_shown(b' '.join(words[:8]))} are not whole numbers"
+        if len(corners) - 1 < corners[0] or corners[0] < 3:
+            return f"line {number}: face {k} declares {corners[0]} corners and lists {len(words) - 1} values"
+        out = [i for i in corners[1:] if not 0 <= i < n_vertices]
+        if out:
+            return f"line {number}: face {k} refers to vertex {out[0]}, the file has {n_vertices}"
+    return None
+
+
+def _off_rows(data: bytes) -> Iterator[list[bytes]]:
+    """The tokens of each non-empty line of an OFF file, comments left out, lazily."""
+    for line in io.BytesIO(data):
+        words = line.split(b"#", 1)[0].split()
+        if words:
+            yield words
+
+
+def _off_colour_values(rows: list[list[bytes]]) -> np.ndarray | None:
+    """The colours ``rows`` (each row's tokens) hold as (N, 4) float RGBA in [0, 1]: integers 0-255 (all of
+    them integers) or floats in [0, 1], 3 or 4 per row; None when the rows differ in length, hold another
+    count (a colour-map index) or a token that is not a number."""
+    k = {len(r) for r in rows}
+    if len(k) != 1 or k.pop() not in (3, 4):
+        return None
+    try:
+        values = np.array([[float(t) for t in r] for r in rows], dtype=np.float64)
+    except ValueError:
+        return None
+    if not np.isfinite(values).all():
+        return None
+    if all(t.lstrip(b"+-").isdigit() for r in rows for t in r):
+        values = values / 255.0
+    return rgba_float(values)
+
+
+def _off_may_have_colours(data: bytes) -> bool:
+    """Whether the OFF file's bytes ``data`` may hold colours (``COFF``, values after its first vertex's x y
+    z or after its last face's indices: a writer colours every row or none), looked at without reading every
+    row."""
+    rows = _off_rows(data)
+    first = next(rows, None)
+    if first is None or first[0].upper() == b"COFF":
+        return first is not None
+    if len(first) == 1:
+        next(rows, None)  # (the counts)
+    vertex = next(rows, None)
+    if vertex is not None and len(vertex) > 3:
+        return True
+    end = len(data)
+    while end > 0:  # (its lines from the last, not every line split: a copy of the file in small objects)
+        start = data.rfind(b"\n", 0, end) + 1
+        words = data[start:end].split(b"#", 1)[0].split()
+        end = start - 1
+        if words:
+            try:
+                return len(words) > 1 + int(words[0])
+            except ValueError:
+                return True
+    return False
+
+
+def _off_colours(data: bytes, faces: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None, list[str]]:
+    """(vertex colours (V, 4), colours of trimesh's triangles ``faces`` (T, 4), colours found but not
+    kept) of an OFF file's bytes ``data``: a vertex's colour (``COFF``, ``CNOFF``, ``STCOFF``...) and the
+    values after a face's vertex indices, which trimesh's OFF reader drops. A face's colour goes to each
+    triangle of its fan
+    (trimesh triangulates it so, in another order: triangles are matched by their vertices)."""
+    if not _off_may_have_colours(data):
+        return None, None, []
+    rows = list(_off_rows(data))
+    # the variants' vertex rows: x y z [nx ny nz (N)] [colour (C)] [s t (ST)] (4OFF, nOFF: other rows)
+    variant = re.fullmatch(rb"(ST)?(C)?(N)?OFF", rows[0][0].upper()) if rows else None
+    if variant is None:
+        return None, None, []
+    texture, colour, normal = (g is not None for g in variant.groups())
+    at = 1 if len(rows[0]) > 1 else 2
+    counts = rows[0][1:] if len(rows[0]) > 1 else (rows[1] if len(rows) > 1 else [])
+    try:
+        n_vertices, n_faces = int(counts[0]), int(counts[1])
+    except (IndexError, ValueError):
+        return None, None, []
+    vertex_rows = rows[at : at + n_vertices]
+    face_rows = rows[at + n_vertices : at + n_vertices + n_faces]
+    if len(vertex_rows) != n_vertices or len(face_rows) != n_faces:
+        return None, None, []
+    lost: list[str] = []
+    vertex_colours = None
+    first, last = 3 + 3 * normal, 2 * texture
+    if (colour or not (normal or texture)) and any(len(r) > first + last for r in vertex_rows):
+        vertex_colours = _off_colour_values([r[first : len(r) - last] for r in vertex_rows])
+        if vertex_colours is None:
+            lost.append("vertex colours")
+    try:
+        sizes = np.array([int(r[0]) for r in face_rows], np.int64)
+    except ValueError:
+        return vertex_colours, None, lost
+    extra = [r[1 + n :] for r, n in zip(face_rows, sizes.tolist(), strict=True)]
+    if not any(extra):
+        return vertex_colours, None, lost
+    face_colours = _off_colour_values(extra)
+    complete = all(3 <= n < len(r) for r, n in zip(face_rows, sizes.tolist(), strict=True))
+    tris = np.asarray(faces, np.int64).reshape(-1, 3)
+    if face_colours is not None and complete and int((sizes - 2).sum()) == tris.shape[0] > 0:
+        # each face's fan (0, c, c + 1), vectorised over the faces' indices laid end to end
+        try:
+            flat = np.array(
+                [int(t) for r, n in zip(face_rows, sizes.tolist(), strict=True) for t in r[1 : 1 + n]]
+            )
+        except ValueError:
+            flat = None
+        if flat is not None:
+            n_tris = sizes - 2
+            face = np.repeat(np.arange(n_faces), n_tris)
+            corner = np.arange(face.shape[0]) - (np.cumsum(n_tris) - n_tris)[face] + 1
+            start = (np.cumsum(sizes) - sizes)[face]
+            fans = np.stack([flat[start], flat[start + corner], flat[start + corner + 1]], axis=1)
+            if np.array_equal(fans, tris):  # (triangles only: trimesh's are the file's, in order)
+                return vertex_colours, face_colours[face], lost
+            # trimesh's triangles in its order (triangles, then quads' halves, then fans): matched by vertices
+            _, key = np.unique(np.sort(np.concatenate([fans, tris]), axis=1), axis=0, return_inverse=True)
+            key = key.reshape(-1)
+            of_key = np.full(int(key.max()) + 1, -1, np.int64)
+            of_key[key[: fans.shape[0]]] = face
+            found = of_key[key[fans.shape[0] :]]
+            if (found >= 0).all():
+                return vertex_colours, face_colours[found], lost
+    lost.append("face colours")
+    return vertex_colours, None, lost

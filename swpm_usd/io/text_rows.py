@@ -1,0 +1,37 @@
+"""What the checks of a mesh file's text share to say where it is wrong: its rows of tokens with their line
+numbers, the first word that is not a number, a word as a message shows it, and where bytes stop being
+UTF-8 (the OBJ, OFF, STL and PLY checks of :mod:`.obj`, :mod:`.off`, :mod:`.stl`, :mod:`.ply`, and the
+glTF ones of :mod:`.gltf_checks`)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+
+def _numbered_rows(data: bytes) -> Iterator[tuple[int, list[bytes]]]:
+    """(line number from 1, tokens) of each line of a text mesh file holding any, comments left out."""
+    for number, line in enumerate(data.split(b"\n"), 1):
+        words = line.split(b"#", 1)[0].split()
+        if words:
+            yield number, words
+
+
+def _not_numbers(words: list[bytes]) -> bytes | None:
+    """The first of ``words`` that is not a number, or None."""
+    for w in words:
+        try:
+            float(w)
+        except ValueError:
+            return w
+    return None
+
+
+def _shown(word: bytes) -> str:
+    return repr(word[:40].decode("utf-8", "replace"))
+
+
+def _undecoded(data: bytes, at: int, e: UnicodeDecodeError) -> str:
+    """Where the bytes ``data`` (from byte ``at`` of the file) stop being UTF-8, as a message's end."""
+    offset = at + e.start
+    line = data.count(b"\n", 0, e.start) + 1
+    return f"byte 0x{data[e.start]:02x} at byte offset {offset} (line {line}) is not UTF-8 text"
