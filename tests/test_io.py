@@ -285,7 +285,7 @@ def test_obj_dropped_attribute_check_is_linear_in_a_long_face_line(tmp_path: Pat
     ],
 )
 def test_obj_face_patterns(line: str, refers: str) -> None:
-    from swpm_usd.io.trimesh_loader import _OBJ_FACE_NORMAL, _OBJ_FACE_UV
+    from swpm_usd.io.obj import _OBJ_FACE_NORMAL, _OBJ_FACE_UV
 
     data = ("v 0 0 0\n" + line + "\n").encode()
     found = [n for n, p in (("normal", _OBJ_FACE_NORMAL), ("uv", _OBJ_FACE_UV)) if p.search(data)]
@@ -891,7 +891,7 @@ def test_off_without_colours_is_not_split_into_lines() -> None:
     file, 40 ms of a 13 MB one's load); the lines are looked at from the end."""
     import tracemalloc
 
-    from swpm_usd.io.trimesh_loader import _off_may_have_colours
+    from swpm_usd.io.off import _off_may_have_colours
 
     m = trimesh.creation.icosphere(5)  # (10242 vertices, 20480 faces: 0.8 MB)
     data = trimesh.exchange.off.export_off(m).encode().rstrip() + b"\n# the end\n\n"
@@ -995,7 +995,7 @@ def test_stl_check_reads_only_the_start_and_end_of_a_large_file(tmp_path: Path) 
     # trimesh read it again: loading an ASCII STL took the file's size more memory than trimesh's own
     import tracemalloc
 
-    from swpm_usd.io.trimesh_loader import check_stl
+    from swpm_usd.io.stl import check_stl
 
     def peak(load) -> int:
         tracemalloc.start()
@@ -1756,7 +1756,7 @@ def test_ply_triangulation_of_a_header_claiming_too_many_faces_allocates_nothing
     """A binary PLY of mixed faces cut short, its header claiming 10^12 faces: the triangulation made two
     arrays of the header's count (16 TB: MemoryError) before walking the rows; it now sees at once that the
     bytes cannot hold them (trimesh then says the file is truncated)."""
-    from swpm_usd.io.trimesh_loader import ply_polygons_as_triangles
+    from swpm_usd.io.ply import ply_polygons_as_triangles
 
     header = (
         "ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"

@@ -18,7 +18,7 @@ import trimesh
 
 from swpm_usd.errors import MeshLoadError
 from swpm_usd.io import load_mesh
-from swpm_usd.io.trimesh_loader import _geometry_transforms
+from swpm_usd.io.trimesh_scene import _geometry_transforms
 
 #: a tetrahedron: 4 points, 4 triangles
 POINTS = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
@@ -286,7 +286,7 @@ def test_obj_faces_of_differing_lengths_are_read_as_trimesh_reads_them() -> None
 
     import trimesh.exchange.obj as obj
 
-    from swpm_usd.io.trimesh_loader import _obj_faces_fallback
+    from swpm_usd.io.obj import _obj_faces_fallback
 
     rng = random.Random(7)
 

@@ -111,7 +111,8 @@ def early_triangle_count_and_data(
             return (None if n is None else (n, True)), b""
         if suffix not in _TRIMESH_SUFFIXES or prim_path is not None:
             return None, b""
-        from .trimesh_loader import declared_triangle_count, glb_chunk_problem
+        from .gltf_checks import glb_chunk_problem
+        from .trimesh_loader import declared_triangle_count
 
         if suffix == ".glb" and glb_chunk_problem(p) is not None:
             return None, b""  # (its JSON not read: a chunk length past the file's end)

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .gltf_prepare import _COMPONENT, _GLB_BIN, _GLB_JSON, _WIDTH, _document, _Unread, uri_names
+from .gltf_prepare import _COMPONENT, _GLB_BIN, _GLB_JSON, _WIDTH, _document, _index, _Unread, uri_names
 from .text_rows import _undecoded
 
 
@@ -120,10 +120,6 @@ def _gltf_buffer_size(path: Path, buf: Any, i: int, binary: int | None) -> int |
         return binary if i == 0 else None
     size = _buffer_uri_size(path, uri) if isinstance(uri, str) else None
     return size if isinstance(size, int) else None
-
-
-def _index(value: Any) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
 
 
 def _gltf_structure_problem(path: Path) -> str | None:

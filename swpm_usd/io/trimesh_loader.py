@@ -58,16 +58,12 @@ from .gltf_prepare import (
 )
 from .obj import (
     _OBJ_FACE_LINE,
-    _OBJ_FACE_NORMAL,  # noqa: F401 - (re-exported: the tests import it from here, its home before the split)
-    _OBJ_FACE_UV,  # noqa: F401 - (re-exported, as _OBJ_FACE_NORMAL)
-    _obj_faces_fallback,  # noqa: F401 - (re-exported, as _OBJ_FACE_NORMAL)
     _obj_faces_in_numpy,
     _obj_problem,
     _report_dropped_obj_attributes,
 )
 from .off import (
     _off_colours,
-    _off_may_have_colours,  # noqa: F401 - (re-exported, as _OBJ_FACE_NORMAL)
     _off_problem,
 )
 from .ply import _ply_ascii_problem, _ply_header_problem, ply_polygons_as_triangles, ply_problem
