@@ -65,6 +65,7 @@ from .assets import (
     treatment_digest,
 )
 from .config import Config, ConfigError, load_config
+from .interrupts import _interrupts_deferred, _interrupts_ignored, _interrupts_noted, _interrupts_raise
 from .records import INPUT_STAT_KEYS, _what, record_problem, recorded_inputs
 from .worker import (
     LAYER_UNIT_KEYS,
@@ -865,68 +866,6 @@ def _restore_kept_aside(out_dir: Path, records: dict, names: set[str] | None = N
             # the stopped run still deletes its temporary files and writes its manifest)
             with contextlib.suppress(LayerReloadError):
                 reload_if_open(target)
-
-
-def _interrupts_raise() -> bool:
-    """Does Ctrl-C raise KeyboardInterrupt here (Python's own handler, in the main thread)? A process started
-    with it ignored (a background job of a script) or a caller's own handler keep it as it is."""
-    return (
-        threading.current_thread() is threading.main_thread()
-        and signal.getsignal(signal.SIGINT) is signal.default_int_handler
-    )
-
-
-@contextlib.contextmanager
-def _interrupts_deferred() -> Iterator[None]:
-    """A Ctrl-C in the block is raised (KeyboardInterrupt) when it ends, not inside it (main thread only;
-    when Ctrl-C raises KeyboardInterrupt: see :func:`_interrupts_raise`)."""
-    if not _interrupts_raise():
-        yield
-        return
-    received: list[int] = []
-    old = signal.signal(signal.SIGINT, lambda signum, frame: received.append(signum))
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, old)
-    if received:
-        raise KeyboardInterrupt
-
-
-@contextlib.contextmanager
-def _interrupts_noted() -> Iterator[list[int]]:
-    """Ctrl-C raises KeyboardInterrupt as usual in the block, and is noted in the list it yields (main
-    thread only), so one that something caught and turned into another error is still known (when Ctrl-C
-    raises KeyboardInterrupt: see :func:`_interrupts_raise`). Only the first raises: another, while the
-    first stops the run, would cut its clean-up short (a handler not restored, workers not stopped)."""
-    noted: list[int] = []
-    if not _interrupts_raise():
-        yield noted
-        return
-
-    def note(signum: int, frame: object) -> None:
-        noted.append(signum)
-        if len(noted) == 1:
-            raise KeyboardInterrupt
-
-    old = signal.signal(signal.SIGINT, note)
-    try:
-        yield noted
-    finally:
-        signal.signal(signal.SIGINT, old)
-
-
-@contextlib.contextmanager
-def _interrupts_ignored() -> Iterator[None]:
-    """Ctrl-C ignored in the block (the main thread only: elsewhere signals cannot be set, nor arrive)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, old)
 
 
 def _unusable_out_dir(cfg: Config, out_dir: Path) -> list[str]:
