@@ -5296,7 +5296,7 @@ def test_the_holder_of_the_lock_as_the_kernel_lists_it(tmp_path, monkeypatch):
         ours = f"{os.major(st.st_dev):02x}:{os.minor(st.st_dev):02x}:{st.st_ino}"
         other = f"{os.major(st.st_dev) + 1:02x}:{os.minor(st.st_dev):02x}:{st.st_ino}"
         listed = tmp_path / "locks"
-        monkeypatch.setattr(runner, "_PROC_LOCKS", str(listed))
+        monkeypatch.setattr("swpm_usd.pipeline.lock._PROC_LOCKS", str(listed))
         for lines, holder in (
             ([f"1: FLOCK  ADVISORY  WRITE 4117 {ours} 0 EOF"], 4117),
             ([f"1: FLOCK  ADVISORY  WRITE 4117 {other} 0 EOF"], 4117),  # (another device: the one lock)
