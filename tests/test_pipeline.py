@@ -3701,10 +3701,10 @@ def test_a_worker_that_dies_after_sending_its_record_is_replaced(monkeypatch):
     import multiprocessing as mp
     import multiprocessing.connection
 
-    from swpm_usd.pipeline import runner, worker
+    from swpm_usd.pipeline import pool, runner, worker
 
     monkeypatch.setattr(worker, "process_asset", _fake_asset)
-    monkeypatch.setattr(runner, "serve", _serve_once)
+    monkeypatch.setattr(pool, "serve", _serve_once)
     real_wait = multiprocessing.connection.wait
 
     def wait(objects, timeout=None):  # (the worker gone by the time its record is read: both ready)
@@ -3726,11 +3726,11 @@ def test_a_worker_dead_before_its_task_is_sent_gives_it_to_another(monkeypatch):
     # a send to a worker that had died (a broken pipe) was raised out of the pool: the whole run stopped
     import multiprocessing as mp
 
-    from swpm_usd.pipeline import runner, worker
+    from swpm_usd.pipeline import pool, runner, worker
 
     monkeypatch.setattr(worker, "process_asset", _fake_asset)
     ctx = mp.get_context("fork")
-    real = runner._Worker
+    real = pool._Worker
     for seen_alive in (False, True):  # (its death seen, or not yet: the send is what fails)
         made = []
 
@@ -3744,7 +3744,7 @@ def test_a_worker_dead_before_its_task_is_sent_gives_it_to_another(monkeypatch):
             made.append(w)
             return w
 
-        monkeypatch.setattr(runner, "_Worker", new)
+        monkeypatch.setattr(pool, "_Worker", new)
         recs = list(runner._local_pool([{"id": "a", "digest": "a"}], 1, ctx, None))
         assert [(r["id"], r["status"]) for r in recs] == [("a", "built")], recs
         assert len(made) == 2 and not mp.active_children()
@@ -3782,10 +3782,10 @@ def test_a_limit_times_the_build_not_the_worker_start_up(monkeypatch):
     # limit, and an asset that builds in a moment was stopped (tests' spot.obj beside an overrunning asset)
     import multiprocessing as mp
 
-    from swpm_usd.pipeline import runner, worker
+    from swpm_usd.pipeline import pool, runner, worker
 
     monkeypatch.setattr(worker, "process_asset", _fake_asset)
-    monkeypatch.setattr(runner, "serve", _serve_late)
+    monkeypatch.setattr(pool, "serve", _serve_late)
     tasks = [{"id": "a", "digest": "a"}, {"id": "hangs", "digest": "hangs"}, {"id": "b", "digest": "b"}]
     recs = {r["id"]: r for r in runner._local_pool(tasks, 1, mp.get_context("fork"), 1.0)}
     assert recs["a"]["status"] == "built" and recs["b"]["status"] == "built", recs  # (b: a new worker)
@@ -3948,16 +3948,16 @@ def test_jobs_has_an_upper_bound(tmp_path, monkeypatch):
         assert not (tmp_path / "out").exists()
     assert "1<=x<=256" in CliRunner().invoke(main, ["run", "--help"]).output
     # the bound itself is taken, and no more workers start than there are assets to build
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import pool
 
     started = []
 
-    class Worker(runner._Worker):
+    class Worker(pool._Worker):
         def __init__(self, ctx):
             started.append(1)
             super().__init__(ctx)
 
-    monkeypatch.setattr(runner, "_Worker", Worker)
+    monkeypatch.setattr(pool, "_Worker", Worker)
     result = CliRunner().invoke(main, ["run", str(cfg), "--jobs", str(cli.MAX_JOBS)])
     assert result.exit_code == 0, result.output
     assert started == [1]
