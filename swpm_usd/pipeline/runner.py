@@ -33,7 +33,6 @@ from __future__ import annotations
 import contextlib
 import gc
 import json
-import math
 import os
 import time
 from collections.abc import Generator, Iterator
@@ -51,8 +50,6 @@ from .assets import (
     hash_inputs,
     match_rule,
     output_dir,
-    rule_checks,
-    treatment_digest,
 )
 from .config import Config, ConfigError, load_config
 from .inputs import INPUTS_LISTED as INPUTS_LISTED  # (re-exported)
@@ -60,7 +57,6 @@ from .inputs import LISTING as LISTING  # (re-exported)
 from .inputs import (
     _input_size,
     _inputs_unchanged,
-    _is_recorded_path,
     _listed_inputs,
     _listing_mark,
     _recorded_paths,
@@ -120,16 +116,30 @@ from .pool import (
 )
 from .progress import _Progress
 from .records import record_problem, recorded_inputs
+from .rules import (
+    _current_why,
+    _digest_with_count,
+    _max_triangles,
+    _routes_by_triangles,
+    _rule_name,
+    _rules_pending,
+    _same_rule_from,
+    _total_fits,
+    _treatment_digest,
+    _unreached_rules,
+    _wanted_outputs,
+    _wants_outputs,
+    _within_triangle_budget,
+)
 from .scene import SCENE_METERS_PER_UNIT as SCENE_METERS_PER_UNIT  # (re-exported)
 from .scene import SCENE_UP_AXIS as SCENE_UP_AXIS  # (re-exported)
 from .scene import UNITS_OP as UNITS_OP  # (re-exported)
 from .scene import UP_AXIS_OP as UP_AXIS_OP  # (re-exported)
 from .scene import _layer_with_units, _write_scene
 from .scene import _scene_prim_name as _scene_prim_name  # (re-exported)
+from .tasks import _task
 from .worker import (
     RUNNER_PID_ENV,
-    STAT_KEYS,
-    TRIANGLES_READ,
     WARM_ENCODINGS_ENV,
     output_record,
     process_asset,
@@ -205,40 +215,6 @@ class RunResult:
     built_ids: list[str] = field(default_factory=list)
 
 
-def _total_fits(cfg: Config, record: dict, item: PlanItem) -> bool:
-    """Does the build ``record`` holds still meet ``budgets.total_bytes`` with ``item``'s instance count
-    (global bytes + instances x instance bytes, as the worker checks it)? The count is not in the digest of
-    an encoding other than ``auto`` (:func:`.assets.treatment_digest`), so more instances than it passed
-    with check it again, from the memory the record holds (a record without it: built again)."""
-    limit = (cfg.data.get("budgets") or {}).get("total_bytes")
-    if (
-        limit is None
-        or item.treatment.get("encoding") == "auto"
-        or record.get("instances") == item.asset.instances
-    ):
-        return True
-    summary = record.get("summary") or {}
-    if not all(isinstance(summary.get(k), (int, float)) for k in ("global_bytes", "instance_bytes")):
-        return False
-    return summary["global_bytes"] + item.asset.instances * summary["instance_bytes"] <= limit
-
-
-def _treatment_digest(cfg: Config, item: PlanItem) -> str:
-    checks = checks_of(cfg.data) if item.treatment.get("encoding") == "auto" else None
-    return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, checks)
-
-
-def _digest_with_count(item: PlanItem, record: dict) -> str | None:
-    """The digest ``record``, of an asset other than ``auto``, was built under by a version that put every
-    asset's instance count in its digest (its count then: the record's ``instances``), so a build current
-    but for that is not built again; None for an ``auto`` asset or a record of the default count (the
-    digest is the same)."""
-    count = record.get("instances")
-    if item.treatment.get("encoding") == "auto" or type(count) is not int or count == 1:
-        return None
-    return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, instances=count)
-
-
 def _count_triangles(asset: Asset, max_triangles: int | None = None, data: bytes = b"") -> int:
     """The triangles of ``asset``'s mesh, loaded; ``data``, when not empty, its OBJ file's bytes as
     :func:`.io.early_triangle_count_and_data` read them (not read again)."""
@@ -246,36 +222,6 @@ def _count_triangles(asset: Asset, max_triangles: int | None = None, data: bytes
 
     mesh = load_mesh(asset.path, prim_path=asset.prim, max_triangles=max_triangles, data=data)
     return mesh.triangle_count
-
-
-def _same_rule_from(cfg: Config, asset: Asset, lowest: int) -> bool:
-    """Does ``asset`` match the same rule (or the defaults) at every triangle count from ``lowest`` up? A
-    lower bound (an OBJ's face lines: a quad is two triangles) routes the asset by its count only then: under
-    a rule's ``max`` it named that rule where the mesh, loaded, had more triangles and matched another."""
-    counts = {lowest}
-    for rule in cfg.data.get("rules", []):
-        rng = (rule.get("match") or {}).get("triangles") or {}
-        if "min" in rng and rng["min"] > lowest:
-            counts.add(math.ceil(rng["min"]))
-        if "max" in rng and rng["max"] >= lowest:
-            counts.add(math.floor(rng["max"]) + 1)
-    return len({match_rule(cfg, asset, n)[0] for n in counts}) == 1
-
-
-def _max_triangles(cfg: Config) -> int | None:
-    """``limits.max_triangles``, or None."""
-    limits = cfg.data.get("limits")
-    return limits.get("max_triangles") if isinstance(limits, dict) else None
-
-
-def _within_triangle_budget(cfg: Config, record: dict) -> bool:
-    """Whether the asset a record built holds no more triangles than ``limits.max_triangles`` (a budget set
-    or lowered since: an asset over it is loaded again, and fails), counted as the budget counts them, before
-    cleaning (:data:`.worker.TRIANGLES_READ`; the cleaned ``triangles_in`` left a file over it by duplicate
-    or degenerate triangles alone current). A record without that count (of a version before it) is built
-    again, and then has it."""
-    budget, tri = _max_triangles(cfg), record.get(TRIANGLES_READ)
-    return budget is None or (type(tri) is int and tri <= budget)
 
 
 def plan(
@@ -476,132 +422,6 @@ def plan(
         items.append(item)
     warnings = [] if _rules_pending(items, dry_run=early_counts) else _unreached_rules(cfg, items)
     return items, problems, aliases + record_warnings + warnings
-
-
-def _rules_pending(items: list[PlanItem], dry_run: bool = False) -> bool:
-    """Are rules left to the workers, so the rules no asset reaches are known only once they have built? A
-    dry run's plan leaves out the files that did not load to be counted (a run's worker fails them before any
-    rule, if they load no better then); a run (``--explain`` counts as it plans) waits for its workers: such a
-    file may load whole by then (an exporter was still writing it) and take a rule."""
-    return any(i.rule_pending and not (dry_run and i.triangles_how == "unknown") for i in items)
-
-
-def _unreached_rules(cfg: Config, items: list[PlanItem]) -> list[str]:
-    """A warning for each rule no asset took: one shadowed by earlier rules (every asset it matches is
-    taken first by one of them, named) or one that matches no asset at all."""
-    reached = {i.rule for i in items}
-    rules = cfg.data.get("rules", [])
-    warnings = []
-    for idx, rule in enumerate(rules):
-        if idx in reached:
-            continue
-        # (an asset whose rule is unknown, one that failed before the worker matched it, is left out)
-        takers = sorted(
-            {
-                it.rule
-                for it in items
-                if it.rule is not None and all(ok for _, ok in rule_checks(rule, it.asset, it.triangles or 0))
-            }
-        )
-        if takers:
-            by = ("rules " if len(takers) > 1 else "rule ") + " and ".join(
-                repr(rules[i]["name"]) for i in takers
-            )
-            warnings.append(
-                f"{cfg.where(('rules', idx))}: rule {rule['name']!r} is shadowed by {by}: every asset it "
-                "matches is taken by an earlier rule"
-            )
-        else:
-            warnings.append(f"{cfg.where(('rules', idx))}: rule {rule['name']!r} matches no asset")
-    return warnings
-
-
-def _wants_outputs(cfg: Config) -> bool:
-    out = cfg.data["output"]
-    return bool(out.get("swpm", True) or out.get("usd", False))
-
-
-def _wanted_outputs(cfg: Config) -> set[str]:
-    """The kinds of output (a record's ``outputs`` keys) the config asks each asset for."""
-    out = cfg.data["output"]
-    return {
-        kind for kind, wanted in (("swpm", out.get("swpm", True)), ("usd", out.get("usd", False))) if wanted
-    }
-
-
-def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
-    from ..usd.probe import cleared
-
-    out = cfg.data["output"]
-    return {
-        "id": item.asset.id,
-        "path": str(item.asset.path),
-        "prim": item.asset.prim,
-        "instances": item.asset.instances,
-        "stem": item.asset.output_stem,
-        "digest": item.digest,
-        "encoding": item.treatment.get("encoding"),
-        "params": item.treatment.get("params", {}),
-        "why": item.why,
-        "streaming": cfg.data.get("streaming", {}),
-        "budgets": cfg.data.get("budgets", {}),
-        "max_triangles": _max_triangles(cfg),
-        "out_dir": str(cfg.base / out["dir"]),
-        "write_swpm": bool(out.get("swpm", True)),
-        "write_usd": bool(out.get("usd", False)),
-        "input_digest": item.input_digest,
-        # the files the asset is read from (its own first, then a glTF's buffers, a stage's layers): the
-        # worker fails it when one changes while it reads them
-        "inputs": [str(p) for p in item.inputs] or [str(item.asset.path)],
-        # the stat of each input as the plan hashed it (or trusted it unread): the worker fails the asset when
-        # the file it loads is another (its digest would be of bytes it was not built from)
-        "input_stats": _planned_stats(cfg, item),
-        # the count its rule was chosen by, when a rule matches on triangles: an input changed since the plan
-        # is built from the bytes loaded when they hold as many (else its rule may be another's)
-        "rule_triangles": item.triangles if not item.rule_pending and _routes_by_triangles(cfg) else None,
-        # a pending rule: the worker runs match_rule on the config (plain data, picklable)
-        "config_data": cfg.data if item.rule_pending else None,
-        "config_path": str(cfg.path),
-        "tags": item.asset.tags,
-        # a crate file the planning probed clean (it opened the stage): the worker does not probe it again
-        "probed": cleared(item.asset.path),
-        # its input failed to load last time, and is the same file: no encoding or USD to warm for it
-        "failed_loading": _failed_loading(item),
-    }
-
-
-def _routes_by_triangles(cfg: Config) -> bool:
-    """Does a rule match on triangle counts (so an asset's rule depends on its count)?"""
-    return any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))
-
-
-def _planned_stats(cfg: Config, item: PlanItem) -> dict[str, list[int] | None]:
-    """Each input's size and :data:`.worker.STAT_KEYS` as the plan hashed (or trusted) it, by path; None for
-    an input it has none for (hashed while it changed, unreadable: its digest is of no bytes the worker
-    loads); none when the entries are not the inputs'."""
-    entries, paths = item.input_stats, item.inputs or [item.asset.path]
-    if len(entries) != len(paths) or not all(
-        _is_recorded_path(e["path"], p, cfg.base) for p, e in zip(paths, entries, strict=True)
-    ):
-        return {}
-    return {
-        str(p): [e["size"], *(e[k] for k in STAT_KEYS)]
-        if "size" in e and all(k in e for k in STAT_KEYS)
-        else None
-        for p, e in zip(paths, entries, strict=True)
-    }
-
-
-def _failed_loading(item: PlanItem) -> bool:
-    """Did ``item``'s asset fail last run before its mesh was loaded (a broken file: no ``triangles_in``),
-    with the input digest it has now? Its retry most likely fails the same way, before any build."""
-    prev = item.previous
-    return (
-        isinstance(prev, dict)
-        and prev.get("status") == "failed"
-        and "triangles_in" not in prev
-        and prev.get("input_digest") == item.input_digest
-    )
 
 
 def require_dask() -> None:
@@ -1091,22 +911,6 @@ def _triangles_shown(item: PlanItem) -> str:
     if how == "unknown":
         return "triangles=? (unknown: the file did not load)"
     return f"triangles={'?' if tri is None else tri}"
-
-
-def _current_why(recorded: Any, item: PlanItem) -> str:
-    """The ``why`` of an up-to-date asset's record today: the rule that chooses its treatment now
-    (``item.why``), and for ``encoding: auto`` the choice its build recorded after it (``; auto: ...``,
-    :func:`.worker.choose_auto`'s, which the build alone measures: this treatment's, as the digest is)."""
-    if item.treatment.get("encoding") == "auto" and isinstance(recorded, str):
-        cut = recorded.rfind("; auto: ")  # (the last: the choice holds none, a rule's name might)
-        if cut >= 0:
-            return item.why + recorded[cut:]
-    return item.why
-
-
-def _rule_name(cfg: Config, item: PlanItem) -> str | None:
-    """The name of the rule that chose ``item``'s treatment (None: the defaults)."""
-    return None if item.rule is None else cfg.data["rules"][item.rule]["name"]
 
 
 def _failed_before(record: dict | None) -> bool:
