@@ -99,8 +99,6 @@ def _same_stat(entries: list[dict], recorded: list[dict] | None) -> bool:
 #: without it (of an older version: a .glb listed alone, before its buffer files were inputs; a USD file
 #: before its layers were) or of another listing is read again, and marked by the run
 INPUTS_LISTED = "inputs_listed"
-
-
 #: the listing's version: one more whenever a file's inputs are listed otherwise
 LISTING = 1
 

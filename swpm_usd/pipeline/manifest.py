@@ -29,35 +29,23 @@ MANIFEST = "manifest.json"
 
 #: the manifest's list of outputs of assets removed from the config that a run left in place (no ``prune``)
 ORPHANED = "orphaned_outputs"
-
-
 #: the manifest's records of the run's own outputs (kind -> record): ``scene`` (scene.usda) and ``report``
 #: (report.html), each with its ``output`` option's default, so that when the config stops asking for one
 #: the file left (a scene referencing layers ``prune`` deletes, a report of an older run) is an orphan
 RUN_OUTPUTS = "run_outputs"
-
-
 _RUN_OUTPUT_DEFAULTS = {"scene": False, "report": True}
-
-
 _RUN_OUTPUT_FILES = {"scene": "scene.usda", "report": "report.html"}
-
-
 #: the report's :data:`RUN_OUTPUTS` record's config file as the report names it (an absolute path: the
 #: manifest's ``config`` is relative to output.dir), so that a rerun of a project moved whole, which changes
 #: no record, rewrites the report that names the old path (and the manifest, for its record) and no more
 REPORT_CONFIG = "config"
-
-
-#: a run output's record's mark that the file was written from the records of the manifest that holds it
-#: (the run's last write of the manifest; a write during the run, or of a run stopped, leaves it out: the
-#: records have changed since the file was written, or may have). A rerun that changes no record keeps
-#: such a file while it is as recorded (:func:`_checked_output`), and writes neither it nor the manifest.
-#: True in memory; in the file, the digest of the manifest's text before :data:`RUN_OUTPUTS` (its records
-#: as written, :func:`_records_digest`), so that records edited by hand since leave the file not current
+#: a run output's record's mark that the file was written from the records of the manifest that holds it (the
+#: run's last write of the manifest; a write during the run, or of a run stopped, leaves it out: the records
+#: have changed since the file was written, or may have). A rerun that changes no record keeps such a file
+#: while it is as recorded (:func:`.outputs._checked_output`), and writes neither it nor the manifest. True in
+#: memory; in the file, the digest of the manifest's text before :data:`RUN_OUTPUTS` (its records as written,
+#: :func:`_records_digest`), so that records edited by hand since leave the file not current
 CURRENT = "current"
-
-
 #: where a manifest written by :class:`_ManifestText` has its :data:`RUN_OUTPUTS` (after its records: no
 #: line within them starts with one space)
 _RUN_OUTPUTS_FIELD = f"\n {json.dumps(RUN_OUTPUTS)}: ".encode()
@@ -95,8 +83,6 @@ def _recorded_output_paths(out_dir: Path, manifest: dict) -> list[Path]:
 #: each written once (key: :func:`_inputs_key`), and a record's reference to one in place of its ``inputs``
 #: (10,000 prims of a stage of 50 layers: about 75 MB of manifest, each record listing the 50)
 INPUT_LISTS = "input_lists"
-
-
 INPUTS_REF = "inputs_ref"
 
 

@@ -1,6 +1,6 @@
 """The local executor: a pool of worker processes running one task each, and the fork server they start from.
 
-:func:`_local_pool` runs each task (a dict, :func:`.runner._task`) on a worker process of its own
+:func:`_local_pool` runs each task (a dict, :func:`.tasks._task`) on a worker process of its own
 (:func:`.worker.serve`), one at a time, and yields each record as it finishes: a worker that dies fails its
 asset alone, one past ``limits.seconds`` is stopped, and Ctrl-C or an error stops them all. The workers fork
 from a server that has imported the package once (:func:`_forkserver_preload`) and warmed the tasks'
@@ -262,9 +262,9 @@ def _local_pool(tasks: list[dict], jobs: int, ctx: Any, limit_s: float | None) -
 def _forkserver_ready(ctx: Any) -> None:
     """Wait for the fork server to have warmed up (it loads the numba kernels, or compiles them: minutes with
     a cold cache, after an install or an upgrade) by having it fork a process that exits at once, in a thread:
-    the wait is the main thread's, which a Ctrl-C interrupts, stopping the server. The pool's workers are
-    then started at once (a Ctrl-C deferred while they start, :func:`_interrupts_deferred`, was held for the
-    whole warm-up)."""
+    the wait is the main thread's, which a Ctrl-C interrupts, stopping the server. The pool's workers are then
+    started at once (a Ctrl-C deferred while they start, :func:`.interrupts._interrupts_deferred`, was held
+    for the whole warm-up)."""
     if not _interrupts_raise():
         return  # (nothing interrupts the wait: the pool's first worker waits for the server)
     done = threading.Event()

@@ -1,31 +1,39 @@
 """``swpm-pipeline run``: plan every asset, skip what is up to date, run the rest on an executor, record.
 
-The run manifest (``<output>/manifest.json``) is rewritten atomically as assets finish (at most once a
-second, and at once when the run ends, fails or is stopped with Ctrl-C), so an interrupted run keeps every
-earlier result (a kill loses at most the last second's) and a rerun only does what is left. An asset
-is up to date when the digest of its input files, its resolved rule, parameters (defaults filled in, so
-writing one out rebuilds nothing) and the tool version equal the manifest's (for ``encoding: auto`` also the
-budgets and streaming policy it chose by), the budgets and streaming limits are as loose as those it passed
+This module is the orchestration: :func:`plan` decides what each asset needs, :func:`execute` runs the
+tasks, :func:`run` holds the steps together and records. What they call lives beside it: :mod:`.manifest`
+(the file, read and written fast), :mod:`.inputs` (which inputs are as recorded), :mod:`.rules` (an asset's
+rule, and whether its build is still current), :mod:`.tasks` (what a worker gets), :mod:`.pool` (the worker
+processes and their fork server), :mod:`.outputs` (the files in output.dir: checked, cleaned up, kept),
+:mod:`.lock` (one run at a time in an output folder), :mod:`.scene` (scene.usda), :mod:`.progress` and
+:mod:`.interrupts` (Ctrl-C).
+
+The run manifest (``<output>/manifest.json``) is rewritten atomically as assets finish (at most once a second,
+and at once when the run ends, fails or is stopped with Ctrl-C), so an interrupted run keeps every earlier
+result (a kill loses at most the last second's) and a rerun only does what is left. An asset is up to date
+when the digest of its input files, its resolved rule, parameters (defaults filled in, so writing one out
+rebuilds nothing) and the tool version equal the manifest's (for ``encoding: auto`` also the budgets and
+streaming policy it chose by), the budgets and streaming limits are as loose as those it passed
 (:func:`.assets.checks_no_stricter`: loosening a budget rebuilds nothing, tightening one checks again), and
 its outputs are those the config asks for and still as recorded (their size and stat, else their sha256:
-:func:`_checked_output`). The digest of its inputs is the recorded one, without reading them, when they are
-the recorded files with the size and stat recorded as they were hashed, taken a while after their last
-change (:func:`_inputs_unchanged`), else they are hashed (and recorded anew); ``verify`` hashes every input
-and output. A record the run does not write (a hand edit) is ignored, with a warning.
+:func:`.outputs._checked_output`). The digest of its inputs is the recorded one, without reading them, when
+they are the recorded files with the size and stat recorded as they were hashed, taken a while after their
+last change (:func:`.inputs._inputs_unchanged`), else they are hashed (and recorded anew); ``verify`` hashes
+every input and output. A record the run does not write (a hand edit) is ignored, with a warning.
 
 An asset whose rebuild fails keeps its previous build when that build's outputs are intact
-(:func:`_keep_previous`): the manifest keeps its record (with ``last_failure``), the scene its layer, and the
-run reports it failed. One run at a time writes in an output folder (:class:`_OutputLock`). The outputs of
-assets no longer in the config are left and named, and recorded under ``orphaned_outputs`` until a run with
-``prune`` deletes them (:func:`_orphaned_outputs`).
+(:func:`.outputs._keep_previous`): the manifest keeps its record (with ``last_failure``), the scene its layer,
+and the run reports it failed. One run at a time writes in an output folder (:class:`.lock._OutputLock`). The
+outputs of assets no longer in the config are left and named, and recorded under ``orphaned_outputs`` until a
+run with ``prune`` deletes them (:func:`.outputs._orphaned_outputs`).
 
 A run that builds and prunes nothing, whose failures each fail again as recorded (:func:`_same_failure`:
 retried, their records kept), and whose manifest would hold what it holds, writes neither it nor scene.usda
 nor report.html: those were written from these records (their ``run_outputs`` records marked
-:data:`CURRENT`) and are kept while they are as recorded (10,000 assets: a 47 MB manifest, 2.2 s to write),
-the report while it names the config where it is now (:data:`REPORT_CONFIG`: a project moved whole has its
-report and manifest written); nor the lock file, which holds the pid of the last run that wrote
-(:meth:`_OutputLock.claim`).
+:data:`.manifest.CURRENT`) and are kept while they are as recorded (10,000 assets: a 47 MB manifest, 2.2 s to
+write), the report while it names the config where it is now (:data:`.manifest.REPORT_CONFIG`: a project moved
+whole has its report and manifest written); nor the lock file, which holds the pid of the last run that wrote
+(:meth:`.lock._OutputLock.claim`).
 """
 
 from __future__ import annotations
@@ -169,7 +177,7 @@ class PlanItem:
     rule_pending: bool = False  # the worker matches the rule once it has counted the triangles
     inputs: list[Path] = field(default_factory=list)  # the files the asset is built from (discover's)
     #: an up-to-date asset's outputs as its manifest record lists them, with the stat fields of those
-    #: hashed to be checked recorded anew (:func:`_checked_output`) and those of a kind the config no
+    #: hashed to be checked recorded anew (:func:`.outputs._checked_output`) and those of a kind the config no
     #: longer asks for left out when deleted or changed since, a USD layer's units added to a record
     #: written before they were (:func:`.worker.recorded_layer_units`); None when no record changed
     checked_outputs: dict[str, dict] | None = None
@@ -177,10 +185,11 @@ class PlanItem:
     #: writes (a hand edit: :func:`.records.record_problem`), which is then ignored, with a warning
     previous: dict | None = None
     #: each input file's manifest entry (:func:`.assets.hash_inputs`): the recorded ones, when the input
-    #: digest was taken from the record (:func:`_inputs_unchanged`), else those of the files just hashed
+    #: digest was taken from the record (:func:`.inputs._inputs_unchanged`), else those of the files just
+    #: hashed
     input_stats: list[dict] = field(default_factory=list)
     #: ``inputs`` is a list a rerun may take from the record while its files are unchanged
-    #: (:func:`.assets.discover`'s ``settled``): the record says so by :data:`INPUTS_LISTED`
+    #: (:func:`.assets.discover`'s ``settled``): the record says so by :data:`.inputs.INPUTS_LISTED`
     inputs_listed: bool = False
     #: how ``triangles`` is known (:data:`TRIANGLE_COUNTS`): a dry run takes the count a file tells before
     #: its geometry is read where the rules need one (:func:`.io.early_triangle_count`)
@@ -205,7 +214,7 @@ class RunResult:
     manifest_path: Path
     plan: list[dict] = field(default_factory=list)  # --dry-run / --explain: each asset's plan
     #: this run's failures: asset id -> the failed attempt's record (``error``, ``traceback``, ...), with
-    #: ``kept_previous`` True when the asset's previous build was kept (see :func:`_keep_previous`)
+    #: ``kept_previous`` True when the asset's previous build was kept (see :func:`.outputs._keep_previous`)
     failures: dict[str, dict] = field(default_factory=dict)
     #: the outputs of assets no longer in the config: deleted (``prune``), or left in output.dir and named
     #: here, as output.dir-relative paths (a dry run names what ``prune`` would delete)
@@ -241,12 +250,13 @@ def plan(
     geometry is read (:func:`.io.early_triangle_count`; ``triangles_how`` says which) where it tells one,
     else it is loaded.
 
-    An asset's input digest is its record's when its input files are as recorded (:func:`_inputs_unchanged`),
-    else they are hashed (:func:`.assets.hash_inputs`, the item's ``input_stats`` then those of the files
-    hashed, which the run records); its recorded outputs are intact when their size and stat are as
-    recorded, or else their sha256 (:func:`_checked_output`). ``verify`` hashes every input and output. A
-    manifest record that is not one the run writes (:func:`.records.record_problem`: hand-edited) is
-    ignored, as if the asset had none, and named in a warning."""
+    An asset's input digest is its record's when its input files are as recorded
+    (:func:`.inputs._inputs_unchanged`), else they are hashed (:func:`.assets.hash_inputs`, the item's
+    ``input_stats`` then those of the files hashed, which the run records); its recorded outputs are intact
+    when their size and stat are as recorded, or else their sha256 (:func:`.outputs._checked_output`).
+    ``verify`` hashes every input and output. A manifest record that is not one the run writes
+    (:func:`.records.record_problem`: hand-edited) is ignored, as if the asset had none, and named in a
+    warning."""
     out_dir = output_dir(cfg)
     known = manifest.get("assets", {})
     reused: set[str] = set()  # the assets whose inputs are their record's (as recorded: not read)
@@ -536,11 +546,11 @@ def run(
     ``prune``: delete the recorded outputs of assets the config no longer has (those still as the manifest
     recorded them and not outputs of this run's assets); without it they stay and the result names them.
 
-    ``verify``: hash every input file and recorded output (sha256) to decide whether it changed, where a
-    run otherwise trusts one whose size, mtime, ctime, inode and device are as recorded
-    (:func:`_inputs_unchanged`, :func:`_checked_output`): a file whose bytes changed with none of those (a
-    disk's silent corruption, a write within the timestamp granularity of the run's own) is found and its
-    asset rebuilt.
+    ``verify``: hash every input file and recorded output (sha256) to decide whether it changed, where a run
+    otherwise trusts one whose size, mtime, ctime, inode and device are as recorded
+    (:func:`.inputs._inputs_unchanged`, :func:`.outputs._checked_output`): a file whose bytes changed with
+    none of those (a disk's silent corruption, a write within the timestamp granularity of the run's own) is
+    found and its asset rebuilt.
 
     A run that writes (not ``dry_run``) holds output.dir's lock from before it reads the manifest (or, for
     an output.dir it creates, from then) to its end; another run there raises :class:`OutputLockedError`."""
@@ -735,7 +745,7 @@ def _run(
 
     def changed() -> None:
         """A record changes: the run writes here, and its scene and report are no longer those of the
-        manifest's records (:data:`CURRENT`)."""
+        manifest's records (:data:`.manifest.CURRENT`)."""
         nonlocal unchanged, run_outputs
         if not unchanged:
             return

@@ -84,8 +84,6 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
 #: the scene's up axis and metersPerUnit (USD converts neither across a reference: each asset whose layer
 #: says otherwise gets a corrective transform on its prim, :func:`_author_units_correction`)
 SCENE_UP_AXIS, SCENE_METERS_PER_UNIT = "Y", 1.0
-
-
 #: the corrective ops' names (suffixed: beside, not instead of, a layout's own xformOp:translate ...)
 UP_AXIS_OP, UNITS_OP = "xformOp:rotateX:swpmUpAxis", "xformOp:scale:swpmMetersPerUnit"
 
