@@ -72,6 +72,7 @@ from .inputs import (
     _with_inputs,
     recorded_path,
 )
+from .inputs import _is_recorded_path as _is_recorded_path  # (re-exported)
 from .interrupts import _interrupts_ignored, _interrupts_noted
 from .lock import LOCK as LOCK  # (re-exported)
 from .lock import _lock_holder as _lock_holder  # (re-exported)
