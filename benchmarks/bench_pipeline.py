@@ -13,7 +13,7 @@
 5. Rerun over large inputs: 200 copies of bob.obj (0.94 MB each, 187 MB; vanilla) built once, then a
    rerun with nothing changed, as a fresh `swpm-pipeline run` (wall time) and as `run()` in this process
    (the run's own time), medians of 5 after one settling rerun (inputs written just before the build are
-   hashed again once: see runner._RACY_NS); then the fresh process again with the inputs evicted from the
+   hashed again once: see inputs._RACY_NS); then the fresh process again with the inputs evicted from the
    page cache before each (posix_fadvise DONTNEED on each file: as on a cold cache or a network mount,
    where the reads cost most). Every rerun hashed every input (187 MB read) before the manifest recorded
    their stat: `run` 0.41 s, now 0.13 s; the command 1.45 s, now 1.15 s; evicted 2.0 s, now 1.3 s

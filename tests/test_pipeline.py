@@ -1794,7 +1794,7 @@ def _hand_edited(good: dict) -> dict[str, object]:
         "a curve point without its error": edit(lambda r: r["summary"]["curve"][0].pop("error")),
         "last_failure a string": edit(lambda r: r.update(last_failure="boom")),
         "seconds a string": edit(lambda r: r.update(seconds="0.5")),
-        # (the scene corrects the asset's layer by its units: runner._author_units_correction)
+        # (the scene corrects the asset's layer by its units: scene._author_units_correction)
         "an up axis X": edit(lambda r: r["outputs"]["usd"].update(up_axis="X")),
         "metersPerUnit 0": edit(lambda r: r["outputs"]["usd"].update(meters_per_unit=0)),
     }
@@ -2293,10 +2293,10 @@ def test_a_rerun_reads_no_input_whose_size_and_stat_are_as_recorded(tmp_path, mo
     # every rerun hashed every input file of every asset (1,000 assets of 10 MB: 10 GB read with nothing
     # changed); the manifest now records each input's size and stat as it was hashed, and a rerun that finds
     # them unchanged takes the recorded input digest without reading the file
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
     from swpm_usd.pipeline.assets import file_digest
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (inputs just written: see the racily clean test)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)  # (inputs just written: see the racily clean test)
     cfg = _project(tmp_path, config=MINIMAL)
     out, meshes = tmp_path / "out", tmp_path / "meshes"
     assert run(cfg, echo=lambda m: None).built == 2
@@ -2404,9 +2404,9 @@ def _two_layer_stage(tmp_path: Path) -> tuple[Path, Path]:
 def test_a_stage_s_prims_share_the_hash_of_its_layers_and_a_rerun_reads_none(tmp_path, monkeypatch):
     # a stage asset's inputs are the stage and every layer it uses: each listed with its stat, hashed once
     # for all the stage's prims, and read by no rerun until one of them changes
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     cfg, layer = _two_layer_stage(tmp_path)
     reads = _input_reads(monkeypatch, tmp_path / "stage")
     assert run(cfg, echo=lambda m: None).built == 2
@@ -2432,9 +2432,9 @@ def test_a_stage_s_layers_are_its_inputs_in_one_order_whatever_order_usd_gives(t
     # them to another digest and rebuilt every prim of the stage
     from pxr import Usd
 
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     cfg, _ = _two_layer_stage(tmp_path)
     assert run(cfg, echo=lambda m: None).built == 2
     used = Usd.Stage.GetUsedLayers
@@ -2454,9 +2454,9 @@ def test_a_usdz_stage_s_input_is_its_package(tmp_path, monkeypatch):
     # file, and the run stopped in the plan with a traceback (FileNotFoundError) hashing it
     from pxr import Sdf, UsdUtils
 
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     cfg, _ = _two_layer_stage(tmp_path)
     pkg = tmp_path / "pkg.usdz"
     assert UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(str(tmp_path / "stage" / "scene.usda")), str(pkg))
@@ -2474,9 +2474,9 @@ def test_a_gltf_s_buffer_files_are_its_inputs(tmp_path, monkeypatch):
     import numpy as np
     import trimesh
 
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     (tmp_path / "m").mkdir()
     spot = swpm_usd.load_mesh(SHARED_MESHES / "spot.obj")
     mesh = trimesh.Trimesh(spot.points, spot.triangles, process=False)
@@ -2535,10 +2535,10 @@ def test_an_input_changed_between_plan_and_build_is_built_and_recorded_as_loaded
     # (and its .swpm's source digest) holding the digest and stat of the bytes the plan hashed, not those it
     # was built from. Stable across the worker's own load, it is built and hashed once loaded: the record
     # holds the digest and stat of the bytes loaded, the .swpm its digest, and the next run skips it
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs, runner
     from swpm_usd.pipeline.assets import file_digest
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     cfg = _project(tmp_path, meshes=("cow.obj",), config=config)
     cow = tmp_path / "meshes" / "cow.obj"
     planned = file_digest([cow])
@@ -2561,10 +2561,10 @@ def test_an_input_changed_between_plan_and_build_is_built_and_recorded_as_loaded
 def test_an_input_the_plan_hashed_while_it_changed_is_hashed_by_the_worker_once_loaded(tmp_path, monkeypatch):
     # the plan's hash saw it change (no stat recorded, a digest of no one version): built, its record held
     # that digest; the worker hashes the bytes it loaded, and the next run skips it
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs, runner
     from swpm_usd.pipeline.assets import file_digest
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     cfg = _project(tmp_path, meshes=("cow.obj",), config=_NO_COUNT_RULE)
     cow = tmp_path / "meshes" / "cow.obj"
     real = runner.hash_inputs
@@ -2585,9 +2585,9 @@ def test_an_input_the_plan_hashed_while_it_changed_is_hashed_by_the_worker_once_
 def test_an_input_changed_since_the_plan_and_again_once_loaded_is_refused(tmp_path, monkeypatch):
     # changed since the plan, it is hashed once loaded: another file by then (changed again after the load),
     # the digest would be of bytes it was not built from
-    from swpm_usd.pipeline import assets, runner
+    from swpm_usd.pipeline import assets, inputs, runner
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     cfg = _project(tmp_path, meshes=("cow.obj",), config=_NO_COUNT_RULE)
     cow = tmp_path / "meshes" / "cow.obj"
     real, hash_inputs = runner.process_asset, assets.hash_inputs
@@ -2614,9 +2614,9 @@ def test_an_input_changed_since_the_plan_with_another_triangle_count_than_its_ru
 ):
     # its rule chosen by the plan for the count the record held: built from bytes of another count, the
     # asset would be recorded with a rule that is not the one its triangles match
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs, runner
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     cfg = _project(tmp_path, meshes=("cow.obj",), config=MINIMAL)
     cow = tmp_path / "meshes" / "cow.obj"
     assert run(cfg, echo=lambda m: None).built == 1
@@ -2648,10 +2648,10 @@ def test_a_file_naming_other_inputs_changed_since_the_plan_is_refused(tmp_path, 
     # which the record would list unread by the next run. Its buffers changed alone are built and recorded
     import trimesh
 
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs, runner
     from swpm_usd.pipeline.assets import file_digest
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     (tmp_path / "m").mkdir()
     spot = swpm_usd.load_mesh(SHARED_MESHES / "spot.obj")
     files = trimesh.Scene(trimesh.Trimesh(spot.points, spot.triangles, process=False)).export(
@@ -2690,9 +2690,9 @@ def test_a_file_naming_other_inputs_changed_since_the_plan_is_refused(tmp_path, 
 
 
 def test_verify_hashes_every_input(tmp_path, monkeypatch):
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     cfg = _project(tmp_path, config=MINIMAL)
     assert run(cfg, echo=lambda m: None).built == 2
     reads = _input_reads(monkeypatch, tmp_path / "meshes")
@@ -2717,9 +2717,9 @@ def _files_as_written(out: Path) -> dict[str, tuple[int, int, int]]:
 def test_verify_of_an_unchanged_tree_writes_nothing_and_rebuilds_what_it_finds_changed(tmp_path, monkeypatch):
     # --verify hashed every input, then recorded each input anew (its hashed_ns moved): the manifest changed,
     # so the manifest, scene.usda and report.html were all written again on every verify of an unchanged tree
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (inputs trusted as soon as they were hashed)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)  # (inputs trusted as soon as they were hashed)
     cfg = _project(tmp_path, config=MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
     out = tmp_path / "out"
     assert run(cfg, echo=lambda m: None).built == 2
@@ -2760,9 +2760,9 @@ def test_a_moved_project_is_a_rerun_that_changes_nothing(tmp_path, monkeypatch):
     # rewritten. They are relative to the config's folder (the config's to output.dir) now; an input given
     # by an absolute path elsewhere (a stage in a shared library) keeps its absolute path
 
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (inputs trusted as soon as they were hashed)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)  # (inputs trusted as soon as they were hashed)
     library = tmp_path / "library"
     library.mkdir()
     quad = library / "quad.usda"
@@ -2830,9 +2830,10 @@ def test_a_no_change_rerun_compares_recorded_input_paths_as_text(tmp_path, monke
     # asset into that path (Path.relative_to, 14 us) to compare it, and a stage's prims each compare all
     # its layers: 1,000 prims of a 51-layer stage, a no-change rerun (best of 5) 1.06-1.10 s before the
     # paths were relative, 1.27-1.52 s with them, 1.13-1.17 s compared as text
+    from swpm_usd.pipeline import inputs as input_checks
     from swpm_usd.pipeline import runner
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(input_checks, "_RACY_NS", 0)
     cfg, _ = _two_layer_stage(tmp_path)
     cfg.write_text(
         "version: 1\nassets: [{stage: stage/scene.usda}, {glob: 'm/*.obj'}]\noutput: {dir: out}\n"
@@ -2843,7 +2844,8 @@ def test_a_no_change_rerun_compares_recorded_input_paths_as_text(tmp_path, monke
     assert run(cfg, echo=lambda m: None).built == 3
     made = []
     real = runner.recorded_path
-    monkeypatch.setattr(runner, "recorded_path", lambda base, path: made.append(path) or real(base, path))
+    for where in (runner, input_checks):  # (the plan's calls, and those of the input checks it calls)
+        monkeypatch.setattr(where, "recorded_path", lambda base, path: made.append(path) or real(base, path))
     reads = _input_reads(monkeypatch, tmp_path / "stage")
     assert run(cfg, echo=lambda m: None).skipped == 3 and reads == [] and made == []
     # compared as they were: the same files up to date, another file's record not taken for them
@@ -2865,9 +2867,9 @@ def test_a_no_change_rerun_compares_recorded_input_paths_as_text(tmp_path, monke
 def test_a_record_s_curve_is_written_a_point_a_line(tmp_path, monkeypatch):
     # summary.curve, written a key a line (indent=1), was two thirds of each record: each point is one line
     # now, the same JSON value (every reader of the manifest reads what it read), the record a third smaller
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (inputs trusted as soon as they were hashed)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)  # (inputs trusted as soon as they were hashed)
     cfg = _project(tmp_path, meshes=("cow.obj",), config=MINIMAL)
     assert run(cfg, echo=lambda m: None).built == 1
     text = (tmp_path / "out" / "manifest.json").read_text()
@@ -2889,9 +2891,9 @@ def test_a_record_s_curve_is_written_a_point_a_line(tmp_path, monkeypatch):
 def test_inputs_of_an_older_manifest_are_hashed_once_then_trusted(tmp_path, monkeypatch):
     # a manifest written before inputs had their stat recorded: each input hashed as before (to the same
     # digest: nothing rebuilt), its stat then recorded, and the next rerun reads none
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     cfg = _project(tmp_path, config=MINIMAL)
     out = tmp_path / "out"
     assert run(cfg, echo=lambda m: None).built == 2
@@ -2911,10 +2913,10 @@ def test_inputs_of_an_older_manifest_are_hashed_once_then_trusted(tmp_path, monk
 def test_a_malformed_input_stat_is_hashed_not_trusted(tmp_path, monkeypatch):
     # a hand-edited `inputs` never raises, nor makes the record one the run ignores: the input is hashed
     # (the digest the same, nothing rebuilt) and its entry recorded anew
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
     from swpm_usd.pipeline.records import record_problem, recorded_inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     cfg = _project(tmp_path, config=MINIMAL)
     out, cow = tmp_path / "out", tmp_path / "meshes" / "cow.obj"
     assert run(cfg, echo=lambda m: None).built == 2
@@ -2969,7 +2971,7 @@ def test_a_racily_clean_input_is_hashed_again(tmp_path, monkeypatch):
     # an input changed within the timestamp granularity of its hash can keep the recorded size and stat with
     # other bytes (as git's "racily clean" files): a record whose mtime or ctime is not older than the
     # moment of hashing by _RACY_NS is not trusted, and the input is hashed (its entry recorded anew)
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
     cfg = _project(tmp_path, meshes=("cow.obj",), config=MINIMAL)
     out, cow = tmp_path / "out", tmp_path / "meshes" / "cow.obj"
@@ -2993,8 +2995,8 @@ def test_a_racily_clean_input_is_hashed_again(tmp_path, monkeypatch):
     st = cow.stat()
     changed = max(st.st_mtime_ns, st.st_ctime_ns)
     assert not trusted(changed + 10**9)  # hashed a second after its last change
-    assert not trusted(changed + runner._RACY_NS)
-    assert trusted(changed + runner._RACY_NS + 1)
+    assert not trusted(changed + inputs._RACY_NS)
+    assert trusted(changed + inputs._RACY_NS + 1)
     assert trusted(changed + 60 * 10**9)
     # the ctime counts as the mtime does (a chmod or a rename just before the hash, then an edit with the
     # mtime set back in the same tick): an mtime a minute older than the hash does not make it trusted
@@ -3002,7 +3004,7 @@ def test_a_racily_clean_input_is_hashed_again(tmp_path, monkeypatch):
     assert run(cfg, echo=lambda m: None).skipped == 1  # (hashed: its stat moved; recorded anew)
     st = cow.stat()
     assert not trusted(st.st_ctime_ns + 10**9)
-    assert trusted(st.st_ctime_ns + runner._RACY_NS + 1)
+    assert trusted(st.st_ctime_ns + inputs._RACY_NS + 1)
 
 
 def _config_problems(cfg, text: str, stderr_lists_them: bool = False) -> list[str]:
@@ -3365,10 +3367,10 @@ def test_a_build_recorded_with_its_count_in_the_digest_is_not_built_again(tmp_pa
     import hashlib
 
     from swpm_usd import __version__
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
     from swpm_usd.pipeline.assets import canonical_treatment
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     config = MINIMAL.replace('glob: "meshes/*.obj"', 'glob: "meshes/*.obj"\n    instances: 40')
     cfg = _project(tmp_path, meshes=("cow.obj",), config=config)
     out = tmp_path / "out"
@@ -3701,10 +3703,10 @@ def test_a_worker_that_dies_after_sending_its_record_is_replaced(monkeypatch):
     import multiprocessing as mp
     import multiprocessing.connection
 
-    from swpm_usd.pipeline import runner, worker
+    from swpm_usd.pipeline import pool, runner, worker
 
     monkeypatch.setattr(worker, "process_asset", _fake_asset)
-    monkeypatch.setattr(runner, "serve", _serve_once)
+    monkeypatch.setattr(pool, "serve", _serve_once)
     real_wait = multiprocessing.connection.wait
 
     def wait(objects, timeout=None):  # (the worker gone by the time its record is read: both ready)
@@ -3726,11 +3728,11 @@ def test_a_worker_dead_before_its_task_is_sent_gives_it_to_another(monkeypatch):
     # a send to a worker that had died (a broken pipe) was raised out of the pool: the whole run stopped
     import multiprocessing as mp
 
-    from swpm_usd.pipeline import runner, worker
+    from swpm_usd.pipeline import pool, runner, worker
 
     monkeypatch.setattr(worker, "process_asset", _fake_asset)
     ctx = mp.get_context("fork")
-    real = runner._Worker
+    real = pool._Worker
     for seen_alive in (False, True):  # (its death seen, or not yet: the send is what fails)
         made = []
 
@@ -3744,7 +3746,7 @@ def test_a_worker_dead_before_its_task_is_sent_gives_it_to_another(monkeypatch):
             made.append(w)
             return w
 
-        monkeypatch.setattr(runner, "_Worker", new)
+        monkeypatch.setattr(pool, "_Worker", new)
         recs = list(runner._local_pool([{"id": "a", "digest": "a"}], 1, ctx, None))
         assert [(r["id"], r["status"]) for r in recs] == [("a", "built")], recs
         assert len(made) == 2 and not mp.active_children()
@@ -3782,10 +3784,10 @@ def test_a_limit_times_the_build_not_the_worker_start_up(monkeypatch):
     # limit, and an asset that builds in a moment was stopped (tests' spot.obj beside an overrunning asset)
     import multiprocessing as mp
 
-    from swpm_usd.pipeline import runner, worker
+    from swpm_usd.pipeline import pool, runner, worker
 
     monkeypatch.setattr(worker, "process_asset", _fake_asset)
-    monkeypatch.setattr(runner, "serve", _serve_late)
+    monkeypatch.setattr(pool, "serve", _serve_late)
     tasks = [{"id": "a", "digest": "a"}, {"id": "hangs", "digest": "hangs"}, {"id": "b", "digest": "b"}]
     recs = {r["id"]: r for r in runner._local_pool(tasks, 1, mp.get_context("fork"), 1.0)}
     assert recs["a"]["status"] == "built" and recs["b"]["status"] == "built", recs  # (b: a new worker)
@@ -3948,16 +3950,16 @@ def test_jobs_has_an_upper_bound(tmp_path, monkeypatch):
         assert not (tmp_path / "out").exists()
     assert "1<=x<=256" in CliRunner().invoke(main, ["run", "--help"]).output
     # the bound itself is taken, and no more workers start than there are assets to build
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import pool
 
     started = []
 
-    class Worker(runner._Worker):
+    class Worker(pool._Worker):
         def __init__(self, ctx):
             started.append(1)
             super().__init__(ctx)
 
-    monkeypatch.setattr(runner, "_Worker", Worker)
+    monkeypatch.setattr(pool, "_Worker", Worker)
     result = CliRunner().invoke(main, ["run", str(cfg), "--jobs", str(cli.MAX_JOBS)])
     assert result.exit_code == 0, result.output
     assert started == [1]
@@ -3999,9 +4001,9 @@ def test_a_glb_s_external_buffer_files_are_its_inputs(tmp_path, monkeypatch):
     # it does a .gltf's: they were no input of the asset, so an edited .bin left the stale build "up to date"
     import trimesh
 
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     mesh, glb, data = _spot_glb_with_external_buffer(tmp_path)
     points = swpm_usd.load_mesh(glb).points
     assert len(points) > 0
@@ -4030,9 +4032,9 @@ def test_a_glb_s_external_buffer_files_are_its_inputs(tmp_path, monkeypatch):
 def test_a_stage_s_prims_share_one_list_of_its_layers_in_the_manifest(tmp_path, monkeypatch):
     # each prim's record listed every layer of its stage (10,000 prims of a 50-layer stage: about 75 MB of
     # manifest): the list is written once, in `input_lists`, and each record names it by `inputs_ref`
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     cfg, layer = _two_layer_stage(tmp_path)
     (tmp_path / "m").mkdir()
     (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
@@ -4104,9 +4106,9 @@ def test_a_rerun_takes_a_gltf_s_or_usd_file_s_inputs_from_its_record_when_they_a
     import trimesh
     from pxr import Usd, UsdGeom
 
-    from swpm_usd.pipeline import assets, runner
+    from swpm_usd.pipeline import assets, inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     (tmp_path / "m" / "geo").mkdir(parents=True)
     mesh = trimesh.creation.icosphere(subdivisions=1)
     for name, data in trimesh.Scene(mesh).export(file_type="gltf").items():
@@ -4185,9 +4187,9 @@ def test_a_record_listing_a_glb_s_inputs_the_old_way_is_never_taken_as_its_list(
     # alone: a rerun took that list as the asset's inputs (every file in it as recorded) instead of reading
     # the .glb, so an edited .bin left the stale build "up to date" for good
 
-    from swpm_usd.pipeline import assets, runner
+    from swpm_usd.pipeline import assets, inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     mesh, glb, data = _spot_glb_with_external_buffer(tmp_path)
     cfg = tmp_path / "pipeline.yaml"
     cfg.write_text(
@@ -4226,9 +4228,9 @@ def test_a_gltf_buffer_found_by_its_last_name_is_listed_again_once_its_name_as_w
     # with every file of the record as recorded, so the record's list is not the asset's inputs any more
     import trimesh
 
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     (tmp_path / "m" / "bin").mkdir(parents=True)
     mesh = trimesh.creation.icosphere(subdivisions=1)
     files = trimesh.Scene(mesh).export(file_type="gltf")
@@ -4262,9 +4264,9 @@ def test_a_record_listing_a_usd_file_alone_the_old_way_is_never_taken_as_its_lis
     import trimesh
     from pxr import Usd, UsdGeom
 
-    from swpm_usd.pipeline import assets, runner
+    from swpm_usd.pipeline import assets, inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     (tmp_path / "m" / "geo").mkdir(parents=True)
     mesh = trimesh.creation.icosphere(subdivisions=1)
     layer = tmp_path / "m" / "geo" / "a.usda"
@@ -4312,9 +4314,9 @@ def test_a_gltf_whose_json_did_not_read_while_listed_is_listed_again(tmp_path, m
     # for good, as the .gltf's own (unchanged), and an edited .bin left the stale build "up to date"
     import trimesh
 
-    from swpm_usd.pipeline import assets, runner
+    from swpm_usd.pipeline import assets, inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     (tmp_path / "m").mkdir()
     mesh = trimesh.creation.icosphere(subdivisions=1)
     files = trimesh.Scene(mesh).export(file_type="gltf")
@@ -4352,9 +4354,9 @@ def test_a_rerun_that_changes_nothing_rewrites_no_manifest_scene_or_report(tmp_p
     # a rerun with nothing to build serialised and rewrote the whole manifest, the scene and the report
     # (10,000 small assets: a 47 MB manifest, 2.5-2.9 s of a 7-9 s rerun); each is written again when what
     # it holds would change, or when the file is not the one the last run wrote
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (inputs just written: see the racily clean test)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)  # (inputs just written: see the racily clean test)
     (tmp_path / "m").mkdir()
     for name in ("a", "b", "c"):
         (tmp_path / "m" / f"{name}.obj").write_text(TWO_TRIANGLES + f"# {name}\n")
@@ -4418,9 +4420,9 @@ def test_a_rerun_that_changes_nothing_rewrites_no_manifest_scene_or_report(tmp_p
 def test_a_run_stopped_before_its_scene_and_report_leaves_them_to_be_written_again(tmp_path, monkeypatch):
     # the manifest a run writes as assets finish (or when it is stopped) holds their new records while the
     # scene and report recorded are the last run's: the next run, with nothing left to build, writes them
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs, runner
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     (tmp_path / "m").mkdir()
     (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
     cfg = tmp_path / "c.yaml"
@@ -4581,9 +4583,9 @@ def test_a_manifest_whose_records_were_edited_since_its_scene_and_report_has_the
 ):
     # the scene and report a run wrote are kept only while the manifest holds the records they were written
     # from: a record edited by hand since (its text, or the whole file reformatted) has them written again
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     (tmp_path / "m").mkdir()
     for name in ("a", "b"):
         (tmp_path / "m" / f"{name}.obj").write_text(TWO_TRIANGLES + f"# {name}\n")
@@ -4708,9 +4710,9 @@ def test_an_up_to_date_record_names_the_rule_that_chooses_it_today(tmp_path):
 
 
 def test_an_up_to_date_auto_record_keeps_the_choice_its_build_recorded(tmp_path, monkeypatch):
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (inputs just written: see the racily clean test)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)  # (inputs just written: see the racily clean test)
     # an `auto` asset's why is the rule's and then auto's choice ("...; auto: vanilla has ..."): a rerun that
     # changed nothing took the rule's alone as changed, rewrote the manifest, scene and report, and dropped
     # the choice from the record; a renamed rule keeps it too
@@ -5064,9 +5066,9 @@ def test_a_rerun_with_nothing_to_do_leaves_the_lock_file_as_it_was_and_still_exc
     # every run truncated the lock file and wrote its pid in it, a no-change rerun too (which writes nothing
     # else in output.dir): its pid is written once the run writes there, the lock taken as before
     from swpm_usd.errors import OutputLockedError
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs, runner
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("sliding-window", "vanilla"))
     out = tmp_path / "out"
     lock = out / runner.LOCK
@@ -5101,7 +5103,7 @@ def _scene_open_here_and_an_asset_added(tmp_path: Path, monkeypatch):
     (the config, output.dir, the open layer)."""
     from pxr import Sdf
 
-    monkeypatch.setattr("swpm_usd.pipeline.runner._RACY_NS", 0)
+    monkeypatch.setattr("swpm_usd.pipeline.inputs._RACY_NS", 0)
     cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
     out = tmp_path / "out"
     assert run(cfg, echo=lambda m: None).built == 1
@@ -5180,9 +5182,9 @@ def test_a_report_that_fails_after_the_scene_did_not_reload_says_both(tmp_path, 
 def test_a_manifest_whose_report_record_names_no_config_has_the_report_written_once(tmp_path, monkeypatch):
     # a manifest of the version before the report's record held the config it names: read as it is, the
     # report written once (no asset rebuilt, no input read), its record given the config; then nothing
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("sliding-window", "vanilla"))
     out = tmp_path / "out"
     assert run(cfg, echo=lambda m: None).built == 1
@@ -5227,9 +5229,9 @@ def test_a_rerun_stats_a_stage_s_layers_once_not_once_a_prim(tmp_path, monkeypat
     # looked each up again to guard the inputs from the outputs): 1,000 prims of a 51-layer stage, 51,000
     # stats of 51 files. A stage's layer list is checked once a run; the result is the same, an edited
     # layer rebuilding every prim
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)
     stats = {}
     for prims in (1, 8):
         cfg = _quads_over_a_sublayer(tmp_path / str(prims), prims)
@@ -5264,16 +5266,17 @@ def test_a_run_refused_while_another_plans_or_has_nothing_to_do_names_that_one(t
     # it: here this process, which wrote last (a notebook that ran the pipeline), named as the holder by the
     # run it started itself. The holder is the kernel's (/proc/locks), and the lock file still as it was
     from swpm_usd.errors import OutputLockedError
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs, runner
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (and in the other process: a rerun that writes nothing)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)  # (and in the other process: a rerun that writes nothing)
     cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("sliding-window", "vanilla"))
     out = tmp_path / "out"
     assert run(cfg, echo=lambda m: None).built == 1
     lock = out / runner.LOCK
     assert lock.read_text() == f"{os.getpid()}\n"
     before = _files_as_written(out)
-    with _run_held_in(tmp_path, cfg, "plan", "runner._RACY_NS = 0\n") as (first, release):  # (planning)
+    racy = "from swpm_usd.pipeline import inputs\ninputs._RACY_NS = 0\n"
+    with _run_held_in(tmp_path, cfg, "plan", racy) as (first, release):  # (planning)
         with pytest.raises(OutputLockedError) as err:
             run(cfg, echo=lambda m: None)
         release.touch()
@@ -5296,7 +5299,7 @@ def test_the_holder_of_the_lock_as_the_kernel_lists_it(tmp_path, monkeypatch):
         ours = f"{os.major(st.st_dev):02x}:{os.minor(st.st_dev):02x}:{st.st_ino}"
         other = f"{os.major(st.st_dev) + 1:02x}:{os.minor(st.st_dev):02x}:{st.st_ino}"
         listed = tmp_path / "locks"
-        monkeypatch.setattr(runner, "_PROC_LOCKS", str(listed))
+        monkeypatch.setattr("swpm_usd.pipeline.lock._PROC_LOCKS", str(listed))
         for lines, holder in (
             ([f"1: FLOCK  ADVISORY  WRITE 4117 {ours} 0 EOF"], 4117),
             ([f"1: FLOCK  ADVISORY  WRITE 4117 {other} 0 EOF"], 4117),  # (another device: the one lock)
@@ -5553,9 +5556,9 @@ def test_the_warm_up_builds_the_encodings_it_is_given_alone(monkeypatch):
 def test_a_failure_that_fails_again_the_same_way_rewrites_nothing(tmp_path, monkeypatch):
     # retried, as the README promises (and reported failed), but its record, and so the manifest, the
     # scene and the report, are as they were: a rerun of 500 assets with 10 broken rewrote all three
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import inputs, runner
 
-    monkeypatch.setattr(runner, "_RACY_NS", 0)  # (inputs just written: see the racily clean test)
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)  # (inputs just written: see the racily clean test)
     (tmp_path / "m").mkdir()
     for name in ("a", "b"):
         (tmp_path / "m" / f"{name}.obj").write_text(TWO_TRIANGLES + f"# {name}\n")

@@ -326,7 +326,7 @@ def test_scene_corrects_the_assets_of_records_written_before_their_units(rebuild
     kept that scene, the Z-up centimetre cow 100 times too large and on its side (a rewrite of it corrected
     nothing either), as did one whose rebuilds failed, keeping the previous builds. The units are read from
     each such layer's metadata, once, and recorded."""
-    from swpm_usd.pipeline import run, runner
+    from swpm_usd.pipeline import run, runner, scene
     from swpm_usd.pipeline.worker import output_record
 
     cfg, p = _cow_and_zcow(tmp_path)
@@ -338,7 +338,7 @@ def test_scene_corrects_the_assets_of_records_written_before_their_units(rebuild
         for key in ("up_axis", "meters_per_unit"):
             del rec["outputs"]["usd"][key]
     with monkeypatch.context() as m:
-        m.setattr(runner, "_author_units_correction", lambda *args: None)
+        m.setattr(scene, "_author_units_correction", lambda *args: None)
         runner._write_scene(out, manifest["assets"])
     manifest[runner.RUN_OUTPUTS]["scene"] = {**output_record(out / "scene.usda"), runner.CURRENT: True}
     runner._write_manifest(out / "manifest.json", manifest)
@@ -349,7 +349,7 @@ def test_scene_corrects_the_assets_of_records_written_before_their_units(rebuild
         cfg.write_text(cfg.read_text() + "budgets: {global_bytes: 1}\n")
     for again in (False, True):  # (once recorded, the layers are not read again)
         if again:
-            monkeypatch.setattr(runner, "recorded_layer_units", lambda path: pytest.fail(f"read {path}"))
+            monkeypatch.setattr(scene, "recorded_layer_units", lambda path: pytest.fail(f"read {path}"))
         res = run(cfg, echo=lambda m: None)
         assert res.built == 0 and res.failed == (2 if rebuild == "failed" else 0)
         assert all(f["kept_previous"] for f in res.failures.values())

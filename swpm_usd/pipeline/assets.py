@@ -49,7 +49,7 @@ def hash_inputs(paths: list[Path]) -> tuple[str, list[dict[str, Any]]]:
     """The digest of an asset's input files and, for each, its manifest entry: ``path``, and the ``size``
     and :data:`.worker.STAT_KEYS` of the bytes hashed (the stat taken through the descriptor read, before
     the read) with ``hashed_ns``, the time just before that stat (the runner's guard against a "racily
-    clean" file: :func:`.runner._inputs_unchanged`); the path alone for a file that changed while it was
+    clean" file: :func:`.inputs._inputs_unchanged`); the path alone for a file that changed while it was
     read, which the next run hashes again."""
     from .worker import stat_fields, update_with_stat
 
@@ -310,7 +310,7 @@ def discover(
 
     A glob-matched file's inputs are the file with the buffer files a glTF names or the layers a USD file
     uses (each read to list them), unless ``listed(asset id, file)`` gives them: the runner's list of the
-    asset's manifest record, when those files are all as recorded (:func:`.runner._listed_inputs`). The
+    asset's manifest record, when those files are all as recorded (:func:`.inputs._listed_inputs`). The
     ids of those of :data:`LISTED_SUFFIXES` whose list holds while the files in it are unchanged (taken
     from ``listed``, or read with every glTF buffer found by its name as written: a USD file with a layer
     it cannot open does not load) are added to ``settled``: their records may keep the list for reuse.

@@ -98,7 +98,7 @@ def _auto_table(aid: str, rec: dict) -> str:
 
 def config_named(out_dir: Path, config: object) -> str | None:
     """The config file a manifest's ``config`` names, as an absolute path: it is relative to ``out_dir``'s
-    real folder (:func:`.runner._config_ref`: output.dir a link to a folder elsewhere is that folder), or
+    real folder (:func:`.manifest._config_ref`: output.dir a link to a folder elsewhere is that folder), or
     absolute (an older version's). None for a value that is no path."""
     if not isinstance(config, str) or "\0" in config:
         return None

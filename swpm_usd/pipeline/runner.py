@@ -1,129 +1,158 @@
 """``swpm-pipeline run``: plan every asset, skip what is up to date, run the rest on an executor, record.
 
-The run manifest (``<output>/manifest.json``) is rewritten atomically as assets finish (at most once a
-second, and at once when the run ends, fails or is stopped with Ctrl-C), so an interrupted run keeps every
-earlier result (a kill loses at most the last second's) and a rerun only does what is left. An asset
-is up to date when the digest of its input files, its resolved rule, parameters (defaults filled in, so
-writing one out rebuilds nothing) and the tool version equal the manifest's (for ``encoding: auto`` also the
-budgets and streaming policy it chose by), the budgets and streaming limits are as loose as those it passed
+This module is the orchestration: :func:`plan` decides what each asset needs, :func:`execute` runs the
+tasks, :func:`run` holds the steps together and records. What they call lives beside it: :mod:`.manifest`
+(the file, read and written fast), :mod:`.inputs` (which inputs are as recorded), :mod:`.rules` (an asset's
+rule, and whether its build is still current), :mod:`.tasks` (what a worker gets), :mod:`.pool` (the worker
+processes and their fork server), :mod:`.outputs` (the files in output.dir: checked, cleaned up, kept),
+:mod:`.lock` (one run at a time in an output folder), :mod:`.scene` (scene.usda), :mod:`.progress` and
+:mod:`.interrupts` (Ctrl-C).
+
+The run manifest (``<output>/manifest.json``) is rewritten atomically as assets finish (at most once a second,
+and at once when the run ends, fails or is stopped with Ctrl-C), so an interrupted run keeps every earlier
+result (a kill loses at most the last second's) and a rerun only does what is left. An asset is up to date
+when the digest of its input files, its resolved rule, parameters (defaults filled in, so writing one out
+rebuilds nothing) and the tool version equal the manifest's (for ``encoding: auto`` also the budgets and
+streaming policy it chose by), the budgets and streaming limits are as loose as those it passed
 (:func:`.assets.checks_no_stricter`: loosening a budget rebuilds nothing, tightening one checks again), and
 its outputs are those the config asks for and still as recorded (their size and stat, else their sha256:
-:func:`_checked_output`). The digest of its inputs is the recorded one, without reading them, when they are
-the recorded files with the size and stat recorded as they were hashed, taken a while after their last
-change (:func:`_inputs_unchanged`), else they are hashed (and recorded anew); ``verify`` hashes every input
-and output. A record the run does not write (a hand edit) is ignored, with a warning.
+:func:`.outputs._checked_output`). The digest of its inputs is the recorded one, without reading them, when
+they are the recorded files with the size and stat recorded as they were hashed, taken a while after their
+last change (:func:`.inputs._inputs_unchanged`), else they are hashed (and recorded anew); ``verify`` hashes
+every input and output. A record the run does not write (a hand edit) is ignored, with a warning.
 
 An asset whose rebuild fails keeps its previous build when that build's outputs are intact
-(:func:`_keep_previous`): the manifest keeps its record (with ``last_failure``), the scene its layer, and the
-run reports it failed. One run at a time writes in an output folder (:class:`_OutputLock`). The outputs of
-assets no longer in the config are left and named, and recorded under ``orphaned_outputs`` until a run with
-``prune`` deletes them (:func:`_orphaned_outputs`).
+(:func:`.outputs._keep_previous`): the manifest keeps its record (with ``last_failure``), the scene its layer,
+and the run reports it failed. One run at a time writes in an output folder (:class:`.lock._OutputLock`). The
+outputs of assets no longer in the config are left and named, and recorded under ``orphaned_outputs`` until a
+run with ``prune`` deletes them (:func:`.outputs._orphaned_outputs`).
 
 A run that builds and prunes nothing, whose failures each fail again as recorded (:func:`_same_failure`:
 retried, their records kept), and whose manifest would hold what it holds, writes neither it nor scene.usda
 nor report.html: those were written from these records (their ``run_outputs`` records marked
-:data:`CURRENT`) and are kept while they are as recorded (10,000 assets: a 47 MB manifest, 2.2 s to write),
-the report while it names the config where it is now (:data:`REPORT_CONFIG`: a project moved whole has its
-report and manifest written); nor the lock file, which holds the pid of the last run that wrote
-(:meth:`_OutputLock.claim`).
+:data:`.manifest.CURRENT`) and are kept while they are as recorded (10,000 assets: a 47 MB manifest, 2.2 s to
+write), the report while it names the config where it is now (:data:`.manifest.REPORT_CONFIG`: a project moved
+whole has its report and manifest written); nor the lock file, which holds the pid of the last run that wrote
+(:meth:`.lock._OutputLock.claim`).
 """
 
 from __future__ import annotations
 
 import contextlib
-import fnmatch
 import gc
-import glob
-import hashlib
 import json
-import math
 import os
-import signal
-import stat
-import sys
-import threading
 import time
 from collections.abc import Generator, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from .. import __version__
-from ..codes import PROBLEM_KEYS
-from ..errors import MissingExtraError, OutputLockedError
+from ..errors import MissingExtraError
 from .assets import (
-    LISTED_SUFFIXES,
     Asset,
-    _folded,
     checks_no_stricter,
     checks_of,
     discover,
     hash_inputs,
     match_rule,
     output_dir,
-    rule_checks,
-    treatment_digest,
 )
 from .config import Config, ConfigError, load_config
-from .records import INPUT_STAT_KEYS, _what, record_problem, recorded_inputs
+from .inputs import INPUTS_LISTED as INPUTS_LISTED  # (re-exported)
+from .inputs import LISTING as LISTING  # (re-exported)
+from .inputs import (
+    _input_size,
+    _inputs_unchanged,
+    _listed_inputs,
+    _listing_mark,
+    _recorded_paths,
+    _same_stat,
+    _with_inputs,
+    recorded_path,
+)
+from .inputs import _is_recorded_path as _is_recorded_path  # (re-exported)
+from .interrupts import _interrupts_ignored, _interrupts_noted
+from .lock import LOCK as LOCK  # (re-exported)
+from .lock import _lock_holder as _lock_holder  # (re-exported)
+from .lock import _OutputLock
+from .manifest import (
+    _RUN_OUTPUT_DEFAULTS,
+    _RUN_OUTPUT_FILES,
+    CURRENT,
+    MANIFEST,
+    ORPHANED,
+    REPORT_CONFIG,
+    RUN_OUTPUTS,
+    _asks_for,
+    _config_ref,
+    _ManifestText,
+    _read_manifest,
+    _recorded_output_paths,
+    _shared_with,
+    _write_manifest,
+)
+from .manifest import INPUT_LISTS as INPUT_LISTS  # (re-exported)
+from .manifest import INPUTS_REF as INPUTS_REF  # (re-exported)
+from .outputs import _TEMPORARY as _TEMPORARY  # (re-exported)
+from .outputs import (
+    _checked_output,
+    _clean_after_worker,
+    _complete_output_record,
+    _dropped_outputs,
+    _file_key,
+    _files_kept,
+    _keep_previous,
+    _make_out_dir,
+    _orphaned_outputs,
+    _overwritten_inputs,
+    _rel,
+    _remove_temporary,
+    _restore_kept_aside,
+    _unusable_out_dir,
+)
+from .outputs import planned_outputs as planned_outputs  # (re-exported)
+from .pool import (
+    _TRIMESH_PRELOAD,
+    _environ,
+    _forkserver_pid,
+    _forkserver_preload,
+    _forkserver_ready,
+    _local_pool,
+    _stop_forkserver,
+    _warm_encodings,
+)
+from .progress import _Progress
+from .records import record_problem, recorded_inputs
+from .rules import (
+    _current_why,
+    _digest_with_count,
+    _max_triangles,
+    _routes_by_triangles,
+    _rule_name,
+    _rules_pending,
+    _same_rule_from,
+    _total_fits,
+    _treatment_digest,
+    _unreached_rules,
+    _wanted_outputs,
+    _wants_outputs,
+    _within_triangle_budget,
+)
+from .scene import SCENE_METERS_PER_UNIT as SCENE_METERS_PER_UNIT  # (re-exported)
+from .scene import SCENE_UP_AXIS as SCENE_UP_AXIS  # (re-exported)
+from .scene import UNITS_OP as UNITS_OP  # (re-exported)
+from .scene import UP_AXIS_OP as UP_AXIS_OP  # (re-exported)
+from .scene import _layer_with_units, _write_scene
+from .scene import _scene_prim_name as _scene_prim_name  # (re-exported)
+from .tasks import _task
 from .worker import (
-    LAYER_UNIT_KEYS,
-    READY,
     RUNNER_PID_ENV,
-    STAT_KEYS,
-    TRIANGLES_READ,
-    USD_TEMPORARY_SUFFIX,
     WARM_ENCODINGS_ENV,
-    atomic_write_bytes,
-    hash_with_stat,
-    ignore_interrupts,
     output_record,
     process_asset,
-    recorded_layer_units,
-    serve,
-    stat_fields,
 )
-
-if TYPE_CHECKING:  # (pxr is imported where a USD output is written: a run without one never loads it)
-    from pxr import Sdf
-
-MANIFEST = "manifest.json"
-#: the lock file of output.dir: a run holds an exclusive ``flock`` on it while it writes there (see
-#: :class:`_OutputLock`); the file stays, the lock goes with the run
-LOCK = ".swpm-pipeline.lock"
-#: the manifest's list of outputs of assets removed from the config that a run left in place (no ``prune``)
-ORPHANED = "orphaned_outputs"
-#: the manifest's records of the run's own outputs (kind -> record): ``scene`` (scene.usda) and ``report``
-#: (report.html), each with its ``output`` option's default, so that when the config stops asking for one
-#: the file left (a scene referencing layers ``prune`` deletes, a report of an older run) is an orphan
-RUN_OUTPUTS = "run_outputs"
-_RUN_OUTPUT_DEFAULTS = {"scene": False, "report": True}
-_RUN_OUTPUT_FILES = {"scene": "scene.usda", "report": "report.html"}
-#: the report's :data:`RUN_OUTPUTS` record's config file as the report names it (an absolute path: the
-#: manifest's ``config`` is relative to output.dir), so that a rerun of a project moved whole, which changes
-#: no record, rewrites the report that names the old path (and the manifest, for its record) and no more
-REPORT_CONFIG = "config"
-#: a run output's record's mark that the file was written from the records of the manifest that holds it
-#: (the run's last write of the manifest; a write during the run, or of a run stopped, leaves it out: the
-#: records have changed since the file was written, or may have). A rerun that changes no record keeps
-#: such a file while it is as recorded (:func:`_checked_output`), and writes neither it nor the manifest.
-#: True in memory; in the file, the digest of the manifest's text before :data:`RUN_OUTPUTS` (its records
-#: as written, :func:`_records_digest`), so that records edited by hand since leave the file not current
-CURRENT = "current"
-#: where a manifest written by :class:`_ManifestText` has its :data:`RUN_OUTPUTS` (after its records: no
-#: line within them starts with one space)
-_RUN_OUTPUTS_FIELD = f"\n {json.dumps(RUN_OUTPUTS)}: ".encode()
-
-
-def _records_digest(text: bytes | memoryview) -> str:
-    """The :data:`CURRENT` mark of a manifest whose text before :data:`_RUN_OUTPUTS_FIELD` is ``text``."""
-    return hashlib.sha256(text).hexdigest()[:16]
-
-
-def _asks_for(cfg: Config, kind: str) -> bool:
-    """Does the config ask for the run output ``kind`` (a key of :data:`_RUN_OUTPUT_DEFAULTS`)?"""
-    return bool(cfg.data["output"].get(kind, _RUN_OUTPUT_DEFAULTS[kind]))
-
 
 #: the manifest is rewritten at most this often during a run, or less often while one rewrite takes more
 #: than 1/_MANIFEST_BACKOFF of it: rewriting it after every asset, each time serialising every record, made
@@ -134,9 +163,6 @@ def _asks_for(cfg: Config, kind: str) -> bool:
 #: at once) has at most 20 rewrite times of finished assets to build again
 _MANIFEST_EVERY_S = 1.0
 _MANIFEST_BACKOFF = 20
-#: how long a worker process may take to start (fork from the server, or spawn) before its task's
-#: ``limits.seconds`` counts: its start-up is the pool's, not the asset's (a hung start still ends)
-_START_S = 60.0
 
 
 @dataclass
@@ -152,7 +178,7 @@ class PlanItem:
     rule_pending: bool = False  # the worker matches the rule once it has counted the triangles
     inputs: list[Path] = field(default_factory=list)  # the files the asset is built from (discover's)
     #: an up-to-date asset's outputs as its manifest record lists them, with the stat fields of those
-    #: hashed to be checked recorded anew (:func:`_checked_output`) and those of a kind the config no
+    #: hashed to be checked recorded anew (:func:`.outputs._checked_output`) and those of a kind the config no
     #: longer asks for left out when deleted or changed since, a USD layer's units added to a record
     #: written before they were (:func:`.worker.recorded_layer_units`); None when no record changed
     checked_outputs: dict[str, dict] | None = None
@@ -160,10 +186,11 @@ class PlanItem:
     #: writes (a hand edit: :func:`.records.record_problem`), which is then ignored, with a warning
     previous: dict | None = None
     #: each input file's manifest entry (:func:`.assets.hash_inputs`): the recorded ones, when the input
-    #: digest was taken from the record (:func:`_inputs_unchanged`), else those of the files just hashed
+    #: digest was taken from the record (:func:`.inputs._inputs_unchanged`), else those of the files just
+    #: hashed
     input_stats: list[dict] = field(default_factory=list)
     #: ``inputs`` is a list a rerun may take from the record while its files are unchanged
-    #: (:func:`.assets.discover`'s ``settled``): the record says so by :data:`INPUTS_LISTED`
+    #: (:func:`.assets.discover`'s ``settled``): the record says so by :data:`.inputs.INPUTS_LISTED`
     inputs_listed: bool = False
     #: how ``triangles`` is known (:data:`TRIANGLE_COUNTS`): a dry run takes the count a file tells before
     #: its geometry is read where the rules need one (:func:`.io.early_triangle_count`)
@@ -188,7 +215,7 @@ class RunResult:
     manifest_path: Path
     plan: list[dict] = field(default_factory=list)  # --dry-run / --explain: each asset's plan
     #: this run's failures: asset id -> the failed attempt's record (``error``, ``traceback``, ...), with
-    #: ``kept_previous`` True when the asset's previous build was kept (see :func:`_keep_previous`)
+    #: ``kept_previous`` True when the asset's previous build was kept (see :func:`.outputs._keep_previous`)
     failures: dict[str, dict] = field(default_factory=dict)
     #: the outputs of assets no longer in the config: deleted (``prune``), or left in output.dir and named
     #: here, as output.dir-relative paths (a dry run names what ``prune`` would delete)
@@ -198,244 +225,6 @@ class RunResult:
     built_ids: list[str] = field(default_factory=list)
 
 
-def _recorded_output_paths(out_dir: Path, manifest: dict) -> list[Path]:
-    """The files in ``out_dir`` that ``manifest`` records as the run's outputs (its assets', those left by
-    removed assets, scene.usda and report.html), which no glob takes as assets (:func:`.assets.discover`);
-    a hand-edited entry that is not a file name is left out."""
-    records = manifest.get("assets") if isinstance(manifest.get("assets"), dict) else {}
-    found = [
-        o
-        for rec in records.values()
-        if isinstance(rec, dict) and isinstance(rec.get("outputs"), dict)
-        for o in rec["outputs"].values()
-    ]
-    for key in (ORPHANED, RUN_OUTPUTS):
-        value = manifest.get(key)
-        found += value if isinstance(value, list) else list(value.values()) if isinstance(value, dict) else []
-    names = {o.get("path") for o in found if isinstance(o, dict)}
-    return [out_dir / n for n in names if isinstance(n, str) and n and "\0" not in n and "/" not in n]
-
-
-#: the manifest's table of the ``inputs`` lists several records share (the prims of one stage: its layers),
-#: each written once (key: :func:`_inputs_key`), and a record's reference to one in place of its ``inputs``
-#: (10,000 prims of a stage of 50 layers: about 75 MB of manifest, each record listing the 50)
-INPUT_LISTS = "input_lists"
-INPUTS_REF = "inputs_ref"
-
-
-def _inputs_key(entries: list) -> str:
-    """The key of an ``inputs`` list in :data:`INPUT_LISTS`: its content's (one list, one key, in any run)."""
-    return hashlib.sha256(json.dumps(entries, sort_keys=True).encode()).hexdigest()[:16]
-
-
-def _read_manifest(
-    path: Path,
-    unresolved: dict[str, str] | None = None,
-    older: list[str] | None = None,
-    unreadable: list[str] | None = None,
-) -> dict:
-    """The manifest at ``path``, ``{"assets": {}}`` for none (or not one); each record's :data:`INPUTS_REF`
-    replaced by the list it names (one list object for all the records that share it), and records of
-    older manifests that list the same inputs (a stage's prims) given one list object too. A reference to
-    no list (a hand edit: none of that key, or :data:`INPUT_LISTS` not an object) leaves the record without
-    ``inputs`` (hashed, as a malformed list is), and is described in ``unresolved`` (asset id -> why).
-    ``older`` gets the ids of the records of an older manifest given one list object (which a rewrite
-    writes once, in :data:`INPUT_LISTS`). A run output's :data:`CURRENT` mark is True when it is the digest
-    of the text before :data:`RUN_OUTPUTS` (the records as the run wrote them), else left out. A file
-    there that is not a manifest (cut, not JSON, edited into another shape) is described in ``unreadable``.
-    """
-    try:
-        raw = path.read_bytes()
-        data = json.loads(raw)
-    except FileNotFoundError:
-        return {"assets": {}}
-    except (OSError, ValueError) as exc:
-        if unreadable is not None:
-            unreadable.append(f"it does not read ({type(exc).__name__}: {exc})")
-        return {"assets": {}}
-    if not isinstance(data, dict) or not isinstance(data.get("assets"), dict):
-        if unreadable is not None:
-            unreadable.append(
-                f"it is {_what(data)}, not an object"
-                if not isinstance(data, dict)
-                else f"its assets is {_what(data.get('assets'))}, not an object"
-            )
-        return {"assets": {}}
-    runs = data.get(RUN_OUTPUTS)
-    marked = (
-        [o for o in runs.values() if isinstance(o, dict) and CURRENT in o] if isinstance(runs, dict) else []
-    )
-    if marked:
-        end = raw.find(_RUN_OUTPUTS_FIELD)
-        digest = _records_digest(memoryview(raw)[:end]) if end >= 0 else None
-        for o in marked:
-            if o[CURRENT] == digest:
-                o[CURRENT] = True
-            else:
-                del o[CURRENT]
-    found = data.pop(INPUT_LISTS, None)
-    tables = found if isinstance(found, dict) else {}
-    seen: dict[str, list] = {}
-    for aid, rec in data["assets"].items():
-        if not isinstance(rec, dict):
-            continue
-        if INPUTS_REF in rec:
-            ref = rec.pop(INPUTS_REF)
-            entries = tables.get(ref) if isinstance(ref, str) else None
-            if isinstance(entries, list):  # (else none: the inputs are hashed, as for a malformed list)
-                rec["inputs"] = entries
-            elif unresolved is not None:
-                if not isinstance(ref, str):
-                    why = f"its {INPUTS_REF} is {_what(ref)}, not a string"
-                elif found is None:
-                    why = f"{INPUTS_REF} {ref!r}, and the manifest has no {INPUT_LISTS}"
-                elif not isinstance(found, dict):
-                    why = f"{INPUTS_REF} {ref!r}; its {INPUT_LISTS} is {_what(found)}, not an object"
-                elif ref not in tables:
-                    why = f"{INPUTS_REF} {ref!r}, which the manifest's {INPUT_LISTS} does not hold"
-                else:
-                    why = f"{INPUTS_REF} {ref!r}, which is {_what(entries)} in {INPUT_LISTS}, not a list"
-                unresolved[aid] = why
-        elif isinstance(rec.get("inputs"), list) and len(rec["inputs"]) > 1:
-            own = rec["inputs"]
-            rec["inputs"] = seen.setdefault(json.dumps(own, sort_keys=True), own)
-            if older is not None and rec["inputs"] is not own:
-                older.append(aid)
-    return data
-
-
-#: what a record's ``summary.curve`` is serialised as before its rows replace it (:func:`_record_text`): a
-#: JSON string whose quotes no string value's text can hold unescaped
-_CURVE_MARK = json.dumps("\0summary.curve\0")
-
-
-def _indented(value: Any, depth: int) -> str:
-    """``json.dumps(value, indent=1)`` nested ``depth`` spaces in, as a value inside the manifest."""
-    return json.dumps(value, indent=1, default=float).replace("\n", "\n" + " " * depth)
-
-
-def _record_text(rec: Any, depth: int) -> str:
-    """``json.dumps(rec, indent=1)`` indented to ``depth``, but for its ``summary.curve``: a line a point
-    (``{"lod":0,"triangles":5804,...}``), the same JSON value, which every reader reads as before. Written a
-    key a line, the curve (21 points of 5 figures) was two thirds of a record: 2,000 records of suzanne
-    (vanilla, usd) took 9.39 MB, 4,695 bytes each, and 7.46 MB now, 3,729 bytes each (0.99 s to serialise
-    then, 0.83 s now)."""
-    summary = rec.get("summary") if isinstance(rec, dict) else None
-    curve = summary.get("curve") if isinstance(summary, dict) else None
-    if not isinstance(curve, list) or not curve:
-        return _indented(rec, depth)
-    text = _indented({**rec, "summary": {**summary, "curve": json.loads(_CURVE_MARK)}}, depth)
-    pad = "\n" + " " * (depth + 3)
-    rows = ",".join(pad + json.dumps(point, default=float, separators=(",", ":")) for point in curve)
-    return text.replace(f'"curve": {_CURVE_MARK}', f'"curve": [{rows}\n{" " * (depth + 2)}]', 1)
-
-
-class _ManifestText:
-    """``json.dumps(manifest, indent=1)``, but a record's ``summary.curve`` one point a line (the same JSON
-    value), with every asset record serialised once: a record does not
-    change once recorded, so a rewrite joins cached texts (a 6 MB manifest: 0.6 s serialised in full).
-
-    An ``inputs`` list that several records hold (the same list object: the prims of one stage, hashed
-    once) is written once, in the :data:`INPUT_LISTS` table after ``assets``, and each of those records
-    names it by its :data:`INPUTS_REF` instead; :func:`_read_manifest` puts it back."""
-
-    def __init__(self) -> None:
-        #: asset id -> (record, its inputs' key or None, its row: key and text at depth 2)
-        self._records: dict[str, tuple[dict, str | None, str]] = {}
-        self._keys: dict[int, tuple[list, str, str]] = {}  # id(list) -> (list, key, text at depth 2)
-
-    def _shared(self, entries: list) -> tuple[str, str]:
-        hit = self._keys.get(id(entries))
-        if hit is None or hit[0] is not entries:
-            hit = self._keys[id(entries)] = (entries, _inputs_key(entries), _indented(entries, 2))
-        return hit[1], hit[2]
-
-    def dumps(self, manifest: dict) -> str:
-        fields = []
-        for key, value in manifest.items():
-            if key == "assets" and isinstance(value, dict) and value:
-                holders: dict[int, int] = {}  # id(inputs list) -> how many records hold it
-                for rec in value.values():
-                    inputs = rec.get("inputs") if isinstance(rec, dict) else None
-                    if isinstance(inputs, list) and inputs:
-                        holders[id(inputs)] = holders.get(id(inputs), 0) + 1
-                tables: dict[str, str] = {}
-                rows = []
-                for aid, rec in value.items():
-                    inputs = rec.get("inputs") if isinstance(rec, dict) else None
-                    ref = None
-                    if isinstance(inputs, list) and holders.get(id(inputs), 0) > 1:
-                        ref, text = self._shared(inputs)
-                        tables[ref] = text
-                    hit = self._records.get(aid)
-                    if hit is None or hit[0] is not rec or hit[1] != ref:
-                        shown = rec
-                        if ref is not None:
-                            shown = {(INPUTS_REF if k == "inputs" else k): v for k, v in rec.items()}
-                            shown[INPUTS_REF] = ref
-                        # (the row with its key: joined as it is, not copied into a new string each write)
-                        hit = (rec, ref, f"  {json.dumps(aid)}: {_record_text(shown, 2)}")
-                        self._records[aid] = hit
-                    rows.append(hit[2])
-                fields.append(' "assets": {\n' + ",\n".join(rows) + "\n }")
-                if tables:
-                    table_rows = [f"  {json.dumps(k)}: {text}" for k, text in sorted(tables.items())]
-                    fields.append(f" {json.dumps(INPUT_LISTS)}: {{\n" + ",\n".join(table_rows) + "\n }")
-            elif (
-                key == RUN_OUTPUTS
-                and isinstance(value, dict)
-                and any(isinstance(o, dict) and o.get(CURRENT) is True for o in value.values())
-            ):  # (the mark: the digest of the text before, see CURRENT)
-                digest = _records_digest(("{\n" + ",\n".join(fields) + ",").encode())
-                marked = {
-                    kind: {**o, CURRENT: digest} if isinstance(o, dict) and o.get(CURRENT) is True else o
-                    for kind, o in value.items()
-                }
-                fields.append(f" {json.dumps(key)}: {_indented(marked, 1)}")
-            else:
-                fields.append(f" {json.dumps(key)}: {_indented(value, 1)}")
-        return "{\n" + ",\n".join(fields) + "\n}"
-
-
-def _write_manifest(path: Path, manifest: dict, text: _ManifestText | None = None) -> None:
-    body = (text or _ManifestText()).dumps(manifest)
-    atomic_write_bytes(path, (body + "\n").encode())
-
-
-def _total_fits(cfg: Config, record: dict, item: PlanItem) -> bool:
-    """Does the build ``record`` holds still meet ``budgets.total_bytes`` with ``item``'s instance count
-    (global bytes + instances x instance bytes, as the worker checks it)? The count is not in the digest of
-    an encoding other than ``auto`` (:func:`.assets.treatment_digest`), so more instances than it passed
-    with check it again, from the memory the record holds (a record without it: built again)."""
-    limit = (cfg.data.get("budgets") or {}).get("total_bytes")
-    if (
-        limit is None
-        or item.treatment.get("encoding") == "auto"
-        or record.get("instances") == item.asset.instances
-    ):
-        return True
-    summary = record.get("summary") or {}
-    if not all(isinstance(summary.get(k), (int, float)) for k in ("global_bytes", "instance_bytes")):
-        return False
-    return summary["global_bytes"] + item.asset.instances * summary["instance_bytes"] <= limit
-
-
-def _treatment_digest(cfg: Config, item: PlanItem) -> str:
-    checks = checks_of(cfg.data) if item.treatment.get("encoding") == "auto" else None
-    return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, checks)
-
-
-def _digest_with_count(item: PlanItem, record: dict) -> str | None:
-    """The digest ``record``, of an asset other than ``auto``, was built under by a version that put every
-    asset's instance count in its digest (its count then: the record's ``instances``), so a build current
-    but for that is not built again; None for an ``auto`` asset or a record of the default count (the
-    digest is the same)."""
-    count = record.get("instances")
-    if item.treatment.get("encoding") == "auto" or type(count) is not int or count == 1:
-        return None
-    return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, instances=count)
-
-
 def _count_triangles(asset: Asset, max_triangles: int | None = None, data: bytes = b"") -> int:
     """The triangles of ``asset``'s mesh, loaded; ``data``, when not empty, its OBJ file's bytes as
     :func:`.io.early_triangle_count_and_data` read them (not read again)."""
@@ -443,160 +232,6 @@ def _count_triangles(asset: Asset, max_triangles: int | None = None, data: bytes
 
     mesh = load_mesh(asset.path, prim_path=asset.prim, max_triangles=max_triangles, data=data)
     return mesh.triangle_count
-
-
-def _same_rule_from(cfg: Config, asset: Asset, lowest: int) -> bool:
-    """Does ``asset`` match the same rule (or the defaults) at every triangle count from ``lowest`` up? A
-    lower bound (an OBJ's face lines: a quad is two triangles) routes the asset by its count only then: under
-    a rule's ``max`` it named that rule where the mesh, loaded, had more triangles and matched another."""
-    counts = {lowest}
-    for rule in cfg.data.get("rules", []):
-        rng = (rule.get("match") or {}).get("triangles") or {}
-        if "min" in rng and rng["min"] > lowest:
-            counts.add(math.ceil(rng["min"]))
-        if "max" in rng and rng["max"] >= lowest:
-            counts.add(math.floor(rng["max"]) + 1)
-    return len({match_rule(cfg, asset, n)[0] for n in counts}) == 1
-
-
-def _max_triangles(cfg: Config) -> int | None:
-    """``limits.max_triangles``, or None."""
-    limits = cfg.data.get("limits")
-    return limits.get("max_triangles") if isinstance(limits, dict) else None
-
-
-def _within_triangle_budget(cfg: Config, record: dict) -> bool:
-    """Whether the asset a record built holds no more triangles than ``limits.max_triangles`` (a budget set
-    or lowered since: an asset over it is loaded again, and fails), counted as the budget counts them, before
-    cleaning (:data:`.worker.TRIANGLES_READ`; the cleaned ``triangles_in`` left a file over it by duplicate
-    or degenerate triangles alone current). A record without that count (of a version before it) is built
-    again, and then has it."""
-    budget, tri = _max_triangles(cfg), record.get(TRIANGLES_READ)
-    return budget is None or (type(tri) is int and tri <= budget)
-
-
-#: an input's recorded stat is trusted only when its mtime and ctime were older than the moment it was
-#: hashed by more than this, as git treats "racily clean" index entries: a file written in the timestamp
-#: tick of its hash (coarse kernel clocks, 2 s on FAT, a file server's clock a little off this machine's)
-#: can take a same-size edit that leaves its size, mtime and ctime as recorded, with other bytes. Older
-#: than that, any later write (or os.utime setting the mtime back) stamps a later ctime, which the next run
-#: sees. A racy entry is hashed by the next run, which records the stat again (trusted from then on)
-_RACY_NS = 2_000_000_000
-
-
-def recorded_path(base: Path, path: Path) -> str:
-    """An input file's ``path`` as a record holds it: relative to the config's folder ``base`` when it is
-    under it (so a project folder moved or renamed, its config, inputs and output.dir with it, is a rerun
-    that changes nothing), else absolute (a stage given by an absolute path elsewhere)."""
-    try:
-        return path.relative_to(base).as_posix()
-    except ValueError:
-        return str(path)
-
-
-def _recorded_paths(base: Path, entries: list[dict]) -> list[dict]:
-    """Input entries (:func:`.assets.hash_inputs`, absolute paths) with their paths as a record holds them."""
-    return [{**e, "path": recorded_path(base, Path(e["path"]))} for e in entries]
-
-
-def _is_recorded_path(entry_path: str, path: Path, base: Path | None) -> bool:
-    """Is ``entry_path``, a record's, the file ``path``: :func:`recorded_path`'s, or the absolute path a
-    record of an older version holds? Compared as text (``base``, a separator and the relative path are
-    ``path`` as pathlib spells it), not by :func:`recorded_path`: a rerun compares every input of every asset,
-    a stage's layers once for each of its prims (``Path.relative_to``, 14 us a path: a no-change rerun of
-    1,000 prims of a 51-layer stage took 1.27-1.52 s instead of 1.06-1.10; 1.13-1.17 s compared as text)."""
-    text = str(path)
-    if entry_path == text:
-        return True
-    if base is None or os.path.isabs(entry_path):
-        return False
-    folder = str(base)
-    sep = "" if folder.endswith(os.sep) else os.sep  # (a root: "/")
-    return text == f"{folder}{sep}{entry_path.replace('/', os.sep)}"
-
-
-def _inputs_unchanged(paths: list[Path], entries: list[dict] | None, base: Path | None = None) -> bool:
-    """Are ``paths``, an asset's input files, those its record's ``inputs`` (``entries``, validated by
-    :func:`.records.recorded_inputs`; paths relative to the config's folder ``base``, or absolute)
-    describe, each with the recorded size and stat (:data:`STAT_KEYS`), taken long enough after its last
-    change (:data:`_RACY_NS`)? Then the recorded input digest still describes them, and they are not
-    read."""
-    if entries is None or len(entries) != len(paths):
-        return False
-    if not all(_is_recorded_path(e["path"], p, base) for p, e in zip(paths, entries, strict=True)):
-        return False
-    for p, e in zip(paths, entries, strict=True):
-        if not all(k in e for k in INPUT_STAT_KEYS):  # (changed while it was hashed: no stat recorded)
-            return False
-        if max(e["mtime_ns"], e["ctime_ns"]) >= e["hashed_ns"] - _RACY_NS:
-            return False
-        try:
-            st = os.stat(p)
-        except (OSError, ValueError):
-            return False
-        if st.st_size != e["size"] or any(e[k] != v for k, v in stat_fields(st).items()):
-            return False
-    return True
-
-
-def _same_stat(entries: list[dict], recorded: list[dict] | None) -> bool:
-    """Are ``entries``, inputs just hashed (:func:`.assets.hash_inputs`), the ``recorded`` ones: the same
-    paths, sizes and stat fields (the time each was hashed aside)?"""
-    keys = ("path", "size", *STAT_KEYS)
-    return recorded is not None and [[e.get(k) for k in keys] for e in entries] == [
-        [e.get(k) for k in keys] for e in recorded
-    ]
-
-
-#: a record's mark that its ``inputs`` are the list of its file's inputs as this listing reads them
-#: (:data:`LISTING`), which a rerun takes while they are all unchanged (:func:`_listed_inputs`). A record
-#: without it (of an older version: a .glb listed alone, before its buffer files were inputs; a USD file
-#: before its layers were) or of another listing is read again, and marked by the run
-INPUTS_LISTED = "inputs_listed"
-#: the listing's version: one more whenever a file's inputs are listed otherwise
-LISTING = 1
-
-
-def _listed_inputs(path: Path, record: Any, base: Path | None = None) -> list[Path] | None:
-    """The input files of the glob-matched ``path`` as its manifest ``record`` lists them, without reading
-    ``path`` (a glTF's buffer files, a USD file's layers), when the record is of a build (every buffer or
-    layer found: the loader refuses a stage with a layer it cannot open) of ``path``, marked as this
-    listing's (:data:`INPUTS_LISTED`: not an older version's, nor one a file written later could change),
-    and every file it lists is as recorded (:func:`_inputs_unchanged`, the trust its digest is taken by):
-    what they name is then what they named. Else None, and they are read."""
-    if path.suffix.lower() not in LISTED_SUFFIXES or not isinstance(record, dict):
-        return None
-    if record.get(INPUTS_LISTED) != LISTING:  # (an older version's list, or one that may not hold)
-        return None
-    if record.get("status") != "built" or "input_digest" not in record or record_problem(record) is not None:
-        return None
-    entries = recorded_inputs(record)
-    if not entries or not _is_recorded_path(entries[0]["path"], path, base):
-        return None
-    paths = [path, *(Path(e["path"]) if base is None else base / e["path"] for e in entries[1:])]
-    return paths if _inputs_unchanged(paths, entries, base) else None
-
-
-def _listing_mark(record: dict) -> bool:
-    return record.get(INPUTS_LISTED) == LISTING
-
-
-def _with_inputs(record: dict, item: PlanItem) -> dict:
-    """``record`` with ``item``'s input digest, inputs (the stat of each as it was hashed to that digest)
-    and :data:`INPUTS_LISTED` when they are a list a rerun may take (else without it)."""
-    rec = {k: v for k, v in record.items() if k != INPUTS_LISTED}
-    rec["input_digest"], rec["inputs"] = item.input_digest, item.input_stats
-    if item.inputs_listed:
-        rec[INPUTS_LISTED] = LISTING
-    return rec
-
-
-def _input_size(path: Path) -> int:
-    """``path``'s size, 0 if it cannot be read (its asset then fails in the worker, naming the file)."""
-    try:
-        return path.stat().st_size
-    except OSError:
-        return 0
 
 
 def plan(
@@ -616,12 +251,13 @@ def plan(
     geometry is read (:func:`.io.early_triangle_count`; ``triangles_how`` says which) where it tells one,
     else it is loaded.
 
-    An asset's input digest is its record's when its input files are as recorded (:func:`_inputs_unchanged`),
-    else they are hashed (:func:`.assets.hash_inputs`, the item's ``input_stats`` then those of the files
-    hashed, which the run records); its recorded outputs are intact when their size and stat are as
-    recorded, or else their sha256 (:func:`_checked_output`). ``verify`` hashes every input and output. A
-    manifest record that is not one the run writes (:func:`.records.record_problem`: hand-edited) is
-    ignored, as if the asset had none, and named in a warning."""
+    An asset's input digest is its record's when its input files are as recorded
+    (:func:`.inputs._inputs_unchanged`), else they are hashed (:func:`.assets.hash_inputs`, the item's
+    ``input_stats`` then those of the files hashed, which the run records); its recorded outputs are intact
+    when their size and stat are as recorded, or else their sha256 (:func:`.outputs._checked_output`).
+    ``verify`` hashes every input and output. A manifest record that is not one the run writes
+    (:func:`.records.record_problem`: hand-edited) is ignored, as if the asset had none, and named in a
+    warning."""
     out_dir = output_dir(cfg)
     known = manifest.get("assets", {})
     reused: set[str] = set()  # the assets whose inputs are their record's (as recorded: not read)
@@ -799,430 +435,6 @@ def plan(
     return items, problems, aliases + record_warnings + warnings
 
 
-#: temporary files a run leaves in output.dir if it is killed (the atomic writes', the USD layers' staged by
-#: the workers and the scene's, and usd-core's own beside those two: ``.<stem>.tmp.XXXXXX``), which the next
-#: run deletes, as a run stopped by an error or Ctrl-C does once its workers are stopped
-_TEMPORARY = (".*.tmp", ".*.tmp.usdc", ".*.tmp.usda", ".*.tmp.??????")
-
-
-def _remove_temporary(out_dir: Path) -> None:
-    for stale in [p for pattern in _TEMPORARY for p in out_dir.glob(pattern)]:
-        stale.unlink(missing_ok=True)
-
-
-def _clean_after_worker(out_dir: Path, records: dict, stem: str) -> None:
-    """A worker stopped or dead while it built the asset of outputs ``stem``.*: its previous outputs that the
-    worker had kept aside are put back (:func:`_restore_kept_aside`), its temporary files deleted (those of
-    the other workers, still building, stay)."""
-    names = {f"{stem}.swpm", f"{stem}.usdc"}
-    _restore_kept_aside(out_dir, records, names)
-    random = "?" * 8  # (tempfile's random part)
-    swpm, usd = glob.escape(f"{stem}.swpm"), glob.escape(f"{stem}.usdc")
-    for pattern in (
-        f".{swpm}.{random}.tmp",
-        f".{glob.escape(stem)}.{random}{USD_TEMPORARY_SUFFIX}",
-        # (usd-core's as it exports that layer: its name less ``.usdc``, then ``.XXXXXX``, renamed over it)
-        f".{glob.escape(stem)}.{random}{USD_TEMPORARY_SUFFIX.removesuffix('.usdc')}.??????",
-        f".{swpm}.{random}.prev.tmp",
-        f".{usd}.{random}.prev.tmp",
-    ):
-        for stale in out_dir.glob(pattern):
-            stale.unlink(missing_ok=True)
-
-
-def _restore_kept_aside(out_dir: Path, records: dict, names: set[str] | None = None) -> None:
-    """Put back the previous outputs that a worker stopped while it renamed an asset's outputs into place
-    (a pool's worker stopped by Ctrl-C, a kill) had kept aside (:func:`.worker._place_outputs`,
-    ``.<name>.XXXXXXXX.prev.tmp``), before :func:`_remove_temporary` deletes them: one whose ``<name>`` is
-    an output a record of ``records`` (asset id -> manifest record) lists, no longer as recorded (a new file
-    the manifest does not list, or none), while the file kept aside is, is renamed back, so the asset is its
-    recorded build again, not half of one the manifest does not know."""
-    kept = list(out_dir.glob(".*.prev.tmp"))
-    if names is not None:  # (those of these outputs alone)
-        kept = [p for p in kept if p.name[1 : -len(".prev.tmp")].rpartition(".")[0] in names]
-    if not kept:  # (the usual run)
-        return
-    recorded = {
-        o["path"]: o
-        for rec in records.values()
-        if record_problem(rec) is None
-        for o in rec.get("outputs", {}).values()
-    }
-    for aside in kept:
-        name = aside.name[1 : -len(".prev.tmp")].rpartition(".")[0]
-        o = recorded.get(name)
-        target = out_dir / name
-        if o is None or _checked_output(target, o) is not None or _checked_output(aside, o) is None:
-            continue
-        try:
-            os.replace(aside, target)
-        except OSError:
-            continue
-        if target.suffix == ".usdc":
-            from ..usd.writer import LayerReloadError, reload_if_open
-
-            # (a reload that fails leaves that open layer as it was: the other files are still put back, and
-            # the stopped run still deletes its temporary files and writes its manifest)
-            with contextlib.suppress(LayerReloadError):
-                reload_if_open(target)
-
-
-def _interrupts_raise() -> bool:
-    """Does Ctrl-C raise KeyboardInterrupt here (Python's own handler, in the main thread)? A process started
-    with it ignored (a background job of a script) or a caller's own handler keep it as it is."""
-    return (
-        threading.current_thread() is threading.main_thread()
-        and signal.getsignal(signal.SIGINT) is signal.default_int_handler
-    )
-
-
-@contextlib.contextmanager
-def _interrupts_deferred() -> Iterator[None]:
-    """A Ctrl-C in the block is raised (KeyboardInterrupt) when it ends, not inside it (main thread only;
-    when Ctrl-C raises KeyboardInterrupt: see :func:`_interrupts_raise`)."""
-    if not _interrupts_raise():
-        yield
-        return
-    received: list[int] = []
-    old = signal.signal(signal.SIGINT, lambda signum, frame: received.append(signum))
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, old)
-    if received:
-        raise KeyboardInterrupt
-
-
-@contextlib.contextmanager
-def _interrupts_noted() -> Iterator[list[int]]:
-    """Ctrl-C raises KeyboardInterrupt as usual in the block, and is noted in the list it yields (main
-    thread only), so one that something caught and turned into another error is still known (when Ctrl-C
-    raises KeyboardInterrupt: see :func:`_interrupts_raise`). Only the first raises: another, while the
-    first stops the run, would cut its clean-up short (a handler not restored, workers not stopped)."""
-    noted: list[int] = []
-    if not _interrupts_raise():
-        yield noted
-        return
-
-    def note(signum: int, frame: object) -> None:
-        noted.append(signum)
-        if len(noted) == 1:
-            raise KeyboardInterrupt
-
-    old = signal.signal(signal.SIGINT, note)
-    try:
-        yield noted
-    finally:
-        signal.signal(signal.SIGINT, old)
-
-
-@contextlib.contextmanager
-def _interrupts_ignored() -> Iterator[None]:
-    """Ctrl-C ignored in the block (the main thread only: elsewhere signals cannot be set, nor arrive)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, old)
-
-
-def _unusable_out_dir(cfg: Config, out_dir: Path) -> list[str]:
-    """output.dir must be a folder, or creatable: not an existing file, nor under one, nor a link (or under
-    one) that leads round in a loop (a traceback, ``RuntimeError: Symlink loop``, once the run resolved its
-    manifest's path) or to nothing (``cannot create ...: File exists``)."""
-    from ..fileio import link_loop
-
-    where = cfg.where(("output", "dir"))
-    loop = link_loop(out_dir)
-    if loop is not None:
-        under = "" if loop[0] == out_dir else f": its folder {loop[0]}"
-        return [f"{where}: {out_dir}{under} is a link loop (to {loop[1]}), not a folder"]
-    if out_dir.is_symlink() and not out_dir.exists():
-        return [f"{where}: {out_dir} is a link to nothing (to {os.readlink(out_dir)}), not a folder"]
-    for p in (out_dir, *out_dir.parents):
-        if p.exists():
-            if not p.is_dir():
-                what = "is a file" if p == out_dir else f"is under {p}, which is a file"
-                return [f"{where}: {out_dir} {what}, not a folder"]
-            return []
-    return []
-
-
-def _make_out_dir(cfg: Config, out_dir: Path) -> None:
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ConfigError(
-            [f"{cfg.where(('output', 'dir'))}: cannot create {out_dir}: {exc.strerror or exc}"],
-            code="OUTPUT_UNWRITABLE",
-        ) from None
-    if not os.access(out_dir, os.W_OK | os.X_OK):
-        raise ConfigError(
-            [f"{cfg.where(('output', 'dir'))}: cannot write in {out_dir}: permission denied"],
-            code="OUTPUT_UNWRITABLE",
-        )
-
-
-def _checked_output(path: Path, recorded: dict, verify: bool = False) -> dict | None:
-    """``recorded`` (an output's manifest record) when ``path`` is still the file it recorded, else None.
-
-    Its size first. Then, unless ``verify``, its stat: a file with the recorded size, mtime, ctime, inode
-    and device (:data:`.worker.STAT_KEYS`) is trusted unchanged without being read (a rerun of thousands of
-    assets reads none of their outputs). Anything else is hashed: the file is intact when its sha256 is
-    the recorded one (a changed byte of a same-size file rebuilds it), and the record returned is then a
-    copy with the stat fields of the bytes hashed (recorded anew: a record of an older manifest has
-    none, a touched or copied-back file other ones), so the next run trusts it again."""
-    try:
-        st = os.stat(path)
-        if not stat.S_ISREG(st.st_mode) or st.st_size != recorded.get("size", -1):
-            return None
-        fields = stat_fields(st)
-        if not verify and all(recorded.get(k) == v for k, v in fields.items()):
-            return recorded
-        sha, hashed = hash_with_stat(path)
-    except (OSError, ValueError):  # (ValueError: a path with a NUL byte)
-        return None
-    if sha != recorded.get("sha256"):
-        return None
-    fresh = {k: v for k, v in recorded.items() if k not in STAT_KEYS}
-    if hashed is not None and hashed.st_size == recorded.get("size"):
-        fresh.update(stat_fields(hashed))
-    return recorded if fresh == recorded else fresh
-
-
-def _complete_output_record(path: Path, recorded: dict) -> None:
-    """Complete a worker's record of an output it wrote (:func:`.worker.output_record`) as this process
-    sees the file: its size, and its stat fields when it is still the file the worker hashed (the same
-    size, mtime, ctime and inode; the device as this process numbers it, which a Dask worker on another
-    machine may not), else none, so the next run hashes it."""
-    st = path.stat()
-    seen = stat_fields(st)
-    same = recorded.get("size") == st.st_size and all(
-        recorded.get(k) == seen[k] for k in ("mtime_ns", "ctime_ns", "ino")
-    )
-    for k in ("size", *STAT_KEYS):
-        recorded.pop(k, None)
-    recorded["size"] = st.st_size
-    if same:
-        recorded.update(seen)
-
-
-def planned_outputs(cfg: Config, out_dir: Path, assets: list[Asset]) -> dict[Path, str]:
-    """Every file a run of ``cfg`` writes (or, for temporary files, may delete) -> what it is."""
-    out = cfg.data["output"]
-    files: dict[Path, str] = {out_dir / MANIFEST: "the run manifest", out_dir / LOCK: "the run's lock file"}
-    if out.get("report", True):
-        files[out_dir / "report.html"] = "the run report"
-    if out.get("scene"):
-        files[out_dir / "scene.usda"] = "the scene layer"
-    for a in assets:
-        if out.get("swpm", True):
-            files[out_dir / f"{a.output_stem}.swpm"] = f"the .swpm of {a.id}"
-        if out.get("usd", False):
-            files[out_dir / f"{a.output_stem}.usdc"] = f"the USD layer of {a.id}"
-    return files
-
-
-def _file_key(path: Path) -> tuple:
-    """One key per file: the resolved path, or (device, inode) when it exists (hard links, odd mounts)."""
-    try:
-        st = path.stat()
-        return ("inode", st.st_dev, st.st_ino)
-    except OSError:  # (realpath: resolve() raises RuntimeError for a link in a loop)
-        return ("path", os.path.realpath(path))
-
-
-def _overwritten_inputs(
-    cfg: Config, out_dir: Path, assets: list[Asset], inputs: dict[str, list[Path]]
-) -> list[str]:
-    """The run never writes over its own inputs: a file it would write (:func:`planned_outputs`) or a stale
-    temporary file it would delete must not be a matched mesh, a stage, a layer a stage uses, or the config
-    itself. Located at ``output.dir``.
-
-    A file to write that exists is compared as a file (its device and inode: ``os.path.samefile``); every
-    one, written yet or not, is also compared by name with the inputs in output.dir as a case-insensitive
-    filesystem compares names (:func:`.assets._folded`: ``out/Scene.usda``, a stage, is the
-    ``out/scene.usda`` the run writes on macOS or Windows), as output names that differ only so collide
-    (:func:`.assets.discover`): on any filesystem, whether an earlier run wrote the file or not, so the
-    refusal is the config's alone. Names of temporary files are compared so too.
-    A folder is output.dir when it is that folder (the same device and inode), however its path is spelt."""
-    sources: dict[tuple, tuple[Path, str]] = {_file_key(cfg.path): (cfg.path, "the configuration file")}
-    seen: set[int] = set()  # (the prims of a stage share one list of its layers: looked up once)
-    for a in assets:
-        listed = inputs.get(a.id, [])
-        if id(listed) in seen:  # (its files, all, named by an earlier asset: setdefault would keep those)
-            continue
-        seen.add(id(listed))
-        for p in listed:
-            what = "an input of" if p != a.path else "the input of"
-            sources.setdefault(_file_key(p), (p, f"{what} {a.id}"))
-    out_key = _file_key(out_dir)
-    folders: dict[Path, bool] = {}  # (a folder looked up once: 10,000 inputs in one, a second)
-    in_out: list[tuple[Path, str]] = []  # the inputs in output.dir
-    for path, what in sources.values():
-        if path.parent not in folders:
-            folders[path.parent] = out_key[0] == "inode" and _file_key(path.parent) == out_key
-        if folders[path.parent]:
-            in_out.append((path, what))
-    by_name = {_folded(path.name): (path, what) for path, what in in_out}
-    problems = []
-    for target, what in planned_outputs(cfg, out_dir, assets).items():
-        key = _file_key(target)
-        # (by name as well when it exists: on a case-sensitive filesystem out/scene.usda, written by an
-        # earlier run, is another file than the input out/Scene.usda, and the config alone decides)
-        hit = sources.get(key) or by_name.get(_folded(target.name))
-        if hit is not None:
-            problems.append(
-                f"{cfg.where(('output', 'dir'))}: {what} would overwrite {_rel(cfg, hit[0])} "
-                f"({hit[1]}); choose an output.dir apart from the inputs (and globs not reaching into it)"
-            )
-    for path, what in in_out:
-        # (folded as a case-insensitive filesystem compares names: .COW.SWPM.ABCDEFGH.TMP is a temporary
-        # file of ours there; the patterns are lower case)
-        if any(fnmatch.fnmatchcase(_folded(path.name), pattern) for pattern in _TEMPORARY):
-            problems.append(
-                f"{cfg.where(('output', 'dir'))}: {_rel(cfg, path)} ({what}) is named like a temporary file "
-                f"the run deletes from output.dir; rename it or choose another output.dir"
-            )
-    return problems
-
-
-def _rel(cfg: Config, path: Path) -> str:
-    try:
-        return path.resolve().relative_to(cfg.base).as_posix()
-    except ValueError:
-        return str(path)
-
-
-def _rules_pending(items: list[PlanItem], dry_run: bool = False) -> bool:
-    """Are rules left to the workers, so the rules no asset reaches are known only once they have built? A
-    dry run's plan leaves out the files that did not load to be counted (a run's worker fails them before any
-    rule, if they load no better then); a run (``--explain`` counts as it plans) waits for its workers: such a
-    file may load whole by then (an exporter was still writing it) and take a rule."""
-    return any(i.rule_pending and not (dry_run and i.triangles_how == "unknown") for i in items)
-
-
-def _unreached_rules(cfg: Config, items: list[PlanItem]) -> list[str]:
-    """A warning for each rule no asset took: one shadowed by earlier rules (every asset it matches is
-    taken first by one of them, named) or one that matches no asset at all."""
-    reached = {i.rule for i in items}
-    rules = cfg.data.get("rules", [])
-    warnings = []
-    for idx, rule in enumerate(rules):
-        if idx in reached:
-            continue
-        # (an asset whose rule is unknown, one that failed before the worker matched it, is left out)
-        takers = sorted(
-            {
-                it.rule
-                for it in items
-                if it.rule is not None and all(ok for _, ok in rule_checks(rule, it.asset, it.triangles or 0))
-            }
-        )
-        if takers:
-            by = ("rules " if len(takers) > 1 else "rule ") + " and ".join(
-                repr(rules[i]["name"]) for i in takers
-            )
-            warnings.append(
-                f"{cfg.where(('rules', idx))}: rule {rule['name']!r} is shadowed by {by}: every asset it "
-                "matches is taken by an earlier rule"
-            )
-        else:
-            warnings.append(f"{cfg.where(('rules', idx))}: rule {rule['name']!r} matches no asset")
-    return warnings
-
-
-def _wants_outputs(cfg: Config) -> bool:
-    out = cfg.data["output"]
-    return bool(out.get("swpm", True) or out.get("usd", False))
-
-
-def _wanted_outputs(cfg: Config) -> set[str]:
-    """The kinds of output (a record's ``outputs`` keys) the config asks each asset for."""
-    out = cfg.data["output"]
-    return {
-        kind for kind, wanted in (("swpm", out.get("swpm", True)), ("usd", out.get("usd", False))) if wanted
-    }
-
-
-def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
-    from ..usd.probe import cleared
-
-    out = cfg.data["output"]
-    return {
-        "id": item.asset.id,
-        "path": str(item.asset.path),
-        "prim": item.asset.prim,
-        "instances": item.asset.instances,
-        "stem": item.asset.output_stem,
-        "digest": item.digest,
-        "encoding": item.treatment.get("encoding"),
-        "params": item.treatment.get("params", {}),
-        "why": item.why,
-        "streaming": cfg.data.get("streaming", {}),
-        "budgets": cfg.data.get("budgets", {}),
-        "max_triangles": _max_triangles(cfg),
-        "out_dir": str(cfg.base / out["dir"]),
-        "write_swpm": bool(out.get("swpm", True)),
-        "write_usd": bool(out.get("usd", False)),
-        "input_digest": item.input_digest,
-        # the files the asset is read from (its own first, then a glTF's buffers, a stage's layers): the
-        # worker fails it when one changes while it reads them
-        "inputs": [str(p) for p in item.inputs] or [str(item.asset.path)],
-        # the stat of each input as the plan hashed it (or trusted it unread): the worker fails the asset when
-        # the file it loads is another (its digest would be of bytes it was not built from)
-        "input_stats": _planned_stats(cfg, item),
-        # the count its rule was chosen by, when a rule matches on triangles: an input changed since the plan
-        # is built from the bytes loaded when they hold as many (else its rule may be another's)
-        "rule_triangles": item.triangles if not item.rule_pending and _routes_by_triangles(cfg) else None,
-        # a pending rule: the worker runs match_rule on the config (plain data, picklable)
-        "config_data": cfg.data if item.rule_pending else None,
-        "config_path": str(cfg.path),
-        "tags": item.asset.tags,
-        # a crate file the planning probed clean (it opened the stage): the worker does not probe it again
-        "probed": cleared(item.asset.path),
-        # its input failed to load last time, and is the same file: no encoding or USD to warm for it
-        "failed_loading": _failed_loading(item),
-    }
-
-
-def _routes_by_triangles(cfg: Config) -> bool:
-    """Does a rule match on triangle counts (so an asset's rule depends on its count)?"""
-    return any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))
-
-
-def _planned_stats(cfg: Config, item: PlanItem) -> dict[str, list[int] | None]:
-    """Each input's size and :data:`.worker.STAT_KEYS` as the plan hashed (or trusted) it, by path; None for
-    an input it has none for (hashed while it changed, unreadable: its digest is of no bytes the worker
-    loads); none when the entries are not the inputs'."""
-    entries, paths = item.input_stats, item.inputs or [item.asset.path]
-    if len(entries) != len(paths) or not all(
-        _is_recorded_path(e["path"], p, cfg.base) for p, e in zip(paths, entries, strict=True)
-    ):
-        return {}
-    return {
-        str(p): [e["size"], *(e[k] for k in STAT_KEYS)]
-        if "size" in e and all(k in e for k in STAT_KEYS)
-        else None
-        for p, e in zip(paths, entries, strict=True)
-    }
-
-
-def _failed_loading(item: PlanItem) -> bool:
-    """Did ``item``'s asset fail last run before its mesh was loaded (a broken file: no ``triangles_in``),
-    with the input digest it has now? Its retry most likely fails the same way, before any build."""
-    prev = item.previous
-    return (
-        isinstance(prev, dict)
-        and prev.get("status") == "failed"
-        and "triangles_in" not in prev
-        and prev.get("input_digest") == item.input_digest
-    )
-
-
 def require_dask() -> None:
     """Raise :class:`..errors.MissingExtraError` unless dask's distributed scheduler imports (the ``dask``
     extra): it was a ``ConfigError`` (``CONFIG_INVALID``, exit 2), raised once every input was hashed and
@@ -1317,476 +529,6 @@ def execute(
 _SERVER_GIVEN: dict[int, tuple[list[str], list[str]]] = {}
 
 
-def _forkserver_pid() -> int | None:
-    """The pid of this process's fork server, or None when none is running (or known)."""
-    from multiprocessing import forkserver
-
-    return getattr(getattr(forkserver, "_forkserver", None), "_forkserver_pid", None)
-
-
-def _warm_encodings(tasks: list[dict]) -> list[str]:
-    """The encodings the fork server warms (:mod:`._warm`) for ``tasks``: each task's, every candidate of
-    ``auto``, and for a task whose rule waits for its triangle count (``config_data``) those of every rule
-    and of the defaults (each once, in the order first named); none for a broken input retried
-    (``failed_loading``: a rerun of 500 assets whose only tasks were its 10 broken ones warmed all four)."""
-    from .worker import AUTO_CANDIDATES
-
-    found: dict[str, None] = {}
-    for t in tasks:
-        if t.get("failed_loading"):
-            continue  # (a broken input retried: it fails before any build, most likely)
-        data = t.get("config_data")
-        if data is None:
-            names = [t.get("encoding")]
-        else:
-            names = [r.get("encoding") for r in data.get("rules", [])]
-            names.append((data.get("defaults") or {}).get("encoding", "sliding-window"))
-        for name in names:
-            for enc in AUTO_CANDIDATES if name == "auto" else (name,):
-                if isinstance(enc, str):
-                    found.setdefault(enc)
-    return list(found)
-
-
-#: what the fork server preloads for an OBJ, PLY, STL, OFF or glTF (:func:`_forkserver_preload`)
-_TRIMESH_PRELOAD = ("trimesh", "swpm_usd.io.trimesh_loader")
-
-
-def _forkserver_preload(tasks: list[dict]) -> list[str]:
-    """The modules the fork server imports before it forks a worker: the warm-up of the tasks' encodings
-    (:func:`_warm_encodings`), and usd-core's writer and loader when a task writes a USD layer or reads a
-    USD file (each worker forked from a server without them imported pxr itself: ~0.5 s a worker loaded)."""
-    from ..io import _TRIMESH_SUFFIXES, _USD_SUFFIXES
-
-    live = [t for t in tasks if not t.get("failed_loading")]  # (a broken input retried: it fails first)
-    usd = any(t.get("write_usd") or Path(t["path"]).suffix.lower() in _USD_SUFFIXES for t in live)
-    # trimesh (scipy) for an OBJ, PLY, STL, OFF or glTF: imported once here, not by each worker
-    meshes = any(Path(t["path"]).suffix.lower() in _TRIMESH_SUFFIXES for t in live)
-    return [
-        "swpm_usd.pipeline._warm",
-        *(["swpm_usd.usd.writer", "swpm_usd.io.usd_loader"] if usd else []),
-        *(_TRIMESH_PRELOAD if meshes else []),
-    ]
-
-
-@contextlib.contextmanager
-def _environ(name: str, value: str) -> Iterator[None]:
-    """``os.environ[name]`` set to ``value`` within (then as it was)."""
-    before = os.environ.get(name)
-    os.environ[name] = value
-    try:
-        yield
-    finally:
-        if before is None:
-            os.environ.pop(name, None)
-        else:
-            os.environ[name] = before
-
-
-class _Worker:
-    """A worker process of the local pool (:func:`.worker.serve`), the task it builds (None: idle) and when
-    that task must be done by (``time.monotonic``)."""
-
-    def __init__(self, ctx: Any) -> None:
-        self.conn, theirs = ctx.Pipe()
-        self.process = ctx.Process(target=serve, args=(theirs,), name="swpm-pipeline-worker", daemon=True)
-        self.process.start()
-        theirs.close()
-        self.task: dict | None = None
-        self.started = 0.0
-        self.deadline = float("inf")
-        self.limit_s: float | None = None
-        self.is_ready = False  # (until it sends worker.READY: its start-up is not its task's time)
-
-    def give(self, task: dict, limit_s: float | None) -> bool:
-        """Send ``task``; False when the pipe is broken (the process died before: it never had the task).
-        A worker still starting has :data:`_START_S` more to its deadline; :meth:`ready` moves it."""
-        self.task = task
-        self.started = time.monotonic()
-        self.limit_s = limit_s
-        if limit_s is None:
-            self.deadline = float("inf")
-        else:
-            self.deadline = self.started + limit_s + (0.0 if self.is_ready else _START_S)
-        try:
-            self.conn.send(task)
-        except OSError:  # (BrokenPipeError, ECONNRESET)
-            return False
-        return True
-
-    def ready(self, when: float) -> None:
-        """The worker has started (at ``when``, its ``time.monotonic``): its task's time counts from then."""
-        self.is_ready = True
-        if self.task is not None:
-            self.started = min(time.monotonic(), max(self.started, when))
-            if self.limit_s is not None:
-                self.deadline = self.started + self.limit_s
-
-    def stop(self) -> None:
-        """Kill the process and wait for it (its temporary files are the caller's)."""
-        if self.process.is_alive():
-            self.process.kill()
-        self.process.join(timeout=30)
-        self.conn.close()
-
-
-def _lost(w: _Worker, error: str, code: str = "WORKER_LOST") -> dict:
-    """The failure record of the asset worker ``w`` was building when it died or was stopped (``code``:
-    ``WORKER_LOST``, or ``TIME_LIMIT_EXCEEDED`` when the run stopped it)."""
-    from ..codes import fields_of
-
-    task = w.task or {}
-    return {
-        "id": task.get("id"),
-        "digest": task.get("digest"),
-        "status": "failed",
-        "error": error,
-        **fields_of(code),
-        "seconds": time.monotonic() - w.started,
-        "worker_lost": True,  # (the runner cleans up after it, then drops this key)
-    }
-
-
-def _death(exitcode: int | None) -> str:
-    """Why a worker process ended, in words."""
-    if exitcode is not None and exitcode < 0:
-        try:
-            name = signal.Signals(-exitcode).name
-        except ValueError:
-            name = f"signal {-exitcode}"
-        why = f"killed by {name}"
-        if -exitcode == signal.SIGKILL:
-            why += " (the system may have run out of memory: its out-of-memory killer sends SIGKILL)"
-        elif -exitcode in (signal.SIGSEGV, signal.SIGBUS, signal.SIGABRT, signal.SIGILL):
-            why += " (a crash in native code: usd-core, numba or a library)"
-        return why
-    return f"exited with code {exitcode}"
-
-
-def _local_pool(tasks: list[dict], jobs: int, ctx: Any, limit_s: float | None) -> Generator[dict, None, None]:
-    """Run ``tasks`` on ``jobs`` worker processes, one task each at a time, yielding each record as it
-    finishes. A worker that dies fails its asset alone (with the cause: a signal, an exit code) and another
-    takes its place; one still building ``limit_s`` seconds after it started is stopped, and its asset fails.
-    Ctrl-C or an error: every worker is stopped at once (mid-asset), and it is raised."""
-    from multiprocessing.connection import wait
-
-    pending = list(reversed(tasks))  # (popped from the end: in the given order)
-    workers: list[_Worker] = []
-
-    def assign(i: int) -> None:
-        """Give worker ``i`` the next task, a new worker in its place if it died idle (killed just after it
-        sent its record) or dies as the task is sent (a task never received goes to the new worker; a
-        second broken pipe leaves it to the wait, which reports the new worker's end)."""
-        task, w = pending.pop(), workers[i]
-        if not w.process.is_alive():
-            w.stop()
-            w = workers[i] = _Worker(ctx)
-        if not w.give(task, limit_s):
-            w.stop()
-            workers[i] = _Worker(ctx)
-            workers[i].give(task, limit_s)
-
-    try:
-        # a Ctrl-C while the workers start (waiting for the server to warm up) is raised once they have all
-        # started: one interrupted half-way would be a process no list holds, left to end on its own
-        with _interrupts_deferred():
-            for _ in range(min(jobs, len(pending))):
-                workers.append(_Worker(ctx))
-        with _interrupts_noted():  # (a second Ctrl-C while the first stops the workers is ignored)
-            for i in range(len(workers)):
-                assign(i)
-            while True:
-                busy = [w for w in workers if w.task is not None]
-                if not busy:
-                    return
-                first = min(w.deadline for w in busy)
-                # (an hour at most: a wait over 2**31 ms, 24.8 days, raises OverflowError; it is waited again)
-                timeout = None if first == float("inf") else min(3600.0, max(0.0, first - time.monotonic()))
-                ready = set(wait([w.conn for w in busy] + [w.process.sentinel for w in busy], timeout))
-                for i, w in enumerate(workers):
-                    if w.task is None:
-                        continue
-                    rec = None
-                    # (``ready`` is stale once a record was yielded, the caller maybe busy past a deadline:
-                    # a record sent since is polled for before the deadline is looked at)
-                    if w.conn in ready or w.conn.poll():
-                        try:
-                            rec = w.conn.recv()
-                        except (EOFError, OSError):  # died as it sent, or before (the pipe closed)
-                            w.process.join(timeout=30)
-                            rec = _lost(w, f"the worker process building it {_death(w.process.exitcode)}")
-                        else:
-                            if isinstance(rec, tuple) and rec[:1] == (READY,):
-                                w.ready(rec[1])
-                                continue
-                    elif w.process.sentinel in ready:
-                        w.process.join(timeout=30)
-                        rec = _lost(w, f"the worker process building it {_death(w.process.exitcode)}")
-                    elif time.monotonic() >= w.deadline:
-                        rec = _lost(
-                            w,
-                            f"stopped after {limit_s:g} s (limits.seconds): its build took longer",
-                            "TIME_LIMIT_EXCEEDED",
-                        )
-                        w.stop()
-                    if rec is None:
-                        continue
-                    if rec.get("worker_lost"):
-                        w.stop()
-                    w.task = None
-                    if pending:
-                        assign(i)  # (a new worker in place of one lost, or of one that died idle since)
-                    yield rec
-    finally:  # Ctrl-C, an error, the caller stopped, or done
-        with _interrupts_ignored():
-            for w in workers:
-                if w.task is None and w.process.is_alive():
-                    try:
-                        w.conn.send(None)  # (idle: ends by itself; a send error: killed below)
-                    except OSError:
-                        pass
-                    w.process.join(timeout=5)
-                w.stop()
-
-
-def _forkserver_ready(ctx: Any) -> None:
-    """Wait for the fork server to have warmed up (it loads the numba kernels, or compiles them: minutes with
-    a cold cache, after an install or an upgrade) by having it fork a process that exits at once, in a thread:
-    the wait is the main thread's, which a Ctrl-C interrupts, stopping the server. The pool's workers are
-    then started at once (a Ctrl-C deferred while they start, :func:`_interrupts_deferred`, was held for the
-    whole warm-up)."""
-    if not _interrupts_raise():
-        return  # (nothing interrupts the wait: the pool's first worker waits for the server)
-    done = threading.Event()
-
-    def probe() -> None:
-        try:
-            p = ctx.Process(target=ignore_interrupts)
-            p.start()
-            p.join()
-        except BaseException:  # noqa: BLE001 - the server stopped, or cannot start: the pool reports it
-            pass
-        finally:
-            done.set()
-
-    threading.Thread(target=probe, name="swpm-forkserver-probe", daemon=True).start()
-    try:
-        while not done.wait(0.1):
-            pass
-    except BaseException:
-        with _interrupts_ignored():
-            _stop_forkserver()
-        raise
-
-
-def _stop_forkserver() -> None:
-    """Kill this process's fork server (warming up) and forget it (the next pool starts another)."""
-    from multiprocessing import forkserver
-
-    server = getattr(forkserver, "_forkserver", None)
-    pid = getattr(server, "_forkserver_pid", None)
-    if pid is None:
-        return
-    try:
-        os.kill(pid, signal.SIGKILL)
-    except OSError:
-        return
-    stop = getattr(server, "_stop", None)  # closes its pipe, waits for it, deletes its socket
-    if stop is not None:
-        stop()
-
-
-class _Progress:
-    """A rich progress bar on a terminal, plain lines elsewhere (CI logs)."""
-
-    def __init__(self, total: int) -> None:
-        self.total = total
-        self.done = 0
-        self.bar = None
-        if total:  # (a first run printed nothing for minutes while numba compiled: users took it for a hang)
-            print(
-                f"[0/{total}] building {total} asset{'s' * (total != 1)}; on a new machine numba compiles "
-                "its kernels first (a minute or more, once)",
-                file=sys.stderr,
-                flush=True,
-            )
-        if sys.stderr.isatty() and total:
-            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
-            self.bar = Progress(
-                TextColumn("[bold]building"),
-                BarColumn(),
-                MofNCompleteColumn(),
-                TimeRemainingColumn(),
-                TextColumn("{task.description}"),
-                transient=False,
-            )
-            self.bar.start()
-            self.task = self.bar.add_task("", total=total)
-
-    def advance(self, rec: dict, path: str | None = None) -> None:
-        """One more asset done; ``path``, its file as the worker's error names it, is left out of the line
-        (which names the asset already): a deep folder's path filled the 100 characters kept of the error,
-        and the line lost its cause (the summary after the run prints the error whole)."""
-        self.done += 1
-        error = rec.get("error", "")
-        if path:
-            error = error.replace(f"{path}: ", "", 1)
-        status = rec["status"]
-        if status == "failed":
-            # the problem code first, bracketed, as the summary's FAILED line has it: a log greps by cause
-            code = f" [{rec['code']}]" if rec.get("code") else ""
-            status = f"FAILED{code} ({error[:100]})"
-        if rec.get("kept_previous"):
-            status += "; its previous outputs are kept"
-        if self.bar is not None:
-            self.bar.update(self.task, advance=1, description=f"{rec['id']}: {status}")
-        else:
-            print(
-                f"[{self.done}/{self.total}] {rec['id']}: {status} ({rec.get('seconds', 0):.2f} s)",
-                file=sys.stderr,
-                flush=True,
-            )
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.stop()
-
-
-class _OutputLock:
-    """One run at a time in an output folder: an exclusive, non-blocking ``flock`` on its :data:`LOCK` file.
-
-    A second run fails at once with :class:`OutputLockedError` instead of deleting the first one's temporary
-    files and interleaving manifests. The kernel drops the lock when the holder's file is closed, so it goes
-    with the run however it ends (an error, Ctrl-C, a kill); the file itself stays (deleting it would let a
-    third run lock a new file while the second still holds the old one). The holder's pid is written in it for
-    the message, by :meth:`claim`, once the run writes in the folder: a run that writes nothing there (a
-    rerun with nothing to do) holds the lock as any other, and leaves the file as it was (the pid in it is
-    then an ended run's: a run it stops names the holder as the kernel lists it, :func:`_lock_holder`,
-    and the pid in the file only where there is no such list, if a process has that pid). Where
-    ``flock`` is missing (Windows) or refused (a filesystem without locks), the run goes on unlocked, with
-    a warning."""
-
-    def __init__(self, out_dir: Path, echo) -> None:
-        self.path = out_dir / LOCK
-        self.echo = echo
-        self.fd: int | None = None
-        self.done = False
-        self.writable = False  # (the lock file opened for writing: its pid can be written)
-        self.claimed = False  # (this run's pid written in it)
-
-    def acquire(self, folder_checked: bool = False) -> None:
-        """Take the lock, or raise :class:`OutputLockedError`. A lock file this process cannot open is
-        ignored before the folder is checked (``folder_checked``: a folder the run cannot write in is
-        reported as such, exit 2), and after it gives the warning of a filesystem without locks."""
-        if self.done:
-            return
-        try:
-            import fcntl
-        except ImportError:  # pragma: no cover - not on POSIX
-            self.done = True
-            return
-        cloexec = getattr(os, "O_CLOEXEC", 0)
-        writable = True
-        try:
-            try:
-                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | cloexec, 0o666)
-            except PermissionError:  # another user's lock file (0o644): flock needs no write access
-                fd, writable = os.open(self.path, os.O_RDONLY | cloexec), False
-        except OSError as exc:
-            if folder_checked:
-                self._unlocked(exc)
-            return
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            pid = _lock_holder(fd)  # (the holder as the kernel lists it: it may not have written its pid)
-            if pid is None:
-                try:
-                    pid = int(os.read(fd, 32).decode().strip())
-                except (OSError, ValueError):
-                    pid = None
-            os.close(fd)
-            raise OutputLockedError(
-                self.path.parent, pid if pid is not None and _running(pid) else None
-            ) from None
-        except OSError as exc:  # ENOLCK, EOPNOTSUPP: a filesystem that does not lock
-            os.close(fd)
-            self._unlocked(exc)
-            return
-        self.fd, self.done, self.writable = fd, True, writable
-
-    def claim(self) -> None:
-        """Write this process's pid in the lock file held (once; nothing without the lock, or when the file
-        is not writable: it keeps an earlier run's pid, which is not running, so not shown). The run calls
-        it before it first writes in output.dir."""
-        if self.fd is None or not self.writable or self.claimed:
-            return
-        self.claimed = True
-        try:
-            os.ftruncate(self.fd, 0)
-            os.pwrite(self.fd, f"{os.getpid()}\n".encode(), 0)
-        except OSError:  # (a full disk: the pid only names the holder, which /proc/locks names too; the
-            pass  # run's own writes meet the full disk next, each as the typed error naming its file)
-
-    def _unlocked(self, exc: OSError) -> None:
-        self.done = True
-        self.echo(
-            f"warning: {self.path.parent}: cannot lock the output folder ({exc.strerror or exc}); "
-            "make sure no other run writes there at the same time"
-        )
-
-    def release(self) -> None:
-        if self.fd is not None:
-            os.close(self.fd)  # closing the only descriptor of the open file drops its lock
-            self.fd = None
-
-
-_PROC_LOCKS = "/proc/locks"  # (Linux: the locks held, and by which process)
-
-
-def _lock_holder(fd: int) -> int | None:
-    """The pid of the process holding a ``flock`` on the file open at ``fd``, as Linux lists it in
-    ``/proc/locks`` (``1: FLOCK  ADVISORY  WRITE 4117 fe:00:2148341 0 EOF``: pid, device, inode): the run
-    that holds the lock, whether or not it has written its pid in the file yet (a run writes it once it
-    writes in output.dir: while it plans, or all through a rerun with nothing to do, the file holds an
-    ended run's, which a process may have again). The lock of the file's device and inode; where the list
-    numbers the device otherwise (an overlayfs or a btrfs subvolume: the device of the filesystem below),
-    the one lock of its inode. None where there is no such list (not Linux) or the lock is not in it (its
-    holder has just let it go): the pid in the file is then shown, if a process has it."""
-    try:
-        st = os.fstat(fd)
-        with open(_PROC_LOCKS, encoding="ascii", errors="replace") as f:
-            lines = f.read().splitlines()
-    except OSError:
-        return None
-    device = f"{os.major(st.st_dev):02x}:{os.minor(st.st_dev):02x}"
-    same_inode: dict[str, int] = {}  # device -> pid of the flock held on a file of this inode number
-    for line in lines:
-        fields = line.split()  # (a waiter's line has "->" after the number: never the holder)
-        if len(fields) < 6 or fields[1] != "FLOCK" or not fields[4].lstrip("-").isdigit():
-            continue
-        dev, _, ino = fields[5].rpartition(":")
-        if ino == str(st.st_ino):
-            same_inode[dev] = int(fields[4])
-    if device in same_inode:
-        return same_inode[device]
-    return next(iter(same_inode.values())) if len(same_inode) == 1 else None
-
-
-def _running(pid: int) -> bool:
-    """Is there a process ``pid`` (another user's too)?"""
-    if pid <= 0:
-        return False
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:  # EPERM: someone else's
-        return True
-    return True
-
-
 def run(
     config_path: str | Path,
     *,
@@ -1805,11 +547,11 @@ def run(
     ``prune``: delete the recorded outputs of assets the config no longer has (those still as the manifest
     recorded them and not outputs of this run's assets); without it they stay and the result names them.
 
-    ``verify``: hash every input file and recorded output (sha256) to decide whether it changed, where a
-    run otherwise trusts one whose size, mtime, ctime, inode and device are as recorded
-    (:func:`_inputs_unchanged`, :func:`_checked_output`): a file whose bytes changed with none of those (a
-    disk's silent corruption, a write within the timestamp granularity of the run's own) is found and its
-    asset rebuilt.
+    ``verify``: hash every input file and recorded output (sha256) to decide whether it changed, where a run
+    otherwise trusts one whose size, mtime, ctime, inode and device are as recorded
+    (:func:`.inputs._inputs_unchanged`, :func:`.outputs._checked_output`): a file whose bytes changed with
+    none of those (a disk's silent corruption, a write within the timestamp granularity of the run's own) is
+    found and its asset rebuilt.
 
     A run that writes (not ``dry_run``) holds output.dir's lock from before it reads the manifest (or, for
     an output.dir it creates, from then) to its end; another run there raises :class:`OutputLockedError`."""
@@ -2004,7 +746,7 @@ def _run(
 
     def changed() -> None:
         """A record changes: the run writes here, and its scene and report are no longer those of the
-        manifest's records (:data:`CURRENT`)."""
+        manifest's records (:data:`.manifest.CURRENT`)."""
         nonlocal unchanged, run_outputs
         if not unchanged:
             return
@@ -2182,139 +924,6 @@ def _triangles_shown(item: PlanItem) -> str:
     return f"triangles={'?' if tri is None else tri}"
 
 
-def _config_ref(cfg: Config, out_dir: Path) -> str:
-    """The manifest's ``config``: the config file's path relative to output.dir (``../pipeline.yaml``), so a
-    project folder moved or renamed whole names it as before; absolute where no relative path leads there
-    (another drive)."""
-    try:
-        return Path(os.path.relpath(cfg.path, out_dir.resolve())).as_posix()
-    except ValueError:
-        return str(cfg.path)
-
-
-def _shared_with(cfg: Config, manifest: dict, items: list[PlanItem]) -> tuple[str, int] | None:
-    """(the other config, how many of its assets this one has not) when ``manifest`` was written by a run
-    of another config file, still there (not this one moved or renamed) and writing in this output.dir (not
-    the original of a copied project), whose assets this one lacks: two configs sharing an output.dir take
-    each other's assets as removed, and each run rebuilds the other's."""
-    other = manifest.get("config")
-    if (
-        not isinstance(other, str)
-        or "\0" in other
-        or other in (str(cfg.path), _config_ref(cfg, output_dir(cfg)))
-    ):
-        return None  # (this config's: a rerun reads no more)
-    from .report import config_named
-
-    other = config_named(output_dir(cfg), other)  # (relative to output.dir, or an older version's absolute)
-    if other is None or not isinstance(manifest.get("assets"), dict):
-        return None
-    current = {it.asset.id for it in items}
-    dropped = sum(aid not in current for aid in manifest["assets"])
-    try:
-        if not dropped or not os.path.isfile(other) or os.path.samefile(other, cfg.path):
-            return None
-    except OSError:
-        return None
-    try:  # (a copy of the project, its manifest naming the original config: that one writes elsewhere)
-        if not os.path.samefile(output_dir(load_config(other)), output_dir(cfg)):
-            return None
-    except ConfigError:  # (one this version cannot read: it wrote here, as far as the manifest tells)
-        pass
-    except (OSError, ValueError):  # (its output.dir missing: not this one)
-        return None
-    return other, dropped
-
-
-def _current_why(recorded: Any, item: PlanItem) -> str:
-    """The ``why`` of an up-to-date asset's record today: the rule that chooses its treatment now
-    (``item.why``), and for ``encoding: auto`` the choice its build recorded after it (``; auto: ...``,
-    :func:`.worker.choose_auto`'s, which the build alone measures: this treatment's, as the digest is)."""
-    if item.treatment.get("encoding") == "auto" and isinstance(recorded, str):
-        cut = recorded.rfind("; auto: ")  # (the last: the choice holds none, a rule's name might)
-        if cut >= 0:
-            return item.why + recorded[cut:]
-    return item.why
-
-
-def _rule_name(cfg: Config, item: PlanItem) -> str | None:
-    """The name of the rule that chose ``item``'s treatment (None: the defaults)."""
-    return None if item.rule is None else cfg.data["rules"][item.rule]["name"]
-
-
-def _orphaned_outputs(
-    cfg: Config, out_dir: Path, manifest: dict, items: list, verify: bool = False
-) -> list[tuple[Path, dict]]:
-    """The recorded outputs (path, record) of the manifest's assets that are not among ``items`` (no longer
-    in the config) and of its ``orphaned_outputs`` (left by earlier runs without ``prune``), still as
-    recorded (:func:`_checked_output`: a file changed since is not the run's; its stat fields recorded
-    anew when it was hashed), less any file this run's assets write or read (an earlier output used as a
-    stage, or a layer a stage uses) and the config."""
-    current = {it.asset.id for it in items}
-    recorded = [
-        o
-        for aid, rec in sorted(manifest.get("assets", {}).items())
-        if aid not in current and isinstance(rec, dict) and isinstance(rec.get("outputs"), dict)
-        for o in rec["outputs"].values()
-    ]
-    if isinstance(manifest.get(ORPHANED), list):
-        recorded += manifest[ORPHANED]
-    if isinstance(manifest.get(RUN_OUTPUTS), dict):  # a scene or report the config no longer asks for
-        recorded += [
-            o
-            for kind, o in sorted(manifest[RUN_OUTPUTS].items())
-            if kind in _RUN_OUTPUT_DEFAULTS and not _asks_for(cfg, kind)
-        ]
-    if not recorded:
-        return []  # the usual run: no file stat'ed for the guard below
-    keep = _files_kept(cfg, out_dir, items)
-    found, seen = [], set()
-    for o in recorded:
-        if not isinstance(o, dict) or not isinstance(o.get("path"), str) or "\0" in o["path"]:
-            continue  # (a hand-edited manifest: a NUL byte would raise in every path call)
-        path = out_dir / o["path"]
-        # a recorded path that leaves output.dir (a hand-edited manifest) is never touched
-        if path.resolve().parent != out_dir.resolve() or _file_key(path) in keep or path in seen:
-            continue
-        checked = _checked_output(path, o, verify)
-        if checked is not None:
-            seen.add(path)
-            found.append(
-                (path, {k: checked[k] for k in ("path", "size", "sha256", *STAT_KEYS) if k in checked})
-            )
-    return found
-
-
-def _files_kept(cfg: Config, out_dir: Path, items: list) -> set[tuple]:
-    """The files (:func:`_file_key`) no output of a removed asset or kind may be taken for: those this run's
-    assets write or read (an earlier output used as a stage, or a layer a stage uses) and the config."""
-    keep = {_file_key(p) for p in planned_outputs(cfg, out_dir, [it.asset for it in items])}
-    return keep | {_file_key(p) for p in [cfg.path, *(p for it in items for p in it.inputs)]}
-
-
-def _dropped_outputs(
-    out_dir: Path, previous: dict | None, built: dict, verify: bool = False
-) -> list[tuple[Path, dict]]:
-    """The outputs of an asset's previous build (``previous``, its record) that its new one (``built``)
-    does not write (a kind the config no longer asks for: ``swpm: false`` since), still as recorded, as
-    :func:`_orphaned_outputs` gives them: the new record does not list them, so the run names them (and
-    ``prune`` deletes them) as it does a removed asset's."""
-    if previous is None:
-        return []
-    written = {o["path"] for o in built.get("outputs", {}).values()}
-    found = []
-    for o in previous.get("outputs", {}).values():
-        checked = None if o["path"] in written else _checked_output(out_dir / o["path"], o, verify)
-        if checked is not None:
-            found.append(
-                (
-                    out_dir / o["path"],
-                    {k: checked[k] for k in ("path", "size", "sha256", *STAT_KEYS) if k in checked},
-                )
-            )
-    return found
-
-
 def _failed_before(record: dict | None) -> bool:
     """Did the asset of manifest record ``record`` fail in the run that wrote it (a failed record, or a
     build kept with its ``last_failure``)? Only such an asset can fail again with its record unchanged."""
@@ -2333,136 +942,3 @@ def _same_failure(before: dict | None, after: dict) -> bool:
         return out
 
     return before is not None and _failed_before(before) and timeless(before) == timeless(after)
-
-
-def _keep_previous(out_dir: Path, previous: dict | None, failed: dict, verify: bool = False) -> dict | None:
-    """The record of an asset whose rebuild failed (``failed``, the worker's record).
-
-    When the asset was built before and its outputs are all still as recorded (:func:`_checked_output`),
-    its previous build is kept: the returned record is the previous one, untouched but for ``last_failure``
-    (the failure's error, traceback, digest and seconds) and the stat fields of outputs hashed to be
-    checked (its ``inputs`` stay: their stat goes with its input digest, not the failed attempt's), so the
-    manifest, the scene and the outputs still serve the last good build and the next run tries again.
-    Otherwise None: the failed record replaces the previous one, and those of its outputs still as recorded
-    are deleted, so no output is left that the manifest does not list (a file changed since is not the
-    run's to delete)."""
-    if previous is None or record_problem(previous) is not None or previous.get("status") != "built":
-        return None  # (a record the run does not write, hand-edited, names no file to keep or delete)
-    outputs = previous.get("outputs", {})
-    checked = {kind: _checked_output(out_dir / o["path"], o, verify) for kind, o in outputs.items()}
-    if any(o is None for o in checked.values()):
-        for o in checked.values():
-            if o is not None:
-                (out_dir / o["path"]).unlink(missing_ok=True)
-        return None
-    keys = ("error", *PROBLEM_KEYS, "traceback", "digest", "input_digest", "seconds")
-    failure = {k: failed[k] for k in keys if k in failed}
-    kept = {k: v for k, v in previous.items() if k != "last_failure"}
-    if outputs:
-        kept["outputs"] = checked
-        layer = checked.get("usd")
-        with_units = _layer_with_units(out_dir, layer) if layer is not None else None
-        if with_units is not None and with_units is not layer:  # (for the scene: none read, it has none)
-            kept["outputs"] = {**checked, "usd": with_units}
-    return {**kept, "last_failure": failure}
-
-
-def _layer_with_units(out_dir: Path, layer: dict) -> dict | None:
-    """``layer`` (the record of an asset's USD layer, intact) as the scene needs it, with the layer's units
-    (:data:`.worker.LAYER_UNIT_KEYS`): itself when it has them; a copy with those the layer's metadata
-    authors when it has none, a record of 0.7.2 written before they were (the scene referenced the layer
-    uncorrected: :func:`.worker.recorded_layer_units`); None when they do not read."""
-    if all(k in layer for k in LAYER_UNIT_KEYS):
-        return layer
-    units = recorded_layer_units(out_dir / layer["path"])
-    return None if units is None else {**layer, **units}
-
-
-def _scene_prim_name(stem: str, used: set[str]) -> str:
-    """The scene's prim for the asset layer ``<stem>.usdc``: the stem itself where it is a valid identifier
-    (stems are unique: they are file names in output.dir), else the identifier USD makes of it and a hash of
-    the stem (``a-b`` and ``a b`` both make ``a_b``). A name depends on its own asset alone, so a layer that
-    overrides ``/Scene/cow`` still finds it when assets come or go (an index in the name shifted)."""
-    from pxr import Tf
-
-    base = Tf.MakeValidIdentifier(stem)
-    names = [base] if base == stem else []
-    digest = hashlib.sha256(stem.encode()).hexdigest()
-    names += [f"{base}_{digest[:size]}" for size in (8, 16, 64)]  # (taken by another's hashed name: 2^-32)
-    name = next(n for n in names if n not in used)
-    used.add(name)
-    return name
-
-
-def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
-    """A scene layer that references every per-asset USD layer, one Xform each.
-
-    Authored on the layer itself (Sdf), never on a stage: a stage composes each reference as it is added,
-    opening every asset layer (5,000 assets: 20 s and 350 MB, on every run, a rerun with nothing to build
-    included); the layer written is the same text."""
-    from pxr import Sdf
-
-    from ..fileio import fill_layer_replacing
-
-    layers = [
-        (r["outputs"]["usd"]["path"], r["outputs"]["usd"])
-        for k, r in sorted(records.items())
-        if r.get("status") == "built" and "usd" in r.get("outputs", {})
-    ]
-
-    def fill(layer: Sdf.Layer) -> None:
-        with Sdf.ChangeBlock():
-            layer.pseudoRoot.SetInfo("upAxis", "Y")  # (UsdGeom.SetStageUpAxis, SetStageMetersPerUnit)
-            layer.pseudoRoot.SetInfo("metersPerUnit", 1.0)
-            root = Sdf.PrimSpec(layer.pseudoRoot, "Scene", Sdf.SpecifierDef, "Xform")
-            # an assembly: each asset's root is a component model, a model only under group models (without
-            # it no asset of the scene was one, IsModel() False: model traversal, selection, draw modes)
-            root.SetInfo("kind", "assembly")
-            layer.defaultPrim = "Scene"
-            used: set[str] = set()
-            for path, usd_record in layers:
-                prim = Sdf.PrimSpec(root, _scene_prim_name(Path(path).stem, used), Sdf.SpecifierDef, "Xform")
-                prim.referenceList.Prepend(Sdf.Reference(f"./{path}"))
-                _author_units_correction(prim, usd_record.get("up_axis"), usd_record.get("meters_per_unit"))
-
-    # (renamed over the scene once saved, which keeps its mode; a caller of run may have it open: reloaded.
-    # The layer is bound in fill's frame alone: a LayerReloadError kept does not keep it alive)
-    fill_layer_replacing(out_dir / "scene.usda", out_dir / ".scene.tmp.usda", fill)
-
-
-#: the scene's up axis and metersPerUnit (USD converts neither across a reference: each asset whose layer
-#: says otherwise gets a corrective transform on its prim, :func:`_author_units_correction`)
-SCENE_UP_AXIS, SCENE_METERS_PER_UNIT = "Y", 1.0
-#: the corrective ops' names (suffixed: beside, not instead of, a layout's own xformOp:translate ...)
-UP_AXIS_OP, UNITS_OP = "xformOp:rotateX:swpmUpAxis", "xformOp:scale:swpmMetersPerUnit"
-
-
-def _author_units_correction(prim: Sdf.PrimSpec, up_axis: str | None, meters_per_unit: float | None) -> None:
-    """On the scene's prim ``prim`` (an Sdf.PrimSpec referencing an asset layer of ``up_axis`` and
-    ``meters_per_unit``, its manifest record's; None for a record that has neither, one of an earlier version
-    taken as the scene's), the transform that puts the asset in the scene's units: a uniform scale of
-    ``meters_per_unit / SCENE_METERS_PER_UNIT`` and, for a Z-up asset, -90 degrees about X (its +Z becomes
-    the scene's +Y), in that order (scale applied to the points first). The asset's own root (the Xform
-    :func:`.usd.write` makes) authors no xformOps, so the prim's ``xformOpOrder`` replaces none. What was
-    applied is in the prim's customData too (``swpm:assetUpAxis``, ``swpm:assetMetersPerUnit``, as
-    ``GetCustomDataByKey`` names them)."""
-    from pxr import Gf, Sdf, Vt
-
-    ops = []
-    rotate = up_axis is not None and up_axis != SCENE_UP_AXIS
-    scale = meters_per_unit is not None and float(meters_per_unit) != SCENE_METERS_PER_UNIT
-    if rotate:
-        attr = Sdf.AttributeSpec(prim, UP_AXIS_OP, Sdf.ValueTypeNames.Double)
-        attr.default = -90.0
-        ops.append(UP_AXIS_OP)
-    if scale:
-        s = float(meters_per_unit) / SCENE_METERS_PER_UNIT
-        attr = Sdf.AttributeSpec(prim, UNITS_OP, Sdf.ValueTypeNames.Double3)
-        attr.default = Gf.Vec3d(s, s, s)
-        ops.append(UNITS_OP)
-    if not ops:
-        return
-    order = Sdf.AttributeSpec(prim, "xformOpOrder", Sdf.ValueTypeNames.TokenArray, Sdf.VariabilityUniform)
-    order.default = Vt.TokenArray(ops)
-    applied = {"assetUpAxis": up_axis, "assetMetersPerUnit": meters_per_unit}
-    prim.customData = {"swpm": {k: v for k, v in applied.items() if v is not None}}

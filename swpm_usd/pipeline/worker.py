@@ -39,11 +39,11 @@ def ignore_interrupts() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-#: the fields of ``os.stat`` an output's manifest record keeps beside its ``size`` and ``sha256``: a later
-#: run that finds the file with the same size and all of these trusts it unchanged without reading it (the
-#: runner's ``_checked_output``). ``ctime_ns`` moves on any change to the file's data or metadata and cannot
-#: be set back (``os.utime`` sets the mtime, not the ctime); ``ino`` and ``dev`` change when another file is
-#: renamed over it (a copy written into it, ``cp`` or ``cp -p``, keeps its inode: its ctime moves)
+#: the fields of ``os.stat`` an output's manifest record keeps beside its ``size`` and ``sha256``: a later run
+#: that finds the file with the same size and all of these trusts it unchanged without reading it
+#: (:func:`.outputs._checked_output`). ``ctime_ns`` moves on any change to the file's data or metadata and
+#: cannot be set back (``os.utime`` sets the mtime, not the ctime); ``ino`` and ``dev`` change when another
+#: file is renamed over it (a copy written into it, ``cp`` or ``cp -p``, keeps its inode: its ctime moves)
 STAT_KEYS = ("mtime_ns", "ctime_ns", "ino", "dev")
 
 
@@ -305,7 +305,7 @@ def layer_units(source: str | None) -> dict[str, Any]:
     """The ``up_axis`` and ``meters_per_unit`` of the asset layer of a mesh loaded from ``source``: a USD
     file's (:func:`.usd.writer.stage_metadata`), :func:`.usd.write`'s defaults (Y, 1) for what a USD file
     does not say and for any other file. Recorded with the layer (its manifest record), so the scene
-    corrects the asset to its own units without opening the layer (:func:`.runner._write_scene`)."""
+    corrects the asset to its own units without opening the layer (:func:`.scene._write_scene`)."""
     from ..usd.writer import stage_metadata
 
     meta = stage_metadata(source) if source is not None else {}
@@ -728,7 +728,7 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         finally:
             for tmp, _ in staged.values():
                 tmp.unlink(missing_ok=True)
-        if units is not None:  # (the scene corrects the asset to its units from them: runner._write_scene)
+        if units is not None:  # (the scene corrects the asset to its units from them: scene._write_scene)
             outputs["usd"].update(units)
         rec["outputs"] = outputs
         from .assets import checks_of

@@ -1,0 +1,65 @@
+"""What a run shows as it builds: a rich progress bar on a terminal, a plain line an asset elsewhere (CI).
+
+Separate from the runner: display only; the records and the summary after the run say the same things.
+"""
+
+from __future__ import annotations
+
+import sys
+
+
+class _Progress:
+    """A rich progress bar on a terminal, plain lines elsewhere (CI logs)."""
+
+    def __init__(self, total: int) -> None:
+        self.total = total
+        self.done = 0
+        self.bar = None
+        if total:  # (a first run printed nothing for minutes while numba compiled: users took it for a hang)
+            print(
+                f"[0/{total}] building {total} asset{'s' * (total != 1)}; on a new machine numba compiles "
+                "its kernels first (a minute or more, once)",
+                file=sys.stderr,
+                flush=True,
+            )
+        if sys.stderr.isatty() and total:
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+            self.bar = Progress(
+                TextColumn("[bold]building"),
+                BarColumn(),
+                MofNCompleteColumn(),
+                TimeRemainingColumn(),
+                TextColumn("{task.description}"),
+                transient=False,
+            )
+            self.bar.start()
+            self.task = self.bar.add_task("", total=total)
+
+    def advance(self, rec: dict, path: str | None = None) -> None:
+        """One more asset done; ``path``, its file as the worker's error names it, is left out of the line
+        (which names the asset already): a deep folder's path filled the 100 characters kept of the error,
+        and the line lost its cause (the summary after the run prints the error whole)."""
+        self.done += 1
+        error = rec.get("error", "")
+        if path:
+            error = error.replace(f"{path}: ", "", 1)
+        status = rec["status"]
+        if status == "failed":
+            # the problem code first, bracketed, as the summary's FAILED line has it: a log greps by cause
+            code = f" [{rec['code']}]" if rec.get("code") else ""
+            status = f"FAILED{code} ({error[:100]})"
+        if rec.get("kept_previous"):
+            status += "; its previous outputs are kept"
+        if self.bar is not None:
+            self.bar.update(self.task, advance=1, description=f"{rec['id']}: {status}")
+        else:
+            print(
+                f"[{self.done}/{self.total}] {rec['id']}: {status} ({rec.get('seconds', 0):.2f} s)",
+                file=sys.stderr,
+                flush=True,
+            )
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.stop()

@@ -1,0 +1,159 @@
+"""The plan's questions about rules: which rule an asset's triangle count routes it by, which rules no asset
+reaches, and whether the build its record holds still meets today's config.
+
+A build is current when its digest is the treatment's (:func:`_treatment_digest`, or the digest of an
+older version that held the instance count: :func:`_digest_with_count`), its recorded memory still fits
+``budgets.total_bytes`` at today's instance count (:func:`_total_fits`), its triangles
+``limits.max_triangles`` (:func:`_within_triangle_budget`), and its outputs are those the config asks for
+(:func:`_wanted_outputs`). Separate from the runner: each answer is a small pure function of the config and
+a record, which :func:`.runner.plan` and the run's records use.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+from .. import __version__
+from .assets import Asset, checks_of, match_rule, rule_checks, treatment_digest
+from .config import Config
+from .worker import TRIANGLES_READ
+
+if TYPE_CHECKING:
+    from .runner import PlanItem
+
+
+def _total_fits(cfg: Config, record: dict, item: PlanItem) -> bool:
+    """Does the build ``record`` holds still meet ``budgets.total_bytes`` with ``item``'s instance count
+    (global bytes + instances x instance bytes, as the worker checks it)? The count is not in the digest of
+    an encoding other than ``auto`` (:func:`.assets.treatment_digest`), so more instances than it passed
+    with check it again, from the memory the record holds (a record without it: built again)."""
+    limit = (cfg.data.get("budgets") or {}).get("total_bytes")
+    if (
+        limit is None
+        or item.treatment.get("encoding") == "auto"
+        or record.get("instances") == item.asset.instances
+    ):
+        return True
+    summary = record.get("summary") or {}
+    if not all(isinstance(summary.get(k), (int, float)) for k in ("global_bytes", "instance_bytes")):
+        return False
+    return summary["global_bytes"] + item.asset.instances * summary["instance_bytes"] <= limit
+
+
+def _treatment_digest(cfg: Config, item: PlanItem) -> str:
+    checks = checks_of(cfg.data) if item.treatment.get("encoding") == "auto" else None
+    return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, checks)
+
+
+def _digest_with_count(item: PlanItem, record: dict) -> str | None:
+    """The digest ``record``, of an asset other than ``auto``, was built under by a version that put every
+    asset's instance count in its digest (its count then: the record's ``instances``), so a build current
+    but for that is not built again; None for an ``auto`` asset or a record of the default count (the
+    digest is the same)."""
+    count = record.get("instances")
+    if item.treatment.get("encoding") == "auto" or type(count) is not int or count == 1:
+        return None
+    return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, instances=count)
+
+
+def _same_rule_from(cfg: Config, asset: Asset, lowest: int) -> bool:
+    """Does ``asset`` match the same rule (or the defaults) at every triangle count from ``lowest`` up? A
+    lower bound (an OBJ's face lines: a quad is two triangles) routes the asset by its count only then: under
+    a rule's ``max`` it named that rule where the mesh, loaded, had more triangles and matched another."""
+    counts = {lowest}
+    for rule in cfg.data.get("rules", []):
+        rng = (rule.get("match") or {}).get("triangles") or {}
+        if "min" in rng and rng["min"] > lowest:
+            counts.add(math.ceil(rng["min"]))
+        if "max" in rng and rng["max"] >= lowest:
+            counts.add(math.floor(rng["max"]) + 1)
+    return len({match_rule(cfg, asset, n)[0] for n in counts}) == 1
+
+
+def _max_triangles(cfg: Config) -> int | None:
+    """``limits.max_triangles``, or None."""
+    limits = cfg.data.get("limits")
+    return limits.get("max_triangles") if isinstance(limits, dict) else None
+
+
+def _within_triangle_budget(cfg: Config, record: dict) -> bool:
+    """Whether the asset a record built holds no more triangles than ``limits.max_triangles`` (a budget set
+    or lowered since: an asset over it is loaded again, and fails), counted as the budget counts them, before
+    cleaning (:data:`.worker.TRIANGLES_READ`; the cleaned ``triangles_in`` left a file over it by duplicate
+    or degenerate triangles alone current). A record without that count (of a version before it) is built
+    again, and then has it."""
+    budget, tri = _max_triangles(cfg), record.get(TRIANGLES_READ)
+    return budget is None or (type(tri) is int and tri <= budget)
+
+
+def _rules_pending(items: list[PlanItem], dry_run: bool = False) -> bool:
+    """Are rules left to the workers, so the rules no asset reaches are known only once they have built? A
+    dry run's plan leaves out the files that did not load to be counted (a run's worker fails them before any
+    rule, if they load no better then); a run (``--explain`` counts as it plans) waits for its workers: such a
+    file may load whole by then (an exporter was still writing it) and take a rule."""
+    return any(i.rule_pending and not (dry_run and i.triangles_how == "unknown") for i in items)
+
+
+def _unreached_rules(cfg: Config, items: list[PlanItem]) -> list[str]:
+    """A warning for each rule no asset took: one shadowed by earlier rules (every asset it matches is
+    taken first by one of them, named) or one that matches no asset at all."""
+    reached = {i.rule for i in items}
+    rules = cfg.data.get("rules", [])
+    warnings = []
+    for idx, rule in enumerate(rules):
+        if idx in reached:
+            continue
+        # (an asset whose rule is unknown, one that failed before the worker matched it, is left out)
+        takers = sorted(
+            {
+                it.rule
+                for it in items
+                if it.rule is not None and all(ok for _, ok in rule_checks(rule, it.asset, it.triangles or 0))
+            }
+        )
+        if takers:
+            by = ("rules " if len(takers) > 1 else "rule ") + " and ".join(
+                repr(rules[i]["name"]) for i in takers
+            )
+            warnings.append(
+                f"{cfg.where(('rules', idx))}: rule {rule['name']!r} is shadowed by {by}: every asset it "
+                "matches is taken by an earlier rule"
+            )
+        else:
+            warnings.append(f"{cfg.where(('rules', idx))}: rule {rule['name']!r} matches no asset")
+    return warnings
+
+
+def _wants_outputs(cfg: Config) -> bool:
+    out = cfg.data["output"]
+    return bool(out.get("swpm", True) or out.get("usd", False))
+
+
+def _wanted_outputs(cfg: Config) -> set[str]:
+    """The kinds of output (a record's ``outputs`` keys) the config asks each asset for."""
+    out = cfg.data["output"]
+    return {
+        kind for kind, wanted in (("swpm", out.get("swpm", True)), ("usd", out.get("usd", False))) if wanted
+    }
+
+
+def _routes_by_triangles(cfg: Config) -> bool:
+    """Does a rule match on triangle counts (so an asset's rule depends on its count)?"""
+    return any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))
+
+
+def _current_why(recorded: Any, item: PlanItem) -> str:
+    """The ``why`` of an up-to-date asset's record today: the rule that chooses its treatment now
+    (``item.why``), and for ``encoding: auto`` the choice its build recorded after it (``; auto: ...``,
+    :func:`.worker.choose_auto`'s, which the build alone measures: this treatment's, as the digest is)."""
+    if item.treatment.get("encoding") == "auto" and isinstance(recorded, str):
+        cut = recorded.rfind("; auto: ")  # (the last: the choice holds none, a rule's name might)
+        if cut >= 0:
+            return item.why + recorded[cut:]
+    return item.why
+
+
+def _rule_name(cfg: Config, item: PlanItem) -> str | None:
+    """The name of the rule that chose ``item``'s treatment (None: the defaults)."""
+    return None if item.rule is None else cfg.data["rules"][item.rule]["name"]
