@@ -699,7 +699,7 @@ def test_ctrl_c_during_a_run_stops_it_cleanly(tmp_path, jobs):
     # Ctrl-C sends SIGINT to the terminal's whole process group: the workers used to take it too and print
     # tracebacks, and kept writing outputs after the run had stopped; in one process (--jobs 1) numba turned
     # it into a SystemError, recorded as the asset's failure, and the run went on
-    from swpm_usd.pipeline.runner import _TEMPORARY
+    from swpm_usd.pipeline.outputs import _TEMPORARY
 
     cfg = _project(tmp_path, ("cow.obj", "spot.obj", "bob.obj", "fandisk.obj", "teapot.obj"), "")
     for i in range(4):
@@ -1299,7 +1299,7 @@ def test_scene_prim_names_depend_on_their_own_asset_alone():
     # renamed the others, and a layer overriding /Scene/spot_1 lost it
     from pxr import Sdf
 
-    from swpm_usd.pipeline.runner import _scene_prim_name
+    from swpm_usd.pipeline.scene import _scene_prim_name
 
     stems = ["cow", "a-b", "a b", "1cow", "a_b", "sp\u00f6t"]
     names = [_scene_prim_name(s, set()) for s in stems]
@@ -1346,7 +1346,7 @@ def test_scene_is_written_without_opening_the_asset_layers(tmp_path, capfd):
 
 
 def _scene_prim_name_of(stem: str) -> str:
-    from swpm_usd.pipeline.runner import _scene_prim_name
+    from swpm_usd.pipeline.scene import _scene_prim_name
 
     return _scene_prim_name(stem, set())
 
@@ -2861,7 +2861,7 @@ def test_a_no_change_rerun_compares_recorded_input_paths_as_text(tmp_path, monke
         for path in (tmp_path / "m" / "a.obj", tmp_path / "m" / ".." / "a.obj", tmp_path / "mx" / "a.obj"):
             for text in ("m/a.obj", "a.obj", "../a.obj", "m/../a.obj", "m//a.obj", "./m/a.obj", str(path)):
                 expected = text in (str(path), runner.recorded_path(base, path))
-                assert runner._is_recorded_path(text, path, base) == expected, (text, path, base)
+                assert input_checks._is_recorded_path(text, path, base) == expected, (text, path, base)
 
 
 def test_a_record_s_curve_is_written_a_point_a_line(tmp_path, monkeypatch):
@@ -3639,7 +3639,7 @@ def _torus_stl(path: Path, rings: int, sides: int) -> None:
 
 
 def test_limits_seconds_stops_an_asset_that_builds_too_long(tmp_path):
-    from swpm_usd.pipeline.runner import _TEMPORARY
+    from swpm_usd.pipeline.outputs import _TEMPORARY
 
     cfg = _project(tmp_path, ("spot.obj",))
     _torus_stl(tmp_path / "meshes" / "big.stl", 500, 500)  # 500,000 triangles: many seconds to build
@@ -5289,7 +5289,7 @@ def test_a_run_refused_while_another_plans_or_has_nothing_to_do_names_that_one(t
 def test_the_holder_of_the_lock_as_the_kernel_lists_it(tmp_path, monkeypatch):
     # /proc/locks numbers a file by the device of the filesystem that holds it: on an overlayfs (a container)
     # or a btrfs subvolume another device than stat's, where the one lock of the inode is the holder's
-    from swpm_usd.pipeline import runner
+    from swpm_usd.pipeline import lock as output_lock
 
     lock = tmp_path / "lock"
     lock.write_text("")
@@ -5328,9 +5328,9 @@ def test_the_holder_of_the_lock_as_the_kernel_lists_it(tmp_path, monkeypatch):
             ([], None),
         ):
             listed.write_text("".join(f"{line}\n" for line in lines))
-            assert runner._lock_holder(fd) == holder, lines
+            assert output_lock._lock_holder(fd) == holder, lines
         listed.unlink()  # (no list: not Linux)
-        assert runner._lock_holder(fd) is None
+        assert output_lock._lock_holder(fd) is None
     finally:
         os.close(fd)
 

@@ -72,10 +72,8 @@ from .inputs import (
     _with_inputs,
     recorded_path,
 )
-from .inputs import _is_recorded_path as _is_recorded_path  # (re-exported)
 from .interrupts import _interrupts_ignored, _interrupts_noted
 from .lock import LOCK as LOCK  # (re-exported)
-from .lock import _lock_holder as _lock_holder  # (re-exported)
 from .lock import _OutputLock
 from .manifest import (
     _RUN_OUTPUT_DEFAULTS,
@@ -95,7 +93,6 @@ from .manifest import (
 )
 from .manifest import INPUT_LISTS as INPUT_LISTS  # (re-exported)
 from .manifest import INPUTS_REF as INPUTS_REF  # (re-exported)
-from .outputs import _TEMPORARY as _TEMPORARY  # (re-exported)
 from .outputs import (
     _checked_output,
     _clean_after_worker,
@@ -145,7 +142,6 @@ from .scene import SCENE_UP_AXIS as SCENE_UP_AXIS  # (re-exported)
 from .scene import UNITS_OP as UNITS_OP  # (re-exported)
 from .scene import UP_AXIS_OP as UP_AXIS_OP  # (re-exported)
 from .scene import _layer_with_units, _write_scene
-from .scene import _scene_prim_name as _scene_prim_name  # (re-exported)
 from .tasks import _task
 from .worker import (
     RUNNER_PID_ENV,
