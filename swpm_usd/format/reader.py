@@ -5,6 +5,13 @@ memory-maps the file, runs the same checks and returns a :class:`ProgressiveMesh
 the mapping (read-only, no copy; integer buffers keep the file's u16/u32 dtype). Every count is checked
 against the bytes that remain before an array is viewed, and arrays are only ever views, so a hostile file
 cannot make the reader allocate much more than its own size.
+
+This module is the structure pass (header, chunk table, chunk order: spec 2 and 5) and the public API; the
+content checks, run in the order of spec 5 by :func:`_check`, each live in a module of their own:
+:mod:`.meta` (``META``, spec 3.1), :mod:`.check_lods_vert` (``LODS`` and ``VERT``, 3.2-3.3), one module per
+encoding (:mod:`.check_sliding` 3.5, :mod:`.check_vanilla` 3.6, :mod:`.check_skip` 3.7, :mod:`.check_mixed`
+3.8, with the record checks they share in :mod:`.check_records`) and :mod:`.check_smap` (``SMAP``, 4).
+:mod:`.parsed` holds the parsed state they fill in and the checked views they take of the mapping.
 """
 
 from __future__ import annotations
@@ -224,9 +231,7 @@ def _stream_order(p: _Parsed, rep: Report) -> None:
         rep.add("SWPM_STREAM_ORDER", c.entry_offset, type="VERT", reason="VERT must be the last chunk")
 
 
-# -- content --------------------------------------------------------------------------------------------
-
-
+# -- content: each chunk's checks in their own module (see above), run in the order of spec 5 -----------
 _DECODERS = {"vanilla": _vanilla, "sliding-window": _sliding, "skip-strip": _skip, "mixed": _mixed}
 
 
