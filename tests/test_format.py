@@ -24,7 +24,9 @@ from swpm_usd.mesh import Mesh
 
 ROOT = Path(__file__).resolve().parents[1]
 SPEC = ROOT / "spec" / "format.md"
-READER = ROOT / "swpm_usd" / "format" / "reader.py"
+#: the reader's modules: the structure pass and API, and the content checks split out of it
+READER = [ROOT / "swpm_usd" / "format" / f for f in ("reader.py", "parsed.py", "meta.py")]
+READER += sorted((ROOT / "swpm_usd" / "format").glob("check_*.py"))
 
 
 # -- layout == spec ---------------------------------------------------------------------------------------
@@ -267,7 +269,7 @@ def test_errors_md_is_generated_from_catalogue() -> None:
 
 
 def test_every_reported_code_is_catalogued() -> None:
-    used = set(re.findall(r'"(SWPM_[A-Z0-9_]+)"', READER.read_text()))
+    used = set(re.findall(r'"(SWPM_[A-Z0-9_]+)"', "".join(p.read_text() for p in READER)))
     assert used, "no codes found"
     assert used <= set(CATALOGUE)
     for e in CATALOGUE.values():

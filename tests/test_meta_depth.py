@@ -17,8 +17,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from swpm_usd.format import layout as L
-from swpm_usd.format import reader as R
-from swpm_usd.format.reader import _json_depth, parse_meta_json
+from swpm_usd.format import meta as M
+from swpm_usd.format.meta import _json_depth
+from swpm_usd.format.reader import parse_meta_json
 
 #: the scan before (a string literal skipped whole, or a bracket), kept here as the reference
 _REFERENCE = re.compile(r'"(?:[^"\\]++|\\.)*+"?|[\[\]{}]', re.DOTALL)
@@ -50,10 +51,10 @@ def _reference_outcome(text: str) -> tuple[str, object]:
     try:
         return "ok", json.loads(
             text,
-            parse_constant=R._reject_constant,
-            parse_float=R._finite_float,
-            parse_int=R._finite_int,
-            object_pairs_hook=R._unique_keys,
+            parse_constant=M._reject_constant,
+            parse_float=M._finite_float,
+            parse_int=M._finite_int,
+            object_pairs_hook=M._unique_keys,
         )
     except ValueError as e:
         return "error", str(e)
@@ -172,7 +173,7 @@ def test_memory_is_a_few_bytes_per_byte_of_text() -> None:
 @pytest.mark.parametrize("block", [1, 2, 3, 4, 7, 64])
 def test_same_depth_when_the_scan_is_cut_in_blocks(block: int, monkeypatch: pytest.MonkeyPatch) -> None:
     """The text scanned a few bytes at a time: a string, or a run of backslashes, open across the cut."""
-    monkeypatch.setattr(R, "_JSON_BLOCK", block)
+    monkeypatch.setattr(M, "_JSON_BLOCK", block)
     rng = random.Random(114 + block)
     # a block of a few bytes cuts every text at most of its places, so fewer texts reach as many states
     # (3,000 at block 1 took 55 s of a loaded suite)

@@ -1,0 +1,95 @@
+"""The sliding-window encoding's chunks, ``WREC`` and the ``INDX`` pool (spec 3.5; the stages of spec 5).
+
+:func:`_sliding` checks each LOD's window against ``LODS`` (``SWPM_WINDOW_COUNT_MISMATCH``), that windows
+do not grow and stay inside the pool (``SWPM_WINDOW_NOT_MONOTONE``, ``SWPM_WINDOW_OUT_OF_POOL``), and that
+each window uses only its LOD's vertices (``SWPM_PREFIX_VIOLATION``; one pass over the pool when the
+windows move monotonically, :func:`.kernels.monotone_windows`, else per-position limits). Separate from
+the reader, as each encoding's checks are: one file per encoding.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import layout as L
+from .errors import Report
+from .kernels import first_violation, monotone_windows, window_limits
+from .parsed import _get, _index_check, _Parsed, _view
+
+
+def _sliding(p: _Parsed, rep: Report) -> None:
+    w_c, idx_c = _get(p, L.WREC), _get(p, L.INDX)
+    if w_c is None or idx_c is None or p.lods is None or p.points is None:
+        p.content_ok = False
+        return
+    it = L.index_dtype(p.width)
+    Lc = p.lods.shape[0]
+    if w_c.length != 3 * p.width * Lc or idx_c.length % p.width:
+        bad = w_c if w_c.length != 3 * p.width * Lc else idx_c
+        need = 3 * p.width * Lc if bad is w_c else bad.length // p.width * p.width
+        rep.add("SWPM_CHUNK_BAD_LENGTH", bad.entry_offset + 16, type=bad.name, length=bad.length, need=need)
+        p.content_ok = False
+        return
+    win = _view(p.buf, w_c.offset, 3 * Lc, it).reshape(Lc, 3)
+    pool = _view(p.buf, idx_c.offset, idx_c.length // p.width, it)
+    V = p.points.shape[0]
+    first, tc, vc = (win[:, i].astype(np.int64) for i in range(3))
+    ok = True
+    row = 3 * p.width
+    for i, (what, col) in enumerate((("triangle_count", "triangle_count"), ("vertex_count", "vertex_count"))):
+        got = (tc, vc)[i]
+        bad = np.flatnonzero(got != p.lods[col])
+        if bad.size:
+            k = int(bad[0])
+            rep.add(
+                "SWPM_WINDOW_COUNT_MISMATCH",
+                w_c.offset + k * row + (1 + i) * p.width,
+                lod=k,
+                what=what,
+                value=int(got[k]),
+                expected=int(p.lods[col][k]),
+            )
+            ok = False
+    bad = np.flatnonzero(np.diff(tc) > 0)
+    if bad.size:
+        k = int(bad[0]) + 1
+        rep.add(
+            "SWPM_WINDOW_NOT_MONOTONE",
+            w_c.offset + k * row + p.width,
+            lod=k,
+            what="triangle count grows from the previous (finer) window",
+        )
+        ok = False
+    end = first + 3 * tc
+    bad = np.flatnonzero(end > pool.shape[0])
+    for k in bad[:3]:
+        rep.add(
+            "SWPM_WINDOW_OUT_OF_POOL",
+            w_c.offset + int(k) * row,
+            lod=int(k),
+            start=int(first[k]),
+            end=int(end[k]),
+            pool=int(pool.shape[0]),
+        )
+    ok &= bad.size == 0
+    ok &= _index_check(p, rep, idx_c, pool, "INDX", V, idx_c.offset)
+    if ok and pool.size:
+        if np.all(np.diff(first) >= 0) and np.all(np.diff(end) >= 0) and np.all(np.diff(vc) <= 0):
+            pos, k = (int(x) for x in monotone_windows(pool, first, end, vc))
+        else:
+            lim, owner = window_limits(first, end, vc, pool.shape[0])
+            pos = int(first_violation(pool, lim))
+            k = int(owner[pos]) if pos >= 0 else -1
+        if pos >= 0:
+            rep.add(
+                "SWPM_PREFIX_VIOLATION",
+                idx_c.offset + pos * p.width,
+                lod=k,
+                vertex=int(pool[pos]),
+                limit=int(vc[k]),
+            )
+            ok = False
+    if not ok:
+        p.content_ok = False
+        return
+    p.buffers = {"index_pool": pool, "window_records": win}
