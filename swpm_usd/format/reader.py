@@ -35,7 +35,7 @@ from .check_sliding import _sliding
 from .check_smap import _smap
 from .check_vanilla import _vanilla
 from .errors import Report, SwpmFormatError
-from .meta import _meta, parse_meta_json  # noqa: F401 - (re-exported: the writer, swpm_usd.usd import it)
+from .meta import _meta, parse_meta_json  # noqa: F401 - (re-exported: public, its home before the split)
 from .parsed import _Chunk, _Parsed
 
 _TYPE_RE = re.compile(rb"^[A-Za-z0-9]{4}$")

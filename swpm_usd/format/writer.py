@@ -17,6 +17,7 @@ from ..encode.base import ProgressiveMesh
 from ..fileio import atomic_write_bytes
 from . import layout as L
 from .errors import SwpmEncodeError
+from .meta import parse_meta_json
 
 #: LOD bands of the streaming map: one per halving of the vertex count
 GENERATOR = f"swpm-usd {__version__}"
@@ -199,8 +200,6 @@ def encode_bytes(
     meta_text = json.dumps(
         meta, sort_keys=True, separators=(",", ":"), default=_json_default, allow_nan=False
     )
-    from .reader import parse_meta_json  # (the reader imports this module)
-
     try:  # nor do we write what a reader rejects under spec 3.1's limits: params 200 deep, an integer 10^400
         parse_meta_json(meta_text)
     except (ValueError, RecursionError) as e:

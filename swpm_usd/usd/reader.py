@@ -15,7 +15,7 @@ from pxr import Usd, UsdGeom
 
 from ..encode.base import ProgressiveMesh, from_buffers, with_attributes
 from ..errors import SwpmError, first_few
-from ..format.reader import parse_meta_json
+from ..format.meta import parse_meta_json
 from .arrays import ATTRIBUTE_DTYPES, BUFFER_DTYPES, dtype_problem, from_vt
 from .schema import COLLAPSE_PREFIX, SCHEMA_NAME, attr_name
 

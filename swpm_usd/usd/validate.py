@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from pxr import Usd, UsdGeom, UsdValidation
 
-from ..format.reader import parse_meta_json
+from ..format.meta import parse_meta_json
 from .arrays import ATTRIBUTE_DTYPES, BUFFER_DTYPES, dtype_problem
 from .reader import _snake, is_encoded
 from .schema import COLLAPSE_PREFIX, ENCODING_TOKENS, FORMAT_VERSION, PROPERTY_TYPES, attr_name

@@ -71,7 +71,7 @@ def params_text(params: dict) -> str:
     """``swpm:params`` for ``params``: JSON that a reader accepts under the rules of a ``.swpm`` file's META
     (spec/format.md 3.1: no NaN or infinity, at most 128 deep, every number finite in binary64), else
     :class:`UsdWriteError`, so a stage is never written that :func:`.reader.read` refuses."""
-    from ..format.reader import parse_meta_json
+    from ..format.meta import parse_meta_json
 
     try:
         text = json.dumps(params, sort_keys=True, default=_json_default, allow_nan=False)
