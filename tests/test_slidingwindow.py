@@ -1211,6 +1211,55 @@ def test_inline_finishing_builds_without_a_worker_on_this_thread_only(
     assert len(started) == 4  # restored on exit
 
 
+def test_a_small_mesh_finishes_and_replays_on_the_worker_alone(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A mesh between ``sw_threads._FINISH_HAND_OFF`` and ``_LEVEL_HAND_OFF`` triangles (suzanne, 967) starts
+    one thread, the worker, no helper: its levels of at least ``_FINISH_HAND_OFF`` triangles are finished
+    there, and the input's BVH and the LOD errors' replay run there too; the result is the inline build's,
+    bit for bit."""
+    import threading
+
+    import swpm_usd.encode.slidingwindow as sw
+    from swpm_usd.encode import sw_layout
+    from swpm_usd.encode import sw_threads as swt
+
+    mesh = shared_mesh("suzanne.obj")
+    assert swt._FINISH_HAND_OFF <= mesh.triangle_count < swt._LEVEL_HAND_OFF
+    main = threading.get_ident()
+    executors, finished_on, replayed_on = [], [], []
+    real_pool, real_finish, real_level = sw.ThreadPoolExecutor, sw_layout.finish_level, swt.Replay._level
+
+    def counting(*args, **kwargs):
+        executors.append(1)
+        return real_pool(*args, **kwargs)
+
+    def finish(*args):
+        finished_on.append((threading.get_ident(), args[1].shape[0]))
+        return real_finish(*args)
+
+    def level(self, info):
+        replayed_on.append(threading.get_ident())
+        return real_level(self, info)
+
+    monkeypatch.setattr(sw, "ThreadPoolExecutor", counting)
+    monkeypatch.setattr(sw_layout, "finish_level", finish)
+    monkeypatch.setattr(swt.Replay, "_level", level)
+    threaded = build_sliding_window(mesh)
+    assert len(executors) == 1  # the worker alone
+    handed = [n for ident, n in finished_on if ident != main]
+    assert handed and min(handed) >= swt._FINISH_HAND_OFF
+    assert all(n < swt._FINISH_HAND_OFF for ident, n in finished_on if ident == main)
+    assert replayed_on  # level by level (on the worker, or here for those it had not started at the end)
+    monkeypatch.setattr(sw, "FINISH_IN_THREAD", False)
+    inline = build_sliding_window(mesh)
+    for name in ("index_pool", "window_records", "points", "lod_errors", "source_vertex"):
+        assert np.array_equal(getattr(threaded, name), getattr(inline, name)), name
+    assert np.array_equal(
+        threaded.collapse_sequence.step_geometric_error, inline.collapse_sequence.step_geometric_error
+    )
+
+
 def test_the_bounded_search_is_exact_beyond_its_bound() -> None:
     """``metrics._nearest2`` returns the exact squared distance to the nearest triangle when it exceeds the
     bound, and otherwise some distance within the bound: random points against a bumpy sphere, brute force
