@@ -1211,46 +1211,35 @@ def test_inline_finishing_builds_without_a_worker_on_this_thread_only(
     assert len(started) == 4  # restored on exit
 
 
-def test_a_small_mesh_finishes_and_replays_on_the_worker_alone(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    """A mesh between ``sw_threads._FINISH_HAND_OFF`` and ``_LEVEL_HAND_OFF`` triangles (suzanne, 967) starts
-    one thread, the worker, no helper: its levels of at least ``_FINISH_HAND_OFF`` triangles are finished
-    there, and the input's BVH and the LOD errors' replay run there too; the result is the inline build's,
-    bit for bit."""
-    import threading
-
+def test_levels_of_the_finishing_hand_off_and_more_go_to_the_worker(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A threaded build hands every level of at least ``sw_threads._FINISH_HAND_OFF`` triangles to the worker
+    for its finishing (beetle, 2,053 triangles: levels under ``_LEVEL_HAND_OFF`` too) and none smaller; the
+    result is the inline build's, bit for bit."""
     import swpm_usd.encode.slidingwindow as sw
     from swpm_usd.encode import sw_layout
     from swpm_usd.encode import sw_threads as swt
 
-    mesh = shared_mesh("suzanne.obj")
-    assert swt._FINISH_HAND_OFF <= mesh.triangle_count < swt._LEVEL_HAND_OFF
-    main = threading.get_ident()
-    executors, finished_on, replayed_on = [], [], []
-    real_pool, real_finish, real_level = sw.ThreadPoolExecutor, sw_layout.finish_level, swt.Replay._level
-
-    def counting(*args, **kwargs):
-        executors.append(1)
-        return real_pool(*args, **kwargs)
+    mesh = shared_mesh("beetle.obj")
+    assert mesh.triangle_count >= swt._LEVEL_HAND_OFF
+    handed, finished = [], []
+    real_pool, real_finish = sw.ThreadPoolExecutor, sw_layout.finish_level
 
     def finish(*args):
-        finished_on.append((threading.get_ident(), args[1].shape[0]))
+        finished.append(args[1].shape[0])  # (the level's starting triangles)
         return real_finish(*args)
 
-    def level(self, info):
-        replayed_on.append(threading.get_ident())
-        return real_level(self, info)
+    class Recording(real_pool):
+        def submit(self, fn, *args, **kwargs):
+            if fn is finish:
+                handed.append(args[1].shape[0])
+            return super().submit(fn, *args, **kwargs)
 
-    monkeypatch.setattr(sw, "ThreadPoolExecutor", counting)
+    monkeypatch.setattr(sw, "ThreadPoolExecutor", Recording)
     monkeypatch.setattr(sw_layout, "finish_level", finish)
-    monkeypatch.setattr(swt.Replay, "_level", level)
     threaded = build_sliding_window(mesh)
-    assert len(executors) == 1  # the worker alone
-    handed = [n for ident, n in finished_on if ident != main]
-    assert handed and min(handed) >= swt._FINISH_HAND_OFF
-    assert all(n < swt._FINISH_HAND_OFF for ident, n in finished_on if ident == main)
-    assert replayed_on  # level by level (on the worker, or here for those it had not started at the end)
+    assert sorted(handed) == sorted(n for n in finished if n >= swt._FINISH_HAND_OFF)
+    assert any(n < swt._LEVEL_HAND_OFF for n in handed)
+    assert any(n < swt._FINISH_HAND_OFF for n in finished)  # (and those stayed on the main thread)
     monkeypatch.setattr(sw, "FINISH_IN_THREAD", False)
     inline = build_sliding_window(mesh)
     for name in ("index_pool", "window_records", "points", "lod_errors", "source_vertex"):

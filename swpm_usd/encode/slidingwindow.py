@@ -774,25 +774,23 @@ def _build_topology(mesh: Mesh, st, new_state, *args, **kwargs):
     input surface (:func:`swpm_usd.simplify.sequence.replay_surface`, None for no triangles)."""
     pending: list = []
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    # a mesh of fewer triangles than sw_threads._FINISH_HAND_OFF (every level of it finished inline) starts no
-    # thread at all, and one of fewer than sw_threads._LEVEL_HAND_OFF no helper: the helper's shares cost more
-    # than they save (suzanne, medians of 30 alternating builds, both threads against none: 24.1 -> 22.9 ms
-    # with a core free, 25.4 -> 22.8 ms with another process on the cores; beetle, 2,053 triangles: 32-34 ms
-    # with the threads, 40 ms without, with a core free)
+    # a mesh of fewer triangles than sw_threads._LEVEL_HAND_OFF starts no thread at all: the helper's share
+    # costs more than it saves (suzanne, medians of 30 alternating builds: 24.1 -> 22.9 ms with a core free,
+    # 25.4 -> 22.8 ms with another process on the cores; beetle, 2,053 triangles: 32-34 ms with the threads,
+    # 40 ms without, with a core free), and so does the worker alone (suzanne, 2026-12-05: its levels of 256
+    # triangles and more finished there, the main thread's CPU time 24.9 -> 22.4 ms, but the wall time 33 ->
+    # 66 ms with other processes on the cores: the two threads wait for each other's GIL and for the cores)
     threads = (
         FINISH_IN_THREAD
         and not getattr(_THIS_THREAD, "inline", False)
         and cores > 1
-        and mesh.triangle_count >= swt._FINISH_HAND_OFF
+        and mesh.triangle_count >= swt._LEVEL_HAND_OFF
     )
     worker = ThreadPoolExecutor(max_workers=1) if threads else None
-    helped = threads and mesh.triangle_count >= swt._LEVEL_HAND_OFF
-    helper = ThreadPoolExecutor(max_workers=1) if helped else None
-    # the input's BVH beside this thread while it starts level 0, and the LOD errors' replay level by level:
-    # on the helper, else on the worker (after the levels it finishes; it is idle before level 0's)
-    aside = helper or worker
-    surface_of = swt.beside(aside, replay_surface, mesh, st) if mesh.triangle_count else None
-    replay = swt.Replay(aside, new_state, surface_of) if aside and new_state and surface_of else None
+    helper = ThreadPoolExecutor(max_workers=1) if threads else None
+    # the input's BVH on the helper while this thread starts level 0
+    surface_of = swt.beside(helper, replay_surface, mesh, st) if mesh.triangle_count else None
+    replay = swt.Replay(helper, new_state, surface_of) if helper and new_state and surface_of else None
     try:
         levels, recs_all, info_all, gtris, ng = _build_levels(
             mesh, st, pending, worker, helper, surface_of, replay, *args, **kwargs
