@@ -1211,6 +1211,44 @@ def test_inline_finishing_builds_without_a_worker_on_this_thread_only(
     assert len(started) == 4  # restored on exit
 
 
+def test_levels_of_the_finishing_hand_off_and_more_go_to_the_worker(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A threaded build hands every level of at least ``sw_threads._FINISH_HAND_OFF`` triangles to the worker
+    for its finishing (beetle, 2,053 triangles: levels under ``_LEVEL_HAND_OFF`` too) and none smaller; the
+    result is the inline build's, bit for bit."""
+    import swpm_usd.encode.slidingwindow as sw
+    from swpm_usd.encode import sw_layout
+    from swpm_usd.encode import sw_threads as swt
+
+    mesh = shared_mesh("beetle.obj")
+    assert mesh.triangle_count >= swt._LEVEL_HAND_OFF
+    handed, finished = [], []
+    real_pool, real_finish = sw.ThreadPoolExecutor, sw_layout.finish_level
+
+    def finish(*args):
+        finished.append(args[1].shape[0])  # (the level's starting triangles)
+        return real_finish(*args)
+
+    class Recording(real_pool):
+        def submit(self, fn, *args, **kwargs):
+            if fn is finish:
+                handed.append(args[1].shape[0])
+            return super().submit(fn, *args, **kwargs)
+
+    monkeypatch.setattr(sw, "ThreadPoolExecutor", Recording)
+    monkeypatch.setattr(sw_layout, "finish_level", finish)
+    threaded = build_sliding_window(mesh)
+    assert sorted(handed) == sorted(n for n in finished if n >= swt._FINISH_HAND_OFF)
+    assert any(n < swt._LEVEL_HAND_OFF for n in handed)
+    assert any(n < swt._FINISH_HAND_OFF for n in finished)  # (and those stayed on the main thread)
+    monkeypatch.setattr(sw, "FINISH_IN_THREAD", False)
+    inline = build_sliding_window(mesh)
+    for name in ("index_pool", "window_records", "points", "lod_errors", "source_vertex"):
+        assert np.array_equal(getattr(threaded, name), getattr(inline, name)), name
+    assert np.array_equal(
+        threaded.collapse_sequence.step_geometric_error, inline.collapse_sequence.step_geometric_error
+    )
+
+
 def test_the_bounded_search_is_exact_beyond_its_bound() -> None:
     """``metrics._nearest2`` returns the exact squared distance to the nearest triangle when it exceeds the
     bound, and otherwise some distance within the bound: random points against a bumpy sphere, brute force

@@ -736,7 +736,7 @@ def _build_levels(
             # thread finishes it while this one builds the next level (the kernels release the GIL)
             collapsed = (p_start, p_out, q_start, q_out, patch_steps, recs, info)
             args = (gtris, start_gids, collapsed, nstep, V, P, int(cache_size), order_passes, order_reach)
-            if worker is not None and alive_t.shape[0] >= swt._LEVEL_HAND_OFF:
+            if worker is not None and alive_t.shape[0] >= swt._FINISH_HAND_OFF:
                 finishing = worker.submit(swl.finish_level, *args)
             else:
                 finishing = swt.done_future(swl.finish_level(*args))
@@ -774,10 +774,12 @@ def _build_topology(mesh: Mesh, st, new_state, *args, **kwargs):
     input surface (:func:`swpm_usd.simplify.sequence.replay_surface`, None for no triangles)."""
     pending: list = []
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    # a mesh of fewer triangles than sw_threads._LEVEL_HAND_OFF (every level of it finished inline) starts no
-    # thread at all: the helper's share costs more than it saves (suzanne, medians of 30 alternating builds:
-    # 24.1 -> 22.9 ms with a core free, 25.4 -> 22.8 ms with another process on the cores; beetle, 2,053
-    # triangles: 32-34 ms with the threads, 40 ms without, with a core free)
+    # a mesh of fewer triangles than sw_threads._LEVEL_HAND_OFF starts no thread at all: the helper's share
+    # costs more than it saves (suzanne, medians of 30 alternating builds: 24.1 -> 22.9 ms with a core free,
+    # 25.4 -> 22.8 ms with another process on the cores; beetle, 2,053 triangles: 32-34 ms with the threads,
+    # 40 ms without, with a core free), and so does the worker alone (suzanne, 2026-12-05: its levels of 256
+    # triangles and more finished there, the main thread's CPU time 24.9 -> 22.4 ms, but the wall time 33 ->
+    # 66 ms with other processes on the cores: the two threads wait for each other's GIL and for the cores)
     threads = (
         FINISH_IN_THREAD
         and not getattr(_THIS_THREAD, "inline", False)

@@ -44,12 +44,21 @@ _COSTS_BLOCK = 256
 _SHARE_BLOCKS = 16
 
 
-#: a level of fewer triangles is finished (:func:`.sw_layout.finish_level`) and builds its position graph on
-#: the main thread, not handed to the worker and the helper: a hand-off costs about what such a level's work
-#: does (medians of 15-25 alternating builds, 0 -> 1,024: cow -1 %, spot -3 to -5 %, teapot -1.5 %, bob
-#: -1.4 %, fandisk -2.6 %, dragon-20k +2.5 %, within the noise; the process's CPU time lower on all; 3,000:
-#: +10-14 %, cow's second level then waits on the main thread)
+#: a level of fewer triangles builds its position graph on the main thread, and a mesh of fewer starts no
+#: thread at all: a hand-off costs about what such a level's work does (medians of 15-25 alternating builds,
+#: 0 -> 1,024: cow -1 %, spot -3 to -5 %, teapot -1.5 %, bob -1.4 %, fandisk -2.6 %, dragon-20k +2.5 %,
+#: within the noise; the process's CPU time lower on all; 3,000: +10-14 %, cow's second level then waits on
+#: the main thread)
 _LEVEL_HAND_OFF = 1024
+
+
+#: a threaded build's level of fewer triangles is finished (:func:`.sw_layout.finish_level`) on the main
+#: thread, not handed to the worker. A level's finishing (its patch order search and cache order) is about
+#: a third of its work in one hand-off, where the position graph is a small share: 1,024 -> 256 (2026-12-05;
+#: two processes, four alternating rounds of ten builds, medians) took the main thread's CPU time per build
+#: beetle 38.4 -> 31.7 ms, teapot 87.2 -> 79.6, spot 91.9 -> 84.6, cow 90.2 -> 84.4, bob 147.5 -> 144.5, the
+#: process's within -4 to +2 % (``slidingwindow.md``)
+_FINISH_HAND_OFF = 256
 
 
 def beside(helper: ThreadPoolExecutor | None, fn, *args):
