@@ -15,6 +15,7 @@ import numpy as np
 
 from ..simplify import kernels as K
 
+
 @nb.njit(cache=True, nogil=True)
 def _tail_intervals(
     st: K.CollapseState, cands: np.ndarray, tpos: np.ndarray, rank: np.ndarray

@@ -24,6 +24,7 @@ import numpy as np
 from ..simplify import kernels as K
 from .sw_fans import _chain_order_into, _chain_work
 
+
 @nb.njit(cache=True, nogil=True)
 def _grow_tris(a: np.ndarray, n: int) -> np.ndarray:
     if n < a.shape[0]:
@@ -52,7 +53,7 @@ def _emit_into(
     """Append the surviving triangles of ``tris`` (after a collapse) as new global triangles, in fan
     order, to ``q_out``; triangles that did not change keep their id. ``gtris`` and ``q_out`` have room for
     ``len(tris)`` more rows each (the caller grows them: this returns ``(ng, nq)`` only, since a loop
-    reassigning arrays pays numba's reference counting per call). ``w``: :func:`_chain_work` for
+    reassigning arrays pays numba's reference counting per call). ``w``: :func:`.sw_fans._chain_work` for
     ``len(tris)`` triangles."""
     tv = st.tri_verts
     alive = st.tri_alive

@@ -24,8 +24,8 @@ def chain_order(tv: np.ndarray) -> np.ndarray:
 
 @nb.njit(cache=True, nogil=True)
 def _chain_work(n: int) -> tuple:
-    """Reusable buffers for :func:`_chain_order_into` and :func:`_emit_into`, up to ``n`` triangles:
-    (order, adjacency, neighbour counts, used, triangle ids, (n,3) vertex ids)."""
+    """Reusable buffers for :func:`_chain_order_into` and :func:`.sw_collapse._emit_into`, up to ``n``
+    triangles: (order, adjacency, neighbour counts, used, triangle ids, (n,3) vertex ids)."""
     return (
         np.empty(n, np.int64),
         np.zeros((n, n), np.bool_),

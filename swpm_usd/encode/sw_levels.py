@@ -18,6 +18,7 @@ import numpy as np
 
 from ..simplify import kernels as K
 
+
 @nb.njit(cache=True, nogil=True)
 def level_positions(
     alive_t: np.ndarray, tri_verts: np.ndarray, vertex_pos: np.ndarray, P: int

@@ -110,7 +110,9 @@ def order_patches(
     vp = np.empty(m, np.int64)
     for j in range(m):
         vp[j] = patch_of[idx[j]]
-    remaining = np.empty(vertex_count, np.int64)  # np.diff(vp_start) as a loop (np.diff: see _grow_tris)
+    remaining = np.empty(
+        vertex_count, np.int64
+    )  # np.diff(vp_start) as a loop (np.diff: see sw_collapse._grow_tris)
     for v in range(vertex_count):
         remaining[v] = vp_start[v + 1] - vp_start[v]
     no_skip = np.zeros(vertex_count, np.bool_)
@@ -190,18 +192,18 @@ def reassign_middle(
     binned_vertex: np.ndarray,
     cache_size: int,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The triangles :func:`absorb_middle` added to the patches, each moved to the patch where it costs the
-    fewest FIFO misses once the patch order ``order`` is known.
+    """The triangles :func:`.sw_patches.absorb_middle` added to the patches, each moved to the patch where it
+    costs the fewest FIFO misses once the patch order ``order`` is known.
 
-    ``own_start``: CSR offsets of the patches' own triangles (those of :func:`patch_triangles`, first in
-    every patch of ``pt_start`` / ``pt``, the absorbed ones after them). The candidates of an absorbed
-    triangle are the patches with an own triangle at one of its positions. The ``P`` and ``Q`` caches of
-    :func:`order_patches` are simulated along ``order`` (each patch's own triangles, its ``Q`` without the
+    ``own_start``: CSR offsets of the patches' own triangles (those of :func:`.sw_patches.patch_triangles`,
+    first in every patch of ``pt_start`` / ``pt``, the absorbed ones after them). The candidates of an
+    absorbed triangle are the patches with an own triangle at one of its positions. The ``P`` and ``Q`` caches
+    of :func:`order_patches` are simulated along ``order`` (each patch's own triangles, its ``Q`` without the
     ``binned_vertex`` ones, then its absorbed triangles, drawn in both); right after a candidate's own
-    triangles, the absorbed triangle's misses in both caches are its cost there. It moves only to a
-    strictly cheaper candidate (the first cheapest), else stays: :func:`absorb_middle` picks by shared
-    vertices alone, so an edge shared with one patch can lose to a corner of a patch drawn right after
-    the neighbours that hold its other corners. Returns the new CSR (own triangles first, as before)."""
+    triangles, the absorbed triangle's misses in both caches are its cost there. It moves only to a strictly
+    cheaper candidate (the first cheapest), else stays: :func:`.sw_patches.absorb_middle` picks by shared
+    vertices alone, so an edge shared with one patch can lose to a corner of a patch drawn right after the
+    neighbours that hold its other corners. Returns the new CSR (own triangles first, as before)."""
     tv = st.tri_verts
     vpos = st.vertex_pos
     T = tv.shape[0]
@@ -297,7 +299,7 @@ def reassign_middle(
         for j in range(own_end, pt_start[p + 1]):
             push_p = _fifo_push(tv[pt[j]], no_skip, stamp_p, ring_p, push_p)
             push_q = _fifo_push(tv[pt[j]], no_skip, stamp_q, ring_q, push_q)
-    size = np.empty(n, np.int64)  # np.diff(pt_start) as a loop (np.diff: see _grow_tris)
+    size = np.empty(n, np.int64)  # np.diff(pt_start) as a loop (np.diff: see sw_collapse._grow_tris)
     for p in range(n):
         size[p] = pt_start[p + 1] - pt_start[p]
     newp = ab_cur.copy()

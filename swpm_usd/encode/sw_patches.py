@@ -17,6 +17,7 @@ import numpy as np
 from ..simplify import kernels as K
 from .sw_fans import _chain_order_into, _chain_work
 
+
 @nb.njit(cache=True, nogil=True)
 def patch_triangles(
     st: K.CollapseState, inner_start: np.ndarray, inner: np.ndarray, stars: K.Stars
