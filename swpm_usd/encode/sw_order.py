@@ -2,7 +2,8 @@
 sequences a window draws, ``P_{j+1}..P_n`` and ``Q_1..Q_j``.
 
 * :func:`order_patches` - greedy: the next patch is the one with the fewest misses per triangle in the two
-  simulated caches, plus :data:`ORDER_LIVE_WEIGHT` times the patches left on its vertices.
+  simulated caches, plus :data:`ORDER_LIVE_WEIGHT` times the mean number of other patches left on its
+  vertices.
 * :func:`reassign_middle` - each triangle :func:`.sw_patches.absorb_middle` added moves to the patch where
   that order draws it with the fewest misses.
 
