@@ -27,7 +27,7 @@ from scipy.sparse import csr_matrix
 import swpm_usd
 from swpm_usd.encode import slidingwindow as sw
 from swpm_usd.encode import sw_centres as swc
-from swpm_usd.encode import sw_kernels as swk
+from swpm_usd.encode import sw_levels
 
 HERE = Path(__file__).resolve().parent
 MESHES = HERE.parent.parent / "shared" / "meshes"
@@ -37,7 +37,7 @@ def _record_levels(mesh, mu: float) -> tuple[list[dict], float]:
     """Build once, keeping every level's graph, eligible positions and greedy centres."""
     levels: list[dict] = []
     graphs: list[np.ndarray] = []
-    select, graph = swc.select_patches, swk.position_graph
+    select, graph = swc.select_patches, sw_levels.position_graph
 
     def graph_hook(tp, P):
         graphs.append(np.array(tp))
@@ -50,11 +50,11 @@ def _record_levels(mesh, mu: float) -> tuple[list[dict], float]:
         levels.append(level)
         return out
 
-    swc.select_patches, swk.position_graph = select_hook, graph_hook
+    swc.select_patches, sw_levels.position_graph = select_hook, graph_hook
     try:
         pm = swpm_usd.build(mesh, encoding="sliding-window", mu=mu)
     finally:
-        swc.select_patches, swk.position_graph = select, graph
+        swc.select_patches, sw_levels.position_graph = select, graph
     return levels, pm.index_pool.shape[0] / (3.0 * mesh.triangle_count)
 
 

@@ -38,7 +38,7 @@ ONE_SIGNATURE = (
     "swpm_usd.simplify.kernels.run_sequence",
     "swpm_usd.vcache._tree_set",
     "swpm_usd.encode.sw_forsyth._refresh",
-    "swpm_usd.encode.sw_kernels._cheapest_prefix",
+    "swpm_usd.encode.sw_cluster._cheapest_prefix",
     "swpm_usd.encode.sw_refine.refine_patch_order",
     "swpm_usd.encode.sw_deviation.deviation_rows",
     "swpm_usd.simplify.kernels.triangle_positions",

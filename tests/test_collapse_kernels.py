@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from conftest import shared_mesh
 
-from swpm_usd.encode import sw_kernels as swk
+from swpm_usd.encode import sw_collapse, sw_fans, sw_levels
 from swpm_usd.mesh import Mesh
 from swpm_usd.simplify import kernels as K
 from swpm_usd.simplify import make_state, mesh_topology
@@ -51,7 +51,7 @@ def _collapsed_state(mesh: Mesh, frac: float, seed: int = 0):
             break
         k, _ = K.best_collapse(st, int(b))
         if k >= 0:
-            recs, nrec = swk._record_collapse(st, int(b), int(k), recs, nrec, 0, bbuf)
+            recs, nrec = sw_collapse._record_collapse(st, int(b), int(k), recs, nrec, 0, bbuf)
             done += 1
     return st
 
@@ -152,7 +152,7 @@ def test_star_snapshot_matches_the_corner_lists(name: str, frac: float) -> None:
 
     # level_costs through the snapshot == best_collapse through the corner lists
     positions = np.arange(P, dtype=np.int64)
-    ks, cs = swk.level_costs(st, positions, stars)
+    ks, cs = sw_levels.level_costs(st, positions, stars)
     n_valid = 0
     kbuf = K.star_buffers(st)
     for p in range(P):
@@ -203,7 +203,7 @@ def test_shaped_collapse_is_the_highest_degree_valid_target_within_the_slack(nam
     for slack in (0.05, 0.5):
         for b in range(P):
             k0, c0 = K.best_collapse(st, b)
-            got = swk._shaped_collapse(st, b, slack, max_cost, bbuf, kbuf, cbuf)
+            got = sw_collapse._shaped_collapse(st, b, slack, max_cost, bbuf, kbuf, cbuf)
             if k0 < 0:
                 assert got[0] == -1
                 continue
@@ -227,7 +227,7 @@ def test_chain_order_in_reused_buffers_matches_fresh_ones() -> None:
     # the patch kernels reuse one work set for every patch: a larger earlier patch must leave no
     # adjacency behind (closed fans of every size, parts of them, then random sets)
     rng = np.random.default_rng(5)
-    w = swk._chain_work(4)
+    w = sw_fans._chain_work(4)
     cases = []
     for k in (12, 3, 7, 1, 9, 2):
         ring = np.arange(1, k + 1)
@@ -237,11 +237,11 @@ def test_chain_order_in_reused_buffers_matches_fresh_ones() -> None:
     for tv, closed in cases:
         tv = np.ascontiguousarray(tv, np.int64)
         n = tv.shape[0]
-        w = swk._chain_work_for(w, n)
+        w = sw_fans._chain_work_for(w, n)
         sub = w[5]
         sub[:n] = tv
-        got = swk._chain_order_into(sub, n, w).copy()
-        assert np.array_equal(got, swk.chain_order(tv))
+        got = sw_fans._chain_order_into(sub, n, w).copy()
+        assert np.array_equal(got, sw_fans.chain_order(tv))
         assert np.array_equal(np.sort(got), np.arange(n))
         if closed:  # a closed fan comes out as a fan: consecutive triangles share an edge
             assert all(len(set(tv[a]) & set(tv[b])) == 2 for a, b in zip(got[:-1], got[1:], strict=True))

@@ -280,7 +280,7 @@ def test_cluster_links_a_level_only_when_cheaper(spot: Mesh, monkeypatch: pytest
     the estimate a smaller pool than both (never linking: the plain pool at the cluster mode's patch-order
     weight)."""
     from swpm_usd.encode import slidingwindow as sw
-    from swpm_usd.encode import sw_kernels as swk
+    from swpm_usd.encode import sw_order
 
     def shared_and_pool(relink: float) -> tuple[int, int, int]:
         monkeypatch.setattr(sw, "_CLUSTER_RELINK", relink)
@@ -293,7 +293,7 @@ def test_cluster_links_a_level_only_when_cheaper(spot: Mesh, monkeypatch: pytest
     never_shared, _, never_pool = shared_and_pool(0.0)
     always_shared, always_levels, always_pool = shared_and_pool(1e9)
     shared, levels, pool = shared_and_pool(1.0)
-    monkeypatch.setattr(swk, "ORDER_LIVE_WEIGHT", swk.ORDER_LIVE_WEIGHT_CLUSTER)
+    monkeypatch.setattr(sw_order, "ORDER_LIVE_WEIGHT", sw_order.ORDER_LIVE_WEIGHT_CLUSTER)
     assert never_shared == 0 and never_pool == build_sliding_window(spot).index_pool.shape[0]
     # every level links, but spot's last (24 triangles), which may be stored in full
     assert always_shared >= always_levels - 1
@@ -462,12 +462,12 @@ def test_absorb_rounds_take_the_whole_middle(spot: Mesh) -> None:
 def test_position_graph_is_the_edge_graph(shape: str) -> None:
     """The numba position graph: every edge of the triangles both ways, each neighbour once, sorted (a
     cone's apex and cap centre are hubs, whose runs are sorted at the end rather than by insertion)."""
-    from swpm_usd.encode import sw_kernels as swk
+    from swpm_usd.encode import sw_levels
 
     mesh = _icosphere(2) if shape == "icosphere" else _cone(300)
     tp = mesh_topology(mesh).tri_pos.astype(np.int64)
     P = int(tp.max()) + 2  # one position without triangles
-    start, nbr = swk.position_graph(tp, P)
+    start, nbr = sw_levels.position_graph(tp, P)
     assert (np.diff(start).max() > 2 * K.HUB_SIZE) == (shape == "cone")
     a = tp.reshape(-1)
     b = tp[:, [1, 2, 0]].reshape(-1)
@@ -480,14 +480,14 @@ def test_level_positions_and_stable_ties() -> None:
     """The numba level start: the triangles' positions and the positions used, as numpy's fancy indexing and
     bincount give them; and ties_by_index turns any argsort into numpy's stable one (ties by index, NaNs
     together at the end)."""
-    from swpm_usd.encode import sw_kernels as swk
+    from swpm_usd.encode import sw_levels
 
     topo = mesh_topology(_icosphere(2))
     tv = topo.tri_pos.astype(np.int32)  # one vertex per position: vertex ids are position ids
     vpos = np.arange(int(tv.max()) + 1, dtype=np.int32)[::-1].copy()  # renumbered
     P = vpos.shape[0] + 3  # positions without triangles
     alive_t = np.flatnonzero(np.arange(tv.shape[0]) % 3 != 1)
-    tp, positions = swk.level_positions(alive_t, tv, vpos, P)
+    tp, positions = sw_levels.level_positions(alive_t, tv, vpos, P)
     assert tp.dtype == vpos.dtype and positions.dtype == np.int64
     assert np.array_equal(tp, vpos[tv[alive_t]])
     assert np.array_equal(positions, np.flatnonzero(np.bincount(tp.reshape(-1), minlength=P)))
@@ -500,16 +500,16 @@ def test_level_positions_and_stable_ties() -> None:
         # a sort of the keys with every tie in decreasing index order
         backwards = n - 1 - np.argsort(keys[::-1], kind="stable")
         assert n < 9 or not np.array_equal(backwards, want)
-        assert np.array_equal(swk.ties_by_index(keys, backwards), want)
-        assert np.array_equal(swk.ties_by_index(keys, np.argsort(keys)), want)
+        assert np.array_equal(sw_levels.ties_by_index(keys, backwards), want)
+        assert np.array_equal(sw_levels.ties_by_index(keys, np.argsort(keys)), want)
 
 
 def _sphere_graph(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
     """CSR position graph of an icosphere."""
-    from swpm_usd.encode import sw_kernels as swk
+    from swpm_usd.encode import sw_levels
 
     tp = mesh_topology(_icosphere(subdivisions)).tri_pos.astype(np.int64)
-    return swk.position_graph(tp, int(tp.max()) + 1)
+    return sw_levels.position_graph(tp, int(tp.max()) + 1)
 
 
 def _patch_ids_disjoint(start: np.ndarray, nbr: np.ndarray, inner: np.ndarray, sizes: np.ndarray):
@@ -685,12 +685,12 @@ def test_centre_search_frees_a_hubs_ring_when_the_hub_leaves() -> None:
     when its forced insertion just pushed that hub out of the set: then every rim vertex of a cone whose
     apex and cap centre were the centres is free, and the set must take them in (half the rim) and stay
     maximal."""
-    from swpm_usd.encode import sw_kernels as swk
+    from swpm_usd.encode import sw_levels
 
     sections = 400
     tp = mesh_topology(_cone(sections)).tri_pos.astype(np.int64)
     P = int(tp.max()) + 1
-    start, nbr = swk.position_graph(tp, P)
+    start, nbr = sw_levels.position_graph(tp, P)
     hubs = np.flatnonzero(np.diff(start) > K.HUB_SIZE).astype(np.int64)
     assert hubs.shape[0] == 2
     eligible = np.ones(P, bool)
@@ -1288,14 +1288,14 @@ def _level0_costs(mesh: Mesh):
     """Level 0 of ``mesh`` as the builder ranks it: the state, its positions, their stars, best collapses
     (targets, costs) and the input's BVH (:func:`.sw_deviation.surface_bvh`)."""
     from swpm_usd.encode import sw_deviation as swd
-    from swpm_usd.encode import sw_kernels as swk
+    from swpm_usd.encode import sw_levels
     from swpm_usd.simplify import make_state
 
     st = make_state(mesh, mesh_topology(mesh))
     alive_t = np.flatnonzero(st.tri_alive)
-    _, positions = swk.level_positions(alive_t, st.tri_verts, st.vertex_pos, st.pos_points.shape[0])
+    _, positions = sw_levels.level_positions(alive_t, st.tri_verts, st.vertex_pos, st.pos_points.shape[0])
     stars = K.star_snapshot(st)
-    ks, cs = swk.level_costs(st, positions, stars)
+    ks, cs = sw_levels.level_costs(st, positions, stars)
     return st, positions, stars, ks, cs, swd.surface_bvh(st.pos_points, st.vertex_pos[mesh.triangles])
 
 
@@ -1608,10 +1608,10 @@ def test_level_pool_in_one_pass_is_the_layout_block_ordered(sparse: bool) -> Non
 
 
 def test_rank_centres_is_the_numpy_ranking() -> None:
-    """:func:`.sw_kernels.rank_centres` (a level's ranking in one pass) gives what the numpy block it replaced
+    """:func:`.sw_levels.rank_centres` (a level's ranking in one pass) gives what the numpy block it replaced
     gave: eligibility, tiebreaks and the mu cut, with tied costs, no valid position, no exclusion and every
     valid position excluded."""
-    from swpm_usd.encode import sw_kernels as swk
+    from swpm_usd.encode import sw_levels
 
     def numpy_ranking(positions, ks, cs, rank_cs, P, mu):
         valid = ks >= 0
@@ -1642,8 +1642,8 @@ def test_rank_centres_is_the_numpy_ranking() -> None:
         rank_cs = np.round(rng.random(n), 1)  # ties
         mu = [0.0, 0.1, 0.3, 1.0][trial % 4]
         vc = rank_cs[ks >= 0]
-        order = swk.ties_by_index(vc, np.argsort(vc))
-        got = swk.rank_centres(positions, ks, cs, order, P, int(round(mu * n)), 2.0)
+        order = sw_levels.ties_by_index(vc, np.argsort(vc))
+        got = sw_levels.rank_centres(positions, ks, cs, order, P, int(round(mu * n)), 2.0)
         eligible, tiebreak, max_cost = numpy_ranking(positions, ks, cs, rank_cs, P, mu)
         assert np.array_equal(got[0], eligible) and np.array_equal(got[1], tiebreak)
         assert got[2] == max_cost and got[3] == eligible.any()
@@ -1673,19 +1673,19 @@ def test_level_pool_keeps_the_triangles_dtype(dtype) -> None:
 
 
 def test_rank_centres_excludes_none_for_a_negative_count() -> None:
-    """:func:`.sw_kernels.rank_centres` with a negative exclusion count excludes nothing (as the numpy
+    """:func:`.sw_levels.rank_centres` with a negative exclusion count excludes nothing (as the numpy
     block's ``n_excl > 0`` test did): with no valid position none is eligible (the level loop must stop),
     with valid ones the result is that of a count of 0."""
-    from swpm_usd.encode import sw_kernels as swk
+    from swpm_usd.encode import sw_levels
 
     positions = np.array([1, 4, 6], np.int64)
     cs = np.array([0.3, 0.1, 0.2])
     none_valid = np.full(3, -1, np.int32)
-    got = swk.rank_centres(positions, none_valid, cs, np.zeros(0, np.int64), 8, -2, 2.0)
+    got = sw_levels.rank_centres(positions, none_valid, cs, np.zeros(0, np.int64), 8, -2, 2.0)
     assert not got[0].any() and not got[3] and got[2] == np.inf
     ks = np.array([1, -1, 1], np.int32)
     order = np.array([1, 0], np.int64)
-    neg = swk.rank_centres(positions, ks, cs, order, 8, -1, 2.0)
-    zero = swk.rank_centres(positions, ks, cs, order, 8, 0, 2.0)
+    neg = sw_levels.rank_centres(positions, ks, cs, order, 8, -1, 2.0)
+    zero = sw_levels.rank_centres(positions, ks, cs, order, 8, 0, 2.0)
     assert np.array_equal(neg[0], zero[0]) and np.array_equal(neg[1], zero[1])
     assert neg[2] == zero[2] == np.inf and neg[3] and zero[3]

@@ -154,7 +154,7 @@ def _slot_replay(buf: np.ndarray, binned: np.ndarray, kept: np.ndarray, V: int):
             buf[s] = k
             if m == out.shape[0]:
                 grown = np.empty(2 * m, np.int64)
-                for i in range(m):  # a loop, not grown[:m] = out: see sw_kernels._grow_tris
+                for i in range(m):  # a loop, not grown[:m] = out: see sw_collapse._grow_tris
                     grown[i] = out[i]
                 out = grown
             out[m] = s

@@ -34,7 +34,7 @@ choice, what was measured and what was tried and dropped):
   half-edge collapse, or to a neighbour of higher degree costing at most ``target_slack`` of the level's
   ``mu`` cut more; the triangles of no patch join a patch (``absorb_middle``; ``absorb_rounds`` rings of them,
   0 for all, a warmer cache at high ``mu``); the patches are ordered for a FIFO vertex cache (TD-VIPM 3.2,
-  :func:`.sw_kernels.order_patches`) and the triangles inside every block after them
+  :func:`.sw_order.order_patches`) and the triangles inside every block after them
   (:func:`swpm_usd.vcache.optimize_block_order`). ``inner_vertices > 1`` (SWPM 3.3): patches of several inner
   vertices, fewer LODs, a smaller pool. ``order_passes`` (None: 2 here, 0 with ``cluster``) passes of a local
   search then move patches up to ``order_reach`` places (default 2) wherever the FIFO misses summed over the
@@ -47,17 +47,20 @@ choice, what was measured and what was tried and dropped):
   surface by at most ``swap_max_deviation`` of the bounding-box diagonal (:mod:`.sw_swaps`).
 * ``cluster=True`` (SWPM 3.2): a level's patches read out of the previous level's tail, so consecutive
   levels share storage, where that costs fewer pool triangles per collapse
-  (:func:`.sw_kernels.cluster_patches`; with ``inner_vertices > 1`` patches of several adjacent positions,
-  :func:`.sw_kernels.cluster_components`).
+  (:func:`.sw_cluster.cluster_patches`; with ``inner_vertices > 1`` patches of several adjacent positions,
+  :func:`.sw_cluster.cluster_components`).
 
 Every ordering is for a FIFO cache of ``cache_size`` entries (default 16).
 
 Where the code is: this module builds the levels one after another (:func:`_build_levels`) and assembles the
 pool and its records (:func:`_assemble`); :mod:`.sw_layout` finishes a level (its patch order search and
-block layout), :mod:`.sw_threads` shares the main thread's work with a helper thread; the numba kernels are
-in :mod:`.sw_kernels` (levels, patches, collapses), :mod:`.sw_centres` (patch centres), :mod:`.sw_deviation`
-(fan deviation), :mod:`.sw_refine` (patch order search), :mod:`.sw_swaps` (edge swaps) and
-:mod:`.sw_forsyth` (Forsyth's builder).
+block layout), :mod:`.sw_threads` shares the main thread's work with a helper thread. The numba kernels, in
+the order a level runs them: :mod:`.sw_levels` (a level's positions, edge graph and error ranking),
+:mod:`.sw_centres` (patch centres), :mod:`.sw_cluster` (clustered patches), :mod:`.sw_patches` (the patches'
+triangles, the absorbed middle), :mod:`.sw_order` (the patch order for the cache), :mod:`.sw_collapse`
+(collapsing the patches), :mod:`.sw_refine` (patch order search); with :mod:`.sw_fans` (fan order of a few
+triangles), :mod:`.sw_deviation` (fan deviation), :mod:`.sw_swaps` (edge swaps) and :mod:`.sw_forsyth`
+(Forsyth's builder).
 
 The builders also keep their own collapse sequence (:attr:`SlidingWindowProgressiveMesh.collapse_sequence`,
 a :class:`swpm_usd.simplify.CollapseSequence`; ``lod_steps[k]`` steps of it give LOD ``k``), against which
@@ -85,9 +88,8 @@ from ..simplify.fan_deviation import replay_state
 from ..simplify.kernels import star_snapshot
 from ..simplify.sequence import replay_steps, replay_surface
 from . import sw_centres as swc
+from . import sw_cluster, sw_collapse, sw_forsyth, sw_levels, sw_order, sw_patches, sw_swaps
 from . import sw_deviation as swd
-from . import sw_forsyth, sw_swaps
-from . import sw_kernels as swk
 from . import sw_layout as swl
 from . import sw_threads as swt
 from .base import ProgressiveMesh, lod_at_error, register
@@ -246,7 +248,7 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
 
 def _adjacency(tp: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
     """CSR of the position graph of the triangles ``tp`` (positions)."""
-    return swk.position_graph(np.ascontiguousarray(tp, np.int64), P)
+    return sw_levels.position_graph(np.ascontiguousarray(tp, np.int64), P)
 
 
 #: weight of a vertex's error rank (0 = lowest error, 1 = highest) next to its remaining degree in the
@@ -381,10 +383,10 @@ _ABSORB_MIN_SHARED = 1
 #: mean 1.0582 -> 1.0573, lambda mean 5.385 -> 5.354 (beetle 5.89 -> 5.62); with the edge swaps worst
 #: 1.178 either way, lambda 4.906 -> 4.872. A bound of 0.4-0.5 leaves beetle levels of 42-48 % middle
 #: unabsorbed, where the blobs draw better (worst window 1.34). With the patch order's live weight at 1.0
-#: (``sw_kernels.ORDER_LIVE_WEIGHT``; 400 points, 100 to 5 %): worst 1.252 -> 1.205, mean 1.0329 ->
+#: (``sw_order.ORDER_LIVE_WEIGHT``; 400 points, 100 to 5 %): worst 1.252 -> 1.205, mean 1.0329 ->
 #: 1.0332, lambda mean 5.393 -> 5.362 (beetle 5.93 -> 5.69)
 _ABSORB_MAX_MIDDLE = 0.6
-#: ``absorb_rounds=0``: rounds of :func:`.sw_kernels.absorb_middle` at most. Each round takes the middle
+#: ``absorb_rounds=0``: rounds of :func:`.sw_patches.absorb_middle` at most. Each round takes the middle
 #: triangles next to the patches as grown by the round before. One round (the default) leaves the triangles
 #: two or more steps from every star in ``M``, drawn as a scattered block in every window: 0.1-0.3 % of a
 #: level at ``mu=0.1`` (spot), but 3.5-5 % at ``mu=0.3``. Ten shared meshes, one round -> until none is
@@ -404,7 +406,7 @@ _ABSORB_ROUNDS = 64
 _CLUSTER_MIN_PATCHES = 16
 
 #: ``cluster=True, inner_vertices > 1``: a linked patch takes one more inner position if that moves its
-#: end in the previous level's tail by at most this many places (:func:`.sw_kernels.cluster_components`).
+#: end in the previous level's tail by at most this many places (:func:`.sw_cluster.cluster_components`).
 #: Five meshes (bunny, spot, cow, teapot, bob; three inner vertices with the edge swaps, 10,000 samples), with
 #: :data:`_CLUSTER_RELINK_INNER` at 0.8: reach 4 / 8 / 16 lambda mean 2.90 / 2.82 / 2.83 (bunny 2.67 / 2.57
 #: / 2.59), ACMR ratio mean 1.102 / 1.129 / 1.125 (within 1.10: 12 / 9 / 10 of 20)
@@ -564,7 +566,7 @@ def _build_levels(
         alive_t = np.flatnonzero(st.tri_alive)
         if alive_t.shape[0] == 0:
             break
-        tp, positions = swk.level_positions(alive_t, st.tri_verts, st.vertex_pos, P)
+        tp, positions = sw_levels.level_positions(alive_t, st.tri_verts, st.vertex_pos, P)
         # the level's position graph (for its patch centres) on the helper meanwhile
         small = tp.shape[0] < swt._LEVEL_HAND_OFF  # (its hand-offs cost about what they save)
         adjacency = swt.beside(None if small else helper, _adjacency, tp, P)
@@ -596,12 +598,12 @@ def _build_levels(
                     ),
                 )
         vc = rank_cs[ks >= 0]
-        order = swk.ties_by_index(vc, np.argsort(vc))  # np.argsort(vc, kind="stable"), faster
+        order = sw_levels.ties_by_index(vc, np.argsort(vc))  # np.argsort(vc, kind="stable"), faster
         # the valid positions eligible but the mu fraction of them ranked costliest, each with its rank as
         # a tiebreak; no collapse in this level may cost more than the mu cut (later inner vertices of a
         # patch, or a centre whose best collapse got worse after its neighbours' patches), in quadric cost,
         # as the collapses are checked: the costliest of the centres left
-        eligible, tiebreak, max_cost, any_eligible = swk.rank_centres(
+        eligible, tiebreak, max_cost, any_eligible = sw_levels.rank_centres(
             positions, ks, cs, order, P, int(round(mu * positions.shape[0])), _ERROR_WEIGHT
         )
         max_cost = float(max_cost)
@@ -620,11 +622,11 @@ def _build_levels(
             tpos[alive_t] = place[cur_gid[alive_t]]
             cands = np.flatnonzero(eligible).astype(np.int64)
             if inner_vertices == 1:
-                inner_start, inner = swk.cluster_patches(
+                inner_start, inner = sw_cluster.cluster_patches(
                     st, cands, tpos, tiebreak[cands], _CLUSTER_MIN_PATCHES
                 )
             else:  # patches of several inner positions whose stars span disjoint intervals of the tail
-                inner_start, inner = swk.cluster_components(
+                inner_start, inner = sw_cluster.cluster_components(
                     st,
                     cands,
                     tpos,
@@ -634,7 +636,7 @@ def _build_levels(
                     int(inner_vertices),
                     _CLUSTER_REACH,
                 )
-            pt_start, pt = swk.patch_triangles(st, inner_start, inner, stars)
+            pt_start, pt = sw_patches.patch_triangles(st, inner_start, inner, stars)
             if fresh_cost is None:
                 fresh = _select_fresh(adjacency(), eligible, tiebreak, int(inner_vertices))
                 if inner_vertices > 1:
@@ -666,7 +668,7 @@ def _build_levels(
                 inner_start = np.arange(inner.shape[0] + 1, dtype=np.int64)
             elif not grown:
                 inner_start, inner = _grow_patches(adj_start, adj, eligible, tiebreak, inner_vertices, inner)
-            pt_start, pt = swk.patch_triangles(st, inner_start, inner, stars)
+            pt_start, pt = sw_patches.patch_triangles(st, inner_start, inner, stars)
             own_start = pt_start
             absorb = (
                 absorb_min_shared > 0
@@ -685,8 +687,8 @@ def _build_levels(
             inner_pos = np.zeros(P, bool)
             inner_pos[inner] = True
             binned_vertex = inner_pos[st.vertex_pos]
-            live_weight = swk.ORDER_LIVE_WEIGHT_CLUSTER if cluster else swk.ORDER_LIVE_WEIGHT
-            order = swk.order_patches(
+            live_weight = sw_order.ORDER_LIVE_WEIGHT_CLUSTER if cluster else sw_order.ORDER_LIVE_WEIGHT
+            order = sw_order.order_patches(
                 pt_start,
                 pt,
                 st.tri_verts,
@@ -697,7 +699,7 @@ def _build_levels(
                 live_weight,
             )
             if absorb:
-                pt_start, pt = swk.reassign_middle(
+                pt_start, pt = sw_order.reassign_middle(
                     st, own_start, pt_start, pt, order, binned_vertex, int(cache_size)
                 )
         del stars  # stale from the first collapse on (and one level's snapshot at a time in memory)
@@ -705,7 +707,7 @@ def _build_levels(
         if not link and levels and _trickle(2 * inner.shape[0], alive_t.shape[0], T):
             break
         start_gids = cur_gid[alive_t]  # (fancy indexing copies already)
-        gtris, ng, p_start, p_out, q_start, q_out, recs, info, patch_steps = swk.collapse_patches(
+        gtris, ng, p_start, p_out, q_start, q_out, recs, info, patch_steps = sw_collapse.collapse_patches(
             st,
             order,
             inner_start,
@@ -818,11 +820,11 @@ def _build_topology(mesh: Mesh, st, new_state, *args, **kwargs):
 
 
 def _absorb(st, pt_start, pt, alive_t, min_shared: int, stars, rounds: int):
-    """:func:`.sw_kernels.absorb_middle` for ``rounds`` rounds, each taking the middle triangles next to the
+    """:func:`.sw_patches.absorb_middle` for ``rounds`` rounds, each taking the middle triangles next to the
     patches as the one before grew them (a breadth-first growth over the static middle), or with
     ``rounds=0`` until no middle triangle is next to a patch (at most :data:`_ABSORB_ROUNDS` rounds)."""
     for _ in range(rounds if rounds > 0 else _ABSORB_ROUNDS):
-        grown_start, grown = swk.absorb_middle(st, pt_start, pt, alive_t, min_shared, stars)
+        grown_start, grown = sw_patches.absorb_middle(st, pt_start, pt, alive_t, min_shared, stars)
         if grown.shape[0] == pt.shape[0]:
             break
         pt_start, pt = grown_start, grown

@@ -1,5 +1,5 @@
 """Which positions become patch centres: independent sets on a level's position graph (CSR
-``adj_start``/``adj``, see :func:`.sw_kernels.position_graph`) for the topology builder of
+``adj_start``/``adj``, see :func:`.sw_levels.position_graph`) for the topology builder of
 :mod:`.slidingwindow`.
 
 A patch is the star of its inner vertices; two patches may share vertices but no triangle, so inner
@@ -28,7 +28,7 @@ def _grow_i64(a: np.ndarray, n: int) -> np.ndarray:
     if n < a.shape[0]:
         return a
     b = np.empty(max(2 * a.shape[0], n + 16), a.dtype)
-    for i in range(a.shape[0]):  # a loop, not b[: len(a)] = a: see sw_kernels._grow_tris
+    for i in range(a.shape[0]):  # a loop, not b[: len(a)] = a: see sw_collapse._grow_tris
         b[i] = a[i]
     return b
 
@@ -370,7 +370,7 @@ def grow_independent_set(
                     size += 1
             if nq + P >= queue.shape[0]:  # at most P vertices are queued at once
                 nq -= head
-                for i in range(nq):  # forward, so no overlap (a loop: see sw_kernels._grow_tris)
+                for i in range(nq):  # forward, so no overlap (a loop: see sw_collapse._grow_tris)
                     queue[i] = queue[head + i]
                 head = 0
             nq = _queue_near(x, sol, tight, adj_start, adj, queue, nq, queued)

@@ -5,7 +5,7 @@ not is taken while its error is within a tolerance of the best one's, else a new
 
 Collapses that touch the current level keep touching it until the level ends, so they wait in a deferred
 heap instead of being popped and pushed back at every step. The patches are emitted with the helpers of
-:mod:`.sw_kernels`, as the topology-driven builder emits its own.
+:mod:`.sw_collapse` and :mod:`.sw_fans`, as the topology-driven builder emits its own.
 """
 
 from __future__ import annotations
@@ -15,7 +15,8 @@ import numpy as np
 
 from ..simplify import kernels as K
 from .sw_centres import _grow_i64
-from .sw_kernels import _chain_work, _chain_work_for, _emit_into, _grow_tris, _record_collapse, chain_order
+from .sw_collapse import _emit_into, _grow_tris, _record_collapse
+from .sw_fans import _chain_work, _chain_work_for, chain_order
 
 
 @nb.njit(cache=True)

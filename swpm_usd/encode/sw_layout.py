@@ -224,7 +224,7 @@ def finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, 
 def refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach):
     """The level's patches in the order of :func:`.sw_refine.refine_patch_order` (fewer cache misses over
     its windows), with their collapse records and steps renumbered to follow. ``collapsed``: the level's
-    ``(p_start, p_out, q_start, q_out, patch_steps, recs, info)`` from :func:`.sw_kernels.collapse_patches`.
+    ``(p_start, p_out, q_start, q_out, patch_steps, recs, info)`` from :func:`.sw_collapse.collapse_patches`.
     Returns it in the same form, and the level's triangles in pool order (None for fewer than 3 patches,
     which are not searched)."""
     p_start, p_out, q_start, q_out, patch_steps, recs, info = collapsed
@@ -276,8 +276,8 @@ def linked_level(gtris, ng, head, p_start, p_out, q_start, q_out, patch_steps, c
     the fragment ``P^h_1 || .. || P^h_m`` of the new level coincides with the fragment ``Q_1 || .. || Q_n``
     that ends the previous one and is stored once (its ``D^h``; the formulas of the extracted text are
     garbled, this is reconstructed from the prose). Here the previous level's tail ``head`` (its ``M || Q``
-    in final order) is this level's starting mesh; :func:`.sw_kernels.cluster_patches` chose centres whose
-    stars are disjoint intervals of it (:func:`.sw_kernels.cluster_components`: patches of several inner
+    in final order) is this level's starting mesh; :func:`.sw_cluster.cluster_patches` chose centres whose
+    stars are disjoint intervals of it (:func:`.sw_cluster.cluster_components`: patches of several inner
     positions whose star unions are), so patch ``j`` is the run of ``head`` from its first star triangle to
     the next patch's first one (the first patch from 0): its star plus the untouched triangles in between,
     which reappear unchanged in ``Q_j`` (as with ``absorb_middle``). The untouched run after the last patch

@@ -1,7 +1,7 @@
 """Local search on a sliding-window level's patch order: fewer FIFO vertex-cache misses over all its windows.
 
 A level's pool is ``P_1..P_n || M || Q_1..Q_n`` and its window ``j`` is the slice from ``P_{j+1}`` to ``Q_j``,
-drawn from a cold cache. The greedy order (:func:`.sw_kernels.order_patches`, TD-VIPM 3.2) picks one patch at
+drawn from a cold cache. The greedy order (:func:`.sw_order.order_patches`, TD-VIPM 3.2) picks one patch at
 a time; this pass then moves runs of patches (``max_run`` long) by up to ``reach`` places (or-opt) wherever
 that lowers the misses summed over the level's windows, the cache simulated index by index (FIFO).
 

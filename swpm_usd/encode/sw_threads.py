@@ -20,7 +20,7 @@ import numpy as np
 
 from ..simplify.sequence import replay_steps
 from . import sw_deviation as swd
-from . import sw_kernels as swk
+from . import sw_levels
 
 #: levels of at least this many sampled positions search them on two threads (the main one and a helper),
 #: in ``_SHARE_BLOCKS`` blocks of at least ``_DEVIATION_BLOCK`` rows (:func:`sampled_deviation`; the same
@@ -110,17 +110,17 @@ def share(helper: ThreadPoolExecutor, count: int, work) -> set:
 
 
 def level_costs_shared(helper: ThreadPoolExecutor | None, st, positions: np.ndarray, stars):
-    """:func:`.sw_kernels.level_costs`, a large level's positions in blocks (:data:`_SHARE_BLOCKS`) on this
+    """:func:`.sw_levels.level_costs`, a large level's positions in blocks (:data:`_SHARE_BLOCKS`) on this
     thread and the ``helper`` thread (each position's best collapse reads the state alone: the same costs)."""
     n = positions.shape[0]
     if helper is None or n < _COSTS_PARALLEL:
-        return swk.level_costs(st, positions, stars)
+        return sw_levels.level_costs(st, positions, stars)
     size = max(_COSTS_BLOCK, -(-n // _SHARE_BLOCKS))
     count = -(-n // size)
     parts = [[None] * count, [None] * count]  # by the helper, by this thread
 
     def work(j: int, here: bool) -> None:
-        parts[here][j] = swk.level_costs(st, positions[j * size : (j + 1) * size], stars)
+        parts[here][j] = sw_levels.level_costs(st, positions[j * size : (j + 1) * size], stars)
 
     theirs = share(helper, count, work)
     got = [parts[j not in theirs][j] for j in range(count)]

@@ -73,7 +73,7 @@ def _replay(tris: np.ndarray, binned: np.ndarray, kept: np.ndarray, vertex_count
                     tv[t, c - 3 * t] = k
                     if n == corners.shape[0]:
                         grown = np.empty(2 * n, np.int64)
-                        for i in range(n):  # a loop, not grown[:n] = corners: see sw_kernels._grow_tris
+                        for i in range(n):  # a loop, not grown[:n] = corners: see sw_collapse._grow_tris
                             grown[i] = corners[i]
                         corners = grown
                     corners[n] = c
