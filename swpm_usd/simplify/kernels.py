@@ -12,6 +12,21 @@ levels) can reuse :func:`valid_collapse`, :func:`collapse_cost` and :func:`apply
 Per position: a linked list of the triangle corners that sit on it (``corner_head``/``corner_next``,
 corner ``3*t+i``), compacted lazily when walked; a quadric ``quadric[p, 0:10]`` (upper triangle of the 4x4
 matrix) and the face area it sums in ``quadric_weight[p]``.
+
+The kernels live one algorithm to a module, in the order they call each other:
+
+- :mod:`.state`: :class:`CollapseState`, the lock kinds, :data:`HUB_SIZE`, the corner lists;
+- :mod:`.stars`: a position's star (its triangles, their positions, its neighbours), one or all at once;
+- :mod:`.quadrics`: seeding the quadrics, :func:`collapse_cost`, the triangle normal;
+- :mod:`.validity`: :func:`valid_collapse` and :func:`vertex_map` (topology, geometry, seams);
+- :mod:`.apply`: :func:`apply_collapse` and the boundary / complex kinds it keeps;
+- :mod:`.best`: :func:`best_collapse`, a position's cheapest valid target;
+- :mod:`.heap`: the array min-heap of the collapse queue;
+- :mod:`.run`: :func:`run_sequence`, the greedy sequence;
+- :mod:`.topology`: counting sorts and :func:`fan_counts`.
+
+This module re-exports every name of them: callers write ``from swpm_usd.simplify import kernels as K`` and
+``K.valid_collapse`` whichever module defines it.
 """
 
 from __future__ import annotations
@@ -171,28 +186,3 @@ __all__ = [
     "_SMALL_SORT",
     "fan_counts",
 ]
-
-
-# ----------------------------------------------------------------------------------------------------
-# quadrics
-# ----------------------------------------------------------------------------------------------------
-
-
-# ----------------------------------------------------------------------------------------------------
-# adjacency
-# ----------------------------------------------------------------------------------------------------
-
-
-# ----------------------------------------------------------------------------------------------------
-# collapse test, cost and application
-# ----------------------------------------------------------------------------------------------------
-
-
-# ----------------------------------------------------------------------------------------------------
-# a binary min-heap on arrays (cost, position, stamp); stale entries are skipped on pop
-# ----------------------------------------------------------------------------------------------------
-
-
-# ----------------------------------------------------------------------------------------------------
-# the full sequence
-# ----------------------------------------------------------------------------------------------------
