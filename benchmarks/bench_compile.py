@@ -32,16 +32,16 @@ DEFAULT = HERE.parent.parent / "shared" / "meshes" / "cow.obj"
 #: kernels whose callers agree on one signature (on 0.7.3, two to five each in a cold run of the tests)
 ONE_SIGNATURE = (
     "swpm_usd.metrics._nearest2",
-    "swpm_usd.simplify.kernels.best_collapse",
-    "swpm_usd.simplify.kernels.best_collapse_sized",
-    "swpm_usd.simplify.kernels._neighbours_rows_sorted",
-    "swpm_usd.simplify.kernels.run_sequence",
+    "swpm_usd.simplify.best.best_collapse",
+    "swpm_usd.simplify.best.best_collapse_sized",
+    "swpm_usd.simplify.stars._neighbours_rows_sorted",
+    "swpm_usd.simplify.run.run_sequence",
     "swpm_usd.vcache._tree_set",
     "swpm_usd.encode.sw_forsyth._refresh",
     "swpm_usd.encode.sw_cluster._cheapest_prefix",
     "swpm_usd.encode.sw_refine.refine_patch_order",
     "swpm_usd.encode.sw_deviation.deviation_rows",
-    "swpm_usd.simplify.kernels.triangle_positions",
+    "swpm_usd.simplify.stars.triangle_positions",
     "swpm_usd.vcache._rotate_rows",
 )
 STEPS = {

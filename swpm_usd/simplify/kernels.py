@@ -12,1532 +12,177 @@ levels) can reuse :func:`valid_collapse`, :func:`collapse_cost` and :func:`apply
 Per position: a linked list of the triangle corners that sit on it (``corner_head``/``corner_next``,
 corner ``3*t+i``), compacted lazily when walked; a quadric ``quadric[p, 0:10]`` (upper triangle of the 4x4
 matrix) and the face area it sums in ``quadric_weight[p]``.
+
+The kernels live one algorithm to a module, in the order they call each other:
+
+- :mod:`.state`: :class:`CollapseState`, the lock kinds, :data:`HUB_SIZE`, the corner lists;
+- :mod:`.stars`: a position's star (its triangles, their positions, its neighbours), one or all at once;
+- :mod:`.quadrics`: seeding the quadrics, :func:`collapse_cost`, the triangle normal;
+- :mod:`.validity`: :func:`valid_collapse` and :func:`vertex_map` (topology, geometry, seams);
+- :mod:`.apply`: :func:`apply_collapse` and the boundary / complex kinds it keeps;
+- :mod:`.best`: :func:`best_collapse`, a position's cheapest valid target;
+- :mod:`.heap`: the array min-heap of the collapse queue;
+- :mod:`.run`: :func:`run_sequence`, the greedy sequence;
+- :mod:`.topology`: counting sorts and :func:`fan_counts`.
+
+This module re-exports every name of them: callers write ``from swpm_usd.simplify import kernels as K`` and
+``K.valid_collapse`` whichever module defines it.
 """
 
 from __future__ import annotations
 
-from collections import namedtuple
+from .apply import (
+    _corners_at,
+    _count_hub_edges,
+    _edge_count,
+    _recount_edge,
+    _refresh_kind,
+    _row_corners_at,
+    _set_kind,
+    apply_collapse,
+)
+from .best import (
+    MAX_TARGET_TRIES,
+    best_collapse,
+    best_collapse_sized,
+    best_of_star,
+)
+from .heap import (
+    _heap_pop,
+    _heap_push,
+    _heap_push_into,
+)
+from .quadrics import (
+    _add_plane,
+    _cost_of,
+    _eval_quadric2,
+    collapse_cost,
+    init_quadrics,
+    min_doubled_area2,
+    tri_normal,
+)
+from .run import (
+    run_sequence,
+)
+from .stars import (
+    _LARGE_STAR,
+    Stars,
+    _gather_into,
+    _gather_rows,
+    _has,
+    _neighbours_into,
+    _neighbours_rows,
+    _neighbours_rows_sorted,
+    _positions_into,
+    _positions_rows,
+    _star_arrays_at,
+    gather_triangles,
+    neighbours,
+    star_buffers,
+    star_into,
+    star_rows,
+    star_snapshot,
+    triangle_positions,
+)
+from .state import (
+    HUB_SIZE,
+    LOCK_COMPLEX,
+    LOCK_FIXED,
+    LOCK_FREE,
+    CollapseState,
+    build_corner_lists,
+    is_hub,
+)
+from .topology import (
+    _SMALL_SORT,
+    _find_root,
+    fan_counts,
+    group_by,
+    stable_order,
+)
+from .validity import (
+    _alive_more_than,
+    _hub_side_of,
+    _moved_face_ok,
+    _single_vertex_maps,
+    _valid_complex_collapse,
+    _vertex_map,
+    alive_more_than_in,
+    edge_count_ok,
+    edge_count_ok_in,
+    hub_side_rows,
+    valid_collapse,
+    valid_collapse_in,
+    vertex_map,
+)
 
-import numba as nb
-import numpy as np
-
-CollapseState = namedtuple(
+# every name of the collapse kernels, whichever module defines it: the encoders' ``K.xxx`` and the tests
+# read them here
+__all__ = [
     "CollapseState",
-    [
-        "pos_points",  # (P,3) f64 welded positions
-        "vertex_pos",  # (V,) i32 position of every vertex
-        "pos_vstart",  # (P+1,) i32 CSR of the vertices at each position
-        "pos_verts",  # (V,) i32
-        "tri_verts",  # (T,3) i32 current vertex ids (edited by collapses)
-        "tri_alive",  # (T,) bool
-        "corner_head",  # (P,) i32 first corner on each position, -1 if none
-        "corner_next",  # (3T,) i32 next corner on the same position, -1 at the end
-        "quadric",  # (P,10) f64
-        "quadric_weight",  # (P,) f64
-        "pos_alive",  # (P,) bool
-        "pos_locked",  # (P,) u8: LOCK_FREE or the bits LOCK_FIXED (never binned), LOCK_COMPLEX (below)
-        "pos_boundary",  # (P,) bool
-        "min_area2",  # (1,) f64: squared doubled-area below which a triangle counts as zero-area
-        # (P,2) i32: a hub's edges of one triangle and of three or more, -1 until counted; (0,2): none
-        # counted (see _refresh_kind)
-        "pos_edge_kinds",
-    ],
-)
-
-#: ``pos_locked`` bits. A free position (0) may be binned by any valid collapse; a fixed one never. A complex
-#: one lies on an edge of three or more triangles (a fin, two sheets along a crease): it may only slide along
-#: such an edge onto another complex position, so a non-manifold curve shortens without dragging a sheet off
-#: it (meshoptimizer's "complex" vertices move onto each other too). A complex position on the boundary (where
-#: a fin's free edge meets the curve) is fixed as well. Both bits of a complex position, and ``pos_boundary``,
-#: follow the mesh: once its last edge of three triangles or its last boundary edge is gone (a fin collapsed
-#: away, :func:`apply_collapse`), the bits and the flag drop. A plain fixed position (a pinch vertex, the
-#: caller's choice: ``LOCK_FIXED`` alone) stays fixed. A complex centre's sliding-window patch is its whole
-#: star.
-LOCK_FREE = 0
-LOCK_FIXED = 1
-LOCK_COMPLEX = 2
-
-#: a snapshot of every position's star in a state (:func:`star_snapshot`): what :func:`gather_triangles`,
-#: :func:`triangle_positions` and :func:`neighbours` return for position ``p``, as CSR rows ``p``
-Stars = namedtuple(
+    "LOCK_FREE",
+    "LOCK_FIXED",
+    "LOCK_COMPLEX",
+    "HUB_SIZE",
+    "is_hub",
+    "build_corner_lists",
     "Stars",
-    [
-        "start",  # (P+1,) i64 rows of tris / tp
-        "tris",  # (n,) i32 alive triangles around each position
-        "tp",  # (n,3) i32 their positions
-        "nbr_start",  # (P+1,) i64 rows of nbr
-        "nbr",  # (m,) i32 distinct neighbouring positions
-    ],
-)
-
-
-# ----------------------------------------------------------------------------------------------------
-# quadrics
-# ----------------------------------------------------------------------------------------------------
-@nb.njit(cache=True, inline="always")
-def _add_plane(q: np.ndarray, p: int, nx: float, ny: float, nz: float, d: float, w: float) -> None:
-    q[p, 0] += w * nx * nx
-    q[p, 1] += w * nx * ny
-    q[p, 2] += w * nx * nz
-    q[p, 3] += w * nx * d
-    q[p, 4] += w * ny * ny
-    q[p, 5] += w * ny * nz
-    q[p, 6] += w * ny * d
-    q[p, 7] += w * nz * nz
-    q[p, 8] += w * nz * d
-    q[p, 9] += w * d * d
-
-
-@nb.njit(cache=True, inline="always")
-def _eval_quadric2(q: np.ndarray, a: int, b: int, x: float, y: float, z: float) -> float:
-    """(Q_a + Q_b)(x, y, z)."""
-    s = 0.0
-    s += (q[a, 0] + q[b, 0]) * x * x
-    s += 2.0 * (q[a, 1] + q[b, 1]) * x * y
-    s += 2.0 * (q[a, 2] + q[b, 2]) * x * z
-    s += 2.0 * (q[a, 3] + q[b, 3]) * x
-    s += (q[a, 4] + q[b, 4]) * y * y
-    s += 2.0 * (q[a, 5] + q[b, 5]) * y * z
-    s += 2.0 * (q[a, 6] + q[b, 6]) * y
-    s += (q[a, 7] + q[b, 7]) * z * z
-    s += 2.0 * (q[a, 8] + q[b, 8]) * z
-    s += q[a, 9] + q[b, 9]
-    return s
-
-
-@nb.njit(cache=True, nogil=True)
-def init_quadrics(
-    pos_points: np.ndarray,
-    tri_pos: np.ndarray,
-    constraint_edges: np.ndarray,
-    constraint_faces: np.ndarray,
-    constraint_weights: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Area-weighted face quadrics, plus planes through each constraint edge (boundary or attribute seam)
-    perpendicular to its face, weighted by ``constraint_weights[i] * length^2`` (so they keep area units)."""
-    P = pos_points.shape[0]
-    q = np.zeros((P, 10))
-    w = np.zeros(P)
-    # cross products written out (the same products and differences as np.cross): numba's np.cross
-    # compiles and links the string formatting of its shape error, seconds of compile time
-    for t in range(tri_pos.shape[0]):
-        a, b, c = tri_pos[t, 0], tri_pos[t, 1], tri_pos[t, 2]
-        n0, n1, n2 = tri_normal(pos_points, a, b, c)
-        ln = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-        if ln <= 0.0:
-            continue
-        area = 0.5 * ln
-        nx, ny, nz = n0 / ln, n1 / ln, n2 / ln
-        d = -(nx * pos_points[a, 0] + ny * pos_points[a, 1] + nz * pos_points[a, 2])
-        for p in (a, b, c):
-            _add_plane(q, p, nx, ny, nz, d, area)
-            w[p] += area
-    for i in range(constraint_edges.shape[0]):
-        a, b = constraint_edges[i, 0], constraint_edges[i, 1]
-        t = constraint_faces[i]
-        f0, f1, f2 = tri_normal(pos_points, tri_pos[t, 0], tri_pos[t, 1], tri_pos[t, 2])
-        ex = pos_points[b, 0] - pos_points[a, 0]
-        ey = pos_points[b, 1] - pos_points[a, 1]
-        ez = pos_points[b, 2] - pos_points[a, 2]
-        n0 = ey * f2 - ez * f1
-        n1 = ez * f0 - ex * f2
-        n2 = ex * f1 - ey * f0
-        ln = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-        if ln <= 0.0:
-            continue
-        nx, ny, nz = n0 / ln, n1 / ln, n2 / ln
-        d = -(nx * pos_points[a, 0] + ny * pos_points[a, 1] + nz * pos_points[a, 2])
-        wt = constraint_weights[i] * (ex * ex + ey * ey + ez * ez)
-        _add_plane(q, a, nx, ny, nz, d, wt)
-        _add_plane(q, b, nx, ny, nz, d, wt)
-    return q, w
-
-
-# ----------------------------------------------------------------------------------------------------
-# adjacency
-# ----------------------------------------------------------------------------------------------------
-@nb.njit(cache=True, nogil=True)
-def gather_triangles(st: CollapseState, p: int) -> np.ndarray:
-    """Alive triangles around position ``p`` (each once); unlinks dead corners on the way."""
-    n = 0
-    c = st.corner_head[p]
-    while c >= 0:
-        n += 1
-        c = st.corner_next[c]
-    out = np.empty(n, np.int32)
-    return out[: _gather_into(st, p, out, 0)]
-
-
-@nb.njit(cache=True, inline="always")
-def _gather_into(st: CollapseState, p: int, out: np.ndarray, m: int) -> int:
-    """:func:`gather_triangles` written to ``out[m:]`` (room for all of p's corners); returns the end."""
-    return _gather_rows(st.corner_head, st.corner_next, st.tri_alive, p, out, m)
-
-
-@nb.njit(cache=True, inline="always")
-def _gather_rows(
-    corner_head: np.ndarray, corner_next: np.ndarray, tri_alive: np.ndarray, p: int, out: np.ndarray, m: int
-) -> int:
-    """:func:`_gather_into` on the state's arrays."""
-    prev = -1
-    c = corner_head[p]
-    while c >= 0:
-        nxt = corner_next[c]
-        t = c // 3
-        if tri_alive[t]:
-            out[m] = t
-            m += 1
-            prev = c
-        else:
-            if prev < 0:
-                corner_head[p] = nxt
-            else:
-                corner_next[prev] = nxt
-        c = nxt
-    return m
-
-
-@nb.njit(cache=True, nogil=True)
-def triangle_positions(st: CollapseState, tris: np.ndarray) -> np.ndarray:
-    """(n,3) positions of the given triangles (read once: namedtuple field access costs a refcount)."""
-    tv = st.tri_verts
-    vp = st.vertex_pos
-    out = np.empty((tris.shape[0], 3), np.int32)
-    for j in range(tris.shape[0]):
-        for i in range(3):
-            out[j, i] = vp[tv[tris[j], i]]
-    return out
-
-
-@nb.njit(cache=True, nogil=True)
-def neighbours(p: int, tp: np.ndarray) -> np.ndarray:
-    """Distinct positions sharing a triangle with ``p`` (``tp``: positions of p's triangles)."""
-    buf = np.empty(2 * tp.shape[0], np.int32)
-    return buf[: _neighbours_into(p, tp, buf, 0)]
-
-
-@nb.njit(cache=True, inline="always")
-def _neighbours_into(p: int, tp: np.ndarray, buf: np.ndarray, m0: int) -> int:
-    """:func:`neighbours` written to ``buf[m0:]`` (room for ``2 * len(tp)``); returns the end."""
-    return _neighbours_rows(p, tp, 0, tp.shape[0], buf, m0)
-
-
-# stars of more triangles than this find their distinct neighbours by a sort, not by comparing each with
-# those found so far: a fan of thousands of triangles on one edge made every collapse there quadratic
-_LARGE_STAR = 48
-
-
-@nb.njit(cache=True, nogil=True)
-def _neighbours_rows_sorted(p: int, tp: np.ndarray, j0: int, j1: int, buf: np.ndarray, m0: int) -> int:
-    """:func:`_neighbours_rows` by a stable sort, n log n: the same positions in the same order (first
-    occurrence)."""
-    c = m0
-    for j in range(j0, j1):
-        for i in range(3):
-            if tp[j, i] != p:
-                # every row holds p, so two corners each fit the callers' room of two per row; numba checks
-                # no bounds, so a row without p must not write past the buffer
-                if c >= buf.shape[0]:
-                    raise IndexError("neighbour buffer too small: a star row without its position")
-                buf[c] = tp[j, i]
-                c += 1
-    order = np.argsort(buf[m0:c], kind="mergesort")
-    first = np.zeros(c - m0, np.bool_)
-    for r in range(order.shape[0]):
-        if r == 0 or buf[m0 + order[r]] != buf[m0 + order[r - 1]]:
-            first[order[r]] = True  # the stable sort puts a value's first occurrence first
-    m = m0
-    for r in range(c - m0):
-        if first[r]:
-            buf[m] = buf[m0 + r]
-            m += 1
-    return m
-
-
-@nb.njit(cache=True, inline="always")
-def _neighbours_rows(p: int, tp: np.ndarray, j0: int, j1: int, buf: np.ndarray, m0: int) -> int:
-    """:func:`_neighbours_into` for rows ``j0:j1`` of ``tp`` (no slice: numba's reference counting)."""
-    if j1 - j0 > _LARGE_STAR:
-        # (np.int64: inlined, a caller's literal 0 would compile the sorted search once more)
-        return _neighbours_rows_sorted(p, tp, np.int64(j0), j1, buf, np.int64(m0))
-    m = m0
-    for j in range(j0, j1):
-        for i in range(3):
-            q = tp[j, i]
-            if q == p:
-                continue
-            dup = False
-            for r in range(m0, m):
-                if buf[r] == q:
-                    dup = True
-                    break
-            if not dup:
-                buf[m] = q
-                m += 1
-    return m
-
-
-@nb.njit(cache=True, inline="always")
-def _positions_rows(
-    head: np.ndarray,
-    cnext: np.ndarray,
-    talive: np.ndarray,
-    tv: np.ndarray,
-    vp: np.ndarray,
-    p: int,
-    tris: np.ndarray,
-    tp: np.ndarray,
-    m0: int,
-) -> int:
-    """``p``'s live triangles into ``tris[m0:]`` and their positions into ``tp[m0:]``, on the state's arrays
-    (``corner_head``, ``corner_next``, ``tri_alive``, ``tri_verts``, ``vertex_pos``); returns the end."""
-    m = _gather_rows(head, cnext, talive, p, tris, m0)
-    for j in range(m0, m):
-        for i in range(3):
-            tp[j, i] = vp[tv[tris[j], i]]
-    return m
-
-
-@nb.njit(cache=True, nogil=True)
-def _star_arrays_at(st: CollapseState, positions: np.ndarray):
-    """Every star's rows (start, triangles, their positions, neighbour start, neighbours) with only
-    ``positions`` (increasing) read: every other position's rows empty."""
-    P = st.pos_points.shape[0]
-    n = st.corner_next.shape[0]
-    start = np.empty(P + 1, np.int64)
-    tris = np.empty(n, np.int32)
-    tp = np.empty((n, 3), np.int32)
-    nbr_start = np.empty(P + 1, np.int64)
-    nbr = np.empty(2 * n, np.int32)
-    tv = st.tri_verts
-    vp = st.vertex_pos
-    head = st.corner_head
-    cnext = st.corner_next
-    talive = st.tri_alive
-    start[0] = 0
-    nbr_start[0] = 0
-    q = 0  # rows filled up to position q
-    for i in range(positions.shape[0]):
-        p = positions[i]
-        while q < p:
-            start[q + 1] = start[q]
-            nbr_start[q + 1] = nbr_start[q]
-            q += 1
-        s1 = _positions_rows(head, cnext, talive, tv, vp, p, tris, tp, start[p])
-        start[p + 1] = s1
-        nbr_start[p + 1] = _neighbours_rows(p, tp, start[p], s1, nbr, nbr_start[p])
-        q = p + 1
-    while q < P:
-        start[q + 1] = start[q]
-        nbr_start[q + 1] = nbr_start[q]
-        q += 1
-    return start, tris, tp, nbr_start, nbr
-
-
-def star_snapshot(st: CollapseState, positions: np.ndarray | None = None) -> Stars:
-    """Every position's star in the current state, read once (a level's passes over all positions then
-    read contiguous rows instead of walking the corner lists again); valid until the next collapse.
-    ``positions`` (increasing): every position with a live triangle, if the caller knows them (a coarse
-    level of a large mesh reads its few stars, not every position's corner list); the same snapshot."""
-    if positions is None:
-        positions = np.arange(st.pos_points.shape[0], dtype=np.int64)
-    return Stars(*_star_arrays_at(st, positions))
-
-
-@nb.njit(cache=True, nogil=True)
-def star_into(
-    st: CollapseState, p: int, tris: np.ndarray, tp: np.ndarray, nbr: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``p``'s star as :func:`gather_triangles`, :func:`triangle_positions` and :func:`neighbours` give it,
-    written to reusable buffers instead of three new arrays (room: ``tris`` and ``tp`` one row per triangle
-    of the state, ``nbr`` twice that: :func:`star_buffers`); returns views of them, valid until the next
-    call with the same buffers."""
-    n, m = star_rows(
-        st.corner_head, st.corner_next, st.tri_alive, st.tri_verts, st.vertex_pos, p, tris, tp, nbr
-    )
-    return tris[:n], tp[:n], nbr[:m]
-
-
-@nb.njit(cache=True, nogil=True)
-def _positions_into(st: CollapseState, p: int, tris: np.ndarray, tp: np.ndarray) -> int:
-    """``p``'s live triangles into ``tris[:n]`` and their positions into ``tp[:n]``; returns ``n``."""
-    return _positions_rows(
-        st.corner_head, st.corner_next, st.tri_alive, st.tri_verts, st.vertex_pos, p, tris, tp, 0
-    )
-
-
-@nb.njit(cache=True, nogil=True)
-def star_rows(
-    corner_head: np.ndarray,
-    corner_next: np.ndarray,
-    tri_alive: np.ndarray,
-    tv: np.ndarray,
-    vp: np.ndarray,
-    p: int,
-    tris: np.ndarray,
-    tp: np.ndarray,
-    nbr: np.ndarray,
-) -> tuple[int, int]:
-    """:func:`star_into` on the state's arrays (``tri_verts``, ``vertex_pos``), returning the row counts
-    ``(n, m)`` of ``tris[:n]``, ``tp[:n]``, ``nbr[:m]`` instead of views (a hot loop makes no slices)."""
-    n = _positions_rows(corner_head, corner_next, tri_alive, tv, vp, p, tris, tp, 0)
-    return n, _neighbours_rows(p, tp, 0, n, nbr, 0)
-
-
-@nb.njit(cache=True, nogil=True)
-def star_buffers(st: CollapseState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Buffers for :func:`star_into` (any star of ``st`` fits)."""
-    T = st.tri_verts.shape[0]
-    return np.empty(T, np.int32), np.empty((T, 3), np.int32), np.empty(2 * T, np.int32)
-
-
-@nb.njit(cache=True, inline="always")
-def tri_normal(pts: np.ndarray, a: int, b: int, c: int) -> tuple[float, float, float]:
-    """Unnormalised normal of triangle (a, b, c): (b - a) x (c - a), twice its area long."""
-    ux = pts[b, 0] - pts[a, 0]
-    uy = pts[b, 1] - pts[a, 1]
-    uz = pts[b, 2] - pts[a, 2]
-    vx = pts[c, 0] - pts[a, 0]
-    vy = pts[c, 1] - pts[a, 1]
-    vz = pts[c, 2] - pts[a, 2]
-    return uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
-
-
-@nb.njit(cache=True, nogil=True)
-def min_doubled_area2(pts: np.ndarray, tri_pos: np.ndarray) -> float:
-    """The smallest non-zero squared doubled area (:func:`tri_normal`'s length squared) of the triangles
-    ``tri_pos`` (rows of ``pts``); inf if none has an area."""
-    best = np.inf
-    for t in range(tri_pos.shape[0]):
-        n0, n1, n2 = tri_normal(pts, tri_pos[t, 0], tri_pos[t, 1], tri_pos[t, 2])
-        a2 = n0 * n0 + n1 * n1 + n2 * n2
-        if 0.0 < a2 < best:
-            best = a2
-    return best
-
-
-@nb.njit(cache=True, inline="always")
-def _has(tp: np.ndarray, j: int, p: int) -> bool:
-    return tp[j, 0] == p or tp[j, 1] == p or tp[j, 2] == p
-
-
-# ----------------------------------------------------------------------------------------------------
-# collapse test, cost and application
-# ----------------------------------------------------------------------------------------------------
-@nb.njit(cache=True, nogil=True)
-def collapse_cost(st: CollapseState, b: int, k: int) -> float:
-    """Mean squared plane distance of the merged quadric at the kept point (>= 0)."""
-    return _cost_of(st.pos_points, st.quadric, st.quadric_weight, b, k)
-
-
-@nb.njit(cache=True, inline="always")
-def _cost_of(pts: np.ndarray, quadric: np.ndarray, qw: np.ndarray, b: int, k: int) -> float:
-    """:func:`collapse_cost` on the state's arrays (a hot loop reads them once: each namedtuple field read
-    costs numba's reference counting)."""
-    x, y, z = pts[k, 0], pts[k, 1], pts[k, 2]
-    e = _eval_quadric2(quadric, b, k, x, y, z)
-    w = qw[b] + qw[k]
-    if w > 0.0:
-        e /= w
-    return e if e > 0.0 else 0.0
-
-
-@nb.njit(cache=True, nogil=True)
-def vertex_map(st: CollapseState, b: int, k: int, tris_b: np.ndarray, tp_b: np.ndarray) -> np.ndarray:
-    """For every vertex at ``b`` (in pos_verts order) the vertex at ``k`` it moves onto; -1 in slot 0 of a
-    length-1 array when the collapse would split an attribute seam (a "difficult edge")."""
-    return _vertex_map(st.tri_verts, st.pos_verts, st.pos_vstart, b, k, tris_b, tp_b)
-
-
-@nb.njit(cache=True, nogil=True)
-def _vertex_map(
-    tv: np.ndarray,
-    pv: np.ndarray,
-    pos_vstart: np.ndarray,
-    b: int,
-    k: int,
-    tris_b: np.ndarray,
-    tp_b: np.ndarray,
-) -> np.ndarray:
-    """:func:`vertex_map` on the state's arrays."""
-    v0, v1 = pos_vstart[b], pos_vstart[b + 1]
-    nv = v1 - v0
-    target = np.full(nv, -1, np.int32)
-    used = np.zeros(nv, np.bool_)
-    fallback = -1
-    for j in range(tris_b.shape[0]):
-        t = tris_b[j]
-        ib = -1
-        ik = -1
-        for i in range(3):
-            q = tp_b[j, i]
-            if q == b:
-                ib = i
-            elif q == k:
-                ik = i
-        vb = tv[t, ib]
-        local = 0
-        for r in range(nv):
-            if pv[v0 + r] == vb:
-                local = r
-                break
-        used[local] = True
-        if ik < 0:
-            continue
-        vk = tv[t, ik]
-        fallback = vk
-        if target[local] < 0:
-            target[local] = vk
-        elif target[local] != vk:
-            return np.full(1, -1, np.int32)
-    for r in range(nv):
-        if target[r] < 0:
-            if used[r]:
-                return np.full(1, -1, np.int32)  # this vertex's triangles do not reach k
-            target[r] = fallback  # vertex without triangles: rides along with any vertex at k
-        # two vertices of b onto one vertex of k would merge a seam: banned
-        for s in range(r):
-            if used[r] and used[s] and target[s] == target[r]:
-                return np.full(1, -1, np.int32)
-    return target
-
-
-@nb.njit(cache=True, nogil=True)
-def _single_vertex_maps(
-    tv: np.ndarray, k: int, tris_b: np.ndarray, tp_b: np.ndarray, j0: int, j1: int
-) -> bool:
-    """``vertex_map(...)[0] >= 0`` for a position ``b`` with one vertex (its star: rows ``j0:j1`` of
-    ``tris_b``, ``tp_b``), without allocating: the edge triangles exist and all reach the same vertex at
-    ``k``."""
-    vk = -1
-    for j in range(j0, j1):
-        ik = -1
-        for i in range(3):
-            if tp_b[j, i] == k:
-                ik = i
-        if ik >= 0:
-            v = tv[tris_b[j], ik]
-            if vk >= 0 and v != vk:
-                return False
-            vk = v
-    return vk >= 0
-
-
-@nb.njit(cache=True, nogil=True)
-def valid_collapse(
-    st: CollapseState,
-    b: int,
-    k: int,
-    tris_b: np.ndarray,
-    tp_b: np.ndarray,
-    nbr_b: np.ndarray,
-    stars: Stars | None = None,
-    tp_k: np.ndarray | None = None,
-    nbr_k: np.ndarray | None = None,
-) -> bool:
-    """Can position ``b`` be binned onto ``k``? Checks topology (link condition, no duplicate faces,
-    boundary vertices stay on the boundary), geometry (no flipped or zero-area face) and seams.
-    ``stars``: a snapshot of the current state (:func:`star_snapshot`) to read ``k``'s star from; without
-    one pass ``None`` explicitly (numba compiles an omitted argument apart from the ``None`` that
-    :func:`best_collapse` passes on). ``tp_k``, ``nbr_k``: ``k``'s star read already by the caller (its
-    triangles' positions and neighbours in the current state, e.g. by :func:`star_into`; ``stars`` None)."""
-    pos_alive = st.pos_alive
-    if st.pos_locked[b] & LOCK_FIXED or not pos_alive[b] or not pos_alive[k] or b == k:
-        return False
-    # (the ``is None`` tests are resolved at compile time: one branch per specialisation)
-    if tp_k is not None and nbr_k is not None:
-        tk = tp_k
-        nk = nbr_k
-    elif stars is None:
-        if _alive_more_than(st, k, HUB_SIZE):
-            if not edge_count_ok(st, b, k, tp_b):
-                return False  # before reading the hub's star: see edge_count_ok
-            tk, nk = _hub_side_of(st, k, nbr_b)
-        else:
-            tk = triangle_positions(st, gather_triangles(st, k))
-            nk = neighbours(k, tk)
-    else:
-        tk = stars.tp[stars.start[k] : stars.start[k + 1]]
-        nk = stars.nbr[stars.nbr_start[k] : stars.nbr_start[k + 1]]
-    # (not literal 0s: numba compiled valid_collapse_in and three of its callees a second time for them)
-    z = np.int64(0)
-    return valid_collapse_in(
-        pos_alive,
-        st.pos_locked,
-        st.pos_boundary,
-        st.pos_points,
-        st.min_area2[0],
-        st.tri_verts,
-        st.pos_verts,
-        st.pos_vstart,
-        b,
-        k,
-        tris_b,
-        tp_b,
-        z,
-        tp_b.shape[0],
-        nbr_b,
-        z,
-        nbr_b.shape[0],
-        tk,
-        z,
-        tk.shape[0],
-        nk,
-        z,
-        nk.shape[0],
-    )
-
-
-@nb.njit(cache=True, inline="always")
-def _alive_more_than(st: CollapseState, p: int, n: int) -> bool:
-    """Whether more than ``n`` triangles around ``p`` are alive: its corner list walked until ``n + 1``
-    are found (a hub's thousands are not walked)."""
-    return alive_more_than_in(st.corner_head, st.corner_next, st.tri_alive, p, n)
-
-
-@nb.njit(cache=True, inline="always")
-def alive_more_than_in(
-    corner_head: np.ndarray, corner_next: np.ndarray, tri_alive: np.ndarray, p: int, n: int
-) -> bool:
-    """:func:`_alive_more_than` on the state's arrays."""
-    c = corner_head[p]
-    while c >= 0 and n >= 0:
-        n -= tri_alive[c // 3]
-        c = corner_next[c]
-    return n < 0
-
-
-@nb.njit(cache=True, nogil=True)
-def _hub_side_of(st: CollapseState, k: int, nbr_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`hub_side_rows` into arrays of their own: (``k``'s triangle positions, neighbours) as
-    :func:`valid_collapse_in` reads them for binning a position of neighbours ``nbr_b`` onto ``k``."""
-    head = st.corner_head
-    cnext = st.corner_next
-    n_rows = 0
-    for i in range(nbr_b.shape[0]):
-        if nbr_b[i] == k:
-            continue  # (k's own list is what this spares)
-        c = head[nbr_b[i]]
-        while c >= 0:
-            n_rows += 1
-            c = cnext[c]
-    tk = np.empty((n_rows, 3), np.int32)
-    nk = np.empty(nbr_b.shape[0], np.int32)
-    n = nbr_b.shape[0]
-    mt, mn = hub_side_rows(head, cnext, st.tri_alive, st.tri_verts, st.vertex_pos, k, nbr_b, n, tk, nk)
-    return tk[:mt], nk[:mn]
-
-
-@nb.njit(cache=True, nogil=True)
-def hub_side_rows(
-    corner_head: np.ndarray,
-    corner_next: np.ndarray,
-    tri_alive: np.ndarray,
-    tv: np.ndarray,
-    vp: np.ndarray,
-    k: int,
-    nbr_b: np.ndarray,
-    nn: int,
-    tk: np.ndarray,
-    nk: np.ndarray,
-) -> tuple[int, int]:
-    """What :func:`valid_collapse_in` reads of a hub ``k``'s star, found from ``b``'s ring instead (``b``'s
-    neighbours ``nbr_b[:nn]``): the triangles around ``k`` that hold one of
-    ``b``'s neighbours, written to ``tk``, and those neighbours of ``b`` that are ``k``'s, to ``nk``.
-    Returns their row counts, or (-1, -1) if ``tk`` has no room for them. The tests ask only whether a
-    neighbour of ``b`` is ``k``'s and whether a triangle around ``k`` holds two given neighbours of ``b``,
-    so the answer is the one ``k``'s whole star gives, read from a few small stars (a hub in every
-    triangle: sorting its star for each test was most of a quadratic sequence)."""
-    m = 0
-    n_nk = 0
-    for i in range(nn):
-        q = nbr_b[i]
-        if q == k:
-            continue
-        shared = False
-        c = corner_head[q]
-        while c >= 0:
-            t = c // 3
-            if tri_alive[t]:
-                p0 = vp[tv[t, 0]]
-                p1 = vp[tv[t, 1]]
-                p2 = vp[tv[t, 2]]
-                if p0 == k or p1 == k or p2 == k:
-                    if m >= tk.shape[0]:
-                        return -1, -1
-                    shared = True
-                    tk[m, 0] = p0
-                    tk[m, 1] = p1
-                    tk[m, 2] = p2
-                    m += 1
-            c = corner_next[c]
-        if shared:
-            nk[n_nk] = q
-            n_nk += 1
-    return m, n_nk
-
-
-@nb.njit(cache=True, inline="always")
-def edge_count_ok(st: CollapseState, b: int, k: int, tp_b: np.ndarray) -> bool:
-    """The part of :func:`valid_collapse_in` that reads ``b``'s star alone: the edge ``b``-``k`` lies on
-    as many triangles as binning ``b`` allows (two inside, one on the boundary, three or more between
-    complex positions). A caller tests this before it reads ``k``'s star: most positions around a
-    non-manifold hub (a vertex of every triangle, other corners random) lie on an edge of several
-    triangles with it, and reading the hub's star for each such test made the quadric order cubic."""
-    return edge_count_ok_in(st.pos_locked, st.pos_boundary, b, k, tp_b, tp_b.shape[0])
-
-
-@nb.njit(cache=True, inline="always")
-def edge_count_ok_in(
-    pos_locked: np.ndarray, pos_boundary: np.ndarray, b: int, k: int, tp_b: np.ndarray, n_rows: int
-) -> bool:
-    """:func:`edge_count_ok` on the state's arrays, ``b``'s star in the first ``n_rows`` rows of ``tp_b``."""
-    n_edge = 0
-    for j in range(n_rows):
-        if _has(tp_b, j, k):
-            n_edge += 1
-    if pos_locked[b] == LOCK_COMPLEX:
-        return n_edge >= 3
-    if pos_boundary[b]:
-        return n_edge == 1
-    return n_edge == 2
-
-
-@nb.njit(cache=True, inline="always")
-def _moved_face_ok(pts: np.ndarray, min_area2: float, tp_b: np.ndarray, j: int, b: int, k: int):
-    """The surviving triangle ``j`` of ``b``'s star, ``b, x, y`` in winding order, before and after ``b``
-    moves onto ``k``: (no zero area and no flip or near-flip, x, y). A normal turned by more than ~84
-    degrees is refused."""
-    p0 = tp_b[j, 0]
-    p1 = tp_b[j, 1]
-    p2 = tp_b[j, 2]
-    if p0 == b:
-        x, y = p1, p2
-    elif p1 == b:
-        x, y = p2, p0
-    else:
-        x, y = p0, p1
-    n00, n01, n02 = tri_normal(pts, b, x, y)
-    n10, n11, n12 = tri_normal(pts, k, x, y)
-    l1 = n10 * n10 + n11 * n11 + n12 * n12
-    if l1 <= min_area2:
-        return False, x, y
-    l0 = n00 * n00 + n01 * n01 + n02 * n02
-    return n00 * n10 + n01 * n11 + n02 * n12 > 0.1 * np.sqrt(l0 * l1), x, y
-
-
-@nb.njit(cache=True, nogil=True)
-def valid_collapse_in(
-    pos_alive: np.ndarray,
-    pos_locked: np.ndarray,
-    pos_boundary: np.ndarray,
-    pts: np.ndarray,
-    min_area2: float,
-    tv: np.ndarray,
-    pv: np.ndarray,
-    pos_vstart: np.ndarray,
-    b: int,
-    k: int,
-    tris_b: np.ndarray,
-    tp_b: np.ndarray,
-    b0: int,
-    b1: int,
-    nbr_b: np.ndarray,
-    n0: int,
-    n1: int,
-    tk: np.ndarray,
-    k0: int,
-    k1: int,
-    nk: np.ndarray,
-    m0: int,
-    m1: int,
-) -> bool:
-    """:func:`valid_collapse` on the state's arrays, the stars given as row ranges (``b``'s triangles and
-    their positions: rows ``b0:b1`` of ``tris_b``, ``tp_b``; its neighbours ``nbr_b[n0:n1]``; ``k``'s
-    triangles' positions ``tk[k0:k1]`` and neighbours ``nk[m0:m1]``): a hot loop over a star snapshot
-    reads the state's fields and makes the slices of every star once, not per test (numba's reference
-    counting)."""
-    if not pos_alive[b] or not pos_alive[k] or b == k:
-        return False
-    if pos_locked[b] != LOCK_FREE:
-        if pos_locked[b] != LOCK_COMPLEX or not pos_locked[k] & LOCK_COMPLEX:
-            return False
-        return _valid_complex_collapse(
-            pts, min_area2, tv, pv, pos_vstart, b, k, tris_b, tp_b, b0, b1, nbr_b, n0, n1, tk, k0, k1, nk, m0,
-            m1,
-        )  # fmt: skip
-    n_edge = 0
-    opp0 = -1
-    opp1 = -1
-    for j in range(b0, b1):
-        if _has(tp_b, j, k):
-            o = -1
-            for i in range(3):
-                q = tp_b[j, i]
-                if q != b and q != k:
-                    o = q
-            if n_edge == 0:
-                opp0 = o
-            else:
-                opp1 = o
-            n_edge += 1
-    if n_edge == 0 or n_edge > 2:
-        return False
-    if pos_boundary[b]:
-        if n_edge != 1:
-            return False
-    elif n_edge != 2:
-        return False
-    # link condition: common neighbours of b and k are exactly the edge's opposite vertices
-    common = 0
-    for i in range(n0, n1):
-        q = nbr_b[i]
-        if q == k:
-            continue
-        for j in range(m0, m1):
-            if nk[j] == q:
-                if q != opp0 and q != opp1:
-                    return False
-                common += 1
-                break
-    if common != n_edge:
-        return False
-    for j in range(b0, b1):
-        if _has(tp_b, j, k):
-            continue
-        ok, x, y = _moved_face_ok(pts, min_area2, tp_b, j, b, k)
-        if not ok:
-            return False
-        # duplicate face: (k, x, y) already exists around k. A face around k holds only k's neighbours,
-        # and the link test above left only the edge's opposite vertices (and b) common to both, so
-        # other x, y cannot repeat a face: skip the scan (same answer, most of the test's time)
-        if (x == opp0 or x == opp1 or x == b) and (y == opp0 or y == opp1 or y == b):
-            for jj in range(k0, k1):
-                if _has(tk, jj, x) and _has(tk, jj, y):
-                    return False
-    if pos_vstart[b + 1] - pos_vstart[b] == 1:
-        return _single_vertex_maps(tv, k, tris_b, tp_b, b0, b1)
-    vm = _vertex_map(tv, pv, pos_vstart, b, k, tris_b[b0:b1], tp_b[b0:b1])
-    if vm[0] < 0:
-        return False
-    return True
-
-
-@nb.njit(cache=True, nogil=True)
-def _valid_complex_collapse(
-    pts: np.ndarray,
-    min_area2: float,
-    tv: np.ndarray,
-    pv: np.ndarray,
-    pos_vstart: np.ndarray,
-    b: int,
-    k: int,
-    tris_b: np.ndarray,
-    tp_b: np.ndarray,
-    b0: int,
-    b1: int,
-    nbr_b: np.ndarray,
-    n0: int,
-    n1: int,
-    tk: np.ndarray,
-    k0: int,
-    k1: int,
-    nk: np.ndarray,
-    m0: int,
-    m1: int,
-) -> bool:
-    """:func:`valid_collapse_in` for a complex ``b`` onto a complex ``k`` (``LOCK_COMPLEX``): the edge
-    ``b``-``k`` must be non-manifold (three or more triangles, their third corners distinct), and the
-    link condition, the flip and zero-area tests and the duplicate-face test are the manifold ones with
-    every edge triangle's third corner in place of the two. So the collapse removes the edge's triangles,
-    creates no edge of more triangles than the two it merges had, and folds nothing over."""
-    opp = np.empty(b1 - b0, np.int64)
-    n_edge = 0
-    for j in range(b0, b1):
-        if _has(tp_b, j, k):
-            o = -1
-            for i in range(3):
-                q = tp_b[j, i]
-                if q != b and q != k:
-                    o = q
-            for i in range(n_edge):
-                if opp[i] == o:
-                    return False  # two triangles on the edge with one third corner: a doubled face
-            opp[n_edge] = o
-            n_edge += 1
-    if n_edge < 3:
-        return False
-    # link condition: the common neighbours of b and k are exactly the edge triangles' third corners
-    common = 0
-    for i in range(n0, n1):
-        q = nbr_b[i]
-        if q == k:
-            continue
-        for j in range(m0, m1):
-            if nk[j] == q:
-                found = False
-                for r in range(n_edge):
-                    found = found or opp[r] == q
-                if not found:
-                    return False
-                common += 1
-                break
-    if common != n_edge:
-        return False
-    for j in range(b0, b1):
-        if _has(tp_b, j, k):
-            continue
-        ok, x, y = _moved_face_ok(pts, min_area2, tp_b, j, b, k)
-        if not ok:
-            return False
-        for jj in range(k0, k1):  # (k, x, y) already around k: a duplicate face
-            if _has(tk, jj, x) and _has(tk, jj, y):
-                return False
-    if pos_vstart[b + 1] - pos_vstart[b] == 1:
-        return _single_vertex_maps(tv, k, tris_b, tp_b, b0, b1)
-    vm = _vertex_map(tv, pv, pos_vstart, b, k, tris_b[b0:b1], tp_b[b0:b1])
-    return vm[0] >= 0
-
-
-@nb.njit(cache=True, nogil=True)
-def apply_collapse(st: CollapseState, b: int, k: int, vmap: np.ndarray) -> int:
-    """Bin position ``b`` onto ``k``: redirect its corners, kill the edge's triangles, merge quadrics.
-    Returns the number of triangles removed."""
-    v0 = st.pos_vstart[b]
-    tv = st.tri_verts
-    vp = st.vertex_pos
-    pv = st.pos_verts
-    alive = st.tri_alive
-    cnext = st.corner_next
-    head = st.corner_head  # fields read once (numba's reference counting per read)
-    _count_hub_edges(st, b, k)
-    removed = 0
-    c = head[b]
-    last = -1
-    while c >= 0:
-        t = c // 3
-        if alive[t]:
-            if vp[tv[t, 0]] == k or vp[tv[t, 1]] == k or vp[tv[t, 2]] == k:
-                alive[t] = False
-                removed += 1
-            else:
-                vb = tv[t, c - 3 * t]
-                for r in range(vmap.shape[0]):
-                    if pv[v0 + r] == vb:
-                        tv[t, c - 3 * t] = vmap[r]
-                        break
-        last = c
-        c = cnext[c]
-    first = head[b]
-    if last >= 0:  # splice b's corners in front of k's
-        cnext[last] = head[k]
-        head[k] = head[b]
-    head[b] = -1
-    q = st.quadric
-    for i in range(10):
-        q[k, i] += q[b, i]
-    qw = st.quadric_weight
-    qw[k] += qw[b]
-    st.pos_alive[b] = False
-    # the killed triangles' corners (k and the edge's third corners) are the positions whose edges lost
-    # triangles: a fin's foot or a boundary there may be gone
-    locked = st.pos_locked
-    boundary = st.pos_boundary
-    pos_alive = st.pos_alive
-    kinds = st.pos_edge_kinds
-    c = first
-    while c >= 0:
-        t = c // 3
-        if not alive[t]:
-            for i in range(3):
-                p = vp[tv[t, i]]
-                if p != b and pos_alive[p] and (boundary[p] or locked[p] & LOCK_COMPLEX):
-                    if kinds.shape[0] > 0 and kinds[p, 0] >= 0:
-                        _set_kind(st, p, kinds[p, 0] > 0, kinds[p, 1] > 0)
-                    else:
-                        _refresh_kind(st, p)
-        if c == last:
-            break
-        c = cnext[c]
-    return removed
-
-
-@nb.njit(cache=True, inline="always")
-def _corners_at(vp: np.ndarray, tv: np.ndarray, t: int, p: int) -> int:
-    """How many corners of triangle ``t`` lie at position ``p`` (two for a sliver across a seam)."""
-    return np.int64(vp[tv[t, 0]] == p) + np.int64(vp[tv[t, 1]] == p) + np.int64(vp[tv[t, 2]] == p)
-
-
-@nb.njit(cache=True, inline="always")
-def _row_corners_at(tp: np.ndarray, j: int, p: int) -> int:
-    """How many corners of row ``j`` of a star's positions ``tp`` are ``p``."""
-    return np.int64(tp[j, 0] == p) + np.int64(tp[j, 1] == p) + np.int64(tp[j, 2] == p)
-
-
-@nb.njit(cache=True, nogil=True)
-def _edge_count(st: CollapseState, x: int, y: int) -> int:
-    """The triangles on the edge ``x``-``y`` as :func:`_refresh_kind` counts them: over the alive
-    triangles, corners at ``x`` times corners at ``y`` (``x``'s corner list holds a triangle once per
-    corner at ``x``)."""
-    tv = st.tri_verts
-    vp = st.vertex_pos
-    alive = st.tri_alive
-    cnext = st.corner_next
-    n = 0
-    c = st.corner_head[x]
-    while c >= 0:
-        t = c // 3
-        if alive[t]:
-            n += _corners_at(vp, tv, t, y)
-        c = cnext[c]
-    return n
-
-
-@nb.njit(cache=True, inline="always")
-def _recount_edge(kinds: np.ndarray, p: int, before: int, after: int) -> None:
-    """An edge of ``p`` went from ``before`` to ``after`` triangles: ``kinds[p]`` follows."""
-    kinds[p, 0] += np.int32(after == 1) - np.int32(before == 1)
-    kinds[p, 1] += np.int32(after >= 3) - np.int32(before >= 3)
-
-
-@nb.njit(cache=True, nogil=True)
-def _count_hub_edges(st: CollapseState, b: int, k: int) -> None:
-    """Before ``b`` is binned onto ``k``: the edge kinds of the counted hubs among ``k`` and ``b``'s ring
-    (``pos_edge_kinds``) follow the edges the collapse changes. ``b``'s edges go, and an edge ``k``-``x``
-    (``x`` on ``b``'s ring) gains the triangles of ``b``-``x`` less twice those of ``b``-``k``-``x``, which
-    die (a ring position's other edges keep their triangles). Returns at once unless ``k`` or a corner of
-    ``b``'s triangles is a counted hub."""
-    kinds = st.pos_edge_kinds
-    if kinds.shape[0] == 0:
-        return
-    counted = kinds[k, 0] >= 0
-    tv = st.tri_verts
-    vp = st.vertex_pos
-    c = st.corner_head[b]
-    while c >= 0 and not counted:
-        t = c // 3
-        if st.tri_alive[t]:
-            for i in range(3):
-                counted = counted or kinds[vp[tv[t, i]], 0] >= 0
-        c = st.corner_next[c]
-    if not counted:
-        return
-    tris_b = gather_triangles(st, b)
-    tp_b = triangle_positions(st, tris_b)
-    ring = neighbours(b, tp_b)
-    # the edges' triangles as _refresh_kind counts them (_edge_count): tp_b holds a triangle once per
-    # corner at b. The edge b-k's triangles die
-    on_bk = 0
-    for j in range(tp_b.shape[0]):
-        on_bk += _row_corners_at(tp_b, j, k)
-    if kinds[k, 0] >= 0:
-        _recount_edge(kinds, k, on_bk, 0)
-    for i in range(ring.shape[0]):
-        x = np.int64(ring[i])
-        if x == k or (kinds[k, 0] < 0 and kinds[x, 0] < 0):
-            continue
-        on_bx = 0
-        on_bkx = 0
-        for j in range(tp_b.shape[0]):
-            at_x = _row_corners_at(tp_b, j, x)
-            on_bx += at_x
-            on_bkx += at_x * _has(tp_b, j, k)  # (b, k, x: one corner each)
-        # read the smaller star: a hub's ring positions have a few triangles each
-        if kinds[k, 0] >= 0:
-            on_kx = _edge_count(st, x, k)
-        else:
-            on_kx = _edge_count(st, k, x)
-        after = on_kx + on_bx - 2 * on_bkx
-        if kinds[k, 0] >= 0:
-            _recount_edge(kinds, k, on_kx, after)
-        if kinds[x, 0] >= 0:
-            _recount_edge(kinds, x, on_bx, 0)
-            _recount_edge(kinds, x, on_kx, after)
-
-
-@nb.njit(cache=True, nogil=True)
-def _refresh_kind(st: CollapseState, p: int) -> None:
-    """``pos_boundary[p]`` and the complex bits of ``pos_locked[p]`` from ``p``'s current star: on an
-    edge of one triangle, on an edge of three or more (the other corners of p's triangles, sorted: a run
-    of one is a boundary edge, a run of three a fin; n log n, for a fan of thousands of triangles on one
-    edge)."""
-    tv = st.tri_verts
-    vp = st.vertex_pos
-    alive = st.tri_alive
-    cnext = st.corner_next
-    n = 0
-    c = st.corner_head[p]
-    while c >= 0:
-        n += 1
-        c = cnext[c]
-    others = np.empty(2 * n, np.int64)
-    m = 0
-    c = st.corner_head[p]
-    while c >= 0:
-        t = c // 3
-        if alive[t]:
-            for i in range(3):
-                x = vp[tv[t, i]]
-                if x != p:
-                    others[m] = x
-                    m += 1
-        c = cnext[c]
-    others = np.sort(others[:m])
-    n_boundary = 0
-    n_fin = 0
-    run = 1
-    for r in range(1, m + 1):
-        if r < m and others[r] == others[r - 1]:
-            run += 1
-            continue
-        n_boundary += run == 1
-        n_fin += run >= 3
-        run = 1
-    # a hub's counts are kept from here on by each collapse that changes its edges (_count_hub_edges):
-    # sorting its star after every collapse around it made a sequence quadratic (a non-manifold hub in
-    # every triangle: 10,000 triangles 9.6 s, of which 8.6 s here)
-    kinds = st.pos_edge_kinds
-    if kinds.shape[0] > 0 and m > 2 * HUB_SIZE:
-        kinds[p, 0] = n_boundary
-        kinds[p, 1] = n_fin
-    _set_kind(st, p, n_boundary > 0, n_fin > 0)
-
-
-@nb.njit(cache=True, inline="always")
-def _set_kind(st: CollapseState, p: int, on_boundary: bool, on_fin: bool) -> None:
-    """``pos_boundary[p]`` and the complex bits of ``pos_locked[p]`` for a position on an edge of one
-    triangle (``on_boundary``) or of three or more (``on_fin``)."""
-    st.pos_boundary[p] = on_boundary
-    if st.pos_locked[p] & LOCK_COMPLEX:
-        if not on_fin:
-            st.pos_locked[p] = LOCK_FREE
-        elif on_boundary:
-            st.pos_locked[p] = LOCK_COMPLEX | LOCK_FIXED
-        else:
-            st.pos_locked[p] = LOCK_COMPLEX
-
-
-@nb.njit(cache=True, nogil=True)
-def best_collapse(
-    st: CollapseState, b: int, validate: bool = True, stars: Stars | None = None
-) -> tuple[int, float]:
-    """Cheapest target for binning ``b``: (k, cost), or (-1, inf). With ``validate`` False the cheapest
-    neighbour is returned unchecked (the queue re-checks it when it comes up: lazy evaluation).
-    ``stars``: a snapshot of ``st`` (:func:`star_snapshot`) to read the stars from instead of the
-    corner lists."""
-    k, cost, _ = best_collapse_sized(st, b, validate, stars)
-    return k, cost
-
-
-@nb.njit(cache=True, nogil=True)
-def best_collapse_sized(
-    st: CollapseState, b: int, validate: bool = True, stars: Stars | None = None
-) -> tuple[int, float, int]:
-    """:func:`best_collapse` and the number of ``b``'s triangles (0 if it was not read)."""
-    if st.pos_locked[b] & LOCK_FIXED or not st.pos_alive[b]:
-        return -1, np.inf, 0
-    if stars is None:
-        tris_b = gather_triangles(st, b)
-        tp_b = triangle_positions(st, tris_b)
-        nbr = neighbours(b, tp_b)
-    else:
-        tris_b = stars.tris[stars.start[b] : stars.start[b + 1]]
-        tp_b = stars.tp[stars.start[b] : stars.start[b + 1]]
-        nbr = stars.nbr[stars.nbr_start[b] : stars.nbr_start[b + 1]]
-    if tris_b.shape[0] == 0:
-        return -1, np.inf, 0
-    k, cost = best_of_star(st, b, tris_b, tp_b, nbr, validate, stars, np.empty(nbr.shape[0]))
-    return k, cost, tris_b.shape[0]
-
-
-# A position or vertex with more neighbours or patches than this is a hub (a cone's apex, a cap's centre:
-# thousands of triangles). The builders that look for a neighbouring centre or patch through the vertices
-# it shares with others do not look through a hub's list: its members lie all over the mesh and along the
-# whole patch order, and each look was linear in the mesh (a cone of 12,000 triangles spent 17 s of its
-# sliding-window build in reassign_middle alone). Ordinary vertices have a few neighbours each. And a
-# position found with no valid target is checked again only after ``star size // HUB_SIZE`` collapses
-# next to it (run_sequence, Forsyth's builder; a star of 64 triangles or more waits), not after every
-# one: a hub that no collapse suits was re-queued by each collapse of its ring and checked against its
-# targets at once, a cubic sequence (a cone of 16,000 triangles: 372 s). In run_sequence a hub evaluated
-# in a ring waits so too, whatever it found. Around a hub of more than HUB_SIZE alive triangles, as a
-# non-manifold hub in every triangle makes (vanilla: 99 s at 3,000 triangles, cubic), nothing reads the
-# hub's whole star per collapse: a collapse onto it refreshes the binned ring alone (run_sequence,
-# Forsyth's builder) and the hub every star // HUB_SIZE collapses, a target's test reads the hub's star
-# around the binned ring (hub_side_rows), and its boundary and fin edges are counted (pos_edge_kinds)
-HUB_SIZE = 64
-
-
-@nb.njit(cache=True, inline="always")
-def is_hub(start: np.ndarray, i: int) -> bool:
-    """Whether entry ``i`` of a CSR listing (``start``: offsets) lists more than :data:`HUB_SIZE` items."""
-    return start[i + 1] - start[i] > HUB_SIZE
-
-
-# The targets a position tries, cheapest first, before it counts as having no valid collapse: a hub of
-# thousands of triangles that no collapse suits checked every target against its whole star (quadratic per
-# check). A star of up to 32 neighbours tries them all (teapot's coarse end has positions of 40; its
-# sequence, like the ten shared meshes', is the same as without the limit)
-MAX_TARGET_TRIES = 32
-
-
-@nb.njit(cache=True, inline="always")
-def best_of_star(
-    st: CollapseState,
-    b: int,
-    tris_b: np.ndarray,
-    tp_b: np.ndarray,
-    nbr: np.ndarray,
-    validate: bool,
-    stars: Stars | None,
-    costs: np.ndarray,
-) -> tuple[int, float]:
-    """:func:`best_collapse` of ``b`` (alive, unlocked, with triangles) from its star read already
-    (``tris_b``, ``tp_b``, ``nbr``), the costs written to ``costs`` (room for ``len(nbr)``).
-    Returns the costs of all of ``nbr`` in ``costs[:len(nbr)]`` too."""
-    # targets are passed on as int64 (``nbr`` holds int32): one numba specialisation of each callee for
-    # every caller (the builders' own targets are int64)
-    nn = nbr.shape[0]
-    best = 0
-    for i in range(nn):
-        costs[i] = collapse_cost(st, b, np.int64(nbr[i]))
-        if costs[i] < costs[best]:
-            best = i
-    if not validate:
-        return nbr[best], costs[best]
-    k = np.int64(nbr[best])
-    if valid_collapse(st, b, k, tris_b, tp_b, nbr, stars):
-        return k, costs[best]
-    order = np.argsort(costs[:nn])
-    for i in range(1, min(order.shape[0], MAX_TARGET_TRIES)):
-        k = np.int64(nbr[order[i]])
-        if valid_collapse(st, b, k, tris_b, tp_b, nbr, stars):
-            return k, costs[order[i]]
-    return -1, np.inf
-
-
-# ----------------------------------------------------------------------------------------------------
-# a binary min-heap on arrays (cost, position, stamp); stale entries are skipped on pop
-# ----------------------------------------------------------------------------------------------------
-# push and pop are calls, not inlined: a kernel that pushes and pops at many places (run_sequence,
-# sw_forsyth.forsyth_run) compiles seconds faster, at no cost in run time
-@nb.njit(cache=True, nogil=True)
-def _heap_push(keys, ids, stamps, size, key, pid, stamp):
-    if size == keys.shape[0]:
-        nk = np.empty(2 * size, keys.dtype)
-        ni = np.empty(2 * size, ids.dtype)
-        ns = np.empty(2 * size, stamps.dtype)
-        # a loop, not nk[:size] = keys: numba compiles and links a slice assignment's shape-mismatch
-        # message (string formatting), seconds of compile time
-        for i in range(size):
-            nk[i] = keys[i]
-            ni[i] = ids[i]
-            ns[i] = stamps[i]
-        keys, ids, stamps = nk, ni, ns
-    return keys, ids, stamps, _heap_push_into(keys, ids, stamps, size, key, pid, stamp)
-
-
-@nb.njit(cache=True, inline="always")
-def _heap_push_into(keys, ids, stamps, size, key, pid, stamp):
-    """:func:`_heap_push` into arrays with room for it; returns the new size only. A hot loop that pushes into
-    arrays sized for every push calls this one: reassigning the arrays returned by :func:`_heap_push` costs
-    numba's reference counting on every iteration."""
-    if size >= keys.shape[0]:  # numba checks no bounds: a wrong capacity must not write past the arrays
-        raise IndexError("heap capacity exceeded")
-    i = size
-    while i > 0:
-        parent = (i - 1) >> 1
-        if keys[parent] <= key:
-            break
-        keys[i], ids[i], stamps[i] = keys[parent], ids[parent], stamps[parent]
-        i = parent
-    keys[i], ids[i], stamps[i] = key, pid, stamp
-    return size + 1
-
-
-@nb.njit(cache=True, nogil=True)
-def _heap_pop(keys, ids, stamps, size):
-    key, pid, stamp = keys[0], ids[0], stamps[0]
-    size -= 1
-    lk, li, ls = keys[size], ids[size], stamps[size]
-    i = 0
-    while True:
-        child = 2 * i + 1
-        if child >= size:
-            break
-        if child + 1 < size and keys[child + 1] < keys[child]:
-            child += 1
-        # the last entry sinks below children of its own key: with ``>=`` it stayed at the root, so of equal
-        # keys the entry pushed last came out next. On a flat strip, where every collapse along the straight
-        # boundary costs exactly 0, that popped each collapse's target next: chains that binned the strip
-        # onto a few fans of thousands of triangles, which then moved along it (the sequence 3-5x slower per
-        # doubling; bench_hostile's strip of 20,000 quads: vanilla 34.8 -> 1.3 s, mixed 42.7 -> 1.5 s)
-        if keys[child] > lk:
-            break
-        keys[i], ids[i], stamps[i] = keys[child], ids[child], stamps[child]
-        i = child
-    if size > 0:
-        keys[i], ids[i], stamps[i] = lk, li, ls
-    return key, pid, stamp, size
-
-
-# ----------------------------------------------------------------------------------------------------
-# the full sequence
-# ----------------------------------------------------------------------------------------------------
-@nb.njit(cache=True, nogil=True)
-def run_sequence(st: CollapseState, max_passes: int, full_ring_update: bool = False):
-    """Collapse greedily in quadric-error order until nothing valid remains. ``full_ring_update``: after a
-    collapse, re-evaluate every ring position's whole star, not only its collapse onto the kept position
-    (the same sequence up to ties of equal cost; for tests).
-
-    Returns per vertex collapse: binned vertex, kept vertex, step (position collapse it belongs to), and per
-    step its error (sqrt of the quadric cost, a distance) and the binned / kept positions.
-    """
-    P = st.pos_points.shape[0]
-    V = st.vertex_pos.shape[0]
-    binned = np.empty(V, np.int32)
-    kept = np.empty(V, np.int32)
-    step_of = np.empty(V, np.int32)
-    step_error = np.empty(P, np.float64)
-    step_b = np.empty(P, np.int32)
-    step_k = np.empty(P, np.int32)
-    n_rec = 0
-    n_step = 0
-    stamp = np.zeros(P, np.int64)
-    # int64 targets: position arguments of one type for every callee (one numba specialisation each)
-    target = np.full(P, -1, np.int64)
-    target_cost = np.full(P, np.inf)  # the cost of ``target``, as pushed
-    # the target is the cheapest neighbour, valid or not (not after a failed check picked a costlier one)
-    cheapest = np.zeros(P, np.bool_)
-    # collapses next to a position with no valid target left before it is checked again (see HUB_SIZE)
-    wait = np.zeros(P, np.int64)
-    # collapses onto each position while it was a hub, its star at the last of them, and their count when
-    # each position's target was pushed: a collapse onto a hub re-evaluates only the binned position's ring
-    # (see the ring loop)
-    hub_grown = np.zeros(P, np.int64)
-    hub_star = np.zeros(P, np.int64)
-    target_grown = np.zeros(P, np.int64)
-    keys = np.empty(max(16, P), np.float64)
-    ids = np.empty(max(16, P), np.int64)
-    stamps = np.empty(max(16, P), np.int64)
-    size = np.int64(0)  # not a literal 0: one specialisation of the heap calls
-    for _ in range(max_passes):
-        progress = 0
-        for p in range(P):
-            k, cost = best_collapse(st, p, np.bool_(False))  # (np.bool_: one compile, not one per literal)
-            wait[p] = 0
-            stamp[p] += 1
-            target[p] = k
-            target_cost[p] = cost
-            cheapest[p] = True
-            target_grown[p] = hub_grown[k] if k >= 0 else 0
-            if k >= 0:
-                keys, ids, stamps, size = _heap_push(keys, ids, stamps, size, cost, p, stamp[p])
-        while size > 0:
-            cost, b, s, size = _heap_pop(keys, ids, stamps, size)
-            if s != stamp[b] or not st.pos_alive[b]:
-                continue
-            k = target[b]
-            if k >= 0 and hub_grown[k] - target_grown[b] > hub_star[k] // HUB_SIZE:
-                # the target is a hub that took more than star // HUB_SIZE collapses since b's entry was
-                # pushed: evaluate b again (after each one, most of the heap's top was such entries: 3.2
-                # million evaluations for 5,819 collapses)
-                k2, c2 = best_collapse(st, b, np.bool_(False))
-                stamp[b] += 1
-                target[b] = k2
-                target_cost[b] = c2
-                cheapest[b] = True
-                if k2 >= 0:
-                    target_grown[b] = hub_grown[k2]
-                    keys, ids, stamps, size = _heap_push(keys, ids, stamps, size, c2, b, stamp[b])
-                continue
-            tris_b = gather_triangles(st, b)
-            tp_b = triangle_positions(st, tris_b)
-            nbr_b = neighbours(b, tp_b)
-            if k < 0 or not valid_collapse(st, b, k, tris_b, tp_b, nbr_b, None):
-                k2, c2 = best_collapse(st, b, np.bool_(True))
-                wait[b] = tris_b.shape[0] // HUB_SIZE
-                stamp[b] += 1
-                target[b] = k2
-                target_cost[b] = c2
-                cheapest[b] = False
-                target_grown[b] = hub_grown[k2] if k2 >= 0 else 0
-                if k2 >= 0:
-                    keys, ids, stamps, size = _heap_push(keys, ids, stamps, size, c2, b, stamp[b])
-                continue
-            cost = collapse_cost(st, b, k)
-            vmap = vertex_map(st, b, k, tris_b, tp_b)
-            v0 = st.pos_vstart[b]
-            for r in range(vmap.shape[0]):
-                binned[n_rec] = st.pos_verts[v0 + r]
-                kept[n_rec] = vmap[r]
-                step_of[n_rec] = n_step
-                n_rec += 1
-            step_error[n_step] = np.sqrt(cost)
-            step_b[n_step] = b
-            step_k[n_step] = k
-            n_step += 1
-            progress += 1
-            apply_collapse(st, b, k, vmap)
-            stamp[b] += 1
-            # the kept position and its new ring see changed quadrics and topology. A ring position q's
-            # collapses onto anything but k cost what they did (q's quadric and theirs are unchanged), so
-            # unless its target was b or k (or a costlier valid one, ``cheapest``), its best is the old one
-            # or k: one cost, not its whole star (run time halved: bunny 0.83 -> 0.52 s)
-            #
-            # A hub's ring is most of the mesh: a collapse onto a hub visits b's old ring alone (the
-            # positions whose stars changed) and counts the collapse in ``hub_grown``. The rest of its ring
-            # keep their entries, and an entry whose target is the hub is evaluated again when it comes up
-            # (a random non-manifold hub, one vertex of all 10,000 triangles: a quadratic number of ring
-            # visits, 18.6 million). The order is then approximate (a cost may fall as the hub's quadric
-            # grows), which a hub's neighbourhood affords. A pass can then end with valid collapses left
-            # around a hub (a position that waits is not queued again in it): the next pass finds them
-            k_hub = not full_ring_update and _alive_more_than(st, k, HUB_SIZE)
-            if k_hub:
-                hub_grown[k] += 1
-                ring = nbr_b
-            else:
-                ring = neighbours(k, triangle_positions(st, gather_triangles(st, k)))
-            for i in range(ring.shape[0] + 1):
-                q = k if i == ring.shape[0] else np.int64(ring[i])
-                if q == k and i < ring.shape[0]:
-                    continue
-                tq = target[q]
-                if q == k and k_hub:
-                    # the hub itself is evaluated again every star // HUB_SIZE collapses onto it
-                    if hub_grown[k] % max(1, hub_star[k] // HUB_SIZE) != 0:
-                        continue
-                    hub_star[k] = gather_triangles(st, k).shape[0]
-                if wait[q] > 0 and q != k:
-                    wait[q] -= 1
-                    continue
-                if q != k and tq >= 0 and tq != b and tq != k and cheapest[q] and not full_ring_update:
-                    c2 = collapse_cost(st, q, k)
-                    if not c2 < target_cost[q]:
-                        continue  # a tie keeps the old target (a whole star's first minimum may differ)
-                    k2 = k
-                else:
-                    k2, c2, n_q = best_collapse_sized(st, q, np.bool_(False), None)
-                    if q != k:
-                        wait[q] = n_q // HUB_SIZE
-                stamp[q] += 1
-                target[q] = k2
-                target_cost[q] = c2
-                cheapest[q] = True
-                if k2 >= 0:
-                    target_grown[q] = hub_grown[k2]
-                    keys, ids, stamps, size = _heap_push(keys, ids, stamps, size, c2, q, stamp[q])
-        if progress == 0:
-            break
-    return (
-        binned[:n_rec].copy(),
-        kept[:n_rec].copy(),
-        step_of[:n_rec].copy(),
-        step_error[:n_step].copy(),
-        step_b[:n_step].copy(),
-        step_k[:n_step].copy(),
-    )
-
-
-@nb.njit(cache=True, nogil=True)
-def build_corner_lists(tri_pos: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
-    head = np.full(P, -1, np.int32)
-    nxt = np.full(3 * tri_pos.shape[0], -1, np.int32)
-    for t in range(tri_pos.shape[0] - 1, -1, -1):
-        for i in range(2, -1, -1):
-            c = 3 * t + i
-            p = tri_pos[t, i]
-            nxt[c] = head[p]
-            head[p] = c
-    return head, nxt
-
-
-@nb.njit(cache=True, nogil=True)
-def group_by(keys: np.ndarray, n_groups: int) -> tuple[np.ndarray, np.ndarray]:
-    """Counting sort: CSR ``(start, idx)`` listing, for every group ``g < n_groups``, the indices ``j`` with
-    ``keys[j] == g`` in increasing order."""
-    cnt = np.zeros(n_groups + 1, np.int64)
-    for j in range(keys.shape[0]):
-        cnt[keys[j] + 1] += 1
-    start = np.cumsum(cnt)
-    fill = start[:-1].copy()
-    idx = np.empty(keys.shape[0], np.int64)
-    for j in range(keys.shape[0]):
-        idx[fill[keys[j]]] = j
-        fill[keys[j]] += 1
-    return start, idx
-
-
-@nb.njit(cache=True, nogil=True)
-def stable_order(keys: np.ndarray, n_keys: int) -> np.ndarray:
-    """``np.argsort(keys, kind="stable")`` for integer keys in ``[0, n_keys)`` (:func:`group_by`)."""
-    return group_by(keys, n_keys)[1]
-
-
-@nb.njit(cache=True, nogil=True)
-def _find_root(parent: np.ndarray, i: int) -> int:
-    while parent[i] != i:
-        parent[i] = parent[parent[i]]  # path halving: a fan of thousands of triangles stays near linear
-        i = parent[i]
-    return i
-
-
-#: :func:`fan_counts` sorts a star of at most this many other corners in place (bunny's stars: 12; a
-#: mergesort per position cost 20 ms of its 23)
-_SMALL_SORT = 64
-
-
-@nb.njit(cache=True, nogil=True)
-def fan_counts(st: CollapseState) -> np.ndarray:
-    """Number of edge-connected triangle fans around each position (>1 means a pinch vertex)."""
-    P = st.pos_points.shape[0]
-    out = np.zeros(P, np.int32)
-    T = st.tri_verts.shape[0]
-    # one buffer for every star (a new array per position cost more than the test itself)
-    tris = np.empty(T, np.int32)
-    tp = np.empty((T, 3), np.int32)
-    parent = np.empty(T, np.int64)
-    other = np.empty(3 * T, np.int64)  # (other position, star row) per corner that is not p
-    row = np.empty(3 * T, np.int64)
-    order_buf = np.empty(_SMALL_SORT, np.int64)
-    head = st.corner_head  # read once (numba's reference counting per field read)
-    cnext = st.corner_next
-    talive = st.tri_alive
-    tv = st.tri_verts
-    vp = st.vertex_pos
-    for p in range(P):
-        n = _positions_rows(head, cnext, talive, tv, vp, p, tris, tp, 0)
-        if n == 0:
-            continue
-        # two triangles of p's star are in one fan when they share an edge (p, q): group the star's rows
-        # by their other positions q (a sort: n log n, where comparing every pair was cubic on a fan of
-        # thousands of triangles on one edge)
-        m = 0
-        for i in range(n):
-            parent[i] = i
-            for a in range(3):
-                if tp[i, a] != p:
-                    other[m] = tp[i, a]
-                    row[m] = i
-                    m += 1
-        # (the union below counts the same fans whatever order equal positions come in)
-        if m <= _SMALL_SORT:
-            order = order_buf[:m]
-            for j in range(m):  # insertion sort: most stars are a dozen corners (no allocation)
-                x = other[j]
-                r = j
-                while r > 0 and other[order[r - 1]] > x:
-                    order[r] = order[r - 1]
-                    r -= 1
-                order[r] = j
-        else:
-            order = np.argsort(other[:m], kind="mergesort")
-        roots = n
-        for j in range(1, m):
-            if other[order[j]] == other[order[j - 1]]:
-                ri = _find_root(parent, row[order[j]])
-                rj = _find_root(parent, row[order[j - 1]])
-                if ri != rj:
-                    parent[ri] = rj
-                    roots -= 1
-        out[p] = roots
-    return out
+    "gather_triangles",
+    "_gather_into",
+    "_gather_rows",
+    "triangle_positions",
+    "neighbours",
+    "_neighbours_into",
+    "_LARGE_STAR",
+    "_neighbours_rows_sorted",
+    "_neighbours_rows",
+    "_positions_rows",
+    "_star_arrays_at",
+    "star_snapshot",
+    "star_into",
+    "_positions_into",
+    "star_rows",
+    "star_buffers",
+    "_has",
+    "_add_plane",
+    "_eval_quadric2",
+    "init_quadrics",
+    "tri_normal",
+    "min_doubled_area2",
+    "collapse_cost",
+    "_cost_of",
+    "vertex_map",
+    "_vertex_map",
+    "_single_vertex_maps",
+    "valid_collapse",
+    "_alive_more_than",
+    "alive_more_than_in",
+    "_hub_side_of",
+    "hub_side_rows",
+    "edge_count_ok",
+    "edge_count_ok_in",
+    "_moved_face_ok",
+    "valid_collapse_in",
+    "_valid_complex_collapse",
+    "apply_collapse",
+    "_corners_at",
+    "_row_corners_at",
+    "_edge_count",
+    "_recount_edge",
+    "_count_hub_edges",
+    "_refresh_kind",
+    "_set_kind",
+    "best_collapse",
+    "best_collapse_sized",
+    "MAX_TARGET_TRIES",
+    "best_of_star",
+    "_heap_push",
+    "_heap_push_into",
+    "_heap_pop",
+    "run_sequence",
+    "group_by",
+    "stable_order",
+    "_find_root",
+    "_SMALL_SORT",
+    "fan_counts",
+]
