@@ -378,7 +378,7 @@ def build_skipstrip(
     restart: bool = True,
     degenerate_threshold: float = 0.25,
     cache_size: int = 16,
-    strip_window: int = 8,
+    strip_window: int = 4,
 ) -> SkipStripProgressiveMesh:
     """Multilevel skip strips (or skip lists) for a collapse sequence; see the module docstring."""
     if primitive not in PRIMITIVES:

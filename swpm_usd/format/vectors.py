@@ -130,6 +130,23 @@ def fan_skip_strip() -> RawProgressiveMesh:
     return _fan("skip-strip", bufs, {"primitive": "strip", "restart_index": R})
 
 
+def fan_skip_swap() -> RawProgressiveMesh:
+    """Skip-strip, strip variant: the whole fan as one strip with a swap (vertex 4 repeated), as
+    :func:`swpm_usd.encode.strips.stripify` writes a fan: the degenerate triangles, (4, 2, 4) before the
+    collapse and two more after it, are drawn but not counted."""
+    strip = [0, 1, 4, 2, 4, 3, 0]
+    bufs = dict(fan_skip().raw_buffers)
+    bufs.update(
+        level_index_start=[0, 7],
+        level_indices=strip,
+        level_collapsed_start=[0, 7],
+        level_collapsed_indices=[0 if v == 4 else v for v in strip],
+        collapse_change_count=[2],
+        collapse_change_offsets=[2, 4],
+    )
+    return _fan("skip-strip", bufs, {"primitive": "strip", "restart_index": 0xFFFF})
+
+
 def fan_mixed(**over: Any) -> RawProgressiveMesh:
     """Mixed, one level: the two triangles the collapse bins are static, the two it changes dynamic."""
     bufs = {
@@ -361,6 +378,11 @@ def _valid() -> dict[str, tuple[bytes, str]]:
         "sliding-window": (_write(fan_sliding()), "sliding window: two windows in one pool"),
         "skip-strip-list": (_write(fan_skip()), "skip-strip, list variant, one level"),
         "skip-strip-strip": (_write(fan_skip_strip()), "skip-strip, strips joined by restart index 0xFFFF"),
+        "skip-strip-swap": (
+            _write(fan_skip_swap()),
+            "skip-strip, the fan as one strip with a swap: a repeated index draws a degenerate triangle,"
+            " not counted",
+        ),
         "attributes": (_write(fan_vanilla(attributes=attrs)), "normal f32x3, uv f32x2, color u8x4"),
         "attributes-32bit": (
             _write(fan_vanilla(attributes={"color": COLOR_U32, "id": ID_I32})),
