@@ -55,7 +55,10 @@ SKIPSTRIP_PARAMS: dict[str, Any] = {
     "restart": True,
     "degenerate_threshold": 0.25,
     "cache_size": 16,
+    "strip_window": 4,
 }
+#: ``strip_window`` at most (the stripifier scans its window for every triangle it emits)
+MAX_STRIP_WINDOW = 64
 
 #: the mixed encoding's own parameters and defaults (``ENCODING_PARAMS`` adds the simplifier's)
 MIXED_PARAMS: dict[str, Any] = {"level_threshold": 0.25, "cache_size": 16}

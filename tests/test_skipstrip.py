@@ -267,3 +267,19 @@ def test_build_entry_point_and_cache_beats_vanilla() -> None:
         m, t = cache_misses(ss.draw_stream(k)[1], 16, "strip", ss.restart_index)
         vm, vt = cache_misses(van.draw_stream(k)[1], 16)
         assert t == vt and m < vm
+
+
+def test_strip_window_trades_indices_for_cache_misses() -> None:
+    seq = shared_sequence(MESH)
+    narrow = _case("strip-restart")[0]
+    wide = build_skipstrip(seq, strip_window=16)
+    assert narrow.params["strip_window"] == 4 and wide.params["strip_window"] == 16
+    # a wider window makes longer strips (fewer indices) from triangles taken further ahead of the cache order
+    assert wide.buffers()["level_indices"].size < 0.9 * narrow.buffers()["level_indices"].size
+    misses = [cache_misses(pm.draw_stream(0)[1], 16, "strip", pm.restart_index)[0] for pm in (narrow, wide)]
+    assert misses[1] > 1.1 * misses[0]
+    for k in (0, wide.lod_count // 2, wide.lod_count - 1):
+        assert np.array_equal(_canonical(wide.triangles_at(k)), _canonical(narrow.triangles_at(k)))
+    for bad in (0, 65, 2.5, True):
+        with pytest.raises(swpm_usd.BuildError, match="strip_window"):
+            swpm_usd.build(seq.mesh, "skip-strip", strip_window=bad)

@@ -29,7 +29,7 @@ from typing import Any
 import numba as nb
 import numpy as np
 
-from ..encodings import PRIMITIVES, SKIPSTRIP_PARAMS
+from ..encodings import MAX_STRIP_WINDOW, PRIMITIVES, SKIPSTRIP_PARAMS
 from ..errors import BuildError
 from ..mesh import Mesh
 from ..simplify import CollapseSequence, collapse_sequence
@@ -385,6 +385,10 @@ def build_skipstrip(
         raise BuildError(f"primitive must be one of {PRIMITIVES}, got {primitive!r}")
     if not 0.0 <= float(degenerate_threshold) < 1.0:
         raise BuildError(f"degenerate_threshold must be in [0, 1), got {degenerate_threshold}")
+    if isinstance(strip_window, bool) or not isinstance(strip_window, (int, np.integer)):
+        raise BuildError(f"strip_window must be an integer, got {strip_window!r}")
+    if not 1 <= int(strip_window) <= MAX_STRIP_WINDOW:
+        raise BuildError(f"strip_window must be in [1, {MAX_STRIP_WINDOW}], got {strip_window}")
     mesh = seq.mesh
     V, C = mesh.vertex_count, seq.collapse_count
     new_id, perm = vertex_order(seq)
@@ -452,6 +456,7 @@ def build_skipstrip(
         "restart_index": rv,
         "degenerate_threshold": float(degenerate_threshold),
         "cache_size": int(cache_size),
+        "strip_window": int(strip_window),
     }
     return SkipStripProgressiveMesh(
         points=mesh.points[perm],

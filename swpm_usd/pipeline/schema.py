@@ -22,7 +22,7 @@ PACKAGED_SCHEMA = Path(__file__).resolve().parent / "pipeline.schema.json"
 
 def _param_schema(value: Any, name: str = "", encoding: str = "") -> dict[str, Any]:
     from ..build import MAX_CACHE_SIZE, MAX_QUADRIC_WEIGHT
-    from ..encodings import MAX_ORDER_PASSES, MAX_ORDER_REACH, PRIMITIVES
+    from ..encodings import MAX_ORDER_PASSES, MAX_ORDER_REACH, MAX_STRIP_WINDOW, PRIMITIVES
 
     # the bounds build() and the encoders check, so a config fails at its line, not asset by asset
     if name == "cache_size":
@@ -46,6 +46,8 @@ def _param_schema(value: Any, name: str = "", encoding: str = "") -> dict[str, A
         return {"type": ["integer", "null"], "minimum": 0, "maximum": MAX_ORDER_PASSES}
     if name == "order_reach":
         return {"type": "integer", "minimum": 1, "maximum": MAX_ORDER_REACH}
+    if name == "strip_window":
+        return {"type": "integer", "minimum": 1, "maximum": MAX_STRIP_WINDOW}
     if name in ("boundary_weight", "seam_weight"):
         return {"type": "number", "minimum": 0, "maximum": MAX_QUADRIC_WEIGHT}
     if value is None:  # an optional number: None leaves the choice to the encoder
