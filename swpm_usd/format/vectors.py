@@ -115,36 +115,32 @@ def fan_skip(**over: Any) -> RawProgressiveMesh:
     return _fan("skip-strip", bufs, {"primitive": "list"}, **over)
 
 
+def _fan_strips(strip: list[int]) -> RawProgressiveMesh:
+    """:func:`fan_skip`'s level as ``strip`` (restart index 0xFFFF), its record changing every slot of 4."""
+    slots = [i for i, v in enumerate(strip) if v == 4]
+    bufs = dict(fan_skip().raw_buffers)
+    bufs.update(
+        level_index_start=[0, len(strip)],
+        level_indices=strip,
+        level_collapsed_start=[0, len(strip)],
+        level_collapsed_indices=[0 if v == 4 else v for v in strip],
+        collapse_change_count=[len(slots)],
+        collapse_change_offsets=slots,
+    )
+    return _fan("skip-strip", bufs, {"primitive": "strip", "restart_index": 0xFFFF})
+
+
 def fan_skip_strip() -> RawProgressiveMesh:
     """Skip-strip, strip variant: one single-triangle strip per triangle, joined by the restart index."""
     R = 0xFFFF
-    strip = [1, 2, 4, R, 2, 3, 4, R, 0, 1, 4, R, 3, 0, 4]
-    bufs = dict(fan_skip().raw_buffers)
-    bufs.update(
-        level_index_start=[0, 15],
-        level_indices=strip,
-        level_collapsed_start=[0, 15],
-        level_collapsed_indices=[0 if v == 4 else v for v in strip],
-        collapse_change_offsets=[2, 6, 10, 14],
-    )
-    return _fan("skip-strip", bufs, {"primitive": "strip", "restart_index": R})
+    return _fan_strips([1, 2, 4, R, 2, 3, 4, R, 0, 1, 4, R, 3, 0, 4])
 
 
 def fan_skip_swap() -> RawProgressiveMesh:
     """Skip-strip, strip variant: the whole fan as one strip with a swap (vertex 4 repeated), as
-    :func:`swpm_usd.encode.strips.stripify` writes a fan: the degenerate triangles, (4, 2, 4) before the
-    collapse and two more after it, are drawn but not counted."""
-    strip = [0, 1, 4, 2, 4, 3, 0]
-    bufs = dict(fan_skip().raw_buffers)
-    bufs.update(
-        level_index_start=[0, 7],
-        level_indices=strip,
-        level_collapsed_start=[0, 7],
-        level_collapsed_indices=[0 if v == 4 else v for v in strip],
-        collapse_change_count=[2],
-        collapse_change_offsets=[2, 4],
-    )
-    return _fan("skip-strip", bufs, {"primitive": "strip", "restart_index": 0xFFFF})
+    :func:`swpm_usd.encode.strips.stripify` writes a fan: the degenerate triangle (4, 2, 4) before the
+    collapse, and two more after it, are drawn but not counted."""
+    return _fan_strips([0, 1, 4, 2, 4, 3, 0])
 
 
 def fan_mixed(**over: Any) -> RawProgressiveMesh:
