@@ -82,17 +82,18 @@ import numpy as np
 from ..encodings import MAX_ORDER_PASSES, MAX_ORDER_REACH, SLIDING_WINDOW_PARAMS, SWAP_MAX_DEVIATION
 from ..errors import BuildError
 from ..mesh import Mesh
-from ..simplify import collapse_sequence, make_state, mesh_topology
+from ..simplify import make_state, mesh_topology
 from ..simplify.fan_deviation import replay_state
 from ..simplify.kernels import star_snapshot
 from ..simplify.sequence import replay_steps, replay_surface
 from . import sw_centres as swc
-from . import sw_cluster, sw_collapse, sw_forsyth, sw_levels, sw_order, sw_patches
+from . import sw_cluster, sw_collapse, sw_levels, sw_order, sw_patches
 from . import sw_deviation as swd
 from . import sw_layout as swl
 from . import sw_threads as swt
 from .screen import screen_space_error
 from .sw_assemble import COARSEST_COPY_MAX_SHARE, _assemble
+from .sw_forsyth import _build_forsyth
 from .sw_mesh import SlidingWindowProgressiveMesh
 from .sw_swaps import optimize_mesh_connectivity
 
@@ -667,46 +668,6 @@ def _linked_cost(tpos: np.ndarray, pt: np.ndarray, patches: int) -> float:
     """Pool triangles per collapse of a linked level, before its collapses: its ``Q`` blocks store the
     previous tail up to the end of the last patch again, less two triangles per removed centre."""
     return (int(tpos[pt].max()) + 1) / patches - 2.0
-
-
-def _build_forsyth(mesh: Mesh, st, tolerance: float, boundary_weight: float, seam_weight: float):
-    T = mesh.triangle_count
-    # Forsyth's tolerance is relative to the average collapse error of the plain quadric sequence
-    ref = collapse_sequence(
-        mesh, boundary_weight=boundary_weight, seam_weight=seam_weight, geometric_error=False
-    )
-    mean_error = float(ref.step_error.mean()) if ref.step_count else 0.0
-    gtris = np.empty((max(16, 2 * T), 3), np.int64)
-    gtris[:T] = mesh.triangles
-    cur_gid = np.arange(T, dtype=np.int64)
-    (gtris, ng, level_start, level_gids, patch_level, p_start, p_out, q_start, q_out, recs, info) = (
-        sw_forsyth.forsyth_run(
-            st,
-            float(tolerance) * mean_error,
-            cur_gid,
-            gtris,
-            T,
-            float(sw_forsyth.POOL_BUDGET),
-            float(sw_forsyth.MIN_LEVEL_GAIN),
-        )
-    )
-    levels = []
-    bounds = np.searchsorted(patch_level, np.arange(level_start.shape[0]), side="left")
-    for li in range(level_start.shape[0] - 1):
-        a, b = int(bounds[li]), int(bounds[li + 1])
-        if b == a:
-            continue
-        levels.append(
-            swl.Level(
-                level_gids[level_start[li] : level_start[li + 1]],
-                p_start[a : b + 1] - p_start[a],
-                p_out[p_start[a] : p_start[b]],
-                q_start[a : b + 1] - q_start[a],
-                q_out[q_start[a] : q_start[b]],
-                np.ones(b - a, np.int64),
-            )
-        )
-    return gtris[:ng], levels, recs, info
 
 
 #: meshes of at most this many triangles keep what the replay of the LOD errors reads of their fresh
