@@ -52,15 +52,23 @@ choice, what was measured and what was tried and dropped):
 
 Every ordering is for a FIFO cache of ``cache_size`` entries (default 16).
 
-Where the code is: this module builds the levels one after another (:func:`_build_levels`) and assembles the
-pool and its records (:func:`_assemble`); :mod:`.sw_layout` finishes a level (its patch order search and
-block layout), :mod:`.sw_threads` shares the main thread's work with a helper thread. The numba kernels, in
-the order a level runs them: :mod:`.sw_levels` (a level's positions, edge graph and error ranking),
-:mod:`.sw_centres` (patch centres), :mod:`.sw_cluster` (clustered patches), :mod:`.sw_patches` (the patches'
-triangles, the absorbed middle), :mod:`.sw_order` (the patch order for the cache), :mod:`.sw_collapse`
-(collapsing the patches), :mod:`.sw_refine` (patch order search); with :mod:`.sw_fans` (fan order of a few
-triangles), :mod:`.sw_deviation` (fan deviation), :mod:`.sw_swaps` (edge swaps) and :mod:`.sw_forsyth`
-(Forsyth's builder).
+Where the code is: this module checks the parameters and builds the levels one after another
+(:func:`_build_levels`, with the tuning constants and their measurements above it; :func:`_build_topology`
+runs it beside the worker threads); :mod:`.sw_assemble` assembles the pool, its records and the vertex order
+from the levels (and the coarsest LOD's copy) into a :class:`.sw_mesh.SlidingWindowProgressiveMesh` (the
+pool and records as stored, the LOD look-ups, the memory figures and buffers); :mod:`.sw_layout` finishes a
+level (its patch order search and block layout), :mod:`.sw_threads` shares the main thread's work with a
+helper thread. The numba kernels, in the order a level runs them: :mod:`.sw_levels` (a level's positions,
+edge graph and error ranking), :mod:`.sw_centres` (patch centres), :mod:`.sw_cluster` (clustered patches),
+:mod:`.sw_patches` (the patches' triangles, the absorbed middle), :mod:`.sw_order` (the patch order for the
+cache), :mod:`.sw_collapse` (collapsing the patches), :mod:`.sw_refine` (patch order search); with
+:mod:`.sw_fans` (fan order of a few triangles), :mod:`.sw_deviation` (fan deviation), :mod:`.sw_swaps` (edge
+swaps, and their entry point
+:func:`.sw_swaps.optimize_mesh_connectivity`) and :mod:`.sw_forsyth` (Forsyth's builder, and
+:func:`.sw_forsyth._build_forsyth`, which cuts its run into levels). The names that moved out of this module
+are imported back (``SlidingWindowProgressiveMesh``, ``optimize_mesh_connectivity``,
+``COARSEST_COPY_MAX_SHARE``, ``_assemble``, ``_build_forsyth``); a constant is patched where the code that
+reads it lives (``sw_assemble.COARSEST_COPY_MAX_SHARE``: patched here it changes nothing).
 
 The builders also keep their own collapse sequence (:attr:`SlidingWindowProgressiveMesh.collapse_sequence`,
 a :class:`swpm_usd.simplify.CollapseSequence`; ``lod_steps[k]`` steps of it give LOD ``k``), against which
