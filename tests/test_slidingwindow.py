@@ -1125,7 +1125,7 @@ def test_the_coarsest_lod_is_stored_again_as_one_cache_ordered_block(
     one block: the same triangles with fewer FIFO misses than the last level's final window, every other
     window and the pool before it unchanged; above ``COARSEST_COPY_MAX_SHARE`` of the pool without it, or
     saving under ``_COARSEST_COPY_MIN_GAIN`` of the misses, no copy."""
-    from swpm_usd.encode import slidingwindow as sw
+    from swpm_usd.encode import sw_assemble  # (where the copy's bounds are read: patched there)
     from swpm_usd.metrics import cache_misses
 
     with_copy = build_sliding_window(spot)
@@ -1143,13 +1143,13 @@ def test_the_coarsest_lod_is_stored_again_as_one_cache_ordered_block(
     _check_all(with_copy, spot, closed=True, every=97)
     assert cache_misses(copy)[0] <= 0.95 * cache_misses(window)[0]
     before = n_before // 3  # the share is of the pool without the copy
-    monkeypatch.setattr(sw, "COARSEST_COPY_MAX_SHARE", (count + 0.5) / before)
+    monkeypatch.setattr(sw_assemble, "COARSEST_COPY_MAX_SHARE", (count + 0.5) / before)
     assert np.array_equal(build_sliding_window(spot).index_pool, with_copy.index_pool)
-    monkeypatch.setattr(sw, "COARSEST_COPY_MAX_SHARE", (count - 0.5) / before)
+    monkeypatch.setattr(sw_assemble, "COARSEST_COPY_MAX_SHARE", (count - 0.5) / before)
     assert np.array_equal(build_sliding_window(spot).index_pool, without.index_pool)
-    monkeypatch.setattr(sw, "COARSEST_COPY_MAX_SHARE", 1.0)
+    monkeypatch.setattr(sw_assemble, "COARSEST_COPY_MAX_SHARE", 1.0)
     monkeypatch.setattr(
-        sw, "_COARSEST_COPY_MIN_GAIN", 1.0 - cache_misses(copy)[0] / cache_misses(window)[0] + 0.01
+        sw_assemble, "_COARSEST_COPY_MIN_GAIN", 1.0 - cache_misses(copy)[0] / cache_misses(window)[0] + 0.01
     )
     assert np.array_equal(build_sliding_window(spot).index_pool, without.index_pool)
 

@@ -52,15 +52,23 @@ choice, what was measured and what was tried and dropped):
 
 Every ordering is for a FIFO cache of ``cache_size`` entries (default 16).
 
-Where the code is: this module builds the levels one after another (:func:`_build_levels`) and assembles the
-pool and its records (:func:`_assemble`); :mod:`.sw_layout` finishes a level (its patch order search and
-block layout), :mod:`.sw_threads` shares the main thread's work with a helper thread. The numba kernels, in
-the order a level runs them: :mod:`.sw_levels` (a level's positions, edge graph and error ranking),
-:mod:`.sw_centres` (patch centres), :mod:`.sw_cluster` (clustered patches), :mod:`.sw_patches` (the patches'
-triangles, the absorbed middle), :mod:`.sw_order` (the patch order for the cache), :mod:`.sw_collapse`
-(collapsing the patches), :mod:`.sw_refine` (patch order search); with :mod:`.sw_fans` (fan order of a few
-triangles), :mod:`.sw_deviation` (fan deviation), :mod:`.sw_swaps` (edge swaps) and :mod:`.sw_forsyth`
-(Forsyth's builder).
+Where the code is: this module checks the parameters and builds the levels one after another
+(:func:`_build_levels`, with the tuning constants and their measurements above it; :func:`_build_topology`
+runs it beside the worker threads); :mod:`.sw_assemble` assembles the pool, its records and the vertex order
+from the levels (and the coarsest LOD's copy) into a :class:`.sw_mesh.SlidingWindowProgressiveMesh` (the
+pool and records as stored, the LOD look-ups, the memory figures and buffers); :mod:`.sw_layout` finishes a
+level (its patch order search and block layout), :mod:`.sw_threads` shares the main thread's work with a
+helper thread. The numba kernels, in the order a level runs them: :mod:`.sw_levels` (a level's positions,
+edge graph and error ranking), :mod:`.sw_centres` (patch centres), :mod:`.sw_cluster` (clustered patches),
+:mod:`.sw_patches` (the patches' triangles, the absorbed middle), :mod:`.sw_order` (the patch order for the
+cache), :mod:`.sw_collapse` (collapsing the patches), :mod:`.sw_refine` (patch order search); with
+:mod:`.sw_fans` (fan order of a few triangles), :mod:`.sw_deviation` (fan deviation), :mod:`.sw_swaps` (edge
+swaps, and their entry point
+:func:`.sw_swaps.optimize_mesh_connectivity`) and :mod:`.sw_forsyth` (Forsyth's builder, and
+:func:`.sw_forsyth._build_forsyth`, which cuts its run into levels). The names that moved out of this module
+are imported back (``SlidingWindowProgressiveMesh``, ``optimize_mesh_connectivity``,
+``COARSEST_COPY_MAX_SHARE``, ``_assemble``, ``_build_forsyth``); a constant is patched where the code that
+reads it lives (``sw_assemble.COARSEST_COPY_MAX_SHARE``: patched here it changes nothing).
 
 The builders also keep their own collapse sequence (:attr:`SlidingWindowProgressiveMesh.collapse_sequence`,
 a :class:`swpm_usd.simplify.CollapseSequence`; ``lod_steps[k]`` steps of it give LOD ``k``), against which
@@ -72,7 +80,7 @@ from __future__ import annotations
 import numbers
 import os
 import threading
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from typing import Any
@@ -82,21 +90,23 @@ import numpy as np
 from ..encodings import MAX_ORDER_PASSES, MAX_ORDER_REACH, SLIDING_WINDOW_PARAMS, SWAP_MAX_DEVIATION
 from ..errors import BuildError
 from ..mesh import Mesh
-from ..metrics import cache_misses
-from ..simplify import CollapseSequence, collapse_sequence, make_state, mesh_topology
+from ..simplify import make_state, mesh_topology
 from ..simplify.fan_deviation import replay_state
 from ..simplify.kernels import star_snapshot
 from ..simplify.sequence import replay_steps, replay_surface
 from . import sw_centres as swc
-from . import sw_cluster, sw_collapse, sw_forsyth, sw_levels, sw_order, sw_patches, sw_swaps
+from . import sw_cluster, sw_collapse, sw_levels, sw_order, sw_patches
 from . import sw_deviation as swd
 from . import sw_layout as swl
 from . import sw_threads as swt
-from .base import ProgressiveMesh, lod_at_error, register
-from .screen import error_for_pixels, screen_space_error
-from .vanilla import index_size
+from .screen import screen_space_error
+from .sw_assemble import COARSEST_COPY_MAX_SHARE, _assemble
+from .sw_forsyth import _build_forsyth
+from .sw_mesh import SlidingWindowProgressiveMesh
+from .sw_swaps import optimize_mesh_connectivity
 
 __all__ = [
+    "COARSEST_COPY_MAX_SHARE",
     "SLIDING_WINDOW_PARAMS",
     "SlidingWindowProgressiveMesh",
     "build_sliding_window",
@@ -116,129 +126,6 @@ __all__ = [
 #: reach 2; bunny's LOD chain 5.1-6.1x meshoptimizer's -> 5.8-6.6x, cow's 7.9-8.6x -> 8.1-9.1x, three
 #: alternating runs)
 DEFAULT_ORDER_PASSES = 2
-
-
-@register
-class SlidingWindowProgressiveMesh(ProgressiveMesh):
-    """Sliding-window VIPM: a static ``index_pool`` and one ``window_records`` row per LOD.
-
-    ``window_records[k] = (first index offset, triangle count, vertex count)``; LOD ``k`` draws
-    ``index_pool[first : first + 3 * count]`` and only vertices ``[0, vertex count)``.
-    """
-
-    encoding = "sliding-window"
-
-    def __init__(
-        self,
-        points: np.ndarray,
-        attributes: Mapping[str, np.ndarray],
-        vertex_counts: np.ndarray,
-        triangle_counts: np.ndarray,
-        lod_errors: np.ndarray,
-        index_pool: np.ndarray,
-        window_records: np.ndarray,
-        params: Mapping[str, Any] | None = None,
-    ) -> None:
-        super().__init__(points, attributes, vertex_counts, triangle_counts, lod_errors, params)
-        self.index_pool = np.asarray(index_pool).reshape(-1)
-        self.window_records = np.asarray(window_records).reshape(-1, 3)
-        if self.window_records.shape[0] != self.lod_count:
-            raise BuildError("window_records needs one row per LOD", code="BUILD_FAILED")
-        #: build-time extras (not stored in buffers): the builder's own collapse sequence, the number of its
-        #: steps behind every LOD, the source vertex of every stored vertex and the level of every LOD
-        self.collapse_sequence: CollapseSequence | None = None
-        self.lod_steps: np.ndarray | None = None
-        self.source_vertex: np.ndarray | None = None
-        self.lod_level: np.ndarray | None = None
-
-    # -- drawing -------------------------------------------------------------------------------------------
-    def window(self, k: int) -> tuple[int, int, int]:
-        """The record of LOD ``k``: (first index offset, triangle count, vertex count)."""
-        r = self.window_records[self._check_lod(k)]
-        return int(r[0]), int(r[1]), int(r[2])
-
-    def triangles_at(self, k: int) -> np.ndarray:
-        first, count, _ = self.window(k)
-        return self.index_pool[first : first + 3 * count].reshape(-1, 3).astype(np.int32)
-
-    @property
-    def level_count(self) -> int:
-        """Number of levels in the pool (LOD 0 and every later level's first LOD start one; the coarsest
-        LOD's copy, ``coarsest_copy``, counts as a level)."""
-        return int(np.unique(self.lod_level).shape[0]) if self.lod_level is not None else 0
-
-    def record_for_triangles(self, target: int) -> np.ndarray:
-        """The window record of the finest LOD drawing at most ``target`` triangles
-        (:meth:`~.ProgressiveMesh.lod_for_triangles`: NaN or a negative target is a :class:`ValueError`)."""
-        return self.window_records[self.lod_for_triangles(target)]
-
-    def record_for_error(self, max_error: float, lod_errors: np.ndarray | None = None) -> np.ndarray:
-        """The window record of the coarsest LOD whose error (``lod_errors``, default this mesh's,
-        non-decreasing, one per LOD) is at most ``max_error`` (a number >= 0, ``inf`` allowed). A
-        ``lod_errors`` not one per LOD is a :class:`ValueError` naming it (a shorter one never reached the
-        last LODs, a longer one picked past them, clamped to the last, without a word)."""
-        errs = self._checked_lod_errors(lod_errors)
-        return self.window_records[min(lod_at_error(errs, max_error), self.lod_count - 1)]
-
-    def _checked_lod_errors(self, lod_errors: np.ndarray | None) -> np.ndarray:
-        """``lod_errors`` one per LOD (this mesh's when None), else a :class:`ValueError`; kept in their own
-        type (:func:`.lod_at_error` compares a float32 bound with float32 errors, others as float64)."""
-        errs = self.lod_errors if lod_errors is None else np.asarray(lod_errors)
-        if errs.shape != (self.lod_count,):
-            n = self.lod_count
-            raise ValueError(f"lod_errors must hold one error per LOD ({n}), got shape {errs.shape}")
-        return errs
-
-    def record_for_screen_error(
-        self,
-        max_pixels: float,
-        distance: float,
-        fov_y: float,
-        viewport_height: int,
-        lod_errors: np.ndarray | None = None,
-    ) -> np.ndarray:
-        """The window record whose object-space error projects to at most ``max_pixels`` on screen for an
-        object at ``distance`` seen with vertical field of view ``fov_y`` (radians): the record of
-        :meth:`~.ProgressiveMesh.lod_for_screen_error`'s LOD (LOD 0's at ``distance <= 0``; its arguments
-        checked the same; ``lod_errors`` too, at any distance)."""
-        e = error_for_pixels(max_pixels, distance, fov_y, viewport_height)
-        if e is None:  # (the camera at or inside the object: LOD 0, whatever the errors say)
-            self._checked_lod_errors(lod_errors)
-            return self.window_records[0]
-        return self.record_for_error(e, lod_errors)
-
-    # -- memory --------------------------------------------------------------------------------------------
-    @property
-    def global_bytes(self) -> int:
-        isz = index_size(max(self.vertex_count - 1, 0))
-        # Forsyth's record: 32-bit first index, 16-bit counts (32-bit when they do not fit)
-        wide = int(self.window_records[:, 1:].max(initial=0)) > 0xFFFF
-        rec = 12 if wide else 8
-        return int(self.vertex_bytes() + isz * self.index_pool.shape[0] + rec * self.lod_count)
-
-    @property
-    def instance_bytes(self) -> int:
-        return 4  # the current LOD number: nothing else is per instance
-
-    # -- buffers -------------------------------------------------------------------------------------------
-    def buffers(self) -> dict[str, np.ndarray]:
-        return {
-            "index_pool": self.index_pool.astype(np.uint32, copy=False),
-            "window_records": self.window_records.astype(np.uint32, copy=False),
-        }
-
-    @classmethod
-    def _from_buffers(cls, points, attributes, vertex_counts, triangle_counts, lod_errors, buffers, params):
-        return cls(
-            points,
-            attributes,
-            vertex_counts,
-            triangle_counts,
-            lod_errors,
-            index_pool=buffers["index_pool"],
-            window_records=buffers["window_records"],
-            params=params,
-        )
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -302,17 +189,6 @@ _TAIL_PASSES = 2
 def _more_centres(adj_start: np.ndarray, adj: np.ndarray, eligible: np.ndarray, centres: np.ndarray):
     iterations = int(_CENTRE_SEARCH * np.count_nonzero(eligible))
     return swc.grow_independent_set(adj_start, adj, eligible, centres, iterations, _CENTRE_SEARCH_SEED)
-
-
-#: ``coarsest_copy=True``: the coarsest LOD is stored again after the last level, its triangles cache-ordered
-#: as one block (a window there reloads the vertices on the front between the ``P`` and ``Q`` parts), when
-#: the copy is at most this share of the pool without it (inclusive) and saves at least
-#: ``_COARSEST_COPY_MIN_GAIN`` of the window's misses. The ten benchmark meshes: copies of 21-210
-#: triangles, up to 1.8 % of the pool, on six of them; the coarsest LOD's ACMR ratio to meshoptimizer
-#: 1.00-1.25 -> 1.00-1.01 (``slidingwindow.md``)
-COARSEST_COPY_MAX_SHARE = 1 / 32
-#: a copy saving less is not worth its pool (those of the ten meshes save 9.5-20 %)
-_COARSEST_COPY_MIN_GAIN = 0.05
 
 
 #: finish each fully stored level (its patch order search and cache order, :func:`.sw_layout.finish_level`)
@@ -446,81 +322,6 @@ def _trickle(removed: int, level_triangles: int, lod0_triangles: int) -> bool:
 #: minimum-degree centres; estimated once per run of linked levels). Deciding from the level itself rather
 #: than from the previous linked level's outcome: bunny cluster-swap lambda 3.95 -> 3.74
 _CLUSTER_RELINK = 1.0
-
-
-#: fold guard of the edge swaps: the two triangles of a swapped edge and the two that replace them are all
-#: within this angle (degrees) of each other (90: no triangle flips, the quad is never folded). How far the
-#: surface may move is the ``swap_max_deviation`` parameter: a distance bounds what a viewer sees, an angle
-#: does not (a 10-degree guard alone moved LOD 0 by 0.0003 of the diagonal on bunny, 0.0044 on suzanne)
-_SWAP_MAX_ANGLE_DEG = 90.0
-#: degree floors of the edge swaps (SWPM 3.1: "if a curvature in a vertex is below some threshold, then
-#: degree of this vertex should not be decreased below four"; elsewhere the procedure goes down to three)
-_SWAP_MIN_DEGREE_FLAT = 4
-_SWAP_MIN_DEGREE_CURVED = 3
-#: a vertex is flat when every incident triangle's normal is within this angle (degrees) of its
-#: area-weighted vertex normal
-_SWAP_FLAT_ANGLE_DEG = 2.0
-
-
-def _swap_degree_floor(tri_pos: np.ndarray, pos_points: np.ndarray, flat_angle_deg: float) -> np.ndarray:
-    """Per position: the degree an edge swap may not go below (4 where the surface is flat, else 3)."""
-    P = pos_points.shape[0]
-    p = pos_points[tri_pos]
-    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])  # area-weighted face normals
-    vn = np.zeros((P, 3))
-    for i in range(3):
-        np.add.at(vn, tri_pos[:, i], n)
-    vn /= np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-300)
-    un = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-    min_cos = np.ones(P)
-    for i in range(3):
-        np.minimum.at(min_cos, tri_pos[:, i], np.sum(un * vn[tri_pos[:, i]], axis=1))
-    flat = min_cos >= np.cos(np.radians(flat_angle_deg))
-    return np.where(flat, _SWAP_MIN_DEGREE_FLAT, _SWAP_MIN_DEGREE_CURVED).astype(np.int64)
-
-
-def optimize_mesh_connectivity(
-    mesh: Mesh,
-    max_angle_deg: float | None = None,
-    min_degree: int | None = None,
-    flat_angle_deg: float | None = None,
-    max_deviation: float = SWAP_MAX_DEVIATION,
-) -> Mesh:
-    """``mesh`` with edges swapped to create low-degree vertices (SWPM 3.1, :func:`.sw_swaps.swap_edges`):
-    same vertices and attributes, same triangle count, only interior manifold non-seam edges swapped whose
-    quad is not folded (normals within ``max_angle_deg``) and whose swap moves the surface by at most
-    ``max_deviation`` times the bounding-box diagonal; the topology (closed, manifold, Euler characteristic)
-    is kept. Degree floor: ``min_degree`` everywhere if given, else the paper's 4 at flat vertices
-    (``flat_angle_deg``) and 3 elsewhere."""
-    angle = _SWAP_MAX_ANGLE_DEG if max_angle_deg is None else float(max_angle_deg)
-    flat_angle = _SWAP_FLAT_ANGLE_DEG if flat_angle_deg is None else float(flat_angle_deg)
-    if not float(max_deviation) >= 0.0:
-        raise BuildError(f"swap_max_deviation must be >= 0, got {max_deviation}")
-    if mesh.triangle_count == 0:
-        return mesh
-    topo = mesh_topology(mesh)
-    free = ~(topo.pos_boundary | topo.pos_nonmanifold)
-    tri_pos = np.ascontiguousarray(topo.tri_pos, np.int64)
-    pos_points = np.ascontiguousarray(topo.pos_points, np.float64)
-    if min_degree is None:
-        floor = _swap_degree_floor(tri_pos, pos_points, flat_angle)
-    else:
-        floor = np.full(pos_points.shape[0], int(min_degree), np.int64)
-    tris, _ = sw_swaps.swap_edges(
-        np.ascontiguousarray(mesh.triangles, np.int64),
-        tri_pos,
-        pos_points,
-        np.ascontiguousarray(free),
-        float(np.cos(np.radians(angle))),
-        floor,
-        float(max_deviation) * float(np.linalg.norm(pos_points.max(axis=0) - pos_points.min(axis=0))),
-    )
-    return Mesh(
-        points=mesh.points,
-        triangles=tris.astype(mesh.triangles.dtype),
-        attributes=dict(mesh.attributes),
-        source=mesh.source,
-    )
 
 
 def _build_levels(
@@ -875,204 +676,6 @@ def _linked_cost(tpos: np.ndarray, pt: np.ndarray, patches: int) -> float:
     """Pool triangles per collapse of a linked level, before its collapses: its ``Q`` blocks store the
     previous tail up to the end of the last patch again, less two triangles per removed centre."""
     return (int(tpos[pt].max()) + 1) / patches - 2.0
-
-
-def _build_forsyth(mesh: Mesh, st, tolerance: float, boundary_weight: float, seam_weight: float):
-    T = mesh.triangle_count
-    # Forsyth's tolerance is relative to the average collapse error of the plain quadric sequence
-    ref = collapse_sequence(
-        mesh, boundary_weight=boundary_weight, seam_weight=seam_weight, geometric_error=False
-    )
-    mean_error = float(ref.step_error.mean()) if ref.step_count else 0.0
-    gtris = np.empty((max(16, 2 * T), 3), np.int64)
-    gtris[:T] = mesh.triangles
-    cur_gid = np.arange(T, dtype=np.int64)
-    (gtris, ng, level_start, level_gids, patch_level, p_start, p_out, q_start, q_out, recs, info) = (
-        sw_forsyth.forsyth_run(
-            st,
-            float(tolerance) * mean_error,
-            cur_gid,
-            gtris,
-            T,
-            float(sw_forsyth.POOL_BUDGET),
-            float(sw_forsyth.MIN_LEVEL_GAIN),
-        )
-    )
-    levels = []
-    bounds = np.searchsorted(patch_level, np.arange(level_start.shape[0]), side="left")
-    for li in range(level_start.shape[0] - 1):
-        a, b = int(bounds[li]), int(bounds[li + 1])
-        if b == a:
-            continue
-        levels.append(
-            swl.Level(
-                level_gids[level_start[li] : level_start[li + 1]],
-                p_start[a : b + 1] - p_start[a],
-                p_out[p_start[a] : p_start[b]],
-                q_start[a : b + 1] - q_start[a],
-                q_out[q_start[a] : q_start[b]],
-                np.ones(b - a, np.int64),
-            )
-        )
-    return gtris[:ng], levels, recs, info
-
-
-def _coarsest_copy(window: np.ndarray, pool_size: int, cache_size: int) -> np.ndarray | None:
-    """The coarsest LOD's triangles (``window``, as its window draws them) ordered for the cache as one
-    block, if that draws them with at least :data:`_COARSEST_COPY_MIN_GAIN` fewer FIFO misses than the window
-    does and they are at most :data:`COARSEST_COPY_MAX_SHARE` of ``pool_size`` triangles (the pool without
-    the copy); else None."""
-    count = window.shape[0]
-    if count < 2 or count > COARSEST_COPY_MAX_SHARE * pool_size:
-        return None
-    # int32 whichever builder's pool it comes from (Forsyth's and the clustered layout's are int64): one
-    # compile of vcache._rotate_rows, not two; the copy only indexes the new vertex ids
-    window = window.astype(np.int32, copy=False)
-    copy = swl.block_order(window, np.array([0, count], np.int64), cache_size)
-    if (
-        cache_misses(copy, cache_size)[0]
-        > (1.0 - _COARSEST_COPY_MIN_GAIN) * cache_misses(window, cache_size)[0]
-    ):
-        return None
-    return copy
-
-
-def _pool_slice(parts: list[np.ndarray], part_start: np.ndarray, first: int, count: int) -> np.ndarray:
-    """Triangles ``[first, first + count)`` of the pool that is ``parts`` concatenated (a window can start
-    in the part before its level's: a linked level's head is the previous level's tail; an empty window at
-    the pool's end, ``first`` = its length, comes out of the last part empty)."""
-    i = min(int(np.searchsorted(part_start, first, side="right")) - 1, len(parts) - 1)
-    return np.concatenate(parts[i:])[first - int(part_start[i]) :][:count]
-
-
-def _assemble(
-    mesh: Mesh,
-    gtris: np.ndarray,
-    levels: list[swl.Level],
-    recs: np.ndarray,
-    info: np.ndarray,
-    cache_size: int,
-    coarsest_copy: bool = True,
-    step_geometric: np.ndarray | None = None,
-) -> SlidingWindowProgressiveMesh:
-    """The pool, records and vertex order from the levels. ``step_geometric``: per step, the error the LODs
-    accumulate (:func:`swpm_usd.simplify.sequence.step_geometric_errors`; default the quadric error)."""
-    V, T = mesh.vertex_count, mesh.triangle_count
-    binned, kept, step = recs[:, 0], recs[:, 1], recs[:, 2]
-    C = binned.shape[0]
-    S = info.shape[0]
-    # vertex order: never-binned first (original order), then binned in reverse collapse order
-    is_binned = np.zeros(V, bool)
-    is_binned[binned] = True
-    new_id = np.empty(V, np.int64)
-    survivors = np.flatnonzero(~is_binned)
-    new_id[survivors] = np.arange(survivors.shape[0])
-    new_id[binned] = V - 1 - np.arange(C)
-    perm = np.empty(V, np.int64)
-    perm[new_id] = np.arange(V)
-    rec_after_step = np.zeros(S + 1, np.int64)
-    np.cumsum(np.bincount(step, minlength=S), out=rec_after_step[1:])
-    step_err = info[:, 0] if S else np.zeros(0)
-    lod_err = step_err if step_geometric is None else step_geometric
-    err_after = np.r_[0.0, np.maximum.accumulate(lod_err)] if S else np.zeros(1)
-
-    parts = []
-    # per level: the first triangle and the triangle count of every window (from its offset, triangle count
-    # and the first ``m`` entries of its P and Q offsets), gathered into one table after the loop (a table
-    # per level cost suzanne's 15 levels about 0.3 ms)
-    offsets, level_tris, p_heads, q_heads, patch_steps = [], [], [], [], []
-    head_next = 0
-    if not levels:  # nothing to collapse: one level, one window
-        levels = [
-            swl.Level(
-                np.arange(T),
-                np.zeros(1, np.int64),
-                np.zeros(0, np.int64),
-                np.zeros(1, np.int64),
-                np.zeros(0, np.int64),
-                np.zeros(0, np.int64),
-            )
-        ]
-    pool_len = 0
-    for li, lev in enumerate(levels):
-        n = lev.patch_count
-        if lev.shared:  # cluster: the head is the previous level's tail, already in the pool
-            offset = head_next
-        else:
-            offset = pool_len
-        if lev.stored is not None:
-            parts.append(gtris[lev.stored])
-        elif lev.pool is not None:
-            parts.append(lev.pool)
-        else:
-            tris, _ = swl.level_pool(
-                gtris, lev.start_gids, lev.p_start, lev.p_out, lev.q_start, lev.q_out, cache_size
-            )
-            parts.append(tris)
-        pool_len += parts[-1].shape[0]
-        head_next = offset + int(lev.p_start[n])
-        m = n + 1 if li == len(levels) - 1 else n  # the last level also keeps its final window
-        offsets.append(offset)
-        level_tris.append(lev.triangle_count)
-        p_heads.append(lev.p_start[:m])
-        q_heads.append(lev.q_start[:m])
-        patch_steps.append(lev.patch_steps[:n])
-    # the windows of all levels: level ``li``'s ``m`` rows take its offset and triangle count; the steps
-    # done before each window are the running sum of every patch's steps (level by level, and a level's
-    # windows are its patches, the last level's final window after its last patch): all of them
-    counts = [h.shape[0] for h in p_heads]
-    p_all = np.concatenate(p_heads).astype(np.int64)
-    rows_a = np.empty((p_all.shape[0], 4), np.int64)
-    rows_a[:, 0] = np.repeat(np.array(offsets, np.int64), counts) + p_all
-    rows_a[:, 1] = np.repeat(np.array(level_tris, np.int64), counts) - p_all + np.concatenate(q_heads)
-    rows_a[0, 2] = 0
-    np.cumsum(np.concatenate(patch_steps), out=rows_a[1:, 2])
-    rows_a[:, 3] = np.repeat(np.arange(len(levels), dtype=np.int64), counts)
-    part_start = np.concatenate(([0], np.cumsum([part.shape[0] for part in parts], dtype=np.int64)))
-    copy = None
-    if coarsest_copy:
-        first, count = int(rows_a[-1, 0]), int(rows_a[-1, 1])
-        copy = _coarsest_copy(_pool_slice(parts, part_start, first, count), int(part_start[-1]), cache_size)
-    if copy is not None:  # the coarsest LOD becomes a level of its own: one block, no patches
-        rows_a[-1, 0] = part_start[-1]
-        rows_a[-1, 3] = len(levels)
-        parts.append(copy)
-        part_start = np.append(part_start, part_start[-1] + copy.shape[0])
-    # the stored ids part by part, straight into the final array (one pool-sized int64 temporary for the
-    # whole pool cost 1 M triangles 260 MB at the peak)
-    pool = np.empty(3 * int(part_start[-1]), np.uint32)
-    for part, a in zip(parts, part_start[:-1], strict=True):
-        pool[3 * a : 3 * (a + part.shape[0])] = new_id[part.reshape(-1)]
-    lod_steps = rows_a[:, 2]
-    vertex_counts = V - rec_after_step[lod_steps]
-    records = np.stack([3 * rows_a[:, 0], rows_a[:, 1], vertex_counts], axis=1)
-    pm = SlidingWindowProgressiveMesh(
-        points=mesh.points[perm],
-        attributes={name: a[perm] for name, a in mesh.attributes.items()},
-        vertex_counts=vertex_counts,
-        triangle_counts=rows_a[:, 1],
-        lod_errors=err_after[lod_steps],
-        index_pool=pool,
-        window_records=records.astype(np.uint32),
-        params={},
-    )
-    step_offsets = rec_after_step
-    pm.collapse_sequence = CollapseSequence(
-        mesh=mesh,
-        binned=binned.astype(np.int32),
-        kept=kept.astype(np.int32),
-        step=step.astype(np.int32),
-        error=step_err[step] if C else np.zeros(0),
-        step_error=step_err,
-        step_offsets=step_offsets,
-        binned_position=info[:, 1].astype(np.int32) if S else np.zeros(0, np.int32),
-        kept_position=info[:, 2].astype(np.int32) if S else np.zeros(0, np.int32),
-        step_geometric_error=step_geometric,
-    )
-    pm.lod_steps = lod_steps
-    pm.source_vertex = perm
-    pm.lod_level = rows_a[:, 3]
-    return pm
 
 
 #: meshes of at most this many triangles keep what the replay of the LOD errors reads of their fresh

@@ -5,7 +5,9 @@ not is taken while its error is within a tolerance of the best one's, else a new
 
 Collapses that touch the current level keep touching it until the level ends, so they wait in a deferred
 heap instead of being popped and pushed back at every step. The patches are emitted with the helpers of
-:mod:`.sw_collapse` and :mod:`.sw_fans`, as the topology-driven builder emits its own.
+:mod:`.sw_collapse` and :mod:`.sw_fans`, as the topology-driven builder emits its own. :func:`_build_forsyth`
+(at the end) runs it for :func:`.slidingwindow.build_sliding_window` and cuts its output into the levels
+(:class:`.sw_layout.Level`) that :mod:`.sw_assemble` reads.
 """
 
 from __future__ import annotations
@@ -13,7 +15,10 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from ..mesh import Mesh
+from ..simplify import collapse_sequence
 from ..simplify import kernels as K
+from . import sw_layout as swl
 from .sw_centres import _grow_i64
 from .sw_collapse import _emit_into, _grow_tris, _record_collapse
 from .sw_fans import _chain_work, _chain_work_for, chain_order
@@ -313,3 +318,43 @@ def forsyth_run(
         recs[:nrec].copy(),
         step_info[:nstep].copy(),
     )
+
+
+def _build_forsyth(mesh: Mesh, st, tolerance: float, boundary_weight: float, seam_weight: float):
+    T = mesh.triangle_count
+    # Forsyth's tolerance is relative to the average collapse error of the plain quadric sequence
+    ref = collapse_sequence(
+        mesh, boundary_weight=boundary_weight, seam_weight=seam_weight, geometric_error=False
+    )
+    mean_error = float(ref.step_error.mean()) if ref.step_count else 0.0
+    gtris = np.empty((max(16, 2 * T), 3), np.int64)
+    gtris[:T] = mesh.triangles
+    cur_gid = np.arange(T, dtype=np.int64)
+    (gtris, ng, level_start, level_gids, patch_level, p_start, p_out, q_start, q_out, recs, info) = (
+        forsyth_run(
+            st,
+            float(tolerance) * mean_error,
+            cur_gid,
+            gtris,
+            T,
+            float(POOL_BUDGET),
+            float(MIN_LEVEL_GAIN),
+        )
+    )
+    levels = []
+    bounds = np.searchsorted(patch_level, np.arange(level_start.shape[0]), side="left")
+    for li in range(level_start.shape[0] - 1):
+        a, b = int(bounds[li]), int(bounds[li + 1])
+        if b == a:
+            continue
+        levels.append(
+            swl.Level(
+                level_gids[level_start[li] : level_start[li + 1]],
+                p_start[a : b + 1] - p_start[a],
+                p_out[p_start[a] : p_start[b]],
+                q_start[a : b + 1] - q_start[a],
+                q_out[q_start[a] : q_start[b]],
+                np.ones(b - a, np.int64),
+            )
+        )
+    return gtris[:ng], levels, recs, info

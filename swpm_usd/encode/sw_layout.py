@@ -69,7 +69,7 @@ _REFINE_RUN = 1
 class Level:
     """One level of the cascade: its starting triangles (global ids) and its patches in draw order. A level
     finished by :func:`finish_level` keeps its ``pool`` and lets ``start_gids``, ``p_out`` and ``q_out`` go
-    (None): :func:`.slidingwindow._assemble` then reads only ``pool``, the offsets and ``triangle_count``."""
+    (None): :func:`.sw_assemble._assemble` then reads only ``pool``, the offsets and ``triangle_count``."""
 
     def __init__(self, start_gids, p_start, p_out, q_start, q_out, patch_steps, stored=None, shared=False):
         self.start_gids = start_gids
@@ -213,7 +213,7 @@ def finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, 
     lev = Level(start_gids, p_start, p_out, q_start, q_out, patch_steps)
     if pool is None:
         pool = level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size)[0]
-    # what the assembly (slidingwindow._assemble) needs: the pool (vertex ids, int32 where they fit), the
+    # what the assembly (sw_assemble._assemble) needs: the pool (vertex ids, int32 where they fit), the
     # patch offsets and step counts; the triangle ids are let go (1 M triangles: 130 MB less at the peak
     # with the pools halved)
     lev.pool = pool.astype(np.int32) if V <= _INT32_MAX else pool
