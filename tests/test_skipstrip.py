@@ -126,6 +126,19 @@ def test_stripify_refuses_an_index_past_the_vertex_count() -> None:
         stripify(np.array([[0, 1, 3]]), 3, 0xFFFF)
 
 
+def test_stripify_window_past_the_triangle_count_and_not_an_integer() -> None:
+    # the window buffer was allocated at the window's size: 2**40 asked for 8 TB (a MemoryError); past the
+    # triangle count every window draws the same strip
+    fan = np.array([[0, i, i + 1] for i in range(1, 9)], np.int64)
+    for restart in (0xFFFF, None):
+        whole = stripify(fan, 10, restart, len(fan))
+        for window in (len(fan) + 1, 64, 2**40, 10**30, np.int64(2**62)):
+            assert np.array_equal(stripify(fan, 10, restart, window), whole)
+    for bad in (True, 2.5, 4.0, "4", None):
+        with pytest.raises(ValueError, match="window must be an integer"):
+            stripify(fan, 10, 0xFFFF, bad)
+
+
 # --------------------------------------------------------------------------------------------------------
 # encoding
 # --------------------------------------------------------------------------------------------------------
