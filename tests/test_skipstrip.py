@@ -65,19 +65,26 @@ def _triangle_sets(draw: st.DrawFn) -> tuple[np.ndarray, int]:
     n = draw(st.integers(0, 40))
     rows = []
     for _ in range(n):
-        a, b, c = draw(st.lists(st.integers(0, V - 1), min_size=3, max_size=3, unique=True))
+        how = draw(st.sampled_from(["new", "new", "copy", "flip"])) if rows else "new"
+        if how == "new":
+            a, b, c = draw(st.lists(st.integers(0, V - 1), min_size=3, max_size=3, unique=True))
+        else:  # a duplicate, or the other winding of an earlier triangle (all three vertices shared)
+            a, b, c = rows[draw(st.integers(0, len(rows) - 1))]
+            if how == "flip":
+                b, c = c, b
         rows.append((a, b, c))
     return np.array(rows, np.int64).reshape(-1, 3), V
 
 
 @settings(max_examples=150, deadline=None)
-@given(_triangle_sets(), st.booleans(), st.integers(1, 10))
+@given(_triangle_sets(), st.booleans(), st.sampled_from([1, 2, 3, 4, 5, 8, 16, 64]))
 def test_strip_decodes_to_input_with_winding(
     case: tuple[np.ndarray, int], restart: bool, window: int
 ) -> None:
     tris, V = case
     rv = 0xFFFF if restart else None
     s = stripify(tris, V, rv, window)
+    assert len(s) <= 5 * len(tris)  # the kernel's buffer: a join 2 + 3 indices, a swap 2
     assert np.array_equal(_canonical(decode_strip(s, rv)), _canonical(tris))
     if not restart:  # every extra triangle is a degenerate join
         allt = decode_strip(s, None, keep_degenerate=True)
@@ -124,6 +131,19 @@ def test_strip_keeps_the_cache_order() -> None:
 def test_stripify_refuses_an_index_past_the_vertex_count() -> None:
     with pytest.raises(ValueError, match=r"\[0, 3\)"):
         stripify(np.array([[0, 1, 3]]), 3, 0xFFFF)
+
+
+def test_stripify_window_past_the_triangle_count_and_not_an_integer() -> None:
+    # the window buffer was allocated at the window's size: 2**40 asked for 8 TB (a MemoryError); past the
+    # triangle count every window draws the same strip
+    fan = np.array([[0, i, i + 1] for i in range(1, 9)], np.int64)
+    for restart in (0xFFFF, None):
+        whole = stripify(fan, 10, restart, len(fan))
+        for window in (len(fan) + 1, 64, 2**40, 10**30, np.int64(2**62)):
+            assert np.array_equal(stripify(fan, 10, restart, window), whole)
+    for bad in (True, 2.5, 4.0, "4", None):
+        with pytest.raises(ValueError, match="window must be an integer"):
+            stripify(fan, 10, 0xFFFF, bad)
 
 
 # --------------------------------------------------------------------------------------------------------

@@ -144,9 +144,12 @@ def stripify(
 
     ``vertex_count``: every index must be below it. ``restart_index`` separates strips (``None``: join them
     with degenerate triangles instead). ``window`` is how many of the next not yet emitted input triangles
-    may continue a strip (module docstring). Decoding the result with :func:`decode_strip` gives exactly the
-    input triangles (as a multiset) with their winding.
+    may continue a strip (module docstring), an integer (below 1 taken as 1; a window past the triangle count
+    draws as one of the triangle count, and allocates no more). Decoding the result with :func:`decode_strip`
+    gives exactly the input triangles (as a multiset) with their winding.
     """
+    if isinstance(window, (bool, np.bool_)) or not isinstance(window, (int, np.integer)):
+        raise ValueError(f"window must be an integer, got {window!r}")
     tris = np.ascontiguousarray(np.asarray(triangles).reshape(-1, 3), dtype=np.int64)
     use_restart = restart_index is not None
     r = int(restart_index) if use_restart else -1
@@ -154,7 +157,9 @@ def stripify(
         raise ValueError(f"vertex indices must be in [0, {int(vertex_count)})")
     if use_restart and tris.size and tris.max() >= r:
         raise ValueError("vertex indices must be non-negative and below the restart index")
-    return _stripify(tris, use_restart, r, max(1, int(window)))
+    # the buffer never holds more than the T triangles: a larger window allocated window * 8 bytes for nothing
+    # (window=2**40: a MemoryError)
+    return _stripify(tris, use_restart, r, max(1, min(int(window), tris.shape[0])))
 
 
 @nb.njit(cache=True)
