@@ -3,10 +3,10 @@
 For each mesh and setting (``primitive="list"``, then strips at each ``--windows`` value), one collapse
 sequence and one skip-strip build; per LOD at 100/50/25/10 % of the triangles, the FIFO misses (cache of 16)
 of the stream as drawn (``draw_stream``: degenerate triangles and restart indices included) over those of
-meshoptimizer's ``optimize_vertex_cache`` of the same triangles; and the levels' uncollapsed lists
-(``level_indices``) over LOD 0's index buffer (3 indices a triangle), the memory the setting costs. The table
-gives per setting the mean and largest ratio over all points, how many are within 1.05 (the project's aim)
-and the mean size. Writes ``benchmarks/results/strip_window.json``.
+meshoptimizer's ``optimize_vertex_cache`` of the same triangles (``run.py``'s ``meshopt_acmr``); and the
+levels' uncollapsed lists (``level_indices``) over LOD 0's index buffer (3 indices a triangle), the memory the
+setting costs. The table gives per setting the mean and largest ratio over all points, how many are within
+1.05 (the project's aim) and the mean size. Writes ``benchmarks/results/strip_window.json``.
 
     python benchmarks/bench_strip_window.py [MESH ...] [--windows 3,4,5,8,16]
 """
@@ -15,28 +15,25 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
-import meshoptimizer
 import numpy as np
 
-from swpm_usd.encode.skipstrip import build_skipstrip
-from swpm_usd.io import load_mesh
-from swpm_usd.metrics import cache_misses
-from swpm_usd.simplify import collapse_sequence
-
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+from run import meshopt_acmr  # noqa: E402  (meshoptimizer's optimize_vertex_cache, as run.py compares)
+
+from swpm_usd.encode.skipstrip import build_skipstrip  # noqa: E402
+from swpm_usd.io import load_mesh  # noqa: E402
+from swpm_usd.metrics import acmr  # noqa: E402
+from swpm_usd.simplify import collapse_sequence  # noqa: E402
+
 SHARED = HERE.parent.parent / "shared" / "meshes"
 FRACTIONS = (1.0, 0.5, 0.25, 0.1)
 CACHE = 16
 AIM = 1.05
-
-
-def _meshopt_misses(tris: np.ndarray, vertex_count: int) -> int:
-    idx = np.ascontiguousarray(tris, np.uint32).reshape(-1)
-    dst = np.empty_like(idx)
-    meshoptimizer.optimize_vertex_cache(dst, idx, idx.size, vertex_count)
-    return cache_misses(dst, CACHE)[0]
 
 
 def main() -> None:
@@ -59,8 +56,8 @@ def main() -> None:
             for f in FRACTIONS:
                 k = pm.lod_for_triangles(int(round(f * t0)))
                 kind, stream = pm.draw_stream(k)
-                ours = cache_misses(stream, CACHE, kind, pm.restart_index)[0]
-                ratios.append(ours / _meshopt_misses(pm.triangles_at(k), pm.vertex_count))
+                ours = acmr(stream, CACHE, kind, pm.restart_index)
+                ratios.append(ours / meshopt_acmr(pm.triangles_at(k), pm.vertex_count, CACHE))
             size = pm.buffers()["level_indices"].size / (3 * t0)
             rows.append({"mesh": Path(path).name, "setting": name, "ratios": ratios, "level_indices": size})
             cells = " ".join(f"{r:.3f}" for r in ratios)

@@ -106,11 +106,11 @@ def _stripify(tris: np.ndarray, use_restart: bool, restart: int, window: int) ->
         # rotation (u, v, w): the strip goes on across v-w (an input triangle with edge w -> v, whatever
         # the parity); the rotation whose continuation comes first in the buffer, the input (cache) order
         best_r = 0
-        best_s = 1 << 60
+        cont = -1
         for r in range(3):
-            s, _c = _find_next(tris, buf, bsize, tris[t, (r + 2) % 3], tris[t, (r + 1) % 3])
-            if 0 <= s < best_s:
-                best_s = s
+            s, c = _find_next(tris, buf, bsize, tris[t, (r + 2) % 3], tris[t, (r + 1) % 3])
+            if s >= 0 and (cont < 0 or s < cont):
+                cont, cont_v = s, c
                 best_r = r
         u = tris[t, best_r]
         v = tris[t, (best_r + 1) % 3]
@@ -132,8 +132,7 @@ def _stripify(tris: np.ndarray, use_restart: bool, restart: int, window: int) ->
             out[n + 1] = w
             out[n + 2] = v
         n += 3
-        a, b = _needed_edge(out, n, pos0)
-        cont, cont_v = _find_next(tris, buf, bsize, a, b)
+        # (cont, cont_v): the rotation's continuation found above, across the edge _needed_edge gives now
     return out[:n].copy()
 
 
@@ -153,9 +152,10 @@ def stripify(
     tris = np.ascontiguousarray(np.asarray(triangles).reshape(-1, 3), dtype=np.int64)
     use_restart = restart_index is not None
     r = int(restart_index) if use_restart else -1
-    if tris.size and (tris.max() >= int(vertex_count) or tris.min() < 0):
+    top = int(tris.max()) if tris.size else -1
+    if tris.size and (top >= int(vertex_count) or tris.min() < 0):
         raise ValueError(f"vertex indices must be in [0, {int(vertex_count)})")
-    if use_restart and tris.size and tris.max() >= r:
+    if use_restart and top >= r:
         raise ValueError("vertex indices must be non-negative and below the restart index")
     # the buffer never holds more than the T triangles: a larger window allocated window * 8 bytes for nothing
     # (window=2**40: a MemoryError)
