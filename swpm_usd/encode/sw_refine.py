@@ -72,15 +72,19 @@ def _draw(sim, b, version, t, C):
     """FIFO misses of block ``b`` from push count ``t``. Returns ``(misses, push count)``."""
     blocks, block_start, key, log = sim
     base = version * _KEY
-    m = 0
+    t0 = t
+    # without a branch on the miss (about a fifth of the indices miss, unpredictably): the index written
+    # to the log at ``t`` whatever, kept only by a miss moving ``t`` on (the log past ``t`` is not read),
+    # and the key rewritten unchanged on a hit (the search -20 %, 166-181 -> 134-138 ms over 98 captured
+    # levels of seven meshes, two alternating runs; the same orders)
     for i in range(block_start[b], block_start[b + 1]):
         v = blocks[i]
-        if key[v] < base + t - C:
-            key[v] = base + t
-            log[t] = v
-            t += 1
-            m += 1
-    return m, t
+        kv = key[v]
+        miss = kv < base + t - C
+        log[t] = v
+        key[v] = base + t if miss else kv
+        t += np.int64(miss)
+    return t - t0, t
 
 
 @nb.njit(cache=True, inline="always")
