@@ -454,28 +454,19 @@ def _build_bvh(
 
 @njit(cache=True, inline="always")
 def _box_dist2(px: float, py: float, pz: float, node_min: np.ndarray, node_max: np.ndarray, n: int) -> float:
+    # per axis the larger of the gaps below and above the box, or 0 inside it, without a branch (a point
+    # lies on either side of a node's box unpredictably; the fan-deviation searches -13 %, 238 captured
+    # calls: 175.9 -> 153.1 ms). For a finite point the same sum, bit for bit, as the branches' "the gap
+    # below if positive, else the one above if positive": at most one is positive (both +inf for the empty
+    # BVH's box), and adding 0.0 leaves d as it was. (Selects written out as conditional expressions
+    # compiled back to branches: no faster)
     d = 0.0
-    e = node_min[n, 0] - px
-    if e > 0.0:
-        d += e * e
-    else:
-        e = px - node_max[n, 0]
-        if e > 0.0:
-            d += e * e
-    e = node_min[n, 1] - py
-    if e > 0.0:
-        d += e * e
-    else:
-        e = py - node_max[n, 1]
-        if e > 0.0:
-            d += e * e
-    e = node_min[n, 2] - pz
-    if e > 0.0:
-        d += e * e
-    else:
-        e = pz - node_max[n, 2]
-        if e > 0.0:
-            d += e * e
+    e = max(node_min[n, 0] - px, px - node_max[n, 0], 0.0)
+    d += e * e
+    e = max(node_min[n, 1] - py, py - node_max[n, 1], 0.0)
+    d += e * e
+    e = max(node_min[n, 2] - pz, pz - node_max[n, 2], 0.0)
+    d += e * e
     return d
 
 

@@ -374,3 +374,40 @@ def test_point_distances_match_trimesh_closest_point() -> None:
     closest = trimesh.triangles.closest_point(pairs_tri, pairs_q)
     ref = np.linalg.norm(closest - pairs_q, axis=1).reshape(q.shape[0], -1).min(axis=1)
     np.testing.assert_allclose(point_triangle_distances(q, points, tris), ref, rtol=1e-6, atol=1e-9)
+
+
+def test_box_distance_is_the_per_axis_gap_sum_bit_for_bit() -> None:
+    """``_box_dist2`` (computed without branches) adds, axis by axis, the square of the gap below the box or
+    else the gap above it, nothing inside: the BVH searches' pruning (and so the fan deviation and the
+    reported errors) depends on the exact value. Finite points (the queries: samples of checked meshes)
+    inside, outside, on faces and corners, next to them; boxes of zero extent and an empty box (+inf / -inf,
+    a BVH of no triangles). A guard for the branch-free form: main's branches pass it too."""
+    from swpm_usd.metrics import _box_dist2
+
+    def reference(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
+        d = 0.0
+        for a in range(3):
+            if lo[a] - p[a] > 0.0:
+                d += (lo[a] - p[a]) * (lo[a] - p[a])
+            elif p[a] - hi[a] > 0.0:
+                d += (p[a] - hi[a]) * (p[a] - hi[a])
+        return d
+
+    rng = np.random.default_rng(11)
+    lo = rng.normal(size=(300, 3)) * 10.0 ** rng.integers(-6, 4, size=(300, 1))
+    hi = lo + np.abs(rng.normal(size=(300, 3))) * 10.0 ** rng.integers(-8, 3, size=(300, 1))
+    hi[:20] = lo[:20]  # zero extent
+    lo = np.vstack([lo, np.full((1, 3), np.inf)])
+    hi = np.vstack([hi, np.full((1, 3), -np.inf)])
+    for n in range(lo.shape[0]):
+        if not np.isfinite(lo[n]).all():
+            points = [np.zeros(3), rng.normal(size=3) * 1e3]
+        else:
+            centre = (lo[n] + hi[n]) / 2.0
+            points = [centre, lo[n], hi[n], np.where(rng.random(3) < 0.5, lo[n], hi[n])]
+            points += [np.nextafter(lo[n], -np.inf), np.nextafter(hi[n], np.inf)]
+            points += [centre + rng.normal(size=3) * 3.0 * (hi[n] - lo[n] + 1e-3) for _ in range(4)]
+        for p in points:
+            got = _box_dist2(p[0], p[1], p[2], lo, hi, n)
+            want = reference(p, lo[n], hi[n])
+            assert got == want, (n, p, got, want)

@@ -265,10 +265,12 @@ def _xorshift(rng):
     return rng
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, inline="always")
 def _queue_near(v, sol, tight, adj_start, adj, queue, nq, queued):
     """Queue the set members next to ``v`` or owning a 1-tight neighbour of ``v``: the only ones whose
-    (1,2)-swaps a change at ``v`` can create."""
+    (1,2)-swaps a change at ``v`` can create. Inlined, as the helpers above (grow_independent_set -5 %: 113
+    captured calls of seven meshes, 51.7-53.2 -> 49.5 ms, two alternating runs; inlining _undo and
+    _xorshift as well gained nothing more)."""
     for a in range(adj_start[v], adj_start[v + 1]):
         y = adj[a]
         if sol[y]:
