@@ -207,16 +207,11 @@ def reassign_middle(
     neighbours that hold its other corners. Returns the new CSR (own triangles first, as before)."""
     tv = st.tri_verts
     vpos = st.vertex_pos
-    T = tv.shape[0]
     V = vpos.shape[0]
     n = pt_start.shape[0] - 1
-    tri_patch = np.full(T, -1, np.int64)
     nab = 0
     for p in range(n):
-        own_end = pt_start[p] + own_start[p + 1] - own_start[p]
-        for j in range(pt_start[p], own_end):
-            tri_patch[pt[j]] = p
-        nab += pt_start[p + 1] - own_end
+        nab += pt_start[p + 1] - (pt_start[p] + own_start[p + 1] - own_start[p])
     ab = np.empty(nab, np.int64)
     ab_cur = np.empty(nab, np.int64)
     k = 0
