@@ -1,0 +1,145 @@
+"""The sliding-window pool stored as triangle strips (``primitive="strip"``, :mod:`.sw_strips`): every
+window of a strip build is one range of the pool, starting at the pool's start or after a restart index,
+and decodes to the list build's window (oriented triangle multisets); the counts, the vertex prefix, the
+buffers and the parameters' checks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import shared_mesh
+
+import swpm_usd
+import swpm_usd.encode.slidingwindow
+from swpm_usd.encode.strips import decode_strip
+from swpm_usd.encode.sw_strips import strip_pool
+from swpm_usd.errors import BuildError
+
+OPTIONS = {"defaults": {}, "cluster-swap": {"cluster": True, "optimize_connectivity": True}}
+
+
+def _canonical(tris: np.ndarray) -> np.ndarray:
+    """Triangles rotated so the smallest index comes first (winding kept), rows sorted."""
+    t = np.asarray(tris, np.int64).reshape(-1, 3)
+    r = np.argmin(t, axis=1)
+    t = np.take_along_axis(t, (r[:, None] + np.arange(3)[None, :]) % 3, axis=1)
+    return t[np.lexsort(t.T[::-1])]
+
+
+@pytest.fixture(scope="module", params=["suzanne", "beetle", "spot"])
+def builds(request):
+    mesh = shared_mesh(f"{request.param}.obj")
+    out = {}
+    for name, kw in OPTIONS.items():
+        lst = swpm_usd.build(mesh, encoding="sliding-window", **kw)
+        strip = swpm_usd.build(mesh, encoding="sliding-window", primitive="strip", **kw)
+        out[name] = (lst, strip)
+    return out
+
+
+@pytest.mark.parametrize("option", list(OPTIONS))
+def test_every_window_decodes_to_the_list_window(builds, option) -> None:
+    lst, strip = builds[option]
+    assert strip.primitive == "strip" and lst.primitive == "list"
+    assert strip.index_pool.shape[0] < lst.index_pool.shape[0]  # (what strips are for)
+    assert np.array_equal(strip.window_records[:, 1:], lst.window_records[:, 1:])
+    for k in range(strip.lod_count):
+        tris = strip.triangles_at(k)
+        assert tris.shape[0] == strip.window_records[k, 1] == lst.triangle_count_at(k)
+        assert np.array_equal(_canonical(tris), _canonical(lst.triangles_at(k))), f"LOD {k}"
+
+
+@pytest.mark.parametrize("option", list(OPTIONS))
+def test_windows_are_strip_ranges_after_a_restart(builds, option) -> None:
+    lst, strip = builds[option]
+    pool = strip.index_pool.astype(np.int64)
+    rv = strip.params["restart_index"]
+    assert rv == strip.restart_index == 0xFFFF  # (every shared mesh has fewer than 65,535 vertices)
+    first = strip.window_records[:, 0].astype(np.int64)
+    count = strip.window_index_counts.astype(np.int64)
+    assert np.array_equal(lst.window_index_counts, 3 * lst.window_records[:, 1])
+    assert np.all(first + count <= pool.shape[0])
+    live = count > 0
+    # a window starts at the pool's start or right after a restart, and ends at the pool's end or before one
+    assert np.all((first[live] == 0) | (pool[np.maximum(first[live] - 1, 0)] == rv))
+    end = first[live] + count[live]
+    assert np.all((end == pool.shape[0]) | (pool[np.minimum(end, pool.shape[0] - 1)] == rv))
+    for k in range(strip.lod_count):
+        kind, stream = strip.draw_stream(k)
+        assert kind == "strip" and stream.shape[0] == count[k]
+        ids = stream[stream != rv]
+        # the vertex prefix: the restart index is exempt
+        assert ids.size == 0 or int(ids.max()) < strip.vertex_count_at(k)
+        rec = strip.record_for_triangles(int(strip.triangle_counts[k]))
+        assert rec.shape == (4,) and rec[3] == count[strip.lod_for_triangles(int(strip.triangle_counts[k]))]
+
+
+def test_strip_buffers_round_trip_and_memory(builds) -> None:
+    lst, pm = builds["defaults"]
+    b = pm.buffers()
+    assert set(b) == {"index_pool", "window_records", "window_index_counts"}
+    assert set(lst.buffers()) == {"index_pool", "window_records"}
+    pm2 = swpm_usd.from_buffers(
+        "sliding-window",
+        pm.points,
+        pm.attributes,
+        pm.vertex_counts,
+        pm.triangle_counts,
+        pm.lod_errors,
+        b,
+        params=pm.params,
+    )
+    for k in (0, pm.lod_count // 3, pm.lod_count - 1):
+        assert np.array_equal(pm2.triangles_at(k), pm.triangles_at(k))
+    assert pm.params["primitive"] == "strip" and pm.params["strip_window"] == 4
+    assert lst.params["primitive"] == "list" and lst.params["restart_index"] is None
+    assert pm.global_bytes == pm.vertex_bytes() + 2 * pm.index_pool.shape[0] + 8 * pm.lod_count
+    with pytest.raises(BuildError, match="window_index_counts"):
+        swpm_usd.from_buffers(
+            "sliding-window",
+            pm.points,
+            pm.attributes,
+            pm.vertex_counts,
+            pm.triangle_counts,
+            pm.lod_errors,
+            {k: v for k, v in b.items() if k != "window_index_counts"},
+            params=pm.params,
+        )
+
+
+def test_strip_pool_by_hand() -> None:
+    """Two windows of a four-triangle fan pool: cut at 0, 1 (window 1's start), 4; window 0 spans both pieces
+    across the restart between them."""
+    pool = np.array([0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 5], np.uint32)
+    rec = np.array([[0, 4, 6], [3, 3, 6]], np.uint32)
+    strips, out, counts, rv = strip_pool(pool, rec, 6)
+    assert rv == 0xFFFF
+    assert strips[:4].tolist() == [0, 1, 2, rv] and out[1, 0] == 4
+    assert out[:, 1].tolist() == [4, 3] and out[:, 2].tolist() == [6, 6]
+    assert out[0, 0] == 0 and counts[0] == strips.shape[0]
+    assert strips[out[1, 0] - 1] == rv and out[1, 0] + counts[1] == strips.shape[0]
+    for k in range(2):
+        a = int(out[k, 0])
+        got = decode_strip(strips[a : a + int(counts[k])], rv)
+        want = pool[int(rec[k, 0]) : int(rec[k, 0]) + 3 * int(rec[k, 1])].reshape(-1, 3)
+        assert np.array_equal(_canonical(got), _canonical(want))
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        {"primitive": "fan"},
+        {"primitive": 1},
+        {"strip_window": 0},
+        {"strip_window": 65},
+        {"strip_window": True},
+        {"strip_window": 2.0},
+        {"strip_window": "4"},
+    ],
+)
+def test_bad_primitive_or_strip_window_is_a_build_error(bad) -> None:
+    mesh = shared_mesh("suzanne.obj")
+    with pytest.raises(BuildError, match=next(iter(bad))):
+        swpm_usd.build(mesh, encoding="sliding-window", **bad)
+    with pytest.raises(BuildError, match=next(iter(bad))):  # (the builder itself checks them too)
+        swpm_usd.encode.slidingwindow.build_sliding_window(mesh, **bad)
