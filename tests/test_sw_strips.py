@@ -143,3 +143,25 @@ def test_bad_primitive_or_strip_window_is_a_build_error(bad) -> None:
         swpm_usd.build(mesh, encoding="sliding-window", **bad)
     with pytest.raises(BuildError, match=next(iter(bad))):  # (the builder itself checks them too)
         swpm_usd.encode.slidingwindow.build_sliding_window(mesh, **bad)
+
+
+@pytest.mark.parametrize("option", list(OPTIONS))
+def test_swpm_round_trip_and_validate(builds, option, tmp_path) -> None:
+    """A strip pool's ``.swpm``: the SW_STRIPS bit, WREC rows of four fields, valid with no problem, and read
+    back to the same windows; a list pool's file keeps three fields and no bit."""
+    from swpm_usd.format import layout as L
+    from swpm_usd.format import validate
+
+    lst, pm = builds[option]
+    for p, strips in ((pm, True), (lst, False)):
+        path = swpm_usd.save(p, tmp_path / f"{p.primitive}.swpm")
+        rep = validate(path)
+        assert rep.valid and rep.problems == [], rep.format()
+        data = path.read_bytes()
+        assert bool(int.from_bytes(data[20:24], "little") & L.FEATURE_SW_STRIPS) == strips
+        back = swpm_usd.load(path)
+        assert back.primitive == p.primitive and back.params["primitive"] == p.primitive
+        assert np.array_equal(back.window_records, p.window_records)
+        assert np.array_equal(back.window_index_counts, p.window_index_counts)
+        for k in range(0, p.lod_count, max(1, p.lod_count // 50)):
+            assert np.array_equal(back.triangles_at(k), p.triangles_at(k)), k

@@ -89,6 +89,13 @@ _ENTRIES = [
         "20 (the features field)",
     ),
     Entry(
+        "SWPM_HEADER_STRIPS_NOT_SLIDING",
+        ERROR,
+        "feature bits {bits:#x} set SW_STRIPS without SLIDING_WINDOW",
+        "The SW_STRIPS feature bit (0x20) is allowed only with the sliding-window encoding.",
+        "20 (the features field)",
+    ),
+    Entry(
         "SWPM_HEADER_RESERVED_NONZERO",
         WARNING,
         "reserved header field {field} is {value}, expected 0",
@@ -351,6 +358,21 @@ _ENTRIES = [
         "A window's counts differ from the LOD table.",
         "the differing field of window k, triangle_count (window + W) or vertex_count (window + 2 W); "
         "first differing window per field",
+    ),
+    Entry(
+        "SWPM_WINDOW_MID_STRIP",
+        ERROR,
+        "window of LOD {lod} starts at {start}, inside a strip",
+        "A strip pool's window (SW_STRIPS) must start at the pool's start or right after a restart index, "
+        "so that it draws whole strips with their parity.",
+        "the first_index field of window k, the first such window; one problem",
+    ),
+    Entry(
+        "SWPM_WINDOW_STRIP_TRIANGLES",
+        ERROR,
+        "window of LOD {lod} decodes to {decoded} triangles, its triangle_count is {expected}",
+        "A strip pool's window (SW_STRIPS) must decode to exactly triangle_count non-degenerate triangles.",
+        "the index_count field of window k (window + 3 W), the first such window; one problem",
     ),
     Entry(
         "SWPM_PREFIX_VIOLATION",
