@@ -165,3 +165,29 @@ def test_swpm_round_trip_and_validate(builds, option, tmp_path) -> None:
         assert np.array_equal(back.window_index_counts, p.window_index_counts)
         for k in range(0, p.lod_count, max(1, p.lod_count // 50)):
             assert np.array_equal(back.triangles_at(k), p.triangles_at(k)), k
+
+
+def test_usd_round_trip_and_validate(builds, tmp_path) -> None:
+    """A strip pool on a USD prim: swpm:windowIndexCounts beside indexPool and windowRecords, primitive and
+    restart index in swpm:params; the stage validates clean and reads back to the same windows. A window
+    index count past the pool is SWPM_USD_WINDOW_RANGE (the validator measured 3 x triangle count)."""
+    from pxr import Usd, Vt
+
+    from swpm_usd import usd
+    from swpm_usd.usd.validate import validate_stage
+
+    _, pm = builds["cluster-swap"]
+    path = usd.write(pm, tmp_path / "strips.usda")
+    assert validate_stage(path) == []
+    stage = Usd.Stage.Open(str(path))
+    prim = usd.find_encoded(stage)[0]
+    assert "swpm:windowIndexCounts" in [a.GetName() for a in prim.GetAttributes()]
+    back = usd.read(prim)
+    assert back.primitive == "strip" and back.restart_index == pm.restart_index
+    for k in range(pm.lod_count):
+        assert np.array_equal(back.triangles_at(k), pm.triangles_at(k)), k
+    counts = np.asarray(pm.window_index_counts, np.uint32).copy()
+    counts[-1] = pm.index_pool.shape[0] + 1
+    prim.GetAttribute("swpm:windowIndexCounts").Set(Vt.UIntArray.FromNumpy(counts))
+    stage.GetRootLayer().Save()
+    assert [f.code for f in validate_stage(path)] == ["SWPM_USD_WINDOW_RANGE"]

@@ -285,14 +285,17 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
                 f"swpm:windowRecords has {w.shape[0]} rows for {L} LODs",
                 attrs=("swpm:windowRecords", "swpm:vertexCounts"),
             )
-        end = w[:, 0] + 3 * w[:, 1]
+        # a strip pool's windows are index counts long (spec/format.md 3.5), a list's 3 x its triangles
+        n = buffers.get("window_index_counts")
+        end = w[:, 0] + (3 * w[:, 1] if n is None or n.shape[0] != w.shape[0] else n.reshape(-1))
         out = end > pool.shape[0]
         if out.any():
             k = int(np.argmax(out))
             c.add(
                 "SWPM_USD_WINDOW_RANGE",
                 f"window of LOD {k} [{int(w[k, 0])}, {int(end[k])}) outside indexPool of {pool.shape[0]}",
-                attrs=("swpm:windowRecords", "swpm:indexPool"),
+                attrs=("swpm:windowRecords", "swpm:indexPool")
+                + (("swpm:windowIndexCounts",) if n is not None else ()),
             )
         if (w[:, 2] > V).any():
             k = int(np.argmax(w[:, 2] > V))
