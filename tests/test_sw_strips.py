@@ -191,3 +191,47 @@ def test_usd_round_trip_and_validate(builds, tmp_path) -> None:
     prim.GetAttribute("swpm:windowIndexCounts").Set(Vt.UIntArray.FromNumpy(counts))
     stage.GetRootLayer().Save()
     assert [f.code for f in validate_stage(path)] == ["SWPM_USD_WINDOW_RANGE"]
+
+
+STRIP_CONFIG = """\
+version: 1
+assets:
+  - glob: "*.obj"
+output:
+  dir: out
+  swpm: true
+  usd: true
+rules:
+  - name: strips
+    encoding: sliding-window
+    params: {primitive: strip, strip_window: %s, cluster: true, optimize_connectivity: true}
+"""
+
+
+def test_a_pipeline_config_with_primitive_strip_runs(tmp_path) -> None:
+    """``swpm-pipeline run`` with ``primitive: strip`` for the sliding window: a strip pool in the .swpm and
+    on the USD prim, both valid; a strip_window out of bounds fails the config at its line."""
+    import json
+    import shutil
+
+    from click.testing import CliRunner
+    from conftest import SHARED_MESHES
+
+    from swpm_usd.cli import main
+    from swpm_usd.usd.validate import validate_stage
+
+    shutil.copy(SHARED_MESHES / "suzanne.obj", tmp_path / "suzanne.obj")
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(STRIP_CONFIG % 4)
+    r = CliRunner().invoke(main, ["run", str(cfg)])
+    assert r.exit_code == 0, r.output
+    asset = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]["suzanne.obj"]
+    assert asset["encoding"] == "sliding-window"
+    pm = swpm_usd.load(tmp_path / "out" / "suzanne.swpm")
+    assert pm.primitive == "strip" and pm.params["strip_window"] == 4
+    assert swpm_usd.validate(tmp_path / "out" / "suzanne.swpm").valid
+    assert asset["summary"]["lambda"] == pytest.approx(pm.index_pool.shape[0] / (3 * pm.triangle_counts[0]))
+    assert validate_stage(tmp_path / "out" / "suzanne.usdc") == []
+    cfg.write_text(STRIP_CONFIG % 65)
+    r = CliRunner().invoke(main, ["run", str(cfg)])
+    assert r.exit_code == 2 and "$.rules[0].params.strip_window" in r.output
