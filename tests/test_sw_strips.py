@@ -235,3 +235,27 @@ def test_a_pipeline_config_with_primitive_strip_runs(tmp_path) -> None:
     cfg.write_text(STRIP_CONFIG % 65)
     r = CliRunner().invoke(main, ["run", str(cfg)])
     assert r.exit_code == 2 and "$.rules[0].params.strip_window" in r.output
+
+
+def test_usd_index_width_counts_the_restart_index() -> None:
+    """At exactly 65,536 vertices every vertex id fits 16 bits but the strips' restart index is 0xFFFFFFFF:
+    swpm:indexWidth must say 4 (it said 2, from the vertex count alone)."""
+    from swpm_usd.usd.writer import swpm_values
+
+    V = 0x10000
+    pm = swpm_usd.from_buffers(
+        "sliding-window",
+        np.zeros((V, 3), np.float32),
+        {},
+        np.array([V]),
+        np.array([1]),
+        np.zeros(1, np.float32),
+        {
+            "index_pool": np.array([0, 1, 2], np.uint32),
+            "window_records": np.array([[0, 1, V]], np.uint32),
+            "window_index_counts": np.array([3], np.uint32),
+        },
+        params={"primitive": "strip", "restart_index": 0xFFFFFFFF},
+    )
+    assert pm.triangles_at(0).tolist() == [[0, 1, 2]]
+    assert swpm_values(pm)["swpm:indexWidth"][1] == 4

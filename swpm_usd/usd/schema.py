@@ -60,8 +60,9 @@ PROPERTIES: tuple[Prop, ...] = (
         "swpm:indexWidth",
         "int",
         "4",
-        "Bytes per index a GPU index buffer needs (2 while every vertex id fits in 16 bits, else 4). USD "
-        "always stores indices as uint[]; this says how a runtime should upload them.",
+        "Bytes per index a GPU index buffer needs (2 while every vertex id and a strips' restart index fit "
+        "in 16 bits, else 4). USD always stores indices as uint[]; this says how a runtime should upload "
+        "them.",
     ),
     Prop(
         "swpm:vertexCounts",
