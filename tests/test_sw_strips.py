@@ -259,3 +259,33 @@ def test_usd_index_width_counts_the_restart_index() -> None:
     )
     assert pm.triangles_at(0).tolist() == [[0, 1, 2]]
     assert swpm_values(pm)["swpm:indexWidth"][1] == 4
+
+
+@pytest.fixture(scope="module")
+def vectors() -> dict[str, bytes]:
+    from swpm_usd.format.vectors import build_all
+
+    return build_all()
+
+
+@pytest.mark.parametrize(
+    ("vector", "code"),
+    [
+        ("strips-bit-without-sliding", "SWPM_HEADER_STRIPS_NOT_SLIDING"),
+        ("sliding-strips-wrec-three-fields", "SWPM_CHUNK_BAD_LENGTH"),
+        ("sliding-strips-primitive-list", "SWPM_META_BAD_FIELD"),
+        ("sliding-list-primitive-strip", "SWPM_META_BAD_FIELD"),
+        ("sliding-strips-restart-null", "SWPM_META_BAD_FIELD"),
+        ("sliding-strips-restart-below-vertex-count", "SWPM_META_BAD_FIELD"),
+        ("sliding-strips-window-outside-pool", "SWPM_WINDOW_OUT_OF_POOL"),
+        ("sliding-strips-window-mid-strip", "SWPM_WINDOW_MID_STRIP"),
+        ("sliding-strips-triangle-count", "SWPM_WINDOW_STRIP_TRIANGLES"),
+    ],
+)
+def test_the_reader_rejects_each_malformed_strip_pool(vectors, vector, code) -> None:
+    """Each rejection of spec/format.md 3.5 with its code, and nothing else (the vectors are rebuilt here
+    from :mod:`swpm_usd.format.vectors`, so a stale spec/vectors cannot hide a change)."""
+    from swpm_usd.format import validate_bytes
+
+    data = vectors[f"invalid/{vector}.swpm"]
+    assert [q.code for q in validate_bytes(data).problems] == [code]
