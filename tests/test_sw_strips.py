@@ -60,6 +60,7 @@ def test_windows_are_strip_ranges_after_a_restart(builds, option) -> None:
     assert np.array_equal(lst.window_index_counts, 3 * lst.window_records[:, 1])
     assert np.all(first + count <= pool.shape[0])
     live = count > 0
+    assert np.array_equal(live, strip.window_records[:, 1] > 0)  # (a window of triangles draws indices)
     # a window starts at the pool's start or right after a restart, and ends at the pool's end or before one
     assert np.all((first[live] == 0) | (pool[np.maximum(first[live] - 1, 0)] == rv))
     end = first[live] + count[live]
