@@ -194,6 +194,47 @@ def test_usd_round_trip_and_validate(builds, tmp_path) -> None:
     assert [f.code for f in validate_stage(path)] == ["SWPM_USD_WINDOW_RANGE"]
 
 
+def _drop_buffer(prim, name: str) -> None:
+    """``name`` taken out of the prim's parallel swpm:bufferNames / Dtypes / Columns."""
+    from pxr import Vt
+
+    names = list(prim.GetAttribute("swpm:bufferNames").Get())
+    i = names.index(name)
+    for attr in ("swpm:bufferNames", "swpm:bufferDtypes", "swpm:bufferColumns"):
+        values = list(prim.GetAttribute(attr).Get())
+        del values[i]
+        prim.GetAttribute(attr).Set(Vt.UIntArray(values) if attr == "swpm:bufferColumns" else values)
+
+
+@pytest.mark.parametrize(
+    ("edit", "code"),
+    [("short", "SWPM_USD_STRIDE"), ("zero", "SWPM_USD_STRIDE"), ("unlisted", "SWPM_USD_MISSING")],
+)
+def test_usd_strip_prim_without_its_index_counts_names_them(edit, code, tmp_path) -> None:
+    """A strip prim whose swpm:windowIndexCounts is short, empty or not among its buffers is reported as
+    that (it was measured as a list pool, 3 x triangle count, and reported SWPM_USD_WINDOW_RANGE: a window
+    "outside indexPool", naming the wrong attribute)."""
+    from pxr import Usd, Vt
+
+    from swpm_usd import usd
+    from swpm_usd.usd.validate import validate_stage
+
+    pm = swpm_usd.build(shared_mesh("suzanne.obj"), encoding="sliding-window", primitive="strip")
+    path = usd.write(pm, tmp_path / "strips.usda")
+    stage = Usd.Stage.Open(str(path))
+    prim = usd.find_encoded(stage)[0]
+    counts = np.asarray(pm.window_index_counts, np.uint32)
+    if edit == "unlisted":
+        _drop_buffer(prim, "window_index_counts")
+    else:
+        kept = counts[:-1] if edit == "short" else counts[:0]
+        prim.GetAttribute("swpm:windowIndexCounts").Set(Vt.UIntArray.FromNumpy(kept.copy()))
+    stage.GetRootLayer().Save()
+    found = validate_stage(path)
+    assert [f.code for f in found] == [code]
+    assert "swpm:windowIndexCounts" in found[0].message
+
+
 STRIP_CONFIG = """\
 version: 1
 assets:
