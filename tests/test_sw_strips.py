@@ -331,3 +331,21 @@ def test_the_reader_rejects_each_malformed_strip_pool(vectors, vector, code) -> 
 
     data = vectors[f"invalid/{vector}.swpm"]
     assert [q.code for q in validate_bytes(data).problems] == [code]
+
+
+def test_errors_md_places_the_strip_pool_meta_checks() -> None:
+    """spec/errors.md's SWPM_META_BAD_FIELD row says where a strip pool's params problems are found (it
+    listed only skip-strip's params, so the four sliding-window vectors expecting this code at META had no
+    row that explained them)."""
+    from pathlib import Path
+
+    from swpm_usd.format.errors import CATALOGUE
+
+    where = CATALOGUE["SWPM_META_BAD_FIELD"].offset
+    assert "sliding-window" in where and "SW_STRIPS" in where and "stage (a)" in where
+    row = next(
+        line
+        for line in (Path(__file__).resolve().parent.parent / "spec" / "errors.md").read_text().splitlines()
+        if line.startswith("| `SWPM_META_BAD_FIELD`")
+    )
+    assert where in row

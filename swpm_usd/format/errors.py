@@ -285,7 +285,9 @@ _ENTRIES = [
         "A metadata field has the wrong type.",
         "META payload, for every field: params not an object (ends the checks), then encoding, then "
         "skip-strip params.primitive or params.restart_index (each ends the checks; a strips' restart "
-        "index below V is found with the level table)",
+        "index below V is found with the level table), or sliding-window params.primitive or "
+        "params.restart_index disagreeing with the SW_STRIPS bit (each ends the checks; a strip pool's "
+        "restart index below V is found in sliding-window stage (a), before the windows)",
     ),
     Entry("SWPM_LOD_EMPTY", ERROR, "LODS has no LOD", "At least one LOD is required.", "LODS payload"),
     Entry(
