@@ -349,3 +349,14 @@ def test_errors_md_places_the_strip_pool_meta_checks() -> None:
         if line.startswith("| `SWPM_META_BAD_FIELD`")
     )
     assert where in row
+
+
+def test_reader_steps_place_the_strips_bit_check() -> None:
+    """format.md §5 step 1, the header checks in their order, names where SWPM_HEADER_STRIPS_NOT_SLIDING
+    comes (only §2.1 said it, so a reader written from §5 had no place for it among the header checks)."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parent.parent / "spec" / "format.md").read_text()
+    step1 = text[text.index("1. Header, in this order:") : text.index("2. Table entries in table order")]
+    at = step1.index("SWPM_HEADER_STRIPS_NOT_SLIDING")
+    assert step1.index("encoding bits") < at < step1.index("reserved")
