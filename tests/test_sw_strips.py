@@ -235,6 +235,34 @@ def test_usd_strip_prim_without_its_index_counts_names_them(edit, code, tmp_path
     assert "swpm:windowIndexCounts" in found[0].message
 
 
+def test_usd_list_prim_ignores_stray_index_counts(tmp_path) -> None:
+    """A list prim (no params primitive 'strip') listing a swpm:windowIndexCounts buffer: the windows are
+    3 x their triangle counts, as the rebuilt mesh reads them (the validator measured them by the stray
+    counts and reported a window outside indexPool that the mesh never draws)."""
+    from pxr import Sdf, Usd, Vt
+
+    from swpm_usd import usd
+    from swpm_usd.usd.validate import validate_stage
+
+    pm = swpm_usd.build(shared_mesh("suzanne.obj"), encoding="sliding-window")
+    path = usd.write(pm, tmp_path / "list.usda")
+    stage = Usd.Stage.Open(str(path))
+    prim = usd.find_encoded(stage)[0]
+    for attr, extra in (
+        ("swpm:bufferNames", "window_index_counts"),
+        ("swpm:bufferDtypes", "uint32"),
+        ("swpm:bufferColumns", 0),
+    ):
+        values = list(prim.GetAttribute(attr).Get()) + [extra]
+        prim.GetAttribute(attr).Set(Vt.UIntArray(values) if attr == "swpm:bufferColumns" else values)
+    stray = np.full(pm.lod_count, pm.index_pool.shape[0] + 1, np.uint32)
+    prim.CreateAttribute("swpm:windowIndexCounts", Sdf.ValueTypeNames.UIntArray).Set(
+        Vt.UIntArray.FromNumpy(stray)
+    )
+    stage.GetRootLayer().Save()
+    assert validate_stage(path) == []
+
+
 STRIP_CONFIG = """\
 version: 1
 assets:
