@@ -31,7 +31,10 @@ pool, half their Hausdorff misses or fewer, a colder cache); order0 (``order_pas
 order alone, without the search the defaults run, two passes of reach 2); reach1
 (``order_reach=1``: the default until 2026-12-02's second session); order2,
 mu0.3-absorb-all-order2 and inner3-mu0.3-order2 (``order_passes=2, order_reach=3``: each level's patch
-order searched further for fewer cache misses over its windows, for a longer build). ``--big`` adds a
+order searched further for fewer cache misses over its windows, for a longer build); strip and
+cluster-swap-strip (the defaults and cluster-swap with ``primitive="strip"``: the pool as triangle strips,
+lambda counting its indices, restart indices included; the ACMR on the decoded triangles in strip order,
+the order the strip draws them). ``--big`` adds a
 generated icosphere of 1.3 M triangles (build time only).
 Targets (issue): lambda <= 5.4 on bunny (topology, no reductions; <= 3.9 with cluster-swap; <= 2.8 with
 inner3-cluster-swap, the papers' (d); inner3-swap alone 2.88), ACMR ratio <= 1.10, error ratio <= 1.5,
@@ -85,6 +88,8 @@ OPTIONS = {
     "inner3-swap-slack1": {"inner_vertices": 3, "optimize_connectivity": True, "target_slack": 1.0},
     "topology-mu0.2-slack1": {"mu": 0.2, "target_slack": 1.0},
     "cluster-swap-slack1": {"cluster": True, "optimize_connectivity": True, "target_slack": 1.0},
+    "strip": {"primitive": "strip"},
+    "cluster-swap-strip": {"cluster": True, "optimize_connectivity": True, "primitive": "strip"},
 }
 FRACTIONS = (1.0, 0.5, 0.25, 0.1)
 
@@ -115,8 +120,19 @@ def _meshopt_simplify(points: np.ndarray, tris: np.ndarray, target_tris: int) ->
 def distinct_floor(pm) -> float:
     """The least lambda any layout of the same collapses could have: the distinct triangles that some window
     draws (each rotation of a triangle counted once), over LOD 0's. A pool must hold each at least once."""
-    tris = np.asarray(pm.index_pool).reshape(-1, 3)
     rec = np.asarray(pm.window_records, np.int64)
+    if pm.primitive == "strip":  # the strips some window draws (a window is whole strips), decoded
+        from swpm_usd.encode.strips import decode_strip
+
+        pool = np.asarray(pm.index_pool, np.int64)
+        cover = np.zeros(pool.shape[0] + 1, np.int64)
+        np.add.at(cover, rec[:, 0], 1)
+        np.add.at(cover, rec[:, 0] + np.asarray(pm.window_index_counts, np.int64), -1)
+        drawn = decode_strip(np.where(np.cumsum(cover[:-1]) > 0, pool, pm.restart_index), pm.restart_index)
+        turn = np.argmin(drawn, axis=1)[:, None]
+        canonical = np.take_along_axis(drawn, (turn + np.arange(3)) % 3, axis=1)
+        return np.unique(canonical, axis=0).shape[0] / float(rec[0, 1])
+    tris = np.asarray(pm.index_pool).reshape(-1, 3)
     first, count = rec[:, 0] // 3, rec[:, 1]
     cover = np.zeros(tris.shape[0] + 1, np.int64)
     np.add.at(cover, first, 1)

@@ -45,6 +45,8 @@ SLIDING_WINDOW_PARAMS: dict[str, Any] = {
     "order_passes": None,
     "order_reach": 2,
     "coarsest_copy": True,
+    "primitive": "list",
+    "strip_window": 4,
 }
 
 #: skip-strip ``primitive`` values

@@ -54,6 +54,9 @@ A later audit settled these (vectors ``chunk-moved-past-end``, ``duplicate-vert-
   for ``"list"`` too; it is an integer when JSON gives it without fraction or exponent (``65535.0`` and
   ``6.5535e4`` are ``SWPM_META_BAD_FIELD``). §3.7, §3.8: ``level_count`` 0 is a level-table problem
   (``SKIP``: payload; ``MLVL``: a bad ``level_first_lod``).
+* §2.1, §3.5: the ``SW_STRIPS`` bit (a sliding-window strip pool): ``WREC`` rows of four fields, ``params``
+  agreeing with the bit, every window starting a strip, each window's strips decoded on their own here (not
+  by the prefix sum §3.5 suggests) against its triangle count.
 * §5 step 2: ``SWPM_CHUNK_NOT_ALLOWED`` is only checked when exactly one encoding bit is set; a chunk that
   is not allowed is not also reported as a duplicate. ``SWPM_CHUNK_MISSING`` lists absent chunks in
   streaming order; a chunk is absent when no entry has its type.
@@ -124,7 +127,8 @@ MAX_PER_CODE = 20
 
 INDEX32 = 1 << 0
 ENCODING_BITS = {1 << 1: "vanilla", 1 << 2: "sliding-window", 1 << 3: "skip-strip", 1 << 4: "mixed"}
-KNOWN_FEATURES = INDEX32 | sum(ENCODING_BITS)
+SW_STRIPS = 1 << 5  # §2.1: a sliding-window strip pool
+KNOWN_FEATURES = INDEX32 | sum(ENCODING_BITS) | SW_STRIPS
 TYPE_CHARS = frozenset(b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789")
 
 CRITICAL = {
@@ -162,6 +166,9 @@ SEVERITY = {
     "SWPM_HEADER_BAD_SIZE": "error",
     "SWPM_HEADER_UNKNOWN_FEATURE": "error",
     "SWPM_HEADER_BAD_ENCODING": "error",
+    "SWPM_HEADER_STRIPS_NOT_SLIDING": "error",
+    "SWPM_WINDOW_MID_STRIP": "error",
+    "SWPM_WINDOW_STRIP_TRIANGLES": "error",
     "SWPM_HEADER_RESERVED_NONZERO": "warning",
     "SWPM_FILE_SIZE_MISMATCH": "error",
     "SWPM_FILE_TRAILING_BYTES": "warning",
@@ -275,6 +282,7 @@ class _Reader:
         self.entries: list[_Chunk] = []
         self.encoding: str | None = None
         self.minor = 0
+        self.strips = False
         self.W = 2
         self.idt = "<u2"
         self.buffers: dict[str, np.ndarray] = {}
@@ -355,6 +363,9 @@ class _Reader:
             self.encoding = ENCODING_BITS[enc_bits[0]]
         else:
             self.add("SWPM_HEADER_BAD_ENCODING", 20)
+        self.strips = bool(features & SW_STRIPS)
+        if self.strips and not features & (1 << 2):
+            self.add("SWPM_HEADER_STRIPS_NOT_SLIDING", 20)
         self.W = 4 if features & INDEX32 else 2
         self.idt = "<u4" if self.W == 4 else "<u2"
         if minor == 0:
@@ -529,6 +540,20 @@ class _Reader:
             rst = params.get("restart_index")
             is_int = isinstance(rst, int) and not isinstance(rst, bool)
             if rst is not None and not (is_int and 0 <= rst < 1 << 32):
+                self.add("SWPM_META_BAD_FIELD", c.offset)
+                return False
+        if self.encoding == "sliding-window":
+            # §3.5: primitive "strip" exactly when SW_STRIPS is set (missing: "list"), then an integer restart
+            # index; a restart index of a list pool is type-checked only
+            prim = params.get("primitive", "list")
+            rst = params.get("restart_index")
+            is_int = isinstance(rst, int) and not isinstance(rst, bool)
+            if (
+                prim not in ("strip", "list")
+                or (prim == "strip") != self.strips
+                or (rst is not None and not (is_int and 0 <= rst < 1 << 32))
+                or (self.strips and rst is None)
+            ):
                 self.add("SWPM_META_BAD_FIELD", c.offset)
                 return False
         return True
@@ -845,45 +870,69 @@ class _Reader:
     def sliding(self) -> None:
         c = self.chunks["WREC"]
         W, L = self.W, self.L
-        if c.length != 3 * W * L:
+        n = 4 if self.strips else 3  # §3.5: a fourth field, index_count, with SW_STRIPS
+        if c.length != n * W * L:
             self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
             return
         if not self.indx_layout():
             return
-        raw = self.view(c.offset, 3 * L).reshape(L, 3)
-        self.buffers["window_records"] = raw
+        raw = self.view(c.offset, n * L).reshape(L, n)
+        self.buffers["window_records"] = raw[:, :3]
         rows = raw.tolist()
         first = [r[0] for r in rows]
         tcount = [r[1] for r in rows]
         vcount = [r[2] for r in rows]
+        count = [r[3] if self.strips else 3 * r[1] for r in rows]
+        restart = None
+        if self.strips:
+            self.buffers["window_index_counts"] = raw[:, 3]
+            restart = self.params["restart_index"]
+            if restart < self.V:  # §3.5: a vertex; ends the checks
+                self.add("SWPM_META_BAD_FIELD", self.chunks["META"].offset)
+                return
         pool = len(self.indx)
         mark = self.rep.total
         # (a)
         k = _first_bad(tcount, lambda i, x: x != self.tc[i])
         if k is not None:
-            self.add("SWPM_WINDOW_COUNT_MISMATCH", c.offset + 3 * W * k + W)
+            self.add("SWPM_WINDOW_COUNT_MISMATCH", c.offset + n * W * k + W)
         k = _first_bad(vcount, lambda i, x: x != self.vc[i])
         if k is not None:
-            self.add("SWPM_WINDOW_COUNT_MISMATCH", c.offset + 3 * W * k + 2 * W)
+            self.add("SWPM_WINDOW_COUNT_MISMATCH", c.offset + n * W * k + 2 * W)
         k = _first_bad(tcount, lambda i, x: i > 0 and x > tcount[i - 1])
         if k is not None:
-            self.add("SWPM_WINDOW_NOT_MONOTONE", c.offset + 3 * W * k + W)
-        outside = [k for k in range(L) if first[k] + 3 * tcount[k] > pool]
+            self.add("SWPM_WINDOW_NOT_MONOTONE", c.offset + n * W * k + W)
+        outside = [k for k in range(L) if first[k] + count[k] > pool]
         for k in outside[:3]:
-            self.add("SWPM_WINDOW_OUT_OF_POOL", c.offset + 3 * W * k)
-        self.first_n(self.indx >= self.V, self.indx_off, W)
+            self.add("SWPM_WINDOW_OUT_OF_POOL", c.offset + n * W * k)
+        self.first_n(self.above(self.indx, self.V, restart), self.indx_off, W)
+        if self.strips and not outside:
+            k = _first_bad(first, lambda i, x: count[i] > 0 and x > 0 and int(self.indx[x - 1]) != restart)
+            if k is not None:
+                self.add("SWPM_WINDOW_MID_STRIP", c.offset + n * W * k)
         if self.rep.total > mark:
             return
         # (b) the prefix property: the lowest offending INDX element
         worst = None
         for k in range(L):
-            win = self.indx[first[k] : first[k] + 3 * tcount[k]]
-            bad = np.flatnonzero(win >= vcount[k])
+            win = self.indx[first[k] : first[k] + count[k]]
+            bad = np.flatnonzero(self.above(win, vcount[k], restart))
             if len(bad):
                 pos = first[k] + int(bad[0])
                 worst = pos if worst is None else min(worst, pos)
         if worst is not None:
             self.add("SWPM_PREFIX_VIOLATION", self.indx_off + W * worst)
+        if self.strips:
+            # each window decoded on its own: the strips between its restart indices (§3.7's rule)
+            for k in range(L):
+                win = self.indx[first[k] : first[k] + count[k]].astype(np.int64)
+                cuts = np.flatnonzero(win == restart).tolist()
+                got = 0
+                for a, b in zip([-1, *cuts], [*cuts, len(win)], strict=True):
+                    got += self.triangles(win[a + 1 : b], False, restart)
+                if got != tcount[k]:
+                    self.add("SWPM_WINDOW_STRIP_TRIANGLES", c.offset + n * W * k + 3 * W)
+                    return
 
     # -------------------------------------------------------------- skip-strip
     def skip_strip(self) -> None:
@@ -1195,6 +1244,8 @@ class _Reader:
             return 0, len(self.indx)
         if self.encoding == "sliding-window":
             first, tcount, _v = (int(x) for x in self.buffers["window_records"][k])
+            if "window_index_counts" in self.buffers:
+                return first, first + int(self.buffers["window_index_counts"][k])
             return first, first + 3 * tcount
         lev = self.level_of(k)
         return self.level_starts[lev], self.level_starts[lev + 1]

@@ -265,6 +265,15 @@ def _decode_lods(data: bytes) -> tuple[dict[str, np.ndarray], list[np.ndarray]]:
     b = {k: np.asarray(v).astype(np.int64) for k, v in rd.buffers.items() if np.asarray(v).dtype.kind in "iu"}
     L, V = len(b["vertex_counts"]), len(rd.buffers["points"])
     enc = rd.encoding
+    if enc == "sliding-window" and "window_index_counts" in b:  # a strip pool (SW_STRIPS, §3.5)
+        restart = rd.params["restart_index"]
+        out = []
+        for (f, _t, _v), n in zip(b["window_records"], b["window_index_counts"], strict=True):
+            tris = _strip_triangles(b["index_pool"][f : f + n], "strip", restart)
+            out.append(
+                tris[(tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])]
+            )
+        return b, out
     if enc == "sliding-window":
         return b, [b["index_pool"][f : f + 3 * t].reshape(-1, 3) for f, t, _v in b["window_records"]]
     cc = b["collapse_change_count"]

@@ -49,6 +49,9 @@ choice, what was measured and what was tried and dropped):
   levels share storage, where that costs fewer pool triangles per collapse
   (:func:`.sw_cluster.cluster_patches`; with ``inner_vertices > 1`` patches of several adjacent positions,
   :func:`.sw_cluster.cluster_components`).
+* ``primitive="strip"`` (default ``"list"``): the pool stored as triangle strips, cut at every window's ends
+  and joined by restart indices, so a window is still one range, one strip draw (:mod:`.sw_strips`;
+  ``strip_window``: the stripifier's look-ahead, default 4, as skip-strip's).
 
 Every ordering is for a FIFO cache of ``cache_size`` entries (default 16).
 
@@ -87,7 +90,14 @@ from typing import Any
 
 import numpy as np
 
-from ..encodings import MAX_ORDER_PASSES, MAX_ORDER_REACH, SLIDING_WINDOW_PARAMS, SWAP_MAX_DEVIATION
+from ..encodings import (
+    MAX_ORDER_PASSES,
+    MAX_ORDER_REACH,
+    MAX_STRIP_WINDOW,
+    PRIMITIVES,
+    SLIDING_WINDOW_PARAMS,
+    SWAP_MAX_DEVIATION,
+)
 from ..errors import BuildError
 from ..mesh import Mesh
 from ..simplify import make_state, mesh_topology
@@ -103,6 +113,7 @@ from .screen import screen_space_error
 from .sw_assemble import COARSEST_COPY_MAX_SHARE, _assemble
 from .sw_forsyth import _build_forsyth
 from .sw_mesh import SlidingWindowProgressiveMesh
+from .sw_strips import use_strips
 from .sw_swaps import optimize_mesh_connectivity
 
 __all__ = [
@@ -707,6 +718,8 @@ def build_sliding_window(
     order_passes: int | None = None,
     order_reach: int = 2,
     coarsest_copy: bool = True,
+    primitive: str = "list",
+    strip_window: int = 4,
     boundary_weight: float = 8.0,
     seam_weight: float = 2.0,
 ) -> SlidingWindowProgressiveMesh:
@@ -744,6 +757,10 @@ def build_sliding_window(
         raise BuildError("order_passes > 0 needs builder='topology' without cluster")
     if not _is_integer(order_reach) or not 1 <= order_reach <= MAX_ORDER_REACH:
         raise BuildError(f"order_reach must be an integer in [1, {MAX_ORDER_REACH}], got {order_reach!r}")
+    if primitive not in PRIMITIVES:
+        raise BuildError(f"primitive must be one of {PRIMITIVES}, got {primitive!r}")
+    if not _is_integer(strip_window) or not 1 <= strip_window <= MAX_STRIP_WINDOW:
+        raise BuildError(f"strip_window must be an integer in [1, {MAX_STRIP_WINDOW}], got {strip_window!r}")
     if optimize_connectivity:
         mesh = optimize_mesh_connectivity(mesh, max_deviation=swap_max_deviation)
     topo = mesh_topology(mesh)
@@ -788,4 +805,8 @@ def build_sliding_window(
             geometric = replay_steps(surface, fresh, info[:, 1], info[:, 2], info[:, 0])
     pm = _assemble(mesh, gtris, levels, recs, info, int(cache_size), bool(coarsest_copy), geometric)
     pm.params["order_passes"] = int(order_passes)  # what ran (None resolved)
+    if primitive == "strip":
+        use_strips(pm, int(strip_window))
+    else:
+        pm.params.update(primitive="list", restart_index=None, strip_window=int(strip_window))
     return pm

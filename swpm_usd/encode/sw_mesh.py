@@ -2,6 +2,8 @@
 window): one static ``index_pool`` and one ``window_records`` row per LOD (Forsyth's ``SlidingWindowRecord``:
 first index offset, triangle count, vertex count), the LOD look-ups on them, the memory it costs and its
 buffers. The builders (:mod:`.slidingwindow`) make it; :mod:`.sw_assemble` fills it from the levels.
+With ``params["primitive"] == "strip"`` the pool is triangle strips joined by ``params["restart_index"]``
+(:mod:`.sw_strips`): a window is ``window_index_counts[k]`` indices from its first, drawn as one strip.
 """
 
 from __future__ import annotations
@@ -11,10 +13,12 @@ from typing import Any
 
 import numpy as np
 
+from ..encodings import PRIMITIVES
 from ..errors import BuildError
 from ..simplify import CollapseSequence
 from .base import ProgressiveMesh, lod_at_error, register
 from .screen import error_for_pixels
+from .strips import decode_strip
 from .vanilla import index_size
 
 
@@ -23,7 +27,9 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
     """Sliding-window VIPM: a static ``index_pool`` and one ``window_records`` row per LOD.
 
     ``window_records[k] = (first index offset, triangle count, vertex count)``; LOD ``k`` draws
-    ``index_pool[first : first + 3 * count]`` and only vertices ``[0, vertex count)``.
+    ``index_pool[first : first + window_index_counts[k]]`` (``3 * count`` indices of a list pool; a strip
+    pool, ``params["primitive"] == "strip"``, as one strip with ``restart_index``) and only vertices
+    ``[0, vertex count)``. The triangle count is the window's non-degenerate triangles either way.
     """
 
     encoding = "sliding-window"
@@ -38,12 +44,28 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
         index_pool: np.ndarray,
         window_records: np.ndarray,
         params: Mapping[str, Any] | None = None,
+        window_index_counts: np.ndarray | None = None,
     ) -> None:
         super().__init__(points, attributes, vertex_counts, triangle_counts, lod_errors, params)
         self.index_pool = np.asarray(index_pool).reshape(-1)
         self.window_records = np.asarray(window_records).reshape(-1, 3)
         if self.window_records.shape[0] != self.lod_count:
             raise BuildError("window_records needs one row per LOD", code="BUILD_FAILED")
+        # a pool without the parameter (a file or stage written before strips) is a list pool
+        self.primitive: str = str(self.params.get("primitive", "list"))
+        if self.primitive not in PRIMITIVES:
+            raise BuildError(f"primitive must be one of {PRIMITIVES}, got {self.primitive!r}")
+        if self.primitive == "strip":
+            ri = self.params.get("restart_index")
+            if ri is None or window_index_counts is None:
+                raise BuildError("a strip pool needs params['restart_index'] and window_index_counts")
+            self.restart_index = int(ri)
+            #: every window's number of pool indices (3 x its triangle count for a list pool)
+            self.window_index_counts = np.asarray(window_index_counts).reshape(-1)
+        else:
+            self.window_index_counts = (3 * self.window_records[:, 1].astype(np.int64)).astype(np.uint32)
+        if self.window_index_counts.shape != (self.lod_count,):
+            raise BuildError("window_index_counts needs one count per LOD", code="BUILD_FAILED")
         #: build-time extras (not stored in buffers): the builder's own collapse sequence, the number of its
         #: steps behind every LOD, the source vertex of every stored vertex and the level of every LOD
         self.collapse_sequence: CollapseSequence | None = None
@@ -57,9 +79,21 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
         r = self.window_records[self._check_lod(k)]
         return int(r[0]), int(r[1]), int(r[2])
 
+    def window_indices(self, k: int) -> np.ndarray:
+        """The pool indices LOD ``k`` draws (a list's ``3 x`` triangle count, or one strip), a view."""
+        first = int(self.window_records[self._check_lod(k), 0])
+        return self.index_pool[first : first + int(self.window_index_counts[k])]
+
     def triangles_at(self, k: int) -> np.ndarray:
+        if self.primitive == "strip":  # decoded: the non-degenerate triangles in strip order, winding kept
+            return decode_strip(self.window_indices(k), self.restart_index).astype(np.int32)
         first, count, _ = self.window(k)
         return self.index_pool[first : first + 3 * count].reshape(-1, 3).astype(np.int32)
+
+    def draw_stream(self, k: int) -> tuple[str, np.ndarray]:
+        if self.primitive == "strip":
+            return "strip", self.window_indices(k)
+        return super().draw_stream(k)
 
     @property
     def level_count(self) -> int:
@@ -67,10 +101,19 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
         LOD's copy, ``coarsest_copy``, counts as a level)."""
         return int(np.unique(self.lod_level).shape[0]) if self.lod_level is not None else 0
 
+    def _record(self, k: int) -> np.ndarray:
+        """LOD ``k``'s window record; a strip pool's with its index count appended (what a draw needs: the
+        triangle count alone would draw ``3 x`` it list indices)."""
+        if self.primitive == "strip":
+            row = np.r_[self.window_records[k], self.window_index_counts[k]]
+            return row.astype(self.window_records.dtype)
+        return self.window_records[k]
+
     def record_for_triangles(self, target: int) -> np.ndarray:
         """The window record of the finest LOD drawing at most ``target`` triangles
-        (:meth:`~.ProgressiveMesh.lod_for_triangles`: NaN or a negative target is a :class:`ValueError`)."""
-        return self.window_records[self.lod_for_triangles(target)]
+        (:meth:`~.ProgressiveMesh.lod_for_triangles`: NaN or a negative target is a :class:`ValueError`).
+        A strip pool's records (here and below) have a 4th field, the window's index count."""
+        return self._record(self.lod_for_triangles(target))
 
     def record_for_error(self, max_error: float, lod_errors: np.ndarray | None = None) -> np.ndarray:
         """The window record of the coarsest LOD whose error (``lod_errors``, default this mesh's,
@@ -78,7 +121,7 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
         ``lod_errors`` not one per LOD is a :class:`ValueError` naming it (a shorter one never reached the
         last LODs, a longer one picked past them, clamped to the last, without a word)."""
         errs = self._checked_lod_errors(lod_errors)
-        return self.window_records[min(lod_at_error(errs, max_error), self.lod_count - 1)]
+        return self._record(min(lod_at_error(errs, max_error), self.lod_count - 1))
 
     def _checked_lod_errors(self, lod_errors: np.ndarray | None) -> np.ndarray:
         """``lod_errors`` one per LOD (this mesh's when None), else a :class:`ValueError`; kept in their own
@@ -104,15 +147,20 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
         e = error_for_pixels(max_pixels, distance, fov_y, viewport_height)
         if e is None:  # (the camera at or inside the object: LOD 0, whatever the errors say)
             self._checked_lod_errors(lod_errors)
-            return self.window_records[0]
+            return self._record(0)
         return self.record_for_error(e, lod_errors)
 
     # -- memory --------------------------------------------------------------------------------------------
     @property
     def global_bytes(self) -> int:
-        isz = index_size(max(self.vertex_count - 1, 0))
-        # Forsyth's record: 32-bit first index, 16-bit counts (32-bit when they do not fit)
-        wide = int(self.window_records[:, 1:].max(initial=0)) > 0xFFFF
+        if self.primitive == "strip":  # (the restart index is the index type's largest value)
+            isz = 2 if self.restart_index <= 0xFFFF else 4
+            # a strip draw's record: 32-bit first index, 16-bit index and vertex counts
+            wide = max(int(self.window_index_counts.max(initial=0)), int(self.vertex_counts.max())) > 0xFFFF
+        else:
+            isz = index_size(max(self.vertex_count - 1, 0))
+            # Forsyth's record: 32-bit first index, 16-bit counts (32-bit when they do not fit)
+            wide = int(self.window_records[:, 1:].max(initial=0)) > 0xFFFF
         rec = 12 if wide else 8
         return int(self.vertex_bytes() + isz * self.index_pool.shape[0] + rec * self.lod_count)
 
@@ -122,10 +170,13 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
 
     # -- buffers -------------------------------------------------------------------------------------------
     def buffers(self) -> dict[str, np.ndarray]:
-        return {
+        out = {
             "index_pool": self.index_pool.astype(np.uint32, copy=False),
             "window_records": self.window_records.astype(np.uint32, copy=False),
         }
+        if self.primitive == "strip":  # (a list pool's are 3 x its triangle counts: not stored)
+            out["window_index_counts"] = self.window_index_counts.astype(np.uint32, copy=False)
+        return out
 
     @classmethod
     def _from_buffers(cls, points, attributes, vertex_counts, triangle_counts, lod_errors, buffers, params):
@@ -138,4 +189,5 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
             index_pool=buffers["index_pool"],
             window_records=buffers["window_records"],
             params=params,
+            window_index_counts=buffers.get("window_index_counts"),
         )

@@ -89,6 +89,13 @@ _ENTRIES = [
         "20 (the features field)",
     ),
     Entry(
+        "SWPM_HEADER_STRIPS_NOT_SLIDING",
+        ERROR,
+        "feature bits {bits:#x} set SW_STRIPS without SLIDING_WINDOW",
+        "The SW_STRIPS feature bit (0x20) is allowed only with the sliding-window encoding.",
+        "20 (the features field)",
+    ),
+    Entry(
         "SWPM_HEADER_RESERVED_NONZERO",
         WARNING,
         "reserved header field {field} is {value}, expected 0",
@@ -278,7 +285,9 @@ _ENTRIES = [
         "A metadata field has the wrong type.",
         "META payload, for every field: params not an object (ends the checks), then encoding, then "
         "skip-strip params.primitive or params.restart_index (each ends the checks; a strips' restart "
-        "index below V is found with the level table)",
+        "index below V is found with the level table), or sliding-window params.primitive or "
+        "params.restart_index disagreeing with the SW_STRIPS bit (each ends the checks; a strip pool's "
+        "restart index below V is found in sliding-window stage (a), before the windows)",
     ),
     Entry("SWPM_LOD_EMPTY", ERROR, "LODS has no LOD", "At least one LOD is required.", "LODS payload"),
     Entry(
@@ -351,6 +360,21 @@ _ENTRIES = [
         "A window's counts differ from the LOD table.",
         "the differing field of window k, triangle_count (window + W) or vertex_count (window + 2 W); "
         "first differing window per field",
+    ),
+    Entry(
+        "SWPM_WINDOW_MID_STRIP",
+        ERROR,
+        "window of LOD {lod} starts at {start}, inside a strip",
+        "A strip pool's window (SW_STRIPS) must start at the pool's start or right after a restart index, "
+        "so that it draws whole strips with their parity.",
+        "the first_index field of window k, the first such window; one problem",
+    ),
+    Entry(
+        "SWPM_WINDOW_STRIP_TRIANGLES",
+        ERROR,
+        "window of LOD {lod} decodes to {decoded} triangles, its triangle_count is {expected}",
+        "A strip pool's window (SW_STRIPS) must decode to exactly triangle_count non-degenerate triangles.",
+        "the index_count field of window k (window + 3 W), the first such window; one problem",
     ),
     Entry(
         "SWPM_PREFIX_VIOLATION",

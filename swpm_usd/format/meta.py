@@ -166,5 +166,28 @@ def _meta(p: _Parsed, rep: Report) -> None:
             rep.add("SWPM_META_BAD_FIELD", c.offset, field="params.restart_index", reason="not null or a u32")
             p.content_ok = False
             return
+    if p.encoding == "sliding-window":
+        # a strip pool is the SW_STRIPS bit and params.primitive "strip" with an integer restart index,
+        # both or neither (spec 3.5; a missing primitive is "list", as every file before strips)
+        params = meta.get("params", {})
+        strips = bool(p.features & L.FEATURE_SW_STRIPS)
+        primitive = params.get("primitive", "list")
+        restart = params.get("restart_index")
+        problem = None
+        if primitive not in ("strip", "list"):
+            problem = "params.primitive", 'not "strip" or "list"'
+        elif (primitive == "strip") != strips:
+            problem = (
+                "params.primitive",
+                f"{primitive!r} but the SW_STRIPS feature bit is {'set' if strips else 'clear'}",
+            )
+        elif restart is not None and (type(restart) is not int or not 0 <= restart <= 0xFFFFFFFF):
+            problem = "params.restart_index", "not null or a u32"
+        elif strips and restart is None:
+            problem = "params.restart_index", "null in a strip pool"
+        if problem is not None:
+            rep.add("SWPM_META_BAD_FIELD", c.offset, field=problem[0], reason=problem[1])
+            p.content_ok = False
+            return
 
     p.meta = meta

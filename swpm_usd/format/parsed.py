@@ -38,6 +38,7 @@ class _Parsed:
     encoding: str | None = None
     width: int = 4
     minor: int = 0
+    features: int = 0
     chunks: dict[bytes, _Chunk] = field(default_factory=dict)
     order: list[_Chunk] = field(default_factory=list)
     meta: dict[str, Any] | None = None

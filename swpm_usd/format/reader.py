@@ -108,6 +108,9 @@ def _structure(buf: np.ndarray, rep: Report, check_crc: bool) -> _Parsed | None:
         rep.add("SWPM_HEADER_BAD_ENCODING", 20, bits=feats)
     else:
         p.encoding = encs[0]
+    p.features = feats
+    if feats & L.FEATURE_SW_STRIPS and not feats & L.FEATURE_SLIDING_WINDOW:
+        rep.add("SWPM_HEADER_STRIPS_NOT_SLIDING", 20, bits=feats)
     p.width = 4 if feats & L.FEATURE_INDEX32 else 2
     if p.minor == L.VERSION_MINOR:  # newer minors may use reserved fields
         for name, off in (("reserved0", 28), ("reserved1", 52)):

@@ -97,6 +97,19 @@ def fan_sliding(**over: Any) -> RawProgressiveMesh:
     return _fan("sliding-window", bufs, {"cache_size": 16}, **over)
 
 
+def fan_sliding_strips(**over: Any) -> RawProgressiveMesh:
+    """:func:`fan_sliding`'s pool as strips (``SW_STRIPS``, format.md 3.5): window 0 is the fan as one strip
+    with two swaps (8 indices, 4 triangles), then a restart index, then window 1 (4 indices, 2 triangles)."""
+    R = 0xFFFF
+    bufs = {
+        "index_pool": [1, 4, 0, 4, 3, 4, 2, 1, R, 1, 2, 0, 3],
+        "window_records": [[0, 4, 5], [9, 2, 4]],
+        "window_index_counts": [8, 4],
+    }
+    params = {"cache_size": 16, "primitive": "strip", "restart_index": R}
+    return _fan("sliding-window", bufs, params, **over)
+
+
 def fan_skip(**over: Any) -> RawProgressiveMesh:
     bufs = {
         "level_first_lod": [0],
@@ -401,6 +414,11 @@ def _valid() -> dict[str, tuple[bytes, str]]:
         ),
         **_review_valid(),
         **_blind_valid(),
+        "sliding-window-strips": (
+            _write(fan_sliding_strips()),
+            "sliding window, the pool as strips (SW_STRIPS): WREC rows of four fields, two windows each"
+            " starting a strip, swaps not counted",
+        ),
     }
 
 
@@ -540,7 +558,65 @@ def _invalid(base: bytes) -> dict[str, tuple[bytes, str]]:
     dup = base.replace(b'"source_digest":null', b'"encoding":"vanilla"')
     out["meta-duplicate-key"] = (fix_crcs(dup), "META repeats the key encoding (not valid JSON: RFC 8259)")
     _new_invalid(base, out)
+    _strips_invalid(base, out)
     return out
+
+
+def _strips_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
+    """A sliding window's strip pool (format.md 3.5, ``SW_STRIPS``): each rejection with its code."""
+    feats = struct.unpack_from("<I", base, 20)[0]
+    out["strips-bit-without-sliding"] = (
+        patch(base, 20, "<I", feats | L.FEATURE_SW_STRIPS),
+        "a vanilla file with the SW_STRIPS feature bit: SWPM_HEADER_STRIPS_NOT_SLIDING",
+    )
+    out["sliding-strips-window-mid-strip"] = (
+        _write(
+            fan_sliding_strips(
+                buffers={"window_records": [[0, 4, 5], [10, 2, 4]], "window_index_counts": [8, 3]}
+            )
+        ),
+        "window 1 starts one index after the restart index, inside its strip: SWPM_WINDOW_MID_STRIP",
+    )
+    out["sliding-strips-triangle-count"] = (
+        _write(fan_sliding_strips(buffers={"window_index_counts": [7, 4]})),
+        "window 0's index_count 7 leaves its last triangle out: it decodes to 3 triangles, not 4"
+        " (SWPM_WINDOW_STRIP_TRIANGLES at its index_count field)",
+    )
+    out["sliding-strips-window-outside-pool"] = (
+        _write(fan_sliding_strips(buffers={"window_index_counts": [8, 5]})),
+        "window 1 (index_count 5) ends one index past the pool: SWPM_WINDOW_OUT_OF_POOL",
+    )
+    listed = fan_sliding_strips()
+    listed.params["primitive"] = "list"
+    out["sliding-strips-primitive-list"] = (
+        _write(listed),
+        'the SW_STRIPS bit with params.primitive "list": SWPM_META_BAD_FIELD, the encoding\'s checks do not'
+        " run",
+    )
+    no_restart = fan_sliding_strips()
+    no_restart.params["restart_index"] = None
+    out["sliding-strips-restart-null"] = (
+        _write(no_restart),
+        "the SW_STRIPS bit with params.restart_index null: SWPM_META_BAD_FIELD",
+    )
+    low = fan_sliding_strips()
+    low.params["restart_index"] = 3
+    out["sliding-strips-restart-below-vertex-count"] = (
+        _write(low),
+        "params.restart_index 3, a vertex of the 5: SWPM_META_BAD_FIELD in stage (a), the checks end",
+    )
+    stripped = fan_sliding()
+    stripped.params.update(primitive="strip", restart_index=0xFFFF)
+    out["sliding-list-primitive-strip"] = (
+        _write(stripped),
+        'a list pool (no SW_STRIPS bit) whose params.primitive is "strip": SWPM_META_BAD_FIELD',
+    )
+    three = _write(fan_sliding_strips())
+    _, woff, wlen = chunk(three, L.WREC)
+    out["sliding-strips-wrec-three-fields"] = (
+        relayout(three, {L.WREC: three[woff : woff + wlen][: 3 * 2 * 2]}),
+        "the SW_STRIPS bit with WREC rows of three fields (12 bytes for 2 LODs, u16): SWPM_CHUNK_BAD_LENGTH",
+    )
 
 
 def _new_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:

@@ -117,7 +117,9 @@ def needed_index_ranges(encoding: str, buffers: dict[str, np.ndarray], lods: int
     """(L, 2) element range of INDX each LOD needs (spec: "Streaming map")."""
     if encoding == "sliding-window":
         w = np.asarray(buffers["window_records"], np.int64).reshape(-1, 3)
-        return np.stack([w[:, 0], w[:, 0] + 3 * w[:, 1]], axis=1)
+        n = buffers.get("window_index_counts")  # a strip pool's windows (spec 3.5)
+        n = 3 * w[:, 1] if n is None else np.asarray(n, np.int64).reshape(-1)
+        return np.stack([w[:, 0], w[:, 0] + n], axis=1)
     if encoding == "skip-strip":
         first = np.asarray(buffers["level_first_lod"], np.int64)
         start = np.asarray(buffers["level_index_start"], np.int64)
@@ -223,9 +225,10 @@ def encode_bytes(
         payload[L.VREC] = _records([np.asarray(bufs[c]) for c in cols], bufs["collapse_change_offsets"], it)
         index = bufs["indices"]
     elif enc == "sliding-window":
-        payload[L.WREC] = np.ascontiguousarray(
-            np.asarray(bufs["window_records"]).reshape(-1, 3), it
-        ).tobytes()
+        rec = np.asarray(bufs["window_records"]).reshape(-1, 3)
+        if "window_index_counts" in bufs:  # a strip pool: index_count is WREC's 4th field (spec 3.5)
+            rec = np.c_[rec, np.asarray(bufs["window_index_counts"]).reshape(-1)]
+        payload[L.WREC] = np.ascontiguousarray(rec, it).tobytes()
         index = bufs["index_pool"]
     elif enc == "mixed":
         payload[L.RCNT] = np.ascontiguousarray(bufs["lod_record_counts"], it).tobytes()
@@ -301,6 +304,8 @@ def encode_bytes(
         out[offs[t] : offs[t] + len(p)] = p
         entries[i] = (t, L.CHUNK_CRITICAL if crit[t] else 0, offs[t], len(p), zlib.crc32(p, zlib.crc32(t)), 0)
     features = L.ENCODING_FEATURES[enc] | (L.FEATURE_INDEX32 if W == 4 else 0)
+    if enc == "sliding-window" and "window_index_counts" in bufs:
+        features |= L.FEATURE_SW_STRIPS
     head = np.zeros(1, L.HEADER)
     head[0] = (
         L.MAGIC,

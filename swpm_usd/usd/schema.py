@@ -60,8 +60,9 @@ PROPERTIES: tuple[Prop, ...] = (
         "swpm:indexWidth",
         "int",
         "4",
-        "Bytes per index a GPU index buffer needs (2 while every vertex id fits in 16 bits, else 4). USD "
-        "always stores indices as uint[]; this says how a runtime should upload them.",
+        "Bytes per index a GPU index buffer needs (2 while every vertex id and a strips' restart index fit "
+        "in 16 bits, else 4). USD always stores indices as uint[]; this says how a runtime should upload "
+        "them.",
     ),
     Prop(
         "swpm:vertexCounts",
@@ -138,13 +139,26 @@ PROPERTIES: tuple[Prop, ...] = (
     ),
     Prop("swpm:lodRecordCounts", "uint[]", "[]", "Per LOD: collapse records applied to reach LOD k."),
     Prop("swpm:indices", "uint[]", "[]", "vanilla: LOD-0 triangle list, triangles in bin order."),
-    Prop("swpm:indexPool", "uint[]", "[]", "sliding-window: the static triangle-list index pool."),
+    Prop(
+        "swpm:indexPool",
+        "uint[]",
+        "[]",
+        "sliding-window: the static index pool, triangle lists or (params primitive 'strip') strips.",
+    ),
     Prop(
         "swpm:windowRecords",
         "uint[]",
         "[]",
         "sliding-window: per LOD (first index offset, triangle count, vertex count), flattened to 3L "
-        "entries (USD has no uint3[]). The window of LOD k is indexPool[first, first + 3 * count).",
+        "entries (USD has no uint3[]). The window of LOD k is indexPool[first, first + 3 * count) (a "
+        "strip pool: windowIndexCounts[k] indices from first).",
+    ),
+    Prop(
+        "swpm:windowIndexCounts",
+        "uint[]",
+        "[]",
+        "sliding-window with params primitive 'strip' only: per LOD, the number of indexPool entries its "
+        "window draws as one strip (restart index params restart_index).",
     ),
     Prop("swpm:levelFirstLod", "uint[]", "[]", "skip-strip: first LOD drawn from each level."),
     Prop("swpm:levelIndexStart", "uint[]", "[]", "skip-strip: CSR start of each level in levelIndices."),

@@ -285,15 +285,35 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
                 f"swpm:windowRecords has {w.shape[0]} rows for {L} LODs",
                 attrs=("swpm:windowRecords", "swpm:vertexCounts"),
             )
-        end = w[:, 0] + 3 * w[:, 1]
-        out = end > pool.shape[0]
-        if out.any():
-            k = int(np.argmax(out))
+        # a strip pool's windows are index counts long (spec/format.md 3.5), a list's 3 x its triangles; a
+        # strip prim without one count per window is reported as such (measured as a list pool instead, its
+        # windows were said to lie outside indexPool, which named the wrong attribute)
+        strip = params.get("primitive") == "strip"
+        n = buffers["window_index_counts"].reshape(-1) if strip and "window_index_counts" in buffers else None
+        if strip and n is None:
             c.add(
-                "SWPM_USD_WINDOW_RANGE",
-                f"window of LOD {k} [{int(w[k, 0])}, {int(end[k])}) outside indexPool of {pool.shape[0]}",
-                attrs=("swpm:windowRecords", "swpm:indexPool"),
+                "SWPM_USD_MISSING",
+                "swpm:windowIndexCounts has no value; swpm:params primitive 'strip' needs one index count "
+                "per window",
+                attrs=("swpm:params",),
             )
+        elif n is not None and n.shape[0] != w.shape[0]:
+            c.add(
+                "SWPM_USD_STRIDE",
+                f"swpm:windowIndexCounts has {n.shape[0]} entries for {w.shape[0]} windows",
+                attrs=("swpm:windowIndexCounts", "swpm:windowRecords"),
+            )
+        else:  # (windows measurable: a list pool, or a strip pool with one index count per window)
+            end = w[:, 0] + (3 * w[:, 1] if n is None else n)
+            out = end > pool.shape[0]
+            if out.any():
+                k = int(np.argmax(out))
+                c.add(
+                    "SWPM_USD_WINDOW_RANGE",
+                    f"window of LOD {k} [{int(w[k, 0])}, {int(end[k])}) outside indexPool of {pool.shape[0]}",
+                    attrs=("swpm:windowRecords", "swpm:indexPool")
+                    + (("swpm:windowIndexCounts",) if n is not None else ()),
+                )
         if (w[:, 2] > V).any():
             k = int(np.argmax(w[:, 2] > V))
             c.add(

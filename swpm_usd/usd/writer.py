@@ -89,7 +89,8 @@ def swpm_values(pm: ProgressiveMesh) -> dict[str, tuple[Sdf.ValueTypeName, Any]]
     out: dict[str, tuple[Sdf.ValueTypeName, Any]] = {
         "swpm:formatVersion": (T.Int, FORMAT_VERSION),
         "swpm:encoding": (T.Token, pm.encoding),
-        "swpm:indexWidth": (T.Int, 2 if pm.vertex_count - 1 <= 0xFFFF else 4),
+        # (a strips' restart index is an index too: 0xFFFFFFFF at exactly 65,536 vertices)
+        "swpm:indexWidth": (T.Int, 2 if max(pm.vertex_count - 1, pm.restart_index or 0) <= 0xFFFF else 4),
         "swpm:vertexCounts": to_vt("swpm:vertexCounts", pm.vertex_counts),
         "swpm:triangleCounts": to_vt("swpm:triangleCounts", pm.triangle_counts),
         "swpm:lodErrors": to_vt("swpm:lodErrors", pm.lod_errors),

@@ -1,0 +1,390 @@
+"""The sliding-window pool stored as triangle strips (``primitive="strip"``, :mod:`.sw_strips`): every
+window of a strip build is one range of the pool, starting at the pool's start or after a restart index,
+and decodes to the list build's window (oriented triangle multisets); the counts, the vertex prefix, the
+buffers and the parameters' checks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import shared_mesh
+
+import swpm_usd
+import swpm_usd.encode.slidingwindow
+from swpm_usd.encode.strips import decode_strip
+from swpm_usd.encode.sw_strips import strip_pool
+from swpm_usd.errors import BuildError
+
+OPTIONS = {"defaults": {}, "cluster-swap": {"cluster": True, "optimize_connectivity": True}}
+
+
+def _canonical(tris: np.ndarray) -> np.ndarray:
+    """Triangles rotated so the smallest index comes first (winding kept), rows sorted."""
+    t = np.asarray(tris, np.int64).reshape(-1, 3)
+    r = np.argmin(t, axis=1)
+    t = np.take_along_axis(t, (r[:, None] + np.arange(3)[None, :]) % 3, axis=1)
+    return t[np.lexsort(t.T[::-1])]
+
+
+@pytest.fixture(scope="module", params=["suzanne", "beetle", "spot"])
+def builds(request):
+    mesh = shared_mesh(f"{request.param}.obj")
+    out = {}
+    for name, kw in OPTIONS.items():
+        lst = swpm_usd.build(mesh, encoding="sliding-window", **kw)
+        strip = swpm_usd.build(mesh, encoding="sliding-window", primitive="strip", **kw)
+        out[name] = (lst, strip)
+    return out
+
+
+@pytest.mark.parametrize("option", list(OPTIONS))
+def test_every_window_decodes_to_the_list_window(builds, option) -> None:
+    lst, strip = builds[option]
+    assert strip.primitive == "strip" and lst.primitive == "list"
+    assert strip.index_pool.shape[0] < lst.index_pool.shape[0]  # (what strips are for)
+    assert np.array_equal(strip.window_records[:, 1:], lst.window_records[:, 1:])
+    for k in range(strip.lod_count):
+        tris = strip.triangles_at(k)
+        assert tris.shape[0] == strip.window_records[k, 1] == lst.triangle_count_at(k)
+        assert np.array_equal(_canonical(tris), _canonical(lst.triangles_at(k))), f"LOD {k}"
+
+
+@pytest.mark.parametrize("option", list(OPTIONS))
+def test_windows_are_strip_ranges_after_a_restart(builds, option) -> None:
+    lst, strip = builds[option]
+    pool = strip.index_pool.astype(np.int64)
+    rv = strip.params["restart_index"]
+    assert rv == strip.restart_index == 0xFFFF  # (every shared mesh has fewer than 65,535 vertices)
+    first = strip.window_records[:, 0].astype(np.int64)
+    count = strip.window_index_counts.astype(np.int64)
+    assert np.array_equal(lst.window_index_counts, 3 * lst.window_records[:, 1])
+    assert np.all(first + count <= pool.shape[0])
+    live = count > 0
+    assert np.array_equal(live, strip.window_records[:, 1] > 0)  # (a window of triangles draws indices)
+    # a window starts at the pool's start or right after a restart, and ends at the pool's end or before one
+    assert np.all((first[live] == 0) | (pool[np.maximum(first[live] - 1, 0)] == rv))
+    end = first[live] + count[live]
+    assert np.all((end == pool.shape[0]) | (pool[np.minimum(end, pool.shape[0] - 1)] == rv))
+    for k in range(strip.lod_count):
+        kind, stream = strip.draw_stream(k)
+        assert kind == "strip" and stream.shape[0] == count[k]
+        ids = stream[stream != rv]
+        # the vertex prefix: the restart index is exempt
+        assert ids.size == 0 or int(ids.max()) < strip.vertex_count_at(k)
+        rec = strip.record_for_triangles(int(strip.triangle_counts[k]))
+        assert rec.shape == (4,) and rec[3] == count[strip.lod_for_triangles(int(strip.triangle_counts[k]))]
+
+
+def test_strip_buffers_round_trip_and_memory(builds) -> None:
+    lst, pm = builds["defaults"]
+    b = pm.buffers()
+    assert set(b) == {"index_pool", "window_records", "window_index_counts"}
+    assert set(lst.buffers()) == {"index_pool", "window_records"}
+    pm2 = swpm_usd.from_buffers(
+        "sliding-window",
+        pm.points,
+        pm.attributes,
+        pm.vertex_counts,
+        pm.triangle_counts,
+        pm.lod_errors,
+        b,
+        params=pm.params,
+    )
+    for k in (0, pm.lod_count // 3, pm.lod_count - 1):
+        assert np.array_equal(pm2.triangles_at(k), pm.triangles_at(k))
+    assert pm.params["primitive"] == "strip" and pm.params["strip_window"] == 4
+    assert lst.params["primitive"] == "list" and lst.params["restart_index"] is None
+    assert pm.global_bytes == pm.vertex_bytes() + 2 * pm.index_pool.shape[0] + 8 * pm.lod_count
+    with pytest.raises(BuildError, match="window_index_counts"):
+        swpm_usd.from_buffers(
+            "sliding-window",
+            pm.points,
+            pm.attributes,
+            pm.vertex_counts,
+            pm.triangle_counts,
+            pm.lod_errors,
+            {k: v for k, v in b.items() if k != "window_index_counts"},
+            params=pm.params,
+        )
+
+
+def test_strip_pool_by_hand() -> None:
+    """Two windows of a four-triangle fan pool: cut at 0, 1 (window 1's start), 4; window 0 spans both pieces
+    across the restart between them."""
+    pool = np.array([0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 5], np.uint32)
+    rec = np.array([[0, 4, 6], [3, 3, 6]], np.uint32)
+    strips, out, counts, rv = strip_pool(pool, rec, 6)
+    assert rv == 0xFFFF
+    assert strips[:4].tolist() == [0, 1, 2, rv] and out[1, 0] == 4
+    assert out[:, 1].tolist() == [4, 3] and out[:, 2].tolist() == [6, 6]
+    assert out[0, 0] == 0 and counts[0] == strips.shape[0]
+    assert strips[out[1, 0] - 1] == rv and out[1, 0] + counts[1] == strips.shape[0]
+    for k in range(2):
+        a = int(out[k, 0])
+        got = decode_strip(strips[a : a + int(counts[k])], rv)
+        want = pool[int(rec[k, 0]) : int(rec[k, 0]) + 3 * int(rec[k, 1])].reshape(-1, 3)
+        assert np.array_equal(_canonical(got), _canonical(want))
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        {"primitive": "fan"},
+        {"primitive": 1},
+        {"strip_window": 0},
+        {"strip_window": 65},
+        {"strip_window": True},
+        {"strip_window": 2.0},
+        {"strip_window": "4"},
+    ],
+)
+def test_bad_primitive_or_strip_window_is_a_build_error(bad) -> None:
+    mesh = shared_mesh("suzanne.obj")
+    with pytest.raises(BuildError, match=next(iter(bad))):
+        swpm_usd.build(mesh, encoding="sliding-window", **bad)
+    with pytest.raises(BuildError, match=next(iter(bad))):  # (the builder itself checks them too)
+        swpm_usd.encode.slidingwindow.build_sliding_window(mesh, **bad)
+
+
+@pytest.mark.parametrize("option", list(OPTIONS))
+def test_swpm_round_trip_and_validate(builds, option, tmp_path) -> None:
+    """A strip pool's ``.swpm``: the SW_STRIPS bit, WREC rows of four fields, valid with no problem, and read
+    back to the same windows; a list pool's file keeps three fields and no bit."""
+    from swpm_usd.format import layout as L
+    from swpm_usd.format import validate
+
+    lst, pm = builds[option]
+    for p, strips in ((pm, True), (lst, False)):
+        path = swpm_usd.save(p, tmp_path / f"{p.primitive}.swpm")
+        rep = validate(path)
+        assert rep.valid and rep.problems == [], rep.format()
+        data = path.read_bytes()
+        assert bool(int.from_bytes(data[20:24], "little") & L.FEATURE_SW_STRIPS) == strips
+        back = swpm_usd.load(path)
+        assert back.primitive == p.primitive and back.params["primitive"] == p.primitive
+        assert np.array_equal(back.window_records, p.window_records)
+        assert np.array_equal(back.window_index_counts, p.window_index_counts)
+        for k in range(0, p.lod_count, max(1, p.lod_count // 50)):
+            assert np.array_equal(back.triangles_at(k), p.triangles_at(k)), k
+
+
+def test_usd_round_trip_and_validate(builds, tmp_path) -> None:
+    """A strip pool on a USD prim: swpm:windowIndexCounts beside indexPool and windowRecords, primitive and
+    restart index in swpm:params; the stage validates clean and reads back to the same windows. A window
+    index count past the pool is SWPM_USD_WINDOW_RANGE (the validator measured 3 x triangle count)."""
+    from pxr import Usd, Vt
+
+    from swpm_usd import usd
+    from swpm_usd.usd.validate import validate_stage
+
+    _, pm = builds["cluster-swap"]
+    path = usd.write(pm, tmp_path / "strips.usda")
+    assert validate_stage(path) == []
+    stage = Usd.Stage.Open(str(path))
+    prim = usd.find_encoded(stage)[0]
+    assert "swpm:windowIndexCounts" in [a.GetName() for a in prim.GetAttributes()]
+    back = usd.read(prim)
+    assert back.primitive == "strip" and back.restart_index == pm.restart_index
+    for k in range(pm.lod_count):
+        assert np.array_equal(back.triangles_at(k), pm.triangles_at(k)), k
+    counts = np.asarray(pm.window_index_counts, np.uint32).copy()
+    counts[-1] = pm.index_pool.shape[0] + 1
+    prim.GetAttribute("swpm:windowIndexCounts").Set(Vt.UIntArray.FromNumpy(counts))
+    stage.GetRootLayer().Save()
+    assert [f.code for f in validate_stage(path)] == ["SWPM_USD_WINDOW_RANGE"]
+
+
+def _drop_buffer(prim, name: str) -> None:
+    """``name`` taken out of the prim's parallel swpm:bufferNames / Dtypes / Columns."""
+    from pxr import Vt
+
+    names = list(prim.GetAttribute("swpm:bufferNames").Get())
+    i = names.index(name)
+    for attr in ("swpm:bufferNames", "swpm:bufferDtypes", "swpm:bufferColumns"):
+        values = list(prim.GetAttribute(attr).Get())
+        del values[i]
+        prim.GetAttribute(attr).Set(Vt.UIntArray(values) if attr == "swpm:bufferColumns" else values)
+
+
+@pytest.mark.parametrize(
+    ("edit", "code"),
+    [("short", "SWPM_USD_STRIDE"), ("zero", "SWPM_USD_STRIDE"), ("unlisted", "SWPM_USD_MISSING")],
+)
+def test_usd_strip_prim_without_its_index_counts_names_them(edit, code, tmp_path) -> None:
+    """A strip prim whose swpm:windowIndexCounts is short, empty or not among its buffers is reported as
+    that (it was measured as a list pool, 3 x triangle count, and reported SWPM_USD_WINDOW_RANGE: a window
+    "outside indexPool", naming the wrong attribute)."""
+    from pxr import Usd, Vt
+
+    from swpm_usd import usd
+    from swpm_usd.usd.validate import validate_stage
+
+    pm = swpm_usd.build(shared_mesh("suzanne.obj"), encoding="sliding-window", primitive="strip")
+    path = usd.write(pm, tmp_path / "strips.usda")
+    stage = Usd.Stage.Open(str(path))
+    prim = usd.find_encoded(stage)[0]
+    counts = np.asarray(pm.window_index_counts, np.uint32)
+    if edit == "unlisted":
+        _drop_buffer(prim, "window_index_counts")
+    else:
+        kept = counts[:-1] if edit == "short" else counts[:0]
+        prim.GetAttribute("swpm:windowIndexCounts").Set(Vt.UIntArray.FromNumpy(kept.copy()))
+    stage.GetRootLayer().Save()
+    found = validate_stage(path)
+    assert [f.code for f in found] == [code]
+    assert "swpm:windowIndexCounts" in found[0].message
+
+
+def test_usd_list_prim_ignores_stray_index_counts(tmp_path) -> None:
+    """A list prim (no params primitive 'strip') listing a swpm:windowIndexCounts buffer: the windows are
+    3 x their triangle counts, as the rebuilt mesh reads them (the validator measured them by the stray
+    counts and reported a window outside indexPool that the mesh never draws)."""
+    from pxr import Sdf, Usd, Vt
+
+    from swpm_usd import usd
+    from swpm_usd.usd.validate import validate_stage
+
+    pm = swpm_usd.build(shared_mesh("suzanne.obj"), encoding="sliding-window")
+    path = usd.write(pm, tmp_path / "list.usda")
+    stage = Usd.Stage.Open(str(path))
+    prim = usd.find_encoded(stage)[0]
+    for attr, extra in (
+        ("swpm:bufferNames", "window_index_counts"),
+        ("swpm:bufferDtypes", "uint32"),
+        ("swpm:bufferColumns", 0),
+    ):
+        values = list(prim.GetAttribute(attr).Get()) + [extra]
+        prim.GetAttribute(attr).Set(Vt.UIntArray(values) if attr == "swpm:bufferColumns" else values)
+    stray = np.full(pm.lod_count, pm.index_pool.shape[0] + 1, np.uint32)
+    prim.CreateAttribute("swpm:windowIndexCounts", Sdf.ValueTypeNames.UIntArray).Set(
+        Vt.UIntArray.FromNumpy(stray)
+    )
+    stage.GetRootLayer().Save()
+    assert validate_stage(path) == []
+
+
+STRIP_CONFIG = """\
+version: 1
+assets:
+  - glob: "*.obj"
+output:
+  dir: out
+  swpm: true
+  usd: true
+rules:
+  - name: strips
+    encoding: sliding-window
+    params: {primitive: strip, strip_window: %s, cluster: true, optimize_connectivity: true}
+"""
+
+
+def test_a_pipeline_config_with_primitive_strip_runs(tmp_path) -> None:
+    """``swpm-pipeline run`` with ``primitive: strip`` for the sliding window: a strip pool in the .swpm and
+    on the USD prim, both valid; a strip_window out of bounds fails the config at its line."""
+    import json
+    import shutil
+
+    from click.testing import CliRunner
+    from conftest import SHARED_MESHES
+
+    from swpm_usd.cli import main
+    from swpm_usd.usd.validate import validate_stage
+
+    shutil.copy(SHARED_MESHES / "suzanne.obj", tmp_path / "suzanne.obj")
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(STRIP_CONFIG % 4)
+    r = CliRunner().invoke(main, ["run", str(cfg)])
+    assert r.exit_code == 0, r.output
+    asset = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]["suzanne.obj"]
+    assert asset["encoding"] == "sliding-window"
+    pm = swpm_usd.load(tmp_path / "out" / "suzanne.swpm")
+    assert pm.primitive == "strip" and pm.params["strip_window"] == 4
+    assert swpm_usd.validate(tmp_path / "out" / "suzanne.swpm").valid
+    assert asset["summary"]["lambda"] == pytest.approx(pm.index_pool.shape[0] / (3 * pm.triangle_counts[0]))
+    assert validate_stage(tmp_path / "out" / "suzanne.usdc") == []
+    cfg.write_text(STRIP_CONFIG % 65)
+    r = CliRunner().invoke(main, ["run", str(cfg)])
+    assert r.exit_code == 2 and "$.rules[0].params.strip_window" in r.output
+
+
+def test_usd_index_width_counts_the_restart_index() -> None:
+    """At exactly 65,536 vertices every vertex id fits 16 bits but the strips' restart index is 0xFFFFFFFF:
+    swpm:indexWidth must say 4 (it said 2, from the vertex count alone)."""
+    from swpm_usd.usd.writer import swpm_values
+
+    V = 0x10000
+    pm = swpm_usd.from_buffers(
+        "sliding-window",
+        np.zeros((V, 3), np.float32),
+        {},
+        np.array([V]),
+        np.array([1]),
+        np.zeros(1, np.float32),
+        {
+            "index_pool": np.array([0, 1, 2], np.uint32),
+            "window_records": np.array([[0, 1, V]], np.uint32),
+            "window_index_counts": np.array([3], np.uint32),
+        },
+        params={"primitive": "strip", "restart_index": 0xFFFFFFFF},
+    )
+    assert pm.triangles_at(0).tolist() == [[0, 1, 2]]
+    assert swpm_values(pm)["swpm:indexWidth"][1] == 4
+
+
+@pytest.fixture(scope="module")
+def vectors() -> dict[str, bytes]:
+    from swpm_usd.format.vectors import build_all
+
+    return build_all()
+
+
+@pytest.mark.parametrize(
+    ("vector", "code"),
+    [
+        ("strips-bit-without-sliding", "SWPM_HEADER_STRIPS_NOT_SLIDING"),
+        ("sliding-strips-wrec-three-fields", "SWPM_CHUNK_BAD_LENGTH"),
+        ("sliding-strips-primitive-list", "SWPM_META_BAD_FIELD"),
+        ("sliding-list-primitive-strip", "SWPM_META_BAD_FIELD"),
+        ("sliding-strips-restart-null", "SWPM_META_BAD_FIELD"),
+        ("sliding-strips-restart-below-vertex-count", "SWPM_META_BAD_FIELD"),
+        ("sliding-strips-window-outside-pool", "SWPM_WINDOW_OUT_OF_POOL"),
+        ("sliding-strips-window-mid-strip", "SWPM_WINDOW_MID_STRIP"),
+        ("sliding-strips-triangle-count", "SWPM_WINDOW_STRIP_TRIANGLES"),
+    ],
+)
+def test_the_reader_rejects_each_malformed_strip_pool(vectors, vector, code) -> None:
+    """Each rejection of spec/format.md 3.5 with its code, and nothing else (the vectors are rebuilt here
+    from :mod:`swpm_usd.format.vectors`, so a stale spec/vectors cannot hide a change)."""
+    from swpm_usd.format import validate_bytes
+
+    data = vectors[f"invalid/{vector}.swpm"]
+    assert [q.code for q in validate_bytes(data).problems] == [code]
+
+
+def test_errors_md_places_the_strip_pool_meta_checks() -> None:
+    """spec/errors.md's SWPM_META_BAD_FIELD row says where a strip pool's params problems are found (it
+    listed only skip-strip's params, so the four sliding-window vectors expecting this code at META had no
+    row that explained them)."""
+    from pathlib import Path
+
+    from swpm_usd.format.errors import CATALOGUE
+
+    where = CATALOGUE["SWPM_META_BAD_FIELD"].offset
+    assert "sliding-window" in where and "SW_STRIPS" in where and "stage (a)" in where
+    row = next(
+        line
+        for line in (Path(__file__).resolve().parent.parent / "spec" / "errors.md").read_text().splitlines()
+        if line.startswith("| `SWPM_META_BAD_FIELD`")
+    )
+    assert where in row
+
+
+def test_reader_steps_place_the_strips_bit_check() -> None:
+    """format.md §5 step 1, the header checks in their order, names where SWPM_HEADER_STRIPS_NOT_SLIDING
+    comes (only §2.1 said it, so a reader written from §5 had no place for it among the header checks)."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parent.parent / "spec" / "format.md").read_text()
+    step1 = text[text.index("1. Header, in this order:") : text.index("2. Table entries in table order")]
+    at = step1.index("SWPM_HEADER_STRIPS_NOT_SLIDING")
+    assert step1.index("encoding bits") < at < step1.index("reserved")
