@@ -121,7 +121,7 @@ def distinct_floor(pm) -> float:
     """The least lambda any layout of the same collapses could have: the distinct triangles that some window
     draws (each rotation of a triangle counted once), over LOD 0's. A pool must hold each at least once."""
     rec = np.asarray(pm.window_records, np.int64)
-    if pm.primitive == "strip":  # the strips some window draws (a window is whole strips), decoded
+    if pm.primitive == "strip":  # the strip indices some window draws (each starts a strip), decoded
         from swpm_usd.encode.strips import decode_strip
 
         pool = np.asarray(pm.index_pool, np.int64)

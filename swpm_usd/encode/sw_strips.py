@@ -1,12 +1,14 @@
 """The sliding-window pool stored as triangle strips (``primitive="strip"``): the list pool cut at every
-window's first and last triangle, each piece between two cuts turned into strips by the skip strips'
-stripifier (:func:`.strips.stripify`, Evans-Skiena-Varshney with a look-ahead window, as meshoptimizer) and
-the pieces joined by a restart index (skip-strip's value, :func:`.skipstrip.restart_value`). Every window
-then starts at the pool's start or right after a restart index and ends right before one (or at the pool's
-end), so it is still ONE contiguous range of the pool: one strip draw with primitive restart per LOD, as
-Forsyth's sliding window draws one list range. A window's strip decodes (spec/format.md 3.7's rule, parity
-from each restart) to its list triangles as an oriented multiset, in the list's order as far as the
-stripifier keeps it.
+window's first triangle, each piece between two cuts turned into strips by the skip strips' stripifier
+(:func:`.strips._stripify_barriers`, Evans-Skiena-Varshney with a look-ahead window, as meshoptimizer) and the
+pieces joined by a restart index (skip-strip's value, :func:`.skipstrip.restart_value`). A window's last
+triangle where no window starts is a *barrier* instead of a cut: the look-ahead does not cross it, so the
+strip's prefix up to it draws exactly the window's triangles, and the strip goes on across it when the next
+triangle can continue it (else a restart). Every window then starts at the pool's start or right after a
+restart index and ends at a cut or inside a strip, so it is still ONE contiguous range of the pool: one strip
+draw with primitive restart per LOD, as Forsyth's sliding window draws one list range. A window's strip
+decodes (spec/format.md 3.7's rule, parity from each restart) to its list triangles as an oriented multiset,
+in the list's order as far as the stripifier keeps it.
 
 Ten shared meshes, lambda (pool indices over three a LOD-0 triangle): defaults 5.30 -> 3.79 (mean), cluster
 and swaps 4.43 -> 3.35 (``slidingwindow.md``, "Strips").
