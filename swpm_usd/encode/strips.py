@@ -12,7 +12,9 @@ new strip starts at the first triangle not yet emitted, rotated so that its cont
 Every decoded non-degenerate triangle is an input triangle with its winding (possibly rotated). Strips are
 joined either by a restart index (``restart_index``) or, when that is ``None``, by two repeated indices
 (degenerate joins; a new strip's first triangle is emitted in the order its parity needs, so no extra parity
-index is spent).
+index is spent). *Barriers* (:func:`_stripify_barriers`, for the sliding-window strip pool) are input
+positions the look-ahead does not cross, so that a prefix of the strip draws exactly the triangles before one:
+a window that ends there.
 
 The window trades indices for cache misses: each triangle taken ahead of the input order delays the ones it
 skips. Ten shared meshes, skip strips at the defaults: FIFO misses over meshoptimizer's
