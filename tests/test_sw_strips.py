@@ -11,8 +11,8 @@ from conftest import shared_mesh
 
 import swpm_usd
 import swpm_usd.encode.slidingwindow
-from swpm_usd.encode.strips import decode_strip
-from swpm_usd.encode.sw_strips import strip_pool
+from swpm_usd.encode.strips import _stripify, _stripify_barriers, decode_strip
+from swpm_usd.encode.sw_strips import _strip_pieces, strip_pool
 from swpm_usd.errors import BuildError
 
 OPTIONS = {"defaults": {}, "cluster-swap": {"cluster": True, "optimize_connectivity": True}}
@@ -61,10 +61,18 @@ def test_windows_are_strip_ranges_after_a_restart(builds, option) -> None:
     assert np.all(first + count <= pool.shape[0])
     live = count > 0
     assert np.array_equal(live, strip.window_records[:, 1] > 0)  # (a window of triangles draws indices)
-    # a window starts at the pool's start or right after a restart, and ends at the pool's end or before one
+    # a window starts at the pool's start or right after a restart (it may end inside a strip)
     assert np.all((first[live] == 0) | (pool[np.maximum(first[live] - 1, 0)] == rv))
+    # where only windows end the strip goes on (or restarts when it cannot): some windows end inside a strip,
+    # and there are fewer restarts and indices than with cuts at every window's first and last triangle (the
+    # former writer)
     end = first[live] + count[live]
-    assert np.all((end == pool.shape[0]) | (pool[np.minimum(end, pool.shape[0] - 1)] == rv))
+    assert np.any((end < pool.shape[0]) & (pool[np.minimum(end, pool.shape[0] - 1)] != rv))
+    tris = lst.index_pool.astype(np.int64).reshape(-1, 3)
+    rec = lst.window_records.astype(np.int64)
+    cuts = np.unique(np.r_[0, tris.shape[0], rec[:, 0] // 3, rec[:, 0] // 3 + rec[:, 1]])
+    old, _, _, _ = _strip_pieces(tris, cuts, np.empty(0, np.int64), rv, strip.params["strip_window"])
+    assert np.count_nonzero(pool == rv) < np.count_nonzero(old == rv) and pool.shape[0] < old.shape[0]
     for k in range(strip.lod_count):
         kind, stream = strip.draw_stream(k)
         assert kind == "strip" and stream.shape[0] == count[k]
@@ -124,6 +132,50 @@ def test_strip_pool_by_hand() -> None:
         got = decode_strip(strips[a : a + int(counts[k])], rv)
         want = pool[int(rec[k, 0]) : int(rec[k, 0]) + 3 * int(rec[k, 1])].reshape(-1, 3)
         assert np.array_equal(_canonical(got), _canonical(want))
+
+
+def _grid_triangles(rng: np.random.Generator, n: int) -> np.ndarray:
+    """An n x n grid's triangles (so strips go on), in an order shuffled by blocks of a few triangles."""
+    v = np.arange((n + 1) * (n + 1)).reshape(n + 1, n + 1)
+    a, b, c, d = v[:-1, :-1].ravel(), v[:-1, 1:].ravel(), v[1:, :-1].ravel(), v[1:, 1:].ravel()
+    tris = np.stack([np.c_[a, b, d], np.c_[a, d, c]], axis=1).reshape(-1, 3)
+    blocks = np.array_split(np.arange(tris.shape[0]), tris.shape[0] // 5)
+    order = np.concatenate([blocks[i] for i in rng.permutation(len(blocks))])
+    return tris[order].astype(np.int64)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_stripify_never_crosses_a_barrier(seed) -> None:
+    """The strip's prefix up to a barrier's position decodes to exactly the input triangles before it."""
+    rng = np.random.default_rng(seed)
+    tris = _grid_triangles(rng, 6 + seed)
+    T = tris.shape[0]
+    barriers = np.unique(rng.integers(0, T + 1, size=3 + 2 * seed))
+    rv = 0xFFFF
+    for window in (1, 4, 8):
+        strip, pos = _stripify_barriers(tris, True, rv, window, barriers)
+        assert pos.shape == barriers.shape and np.all(np.diff(pos) >= 0)
+        assert np.array_equal(_canonical(decode_strip(strip, rv)), _canonical(tris))
+        for b, p in zip(barriers.tolist(), pos.tolist(), strict=True):
+            got = decode_strip(strip[:p], rv)
+            assert np.array_equal(_canonical(got), _canonical(tris[:b])), (window, b)
+        # no barrier: the skip strips' stripifier bit for bit
+        assert np.array_equal(
+            _stripify_barriers(tris, True, rv, window, barriers[:0])[0], _stripify(tris, True, rv, window)
+        )
+
+
+def test_strip_pool_window_ends_inside_a_strip() -> None:
+    """A four-triangle fan, window 1 its first two triangles: it ends at a barrier inside the one strip (no
+    restart at all), drawing the strip's prefix."""
+    pool = np.array([0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 5], np.uint32)
+    rec = np.array([[0, 4, 6], [0, 2, 6]], np.uint32)
+    strips, out, counts, rv = strip_pool(pool, rec, 6)
+    assert rv not in strips.tolist() and out[:, 0].tolist() == [0, 0]
+    assert counts[0] == strips.shape[0] and counts[1] < counts[0]
+    for k in range(2):
+        got = decode_strip(strips[: int(counts[k])], rv)
+        assert np.array_equal(_canonical(got), _canonical(pool[: 3 * int(rec[k, 1])].reshape(-1, 3)))
 
 
 @pytest.mark.parametrize(

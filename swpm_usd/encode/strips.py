@@ -12,7 +12,9 @@ new strip starts at the first triangle not yet emitted, rotated so that its cont
 Every decoded non-degenerate triangle is an input triangle with its winding (possibly rotated). Strips are
 joined either by a restart index (``restart_index``) or, when that is ``None``, by two repeated indices
 (degenerate joins; a new strip's first triangle is emitted in the order its parity needs, so no extra parity
-index is spent).
+index is spent). *Barriers* (:func:`_stripify_barriers`, for the sliding-window strip pool) are input
+positions the look-ahead does not cross, so that a prefix of the strip draws exactly the triangles before one:
+a window that ends there.
 
 The window trades indices for cache misses: each triangle taken ahead of the input order delays the ones it
 skips. Ten shared meshes, skip strips at the defaults: FIFO misses over meshoptimizer's
@@ -53,11 +55,26 @@ def _find_next(tris: np.ndarray, buf: np.ndarray, bsize: int, a: int, b: int) ->
 
 @nb.njit(cache=True)
 def _stripify(tris: np.ndarray, use_restart: bool, restart: int, window: int) -> np.ndarray:
+    return _stripify_barriers(tris, use_restart, restart, window, np.empty(0, np.int64))[0]
+
+
+@nb.njit(cache=True)
+def _stripify_barriers(
+    tris: np.ndarray, use_restart: bool, restart: int, window: int, barriers: np.ndarray
+) -> tuple:
+    """:func:`_stripify` with ``barriers``, sorted triangle positions the look-ahead never crosses (every
+    triangle before one is emitted before any after it), so that a prefix of the strip draws exactly the
+    triangles before it (a sliding window that ends there, :mod:`.sw_strips`); the strip goes on across a
+    barrier when the next triangle can continue it. Returns (the strip, the strip position of every barrier:
+    the index count that draws the triangles before it). No barrier: :func:`_stripify`'s strip."""
     T = tris.shape[0]
-    # at most 5 indices a triangle: a strip's first one after a degenerate join (2 + 3), a swap 2
-    out = np.empty(5 * T + 2, np.int64)
+    B = barriers.shape[0]
+    # at most 5 indices a triangle: a strip's first one after a degenerate join (2 + 3), a swap 2; a swap
+    # across a barrier is one more index (at most one a barrier)
+    out = np.empty(5 * T + 2 + B, np.int64)
+    bpos = np.zeros(B, np.int64)
     if T == 0:
-        return out[:0]
+        return out[:0], bpos
     buf = np.empty(window, np.int64)
     bsize = 0
     next_in = 0
@@ -65,13 +82,41 @@ def _stripify(tris: np.ndarray, use_restart: bool, restart: int, window: int) ->
     pos0 = 0  # first index of the current strip (parity origin)
     cont = -1  # buffer slot of the triangle that continues the strip, found as the last one was emitted
     cont_v = -1  # its vertex off the strip's last edge
+    nb_ = 0  # barriers passed
+    limit = T  # the input is buffered up to the next barrier only
+    while nb_ < B and barriers[nb_] <= 0:
+        nb_ += 1
+    if nb_ < B:
+        limit = min(barriers[nb_], T)
     while True:
-        while bsize < window and next_in < T:
+        while bsize < window and next_in < limit:
             buf[bsize] = next_in
             bsize += 1
             next_in += 1
         if bsize == 0:
-            break
+            if next_in >= T:
+                break
+            # every triangle before the barrier is out: the strip's prefix up to here draws exactly them
+            while nb_ < B and barriers[nb_] <= next_in:
+                bpos[nb_] = n
+                nb_ += 1
+            limit = min(barriers[nb_], T) if nb_ < B else T
+            while bsize < window and next_in < limit:
+                buf[bsize] = next_in
+                bsize += 1
+                next_in += 1
+            if n > 0:
+                # the strip goes on across its last edge if a buffered triangle is there, else by a swap
+                # ("a b" -> "a b a", one index) if one is across (second last, last)
+                a, b = _needed_edge(out, n, pos0)
+                cont, cont_v = _find_next(tris, buf, bsize, a, b)
+                if cont < 0:
+                    out[n] = out[n - 2]
+                    a, b = _needed_edge(out, n + 1, pos0)
+                    cont, cont_v = _find_next(tris, buf, bsize, a, b)
+                    if cont >= 0:
+                        n += 1
+            continue
         # the continuation found as the last triangle was emitted, else a new strip at the first buffered
         # triangle (the input's order)
         pick = cont if cont >= 0 else 0
@@ -80,7 +125,7 @@ def _stripify(tris: np.ndarray, use_restart: bool, restart: int, window: int) ->
             buf[i] = buf[i + 1]
         bsize -= 1
         # the next triangle is looked for among the buffered ones, the freed slot refilled first
-        if next_in < T:
+        if next_in < limit:
             buf[bsize] = next_in
             bsize += 1
             next_in += 1
@@ -133,7 +178,10 @@ def _stripify(tris: np.ndarray, use_restart: bool, restart: int, window: int) ->
             out[n + 2] = v
         n += 3
         # (cont, cont_v): the rotation's continuation found above, across the edge _needed_edge gives now
-    return out[:n].copy()
+    while nb_ < B:  # barriers at or past the end
+        bpos[nb_] = n
+        nb_ += 1
+    return out[:n].copy(), bpos
 
 
 def stripify(

@@ -1,12 +1,14 @@
 """The sliding-window pool stored as triangle strips (``primitive="strip"``): the list pool cut at every
-window's first and last triangle, each piece between two cuts turned into strips by the skip strips'
-stripifier (:func:`.strips.stripify`, Evans-Skiena-Varshney with a look-ahead window, as meshoptimizer) and
-the pieces joined by a restart index (skip-strip's value, :func:`.skipstrip.restart_value`). Every window
-then starts at the pool's start or right after a restart index and ends right before one (or at the pool's
-end), so it is still ONE contiguous range of the pool: one strip draw with primitive restart per LOD, as
-Forsyth's sliding window draws one list range. A window's strip decodes (spec/format.md 3.7's rule, parity
-from each restart) to its list triangles as an oriented multiset, in the list's order as far as the
-stripifier keeps it.
+window's first triangle, each piece between two cuts turned into strips by the skip strips' stripifier
+(:func:`.strips._stripify_barriers`, Evans-Skiena-Varshney with a look-ahead window, as meshoptimizer) and the
+pieces joined by a restart index (skip-strip's value, :func:`.skipstrip.restart_value`). A window's last
+triangle where no window starts is a *barrier* instead of a cut: the look-ahead does not cross it, so the
+strip's prefix up to it draws exactly the window's triangles, and the strip goes on across it when the next
+triangle can continue it (else a restart). Every window then starts at the pool's start or right after a
+restart index and ends at a cut or inside a strip, so it is still ONE contiguous range of the pool: one strip
+draw with primitive restart per LOD, as Forsyth's sliding window draws one list range. A window's strip
+decodes (spec/format.md 3.7's rule, parity from each restart) to its list triangles as an oriented multiset,
+in the list's order as far as the stripifier keeps it.
 
 Ten shared meshes, lambda (pool indices over three a LOD-0 triangle): defaults 5.30 -> 3.79 (mean), cluster
 and swaps 4.43 -> 3.35 (``slidingwindow.md``, "Strips").
@@ -18,32 +20,41 @@ import numba as nb
 import numpy as np
 
 from .skipstrip import restart_value
-from .strips import _stripify
+from .strips import _stripify_barriers
 from .sw_mesh import SlidingWindowProgressiveMesh
 
 
 @nb.njit(cache=True)
-def _strip_pieces(tris: np.ndarray, cuts: np.ndarray, restart: int, window: int) -> tuple:
-    """The pieces ``tris[cuts[i]:cuts[i + 1]]`` stripified and joined by ``restart``: (the strip pool, the
-    first index of every piece in it, the index past its last)."""
+def _strip_pieces(
+    tris: np.ndarray, cuts: np.ndarray, barriers: np.ndarray, restart: int, window: int
+) -> tuple:
+    """The pieces ``tris[cuts[i]:cuts[i + 1]]`` stripified with the ``barriers`` inside them (sorted, none
+    on a cut) and joined by ``restart``: (the strip pool, the first index of every piece in it, the index past
+    its last, the strip position of every barrier)."""
     S = cuts.shape[0] - 1
     # a piece of t triangles: at most 4 t indices with restarts (3, then a restart and 3 or a swap's 2 a
-    # triangle), and one restart between pieces
-    out = np.empty(4 * tris.shape[0] + S, np.int64)
+    # triangle), a swap across each barrier, and one restart between pieces
+    out = np.empty(4 * tris.shape[0] + S + barriers.shape[0], np.int64)
     start = np.empty(S, np.int64)
     end = np.empty(S, np.int64)
+    bpos = np.zeros(barriers.shape[0], np.int64)
     n = 0
     for s in range(S):
         a, b = cuts[s], cuts[s + 1]
         if s > 0:
             out[n] = restart
             n += 1
-        piece = _stripify(tris[a:b], True, restart, max(1, min(window, b - a)))
+        i = np.searchsorted(barriers, a)
+        j = np.searchsorted(barriers, b)
+        piece, pos = _stripify_barriers(
+            tris[a:b], True, restart, max(1, min(window, b - a)), barriers[i:j] - a
+        )
         start[s] = n
+        bpos[i:j] = pos + n
         out[n : n + piece.shape[0]] = piece
         n += piece.shape[0]
         end[s] = n
-    return out[:n].copy(), start, end
+    return out[:n].copy(), start, end, bpos
 
 
 def strip_pool(
@@ -62,16 +73,26 @@ def strip_pool(
     T = pool.shape[0]
     first_tri = rec[:, 0] // 3
     end_tri = first_tri + rec[:, 1]
-    # every window's first and last triangle is a cut: no window starts or ends inside a piece
-    cuts = np.unique(np.concatenate([[0, T], first_tri, end_tri]))
+    # a window starts a strip (a cut: a restart before it), but may end inside one (a barrier the
+    # stripifier's look-ahead does not cross, so the strip's prefix up to it draws the window)
+    cuts = np.unique(np.concatenate([[0, T], first_tri]))
     cuts = cuts[(cuts >= 0) & (cuts <= T)]
-    strips, start, end = _strip_pieces(pool, cuts, rv, int(window))
+    barriers = np.setdiff1d(end_tri[(end_tri > 0) & (end_tri < T)], cuts)
+    strips, start, end, bpos = _strip_pieces(pool, cuts, barriers.astype(np.int64), rv, int(window))
     i = np.searchsorted(cuts, first_tri)
-    j = np.searchsorted(cuts, end_tri)
     if start.shape[0]:
         # an empty window sits at its piece's start (or at the pool's end when no piece is left)
         first = np.where(i < start.shape[0], start[np.minimum(i, start.shape[0] - 1)], strips.shape[0])
-        last = np.where(rec[:, 1] > 0, end[np.maximum(j - 1, 0)], first)
+        # a window's end: the end of the piece before a cut, or a barrier's strip position
+        j = np.searchsorted(cuts, end_tri)
+        at_cut = (j < cuts.shape[0]) & (cuts[np.minimum(j, cuts.shape[0] - 1)] == end_tri)
+        m = np.searchsorted(barriers, end_tri)
+        last = np.where(
+            at_cut,
+            end[np.clip(j - 1, 0, start.shape[0] - 1)],
+            bpos[np.minimum(m, max(barriers.shape[0] - 1, 0))] if barriers.shape[0] else 0,
+        )
+        last = np.where(rec[:, 1] > 0, last, first)
     else:  # no triangles at all
         first = last = np.zeros(rec.shape[0], np.int64)
     out_rec = rec.copy()

@@ -88,7 +88,7 @@ def _sliding(p: _Parsed, rep: Report) -> None:
     ok &= bad.size == 0
     ok &= _index_check(p, rep, idx_c, pool, "INDX", V, idx_c.offset, exempt=rv)
     if strips and bad.size == 0:
-        # a window draws whole strips: it starts at the pool's start or right after a restart index
+        # a window starts a strip (the pool's start or right after a restart index); it may end inside one
         live = np.flatnonzero(count > 0)
         mid = live[(first[live] > 0) & (pool[np.maximum(first[live] - 1, 0)] != rv)]
         if mid.size:

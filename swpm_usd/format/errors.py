@@ -366,7 +366,7 @@ _ENTRIES = [
         ERROR,
         "window of LOD {lod} starts at {start}, inside a strip",
         "A strip pool's window (SW_STRIPS) must start at the pool's start or right after a restart index, "
-        "so that it draws whole strips with their parity.",
+        "so that its strips take the parity the pool's decoding gives them (it may end inside a strip).",
         "the first_index field of window k, the first such window; one problem",
     ),
     Entry(

@@ -110,6 +110,19 @@ def fan_sliding_strips(**over: Any) -> RawProgressiveMesh:
     return _fan("sliding-window", bufs, params, **over)
 
 
+def fan_sliding_strip_prefix(**over: Any) -> RawProgressiveMesh:
+    """A strip pool whose window 1 ends inside a strip (format.md 3.5): one strip ``1 2 0 3 0 4 1`` draws
+    LOD 0's four triangles (0 1 2, 0 2 3, 0 3 4, 0 4 1), and LOD 1's two are its first four indices, a
+    prefix decoding to exactly 0 1 2 and 0 2 3 (below vertex 4); no restart index at all."""
+    bufs = {
+        "index_pool": [1, 2, 0, 3, 0, 4, 1],
+        "window_records": [[0, 4, 5], [0, 2, 4]],
+        "window_index_counts": [7, 4],
+    }
+    params = {"cache_size": 16, "primitive": "strip", "restart_index": 0xFFFF}
+    return _fan("sliding-window", bufs, params, **over)
+
+
 def fan_skip(**over: Any) -> RawProgressiveMesh:
     bufs = {
         "level_first_lod": [0],
@@ -418,6 +431,11 @@ def _valid() -> dict[str, tuple[bytes, str]]:
             _write(fan_sliding_strips()),
             "sliding window, the pool as strips (SW_STRIPS): WREC rows of four fields, two windows each"
             " starting a strip, swaps not counted",
+        ),
+        "sliding-window-strip-prefix": (
+            _write(fan_sliding_strip_prefix()),
+            "sliding window, a strip pool whose window 1 ends inside the strip window 0 draws: its 4 indices,"
+            " a prefix of the strip, decode to its 2 triangles",
         ),
     }
 
