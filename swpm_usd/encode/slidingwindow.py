@@ -49,9 +49,10 @@ choice, what was measured and what was tried and dropped):
   levels share storage, where that costs fewer pool triangles per collapse
   (:func:`.sw_cluster.cluster_patches`; with ``inner_vertices > 1`` patches of several adjacent positions,
   :func:`.sw_cluster.cluster_components`).
-* ``primitive="strip"`` (default ``"list"``): the pool stored as triangle strips, cut at every window's ends
-  and joined by restart indices, so a window is still one range, one strip draw (:mod:`.sw_strips`;
-  ``strip_window``: the stripifier's look-ahead, default 4, as skip-strip's).
+* ``primitive="strip"`` (default ``"list"``): the pool stored as triangle strips, a new strip (after a
+  restart index) at every window's first triangle, a window's end a barrier the stripifier does not reorder
+  across, so a window is still one range, one strip draw (:mod:`.sw_strips`; ``strip_window``: the
+  stripifier's look-ahead, default 4, as skip-strip's).
 
 Every ordering is for a FIFO cache of ``cache_size`` entries (default 16).
 
