@@ -88,32 +88,27 @@ def test_strip_buffers_round_trip_and_memory(builds) -> None:
     b = pm.buffers()
     assert set(b) == {"index_pool", "window_records", "window_index_counts"}
     assert set(lst.buffers()) == {"index_pool", "window_records"}
-    pm2 = swpm_usd.from_buffers(
-        "sliding-window",
-        pm.points,
-        pm.attributes,
-        pm.vertex_counts,
-        pm.triangle_counts,
-        pm.lod_errors,
-        b,
-        params=pm.params,
-    )
-    for k in (0, pm.lod_count // 3, pm.lod_count - 1):
-        assert np.array_equal(pm2.triangles_at(k), pm.triangles_at(k))
-    assert pm.params["primitive"] == "strip" and pm.params["strip_window"] == 4
-    assert lst.params["primitive"] == "list" and lst.params["restart_index"] is None
-    assert pm.global_bytes == pm.vertex_bytes() + 2 * pm.index_pool.shape[0] + 8 * pm.lod_count
-    with pytest.raises(BuildError, match="window_index_counts"):
-        swpm_usd.from_buffers(
+
+    def rebuild(buffers):
+        return swpm_usd.from_buffers(
             "sliding-window",
             pm.points,
             pm.attributes,
             pm.vertex_counts,
             pm.triangle_counts,
             pm.lod_errors,
-            {k: v for k, v in b.items() if k != "window_index_counts"},
+            buffers,
             params=pm.params,
         )
+
+    pm2 = rebuild(b)
+    for k in (0, pm.lod_count // 3, pm.lod_count - 1):
+        assert np.array_equal(pm2.triangles_at(k), pm.triangles_at(k))
+    assert pm.params["primitive"] == "strip" and pm.params["strip_window"] == 4
+    assert lst.params["primitive"] == "list" and lst.params["restart_index"] is None
+    assert pm.global_bytes == pm.vertex_bytes() + 2 * pm.index_pool.shape[0] + 8 * pm.lod_count
+    with pytest.raises(BuildError, match="window_index_counts"):
+        rebuild({k: v for k, v in b.items() if k != "window_index_counts"})
 
 
 def test_strip_pool_by_hand() -> None:
