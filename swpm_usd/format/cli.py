@@ -487,10 +487,17 @@ def _mesh_hint(file: str, problems: list) -> None:
     from ..io import SUPPORTED_SUFFIXES
 
     suffix = Path(file).suffix.lower()
-    if suffix in SUPPORTED_SUFFIXES and any(q.code == "SWPM_HEADER_BAD_MAGIC" for q in problems):
+    # (a mesh file under 64 bytes is "header truncated", not "bad magic": it got no hint)
+    not_swpm = ("SWPM_HEADER_BAD_MAGIC", "SWPM_HEADER_TRUNCATED")
+    if suffix in SUPPORTED_SUFFIXES and any(q.code in not_swpm for q in problems):
+        # (inspect reads .swpm files only; a stage this package wrote is checked by validate)
+        stage = ""
+        if suffix.startswith(".usd"):
+            stage = f"; swpm-pipeline validate {file} checks a stage's SwpmMeshAPI prims"
         click.echo(
             f"hint: {file} is a mesh file ({suffix}), not an SWPM file: swpm-pipeline encode {file} -o "
-            f"{Path(file).with_suffix('.swpm').name} writes one, swpm-pipeline build {file} shows its LODs",
+            f"{Path(file).with_suffix('.swpm').name} writes one, swpm-pipeline build {file} shows its LODs"
+            + stage,
             err=True,
         )
 
@@ -644,6 +651,8 @@ def conformance_cmd(vector_dir: str, as_json: bool) -> None:
             f"no {_DEFAULT_VECTORS} here, and this install is no source checkout: run it from the "
             "repository's root, or give VECTOR_DIR (python -m swpm_usd.format.vectors VECTOR_DIR writes them)"
         )
+    if not Path(vector_dir).is_dir():  # (a mistyped folder was said to have "no manifest.json")
+        raise click.UsageError(f"{vector_dir}: no such folder")
     if not (Path(vector_dir) / "manifest.json").is_file():
         raise click.UsageError(f"{vector_dir} has no manifest.json")
     try:

@@ -1,0 +1,107 @@
+"""Defects found by a user's acceptance audit (helper-181): each test failed before its fix.
+
+inspect's lambda against the run's, an SWPM file given where a mesh is expected, the hint for a mesh (or a
+USD stage) given to inspect, and conformance given a folder that does not exist.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from click.testing import CliRunner
+
+import swpm_usd
+from swpm_usd.cli import main
+from swpm_usd.errors import MeshLoadError
+from swpm_usd.io import load_mesh
+from swpm_usd.pipeline.worker import summarize
+
+
+def _grid_obj(n: int) -> str:
+    """An OBJ of an n x n grid of quads split in two triangles, its heights varied: builds in a moment."""
+    lines = [f"v {x} {y} {(x * y) % 3 * 0.1}" for y in range(n + 1) for x in range(n + 1)]
+    for y in range(n):
+        for x in range(n):
+            a = y * (n + 1) + x + 1
+            lines += [f"f {a} {a + 1} {a + n + 2}", f"f {a} {a + n + 2} {a + n + 1}"]
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("encoding", ["vanilla", "skip-strip", "mixed", "sliding-window"])
+def test_inspect_reports_the_lambda_the_run_reports(tmp_path, encoding):
+    # inspect divided INDX alone by LOD 0's indices, the run's manifest and report every stored index list:
+    # spot's skip-strip file read lambda 2.61 in inspect, 5.23 in its run's report.html
+    mesh = tmp_path / "g.obj"
+    mesh.write_text(_grid_obj(8))
+    pm = swpm_usd.build(str(mesh), encoding=encoding)
+    swpm_usd.save(pm, tmp_path / "g.swpm")
+    result = CliRunner().invoke(main, ["inspect", str(tmp_path / "g.swpm"), "--json"])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout)
+    assert report["lambda"] == pytest.approx(summarize(pm)["lambda"])
+    # (index_count stays what INDX holds)
+    indx = {"vanilla": "indices", "skip-strip": "level_indices", "mixed": "level_static_indices"}
+    assert report["index_count"] == pm.buffers()[indx.get(encoding, "index_pool")].shape[0]
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".usdc", ".ply"])
+def test_an_swpm_file_under_a_mesh_name_is_called_an_swpm_file(tmp_path, suffix):
+    # a .swpm renamed .obj was "no triangles: the file holds no triangle geometry" (INPUT_EMPTY), as .usdc
+    # "USD could not open it": the file is named for what it is and what reads it
+    mesh = tmp_path / "g.obj"
+    mesh.write_text(_grid_obj(3))
+    swpm_usd.save(swpm_usd.build(str(mesh), encoding="vanilla"), tmp_path / "g.swpm")
+    renamed = tmp_path / f"r{suffix}"
+    renamed.write_bytes((tmp_path / "g.swpm").read_bytes())
+    with pytest.raises(MeshLoadError, match="it is an SWPM file") as err:
+        load_mesh(renamed)
+    assert err.value.code == "INPUT_MALFORMED" and err.value.offset == 0
+    result = CliRunner().invoke(main, ["encode", str(renamed), "-o", str(tmp_path / "o.swpm"), "--json"])
+    assert result.exit_code == 1
+    out = json.loads(result.stdout)
+    assert out["code"] == "INPUT_MALFORMED" and "swpm-pipeline inspect" in out["error"]
+    assert not (tmp_path / "o.swpm").exists()
+
+
+def test_an_swpm_file_given_to_encode_says_what_reads_it(tmp_path):
+    path = tmp_path / "a.swpm"
+    path.write_bytes(b"\0" * 64)
+    with pytest.raises(MeshLoadError, match=r"unsupported file type '\.swpm'.*swpm-pipeline inspect") as err:
+        load_mesh(path)
+    assert err.value.code == "INPUT_UNSUPPORTED"
+
+
+def test_a_short_mesh_file_given_to_inspect_gets_the_hint(tmp_path):
+    # the hint came on a bad magic only: a mesh file shorter than the magic (header truncated) got none
+    mesh = tmp_path / "t.obj"
+    mesh.write_text("v 0\n")
+    result = CliRunner().invoke(main, ["inspect", str(mesh)])
+    assert result.exit_code == 1
+    assert "SWPM_HEADER_TRUNCATED" in result.stdout
+    assert result.stderr.startswith(f"hint: {mesh} is a mesh file (.obj), not an SWPM file")
+
+
+def test_a_usd_stage_given_to_inspect_is_pointed_to_validate(tmp_path):
+    # inspect reads .swpm files only; for a stage it suggested encode alone, not validate, which checks it
+    from swpm_usd import usd
+
+    mesh = tmp_path / "g.obj"
+    mesh.write_text(_grid_obj(3))
+    usd.write(swpm_usd.build(str(mesh), encoding="vanilla"), tmp_path / "g.usda")
+    stage = tmp_path / "g.usda"
+    result = CliRunner().invoke(main, ["inspect", str(stage)])
+    assert result.exit_code == 1
+    assert f"swpm-pipeline validate {stage} checks a stage's SwpmMeshAPI prims" in result.stderr
+    assert CliRunner().invoke(main, ["validate", str(stage)]).exit_code == 0
+
+
+def test_conformance_of_a_missing_folder_says_it_is_missing(tmp_path):
+    # it said "nowhere has no manifest.json", as of a folder that exists without one
+    missing = tmp_path / "nowhere"
+    result = CliRunner().invoke(main, ["conformance", str(missing)])
+    assert result.exit_code == 2
+    assert f"{missing}: no such folder" in result.stderr
+    (tmp_path / "empty").mkdir()
+    result = CliRunner().invoke(main, ["conformance", str(tmp_path / "empty")])
+    assert result.exit_code == 2 and "has no manifest.json" in result.stderr
