@@ -105,3 +105,26 @@ def test_conformance_of_a_missing_folder_says_it_is_missing(tmp_path):
     (tmp_path / "empty").mkdir()
     result = CliRunner().invoke(main, ["conformance", str(tmp_path / "empty")])
     assert result.exit_code == 2 and "has no manifest.json" in result.stderr
+
+
+@pytest.mark.parametrize("width, found", [(2, False), (3, True), (4, True)])
+def test_a_wrong_index_width_on_a_stage_is_found(tmp_path, width, found):
+    # swpm:indexWidth 3 (or 4 where 2 is derived) passed validate: a runtime uploads the indices at it
+    from pxr import Usd
+
+    from swpm_usd import usd
+    from swpm_usd.usd.validate import CODES, validate_stage
+
+    mesh = tmp_path / "g.obj"
+    mesh.write_text(_grid_obj(3))
+    path = usd.write(
+        swpm_usd.build(str(mesh), encoding="sliding-window", primitive="strip"), tmp_path / "g.usda"
+    )
+    stage = Usd.Stage.Open(str(path))
+    prim = stage.GetPrimAtPath(stage.GetDefaultPrim().GetPath().AppendChild("mesh"))
+    assert prim.GetAttribute("swpm:indexWidth").Get() == 2
+    prim.GetAttribute("swpm:indexWidth").Set(width)
+    stage.GetRootLayer().Save()
+    codes = [f.code for f in validate_stage(path, builtin=False)]
+    assert ("SWPM_USD_INDEX_WIDTH" in codes) is found and "SWPM_USD_INDEX_WIDTH" in CODES
+    assert codes == (["SWPM_USD_INDEX_WIDTH"] if found else [])
