@@ -128,3 +128,23 @@ def test_a_wrong_index_width_on_a_stage_is_found(tmp_path, width, found):
     codes = [f.code for f in validate_stage(path, builtin=False)]
     assert ("SWPM_USD_INDEX_WIDTH" in codes) is found and "SWPM_USD_INDEX_WIDTH" in CODES
     assert codes == (["SWPM_USD_INDEX_WIDTH"] if found else [])
+
+
+def test_the_report_names_an_asset_no_rule_matched_as_built_by_the_defaults(tmp_path):
+    # report.html's rule column read "None" (Python's) for an asset built by the config's defaults
+    from swpm_usd.pipeline import run
+
+    (tmp_path / "m").mkdir()
+    for name in ("a", "b"):
+        (tmp_path / "m" / f"{name}.obj").write_text(_grid_obj(3 if name == "a" else 4))
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out, usd: false, scene: false}\n"
+        "defaults: {encoding: vanilla}\n"
+        "rules: [{name: big, match: {triangles: {min: 30}}, encoding: vanilla}]\n"
+    )
+    res = run(cfg, echo=lambda m: None)
+    assert not res.failures
+    html = (tmp_path / "out" / "report.html").read_text()
+    assert "<td>m/a.obj</td><td>(defaults)</td>" in html and "<td>m/b.obj</td><td>big</td>" in html
+    assert "<td>None</td>" not in html
