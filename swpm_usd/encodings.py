@@ -72,3 +72,23 @@ ENCODING_PARAMS: dict[str, dict[str, Any]] = {
     "skip-strip": {**SIMPLIFY_PARAMS, **SKIPSTRIP_PARAMS},
     "mixed": {**SIMPLIFY_PARAMS, **MIXED_PARAMS},
 }
+
+
+def combination_problem(encoding: str, params: dict[str, Any]) -> str | None:
+    """What the ``encoding``'s builder refuses of ``params`` together, each value valid alone, in its words
+    (``swpm_usd.encode.slidingwindow``), or None: the command line's ``-p`` and a config's ``params`` check it
+    with the values' bounds, a usage error before any mesh is read (``-p builder=forsyth -p order_passes=1``
+    read the mesh and failed at the build, exit 1; a config passed ``--dry-run`` and failed every asset). A
+    value of the wrong type is left to the check of its own."""
+    if encoding != "sliding-window":
+        return None
+    p = {**SLIDING_WINDOW_PARAMS, **params}
+    builder, cluster, passes = p["builder"], p["cluster"], p["order_passes"]
+    if not isinstance(builder, str) or not isinstance(cluster, bool):
+        return None
+    if cluster and builder != "topology":
+        return "cluster=True needs builder='topology'"
+    if isinstance(passes, int) and not isinstance(passes, bool) and passes > 0:
+        if builder != "topology" or cluster:
+            return "order_passes > 0 needs builder='topology' without cluster"
+    return None

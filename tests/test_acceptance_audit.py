@@ -148,3 +148,53 @@ def test_the_report_names_an_asset_no_rule_matched_as_built_by_the_defaults(tmp_
     html = (tmp_path / "out" / "report.html").read_text()
     assert "<td>m/a.obj</td><td>(defaults)</td>" in html and "<td>m/b.obj</td><td>big</td>" in html
     assert "<td>None</td>" not in html
+
+
+COMBINATIONS = [
+    (["builder=forsyth", "order_passes=1"], "order_passes > 0 needs builder='topology' without cluster"),
+    (["cluster=true", "order_passes=2"], "order_passes > 0 needs builder='topology' without cluster"),
+    (["cluster=true", "builder=forsyth"], "cluster=True needs builder='topology'"),
+]
+
+
+@pytest.mark.parametrize("params, says", COMBINATIONS)
+def test_a_parameter_combination_the_builder_refuses_is_a_usage_error(tmp_path, params, says):
+    # each value valid alone: the command line read the mesh and failed at the build (exit 1), a config
+    # passed --dry-run and failed every asset; both now stop before any mesh is read, in the builder's words
+    args = ["build", str(tmp_path / "missing.obj"), "-e", "sliding-window"]
+    for p in params:
+        args += ["-p", p]
+    result = CliRunner().invoke(main, [*args, "--json"])
+    assert result.exit_code == 2, result.output
+    assert json.loads(result.stdout)["error"] == f"Invalid value for --param: {says}"
+    values = ", ".join(p.replace("=", ": ") for p in params)
+    for section in (
+        f"defaults: {{encoding: sliding-window, params: {{{values}}}}}\n",
+        f"rules: [{{name: r, encoding: sliding-window, params: {{{values}}}}}]\n",
+    ):
+        cfg = tmp_path / "pipeline.yaml"
+        cfg.write_text(f"version: 1\nassets: [{{glob: 'm/*.obj'}}]\noutput: {{dir: out}}\n{section}")
+        result = CliRunner().invoke(main, ["run", str(cfg), "--dry-run"])
+        assert result.exit_code == 2, result.output
+        assert f"params: {says}" in result.stderr
+    with pytest.raises(swpm_usd.BuildError, match=says.replace("(", r"\(").replace(")", r"\)")):
+        swpm_usd.build(str(_write(tmp_path / "g.obj")), encoding="sliding-window", **_values(params))
+
+
+def test_a_combination_the_builder_takes_is_taken(tmp_path):
+    mesh = _write(tmp_path / "g.obj")
+    for params in (["cluster=true", "order_passes=0"], ["builder=forsyth", "order_passes=0"], ["mu=0.2"]):
+        args = ["build", str(mesh), "-e", "sliding-window", "--rows", "2"]
+        for p in params:
+            args += ["-p", p]
+        result = CliRunner().invoke(main, args)
+        assert result.exit_code == 0, result.output
+
+
+def _write(path):
+    path.write_text(_grid_obj(4))
+    return path
+
+
+def _values(params: list[str]) -> dict:
+    return {k: json.loads(v) if v not in ("forsyth",) else v for k, v in (p.split("=") for p in params)}

@@ -45,9 +45,10 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     ``params`` get, in its words (:func:`..pipeline.schema.param_problem`: the type and bounds its schema
     gives each, a number finite, an integer no float), then :func:`..build.check_params`. Checked before the
     mesh is read: ``-p mu=2`` read the mesh and built its collapse sequence (minutes on a large mesh) before
-    the encoder refused it, exit 1. A combination only the encoder knows, ``order_passes=2`` with
-    ``builder=forsyth``, fails at the build, exit 1. Returns the parsed parameters."""
-    from ..encodings import ENCODING_PARAMS
+    the encoder refused it, exit 1. So is a combination the encoder refuses, ``order_passes=2`` with
+    ``builder=forsyth`` (:func:`..encodings.combination_problem`; it failed at the build, exit 1). Returns the
+    parsed parameters."""
+    from ..encodings import ENCODING_PARAMS, combination_problem
 
     if encoding not in ENCODING_PARAMS:
         raise click.BadParameter(
@@ -72,6 +73,9 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
         check_params(encoding, ENCODING_PARAMS[encoding], parsed)
     except SwpmError as exc:
         raise click.BadParameter(str(exc), param_hint="--param") from None
+    problem = combination_problem(encoding, parsed)
+    if problem:
+        raise click.BadParameter(problem, param_hint="--param")
     return parsed
 
 

@@ -219,6 +219,7 @@ def _non_finite_params(cfg: Config) -> list[str]:
     rules = cfg.data.get("rules")
     if isinstance(rules, list):
         sections += [(("rules", i), rule) for i, rule in enumerate(rules)]
+    from ..encodings import combination_problem
     from .schema import DEFAULT, param_problem
 
     out = []
@@ -236,6 +237,9 @@ def _non_finite_params(cfg: Config) -> list[str]:
             problem = param_problem(enc, name, value)
             if problem:
                 out.append(f"{cfg.where((*where, 'params', name))}: {problem}")
+        problem = combination_problem(enc, params)  # (it passed --dry-run and failed every asset)
+        if problem:
+            out.append(f"{cfg.where((*where, 'params'))}: {problem}")
     limits = cfg.data.get("limits")
     seconds = limits.get("seconds") if isinstance(limits, dict) else None
     if isinstance(seconds, float) and math.isnan(seconds):  # (NaN passes the schema's bounds; inf: over 1e9)
