@@ -198,3 +198,35 @@ def _write(path):
 
 def _values(params: list[str]) -> dict:
     return {k: json.loads(v) if v not in ("forsyth",) else v for k, v in (p.split("=") for p in params)}
+
+
+def test_save_refuses_a_mesh_file_name(tmp_path):
+    # swpm_usd.save(pm, "spot.obj") wrote the SWPM bytes over the source mesh; encode -o refuses such a name
+    from swpm_usd.format.errors import SwpmEncodeError
+
+    mesh = _write(tmp_path / "g.obj")
+    before = mesh.read_bytes()
+    pm = swpm_usd.build(str(mesh), encoding="vanilla")
+    for name in ("g.obj", "g.USDA", "h.glb"):
+        with pytest.raises(SwpmEncodeError, match="a mesh file's name") as err:
+            swpm_usd.save(pm, tmp_path / name)
+        assert err.value.code == "OUTPUT_UNSUPPORTED"
+    assert mesh.read_bytes() == before and not (tmp_path / "g.USDA").exists()
+    assert swpm_usd.load(swpm_usd.save(pm, tmp_path / "g.swpm")).lod_count == pm.lod_count
+    swpm_usd.save(pm, tmp_path / "g.bin")  # (any other name is the caller's)
+
+
+def test_loading_a_missing_swpm_file_is_input_not_found(tmp_path):
+    # it was INPUT_MALFORMED, as a corrupt file: the codes a missing or unreadable mesh gets
+    from swpm_usd.format.errors import SwpmFormatError
+
+    with pytest.raises(SwpmFormatError, match="SWPM_IO_ERROR") as err:
+        swpm_usd.load(tmp_path / "missing.swpm")
+    assert err.value.code == "INPUT_NOT_FOUND"
+    with pytest.raises(SwpmFormatError) as err:
+        swpm_usd.load(tmp_path)
+    assert err.value.code == "INPUT_UNREADABLE"
+    (tmp_path / "cut.swpm").write_bytes(b"SWPM")
+    with pytest.raises(SwpmFormatError) as err:
+        swpm_usd.load(tmp_path / "cut.swpm")
+    assert err.value.code == "INPUT_MALFORMED"

@@ -368,7 +368,10 @@ def load(path: str | os.PathLike[str]) -> ProgressiveMesh:
     except OSError as exc:
         rep = Report(path=str(path))
         rep.add("SWPM_IO_ERROR", None, reason=str(exc))
-        raise SwpmFormatError(rep) from exc
+        err = SwpmFormatError(rep)
+        # (a missing or unreadable file was INPUT_MALFORMED, as a corrupt one: the codes a mesh gets)
+        err.code = "INPUT_NOT_FOUND" if exc.errno == errno.ENOENT else "INPUT_UNREADABLE"
+        raise err from exc
     rep, p = _check(buf, str(path))
     if not rep.valid or p is None:
         raise SwpmFormatError(rep)
