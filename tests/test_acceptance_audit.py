@@ -230,3 +230,22 @@ def test_loading_a_missing_swpm_file_is_input_not_found(tmp_path):
     with pytest.raises(SwpmFormatError) as err:
         swpm_usd.load(tmp_path / "cut.swpm")
     assert err.value.code == "INPUT_MALFORMED"
+
+
+def test_reading_a_prim_the_stage_lacks_says_so(tmp_path):
+    # usd.read(stage.GetPrimAtPath("/Typo")) told the user to keep the stage in a variable, which they did
+    from pxr import Usd
+
+    from swpm_usd import usd
+    from swpm_usd.usd.reader import UsdReadError
+
+    usd.write(swpm_usd.build(str(_write(tmp_path / "g.obj")), encoding="vanilla"), tmp_path / "g.usda")
+    stage = Usd.Stage.Open(str(tmp_path / "g.usda"))
+    with pytest.raises(UsdReadError, match="a null prim, no prim at the path asked") as err:
+        usd.read(stage.GetPrimAtPath("/Typo"))
+    assert "keep the Usd.Stage" not in str(err.value)
+    with pytest.raises(
+        UsdReadError, match=r"invalid prim /G: not a prim of an open stage \(keep the Usd.Stage"
+    ):
+        usd.read(Usd.Stage.Open(str(tmp_path / "g.usda")).GetDefaultPrim())
+    assert usd.read(stage.GetDefaultPrim()).lod_count > 1
