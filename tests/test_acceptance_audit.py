@@ -249,3 +249,16 @@ def test_reading_a_prim_the_stage_lacks_says_so(tmp_path):
     ):
         usd.read(Usd.Stage.Open(str(tmp_path / "g.usda")).GetDefaultPrim())
     assert usd.read(stage.GetDefaultPrim()).lod_count > 1
+
+
+def test_encode_and_build_help_say_what_each_parameter_does():
+    # they listed names and defaults (mu=0.1 cluster=false ...) and no word of what any does
+    from swpm_usd.encodings import ENCODING_PARAMS, PARAM_HELP
+
+    assert {k for d in ENCODING_PARAMS.values() for k in d} <= set(PARAM_HELP)
+    for command in ("encode", "build"):
+        text = CliRunner().invoke(main, [command, "--help"], terminal_width=80).output
+        section = text[text.index("What each parameter does:") :]
+        for name, says in PARAM_HELP.items():
+            assert any(line.split() == [name, *says.split()] for line in section.splitlines()), name
+    assert "What each parameter does" not in CliRunner().invoke(main, ["--help"]).output

@@ -120,8 +120,9 @@ def _param_value(value: object) -> str:
 def encodings_help(parameters: bool = True) -> str:
     """The encodings of :data:`swpm_usd.encodings.ENCODING_PARAMS` as help text: each one's name and summary,
     then the parameters every encoding takes (with the same default) and, with ``parameters``, each
-    encoding's own, with their defaults. Paragraphs start with click's ``\\b``, so the columns are kept."""
-    from ..encodings import ENCODING_PARAMS
+    encoding's own, with their defaults, and what each does (:data:`..encodings.PARAM_HELP`). Paragraphs
+    start with click's ``\\b``, so the columns are kept."""
+    from ..encodings import ENCODING_PARAMS, PARAM_HELP
 
     defaults = list(ENCODING_PARAMS.values())
     shared = {k: v for k, v in defaults[0].items() if all(k in d and d[k] == v for d in defaults)}
@@ -141,6 +142,11 @@ def encodings_help(parameters: bool = True) -> str:
         lines += [f"  {line}" for line in textwrap.wrap(assignments(shared), 74)]
     if parameters and any(v is None for d in defaults for v in d.values()):
         lines += ["", "A default of null: the encoder picks the value from the other parameters."]
+    if parameters:  # (names and defaults alone taught no one what mu or cluster does)
+        named = [k for k in dict.fromkeys(k for d in defaults for k in d) if k in PARAM_HELP]
+        pad = max((len(k) for k in named), default=0) + 2
+        lines += ["", "\b", "What each parameter does:"]
+        lines += [f"  {k:<{pad}}{PARAM_HELP[k]}" for k in named]
     return "\n".join(lines)
 
 
