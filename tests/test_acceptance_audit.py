@@ -262,3 +262,25 @@ def test_encode_and_build_help_say_what_each_parameter_does():
         for name, says in PARAM_HELP.items():
             assert any(line.split() == [name, *says.split()] for line in section.splitlines()), name
     assert "What each parameter does" not in CliRunner().invoke(main, ["--help"]).output
+
+
+def test_an_unknown_parameter_in_a_config_names_its_encoding(tmp_path):
+    # "(not a parameter of this rule's encoding)" of the defaults too, and of auto, which takes select alone
+    from swpm_usd.pipeline.config import ConfigError, load_config
+
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: '*.obj'}]\noutput: {dir: out}\n"
+        "defaults: {encoding: vanilla, params: {mu: 0.2}}\n"
+        "rules:\n"
+        "  - {name: a, encoding: skip-strip, params: {cluster: true}}\n"
+        "  - {name: b, encoding: auto, params: {mu: 0.2}}\n"
+    )
+    (tmp_path / "a.obj").write_text(_grid_obj(2))
+    with pytest.raises(ConfigError) as err:
+        load_config(cfg)
+    assert [p.split(": ", 1)[1] for p in err.value.problems] == [
+        "$.defaults.params.mu: unknown key (not a parameter of vanilla)",
+        "$.rules[0].params.cluster: unknown key (not a parameter of skip-strip)",
+        "$.rules[1].params.mu: unknown key (not a parameter of auto, which takes select alone)",
+    ]
