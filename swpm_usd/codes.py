@@ -37,13 +37,14 @@ _CODES = [
         "INPUT_NOT_FOUND",
         ERROR,
         "A file given (a mesh, a pipeline config) does not exist: no file, a link to nothing or in a loop.",
-        "MeshLoadError (exit 1), ConfigError of a missing config (exit 2)",
+        "MeshLoadError (exit 1), ConfigError of a missing config (exit 2), SwpmFormatError (load of a "
+        "missing .swpm)",
     ),
     Code(
         "INPUT_UNREADABLE",
         ERROR,
         "The file exists but cannot be read: a folder or device, no permission, an I/O error.",
-        "MeshLoadError, ConfigError",
+        "MeshLoadError, ConfigError, SwpmFormatError (load)",
     ),
     Code(
         "INPUT_UNSUPPORTED",

@@ -65,6 +65,33 @@ MAX_STRIP_WINDOW = 64
 #: the mixed encoding's own parameters and defaults (``ENCODING_PARAMS`` adds the simplifier's)
 MIXED_PARAMS: dict[str, Any] = {"level_threshold": 0.25, "cache_size": 16}
 
+#: what each parameter does, one short line, for ``encode --help`` and ``build --help`` (they listed names and
+#: defaults alone); a name means the same in every encoding that takes it (the README and each encoder's
+#: docstring say more)
+PARAM_HELP: dict[str, str] = {
+    "boundary_weight": "quadric weight of open-boundary edges",
+    "seam_weight": "quadric weight of attribute seams (uv, normals)",
+    "builder": "topology (TD-VIPM) or forsyth (larger pool)",
+    "mu": "share of costliest vertices kept: less error",
+    "tolerance": "forsyth: error slack before a new level",
+    "optimize_connectivity": "edge swaps first: a smaller pool",
+    "swap_max_deviation": "a swap's largest move, of the box diagonal",
+    "cluster": "levels share storage: smaller pool, more error",
+    "inner_vertices": "inner vertices a patch removes: >1, fewer LODs",
+    "cache_size": "FIFO vertex-cache size the orderings target",
+    "absorb_middle": "triangles of no patch join one (warmer cache)",
+    "absorb_rounds": "rings of them a patch takes; 0 for all",
+    "target_slack": "share of the mu cut a centre's move may cost more",
+    "order_passes": "passes of the patch-order search (warmer cache)",
+    "order_reach": "places the order search may move a patch",
+    "coarsest_copy": "coarsest LOD stored once more, cache-ordered",
+    "primitive": "strip (restart-joined strips) or list",
+    "strip_window": "stripifier's look-ahead past the cache order",
+    "restart": "join strips by restart index, else degenerates",
+    "degenerate_threshold": "degenerate share that starts a new level",
+    "level_threshold": "binned share that starts a new level",
+}
+
 #: every encoding's parameters and their defaults, in the order ``BUILDERS`` lists them
 ENCODING_PARAMS: dict[str, dict[str, Any]] = {
     "sliding-window": {**SIMPLIFY_PARAMS, **SLIDING_WINDOW_PARAMS},
@@ -72,3 +99,23 @@ ENCODING_PARAMS: dict[str, dict[str, Any]] = {
     "skip-strip": {**SIMPLIFY_PARAMS, **SKIPSTRIP_PARAMS},
     "mixed": {**SIMPLIFY_PARAMS, **MIXED_PARAMS},
 }
+
+
+def combination_problem(encoding: str, params: dict[str, Any]) -> str | None:
+    """What the ``encoding``'s builder refuses of ``params`` together, each value valid alone, in its words
+    (``swpm_usd.encode.slidingwindow``), or None: the command line's ``-p`` and a config's ``params`` check it
+    with the values' bounds, a usage error before any mesh is read (``-p builder=forsyth -p order_passes=1``
+    read the mesh and failed at the build, exit 1; a config passed ``--dry-run`` and failed every asset). A
+    value of the wrong type is left to the check of its own."""
+    if encoding != "sliding-window":
+        return None
+    p = {**SLIDING_WINDOW_PARAMS, **params}
+    builder, cluster, passes = p["builder"], p["cluster"], p["order_passes"]
+    if not isinstance(builder, str) or not isinstance(cluster, bool):
+        return None
+    if cluster and builder != "topology":
+        return "cluster=True needs builder='topology'"
+    if isinstance(passes, int) and not isinstance(passes, bool) and passes > 0:
+        if builder != "topology" or cluster:
+            return "order_passes > 0 needs builder='topology' without cluster"
+    return None

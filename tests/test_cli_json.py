@@ -41,7 +41,7 @@ CASES = [
     (["inspect", "x.swpm", "--rows", "0", "--json"], "Invalid value for '--rows'", {}),
     (["validate", "a.swpm", "b.swpm", "--json"], "Got unexpected extra argument (b.swpm)", {}),
     (["validate", "a.swpm", "--jsn", "--json"], "No such option '--jsn'", {}),
-    (["conformance", "/nonexistent/vectors", "--json"], "/nonexistent/vectors has no manifest.json", {}),
+    (["conformance", "/nonexistent/vectors", "--json"], "/nonexistent/vectors: no such folder", {}),
 ]
 
 

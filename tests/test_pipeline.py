@@ -473,7 +473,7 @@ rules:
     problems = exc.value.problems
     assert problems == [
         f"{cfg}:9:22: $.rules[0].params.select: 'fastest' is not one of ['acmr', 'misses-at-error']",
-        f"{cfg}:12:14: $.rules[1].params.mu: unknown key (not a parameter of this rule's encoding)",
+        f"{cfg}:12:14: $.rules[1].params.mu: unknown key (not a parameter of auto, which takes select alone)",
     ]
 
 
@@ -3567,7 +3567,7 @@ def test_defaults_params_without_an_encoding_are_checked_as_sliding_windows(tmp_
     problems = _config_problems(cfg, head + "defaults: {params: {mu: 1.5, nope: 1, cache_size: 16.0}}\n")
     assert problems == [
         "c.yaml:4:25: $.defaults.params.mu: must be in [0, 1), got 1.5",
-        "c.yaml:4:30: $.defaults.params.nope: unknown key (not a parameter of this rule's encoding)",
+        "c.yaml:4:30: $.defaults.params.nope: unknown key (not a parameter of sliding-window)",
         "c.yaml:4:51: $.defaults.params.cache_size: must be an integer, got 16.0",
     ]
     cfg.write_text(head + "defaults: {params: {mu: 0.5, cache_size: 8}}\n")

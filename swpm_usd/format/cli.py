@@ -45,9 +45,10 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     ``params`` get, in its words (:func:`..pipeline.schema.param_problem`: the type and bounds its schema
     gives each, a number finite, an integer no float), then :func:`..build.check_params`. Checked before the
     mesh is read: ``-p mu=2`` read the mesh and built its collapse sequence (minutes on a large mesh) before
-    the encoder refused it, exit 1. A combination only the encoder knows, ``order_passes=2`` with
-    ``builder=forsyth``, fails at the build, exit 1. Returns the parsed parameters."""
-    from ..encodings import ENCODING_PARAMS
+    the encoder refused it, exit 1. So is a combination the encoder refuses, ``order_passes=2`` with
+    ``builder=forsyth`` (:func:`..encodings.combination_problem`; it failed at the build, exit 1). Returns the
+    parsed parameters."""
+    from ..encodings import ENCODING_PARAMS, combination_problem
 
     if encoding not in ENCODING_PARAMS:
         raise click.BadParameter(
@@ -72,6 +73,9 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
         check_params(encoding, ENCODING_PARAMS[encoding], parsed)
     except SwpmError as exc:
         raise click.BadParameter(str(exc), param_hint="--param") from None
+    problem = combination_problem(encoding, parsed)
+    if problem:
+        raise click.BadParameter(problem, param_hint="--param")
     return parsed
 
 
@@ -116,8 +120,9 @@ def _param_value(value: object) -> str:
 def encodings_help(parameters: bool = True) -> str:
     """The encodings of :data:`swpm_usd.encodings.ENCODING_PARAMS` as help text: each one's name and summary,
     then the parameters every encoding takes (with the same default) and, with ``parameters``, each
-    encoding's own, with their defaults. Paragraphs start with click's ``\\b``, so the columns are kept."""
-    from ..encodings import ENCODING_PARAMS
+    encoding's own, with their defaults, and what each does (:data:`..encodings.PARAM_HELP`). Paragraphs
+    start with click's ``\\b``, so the columns are kept."""
+    from ..encodings import ENCODING_PARAMS, PARAM_HELP
 
     defaults = list(ENCODING_PARAMS.values())
     shared = {k: v for k, v in defaults[0].items() if all(k in d and d[k] == v for d in defaults)}
@@ -137,6 +142,11 @@ def encodings_help(parameters: bool = True) -> str:
         lines += [f"  {line}" for line in textwrap.wrap(assignments(shared), 74)]
     if parameters and any(v is None for d in defaults for v in d.values()):
         lines += ["", "A default of null: the encoder picks the value from the other parameters."]
+    if parameters:  # (names and defaults alone taught no one what mu or cluster does)
+        named = [k for k in dict.fromkeys(k for d in defaults for k in d) if k in PARAM_HELP]
+        pad = max((len(k) for k in named), default=0) + 2
+        lines += ["", "\b", "What each parameter does:"]
+        lines += [f"  {k:<{pad}}{PARAM_HELP[k]}" for k in named]
     return "\n".join(lines)
 
 
@@ -487,10 +497,17 @@ def _mesh_hint(file: str, problems: list) -> None:
     from ..io import SUPPORTED_SUFFIXES
 
     suffix = Path(file).suffix.lower()
-    if suffix in SUPPORTED_SUFFIXES and any(q.code == "SWPM_HEADER_BAD_MAGIC" for q in problems):
+    # (a mesh file under 64 bytes is "header truncated", not "bad magic": it got no hint)
+    not_swpm = ("SWPM_HEADER_BAD_MAGIC", "SWPM_HEADER_TRUNCATED")
+    if suffix in SUPPORTED_SUFFIXES and any(q.code in not_swpm for q in problems):
+        # (inspect reads .swpm files only; a stage this package wrote is checked by validate)
+        stage = ""
+        if suffix.startswith(".usd"):
+            stage = f"; swpm-pipeline validate {file} checks a stage's SwpmMeshAPI prims"
         click.echo(
             f"hint: {file} is a mesh file ({suffix}), not an SWPM file: swpm-pipeline encode {file} -o "
-            f"{Path(file).with_suffix('.swpm').name} writes one, swpm-pipeline build {file} shows its LODs",
+            f"{Path(file).with_suffix('.swpm').name} writes one, swpm-pipeline build {file} shows its LODs"
+            + stage,
             err=True,
         )
 
@@ -644,6 +661,8 @@ def conformance_cmd(vector_dir: str, as_json: bool) -> None:
             f"no {_DEFAULT_VECTORS} here, and this install is no source checkout: run it from the "
             "repository's root, or give VECTOR_DIR (python -m swpm_usd.format.vectors VECTOR_DIR writes them)"
         )
+    if not Path(vector_dir).is_dir():  # (a mistyped folder was said to have "no manifest.json")
+        raise click.UsageError(f"{vector_dir}: no such folder")
     if not (Path(vector_dir) / "manifest.json").is_file():
         raise click.UsageError(f"{vector_dir} has no manifest.json")
     try:

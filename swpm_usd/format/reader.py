@@ -270,6 +270,18 @@ def _check(buf: np.ndarray, path: str | None, check_crc: bool = True) -> tuple[R
     return rep, p
 
 
+def _stored_indices(p: _Parsed) -> int:
+    """Indices the file stores for every instance, as ``run``'s manifest and report count them for lambda
+    (``pipeline.worker.summarize``): the pool, else every ``*indices`` buffer (skip-strip's collapsed lists
+    in ``SKIP``, mixed's dynamic ones in ``MLVL``, not ``INDX`` alone: a skip-strip file read 2.61 here, 5.23
+    in its run's report)."""
+    b = p.buffers
+    if "index_pool" in b:
+        return int(b["index_pool"].shape[0])
+    stored = sum(int(v.shape[0]) for k, v in b.items() if k.endswith("indices"))
+    return stored or int(p.chunks[L.INDX].length // p.width)
+
+
 def _summarise(p: _Parsed, rep: Report) -> None:
     assert p.lods is not None and p.points is not None
     t0 = int(p.lods["triangle_count"][0])
@@ -282,7 +294,7 @@ def _summarise(p: _Parsed, rep: Report) -> None:
             "vertex_count": int(p.points.shape[0]),
             "triangle_count": int(p.lods["triangle_count"][0]),
             "index_count": int(p.chunks[L.INDX].length // p.width),
-            "lambda": (p.chunks[L.INDX].length / p.width / (3 * t0)) if t0 else None,
+            "lambda": (_stored_indices(p) / (3 * t0)) if t0 else None,
             "file_size": int(p.buf.shape[0]),
             "attributes": {n: f"{a.dtype}x{a.shape[1]}" for n, a in p.attributes.items()},
             "chunks": [
@@ -356,7 +368,10 @@ def load(path: str | os.PathLike[str]) -> ProgressiveMesh:
     except OSError as exc:
         rep = Report(path=str(path))
         rep.add("SWPM_IO_ERROR", None, reason=str(exc))
-        raise SwpmFormatError(rep) from exc
+        err = SwpmFormatError(rep)
+        # (a missing or unreadable file was INPUT_MALFORMED, as a corrupt one: the codes a mesh gets)
+        err.code = "INPUT_NOT_FOUND" if exc.errno == errno.ENOENT else "INPUT_UNREADABLE"
+        raise err from exc
     rep, p = _check(buf, str(path))
     if not rep.valid or p is None:
         raise SwpmFormatError(rep)

@@ -341,7 +341,16 @@ def _json_default(o: Any) -> Any:
 def save(pm: ProgressiveMesh, path: str | os.PathLike[str], *, source_digest: str | None = None) -> Path:
     """Write ``pm`` to ``path`` as SWPM v1, atomically: a reader sees the old file or the complete new one.
 
-    An :class:`OSError` (of its errno's subclass) names ``path``, not the temporary file beside it."""
+    An :class:`OSError` (of its errno's subclass) names ``path``, not the temporary file beside it. A path
+    with a mesh file's suffix (``spot.obj``) is a :class:`SwpmEncodeError`, as ``encode -o`` refuses it: it
+    wrote the SWPM bytes over a source mesh of that name."""
+    from ..io import SUPPORTED_SUFFIXES
+
+    suffix = Path(path).suffix.lower()
+    if suffix in SUPPORTED_SUFFIXES:
+        raise SwpmEncodeError(
+            f"{os.fspath(path)}: a mesh file's name ({suffix}); an SWPM file is written under a .swpm name"
+        )
     data = encode_bytes(pm, source_digest=source_digest)
     try:
         return atomic_write_bytes(path, data)

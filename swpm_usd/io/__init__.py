@@ -13,6 +13,9 @@ from ..errors import MeshLoadError
 from ..mesh import Mesh
 from .clean import clean_mesh
 
+#: an SWPM file's first bytes (spec/format.md 2, ``format.layout.MAGIC``; not imported: io loads no codec)
+SWPM_MAGIC = b"SWPM\r\n\x1a\n"
+
 __all__ = ["clean_mesh", "load_mesh", "SUPPORTED_SUFFIXES"]
 
 _TRIMESH_SUFFIXES = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
@@ -50,9 +53,12 @@ def load_mesh(
     p = Path(path)
     suffix = p.suffix.lower()
     if suffix not in SUPPORTED_SUFFIXES:
+        # (an .swpm given to build or encode is this package's output: say what reads it)
+        hint = f": it is already encoded, swpm-pipeline inspect {p} shows it" if suffix == ".swpm" else ""
         raise MeshLoadError(
             p,
-            f"unsupported file type {suffix or '(no suffix)'!r}; supported: {' '.join(SUPPORTED_SUFFIXES)}",
+            f"unsupported file type {suffix or '(no suffix)'!r}; supported: {' '.join(SUPPORTED_SUFFIXES)}"
+            + hint,
             code="INPUT_UNSUPPORTED",
         )
     if not p.exists():
@@ -65,14 +71,21 @@ def load_mesh(
         raise ValueError(f"{p}: data is an OBJ's bytes; a {suffix} file is read from its path")
     try:
         if data:
-            first = data[:1]
+            first = data[: len(SWPM_MAGIC)]
         else:
             with p.open("rb") as f:
-                first = f.read(1)
+                first = f.read(len(SWPM_MAGIC))
     except OSError as e:
         raise MeshLoadError(p, f"cannot read the file ({e.strerror or e})", code="INPUT_UNREADABLE") from e
     if not first:  # (each reader said it its own way, or not at all: "FileNotFoundError: model.gltf")
         raise MeshLoadError(p, "no triangles: the file is empty (0 bytes)", code="INPUT_EMPTY")
+    if first == SWPM_MAGIC:  # (an .swpm renamed: an OBJ read "no triangle geometry", a stage "not valid")
+        raise MeshLoadError(
+            p,
+            f"not a valid {suffix[1:].upper()} file: it is an SWPM file (byte offset 0: SWPM's magic), "
+            f"already encoded; swpm-pipeline inspect reads it",
+            offset=0,
+        )
     if suffix in _USD_SUFFIXES:
         from .usd_loader import load_usd
 

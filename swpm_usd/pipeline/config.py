@@ -219,6 +219,7 @@ def _non_finite_params(cfg: Config) -> list[str]:
     rules = cfg.data.get("rules")
     if isinstance(rules, list):
         sections += [(("rules", i), rule) for i, rule in enumerate(rules)]
+    from ..encodings import combination_problem
     from .schema import DEFAULT, param_problem
 
     out = []
@@ -236,6 +237,9 @@ def _non_finite_params(cfg: Config) -> list[str]:
             problem = param_problem(enc, name, value)
             if problem:
                 out.append(f"{cfg.where((*where, 'params', name))}: {problem}")
+        problem = combination_problem(enc, params)  # (it passed --dry-run and failed every asset)
+        if problem:
+            out.append(f"{cfg.where((*where, 'params'))}: {problem}")
     limits = cfg.data.get("limits")
     seconds = limits.get("seconds") if isinstance(limits, dict) else None
     if isinstance(seconds, float) and math.isnan(seconds):  # (NaN passes the schema's bounds; inf: over 1e9)
@@ -270,6 +274,27 @@ def _numeric_param(cfg: Config, path: tuple) -> bool:
     )
 
 
+def _params_owner(cfg: Config, path: tuple) -> str:
+    """Whose parameters ``path`` (``defaults.params``, ``rules[i].params``) are, for an unknown key's message:
+    its encoding named (it said "this rule's encoding", of the defaults too, and of ``auto``, which takes
+    ``select`` alone)."""
+    from .schema import DEFAULT
+
+    section: Any = cfg.data
+    for key in path[:-1]:
+        try:
+            section = section[key]
+        except (KeyError, IndexError, TypeError):
+            return "not a parameter of this rule's encoding"
+    default = DEFAULT if path[0] == "defaults" else None
+    encoding = section.get("encoding", default) if isinstance(section, dict) else None
+    if encoding == "auto":  # (it builds every encoding with its defaults)
+        return "not a parameter of auto, which takes select alone"
+    if not isinstance(encoding, str):
+        return "not a parameter of this rule's encoding"
+    return f"not a parameter of {encoding}"
+
+
 def _line_key(msg: str, shown: str) -> tuple[int, int, str]:
     """The line and column of a problem ``FILE:LINE:COL: ...`` of the config ``shown`` (a path may hold
     colons of its own), to sort by."""
@@ -298,7 +323,7 @@ def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
             where = cfg.marks.get((*path, key, "<key>")) or cfg.marks.get(path, (1, 1))
             hint = ""
             if path and path[-1] == "params":
-                hint = " (not a parameter of this rule's encoding)"
+                hint = f" ({_params_owner(cfg, path)})"
             msgs.append(
                 f"{cfg.shown or cfg.path}:{where[0]}:{where[1]}: {format_path((*path, key))}: "
                 f"unknown key{hint}"

@@ -145,8 +145,9 @@ def write_report(path: Path, manifest: dict) -> None:
         # reads as a line feed, written as a character reference, read as itself)
         link = e(aid).replace("\r", "&#13;")
         name = e(aid) if inline else f"<a class=curve href='#curves'>{link}</a>"
+        rule = "(defaults)" if rec.get("rule") is None else str(rec["rule"])  # (no rule matched: was "None")
         rows.append(
-            f"<tr><td>{name}</td><td>{e(str(rec.get('rule')))}</td><td>{e(rec['encoding'])}</td>"
+            f"<tr><td>{name}</td><td>{e(rule)}</td><td>{e(rec['encoding'])}</td>"
             f"<td>{s.get('triangles')}</td><td>{s.get('lod_count')}</td><td>{s.get('lambda', 0):.2f}</td>"
             f"<td>{s.get('acmr', 0):.3f}</td><td>{s.get('global_bytes')}</td>"
             f"<td>{s.get('instance_bytes')}</td>"

@@ -49,9 +49,21 @@ def find_encoded(root: Usd.Stage | Usd.Prim) -> list[Usd.Prim]:
 
 def _encoded_prim(prim: Usd.Prim) -> Usd.Prim:
     if not prim or not prim.IsValid():
-        # a prim of a stage nobody holds any more is invalid too: Usd.Stage.Open(f).GetDefaultPrim()
+        # a prim of a stage nobody holds any more is invalid too: Usd.Stage.Open(f).GetDefaultPrim(); it
+        # keeps its path, where the null prim of GetPrimAtPath(a path the stage lacks) has none (both were
+        # told to keep the stage in a variable)
+        try:
+            path = str(prim.GetPath()) if prim is not None else ""
+        except Exception:  # noqa: BLE001 - (an object that is no Usd.Prim: said as the null prim)
+            path = ""
+        if not path:
+            raise UsdReadError(
+                "invalid prim: a null prim, no prim at the path asked (GetPrimAtPath of a path the stage "
+                "does not hold, or GetDefaultPrim of a stage without one)"
+            )
         raise UsdReadError(
-            "invalid prim: not a prim of an open stage (keep the Usd.Stage in a variable while reading)"
+            f"invalid prim {path}: not a prim of an open stage (keep the Usd.Stage in a variable while "
+            "reading)"
         )
     if is_encoded(prim):
         return prim

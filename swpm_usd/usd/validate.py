@@ -41,6 +41,8 @@ CODES: dict[str, str] = {
     "SWPM_USD_TOPOLOGY": "faceVertexIndices / Counts are not a triangle list of one of the LODs.",
     "SWPM_USD_PARAMS": "swpm:params is not a JSON object a .swpm META may hold (spec/format.md 3.1).",
     "SWPM_USD_REBUILD": "the stored buffers do not rebuild a progressive mesh.",
+    "SWPM_USD_INDEX_WIDTH": "swpm:indexWidth is not the width the prim's indices need (2 when every vertex "
+    "id and a strip pool's restart index fit in 16 bits, else 4).",
     "SWPM_USD_OPEN": "the file is not a USD layer usd-core can open (empty, truncated or not USD at all), "
     "or it or a layer its stage opens is not a regular file (a FIFO, a folder, a device: never opened).",
     "SWPM_USD_READ": "usd-core opened the layer but cannot read a value in it (corrupt .usdc data).",
@@ -140,6 +142,24 @@ def _array(value: Any, dtype: Any = np.int64) -> np.ndarray:
     return np.asarray(value).astype(dtype, copy=False).reshape(-1)
 
 
+def _check_index_width(c: _Check, V: int, params: dict[str, Any]) -> None:
+    """An authored ``swpm:indexWidth`` is the one the writer derives (spec/usd.md): a runtime uploads the
+    indices at that width, so 3, or 2 over vertex ids past 65,535, was a stage validate passed."""
+    width = c.get("swpm:indexWidth", required=False)
+    if width is None:
+        return
+    ri = params.get("restart_index") if params.get("primitive") != "list" else None
+    ri = ri if isinstance(ri, int) and not isinstance(ri, bool) else None
+    need = 2 if max(V - 1, ri or 0) <= 0xFFFF else 4
+    if int(width) != need:
+        why = f"vertex ids up to {max(V - 1, 0)}" + ("" if ri is None else f", restart index {ri}")
+        c.add(
+            "SWPM_USD_INDEX_WIDTH",
+            f"swpm:indexWidth is {int(width)}, the indices need {need} ({why})",
+            attrs=("swpm:indexWidth", "points"),
+        )
+
+
 def validate_prim(prim: Usd.Prim) -> list[Finding]:
     """Our invariants on one prim (no findings for a prim without SwpmMeshAPI)."""
     if not is_encoded(prim):
@@ -208,6 +228,8 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
                 f"vertexCounts[0] = {int(vc[0])} but the prim has {V} points",
                 attrs=("swpm:vertexCounts", "points"),
             )
+
+    _check_index_width(c, V, params)
 
     names = [str(n) for n in values["swpm:bufferNames"]]
     dtypes = [str(d) for d in values["swpm:bufferDtypes"]]
