@@ -102,11 +102,11 @@ ENCODING_PARAMS: dict[str, dict[str, Any]] = {
 
 
 def combination_problem(encoding: str, params: dict[str, Any]) -> str | None:
-    """What the ``encoding``'s builder refuses of ``params`` together, each value valid alone, in its words
-    (``swpm_usd.encode.slidingwindow``), or None: the command line's ``-p`` and a config's ``params`` check it
-    with the values' bounds, a usage error before any mesh is read (``-p builder=forsyth -p order_passes=1``
-    read the mesh and failed at the build, exit 1; a config passed ``--dry-run`` and failed every asset). A
-    value of the wrong type is left to the check of its own."""
+    """What the ``encoding``'s builder refuses of ``params`` together, each value valid alone, or None: the
+    one rule, which the builder (``swpm_usd.encode.slidingwindow``) raises and the command line's ``-p`` and a
+    config's ``params`` check with the values' bounds, a usage error before any mesh is read (``-p
+    builder=forsyth -p order_passes=1`` read the mesh and failed at the build, exit 1; a config passed
+    ``--dry-run`` and failed every asset). A value of the wrong type is left to the check of its own."""
     if encoding != "sliding-window":
         return None
     p = {**SLIDING_WINDOW_PARAMS, **params}

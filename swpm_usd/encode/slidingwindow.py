@@ -98,6 +98,7 @@ from ..encodings import (
     PRIMITIVES,
     SLIDING_WINDOW_PARAMS,
     SWAP_MAX_DEVIATION,
+    combination_problem,
 )
 from ..errors import BuildError
 from ..mesh import Mesh
@@ -746,16 +747,18 @@ def build_sliding_window(
         raise BuildError(f"target_slack must be a finite number >= 0 or None, got {target_slack!r}")
     if not _is_integer(absorb_rounds) or absorb_rounds < 0:
         raise BuildError(f"absorb_rounds must be an integer >= 0, got {absorb_rounds!r}")
-    if cluster and builder != "topology":
-        raise BuildError("cluster=True needs builder='topology'")
     if order_passes is None:  # a linked level's patch order is its tail's: no search with cluster
         order_passes = DEFAULT_ORDER_PASSES if builder == "topology" and not cluster else 0
     if not _is_integer(order_passes) or not 0 <= order_passes <= MAX_ORDER_PASSES:
         raise BuildError(
             f"order_passes must be None or an integer in [0, {MAX_ORDER_PASSES}], got {order_passes!r}"
         )
-    if order_passes and (builder != "topology" or cluster):
-        raise BuildError("order_passes > 0 needs builder='topology' without cluster")
+    # (the command line and a config refuse these combinations before any mesh is read, in these words)
+    problem = combination_problem(
+        "sliding-window", {"builder": builder, "cluster": bool(cluster), "order_passes": int(order_passes)}
+    )
+    if problem:
+        raise BuildError(problem)
     if not _is_integer(order_reach) or not 1 <= order_reach <= MAX_ORDER_REACH:
         raise BuildError(f"order_reach must be an integer in [1, {MAX_ORDER_REACH}], got {order_reach!r}")
     if primitive not in PRIMITIVES:
