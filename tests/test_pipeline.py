@@ -65,6 +65,26 @@ def test_schema_file_matches_the_encoders():
     assert PACKAGED_SCHEMA.read_text() == schema_text()
 
 
+def test_every_parameter_in_the_schema_says_what_it_does_and_its_default():
+    # an editor completing a pipeline.yaml from the schema shows these (encode --help's lines)
+    from swpm_usd.encodings import ENCODING_PARAMS, PARAM_HELP
+
+    schema = json.loads(schema_text())
+    for section in (schema["properties"]["defaults"], schema["properties"]["rules"]["items"]):
+        by_encoding = {
+            b["if"]["properties"]["encoding"]["const"]: b["then"]["properties"]["params"]["properties"]
+            for b in section["allOf"]
+            if "const" in b.get("if", {}).get("properties", {}).get("encoding", {})
+        }
+        assert set(by_encoding) - {"auto"} == set(ENCODING_PARAMS)  # (auto takes select alone)
+        for enc, params in ENCODING_PARAMS.items():
+            assert set(by_encoding[enc]) == set(params), enc
+            for name, default in params.items():
+                prop = by_encoding[enc][name]
+                assert prop["description"] == PARAM_HELP[name] and prop["description"], (enc, name)
+                assert prop["default"] == default, (enc, name)
+
+
 def test_encoding_params_are_the_builders_defaults():
     from swpm_usd.encode import BUILDERS
     from swpm_usd.encodings import ENCODING_PARAMS

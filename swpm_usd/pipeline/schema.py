@@ -63,6 +63,14 @@ def _param_schema(value: Any, name: str = "", encoding: str = "") -> dict[str, A
     return {}
 
 
+def _described(name: str, value: Any, encoding: str) -> dict[str, Any]:
+    """A parameter's schema with what it does and its default, for an editor that completes a config from
+    the schema (the lines of ``encode --help``, :data:`..encodings.PARAM_HELP`)."""
+    from ..encodings import PARAM_HELP
+
+    return {**_param_schema(value, name, encoding), "description": PARAM_HELP[name], "default": value}
+
+
 def param_problem(encoding: str, name: str, value: Any) -> str | None:
     """What is wrong with ``value`` for the parameter ``name`` of ``encoding``, or None: the one check of a
     parameter's value, the command line's ``-p`` (:func:`..format.cli._encoding_and_params`) and a config's
@@ -167,7 +175,7 @@ def build_schema() -> dict[str, Any]:
                 "params": {
                     "type": "object",
                     "additionalProperties": False,
-                    "properties": {k: _param_schema(v, k, enc) for k, v in sorted(defaults.items())},
+                    "properties": {k: _described(k, v, enc) for k, v in sorted(defaults.items())},
                 }
             }
         }
