@@ -6,6 +6,7 @@ import contextlib
 import html
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -3916,6 +3917,16 @@ def test_config_problems_name_the_config_as_given(tmp_path, monkeypatch):
     cfg.write_text("version: 1\nassets: [\n")
     with pytest.raises(ConfigError, match=r"^proj/pipeline.yaml:3:1: \$: invalid YAML"):
         load_config("proj/pipeline.yaml")
+    # an empty config (or comments alone) says so; a list is named (both said "must be a mapping")
+    for text, says in (
+        ("", "holds no configuration; a pipeline config is a mapping with version, assets and output"),
+        ("# to do\n", "holds no configuration"),
+        ("- a\n", "must be a mapping (version, assets, output), not a list"),
+        ("3\n", "must be a mapping (version, assets, output), not a scalar"),
+    ):
+        cfg.write_text(text)
+        with pytest.raises(ConfigError, match=r"^proj/pipeline.yaml:1:1: \$: .*" + re.escape(says)):
+            load_config("proj/pipeline.yaml")
     odd = tmp_path / "a:1:2: b.yaml"
     odd.write_text("version: 2\noutput: {dir: out, colour: red}\nassets: []\n")
     with pytest.raises(ConfigError) as exc:

@@ -566,10 +566,12 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
     if as_json:
         click.echo(json.dumps(out, indent=2, default=str))
     else:
-        click.echo(
-            f"{file}: {'valid' if rep.valid else 'INVALID'} SWPM {out.get('version', '?')} "
-            f"{out.get('encoding', '?')}, index u{8 * out['index_width'] if 'index_width' in out else '?'}"
+        # what the header gave, and nothing of what it did not (it read "INVALID SWPM ? ?, index u?")
+        head = " ".join(
+            [f"{file}: {'valid' if rep.valid else 'INVALID'} SWPM"]
+            + [str(out[k]) for k in ("version", "encoding") if out.get(k) is not None]
         )
+        click.echo(head + (f", index u{8 * out['index_width']}" if "index_width" in out else ""))
         for key in (
             "file_size",
             "lod_count",

@@ -172,8 +172,16 @@ def load_config(path: str | Path) -> Config:
         plain_scalars=plain,
         shown=shown,
     )
+    if data is None:  # (an empty file, or comments alone: it said "must be a mapping" of nothing shown)
+        raise ConfigError(
+            [f"{shown}:1:1: $: the file holds no configuration; a pipeline config is a mapping with version, "
+             "assets and output (samples/pipeline.yaml is one)"]
+        )  # fmt: skip
     if not isinstance(data, dict):
-        raise ConfigError([f"{shown}:1:1: $: the configuration must be a mapping"])
+        raise ConfigError(
+            [f"{shown}:1:1: $: the configuration must be a mapping (version, assets, output), not a "
+             f"{'list' if isinstance(data, list) else 'scalar'}"]
+        )  # fmt: skip
     validator = jsonschema.Draft202012Validator(load_schema())
     problems = list(keys)
     for err in sorted(validator.iter_errors(data), key=lambda e: tuple(map(str, e.absolute_path))):
