@@ -315,7 +315,9 @@ def validate_bytes(data: bytes | bytearray | memoryview | np.ndarray, path: str 
 
 
 def validate(path: str | os.PathLike[str]) -> Report:
-    """Every problem of the file at ``path`` (``report.valid`` is True when none is an error)."""
+    """Every problem of the SWPM file at ``path`` (``report.valid`` is True when none is an error). A USD
+    stage is checked by :func:`swpm_usd.usd.validate.validate_stage` (``swpm-pipeline validate`` picks by the
+    suffix); given here, it is an SWPM file with a bad magic."""
     try:
         buf = _map(path)
     except OSError as exc:
