@@ -54,13 +54,86 @@ def _find_next(tris: np.ndarray, buf: np.ndarray, bsize: int, a: int, b: int) ->
 
 
 @nb.njit(cache=True)
+def _join_at_barrier(
+    tris: np.ndarray,
+    buf: np.ndarray,
+    bsize: int,
+    out: np.ndarray,
+    n: int,
+    pos0: int,
+    lt_kind: int,
+    lt_pos: int,
+    lt_tri: int,
+) -> tuple[int, int, int, int]:
+    """How the strip ``out[:n]`` goes on across a barrier to a buffered triangle (those after it), the
+    cheapest way first: across its last edge (one index); across another edge of its last triangle, turned
+    (a strip's first triangle, rewritten in another rotation: one index) or reached by a swap written before
+    it ("x a v" -> "x a x v": two); through its last vertex q, "q q j" and the triangle's third vertex (two
+    degenerate triangles, three indices, the parity kept); else none (a restart and three indices).
+    Rewriting the last triangle keeps the prefix up to every earlier barrier. Returns (the index count, the
+    barrier's position: the count that draws exactly the triangles before it, the continuation's buffer
+    slot and vertex, or -1, -1)."""
+    a, b = _needed_edge(out, n, pos0)
+    cont, cont_v = _find_next(tris, buf, bsize, a, b)
+    if cont >= 0:
+        return n, n, cont, cont_v
+    turnable = lt_kind == 0 and lt_pos == pos0 and n == lt_pos + 3
+    t = lt_tri
+    if turnable:
+        # (a strip's first triangle is written at even parity: u v w, continued across w -> v)
+        best_r = -1
+        for r in range(3):
+            s, c = _find_next(tris, buf, bsize, tris[t, (r + 2) % 3], tris[t, (r + 1) % 3])
+            if s >= 0 and (best_r < 0 or s < cont):
+                cont, cont_v, best_r = s, c, r
+        if best_r >= 0:
+            for j in range(3):
+                out[lt_pos + j] = tris[t, (best_r + j) % 3]
+            return n, n, cont, cont_v
+    elif lt_kind == 1 and lt_pos == n - 1 and n - 3 >= pos0:
+        v = out[n - 1]
+        out[n - 1] = out[n - 3]
+        out[n] = v
+        a, b = _needed_edge(out, n + 1, pos0)
+        cont, cont_v = _find_next(tris, buf, bsize, a, b)
+        if cont >= 0:
+            return n + 1, n + 1, cont, cont_v
+        out[n - 1] = v
+    # through a shared vertex: the first buffered triangle holding the last vertex (any of a turnable
+    # triangle's, turned to end on it)
+    for i in range(bsize):
+        u = buf[i]
+        for j in range(3):
+            q = tris[u, j]
+            r = -1
+            if turnable:
+                for k in range(3):
+                    if tris[t, (k + 2) % 3] == q:
+                        r = k
+            elif q == out[n - 1]:
+                r = 3
+            if r < 0:
+                continue
+            if r < 3:
+                for k in range(3):
+                    out[lt_pos + k] = tris[t, (r + k) % 3]
+            # "q q j2 j3" draws (q, j2, j3) at even parity, (j2, q, j3) at odd: the triangle (q, y, z)
+            out[n] = q
+            out[n + 1] = tris[u, (j + 1) % 3] if ((n - pos0) & 1) == 0 else tris[u, (j + 2) % 3]
+            a, b = _needed_edge(out, n + 2, pos0)
+            cont, cont_v = _find_next(tris, buf, bsize, a, b)
+            return n + 2, n, cont, cont_v
+    return n, n, -1, -1
+
+
+@nb.njit(cache=True)
 def _stripify(tris: np.ndarray, use_restart: bool, restart: int, window: int) -> np.ndarray:
-    return _stripify_barriers(tris, use_restart, restart, window, np.empty(0, np.int64))[0]
+    return _stripify_barriers(tris, use_restart, restart, window, np.empty(0, np.int64), False)[0]
 
 
 @nb.njit(cache=True)
 def _stripify_barriers(
-    tris: np.ndarray, use_restart: bool, restart: int, window: int, barriers: np.ndarray
+    tris: np.ndarray, use_restart: bool, restart: int, window: int, barriers: np.ndarray, joins: bool = False
 ) -> tuple:
     """:func:`_stripify` with ``barriers``, sorted triangle positions the look-ahead never crosses (every
     triangle before one is emitted before any after it), so that a prefix of the strip draws exactly the
@@ -84,6 +157,11 @@ def _stripify_barriers(
     cont_v = -1  # its vertex off the strip's last edge
     nb_ = 0  # barriers passed
     limit = T  # the input is buffered up to the next barrier only
+    # the last emitted triangle, for a join at a barrier: how it was written (0 a strip's first triangle, 1 a
+    # continuation by one index, 2 by a swap), its first index's position, its input triangle
+    lt_kind = 2
+    lt_pos = 0
+    lt_tri = 0
     while nb_ < B and barriers[nb_] <= 0:
         nb_ += 1
     if nb_ < B:
@@ -97,8 +175,8 @@ def _stripify_barriers(
             if next_in >= T:
                 break
             # every triangle before the barrier is out: the strip's prefix up to here draws exactly them
+            nb0 = nb_
             while nb_ < B and barriers[nb_] <= next_in:
-                bpos[nb_] = n
                 nb_ += 1
             limit = min(barriers[nb_], T) if nb_ < B else T
             while bsize < window and next_in < limit:
@@ -106,19 +184,19 @@ def _stripify_barriers(
                 bsize += 1
                 next_in += 1
             if n > 0:
-                # the strip goes on across its last edge if a buffered triangle is there, else by a swap
-                # ("a b" -> "a b a", one index) if one is across (second last, last)
-                a, b = _needed_edge(out, n, pos0)
-                cont, cont_v = _find_next(tris, buf, bsize, a, b)
-                if cont < 0:
-                    out[n] = out[n - 2]
-                    a, b = _needed_edge(out, n + 1, pos0)
-                    cont, cont_v = _find_next(tris, buf, bsize, a, b)
-                    if cont >= 0:
-                        n += 1
+                n, wend, cont, cont_v = _join_at_barrier(
+                    tris, buf, bsize, out, n, pos0, lt_kind, lt_pos, lt_tri
+                )
+            else:
+                wend = n
+            for i in range(nb0, nb_):
+                bpos[i] = wend
             continue
         # the continuation found as the last triangle was emitted, else a new strip at the first buffered
         # triangle (the input's order)
+        if cont < 0 and joins and n > 0:
+            # a buffered triangle through the last vertex: a join of three indices, not a restart and three
+            n, _, cont, cont_v = _join_at_barrier(tris, buf, bsize, out, n, pos0, lt_kind, lt_pos, lt_tri)
         pick = cont if cont >= 0 else 0
         t = buf[pick]
         for i in range(pick, bsize - 1):
@@ -129,8 +207,11 @@ def _stripify_barriers(
             buf[bsize] = next_in
             bsize += 1
             next_in += 1
+        lt_tri = t
         if cont >= 0:
             v = cont_v
+            lt_kind = 1
+            lt_pos = n
             # emitted as v, the strip goes on across (last, v); if no buffered triangle is there but one is
             # across (second last, v), a swap reaches it: "a b" -> "a b a v" (a degenerate triangle, then
             # this one with its winding) for one index more than a restart would cost
@@ -143,6 +224,7 @@ def _stripify_barriers(
                 a, b = _needed_edge(out, n + 2, pos0)
                 cont, cont_v = _find_next(tris, buf, bsize, a, b)
                 if cont >= 0:
+                    lt_kind = 2
                     n += 2
                     continue
                 out[n] = v
@@ -169,6 +251,8 @@ def _stripify_barriers(
                 out[n] = out[n - 1]
                 out[n + 1] = u
                 n += 2
+        lt_kind = 0
+        lt_pos = n
         out[n] = u
         if ((n - pos0) & 1) == 0:
             out[n + 1] = v

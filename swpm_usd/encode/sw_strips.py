@@ -47,7 +47,7 @@ def _strip_pieces(
         i = np.searchsorted(barriers, a)
         j = np.searchsorted(barriers, b)
         piece, pos = _stripify_barriers(
-            tris[a:b], True, restart, max(1, min(window, b - a)), barriers[i:j] - a
+            tris[a:b], True, restart, max(1, min(window, b - a)), barriers[i:j] - a, True
         )
         start[s] = n
         bpos[i:j] = pos + n
