@@ -73,6 +73,12 @@ def test_windows_are_strip_ranges_after_a_restart(builds, option) -> None:
     cuts = np.unique(np.r_[0, tris.shape[0], rec[:, 0] // 3, rec[:, 0] // 3 + rec[:, 1]])
     old, _, _, _ = _strip_pieces(tris, cuts, np.empty(0, np.int64), rv, strip.params["strip_window"])
     assert np.count_nonzero(pool == rv) < np.count_nonzero(old == rv) and pool.shape[0] < old.shape[0]
+    # a window ends on its last triangle's index, never on a join's degenerate triangles after it (three
+    # indices of one strip, distinct)
+    e = end[:, None] - np.arange(1, 4)[None, :]
+    assert np.all(e >= first[live, None]) and not np.any(pool[e] == rv)
+    last = pool[e]
+    assert np.all((last[:, 0] != last[:, 1]) & (last[:, 1] != last[:, 2]) & (last[:, 0] != last[:, 2]))
     for k in range(strip.lod_count):
         kind, stream = strip.draw_stream(k)
         assert kind == "strip" and stream.shape[0] == count[k]
@@ -147,13 +153,13 @@ def test_stripify_never_crosses_a_barrier(seed) -> None:
     T = tris.shape[0]
     barriers = np.unique(rng.integers(0, T + 1, size=3 + 2 * seed))
     rv = 0xFFFF
-    for window in (1, 4, 8):
-        strip, pos = _stripify_barriers(tris, True, rv, window, barriers)
+    for window, joins in ((1, False), (4, False), (8, False), (1, True), (4, True), (8, True)):
+        strip, pos = _stripify_barriers(tris, True, rv, window, barriers, joins)
         assert pos.shape == barriers.shape and np.all(np.diff(pos) >= 0)
         assert np.array_equal(_canonical(decode_strip(strip, rv)), _canonical(tris))
         for b, p in zip(barriers.tolist(), pos.tolist(), strict=True):
             got = decode_strip(strip[:p], rv)
-            assert np.array_equal(_canonical(got), _canonical(tris[:b])), (window, b)
+            assert np.array_equal(_canonical(got), _canonical(tris[:b])), (window, joins, b)
         # no barrier: the skip strips' stripifier bit for bit
         assert np.array_equal(
             _stripify_barriers(tris, True, rv, window, barriers[:0])[0], _stripify(tris, True, rv, window)
@@ -435,3 +441,68 @@ def test_reader_steps_place_the_strips_bit_check() -> None:
     step1 = text[text.index("1. Header, in this order:") : text.index("2. Table entries in table order")]
     at = step1.index("SWPM_HEADER_STRIPS_NOT_SLIDING")
     assert step1.index("encoding bits") < at < step1.index("reserved")
+
+
+def _by_hand(pool: list[int], rec: list[list[int]], V: int) -> tuple[list[int], np.ndarray, int]:
+    """:func:`strip_pool` of a small list pool, every window checked against its list triangles: (the strip
+    pool, the index counts, the restart index)."""
+    p = np.array(pool, np.uint32)
+    r = np.array(rec, np.uint32)
+    strips, out, counts, rv = strip_pool(p, r, V)
+    for k in range(r.shape[0]):
+        a = int(out[k, 0])
+        got = decode_strip(strips[a : a + int(counts[k])], rv)
+        assert got.shape[0] == int(r[k, 1])
+        want = p[int(r[k, 0]) : int(r[k, 0]) + 3 * int(r[k, 1])].reshape(-1, 3)
+        assert np.array_equal(_canonical(got), _canonical(want)), k
+    return strips.tolist(), counts, rv
+
+
+def test_a_window_end_joins_through_a_shared_vertex() -> None:
+    """Two triangles sharing only vertex 2, window 1 the first: no edge goes on, so the strip repeats 2 (two
+    degenerate triangles) and draws (2, 3, 4) at its parity: 6 indices, not 7 with a restart."""
+    strips, counts, rv = _by_hand([0, 1, 2, 2, 3, 4], [[0, 2, 5], [0, 1, 3]], 5)
+    assert strips == [0, 1, 2, 2, 4, 3] and counts.tolist() == [6, 3]
+
+
+def test_a_window_end_turns_a_strips_first_triangle() -> None:
+    """Window 1 is the strip's first triangle (0, 1, 2), written 0 1 2 with nothing to continue in its window;
+    the next window's triangle (1, 0, 5) is across its edge 0-1, so it is rewritten 2 0 1 (the same triangle)
+    and the strip goes on by one index."""
+    strips, counts, rv = _by_hand([0, 1, 2, 1, 0, 5], [[0, 2, 6], [0, 1, 3]], 6)
+    assert strips == [2, 0, 1, 5] and counts.tolist() == [4, 3]
+
+
+def test_a_window_end_swaps_before_its_last_triangle() -> None:
+    """(0, 1, 2) then (2, 1, 3) go on as one strip; the next window's (3, 1, 6) is across the last triangle's
+    edge 1-3, not its last edge 2-3: a swap written before that triangle (0 1 2 1 3) reaches it, one index
+    more than going on and three fewer than a restart."""
+    strips, counts, rv = _by_hand([0, 1, 2, 2, 1, 3, 3, 1, 6], [[0, 3, 7], [0, 2, 4]], 7)
+    assert rv not in strips and len(strips) == 6 and counts.tolist() == [6, 5]
+
+
+@pytest.mark.parametrize("option", list(OPTIONS))
+def test_strip_builds_join_without_restarts(builds, option) -> None:
+    """The shared meshes' strip pools hold joins through a vertex ("q q": a repeated index), each window
+    still its list window (:func:`test_every_window_decodes_to_the_list_window`), and fewer indices than the
+    same pieces stripified with a restart wherever a strip cannot go on."""
+    lst, strip = builds[option]
+    pool = strip.index_pool.astype(np.int64)
+    rv = strip.restart_index
+    assert np.count_nonzero((pool[1:] == pool[:-1]) & (pool[1:] != rv)) > 0
+    tris = lst.index_pool.astype(np.int64).reshape(-1, 3)
+    rec = lst.window_records.astype(np.int64)
+    T = tris.shape[0]
+    cuts = np.unique(np.r_[0, T, rec[:, 0] // 3])
+    ends = rec[:, 0] // 3 + rec[:, 1]
+    barriers = np.setdiff1d(ends[(ends > 0) & (ends < T)], cuts)
+    w = strip.params["strip_window"]
+    joined, _, _, _ = _strip_pieces(tris, cuts, barriers, rv, w)
+    assert np.array_equal(joined, pool)
+    # (_stripify_barriers without vertex joins inside a piece: a restart there)
+    plain = []
+    for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist(), strict=True):
+        bs = barriers[(barriers > a) & (barriers < b)] - a
+        plain.append(_stripify_barriers(tris[a:b], True, rv, max(1, min(w, b - a)), bs, False)[0])
+    n_plain = sum(p.shape[0] for p in plain) + len(plain) - 1
+    assert pool.shape[0] < n_plain
