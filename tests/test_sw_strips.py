@@ -153,13 +153,22 @@ def test_stripify_never_crosses_a_barrier(seed) -> None:
     T = tris.shape[0]
     barriers = np.unique(rng.integers(0, T + 1, size=3 + 2 * seed))
     rv = 0xFFFF
-    for window, joins in ((1, False), (4, False), (8, False), (1, True), (4, True), (8, True)):
-        strip, pos = _stripify_barriers(tris, True, rv, window, barriers, joins)
+    runs = [
+        (1, False, 0),
+        (4, False, 0),
+        (8, False, 0),
+        (1, True, 0),
+        (4, True, 0),
+        (8, True, 0),
+        (4, True, 5),
+    ]
+    for window, joins, exact in runs + [(1, True, 8)]:
+        strip, pos = _stripify_barriers(tris, True, rv, window, barriers, joins, exact)
         assert pos.shape == barriers.shape and np.all(np.diff(pos) >= 0)
         assert np.array_equal(_canonical(decode_strip(strip, rv)), _canonical(tris))
         for b, p in zip(barriers.tolist(), pos.tolist(), strict=True):
             got = decode_strip(strip[:p], rv)
-            assert np.array_equal(_canonical(got), _canonical(tris[:b])), (window, joins, b)
+            assert np.array_equal(_canonical(got), _canonical(tris[:b])), (window, joins, exact, b)
         # no barrier: the skip strips' stripifier bit for bit
         assert np.array_equal(
             _stripify_barriers(tris, True, rv, window, barriers[:0])[0], _stripify(tris, True, rv, window)
