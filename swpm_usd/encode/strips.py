@@ -14,7 +14,12 @@ joined either by a restart index (``restart_index``) or, when that is ``None``, 
 (degenerate joins; a new strip's first triangle is emitted in the order its parity needs, so no extra parity
 index is spent). *Barriers* (:func:`_stripify_barriers`, for the sliding-window strip pool) are input
 positions the look-ahead does not cross, so that a prefix of the strip draws exactly the triangles before one:
-a window that ends there.
+a window that ends there. There the strip goes on, where it can, more cheaply than by a restart
+(:func:`_join_at_barrier`): across its last edge, its last triangle turned or swapped to end on an edge the
+next triangle shares, or through its last vertex (``q q``, two degenerate triangles); with ``joins`` that
+vertex join replaces a restart inside a block too, and with ``exact`` a block of at most that many triangles
+is written by a bounded search (:func:`_strip_block`) instead of the look-ahead. Neither is used for skip
+strips (:func:`_stripify` is bit for bit the stripifier without them).
 
 The window trades indices for cache misses: each triangle taken ahead of the input order delays the ones it
 skips. Ten shared meshes, skip strips at the defaults: FIFO misses over meshoptimizer's
