@@ -358,8 +358,11 @@ def _stripify_barriers(
     """:func:`_stripify` with ``barriers``, sorted triangle positions the look-ahead never crosses (every
     triangle before one is emitted before any after it), so that a prefix of the strip draws exactly the
     triangles before it (a sliding window that ends there, :mod:`.sw_strips`); the strip goes on across a
-    barrier when the next triangle can continue it. Returns (the strip, the strip position of every barrier:
-    the index count that draws the triangles before it). No barrier: :func:`_stripify`'s strip."""
+    barrier by :func:`_join_at_barrier` where it can (else a restart). ``joins``: that function's vertex join
+    (``q q``) also where the look-ahead would start a new strip inside a block; ``exact`` > 0: a block between
+    barriers of at most that many triangles is written by :func:`_strip_block` instead (with restart indices
+    only: ignored when ``use_restart`` is False). Returns (the strip, the strip position of every barrier:
+    the index count that draws the triangles before it). No barrier, no joins: :func:`_stripify`'s strip."""
     T = tris.shape[0]
     B = barriers.shape[0]
     # at most 5 indices a triangle: a strip's first one after a degenerate join (2 + 3), a swap 2; a swap
@@ -386,6 +389,10 @@ def _stripify_barriers(
         nb_ += 1
     if nb_ < B:
         limit = min(barriers[nb_], T)
+    if not use_restart:
+        # the block search starts its new strips after a restart index (:func:`_apply`): without restarts
+        # (degenerate joins) it would write the restart value into the strip as a vertex
+        exact = 0
     memo = np.zeros((512 if exact > 0 else 1, 6), np.int64)
     stamp = 0
     if exact > 0 and 0 < limit <= exact:
