@@ -515,3 +515,89 @@ def test_strip_builds_join_without_restarts(builds, option) -> None:
         plain.append(_stripify_barriers(tris[a:b], True, rv, max(1, min(w, b - a)), bs, False)[0])
     n_plain = sum(p.shape[0] for p in plain) + len(plain) - 1
     assert pool.shape[0] < n_plain
+
+
+def test_join_vectors_are_the_writers_pool() -> None:
+    """The vectors ``sliding-window-strip-join`` / ``-end-degenerate`` (format.md 3.5) hold what the writer
+    makes of their list: window 1's end joined to 3 4 1 through its last index repeated (``3 3``), window 1
+    stopping before it; the degenerate variant only lengthens window 1 by one index and draws the same."""
+    from swpm_usd.format.vectors import fan_sliding_strip_join
+
+    strips, counts, rv = _by_hand([0, 1, 2, 0, 2, 3, 3, 4, 1, 1, 4, 0], [[0, 4, 5], [0, 2, 4]], 5)
+    assert strips == [1, 2, 0, 3, 3, 4, 1, 0] and counts.tolist() == [8, 4]
+    for n1 in (4, 5):
+        bufs = fan_sliding_strip_join(window1_count=n1).raw_buffers
+        assert list(bufs["index_pool"]) == strips and list(bufs["window_index_counts"]) == [8, n1]
+        got = decode_strip(np.array(strips[:n1]), rv)
+        assert np.array_equal(_canonical(got), _canonical([[0, 1, 2], [0, 2, 3]]))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_block_search_without_restarts_keeps_degenerate_joins(seed) -> None:
+    """``_stripify_barriers`` with degenerate joins (``use_restart`` False) and the block search (``exact``):
+    the search writes new strips after a restart index, so it is not used there; the strip holds only
+    vertices and decodes, whole and up to every barrier, to the input (it held the restart value -1 between
+    strips, each a vertex -1 to a decoder without restarts, 13 triangles for 4)."""
+    rng = np.random.default_rng(seed)
+    tris = np.array([[0, 1, 2], [3, 4, 5], [6, 7, 8], [2, 1, 9]], np.int64)
+    if seed:
+        tris = _grid_triangles(rng, 3 + seed)
+    barriers = np.unique(rng.integers(1, tris.shape[0], size=2 + seed)) if seed else np.array([2], np.int64)
+    for exact in (2, 5, 8):
+        strip, pos = _stripify_barriers(tris, False, -1, 4, barriers, True, exact)
+        assert strip.min() >= 0
+        assert np.array_equal(_canonical(decode_strip(strip)), _canonical(tris))
+        for b, p in zip(barriers.tolist(), pos.tolist(), strict=True):
+            assert np.array_equal(_canonical(decode_strip(strip[:p])), _canonical(tris[:b])), (exact, b)
+
+
+def _decode_by_the_spec(s: list[int], rv: int) -> list[tuple[int, int, int]]:
+    """format.md 3.5 / 3.7 read on their own (not :func:`decode_strip`): triangle i of a strip, counted from
+    its start, is (s[i], s[i+1], s[i+2]) for even i, (s[i+1], s[i], s[i+2]) for odd; degenerate ones
+    skipped."""
+    out, run = [], 0
+    for j, c in enumerate(s):
+        if c == rv:
+            run = 0
+            continue
+        if run >= 2:
+            i = run - 2
+            t = (s[j - 2], s[j - 1], c) if i % 2 == 0 else (s[j - 1], s[j - 2], c)
+            if len(set(t)) == 3:
+                out.append(t)
+        run += 1
+    return out
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_strip_pool_random_windows_draw_their_list_triangles(seed) -> None:
+    """Random small pools (triangles sharing edges, only vertices, duplicated or reversed) and random
+    overlapping windows: every window of :func:`strip_pool` starts a strip, ends on a triangle (its last three
+    indices distinct) and draws exactly its list window's triangles with their winding (a turned first
+    triangle, a swap or a ``q q`` join across another window's end included), for look-aheads 1, 4 and 8."""
+    rng = np.random.default_rng(seed)
+    for _ in range(40):
+        V = int(rng.integers(3, 12))
+        T = int(rng.integers(1, 40))
+        tris = np.array([rng.choice(V, 3, replace=False) for _ in range(T)], np.int64)
+        if seed % 2:  # a grid's triangles in a shuffled order: long strips, joins by edges
+            n = int(rng.integers(1, 5))
+            v = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)
+            a, b, c, d = v[:-1, :-1].ravel(), v[:-1, 1:].ravel(), v[1:, :-1].ravel(), v[1:, 1:].ravel()
+            tris = np.r_[np.c_[a, c, b], np.c_[b, c, d]][rng.permutation(2 * n * n)]
+            V, T = (n + 1) ** 2, 2 * n * n
+        starts = rng.integers(0, T + 1, int(rng.integers(1, 10)))
+        rec = np.array([[3 * s, int(rng.integers(0, T - s + 1)), V] for s in starts.tolist()], np.uint32)
+        for window in (1, 4, 8):
+            strips, out, counts, rv = strip_pool(tris.reshape(-1).astype(np.uint32), rec, V, window)
+            s = strips.astype(np.int64).tolist()
+            for k in range(rec.shape[0]):
+                f, c = int(out[k, 0]), int(counts[k])
+                want = tris[int(rec[k, 0]) // 3 : int(rec[k, 0]) // 3 + int(rec[k, 1])]
+                if c == 0:
+                    assert want.shape[0] == 0
+                    continue
+                assert f == 0 or s[f - 1] == rv
+                assert rv not in s[f + c - 3 : f + c] and len(set(s[f + c - 3 : f + c])) == 3
+                got = _decode_by_the_spec(s[f : f + c], rv)
+                assert np.array_equal(_canonical(got), _canonical(want)), (seed, window, k)
