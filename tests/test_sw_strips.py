@@ -73,6 +73,12 @@ def test_windows_are_strip_ranges_after_a_restart(builds, option) -> None:
     cuts = np.unique(np.r_[0, tris.shape[0], rec[:, 0] // 3, rec[:, 0] // 3 + rec[:, 1]])
     old, _, _, _ = _strip_pieces(tris, cuts, np.empty(0, np.int64), rv, strip.params["strip_window"])
     assert np.count_nonzero(pool == rv) < np.count_nonzero(old == rv) and pool.shape[0] < old.shape[0]
+    # a window ends on its last triangle's index, never on a join's degenerate triangles after it (three
+    # indices of one strip, distinct)
+    e = end[:, None] - np.arange(1, 4)[None, :]
+    assert np.all(e >= first[live, None]) and not np.any(pool[e] == rv)
+    last = pool[e]
+    assert np.all((last[:, 0] != last[:, 1]) & (last[:, 1] != last[:, 2]) & (last[:, 0] != last[:, 2]))
     for k in range(strip.lod_count):
         kind, stream = strip.draw_stream(k)
         assert kind == "strip" and stream.shape[0] == count[k]
@@ -147,13 +153,22 @@ def test_stripify_never_crosses_a_barrier(seed) -> None:
     T = tris.shape[0]
     barriers = np.unique(rng.integers(0, T + 1, size=3 + 2 * seed))
     rv = 0xFFFF
-    for window in (1, 4, 8):
-        strip, pos = _stripify_barriers(tris, True, rv, window, barriers)
+    runs = [
+        (1, False, 0),
+        (4, False, 0),
+        (8, False, 0),
+        (1, True, 0),
+        (4, True, 0),
+        (8, True, 0),
+        (4, True, 5),
+    ]
+    for window, joins, exact in runs + [(1, True, 8)]:
+        strip, pos = _stripify_barriers(tris, True, rv, window, barriers, joins, exact)
         assert pos.shape == barriers.shape and np.all(np.diff(pos) >= 0)
         assert np.array_equal(_canonical(decode_strip(strip, rv)), _canonical(tris))
         for b, p in zip(barriers.tolist(), pos.tolist(), strict=True):
             got = decode_strip(strip[:p], rv)
-            assert np.array_equal(_canonical(got), _canonical(tris[:b])), (window, b)
+            assert np.array_equal(_canonical(got), _canonical(tris[:b])), (window, joins, exact, b)
         # no barrier: the skip strips' stripifier bit for bit
         assert np.array_equal(
             _stripify_barriers(tris, True, rv, window, barriers[:0])[0], _stripify(tris, True, rv, window)
@@ -435,3 +450,154 @@ def test_reader_steps_place_the_strips_bit_check() -> None:
     step1 = text[text.index("1. Header, in this order:") : text.index("2. Table entries in table order")]
     at = step1.index("SWPM_HEADER_STRIPS_NOT_SLIDING")
     assert step1.index("encoding bits") < at < step1.index("reserved")
+
+
+def _by_hand(pool: list[int], rec: list[list[int]], V: int) -> tuple[list[int], np.ndarray, int]:
+    """:func:`strip_pool` of a small list pool, every window checked against its list triangles: (the strip
+    pool, the index counts, the restart index)."""
+    p = np.array(pool, np.uint32)
+    r = np.array(rec, np.uint32)
+    strips, out, counts, rv = strip_pool(p, r, V)
+    for k in range(r.shape[0]):
+        a = int(out[k, 0])
+        got = decode_strip(strips[a : a + int(counts[k])], rv)
+        assert got.shape[0] == int(r[k, 1])
+        want = p[int(r[k, 0]) : int(r[k, 0]) + 3 * int(r[k, 1])].reshape(-1, 3)
+        assert np.array_equal(_canonical(got), _canonical(want)), k
+    return strips.tolist(), counts, rv
+
+
+def test_a_window_end_joins_through_a_shared_vertex() -> None:
+    """Two triangles sharing only vertex 2, window 1 the first: no edge goes on, so the strip repeats 2 (two
+    degenerate triangles) and draws (2, 3, 4) at its parity: 6 indices, not 7 with a restart."""
+    strips, counts, rv = _by_hand([0, 1, 2, 2, 3, 4], [[0, 2, 5], [0, 1, 3]], 5)
+    assert strips == [0, 1, 2, 2, 4, 3] and counts.tolist() == [6, 3]
+
+
+def test_a_window_end_turns_a_strips_first_triangle() -> None:
+    """Window 1 is the strip's first triangle (0, 1, 2), written 0 1 2 with nothing to continue in its window;
+    the next window's triangle (1, 0, 5) is across its edge 0-1, so it is rewritten 2 0 1 (the same triangle)
+    and the strip goes on by one index."""
+    strips, counts, rv = _by_hand([0, 1, 2, 1, 0, 5], [[0, 2, 6], [0, 1, 3]], 6)
+    assert strips == [2, 0, 1, 5] and counts.tolist() == [4, 3]
+
+
+def test_a_window_end_swaps_before_its_last_triangle() -> None:
+    """(0, 1, 2) then (2, 1, 3) go on as one strip; the next window's (3, 1, 6) is across the last triangle's
+    edge 1-3, not its last edge 2-3: a swap written before that triangle (0 1 2 1 3) reaches it, one index
+    more than going on and three fewer than a restart."""
+    strips, counts, rv = _by_hand([0, 1, 2, 2, 1, 3, 3, 1, 6], [[0, 3, 7], [0, 2, 4]], 7)
+    assert rv not in strips and len(strips) == 6 and counts.tolist() == [6, 5]
+
+
+@pytest.mark.parametrize("option", list(OPTIONS))
+def test_strip_builds_join_without_restarts(builds, option) -> None:
+    """The shared meshes' strip pools hold joins through a vertex ("q q": a repeated index), each window
+    still its list window (:func:`test_every_window_decodes_to_the_list_window`), and fewer indices than the
+    same pieces stripified with a restart wherever a strip cannot go on."""
+    lst, strip = builds[option]
+    pool = strip.index_pool.astype(np.int64)
+    rv = strip.restart_index
+    assert np.count_nonzero((pool[1:] == pool[:-1]) & (pool[1:] != rv)) > 0
+    tris = lst.index_pool.astype(np.int64).reshape(-1, 3)
+    rec = lst.window_records.astype(np.int64)
+    T = tris.shape[0]
+    cuts = np.unique(np.r_[0, T, rec[:, 0] // 3])
+    ends = rec[:, 0] // 3 + rec[:, 1]
+    barriers = np.setdiff1d(ends[(ends > 0) & (ends < T)], cuts)
+    w = strip.params["strip_window"]
+    joined, _, _, _ = _strip_pieces(tris, cuts, barriers, rv, w)
+    assert np.array_equal(joined, pool)
+    # (_stripify_barriers without vertex joins inside a piece: a restart there)
+    plain = []
+    for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist(), strict=True):
+        bs = barriers[(barriers > a) & (barriers < b)] - a
+        plain.append(_stripify_barriers(tris[a:b], True, rv, max(1, min(w, b - a)), bs, False)[0])
+    n_plain = sum(p.shape[0] for p in plain) + len(plain) - 1
+    assert pool.shape[0] < n_plain
+
+
+def test_join_vectors_are_the_writers_pool() -> None:
+    """The vectors ``sliding-window-strip-join`` / ``-end-degenerate`` (format.md 3.5) hold what the writer
+    makes of their list: window 1's end joined to 3 4 1 through its last index repeated (``3 3``), window 1
+    stopping before it; the degenerate variant only lengthens window 1 by one index and draws the same."""
+    from swpm_usd.format.vectors import fan_sliding_strip_join
+
+    strips, counts, rv = _by_hand([0, 1, 2, 0, 2, 3, 3, 4, 1, 1, 4, 0], [[0, 4, 5], [0, 2, 4]], 5)
+    assert strips == [1, 2, 0, 3, 3, 4, 1, 0] and counts.tolist() == [8, 4]
+    for n1 in (4, 5):
+        bufs = fan_sliding_strip_join(window1_count=n1).raw_buffers
+        assert list(bufs["index_pool"]) == strips and list(bufs["window_index_counts"]) == [8, n1]
+        got = decode_strip(np.array(strips[:n1]), rv)
+        assert np.array_equal(_canonical(got), _canonical([[0, 1, 2], [0, 2, 3]]))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_block_search_without_restarts_keeps_degenerate_joins(seed) -> None:
+    """``_stripify_barriers`` with degenerate joins (``use_restart`` False) and the block search (``exact``):
+    the search writes new strips after a restart index, so it is not used there; the strip holds only
+    vertices and decodes, whole and up to every barrier, to the input (it held the restart value -1 between
+    strips, each a vertex -1 to a decoder without restarts, 13 triangles for 4)."""
+    rng = np.random.default_rng(seed)
+    tris = np.array([[0, 1, 2], [3, 4, 5], [6, 7, 8], [2, 1, 9]], np.int64)
+    if seed:
+        tris = _grid_triangles(rng, 3 + seed)
+    barriers = np.unique(rng.integers(1, tris.shape[0], size=2 + seed)) if seed else np.array([2], np.int64)
+    for exact in (2, 5, 8):
+        strip, pos = _stripify_barriers(tris, False, -1, 4, barriers, True, exact)
+        assert strip.min() >= 0
+        assert np.array_equal(_canonical(decode_strip(strip)), _canonical(tris))
+        for b, p in zip(barriers.tolist(), pos.tolist(), strict=True):
+            assert np.array_equal(_canonical(decode_strip(strip[:p])), _canonical(tris[:b])), (exact, b)
+
+
+def _decode_by_the_spec(s: list[int], rv: int) -> list[tuple[int, int, int]]:
+    """format.md 3.5 / 3.7 read on their own (not :func:`decode_strip`): triangle i of a strip, counted from
+    its start, is (s[i], s[i+1], s[i+2]) for even i, (s[i+1], s[i], s[i+2]) for odd; degenerate ones
+    skipped."""
+    out, run = [], 0
+    for j, c in enumerate(s):
+        if c == rv:
+            run = 0
+            continue
+        if run >= 2:
+            i = run - 2
+            t = (s[j - 2], s[j - 1], c) if i % 2 == 0 else (s[j - 1], s[j - 2], c)
+            if len(set(t)) == 3:
+                out.append(t)
+        run += 1
+    return out
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_strip_pool_random_windows_draw_their_list_triangles(seed) -> None:
+    """Random small pools (triangles sharing edges, only vertices, duplicated or reversed) and random
+    overlapping windows: every window of :func:`strip_pool` starts a strip, ends on a triangle (its last three
+    indices distinct) and draws exactly its list window's triangles with their winding (a turned first
+    triangle, a swap or a ``q q`` join across another window's end included), for look-aheads 1, 4 and 8."""
+    rng = np.random.default_rng(seed)
+    for _ in range(40):
+        V = int(rng.integers(3, 12))
+        T = int(rng.integers(1, 40))
+        tris = np.array([rng.choice(V, 3, replace=False) for _ in range(T)], np.int64)
+        if seed % 2:  # a grid's triangles in a shuffled order: long strips, joins by edges
+            n = int(rng.integers(1, 5))
+            v = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)
+            a, b, c, d = v[:-1, :-1].ravel(), v[:-1, 1:].ravel(), v[1:, :-1].ravel(), v[1:, 1:].ravel()
+            tris = np.r_[np.c_[a, c, b], np.c_[b, c, d]][rng.permutation(2 * n * n)]
+            V, T = (n + 1) ** 2, 2 * n * n
+        starts = rng.integers(0, T + 1, int(rng.integers(1, 10)))
+        rec = np.array([[3 * s, int(rng.integers(0, T - s + 1)), V] for s in starts.tolist()], np.uint32)
+        for window in (1, 4, 8):
+            strips, out, counts, rv = strip_pool(tris.reshape(-1).astype(np.uint32), rec, V, window)
+            s = strips.astype(np.int64).tolist()
+            for k in range(rec.shape[0]):
+                f, c = int(out[k, 0]), int(counts[k])
+                want = tris[int(rec[k, 0]) // 3 : int(rec[k, 0]) // 3 + int(rec[k, 1])]
+                if c == 0:
+                    assert want.shape[0] == 0
+                    continue
+                assert f == 0 or s[f - 1] == rv
+                assert rv not in s[f + c - 3 : f + c] and len(set(s[f + c - 3 : f + c])) == 3
+                got = _decode_by_the_spec(s[f : f + c], rv)
+                assert np.array_equal(_canonical(got), _canonical(want)), (seed, window, k)

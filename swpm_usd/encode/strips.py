@@ -14,7 +14,12 @@ joined either by a restart index (``restart_index``) or, when that is ``None``, 
 (degenerate joins; a new strip's first triangle is emitted in the order its parity needs, so no extra parity
 index is spent). *Barriers* (:func:`_stripify_barriers`, for the sliding-window strip pool) are input
 positions the look-ahead does not cross, so that a prefix of the strip draws exactly the triangles before one:
-a window that ends there.
+a window that ends there. There the strip goes on, where it can, more cheaply than by a restart
+(:func:`_join_at_barrier`): across its last edge, its last triangle turned or swapped to end on an edge the
+next triangle shares, or through its last vertex (``q q``, two degenerate triangles); with ``joins`` that
+vertex join replaces a restart inside a block too, and with ``exact`` a block of at most that many triangles
+is written by a bounded search (:func:`_strip_block`) instead of the look-ahead. Neither is used for skip
+strips (:func:`_stripify` is bit for bit the stripifier without them).
 
 The window trades indices for cache misses: each triangle taken ahead of the input order delays the ones it
 skips. Ten shared meshes, skip strips at the defaults: FIFO misses over meshoptimizer's
@@ -30,6 +35,8 @@ import numba as nb
 import numpy as np
 
 __all__ = ["decode_strip", "stripify"]
+
+_BUDGET = 300  # nodes of a block's search (:func:`_search_block`)
 
 
 @nb.njit(cache=True, inline="always")
@@ -54,19 +61,308 @@ def _find_next(tris: np.ndarray, buf: np.ndarray, bsize: int, a: int, b: int) ->
 
 
 @nb.njit(cache=True)
+def _join_at_barrier(
+    tris: np.ndarray,
+    buf: np.ndarray,
+    bsize: int,
+    out: np.ndarray,
+    n: int,
+    pos0: int,
+    lt_kind: int,
+    lt_pos: int,
+    lt_tri: int,
+) -> tuple[int, int, int, int]:
+    """How the strip ``out[:n]`` goes on across a barrier to a buffered triangle (those after it), the
+    cheapest way first: across its last edge (one index); across another edge of its last triangle, turned
+    (a strip's first triangle, rewritten in another rotation: one index) or reached by a swap written before
+    it ("x a v" -> "x a x v": two); through its last vertex q, "q q j" and the triangle's third vertex (two
+    degenerate triangles, three indices, the parity kept); else none (a restart and three indices).
+    Rewriting the last triangle keeps the prefix up to every earlier barrier. Returns (the index count, the
+    barrier's position: the count that draws exactly the triangles before it, the continuation's buffer
+    slot and vertex, or -1, -1)."""
+    a, b = _needed_edge(out, n, pos0)
+    cont, cont_v = _find_next(tris, buf, bsize, a, b)
+    if cont >= 0:
+        return n, n, cont, cont_v
+    turnable = lt_kind == 0 and lt_pos == pos0 and n == lt_pos + 3
+    t = lt_tri
+    if turnable:
+        # (a strip's first triangle is written at even parity: u v w, continued across w -> v)
+        best_r = -1
+        for r in range(3):
+            s, c = _find_next(tris, buf, bsize, tris[t, (r + 2) % 3], tris[t, (r + 1) % 3])
+            if s >= 0 and (best_r < 0 or s < cont):
+                cont, cont_v, best_r = s, c, r
+        if best_r >= 0:
+            for j in range(3):
+                out[lt_pos + j] = tris[t, (best_r + j) % 3]
+            return n, n, cont, cont_v
+    elif lt_kind == 1 and lt_pos == n - 1 and n - 3 >= pos0:
+        v = out[n - 1]
+        out[n - 1] = out[n - 3]
+        out[n] = v
+        a, b = _needed_edge(out, n + 1, pos0)
+        cont, cont_v = _find_next(tris, buf, bsize, a, b)
+        if cont >= 0:
+            return n + 1, n + 1, cont, cont_v
+        out[n - 1] = v
+    # through a shared vertex: the first buffered triangle holding the last vertex (any of a turnable
+    # triangle's, turned to end on it)
+    for i in range(bsize):
+        u = buf[i]
+        for j in range(3):
+            q = tris[u, j]
+            r = -1
+            if turnable:
+                for k in range(3):
+                    if tris[t, (k + 2) % 3] == q:
+                        r = k
+            elif q == out[n - 1]:
+                r = 3
+            if r < 0:
+                continue
+            if r < 3:
+                for k in range(3):
+                    out[lt_pos + k] = tris[t, (r + k) % 3]
+            # "q q j2 j3" draws (q, j2, j3) at even parity, (j2, q, j3) at odd: the triangle (q, y, z)
+            out[n] = q
+            out[n + 1] = tris[u, (j + 1) % 3] if ((n - pos0) & 1) == 0 else tris[u, (j + 2) % 3]
+            a, b = _needed_edge(out, n + 2, pos0)
+            cont, cont_v = _find_next(tris, buf, bsize, a, b)
+            return n + 2, n, cont, cont_v
+    return n, n, -1, -1
+
+
+@nb.njit(cache=True)
+def _apply(tris: np.ndarray, t: int, m: int, out: np.ndarray, n: int, pos0: int, restart: int) -> tuple:
+    """Writes triangle ``t`` after the strip ``out[:n]`` in mode ``m`` (0 across the last edge, 1 the same by
+    a swap, 2 through the last vertex, 3-5 a new strip in rotation m - 3): (the new count, the strip's first
+    index, the position of the triangle's first written index), or n = -1 where the mode does not fit."""
+    if m <= 2:
+        if n - pos0 < 2:
+            return -1, pos0, 0
+        if m <= 1:
+            a, b = _needed_edge(out, n, pos0)
+            for j in range(3):
+                if tris[t, j] == a and tris[t, (j + 1) % 3] == b:
+                    if m == 0:
+                        out[n] = tris[t, (j + 2) % 3]
+                        return n + 1, pos0, n
+                    out[n] = out[n - 2]
+                    out[n + 1] = tris[t, (j + 2) % 3]
+                    return n + 2, pos0, n + 1
+            return -1, pos0, 0
+        q = out[n - 1]
+        for j in range(3):
+            if tris[t, j] == q:
+                out[n] = q
+                if ((n - pos0) & 1) == 0:
+                    out[n + 1] = tris[t, (j + 1) % 3]
+                    out[n + 2] = tris[t, (j + 2) % 3]
+                else:
+                    out[n + 1] = tris[t, (j + 2) % 3]
+                    out[n + 2] = tris[t, (j + 1) % 3]
+                return n + 3, pos0, n + 2
+        return -1, pos0, 0
+    if n > 0:
+        out[n] = restart
+        n += 1
+    r = m - 3
+    for j in range(3):
+        out[n + j] = tris[t, (r + j) % 3]
+    return n + 3, n, n
+
+
+@nb.njit(cache=True)
+def _search_block(
+    tris: np.ndarray,
+    lo: int,
+    hi: int,
+    out: np.ndarray,
+    n: int,
+    pos0: int,
+    restart: int,
+    budget: int,
+    best: np.ndarray,
+    memo: np.ndarray,
+    stamp: int,
+) -> int:
+    """The least count after writing triangles ``lo..hi`` (any order, any modes of :func:`_apply`) after
+    ``out[:n]``, depth-first within ``budget`` nodes; the choices (mode * (hi - lo) + triangle) into
+    ``best``."""
+    K = hi - lo
+    ns = np.empty(K + 1, np.int64)
+    ps = np.empty(K + 1, np.int64)
+    cs = np.full(K + 1, -1, np.int64)
+    used = np.zeros(K, np.bool_)
+    ns[0] = n
+    ps[0] = pos0
+    best_n = 1 << 60
+    d = 0
+    nodes = 0
+    while d >= 0:
+        if d == K:
+            if ns[d] < best_n:
+                best_n = ns[d]
+                best[:K] = cs[:K]
+            d -= 1
+            if d >= 0:
+                used[cs[d] % K] = False
+            continue
+        c = cs[d] + 1
+        moved = False
+        # the cheaper modes first, so that the first descent is the greedy one
+        while c < 6 * K and nodes < budget:
+            i = c % K
+            if not used[i]:
+                # the bound: every triangle left costs one index at least
+                nn, pp, _ = _apply(tris, lo + i, c // K, out, ns[d], ps[d], restart)
+                ok = nn >= 0 and nn + (K - d - 1) < best_n
+                if ok:
+                    # a state reached before at no more indices (the same triangles out, the same last two
+                    # indices and parity: the rest costs the same) is not searched again
+                    mask = 0
+                    for k in range(K):
+                        if used[k] or k == i:
+                            mask |= 1 << k
+                    fa = out[nn - 2] if nn - pp >= 2 else -1
+                    fb = out[nn - 1] if nn - pp >= 2 else -1
+                    par = (nn - pp) & 1
+                    h = ((mask * 1000003 + fa * 8191 + fb * 131071 + par * 17) & 0x7FFFFFFF) % memo.shape[0]
+                    if (
+                        memo[h, 0] == stamp
+                        and memo[h, 1] == mask
+                        and memo[h, 2] == fa
+                        and memo[h, 3] == fb
+                        and memo[h, 4] == par
+                    ):
+                        if memo[h, 5] <= nn:
+                            ok = False
+                        else:
+                            memo[h, 5] = nn
+                    else:
+                        memo[h, 0] = stamp
+                        memo[h, 1] = mask
+                        memo[h, 2] = fa
+                        memo[h, 3] = fb
+                        memo[h, 4] = par
+                        memo[h, 5] = nn
+                if ok:
+                    nodes += 1
+                    cs[d] = c
+                    used[i] = True
+                    ns[d + 1] = nn
+                    ps[d + 1] = pp
+                    cs[d + 1] = -1
+                    d += 1
+                    moved = True
+                    break
+            c += 1
+        if not moved:
+            cs[d] = -1
+            d -= 1
+            if d >= 0:
+                used[cs[d] % K] = False
+    return best_n
+
+
+@nb.njit(cache=True)
+def _strip_block(
+    tris: np.ndarray,
+    lo: int,
+    hi: int,
+    out: np.ndarray,
+    n: int,
+    pos0: int,
+    restart: int,
+    budget: int,
+    lt_kind: int,
+    lt_pos: int,
+    lt_tri: int,
+    memo: np.ndarray,
+    stamp: int,
+) -> tuple:
+    """Triangles ``lo..hi`` (a block between barriers) written after ``out[:n]`` at the least count
+    :func:`_search_block` finds, the strip's last triangle first rewritten as a join at a barrier may
+    (:func:`_join_at_barrier`: turned, or by a swap). Returns (the count, the position where the triangles
+    before ``lo`` are drawn, pos0, and the last triangle's lt_kind, lt_pos, lt_tri)."""
+    K = hi - lo
+    best = np.empty(K, np.int64)
+    tmp = np.empty(K, np.int64)
+    a0 = max(n - 3, 0)
+    saved = out[a0:n].copy()
+    turnable = n > 0 and lt_kind == 0 and lt_pos == pos0 and n == lt_pos + 3
+    swappable = n > 0 and lt_kind == 1 and lt_pos == n - 1 and n - 3 >= pos0
+    best_total = 1 << 60
+    best_v = 0
+    for v in range(4):
+        # 0-2: the last triangle turned to rotation v (a strip's first one) or as written (v = 0); 3: a swap
+        if best_total == n + K:  # one index a triangle: nothing does better
+            break
+        if v > 0 and v < 3 and not turnable:
+            continue
+        if v == 3 and not swappable:
+            continue
+        nv = n
+        if turnable:
+            for j in range(3):
+                out[lt_pos + j] = tris[lt_tri, (v + j) % 3]
+        elif v == 3:
+            x = out[n - 1]
+            out[n - 1] = out[n - 3]
+            out[n] = x
+            nv = n + 1
+        stamp += 1
+        total = _search_block(tris, lo, hi, out, nv, pos0, restart, budget, tmp, memo, stamp)
+        if total < best_total:
+            best_total = total
+            best_v = v
+            best[:] = tmp
+        out[a0:n] = saved
+    nv = n
+    if turnable:
+        for j in range(3):
+            out[lt_pos + j] = tris[lt_tri, (best_v + j) % 3]
+    elif best_v == 3:
+        x = out[n - 1]
+        out[n - 1] = out[n - 3]
+        out[n] = x
+        nv = n + 1
+    wend = nv
+    n = nv
+    for d in range(K):
+        t = lo + best[d] % K
+        m = best[d] // K
+        n, pos0, p = _apply(tris, t, m, out, n, pos0, restart)
+        lt_kind = 0 if m >= 3 else (2 if m == 1 else 1)
+        lt_pos = p
+        lt_tri = t
+    return n, wend, pos0, lt_kind, lt_pos, lt_tri, stamp
+
+
+@nb.njit(cache=True)
 def _stripify(tris: np.ndarray, use_restart: bool, restart: int, window: int) -> np.ndarray:
-    return _stripify_barriers(tris, use_restart, restart, window, np.empty(0, np.int64))[0]
+    return _stripify_barriers(tris, use_restart, restart, window, np.empty(0, np.int64), False)[0]
 
 
 @nb.njit(cache=True)
 def _stripify_barriers(
-    tris: np.ndarray, use_restart: bool, restart: int, window: int, barriers: np.ndarray
+    tris: np.ndarray,
+    use_restart: bool,
+    restart: int,
+    window: int,
+    barriers: np.ndarray,
+    joins: bool = False,
+    exact: int = 0,
 ) -> tuple:
     """:func:`_stripify` with ``barriers``, sorted triangle positions the look-ahead never crosses (every
     triangle before one is emitted before any after it), so that a prefix of the strip draws exactly the
     triangles before it (a sliding window that ends there, :mod:`.sw_strips`); the strip goes on across a
-    barrier when the next triangle can continue it. Returns (the strip, the strip position of every barrier:
-    the index count that draws the triangles before it). No barrier: :func:`_stripify`'s strip."""
+    barrier by :func:`_join_at_barrier` where it can (else a restart). ``joins``: that function's vertex join
+    (``q q``) also where the look-ahead would start a new strip inside a block; ``exact`` > 0: a block between
+    barriers of at most that many triangles is written by :func:`_strip_block` instead (with restart indices
+    only: ignored when ``use_restart`` is False). Returns (the strip, the strip position of every barrier:
+    the index count that draws the triangles before it). No barrier, no joins: :func:`_stripify`'s strip."""
     T = tris.shape[0]
     B = barriers.shape[0]
     # at most 5 indices a triangle: a strip's first one after a degenerate join (2 + 3), a swap 2; a swap
@@ -84,10 +380,26 @@ def _stripify_barriers(
     cont_v = -1  # its vertex off the strip's last edge
     nb_ = 0  # barriers passed
     limit = T  # the input is buffered up to the next barrier only
+    # the last emitted triangle, for a join at a barrier: how it was written (0 a strip's first triangle, 1 a
+    # continuation by one index, 2 by a swap), its first index's position, its input triangle
+    lt_kind = 2
+    lt_pos = 0
+    lt_tri = 0
     while nb_ < B and barriers[nb_] <= 0:
         nb_ += 1
     if nb_ < B:
         limit = min(barriers[nb_], T)
+    if not use_restart:
+        # the block search starts its new strips after a restart index (:func:`_apply`): without restarts
+        # (degenerate joins) it would write the restart value into the strip as a vertex
+        exact = 0
+    memo = np.zeros((512 if exact > 0 else 1, 6), np.int64)
+    stamp = 0
+    if exact > 0 and 0 < limit <= exact:
+        n, _, pos0, lt_kind, lt_pos, lt_tri, stamp = _strip_block(
+            tris, 0, limit, out, 0, 0, restart, _BUDGET, lt_kind, lt_pos, lt_tri, memo, stamp
+        )
+        next_in = limit
     while True:
         while bsize < window and next_in < limit:
             buf[bsize] = next_in
@@ -97,28 +409,38 @@ def _stripify_barriers(
             if next_in >= T:
                 break
             # every triangle before the barrier is out: the strip's prefix up to here draws exactly them
+            nb0 = nb_
             while nb_ < B and barriers[nb_] <= next_in:
-                bpos[nb_] = n
                 nb_ += 1
             limit = min(barriers[nb_], T) if nb_ < B else T
+            if exact > 0 and 0 < limit - next_in <= exact:
+                # a short block: the least count a search finds, in any order
+                n, wend, pos0, lt_kind, lt_pos, lt_tri, stamp = _strip_block(
+                    tris, next_in, limit, out, n, pos0, restart, _BUDGET, lt_kind, lt_pos, lt_tri, memo, stamp
+                )
+                for i in range(nb0, nb_):
+                    bpos[i] = wend
+                next_in = limit
+                cont = -1
+                continue
             while bsize < window and next_in < limit:
                 buf[bsize] = next_in
                 bsize += 1
                 next_in += 1
             if n > 0:
-                # the strip goes on across its last edge if a buffered triangle is there, else by a swap
-                # ("a b" -> "a b a", one index) if one is across (second last, last)
-                a, b = _needed_edge(out, n, pos0)
-                cont, cont_v = _find_next(tris, buf, bsize, a, b)
-                if cont < 0:
-                    out[n] = out[n - 2]
-                    a, b = _needed_edge(out, n + 1, pos0)
-                    cont, cont_v = _find_next(tris, buf, bsize, a, b)
-                    if cont >= 0:
-                        n += 1
+                n, wend, cont, cont_v = _join_at_barrier(
+                    tris, buf, bsize, out, n, pos0, lt_kind, lt_pos, lt_tri
+                )
+            else:
+                wend = n
+            for i in range(nb0, nb_):
+                bpos[i] = wend
             continue
         # the continuation found as the last triangle was emitted, else a new strip at the first buffered
         # triangle (the input's order)
+        if cont < 0 and joins and n > 0:
+            # a buffered triangle through the last vertex: a join of three indices, not a restart and three
+            n, _, cont, cont_v = _join_at_barrier(tris, buf, bsize, out, n, pos0, lt_kind, lt_pos, lt_tri)
         pick = cont if cont >= 0 else 0
         t = buf[pick]
         for i in range(pick, bsize - 1):
@@ -129,8 +451,11 @@ def _stripify_barriers(
             buf[bsize] = next_in
             bsize += 1
             next_in += 1
+        lt_tri = t
         if cont >= 0:
             v = cont_v
+            lt_kind = 1
+            lt_pos = n
             # emitted as v, the strip goes on across (last, v); if no buffered triangle is there but one is
             # across (second last, v), a swap reaches it: "a b" -> "a b a v" (a degenerate triangle, then
             # this one with its winding) for one index more than a restart would cost
@@ -143,6 +468,7 @@ def _stripify_barriers(
                 a, b = _needed_edge(out, n + 2, pos0)
                 cont, cont_v = _find_next(tris, buf, bsize, a, b)
                 if cont >= 0:
+                    lt_kind = 2
                     n += 2
                     continue
                 out[n] = v
@@ -169,6 +495,8 @@ def _stripify_barriers(
                 out[n] = out[n - 1]
                 out[n + 1] = u
                 n += 2
+        lt_kind = 0
+        lt_pos = n
         out[n] = u
         if ((n - pos0) & 1) == 0:
             out[n + 1] = v

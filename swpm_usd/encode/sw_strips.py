@@ -4,14 +4,17 @@ window's first triangle, each piece between two cuts turned into strips by the s
 pieces joined by a restart index (skip-strip's value, :func:`.skipstrip.restart_value`). A window's last
 triangle where no window starts is a *barrier* instead of a cut: the look-ahead does not cross it, so the
 strip's prefix up to it draws exactly the window's triangles, and the strip goes on across it when the next
-triangle can continue it (else a restart). Every window then starts at the pool's start or right after a
-restart index and ends at a cut or inside a strip, so it is still ONE contiguous range of the pool: one strip
-draw with primitive restart per LOD, as Forsyth's sliding window draws one list range. A window's strip
-decodes (spec/format.md 3.7's rule, parity from each restart) to its list triangles as an oriented multiset,
-in the list's order as far as the stripifier keeps it.
+triangle can continue it, or joins it through degenerate triangles (a swap, a repeated last index), else a
+restart; a block of at most :data:`SEARCH_BLOCK` triangles between window ends is written by a bounded
+search for the fewest indices, any order inside it. Every window then starts at the pool's start or right
+after a restart index and ends at a cut or inside a strip, so it is still ONE contiguous range of the pool:
+one strip draw with primitive restart per LOD, as Forsyth's sliding window draws one list range. A window's
+strip decodes (spec/format.md 3.7's rule, parity from each restart) to its list triangles as an oriented
+multiset, in the list's order as far as the stripifier keeps it.
 
 Ten shared meshes, lambda (pool indices over three a LOD-0 triangle): defaults 5.30 -> 3.79 (mean), cluster
-and swaps 4.43 -> 3.35 (``slidingwindow.md``, "Strips").
+and swaps 4.43 -> 3.35 (``slidingwindow.md``, "Strips"); windows ending inside strips 3.70 and 3.26; joins and
+the block search 3.53 and 3.06 (2026-12-05, "Joins across a window's end").
 """
 
 from __future__ import annotations
@@ -22,6 +25,12 @@ import numpy as np
 from .skipstrip import restart_value
 from .strips import _stripify_barriers
 from .sw_mesh import SlidingWindowProgressiveMesh
+
+#: blocks (the triangles between two window ends) of at most this many triangles are stripified by a search
+#: (``strips._strip_block``) rather than the look-ahead: bunny, lambda defaults / cluster-swap 3.63 / 2.68 ->
+#: 3.53 / 2.58, the strip pass 0.04 -> about 1-1.5 s (4, a budget of 100 nodes: 3.58 / 2.61, 0.4 s; 6: 3.49 /
+#: 2.55, 4.5 s; 8, 4000 nodes: 3.39 / 2.51, 17 s)
+SEARCH_BLOCK = 5
 
 
 @nb.njit(cache=True)
@@ -47,7 +56,7 @@ def _strip_pieces(
         i = np.searchsorted(barriers, a)
         j = np.searchsorted(barriers, b)
         piece, pos = _stripify_barriers(
-            tris[a:b], True, restart, max(1, min(window, b - a)), barriers[i:j] - a
+            tris[a:b], True, restart, max(1, min(window, b - a)), barriers[i:j] - a, True, SEARCH_BLOCK
         )
         start[s] = n
         bpos[i:j] = pos + n

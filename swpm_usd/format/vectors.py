@@ -123,6 +123,21 @@ def fan_sliding_strip_prefix(**over: Any) -> RawProgressiveMesh:
     return _fan("sliding-window", bufs, params, **over)
 
 
+def fan_sliding_strip_join(window1_count: int = 4, **over: Any) -> RawProgressiveMesh:
+    """A strip pool whose strip goes on across window 1's end through degenerate triangles, as the writer
+    joins a triangle that shares only a vertex (format.md 3.5): ``1 2 0 3 3 4 1 0`` draws 0 1 2 and 0 2 3
+    (window 1, its first ``window1_count`` indices, all below vertex 4), the degenerate 0 3 3 and 3 3 4
+    (counted for the parity only), then 3 4 1 at even parity and 1 4 0 at odd. ``window1_count`` 5 ends
+    window 1 on the degenerate 0 3 3, which draws nothing: still its 2 triangles, still valid."""
+    bufs = {
+        "index_pool": [1, 2, 0, 3, 3, 4, 1, 0],
+        "window_records": [[0, 4, 5], [0, 2, 4]],
+        "window_index_counts": [8, window1_count],
+    }
+    params = {"cache_size": 16, "primitive": "strip", "restart_index": 0xFFFF}
+    return _fan("sliding-window", bufs, params, **over)
+
+
 def fan_skip(**over: Any) -> RawProgressiveMesh:
     bufs = {
         "level_first_lod": [0],
@@ -436,6 +451,18 @@ def _valid() -> dict[str, tuple[bytes, str]]:
             _write(fan_sliding_strip_prefix()),
             "sliding window, a strip pool whose window 1 ends inside the strip window 0 draws: its 4 indices,"
             " a prefix of the strip, decode to its 2 triangles",
+        ),
+        "sliding-window-strip-join": (
+            _write(fan_sliding_strip_join()),
+            "sliding window, a strip pool whose strip goes on across window 1's end by a repeated index"
+            " (3 3: two degenerate triangles, counted for the parity only) rather than a restart: window 1's"
+            " 4 indices decode to its 2 triangles, window 0's 8 to its 4",
+        ),
+        "sliding-window-strip-end-degenerate": (
+            _write(fan_sliding_strip_join(window1_count=5)),
+            "sliding window, the same strip pool with window 1 ending on the degenerate triangle 0 3 3 (5"
+            " indices): it draws nothing, so window 1 still decodes to its 2 triangles (a reader does not"
+            " reject a window that ends on degenerate triangles)",
         ),
     }
 
