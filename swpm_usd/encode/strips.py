@@ -174,6 +174,59 @@ def _apply(tris: np.ndarray, t: int, m: int, out: np.ndarray, n: int, pos0: int,
 
 
 @nb.njit(cache=True)
+def _block_tables(
+    tris: np.ndarray, lo: int, hi: int, em: np.ndarray, vm: np.ndarray, adj: np.ndarray, lbm: np.ndarray
+) -> None:
+    """For triangles ``lo..hi``: ``em[3 k + j]``, the bit mask of those with the directed edge ``j + 1 -> j``
+    of triangle ``lo + k`` (the edge a strip goes on across after it), ``vm[3 k + j]`` those holding its
+    vertex j, ``adj[k]`` those a strip may go on to from ``lo + k`` or from which to it (across an edge), and
+    ``lbm[mask]`` a lower bound on the indices that the set ``mask`` of them takes after a strip."""
+    K = hi - lo
+    for k in range(K):
+        for j in range(3):
+            a = tris[lo + k, (j + 1) % 3]
+            b = tris[lo + k, j]
+            e = 0
+            v = 0
+            for i in range(K):
+                t = lo + i
+                for r in range(3):
+                    if tris[t, r] == a and tris[t, (r + 1) % 3] == b:
+                        e |= 1 << i
+                    if tris[t, r] == b:
+                        v |= 1 << i
+            em[3 * k + j] = e
+            vm[3 * k + j] = v
+    for k in range(K):
+        adj[k] = 0
+    for k in range(K):
+        for j in range(3):
+            adj[k] |= em[3 * k + j]
+            for i in range(K):
+                if (em[3 * k + j] >> i) & 1:
+                    adj[i] |= 1 << k
+    # each set's triangles one index each, and two more for each of its connected parts (a chain across edges
+    # starts through a vertex or as a new strip: 3 or 4 indices)
+    lbm[0] = 0
+    for mask in range(1, 1 << K):
+        low = mask & -mask
+        seen = 0
+        grow = low
+        while grow:
+            seen |= grow
+            nxt = 0
+            for k in range(K):
+                if (grow >> k) & 1:
+                    nxt |= adj[k]
+            grow = nxt & mask & ~seen
+        lbm[mask] = lbm[mask & ~seen] + 2
+        rest = seen
+        while rest:
+            lbm[mask] += 1
+            rest &= rest - 1
+
+
+@nb.njit(cache=True)
 def _search_block(
     tris: np.ndarray,
     lo: int,
@@ -186,84 +239,182 @@ def _search_block(
     best: np.ndarray,
     memo: np.ndarray,
     stamp: int,
+    ws: np.ndarray,
+    bound: int = 1 << 60,
+    lower: bool = False,
 ) -> int:
     """The least count after writing triangles ``lo..hi`` (any order, any modes of :func:`_apply`) after
     ``out[:n]``, depth-first within ``budget`` nodes; the choices (mode * (hi - lo) + triangle) into
-    ``best``."""
+    ``best``. ``ws`` (11, at least max(3 K, 2 ** K, 3) for K = hi - lo): scratch, so that a search allocates
+    nothing (rows 7 to 10: :func:`_block_tables`). With ``lower``, only ways below ``bound`` are looked for,
+    pruned by :func:`_block_tables`' lower bound and ended at the first one (or ``bound`` returned).
+
+    Candidates are tried in the order (mode, triangle), the cheaper modes first, so that the first descent is
+    the greedy one; one that cannot beat the best count so far (every triangle left costs one index at
+    least) is not a node. Two shortcuts leave the nodes, the budget's count and the result as they were
+    without them: a depth stops at the first mode too dear for the bound (the modes' least costs, 1 2 3 4
+    indices, only grow), and the search ends at a count no way can go below (one index a triangle, or the
+    lower bound of :func:`_block_tables` at the start)."""
     K = hi - lo
-    ns = np.empty(K + 1, np.int64)
-    ps = np.empty(K + 1, np.int64)
-    cs = np.full(K + 1, -1, np.int64)
-    used = np.zeros(K, np.bool_)
+    ns = ws[0]
+    ps = ws[1]
+    cs = ws[2]
+    um = ws[3]  # the triangles out at each depth, a bit mask
+    fe = ws[4]  # the triangles left across the last edge at each depth, a bit mask
+    fq = ws[5]  # the triangles left through the last vertex
+    kl = ws[6]  # the last triangle written at each depth
+    em = ws[7]  # the triangles across each triangle's edges (3 k + j: the edge j -> j + 1, reversed)
+    vm = ws[8]  # the triangles through each triangle's vertices (3 k + j)
+    lbm = ws[10]  # a lower bound on the count of each set of triangles (bit mask)
     ns[0] = n
     ps[0] = pos0
-    best_n = 1 << 60
+    cs[0] = -1
+    um[0] = 0
+    best_n = bound
+    stop = n + K
+    if lower:  # (asked whether any way beats bound: the first one found answers)
+        stop = max(stop, bound - 1)
+    full = (1 << K) - 1
+    hmask = memo.shape[0] - 1  # (a power of two rows: the remainder as a mask)
     d = 0
     nodes = 0
     while d >= 0:
         if d == K:
             if ns[d] < best_n:
                 best_n = ns[d]
-                best[:K] = cs[:K]
+                for k in range(K):
+                    best[k] = cs[k]
+                if best_n <= stop:
+                    return best_n
             d -= 1
-            if d >= 0:
-                used[cs[d] % K] = False
             continue
+        if nodes >= budget:
+            return best_n
+        nd = ns[d]
         c = cs[d] + 1
-        moved = False
-        # the cheaper modes first, so that the first descent is the greedy one
-        while c < 6 * K and nodes < budget:
-            i = c % K
-            if not used[i]:
-                # the bound: every triangle left costs one index at least
-                nn, pp, _ = _apply(tris, lo + i, c // K, out, ns[d], ps[d], restart)
-                ok = nn >= 0 and nn + (K - d - 1) < best_n
-                if ok:
-                    # a state reached before at no more indices (the same triangles out, the same last two
-                    # indices and parity: the rest costs the same) is not searched again
-                    mask = 0
+        if c == 0:
+            # first visit: the triangles left that fit the last edge (modes 0 and 1) and the last vertex (2)
+            e0 = 0
+            e2 = 0
+            if nd - ps[d] >= 2:
+                a, b = _needed_edge(out, nd, ps[d])
+                q = out[nd - 1]
+                found = 0
+                if d > 0:
+                    # the last edge and vertex are those of the last triangle (written by this search): its
+                    # tables
+                    k = kl[d]
+                    t = lo + k
+                    for j in range(3):
+                        if tris[t, j] == b and tris[t, (j + 1) % 3] == a:
+                            e0 = em[3 * k + j] & ~um[d]
+                            found |= 1
+                        if tris[t, j] == q:
+                            e2 = vm[3 * k + j] & ~um[d]
+                            found |= 2
+                if found != 3:
+                    e0 = 0
+                    e2 = 0
                     for k in range(K):
-                        if used[k] or k == i:
-                            mask |= 1 << k
-                    fa = out[nn - 2] if nn - pp >= 2 else -1
-                    fb = out[nn - 1] if nn - pp >= 2 else -1
-                    par = (nn - pp) & 1
-                    h = ((mask * 1000003 + fa * 8191 + fb * 131071 + par * 17) & 0x7FFFFFFF) % memo.shape[0]
-                    if (
-                        memo[h, 0] == stamp
-                        and memo[h, 1] == mask
-                        and memo[h, 2] == fa
-                        and memo[h, 3] == fb
-                        and memo[h, 4] == par
-                    ):
-                        if memo[h, 5] <= nn:
-                            ok = False
-                        else:
-                            memo[h, 5] = nn
+                        if (um[d] >> k) & 1 == 0:
+                            t = lo + k
+                            for j in range(3):
+                                if tris[t, j] == a and tris[t, (j + 1) % 3] == b:
+                                    e0 |= 1 << k
+                                if tris[t, j] == q:
+                                    e2 |= 1 << k
+            fe[d] = e0
+            fq[d] = e2
+            if lower or d == 0:
+                # a bound on the count: every triangle left costs one index, and each chain of them across
+                # edges (at least one a connected set of them, but the one that goes on across the last
+                # edge) starts with two more (through the last vertex or a new strip)
+                floor = nd + lbm[full & ~um[d]] - (2 if e0 != 0 else 0)
+                if lower and floor >= best_n:
+                    cs[d] = -1
+                    d -= 1
+                    continue
+                if d == 0:  # a way at the bound is the least: the search may end there
+                    stop = max(stop, floor)
+        # (without a last edge or vertex fe and fq are empty: only a new strip) the first mode whose least
+        # cost cannot beat best_n: the modes' least costs 1, 2, 3, then 4 (3 for a first strip)
+        slack = best_n - nd - (K - d - 1)  # a candidate must cost less than this
+        if slack <= 1:
+            mend = 0
+        elif slack == 2:
+            mend = 1
+        elif slack == 3:
+            mend = 2
+        elif slack == 4 and nd > 0:
+            mend = 3
+        else:
+            mend = 6
+        moved = False
+        m = c // K  # (c = m * K + i; the candidates that fit walked as bits)
+        i = c - m * K
+        while m < mend:
+            bits = (fe[d] if m <= 1 else (fq[d] if m == 2 else ~um[d] & ((1 << K) - 1))) >> i
+            if bits == 0:
+                m += 1
+                i = 0
+                continue
+            while bits & 1 == 0:
+                bits >>= 1
+                i += 1
+            nn, pp, _ = _apply(tris, lo + i, m, out, nd, ps[d], restart)
+            ok = nn >= 0 and nn + (K - d - 1) < best_n
+            if ok:
+                # a state reached before at no more indices (the same triangles out, the same last two
+                # indices and parity: the rest costs the same) is not searched again
+                mask = um[d] | (1 << i)
+                fa = out[nn - 2] if nn - pp >= 2 else -1
+                fb = out[nn - 1] if nn - pp >= 2 else -1
+                par = (nn - pp) & 1
+                h = (mask * 1000003 + fa * 8191 + fb * 131071 + par * 17) & 0x7FFFFFFF & hmask
+                key = (stamp << 24) | (mask << 1) | par  # (blocks of at most 23 triangles)
+                if memo[h, 0] == key and memo[h, 1] == fa and memo[h, 2] == fb:
+                    if memo[h, 3] <= nn:
+                        ok = False
                     else:
-                        memo[h, 0] = stamp
-                        memo[h, 1] = mask
-                        memo[h, 2] = fa
-                        memo[h, 3] = fb
-                        memo[h, 4] = par
-                        memo[h, 5] = nn
+                        memo[h, 3] = nn
+                else:
+                    memo[h, 0] = key
+                    memo[h, 1] = fa
+                    memo[h, 2] = fb
+                    memo[h, 3] = nn
                 if ok:
                     nodes += 1
-                    cs[d] = c
-                    used[i] = True
+                    cs[d] = m * K + i
                     ns[d + 1] = nn
                     ps[d + 1] = pp
                     cs[d + 1] = -1
+                    um[d + 1] = mask
+                    kl[d + 1] = i
                     d += 1
                     moved = True
                     break
-            c += 1
+            i += 1
         if not moved:
             cs[d] = -1
             d -= 1
-            if d >= 0:
-                used[cs[d] % K] = False
     return best_n
+
+
+@nb.njit(cache=True, inline="always")
+def _block_start(
+    tris: np.ndarray, out: np.ndarray, n: int, lt_pos: int, lt_tri: int, turnable: bool, v: int
+) -> int:
+    """The strip ``out[:n]`` before a block with its last triangle turned to rotation ``v`` (``turnable``), or
+    written by a swap (``v`` = 3): its new count."""
+    if turnable:
+        for j in range(3):
+            out[lt_pos + j] = tris[lt_tri, (v + j) % 3]
+    elif v == 3:
+        x = out[n - 1]
+        out[n - 1] = out[n - 3]
+        out[n] = x
+        return n + 1
+    return n
 
 
 @nb.njit(cache=True)
@@ -281,16 +432,22 @@ def _strip_block(
     lt_tri: int,
     memo: np.ndarray,
     stamp: int,
+    ws: np.ndarray,
 ) -> tuple:
     """Triangles ``lo..hi`` (a block between barriers) written after ``out[:n]`` at the least count
     :func:`_search_block` finds, the strip's last triangle first rewritten as a join at a barrier may
-    (:func:`_join_at_barrier`: turned, or by a swap). Returns (the count, the position where the triangles
-    before ``lo`` are drawn, pos0, and the last triangle's lt_kind, lt_pos, lt_tri)."""
+    (:func:`_join_at_barrier`: turned, or by a swap). ``ws`` (14, as :func:`_search_block`'s): scratch.
+    Returns (the count, the position where the triangles before ``lo`` are drawn, pos0, and the last
+    triangle's lt_kind, lt_pos, lt_tri, the memo's last stamp)."""
     K = hi - lo
-    best = np.empty(K, np.int64)
-    tmp = np.empty(K, np.int64)
+    sw = ws[:11]
+    tmp = ws[11]
+    best = ws[12]
+    saved = ws[13]
+    _block_tables(tris, lo, hi, ws[7], ws[8], ws[9], ws[10])
     a0 = max(n - 3, 0)
-    saved = out[a0:n].copy()
+    for j in range(n - a0):
+        saved[j] = out[a0 + j]
     turnable = n > 0 and lt_kind == 0 and lt_pos == pos0 and n == lt_pos + 3
     swappable = n > 0 and lt_kind == 1 and lt_pos == n - 1 and n - 3 >= pos0
     best_total = 1 << 60
@@ -299,26 +456,26 @@ def _strip_block(
         # 0-2: the last triangle turned to rotation v (a strip's first one) or as written (v = 0); 3: a swap
         if best_total == n + K:  # one index a triangle: nothing does better
             break
-        if v > 0 and v < 3 and not turnable:
+        if (v > 0 and v < 3 and not turnable) or (v == 3 and not swappable):
             continue
-        if v == 3 and not swappable:
-            continue
-        nv = n
-        if turnable:
-            for j in range(3):
-                out[lt_pos + j] = tris[lt_tri, (v + j) % 3]
-        elif v == 3:
-            x = out[n - 1]
-            out[n - 1] = out[n - 3]
-            out[n] = x
-            nv = n + 1
+        nv = _block_start(tris, out, n, lt_pos, lt_tri, turnable, v)
         stamp += 1
-        total = _search_block(tris, lo, hi, out, nv, pos0, restart, budget, tmp, memo, stamp)
-        if total < best_total:
-            best_total = total
-            best_v = v
-            best[:] = tmp
-        out[a0:n] = saved
+        # past the first start, a search with the lower bound and no budget first: where no way from this
+        # start beats the best count so far, neither does its budgeted search (which would not be chosen)
+        if best_total == 1 << 60 or (
+            _search_block(
+                tris, lo, hi, out, nv, pos0, restart, 1 << 60, tmp, memo, stamp, sw, best_total, True
+            )
+            < best_total
+        ):
+            stamp += 1
+            total = _search_block(tris, lo, hi, out, nv, pos0, restart, budget, tmp, memo, stamp, sw)
+            if total < best_total:
+                best_total = total
+                best_v = v
+                best[:K] = tmp[:K]
+        for j in range(n - a0):
+            out[a0 + j] = saved[j]
     nv = n
     if turnable:
         for j in range(3):
@@ -363,6 +520,38 @@ def _stripify_barriers(
     barriers of at most that many triangles is written by :func:`_strip_block` instead (with restart indices
     only: ignored when ``use_restart`` is False). Returns (the strip, the strip position of every barrier:
     the index count that draws the triangles before it). No barrier, no joins: :func:`_stripify`'s strip."""
+    memo, ws = _search_scratch(exact)
+    strip, bpos, _ = _stripify_blocks(tris, use_restart, restart, window, barriers, joins, exact, memo, ws, 0)
+    return strip, bpos
+
+
+@nb.njit(cache=True)
+def _search_scratch(exact: int) -> tuple:
+    """The block search's memo (:func:`_search_block`) and scratch (:func:`_strip_block`) for blocks of at
+    most ``exact`` triangles, to be shared by every call of :func:`_stripify_blocks` (a memo entry counts
+    only under its own stamp, so one that was written before never matches)."""
+    if exact > 20:  # (a memo key holds the block's triangles as bits, a window of 2 ** exact bound entries)
+        raise ValueError("blocks of at most 20 triangles")
+    memo = np.zeros((512 if exact > 0 else 1, 4), np.int64)
+    ws = np.zeros((14, max(3 * exact, 1 << exact, 3)), np.int64)
+    return memo, ws
+
+
+@nb.njit(cache=True)
+def _stripify_blocks(
+    tris: np.ndarray,
+    use_restart: bool,
+    restart: int,
+    window: int,
+    barriers: np.ndarray,
+    joins: bool,
+    exact: int,
+    memo: np.ndarray,
+    ws: np.ndarray,
+    stamp: int,
+) -> tuple:
+    """:func:`_stripify_barriers` with the search's scratch (:func:`_search_scratch`) passed in and its
+    last memo stamp: (the strip, the barriers' strip positions, the stamp)."""
     T = tris.shape[0]
     B = barriers.shape[0]
     # at most 5 indices a triangle: a strip's first one after a degenerate join (2 + 3), a swap 2; a swap
@@ -370,7 +559,7 @@ def _stripify_barriers(
     out = np.empty(5 * T + 2 + B, np.int64)
     bpos = np.zeros(B, np.int64)
     if T == 0:
-        return out[:0], bpos
+        return out[:0], bpos, stamp
     buf = np.empty(window, np.int64)
     bsize = 0
     next_in = 0
@@ -393,11 +582,9 @@ def _stripify_barriers(
         # the block search starts its new strips after a restart index (:func:`_apply`): without restarts
         # (degenerate joins) it would write the restart value into the strip as a vertex
         exact = 0
-    memo = np.zeros((512 if exact > 0 else 1, 6), np.int64)
-    stamp = 0
     if exact > 0 and 0 < limit <= exact:
         n, _, pos0, lt_kind, lt_pos, lt_tri, stamp = _strip_block(
-            tris, 0, limit, out, 0, 0, restart, _BUDGET, lt_kind, lt_pos, lt_tri, memo, stamp
+            tris, 0, limit, out, 0, 0, restart, _BUDGET, lt_kind, lt_pos, lt_tri, memo, stamp, ws
         )
         next_in = limit
     while True:
@@ -416,7 +603,20 @@ def _stripify_barriers(
             if exact > 0 and 0 < limit - next_in <= exact:
                 # a short block: the least count a search finds, in any order
                 n, wend, pos0, lt_kind, lt_pos, lt_tri, stamp = _strip_block(
-                    tris, next_in, limit, out, n, pos0, restart, _BUDGET, lt_kind, lt_pos, lt_tri, memo, stamp
+                    tris,
+                    next_in,
+                    limit,
+                    out,
+                    n,
+                    pos0,
+                    restart,
+                    _BUDGET,
+                    lt_kind,
+                    lt_pos,
+                    lt_tri,
+                    memo,
+                    stamp,
+                    ws,
                 )
                 for i in range(nb0, nb_):
                     bpos[i] = wend
@@ -509,7 +709,7 @@ def _stripify_barriers(
     while nb_ < B:  # barriers at or past the end
         bpos[nb_] = n
         nb_ += 1
-    return out[:n].copy(), bpos
+    return out[:n].copy(), bpos, stamp
 
 
 def stripify(
