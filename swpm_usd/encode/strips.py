@@ -137,7 +137,9 @@ def _join_at_barrier(
 def _apply(tris: np.ndarray, t: int, m: int, out: np.ndarray, n: int, pos0: int, restart: int) -> tuple:
     """Writes triangle ``t`` after the strip ``out[:n]`` in mode ``m`` (0 across the last edge, 1 the same by
     a swap, 2 through the last vertex, 3-5 a new strip in rotation m - 3): (the new count, the strip's first
-    index, the position of the triangle's first written index), or n = -1 where the mode does not fit."""
+    index, where the triangle sits for a later rewrite: modes 0-2 the position of its last index, the vertex
+    it adds, which a swap test reads as ``n - 1``; modes 3-5 its first index, where a turn rewrites it), or
+    n = -1 where the mode does not fit."""
     if m <= 2:
         if n - pos0 < 2:
             return -1, pos0, 0
