@@ -60,6 +60,24 @@ def _find_next(tris: np.ndarray, buf: np.ndarray, bsize: int, a: int, b: int) ->
     return -1, -1
 
 
+@nb.njit(cache=True, inline="always")
+def _block_start(
+    tris: np.ndarray, out: np.ndarray, n: int, lt_pos: int, lt_tri: int, turnable: bool, v: int
+) -> int:
+    """The strip ``out[:n]`` with its last triangle turned to rotation ``v`` (``turnable``: a strip's first
+    triangle, at ``lt_pos``), or written by a swap (``v`` = 3): its new count (a join at a barrier, a block's
+    start)."""
+    if turnable:
+        for j in range(3):
+            out[lt_pos + j] = tris[lt_tri, (v + j) % 3]
+    elif v == 3:
+        x = out[n - 1]
+        out[n - 1] = out[n - 3]
+        out[n] = x
+        return n + 1
+    return n
+
+
 @nb.njit(cache=True)
 def _join_at_barrier(
     tris: np.ndarray,
@@ -94,13 +112,11 @@ def _join_at_barrier(
             if s >= 0 and (best_r < 0 or s < cont):
                 cont, cont_v, best_r = s, c, r
         if best_r >= 0:
-            for j in range(3):
-                out[lt_pos + j] = tris[t, (best_r + j) % 3]
+            _block_start(tris, out, n, lt_pos, t, True, best_r)
             return n, n, cont, cont_v
     elif lt_kind == 1 and lt_pos == n - 1 and n - 3 >= pos0:
         v = out[n - 1]
-        out[n - 1] = out[n - 3]
-        out[n] = v
+        _block_start(tris, out, n, lt_pos, t, False, 3)
         a, b = _needed_edge(out, n + 1, pos0)
         cont, cont_v = _find_next(tris, buf, bsize, a, b)
         if cont >= 0:
@@ -122,8 +138,7 @@ def _join_at_barrier(
             if r < 0:
                 continue
             if r < 3:
-                for k in range(3):
-                    out[lt_pos + k] = tris[t, (r + k) % 3]
+                _block_start(tris, out, n, lt_pos, t, True, r)
             # "q q j2 j3" draws (q, j2, j3) at even parity, (j2, q, j3) at odd: the triangle (q, y, z)
             out[n] = q
             out[n + 1] = tris[u, (j + 1) % 3] if ((n - pos0) & 1) == 0 else tris[u, (j + 2) % 3]
@@ -402,23 +417,6 @@ def _search_block(
     return best_n
 
 
-@nb.njit(cache=True, inline="always")
-def _block_start(
-    tris: np.ndarray, out: np.ndarray, n: int, lt_pos: int, lt_tri: int, turnable: bool, v: int
-) -> int:
-    """The strip ``out[:n]`` before a block with its last triangle turned to rotation ``v`` (``turnable``), or
-    written by a swap (``v`` = 3): its new count."""
-    if turnable:
-        for j in range(3):
-            out[lt_pos + j] = tris[lt_tri, (v + j) % 3]
-    elif v == 3:
-        x = out[n - 1]
-        out[n - 1] = out[n - 3]
-        out[n] = x
-        return n + 1
-    return n
-
-
 @nb.njit(cache=True)
 def _strip_block(
     tris: np.ndarray,
@@ -478,15 +476,7 @@ def _strip_block(
                 best[:K] = tmp[:K]
         for j in range(n - a0):
             out[a0 + j] = saved[j]
-    nv = n
-    if turnable:
-        for j in range(3):
-            out[lt_pos + j] = tris[lt_tri, (best_v + j) % 3]
-    elif best_v == 3:
-        x = out[n - 1]
-        out[n - 1] = out[n - 3]
-        out[n] = x
-        nv = n + 1
+    nv = _block_start(tris, out, n, lt_pos, lt_tri, turnable, best_v)
     wend = nv
     n = nv
     for d in range(K):

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from ..encode.base import ENCODINGS, ProgressiveMesh, from_buffers
+from ..encode.base import ENCODINGS, ProgressiveMesh, from_buffers, stored_index_count
 from . import layout as L
 from .check_lods_vert import _lods, _vert
 from .check_mixed import _mixed
@@ -272,14 +272,9 @@ def _check(buf: np.ndarray, path: str | None, check_crc: bool = True) -> tuple[R
 
 def _stored_indices(p: _Parsed) -> int:
     """Indices the file stores for every instance, as ``run``'s manifest and report count them for lambda
-    (``pipeline.worker.summarize``): the pool, else every ``*indices`` buffer (skip-strip's collapsed lists
-    in ``SKIP``, mixed's dynamic ones in ``MLVL``, not ``INDX`` alone: a skip-strip file read 2.61 here, 5.23
-    in its run's report)."""
-    b = p.buffers
-    if "index_pool" in b:
-        return int(b["index_pool"].shape[0])
-    stored = sum(int(v.shape[0]) for k, v in b.items() if k.endswith("indices"))
-    return stored or int(p.chunks[L.INDX].length // p.width)
+    (:func:`..encode.base.stored_index_count`: skip-strip's collapsed lists in ``SKIP``, mixed's dynamic ones
+    in ``MLVL``, not ``INDX`` alone: a skip-strip file read 2.61 here, 5.23 in its run's report)."""
+    return stored_index_count(p.buffers) or int(p.chunks[L.INDX].length // p.width)
 
 
 def _summarise(p: _Parsed, rep: Report) -> None:

@@ -103,14 +103,11 @@ def lod_change_cost(pm) -> float:
 
 def summarize(pm, cache_size: int = 16) -> dict[str, Any]:
     """Figures the manifest and the report show: lambda, ACMR and error per LOD sample, memory."""
+    from ..encode.base import stored_index_count
     from ..metrics import acmr
 
     t0 = max(1, pm.triangle_count_at(0))
-    b = pm.buffers()
-    if "index_pool" in b:
-        dataset = b["index_pool"].shape[0]
-    else:
-        dataset = sum(v.shape[0] for k, v in b.items() if k.endswith("indices"))
+    dataset = stored_index_count(pm.buffers())
     curve = []
     for f in np.linspace(1.0, 0.0, 21):
         k = pm.lod_for_triangles(int(round(f * t0)))
