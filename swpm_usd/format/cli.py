@@ -610,7 +610,9 @@ def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool)
     A .swpm file is checked against the SWPM v1 spec (spec/format.md); a USD stage (.usd .usda .usdc
     .usdz) with the SwpmMeshAPI validators plus usd-core's built-in ones (spec/usd.md).
     """
-    if Path(file).suffix.lower() in {".usd", ".usda", ".usdc", ".usdz"}:
+    from ..usd import USD_SUFFIXES
+
+    if Path(file).suffix.lower() in USD_SUFFIXES:
         from ..usd.cli import validate_usd
 
         if not Path(file).is_file():

@@ -76,6 +76,12 @@ def _map(path: str | os.PathLike[str]) -> np.ndarray:
     return np.frombuffer(mm, np.uint8)
 
 
+def _io_reason(exc: OSError) -> str:
+    """Why a file could not be read, without its name: the report names it (``str(exc)`` named it twice,
+    "x.swpm: INVALID ... [Errno 2] No such file or directory: 'x.swpm'")."""
+    return exc.strerror or str(exc)
+
+
 # -- structure ------------------------------------------------------------------------------------------
 def _structure(buf: np.ndarray, rep: Report, check_crc: bool) -> _Parsed | None:
     size = int(buf.shape[0])
@@ -311,13 +317,20 @@ def validate_bytes(data: bytes | bytearray | memoryview | np.ndarray, path: str 
 
 def validate(path: str | os.PathLike[str]) -> Report:
     """Every problem of the SWPM file at ``path`` (``report.valid`` is True when none is an error). A USD
-    stage is checked by :func:`swpm_usd.usd.validate.validate_stage` (``swpm-pipeline validate`` picks by the
-    suffix); given here, it is an SWPM file with a bad magic."""
+    stage (a ``.usd`` ``.usda`` ``.usdc`` ``.usdz`` path, picked by the suffix as ``swpm-pipeline validate``
+    picks) is checked by :func:`swpm_usd.usd.validate.validate_stage`, our validators and usd-core's built-in
+    ones, its findings the report's problems (:func:`swpm_usd.usd.validate.stage_report`)."""
+    from ..usd import USD_SUFFIXES
+
+    if os.fspath(path).lower().endswith(USD_SUFFIXES):
+        from ..usd.validate import stage_report
+
+        return stage_report(path)
     try:
         buf = _map(path)
     except OSError as exc:
         rep = Report(path=str(path))
-        rep.add("SWPM_IO_ERROR", None, reason=str(exc))
+        rep.add("SWPM_IO_ERROR", None, reason=_io_reason(exc))
         return rep
     return _check(buf, str(path))[0]
 
@@ -364,7 +377,7 @@ def load(path: str | os.PathLike[str]) -> ProgressiveMesh:
         buf = _map(path)
     except OSError as exc:
         rep = Report(path=str(path))
-        rep.add("SWPM_IO_ERROR", None, reason=str(exc))
+        rep.add("SWPM_IO_ERROR", None, reason=_io_reason(exc))
         err = SwpmFormatError(rep)
         # (a missing or unreadable file was INPUT_MALFORMED, as a corrupt one: the codes a mesh gets)
         err.code = "INPUT_NOT_FOUND" if exc.errno == errno.ENOENT else "INPUT_UNREADABLE"
