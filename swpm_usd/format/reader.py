@@ -283,6 +283,25 @@ def _stored_indices(p: _Parsed) -> int:
     return stored_index_count(p.buffers) or int(p.chunks[L.INDX].length // p.width)
 
 
+#: the index lists an engine uploads to draw from, per encoding (skip-strip's and mixed's collapsed lists are
+#: the ones an instance copies at a level boundary)
+_DRAWN_LISTS = {
+    "vanilla": ("indices",),
+    "sliding-window": ("index_pool",),
+    "skip-strip": ("level_indices", "level_collapsed_indices"),
+    "mixed": ("level_static_indices", "level_dynamic_indices", "level_dynamic_collapsed_indices"),
+}
+
+
+def _index_values_width(p: _Parsed) -> int:
+    """The smallest width (2 or 4) every value of the lists an engine draws from fits, a strips' restart index
+    included: what it can upload them as, beside the file's ``idx`` (``index_width``), which offsets and
+    counts may widen (a list pool longer than 65,535 indices; a strip pool's restart index is then all ones
+    of u32, spec 3.5, so its values need u32 too)."""
+    lists = [np.asarray(p.buffers[n]) for n in _DRAWN_LISTS.get(p.encoding or "", ()) if n in p.buffers]
+    return L.choose_index_width({str(i): a for i, a in enumerate(lists)}) if lists else p.width
+
+
 def _summarise(p: _Parsed, rep: Report) -> None:
     assert p.lods is not None and p.points is not None
     t0 = int(p.lods["triangle_count"][0])
@@ -291,6 +310,7 @@ def _summarise(p: _Parsed, rep: Report) -> None:
             "encoding": p.encoding,
             "version": f"1.{p.minor}",
             "index_width": p.width,
+            "index_values_width": _index_values_width(p),
             "lod_count": int(p.lods.shape[0]),
             "vertex_count": int(p.points.shape[0]),
             "triangle_count": int(p.lods["triangle_count"][0]),
