@@ -119,7 +119,7 @@ def test_settle_restart_follows_the_writer_width(pool, V, first, rv) -> None:
     from swpm_usd.format.layout import restart_index_for
 
     pm = _strip_window(pool, V, first)
-    assert restart_index_for(pm.buffers(), 0xFFFFFFFF) == rv
+    assert restart_index_for(pm.buffers(), 0xFFFFFFFF, V) == rv
     settle_restart(pm, ("index_pool",))
     assert pm.restart_index == pm.params["restart_index"] == rv
     restarts = np.asarray(pool, np.int64) == 0xFFFFFFFF
@@ -128,6 +128,20 @@ def test_settle_restart_follows_the_writer_width(pool, V, first, rv) -> None:
     back = load_bytes(encode_bytes(pm))
     assert back.restart_index == rv and np.array_equal(back.index_pool, pm.index_pool)
     assert back.triangles_at(0).tolist() == [[0, 1, 2]]
+
+
+def test_a_restart_of_0xffff_is_never_a_vertex() -> None:
+    """At 65,536 vertices every vertex id and every other value may fit u16 (a skip-strip's buffers hold no
+    vertex count), but 0xFFFF is vertex 65,535: the restart index is 0xFFFFFFFF and the file u32."""
+    from swpm_usd.format.layout import restart_index_for
+
+    R = 0xFFFFFFFF
+    top = np.array([0, 1, 0xFFFF, R, 2, 3, 4], np.uint32)  # vertex 65,535 in a strip
+    assert restart_index_for({"level_indices": top}, R, 0x10000) == R
+    below = np.array([0, 1, 0xFFFE, R, 2, 3, 4], np.uint32)  # 65,535 vertices: 0xFFFF is no vertex
+    assert restart_index_for({"level_indices": below}, R, 0xFFFF) == 0xFFFF
+    # an offset past 65,535 makes the file u32, whatever the vertex count
+    assert restart_index_for({"level_indices": below, "start": np.array([0, 0x10000], np.uint32)}, R, 9) == R
 
 
 def test_an_older_u32_file_with_restart_0xffff_still_reads() -> None:

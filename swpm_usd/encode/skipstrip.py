@@ -191,7 +191,7 @@ def settle_restart(pm: ProgressiveMesh, lists: tuple[str, ...]) -> None:
     offsets) the restart entries of ``lists`` are rewritten in place, with ``restart_index`` and
     ``params["restart_index"]``."""
     old = int(pm.restart_index)
-    rv = restart_index_for(pm.buffers(), old)
+    rv = restart_index_for(pm.buffers(), old, pm.vertex_count)
     if rv != old:
         for name in lists:
             a = getattr(pm, name)

@@ -201,14 +201,17 @@ def choose_index_width(buffers: Mapping[str, np.ndarray]) -> int:
     return 2 if top <= 0xFFFF else 4
 
 
-def restart_index_for(buffers: Mapping[str, np.ndarray], restart: int) -> int:
+def restart_index_for(buffers: Mapping[str, np.ndarray], restart: int, vertex_count: int) -> int:
     """The restart index a writer stores (spec 3.5, 3.7): the largest value of the file's ``idx``, 0xFFFF in a
     u16 file, else 0xFFFFFFFF, so an engine uploads ``INDX`` as it is with the restart value its API takes.
 
     ``buffers`` are the encoding's integer buffers (``ProgressiveMesh.buffers()``) with strips joined by
-    ``restart`` (any value >= V). The file is u16 exactly when :func:`choose_index_width` finds every value
-    fits u16 with each restart index 0xFFFF, so this is that function's answer on those values: the restart
-    chosen and the width written cannot disagree."""
+    ``restart`` (any value >= ``vertex_count``). 0xFFFF when it is not a vertex id (``vertex_count`` <=
+    0xFFFF) and :func:`choose_index_width` finds every other value fits u16: then the file holding 0xFFFF is
+    u16, and one holding 0xFFFFFFFF is u32 by the same function, so the restart chosen and the width written
+    cannot disagree."""
     r = int(restart)
-    top = {k: np.where(np.asarray(a) == r, 0, a) for k, a in buffers.items()}
-    return 0xFFFF if choose_index_width(top) == 2 else 0xFFFFFFFF
+    if int(vertex_count) > 0xFFFF:
+        return 0xFFFFFFFF
+    rest = {k: np.where(np.asarray(a) == r, 0, a) for k, a in buffers.items()}
+    return 0xFFFF if choose_index_width(rest) == 2 else 0xFFFFFFFF
