@@ -3,7 +3,6 @@ documented exit code (1 invalid input, 2 usage), no traceback and no wait."""
 
 from __future__ import annotations
 
-import errno
 import json
 import os
 import signal
@@ -171,6 +170,75 @@ def test_inspect_of_a_missing_file_names_it_in_one_plain_line(tmp_path):
     assert result.stderr == f"error: {tmp_path / 'nope.swpm'}: cannot read file: No such file or directory\n"
 
 
+def test_validate_of_a_missing_file_names_it_once(tmp_path):
+    """It printed "nope.swpm: INVALID / SWPM_IO_ERROR: cannot read file: [Errno 2] No such file or directory:
+    'nope.swpm'": the file twice. Once now, with the stable code, exit 1 (JSON alike)."""
+    path = str(tmp_path / "nope.swpm")
+    result = CliRunner().invoke(main, ["validate", path])
+    assert result.exit_code == 1
+    assert result.stdout.splitlines() == [
+        f"{path}: INVALID",
+        "  error   SWPM_IO_ERROR: cannot read file: No such file or directory",
+    ]
+    assert result.stdout.count("nope.swpm") == 1
+    result = CliRunner().invoke(main, ["validate", "--json", path])
+    out = json.loads(result.stdout)
+    assert result.exit_code == 1 and out["path"] == path
+    assert [(p["code"], p["message"]) for p in out["problems"]] == [
+        ("SWPM_IO_ERROR", "cannot read file: No such file or directory")
+    ]
+
+
+def test_python_validate_of_a_usd_stage_validates_the_stage(tmp_path):
+    """``swpm_usd.validate(stage)`` read a USD stage as an SWPM file (SWPM_BAD_MAGIC); it dispatches by the
+    suffix as ``swpm-pipeline validate`` does: the stage's findings, a missing stage one SWPM_USD_OPEN."""
+    from pxr import Usd
+
+    import swpm_usd
+    from swpm_usd import usd
+    from swpm_usd.format import Report
+
+    mesh = tmp_path / "two.obj"
+    mesh.write_text(TWO_TRIANGLES)
+    path = usd.write(swpm_usd.build(str(mesh), encoding="vanilla"), tmp_path / "two.usda")
+    rep = swpm_usd.validate(path)
+    assert isinstance(rep, Report) and rep.valid and rep.problems == [] and rep.path == str(path)
+    stage = Usd.Stage.Open(str(path))
+    usd.find_encoded(stage)[0].GetAttribute("swpm:indexWidth").Set(4)  # the indices need 2
+    stage.GetRootLayer().Save()
+    rep = swpm_usd.validate(path)
+    assert not rep.valid and rep.codes() == ["SWPM_USD_INDEX_WIDTH"]
+    assert rep.problems[0].message.startswith("/Two/mesh: swpm:indexWidth is 4")
+    assert "SWPM_USD_INDEX_WIDTH" in rep.format()
+    missing = swpm_usd.validate(tmp_path / "nope.usdc")
+    assert [(p.code, p.message) for p in missing.problems] == [("SWPM_USD_OPEN", "file not found")]
+
+
+def test_inspect_shows_the_width_the_index_values_fit_beside_the_file_width():
+    """An engine uploads the index lists; the file's idx may be wider for its offsets and counts. inspect
+    keeps ``index_width`` and adds ``index_values_width`` (a strips' restart index included)."""
+    from pathlib import Path
+
+    vectors = Path(__file__).resolve().parents[1] / "spec" / "vectors" / "valid"
+    cases = {
+        "minimal-vanilla": (2, 2),
+        "vanilla-u32": (4, 2),  # u32 by choice, every index fits u16
+        "sliding-window-strips-u32": (4, 4),  # the restart index 0xFFFFFFFF is an index value too
+        "sliding-window-strips-u32-restart-ffff": (4, 2),  # an older file: uploads as u16, 0xFFFF restarts
+        "skip-strip-strip": (2, 2),
+    }
+    for name, (file_w, values_w) in cases.items():
+        path = str(vectors / f"{name}.swpm")
+        r = CliRunner().invoke(main, ["inspect", "--json", path])
+        out = json.loads(r.stdout)
+        assert r.exit_code == 0, name
+        assert (out["index_width"], out["index_values_width"]) == (file_w, values_w), name
+        head = CliRunner().invoke(main, ["inspect", path]).stdout.splitlines()[0]
+        fit = f" (index values fit u{8 * values_w})" if values_w != file_w else ""
+        shown = f", index u{8 * file_w}{fit}"
+        assert head.endswith(shown), (name, head)
+
+
 def test_encode_refuses_an_output_below_a_file_before_it_builds(tmp_path):
     (tmp_path / "a.obj").write_text("not a folder")
     out = tmp_path / "a.obj" / "x.swpm"
@@ -243,8 +311,9 @@ def test_a_folder_given_to_the_reader_is_named_and_not_left_open(tmp_path):
 
     fds = os.listdir("/proc/self/fd") if os.path.isdir("/proc/self/fd") else None
     rep = validate(tmp_path)
-    says = f"cannot read file: [Errno {errno.EISDIR}] Is a directory: {str(tmp_path)!r}"
-    assert [p.message for p in rep.problems] == [says]
+    # (named once, by the report: the message repeated it, "[Errno 21] Is a directory: '<path>'")
+    assert rep.path == str(tmp_path)
+    assert [p.message for p in rep.problems] == ["cannot read file: Is a directory"]
     with pytest.raises(SwpmFormatError, match="Is a directory"):
         load(tmp_path)
     if fds is not None:

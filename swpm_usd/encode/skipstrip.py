@@ -14,10 +14,10 @@ one and applies only the records in between.
 
 Vertices are in vanilla order (the vertex collapse ``c`` bins is ``V - 1 - c``), so LOD ``k`` uses the vertex
 prefix. Strip joins are restart indices (``restart=True``; the restart value is the largest value of the
-index type, ``0xFFFF`` when every vertex id fits below it, else ``0xFFFFFFFF``, stored in
-``params["restart_index"]``) or degenerate triangles (``restart=False``), which are joins, not collapses,
-and are not counted against the level threshold. Strip collapse records change *slots*: a strip slot is
-shared by up to three triangles.
+file's index type, ``0xFFFF`` when every value of every buffer fits u16 (the format writer's width rule),
+else ``0xFFFFFFFF``, stored in ``params["restart_index"]``) or degenerate triangles (``restart=False``),
+which are joins, not collapses, and are not counted against the level threshold. Strip collapse records
+change *slots*: a strip slot is shared by up to three triangles.
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ import numpy as np
 
 from ..encodings import MAX_STRIP_WINDOW, PRIMITIVES, SKIPSTRIP_PARAMS
 from ..errors import BuildError
+from ..format.layout import restart_index_for
 from ..mesh import Mesh
 from ..simplify import CollapseSequence, collapse_sequence
 from .base import ProgressiveMesh, register
@@ -175,8 +176,28 @@ def _nondegenerate(t: np.ndarray) -> np.ndarray:
 
 
 def restart_value(vertex_count: int) -> int:
-    """The restart index: the largest value of the smallest index type that also holds every vertex id."""
+    """The restart index strips are built with: the largest value of the smallest index type that also holds
+    every vertex id. Not yet the file's: :func:`settle_restart` makes it 0xFFFFFFFF when another buffer makes
+    the file u32."""
     return 0xFFFF if vertex_count <= 0xFFFF else 0xFFFFFFFF
+
+
+def settle_restart(pm: ProgressiveMesh, lists: tuple[str, ...]) -> None:
+    """Give ``pm``, whose arrays ``lists`` are strips joined by ``pm.restart_index`` (:func:`restart_value`),
+    the restart index of its file: the largest value of the file's index type by the format writer's width
+    rule over ``pm.buffers()`` (:func:`..format.layout.restart_index_for`), so an engine uploads the file's
+    indices as they are with the restart value Vulkan, D3D12 and Metal take (spec 3.5, 3.7). When it differs
+    (0xFFFF widened to 0xFFFFFFFF: e.g. a pool longer than 65,535 indices makes the file u32 through its
+    offsets) the restart entries of ``lists`` are rewritten in place, with ``restart_index`` and
+    ``params["restart_index"]``."""
+    old = int(pm.restart_index)
+    rv = restart_index_for(pm.buffers(), old, pm.vertex_count)
+    if rv != old:
+        for name in lists:
+            a = getattr(pm, name)
+            a[a == old] = rv
+    pm.restart_index = rv
+    pm.params["restart_index"] = rv
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -458,7 +479,7 @@ def build_skipstrip(
         "cache_size": int(cache_size),
         "strip_window": int(strip_window),
     }
-    return SkipStripProgressiveMesh(
+    pm = SkipStripProgressiveMesh(
         points=mesh.points[perm],
         attributes={name: a[perm] for name, a in mesh.attributes.items()},
         vertex_counts=V - lod_records,
@@ -467,6 +488,9 @@ def build_skipstrip(
         buffers=buffers,
         params=params,
     )
+    if rv is not None:
+        settle_restart(pm, ("level_indices", "level_collapsed_indices"))
+    return pm
 
 
 def build_skipstrip_mesh(

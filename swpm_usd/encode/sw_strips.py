@@ -1,7 +1,8 @@
 """The sliding-window pool stored as triangle strips (``primitive="strip"``): the list pool cut at every
 window's first triangle, each piece between two cuts turned into strips by the skip strips' stripifier
 (:func:`.strips._stripify_barriers`, Evans-Skiena-Varshney with a look-ahead window, as meshoptimizer) and the
-pieces joined by a restart index (skip-strip's value, :func:`.skipstrip.restart_value`). A window's last
+pieces joined by a restart index (skip-strip's: :func:`.skipstrip.restart_value`, then the file's index type's
+largest value, :func:`.skipstrip.settle_restart`). A window's last
 triangle where no window starts is a *barrier* instead of a cut: the look-ahead does not cross it, so the
 strip's prefix up to it draws exactly the window's triangles, and the strip goes on across it when the next
 triangle can continue it, or joins it through degenerate triangles (a swap, a repeated last index), else a
@@ -22,7 +23,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .skipstrip import restart_value
+from .skipstrip import restart_value, settle_restart
 from .strips import _search_scratch, _stripify_blocks
 from .sw_mesh import SlidingWindowProgressiveMesh
 
@@ -86,7 +87,8 @@ def strip_pool(
     ``index_pool``: the list pool (3 indices a triangle); ``window_records`` (L, 3): first index offset,
     triangle count, vertex count of every window in it; ``window``: the stripifier's look-ahead. Returns
     (the strip pool, uint32; the window records in it, (L, 3) uint32: first index, the same triangle count
-    and vertex count; every window's number of pool indices, (L,) uint32; the restart index). A window of
+    and vertex count; every window's number of pool indices, (L,) uint32; the restart index it joins strips
+    with, :func:`.skipstrip.restart_value`, which :func:`use_strips` settles for the file). A window of
     no triangles keeps 0 indices, at its piece's start (the pool's end past the last piece)."""
     pool = np.asarray(index_pool, np.int64).reshape(-1, 3)
     rec = np.asarray(window_records, np.int64).reshape(-1, 3)
@@ -128,3 +130,4 @@ def use_strips(pm: SlidingWindowProgressiveMesh, window: int) -> None:
     pm.index_pool, pm.window_records, pm.window_index_counts = pool, rec, counts
     pm.primitive, pm.restart_index = "strip", rv
     pm.params.update(primitive="strip", restart_index=rv, strip_window=int(window))
+    settle_restart(pm, ("index_pool",))

@@ -571,7 +571,11 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
             [f"{file}: {'valid' if rep.valid else 'INVALID'} SWPM"]
             + [str(out[k]) for k in ("version", "encoding") if out.get(k) is not None]
         )
-        click.echo(head + (f", index u{8 * out['index_width']}" if "index_width" in out else ""))
+        width = f", index u{8 * out['index_width']}" if "index_width" in out else ""
+        if out.get("index_values_width", out.get("index_width")) != out.get("index_width"):
+            # (the file's idx widened by offsets or counts: what an engine can upload its index lists as)
+            width += f" (index values fit u{8 * out['index_values_width']})"
+        click.echo(head + width)
         for key in (
             "file_size",
             "lod_count",
@@ -610,7 +614,9 @@ def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool)
     A .swpm file is checked against the SWPM v1 spec (spec/format.md); a USD stage (.usd .usda .usdc
     .usdz) with the SwpmMeshAPI validators plus usd-core's built-in ones (spec/usd.md).
     """
-    if Path(file).suffix.lower() in {".usd", ".usda", ".usdc", ".usdz"}:
+    from ..usd import USD_SUFFIXES
+
+    if Path(file).suffix.lower() in USD_SUFFIXES:
         from ..usd.cli import validate_usd
 
         if not Path(file).is_file():

@@ -7,6 +7,8 @@ array inside a payload on a 4-byte boundary, padding is zero.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
 MAGIC = b"SWPM\r\n\x1a\n"
@@ -187,3 +189,29 @@ def align(n: int, a: int) -> int:
 def index_dtype(width: int) -> np.dtype:
     """The stored dtype of encoding arrays for an index width of 2 or 4 bytes."""
     return np.dtype("<u2") if width == 2 else np.dtype("<u4")
+
+
+def choose_index_width(buffers: Mapping[str, np.ndarray]) -> int:
+    """2 when every value of every integer encoding buffer fits u16, else 4 (spec: "Index width")."""
+    top = 0
+    for a in buffers.values():
+        a = np.asarray(a)
+        if a.size and np.issubdtype(a.dtype, np.integer):
+            top = max(top, int(a.max()))
+    return 2 if top <= 0xFFFF else 4
+
+
+def restart_index_for(buffers: Mapping[str, np.ndarray], restart: int, vertex_count: int) -> int:
+    """The restart index a writer stores (spec 3.5, 3.7): the largest value of the file's ``idx``, 0xFFFF in a
+    u16 file, else 0xFFFFFFFF, so an engine uploads ``INDX`` as it is with the restart value its API takes.
+
+    ``buffers`` are the encoding's integer buffers (``ProgressiveMesh.buffers()``) with strips joined by
+    ``restart`` (any value >= ``vertex_count``). 0xFFFF when it is not a vertex id (``vertex_count`` <=
+    0xFFFF) and :func:`choose_index_width` finds every other value fits u16: then the file holding 0xFFFF is
+    u16, and one holding 0xFFFFFFFF is u32 by the same function, so the restart chosen and the width written
+    cannot disagree."""
+    r = int(restart)
+    if int(vertex_count) > 0xFFFF:
+        return 0xFFFFFFFF
+    rest = {k: np.where(np.asarray(a) == r, 0, a) for k, a in buffers.items()}
+    return 0xFFFF if choose_index_width(rest) == 2 else 0xFFFFFFFF

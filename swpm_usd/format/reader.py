@@ -76,6 +76,12 @@ def _map(path: str | os.PathLike[str]) -> np.ndarray:
     return np.frombuffer(mm, np.uint8)
 
 
+def _io_reason(exc: OSError) -> str:
+    """Why a file could not be read, without its name: the report names it (``str(exc)`` named it twice,
+    "x.swpm: INVALID ... [Errno 2] No such file or directory: 'x.swpm'")."""
+    return exc.strerror or str(exc)
+
+
 # -- structure ------------------------------------------------------------------------------------------
 def _structure(buf: np.ndarray, rep: Report, check_crc: bool) -> _Parsed | None:
     size = int(buf.shape[0])
@@ -277,6 +283,25 @@ def _stored_indices(p: _Parsed) -> int:
     return stored_index_count(p.buffers) or int(p.chunks[L.INDX].length // p.width)
 
 
+#: the index lists an engine uploads to draw from, per encoding (skip-strip's and mixed's collapsed lists are
+#: the ones an instance copies at a level boundary)
+_DRAWN_LISTS = {
+    "vanilla": ("indices",),
+    "sliding-window": ("index_pool",),
+    "skip-strip": ("level_indices", "level_collapsed_indices"),
+    "mixed": ("level_static_indices", "level_dynamic_indices", "level_dynamic_collapsed_indices"),
+}
+
+
+def _index_values_width(p: _Parsed) -> int:
+    """The smallest width (2 or 4) every value of the lists an engine draws from fits, a strips' restart index
+    included: what it can upload them as, beside the file's ``idx`` (``index_width``), which offsets and
+    counts may widen (a list pool longer than 65,535 indices; a strip pool's restart index is then all ones
+    of u32, spec 3.5, so its values need u32 too)."""
+    lists = [np.asarray(p.buffers[n]) for n in _DRAWN_LISTS.get(p.encoding or "", ()) if n in p.buffers]
+    return L.choose_index_width({str(i): a for i, a in enumerate(lists)}) if lists else p.width
+
+
 def _summarise(p: _Parsed, rep: Report) -> None:
     assert p.lods is not None and p.points is not None
     t0 = int(p.lods["triangle_count"][0])
@@ -285,6 +310,7 @@ def _summarise(p: _Parsed, rep: Report) -> None:
             "encoding": p.encoding,
             "version": f"1.{p.minor}",
             "index_width": p.width,
+            "index_values_width": _index_values_width(p),
             "lod_count": int(p.lods.shape[0]),
             "vertex_count": int(p.points.shape[0]),
             "triangle_count": int(p.lods["triangle_count"][0]),
@@ -311,13 +337,20 @@ def validate_bytes(data: bytes | bytearray | memoryview | np.ndarray, path: str 
 
 def validate(path: str | os.PathLike[str]) -> Report:
     """Every problem of the SWPM file at ``path`` (``report.valid`` is True when none is an error). A USD
-    stage is checked by :func:`swpm_usd.usd.validate.validate_stage` (``swpm-pipeline validate`` picks by the
-    suffix); given here, it is an SWPM file with a bad magic."""
+    stage (a ``.usd`` ``.usda`` ``.usdc`` ``.usdz`` path, picked by the suffix as ``swpm-pipeline validate``
+    picks) is checked by :func:`swpm_usd.usd.validate.validate_stage`, our validators and usd-core's built-in
+    ones, its findings the report's problems (:func:`swpm_usd.usd.validate.stage_report`)."""
+    from ..usd import USD_SUFFIXES
+
+    if os.fspath(path).lower().endswith(USD_SUFFIXES):
+        from ..usd.validate import stage_report
+
+        return stage_report(path)
     try:
         buf = _map(path)
     except OSError as exc:
         rep = Report(path=str(path))
-        rep.add("SWPM_IO_ERROR", None, reason=str(exc))
+        rep.add("SWPM_IO_ERROR", None, reason=_io_reason(exc))
         return rep
     return _check(buf, str(path))[0]
 
@@ -364,7 +397,7 @@ def load(path: str | os.PathLike[str]) -> ProgressiveMesh:
         buf = _map(path)
     except OSError as exc:
         rep = Report(path=str(path))
-        rep.add("SWPM_IO_ERROR", None, reason=str(exc))
+        rep.add("SWPM_IO_ERROR", None, reason=_io_reason(exc))
         err = SwpmFormatError(rep)
         # (a missing or unreadable file was INPUT_MALFORMED, as a corrupt one: the codes a mesh gets)
         err.code = "INPUT_NOT_FOUND" if exc.errno == errno.ENOENT else "INPUT_UNREADABLE"

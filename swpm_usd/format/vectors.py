@@ -97,10 +97,11 @@ def fan_sliding(**over: Any) -> RawProgressiveMesh:
     return _fan("sliding-window", bufs, {"cache_size": 16}, **over)
 
 
-def fan_sliding_strips(**over: Any) -> RawProgressiveMesh:
+def fan_sliding_strips(restart: int = 0xFFFF, **over: Any) -> RawProgressiveMesh:
     """:func:`fan_sliding`'s pool as strips (``SW_STRIPS``, format.md 3.5): window 0 is the fan as one strip
-    with two swaps (8 indices, 4 triangles), then a restart index, then window 1 (4 indices, 2 triangles)."""
-    R = 0xFFFF
+    with two swaps (8 indices, 4 triangles), then a restart index, then window 1 (4 indices, 2 triangles).
+    ``restart`` 0xFFFFFFFF makes the file u32 (its idx's largest value, as a writer writes a u32 file's)."""
+    R = restart
     bufs = {
         "index_pool": [1, 4, 0, 4, 3, 4, 2, 1, R, 1, 2, 0, 3],
         "window_records": [[0, 4, 5], [9, 2, 4]],
@@ -156,8 +157,9 @@ def fan_skip(**over: Any) -> RawProgressiveMesh:
     return _fan("skip-strip", bufs, {"primitive": "list"}, **over)
 
 
-def _fan_strips(strip: list[int]) -> RawProgressiveMesh:
-    """:func:`fan_skip`'s level as ``strip`` (restart index 0xFFFF), its record changing every slot of 4."""
+def _fan_strips(strip: list[int], restart: int = 0xFFFF) -> RawProgressiveMesh:
+    """:func:`fan_skip`'s level as ``strip`` (restart index ``restart``), its record changing every slot of
+    4."""
     slots = [i for i, v in enumerate(strip) if v == 4]
     bufs = dict(fan_skip().raw_buffers)
     bufs.update(
@@ -168,13 +170,14 @@ def _fan_strips(strip: list[int]) -> RawProgressiveMesh:
         collapse_change_count=[len(slots)],
         collapse_change_offsets=slots,
     )
-    return _fan("skip-strip", bufs, {"primitive": "strip", "restart_index": 0xFFFF})
+    return _fan("skip-strip", bufs, {"primitive": "strip", "restart_index": restart})
 
 
-def fan_skip_strip() -> RawProgressiveMesh:
-    """Skip-strip, strip variant: one single-triangle strip per triangle, joined by the restart index."""
-    R = 0xFFFF
-    return _fan_strips([1, 2, 4, R, 2, 3, 4, R, 0, 1, 4, R, 3, 0, 4])
+def fan_skip_strip(restart: int = 0xFFFF) -> RawProgressiveMesh:
+    """Skip-strip, strip variant: one single-triangle strip per triangle, joined by the restart index
+    (0xFFFFFFFF: a u32 file, its idx's largest value)."""
+    R = restart
+    return _fan_strips([1, 2, 4, R, 2, 3, 4, R, 0, 1, 4, R, 3, 0, 4], R)
 
 
 def fan_skip_swap() -> RawProgressiveMesh:
@@ -446,6 +449,22 @@ def _valid() -> dict[str, tuple[bytes, str]]:
             _write(fan_sliding_strips()),
             "sliding window, the pool as strips (SW_STRIPS): WREC rows of four fields, two windows each"
             " starting a strip, swaps not counted",
+        ),
+        "sliding-window-strips-u32": (
+            _write(fan_sliding_strips(0xFFFFFFFF)),
+            "the strip pool of sliding-window-strips in a u32 file with restart index 0xFFFFFFFF, all ones of"
+            " idx: what a writer writes whenever the file is u32 (format.md 3.5), drawn as it is by an API"
+            " whose restart value is all ones of the index type",
+        ),
+        "sliding-window-strips-u32-restart-ffff": (
+            _write(fan_sliding_strips(), index_width=4),
+            "the same pool in a u32 file with restart index 0xFFFF, as writers before 0.8.0 wrote a u32 file:"
+            " still valid (a restart index is any value >= V), an engine rewrites its restarts or uploads it"
+            " as u16 (format.md 3.5)",
+        ),
+        "skip-strip-strip-u32": (
+            _write(fan_skip_strip(0xFFFFFFFF)),
+            "skip-strip-strip in a u32 file with restart index 0xFFFFFFFF, all ones of idx (format.md 3.7)",
         ),
         "sliding-window-strip-prefix": (
             _write(fan_sliding_strip_prefix()),

@@ -17,6 +17,7 @@ from ..encode.base import ProgressiveMesh
 from ..fileio import atomic_write_bytes
 from . import layout as L
 from .errors import SwpmEncodeError
+from .layout import choose_index_width
 from .meta import parse_meta_json
 
 #: LOD bands of the streaming map: one per halving of the vertex count
@@ -37,16 +38,6 @@ def _pad(b: bytes, a: int = L.ARRAY_ALIGN) -> bytes:
 
 def _u(a: np.ndarray, dt: np.dtype) -> bytes:
     return _pad(np.ascontiguousarray(a, dtype=dt).tobytes())
-
-
-def choose_index_width(buffers: dict[str, np.ndarray]) -> int:
-    """2 when every value of every integer encoding buffer fits u16, else 4 (spec: "Index width")."""
-    top = 0
-    for a in buffers.values():
-        a = np.asarray(a)
-        if a.size and np.issubdtype(a.dtype, np.integer):
-            top = max(top, int(a.max()))
-    return 2 if top <= 0xFFFF else 4
 
 
 def _vert_payload(pm: ProgressiveMesh) -> tuple[bytes, int, int]:

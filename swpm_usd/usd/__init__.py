@@ -6,7 +6,9 @@ lazily so ``import swpm_usd`` stays cheap. Public API:
 - :func:`write` (asset layer per mesh), :func:`write_overrides` (non-destructive layer over a stage),
   :func:`write_usdlod` (UsdLod layer over an asset written with discrete LODs), :func:`select_lods`;
 - :func:`read` (prim -> ProgressiveMesh), :func:`read_buffers`, :func:`find_encoded`;
-- :func:`validate_stage` -> list of :class:`Finding`, :func:`register_validators`.
+- :func:`validate_stage` -> list of :class:`Finding`, :func:`stage_report` (the same as the SWPM reader's
+  :class:`~swpm_usd.format.Report`, what :func:`swpm_usd.validate` gives for a stage),
+  :func:`register_validators`.
 """
 
 from __future__ import annotations
@@ -15,6 +17,10 @@ from importlib import import_module
 from typing import Any
 
 from . import plugin as plugin
+
+#: the suffixes of a USD stage: ``swpm-pipeline validate`` and :func:`swpm_usd.validate` check such a path as
+#: a stage (:func:`validate_stage`), any other as an SWPM file
+USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 
 _EXPORTS = {
     "write": "writer",
@@ -25,6 +31,7 @@ _EXPORTS = {
     "find_encoded": "reader",
     "write_overrides": "overrides",
     "validate_stage": "validate",
+    "stage_report": "validate",
     "validate_prim": "validate",
     "register_validators": "validate",
     "Finding": "validate",

@@ -18,6 +18,8 @@ from typing import Any
 import numpy as np
 from pxr import Usd, UsdGeom, UsdValidation
 
+from ..fileio import missing_file_problem
+from ..format.errors import Problem, Report
 from ..format.meta import parse_meta_json
 from .arrays import ATTRIBUTE_DTYPES, BUFFER_DTYPES, dtype_problem
 from .reader import _snake, is_encoded
@@ -524,6 +526,22 @@ def _open(path: str) -> tuple[Usd.Stage | None, str]:
     except OSError as exc:
         hint = f" ({exc.strerror or exc})"
     return None, f"{path}: usd-core cannot open it as a USD layer{hint}: {reason}"
+
+
+def stage_report(path: str | os.PathLike[str]) -> Report:
+    """:func:`validate_stage` (builtin validators too) as the SWPM reader's :class:`Report`, what
+    :func:`swpm_usd.validate` returns for a USD stage (it reported a bad magic): each finding's code and
+    severity, its message after its prim path, no offset. A path that names no regular file is one
+    ``SWPM_USD_OPEN`` in ``swpm-pipeline validate``'s words (usd-core's were "Failed to open layer"), and a
+    FIFO is never opened (its open would wait for a writer)."""
+    rep = Report(path=os.fspath(path))
+    if not os.path.isfile(path):
+        why = "not a regular file" if os.path.exists(path) else missing_file_problem(path)
+        rep.problems.append(Problem("SWPM_USD_OPEN", ERROR, why, None))
+        return rep
+    for f in validate_stage(path):
+        rep.problems.append(Problem(f.code, f.severity, f"{f.prim}: {f.message}", None))
+    return rep
 
 
 def validate_stage(path: str | os.PathLike[str] | Usd.Stage, builtin: bool = True) -> list[Finding]:

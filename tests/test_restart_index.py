@@ -1,0 +1,157 @@
+"""A strips' restart index is all ones of the file's index type (spec/format.md 3.5, 3.7): 0xFFFF in a u16
+file, 0xFFFFFFFF in a u32 one, decided by the format writer's width rule (``layout.restart_index_for``), so an
+engine uploads ``INDX`` as it is with the restart value Vulkan, D3D12 and Metal take. Sliding-window and
+skip-strip strips on meshes whose file is u32 (bunny; bob, whose 5,647 vertices fit u16 but whose pools do
+not) and on one that stays u16 (suzanne), through the format reader and USD."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import shared_mesh
+
+import swpm_usd
+from swpm_usd.format import layout as L
+from swpm_usd.format.reader import load_bytes
+from swpm_usd.format.writer import choose_index_width, encode_bytes
+
+#: (mesh, encoding, build parameters, the arrays holding strips)
+CASES = {
+    "bunny-sliding-strip": ("stanford-bunny.obj", "sliding-window", {"primitive": "strip"}, ("index_pool",)),
+    "bob-sliding-strip": ("bob.obj", "sliding-window", {"primitive": "strip"}, ("index_pool",)),
+    "bob-skip-strip": ("bob.obj", "skip-strip", {}, ("level_indices", "level_collapsed_indices")),
+    "suzanne-sliding-strip": ("suzanne.obj", "sliding-window", {"primitive": "strip"}, ("index_pool",)),
+    "suzanne-skip-strip": ("suzanne.obj", "skip-strip", {}, ("level_indices", "level_collapsed_indices")),
+}
+#: the restart each case must get: u32 files for bunny and bob, u16 for suzanne
+EXPECTED = {
+    "bunny-sliding-strip": 0xFFFFFFFF,
+    "bob-sliding-strip": 0xFFFFFFFF,
+    "bob-skip-strip": 0xFFFFFFFF,
+    "suzanne-sliding-strip": 0xFFFF,
+    "suzanne-skip-strip": 0xFFFF,
+}
+
+
+@pytest.fixture(scope="module", params=list(CASES))
+def case(request):
+    mesh, enc, kw, lists = CASES[request.param]
+    return request.param, swpm_usd.build(shared_mesh(mesh), encoding=enc, **kw), lists
+
+
+def test_the_restart_index_is_all_ones_of_the_file_index_type(case) -> None:
+    name, pm, lists = case
+    rv = EXPECTED[name]
+    W = 2 if rv == 0xFFFF else 4
+    assert pm.restart_index == pm.params["restart_index"] == rv
+    assert choose_index_width(pm.buffers()) == W
+    if W == 4:  # every vertex id fits u16 (fewer than 65,535 vertices): the pool's length makes the file u32
+        assert pm.vertex_count <= 0xFFFF
+        assert max(int(pm.buffers()[n].shape[0]) for n in lists) > 0xFFFF
+    data = encode_bytes(pm)
+    features = int(np.frombuffer(data[: L.HEADER_SIZE], L.HEADER)[0]["features"])
+    assert bool(features & L.FEATURE_INDEX32) == (W == 4)
+    back = load_bytes(data)
+    assert back.restart_index == back.params["restart_index"] == rv
+    for n in lists:
+        stored = np.asarray(getattr(back, n))
+        assert stored.dtype.itemsize == W  # the file's idx, as the reader exposes it
+        restarts = stored == rv
+        assert restarts.any() and np.all(restarts | (stored < pm.vertex_count)), n
+        assert np.array_equal(stored, getattr(pm, n)), n
+    for k in range(0, pm.lod_count, max(1, pm.lod_count // 20)):
+        assert np.array_equal(back.triangles_at(k), pm.triangles_at(k)), k
+
+
+def test_the_restart_index_round_trips_through_usd(case, tmp_path) -> None:
+    """USD stores 0xFFFFFFFF as it is in a uint[] array; swpm:indexWidth (2 when every vertex id and the
+    restart index fit 16 bits) is then the file's width, and the stage validates clean."""
+    from pxr import Usd
+
+    from swpm_usd import usd
+    from swpm_usd.usd.validate import validate_stage
+
+    name, pm, lists = case
+    path = usd.write(pm, tmp_path / f"{name}.usdc")
+    assert validate_stage(path, builtin=False) == []
+    stage = Usd.Stage.Open(str(path))
+    prim = usd.find_encoded(stage)[0]
+    assert prim.GetAttribute("swpm:indexWidth").Get() == choose_index_width(pm.buffers())
+    back = usd.read(prim)
+    assert back.restart_index == back.params["restart_index"] == EXPECTED[name]
+    for n in lists:
+        assert np.array_equal(np.asarray(getattr(back, n)), getattr(pm, n)), n
+    last = pm.lod_count - 1
+    assert np.array_equal(back.triangles_at(last), pm.triangles_at(last))
+
+
+def _strip_window(pool: list[int], V: int, first: int = 0):
+    """A one-LOD sliding-window strip pool of ``V`` vertices whose window starts at ``first``, restart index
+    0xFFFFFFFF (the value a build joins strips with until the file's width is known)."""
+    from swpm_usd.encode.sw_mesh import SlidingWindowProgressiveMesh
+
+    return SlidingWindowProgressiveMesh(
+        np.zeros((V, 3), np.float32),
+        {},
+        np.array([V]),
+        np.array([1]),
+        np.zeros(1, np.float32),
+        index_pool=np.array(pool, np.uint32),
+        window_records=np.array([[first, 1, V]], np.uint32),
+        params={"primitive": "strip", "restart_index": 0xFFFFFFFF},
+        window_index_counts=np.array([len(pool) - first], np.uint32),
+    )
+
+
+@pytest.mark.parametrize(
+    ("pool", "V", "first", "rv"),
+    [
+        ([0, 1, 2], 3, 0, 0xFFFF),  # everything fits u16: 0xFFFFFFFF itself does not make the file u32
+        ([0, 1, 2, 0xFFFFFFFF, 0, 1, 2], 3, 4, 0xFFFF),
+        ([0, 1, 2], 0x10000, 0, 0xFFFFFFFF),  # a vertex count of 65,536: a u32 file (0xFFFF a vertex id)
+        ([0xFFFFFFFF] * 0x10000 + [0, 1, 2], 3, 0x10000, 0xFFFFFFFF),  # an offset past 65,535
+    ],
+)
+def test_settle_restart_follows_the_writer_width(pool, V, first, rv) -> None:
+    """``settle_restart`` keeps 0xFFFFFFFF exactly when the writer then writes u32, rewriting the pool's
+    restart entries otherwise; the file written holds the chosen value and reads back."""
+    from swpm_usd.encode.skipstrip import settle_restart
+    from swpm_usd.format.layout import restart_index_for
+
+    pm = _strip_window(pool, V, first)
+    assert restart_index_for(pm.buffers(), 0xFFFFFFFF, V) == rv
+    settle_restart(pm, ("index_pool",))
+    assert pm.restart_index == pm.params["restart_index"] == rv
+    restarts = np.asarray(pool, np.int64) == 0xFFFFFFFF
+    assert np.array_equal(pm.index_pool == rv, restarts)
+    assert choose_index_width(pm.buffers()) == (2 if rv == 0xFFFF else 4)
+    back = load_bytes(encode_bytes(pm))
+    assert back.restart_index == rv and np.array_equal(back.index_pool, pm.index_pool)
+    assert back.triangles_at(0).tolist() == [[0, 1, 2]]
+
+
+def test_a_restart_of_0xffff_is_never_a_vertex() -> None:
+    """At 65,536 vertices every vertex id and every other value may fit u16 (a skip-strip's buffers hold no
+    vertex count), but 0xFFFF is vertex 65,535: the restart index is 0xFFFFFFFF and the file u32."""
+    from swpm_usd.format.layout import restart_index_for
+
+    R = 0xFFFFFFFF
+    top = np.array([0, 1, 0xFFFF, R, 2, 3, 4], np.uint32)  # vertex 65,535 in a strip
+    assert restart_index_for({"level_indices": top}, R, 0x10000) == R
+    below = np.array([0, 1, 0xFFFE, R, 2, 3, 4], np.uint32)  # 65,535 vertices: 0xFFFF is no vertex
+    assert restart_index_for({"level_indices": below}, R, 0xFFFF) == 0xFFFF
+    # an offset past 65,535 makes the file u32, whatever the vertex count
+    assert restart_index_for({"level_indices": below, "start": np.array([0, 0x10000], np.uint32)}, R, 9) == R
+
+
+def test_an_older_u32_file_with_restart_0xffff_still_reads() -> None:
+    """A writer before 0.8.0 wrote 0xFFFF in a u32 file: the reader keeps accepting any restart >= V."""
+    from swpm_usd.format.vectors import fan_sliding_strips
+
+    old = encode_bytes(fan_sliding_strips(), index_width=4)
+    back = load_bytes(old)
+    assert back.restart_index == 0xFFFF and np.asarray(back.index_pool).dtype.itemsize == 4
+    new = load_bytes(encode_bytes(fan_sliding_strips(0xFFFFFFFF)))
+    assert new.restart_index == 0xFFFFFFFF
+    for k in range(back.lod_count):
+        assert np.array_equal(back.triangles_at(k), new.triangles_at(k))
