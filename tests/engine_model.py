@@ -653,27 +653,23 @@ class SwpmFile:
         )
 
     # -- §4: what drawing LOD k needs, as file byte ranges
-    def needed_ranges(self, k: int) -> list[tuple[int, int]]:
-        """Byte ranges [start, end): (a) all before INDX, (b) its INDX elements, (c) VERT to its vertices."""
+    def needed_ranges(self, k: int) -> tuple[tuple[int, int], tuple[int, int] | None, tuple[int, int]]:
+        """Byte ranges [start, end) LOD k needs: (a) all before INDX, (b) its INDX elements (None: none),
+        (c) VERT up to its vertex records."""
         ic, vc = self.chunks["INDX"], self.chunks["VERT"]
-        out = [(0, ic.offset)]
         a = self.arrays
         if self.encoding == "vanilla":
             b = (0, ic.length)
         elif self.encoding == "sliding-window":
-            b = (
-                int(a["windows"][k, 0]) * self.W,
-                int(a["windows"][k, 0] + a["window_index_counts"][k]) * self.W,
-            )
+            first = int(a["windows"][k, 0])
+            b = (first * self.W, (first + int(a["window_index_counts"][k])) * self.W)
         else:
             lv = a["levels"]
             st = lv["level_index_start" if self.encoding == "skip-strip" else "level_static_start"]
             lvl = a["level_of_lod"][k]
             b = (int(st[lvl]) * self.W, int(st[lvl + 1]) * self.W)
-        if b[1] > b[0]:
-            out.append((ic.offset + b[0], ic.offset + b[1]))
-        out.append((vc.offset, vc.offset + self.data_offset + int(self.vertex_counts[k]) * self.stride))
-        return out
+        vert = (vc.offset, vc.offset + self.data_offset + int(self.vertex_counts[k]) * self.stride)
+        return (0, ic.offset), (ic.offset + b[0], ic.offset + b[1]) if b[1] > b[0] else None, vert
 
     def smap(self) -> list[tuple[int, int, list[tuple[int, int]], int]]:
         """The streaming map's bands: (first_lod, lod_count, ranges, prefix_length)."""
