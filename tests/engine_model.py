@@ -671,6 +671,11 @@ class SwpmFile:
         vert = (vc.offset, vc.offset + self.data_offset + int(self.vertex_counts[k]) * self.stride)
         return (0, ic.offset), (ic.offset + b[0], ic.offset + b[1]) if b[1] > b[0] else None, vert
 
+    def streaming_bytes(self, k: int) -> tuple[int, int]:
+        """Bytes a streaming reader needs before drawing LOD k: as a file prefix, and as byte ranges (§4)."""
+        parts = [r for r in self.needed_ranges(k) if r is not None]
+        return max(r[1] for r in parts), sum(r[1] - r[0] for r in parts)
+
     def smap(self) -> list[tuple[int, int, list[tuple[int, int]], int]]:
         """The streaming map's bands: (first_lod, lod_count, ranges, prefix_length)."""
         if "SMAP" not in self.chunks:

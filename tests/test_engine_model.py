@@ -269,3 +269,42 @@ def test_strip_parity_matters() -> None:
     assert not same_oriented(vk, np.array([[0, 1, 2], [1, 2, 3], [4, 5, 6]]))
     # no restart: the strip runs through 0xFFFF's place as a vertex
     assert len(em.strip_triangles(s, None)) == 6
+
+
+@pytest.mark.parametrize(
+    "i", [i for i, c in enumerate(CASES) if c[1] in ("skip-strip", "mixed")], ids=lambda i: IDS[i]
+)
+def test_level_switch_draws_what_the_previous_level_ended_on(i: int) -> None:
+    """§3.7 (writers MUST, readers do not check): level l's list holds the non-degenerate triangles of level
+    l-1's collapsed list, so an engine switching levels at LOD level_first_lod[l] draws no pop. Mixed levels
+    are "as skip-strip" (§3.8): both lists together."""
+    f, eng = loaded(i)
+    lv = f.arrays["levels"]
+    n = len(lv["level_first_lod"])
+    assert n >= 2, "the case has several levels"
+    for l in range(1, n):
+        if f.encoding == "skip-strip":
+            a, b = int(lv["level_index_start"][l - 1]), int(lv["level_index_start"][l])
+            c = int(lv["level_index_start"][l + 1])
+            topo = "strip" if f.arrays["primitive"] == "strip" else "list"
+            before = em.Draw(eng.collapsed, a, b - a, topo, f.V).rasterise()
+            after = em.Draw(eng.pool, b, c - b, topo, f.V).rasterise()
+        else:
+            sst, dst, rst = lv["level_static_start"], lv["level_dynamic_start"], lv["level_record_start"]
+            rec = f.arrays["records"]
+            r0, r1 = int(rst[l - 1]), int(rst[l])
+            s_live = (int(sst[l] - sst[l - 1])) // 3 - int(rec[r0:r1, 1].sum())
+            d_live = (int(dst[l] - dst[l - 1])) // 3 - int(rec[r0:r1, 2].sum())
+            before = em.drawn_triangles(
+                [
+                    em.Draw(eng.dyn_collapsed, int(dst[l - 1]), 3 * d_live, "list", f.V),
+                    em.Draw(eng.pool, int(sst[l - 1]), 3 * s_live, "list", f.V),
+                ]
+            )
+            after = em.drawn_triangles(
+                [
+                    em.Draw(eng.dyn, int(dst[l]), int(dst[l + 1] - dst[l]), "list", f.V),
+                    em.Draw(eng.pool, int(sst[l]), int(sst[l + 1] - sst[l]), "list", f.V),
+                ]
+            )
+        assert same_oriented(before, after), f"level {l}"
