@@ -214,6 +214,10 @@ def test_streaming_prefixes_draw_the_coarse_lods(i: int) -> None:
     assert all(a >= b for a, b in zip(need, need[1:], strict=False)), "coarser LODs need no more bytes"
     bands = f.smap()
     assert bands and bands[0][0] == 0 and sum(b[1] for b in bands) == f.L
+    # §4: writers form one band per halving of the vertex count, floor(log2(V / vertex_count(k)))
+    halving = np.floor(np.log2(f.V / f.vertex_counts.astype(np.float64))).astype(int)
+    assert [int(halving[b[0]]) for b in bands] == sorted(set(halving.tolist()))
+    assert all(np.all(halving[b[0] : b[0] + b[1]] == halving[b[0]]) for b in bands)
     inst_full = None if f.encoding == "sliding-window" else eng.instance()
     for first, count, ranges, prefix in bands:
         lods = range(first, first + count)
