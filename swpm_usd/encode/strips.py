@@ -541,9 +541,11 @@ def _stripify_blocks(
     memo: np.ndarray,
     ws: np.ndarray,
     stamp: int,
+    budget: int = _BUDGET,
 ) -> tuple:
     """:func:`_stripify_barriers` with the search's scratch (:func:`_search_scratch`) passed in and its
-    last memo stamp: (the strip, the barriers' strip positions, the stamp)."""
+    last memo stamp, ``budget`` the nodes of a block's search: (the strip, the barriers' strip positions,
+    the stamp)."""
     T = tris.shape[0]
     B = barriers.shape[0]
     # at most 5 indices a triangle: a strip's first one after a degenerate join (2 + 3), a swap 2; a swap
@@ -576,7 +578,7 @@ def _stripify_blocks(
         exact = 0
     if exact > 0 and 0 < limit <= exact:
         n, _, pos0, lt_kind, lt_pos, lt_tri, stamp = _strip_block(
-            tris, 0, limit, out, 0, 0, restart, _BUDGET, lt_kind, lt_pos, lt_tri, memo, stamp, ws
+            tris, 0, limit, out, 0, 0, restart, budget, lt_kind, lt_pos, lt_tri, memo, stamp, ws
         )
         next_in = limit
     while True:
@@ -602,7 +604,7 @@ def _stripify_blocks(
                     n,
                     pos0,
                     restart,
-                    _BUDGET,
+                    budget,
                     lt_kind,
                     lt_pos,
                     lt_tri,
