@@ -5,8 +5,9 @@ pieces joined by a restart index (skip-strip's value, :func:`.skipstrip.restart_
 triangle where no window starts is a *barrier* instead of a cut: the look-ahead does not cross it, so the
 strip's prefix up to it draws exactly the window's triangles, and the strip goes on across it when the next
 triangle can continue it, or joins it through degenerate triangles (a swap, a repeated last index), else a
-restart; a block of at most :data:`SEARCH_BLOCK` triangles between window ends is written by a bounded
-search for the fewest indices, any order inside it. Every window then starts at the pool's start or right
+restart; a block of at most :data:`SEARCH_BLOCK` triangles between window ends (more in a small pool whose
+order was not searched for the cache, :data:`SEARCH_TIERS`) is written by a bounded search for the fewest
+indices, any order inside it. Every window then starts at the pool's start or right
 after a restart index and ends at a cut or inside a strip, so it is still ONE contiguous range of the pool:
 one strip draw with primitive restart per LOD, as Forsyth's sliding window draws one list range. A window's
 strip decodes (spec/format.md 3.7's rule, parity from each restart) to its list triangles as an oriented
@@ -14,7 +15,8 @@ multiset, in the list's order as far as the stripifier keeps it.
 
 Ten shared meshes, lambda (pool indices over three a LOD-0 triangle): defaults 5.30 -> 3.79 (mean), cluster
 and swaps 4.43 -> 3.35 (``slidingwindow.md``, "Strips"); windows ending inside strips 3.70 and 3.26; joins and
-the block search 3.53 and 3.06 (2026-12-05, "Joins across a window's end").
+the block search 3.53 and 3.06 (2026-12-05, "Joins across a window's end"); the search sized by the pool
+(:func:`search_block`) 3.53 and 2.98 ("Larger blocks for small pools").
 """
 
 from __future__ import annotations
