@@ -16,7 +16,7 @@ multiset, in the list's order as far as the stripifier keeps it.
 Ten shared meshes, lambda (pool indices over three a LOD-0 triangle): defaults 5.30 -> 3.79 (mean), cluster
 and swaps 4.43 -> 3.35 (``slidingwindow.md``, "Strips"); windows ending inside strips 3.70 and 3.26; joins and
 the block search 3.53 and 3.06 (2026-12-05, "Joins across a window's end"); the search sized by the pool
-(:func:`search_block`) 3.53 and 2.98 ("Larger blocks for small pools").
+(:func:`search_block`) 3.53 and 2.98 ("Where the strip indices go, and larger blocks for small pools").
 """
 
 from __future__ import annotations
@@ -38,11 +38,12 @@ SEARCH_BLOCK = 5
 
 #: (largest list pool in triangles, block, node budget), the first that holds the pool, where its order was
 #: not searched for the cache (``cluster``: a linked level's order is its tail's): a smaller pool's blocks are
-#: searched larger, for about the time a large one's take. Larger blocks reorder more: the defaults' searched
-#: order would lose 1 % of its cache hits (ten meshes, lambda 3.532 -> 3.424), so they keep
-#: :data:`SEARCH_BLOCK`. Ten meshes' cluster-swap strip pools, lambda mean 3.058 -> 2.975, at most 3.0 on 4
-#: -> 5 meshes (bob 3.006 -> 2.917); the strip pass on bunny (261,441 pool triangles) 0.18 -> 0.26 s, on
-#: beetle (10,517) 0.01 -> 0.08 s (``slidingwindow.md``, "Larger blocks for small pools")
+#: searched larger, for a strip pass of well under a second on each shared mesh. Larger blocks reorder more:
+#: the defaults' searched order would take 1.1 % more cache misses (ten meshes, lambda 3.532 -> 3.424), so
+#: they keep :data:`SEARCH_BLOCK`. Ten meshes' cluster-swap strip pools, lambda mean 3.058 -> 2.975, at
+#: most 3.0 on 4 -> 5 meshes (bob 3.006 -> 2.917); the strip pass on bunny (261,441 pool triangles) 0.26 ->
+#: 0.45 s, on beetle (10,517) 0.01 -> 0.11 s, a loaded machine (``slidingwindow.md``, "Where the strip
+#: indices go")
 SEARCH_TIERS = ((64_000, 10, 2000), (128_000, 8, 1000), (1 << 62, 6, 300))
 
 
