@@ -35,10 +35,10 @@ order searched further for fewer cache misses over its windows, for a longer bui
 cluster-swap-strip (the defaults and cluster-swap with ``primitive="strip"``: the pool as triangle strips,
 lambda counting its indices, restart indices included; the ACMR on the decoded triangles in strip order,
 the order the strip draws them; ten meshes, lambda mean / max / bunny: strip 3.532 / 3.839 / 3.533,
-cluster-swap-strip 3.058 / 3.683 / 2.577 with joins across window ends and the block search, 2026-12-05;
-3.697 / 3.997 / 3.700 and 3.261 / 3.873 / 2.794 before them; 3.786 / 4.091 /
-3.785 and 3.352 / 3.958 / 2.885 when every window's end was a restart). ``--big`` adds a
-generated icosphere of 1.3 M triangles (build time only).
+cluster-swap-strip 2.975 / 3.609 / 2.554 with the block search sized by the pool (3.058 / 3.683 / 2.577
+before it) and joins across window ends, 2026-12-05; 3.697 / 3.997 / 3.700 and 3.261 / 3.873 / 2.794
+before them; 3.786 / 4.091 / 3.785 and 3.352 / 3.958 / 2.885 when every window's end was a restart).
+``--big`` adds a generated icosphere of 1.3 M triangles (build time only).
 Targets (issue): lambda <= 5.4 on bunny (topology, no reductions; <= 3.9 with cluster-swap; <= 2.8 with
 inner3-cluster-swap, the papers' (d); inner3-swap alone 2.88), ACMR ratio <= 1.10, error ratio <= 1.5,
 bunny build <= 3 s, 1 M triangles <= 60 s.

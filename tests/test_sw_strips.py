@@ -12,7 +12,7 @@ from conftest import shared_mesh
 import swpm_usd
 import swpm_usd.encode.slidingwindow
 from swpm_usd.encode.strips import _stripify, _stripify_barriers, decode_strip
-from swpm_usd.encode.sw_strips import _strip_pieces, strip_pool
+from swpm_usd.encode.sw_strips import _strip_pieces, search_block, strip_pool
 from swpm_usd.errors import BuildError
 
 OPTIONS = {"defaults": {}, "cluster-swap": {"cluster": True, "optimize_connectivity": True}}
@@ -506,7 +506,8 @@ def test_strip_builds_join_without_restarts(builds, option) -> None:
     ends = rec[:, 0] // 3 + rec[:, 1]
     barriers = np.setdiff1d(ends[(ends > 0) & (ends < T)], cuts)
     w = strip.params["strip_window"]
-    joined, _, _, _ = _strip_pieces(tris, cuts, barriers, rv, w)
+    block, budget = search_block(T, option == "defaults")
+    joined, _, _, _ = _strip_pieces(tris, cuts, barriers, rv, w, block, budget)
     assert np.array_equal(joined, pool)
     # (_stripify_barriers without vertex joins inside a piece: a restart there)
     plain = []
@@ -601,3 +602,57 @@ def test_strip_pool_random_windows_draw_their_list_triangles(seed) -> None:
                 assert rv not in s[f + c - 3 : f + c] and len(set(s[f + c - 3 : f + c])) == 3
                 got = _decode_by_the_spec(s[f : f + c], rv)
                 assert np.array_equal(_canonical(got), _canonical(want)), (seed, window, k)
+
+
+def test_search_block_by_pool_size_and_order() -> None:
+    """The block search is sized by the pool (:data:`.sw_strips.SEARCH_TIERS`: smaller pools, larger blocks)
+    unless its order was searched for the cache, which keeps :data:`.sw_strips.SEARCH_BLOCK`."""
+    from swpm_usd.encode import sw_strips
+
+    sizes = [sw_strips.search_block(t) for t in (10, 10_000, 100_000, 300_000, 10**9)]
+    assert [b for b, _ in sizes] == sorted((b for b, _ in sizes), reverse=True)
+    assert sizes[0][0] > sw_strips.SEARCH_BLOCK and sizes[-1][0] >= sw_strips.SEARCH_BLOCK
+    assert sw_strips.search_block(10, ordered=True) == (sw_strips.SEARCH_BLOCK, 300)
+
+
+@pytest.mark.parametrize("option", list(OPTIONS))
+def test_strip_builds_size_their_block_search(builds, option) -> None:
+    """A build's strip pool is :func:`strip_pool` of its list pool at :func:`.sw_strips.search_block`'s size:
+    the defaults (an order searched for the cache) at :data:`.sw_strips.SEARCH_BLOCK`; a clustered build's
+    small pool searched in larger blocks, which stores fewer indices than that."""
+    from swpm_usd.encode import sw_strips
+
+    lst, strip = builds[option]
+    ordered = option == "defaults"
+    T = lst.index_pool.shape[0] // 3
+    block, budget = sw_strips.search_block(T, ordered)
+    assert (block == sw_strips.SEARCH_BLOCK) == ordered
+    args = (lst.index_pool, lst.window_records, lst.vertex_count, strip.params["strip_window"])
+    got = strip_pool(*args, block, budget)
+    assert np.array_equal(got[0], strip.index_pool) and np.array_equal(got[2], strip.window_index_counts)
+    if not ordered:
+        assert strip.index_pool.shape[0] < strip_pool(*args, sw_strips.SEARCH_BLOCK, 300)[0].shape[0]
+
+
+@pytest.mark.parametrize("block", [0, 1, 7, 12, 16])
+def test_strip_pool_any_block_size_draws_the_list_windows(block) -> None:
+    """Random pools and overlapping windows, the block search from none (the look-ahead only) to blocks of 16
+    triangles: every window draws exactly its list window's triangles, starting a strip."""
+    rng = np.random.default_rng(block)
+    for _ in range(30):
+        n = int(rng.integers(1, 5))
+        v = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)
+        a, b, c, d = v[:-1, :-1].ravel(), v[:-1, 1:].ravel(), v[1:, :-1].ravel(), v[1:, 1:].ravel()
+        tris = np.r_[np.c_[a, c, b], np.c_[b, c, d]][rng.permutation(2 * n * n)]
+        V, T = (n + 1) ** 2, 2 * n * n
+        starts = rng.integers(0, T + 1, int(rng.integers(1, 6)))
+        rec = np.array([[3 * s, int(rng.integers(0, T - s + 1)), V] for s in starts.tolist()], np.uint32)
+        strips, out, counts, rv = strip_pool(tris.reshape(-1).astype(np.uint32), rec, V, 4, block, 500)
+        s = strips.astype(np.int64).tolist()
+        for k in range(rec.shape[0]):
+            f, c = int(out[k, 0]), int(counts[k])
+            want = tris[int(rec[k, 0]) // 3 : int(rec[k, 0]) // 3 + int(rec[k, 1])]
+            assert c > 0 or want.shape[0] == 0
+            if c:
+                assert f == 0 or s[f - 1] == rv
+                assert np.array_equal(_canonical(_decode_by_the_spec(s[f : f + c], rv)), _canonical(want))

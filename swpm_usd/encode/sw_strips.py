@@ -6,8 +6,9 @@ largest value, :func:`.skipstrip.settle_restart`). A window's last
 triangle where no window starts is a *barrier* instead of a cut: the look-ahead does not cross it, so the
 strip's prefix up to it draws exactly the window's triangles, and the strip goes on across it when the next
 triangle can continue it, or joins it through degenerate triangles (a swap, a repeated last index), else a
-restart; a block of at most :data:`SEARCH_BLOCK` triangles between window ends is written by a bounded
-search for the fewest indices, any order inside it. Every window then starts at the pool's start or right
+restart; a block of at most :data:`SEARCH_BLOCK` triangles between window ends (more in a small pool whose
+order was not searched for the cache, :data:`SEARCH_TIERS`) is written by a bounded search for the fewest
+indices, any order inside it. Every window then starts at the pool's start or right
 after a restart index and ends at a cut or inside a strip, so it is still ONE contiguous range of the pool:
 one strip draw with primitive restart per LOD, as Forsyth's sliding window draws one list range. A window's
 strip decodes (spec/format.md 3.7's rule, parity from each restart) to its list triangles as an oriented
@@ -15,7 +16,8 @@ multiset, in the list's order as far as the stripifier keeps it.
 
 Ten shared meshes, lambda (pool indices over three a LOD-0 triangle): defaults 5.30 -> 3.79 (mean), cluster
 and swaps 4.43 -> 3.35 (``slidingwindow.md``, "Strips"); windows ending inside strips 3.70 and 3.26; joins and
-the block search 3.53 and 3.06 (2026-12-05, "Joins across a window's end").
+the block search 3.53 and 3.06 (2026-12-05, "Joins across a window's end"); the search sized by the pool
+(:func:`search_block`) 3.53 and 2.98 ("Where the strip indices go, and larger blocks for small pools").
 """
 
 from __future__ import annotations
@@ -28,20 +30,50 @@ from .strips import _search_scratch, _stripify_blocks
 from .sw_mesh import SlidingWindowProgressiveMesh
 
 #: blocks (the triangles between two window ends) of at most this many triangles are stripified by a search
-#: (``strips._strip_block``) rather than the look-ahead: bunny, lambda defaults / cluster-swap 3.63 / 2.68 ->
-#: 3.53 / 2.58, the strip pass 0.04 -> about 1-1.5 s (4, a budget of 100 nodes: 3.58 / 2.61, 0.4 s; 6: 3.49 /
-#: 2.55, 4.5 s; 8, 4000 nodes: 3.39 / 2.51, 17 s); the same output faster since (helper 182): ``strip_pool``
-#: on bunny 1.26 -> 0.30 s (defaults), 0.74 -> 0.22 s (cluster-swap)
+#: (``strips._strip_block``, 300 nodes) rather than the look-ahead, in a pool whose order was searched for the
+#: cache (``order_passes`` > 0, the defaults): bunny, lambda defaults / cluster-swap 3.63 / 2.68 -> 3.53 /
+#: 2.58, the strip pass 0.04 -> about 1-1.5 s (4, a budget of 100 nodes: 3.58 / 2.61, 0.4 s; 6: 3.49 / 2.55,
+#: 4.5 s; 8, 4000 nodes: 3.39 / 2.51, 17 s); the same output faster since (helper 182): ``strip_pool`` on
+#: bunny 1.26 -> 0.30 s (defaults), 0.74 -> 0.22 s (cluster-swap)
 SEARCH_BLOCK = 5
+
+#: (largest list pool in triangles, block, node budget), the first that holds the pool, where its order was
+#: not searched for the cache (``cluster``: a linked level's order is its tail's): a smaller pool's blocks are
+#: searched larger, for a strip pass of well under a second on each shared mesh. Larger blocks reorder more:
+#: the defaults' searched order would take 1.1 % more cache misses (ten meshes, lambda 3.532 -> 3.424), so
+#: they keep :data:`SEARCH_BLOCK`. Ten meshes' cluster-swap strip pools, lambda mean 3.058 -> 2.975, at
+#: most 3.0 on 4 -> 5 meshes (bob 3.006 -> 2.917); the strip pass on bunny (261,441 pool triangles) 0.26 ->
+#: 0.45 s, on beetle (10,517) 0.01 -> 0.11 s, a loaded machine (``slidingwindow.md``, "Where the strip
+#: indices go")
+SEARCH_TIERS = ((64_000, 10, 2000), (128_000, 8, 1000), (1 << 62, 6, 300))
+
+
+def search_block(pool_triangles: int, ordered: bool = False) -> tuple[int, int]:
+    """The block search's (largest block, node budget) for a list pool of ``pool_triangles``:
+    :data:`SEARCH_BLOCK` where its order was searched for the cache (``ordered``), else by
+    :data:`SEARCH_TIERS`."""
+    if ordered:
+        return SEARCH_BLOCK, 300
+    for top, block, budget in SEARCH_TIERS:
+        if pool_triangles <= top:
+            return block, budget
+    return SEARCH_TIERS[-1][1:]
 
 
 @nb.njit(cache=True)
 def _strip_pieces(
-    tris: np.ndarray, cuts: np.ndarray, barriers: np.ndarray, restart: int, window: int
+    tris: np.ndarray,
+    cuts: np.ndarray,
+    barriers: np.ndarray,
+    restart: int,
+    window: int,
+    block: int = SEARCH_BLOCK,
+    budget: int = 300,
 ) -> tuple:
     """The pieces ``tris[cuts[i]:cuts[i + 1]]`` stripified with the ``barriers`` inside them (sorted, none
-    on a cut) and joined by ``restart``: (the strip pool, the first index of every piece in it, the index past
-    its last, the strip position of every barrier)."""
+    on a cut) and joined by ``restart``, blocks of at most ``block`` triangles searched within ``budget``
+    nodes: (the strip pool, the first index of every piece in it, the index past its last, the strip position
+    of every barrier)."""
     S = cuts.shape[0] - 1
     # a piece of t triangles: at most 4 t indices with restarts (3, then a restart and 3 or a swap's 2 a
     # triangle), a swap across each barrier, and one restart between pieces
@@ -50,7 +82,7 @@ def _strip_pieces(
     end = np.empty(S, np.int64)
     bpos = np.zeros(barriers.shape[0], np.int64)
     n = 0
-    memo, ws = _search_scratch(SEARCH_BLOCK)
+    memo, ws = _search_scratch(block)
     stamp = 0
     for s in range(S):
         a, b = cuts[s], cuts[s + 1]
@@ -66,10 +98,11 @@ def _strip_pieces(
             max(1, min(window, b - a)),
             barriers[i:j] - a,
             True,
-            SEARCH_BLOCK,
+            block,
             memo,
             ws,
             stamp,
+            budget,
         )
         start[s] = n
         bpos[i:j] = pos + n
@@ -80,12 +113,21 @@ def _strip_pieces(
 
 
 def strip_pool(
-    index_pool: np.ndarray, window_records: np.ndarray, vertex_count: int, window: int = 4
+    index_pool: np.ndarray,
+    window_records: np.ndarray,
+    vertex_count: int,
+    window: int = 4,
+    block: int | None = None,
+    budget: int | None = None,
+    ordered: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """The strip pool of a list pool.
 
     ``index_pool``: the list pool (3 indices a triangle); ``window_records`` (L, 3): first index offset,
-    triangle count, vertex count of every window in it; ``window``: the stripifier's look-ahead. Returns
+    triangle count, vertex count of every window in it; ``window``: the stripifier's look-ahead; ``block``
+    and ``budget``: the block search's largest block and node budget (``None``: :func:`search_block` of the
+    pool's size and ``ordered``, whether its order was searched for the cache; block 0: no search, the
+    look-ahead only). Returns
     (the strip pool, uint32; the window records in it, (L, 3) uint32: first index, the same triangle count
     and vertex count; every window's number of pool indices, (L,) uint32; the restart index it joins strips
     with, :func:`.skipstrip.restart_value`, which :func:`use_strips` settles for the file). A window of
@@ -101,7 +143,14 @@ def strip_pool(
     cuts = np.unique(np.concatenate([[0, T], first_tri]))
     cuts = cuts[(cuts >= 0) & (cuts <= T)]
     barriers = np.setdiff1d(end_tri[(end_tri > 0) & (end_tri < T)], cuts)
-    strips, start, end, bpos = _strip_pieces(pool, cuts, barriers.astype(np.int64), rv, int(window))
+    auto_block, auto_budget = search_block(T, ordered)
+    block = auto_block if block is None else int(block)
+    budget = auto_budget if budget is None else int(budget)
+    if not 0 <= block <= 20:
+        raise ValueError(f"block must be in [0, 20], got {block}")
+    strips, start, end, bpos = _strip_pieces(
+        pool, cuts, barriers.astype(np.int64), rv, int(window), block, max(int(budget), 1)
+    )
     i = np.searchsorted(cuts, first_tri)
     if start.shape[0]:
         # an empty window sits at its piece's start (or at the pool's end when no piece is left)
@@ -125,8 +174,12 @@ def strip_pool(
 
 def use_strips(pm: SlidingWindowProgressiveMesh, window: int) -> None:
     """Turn ``pm``'s list pool into its strip pool (:func:`strip_pool`) in place, with its parameters
-    (``primitive``, ``restart_index``, ``strip_window``) recorded as skip-strip records them."""
-    pool, rec, counts, rv = strip_pool(pm.index_pool, pm.window_records, pm.vertex_count, window)
+    (``primitive``, ``restart_index``, ``strip_window``) recorded as skip-strip records them; its block
+    search sized by :func:`search_block` (``order_passes`` > 0: an order searched for the cache)."""
+    ordered = int(pm.params.get("order_passes", 0)) > 0
+    pool, rec, counts, rv = strip_pool(
+        pm.index_pool, pm.window_records, pm.vertex_count, window, ordered=ordered
+    )
     pm.index_pool, pm.window_records, pm.window_index_counts = pool, rec, counts
     pm.primitive, pm.restart_index = "strip", rv
     pm.params.update(primitive="strip", restart_index=rv, strip_window=int(window))
