@@ -155,3 +155,81 @@ def test_an_older_u32_file_with_restart_0xffff_still_reads() -> None:
     assert new.restart_index == 0xFFFFFFFF
     for k in range(back.lod_count):
         assert np.array_equal(back.triangles_at(k), new.triangles_at(k))
+
+
+def _with_restart_ffff(pm, lists):
+    """``pm`` as a writer before 0.8.0 made it: the same strips joined by 0xFFFF (in a u32 file)."""
+    b = {n: np.asarray(a) for n, a in pm.buffers().items()}
+    for n in lists:
+        b[n] = np.where(b[n] == pm.restart_index, 0xFFFF, b[n]).astype(np.uint32)
+    params = {**pm.params, "restart_index": 0xFFFF}
+    return swpm_usd.from_buffers(
+        pm.encoding, pm.points, pm.attributes, pm.vertex_counts, pm.triangle_counts, pm.lod_errors, b, params
+    )
+
+
+def test_memory_figures_do_not_depend_on_the_restart_value(case) -> None:
+    """An engine draws strips of vertex ids below 65,535 from u16 indices whichever all ones joins them (a
+    u32 -> u16 copy turns 0xFFFFFFFF into 0xFFFF), as it draws a list pool of the same u32 file: the memory
+    figures count 2 bytes an index for both (0.8.0 counted 4 for strips joined by 0xFFFFFFFF, so bob's strip
+    pool, a third smaller than its list pool, came out larger)."""
+    name, pm, lists = case
+    old = _with_restart_ffff(pm, lists)
+    assert (pm.global_bytes, pm.instance_bytes) == (old.global_bytes, old.instance_bytes), name
+    n = sum(int(getattr(pm, x).shape[0]) for x in lists)
+    if pm.encoding == "skip-strip":
+        longest = int(np.max(np.diff(pm.level_index_start)))
+        assert pm.instance_bytes == 2 * longest + 16
+    else:
+        assert pm.global_bytes - pm.vertex_bytes() - 2 * n in (8 * pm.lod_count, 12 * pm.lod_count)
+
+
+@pytest.mark.parametrize(
+    ("V", "restart", "width"),
+    [
+        (3, None, 2),
+        (0x10000, None, 2),  # a list: vertex ids up to 65,535 fit u16
+        (0x10001, None, 4),
+        (3, 0xFFFF, 2),
+        (3, 0xFFFFFFFF, 2),  # narrows to u16's all ones
+        (0xFFFF, 0xFFFFFFFF, 2),
+        (0x10000, 0xFFFFFFFF, 4),  # 0xFFFF is vertex 65,535: no u16 restart left
+        (3, 0x10000, 4),  # a restart index a u16 copy cannot keep
+    ],
+)
+def test_draw_index_width(V, restart, width) -> None:
+    assert L.draw_index_width(V, restart) == width
+
+
+def _list_window(V: int):
+    from swpm_usd.encode.sw_mesh import SlidingWindowProgressiveMesh
+
+    return SlidingWindowProgressiveMesh(
+        np.zeros((V, 3), np.float32),
+        {},
+        np.array([V]),
+        np.array([1]),
+        np.zeros(1, np.float32),
+        index_pool=np.array([0, 1, 2], np.uint32),
+        window_records=np.array([[0, 1, V]], np.uint32),
+        params={"primitive": "list"},
+    )
+
+
+@pytest.mark.parametrize(
+    ("pm", "isz"),
+    [
+        (_list_window(0x10000), 2),  # vertex ids up to 65,535: u16 (the check said 4, global_bytes 2)
+        (_list_window(0x10001), 4),
+        (_strip_window([0, 1, 2], 3), 2),  # joined by 0xFFFFFFFF, drawn from u16
+        (_strip_window([0, 1, 2], 0x10000), 4),
+    ],
+)
+def test_the_coarsest_lod_bytes_use_the_draw_width(pm, isz) -> None:
+    """The pipeline's ``streaming.coarsest_lod_bytes`` counts the coarsest LOD's indices at the width
+    ``global_bytes`` counts (:func:`layout.draw_index_width`), not from the vertex count alone."""
+    from swpm_usd.pipeline.worker import check_streaming
+
+    need = pm.vertex_count * 12 + 3 * isz
+    assert check_streaming(pm, {"coarsest_lod_bytes": need}) == []
+    assert "coarsest LOD needs" in check_streaming(pm, {"coarsest_lod_bytes": need - 1})[0]

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..encodings import MAX_STRIP_WINDOW, PRIMITIVES, SKIPSTRIP_PARAMS
 from ..errors import BuildError
-from ..format.layout import restart_index_for
+from ..format.layout import draw_index_width, restart_index_for
 from ..mesh import Mesh
 from ..simplify import CollapseSequence, collapse_sequence
 from .base import ProgressiveMesh, register
@@ -315,9 +315,9 @@ class SkipStripProgressiveMesh(ProgressiveMesh):
     # -- memory ----------------------------------------------------------------------------------------
     @property
     def _index_bytes(self) -> int:
-        if self.restart_index is not None:
-            return 2 if self.restart_index <= 0xFFFF else 4
-        return index_size(max(self.vertex_count - 1, 0))
+        # (the width an engine draws at, a u32 file's restart 0xFFFFFFFF copied as u16's 0xFFFF while vertex
+        # ids fit: the strips count what the lists of the same file count)
+        return draw_index_width(self.vertex_count, self.restart_index)
 
     @property
     def global_bytes(self) -> int:
