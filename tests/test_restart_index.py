@@ -64,8 +64,10 @@ def test_the_restart_index_is_all_ones_of_the_file_index_type(case) -> None:
 
 
 def test_the_restart_index_round_trips_through_usd(case, tmp_path) -> None:
-    """USD stores 0xFFFFFFFF as it is in a uint[] array; swpm:indexWidth (2 when every vertex id and the
-    restart index fit 16 bits) is then the file's width, and the stage validates clean."""
+    """USD stores 0xFFFFFFFF as it is in a uint[] array; swpm:indexWidth is the width an engine draws at,
+    2 while vertex ids fit u16 (``layout.draw_index_width``: 0xFFFFFFFF copies to u16 as 0xFFFF), whatever
+    the file's width (0.8.0 wrote 4 for strips in a u32 file, which stays valid), and the stage validates
+    clean."""
     from pxr import Usd
 
     from swpm_usd import usd
@@ -76,13 +78,18 @@ def test_the_restart_index_round_trips_through_usd(case, tmp_path) -> None:
     assert validate_stage(path, builtin=False) == []
     stage = Usd.Stage.Open(str(path))
     prim = usd.find_encoded(stage)[0]
-    assert prim.GetAttribute("swpm:indexWidth").Get() == choose_index_width(pm.buffers())
+    width = prim.GetAttribute("swpm:indexWidth")
+    assert width.Get() == L.draw_index_width(pm.vertex_count, pm.restart_index) == 2
     back = usd.read(prim)
     assert back.restart_index == back.params["restart_index"] == EXPECTED[name]
     for n in lists:
         assert np.array_equal(np.asarray(getattr(back, n)), getattr(pm, n)), n
     last = pm.lod_count - 1
     assert np.array_equal(back.triangles_at(last), pm.triangles_at(last))
+    for w, ok in ((4, EXPECTED[name] == 0xFFFFFFFF), (3, False)):  # 0.8.0's 4 beside a u32 file's restart
+        width.Set(w)
+        found = [f.code for f in validate_stage(stage, builtin=False)]
+        assert found == ([] if ok else ["SWPM_USD_INDEX_WIDTH"]), (name, w)
 
 
 def _strip_window(pool: list[int], V: int, first: int = 0):
