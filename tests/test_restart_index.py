@@ -240,3 +240,21 @@ def test_the_coarsest_lod_bytes_use_the_draw_width(pm, isz) -> None:
     need = pm.vertex_count * 12 + 3 * isz
     assert check_streaming(pm, {"coarsest_lod_bytes": need}) == []
     assert "coarsest LOD needs" in check_streaming(pm, {"coarsest_lod_bytes": need - 1})[0]
+
+
+def test_settle_restart_leaves_the_arrays_it_was_given_alone() -> None:
+    """``settle_restart`` rebinds the strips it rewrites: an array the mesh shares with its caller (as
+    ``from_buffers`` keeps them), or a read-only one (a file's), is not written (it was, in place)."""
+    from swpm_usd.encode.skipstrip import settle_restart
+
+    pm = _strip_window([0, 1, 2], 3)
+    given = pm.index_pool
+    given.setflags(write=False)
+    settle_restart(pm, ("index_pool",))
+    assert pm.restart_index == 0xFFFF and pm.index_pool.tolist() == [0, 1, 2]
+    shared = np.array([0, 1, 2, 0xFFFFFFFF, 0, 1, 2], np.uint32)
+    pm = _strip_window(shared.tolist(), 3, 4)
+    pm.index_pool = shared
+    settle_restart(pm, ("index_pool",))
+    assert pm.index_pool.tolist() == [0, 1, 2, 0xFFFF, 0, 1, 2] and pm.index_pool.dtype == np.uint32
+    assert shared[3] == 0xFFFFFFFF

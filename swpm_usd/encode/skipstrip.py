@@ -188,14 +188,15 @@ def settle_restart(pm: ProgressiveMesh, lists: tuple[str, ...]) -> None:
     rule over ``pm.buffers()`` (:func:`..format.layout.restart_index_for`), so an engine uploads the file's
     indices as they are with the restart value Vulkan, D3D12 and Metal take (spec 3.5, 3.7). When it differs
     (0xFFFF widened to 0xFFFFFFFF: e.g. a pool longer than 65,535 indices makes the file u32 through its
-    offsets) the restart entries of ``lists`` are rewritten in place, with ``restart_index`` and
-    ``params["restart_index"]``."""
+    offsets) the restart entries of ``lists`` are rewritten into new uint32 arrays (not in place: an array
+    may be the caller's, as :func:`swpm_usd.from_buffers` keeps them, or a file's, read-only), with
+    ``restart_index`` and ``params["restart_index"]``."""
     old = int(pm.restart_index)
     rv = restart_index_for(pm.buffers(), old, pm.vertex_count)
     if rv != old:
         for name in lists:
-            a = getattr(pm, name)
-            a[a == old] = rv
+            a = np.asarray(getattr(pm, name))
+            setattr(pm, name, np.where(a == old, np.uint32(rv), a).astype(np.uint32))
     pm.restart_index = rv
     pm.params["restart_index"] = rv
 
