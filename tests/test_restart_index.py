@@ -258,3 +258,29 @@ def test_settle_restart_leaves_the_arrays_it_was_given_alone() -> None:
     settle_restart(pm, ("index_pool",))
     assert pm.index_pool.tolist() == [0, 1, 2, 0xFFFF, 0, 1, 2] and pm.index_pool.dtype == np.uint32
     assert shared[3] == 0xFFFFFFFF
+
+
+@pytest.mark.parametrize(
+    ("raw", "width"),
+    [
+        ("sliding-list-ignored-restart", 2),  # a list pool's restart_index is ignored (spec 3.5)
+        ("skip-strip-no-primitive", 4),  # skip-strip's missing primitive reads as "strip": 70,000 restarts
+        ("sliding-strips-u32", 2),
+    ],
+)
+def test_index_values_width_reads_a_restart_only_where_strips_use_it(raw, width) -> None:
+    from swpm_usd.format import vectors as vec
+    from swpm_usd.format.reader import validate_bytes
+
+    if raw == "sliding-list-ignored-restart":
+        pm = vec.fan_sliding()
+        pm.params["restart_index"] = 70000
+    elif raw == "skip-strip-no-primitive":
+        pm = vec.fan_skip_strip(70000)
+        del pm.params["primitive"]
+    else:
+        pm = vec.fan_sliding_strips(0xFFFFFFFF)
+    rep = validate_bytes(encode_bytes(pm))
+    assert rep.valid, rep.format()
+    assert rep.summary["index_width"] == (2 if raw == "sliding-list-ignored-restart" else 4)
+    assert rep.summary["index_values_width"] == width

@@ -302,7 +302,10 @@ def _index_values_width(p: _Parsed) -> int:
     if not lists:
         return p.width
     params = (p.meta or {}).get("params")
-    strips = isinstance(params, dict) and params.get("primitive") != "list"
+    # (a missing primitive reads as skip-strip's "strip" and the sliding window's "list", whose restart_index
+    # a reader ignores, spec 3.5, 3.7)
+    default = "strip" if p.encoding == "skip-strip" else "list"
+    strips = isinstance(params, dict) and params.get("primitive", default) == "strip"
     ri = params.get("restart_index") if strips else None
     if not isinstance(ri, int) or isinstance(ri, bool):
         return L.choose_index_width({str(i): a for i, a in enumerate(lists)})
