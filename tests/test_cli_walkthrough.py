@@ -216,14 +216,16 @@ def test_python_validate_of_a_usd_stage_validates_the_stage(tmp_path):
 
 def test_inspect_shows_the_width_the_index_values_fit_beside_the_file_width():
     """An engine uploads the index lists; the file's idx may be wider for its offsets and counts. inspect
-    keeps ``index_width`` and adds ``index_values_width`` (a strips' restart index included)."""
+    keeps ``index_width`` and adds ``index_values_width`` (a strips' restart index included, 0xFFFFFFFF as the
+    u16 0xFFFF a u32 -> u16 copy makes of it while no vertex id is 0xFFFF: ``layout.draw_index_width``)."""
     from pathlib import Path
 
     vectors = Path(__file__).resolve().parents[1] / "spec" / "vectors" / "valid"
     cases = {
         "minimal-vanilla": (2, 2),
         "vanilla-u32": (4, 2),  # u32 by choice, every index fits u16
-        "sliding-window-strips-u32": (4, 4),  # the restart index 0xFFFFFFFF is an index value too
+        "sliding-window-strips-u32": (4, 2),  # the restart index 0xFFFFFFFF copies to u16 as 0xFFFF
+        "skip-strip-strip-u32": (4, 2),
         "sliding-window-strips-u32-restart-ffff": (4, 2),  # an older file: uploads as u16, 0xFFFF restarts
         "skip-strip-strip": (2, 2),
     }

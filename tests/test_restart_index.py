@@ -64,8 +64,10 @@ def test_the_restart_index_is_all_ones_of_the_file_index_type(case) -> None:
 
 
 def test_the_restart_index_round_trips_through_usd(case, tmp_path) -> None:
-    """USD stores 0xFFFFFFFF as it is in a uint[] array; swpm:indexWidth (2 when every vertex id and the
-    restart index fit 16 bits) is then the file's width, and the stage validates clean."""
+    """USD stores 0xFFFFFFFF as it is in a uint[] array; swpm:indexWidth is the width an engine draws at,
+    2 while vertex ids fit u16 (``layout.draw_index_width``: 0xFFFFFFFF copies to u16 as 0xFFFF), whatever
+    the file's width (0.8.0 wrote 4 for strips in a u32 file, which stays valid), and the stage validates
+    clean."""
     from pxr import Usd
 
     from swpm_usd import usd
@@ -76,13 +78,18 @@ def test_the_restart_index_round_trips_through_usd(case, tmp_path) -> None:
     assert validate_stage(path, builtin=False) == []
     stage = Usd.Stage.Open(str(path))
     prim = usd.find_encoded(stage)[0]
-    assert prim.GetAttribute("swpm:indexWidth").Get() == choose_index_width(pm.buffers())
+    width = prim.GetAttribute("swpm:indexWidth")
+    assert width.Get() == L.draw_index_width(pm.vertex_count, pm.restart_index) == 2
     back = usd.read(prim)
     assert back.restart_index == back.params["restart_index"] == EXPECTED[name]
     for n in lists:
         assert np.array_equal(np.asarray(getattr(back, n)), getattr(pm, n)), n
     last = pm.lod_count - 1
     assert np.array_equal(back.triangles_at(last), pm.triangles_at(last))
+    for w, ok in ((4, EXPECTED[name] == 0xFFFFFFFF), (3, False)):  # 0.8.0's 4 beside a u32 file's restart
+        width.Set(w)
+        found = [f.code for f in validate_stage(stage, builtin=False)]
+        assert found == ([] if ok else ["SWPM_USD_INDEX_WIDTH"]), (name, w)
 
 
 def _strip_window(pool: list[int], V: int, first: int = 0):
@@ -155,3 +162,125 @@ def test_an_older_u32_file_with_restart_0xffff_still_reads() -> None:
     assert new.restart_index == 0xFFFFFFFF
     for k in range(back.lod_count):
         assert np.array_equal(back.triangles_at(k), new.triangles_at(k))
+
+
+def _with_restart_ffff(pm, lists):
+    """``pm`` as a writer before 0.8.0 made it: the same strips joined by 0xFFFF (in a u32 file)."""
+    b = {n: np.asarray(a) for n, a in pm.buffers().items()}
+    for n in lists:
+        b[n] = np.where(b[n] == pm.restart_index, 0xFFFF, b[n]).astype(np.uint32)
+    params = {**pm.params, "restart_index": 0xFFFF}
+    return swpm_usd.from_buffers(
+        pm.encoding, pm.points, pm.attributes, pm.vertex_counts, pm.triangle_counts, pm.lod_errors, b, params
+    )
+
+
+def test_memory_figures_do_not_depend_on_the_restart_value(case) -> None:
+    """An engine draws strips of vertex ids below 65,535 from u16 indices whichever all ones joins them (a
+    u32 -> u16 copy turns 0xFFFFFFFF into 0xFFFF), as it draws a list pool of the same u32 file: the memory
+    figures count 2 bytes an index for both (0.8.0 counted 4 for strips joined by 0xFFFFFFFF, so bob's strip
+    pool, a third smaller than its list pool, came out larger)."""
+    name, pm, lists = case
+    old = _with_restart_ffff(pm, lists)
+    assert (pm.global_bytes, pm.instance_bytes) == (old.global_bytes, old.instance_bytes), name
+    n = sum(int(getattr(pm, x).shape[0]) for x in lists)
+    if pm.encoding == "skip-strip":
+        longest = int(np.max(np.diff(pm.level_index_start)))
+        assert pm.instance_bytes == 2 * longest + 16
+    else:
+        assert pm.global_bytes - pm.vertex_bytes() - 2 * n in (8 * pm.lod_count, 12 * pm.lod_count)
+
+
+@pytest.mark.parametrize(
+    ("V", "restart", "width"),
+    [
+        (3, None, 2),
+        (0x10000, None, 2),  # a list: vertex ids up to 65,535 fit u16
+        (0x10001, None, 4),
+        (3, 0xFFFF, 2),
+        (3, 0xFFFFFFFF, 2),  # narrows to u16's all ones
+        (0xFFFF, 0xFFFFFFFF, 2),
+        (0x10000, 0xFFFFFFFF, 4),  # 0xFFFF is vertex 65,535: no u16 restart left
+        (3, 0x10000, 4),  # a restart index a u16 copy cannot keep
+    ],
+)
+def test_draw_index_width(V, restart, width) -> None:
+    assert L.draw_index_width(V, restart) == width
+
+
+def _list_window(V: int):
+    from swpm_usd.encode.sw_mesh import SlidingWindowProgressiveMesh
+
+    return SlidingWindowProgressiveMesh(
+        np.zeros((V, 3), np.float32),
+        {},
+        np.array([V]),
+        np.array([1]),
+        np.zeros(1, np.float32),
+        index_pool=np.array([0, 1, 2], np.uint32),
+        window_records=np.array([[0, 1, V]], np.uint32),
+        params={"primitive": "list"},
+    )
+
+
+@pytest.mark.parametrize(
+    ("pm", "isz"),
+    [
+        (_list_window(0x10000), 2),  # vertex ids up to 65,535: u16 (the check said 4, global_bytes 2)
+        (_list_window(0x10001), 4),
+        (_strip_window([0, 1, 2], 3), 2),  # joined by 0xFFFFFFFF, drawn from u16
+        (_strip_window([0, 1, 2], 0x10000), 4),
+    ],
+)
+def test_the_coarsest_lod_bytes_use_the_draw_width(pm, isz) -> None:
+    """The pipeline's ``streaming.coarsest_lod_bytes`` counts the coarsest LOD's indices at the width
+    ``global_bytes`` counts (:func:`layout.draw_index_width`), not from the vertex count alone."""
+    from swpm_usd.pipeline.worker import check_streaming
+
+    need = pm.vertex_count * 12 + 3 * isz
+    assert check_streaming(pm, {"coarsest_lod_bytes": need}) == []
+    assert "coarsest LOD needs" in check_streaming(pm, {"coarsest_lod_bytes": need - 1})[0]
+
+
+def test_settle_restart_leaves_the_arrays_it_was_given_alone() -> None:
+    """``settle_restart`` rebinds the strips it rewrites: an array the mesh shares with its caller (as
+    ``from_buffers`` keeps them), or a read-only one (a file's), is not written (it was, in place)."""
+    from swpm_usd.encode.skipstrip import settle_restart
+
+    pm = _strip_window([0, 1, 2], 3)
+    given = pm.index_pool
+    given.setflags(write=False)
+    settle_restart(pm, ("index_pool",))
+    assert pm.restart_index == 0xFFFF and pm.index_pool.tolist() == [0, 1, 2]
+    shared = np.array([0, 1, 2, 0xFFFFFFFF, 0, 1, 2], np.uint32)
+    pm = _strip_window(shared.tolist(), 3, 4)
+    pm.index_pool = shared
+    settle_restart(pm, ("index_pool",))
+    assert pm.index_pool.tolist() == [0, 1, 2, 0xFFFF, 0, 1, 2] and pm.index_pool.dtype == np.uint32
+    assert shared[3] == 0xFFFFFFFF
+
+
+@pytest.mark.parametrize(
+    ("raw", "width"),
+    [
+        ("sliding-list-ignored-restart", 2),  # a list pool's restart_index is ignored (spec 3.5)
+        ("skip-strip-no-primitive", 4),  # skip-strip's missing primitive reads as "strip": 70,000 restarts
+        ("sliding-strips-u32", 2),
+    ],
+)
+def test_index_values_width_reads_a_restart_only_where_strips_use_it(raw, width) -> None:
+    from swpm_usd.format import vectors as vec
+    from swpm_usd.format.reader import validate_bytes
+
+    if raw == "sliding-list-ignored-restart":
+        pm = vec.fan_sliding()
+        pm.params["restart_index"] = 70000
+    elif raw == "skip-strip-no-primitive":
+        pm = vec.fan_skip_strip(70000)
+        del pm.params["primitive"]
+    else:
+        pm = vec.fan_sliding_strips(0xFFFFFFFF)
+    rep = validate_bytes(encode_bytes(pm))
+    assert rep.valid, rep.format()
+    assert rep.summary["index_width"] == (2 if raw == "sliding-list-ignored-restart" else 4)
+    assert rep.summary["index_values_width"] == width

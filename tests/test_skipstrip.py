@@ -229,7 +229,7 @@ def test_level_oscillation_uses_collapsed_list() -> None:
 
 def test_restart_and_index_size() -> None:
     pm, _ = _case("strip-restart")
-    assert pm.restart_index == 0xFFFF  # cow has fewer than 65535 vertices: 16-bit indices
+    assert pm.restart_index == 0xFFFF  # cow's file is u16 (its level lists fit): all ones of u16
     kind, s = pm.draw_stream(0)
     assert kind == "strip" and (s == 0xFFFF).any()
     pm2, _ = _case("strip-degenerate")

@@ -54,7 +54,7 @@ def test_windows_are_strip_ranges_after_a_restart(builds, option) -> None:
     lst, strip = builds[option]
     pool = strip.index_pool.astype(np.int64)
     rv = strip.params["restart_index"]
-    assert rv == strip.restart_index == 0xFFFF  # (every shared mesh has fewer than 65,535 vertices)
+    assert rv == strip.restart_index == 0xFFFF  # (a u16 file: its pool and vertex ids fit u16, spec 3.5)
     first = strip.window_records[:, 0].astype(np.int64)
     count = strip.window_index_counts.astype(np.int64)
     assert np.array_equal(lst.window_index_counts, 3 * lst.window_records[:, 1])

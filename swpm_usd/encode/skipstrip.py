@@ -31,7 +31,7 @@ import numpy as np
 
 from ..encodings import MAX_STRIP_WINDOW, PRIMITIVES, SKIPSTRIP_PARAMS
 from ..errors import BuildError
-from ..format.layout import restart_index_for
+from ..format.layout import draw_index_width, restart_index_for
 from ..mesh import Mesh
 from ..simplify import CollapseSequence, collapse_sequence
 from .base import ProgressiveMesh, register
@@ -188,14 +188,15 @@ def settle_restart(pm: ProgressiveMesh, lists: tuple[str, ...]) -> None:
     rule over ``pm.buffers()`` (:func:`..format.layout.restart_index_for`), so an engine uploads the file's
     indices as they are with the restart value Vulkan, D3D12 and Metal take (spec 3.5, 3.7). When it differs
     (0xFFFF widened to 0xFFFFFFFF: e.g. a pool longer than 65,535 indices makes the file u32 through its
-    offsets) the restart entries of ``lists`` are rewritten in place, with ``restart_index`` and
-    ``params["restart_index"]``."""
+    offsets) the restart entries of ``lists`` are rewritten into new uint32 arrays (not in place: an array
+    may be the caller's, as :func:`swpm_usd.from_buffers` keeps them, or a file's, read-only), with
+    ``restart_index`` and ``params["restart_index"]``."""
     old = int(pm.restart_index)
     rv = restart_index_for(pm.buffers(), old, pm.vertex_count)
     if rv != old:
         for name in lists:
-            a = getattr(pm, name)
-            a[a == old] = rv
+            a = np.asarray(getattr(pm, name))
+            setattr(pm, name, np.where(a == old, np.uint32(rv), a).astype(np.uint32))
     pm.restart_index = rv
     pm.params["restart_index"] = rv
 
@@ -315,9 +316,9 @@ class SkipStripProgressiveMesh(ProgressiveMesh):
     # -- memory ----------------------------------------------------------------------------------------
     @property
     def _index_bytes(self) -> int:
-        if self.restart_index is not None:
-            return 2 if self.restart_index <= 0xFFFF else 4
-        return index_size(max(self.vertex_count - 1, 0))
+        # (the width an engine draws at, a u32 file's restart 0xFFFFFFFF copied as u16's 0xFFFF while vertex
+        # ids fit: the strips count what the lists of the same file count)
+        return draw_index_width(self.vertex_count, self.restart_index)
 
     @property
     def global_bytes(self) -> int:

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..encodings import PRIMITIVES
 from ..errors import BuildError
+from ..format.layout import draw_index_width
 from ..simplify import CollapseSequence
 from .base import ProgressiveMesh, lod_at_error, register
 from .screen import error_for_pixels
@@ -153,8 +154,10 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
     # -- memory --------------------------------------------------------------------------------------------
     @property
     def global_bytes(self) -> int:
-        if self.primitive == "strip":  # (the restart index is the index type's largest value)
-            isz = 2 if self.restart_index <= 0xFFFF else 4
+        if self.primitive == "strip":
+            # (drawn from u16 while vertex ids fit, a u32 file's restart 0xFFFFFFFF copied as 0xFFFF, as the
+            # list pool of the same file is: draw_index_width)
+            isz = draw_index_width(self.vertex_count, self.restart_index)
             # a strip draw's record: 32-bit first index, 16-bit index and vertex counts
             wide = max(int(self.window_index_counts.max(initial=0)), int(self.vertex_counts.max())) > 0xFFFF
         else:

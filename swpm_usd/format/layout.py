@@ -215,3 +215,18 @@ def restart_index_for(buffers: Mapping[str, np.ndarray], restart: int, vertex_co
         return 0xFFFFFFFF
     rest = {k: np.where(np.asarray(a) == r, 0, a) for k, a in buffers.items()}
     return 0xFFFF if choose_index_width(rest) == 2 else 0xFFFFFFFF
+
+
+def draw_index_width(vertex_count: int, restart: int | None = None) -> int:
+    """The width (2 or 4) an engine draws index values at, whatever the file's ``idx``: 2 when every vertex
+    id fits u16 and, for strips joined by ``restart``, the restart index is 0xFFFF or the all ones of u32,
+    which a u32 -> u16 copy (a truncation) turns into u16's 0xFFFF (so it must be no vertex id:
+    ``vertex_count`` <= 0xFFFF); else 4. The file's ``idx`` may be wider (a pool's offsets, spec 3.5): the
+    memory figures (``global_bytes``), the pipeline's coarsest-LOD bytes, ``swpm:indexWidth`` and inspect's
+    ``index_values_width`` count this width, so a strip's restart index (all ones of ``idx``) does not double
+    its indices' bytes where the list pool of the same file counts 2."""
+    V = int(vertex_count)
+    if restart is None:
+        return 2 if V - 1 <= 0xFFFF else 4
+    r = 0xFFFF if int(restart) == 0xFFFFFFFF and V <= 0xFFFF else int(restart)
+    return 2 if max(V - 1, r) <= 0xFFFF else 4

@@ -294,12 +294,23 @@ _DRAWN_LISTS = {
 
 
 def _index_values_width(p: _Parsed) -> int:
-    """The smallest width (2 or 4) every value of the lists an engine draws from fits, a strips' restart index
-    included: what it can upload them as, beside the file's ``idx`` (``index_width``), which offsets and
-    counts may widen (a list pool longer than 65,535 indices; a strip pool's restart index is then all ones
-    of u32, spec 3.5, so its values need u32 too)."""
+    """The smallest width (2 or 4) an engine can upload the lists it draws from at, beside the file's ``idx``
+    (``index_width``), which offsets and counts may widen (a list pool longer than 65,535 indices): every
+    vertex id in them fits it, and a strips' restart index by :func:`.layout.draw_index_width` (0xFFFFFFFF,
+    all ones of a u32 file's ``idx``, copies to u16 as 0xFFFF while no vertex id is 0xFFFF)."""
     lists = [np.asarray(p.buffers[n]) for n in _DRAWN_LISTS.get(p.encoding or "", ()) if n in p.buffers]
-    return L.choose_index_width({str(i): a for i, a in enumerate(lists)}) if lists else p.width
+    if not lists:
+        return p.width
+    params = (p.meta or {}).get("params")
+    # (a missing primitive reads as skip-strip's "strip" and the sliding window's "list", whose restart_index
+    # a reader ignores, spec 3.5, 3.7)
+    default = "strip" if p.encoding == "skip-strip" else "list"
+    strips = isinstance(params, dict) and params.get("primitive", default) == "strip"
+    ri = params.get("restart_index") if strips else None
+    if not isinstance(ri, int) or isinstance(ri, bool):
+        return L.choose_index_width({str(i): a for i, a in enumerate(lists)})
+    values = L.choose_index_width({str(i): np.where(a == ri, 0, a) for i, a in enumerate(lists)})
+    return max(values, L.draw_index_width(int(p.points.shape[0]) if p.points is not None else 0, ri))
 
 
 def _summarise(p: _Parsed, rep: Report) -> None:

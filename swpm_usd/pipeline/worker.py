@@ -273,9 +273,12 @@ def check_streaming(pm, policy: dict) -> list[str]:
             f"streaming.min_coarsest_triangles={policy['min_coarsest_triangles']}"
         )
     if "coarsest_lod_bytes" in policy:
+        from ..format.layout import draw_index_width
+
         stride = pm.vertex_bytes() // max(1, pm.vertex_count)
         kind, stream = pm.draw_stream(last)
-        isz = 2 if pm.vertex_count <= 0xFFFF else 4
+        # (the width global_bytes counts: an engine's, not the file's idx, which offsets may widen)
+        isz = draw_index_width(pm.vertex_count, pm.restart_index if kind == "strip" else None)
         need = pm.vertex_count_at(last) * stride + stream.shape[0] * isz
         if need > policy["coarsest_lod_bytes"]:
             problems.append(

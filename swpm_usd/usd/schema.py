@@ -61,8 +61,9 @@ PROPERTIES: tuple[Prop, ...] = (
         "int",
         "4",
         "Bytes per index a GPU index buffer needs (2 while every vertex id and a strips' restart index fit "
-        "in 16 bits, else 4). USD always stores indices as uint[]; this says how a runtime should upload "
-        "them.",
+        "in 16 bits, a restart index 0xFFFFFFFF counting as 0xFFFF below 65,536 vertices: a u32 -> u16 copy "
+        "turns it into u16's all ones; else 4). USD always stores indices as uint[]; this says how a runtime "
+        "should upload them.",
     ),
     Prop(
         "swpm:vertexCounts",

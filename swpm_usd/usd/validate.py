@@ -20,6 +20,7 @@ from pxr import Usd, UsdGeom, UsdValidation
 
 from ..fileio import missing_file_problem
 from ..format.errors import Problem, Report
+from ..format.layout import draw_index_width
 from ..format.meta import parse_meta_json
 from .arrays import ATTRIBUTE_DTYPES, BUFFER_DTYPES, dtype_problem
 from .reader import _snake, is_encoded
@@ -44,7 +45,8 @@ CODES: dict[str, str] = {
     "SWPM_USD_PARAMS": "swpm:params is not a JSON object a .swpm META may hold (spec/format.md 3.1).",
     "SWPM_USD_REBUILD": "the stored buffers do not rebuild a progressive mesh.",
     "SWPM_USD_INDEX_WIDTH": "swpm:indexWidth is not the width the prim's indices need (2 when every vertex "
-    "id and a strip pool's restart index fit in 16 bits, else 4).",
+    "id and a strip pool's restart index fit in 16 bits, a restart index 0xFFFFFFFF counting as u16's 0xFFFF "
+    "below 65,536 vertices, else 4; 4 is also accepted with a restart index 0xFFFFFFFF, as 0.8.0 wrote it).",
     "SWPM_USD_OPEN": "the file is not a USD layer usd-core can open (empty, truncated or not USD at all), "
     "or it or a layer its stage opens is not a regular file (a FIFO, a folder, a device: never opened).",
     "SWPM_USD_READ": "usd-core opened the layer but cannot read a value in it (corrupt .usdc data).",
@@ -152,8 +154,9 @@ def _check_index_width(c: _Check, V: int, params: dict[str, Any]) -> None:
         return
     ri = params.get("restart_index") if params.get("primitive") != "list" else None
     ri = ri if isinstance(ri, int) and not isinstance(ri, bool) else None
-    need = 2 if max(V - 1, ri or 0) <= 0xFFFF else 4
-    if int(width) != need:
+    need = draw_index_width(V, ri)
+    # (0.8.0 derived the width from the restart value itself: 4 beside 0xFFFFFFFF, which any runtime draws)
+    if int(width) != need and not (int(width) == 4 and ri == 0xFFFFFFFF):
         why = f"vertex ids up to {max(V - 1, 0)}" + ("" if ri is None else f", restart index {ri}")
         c.add(
             "SWPM_USD_INDEX_WIDTH",

@@ -29,6 +29,7 @@ from ..encode.base import ProgressiveMesh
 from ..encode.screen import screen_space_error
 from ..errors import SwpmError, tf_message
 from ..fileio import fill_layer_replacing
+from ..format.layout import draw_index_width
 from . import plugin
 from .arrays import to_vt
 from .schema import COLLAPSE_FLAT, COLLAPSE_PREFIX, FORMAT_VERSION, SCHEMA_NAME, attr_name, camel
@@ -89,8 +90,9 @@ def swpm_values(pm: ProgressiveMesh) -> dict[str, tuple[Sdf.ValueTypeName, Any]]
     out: dict[str, tuple[Sdf.ValueTypeName, Any]] = {
         "swpm:formatVersion": (T.Int, FORMAT_VERSION),
         "swpm:encoding": (T.Token, pm.encoding),
-        # (a strips' restart index is an index too: 0xFFFFFFFF at exactly 65,536 vertices)
-        "swpm:indexWidth": (T.Int, 2 if max(pm.vertex_count - 1, pm.restart_index or 0) <= 0xFFFF else 4),
+        # (the width an engine draws at: a strips' restart 0xFFFFFFFF copies to u16 as 0xFFFF while no vertex
+        # id is 0xFFFF, so 4 only from 65,536 vertices on, whatever the file's width)
+        "swpm:indexWidth": (T.Int, draw_index_width(pm.vertex_count, pm.restart_index)),
         "swpm:vertexCounts": to_vt("swpm:vertexCounts", pm.vertex_counts),
         "swpm:triangleCounts": to_vt("swpm:triangleCounts", pm.triangle_counts),
         "swpm:lodErrors": to_vt("swpm:lodErrors", pm.lod_errors),
