@@ -66,8 +66,8 @@ def test_the_restart_index_is_all_ones_of_the_file_index_type(case) -> None:
 def test_the_restart_index_round_trips_through_usd(case, tmp_path) -> None:
     """USD stores 0xFFFFFFFF as it is in a uint[] array; swpm:indexWidth is the width an engine draws at,
     2 while vertex ids fit u16 (``layout.draw_index_width``: 0xFFFFFFFF copies to u16 as 0xFFFF), whatever
-    the file's width (0.8.0 wrote 4 for strips in a u32 file, which stays valid), and the stage validates
-    clean."""
+    the file's width (4 beside 0xFFFFFFFF, the stored u32 values drawn as they are, is accepted too), and the
+    stage validates clean."""
     from pxr import Usd
 
     from swpm_usd import usd
@@ -86,7 +86,7 @@ def test_the_restart_index_round_trips_through_usd(case, tmp_path) -> None:
         assert np.array_equal(np.asarray(getattr(back, n)), getattr(pm, n)), n
     last = pm.lod_count - 1
     assert np.array_equal(back.triangles_at(last), pm.triangles_at(last))
-    for w, ok in ((4, EXPECTED[name] == 0xFFFFFFFF), (3, False)):  # 0.8.0's 4 beside a u32 file's restart
+    for w, ok in ((4, EXPECTED[name] == 0xFFFFFFFF), (3, False)):  # 4 beside 0xFFFFFFFF: drawn as stored
         width.Set(w)
         found = [f.code for f in validate_stage(stage, builtin=False)]
         assert found == ([] if ok else ["SWPM_USD_INDEX_WIDTH"]), (name, w)
@@ -178,8 +178,8 @@ def _with_restart_ffff(pm, lists):
 def test_memory_figures_do_not_depend_on_the_restart_value(case) -> None:
     """An engine draws strips of vertex ids below 65,535 from u16 indices whichever all ones joins them (a
     u32 -> u16 copy turns 0xFFFFFFFF into 0xFFFF), as it draws a list pool of the same u32 file: the memory
-    figures count 2 bytes an index for both (0.8.0 counted 4 for strips joined by 0xFFFFFFFF, so bob's strip
-    pool, a third smaller than its list pool, came out larger)."""
+    figures count 2 bytes an index for both (counted at 4 bytes for strips joined by 0xFFFFFFFF, bob's strip
+    pool, a third smaller than its list pool, would come out larger)."""
     name, pm, lists = case
     old = _with_restart_ffff(pm, lists)
     assert (pm.global_bytes, pm.instance_bytes) == (old.global_bytes, old.instance_bytes), name

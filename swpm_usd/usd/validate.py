@@ -46,7 +46,8 @@ CODES: dict[str, str] = {
     "SWPM_USD_REBUILD": "the stored buffers do not rebuild a progressive mesh.",
     "SWPM_USD_INDEX_WIDTH": "swpm:indexWidth is not the width the prim's indices need (2 when every vertex "
     "id and a strip pool's restart index fit in 16 bits, a restart index 0xFFFFFFFF counting as u16's 0xFFFF "
-    "below 65,536 vertices, else 4; 4 is also accepted with a restart index 0xFFFFFFFF, as 0.8.0 wrote it).",
+    "below 65,536 vertices, else 4; 4 is also accepted with a restart index 0xFFFFFFFF: its values drawn as "
+    "stored, u32).",
     "SWPM_USD_OPEN": "the file is not a USD layer usd-core can open (empty, truncated or not USD at all), "
     "or it or a layer its stage opens is not a regular file (a FIFO, a folder, a device: never opened).",
     "SWPM_USD_READ": "usd-core opened the layer but cannot read a value in it (corrupt .usdc data).",
@@ -155,7 +156,7 @@ def _check_index_width(c: _Check, V: int, params: dict[str, Any]) -> None:
     ri = params.get("restart_index") if params.get("primitive") != "list" else None
     ri = ri if isinstance(ri, int) and not isinstance(ri, bool) else None
     need = draw_index_width(V, ri)
-    # (0.8.0 derived the width from the restart value itself: 4 beside 0xFFFFFFFF, which any runtime draws)
+    # (4 beside 0xFFFFFFFF is a runtime drawing the stored u32 values as they are: not wrong, only wider)
     if int(width) != need and not (int(width) == 4 and ri == 0xFFFFFFFF):
         why = f"vertex ids up to {max(V - 1, 0)}" + ("" if ri is None else f", restart index {ri}")
         c.add(
