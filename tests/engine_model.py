@@ -854,7 +854,9 @@ def upload_indices(f: SwpmFile, arr: np.ndarray, restart: int | None, notes: lis
     if restart is None:
         ones = np.iinfo(arr.dtype).max
         if np.any(arr == ones):
-            notes.append("a strip without restart holds the all-ones value")
+            # (a list's too: WebGL 2 restarts at u16's all ones in every draw; spec 1 makes a file of
+            # V > 0xFFFF u32)
+            notes.append("an index of a draw without restart holds the all-ones value (WebGL 2 restarts)")
         return arr
     if restart == np.iinfo(arr.dtype).max:
         return arr

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import shared_mesh
+from conftest import ROOT, shared_mesh
 
 import swpm_usd
 from swpm_usd.format import layout as L
@@ -152,10 +152,11 @@ def test_a_restart_of_0xffff_is_never_a_vertex() -> None:
 
 
 def test_an_older_u32_file_with_restart_0xffff_still_reads() -> None:
-    """A writer before 0.8.0 wrote 0xFFFF in a u32 file: the reader keeps accepting any restart >= V."""
+    """A writer before 0.8.0 wrote 0xFFFF in a u32 file (``keep_restart_index``, as the vector generator
+    writes it): the reader keeps accepting any restart >= V."""
     from swpm_usd.format.vectors import fan_sliding_strips
 
-    old = encode_bytes(fan_sliding_strips(), index_width=4)
+    old = encode_bytes(fan_sliding_strips(), index_width=4, keep_restart_index=True)
     back = load_bytes(old)
     assert back.restart_index == 0xFFFF and np.asarray(back.index_pool).dtype.itemsize == 4
     new = load_bytes(encode_bytes(fan_sliding_strips(0xFFFFFFFF)))
@@ -195,7 +196,8 @@ def test_memory_figures_do_not_depend_on_the_restart_value(case) -> None:
     ("V", "restart", "width"),
     [
         (3, None, 2),
-        (0x10000, None, 2),  # a list: vertex ids up to 65,535 fit u16
+        (0xFFFF, None, 2),  # a list: vertex ids up to 65,534 fit u16
+        (0x10000, None, 4),  # vertex 65,535 would be u16's 0xFFFF, where WebGL 2 always restarts (spec 1)
         (0x10001, None, 4),
         (3, 0xFFFF, 2),
         (3, 0xFFFFFFFF, 2),  # narrows to u16's all ones
@@ -226,7 +228,8 @@ def _list_window(V: int):
 @pytest.mark.parametrize(
     ("pm", "isz"),
     [
-        (_list_window(0x10000), 2),  # vertex ids up to 65,535: u16 (the check said 4, global_bytes 2)
+        (_list_window(0xFFFF), 2),  # vertex ids up to 65,534: u16
+        (_list_window(0x10000), 4),  # vertex 65,535 is no u16 index (spec 1): global_bytes counts 4 too
         (_list_window(0x10001), 4),
         (_strip_window([0, 1, 2], 3), 2),  # joined by 0xFFFFFFFF, drawn from u16
         (_strip_window([0, 1, 2], 0x10000), 4),
@@ -280,7 +283,106 @@ def test_index_values_width_reads_a_restart_only_where_strips_use_it(raw, width)
         del pm.params["primitive"]
     else:
         pm = vec.fan_sliding_strips(0xFFFFFFFF)
-    rep = validate_bytes(encode_bytes(pm))
+    # (kept as given: the writer would write 70,000 as 0xFFFFFFFF, all ones of the file's u32)
+    rep = validate_bytes(encode_bytes(pm, keep_restart_index=True))
     assert rep.valid, rep.format()
     assert rep.summary["index_width"] == (2 if raw == "sliding-list-ignored-restart" else 4)
     assert rep.summary["index_values_width"] == width
+
+
+VECTOR_FFFF = ROOT / "spec/vectors/valid/sliding-window-strips-u32-restart-ffff.swpm"
+
+
+def _assert_resaved(old, data: bytes, rv: int) -> None:
+    """``data``, ``old`` (strips joined by 0xFFFF) as the writer saved it: a clean file whose index type's
+    all ones ``rv`` joins the strips exactly where ``old``'s 0xFFFF did, every LOD drawing ``old``'s
+    triangles."""
+    from swpm_usd.format.reader import validate_bytes
+    from swpm_usd.format.writer import STRIP_ARRAYS
+
+    features = int(np.frombuffer(data[: L.HEADER_SIZE], L.HEADER)[0]["features"])
+    assert bool(features & L.FEATURE_INDEX32) == (rv == 0xFFFFFFFF)
+    rep = validate_bytes(data)
+    assert rep.valid and not rep.problems, rep.format()
+    back = load_bytes(data)
+    assert back.restart_index == back.params["restart_index"] == rv
+    for n in STRIP_ARRAYS[old.encoding]:
+        was, now = np.asarray(getattr(old, n)), np.asarray(getattr(back, n))
+        restarts = was == 0xFFFF
+        assert restarts.any() and np.array_equal(now == rv, restarts), n
+        assert np.array_equal(now[~restarts], was[~restarts]), n
+    assert back.lod_count == old.lod_count
+    for k in range(0, old.lod_count, max(1, old.lod_count // 20)):
+        assert np.array_equal(back.triangles_at(k), old.triangles_at(k)), k
+
+
+def test_resaving_the_older_vector_writes_restart_all_ones(tmp_path) -> None:
+    """Vector ``sliding-window-strips-u32-restart-ffff`` (0xFFFF in a u32 file, a writer before 0.8.0's),
+    loaded and saved in a u32 file (``index_width=4``, the width it came in), gets restart 0xFFFFFFFF (it was
+    copied with its 0xFFFF); saved by ``swpm_usd.save``, whose width rule finds every value fits u16, it is a
+    u16 file joined by 0xFFFF. The loaded mesh, its (mapped) arrays and params are left as they were."""
+    from swpm_usd import usd
+
+    old = swpm_usd.load(VECTOR_FFFF)
+    assert old.restart_index == old.params["restart_index"] == 0xFFFF
+    kept = {n: np.array(a) for n, a in old.buffers().items()}
+    _assert_resaved(old, encode_bytes(old, index_width=4), 0xFFFFFFFF)
+    _assert_resaved(old, swpm_usd.save(old, tmp_path / "new.swpm").read_bytes(), 0xFFFF)
+    assert old.restart_index == old.params["restart_index"] == 0xFFFF
+    assert all(np.array_equal(old.buffers()[n], a) for n, a in kept.items())
+    # the same through USD: the stage keeps 0xFFFF in its uint[] arrays
+    from pxr import Usd
+
+    path = usd.write(old, tmp_path / "old.usdc")
+    stage = Usd.Stage.Open(str(path))
+    staged = usd.read(usd.find_encoded(stage)[0])
+    assert staged.restart_index == 0xFFFF
+    _assert_resaved(staged, encode_bytes(staged, index_width=4), 0xFFFFFFFF)
+
+
+def test_resaving_an_older_file_writes_restart_all_ones(case, tmp_path) -> None:
+    """A build's file as a writer before 0.8.0 wrote it (strips joined by 0xFFFF, ``keep_restart_index``; a
+    u32 file for bunny and bob, whose pools or level lists pass 65,535 indices), loaded and saved by
+    ``swpm_usd.save``, and the same read from a USD stage and saved: restart all ones of the file's index
+    type (0xFFFFFFFF in a u32 file: it was copied with 0xFFFF), the bytes of the build's own file."""
+    from pxr import Usd
+
+    from swpm_usd import usd
+
+    name, pm, lists = case
+    src = tmp_path / "old.swpm"
+    src.write_bytes(encode_bytes(_with_restart_ffff(pm, lists), keep_restart_index=True))
+    old = swpm_usd.load(src)
+    assert old.restart_index == 0xFFFF
+    data = swpm_usd.save(old, tmp_path / "new.swpm").read_bytes()
+    _assert_resaved(old, data, EXPECTED[name])
+    assert data == encode_bytes(pm), name
+    path = usd.write(old, tmp_path / "old.usdc")
+    stage = Usd.Stage.Open(str(path))
+    staged = usd.read(usd.find_encoded(stage)[0])
+    assert staged.restart_index == 0xFFFF
+    _assert_resaved(staged, swpm_usd.save(staged, tmp_path / "usd.swpm").read_bytes(), EXPECTED[name])
+
+
+def test_resaving_writes_the_bytes_of_a_new_build(case) -> None:
+    """A build's strips given back joined by 0xFFFF (as a writer before 0.8.0 stored them: ``from_buffers``
+    over writable arrays) are written byte for byte as the build itself is, the arrays given untouched."""
+    name, pm, lists = case
+    old = _with_restart_ffff(pm, lists)
+    given = {n: np.array(getattr(old, n)) for n in lists}
+    assert encode_bytes(old) == encode_bytes(pm), name
+    assert old.restart_index == 0xFFFF and all(np.array_equal(getattr(old, n), given[n]) for n in lists)
+
+
+def test_a_restart_of_a_u16_file_is_written_0xffff() -> None:
+    """Another restart index >= V in a u16 file (5 among 5 vertices: valid, not all ones) is written as
+    0xFFFF; ``keep_restart_index`` writes it as it is."""
+    from swpm_usd.format.vectors import fan_sliding_strips
+
+    kept = load_bytes(encode_bytes(fan_sliding_strips(5), keep_restart_index=True))
+    assert kept.restart_index == 5 and np.asarray(kept.index_pool).dtype.itemsize == 2
+    back = load_bytes(encode_bytes(kept))
+    assert back.restart_index == back.params["restart_index"] == 0xFFFF
+    assert np.array_equal(np.asarray(back.index_pool) == 0xFFFF, np.asarray(kept.index_pool) == 5)
+    for k in range(back.lod_count):
+        assert np.array_equal(back.triangles_at(k), kept.triangles_at(k)), k

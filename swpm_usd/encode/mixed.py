@@ -22,6 +22,7 @@ import numpy as np
 
 from ..encodings import MIXED_PARAMS
 from ..errors import BuildError
+from ..format.layout import draw_index_width
 from ..mesh import Mesh
 from ..simplify import CollapseSequence, collapse_sequence
 from .base import ProgressiveMesh, register
@@ -149,7 +150,8 @@ class MixedProgressiveMesh(ProgressiveMesh):
     # -- memory ----------------------------------------------------------------------------------------
     @property
     def _index_bytes(self) -> int:
-        return index_size(max(self.vertex_count - 1, 0))
+        # (u32 from 65,536 vertices on: vertex 65,535 would be u16's restart index, spec 1)
+        return draw_index_width(self.vertex_count)
 
     @property
     def global_bytes(self) -> int:

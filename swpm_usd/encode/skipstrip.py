@@ -14,10 +14,10 @@ one and applies only the records in between.
 
 Vertices are in vanilla order (the vertex collapse ``c`` bins is ``V - 1 - c``), so LOD ``k`` uses the vertex
 prefix. Strip joins are restart indices (``restart=True``; the restart value is the largest value of the
-file's index type, ``0xFFFF`` when every value of every buffer fits u16 (the format writer's width rule),
-else ``0xFFFFFFFF``, stored in ``params["restart_index"]``) or degenerate triangles (``restart=False``),
-which are joins, not collapses, and are not counted against the level threshold. Strip collapse records
-change *slots*: a strip slot is shared by up to three triangles.
+file's index type, ``0xFFFF`` when every vertex id is below 0xFFFF and every other value of every buffer
+fits u16 (the format writer's width rule), else ``0xFFFFFFFF``, stored in ``params["restart_index"]``) or
+degenerate triangles (``restart=False``), which are joins, not collapses, and are not counted against the
+level threshold. Strip collapse records change *slots*: a strip slot is shared by up to three triangles.
 """
 
 from __future__ import annotations

@@ -20,7 +20,6 @@ from ..simplify import CollapseSequence
 from .base import ProgressiveMesh, lod_at_error, register
 from .screen import error_for_pixels
 from .strips import decode_strip
-from .vanilla import index_size
 
 
 @register
@@ -161,7 +160,7 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
             # a strip draw's record: 32-bit first index, 16-bit index and vertex counts
             wide = max(int(self.window_index_counts.max(initial=0)), int(self.vertex_counts.max())) > 0xFFFF
         else:
-            isz = index_size(max(self.vertex_count - 1, 0))
+            isz = draw_index_width(self.vertex_count)  # (u32 from 65,536 vertices on, spec 1)
             # Forsyth's record: 32-bit first index, 16-bit counts (32-bit when they do not fit)
             wide = int(self.window_records[:, 1:].max(initial=0)) > 0xFFFF
         rec = 12 if wide else 8

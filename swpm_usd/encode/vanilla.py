@@ -23,13 +23,15 @@ from typing import Any
 import numba as nb
 import numpy as np
 
+from ..format.layout import draw_index_width
 from ..simplify import CollapseSequence
 from .base import ProgressiveMesh, register
 from .instance import RecordInstance, apply_records
 
 
 def index_size(max_value: int) -> int:
-    """Bytes per index a GPU buffer needs: 2 while every value fits in u16, else 4."""
+    """Bytes an offset or count a GPU buffer holds needs: 2 while every value fits in u16, else 4 (vertex ids
+    follow :func:`..format.layout.draw_index_width`: 0xFFFF is no vertex id in u16)."""
     return 2 if max_value <= 0xFFFF else 4
 
 
@@ -184,7 +186,8 @@ class VanillaProgressiveMesh(ProgressiveMesh):
 
     @property
     def _index_bytes(self) -> int:
-        return index_size(max(self.vertex_count - 1, 0))
+        # (u32 from 65,536 vertices on: vertex 65,535 would be u16's restart index, spec 1)
+        return draw_index_width(self.vertex_count)
 
     @property
     def global_bytes(self) -> int:

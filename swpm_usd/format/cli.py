@@ -572,9 +572,13 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
             + [str(out[k]) for k in ("version", "encoding") if out.get(k) is not None]
         )
         width = f", index u{8 * out['index_width']}" if "index_width" in out else ""
-        if out.get("index_values_width", out.get("index_width")) != out.get("index_width"):
+        values_w = out.get("index_values_width", out.get("index_width"))
+        if values_w is not None and values_w < out.get("index_width", values_w):
             # (the file's idx widened by offsets or counts: what an engine can upload its index lists as)
-            width += f" (index values fit u{8 * out['index_values_width']})"
+            width += f" (index values fit u{8 * values_w})"
+        elif values_w is not None and values_w > out.get("index_width", values_w):
+            # (an older writer's u16 file of 65,536 vertices: vertex 65,535 is u16's restart index, spec 1)
+            width += f" (vertex ids reach 0xFFFF: drawn as u{8 * values_w})"
         click.echo(head + width)
         for key in (
             "file_size",

@@ -191,8 +191,19 @@ def index_dtype(width: int) -> np.dtype:
     return np.dtype("<u2") if width == 2 else np.dtype("<u4")
 
 
-def choose_index_width(buffers: Mapping[str, np.ndarray]) -> int:
-    """2 when every value of every integer encoding buffer fits u16, else 4 (spec: "Index width")."""
+def vertex_ids_fit_u16(vertex_count: int) -> bool:
+    """Whether every vertex id (0 .. ``vertex_count`` - 1) may be stored as u16 (spec 1): each must be below
+    0xFFFF, since u16's all ones is the restart index WebGL 2 (always on there) and OpenGL ES 3 take for any
+    draw, a list's too, and strips with restart enabled on every API: a vertex 65,535 would be dropped."""
+    return int(vertex_count) <= 0xFFFF
+
+
+def choose_index_width(buffers: Mapping[str, np.ndarray], vertex_count: int | None = None) -> int:
+    """2 when every value of every integer encoding buffer fits u16 and no vertex id is 0xFFFF, else 4 (spec:
+    "Index width"). ``vertex_count`` (V) makes the file u32 from 65,536 vertices on
+    (:func:`vertex_ids_fit_u16`), whether or not a buffer holds vertex 65,535; None checks the values only."""
+    if vertex_count is not None and not vertex_ids_fit_u16(vertex_count):
+        return 4
     top = 0
     for a in buffers.values():
         a = np.asarray(a)
@@ -206,27 +217,27 @@ def restart_index_for(buffers: Mapping[str, np.ndarray], restart: int, vertex_co
     u16 file, else 0xFFFFFFFF, so an engine uploads ``INDX`` as it is with the restart value its API takes.
 
     ``buffers`` are the encoding's integer buffers (``ProgressiveMesh.buffers()``) with strips joined by
-    ``restart`` (any value >= ``vertex_count``). 0xFFFF when it is not a vertex id (``vertex_count`` <=
-    0xFFFF) and :func:`choose_index_width` finds every other value fits u16: then the file holding 0xFFFF is
-    u16, and one holding 0xFFFFFFFF is u32 by the same function, so the restart chosen and the width written
-    cannot disagree."""
+    ``restart`` (any value >= ``vertex_count``). 0xFFFF when :func:`choose_index_width` finds the file u16
+    with the restart entries left out (every vertex id below 0xFFFF, every other value fits u16): then the
+    file holding 0xFFFF is u16, and one holding 0xFFFFFFFF is u32 by the same function, so the restart chosen
+    and the width written cannot disagree."""
     r = int(restart)
-    if int(vertex_count) > 0xFFFF:
+    if not vertex_ids_fit_u16(vertex_count):
         return 0xFFFFFFFF
     rest = {k: np.where(np.asarray(a) == r, 0, a) for k, a in buffers.items()}
-    return 0xFFFF if choose_index_width(rest) == 2 else 0xFFFFFFFF
+    return 0xFFFF if choose_index_width(rest, vertex_count) == 2 else 0xFFFFFFFF
 
 
 def draw_index_width(vertex_count: int, restart: int | None = None) -> int:
     """The width (2 or 4) an engine draws index values at, whatever the file's ``idx``: 2 when every vertex
-    id fits u16 and, for strips joined by ``restart``, the restart index is 0xFFFF or the all ones of u32,
-    which a u32 -> u16 copy (a truncation) turns into u16's 0xFFFF (so it must be no vertex id:
-    ``vertex_count`` <= 0xFFFF); else 4. The file's ``idx`` may be wider (a pool's offsets, spec 3.5): the
-    memory figures (``global_bytes``), the pipeline's coarsest-LOD bytes, ``swpm:indexWidth`` and inspect's
-    ``index_values_width`` count this width, so a strip's restart index (all ones of ``idx``) does not double
-    its indices' bytes where the list pool of the same file counts 2."""
-    V = int(vertex_count)
+    id is below 0xFFFF (:func:`vertex_ids_fit_u16`, the rule :func:`choose_index_width` applies) and, for
+    strips joined by ``restart``, the restart index is 0xFFFF or the all ones of u32, which a u32 -> u16 copy
+    (a truncation) turns into u16's 0xFFFF; else 4. The file's ``idx`` may be wider (a pool's offsets, spec
+    3.5): the memory figures (``global_bytes``), the pipeline's coarsest-LOD bytes, ``swpm:indexWidth`` and
+    inspect's ``index_values_width`` count this width, so a strip's restart index (all ones of ``idx``) does
+    not double its indices' bytes where the list pool of the same file counts 2."""
+    if not vertex_ids_fit_u16(vertex_count):
+        return 4
     if restart is None:
-        return 2 if V - 1 <= 0xFFFF else 4
-    r = 0xFFFF if int(restart) == 0xFFFFFFFF and V <= 0xFFFF else int(restart)
-    return 2 if max(V - 1, r) <= 0xFFFF else 4
+        return 2
+    return 2 if int(restart) <= 0xFFFF or int(restart) == 0xFFFFFFFF else 4

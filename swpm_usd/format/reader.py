@@ -297,7 +297,8 @@ def _index_values_width(p: _Parsed) -> int:
     """The smallest width (2 or 4) an engine can upload the lists it draws from at, beside the file's ``idx``
     (``index_width``), which offsets and counts may widen (a list pool longer than 65,535 indices): every
     vertex id in them fits it, and a strips' restart index by :func:`.layout.draw_index_width` (0xFFFFFFFF,
-    all ones of a u32 file's ``idx``, copies to u16 as 0xFFFF while no vertex id is 0xFFFF)."""
+    all ones of a u32 file's ``idx``, copies to u16 as 0xFFFF while no vertex id is 0xFFFF). 4 from 65,536
+    vertices on, also for an older writer's u16 file of them: vertex 65,535 is u16's restart (spec 1)."""
     lists = [np.asarray(p.buffers[n]) for n in _DRAWN_LISTS.get(p.encoding or "", ()) if n in p.buffers]
     if not lists:
         return p.width
@@ -307,10 +308,11 @@ def _index_values_width(p: _Parsed) -> int:
     default = "strip" if p.encoding == "skip-strip" else "list"
     strips = isinstance(params, dict) and params.get("primitive", default) == "strip"
     ri = params.get("restart_index") if strips else None
+    V = int(p.points.shape[0]) if p.points is not None else 0
     if not isinstance(ri, int) or isinstance(ri, bool):
-        return L.choose_index_width({str(i): a for i, a in enumerate(lists)})
+        return max(L.choose_index_width({str(i): a for i, a in enumerate(lists)}), L.draw_index_width(V))
     values = L.choose_index_width({str(i): np.where(a == ri, 0, a) for i, a in enumerate(lists)})
-    return max(values, L.draw_index_width(int(p.points.shape[0]) if p.points is not None else 0, ri))
+    return max(values, L.draw_index_width(V, ri))
 
 
 def _summarise(p: _Parsed, rep: Report) -> None:

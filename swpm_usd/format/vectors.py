@@ -457,7 +457,7 @@ def _valid() -> dict[str, tuple[bytes, str]]:
             " whose restart value is all ones of the index type",
         ),
         "sliding-window-strips-u32-restart-ffff": (
-            _write(fan_sliding_strips(), index_width=4),
+            _write(fan_sliding_strips(), index_width=4, keep_restart_index=True),
             "the same pool in a u32 file with restart index 0xFFFF, as writers before 0.8.0 wrote a u32 file:"
             " still valid (a restart index is any value >= V), an engine rewrites its restarts or uploads it"
             " as u16 (format.md 3.5)",

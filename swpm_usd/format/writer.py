@@ -104,6 +104,47 @@ def _bands(vc: np.ndarray) -> np.ndarray:
     return np.floor(np.log2(v0 / np.maximum(vc.astype(np.float64), 1.0))).astype(np.int64)
 
 
+#: the arrays holding strips joined by ``params["restart_index"]``, per encoding (spec 3.5, 3.7)
+STRIP_ARRAYS = {
+    "sliding-window": ("index_pool",),
+    "skip-strip": ("level_indices", "level_collapsed_indices"),
+}
+
+
+def _strips_restart(pm: ProgressiveMesh, bufs: dict[str, np.ndarray]) -> int | None:
+    """The restart index ``pm``'s strips are joined by, as a reader takes it from the file the writer makes
+    (a sliding window's pool is strips with the ``SW_STRIPS`` bit, which ``window_index_counts`` sets; a
+    skip-strip's missing primitive reads as "strip"), or None: lists, strips joined by degenerate triangles,
+    a value that is no restart index (not an integer, or below V: a vertex, the reader's to reject)."""
+    enc = pm.encoding
+    if enc not in STRIP_ARRAYS or (enc == "sliding-window" and "window_index_counts" not in bufs):
+        return None
+    params = pm.params if isinstance(pm.params, dict) else {}
+    if params.get("primitive", "strip" if enc == "skip-strip" else "list") != "strip":
+        return None
+    ri = params.get("restart_index")
+    if not isinstance(ri, (int, np.integer)) or isinstance(ri, bool) or not pm.vertex_count <= ri < 2**32:
+        return None
+    return int(ri)
+
+
+def _settled_restart(
+    pm: ProgressiveMesh, bufs: dict[str, np.ndarray], width: int
+) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """``pm``'s buffers and params with its strips' restart index made the largest value of ``width``, the
+    writer's rule (spec 3.5, 3.7), when it is another (a file of a writer before 0.8.0 loaded, 0xFFFF in a
+    u32 file, or a USD stage of one read): the strips rewritten into new arrays, the caller's left alone."""
+    old = _strips_restart(pm, bufs)
+    ones = 0xFFFF if width == 2 else 0xFFFFFFFF
+    if old is None or old == ones:
+        return bufs, pm.params
+    out = dict(bufs)
+    for name in STRIP_ARRAYS[pm.encoding]:
+        a = np.asarray(bufs[name])
+        out[name] = np.where(a == old, np.uint32(ones), a).astype(np.uint32)
+    return out, {**pm.params, "restart_index": ones}
+
+
 def needed_index_ranges(encoding: str, buffers: dict[str, np.ndarray], lods: int, n_index: int) -> np.ndarray:
     """(L, 2) element range of INDX each LOD needs (spec: "Streaming map")."""
     if encoding == "sliding-window":
@@ -171,22 +212,30 @@ def encode_bytes(
     extra_chunks: Sequence[tuple[bytes, bool, bytes]] = (),
     minor: int = L.VERSION_MINOR,
     index_width: int | None = None,
+    keep_restart_index: bool = False,
 ) -> bytes:
     """The complete file for ``pm``. ``extra_chunks`` (type, critical, payload) go right after SMAP;
-    ``index_width`` (2 or 4) overrides the smallest width that fits (u32 is always allowed).
-    :class:`SwpmEncodeError` when ``pm.params`` would make a ``META`` the reader rejects (spec 3.1: nested
-    more than 128 deep, an integer too large for binary64); NaN or infinity is a ``ValueError``."""
+    ``index_width`` (2 or 4) overrides the smallest width that fits (u32 is always allowed; from 65,536
+    vertices on it is required, spec 1). Strips joined by a restart index other than the largest value of
+    the width written are written joined by that value, ``params.restart_index`` with them (spec 3.5, 3.7);
+    ``keep_restart_index`` writes them as they are, as a writer before 0.8.0 did (the vector generator's
+    older-file vector). :class:`SwpmEncodeError` when ``pm.params`` would make a ``META`` the reader rejects
+    (spec 3.1: nested more than 128 deep, an integer too large for binary64); NaN or infinity is a
+    ``ValueError``."""
     enc = pm.encoding
     if enc not in L.ENCODING_FEATURES:
         raise ValueError(f"encoding {enc!r} has no SWPM v1 layout")
     bufs = pm.buffers()
-    W = choose_index_width(bufs) if index_width is None else max(int(index_width), choose_index_width(bufs))
+    W = choose_index_width(bufs, pm.vertex_count)
+    W = W if index_width is None else max(int(index_width), W)
+    # (rewriting keeps W: every value but the restart already fits it, and the new restart is W's all ones)
+    bufs, params = (bufs, pm.params) if keep_restart_index else _settled_restart(pm, bufs, W)
     it = L.index_dtype(W)
     lods = pm.lod_count
     meta = {
         "encoding": enc,
         "generator": generator,
-        "params": pm.params,
+        "params": params,
         "source_digest": source_digest,
     }
     # allow_nan=False: NaN and Infinity are not JSON; a reader rejects them (ValueError here)

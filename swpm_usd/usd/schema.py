@@ -60,10 +60,10 @@ PROPERTIES: tuple[Prop, ...] = (
         "swpm:indexWidth",
         "int",
         "4",
-        "Bytes per index a GPU index buffer needs (2 while every vertex id and a strips' restart index fit "
-        "in 16 bits, a restart index 0xFFFFFFFF counting as 0xFFFF below 65,536 vertices: a u32 -> u16 copy "
-        "turns it into u16's all ones; else 4). USD always stores indices as uint[]; this says how a runtime "
-        "should upload them.",
+        "Bytes per index a GPU index buffer needs (2 below 65,536 vertices, every vertex id then below u16's "
+        "all ones, the restart index WebGL 2 always applies, while a strips' restart index fits in 16 bits, "
+        "0xFFFFFFFF counting as 0xFFFF: a u32 -> u16 copy turns it into u16's all ones; else 4). USD always "
+        "stores indices as uint[]; this says how a runtime should upload them.",
     ),
     Prop(
         "swpm:vertexCounts",

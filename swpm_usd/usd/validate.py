@@ -44,10 +44,10 @@ CODES: dict[str, str] = {
     "SWPM_USD_TOPOLOGY": "faceVertexIndices / Counts are not a triangle list of one of the LODs.",
     "SWPM_USD_PARAMS": "swpm:params is not a JSON object a .swpm META may hold (spec/format.md 3.1).",
     "SWPM_USD_REBUILD": "the stored buffers do not rebuild a progressive mesh.",
-    "SWPM_USD_INDEX_WIDTH": "swpm:indexWidth is not the width the prim's indices need (2 when every vertex "
-    "id and a strip pool's restart index fit in 16 bits, a restart index 0xFFFFFFFF counting as u16's 0xFFFF "
-    "below 65,536 vertices, else 4; 4 is also accepted with a restart index 0xFFFFFFFF: its values drawn as "
-    "stored, u32).",
+    "SWPM_USD_INDEX_WIDTH": "swpm:indexWidth is not the width the prim's indices need (2 below 65,536 "
+    "vertices, every vertex id then below u16's all ones 0xFFFF, while a strip pool's restart index fits in "
+    "16 bits, 0xFFFFFFFF counting as u16's 0xFFFF, else 4; 4 is also accepted with a restart index "
+    "0xFFFFFFFF: its values drawn as stored, u32).",
     "SWPM_USD_OPEN": "the file is not a USD layer usd-core can open (empty, truncated or not USD at all), "
     "or it or a layer its stage opens is not a regular file (a FIFO, a folder, a device: never opened).",
     "SWPM_USD_READ": "usd-core opened the layer but cannot read a value in it (corrupt .usdc data).",
@@ -149,7 +149,7 @@ def _array(value: Any, dtype: Any = np.int64) -> np.ndarray:
 
 def _check_index_width(c: _Check, V: int, params: dict[str, Any]) -> None:
     """An authored ``swpm:indexWidth`` is the one the writer derives (spec/usd.md): a runtime uploads the
-    indices at that width, so 3, or 2 over vertex ids past 65,535, was a stage validate passed."""
+    indices at that width, so 3, or 2 over a vertex id 0xFFFF or past, was a stage validate passed."""
     width = c.get("swpm:indexWidth", required=False)
     if width is None:
         return
