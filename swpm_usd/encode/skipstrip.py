@@ -31,7 +31,7 @@ import numpy as np
 
 from ..encodings import MAX_STRIP_WINDOW, PRIMITIVES, SKIPSTRIP_PARAMS
 from ..errors import BuildError
-from ..format.layout import draw_index_width, restart_index_for
+from ..format.layout import STRIP_ARRAYS, draw_index_width, rejoin_strips, restart_index_for
 from ..mesh import Mesh
 from ..simplify import CollapseSequence, collapse_sequence
 from .base import ProgressiveMesh, register
@@ -182,21 +182,21 @@ def restart_value(vertex_count: int) -> int:
     return 0xFFFF if vertex_count <= 0xFFFF else 0xFFFFFFFF
 
 
-def settle_restart(pm: ProgressiveMesh, lists: tuple[str, ...]) -> None:
+def settle_restart(pm: ProgressiveMesh, lists: tuple[str, ...] | None = None) -> None:
     """Give ``pm``, whose arrays ``lists`` are strips joined by ``pm.restart_index`` (:func:`restart_value`),
     the restart index of its file: the largest value of the file's index type by the format writer's width
     rule over ``pm.buffers()`` (:func:`..format.layout.restart_index_for`), so an engine uploads the file's
     indices as they are with the restart value Vulkan, D3D12 and Metal take (spec 3.5, 3.7). When it differs
     (0xFFFF widened to 0xFFFFFFFF: e.g. a pool longer than 65,535 indices makes the file u32 through its
-    offsets) the restart entries of ``lists`` are rewritten into new uint32 arrays (not in place: an array
-    may be the caller's, as :func:`swpm_usd.from_buffers` keeps them, or a file's, read-only), with
-    ``restart_index`` and ``params["restart_index"]``."""
+    offsets) the restart entries of ``lists`` (default: the encoding's, :data:`..format.layout.STRIP_ARRAYS`)
+    are rewritten into new uint32 arrays (:func:`..format.layout.rejoin_strips`), with ``restart_index`` and
+    ``params["restart_index"]``."""
     old = int(pm.restart_index)
     rv = restart_index_for(pm.buffers(), old, pm.vertex_count)
     if rv != old:
-        for name in lists:
-            a = np.asarray(getattr(pm, name))
-            setattr(pm, name, np.where(a == old, np.uint32(rv), a).astype(np.uint32))
+        names = STRIP_ARRAYS[pm.encoding] if lists is None else lists
+        for name, a in rejoin_strips({n: getattr(pm, n) for n in names}, old, rv).items():
+            setattr(pm, name, a)
     pm.restart_index = rv
     pm.params["restart_index"] = rv
 
@@ -490,7 +490,7 @@ def build_skipstrip(
         params=params,
     )
     if rv is not None:
-        settle_restart(pm, ("level_indices", "level_collapsed_indices"))
+        settle_restart(pm)
     return pm
 
 

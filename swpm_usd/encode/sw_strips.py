@@ -183,4 +183,4 @@ def use_strips(pm: SlidingWindowProgressiveMesh, window: int) -> None:
     pm.index_pool, pm.window_records, pm.window_index_counts = pool, rec, counts
     pm.primitive, pm.restart_index = "strip", rv
     pm.params.update(primitive="strip", restart_index=rv, strip_window=int(window))
-    settle_restart(pm, ("index_pool",))
+    settle_restart(pm)

@@ -198,18 +198,40 @@ def vertex_ids_fit_u16(vertex_count: int) -> bool:
     return int(vertex_count) <= 0xFFFF
 
 
-def choose_index_width(buffers: Mapping[str, np.ndarray], vertex_count: int | None = None) -> int:
+def choose_index_width(
+    buffers: Mapping[str, np.ndarray], vertex_count: int | None = None, restart: int | None = None
+) -> int:
     """2 when every value of every integer encoding buffer fits u16 and no vertex id is 0xFFFF, else 4 (spec:
     "Index width"). ``vertex_count`` (V) makes the file u32 from 65,536 vertices on
-    (:func:`vertex_ids_fit_u16`), whether or not a buffer holds vertex 65,535; None checks the values only."""
+    (:func:`vertex_ids_fit_u16`), whether or not a buffer holds vertex 65,535; None checks the values only.
+    Entries equal to ``restart`` (a strips' restart index) are left out: the width their other values need."""
     if vertex_count is not None and not vertex_ids_fit_u16(vertex_count):
         return 4
     top = 0
     for a in buffers.values():
         a = np.asarray(a)
+        if restart is not None:
+            a = np.where(a == int(restart), 0, a)
         if a.size and np.issubdtype(a.dtype, np.integer):
             top = max(top, int(a.max()))
     return 2 if top <= 0xFFFF else 4
+
+
+#: the arrays holding strips joined by ``params["restart_index"]``, per encoding (spec 3.5, 3.7)
+STRIP_ARRAYS = {
+    "sliding-window": ("index_pool",),
+    "skip-strip": ("level_indices", "level_collapsed_indices"),
+}
+
+
+def rejoin_strips(arrays: Mapping[str, np.ndarray], old: int, new: int) -> dict[str, np.ndarray]:
+    """``arrays`` (strips) with their restart entries ``old`` made ``new``, as new uint32 arrays: never in
+    place, since an array may be a caller's (:func:`swpm_usd.from_buffers` keeps them) or a file's,
+    read-only."""
+    return {
+        name: np.where(np.asarray(a) == old, np.uint32(new), np.asarray(a)).astype(np.uint32)
+        for name, a in arrays.items()
+    }
 
 
 def restart_index_for(buffers: Mapping[str, np.ndarray], restart: int, vertex_count: int) -> int:
@@ -221,11 +243,7 @@ def restart_index_for(buffers: Mapping[str, np.ndarray], restart: int, vertex_co
     with the restart entries left out (every vertex id below 0xFFFF, every other value fits u16): then the
     file holding 0xFFFF is u16, and one holding 0xFFFFFFFF is u32 by the same function, so the restart chosen
     and the width written cannot disagree."""
-    r = int(restart)
-    if not vertex_ids_fit_u16(vertex_count):
-        return 0xFFFFFFFF
-    rest = {k: np.where(np.asarray(a) == r, 0, a) for k, a in buffers.items()}
-    return 0xFFFF if choose_index_width(rest, vertex_count) == 2 else 0xFFFFFFFF
+    return 0xFFFF if choose_index_width(buffers, vertex_count, restart=int(restart)) == 2 else 0xFFFFFFFF
 
 
 def draw_index_width(vertex_count: int, restart: int | None = None) -> int:

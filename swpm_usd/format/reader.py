@@ -309,9 +309,8 @@ def _index_values_width(p: _Parsed) -> int:
     strips = isinstance(params, dict) and params.get("primitive", default) == "strip"
     ri = params.get("restart_index") if strips else None
     V = int(p.points.shape[0]) if p.points is not None else 0
-    if not isinstance(ri, int) or isinstance(ri, bool):
-        return max(L.choose_index_width({str(i): a for i, a in enumerate(lists)}), L.draw_index_width(V))
-    values = L.choose_index_width({str(i): np.where(a == ri, 0, a) for i, a in enumerate(lists)})
+    ri = ri if isinstance(ri, int) and not isinstance(ri, bool) else None
+    values = L.choose_index_width({str(i): a for i, a in enumerate(lists)}, restart=ri)
     return max(values, L.draw_index_width(V, ri))
 
 

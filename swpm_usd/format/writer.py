@@ -17,7 +17,7 @@ from ..encode.base import ProgressiveMesh
 from ..fileio import atomic_write_bytes
 from . import layout as L
 from .errors import SwpmEncodeError
-from .layout import choose_index_width
+from .layout import STRIP_ARRAYS, choose_index_width
 from .meta import parse_meta_json
 
 #: LOD bands of the streaming map: one per halving of the vertex count
@@ -104,13 +104,6 @@ def _bands(vc: np.ndarray) -> np.ndarray:
     return np.floor(np.log2(v0 / np.maximum(vc.astype(np.float64), 1.0))).astype(np.int64)
 
 
-#: the arrays holding strips joined by ``params["restart_index"]``, per encoding (spec 3.5, 3.7)
-STRIP_ARRAYS = {
-    "sliding-window": ("index_pool",),
-    "skip-strip": ("level_indices", "level_collapsed_indices"),
-}
-
-
 def _strips_restart(pm: ProgressiveMesh, bufs: dict[str, np.ndarray]) -> int | None:
     """The restart index ``pm``'s strips are joined by, as a reader takes it from the file the writer makes
     (a sliding window's pool is strips with the ``SW_STRIPS`` bit, which ``window_index_counts`` sets; a
@@ -138,11 +131,8 @@ def _settled_restart(
     ones = 0xFFFF if width == 2 else 0xFFFFFFFF
     if old is None or old == ones:
         return bufs, pm.params
-    out = dict(bufs)
-    for name in STRIP_ARRAYS[pm.encoding]:
-        a = np.asarray(bufs[name])
-        out[name] = np.where(a == old, np.uint32(ones), a).astype(np.uint32)
-    return out, {**pm.params, "restart_index": ones}
+    strips = {name: bufs[name] for name in STRIP_ARRAYS[pm.encoding]}
+    return {**bufs, **L.rejoin_strips(strips, old, ones)}, {**pm.params, "restart_index": ones}
 
 
 def needed_index_ranges(encoding: str, buffers: dict[str, np.ndarray], lods: int, n_index: int) -> np.ndarray:
