@@ -404,7 +404,15 @@ def load(path: str | os.PathLike[str]) -> ProgressiveMesh:
 
     The returned mesh's ``points``, ``attributes`` and encoding buffers are read-only views of the mapping;
     integer buffers are u16 when the file stores u16 (values equal ``pm.buffers()`` of the saved mesh).
+    A USD stage (picked by its suffix, as :func:`validate` picks) is read by
+    :func:`swpm_usd.usd.read_file`: its only encoded prim, else :class:`~swpm_usd.usd.reader.UsdReadError`.
     """
+    from ..usd import USD_SUFFIXES
+
+    if os.fspath(path).lower().endswith(USD_SUFFIXES):
+        from ..usd.reader import read_file
+
+        return read_file(path)
     try:
         buf = _map(path)
     except OSError as exc:

@@ -5,7 +5,8 @@ lazily so ``import swpm_usd`` stays cheap. Public API:
 
 - :func:`write` (asset layer per mesh), :func:`write_overrides` (non-destructive layer over a stage),
   :func:`write_usdlod` (UsdLod layer over an asset written with discrete LODs), :func:`select_lods`;
-- :func:`read` (prim -> ProgressiveMesh), :func:`read_buffers`, :func:`find_encoded`;
+- :func:`read` (prim -> ProgressiveMesh), :func:`read_file` (path -> ProgressiveMesh), :func:`read_buffers`,
+  :func:`find_encoded`;
 - :func:`validate_stage` -> list of :class:`Finding`, :func:`stage_report` (the same as the SWPM reader's
   :class:`~swpm_usd.format.Report`, what :func:`swpm_usd.validate` gives for a stage),
   :func:`register_validators`.
@@ -27,6 +28,7 @@ _EXPORTS = {
     "write_usdlod": "writer",
     "select_lods": "writer",
     "read": "reader",
+    "read_file": "reader",
     "read_buffers": "reader",
     "find_encoded": "reader",
     "write_overrides": "overrides",

@@ -8,10 +8,11 @@ the reader needs is authored explicitly.
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import numpy as np
-from pxr import Usd, UsdGeom
+from pxr import Sdf, Usd, UsdGeom
 
 from ..encode.base import ProgressiveMesh, from_buffers, with_attributes
 from ..errors import SwpmError, first_few
@@ -250,6 +251,41 @@ def read(prim: Usd.Prim, check: bool = True) -> ProgressiveMesh:
     if check:
         _check_buffers(prim, pm)
     return pm
+
+
+def read_file(path: str | os.PathLike[str], prim: str | None = None, check: bool = True) -> ProgressiveMesh:
+    """The :class:`ProgressiveMesh` stored in the USD stage at ``path`` (what :func:`swpm_usd.load` gives for
+    a ``.usd`` ``.usda`` ``.usdc`` ``.usdz`` path): the encoded prim at ``prim`` (a path; a prim with exactly
+    one encoded prim below it will do, as :func:`read` takes), else the stage's only encoded prim.
+    :class:`UsdReadError` names the file and what is wrong: missing (code ``INPUT_NOT_FOUND``), not a
+    regular file, not a stage usd-core opens, no encoded prim, several (listed: pass ``prim``), or a prim
+    whose buffers fail :func:`read`'s checks."""
+    from ..fileio import missing_file_problem
+    from .validate import _open
+
+    name = os.fspath(path)
+    if not os.path.isfile(name):  # (a FIFO is never opened: its open would wait for a writer)
+        missing = not os.path.exists(name)
+        err = UsdReadError(f"{name}: " + (missing_file_problem(name) if missing else "not a regular file"))
+        err.code = "INPUT_NOT_FOUND" if missing else "INPUT_UNREADABLE"
+        raise err
+    stage, why = _open(name)
+    if stage is None:
+        raise UsdReadError(why)
+    if prim is not None:
+        found = stage.GetPrimAtPath(prim) if Sdf.Path.IsValidPathString(prim) else Usd.Prim()
+        if not found:
+            raise UsdReadError(f"{name}: no prim at {prim!r}")
+        return read(found, check=check)
+    encoded = find_encoded(stage)
+    if len(encoded) != 1:
+        listed = first_few([str(p.GetPath()) for p in encoded])
+        raise UsdReadError(
+            f"{name}: no prim has {SCHEMA_NAME} applied"
+            if not encoded
+            else f"{name}: {len(encoded)} prims have {SCHEMA_NAME} applied ({listed}): pass prim= to pick one"
+        )
+    return read(encoded[0], check=check)
 
 
 def _where(prim: Usd.Prim) -> str:
