@@ -81,12 +81,23 @@ class LevelledInstance(RecordInstance):
     def __init__(self, pm: Any) -> None:
         super().__init__(pm)
         self.level = 0
-        self._buf = np.array(self._level_list(0, False), dtype=np.int64)
+        # one buffer for the longest level list, allocated once, as an engine would: a level switch copies
+        # into it (its records only shorten or edit a level's list, never lengthen it)
+        longest = max(len(self._level_list(lvl, False)) for lvl in range(len(pm._lrs) - 1))
+        self._store = np.empty(longest, np.int64)
+        self._buf = self._load(0, False)
         self.records_done = 0
         self.level_switches = 0
 
     def _level_list(self, level: int, collapsed: bool) -> np.ndarray:
         raise NotImplementedError
+
+    def _load(self, level: int, collapsed: bool) -> np.ndarray:
+        """A level's stored list copied into the instance's buffer; the view of it the instance edits."""
+        src = self._level_list(level, collapsed)
+        buf = self._store[: len(src)]
+        buf[:] = src
+        return buf
 
     def _move(self, target: int) -> None:
         pm = self.pm
@@ -96,7 +107,7 @@ class LevelledInstance(RecordInstance):
         if lvl != self.level:
             r0, r1 = int(pm._lrs[lvl]), int(pm._lrs[lvl + 1])
             collapsed = (r1 - target) < (target - r0)
-            self._buf = np.array(self._level_list(lvl, collapsed), dtype=np.int64)
+            self._buf = self._load(lvl, collapsed)
             r = r1 if collapsed else r0
             self.level = lvl
             self.level_switches += 1
