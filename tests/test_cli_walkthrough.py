@@ -215,29 +215,36 @@ def test_python_validate_of_a_usd_stage_validates_the_stage(tmp_path):
 
 
 def test_inspect_shows_the_width_the_index_values_fit_beside_the_file_width():
-    """An engine uploads the index lists; the file's idx may be wider for its offsets and counts. inspect
-    keeps ``index_width`` and adds ``index_values_width`` (a strips' restart index included, 0xFFFFFFFF as the
-    u16 0xFFFF a u32 -> u16 copy makes of it while no vertex id is 0xFFFF: ``layout.draw_index_width``)."""
+    """An engine uploads the index lists; the file's idx may be wider (a writer before 0.9.0 widened it for
+    its offsets and counts, or by choice). inspect keeps ``index_width``, adds ``index_values_width`` (a
+    strips' restart index included, 0xFFFFFFFF as the u16 0xFFFF a u32 -> u16 copy makes of it while no
+    vertex id is 0xFFFF: ``layout.draw_index_width``) and ``offset_width``, the tables' type (OFFSET32)."""
     from pathlib import Path
 
     vectors = Path(__file__).resolve().parents[1] / "spec" / "vectors" / "valid"
     cases = {
-        "minimal-vanilla": (2, 2),
-        "vanilla-u32": (4, 2),  # u32 by choice, every index fits u16
-        "sliding-window-strips-u32": (4, 2),  # the restart index 0xFFFFFFFF copies to u16 as 0xFFFF
-        "skip-strip-strip-u32": (4, 2),
-        "sliding-window-strips-u32-restart-ffff": (4, 2),  # an older file: uploads as u16, 0xFFFF restarts
-        "skip-strip-strip": (2, 2),
+        "minimal-vanilla": (2, 2, 2),
+        "vanilla-u32": (4, 2, 4),  # u32 by choice, every index fits u16
+        "sliding-window-strips-u32": (4, 2, 4),  # the restart index 0xFFFFFFFF copies to u16 as 0xFFFF
+        "skip-strip-strip-u32": (4, 2, 4),
+        "sliding-window-strips-u32-restart-ffff": (4, 2, 4),  # an older file: uploads as u16, 0xFFFF restarts
+        "skip-strip-strip": (2, 2, 2),
+        "sliding-window-strips-offset32": (2, 2, 4),  # idx u16, the tables u32
+        "mixed-offset32": (2, 2, 4),
     }
-    for name, (file_w, values_w) in cases.items():
+    for name, (file_w, values_w, off_w) in cases.items():
         path = str(vectors / f"{name}.swpm")
         r = CliRunner().invoke(main, ["inspect", "--json", path])
         out = json.loads(r.stdout)
         assert r.exit_code == 0, name
-        assert (out["index_width"], out["index_values_width"]) == (file_w, values_w), name
+        assert (out["index_width"], out["index_values_width"], out["offset_width"]) == (
+            file_w,
+            values_w,
+            off_w,
+        )
         head = CliRunner().invoke(main, ["inspect", path]).stdout.splitlines()[0]
         fit = f" (index values fit u{8 * values_w})" if values_w != file_w else ""
-        shown = f", index u{8 * file_w}{fit}"
+        shown = f", index u{8 * file_w}{fit}, tables u{8 * off_w}"
         assert head.endswith(shown), (name, head)
 
 

@@ -1,8 +1,10 @@
 """A strips' restart index is all ones of the file's index type (spec/format.md 3.5, 3.7): 0xFFFF in a u16
 file, 0xFFFFFFFF in a u32 one, decided by the format writer's width rule (``layout.restart_index_for``), so an
 engine uploads ``INDX`` as it is with the restart value Vulkan, D3D12 and Metal take. Sliding-window and
-skip-strip strips on meshes whose file is u32 (bunny; bob, whose 5,647 vertices fit u16 but whose pools do
-not) and on one that stays u16 (suzanne), through the format reader and USD."""
+skip-strip strips on meshes whose tables need u32 (bunny; bob, whose 5,647 vertices fit u16 but whose pools'
+offsets do not: OFFSET32 since 0.9.0, ``idx`` and the restart stay u16) and on one whose file is all u16
+(suzanne), through the format reader and USD; and files of the writers before 0.8.0 (0xFFFF in a u32 file)
+and before 0.9.0 (0xFFFFFFFF in a u32 file, ``legacy``) saved again."""
 
 from __future__ import annotations
 
@@ -23,14 +25,16 @@ CASES = {
     "suzanne-sliding-strip": ("suzanne.obj", "sliding-window", {"primitive": "strip"}, ("index_pool",)),
     "suzanne-skip-strip": ("suzanne.obj", "skip-strip", {}, ("level_indices", "level_collapsed_indices")),
 }
-#: the restart each case must get: u32 files for bunny and bob, u16 for suzanne
+#: the restart each case must get: 0xFFFF, all ones of idx, u16 in every case (fewer than 65,536 vertices)
 EXPECTED = {
-    "bunny-sliding-strip": 0xFFFFFFFF,
-    "bob-sliding-strip": 0xFFFFFFFF,
-    "bob-skip-strip": 0xFFFFFFFF,
+    "bunny-sliding-strip": 0xFFFF,
+    "bob-sliding-strip": 0xFFFF,
+    "bob-skip-strip": 0xFFFF,
     "suzanne-sliding-strip": 0xFFFF,
     "suzanne-skip-strip": 0xFFFF,
 }
+#: the cases whose tables need u32 (a pool or level lists longer than 65,535 indices): OFFSET32
+OFFSET32 = {"bunny-sliding-strip", "bob-sliding-strip", "bob-skip-strip"}
 
 
 @pytest.fixture(scope="module", params=list(CASES))
@@ -44,13 +48,15 @@ def test_the_restart_index_is_all_ones_of_the_file_index_type(case) -> None:
     rv = EXPECTED[name]
     W = 2 if rv == 0xFFFF else 4
     assert pm.restart_index == pm.params["restart_index"] == rv
-    assert choose_index_width(pm.buffers()) == W
-    if W == 4:  # every vertex id fits u16 (fewer than 65,535 vertices): the pool's length makes the file u32
-        assert pm.vertex_count <= 0xFFFF
-        assert max(int(pm.buffers()[n].shape[0]) for n in lists) > 0xFFFF
+    assert choose_index_width(L.index_buffers(pm.buffers()), pm.vertex_count) == W
+    assert L.choose_offset_width(pm.buffers()) == (4 if name in OFFSET32 else 2)
+    # every vertex id fits u16 (fewer than 65,535 vertices); the pool's length widens only the tables
+    assert pm.vertex_count <= 0xFFFF
+    assert (max(int(pm.buffers()[n].shape[0]) for n in lists) > 0xFFFF) == (name in OFFSET32)
     data = encode_bytes(pm)
     features = int(np.frombuffer(data[: L.HEADER_SIZE], L.HEADER)[0]["features"])
     assert bool(features & L.FEATURE_INDEX32) == (W == 4)
+    assert bool(features & L.FEATURE_OFFSET32) == (name in OFFSET32)
     back = load_bytes(data)
     assert back.restart_index == back.params["restart_index"] == rv
     for n in lists:
@@ -64,10 +70,10 @@ def test_the_restart_index_is_all_ones_of_the_file_index_type(case) -> None:
 
 
 def test_the_restart_index_round_trips_through_usd(case, tmp_path) -> None:
-    """USD stores 0xFFFFFFFF as it is in a uint[] array; swpm:indexWidth is the width an engine draws at,
-    2 while vertex ids fit u16 (``layout.draw_index_width``: 0xFFFFFFFF copies to u16 as 0xFFFF), whatever
-    the file's width (4 beside 0xFFFFFFFF, the stored u32 values drawn as they are, is accepted too), and the
-    stage validates clean."""
+    """USD stores the restart index as it is in a uint[] array; swpm:indexWidth is the width an engine draws
+    at, 2 while vertex ids fit u16 (``layout.draw_index_width``), whatever the file's width (4 beside
+    0xFFFFFFFF, the stored u32 values drawn as they are, is accepted too: checked by the older file in
+    :func:`test_resaving_an_older_file_writes_restart_all_ones`), and the stage validates clean."""
     from pxr import Usd
 
     from swpm_usd import usd
@@ -116,7 +122,8 @@ def _strip_window(pool: list[int], V: int, first: int = 0):
         ([0, 1, 2], 3, 0, 0xFFFF),  # everything fits u16: 0xFFFFFFFF itself does not make the file u32
         ([0, 1, 2, 0xFFFFFFFF, 0, 1, 2], 3, 4, 0xFFFF),
         ([0, 1, 2], 0x10000, 0, 0xFFFFFFFF),  # a vertex count of 65,536: a u32 file (0xFFFF a vertex id)
-        ([0xFFFFFFFF] * 0x10000 + [0, 1, 2], 3, 0x10000, 0xFFFFFFFF),  # an offset past 65,535
+        # an offset past 65,535 widens the tables (OFFSET32), not idx (since 0.9.0)
+        ([0xFFFFFFFF] * 0x10000 + [0, 1, 2], 3, 0x10000, 0xFFFF),
     ],
 )
 def test_settle_restart_follows_the_writer_width(pool, V, first, rv) -> None:
@@ -131,7 +138,7 @@ def test_settle_restart_follows_the_writer_width(pool, V, first, rv) -> None:
     assert pm.restart_index == pm.params["restart_index"] == rv
     restarts = np.asarray(pool, np.int64) == 0xFFFFFFFF
     assert np.array_equal(pm.index_pool == rv, restarts)
-    assert choose_index_width(pm.buffers()) == (2 if rv == 0xFFFF else 4)
+    assert choose_index_width(L.index_buffers(pm.buffers()), V) == (2 if rv == 0xFFFF else 4)
     back = load_bytes(encode_bytes(pm))
     assert back.restart_index == rv and np.array_equal(back.index_pool, pm.index_pool)
     assert back.triangles_at(0).tolist() == [[0, 1, 2]]
@@ -147,8 +154,9 @@ def test_a_restart_of_0xffff_is_never_a_vertex() -> None:
     assert restart_index_for({"level_indices": top}, R, 0x10000) == R
     below = np.array([0, 1, 0xFFFE, R, 2, 3, 4], np.uint32)  # 65,535 vertices: 0xFFFF is no vertex
     assert restart_index_for({"level_indices": below}, R, 0xFFFF) == 0xFFFF
-    # an offset past 65,535 makes the file u32, whatever the vertex count
-    assert restart_index_for({"level_indices": below, "start": np.array([0, 0x10000], np.uint32)}, R, 9) == R
+    # an offset past 65,535 makes the tables u32 (OFFSET32), not idx: the restart stays u16's (since 0.9.0)
+    start = np.array([0, 0x10000], np.uint32)
+    assert restart_index_for({"level_indices": below, "level_index_start": start}, R, 9) == 0xFFFF
 
 
 def test_an_older_u32_file_with_restart_0xffff_still_reads() -> None:
@@ -159,18 +167,19 @@ def test_an_older_u32_file_with_restart_0xffff_still_reads() -> None:
     old = encode_bytes(fan_sliding_strips(), index_width=4, keep_restart_index=True)
     back = load_bytes(old)
     assert back.restart_index == 0xFFFF and np.asarray(back.index_pool).dtype.itemsize == 4
-    new = load_bytes(encode_bytes(fan_sliding_strips(0xFFFFFFFF)))
+    new = load_bytes(encode_bytes(fan_sliding_strips(0xFFFFFFFF), index_width=4))
     assert new.restart_index == 0xFFFFFFFF
     for k in range(back.lod_count):
         assert np.array_equal(back.triangles_at(k), new.triangles_at(k))
 
 
-def _with_restart_ffff(pm, lists):
-    """``pm`` as a writer before 0.8.0 made it: the same strips joined by 0xFFFF (in a u32 file)."""
+def _with_restart(pm, lists, value: int):
+    """``pm``'s strips joined by ``value``: 0xFFFFFFFF as a build before 0.9.0 joined bunny's and bob's (the
+    file u32 through the pool's offsets), 0xFFFF as any build of these meshes did before 0.8.0."""
     b = {n: np.asarray(a) for n, a in pm.buffers().items()}
     for n in lists:
-        b[n] = np.where(b[n] == pm.restart_index, 0xFFFF, b[n]).astype(np.uint32)
-    params = {**pm.params, "restart_index": 0xFFFF}
+        b[n] = np.where(b[n] == pm.restart_index, value, b[n]).astype(np.uint32)
+    params = {**pm.params, "restart_index": value}
     return swpm_usd.from_buffers(
         pm.encoding, pm.points, pm.attributes, pm.vertex_counts, pm.triangle_counts, pm.lod_errors, b, params
     )
@@ -178,11 +187,11 @@ def _with_restart_ffff(pm, lists):
 
 def test_memory_figures_do_not_depend_on_the_restart_value(case) -> None:
     """An engine draws strips of vertex ids below 65,535 from u16 indices whichever all ones joins them (a
-    u32 -> u16 copy turns 0xFFFFFFFF into 0xFFFF), as it draws a list pool of the same u32 file: the memory
-    figures count 2 bytes an index for both (counted at 4 bytes for strips joined by 0xFFFFFFFF, bob's strip
-    pool, a third smaller than its list pool, would come out larger)."""
+    u32 -> u16 copy turns 0xFFFFFFFF into 0xFFFF), as it draws a list pool: the memory figures count 2 bytes
+    an index for both (counted at 4 bytes for strips joined by 0xFFFFFFFF, as a build before 0.9.0 joined
+    bob's, its strip pool, a third smaller than its list pool, would come out larger)."""
     name, pm, lists = case
-    old = _with_restart_ffff(pm, lists)
+    old = _with_restart(pm, lists, 0xFFFFFFFF)
     assert (pm.global_bytes, pm.instance_bytes) == (old.global_bytes, old.instance_bytes), name
     n = sum(int(getattr(pm, x).shape[0]) for x in lists)
     if pm.encoding == "skip-strip":
@@ -283,7 +292,7 @@ def test_index_values_width_reads_a_restart_only_where_strips_use_it(raw, width)
         del pm.params["primitive"]
     else:
         pm = vec.fan_sliding_strips(0xFFFFFFFF)
-    # (kept as given: the writer would write 70,000 as 0xFFFFFFFF, all ones of the file's u32)
+    # (kept as given: the writer would write 70,000 as 0xFFFF, all ones of the file's u16)
     rep = validate_bytes(encode_bytes(pm, keep_restart_index=True))
     assert rep.valid, rep.format()
     assert rep.summary["index_width"] == (2 if raw == "sliding-list-ignored-restart" else 4)
@@ -294,8 +303,8 @@ VECTOR_FFFF = ROOT / "spec/vectors/valid/sliding-window-strips-u32-restart-ffff.
 
 
 def _assert_resaved(old, data: bytes, rv: int) -> None:
-    """``data``, ``old`` (strips joined by 0xFFFF) as the writer saved it: a clean file whose index type's
-    all ones ``rv`` joins the strips exactly where ``old``'s 0xFFFF did, every LOD drawing ``old``'s
+    """``data``, ``old`` (strips joined by its restart index) as the writer saved it: a clean file whose index
+    type's all ones ``rv`` joins the strips exactly where ``old``'s restart did, every LOD drawing ``old``'s
     triangles."""
     from swpm_usd.format.reader import validate_bytes
     from swpm_usd.format.writer import STRIP_ARRAYS
@@ -308,7 +317,7 @@ def _assert_resaved(old, data: bytes, rv: int) -> None:
     assert back.restart_index == back.params["restart_index"] == rv
     for n in STRIP_ARRAYS[old.encoding]:
         was, now = np.asarray(getattr(old, n)), np.asarray(getattr(back, n))
-        restarts = was == 0xFFFF
+        restarts = was == old.restart_index
         assert restarts.any() and np.array_equal(now == rv, restarts), n
         assert np.array_equal(now[~restarts], was[~restarts]), n
     assert back.lod_count == old.lod_count
@@ -340,38 +349,52 @@ def test_resaving_the_older_vector_writes_restart_all_ones(tmp_path) -> None:
     _assert_resaved(staged, encode_bytes(staged, index_width=4), 0xFFFFFFFF)
 
 
-def test_resaving_an_older_file_writes_restart_all_ones(case, tmp_path) -> None:
-    """A build's file as a writer before 0.8.0 wrote it (strips joined by 0xFFFF, ``keep_restart_index``; a
-    u32 file for bunny and bob, whose pools or level lists pass 65,535 indices), loaded and saved by
-    ``swpm_usd.save``, and the same read from a USD stage and saved: restart all ones of the file's index
-    type (0xFFFFFFFF in a u32 file: it was copied with 0xFFFF), the bytes of the build's own file."""
+@pytest.mark.parametrize("restart", [0xFFFF, 0xFFFFFFFF])
+def test_resaving_an_older_file_writes_restart_all_ones(case, restart, tmp_path) -> None:
+    """A build's file as a writer before 0.9.0 wrote it (``legacy``: one width, u32 for bunny and bob, whose
+    pools or level lists pass 65,535 indices), its strips joined by 0xFFFF (a writer before 0.8.0,
+    ``keep_restart_index``) or 0xFFFFFFFF (0.8.0: all ones of that u32), loaded and saved by
+    ``swpm_usd.save``, and the same read from a USD stage and saved: restart all ones of the new file's
+    ``idx``, 0xFFFF (OFFSET32 where the tables need u32), the bytes of the build's own file. The stage of
+    the older u32 file joined by 0xFFFFFFFF takes swpm:indexWidth 4 as well (drawn as stored)."""
     from pxr import Usd
 
     from swpm_usd import usd
+    from swpm_usd.usd.validate import validate_stage
 
     name, pm, lists = case
     src = tmp_path / "old.swpm"
-    src.write_bytes(encode_bytes(_with_restart_ffff(pm, lists), keep_restart_index=True))
+    src.write_bytes(encode_bytes(_with_restart(pm, lists, restart), keep_restart_index=True, legacy=True))
+    features = int(np.frombuffer(src.read_bytes()[: L.HEADER_SIZE], L.HEADER)[0]["features"])
+    # (suzanne's strips joined by 0xFFFFFFFF, which a build never made, are a u32 file through that value)
+    u32 = name in OFFSET32 or restart == 0xFFFFFFFF
+    assert bool(features & L.FEATURE_INDEX32) == u32 and not features & L.FEATURE_OFFSET32
     old = swpm_usd.load(src)
-    assert old.restart_index == 0xFFFF
+    assert old.restart_index == restart
     data = swpm_usd.save(old, tmp_path / "new.swpm").read_bytes()
     _assert_resaved(old, data, EXPECTED[name])
     assert data == encode_bytes(pm), name
     path = usd.write(old, tmp_path / "old.usdc")
     stage = Usd.Stage.Open(str(path))
-    staged = usd.read(usd.find_encoded(stage)[0])
-    assert staged.restart_index == 0xFFFF
+    prim = usd.find_encoded(stage)[0]
+    staged = usd.read(prim)
+    assert staged.restart_index == restart
     _assert_resaved(staged, swpm_usd.save(staged, tmp_path / "usd.swpm").read_bytes(), EXPECTED[name])
+    prim.GetAttribute("swpm:indexWidth").Set(4)
+    found = [f.code for f in validate_stage(stage, builtin=False)]
+    assert found == ([] if restart == 0xFFFFFFFF else ["SWPM_USD_INDEX_WIDTH"]), name
 
 
-def test_resaving_writes_the_bytes_of_a_new_build(case) -> None:
-    """A build's strips given back joined by 0xFFFF (as a writer before 0.8.0 stored them: ``from_buffers``
-    over writable arrays) are written byte for byte as the build itself is, the arrays given untouched."""
+@pytest.mark.parametrize("restart", [0xFFFF, 0xFFFFFFFF])
+def test_resaving_writes_the_bytes_of_a_new_build(case, restart) -> None:
+    """A build's strips given back joined by 0xFFFF (as a writer before 0.8.0 stored them) or 0xFFFFFFFF (as
+    a build before 0.9.0 joined bunny's and bob's), through ``from_buffers`` over writable arrays, are
+    written byte for byte as the build itself is, the arrays given untouched."""
     name, pm, lists = case
-    old = _with_restart_ffff(pm, lists)
+    old = _with_restart(pm, lists, restart)
     given = {n: np.array(getattr(old, n)) for n in lists}
     assert encode_bytes(old) == encode_bytes(pm), name
-    assert old.restart_index == 0xFFFF and all(np.array_equal(getattr(old, n), given[n]) for n in lists)
+    assert old.restart_index == restart and all(np.array_equal(getattr(old, n), given[n]) for n in lists)
 
 
 def test_a_restart_of_a_u16_file_is_written_0xffff() -> None:

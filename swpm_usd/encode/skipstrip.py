@@ -177,8 +177,8 @@ def _nondegenerate(t: np.ndarray) -> np.ndarray:
 
 def restart_value(vertex_count: int) -> int:
     """The restart index strips are built with: the largest value of the smallest index type that also holds
-    every vertex id. Not yet the file's: :func:`settle_restart` makes it 0xFFFFFFFF when another buffer makes
-    the file u32."""
+    every vertex id. Not yet the file's: :func:`settle_restart` makes it all ones of the file's ``idx`` (the
+    same value since 0.9.0, whose tables widen apart from ``idx``, OFFSET32)."""
     return 0xFFFF if vertex_count <= 0xFFFF else 0xFFFFFFFF
 
 
@@ -187,9 +187,10 @@ def settle_restart(pm: ProgressiveMesh, lists: tuple[str, ...] | None = None) ->
     the restart index of its file: the largest value of the file's index type by the format writer's width
     rule over ``pm.buffers()`` (:func:`..format.layout.restart_index_for`), so an engine uploads the file's
     indices as they are with the restart value Vulkan, D3D12 and Metal take (spec 3.5, 3.7). When it differs
-    (0xFFFF widened to 0xFFFFFFFF: e.g. a pool longer than 65,535 indices makes the file u32 through its
-    offsets) the restart entries of ``lists`` (default: the encoding's, :data:`..format.layout.STRIP_ARRAYS`)
-    are rewritten into new uint32 arrays (:func:`..format.layout.rejoin_strips`), with ``restart_index`` and
+    (a mesh given strips joined by another value; before 0.9.0 also a pool longer than 65,535 indices, which
+    made the file u32 through its offsets: now only the tables' ``off`` widens) the restart entries of
+    ``lists`` (default: the encoding's, :data:`..format.layout.STRIP_ARRAYS`) are rewritten into new uint32
+    arrays (:func:`..format.layout.rejoin_strips`), with ``restart_index`` and
     ``params["restart_index"]``."""
     old = int(pm.restart_index)
     rv = restart_index_for(pm.buffers(), old, pm.vertex_count)

@@ -31,19 +31,20 @@ def _mixed(p: _Parsed, rep: Report) -> None:
     if rc_c is None or m_c is None or idx_c is None or rec is None or p.lods is None or p.points is None:
         p.content_ok = False
         return
-    it = L.index_dtype(p.width)
-    if rc_c.length % p.width or idx_c.length % p.width or m_c.length < 8:
-        bad = rc_c if rc_c.length % p.width else idx_c if idx_c.length % p.width else m_c
+    # (the level table, records and RCNT are typed off, the lists idx: spec 3.8)
+    it, ot, O = L.index_dtype(p.width), L.index_dtype(p.offset_width), p.offset_width
+    if rc_c.length % O or idx_c.length % p.width or m_c.length < 8:
+        bad, unit = (rc_c, O) if rc_c.length % O else (idx_c if idx_c.length % p.width else m_c, p.width)
         rep.add(
             "SWPM_CHUNK_BAD_LENGTH",
             bad.entry_offset + 16,
             type=bad.name,
             length=bad.length,
-            need=max(bad.length // p.width * p.width, 8 if bad is m_c else 0),
+            need=max(bad.length // unit * unit, 8 if bad is m_c else 0),
         )
         p.content_ok = False
         return
-    rc = _view(p.buf, rc_c.offset, rc_c.length // p.width, it)
+    rc = _view(p.buf, rc_c.offset, rc_c.length // O, ot)
     static = _view(p.buf, idx_c.offset, idx_c.length // p.width, it)
     h = _view(p.buf, m_c.offset, 1, L.MLVL_HEADER)[0]
     n, D = int(h["level_count"]), int(h["dynamic_count"])
@@ -54,7 +55,7 @@ def _mixed(p: _Parsed, rep: Report) -> None:
         rep,
         m_c,
         8,
-        [(names[0], n, it), *((k, n + 1, it) for k in names[1:])]
+        [(names[0], n, ot), *((k, n + 1, ot) for k in names[1:])]
         + [("level_dynamic_indices", D, it), ("level_dynamic_collapsed_indices", D, it)],
         at=at,
     )
@@ -85,7 +86,7 @@ def _mixed(p: _Parsed, rep: Report) -> None:
             lv = int(bad[0])
             applied = int(rc[first[lv]])
             reason = f"level {lv} starts at record {int(rstart[lv])}, its first LOD applies {applied}"
-            where = at["level_record_start"] + lv * p.width
+            where = at["level_record_start"] + lv * O
     if reason:
         rep.add("SWPM_MIXED_BAD_LEVELS", where, reason=reason)
         p.content_ok = False
@@ -114,7 +115,7 @@ def _mixed(p: _Parsed, rep: Report) -> None:
             lv = int(np.flatnonzero(ends < 0)[0])
             rep.add(
                 "SWPM_RECORD_BAD_COUNTS",
-                int(rec["_base"][0]) + (1 if col == "static" else 2) * p.width,
+                int(rec["_base"][0]) + (1 if col == "static" else 2) * O,
                 reason=f"level {lv}'s records remove {int(full[lv] - ends[lv])} {col} triangles "
                 f"of {int(full[lv])}",
             )
@@ -183,7 +184,7 @@ def _mixed(p: _Parsed, rep: Report) -> None:
                 V,
             )
         )
-        row = int(rec["_base"][0]) + r * 5 * p.width
+        row = int(rec["_base"][0]) + r * 5 * O
         if kind == 1:
             rep.add("SWPM_RECORD_BAD_CHANGE", row, record=r, slot=s)
         elif kind == 2:

@@ -26,7 +26,7 @@ def _record_chunk(p: _Parsed, rep: Report, t: bytes, cols: list[str]) -> dict[st
         return None
     h = _view(p.buf, c.offset, 1, L.REC_HEADER)[0]
     R, M = int(h["record_count"]), int(h["offset_count"])
-    it = L.index_dtype(p.width)
+    it = L.index_dtype(p.offset_width)  # (records and change offsets are typed off, spec 3.6)
     nc = len(cols)
     at: dict[str, int] = {}
     arrs = _arrays(p, rep, c, 8, [("record_count", nc * R, it), ("offset_count", M, it)], at=at)
@@ -51,7 +51,7 @@ def _kept_below_binned(p: _Parsed, rep: Report, rec: dict[str, np.ndarray], V: i
     for r in bad[:3]:
         rep.add(
             "SWPM_RECORD_BAD_KEPT",
-            row + int(r) * ncols * p.width,
+            row + int(r) * ncols * p.offset_width,
             record=int(r),
             kept=int(kept[r]),
             binned=int(binned[r]),
@@ -102,13 +102,13 @@ def _common_records(
         rep.add(
             "SWPM_RECORD_BAD_COUNTS",
             # prev_change_count is the last column of every record table (4 columns, 5 in MREC)
-            int(rec["_base"][0]) + (bad * int(rec["_base"][2]) + int(rec["_base"][2]) - 1) * p.width,
+            int(rec["_base"][0]) + (bad * int(rec["_base"][2]) + int(rec["_base"][2]) - 1) * p.offset_width,
             reason=f"record {bad}: previous change count {int(prev[bad])} is wrong",
         )
         ok = False
     rc64 = rc.astype(np.int64)
     if rc64.shape[0] != lods:
-        rep.add("SWPM_CHUNK_BAD_LENGTH", rc_off, type="RCNT", length=rc.nbytes, need=lods * p.width)
+        rep.add("SWPM_CHUNK_BAD_LENGTH", rc_off, type="RCNT", length=rc.nbytes, need=lods * p.offset_width)
         return False
     if rc64[0] != 0 or np.any(np.diff(rc64) < 0) or rc64[-1] > R:
         rep.add(
@@ -132,7 +132,7 @@ def _offsets_in_level(
     for j in bad[:3]:
         rep.add(
             "SWPM_INDEX_OUT_OF_RANGE",
-            int(rec["_base"][1]) + int(j) * p.width,
+            int(rec["_base"][1]) + int(j) * p.offset_width,
             what="collapse_change_offsets",
             value=int(rec["collapse_change_offsets"][j]),
             index=int(j),

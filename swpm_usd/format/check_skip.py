@@ -29,19 +29,20 @@ def _skip(p: _Parsed, rep: Report) -> None:
     if rc_c is None or s_c is None or idx_c is None or rec is None or p.lods is None or p.points is None:
         p.content_ok = False
         return
-    it = L.index_dtype(p.width)
-    if rc_c.length % p.width or idx_c.length % p.width or s_c.length < 8:
-        bad = rc_c if rc_c.length % p.width else idx_c if idx_c.length % p.width else s_c
+    # (the level table, records and RCNT are typed off, the lists idx: spec 3.7)
+    it, ot, O = L.index_dtype(p.width), L.index_dtype(p.offset_width), p.offset_width
+    if rc_c.length % O or idx_c.length % p.width or s_c.length < 8:
+        bad, unit = (rc_c, O) if rc_c.length % O else (idx_c if idx_c.length % p.width else s_c, p.width)
         rep.add(
             "SWPM_CHUNK_BAD_LENGTH",
             bad.entry_offset + 16,
             type=bad.name,
             length=bad.length,
-            need=bad.length // p.width * p.width,
+            need=bad.length // unit * unit,
         )
         p.content_ok = False
         return
-    rc = _view(p.buf, rc_c.offset, rc_c.length // p.width, it)
+    rc = _view(p.buf, rc_c.offset, rc_c.length // O, ot)
     lst = _view(p.buf, idx_c.offset, idx_c.length // p.width, it)
     h = _view(p.buf, s_c.offset, 1, L.SKIP_HEADER)[0]
     n, C = int(h["level_count"]), int(h["collapsed_count"])
@@ -52,10 +53,10 @@ def _skip(p: _Parsed, rep: Report) -> None:
         s_c,
         8,
         [
-            ("level_first_lod", n, it),
-            ("level_index_start", n + 1, it),
-            ("level_collapsed_start", n + 1, it),
-            ("level_record_start", n + 1, it),
+            ("level_first_lod", n, ot),
+            ("level_index_start", n + 1, ot),
+            ("level_collapsed_start", n + 1, ot),
+            ("level_record_start", n + 1, ot),
             ("level_collapsed_indices", C, it),
         ],
         at=at,
@@ -106,7 +107,7 @@ def _skip(p: _Parsed, rep: Report) -> None:
         p, rep, s_c, arrs["level_collapsed_indices"], "level_collapsed_indices", V, collapsed_at, exempt
     )
     for i, col in enumerate(("collapse_kept", "collapse_binned")):
-        ok &= _index_check(p, rep, p.chunks[L.SREC], rec[col], col, V, int(rec["_base"][0]) + i * p.width)
+        ok &= _index_check(p, rep, p.chunks[L.SREC], rec[col], col, V, int(rec["_base"][0]) + i * O)
     if ok:
         rstart = arrs["level_record_start"].astype(np.int64)
         lstart = arrs["level_index_start"].astype(np.int64)
@@ -147,7 +148,7 @@ def _skip_records(
     below it, the level table matches RCNT, replaying a level's records changes only slots holding the
     binned vertex, removes it from the list and gives the collapsed list, and LODS counts what is drawn."""
     assert p.points is not None and p.lods is not None
-    V, Lc, W = p.points.shape[0], p.lods.shape[0], p.width
+    V, Lc, W, O = p.points.shape[0], p.lods.shape[0], p.width, p.offset_width
     kept = rec["collapse_kept"].astype(np.int64)
     binned = rec["collapse_binned"].astype(np.int64)
     R = kept.shape[0]
@@ -158,7 +159,7 @@ def _skip_records(
         ok = False
     bad = np.flatnonzero(binned != V - 1 - np.arange(R))
     for r in bad[:3]:
-        rep.add("SWPM_RECORD_BAD_BINNED", row0 + (4 * int(r) + 1) * W, record=int(r), binned=int(binned[r]))
+        rep.add("SWPM_RECORD_BAD_BINNED", row0 + (4 * int(r) + 1) * O, record=int(r), binned=int(binned[r]))
     ok &= bad.size == 0
     ok &= _kept_below_binned(p, rep, rec, V)
     first = arrs["level_first_lod"].astype(np.int64)
@@ -202,7 +203,7 @@ def _skip_records(
     )
     kind, r, s = int(kind), int(r), int(s)
     if kind == 1:
-        rep.add("SWPM_RECORD_BAD_CHANGE", row0 + 4 * r * W, record=r, slot=s)
+        rep.add("SWPM_RECORD_BAD_CHANGE", row0 + 4 * r * O, record=r, slot=s)
     elif kind == 3:
         lv = int(np.searchsorted(lstart, s, side="right")) - 1
         rep.add(

@@ -25,17 +25,17 @@ def _sliding(p: _Parsed, rep: Report) -> None:
     if w_c is None or idx_c is None or p.lods is None or p.points is None:
         p.content_ok = False
         return
-    it = L.index_dtype(p.width)
+    it, O = L.index_dtype(p.width), p.offset_width  # (WREC is typed off, the pool idx: spec 3.5)
     Lc = p.lods.shape[0]
     strips = bool(p.features & L.FEATURE_SW_STRIPS)
     cols = 4 if strips else 3
-    if w_c.length != cols * p.width * Lc or idx_c.length % p.width:
-        bad = w_c if w_c.length != cols * p.width * Lc else idx_c
-        need = cols * p.width * Lc if bad is w_c else bad.length // p.width * p.width
+    if w_c.length != cols * O * Lc or idx_c.length % p.width:
+        bad = w_c if w_c.length != cols * O * Lc else idx_c
+        need = cols * O * Lc if bad is w_c else bad.length // p.width * p.width
         rep.add("SWPM_CHUNK_BAD_LENGTH", bad.entry_offset + 16, type=bad.name, length=bad.length, need=need)
         p.content_ok = False
         return
-    win = _view(p.buf, w_c.offset, cols * Lc, it).reshape(Lc, cols)
+    win = _view(p.buf, w_c.offset, cols * Lc, L.index_dtype(O)).reshape(Lc, cols)
     pool = _view(p.buf, idx_c.offset, idx_c.length // p.width, it)
     V = p.points.shape[0]
     first, tc, vc = (win[:, i].astype(np.int64) for i in range(3))
@@ -48,7 +48,7 @@ def _sliding(p: _Parsed, rep: Report) -> None:
             p.content_ok = False
             return
     ok = True
-    row = cols * p.width
+    row = cols * O
     for i, (what, col) in enumerate((("triangle_count", "triangle_count"), ("vertex_count", "vertex_count"))):
         got = (tc, vc)[i]
         bad = np.flatnonzero(got != p.lods[col])
@@ -56,7 +56,7 @@ def _sliding(p: _Parsed, rep: Report) -> None:
             k = int(bad[0])
             rep.add(
                 "SWPM_WINDOW_COUNT_MISMATCH",
-                w_c.offset + k * row + (1 + i) * p.width,
+                w_c.offset + k * row + (1 + i) * O,
                 lod=k,
                 what=what,
                 value=int(got[k]),
@@ -68,7 +68,7 @@ def _sliding(p: _Parsed, rep: Report) -> None:
         k = int(bad[0]) + 1
         rep.add(
             "SWPM_WINDOW_NOT_MONOTONE",
-            w_c.offset + k * row + p.width,
+            w_c.offset + k * row + O,
             lod=k,
             what="triangle count grows from the previous (finer) window",
         )
@@ -128,7 +128,7 @@ def _sliding(p: _Parsed, rep: Report) -> None:
             k = int(bad[0])
             rep.add(
                 "SWPM_WINDOW_STRIP_TRIANGLES",
-                w_c.offset + k * row + 3 * p.width,
+                w_c.offset + k * row + 3 * O,
                 lod=k,
                 decoded=int(decoded[k]),
                 expected=int(tc[k]),

@@ -29,19 +29,20 @@ def _vanilla(p: _Parsed, rep: Report) -> None:
     if rc_c is None or idx_c is None or rec is None or p.lods is None or p.points is None:
         p.content_ok = False
         return
-    it = L.index_dtype(p.width)
-    if rc_c.length % p.width or idx_c.length % (3 * p.width):
-        bad = rc_c if rc_c.length % p.width else idx_c
+    it, ot = L.index_dtype(p.width), L.index_dtype(p.offset_width)
+    ow = p.offset_width
+    if rc_c.length % ow or idx_c.length % (3 * p.width):
+        bad, unit = (rc_c, ow) if rc_c.length % ow else (idx_c, 3 * p.width)
         rep.add(
             "SWPM_CHUNK_BAD_LENGTH",
             bad.entry_offset + 16,
             type=bad.name,
             length=bad.length,
-            need=bad.length // (3 * p.width) * 3 * p.width,
+            need=bad.length // unit * unit,
         )
         p.content_ok = False
         return
-    rc = _view(p.buf, rc_c.offset, rc_c.length // p.width, it)
+    rc = _view(p.buf, rc_c.offset, rc_c.length // ow, ot)
     indices = _view(p.buf, idx_c.offset, idx_c.length // p.width, it)
     V, T0, Lc = p.points.shape[0], indices.shape[0] // 3, p.lods.shape[0]
     ok = _common_records(p, rep, rec, rc, rc_c.offset, Lc)
@@ -57,7 +58,7 @@ def _vanilla(p: _Parsed, rep: Report) -> None:
     if cum[-1] > T0:
         rep.add(
             "SWPM_RECORD_BAD_COUNTS",
-            int(rec["_base"][0]) + p.width,
+            int(rec["_base"][0]) + ow,
             reason=f"records remove {int(cum[-1])} triangles of {T0}",
         )
         ok = False
@@ -74,7 +75,7 @@ def _vanilla(p: _Parsed, rep: Report) -> None:
         if kind == 1:
             rep.add(
                 "SWPM_RECORD_BAD_CHANGE",
-                int(rec["_base"][0]) + int(r) * 4 * p.width,
+                int(rec["_base"][0]) + int(r) * 4 * ow,
                 record=int(r),
                 slot=int(s),
             )
@@ -83,7 +84,7 @@ def _vanilla(p: _Parsed, rep: Report) -> None:
             k = int(np.searchsorted(rc, r + 1))
             rep.add(
                 "SWPM_PREFIX_VIOLATION",
-                int(rec["_base"][0]) + int(r) * 4 * p.width,
+                int(rec["_base"][0]) + int(r) * 4 * ow,
                 lod=k,
                 vertex=int(s),
                 limit=int(s),

@@ -574,11 +574,14 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
         width = f", index u{8 * out['index_width']}" if "index_width" in out else ""
         values_w = out.get("index_values_width", out.get("index_width"))
         if values_w is not None and values_w < out.get("index_width", values_w):
-            # (the file's idx widened by offsets or counts: what an engine can upload its index lists as)
+            # (the file's idx widened by offsets or counts, a writer before 0.9.0, or by choice: what an
+            # engine can upload its index lists as)
             width += f" (index values fit u{8 * values_w})"
         elif values_w is not None and values_w > out.get("index_width", values_w):
             # (an older writer's u16 file of 65,536 vertices: vertex 65,535 is u16's restart index, spec 1)
             width += f" (vertex ids reach 0xFFFF: drawn as u{8 * values_w})"
+        if "offset_width" in out:  # off, the tables' type: u32 with INDEX32 or OFFSET32 (spec 1)
+            width += f", tables u{8 * out['offset_width']}"
         click.echo(head + width)
         for key in (
             "file_size",

@@ -96,6 +96,14 @@ _ENTRIES = [
         "20 (the features field)",
     ),
     Entry(
+        "SWPM_HEADER_OFFSET32_WITH_INDEX32",
+        ERROR,
+        "feature bits {bits:#x} set OFFSET32 with INDEX32",
+        "The OFFSET32 feature bit (0x40) widens only the tables of a file whose index type is u16; with "
+        "INDEX32 it is not allowed.",
+        "20 (the features field)",
+    ),
+    Entry(
         "SWPM_HEADER_RESERVED_NONZERO",
         WARNING,
         "reserved header field {field} is {value}, expected 0",
@@ -334,9 +342,9 @@ _ENTRIES = [
         ERROR,
         "{what} holds {value} at element {index}, limit {limit}",
         "An index at or above the vertex count (or an offset past its list).",
-        "the offending element (array start + W x i) of INDX, change_offsets, level_collapsed_indices, "
-        "level_dynamic_indices or level_dynamic_collapsed_indices, or the kept / binned field of record "
-        "i in SREC (table + W x (4 i + column)); first 3 per array",
+        "the offending element of INDX, level_collapsed_indices, level_dynamic_indices or "
+        "level_dynamic_collapsed_indices (array start + W x i) or of change_offsets (array start + O x i), "
+        "or the kept / binned field of record i in SREC (table + O x (4 i + column)); first 3 per array",
     ),
     Entry(
         "SWPM_WINDOW_OUT_OF_POOL",
@@ -350,7 +358,7 @@ _ENTRIES = [
         ERROR,
         "window of LOD {lod}: {what}",
         "Windows are ordered finest to coarsest with non-increasing triangle counts.",
-        "the triangle_count field of window k (window + W), k the first window whose triangle_count "
+        "the triangle_count field of window k (window + O), k the first window whose triangle_count "
         "exceeds window k - 1's; one problem",
     ),
     Entry(
@@ -358,7 +366,7 @@ _ENTRIES = [
         ERROR,
         "window of LOD {lod} says {what} {value}, LODS says {expected}",
         "A window's counts differ from the LOD table.",
-        "the differing field of window k, triangle_count (window + W) or vertex_count (window + 2 W); "
+        "the differing field of window k, triangle_count (window + O) or vertex_count (window + 2 O); "
         "first differing window per field",
     ),
     Entry(
@@ -374,7 +382,7 @@ _ENTRIES = [
         ERROR,
         "window of LOD {lod} decodes to {decoded} triangles, its triangle_count is {expected}",
         "A strip pool's window (SW_STRIPS) must decode to exactly triangle_count non-degenerate triangles.",
-        "the index_count field of window k (window + 3 W), the first such window; one problem",
+        "the index_count field of window k (window + 3 O), the first such window; one problem",
     ),
     Entry(
         "SWPM_PREFIX_VIOLATION",
@@ -398,7 +406,7 @@ _ENTRIES = [
         ERROR,
         "record {record} bins vertex {binned}; record r must bin V - 1 - r",
         "Skip-strip record r must bin the last vertex still in use, V - 1 - r (vertex prefix property).",
-        "record r's binned field in SREC (table + W x (4 r + 1)); first 3 records",
+        "record r's binned field in SREC (table + O x (4 r + 1)); first 3 records",
     ),
     Entry(
         "SWPM_RECORD_BAD_COUNTS",
@@ -406,11 +414,11 @@ _ENTRIES = [
         "collapse records: {reason}",
         "Change counts, previous change counts, removed triangles or per-LOD record counts are inconsistent.",
         "change counts do not sum to offset_count: the record table (payload + 8); prev_change_count "
-        "of record r wrong: that field, payload + 8 + W x (c r + c - 1) with c columns (4, MREC 5), "
+        "of record r wrong: that field, payload + 8 + O x (c r + c - 1) with c columns (4, MREC 5), "
         "for the first such r; RCNT not from 0, decreasing or above R: RCNT "
         "payload (one problem however many of the three); R >= V: the record chunk's payload; too many "
         "triangles removed: record 0's "
-        "tris_removed (table + W; MREC: static + W, dynamic + 2 W, whatever the level, one problem per "
+        "tris_removed (table + O; MREC: static + O, dynamic + 2 O, whatever the level, one problem per "
         "column); LODS triangle_count differs (vanilla: also row 0 against T0 = INDX count / 3): the "
         "start of the first differing LODS row",
     ),
@@ -566,10 +574,11 @@ def render_markdown() -> str:
         "",
         "In that column a bare number is an absolute offset into the header; *entry* is the first byte of",
         "the chunk's 32-byte chunk-table entry and *payload* the first byte of the chunk's payload (the",
-        "chunk named, else the one the code concerns); W is the index width (2 or 4 bytes). *Element i* of",
-        "an array is its start + i x element size; LODS row k is payload + 12 k; WREC window k is payload +",
-        "3 W k; record r's row in VREC, SREC or MREC (the record table starts at payload + 8) is payload +",
-        "8 + C W r with C = 4 columns (MREC: 5); SMAP band b is payload + 8 + 24 b. *First* means the",
+        "chunk named, else the one the code concerns); W is the index width and O the table width (2 or 4",
+        "bytes each: format.md 1). *Element i* of an array is its start + i x element size; LODS row k is",
+        "payload + 12 k; WREC window k is payload + 3 O k (4 O k with SW_STRIPS); record r's row in VREC,",
+        "SREC or MREC (the record table starts at payload + 8) is payload + 8 + C O r with C = 4 columns",
+        "(MREC: 5); SMAP band b is payload + 8 + 24 b. *First* means the",
         "lowest offending index, in the order the array is stored; where a code comes from several checks,",
         "each is listed. This reader lists at most 20 problems of one code; further ones are only counted.",
         "",

@@ -63,6 +63,9 @@ FEATURE_SKIP_STRIP = 1 << 3
 FEATURE_MIXED = 1 << 4
 #: sliding-window only: the pool is triangle strips, WREC rows have a 4th field, index_count (spec 3.5)
 FEATURE_SW_STRIPS = 1 << 5
+#: the table type ``off`` is u32 while ``idx`` is u16 (spec 1; not allowed with INDEX32): a sliding-window
+#: pool longer than 65,535 indices of fewer than 65,536 vertices stays u16 (since swpm-usd 0.9.0)
+FEATURE_OFFSET32 = 1 << 6
 KNOWN_FEATURES = (
     FEATURE_INDEX32
     | FEATURE_VANILLA
@@ -70,6 +73,7 @@ KNOWN_FEATURES = (
     | FEATURE_SKIP_STRIP
     | FEATURE_MIXED
     | FEATURE_SW_STRIPS
+    | FEATURE_OFFSET32
 )
 ENCODING_FEATURES = {
     "vanilla": FEATURE_VANILLA,
@@ -187,8 +191,49 @@ def align(n: int, a: int) -> int:
 
 
 def index_dtype(width: int) -> np.dtype:
-    """The stored dtype of encoding arrays for an index width of 2 or 4 bytes."""
+    """The stored dtype of encoding arrays for a width (``idx``'s W or ``off``'s O) of 2 or 4 bytes."""
     return np.dtype("<u2") if width == 2 else np.dtype("<u4")
+
+
+#: the encoding arrays typed ``idx`` (spec 1, 7): the ones an engine uploads as index buffers; every other
+#: integer array of the encodings (windows, records, level tables, RCNT) is typed ``off``
+INDEX_ARRAYS = frozenset(
+    {
+        "indices",
+        "index_pool",
+        "level_indices",
+        "level_collapsed_indices",
+        "level_static_indices",
+        "level_dynamic_indices",
+        "level_dynamic_collapsed_indices",
+    }
+)
+
+
+def index_buffers(buffers: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The ``idx`` arrays of an encoding's buffers (:data:`INDEX_ARRAYS`)."""
+    return {k: v for k, v in buffers.items() if k in INDEX_ARRAYS}
+
+
+def offset_buffers(buffers: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The ``off`` arrays of an encoding's buffers: every one not in :data:`INDEX_ARRAYS`."""
+    return {k: v for k, v in buffers.items() if k not in INDEX_ARRAYS}
+
+
+def file_widths(width: int, offset_width: int) -> tuple[int, int, int]:
+    """(W, O, feature bits) of a file whose ``idx`` needs ``width`` and ``off`` ``offset_width`` bytes (spec
+    1): ``idx`` u32 sets INDEX32 only, which makes ``off`` u32 too; ``idx`` u16 with ``off`` u32 sets
+    OFFSET32."""
+    if width == 4:
+        return 4, 4, FEATURE_INDEX32
+    return 2, offset_width, FEATURE_OFFSET32 if offset_width == 4 else 0
+
+
+def read_widths(features: int) -> tuple[int, int]:
+    """(W, O) a reader takes from the header's required-feature bits (spec 1): both u32 with INDEX32 (with
+    OFFSET32 too: an error, read so), ``off`` u32 with OFFSET32 alone."""
+    W = 4 if features & FEATURE_INDEX32 else 2
+    return W, 4 if features & (FEATURE_INDEX32 | FEATURE_OFFSET32) else 2
 
 
 def vertex_ids_fit_u16(vertex_count: int) -> bool:
@@ -201,10 +246,12 @@ def vertex_ids_fit_u16(vertex_count: int) -> bool:
 def choose_index_width(
     buffers: Mapping[str, np.ndarray], vertex_count: int | None = None, restart: int | None = None
 ) -> int:
-    """2 when every value of every integer encoding buffer fits u16 and no vertex id is 0xFFFF, else 4 (spec:
-    "Index width"). ``vertex_count`` (V) makes the file u32 from 65,536 vertices on
-    (:func:`vertex_ids_fit_u16`), whether or not a buffer holds vertex 65,535; None checks the values only.
-    Entries equal to ``restart`` (a strips' restart index) are left out: the width their other values need."""
+    """2 when every value of every integer buffer given fits u16 and no vertex id is 0xFFFF, else 4 (spec 1).
+    Given the ``idx`` arrays (:func:`index_buffers`), the file's W; given all of an encoding's buffers, the
+    single width a writer before 0.9.0 used for every array. ``vertex_count`` (V) makes it 4 from 65,536
+    vertices on (:func:`vertex_ids_fit_u16`), whether or not a buffer holds vertex 65,535; None checks the
+    values only. Entries equal to ``restart`` (a strips' restart index) are left out: the width their other
+    values need."""
     if vertex_count is not None and not vertex_ids_fit_u16(vertex_count):
         return 4
     top = 0
@@ -215,6 +262,13 @@ def choose_index_width(
         if a.size and np.issubdtype(a.dtype, np.integer):
             top = max(top, int(a.max()))
     return 2 if top <= 0xFFFF else 4
+
+
+def choose_offset_width(buffers: Mapping[str, np.ndarray]) -> int:
+    """2 when every value of the ``off`` arrays among ``buffers`` (:func:`offset_buffers`: window fields,
+    records, level tables, RCNT) fits u16, else 4 (spec 1: a writer sets OFFSET32 then, unless ``idx`` is
+    u32). Its values are offsets and counts, never a restart index, so none is left out."""
+    return choose_index_width(offset_buffers(buffers))
 
 
 #: the arrays holding strips joined by ``params["restart_index"]``, per encoding (spec 3.5, 3.7)
@@ -239,21 +293,23 @@ def restart_index_for(buffers: Mapping[str, np.ndarray], restart: int, vertex_co
     u16 file, else 0xFFFFFFFF, so an engine uploads ``INDX`` as it is with the restart value its API takes.
 
     ``buffers`` are the encoding's integer buffers (``ProgressiveMesh.buffers()``) with strips joined by
-    ``restart`` (any value >= ``vertex_count``). 0xFFFF when :func:`choose_index_width` finds the file u16
-    with the restart entries left out (every vertex id below 0xFFFF, every other value fits u16): then the
-    file holding 0xFFFF is u16, and one holding 0xFFFFFFFF is u32 by the same function, so the restart chosen
-    and the width written cannot disagree."""
-    return 0xFFFF if choose_index_width(buffers, vertex_count, restart=int(restart)) == 2 else 0xFFFFFFFF
+    ``restart`` (any value >= ``vertex_count``). 0xFFFF when :func:`choose_index_width` finds ``idx`` u16 over
+    the ``idx`` arrays (:func:`index_buffers`) with the restart entries left out (every vertex id below
+    0xFFFF): the writer decides W by the same rule, so the restart chosen and the width written cannot
+    disagree. Offsets and counts no longer count (since 0.9.0 they widen ``off``, OFFSET32, not ``idx``)."""
+    W = choose_index_width(index_buffers(buffers), vertex_count, restart=int(restart))
+    return 0xFFFF if W == 2 else 0xFFFFFFFF
 
 
 def draw_index_width(vertex_count: int, restart: int | None = None) -> int:
     """The width (2 or 4) an engine draws index values at, whatever the file's ``idx``: 2 when every vertex
     id is below 0xFFFF (:func:`vertex_ids_fit_u16`, the rule :func:`choose_index_width` applies) and, for
     strips joined by ``restart``, the restart index is 0xFFFF or the all ones of u32, which a u32 -> u16 copy
-    (a truncation) turns into u16's 0xFFFF; else 4. The file's ``idx`` may be wider (a pool's offsets, spec
-    3.5): the memory figures (``global_bytes``), the pipeline's coarsest-LOD bytes, ``swpm:indexWidth`` and
-    inspect's ``index_values_width`` count this width, so a strip's restart index (all ones of ``idx``) does
-    not double its indices' bytes where the list pool of the same file counts 2."""
+    (a truncation) turns into u16's 0xFFFF; else 4. The file's ``idx`` may be wider (a file of a writer
+    before 0.9.0, whose pool offsets widened it, spec 3.5, or a forced ``index_width``): the memory figures
+    (``global_bytes``), the pipeline's coarsest-LOD bytes, ``swpm:indexWidth`` and inspect's
+    ``index_values_width`` count this width, so a strip's restart index (all ones of ``idx``) does not
+    double its indices' bytes where the list pool of the same file counts 2."""
     if not vertex_ids_fit_u16(vertex_count):
         return 4
     if restart is None:

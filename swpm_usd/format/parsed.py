@@ -36,7 +36,8 @@ class _Chunk:
 class _Parsed:
     buf: np.ndarray
     encoding: str | None = None
-    width: int = 4
+    width: int = 4  # W, the byte size of idx (spec 1)
+    offset_width: int = 4  # O, the byte size of off, the table type
     minor: int = 0
     features: int = 0
     chunks: dict[bytes, _Chunk] = field(default_factory=dict)

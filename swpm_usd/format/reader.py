@@ -117,7 +117,9 @@ def _structure(buf: np.ndarray, rep: Report, check_crc: bool) -> _Parsed | None:
     p.features = feats
     if feats & L.FEATURE_SW_STRIPS and not feats & L.FEATURE_SLIDING_WINDOW:
         rep.add("SWPM_HEADER_STRIPS_NOT_SLIDING", 20, bits=feats)
-    p.width = 4 if feats & L.FEATURE_INDEX32 else 2
+    if feats & L.FEATURE_OFFSET32 and feats & L.FEATURE_INDEX32:  # (read on with idx = off = u32)
+        rep.add("SWPM_HEADER_OFFSET32_WITH_INDEX32", 20, bits=feats)
+    p.width, p.offset_width = L.read_widths(feats)
     if p.minor == L.VERSION_MINOR:  # newer minors may use reserved fields
         for name, off in (("reserved0", 28), ("reserved1", 52)):
             val = h[name]
@@ -295,7 +297,8 @@ _DRAWN_LISTS = {
 
 def _index_values_width(p: _Parsed) -> int:
     """The smallest width (2 or 4) an engine can upload the lists it draws from at, beside the file's ``idx``
-    (``index_width``), which offsets and counts may widen (a list pool longer than 65,535 indices): every
+    (``index_width``), which a file of a writer before 0.9.0 widened for its offsets and counts (a list pool
+    longer than 65,535 indices; since OFFSET32 they widen ``off``, ``offset_width``, alone): every
     vertex id in them fits it, and a strips' restart index by :func:`.layout.draw_index_width` (0xFFFFFFFF,
     all ones of a u32 file's ``idx``, copies to u16 as 0xFFFF while no vertex id is 0xFFFF). 4 from 65,536
     vertices on, also for an older writer's u16 file of them: vertex 65,535 is u16's restart (spec 1)."""
@@ -322,6 +325,7 @@ def _summarise(p: _Parsed, rep: Report) -> None:
             "encoding": p.encoding,
             "version": f"1.{p.minor}",
             "index_width": p.width,
+            "offset_width": p.offset_width,
             "index_values_width": _index_values_width(p),
             "lod_count": int(p.lods.shape[0]),
             "vertex_count": int(p.points.shape[0]),

@@ -355,7 +355,7 @@ def restream(pm: RawProgressiveMesh, order: list[int]) -> bytes:
     data = reorder(_write(pm), order)
     _, vo, _ = chunk(data, L.VERT)
     _, _, stride, vert_data = struct.unpack_from("<4I", data, vo)
-    width = 4 if struct.unpack_from("<I", data, 20)[0] & L.FEATURE_INDEX32 else 2
+    width = L.read_widths(struct.unpack_from("<I", data, 20)[0])[0]
     bufs = pm.buffers()
     n_index = chunk(data, L.INDX)[2] // width
     need = needed_index_ranges(pm.encoding, bufs, pm.lod_count, n_index)
@@ -451,7 +451,8 @@ def _valid() -> dict[str, tuple[bytes, str]]:
             " starting a strip, swaps not counted",
         ),
         "sliding-window-strips-u32": (
-            _write(fan_sliding_strips(0xFFFFFFFF)),
+            # (since 0.9.0 the writer makes this pool u16, restart 0xFFFF: u32 is forced, INDEX32, as before)
+            _write(fan_sliding_strips(0xFFFFFFFF), index_width=4),
             "the strip pool of sliding-window-strips in a u32 file with restart index 0xFFFFFFFF, all ones of"
             " idx: what a writer writes whenever the file is u32 (format.md 3.5), drawn as it is by an API"
             " whose restart value is all ones of the index type",
@@ -463,9 +464,10 @@ def _valid() -> dict[str, tuple[bytes, str]]:
             " as u16 (format.md 3.5)",
         ),
         "skip-strip-strip-u32": (
-            _write(fan_skip_strip(0xFFFFFFFF)),
+            _write(fan_skip_strip(0xFFFFFFFF), index_width=4),
             "skip-strip-strip in a u32 file with restart index 0xFFFFFFFF, all ones of idx (format.md 3.7)",
         ),
+        **_offset32_valid(),
         "sliding-window-strip-prefix": (
             _write(fan_sliding_strip_prefix()),
             "sliding window, a strip pool whose window 1 ends inside the strip window 0 draws: its 4 indices,"
@@ -484,6 +486,73 @@ def _valid() -> dict[str, tuple[bytes, str]]:
             " reject a window that ends on degenerate triangles)",
         ),
     }
+
+
+#: what every forced OFFSET32 vector says of itself (format.md 1)
+_FORCED = (
+    ": a writer SHOULD NOT set OFFSET32 when every table value fits u16, as here (it is forced to keep the"
+    " vector small, as a pool longer than 65,535 indices sets it); the file is still valid (format.md 1)"
+)
+
+
+def _offset32_valid() -> dict[str, tuple[bytes, str]]:
+    """Valid files with the OFFSET32 bit (format.md 1): ``idx`` u16, the tables (``off``) u32, in each
+    encoding; the strips keep restart index 0xFFFF, all ones of ``idx``."""
+    return {
+        "sliding-window-strips-offset32": (
+            _write(fan_sliding_strips(), offset_width=4),
+            "the strip pool of sliding-window-strips with OFFSET32: INDX u16 with restart index 0xFFFF, WREC"
+            " u32 (its rows 16 bytes)" + _FORCED,
+        ),
+        "skip-strip-strip-offset32": (
+            _write(fan_skip_strip(), offset_width=4),
+            "skip-strip-strip with OFFSET32: INDX and level_collapsed_indices u16 with restart index 0xFFFF,"
+            " the level table, SREC and RCNT u32" + _FORCED,
+        ),
+        "sliding-window-offset32": (
+            _write(fan_sliding(), offset_width=4),
+            "the list pool of sliding-window with OFFSET32: INDX u16, WREC u32 (rows of 12 bytes)" + _FORCED,
+        ),
+        "vanilla-offset32": (
+            _write(fan_vanilla(), offset_width=4),
+            "minimal-vanilla with OFFSET32: INDX u16, VREC's records and change offsets and RCNT u32"
+            + _FORCED,
+        ),
+        "mixed-offset32": (
+            _write(fan_mixed(), offset_width=4),
+            "mixed with OFFSET32: INDX and MLVL's two dynamic lists u16, MLVL's level table, MREC and RCNT"
+            " u32" + _FORCED,
+        ),
+    }
+
+
+def _offset32_invalid(out: dict[str, tuple[bytes, str]]) -> None:
+    """The OFFSET32 bit's rejections (format.md 1, 5)."""
+    u32 = _write(fan_vanilla(), index_width=4)
+    feats = struct.unpack_from("<I", u32, 20)[0]
+    out["offset32-with-index32"] = (
+        patch(u32, 20, "<I", feats | L.FEATURE_OFFSET32),
+        "vanilla-u32 with the OFFSET32 bit beside INDEX32: SWPM_HEADER_OFFSET32_WITH_INDEX32, which does not"
+        " stop the checks; the file reads as u32 (idx and off), so nothing else is wrong",
+    )
+    data = _write(fan_sliding(), offset_width=4)
+    rows = np.asarray(fan_sliding().buffers()["window_records"], "<u2").tobytes()
+    out["offset32-wrec-index-width"] = (
+        relayout(data, {L.WREC: rows}),
+        "sliding-window-offset32 with its WREC written in u16 (3 W L = 12 bytes), as a reader ignoring"
+        " OFFSET32 would read it: WREC must be 3 O L = 24 bytes (SWPM_CHUNK_BAD_LENGTH)",
+    )
+    # (offsets into the tables step O = 4 bytes here, where W = 2: errors.md)
+    out["offset32-window-count-mismatch"] = (
+        _write(fan_sliding(buffers={"window_records": [[0, 4, 5], [12, 2, 3]]}), offset_width=4),
+        "window-count-mismatch with OFFSET32: SWPM_WINDOW_COUNT_MISMATCH at window 1's vertex_count field,"
+        " WREC payload + 3 O + 2 O (O = 4), not + 3 W + 2 W",
+    )
+    out["offset32-skip-binned-not-last"] = (
+        _write(fan_skip(buffers={"collapse_binned": [3]}), offset_width=4),
+        "skip-binned-not-last with OFFSET32: SWPM_RECORD_BAD_BINNED at record 0's binned field, table + O"
+        " (O = 4)",
+    )
 
 
 def _review_valid() -> dict[str, tuple[bytes, str]]:
@@ -623,6 +692,7 @@ def _invalid(base: bytes) -> dict[str, tuple[bytes, str]]:
     out["meta-duplicate-key"] = (fix_crcs(dup), "META repeats the key encoding (not valid JSON: RFC 8259)")
     _new_invalid(base, out)
     _strips_invalid(base, out)
+    _offset32_invalid(out)
     return out
 
 
@@ -968,6 +1038,7 @@ def buffer_digests(data: bytes) -> dict[str, Any]:
     return {
         "encoding": p.encoding,
         "index_width": p.width,
+        "offset_width": p.offset_width,
         "lod_count": int(p.lods.shape[0]),
         "vertex_count": int(p.points.shape[0]),
         "triangle_count": int(p.lods["triangle_count"][0]),

@@ -203,24 +203,41 @@ def encode_bytes(
     minor: int = L.VERSION_MINOR,
     index_width: int | None = None,
     keep_restart_index: bool = False,
+    offset_width: int | None = None,
+    legacy: bool = False,
 ) -> bytes:
     """The complete file for ``pm``. ``extra_chunks`` (type, critical, payload) go right after SMAP;
-    ``index_width`` (2 or 4) overrides the smallest width that fits (u32 is always allowed; from 65,536
-    vertices on it is required, spec 1). Strips joined by a restart index other than the largest value of
-    the width written are written joined by that value, ``params.restart_index`` with them (spec 3.5, 3.7);
-    ``keep_restart_index`` writes them as they are, as a writer before 0.8.0 did (the vector generator's
-    older-file vector). :class:`SwpmEncodeError` when ``pm.params`` would make a ``META`` the reader rejects
-    (spec 3.1: nested more than 128 deep, an integer too large for binary64); NaN or infinity is a
-    ``ValueError``."""
+    ``index_width`` (2 or 4) overrides the smallest ``idx`` width that fits (u32 is always allowed; from
+    65,536 vertices on it is required, spec 1): 4 sets INDEX32, and ``off`` is u32 with it. ``idx`` is u16
+    when V <= 65,535 and every value of the ``idx`` arrays (:data:`.layout.INDEX_ARRAYS`) but a strips'
+    restart index fits; ``off`` (every other integer array) is u16 when its values fit, else u32 with the
+    OFFSET32 bit (a sliding-window pool longer than 65,535 indices). ``offset_width`` 4 forces OFFSET32 on a
+    u16 file (spec 1: a writer SHOULD NOT, the file is valid; the vector generator's small OFFSET32 files).
+    ``legacy`` writes the layout of a writer before 0.9.0: one width, the smallest that fits every integer
+    array and every vertex id, for ``idx`` and the tables alike, never OFFSET32 (the vectors of older
+    files). Strips joined by a restart index other than the largest value of ``idx`` are written joined by
+    that value, ``params.restart_index`` with them (spec 3.5, 3.7); ``keep_restart_index`` writes them as
+    they are, as a writer before 0.8.0 did (the vector generator's older-file vector).
+    :class:`SwpmEncodeError` when ``pm.params`` would make a ``META`` the reader rejects (spec 3.1: nested
+    more than 128 deep, an integer too large for binary64); NaN or infinity is a ``ValueError``."""
     enc = pm.encoding
     if enc not in L.ENCODING_FEATURES:
         raise ValueError(f"encoding {enc!r} has no SWPM v1 layout")
     bufs = pm.buffers()
-    W = choose_index_width(bufs, pm.vertex_count)
-    W = W if index_width is None else max(int(index_width), W)
+    if legacy:  # (before 0.9.0: one width over every array, a restart index counted as it stands)
+        W = max(choose_index_width(bufs, pm.vertex_count), int(index_width or 2))
+        O, width_bits = W, L.FEATURE_INDEX32 if W == 4 else 0
+    else:
+        # a restart index about to be settled to W's all ones does not count for W (a re-saved file of a
+        # writer before 0.9.0 joined by 0xFFFFFFFF comes out u16, joined by 0xFFFF)
+        restart = None if keep_restart_index else _strips_restart(pm, bufs)
+        W = choose_index_width(L.index_buffers(bufs), pm.vertex_count, restart=restart)
+        W = max(W, int(index_width or 2))
+        O = max(L.choose_offset_width(bufs), int(offset_width or 2))
+        W, O, width_bits = L.file_widths(W, O)
     # (rewriting keeps W: every value but the restart already fits it, and the new restart is W's all ones)
     bufs, params = (bufs, pm.params) if keep_restart_index else _settled_restart(pm, bufs, W)
-    it = L.index_dtype(W)
+    it, ot = L.index_dtype(W), L.index_dtype(O)
     lods = pm.lod_count
     meta = {
         "encoding": enc,
@@ -245,51 +262,51 @@ def encode_bytes(
     vert, stride, vert_data = _vert_payload(pm)
     payload[L.VERT] = vert
     if enc == "vanilla":
-        payload[L.RCNT] = np.ascontiguousarray(bufs["lod_record_counts"], it).tobytes()
+        payload[L.RCNT] = np.ascontiguousarray(bufs["lod_record_counts"], ot).tobytes()
         cols = [
             "collapse_kept",
             "collapse_tris_removed",
             "collapse_change_count",
             "collapse_prev_change_count",
         ]
-        payload[L.VREC] = _records([np.asarray(bufs[c]) for c in cols], bufs["collapse_change_offsets"], it)
+        payload[L.VREC] = _records([np.asarray(bufs[c]) for c in cols], bufs["collapse_change_offsets"], ot)
         index = bufs["indices"]
     elif enc == "sliding-window":
         rec = np.asarray(bufs["window_records"]).reshape(-1, 3)
         if "window_index_counts" in bufs:  # a strip pool: index_count is WREC's 4th field (spec 3.5)
             rec = np.c_[rec, np.asarray(bufs["window_index_counts"]).reshape(-1)]
-        payload[L.WREC] = np.ascontiguousarray(rec, it).tobytes()
+        payload[L.WREC] = np.ascontiguousarray(rec, ot).tobytes()
         index = bufs["index_pool"]
     elif enc == "mixed":
-        payload[L.RCNT] = np.ascontiguousarray(bufs["lod_record_counts"], it).tobytes()
+        payload[L.RCNT] = np.ascontiguousarray(bufs["lod_record_counts"], ot).tobytes()
         first = np.asarray(bufs["level_first_lod"])
         dyn = np.asarray(bufs["level_dynamic_indices"])
         payload[L.MLVL] = (
             np.array([(first.shape[0], dyn.shape[0])], L.MLVL_HEADER).tobytes()
             + b"".join(
-                _u(bufs[k], it)
+                _u(bufs[k], ot)
                 for k in (
                     "level_first_lod",
                     "level_static_start",
                     "level_dynamic_start",
                     "level_record_start",
-                    "level_dynamic_indices",
                 )
             )
+            + _u(dyn, it)
             + np.ascontiguousarray(bufs["level_dynamic_collapsed_indices"], it).tobytes()
         )
         payload[L.MREC] = _records(
-            [np.asarray(bufs[c]) for c in MIXED_RECORD_COLUMNS], bufs["collapse_change_offsets"], it
+            [np.asarray(bufs[c]) for c in MIXED_RECORD_COLUMNS], bufs["collapse_change_offsets"], ot
         )
         index = bufs["level_static_indices"]
     else:
-        payload[L.RCNT] = np.ascontiguousarray(bufs["lod_record_counts"], it).tobytes()
+        payload[L.RCNT] = np.ascontiguousarray(bufs["lod_record_counts"], ot).tobytes()
         first = np.asarray(bufs["level_first_lod"])
         coll = np.asarray(bufs["level_collapsed_indices"])
         payload[L.SKIP] = (
             np.array([(first.shape[0], coll.shape[0])], L.SKIP_HEADER).tobytes()
             + b"".join(
-                _u(bufs[k], it)
+                _u(bufs[k], ot)
                 for k in (
                     "level_first_lod",
                     "level_index_start",
@@ -300,7 +317,7 @@ def encode_bytes(
             + np.ascontiguousarray(coll, it).tobytes()
         )
         cols = ["collapse_kept", "collapse_binned", "collapse_change_count", "collapse_prev_change_count"]
-        payload[L.SREC] = _records([np.asarray(bufs[c]) for c in cols], bufs["collapse_change_offsets"], it)
+        payload[L.SREC] = _records([np.asarray(bufs[c]) for c in cols], bufs["collapse_change_offsets"], ot)
         index = bufs["level_indices"]
     payload[L.INDX] = np.ascontiguousarray(index, it).tobytes()
     n_index = int(np.asarray(index).shape[0])
@@ -333,7 +350,7 @@ def encode_bytes(
         p = payload[t]
         out[offs[t] : offs[t] + len(p)] = p
         entries[i] = (t, L.CHUNK_CRITICAL if crit[t] else 0, offs[t], len(p), zlib.crc32(p, zlib.crc32(t)), 0)
-    features = L.ENCODING_FEATURES[enc] | (L.FEATURE_INDEX32 if W == 4 else 0)
+    features = L.ENCODING_FEATURES[enc] | width_bits
     if enc == "sliding-window" and "window_index_counts" in bufs:
         features |= L.FEATURE_SW_STRIPS
     head = np.zeros(1, L.HEADER)
