@@ -328,3 +328,57 @@ def test_every_lod_keeps_the_vertex_prefix_and_its_triangle_count(vector: dict[s
         ours = sorted(map(tuple, np.sort(tris, axis=1).tolist()))
         theirs = sorted(map(tuple, np.sort(np.asarray(pm.triangles_at(k)), axis=1).tolist()))
         assert ours == theirs, k
+
+
+# OFFSET32 (§1): every valid vector rewritten with u16 idx and u32 off tables (tests/offset32_transcode.py,
+# from the spec alone) reads as the same values, the tables now u32.
+IDX_ARRAYS = {
+    "indices",
+    "index_pool",
+    "level_indices",
+    "level_collapsed_indices",
+    "level_static_indices",
+    "level_dynamic_indices",
+    "level_dynamic_collapsed_indices",
+}
+LODS_ARRAYS = {"vertex_counts", "triangle_counts", "lod_errors", "points"}
+
+
+@pytest.mark.parametrize("vector", [c for c in CASES if c.values[0]["valid"]])
+def test_offset32_rewrite_reads_the_same_values(vector: dict[str, Any]) -> None:
+    from offset32_transcode import to_offset32
+
+    data, _expected = _load(vector)
+    before = _Reader(data)
+    assert before.run()["valid"]
+    rewritten = to_offset32(data)
+    after = _Reader(rewritten)
+    got = after.run()
+    assert got["valid"], got["problems"]
+    assert (got["summary"]["index_width"], got["summary"]["offset_width"]) == (2, 4)
+    assert sorted(after.buffers) == sorted(before.buffers)
+    for name, old in before.buffers.items():
+        new = after.buffers[name]
+        if name in LODS_ARRAYS or name.startswith("attribute:"):
+            assert new.dtype == old.dtype and np.array_equal(new, old, equal_nan=True), name
+            continue
+        assert new.dtype == np.dtype("<u2" if name in IDX_ARRAYS else "<u4"), name
+        want = old.astype(np.int64)
+        want[want == 0xFFFFFFFF] = 0xFFFF  # a u32 file's restart index, as a u32 -> u16 copy makes it
+        assert np.array_equal(new.astype(np.int64), want), name
+    # the bit is what makes the tables u32: cleared, the same bytes are not a valid file
+    cleared = bytearray(rewritten)
+    struct.pack_into("<I", cleared, 20, struct.unpack_from("<I", cleared, 20)[0] & ~0x40)
+    assert not read(_fix_crcs(cleared))["valid"]
+
+
+@pytest.mark.parametrize("name", ["vanilla-u32", "skip-strip-strip-u32", "sliding-window-strips-u32"])
+def test_offset32_with_index32(name: str) -> None:
+    """§2.1: OFFSET32 with INDEX32 is an error at the features field that does not stop the checks; the file
+    is read with off = idx = u32, so a valid u32 file then has that one problem."""
+    data = bytearray(_vector(name))
+    struct.pack_into("<I", data, 20, struct.unpack_from("<I", data, 20)[0] | 0x40)
+    got = read(_fix_crcs(data))
+    assert not got["valid"]
+    want = {"code": "SWPM_HEADER_OFFSET32_WITH_INDEX32", "severity": "error", "offset": 20}
+    assert got["problems"] == [want]
