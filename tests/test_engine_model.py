@@ -418,20 +418,33 @@ def _fix_crcs(d: bytearray) -> bytes:
     return bytes(d)
 
 
-@pytest.mark.parametrize("i", [i for i, c in enumerate(CASES) if c[0] == "suzanne.obj"], ids=lambda i: IDS[i])
-def test_model_and_product_validator_agree_on_mutated_files(i: int) -> None:
+SUZANNE = [i for i, c in enumerate(CASES) if c[0] == "suzanne.obj"]
+
+
+@pytest.mark.parametrize(
+    ("i", "offset32"),
+    [pytest.param(i, o, id=IDS[i] + ("-offset32" if o else "")) for i in SUZANNE for o in (False, True)],
+)
+def test_model_and_product_validator_agree_on_mutated_files(i: int, offset32: bool) -> None:
     """One table or index value changed (CRCs fixed up): the engine refuses exactly the files the product's
-    validator finds an error in, so an engine may trust what the validator passes, and nothing else."""
+    validator finds an error in, so an engine may trust what the validator passes, and nothing else. Also on
+    the file rewritten as OFFSET32 (tests/offset32_transcode.py: u16 lists, u32 tables)."""
+    from offset32_transcode import to_offset32
+
     from swpm_usd.format.reader import validate_bytes
 
     _, data = built(i)
-    f, _ = loaded(i)
-    rng = np.random.default_rng(1850 + i)
+    if offset32:
+        data = to_offset32(data)
+        f = em.load(data)[0]
+    else:
+        f, _ = loaded(i)
+    rng = np.random.default_rng(1850 + i + 1000 * offset32)
     refused = 0
     for _ in range(30):
         t = str(rng.choice([c for c in f.chunks if c not in ("META", "SMAP", "VERT")]))
         c = f.chunks[t]
-        # LODS u32; INDX idx; the tables off (suzanne's O = W, so SKIP/MLVL's idx lists are hit too)
+        # LODS u32; INDX idx; the tables off (SKIP/MLVL's idx lists after them are hit as O-byte values)
         size = 4 if t == "LODS" else (f.W if t == "INDX" else f.O)
         fmt = "<H" if size == 2 else "<I"
         pos = c.offset + size * int(rng.integers(0, c.length // size))

@@ -386,3 +386,47 @@ def test_offset32_with_index32(name: str) -> None:
     assert not got["valid"]
     want = {"code": "SWPM_HEADER_OFFSET32_WITH_INDEX32", "severity": "error", "offset": 20}
     assert got["problems"] == [want]
+
+
+def _vector_as_offset32(vector: dict[str, Any]) -> bytes:
+    data = _load(vector)[0]
+    return data if struct.unpack_from("<I", data, 20)[0] & 0x40 else _offset32(data)
+
+
+def _offset32(data: bytes) -> bytes:
+    from offset32_transcode import to_offset32
+
+    return to_offset32(data)
+
+
+@pytest.mark.parametrize("vector", [c for c in CASES if c.values[0]["valid"]])
+def test_offset32_mutations_agree_with_the_reference_reader(vector: dict[str, Any]) -> None:
+    """Every valid vector as an OFFSET32 file (itself, or rewritten), one 2- or 4-byte value of a table or
+    list changed (CRCs fixed): this reader lists exactly the problems (code, severity, offset) the reference
+    validator lists, so the O-sized offsets of errors.md agree beyond the vectors that pin them."""
+    from swpm_usd.format.reader import validate_bytes
+
+    data = _vector_as_offset32(vector)
+    count, table = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
+    spans = [struct.unpack_from("<4sIQQ", data, table + 32 * i) for i in range(count)]
+    spans = [(o, n) for t, _f, o, n in spans if t not in (b"META", b"LODS", b"VERT") and n >= 8]
+    rng = random.Random(191)
+    problems = 0
+    for _ in range(25):
+        offset, length = rng.choice(spans)
+        size = rng.choice((2, 4))
+        at = offset + 2 * rng.randrange((length - size) // 2 + 1)
+        fmt = "<H" if size == 2 else "<I"
+        old = struct.unpack_from(fmt, data, at)[0]
+        new = rng.choice((old + 1, old - 1, old + 3, 0, 1, 0xFFFF, 0x10000, rng.randrange(70000)))
+        buf = bytearray(data)
+        struct.pack_into(fmt, buf, at, new & (0xFFFF if size == 2 else 0xFFFFFFFF))
+        mutated = _fix_crcs(buf)
+        mine = read(mutated)["problems"]
+        theirs = [
+            {"code": q.code, "severity": q.severity, "offset": q.offset}
+            for q in validate_bytes(mutated).problems
+        ]
+        assert mine == theirs, f"+{at - offset}: {old} -> {new}"
+        problems += len(mine)
+    assert problems > 0
