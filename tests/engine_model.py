@@ -9,6 +9,11 @@ records (Hoppe's VIPM as Forsyth stores it; skip-strip and mixed levels of §3.7
 as the GPU would: degenerate triangles dropped, strip parity by Vulkan's rule (triangle i of a strip is
 (i, i+1, i+2) for even i and (i, i+2, i+1) for odd i). It is a test model, not the product's reader: it
 never imports `swpm_usd`.
+
+Two integer types (§1): the arrays the GPU takes (`INDX`, skip-strip's collapsed lists, mixed's dynamic lists)
+are `idx` (W bytes) and uploaded as they are; every table the CPU walks (windows, records, change offsets,
+`RCNT`, level tables) is `off` (O bytes), u32 with `INDEX32` or `OFFSET32` (bit 6), so an `OFFSET32` file's
+long pool of fewer than 65,536 vertices is a u16 buffer with restart 0xFFFF, read from the file as it is.
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ from typing import Any
 import numpy as np
 
 MAGIC = b"SWPM\r\n\x1a\n"
-INDEX32, VANILLA, SLIDING, SKIP, MIXED, SW_STRIPS = 1, 2, 4, 8, 16, 32
+INDEX32, VANILLA, SLIDING, SKIP, MIXED, SW_STRIPS, OFFSET32 = 1, 2, 4, 8, 16, 32, 64
 ENCODING_BITS = {VANILLA: "vanilla", SLIDING: "sliding-window", SKIP: "skip-strip", MIXED: "mixed"}
 KNOWN_CHUNKS = {
     "META": (True, None),
@@ -148,6 +153,8 @@ class SwpmFile:
     features: int = 0
     W: int = 2
     idx: Any = np.uint16
+    O: int = 2
+    off: Any = np.uint16
     chunks: dict[str, Chunk] = field(default_factory=dict)
     table: list[Chunk] = field(default_factory=list)
     meta: dict[str, Any] = field(default_factory=dict)
@@ -171,11 +178,16 @@ class SwpmFile:
         c = self.chunks[t]
         return memoryview(self.data)[c.offset : c.offset + c.length]
 
-    def _idx_array(self, t: str, start: int, count: int) -> np.ndarray:
+    def _idx_array(self, t: str, start: int, count: int, table: bool = False) -> np.ndarray:
+        """idx[count] (``table``: off[count]) at ``start`` in chunk ``t``'s payload, a view of the file."""
         c = self.chunks[t]
+        dt = self.off if table else self.idx
         return np.frombuffer(
-            self.data, dtype=np.dtype(self.idx).newbyteorder("<"), count=count, offset=c.offset + start
+            self.data, dtype=np.dtype(dt).newbyteorder("<"), count=count, offset=c.offset + start
         )
+
+    def _off_array(self, t: str, start: int, count: int) -> np.ndarray:
+        return self._idx_array(t, start, count, table=True)
 
     @property
     def L(self) -> int:
@@ -195,13 +207,15 @@ class SwpmFile:
             _fail("HEADER_UNSUPPORTED_MAJOR")
         if header_size < 64 or header_size > n:
             _fail("HEADER_BAD_SIZE")
-        if features & ~0x3F:
+        if features & ~0x7F:
             _fail("HEADER_UNKNOWN_FEATURE")
         enc = [b for b in ENCODING_BITS if features & b]
         if len(enc) != 1:
             _fail("HEADER_BAD_ENCODING")
         if features & SW_STRIPS and not features & SLIDING:
             _fail("HEADER_STRIPS_NOT_SLIDING")
+        if features & OFFSET32 and features & INDEX32:
+            _fail("HEADER_OFFSET32_WITH_INDEX32")
         if n < file_size and not self.streaming:
             _fail("FILE_SIZE_MISMATCH", f"file has {n} bytes, header says {file_size}")
         end = min(n, file_size) if not self.streaming else file_size
@@ -222,6 +236,8 @@ class SwpmFile:
         self.encoding = ENCODING_BITS[enc[0]]
         self.W = 4 if features & INDEX32 else 2
         self.idx = np.uint32 if self.W == 4 else np.uint16
+        self.O = 4 if features & (INDEX32 | OFFSET32) else 2
+        self.off = np.uint32 if self.O == 4 else np.uint16
         last, stop = -1, table_end
         for i in range(chunk_count):
             t, flags, off, length, crc = struct.unpack_from("<4sIQQI", d, table_offset + 32 * i)
@@ -362,26 +378,26 @@ class SwpmFile:
         if c.length < 8:
             _fail("CHUNK_BAD_LENGTH", t)
         R, M = struct.unpack_from("<II", self.data, c.offset)
-        if 8 + cols * self.W * R > c.length:
+        if 8 + cols * self.O * R > c.length:
             _fail("COUNT_EXCEEDS_CHUNK", t + " records")
-        off = 8 + _align4(cols * self.W * R)
-        if off + self.W * M > c.length:
+        off = 8 + _align4(cols * self.O * R)
+        if off + self.O * M > c.length:
             _fail("COUNT_EXCEEDS_CHUNK", t + " offsets")
-        if off + self.W * M != c.length:
+        if off + self.O * M != c.length:
             _fail("CHUNK_BAD_LENGTH", t)
-        rec = self._idx_array(t, 8, cols * R).reshape(R, cols).astype(np.int64)
-        offs = self._idx_array(t, off, M).astype(np.int64)
+        rec = self._off_array(t, 8, cols * R).reshape(R, cols).astype(np.int64)
+        offs = self._off_array(t, off, M).astype(np.int64)
         return rec, offs
 
     def _rcnt(self, R: int, cc: np.ndarray, M: int) -> np.ndarray:
         if int(cc.sum()) != M:
             _fail("RECORD_BAD_COUNTS", "change counts")
         c = self.chunks["RCNT"]
-        if c.length % self.W:
+        if c.length % self.O:
             _fail("CHUNK_BAD_LENGTH", "RCNT")
-        if c.length // self.W != self.L:
+        if c.length // self.O != self.L:
             _fail("CHUNK_BAD_LENGTH", "RCNT count")
-        rc = self._idx_array("RCNT", 0, self.L).astype(np.int64)
+        rc = self._off_array("RCNT", 0, self.L).astype(np.int64)
         if rc[0] != 0 or np.any(np.diff(rc) < 0) or rc[-1] > R:
             _fail("RECORD_BAD_COUNTS", "RCNT")
         if R and R >= self.V:
@@ -428,10 +444,10 @@ class SwpmFile:
         strips = bool(self.features & SW_STRIPS)
         cols = 4 if strips else 3
         c = self.chunks["WREC"]
-        if c.length != cols * self.W * self.L:
+        if c.length != cols * self.O * self.L:
             _fail("CHUNK_BAD_LENGTH", "WREC")
         pool = self._indx()
-        win = self._idx_array("WREC", 0, cols * self.L).reshape(self.L, cols).astype(np.int64)
+        win = self._off_array("WREC", 0, cols * self.L).reshape(self.L, cols).astype(np.int64)
         restart = self.params.get("restart_index") if strips else None
         if strips and restart < self.V:
             _fail("META_BAD_FIELD", "restart index below V")
@@ -478,10 +494,15 @@ class SwpmFile:
         out: dict[str, np.ndarray] = {}
         for name in names + tail:
             count = n if name == "level_first_lod" else (n + 1 if name not in tail else C)
-            if off + count * self.W > c.length:
+            # the level tables are off; the lists after them are uploaded, idx (§3.7, §3.8)
+            table = name not in tail
+            width = self.O if table else self.W
+            if off + count * width > c.length:
                 _fail("COUNT_EXCEEDS_CHUNK", f"{t} {name}")
-            out[name] = self._idx_array(t, off, count).astype(np.int64)
-            end = off + count * self.W
+            arr = self._idx_array(t, off, count, table)
+            # tables are walked on the CPU (int64); the lists stay views of the file, uploaded as they are
+            out[name] = arr.astype(np.int64) if table else arr
+            end = off + count * width
             off = _align4(end)
         if c.length != end:
             _fail("CHUNK_BAD_LENGTH", t)
@@ -518,7 +539,7 @@ class SwpmFile:
             _fail("LEVEL_BAD_TABLE", "collapsed start")
         if prim == "list" and np.any(np.diff(ist) % 3):
             _fail("LEVEL_BAD_TABLE", "partial triangle")
-        pi, pc = indx.astype(np.int64), coll.copy()
+        pi, pc = indx.astype(np.int64), coll.astype(np.int64)
         for arr in (pi, pc):
             if np.any((arr >= V) & (arr != (restart if restart is not None else -1))):
                 _fail("INDEX_OUT_OF_RANGE")
@@ -628,7 +649,7 @@ class SwpmFile:
                 _fail("RECORD_BAD_COUNTS", f"LOD {k}")
         for l in range(n):
             vc = self.vertex_counts[first[l]]
-            st, dl = indx[sst[l] : sst[l + 1]], dyn[dst[l] : dst[l + 1]].copy()
+            st, dl = indx[sst[l] : sst[l + 1]], dyn[dst[l] : dst[l + 1]].astype(np.int64)
             if (len(st) and st.max() >= vc) or (len(dl) and dl.max() >= vc):
                 _fail("PREFIX_VIOLATION", f"level {l}")
             r0, r1 = rst[l], rst[l + 1]
@@ -887,14 +908,12 @@ class Engine:
         elif f.encoding == "skip-strip":
             r = a["restart_index"]
             self.pool = upload_indices(f, a["level_indices"], r, self.notes)
-            self.collapsed = upload_indices(
-                f, a["levels"]["level_collapsed_indices"].astype(f.idx), r, self.notes
-            )
+            self.collapsed = upload_indices(f, a["levels"]["level_collapsed_indices"], r, self.notes)
         else:
             self.pool = upload_indices(f, a["level_static_indices"], None, self.notes)
             lv = a["levels"]
-            self.dyn = lv["level_dynamic_indices"].astype(f.idx)
-            self.dyn_collapsed = lv["level_dynamic_collapsed_indices"].astype(f.idx)
+            self.dyn = lv["level_dynamic_indices"]
+            self.dyn_collapsed = lv["level_dynamic_collapsed_indices"]
 
     def can_draw(self, k: int) -> bool:
         """A streaming reader draws LOD k once the vertex records it binds have arrived (§4 (c))."""

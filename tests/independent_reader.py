@@ -23,7 +23,7 @@ now follows as written:
   attribute_count <= 255, stride and data_offset (also one past the payload: ``SWPM_VERT_BAD_LAYOUT``);
   vertex_count (``SWPM_COUNT_EXCEEDS_CHUNK``); length; then the descriptors (stride a multiple of every
   element size) and the overlap.
-* Stage 0 (§5 step 4): the record chunk, ``RCNT`` a multiple of W, ``INDX`` (vanilla: a multiple of 3 W),
+* Stage 0 (§5 step 4): the record chunk, ``RCNT`` a multiple of O, ``INDX`` (vanilla: a multiple of 3 W),
   then ``SKIP``/``MLVL``; sliding-window ``WREC`` then ``INDX``. ``RCNT`` holding L counts is one of the
   counts of §3.6 in stage (a), after the change counts and ``prev_change_count``
   (``SWPM_CHUNK_BAD_LENGTH`` at its payload, its values then unchecked).
@@ -83,6 +83,19 @@ What the spec still leaves open, and how this reader decides:
 
 (The sliding-window prefix property's lowest offending element of ``INDX`` over all windows, which this
 reader chose, is §3.5's rule since the third audit.)
+
+Two integer types (§1, required-feature bit 6 ``OFFSET32``): ``idx`` (W bytes) only for the arrays an engine
+uploads (``INDX``, ``level_collapsed_indices``, mixed's two dynamic lists), ``off`` (O bytes) for every table:
+``WREC``, the record rows and ``change_offsets``, ``RCNT``, the four level-table arrays of ``SKIP``/``MLVL``.
+O is 4 with ``INDEX32`` or ``OFFSET32``; both together are ``SWPM_HEADER_OFFSET32_WITH_INDEX32`` (after
+``SW_STRIPS``, not stopping the header's checks, the file then read with O = W = 4). Read from the spec text
+alone, where it was open:
+
+* §7 gives the type of the table arrays as ``ioff``, a name §1 does not define; read as ``off`` (the arrays
+  keep the table type, as the sentence above the table says).
+* §1 lists ``RCNT`` and "the records' vertex columns" under ``off``; every record column (``kept``,
+  ``binned``, the counts) and ``change_offsets`` are read as ``off``, as the layouts of §3.6-3.8 say.
+* ``OFFSET32`` on a file whose tables all fit u16 (a writer SHOULD NOT set it) is valid: no code reports it.
 """
 
 from __future__ import annotations
@@ -128,7 +141,8 @@ MAX_PER_CODE = 20
 INDEX32 = 1 << 0
 ENCODING_BITS = {1 << 1: "vanilla", 1 << 2: "sliding-window", 1 << 3: "skip-strip", 1 << 4: "mixed"}
 SW_STRIPS = 1 << 5  # §2.1: a sliding-window strip pool
-KNOWN_FEATURES = INDEX32 | sum(ENCODING_BITS) | SW_STRIPS
+OFFSET32 = 1 << 6  # §1, §2.1: the table type off is u32 while idx is u16
+KNOWN_FEATURES = INDEX32 | sum(ENCODING_BITS) | SW_STRIPS | OFFSET32
 TYPE_CHARS = frozenset(b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789")
 
 CRITICAL = {
@@ -167,6 +181,7 @@ SEVERITY = {
     "SWPM_HEADER_UNKNOWN_FEATURE": "error",
     "SWPM_HEADER_BAD_ENCODING": "error",
     "SWPM_HEADER_STRIPS_NOT_SLIDING": "error",
+    "SWPM_HEADER_OFFSET32_WITH_INDEX32": "error",
     "SWPM_WINDOW_MID_STRIP": "error",
     "SWPM_WINDOW_STRIP_TRIANGLES": "error",
     "SWPM_HEADER_RESERVED_NONZERO": "warning",
@@ -285,6 +300,8 @@ class _Reader:
         self.strips = False
         self.W = 2
         self.idt = "<u2"
+        self.O = 2
+        self.odt = "<u2"
         self.buffers: dict[str, np.ndarray] = {}
         self.params: dict[str, Any] = {}
         self.V = 0
@@ -306,11 +323,13 @@ class _Reader:
     def u32(self, off: int) -> int:
         return struct.unpack_from("<I", self.data, off)[0]
 
-    def view(self, off: int, count: int) -> np.ndarray:
-        """The idx[count] array at absolute ``off`` (a view); the caller has checked the bounds."""
+    def view(self, off: int, count: int, table: bool = False) -> np.ndarray:
+        """The idx[count] array (``table``: off[count]) at absolute ``off`` (a view); the caller has checked
+        the bounds."""
+        dt = self.odt if table else self.idt
         if count == 0:
-            return np.zeros(0, dtype=self.idt)
-        return np.frombuffer(self.data, dtype=self.idt, count=count, offset=off)
+            return np.zeros(0, dtype=dt)
+        return np.frombuffer(self.data, dtype=dt, count=count, offset=off)
 
     def check_zero(self, start: int, end: int) -> None:
         """The padding gap [start, end) MUST be zero; reported at the start of the gap (errors.md)."""
@@ -366,8 +385,13 @@ class _Reader:
         self.strips = bool(features & SW_STRIPS)
         if self.strips and not features & (1 << 2):
             self.add("SWPM_HEADER_STRIPS_NOT_SLIDING", 20)
+        if features & OFFSET32 and features & INDEX32:
+            # §2.1: does not stop the header's checks; the file is read with off = idx = u32
+            self.add("SWPM_HEADER_OFFSET32_WITH_INDEX32", 20)
         self.W = 4 if features & INDEX32 else 2
         self.idt = "<u4" if self.W == 4 else "<u2"
+        self.O = 4 if features & (INDEX32 | OFFSET32) else 2
+        self.odt = "<u4" if self.O == 4 else "<u2"
         if minor == 0:
             if reserved0:
                 self.add("SWPM_HEADER_RESERVED_NONZERO", 28)
@@ -656,10 +680,10 @@ class _Reader:
     def rcnt_layout(self) -> list[int] | None:
         """Stage 0: a whole number of counts (whether there are L of them is a §3.6 count, stage (a))."""
         c = self.chunks["RCNT"]
-        if c.length % self.W:
+        if c.length % self.O:
             self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
             return None
-        arr = self.view(c.offset, c.length // self.W)
+        arr = self.view(c.offset, c.length // self.O, table=True)
         self.buffers["lod_record_counts"] = arr
         return arr.tolist()
 
@@ -674,19 +698,19 @@ class _Reader:
             self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
             return None
         R, M = struct.unpack_from("<II", self.data, p)
-        need = cols * self.W * R
+        need = cols * self.O * R
         if need > c.length - 8:
             self.add("SWPM_COUNT_EXCEEDS_CHUNK", p + 8)
             return None
         ao = 8 + _align4(need)
-        if ao > c.length or M * self.W > c.length - ao:
+        if ao > c.length or M * self.O > c.length - ao:
             self.add("SWPM_COUNT_EXCEEDS_CHUNK", p + ao)
             return None
-        if ao + M * self.W != c.length:
+        if ao + M * self.O != c.length:
             self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
             return None
-        recs = self.view(p + 8, cols * R).reshape(R, cols)
-        offs = self.view(p + ao, M)
+        recs = self.view(p + 8, cols * R, table=True).reshape(R, cols)
+        offs = self.view(p + ao, M, table=True)
         for i, name in enumerate(columns):
             self.buffers["collapse_" + name] = recs[:, i]
         self.buffers["collapse_change_offsets"] = offs
@@ -714,7 +738,8 @@ class _Reader:
         return True
 
     def level_layout(self, ctype: str, extra: int, names: list[str]) -> list[tuple[np.ndarray, int]] | None:
-        """SKIP/MLVL: u32 n, u32 count, then idx arrays of n, n+1, n+1, n+1 and ``extra`` x count."""
+        """SKIP/MLVL: u32 n, u32 count, then off arrays of n, n+1, n+1, n+1 and ``extra`` idx arrays of count
+        (§3.7, §3.8)."""
         c = self.chunks[ctype]
         if c.length < 8:
             self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
@@ -726,11 +751,13 @@ class _Reader:
         for i, size in enumerate(sizes):
             if i:
                 pos = _align4(pos)
-            if pos > c.length or size * self.W > c.length - pos:
+            table = i < 4  # the level tables are off, the lists an engine uploads idx (§3.7, §3.8)
+            width = self.O if table else self.W
+            if pos > c.length or size * width > c.length - pos:
                 self.add("SWPM_COUNT_EXCEEDS_CHUNK", c.offset + pos)
                 return None
-            out.append((self.view(c.offset + pos, size), c.offset + pos))
-            pos += size * self.W
+            out.append((self.view(c.offset + pos, size, table), c.offset + pos))
+            pos += size * width
         if pos != c.length:
             self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
             return None
@@ -754,7 +781,7 @@ class _Reader:
         bad = np.flatnonzero(recs[:, cols - 1] != prev)
         if len(bad):
             r = int(bad[0])
-            self.add("SWPM_RECORD_BAD_COUNTS", c.offset + 8 + self.W * (cols * r + cols - 1))
+            self.add("SWPM_RECORD_BAD_COUNTS", c.offset + 8 + self.O * (cols * r + cols - 1))
             ok = False
         if len(rc) != self.L:
             self.add("SWPM_CHUNK_BAD_LENGTH", self.chunks["RCNT"].offset)
@@ -770,7 +797,7 @@ class _Reader:
 
     def row(self, ctype: str, r: int, col: int = 0) -> int:
         cols = len(RECORD_COLUMNS[self.encoding or ""])
-        return self.chunks[ctype].offset + 8 + self.W * (cols * r + col)
+        return self.chunks[ctype].offset + 8 + self.O * (cols * r + col)
 
     def bad_kept(self, ctype: str, recs: np.ndarray) -> None:
         R = recs.shape[0]
@@ -818,7 +845,7 @@ class _Reader:
                     if offs[j] >= list_starts[lev + 1] - list_starts[lev]:
                         bad_offsets.append(j)
         for j in sorted(bad_offsets)[:3]:
-            self.add("SWPM_INDEX_OUT_OF_RANGE", op + self.W * j)
+            self.add("SWPM_INDEX_OUT_OF_RANGE", op + self.O * j)
 
     # ----------------------------------------------------------------- vanilla
     def vanilla(self) -> None:
@@ -837,7 +864,7 @@ class _Reader:
         self.bad_kept("VREC", recs)
         if int(recs[:, 1].sum()) > T0:
             self.add("SWPM_RECORD_BAD_COUNTS", self.row("VREC", 0, 1))
-        self.first_n(offs >= 3 * T0, op, self.W)
+        self.first_n(offs >= 3 * T0, op, self.O)
         if self.rep.total > mark:
             return
         # (b)
@@ -869,14 +896,14 @@ class _Reader:
     # ---------------------------------------------------------- sliding window
     def sliding(self) -> None:
         c = self.chunks["WREC"]
-        W, L = self.W, self.L
+        W, O, L = self.W, self.O, self.L
         n = 4 if self.strips else 3  # §3.5: a fourth field, index_count, with SW_STRIPS
-        if c.length != n * W * L:
+        if c.length != n * O * L:
             self.add("SWPM_CHUNK_BAD_LENGTH", c.entry + 16)
             return
         if not self.indx_layout():
             return
-        raw = self.view(c.offset, n * L).reshape(L, n)
+        raw = self.view(c.offset, n * L, table=True).reshape(L, n)
         self.buffers["window_records"] = raw[:, :3]
         rows = raw.tolist()
         first = [r[0] for r in rows]
@@ -895,21 +922,21 @@ class _Reader:
         # (a)
         k = _first_bad(tcount, lambda i, x: x != self.tc[i])
         if k is not None:
-            self.add("SWPM_WINDOW_COUNT_MISMATCH", c.offset + n * W * k + W)
+            self.add("SWPM_WINDOW_COUNT_MISMATCH", c.offset + n * O * k + O)
         k = _first_bad(vcount, lambda i, x: x != self.vc[i])
         if k is not None:
-            self.add("SWPM_WINDOW_COUNT_MISMATCH", c.offset + n * W * k + 2 * W)
+            self.add("SWPM_WINDOW_COUNT_MISMATCH", c.offset + n * O * k + 2 * O)
         k = _first_bad(tcount, lambda i, x: i > 0 and x > tcount[i - 1])
         if k is not None:
-            self.add("SWPM_WINDOW_NOT_MONOTONE", c.offset + n * W * k + W)
+            self.add("SWPM_WINDOW_NOT_MONOTONE", c.offset + n * O * k + O)
         outside = [k for k in range(L) if first[k] + count[k] > pool]
         for k in outside[:3]:
-            self.add("SWPM_WINDOW_OUT_OF_POOL", c.offset + n * W * k)
+            self.add("SWPM_WINDOW_OUT_OF_POOL", c.offset + n * O * k)
         self.first_n(self.above(self.indx, self.V, restart), self.indx_off, W)
         if self.strips and not outside:
             k = _first_bad(first, lambda i, x: count[i] > 0 and x > 0 and int(self.indx[x - 1]) != restart)
             if k is not None:
-                self.add("SWPM_WINDOW_MID_STRIP", c.offset + n * W * k)
+                self.add("SWPM_WINDOW_MID_STRIP", c.offset + n * O * k)
         if self.rep.total > mark:
             return
         # (b) the prefix property: the lowest offending INDX element
@@ -931,7 +958,7 @@ class _Reader:
                 for a, b in zip([-1, *cuts], [*cuts, len(win)], strict=True):
                     got += self.triangles(win[a + 1 : b], False, restart)
                 if got != tcount[k]:
-                    self.add("SWPM_WINDOW_STRIP_TRIANGLES", c.offset + n * W * k + 3 * W)
+                    self.add("SWPM_WINDOW_STRIP_TRIANGLES", c.offset + n * O * k + 3 * O)
                     return
 
     # -------------------------------------------------------------- skip-strip
@@ -988,8 +1015,9 @@ class _Reader:
         rec_base = self.chunks["SREC"].offset + 8
         self.first_n(over(self.indx), self.indx_off, W)
         self.first_n(over(lci), lci_o, W)
-        self.first_n(recs[:, 0] >= V, rec_base, 4 * W)  # kept
-        self.first_n(recs[:, 1] >= V, rec_base + W, 4 * W)  # binned
+        O = self.O
+        self.first_n(recs[:, 0] >= V, rec_base, 4 * O)  # kept
+        self.first_n(recs[:, 1] >= V, rec_base + O, 4 * O)  # binned
         if self.rep.total > mark:
             return
         # (b)
@@ -1123,7 +1151,7 @@ class _Reader:
         if counts_ok:
             lev = _first_bad(rs[:n], lambda i, x: x != rc[fl[i]])
             if lev is not None:
-                self.add("SWPM_MIXED_BAD_LEVELS", lrs_o + W * lev)
+                self.add("SWPM_MIXED_BAD_LEVELS", lrs_o + self.O * lev)
                 return
         self.level_first, self.level_starts = fl, ss
         self.first_n(self.indx >= V, self.indx_off, W)
@@ -1258,6 +1286,7 @@ class _Reader:
             out["summary"] = {
                 "encoding": self.encoding,
                 "index_width": self.W,
+                "offset_width": self.O,
                 "lod_count": self.L,
                 "vertex_count": self.V,
                 "triangle_count": self.T0,

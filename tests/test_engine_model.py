@@ -25,7 +25,8 @@ import engine_model as em  # noqa: E402
 
 VECTORS = ROOT / "spec" / "vectors"
 
-# (mesh, encoding, options): every encoding and its main options on small meshes; bunny where u32 needs it
+# (mesh, encoding, options): every encoding and its main options on small meshes; bunny and bob where tables
+# outgrow u16: OFFSET32 (u16 idx, u32 off) since spec §1 split the table type off from the index type
 CASES = [
     ("suzanne.obj", "vanilla", {}),
     ("suzanne.obj", "sliding-window", {}),
@@ -37,17 +38,19 @@ CASES = [
     ("suzanne.obj", "skip-strip", {"primitive": "list"}),
     ("suzanne.obj", "mixed", {}),
     ("cow.obj", "vanilla", {}),
-    ("cow.obj", "sliding-window", {}),  # u32: the pool is longer than 65,535 indices
+    ("cow.obj", "sliding-window", {}),  # OFFSET32: the pool is longer than 65,535 indices
     ("cow.obj", "sliding-window", {"primitive": "strip", "cluster": True}),
-    ("cow.obj", "skip-strip", {"primitive": "list"}),  # u32
+    ("cow.obj", "skip-strip", {"primitive": "list"}),  # OFFSET32: level_index_start
     ("cow.obj", "mixed", {}),
     ("spot.obj", "vanilla", {}),
     ("spot.obj", "sliding-window", {"primitive": "strip"}),
     ("spot.obj", "skip-strip", {}),
     ("spot.obj", "skip-strip", {"restart": False}),
     ("spot.obj", "mixed", {}),
-    ("stanford-bunny.obj", "sliding-window", {"primitive": "strip"}),  # u32 strips, V < 65,536
-    ("stanford-bunny.obj", "vanilla", {}),  # u32 (change offsets), V < 65,536
+    ("stanford-bunny.obj", "sliding-window", {"primitive": "strip"}),  # OFFSET32 strips, V < 65,536
+    ("stanford-bunny.obj", "vanilla", {}),  # OFFSET32 (change offsets), V < 65,536
+    ("stanford-bunny.obj", "sliding-window", {}),  # OFFSET32: first_index past 65,535, V < 65,536
+    ("bob.obj", "skip-strip", {}),  # OFFSET32: level_index_start past 65,535, restart 0xFFFF
 ]
 IDS = [f"{m.split('.')[0]}-{e}" + "".join(f"-{k}={v}" for k, v in o.items()) for m, e, o in CASES]
 LARGE = {"stanford-bunny.obj"}
@@ -150,6 +153,87 @@ def test_upload_as_the_gpu_takes_it(i: int) -> None:
         if t in f.chunks:
             assert f.chunks[t].offset % 8 == 0
     assert (f.data_offset % 8, f.stride % 4) == (0, 0)
+    # the other lists the GPU takes (§3.7, §3.8) are idx too, uploaded as views of the file
+    lists = {"skip-strip": ["collapsed"], "mixed": ["dyn", "dyn_collapsed"]}.get(f.encoding, [])
+    if restart is not None and restart != np.iinfo(f.idx).max:
+        lists = []  # rewritten or narrowed with the pool (checked above)
+    for name in lists:
+        arr = getattr(eng, name)
+        at = eng.file_offset(arr)
+        assert arr.dtype == f.idx and at is not None and at % 4 == 0, name
+
+
+def _table_values_max(f: em.SwpmFile) -> int:
+    """The largest value of the arrays spec §1 types ``off``: windows, records, change offsets, RCNT, level
+    tables (the lists after the level tables are ``idx``)."""
+    a = f.arrays
+    parts = [a.get(k) for k in ("windows", "records", "change_offsets", "record_counts")]
+    if f.encoding == "sliding-window":
+        parts.append(a["window_index_counts"])
+    for name, arr in a.get("levels", {}).items():
+        if name.startswith("level_") and name.endswith(("_start", "_lod")):
+            parts.append(arr)
+    return max(int(np.max(p)) for p in parts if p is not None and np.size(p))
+
+
+@pytest.mark.parametrize("i", range(len(CASES)), ids=IDS)
+def test_the_writer_takes_the_narrowest_types(i: int) -> None:
+    """§1: idx is u32 only from 65,536 vertices on (or a value of the uploaded arrays past 65,535); off is u32
+    (INDEX32, else OFFSET32) exactly when a table value needs it; never OFFSET32 with INDEX32."""
+    _, data = built(i)
+    f, eng = loaded(i)
+    assert f.W == (4 if f.V > 0xFFFF else 2)
+    wide = _table_values_max(f) > 0xFFFF
+    assert bool(f.features & em.OFFSET32) == (wide and f.W == 2)
+    assert f.O == (4 if wide or f.W == 4 else 2)
+    assert not (f.features & em.OFFSET32 and f.features & em.INDEX32)
+
+
+OFFSET32_CASES = [
+    i
+    for i, c in enumerate(CASES)
+    if c
+    in (
+        ("stanford-bunny.obj", "sliding-window", {}),
+        ("stanford-bunny.obj", "sliding-window", {"primitive": "strip"}),
+        ("bob.obj", "skip-strip", {}),
+    )
+]
+
+
+@pytest.mark.parametrize("i", OFFSET32_CASES, ids=lambda i: IDS[i])
+def test_offset32_pool_uploads_as_u16(i: int) -> None:
+    """An OFFSET32 file (bunny's sliding-window pools of 1.1 M and 0.7 M indices, bob's skip-strip levels):
+    the pool is a u16 view of INDX, strips restart at 0xFFFF (what WebGL 2 and OpenGL ES 3 restart at), and
+    the tables, read in u32, address elements past 65,535; every LOD draws under its vertex count."""
+    pm, data = built(i)
+    f, eng = loaded(i)
+    assert f.features & em.OFFSET32 and not f.features & em.INDEX32
+    assert (f.W, f.O, f.idx, f.off) == (2, 4, np.uint16, np.uint32)
+    assert eng.pool.dtype == np.uint16 and not eng.notes
+    assert eng.file_offset(eng.pool) == f.chunks["INDX"].offset, "zero-copy upload"
+    assert len(eng.pool) > 0xFFFF, "the pool is longer than u16 offsets reach"
+    hdr = struct.unpack_from("<I", data, 20)[0]
+    assert hdr == f.features
+    if f.encoding == "sliding-window":
+        ends = f.arrays["windows"][:, 0] + f.arrays["window_index_counts"]
+        assert int(ends.max()) > 0xFFFF
+        assert f.chunks["WREC"].length == (4 if f.features & em.SW_STRIPS else 3) * 4 * f.L
+    else:
+        assert int(f.arrays["levels"]["level_index_start"][-1]) > 0xFFFF
+        assert eng.collapsed.dtype == np.uint16 and eng.file_offset(eng.collapsed) is not None
+    restart = f.arrays.get("restart_index")
+    strips = f.arrays.get("primitive", "strip" if f.features & em.SW_STRIPS else "list") == "strip"
+    if strips:
+        assert restart == 0xFFFF and f.params["restart_index"] == 0xFFFF
+        assert np.any(eng.pool == 0xFFFF)
+    else:
+        assert restart is None and not np.any(eng.pool == 0xFFFF)
+    inst = None if f.encoding == "sliding-window" else eng.instance()
+    for k in lods_to_check(f.L, True):
+        ds = draws_at(eng, inst, k)
+        assert all(d.buffer.dtype == np.uint16 and d.max_vertex() < f.vertex_counts[k] for d in ds), k
+        assert len(em.drawn_triangles(ds)) == f.triangle_counts[k], k
 
 
 def product_indices(inst: object) -> np.ndarray:
@@ -254,7 +338,7 @@ def test_conformance_vector_verdict(v: dict) -> None:
     data = (VECTORS / v["file"]).read_bytes()
     expected = json.loads((VECTORS / v["expected"]).read_text())
     errors = {p["code"] for p in expected["problems"] if p["severity"] == "error"}
-    assert len(_vectors()) == 95
+    assert len(_vectors()) == 104
     if v["valid"]:
         f, eng = em.load(data)
         inst = None if f.encoding == "sliding-window" else eng.instance()
@@ -334,20 +418,35 @@ def _fix_crcs(d: bytearray) -> bytes:
     return bytes(d)
 
 
-@pytest.mark.parametrize("i", [i for i, c in enumerate(CASES) if c[0] == "suzanne.obj"], ids=lambda i: IDS[i])
-def test_model_and_product_validator_agree_on_mutated_files(i: int) -> None:
+SUZANNE = [i for i, c in enumerate(CASES) if c[0] == "suzanne.obj"]
+
+
+@pytest.mark.parametrize(
+    ("i", "offset32"),
+    [pytest.param(i, o, id=IDS[i] + ("-offset32" if o else "")) for i in SUZANNE for o in (False, True)],
+)
+def test_model_and_product_validator_agree_on_mutated_files(i: int, offset32: bool) -> None:
     """One table or index value changed (CRCs fixed up): the engine refuses exactly the files the product's
-    validator finds an error in, so an engine may trust what the validator passes, and nothing else."""
+    validator finds an error in, so an engine may trust what the validator passes, and nothing else. Also on
+    the file rewritten as OFFSET32 (tests/offset32_transcode.py: u16 lists, u32 tables)."""
+    from offset32_transcode import to_offset32
+
     from swpm_usd.format.reader import validate_bytes
 
     _, data = built(i)
-    f, _ = loaded(i)
-    rng = np.random.default_rng(1850 + i)
+    if offset32:
+        data = to_offset32(data)
+        f = em.load(data)[0]
+    else:
+        f, _ = loaded(i)
+    rng = np.random.default_rng(1850 + i + 1000 * offset32)
     refused = 0
     for _ in range(30):
         t = str(rng.choice([c for c in f.chunks if c not in ("META", "SMAP", "VERT")]))
         c = f.chunks[t]
-        size, fmt = (4, "<I") if t == "LODS" else (f.W, "<H" if f.W == 2 else "<I")
+        # LODS u32; INDX idx; the tables off (SKIP/MLVL's idx lists after them are hit as O-byte values)
+        size = 4 if t == "LODS" else (f.W if t == "INDX" else f.O)
+        fmt = "<H" if size == 2 else "<I"
         pos = c.offset + size * int(rng.integers(0, c.length // size))
         old = struct.unpack_from(fmt, data, pos)[0]
         new = int(rng.choice([old + 1, old - 1, old + 3, 0, f.V - 1, f.V, int(rng.integers(0, f.V))]))
@@ -362,3 +461,23 @@ def test_model_and_product_validator_agree_on_mutated_files(i: int) -> None:
             accepted, refused = False, refused + 1
         assert accepted == validate_bytes(mutated).valid, f"{t} +{pos - c.offset}: {old} -> {new}"
     assert refused > 0
+
+
+@pytest.mark.parametrize(
+    "i", [i for i, c in enumerate(CASES) if c[0] in ("suzanne.obj", "spot.obj")], ids=lambda i: IDS[i]
+)
+def test_offset32_rewrite_draws_the_same(i: int) -> None:
+    """The product's file rewritten as OFFSET32 (tests/offset32_transcode.py, from the spec alone: u16 idx,
+    u32 tables) loads with every list the GPU takes a u16 view of the file and draws every LOD as before."""
+    from offset32_transcode import to_offset32
+
+    pm, data = built(i)
+    f, eng = em.load(to_offset32(data))
+    assert (f.W, f.O) == (2, 4) and f.features & em.OFFSET32
+    assert eng.pool.dtype == np.uint16 and eng.file_offset(eng.pool) == f.chunks["INDX"].offset
+    for name in {"skip-strip": ["collapsed"], "mixed": ["dyn", "dyn_collapsed"]}.get(f.encoding, []):
+        assert getattr(eng, name).dtype == np.uint16 and eng.file_offset(getattr(eng, name)) is not None
+    inst = None if f.encoding == "sliding-window" else eng.instance()
+    for k in lods_to_check(f.L, False):
+        drawn = em.drawn_triangles(draws_at(eng, inst, k))
+        assert same_oriented(drawn, np.asarray(pm.triangles_at(k))), f"LOD {k}"

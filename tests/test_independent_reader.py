@@ -328,3 +328,105 @@ def test_every_lod_keeps_the_vertex_prefix_and_its_triangle_count(vector: dict[s
         ours = sorted(map(tuple, np.sort(tris, axis=1).tolist()))
         theirs = sorted(map(tuple, np.sort(np.asarray(pm.triangles_at(k)), axis=1).tolist()))
         assert ours == theirs, k
+
+
+# OFFSET32 (§1): every valid vector rewritten with u16 idx and u32 off tables (tests/offset32_transcode.py,
+# from the spec alone) reads as the same values, the tables now u32.
+IDX_ARRAYS = {
+    "indices",
+    "index_pool",
+    "level_indices",
+    "level_collapsed_indices",
+    "level_static_indices",
+    "level_dynamic_indices",
+    "level_dynamic_collapsed_indices",
+}
+LODS_ARRAYS = {"vertex_counts", "triangle_counts", "lod_errors", "points"}
+
+
+def _without_offset32(vector: dict[str, Any]) -> bool:
+    return vector["valid"] and not struct.unpack_from("<I", _load(vector)[0], 20)[0] & 0x40
+
+
+@pytest.mark.parametrize("vector", [c for c in CASES if _without_offset32(c.values[0])])
+def test_offset32_rewrite_reads_the_same_values(vector: dict[str, Any]) -> None:
+    from offset32_transcode import to_offset32
+
+    data, _expected = _load(vector)
+    before = _Reader(data)
+    assert before.run()["valid"]
+    rewritten = to_offset32(data)
+    after = _Reader(rewritten)
+    got = after.run()
+    assert got["valid"], got["problems"]
+    assert (got["summary"]["index_width"], got["summary"]["offset_width"]) == (2, 4)
+    assert sorted(after.buffers) == sorted(before.buffers)
+    for name, old in before.buffers.items():
+        new = after.buffers[name]
+        if name in LODS_ARRAYS or name.startswith("attribute:"):
+            assert new.dtype == old.dtype and np.array_equal(new, old, equal_nan=True), name
+            continue
+        assert new.dtype == np.dtype("<u2" if name in IDX_ARRAYS else "<u4"), name
+        want = old.astype(np.int64)
+        want[want == 0xFFFFFFFF] = 0xFFFF  # a u32 file's restart index, as a u32 -> u16 copy makes it
+        assert np.array_equal(new.astype(np.int64), want), name
+    # the bit is what makes the tables u32: cleared, the same bytes are not a valid file
+    cleared = bytearray(rewritten)
+    struct.pack_into("<I", cleared, 20, struct.unpack_from("<I", cleared, 20)[0] & ~0x40)
+    assert not read(_fix_crcs(cleared))["valid"]
+
+
+@pytest.mark.parametrize("name", ["vanilla-u32", "skip-strip-strip-u32", "sliding-window-strips-u32"])
+def test_offset32_with_index32(name: str) -> None:
+    """§2.1: OFFSET32 with INDEX32 is an error at the features field that does not stop the checks; the file
+    is read with off = idx = u32, so a valid u32 file then has that one problem."""
+    data = bytearray(_vector(name))
+    struct.pack_into("<I", data, 20, struct.unpack_from("<I", data, 20)[0] | 0x40)
+    got = read(_fix_crcs(data))
+    assert not got["valid"]
+    want = {"code": "SWPM_HEADER_OFFSET32_WITH_INDEX32", "severity": "error", "offset": 20}
+    assert got["problems"] == [want]
+
+
+def _vector_as_offset32(vector: dict[str, Any]) -> bytes:
+    data = _load(vector)[0]
+    return data if struct.unpack_from("<I", data, 20)[0] & 0x40 else _offset32(data)
+
+
+def _offset32(data: bytes) -> bytes:
+    from offset32_transcode import to_offset32
+
+    return to_offset32(data)
+
+
+@pytest.mark.parametrize("vector", [c for c in CASES if c.values[0]["valid"]])
+def test_offset32_mutations_agree_with_the_reference_reader(vector: dict[str, Any]) -> None:
+    """Every valid vector as an OFFSET32 file (itself, or rewritten), one 2- or 4-byte value of a table or
+    list changed (CRCs fixed): this reader lists exactly the problems (code, severity, offset) the reference
+    validator lists, so the O-sized offsets of errors.md agree beyond the vectors that pin them."""
+    from swpm_usd.format.reader import validate_bytes
+
+    data = _vector_as_offset32(vector)
+    count, table = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
+    spans = [struct.unpack_from("<4sIQQ", data, table + 32 * i) for i in range(count)]
+    spans = [(o, n) for t, _f, o, n in spans if t not in (b"META", b"LODS", b"VERT") and n >= 8]
+    rng = random.Random(191)
+    problems = 0
+    for _ in range(25):
+        offset, length = rng.choice(spans)
+        size = rng.choice((2, 4))
+        at = offset + 2 * rng.randrange((length - size) // 2 + 1)
+        fmt = "<H" if size == 2 else "<I"
+        old = struct.unpack_from(fmt, data, at)[0]
+        new = rng.choice((old + 1, old - 1, old + 3, 0, 1, 0xFFFF, 0x10000, rng.randrange(70000)))
+        buf = bytearray(data)
+        struct.pack_into(fmt, buf, at, new & (0xFFFF if size == 2 else 0xFFFFFFFF))
+        mutated = _fix_crcs(buf)
+        mine = read(mutated)["problems"]
+        theirs = [
+            {"code": q.code, "severity": q.severity, "offset": q.offset}
+            for q in validate_bytes(mutated).problems
+        ]
+        assert mine == theirs, f"+{at - offset}: {old} -> {new}"
+        problems += len(mine)
+    assert problems > 0
