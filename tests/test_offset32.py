@@ -257,3 +257,40 @@ def test_table_lengths_count_in_the_table_width() -> None:
     bad = vec.relayout(data, {L.RCNT: bytes(6)})
     eo = vec.chunk(bad, L.RCNT)[0]
     assert [(p.code, p.offset) for p in validate_bytes(bad).problems] == [("SWPM_CHUNK_BAD_LENGTH", eo + 16)]
+
+
+# -- spec/format.md 7 types every decoded array idx or off, as the reader views it ---------------------------
+def _spec_array_types() -> dict[str, str]:
+    """name -> type of the encodings' decoded arrays in spec/format.md 7 (``collapse_<column>`` as given)."""
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "spec" / "format.md").read_text()
+    section = text[text.index("| Encoding | Name | Type | Shape | From |") :].split("\n\n")[0]
+    out = {}
+    for line in section.splitlines()[2:]:
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        for name in re.findall(r"`([^`]+)`", cells[1]):
+            out[name] = cells[2]
+    return out
+
+
+def test_the_spec_types_each_decoded_array_idx_or_off_as_the_reader_does() -> None:
+    """Every encoding array of spec/format.md 7 is typed ``idx`` (the uploaded lists,
+    :data:`.layout.INDEX_ARRAYS`) or ``off`` (every other), and the reader views it so in an OFFSET32 file
+    of each encoding (W = 2, O = 4): its element size is W for ``idx``, O for ``off``."""
+    from swpm_usd.format.reader import _check
+
+    types = _spec_array_types()
+    assert set(types.values()) == {"idx", "off"}, types
+    assert {n for n, t in types.items() if t == "idx"} == set(L.INDEX_ARRAYS)
+    seen = set()
+    for pm in (vec.fan_vanilla(), vec.fan_sliding_strips(), vec.fan_skip_strip(), vec.fan_mixed()):
+        data = encode_bytes(pm, offset_width=4)
+        rep, p = _check(np.frombuffer(data, np.uint8), None)
+        assert rep.valid and p is not None, rep.format()
+        for name, a in p.buffers.items():
+            spec = types.get(name) or types["collapse_<column>" if name.startswith("collapse_") else name]
+            assert a.dtype.itemsize == (2 if spec == "idx" else 4), (pm.encoding, name)
+            seen.add(name)
+    assert {n for n in types if "<" not in n} <= seen
