@@ -294,3 +294,26 @@ def test_the_spec_types_each_decoded_array_idx_or_off_as_the_reader_does() -> No
             assert a.dtype.itemsize == (2 if spec == "idx" else 4), (pm.encoding, name)
             seen.add(name)
     assert {n for n in types if "<" not in n} <= seen
+
+
+def test_the_vector_schema_requires_the_table_width() -> None:
+    """spec/format.md 7: a valid vector's summary holds ``offset_width`` (O: 2 or 4) beside ``index_width``;
+    the expected-result schema (spec/manifest.schema.json) must require it and allow only 2 or 4, as it does
+    ``index_width`` (it accepted a summary without it, or with 3)."""
+    import json
+    from pathlib import Path
+
+    import jsonschema
+
+    spec = Path(__file__).resolve().parents[1] / "spec"
+    schema = json.loads((spec / "manifest.schema.json").read_text())
+    expected = {**schema["$defs"]["expected"], "$defs": schema["$defs"]}
+    exp = json.loads((spec / "vectors" / "valid" / "sliding-window-offset32.json").read_text())
+    jsonschema.validate(exp, expected)
+    assert exp["summary"]["offset_width"] == 4
+    for bad in (3, None):
+        summary = {k: v for k, v in exp["summary"].items() if k != "offset_width"}
+        if bad is not None:
+            summary["offset_width"] = bad
+        with pytest.raises(jsonschema.ValidationError):
+            jsonschema.validate({**exp, "summary": summary}, expected)
