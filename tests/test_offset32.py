@@ -317,3 +317,16 @@ def test_the_vector_schema_requires_the_table_width() -> None:
             summary["offset_width"] = bad
         with pytest.raises(jsonschema.ValidationError):
             jsonschema.validate({**exp, "summary": summary}, expected)
+
+
+@pytest.mark.parametrize("offset_width", [2, 4])
+@pytest.mark.parametrize(("maker", "t"), [(vec.fan_skip_strip, L.SKIP), (vec.fan_mixed, L.MLVL)])
+def test_a_level_chunk_shorter_than_its_header_needs_8_bytes(maker, t: bytes, offset_width: int) -> None:  # noqa: ANN001
+    """A SKIP or MLVL of fewer than 8 bytes (its two u32 counts) is SWPM_CHUNK_BAD_LENGTH at its entry's
+    length field, its message needing 8 bytes whatever W and O (SKIP's said it needed 6 of 6 bytes)."""
+    data = encode_bytes(maker(), offset_width=offset_width)
+    eo, off, _ = vec.chunk(data, t)
+    bad = vec.relayout(data, {t: data[off : off + 6]})
+    problems = validate_bytes(bad).problems
+    assert [(p.code, p.offset) for p in problems] == [("SWPM_CHUNK_BAD_LENGTH", vec.chunk(bad, t)[0] + 16)]
+    assert problems[0].message.endswith("is 6 bytes, its contents need 8"), problems[0].message
