@@ -330,3 +330,16 @@ def test_a_level_chunk_shorter_than_its_header_needs_8_bytes(maker, t: bytes, of
     problems = validate_bytes(bad).problems
     assert [(p.code, p.offset) for p in problems] == [("SWPM_CHUNK_BAD_LENGTH", vec.chunk(bad, t)[0] + 16)]
     assert problems[0].message.endswith("is 6 bytes, its contents need 8"), problems[0].message
+
+
+@pytest.mark.parametrize(
+    "kwargs", [{"offset_width": 3}, {"offset_width": 8}, {"index_width": 3}, {"index_width": 8}]
+)
+def test_a_width_other_than_2_or_4_is_refused(kwargs: dict) -> None:
+    """``index_width`` and ``offset_width`` are 2 or 4 bytes (or None): another value is a ValueError, not a
+    file (``offset_width=3`` wrote u32 tables without the OFFSET32 bit, a file its own reader rejects;
+    ``index_width=8`` wrote u16)."""
+    with pytest.raises(ValueError, match="width"):
+        encode_bytes(vec.fan_vanilla(), **kwargs)
+    for ok in (None, 2, 4):
+        assert validate_bytes(encode_bytes(vec.fan_vanilla(), **{next(iter(kwargs)): ok})).valid
