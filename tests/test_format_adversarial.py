@@ -430,3 +430,48 @@ def test_overlapping_windows_report_the_lowest_offending_element() -> None:
         ],
     )
     assert _problems(data) == [("SWPM_PREFIX_VIOLATION", _entry(data, b"INDX")[1] + 2 * 2)]
+
+
+# -- OFFSET32 (required-feature bit 6, spec 1): the tables u32, the lists u16 --------------------------------
+def _u32(values: list[int]) -> bytes:
+    return struct.pack(f"<{len(values)}I", *values)
+
+
+def _offset32(wrec: bytes, indx: bytes, restart_strips: bool = False) -> bytes:
+    """A one-triangle sliding-window file with the OFFSET32 bit set (the features patched in, CRCs again)."""
+    params = {"primitive": "strip", "restart_index": 0xFFFF} if restart_strips else {}
+    data = _file(
+        "sliding-window",
+        [
+            (b"META", _meta("sliding-window", params)),
+            (b"LODS", _lods([(3, 1, 0.0)])),
+            (b"WREC", wrec),
+            (b"INDX", indx),
+            (b"VERT", _vert(P3)),
+        ],
+    )
+    return _patch(data, 20, "<I", FEATURE["sliding-window"] | (0x20 if restart_strips else 0) | 0x40)
+
+
+def test_an_offset32_file_reads_its_tables_as_u32_and_its_lists_as_u16() -> None:
+    """WREC is 3 O L = 12 bytes of u32, INDX u16: valid, and loaded as such; a WREC of 3 W L = 6 bytes (u16,
+    as a reader ignoring the bit would read it) is SWPM_CHUNK_BAD_LENGTH at its entry's length field."""
+    data = _offset32(_u32([0, 1, 3]), _u16([0, 1, 2]))
+    assert _problems(data) == []
+    pm = load_bytes(data)
+    assert pm.window_records.dtype.itemsize == 4 and pm.index_pool.dtype.itemsize == 2
+    assert pm.triangles_at(0).tolist() == [[0, 1, 2]]
+    bad = _offset32(_u16([0, 1, 3]), _u16([0, 1, 2]))
+    assert _problems(bad) == [("SWPM_CHUNK_BAD_LENGTH", _entry(bad, b"WREC")[0] + 16)]
+    # a window's triangle_count field is at window + O
+    wrong = _offset32(_u32([0, 2, 3]), _u16([0, 1, 2]))
+    assert _problems(wrong)[0] == ("SWPM_WINDOW_COUNT_MISMATCH", _entry(wrong, b"WREC")[1] + 4)
+
+
+def test_an_offset32_strip_pool_restarts_at_0xffff() -> None:
+    """SW_STRIPS with OFFSET32: rows of 4 O bytes, the u16 pool joined by 0xFFFF; index_count at window +
+    3 O."""
+    pool = _u16([0, 1, 2, 0xFFFF, 0, 1, 2])
+    assert _problems(_offset32(_u32([4, 1, 3, 3]), pool, restart_strips=True)) == []
+    short = _offset32(_u32([4, 1, 3, 2]), pool, restart_strips=True)
+    assert _problems(short) == [("SWPM_WINDOW_STRIP_TRIANGLES", _entry(short, b"WREC")[1] + 3 * 4)]

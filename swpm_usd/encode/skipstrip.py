@@ -14,9 +14,8 @@ one and applies only the records in between.
 
 Vertices are in vanilla order (the vertex collapse ``c`` bins is ``V - 1 - c``), so LOD ``k`` uses the vertex
 prefix. Strip joins are restart indices (``restart=True``; the restart value is the largest value of the
-file's index type ``idx``, ``0xFFFF`` when every vertex id is below 0xFFFF and every other value of the
-lists an engine uploads fits u16 (the format writer's width rule; offsets and counts past 65,535 widen only
-the tables, ``OFFSET32``), else ``0xFFFFFFFF``, stored in ``params["restart_index"]``) or
+file's index type, ``0xFFFF`` when every vertex id is below 0xFFFF and every other value of every buffer
+fits u16 (the format writer's width rule), else ``0xFFFFFFFF``, stored in ``params["restart_index"]``) or
 degenerate triangles (``restart=False``), which are joins, not collapses, and are not counted against the
 level threshold. Strip collapse records change *slots*: a strip slot is shared by up to three triangles.
 """
@@ -178,20 +177,20 @@ def _nondegenerate(t: np.ndarray) -> np.ndarray:
 
 def restart_value(vertex_count: int) -> int:
     """The restart index strips are built with: the largest value of the smallest index type that also holds
-    every vertex id. Not yet the file's: :func:`settle_restart` makes it 0xFFFFFFFF when another value of
-    the uploaded lists makes the file's ``idx`` u32 (never a build's, whose lists hold only vertex ids)."""
+    every vertex id. Not yet the file's: :func:`settle_restart` makes it all ones of the file's ``idx`` (the
+    same value since 0.9.0, whose tables widen apart from ``idx``, OFFSET32)."""
     return 0xFFFF if vertex_count <= 0xFFFF else 0xFFFFFFFF
 
 
 def settle_restart(pm: ProgressiveMesh, lists: tuple[str, ...] | None = None) -> None:
     """Give ``pm``, whose arrays ``lists`` are strips joined by ``pm.restart_index`` (:func:`restart_value`),
     the restart index of its file: the largest value of the file's index type by the format writer's width
-    rule over ``pm.buffers()`` (:func:`..format.layout.restart_index_for`: the ``idx`` arrays only), so an
-    engine uploads the file's indices as they are with the restart value Vulkan, D3D12 and Metal take (spec
-    3.5, 3.7). When it differs (since 0.9.0 a pool longer than 65,535 indices widens only the tables, so a
-    build's 0xFFFF stays; a restart given as another value >= V is made all ones of ``idx``) the restart
-    entries of ``lists`` (default: the encoding's, :data:`..format.layout.STRIP_ARRAYS`) are rewritten into
-    new uint32 arrays (:func:`..format.layout.rejoin_strips`), with ``restart_index`` and
+    rule over ``pm.buffers()`` (:func:`..format.layout.restart_index_for`), so an engine uploads the file's
+    indices as they are with the restart value Vulkan, D3D12 and Metal take (spec 3.5, 3.7). When it differs
+    (a mesh given strips joined by another value; before 0.9.0 also a pool longer than 65,535 indices, which
+    made the file u32 through its offsets: now only the tables' ``off`` widens) the restart entries of
+    ``lists`` (default: the encoding's, :data:`..format.layout.STRIP_ARRAYS`) are rewritten into new uint32
+    arrays (:func:`..format.layout.rejoin_strips`), with ``restart_index`` and
     ``params["restart_index"]``."""
     old = int(pm.restart_index)
     rv = restart_index_for(pm.buffers(), old, pm.vertex_count)

@@ -154,8 +154,8 @@ class SlidingWindowProgressiveMesh(ProgressiveMesh):
     @property
     def global_bytes(self) -> int:
         if self.primitive == "strip":
-            # (drawn from u16 while vertex ids fit, a u32 file's restart 0xFFFFFFFF copied as 0xFFFF, as the
-            # list pool of the same file is: draw_index_width)
+            # (drawn from u16 while vertex ids fit, a u32 file's restart 0xFFFFFFFF copied as 0xFFFF, as a
+            # list pool is: draw_index_width)
             isz = draw_index_width(self.vertex_count, self.restart_index)
             # a strip draw's record: 32-bit first index, 16-bit index and vertex counts
             wide = max(int(self.window_index_counts.max(initial=0)), int(self.vertex_counts.max())) > 0xFFFF

@@ -277,8 +277,8 @@ def check_streaming(pm, policy: dict) -> list[str]:
 
         stride = pm.vertex_bytes() // max(1, pm.vertex_count)
         kind, stream = pm.draw_stream(last)
-        # (the width global_bytes counts: an engine's, not the file's idx, which a writer before 0.9.0 widened
-        # for offsets)
+        # (the width global_bytes counts: an engine's, not the file's idx, which an older writer's offsets
+        # widened)
         isz = draw_index_width(pm.vertex_count, pm.restart_index if kind == "strip" else None)
         need = pm.vertex_count_at(last) * stride + stream.shape[0] * isz
         if need > policy["coarsest_lod_bytes"]:
