@@ -257,3 +257,89 @@ def test_table_lengths_count_in_the_table_width() -> None:
     bad = vec.relayout(data, {L.RCNT: bytes(6)})
     eo = vec.chunk(bad, L.RCNT)[0]
     assert [(p.code, p.offset) for p in validate_bytes(bad).problems] == [("SWPM_CHUNK_BAD_LENGTH", eo + 16)]
+
+
+# -- spec/format.md 7 types every decoded array idx or off, as the reader views it ---------------------------
+def _spec_array_types() -> dict[str, str]:
+    """name -> type of the encodings' decoded arrays in spec/format.md 7 (``collapse_<column>`` as given)."""
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "spec" / "format.md").read_text()
+    section = text[text.index("| Encoding | Name | Type | Shape | From |") :].split("\n\n")[0]
+    out = {}
+    for line in section.splitlines()[2:]:
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        for name in re.findall(r"`([^`]+)`", cells[1]):
+            out[name] = cells[2]
+    return out
+
+
+def test_the_spec_types_each_decoded_array_idx_or_off_as_the_reader_does() -> None:
+    """Every encoding array of spec/format.md 7 is typed ``idx`` (the uploaded lists,
+    :data:`.layout.INDEX_ARRAYS`) or ``off`` (every other), and the reader views it so in an OFFSET32 file
+    of each encoding (W = 2, O = 4): its element size is W for ``idx``, O for ``off``."""
+    from swpm_usd.format.reader import _check
+
+    types = _spec_array_types()
+    assert set(types.values()) == {"idx", "off"}, types
+    assert {n for n, t in types.items() if t == "idx"} == set(L.INDEX_ARRAYS)
+    seen = set()
+    for pm in (vec.fan_vanilla(), vec.fan_sliding_strips(), vec.fan_skip_strip(), vec.fan_mixed()):
+        data = encode_bytes(pm, offset_width=4)
+        rep, p = _check(np.frombuffer(data, np.uint8), None)
+        assert rep.valid and p is not None, rep.format()
+        for name, a in p.buffers.items():
+            spec = types.get(name) or types["collapse_<column>" if name.startswith("collapse_") else name]
+            assert a.dtype.itemsize == (2 if spec == "idx" else 4), (pm.encoding, name)
+            seen.add(name)
+    assert {n for n in types if "<" not in n} <= seen
+
+
+def test_the_vector_schema_requires_the_table_width() -> None:
+    """spec/format.md 7: a valid vector's summary holds ``offset_width`` (O: 2 or 4) beside ``index_width``;
+    the expected-result schema (spec/manifest.schema.json) must require it and allow only 2 or 4, as it does
+    ``index_width`` (it accepted a summary without it, or with 3)."""
+    import json
+    from pathlib import Path
+
+    import jsonschema
+
+    spec = Path(__file__).resolve().parents[1] / "spec"
+    schema = json.loads((spec / "manifest.schema.json").read_text())
+    expected = {**schema["$defs"]["expected"], "$defs": schema["$defs"]}
+    exp = json.loads((spec / "vectors" / "valid" / "sliding-window-offset32.json").read_text())
+    jsonschema.validate(exp, expected)
+    assert exp["summary"]["offset_width"] == 4
+    for bad in (3, None):
+        summary = {k: v for k, v in exp["summary"].items() if k != "offset_width"}
+        if bad is not None:
+            summary["offset_width"] = bad
+        with pytest.raises(jsonschema.ValidationError):
+            jsonschema.validate({**exp, "summary": summary}, expected)
+
+
+@pytest.mark.parametrize("offset_width", [2, 4])
+@pytest.mark.parametrize(("maker", "t"), [(vec.fan_skip_strip, L.SKIP), (vec.fan_mixed, L.MLVL)])
+def test_a_level_chunk_shorter_than_its_header_needs_8_bytes(maker, t: bytes, offset_width: int) -> None:  # noqa: ANN001
+    """A SKIP or MLVL of fewer than 8 bytes (its two u32 counts) is SWPM_CHUNK_BAD_LENGTH at its entry's
+    length field, its message needing 8 bytes whatever W and O (SKIP's said it needed 6 of 6 bytes)."""
+    data = encode_bytes(maker(), offset_width=offset_width)
+    eo, off, _ = vec.chunk(data, t)
+    bad = vec.relayout(data, {t: data[off : off + 6]})
+    problems = validate_bytes(bad).problems
+    assert [(p.code, p.offset) for p in problems] == [("SWPM_CHUNK_BAD_LENGTH", vec.chunk(bad, t)[0] + 16)]
+    assert problems[0].message.endswith("is 6 bytes, its contents need 8"), problems[0].message
+
+
+@pytest.mark.parametrize(
+    "kwargs", [{"offset_width": 3}, {"offset_width": 8}, {"index_width": 3}, {"index_width": 8}]
+)
+def test_a_width_other_than_2_or_4_is_refused(kwargs: dict) -> None:
+    """``index_width`` and ``offset_width`` are 2 or 4 bytes (or None): another value is a ValueError, not a
+    file (``offset_width=3`` wrote u32 tables without the OFFSET32 bit, a file its own reader rejects;
+    ``index_width=8`` wrote u16)."""
+    with pytest.raises(ValueError, match="width"):
+        encode_bytes(vec.fan_vanilla(), **kwargs)
+    for ok in (None, 2, 4):
+        assert validate_bytes(encode_bytes(vec.fan_vanilla(), **{next(iter(kwargs)): ok})).valid

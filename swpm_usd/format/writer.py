@@ -219,10 +219,15 @@ def encode_bytes(
     that value, ``params.restart_index`` with them (spec 3.5, 3.7); ``keep_restart_index`` writes them as
     they are, as a writer before 0.8.0 did (the vector generator's older-file vector).
     :class:`SwpmEncodeError` when ``pm.params`` would make a ``META`` the reader rejects (spec 3.1: nested
-    more than 128 deep, an integer too large for binary64); NaN or infinity is a ``ValueError``."""
+    more than 128 deep, an integer too large for binary64); NaN or infinity is a ``ValueError``, as is a
+    width other than 2 or 4."""
     enc = pm.encoding
     if enc not in L.ENCODING_FEATURES:
         raise ValueError(f"encoding {enc!r} has no SWPM v1 layout")
+    for name, w in (("index_width", index_width), ("offset_width", offset_width)):
+        # (another width has no feature bit: offset_width=3 wrote u32 tables without OFFSET32)
+        if w is not None and w not in (2, 4):
+            raise ValueError(f"{name} must be 2 or 4 bytes (or None), not {w!r}")
     bufs = pm.buffers()
     if legacy:  # (before 0.9.0: one width over every array, a restart index counted as it stands)
         W = max(choose_index_width(bufs, pm.vertex_count), int(index_width or 2))
