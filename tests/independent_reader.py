@@ -91,8 +91,6 @@ O is 4 with ``INDEX32`` or ``OFFSET32``; both together are ``SWPM_HEADER_OFFSET3
 ``SW_STRIPS``, not stopping the header's checks, the file then read with O = W = 4). Read from the spec text
 alone, where it was open:
 
-* §7 gives the type of the table arrays as ``ioff``, a name §1 does not define; read as ``off`` (the arrays
-  keep the table type, as the sentence above the table says).
 * §1 lists ``RCNT`` and "the records' vertex columns" under ``off``; every record column (``kept``,
   ``binned``, the counts) and ``change_offsets`` are read as ``off``, as the layouts of §3.6-3.8 say.
 * ``OFFSET32`` on a file whose tables all fit u16 (a writer SHOULD NOT set it) is valid: no code reports it.
