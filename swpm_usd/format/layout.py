@@ -197,16 +197,14 @@ def index_dtype(width: int) -> np.dtype:
 
 #: the encoding arrays typed ``idx`` (spec 1, 7): the ones an engine uploads as index buffers; every other
 #: integer array of the encodings (windows, records, level tables, RCNT) is typed ``off``
-INDEX_ARRAYS = frozenset(
-    {
-        "indices",
-        "index_pool",
-        "level_indices",
-        "level_collapsed_indices",
-        "level_static_indices",
-        "level_dynamic_indices",
-        "level_dynamic_collapsed_indices",
-    }
+INDEX_ARRAYS = (
+    "indices",
+    "index_pool",
+    "level_indices",
+    "level_collapsed_indices",
+    "level_static_indices",
+    "level_dynamic_indices",
+    "level_dynamic_collapsed_indices",
 )
 
 

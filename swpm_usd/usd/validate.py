@@ -20,7 +20,7 @@ from pxr import Usd, UsdGeom, UsdValidation
 
 from ..fileio import missing_file_problem
 from ..format.errors import Problem, Report
-from ..format.layout import draw_index_width
+from ..format.layout import INDEX_ARRAYS, draw_index_width
 from ..format.meta import parse_meta_json
 from .arrays import ATTRIBUTE_DTYPES, BUFFER_DTYPES, dtype_problem
 from .reader import _snake, is_encoded
@@ -57,18 +57,8 @@ CODES: dict[str, str] = {
     "the file); the file is not opened in the validating process.",
 }
 
-# buffers whose values are vertex ids
-_VERTEX_BUFFERS = (
-    "indices",
-    "index_pool",
-    "level_indices",
-    "level_collapsed_indices",
-    "level_static_indices",
-    "level_dynamic_indices",
-    "level_dynamic_collapsed_indices",
-    "collapse_kept",
-    "collapse_binned",
-)
+# buffers whose values are vertex ids: the index lists (the file's idx arrays) and two record columns
+_VERTEX_BUFFERS = (*INDEX_ARRAYS, "collapse_kept", "collapse_binned")
 _REQUIRED = (
     "swpm:formatVersion",
     "swpm:encoding",
