@@ -262,9 +262,9 @@ def test_legacy_layout_writes_no_offset32_and_flipping_it_rewrites(tmp_path):
     def features(path: Path) -> int:
         return int.from_bytes(path.read_bytes()[20:24], "little")
 
-    config = MINIMAL.replace("dir: out", "dir: out\n  legacy_layout: true").replace("max: 15000", "max: 10")
-    cfg = _project(tmp_path, meshes=("cow.obj",), config=config)
-    swpm = tmp_path / "out" / "cow.swpm"
+    config = MINIMAL.replace("dir: out", "dir: out\n  usd: true\n  legacy_layout: true")
+    cfg = _project(tmp_path, meshes=("cow.obj",), config=config.replace("max: 15000", "max: 10"))
+    swpm, usdc = tmp_path / "out" / "cow.swpm", tmp_path / "out" / "cow.usdc"
     first = run(cfg, echo=lambda m: None)
     assert first.built == 1
     assert features(swpm) & L.FEATURE_INDEX32 and not features(swpm) & L.FEATURE_OFFSET32
@@ -273,7 +273,7 @@ def test_legacy_layout_writes_no_offset32_and_flipping_it_rewrites(tmp_path):
     assert (out["legacy_layout"], out["index_width"], out["offset_width"]) == (True, 4, 4)
     manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
     assert manifest["assets"]["meshes/cow.obj"]["outputs"]["swpm"]["legacy_layout"] is True
-    legacy_bytes = swpm.read_bytes()
+    legacy_bytes, usd_bytes = swpm.read_bytes(), usdc.read_bytes()
     again = run(cfg, echo=lambda m: None)
     assert again.built == 0 and again.skipped == 1 and swpm.read_bytes() == legacy_bytes
     # flipped (the key removed: its default, false): the .swpm is written again, with OFFSET32
@@ -283,6 +283,7 @@ def test_legacy_layout_writes_no_offset32_and_flipping_it_rewrites(tmp_path):
     assert features(swpm) & L.FEATURE_OFFSET32 and not features(swpm) & L.FEATURE_INDEX32
     out = flipped.records["meshes/cow.obj"]["outputs"]["swpm"]
     assert (out["legacy_layout"], out["index_width"], out["offset_width"]) == (False, 2, 4)
+    assert usdc.read_bytes() == usd_bytes  # (the USD layer is the same either way)
     assert run(cfg, echo=lambda m: None).built == 0
     # and back: the legacy file again, byte for byte
     cfg.write_text(cfg.read_text().replace("dir: out", "dir: out\n  legacy_layout: true"))
