@@ -445,7 +445,7 @@ def encode_cmd(
     Examples:
       swpm-pipeline encode samples/spot.obj -o spot.swpm --json
       swpm-pipeline encode spot.obj -o spot.swpm -e skip-strip -p primitive=list
-      swpm-pipeline encode cow.obj -o cow.swpm -e sliding-window --legacy-layout  (a reader before 0.9.0)
+      swpm-pipeline encode cow.obj -o cow.swpm -e sliding-window --legacy-layout
     """
     from ..build import build
     from .layout import HEADER_SIZE, header_widths
