@@ -2959,7 +2959,13 @@ def test_a_record_s_curve_is_written_a_point_a_line(tmp_path, monkeypatch):
     assert all(json.dumps(c, separators=(",", ":")) in lines for c in curve)
     row = text[text.index('  "meshes/cow.obj": ') : text.index("\n  }") + 4]
     assert json.loads("{" + row + "}") == {"meshes/cow.obj": rec}
-    assert len(row) < 0.8 * len(json.dumps(rec, indent=1).replace("\n", "\n  "))
+    assert len(row) < 0.85 * len(json.dumps(rec, indent=1).replace("\n", "\n  "))
+    # (the record's ratio moves with each key a record gains, 0.799 before the .swpm's layout was recorded:
+    # the curve's own text is what its rows shrink: 2,197 characters, not 3,459)
+    start = row.index('"curve": [')
+    rows = row[start + len('"curve": ') : row.index("]", start) + 1]
+    assert json.loads(rows) == curve
+    assert len(rows) < 0.7 * len(json.dumps(curve, indent=1).replace("\n", "\n      "))
     # read back as written: the rerun is up to date and writes nothing
     written = _files_as_written(tmp_path / "out")
     assert run(cfg, echo=lambda m: None).skipped == 1 and _files_as_written(tmp_path / "out") == written
