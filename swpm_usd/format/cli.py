@@ -419,6 +419,16 @@ def _loaded_and_digest(input_path: str, max_triangles: int | None) -> tuple[obje
     help="Encoding parameter (repeatable, listed below), value parsed as JSON when it can be.",
 )
 @max_triangles_option
+@click.option(
+    "--legacy-layout",
+    is_flag=True,
+    help="Write a file a reader before 0.9.0 accepts: one integer width for every array, never the "
+    "OFFSET32 feature bit (tables u32 beside u16 index lists), which such a reader refuses "
+    "(SWPM_HEADER_UNKNOWN_FEATURE). Use it when the runtime that loads the file holds an older reader. "
+    "The cost: a file whose tables need u32 (a sliding-window pool longer than 65,535 indices) is u32 "
+    "throughout, INDEX32, its index lists too (bunny's sliding window: 5,713,552 bytes, not 3,484,336). "
+    "--json shows the file's index_width and offset_width.",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 def encode_cmd(
     input_path: str,
@@ -426,6 +436,7 @@ def encode_cmd(
     encoding: str,
     params: tuple[str, ...],
     max_triangles: int | None,
+    legacy_layout: bool,
     as_json: bool,
 ) -> None:
     """Build INPUT with an encoding and write it as an SWPM v1 file.
@@ -434,8 +445,10 @@ def encode_cmd(
     Examples:
       swpm-pipeline encode samples/spot.obj -o spot.swpm --json
       swpm-pipeline encode spot.obj -o spot.swpm -e skip-strip -p primitive=list
+      swpm-pipeline encode cow.obj -o cow.swpm -e sliding-window --legacy-layout
     """
     from ..build import build
+    from .layout import HEADER_SIZE, header_widths
     from .writer import save
 
     parsed = _encoding_and_params(encoding, params)
@@ -459,8 +472,10 @@ def encode_cmd(
             # it was labelled OUTPUT_UNWRITABLE
             raise _input_error(exc, input_path) from exc
         try:
-            save(pm, output, source_digest=digest)
+            save(pm, output, source_digest=digest, legacy_layout=legacy_layout)
             size = Path(output).stat().st_size
+            with open(output, "rb") as f:  # (the widths the file's header declares, as a reader takes them)
+                index_width, offset_width = header_widths(f.read(HEADER_SIZE))
         except OSError as exc:
             raise _OutputError(f"cannot write {output}: {exc.strerror or exc}") from exc
     except (SwpmError, OSError, ValueError) as exc:
@@ -482,6 +497,9 @@ def encode_cmd(
             "triangles": pm.triangle_count_at(0),
             "coarsest_triangles": pm.triangle_count_at(pm.lod_count - 1),
             "bytes": size,
+            "index_width": index_width,
+            "offset_width": offset_width,
+            "legacy_layout": legacy_layout,
             "source_digest": digest,
             "build_seconds": seconds,
         }

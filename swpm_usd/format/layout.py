@@ -234,6 +234,12 @@ def read_widths(features: int) -> tuple[int, int]:
     return W, 4 if features & (FEATURE_INDEX32 | FEATURE_OFFSET32) else 2
 
 
+def header_widths(data: bytes) -> tuple[int, int]:
+    """(W, O) of the file whose first :data:`HEADER_SIZE` bytes are ``data`` (:func:`read_widths` of its
+    features): what ``encode --json`` and the pipeline's manifest report of a file they wrote."""
+    return read_widths(int(np.frombuffer(data, HEADER, count=1)[0]["features"]))
+
+
 def vertex_ids_fit_u16(vertex_count: int) -> bool:
     """Whether every vertex id (0 .. ``vertex_count`` - 1) may be stored as u16 (spec 1): each must be below
     0xFFFF, since u16's all ones is the restart index WebGL 2 (always on there) and OpenGL ES 3 take for any

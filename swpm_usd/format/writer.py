@@ -390,8 +390,18 @@ def _json_default(o: Any) -> Any:
     raise TypeError(f"parameter value {o!r} is not JSON-serialisable")
 
 
-def save(pm: ProgressiveMesh, path: str | os.PathLike[str], *, source_digest: str | None = None) -> Path:
+def save(
+    pm: ProgressiveMesh,
+    path: str | os.PathLike[str],
+    *,
+    source_digest: str | None = None,
+    legacy_layout: bool = False,
+) -> Path:
     """Write ``pm`` to ``path`` as SWPM v1, atomically: a reader sees the old file or the complete new one.
+
+    ``legacy_layout`` writes a file a reader before 0.9.0 accepts (:func:`encode_bytes`' ``legacy``): one
+    integer width for every array, never the OFFSET32 bit, so a sliding-window pool longer than 65,535
+    indices makes the whole file u32 (INDEX32), the index lists an engine uploads too.
 
     An :class:`OSError` (of its errno's subclass) names ``path``, not the temporary file beside it. A path
     with a mesh file's suffix (``spot.obj``) is a :class:`SwpmEncodeError`, as ``encode -o`` refuses it: it
@@ -403,7 +413,7 @@ def save(pm: ProgressiveMesh, path: str | os.PathLike[str], *, source_digest: st
         raise SwpmEncodeError(
             f"{os.fspath(path)}: a mesh file's name ({suffix}); an SWPM file is written under a .swpm name"
         )
-    data = encode_bytes(pm, source_digest=source_digest)
+    data = encode_bytes(pm, source_digest=source_digest, legacy=legacy_layout)
     try:
         return atomic_write_bytes(path, data)
     except OSError as e:

@@ -79,6 +79,12 @@ _UNITS: dict[str, tuple[Callable[[Any], bool], str]] = {
     "up_axis": (lambda v: v in ("Y", "Z"), '"Y" or "Z"'),
     "meters_per_unit": (lambda v: _number(v) and math.isfinite(v) and v > 0, "a number above 0"),
 }
+#: the layout of a .swpm's record (:func:`.worker.swpm_layout`; a record of an earlier version has none)
+_LAYOUT: dict[str, tuple[Callable[[Any], bool], str]] = {
+    "legacy_layout": (lambda v: isinstance(v, bool), "a boolean"),
+    "index_width": (lambda v: type(v) is int and v in (2, 4), "2 or 4"),
+    "offset_width": (lambda v: type(v) is int and v in (2, 4), "2 or 4"),
+}
 #: the figures of a record's summary that the report shows (``curve``: one object of these per point)
 _SUMMARY_FIGURES = ("lambda", "acmr", "global_bytes", "instance_bytes")
 _CURVE_FIGURES = ("lod", "triangles", "error", "acmr")
@@ -156,6 +162,10 @@ def record_problem(rec: Any) -> str | None:
             return problem
         if kind == "usd":
             problem = _fields(out, _UNITS, f"outputs.{kind}")
+            if problem:
+                return problem
+        if kind == "swpm":
+            problem = _fields(out, _LAYOUT, f"outputs.{kind}")
             if problem:
                 return problem
     checks = rec.get("checks", {})

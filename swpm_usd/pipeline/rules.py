@@ -138,6 +138,16 @@ def _wanted_outputs(cfg: Config) -> set[str]:
     }
 
 
+def _swpm_layout_current(cfg: Config, outputs: dict) -> bool:
+    """Is an asset's recorded .swpm, when the config asks for one, of the layout ``output.legacy_layout``
+    asks for? Else it is written again (built again: the run keeps no build to re-encode). A record
+    without ``legacy_layout`` (written before the key was) is of the default layout."""
+    recorded = outputs.get("swpm")
+    if "swpm" not in _wanted_outputs(cfg) or not isinstance(recorded, dict):
+        return True
+    return recorded.get("legacy_layout", False) is bool(cfg.data["output"].get("legacy_layout", False))
+
+
 def _routes_by_triangles(cfg: Config) -> bool:
     """Does a rule match on triangle counts (so an asset's rule depends on its count)?"""
     return any("triangles" in (r.get("match") or {}) for r in cfg.data.get("rules", []))

@@ -130,6 +130,7 @@ from .rules import (
     _rule_name,
     _rules_pending,
     _same_rule_from,
+    _swpm_layout_current,
     _total_fits,
     _treatment_digest,
     _unreached_rules,
@@ -410,6 +411,8 @@ def plan(
             and bool(outs) == _wants_outputs(cfg)
             # (an output the config asks for that the build did not write: `usd: true` added since)
             and _wanted_outputs(cfg) <= set(outs)
+            # (a .swpm of the other layout: `legacy_layout` flipped since)
+            and _swpm_layout_current(cfg, outs)
         )
         if item.up_to_date:
             checked = {kind: _checked_output(out_dir / o["path"], o, verify) for kind, o in outs.items()}

@@ -258,6 +258,16 @@ def build_schema() -> dict[str, Any]:
                         "that holds the config: the outputs its manifest records)",
                     },
                     "swpm": {"type": "boolean", "default": True},
+                    "legacy_layout": {
+                        "type": "boolean",
+                        "default": False,
+                        "description": "write each .swpm as a reader before 0.9.0 accepts it: one integer "
+                        "width for every array, never the OFFSET32 feature bit such a reader refuses; a "
+                        "file whose tables need u32 (a sliding-window pool longer than 65,535 indices) is "
+                        "then u32 throughout (INDEX32), larger. Flipping it rewrites the .swpm outputs on "
+                        "the next run; the manifest records each one's legacy_layout, index_width and "
+                        "offset_width. USD outputs are unaffected",
+                    },
                     "usd": {"type": "boolean", "default": False, "description": "per-asset USD layers"},
                     "scene": {
                         "type": "boolean",

@@ -40,6 +40,8 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
         "out_dir": str(cfg.base / out["dir"]),
         "write_swpm": bool(out.get("swpm", True)),
         "write_usd": bool(out.get("usd", False)),
+        # the .swpm in the layout a reader before 0.9.0 accepts (no OFFSET32: encode_bytes' legacy)
+        "legacy_layout": bool(out.get("legacy_layout", False)),
         "input_digest": item.input_digest,
         # the files the asset is read from (its own first, then a glTF's buffers, a stage's layers): the
         # worker fails it when one changes while it reads them

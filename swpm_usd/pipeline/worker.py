@@ -93,6 +93,15 @@ def output_record(path: Path) -> dict[str, Any]:
     return rec
 
 
+def swpm_layout(data: bytes, legacy: bool) -> dict[str, Any]:
+    """What the manifest records of a .swpm's integer layout beside its file record: whether it was written
+    for a reader before 0.9.0 (``output.legacy_layout``) and the widths its header declares."""
+    from ..format.layout import header_widths
+
+    index_width, offset_width = header_widths(data)
+    return {"legacy_layout": legacy, "index_width": index_width, "offset_width": offset_width}
+
+
 def lod_change_cost(pm) -> float:
     """Mean index writes per record when an instance changes LOD (0 for a table look-up)."""
     b = pm.buffers()
@@ -717,7 +726,8 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
                 # validate the bytes before they replace anything: a bad build never overwrites a good file
                 # ("asset:" + the record's digest, of its input files, treatment and version: spec/format.md
                 # 3.1; "sha256:" is encode's, of one file's bytes alone)
-                data = swpm_format.encode_bytes(pm, source_digest="asset:" + rec["digest"])
+                legacy = bool(task.get("legacy_layout", False))
+                data = swpm_format.encode_bytes(pm, source_digest="asset:" + rec["digest"], legacy=legacy)
                 report = swpm_format.validate_bytes(data, path=str(target))
                 if not report.valid:
                     problems = "; ".join(f"{p.code}: {p.message}" for p in report.errors[:5])
@@ -731,6 +741,8 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
                 tmp.unlink(missing_ok=True)
         if units is not None:  # (the scene corrects the asset to its units from them: scene._write_scene)
             outputs["usd"].update(units)
+        if "swpm" in outputs:  # (the runner rebuilds a .swpm whose layout is not the config's: runner.plan)
+            outputs["swpm"].update(swpm_layout(data, legacy))
         rec["outputs"] = outputs
         from .assets import checks_of
 
