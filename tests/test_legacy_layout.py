@@ -92,3 +92,16 @@ def test_encode_legacy_layout_json(tmp_path) -> None:
     assert outs["legacy"]["bytes"] > outs["default"]["bytes"]
     help_text = runner.invoke(main, ["encode", "--help"]).output
     assert "--legacy-layout" in help_text and "before 0.9.0" in help_text
+
+
+def test_encode_says_the_layout_it_wrote(tmp_path) -> None:
+    runner = CliRunner()
+    lines = {}
+    for name, extra in (("default", []), ("legacy", ["--legacy-layout"])):
+        out = tmp_path / f"cow-{name}.swpm"
+        args = ["encode", str(SHARED_MESHES / "cow.obj"), "-o", str(out), "-e", "sliding-window", *extra]
+        result = runner.invoke(main, args)
+        assert result.exit_code == 0, result.output
+        lines[name] = result.stdout.strip()
+    assert lines["default"].endswith("bytes, index u16, tables u32"), lines["default"]
+    assert lines["legacy"].endswith("bytes, index u32, tables u32, legacy layout"), lines["legacy"]

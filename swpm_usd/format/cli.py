@@ -505,7 +505,13 @@ def encode_cmd(
         }
         click.echo(json.dumps(out, indent=2, default=float))
         return
-    click.echo(f"{output}: {pm.encoding}, {pm.lod_count} LODs, {pm.vertex_count} vertices, {size} bytes")
+    # (the widths as inspect's first line says them; "legacy layout" when asked for: no OFFSET32)
+    layout = f"index u{8 * index_width}, tables u{8 * offset_width}" + (
+        ", legacy layout" if legacy_layout else ""
+    )
+    click.echo(
+        f"{output}: {pm.encoding}, {pm.lod_count} LODs, {pm.vertex_count} vertices, {size} bytes, {layout}"
+    )
 
 
 def _mesh_hint(file: str, problems: list) -> None:
