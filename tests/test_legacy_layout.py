@@ -105,3 +105,17 @@ def test_encode_says_the_layout_it_wrote(tmp_path) -> None:
         lines[name] = result.stdout.strip()
     assert lines["default"].endswith("bytes, index u16, tables u32"), lines["default"]
     assert lines["legacy"].endswith("bytes, index u32, tables u32, legacy layout"), lines["legacy"]
+
+
+@pytest.mark.parametrize("value", ["false", "yes", 1, 0, None])
+def test_legacy_layout_is_true_or_false(value, tmp_path) -> None:  # noqa: ANN001
+    """A value that is not a bool is a TypeError naming it, not a layout picked by its truth: ``"false"``
+    (a config value read as text) wrote the legacy file, ``None`` the default, without a word."""
+    pm = swpm_usd.build(shared_mesh("suzanne.obj"), encoding="vanilla")
+    with pytest.raises(TypeError, match=f"legacy_layout must be True or False, not {value!r}"):
+        swpm_usd.save(pm, tmp_path / "s.swpm", legacy_layout=value)
+    assert not (tmp_path / "s.swpm").exists()
+    with pytest.raises(TypeError, match="legacy must be True or False"):
+        swpm_usd.format.encode_bytes(pm, legacy=value)
+    for ok in (True, False, np.bool_(True)):
+        assert validate(swpm_usd.save(pm, tmp_path / "s.swpm", legacy_layout=ok)).valid

@@ -426,8 +426,9 @@ def _loaded_and_digest(input_path: str, max_triangles: int | None) -> tuple[obje
     "OFFSET32 feature bit (tables u32 beside u16 index lists), which such a reader refuses "
     "(SWPM_HEADER_UNKNOWN_FEATURE). Use it when the runtime that loads the file holds an older reader. "
     "The cost: a file whose tables need u32 (a sliding-window pool longer than 65,535 indices) is u32 "
-    "throughout, INDEX32, its index lists too (bunny's sliding window: 5,713,552 bytes, not 3,484,336). "
-    "--json shows the file's index_width and offset_width.",
+    "throughout, INDEX32, its index lists too (bunny's sliding window: 5.71 MB, not 3.48 MB). "
+    "The printed line names the widths written (index u32, tables u32, legacy layout); --json gives "
+    "index_width and offset_width.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 def encode_cmd(
@@ -548,7 +549,12 @@ def _mesh_hint(file: str, problems: list) -> None:
 )
 def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
     """Show FILE's (an .swpm file's) header, chunks, counts, parameters and a per-LOD table, and the
-    problems validate finds. Exit 0 valid, 1 invalid or unreadable."""
+    problems validate finds. Exit 0 valid, 1 invalid or unreadable.
+
+    The first line names the integer widths: index, the lists an engine uploads (u16 below 65,536
+    vertices); tables, the offsets and records (u32 beside u16 index lists is the OFFSET32 bit, which a
+    reader before 0.9.0 refuses: encode --legacy-layout writes one it reads). --json: index_width and
+    offset_width, in bytes."""
     from .reader import _check, _map
 
     try:

@@ -194,6 +194,13 @@ def smap_payload(
     return head + np.array(bands, L.SMAP_BAND).tobytes() + np.array(ranges, L.SMAP_RANGE).tobytes()
 
 
+def _check_flag(name: str, value: object) -> None:
+    """A layout switch is True or False: a truthy string (``legacy_layout="false"``, a config value read as
+    text) wrote the other layout without a word."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be True or False, not {value!r}")
+
+
 def encode_bytes(
     pm: ProgressiveMesh,
     *,
@@ -220,7 +227,7 @@ def encode_bytes(
     they are, as a writer before 0.8.0 did (the vector generator's older-file vector).
     :class:`SwpmEncodeError` when ``pm.params`` would make a ``META`` the reader rejects (spec 3.1: nested
     more than 128 deep, an integer too large for binary64); NaN or infinity is a ``ValueError``, as is a
-    width other than 2 or 4."""
+    width other than 2 or 4; a ``legacy`` other than True or False is a ``TypeError``."""
     enc = pm.encoding
     if enc not in L.ENCODING_FEATURES:
         raise ValueError(f"encoding {enc!r} has no SWPM v1 layout")
@@ -228,6 +235,7 @@ def encode_bytes(
         # (another width has no feature bit: offset_width=3 wrote u32 tables without OFFSET32)
         if w is not None and w not in (2, 4):
             raise ValueError(f"{name} must be 2 or 4 bytes (or None), not {w!r}")
+    _check_flag("legacy", legacy)
     bufs = pm.buffers()
     if legacy:  # (before 0.9.0: one width over every array, a restart index counted as it stands)
         W = max(choose_index_width(bufs, pm.vertex_count), int(index_width or 2))
@@ -401,7 +409,8 @@ def save(
 
     ``legacy_layout`` writes a file a reader before 0.9.0 accepts (:func:`encode_bytes`' ``legacy``): one
     integer width for every array, never the OFFSET32 bit, so a sliding-window pool longer than 65,535
-    indices makes the whole file u32 (INDEX32), the index lists an engine uploads too.
+    indices makes the whole file u32 (INDEX32), the index lists an engine uploads too. It is True or False
+    (a :class:`TypeError` otherwise: ``"false"`` would be truthy).
 
     An :class:`OSError` (of its errno's subclass) names ``path``, not the temporary file beside it. A path
     with a mesh file's suffix (``spot.obj``) is a :class:`SwpmEncodeError`, as ``encode -o`` refuses it: it
@@ -413,6 +422,7 @@ def save(
         raise SwpmEncodeError(
             f"{os.fspath(path)}: a mesh file's name ({suffix}); an SWPM file is written under a .swpm name"
         )
+    _check_flag("legacy_layout", legacy_layout)
     data = encode_bytes(pm, source_digest=source_digest, legacy=legacy_layout)
     try:
         return atomic_write_bytes(path, data)
