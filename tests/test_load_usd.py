@@ -87,3 +87,10 @@ def test_load_of_an_edited_stage_fails_the_readers_checks(tmp_path, built) -> No
     stage.GetRootLayer().Save()
     with pytest.raises(UsdReadError, match=r"edited\.usda"):
         swpm_usd.load(path)
+
+
+def test_load_of_an_swpm_file_under_a_usd_name_says_so(tmp_path, built) -> None:
+    swpm_usd.save(built, tmp_path / "fake.swpm")
+    (tmp_path / "fake.swpm").rename(tmp_path / "fake.usda")
+    with pytest.raises(UsdReadError, match=r"fake\.usda: .*SWPM file: give it a \.swpm name to read it"):
+        swpm_usd.load(tmp_path / "fake.usda")

@@ -516,7 +516,7 @@ def _open(path: str) -> tuple[Usd.Stage | None, str]:
         if not head:
             hint = " (the file is empty)"
         elif head.startswith(b"SWPM"):
-            hint = " (it is an SWPM file: give it a .swpm name to validate it as one)"
+            hint = " (it is an SWPM file: give it a .swpm name to read it as one)"
     except OSError as exc:
         hint = f" ({exc.strerror or exc})"
     return None, f"{path}: usd-core cannot open it as a USD layer{hint}: {reason}"
