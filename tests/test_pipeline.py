@@ -3386,6 +3386,20 @@ def test_scene_without_usd_layers_is_a_config_error(tmp_path):
     ]
 
 
+def test_legacy_layout_without_swpm_files_is_a_config_error(tmp_path):
+    # the layout of .swpm files a config does not write: accepted without a word
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES)
+    cfg = tmp_path / "c.yaml"
+    head = "version: 1\nassets: [{glob: 'm/*.obj'}]\n"
+    assert _config_problems(
+        cfg, head + "output: {dir: out, swpm: false, usd: true, legacy_layout: true}\n"
+    ) == [
+        "c.yaml:3:59: $.output.legacy_layout: legacy_layout: true needs swpm: true "
+        "(it is the .swpm files' layout; USD layers have none)"
+    ]
+
+
 def test_instances_changed_rebuild_only_what_depends_on_them(tmp_path):
     # the instance count was in every asset's digest: a source's `instances` changed rebuilt assets whose
     # build it does not change (an encoding named by a rule, not auto), as if their mesh had changed

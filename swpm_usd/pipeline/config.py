@@ -212,6 +212,12 @@ def load_config(path: str | Path) -> Config:
             f"{cfg.where(('output', 'scene'))}: scene: true needs usd: true (scene.usda references each "
             "asset's USD layer)"
         )
+    if isinstance(out, dict) and out.get("legacy_layout") is True and out.get("swpm", True) is not True:
+        # (the layout of .swpm files the config does not write: it asked for something it would not get)
+        problems.append(
+            f"{cfg.where(('output', 'legacy_layout'))}: legacy_layout: true needs swpm: true (it is the "
+            ".swpm files' layout; USD layers have none)"
+        )
     if problems:
         raise ConfigError(sorted(set(problems), key=lambda p: _line_key(p, shown)))
     return cfg
