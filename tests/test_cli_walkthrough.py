@@ -456,6 +456,26 @@ def test_a_mesh_given_as_an_swpm_file_gets_a_hint(tmp_path, command):
     assert result.exit_code == 1 and "hint" not in result.stderr
 
 
+@pytest.mark.parametrize("command", ["inspect", "validate"])
+@pytest.mark.parametrize("kind", [".usdc", ".usda"])
+def test_a_stage_under_an_swpm_name_gets_a_hint(tmp_path, command, kind):
+    # a .usdc renamed .swpm got only "magic is 5058522d55534443": the user is told what it is and how to
+    # check or read it
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / f"s{kind}"))
+    UsdGeom.Mesh.Define(stage, "/M")
+    stage.GetRootLayer().Save()
+    fake = tmp_path / "s.swpm"
+    (tmp_path / f"s{kind}").rename(fake)
+    result = CliRunner().invoke(main, [command, str(fake)])
+    assert result.exit_code == 1
+    assert result.stderr == (
+        f"hint: {fake} is a USD stage ({kind[1:]}), not an SWPM file: under a {kind} name (as s{kind}) "
+        "swpm-pipeline validate checks its SwpmMeshAPI prims and swpm_usd.load reads it\n"
+    )
+
+
 @pytest.mark.parametrize(
     "params, says",
     [

@@ -517,8 +517,9 @@ def encode_cmd(
 
 def _mesh_hint(file: str, problems: list) -> None:
     """A mesh file given to ``inspect`` or ``validate`` as an SWPM file (its magic wrong, its name a mesh
-    type's): one line on stderr saying what to run instead (the report alone, ``magic is 7620302e33343837``,
-    left a user to find out why a mesh is an invalid file)."""
+    type's), or a USD stage under another name (its first bytes a crate's or a text layer's): one line on
+    stderr saying what to run instead (the report alone, ``magic is 7620302e33343837``, left a user to find
+    out why a mesh is an invalid file)."""
     from ..io import SUPPORTED_SUFFIXES
 
     suffix = Path(file).suffix.lower()
@@ -535,6 +536,26 @@ def _mesh_hint(file: str, problems: list) -> None:
             + stage,
             err=True,
         )
+    elif any(q.code in not_swpm for q in problems):
+        # (a stage under another name, a .usdc renamed .swpm: its magic alone said nothing)
+        kind = _usd_kind(file)
+        if kind:
+            usd_name = Path(file).with_suffix(kind).name
+            click.echo(
+                f"hint: {file} is a USD stage ({kind[1:]}), not an SWPM file: under a {kind} name (as "
+                f"{usd_name}) swpm-pipeline validate checks its SwpmMeshAPI prims and swpm_usd.load reads it",
+                err=True,
+            )
+
+
+def _usd_kind(file: str) -> str | None:
+    """``".usdc"`` for a USD crate file, ``".usda"`` for a text layer, by their first bytes; else None."""
+    try:
+        with open(file, "rb") as f:
+            head = f.read(8)
+    except OSError:
+        return None
+    return ".usdc" if head == b"PXR-USDC" else ".usda" if head.startswith(b"#usda ") else None
 
 
 @click.command("inspect", cls=JsonUsageCommand, short_help="Show an .swpm file's header, chunks and LODs.")
