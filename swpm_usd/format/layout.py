@@ -282,6 +282,19 @@ STRIP_ARRAYS = {
 }
 
 
+def strips_restart_index(encoding: str | None, params: object) -> int | None:
+    """The restart index ``params`` (a file's ``META.params``, a mesh's ``params``) join strips by: their
+    integer ``restart_index`` when their ``primitive`` is ``"strip"``, a missing one reading as skip-strip's
+    ``"strip"`` and the sliding window's ``"list"`` (spec 3.5, 3.7: a list's restart index is ignored); else
+    None. Its range (>= V) is the caller's to check."""
+    if not isinstance(params, dict):
+        return None
+    if params.get("primitive", "strip" if encoding == "skip-strip" else "list") != "strip":
+        return None
+    ri = params.get("restart_index")
+    return int(ri) if isinstance(ri, (int, np.integer)) and not isinstance(ri, bool) else None
+
+
 def rejoin_strips(arrays: Mapping[str, np.ndarray], old: int, new: int) -> dict[str, np.ndarray]:
     """``arrays`` (strips) with their restart entries ``old`` made ``new``, as new uint32 arrays: never in
     place, since an array may be a caller's (:func:`swpm_usd.from_buffers` keeps them) or a file's,

@@ -305,14 +305,8 @@ def _index_values_width(p: _Parsed) -> int:
     lists = [np.asarray(p.buffers[n]) for n in _DRAWN_LISTS.get(p.encoding or "", ()) if n in p.buffers]
     if not lists:
         return p.width
-    params = (p.meta or {}).get("params")
-    # (a missing primitive reads as skip-strip's "strip" and the sliding window's "list", whose restart_index
-    # a reader ignores, spec 3.5, 3.7)
-    default = "strip" if p.encoding == "skip-strip" else "list"
-    strips = isinstance(params, dict) and params.get("primitive", default) == "strip"
-    ri = params.get("restart_index") if strips else None
+    ri = L.strips_restart_index(p.encoding, (p.meta or {}).get("params"))
     V = int(p.points.shape[0]) if p.points is not None else 0
-    ri = ri if isinstance(ri, int) and not isinstance(ri, bool) else None
     values = L.choose_index_width({str(i): a for i, a in enumerate(lists)}, restart=ri)
     return max(values, L.draw_index_width(V, ri))
 

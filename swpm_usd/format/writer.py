@@ -112,22 +112,17 @@ def _strips_restart(pm: ProgressiveMesh, bufs: dict[str, np.ndarray]) -> int | N
     enc = pm.encoding
     if enc not in STRIP_ARRAYS or (enc == "sliding-window" and "window_index_counts" not in bufs):
         return None
-    params = pm.params if isinstance(pm.params, dict) else {}
-    if params.get("primitive", "strip" if enc == "skip-strip" else "list") != "strip":
-        return None
-    ri = params.get("restart_index")
-    if not isinstance(ri, (int, np.integer)) or isinstance(ri, bool) or not pm.vertex_count <= ri < 2**32:
-        return None
-    return int(ri)
+    ri = L.strips_restart_index(enc, pm.params)
+    return ri if ri is not None and pm.vertex_count <= ri < 2**32 else None
 
 
 def _settled_restart(
-    pm: ProgressiveMesh, bufs: dict[str, np.ndarray], width: int
+    pm: ProgressiveMesh, bufs: dict[str, np.ndarray], width: int, old: int | None
 ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-    """``pm``'s buffers and params with its strips' restart index made the largest value of ``width``, the
-    writer's rule (spec 3.5, 3.7), when it is another (a file of a writer before 0.8.0 loaded, 0xFFFF in a
-    u32 file, or a USD stage of one read): the strips rewritten into new arrays, the caller's left alone."""
-    old = _strips_restart(pm, bufs)
+    """``pm``'s buffers and params with its strips' restart index ``old`` (:func:`_strips_restart`) made the
+    largest value of ``width``, the writer's rule (spec 3.5, 3.7), when it is another (a file of a writer
+    before 0.8.0 loaded, 0xFFFF in a u32 file, or a USD stage of one read): the strips rewritten into new
+    arrays, the caller's left alone."""
     ones = 0xFFFF if width == 2 else 0xFFFFFFFF
     if old is None or old == ones:
         return bufs, pm.params
@@ -237,19 +232,20 @@ def encode_bytes(
             raise ValueError(f"{name} must be 2 or 4 bytes (or None), not {w!r}")
     _check_flag("legacy", legacy)
     bufs = pm.buffers()
+    strips_restart = _strips_restart(pm, bufs)
     if legacy:  # (before 0.9.0: one width over every array, a restart index counted as it stands)
         W = max(choose_index_width(bufs, pm.vertex_count), int(index_width or 2))
         O, width_bits = W, L.FEATURE_INDEX32 if W == 4 else 0
     else:
         # a restart index about to be settled to W's all ones does not count for W (a re-saved file of a
         # writer before 0.9.0 joined by 0xFFFFFFFF comes out u16, joined by 0xFFFF)
-        restart = None if keep_restart_index else _strips_restart(pm, bufs)
+        restart = None if keep_restart_index else strips_restart
         W = choose_index_width(L.index_buffers(bufs), pm.vertex_count, restart=restart)
         W = max(W, int(index_width or 2))
         O = max(L.choose_offset_width(bufs), int(offset_width or 2))
         W, O, width_bits = L.file_widths(W, O)
     # (rewriting keeps W: every value but the restart already fits it, and the new restart is W's all ones)
-    bufs, params = (bufs, pm.params) if keep_restart_index else _settled_restart(pm, bufs, W)
+    bufs, params = (bufs, pm.params) if keep_restart_index else _settled_restart(pm, bufs, W, strips_restart)
     it, ot = L.index_dtype(W), L.index_dtype(O)
     lods = pm.lod_count
     meta = {
