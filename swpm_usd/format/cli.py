@@ -527,13 +527,21 @@ def _mesh_hint(file: str, problems: list) -> None:
     not_swpm = ("SWPM_HEADER_BAD_MAGIC", "SWPM_HEADER_TRUNCATED")
     if suffix in SUPPORTED_SUFFIXES and any(q.code in not_swpm for q in problems):
         # (inspect reads .swpm files only; a stage this package wrote is checked by validate)
-        stage = ""
+        swpm_name = Path(file).with_suffix(".swpm").name
         if suffix.startswith(".usd"):
-            stage = f"; swpm-pipeline validate {file} checks a stage's SwpmMeshAPI prims"
+            # validate first: a stage given to inspect is most often a run's layer, already encoded (encode
+            # alone, first, rebuilt its LOD 0 as if it were a plain mesh)
+            click.echo(
+                f"hint: {file} is a USD stage ({suffix}), not an SWPM file: swpm-pipeline validate {file} "
+                "checks a stage's SwpmMeshAPI prims (swpm_usd.load reads one, swpm_usd.save writes it as "
+                f"an .swpm file); a stage of plain meshes: swpm-pipeline encode {file} -o {swpm_name} builds "
+                f"one, swpm-pipeline build {file} shows its LODs",
+                err=True,
+            )
+            return
         click.echo(
             f"hint: {file} is a mesh file ({suffix}), not an SWPM file: swpm-pipeline encode {file} -o "
-            f"{Path(file).with_suffix('.swpm').name} writes one, swpm-pipeline build {file} shows its LODs"
-            + stage,
+            f"{swpm_name} writes one, swpm-pipeline build {file} shows its LODs",
             err=True,
         )
     elif any(q.code in not_swpm for q in problems):
