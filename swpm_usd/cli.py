@@ -69,6 +69,9 @@ class _Main(EncodingsHelpGroup):
         from ._startup import restore_interrupts
 
         restore_interrupts()  # (the package's import exited on Ctrl-C at once: see swpm_usd._startup)
+        from .warnlines import package_warnings_as_lines
+
+        package_warnings_as_lines()  # (a loader's warning: one line, not our source file and code line)
         try:
             return super().invoke(ctx)
         except KeyboardInterrupt:

@@ -1,14 +1,22 @@
 """Defects found by a technical artist's acceptance audit of 0.9.0 (helper-196); each test failed before
 its fix.
 
-The run's progress line cutting a failure's cause without saying so, and inspect's hint for a USD stage
-(one the pipeline wrote, its SwpmMeshAPI prims encoded) leading with a rebuild.
+The run's progress line cutting a failure's cause without saying so, inspect's hint for a USD stage (one the
+pipeline wrote, its SwpmMeshAPI prims encoded) leading with a rebuild, and a loader's warning printed with
+the package's source file and code line.
 """
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
 from click.testing import CliRunner
 
+import swpm_usd
 from swpm_usd.cli import main
 from swpm_usd.pipeline.progress import _Progress
 
@@ -46,7 +54,6 @@ def test_inspect_of_a_runs_usd_layer_points_to_validate_and_load_first(tmp_path)
     # a run's asset layer (bob.usdc, SwpmMeshAPI on its Mesh) given to inspect was "a mesh file (.usdc)",
     # with "encode bob.usdc -o bob.swpm writes one" first: a rebuild of its LOD 0, where swpm_usd.load and
     # swpm_usd.save turn the encoded prim into the .swpm file as it is
-    import swpm_usd
     from swpm_usd import usd
 
     mesh = tmp_path / "g.obj"
@@ -63,3 +70,49 @@ def test_inspect_of_a_runs_usd_layer_points_to_validate_and_load_first(tmp_path)
     assert CliRunner().invoke(main, ["validate", str(stage)]).exit_code == 0
     swpm_usd.save(swpm_usd.load(stage), tmp_path / "g.swpm")
     assert CliRunner().invoke(main, ["inspect", str(tmp_path / "g.swpm")]).exit_code == 0
+
+
+_TWO_OBJECTS = (  # an OBJ of two objects, normals on the first alone: the loader drops them with a warning
+    "o a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n"
+    "o b\nv 2 0 0\nv 3 0 0\nv 2 1 0\nv 3 1 0\nf 4 5 6\nf 5 7 6\n"
+)
+
+
+def _command(*args: str, cwd) -> subprocess.CompletedProcess:
+    # (a process of its own: pytest records warnings itself, so the command's format shows only outside it)
+    env = {**os.environ, "PYTHONPATH": str(Path(swpm_usd.__file__).parents[1])}
+    return subprocess.run(
+        [sys.executable, "-m", "swpm_usd.cli", *args], cwd=cwd, env=env, capture_output=True, text=True
+    )
+
+
+@pytest.mark.parametrize("jobs", [None, "2"])
+def test_a_loaders_warning_is_one_line_naming_the_file(tmp_path, jobs):
+    # Python's format printed our source file and line ("/.../swpm_usd/build.py:77: UserWarning: ...") and
+    # our code line after it ("  mesh = load_mesh(mesh_or_path)"); build and a run's workers (--jobs 2) now
+    # print "warning: <message>", the message naming the file, as the run's own warnings are printed
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "meshes" / "two.obj").write_text(_TWO_OBJECTS)
+    if jobs is None:
+        result = _command("build", "meshes/two.obj", "--rows", "1", cwd=tmp_path)
+    else:
+        config = "version: 1\nassets: [{glob: 'meshes/*.obj'}]\noutput: {dir: out, report: false}\n"
+        (tmp_path / "p.yaml").write_text(config + "defaults: {encoding: vanilla}\n")
+        result = _command("run", "p.yaml", "--jobs", jobs, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    lines = [ln for ln in result.stderr.splitlines() if "normal values" in ln]
+    assert len(lines) == 1, result.stderr
+    assert lines[0].startswith("warning: ") and "two.obj: its faces refer to normal values" in lines[0]
+    assert "UserWarning" not in result.stderr and "swpm_usd" not in result.stderr, result.stderr
+
+
+def test_a_program_keeps_pythons_format_for_the_packages_warnings(tmp_path):
+    # the one-line format is the command's: a program importing the package is not changed
+    import warnings
+
+    mesh = tmp_path / "two.obj"
+    mesh.write_text(_TWO_OBJECTS)
+    before = warnings.formatwarning
+    with pytest.warns(UserWarning, match="normal values"):
+        swpm_usd.build(str(mesh), encoding="vanilla")
+    assert warnings.formatwarning is before
