@@ -116,3 +116,48 @@ def test_a_program_keeps_pythons_format_for_the_packages_warnings(tmp_path):
     with pytest.warns(UserWarning, match="normal values"):
         swpm_usd.build(str(mesh), encoding="vanilla")
     assert warnings.formatwarning is before
+
+
+def test_a_slow_build_says_it_is_still_building(capsys):
+    # a first build on a cold numba cache printed nothing for 83 s (cow, sliding window), then "built in
+    # 81.48 s": the timer prints one line once the block has run its time, and nothing after the block ends
+    from swpm_usd.slow_notice import MESSAGE, notice_if_slow
+
+    with notice_if_slow(0.0) as timer:
+        timer.join()  # (the block outlasts the delay: the line is printed)
+    assert capsys.readouterr().err == MESSAGE + "\n"
+    with notice_if_slow(3600.0) as timer:
+        pass
+    timer.join()  # (cancelled as the block ended: it ends without printing)
+    assert capsys.readouterr().err == ""
+    assert "compiles numba's kernels" in MESSAGE
+
+
+@pytest.mark.parametrize("command", ["build", "encode"])
+def test_build_and_encode_run_their_build_under_the_notice(tmp_path, monkeypatch, command):
+    import contextlib
+
+    import swpm_usd.slow_notice as slow_notice
+
+    entered = []
+
+    @contextlib.contextmanager
+    def recorded(*args, **kwargs):
+        entered.append(command)
+        yield None
+
+    monkeypatch.setattr(slow_notice, "notice_if_slow", recorded)
+    mesh = tmp_path / "two.obj"
+    mesh.write_text(_TWO_OBJECTS)
+    args = [command, str(mesh)] + (["-o", str(tmp_path / "two.swpm")] if command == "encode" else [])
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 0, result.output
+    assert entered == [command]
+
+
+def test_encode_to_a_usd_name_says_where_a_usd_layer_comes_from(tmp_path):
+    mesh = tmp_path / "two.obj"
+    mesh.write_text(_TWO_OBJECTS)
+    result = CliRunner().invoke(main, ["encode", str(mesh), "-o", str(tmp_path / "two.usdc")])
+    assert result.exit_code == 2
+    assert "the output must be a .swpm file (a USD layer: swpm_usd.usd.write" in result.stderr

@@ -449,6 +449,7 @@ def encode_cmd(
       swpm-pipeline encode cow.obj -o cow.swpm -e sliding-window --legacy-layout
     """
     from ..build import build
+    from ..slow_notice import notice_if_slow
     from .layout import HEADER_SIZE, header_widths
     from .writer import save
 
@@ -456,7 +457,11 @@ def encode_cmd(
     if Path(output).exists() and Path(input_path).exists() and Path(output).samefile(input_path):
         raise click.BadParameter(f"{output} is the input: it would be overwritten", param_hint="--output")
     if Path(output).suffix.lower() != ".swpm":
-        raise click.BadParameter(f"{output}: the output must be a .swpm file", param_hint="--output")
+        raise click.BadParameter(
+            f"{output}: the output must be a .swpm file (a USD layer: swpm_usd.usd.write, or a pipeline "
+            "config's output.usd: true)",
+            param_hint="--output",
+        )
     json_on_interrupt(as_json, input=input_path, output=output)
     start = time.perf_counter()
     try:
@@ -464,7 +469,8 @@ def encode_cmd(
         if problem:  # (before the build: exit 1, as the write that would fail after it)
             raise _OutputError(problem)
         try:
-            with ctrl_c_through_compiled_code():
+            # (a cold numba cache: the first build compiles for a minute or more, silent until then)
+            with ctrl_c_through_compiled_code(), notice_if_slow():
                 mesh, digest = _loaded_and_digest(input_path, max_triangles)
                 pm = build(mesh, encoding, **parsed)
             seconds = time.perf_counter() - start
