@@ -161,3 +161,28 @@ def test_encode_to_a_usd_name_says_where_a_usd_layer_comes_from(tmp_path):
     result = CliRunner().invoke(main, ["encode", str(mesh), "-o", str(tmp_path / "two.usdc")])
     assert result.exit_code == 2
     assert "the output must be a .swpm file (a USD layer: swpm_usd.usd.write" in result.stderr
+
+
+@pytest.mark.parametrize(
+    ("param", "hint"),
+    [
+        ("cluster=True", "write cluster=true"),  # (the README's own spelling, cluster=True, in its prose)
+        ("mu=.2", "write mu=0.2"),
+        ("order_passes=None", "write order_passes=null"),
+        ("mu=abc", "true, false, null, a number (0.2) or text"),
+    ],
+)
+def test_a_param_python_spells_says_how_json_spells_it(tmp_path, param, hint):
+    # "-p cluster=True" was "cluster: 'True' is not of type 'boolean'", no word of -p reading JSON
+    result = CliRunner().invoke(
+        main, ["build", str(tmp_path / "none.obj"), "-e", "sliding-window", "-p", param]
+    )
+    assert result.exit_code == 2
+    assert f"(-p reads its value as JSON: {hint})" in result.stderr, result.stderr
+
+
+def test_a_param_json_spells_builds_unchanged(tmp_path):
+    mesh = tmp_path / "two.obj"
+    mesh.write_text(_TWO_OBJECTS)
+    result = CliRunner().invoke(main, ["build", str(mesh), "-e", "sliding-window", "-p", "cluster=true"])
+    assert result.exit_code == 0 and "reads its value as JSON" not in result.stderr

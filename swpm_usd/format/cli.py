@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import math
 import sys
 import textwrap
 import time
@@ -68,6 +69,9 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     for name, value in parsed.items():
         problem = param_problem(encoding, name, value)
         if problem:
+            if isinstance(value, str) and "is not of type" in problem:
+                # (the README writes Python's cluster=True; -p reads JSON: 'True' and '.2' stayed text)
+                problem += f" (-p reads its value as JSON: {_as_json_value(name, value)})"
             raise click.BadParameter(f"{name}: {problem}", param_hint="--param")
     try:
         check_params(encoding, ENCODING_PARAMS[encoding], parsed)
@@ -77,6 +81,22 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     if problem:
         raise click.BadParameter(problem, param_hint="--param")
     return parsed
+
+
+def _as_json_value(name: str, value: str) -> str:
+    """How to write ``value``, text that did not read as JSON, so that it does: ``cluster=true`` for
+    Python's ``True``, ``mu=0.2`` for ``.2``; else what JSON's values look like."""
+    spelled = {"true": "true", "false": "false", "none": "null", "null": "null"}.get(value.strip().lower())
+    if spelled is None:
+        try:
+            number = float(value)
+        except ValueError:
+            number = None
+        if number is not None and math.isfinite(number):
+            spelled = json.dumps(int(number) if number.is_integer() and "." not in value else number)
+    if spelled is None:
+        return "true, false, null, a number (0.2) or text"
+    return f"write {name}={spelled}"
 
 
 #: ``click.Context.meta`` key: what a command given ``--json`` prints, with ``"error"``, when it is stopped by
