@@ -186,3 +186,25 @@ def test_a_param_json_spells_builds_unchanged(tmp_path):
     mesh.write_text(_TWO_OBJECTS)
     result = CliRunner().invoke(main, ["build", str(mesh), "-e", "sliding-window", "-p", "cluster=true"])
     assert result.exit_code == 0 and "reads its value as JSON" not in result.stderr
+
+
+def test_loading_a_stage_of_several_encoded_prims_names_the_call_that_picks_one(tmp_path):
+    # swpm_usd.load of a shot referencing an asset twice said "pass prim= to pick one"; load takes no prim=
+    # (TypeError): the message names swpm_usd.usd.read_file, which does
+    from pxr import Usd
+
+    from swpm_usd import usd
+    from swpm_usd.usd.reader import UsdReadError
+
+    mesh = tmp_path / "two.obj"
+    mesh.write_text(_TWO_OBJECTS)
+    usd.write(swpm_usd.build(str(mesh), encoding="vanilla"), tmp_path / "asset.usdc")
+    shot = Usd.Stage.CreateNew(str(tmp_path / "shot.usda"))
+    for i in range(2):
+        shot.DefinePrim(f"/World/copy_{i}", "Xform").GetReferences().AddReference("./asset.usdc")
+    shot.GetRootLayer().Save()
+    path = str(tmp_path / "shot.usda")
+    with pytest.raises(UsdReadError, match=r"swpm_usd\.usd\.read_file\(.*, prim=\.\.\.\) reads one") as err:
+        swpm_usd.load(path)
+    assert "/World/copy_0" in str(err.value)
+    assert usd.read_file(path, prim="/World/copy_1").lod_count > 0  # (what the message says works)
