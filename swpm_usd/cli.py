@@ -69,6 +69,9 @@ class _Main(EncodingsHelpGroup):
         from ._startup import restore_interrupts
 
         restore_interrupts()  # (the package's import exited on Ctrl-C at once: see swpm_usd._startup)
+        from .warnlines import package_warnings_as_lines
+
+        package_warnings_as_lines()  # (a loader's warning: one line, not our source file and code line)
         try:
             return super().invoke(ctx)
         except KeyboardInterrupt:
@@ -145,12 +148,14 @@ def build_cmd(
     """
     from .build import build
     from .format.cli import _encoding_and_params
+    from .slow_notice import notice_if_slow
 
     parsed = _encoding_and_params(encoding, params)
     json_on_interrupt(as_json, input=input_path)
     start = time.perf_counter()
     try:
-        with ctrl_c_through_compiled_code():
+        # (a cold numba cache: the first build compiles for a minute or more, silent until then)
+        with ctrl_c_through_compiled_code(), notice_if_slow():
             pm = build(mesh_input(input_path, max_triangles), encoding, **parsed)
     except SwpmError as exc:
         from .codes import problem_fields

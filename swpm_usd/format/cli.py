@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import math
 import sys
 import textwrap
 import time
@@ -68,6 +69,9 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     for name, value in parsed.items():
         problem = param_problem(encoding, name, value)
         if problem:
+            if isinstance(value, str) and "is not of type" in problem:
+                # (the README writes Python's cluster=True; -p reads JSON: 'True' and '.2' stayed text)
+                problem += f" (-p reads its value as JSON: {_as_json_value(name, value)})"
             raise click.BadParameter(f"{name}: {problem}", param_hint="--param")
     try:
         check_params(encoding, ENCODING_PARAMS[encoding], parsed)
@@ -77,6 +81,22 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     if problem:
         raise click.BadParameter(problem, param_hint="--param")
     return parsed
+
+
+def _as_json_value(name: str, value: str) -> str:
+    """How to write ``value``, text that did not read as JSON, so that it does: ``cluster=true`` for
+    Python's ``True``, ``mu=0.2`` for ``.2``; else what JSON's values look like."""
+    spelled = {"true": "true", "false": "false", "none": "null", "null": "null"}.get(value.strip().lower())
+    if spelled is None:
+        try:
+            number = float(value)
+        except ValueError:
+            number = None
+        if number is not None and math.isfinite(number):
+            spelled = json.dumps(int(number) if number.is_integer() and "." not in value else number)
+    if spelled is None:
+        return "true, false, null, a number (0.2) or text"
+    return f"write {name}={spelled}"
 
 
 #: ``click.Context.meta`` key: what a command given ``--json`` prints, with ``"error"``, when it is stopped by
@@ -449,6 +469,7 @@ def encode_cmd(
       swpm-pipeline encode cow.obj -o cow.swpm -e sliding-window --legacy-layout
     """
     from ..build import build
+    from ..slow_notice import notice_if_slow
     from .layout import HEADER_SIZE, header_widths
     from .writer import save
 
@@ -456,7 +477,11 @@ def encode_cmd(
     if Path(output).exists() and Path(input_path).exists() and Path(output).samefile(input_path):
         raise click.BadParameter(f"{output} is the input: it would be overwritten", param_hint="--output")
     if Path(output).suffix.lower() != ".swpm":
-        raise click.BadParameter(f"{output}: the output must be a .swpm file", param_hint="--output")
+        raise click.BadParameter(
+            f"{output}: the output must be a .swpm file (a USD layer: swpm_usd.usd.write, or a pipeline "
+            "config's output.usd: true)",
+            param_hint="--output",
+        )
     json_on_interrupt(as_json, input=input_path, output=output)
     start = time.perf_counter()
     try:
@@ -464,7 +489,8 @@ def encode_cmd(
         if problem:  # (before the build: exit 1, as the write that would fail after it)
             raise _OutputError(problem)
         try:
-            with ctrl_c_through_compiled_code():
+            # (a cold numba cache: the first build compiles for a minute or more, silent until then)
+            with ctrl_c_through_compiled_code(), notice_if_slow():
                 mesh, digest = _loaded_and_digest(input_path, max_triangles)
                 pm = build(mesh, encoding, **parsed)
             seconds = time.perf_counter() - start
@@ -527,13 +553,21 @@ def _mesh_hint(file: str, problems: list) -> None:
     not_swpm = ("SWPM_HEADER_BAD_MAGIC", "SWPM_HEADER_TRUNCATED")
     if suffix in SUPPORTED_SUFFIXES and any(q.code in not_swpm for q in problems):
         # (inspect reads .swpm files only; a stage this package wrote is checked by validate)
-        stage = ""
+        swpm_name = Path(file).with_suffix(".swpm").name
         if suffix.startswith(".usd"):
-            stage = f"; swpm-pipeline validate {file} checks a stage's SwpmMeshAPI prims"
+            # validate first: a stage given to inspect is most often a run's layer, already encoded (encode
+            # alone, first, rebuilt its LOD 0 as if it were a plain mesh)
+            click.echo(
+                f"hint: {file} is a USD stage ({suffix}), not an SWPM file: swpm-pipeline validate {file} "
+                "checks a stage's SwpmMeshAPI prims (swpm_usd.load reads one, swpm_usd.save writes it as "
+                f"an .swpm file); a stage of plain meshes: swpm-pipeline encode {file} -o {swpm_name} builds "
+                f"one, swpm-pipeline build {file} shows its LODs",
+                err=True,
+            )
+            return
         click.echo(
             f"hint: {file} is a mesh file ({suffix}), not an SWPM file: swpm-pipeline encode {file} -o "
-            f"{Path(file).with_suffix('.swpm').name} writes one, swpm-pipeline build {file} shows its LODs"
-            + stage,
+            f"{swpm_name} writes one, swpm-pipeline build {file} shows its LODs",
             err=True,
         )
     elif any(q.code in not_swpm for q in problems):

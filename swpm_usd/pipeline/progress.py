@@ -48,7 +48,10 @@ class _Progress:
         if status == "failed":
             # the problem code first, bracketed, as the summary's FAILED line has it: a log greps by cause
             code = f" [{rec['code']}]" if rec.get("code") else ""
-            status = f"FAILED{code} ({error[:100]})"
+            # (cut to 100 characters with "..." where it was cut: a cause cut at a comma read as whole,
+            # "refers to vertex 99999, the file"; the summary after the run prints it whole)
+            short = error if len(error) <= 100 else error[:97] + "..."
+            status = f"FAILED{code} ({short})"
         if rec.get("kept_previous"):
             status += "; its previous outputs are kept"
         if self.bar is not None:

@@ -516,6 +516,9 @@ def serve(conn: Any) -> None:
     limit: an asset that builds in 1 s was stopped)."""
     ignore_interrupts()
     _end_with_the_runner(conn)
+    from ..warnlines import package_warnings_as_lines
+
+    package_warnings_as_lines()  # (a loader's warning: one line naming the file, as the command prints it)
     try:
         conn.send((READY, time.monotonic()))
     except OSError:

@@ -283,7 +283,9 @@ def read_file(path: str | os.PathLike[str], prim: str | None = None, check: bool
         raise UsdReadError(
             f"{name}: no prim has {SCHEMA_NAME} applied"
             if not encoded
-            else f"{name}: {len(encoded)} prims have {SCHEMA_NAME} applied ({listed}): pass prim= to pick one"
+            # (named with its function: swpm_usd.load, which comes here, takes no prim=)
+            else f"{name}: {len(encoded)} prims have {SCHEMA_NAME} applied ({listed}): "
+            f"swpm_usd.usd.read_file({name!r}, prim=...) reads one"
         )
     return read(encoded[0], check=check)
 
