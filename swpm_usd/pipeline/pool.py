@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import sys
 import threading
 import time
 from collections.abc import Generator, Iterator
@@ -77,6 +78,21 @@ def _forkserver_preload(tasks: list[dict]) -> list[str]:
         *(["swpm_usd.usd.writer", "swpm_usd.io.usd_loader"] if usd else []),
         *(_TRIMESH_PRELOAD if meshes else []),
     ]
+
+
+def _server_import_path() -> str:
+    """``PYTHONPATH`` for the fork server, with ``PYTHONSAFEPATH=1`` beside it: the runner's first import
+    folder (its script's, or the current folder under ``python -m`` / ``-c``), then the inherited entries.
+
+    Python 3.11's fork server ignores the ``sys_path`` it is given and runs as ``python -c``, which puts the
+    current folder first on its path: a run started in an asset library imported that folder's ``trimesh.py``
+    or ``numba.py`` (or a checkout's ``swpm_usd`` over the installed one) into every worker. The server now
+    imports what the runner imports: its own first folder is left out (``PYTHONSAFEPATH``), the runner's is
+    put first."""
+    first = sys.path[0] if sys.path else ""
+    folders = [os.path.abspath(first or os.curdir)]
+    inherited = os.environ.get("PYTHONPATH")
+    return os.pathsep.join([*folders, *([inherited] if inherited else [])])
 
 
 @contextlib.contextmanager

@@ -117,6 +117,7 @@ from .pool import (
     _forkserver_preload,
     _forkserver_ready,
     _local_pool,
+    _server_import_path,
     _stop_forkserver,
     _warm_encodings,
 )
@@ -512,6 +513,9 @@ def execute(
             _interrupts_ignored(),
             _environ(WARM_ENCODINGS_ENV, ",".join(warm)),
             _environ(RUNNER_PID_ENV, str(os.getpid())),  # (a server reparented at its start ends: ._warm)
+            # (the runner's import path, not the current folder's modules: _server_import_path)
+            _environ("PYTHONSAFEPATH", "1"),
+            _environ("PYTHONPATH", _server_import_path()),
         ):
             from multiprocessing import forkserver
 
