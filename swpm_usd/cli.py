@@ -327,6 +327,8 @@ def run_cmd(
             "pruned": res.pruned,
             "unlisted": res.unlisted,
             "built_assets": sorted(res.built_ids),  # (which ones: `built` counts them)
+            # (why: each reason's code -> how many of them had it, as the plan's `because` names them)
+            "built_because": res.built_because,
         }
         if dry_run:
             # a dry run deletes nothing: what --prune would delete is named as such, and left in output.dir
@@ -336,8 +338,11 @@ def run_cmd(
             summary["plan"] = res.plan
         click.echo(json.dumps(summary, indent=2, default=float))
     elif not dry_run:
+        from .pipeline.reasons import counted_shown
+
+        why = f" ({counted_shown(res.built_because)})" if res.built_because else ""
         click.echo(
-            f"{res.built} built, {res.skipped} up to date, {res.failed} failed in {res.seconds:.1f} s; "
+            f"{res.built} built{why}, {res.skipped} up to date, {res.failed} failed in {res.seconds:.1f} s; "
             f"manifest {res.manifest_path}"
         )
         for rid, rec in sorted(res.failures.items()):
