@@ -186,8 +186,12 @@ def build_cmd(
     show_default=True,
     help="Assets built at once (each in a process of its own).",
 )
-@click.option("--dry-run", is_flag=True, help="Plan only: print each asset's rule, encoding and why.")
-@click.option("--explain", is_flag=True, help="Print the plan, then run it.")
+@click.option(
+    "--dry-run",
+    is_flag=True,
+    help="Plan only: print each asset's rule, encoding, and why it is to build (new, inputs changed, ...).",
+)
+@click.option("--explain", is_flag=True, help="Print the plan (as --dry-run does), then run it.")
 @click.option(
     "--executor",
     type=click.Choice(["local", "dask"]),

@@ -206,6 +206,11 @@ def test_legacy_layout_flipped(project):
     because, text = _dry(project)
     assert because["meshes/a.obj"] == [{"code": "layout-changed", "detail": "legacy_layout false -> true"}]
     assert text["meshes/a.obj"].endswith("because: layout changed (legacy_layout false -> true)")
+    project.write_text(_config(output="  legacy_layout: true\n").replace("report: false", "report: true"))
+    res = run(project, echo=lambda m: None)
+    assert res.built_because == {"layout-changed": 2}
+    report = (project.parent / "out" / "report.html").read_text()
+    assert report.count(" legacy</td>") == 2 and "layout changed (legacy_layout false -&gt; true)" in report
 
 
 def test_no_output_wanted(project):
@@ -338,12 +343,22 @@ def test_the_run_counts_its_reasons_and_the_report_shows_them(project):
         f.write("# edited\n")
     shutil.copy(SHARED_MESHES / "suzanne.obj", project.parent / "meshes" / "c.obj")
     project.write_text(_config().replace("report: false", "report: true"))
-    result = CliRunner().invoke(main, ["run", str(project)])
+    result = CliRunner().invoke(main, ["run", str(project), "--explain"])
     assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    assert [x for x in lines if x.startswith("meshes/c.obj: ")][0].endswith(
+        "[to build] triangles=? (not needed: "
+        "no rule on triangles) instances=1; no rule matched: defaults; because: new (no record)"
+    )
+    assert [x for x in lines if x.startswith("meshes/b.obj: ")][0].endswith("; no rule matched: defaults")
     assert "2 built (new 1, inputs changed 1), 1 up to date, 0 failed in " in result.output
     report = (project.parent / "out" / "report.html").read_text()
     assert "new (no record)" in report and "inputs changed (meshes/a.obj)" in report
-    assert "<td>W2 O2</td>" in report or "<td>W2 O4</td>" in report
+    swpm = json.loads((project.parent / "out" / "manifest.json").read_text())["assets"]["meshes/c.obj"][
+        "outputs"
+    ]
+    layout = f"W{swpm['swpm']['index_width']} O{swpm['swpm']['offset_width']}"
+    assert report.count(f"<td>{layout}</td>") == 3  # (each asset's .swpm layout, as its record holds it)
     with open(project.parent / "meshes" / "b.obj", "a") as f:
         f.write("# edited\n")
     result = CliRunner().invoke(main, ["run", str(project), "--json"])
@@ -352,3 +367,29 @@ def test_the_run_counts_its_reasons_and_the_report_shows_them(project):
     result = CliRunner().invoke(main, ["run", str(project), "--dry-run", "--json"])
     plan_entries = json.loads(result.stdout)["plan"]
     assert [e["because"] for e in plan_entries] == [[], [], []]
+
+
+def test_params_of_encodings_whose_build_resolves_more(tmp_path):
+    # a sliding-window record holds order_passes and restart_index as the build chose them, a skip-strip
+    # one its restart_index: the record's treatment is still told, not left as digest-changed
+    (tmp_path / "meshes").mkdir()
+    for name in ("a.obj", "b.obj"):
+        shutil.copy(SHARED_MESHES / "suzanne.obj", tmp_path / "meshes" / name)
+    rules = (
+        "rules:\n  - name: a\n    match: {path: meshes/a.obj}\n"
+        "    encoding: sliding-window\n    params: {A}\n"
+        "  - name: b\n    match: {path: meshes/b.obj}\n    encoding: skip-strip\n    params: {B}\n"
+    )
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(_config(extra=rules.replace("{A}", "{}").replace("{B}", "{}")))
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.failed) == (2, 0), res.failures
+    recs = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]
+    # (what makes the record's params not the config's)
+    assert "restart_index" in recs["meshes/b.obj"]["params"]
+    cfg.write_text(_config(extra=rules.replace("{A}", "{mu: 0.2}").replace("{B}", "{strip_window: 8}")))
+    because, _ = _dry(cfg)
+    assert because == {
+        "meshes/a.obj": [{"code": "treatment-changed", "detail": "mu 0.1 -> 0.2"}],
+        "meshes/b.obj": [{"code": "treatment-changed", "detail": "strip_window 4 -> 8"}],
+    }

@@ -164,6 +164,34 @@ def _limits_changed(now: dict, then: dict | None, stricter: bool) -> str:
     return ", ".join(found)
 
 
+def _once(values: list) -> list:
+    """``values`` without repeats (the first of each kept)."""
+    return [x for i, x in enumerate(values) if x not in values[:i]]
+
+
+def _recorded_treatments(prev: dict) -> list[dict]:
+    """The treatments (canonical) a record may have been built with, from what it holds: ``encoding: auto``
+    with each ``select`` when auto chose its encoding (the record holds the one chosen); else its encoding
+    with its parameters as the build resolved them (``pm.params``) less those no config can set (a strip's
+    restart index) and, for each one whose default is None (the build's own choice), that value written
+    out or left to the build. Candidates only: the record's digest tells which one, if any, it was."""
+    from ..encodings import ENCODING_PARAMS
+
+    if "auto_candidates" in prev or "; auto: " in str(prev.get("why", "")):
+        return [canonical_treatment({"encoding": "auto", "params": {"select": s}}) for s in AUTO_SELECT]
+    enc, params = prev.get("encoding"), prev.get("params")
+    defaults = ENCODING_PARAMS.get(enc) if isinstance(enc, str) else None
+    if defaults is None or not isinstance(params, dict):
+        return []
+    given = {k: v for k, v in params.items() if k in defaults}
+    chosen = [k for k, v in given.items() if defaults[k] is None and v is not None][:3]
+    found = []
+    for left in itertools.product((False, True), repeat=len(chosen)):
+        kept = {k: v for k, v in given.items() if not (k in chosen and left[chosen.index(k)])}
+        found.append(canonical_treatment({"encoding": enc, "params": kept}))
+    return _once(found)
+
+
 def _digest_reasons(cfg: Config, item: PlanItem, prev: dict, version: str, version_then: Any) -> list[dict]:
     """The reasons the record's digest is not today's: its input digest, and the other parts of the digest
     that reproduce it (:func:`.assets.treatment_digest` of the record's input digest with the treatment,
@@ -176,13 +204,10 @@ def _digest_reasons(cfg: Config, item: PlanItem, prev: dict, version: str, versi
     if not isinstance(then_inputs, str) or not isinstance(prev.get("digest"), str):
         return [*found, reason("digest-changed", "the record holds no digest to compare")]
     asset = item.asset
-    treatments = [item.treatment]
-    enc, params = prev.get("encoding"), prev.get("params")
-    auto_built = "auto_candidates" in prev or "; auto: " in str(prev.get("why", ""))
-    if auto_built:  # (its record holds the encoding auto chose: auto's one parameter is tried)
-        treatments += [{"encoding": "auto", "params": {"select": s}} for s in AUTO_SELECT]
-    elif isinstance(enc, str) and isinstance(params, dict):
-        treatments.append({"encoding": enc, "params": params})
+    now = canonical_treatment(item.treatment)
+    # the treatments tried (canonical, each once): the record's first (what it was most likely built with),
+    # then today's
+    treatments = [t for t in _recorded_treatments(prev) if t != now] + [now]
     versions = [version]
     if isinstance(version_then, str) and version_then != version:
         versions.append(version_then)
@@ -190,11 +215,14 @@ def _digest_reasons(cfg: Config, item: PlanItem, prev: dict, version: str, versi
     match = None
     for treatment in treatments:
         auto = treatment.get("encoding") == "auto"
-        checks = [today_checks, prev.get("checks")] if auto else [None]
-        counts = [asset.instances, prev.get("instances")] if auto else [1, prev.get("instances")]
+        checks = _once([today_checks, prev.get("checks")] if auto else [None])
+        counts = _once([asset.instances, prev.get("instances")] if auto else [1, prev.get("instances")])
         for v, c, n in itertools.product(versions, checks, counts):
             if type(n) is not int or (auto and not isinstance(c, dict)):
                 continue
+            today = (now, version, today_checks if auto else None, asset.instances if auto else 1)
+            if then_inputs == item.input_digest and (treatment, v, c, n) == today:
+                continue  # (today's digest, which is not the record's)
             if treatment_digest(then_inputs, asset, treatment, v, c, instances=n) == prev["digest"]:
                 match = (treatment, v, c, n)
                 break
@@ -209,8 +237,7 @@ def _digest_reasons(cfg: Config, item: PlanItem, prev: dict, version: str, versi
                 "one edited)",
             ),
         ]
-    treatment, v, c, n = match
-    then, now = canonical_treatment(treatment), canonical_treatment(item.treatment)
+    then, v, c, n = match
     parts = []
     if then != now:
         detail = _treatment_change(then, now)
