@@ -923,7 +923,7 @@ def _run(
             else:
                 from .report import write_report
 
-                write_report(path, manifest, {aid: because[aid] for aid in built_ids})
+                write_report(path, manifest, because={aid: because[aid] for aid in built_ids})
             run_outputs[kind] = {**output_record(path), **shown, CURRENT: True}
         if not run_outputs:
             del manifest[RUN_OUTPUTS]
