@@ -288,6 +288,11 @@ def test_a_failed_build_then_fixed(project):
     c.write_text("v 0 0 0\n")
     run(project, echo=lambda m: None)
     assert _codes(_dry(project)[0]["meshes/c.obj"]) == ["failed"]
+    # a parameter changed since: its record, of a build that failed before any encoding, cannot tell which
+    project.write_text(_config("encoding: vanilla\n  params: {seam_weight: 3}"))
+    (_, digest) = _dry(project)[0]["meshes/c.obj"]
+    assert digest["code"] == "digest-changed" and "holds none to compare" in digest["detail"]
+    project.write_text(_config())
     shutil.copy(SHARED_MESHES / "suzanne.obj", c)
     because, _ = _dry(project)
     assert because["meshes/c.obj"][1] == {"code": "inputs-changed", "detail": "meshes/c.obj"}

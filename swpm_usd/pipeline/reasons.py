@@ -229,14 +229,11 @@ def _digest_reasons(cfg: Config, item: PlanItem, prev: dict, version: str, versi
         if match is not None:
             break
     if match is None:
-        return [
-            *found,
-            reason(
-                "digest-changed",
-                "the record's digest is not reproduced from what it holds (an older version's record, or "
-                "one edited)",
-            ),
-        ]
+        if prev.get("status") != "built" and "encoding" not in prev:
+            why = "a build that failed before it chose an encoding: its record holds none to compare"
+        else:
+            why = "the record's digest is not reproduced from what it holds: an older version's, or edited"
+        return [*found, reason("digest-changed", why)]
     then, v, c, n = match
     parts = []
     if then != now:

@@ -6,7 +6,7 @@ tasks, :func:`run` holds the steps together and records. What they call lives be
 rule, and whether its build is still current), :mod:`.tasks` (what a worker gets), :mod:`.pool` (the worker
 processes and their fork server), :mod:`.outputs` (the files in output.dir: checked, cleaned up, kept),
 :mod:`.lock` (one run at a time in an output folder), :mod:`.scene` (scene.usda), :mod:`.progress` and
-:mod:`.interrupts` (Ctrl-C).
+:mod:`.interrupts` (Ctrl-C), :mod:`.reasons` (why the plan builds an asset again: shown, never deciding).
 
 The run manifest (``<output>/manifest.json``) is rewritten atomically as assets finish (at most once a second,
 and at once when the run ends, fails or is stopped with Ctrl-C), so an interrupted run keeps every earlier
