@@ -398,3 +398,46 @@ def test_params_of_encodings_whose_build_resolves_more(tmp_path):
         "meshes/a.obj": [{"code": "treatment-changed", "detail": "mu 0.1 -> 0.2"}],
         "meshes/b.obj": [{"code": "treatment-changed", "detail": "strip_window 4 -> 8"}],
     }
+
+
+def test_a_stage_layer_changed_added_or_gone_is_named(tmp_path):
+    from pxr import Usd, UsdGeom
+
+    from swpm_usd.io import load_mesh
+
+    mesh = load_mesh(SHARED_MESHES / "suzanne.obj")
+    (tmp_path / "layers").mkdir()
+    (tmp_path / "meshes").mkdir()
+    stage = Usd.Stage.CreateNew(str(tmp_path / "layers" / "geo.usda"))
+    prim = UsdGeom.Mesh.Define(stage, "/root/m")
+    prim.GetPointsAttr().Set([tuple(map(float, p)) for p in mesh.points])
+    prim.GetFaceVertexCountsAttr().Set([3] * len(mesh.triangles))
+    prim.GetFaceVertexIndicesAttr().Set([int(i) for i in mesh.triangles.ravel()])
+    stage.GetRootLayer().Save()
+    (tmp_path / "layers" / "extra.usda").write_text('#usda 1.0\n(\n    doc = "an empty layer"\n)\n')
+    main_layer = tmp_path / "meshes" / "main.usda"
+
+    def sublayers(*names: str) -> None:
+        listed = ", ".join(f"@../layers/{n}@" for n in names)
+        main_layer.write_text(f"#usda 1.0\n(\n    subLayers = [{listed}]\n)\n")
+
+    sublayers("geo.usda")
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(_config().replace("meshes/*.obj", "meshes/*.usda"))
+    res = run(cfg, echo=lambda m: None)
+    assert (res.built, res.failed) == (1, 0), res.failures
+    aid = "meshes/main.usda"
+    assert _dry(cfg)[0] == {aid: []}
+    with open(tmp_path / "layers" / "geo.usda", "a") as f:
+        f.write("\n")
+    assert _dry(cfg)[0][aid] == [{"code": "inputs-changed", "detail": "layers/geo.usda"}]
+    sublayers("geo.usda", "extra.usda")
+    # (geo.usda too: its record is of the bytes before the line added, which a dry run records not)
+    assert _dry(cfg)[0][aid] == [
+        {"code": "inputs-changed", "detail": "layers/extra.usda added, meshes/main.usda, layers/geo.usda"}
+    ]
+    run(cfg, echo=lambda m: None)
+    sublayers("geo.usda")
+    assert _dry(cfg)[0][aid] == [
+        {"code": "inputs-changed", "detail": "layers/extra.usda gone, meshes/main.usda"}
+    ]

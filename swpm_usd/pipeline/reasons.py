@@ -119,8 +119,8 @@ def _changed_inputs(base: Path, recorded: Any, today: list[dict]) -> str:
     then = {key(e["path"]): e for e in recorded}
     now = {key(e["path"]): e for e in today if isinstance(e.get("path"), str)}
     fields = ("size", *STAT_KEYS)
-    names = [f"+{p}" for p in now if p not in then]
-    names += [f"-{p}" for p in then if p not in now]
+    names = [f"{p} added" for p in now if p not in then]
+    names += [f"{p} gone" for p in then if p not in now]
     names += [
         p for p in now if p in then and any(now[p].get(k) != then[p].get(k) for k in fields)
     ]  # (a file unread today, unreadable: no stat, so not as recorded)
