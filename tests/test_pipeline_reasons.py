@@ -441,3 +441,16 @@ def test_a_stage_layer_changed_added_or_gone_is_named(tmp_path):
     assert _dry(cfg)[0][aid] == [
         {"code": "inputs-changed", "detail": "layers/extra.usda gone, meshes/main.usda"}
     ]
+
+
+def test_canonical_treatments_are_looked_up_by_value_and_type():
+    from swpm_usd.pipeline.assets import canonical_treatment
+    from swpm_usd.pipeline.reasons import _canonical
+
+    for params in ({"seam_weight": 1}, {"seam_weight": 1.0}, {"seam_weight": True}, {"seam_weight": [1]}, {}):
+        t = {"encoding": "vanilla", "params": params}
+        assert _canonical(t) == canonical_treatment(t)
+        # (True == 1 == 1.0 in Python: a cache keyed by value alone would give one the other's canonical form)
+        assert type(_canonical(t)["params"]["seam_weight"]) is type(
+            canonical_treatment(t)["params"]["seam_weight"]
+        )
