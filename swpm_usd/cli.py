@@ -191,8 +191,12 @@ def build_cmd(
     show_default=True,
     help="Assets built at once (each in a process of its own).",
 )
-@click.option("--dry-run", is_flag=True, help="Plan only: print each asset's rule, encoding and why.")
-@click.option("--explain", is_flag=True, help="Print the plan, then run it.")
+@click.option(
+    "--dry-run",
+    is_flag=True,
+    help="Plan only: print each asset's rule, encoding, and why it is to build (new, inputs changed, ...).",
+)
+@click.option("--explain", is_flag=True, help="Print the plan (as --dry-run does), then run it.")
 @click.option(
     "--executor",
     type=click.Choice(["local", "dask"]),
@@ -332,6 +336,8 @@ def run_cmd(
             "pruned": res.pruned,
             "unlisted": res.unlisted,
             "built_assets": sorted(res.built_ids),  # (which ones: `built` counts them)
+            # (why: each reason's code -> how many of them had it, as the plan's `because` names them)
+            "built_because": res.built_because,
         }
         if dry_run:
             # a dry run deletes nothing: what --prune would delete is named as such, and left in output.dir
@@ -341,8 +347,11 @@ def run_cmd(
             summary["plan"] = res.plan
         click.echo(json.dumps(summary, indent=2, default=float))
     elif not dry_run:
+        from .pipeline.reasons import counted_shown
+
+        why = f" ({counted_shown(res.built_because)})" if res.built_because else ""
         click.echo(
-            f"{res.built} built, {res.skipped} up to date, {res.failed} failed in {res.seconds:.1f} s; "
+            f"{res.built} built{why}, {res.skipped} up to date, {res.failed} failed in {res.seconds:.1f} s; "
             f"manifest {res.manifest_path}"
         )
         for rid, rec in sorted(res.failures.items()):

@@ -5273,7 +5273,7 @@ def test_a_report_that_fails_after_the_scene_did_not_reload_says_both(tmp_path, 
     cfg, out, opened = _scene_open_here_and_an_asset_added(tmp_path, monkeypatch)
     assert opened is not None
 
-    def failing_report(path, manifest):
+    def failing_report(path, manifest, because=None):
         raise OSError(28, "No space left on device", str(path))
 
     with monkeypatch.context() as m, pytest.raises(OSError) as err:
@@ -5473,7 +5473,7 @@ def test_a_run_whose_own_files_cannot_be_written_is_an_error_not_a_traceback(tmp
 
     cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("sliding-window", "vanilla"))
 
-    def full(path, manifest):
+    def full(path, manifest, because=None):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
 
     monkeypatch.setattr(report, "write_report", full)

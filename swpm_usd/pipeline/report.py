@@ -118,7 +118,25 @@ def _code(failure: dict) -> str:
     return f"<code>{html.escape(code)}</code>" if isinstance(code, str) else ""
 
 
-def write_report(path: Path, manifest: dict) -> None:
+def _layout(rec: dict) -> str:
+    """The layout of an asset's .swpm as its record holds it (:func:`.worker.swpm_layout`): its index and
+    offset widths in bytes, and whether it is the legacy one (a reader before 0.9.0's); "-" without a .swpm,
+    "?" for a record without them (an older version's)."""
+    swpm = (rec.get("outputs") or {}).get("swpm")
+    if not isinstance(swpm, dict):
+        return "-"
+    if "index_width" not in swpm or "offset_width" not in swpm:
+        return "?"
+    legacy = " legacy" if swpm.get("legacy_layout") else ""
+    return f"W{swpm['index_width']} O{swpm['offset_width']}{legacy}"
+
+
+def write_report(path: Path, manifest: dict, because: dict[str, list[dict]] | None = None) -> None:
+    """Write the report of ``manifest`` at ``path``; ``because``: why the run that writes it built each of
+    the assets it built (asset id -> :func:`.reasons.build_reasons`' reasons), shown beside them."""
+    from .reasons import shown as reasons_shown
+
+    because = because or {}
     assets = manifest.get("assets", {})
     rows, failures, plots, autos = [], [], [], []
     kept = 0
@@ -152,6 +170,7 @@ def write_report(path: Path, manifest: dict) -> None:
             f"<td>{s.get('acmr', 0):.3f}</td><td>{s.get('global_bytes')}</td>"
             f"<td>{s.get('instance_bytes')}</td>"
             f"<td>{rec.get('instances')}</td><td>{rec.get('seconds', 0):.2f}</td>"
+            f"<td>{e(_layout(rec))}</td><td>{e(reasons_shown(because.get(aid, [])))}</td>"
             f"<td title='{e(rec.get('why', ''))}'>why</td></tr>"
         )
         if rec.get("auto_candidates"):
@@ -202,7 +221,8 @@ td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}} td:first-child{{
 <th>instance bytes (one instance each)</th></tr>{mem}</table>
 <h2>Assets</h2><table id=assets><tr><th>asset</th><th>rule</th><th>encoding</th><th>triangles</th>
 <th>LODs</th><th>lambda</th><th>ACMR@50%</th><th>global B</th><th>instance B</th><th>instances</th><th>s</th>
-<th></th></tr>
+<th title="the .swpm's index width W and offset width O in bytes; legacy: the layout a reader before 0.9.0
+reads">.swpm layout</th><th>built by this report's run because</th><th></th></tr>
 {"".join(rows)}</table>
 <h2>Encodings compared by <code>auto</code></h2>{"".join(autos) or "<p>none</p>"}
 <h2>Curves</h2>{curve_section}

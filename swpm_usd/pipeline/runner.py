@@ -6,7 +6,7 @@ tasks, :func:`run` holds the steps together and records. What they call lives be
 rule, and whether its build is still current), :mod:`.tasks` (what a worker gets), :mod:`.pool` (the worker
 processes and their fork server), :mod:`.outputs` (the files in output.dir: checked, cleaned up, kept),
 :mod:`.lock` (one run at a time in an output folder), :mod:`.scene` (scene.usda), :mod:`.progress` and
-:mod:`.interrupts` (Ctrl-C).
+:mod:`.interrupts` (Ctrl-C), :mod:`.reasons` (why the plan builds an asset again: shown, never deciding).
 
 The run manifest (``<output>/manifest.json``) is rewritten atomically as assets finish (at most once a second,
 and at once when the run ends, fails or is stopped with Ctrl-C), so an interrupted run keeps every earlier
@@ -122,6 +122,8 @@ from .pool import (
     _warm_encodings,
 )
 from .progress import _Progress
+from .reasons import build_reasons, counted, reason
+from .reasons import shown as reasons_shown
 from .records import record_problem, recorded_inputs
 from .rules import (
     _current_why,
@@ -193,6 +195,9 @@ class PlanItem:
     #: how ``triangles`` is known (:data:`TRIANGLE_COUNTS`): a dry run takes the count a file tells before
     #: its geometry is read where the rules need one (:func:`.io.early_triangle_count`)
     triangles_how: str = "exact"
+    #: why the asset is built again (:func:`.reasons.build_reasons`: ``{"code", "detail"}`` each, in the
+    #: order of :data:`.reasons.REASONS`); empty when it is up to date (``--force`` aside: the runner's)
+    because: list[dict[str, str]] = field(default_factory=list)
 
 
 #: how a plan's triangle count is known: the cleaned mesh's (recorded, or the file loaded), the count the
@@ -221,6 +226,15 @@ class RunResult:
     unlisted: list[str] = field(default_factory=list)
     #: the ids of the assets this run built (``built`` counts them), in the order they finished
     built_ids: list[str] = field(default_factory=list)
+    #: why each asset this run built or tried (a dry run: would build) was to be built: asset id -> its
+    #: reasons (:func:`.reasons.build_reasons`, ``forced`` first with ``--force``)
+    because: dict[str, list[dict[str, str]]] = field(default_factory=dict)
+
+    @property
+    def built_because(self) -> dict[str, int]:
+        """How many of the assets built had each reason (code -> count, in the order of
+        :data:`.reasons.REASONS`; an asset with two reasons counts in both)."""
+        return counted([self.because.get(aid, []) for aid in self.built_ids])
 
 
 def _count_triangles(asset: Asset, max_triangles: int | None = None, data: bytes = b"") -> int:
@@ -301,9 +315,12 @@ def plan(
             checked_inputs[(id(paths), id(entries))] = hit
         return hit[2]
 
+    version_then = manifest.get("tool_version")
     for a in assets:
         previous = known.get(a.id)
+        ignored = None  # (why its record is ignored)
         if a.id in known and (problem := record_problem(previous)) is not None:
+            ignored = problem
             record_warnings.append(
                 f"{_rel(cfg, out_dir / MANIFEST)}: the record of {a.id} is not one this tool writes "
                 f"({problem}); it is ignored and the asset built again"
@@ -351,6 +368,7 @@ def plan(
                         inputs_listed=a.id in settled,
                     )
                 )
+                items[-1].because = build_reasons(cfg, items[-1], __version__, version_then, out_dir, ignored)
                 continue
             early, data = None, b""
             if early_counts:  # (an OBJ's bytes kept: loaded from them below, not read twice)
@@ -382,6 +400,9 @@ def plan(
                             inputs_listed=a.id in settled,
                             triangles_how="unknown",
                         )
+                    )
+                    items[-1].because = build_reasons(
+                        cfg, items[-1], __version__, version_then, out_dir, ignored
                     )
                     continue
                 finally:
@@ -415,6 +436,8 @@ def plan(
             # (a .swpm of the other layout: `legacy_layout` flipped since)
             and _swpm_layout_current(cfg, outs)
         )
+        checked = None  # (the outputs, once the rest is current: their reasons, should they not be)
+        units_ok = True
         if item.up_to_date:
             checked = {kind: _checked_output(out_dir / o["path"], o, verify) for kind, o in outs.items()}
             # (an output of a kind the config no longer asks for, deleted or changed since: no longer the
@@ -426,10 +449,14 @@ def plan(
             layer = checked.get("usd")
             if item.up_to_date and layer is not None:
                 with_units = _layer_with_units(out_dir, layer)
-                item.up_to_date = with_units is not None  # (else rebuilt, its units recorded)
+                item.up_to_date = units_ok = with_units is not None  # (else rebuilt, its units recorded)
                 if with_units is not None and with_units is not layer:
                     kept = item.checked_outputs if item.checked_outputs is not None else dict(outs)
                     item.checked_outputs = {**kept, "usd": with_units}
+        if not item.up_to_date:  # (the decision is taken: its reasons, for the plan lines and the report)
+            item.because = build_reasons(
+                cfg, item, __version__, version_then, out_dir, ignored, checked, units_ok
+            )
         items.append(item)
     warnings = [] if _rules_pending(items, dry_run=early_counts) else _unreached_rules(cfg, items)
     return items, problems, aliases + record_warnings + warnings
@@ -662,14 +689,18 @@ def _run(
     orphan_names = [o["path"] for _, o in orphans]
     orphan_lists = {"pruned" if prune else "unlisted": orphan_names}  # RunResult's fields
     planned = []
+    # each asset's reasons to be built (--force: every asset's first), none for one up to date
+    because = {it.asset.id: ([reason("forced", "--force")] if force else []) + it.because for it in items}
     if dry_run or explain:
         for it in items:
             state = "up to date" if it.up_to_date and not force else "to build"
             encoding, params = it.treatment.get("encoding"), it.treatment.get("params", {})  # (none: pending)
+            reasons = because[it.asset.id]
             echo(
                 f"{it.asset.id}: {encoding or '?'} "
                 f"{json.dumps(params, sort_keys=True)} "
                 f"[{state}] {_triangles_shown(it)} instances={it.asset.instances}; {it.why}"
+                + (f"; because: {reasons_shown(reasons)}" if reasons else "")
             )
             planned.append(
                 {
@@ -681,13 +712,17 @@ def _run(
                     "triangles_count": it.triangles_how,
                     "instances": it.asset.instances,
                     "why": it.why,
+                    "because": reasons,
                 }
             )
         if dry_run:
             skipped = 0 if force else sum(i.up_to_date for i in items)  # (force: each "to build")
             for path in orphan_names:
                 echo(f"{path}: output of an asset no longer in the config" + ("; --prune deletes it" * prune))
-            return RunResult({}, 0, skipped, 0, warnings, 0.0, manifest_path, planned, **orphan_lists)
+            to_build = {aid: found for aid, found in because.items() if found}
+            return RunResult(
+                {}, 0, skipped, 0, warnings, 0.0, manifest_path, planned, **orphan_lists, because=to_build
+            )
     _make_out_dir(cfg, out_dir)
     lock.acquire(folder_checked=True)  # (a folder this run created)
     _remove_temporary(out_dir)  # left by a killed run
@@ -892,7 +927,7 @@ def _run(
             else:
                 from .report import write_report
 
-                write_report(path, manifest)
+                write_report(path, manifest, because={aid: because[aid] for aid in built_ids})
             run_outputs[kind] = {**output_record(path), **shown, CURRENT: True}
         if not run_outputs:
             del manifest[RUN_OUTPUTS]
@@ -907,9 +942,10 @@ def _run(
     if stale is not None:
         raise stale
     seconds = time.perf_counter() - t_start
+    tried = {it.asset.id: because[it.asset.id] for it in todo}
     return RunResult(
         records, len(built_ids), len(items) - len(todo), failed, warnings, seconds, manifest_path, planned,
-        failures, **orphan_lists, built_ids=built_ids,
+        failures, **orphan_lists, built_ids=built_ids, because=tried,
     )  # fmt: skip
 
 
