@@ -138,13 +138,15 @@ def write_report(path: Path, manifest: dict, because: dict[str, list[dict]] | No
 
     because = because or {}
     assets = manifest.get("assets", {})
-    rows, failures, plots, autos = [], [], [], []
+    rows, failures, plots, autos, warned = [], [], [], [], []
     kept = 0
     by_encoding: dict[str, list[dict]] = {}
     inline = sum(rec.get("status") == "built" for rec in assets.values()) <= INLINE_CURVES
     curves: list[str] = []  # (beyond INLINE_CURVES) each asset's plots' figures, a JSON object's member
     for aid, rec in sorted(assets.items()):
         e = html.escape
+        # (a loader's warning kept by the record: an attribute dropped, a prim not drawn)
+        warned.extend(f"<tr><td>{e(aid)}</td><td>{e(w)}</td></tr>" for w in rec.get("warnings", []))
         if rec.get("status") != "built":
             failures.append(
                 f"<tr><td>{e(aid)}</td><td>{_code(rec)}<pre>{e(rec.get('error', '?'))}</pre></td></tr>"
@@ -217,6 +219,8 @@ td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}} td:first-child{{
 {html.escape(config)}: {len(rows)} built, {len(failures)} failed{kept_note}.</p>
 <h2>Failures</h2><table><tr><th>asset</th><th>cause</th></tr>
 {"".join(failures) or "<tr><td>none</td></tr>"}</table>
+<h2>Warnings</h2><table><tr><th>asset</th><th>warning of its last build</th></tr>
+{"".join(warned) or "<tr><td>none</td></tr>"}</table>
 <h2>Memory by encoding</h2><table><tr><th>encoding</th><th>assets</th><th>global bytes</th>
 <th>instance bytes (one instance each)</th></tr>{mem}</table>
 <h2>Assets</h2><table id=assets><tr><th>asset</th><th>rule</th><th>encoding</th><th>triangles</th>

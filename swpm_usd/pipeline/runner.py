@@ -809,6 +809,7 @@ def _run(
     last_write, write_s = float("-inf"), 0.0
     text = _ManifestText()
     results: Generator[dict, None, None] | None = None
+    asset_warnings: list[str] = []
 
     def stop() -> None:
         """An error or Ctrl-C: the workers stopped, their temporary files deleted, every finished asset
@@ -841,6 +842,8 @@ def _run(
                 it.digest = rec["digest"]
             rec = _with_inputs(rec, it)
             rec["rule"] = _rule_name(cfg, it)
+            # (a loader's warnings, printed by the worker as it built, kept by the record and in --json's)
+            asset_warnings.extend(rec.get("warnings", ()))
             for o in rec.get("outputs", {}).values():
                 _complete_output_record(out_dir / o["path"], o)
             if rec["status"] == "built":
@@ -887,6 +890,7 @@ def _run(
         for w in unreached:
             echo(f"warning: {w}")
         warnings = warnings + unreached
+    warnings = warnings + asset_warnings
     stale: Exception | None = None  # (scene.usda written, but the layer of its name open here not reloaded)
     try:
         manifest[RUN_OUTPUTS] = run_outputs  # (each recorded as written: a write that fails stops the run)

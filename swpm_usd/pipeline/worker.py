@@ -13,6 +13,7 @@ import signal
 import threading
 import time
 import traceback
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -461,8 +462,33 @@ def process_asset(task: dict[str, Any]) -> dict[str, Any]:
     thread beside each worker, 16.8 s without)."""
     from ..encode import slidingwindow
 
-    with slidingwindow.inline_finishing():
-        return _process_asset(task)
+    # (a loader's warning, "cow.usda: attributes ['uv'] are missing on some of its 2 meshes; dropped", went
+    # to the worker's stderr alone: the record keeps it, for the manifest, the report and --json)
+    # (the filters stay the process's: a warning an "error" filter makes an exception still fails the asset)
+    with warnings.catch_warnings(record=True) as caught:
+        with slidingwindow.inline_finishing():
+            rec = _process_asset(task)
+    for w in caught:  # shown as they were before they were kept
+        warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    kept = _warning_lines(caught)
+    if kept:
+        rec["warnings"] = kept
+    return rec
+
+
+#: the most warnings a record keeps (a loader warning in a loop over thousands of prims says the rest's count)
+MAX_RECORD_WARNINGS = 20
+
+
+def _warning_lines(caught: list[warnings.WarningMessage]) -> list[str]:
+    """The messages of the user warnings among ``caught`` (the loaders' and encoders', which name the file and
+    what happened; a library's deprecation notice is not the asset's), distinct, in order, at most
+    :data:`MAX_RECORD_WARNINGS` and a line counting the rest."""
+    lines = list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, UserWarning)))
+    if len(lines) > MAX_RECORD_WARNINGS:
+        rest = len(lines) - MAX_RECORD_WARNINGS + 1
+        lines = [*lines[: MAX_RECORD_WARNINGS - 1], f"... and {rest} more warnings"]
+    return lines
 
 
 #: a record's count of the triangles its input file holds before cleaning (:func:`..io.triangles_read`), the
