@@ -336,11 +336,13 @@ def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
         for key in extra:
             where = cfg.marks.get((*path, key, "<key>")) or cfg.marks.get(path, (1, 1))
             hint = ""
+            known = list(err.schema.get("properties", {}))
             if path and path[-1] == "params":
                 hint = f" ({_params_owner(cfg, path)})"
+                known = _owner_params(cfg, path) or known
             msgs.append(
                 f"{cfg.shown or cfg.path}:{where[0]}:{where[1]}: {format_path((*path, key))}: "
-                f"unknown key{hint}"
+                f"unknown key{hint}{_did_you_mean(key, known)}"
             )
         return msgs
     if err.validator == "oneOf" and path and path[0] == "assets":
@@ -359,7 +361,40 @@ def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
         ]
     from .schema import worded
 
-    return [f"{cfg.where(path)}: {worded(err)}"]  # (a bound missed: in -p's words, schema.param_problem)
+    hint = ""
+    if err.validator == "enum" and isinstance(err.instance, str):  # (`encoding: vanila`)
+        hint = _did_you_mean(err.instance, [v for v in err.validator_value if isinstance(v, str)])
+    # (a bound missed: in -p's words, schema.param_problem)
+    return [f"{cfg.where(path)}: {worded(err)}{hint}"]
+
+
+def _did_you_mean(word: Any, known: list[str]) -> str:
+    """``; did you mean 'vanilla'?`` for a misspelt key or value, the closest of ``known`` (by
+    :func:`difflib.get_close_matches`), or "" when none is close (a case or separator slip counts:
+    ``optimise_connectivity``, ``Sliding_Window``)."""
+    import difflib
+
+    if not isinstance(word, str):  # (a key YAML read as no string, `on:`: its own message says so)
+        return ""
+    folded = {k.lower().replace("_", "-"): k for k in known}
+    close = difflib.get_close_matches(word.lower().replace("_", "-"), list(folded), n=1, cutoff=0.75)
+    return f"; did you mean {folded[close[0]]!r}?" if close else ""
+
+
+def _owner_params(cfg: Config, path: tuple) -> list[str]:
+    """The parameter names of the encoding whose ``params`` ``path`` is (none known: [])."""
+    from ..encodings import ENCODING_PARAMS
+    from .schema import DEFAULT
+
+    section: Any = cfg.data
+    for key in path[:-1]:
+        try:
+            section = section[key]
+        except (KeyError, IndexError, TypeError):
+            return []
+    default = DEFAULT if path[0] == "defaults" else None
+    encoding = section.get("encoding", default) if isinstance(section, dict) else None
+    return list(ENCODING_PARAMS.get(encoding, ())) if isinstance(encoding, str) else []
 
 
 def _wants_string(expected: str | list[str]) -> bool:
