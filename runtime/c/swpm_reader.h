@@ -633,7 +633,7 @@ swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file) {
     crc = swpm__crc_update(crc, zero4, 4);
     crc = swpm__crc_update(crc, bytes + 52, table_end - 52) ^ 0xFFFFFFFFu;
     if (crc != swpm__u32(bytes + 48)) return swpm__err("SWPM_CHECKSUM_MISMATCH", 48);
-    for (end = header_size; end < table_offset; end++)
+    for (end = header_size; end < table_offset; end++) /* padding [header_size, table_offset) */
         if (bytes[end]) return swpm__err("SWPM_PADDING_NONZERO", header_size);
 
     /* ---- step 2: chunk table (format.md 2.2, 2.3, 5) ---- */
@@ -674,8 +674,11 @@ swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file) {
         if (first[kind] >= 0) return swpm__err("SWPM_CHUNK_DUPLICATE", eo);
         first[kind] = (int64_t)i;
     }
-    for (; end < eof; end++)
-        if (bytes[end]) return swpm__err("SWPM_PADDING_NONZERO", end);
+    {
+        uint64_t g; /* padding after the last payload: reported at the gap's start */
+        for (g = end; g < eof; g++)
+            if (bytes[g]) return swpm__err("SWPM_PADDING_NONZERO", end);
+    }
     for (i = 0; swpm__critical_order[enc][i] >= 0; i++)
         if (first[swpm__critical_order[enc][i]] < 0) {
             swpm_result r = {"SWPM_CHUNK_MISSING", 0, 0};
