@@ -233,7 +233,7 @@ def _regions(data: bytes) -> list[tuple[int, int]]:
     out = [(0, 64), (to, to + 32 * count)]
     for i in range(count):
         t, _, off, ln = struct.unpack_from("<4sIQQ", data, to + 32 * i)
-        if t in (b"WREC", b"INDX", b"LODS", b"META") and ln:
+        if t in (b"WREC", b"INDX", b"LODS", b"META", b"VERT") and ln:
             out.append((off, off + ln))
     return out
 
@@ -264,6 +264,26 @@ def _mutate(rng: random.Random, data: bytes) -> bytes:
     return _refix(out) if rng.random() < 0.7 else out
 
 
+def _mutate_values(rng: random.Random, data: bytes) -> bytes:
+    """A valid file with a few INDX values set to other vertices or WREC fields nudged, CRCs fixed: mutants
+    that reach the windows, the prefix property and the strips' triangle counts."""
+    d = bytearray(data)
+    features = struct.unpack_from("<I", d, 20)[0]
+    W, O = (4 if features & 1 else 2), (4 if features & 0x41 else 2)
+    (ei, ix), (ew, wr) = _payload(data, b"INDX"), _payload(data, b"WREC")
+    io, wo = struct.unpack_from("<Q", d, ei + 8)[0], struct.unpack_from("<Q", d, ew + 8)[0]
+    V = struct.unpack_from("<I", d, struct.unpack_from("<Q", d, _payload(data, b"VERT")[0] + 8)[0])[0]
+    for _ in range(rng.randint(1, 3)):
+        if rng.random() < 0.7:
+            at, val = io + W * rng.randrange(len(ix) // W), rng.randrange(V)
+            d[at : at + W] = val.to_bytes(W, "little")
+        else:
+            at = wo + O * rng.randrange(len(wr) // O)
+            val = max(0, int.from_bytes(d[at : at + O], "little") + rng.randint(-3, 3))
+            d[at : at + O] = min(val, (1 << 8 * O) - 1).to_bytes(O, "little")
+    return _refix(bytes(d))
+
+
 def _seeds(tmp: Path) -> list[bytes]:
     seeds = [
         p.read_bytes() for p in sorted((VECTORS / "valid").glob("*.swpm")) if _is_sliding(p.read_bytes())
@@ -280,6 +300,9 @@ def test_fuzz_against_python(dump_san: Path, tmp_path: Path) -> None:
     for i in range(3000):
         seed = seeds[-1] if i % 10 == 0 and len(seeds) > 10 else rng.choice(seeds[:10])
         mutants.append(_mutate(rng, seed))
+    if (MESHES / "cow.obj").exists():
+        real = [encode_bytes(_pm("cow", v)) for v in ("list", "strip")]
+        mutants += [_mutate_values(rng, rng.choice(real)) for _ in range(600)]
     paths = []
     for i, m in enumerate(mutants):
         p = tmp_path / f"m{i}.swpm"
@@ -296,18 +319,23 @@ def test_fuzz_against_python(dump_san: Path, tmp_path: Path) -> None:
             differ.append((i, out, want))
     assert not differ, differ[:10]
     assert 30 < accepted < len(mutants) - 300  # both sides exercised
+    # the content checks are reached, not only the header's
+    assert {"SWPM_PREFIX_VIOLATION", "SWPM_WINDOW_STRIP_TRIANGLES", "SWPM_WINDOW_COUNT_MISMATCH"} <= {
+        o.get("code") for o in got
+    }
 
 
 # -- META: the strict JSON of format.md 3.1, in files rebuilt around a given META payload -----------------
-def _with_meta(data: bytes, meta: bytes) -> bytes:
-    """``data`` (a valid file) with its META payload replaced and SMAP (ancillary, absolute offsets) dropped:
-    the chunks laid out again one after another, offsets, file_size and every CRC recomputed."""
+def _rebuild(data: bytes, payloads: dict[bytes, bytes]) -> bytes:
+    """``data`` (a valid file) with the payloads of the chunk types given replaced and SMAP (ancillary,
+    absolute offsets) dropped: the chunks laid out again one after another, offsets, file_size and every CRC
+    recomputed."""
     count, to = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
     chunks = []
     for i in range(count):
         t, flags, off, ln = struct.unpack_from("<4sIQQ", data, to + 32 * i)
         if t != b"SMAP":
-            chunks.append((t, flags, meta if t == b"META" else data[off : off + ln]))
+            chunks.append((t, flags, payloads.get(t, data[off : off + ln])))
     table = bytearray()
     body = bytearray()
     pos = 64 + 32 * len(chunks)
@@ -321,6 +349,20 @@ def _with_meta(data: bytes, meta: bytes) -> bytes:
     struct.pack_into("<QQI", head, 32, 64, 64 + len(table) + len(body), 0)
     struct.pack_into("<I", head, 48, zlib.crc32(bytes(head + table)))
     return bytes(head + table + body)
+
+
+def _payload(data: bytes, ctype: bytes) -> tuple[int, bytearray]:
+    """(entry offset, a copy of the payload) of the chunk ``ctype``."""
+    count, to = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
+    for i in range(count):
+        t, _, off, ln = struct.unpack_from("<4sIQQ", data, to + 32 * i)
+        if t == ctype:
+            return to + 32 * i, bytearray(data[off : off + ln])
+    raise KeyError(ctype)
+
+
+def _with_meta(data: bytes, meta: bytes) -> bytes:
+    return _rebuild(data, {b"META": meta})
 
 
 DEEP = 128
@@ -372,3 +414,63 @@ def test_meta_json(dump: Path, tmp_path: Path, case: str) -> None:
     _, out = _run(dump, path)
     assert out.get("code") == code  # what format.md 3.1 / 3.5 say
     assert out == want or (out["ok"] and want["ok"])  # and what swpm_usd.format says
+
+
+# -- exact arithmetic (format.md 1): sums that wrap at 2^32 or 2^64 in a careless reader ---------------------
+def _big_vertex_count() -> tuple[bytes, str, int]:
+    data = (VECTORS / "valid" / "sliding-window.swpm").read_bytes()
+    _, vert = _payload(data, b"VERT")
+    struct.pack_into("<I", vert, 0, 2**30 + 5)  # 12 (2^30 + 5) bytes, 60 when wrapped at 2^32
+    out = _rebuild(data, {b"VERT": vert})
+    entry, _ = _payload(out, b"VERT")
+    return out, "SWPM_COUNT_EXCEEDS_CHUNK", struct.unpack_from("<Q", out, entry + 8)[0]
+
+
+def _chunk_at_2_64() -> tuple[bytes, str, int]:
+    data = bytearray((VECTORS / "valid" / "sliding-window.swpm").read_bytes())
+    entry, _ = _payload(bytes(data), b"VERT")
+    struct.pack_into("<QQ", data, entry + 8, 2**64 - 8, 16)  # ends at 2^64 + 8, at 8 when wrapped
+    table_end = 64 + 32 * struct.unpack_from("<I", data, 24)[0]
+    struct.pack_into("<I", data, 48, 0)
+    struct.pack_into("<I", data, 48, zlib.crc32(bytes(data[:table_end])))
+    return bytes(data), "SWPM_CHUNK_OUT_OF_BOUNDS", entry + 8
+
+
+def _window_3t_past_2_32() -> tuple[bytes, str, int]:
+    data = (VECTORS / "valid" / "sliding-window-offset32.swpm").read_bytes()  # O = 4
+    _, lods = _payload(data, b"LODS")
+    _, wrec = _payload(data, b"WREC")
+    for k in range(2):  # triangle_count 0x55555556: 3 x that is 2^32 + 2, 2 when wrapped
+        struct.pack_into("<I", lods, 12 * k + 4, 0x55555556)
+        struct.pack_into("<II", wrec, 12 * k, 0, 0x55555556)
+    out = _rebuild(data, {b"LODS": lods, b"WREC": wrec})
+    entry, _ = _payload(out, b"WREC")
+    return out, "SWPM_WINDOW_OUT_OF_POOL", struct.unpack_from("<Q", out, entry + 8)[0]
+
+
+def _strip_window_past_2_32() -> tuple[bytes, str, int]:
+    data = (VECTORS / "valid" / "sliding-window-strips-offset32.swpm").read_bytes()  # O = 4, 4 fields
+    _, wrec = _payload(data, b"WREC")
+    struct.pack_into("<I", wrec, 16, 0xFFFFFFFF)  # window 1 first_index: + index_count wraps past 2^32
+    out = _rebuild(data, {b"WREC": wrec})
+    entry, _ = _payload(out, b"WREC")
+    return out, "SWPM_WINDOW_OUT_OF_POOL", struct.unpack_from("<Q", out, entry + 8)[0] + 16
+
+
+EXACT = {
+    "vertex-count-2-30": _big_vertex_count,
+    "chunk-at-2-64": _chunk_at_2_64,
+    "window-3t-past-2-32": _window_3t_past_2_32,
+    "strip-window-past-2-32": _strip_window_past_2_32,
+}
+
+
+@pytest.mark.parametrize("case", sorted(EXACT))
+def test_exact_arithmetic(dump_san: Path, tmp_path: Path, case: str) -> None:
+    data, code, offset = EXACT[case]()
+    path = tmp_path / "x.swpm"
+    path.write_bytes(data)
+    rc, out = _run(dump_san, path)
+    assert rc == 1 and out == {"ok": False, "code": code, "offset": offset}
+    rep = validate_bytes(data)
+    assert _expected(data, [(p.code, p.severity, p.offset) for p in rep.problems]) == out

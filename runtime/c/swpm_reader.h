@@ -525,6 +525,17 @@ static int swpm__allowed(int enc, int kind) {
     return 0;
 }
 
+/* 1 if INDX position j ends a non-degenerate strip triangle: j-2, j-1, j in one strip (no restart index
+ * among them) and three distinct values (format.md 3.5, 3.7). */
+static uint64_t swpm__ends_triangle(const uint8_t *x, uint32_t W, uint64_t restart, uint64_t j) {
+    uint64_t a, b, c;
+    if (j < 2) return 0;
+    a = swpm__uw(x + (j - 2) * W, W);
+    b = swpm__uw(x + (j - 1) * W, W);
+    c = swpm__uw(x + j * W, W);
+    return a != restart && b != restart && c != restart && a != b && b != c && a != c;
+}
+
 static swpm_result swpm__err(const char *code, uint64_t offset) {
     swpm_result r;
     r.code = code;
@@ -820,32 +831,58 @@ swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file) {
                     if (SWPM__W(k, 3) > 0 && s > 0 && SWPM__X(s - 1) != f.restart_index)
                         return swpm__err("SWPM_WINDOW_MID_STRIP", wbase + cols * O * k);
                 }
-            /* stage (b): the prefix property; the lowest offending element of INDX over every window */
+            /* stage (b): the prefix property; the lowest offending element of INDX over every window. Windows
+             * are visited coarsest first with `seen` an interval of INDX that coarser windows cover: their
+             * vertex counts are no larger (LODS is non-increasing), so an element there was checked against
+             * a limit at most this window's and is skipped. Sliding windows overlap their neighbours, so
+             * the pool is read about once, not once per window (worst case: once per window). */
             best = nidx;
-            for (k = 0; k < L; k++) {
-                uint64_t s = SWPM__W(k, 0), e = s + SWPM__ICOUNT(k), lim = SWPM__W(k, 2), i2;
-                if (e > best) e = best;
-                for (i2 = s; i2 < e; i2++) {
-                    uint64_t v = SWPM__X(i2);
-                    if (v >= lim && !(f.strips && v == f.restart_index)) { best = i2; break; }
+            {
+                uint64_t seen0 = 0, seen1 = 0;
+                for (k = L; k-- > 0;) {
+                    uint64_t s = SWPM__W(k, 0), e = s + SWPM__ICOUNT(k), lim = SWPM__W(k, 2), i2;
+                    uint64_t e1 = e < best ? e : best;
+                    for (i2 = s; i2 < e1; i2++) {
+                        uint64_t v;
+                        if (i2 >= seen0 && i2 < seen1) {
+                            i2 = seen1 - 1;
+                            continue;
+                        }
+                        v = SWPM__X(i2);
+                        if (v >= lim && !(f.strips && v == f.restart_index)) {
+                            best = i2;
+                            break;
+                        }
+                    }
+                    if (s == e) continue;
+                    if (s <= seen1 && seen0 <= e && seen0 < seen1) { /* touching: the hull is covered */
+                        seen0 = s < seen0 ? s : seen0;
+                        seen1 = e > seen1 ? e : seen1;
+                    } else { /* apart: the next (finer) windows lie next to this one */
+                        seen0 = s;
+                        seen1 = e;
+                    }
                 }
             }
             if (best < nidx) return swpm__err("SWPM_PREFIX_VIOLATION", ibase + W * best);
-            /* strips: each window decodes to exactly triangle_count non-degenerate triangles */
-            if (f.strips)
+            /* strips: each window decodes to exactly triangle_count non-degenerate triangles. A window starts
+             * a strip (stage (a)), so these are the pool's triangles whose last index lies in the window, and
+             * whether position j ends one depends on INDX[j-2..j] alone: two cursors (window starts, window
+             * ends) count them, moving as far as the windows move between LODs. */
+            if (f.strips) {
+                uint64_t at[2] = {0, 0}, n[2] = {0, 0};
                 for (k = 0; k < L; k++) {
-                    uint64_t s = SWPM__W(k, 0), e = s + SWPM__W(k, 3), i2, run = 0, tris = 0;
-                    for (i2 = s; i2 < e; i2++) {
-                        uint64_t c = SWPM__X(i2), a, b;
-                        if (c == f.restart_index) { run = 0; continue; }
-                        run++;
-                        if (run < 3) continue;
-                        a = SWPM__X(i2 - 2);
-                        b = SWPM__X(i2 - 1);
-                        if (a != b && b != c && a != c) tris++;
+                    uint64_t target[2], c;
+                    target[0] = SWPM__W(k, 0);
+                    target[1] = target[0] + SWPM__W(k, 3);
+                    for (c = 0; c < 2; c++) {
+                        while (at[c] < target[c]) n[c] += swpm__ends_triangle(x, W, f.restart_index, at[c]++);
+                        while (at[c] > target[c]) n[c] -= swpm__ends_triangle(x, W, f.restart_index, --at[c]);
                     }
-                    if (tris != SWPM__W(k, 1)) return swpm__err("SWPM_WINDOW_STRIP_TRIANGLES", wbase + cols * O * k + 3 * O);
+                    if (n[1] - n[0] != SWPM__W(k, 1))
+                        return swpm__err("SWPM_WINDOW_STRIP_TRIANGLES", wbase + cols * O * k + 3 * O);
                 }
+            }
 #undef SWPM__W
 #undef SWPM__X
 #undef SWPM__ICOUNT
