@@ -300,6 +300,9 @@ def test_fuzz_against_python(dump_san: Path, tmp_path: Path) -> None:
     for i in range(3000):
         seed = seeds[-1] if i % 10 == 0 and len(seeds) > 10 else rng.choice(seeds[:10])
         mutants.append(_mutate(rng, seed))
+    # random bytes after the magic and version (as tests/test_fuzz_format.py): the header's checks
+    prefix = b"SWPM\r\n\x1a\n\x01\x00"
+    mutants += [prefix + rng.randbytes(rng.randrange(700)) for _ in range(300)]
     if (MESHES / "cow.obj").exists():
         real = [encode_bytes(_pm("cow", v)) for v in ("list", "strip")]
         mutants += [_mutate_values(rng, rng.choice(real)) for _ in range(600)]
