@@ -749,6 +749,26 @@ static int swpm__allowed(int enc, int kind) {
     return 0;
 }
 
+/* The first position in [from, to) of the idx array x whose value is >= limit, a strip pool's restart index
+ * exempt; to if none. One loop per width, so that the compiler can vectorise the common case. */
+static uint64_t swpm__first_at_least(const uint8_t *x, uint32_t W, uint64_t from, uint64_t to, uint64_t limit,
+                                     int exempt, uint64_t restart) {
+    uint64_t i;
+    if (from >= to) return to;
+    if (W == 2) {
+        for (i = from; i < to; i++) {
+            uint64_t v = swpm__u16(x + 2 * i);
+            if (v >= limit && !(exempt && v == restart)) return i;
+        }
+    } else {
+        for (i = from; i < to; i++) {
+            uint64_t v = swpm__u32(x + 4 * i);
+            if (v >= limit && !(exempt && v == restart)) return i;
+        }
+    }
+    return to;
+}
+
 /* 1 if INDX position j ends a non-degenerate strip triangle: j-2, j-1, j in one strip (no restart index
  * among them) and three distinct values (format.md 3.5, 3.7). */
 static uint64_t swpm__ends_triangle(const uint8_t *x, uint32_t W, uint64_t restart, uint64_t j) {
@@ -1044,11 +1064,8 @@ swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file) {
                     return swpm__err("SWPM_WINDOW_NOT_MONOTONE", wbase + cols * O * k + O);
             for (k = 0; k < L; k++)
                 if (SWPM__W(k, 0) + SWPM__ICOUNT(k) > nidx) return swpm__err("SWPM_WINDOW_OUT_OF_POOL", wbase + cols * O * k);
-            for (k = 0; k < nidx; k++) {
-                uint64_t v = SWPM__X(k);
-                if (v >= V && !(f.strips && v == f.restart_index))
-                    return swpm__err("SWPM_INDEX_OUT_OF_RANGE", ibase + W * k);
-            }
+            k = swpm__first_at_least(x, W, 0, nidx, V, f.strips, f.restart_index);
+            if (k < nidx) return swpm__err("SWPM_INDEX_OUT_OF_RANGE", ibase + W * k);
             if (f.strips)
                 for (k = 0; k < L; k++) {
                     uint64_t s = SWPM__W(k, 0);
@@ -1066,16 +1083,14 @@ swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file) {
                 for (k = L; k-- > 0;) {
                     uint64_t s = SWPM__W(k, 0), e = s + SWPM__ICOUNT(k), lim = SWPM__W(k, 2), i2;
                     uint64_t e1 = e < best ? e : best;
-                    for (i2 = s; i2 < e1; i2++) {
-                        uint64_t v;
-                        if (i2 >= seen0 && i2 < seen1) {
-                            i2 = seen1 - 1;
-                            continue;
-                        }
-                        v = SWPM__X(i2);
-                        if (v >= lim && !(f.strips && v == f.restart_index)) {
-                            best = i2;
-                            break;
+                    /* [s, e1) minus [seen0, seen1): at most two runs */
+                    i2 = swpm__first_at_least(x, W, s, e1 < seen0 ? e1 : seen0, lim, f.strips, f.restart_index);
+                    if (i2 < (e1 < seen0 ? e1 : seen0)) best = i2;
+                    else {
+                        uint64_t from = s > seen1 ? s : seen1;
+                        if (from < e1) {
+                            i2 = swpm__first_at_least(x, W, from, e1, lim, f.strips, f.restart_index);
+                            if (i2 < e1) best = i2;
                         }
                     }
                     if (s == e) continue;
