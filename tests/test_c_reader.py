@@ -1,0 +1,504 @@
+"""The C99 runtime reader (runtime/c/swpm_reader.h, written from spec/format.md and spec/errors.md) checked
+against the conformance vectors, files the Python codec writes from real meshes, and mutated files.
+
+``runtime/c/swpm_dump.c`` is compiled once per module with the system ``cc`` (``-std=c99 -Wall -Wextra
+-Werror -O1``, and a second build with AddressSanitizer and UBSan when the toolchain has them). The reader
+handles the sliding-window encoding; a file of another encoding is refused as unsupported unless a header or
+chunk-table error (steps 1-2 of format.md 5) comes first.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import random
+import shutil
+import struct
+import subprocess
+import zlib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from conftest import shared_mesh
+
+import swpm_usd
+from swpm_usd.format import encode_bytes, validate_bytes
+
+ROOT = Path(__file__).resolve().parents[1]
+RUNTIME = ROOT / "runtime" / "c"
+VECTORS = ROOT / "spec" / "vectors"
+MANIFEST = json.loads((VECTORS / "manifest.json").read_text())
+UNSUPPORTED = "SWPM_READER_UNSUPPORTED_ENCODING"
+FLAGS = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-O1"]
+SANITIZE = ["-g", "-fsanitize=address,undefined", "-fno-sanitize-recover=all"]
+# the codes of format.md 5 steps 1-2 (header, chunk table): found before the encoding matters
+STEP_12_PREFIXES = (
+    "SWPM_HEADER_",
+    "SWPM_FILE_",
+    "SWPM_CHECKSUM_",
+    "SWPM_TABLE_",
+    "SWPM_PADDING_",
+    "SWPM_CHUNK_",
+)
+
+
+def _compile(out: Path, extra: list[str]) -> Path:
+    cc = shutil.which("cc")
+    if cc is None:
+        pytest.skip("no C compiler")
+    subprocess.run([cc, *FLAGS, *extra, "-o", str(out), str(RUNTIME / "swpm_dump.c")], check=True)
+    return out
+
+
+@pytest.fixture(scope="module")
+def dump(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return _compile(tmp_path_factory.mktemp("cc") / "swpm_dump", [])
+
+
+@pytest.fixture(scope="module")
+def dump_san(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    d = tmp_path_factory.mktemp("cc-san")
+    probe = d / "probe.c"
+    probe.write_text("int main(void) { return 0; }\n")
+    cc = shutil.which("cc")
+    if cc is None:
+        pytest.skip("no C compiler")
+    ok = subprocess.run([cc, *SANITIZE, "-o", str(d / "probe"), str(probe)], capture_output=True)
+    if ok.returncode != 0 or subprocess.run([str(d / "probe")], capture_output=True).returncode != 0:
+        pytest.skip("the toolchain has no AddressSanitizer / UBSan")
+    return _compile(d / "swpm_dump_san", SANITIZE)
+
+
+def _run(binary: Path, path: Path) -> tuple[int, dict[str, Any]]:
+    proc = subprocess.run([str(binary), str(path)], capture_output=True, text=True)
+    assert proc.stderr == ""
+    return proc.returncode, json.loads(proc.stdout)
+
+
+def _check_many(binary: Path, paths: list[Path]) -> list[dict[str, Any]]:
+    out: list[dict[str, Any]] = []
+    for i in range(0, len(paths), 400):
+        proc = subprocess.run(
+            [str(binary), "--check", *map(str, paths[i : i + 400])], capture_output=True, text=True
+        )
+        assert proc.returncode == 0 and proc.stderr == "", proc.stderr[-2000:]
+        out += [json.loads(line) for line in proc.stdout.splitlines()]
+    assert len(out) == len(paths)
+    return out
+
+
+def _is_sliding(data: bytes) -> bool:
+    return len(data) >= 24 and struct.unpack_from("<I", data, 20)[0] & 0x1E == 0x04
+
+
+def _expected(data: bytes, problems: list[tuple[str, str, int | None]]) -> dict[str, Any]:
+    """What the C reader must print for a file with these problems (code, severity, offset)."""
+    errors = [(c, o) for c, s, o in problems if s == "error"]
+    step_12 = (
+        bool(errors) and errors[0][0].startswith(STEP_12_PREFIXES) and errors[0][0] != "SWPM_CHUNK_BAD_LENGTH"
+    )
+    if not _is_sliding(data) and not step_12:
+        return {"ok": False, "code": UNSUPPORTED, "offset": 20}
+    if not errors:
+        return {"ok": True}
+    return {"ok": False, "code": errors[0][0], "offset": errors[0][1]}
+
+
+def _array(out: dict[str, Any], name: str, dtype: str) -> np.ndarray:
+    return np.frombuffer(bytes.fromhex(out["arrays"][name]["hex"]), dtype=dtype)
+
+
+VECTOR_CASES = [pytest.param(v, id=v["name"]) for v in MANIFEST["vectors"]]
+
+
+@pytest.mark.parametrize("vector", VECTOR_CASES)
+def test_vector(dump: Path, vector: dict[str, Any]) -> None:
+    path = VECTORS / vector["file"]
+    data = path.read_bytes()
+    exp = json.loads((VECTORS / vector["expected"]).read_text())
+    want = _expected(data, [(p["code"], p["severity"], p["offset"]) for p in exp["problems"]])
+    rc, out = _run(dump, path)
+    if not want["ok"]:
+        assert rc == 1 and out == want
+        return
+    assert rc == 0 and out["ok"] is True
+    summary = exp["summary"]
+    for key in ("index_width", "offset_width", "lod_count", "vertex_count", "triangle_count"):
+        assert out[key] == summary[key], key
+    assert set(out["arrays"]) == set(summary["buffers"])
+    for name, buf in summary["buffers"].items():
+        got = out["arrays"][name]
+        assert got["shape"] == buf["shape"], name
+        assert hashlib.sha256(bytes.fromhex(got["hex"])).hexdigest() == buf["sha256"], name
+
+
+def test_vectors_cover_both_sides(dump: Path) -> None:
+    """The vectors exercise the reader: sliding-window files accepted and rejected, others refused."""
+    paths = [VECTORS / v["file"] for v in MANIFEST["vectors"]]
+    outs = _check_many(dump, paths)
+    codes = {o.get("code") for o in outs}
+    assert sum(o["ok"] for o in outs) >= 10 and UNSUPPORTED in codes
+    assert {"SWPM_WINDOW_MID_STRIP", "SWPM_WINDOW_STRIP_TRIANGLES", "SWPM_PREFIX_VIOLATION"} <= codes
+
+
+# -- files the Python codec writes -------------------------------------------------------------------------
+STRIP = {"primitive": "strip", "cluster": True, "optimize_connectivity": True}
+REAL = [(m, v) for m in ("suzanne", "spot", "cow") for v in ("list", "strip")]
+_PMS: dict[tuple[str, str], Any] = {}
+
+
+def _pm(mesh: str, variant: str) -> Any:
+    if (mesh, variant) not in _PMS:
+        src = shared_mesh(f"{mesh}.obj")  # (fails, as every shared-mesh test, when ../shared is not here)
+        _PMS[mesh, variant] = swpm_usd.build(src, "sliding-window", **(STRIP if variant == "strip" else {}))
+    return _PMS[mesh, variant]
+
+
+def _files(pm: Any, tmp: Path) -> dict[str, Path]:
+    out = {}
+    out["default"] = swpm_usd.save(pm, tmp / "default.swpm")
+    out["legacy"] = swpm_usd.save(pm, tmp / "legacy.swpm", legacy_layout=True)
+    (tmp / "index32.swpm").write_bytes(encode_bytes(pm, index_width=4))
+    out["index32"] = tmp / "index32.swpm"
+    return out
+
+
+@pytest.mark.parametrize(("mesh", "variant"), REAL, ids=[f"{m}-{v}" for m, v in REAL])
+def test_real_files(dump: Path, tmp_path: Path, mesh: str, variant: str) -> None:
+    pm = _pm(mesh, variant)
+    widths = set()
+    for kind, path in _files(pm, tmp_path).items():
+        rc, out = _run(dump, path)
+        assert rc == 0 and out["ok"], (kind, out)
+        q = swpm_usd.load(path)
+        W, O = out["index_width"], out["offset_width"]
+        widths.add(W)
+        assert kind != "index32" or W == 4
+        L, V = q.lod_count, q.vertex_count
+        assert (out["lod_count"], out["vertex_count"]) == (L, V)
+        assert _array(out, "points", "<f4").tobytes() == np.ascontiguousarray(q.points, "<f4").tobytes()
+        for name, arr in q.attributes.items():
+            got = np.frombuffer(
+                bytes.fromhex(out["arrays"][f"attribute:{name}"]["hex"]), arr.dtype.newbyteorder("<")
+            )
+            assert np.array_equal(got.reshape(arr.shape), arr), name
+        assert np.array_equal(_array(out, "vertex_counts", "<u4"), q.vertex_counts)
+        assert np.array_equal(_array(out, "triangle_counts", "<u4"), q.triangle_counts)
+        assert (
+            _array(out, "lod_errors", "<f4").tobytes() == np.ascontiguousarray(q.lod_errors, "<f4").tobytes()
+        )
+        assert np.array_equal(_array(out, "index_pool", f"<u{W}"), q.index_pool)
+        assert np.array_equal(_array(out, "window_records", f"<u{O}").reshape(L, 3), q.window_records)
+        if variant == "strip":
+            assert np.array_equal(_array(out, "window_index_counts", f"<u{O}"), q.window_index_counts)
+            assert out["restart_index"] == q.params["restart_index"]
+        else:
+            assert "window_index_counts" not in out["arrays"] and out["restart_index"] is None
+        # swpm_window is what the engine draws: the Python window, indices and all
+        for k, (first, count, vc) in enumerate(out["windows"]):
+            assert (first, vc) == (int(q.window_records[k, 0]), q.vertex_count_at(k))
+            assert count == int(q.window_index_counts[k])
+            assert np.array_equal(q.index_pool[first : first + count], q.draw_stream(k)[1].reshape(-1))
+        for target, k in out["lod_for_triangles"]:
+            assert k == q.lod_for_triangles(target), target
+    assert 4 in widths
+
+
+# -- differential fuzz: the sanitizer build against swpm_usd.format's validation ---------------------------
+def _refix(data: bytes) -> bytes:
+    """Recompute chunk and file CRCs where the table is readable (as tests/test_fuzz_format.py)."""
+    if len(data) < 64:
+        return data
+    count, to = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
+    if count > 64 or to + 32 * count > len(data):
+        return data
+    b = bytearray(data)
+    for i in range(count):
+        eo = to + 32 * i
+        t, _, off, ln = struct.unpack_from("<4sIQQ", b, eo)
+        if off + ln <= len(b):
+            struct.pack_into("<I", b, eo + 24, zlib.crc32(bytes(b[off : off + ln]), zlib.crc32(t)))
+    struct.pack_into("<I", b, 48, 0)
+    struct.pack_into("<I", b, 48, zlib.crc32(bytes(b[: to + 32 * count])))
+    return bytes(b)
+
+
+def _regions(data: bytes) -> list[tuple[int, int]]:
+    """Header, table, WREC and INDX byte ranges of a valid file: where mutations are aimed."""
+    count, to = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
+    out = [(0, 64), (to, to + 32 * count)]
+    for i in range(count):
+        t, _, off, ln = struct.unpack_from("<4sIQQ", data, to + 32 * i)
+        if t in (b"WREC", b"INDX", b"LODS", b"META", b"VERT") and ln:
+            out.append((off, off + ln))
+    return out
+
+
+def _mutate(rng: random.Random, data: bytes) -> bytes:
+    b = bytearray(data)
+    regions = _regions(data)
+    for _ in range(rng.randint(1, 4)):
+        if not b:
+            break
+        lo, hi = rng.choice(regions) if rng.random() < 0.8 else (0, len(b))
+        pos = rng.randrange(lo, max(lo + 1, min(hi, len(b)))) if lo < len(b) else rng.randrange(len(b))
+        kind = rng.choice(["bit", "bit", "byte", "word", "truncate", "insert"])
+        if kind == "bit":
+            b[pos] ^= 1 << rng.randrange(8)
+        elif kind == "byte":
+            b[pos] = rng.randrange(256)
+        elif kind == "word":
+            val = rng.choice([0, 1, 2, 3, 4, 5, 0xFFFF, 0xFFFFFFFF, 0x7FFFFFFF, 65536, 1 << 31])
+            b[pos : pos + 4] = val.to_bytes(4, "little")
+        elif kind == "truncate":
+            del b[pos:]
+        else:
+            b[pos:pos] = bytes(rng.randrange(256) for _ in range(rng.randint(1, 16)))
+    if len(b) >= 48 and len(b) != len(data) and rng.random() < 0.7:
+        struct.pack_into("<Q", b, 40, len(b))  # file_size follows a truncation or insertion: reach the chunks
+    out = bytes(b)
+    return _refix(out) if rng.random() < 0.7 else out
+
+
+def _mutate_values(rng: random.Random, data: bytes) -> bytes:
+    """A valid file with a few INDX values set to other vertices or WREC fields nudged, CRCs fixed: mutants
+    that reach the windows, the prefix property and the strips' triangle counts."""
+    d = bytearray(data)
+    features = struct.unpack_from("<I", d, 20)[0]
+    W, O = (4 if features & 1 else 2), (4 if features & 0x41 else 2)
+    (ei, ix), (ew, wr) = _payload(data, b"INDX"), _payload(data, b"WREC")
+    io, wo = struct.unpack_from("<Q", d, ei + 8)[0], struct.unpack_from("<Q", d, ew + 8)[0]
+    V = struct.unpack_from("<I", d, struct.unpack_from("<Q", d, _payload(data, b"VERT")[0] + 8)[0])[0]
+    for _ in range(rng.randint(1, 3)):
+        if rng.random() < 0.7:
+            at, val = io + W * rng.randrange(len(ix) // W), rng.randrange(V)
+            d[at : at + W] = val.to_bytes(W, "little")
+        else:
+            at = wo + O * rng.randrange(len(wr) // O)
+            val = max(0, int.from_bytes(d[at : at + O], "little") + rng.randint(-3, 3))
+            d[at : at + O] = min(val, (1 << 8 * O) - 1).to_bytes(O, "little")
+    return _refix(bytes(d))
+
+
+def _seeds(tmp: Path) -> list[bytes]:
+    seeds = [
+        p.read_bytes() for p in sorted((VECTORS / "valid").glob("*.swpm")) if _is_sliding(p.read_bytes())
+    ]
+    seeds.append(encode_bytes(_pm("suzanne", "strip")))
+    return seeds
+
+
+def test_fuzz_against_python(dump_san: Path, tmp_path: Path) -> None:
+    rng = random.Random(197)
+    seeds = _seeds(tmp_path)
+    mutants: list[bytes] = []
+    for i in range(3000):
+        seed = seeds[-1] if i % 10 == 0 else rng.choice(seeds[:-1])
+        mutants.append(_mutate(rng, seed))
+    # random bytes after the magic and version (as tests/test_fuzz_format.py): the header's checks
+    prefix = b"SWPM\r\n\x1a\n\x01\x00"
+    mutants += [prefix + rng.randbytes(rng.randrange(700)) for _ in range(300)]
+    real = [encode_bytes(_pm("cow", v)) for v in ("list", "strip")]
+    mutants += [_mutate_values(rng, rng.choice(real)) for _ in range(600)]
+    paths = []
+    for i, m in enumerate(mutants):
+        p = tmp_path / f"m{i}.swpm"
+        p.write_bytes(m)
+        paths.append(p)
+    got = _check_many(dump_san, paths)
+    differ = []
+    accepted = 0
+    for i, (m, out) in enumerate(zip(mutants, got, strict=True)):
+        rep = validate_bytes(m)
+        want = _expected(m, [(p.code, p.severity, p.offset) for p in rep.problems])
+        accepted += out["ok"]
+        if out != want:
+            differ.append((i, out, want))
+    assert not differ, differ[:10]
+    assert 30 < accepted < len(mutants) - 300  # both sides exercised
+    # the content checks are reached, not only the header's
+    assert {"SWPM_PREFIX_VIOLATION", "SWPM_WINDOW_STRIP_TRIANGLES", "SWPM_WINDOW_COUNT_MISMATCH"} <= {
+        o.get("code") for o in got
+    }
+
+
+# -- META: the strict JSON of format.md 3.1, in files rebuilt around a given META payload -----------------
+def _rebuild(data: bytes, payloads: dict[bytes, bytes]) -> bytes:
+    """``data`` (a valid file) with the payloads of the chunk types given replaced and SMAP (ancillary,
+    absolute offsets) dropped: the chunks laid out again one after another, offsets, file_size and every CRC
+    recomputed."""
+    count, to = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
+    chunks = []
+    for i in range(count):
+        t, flags, off, ln = struct.unpack_from("<4sIQQ", data, to + 32 * i)
+        if t != b"SMAP":
+            chunks.append((t, flags, payloads.get(t, data[off : off + ln])))
+    table = bytearray()
+    body = bytearray()
+    pos = 64 + 32 * len(chunks)
+    for t, flags, payload in chunks:
+        table += struct.pack(
+            "<4sIQQII", t, flags, pos + len(body), len(payload), zlib.crc32(payload, zlib.crc32(t)), 0
+        )
+        body += payload + bytes(-len(payload) % 8)
+    head = bytearray(data[:64])
+    struct.pack_into("<IQQI", head, 24, len(chunks), 0, 0, 0)
+    struct.pack_into("<QQI", head, 32, 64, 64 + len(table) + len(body), 0)
+    struct.pack_into("<I", head, 48, zlib.crc32(bytes(head + table)))
+    return bytes(head + table + body)
+
+
+def _payload(data: bytes, ctype: bytes) -> tuple[int, bytearray]:
+    """(entry offset, a copy of the payload) of the chunk ``ctype``."""
+    count, to = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
+    for i in range(count):
+        t, _, off, ln = struct.unpack_from("<4sIQQ", data, to + 32 * i)
+        if t == ctype:
+            return to + 32 * i, bytearray(data[off : off + ln])
+    raise KeyError(ctype)
+
+
+def _with_meta(data: bytes, meta: bytes) -> bytes:
+    return _rebuild(data, {b"META": meta})
+
+
+DEEP = 128
+STRIPS_PARAMS = '"params":{"primitive":"strip","restart_index":65535}'
+META_CASES = {
+    "plain": ("{" + STRIPS_PARAMS + "}", None),
+    "escaped-encoding": ('{"encoding":"sliding\\u002dwindow",' + STRIPS_PARAMS + "}", None),
+    "lone-surrogate": ('{"x":"\\ud800",' + STRIPS_PARAMS + "}", None),
+    "depth-128": ('{"x":' + "[" * (DEEP - 1) + "]" * (DEEP - 1) + "," + STRIPS_PARAMS + "}", None),
+    "depth-129": ('{"x":' + "[" * DEEP + "]" * DEEP + "," + STRIPS_PARAMS + "}", "SWPM_META_BAD_JSON"),
+    "duplicate": ('{"a":1,"a":2,' + STRIPS_PARAMS + "}", "SWPM_META_BAD_JSON"),
+    "duplicate-escaped": ('{"a":1,"\\u0061":2,' + STRIPS_PARAMS + "}", "SWPM_META_BAD_JSON"),
+    "duplicate-pair": ('{"\\ud800\\udc00":1,"\U00010000":2,' + STRIPS_PARAMS + "}", "SWPM_META_BAD_JSON"),
+    "duplicate-nested": ('{"p":{"b":1,"b":1},' + STRIPS_PARAMS + "}", "SWPM_META_BAD_JSON"),
+    "largest-double": ('{"x":1.7976931348623157e308,' + STRIPS_PARAMS + "}", None),
+    "tiny": ('{"x":-1e-400,' + STRIPS_PARAMS + "}", None),
+    "below-infinity": ('{"x":' + str(2**1024 - 2**970 - 1) + "," + STRIPS_PARAMS + "}", None),
+    "infinity-int": ('{"x":' + str(2**1024 - 2**970) + "," + STRIPS_PARAMS + "}", "SWPM_META_BAD_JSON"),
+    "infinity-exp": ('{"x":-1e400,' + STRIPS_PARAMS + "}", "SWPM_META_BAD_JSON"),
+    "infinity-frac": (
+        '{"x":0.0000' + str(2**1024 - 2**970) + "e313," + STRIPS_PARAMS + "}",
+        "SWPM_META_BAD_JSON",
+    ),
+    "nan": ('{"x":NaN,' + STRIPS_PARAMS + "}", "SWPM_META_BAD_JSON"),
+    "bom": ("\ufeff{" + STRIPS_PARAMS + "}", "SWPM_META_BAD_JSON"),
+    "trailing-comma": ("{" + STRIPS_PARAMS + ",}", "SWPM_META_BAD_JSON"),
+    "control-char": ('{"x":"a\tb",' + STRIPS_PARAMS + "}", "SWPM_META_BAD_JSON"),
+    "leading-zero": ('{"x":01,' + STRIPS_PARAMS + "}", "SWPM_META_BAD_JSON"),
+    "not-object": ("[1]", "SWPM_META_BAD_JSON"),
+    "params-array": ('{"params":[]}', "SWPM_META_BAD_FIELD"),
+    "encoding-other": ('{"encoding":"vanilla",' + STRIPS_PARAMS + "}", "SWPM_META_BAD_FIELD"),
+    "primitive-list": ('{"params":{"primitive":"list","restart_index":65535}}', "SWPM_META_BAD_FIELD"),
+    "restart-float": ('{"params":{"primitive":"strip","restart_index":65535.0}}', "SWPM_META_BAD_FIELD"),
+    "restart-true": ('{"params":{"primitive":"strip","restart_index":true}}', "SWPM_META_BAD_FIELD"),
+    "restart-missing": ('{"params":{"primitive":"strip"}}', "SWPM_META_BAD_FIELD"),
+    "restart-2-32": ('{"params":{"primitive":"strip","restart_index":4294967296}}', "SWPM_META_BAD_FIELD"),
+    "restart-minus-zero": ('{"params":{"primitive":"strip","restart_index":-0}}', "SWPM_META_BAD_FIELD"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(META_CASES))
+def test_meta_json(dump: Path, tmp_path: Path, case: str) -> None:
+    text, code = META_CASES[case]
+    data = _with_meta((VECTORS / "valid" / "sliding-window-strips.swpm").read_bytes(), text.encode("utf-8"))
+    path = tmp_path / "m.swpm"
+    path.write_bytes(data)
+    rep = validate_bytes(data)
+    want = _expected(data, [(p.code, p.severity, p.offset) for p in rep.problems])
+    _, out = _run(dump, path)
+    assert out.get("code") == code  # what format.md 3.1 / 3.5 say
+    assert out == want or (out["ok"] and want["ok"])  # and what swpm_usd.format says
+
+
+# -- exact arithmetic (format.md 1): sums that wrap at 2^32 or 2^64 in a careless reader ---------------------
+def _big_vertex_count() -> tuple[bytes, str, int]:
+    data = (VECTORS / "valid" / "sliding-window.swpm").read_bytes()
+    _, vert = _payload(data, b"VERT")
+    struct.pack_into("<I", vert, 0, 2**30 + 5)  # 12 (2^30 + 5) bytes, 60 when wrapped at 2^32
+    out = _rebuild(data, {b"VERT": vert})
+    entry, _ = _payload(out, b"VERT")
+    return out, "SWPM_COUNT_EXCEEDS_CHUNK", struct.unpack_from("<Q", out, entry + 8)[0]
+
+
+def _chunk_at_2_64() -> tuple[bytes, str, int]:
+    data = bytearray((VECTORS / "valid" / "sliding-window.swpm").read_bytes())
+    entry, _ = _payload(bytes(data), b"VERT")
+    struct.pack_into("<QQ", data, entry + 8, 2**64 - 8, 16)  # ends at 2^64 + 8, at 8 when wrapped
+    table_end = 64 + 32 * struct.unpack_from("<I", data, 24)[0]
+    struct.pack_into("<I", data, 48, 0)
+    struct.pack_into("<I", data, 48, zlib.crc32(bytes(data[:table_end])))
+    return bytes(data), "SWPM_CHUNK_OUT_OF_BOUNDS", entry + 8
+
+
+def _window_3t_past_2_32() -> tuple[bytes, str, int]:
+    data = (VECTORS / "valid" / "sliding-window-offset32.swpm").read_bytes()  # O = 4
+    _, lods = _payload(data, b"LODS")
+    _, wrec = _payload(data, b"WREC")
+    for k in range(2):  # triangle_count 0x55555556: 3 x that is 2^32 + 2, 2 when wrapped
+        struct.pack_into("<I", lods, 12 * k + 4, 0x55555556)
+        struct.pack_into("<II", wrec, 12 * k, 0, 0x55555556)
+    out = _rebuild(data, {b"LODS": lods, b"WREC": wrec})
+    entry, _ = _payload(out, b"WREC")
+    return out, "SWPM_WINDOW_OUT_OF_POOL", struct.unpack_from("<Q", out, entry + 8)[0]
+
+
+def _strip_window_past_2_32() -> tuple[bytes, str, int]:
+    data = (VECTORS / "valid" / "sliding-window-strips-offset32.swpm").read_bytes()  # O = 4, 4 fields
+    _, wrec = _payload(data, b"WREC")
+    struct.pack_into("<I", wrec, 16, 0xFFFFFFFF)  # window 1 first_index: + index_count wraps past 2^32
+    out = _rebuild(data, {b"WREC": wrec})
+    entry, _ = _payload(out, b"WREC")
+    return out, "SWPM_WINDOW_OUT_OF_POOL", struct.unpack_from("<Q", out, entry + 8)[0] + 16
+
+
+EXACT = {
+    "vertex-count-2-30": _big_vertex_count,
+    "chunk-at-2-64": _chunk_at_2_64,
+    "window-3t-past-2-32": _window_3t_past_2_32,
+    "strip-window-past-2-32": _strip_window_past_2_32,
+}
+
+
+@pytest.mark.parametrize("case", sorted(EXACT))
+def test_exact_arithmetic(dump_san: Path, tmp_path: Path, case: str) -> None:
+    data, code, offset = EXACT[case]()
+    path = tmp_path / "x.swpm"
+    path.write_bytes(data)
+    rc, out = _run(dump_san, path)
+    assert rc == 1 and out == {"ok": False, "code": code, "offset": offset}
+    rep = validate_bytes(data)
+    assert _expected(data, [(p.code, p.severity, p.offset) for p in rep.problems]) == out
+
+
+def test_readme_c_example_compiles(tmp_path: Path) -> None:
+    """README's "Drawing from C" example, in a function with stand-ins for the GL names, compiles."""
+    cc = shutil.which("cc")
+    if cc is None:
+        pytest.skip("no C compiler")
+    text = (ROOT / "README.md").read_text()
+    block = text.split("## Drawing from C", 1)[1].split("```c\n", 1)[1].split("```", 1)[0]
+    head = [line for line in block.splitlines() if line.startswith("#")]
+    body = [line for line in block.splitlines() if not line.startswith("#")]
+    src = "\n".join(
+        [
+            "#include <stdio.h>",
+            *head,
+            "typedef unsigned GLenum; typedef int GLsizei;",
+            "enum { GL_TRIANGLES = 4, GL_TRIANGLE_STRIP = 5,",
+            "       GL_UNSIGNED_SHORT = 0x1403, GL_UNSIGNED_INT = 0x1405 };",
+            "void glDrawElements(GLenum mode, GLsizei count, GLenum type, const void *indices);",
+            "void draw(const uint8_t *bytes, size_t length) {",
+            *body,
+            "}",
+        ]
+    )
+    (tmp_path / "example.c").write_text(src)
+    flags = [*FLAGS, "-Wno-unused-variable", "-Wno-unused-but-set-variable", "-I", str(RUNTIME)]
+    subprocess.run(
+        [cc, *flags, "-c", "-o", str(tmp_path / "example.o"), str(tmp_path / "example.c")], check=True
+    )
