@@ -367,7 +367,7 @@ _ENTRIES = [
         "window of LOD {lod} says {what} {value}, LODS says {expected}",
         "A window's counts differ from the LOD table.",
         "the differing field of window k, triangle_count (window + O) or vertex_count (window + 2 O); "
-        "first differing window per field",
+        "first differing window per field, triangle_count's listed first",
     ),
     Entry(
         "SWPM_WINDOW_MID_STRIP",
