@@ -127,6 +127,7 @@ from .rules import (
     _current_why,
     _digest_with_count,
     _max_triangles,
+    _output_names_current,
     _routes_by_triangles,
     _rule_name,
     _rules_pending,
@@ -414,6 +415,8 @@ def plan(
             and _wanted_outputs(cfg) <= set(outs)
             # (a .swpm of the other layout: `legacy_layout` flipped since)
             and _swpm_layout_current(cfg, outs)
+            # (outputs at the other names: `output.names` flipped since)
+            and _output_names_current(cfg, item, outs)
         )
         if item.up_to_date:
             checked = {kind: _checked_output(out_dir / o["path"], o, verify) for kind, o in outs.items()}
