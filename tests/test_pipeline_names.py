@@ -4,6 +4,7 @@ folder (``path``), for a library whose files share a name (every glTF download i
 from __future__ import annotations
 
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -81,7 +82,8 @@ def test_names_by_path_build_both_and_the_manifest_and_scene_name_them(tmp_path)
     # the scene references each layer by its name (its prims: USD identifiers made of the names, hashed)
     refs = _scene_references(out)
     assert sorted(refs.values()) == ["./props--chair--scene.usdc", "./props--table--scene.usdc"]
-    assert all(name.startswith("props__") for name in refs)
+    names = {ref: name for name, ref in refs.items()}
+    assert re.fullmatch(r"props__chair__scene_[0-9a-f]{8}", names["./props--chair--scene.usdc"]), names
     again = run(cfg, echo=_quiet)
     assert again.built == 0 and again.skipped == 2
 
