@@ -64,6 +64,25 @@ def test_two_files_of_one_stem_fail_under_stem_with_a_hint_to_name_by_path(tmp_p
     assert not (tmp_path / "out").exists()
 
 
+def test_files_given_by_their_paths_are_named_by_their_stems_under_path(tmp_path):
+    """A glob without a wildcard starts from its file's folder: two such files of one stem still collide
+    under ``path``, and the error says to match them with one glob."""
+    config = CONFIG.replace(
+        '  - glob: "library/**/*.obj"',
+        '  - glob: "library/props/chair/scene.obj"\n  - glob: "library/props/table/scene.obj"',
+    )
+    cfg = _library(tmp_path, config.replace("  scene: true", "  scene: true\n  names: path"))
+    with pytest.raises(ConfigError) as exc:
+        run(cfg, echo=_quiet)
+    (problem,) = exc.value.problems
+    assert "would both write scene.swpm; each is given by its path" in problem and "one glob" in problem
+    # under stem the hint would not help (the path names are the stems): none
+    cfg.write_text(config)
+    with pytest.raises(ConfigError) as exc:
+        run(cfg, echo=_quiet)
+    assert exc.value.problems[0].endswith("would both write scene.swpm")
+
+
 def test_names_by_path_build_both_and_the_manifest_and_scene_name_them(tmp_path):
     cfg = _library(tmp_path, CONFIG.replace("  scene: true", "  scene: true\n  names: path"))
     res = run(cfg, echo=_quiet)

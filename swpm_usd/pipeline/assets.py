@@ -559,12 +559,25 @@ def discover(
     return assets, inputs, problems
 
 
+def _given_by_path(cfg: Config, a: Asset) -> bool:
+    """Was ``a`` found by a glob without a wildcard (a file's path)?"""
+    src = cfg.data["assets"][a.source_index]
+    return "glob" in src and not any(c in src["glob"] for c in "*?[")
+
+
 def _names_hint(cfg: Config, a: Asset, b: Asset) -> str:
     """What to do about two assets whose outputs would have one name: under ``output.names: stem``, when
     their names by path differ (files of one name in different folders, ``props/chair/scene.gltf`` and
     ``props/table/scene.gltf``, which a library cannot rename), ``output.names: path``, with the names it
-    gives them."""
+    gives them; under ``path``, for two files each given by its path (named by its stem), one glob over both.
+    "" when neither helps (the caller's own words stand)."""
     if names_by_path(cfg):
+        # (a glob without a wildcard starts from its file's folder: such a file is named by its stem)
+        if all(_given_by_path(cfg, x) for x in (a, b)) and a.path.parent != b.path.parent:
+            return (
+                "; each is given by its path, so named by its stem under output.names: path: match both "
+                "with one glob from a folder above them, or rename one"
+            )
         return ""
     by_path = []
     for x in (a, b):
