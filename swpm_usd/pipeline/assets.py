@@ -8,6 +8,7 @@ matches, ``defaults`` apply.
 
 from __future__ import annotations
 
+import dataclasses
 import fnmatch
 import hashlib
 import json
@@ -32,12 +33,55 @@ class Asset:
     instances: int = 1
     tags: dict[str, Any] = field(default_factory=dict)
     source_index: int = 0  # which entry of `assets` found it
+    #: the base of its output names under ``output.names: path`` (:func:`path_name`); None: the file's stem
+    path_name: str | None = None
 
     @property
     def output_stem(self) -> str:
+        """The name of its outputs without their suffix (``rock`` for ``rock.swpm``; a stage's prim after the
+        stage's name and ``__``)."""
+        base = self.path.stem if self.path_name is None else self.path_name
         if self.prim is None:
-            return self.path.stem
-        return f"{self.path.stem}__{self.prim.strip('/').replace('/', '_')}"
+            return base
+        return f"{base}__{self.prim.strip('/').replace('/', '_')}"
+
+
+#: the values of ``output.names``: outputs named by the file's stem (the default), or by its path
+OUTPUT_NAMES = ("stem", "path")
+#: what joins the folders of an output name under ``output.names: path`` (``props--chair--scene.swpm``):
+#: legal in a file name everywhere, never made by the prim separator ``__``, and not ``.``, which would
+#: read as a suffix (the worker names a USD layer's root prim by the name up to its first dot)
+PATH_NAME_SEPARATOR = "--"
+
+
+def _glob_root(pattern: str) -> tuple[str, ...]:
+    """The fixed folders a glob starts from: its parts before the first holding a wildcard (``*?[``); a
+    pattern without one (a file's path) starts from that file's folder."""
+    parts = Path(pattern).parts
+    fixed = []
+    for part in parts:
+        if any(c in part for c in "*?["):
+            return tuple(fixed)
+        fixed.append(part)
+    return tuple(fixed[:-1])
+
+
+def path_name(file: Path, root: Path) -> str:
+    """The base of a glob-matched ``file``'s output names under ``output.names: path``: its path relative to
+    ``root`` (the glob's fixed folder, :func:`_glob_root`), without its suffix, its folders joined by
+    :data:`PATH_NAME_SEPARATOR` (``library/props/chair/scene.gltf`` under ``library``:
+    ``props--chair--scene``); its stem when it is not under ``root``."""
+    try:
+        rel = file.relative_to(root)
+    except ValueError:
+        return file.stem
+    return PATH_NAME_SEPARATOR.join((*rel.parent.parts, rel.stem))
+
+
+def names_by_path(cfg: Config) -> bool:
+    """Does the config name outputs by the asset's path (``output.names: path``), not its stem?"""
+    out = cfg.data.get("output")
+    return isinstance(out, dict) and out.get("names", "stem") == "path"
 
 
 def file_digest(paths: list[Path]) -> str:
@@ -330,6 +374,7 @@ def discover(
     # (their real paths only where they are looked up: 10,000 assets' 20,000 outputs, a second a run)
     recorded_outputs = {os.path.realpath(p) for p in recorded_outputs} if holds_config else set()
     under: dict[Path, bool] = {}  # a matched file's folder -> is it output.dir or in it
+    by_path = names_by_path(cfg)
 
     def is_output(p: Path) -> bool:
         """Is ``p``, a file a glob matched, the run's and not an input: in output.dir or below it, and when
@@ -353,6 +398,7 @@ def discover(
                 )
                 continue
             dangling: set[Path] = set()
+            fixed = _glob_root(src["glob"])
             try:
                 # (a dangling link of a mesh type too: its asset fails, named, rather than vanish)
                 files = []
@@ -402,7 +448,8 @@ def discover(
                         same.append((rel, matched_as[real]))
                     continue
                 matched_as[real] = rel
-                assets.append(Asset(rel, p, None, instances, {}, i))
+                named = path_name(p, cfg.base.joinpath(*fixed)) if by_path else None
+                assets.append(Asset(rel, p, None, instances, {}, i, named))
                 known = listed(rel, p) if listed is not None else None
                 settles = known is not None
                 if known is None:
@@ -487,25 +534,62 @@ def discover(
                     continue
                 assets.append(a)
                 inputs[a.id] = used
-    seen: dict[str, str] = {}
+    seen: dict[str, Asset] = {}
     # (a stem folded as a case-insensitive filesystem folds it -> the first asset and its stem)
-    folded: dict[str, tuple[str, str]] = {}
+    folded: dict[str, tuple[Asset, str]] = {}
     for a in assets:
         stem = a.output_stem
         where = cfg.where(("assets", a.source_index))
-        if stem in seen and seen[stem] != a.id:
-            problems.append(f"{where}: {a.id} and {seen[stem]} would both write {stem}.swpm")
+        if stem in seen and seen[stem].id != a.id:
+            problems.append(
+                f"{where}: {a.id} and {seen[stem].id} would both write {stem}.swpm"
+                f"{_names_hint(cfg, a, seen[stem])}"
+            )
         elif _folded(stem) in folded and folded[_folded(stem)][1] != stem:
             other, other_stem = folded[_folded(stem)]
             same_text = unicodedata.normalize("NFC", stem) == unicodedata.normalize("NFC", other_stem)
             differ = "Unicode normalization" if same_text else "case"
             problems.append(
-                f"{where}: {a.id} and {other} would both write {stem}.swpm on a case-insensitive filesystem "
-                f"(macOS, Windows): {stem}.swpm and {other_stem}.swpm differ only in {differ}; rename one"
+                f"{where}: {a.id} and {other.id} would both write {stem}.swpm on a case-insensitive "
+                f"filesystem (macOS, Windows): {stem}.swpm and {other_stem}.swpm differ only in {differ}"
+                f"{_names_hint(cfg, a, other) or '; rename one'}"
             )
-        seen[stem] = a.id
-        folded.setdefault(_folded(stem), (a.id, stem))
+        seen[stem] = a
+        folded.setdefault(_folded(stem), (a, stem))
     return assets, inputs, problems
+
+
+def _given_by_path(cfg: Config, a: Asset) -> bool:
+    """Was ``a`` found by a glob without a wildcard (a file's path)?"""
+    src = cfg.data["assets"][a.source_index]
+    return "glob" in src and not any(c in src["glob"] for c in "*?[")
+
+
+def _names_hint(cfg: Config, a: Asset, b: Asset) -> str:
+    """What to do about two assets whose outputs would have one name: under ``output.names: stem``, when
+    their names by path differ (files of one name in different folders, ``props/chair/scene.gltf`` and
+    ``props/table/scene.gltf``, which a library cannot rename), ``output.names: path``, with the names it
+    gives them; under ``path``, for two files each given by its path (named by its stem), one glob over both.
+    "" when neither helps (the caller's own words stand)."""
+    if names_by_path(cfg):
+        # (a glob without a wildcard starts from its file's folder: such a file is named by its stem)
+        if all(_given_by_path(cfg, x) for x in (a, b)) and a.path.parent != b.path.parent:
+            return (
+                "; each is given by its path, so named by its stem under output.names: path: match both "
+                "with one glob from a folder above them, or rename one"
+            )
+        return ""
+    by_path = []
+    for x in (a, b):
+        src = cfg.data["assets"][x.source_index]
+        root = cfg.base.joinpath(*_glob_root(src["glob"])) if "glob" in src else x.path.parent
+        by_path.append(dataclasses.replace(x, path_name=path_name(x.path, root)).output_stem)
+    if _folded(by_path[0]) == _folded(by_path[1]):
+        return ""
+    return (
+        f"; output.names: path names outputs by their path under the glob's fixed folder: {by_path[0]}.swpm "
+        f"and {by_path[1]}.swpm (or rename one)"
+    )
 
 
 def _folded(name: str) -> str:

@@ -5,8 +5,9 @@ A build is current when its digest is the treatment's (:func:`_treatment_digest`
 older version that held the instance count: :func:`_digest_with_count`), its recorded memory still fits
 ``budgets.total_bytes`` at today's instance count (:func:`_total_fits`), its triangles
 ``limits.max_triangles`` (:func:`_within_triangle_budget`), and its outputs are those the config asks for
-(:func:`_wanted_outputs`). Separate from the runner: each answer is a small pure function of the config and
-a record, which :func:`.runner.plan` and the run's records use.
+(:func:`_wanted_outputs`), at the names ``output.names`` gives them (:func:`_output_names_current`).
+Separate from the runner: each answer is a small pure function of the config and a record, which
+:func:`.runner.plan` and the run's records use.
 """
 
 from __future__ import annotations
@@ -146,6 +147,24 @@ def _swpm_layout_current(cfg: Config, outputs: dict) -> bool:
     if "swpm" not in _wanted_outputs(cfg) or not isinstance(recorded, dict):
         return True
     return recorded.get("legacy_layout", False) is bool(cfg.data["output"].get("legacy_layout", False))
+
+
+#: the suffix of each kind of output (a record's ``outputs`` key) after the asset's output stem
+OUTPUT_SUFFIXES = {"swpm": ".swpm", "usd": ".usdc"}
+
+
+def _output_names_current(cfg: Config, item: PlanItem, outputs: dict) -> bool:
+    """Are an asset's recorded outputs, of the kinds the config asks for, at the names it gives them today
+    (``<output stem>.swpm``, ``.usdc``: ``output.names`` flipped since moves them)? Else the asset is built
+    again under its new names, not its files renamed: a USD layer's root prim is named after its file, so a
+    renamed layer is not what a build writes; the files at the old names are then the build's dropped
+    outputs (:func:`.outputs._dropped_outputs`), listed as orphans and deleted by ``prune``."""
+    stem = item.asset.output_stem
+    for kind in _wanted_outputs(cfg) & set(outputs):
+        recorded = outputs[kind]
+        if not isinstance(recorded, dict) or recorded.get("path") != f"{stem}{OUTPUT_SUFFIXES[kind]}":
+            return False
+    return True
 
 
 def _routes_by_triangles(cfg: Config) -> bool:

@@ -129,6 +129,7 @@ from .rules import (
     _current_why,
     _digest_with_count,
     _max_triangles,
+    _output_names_current,
     _routes_by_triangles,
     _rule_name,
     _rules_pending,
@@ -435,6 +436,8 @@ def plan(
             and _wanted_outputs(cfg) <= set(outs)
             # (a .swpm of the other layout: `legacy_layout` flipped since)
             and _swpm_layout_current(cfg, outs)
+            # (outputs at the other names: `output.names` flipped since)
+            and _output_names_current(cfg, item, outs)
         )
         checked = None  # (the outputs, once the rest is current: their reasons, should they not be)
         units_ok = True

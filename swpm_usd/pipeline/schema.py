@@ -275,6 +275,18 @@ def build_schema() -> dict[str, Any]:
                         "description": "scene layer of them all (needs usd: true)",
                     },
                     "report": {"type": "boolean", "default": True, "description": "report.html"},
+                    "names": {
+                        "enum": ["stem", "path"],
+                        "default": "stem",
+                        "description": "how outputs are named: stem, by the file's stem (rock.swpm; two "
+                        "files of one stem in different folders are an error); path, by the file's path "
+                        "under the fixed folder its glob starts from, without its suffix, folders joined "
+                        "by -- (library/**/*.gltf: library/props/chair/scene.gltf writes "
+                        "props--chair--scene.swpm; a glob without a wildcard, and a stage, start from "
+                        "their file's folder). A stage's prims add __<prim> either way. Outputs stay in "
+                        "output.dir; flipping it builds each asset again under its new names, the old "
+                        "ones left as orphans (prune deletes them)",
+                    },
                 },
             },
             "defaults": {
