@@ -213,6 +213,20 @@ def test_legacy_layout_flipped(project):
     assert report.count(" legacy</td>") == 2 and "layout changed (legacy_layout false -&gt; true)" in report
 
 
+def test_output_names_flipped(project):
+    # (a glob from the config's folder: under output.names: path the outputs are named meshes--a.*)
+    text = _config(output="  names: path\n").replace('glob: "meshes/*.obj"', 'glob: "*/*.obj"')
+    project.write_text(text)
+    because, line = _dry(project)
+    assert because["meshes/a.obj"] == [{"code": "names-changed", "detail": "a.swpm -> meshes--a.swpm"}]
+    assert line["meshes/a.obj"].endswith("because: names changed (a.swpm -> meshes--a.swpm)")
+    res = run(project, echo=lambda m: None)
+    assert res.built_because == {"names-changed": 2}
+    assert (project.parent / "out" / "meshes--a.swpm").is_file()
+    again, _ = _dry(project)
+    assert again == {"meshes/a.obj": [], "meshes/b.obj": []}
+
+
 def test_no_output_wanted(project):
     project.write_text(_config(output="  swpm: false\n  usd: false\n"))
     because, _ = _dry(project)

@@ -23,8 +23,10 @@ from .assets import _MAXIMA, _MINIMA, canonical_treatment, checks_no_stricter, c
 from .config import Config
 from .inputs import recorded_path
 from .rules import (
+    OUTPUT_SUFFIXES,
     _digest_with_count,
     _max_triangles,
+    _output_names_current,
     _rule_name,
     _swpm_layout_current,
     _total_fits,
@@ -56,6 +58,7 @@ REASONS = (
     "outputs-unwanted",  # the config asks for no output (swpm: false, usd: false), the build wrote some
     "output-wanted",  # a kind of output the config asks for that the build did not write (usd: true added)
     "layout-changed",  # output.legacy_layout flipped since the .swpm was written
+    "names-changed",  # output.names (or the glob that names by path) gives its outputs other names now
     "output-missing",  # a recorded output deleted
     "output-changed",  # a recorded output not as recorded (edited, replaced)
     "layer-units",  # a USD layer whose units the record lacks and the layer does not tell
@@ -348,6 +351,14 @@ def build_reasons(
         then = outs["swpm"].get("legacy_layout", False)
         now = bool(cfg.data["output"].get("legacy_layout", False))
         found.append(reason("layout-changed", f"legacy_layout {_value(then)} -> {_value(now)}"))
+    if not _output_names_current(cfg, item, outs):
+        stem = item.asset.output_stem
+        moved = [
+            f"{outs[kind].get('path')} -> {stem}{OUTPUT_SUFFIXES[kind]}"
+            for kind in sorted(wanted & set(outs))
+            if isinstance(outs[kind], dict) and outs[kind].get("path") != f"{stem}{OUTPUT_SUFFIXES[kind]}"
+        ]
+        found.append(reason("names-changed", ", ".join(moved)))
     gone, edited = [], []
     for kind in sorted(wanted & set(outs)):
         path = out_dir / outs[kind]["path"]
