@@ -213,6 +213,16 @@ def build_cmd(
 )
 @click.option("--force", is_flag=True, help="Rebuild assets even when they are up to date.")
 @click.option(
+    "--only",
+    "only",
+    multiple=True,
+    metavar="PATTERN",
+    help="Build only the assets whose id (path relative to the config, a stage's prim as path:/prim/path; "
+    "as --dry-run lists them) matches PATTERN (fnmatch: * also crosses / and :, ? one character, [seq]; "
+    "an id matches itself); repeatable. Every asset is still planned; the others keep their records. A "
+    "pattern that matches no asset is a usage error.",
+)
+@click.option(
     "--prune",
     is_flag=True,
     help="Delete the outputs of assets no longer in the config, and those of a kind it no longer asks for "
@@ -234,6 +244,7 @@ def run_cmd(
     executor: str,
     scheduler: str | None,
     force: bool,
+    only: tuple[str, ...],
     prune: bool,
     verify: bool,
     as_json: bool,
@@ -246,6 +257,9 @@ def run_cmd(
     parameters are those recorded and its outputs are still as recorded (inputs and outputs compared by
     their size and stat, else hashed; with --verify by their sha256).
 
+    --only PATTERN (repeatable) builds the assets whose id matches one (meshes/hero_*): every asset is still
+    planned, and the others are left as they are.
+
     An asset built before whose rebuild fails keeps its previous build (outputs, manifest record, place
     in the scene) and is reported failed. One run at a time writes in an output.dir: another fails at
     once.
@@ -255,7 +269,7 @@ def run_cmd(
     configuration is invalid (every problem listed as FILE:LINE:COL: $.path: message), 130 on Ctrl-C.
     """
     from .codes import PROBLEM_KEYS
-    from .pipeline import ConfigError, run
+    from .pipeline import ConfigError, SelectionError, run
 
     if scheduler is not None and executor != "dask":
         # (it was ignored: the assets were built here while the user waited for the cluster to be used)
@@ -274,7 +288,10 @@ def run_cmd(
             prune=prune,
             verify=verify,
             echo=lambda m: click.echo(m, err=as_json),
+            only=only,
         )
+    except SelectionError as exc:  # (before the run built or wrote anything)
+        raise click.BadParameter(str(exc), param_hint="'--only'") from None
     except ConfigError as exc:
         from .codes import problem_fields
 
@@ -338,6 +355,7 @@ def run_cmd(
             "built_assets": sorted(res.built_ids),  # (which ones: `built` counts them)
             # (why: each reason's code -> how many of them had it, as the plan's `because` names them)
             "built_because": res.built_because,
+            "not_selected": res.not_selected,  # (the config's assets --only left out: not built, not planned)
         }
         if dry_run:
             # a dry run deletes nothing: what --prune would delete is named as such, and left in output.dir
@@ -350,9 +368,10 @@ def run_cmd(
         from .pipeline.reasons import counted_shown
 
         why = f" ({counted_shown(res.built_because)})" if res.built_because else ""
+        left = f", {res.not_selected} not selected" if only else ""
         click.echo(
-            f"{res.built} built{why}, {res.skipped} up to date, {res.failed} failed in {res.seconds:.1f} s; "
-            f"manifest {res.manifest_path}"
+            f"{res.built} built{why}, {res.skipped} up to date, {res.failed} failed{left} in "
+            f"{res.seconds:.1f} s; manifest {res.manifest_path}"
         )
         for rid, rec in sorted(res.failures.items()):
             kept = (

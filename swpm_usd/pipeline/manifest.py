@@ -143,11 +143,19 @@ def _read_manifest(
         if not isinstance(rec, dict):
             continue
         if INPUTS_REF in rec:
-            ref = rec.pop(INPUTS_REF)
+            ref = rec[INPUTS_REF]
             entries = tables.get(ref) if isinstance(ref, str) else None
             if isinstance(entries, list):  # (else none: the inputs are hashed, as for a malformed list)
-                rec["inputs"] = entries
-            elif unresolved is not None:
+                # in the reference's place, which the writer keeps: a record rewritten unchanged (one a run
+                # --only leaves) is the same text (appended, the list moved after the record's other keys)
+                data["assets"][aid] = {
+                    ("inputs" if k == INPUTS_REF else k): (entries if k == INPUTS_REF else v)
+                    for k, v in rec.items()
+                    if k != "inputs"
+                }
+                continue
+            del rec[INPUTS_REF]
+            if unresolved is not None:
                 if not isinstance(ref, str):
                     why = f"its {INPUTS_REF} is {_what(ref)}, not a string"
                 elif found is None:

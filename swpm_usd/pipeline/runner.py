@@ -27,6 +27,11 @@ and the run reports it failed. One run at a time writes in an output folder (:cl
 outputs of assets no longer in the config are left and named, and recorded under ``orphaned_outputs`` until a
 run with ``prune`` deletes them (:func:`.outputs._orphaned_outputs`).
 
+``only`` (``--only PATTERN``): the run plans every asset as ever (its warnings, name collisions and orphans
+are the whole config's), then builds only the assets it selects (:func:`selected_ids`) that are not up to date
+(with ``force``, each of those); the records of the others stay as they are, and the scene and report are
+written from the whole manifest.
+
 A run that builds and prunes nothing, whose failures each fail again as recorded (:func:`_same_failure`:
 retried, their records kept), and whose manifest would hold what it holds, writes neither it nor scene.usda
 nor report.html: those were written from these records (their ``run_outputs`` records marked
@@ -39,11 +44,13 @@ whole has its report and manifest written); nor the lock file, which holds the p
 from __future__ import annotations
 
 import contextlib
+import fnmatch
 import gc
 import json
 import os
+import re
 import time
-from collections.abc import Generator, Iterator
+from collections.abc import Generator, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -230,6 +237,8 @@ class RunResult:
     #: why each asset this run built or tried (a dry run: would build) was to be built: asset id -> its
     #: reasons (:func:`.reasons.build_reasons`, ``forced`` first with ``--force``)
     because: dict[str, list[dict[str, str]]] = field(default_factory=dict)
+    #: the assets of the config that ``only`` left out (not built, not counted in ``skipped``, not planned)
+    not_selected: int = 0
 
     @property
     def built_because(self) -> dict[str, int]:
@@ -562,6 +571,53 @@ def execute(
 _SERVER_GIVEN: dict[int, tuple[list[str], list[str]]] = {}
 
 
+#: how many asset ids the error of an ``only`` pattern that matches none shows, so the user sees how ids look
+_IDS_SHOWN = 5
+
+
+class SelectionError(ValueError):
+    """``only`` patterns that match no asset of the config: a usage error (``run --only``: exit 2), raised
+    before the run builds or writes anything. ``patterns``: those; ``ids``: the config's first asset ids;
+    ``total``: how many it has."""
+
+    def __init__(self, patterns: list[str], ids: list[str], total: int) -> None:
+        self.patterns, self.ids, self.total = patterns, ids, total
+        which = ", ".join(repr(p) for p in patterns)
+        if not ids:
+            how = "the config has no assets"
+        else:
+            more = f", ... ({total} assets)" if total > len(ids) else ""
+            how = (
+                "an asset's id is its path relative to the config (a stage's prim: path:/prim/path), as "
+                f"--dry-run shows it: {', '.join(ids)}{more}"
+            )
+        super().__init__(f"{which} {'matches' if len(patterns) == 1 else 'match'} no asset; {how}")
+
+
+def _pattern(pattern: str) -> re.Pattern[str]:
+    """``pattern`` as fnmatch reads it (``*`` any characters, ``/`` and ``:`` too; ``?`` one; ``[seq]``),
+    case-sensitive on every system (ids are the config's paths), or the id it is written as."""
+    return re.compile(f"{re.escape(pattern)}\\Z|{fnmatch.translate(pattern)}")
+
+
+def selected_ids(ids: Iterable[str], patterns: Iterable[str]) -> set[str]:
+    """The ids of ``ids`` that any of ``patterns`` matches (:func:`_pattern`: ``meshes/hero_*`` also takes
+    ``meshes/hero_a/b.obj`` and the prims of ``meshes/hero_set.usda``; a plain id, ``[`` and all, matches
+    itself); raises :class:`SelectionError` naming each pattern that matches none."""
+    ids = list(ids)
+    chosen: set[str] = set()
+    unmatched = []
+    for p in dict.fromkeys(patterns):  # (a pattern given twice: once)
+        rx = _pattern(p)
+        found = [aid for aid in ids if rx.match(aid)]
+        if not found:
+            unmatched.append(p)
+        chosen.update(found)
+    if unmatched:
+        raise SelectionError(unmatched, ids[:_IDS_SHOWN], len(ids))
+    return chosen
+
+
 def run(
     config_path: str | Path,
     *,
@@ -574,8 +630,14 @@ def run(
     prune: bool = False,
     echo=print,
     verify: bool = False,
+    only: Iterable[str] | None = None,
 ) -> RunResult:
     """Run the pipeline described by ``config_path``; see the module docstring.
+
+    ``only``: patterns (:func:`selected_ids`) choosing the assets built (and listed by ``dry_run`` and
+    ``explain``); None or empty: every asset. Every asset is planned as without it; the records of the
+    others stay as they are; ``RunResult.not_selected`` counts them. A pattern that matches no asset raises
+    :class:`SelectionError` before the run builds or writes anything.
 
     ``prune``: delete the recorded outputs of assets the config no longer has (those still as the manifest
     recorded them and not outputs of this run's assets); without it they stay and the result names them.
@@ -609,6 +671,7 @@ def run(
             prune,
             echo,
             verify,
+            [only] if isinstance(only, str) else list(only or ()),  # (one pattern, not its characters)
         )
     finally:
         lock.release()
@@ -642,6 +705,7 @@ def _run(
     prune: bool,
     echo,
     verify: bool = False,
+    only: list[str] | None = None,
 ) -> RunResult:
     if not dry_run and out_dir.is_dir():
         lock.acquire()  # before the manifest is read: it is this run's from here on
@@ -662,6 +726,11 @@ def _run(
         errors = [*errors, "limits.seconds needs the local executor (--executor dask cannot stop an asset)"]
     if errors:
         raise ConfigError(errors)
+    # (after the plan, which discovers the ids, and before any build or write; None: every asset)
+    # (``items`` stay the whole config's: orphans, the outputs kept, the rules reached, the records kept)
+    chosen = selected_ids((it.asset.id for it in items), only) if only else None
+    picked = items if chosen is None else [it for it in items if it.asset.id in chosen]
+    not_selected = len(items) - len(picked)
     # (no record to go by: every asset built again, and the outputs it recorded no longer known)
     lost = [
         f"{_rel(cfg, manifest_path)}: {why}; the run takes it for no manifest: every asset is built "
@@ -693,9 +762,9 @@ def _run(
     orphan_lists = {"pruned" if prune else "unlisted": orphan_names}  # RunResult's fields
     planned = []
     # each asset's reasons to be built (--force: every asset's first), none for one up to date
-    because = {it.asset.id: ([reason("forced", "--force")] if force else []) + it.because for it in items}
+    because = {it.asset.id: ([reason("forced", "--force")] if force else []) + it.because for it in picked}
     if dry_run or explain:
-        for it in items:
+        for it in picked:
             state = "up to date" if it.up_to_date and not force else "to build"
             encoding, params = it.treatment.get("encoding"), it.treatment.get("params", {})  # (none: pending)
             reasons = because[it.asset.id]
@@ -718,18 +787,21 @@ def _run(
                     "because": reasons,
                 }
             )
+        if chosen is not None:
+            echo(f"{_assets(not_selected)} not selected by --only (of {len(items)}): not listed, not built")
         if dry_run:
-            skipped = 0 if force else sum(i.up_to_date for i in items)  # (force: each "to build")
+            skipped = 0 if force else sum(i.up_to_date for i in picked)  # (force: each "to build")
             for path in orphan_names:
                 echo(f"{path}: output of an asset no longer in the config" + ("; --prune deletes it" * prune))
             to_build = {aid: found for aid, found in because.items() if found}
             return RunResult(
-                {}, 0, skipped, 0, warnings, 0.0, manifest_path, planned, **orphan_lists, because=to_build
-            )
+                {}, 0, skipped, 0, warnings, 0.0, manifest_path, planned, **orphan_lists, because=to_build,
+                not_selected=not_selected,
+            )  # fmt: skip
     _make_out_dir(cfg, out_dir)
     lock.acquire(folder_checked=True)  # (a folder this run created)
     _remove_temporary(out_dir)  # left by a killed run
-    todo = [it for it in items if force or not it.up_to_date]
+    todo = [it for it in picked if force or not it.up_to_date]
     if prune and orphans:
         lock.claim()
         for path, _ in orphans:
@@ -737,7 +809,7 @@ def _run(
     # (the records of current assets the run can use: a hand-edited one is ignored, see plan)
     usable = {it.asset.id for it in items if it.previous is not None}
     records = {k: v for k, v in manifest.get("assets", {}).items() if k in usable}
-    for it in items:
+    for it in picked:  # (an asset not selected keeps its record as it is, up to date or not)
         kept = records.get(it.asset.id)
         if not it.up_to_date or force or kept is None:
             continue
@@ -888,7 +960,9 @@ def _run(
         raise
     finally:
         progress.close()
-    if _rules_pending(items):  # the rules are known now
+    # the rules are known now; unless an asset not selected has its rule still pending (a rule only it would
+    # take was named as matching no asset): a run that builds that asset warns then
+    if _rules_pending(items) and not _rules_pending([it for it in items if it.asset.id not in by_id]):
         unreached = _unreached_rules(cfg, items)
         for w in unreached:
             echo(f"warning: {w}")
@@ -951,9 +1025,13 @@ def _run(
     seconds = time.perf_counter() - t_start
     tried = {it.asset.id: because[it.asset.id] for it in todo}
     return RunResult(
-        records, len(built_ids), len(items) - len(todo), failed, warnings, seconds, manifest_path, planned,
-        failures, **orphan_lists, built_ids=built_ids, because=tried,
+        records, len(built_ids), len(picked) - len(todo), failed, warnings, seconds, manifest_path, planned,
+        failures, **orphan_lists, built_ids=built_ids, because=tried, not_selected=not_selected,
     )  # fmt: skip
+
+
+def _assets(n: int) -> str:
+    return f"{n} asset" + "s" * (n != 1)
 
 
 def _triangles_shown(item: PlanItem) -> str:
