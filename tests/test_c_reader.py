@@ -216,7 +216,7 @@ def test_real_files(dump: Path, tmp_path: Path, mesh: str, variant: str) -> None
     assert 4 in widths
 
 
-# -- vanilla files the Python codec writes: arrays, and an instance moved to every LOD and back ---------------
+# -- vanilla files the Python codec writes: arrays, and an instance moved to every LOD and back -----------
 VANILLA_MESHES = ("suzanne", "spot", "cow")
 _VPMS: dict[str, Any] = {}
 
@@ -285,7 +285,10 @@ def test_vanilla_scratch(dump: Path, dump_san: Path, tmp_path: Path) -> None:
         assert got == (want if want["ok"] else {**want, "need": need})
     # an error of stage (a) is reported whatever the scratch; a file with records that passes it needs some
     minimal = (VECTORS / "valid" / "minimal-vanilla.swpm").read_bytes()
-    bad = (VECTORS / "invalid" / "record-keeps-binned-vertex.swpm", VECTORS / "valid" / "minimal-vanilla.swpm")
+    bad = [
+        VECTORS / "invalid" / "record-keeps-binned-vertex.swpm",
+        VECTORS / "valid" / "minimal-vanilla.swpm",
+    ]
     proc = subprocess.run([str(dump), "--check-scratch", "0", *map(str, bad)], capture_output=True, text=True)
     first, second = (json.loads(line) for line in proc.stdout.splitlines())
     assert first == {"ok": False, "code": "SWPM_RECORD_BAD_KEPT", "offset": 504}
