@@ -583,29 +583,34 @@ def test_exact_arithmetic(dump_san: Path, tmp_path: Path, case: str) -> None:
 
 
 def test_readme_c_example_compiles(tmp_path: Path) -> None:
-    """README's "Drawing from C" example, in a function with stand-ins for the GL names, compiles."""
+    """README's "Drawing from C" examples (sliding-window, vanilla), each in a function with stand-ins for
+    the GL names, compile."""
     cc = shutil.which("cc")
     if cc is None:
         pytest.skip("no C compiler")
     text = (ROOT / "README.md").read_text()
-    block = text.split("## Drawing from C", 1)[1].split("```c\n", 1)[1].split("```", 1)[0]
-    head = [line for line in block.splitlines() if line.startswith("#")]
-    body = [line for line in block.splitlines() if not line.startswith("#")]
-    src = "\n".join(
-        [
-            "#include <stdio.h>",
-            *head,
-            "typedef unsigned GLenum; typedef int GLsizei;",
-            "enum { GL_TRIANGLES = 4, GL_TRIANGLE_STRIP = 5,",
-            "       GL_UNSIGNED_SHORT = 0x1403, GL_UNSIGNED_INT = 0x1405 };",
-            "void glDrawElements(GLenum mode, GLsizei count, GLenum type, const void *indices);",
-            "void draw(const uint8_t *bytes, size_t length) {",
-            *body,
-            "}",
-        ]
-    )
-    (tmp_path / "example.c").write_text(src)
-    flags = [*FLAGS, "-Wno-unused-variable", "-Wno-unused-but-set-variable", "-I", str(RUNTIME)]
-    subprocess.run(
-        [cc, *flags, "-c", "-o", str(tmp_path / "example.o"), str(tmp_path / "example.c")], check=True
-    )
+    section = text.split("## Drawing from C", 1)[1].split("\n## ", 1)[0]
+    blocks = [part.split("```", 1)[0] for part in section.split("```c\n")[1:]]
+    assert len(blocks) == 2
+    for i, block in enumerate(blocks):
+        head = [line for line in block.splitlines() if line.startswith("#")]
+        body = [line for line in block.splitlines() if not line.startswith("#")]
+        src = "\n".join(
+            [
+                "#include <stdio.h>",
+                *(head if i == 0 else ['#include "swpm_reader.h"', *head]),
+                "typedef unsigned GLenum; typedef int GLsizei;",
+                "enum { GL_TRIANGLES = 4, GL_TRIANGLE_STRIP = 5,",
+                "       GL_UNSIGNED_SHORT = 0x1403, GL_UNSIGNED_INT = 0x1405 };",
+                "void glDrawElements(GLenum mode, GLsizei count, GLenum type, const void *indices);",
+                "void draw(const uint8_t *bytes, size_t length) {",
+                *body,
+                "}",
+            ]
+        )
+        (tmp_path / f"example{i}.c").write_text(src)
+        flags = [*FLAGS, "-Wno-unused-variable", "-Wno-unused-but-set-variable", "-I", str(RUNTIME)]
+        subprocess.run(
+            [cc, *flags, "-c", "-o", str(tmp_path / f"example{i}.o"), str(tmp_path / f"example{i}.c")],
+            check=True,
+        )

@@ -1,23 +1,35 @@
 /*
- * swpm_reader.h -- a single-header C99 reader for SWPM v1 files of the sliding-window encoding
- * (list pools and SW_STRIPS strip pools, u16/u32 idx, OFFSET32), written from spec/format.md and
- * spec/errors.md (Forsyth's sliding-window VIPM, "Comparison of VIPM Methods", Game Programming Gems 2).
+ * swpm_reader.h -- a single-header C99 reader for SWPM v1 files of the sliding-window encoding (list pools
+ * and SW_STRIPS strip pools, u16/u32 idx, OFFSET32) and of the vanilla encoding, written from
+ * spec/format.md and spec/errors.md (Forsyth's sliding-window and vanilla VIPM, "Comparison of VIPM
+ * Methods", Game Programming Gems 2).
  *
  * Use: in exactly one .c file
  *     #define SWPM_READER_IMPLEMENTATION
  *     #include "swpm_reader.h"
  *
  * What it does: swpm_open() validates a file held in the caller's memory as format.md section 5 asks of a
- * reader (header, chunk table, CRC-32s, required chunks, META, LODS, VERT, WREC, INDX, the windows, the
- * vertex prefix property, strip windows' starts and decoded triangle counts) and returns the FIRST error
- * in the order of section 5 "Reporting" as its stable code (errors.md) and byte offset. The accessors then
- * give zero-copy views of the caller's bytes: nothing is allocated, nothing is copied, and no byte outside
- * [bytes, bytes + length) is read. Every sum is computed without wrapping (format.md section 1).
+ * reader (header, chunk table, CRC-32s, required chunks, META, LODS, VERT, then the encoding's chunks:
+ * sliding-window WREC, INDX, the windows, the vertex prefix property, strip windows' starts and decoded
+ * triangle counts; vanilla VREC, RCNT and INDX lengths and counts, LODS against RCNT and the replay of every
+ * collapse record) and returns the FIRST error in the order of section 5 "Reporting" as its stable code
+ * (errors.md) and byte offset. The accessors then give zero-copy views of the caller's bytes: nothing is
+ * allocated, nothing is copied, and no byte outside [bytes, bytes + length) is read. Every sum is computed
+ * without wrapping (format.md section 1).
+ *
+ * Vanilla's replay (format.md 3.6: each record's slots hold the binned vertex, then no live triangle uses
+ * it) needs a working copy of INDX and a count per vertex. No check order avoids that (whether a slot
+ * holds the binned vertex depends on every earlier record), so the caller gives scratch memory to
+ * swpm_open_ex(): INDX length + 8 V + 7 bytes, at most the file's length. A vanilla file with records
+ * opened with less (swpm_open gives none) is SWPM_READER_SCRATCH_TOO_SMALL, with the bytes needed in
+ * swpm_result.need, once every check before the replay has passed. swpm_vanilla_instance_init() and
+ * swpm_vanilla_set_lod() are an engine's per-instance runtime (format.md 3.6 "At run time"): a copy of INDX
+ * in the caller's buffer, moved between LODs by applying or undoing collapse records.
  *
  * What it does not do:
- *  - files of the other three encodings (vanilla, skip-strip, mixed) are refused after the header and
- *    chunk-table checks with the reader's own code SWPM_READER_UNSUPPORTED_ENCODING (offset 20, the
- *    features field); a header or table error found first is reported instead;
+ *  - files of the other two encodings (skip-strip, mixed) are refused after the header and chunk-table
+ *    checks with the reader's own code SWPM_READER_UNSUPPORTED_ENCODING (offset 20, the features field); a
+ *    header or table error found first is reported instead;
  *  - warnings and infos (SWPM_STREAM_ORDER, SWPM_FILE_TRAILING_BYTES, SWPM_VERT_NONFINITE, ...) are not
  *    reported: a file is accepted iff it has no error;
  *  - SMAP (ancillary, format.md section 4) and unknown ancillary chunks are skipped, not validated;
