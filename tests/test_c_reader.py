@@ -500,6 +500,11 @@ META_CASES = {
     "not-object": ("[1]", "SWPM_META_BAD_JSON"),
     "params-array": ('{"params":[]}', "SWPM_META_BAD_FIELD"),
     "encoding-other": ('{"encoding":"vanilla",' + STRIPS_PARAMS + "}", "SWPM_META_BAD_FIELD"),
+    "vanilla:plain": ('{"encoding":"vanilla","params":{}}', None),
+    "vanilla:strip-params-ignored": ('{"params":{"primitive":"strip","restart_index":true}}', None),
+    "vanilla:params-array": ('{"params":[]}', "SWPM_META_BAD_FIELD"),
+    "vanilla:encoding-other": ('{"encoding":"sliding-window"}', "SWPM_META_BAD_FIELD"),
+    "vanilla:duplicate": ('{"a":1,"a":2}', "SWPM_META_BAD_JSON"),
     "primitive-list": ('{"params":{"primitive":"list","restart_index":65535}}', "SWPM_META_BAD_FIELD"),
     "restart-float": ('{"params":{"primitive":"strip","restart_index":65535.0}}', "SWPM_META_BAD_FIELD"),
     "restart-true": ('{"params":{"primitive":"strip","restart_index":true}}', "SWPM_META_BAD_FIELD"),
@@ -512,7 +517,8 @@ META_CASES = {
 @pytest.mark.parametrize("case", sorted(META_CASES))
 def test_meta_json(dump: Path, tmp_path: Path, case: str) -> None:
     text, code = META_CASES[case]
-    data = _with_meta((VECTORS / "valid" / "sliding-window-strips.swpm").read_bytes(), text.encode("utf-8"))
+    seed = "minimal-vanilla" if case.startswith("vanilla:") else "sliding-window-strips"
+    data = _with_meta((VECTORS / "valid" / f"{seed}.swpm").read_bytes(), text.encode("utf-8"))
     path = tmp_path / "m.swpm"
     path.write_bytes(data)
     rep = validate_bytes(data)
@@ -563,7 +569,21 @@ def _strip_window_past_2_32() -> tuple[bytes, str, int]:
     return out, "SWPM_WINDOW_OUT_OF_POOL", struct.unpack_from("<Q", out, entry + 8)[0] + 16
 
 
+def _vrec_past_2_32(R: int, M: int, at_offsets: bool) -> tuple[bytes, str, int]:
+    """vanilla-offset32 (O = 4) whose VREC declares R records (16 R bytes) and M change offsets (4 M bytes)
+    but keeps its 32 bytes: 16 R or 4 M is 2^32, 0 when wrapped at 2^32."""
+    data = (VECTORS / "valid" / "vanilla-offset32.swpm").read_bytes()
+    _, vrec = _payload(data, b"VREC")
+    struct.pack_into("<II", vrec, 0, R, M)
+    out = _rebuild(data, {b"VREC": vrec})
+    entry, _ = _payload(out, b"VREC")
+    start = struct.unpack_from("<Q", out, entry + 8)[0]
+    return out, "SWPM_COUNT_EXCEEDS_CHUNK", start + 8 + (16 * R if at_offsets else 0)
+
+
 EXACT = {
+    "vanilla-records-2-32": lambda: _vrec_past_2_32(2**28, 0, False),
+    "vanilla-offsets-2-32": lambda: _vrec_past_2_32(1, 2**30, True),
     "vertex-count-2-30": _big_vertex_count,
     "chunk-at-2-64": _chunk_at_2_64,
     "window-3t-past-2-32": _window_3t_past_2_32,
