@@ -167,7 +167,8 @@ void swpm_window_record(const swpm_file *f, uint64_t k, uint32_t *first_index, u
 
 /* What an engine passes to its draw call for LOD k: INDX[first_index, first_index + index_count) as a
  * triangle list, or with SW_STRIPS as one strip draw with primitive restart (swpm_restart_index), using
- * vertices [0, vertex_count). Returns 0 if lod >= L. */
+ * vertices [0, vertex_count). Returns 0 if lod >= L or the file is not
+ * sliding-window (vanilla: swpm_vanilla_set_lod). */
 int swpm_window(const swpm_file *f, uint64_t lod, uint64_t *first_index, uint64_t *index_count,
                 uint32_t *vertex_count);
 
@@ -176,7 +177,8 @@ int swpm_window(const swpm_file *f, uint64_t lod, uint64_t *first_index, uint64_
  * non-increasing, so a binary search). */
 uint64_t swpm_lod_for_triangles(const swpm_file *f, uint64_t target);
 
-/* ---- vanilla (format.md 3.4, 3.6, 7): views of INDX, VREC and RCNT as stored (maybe unaligned) ---- */
+/* ---- vanilla (format.md 3.4, 3.6, 7): views of INDX, VREC and RCNT as stored (maybe unaligned); NULL with
+ * count 0 for a sliding-window file (whose WREC views are NULL for a vanilla file, swpm_window 0) ---- */
 /* indices: INDX (3 T0 idx values): swpm_index_pool. */
 /* R records of 4 O bytes: kept, tris_removed, change_count, prev_change_count; *count = R. */
 const uint8_t *swpm_collapse_records(const swpm_file *f, uint64_t *count, uint32_t *row_bytes);
@@ -1358,10 +1360,12 @@ const uint8_t *swpm_collapse_change_offsets(const swpm_file *f, uint64_t *count)
     return f->change_offsets;
 }
 const uint8_t *swpm_lod_record_counts(const swpm_file *f, uint64_t *count) {
-    *count = f->lod_count;
+    *count = f->encoding == 1 ? f->lod_count : 0;
     return f->rcnt;
 }
-uint32_t swpm_lod_record_count(const swpm_file *f, uint64_t k) { return swpm__uw(f->rcnt + k * f->offset_width, f->offset_width); }
+uint32_t swpm_lod_record_count(const swpm_file *f, uint64_t k) {
+    return f->encoding == 1 ? swpm__uw(f->rcnt + k * f->offset_width, f->offset_width) : 0;
+}
 int swpm_vanilla_instance_init(const swpm_file *f, swpm_vanilla_instance *inst, void *buffer, uint64_t capacity) {
     uint64_t n = f->index_count * f->index_width;
     if (f->encoding != 1 || capacity < n || (n && buffer == NULL)) return 0;
@@ -1461,7 +1465,7 @@ void swpm_window_record(const swpm_file *f, uint64_t k, uint32_t *first_index, u
 int swpm_window(const swpm_file *f, uint64_t lod, uint64_t *first_index, uint64_t *index_count,
                 uint32_t *vertex_count) {
     uint32_t fi, tc;
-    if (lod >= f->lod_count) return 0;
+    if (f->encoding != 2 || lod >= f->lod_count) return 0;
     swpm_window_record(f, lod, &fi, &tc, vertex_count, index_count);
     *first_index = fi;
     return 1;
