@@ -3,8 +3,10 @@ against the conformance vectors, files the Python codec writes from real meshes,
 
 ``runtime/c/swpm_dump.c`` is compiled once per module with the system ``cc`` (``-std=c99 -Wall -Wextra
 -Werror -O1``, and a second build with AddressSanitizer and UBSan when the toolchain has them). The reader
-handles the sliding-window encoding; a file of another encoding is refused as unsupported unless a header or
-chunk-table error (steps 1-2 of format.md 5) comes first.
+handles the sliding-window and vanilla encodings (vanilla: its arrays and a per-instance index buffer moved
+by its collapse records, compared with the Python product's triangles at every LOD); a file of another
+encoding is refused as unsupported unless a header or chunk-table error (steps 1-2 of format.md 5) comes
+first.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ RUNTIME = ROOT / "runtime" / "c"
 VECTORS = ROOT / "spec" / "vectors"
 MANIFEST = json.loads((VECTORS / "manifest.json").read_text())
 UNSUPPORTED = "SWPM_READER_UNSUPPORTED_ENCODING"
+SCRATCH = "SWPM_READER_SCRATCH_TOO_SMALL"
 FLAGS = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-O1"]
 SANITIZE = ["-g", "-fsanitize=address,undefined", "-fno-sanitize-recover=all"]
 # the codes of format.md 5 steps 1-2 (header, chunk table): found before the encoding matters
@@ -93,13 +96,17 @@ def _is_sliding(data: bytes) -> bool:
     return len(data) >= 24 and struct.unpack_from("<I", data, 20)[0] & 0x1E == 0x04
 
 
+def _is_vanilla(data: bytes) -> bool:
+    return len(data) >= 24 and struct.unpack_from("<I", data, 20)[0] & 0x1E == 0x02
+
+
 def _expected(data: bytes, problems: list[tuple[str, str, int | None]]) -> dict[str, Any]:
     """What the C reader must print for a file with these problems (code, severity, offset)."""
     errors = [(c, o) for c, s, o in problems if s == "error"]
     step_12 = (
         bool(errors) and errors[0][0].startswith(STEP_12_PREFIXES) and errors[0][0] != "SWPM_CHUNK_BAD_LENGTH"
     )
-    if not _is_sliding(data) and not step_12:
+    if not (_is_sliding(data) or _is_vanilla(data)) and not step_12:
         return {"ok": False, "code": UNSUPPORTED, "offset": 20}
     if not errors:
         return {"ok": True}
@@ -141,6 +148,9 @@ def test_vectors_cover_both_sides(dump: Path) -> None:
     codes = {o.get("code") for o in outs}
     assert sum(o["ok"] for o in outs) >= 10 and UNSUPPORTED in codes
     assert {"SWPM_WINDOW_MID_STRIP", "SWPM_WINDOW_STRIP_TRIANGLES", "SWPM_PREFIX_VIOLATION"} <= codes
+    # vanilla: every stage's codes reached (the replay's among them)
+    vanilla = {o.get("code") for o, p in zip(outs, paths, strict=True) if _is_vanilla(p.read_bytes())}
+    assert {"SWPM_RECORD_BAD_CHANGE", "SWPM_RECORD_BAD_COUNTS", "SWPM_PREFIX_VIOLATION", None} <= vanilla
 
 
 # -- files the Python codec writes -------------------------------------------------------------------------
@@ -206,6 +216,92 @@ def test_real_files(dump: Path, tmp_path: Path, mesh: str, variant: str) -> None
     assert 4 in widths
 
 
+# -- vanilla files the Python codec writes: arrays, and an instance moved to every LOD and back -----------
+VANILLA_MESHES = ("suzanne", "spot", "cow")
+_VPMS: dict[str, Any] = {}
+
+
+def _vpm(mesh: str) -> Any:
+    if mesh not in _VPMS:
+        _VPMS[mesh] = swpm_usd.build(shared_mesh(f"{mesh}.obj"), "vanilla")
+    return _VPMS[mesh]
+
+
+@pytest.mark.parametrize("mesh", VANILLA_MESHES)
+def test_real_vanilla_files(dump: Path, tmp_path: Path, mesh: str) -> None:
+    pm = _vpm(mesh)
+    widths = set()
+    for kind, path in _files(pm, tmp_path).items():
+        rc, out = _run(dump, path)
+        assert rc == 0 and out["ok"] and out["encoding"] == "vanilla", (kind, out)
+        q = swpm_usd.load(path)
+        W, O = out["index_width"], out["offset_width"]
+        widths.add(W)
+        assert kind != "index32" or W == 4
+        L, V = q.lod_count, q.vertex_count
+        assert (out["lod_count"], out["vertex_count"]) == (L, V)
+        assert _array(out, "points", "<f4").tobytes() == np.ascontiguousarray(q.points, "<f4").tobytes()
+        assert np.array_equal(_array(out, "vertex_counts", "<u4"), q.vertex_counts)
+        assert np.array_equal(_array(out, "triangle_counts", "<u4"), q.triangle_counts)
+        assert np.array_equal(_array(out, "indices", f"<u{W}"), q.indices)
+        for name in (
+            "collapse_kept",
+            "collapse_tris_removed",
+            "collapse_change_count",
+            "collapse_change_offsets",
+            "lod_record_counts",
+        ):
+            assert np.array_equal(_array(out, name, f"<u{O}"), getattr(q, name)), name
+        prev = np.concatenate([[0], q.collapse_change_count[:-1]]) if len(q.collapse_change_count) else []
+        assert np.array_equal(_array(out, "collapse_prev_change_count", f"<u{O}"), prev)
+        # the instance at LODs 0, 1, ..., L-1, L-2, ..., 0: what the engine draws is Python's LOD, in order
+        steps = out["instance"]
+        assert [s[0] for s in steps] == [*range(L), *range(L - 2, -1, -1)]
+        crcs = {}
+        for k in range(L):
+            tris = np.ascontiguousarray(q.triangles_at(k), f"<u{W}")
+            crcs[k] = (3 * len(tris), q.vertex_count_at(k), zlib.crc32(tris.tobytes()))
+            assert np.array_equal(tris, pm.triangles_at(k))
+        for lod, count, vc, crc in steps:
+            assert (count, vc, crc) == crcs[lod], lod
+    assert 4 in widths
+
+
+def test_vanilla_scratch(dump: Path, dump_san: Path, tmp_path: Path) -> None:
+    """The replay's scratch: INDX length + 8 V + 7 bytes is enough (under the sanitizer: nothing past it is
+    touched), one byte less is SWPM_READER_SCRATCH_TOO_SMALL with that need; an error found before the
+    replay is reported whatever the scratch; a file without records needs none."""
+    data = encode_bytes(_vpm("suzanne"))
+    path = tmp_path / "v.swpm"
+    path.write_bytes(data)
+    _, indx = _payload(data, b"INDX")
+    need = len(indx) + 8 * _vpm("suzanne").vertex_count + 7
+    for scratch, want in ((need, {"ok": True}), (need - 1, {"ok": False, "code": SCRATCH, "offset": None})):
+        proc = subprocess.run(
+            [str(dump_san), "--check-scratch", str(scratch), str(path)], capture_output=True, text=True
+        )
+        assert proc.returncode == 0 and proc.stderr == ""
+        got = json.loads(proc.stdout)
+        assert got == (want if want["ok"] else {**want, "need": need})
+    # an error of stage (a) is reported whatever the scratch; a file with records that passes it needs some
+    minimal = (VECTORS / "valid" / "minimal-vanilla.swpm").read_bytes()
+    bad = [
+        VECTORS / "invalid" / "record-keeps-binned-vertex.swpm",
+        VECTORS / "valid" / "minimal-vanilla.swpm",
+    ]
+    proc = subprocess.run([str(dump), "--check-scratch", "0", *map(str, bad)], capture_output=True, text=True)
+    first, second = (json.loads(line) for line in proc.stdout.splitlines())
+    assert first == {"ok": False, "code": "SWPM_RECORD_BAD_KEPT", "offset": 504}
+    assert second == {"ok": False, "code": SCRATCH, "offset": None, "need": 24 + 8 * 5 + 7}
+    # no records (one LOD): no replay, no scratch
+    _, lods = _payload(minimal, b"LODS")
+    one_lod = _rebuild(minimal, {b"LODS": lods[:12], b"RCNT": bytes(2), b"VREC": bytes(8)})
+    assert not [p for p in validate_bytes(one_lod).problems if p.severity == "error"]
+    path.write_bytes(one_lod)
+    proc = subprocess.run([str(dump), "--check-scratch", "0", str(path)], capture_output=True, text=True)
+    assert json.loads(proc.stdout) == {"ok": True}
+
+
 # -- differential fuzz: the sanitizer build against swpm_usd.format's validation ---------------------------
 def _refix(data: bytes) -> bytes:
     """Recompute chunk and file CRCs where the table is readable (as tests/test_fuzz_format.py)."""
@@ -226,12 +322,12 @@ def _refix(data: bytes) -> bytes:
 
 
 def _regions(data: bytes) -> list[tuple[int, int]]:
-    """Header, table, WREC and INDX byte ranges of a valid file: where mutations are aimed."""
+    """Header, table and chunk byte ranges (SMAP's aside) of a valid file: where mutations are aimed."""
     count, to = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
     out = [(0, 64), (to, to + 32 * count)]
     for i in range(count):
         t, _, off, ln = struct.unpack_from("<4sIQQ", data, to + 32 * i)
-        if t in (b"WREC", b"INDX", b"LODS", b"META", b"VERT") and ln:
+        if t in (b"WREC", b"INDX", b"LODS", b"META", b"VERT", b"VREC", b"RCNT") and ln:
             out.append((off, off + ln))
     return out
 
@@ -263,12 +359,14 @@ def _mutate(rng: random.Random, data: bytes) -> bytes:
 
 
 def _mutate_values(rng: random.Random, data: bytes) -> bytes:
-    """A valid file with a few INDX values set to other vertices or WREC fields nudged, CRCs fixed: mutants
-    that reach the windows, the prefix property and the strips' triangle counts."""
+    """A valid file with a few INDX values set to other vertices or WREC (vanilla: VREC, RCNT) fields nudged,
+    CRCs fixed: mutants that reach the windows, the prefix property and the strips' triangle counts, or the
+    vanilla counts and replay."""
     d = bytearray(data)
     features = struct.unpack_from("<I", d, 20)[0]
     W, O = (4 if features & 1 else 2), (4 if features & 0x41 else 2)
-    (ei, ix), (ew, wr) = _payload(data, b"INDX"), _payload(data, b"WREC")
+    table = rng.choice([b"VREC", b"VREC", b"RCNT"]) if _is_vanilla(data) else b"WREC"
+    (ei, ix), (ew, wr) = _payload(data, b"INDX"), _payload(data, table)
     io, wo = struct.unpack_from("<Q", d, ei + 8)[0], struct.unpack_from("<Q", d, ew + 8)[0]
     V = struct.unpack_from("<I", d, struct.unpack_from("<Q", d, _payload(data, b"VERT")[0] + 8)[0])[0]
     for _ in range(rng.randint(1, 3)):
@@ -276,7 +374,8 @@ def _mutate_values(rng: random.Random, data: bytes) -> bytes:
             at, val = io + W * rng.randrange(len(ix) // W), rng.randrange(V)
             d[at : at + W] = val.to_bytes(W, "little")
         else:
-            at = wo + O * rng.randrange(len(wr) // O)
+            skip = 8 if table == b"VREC" else 0  # VREC's counts R and M are u32: nudge the off fields after
+            at = wo + skip + O * rng.randrange((len(wr) - skip) // O)
             val = max(0, int.from_bytes(d[at : at + O], "little") + rng.randint(-3, 3))
             d[at : at + O] = min(val, (1 << 8 * O) - 1).to_bytes(O, "little")
     return _refix(bytes(d))
@@ -284,7 +383,9 @@ def _mutate_values(rng: random.Random, data: bytes) -> bytes:
 
 def _seeds(tmp: Path) -> list[bytes]:
     seeds = [
-        p.read_bytes() for p in sorted((VECTORS / "valid").glob("*.swpm")) if _is_sliding(p.read_bytes())
+        p.read_bytes()
+        for p in sorted((VECTORS / "valid").glob("*.swpm"))
+        if _is_sliding(p.read_bytes()) or _is_vanilla(p.read_bytes())
     ]
     seeds.append(encode_bytes(_pm("suzanne", "strip")))
     return seeds
@@ -302,6 +403,10 @@ def test_fuzz_against_python(dump_san: Path, tmp_path: Path) -> None:
     mutants += [prefix + rng.randbytes(rng.randrange(700)) for _ in range(300)]
     real = [encode_bytes(_pm("cow", v)) for v in ("list", "strip")]
     mutants += [_mutate_values(rng, rng.choice(real)) for _ in range(600)]
+    # vanilla: a real file's mutants, raw and by value (records, RCNT, INDX)
+    cow = encode_bytes(_vpm("cow"))
+    mutants += [_mutate(rng, cow) for _ in range(200)]
+    mutants += [_mutate_values(rng, cow) for _ in range(400)]
     paths = []
     for i, m in enumerate(mutants):
         p = tmp_path / f"m{i}.swpm"
@@ -322,6 +427,8 @@ def test_fuzz_against_python(dump_san: Path, tmp_path: Path) -> None:
     assert {"SWPM_PREFIX_VIOLATION", "SWPM_WINDOW_STRIP_TRIANGLES", "SWPM_WINDOW_COUNT_MISMATCH"} <= {
         o.get("code") for o in got
     }
+    vanilla = [o.get("code") for m, o in zip(mutants, got, strict=True) if _is_vanilla(m)]
+    assert {"SWPM_RECORD_BAD_CHANGE", "SWPM_RECORD_BAD_COUNTS", "SWPM_LOD_VERTEX_COUNT", None} <= set(vanilla)
 
 
 # -- META: the strict JSON of format.md 3.1, in files rebuilt around a given META payload -----------------
@@ -393,6 +500,11 @@ META_CASES = {
     "not-object": ("[1]", "SWPM_META_BAD_JSON"),
     "params-array": ('{"params":[]}', "SWPM_META_BAD_FIELD"),
     "encoding-other": ('{"encoding":"vanilla",' + STRIPS_PARAMS + "}", "SWPM_META_BAD_FIELD"),
+    "vanilla:plain": ('{"encoding":"vanilla","params":{}}', None),
+    "vanilla:strip-params-ignored": ('{"params":{"primitive":"strip","restart_index":true}}', None),
+    "vanilla:params-array": ('{"params":[]}', "SWPM_META_BAD_FIELD"),
+    "vanilla:encoding-other": ('{"encoding":"sliding-window"}', "SWPM_META_BAD_FIELD"),
+    "vanilla:duplicate": ('{"a":1,"a":2}', "SWPM_META_BAD_JSON"),
     "primitive-list": ('{"params":{"primitive":"list","restart_index":65535}}', "SWPM_META_BAD_FIELD"),
     "restart-float": ('{"params":{"primitive":"strip","restart_index":65535.0}}', "SWPM_META_BAD_FIELD"),
     "restart-true": ('{"params":{"primitive":"strip","restart_index":true}}', "SWPM_META_BAD_FIELD"),
@@ -405,7 +517,8 @@ META_CASES = {
 @pytest.mark.parametrize("case", sorted(META_CASES))
 def test_meta_json(dump: Path, tmp_path: Path, case: str) -> None:
     text, code = META_CASES[case]
-    data = _with_meta((VECTORS / "valid" / "sliding-window-strips.swpm").read_bytes(), text.encode("utf-8"))
+    seed = "minimal-vanilla" if case.startswith("vanilla:") else "sliding-window-strips"
+    data = _with_meta((VECTORS / "valid" / f"{seed}.swpm").read_bytes(), text.encode("utf-8"))
     path = tmp_path / "m.swpm"
     path.write_bytes(data)
     rep = validate_bytes(data)
@@ -456,7 +569,21 @@ def _strip_window_past_2_32() -> tuple[bytes, str, int]:
     return out, "SWPM_WINDOW_OUT_OF_POOL", struct.unpack_from("<Q", out, entry + 8)[0] + 16
 
 
+def _vrec_past_2_32(R: int, M: int, at_offsets: bool) -> tuple[bytes, str, int]:
+    """vanilla-offset32 (O = 4) whose VREC declares R records (16 R bytes) and M change offsets (4 M bytes)
+    but keeps its 32 bytes: 16 R or 4 M is 2^32, 0 when wrapped at 2^32."""
+    data = (VECTORS / "valid" / "vanilla-offset32.swpm").read_bytes()
+    _, vrec = _payload(data, b"VREC")
+    struct.pack_into("<II", vrec, 0, R, M)
+    out = _rebuild(data, {b"VREC": vrec})
+    entry, _ = _payload(out, b"VREC")
+    start = struct.unpack_from("<Q", out, entry + 8)[0]
+    return out, "SWPM_COUNT_EXCEEDS_CHUNK", start + 8 + (16 * R if at_offsets else 0)
+
+
 EXACT = {
+    "vanilla-records-2-32": lambda: _vrec_past_2_32(2**28, 0, False),
+    "vanilla-offsets-2-32": lambda: _vrec_past_2_32(1, 2**30, True),
     "vertex-count-2-30": _big_vertex_count,
     "chunk-at-2-64": _chunk_at_2_64,
     "window-3t-past-2-32": _window_3t_past_2_32,
@@ -476,29 +603,34 @@ def test_exact_arithmetic(dump_san: Path, tmp_path: Path, case: str) -> None:
 
 
 def test_readme_c_example_compiles(tmp_path: Path) -> None:
-    """README's "Drawing from C" example, in a function with stand-ins for the GL names, compiles."""
+    """README's "Drawing from C" examples (sliding-window, vanilla), each in a function with stand-ins for
+    the GL names, compile."""
     cc = shutil.which("cc")
     if cc is None:
         pytest.skip("no C compiler")
     text = (ROOT / "README.md").read_text()
-    block = text.split("## Drawing from C", 1)[1].split("```c\n", 1)[1].split("```", 1)[0]
-    head = [line for line in block.splitlines() if line.startswith("#")]
-    body = [line for line in block.splitlines() if not line.startswith("#")]
-    src = "\n".join(
-        [
-            "#include <stdio.h>",
-            *head,
-            "typedef unsigned GLenum; typedef int GLsizei;",
-            "enum { GL_TRIANGLES = 4, GL_TRIANGLE_STRIP = 5,",
-            "       GL_UNSIGNED_SHORT = 0x1403, GL_UNSIGNED_INT = 0x1405 };",
-            "void glDrawElements(GLenum mode, GLsizei count, GLenum type, const void *indices);",
-            "void draw(const uint8_t *bytes, size_t length) {",
-            *body,
-            "}",
-        ]
-    )
-    (tmp_path / "example.c").write_text(src)
-    flags = [*FLAGS, "-Wno-unused-variable", "-Wno-unused-but-set-variable", "-I", str(RUNTIME)]
-    subprocess.run(
-        [cc, *flags, "-c", "-o", str(tmp_path / "example.o"), str(tmp_path / "example.c")], check=True
-    )
+    section = text.split("## Drawing from C", 1)[1].split("\n## ", 1)[0]
+    blocks = [part.split("```", 1)[0] for part in section.split("```c\n")[1:]]
+    assert len(blocks) == 2
+    for i, block in enumerate(blocks):
+        head = [line for line in block.splitlines() if line.startswith("#")]
+        body = [line for line in block.splitlines() if not line.startswith("#")]
+        src = "\n".join(
+            [
+                "#include <stdio.h>",
+                *(head if i == 0 else ['#include "swpm_reader.h"', *head]),
+                "typedef unsigned GLenum; typedef int GLsizei;",
+                "enum { GL_TRIANGLES = 4, GL_TRIANGLE_STRIP = 5,",
+                "       GL_UNSIGNED_SHORT = 0x1403, GL_UNSIGNED_INT = 0x1405 };",
+                "void glDrawElements(GLenum mode, GLsizei count, GLenum type, const void *indices);",
+                "void draw(const uint8_t *bytes, size_t length) {",
+                *body,
+                "}",
+            ]
+        )
+        (tmp_path / f"example{i}.c").write_text(src)
+        flags = [*FLAGS, "-Wno-unused-variable", "-Wno-unused-but-set-variable", "-I", str(RUNTIME)]
+        subprocess.run(
+            [cc, *flags, "-c", "-o", str(tmp_path / f"example{i}.o"), str(tmp_path / f"example{i}.c")],
+            check=True,
+        )

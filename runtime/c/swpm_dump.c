@@ -1,11 +1,16 @@
 /*
- * swpm_dump FILE: open a sliding-window SWPM file with swpm_reader.h and print one JSON object.
+ * swpm_dump FILE: open a sliding-window or vanilla SWPM file with swpm_reader.h (swpm_open_ex, with a scratch
+ * of the file's length, the bound the header documents) and print one JSON object.
  * Rejected: {"ok": false, "code": ..., "offset": N or null}, exit 1. Accepted: {"ok": true, the header
- * fields, "arrays": every array of the sliding-window summary (spec/format.md 7) as the lowercase hex of its
- * elements in C order in their stored type, little-endian, "windows": swpm_window of every LOD,
- * "lod_for_triangles": [target, LOD] pairs}, exit 0. Usage error: exit 2.
+ * fields, "arrays": every array of the encoding's summary (spec/format.md 7) as the lowercase hex of its
+ * elements in C order in their stored type, little-endian, "lod_for_triangles": [target, LOD] pairs, and
+ * sliding-window: "windows": swpm_window of every LOD; vanilla: "instance": a swpm_vanilla_instance moved by
+ * swpm_vanilla_set_lod to LODs 0, 1, ..., L-1 and back to 0, each step [lod, index_count, vertex_count, the
+ * CRC-32 of the buffer's first index_count indices as stored, and when L <= 8 their hex too] (a CRC, not the
+ * hex, on a real file: thousands of LODs times thousands of indices)}, exit 0. Usage error: exit 2.
  * swpm_dump --check FILE...: one line per file, {"ok": ...} or {"ok": false, "code", "offset"} (a batch
  * for tests: one process for thousands of files); exit 0, 2 when a file cannot be read.
+ * swpm_dump --check-scratch N FILE...: --check with a scratch of N bytes (a too-small one adds "need").
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -76,8 +81,20 @@ static void print_result(swpm_result r) {
         return;
     }
     printf("{\"ok\":false,\"code\":\"%s\",\"offset\":", r.code);
-    if (r.has_offset) printf("%llu}\n", (unsigned long long)r.offset);
-    else printf("null}\n");
+    if (r.has_offset) printf("%llu", (unsigned long long)r.offset);
+    else printf("null");
+    if (r.need) printf(",\"need\":%llu", (unsigned long long)r.need);
+    printf("}\n");
+}
+
+/* swpm_open_ex with a scratch of exactly `scratch_bytes` bytes (-1: the file's length), allocated apart so
+ * that the address sanitizer sees a replay that writes past it. */
+static swpm_result open_with_scratch(const uint8_t *d, size_t n, swpm_file *f, long long scratch_bytes) {
+    size_t s = scratch_bytes < 0 ? n : (size_t)scratch_bytes;
+    void *scratch = malloc(s ? s : 1);
+    swpm_result r = swpm_open_ex(d, n, f, scratch, scratch ? s : 0);
+    free(scratch);
+    return r;
 }
 
 int main(int argc, char **argv) {
@@ -89,16 +106,22 @@ int main(int argc, char **argv) {
     uint32_t i, width, stride, row;
     const uint8_t *p;
 
-    if (argc >= 2 && strcmp(argv[1], "--check") == 0) {
-        int a;
-        for (a = 2; a < argc; a++) {
+    if (argc >= 2 && (strcmp(argv[1], "--check") == 0 || strcmp(argv[1], "--check-scratch") == 0)) {
+        int a, first = 2;
+        long long scratch_bytes = -1;
+        if (strcmp(argv[1], "--check-scratch") == 0) {
+            if (argc < 3) return 2;
+            scratch_bytes = atoll(argv[2]);
+            first = 3;
+        }
+        for (a = first; a < argc; a++) {
             size_t n;
             uint8_t *d = read_file(argv[a], &n);
             if (!d) {
                 fprintf(stderr, "swpm_dump: cannot read %s\n", argv[a]);
                 return 2;
             }
-            print_result(swpm_open(d, n, &f));
+            print_result(open_with_scratch(d, n, &f, scratch_bytes));
             free(d);
         }
         return 0;
@@ -112,17 +135,16 @@ int main(int argc, char **argv) {
         fprintf(stderr, "swpm_dump: cannot read %s\n", argv[1]);
         return 2;
     }
-    r = swpm_open(data, size, &f);
+    r = open_with_scratch(data, size, &f, -1);
     if (r.code) {
-        printf("{\"ok\":false,\"code\":\"%s\",\"offset\":", r.code);
-        if (r.has_offset) printf("%llu}\n", (unsigned long long)r.offset);
-        else printf("null}\n");
+        print_result(r);
         free(data);
         return 1;
     }
     L = swpm_lod_count(&f);
-    printf("{\"ok\":true,\"encoding\":\"sliding-window\",\"features\":%u,\"index_width\":%u,\"offset_width\":%u,",
-           swpm_features(&f), swpm_index_width(&f), swpm_offset_width(&f));
+    printf("{\"ok\":true,\"encoding\":\"%s\",\"features\":%u,\"index_width\":%u,\"offset_width\":%u,",
+           swpm_encoding(&f) == 1 ? "vanilla" : "sliding-window", swpm_features(&f), swpm_index_width(&f),
+           swpm_offset_width(&f));
     printf("\"lod_count\":%llu,\"vertex_count\":%u,\"triangle_count\":%u,", (unsigned long long)L,
            swpm_vertex_count(&f), swpm_lod_triangle_count(&f, 0));
     printf("\"restart_index\":");
@@ -144,6 +166,43 @@ int main(int argc, char **argv) {
     array("triangle_counts", f.lods + 4, L, 12, 4, L, 0, 0);
     array("lod_errors", f.lods + 8, L, 12, 4, L, 0, 0);
     p = swpm_index_pool(&f, &count, &width);
+    if (swpm_encoding(&f) == 1) {
+        static const char *columns[4] = {"collapse_kept", "collapse_tris_removed", "collapse_change_count",
+                                         "collapse_prev_change_count"};
+        uint32_t O = swpm_offset_width(&f), c;
+        uint64_t R, M, pos, ibytes = count * width;
+        swpm_vanilla_instance inst;
+        uint8_t *buffer;
+        array("indices", p, count, width, width, count, 0, 0);
+        p = swpm_collapse_records(&f, &R, &row);
+        for (c = 0; c < 4; c++) array(columns[c], p + c * O, R, row, O, R, 0, 0);
+        p = swpm_collapse_change_offsets(&f, &M);
+        array("collapse_change_offsets", p, M, O, O, M, 0, 0);
+        p = swpm_lod_record_counts(&f, &count);
+        array("lod_record_counts", p, count, O, O, count, 0, 0);
+        printf("},\"instance\":[");
+        buffer = (uint8_t *)malloc(ibytes ? ibytes : 1);
+        if (!buffer || !swpm_vanilla_instance_init(&f, &inst, buffer, ibytes)) {
+            fprintf(stderr, "swpm_dump: no instance\n");
+            return 2;
+        }
+        for (pos = 0; pos < 2 * L - 1; pos++) { /* 0, 1, ..., L-1, L-2, ..., 0 */
+            uint64_t lod = pos < L ? pos : 2 * L - 2 - pos, n;
+            uint32_t vertex_count;
+            n = swpm_vanilla_set_lod(&f, &inst, lod, &vertex_count);
+            printf("%s[%llu,%llu,%u,%lu", pos ? "," : "", (unsigned long long)lod, (unsigned long long)n,
+                   vertex_count, (unsigned long)(swpm__crc_update(0xFFFFFFFFu, buffer, n * width) ^ 0xFFFFFFFFu));
+            if (L <= 8) {
+                printf(",\"");
+                hex(buffer, n * width);
+                printf("\"");
+            }
+            printf("]");
+        }
+        free(buffer);
+        printf("],\"lod_for_triangles\":[");
+        goto lod_pairs;
+    }
     array("index_pool", p, count, width, width, count, 0, 0);
     p = swpm_window_records(&f, &row);
     array("window_records", p, L, row, 3 * (uint64_t)swpm_offset_width(&f), L, 3, 0);
@@ -158,6 +217,7 @@ int main(int argc, char **argv) {
                vertex_count);
     }
     printf("],\"lod_for_triangles\":[");
+lod_pairs:
     lod_pair(&f, 0, 1);
     for (k = 0; k < L; k++) {
         uint64_t t = swpm_lod_triangle_count(&f, k);

@@ -1,23 +1,35 @@
 /*
- * swpm_reader.h -- a single-header C99 reader for SWPM v1 files of the sliding-window encoding
- * (list pools and SW_STRIPS strip pools, u16/u32 idx, OFFSET32), written from spec/format.md and
- * spec/errors.md (Forsyth's sliding-window VIPM, "Comparison of VIPM Methods", Game Programming Gems 2).
+ * swpm_reader.h -- a single-header C99 reader for SWPM v1 files of the sliding-window encoding (list pools
+ * and SW_STRIPS strip pools, u16/u32 idx, OFFSET32) and of the vanilla encoding, written from
+ * spec/format.md and spec/errors.md (Forsyth's sliding-window and vanilla VIPM, "Comparison of VIPM
+ * Methods", Game Programming Gems 2).
  *
  * Use: in exactly one .c file
  *     #define SWPM_READER_IMPLEMENTATION
  *     #include "swpm_reader.h"
  *
  * What it does: swpm_open() validates a file held in the caller's memory as format.md section 5 asks of a
- * reader (header, chunk table, CRC-32s, required chunks, META, LODS, VERT, WREC, INDX, the windows, the
- * vertex prefix property, strip windows' starts and decoded triangle counts) and returns the FIRST error
- * in the order of section 5 "Reporting" as its stable code (errors.md) and byte offset. The accessors then
- * give zero-copy views of the caller's bytes: nothing is allocated, nothing is copied, and no byte outside
- * [bytes, bytes + length) is read. Every sum is computed without wrapping (format.md section 1).
+ * reader (header, chunk table, CRC-32s, required chunks, META, LODS, VERT, then the encoding's chunks:
+ * sliding-window WREC, INDX, the windows, the vertex prefix property, strip windows' starts and decoded
+ * triangle counts; vanilla VREC, RCNT and INDX lengths and counts, LODS against RCNT and the replay of every
+ * collapse record) and returns the FIRST error in the order of section 5 "Reporting" as its stable code
+ * (errors.md) and byte offset. The accessors then give zero-copy views of the caller's bytes: nothing is
+ * allocated, nothing is copied, and no byte outside [bytes, bytes + length) is read. Every sum is computed
+ * without wrapping (format.md section 1).
+ *
+ * Vanilla's replay (format.md 3.6: each record's slots hold the binned vertex, then no live triangle uses
+ * it) needs a working copy of INDX and a count per vertex. No check order avoids that (whether a slot
+ * holds the binned vertex depends on every earlier record), so the caller gives scratch memory to
+ * swpm_open_ex(): INDX length + 8 V + 7 bytes, at most the file's length. A vanilla file with records
+ * opened with less (swpm_open gives none) is SWPM_READER_SCRATCH_TOO_SMALL, with the bytes needed in
+ * swpm_result.need, once every check before the replay has passed. swpm_vanilla_instance_init() and
+ * swpm_vanilla_set_lod() are an engine's per-instance runtime (format.md 3.6 "At run time"): a copy of INDX
+ * in the caller's buffer, moved between LODs by applying or undoing collapse records.
  *
  * What it does not do:
- *  - files of the other three encodings (vanilla, skip-strip, mixed) are refused after the header and
- *    chunk-table checks with the reader's own code SWPM_READER_UNSUPPORTED_ENCODING (offset 20, the
- *    features field); a header or table error found first is reported instead;
+ *  - files of the other two encodings (skip-strip, mixed) are refused after the header and chunk-table
+ *    checks with the reader's own code SWPM_READER_UNSUPPORTED_ENCODING (offset 20, the features field); a
+ *    header or table error found first is reported instead;
  *  - warnings and infos (SWPM_STREAM_ORDER, SWPM_FILE_TRAILING_BYTES, SWPM_VERT_NONFINITE, ...) are not
  *    reported: a file is accepted iff it has no error;
  *  - SMAP (ancillary, format.md section 4) and unknown ancillary chunks are skipped, not validated;
@@ -47,6 +59,10 @@ extern "C" {
 
 /* The reader's own code for a valid-so-far file of another encoding (not an errors.md code). */
 #define SWPM_READER_UNSUPPORTED_ENCODING "SWPM_READER_UNSUPPORTED_ENCODING"
+/* The reader's own code for a vanilla file whose replay (format.md 5, vanilla stage (c)) needs more scratch
+ * memory than swpm_open_ex was given: swpm_result.need holds the bytes it needs (not an errors.md code; the
+ * file is neither accepted nor rejected). */
+#define SWPM_READER_SCRATCH_TOO_SMALL "SWPM_READER_SCRATCH_TOO_SMALL"
 
 /* Result of swpm_open: code is NULL on success, else the first error's code string (errors.md); offset is
  * the absolute byte offset it concerns, valid when has_offset is 1 (SWPM_CHUNK_MISSING has none). */
@@ -54,6 +70,7 @@ typedef struct swpm_result {
     const char *code;
     uint64_t offset;
     int has_offset;
+    uint64_t need; /* SWPM_READER_SCRATCH_TOO_SMALL: the scratch bytes the replay needs; else 0 */
 } swpm_result;
 
 /* One attribute descriptor of VERT (format.md 3.3); name is not NUL-terminated. */
@@ -84,10 +101,38 @@ typedef struct swpm_file {
     const uint8_t *wrec;
     const uint8_t *indx;
     uint64_t index_count;
+    int encoding;                       /* 1 vanilla, 2 sliding-window (the encoding bit's index) */
+    const uint8_t *vrec;                /* vanilla: VREC's records (R rows of 4 O bytes) */
+    uint64_t record_count;              /* R */
+    const uint8_t *change_offsets;      /* vanilla: off[M] */
+    uint64_t change_offset_count;       /* M */
+    const uint8_t *rcnt;                /* vanilla: off[L] lod_record_counts */
 } swpm_file;
 
-/* Open and validate a file (format.md 5). file is filled only on success. */
+/* One vanilla VIPM instance (format.md 3.6): the caller's copy of INDX, which set_lod edits in place. */
+typedef struct swpm_vanilla_instance {
+    uint8_t *indices;    /* the caller's buffer: 3 T0 elements of W bytes, little-endian, as INDX */
+    uint64_t lod;        /* the LOD it holds */
+    uint64_t applied;    /* records [0, applied) are applied: RCNT[lod] */
+    uint64_t change_pos; /* the sum of their change counts: where record `applied`'s change offsets start */
+    uint64_t live;       /* live triangles: LODS triangle_count(lod) */
+} swpm_vanilla_instance;
+
+/* Open and validate a file (format.md 5). file is filled only on success. A vanilla file with records
+ * needs scratch memory for its replay: swpm_open gives none, so it answers SWPM_READER_SCRATCH_TOO_SMALL for
+ * such a file once every check before the replay has passed; use swpm_open_ex. */
 swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file);
+/* swpm_open with scratch memory for the vanilla replay (format.md 5, vanilla stage (c)): a copy of INDX
+ * (its payload length) and a 64-bit reference count per vertex (8 V), aligned inside the scratch (up to 7
+ * bytes): INDX length + 8 V + 7 bytes. The file's length always suffices (INDX and VERT, whose length is at
+ * least 16 + 12 V, are disjoint parts of it). Only the replay uses it, and only a vanilla file with R > 0;
+ * a smaller scratch is SWPM_READER_SCRATCH_TOO_SMALL with .need set, after every earlier check passed (an
+ * error found before the replay is reported as usual). scratch may be NULL when scratch_bytes is 0; its
+ * contents are clobbered. Nothing is allocated. */
+swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, void *scratch,
+                         size_t scratch_bytes);
+/* The encoding bit's index: 1 vanilla, 2 sliding-window. */
+int swpm_encoding(const swpm_file *f);
 
 /* Header (2.1): features word, W, O, V, L. */
 uint32_t swpm_features(const swpm_file *f);
@@ -122,7 +167,8 @@ void swpm_window_record(const swpm_file *f, uint64_t k, uint32_t *first_index, u
 
 /* What an engine passes to its draw call for LOD k: INDX[first_index, first_index + index_count) as a
  * triangle list, or with SW_STRIPS as one strip draw with primitive restart (swpm_restart_index), using
- * vertices [0, vertex_count). Returns 0 if lod >= L. */
+ * vertices [0, vertex_count). Returns 0 if lod >= L or the file is not
+ * sliding-window (vanilla: swpm_vanilla_set_lod). */
 int swpm_window(const swpm_file *f, uint64_t lod, uint64_t *first_index, uint64_t *index_count,
                 uint32_t *vertex_count);
 
@@ -130,6 +176,30 @@ int swpm_window(const swpm_file *f, uint64_t lod, uint64_t *first_index, uint64_
  * ProgressiveMesh.lod_for_triangles, whose fractional targets round down; LODS triangle counts are
  * non-increasing, so a binary search). */
 uint64_t swpm_lod_for_triangles(const swpm_file *f, uint64_t target);
+
+/* ---- vanilla (format.md 3.4, 3.6, 7): views of INDX, VREC and RCNT as stored (maybe unaligned); NULL with
+ * count 0 for a sliding-window file (whose WREC views are NULL for a vanilla file, swpm_window 0) ---- */
+/* indices: INDX (3 T0 idx values): swpm_index_pool. */
+/* R records of 4 O bytes: kept, tris_removed, change_count, prev_change_count; *count = R. */
+const uint8_t *swpm_collapse_records(const swpm_file *f, uint64_t *count, uint32_t *row_bytes);
+void swpm_collapse_record(const swpm_file *f, uint64_t r, uint32_t *kept, uint32_t *tris_removed,
+                          uint32_t *change_count, uint32_t *prev_change_count);
+/* change_offsets: off[M] slots of INDX; *count = M. */
+const uint8_t *swpm_collapse_change_offsets(const swpm_file *f, uint64_t *count);
+/* RCNT: off[L], the records applied at each LOD. */
+const uint8_t *swpm_lod_record_counts(const swpm_file *f, uint64_t *count);
+uint32_t swpm_lod_record_count(const swpm_file *f, uint64_t k);
+
+/* A vanilla instance (format.md 3.6, "At run time"): copies INDX (3 T0 elements of W bytes) into buffer,
+ * which the engine uploads as its index buffer, and sets the instance at LOD 0. Returns 0 (nothing done) if
+ * the file is not vanilla or capacity (bytes) is below the INDX length. */
+int swpm_vanilla_instance_init(const swpm_file *f, swpm_vanilla_instance *inst, void *buffer, uint64_t capacity);
+/* Move the instance to LOD lod (clamped to L-1) by applying records [RCNT[a], RCNT[lod]) in order or undoing
+ * records [RCNT[lod], RCNT[a]) from the last (a the LOD it held), editing only the slots those records
+ * list; returns the number of indices to draw, the first 3 triangle_count(lod) of the buffer, and sets
+ * *vertex_count to LODS vertex_count(lod) (vertices [0, vertex_count) are drawn). */
+uint64_t swpm_vanilla_set_lod(const swpm_file *f, swpm_vanilla_instance *inst, uint64_t lod,
+                              uint32_t *vertex_count);
 
 /* SW_STRIPS: 1 and *restart = params.restart_index (>= V; the largest idx value from current writers).
  * 0 for a list pool. */
@@ -785,7 +855,16 @@ static swpm_result swpm__err(const char *code, uint64_t offset) {
     r.code = code;
     r.offset = offset;
     r.has_offset = 1;
+    r.need = 0;
     return r;
+}
+static void swpm__put(uint8_t *p, uint32_t w, uint64_t v) {
+    p[0] = (uint8_t)v;
+    p[1] = (uint8_t)(v >> 8);
+    if (w == 4) {
+        p[2] = (uint8_t)(v >> 16);
+        p[3] = (uint8_t)(v >> 24);
+    }
 }
 
 static const uint32_t swpm__elem_sizes[10] = {0, 1, 1, 2, 2, 4, 4, 2, 4, 8};
@@ -794,7 +873,7 @@ static const uint32_t swpm__elem_sizes[10] = {0, 1, 1, 2, 2, 4, 4, 2, 4, 8};
 static swpm_result swpm__vert(const uint8_t *p, uint64_t len, uint64_t entry, uint64_t off, swpm_file *f) {
     uint32_t V, A, stride, data_offset, i, k;
     uint64_t names_start;
-    swpm_result ok = {0, 0, 0};
+    swpm_result ok = {0, 0, 0, 0};
     if (len < 16) return swpm__err("SWPM_CHUNK_BAD_LENGTH", entry + 16);
     V = swpm__u32(p);
     A = swpm__u32(p + 4);
@@ -840,9 +919,17 @@ static swpm_result swpm__vert(const uint8_t *p, uint64_t len, uint64_t entry, ui
     return ok;
 }
 
+static swpm_result swpm__vanilla(swpm_file *f, const uint8_t *bytes, const uint64_t *pe, const uint64_t *pl,
+                                 void *scratch, size_t scratch_bytes);
+
 swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file) {
+    return swpm_open_ex(bytes, length, file, NULL, 0);
+}
+
+swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, void *scratch,
+                         size_t scratch_bytes) {
     swpm_file f;
-    swpm_result ok = {0, 0, 0};
+    swpm_result ok = {0, 0, 0, 0};
     uint64_t len = (uint64_t)length, eof, table_offset, file_size, table_end, end, last = 0;
     uint32_t header_size, features, count, enc_bits, i, W, O;
     int enc = 0, one_encoding, have_last = 0;
@@ -936,10 +1023,10 @@ swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file) {
     }
     for (i = 0; swpm__critical_order[enc][i] >= 0; i++)
         if (first[swpm__critical_order[enc][i]] < 0) {
-            swpm_result r = {"SWPM_CHUNK_MISSING", 0, 0};
+            swpm_result r = {"SWPM_CHUNK_MISSING", 0, 0, 0};
             return r;
         }
-    if (enc != 2) return swpm__err(SWPM_READER_UNSUPPORTED_ENCODING, 20);
+    if (enc != 1 && enc != 2) return swpm__err(SWPM_READER_UNSUPPORTED_ENCODING, 20);
 
     W = (features & SWPM_FEATURE_INDEX32) ? 4u : 2u;
     O = (features & (SWPM_FEATURE_INDEX32 | SWPM_FEATURE_OFFSET32)) ? 4u : 2u;
@@ -949,6 +1036,7 @@ swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file) {
     f.index_width = W;
     f.offset_width = O;
     f.strips = (features & SWPM_FEATURE_SW_STRIPS) != 0;
+    f.encoding = enc;
     {
         uint64_t pe[SWPM__KINDS], pl[SWPM__KINDS];
         for (i = 0; i < SWPM__KINDS; i++) {
@@ -973,11 +1061,11 @@ swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file) {
             has_params = swpm__jfind(&j, q, "params", &params);
             if (has_params && j.s[params] != '{') return swpm__err("SWPM_META_BAD_FIELD", SWPM__OFF(SWPM__META));
             if (swpm__jfind(&j, q, "encoding", &v) &&
-                !(j.s[v] == '"' && swpm__jstreq_lit(&j, v, "sliding-window")))
+                !(j.s[v] == '"' && swpm__jstreq_lit(&j, v, enc == 1 ? "vanilla" : "sliding-window")))
                 return swpm__err("SWPM_META_BAD_FIELD", SWPM__OFF(SWPM__META));
             /* 3.5: primitive "strip" exactly with SW_STRIPS (missing reads "list"); restart_index null or an
              * integer in [0, 2^32), required with SW_STRIPS */
-            {
+            if (enc == 2) { /* vanilla's params are not checked (3.1) */
                 int prim_strip = 0, has_rst = 0, is_int = 0, neg = 0;
                 uint64_t rv = 0, e2;
                 if (has_params && swpm__jfind(&j, params, "primitive", &v)) {
@@ -1030,6 +1118,12 @@ swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file) {
                                        SWPM__OFF(SWPM__VERT), &f);
             if (r.code) return r;
             if (swpm__u32(f.lods) != f.vertex_count) return swpm__err("SWPM_LOD_VERTEX_COUNT", SWPM__OFF(SWPM__LODS));
+        }
+        if (enc == 1) {
+            swpm_result r = swpm__vanilla(&f, bytes, pe, pl, scratch, scratch_bytes);
+            if (r.code) return r;
+            *file = f;
+            return ok;
         }
         /* ---- step 4, stage 0: WREC and INDX lengths (5) ---- */
         {
@@ -1132,7 +1226,185 @@ swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file) {
     return ok;
 }
 
+/* ---- vanilla (format.md 3.4, 3.6; 5 step 4: stage 0, (a), (b), (c)) ---- */
+static swpm_result swpm__vanilla(swpm_file *f, const uint8_t *bytes, const uint64_t *pe, const uint64_t *pl,
+                                 void *scratch, size_t scratch_bytes) {
+    swpm_result ok = {0, 0, 0, 0};
+    const uint32_t W = f->index_width, O = f->offset_width;
+    const uint64_t V = f->vertex_count, L = f->lod_count;
+    const uint64_t vbase = swpm__u64(bytes + pe[SWPM__VREC] + 8), vlen = pl[SWPM__VREC];
+    const uint64_t rbase = swpm__u64(bytes + pe[SWPM__RCNT] + 8), rlen = pl[SWPM__RCNT];
+    const uint64_t ibase = swpm__u64(bytes + pe[SWPM__INDX] + 8), ilen = pl[SWPM__INDX];
+    const uint64_t lbase = (uint64_t)(f->lods - bytes);
+    uint64_t R, M, need, ao, obase, T0, nidx, nrc, r, k, j, sum;
+    const uint8_t *rec, *offs, *rc, *x;
+#define SWPM__REC(r, c) ((uint64_t)swpm__uw(rec + (4 * (r) + (c)) * O, O))
+#define SWPM__OFS(j) ((uint64_t)swpm__uw(offs + (j) * O, O))
+#define SWPM__RC(k) ((uint64_t)swpm__uw(rc + (k) * O, O))
+#define SWPM__ROW(r, c) (vbase + 8 + O * (4 * (r) + (c)))
+    /* stage 0: VREC (length >= 8, R, M, exact length), RCNT a multiple of O, INDX a multiple of 3 W */
+    if (vlen < 8) return swpm__err("SWPM_CHUNK_BAD_LENGTH", pe[SWPM__VREC] + 16);
+    R = swpm__u32(bytes + vbase);
+    M = swpm__u32(bytes + vbase + 4);
+    need = 4 * (uint64_t)O * R; /* < 2^36: no wrap */
+    if (need > vlen - 8) return swpm__err("SWPM_COUNT_EXCEEDS_CHUNK", vbase + 8);
+    ao = 8 + ((need + 3) & ~(uint64_t)3);
+    if (ao > vlen || M * O > vlen - ao) return swpm__err("SWPM_COUNT_EXCEEDS_CHUNK", vbase + ao);
+    if (ao + M * O != vlen) return swpm__err("SWPM_CHUNK_BAD_LENGTH", pe[SWPM__VREC] + 16);
+    if (rlen % O) return swpm__err("SWPM_CHUNK_BAD_LENGTH", pe[SWPM__RCNT] + 16);
+    if (ilen % W || (ilen / W) % 3) return swpm__err("SWPM_CHUNK_BAD_LENGTH", pe[SWPM__INDX] + 16);
+    rec = bytes + vbase + 8;
+    obase = vbase + ao;
+    offs = bytes + obase;
+    rc = bytes + rbase;
+    x = bytes + ibase;
+    nrc = rlen / O;
+    nidx = ilen / W;
+    T0 = nidx / 3;
+    /* (a) the counts of 3.6: change counts sum to M, prev_change_count, RCNT holds L counts, RCNT from 0,
+     * non-decreasing, <= R */
+    for (sum = 0, r = 0; r < R; r++) sum += SWPM__REC(r, 2); /* R < 2^32 terms < 2^32: no wrap */
+    if (sum != M) return swpm__err("SWPM_RECORD_BAD_COUNTS", vbase + 8);
+    for (r = 0; r < R; r++)
+        if (SWPM__REC(r, 3) != (r ? SWPM__REC(r - 1, 2) : 0)) return swpm__err("SWPM_RECORD_BAD_COUNTS", SWPM__ROW(r, 3));
+    if (nrc != L) return swpm__err("SWPM_CHUNK_BAD_LENGTH", rbase);
+    for (k = 0; k < L; k++)
+        if ((k == 0 && SWPM__RC(0) != 0) || (k > 0 && SWPM__RC(k) < SWPM__RC(k - 1)) || SWPM__RC(k) > R)
+            return swpm__err("SWPM_RECORD_BAD_COUNTS", rbase);
+    /* INDX < V, R < V, kept < V-1-r, total tris_removed <= T0, change offsets < 3 T0 */
+    k = swpm__first_at_least(x, W, 0, nidx, V, 0, 0);
+    if (k < nidx) return swpm__err("SWPM_INDEX_OUT_OF_RANGE", ibase + W * k);
+    if (R && R >= V) return swpm__err("SWPM_RECORD_BAD_COUNTS", vbase);
+    for (r = 0; r < R; r++)
+        if (SWPM__REC(r, 0) + r + 1 >= V) return swpm__err("SWPM_RECORD_BAD_KEPT", SWPM__ROW(r, 0));
+    for (sum = 0, r = 0; r < R; r++) sum += SWPM__REC(r, 1);
+    if (sum > T0) return swpm__err("SWPM_RECORD_BAD_COUNTS", SWPM__ROW(0, 1));
+    for (j = 0; j < M; j++)
+        if (SWPM__OFS(j) >= 3 * T0) return swpm__err("SWPM_INDEX_OUT_OF_RANGE", obase + O * j);
+    /* (b) LODS against RCNT: vertex_count(k) = V - RCNT[k], then triangle_count(k) = T0 - removed by records
+     * [0, RCNT[k]) (RCNT is non-decreasing: one walk) */
+    for (k = 0; k < L; k++)
+        if (swpm__u32(f->lods + 12 * k) != V - SWPM__RC(k)) return swpm__err("SWPM_LOD_VERTEX_COUNT", lbase + 12 * k);
+    for (sum = 0, r = 0, k = 0; k < L; k++) {
+        while (r < SWPM__RC(k)) sum += SWPM__REC(r++, 1);
+        if (swpm__u32(f->lods + 12 * k + 4) != T0 - sum) return swpm__err("SWPM_RECORD_BAD_COUNTS", lbase + 12 * k);
+    }
+    /* (c) the replay, stopping at its first problem: a copy of INDX and the number of references each vertex
+     * has from live triangles. Record r's slots must hold V-1-r when changed (in the order listed, so a slot
+     * listed twice holds kept the second time) and lie in a triangle live after r; then no live triangle
+     * may reference V-1-r. */
+    if (R) {
+        uint8_t *ind;
+        uint64_t *refs, pad, live = T0, pos = 0;
+        pad = (uint64_t)((8 - ((uintptr_t)scratch & 7)) & 7);
+        need = ilen + 8 * V + 7;
+        if (scratch == NULL || (uint64_t)scratch_bytes < need) {
+            swpm_result s = {SWPM_READER_SCRATCH_TOO_SMALL, 0, 0, 0};
+            s.need = need;
+            return s;
+        }
+        refs = (uint64_t *)(void *)((uint8_t *)scratch + pad);
+        ind = (uint8_t *)(refs + V);
+        memcpy(ind, x, ilen);
+        memset(refs, 0, 8 * V);
+        for (j = 0; j < nidx; j++) refs[swpm__uw(ind + W * j, W)]++;
+        for (r = 0; r < R; r++) {
+            uint64_t binned = V - 1 - r, kept = SWPM__REC(r, 0), after = live - SWPM__REC(r, 1);
+            uint64_t cc = SWPM__REC(r, 2), s;
+            for (j = 0; j < cc; j++) {
+                s = SWPM__OFS(pos + j);
+                if (s >= 3 * after || swpm__uw(ind + W * s, W) != binned)
+                    return swpm__err("SWPM_RECORD_BAD_CHANGE", SWPM__ROW(r, 0));
+                swpm__put(ind + W * s, W, kept);
+                refs[binned]--;
+                refs[kept]++;
+            }
+            pos += cc;
+            for (j = 3 * after; j < 3 * live; j++) refs[swpm__uw(ind + W * j, W)]--;
+            live = after;
+            if (refs[binned]) return swpm__err("SWPM_PREFIX_VIOLATION", SWPM__ROW(r, 0));
+        }
+    }
+#undef SWPM__REC
+#undef SWPM__OFS
+#undef SWPM__RC
+#undef SWPM__ROW
+    f->indx = x;
+    f->index_count = nidx;
+    f->vrec = rec;
+    f->record_count = R;
+    f->change_offsets = offs;
+    f->change_offset_count = M;
+    f->rcnt = rc;
+    return ok;
+}
+
 /* ---- accessors ---- */
+int swpm_encoding(const swpm_file *f) { return f->encoding; }
+const uint8_t *swpm_collapse_records(const swpm_file *f, uint64_t *count, uint32_t *row_bytes) {
+    *count = f->record_count;
+    *row_bytes = 4 * f->offset_width;
+    return f->vrec;
+}
+void swpm_collapse_record(const swpm_file *f, uint64_t r, uint32_t *kept, uint32_t *tris_removed,
+                          uint32_t *change_count, uint32_t *prev_change_count) {
+    uint32_t O = f->offset_width;
+    const uint8_t *p = f->vrec + 4 * (uint64_t)O * r;
+    *kept = swpm__uw(p, O);
+    *tris_removed = swpm__uw(p + O, O);
+    *change_count = swpm__uw(p + 2 * O, O);
+    *prev_change_count = swpm__uw(p + 3 * O, O);
+}
+const uint8_t *swpm_collapse_change_offsets(const swpm_file *f, uint64_t *count) {
+    *count = f->change_offset_count;
+    return f->change_offsets;
+}
+const uint8_t *swpm_lod_record_counts(const swpm_file *f, uint64_t *count) {
+    *count = f->encoding == 1 ? f->lod_count : 0;
+    return f->rcnt;
+}
+uint32_t swpm_lod_record_count(const swpm_file *f, uint64_t k) {
+    return f->encoding == 1 ? swpm__uw(f->rcnt + k * f->offset_width, f->offset_width) : 0;
+}
+int swpm_vanilla_instance_init(const swpm_file *f, swpm_vanilla_instance *inst, void *buffer, uint64_t capacity) {
+    uint64_t n = f->index_count * f->index_width;
+    if (f->encoding != 1 || capacity < n || (n && buffer == NULL)) return 0;
+    if (n) memcpy(buffer, f->indx, n);
+    inst->indices = (uint8_t *)buffer;
+    inst->lod = 0;
+    inst->applied = 0; /* RCNT[0] = 0 (validated) */
+    inst->change_pos = 0;
+    inst->live = f->index_count / 3;
+    return 1;
+}
+uint64_t swpm_vanilla_set_lod(const swpm_file *f, swpm_vanilla_instance *inst, uint64_t lod,
+                              uint32_t *vertex_count) {
+    uint32_t W = f->index_width, O = f->offset_width, kept, removed, cc, prev;
+    uint64_t target, j;
+    if (lod >= f->lod_count) lod = f->lod_count - 1;
+    target = swpm_lod_record_count(f, lod);
+    while (inst->applied < target) { /* apply record `applied`: its slots take kept */
+        swpm_collapse_record(f, inst->applied, &kept, &removed, &cc, &prev);
+        for (j = 0; j < cc; j++)
+            swpm__put(inst->indices + W * (uint64_t)swpm__uw(f->change_offsets + O * (inst->change_pos + j), O), W, kept);
+        inst->change_pos += cc;
+        inst->live -= removed;
+        inst->applied++;
+    }
+    while (inst->applied > target) { /* undo the last applied record r: its slots hold V-1-r again */
+        uint64_t r = --inst->applied;
+        swpm_collapse_record(f, r, &kept, &removed, &cc, &prev);
+        inst->change_pos -= cc;
+        for (j = 0; j < cc; j++)
+            swpm__put(inst->indices + W * (uint64_t)swpm__uw(f->change_offsets + O * (inst->change_pos + j), O), W,
+                      (uint64_t)f->vertex_count - 1 - r);
+        inst->live += removed;
+    }
+    inst->lod = lod;
+    *vertex_count = swpm_lod_vertex_count(f, lod);
+    return 3 * inst->live;
+}
+
 uint32_t swpm_features(const swpm_file *f) { return f->features; }
 uint32_t swpm_index_width(const swpm_file *f) { return f->index_width; }
 uint32_t swpm_offset_width(const swpm_file *f) { return f->offset_width; }
@@ -1193,7 +1465,7 @@ void swpm_window_record(const swpm_file *f, uint64_t k, uint32_t *first_index, u
 int swpm_window(const swpm_file *f, uint64_t lod, uint64_t *first_index, uint64_t *index_count,
                 uint32_t *vertex_count) {
     uint32_t fi, tc;
-    if (lod >= f->lod_count) return 0;
+    if (f->encoding != 2 || lod >= f->lod_count) return 0;
     swpm_window_record(f, lod, &fi, &tc, vertex_count, index_count);
     *first_index = fi;
     return 1;
