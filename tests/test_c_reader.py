@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from conftest import shared_mesh
+from conftest import refix_crcs, shared_mesh
 
 import swpm_usd
 from swpm_usd.format import encode_bytes, validate_bytes
@@ -303,24 +303,6 @@ def test_vanilla_scratch(dump: Path, dump_san: Path, tmp_path: Path) -> None:
 
 
 # -- differential fuzz: the sanitizer build against swpm_usd.format's validation ---------------------------
-def _refix(data: bytes) -> bytes:
-    """Recompute chunk and file CRCs where the table is readable (as tests/test_fuzz_format.py)."""
-    if len(data) < 64:
-        return data
-    count, to = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
-    if count > 64 or to + 32 * count > len(data):
-        return data
-    b = bytearray(data)
-    for i in range(count):
-        eo = to + 32 * i
-        t, _, off, ln = struct.unpack_from("<4sIQQ", b, eo)
-        if off + ln <= len(b):
-            struct.pack_into("<I", b, eo + 24, zlib.crc32(bytes(b[off : off + ln]), zlib.crc32(t)))
-    struct.pack_into("<I", b, 48, 0)
-    struct.pack_into("<I", b, 48, zlib.crc32(bytes(b[: to + 32 * count])))
-    return bytes(b)
-
-
 def _regions(data: bytes) -> list[tuple[int, int]]:
     """Header, table and chunk byte ranges (SMAP's aside) of a valid file: where mutations are aimed."""
     count, to = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
@@ -355,7 +337,7 @@ def _mutate(rng: random.Random, data: bytes) -> bytes:
     if len(b) >= 48 and len(b) != len(data) and rng.random() < 0.7:
         struct.pack_into("<Q", b, 40, len(b))  # file_size follows a truncation or insertion: reach the chunks
     out = bytes(b)
-    return _refix(out) if rng.random() < 0.7 else out
+    return refix_crcs(out) if rng.random() < 0.7 else out
 
 
 def _mutate_values(rng: random.Random, data: bytes) -> bytes:
@@ -378,7 +360,7 @@ def _mutate_values(rng: random.Random, data: bytes) -> bytes:
             at = wo + skip + O * rng.randrange((len(wr) - skip) // O)
             val = max(0, int.from_bytes(d[at : at + O], "little") + rng.randint(-3, 3))
             d[at : at + O] = min(val, (1 << 8 * O) - 1).to_bytes(O, "little")
-    return _refix(bytes(d))
+    return refix_crcs(bytes(d))
 
 
 def _seeds(tmp: Path) -> list[bytes]:

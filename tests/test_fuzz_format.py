@@ -6,10 +6,9 @@ so that the mutation reaches the content checks instead of stopping at a checksu
 
 from __future__ import annotations
 
-import struct
-import zlib
 from pathlib import Path
 
+from conftest import refix_crcs
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -22,24 +21,6 @@ MAX = 3000  # (5,000 took 60 s of a loaded suite)
 SETTINGS = settings(
     max_examples=MAX, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck), database=None
 )
-
-
-def _refix(data: bytes) -> bytes:
-    """Recompute chunk and file CRCs where the table is readable (never trusts a count blindly)."""
-    if len(data) < 64:
-        return data
-    count, to = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
-    if count > 64 or to + 32 * count > len(data):
-        return data
-    b = bytearray(data)
-    for i in range(count):
-        eo = to + 32 * i
-        t, _, off, ln = struct.unpack_from("<4sIQQ", b, eo)
-        if off + ln <= len(b):
-            struct.pack_into("<I", b, eo + 24, zlib.crc32(bytes(b[off : off + ln]), zlib.crc32(t)))
-    struct.pack_into("<I", b, 48, 0)
-    struct.pack_into("<I", b, 48, zlib.crc32(bytes(b[: to + 32 * count])))
-    return bytes(b)
 
 
 @st.composite
@@ -60,7 +41,7 @@ def mutated(draw: st.DrawFn) -> bytes:
         else:
             data[pos:pos] = draw(st.binary(min_size=1, max_size=16))
     out = bytes(data)
-    return _refix(out) if draw(st.booleans()) else out
+    return refix_crcs(out) if draw(st.booleans()) else out
 
 
 def _check(data: bytes) -> None:
