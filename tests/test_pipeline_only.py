@@ -253,3 +253,41 @@ def test_a_manifest_read_and_written_again_is_the_same_text(built):
     path = built / "out" / "manifest.json"
     assert '"inputs_ref"' in path.read_text()
     assert _ManifestText().dumps(_read_manifest(path)) == path.read_text().removesuffix("\n")
+
+
+def test_a_selected_asset_renamed_onto_an_unselected_ones_recorded_output_is_refused(tmp_path):
+    """Under ``output.names: path`` ``meshes/a/b.obj`` is named ``a--b``, the name ``meshes/x/a--b.obj``
+    had under ``stem``: built alone, it replaced that asset's build, which its record and the scene still
+    gave it (both prims of the scene drew suzanne). Refused before anything is written; built together, or
+    the other first, it is fine."""
+    for folder, name, mesh in (("a", "b", "suzanne.obj"), ("x", "a--b", "beetle.obj")):
+        (tmp_path / "meshes" / folder).mkdir(parents=True)
+        shutil.copy(SHARED_MESHES / mesh, tmp_path / "meshes" / folder / f"{name}.obj")
+    cfg = tmp_path / "pipeline.yaml"
+    text = (
+        'version: 1\nassets:\n  - glob: "meshes/**/*.obj"\n'
+        "output:\n  dir: out\n  report: false\n  usd: true\n  scene: true\ndefaults: {encoding: vanilla}\n"
+    )
+    cfg.write_text(text)
+    assert not run(cfg, echo=lambda m: None).failed
+    out = tmp_path / "out"
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    cfg.write_text(text.replace("  scene: true\n", "  scene: true\n  names: path\n"))
+    r = CliRunner().invoke(main, ["run", str(cfg), "--only", "meshes/a/*"])
+    assert r.exit_code == 2, r.output
+    assert (
+        "meshes/a/b.obj would write a--b.swpm and a--b.usdc, the recorded outputs of meshes/x/a--b.obj, "
+        "which is not selected" in r.output
+    )
+    assert "--only 'meshes/x/a--b.obj'" in r.output
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # nothing written
+    with pytest.raises(SelectionError):  # (the API too, dry run included)
+        run(cfg, only=["meshes/a/*"], dry_run=True, echo=lambda m: None)
+    # the other selected first: its build moves to x--a--b, and then the first builds alone
+    assert run(cfg, only=["meshes/x/*"], echo=lambda m: None).built == 1
+    assert run(cfg, only=["meshes/a/*"], echo=lambda m: None).built == 1
+    records = json.loads((out / "manifest.json").read_text())["assets"]
+    assert records["meshes/a/b.obj"]["outputs"]["swpm"]["path"] == "a--b.swpm"
+    assert records["meshes/x/a--b.obj"]["outputs"]["swpm"]["path"] == "x--a--b.swpm"
+    sha = {k: r["outputs"]["swpm"]["sha256"] for k, r in records.items()}
+    assert sha["meshes/a/b.obj"] != sha["meshes/x/a--b.obj"]

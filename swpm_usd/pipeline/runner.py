@@ -59,6 +59,7 @@ from .. import __version__
 from ..errors import MissingExtraError
 from .assets import (
     Asset,
+    _folded,
     checks_no_stricter,
     checks_of,
     discover,
@@ -594,6 +595,58 @@ class SelectionError(ValueError):
         super().__init__(f"{which} {'matches' if len(patterns) == 1 else 'match'} no asset; {how}")
 
 
+class SelectionConflictError(SelectionError):
+    """``only`` selects an asset to build whose output would replace a file an asset it leaves out holds: its
+    recorded output, at the name it had before ``output.names`` changed (``x/a--b.obj``'s ``a--b.swpm``
+    and ``a/b.obj`` named by path). A usage error (``run --only``: exit 2), raised before the run builds or
+    writes anything: built, it overwrote the other's build, which the manifest and the scene still gave it.
+    ``clashes``: (selected id, output file, the id not selected that holds it)."""
+
+    def __init__(self, clashes: list[tuple[str, str, str]]) -> None:
+        self.clashes = clashes
+        pairs: dict[tuple[str, str], list[str]] = {}
+        for a, f, b in clashes:
+            pairs.setdefault((a, b), []).append(f)
+        shown = "; ".join(
+            f"{a} would write {' and '.join(files)}, the recorded output{'s' * (len(files) > 1)} of {b}, "
+            "which is not selected"
+            for (a, b), files in list(pairs.items())[:_IDS_SHOWN]
+        )
+        more = f"; ... ({len(pairs)} assets)" if len(pairs) > _IDS_SHOWN else ""
+        others = " ".join(f"--only '{b}'" for b in dict.fromkeys(b for _, b in list(pairs)[:_IDS_SHOWN]))
+        ValueError.__init__(
+            self,
+            f"{shown}{more} (its names before output.names or its glob changed): built, it would replace "
+            f"that asset's build; select it too ({others}) or run without --only",
+        )
+
+
+def _selection_clashes(cfg: Config, items: list, picked: list, force: bool) -> list[tuple[str, str, str]]:
+    """(selected id, file, unselected id) for each output a selected asset to build writes that an
+    unselected asset's record lists (compared as a case-insensitive filesystem names them)."""
+    chosen = {id(it) for it in picked}
+    held: dict[str, tuple[str, str]] = {}
+    for it in items:
+        if id(it) in chosen or not isinstance(it.previous, dict):
+            continue
+        for o in (it.previous.get("outputs") or {}).values():
+            if isinstance(o, dict) and isinstance(o.get("path"), str):
+                held[_folded(o["path"])] = (o["path"], it.asset.id)
+    if not held:
+        return []
+    clashes = []
+    for it in picked:
+        if not (force or not it.up_to_date):
+            continue
+        for suffix, kind, default in ((".swpm", "swpm", True), (".usdc", "usd", False)):
+            if not cfg.data["output"].get(kind, default):
+                continue
+            found = held.get(_folded(f"{it.asset.output_stem}{suffix}"))
+            if found is not None:
+                clashes.append((it.asset.id, found[0], found[1]))
+    return clashes
+
+
 def _pattern(pattern: str) -> re.Pattern[str]:
     """``pattern`` as fnmatch reads it (``*`` any characters, ``/`` and ``:`` too; ``?`` one; ``[seq]``),
     case-sensitive on every system (ids are the config's paths), or the id it is written as."""
@@ -731,6 +784,8 @@ def _run(
     chosen = selected_ids((it.asset.id for it in items), only) if only else None
     picked = items if chosen is None else [it for it in items if it.asset.id in chosen]
     not_selected = len(items) - len(picked)
+    if chosen is not None and (clashes := _selection_clashes(cfg, items, picked, force)):
+        raise SelectionConflictError(clashes)
     # (no record to go by: every asset built again, and the outputs it recorded no longer known)
     lost = [
         f"{_rel(cfg, manifest_path)}: {why}; the run takes it for no manifest: every asset is built "
