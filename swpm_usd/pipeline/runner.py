@@ -647,6 +647,27 @@ def _selection_clashes(cfg: Config, items: list, picked: list, force: bool) -> l
     return clashes
 
 
+def _left_by_rebuilds(cfg: Config, out_dir: Path, items: list, todo: list) -> list[str]:
+    """The recorded outputs (output.dir-relative) of the assets ``todo`` that their rebuild does not write,
+    still as recorded (:func:`.outputs._dropped_outputs`, as the run finds them once each is built), less
+    the files this run's assets write or read."""
+    out = cfg.data["output"]
+    kinds = [
+        (k, s) for k, s, default in (("swpm", ".swpm", True), ("usd", ".usdc", False)) if out.get(k, default)
+    ]
+    found: list[str] = []
+    keep = None
+    for it in todo:
+        if not isinstance(it.previous, dict):
+            continue
+        built = {"outputs": {k: {"path": f"{it.asset.output_stem}{s}"} for k, s in kinds}}
+        for path, o in _dropped_outputs(out_dir, it.previous, built):
+            keep = _files_kept(cfg, out_dir, items) if keep is None else keep
+            if _file_key(path) not in keep:
+                found.append(o["path"])
+    return found
+
+
 def _pattern(pattern: str) -> re.Pattern[str]:
     """``pattern`` as fnmatch reads it (``*`` any characters, ``/`` and ``:`` too; ``?`` one; ``[seq]``),
     case-sensitive on every system (ids are the config's paths), or the id it is written as."""
@@ -848,6 +869,15 @@ def _run(
             skipped = 0 if force else sum(i.up_to_date for i in picked)  # (force: each "to build")
             for path in orphan_names:
                 echo(f"{path}: output of an asset no longer in the config" + ("; --prune deletes it" * prune))
+            # (a rebuild's old outputs, at names output.names moved or of a kind no longer asked for: the run
+            # names them, and prune deletes them, once it is rebuilt; the plan said less than the run did)
+            for path in _left_by_rebuilds(
+                cfg, out_dir, items, [it for it in picked if force or not it.up_to_date]
+            ):
+                echo(
+                    f"{path}: output its asset's rebuild no longer writes" + ("; --prune deletes it" * prune)
+                )
+                orphan_names.append(path)
             to_build = {aid: found for aid, found in because.items() if found}
             return RunResult(
                 {}, 0, skipped, 0, warnings, 0.0, manifest_path, planned, **orphan_lists, because=to_build,
