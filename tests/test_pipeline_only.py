@@ -107,6 +107,26 @@ def test_patterns_match_ids_with_star_crossing_slashes_and_a_plain_id_matching_i
     assert "meshes/hero_a.obj, meshes/hero/b.obj" in str(err.value)
 
 
+def test_a_pattern_that_misses_by_a_folder_a_suffix_or_an_output_name_gets_the_one_that_matches():
+    """A TD writes the path under the glob's folder, a file without its suffix or the output's name (what
+    ``out/`` and the scene show): the error names the id pattern that matches, and how many it takes."""
+    ids = [f"lib/set{s}/{n}.obj" for s in ("01", "02") for n in ("rock", "tree")] + ["lib/s.usda:/World/car"]
+    cases = {
+        "set01/*": ("lib/set01/*", "2 assets"),
+        "lib/set02/rock": ("lib/set02/rock.obj", "1 asset"),
+        "set02--tree": ("lib/set02/tree.obj", "1 asset"),
+        "rock": ("*/rock.*", "2 assets"),  # (under two folders: no common head to write)
+    }
+    for pattern, (hint, count) in cases.items():
+        with pytest.raises(SelectionError) as err:
+            selected_ids(ids, [pattern])
+        assert f"'{pattern}' matches no asset (did you mean '{hint}'? {count}); " in str(err.value)
+        assert selected_ids(ids, [hint])  # (the hint does match)
+    with pytest.raises(SelectionError) as err:
+        selected_ids(ids, ["nothing/near*"])
+    assert "did you mean" not in str(err.value) and err.value.hints == {}
+
+
 def test_a_bracket_pattern_is_a_character_class():
     assert selected_ids(["a1.obj", "a2.obj", "ab.obj"], ["a[0-9].obj"]) == {"a1.obj", "a2.obj"}
 

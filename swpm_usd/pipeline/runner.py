@@ -579,10 +579,13 @@ _IDS_SHOWN = 5
 class SelectionError(ValueError):
     """``only`` patterns that match no asset of the config: a usage error (``run --only``: exit 2), raised
     before the run builds or writes anything. ``patterns``: those; ``ids``: the config's first asset ids;
-    ``total``: how many it has."""
+    ``total``: how many it has; ``hints``: a pattern -> the pattern written as an id that matches (and how
+    many it takes), where one is near (:func:`_selection_hint`)."""
 
-    def __init__(self, patterns: list[str], ids: list[str], total: int) -> None:
-        self.patterns, self.ids, self.total = patterns, ids, total
+    def __init__(
+        self, patterns: list[str], ids: list[str], total: int, hints: dict[str, tuple[str, int]] | None = None
+    ) -> None:
+        self.patterns, self.ids, self.total, self.hints = patterns, ids, total, hints or {}
         which = ", ".join(repr(p) for p in patterns)
         if not ids:
             how = "the config has no assets"
@@ -592,7 +595,43 @@ class SelectionError(ValueError):
                 "an asset's id is its path relative to the config (a stage's prim: path:/prim/path), as "
                 f"--dry-run shows it: {', '.join(ids)}{more}"
             )
-        super().__init__(f"{which} {'matches' if len(patterns) == 1 else 'match'} no asset; {how}")
+        guesses = "".join(
+            f" (did you mean '{h}'? {n} {'asset' if n == 1 else 'assets'})" for h, n in self.hints.values()
+        )
+        super().__init__(f"{which} {'matches' if len(patterns) == 1 else 'match'} no asset{guesses}; {how}")
+
+
+def _selection_hint(pattern: str, ids: list[str]) -> tuple[str, int] | None:
+    """A pattern near ``pattern`` that matches some of ``ids``: one written from the glob's folder rather
+    than the config's (``set03/*`` for ``lib/set03/*``), without the file's suffix (``lib/set03/rock``), or
+    as an output's name (``set03--rock``, the name under ``output.names: path``); the first that matches."""
+    from .assets import PATH_NAME_SEPARATOR
+
+    bases = dict.fromkeys([pattern, pattern.replace(PATH_NAME_SEPARATOR, "/")])
+    for base in bases:
+        for c in (f"*/{base}", f"{base}.*", f"*/{base}.*"):
+            rx = _pattern(c)
+            found = [aid for aid in ids if rx.match(aid)]
+            if len(found) == 1:
+                return found[0], 1
+            if found:
+                if c.startswith("*/"):  # the folders the ids put before it, when they all put the same
+                    c = _common_folders(c[2:], found) or c
+                return c, len(found)
+    return None
+
+
+def _common_folders(pattern: str, ids: list[str]) -> str | None:
+    """``pattern`` after the folders every id of ``ids`` has before what it matches (``lib/`` for ``set03/*``
+    of ``lib/set03/rock.obj``...), or None when they differ."""
+    heads = set()
+    for aid in ids:
+        cuts = [i + 1 for i, ch in enumerate(aid) if ch == "/"]
+        head = next((aid[:i] for i in cuts if _pattern(aid[:i] + pattern).match(aid)), None)
+        heads.add(head)
+        if head is None or len(heads) > 1:
+            return None
+    return heads.pop() + pattern
 
 
 class SelectionConflictError(SelectionError):
@@ -688,7 +727,8 @@ def selected_ids(ids: Iterable[str], patterns: Iterable[str]) -> set[str]:
             unmatched.append(p)
         chosen.update(found)
     if unmatched:
-        raise SelectionError(unmatched, ids[:_IDS_SHOWN], len(ids))
+        hints = {p: h for p in unmatched if (h := _selection_hint(p, ids)) is not None}
+        raise SelectionError(unmatched, ids[:_IDS_SHOWN], len(ids), hints)
     return chosen
 
 
