@@ -211,7 +211,11 @@ def build_cmd(
     metavar="ADDR",
     help="Dask scheduler address, with --executor dask (default: a local cluster).",
 )
-@click.option("--force", is_flag=True, help="Rebuild assets even when they are up to date.")
+@click.option(
+    "--force",
+    is_flag=True,
+    help="Rebuild assets even when they are up to date (with --only, the selected ones).",
+)
 @click.option(
     "--only",
     "only",
@@ -226,7 +230,8 @@ def build_cmd(
     "--prune",
     is_flag=True,
     help="Delete the outputs of assets no longer in the config, and those of a kind it no longer asks for "
-    "once their asset is rebuilt (those still as the manifest recorded them).",
+    "or at names output.names moved once their asset is rebuilt (those still as the manifest recorded "
+    "them; with --dry-run, name them).",
 )
 @click.option(
     "--verify",
@@ -235,7 +240,13 @@ def build_cmd(
     "trusting one whose size, mtime, ctime and inode are as recorded; rebuilds an asset whose bytes changed "
     "without those (bit rot).",
 )
-@click.option("--json", "as_json", is_flag=True, help="Print the run summary as JSON.")
+@click.option(
+    "--json",
+    "as_json",
+    is_flag=True,
+    help="Print the run summary as JSON (with --dry-run or --explain, each asset's plan and why it is to "
+    "build, under plan; the plan lines go to stderr).",
+)
 def run_cmd(
     config: str,
     jobs: int,
@@ -266,7 +277,8 @@ def run_cmd(
 
     Exit 0 when every asset built, 1 when any failed (or output.dir is another run's, or --executor dask
     is asked without the dask extra: pip install 'swpm-usd[dask]'), 2 when the
-    configuration is invalid (every problem listed as FILE:LINE:COL: $.path: message), 130 on Ctrl-C.
+    configuration is invalid (every problem listed as FILE:LINE:COL: $.path: message) or the command line is
+    (a bad option, an --only pattern that matches no asset), 130 on Ctrl-C.
     """
     from .codes import PROBLEM_KEYS
     from .pipeline import ConfigError, SelectionError, run

@@ -119,6 +119,12 @@ def test_flipping_names_rebuilds_under_the_new_names_and_prune_removes_the_old(t
     assert run(cfg, echo=_quiet).built == 0
     # from library/: the folders are in the names, each asset built again under them
     cfg.write_text(cfg.read_text().replace("library/props/chair/*.obj", "library/**/chair/*.obj"))
+    # a dry run names the files the rebuilds leave at the old names, as the run does (it named none)
+    lines: list[str] = []
+    plan = run(cfg, dry_run=True, prune=True, echo=lines.append)
+    assert sorted(plan.pruned) == ["cushion.swpm", "cushion.usdc", "scene.swpm", "scene.usdc"]
+    assert "scene.swpm: output its asset's rebuild no longer writes; --prune deletes it" in lines
+    assert sorted(run(cfg, dry_run=True, echo=_quiet).unlisted) == sorted(plan.pruned)
     flipped = run(cfg, echo=_quiet)
     assert flipped.built == 2
     assert sorted(flipped.unlisted) == ["cushion.swpm", "cushion.usdc", "scene.swpm", "scene.usdc"]

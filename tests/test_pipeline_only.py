@@ -107,6 +107,26 @@ def test_patterns_match_ids_with_star_crossing_slashes_and_a_plain_id_matching_i
     assert "meshes/hero_a.obj, meshes/hero/b.obj" in str(err.value)
 
 
+def test_a_pattern_that_misses_by_a_folder_a_suffix_or_an_output_name_gets_the_one_that_matches():
+    """A TD writes the path under the glob's folder, a file without its suffix or the output's name (what
+    ``out/`` and the scene show): the error names the id pattern that matches, and how many it takes."""
+    ids = [f"lib/set{s}/{n}.obj" for s in ("01", "02") for n in ("rock", "tree")] + ["lib/s.usda:/World/car"]
+    cases = {
+        "set01/*": ("lib/set01/*", "2 assets"),
+        "lib/set02/rock": ("lib/set02/rock.obj", "1 asset"),
+        "set02--tree": ("lib/set02/tree.obj", "1 asset"),
+        "rock": ("*/rock.*", "2 assets"),  # (under two folders: no common head to write)
+    }
+    for pattern, (hint, count) in cases.items():
+        with pytest.raises(SelectionError) as err:
+            selected_ids(ids, [pattern])
+        assert f"'{pattern}' matches no asset (did you mean '{hint}'? {count}); " in str(err.value)
+        assert selected_ids(ids, [hint])  # (the hint does match)
+    with pytest.raises(SelectionError) as err:
+        selected_ids(ids, ["nothing/near*"])
+    assert "did you mean" not in str(err.value) and err.value.hints == {}
+
+
 def test_a_bracket_pattern_is_a_character_class():
     assert selected_ids(["a1.obj", "a2.obj", "ab.obj"], ["a[0-9].obj"]) == {"a1.obj", "a2.obj"}
 
@@ -253,3 +273,41 @@ def test_a_manifest_read_and_written_again_is_the_same_text(built):
     path = built / "out" / "manifest.json"
     assert '"inputs_ref"' in path.read_text()
     assert _ManifestText().dumps(_read_manifest(path)) == path.read_text().removesuffix("\n")
+
+
+def test_a_selected_asset_renamed_onto_an_unselected_ones_recorded_output_is_refused(tmp_path):
+    """Under ``output.names: path`` ``meshes/a/b.obj`` is named ``a--b``, the name ``meshes/x/a--b.obj``
+    had under ``stem``: built alone, it replaced that asset's build, which its record and the scene still
+    gave it (both prims of the scene drew suzanne). Refused before anything is written; built together, or
+    the other first, it is fine."""
+    for folder, name, mesh in (("a", "b", "suzanne.obj"), ("x", "a--b", "beetle.obj")):
+        (tmp_path / "meshes" / folder).mkdir(parents=True)
+        shutil.copy(SHARED_MESHES / mesh, tmp_path / "meshes" / folder / f"{name}.obj")
+    cfg = tmp_path / "pipeline.yaml"
+    text = (
+        'version: 1\nassets:\n  - glob: "meshes/**/*.obj"\n'
+        "output:\n  dir: out\n  report: false\n  usd: true\n  scene: true\ndefaults: {encoding: vanilla}\n"
+    )
+    cfg.write_text(text)
+    assert not run(cfg, echo=lambda m: None).failed
+    out = tmp_path / "out"
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    cfg.write_text(text.replace("  scene: true\n", "  scene: true\n  names: path\n"))
+    r = CliRunner().invoke(main, ["run", str(cfg), "--only", "meshes/a/*"])
+    assert r.exit_code == 2, r.output
+    assert (
+        "meshes/a/b.obj would write a--b.swpm and a--b.usdc, the recorded outputs of meshes/x/a--b.obj, "
+        "which is not selected" in r.output
+    )
+    assert "--only 'meshes/x/a--b.obj'" in r.output
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # nothing written
+    with pytest.raises(SelectionError):  # (the API too, dry run included)
+        run(cfg, only=["meshes/a/*"], dry_run=True, echo=lambda m: None)
+    # the other selected first: its build moves to x--a--b, and then the first builds alone
+    assert run(cfg, only=["meshes/x/*"], echo=lambda m: None).built == 1
+    assert run(cfg, only=["meshes/a/*"], echo=lambda m: None).built == 1
+    records = json.loads((out / "manifest.json").read_text())["assets"]
+    assert records["meshes/a/b.obj"]["outputs"]["swpm"]["path"] == "a--b.swpm"
+    assert records["meshes/x/a--b.obj"]["outputs"]["swpm"]["path"] == "x--a--b.swpm"
+    sha = {k: r["outputs"]["swpm"]["sha256"] for k, r in records.items()}
+    assert sha["meshes/a/b.obj"] != sha["meshes/x/a--b.obj"]

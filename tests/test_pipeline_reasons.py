@@ -147,7 +147,7 @@ def test_params_and_encoding_changed_name_what_moved(project):
     project.write_text(_config(extra=rules.replace("{enc}", "skip-strip")))
     because, _ = _dry(project)
     assert because["meshes/a.obj"] == [
-        {"code": "treatment-changed", "detail": "encoding vanilla -> skip-strip (rule defaults -> 'hero')"}
+        {"code": "treatment-changed", "detail": "encoding vanilla -> skip-strip, rule defaults -> 'hero'"}
     ]
     assert because["meshes/b.obj"] == []
 

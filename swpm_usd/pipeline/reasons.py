@@ -271,7 +271,7 @@ def _digest_reasons(cfg: Config, item: PlanItem, prev: dict, version: str, versi
         rule_then, rule_now = prev.get("rule"), _rule_name(cfg, item)
         if rule_then != rule_now:
             named = ("defaults" if r is None else repr(r) for r in (rule_then, rule_now))
-            detail += f" (rule {' -> '.join(named)})"
+            detail += f", rule {' -> '.join(named)}"  # (one more change of the list, not of the last one)
         parts.append(reason("treatment-changed", detail))
     if now.get("encoding") == "auto" and then.get("encoding") == "auto":
         if n != asset.instances:

@@ -59,6 +59,7 @@ from .. import __version__
 from ..errors import MissingExtraError
 from .assets import (
     Asset,
+    _folded,
     checks_no_stricter,
     checks_of,
     discover,
@@ -578,10 +579,13 @@ _IDS_SHOWN = 5
 class SelectionError(ValueError):
     """``only`` patterns that match no asset of the config: a usage error (``run --only``: exit 2), raised
     before the run builds or writes anything. ``patterns``: those; ``ids``: the config's first asset ids;
-    ``total``: how many it has."""
+    ``total``: how many it has; ``hints``: a pattern -> the pattern written as an id that matches (and how
+    many it takes), where one is near (:func:`_selection_hint`)."""
 
-    def __init__(self, patterns: list[str], ids: list[str], total: int) -> None:
-        self.patterns, self.ids, self.total = patterns, ids, total
+    def __init__(
+        self, patterns: list[str], ids: list[str], total: int, hints: dict[str, tuple[str, int]] | None = None
+    ) -> None:
+        self.patterns, self.ids, self.total, self.hints = patterns, ids, total, hints or {}
         which = ", ".join(repr(p) for p in patterns)
         if not ids:
             how = "the config has no assets"
@@ -591,7 +595,116 @@ class SelectionError(ValueError):
                 "an asset's id is its path relative to the config (a stage's prim: path:/prim/path), as "
                 f"--dry-run shows it: {', '.join(ids)}{more}"
             )
-        super().__init__(f"{which} {'matches' if len(patterns) == 1 else 'match'} no asset; {how}")
+        guesses = "".join(
+            f" (did you mean '{h}'? {n} {'asset' if n == 1 else 'assets'})" for h, n in self.hints.values()
+        )
+        super().__init__(f"{which} {'matches' if len(patterns) == 1 else 'match'} no asset{guesses}; {how}")
+
+
+def _selection_hint(pattern: str, ids: list[str]) -> tuple[str, int] | None:
+    """A pattern near ``pattern`` that matches some of ``ids``: one written from the glob's folder rather
+    than the config's (``set03/*`` for ``lib/set03/*``), without the file's suffix (``lib/set03/rock``), or
+    as an output's name (``set03--rock``, the name under ``output.names: path``); the first that matches."""
+    from .assets import PATH_NAME_SEPARATOR
+
+    bases = dict.fromkeys([pattern, pattern.replace(PATH_NAME_SEPARATOR, "/")])
+    for base in bases:
+        for c in (f"*/{base}", f"{base}.*", f"*/{base}.*"):
+            rx = _pattern(c)
+            found = [aid for aid in ids if rx.match(aid)]
+            if len(found) == 1:
+                return found[0], 1
+            if found:
+                if c.startswith("*/"):  # the folders the ids put before it, when they all put the same
+                    c = _common_folders(c[2:], found) or c
+                return c, len(found)
+    return None
+
+
+def _common_folders(pattern: str, ids: list[str]) -> str | None:
+    """``pattern`` after the folders every id of ``ids`` has before what it matches (``lib/`` for ``set03/*``
+    of ``lib/set03/rock.obj``...), or None when they differ."""
+    heads = set()
+    for aid in ids:
+        cuts = [i + 1 for i, ch in enumerate(aid) if ch == "/"]
+        head = next((aid[:i] for i in cuts if _pattern(aid[:i] + pattern).match(aid)), None)
+        heads.add(head)
+        if head is None or len(heads) > 1:
+            return None
+    return heads.pop() + pattern
+
+
+class SelectionConflictError(SelectionError):
+    """``only`` selects an asset to build whose output would replace a file an asset it leaves out holds: its
+    recorded output, at the name it had before ``output.names`` changed (``x/a--b.obj``'s ``a--b.swpm``
+    and ``a/b.obj`` named by path). A usage error (``run --only``: exit 2), raised before the run builds or
+    writes anything: built, it overwrote the other's build, which the manifest and the scene still gave it.
+    ``clashes``: (selected id, output file, the id not selected that holds it)."""
+
+    def __init__(self, clashes: list[tuple[str, str, str]]) -> None:
+        self.clashes = clashes
+        pairs: dict[tuple[str, str], list[str]] = {}
+        for a, f, b in clashes:
+            pairs.setdefault((a, b), []).append(f)
+        shown = "; ".join(
+            f"{a} would write {' and '.join(files)}, the recorded output{'s' * (len(files) > 1)} of {b}, "
+            "which is not selected"
+            for (a, b), files in list(pairs.items())[:_IDS_SHOWN]
+        )
+        more = f"; ... ({len(pairs)} assets)" if len(pairs) > _IDS_SHOWN else ""
+        others = " ".join(f"--only '{b}'" for b in dict.fromkeys(b for _, b in list(pairs)[:_IDS_SHOWN]))
+        ValueError.__init__(
+            self,
+            f"{shown}{more} (its names before output.names or its glob changed): built, it would replace "
+            f"that asset's build; select it too ({others}) or run without --only",
+        )
+
+
+def _selection_clashes(cfg: Config, items: list, picked: list, force: bool) -> list[tuple[str, str, str]]:
+    """(selected id, file, unselected id) for each output a selected asset to build writes that an
+    unselected asset's record lists (compared as a case-insensitive filesystem names them)."""
+    chosen = {id(it) for it in picked}
+    held: dict[str, tuple[str, str]] = {}
+    for it in items:
+        if id(it) in chosen or not isinstance(it.previous, dict):
+            continue
+        for o in (it.previous.get("outputs") or {}).values():
+            if isinstance(o, dict) and isinstance(o.get("path"), str):
+                held[_folded(o["path"])] = (o["path"], it.asset.id)
+    if not held:
+        return []
+    clashes = []
+    for it in picked:
+        if not (force or not it.up_to_date):
+            continue
+        for suffix, kind, default in ((".swpm", "swpm", True), (".usdc", "usd", False)):
+            if not cfg.data["output"].get(kind, default):
+                continue
+            found = held.get(_folded(f"{it.asset.output_stem}{suffix}"))
+            if found is not None:
+                clashes.append((it.asset.id, found[0], found[1]))
+    return clashes
+
+
+def _left_by_rebuilds(cfg: Config, out_dir: Path, items: list, todo: list) -> list[str]:
+    """The recorded outputs (output.dir-relative) of the assets ``todo`` that their rebuild does not write,
+    still as recorded (:func:`.outputs._dropped_outputs`, as the run finds them once each is built), less
+    the files this run's assets write or read."""
+    out = cfg.data["output"]
+    kinds = [
+        (k, s) for k, s, default in (("swpm", ".swpm", True), ("usd", ".usdc", False)) if out.get(k, default)
+    ]
+    found: list[str] = []
+    keep = None
+    for it in todo:
+        if not isinstance(it.previous, dict):
+            continue
+        built = {"outputs": {k: {"path": f"{it.asset.output_stem}{s}"} for k, s in kinds}}
+        for path, o in _dropped_outputs(out_dir, it.previous, built):
+            keep = _files_kept(cfg, out_dir, items) if keep is None else keep
+            if _file_key(path) not in keep:
+                found.append(o["path"])
+    return found
 
 
 def _pattern(pattern: str) -> re.Pattern[str]:
@@ -614,7 +727,8 @@ def selected_ids(ids: Iterable[str], patterns: Iterable[str]) -> set[str]:
             unmatched.append(p)
         chosen.update(found)
     if unmatched:
-        raise SelectionError(unmatched, ids[:_IDS_SHOWN], len(ids))
+        hints = {p: h for p in unmatched if (h := _selection_hint(p, ids)) is not None}
+        raise SelectionError(unmatched, ids[:_IDS_SHOWN], len(ids), hints)
     return chosen
 
 
@@ -731,6 +845,8 @@ def _run(
     chosen = selected_ids((it.asset.id for it in items), only) if only else None
     picked = items if chosen is None else [it for it in items if it.asset.id in chosen]
     not_selected = len(items) - len(picked)
+    if chosen is not None and (clashes := _selection_clashes(cfg, items, picked, force)):
+        raise SelectionConflictError(clashes)
     # (no record to go by: every asset built again, and the outputs it recorded no longer known)
     lost = [
         f"{_rel(cfg, manifest_path)}: {why}; the run takes it for no manifest: every asset is built "
@@ -793,6 +909,15 @@ def _run(
             skipped = 0 if force else sum(i.up_to_date for i in picked)  # (force: each "to build")
             for path in orphan_names:
                 echo(f"{path}: output of an asset no longer in the config" + ("; --prune deletes it" * prune))
+            # (a rebuild's old outputs, at names output.names moved or of a kind no longer asked for: the run
+            # names them, and prune deletes them, once it is rebuilt; the plan said less than the run did)
+            for path in _left_by_rebuilds(
+                cfg, out_dir, items, [it for it in picked if force or not it.up_to_date]
+            ):
+                echo(
+                    f"{path}: output its asset's rebuild no longer writes" + ("; --prune deletes it" * prune)
+                )
+                orphan_names.append(path)
             to_build = {aid: found for aid, found in because.items() if found}
             return RunResult(
                 {}, 0, skipped, 0, warnings, 0.0, manifest_path, planned, **orphan_lists, because=to_build,
