@@ -282,6 +282,7 @@ def run_cmd(
     """
     from .codes import PROBLEM_KEYS
     from .pipeline import ConfigError, SelectionError, run
+    from .pipeline.reasons import counted, counted_shown
 
     if scheduler is not None and executor != "dask":
         # (it was ignored: the assets were built here while the user waited for the cluster to be used)
@@ -373,12 +374,19 @@ def run_cmd(
             # a dry run deletes nothing: what --prune would delete is named as such, and left in output.dir
             # (it was listed as `pruned`, which a script took for deleted)
             summary.update(pruned=[], unlisted=res.pruned or res.unlisted, would_prune=res.pruned)
+            # (the plan's totals: how many it would build, and why, as built_because counts a run's)
+            would = counted(list(res.because.values()))
+            summary.update(would_build=len(res.because), would_build_because=would)
         if dry_run or explain:
             summary["plan"] = res.plan
         click.echo(json.dumps(summary, indent=2, default=float))
-    elif not dry_run:
-        from .pipeline.reasons import counted_shown
-
+    elif dry_run:  # (a plan of thousands of lines: its totals last)
+        would = counted(list(res.because.values()))
+        why = f" ({counted_shown(would)})" if would else ""
+        left = f", {res.not_selected} not selected" if only else ""
+        todo = len(res.because)
+        click.echo(f"{todo} to build{why}, {res.skipped} up to date{left}; dry run: nothing written")
+    else:
         why = f" ({counted_shown(res.built_because)})" if res.built_because else ""
         left = f", {res.not_selected} not selected" if only else ""
         click.echo(

@@ -205,8 +205,10 @@ def test_dry_run_lists_the_selected_and_counts_the_others(project):
         "meshes/hero_b.obj",
         "meshes/new.obj",
         "5 assets not selected by --only (of 7)",
+        "1 to build (new 1), 1 up to date, 5 not selected; dry run",
     ]
     assert "[up to date]" in lines[0] and "[to build]" in lines[1] and "because: new" in lines[1]
+    assert lines[-1] == "1 to build (new 1), 1 up to date, 5 not selected; dry run: nothing written"
     assert not (project.parent / "out" / "new.swpm").exists()
     code, out, err = _cli(project, "--dry-run", "--only", "meshes/*", "--json")
     summary = json.loads(out)

@@ -386,6 +386,13 @@ def test_the_run_counts_its_reasons_and_the_report_shows_them(project):
     result = CliRunner().invoke(main, ["run", str(project), "--dry-run", "--json"])
     plan_entries = json.loads(result.stdout)["plan"]
     assert [e["because"] for e in plan_entries] == [[], [], []]
+    # a dry run's totals: what it would build and why (JSON and the last plain line)
+    with open(project.parent / "meshes" / "a.obj", "a") as f:
+        f.write("# edited\n")
+    summary = json.loads(CliRunner().invoke(main, ["run", str(project), "--dry-run", "--json"]).stdout)
+    assert (summary["would_build"], summary["would_build_because"]) == (1, {"inputs-changed": 1})
+    plain = CliRunner().invoke(main, ["run", str(project), "--dry-run", "--force"]).output.splitlines()
+    assert plain[-1] == "3 to build (forced 3, inputs changed 1), 0 up to date; dry run: nothing written"
 
 
 def test_params_of_encodings_whose_build_resolves_more(tmp_path):

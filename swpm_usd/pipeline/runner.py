@@ -1042,8 +1042,12 @@ def _run(
                 it.digest = rec["digest"]
             rec = _with_inputs(rec, it)
             rec["rule"] = _rule_name(cfg, it)
-            # (a loader's warnings, printed by the worker as it built, kept by the record and in --json's)
-            asset_warnings.extend(rec.get("warnings", ()))
+            # (a loader's warnings, printed by the worker as it built, kept by the record and in --json's;
+            # the input named as the config names it, not by the absolute path the worker loaded, so a
+            # project moved keeps its records)
+            if rec.get("warnings"):
+                rec["warnings"] = _warnings_named(rec["warnings"], it.asset)
+                asset_warnings.extend(rec["warnings"])
             for o in rec.get("outputs", {}).values():
                 _complete_output_record(out_dir / o["path"], o)
             if rec["status"] == "built":
@@ -1153,6 +1157,13 @@ def _run(
         records, len(built_ids), len(picked) - len(todo), failed, warnings, seconds, manifest_path, planned,
         failures, **orphan_lists, built_ids=built_ids, because=tried, not_selected=not_selected,
     )  # fmt: skip
+
+
+def _warnings_named(warnings: list[str], asset: Asset) -> list[str]:
+    """``warnings`` with the asset's input file named by its path relative to the config (its id's), where
+    they name it by the absolute path its worker loaded."""
+    rel = asset.id[: -len(asset.prim) - 1] if asset.prim is not None else asset.id
+    return [w.replace(str(asset.path), rel) for w in warnings]
 
 
 def _assets(n: int) -> str:
