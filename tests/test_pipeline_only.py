@@ -13,7 +13,7 @@ from conftest import SHARED_MESHES
 
 from swpm_usd.cli import main
 from swpm_usd.pipeline import run
-from swpm_usd.pipeline.runner import SelectionError, selected_ids
+from swpm_usd.pipeline.selection import SelectionError, selected_ids
 
 MESHES = ("hero_a", "hero_b", "rock", "tree")
 PRIMS = ("stages/set.usda:/World/car", "stages/set.usda:/World/lamp")

@@ -6,7 +6,8 @@ tasks, :func:`run` holds the steps together and records. What they call lives be
 rule, and whether its build is still current), :mod:`.tasks` (what a worker gets), :mod:`.pool` (the worker
 processes and their fork server), :mod:`.outputs` (the files in output.dir: checked, cleaned up, kept),
 :mod:`.lock` (one run at a time in an output folder), :mod:`.scene` (scene.usda), :mod:`.progress` and
-:mod:`.interrupts` (Ctrl-C), :mod:`.reasons` (why the plan builds an asset again: shown, never deciding).
+:mod:`.interrupts` (Ctrl-C), :mod:`.reasons` (why the plan builds an asset again: shown, never deciding),
+:mod:`.selection` (which assets ``only`` picks).
 
 The run manifest (``<output>/manifest.json``) is rewritten atomically as assets finish (at most once a second,
 and at once when the run ends, fails or is stopped with Ctrl-C), so an interrupted run keeps every earlier
@@ -44,11 +45,9 @@ whole has its report and manifest written); nor the lock file, which holds the p
 from __future__ import annotations
 
 import contextlib
-import fnmatch
 import gc
 import json
 import os
-import re
 import time
 from collections.abc import Generator, Iterable, Iterator
 from dataclasses import dataclass, field
@@ -59,7 +58,6 @@ from .. import __version__
 from ..errors import MissingExtraError
 from .assets import (
     Asset,
-    _folded,
     checks_no_stricter,
     checks_of,
     discover,
@@ -155,6 +153,8 @@ from .scene import SCENE_UP_AXIS as SCENE_UP_AXIS  # (re-exported)
 from .scene import UNITS_OP as UNITS_OP  # (re-exported)
 from .scene import UP_AXIS_OP as UP_AXIS_OP  # (re-exported)
 from .scene import _layer_with_units, _write_scene
+from .selection import SelectionConflictError, _selection_clashes, selected_ids
+from .selection import SelectionError as SelectionError  # (re-exported: swpm_usd.pipeline's)
 from .tasks import _task
 from .worker import (
     RUNNER_PID_ENV,
@@ -572,120 +572,6 @@ def execute(
 _SERVER_GIVEN: dict[int, tuple[list[str], list[str]]] = {}
 
 
-#: how many asset ids the error of an ``only`` pattern that matches none shows, so the user sees how ids look
-_IDS_SHOWN = 5
-
-
-class SelectionError(ValueError):
-    """``only`` patterns that match no asset of the config: a usage error (``run --only``: exit 2), raised
-    before the run builds or writes anything. ``patterns``: those; ``ids``: the config's first asset ids;
-    ``total``: how many it has; ``hints``: a pattern -> the pattern written as an id that matches (and how
-    many it takes), where one is near (:func:`_selection_hint`)."""
-
-    def __init__(
-        self, patterns: list[str], ids: list[str], total: int, hints: dict[str, tuple[str, int]] | None = None
-    ) -> None:
-        self.patterns, self.ids, self.total, self.hints = patterns, ids, total, hints or {}
-        which = ", ".join(repr(p) for p in patterns)
-        if not ids:
-            how = "the config has no assets"
-        else:
-            more = f", ... ({total} assets)" if total > len(ids) else ""
-            how = (
-                "an asset's id is its path relative to the config (a stage's prim: path:/prim/path), as "
-                f"--dry-run shows it: {', '.join(ids)}{more}"
-            )
-        guesses = "".join(
-            f" (did you mean '{h}'? {n} {'asset' if n == 1 else 'assets'})" for h, n in self.hints.values()
-        )
-        super().__init__(f"{which} {'matches' if len(patterns) == 1 else 'match'} no asset{guesses}; {how}")
-
-
-def _selection_hint(pattern: str, ids: list[str]) -> tuple[str, int] | None:
-    """A pattern near ``pattern`` that matches some of ``ids``: one written from the glob's folder rather
-    than the config's (``set03/*`` for ``lib/set03/*``), without the file's suffix (``lib/set03/rock``), or
-    as an output's name (``set03--rock``, the name under ``output.names: path``); the first that matches."""
-    from .assets import PATH_NAME_SEPARATOR
-
-    bases = dict.fromkeys([pattern, pattern.replace(PATH_NAME_SEPARATOR, "/")])
-    for base in bases:
-        for c in (f"*/{base}", f"{base}.*", f"*/{base}.*"):
-            rx = _pattern(c)
-            found = [aid for aid in ids if rx.match(aid)]
-            if len(found) == 1:
-                return found[0], 1
-            if found:
-                if c.startswith("*/"):  # the folders the ids put before it, when they all put the same
-                    c = _common_folders(c[2:], found) or c
-                return c, len(found)
-    return None
-
-
-def _common_folders(pattern: str, ids: list[str]) -> str | None:
-    """``pattern`` after the folders every id of ``ids`` has before what it matches (``lib/`` for ``set03/*``
-    of ``lib/set03/rock.obj``...), or None when they differ."""
-    heads = set()
-    for aid in ids:
-        cuts = [i + 1 for i, ch in enumerate(aid) if ch == "/"]
-        head = next((aid[:i] for i in cuts if _pattern(aid[:i] + pattern).match(aid)), None)
-        heads.add(head)
-        if head is None or len(heads) > 1:
-            return None
-    return heads.pop() + pattern
-
-
-class SelectionConflictError(SelectionError):
-    """``only`` selects an asset to build whose output would replace a file an asset it leaves out holds: its
-    recorded output, at the name it had before ``output.names`` changed (``x/a--b.obj``'s ``a--b.swpm``
-    and ``a/b.obj`` named by path). A usage error (``run --only``: exit 2), raised before the run builds or
-    writes anything: built, it overwrote the other's build, which the manifest and the scene still gave it.
-    ``clashes``: (selected id, output file, the id not selected that holds it)."""
-
-    def __init__(self, clashes: list[tuple[str, str, str]]) -> None:
-        self.clashes = clashes
-        pairs: dict[tuple[str, str], list[str]] = {}
-        for a, f, b in clashes:
-            pairs.setdefault((a, b), []).append(f)
-        shown = "; ".join(
-            f"{a} would write {' and '.join(files)}, the recorded output{'s' * (len(files) > 1)} of {b}, "
-            "which is not selected"
-            for (a, b), files in list(pairs.items())[:_IDS_SHOWN]
-        )
-        more = f"; ... ({len(pairs)} assets)" if len(pairs) > _IDS_SHOWN else ""
-        others = " ".join(f"--only '{b}'" for b in dict.fromkeys(b for _, b in list(pairs)[:_IDS_SHOWN]))
-        ValueError.__init__(
-            self,
-            f"{shown}{more} (its names before output.names or its glob changed): built, it would replace "
-            f"that asset's build; select it too ({others}) or run without --only",
-        )
-
-
-def _selection_clashes(cfg: Config, items: list, picked: list, force: bool) -> list[tuple[str, str, str]]:
-    """(selected id, file, unselected id) for each output a selected asset to build writes that an
-    unselected asset's record lists (compared as a case-insensitive filesystem names them)."""
-    chosen = {id(it) for it in picked}
-    held: dict[str, tuple[str, str]] = {}
-    for it in items:
-        if id(it) in chosen or not isinstance(it.previous, dict):
-            continue
-        for o in (it.previous.get("outputs") or {}).values():
-            if isinstance(o, dict) and isinstance(o.get("path"), str):
-                held[_folded(o["path"])] = (o["path"], it.asset.id)
-    if not held:
-        return []
-    clashes = []
-    for it in picked:
-        if not (force or not it.up_to_date):
-            continue
-        for suffix, kind, default in ((".swpm", "swpm", True), (".usdc", "usd", False)):
-            if not cfg.data["output"].get(kind, default):
-                continue
-            found = held.get(_folded(f"{it.asset.output_stem}{suffix}"))
-            if found is not None:
-                clashes.append((it.asset.id, found[0], found[1]))
-    return clashes
-
-
 def _left_by_rebuilds(cfg: Config, out_dir: Path, items: list, todo: list) -> list[str]:
     """The recorded outputs (output.dir-relative) of the assets ``todo`` that their rebuild does not write,
     still as recorded (:func:`.outputs._dropped_outputs`, as the run finds them once each is built), less
@@ -705,31 +591,6 @@ def _left_by_rebuilds(cfg: Config, out_dir: Path, items: list, todo: list) -> li
             if _file_key(path) not in keep:
                 found.append(o["path"])
     return found
-
-
-def _pattern(pattern: str) -> re.Pattern[str]:
-    """``pattern`` as fnmatch reads it (``*`` any characters, ``/`` and ``:`` too; ``?`` one; ``[seq]``),
-    case-sensitive on every system (ids are the config's paths), or the id it is written as."""
-    return re.compile(f"{re.escape(pattern)}\\Z|{fnmatch.translate(pattern)}")
-
-
-def selected_ids(ids: Iterable[str], patterns: Iterable[str]) -> set[str]:
-    """The ids of ``ids`` that any of ``patterns`` matches (:func:`_pattern`: ``meshes/hero_*`` also takes
-    ``meshes/hero_a/b.obj`` and the prims of ``meshes/hero_set.usda``; a plain id, ``[`` and all, matches
-    itself); raises :class:`SelectionError` naming each pattern that matches none."""
-    ids = list(ids)
-    chosen: set[str] = set()
-    unmatched = []
-    for p in dict.fromkeys(patterns):  # (a pattern given twice: once)
-        rx = _pattern(p)
-        found = [aid for aid in ids if rx.match(aid)]
-        if not found:
-            unmatched.append(p)
-        chosen.update(found)
-    if unmatched:
-        hints = {p: h for p in unmatched if (h := _selection_hint(p, ids)) is not None}
-        raise SelectionError(unmatched, ids[:_IDS_SHOWN], len(ids), hints)
-    return chosen
 
 
 def run(
