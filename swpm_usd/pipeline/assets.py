@@ -37,6 +37,12 @@ class Asset:
     path_name: str | None = None
 
     @property
+    def file_id(self) -> str:
+        """Its id without ``:<prim>``: its file's path relative to the config (a file's name may hold ':'
+        itself, ``x:y.obj``, so the prim is cut by its length)."""
+        return self.id[: -len(self.prim) - 1] if self.prim is not None else self.id
+
+    @property
     def output_stem(self) -> str:
         """The name of its outputs without their suffix (``rock`` for ``rock.swpm``; a stage's prim after the
         stage's name and ``__``)."""
@@ -704,9 +710,7 @@ def rule_checks(rule: dict[str, Any], asset: Asset, triangles: int) -> list[tupl
     m = rule.get("match") or {}
     checks = []
     if "path" in m:
-        # (a stage asset's id is "<stage>:<prim>"; a file's name may hold ':' itself: `x:y.obj`)
-        rel = asset.id[: -len(asset.prim) - 1] if asset.prim is not None else asset.id
-        checks.append(("path", fnmatch.fnmatch(rel, m["path"])))
+        checks.append(("path", fnmatch.fnmatch(asset.file_id, m["path"])))  # (a stage asset: its stage's)
     if "prim" in m:
         checks.append(("prim", asset.prim is not None and fnmatch.fnmatch(asset.prim, m["prim"])))
     if "triangles" in m:

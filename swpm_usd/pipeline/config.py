@@ -288,10 +288,9 @@ def _numeric_param(cfg: Config, path: tuple) -> bool:
     )
 
 
-def _params_owner(cfg: Config, path: tuple) -> str:
-    """Whose parameters ``path`` (``defaults.params``, ``rules[i].params``) are, for an unknown key's message:
-    its encoding named (it said "this rule's encoding", of the defaults too, and of ``auto``, which takes
-    ``select`` alone)."""
+def _params_encoding(cfg: Config, path: tuple) -> Any:
+    """The encoding whose parameters ``path`` (``defaults.params``, ``rules[i].params``) are: its section's
+    ``encoding`` (the defaults' default when the defaults give none), None when the config does not say."""
     from .schema import DEFAULT
 
     section: Any = cfg.data
@@ -299,9 +298,15 @@ def _params_owner(cfg: Config, path: tuple) -> str:
         try:
             section = section[key]
         except (KeyError, IndexError, TypeError):
-            return "not a parameter of this rule's encoding"
+            return None
     default = DEFAULT if path[0] == "defaults" else None
-    encoding = section.get("encoding", default) if isinstance(section, dict) else None
+    return section.get("encoding", default) if isinstance(section, dict) else None
+
+
+def _params_owner(cfg: Config, path: tuple) -> str:
+    """Whose parameters ``path`` are, for an unknown key's message: its encoding named (it said "this rule's
+    encoding", of the defaults too, and of ``auto``, which takes ``select`` alone)."""
+    encoding = _params_encoding(cfg, path)
     if encoding == "auto":  # (it builds every encoding with its defaults)
         return "not a parameter of auto, which takes select alone"
     if not isinstance(encoding, str):
@@ -384,16 +389,8 @@ def _did_you_mean(word: Any, known: list[str]) -> str:
 def _owner_params(cfg: Config, path: tuple) -> list[str]:
     """The parameter names of the encoding whose ``params`` ``path`` is (none known: [])."""
     from ..encodings import ENCODING_PARAMS
-    from .schema import DEFAULT
 
-    section: Any = cfg.data
-    for key in path[:-1]:
-        try:
-            section = section[key]
-        except (KeyError, IndexError, TypeError):
-            return []
-    default = DEFAULT if path[0] == "defaults" else None
-    encoding = section.get("encoding", default) if isinstance(section, dict) else None
+    encoding = _params_encoding(cfg, path)
     return list(ENCODING_PARAMS.get(encoding, ())) if isinstance(encoding, str) else []
 
 

@@ -132,6 +132,7 @@ from .reasons import build_reasons, counted, reason
 from .reasons import shown as reasons_shown
 from .records import record_problem, recorded_inputs
 from .rules import (
+    OUTPUT_SUFFIXES,
     _current_why,
     _digest_with_count,
     _max_triangles,
@@ -576,16 +577,14 @@ def _left_by_rebuilds(cfg: Config, out_dir: Path, items: list, todo: list) -> li
     """The recorded outputs (output.dir-relative) of the assets ``todo`` that their rebuild does not write,
     still as recorded (:func:`.outputs._dropped_outputs`, as the run finds them once each is built), less
     the files this run's assets write or read."""
-    out = cfg.data["output"]
-    kinds = [
-        (k, s) for k, s, default in (("swpm", ".swpm", True), ("usd", ".usdc", False)) if out.get(k, default)
-    ]
+    wanted = _wanted_outputs(cfg)
     found: list[str] = []
     keep = None
     for it in todo:
         if not isinstance(it.previous, dict):
             continue
-        built = {"outputs": {k: {"path": f"{it.asset.output_stem}{s}"} for k, s in kinds}}
+        stem = it.asset.output_stem
+        built = {"outputs": {k: {"path": f"{stem}{OUTPUT_SUFFIXES[k]}"} for k in wanted}}
         for path, o in _dropped_outputs(out_dir, it.previous, built):
             keep = _files_kept(cfg, out_dir, items) if keep is None else keep
             if _file_key(path) not in keep:
@@ -1023,8 +1022,7 @@ def _run(
 def _warnings_named(warnings: list[str], asset: Asset) -> list[str]:
     """``warnings`` with the asset's input file named by its path relative to the config (its id's), where
     they name it by the absolute path its worker loaded."""
-    rel = asset.id[: -len(asset.prim) - 1] if asset.prim is not None else asset.id
-    return [w.replace(str(asset.path), rel) for w in warnings]
+    return [w.replace(str(asset.path), asset.file_id) for w in warnings]
 
 
 def _assets(n: int) -> str:

@@ -13,6 +13,7 @@ from collections.abc import Iterable
 
 from .assets import _folded
 from .config import Config
+from .rules import OUTPUT_SUFFIXES, _wanted_outputs
 
 #: how many asset ids the error of an ``only`` pattern that matches none shows, so the user sees how ids look
 _IDS_SHOWN = 5
@@ -119,10 +120,8 @@ def _selection_clashes(cfg: Config, items: list, picked: list, force: bool) -> l
     for it in picked:
         if not (force or not it.up_to_date):
             continue
-        for suffix, kind, default in ((".swpm", "swpm", True), (".usdc", "usd", False)):
-            if not cfg.data["output"].get(kind, default):
-                continue
-            found = held.get(_folded(f"{it.asset.output_stem}{suffix}"))
+        for kind in sorted(_wanted_outputs(cfg)):
+            found = held.get(_folded(f"{it.asset.output_stem}{OUTPUT_SUFFIXES[kind]}"))
             if found is not None:
                 clashes.append((it.asset.id, found[0], found[1]))
     return clashes
