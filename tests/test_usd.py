@@ -1153,6 +1153,48 @@ def test_cli_reports_json_and_exit_code(asset, tmp_path):
     assert res.exit_code == 1 and "SWPM_USD_ENCODING /Suzanne/mesh" in res.output
 
 
+def _remove(name):
+    return lambda p: p.RemoveProperty(name)
+
+
+@pytest.mark.parametrize("name", ["swpm:encoding", "swpm:indices", "points"])
+def test_an_attribute_left_out_is_missing_not_its_schema_fallback(asset, tmp_path, name):
+    """A required attribute removed from the layer: with the schema registered ``Get()`` gave its fallback
+    (``vanilla``, 1, ``[]``), so a prim without ``swpm:encoding`` or ``swpm:formatVersion`` validated and
+    read (a tool without the plugin reads no value there), one without ``swpm:indices`` was
+    ``SWPM_USD_REBUILD`` and one without points ``SWPM_USD_INDEX_RANGE``."""
+    bad = _corrupt(asset, tmp_path / "bad.usdc", _remove(name))
+    findings = [f for f in validate_stage(bad) if f.code.startswith("SWPM_")]
+    assert [(f.code, f.prim) for f in findings] == [("SWPM_USD_MISSING", "/Suzanne/mesh")]
+    assert findings[0].message == f"{name} has no value"
+    stage = Usd.Stage.Open(str(bad))
+    with pytest.raises(UsdReadError, match=f"^{bad}: /Suzanne/mesh: attribute {name} is missing$"):
+        usd.read(stage.GetDefaultPrim())
+
+
+def test_an_optional_attribute_left_out_is_not_checked_as_its_fallback(asset, tmp_path):
+    """swpm:indexWidth is optional: left out, validate checked its schema fallback 4 against the 2 the
+    indices need and said ``swpm:indexWidth is 4`` of a stage that authors none."""
+    bad = _corrupt(asset, tmp_path / "bad.usdc", _remove("swpm:indexWidth"))
+    assert validate_stage(bad) == []
+
+
+def test_a_uniform_attribute_with_only_time_samples_has_no_value(asset, tmp_path):
+    def sampled(p):
+        a = p.GetAttribute("swpm:lodErrors")
+        value = a.Get()
+        a.Clear()
+        a.Set(value, 1.0)
+
+    bad = _corrupt(asset, tmp_path / "bad.usdc", sampled)
+    [finding] = [f for f in validate_stage(bad) if f.code.startswith("SWPM_")]
+    assert finding.code == "SWPM_USD_MISSING"
+    assert finding.message.startswith("swpm:lodErrors has no value (it has only time samples)")
+    stage = Usd.Stage.Open(str(bad))
+    with pytest.raises(UsdReadError, match="swpm:lodErrors is missing \\(it has only time samples\\)"):
+        usd.read(stage.GetDefaultPrim())
+
+
 @pytest.mark.parametrize("encoding", sorted(BUILDERS))
 def test_an_edited_stage_is_rejected_before_the_runtime(encoding, mesh, tmp_path):
     """Every swpm: uint[] array of a written prim, one element set out of range or off by one: ``read``

@@ -91,11 +91,36 @@ def _unloaded(prim: Usd.Prim) -> str:
     return f"; payloads at or under it not loaded ({len(paths)}): {listed} (stage.Load(path) loads one)"
 
 
+def stored_value(attr: Usd.Attribute) -> tuple[Any, str]:
+    """``(value, "")`` for an attribute with a value authored at the default time (every ``swpm:`` attribute
+    is uniform), else ``(None, why)``: ``""`` (not authored), ``" (it is blocked)"`` or ``" (it has only time
+    samples)"``. The schema's fallback is no stored value: with the plugin registered ``attr.Get()`` gives
+    it (``"vanilla"`` for a prim without ``swpm:encoding``, ``[]`` without ``swpm:indices``), where a tool
+    without the plugin reads None, so a prim that lacks one read and validated as another."""
+    if not attr:
+        return None, ""
+    info = attr.GetResolveInfo(Usd.TimeCode.Default())
+    if info.GetSource() == Usd.ResolveInfoSourceDefault:
+        return attr.Get(), ""
+    if info.ValueIsBlocked():
+        return None, " (it is blocked)"
+    return None, " (it has only time samples)" if attr.GetNumTimeSamples() else ""
+
+
+def authored_type(attr: Usd.Attribute) -> str:
+    """The type name ``attr`` is authored with (its strongest spec's): with the plugin registered
+    ``attr.GetTypeName()`` is the schema's whatever the layer holds."""
+    stack = attr.GetPropertyStack()
+    return str(stack[0].typeName) if stack else str(attr.GetTypeName())
+
+
 def _get(prim: Usd.Prim, name: str, required: bool = True) -> Any:
     attr = prim.GetAttribute(name)
-    value = attr.Get() if attr else None
-    if value is None and required:
-        raise UsdReadError(f"{_where(prim)}: attribute {name} is missing")
+    value, why = stored_value(attr)
+    if value is None:
+        if required:
+            raise UsdReadError(f"{_where(prim)}: attribute {name} is missing{why}{_overridden(prim)}")
+        return None
     return value
 
 
