@@ -19,6 +19,7 @@ from swpm_usd.encode import BUILDERS
 from swpm_usd.mesh import Mesh
 from swpm_usd.usd import schema
 from swpm_usd.usd.reader import UsdReadError
+from swpm_usd.usd.schema import PROPERTY_TYPES
 from swpm_usd.usd.validate import CODES, validate_prim, validate_stage
 
 MESHES = Path(__file__).resolve().parents[2] / "shared" / "meshes"
@@ -1157,7 +1158,7 @@ def _remove(name):
     return lambda p: p.RemoveProperty(name)
 
 
-@pytest.mark.parametrize("name", ["swpm:encoding", "swpm:indices", "points"])
+@pytest.mark.parametrize("name", ["swpm:encoding", "swpm:formatVersion", "swpm:indices", "points"])
 def test_an_attribute_left_out_is_missing_not_its_schema_fallback(asset, tmp_path, name):
     """A required attribute removed from the layer: with the schema registered ``Get()`` gave its fallback
     (``vanilla``, 1, ``[]``), so a prim without ``swpm:encoding`` or ``swpm:formatVersion`` validated and
@@ -1193,6 +1194,51 @@ def test_a_uniform_attribute_with_only_time_samples_has_no_value(asset, tmp_path
     stage = Usd.Stage.Open(str(bad))
     with pytest.raises(UsdReadError, match="swpm:lodErrors is missing \\(it has only time samples\\)"):
         usd.read(stage.GetDefaultPrim())
+
+
+@pytest.mark.parametrize(
+    ("name", "type_name", "value", "authored"),
+    [
+        ("swpm:indices", Sdf.ValueTypeNames.FloatArray, None, "float[]"),
+        ("swpm:indices", Sdf.ValueTypeNames.IntArray, None, "int[]"),
+        ("swpm:vertexCounts", Sdf.ValueTypeNames.IntArray, None, "int[]"),
+        ("swpm:encoding", Sdf.ValueTypeNames.String, "vanilla", "string"),
+    ],
+)
+def test_read_refuses_an_attribute_of_another_type_as_validate_does(
+    asset, tmp_path, name, type_name, value, authored
+):
+    """The same values under another type: validate's SWPM_USD_TYPE, which read passed, casting them (a
+    float index 1.5 read as 1, an int -1 as 4294967295)."""
+
+    def retype(p):
+        v = value if value is not None else type_name.type.pythonClass(list(p.GetAttribute(name).Get()))
+        _retype(p, name, type_name, v)
+
+    bad = _corrupt(asset, tmp_path / "bad.usda", retype)
+    assert "SWPM_USD_TYPE" in [f.code for f in validate_stage(bad)]
+    expected = PROPERTY_TYPES[name]
+    stage = Usd.Stage.Open(str(bad))
+    with pytest.raises(
+        UsdReadError,
+        match=f"^{bad}: /Suzanne/mesh: {name} is authored as {re.escape(authored)}, "
+        f"expected {re.escape(expected)}$",
+    ):
+        usd.read(stage.GetDefaultPrim())
+
+
+def test_read_refuses_a_format_version_it_does_not_read(asset, tmp_path):
+    """swpm:formatVersion 2 (a later layout): validate's SWPM_USD_VERSION, which read passed, reading the
+    buffers as version 1's."""
+    bad = _corrupt(asset, tmp_path / "bad.usdc", lambda p: p.GetAttribute("swpm:formatVersion").Set(2))
+    assert [f.code for f in validate_stage(bad)] == ["SWPM_USD_VERSION"]
+    stage = Usd.Stage.Open(str(bad))
+    for fn in (usd.read, usd.read_buffers):
+        stage = Usd.Stage.Open(str(bad))
+        with pytest.raises(
+            UsdReadError, match="swpm:formatVersion 2 is not supported \\(this reader reads 1\\)"
+        ):
+            fn(stage.GetDefaultPrim())
 
 
 @pytest.mark.parametrize("encoding", sorted(BUILDERS))

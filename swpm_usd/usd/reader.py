@@ -18,7 +18,7 @@ from ..encode.base import ProgressiveMesh, from_buffers, with_attributes
 from ..errors import SwpmError, first_few
 from ..format.meta import parse_meta_json
 from .arrays import ATTRIBUTE_DTYPES, BUFFER_DTYPES, dtype_problem, from_vt
-from .schema import COLLAPSE_PREFIX, SCHEMA_NAME, attr_name
+from .schema import COLLAPSE_PREFIX, FORMAT_VERSION, PROPERTY_TYPES, SCHEMA_NAME, attr_name
 
 _PROXIES = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
 
@@ -121,12 +121,32 @@ def _get(prim: Usd.Prim, name: str, required: bool = True) -> Any:
         if required:
             raise UsdReadError(f"{_where(prim)}: attribute {name} is missing{why}{_overridden(prim)}")
         return None
+    expected = PROPERTY_TYPES.get(name)
+    if expected is not None and authored_type(attr) != expected:
+        # (cast as it came, an int[] index -1 became 4294967295 and a float[] 1.5 became 1: validate's
+        # SWPM_USD_TYPE, which read passed)
+        raise UsdReadError(
+            f"{_where(prim)}: {name} is authored as {authored_type(attr)}, expected {expected}"
+            f"{_overridden(prim)}"
+        )
     return value
+
+
+def _check_version(prim: Usd.Prim) -> None:
+    """The prim's ``swpm:formatVersion`` is the layout this reader reads: another version may store its
+    buffers otherwise (validate's ``SWPM_USD_VERSION``, which read passed, reading a version 2 as 1)."""
+    version = _get(prim, "swpm:formatVersion")
+    if int(version) != FORMAT_VERSION:
+        raise UsdReadError(
+            f"{_where(prim)}: swpm:formatVersion {version} is not supported (this reader reads "
+            f"{FORMAT_VERSION}){_overridden(prim)}"
+        )
 
 
 def read_buffers(prim: Usd.Prim) -> dict[str, np.ndarray]:
     """The encoding's buffers stored on ``prim`` (an encoded Mesh, or a prim with one below it)."""
     prim = _encoded_prim(prim)
+    _check_version(prim)
     names = list(_get(prim, "swpm:bufferNames"))
     dtypes = list(_get(prim, "swpm:bufferDtypes"))
     problem = dtype_problem("swpm:bufferDtypes", dtypes, BUFFER_DTYPES)
@@ -249,6 +269,7 @@ def read(prim: Usd.Prim, check: bool = True) -> ProgressiveMesh:
     corrupt memory). It costs about 2-3x the read itself (bunny: 7-26 ms); ``check=False`` skips it for
     stages this package just wrote."""
     prim = _encoded_prim(prim)
+    _check_version(prim)
     encoding = str(_get(prim, "swpm:encoding"))
     points = np.asarray(_get(prim, "points"), np.float32).reshape(-1, 3)
     try:
