@@ -1241,6 +1241,29 @@ def test_read_refuses_a_format_version_it_does_not_read(asset, tmp_path):
             fn(stage.GetDefaultPrim())
 
 
+def test_read_names_the_attribute_of_bad_params_and_a_bad_row_width(tmp_path, mesh):
+    """read's errors name the attribute: params [1, 2] was "the stored arrays do not form a progressive
+    mesh: cannot convert dictionary update sequence element #0 to a sequence", windowRecords of 5 entries
+    "cannot reshape array of size 5 into shape (3)"."""
+    import swpm_usd.encode.slidingwindow as sw
+
+    src = usd.write(sw.build_sliding_window(mesh), tmp_path / "sw.usdc")
+    bad = _corrupt(src, tmp_path / "params.usdc", lambda p: p.GetAttribute("swpm:params").Set("[1, 2]"))
+    stage = Usd.Stage.Open(str(bad))
+    with pytest.raises(UsdReadError, match="/Sw/mesh: swpm:params is not a JSON object .* a JSON list"):
+        usd.read(stage.GetDefaultPrim())
+
+    def cut(p):
+        p.GetAttribute("swpm:windowRecords").Set(Vt.UIntArray([0, 1, 2, 3, 4]))
+
+    bad = _corrupt(src, tmp_path / "rows.usdc", cut)
+    stage = Usd.Stage.Open(str(bad))
+    with pytest.raises(
+        UsdReadError, match="/Sw/mesh: swpm:windowRecords has 5 entries, not a multiple of its row width 3"
+    ):
+        usd.read_buffers(stage.GetDefaultPrim())
+
+
 @pytest.mark.parametrize("encoding", sorted(BUILDERS))
 def test_an_edited_stage_is_rejected_before_the_runtime(encoding, mesh, tmp_path):
     """Every swpm: uint[] array of a written prim, one element set out of range or off by one: ``read``

@@ -173,7 +173,13 @@ def read_buffers(prim: Usd.Prim) -> dict[str, np.ndarray]:
         if name in column_of and table is not None:
             out[name] = np.ascontiguousarray(table[:, column_of[name]]).astype(dtype, copy=False)
         else:
-            out[name] = from_vt(_get(prim, attr_name(name)), dtype, int(cols))
+            value = _get(prim, attr_name(name))
+            if cols and len(value) % int(cols):  # (named here: numpy's reshape error named neither)
+                raise UsdReadError(
+                    f"{_where(prim)}: {attr_name(name)} has {len(value)} entries, not a multiple of its "
+                    f"row width {int(cols)} (swpm:bufferColumns){_overridden(prim)}"
+                )
+            out[name] = from_vt(value, dtype, int(cols))
     return out
 
 
@@ -274,6 +280,15 @@ def read(prim: Usd.Prim, check: bool = True) -> ProgressiveMesh:
     points = np.asarray(_get(prim, "points"), np.float32).reshape(-1, 3)
     try:
         params = parse_meta_json(_get(prim, "swpm:params", required=False) or "{}")
+        if not isinstance(params, dict):
+            raise ValueError(f"a JSON {type(params).__name__}, not an object")
+    except (ValueError, RecursionError) as e:
+        # (it was "the stored arrays do not form a progressive mesh: cannot convert dictionary update
+        # sequence element #0 to a sequence" for params [1, 2], naming no attribute)
+        raise UsdReadError(
+            f"{_where(prim)}: swpm:params is not a JSON object a .swpm META may hold: {e}{_overridden(prim)}"
+        ) from e
+    try:
         pm = from_buffers(
             encoding,
             points,
