@@ -81,6 +81,19 @@ def test_resources_match_the_property_table():
         assert (schema.RESOURCES / name).read_text(encoding="utf-8") == text, f"regenerate {name}"
 
 
+def test_spec_attribute_table_is_the_schema_a_usd_tool_reads():
+    """spec/usd.md's attribute table says what generatedSchema.usda documents (what usdview or a DCC shows):
+    swpm:params' rules (META's: no NaN, no duplicate key, 128 deep) were in the spec alone."""
+    spec = (Path(__file__).resolve().parents[1] / "spec" / "usd.md").read_text(encoding="utf-8")
+    rows = dict(
+        (m.group(1), (m.group(2), m.group(3)))
+        for m in re.finditer(r"^\| `(swpm:\w+)` \| `([^`]+)` \| (.*) \|$", spec, re.M)
+    )
+    assert list(rows) == [p.name for p in schema.PROPERTIES]
+    for p in schema.PROPERTIES:
+        assert rows[p.name] == (p.type, p.doc), p.name
+
+
 def test_schema_registered_with_documented_properties():
     defn = Usd.SchemaRegistry().FindAppliedAPIPrimDefinition(schema.SCHEMA_NAME)
     assert defn is not None
