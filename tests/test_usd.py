@@ -1281,6 +1281,30 @@ def test_read_names_the_attribute_of_bad_params_and_a_bad_row_width(tmp_path, me
         usd.read_buffers(stage.GetDefaultPrim())
 
 
+@pytest.mark.parametrize("name", ["swpm:indices", "normals"])
+def test_a_value_usd_core_cannot_read_is_a_usd_read_error(pm, tmp_path, monkeypatch, name):
+    """A value of a corrupt .usdc that does not decompress (usd-core: "Failed to decompress data, possibly
+    corrupt? LZ4 error code: -464", found flipping bytes of a written asset) reached the caller of read as
+    pxr's Tf.ErrorException; it is a UsdReadError naming the prim (and the swpm: attribute)."""
+    path = usd.write(pm, tmp_path / "suzanne.usdc")
+    real = Usd.Attribute.Get
+
+    def corrupt(attr, *args):
+        if attr.GetName() == name:
+            from pxr import Tf
+
+            Tf.RaiseRuntimeError("Failed to decompress data, possibly corrupt? LZ4 error code: -464")
+        return real(attr, *args)
+
+    stage = Usd.Stage.Open(str(path))
+    monkeypatch.setattr(Usd.Attribute, "Get", corrupt)
+    what = name if name.startswith("swpm:") else "a value"
+    with pytest.raises(
+        UsdReadError, match=f"^{path}: /Suzanne/mesh: usd-core cannot read {what}: .*LZ4 error"
+    ):
+        usd.read(stage.GetDefaultPrim())
+
+
 @pytest.mark.parametrize("encoding", sorted(BUILDERS))
 def test_an_edited_stage_is_rejected_before_the_runtime(encoding, mesh, tmp_path):
     """Every swpm: uint[] array of a written prim, one element set out of range or off by one: ``read``
@@ -1288,7 +1312,7 @@ def test_an_edited_stage_is_rejected_before_the_runtime(encoding, mesh, tmp_path
     its vertex prefix and whose runtime instance walks the LODs. Before the check, a collapse record
     pointing outside the index buffer crashed the process in ``set_lod``."""
     pm = swpm_usd.build(mesh, encoding)
-    path = usd.write(pm, tmp_path / "a.usdc")
+    path = usd.write(pm, tmp_path / "suzanne.usdc")
     stage = Usd.Stage.Open(str(path))
     prim = usd.find_encoded(stage)[0]
     arrays = [

@@ -12,10 +12,10 @@ import os
 from typing import Any
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom
+from pxr import Sdf, Tf, Usd, UsdGeom
 
 from ..encode.base import ProgressiveMesh, from_buffers, with_attributes
-from ..errors import SwpmError, first_few
+from ..errors import SwpmError, first_few, tf_message
 from ..format.meta import parse_meta_json
 from .arrays import ATTRIBUTE_DTYPES, BUFFER_DTYPES, dtype_problem, from_vt
 from .schema import COLLAPSE_PREFIX, FORMAT_VERSION, PROPERTY_TYPES, SCHEMA_NAME, attr_name
@@ -116,7 +116,10 @@ def authored_type(attr: Usd.Attribute) -> str:
 
 def _get(prim: Usd.Prim, name: str, required: bool = True) -> Any:
     attr = prim.GetAttribute(name)
-    value, why = stored_value(attr)
+    try:
+        value, why = stored_value(attr)
+    except Tf.ErrorException as e:  # (corrupt .usdc data: a value that does not decompress or unpack)
+        raise UsdReadError(f"{_where(prim)}: usd-core cannot read {name}: {tf_message(e)}") from e
     if value is None:
         if required:
             raise UsdReadError(f"{_where(prim)}: attribute {name} is missing{why}{_overridden(prim)}")
@@ -305,6 +308,8 @@ def read(prim: Usd.Prim, check: bool = True) -> ProgressiveMesh:
         )
     except UsdReadError:
         raise
+    except Tf.ErrorException as e:  # (a primvar's value usd-core cannot read: corrupt .usdc data)
+        raise UsdReadError(f"{_where(prim)}: usd-core cannot read a value: {tf_message(e)}") from e
     except (SwpmError, ValueError, TypeError, IndexError, KeyError, RecursionError) as e:
         raise UsdReadError(
             f"{_where(prim)}: the stored arrays do not form a progressive mesh: {e}{_overridden(prim)}"
@@ -320,8 +325,11 @@ def read_file(path: str | os.PathLike[str], prim: str | None = None, check: bool
     one encoded prim below it will do, as :func:`read` takes), else the stage's only encoded prim.
     :class:`UsdReadError` names the file and what is wrong: missing (code ``INPUT_NOT_FOUND``), not a
     regular file, not a stage usd-core opens, no encoded prim, several (listed: pass ``prim``), or a prim
-    whose buffers fail :func:`read`'s checks."""
+    whose buffers fail :func:`read`'s checks. A stage that opens a crate file is opened first in a probe
+    process (:mod:`swpm_usd.usd.probe`): one usd-core crashes on, hangs on or fails to read there is a
+    :class:`UsdReadError` with what the probe found, never opened in this process."""
     from ..fileio import missing_file_problem
+    from .probe import checked
     from .validate import _open
 
     name = os.fspath(path)
@@ -330,7 +338,13 @@ def read_file(path: str | os.PathLike[str], prim: str | None = None, check: bool
         err = UsdReadError(f"{name}: " + (missing_file_problem(name) if missing else "not a regular file"))
         err.code = "INPUT_NOT_FOUND" if missing else "INPUT_UNREADABLE"
         raise err
-    stage, why = _open(name)
+    # a crate file is untrusted input usd-core does not always survive (spec/usd.md): opened first in a probe
+    # process, as validate and the loader do, and here only if that ends cleanly (swpm_usd.load of a
+    # corrupt .usdc died by SIGSEGV, or raised pxr's Tf.ErrorException for a value that does not decompress)
+    with checked(name) as probed:
+        if probed is not None:
+            raise UsdReadError(probed.message)
+        stage, why = _open(name)
     if stage is None:
         raise UsdReadError(why)
     if prim is not None:
