@@ -1054,6 +1054,22 @@ def _corrupt(src: Path, dst: Path, edit) -> Path:
     return dst
 
 
+def test_write_usdlod_references_the_asset_file_relative(pm, tmp_path):
+    """The LOD layer's sources reference the asset as scene.usda does, ``./spot.usda`` (``../a/spot.usda``
+    from another folder): it wrote ``spot.usda``, a search path to USD, which a studio's resolver may look
+    up in its search paths instead of beside the layer."""
+    asset = usd.write(pm, tmp_path / "a" / "spot.usda", lods=2)
+    for out, expected in (
+        (tmp_path / "a" / "lod.usda", "./spot.usda"),
+        (tmp_path / "b" / "lod.usda", "../a/spot.usda"),
+    ):
+        layer = Sdf.Layer.FindOrOpen(str(usd.write_usdlod(asset, out)))
+        spec = layer.GetPrimAtPath("/SpotLOD/sources/LOD1")
+        assert [r.assetPath for r in spec.referenceList.GetAddedOrExplicitItems()] == [expected]
+        stage = Usd.Stage.Open(layer)
+        assert usd.read(stage.GetPrimAtPath("/SpotLOD/lod/LOD1")).lod_count == pm.lod_count
+
+
 def test_select_lods_names_a_ratio_that_is_negative_or_nan(pm):
     """lod_for_triangles refuses a negative or NaN target (helper-138): a ratio that made one is named as
     the ratio, not as a "target" the caller never passed (main: a negative ratio's odd levels were the
