@@ -1260,6 +1260,27 @@ def test_read_refuses_an_attribute_of_another_type_as_validate_does(
         usd.read(stage.GetDefaultPrim())
 
 
+def test_usd_core_type_mismatch_is_reported_at_its_prim(asset, tmp_path):
+    """usdValidation:AttributeTypeMismatch names the attribute's spec in a layer, not a stage object: its
+    finding was at ``/`` beside ours at /Suzanne/mesh; in the stage's own layers a spec's path is the
+    prim's (through a reference it is the layer's own path: still ``/``)."""
+    bad = _corrupt(
+        asset,
+        tmp_path / "bad.usda",
+        lambda p: _retype(p, "swpm:indices", Sdf.ValueTypeNames.IntArray, Vt.IntArray([0, 1, 2])),
+    )
+    found = {f.code: f.prim for f in validate_stage(bad)}
+    assert found["usdValidation:AttributeTypeMismatch.AttributeTypeMismatch"] == "/Suzanne/mesh"
+    assert found["SWPM_USD_TYPE"] == "/Suzanne/mesh"
+    shot = tmp_path / "shot.usda"
+    stage = Usd.Stage.CreateNew(str(shot))
+    stage.DefinePrim("/World/a").GetReferences().AddReference(f"./{bad.name}")
+    stage.GetRootLayer().Save()
+    found = {f.code: f.prim for f in validate_stage(shot)}
+    assert found["usdValidation:AttributeTypeMismatch.AttributeTypeMismatch"] == "/"
+    assert found["SWPM_USD_TYPE"] == "/World/a/mesh"
+
+
 def test_read_refuses_a_format_version_it_does_not_read(asset, tmp_path):
     """swpm:formatVersion 2 (a later layout): validate's SWPM_USD_VERSION, which read passed, reading the
     buffers as version 1's."""

@@ -478,10 +478,20 @@ def _builtin_names(reg: Any) -> list[str]:
     ]
 
 
-def _site_path(err: Any) -> str:
+def _site_path(err: Any, stage: Usd.Stage) -> str:
+    """The prim a usd-core finding is about: its site's prim or property, or the prim of a layer spec it
+    names (usdValidation:AttributeTypeMismatch's site is the attribute's spec in a layer, no stage object: it
+    was reported at ``/``) when that layer is in the stage's own layer stack, where a spec's path is the
+    prim's; else ``/`` (a referenced layer's paths are not the stage's)."""
+    stack = None
     for site in err.GetSites():
         if site.IsPrim() or site.IsProperty():
             return str(site.GetPrim().GetPath() if site.IsPrim() else site.GetProperty().GetPath())
+        spec = site.GetPropertySpec() or site.GetPrimSpec()
+        if spec:
+            stack = stack if stack is not None else {layer.identifier for layer in stage.GetLayerStack()}
+            if spec.layer.identifier in stack:
+                return str(spec.path.GetPrimPath())
     return "/"
 
 
@@ -594,7 +604,7 @@ def _validate_into(findings: list[Finding], stage: Usd.Stage, reg: Any, names: l
                 code = str(err.GetName()).rsplit(".", 1)[-1]
             else:
                 code = f"{vname}.{err.GetName()}" if str(err.GetName()) else vname
-            findings.append(Finding(code, severity, _site_path(err), err.GetMessage()))
+            findings.append(Finding(code, severity, _site_path(err, stage), err.GetMessage()))
     if not ours:
         rng = Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate))
         for prim in rng:
