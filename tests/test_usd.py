@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 import subprocess
 import sys
@@ -19,6 +20,7 @@ from swpm_usd.encode import BUILDERS
 from swpm_usd.mesh import Mesh
 from swpm_usd.usd import schema
 from swpm_usd.usd.reader import UsdReadError
+from swpm_usd.usd.schema import PROPERTY_TYPES
 from swpm_usd.usd.validate import CODES, validate_prim, validate_stage
 
 MESHES = Path(__file__).resolve().parents[2] / "shared" / "meshes"
@@ -78,6 +80,19 @@ def _assert_same(bufs: dict[str, np.ndarray], expected: dict[str, np.ndarray]) -
 def test_resources_match_the_property_table():
     for name, text in schema.resource_texts().items():
         assert (schema.RESOURCES / name).read_text(encoding="utf-8") == text, f"regenerate {name}"
+
+
+def test_spec_attribute_table_is_the_schema_a_usd_tool_reads():
+    """spec/usd.md's attribute table says what generatedSchema.usda documents (what usdview or a DCC shows):
+    swpm:params' rules (META's: no NaN, no duplicate key, 128 deep) were in the spec alone."""
+    spec = (Path(__file__).resolve().parents[1] / "spec" / "usd.md").read_text(encoding="utf-8")
+    rows = dict(
+        (m.group(1), (m.group(2), m.group(3)))
+        for m in re.finditer(r"^\| `(swpm:\w+)` \| `([^`]+)` \| (.*) \|$", spec, re.M)
+    )
+    assert list(rows) == [p.name for p in schema.PROPERTIES]
+    for p in schema.PROPERTIES:
+        assert rows[p.name] == (p.type, p.doc), p.name
 
 
 def test_schema_registered_with_documented_properties():
@@ -419,7 +434,9 @@ import numpy as np
 from pxr import Usd
 stage = Usd.Stage.Open({str(asset)!r})
 prim = stage.GetPrimAtPath("/Suzanne/mesh")
-assert not prim.HasAPI("SwpmMeshAPI") or True
+# (spec/usd.md: HasAPI and GetAppliedSchemas() forget the schema, the prim's type info keeps it)
+assert not prim.HasAPI("SwpmMeshAPI") and list(prim.GetAppliedSchemas()) == []
+assert list(prim.GetPrimTypeInfo().GetAppliedAPISchemas()) == ["SwpmMeshAPI"]
 assert prim.GetAttribute("swpm:encoding").Get() == "vanilla"
 from swpm_usd.usd.reader import read_buffers, read   # registers the plugin too late for this stage
 exp = np.load({str(tmp_path / "expected.npz")!r})
@@ -427,7 +444,8 @@ got = read_buffers(prim)
 assert all(got[k].tobytes() == exp[k].tobytes() for k in exp.files)
 print(read(prim).lod_count)
 """
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    env = {k: v for k, v in os.environ.items() if k != "PXR_PLUGINPATH_NAME"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, env=env)
     assert out.returncode == 0, out.stderr
     assert int(out.stdout.strip()) == pm.lod_count
 
@@ -1036,6 +1054,22 @@ def _corrupt(src: Path, dst: Path, edit) -> Path:
     return dst
 
 
+def test_write_usdlod_references_the_asset_file_relative(pm, tmp_path):
+    """The LOD layer's sources reference the asset as scene.usda does, ``./spot.usda`` (``../a/spot.usda``
+    from another folder): it wrote ``spot.usda``, a search path to USD, which a studio's resolver may look
+    up in its search paths instead of beside the layer."""
+    asset = usd.write(pm, tmp_path / "a" / "spot.usda", lods=2)
+    for out, expected in (
+        (tmp_path / "a" / "lod.usda", "./spot.usda"),
+        (tmp_path / "b" / "lod.usda", "../a/spot.usda"),
+    ):
+        layer = Sdf.Layer.FindOrOpen(str(usd.write_usdlod(asset, out)))
+        spec = layer.GetPrimAtPath("/SpotLOD/sources/LOD1")
+        assert [r.assetPath for r in spec.referenceList.GetAddedOrExplicitItems()] == [expected]
+        stage = Usd.Stage.Open(layer)
+        assert usd.read(stage.GetPrimAtPath("/SpotLOD/lod/LOD1")).lod_count == pm.lod_count
+
+
 def test_select_lods_names_a_ratio_that_is_negative_or_nan(pm):
     """lod_for_triangles refuses a negative or NaN target (helper-138): a ratio that made one is named as
     the ratio, not as a "target" the caller never passed (main: a negative ratio's odd levels were the
@@ -1153,6 +1187,161 @@ def test_cli_reports_json_and_exit_code(asset, tmp_path):
     assert res.exit_code == 1 and "SWPM_USD_ENCODING /Suzanne/mesh" in res.output
 
 
+def _remove(name):
+    return lambda p: p.RemoveProperty(name)
+
+
+@pytest.mark.parametrize("name", ["swpm:encoding", "swpm:formatVersion", "swpm:indices", "points"])
+def test_an_attribute_left_out_is_missing_not_its_schema_fallback(asset, tmp_path, name):
+    """A required attribute removed from the layer: with the schema registered ``Get()`` gave its fallback
+    (``vanilla``, 1, ``[]``), so a prim without ``swpm:encoding`` or ``swpm:formatVersion`` validated and
+    read (a tool without the plugin reads no value there), one without ``swpm:indices`` was
+    ``SWPM_USD_REBUILD`` and one without points ``SWPM_USD_INDEX_RANGE``."""
+    bad = _corrupt(asset, tmp_path / "bad.usdc", _remove(name))
+    findings = [f for f in validate_stage(bad) if f.code.startswith("SWPM_")]
+    assert [(f.code, f.prim) for f in findings] == [("SWPM_USD_MISSING", "/Suzanne/mesh")]
+    assert findings[0].message == f"{name} has no value"
+    stage = Usd.Stage.Open(str(bad))
+    with pytest.raises(UsdReadError, match=f"^{bad}: /Suzanne/mesh: attribute {name} is missing$"):
+        usd.read(stage.GetDefaultPrim())
+
+
+def test_an_optional_attribute_left_out_is_not_checked_as_its_fallback(asset, tmp_path):
+    """swpm:indexWidth is optional: left out, validate checked its schema fallback 4 against the 2 the
+    indices need and said ``swpm:indexWidth is 4`` of a stage that authors none."""
+    bad = _corrupt(asset, tmp_path / "bad.usdc", _remove("swpm:indexWidth"))
+    assert validate_stage(bad) == []
+
+
+def test_a_uniform_attribute_with_only_time_samples_has_no_value(asset, tmp_path):
+    def sampled(p):
+        a = p.GetAttribute("swpm:lodErrors")
+        value = a.Get()
+        a.Clear()
+        a.Set(value, 1.0)
+
+    bad = _corrupt(asset, tmp_path / "bad.usdc", sampled)
+    [finding] = [f for f in validate_stage(bad) if f.code.startswith("SWPM_")]
+    assert finding.code == "SWPM_USD_MISSING"
+    assert finding.message.startswith("swpm:lodErrors has no value (it has only time samples)")
+    stage = Usd.Stage.Open(str(bad))
+    with pytest.raises(UsdReadError, match="swpm:lodErrors is missing \\(it has only time samples\\)"):
+        usd.read(stage.GetDefaultPrim())
+
+
+@pytest.mark.parametrize(
+    ("name", "type_name", "value", "authored"),
+    [
+        ("swpm:indices", Sdf.ValueTypeNames.FloatArray, None, "float[]"),
+        ("swpm:indices", Sdf.ValueTypeNames.IntArray, None, "int[]"),
+        ("swpm:vertexCounts", Sdf.ValueTypeNames.IntArray, None, "int[]"),
+        ("swpm:encoding", Sdf.ValueTypeNames.String, "vanilla", "string"),
+    ],
+)
+def test_read_refuses_an_attribute_of_another_type_as_validate_does(
+    asset, tmp_path, name, type_name, value, authored
+):
+    """The same values under another type: validate's SWPM_USD_TYPE, which read passed, casting them (a
+    float index 1.5 read as 1, an int -1 as 4294967295)."""
+
+    def retype(p):
+        v = value if value is not None else type_name.type.pythonClass(list(p.GetAttribute(name).Get()))
+        _retype(p, name, type_name, v)
+
+    bad = _corrupt(asset, tmp_path / "bad.usda", retype)
+    assert "SWPM_USD_TYPE" in [f.code for f in validate_stage(bad)]
+    expected = PROPERTY_TYPES[name]
+    stage = Usd.Stage.Open(str(bad))
+    with pytest.raises(
+        UsdReadError,
+        match=f"^{bad}: /Suzanne/mesh: {name} is authored as {re.escape(authored)}, "
+        f"expected {re.escape(expected)}$",
+    ):
+        usd.read(stage.GetDefaultPrim())
+
+
+def test_usd_core_type_mismatch_is_reported_at_its_prim(asset, tmp_path):
+    """usdValidation:AttributeTypeMismatch names the attribute's spec in a layer, not a stage object: its
+    finding was at ``/`` beside ours at /Suzanne/mesh; in the stage's own layers a spec's path is the
+    prim's (through a reference it is the layer's own path: still ``/``)."""
+    bad = _corrupt(
+        asset,
+        tmp_path / "bad.usda",
+        lambda p: _retype(p, "swpm:indices", Sdf.ValueTypeNames.IntArray, Vt.IntArray([0, 1, 2])),
+    )
+    found = {f.code: f.prim for f in validate_stage(bad)}
+    assert found["usdValidation:AttributeTypeMismatch.AttributeTypeMismatch"] == "/Suzanne/mesh"
+    assert found["SWPM_USD_TYPE"] == "/Suzanne/mesh"
+    shot = tmp_path / "shot.usda"
+    stage = Usd.Stage.CreateNew(str(shot))
+    stage.DefinePrim("/World/a").GetReferences().AddReference(f"./{bad.name}")
+    stage.GetRootLayer().Save()
+    found = {f.code: f.prim for f in validate_stage(shot)}
+    assert found["usdValidation:AttributeTypeMismatch.AttributeTypeMismatch"] == "/"
+    assert found["SWPM_USD_TYPE"] == "/World/a/mesh"
+
+
+def test_read_refuses_a_format_version_it_does_not_read(asset, tmp_path):
+    """swpm:formatVersion 2 (a later layout): validate's SWPM_USD_VERSION, which read passed, reading the
+    buffers as version 1's."""
+    bad = _corrupt(asset, tmp_path / "bad.usdc", lambda p: p.GetAttribute("swpm:formatVersion").Set(2))
+    assert [f.code for f in validate_stage(bad)] == ["SWPM_USD_VERSION"]
+    stage = Usd.Stage.Open(str(bad))
+    for fn in (usd.read, usd.read_buffers):
+        stage = Usd.Stage.Open(str(bad))
+        with pytest.raises(
+            UsdReadError, match="swpm:formatVersion 2 is not supported \\(this reader reads 1\\)"
+        ):
+            fn(stage.GetDefaultPrim())
+
+
+def test_read_names_the_attribute_of_bad_params_and_a_bad_row_width(tmp_path, mesh):
+    """read's errors name the attribute: params [1, 2] was "the stored arrays do not form a progressive
+    mesh: cannot convert dictionary update sequence element #0 to a sequence", windowRecords of 5 entries
+    "cannot reshape array of size 5 into shape (3)"."""
+    import swpm_usd.encode.slidingwindow as sw
+
+    src = usd.write(sw.build_sliding_window(mesh), tmp_path / "sw.usdc")
+    bad = _corrupt(src, tmp_path / "params.usdc", lambda p: p.GetAttribute("swpm:params").Set("[1, 2]"))
+    stage = Usd.Stage.Open(str(bad))
+    with pytest.raises(UsdReadError, match="/Sw/mesh: swpm:params is not a JSON object .* a JSON list"):
+        usd.read(stage.GetDefaultPrim())
+
+    def cut(p):
+        p.GetAttribute("swpm:windowRecords").Set(Vt.UIntArray([0, 1, 2, 3, 4]))
+
+    bad = _corrupt(src, tmp_path / "rows.usdc", cut)
+    stage = Usd.Stage.Open(str(bad))
+    with pytest.raises(
+        UsdReadError, match="/Sw/mesh: swpm:windowRecords has 5 entries, not a multiple of its row width 3"
+    ):
+        usd.read_buffers(stage.GetDefaultPrim())
+
+
+@pytest.mark.parametrize("name", ["swpm:indices", "normals"])
+def test_a_value_usd_core_cannot_read_is_a_usd_read_error(pm, tmp_path, monkeypatch, name):
+    """A value of a corrupt .usdc that does not decompress (usd-core: "Failed to decompress data, possibly
+    corrupt? LZ4 error code: -464", found flipping bytes of a written asset) reached the caller of read as
+    pxr's Tf.ErrorException; it is a UsdReadError naming the prim (and the swpm: attribute)."""
+    path = usd.write(pm, tmp_path / "suzanne.usdc")
+    real = Usd.Attribute.Get
+
+    def corrupt(attr, *args):
+        if attr.GetName() == name:
+            from pxr import Tf
+
+            Tf.RaiseRuntimeError("Failed to decompress data, possibly corrupt? LZ4 error code: -464")
+        return real(attr, *args)
+
+    stage = Usd.Stage.Open(str(path))
+    monkeypatch.setattr(Usd.Attribute, "Get", corrupt)
+    what = name if name.startswith("swpm:") else "a value"
+    with pytest.raises(
+        UsdReadError, match=f"^{path}: /Suzanne/mesh: usd-core cannot read {what}: .*LZ4 error"
+    ):
+        usd.read(stage.GetDefaultPrim())
+
+
 @pytest.mark.parametrize("encoding", sorted(BUILDERS))
 def test_an_edited_stage_is_rejected_before_the_runtime(encoding, mesh, tmp_path):
     """Every swpm: uint[] array of a written prim, one element set out of range or off by one: ``read``
@@ -1160,7 +1349,7 @@ def test_an_edited_stage_is_rejected_before_the_runtime(encoding, mesh, tmp_path
     its vertex prefix and whose runtime instance walks the LODs. Before the check, a collapse record
     pointing outside the index buffer crashed the process in ``set_lod``."""
     pm = swpm_usd.build(mesh, encoding)
-    path = usd.write(pm, tmp_path / "a.usdc")
+    path = usd.write(pm, tmp_path / "suzanne.usdc")
     stage = Usd.Stage.Open(str(path))
     prim = usd.find_encoded(stage)[0]
     arrays = [

@@ -168,6 +168,23 @@ def test_the_loader_and_build_fail_a_usdc_that_crashes_usd_core_with_a_mesh_load
     assert done.returncode == 1 and json.loads(done.stdout)["error"] == message, done.stdout + done.stderr
 
 
+def test_load_and_read_file_fail_a_usdc_that_crashes_usd_core_with_a_usd_read_error(tmp_path):
+    # swpm_usd.load / usd.read_file opened the stage in the calling process, unprobed: the process died by
+    # SIGSEGV (exit -11) where validate and the loader name the file
+    bad = _crashing(tmp_path / "bad.usdc")
+    code = (
+        "import sys\nimport swpm_usd\nfrom swpm_usd import usd\n"
+        "from swpm_usd.usd.reader import UsdReadError\n"
+        "for read in (swpm_usd.load, usd.read_file):\n"
+        "    try:\n        read(sys.argv[1])\n    except UsdReadError as e:\n        print(e)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code, str(bad)], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, (done.returncode, done.stderr)
+    lines = done.stdout.splitlines()
+    assert len(lines) == 2 and lines[0] == lines[1], lines
+    assert lines[0].startswith(f"{bad}: usd-core crashed opening or reading it"), lines
+
+
 def _write_overrides_and_usdlod(source: Path, tmp_path: Path) -> list[str]:
     """The errors ``write_overrides`` and ``write_usdlod`` of ``source`` raise (a line each: type, message),
     run in a child process (on a crashing file, one that survives)."""

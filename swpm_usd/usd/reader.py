@@ -12,13 +12,13 @@ import os
 from typing import Any
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom
+from pxr import Sdf, Tf, Usd, UsdGeom
 
 from ..encode.base import ProgressiveMesh, from_buffers, with_attributes
-from ..errors import SwpmError, first_few
+from ..errors import SwpmError, first_few, tf_message
 from ..format.meta import parse_meta_json
 from .arrays import ATTRIBUTE_DTYPES, BUFFER_DTYPES, dtype_problem, from_vt
-from .schema import COLLAPSE_PREFIX, SCHEMA_NAME, attr_name
+from .schema import COLLAPSE_PREFIX, FORMAT_VERSION, PROPERTY_TYPES, SCHEMA_NAME, attr_name
 
 _PROXIES = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
 
@@ -91,17 +91,65 @@ def _unloaded(prim: Usd.Prim) -> str:
     return f"; payloads at or under it not loaded ({len(paths)}): {listed} (stage.Load(path) loads one)"
 
 
+def stored_value(attr: Usd.Attribute) -> tuple[Any, str]:
+    """``(value, "")`` for an attribute with a value authored at the default time (every ``swpm:`` attribute
+    is uniform), else ``(None, why)``: ``""`` (not authored), ``" (it is blocked)"`` or ``" (it has only time
+    samples)"``. The schema's fallback is no stored value: with the plugin registered ``attr.Get()`` gives
+    it (``"vanilla"`` for a prim without ``swpm:encoding``, ``[]`` without ``swpm:indices``), where a tool
+    without the plugin reads None, so a prim that lacks one read and validated as another."""
+    if not attr:
+        return None, ""
+    info = attr.GetResolveInfo(Usd.TimeCode.Default())
+    if info.GetSource() == Usd.ResolveInfoSourceDefault:
+        return attr.Get(), ""
+    if info.ValueIsBlocked():
+        return None, " (it is blocked)"
+    return None, " (it has only time samples)" if attr.GetNumTimeSamples() else ""
+
+
+def authored_type(attr: Usd.Attribute) -> str:
+    """The type name ``attr`` is authored with (its strongest spec's): with the plugin registered
+    ``attr.GetTypeName()`` is the schema's whatever the layer holds."""
+    stack = attr.GetPropertyStack()
+    return str(stack[0].typeName) if stack else str(attr.GetTypeName())
+
+
 def _get(prim: Usd.Prim, name: str, required: bool = True) -> Any:
     attr = prim.GetAttribute(name)
-    value = attr.Get() if attr else None
-    if value is None and required:
-        raise UsdReadError(f"{_where(prim)}: attribute {name} is missing")
+    try:
+        value, why = stored_value(attr)
+    except Tf.ErrorException as e:  # (corrupt .usdc data: a value that does not decompress or unpack)
+        raise UsdReadError(f"{_where(prim)}: usd-core cannot read {name}: {tf_message(e)}") from e
+    if value is None:
+        if required:
+            raise UsdReadError(f"{_where(prim)}: attribute {name} is missing{why}{_overridden(prim)}")
+        return None
+    expected = PROPERTY_TYPES.get(name)
+    if expected is not None and authored_type(attr) != expected:
+        # (cast as it came, an int[] index -1 became 4294967295 and a float[] 1.5 became 1: validate's
+        # SWPM_USD_TYPE, which read passed)
+        raise UsdReadError(
+            f"{_where(prim)}: {name} is authored as {authored_type(attr)}, expected {expected}"
+            f"{_overridden(prim)}"
+        )
     return value
+
+
+def _check_version(prim: Usd.Prim) -> None:
+    """The prim's ``swpm:formatVersion`` is the layout this reader reads: another version may store its
+    buffers otherwise (validate's ``SWPM_USD_VERSION``, which read passed, reading a version 2 as 1)."""
+    version = _get(prim, "swpm:formatVersion")
+    if int(version) != FORMAT_VERSION:
+        raise UsdReadError(
+            f"{_where(prim)}: swpm:formatVersion {version} is not supported (this reader reads "
+            f"{FORMAT_VERSION}){_overridden(prim)}"
+        )
 
 
 def read_buffers(prim: Usd.Prim) -> dict[str, np.ndarray]:
     """The encoding's buffers stored on ``prim`` (an encoded Mesh, or a prim with one below it)."""
     prim = _encoded_prim(prim)
+    _check_version(prim)
     names = list(_get(prim, "swpm:bufferNames"))
     dtypes = list(_get(prim, "swpm:bufferDtypes"))
     problem = dtype_problem("swpm:bufferDtypes", dtypes, BUFFER_DTYPES)
@@ -128,7 +176,13 @@ def read_buffers(prim: Usd.Prim) -> dict[str, np.ndarray]:
         if name in column_of and table is not None:
             out[name] = np.ascontiguousarray(table[:, column_of[name]]).astype(dtype, copy=False)
         else:
-            out[name] = from_vt(_get(prim, attr_name(name)), dtype, int(cols))
+            value = _get(prim, attr_name(name))
+            if cols and len(value) % int(cols):  # (named here: numpy's reshape error named neither)
+                raise UsdReadError(
+                    f"{_where(prim)}: {attr_name(name)} has {len(value)} entries, not a multiple of its "
+                    f"row width {int(cols)} (swpm:bufferColumns){_overridden(prim)}"
+                )
+            out[name] = from_vt(value, dtype, int(cols))
     return out
 
 
@@ -224,10 +278,20 @@ def read(prim: Usd.Prim, check: bool = True) -> ProgressiveMesh:
     corrupt memory). It costs about 2-3x the read itself (bunny: 7-26 ms); ``check=False`` skips it for
     stages this package just wrote."""
     prim = _encoded_prim(prim)
+    _check_version(prim)
     encoding = str(_get(prim, "swpm:encoding"))
     points = np.asarray(_get(prim, "points"), np.float32).reshape(-1, 3)
     try:
         params = parse_meta_json(_get(prim, "swpm:params", required=False) or "{}")
+        if not isinstance(params, dict):
+            raise ValueError(f"a JSON {type(params).__name__}, not an object")
+    except (ValueError, RecursionError) as e:
+        # (it was "the stored arrays do not form a progressive mesh: cannot convert dictionary update
+        # sequence element #0 to a sequence" for params [1, 2], naming no attribute)
+        raise UsdReadError(
+            f"{_where(prim)}: swpm:params is not a JSON object a .swpm META may hold: {e}{_overridden(prim)}"
+        ) from e
+    try:
         pm = from_buffers(
             encoding,
             points,
@@ -244,6 +308,8 @@ def read(prim: Usd.Prim, check: bool = True) -> ProgressiveMesh:
         )
     except UsdReadError:
         raise
+    except Tf.ErrorException as e:  # (a primvar's value usd-core cannot read: corrupt .usdc data)
+        raise UsdReadError(f"{_where(prim)}: usd-core cannot read a value: {tf_message(e)}") from e
     except (SwpmError, ValueError, TypeError, IndexError, KeyError, RecursionError) as e:
         raise UsdReadError(
             f"{_where(prim)}: the stored arrays do not form a progressive mesh: {e}{_overridden(prim)}"
@@ -259,8 +325,11 @@ def read_file(path: str | os.PathLike[str], prim: str | None = None, check: bool
     one encoded prim below it will do, as :func:`read` takes), else the stage's only encoded prim.
     :class:`UsdReadError` names the file and what is wrong: missing (code ``INPUT_NOT_FOUND``), not a
     regular file, not a stage usd-core opens, no encoded prim, several (listed: pass ``prim``), or a prim
-    whose buffers fail :func:`read`'s checks."""
+    whose buffers fail :func:`read`'s checks. A stage that opens a crate file is opened first in a probe
+    process (:mod:`swpm_usd.usd.probe`): one usd-core crashes on, hangs on or fails to read there is a
+    :class:`UsdReadError` with what the probe found, never opened in this process."""
     from ..fileio import missing_file_problem
+    from .probe import checked
     from .validate import _open
 
     name = os.fspath(path)
@@ -269,7 +338,13 @@ def read_file(path: str | os.PathLike[str], prim: str | None = None, check: bool
         err = UsdReadError(f"{name}: " + (missing_file_problem(name) if missing else "not a regular file"))
         err.code = "INPUT_NOT_FOUND" if missing else "INPUT_UNREADABLE"
         raise err
-    stage, why = _open(name)
+    # a crate file is untrusted input usd-core does not always survive (spec/usd.md): opened first in a probe
+    # process, as validate and the loader do, and here only if that ends cleanly (swpm_usd.load of a
+    # corrupt .usdc died by SIGSEGV, or raised pxr's Tf.ErrorException for a value that does not decompress)
+    with checked(name) as probed:
+        if probed is not None:
+            raise UsdReadError(probed.message)
+        stage, why = _open(name)
     if stage is None:
         raise UsdReadError(why)
     if prim is not None:

@@ -79,7 +79,14 @@ PROPERTIES: tuple[Prop, ...] = (
         "[]",
         "Per LOD: geometric error in mesh units (finite, non-decreasing), for screen-space selection.",
     ),
-    Prop("swpm:params", "string", '"{}"', "The encoder's parameters as a JSON object."),
+    Prop(
+        "swpm:params",
+        "string",
+        '"{}"',
+        "The encoder's parameters as a JSON object, under the rules of a .swpm file's META (spec/format.md "
+        "3.1: no NaN or infinity, no duplicate key, at most 128 deep); a writer refuses others, a reader "
+        "rejects them.",
+    ),
     Prop(
         "swpm:attributeNames",
         "token[]",

@@ -23,7 +23,7 @@ from ..format.errors import Problem, Report
 from ..format.layout import INDEX_ARRAYS, draw_index_width
 from ..format.meta import parse_meta_json
 from .arrays import ATTRIBUTE_DTYPES, BUFFER_DTYPES, dtype_problem
-from .reader import _snake, is_encoded
+from .reader import _snake, authored_type, is_encoded, stored_value
 from .schema import COLLAPSE_PREFIX, ENCODING_TOKENS, FORMAT_VERSION, PROPERTY_TYPES, attr_name
 
 VALIDATOR_NAME = "swpmValidators:SwpmMeshChecker"
@@ -107,24 +107,22 @@ class _Check:
         return f" ({'; '.join(parts)})" if parts else ""
 
     def get(self, name: str, required: bool = True) -> Any:
+        """The value authored for ``name``, never the schema's fallback (``stored_value``: an optional
+        attribute left out is None, not a fallback checked as if authored, ``swpm:indexWidth`` 4)."""
         attr = self.prim.GetAttribute(name)
-        if not attr or not attr.HasValue():
+        value, why = stored_value(attr)
+        if value is None:
             if required:
-                self.add("SWPM_USD_MISSING", f"{name} has no value", attrs=(name,))
+                self.add("SWPM_USD_MISSING", f"{name} has no value{why}", attrs=(name,))
             return None
         expected = PROPERTY_TYPES.get(name)
         if expected is not None:
-            # the schema's type wins in attr.GetTypeName(); the authored spec says what is stored
-            stack = attr.GetPropertyStack()
-            authored = str(stack[0].typeName) if stack else str(attr.GetTypeName())
+            authored = authored_type(attr)
             if authored != expected:
                 self.add(
                     "SWPM_USD_TYPE", f"{name} is authored as {authored}, expected {expected}", attrs=(name,)
                 )
                 return None
-        value = attr.Get()
-        if value is None and required:  # (a value block: HasValue is True while the schema has a fallback)
-            self.add("SWPM_USD_MISSING", f"{name} has no value (it is blocked)", attrs=(name,))
         return value
 
 
@@ -165,7 +163,8 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
         c.add("SWPM_USD_NOT_MESH", f"SwpmMeshAPI on a {prim.GetTypeName() or 'typeless'} prim")
         return c.found
     values = {n: c.get(n) for n in _REQUIRED}
-    if any(v is None for v in values.values()):
+    points = c.get("points")
+    if points is None or any(v is None for v in values.values()):
         return c.found
     from ..encode.base import ENCODINGS
 
@@ -199,8 +198,7 @@ def validate_prim(prim: Usd.Prim) -> list[Finding]:
         if problem is not None:  # (read casts to it: "V1000000000" would allocate 1 GB per element)
             c.add("SWPM_USD_TYPE", problem)
 
-    points = prim.GetAttribute("points").Get()
-    V = 0 if points is None else len(points)
+    V = len(points)
     vc = _array(values["swpm:vertexCounts"])
     tc = _array(values["swpm:triangleCounts"])
     err = _array(values["swpm:lodErrors"], np.float64)
@@ -480,10 +478,20 @@ def _builtin_names(reg: Any) -> list[str]:
     ]
 
 
-def _site_path(err: Any) -> str:
+def _site_path(err: Any, stage: Usd.Stage) -> str:
+    """The prim a usd-core finding is about: its site's prim or property, or the prim of a layer spec it
+    names (usdValidation:AttributeTypeMismatch's site is the attribute's spec in a layer, no stage object: it
+    was reported at ``/``) when that layer is in the stage's own layer stack, where a spec's path is the
+    prim's; else ``/`` (a referenced layer's paths are not the stage's)."""
+    stack = None
     for site in err.GetSites():
         if site.IsPrim() or site.IsProperty():
             return str(site.GetPrim().GetPath() if site.IsPrim() else site.GetProperty().GetPath())
+        spec = site.GetPropertySpec() or site.GetPrimSpec()
+        if spec:
+            stack = stack if stack is not None else {layer.identifier for layer in stage.GetLayerStack()}
+            if spec.layer.identifier in stack:
+                return str(spec.path.GetPrimPath())
     return "/"
 
 
@@ -596,7 +604,7 @@ def _validate_into(findings: list[Finding], stage: Usd.Stage, reg: Any, names: l
                 code = str(err.GetName()).rsplit(".", 1)[-1]
             else:
                 code = f"{vname}.{err.GetName()}" if str(err.GetName()) else vname
-            findings.append(Finding(code, severity, _site_path(err), err.GetMessage()))
+            findings.append(Finding(code, severity, _site_path(err, stage), err.GetMessage()))
     if not ours:
         rng = Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate))
         for prim in rng:

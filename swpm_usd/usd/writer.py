@@ -503,6 +503,9 @@ def _author_usdlod(
     # a group model between the assembly and the items (component models: models only under group models)
     Usd.ModelAPI(lod_root.GetPrim()).SetKind(Kind.Tokens.group)
     rel_asset = os.path.relpath(asset.resolve(), p.resolve().parent).replace(os.sep, "/")
+    # file-relative, as scene.usda's references are: a bare "spot.usda" is a search path to USD (the default
+    # resolver anchors it to the layer first, a studio's resolver may look it up in its search paths only)
+    rel_asset = rel_asset if rel_asset.startswith("../") else "./" + rel_asset
     # USD ignores opinions authored under an instanceable prim (an `over "mesh"` with the variant selection
     # beneath the item left every item drawing LOD0): each selection is made on a class prim beside the LOD
     # root, `sources/LOD<i>` (abstract: neither drawn nor traversed), that references the asset, and each item
