@@ -147,7 +147,9 @@ def test_vectors_cover_both_sides(dump: Path) -> None:
     codes = {o.get("code") for o in outs}
     assert sum(o["ok"] for o in outs) >= 10 and UNSUPPORTED not in codes
     for enc in (0x08, 0x10):  # skip-strip, mixed: valid files and their own codes
-        got = {o.get("code") for o, p in zip(outs, paths, strict=True) if _encoding_bit(p.read_bytes()) == enc}
+        got = {
+            o.get("code") for o, p in zip(outs, paths, strict=True) if _encoding_bit(p.read_bytes()) == enc
+        }
         assert None in got and ("SWPM_LEVEL_BAD_TABLE" if enc == 0x08 else "SWPM_MIXED_BAD_LEVELS") in got
     assert {"SWPM_WINDOW_MID_STRIP", "SWPM_WINDOW_STRIP_TRIANGLES", "SWPM_PREFIX_VIOLATION"} <= codes
     # vanilla: every stage's codes reached (the replay's among them)
@@ -269,6 +271,115 @@ def test_real_vanilla_files(dump: Path, tmp_path: Path, mesh: str) -> None:
     assert 4 in widths
 
 
+# -- skip-strip and mixed files the Python codec writes: arrays, and an instance moved to every LOD and back
+LEVEL_VARIANTS = {
+    "skip-list": ("skip-strip", {"primitive": "list"}),
+    "skip-strip": ("skip-strip", {"primitive": "strip"}),
+    "skip-strip-degenerate": ("skip-strip", {"primitive": "strip", "restart": False}),
+    "mixed": ("mixed", {}),
+}
+LEVEL_REAL = [
+    (m, v) for m in ("suzanne", "spot", "cow") for v in LEVEL_VARIANTS if m == "suzanne" or "degen" not in v
+]
+_LPMS: dict[tuple[str, str], Any] = {}
+
+
+def _lpm(mesh: str, variant: str) -> Any:
+    if (mesh, variant) not in _LPMS:
+        enc, kw = LEVEL_VARIANTS[variant]
+        _LPMS[mesh, variant] = swpm_usd.build(shared_mesh(f"{mesh}.obj"), enc, **kw)
+    return _LPMS[mesh, variant]
+
+
+SKIP_ARRAYS = (
+    "level_indices",
+    "level_first_lod",
+    "level_index_start",
+    "level_collapsed_start",
+    "level_record_start",
+    "level_collapsed_indices",
+    "collapse_kept",
+    "collapse_binned",
+    "collapse_change_count",
+    "collapse_prev_change_count",
+    "collapse_change_offsets",
+    "lod_record_counts",
+)
+MIXED_ARRAYS = (
+    "level_static_indices",
+    "level_first_lod",
+    "level_static_start",
+    "level_dynamic_start",
+    "level_record_start",
+    "level_dynamic_indices",
+    "level_dynamic_collapsed_indices",
+    "collapse_kept",
+    "collapse_static_tris_removed",
+    "collapse_dynamic_tris_removed",
+    "collapse_change_count",
+    "collapse_prev_change_count",
+    "collapse_change_offsets",
+    "lod_record_counts",
+)
+
+
+@pytest.mark.parametrize(("mesh", "variant"), LEVEL_REAL, ids=[f"{m}-{v}" for m, v in LEVEL_REAL])
+def test_real_level_files(dump: Path, tmp_path: Path, mesh: str, variant: str) -> None:
+    """Every array as Python reads it, the levels, and what an instance draws at every LOD (LODs 0 .. L-1 and
+    back): the stream Python's instance draws (skip-strip: the level's edited list, which pm.triangles_at
+    decodes; mixed: the live dynamic prefix, then the live static range of INDX), byte for byte."""
+    pm = _lpm(mesh, variant)
+    enc = LEVEL_VARIANTS[variant][0]
+    paths = {"default": swpm_usd.save(pm, tmp_path / "default.swpm")}
+    (tmp_path / "index32.swpm").write_bytes(encode_bytes(pm, index_width=4))
+    paths["index32"] = tmp_path / "index32.swpm"
+    for kind, path in paths.items():
+        rc, out = _run(dump, path)
+        assert rc == 0 and out["ok"] and out["encoding"] == enc, (kind, out)
+        q = swpm_usd.load(path)
+        W, O, L = out["index_width"], out["offset_width"], q.lod_count
+        assert kind != "index32" or W == 4
+        assert (out["lod_count"], out["vertex_count"]) == (L, q.vertex_count)
+        assert np.array_equal(_array(out, "triangle_counts", "<u4"), q.triangle_counts)
+        names = SKIP_ARRAYS if enc == "skip-strip" else MIXED_ARRAYS
+        wide = {"level_indices", "level_collapsed_indices", "level_static_indices", "level_dynamic_indices"}
+        for name in names:
+            width = W if name in wide or name == "level_dynamic_collapsed_indices" else O
+            want = q.collapse_prev_change_count if name == "collapse_prev_change_count" else getattr(q, name)
+            assert np.array_equal(_array(out, name, f"<u{width}"), want), name
+        if enc == "skip-strip":
+            strip = LEVEL_VARIANTS[variant][1]["primitive"] == "strip"
+            assert out["primitive_strip"] == int(strip)
+            assert out["restart_index"] == (q.params.get("restart_index") if strip else None)
+        assert out["level_of_lod"] == [pm.level_of_lod(k) for k in range(L)] if enc == "skip-strip" else True
+        starts = q.level_index_start if enc == "skip-strip" else q.level_static_start
+        for lv, row in enumerate(out["levels"]):
+            assert row[2:6] == [
+                int(q.level_record_start[lv]),
+                int(q.level_record_start[lv + 1]),
+                int(starts[lv]),
+                int(starts[lv + 1] - starts[lv]),
+            ]
+        steps = out["instance"]
+        assert [s[0] for s in steps] == [*range(L), *range(L - 2, -1, -1)]
+        for step in steps:
+            lod, count, vc, crc = step[0], step[2], step[3], step[4]
+            assert vc == q.vertex_count_at(lod)
+            if enc == "skip-strip":
+                want = np.ascontiguousarray(q.draw_stream(lod)[1], f"<u{W}")
+            else:
+                dyn, static = (c[1] for c in q.draw_calls(lod))
+                want = np.ascontiguousarray(dyn, f"<u{W}")
+                first, n = step[5], step[6]
+                assert np.array_equal(q.level_static_indices[first : first + n], static), lod
+            assert (count, crc) == (len(want), zlib.crc32(want.tobytes())), lod
+        # and the triangles those streams draw (the file's restart index) are the built mesh's LOD
+        for lod in (0, L // 2, L - 1):
+            stream = q.draw_stream(lod)[1]
+            tris = q._decode(stream) if enc == "skip-strip" else stream.reshape(-1, 3)
+            assert np.array_equal(np.asarray(tris, np.int64), np.asarray(pm.triangles_at(lod), np.int64))
+
+
 def test_vanilla_scratch(dump: Path, dump_san: Path, tmp_path: Path) -> None:
     """The replay's scratch: INDX length + 8 V + 7 bytes is enough (under the sanitizer: nothing past it is
     touched), one byte less is SWPM_READER_SCRATCH_TOO_SMALL with that need; an error found before the
@@ -311,8 +422,20 @@ def _regions(data: bytes) -> list[tuple[int, int]]:
     out = [(0, 64), (to, to + 32 * count)]
     for i in range(count):
         t, _, off, ln = struct.unpack_from("<4sIQQ", data, to + 32 * i)
-        if t in (b"WREC", b"INDX", b"LODS", b"META", b"VERT", b"VREC", b"RCNT") and ln:
-            out.append((off, off + ln))
+        if t in (
+            b"WREC",
+            b"INDX",
+            b"LODS",
+            b"META",
+            b"VERT",
+            b"VREC",
+            b"RCNT",
+            b"SKIP",
+            b"SREC",
+            b"MLVL",
+            b"MREC",
+        ):
+            out.append((off, off + ln)) if ln else None
     return out
 
 
@@ -343,13 +466,19 @@ def _mutate(rng: random.Random, data: bytes) -> bytes:
 
 
 def _mutate_values(rng: random.Random, data: bytes) -> bytes:
-    """A valid file with a few INDX values set to other vertices or WREC (vanilla: VREC, RCNT) fields nudged,
-    CRCs fixed: mutants that reach the windows, the prefix property and the strips' triangle counts, or the
-    vanilla counts and replay."""
+    """A valid file with a few INDX values set to other vertices or WREC (vanilla: VREC, RCNT; skip-strip:
+    SREC, SKIP, RCNT; mixed: MREC, MLVL, RCNT) fields nudged, CRCs fixed: mutants that reach the windows, the
+    prefix property and the strips' triangle counts, or the record counts, level tables and replays."""
     d = bytearray(data)
     features = struct.unpack_from("<I", d, 20)[0]
     W, O = (4 if features & 1 else 2), (4 if features & 0x41 else 2)
-    table = rng.choice([b"VREC", b"VREC", b"RCNT"]) if _is_vanilla(data) else b"WREC"
+    table = {
+        0x02: [b"VREC", b"VREC", b"RCNT"],
+        0x04: [b"WREC"],
+        0x08: [b"SREC", b"SREC", b"SKIP", b"RCNT"],
+        0x10: [b"MREC", b"MREC", b"MLVL", b"RCNT"],
+    }[_encoding_bit(data)]
+    table = rng.choice(table)
     (ei, ix), (ew, wr) = _payload(data, b"INDX"), _payload(data, table)
     io, wo = struct.unpack_from("<Q", d, ei + 8)[0], struct.unpack_from("<Q", d, ew + 8)[0]
     V = struct.unpack_from("<I", d, struct.unpack_from("<Q", d, _payload(data, b"VERT")[0] + 8)[0])[0]
@@ -358,7 +487,8 @@ def _mutate_values(rng: random.Random, data: bytes) -> bytes:
             at, val = io + W * rng.randrange(len(ix) // W), rng.randrange(V)
             d[at : at + W] = val.to_bytes(W, "little")
         else:
-            skip = 8 if table == b"VREC" else 0  # VREC's counts R and M are u32: nudge the off fields after
+            # (the u32 counts of VREC, SREC, MREC, SKIP and MLVL: nudge the off fields after them)
+            skip = 8 if table in (b"VREC", b"SREC", b"MREC", b"SKIP", b"MLVL") else 0
             at = wo + skip + O * rng.randrange((len(wr) - skip) // O)
             val = max(0, int.from_bytes(d[at : at + O], "little") + rng.randint(-3, 3))
             d[at : at + O] = min(val, (1 << 8 * O) - 1).to_bytes(O, "little")
@@ -366,11 +496,7 @@ def _mutate_values(rng: random.Random, data: bytes) -> bytes:
 
 
 def _seeds(tmp: Path) -> list[bytes]:
-    seeds = [
-        p.read_bytes()
-        for p in sorted((VECTORS / "valid").glob("*.swpm"))
-        if _is_sliding(p.read_bytes()) or _is_vanilla(p.read_bytes())
-    ]
+    seeds = [p.read_bytes() for p in sorted((VECTORS / "valid").glob("*.swpm"))]
     seeds.append(encode_bytes(_pm("suzanne", "strip")))
     return seeds
 
@@ -391,6 +517,10 @@ def test_fuzz_against_python(dump_san: Path, tmp_path: Path) -> None:
     cow = encode_bytes(_vpm("cow"))
     mutants += [_mutate(rng, cow) for _ in range(200)]
     mutants += [_mutate_values(rng, cow) for _ in range(400)]
+    # skip-strip (lists, strips with restarts) and mixed: real files' mutants, raw and by value
+    levelled = [encode_bytes(_lpm("cow", v)) for v in ("skip-list", "skip-strip", "mixed")]
+    mutants += [_mutate(rng, rng.choice(levelled)) for _ in range(300)]
+    mutants += [_mutate_values(rng, rng.choice(levelled)) for _ in range(900)]
     paths = []
     for i, m in enumerate(mutants):
         p = tmp_path / f"m{i}.swpm"
@@ -413,6 +543,15 @@ def test_fuzz_against_python(dump_san: Path, tmp_path: Path) -> None:
     }
     vanilla = [o.get("code") for m, o in zip(mutants, got, strict=True) if _is_vanilla(m)]
     assert {"SWPM_RECORD_BAD_CHANGE", "SWPM_RECORD_BAD_COUNTS", "SWPM_LOD_VERTEX_COUNT", None} <= set(vanilla)
+    for enc, own in ((0x08, "SWPM_LEVEL_BAD_TABLE"), (0x10, "SWPM_MIXED_BAD_LEVELS")):
+        codes = {o.get("code") for m, o in zip(mutants, got, strict=True) if _encoding_bit(m) == enc}
+        assert {
+            own,
+            "SWPM_RECORD_BAD_CHANGE",
+            "SWPM_PREFIX_VIOLATION",
+            "SWPM_RECORD_BAD_COUNTS",
+            None,
+        } <= codes
 
 
 # -- META: the strict JSON of format.md 3.1, in files rebuilt around a given META payload -----------------
