@@ -380,6 +380,29 @@ def test_real_level_files(dump: Path, tmp_path: Path, mesh: str, variant: str) -
             assert np.array_equal(np.asarray(tris, np.int64), np.asarray(pm.triangles_at(lod), np.int64))
 
 
+@pytest.mark.parametrize("variant", ["skip-strip", "mixed"])
+def test_level_scratch(dump_san: Path, tmp_path: Path, variant: str) -> None:
+    """The replay's scratch (format.md 5, skip-strip stage (d), mixed (d)): skip-strip W x the longest list of
+    a level with records, mixed 8 V + W x its longest dynamic list + 7; exactly that is enough (under the
+    sanitizer: nothing past it is touched), one byte less is SWPM_READER_SCRATCH_TOO_SMALL with that need."""
+    pm = _lpm("suzanne", variant)
+    data = encode_bytes(pm)
+    path = tmp_path / "l.swpm"
+    path.write_bytes(data)
+    q = swpm_usd.load(path)
+    W = 4 if struct.unpack_from("<I", data, 20)[0] & 1 else 2
+    rs = q.level_record_start.astype(np.int64)
+    starts = (q.level_index_start if variant == "skip-strip" else q.level_dynamic_start).astype(np.int64)
+    longest = int(np.max(np.diff(starts)[np.diff(rs) > 0]))
+    need = W * longest if variant == "skip-strip" else 8 * q.vertex_count + W * longest + 7
+    for scratch, want in ((need, {"ok": True}), (need - 1, {"ok": False, "code": SCRATCH, "offset": None})):
+        proc = subprocess.run(
+            [str(dump_san), "--check-scratch", str(scratch), str(path)], capture_output=True, text=True
+        )
+        assert proc.returncode == 0 and proc.stderr == ""
+        assert json.loads(proc.stdout) == (want if want["ok"] else {**want, "need": need})
+
+
 def test_vanilla_scratch(dump: Path, dump_san: Path, tmp_path: Path) -> None:
     """The replay's scratch: INDX length + 8 V + 7 bytes is enough (under the sanitizer: nothing past it is
     touched), one byte less is SWPM_READER_SCRATCH_TOO_SMALL with that need; an error found before the
@@ -634,13 +657,31 @@ META_CASES = {
     "restart-missing": ('{"params":{"primitive":"strip"}}', "SWPM_META_BAD_FIELD"),
     "restart-2-32": ('{"params":{"primitive":"strip","restart_index":4294967296}}', "SWPM_META_BAD_FIELD"),
     "restart-minus-zero": ('{"params":{"primitive":"strip","restart_index":-0}}', "SWPM_META_BAD_FIELD"),
+    # skip-strip (format.md 3.7): a missing primitive is "strip", a list ignores restart_index's value
+    "skip:plain": ('{"encoding":"skip-strip","params":{"primitive":"strip","restart_index":65535}}', None),
+    "skip:primitive-missing": ('{"params":{"restart_index":65535}}', None),
+    "skip:primitive-other": ('{"params":{"primitive":"fan","restart_index":65535}}', "SWPM_META_BAD_FIELD"),
+    # (without a restart index, or with a list, the strips' restart entries 0xFFFF are vertex ids >= V)
+    "skip:restart-null": ('{"params":{"primitive":"strip","restart_index":null}}', "SWPM_INDEX_OUT_OF_RANGE"),
+    "skip:restart-true": ('{"params":{"primitive":"strip","restart_index":true}}', "SWPM_META_BAD_FIELD"),
+    "skip:restart-float": ('{"params":{"primitive":"strip","restart_index":65535.0}}', "SWPM_META_BAD_FIELD"),
+    "skip:restart-2-32": ('{"params":{"restart_index":4294967296}}', "SWPM_META_BAD_FIELD"),
+    "skip:restart-below-v": ('{"params":{"primitive":"strip","restart_index":4}}', "SWPM_META_BAD_FIELD"),
+    "skip:list-restart-below-v": (
+        '{"params":{"primitive":"list","restart_index":4}}',
+        "SWPM_INDEX_OUT_OF_RANGE",
+    ),
+    "skip:encoding-other": ('{"encoding":"mixed","params":{"restart_index":65535}}', "SWPM_META_BAD_FIELD"),
+    "mixed:plain": ('{"encoding":"mixed","params":{"primitive":7}}', None),
+    "mixed:encoding-other": ('{"encoding":"skip-strip"}', "SWPM_META_BAD_FIELD"),
 }
+META_SEEDS = {"vanilla": "minimal-vanilla", "skip": "skip-strip-strip", "mixed": "mixed"}
 
 
 @pytest.mark.parametrize("case", sorted(META_CASES))
 def test_meta_json(dump: Path, tmp_path: Path, case: str) -> None:
     text, code = META_CASES[case]
-    seed = "minimal-vanilla" if case.startswith("vanilla:") else "sliding-window-strips"
+    seed = META_SEEDS.get(case.split(":")[0], "sliding-window-strips")
     data = _with_meta((VECTORS / "valid" / f"{seed}.swpm").read_bytes(), text.encode("utf-8"))
     path = tmp_path / "m.swpm"
     path.write_bytes(data)
@@ -704,7 +745,24 @@ def _vrec_past_2_32(R: int, M: int, at_offsets: bool) -> tuple[bytes, str, int]:
     return out, "SWPM_COUNT_EXCEEDS_CHUNK", start + 8 + (16 * R if at_offsets else 0)
 
 
+def _level_table_past_2_32(
+    vector: str, ctype: bytes, count_at: int, value: int, at: int
+) -> tuple[bytes, str, int]:
+    """A valid skip-strip or mixed vector (O = 4) whose SKIP / MLVL declares a count (level_count, or
+    collapsed / dynamic count) whose array needs 2^32 bytes or more: 0 or a few when wrapped at 2^32."""
+    data = (VECTORS / "valid" / f"{vector}.swpm").read_bytes()
+    _, payload = _payload(data, ctype)
+    struct.pack_into("<I", payload, count_at, value)
+    out = _rebuild(data, {ctype: payload})
+    entry, _ = _payload(out, ctype)
+    return out, "SWPM_COUNT_EXCEEDS_CHUNK", struct.unpack_from("<Q", out, entry + 8)[0] + at
+
+
 EXACT = {
+    # 4 (2^30) bytes of level_first_lod: 0 when wrapped
+    "skip-levels-2-32": lambda: _level_table_past_2_32("skip-strip-strip-offset32", b"SKIP", 0, 2**30, 8),
+    # D = 2^31 u16 dynamic indices: 2^32 bytes, at the array after the four level arrays (one level: 36)
+    "mixed-dynamic-2-32": lambda: _level_table_past_2_32("mixed-offset32", b"MLVL", 4, 2**31, 36),
     "vanilla-records-2-32": lambda: _vrec_past_2_32(2**28, 0, False),
     "vanilla-offsets-2-32": lambda: _vrec_past_2_32(1, 2**30, True),
     "vertex-count-2-30": _big_vertex_count,
