@@ -1,8 +1,8 @@
 /*
- * swpm_reader.h -- a single-header C99 reader for SWPM v1 files of the sliding-window encoding (list pools
- * and SW_STRIPS strip pools, u16/u32 idx, OFFSET32) and of the vanilla encoding, written from
- * spec/format.md and spec/errors.md (Forsyth's sliding-window and vanilla VIPM, "Comparison of VIPM
- * Methods", Game Programming Gems 2).
+ * swpm_reader.h -- a single-header C99 reader for SWPM v1 files of all four encodings: sliding-window (list
+ * pools and SW_STRIPS strip pools), vanilla, skip-strip (strips or lists) and mixed, u16/u32 idx, OFFSET32;
+ * written from spec/format.md and spec/errors.md (Forsyth's VIPM methods, "Comparison of VIPM Methods",
+ * Game Programming Gems 2: sliding window, vanilla, skip strips, mixed mode).
  *
  * Use: in exactly one .c file
  *     #define SWPM_READER_IMPLEMENTATION
@@ -12,24 +12,31 @@
  * reader (header, chunk table, CRC-32s, required chunks, META, LODS, VERT, then the encoding's chunks:
  * sliding-window WREC, INDX, the windows, the vertex prefix property, strip windows' starts and decoded
  * triangle counts; vanilla VREC, RCNT and INDX lengths and counts, LODS against RCNT and the replay of every
- * collapse record) and returns the FIRST error in the order of section 5 "Reporting" as its stable code
- * (errors.md) and byte offset. The accessors then give zero-copy views of the caller's bytes: nothing is
- * allocated, nothing is copied, and no byte outside [bytes, bytes + length) is read. Every sum is computed
- * without wrapping (format.md section 1).
+ * collapse record; skip-strip SREC, RCNT, INDX and SKIP, the level table, the lists' values and prefix
+ * property, the records against the levels, RCNT and LODS, the replay of each level's records against its
+ * collapsed list and LODS triangle counts; mixed MREC, RCNT, INDX and MLVL likewise, with its per-level
+ * removals and reference-counted replay) and returns the FIRST error in the order of section 5 "Reporting"
+ * as its stable code (errors.md) and byte offset. The accessors then give zero-copy views of the caller's
+ * bytes: nothing is allocated, nothing is copied, and no byte outside [bytes, bytes + length) is read.
+ * Every sum is computed without wrapping (format.md section 1).
  *
- * Vanilla's replay (format.md 3.6: each record's slots hold the binned vertex, then no live triangle uses
- * it) needs a working copy of INDX and a count per vertex. No check order avoids that (whether a slot
- * holds the binned vertex depends on every earlier record), so the caller gives scratch memory to
- * swpm_open_ex(): INDX length + 8 V + 7 bytes, at most the file's length. A vanilla file with records
- * opened with less (swpm_open gives none) is SWPM_READER_SCRATCH_TOO_SMALL, with the bytes needed in
- * swpm_result.need, once every check before the replay has passed. swpm_vanilla_instance_init() and
- * swpm_vanilla_set_lod() are an engine's per-instance runtime (format.md 3.6 "At run time"): a copy of INDX
- * in the caller's buffer, moved between LODs by applying or undoing collapse records.
+ * Replays need working memory. Vanilla's (format.md 3.6: each record's slots hold the binned vertex, then
+ * no live triangle uses it) needs a copy of INDX and a count per vertex: no check order avoids that
+ * (whether a slot holds the binned vertex depends on every earlier record). Skip-strip's (3.7) needs a copy
+ * of the longest list of a level with records; mixed's (3.8) a copy of the longest such dynamic list and a
+ * count per vertex. The caller gives scratch memory to swpm_open_ex(): vanilla INDX length + 8 V + 7 bytes,
+ * skip-strip W x that list's length, mixed 8 V + W x that list's length + 7; each at most the file's length.
+ * A file with records opened with less (swpm_open gives none) is SWPM_READER_SCRATCH_TOO_SMALL, with the
+ * bytes needed in swpm_result.need, once every check before the replay has passed.
+ *
+ * Per-instance runtime (an engine's): swpm_vanilla_instance_init() / swpm_vanilla_set_lod() (format.md 3.6
+ * "At run time": a copy of INDX in the caller's buffer, moved between LODs by applying or undoing collapse
+ * records); swpm_skip_instance_init() / swpm_skip_set_lod() and swpm_mixed_instance_init() /
+ * swpm_mixed_set_lod() (3.7, 3.8: a copy of the current level's list, or dynamic list, in the caller's
+ * buffer of swpm_level_instance_bytes(); a level change copies the target level's stored uncollapsed or
+ * collapsed list, whichever is fewer records away, then records are applied or undone).
  *
  * What it does not do:
- *  - files of the other two encodings (skip-strip, mixed) are refused after the header and chunk-table
- *    checks with the reader's own code SWPM_READER_UNSUPPORTED_ENCODING (offset 20, the features field); a
- *    header or table error found first is reported instead;
  *  - warnings and infos (SWPM_STREAM_ORDER, SWPM_FILE_TRAILING_BYTES, SWPM_VERT_NONFINITE, ...) are not
  *    reported: a file is accepted iff it has no error;
  *  - SMAP (ancillary, format.md section 4) and unknown ancillary chunks are skipped, not validated;
@@ -37,6 +44,9 @@
  *    exposed as a tree: swpm_meta() gives its bytes.
  *  - Checking a META object for duplicate keys walks the object once per key (O(keys^2) per object):
  *    no allocation, fine for the kilobyte META writers emit.
+ *  - it does not decode strips into triangles for the caller: a skip-strip level list is handed to the GPU
+ *    as it is (one strip draw, primitive restart at swpm_restart_index, or a list).
+ * SWPM_READER_UNSUPPORTED_ENCODING is no longer returned (every encoding is read); the name stays defined.
  */
 #ifndef SWPM_READER_H
 #define SWPM_READER_H
@@ -57,10 +67,11 @@ extern "C" {
 #define SWPM_FEATURE_SW_STRIPS 0x20u
 #define SWPM_FEATURE_OFFSET32 0x40u
 
-/* The reader's own code for a valid-so-far file of another encoding (not an errors.md code). */
+/* The reader's own code for a valid-so-far file of an encoding it did not read (not an errors.md code). Since
+ * it reads all four, it no longer returns it; kept for code that tests for it. */
 #define SWPM_READER_UNSUPPORTED_ENCODING "SWPM_READER_UNSUPPORTED_ENCODING"
-/* The reader's own code for a vanilla file whose replay (format.md 5, vanilla stage (c)) needs more scratch
- * memory than swpm_open_ex was given: swpm_result.need holds the bytes it needs (not an errors.md code; the
+/* The reader's own code for a file whose replay (format.md 5: vanilla stage (c), skip-strip (d), mixed (d))
+ * needs more scratch memory than swpm_open_ex was given: swpm_result.need holds the bytes it needs (not an errors.md code; the
  * file is neither accepted nor rejected). */
 #define SWPM_READER_SCRATCH_TOO_SMALL "SWPM_READER_SCRATCH_TOO_SMALL"
 
@@ -130,20 +141,24 @@ typedef struct swpm_vanilla_instance {
     uint64_t live;       /* live triangles: LODS triangle_count(lod) */
 } swpm_vanilla_instance;
 
-/* Open and validate a file (format.md 5). file is filled only on success. A vanilla file with records
- * needs scratch memory for its replay: swpm_open gives none, so it answers SWPM_READER_SCRATCH_TOO_SMALL for
- * such a file once every check before the replay has passed; use swpm_open_ex. */
+/* Open and validate a file (format.md 5). file is filled only on success. A vanilla, skip-strip or mixed
+ * file with records needs scratch memory for its replay: swpm_open gives none, so it answers
+ * SWPM_READER_SCRATCH_TOO_SMALL for such a file once every check before the replay has passed; use
+ * swpm_open_ex. */
 swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file);
-/* swpm_open with scratch memory for the vanilla replay (format.md 5, vanilla stage (c)): a copy of INDX
- * (its payload length) and a 64-bit reference count per vertex (8 V), aligned inside the scratch (up to 7
- * bytes): INDX length + 8 V + 7 bytes. The file's length always suffices (INDX and VERT, whose length is at
- * least 16 + 12 V, are disjoint parts of it). Only the replay uses it, and only a vanilla file with R > 0;
- * a smaller scratch is SWPM_READER_SCRATCH_TOO_SMALL with .need set, after every earlier check passed (an
- * error found before the replay is reported as usual). scratch may be NULL when scratch_bytes is 0; its
- * contents are clobbered. Nothing is allocated. */
+/* swpm_open with scratch memory for the replays (format.md 5: vanilla stage (c), skip-strip (d), mixed (d)):
+ * vanilla a copy of INDX (its payload length) and a 64-bit reference count per vertex (8 V), aligned inside
+ * the scratch (up to 7 bytes): INDX length + 8 V + 7 bytes; skip-strip a copy of the longest list of a level
+ * with records (W x its length, at most INDX length); mixed 8 V + W x the longest dynamic list of a level
+ * with records + 7. The file's length always suffices (INDX, the MLVL lists and VERT, whose length is at
+ * least 16 + 12 V, are disjoint parts of it). Only a replay uses it, and only in a file with R > 0 (a
+ * skip-strip level without records is compared in place); a smaller scratch is
+ * SWPM_READER_SCRATCH_TOO_SMALL with .need set, after every earlier check passed (an error found before the
+ * replay is reported as usual). scratch may be NULL when scratch_bytes is 0; its contents are clobbered.
+ * Nothing is allocated. */
 swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, void *scratch,
                          size_t scratch_bytes);
-/* The encoding bit's index: 1 vanilla, 2 sliding-window. */
+/* The encoding bit's index: 1 vanilla, 2 sliding-window, 3 skip-strip, 4 mixed. */
 int swpm_encoding(const swpm_file *f);
 
 /* Header (2.1): features word, W, O, V, L. */
