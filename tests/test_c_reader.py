@@ -784,7 +784,7 @@ def test_exact_arithmetic(dump_san: Path, tmp_path: Path, case: str) -> None:
 
 
 def test_readme_c_example_compiles(tmp_path: Path) -> None:
-    """README's "Drawing from C" examples (sliding-window, vanilla), each in a function with stand-ins for
+    """README's "Drawing from C" examples (sliding-window, vanilla, skip-strip and mixed), each in a function with stand-ins for
     the GL names, compile."""
     cc = shutil.which("cc")
     if cc is None:
@@ -792,7 +792,7 @@ def test_readme_c_example_compiles(tmp_path: Path) -> None:
     text = (ROOT / "README.md").read_text()
     section = text.split("## Drawing from C", 1)[1].split("\n## ", 1)[0]
     blocks = [part.split("```", 1)[0] for part in section.split("```c\n")[1:]]
-    assert len(blocks) == 2
+    assert len(blocks) == 3
     for i, block in enumerate(blocks):
         head = [line for line in block.splitlines() if line.startswith("#")]
         body = [line for line in block.splitlines() if not line.startswith("#")]

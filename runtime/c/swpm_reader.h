@@ -204,14 +204,19 @@ int swpm_window(const swpm_file *f, uint64_t lod, uint64_t *first_index, uint64_
  * non-increasing, so a binary search). */
 uint64_t swpm_lod_for_triangles(const swpm_file *f, uint64_t target);
 
-/* ---- vanilla (format.md 3.4, 3.6, 7): views of INDX, VREC and RCNT as stored (maybe unaligned); NULL with
- * count 0 for a sliding-window file (whose WREC views are NULL for a vanilla file, swpm_window 0) ---- */
-/* indices: INDX (3 T0 idx values): swpm_index_pool. */
-/* R records of 4 O bytes: kept, tris_removed, change_count, prev_change_count; *count = R. */
+/* ---- vanilla, skip-strip, mixed (format.md 3.4, 3.6-3.8, 7): views of INDX, the record chunk (VREC, SREC,
+ * MREC) and RCNT as stored (maybe unaligned); NULL with count 0 for a sliding-window file (whose WREC views
+ * are NULL for the others, swpm_window 0) ---- */
+/* indices: INDX (vanilla 3 T0 idx values; skip-strip level_indices; mixed level_static_indices):
+ * swpm_index_pool. */
+/* R records of 4 O bytes (vanilla: kept, tris_removed, change_count, prev_change_count; skip-strip: kept,
+ * binned, change_count, prev_change_count), mixed 5 O (swpm_collapse_field); *count = R.
+ * swpm_collapse_record reads the four columns of a vanilla or skip-strip record (tris_removed: binned). */
 const uint8_t *swpm_collapse_records(const swpm_file *f, uint64_t *count, uint32_t *row_bytes);
 void swpm_collapse_record(const swpm_file *f, uint64_t r, uint32_t *kept, uint32_t *tris_removed,
                           uint32_t *change_count, uint32_t *prev_change_count);
-/* change_offsets: off[M] slots of INDX; *count = M. */
+/* change_offsets: off[M] slots of INDX (skip-strip: of the record's level list; mixed: of its dynamic
+ * list); *count = M. */
 const uint8_t *swpm_collapse_change_offsets(const swpm_file *f, uint64_t *count);
 /* RCNT: off[L], the records applied at each LOD. */
 const uint8_t *swpm_lod_record_counts(const swpm_file *f, uint64_t *count);
