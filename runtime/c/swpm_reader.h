@@ -323,12 +323,18 @@ uint64_t swpm_mixed_set_lod(const swpm_file *f, swpm_level_instance *inst, uint6
 #include <string.h>
 
 /* ---- little-endian loads (no alignment assumed) ---- */
-static uint32_t swpm__u16(const uint8_t *p) { return (uint32_t)p[0] | ((uint32_t)p[1] << 8); }
-static uint32_t swpm__u32(const uint8_t *p) {
+/* (forced inline under GCC and Clang: the loads sit in every per-element loop, and -O2 leaves some calls) */
+#if defined(__GNUC__)
+#define SWPM__INLINE static inline __attribute__((always_inline))
+#else
+#define SWPM__INLINE static inline
+#endif
+SWPM__INLINE uint32_t swpm__u16(const uint8_t *p) { return (uint32_t)p[0] | ((uint32_t)p[1] << 8); }
+SWPM__INLINE uint32_t swpm__u32(const uint8_t *p) {
     return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
 }
 static uint64_t swpm__u64(const uint8_t *p) { return (uint64_t)swpm__u32(p) | ((uint64_t)swpm__u32(p + 4) << 32); }
-static uint32_t swpm__uw(const uint8_t *p, uint32_t w) { return w == 2 ? swpm__u16(p) : swpm__u32(p); }
+SWPM__INLINE uint32_t swpm__uw(const uint8_t *p, uint32_t w) { return w == 2 ? swpm__u16(p) : swpm__u32(p); }
 
 /* ---- CRC-32 (ISO-HDLC / zlib: reflected 0x04C11DB7, init and final xor 0xFFFFFFFF; format.md 2.1) ---- */
 /* Slicing-by-8 tables: [0] the byte-wise table, [k][i] = [k-1][i] >> 8 ^ [0][[k-1][i] & 0xFF] (eight bytes a
@@ -926,21 +932,35 @@ static int swpm__allowed(int enc, int kind) {
 }
 
 /* The first position in [from, to) of the idx array x whose value is >= limit, a strip pool's restart index
- * exempt; to if none. One loop per width, so that the compiler can vectorise the common case. */
+ * exempt; to if none. Blocks of 64 are scanned without an early exit (a loop the compiler can vectorise),
+ * and only a block that holds one is searched again. */
 static uint64_t swpm__first_at_least(const uint8_t *x, uint32_t W, uint64_t from, uint64_t to, uint64_t limit,
                                      int exempt, uint64_t restart) {
-    uint64_t i;
-    if (from >= to) return to;
-    if (W == 2) {
-        for (i = from; i < to; i++) {
-            uint64_t v = swpm__u16(x + 2 * i);
-            if (v >= limit && !(exempt && v == restart)) return i;
+    uint64_t i, j, e;
+    uint32_t lim, rst, noex, bad;
+    if (from >= to || limit > 0xFFFFFFFFull) return to; /* no idx value reaches 2^32 */
+    lim = (uint32_t)limit;
+    noex = !exempt || restart > 0xFFFFFFFFull;
+    rst = noex ? 0 : (uint32_t)restart;
+    for (i = from; i < to; i = e) {
+        e = to - i > 64 ? i + 64 : to;
+        bad = 0;
+        if (W == 2) {
+            for (j = i; j < e; j++) {
+                uint32_t v = swpm__u16(x + 2 * j);
+                bad |= (uint32_t)(v >= lim) & (noex | (uint32_t)(v != rst));
+            }
+        } else {
+            for (j = i; j < e; j++) {
+                uint32_t v = swpm__u32(x + 4 * j);
+                bad |= (uint32_t)(v >= lim) & (noex | (uint32_t)(v != rst));
+            }
         }
-    } else {
-        for (i = from; i < to; i++) {
-            uint64_t v = swpm__u32(x + 4 * i);
-            if (v >= limit && !(exempt && v == restart)) return i;
-        }
+        if (bad)
+            for (j = i; j < e; j++) {
+                uint32_t v = swpm__uw(x + W * j, W);
+                if (v >= lim && (noex || v != rst)) return j;
+            }
     }
     return to;
 }
@@ -1471,21 +1491,31 @@ static swpm_result swpm__vanilla(swpm_file *f, const uint8_t *bytes, const uint6
 }
 
 /* ---- skip-strip and mixed (format.md 3.7, 3.8; 5 step 4: stage 0, then (a) to (d) or (e)) ---- */
-/* 1 if positions j, j+1, j+2 of the idx array x make a non-degenerate triangle: three distinct values, none
- * the strips' restart index (3.7) */
-static int swpm__tri_ok(const uint8_t *x, uint32_t W, uint64_t j, int exempt, uint64_t restart) {
-    uint64_t a = swpm__uw(x + j * W, W), b = swpm__uw(x + (j + 1) * W, W), c = swpm__uw(x + (j + 2) * W, W);
-    if (exempt && (a == restart || b == restart || c == restart)) return 0;
-    return a != b && b != c && a != c;
+/* 1 if a, b, c make a non-degenerate triangle: three distinct values, none the strips' restart index (3.7) */
+SWPM__INLINE uint64_t swpm__tri3(uint64_t a, uint64_t b, uint64_t c, int exempt, uint64_t restart) {
+    /* (without branches: strips' values make them unpredictable) */
+    return (uint64_t)((a != b) & (b != c) & (a != c) & ((exempt == 0) | ((a != restart) & (b != restart) & (c != restart))));
 }
 /* The non-degenerate triangles of the m-element list x whose first slot lies in [lo, hi] (strips: every
- * slot starts one; lists: every third). */
+ * slot starts one, read with a rolling window of three values; lists: every third slot). */
 static uint64_t swpm__tris_in(const uint8_t *x, uint32_t W, uint64_t m, uint64_t lo, uint64_t hi, int strip,
                               int exempt, uint64_t restart) {
-    uint64_t t, n = 0, step = strip ? 1 : 3;
+    uint64_t t, n = 0, a, b, c;
     if (m < 3) return 0;
     if (hi > m - 3) hi = m - 3;
-    for (t = lo; t <= hi; t += step) n += (uint64_t)swpm__tri_ok(x, W, t, exempt, restart);
+    if (lo > hi) return 0;
+    if (!strip) {
+        for (t = lo; t <= hi; t += 3)
+            n += swpm__tri3(swpm__uw(x + t * W, W), swpm__uw(x + (t + 1) * W, W), swpm__uw(x + (t + 2) * W, W),
+                            exempt, restart);
+        return n;
+    }
+    a = swpm__uw(x + lo * W, W);
+    b = swpm__uw(x + (lo + 1) * W, W);
+    for (t = lo; t <= hi; t++, a = b, b = c) {
+        c = swpm__uw(x + (t + 2) * W, W);
+        n += swpm__tri3(a, b, c, exempt, restart);
+    }
     return n;
 }
 
