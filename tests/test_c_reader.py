@@ -3,10 +3,9 @@ against the conformance vectors, files the Python codec writes from real meshes,
 
 ``runtime/c/swpm_dump.c`` is compiled once per module with the system ``cc`` (``-std=c99 -Wall -Wextra
 -Werror -O1``, and a second build with AddressSanitizer and UBSan when the toolchain has them). The reader
-handles the sliding-window and vanilla encodings (vanilla: its arrays and a per-instance index buffer moved
-by its collapse records, compared with the Python product's triangles at every LOD); a file of another
-encoding is refused as unsupported unless a header or chunk-table error (steps 1-2 of format.md 5) comes
-first.
+handles all four encodings (vanilla: its arrays and a per-instance index buffer moved by its collapse
+records, compared with the Python product's triangles at every LOD; skip-strip and mixed: their arrays,
+levels and a per-instance level list moved to every LOD, compared with what Python's instance draws).
 """
 
 from __future__ import annotations
@@ -784,8 +783,8 @@ def test_exact_arithmetic(dump_san: Path, tmp_path: Path, case: str) -> None:
 
 
 def test_readme_c_example_compiles(tmp_path: Path) -> None:
-    """README's "Drawing from C" examples (sliding-window, vanilla, skip-strip and mixed), each in a function with stand-ins for
-    the GL names, compile."""
+    """README's "Drawing from C" examples (sliding-window, vanilla, skip-strip and mixed), each in a function
+    with stand-ins for the GL names, compile."""
     cc = shutil.which("cc")
     if cc is None:
         pytest.fail("no C compiler (cc): the C reader's tests need one (README, Set up)")
