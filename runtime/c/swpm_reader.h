@@ -1710,7 +1710,7 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
             uint64_t s0 = SWPM__A(a1, l), m = SWPM__A(a1, l + 1) - s0, r0 = SWPM__A(a3, l), r1 = SWPM__A(a3, l + 1);
             uint64_t kend = l + 1 < n ? SWPM__A(a0, l + 1) : L, count;
             const uint8_t *cur = x + W * s0;
-            if (r1 > r0) {
+            if (r1 > r0 && m) { /* (an empty list needs no copy: scratch may be NULL then) */
                 memcpy(buf, cur, W * m);
                 cur = buf;
             }
