@@ -3,10 +3,9 @@ against the conformance vectors, files the Python codec writes from real meshes,
 
 ``runtime/c/swpm_dump.c`` is compiled once per module with the system ``cc`` (``-std=c99 -Wall -Wextra
 -Werror -O1``, and a second build with AddressSanitizer and UBSan when the toolchain has them). The reader
-handles the sliding-window and vanilla encodings (vanilla: its arrays and a per-instance index buffer moved
-by its collapse records, compared with the Python product's triangles at every LOD); a file of another
-encoding is refused as unsupported unless a header or chunk-table error (steps 1-2 of format.md 5) comes
-first.
+handles all four encodings (vanilla: its arrays and a per-instance index buffer moved by its collapse
+records, compared with the Python product's triangles at every LOD; skip-strip and mixed: their arrays,
+levels and a per-instance level list moved to every LOD, compared with what Python's instance draws).
 """
 
 from __future__ import annotations
@@ -100,14 +99,13 @@ def _is_vanilla(data: bytes) -> bool:
     return len(data) >= 24 and struct.unpack_from("<I", data, 20)[0] & 0x1E == 0x02
 
 
+def _encoding_bit(data: bytes) -> int:
+    return struct.unpack_from("<I", data, 20)[0] & 0x1E if len(data) >= 24 else 0
+
+
 def _expected(data: bytes, problems: list[tuple[str, str, int | None]]) -> dict[str, Any]:
     """What the C reader must print for a file with these problems (code, severity, offset)."""
     errors = [(c, o) for c, s, o in problems if s == "error"]
-    step_12 = (
-        bool(errors) and errors[0][0].startswith(STEP_12_PREFIXES) and errors[0][0] != "SWPM_CHUNK_BAD_LENGTH"
-    )
-    if not (_is_sliding(data) or _is_vanilla(data)) and not step_12:
-        return {"ok": False, "code": UNSUPPORTED, "offset": 20}
     if not errors:
         return {"ok": True}
     return {"ok": False, "code": errors[0][0], "offset": errors[0][1]}
@@ -142,11 +140,16 @@ def test_vector(dump: Path, vector: dict[str, Any]) -> None:
 
 
 def test_vectors_cover_both_sides(dump: Path) -> None:
-    """The vectors exercise the reader: sliding-window files accepted and rejected, others refused."""
+    """The vectors exercise the reader: files of every encoding accepted and rejected, none refused."""
     paths = [VECTORS / v["file"] for v in MANIFEST["vectors"]]
     outs = _check_many(dump, paths)
     codes = {o.get("code") for o in outs}
-    assert sum(o["ok"] for o in outs) >= 10 and UNSUPPORTED in codes
+    assert sum(o["ok"] for o in outs) >= 10 and UNSUPPORTED not in codes
+    for enc in (0x08, 0x10):  # skip-strip, mixed: valid files and their own codes
+        got = {
+            o.get("code") for o, p in zip(outs, paths, strict=True) if _encoding_bit(p.read_bytes()) == enc
+        }
+        assert None in got and ("SWPM_LEVEL_BAD_TABLE" if enc == 0x08 else "SWPM_MIXED_BAD_LEVELS") in got
     assert {"SWPM_WINDOW_MID_STRIP", "SWPM_WINDOW_STRIP_TRIANGLES", "SWPM_PREFIX_VIOLATION"} <= codes
     # vanilla: every stage's codes reached (the replay's among them)
     vanilla = {o.get("code") for o, p in zip(outs, paths, strict=True) if _is_vanilla(p.read_bytes())}
@@ -267,6 +270,138 @@ def test_real_vanilla_files(dump: Path, tmp_path: Path, mesh: str) -> None:
     assert 4 in widths
 
 
+# -- skip-strip and mixed files the Python codec writes: arrays, and an instance moved to every LOD and back
+LEVEL_VARIANTS = {
+    "skip-list": ("skip-strip", {"primitive": "list"}),
+    "skip-strip": ("skip-strip", {"primitive": "strip"}),
+    "skip-strip-degenerate": ("skip-strip", {"primitive": "strip", "restart": False}),
+    "mixed": ("mixed", {}),
+}
+LEVEL_REAL = [
+    (m, v) for m in ("suzanne", "spot", "cow") for v in LEVEL_VARIANTS if m == "suzanne" or "degen" not in v
+]
+_LPMS: dict[tuple[str, str], Any] = {}
+
+
+def _lpm(mesh: str, variant: str) -> Any:
+    if (mesh, variant) not in _LPMS:
+        enc, kw = LEVEL_VARIANTS[variant]
+        _LPMS[mesh, variant] = swpm_usd.build(shared_mesh(f"{mesh}.obj"), enc, **kw)
+    return _LPMS[mesh, variant]
+
+
+SKIP_ARRAYS = (
+    "level_indices",
+    "level_first_lod",
+    "level_index_start",
+    "level_collapsed_start",
+    "level_record_start",
+    "level_collapsed_indices",
+    "collapse_kept",
+    "collapse_binned",
+    "collapse_change_count",
+    "collapse_prev_change_count",
+    "collapse_change_offsets",
+    "lod_record_counts",
+)
+MIXED_ARRAYS = (
+    "level_static_indices",
+    "level_first_lod",
+    "level_static_start",
+    "level_dynamic_start",
+    "level_record_start",
+    "level_dynamic_indices",
+    "level_dynamic_collapsed_indices",
+    "collapse_kept",
+    "collapse_static_tris_removed",
+    "collapse_dynamic_tris_removed",
+    "collapse_change_count",
+    "collapse_prev_change_count",
+    "collapse_change_offsets",
+    "lod_record_counts",
+)
+
+
+@pytest.mark.parametrize(("mesh", "variant"), LEVEL_REAL, ids=[f"{m}-{v}" for m, v in LEVEL_REAL])
+def test_real_level_files(dump: Path, tmp_path: Path, mesh: str, variant: str) -> None:
+    """Every array as Python reads it, the levels, and what an instance draws at every LOD (LODs 0 .. L-1 and
+    back): the stream Python's instance draws (skip-strip: the level's edited list, which pm.triangles_at
+    decodes; mixed: the live dynamic prefix, then the live static range of INDX), byte for byte."""
+    pm = _lpm(mesh, variant)
+    enc = LEVEL_VARIANTS[variant][0]
+    paths = {"default": swpm_usd.save(pm, tmp_path / "default.swpm")}
+    (tmp_path / "index32.swpm").write_bytes(encode_bytes(pm, index_width=4))
+    paths["index32"] = tmp_path / "index32.swpm"
+    for kind, path in paths.items():
+        rc, out = _run(dump, path)
+        assert rc == 0 and out["ok"] and out["encoding"] == enc, (kind, out)
+        q = swpm_usd.load(path)
+        W, O, L = out["index_width"], out["offset_width"], q.lod_count
+        assert kind != "index32" or W == 4
+        assert (out["lod_count"], out["vertex_count"]) == (L, q.vertex_count)
+        assert np.array_equal(_array(out, "triangle_counts", "<u4"), q.triangle_counts)
+        names = SKIP_ARRAYS if enc == "skip-strip" else MIXED_ARRAYS
+        wide = {"level_indices", "level_collapsed_indices", "level_static_indices", "level_dynamic_indices"}
+        for name in names:
+            width = W if name in wide or name == "level_dynamic_collapsed_indices" else O
+            want = q.collapse_prev_change_count if name == "collapse_prev_change_count" else getattr(q, name)
+            assert np.array_equal(_array(out, name, f"<u{width}"), want), name
+        if enc == "skip-strip":
+            strip = LEVEL_VARIANTS[variant][1]["primitive"] == "strip"
+            assert out["primitive_strip"] == int(strip)
+            assert out["restart_index"] == (q.params.get("restart_index") if strip else None)
+        assert out["level_of_lod"] == [pm.level_of_lod(k) for k in range(L)] if enc == "skip-strip" else True
+        starts = q.level_index_start if enc == "skip-strip" else q.level_static_start
+        for lv, row in enumerate(out["levels"]):
+            assert row[2:6] == [
+                int(q.level_record_start[lv]),
+                int(q.level_record_start[lv + 1]),
+                int(starts[lv]),
+                int(starts[lv + 1] - starts[lv]),
+            ]
+        steps = out["instance"]
+        assert [s[0] for s in steps] == [*range(L), *range(L - 2, -1, -1)]
+        for step in steps:
+            lod, count, vc, crc = step[0], step[2], step[3], step[4]
+            assert vc == q.vertex_count_at(lod)
+            if enc == "skip-strip":
+                want = np.ascontiguousarray(q.draw_stream(lod)[1], f"<u{W}")
+            else:
+                dyn, static = (c[1] for c in q.draw_calls(lod))
+                want = np.ascontiguousarray(dyn, f"<u{W}")
+                first, n = step[5], step[6]
+                assert np.array_equal(q.level_static_indices[first : first + n], static), lod
+            assert (count, crc) == (len(want), zlib.crc32(want.tobytes())), lod
+        # and the triangles those streams draw (the file's restart index) are the built mesh's LOD
+        for lod in (0, L // 2, L - 1):
+            stream = q.draw_stream(lod)[1]
+            tris = q._decode(stream) if enc == "skip-strip" else stream.reshape(-1, 3)
+            assert np.array_equal(np.asarray(tris, np.int64), np.asarray(pm.triangles_at(lod), np.int64))
+
+
+@pytest.mark.parametrize("variant", ["skip-strip", "mixed"])
+def test_level_scratch(dump_san: Path, tmp_path: Path, variant: str) -> None:
+    """The replay's scratch (format.md 5, skip-strip stage (d), mixed (d)): skip-strip W x the longest list of
+    a level with records, mixed 8 V + W x its longest dynamic list + 7; exactly that is enough (under the
+    sanitizer: nothing past it is touched), one byte less is SWPM_READER_SCRATCH_TOO_SMALL with that need."""
+    pm = _lpm("suzanne", variant)
+    data = encode_bytes(pm)
+    path = tmp_path / "l.swpm"
+    path.write_bytes(data)
+    q = swpm_usd.load(path)
+    W = 4 if struct.unpack_from("<I", data, 20)[0] & 1 else 2
+    rs = q.level_record_start.astype(np.int64)
+    starts = (q.level_index_start if variant == "skip-strip" else q.level_dynamic_start).astype(np.int64)
+    longest = int(np.max(np.diff(starts)[np.diff(rs) > 0]))
+    need = W * longest if variant == "skip-strip" else 8 * q.vertex_count + W * longest + 7
+    for scratch, want in ((need, {"ok": True}), (need - 1, {"ok": False, "code": SCRATCH, "offset": None})):
+        proc = subprocess.run(
+            [str(dump_san), "--check-scratch", str(scratch), str(path)], capture_output=True, text=True
+        )
+        assert proc.returncode == 0 and proc.stderr == ""
+        assert json.loads(proc.stdout) == (want if want["ok"] else {**want, "need": need})
+
+
 def test_vanilla_scratch(dump: Path, dump_san: Path, tmp_path: Path) -> None:
     """The replay's scratch: INDX length + 8 V + 7 bytes is enough (under the sanitizer: nothing past it is
     touched), one byte less is SWPM_READER_SCRATCH_TOO_SMALL with that need; an error found before the
@@ -309,8 +444,20 @@ def _regions(data: bytes) -> list[tuple[int, int]]:
     out = [(0, 64), (to, to + 32 * count)]
     for i in range(count):
         t, _, off, ln = struct.unpack_from("<4sIQQ", data, to + 32 * i)
-        if t in (b"WREC", b"INDX", b"LODS", b"META", b"VERT", b"VREC", b"RCNT") and ln:
-            out.append((off, off + ln))
+        if t in (
+            b"WREC",
+            b"INDX",
+            b"LODS",
+            b"META",
+            b"VERT",
+            b"VREC",
+            b"RCNT",
+            b"SKIP",
+            b"SREC",
+            b"MLVL",
+            b"MREC",
+        ):
+            out.append((off, off + ln)) if ln else None
     return out
 
 
@@ -341,13 +488,19 @@ def _mutate(rng: random.Random, data: bytes) -> bytes:
 
 
 def _mutate_values(rng: random.Random, data: bytes) -> bytes:
-    """A valid file with a few INDX values set to other vertices or WREC (vanilla: VREC, RCNT) fields nudged,
-    CRCs fixed: mutants that reach the windows, the prefix property and the strips' triangle counts, or the
-    vanilla counts and replay."""
+    """A valid file with a few INDX values set to other vertices or WREC (vanilla: VREC, RCNT; skip-strip:
+    SREC, SKIP, RCNT; mixed: MREC, MLVL, RCNT) fields nudged, CRCs fixed: mutants that reach the windows, the
+    prefix property and the strips' triangle counts, or the record counts, level tables and replays."""
     d = bytearray(data)
     features = struct.unpack_from("<I", d, 20)[0]
     W, O = (4 if features & 1 else 2), (4 if features & 0x41 else 2)
-    table = rng.choice([b"VREC", b"VREC", b"RCNT"]) if _is_vanilla(data) else b"WREC"
+    table = {
+        0x02: [b"VREC", b"VREC", b"RCNT"],
+        0x04: [b"WREC"],
+        0x08: [b"SREC", b"SREC", b"SKIP", b"RCNT"],
+        0x10: [b"MREC", b"MREC", b"MLVL", b"RCNT"],
+    }[_encoding_bit(data)]
+    table = rng.choice(table)
     (ei, ix), (ew, wr) = _payload(data, b"INDX"), _payload(data, table)
     io, wo = struct.unpack_from("<Q", d, ei + 8)[0], struct.unpack_from("<Q", d, ew + 8)[0]
     V = struct.unpack_from("<I", d, struct.unpack_from("<Q", d, _payload(data, b"VERT")[0] + 8)[0])[0]
@@ -356,7 +509,8 @@ def _mutate_values(rng: random.Random, data: bytes) -> bytes:
             at, val = io + W * rng.randrange(len(ix) // W), rng.randrange(V)
             d[at : at + W] = val.to_bytes(W, "little")
         else:
-            skip = 8 if table == b"VREC" else 0  # VREC's counts R and M are u32: nudge the off fields after
+            # (the u32 counts of VREC, SREC, MREC, SKIP and MLVL: nudge the off fields after them)
+            skip = 8 if table in (b"VREC", b"SREC", b"MREC", b"SKIP", b"MLVL") else 0
             at = wo + skip + O * rng.randrange((len(wr) - skip) // O)
             val = max(0, int.from_bytes(d[at : at + O], "little") + rng.randint(-3, 3))
             d[at : at + O] = min(val, (1 << 8 * O) - 1).to_bytes(O, "little")
@@ -364,11 +518,7 @@ def _mutate_values(rng: random.Random, data: bytes) -> bytes:
 
 
 def _seeds(tmp: Path) -> list[bytes]:
-    seeds = [
-        p.read_bytes()
-        for p in sorted((VECTORS / "valid").glob("*.swpm"))
-        if _is_sliding(p.read_bytes()) or _is_vanilla(p.read_bytes())
-    ]
+    seeds = [p.read_bytes() for p in sorted((VECTORS / "valid").glob("*.swpm"))]
     seeds.append(encode_bytes(_pm("suzanne", "strip")))
     return seeds
 
@@ -389,6 +539,10 @@ def test_fuzz_against_python(dump_san: Path, tmp_path: Path) -> None:
     cow = encode_bytes(_vpm("cow"))
     mutants += [_mutate(rng, cow) for _ in range(200)]
     mutants += [_mutate_values(rng, cow) for _ in range(400)]
+    # skip-strip (lists, strips with restarts) and mixed: real files' mutants, raw and by value
+    levelled = [encode_bytes(_lpm("cow", v)) for v in ("skip-list", "skip-strip", "mixed")]
+    mutants += [_mutate(rng, rng.choice(levelled)) for _ in range(300)]
+    mutants += [_mutate_values(rng, rng.choice(levelled)) for _ in range(900)]
     paths = []
     for i, m in enumerate(mutants):
         p = tmp_path / f"m{i}.swpm"
@@ -411,6 +565,15 @@ def test_fuzz_against_python(dump_san: Path, tmp_path: Path) -> None:
     }
     vanilla = [o.get("code") for m, o in zip(mutants, got, strict=True) if _is_vanilla(m)]
     assert {"SWPM_RECORD_BAD_CHANGE", "SWPM_RECORD_BAD_COUNTS", "SWPM_LOD_VERTEX_COUNT", None} <= set(vanilla)
+    for enc, own in ((0x08, "SWPM_LEVEL_BAD_TABLE"), (0x10, "SWPM_MIXED_BAD_LEVELS")):
+        codes = {o.get("code") for m, o in zip(mutants, got, strict=True) if _encoding_bit(m) == enc}
+        assert {
+            own,
+            "SWPM_RECORD_BAD_CHANGE",
+            "SWPM_PREFIX_VIOLATION",
+            "SWPM_RECORD_BAD_COUNTS",
+            None,
+        } <= codes
 
 
 # -- META: the strict JSON of format.md 3.1, in files rebuilt around a given META payload -----------------
@@ -493,13 +656,31 @@ META_CASES = {
     "restart-missing": ('{"params":{"primitive":"strip"}}', "SWPM_META_BAD_FIELD"),
     "restart-2-32": ('{"params":{"primitive":"strip","restart_index":4294967296}}', "SWPM_META_BAD_FIELD"),
     "restart-minus-zero": ('{"params":{"primitive":"strip","restart_index":-0}}', "SWPM_META_BAD_FIELD"),
+    # skip-strip (format.md 3.7): a missing primitive is "strip", a list ignores restart_index's value
+    "skip:plain": ('{"encoding":"skip-strip","params":{"primitive":"strip","restart_index":65535}}', None),
+    "skip:primitive-missing": ('{"params":{"restart_index":65535}}', None),
+    "skip:primitive-other": ('{"params":{"primitive":"fan","restart_index":65535}}', "SWPM_META_BAD_FIELD"),
+    # (without a restart index, or with a list, the strips' restart entries 0xFFFF are vertex ids >= V)
+    "skip:restart-null": ('{"params":{"primitive":"strip","restart_index":null}}', "SWPM_INDEX_OUT_OF_RANGE"),
+    "skip:restart-true": ('{"params":{"primitive":"strip","restart_index":true}}', "SWPM_META_BAD_FIELD"),
+    "skip:restart-float": ('{"params":{"primitive":"strip","restart_index":65535.0}}', "SWPM_META_BAD_FIELD"),
+    "skip:restart-2-32": ('{"params":{"restart_index":4294967296}}', "SWPM_META_BAD_FIELD"),
+    "skip:restart-below-v": ('{"params":{"primitive":"strip","restart_index":4}}', "SWPM_META_BAD_FIELD"),
+    "skip:list-restart-below-v": (
+        '{"params":{"primitive":"list","restart_index":4}}',
+        "SWPM_INDEX_OUT_OF_RANGE",
+    ),
+    "skip:encoding-other": ('{"encoding":"mixed","params":{"restart_index":65535}}', "SWPM_META_BAD_FIELD"),
+    "mixed:plain": ('{"encoding":"mixed","params":{"primitive":7}}', None),
+    "mixed:encoding-other": ('{"encoding":"skip-strip"}', "SWPM_META_BAD_FIELD"),
 }
+META_SEEDS = {"vanilla": "minimal-vanilla", "skip": "skip-strip-strip", "mixed": "mixed"}
 
 
 @pytest.mark.parametrize("case", sorted(META_CASES))
 def test_meta_json(dump: Path, tmp_path: Path, case: str) -> None:
     text, code = META_CASES[case]
-    seed = "minimal-vanilla" if case.startswith("vanilla:") else "sliding-window-strips"
+    seed = META_SEEDS.get(case.split(":")[0], "sliding-window-strips")
     data = _with_meta((VECTORS / "valid" / f"{seed}.swpm").read_bytes(), text.encode("utf-8"))
     path = tmp_path / "m.swpm"
     path.write_bytes(data)
@@ -563,7 +744,24 @@ def _vrec_past_2_32(R: int, M: int, at_offsets: bool) -> tuple[bytes, str, int]:
     return out, "SWPM_COUNT_EXCEEDS_CHUNK", start + 8 + (16 * R if at_offsets else 0)
 
 
+def _level_table_past_2_32(
+    vector: str, ctype: bytes, count_at: int, value: int, at: int
+) -> tuple[bytes, str, int]:
+    """A valid skip-strip or mixed vector (O = 4) whose SKIP / MLVL declares a count (level_count, or
+    collapsed / dynamic count) whose array needs 2^32 bytes or more: 0 or a few when wrapped at 2^32."""
+    data = (VECTORS / "valid" / f"{vector}.swpm").read_bytes()
+    _, payload = _payload(data, ctype)
+    struct.pack_into("<I", payload, count_at, value)
+    out = _rebuild(data, {ctype: payload})
+    entry, _ = _payload(out, ctype)
+    return out, "SWPM_COUNT_EXCEEDS_CHUNK", struct.unpack_from("<Q", out, entry + 8)[0] + at
+
+
 EXACT = {
+    # 4 (2^30) bytes of level_first_lod: 0 when wrapped
+    "skip-levels-2-32": lambda: _level_table_past_2_32("skip-strip-strip-offset32", b"SKIP", 0, 2**30, 8),
+    # D = 2^31 u16 dynamic indices: 2^32 bytes, at the array after the four level arrays (one level: 36)
+    "mixed-dynamic-2-32": lambda: _level_table_past_2_32("mixed-offset32", b"MLVL", 4, 2**31, 36),
     "vanilla-records-2-32": lambda: _vrec_past_2_32(2**28, 0, False),
     "vanilla-offsets-2-32": lambda: _vrec_past_2_32(1, 2**30, True),
     "vertex-count-2-30": _big_vertex_count,
@@ -585,15 +783,15 @@ def test_exact_arithmetic(dump_san: Path, tmp_path: Path, case: str) -> None:
 
 
 def test_readme_c_example_compiles(tmp_path: Path) -> None:
-    """README's "Drawing from C" examples (sliding-window, vanilla), each in a function with stand-ins for
-    the GL names, compile."""
+    """README's "Drawing from C" examples (sliding-window, vanilla, skip-strip and mixed), each in a function
+    with stand-ins for the GL names, compile."""
     cc = shutil.which("cc")
     if cc is None:
         pytest.fail("no C compiler (cc): the C reader's tests need one (README, Set up)")
     text = (ROOT / "README.md").read_text()
     section = text.split("## Drawing from C", 1)[1].split("\n## ", 1)[0]
     blocks = [part.split("```", 1)[0] for part in section.split("```c\n")[1:]]
-    assert len(blocks) == 2
+    assert len(blocks) == 3
     for i, block in enumerate(blocks):
         head = [line for line in block.splitlines() if line.startswith("#")]
         body = [line for line in block.splitlines() if not line.startswith("#")]

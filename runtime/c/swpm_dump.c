@@ -1,5 +1,5 @@
 /*
- * swpm_dump FILE: open a sliding-window or vanilla SWPM file with swpm_reader.h (swpm_open_ex, with a scratch
+ * swpm_dump FILE: open an SWPM file (any encoding) with swpm_reader.h (swpm_open_ex, with a scratch
  * of the file's length, the bound the header documents) and print one JSON object.
  * Rejected: {"ok": false, "code": ..., "offset": N or null}, exit 1. Accepted: {"ok": true, the header
  * fields, "arrays": every array of the encoding's summary (spec/format.md 7) as the lowercase hex of its
@@ -7,7 +7,8 @@
  * sliding-window: "windows": swpm_window of every LOD; vanilla: "instance": a swpm_vanilla_instance moved by
  * swpm_vanilla_set_lod to LODs 0, 1, ..., L-1 and back to 0, each step [lod, index_count, vertex_count, the
  * CRC-32 of the buffer's first index_count indices as stored, and when L <= 8 their hex too] (a CRC, not the
- * hex, on a real file: thousands of LODs times thousands of indices)}, exit 0. Usage error: exit 2.
+ * hex, on a real file: thousands of LODs times thousands of indices); skip-strip and mixed: "levels",
+ * "level_of_lod" and "instance" (see levels() below)}, exit 0. Usage error: exit 2.
  * swpm_dump --check FILE...: one line per file, {"ok": ...} or {"ok": false, "code", "offset"} (a batch
  * for tests: one process for thousands of files); exit 0, 2 when a file cannot be read.
  * swpm_dump --check-scratch N FILE...: --check with a scratch of N bytes (a too-small one adds "need").
@@ -97,6 +98,83 @@ static swpm_result open_with_scratch(const uint8_t *d, size_t n, swpm_file *f, l
     return r;
 }
 
+static const char *const encodings[5] = {"", "vanilla", "sliding-window", "skip-strip", "mixed"};
+
+/* skip-strip and mixed: the summary's arrays, then "levels" (swpm_level_at of each level) and "instance":
+ * an instance moved to LODs 0, 1, ..., L-1 and back to 0, each step [lod, level, index_count, vertex_count,
+ * the CRC-32 of the buffer's first index_count indices as stored (mixed: then static_first, static_count),
+ * and when L <= 8 the hex of those indices]; the caller's printf goes on with "lod_for_triangles". */
+static void levels(const swpm_file *f) {
+    static const char *const skip_names[6] = {"level_first_lod", "level_index_start", "level_collapsed_start",
+                                              "level_record_start", "level_collapsed_indices", ""};
+    static const char *const mixed_names[6] = {"level_first_lod",     "level_static_start",
+                                               "level_dynamic_start", "level_record_start",
+                                               "level_dynamic_indices", "level_dynamic_collapsed_indices"};
+    static const char *const skip_cols[4] = {"collapse_kept", "collapse_binned", "collapse_change_count",
+                                             "collapse_prev_change_count"};
+    static const char *const mixed_cols[5] = {"collapse_kept", "collapse_static_tris_removed",
+                                              "collapse_dynamic_tris_removed", "collapse_change_count",
+                                              "collapse_prev_change_count"};
+    const int mixed = swpm_encoding(f) == 4;
+    const uint32_t O = swpm_offset_width(f);
+    uint64_t count, R, M, L = swpm_lod_count(f), pos, bytes, l;
+    uint32_t width, row, c;
+    const uint8_t *p;
+    swpm_level_instance inst;
+    uint8_t *buffer;
+    int which;
+    p = swpm_index_pool(f, &count, &width);
+    array(mixed ? "level_static_indices" : "level_indices", p, count, width, width, count, 0, 0);
+    for (which = 0; which < (mixed ? 6 : 5); which++) {
+        p = swpm_level_array(f, which, &count, &width);
+        array(mixed ? mixed_names[which] : skip_names[which], p, count, width, width, count, 0, 0);
+    }
+    p = swpm_collapse_records(f, &R, &row);
+    for (c = 0; c < row / O; c++) array(mixed ? mixed_cols[c] : skip_cols[c], p + c * O, R, row, O, R, 0, 0);
+    p = swpm_collapse_change_offsets(f, &M);
+    array("collapse_change_offsets", p, M, O, O, M, 0, 0);
+    p = swpm_lod_record_counts(f, &count);
+    array("lod_record_counts", p, count, O, O, count, 0, 0);
+    printf("},\"levels\":[");
+    for (l = 0; l < swpm_level_count(f); l++) {
+        swpm_level v;
+        swpm_level_at(f, l, &v);
+        printf("%s[%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu]", l ? "," : "", (unsigned long long)v.first_lod,
+               (unsigned long long)v.lod_end, (unsigned long long)v.record_start, (unsigned long long)v.record_end,
+               (unsigned long long)v.index_start, (unsigned long long)v.index_count,
+               (unsigned long long)v.dynamic_start, (unsigned long long)v.dynamic_count);
+    }
+    printf("],\"level_of_lod\":[");
+    for (pos = 0; pos < L; pos++) printf("%s%llu", pos ? "," : "", (unsigned long long)swpm_level_of_lod(f, pos));
+    printf("],\"instance\":[");
+    bytes = swpm_level_instance_bytes(f);
+    buffer = (uint8_t *)malloc(bytes ? bytes : 1);
+    if (!buffer || !(mixed ? swpm_mixed_instance_init(f, &inst, buffer, bytes)
+                           : swpm_skip_instance_init(f, &inst, buffer, bytes))) {
+        fprintf(stderr, "swpm_dump: no instance\n");
+        exit(2);
+    }
+    width = swpm_index_width(f);
+    for (pos = 0; pos < 2 * L - 1; pos++) { /* 0, 1, ..., L-1, L-2, ..., 0 */
+        uint64_t lod = pos < L ? pos : 2 * L - 2 - pos, n, sf = 0, sc = 0;
+        uint32_t vertex_count;
+        n = mixed ? swpm_mixed_set_lod(f, &inst, lod, &sf, &sc, &vertex_count)
+                  : swpm_skip_set_lod(f, &inst, lod, &vertex_count);
+        printf("%s[%llu,%llu,%llu,%u,%lu", pos ? "," : "", (unsigned long long)lod, (unsigned long long)inst.level,
+               (unsigned long long)n, vertex_count,
+               (unsigned long)(swpm__crc_update(0xFFFFFFFFu, buffer, n * width) ^ 0xFFFFFFFFu));
+        if (mixed) printf(",%llu,%llu", (unsigned long long)sf, (unsigned long long)sc);
+        if (L <= 8) {
+            printf(",\"");
+            hex(buffer, n * width);
+            printf("\"");
+        }
+        printf("]");
+    }
+    free(buffer);
+    printf("],\"lod_for_triangles\":[");
+}
+
 int main(int argc, char **argv) {
     uint8_t *data;
     size_t size;
@@ -143,8 +221,8 @@ int main(int argc, char **argv) {
     }
     L = swpm_lod_count(&f);
     printf("{\"ok\":true,\"encoding\":\"%s\",\"features\":%u,\"index_width\":%u,\"offset_width\":%u,",
-           swpm_encoding(&f) == 1 ? "vanilla" : "sliding-window", swpm_features(&f), swpm_index_width(&f),
-           swpm_offset_width(&f));
+           encodings[swpm_encoding(&f)], swpm_features(&f), swpm_index_width(&f), swpm_offset_width(&f));
+    printf("\"primitive_strip\":%d,", swpm_primitive_strip(&f));
     printf("\"lod_count\":%llu,\"vertex_count\":%u,\"triangle_count\":%u,", (unsigned long long)L,
            swpm_vertex_count(&f), swpm_lod_triangle_count(&f, 0));
     printf("\"restart_index\":");
@@ -166,6 +244,10 @@ int main(int argc, char **argv) {
     array("triangle_counts", f.lods + 4, L, 12, 4, L, 0, 0);
     array("lod_errors", f.lods + 8, L, 12, 4, L, 0, 0);
     p = swpm_index_pool(&f, &count, &width);
+    if (swpm_encoding(&f) == 3 || swpm_encoding(&f) == 4) {
+        levels(&f);
+        goto lod_pairs;
+    }
     if (swpm_encoding(&f) == 1) {
         static const char *columns[4] = {"collapse_kept", "collapse_tris_removed", "collapse_change_count",
                                          "collapse_prev_change_count"};

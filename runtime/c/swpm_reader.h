@@ -1,8 +1,8 @@
 /*
- * swpm_reader.h -- a single-header C99 reader for SWPM v1 files of the sliding-window encoding (list pools
- * and SW_STRIPS strip pools, u16/u32 idx, OFFSET32) and of the vanilla encoding, written from
- * spec/format.md and spec/errors.md (Forsyth's sliding-window and vanilla VIPM, "Comparison of VIPM
- * Methods", Game Programming Gems 2).
+ * swpm_reader.h -- a single-header C99 reader for SWPM v1 files of all four encodings: sliding-window (list
+ * pools and SW_STRIPS strip pools), vanilla, skip-strip (strips or lists) and mixed, u16/u32 idx, OFFSET32;
+ * written from spec/format.md and spec/errors.md (Forsyth's VIPM methods, "Comparison of VIPM Methods",
+ * Game Programming Gems 2: sliding window, vanilla, skip strips, mixed mode).
  *
  * Use: in exactly one .c file
  *     #define SWPM_READER_IMPLEMENTATION
@@ -12,24 +12,31 @@
  * reader (header, chunk table, CRC-32s, required chunks, META, LODS, VERT, then the encoding's chunks:
  * sliding-window WREC, INDX, the windows, the vertex prefix property, strip windows' starts and decoded
  * triangle counts; vanilla VREC, RCNT and INDX lengths and counts, LODS against RCNT and the replay of every
- * collapse record) and returns the FIRST error in the order of section 5 "Reporting" as its stable code
- * (errors.md) and byte offset. The accessors then give zero-copy views of the caller's bytes: nothing is
- * allocated, nothing is copied, and no byte outside [bytes, bytes + length) is read. Every sum is computed
- * without wrapping (format.md section 1).
+ * collapse record; skip-strip SREC, RCNT, INDX and SKIP, the level table, the lists' values and prefix
+ * property, the records against the levels, RCNT and LODS, the replay of each level's records against its
+ * collapsed list and LODS triangle counts; mixed MREC, RCNT, INDX and MLVL likewise, with its per-level
+ * removals and reference-counted replay) and returns the FIRST error in the order of section 5 "Reporting"
+ * as its stable code (errors.md) and byte offset. The accessors then give zero-copy views of the caller's
+ * bytes: nothing is allocated, nothing is copied, and no byte outside [bytes, bytes + length) is read.
+ * Every sum is computed without wrapping (format.md section 1).
  *
- * Vanilla's replay (format.md 3.6: each record's slots hold the binned vertex, then no live triangle uses
- * it) needs a working copy of INDX and a count per vertex. No check order avoids that (whether a slot
- * holds the binned vertex depends on every earlier record), so the caller gives scratch memory to
- * swpm_open_ex(): INDX length + 8 V + 7 bytes, at most the file's length. A vanilla file with records
- * opened with less (swpm_open gives none) is SWPM_READER_SCRATCH_TOO_SMALL, with the bytes needed in
- * swpm_result.need, once every check before the replay has passed. swpm_vanilla_instance_init() and
- * swpm_vanilla_set_lod() are an engine's per-instance runtime (format.md 3.6 "At run time"): a copy of INDX
- * in the caller's buffer, moved between LODs by applying or undoing collapse records.
+ * Replays need working memory. Vanilla's (format.md 3.6: each record's slots hold the binned vertex, then
+ * no live triangle uses it) needs a copy of INDX and a count per vertex: no check order avoids that
+ * (whether a slot holds the binned vertex depends on every earlier record). Skip-strip's (3.7) needs a copy
+ * of the longest list of a level with records; mixed's (3.8) a copy of the longest such dynamic list and a
+ * count per vertex. The caller gives scratch memory to swpm_open_ex(): vanilla INDX length + 8 V + 7 bytes,
+ * skip-strip W x that list's length, mixed 8 V + W x that list's length + 7; each at most the file's length.
+ * A file with records opened with less (swpm_open gives none) is SWPM_READER_SCRATCH_TOO_SMALL, with the
+ * bytes needed in swpm_result.need, once every check before the replay has passed.
+ *
+ * Per-instance runtime (an engine's): swpm_vanilla_instance_init() / swpm_vanilla_set_lod() (format.md 3.6
+ * "At run time": a copy of INDX in the caller's buffer, moved between LODs by applying or undoing collapse
+ * records); swpm_skip_instance_init() / swpm_skip_set_lod() and swpm_mixed_instance_init() /
+ * swpm_mixed_set_lod() (3.7, 3.8: a copy of the current level's list, or dynamic list, in the caller's
+ * buffer of swpm_level_instance_bytes(); a level change copies the target level's stored uncollapsed or
+ * collapsed list, whichever is fewer records away, then records are applied or undone).
  *
  * What it does not do:
- *  - files of the other two encodings (skip-strip, mixed) are refused after the header and chunk-table
- *    checks with the reader's own code SWPM_READER_UNSUPPORTED_ENCODING (offset 20, the features field); a
- *    header or table error found first is reported instead;
  *  - warnings and infos (SWPM_STREAM_ORDER, SWPM_FILE_TRAILING_BYTES, SWPM_VERT_NONFINITE, ...) are not
  *    reported: a file is accepted iff it has no error;
  *  - SMAP (ancillary, format.md section 4) and unknown ancillary chunks are skipped, not validated;
@@ -37,6 +44,9 @@
  *    exposed as a tree: swpm_meta() gives its bytes.
  *  - Checking a META object for duplicate keys walks the object once per key (O(keys^2) per object):
  *    no allocation, fine for the kilobyte META writers emit.
+ *  - it does not decode strips into triangles for the caller: a skip-strip level list is handed to the GPU
+ *    as it is (one strip draw, primitive restart at swpm_restart_index, or a list).
+ * SWPM_READER_UNSUPPORTED_ENCODING is no longer returned (every encoding is read); the name stays defined.
  */
 #ifndef SWPM_READER_H
 #define SWPM_READER_H
@@ -57,10 +67,11 @@ extern "C" {
 #define SWPM_FEATURE_SW_STRIPS 0x20u
 #define SWPM_FEATURE_OFFSET32 0x40u
 
-/* The reader's own code for a valid-so-far file of another encoding (not an errors.md code). */
+/* The reader's own code for a valid-so-far file of an encoding it did not read (not an errors.md code). Since
+ * it reads all four, it no longer returns it; kept for code that tests for it. */
 #define SWPM_READER_UNSUPPORTED_ENCODING "SWPM_READER_UNSUPPORTED_ENCODING"
-/* The reader's own code for a vanilla file whose replay (format.md 5, vanilla stage (c)) needs more scratch
- * memory than swpm_open_ex was given: swpm_result.need holds the bytes it needs (not an errors.md code; the
+/* The reader's own code for a file whose replay (format.md 5: vanilla stage (c), skip-strip (d), mixed (d))
+ * needs more scratch memory than swpm_open_ex was given: swpm_result.need holds the bytes it needs (not an errors.md code; the
  * file is neither accepted nor rejected). */
 #define SWPM_READER_SCRATCH_TOO_SMALL "SWPM_READER_SCRATCH_TOO_SMALL"
 
@@ -101,12 +112,24 @@ typedef struct swpm_file {
     const uint8_t *wrec;
     const uint8_t *indx;
     uint64_t index_count;
-    int encoding;                       /* 1 vanilla, 2 sliding-window (the encoding bit's index) */
-    const uint8_t *vrec;                /* vanilla: VREC's records (R rows of 4 O bytes) */
+    int encoding;                       /* 1 vanilla, 2 sliding-window, 3 skip-strip, 4 mixed (the bit's index) */
+    const uint8_t *vrec;                /* VREC, SREC or MREC's records (R rows of 4 O bytes, MREC 5 O) */
     uint64_t record_count;              /* R */
-    const uint8_t *change_offsets;      /* vanilla: off[M] */
+    uint32_t record_columns;            /* 4, MREC 5 */
+    const uint8_t *change_offsets;      /* off[M] */
     uint64_t change_offset_count;       /* M */
-    const uint8_t *rcnt;                /* vanilla: off[L] lod_record_counts */
+    const uint8_t *rcnt;                /* off[L] lod_record_counts */
+    /* skip-strip (3.7) and mixed (3.8) */
+    int primitive_strip;                /* skip-strip: params.primitive "strip" (the default), not "list" */
+    int has_restart;                    /* skip-strip strips with an integer params.restart_index */
+    uint64_t level_count;               /* n */
+    const uint8_t *level_arrays[4];     /* level_first_lod, then (n+1) each: level_index_start (mixed:
+                                           level_static_start), level_collapsed_start (mixed:
+                                           level_dynamic_start), level_record_start */
+    const uint8_t *level_lists[2];      /* level_collapsed_indices; mixed: level_dynamic_indices and
+                                           level_dynamic_collapsed_indices */
+    uint64_t level_list_count;          /* C; mixed: D */
+    uint64_t longest_list;              /* skip-strip: the longest level list; mixed: dynamic list (elements) */
 } swpm_file;
 
 /* One vanilla VIPM instance (format.md 3.6): the caller's copy of INDX, which set_lod edits in place. */
@@ -118,20 +141,24 @@ typedef struct swpm_vanilla_instance {
     uint64_t live;       /* live triangles: LODS triangle_count(lod) */
 } swpm_vanilla_instance;
 
-/* Open and validate a file (format.md 5). file is filled only on success. A vanilla file with records
- * needs scratch memory for its replay: swpm_open gives none, so it answers SWPM_READER_SCRATCH_TOO_SMALL for
- * such a file once every check before the replay has passed; use swpm_open_ex. */
+/* Open and validate a file (format.md 5). file is filled only on success. A vanilla, skip-strip or mixed
+ * file with records needs scratch memory for its replay: swpm_open gives none, so it answers
+ * SWPM_READER_SCRATCH_TOO_SMALL for such a file once every check before the replay has passed; use
+ * swpm_open_ex. */
 swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file);
-/* swpm_open with scratch memory for the vanilla replay (format.md 5, vanilla stage (c)): a copy of INDX
- * (its payload length) and a 64-bit reference count per vertex (8 V), aligned inside the scratch (up to 7
- * bytes): INDX length + 8 V + 7 bytes. The file's length always suffices (INDX and VERT, whose length is at
- * least 16 + 12 V, are disjoint parts of it). Only the replay uses it, and only a vanilla file with R > 0;
- * a smaller scratch is SWPM_READER_SCRATCH_TOO_SMALL with .need set, after every earlier check passed (an
- * error found before the replay is reported as usual). scratch may be NULL when scratch_bytes is 0; its
- * contents are clobbered. Nothing is allocated. */
+/* swpm_open with scratch memory for the replays (format.md 5: vanilla stage (c), skip-strip (d), mixed (d)):
+ * vanilla a copy of INDX (its payload length) and a 64-bit reference count per vertex (8 V), aligned inside
+ * the scratch (up to 7 bytes): INDX length + 8 V + 7 bytes; skip-strip a copy of the longest list of a level
+ * with records (W x its length, at most INDX length); mixed 8 V + W x the longest dynamic list of a level
+ * with records + 7. The file's length always suffices (INDX, the MLVL lists and VERT, whose length is at
+ * least 16 + 12 V, are disjoint parts of it). Only a replay uses it, and only in a file with R > 0 (a
+ * skip-strip level without records is compared in place); a smaller scratch is
+ * SWPM_READER_SCRATCH_TOO_SMALL with .need set, after every earlier check passed (an error found before the
+ * replay is reported as usual). scratch may be NULL when scratch_bytes is 0; its contents are clobbered.
+ * Nothing is allocated. */
 swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, void *scratch,
                          size_t scratch_bytes);
-/* The encoding bit's index: 1 vanilla, 2 sliding-window. */
+/* The encoding bit's index: 1 vanilla, 2 sliding-window, 3 skip-strip, 4 mixed. */
 int swpm_encoding(const swpm_file *f);
 
 /* Header (2.1): features word, W, O, V, L. */
@@ -177,14 +204,19 @@ int swpm_window(const swpm_file *f, uint64_t lod, uint64_t *first_index, uint64_
  * non-increasing, so a binary search). */
 uint64_t swpm_lod_for_triangles(const swpm_file *f, uint64_t target);
 
-/* ---- vanilla (format.md 3.4, 3.6, 7): views of INDX, VREC and RCNT as stored (maybe unaligned); NULL with
- * count 0 for a sliding-window file (whose WREC views are NULL for a vanilla file, swpm_window 0) ---- */
-/* indices: INDX (3 T0 idx values): swpm_index_pool. */
-/* R records of 4 O bytes: kept, tris_removed, change_count, prev_change_count; *count = R. */
+/* ---- vanilla, skip-strip, mixed (format.md 3.4, 3.6-3.8, 7): views of INDX, the record chunk (VREC, SREC,
+ * MREC) and RCNT as stored (maybe unaligned); NULL with count 0 for a sliding-window file (whose WREC views
+ * are NULL for the others, swpm_window 0) ---- */
+/* indices: INDX (vanilla 3 T0 idx values; skip-strip level_indices; mixed level_static_indices):
+ * swpm_index_pool. */
+/* R records of 4 O bytes (vanilla: kept, tris_removed, change_count, prev_change_count; skip-strip: kept,
+ * binned, change_count, prev_change_count), mixed 5 O (swpm_collapse_field); *count = R.
+ * swpm_collapse_record reads the four columns of a vanilla or skip-strip record (tris_removed: binned). */
 const uint8_t *swpm_collapse_records(const swpm_file *f, uint64_t *count, uint32_t *row_bytes);
 void swpm_collapse_record(const swpm_file *f, uint64_t r, uint32_t *kept, uint32_t *tris_removed,
                           uint32_t *change_count, uint32_t *prev_change_count);
-/* change_offsets: off[M] slots of INDX; *count = M. */
+/* change_offsets: off[M] slots of INDX (skip-strip: of the record's level list; mixed: of its dynamic
+ * list); *count = M. */
 const uint8_t *swpm_collapse_change_offsets(const swpm_file *f, uint64_t *count);
 /* RCNT: off[L], the records applied at each LOD. */
 const uint8_t *swpm_lod_record_counts(const swpm_file *f, uint64_t *count);
@@ -201,9 +233,83 @@ int swpm_vanilla_instance_init(const swpm_file *f, swpm_vanilla_instance *inst, 
 uint64_t swpm_vanilla_set_lod(const swpm_file *f, swpm_vanilla_instance *inst, uint64_t lod,
                               uint32_t *vertex_count);
 
-/* SW_STRIPS: 1 and *restart = params.restart_index (>= V; the largest idx value from current writers).
- * 0 for a list pool. */
+/* 1 and *restart = params.restart_index (>= V; the largest idx value from current writers) for strips joined
+ * by a restart index: a SW_STRIPS pool, skip-strip strips whose restart_index is an integer. 0 otherwise (a
+ * list pool; skip-strip lists; skip-strip strips joined by degenerate triangles, restart_index null). */
 int swpm_restart_index(const swpm_file *f, uint64_t *restart);
+/* 1 if the file's index lists are triangle strips (format.md 3.5, 3.7: SW_STRIPS; skip-strip
+ * params.primitive "strip", the default), drawn as one strip draw each (with primitive restart when
+ * swpm_restart_index gives one); 0 for triangle lists (vanilla and mixed always). */
+int swpm_primitive_strip(const swpm_file *f);
+
+/* ---- skip-strip (format.md 3.7) and mixed (3.8): levels, records, per-instance lists ---- */
+/* swpm_level_array's arrays, views of SKIP / MLVL as stored (maybe unaligned): the level table (off,
+ * width O) and the lists (idx, width W). */
+#define SWPM_LEVEL_FIRST_LOD 0       /* off[n] */
+#define SWPM_LEVEL_INDEX_START 1     /* skip-strip level_index_start, off[n+1] */
+#define SWPM_LEVEL_STATIC_START 1    /* mixed level_static_start, off[n+1] */
+#define SWPM_LEVEL_COLLAPSED_START 2 /* skip-strip level_collapsed_start, off[n+1] */
+#define SWPM_LEVEL_DYNAMIC_START 2   /* mixed level_dynamic_start, off[n+1] */
+#define SWPM_LEVEL_RECORD_START 3    /* off[n+1] */
+#define SWPM_LEVEL_COLLAPSED_INDICES 4         /* skip-strip level_collapsed_indices, idx[C] */
+#define SWPM_LEVEL_DYNAMIC_INDICES 4           /* mixed level_dynamic_indices, idx[D] */
+#define SWPM_LEVEL_DYNAMIC_COLLAPSED_INDICES 5 /* mixed level_dynamic_collapsed_indices, idx[D] */
+
+/* One level: it draws LODs [first_lod, lod_end) with records [record_start, record_end). skip-strip: its
+ * list is INDX[index_start, + index_count) (level_indices; drawn as strips or a list, swpm_primitive_strip),
+ * its collapsed list the same range of level_collapsed_indices. mixed: its static list is INDX[index_start,
+ * + index_count), its dynamic list level_dynamic_indices[dynamic_start, + dynamic_count) (and the same
+ * range of level_dynamic_collapsed_indices). */
+typedef struct swpm_level {
+    uint64_t first_lod, lod_end, record_start, record_end;
+    uint64_t index_start, index_count, dynamic_start, dynamic_count;
+} swpm_level;
+
+/* One drawn skip-strip or mixed instance (format.md 3.7, 3.8): the caller's buffer holds a copy of one
+ * level's list (skip-strip) or dynamic list (mixed), which set_lod edits in place. */
+typedef struct swpm_level_instance {
+    uint8_t *indices;      /* the caller's buffer: elements of W bytes, little-endian, as the file */
+    uint64_t lod;          /* the LOD it holds */
+    uint64_t level;        /* the level whose list the buffer holds */
+    uint64_t applied;      /* records [0, applied) are applied: RCNT[lod] */
+    uint64_t change_pos;   /* the sum of their change counts: where record `applied`'s change offsets start */
+    uint64_t count;        /* elements of the level's list (skip-strip) or dynamic list (mixed) */
+    uint64_t static_live;  /* mixed: live triangles of the level's static list */
+    uint64_t dynamic_live; /* mixed: live triangles of the buffer (its dynamic list) */
+} swpm_level_instance;
+
+/* n (0 for vanilla and sliding-window); level l's fields (0 if l >= n); the level that draws LOD lod (the
+ * last whose first LOD is <= lod). */
+uint64_t swpm_level_count(const swpm_file *f);
+int swpm_level_at(const swpm_file *f, uint64_t l, swpm_level *out);
+uint64_t swpm_level_of_lod(const swpm_file *f, uint64_t lod);
+/* An array of SKIP / MLVL (SWPM_LEVEL_*) as stored: *count elements of *width bytes; NULL (count 0) if the
+ * file has no such array. */
+const uint8_t *swpm_level_array(const swpm_file *f, int which, uint64_t *count, uint32_t *width);
+/* Field `column` of record r (vanilla, skip-strip: kept, tris_removed / binned, change_count,
+ * prev_change_count; mixed: kept, static_tris_removed, dynamic_tris_removed, change_count,
+ * prev_change_count). swpm_collapse_records gives the table (row_bytes = 4 O, mixed 5 O). */
+uint32_t swpm_collapse_field(const swpm_file *f, uint64_t r, uint32_t column);
+/* The bytes an instance's buffer needs: W x the longest level list (skip-strip) or dynamic list (mixed). */
+uint64_t swpm_level_instance_bytes(const swpm_file *f);
+/* Set an instance at LOD 0 (level 0's list copied into buffer). Returns 0 (nothing done) if the file is not
+ * of that encoding or capacity is below swpm_level_instance_bytes. */
+int swpm_skip_instance_init(const swpm_file *f, swpm_level_instance *inst, void *buffer, uint64_t capacity);
+int swpm_mixed_instance_init(const swpm_file *f, swpm_level_instance *inst, void *buffer, uint64_t capacity);
+/* Move the instance to LOD lod (clamped to L-1), as format.md 3.7 and 3.8 say a runtime does: when lod is in
+ * another level, copy that level's stored list, the uncollapsed one or the collapsed one, whichever is
+ * fewer records from RCNT[lod] (Forsyth's skip strips: a level change costs a copy, not a replay); then
+ * apply records up to RCNT[lod] in order (each sets its change_count slots to kept) or undo them from the last
+ * (setting them back to V-1-r). Sets *vertex_count to LODS vertex_count(lod).
+ * skip-strip: returns the number of indices to draw, the whole buffer (its level's list), as triangle
+ * strips (swpm_primitive_strip, with primitive restart at swpm_restart_index when it gives one) or as a
+ * list; collapsed slots make degenerate triangles, which draw nothing.
+ * mixed: returns the number of the buffer's first indices to draw as a triangle list (the live dynamic
+ * part), then INDX[*static_first, + *static_count) is drawn as a second triangle list (the live static
+ * part, shared by every instance). */
+uint64_t swpm_skip_set_lod(const swpm_file *f, swpm_level_instance *inst, uint64_t lod, uint32_t *vertex_count);
+uint64_t swpm_mixed_set_lod(const swpm_file *f, swpm_level_instance *inst, uint64_t lod, uint64_t *static_first,
+                            uint64_t *static_count, uint32_t *vertex_count);
 
 #ifdef __cplusplus
 }
@@ -217,12 +323,18 @@ int swpm_restart_index(const swpm_file *f, uint64_t *restart);
 #include <string.h>
 
 /* ---- little-endian loads (no alignment assumed) ---- */
-static uint32_t swpm__u16(const uint8_t *p) { return (uint32_t)p[0] | ((uint32_t)p[1] << 8); }
-static uint32_t swpm__u32(const uint8_t *p) {
+/* (forced inline under GCC and Clang: the loads sit in every per-element loop, and -O2 leaves some calls) */
+#if defined(__GNUC__)
+#define SWPM__INLINE static inline __attribute__((always_inline))
+#else
+#define SWPM__INLINE static inline
+#endif
+SWPM__INLINE uint32_t swpm__u16(const uint8_t *p) { return (uint32_t)p[0] | ((uint32_t)p[1] << 8); }
+SWPM__INLINE uint32_t swpm__u32(const uint8_t *p) {
     return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
 }
 static uint64_t swpm__u64(const uint8_t *p) { return (uint64_t)swpm__u32(p) | ((uint64_t)swpm__u32(p + 4) << 32); }
-static uint32_t swpm__uw(const uint8_t *p, uint32_t w) { return w == 2 ? swpm__u16(p) : swpm__u32(p); }
+SWPM__INLINE uint32_t swpm__uw(const uint8_t *p, uint32_t w) { return w == 2 ? swpm__u16(p) : swpm__u32(p); }
 
 /* ---- CRC-32 (ISO-HDLC / zlib: reflected 0x04C11DB7, init and final xor 0xFFFFFFFF; format.md 2.1) ---- */
 /* Slicing-by-8 tables: [0] the byte-wise table, [k][i] = [k-1][i] >> 8 ^ [0][[k-1][i] & 0xFF] (eight bytes a
@@ -820,21 +932,35 @@ static int swpm__allowed(int enc, int kind) {
 }
 
 /* The first position in [from, to) of the idx array x whose value is >= limit, a strip pool's restart index
- * exempt; to if none. One loop per width, so that the compiler can vectorise the common case. */
+ * exempt; to if none. Blocks of 64 are scanned without an early exit (a loop the compiler can vectorise),
+ * and only a block that holds one is searched again. */
 static uint64_t swpm__first_at_least(const uint8_t *x, uint32_t W, uint64_t from, uint64_t to, uint64_t limit,
                                      int exempt, uint64_t restart) {
-    uint64_t i;
-    if (from >= to) return to;
-    if (W == 2) {
-        for (i = from; i < to; i++) {
-            uint64_t v = swpm__u16(x + 2 * i);
-            if (v >= limit && !(exempt && v == restart)) return i;
+    uint64_t i, j, e;
+    uint32_t lim, rst, noex, bad;
+    if (from >= to || limit > 0xFFFFFFFFull) return to; /* no idx value reaches 2^32 */
+    lim = (uint32_t)limit;
+    noex = !exempt || restart > 0xFFFFFFFFull;
+    rst = noex ? 0 : (uint32_t)restart;
+    for (i = from; i < to; i = e) {
+        e = to - i > 64 ? i + 64 : to;
+        bad = 0;
+        if (W == 2) {
+            for (j = i; j < e; j++) {
+                uint32_t v = swpm__u16(x + 2 * j);
+                bad |= (uint32_t)(v >= lim) & (noex | (uint32_t)(v != rst));
+            }
+        } else {
+            for (j = i; j < e; j++) {
+                uint32_t v = swpm__u32(x + 4 * j);
+                bad |= (uint32_t)(v >= lim) & (noex | (uint32_t)(v != rst));
+            }
         }
-    } else {
-        for (i = from; i < to; i++) {
-            uint64_t v = swpm__u32(x + 4 * i);
-            if (v >= limit && !(exempt && v == restart)) return i;
-        }
+        if (bad)
+            for (j = i; j < e; j++) {
+                uint32_t v = swpm__uw(x + W * j, W);
+                if (v >= lim && (noex || v != rst)) return j;
+            }
     }
     return to;
 }
@@ -921,6 +1047,9 @@ static swpm_result swpm__vert(const uint8_t *p, uint64_t len, uint64_t entry, ui
 
 static swpm_result swpm__vanilla(swpm_file *f, const uint8_t *bytes, const uint64_t *pe, const uint64_t *pl,
                                  void *scratch, size_t scratch_bytes);
+static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64_t *pe, const uint64_t *pl,
+                                void *scratch, size_t scratch_bytes);
+static const char *const swpm__encoding_names[5] = {"", "vanilla", "sliding-window", "skip-strip", "mixed"};
 
 swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file) {
     return swpm_open_ex(bytes, length, file, NULL, 0);
@@ -1026,7 +1155,6 @@ swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, v
             swpm_result r = {"SWPM_CHUNK_MISSING", 0, 0, 0};
             return r;
         }
-    if (enc != 1 && enc != 2) return swpm__err(SWPM_READER_UNSUPPORTED_ENCODING, 20);
 
     W = (features & SWPM_FEATURE_INDEX32) ? 4u : 2u;
     O = (features & (SWPM_FEATURE_INDEX32 | SWPM_FEATURE_OFFSET32)) ? 4u : 2u;
@@ -1061,7 +1189,7 @@ swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, v
             has_params = swpm__jfind(&j, q, "params", &params);
             if (has_params && j.s[params] != '{') return swpm__err("SWPM_META_BAD_FIELD", SWPM__OFF(SWPM__META));
             if (swpm__jfind(&j, q, "encoding", &v) &&
-                !(j.s[v] == '"' && swpm__jstreq_lit(&j, v, enc == 1 ? "vanilla" : "sliding-window")))
+                !(j.s[v] == '"' && swpm__jstreq_lit(&j, v, swpm__encoding_names[enc])))
                 return swpm__err("SWPM_META_BAD_FIELD", SWPM__OFF(SWPM__META));
             /* 3.5: primitive "strip" exactly with SW_STRIPS (missing reads "list"); restart_index null or an
              * integer in [0, 2^32), required with SW_STRIPS */
@@ -1084,6 +1212,27 @@ swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, v
                 }
                 if (f.strips && !has_rst) return swpm__err("SWPM_META_BAD_FIELD", SWPM__OFF(SWPM__META));
                 f.restart_index = rv;
+            }
+            /* 3.7: primitive "strip" (missing) or "list"; restart_index null (missing) or an integer in
+             * [0, 2^32), the strips' restart index when primitive is "strip" */
+            if (enc == 3) {
+                int is_int = 0, neg = 0;
+                uint64_t rv = 0, e2;
+                f.primitive_strip = 1;
+                if (has_params && swpm__jfind(&j, params, "primitive", &v)) {
+                    if (j.s[v] == '"' && swpm__jstreq_lit(&j, v, "list")) f.primitive_strip = 0;
+                    else if (!(j.s[v] == '"' && swpm__jstreq_lit(&j, v, "strip")))
+                        return swpm__err("SWPM_META_BAD_FIELD", SWPM__OFF(SWPM__META));
+                }
+                if (has_params && swpm__jfind(&j, params, "restart_index", &v) && j.s[v] != 'n') {
+                    if (j.s[v] != '-' && (j.s[v] < '0' || j.s[v] > '9'))
+                        return swpm__err("SWPM_META_BAD_FIELD", SWPM__OFF(SWPM__META));
+                    swpm__jnumber(&j, v, &e2, &is_int, &neg, &rv);
+                    if (!is_int || (neg && rv != 0) || rv > 0xFFFFFFFFull)
+                        return swpm__err("SWPM_META_BAD_FIELD", SWPM__OFF(SWPM__META));
+                    f.has_restart = f.primitive_strip; /* a list ignores it (3.7) */
+                    f.restart_index = rv;
+                }
             }
         }
         /* ---- LODS (3.2) ---- */
@@ -1119,8 +1268,9 @@ swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, v
             if (r.code) return r;
             if (swpm__u32(f.lods) != f.vertex_count) return swpm__err("SWPM_LOD_VERTEX_COUNT", SWPM__OFF(SWPM__LODS));
         }
-        if (enc == 1) {
-            swpm_result r = swpm__vanilla(&f, bytes, pe, pl, scratch, scratch_bytes);
+        if (enc == 1 || enc == 3 || enc == 4) {
+            swpm_result r = enc == 1 ? swpm__vanilla(&f, bytes, pe, pl, scratch, scratch_bytes)
+                                     : swpm__levels(&f, bytes, pe, pl, scratch, scratch_bytes);
             if (r.code) return r;
             *file = f;
             return ok;
@@ -1333,9 +1483,394 @@ static swpm_result swpm__vanilla(swpm_file *f, const uint8_t *bytes, const uint6
     f->index_count = nidx;
     f->vrec = rec;
     f->record_count = R;
+    f->record_columns = 4;
     f->change_offsets = offs;
     f->change_offset_count = M;
     f->rcnt = rc;
+    return ok;
+}
+
+/* ---- skip-strip and mixed (format.md 3.7, 3.8; 5 step 4: stage 0, then (a) to (d) or (e)) ---- */
+/* 1 if a, b, c make a non-degenerate triangle: three distinct values, none the strips' restart index (3.7) */
+SWPM__INLINE uint64_t swpm__tri3(uint64_t a, uint64_t b, uint64_t c, int exempt, uint64_t restart) {
+    /* (without branches: strips' values make them unpredictable) */
+    return (uint64_t)((a != b) & (b != c) & (a != c) & ((exempt == 0) | ((a != restart) & (b != restart) & (c != restart))));
+}
+/* The non-degenerate triangles of the m-element list x whose first slot lies in [lo, hi] (strips: every
+ * slot starts one, read with a rolling window of three values; lists: every third slot). */
+static uint64_t swpm__tris_in(const uint8_t *x, uint32_t W, uint64_t m, uint64_t lo, uint64_t hi, int strip,
+                              int exempt, uint64_t restart) {
+    uint64_t t, n = 0, a, b, c;
+    if (m < 3) return 0;
+    if (hi > m - 3) hi = m - 3;
+    if (lo > hi) return 0;
+    if (!strip) {
+        for (t = lo; t <= hi; t += 3)
+            n += swpm__tri3(swpm__uw(x + t * W, W), swpm__uw(x + (t + 1) * W, W), swpm__uw(x + (t + 2) * W, W),
+                            exempt, restart);
+        return n;
+    }
+    a = swpm__uw(x + lo * W, W);
+    b = swpm__uw(x + (lo + 1) * W, W);
+    for (t = lo; t <= hi; t++, a = b, b = c) {
+        c = swpm__uw(x + (t + 2) * W, W);
+        n += swpm__tri3(a, b, c, exempt, restart);
+    }
+    return n;
+}
+
+static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64_t *pe, const uint64_t *pl,
+                                void *scratch, size_t scratch_bytes) {
+    swpm_result ok = {0, 0, 0, 0};
+    const int mixed = f->encoding == 4;
+    const int rk = mixed ? SWPM__MREC : SWPM__SREC, lk = mixed ? SWPM__MLVL : SWPM__SKIP;
+    const uint32_t W = f->index_width, O = f->offset_width, cols = mixed ? 5 : 4;
+    const uint64_t V = f->vertex_count, L = f->lod_count;
+    const uint64_t vbase = swpm__u64(bytes + pe[rk] + 8), vlen = pl[rk];
+    const uint64_t rbase = swpm__u64(bytes + pe[SWPM__RCNT] + 8), rlen = pl[SWPM__RCNT];
+    const uint64_t ibase = swpm__u64(bytes + pe[SWPM__INDX] + 8), ilen = pl[SWPM__INDX];
+    const uint64_t sbase = swpm__u64(bytes + pe[lk] + 8), slen = pl[lk];
+    const uint64_t lbase = (uint64_t)(f->lods - bytes);
+    const int exempt = f->has_restart, strip = f->primitive_strip;
+    const uint64_t restart = f->restart_index;
+    uint64_t R, M, need, ao, obase, nidx, n, C, at[6], size[6], pos, r, k, j, l, sum, row0, narr, longest = 0;
+    const uint8_t *rec, *offs, *rc, *x, *a0, *a1, *a2, *a3, *list1, *list2;
+#define SWPM__REC(r, c) ((uint64_t)swpm__uw(rec + (cols * (r) + (c)) * O, O))
+#define SWPM__OFS(j) ((uint64_t)swpm__uw(offs + (j) * O, O))
+#define SWPM__RC(k) ((uint64_t)swpm__uw(rc + (k) * O, O))
+#define SWPM__ROW(r, c) (row0 + O * (cols * (r) + (c)))
+#define SWPM__A(a, i) ((uint64_t)swpm__uw((a) + (i) * O, O))
+#define SWPM__I(a, i) ((uint64_t)swpm__uw((a) + (i) * W, W))
+#define SWPM__VC(k) ((uint64_t)swpm__u32(f->lods + 12 * (k)))
+#define SWPM__TC(k) ((uint64_t)swpm__u32(f->lods + 12 * (k) + 4))
+    /* stage 0: the record chunk (length >= 8, R, M, exact length), RCNT a multiple of O, INDX of W, then
+     * SKIP / MLVL: length >= 8, each array against the bytes that remain, exact length */
+    if (vlen < 8) return swpm__err("SWPM_CHUNK_BAD_LENGTH", pe[rk] + 16);
+    R = swpm__u32(bytes + vbase);
+    M = swpm__u32(bytes + vbase + 4);
+    need = (uint64_t)cols * O * R; /* < 2^37: no wrap */
+    if (need > vlen - 8) return swpm__err("SWPM_COUNT_EXCEEDS_CHUNK", vbase + 8);
+    ao = 8 + ((need + 3) & ~(uint64_t)3);
+    if (ao > vlen || M * O > vlen - ao) return swpm__err("SWPM_COUNT_EXCEEDS_CHUNK", vbase + ao);
+    if (ao + M * O != vlen) return swpm__err("SWPM_CHUNK_BAD_LENGTH", pe[rk] + 16);
+    if (rlen % O) return swpm__err("SWPM_CHUNK_BAD_LENGTH", pe[SWPM__RCNT] + 16);
+    if (ilen % W) return swpm__err("SWPM_CHUNK_BAD_LENGTH", pe[SWPM__INDX] + 16);
+    if (slen < 8) return swpm__err("SWPM_CHUNK_BAD_LENGTH", pe[lk] + 16);
+    n = swpm__u32(bytes + sbase);
+    C = swpm__u32(bytes + sbase + 4); /* C, mixed D */
+    size[0] = O * n;
+    size[1] = size[2] = size[3] = O * (n + 1);
+    size[4] = size[5] = W * C;
+    narr = mixed ? 6 : 5;
+    for (pos = 8, j = 0; j < narr; j++) {
+        if (pos > slen || size[j] > slen - pos) return swpm__err("SWPM_COUNT_EXCEEDS_CHUNK", sbase + pos);
+        at[j] = sbase + pos;
+        pos += j + 1 == narr ? size[j] : (size[j] + 3) & ~(uint64_t)3;
+    }
+    if (pos != slen) return swpm__err("SWPM_CHUNK_BAD_LENGTH", pe[lk] + 16);
+    row0 = vbase + 8;
+    rec = bytes + row0;
+    obase = vbase + ao;
+    offs = bytes + obase;
+    rc = bytes + rbase;
+    x = bytes + ibase;
+    nidx = ilen / W;
+    a0 = bytes + at[0];
+    a1 = bytes + at[1];
+    a2 = bytes + at[2];
+    a3 = bytes + at[3];
+    list1 = bytes + at[4];
+    list2 = mixed ? bytes + at[5] : NULL;
+    /* (a) the counts of 3.6: change counts sum to M, prev_change_count, RCNT holds L counts, from 0,
+     * non-decreasing, <= R */
+    for (sum = 0, r = 0; r < R; r++) sum += SWPM__REC(r, cols - 2);
+    if (sum != M) return swpm__err("SWPM_RECORD_BAD_COUNTS", row0);
+    for (r = 0; r < R; r++)
+        if (SWPM__REC(r, cols - 1) != (r ? SWPM__REC(r - 1, cols - 2) : 0))
+            return swpm__err("SWPM_RECORD_BAD_COUNTS", SWPM__ROW(r, cols - 1));
+    if (rlen / O != L) return swpm__err("SWPM_CHUNK_BAD_LENGTH", rbase);
+    for (k = 0; k < L; k++)
+        if ((k == 0 && SWPM__RC(0) != 0) || (k > 0 && SWPM__RC(k) < SWPM__RC(k - 1)) || SWPM__RC(k) > R)
+            return swpm__err("SWPM_RECORD_BAD_COUNTS", rbase);
+    if (!mixed) {
+        /* (a) the strips' restart index below V (ends the checks), then the level table by itself */
+        int bad = 0;
+        if (exempt && restart < V) return swpm__err("SWPM_META_BAD_FIELD", swpm__u64(bytes + pe[SWPM__META] + 8));
+        {
+            const uint8_t *arr[3];
+            uint64_t total[3], q;
+            arr[0] = a1, arr[1] = a2, arr[2] = a3;
+            total[0] = nidx, total[1] = C, total[2] = R;
+            for (q = 0; q < 3; q++) {
+                if (SWPM__A(arr[q], 0) != 0 || SWPM__A(arr[q], n) != total[q]) bad = 1;
+                for (l = 0; l < n; l++)
+                    if (SWPM__A(arr[q], l + 1) < SWPM__A(arr[q], l)) bad = 1;
+            }
+        }
+        for (l = 0; !bad && l <= n; l++)
+            if (SWPM__A(a2, l) != SWPM__A(a1, l)) bad = 1;
+        for (l = 0; !bad && !strip && l < n; l++)
+            if ((SWPM__A(a1, l + 1) - SWPM__A(a1, l)) % 3) bad = 1;
+        if (n == 0 || SWPM__A(a0, 0) != 0 || SWPM__A(a0, n - 1) >= L) bad = 1;
+        for (l = 1; l < n; l++)
+            if (SWPM__A(a0, l) <= SWPM__A(a0, l - 1)) bad = 1;
+        if (bad) return swpm__err("SWPM_LEVEL_BAD_TABLE", sbase);
+        /* values < V: INDX, level_collapsed_indices (the restart index exempt), kept and binned */
+        k = swpm__first_at_least(x, W, 0, nidx, V, exempt, restart);
+        if (k < nidx) return swpm__err("SWPM_INDEX_OUT_OF_RANGE", ibase + W * k);
+        k = swpm__first_at_least(list1, W, 0, C, V, exempt, restart);
+        if (k < C) return swpm__err("SWPM_INDEX_OUT_OF_RANGE", at[4] + W * k);
+        for (r = 0; r < R; r++)
+            if (SWPM__REC(r, 0) >= V) return swpm__err("SWPM_INDEX_OUT_OF_RANGE", SWPM__ROW(r, 0));
+        for (r = 0; r < R; r++)
+            if (SWPM__REC(r, 1) >= V) return swpm__err("SWPM_INDEX_OUT_OF_RANGE", SWPM__ROW(r, 1));
+    } else {
+        /* (a) the level table: the start arrays (the last bad one's start), level_first_lod (its start),
+         * else level_record_start against RCNT (that element) */
+        uint64_t where = 0, q;
+        const uint8_t *arr[3];
+        uint64_t total[3], step[3];
+        arr[0] = a1, arr[1] = a2, arr[2] = a3;
+        total[0] = nidx, total[1] = C, total[2] = R;
+        step[0] = step[1] = 3, step[2] = 1;
+        for (q = 0; q < 3; q++) {
+            int bad = SWPM__A(arr[q], 0) != 0 || SWPM__A(arr[q], n) != total[q];
+            for (l = 0; l < n; l++)
+                if (SWPM__A(arr[q], l + 1) < SWPM__A(arr[q], l) || (SWPM__A(arr[q], l + 1) - SWPM__A(arr[q], l)) % step[q])
+                    bad = 1;
+            if (bad) where = at[q + 1];
+        }
+        {
+            int bad = n == 0 || SWPM__A(a0, 0) != 0 || SWPM__A(a0, n - 1) >= L;
+            for (l = 1; l < n; l++)
+                if (SWPM__A(a0, l) <= SWPM__A(a0, l - 1)) bad = 1;
+            if (bad) where = at[0];
+            else if (!where)
+                for (l = 0; l < n; l++)
+                    if (SWPM__RC(SWPM__A(a0, l)) != SWPM__A(a3, l)) {
+                        where = at[3] + O * l;
+                        break;
+                    }
+        }
+        if (where) return swpm__err("SWPM_MIXED_BAD_LEVELS", where);
+        /* values < V (INDX, both dynamic arrays), R < V, kept < V-1-r */
+        k = swpm__first_at_least(x, W, 0, nidx, V, 0, 0);
+        if (k < nidx) return swpm__err("SWPM_INDEX_OUT_OF_RANGE", ibase + W * k);
+        k = swpm__first_at_least(list1, W, 0, C, V, 0, 0);
+        if (k < C) return swpm__err("SWPM_INDEX_OUT_OF_RANGE", at[4] + W * k);
+        k = swpm__first_at_least(list2, W, 0, C, V, 0, 0);
+        if (k < C) return swpm__err("SWPM_INDEX_OUT_OF_RANGE", at[5] + W * k);
+        if (R && R >= V) return swpm__err("SWPM_RECORD_BAD_COUNTS", vbase);
+        for (r = 0; r < R; r++)
+            if (SWPM__REC(r, 0) + r + 1 >= V) return swpm__err("SWPM_RECORD_BAD_KEPT", SWPM__ROW(r, 0));
+    }
+    /* change offsets inside the list of their record's level (skip-strip: its list; mixed: its dynamic list;
+     * level l holds records [level_record_start[l], level_record_start[l+1])) */
+    for (pos = 0, l = 0, r = 0; r < R; r++) {
+        uint64_t cc = SWPM__REC(r, cols - 2), limit;
+        while (SWPM__A(a3, l + 1) <= r) l++; /* level_record_start[n] = R > r stops it */
+        limit = SWPM__A(mixed ? a2 : a1, l + 1) - SWPM__A(mixed ? a2 : a1, l);
+        for (j = 0; j < cc; j++, pos++)
+            if (SWPM__OFS(pos) >= limit) return swpm__err("SWPM_INDEX_OUT_OF_RANGE", obase + O * pos);
+    }
+    if (!mixed) {
+        uint64_t badk = L, cat = at[4];
+        uint8_t *buf;
+        /* (a) prefix: level l's list uses only vertices < vertex_count(level_first_lod[l]) */
+        for (l = 0; l < n; l++) {
+            uint64_t e = SWPM__A(a1, l + 1);
+            k = swpm__first_at_least(x, W, SWPM__A(a1, l), e, SWPM__VC(SWPM__A(a0, l)), exempt, restart);
+            if (k < e) return swpm__err("SWPM_PREFIX_VIOLATION", ibase + W * k);
+        }
+        /* (c) R < V, binned = V-1-r, kept < V-1-r, the level table against RCNT, LODS vertex counts */
+        if (R && R >= V) return swpm__err("SWPM_RECORD_BAD_COUNTS", vbase);
+        for (r = 0; r < R; r++)
+            if (SWPM__REC(r, 1) != V - 1 - r) return swpm__err("SWPM_RECORD_BAD_BINNED", SWPM__ROW(r, 1));
+        for (r = 0; r < R; r++)
+            if (SWPM__REC(r, 0) + r + 1 >= V) return swpm__err("SWPM_RECORD_BAD_KEPT", SWPM__ROW(r, 0));
+        for (l = 0; l < n; l++)
+            if (SWPM__RC(SWPM__A(a0, l)) != SWPM__A(a3, l)) return swpm__err("SWPM_LEVEL_BAD_TABLE", sbase);
+        for (k = 0; k < L; k++)
+            if (SWPM__VC(k) != V - SWPM__RC(k)) return swpm__err("SWPM_LOD_VERTEX_COUNT", lbase + 12 * k);
+        /* (d) the replay of each level's records on a copy of its list (scratch: the longest list of a level
+         * with records), which must give its collapsed list; LODS triangle counts are counted on the way
+         * (the non-degenerate triangles after RCNT[k] records, updated around each changed slot) and their
+         * first mismatch reported last, stage (e) */
+        for (l = 0; l < n; l++)
+            if (SWPM__A(a3, l + 1) > SWPM__A(a3, l) && SWPM__A(a1, l + 1) - SWPM__A(a1, l) > longest)
+                longest = SWPM__A(a1, l + 1) - SWPM__A(a1, l);
+        need = W * longest;
+        if (need && (scratch == NULL || (uint64_t)scratch_bytes < need)) {
+            swpm_result s = {SWPM_READER_SCRATCH_TOO_SMALL, 0, 0, 0};
+            s.need = need;
+            return s;
+        }
+        buf = (uint8_t *)scratch;
+        for (pos = 0, k = 0, l = 0; l < n; l++) {
+            uint64_t s0 = SWPM__A(a1, l), m = SWPM__A(a1, l + 1) - s0, r0 = SWPM__A(a3, l), r1 = SWPM__A(a3, l + 1);
+            uint64_t kend = l + 1 < n ? SWPM__A(a0, l + 1) : L, count;
+            const uint8_t *cur = x + W * s0;
+            if (r1 > r0 && m) { /* (an empty list needs no copy: scratch may be NULL then) */
+                memcpy(buf, cur, W * m);
+                cur = buf;
+            }
+            count = swpm__tris_in(cur, W, m, 0, m, strip, exempt, restart);
+            for (; k < kend && SWPM__RC(k) == r0; k++)
+                if (badk == L && SWPM__TC(k) != count) badk = k;
+            for (r = r0; r < r1; r++) {
+                uint64_t cc = SWPM__REC(r, 2), kept = SWPM__REC(r, 0), s, lo;
+                for (j = 0; j < cc; j++) {
+                    s = SWPM__OFS(pos + j);
+                    if (SWPM__I(buf, s) != V - 1 - r) return swpm__err("SWPM_RECORD_BAD_CHANGE", SWPM__ROW(r, 0));
+                    lo = strip ? (s >= 2 ? s - 2 : 0) : s - s % 3;
+                    count -= swpm__tris_in(buf, W, m, lo, strip ? s : lo, strip, exempt, restart);
+                    swpm__put(buf + W * s, W, kept);
+                    count += swpm__tris_in(buf, W, m, lo, strip ? s : lo, strip, exempt, restart);
+                }
+                pos += cc;
+                for (; k < kend && SWPM__RC(k) == r + 1; k++)
+                    if (badk == L && SWPM__TC(k) != count) badk = k;
+            }
+            for (j = 0; j < m; j++)
+                if (SWPM__I(list1, s0 + j) != SWPM__I(cur, j)) return swpm__err("SWPM_LEVEL_BAD_TABLE", cat + W * (s0 + j));
+        }
+        /* the collapsed lists' prefix: level l's uses only vertices < V - level_record_start[l+1] */
+        for (l = 0; l < n; l++) {
+            uint64_t e = SWPM__A(a2, l + 1);
+            k = swpm__first_at_least(list1, W, SWPM__A(a2, l), e, V - SWPM__A(a3, l + 1), exempt, restart);
+            if (k < e) return swpm__err("SWPM_PREFIX_VIOLATION", cat + W * k);
+        }
+        if (badk < L) return swpm__err("SWPM_RECORD_BAD_COUNTS", lbase + 12 * badk);
+        for (l = 0; l < n; l++)
+            if (SWPM__A(a1, l + 1) - SWPM__A(a1, l) > longest) longest = SWPM__A(a1, l + 1) - SWPM__A(a1, l);
+    } else {
+        uint64_t q, cs, cr, rs, rr, s0, d0, nd, ns;
+        /* (b) per-level removals: a level's records remove at most its static, then dynamic, triangles */
+        for (q = 0; q < 2; q++)
+            for (l = 0; l < n; l++) {
+                const uint8_t *st = q ? a2 : a1;
+                for (sum = 0, r = SWPM__A(a3, l); r < SWPM__A(a3, l + 1); r++) sum += SWPM__REC(r, 1 + q);
+                if (sum > (SWPM__A(st, l + 1) - SWPM__A(st, l)) / 3)
+                    return swpm__err("SWPM_RECORD_BAD_COUNTS", row0 + O * (1 + q));
+            }
+        /* (c) LODS vertex counts, then triangle counts: the live triangles of both lists of k's level after
+         * RCNT[k] records (two running sums of removals: to RCNT[k] and to the level's first record) */
+        for (k = 0; k < L; k++)
+            if (SWPM__VC(k) != V - SWPM__RC(k)) return swpm__err("SWPM_LOD_VERTEX_COUNT", lbase + 12 * k);
+        for (cs = cr = rs = rr = 0, l = 0, k = 0; k < L; k++) {
+            uint64_t live;
+            while (l + 1 < n && SWPM__A(a0, l + 1) <= k) l++;
+            for (; cr < SWPM__RC(k); cr++) cs += SWPM__REC(cr, 1) + SWPM__REC(cr, 2);
+            for (; rr < SWPM__A(a3, l); rr++) rs += SWPM__REC(rr, 1) + SWPM__REC(rr, 2);
+            live = (SWPM__A(a1, l + 1) - SWPM__A(a1, l)) / 3 + (SWPM__A(a2, l + 1) - SWPM__A(a2, l)) / 3 - (cs - rs);
+            if (SWPM__TC(k) != live) return swpm__err("SWPM_RECORD_BAD_COUNTS", lbase + 12 * k);
+        }
+        /* the prefix checks: static lists, dynamic lists (vertices < vertex_count(level_first_lod[l])), the
+         * live part of the collapsed dynamic lists (< V - level_record_start[l+1]) */
+        for (q = 0; q < 2; q++)
+            for (l = 0; l < n; l++) {
+                const uint8_t *st = q ? a2 : a1;
+                uint64_t e = SWPM__A(st, l + 1);
+                k = swpm__first_at_least(q ? list1 : x, W, SWPM__A(st, l), e, SWPM__VC(SWPM__A(a0, l)), 0, 0);
+                if (k < e) return swpm__err("SWPM_PREFIX_VIOLATION", (q ? at[4] : ibase) + W * k);
+            }
+        for (l = 0; l < n; l++) {
+            uint64_t e;
+            for (sum = 0, r = SWPM__A(a3, l); r < SWPM__A(a3, l + 1); r++) sum += SWPM__REC(r, 2);
+            d0 = SWPM__A(a2, l);
+            e = d0 + 3 * ((SWPM__A(a2, l + 1) - d0) / 3 - sum);
+            k = swpm__first_at_least(list2, W, d0, e, V - SWPM__A(a3, l + 1), 0, 0);
+            if (k < e) return swpm__err("SWPM_PREFIX_VIOLATION", at[5] + W * k);
+        }
+        /* (d) the replay (3.8), as vanilla's per level: a copy of the level's dynamic list and a count of the
+         * live references to each vertex from both lists (scratch: 8 V + the longest dynamic list of a level
+         * with records + 7 alignment bytes); then the copy must equal the collapsed dynamic list */
+        for (l = 0; l < n; l++)
+            if (SWPM__A(a2, l + 1) - SWPM__A(a2, l) > longest) longest = SWPM__A(a2, l + 1) - SWPM__A(a2, l);
+        if (R) {
+            uint64_t *refs, pad = (uint64_t)((8 - ((uintptr_t)scratch & 7)) & 7), dl = 0;
+            uint8_t *buf;
+            for (l = 0; l < n; l++)
+                if (SWPM__A(a3, l + 1) > SWPM__A(a3, l) && SWPM__A(a2, l + 1) - SWPM__A(a2, l) > dl)
+                    dl = SWPM__A(a2, l + 1) - SWPM__A(a2, l);
+            need = 8 * V + W * dl + 7;
+            if (scratch == NULL || (uint64_t)scratch_bytes < need) {
+                swpm_result s = {SWPM_READER_SCRATCH_TOO_SMALL, 0, 0, 0};
+                s.need = need;
+                return s;
+            }
+            refs = (uint64_t *)(void *)((uint8_t *)scratch + pad);
+            buf = (uint8_t *)(refs + V);
+            memset(refs, 0, 8 * V);
+            for (pos = 0, l = 0; l < n; l++) {
+                uint64_t r0 = SWPM__A(a3, l), r1 = SWPM__A(a3, l + 1), m;
+                s0 = SWPM__A(a1, l);
+                d0 = SWPM__A(a2, l);
+                m = SWPM__A(a2, l + 1) - d0;
+                ns = (SWPM__A(a1, l + 1) - s0) / 3;
+                nd = m / 3;
+                if (r1 == r0) { /* no record: the collapsed list is the list */
+                    for (j = 0; j < m; j++)
+                        if (SWPM__I(list1, d0 + j) != SWPM__I(list2, d0 + j))
+                            return swpm__err("SWPM_MIXED_BAD_LEVELS", at[5] + W * (d0 + j));
+                    continue;
+                }
+                memcpy(buf, list1 + W * d0, W * m);
+                for (j = 0; j < m; j++) refs[SWPM__I(buf, j)]++;
+                for (j = 0; j < 3 * ns; j++) refs[SWPM__I(x, s0 + j)]++;
+                for (r = r0; r < r1; r++) {
+                    uint64_t b = V - 1 - r, kept = SWPM__REC(r, 0), cc = SWPM__REC(r, 3);
+                    uint64_t as = ns - SWPM__REC(r, 1), ad = nd - SWPM__REC(r, 2), s;
+                    for (j = 0; j < cc; j++) {
+                        s = SWPM__OFS(pos + j);
+                        if (s >= 3 * ad || SWPM__I(buf, s) != b) return swpm__err("SWPM_RECORD_BAD_CHANGE", SWPM__ROW(r, 0));
+                        swpm__put(buf + W * s, W, kept);
+                        refs[b]--;
+                        refs[kept]++;
+                    }
+                    pos += cc;
+                    for (j = 3 * ad; j < 3 * nd; j++) refs[SWPM__I(buf, j)]--;
+                    for (j = 3 * as; j < 3 * ns; j++) refs[SWPM__I(x, s0 + j)]--;
+                    ns = as;
+                    nd = ad;
+                    if (refs[b]) return swpm__err("SWPM_PREFIX_VIOLATION", SWPM__ROW(r, 0));
+                }
+                for (j = 0; j < m; j++)
+                    if (SWPM__I(list2, d0 + j) != SWPM__I(buf, j))
+                        return swpm__err("SWPM_MIXED_BAD_LEVELS", at[5] + W * (d0 + j));
+                for (j = 0; j < 3 * nd; j++) refs[SWPM__I(buf, j)]--; /* forget the level's references */
+                for (j = 0; j < 3 * ns; j++) refs[SWPM__I(x, s0 + j)]--;
+            }
+        } else {
+            for (j = 0; j < C; j++)
+                if (SWPM__I(list1, j) != SWPM__I(list2, j)) return swpm__err("SWPM_MIXED_BAD_LEVELS", at[5] + W * j);
+        }
+    }
+#undef SWPM__REC
+#undef SWPM__OFS
+#undef SWPM__RC
+#undef SWPM__ROW
+#undef SWPM__A
+#undef SWPM__I
+#undef SWPM__VC
+#undef SWPM__TC
+    f->indx = x;
+    f->index_count = nidx;
+    f->vrec = rec;
+    f->record_count = R;
+    f->record_columns = cols;
+    f->change_offsets = offs;
+    f->change_offset_count = M;
+    f->rcnt = rc;
+    f->level_count = n;
+    f->level_arrays[0] = a0;
+    f->level_arrays[1] = a1;
+    f->level_arrays[2] = a2;
+    f->level_arrays[3] = a3;
+    f->level_lists[0] = list1;
+    f->level_lists[1] = list2;
+    f->level_list_count = C;
+    f->longest_list = longest;
     return ok;
 }
 
@@ -1343,7 +1878,7 @@ static swpm_result swpm__vanilla(swpm_file *f, const uint8_t *bytes, const uint6
 int swpm_encoding(const swpm_file *f) { return f->encoding; }
 const uint8_t *swpm_collapse_records(const swpm_file *f, uint64_t *count, uint32_t *row_bytes) {
     *count = f->record_count;
-    *row_bytes = 4 * f->offset_width;
+    *row_bytes = f->record_columns * f->offset_width;
     return f->vrec;
 }
 void swpm_collapse_record(const swpm_file *f, uint64_t r, uint32_t *kept, uint32_t *tris_removed,
@@ -1360,11 +1895,11 @@ const uint8_t *swpm_collapse_change_offsets(const swpm_file *f, uint64_t *count)
     return f->change_offsets;
 }
 const uint8_t *swpm_lod_record_counts(const swpm_file *f, uint64_t *count) {
-    *count = f->encoding == 1 ? f->lod_count : 0;
+    *count = f->encoding != 2 ? f->lod_count : 0;
     return f->rcnt;
 }
 uint32_t swpm_lod_record_count(const swpm_file *f, uint64_t k) {
-    return f->encoding == 1 ? swpm__uw(f->rcnt + k * f->offset_width, f->offset_width) : 0;
+    return f->encoding != 2 ? swpm__uw(f->rcnt + k * f->offset_width, f->offset_width) : 0;
 }
 int swpm_vanilla_instance_init(const swpm_file *f, swpm_vanilla_instance *inst, void *buffer, uint64_t capacity) {
     uint64_t n = f->index_count * f->index_width;
@@ -1403,6 +1938,143 @@ uint64_t swpm_vanilla_set_lod(const swpm_file *f, swpm_vanilla_instance *inst, u
     inst->lod = lod;
     *vertex_count = swpm_lod_vertex_count(f, lod);
     return 3 * inst->live;
+}
+
+/* ---- skip-strip and mixed accessors and instances (format.md 3.7, 3.8) ---- */
+int swpm_primitive_strip(const swpm_file *f) { return f->strips || (f->encoding == 3 && f->primitive_strip); }
+uint64_t swpm_level_count(const swpm_file *f) { return f->level_count; }
+const uint8_t *swpm_level_array(const swpm_file *f, int which, uint64_t *count, uint32_t *width) {
+    *count = 0;
+    *width = which >= 4 ? f->index_width : f->offset_width;
+    if (f->encoding != 3 && f->encoding != 4) return NULL;
+    if (which == 0) *count = f->level_count;
+    else if (which >= 1 && which <= 3) *count = f->level_count + 1;
+    else if (which == 4 || (which == 5 && f->encoding == 4)) *count = f->level_list_count;
+    else return NULL;
+    return which < 4 ? f->level_arrays[which] : f->level_lists[which - 4];
+}
+static uint64_t swpm__la(const swpm_file *f, int which, uint64_t i) {
+    return swpm__uw(f->level_arrays[which] + i * f->offset_width, f->offset_width);
+}
+uint64_t swpm_level_of_lod(const swpm_file *f, uint64_t lod) {
+    uint64_t lo = 0, hi = f->level_count; /* the last level whose first LOD is <= lod */
+    if (hi == 0) return 0;
+    while (hi - lo > 1) {
+        uint64_t mid = lo + (hi - lo) / 2;
+        if (swpm__la(f, 0, mid) <= lod) lo = mid;
+        else hi = mid;
+    }
+    return lo;
+}
+int swpm_level_at(const swpm_file *f, uint64_t l, swpm_level *out) {
+    if ((f->encoding != 3 && f->encoding != 4) || l >= f->level_count) return 0;
+    out->first_lod = swpm__la(f, 0, l);
+    out->lod_end = l + 1 < f->level_count ? swpm__la(f, 0, l + 1) : f->lod_count;
+    out->record_start = swpm__la(f, 3, l);
+    out->record_end = swpm__la(f, 3, l + 1);
+    out->index_start = swpm__la(f, 1, l);
+    out->index_count = swpm__la(f, 1, l + 1) - out->index_start;
+    out->dynamic_start = f->encoding == 4 ? swpm__la(f, 2, l) : 0;
+    out->dynamic_count = f->encoding == 4 ? swpm__la(f, 2, l + 1) - out->dynamic_start : 0;
+    return 1;
+}
+uint32_t swpm_collapse_field(const swpm_file *f, uint64_t r, uint32_t column) {
+    return swpm__uw(f->vrec + ((uint64_t)f->record_columns * r + column) * f->offset_width, f->offset_width);
+}
+uint64_t swpm_level_instance_bytes(const swpm_file *f) {
+    return (f->encoding == 3 || f->encoding == 4) ? f->longest_list * f->index_width : 0;
+}
+/* Copy level l's stored list (skip-strip: its INDX range, or its range of level_collapsed_indices; mixed: its
+ * dynamic list or its collapsed one) into the buffer; the instance then stands at the level's first record
+ * or after its last. */
+static void swpm__level_load(const swpm_file *f, swpm_level_instance *inst, uint64_t l, int collapsed) {
+    const int mixed = f->encoding == 4;
+    const uint32_t W = f->index_width, cols = f->record_columns;
+    uint64_t s0 = swpm__la(f, mixed ? 2 : 1, l), m = swpm__la(f, mixed ? 2 : 1, l + 1) - s0;
+    uint64_t r0 = swpm__la(f, 3, l), r1 = swpm__la(f, 3, l + 1), r = collapsed ? r1 : r0, q;
+    const uint8_t *src = collapsed ? f->level_lists[mixed ? 1 : 0] : mixed ? f->level_lists[0] : f->indx;
+    if (m) memcpy(inst->indices, src + W * s0, W * m);
+    /* the change offsets' position of record r: walk from where the instance stands */
+    for (q = inst->applied; q < r; q++) inst->change_pos += swpm_collapse_field(f, q, cols - 2);
+    for (q = inst->applied; q > r; q--) inst->change_pos -= swpm_collapse_field(f, q - 1, cols - 2);
+    inst->level = l;
+    inst->count = m;
+    inst->applied = r;
+    if (mixed) {
+        inst->static_live = (swpm__la(f, 1, l + 1) - swpm__la(f, 1, l)) / 3;
+        inst->dynamic_live = m / 3;
+        for (q = r0; collapsed && q < r1; q++) {
+            inst->static_live -= swpm_collapse_field(f, q, 1);
+            inst->dynamic_live -= swpm_collapse_field(f, q, 2);
+        }
+    }
+}
+static int swpm__level_init(const swpm_file *f, int enc, swpm_level_instance *inst, void *buffer,
+                            uint64_t capacity) {
+    uint64_t need = swpm_level_instance_bytes(f);
+    if (f->encoding != enc || capacity < need || (need && buffer == NULL)) return 0;
+    inst->indices = (uint8_t *)buffer;
+    inst->lod = 0;
+    inst->applied = 0;
+    inst->change_pos = 0;
+    swpm__level_load(f, inst, 0, 0);
+    return 1;
+}
+int swpm_skip_instance_init(const swpm_file *f, swpm_level_instance *inst, void *buffer, uint64_t capacity) {
+    return swpm__level_init(f, 3, inst, buffer, capacity);
+}
+int swpm_mixed_instance_init(const swpm_file *f, swpm_level_instance *inst, void *buffer, uint64_t capacity) {
+    return swpm__level_init(f, 4, inst, buffer, capacity);
+}
+/* Move to LOD lod: load its level's nearer stored list when the level changes, then apply or undo records
+ * up to RCNT[lod] (3.7: a record sets its slots to kept; undoing sets them back to V-1-r). */
+static void swpm__level_move(const swpm_file *f, swpm_level_instance *inst, uint64_t lod) {
+    const uint32_t W = f->index_width, O = f->offset_width, cols = f->record_columns;
+    const int mixed = f->encoding == 4;
+    uint64_t target, l, j;
+    if (lod >= f->lod_count) lod = f->lod_count - 1;
+    target = swpm_lod_record_count(f, lod);
+    l = swpm_level_of_lod(f, lod);
+    if (l != inst->level) {
+        uint64_t r0 = swpm__la(f, 3, l), r1 = swpm__la(f, 3, l + 1);
+        swpm__level_load(f, inst, l, r1 - target < target - r0);
+    }
+    while (inst->applied < target) {
+        uint64_t r = inst->applied, cc = swpm_collapse_field(f, r, cols - 2), kept = swpm_collapse_field(f, r, 0);
+        for (j = 0; j < cc; j++)
+            swpm__put(inst->indices + W * (uint64_t)swpm__uw(f->change_offsets + O * (inst->change_pos + j), O), W, kept);
+        inst->change_pos += cc;
+        if (mixed) {
+            inst->static_live -= swpm_collapse_field(f, r, 1);
+            inst->dynamic_live -= swpm_collapse_field(f, r, 2);
+        }
+        inst->applied++;
+    }
+    while (inst->applied > target) {
+        uint64_t r = --inst->applied, cc = swpm_collapse_field(f, r, cols - 2);
+        inst->change_pos -= cc;
+        for (j = 0; j < cc; j++)
+            swpm__put(inst->indices + W * (uint64_t)swpm__uw(f->change_offsets + O * (inst->change_pos + j), O), W,
+                      (uint64_t)f->vertex_count - 1 - r);
+        if (mixed) {
+            inst->static_live += swpm_collapse_field(f, r, 1);
+            inst->dynamic_live += swpm_collapse_field(f, r, 2);
+        }
+    }
+    inst->lod = lod;
+}
+uint64_t swpm_skip_set_lod(const swpm_file *f, swpm_level_instance *inst, uint64_t lod, uint32_t *vertex_count) {
+    swpm__level_move(f, inst, lod);
+    *vertex_count = swpm_lod_vertex_count(f, inst->lod);
+    return inst->count;
+}
+uint64_t swpm_mixed_set_lod(const swpm_file *f, swpm_level_instance *inst, uint64_t lod, uint64_t *static_first,
+                            uint64_t *static_count, uint32_t *vertex_count) {
+    swpm__level_move(f, inst, lod);
+    *static_first = swpm__la(f, 1, inst->level);
+    *static_count = 3 * inst->static_live;
+    *vertex_count = swpm_lod_vertex_count(f, inst->lod);
+    return 3 * inst->dynamic_live;
 }
 
 uint32_t swpm_features(const swpm_file *f) { return f->features; }
@@ -1480,7 +2152,7 @@ uint64_t swpm_lod_for_triangles(const swpm_file *f, uint64_t target) {
     return lo < f->lod_count ? lo : f->lod_count - 1;
 }
 int swpm_restart_index(const swpm_file *f, uint64_t *restart) {
-    if (!f->strips) return 0;
+    if (!f->strips && !f->has_restart) return 0;
     *restart = f->restart_index;
     return 1;
 }
