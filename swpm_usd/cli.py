@@ -312,7 +312,8 @@ def run_cmd(
             click.echo(p, err=True)
         if as_json:
             error = {"error": "invalid configuration", "problems": exc.problems, **problem_fields(exc)}
-            click.echo(json.dumps({**error, "file": config}, indent=2))
+            # (``input``: the config, as every run --json error names it; ``file``: where the problems are)
+            click.echo(json.dumps({"input": config, **error, "file": config}, indent=2))
         sys.exit(2)
     except (SwpmError, OSError) as exc:
         from .codes import fields_of, problem_fields
@@ -332,7 +333,7 @@ def run_cmd(
                 )
             else:
                 fields = problem_fields(exc)
-            click.echo(json.dumps({"error": message, **fields}, indent=2))
+            click.echo(json.dumps({"input": config, "error": message, **fields}, indent=2))
         sys.exit(1)
     except KeyboardInterrupt:  # the run has stopped its workers and recorded what they finished
         _exiting_on_interrupt()
@@ -344,7 +345,9 @@ def run_cmd(
         if as_json:
             from .codes import fields_of
 
-            click.echo(json.dumps({"error": "interrupted", **fields_of("INTERRUPTED")}, indent=2))
+            click.echo(
+                json.dumps({"input": config, "error": "interrupted", **fields_of("INTERRUPTED")}, indent=2)
+            )
         sys.exit(EXIT_INTERRUPTED)
     if as_json:
         summary = {

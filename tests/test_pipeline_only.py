@@ -190,6 +190,7 @@ def test_a_pattern_that_matches_nothing_is_a_usage_error_before_anything_is_writ
     assert code == 2
     error = json.loads(out)
     assert error["usage_error"] is True and error["code"] == "USAGE_ERROR"
+    assert error["input"] == str(project)  # (the config, as run's other --json errors name it)
     assert "'nope' matches no asset" in error["error"] and "rock.obj'" not in error["error"]
     assert {p.name: (p.stat().st_mtime_ns, p.read_bytes()) for p in out_dir.iterdir()} == files
     with pytest.raises(SelectionError):
