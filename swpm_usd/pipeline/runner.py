@@ -264,8 +264,14 @@ def plan(
     count_triangles: bool = True,
     verify: bool = False,
     early_counts: bool = False,
+    only: list[str] | None = None,
 ) -> tuple[list[PlanItem], list[str], list[str]]:
     """Resolve each asset's rule and parameters; (items, errors, warnings).
+
+    ``only`` (``run --only``'s patterns): checked against the asset ids as soon as they are known, before
+    any input is hashed or loaded (:func:`.selection.selected_ids` raises :class:`.selection.SelectionError`
+    for one that matches none: 10,000 assets were hashed and planned first), unless the config has problems
+    (its :class:`.config.ConfigError` comes first, as it did). Every asset is still planned.
 
     Rules on triangle counts need the count of every new or changed asset. ``count_triangles=False``
     leaves those items ``rule_pending`` (their rule, treatment and digest empty, never up to date): the
@@ -299,6 +305,8 @@ def plan(
     )
     problems.extend(_unusable_out_dir(cfg, out_dir))
     problems.extend(_overwritten_inputs(cfg, out_dir, assets, inputs))
+    if only and not problems:
+        selected_ids((a.id for a in assets), only)  # (raises for a pattern that matches no asset)
     items = []
     record_warnings = []
     needs_rule_on_triangles = _routes_by_triangles(cfg)
@@ -692,15 +700,22 @@ def _run(
     if not dry_run and out_dir.is_dir():  # (the run's from here on: before the plan checks the outputs)
         _restore_kept_aside(out_dir, manifest["assets"])
     # (not while it loads meshes to count their triangles: a loader's garbage may be cyclic)
+    dask_unlimited = executor == "dask" and "seconds" in cfg.data.get("limits", {})
     with contextlib.nullcontext() if dry_run or explain else _gc_paused():
         items, errors, warnings = plan(
-            cfg, manifest, count_triangles=dry_run or explain, verify=verify, early_counts=dry_run
+            cfg,
+            manifest,
+            count_triangles=dry_run or explain,
+            verify=verify,
+            early_counts=dry_run,
+            only=None if dask_unlimited else only,  # (a config error: raised first, as every other)
         )
-    if executor == "dask" and "seconds" in cfg.data.get("limits", {}):
+    if dask_unlimited:
         errors = [*errors, "limits.seconds needs the local executor (--executor dask cannot stop an asset)"]
     if errors:
         raise ConfigError(errors)
-    # (after the plan, which discovers the ids, and before any build or write; None: every asset)
+    # (the patterns were checked once the plan discovered the ids, before it hashed an input: each matches
+    # some; before any build or write; None: every asset)
     # (``items`` stay the whole config's: orphans, the outputs kept, the rules reached, the records kept)
     chosen = selected_ids((it.asset.id for it in items), only) if only else None
     picked = items if chosen is None else [it for it in items if it.asset.id in chosen]
