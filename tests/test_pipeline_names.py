@@ -183,6 +183,46 @@ def test_a_stage_s_prims_are_named_after_the_stage_under_path(tmp_path):
     ]
 
 
+@pytest.mark.parametrize("names", ["path", "stem"])
+def test_two_stages_of_one_name_in_two_folders_are_one_problem_naming_both_entries(tmp_path, names):
+    """Two ``stage:`` entries whose files are both ``scene.usda`` (in two folders) with prims at the same
+    paths would write the same outputs under either setting (a stage is named by its stem): the config is
+    refused before anything is written, said once for the pair of entries (it was said once a prim, at the
+    later entry alone, without what to do), both entries located."""
+    from pxr import Usd, UsdGeom
+
+    for shot in ("a", "b"):
+        (tmp_path / "shots" / shot).mkdir(parents=True)
+        st = Usd.Stage.CreateNew(str(tmp_path / "shots" / shot / "scene.usda"))
+        for name in ("rock", "tree", "bush") if shot == "a" else ("rock", "tree", "car"):
+            m = UsdGeom.Mesh.Define(st, f"/World/{name}")
+            m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
+            m.CreateFaceVertexCountsAttr([3, 3])
+            m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+        st.GetRootLayer().Save()
+    del st, m  # (its layer open here would be the one a run reads, not the file edited below)
+    config = CONFIG.replace(
+        '  - glob: "library/**/*.obj"', "  - stage: shots/a/scene.usda\n  - stage: shots/b/scene.usda"
+    ).replace("  scene: true", f"  scene: true\n  names: {names}")
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(config)
+    with pytest.raises(ConfigError) as exc:
+        run(cfg, echo=_quiet)
+    (problem,) = exc.value.problems
+    assert problem.startswith(
+        f"{cfg}:4:5: $.assets[1]: stage shots/b/scene.usda and stage shots/a/scene.usda "
+        f"($.assets[0], {cfg}:3:5) would both write scene__World_rock.swpm and 1 more output name "
+        "(2 prim paths in both)"
+    ), problem
+    assert "rename one stage file" in problem
+    assert not (tmp_path / "out").exists()
+    # prims at other paths: the two stages build side by side
+    (tmp_path / "shots" / "b" / "scene.usda").write_text(
+        (tmp_path / "shots" / "b" / "scene.usda").read_text().replace("World", "Shot")
+    )
+    assert run(cfg, echo=_quiet).built == 6
+
+
 def test_a_bad_value_is_a_located_config_error(tmp_path):
     cfg = tmp_path / "pipeline.yaml"
     cfg.write_text(CONFIG.replace("  scene: true", "  scene: true\n  names: folders"))
