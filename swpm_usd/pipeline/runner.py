@@ -153,7 +153,7 @@ from .scene import SCENE_METERS_PER_UNIT as SCENE_METERS_PER_UNIT  # (re-exporte
 from .scene import SCENE_UP_AXIS as SCENE_UP_AXIS  # (re-exported)
 from .scene import UNITS_OP as UNITS_OP  # (re-exported)
 from .scene import UP_AXIS_OP as UP_AXIS_OP  # (re-exported)
-from .scene import _layer_with_units, _write_scene
+from .scene import UTF8_PRIM_NAMES, _layer_with_units, _scene_stems, _utf8_named, _write_scene
 from .selection import SelectionConflictError, _selection_clashes, selected_ids
 from .selection import SelectionError as SelectionError  # (re-exported: swpm_usd.pipeline's)
 from .tasks import _task
@@ -980,11 +980,13 @@ def _run(
                 continue
             path = out_dir / _RUN_OUTPUT_FILES[kind]
             # (the report's: the config as it names it, absolute, so a moved tree's is rewritten)
-            shown: dict[str, str] = {}
+            shown: dict[str, Any] = {}
             if kind == "report":
                 from .report import config_shown
 
                 shown = {REPORT_CONFIG: config_shown(path, manifest["config"])}
+            elif _utf8_named(_scene_stems(records)):  # (a scene of such names mangled: written again)
+                shown = {UTF8_PRIM_NAMES: True}
             if (
                 unchanged
                 and isinstance(kept := run_outputs.get(kind), dict)
