@@ -329,14 +329,31 @@ def test_outputs_of_removed_assets_are_named_and_pruned_only_on_request(tmp_path
     second = run(cfg, echo=lambda m: None)
     assert second.unlisted == ["spot.swpm"]
     r = CliRunner().invoke(main, ["run", str(cfg)])
-    assert r.exit_code == 0 and "1 outputs of assets no longer in the config left in output.dir" in r.output
+    assert r.exit_code == 0
+    left = "1 output of an asset no longer in the config left in output.dir (--prune deletes them)"
+    assert left in r.output
     r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
     assert r.exit_code == 0 and json.loads(r.stdout)["unlisted"] == ["spot.swpm"], r.output
+    # (each named: its asset, and why it is left)
+    assert json.loads(r.stdout)["orphans"] == [
+        {"path": "spot.swpm", "asset": "meshes/spot.obj", "because": {"code": "asset-removed", "detail": ""}}
+    ]
     # a dry run names what --prune would delete and deletes nothing
     lines: list[str] = []
     dry = run(cfg, dry_run=True, prune=True, echo=lines.append)
     assert dry.pruned == ["spot.swpm"] and (out / "spot.swpm").is_file()
-    assert any(line.startswith("spot.swpm: output of an asset no longer in the config") for line in lines)
+    named = "spot.swpm: output of an asset no longer in the config (meshes/spot.obj); --prune deletes it"
+    assert named in lines
+    # an entry an older version recorded (without its asset and why) is said to be an earlier run's
+    path = out / "manifest.json"
+    manifest = json.loads(path.read_text())
+    manifest["orphaned_outputs"] = [
+        {k: v for k, v in o.items() if k not in ("asset", "because")} for o in manifest["orphaned_outputs"]
+    ]
+    path.write_text(json.dumps(manifest))
+    older = run(cfg, dry_run=True, echo=lines.append)
+    assert [(o["asset"], o["because"]["code"]) for o in older.orphans] == [(None, "earlier-run")]
+    assert "spot.swpm: output an earlier run left (its reason not recorded)" in lines
     # --prune deletes the recorded, unchanged ones before building; the current assets' outputs stay
     pruned = run(cfg, prune=True, echo=lambda m: None)
     assert pruned.pruned == ["spot.swpm"] and not (out / "spot.swpm").exists()
@@ -2009,8 +2026,11 @@ def test_an_output_turned_off_when_its_asset_is_rebuilt_is_named_and_pruned(tmp_
     cfg.write_text(cfg.read_text().replace("dir: out", "{dir: out, swpm: false, usd: true}"))
     res = run(cfg, echo=lambda m: None)
     assert res.built == 1 and res.unlisted == ["cow.swpm"]
+    unwanted = {"code": "kind-unwanted", "detail": "swpm: false"}
+    assert res.orphans == [{"path": "cow.swpm", "asset": "meshes/cow.obj", "because": unwanted}]
     res = run(cfg, echo=lambda m: None)
     assert res.skipped == 1 and res.unlisted == ["cow.swpm"]
+    assert res.orphans == [{"path": "cow.swpm", "asset": "meshes/cow.obj", "because": unwanted}]  # (kept)
     assert run(cfg, prune=True, echo=lambda m: None).pruned == ["cow.swpm"]
     files, listed = _listed_outputs(out)
     assert files == listed == {"cow.usdc"}
@@ -3693,7 +3713,14 @@ def test_scene_and_report_stay_recorded_through_an_interrupted_run(tmp_path, mon
         with pytest.raises(KeyboardInterrupt):
             run(cfg, force=True, echo=lambda m: None)
     cfg.write_text(head + "output: {dir: out, usd: true, scene: false, report: false}\n")
-    assert sorted(run(cfg).unlisted) == ["report.html", "scene.usda"]
+    res = run(cfg)
+    assert sorted(res.unlisted) == ["report.html", "scene.usda"]
+    assert sorted(
+        (o["path"], o["asset"], o["because"]["code"], o["because"]["detail"]) for o in res.orphans
+    ) == [
+        ("report.html", None, "run-output-unwanted", "report: false"),
+        ("scene.usda", None, "run-output-unwanted", "scene: false"),
+    ]
 
 
 @pytest.mark.parametrize("suffix", [".obj", ".usda"])

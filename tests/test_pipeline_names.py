@@ -123,11 +123,42 @@ def test_flipping_names_rebuilds_under_the_new_names_and_prune_removes_the_old(t
     lines: list[str] = []
     plan = run(cfg, dry_run=True, prune=True, echo=lines.append)
     assert sorted(plan.pruned) == ["cushion.swpm", "cushion.usdc", "scene.swpm", "scene.usdc"]
-    assert "scene.swpm: output its asset's rebuild no longer writes; --prune deletes it" in lines
+    # (named as what they are: the asset's, at its names before the flip, not a removed asset's)
+    assert (
+        "scene.swpm: output of library/props/chair/scene.obj at its name before output.names: stem -> path; "
+        "--prune deletes it"
+    ) in lines
+    assert not any("no longer in the config" in line for line in lines)
     assert sorted(run(cfg, dry_run=True, echo=_quiet).unlisted) == sorted(plan.pruned)
     flipped = run(cfg, echo=_quiet)
     assert flipped.built == 2
     assert sorted(flipped.unlisted) == ["cushion.swpm", "cushion.usdc", "scene.swpm", "scene.usdc"]
+    moved = {"code": "names-changed", "detail": "output.names: stem -> path"}
+    assert sorted((o["path"], o["asset"], o["because"] == moved) for o in flipped.orphans) == [
+        ("cushion.swpm", "library/props/chair/cushion.obj", True),
+        ("cushion.usdc", "library/props/chair/cushion.obj", True),
+        ("scene.swpm", "library/props/chair/scene.obj", True),
+        ("scene.usdc", "library/props/chair/scene.obj", True),
+    ]
+    # a later run still says so (the manifest keeps why), in its last line and --json
+    recorded = json.loads((out / "manifest.json").read_text())["orphaned_outputs"]
+    assert {(o["path"], o["asset"], o["because"]["code"]) for o in recorded} == {
+        (o["path"], o["asset"], "names-changed") for o in flipped.orphans
+    }
+    from click.testing import CliRunner
+
+    from swpm_usd.cli import main
+
+    r = CliRunner().invoke(main, ["run", str(cfg)])
+    assert r.exit_code == 0 and "no longer in the config" not in r.output, r.output
+    assert (
+        "4 outputs at their assets' names before output.names: stem -> path left in output.dir "
+        "(--prune deletes them)"
+    ) in r.output
+    r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
+    orphans = json.loads(r.stdout)["orphans"]
+    assert sorted(o["path"] for o in orphans) == sorted(flipped.unlisted)
+    assert all(o["because"] == moved and o["asset"].startswith("library/") for o in orphans)
     assert sorted(_scene_references(out).values()) == [
         "./props--chair--cushion.usdc",
         "./props--chair--scene.usdc",
@@ -136,6 +167,7 @@ def test_flipping_names_rebuilds_under_the_new_names_and_prune_removes_the_old(t
     pruned = run(cfg, prune=True, echo=_quiet)
     assert pruned.built == 0
     assert sorted(pruned.pruned) == ["cushion.swpm", "cushion.usdc", "scene.swpm", "scene.usdc"]
+    assert all(o["because"] == moved for o in pruned.orphans)
     assert sorted(p.name for p in out.iterdir() if p.suffix in (".swpm", ".usdc")) == [
         "props--chair--cushion.swpm",
         "props--chair--cushion.usdc",
@@ -152,6 +184,7 @@ def test_flipping_names_rebuilds_under_the_new_names_and_prune_removes_the_old(t
         "props--chair--scene.swpm",
         "props--chair--scene.usdc",
     ]
+    assert {o["because"]["detail"] for o in back.orphans} == {"output.names: path -> stem"}
 
 
 def test_a_stage_s_prims_are_named_after_the_stage_under_path(tmp_path):
