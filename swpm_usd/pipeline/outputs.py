@@ -307,7 +307,8 @@ def orphan_phrase(n: int, code: str, detail: str) -> str:
     if code == "asset-removed":
         return f"{outputs} of {'assets' if n != 1 else 'an asset'} no longer in the config"
     if code == "names-changed":
-        return f"{outputs} at {'their assets' if n != 1 else 'its asset'}' names before {detail}"
+        whose = "their assets'" if n != 1 else "its asset's"
+        return f"{outputs} at {whose} names before {detail}"
     if code == "kind-unwanted":
         return f"{outputs} of a kind the config no longer asks for ({detail})"
     if code == "run-output-unwanted":

