@@ -282,6 +282,7 @@ def run_cmd(
     """
     from .codes import PROBLEM_KEYS
     from .pipeline import ConfigError, SelectionError, run
+    from .pipeline.outputs import orphan_phrase
     from .pipeline.reasons import counted, counted_shown
 
     if scheduler is not None and executor != "dask":
@@ -312,7 +313,8 @@ def run_cmd(
             click.echo(p, err=True)
         if as_json:
             error = {"error": "invalid configuration", "problems": exc.problems, **problem_fields(exc)}
-            click.echo(json.dumps({**error, "file": config}, indent=2))
+            # (``input``: the config, as every run --json error names it; ``file``: where the problems are)
+            click.echo(json.dumps({"input": config, **error, "file": config}, indent=2))
         sys.exit(2)
     except (SwpmError, OSError) as exc:
         from .codes import fields_of, problem_fields
@@ -332,7 +334,7 @@ def run_cmd(
                 )
             else:
                 fields = problem_fields(exc)
-            click.echo(json.dumps({"error": message, **fields}, indent=2))
+            click.echo(json.dumps({"input": config, "error": message, **fields}, indent=2))
         sys.exit(1)
     except KeyboardInterrupt:  # the run has stopped its workers and recorded what they finished
         _exiting_on_interrupt()
@@ -344,7 +346,9 @@ def run_cmd(
         if as_json:
             from .codes import fields_of
 
-            click.echo(json.dumps({"error": "interrupted", **fields_of("INTERRUPTED")}, indent=2))
+            click.echo(
+                json.dumps({"input": config, "error": "interrupted", **fields_of("INTERRUPTED")}, indent=2)
+            )
         sys.exit(EXIT_INTERRUPTED)
     if as_json:
         summary = {
@@ -365,6 +369,9 @@ def run_cmd(
             ],
             "pruned": res.pruned,
             "unlisted": res.unlisted,
+            # (each of those named: its path, its asset and why it is left, `{"code", "detail"}`: an asset
+            # removed, or rebuilt under the names output.names gives it now, ...)
+            "orphans": res.orphans,
             "built_assets": sorted(res.built_ids),  # (which ones: `built` counts them)
             # (why: each reason's code -> how many of them had it, as the plan's `because` names them)
             "built_because": res.built_because,
@@ -402,13 +409,13 @@ def run_cmd(
             # the problem code bracketed after FAILED (`grep 'FAILED \[INPUT_MALFORMED\]'`), as --json has it
             code = f" [{rec['code']}]" if rec.get("code") else ""
             click.echo(f"FAILED{code} {rid}: {rec.get('error')}{kept}", err=True)
-        if res.pruned:
-            click.echo(f"pruned {len(res.pruned)} outputs of assets no longer in the config")
-        if res.unlisted:
-            click.echo(
-                f"{len(res.unlisted)} outputs of assets no longer in the config left in output.dir "
-                "(--prune deletes them)"
-            )
+        # (counted by why each is left: an asset's outputs at its names before output.names flipped are
+        # not "of an asset no longer in the config", which they were said to be)
+        for n, code, detail in res.orphans_counted():
+            if res.pruned:
+                click.echo(f"pruned {orphan_phrase(n, code, detail)}")
+            else:
+                click.echo(f"{orphan_phrase(n, code, detail)} left in output.dir (--prune deletes them)")
     sys.exit(1 if res.failed else 0)
 
 

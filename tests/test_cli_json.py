@@ -36,7 +36,9 @@ CASES = [
         "the output must be a .swpm file",
         {"input": "x.obj", "output": "y.txt"},
     ),
-    (["run", "c.yaml", "--jobs", "0", "--json"], "Invalid value for '--jobs' / '-j'", {}),
+    # run's input is its config, named as its other --json errors name it (it had no `input`)
+    (["run", "c.yaml", "--jobs", "0", "--json"], "Invalid value for '--jobs' / '-j'", {"input": "c.yaml"}),
+    (["run", "--jobs", "0", "--json", "c.yaml"], "Invalid value for '--jobs' / '-j'", {"input": "c.yaml"}),
     (["run", "--json"], "Missing argument 'CONFIG'", {}),
     (["inspect", "x.swpm", "--rows", "0", "--json"], "Invalid value for '--rows'", {}),
     (["validate", "a.swpm", "b.swpm", "--json"], "Got unexpected extra argument (b.swpm)", {}),
@@ -113,3 +115,39 @@ def test_max_triangles_refuses_an_input_over_it(tmp_path, command):
     assert result.exit_code == 0, (result.output, result.exception)
     result = CliRunner().invoke(main, [command, str(mesh), *out, "--max-triangles", "-1"])
     assert result.exit_code == 2
+
+
+def test_every_json_error_of_run_names_its_config_as_input(tmp_path, monkeypatch):
+    """``run --json``: a usage error, an invalid config, output.dir unusable and Ctrl-C each carry
+    ``input``, the config as given (a usage error had none; a script collecting errors of many runs could
+    not tell whose it was)."""
+    import swpm_usd.pipeline
+
+    cfg = tmp_path / "c.yaml"
+    (tmp_path / "a.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    cfg.write_text("version: 1\nassets: [{glob: '*.obj'}]\noutput: {dir: out}\n")
+    given = str(cfg)
+    usage = CliRunner().invoke(main, ["run", given, "--only", "nope", "--json"])
+    assert usage.exit_code == 2 and json.loads(usage.stdout)["input"] == given
+    (tmp_path / "bad.yaml").write_text("version: 1\nassets: 3\n")
+    bad = str(tmp_path / "bad.yaml")
+    invalid = CliRunner().invoke(main, ["run", bad, "--json"])
+    assert invalid.exit_code == 2 and json.loads(invalid.stdout)["input"] == bad
+    (tmp_path / "out").write_text("a file where output.dir goes")
+    unusable = CliRunner().invoke(main, ["run", given, "--json"])
+    assert unusable.exit_code == 2 and json.loads(unusable.stdout)["input"] == given
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(swpm_usd.pipeline, "run", interrupted)
+    stopped = CliRunner().invoke(main, ["run", given, "--json"])
+    assert stopped.exit_code == 130 and json.loads(stopped.stdout)["input"] == given
+
+    def full_disk(*args, **kwargs):
+        raise OSError(28, "No space left on device", "out/report.html")
+
+    monkeypatch.setattr(swpm_usd.pipeline, "run", full_disk)
+    unwritten = CliRunner().invoke(main, ["run", given, "--json"])
+    error = json.loads(unwritten.stdout)
+    assert unwritten.exit_code == 1 and (error["input"], error["file"]) == (given, "out/report.html")

@@ -329,14 +329,31 @@ def test_outputs_of_removed_assets_are_named_and_pruned_only_on_request(tmp_path
     second = run(cfg, echo=lambda m: None)
     assert second.unlisted == ["spot.swpm"]
     r = CliRunner().invoke(main, ["run", str(cfg)])
-    assert r.exit_code == 0 and "1 outputs of assets no longer in the config left in output.dir" in r.output
+    assert r.exit_code == 0
+    left = "1 output of an asset no longer in the config left in output.dir (--prune deletes them)"
+    assert left in r.output
     r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
     assert r.exit_code == 0 and json.loads(r.stdout)["unlisted"] == ["spot.swpm"], r.output
+    # (each named: its asset, and why it is left)
+    assert json.loads(r.stdout)["orphans"] == [
+        {"path": "spot.swpm", "asset": "meshes/spot.obj", "because": {"code": "asset-removed", "detail": ""}}
+    ]
     # a dry run names what --prune would delete and deletes nothing
     lines: list[str] = []
     dry = run(cfg, dry_run=True, prune=True, echo=lines.append)
     assert dry.pruned == ["spot.swpm"] and (out / "spot.swpm").is_file()
-    assert any(line.startswith("spot.swpm: output of an asset no longer in the config") for line in lines)
+    named = "spot.swpm: output of an asset no longer in the config (meshes/spot.obj); --prune deletes it"
+    assert named in lines
+    # an entry an older version recorded (without its asset and why) is said to be an earlier run's
+    path = out / "manifest.json"
+    manifest = json.loads(path.read_text())
+    manifest["orphaned_outputs"] = [
+        {k: v for k, v in o.items() if k not in ("asset", "because")} for o in manifest["orphaned_outputs"]
+    ]
+    path.write_text(json.dumps(manifest))
+    older = run(cfg, dry_run=True, echo=lines.append)
+    assert [(o["asset"], o["because"]["code"]) for o in older.orphans] == [(None, "earlier-run")]
+    assert "spot.swpm: output an earlier run left (its reason not recorded)" in lines
     # --prune deletes the recorded, unchanged ones before building; the current assets' outputs stay
     pruned = run(cfg, prune=True, echo=lambda m: None)
     assert pruned.pruned == ["spot.swpm"] and not (out / "spot.swpm").exists()
@@ -1388,6 +1405,68 @@ def test_scene_prim_names_depend_on_their_own_asset_alone():
     assert _scene_prim_name("a_b", {"a_b"}).startswith("a_b_")  # (taken: hashed, never a duplicate)
 
 
+def test_a_non_ascii_name_usd_takes_is_the_scene_prim_as_it_is():
+    # usd-core 0.26 takes UTF-8 identifiers (XID_Start, XID_Continue): café.usdc's prim was /Scene/caf___
+    # and a hash (Tf.MakeValidIdentifier is ASCII's). What USD refuses is still made valid and hashed, each
+    # refused character one `_`; an ASCII name is made as before
+    from pxr import Sdf, Tf
+
+    from swpm_usd.pipeline.scene import _scene_prim_name
+
+    for stem in ("caf\u00e9", "\u65e5\u672c", "\u03a9mega", "cafe\u0301", "\u00e9t\u00e9_2"):
+        assert _scene_prim_name(stem, set()) == stem
+    assert re.fullmatch("caf\u00e9_1_[0-9a-f]{8}", _scene_prim_name("caf\u00e9-1", set()))
+    assert re.fullmatch("_caf\u00e9_[0-9a-f]{8}", _scene_prim_name("1caf\u00e9", set()))
+    assert re.fullmatch("x__[0-9a-f]{8}", _scene_prim_name("x\u00b2", set()))  # (² is no XID_Continue)
+    for stem in ("cow", "a-b", "a b", "1cow", "a_b", "x.y", ""):  # (ASCII: Tf's identifier, as before)
+        base = Tf.MakeValidIdentifier(stem)
+        name = _scene_prim_name(stem, set())
+        assert name == base if base == stem else name.startswith(f"{base}_")
+    for stem in ("caf\u00e9-1", "1caf\u00e9", "x\u00b2", "\u00e9\u00e9", "a\u2014b"):
+        assert Sdf.Path.IsValidIdentifier(_scene_prim_name(stem, set()))
+
+
+def test_a_scene_written_with_mangled_non_ascii_names_is_written_again(tmp_path, monkeypatch):
+    """A scene recorded by a run that mangled non-ASCII names is not current, though no record changed: the
+    rerun writes it with the names USD takes, and records so (``utf8_prim_names``); a scene of ASCII names
+    alone is recorded as before, without it."""
+    from pxr import Sdf, Tf
+
+    import swpm_usd.pipeline.scene as scene
+    from swpm_usd.pipeline import inputs
+
+    monkeypatch.setattr(inputs, "_RACY_NS", 0)  # (inputs just written: see the racily clean test)
+    cfg = _vanilla_project(tmp_path, "caf\u00e9", "cow")
+    cfg.write_text(cfg.read_text().replace("dir: out", "dir: out, usd: true, scene: true"))
+    out = tmp_path / "out"
+
+    def prims() -> set[str]:
+        layer = Sdf.Layer.OpenAsAnonymous(str(out / "scene.usda"))
+        return {c.name for c in layer.GetPrimAtPath("/Scene").nameChildren}
+
+    def scene_record() -> dict:
+        return json.loads((out / "manifest.json").read_text())["run_outputs"]["scene"]
+
+    with monkeypatch.context() as m:  # (the names as the run made them before: Tf's, ASCII)
+        m.setattr(scene, "_valid_identifier", Tf.MakeValidIdentifier)
+        assert run(cfg, echo=lambda m: None).built == 2
+    old = prims()
+    assert "cow" in old and "caf\u00e9" not in old and scene.UTF8_PRIM_NAMES not in scene_record()
+    manifest = (out / "manifest.json").read_bytes()
+    again = run(cfg, echo=lambda m: None)
+    assert (again.built, again.skipped) == (0, 2)
+    assert prims() == {"cow", "caf\u00e9"} and scene_record()[scene.UTF8_PRIM_NAMES] is True
+    assert (out / "manifest.json").read_bytes() != manifest
+    # written so, it is current: the next rerun writes nothing
+    written = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+    assert run(cfg, echo=lambda m: None).skipped == 2
+    assert {p.name: p.stat().st_mtime_ns for p in out.iterdir()} == written
+    # ASCII names alone: the record as before, without the key
+    (tmp_path / "m" / "caf\u00e9.obj").unlink()
+    run(cfg, prune=True, echo=lambda m: None)
+    assert prims() == {"cow"} and scene.UTF8_PRIM_NAMES not in scene_record()
+
+
 def test_scene_is_written_without_opening_the_asset_layers(tmp_path, capfd):
     # the scene was authored on a stage, which composed every reference as it was added: each asset layer
     # opened and read (5,000 assets: 20 s and 350 MB on every run, one with nothing to build included).
@@ -1947,8 +2026,11 @@ def test_an_output_turned_off_when_its_asset_is_rebuilt_is_named_and_pruned(tmp_
     cfg.write_text(cfg.read_text().replace("dir: out", "{dir: out, swpm: false, usd: true}"))
     res = run(cfg, echo=lambda m: None)
     assert res.built == 1 and res.unlisted == ["cow.swpm"]
+    unwanted = {"code": "kind-unwanted", "detail": "swpm: false"}
+    assert res.orphans == [{"path": "cow.swpm", "asset": "meshes/cow.obj", "because": unwanted}]
     res = run(cfg, echo=lambda m: None)
     assert res.skipped == 1 and res.unlisted == ["cow.swpm"]
+    assert res.orphans == [{"path": "cow.swpm", "asset": "meshes/cow.obj", "because": unwanted}]  # (kept)
     assert run(cfg, prune=True, echo=lambda m: None).pruned == ["cow.swpm"]
     files, listed = _listed_outputs(out)
     assert files == listed == {"cow.usdc"}
@@ -3631,7 +3713,14 @@ def test_scene_and_report_stay_recorded_through_an_interrupted_run(tmp_path, mon
         with pytest.raises(KeyboardInterrupt):
             run(cfg, force=True, echo=lambda m: None)
     cfg.write_text(head + "output: {dir: out, usd: true, scene: false, report: false}\n")
-    assert sorted(run(cfg).unlisted) == ["report.html", "scene.usda"]
+    res = run(cfg)
+    assert sorted(res.unlisted) == ["report.html", "scene.usda"]
+    assert sorted(
+        (o["path"], o["asset"], o["because"]["code"], o["because"]["detail"]) for o in res.orphans
+    ) == [
+        ("report.html", None, "run-output-unwanted", "report: false"),
+        ("scene.usda", None, "run-output-unwanted", "scene: false"),
+    ]
 
 
 @pytest.mark.parametrize("suffix", [".obj", ".usda"])

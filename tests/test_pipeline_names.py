@@ -123,11 +123,42 @@ def test_flipping_names_rebuilds_under_the_new_names_and_prune_removes_the_old(t
     lines: list[str] = []
     plan = run(cfg, dry_run=True, prune=True, echo=lines.append)
     assert sorted(plan.pruned) == ["cushion.swpm", "cushion.usdc", "scene.swpm", "scene.usdc"]
-    assert "scene.swpm: output its asset's rebuild no longer writes; --prune deletes it" in lines
+    # (named as what they are: the asset's, at its names before the flip, not a removed asset's)
+    assert (
+        "scene.swpm: output of library/props/chair/scene.obj at its name before output.names: stem -> path; "
+        "--prune deletes it"
+    ) in lines
+    assert not any("no longer in the config" in line for line in lines)
     assert sorted(run(cfg, dry_run=True, echo=_quiet).unlisted) == sorted(plan.pruned)
     flipped = run(cfg, echo=_quiet)
     assert flipped.built == 2
     assert sorted(flipped.unlisted) == ["cushion.swpm", "cushion.usdc", "scene.swpm", "scene.usdc"]
+    moved = {"code": "names-changed", "detail": "output.names: stem -> path"}
+    assert sorted((o["path"], o["asset"], o["because"] == moved) for o in flipped.orphans) == [
+        ("cushion.swpm", "library/props/chair/cushion.obj", True),
+        ("cushion.usdc", "library/props/chair/cushion.obj", True),
+        ("scene.swpm", "library/props/chair/scene.obj", True),
+        ("scene.usdc", "library/props/chair/scene.obj", True),
+    ]
+    # a later run still says so (the manifest keeps why), in its last line and --json
+    recorded = json.loads((out / "manifest.json").read_text())["orphaned_outputs"]
+    assert {(o["path"], o["asset"], o["because"]["code"]) for o in recorded} == {
+        (o["path"], o["asset"], "names-changed") for o in flipped.orphans
+    }
+    from click.testing import CliRunner
+
+    from swpm_usd.cli import main
+
+    r = CliRunner().invoke(main, ["run", str(cfg)])
+    assert r.exit_code == 0 and "no longer in the config" not in r.output, r.output
+    assert (
+        "4 outputs at their assets' names before output.names: stem -> path left in output.dir "
+        "(--prune deletes them)"
+    ) in r.output
+    r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
+    orphans = json.loads(r.stdout)["orphans"]
+    assert sorted(o["path"] for o in orphans) == sorted(flipped.unlisted)
+    assert all(o["because"] == moved and o["asset"].startswith("library/") for o in orphans)
     assert sorted(_scene_references(out).values()) == [
         "./props--chair--cushion.usdc",
         "./props--chair--scene.usdc",
@@ -136,6 +167,7 @@ def test_flipping_names_rebuilds_under_the_new_names_and_prune_removes_the_old(t
     pruned = run(cfg, prune=True, echo=_quiet)
     assert pruned.built == 0
     assert sorted(pruned.pruned) == ["cushion.swpm", "cushion.usdc", "scene.swpm", "scene.usdc"]
+    assert all(o["because"] == moved for o in pruned.orphans)
     assert sorted(p.name for p in out.iterdir() if p.suffix in (".swpm", ".usdc")) == [
         "props--chair--cushion.swpm",
         "props--chair--cushion.usdc",
@@ -152,6 +184,7 @@ def test_flipping_names_rebuilds_under_the_new_names_and_prune_removes_the_old(t
         "props--chair--scene.swpm",
         "props--chair--scene.usdc",
     ]
+    assert {o["because"]["detail"] for o in back.orphans} == {"output.names: path -> stem"}
 
 
 def test_a_stage_s_prims_are_named_after_the_stage_under_path(tmp_path):
@@ -181,6 +214,46 @@ def test_a_stage_s_prims_are_named_after_the_stage_under_path(tmp_path):
         "./shot__World_rock.usdc",
         "./shot__World_tree.usdc",
     ]
+
+
+@pytest.mark.parametrize("names", ["path", "stem"])
+def test_two_stages_of_one_name_in_two_folders_are_one_problem_naming_both_entries(tmp_path, names):
+    """Two ``stage:`` entries whose files are both ``scene.usda`` (in two folders) with prims at the same
+    paths would write the same outputs under either setting (a stage is named by its stem): the config is
+    refused before anything is written, said once for the pair of entries (it was said once a prim, at the
+    later entry alone, without what to do), both entries located."""
+    from pxr import Usd, UsdGeom
+
+    for shot in ("a", "b"):
+        (tmp_path / "shots" / shot).mkdir(parents=True)
+        st = Usd.Stage.CreateNew(str(tmp_path / "shots" / shot / "scene.usda"))
+        for name in ("rock", "tree", "bush") if shot == "a" else ("rock", "tree", "car"):
+            m = UsdGeom.Mesh.Define(st, f"/World/{name}")
+            m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
+            m.CreateFaceVertexCountsAttr([3, 3])
+            m.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+        st.GetRootLayer().Save()
+    del st, m  # (its layer open here would be the one a run reads, not the file edited below)
+    config = CONFIG.replace(
+        '  - glob: "library/**/*.obj"', "  - stage: shots/a/scene.usda\n  - stage: shots/b/scene.usda"
+    ).replace("  scene: true", f"  scene: true\n  names: {names}")
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(config)
+    with pytest.raises(ConfigError) as exc:
+        run(cfg, echo=_quiet)
+    (problem,) = exc.value.problems
+    assert problem.startswith(
+        f"{cfg}:4:5: $.assets[1]: stage shots/b/scene.usda and stage shots/a/scene.usda "
+        f"($.assets[0], {cfg}:3:5) would both write scene__World_rock.swpm and 1 more output name "
+        "(2 prim paths in both)"
+    ), problem
+    assert "rename one stage file" in problem
+    assert not (tmp_path / "out").exists()
+    # prims at other paths: the two stages build side by side
+    (tmp_path / "shots" / "b" / "scene.usda").write_text(
+        (tmp_path / "shots" / "b" / "scene.usda").read_text().replace("World", "Shot")
+    )
+    assert run(cfg, echo=_quiet).built == 6
 
 
 def test_a_bad_value_is_a_located_config_error(tmp_path):

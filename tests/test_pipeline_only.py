@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from conftest import SHARED_MESHES
 
 from swpm_usd.cli import main
-from swpm_usd.pipeline import run
+from swpm_usd.pipeline import ConfigError, run
 from swpm_usd.pipeline.selection import SelectionError, selected_ids
 
 MESHES = ("hero_a", "hero_b", "rock", "tree")
@@ -190,10 +190,50 @@ def test_a_pattern_that_matches_nothing_is_a_usage_error_before_anything_is_writ
     assert code == 2
     error = json.loads(out)
     assert error["usage_error"] is True and error["code"] == "USAGE_ERROR"
+    assert error["input"] == str(project)  # (the config, as run's other --json errors name it)
     assert "'nope' matches no asset" in error["error"] and "rock.obj'" not in error["error"]
     assert {p.name: (p.stat().st_mtime_ns, p.read_bytes()) for p in out_dir.iterdir()} == files
     with pytest.raises(SelectionError):
         run(project, dry_run=True, only=["nope"], echo=lambda m: None)
+
+
+@pytest.mark.parametrize("dry_run", [False, True])
+def test_a_pattern_that_matches_nothing_is_refused_before_any_input_is_hashed_or_loaded(
+    tmp_path, monkeypatch, dry_run
+):
+    """The patterns are checked once the asset ids are known, before the plan hashes an input or loads one
+    to count its triangles (they were checked after the whole plan: minutes on thousands of assets), with
+    the same error; a config with problems is still a config error first."""
+    import swpm_usd.pipeline.runner as runner
+
+    cfg = _project(
+        tmp_path / "p", extra="rules:\n  - {name: big, match: {triangles: {min: 1}}, encoding: vanilla}\n"
+    )
+    touched: list[str] = []
+
+    def hashed(paths):
+        touched.append("hashed")
+        raise AssertionError("an input hashed before the patterns were checked")
+
+    def counted(*args, **kwargs):
+        touched.append("counted")
+        raise AssertionError("an input loaded before the patterns were checked")
+
+    monkeypatch.setattr(runner, "hash_inputs", hashed)
+    monkeypatch.setattr(runner, "_count_triangles", counted)
+    with pytest.raises(SelectionError) as exc:
+        run(cfg, dry_run=dry_run, only=["hero_*"], echo=lambda m: None)
+    assert touched == []
+    # the error the whole plan's ids gave: its message, the first ids, the count and the did-you-mean
+    with pytest.raises(SelectionError) as planned:
+        selected_ids(ALL, ["hero_*"])
+    assert str(exc.value) == str(planned.value) and "did you mean 'meshes/hero_*'? 2 assets" in str(exc.value)
+    assert not (tmp_path / "p" / "out").exists()
+    # the config's own problems first, as before (the plan then goes on: its inputs hashed)
+    monkeypatch.undo()
+    cfg.write_text(cfg.read_text().replace("meshes/*.obj", "nothing/*.obj"))
+    with pytest.raises(ConfigError, match="the glob matches no file"):
+        run(cfg, dry_run=dry_run, only=["hero_*"], echo=lambda m: None)
 
 
 def test_dry_run_lists_the_selected_and_counts_the_others(project):

@@ -172,8 +172,8 @@ def encodings_help(parameters: bool = True) -> str:
 
 #: a command's ``--json`` error object on a usage error: its parameters (parsed before the error) that name
 #: what it was given, under the keys its other errors use (``build``: ``input``; ``encode``: ``input`` and
-#: ``output``)
-_JSON_USAGE_FIELDS = {"input_path": "input", "output": "output"}
+#: ``output``; ``run``: ``input``, its config)
+_JSON_USAGE_FIELDS = {"input_path": "input", "config": "input", "output": "output"}
 
 
 def _wants_json(command: click.Command, args: list[str]) -> bool:

@@ -543,10 +543,15 @@ def discover(
     seen: dict[str, Asset] = {}
     # (a stem folded as a case-insensitive filesystem folds it -> the first asset and its stem)
     folded: dict[str, tuple[Asset, str]] = {}
+    # two stage entries of one file stem and prim paths: (first entry, later entry) -> the stems both write,
+    # said once a pair of entries (two sets of 1,000 prims under /World: 1,000 problems were listed)
+    stage_pairs: dict[tuple[int, int], list[str]] = {}
     for a in assets:
         stem = a.output_stem
         where = cfg.where(("assets", a.source_index))
-        if stem in seen and seen[stem].id != a.id:
+        if stem in seen and seen[stem].id != a.id and _stages_of_one_stem(cfg, a, seen[stem]):
+            stage_pairs.setdefault((seen[stem].source_index, a.source_index), []).append(stem)
+        elif stem in seen and seen[stem].id != a.id:
             problems.append(
                 f"{where}: {a.id} and {seen[stem].id} would both write {stem}.swpm"
                 f"{_names_hint(cfg, a, seen[stem])}"
@@ -562,7 +567,31 @@ def discover(
             )
         seen[stem] = a
         folded.setdefault(_folded(stem), (a, stem))
+    for (first, later), stems in stage_pairs.items():
+        files = [cfg.data["assets"][i]["stage"] for i in (later, first)]
+        at = cfg.where(("assets", first)).split(": ")[0]  # (FILE:LINE:COL of the first entry)
+        more = f" and {len(stems) - 1} more output name{'s' * (len(stems) > 2)}" if len(stems) > 1 else ""
+        problems.append(
+            f"{cfg.where(('assets', later))}: stage {files[0]} and stage {files[1]} ($.assets[{first}], "
+            f"{at}) would both write {stems[0]}.swpm{more} ({len(stems)} prim path"
+            f"{'s' * (len(stems) > 1)} in both): a stage's outputs are named by its file's stem and the prim "
+            "under either output.names, so two stages must differ in their file's stem or their prim "
+            "paths; rename one stage file (or give a stage of another name that sublayers it)"
+        )
     return assets, inputs, problems
+
+
+def _stages_of_one_stem(cfg: Config, a: Asset, b: Asset) -> bool:
+    """Are ``a`` and ``b`` prims of two stage entries' files of one stem (named alike: a stage's outputs are
+    named by its stem under either ``output.names``)?"""
+    return (
+        a.prim is not None
+        and b.prim is not None
+        and a.source_index != b.source_index
+        and all("stage" in cfg.data["assets"][x.source_index] for x in (a, b))
+        and a.path.stem == b.path.stem
+        and a.path != b.path
+    )
 
 
 def _given_by_path(cfg: Config, a: Asset) -> bool:

@@ -16,6 +16,7 @@ import glob
 import os
 import stat
 from pathlib import Path
+from typing import Any
 
 from ..codes import PROBLEM_KEYS
 from .assets import Asset, _folded
@@ -262,6 +263,75 @@ def _rel(cfg: Config, path: Path) -> str:
         return str(path)
 
 
+#: why an output is left in output.dir, not an output of today's assets (an orphan's ``because`` code; a
+#: stable, lower-case contract: ``--json``'s ``orphans`` and the manifest's ``orphaned_outputs`` give it)
+ORPHAN_REASONS = (
+    "asset-removed",  # its asset left the config (its input deleted or no longer matched)
+    "names-changed",  # its asset, still in the config, is rebuilt under another name (output.names flipped)
+    "kind-unwanted",  # a kind of output the config no longer asks for (swpm: false), its asset rebuilt
+    "run-output-unwanted",  # scene.usda or report.html, the config no longer asking for it
+    "earlier-run",  # left by a run of an older version, which recorded no reason
+)
+#: the keys of an orphan's record beyond its file's (:func:`_orphan_record`): the asset it was an output of
+#: (None: a run output, or not recorded) and why it is left (``{"code", "detail"}``, of ORPHAN_REASONS)
+ORPHAN_ASSET, ORPHAN_BECAUSE = "asset", "because"
+
+
+def _orphan_record(checked: dict, asset: str | None, code: str, detail: str = "") -> dict:
+    """An orphan's record as the run names it and the manifest keeps it: its file's (path, size, sha256,
+    stat), the asset it was an output of and why it is left."""
+    assert code in ORPHAN_REASONS, code  # (a programming error: the codes are a contract)
+    record = {k: checked[k] for k in ("path", "size", "sha256", *STAT_KEYS) if k in checked}
+    return {**record, ORPHAN_ASSET: asset, ORPHAN_BECAUSE: {"code": code, "detail": detail}}
+
+
+def _recorded_because(o: dict) -> tuple[str | None, str, str]:
+    """(asset, code, detail) an ``orphaned_outputs`` entry recorded; an entry of an older version (none, or
+    one not of ORPHAN_REASONS: hand-edited) is ``earlier-run``."""
+    because = o.get(ORPHAN_BECAUSE)
+    asset = o.get(ORPHAN_ASSET)
+    if (
+        isinstance(because, dict)
+        and because.get("code") in ORPHAN_REASONS
+        and isinstance(because.get("detail", ""), str)
+        and (asset is None or isinstance(asset, str))
+    ):
+        return asset, because["code"], because.get("detail", "")
+    return None, "earlier-run", "recorded by an earlier run without its reason"
+
+
+def orphan_phrase(n: int, code: str, detail: str) -> str:
+    """``n`` orphans of one reason as the run's last lines count them: ``2 outputs of assets no longer in the
+    config``, ``4 outputs at their assets' names before output.names: stem -> path``."""
+    outputs = f"{n} output" + "s" * (n != 1)
+    if code == "asset-removed":
+        return f"{outputs} of {'assets' if n != 1 else 'an asset'} no longer in the config"
+    if code == "names-changed":
+        whose = "their assets'" if n != 1 else "its asset's"
+        return f"{outputs} at {whose} names before {detail}"
+    if code == "kind-unwanted":
+        return f"{outputs} of a kind the config no longer asks for ({detail})"
+    if code == "run-output-unwanted":
+        return f"{outputs} the config no longer asks for ({detail})"
+    return f"{outputs} an earlier run left (its reason not recorded)"
+
+
+def orphan_line(o: dict) -> str:
+    """One orphan as a dry run names it: ``spot.swpm: output of an asset no longer in the config
+    (meshes/spot.obj)``, ``scene.swpm: output of m/scene.obj at its name before output.names: stem ->
+    path``."""
+    asset, code, detail = o.get(ORPHAN_ASSET), o[ORPHAN_BECAUSE]["code"], o[ORPHAN_BECAUSE]["detail"]
+    if code == "asset-removed":
+        return f"{o['path']}: output of an asset no longer in the config ({asset})"
+    if code == "names-changed":
+        return f"{o['path']}: output of {asset} at its name before {detail}"
+    if code == "kind-unwanted":
+        return f"{o['path']}: output of {asset} of a kind the config no longer asks for ({detail})"
+    if code == "run-output-unwanted":
+        return f"{o['path']}: run output the config no longer asks for ({detail})"
+    return f"{o['path']}: output an earlier run left (its reason not recorded)"
+
+
 def _orphaned_outputs(
     cfg: Config, out_dir: Path, manifest: dict, items: list, verify: bool = False
 ) -> list[tuple[Path, dict]]:
@@ -269,19 +339,22 @@ def _orphaned_outputs(
     in the config) and of its ``orphaned_outputs`` (left by earlier runs without ``prune``), still as
     recorded (:func:`_checked_output`: a file changed since is not the run's; its stat fields recorded
     anew when it was hashed), less any file this run's assets write or read (an earlier output used as a
-    stage, or a layer a stage uses) and the config."""
+    stage, or a layer a stage uses) and the config. Each record names its asset and why it is left
+    (:func:`_orphan_record`; an ``orphaned_outputs`` entry keeps what it recorded)."""
     current = {it.asset.id for it in items}
-    recorded = [
-        o
+    recorded: list[tuple[Any, tuple[str | None, str, str]]] = [
+        (o, (aid, "asset-removed", ""))
         for aid, rec in sorted(manifest.get("assets", {}).items())
         if aid not in current and isinstance(rec, dict) and isinstance(rec.get("outputs"), dict)
         for o in rec["outputs"].values()
     ]
     if isinstance(manifest.get(ORPHANED), list):
-        recorded += manifest[ORPHANED]
+        recorded += [
+            (o, _recorded_because(o) if isinstance(o, dict) else (None, "", "")) for o in manifest[ORPHANED]
+        ]
     if isinstance(manifest.get(RUN_OUTPUTS), dict):  # a scene or report the config no longer asks for
         recorded += [
-            o
+            (o, (None, "run-output-unwanted", f"{kind}: false"))
             for kind, o in sorted(manifest[RUN_OUTPUTS].items())
             if kind in _RUN_OUTPUT_DEFAULTS and not _asks_for(cfg, kind)
         ]
@@ -289,7 +362,7 @@ def _orphaned_outputs(
         return []  # the usual run: no file stat'ed for the guard below
     keep = _files_kept(cfg, out_dir, items)
     found, seen = [], set()
-    for o in recorded:
+    for o, (asset, code, detail) in recorded:
         if not isinstance(o, dict) or not isinstance(o.get("path"), str) or "\0" in o["path"]:
             continue  # (a hand-edited manifest: a NUL byte would raise in every path call)
         path = out_dir / o["path"]
@@ -299,9 +372,7 @@ def _orphaned_outputs(
         checked = _checked_output(path, o, verify)
         if checked is not None:
             seen.add(path)
-            found.append(
-                (path, {k: checked[k] for k in ("path", "size", "sha256", *STAT_KEYS) if k in checked})
-            )
+            found.append((path, _orphan_record(checked, asset, code, detail)))
     return found
 
 
@@ -313,25 +384,30 @@ def _files_kept(cfg: Config, out_dir: Path, items: list) -> set[tuple]:
 
 
 def _dropped_outputs(
-    out_dir: Path, previous: dict | None, built: dict, verify: bool = False
+    out_dir: Path,
+    previous: dict | None,
+    built: dict,
+    verify: bool = False,
+    asset: str | None = None,
+    moved: str = "",
 ) -> list[tuple[Path, dict]]:
     """The outputs of an asset's previous build (``previous``, its record) that its new one (``built``)
-    does not write (a kind the config no longer asks for: ``swpm: false`` since), still as recorded, as
-    :func:`_orphaned_outputs` gives them: the new record does not list them, so the run names them (and
-    ``prune`` deletes them) as it does a removed asset's."""
+    does not write, still as recorded, as :func:`_orphaned_outputs` gives them: the new record does not list
+    them, so the run names them (and ``prune`` deletes them) as it does a removed asset's. Each is named as
+    ``asset``'s: ``names-changed`` where the new build writes its kind under another name (``moved``: what
+    moved it, :func:`.rules._names_moved`), else ``kind-unwanted`` (``swpm: false`` since)."""
     if previous is None:
         return []
-    written = {o["path"] for o in built.get("outputs", {}).values()}
+    written = {kind: o["path"] for kind, o in built.get("outputs", {}).items()}
     found = []
-    for o in previous.get("outputs", {}).values():
-        checked = None if o["path"] in written else _checked_output(out_dir / o["path"], o, verify)
+    for kind, o in previous.get("outputs", {}).items():
+        checked = None if o["path"] in written.values() else _checked_output(out_dir / o["path"], o, verify)
         if checked is not None:
-            found.append(
-                (
-                    out_dir / o["path"],
-                    {k: checked[k] for k in ("path", "size", "sha256", *STAT_KEYS) if k in checked},
-                )
-            )
+            if kind in written:
+                record = _orphan_record(checked, asset, "names-changed", moved)
+            else:
+                record = _orphan_record(checked, asset, "kind-unwanted", f"{kind}: false")
+            found.append((out_dir / o["path"], record))
     return found
 
 

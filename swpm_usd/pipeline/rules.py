@@ -12,11 +12,13 @@ Separate from the runner: each answer is a small pure function of the config and
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .. import __version__
-from .assets import Asset, checks_of, match_rule, rule_checks, treatment_digest
+from .assets import Asset, checks_of, match_rule, names_by_path, rule_checks, treatment_digest
 from .config import Config
 from .worker import TRIANGLES_READ
 
@@ -165,6 +167,24 @@ def _output_names_current(cfg: Config, item: PlanItem, outputs: dict) -> bool:
         if not isinstance(recorded, dict) or recorded.get("path") != f"{stem}{OUTPUT_SUFFIXES[kind]}":
             return False
     return True
+
+
+def _names_moved(cfg: Config, asset: Asset, previous: dict | None) -> str:
+    """What gives ``asset`` other output names than its record (``previous``) lists: ``output.names: stem ->
+    path`` (or ``path -> stem``), or, under ``path`` both times, its glob (whose fixed folder starts the
+    names); "" when its names did not move (none recorded, or as today)."""
+    outputs = previous.get("outputs") if isinstance(previous, dict) else None
+    old = {
+        Path(o["path"]).stem
+        for o in (outputs.values() if isinstance(outputs, dict) else [])
+        if isinstance(o, dict) and isinstance(o.get("path"), str)
+    }
+    if not old or old == {asset.output_stem}:
+        return ""
+    by_stem = dataclasses.replace(asset, path_name=None).output_stem
+    if names_by_path(cfg):
+        return "output.names: stem -> path" if by_stem in old else "its glob (output.names: path)"
+    return "output.names: path -> stem"
 
 
 def _routes_by_triangles(cfg: Config) -> bool:

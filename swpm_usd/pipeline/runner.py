@@ -25,8 +25,10 @@ every input and output. A record the run does not write (a hand edit) is ignored
 An asset whose rebuild fails keeps its previous build when that build's outputs are intact
 (:func:`.outputs._keep_previous`): the manifest keeps its record (with ``last_failure``), the scene its layer,
 and the run reports it failed. One run at a time writes in an output folder (:class:`.lock._OutputLock`). The
-outputs of assets no longer in the config are left and named, and recorded under ``orphaned_outputs`` until a
-run with ``prune`` deletes them (:func:`.outputs._orphaned_outputs`).
+outputs of assets no longer in the config, and those a rebuild no longer writes (at the names ``output.names``
+gave before, of a kind no longer asked for), are left and named, each with its asset and why
+(:data:`.outputs.ORPHAN_REASONS`), and recorded under ``orphaned_outputs`` until a run with ``prune`` deletes
+them (:func:`.outputs._orphaned_outputs`).
 
 ``only`` (``--only PATTERN``): the run plans every asset as ever (its warnings, name collisions and orphans
 are the whole config's), then builds only the assets it selects (:func:`selected_ids`) that are not up to date
@@ -100,6 +102,8 @@ from .manifest import (
 from .manifest import INPUT_LISTS as INPUT_LISTS  # (re-exported)
 from .manifest import INPUTS_REF as INPUTS_REF  # (re-exported)
 from .outputs import (
+    ORPHAN_ASSET,
+    ORPHAN_BECAUSE,
     _checked_output,
     _clean_after_worker,
     _complete_output_record,
@@ -114,6 +118,7 @@ from .outputs import (
     _remove_temporary,
     _restore_kept_aside,
     _unusable_out_dir,
+    orphan_line,
 )
 from .outputs import planned_outputs as planned_outputs  # (re-exported)
 from .pool import (
@@ -136,6 +141,7 @@ from .rules import (
     _current_why,
     _digest_with_count,
     _max_triangles,
+    _names_moved,
     _output_names_current,
     _routes_by_triangles,
     _rule_name,
@@ -153,7 +159,7 @@ from .scene import SCENE_METERS_PER_UNIT as SCENE_METERS_PER_UNIT  # (re-exporte
 from .scene import SCENE_UP_AXIS as SCENE_UP_AXIS  # (re-exported)
 from .scene import UNITS_OP as UNITS_OP  # (re-exported)
 from .scene import UP_AXIS_OP as UP_AXIS_OP  # (re-exported)
-from .scene import _layer_with_units, _write_scene
+from .scene import UTF8_PRIM_NAMES, _layer_with_units, _scene_stems, _utf8_named, _write_scene
 from .selection import SelectionConflictError, _selection_clashes, selected_ids
 from .selection import SelectionError as SelectionError  # (re-exported: swpm_usd.pipeline's)
 from .tasks import _task
@@ -241,6 +247,19 @@ class RunResult:
     because: dict[str, list[dict[str, str]]] = field(default_factory=dict)
     #: the assets of the config that ``only`` left out (not built, not counted in ``skipped``, not planned)
     not_selected: int = 0
+    #: each output of ``pruned`` or ``unlisted`` (in their order), named: ``{"path", "asset", "because":
+    #: {"code", "detail"}}`` (:data:`.outputs.ORPHAN_REASONS`: its asset removed, or rebuilt under other
+    #: names, ...; ``asset`` None for scene.usda or report.html)
+    orphans: list[dict] = field(default_factory=list)
+
+    def orphans_counted(self) -> list[tuple[int, str, str]]:
+        """How many of :attr:`orphans` have each reason and detail: (count, code, detail), in the order
+        first found (:func:`.outputs.orphan_phrase` says each)."""
+        counts: dict[tuple[str, str], int] = {}
+        for o in self.orphans:
+            key = (o["because"]["code"], o["because"]["detail"])
+            counts[key] = counts.get(key, 0) + 1
+        return [(n, code, detail) for (code, detail), n in counts.items()]
 
     @property
     def built_because(self) -> dict[str, int]:
@@ -264,8 +283,15 @@ def plan(
     count_triangles: bool = True,
     verify: bool = False,
     early_counts: bool = False,
+    only: list[str] | None = None,
 ) -> tuple[list[PlanItem], list[str], list[str]]:
     """Resolve each asset's rule and parameters; (items, errors, warnings).
+
+    ``only`` (``run --only``'s patterns): checked against the asset ids as soon as :func:`.assets.discover`
+    has found them, before any input is hashed or its mesh loaded (:func:`.selection.selected_ids` raises
+    :class:`.selection.SelectionError` for one that matches none: every asset was hashed and planned first,
+    400 copies of a 2.4 MB OBJ under a rule on triangles, a dry run: 15.3 s, now 0.40 s), unless the config
+    has problems (its :class:`.config.ConfigError` comes first, as it did). Every asset is still planned.
 
     Rules on triangle counts need the count of every new or changed asset. ``count_triangles=False``
     leaves those items ``rule_pending`` (their rule, treatment and digest empty, never up to date): the
@@ -299,6 +325,8 @@ def plan(
     )
     problems.extend(_unusable_out_dir(cfg, out_dir))
     problems.extend(_overwritten_inputs(cfg, out_dir, assets, inputs))
+    if only and not problems:
+        selected_ids((a.id for a in assets), only)  # (raises for a pattern that matches no asset)
     items = []
     record_warnings = []
     needs_rule_on_triangles = _routes_by_triangles(cfg)
@@ -573,22 +601,23 @@ def execute(
 _SERVER_GIVEN: dict[int, tuple[list[str], list[str]]] = {}
 
 
-def _left_by_rebuilds(cfg: Config, out_dir: Path, items: list, todo: list) -> list[str]:
-    """The recorded outputs (output.dir-relative) of the assets ``todo`` that their rebuild does not write,
-    still as recorded (:func:`.outputs._dropped_outputs`, as the run finds them once each is built), less
-    the files this run's assets write or read."""
+def _left_by_rebuilds(cfg: Config, out_dir: Path, items: list, todo: list) -> list[dict]:
+    """The recorded outputs of the assets ``todo`` that their rebuild does not write, still as recorded, each
+    named as its asset's, with why it is left (:func:`.outputs._dropped_outputs`, as the run finds them once
+    each is built), less the files this run's assets write or read."""
     wanted = _wanted_outputs(cfg)
-    found: list[str] = []
+    found: list[dict] = []
     keep = None
     for it in todo:
         if not isinstance(it.previous, dict):
             continue
         stem = it.asset.output_stem
         built = {"outputs": {k: {"path": f"{stem}{OUTPUT_SUFFIXES[k]}"} for k in wanted}}
-        for path, o in _dropped_outputs(out_dir, it.previous, built):
+        moved = _names_moved(cfg, it.asset, it.previous)
+        for path, o in _dropped_outputs(out_dir, it.previous, built, asset=it.asset.id, moved=moved):
             keep = _files_kept(cfg, out_dir, items) if keep is None else keep
             if _file_key(path) not in keep:
-                found.append(o["path"])
+                found.append(o)
     return found
 
 
@@ -692,15 +721,22 @@ def _run(
     if not dry_run and out_dir.is_dir():  # (the run's from here on: before the plan checks the outputs)
         _restore_kept_aside(out_dir, manifest["assets"])
     # (not while it loads meshes to count their triangles: a loader's garbage may be cyclic)
+    dask_unlimited = executor == "dask" and "seconds" in cfg.data.get("limits", {})
     with contextlib.nullcontext() if dry_run or explain else _gc_paused():
         items, errors, warnings = plan(
-            cfg, manifest, count_triangles=dry_run or explain, verify=verify, early_counts=dry_run
+            cfg,
+            manifest,
+            count_triangles=dry_run or explain,
+            verify=verify,
+            early_counts=dry_run,
+            only=None if dask_unlimited else only,  # (a config error: raised first, as every other)
         )
-    if executor == "dask" and "seconds" in cfg.data.get("limits", {}):
+    if dask_unlimited:
         errors = [*errors, "limits.seconds needs the local executor (--executor dask cannot stop an asset)"]
     if errors:
         raise ConfigError(errors)
-    # (after the plan, which discovers the ids, and before any build or write; None: every asset)
+    # (the patterns were checked once the plan discovered the ids, before it hashed an input: each matches
+    # some; before any build or write; None: every asset)
     # (``items`` stay the whole config's: orphans, the outputs kept, the rules reached, the records kept)
     chosen = selected_ids((it.asset.id for it in items), only) if only else None
     picked = items if chosen is None else [it for it in items if it.asset.id in chosen]
@@ -736,6 +772,8 @@ def _run(
     orphans = _orphaned_outputs(cfg, out_dir, manifest, items, verify)
     orphan_names = [o["path"] for _, o in orphans]
     orphan_lists = {"pruned" if prune else "unlisted": orphan_names}  # RunResult's fields
+    # (each named: its asset and why it is left, in the order of orphan_names)
+    orphan_records = [_orphan_named(o) for _, o in orphans]
     planned = []
     # each asset's reasons to be built (--force: every asset's first), none for one up to date
     because = {it.asset.id: ([reason("forced", "--force")] if force else []) + it.because for it in picked}
@@ -767,21 +805,17 @@ def _run(
             echo(f"{_assets(not_selected)} not selected by --only (of {len(items)}): not listed, not built")
         if dry_run:
             skipped = 0 if force else sum(i.up_to_date for i in picked)  # (force: each "to build")
-            for path in orphan_names:
-                echo(f"{path}: output of an asset no longer in the config" + ("; --prune deletes it" * prune))
-            # (a rebuild's old outputs, at names output.names moved or of a kind no longer asked for: the run
-            # names them, and prune deletes them, once it is rebuilt; the plan said less than the run did)
-            for path in _left_by_rebuilds(
-                cfg, out_dir, items, [it for it in picked if force or not it.up_to_date]
-            ):
-                echo(
-                    f"{path}: output its asset's rebuild no longer writes" + ("; --prune deletes it" * prune)
-                )
-                orphan_names.append(path)
+            # (and a rebuild's old outputs, at names output.names moved or of a kind no longer asked for: the
+            # run names them, and prune deletes them, once it is rebuilt; the plan said less than the run did)
+            left = _left_by_rebuilds(cfg, out_dir, items, [it for it in picked if force or not it.up_to_date])
+            orphan_names.extend(o["path"] for o in left)
+            orphan_records.extend(_orphan_named(o) for o in left)
+            for o in orphan_records:
+                echo(orphan_line(o) + ("; --prune deletes it" * prune))
             to_build = {aid: found for aid, found in because.items() if found}
             return RunResult(
                 {}, 0, skipped, 0, warnings, 0.0, manifest_path, planned, **orphan_lists, because=to_build,
-                not_selected=not_selected,
+                not_selected=not_selected, orphans=orphan_records,
             )  # fmt: skip
     _make_out_dir(cfg, out_dir)
     lock.acquire(folder_checked=True)  # (a folder this run created)
@@ -912,8 +946,11 @@ def _run(
                 _complete_output_record(out_dir / o["path"], o)
             if rec["status"] == "built":
                 built_ids.append(rec["id"])
-                # (a kind of output the config no longer asks for: its file is a removed asset's output)
-                for path, o in _dropped_outputs(out_dir, records.get(rec["id"]), rec, verify):
+                # (a kind of output the config no longer asks for, or one output.names moved: its old file
+                # is named as the asset's, left behind, and pruned as a removed asset's output is)
+                before = records.get(rec["id"])
+                moved = _names_moved(cfg, it.asset, before)
+                for path, o in _dropped_outputs(out_dir, before, rec, verify, it.asset.id, moved):
                     if kept_files is None:
                         kept_files = _files_kept(cfg, out_dir, items)
                     if _file_key(path) in kept_files:
@@ -923,6 +960,7 @@ def _run(
                     else:
                         manifest.setdefault(ORPHANED, []).append(o)
                     orphan_names.append(o["path"])
+                    orphan_records.append(_orphan_named(o))
                 records[rec["id"]] = rec
             else:
                 failed += 1
@@ -965,11 +1003,13 @@ def _run(
                 continue
             path = out_dir / _RUN_OUTPUT_FILES[kind]
             # (the report's: the config as it names it, absolute, so a moved tree's is rewritten)
-            shown: dict[str, str] = {}
+            shown: dict[str, Any] = {}
             if kind == "report":
                 from .report import config_shown
 
                 shown = {REPORT_CONFIG: config_shown(path, manifest["config"])}
+            elif _utf8_named(_scene_stems(records)):  # (a scene of such names mangled: written again)
+                shown = {UTF8_PRIM_NAMES: True}
             if (
                 unchanged
                 and isinstance(kept := run_outputs.get(kind), dict)
@@ -1016,7 +1056,13 @@ def _run(
     return RunResult(
         records, len(built_ids), len(picked) - len(todo), failed, warnings, seconds, manifest_path, planned,
         failures, **orphan_lists, built_ids=built_ids, because=tried, not_selected=not_selected,
+        orphans=orphan_records,
     )  # fmt: skip
+
+
+def _orphan_named(o: dict) -> dict:
+    """An orphan's record as a :class:`RunResult` names it: its path, asset and why it is left."""
+    return {k: o[k] for k in ("path", ORPHAN_ASSET, ORPHAN_BECAUSE)}
 
 
 def _warnings_named(warnings: list[str], asset: Asset) -> list[str]:

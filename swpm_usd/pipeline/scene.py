@@ -1,7 +1,8 @@
 """The run's scene layer (``<output>/scene.usda``): one Xform per asset, referencing its USD layer.
 
 :func:`_write_scene` authors it on an Sdf layer (no stage: none of the asset layers is opened), each prim
-named from its asset's output stem alone (:func:`_scene_prim_name`) and corrected to the scene's up axis and
+named from its asset's output stem alone (:func:`_scene_prim_name`: a non-ASCII one as usd-core 0.26 takes
+UTF-8 identifiers) and corrected to the scene's up axis and
 units where its layer says otherwise (:func:`_author_units_correction`, from the units its manifest record
 holds: :func:`_layer_with_units`). Separate from the runner: the only USD the run itself writes.
 """
@@ -29,14 +30,62 @@ def _layer_with_units(out_dir: Path, layer: dict) -> dict | None:
     return None if units is None else {**layer, **units}
 
 
+#: the key of the scene's ``run_outputs`` record, True when the scene names a prim by a non-ASCII stem USD
+#: takes as it is (:func:`_utf8_named`): a scene recorded without it was written when such a name was
+#: mangled (``café`` -> ``caf___`` and a hash) and is written again, though no record changed; a scene of
+#: ASCII names alone is recorded as before
+UTF8_PRIM_NAMES = "utf8_prim_names"
+
+
+def _valid_identifier(stem: str) -> str:
+    """``stem`` as a USD identifier: an ASCII stem as ``Tf.MakeValidIdentifier`` makes it (each character
+    but ``[A-Za-z0-9_]`` and a leading digit ``_``, as always); a non-ASCII one as usd-core (0.26) reads
+    identifiers, UTF-8 of XID_Start then XID_Continue (``Sdf.Path.IsValidIdentifier``: ``café``, ``日本``),
+    each character it refuses ``_`` (``Tf.MakeValidIdentifier`` is ASCII's: ``café`` was ``caf___``)."""
+    from pxr import Sdf, Tf
+
+    if stem.isascii() or not stem:
+        return Tf.MakeValidIdentifier(stem)
+    if Sdf.Path.IsValidIdentifier(stem):
+        return stem
+    first = stem[0] if Sdf.Path.IsValidIdentifier(stem[0]) else "_"
+    return first + "".join(ch if Sdf.Path.IsValidIdentifier(f"_{ch}") else "_" for ch in stem[1:])
+
+
+def _utf8_named(stems: list[str]) -> bool:
+    """Does a scene of the asset layers ``<stem>.usdc`` name a prim by a non-ASCII name USD takes, one that
+    ``Tf.MakeValidIdentifier`` (ASCII's) mangled before (:data:`UTF8_PRIM_NAMES`)?"""
+    for stem in stems:
+        if stem.isascii():  # (pxr not imported for a scene of ASCII names: a rerun keeping it loads none)
+            continue
+        from pxr import Tf
+
+        if _valid_identifier(stem) != Tf.MakeValidIdentifier(stem):
+            return True
+    return False
+
+
+def _scene_stems(records: dict[str, dict]) -> list[str]:
+    """The stems of the asset layers a scene of ``records`` references, in its order."""
+    return [Path(path).stem for path, _ in _scene_layers(records)]
+
+
+def _scene_layers(records: dict[str, dict]) -> list[tuple[str, dict]]:
+    """The asset layers a scene of ``records`` (asset id -> manifest record) references: (path, record)."""
+    return [
+        (r["outputs"]["usd"]["path"], r["outputs"]["usd"])
+        for k, r in sorted(records.items())
+        if r.get("status") == "built" and "usd" in r.get("outputs", {})
+    ]
+
+
 def _scene_prim_name(stem: str, used: set[str]) -> str:
     """The scene's prim for the asset layer ``<stem>.usdc``: the stem itself where it is a valid identifier
-    (stems are unique: they are file names in output.dir), else the identifier USD makes of it and a hash of
-    the stem (``a-b`` and ``a b`` both make ``a_b``). A name depends on its own asset alone, so a layer that
-    overrides ``/Scene/cow`` still finds it when assets come or go (an index in the name shifted)."""
-    from pxr import Tf
-
-    base = Tf.MakeValidIdentifier(stem)
+    (stems are unique: they are file names in output.dir; a non-ASCII one USD takes, ``café``, too), else
+    the identifier made of it (:func:`_valid_identifier`) and a hash of the stem (``a-b`` and ``a b`` both
+    make ``a_b``). A name depends on its own asset alone, so a layer that overrides ``/Scene/cow`` still finds
+    it when assets come or go (an index in the name shifted)."""
+    base = _valid_identifier(stem)
     names = [base] if base == stem else []
     digest = hashlib.sha256(stem.encode()).hexdigest()
     names += [f"{base}_{digest[:size]}" for size in (8, 16, 64)]  # (taken by another's hashed name: 2^-32)
@@ -55,11 +104,7 @@ def _write_scene(out_dir: Path, records: dict[str, dict]) -> None:
 
     from ..fileio import fill_layer_replacing
 
-    layers = [
-        (r["outputs"]["usd"]["path"], r["outputs"]["usd"])
-        for k, r in sorted(records.items())
-        if r.get("status") == "built" and "usd" in r.get("outputs", {})
-    ]
+    layers = _scene_layers(records)
 
     def fill(layer: Sdf.Layer) -> None:
         with Sdf.ChangeBlock():
