@@ -27,6 +27,15 @@ from swpm_usd.simplify import mesh_topology
 MESHES = Path(__file__).resolve().parents[1].parent / "shared" / "meshes"
 
 
+@pytest.fixture(autouse=True)
+def _threads_whatever_the_load(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The tests of the threaded path find it on a loaded machine too: a build starts its threads whatever
+    the other processes keep busy (``sw_threads.ADAPT_TO_LOAD``; its own tests set it back)."""
+    from swpm_usd.encode import sw_threads
+
+    monkeypatch.setattr(sw_threads, "ADAPT_TO_LOAD", False)
+
+
 def _icosphere(subdivisions: int = 3) -> Mesh:
     import trimesh as trimesh
 
@@ -1210,6 +1219,82 @@ def test_inline_finishing_builds_without_a_worker_on_this_thread_only(
     assert started == [other.ident, other.ident]
     build_sliding_window(spot)
     assert len(started) == 4  # restored on exit
+
+
+def test_core_free_reads_the_other_processes_cpu_time(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``sw_threads.core_free``: the cores the other processes kept busy since the previous look (the
+    system's busy time less this process's own) against ``cores - 1``; True on a first look, after a fork,
+    after a long gap and where ``/proc/stat`` cannot be read; a look too soon after the previous keeps its
+    answer; always True with ``ADAPT_TO_LOAD`` off."""
+    from types import SimpleNamespace
+
+    from swpm_usd.encode import sw_threads as swt
+
+    clock = {"now": 100.0, "own": 5.0, "busy": 1000.0, "pid": 7}
+    clocks = SimpleNamespace(monotonic=lambda: clock["now"], process_time=lambda: clock["own"])
+    monkeypatch.setattr(swt, "time", clocks)
+    monkeypatch.setattr(swt, "os", SimpleNamespace(getpid=lambda: clock["pid"]))
+    monkeypatch.setattr(swt, "_system_busy", lambda: clock["busy"])
+    monkeypatch.setattr(swt, "_last_look", [])
+    monkeypatch.setattr(swt, "ADAPT_TO_LOAD", True)
+
+    def look(dt: float, busy: float, own: float, cores: int = 2) -> bool:
+        clock["now"] += dt
+        clock["busy"] += busy
+        clock["own"] += own
+        return swt.core_free(cores)
+
+    assert look(0, 0, 0)  # a first look
+    assert not look(1.0, 2.0, 0.0)  # two cores busy for a second, none of it this process's
+    assert look(1.0, 2.0, 1.5)  # ... 1.5 of it this process's: 0.5 cores by the others
+    assert look(1.0, 1.0, 0.0)  # one core busy by the others: one left for the threads
+    assert not look(1.0, 1.1, 0.0)
+    assert not look(0.1, 1.0, 0.0)  # too soon: the previous answer (had it been read: 10 cores)
+    assert not look(0.2, 0.0, 0.0)  # the window from the look before: 1.0 over 0.3 s, 3.3 cores
+    assert look(1.0, 3.0, 0.0, cores=4)
+    assert not look(1.0, 3.1, 0.0, cores=4)
+    assert not look(1.0, 2.0, 0.0)
+    clock["pid"] = 8  # a forked child: its CPU time starts again, so a first look
+    assert look(1.0, 2.0, -5.0)
+    assert not look(1.0, 2.0, 0.0)
+    assert look(swt._LOOK_MAX_AGE + 1.0, 100.0, 0.0)  # the previous look says nothing of now
+    assert not look(1.0, 2.0, 0.0)
+    monkeypatch.setattr(swt, "ADAPT_TO_LOAD", False)
+    assert look(1.0, 2.0, 0.0)
+    monkeypatch.setattr(swt, "ADAPT_TO_LOAD", True)
+    monkeypatch.setattr(swt, "_system_busy", lambda: None)  # no /proc/stat
+    assert look(1.0, 2.0, 0.0)
+
+
+def test_a_build_on_busy_cores_starts_no_thread(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where the other processes keep the cores busy (``sw_threads.core_free`` False) a build that would start
+    its worker and helper threads (beetle: over ``_LEVEL_HAND_OFF`` triangles) starts none, and builds the
+    same pool; with a core free it starts both."""
+    import threading
+
+    import swpm_usd.encode.slidingwindow as sw
+    from swpm_usd.encode import sw_threads as swt
+
+    mesh = shared_mesh("beetle.obj")
+    assert mesh.triangle_count >= swt._LEVEL_HAND_OFF
+    started = []
+    real = sw.ThreadPoolExecutor
+
+    def counting(*args, **kwargs):
+        started.append(threading.get_ident())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(sw, "ThreadPoolExecutor", counting)
+    monkeypatch.setattr(swt, "ADAPT_TO_LOAD", True)
+    asked = []
+    monkeypatch.setattr(swt, "core_free", lambda cores: asked.append(cores) or False)
+    busy = build_sliding_window(mesh)
+    assert started == [] and len(asked) == 1
+    monkeypatch.setattr(swt, "core_free", lambda cores: True)
+    free = build_sliding_window(mesh)
+    assert len(started) == 2
+    for name in ("index_pool", "window_records", "points", "lod_errors", "source_vertex"):
+        assert np.array_equal(getattr(busy, name), getattr(free, name)), name
 
 
 def test_levels_of_the_finishing_hand_off_and_more_go_to_the_worker(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -584,7 +584,8 @@ def _build_levels(
 def _build_topology(mesh: Mesh, st, new_state, *args, **kwargs):
     """:func:`_build_levels` with its levels finished (:func:`.sw_layout.finish_level`) on a worker thread
     and part of each level's own work on a helper thread (:mod:`.sw_threads`) where the machine has a
-    second core, inline otherwise (the same pool either way). ``new_state``: a fresh state of ``mesh`` for
+    second core that the other processes leave free (:func:`.sw_threads.core_free`), inline otherwise (the
+    same pool either way). ``new_state``: a fresh state of ``mesh`` for
     the replay of the LOD errors (:class:`.sw_threads.Replay`; None: the caller replays). Returns the
     triangles, levels, collapse records and step info, the LOD errors' replay (None if not done) and the
     input surface (:func:`swpm_usd.simplify.sequence.replay_surface`, None for no triangles)."""
@@ -601,6 +602,7 @@ def _build_topology(mesh: Mesh, st, new_state, *args, **kwargs):
         and not getattr(_THIS_THREAD, "inline", False)
         and cores > 1
         and mesh.triangle_count >= swt._LEVEL_HAND_OFF
+        and swt.core_free(cores)  # (the threads cost more than they save on busy cores)
     )
     worker = ThreadPoolExecutor(max_workers=1) if threads else None
     helper = ThreadPoolExecutor(max_workers=1) if threads else None

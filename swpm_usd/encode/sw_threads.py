@@ -5,14 +5,18 @@ second core: the main thread builds the levels one after another, a *worker* fin
 level (:func:`.sw_layout.finish_level`), and a *helper* takes part of the main thread's own work. This
 module holds the helper's share: a call run beside the main thread (:func:`beside`), a level's work cut into
 blocks that both threads take in turn (:func:`share`: the best collapses, :func:`level_costs_shared`, and the
-fan-deviation searches, :func:`sampled_deviation`), and the replay of the LOD errors level by level
-(:class:`Replay`). Every result is the one the main thread alone computes, bit for bit: the kernels read the
-state and write separate outputs, and they release the GIL.
+fan-deviation searches, :func:`sampled_deviation`), the replay of the LOD errors level by level
+(:class:`Replay`), and whether the threads should start at all (:func:`core_free`: only while the other
+processes leave a core free). Every result is the one the main thread alone computes, bit for bit: the
+kernels read the state and write separate outputs, and they release the GIL.
 """
 
 from __future__ import annotations
 
 import itertools
+import os
+import threading
+import time
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
@@ -59,6 +63,63 @@ _LEVEL_HAND_OFF = 1024
 #: beetle 38.4 -> 31.7 ms, teapot 87.2 -> 79.6, spot 91.9 -> 84.6, cow 90.2 -> 84.4, bob 147.5 -> 144.5, the
 #: process's within -4 to +2 % (``slidingwindow.md``)
 _FINISH_HAND_OFF = 256
+
+
+#: a build that could start its threads does so only while the other processes leave a core free: the
+#: cores they kept busy since this process last looked (:func:`core_free`) at most ``cores - 1``. With the
+#: cores busy the threads cost more than they save: the main thread waits for a core beside its own worker
+#: and helper, and for the GIL each time it lets it go to one of them that the OS then preempts (cow's main
+#: thread 20-31 ms of a 255-320 ms build in ``np.flatnonzero`` alone at a load of 2.5, 0.4-1.3 ms inline;
+#: threaded over inline wall time 0.98-1.16 on eight meshes at a load of 2.3-2.6, where with a core free the
+#: threads take cow 142 -> 102 ms and bunny 2.02 -> 1.39 s; ``slidingwindow.md``). False: the threads
+#: whatever the load (the tests of the threaded path set it so)
+ADAPT_TO_LOAD = True
+#: a look's window: looks this close after the previous one keep its answer (``/proc/stat`` counts in
+#: hundredths of a second, so a shorter window is mostly rounding); a previous look older than
+#: ``_LOOK_MAX_AGE`` seconds says nothing of now (the build then starts its threads, as on a first look)
+_LOOK_MIN_WINDOW = 0.2
+_LOOK_MAX_AGE = 30.0
+_look_lock = threading.Lock()
+_last_look: list = []  # [(pid, monotonic s, system busy s, this process's CPU s, answer)]
+
+
+def _system_busy() -> float | None:
+    """Seconds of CPU time every process has spent since boot (``/proc/stat``'s first line, idle and iowait
+    left out), or None where there is no ``/proc/stat``."""
+    try:
+        with open("/proc/stat", "rb") as f:
+            fields = f.readline().split()
+        ticks = [int(x) for x in fields[1:9]]
+        return (sum(ticks) - ticks[3] - ticks[4]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def core_free(cores: int) -> bool:
+    """Whether the other processes kept at most ``cores - 1`` cores busy since this process's previous look
+    (its own CPU time, every thread of it, taken off the system's), so that a build's worker and helper
+    threads get a core of their own (:data:`ADAPT_TO_LOAD`). True where that cannot be read, on the first
+    look and after a fork (the child's CPU time starts again), and when the previous look is older than
+    :data:`_LOOK_MAX_AGE`; a look within :data:`_LOOK_MIN_WINDOW` of it keeps its answer."""
+    if not ADAPT_TO_LOAD:
+        return True
+    busy = _system_busy()
+    if busy is None:
+        return True
+    now, own, pid = time.monotonic(), time.process_time(), os.getpid()
+    with _look_lock:
+        if _last_look and _last_look[0][0] == pid:
+            _, then, busy0, own0, answer = _last_look[0]
+            window = now - then
+            if window < _LOOK_MIN_WINDOW:
+                return answer  # (the window keeps growing from the previous look)
+            if window <= _LOOK_MAX_AGE:
+                others = ((busy - busy0) - (own - own0)) / window
+                answer = others <= cores - 1
+                _last_look[:] = [(pid, now, busy, own, answer)]
+                return answer
+        _last_look[:] = [(pid, now, busy, own, True)]
+        return True
 
 
 def beside(helper: ThreadPoolExecutor | None, fn, *args):
