@@ -814,3 +814,41 @@ def test_readme_c_example_compiles(tmp_path: Path) -> None:
             [cc, *flags, "-c", "-o", str(tmp_path / f"example{i}.o"), str(tmp_path / f"example{i}.c")],
             check=True,
         )
+
+
+# -- an engine's build: strict warnings, C++, two translation units ----------------------------------------
+STRICT = ["-Wall", "-Wextra", "-Wpedantic", "-Wconversion", "-Wsign-conversion", "-Wshadow", "-Wcast-align"]
+STRICT_C = ["-std=c99", *STRICT, "-Wstrict-prototypes", "-Wmissing-prototypes", "-Werror"]
+STRICT_CXX = ["-x", "c++", "-std=c++11", *STRICT, "-Wzero-as-null-pointer-constant", "-Wmissing-declarations"]
+
+
+def test_header_strict_warnings_cxx_two_units(tmp_path: Path) -> None:
+    """The implementation compiles without a warning at -O3 (-Wmaybe-uninitialized needs the optimiser) under
+    an engine's strict flags, as C99 and as C++11; a C translation unit that includes the header alone links
+    against the implementation built as C++ (extern "C": one definition of each symbol) and runs."""
+    cc, cxx = shutil.which("cc"), shutil.which("c++")
+    if cc is None or cxx is None:
+        pytest.fail("no C / C++ compiler (cc, c++): the C reader's tests need both (README, Drawing from C)")
+    impl = tmp_path / "impl.c"
+    include = '#include "swpm_reader.h"\n'
+    impl.write_text("#define SWPM_READER_IMPLEMENTATION\n" + 2 * include)  # twice: the include guards hold
+    user = tmp_path / "user.c"
+    user.write_text(
+        '#include <stdio.h>\n#include "swpm_reader.h"\nint main(void) {\n'
+        "    static const uint8_t none[1] = {0};\n    swpm_file f;\n"
+        "    swpm_result r = swpm_open(none, 0, &f);\n"
+        '    printf("%s %d %llu", r.code, r.has_offset, (unsigned long long)r.offset);\n    return 0;\n}\n'
+    )
+    inc = ["-I", str(RUNTIME)]
+    run = [
+        [cc, *STRICT_C, "-O3", *inc, "-c", "-o", str(tmp_path / "impl_c.o"), str(impl)],
+        [cxx, *STRICT_CXX, "-Werror", "-O3", *inc, "-c", "-o", str(tmp_path / "impl_cxx.o"), str(impl)],
+        [cc, *STRICT_C, "-O0", *inc, "-c", "-o", str(tmp_path / "user.o"), str(user)],
+    ]
+    for cmd in run:
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        assert proc.returncode == 0 and proc.stderr == "", (cmd, proc.stderr)
+    exe = tmp_path / "user"
+    subprocess.run([cxx, "-o", str(exe), str(tmp_path / "user.o"), str(tmp_path / "impl_cxx.o")], check=True)
+    out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout
+    assert out == "SWPM_HEADER_TRUNCATED 1 0"

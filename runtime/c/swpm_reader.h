@@ -687,7 +687,7 @@ static int swpm__jstring(const swpm__js *j, uint64_t p, uint64_t *end) {
  * pairs join into one code point, unpaired ones stay (a JSON string is a sequence of code points). */
 static uint32_t swpm__jnext(const swpm__js *j, uint64_t *p) {
     uint8_t c = j->s[*p];
-    uint32_t v, w;
+    uint32_t v = 0, w = 0; /* (set by swpm__hex4; initialised for -O3 -Wmaybe-uninitialized) */
     if (c == '"') return 0xFFFFFFFFu;
     if (c == '\\') {
         c = j->s[*p + 1];
@@ -999,7 +999,7 @@ static const uint32_t swpm__elem_sizes[10] = {0, 1, 1, 2, 2, 4, 4, 2, 4, 8};
 static swpm_result swpm__vert(const uint8_t *p, uint64_t len, uint64_t entry, uint64_t off, swpm_file *f) {
     uint32_t V, A, stride, data_offset, i, k;
     uint64_t names_start;
-    swpm_result ok = {0, 0, 0, 0};
+    swpm_result ok = {NULL, 0, 0, 0};
     if (len < 16) return swpm__err("SWPM_CHUNK_BAD_LENGTH", entry + 16);
     V = swpm__u32(p);
     A = swpm__u32(p + 4);
@@ -1058,7 +1058,7 @@ swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file) {
 swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, void *scratch,
                          size_t scratch_bytes) {
     swpm_file f;
-    swpm_result ok = {0, 0, 0, 0};
+    swpm_result ok = {NULL, 0, 0, 0};
     uint64_t len = (uint64_t)length, eof, table_offset, file_size, table_end, end, last = 0;
     uint32_t header_size, features, count, enc_bits, i, W, O;
     int enc = 0, one_encoding, have_last = 0;
@@ -1379,7 +1379,7 @@ swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, v
 /* ---- vanilla (format.md 3.4, 3.6; 5 step 4: stage 0, (a), (b), (c)) ---- */
 static swpm_result swpm__vanilla(swpm_file *f, const uint8_t *bytes, const uint64_t *pe, const uint64_t *pl,
                                  void *scratch, size_t scratch_bytes) {
-    swpm_result ok = {0, 0, 0, 0};
+    swpm_result ok = {NULL, 0, 0, 0};
     const uint32_t W = f->index_width, O = f->offset_width;
     const uint64_t V = f->vertex_count, L = f->lod_count;
     const uint64_t vbase = swpm__u64(bytes + pe[SWPM__VREC] + 8), vlen = pl[SWPM__VREC];
@@ -1455,8 +1455,8 @@ static swpm_result swpm__vanilla(swpm_file *f, const uint8_t *bytes, const uint6
         }
         refs = (uint64_t *)(void *)((uint8_t *)scratch + pad);
         ind = (uint8_t *)(refs + V);
-        memcpy(ind, x, ilen);
-        memset(refs, 0, 8 * V);
+        memcpy(ind, x, (size_t)ilen); /* (size_t: every length below is within the file or scratch) */
+        memset(refs, 0, (size_t)(8 * V));
         for (j = 0; j < nidx; j++) refs[swpm__uw(ind + W * j, W)]++;
         for (r = 0; r < R; r++) {
             uint64_t binned = V - 1 - r, kept = SWPM__REC(r, 0), after = live - SWPM__REC(r, 1);
@@ -1521,7 +1521,7 @@ static uint64_t swpm__tris_in(const uint8_t *x, uint32_t W, uint64_t m, uint64_t
 
 static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64_t *pe, const uint64_t *pl,
                                 void *scratch, size_t scratch_bytes) {
-    swpm_result ok = {0, 0, 0, 0};
+    swpm_result ok = {NULL, 0, 0, 0};
     const int mixed = f->encoding == 4;
     const int rk = mixed ? SWPM__MREC : SWPM__SREC, lk = mixed ? SWPM__MLVL : SWPM__SKIP;
     const uint32_t W = f->index_width, O = f->offset_width, cols = mixed ? 5 : 4;
@@ -1711,7 +1711,7 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
             uint64_t kend = l + 1 < n ? SWPM__A(a0, l + 1) : L, count;
             const uint8_t *cur = x + W * s0;
             if (r1 > r0 && m) { /* (an empty list needs no copy: scratch may be NULL then) */
-                memcpy(buf, cur, W * m);
+                memcpy(buf, cur, (size_t)(W * m));
                 cur = buf;
             }
             count = swpm__tris_in(cur, W, m, 0, m, strip, exempt, restart);
@@ -1801,7 +1801,7 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
             }
             refs = (uint64_t *)(void *)((uint8_t *)scratch + pad);
             buf = (uint8_t *)(refs + V);
-            memset(refs, 0, 8 * V);
+            memset(refs, 0, (size_t)(8 * V));
             for (pos = 0, l = 0; l < n; l++) {
                 uint64_t r0 = SWPM__A(a3, l), r1 = SWPM__A(a3, l + 1), m;
                 s0 = SWPM__A(a1, l);
@@ -1815,7 +1815,7 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
                             return swpm__err("SWPM_MIXED_BAD_LEVELS", at[5] + W * (d0 + j));
                     continue;
                 }
-                memcpy(buf, list1 + W * d0, W * m);
+                memcpy(buf, list1 + W * d0, (size_t)(W * m));
                 for (j = 0; j < m; j++) refs[SWPM__I(buf, j)]++;
                 for (j = 0; j < 3 * ns; j++) refs[SWPM__I(x, s0 + j)]++;
                 for (r = r0; r < r1; r++) {
@@ -1904,7 +1904,7 @@ uint32_t swpm_lod_record_count(const swpm_file *f, uint64_t k) {
 int swpm_vanilla_instance_init(const swpm_file *f, swpm_vanilla_instance *inst, void *buffer, uint64_t capacity) {
     uint64_t n = f->index_count * f->index_width;
     if (f->encoding != 1 || capacity < n || (n && buffer == NULL)) return 0;
-    if (n) memcpy(buffer, f->indx, n);
+    if (n) memcpy(buffer, f->indx, (size_t)n); /* n <= the file length, a size_t */
     inst->indices = (uint8_t *)buffer;
     inst->lod = 0;
     inst->applied = 0; /* RCNT[0] = 0 (validated) */
@@ -1993,7 +1993,7 @@ static void swpm__level_load(const swpm_file *f, swpm_level_instance *inst, uint
     uint64_t s0 = swpm__la(f, mixed ? 2 : 1, l), m = swpm__la(f, mixed ? 2 : 1, l + 1) - s0;
     uint64_t r0 = swpm__la(f, 3, l), r1 = swpm__la(f, 3, l + 1), r = collapsed ? r1 : r0, q;
     const uint8_t *src = collapsed ? f->level_lists[mixed ? 1 : 0] : mixed ? f->level_lists[0] : f->indx;
-    if (m) memcpy(inst->indices, src + W * s0, W * m);
+    if (m) memcpy(inst->indices, src + W * s0, (size_t)(W * m));
     /* the change offsets' position of record r: walk from where the instance stands */
     for (q = inst->applied; q < r; q++) inst->change_pos += swpm_collapse_field(f, q, cols - 2);
     for (q = inst->applied; q > r; q--) inst->change_pos -= swpm_collapse_field(f, q - 1, cols - 2);
