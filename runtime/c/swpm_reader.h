@@ -170,8 +170,9 @@ uint64_t swpm_lod_count(const swpm_file *f);
 /* META payload (3.1): UTF-8 JSON, validated; not NUL-terminated. */
 const uint8_t *swpm_meta(const swpm_file *f, uint64_t *length);
 
-/* VERT (3.3): points are f32[3] at byte 0 of each record, stride bytes apart, maybe unaligned.
- * swpm_point copies one point's bytes as they are: on a little-endian host, as GPUs read them. */
+/* VERT (3.3): points are f32[3] at byte 0 of each record, stride bytes apart, maybe unaligned, little-endian
+ * as stored (as GPUs read them: a big-endian host swaps before upload). swpm_point reads one point as floats on
+ * any host (IEEE-754 floats of the host's integer byte order). */
 const uint8_t *swpm_points(const swpm_file *f, uint32_t *stride);
 void swpm_point(const swpm_file *f, uint32_t vertex, float xyz[3]);
 uint32_t swpm_attribute_count(const swpm_file *f);
@@ -2091,7 +2092,12 @@ const uint8_t *swpm_points(const swpm_file *f, uint32_t *stride) {
     return f->vert + f->data_offset;
 }
 void swpm_point(const swpm_file *f, uint32_t vertex, float xyz[3]) {
-    memcpy(xyz, f->vert + f->data_offset + (uint64_t)vertex * f->stride, 12); /* f32 LE: a LE host */
+    const uint8_t *p = f->vert + f->data_offset + (uint64_t)vertex * f->stride;
+    int c;
+    for (c = 0; c < 3; c++) { /* f32 LE assembled as a u32, then its bits: right on a big-endian host too */
+        uint32_t u = swpm__u32(p + 4 * c);
+        memcpy(&xyz[c], &u, 4);
+    }
 }
 uint32_t swpm_attribute_count(const swpm_file *f) { return f->attribute_count; }
 int swpm_attribute_at(const swpm_file *f, uint32_t i, swpm_attribute *out) {
