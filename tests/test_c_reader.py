@@ -156,6 +156,15 @@ def test_vectors_cover_both_sides(dump: Path) -> None:
     assert {"SWPM_RECORD_BAD_CHANGE", "SWPM_RECORD_BAD_COUNTS", "SWPM_PREFIX_VIOLATION", None} <= vanilla
 
 
+def _check_picks(out: dict[str, Any], q: Any) -> None:
+    """What an engine picks by error (swpm_lod_for_error) is Python's lod_for_error at every LOD's error,
+    midway to the next and beyond; swpm_point reads the points Python reads."""
+    assert len(out["lod_for_error"]) == 2 * q.lod_count + 2
+    for target, k in out["lod_for_error"]:
+        assert k == q.lod_for_error(target), target
+    assert bytes.fromhex(out["points_getter"]) == np.ascontiguousarray(q.points, "<f4").tobytes()
+
+
 # -- files the Python codec writes -------------------------------------------------------------------------
 STRIP = {"primitive": "strip", "cluster": True, "optimize_connectivity": True}
 REAL = [(m, v) for m in ("suzanne", "spot", "cow") for v in ("list", "strip")]
@@ -216,6 +225,7 @@ def test_real_files(dump: Path, tmp_path: Path, mesh: str, variant: str) -> None
             assert np.array_equal(q.index_pool[first : first + count], q.draw_stream(k)[1].reshape(-1))
         for target, k in out["lod_for_triangles"]:
             assert k == q.lod_for_triangles(target), target
+        _check_picks(out, q)
     assert 4 in widths
 
 
@@ -246,6 +256,7 @@ def test_real_vanilla_files(dump: Path, tmp_path: Path, mesh: str) -> None:
         assert _array(out, "points", "<f4").tobytes() == np.ascontiguousarray(q.points, "<f4").tobytes()
         assert np.array_equal(_array(out, "vertex_counts", "<u4"), q.vertex_counts)
         assert np.array_equal(_array(out, "triangle_counts", "<u4"), q.triangle_counts)
+        _check_picks(out, q)
         assert np.array_equal(_array(out, "indices", f"<u{W}"), q.indices)
         for name in (
             "collapse_kept",
@@ -340,6 +351,7 @@ def test_real_level_files(dump: Path, tmp_path: Path, mesh: str, variant: str) -
         assert kind != "index32" or W == 4
         assert (out["lod_count"], out["vertex_count"]) == (L, q.vertex_count)
         assert np.array_equal(_array(out, "triangle_counts", "<u4"), q.triangle_counts)
+        _check_picks(out, q)
         names = SKIP_ARRAYS if enc == "skip-strip" else MIXED_ARRAYS
         wide = {"level_indices", "level_collapsed_indices", "level_static_indices", "level_dynamic_indices"}
         for name in names:

@@ -240,6 +240,19 @@ int main(int argc, char **argv) {
     printf("\"restart_index\":");
     if (swpm_restart_index(&f, &restart)) printf("%llu,", (unsigned long long)restart);
     else printf("null,");
+    printf("\"points_getter\":\""); /* swpm_point's floats, as little-endian hex */
+    for (i = 0; i < swpm_vertex_count(&f); i++) {
+        float xyz[3];
+        uint32_t c, u;
+        uint8_t le[4];
+        swpm_point(&f, i, xyz);
+        for (c = 0; c < 3; c++) {
+            memcpy(&u, &xyz[c], 4);
+            le[0] = (uint8_t)u, le[1] = (uint8_t)(u >> 8), le[2] = (uint8_t)(u >> 16), le[3] = (uint8_t)(u >> 24);
+            hex(le, 4);
+        }
+    }
+    printf("\",");
     printf("\"arrays\":{");
     p = swpm_points(&f, &stride);
     array("points", p, swpm_vertex_count(&f), stride, 12, swpm_vertex_count(&f), 3, 1);
@@ -320,7 +333,14 @@ lod_pairs:
         if (t) lod_pair(&f, t - 1, 0);
     }
     lod_pair(&f, UINT64_MAX, 0);
-    printf("]}\n");
+    /* swpm_lod_for_error at 0, every LOD's error, midway to the next one, and far past the last */
+    printf("],\"lod_for_error\":[[0,%llu]", (unsigned long long)swpm_lod_for_error(&f, 0.0));
+    for (k = 0; k < L; k++) {
+        double e = (double)swpm_lod_error(&f, k), next = k + 1 < L ? (double)swpm_lod_error(&f, k + 1) : 2 * e + 1;
+        printf(",[%.17g,%llu]", e, (unsigned long long)swpm_lod_for_error(&f, e));
+        printf(",[%.17g,%llu]", e + (next - e) / 2, (unsigned long long)swpm_lod_for_error(&f, e + (next - e) / 2));
+    }
+    printf(",[1e300,%llu]]}\n", (unsigned long long)swpm_lod_for_error(&f, 1e300));
     odd_free(data);
     return 0;
 }

@@ -204,6 +204,11 @@ int swpm_window(const swpm_file *f, uint64_t lod, uint64_t *first_index, uint64_
  * ProgressiveMesh.lod_for_triangles, whose fractional targets round down; LODS triangle counts are
  * non-increasing, so a binary search). */
 uint64_t swpm_lod_for_triangles(const swpm_file *f, uint64_t target);
+/* The coarsest LOD whose LODS error is at most max_error (mesh units); LOD 0 if none is, or max_error is NaN
+ * (Python's ProgressiveMesh.lod_for_error, which compares each f32 error exactly; errors are non-decreasing,
+ * validated: a binary search). Screen-space selection: max_error = max_pixels / (viewport_height / (2 distance
+ * tan(fov_y / 2))), in double, as lod_for_screen_error computes it; LOD 0 at distance <= 0. */
+uint64_t swpm_lod_for_error(const swpm_file *f, double max_error);
 
 /* ---- vanilla, skip-strip, mixed (format.md 3.4, 3.6-3.8, 7): views of INDX, the record chunk (VREC, SREC,
  * MREC) and RCNT as stored (maybe unaligned); NULL with count 0 for a sliding-window file (whose WREC views
@@ -2156,6 +2161,16 @@ uint64_t swpm_lod_for_triangles(const swpm_file *f, uint64_t target) {
         else lo = mid + 1;
     }
     return lo < f->lod_count ? lo : f->lod_count - 1;
+}
+uint64_t swpm_lod_for_error(const swpm_file *f, double max_error) {
+    uint64_t lo = 0, hi = f->lod_count; /* first k with error(k) > max_error: an f32 widened to double, exact */
+    if (!(max_error >= 0.0)) return 0;  /* (NaN, negative: no LOD is that good) */
+    while (lo < hi) {
+        uint64_t mid = lo + (hi - lo) / 2;
+        if ((double)swpm_lod_error(f, mid) > max_error) hi = mid;
+        else lo = mid + 1;
+    }
+    return lo ? lo - 1 : 0;
 }
 int swpm_restart_index(const swpm_file *f, uint64_t *restart) {
     if (!f->strips && !f->has_restart) return 0;
