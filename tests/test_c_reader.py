@@ -864,3 +864,37 @@ def test_header_strict_warnings_cxx_two_units(tmp_path: Path) -> None:
     subprocess.run([cxx, "-o", str(exe), str(tmp_path / "user.o"), str(tmp_path / "impl_cxx.o")], check=True)
     out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout
     assert out == "SWPM_HEADER_TRUNCATED 1 0"
+
+
+def test_example_engine(tmp_path: Path) -> None:
+    """runtime/c/example_engine.c, an engine's frame loop written from the README alone (buffers at odd
+    addresses), builds under the strict warnings as C99 (and parses as C++11) and, on a file of each encoding
+    (sliding-window list and strip pools), picks Python's LOD for every triangle budget and screen-space
+    error, draws LODS triangle_count non-degenerate triangles with no index past the LOD's vertex count."""
+    cc, cxx = shutil.which("cc"), shutil.which("c++")
+    if cc is None or cxx is None:
+        pytest.fail("no C / C++ compiler (cc, c++): the C reader's tests need both (README, Drawing from C)")
+    src, exe = RUNTIME / "example_engine.c", tmp_path / "example_engine"
+    subprocess.run([cc, *STRICT_C, "-O1", "-I", str(RUNTIME), "-o", str(exe), str(src), "-lm"], check=True)
+    subprocess.run([cxx, *STRICT_CXX, "-Werror", "-fsyntax-only", "-I", str(RUNTIME), str(src)], check=True)
+    pms = {
+        "list": _pm("suzanne", "list"),
+        "strip": _pm("suzanne", "strip"),
+        "vanilla": _vpm("suzanne"),
+        "skip-strip": _lpm("suzanne", "skip-strip"),
+        "mixed": _lpm("suzanne", "mixed"),
+    }
+    for name, pm in pms.items():
+        path = swpm_usd.save(pm, tmp_path / f"{name}.swpm")
+        proc = subprocess.run([str(exe), str(path)], capture_output=True, check=True, text=True)
+        out = json.loads(proc.stdout)
+        q = swpm_usd.load(path)
+        assert out["encoding"] == q.encoding and out["bad"] == 0, name
+        assert len(out["frames"]) == (2 * q.lod_count if q.lod_count < 64 else 128)
+        for by_error, target, k, drawn, used, _uploaded in out["frames"]:
+            if by_error:
+                assert k == q.lod_for_screen_error(target, 10.0, 1.0, 1080), (name, target)
+            else:
+                assert k == q.lod_for_triangles(target), (name, target)
+            assert (drawn, used) == (q.triangle_counts[k], q.vertex_counts[k]), (name, k)
+        assert {f[2] for f in out["frames"]} >= {0, q.lod_count - 1}, name  # both ends of the range
