@@ -332,6 +332,8 @@ uint64_t swpm_mixed_set_lod(const swpm_file *f, swpm_level_instance *inst, uint6
 /* (forced inline under GCC and Clang: the loads sit in every per-element loop, and -O2 leaves some calls) */
 #if defined(__GNUC__)
 #define SWPM__INLINE static inline __attribute__((always_inline))
+#elif defined(_MSC_VER)
+#define SWPM__INLINE static __forceinline /* (MSVC's C mode before /std:c11 has no `inline` keyword) */
 #else
 #define SWPM__INLINE static inline
 #endif
