@@ -156,6 +156,15 @@ def test_vectors_cover_both_sides(dump: Path) -> None:
     assert {"SWPM_RECORD_BAD_CHANGE", "SWPM_RECORD_BAD_COUNTS", "SWPM_PREFIX_VIOLATION", None} <= vanilla
 
 
+def _check_picks(out: dict[str, Any], q: Any) -> None:
+    """What an engine picks by error (swpm_lod_for_error) is Python's lod_for_error at every LOD's error,
+    midway to the next and beyond; swpm_point reads the points Python reads."""
+    assert len(out["lod_for_error"]) == 2 * q.lod_count + 2
+    for target, k in out["lod_for_error"]:
+        assert k == q.lod_for_error(target), target
+    assert bytes.fromhex(out["points_getter"]) == np.ascontiguousarray(q.points, "<f4").tobytes()
+
+
 # -- files the Python codec writes -------------------------------------------------------------------------
 STRIP = {"primitive": "strip", "cluster": True, "optimize_connectivity": True}
 REAL = [(m, v) for m in ("suzanne", "spot", "cow") for v in ("list", "strip")]
@@ -216,6 +225,7 @@ def test_real_files(dump: Path, tmp_path: Path, mesh: str, variant: str) -> None
             assert np.array_equal(q.index_pool[first : first + count], q.draw_stream(k)[1].reshape(-1))
         for target, k in out["lod_for_triangles"]:
             assert k == q.lod_for_triangles(target), target
+        _check_picks(out, q)
     assert 4 in widths
 
 
@@ -246,6 +256,7 @@ def test_real_vanilla_files(dump: Path, tmp_path: Path, mesh: str) -> None:
         assert _array(out, "points", "<f4").tobytes() == np.ascontiguousarray(q.points, "<f4").tobytes()
         assert np.array_equal(_array(out, "vertex_counts", "<u4"), q.vertex_counts)
         assert np.array_equal(_array(out, "triangle_counts", "<u4"), q.triangle_counts)
+        _check_picks(out, q)
         assert np.array_equal(_array(out, "indices", f"<u{W}"), q.indices)
         for name in (
             "collapse_kept",
@@ -340,6 +351,7 @@ def test_real_level_files(dump: Path, tmp_path: Path, mesh: str, variant: str) -
         assert kind != "index32" or W == 4
         assert (out["lod_count"], out["vertex_count"]) == (L, q.vertex_count)
         assert np.array_equal(_array(out, "triangle_counts", "<u4"), q.triangle_counts)
+        _check_picks(out, q)
         names = SKIP_ARRAYS if enc == "skip-strip" else MIXED_ARRAYS
         wide = {"level_indices", "level_collapsed_indices", "level_static_indices", "level_dynamic_indices"}
         for name in names:
@@ -814,3 +826,75 @@ def test_readme_c_example_compiles(tmp_path: Path) -> None:
             [cc, *flags, "-c", "-o", str(tmp_path / f"example{i}.o"), str(tmp_path / f"example{i}.c")],
             check=True,
         )
+
+
+# -- an engine's build: strict warnings, C++, two translation units ----------------------------------------
+STRICT = ["-Wall", "-Wextra", "-Wpedantic", "-Wconversion", "-Wsign-conversion", "-Wshadow", "-Wcast-align"]
+STRICT_C = ["-std=c99", *STRICT, "-Wstrict-prototypes", "-Wmissing-prototypes", "-Werror"]
+STRICT_CXX = ["-x", "c++", "-std=c++11", *STRICT, "-Wzero-as-null-pointer-constant", "-Wmissing-declarations"]
+
+
+def test_header_strict_warnings_cxx_two_units(tmp_path: Path) -> None:
+    """The implementation compiles without a warning at -O3 (-Wmaybe-uninitialized needs the optimiser) under
+    an engine's strict flags, as C99 and as C++11; a C translation unit that includes the header alone links
+    against the implementation built as C++ (extern "C": one definition of each symbol) and runs."""
+    cc, cxx = shutil.which("cc"), shutil.which("c++")
+    if cc is None or cxx is None:
+        pytest.fail("no C / C++ compiler (cc, c++): the C reader's tests need both (README, Drawing from C)")
+    impl = tmp_path / "impl.c"
+    include = '#include "swpm_reader.h"\n'
+    impl.write_text("#define SWPM_READER_IMPLEMENTATION\n" + 2 * include)  # twice: the include guards hold
+    user = tmp_path / "user.c"
+    user.write_text(
+        '#include <stdio.h>\n#include "swpm_reader.h"\nint main(void) {\n'
+        "    static const uint8_t none[1] = {0};\n    swpm_file f;\n"
+        "    swpm_result r = swpm_open(none, 0, &f);\n"
+        '    printf("%s %d %llu", r.code, r.has_offset, (unsigned long long)r.offset);\n    return 0;\n}\n'
+    )
+    inc = ["-I", str(RUNTIME)]
+    run = [
+        [cc, *STRICT_C, "-O3", *inc, "-c", "-o", str(tmp_path / "impl_c.o"), str(impl)],
+        [cxx, *STRICT_CXX, "-Werror", "-O3", *inc, "-c", "-o", str(tmp_path / "impl_cxx.o"), str(impl)],
+        [cc, *STRICT_C, "-O0", *inc, "-c", "-o", str(tmp_path / "user.o"), str(user)],
+    ]
+    for cmd in run:
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        assert proc.returncode == 0 and proc.stderr == "", (cmd, proc.stderr)
+    exe = tmp_path / "user"
+    subprocess.run([cxx, "-o", str(exe), str(tmp_path / "user.o"), str(tmp_path / "impl_cxx.o")], check=True)
+    out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout
+    assert out == "SWPM_HEADER_TRUNCATED 1 0"
+
+
+def test_example_engine(tmp_path: Path) -> None:
+    """runtime/c/example_engine.c, an engine's frame loop written from the README alone (buffers at odd
+    addresses), builds under the strict warnings as C99 (and parses as C++11) and, on a file of each encoding
+    (sliding-window list and strip pools), picks Python's LOD for every triangle budget and screen-space
+    error, draws LODS triangle_count non-degenerate triangles with no index past the LOD's vertex count."""
+    cc, cxx = shutil.which("cc"), shutil.which("c++")
+    if cc is None or cxx is None:
+        pytest.fail("no C / C++ compiler (cc, c++): the C reader's tests need both (README, Drawing from C)")
+    src, exe = RUNTIME / "example_engine.c", tmp_path / "example_engine"
+    subprocess.run([cc, *STRICT_C, "-O1", "-I", str(RUNTIME), "-o", str(exe), str(src), "-lm"], check=True)
+    subprocess.run([cxx, *STRICT_CXX, "-Werror", "-fsyntax-only", "-I", str(RUNTIME), str(src)], check=True)
+    pms = {
+        "list": _pm("suzanne", "list"),
+        "strip": _pm("suzanne", "strip"),
+        "vanilla": _vpm("suzanne"),
+        "skip-strip": _lpm("suzanne", "skip-strip"),
+        "mixed": _lpm("suzanne", "mixed"),
+    }
+    for name, pm in pms.items():
+        path = swpm_usd.save(pm, tmp_path / f"{name}.swpm")
+        proc = subprocess.run([str(exe), str(path)], capture_output=True, check=True, text=True)
+        out = json.loads(proc.stdout)
+        q = swpm_usd.load(path)
+        assert out["encoding"] == q.encoding and out["bad"] == 0, name
+        assert len(out["frames"]) == (2 * q.lod_count if q.lod_count < 64 else 128)
+        for by_error, target, k, drawn, used, _uploaded in out["frames"]:
+            if by_error:
+                assert k == q.lod_for_screen_error(target, 10.0, 1.0, 1080), (name, target)
+            else:
+                assert k == q.lod_for_triangles(target), (name, target)
+            assert (drawn, used) == (q.triangle_counts[k], q.vertex_counts[k]), (name, k)
+        assert {f[2] for f in out["frames"]} >= {0, q.lod_count - 1}, name  # both ends of the range

@@ -12,6 +12,7 @@
  * swpm_dump --check FILE...: one line per file, {"ok": ...} or {"ok": false, "code", "offset"} (a batch
  * for tests: one process for thousands of files); exit 0, 2 when a file cannot be read.
  * swpm_dump --check-scratch N FILE...: --check with a scratch of N bytes (a too-small one adds "need").
+ * The file's bytes, the scratch and the instance buffers are all given at odd addresses (odd_alloc).
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -55,6 +56,17 @@ static void lod_pair(const swpm_file *f, uint64_t target, int first) {
            (unsigned long long)swpm_lod_for_triangles(f, target));
 }
 
+/* Every buffer the reader sees sits at an odd address, ending exactly at the allocation's end (so that a read
+ * past it trips the address sanitizer): the file's bytes may be anywhere in an engine's memory, and UBSan
+ * (-fsanitize=undefined includes alignment) then reports any load through a casted pointer. */
+static void *odd_alloc(size_t n) {
+    uint8_t *p = (uint8_t *)malloc(n + 1);
+    return p ? p + 1 : NULL;
+}
+static void odd_free(void *p) {
+    if (p) free((uint8_t *)p - 1);
+}
+
 /* Read a whole file into a buffer of exactly its size (so that a read past the end trips the address
  * sanitizer); NULL if it cannot. */
 static uint8_t *read_file(const char *path, size_t *size) {
@@ -66,9 +78,9 @@ static uint8_t *read_file(const char *path, size_t *size) {
         fclose(fp);
         return NULL;
     }
-    data = (uint8_t *)malloc(n ? (size_t)n : 1);
+    data = (uint8_t *)odd_alloc((size_t)n);
     if (data && fread(data, 1, (size_t)n, fp) != (size_t)n) {
-        free(data);
+        odd_free(data);
         data = NULL;
     }
     fclose(fp);
@@ -92,9 +104,9 @@ static void print_result(swpm_result r) {
  * that the address sanitizer sees a replay that writes past it. */
 static swpm_result open_with_scratch(const uint8_t *d, size_t n, swpm_file *f, long long scratch_bytes) {
     size_t s = scratch_bytes < 0 ? n : (size_t)scratch_bytes;
-    void *scratch = malloc(s ? s : 1);
+    void *scratch = odd_alloc(s);
     swpm_result r = swpm_open_ex(d, n, f, scratch, scratch ? s : 0);
-    free(scratch);
+    odd_free(scratch);
     return r;
 }
 
@@ -148,7 +160,7 @@ static void levels(const swpm_file *f) {
     for (pos = 0; pos < L; pos++) printf("%s%llu", pos ? "," : "", (unsigned long long)swpm_level_of_lod(f, pos));
     printf("],\"instance\":[");
     bytes = swpm_level_instance_bytes(f);
-    buffer = (uint8_t *)malloc(bytes ? bytes : 1);
+    buffer = (uint8_t *)odd_alloc((size_t)bytes);
     if (!buffer || !(mixed ? swpm_mixed_instance_init(f, &inst, buffer, bytes)
                            : swpm_skip_instance_init(f, &inst, buffer, bytes))) {
         fprintf(stderr, "swpm_dump: no instance\n");
@@ -171,7 +183,7 @@ static void levels(const swpm_file *f) {
         }
         printf("]");
     }
-    free(buffer);
+    odd_free(buffer);
     printf("],\"lod_for_triangles\":[");
 }
 
@@ -200,7 +212,7 @@ int main(int argc, char **argv) {
                 return 2;
             }
             print_result(open_with_scratch(d, n, &f, scratch_bytes));
-            free(d);
+            odd_free(d);
         }
         return 0;
     }
@@ -216,7 +228,7 @@ int main(int argc, char **argv) {
     r = open_with_scratch(data, size, &f, -1);
     if (r.code) {
         print_result(r);
-        free(data);
+        odd_free(data);
         return 1;
     }
     L = swpm_lod_count(&f);
@@ -228,6 +240,19 @@ int main(int argc, char **argv) {
     printf("\"restart_index\":");
     if (swpm_restart_index(&f, &restart)) printf("%llu,", (unsigned long long)restart);
     else printf("null,");
+    printf("\"points_getter\":\""); /* swpm_point's floats, as little-endian hex */
+    for (i = 0; i < swpm_vertex_count(&f); i++) {
+        float xyz[3];
+        uint32_t c, u;
+        uint8_t le[4];
+        swpm_point(&f, i, xyz);
+        for (c = 0; c < 3; c++) {
+            memcpy(&u, &xyz[c], 4);
+            le[0] = (uint8_t)u, le[1] = (uint8_t)(u >> 8), le[2] = (uint8_t)(u >> 16), le[3] = (uint8_t)(u >> 24);
+            hex(le, 4);
+        }
+    }
+    printf("\",");
     printf("\"arrays\":{");
     p = swpm_points(&f, &stride);
     array("points", p, swpm_vertex_count(&f), stride, 12, swpm_vertex_count(&f), 3, 1);
@@ -263,7 +288,7 @@ int main(int argc, char **argv) {
         p = swpm_lod_record_counts(&f, &count);
         array("lod_record_counts", p, count, O, O, count, 0, 0);
         printf("},\"instance\":[");
-        buffer = (uint8_t *)malloc(ibytes ? ibytes : 1);
+        buffer = (uint8_t *)odd_alloc((size_t)ibytes);
         if (!buffer || !swpm_vanilla_instance_init(&f, &inst, buffer, ibytes)) {
             fprintf(stderr, "swpm_dump: no instance\n");
             return 2;
@@ -281,7 +306,7 @@ int main(int argc, char **argv) {
             }
             printf("]");
         }
-        free(buffer);
+        odd_free(buffer);
         printf("],\"lod_for_triangles\":[");
         goto lod_pairs;
     }
@@ -308,7 +333,14 @@ lod_pairs:
         if (t) lod_pair(&f, t - 1, 0);
     }
     lod_pair(&f, UINT64_MAX, 0);
-    printf("]}\n");
-    free(data);
+    /* swpm_lod_for_error at 0, every LOD's error, midway to the next one, and far past the last */
+    printf("],\"lod_for_error\":[[0,%llu]", (unsigned long long)swpm_lod_for_error(&f, 0.0));
+    for (k = 0; k < L; k++) {
+        double e = (double)swpm_lod_error(&f, k), next = k + 1 < L ? (double)swpm_lod_error(&f, k + 1) : 2 * e + 1;
+        printf(",[%.17g,%llu]", e, (unsigned long long)swpm_lod_for_error(&f, e));
+        printf(",[%.17g,%llu]", e + (next - e) / 2, (unsigned long long)swpm_lod_for_error(&f, e + (next - e) / 2));
+    }
+    printf(",[1e300,%llu]]}\n", (unsigned long long)swpm_lod_for_error(&f, 1e300));
+    odd_free(data);
     return 0;
 }

@@ -170,8 +170,9 @@ uint64_t swpm_lod_count(const swpm_file *f);
 /* META payload (3.1): UTF-8 JSON, validated; not NUL-terminated. */
 const uint8_t *swpm_meta(const swpm_file *f, uint64_t *length);
 
-/* VERT (3.3): points are f32[3] at byte 0 of each record, stride bytes apart, maybe unaligned.
- * swpm_point copies one point's bytes as they are: on a little-endian host, as GPUs read them. */
+/* VERT (3.3): points are f32[3] at byte 0 of each record, stride bytes apart, maybe unaligned, little-endian
+ * as stored (as GPUs read them: a big-endian host swaps before upload). swpm_point reads one point as floats on
+ * any host (IEEE-754 floats of the host's integer byte order). */
 const uint8_t *swpm_points(const swpm_file *f, uint32_t *stride);
 void swpm_point(const swpm_file *f, uint32_t vertex, float xyz[3]);
 uint32_t swpm_attribute_count(const swpm_file *f);
@@ -203,6 +204,11 @@ int swpm_window(const swpm_file *f, uint64_t lod, uint64_t *first_index, uint64_
  * ProgressiveMesh.lod_for_triangles, whose fractional targets round down; LODS triangle counts are
  * non-increasing, so a binary search). */
 uint64_t swpm_lod_for_triangles(const swpm_file *f, uint64_t target);
+/* The coarsest LOD whose LODS error is at most max_error (mesh units); LOD 0 if none is, or max_error is NaN
+ * (Python's ProgressiveMesh.lod_for_error, which compares each f32 error exactly; errors are non-decreasing,
+ * validated: a binary search). Screen-space selection: max_error = max_pixels / (viewport_height / (2 distance
+ * tan(fov_y / 2))), in double, as lod_for_screen_error computes it; LOD 0 at distance <= 0. */
+uint64_t swpm_lod_for_error(const swpm_file *f, double max_error);
 
 /* ---- vanilla, skip-strip, mixed (format.md 3.4, 3.6-3.8, 7): views of INDX, the record chunk (VREC, SREC,
  * MREC) and RCNT as stored (maybe unaligned); NULL with count 0 for a sliding-window file (whose WREC views
@@ -326,6 +332,8 @@ uint64_t swpm_mixed_set_lod(const swpm_file *f, swpm_level_instance *inst, uint6
 /* (forced inline under GCC and Clang: the loads sit in every per-element loop, and -O2 leaves some calls) */
 #if defined(__GNUC__)
 #define SWPM__INLINE static inline __attribute__((always_inline))
+#elif defined(_MSC_VER)
+#define SWPM__INLINE static __forceinline /* (MSVC's C mode before /std:c11 has no `inline` keyword) */
 #else
 #define SWPM__INLINE static inline
 #endif
@@ -687,7 +695,7 @@ static int swpm__jstring(const swpm__js *j, uint64_t p, uint64_t *end) {
  * pairs join into one code point, unpaired ones stay (a JSON string is a sequence of code points). */
 static uint32_t swpm__jnext(const swpm__js *j, uint64_t *p) {
     uint8_t c = j->s[*p];
-    uint32_t v, w;
+    uint32_t v = 0, w = 0; /* (set by swpm__hex4; initialised for -O3 -Wmaybe-uninitialized) */
     if (c == '"') return 0xFFFFFFFFu;
     if (c == '\\') {
         c = j->s[*p + 1];
@@ -999,7 +1007,7 @@ static const uint32_t swpm__elem_sizes[10] = {0, 1, 1, 2, 2, 4, 4, 2, 4, 8};
 static swpm_result swpm__vert(const uint8_t *p, uint64_t len, uint64_t entry, uint64_t off, swpm_file *f) {
     uint32_t V, A, stride, data_offset, i, k;
     uint64_t names_start;
-    swpm_result ok = {0, 0, 0, 0};
+    swpm_result ok = {NULL, 0, 0, 0};
     if (len < 16) return swpm__err("SWPM_CHUNK_BAD_LENGTH", entry + 16);
     V = swpm__u32(p);
     A = swpm__u32(p + 4);
@@ -1058,7 +1066,7 @@ swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file) {
 swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, void *scratch,
                          size_t scratch_bytes) {
     swpm_file f;
-    swpm_result ok = {0, 0, 0, 0};
+    swpm_result ok = {NULL, 0, 0, 0};
     uint64_t len = (uint64_t)length, eof, table_offset, file_size, table_end, end, last = 0;
     uint32_t header_size, features, count, enc_bits, i, W, O;
     int enc = 0, one_encoding, have_last = 0;
@@ -1379,7 +1387,7 @@ swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, v
 /* ---- vanilla (format.md 3.4, 3.6; 5 step 4: stage 0, (a), (b), (c)) ---- */
 static swpm_result swpm__vanilla(swpm_file *f, const uint8_t *bytes, const uint64_t *pe, const uint64_t *pl,
                                  void *scratch, size_t scratch_bytes) {
-    swpm_result ok = {0, 0, 0, 0};
+    swpm_result ok = {NULL, 0, 0, 0};
     const uint32_t W = f->index_width, O = f->offset_width;
     const uint64_t V = f->vertex_count, L = f->lod_count;
     const uint64_t vbase = swpm__u64(bytes + pe[SWPM__VREC] + 8), vlen = pl[SWPM__VREC];
@@ -1455,8 +1463,8 @@ static swpm_result swpm__vanilla(swpm_file *f, const uint8_t *bytes, const uint6
         }
         refs = (uint64_t *)(void *)((uint8_t *)scratch + pad);
         ind = (uint8_t *)(refs + V);
-        memcpy(ind, x, ilen);
-        memset(refs, 0, 8 * V);
+        memcpy(ind, x, (size_t)ilen); /* (size_t: every length below is within the file or scratch) */
+        memset(refs, 0, (size_t)(8 * V));
         for (j = 0; j < nidx; j++) refs[swpm__uw(ind + W * j, W)]++;
         for (r = 0; r < R; r++) {
             uint64_t binned = V - 1 - r, kept = SWPM__REC(r, 0), after = live - SWPM__REC(r, 1);
@@ -1521,7 +1529,7 @@ static uint64_t swpm__tris_in(const uint8_t *x, uint32_t W, uint64_t m, uint64_t
 
 static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64_t *pe, const uint64_t *pl,
                                 void *scratch, size_t scratch_bytes) {
-    swpm_result ok = {0, 0, 0, 0};
+    swpm_result ok = {NULL, 0, 0, 0};
     const int mixed = f->encoding == 4;
     const int rk = mixed ? SWPM__MREC : SWPM__SREC, lk = mixed ? SWPM__MLVL : SWPM__SKIP;
     const uint32_t W = f->index_width, O = f->offset_width, cols = mixed ? 5 : 4;
@@ -1711,7 +1719,7 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
             uint64_t kend = l + 1 < n ? SWPM__A(a0, l + 1) : L, count;
             const uint8_t *cur = x + W * s0;
             if (r1 > r0 && m) { /* (an empty list needs no copy: scratch may be NULL then) */
-                memcpy(buf, cur, W * m);
+                memcpy(buf, cur, (size_t)(W * m));
                 cur = buf;
             }
             count = swpm__tris_in(cur, W, m, 0, m, strip, exempt, restart);
@@ -1801,7 +1809,7 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
             }
             refs = (uint64_t *)(void *)((uint8_t *)scratch + pad);
             buf = (uint8_t *)(refs + V);
-            memset(refs, 0, 8 * V);
+            memset(refs, 0, (size_t)(8 * V));
             for (pos = 0, l = 0; l < n; l++) {
                 uint64_t r0 = SWPM__A(a3, l), r1 = SWPM__A(a3, l + 1), m;
                 s0 = SWPM__A(a1, l);
@@ -1815,7 +1823,7 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
                             return swpm__err("SWPM_MIXED_BAD_LEVELS", at[5] + W * (d0 + j));
                     continue;
                 }
-                memcpy(buf, list1 + W * d0, W * m);
+                memcpy(buf, list1 + W * d0, (size_t)(W * m));
                 for (j = 0; j < m; j++) refs[SWPM__I(buf, j)]++;
                 for (j = 0; j < 3 * ns; j++) refs[SWPM__I(x, s0 + j)]++;
                 for (r = r0; r < r1; r++) {
@@ -1904,7 +1912,7 @@ uint32_t swpm_lod_record_count(const swpm_file *f, uint64_t k) {
 int swpm_vanilla_instance_init(const swpm_file *f, swpm_vanilla_instance *inst, void *buffer, uint64_t capacity) {
     uint64_t n = f->index_count * f->index_width;
     if (f->encoding != 1 || capacity < n || (n && buffer == NULL)) return 0;
-    if (n) memcpy(buffer, f->indx, n);
+    if (n) memcpy(buffer, f->indx, (size_t)n); /* n <= the file length, a size_t */
     inst->indices = (uint8_t *)buffer;
     inst->lod = 0;
     inst->applied = 0; /* RCNT[0] = 0 (validated) */
@@ -1993,7 +2001,7 @@ static void swpm__level_load(const swpm_file *f, swpm_level_instance *inst, uint
     uint64_t s0 = swpm__la(f, mixed ? 2 : 1, l), m = swpm__la(f, mixed ? 2 : 1, l + 1) - s0;
     uint64_t r0 = swpm__la(f, 3, l), r1 = swpm__la(f, 3, l + 1), r = collapsed ? r1 : r0, q;
     const uint8_t *src = collapsed ? f->level_lists[mixed ? 1 : 0] : mixed ? f->level_lists[0] : f->indx;
-    if (m) memcpy(inst->indices, src + W * s0, W * m);
+    if (m) memcpy(inst->indices, src + W * s0, (size_t)(W * m));
     /* the change offsets' position of record r: walk from where the instance stands */
     for (q = inst->applied; q < r; q++) inst->change_pos += swpm_collapse_field(f, q, cols - 2);
     for (q = inst->applied; q > r; q--) inst->change_pos -= swpm_collapse_field(f, q - 1, cols - 2);
@@ -2091,7 +2099,12 @@ const uint8_t *swpm_points(const swpm_file *f, uint32_t *stride) {
     return f->vert + f->data_offset;
 }
 void swpm_point(const swpm_file *f, uint32_t vertex, float xyz[3]) {
-    memcpy(xyz, f->vert + f->data_offset + (uint64_t)vertex * f->stride, 12); /* f32 LE: a LE host */
+    const uint8_t *p = f->vert + f->data_offset + (uint64_t)vertex * f->stride;
+    int c;
+    for (c = 0; c < 3; c++) { /* f32 LE assembled as a u32, then its bits: right on a big-endian host too */
+        uint32_t u = swpm__u32(p + 4 * c);
+        memcpy(&xyz[c], &u, 4);
+    }
 }
 uint32_t swpm_attribute_count(const swpm_file *f) { return f->attribute_count; }
 int swpm_attribute_at(const swpm_file *f, uint32_t i, swpm_attribute *out) {
@@ -2150,6 +2163,16 @@ uint64_t swpm_lod_for_triangles(const swpm_file *f, uint64_t target) {
         else lo = mid + 1;
     }
     return lo < f->lod_count ? lo : f->lod_count - 1;
+}
+uint64_t swpm_lod_for_error(const swpm_file *f, double max_error) {
+    uint64_t lo = 0, hi = f->lod_count; /* first k with error(k) > max_error: an f32 widened to double, exact */
+    if (!(max_error >= 0.0)) return 0;  /* (NaN, negative: no LOD is that good) */
+    while (lo < hi) {
+        uint64_t mid = lo + (hi - lo) / 2;
+        if ((double)swpm_lod_error(f, mid) > max_error) hi = mid;
+        else lo = mid + 1;
+    }
+    return lo ? lo - 1 : 0;
 }
 int swpm_restart_index(const swpm_file *f, uint64_t *restart) {
     if (!f->strips && !f->has_restart) return 0;
