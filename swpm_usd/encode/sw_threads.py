@@ -84,13 +84,28 @@ _last_look: list = []  # [(pid, monotonic s, system busy s, this process's CPU s
 
 
 def _system_busy() -> float | None:
-    """Seconds of CPU time every process has spent since boot (``/proc/stat``'s first line, idle and iowait
-    left out), or None where there is no ``/proc/stat``."""
+    """Seconds of CPU time every process has spent since boot on the CPUs this process may run on
+    (``/proc/stat``'s line of each CPU of its affinity, idle and iowait left out), or None where there is no
+    ``/proc/stat`` or it has none of those CPUs. Not the first line's total: a process pinned to 2 of a host's
+    64 CPUs (``taskset``, a container's cpuset) compares the others' load with its own 2 cores, and with the
+    total the other CPUs' load kept its threads from starting on its idle cores. Where the affinity cannot
+    be read, the first line's total."""
     try:
         with open("/proc/stat", "rb") as f:
-            fields = f.readline().split()
-        ticks = [int(x) for x in fields[1:9]]
-        return (sum(ticks) - ticks[3] - ticks[4]) / os.sysconf("SC_CLK_TCK")
+            lines = f.read().splitlines()
+        mine = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
+        ticks, found = 0, False
+        for line in lines:
+            fields = line.split()
+            if not fields or not fields[0].startswith(b"cpu"):
+                continue
+            cpu = fields[0][3:]  # (b"" on the first line, the total)
+            if not (cpu == b"" if mine is None else cpu.isdigit() and int(cpu) in mine):
+                continue
+            counts = [int(x) for x in fields[1:9]]
+            ticks += sum(counts) - counts[3] - counts[4]
+            found = True
+        return ticks / os.sysconf("SC_CLK_TCK") if found else None
     except (OSError, ValueError, IndexError):
         return None
 
