@@ -1270,8 +1270,8 @@ def test_system_busy_counts_the_cpus_this_process_may_run_on(monkeypatch: pytest
     """``sw_threads._system_busy`` sums ``/proc/stat``'s lines of the CPUs of this process's affinity (user,
     nice, system, irq, softirq, steal; not idle, iowait, guest): a process pinned to cpu0 and cpu1 of a
     four-CPU host whose cpu2 and cpu3 are busy is told its own two CPUs' time, not the host's total (which
-    counted the other CPUs' load against its two cores); none of its CPUs listed, or no affinity to read:
-    the first line's total, or None."""
+    counted the other CPUs' load against its two cores); one of its CPUs not listed, or no affinity to
+    read: the first line's total; no ``cpu`` line: None."""
     import io
     import os
 
@@ -1289,10 +1289,13 @@ def test_system_busy_counts_the_cpus_this_process_may_run_on(monkeypatch: pytest
     tick = os.sysconf("SC_CLK_TCK")
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
     assert swt._system_busy() == pytest.approx((10 + 1 + 2 + 3 + 4 + 6 + 20 + 8) / tick)
-    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {7})  # (a CPU /proc/stat does not list)
-    assert swt._system_busy() is None
+    # a CPU /proc/stat does not list (lxcfs numbers a container's from 0), or no affinity: the total
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {1, 7})
+    assert swt._system_busy() == pytest.approx(4400 / tick)
     monkeypatch.delattr(os, "sched_getaffinity")
     assert swt._system_busy() == pytest.approx(4400 / tick)
+    monkeypatch.setattr(swt, "open", lambda path, mode="r": io.BytesIO(b"intr 1\n"), raising=False)
+    assert swt._system_busy() is None  # (no cpu line at all)
 
 
 def test_a_build_on_busy_cores_starts_no_thread(monkeypatch: pytest.MonkeyPatch) -> None:
