@@ -275,3 +275,30 @@ def test_path_names_under_the_glob_s_fixed_folder():
     assert path_name(root / "rock.v2.obj", root) == "rock.v2"  # (the last suffix alone, as a stem)
     assert path_name(Path("/elsewhere/rock.obj"), root) == "rock"
     assert PATH_NAME_SEPARATOR != "__" and "." not in PATH_NAME_SEPARATOR
+
+
+def test_two_stages_of_one_name_locate_the_first_entry_in_a_config_whose_path_holds_a_colon(tmp_path):
+    """The pair's problem locates the first entry by the config's ``FILE:LINE:COL``, whole where the config's
+    path holds ``": "`` (a folder ``my: shots``; it was cut at the first ``": "``, naming ``.../my``)."""
+    from pxr import Usd, UsdGeom
+
+    root = tmp_path / "my: shots"
+    for shot in ("a", "b"):
+        (root / shot).mkdir(parents=True)
+        st = Usd.Stage.CreateNew(str(root / shot / "scene.usda"))
+        m = UsdGeom.Mesh.Define(st, "/World/rock")
+        m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
+        m.CreateFaceVertexCountsAttr([3])
+        m.CreateFaceVertexIndicesAttr([0, 1, 2])
+        st.GetRootLayer().Save()
+    del st, m
+    cfg = root / "pipeline.yaml"
+    entries = "  - stage: a/scene.usda\n  - stage: b/scene.usda\n"
+    cfg.write_text(f"version: 1\nassets:\n{entries}output: {{dir: out}}\n")
+    with pytest.raises(ConfigError) as exc:
+        run(cfg, echo=_quiet)
+    (problem,) = exc.value.problems
+    assert problem.startswith(
+        f"{cfg}:4:5: $.assets[1]: stage b/scene.usda and stage a/scene.usda ($.assets[0], {cfg}:3:5) "
+        "would both write scene__World_rock.swpm (1 prim path in both)"
+    ), problem

@@ -1266,6 +1266,38 @@ def test_core_free_reads_the_other_processes_cpu_time(monkeypatch: pytest.Monkey
     assert look(1.0, 2.0, 0.0)
 
 
+def test_system_busy_counts_the_cpus_this_process_may_run_on(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``sw_threads._system_busy`` sums ``/proc/stat``'s lines of the CPUs of this process's affinity (user,
+    nice, system, irq, softirq, steal; not idle, iowait, guest): a process pinned to cpu0 and cpu1 of a
+    four-CPU host whose cpu2 and cpu3 are busy is told its own two CPUs' time, not the host's total (which
+    counted the other CPUs' load against its two cores); one of its CPUs not listed, or no affinity to
+    read: the first line's total; no ``cpu`` line: None."""
+    import io
+    import os
+
+    from swpm_usd.encode import sw_threads as swt
+
+    stat = (
+        b"cpu  4000 0 400 100 10 0 0 0 7 0\n"
+        b"cpu0 10 1 2 50 5 3 4 6 7 0\n"
+        b"cpu1 20 0 8 50 5 0 0 0 0 0\n"
+        b"cpu2 1900 0 190 0 0 0 0 0 0 0\n"
+        b"cpu3 2070 0 200 0 0 0 0 0 0 0\n"
+        b"intr 123 4 5\nctxt 99\n"
+    )
+    monkeypatch.setattr(swt, "open", lambda path, mode="r": io.BytesIO(stat), raising=False)
+    tick = os.sysconf("SC_CLK_TCK")
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    assert swt._system_busy() == pytest.approx((10 + 1 + 2 + 3 + 4 + 6 + 20 + 8) / tick)
+    # a CPU /proc/stat does not list (lxcfs numbers a container's from 0), or no affinity: the total
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {1, 7})
+    assert swt._system_busy() == pytest.approx(4400 / tick)
+    monkeypatch.delattr(os, "sched_getaffinity")
+    assert swt._system_busy() == pytest.approx(4400 / tick)
+    monkeypatch.setattr(swt, "open", lambda path, mode="r": io.BytesIO(b"intr 1\n"), raising=False)
+    assert swt._system_busy() is None  # (no cpu line at all)
+
+
 def test_a_build_on_busy_cores_starts_no_thread(monkeypatch: pytest.MonkeyPatch) -> None:
     """Where the other processes keep the cores busy (``sw_threads.core_free`` False) a build that would start
     its worker and helper threads (beetle: over ``_LEVEL_HAND_OFF`` triangles) starts none, and builds the

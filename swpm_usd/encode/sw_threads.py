@@ -84,14 +84,25 @@ _last_look: list = []  # [(pid, monotonic s, system busy s, this process's CPU s
 
 
 def _system_busy() -> float | None:
-    """Seconds of CPU time every process has spent since boot (``/proc/stat``'s first line, idle and iowait
-    left out), or None where there is no ``/proc/stat``."""
+    """Seconds of CPU time every process has spent since boot on the CPUs this process may run on
+    (``/proc/stat``'s line of each CPU of its affinity, idle and iowait left out), or None where there is no
+    ``/proc/stat``. Not the first line's total: a process pinned to 2 of a host's 64 CPUs (``taskset``, a
+    container's cpuset) compares the others' load with its own 2 cores, and with the total the other CPUs'
+    load kept its threads from starting on its idle cores. The total where the affinity cannot be read or
+    ``/proc/stat`` does not list each of its CPUs (lxcfs numbers a container's CPUs from 0)."""
     try:
         with open("/proc/stat", "rb") as f:
-            fields = f.readline().split()
-        ticks = [int(x) for x in fields[1:9]]
-        return (sum(ticks) - ticks[3] - ticks[4]) / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError, IndexError):
+            lines = f.read().splitlines()
+        busy: dict[bytes, int] = {}  # (b"" the first line's total, b"0" cpu0's, ...)
+        for line in lines:
+            fields = line.split()
+            if fields and fields[0].startswith(b"cpu"):
+                counts = [int(x) for x in fields[1:9]]
+                busy[fields[0][3:]] = sum(counts) - counts[3] - counts[4]
+        mine = [str(c).encode() for c in os.sched_getaffinity(0)] if hasattr(os, "sched_getaffinity") else []
+        ticks = sum(busy[c] for c in mine) if mine and all(c in busy for c in mine) else busy[b""]
+        return ticks / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError, KeyError):
         return None
 
 

@@ -569,7 +569,8 @@ def discover(
         folded.setdefault(_folded(stem), (a, stem))
     for (first, later), stems in stage_pairs.items():
         files = [cfg.data["assets"][i]["stage"] for i in (later, first)]
-        at = cfg.where(("assets", first)).split(": ")[0]  # (FILE:LINE:COL of the first entry)
+        # (FILE:LINE:COL of the first entry: cut at the last ": ", a path may hold one, $.assets[i] none)
+        at = cfg.where(("assets", first)).rsplit(": ", 1)[0]
         more = f" and {len(stems) - 1} more output name{'s' * (len(stems) > 2)}" if len(stems) > 1 else ""
         problems.append(
             f"{cfg.where(('assets', later))}: stage {files[0]} and stage {files[1]} ($.assets[{first}], "
