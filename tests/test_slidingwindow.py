@@ -1807,3 +1807,25 @@ def test_rank_centres_excludes_none_for_a_negative_count() -> None:
     zero = sw_levels.rank_centres(positions, ks, cs, order, 8, 0, 2.0)
     assert np.array_equal(neg[0], zero[0]) and np.array_equal(neg[1], zero[1])
     assert neg[2] == zero[2] == np.inf and neg[3] and zero[3]
+
+
+def test_a_fork_while_the_load_look_is_held_leaves_the_child_a_free_lock(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A process forked while another thread holds ``core_free``'s lock (here: this one, for certain) gets a
+    lock of its own: the child's first look returns, where it waited for ever on its copy of a held lock."""
+    import multiprocessing
+
+    from swpm_usd.encode import sw_threads as swt
+
+    monkeypatch.setattr(swt, "ADAPT_TO_LOAD", True)  # (this file's tests switch it off)
+    ctx = multiprocessing.get_context("fork")
+    with swt._look_lock:
+        child = ctx.Process(target=swt.core_free, args=(2,))
+        child.start()
+    child.join(timeout=60)
+    alive = child.is_alive()
+    if alive:
+        child.kill()
+        child.join()
+    assert not alive and child.exitcode == 0

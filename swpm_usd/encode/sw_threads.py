@@ -83,6 +83,16 @@ _look_lock = threading.Lock()
 _last_look: list = []  # [(pid, monotonic s, system busy s, this process's CPU s, answer)]
 
 
+def _new_look_lock() -> None:
+    global _look_lock
+    _look_lock = threading.Lock()
+
+
+# (a fork while another thread holds the lock left the child's copy held for ever: its first build hung)
+if hasattr(os, "register_at_fork"):  # (not on Windows, which does not fork)
+    os.register_at_fork(after_in_child=_new_look_lock)
+
+
 def _system_busy() -> float | None:
     """Seconds of CPU time every process has spent since boot on the CPUs this process may run on
     (``/proc/stat``'s line of each CPU of its affinity, idle and iowait left out), or None where there is no
@@ -108,8 +118,9 @@ def _system_busy() -> float | None:
 
 def core_free(cores: int) -> bool:
     """Whether the other processes kept at most ``cores - 1`` cores busy since this process's previous look
-    (its own CPU time, every thread of it, taken off the system's), so that a build's worker and helper
-    threads get a core of their own (:data:`ADAPT_TO_LOAD`). True where that cannot be read, on the first
+    (its own CPU time, every thread of it, taken off the system's), so that the build has a core the others
+    leave free (:data:`ADAPT_TO_LOAD`; with exactly one left, the main thread and its worker and helper share
+    it: that middle case is not measured, ``slidingwindow.md``). True where that cannot be read, on the first
     look and after a fork (the child's CPU time starts again), and when the previous look is older than
     :data:`_LOOK_MAX_AGE`; a look within :data:`_LOOK_MIN_WINDOW` of it keeps its answer."""
     if not ADAPT_TO_LOAD:
