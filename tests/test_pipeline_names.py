@@ -302,3 +302,29 @@ def test_two_stages_of_one_name_locate_the_first_entry_in_a_config_whose_path_ho
         f"{cfg}:4:5: $.assets[1]: stage b/scene.usda and stage a/scene.usda ($.assets[0], {cfg}:3:5) "
         "would both write scene__World_rock.swpm (1 prim path in both)"
     ), problem
+
+
+def test_names_moved_by_the_glob_alone_are_said_to_be_the_globs(tmp_path):
+    """Built under ``names: path`` with a glob whose fixed folder gives the stems, then the glob widened: the
+    files left at the old names are the glob's doing (the record says which setting named them), not a flip
+    of ``output.names`` (the old names being the stems, that was the guess); a record of an earlier version,
+    without ``output_names``, keeps the guess."""
+    config = CONFIG.replace("library/**/*.obj", "library/props/chair/*.obj")
+    cfg = _library(tmp_path, config.replace("  scene: true", "  scene: true\n  names: path"))
+    assert run(cfg, echo=_quiet).built == 1
+    manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
+    (record,) = manifest["assets"].values()
+    assert record["output_names"] == "path" and record["outputs"]["swpm"]["path"] == "scene.swpm"
+    cfg.write_text(cfg.read_text().replace("library/props/chair/*.obj", "library/**/chair/*.obj"))
+    lines: list[str] = []
+    run(cfg, dry_run=True, echo=lines.append)
+    assert (
+        "scene.swpm: output of library/props/chair/scene.obj at its name before its glob (output.names: path)"
+        in ("\n".join(lines))
+    ), lines
+    # the same record as an earlier version wrote it: the stems taken for a flip
+    del record["output_names"]
+    (tmp_path / "out" / "manifest.json").write_text(json.dumps(manifest))
+    lines.clear()
+    run(cfg, dry_run=True, echo=lines.append)
+    assert "at its name before output.names: stem -> path" in "\n".join(lines), lines

@@ -172,7 +172,10 @@ def _output_names_current(cfg: Config, item: PlanItem, outputs: dict) -> bool:
 def _names_moved(cfg: Config, asset: Asset, previous: dict | None) -> str:
     """What gives ``asset`` other output names than its record (``previous``) lists: ``output.names: stem ->
     path`` (or ``path -> stem``), or, under ``path`` both times, its glob (whose fixed folder starts the
-    names); "" when its names did not move (none recorded, or as today)."""
+    names); "" when its names did not move (none recorded, or as today). The setting the record's build ran
+    under (its ``output_names``) tells the flip from the glob; a record of an earlier version has none, and
+    then old names that are the stems are taken for a flip (under ``path`` a glob's fixed folder can also give
+    the stems)."""
     outputs = previous.get("outputs") if isinstance(previous, dict) else None
     old = {
         Path(o["path"]).stem
@@ -181,6 +184,12 @@ def _names_moved(cfg: Config, asset: Asset, previous: dict | None) -> str:
     }
     if not old or old == {asset.output_stem}:
         return ""
+    now = "path" if names_by_path(cfg) else "stem"
+    then = previous.get("output_names")
+    if then in ("stem", "path") and then != now:
+        return f"output.names: {then} -> {now}"
+    if then == now == "path":
+        return "its glob (output.names: path)"
     by_stem = dataclasses.replace(asset, path_name=None).output_stem
     if names_by_path(cfg):
         return "output.names: stem -> path" if by_stem in old else "its glob (output.names: path)"

@@ -773,6 +773,7 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         if "swpm" in outputs:  # (the runner rebuilds a .swpm whose layout is not the config's: runner.plan)
             outputs["swpm"].update(swpm_layout(data, legacy))
         rec["outputs"] = outputs
+        rec["output_names"] = task.get("output_names", "stem")
         from .assets import checks_of
 
         rec["checks"] = checks_of(task)  # passed (the task carries the config's budgets and streaming)
