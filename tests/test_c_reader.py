@@ -276,8 +276,13 @@ def test_real_vanilla_files(dump: Path, tmp_path: Path, mesh: str) -> None:
             tris = np.ascontiguousarray(q.triangles_at(k), f"<u{W}")
             crcs[k] = (3 * len(tris), q.vertex_count_at(k), zlib.crc32(tris.tobytes()))
             assert np.array_equal(tris, pm.triangles_at(k))
-        for lod, count, vc, crc in steps:
+        for lod, count, vc, crc, *_ in steps:
             assert (count, vc, crc) == crcs[lod], lod
+        # the dirty ranges: init and LOD 0 wrote the whole copy; later moves write within INDX (a move whose
+        # records change no slot writes nothing: (0, 0)); tests/c_dirty_walk.c checks them against a mirror
+        assert steps[0][4:6] == [0, len(q.indices)]
+        assert all(s[4] < s[5] <= len(q.indices) or s[4] == s[5] == 0 for s in steps[1:])
+        assert sum(s[5] - s[4] for s in steps[1:]) < (len(steps) - 1) * len(q.indices)
     assert 4 in widths
 
 
@@ -384,6 +389,10 @@ def test_real_level_files(dump: Path, tmp_path: Path, mesh: str, variant: str) -
                 first, n = step[5], step[6]
                 assert np.array_equal(q.level_static_indices[first : first + n], static), lod
             assert (count, crc) == (len(want), zlib.crc32(want.tobytes())), lod
+            # the dirty range taken after the step: within the level's list (init and LOD 0: all of level 0's)
+            first, end = step[7:9] if enc == "mixed" else step[5:7]
+            held = out["levels"][step[1]][7] if enc == "mixed" else count
+            assert first <= end <= held and (step is not steps[0] or (first, end) == (0, held)), lod
         # and the triangles those streams draw (the file's restart index) are the built mesh's LOD
         for lod in (0, L // 2, L - 1):
             stream = q.draw_stream(lod)[1]
@@ -898,6 +907,12 @@ def test_example_engine(tmp_path: Path) -> None:
                 assert k == q.lod_for_triangles(target), (name, target)
             assert (drawn, used) == (q.triangle_counts[k], q.vertex_counts[k]), (name, k)
         assert {f[2] for f in out["frames"]} >= {0, q.lod_count - 1}, name  # both ends of the range
+        # instances upload only their dirty range: all of it in the first frame, nothing when the LOD holds
+        if name in ("vanilla", "skip-strip", "mixed"):
+            frames = out["frames"]
+            assert frames[0][5] > 0, name
+            assert all(f[5] == 0 for e, f in zip(frames, frames[1:], strict=False) if f[2] == e[2]), name
+            assert any(f[5] > 0 for e, f in zip(frames, frames[1:], strict=False) if f[2] != e[2]), name
 
 
 # -- the instances' dirty ranges: uploading only them keeps a GPU copy equal to the buffer ---------------
