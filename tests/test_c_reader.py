@@ -820,10 +820,11 @@ def test_readme_c_example_compiles(tmp_path: Path) -> None:
             [
                 "#include <stdio.h>",
                 *(head if i == 0 else ['#include "swpm_reader.h"', *head]),
-                "typedef unsigned GLenum; typedef int GLsizei;",
-                "enum { GL_TRIANGLES = 4, GL_TRIANGLE_STRIP = 5,",
+                "typedef unsigned GLenum; typedef int GLsizei; typedef long GLintptr, GLsizeiptr;",
+                "enum { GL_TRIANGLES = 4, GL_TRIANGLE_STRIP = 5, GL_ELEMENT_ARRAY_BUFFER = 0x8893,",
                 "       GL_UNSIGNED_SHORT = 0x1403, GL_UNSIGNED_INT = 0x1405 };",
                 "void glDrawElements(GLenum mode, GLsizei count, GLenum type, const void *indices);",
+                "void glBufferSubData(GLenum t, GLintptr o, GLsizeiptr n, const void *data);",
                 "void draw(const uint8_t *bytes, size_t length) {",
                 *body,
                 "}",
