@@ -78,7 +78,10 @@ int main(int argc, char **argv) {
         if (step > 0) {
             uploaded += (end - first) * w;
             drawn += n * w;
-            if (lod == was) repeat++, repeat_dirty += any;
+            if (lod == was) {
+                repeat++;
+                repeat_dirty += any != 0;
+            }
         }
     }
     printf("{\"steps\":%llu,\"mismatch\":%llu,\"repeat\":%llu,\"repeat_dirty\":%llu,\"uploaded\":%llu,"
