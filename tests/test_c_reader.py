@@ -276,8 +276,13 @@ def test_real_vanilla_files(dump: Path, tmp_path: Path, mesh: str) -> None:
             tris = np.ascontiguousarray(q.triangles_at(k), f"<u{W}")
             crcs[k] = (3 * len(tris), q.vertex_count_at(k), zlib.crc32(tris.tobytes()))
             assert np.array_equal(tris, pm.triangles_at(k))
-        for lod, count, vc, crc in steps:
+        for lod, count, vc, crc, *_ in steps:
             assert (count, vc, crc) == crcs[lod], lod
+        # the dirty ranges: init and LOD 0 wrote the whole copy; later moves write within INDX (a move whose
+        # records change no slot writes nothing: (0, 0)); tests/c_dirty_walk.c checks them against a mirror
+        assert steps[0][4:6] == [0, len(q.indices)]
+        assert all(s[4] < s[5] <= len(q.indices) or s[4] == s[5] == 0 for s in steps[1:])
+        assert sum(s[5] - s[4] for s in steps[1:]) < (len(steps) - 1) * len(q.indices)
     assert 4 in widths
 
 
@@ -384,6 +389,10 @@ def test_real_level_files(dump: Path, tmp_path: Path, mesh: str, variant: str) -
                 first, n = step[5], step[6]
                 assert np.array_equal(q.level_static_indices[first : first + n], static), lod
             assert (count, crc) == (len(want), zlib.crc32(want.tobytes())), lod
+            # the dirty range taken after the step: within the level's list (init and LOD 0: all of level 0's)
+            first, end = step[7:9] if enc == "mixed" else step[5:7]
+            held = out["levels"][step[1]][7] if enc == "mixed" else count
+            assert first <= end <= held and (step is not steps[0] or (first, end) == (0, held)), lod
         # and the triangles those streams draw (the file's restart index) are the built mesh's LOD
         for lod in (0, L // 2, L - 1):
             stream = q.draw_stream(lod)[1]
@@ -811,10 +820,11 @@ def test_readme_c_example_compiles(tmp_path: Path) -> None:
             [
                 "#include <stdio.h>",
                 *(head if i == 0 else ['#include "swpm_reader.h"', *head]),
-                "typedef unsigned GLenum; typedef int GLsizei;",
-                "enum { GL_TRIANGLES = 4, GL_TRIANGLE_STRIP = 5,",
+                "typedef unsigned GLenum; typedef int GLsizei; typedef long GLintptr, GLsizeiptr;",
+                "enum { GL_TRIANGLES = 4, GL_TRIANGLE_STRIP = 5, GL_ELEMENT_ARRAY_BUFFER = 0x8893,",
                 "       GL_UNSIGNED_SHORT = 0x1403, GL_UNSIGNED_INT = 0x1405 };",
                 "void glDrawElements(GLenum mode, GLsizei count, GLenum type, const void *indices);",
+                "void glBufferSubData(GLenum t, GLintptr o, GLsizeiptr n, const void *data);",
                 "void draw(const uint8_t *bytes, size_t length) {",
                 *body,
                 "}",
@@ -898,3 +908,43 @@ def test_example_engine(tmp_path: Path) -> None:
                 assert k == q.lod_for_triangles(target), (name, target)
             assert (drawn, used) == (q.triangle_counts[k], q.vertex_counts[k]), (name, k)
         assert {f[2] for f in out["frames"]} >= {0, q.lod_count - 1}, name  # both ends of the range
+        # instances upload only their dirty range: all of it in the first frame, nothing when the LOD holds
+        if name in ("vanilla", "skip-strip", "mixed"):
+            frames = out["frames"]
+            assert frames[0][5] > 0, name
+            assert all(f[5] == 0 for e, f in zip(frames, frames[1:], strict=False) if f[2] == e[2]), name
+            assert any(f[5] > 0 for e, f in zip(frames, frames[1:], strict=False) if f[2] != e[2]), name
+
+
+# -- the instances' dirty ranges: uploading only them keeps a GPU copy equal to the buffer ---------------
+DIRTY_CASES = [
+    (m, v) for m in ("suzanne", "spot", "cow") for v in ("vanilla", "skip-strip", "skip-list", "mixed")
+]
+
+
+@pytest.fixture(scope="module")
+def dirty_walk(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    cc = shutil.which("cc")
+    if cc is None:
+        pytest.fail("no C compiler (cc): the C reader's tests need one (README, Set up)")
+    out = tmp_path_factory.mktemp("cc-dirty") / "c_dirty_walk"
+    src = ROOT / "tests" / "c_dirty_walk.c"
+    subprocess.run([cc, *FLAGS, "-I", str(RUNTIME), "-o", str(out), str(src)], check=True)
+    return out
+
+
+@pytest.mark.parametrize(("mesh", "variant"), DIRTY_CASES, ids=[f"{m}-{v}" for m, v in DIRTY_CASES])
+def test_instance_dirty_range(dirty_walk: Path, tmp_path: Path, mesh: str, variant: str) -> None:
+    """A random walk of set_lod calls (steps, jumps across levels, repeats): after init and after each call,
+    copying only the taken dirty range into a mirror gives the instance's whole buffer (so what is drawn);
+    a set_lod to the held LOD leaves the range empty; on average less is uploaded than is drawn (README)."""
+    pm = _vpm(mesh) if variant == "vanilla" else _lpm(mesh, variant)
+    path = swpm_usd.save(pm, tmp_path / f"{mesh}-{variant}.swpm")
+    proc = subprocess.run(
+        [str(dirty_walk), str(path), "7", "1500"], capture_output=True, check=True, text=True
+    )
+    out = json.loads(proc.stdout)
+    assert out["mismatch"] == 0, out
+    assert out["repeat"] > 0 and out["repeat_dirty"] == 0, out
+    assert variant == "vanilla" or out["levels"] > 0, out  # level changes (whole-list copies) were walked
+    assert 0 < out["uploaded"] < out["drawn"], out

@@ -10,7 +10,8 @@
  * bound, converted to mesh units as README says, falling to 0). Prints one JSON object: "encoding",
  * "frames": [kind (0 budget, 1 screen-space error), the budget or max pixels (distance 10, fov_y 1, 1080
  * pixels high), LOD, triangles drawn, vertices used,
- * index bytes uploaded that frame], and "bad": frames that drew an index past the used vertices or a strip
+ * index bytes uploaded that frame (an instance's dirty range, swpm_*_take_dirty; init's whole buffer in the
+ * first frame)], and "bad": frames that drew an index past the used vertices or a strip
  * that restarts where it may not. Exit 0, 1 when the file is rejected (code and offset printed), 2 on I/O.
  */
 #include <math.h>
@@ -57,6 +58,12 @@ static uint64_t gpu_draw(int strip, int restart_on, uint64_t restart, const uint
     return tris;
 }
 
+/* Upload slots [first, end) of the instance's buffer into the "GPU"'s copy (glBufferSubData's part). */
+static void upload(uint8_t *gpu_ib, const uint8_t *ib, uint32_t w, uint64_t first, uint64_t end, uint64_t *bytes) {
+    memcpy(gpu_ib + first * w, ib + first * w, (size_t)((end - first) * w));
+    *bytes = (end - first) * w;
+}
+
 /* Screen-space error: the bound in mesh units for max_pixels at distance (README, swpm_lod_for_error). */
 static uint64_t lod_for_screen(const swpm_file *f, double max_pixels, double distance, double fov_y, int height) {
     if (distance <= 0.0) return 0;
@@ -66,13 +73,13 @@ static uint64_t lod_for_screen(const swpm_file *f, double max_pixels, double dis
 int main(int argc, char **argv) {
     FILE *fp;
     long size;
-    uint8_t *bytes, *ib;
+    uint8_t *bytes, *ib, *gpu_ib;
     void *scratch;
     swpm_file f;
     swpm_result r;
     swpm_vanilla_instance vi;
     swpm_level_instance li;
-    uint64_t L, count, restart = 0, step, frames, last_lod = UINT64_MAX, ib_bytes;
+    uint64_t L, count, restart = 0, step, frames, ib_bytes;
     uint32_t w;
     int enc, strip, restart_on, bad = 0;
     const uint8_t *pool;
@@ -99,7 +106,8 @@ int main(int argc, char **argv) {
     /* one instance's index buffer: vanilla a copy of INDX, skip-strip / mixed a level list */
     ib_bytes = enc == 1 ? count * w : swpm_level_instance_bytes(&f);
     ib = (uint8_t *)odd_alloc((size_t)ib_bytes);
-    if (!ib || (enc == 1 && !swpm_vanilla_instance_init(&f, &vi, ib, ib_bytes)) ||
+    gpu_ib = (uint8_t *)odd_alloc((size_t)ib_bytes); /* the "GPU"'s copy: written only by uploads */
+    if (!ib || !gpu_ib || (enc == 1 && !swpm_vanilla_instance_init(&f, &vi, ib, ib_bytes)) ||
         (enc == 3 && !swpm_skip_instance_init(&f, &li, ib, ib_bytes)) ||
         (enc == 4 && !swpm_mixed_instance_init(&f, &li, ib, ib_bytes)))
         return 2;
@@ -111,7 +119,7 @@ int main(int argc, char **argv) {
         uint64_t budget = swpm_lod_triangle_count(&f, 0) * t / (half > 1 ? half - 1 : 1);
         double bound = (double)swpm_lod_error(&f, L - 1) * (double)t / (double)half;
         double pixels = 0.0, distance = 10.0, fov_y = 1.0;
-        uint64_t k, n, drawn = 0, first, static_first, static_count, uploaded = 0;
+        uint64_t k, n, drawn = 0, first, end, static_first, static_count, uploaded = 0;
         uint32_t used;
         if (by_error) {
             /* (pixels so that the bound in mesh units is `bound`, through the README's formula) */
@@ -125,24 +133,27 @@ int main(int argc, char **argv) {
             drawn = gpu_draw(strip, restart_on, restart, pool + first * w, w, n, used, &bad);
         } else if (enc == 1) { /* vanilla: the instance's list, its first n indices */
             n = swpm_vanilla_set_lod(&f, &vi, k, &used);
-            if (k != last_lod) uploaded = n * w; /* no dirty range in the API: re-upload what is drawn */
-            drawn = gpu_draw(0, 0, 0, ib, w, n, used, &bad);
+            if (swpm_vanilla_take_dirty(&vi, &first, &end)) /* the slots written since (init: all) */
+                upload(gpu_ib, ib, w, first, end, &uploaded);
+            drawn = gpu_draw(0, 0, 0, gpu_ib, w, n, used, &bad);
         } else if (enc == 3) { /* skip-strip: the instance's whole level list */
             n = swpm_skip_set_lod(&f, &li, k, &used);
-            if (k != last_lod) uploaded = n * w;
-            drawn = gpu_draw(strip, restart_on, restart, ib, w, n, used, &bad);
+            if (swpm_level_take_dirty(&li, &first, &end))
+                upload(gpu_ib, ib, w, first, end, &uploaded);
+            drawn = gpu_draw(strip, restart_on, restart, gpu_ib, w, n, used, &bad);
         } else { /* mixed: the instance's live dynamic prefix, then the shared static range */
             n = swpm_mixed_set_lod(&f, &li, k, &static_first, &static_count, &used);
-            if (k != last_lod) uploaded = n * w;
-            drawn = gpu_draw(0, 0, 0, ib, w, n, used, &bad) +
+            if (swpm_level_take_dirty(&li, &first, &end))
+                upload(gpu_ib, ib, w, first, end, &uploaded);
+            drawn = gpu_draw(0, 0, 0, gpu_ib, w, n, used, &bad) +
                     gpu_draw(0, 0, 0, pool + static_first * w, w, static_count, used, &bad);
         }
-        last_lod = k;
         printf("%s[%d,%.17g,%llu,%llu,%u,%llu]", step ? "," : "", by_error,
                by_error ? pixels : (double)budget, (unsigned long long)k, (unsigned long long)drawn, used,
                (unsigned long long)uploaded);
     }
     printf("],\"bad\":%d}\n", bad);
+    odd_free(gpu_ib);
     odd_free(ib);
     odd_free(bytes);
     return 0;

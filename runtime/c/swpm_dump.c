@@ -6,7 +6,7 @@
  * elements in C order in their stored type, little-endian, "lod_for_triangles": [target, LOD] pairs, and
  * sliding-window: "windows": swpm_window of every LOD; vanilla: "instance": a swpm_vanilla_instance moved by
  * swpm_vanilla_set_lod to LODs 0, 1, ..., L-1 and back to 0, each step [lod, index_count, vertex_count, the
- * CRC-32 of the buffer's first index_count indices as stored, and when L <= 8 their hex too] (a CRC, not the
+ * CRC-32 of the buffer's first index_count indices as stored, the dirty range taken (first, end), and when L <= 8 their hex too] (a CRC, not the
  * hex, on a real file: thousands of LODs times thousands of indices); skip-strip and mixed: "levels",
  * "level_of_lod" and "instance" (see levels() below)}, exit 0. Usage error: exit 2.
  * swpm_dump --check FILE...: one line per file, {"ok": ...} or {"ok": false, "code", "offset"} (a batch
@@ -115,7 +115,7 @@ static const char *const encodings[5] = {"", "vanilla", "sliding-window", "skip-
 /* skip-strip and mixed: the summary's arrays, then "levels" (swpm_level_at of each level) and "instance":
  * an instance moved to LODs 0, 1, ..., L-1 and back to 0, each step [lod, level, index_count, vertex_count,
  * the CRC-32 of the buffer's first index_count indices as stored (mixed: then static_first, static_count),
- * and when L <= 8 the hex of those indices]; the caller's printf goes on with "lod_for_triangles". */
+ * the dirty range taken (first, end), and when L <= 8 the hex of those indices]; the caller's printf goes on with "lod_for_triangles". */
 static void levels(const swpm_file *f) {
     static const char *const skip_names[6] = {"level_first_lod", "level_index_start", "level_collapsed_start",
                                               "level_record_start", "level_collapsed_indices", ""};
@@ -168,7 +168,7 @@ static void levels(const swpm_file *f) {
     }
     width = swpm_index_width(f);
     for (pos = 0; pos < 2 * L - 1; pos++) { /* 0, 1, ..., L-1, L-2, ..., 0 */
-        uint64_t lod = pos < L ? pos : 2 * L - 2 - pos, n, sf = 0, sc = 0;
+        uint64_t lod = pos < L ? pos : 2 * L - 2 - pos, n, sf = 0, sc = 0, first, end;
         uint32_t vertex_count;
         n = mixed ? swpm_mixed_set_lod(f, &inst, lod, &sf, &sc, &vertex_count)
                   : swpm_skip_set_lod(f, &inst, lod, &vertex_count);
@@ -176,6 +176,8 @@ static void levels(const swpm_file *f) {
                (unsigned long long)n, vertex_count,
                (unsigned long)(swpm__crc_update(0xFFFFFFFFu, buffer, n * width) ^ 0xFFFFFFFFu));
         if (mixed) printf(",%llu,%llu", (unsigned long long)sf, (unsigned long long)sc);
+        swpm_level_take_dirty(&inst, &first, &end);
+        printf(",%llu,%llu", (unsigned long long)first, (unsigned long long)end);
         if (L <= 8) {
             printf(",\"");
             hex(buffer, n * width);
@@ -294,11 +296,13 @@ int main(int argc, char **argv) {
             return 2;
         }
         for (pos = 0; pos < 2 * L - 1; pos++) { /* 0, 1, ..., L-1, L-2, ..., 0 */
-            uint64_t lod = pos < L ? pos : 2 * L - 2 - pos, n;
+            uint64_t lod = pos < L ? pos : 2 * L - 2 - pos, n, first, end;
             uint32_t vertex_count;
             n = swpm_vanilla_set_lod(&f, &inst, lod, &vertex_count);
             printf("%s[%llu,%llu,%u,%lu", pos ? "," : "", (unsigned long long)lod, (unsigned long long)n,
                    vertex_count, (unsigned long)(swpm__crc_update(0xFFFFFFFFu, buffer, n * width) ^ 0xFFFFFFFFu));
+            swpm_vanilla_take_dirty(&inst, &first, &end);
+            printf(",%llu,%llu", (unsigned long long)first, (unsigned long long)end);
             if (L <= 8) {
                 printf(",\"");
                 hex(buffer, n * width);

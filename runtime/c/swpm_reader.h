@@ -34,7 +34,9 @@
  * records); swpm_skip_instance_init() / swpm_skip_set_lod() and swpm_mixed_instance_init() /
  * swpm_mixed_set_lod() (3.7, 3.8: a copy of the current level's list, or dynamic list, in the caller's
  * buffer of swpm_level_instance_bytes(); a level change copies the target level's stored uncollapsed or
- * collapsed list, whichever is fewer records away, then records are applied or undone).
+ * collapsed list, whichever is fewer records away, then records are applied or undone). Each instance
+ * keeps a dirty range, the slots written since the caller last took it (swpm_vanilla_take_dirty,
+ * swpm_level_take_dirty), so an engine re-uploads only [first, end) of its index buffer.
  *
  * What it does not do:
  *  - warnings and infos (SWPM_STREAM_ORDER, SWPM_FILE_TRAILING_BYTES, SWPM_VERT_NONFINITE, ...) are not
@@ -139,6 +141,7 @@ typedef struct swpm_vanilla_instance {
     uint64_t applied;    /* records [0, applied) are applied: RCNT[lod] */
     uint64_t change_pos; /* the sum of their change counts: where record `applied`'s change offsets start */
     uint64_t live;       /* live triangles: LODS triangle_count(lod) */
+    uint64_t dirty_first, dirty_end; /* slots [dirty_first, dirty_end) hold every write since the last take */
 } swpm_vanilla_instance;
 
 /* Open and validate a file (format.md 5). file is filled only on success. A vanilla, skip-strip or mixed
@@ -238,6 +241,11 @@ int swpm_vanilla_instance_init(const swpm_file *f, swpm_vanilla_instance *inst, 
  * *vertex_count to LODS vertex_count(lod) (vertices [0, vertex_count) are drawn). */
 uint64_t swpm_vanilla_set_lod(const swpm_file *f, swpm_vanilla_instance *inst, uint64_t lod,
                               uint32_t *vertex_count);
+/* The dirty range: sets [*first, *end) to the lowest and one past the highest slot (index element, W bytes)
+ * written since the last take (init marks the whole buffer), then clears it; returns 0 (first = end = 0)
+ * when nothing was written, as after a set_lod to the LOD the instance holds. Uploading those slots keeps a
+ * GPU copy of the buffer equal to it. The range may reach past what is drawn (slots of collapsed triangles). */
+int swpm_vanilla_take_dirty(swpm_vanilla_instance *inst, uint64_t *first, uint64_t *end);
 
 /* 1 and *restart = params.restart_index (>= V; the largest idx value from current writers) for strips joined
  * by a restart index: a SW_STRIPS pool, skip-strip strips whose restart_index is an integer. 0 otherwise (a
@@ -282,6 +290,7 @@ typedef struct swpm_level_instance {
     uint64_t count;        /* elements of the level's list (skip-strip) or dynamic list (mixed) */
     uint64_t static_live;  /* mixed: live triangles of the level's static list */
     uint64_t dynamic_live; /* mixed: live triangles of the buffer (its dynamic list) */
+    uint64_t dirty_first, dirty_end; /* slots [dirty_first, dirty_end) hold every write since the last take */
 } swpm_level_instance;
 
 /* n (0 for vanilla and sliding-window); level l's fields (0 if l >= n); the level that draws LOD lod (the
@@ -316,6 +325,8 @@ int swpm_mixed_instance_init(const swpm_file *f, swpm_level_instance *inst, void
 uint64_t swpm_skip_set_lod(const swpm_file *f, swpm_level_instance *inst, uint64_t lod, uint32_t *vertex_count);
 uint64_t swpm_mixed_set_lod(const swpm_file *f, swpm_level_instance *inst, uint64_t lod, uint64_t *static_first,
                             uint64_t *static_count, uint32_t *vertex_count);
+/* As swpm_vanilla_take_dirty, for a skip-strip or mixed instance (a level change marks the copied list). */
+int swpm_level_take_dirty(swpm_level_instance *inst, uint64_t *first, uint64_t *end);
 
 #ifdef __cplusplus
 }
@@ -1909,6 +1920,29 @@ const uint8_t *swpm_lod_record_counts(const swpm_file *f, uint64_t *count) {
 uint32_t swpm_lod_record_count(const swpm_file *f, uint64_t k) {
     return f->encoding != 2 ? swpm__uw(f->rcnt + k * f->offset_width, f->offset_width) : 0;
 }
+/* Widen a dirty range [*first, *end) (empty when *first >= *end) to hold [a, b): O(1) a write. */
+static void swpm__dirty(uint64_t *first, uint64_t *end, uint64_t a, uint64_t b) {
+    if (*first >= *end) {
+        *first = a;
+        *end = b;
+    } else {
+        if (a < *first) *first = a;
+        if (b > *end) *end = b;
+    }
+}
+static int swpm__take_dirty(uint64_t *df, uint64_t *de, uint64_t *first, uint64_t *end) {
+    int any = *df < *de;
+    *first = any ? *df : 0;
+    *end = any ? *de : 0;
+    *df = *de = 0;
+    return any;
+}
+int swpm_vanilla_take_dirty(swpm_vanilla_instance *inst, uint64_t *first, uint64_t *end) {
+    return swpm__take_dirty(&inst->dirty_first, &inst->dirty_end, first, end);
+}
+int swpm_level_take_dirty(swpm_level_instance *inst, uint64_t *first, uint64_t *end) {
+    return swpm__take_dirty(&inst->dirty_first, &inst->dirty_end, first, end);
+}
 int swpm_vanilla_instance_init(const swpm_file *f, swpm_vanilla_instance *inst, void *buffer, uint64_t capacity) {
     uint64_t n = f->index_count * f->index_width;
     if (f->encoding != 1 || capacity < n || (n && buffer == NULL)) return 0;
@@ -1918,6 +1952,8 @@ int swpm_vanilla_instance_init(const swpm_file *f, swpm_vanilla_instance *inst, 
     inst->applied = 0; /* RCNT[0] = 0 (validated) */
     inst->change_pos = 0;
     inst->live = f->index_count / 3;
+    inst->dirty_first = 0; /* the whole copy is new to the GPU */
+    inst->dirty_end = f->index_count;
     return 1;
 }
 uint64_t swpm_vanilla_set_lod(const swpm_file *f, swpm_vanilla_instance *inst, uint64_t lod,
@@ -1928,8 +1964,11 @@ uint64_t swpm_vanilla_set_lod(const swpm_file *f, swpm_vanilla_instance *inst, u
     target = swpm_lod_record_count(f, lod);
     while (inst->applied < target) { /* apply record `applied`: its slots take kept */
         swpm_collapse_record(f, inst->applied, &kept, &removed, &cc, &prev);
-        for (j = 0; j < cc; j++)
-            swpm__put(inst->indices + W * (uint64_t)swpm__uw(f->change_offsets + O * (inst->change_pos + j), O), W, kept);
+        for (j = 0; j < cc; j++) {
+            uint64_t s = swpm__uw(f->change_offsets + O * (inst->change_pos + j), O);
+            swpm__put(inst->indices + W * s, W, kept);
+            swpm__dirty(&inst->dirty_first, &inst->dirty_end, s, s + 1);
+        }
         inst->change_pos += cc;
         inst->live -= removed;
         inst->applied++;
@@ -1938,9 +1977,11 @@ uint64_t swpm_vanilla_set_lod(const swpm_file *f, swpm_vanilla_instance *inst, u
         uint64_t r = --inst->applied;
         swpm_collapse_record(f, r, &kept, &removed, &cc, &prev);
         inst->change_pos -= cc;
-        for (j = 0; j < cc; j++)
-            swpm__put(inst->indices + W * (uint64_t)swpm__uw(f->change_offsets + O * (inst->change_pos + j), O), W,
-                      (uint64_t)f->vertex_count - 1 - r);
+        for (j = 0; j < cc; j++) {
+            uint64_t s = swpm__uw(f->change_offsets + O * (inst->change_pos + j), O);
+            swpm__put(inst->indices + W * s, W, (uint64_t)f->vertex_count - 1 - r);
+            swpm__dirty(&inst->dirty_first, &inst->dirty_end, s, s + 1);
+        }
         inst->live += removed;
     }
     inst->lod = lod;
@@ -2002,6 +2043,7 @@ static void swpm__level_load(const swpm_file *f, swpm_level_instance *inst, uint
     uint64_t r0 = swpm__la(f, 3, l), r1 = swpm__la(f, 3, l + 1), r = collapsed ? r1 : r0, q;
     const uint8_t *src = collapsed ? f->level_lists[mixed ? 1 : 0] : mixed ? f->level_lists[0] : f->indx;
     if (m) memcpy(inst->indices, src + W * s0, (size_t)(W * m));
+    if (m) swpm__dirty(&inst->dirty_first, &inst->dirty_end, 0, m);
     /* the change offsets' position of record r: walk from where the instance stands */
     for (q = inst->applied; q < r; q++) inst->change_pos += swpm_collapse_field(f, q, cols - 2);
     for (q = inst->applied; q > r; q--) inst->change_pos -= swpm_collapse_field(f, q - 1, cols - 2);
@@ -2025,6 +2067,7 @@ static int swpm__level_init(const swpm_file *f, int enc, swpm_level_instance *in
     inst->lod = 0;
     inst->applied = 0;
     inst->change_pos = 0;
+    inst->dirty_first = inst->dirty_end = 0;
     swpm__level_load(f, inst, 0, 0);
     return 1;
 }
@@ -2049,8 +2092,11 @@ static void swpm__level_move(const swpm_file *f, swpm_level_instance *inst, uint
     }
     while (inst->applied < target) {
         uint64_t r = inst->applied, cc = swpm_collapse_field(f, r, cols - 2), kept = swpm_collapse_field(f, r, 0);
-        for (j = 0; j < cc; j++)
-            swpm__put(inst->indices + W * (uint64_t)swpm__uw(f->change_offsets + O * (inst->change_pos + j), O), W, kept);
+        for (j = 0; j < cc; j++) {
+            uint64_t s = swpm__uw(f->change_offsets + O * (inst->change_pos + j), O);
+            swpm__put(inst->indices + W * s, W, kept);
+            swpm__dirty(&inst->dirty_first, &inst->dirty_end, s, s + 1);
+        }
         inst->change_pos += cc;
         if (mixed) {
             inst->static_live -= swpm_collapse_field(f, r, 1);
@@ -2061,9 +2107,11 @@ static void swpm__level_move(const swpm_file *f, swpm_level_instance *inst, uint
     while (inst->applied > target) {
         uint64_t r = --inst->applied, cc = swpm_collapse_field(f, r, cols - 2);
         inst->change_pos -= cc;
-        for (j = 0; j < cc; j++)
-            swpm__put(inst->indices + W * (uint64_t)swpm__uw(f->change_offsets + O * (inst->change_pos + j), O), W,
-                      (uint64_t)f->vertex_count - 1 - r);
+        for (j = 0; j < cc; j++) {
+            uint64_t s = swpm__uw(f->change_offsets + O * (inst->change_pos + j), O);
+            swpm__put(inst->indices + W * s, W, (uint64_t)f->vertex_count - 1 - r);
+            swpm__dirty(&inst->dirty_first, &inst->dirty_end, s, s + 1);
+        }
         if (mixed) {
             inst->static_live += swpm_collapse_field(f, r, 1);
             inst->dynamic_live += swpm_collapse_field(f, r, 2);
