@@ -12,7 +12,7 @@ from conftest import shared_mesh
 import swpm_usd
 import swpm_usd.encode.slidingwindow
 from swpm_usd.encode.strips import _stripify, _stripify_barriers, decode_strip
-from swpm_usd.encode.sw_strips import _strip_pieces, search_block, strip_pool
+from swpm_usd.encode.sw_strips import SEARCH_BLOCK, _strip_pieces, search_block, strip_pool
 from swpm_usd.errors import BuildError
 
 OPTIONS = {"defaults": {}, "cluster-swap": {"cluster": True, "optimize_connectivity": True}}
@@ -71,7 +71,9 @@ def test_windows_are_strip_ranges_after_a_restart(builds, option) -> None:
     tris = lst.index_pool.astype(np.int64).reshape(-1, 3)
     rec = lst.window_records.astype(np.int64)
     cuts = np.unique(np.r_[0, tris.shape[0], rec[:, 0] // 3, rec[:, 0] // 3 + rec[:, 1]])
-    old, _, _, _ = _strip_pieces(tris, cuts, np.empty(0, np.int64), rv, strip.params["strip_window"])
+    old, _, _, _ = _strip_pieces(
+        tris, cuts, np.empty(0, np.int64), rv, strip.params["strip_window"], SEARCH_BLOCK, 300
+    )
     assert np.count_nonzero(pool == rv) < np.count_nonzero(old == rv) and pool.shape[0] < old.shape[0]
     # a window ends on its last triangle's index, never on a join's degenerate triangles after it (three
     # indices of one strip, distinct)
@@ -171,7 +173,8 @@ def test_stripify_never_crosses_a_barrier(seed) -> None:
             assert np.array_equal(_canonical(got), _canonical(tris[:b])), (window, joins, exact, b)
         # no barrier: the skip strips' stripifier bit for bit
         assert np.array_equal(
-            _stripify_barriers(tris, True, rv, window, barriers[:0])[0], _stripify(tris, True, rv, window)
+            _stripify_barriers(tris, True, rv, window, barriers[:0], False, 0)[0],
+            _stripify(tris, True, rv, window),
         )
 
 
@@ -513,7 +516,7 @@ def test_strip_builds_join_without_restarts(builds, option) -> None:
     plain = []
     for a, b in zip(cuts[:-1].tolist(), cuts[1:].tolist(), strict=True):
         bs = barriers[(barriers > a) & (barriers < b)] - a
-        plain.append(_stripify_barriers(tris[a:b], True, rv, max(1, min(w, b - a)), bs, False)[0])
+        plain.append(_stripify_barriers(tris[a:b], True, rv, max(1, min(w, b - a)), bs, False, 0)[0])
     n_plain = sum(p.shape[0] for p in plain) + len(plain) - 1
     assert pool.shape[0] < n_plain
 

@@ -261,8 +261,8 @@ def _search_block(
     memo: np.ndarray,
     stamp: int,
     ws: np.ndarray,
-    bound: int = 1 << 60,
-    lower: bool = False,
+    bound: int,
+    lower: bool,
 ) -> int:
     """The least count after writing triangles ``lo..hi`` (any order, any modes of :func:`_apply`) after
     ``out[:n]``, depth-first within ``budget`` nodes; the choices (mode * (hi - lo) + triangle) into
@@ -454,7 +454,7 @@ def _strip_block(
         saved[j] = out[a0 + j]
     turnable = n > 0 and lt_kind == 0 and lt_pos == pos0 and n == lt_pos + 3
     swappable = n > 0 and lt_kind == 1 and lt_pos == n - 1 and n - 3 >= pos0
-    best_total = 1 << 60
+    best_total = np.int64(1 << 60)  # (int64, not a literal: the bound _search_block is compiled for)
     best_v = 0
     for v in range(4):
         # 0-2: the last triangle turned to rotation v (a strip's first one) or as written (v = 0); 3: a swap
@@ -482,12 +482,27 @@ def _strip_block(
                 stamp,
                 sw,
                 best_total,
-                True,
+                np.bool_(True),
             )
             < best_total
         ):
             stamp += 1
-            total = _search_block(tris, lo, hi, out, nv, pos0, restart, budget, tmp, memo, stamp, sw)
+            total = _search_block(
+                tris,
+                lo,
+                hi,
+                out,
+                nv,
+                pos0,
+                restart,
+                budget,
+                tmp,
+                memo,
+                stamp,
+                sw,
+                np.int64(1 << 60),
+                np.bool_(False),
+            )
             if total < best_total:
                 best_total = total
                 best_v = v
@@ -509,7 +524,9 @@ def _strip_block(
 
 @nb.njit(cache=True)
 def _stripify(tris: np.ndarray, use_restart: bool, restart: int, window: int) -> np.ndarray:
-    return _stripify_barriers(tris, use_restart, restart, window, np.empty(0, np.int64), False)[0]
+    return _stripify_barriers(
+        tris, use_restart, restart, window, np.empty(0, np.int64), np.bool_(False), np.int64(0)
+    )[0]
 
 
 @nb.njit(cache=True)
@@ -519,8 +536,8 @@ def _stripify_barriers(
     restart: int,
     window: int,
     barriers: np.ndarray,
-    joins: bool = False,
-    exact: int = 0,
+    joins: bool,
+    exact: int,
 ) -> tuple:
     """:func:`_stripify` with ``barriers``, sorted triangle positions the look-ahead never crosses (every
     triangle before one is emitted before any after it), so that a prefix of the strip draws exactly the
@@ -531,7 +548,9 @@ def _stripify_barriers(
     only: ignored when ``use_restart`` is False). Returns (the strip, the strip position of every barrier:
     the index count that draws the triangles before it). No barrier, no joins: :func:`_stripify`'s strip."""
     memo, ws = _search_scratch(exact)
-    strip, bpos, _ = _stripify_blocks(tris, use_restart, restart, window, barriers, joins, exact, memo, ws, 0)
+    strip, bpos, _ = _stripify_blocks(
+        tris, use_restart, restart, window, barriers, joins, exact, memo, ws, np.int64(0), np.int64(_BUDGET)
+    )
     return strip, bpos
 
 
@@ -559,13 +578,15 @@ def _stripify_blocks(
     memo: np.ndarray,
     ws: np.ndarray,
     stamp: int,
-    budget: int = _BUDGET,
+    budget: int,
 ) -> tuple:
     """:func:`_stripify_barriers` with the search's scratch (:func:`_search_scratch`) passed in and its
     last memo stamp, ``budget`` the nodes of a block's search: (the strip, the barriers' strip positions,
     the stamp)."""
     T = tris.shape[0]
     B = barriers.shape[0]
+    # (call arguments typed int64, not Literal[int](0): one compile of :func:`_strip_block` for every call)
+    zero = np.int64(0)
     # at most 5 indices a triangle: a strip's first one after a degenerate join (2 + 3), a swap 2; a swap
     # across a barrier is one more index (at most one a barrier)
     out = np.empty(5 * T + 2 + B, np.int64)
@@ -575,17 +596,17 @@ def _stripify_blocks(
     buf = np.empty(window, np.int64)
     bsize = 0
     next_in = 0
-    n = 0
-    pos0 = 0  # first index of the current strip (parity origin)
+    n = np.int64(0)
+    pos0 = np.int64(0)  # first index of the current strip (parity origin)
     cont = -1  # buffer slot of the triangle that continues the strip, found as the last one was emitted
     cont_v = -1  # its vertex off the strip's last edge
     nb_ = 0  # barriers passed
     limit = T  # the input is buffered up to the next barrier only
     # the last emitted triangle, for a join at a barrier: how it was written (0 a strip's first triangle, 1 a
     # continuation by one index, 2 by a swap), its first index's position, its input triangle
-    lt_kind = 2
-    lt_pos = 0
-    lt_tri = 0
+    lt_kind = np.int64(2)
+    lt_pos = np.int64(0)
+    lt_tri = np.int64(0)
     while nb_ < B and barriers[nb_] <= 0:
         nb_ += 1
     if nb_ < B:
@@ -596,7 +617,7 @@ def _stripify_blocks(
         exact = 0
     if exact > 0 and 0 < limit <= exact:
         n, _, pos0, lt_kind, lt_pos, lt_tri, stamp = _strip_block(
-            tris, 0, limit, out, 0, 0, restart, budget, lt_kind, lt_pos, lt_tri, memo, stamp, ws
+            tris, zero, limit, out, zero, zero, restart, budget, lt_kind, lt_pos, lt_tri, memo, stamp, ws
         )
         next_in = limit
     while True:

@@ -67,8 +67,8 @@ def _strip_pieces(
     barriers: np.ndarray,
     restart: int,
     window: int,
-    block: int = SEARCH_BLOCK,
-    budget: int = 300,
+    block: int,
+    budget: int,
 ) -> tuple:
     """The pieces ``tris[cuts[i]:cuts[i + 1]]`` stripified with the ``barriers`` inside them (sorted, none
     on a cut) and joined by ``restart``, blocks of at most ``block`` triangles searched within ``budget``
@@ -83,7 +83,8 @@ def _strip_pieces(
     bpos = np.zeros(barriers.shape[0], np.int64)
     n = 0
     memo, ws = _search_scratch(block)
-    stamp = 0
+    stamp = np.int64(0)
+    yes = np.bool_(True)  # (not Literal[bool](True): one compile of _stripify_blocks for every call)
     for s in range(S):
         a, b = cuts[s], cuts[s + 1]
         if s > 0:
@@ -93,11 +94,11 @@ def _strip_pieces(
         j = np.searchsorted(barriers, b)
         piece, pos, stamp = _stripify_blocks(
             tris[a:b],
-            True,
+            yes,
             restart,
             max(1, min(window, b - a)),
             barriers[i:j] - a,
-            True,
+            yes,
             block,
             memo,
             ws,
