@@ -415,7 +415,8 @@ def run_cmd(
             if res.pruned:
                 click.echo(f"pruned {orphan_phrase(n, code, detail)}")
             else:
-                click.echo(f"{orphan_phrase(n, code, detail)} left in output.dir (--prune deletes them)")
+                them = "them" if n != 1 else "it"
+                click.echo(f"{orphan_phrase(n, code, detail)} left in output.dir (--prune deletes {them})")
     sys.exit(1 if res.failed else 0)
 
 

@@ -330,7 +330,7 @@ def test_outputs_of_removed_assets_are_named_and_pruned_only_on_request(tmp_path
     assert second.unlisted == ["spot.swpm"]
     r = CliRunner().invoke(main, ["run", str(cfg)])
     assert r.exit_code == 0
-    left = "1 output of an asset no longer in the config left in output.dir (--prune deletes them)"
+    left = "1 output of an asset no longer in the config left in output.dir (--prune deletes it)"
     assert left in r.output
     r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
     assert r.exit_code == 0 and json.loads(r.stdout)["unlisted"] == ["spot.swpm"], r.output
