@@ -59,6 +59,17 @@ static void lod_pair(const swpm_file *f, uint64_t target, int first) {
 /* Every buffer the reader sees sits at an odd address, ending exactly at the allocation's end (so that a read
  * past it trips the address sanitizer): the file's bytes may be anywhere in an engine's memory, and UBSan
  * (-fsanitize=undefined includes alignment) then reports any load through a casted pointer. */
+/* The end of an instance step's row: the dirty range taken, the drawn bytes as hex for a short file. */
+static void step_end(uint64_t first, uint64_t end, const uint8_t *buffer, uint64_t bytes, uint64_t L) {
+    printf(",%llu,%llu", (unsigned long long)first, (unsigned long long)end);
+    if (L <= 8) {
+        printf(",\"");
+        hex(buffer, bytes);
+        printf("\"");
+    }
+    printf("]");
+}
+
 static void *odd_alloc(size_t n) {
     uint8_t *p = (uint8_t *)malloc(n + 1);
     return p ? p + 1 : NULL;
@@ -177,13 +188,7 @@ static void levels(const swpm_file *f) {
                (unsigned long)(swpm__crc_update(0xFFFFFFFFu, buffer, n * width) ^ 0xFFFFFFFFu));
         if (mixed) printf(",%llu,%llu", (unsigned long long)sf, (unsigned long long)sc);
         swpm_level_take_dirty(&inst, &first, &end);
-        printf(",%llu,%llu", (unsigned long long)first, (unsigned long long)end);
-        if (L <= 8) {
-            printf(",\"");
-            hex(buffer, n * width);
-            printf("\"");
-        }
-        printf("]");
+        step_end(first, end, buffer, n * width, L);
     }
     odd_free(buffer);
     printf("],\"lod_for_triangles\":[");
@@ -302,13 +307,7 @@ int main(int argc, char **argv) {
             printf("%s[%llu,%llu,%u,%lu", pos ? "," : "", (unsigned long long)lod, (unsigned long long)n,
                    vertex_count, (unsigned long)(swpm__crc_update(0xFFFFFFFFu, buffer, n * width) ^ 0xFFFFFFFFu));
             swpm_vanilla_take_dirty(&inst, &first, &end);
-            printf(",%llu,%llu", (unsigned long long)first, (unsigned long long)end);
-            if (L <= 8) {
-                printf(",\"");
-                hex(buffer, n * width);
-                printf("\"");
-            }
-            printf("]");
+            step_end(first, end, buffer, n * width, L);
         }
         odd_free(buffer);
         printf("],\"lod_for_triangles\":[");

@@ -84,10 +84,15 @@ def path_name(file: Path, root: Path) -> str:
     return PATH_NAME_SEPARATOR.join((*rel.parent.parts, rel.stem))
 
 
+def output_names(cfg: Config) -> str:
+    """The config's ``output.names``: ``"stem"`` (the default) or ``"path"``."""
+    out = cfg.data.get("output")
+    return "path" if isinstance(out, dict) and out.get("names", "stem") == "path" else "stem"
+
+
 def names_by_path(cfg: Config) -> bool:
     """Does the config name outputs by the asset's path (``output.names: path``), not its stem?"""
-    out = cfg.data.get("output")
-    return isinstance(out, dict) and out.get("names", "stem") == "path"
+    return output_names(cfg) == "path"
 
 
 def file_digest(paths: list[Path]) -> str:

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .. import __version__
-from .assets import Asset, checks_of, match_rule, names_by_path, rule_checks, treatment_digest
+from .assets import Asset, checks_of, match_rule, output_names, rule_checks, treatment_digest
 from .config import Config
 from .worker import TRIANGLES_READ
 
@@ -184,14 +184,14 @@ def _names_moved(cfg: Config, asset: Asset, previous: dict | None) -> str:
     }
     if not old or old == {asset.output_stem}:
         return ""
-    now = "path" if names_by_path(cfg) else "stem"
+    now = output_names(cfg)
     then = previous.get("output_names")
     if then in ("stem", "path") and then != now:
         return f"output.names: {then} -> {now}"
     if then == now == "path":
         return "its glob (output.names: path)"
     by_stem = dataclasses.replace(asset, path_name=None).output_stem
-    if names_by_path(cfg):
+    if now == "path":
         return "output.names: stem -> path" if by_stem in old else "its glob (output.names: path)"
     return "output.names: path -> stem"
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from .assets import names_by_path
+from .assets import output_names
 from .config import Config
 from .inputs import _is_recorded_path
 from .rules import _max_triangles, _routes_by_triangles
@@ -32,7 +32,7 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
         "instances": item.asset.instances,
         "stem": item.asset.output_stem,
         # (recorded with the outputs: what named them, for a later run's account of files left at old names)
-        "output_names": "path" if names_by_path(cfg) else "stem",
+        "output_names": output_names(cfg),
         "digest": item.digest,
         "encoding": item.treatment.get("encoding"),
         "params": item.treatment.get("params", {}),

@@ -150,6 +150,12 @@ def read_buffers(prim: Usd.Prim) -> dict[str, np.ndarray]:
     """The encoding's buffers stored on ``prim`` (an encoded Mesh, or a prim with one below it)."""
     prim = _encoded_prim(prim)
     _check_version(prim)
+    return _stored_buffers(prim)
+
+
+def _stored_buffers(prim: Usd.Prim) -> dict[str, np.ndarray]:
+    """:func:`read_buffers` of an encoded prim whose version is checked (:func:`read` has found and checked
+    it)."""
     names = list(_get(prim, "swpm:bufferNames"))
     dtypes = list(_get(prim, "swpm:bufferDtypes"))
     problem = dtype_problem("swpm:bufferDtypes", dtypes, BUFFER_DTYPES)
@@ -303,7 +309,7 @@ def read(prim: Usd.Prim, check: bool = True) -> ProgressiveMesh:
             from_vt(_get(prim, "swpm:vertexCounts"), np.int64),
             from_vt(_get(prim, "swpm:triangleCounts"), np.int64),
             from_vt(_get(prim, "swpm:lodErrors"), np.float32),
-            read_buffers(prim),
+            _stored_buffers(prim),
             params,
         )
     except UsdReadError:
