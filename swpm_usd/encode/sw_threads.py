@@ -120,9 +120,10 @@ def core_free(cores: int) -> bool:
     """Whether the other processes kept at most ``cores - 1`` cores busy since this process's previous look
     (its own CPU time, every thread of it, taken off the system's), so that the build has a core the others
     leave free (:data:`ADAPT_TO_LOAD`; with exactly one left, the main thread and its worker and helper share
-    it: that middle case is not measured, ``slidingwindow.md``). True where that cannot be read, on the first
-    look and after a fork (the child's CPU time starts again), and when the previous look is older than
-    :data:`_LOOK_MAX_AGE`; a look within :data:`_LOOK_MIN_WINDOW` of it keeps its answer."""
+    it, and the threads still break even or pay: threaded / inline 0.86-1.05 with one other busy process on
+    two cores, 0.67-0.88 with none, ``benchmarks/bench_threads.py``). True where that cannot be read, on the
+    first look and after a fork (the child's CPU time starts again), and when the previous look is older
+    than :data:`_LOOK_MAX_AGE`; a look within :data:`_LOOK_MIN_WINDOW` of it keeps its answer."""
     if not ADAPT_TO_LOAD:
         return True
     busy = _system_busy()
