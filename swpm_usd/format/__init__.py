@@ -16,11 +16,15 @@ __getattr__, __dir__ = lazy_attributes(
         "validate_bytes": "reader",
         "encode_bytes": "writer",
         "save": "writer",
+        "FilePrefix": "prefix",
+        "open_prefix": "prefix",
+        "validate_prefix": "prefix",
     },
 )
 
 __all__ = [
     "CATALOGUE",
+    "FilePrefix",
     "Problem",
     "Report",
     "SwpmEncodeError",
@@ -28,7 +32,9 @@ __all__ = [
     "encode_bytes",
     "load",
     "load_bytes",
+    "open_prefix",
     "save",
     "validate",
     "validate_bytes",
+    "validate_prefix",
 ]
