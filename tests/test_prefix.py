@@ -297,3 +297,27 @@ def test_fuzz_prefixes_against_python(dump_san: Path, tmp_path: Path) -> None:
     assert not differ, differ[:5]
     assert {None, "SWPM_PREFIX_TOO_SHORT", "SWPM_PREFIX_NOT_STREAMABLE"} <= codes and len(codes) > 20
     assert opened > 150  # prefixes shorter than the file opened (and finished against the whole)
+
+
+def test_cli_validate_prefix() -> None:
+    from click.testing import CliRunner
+
+    from swpm_usd.cli import main
+
+    path = str(VECTORS / "valid" / "minimal-vanilla.swpm")
+    short = CliRunner().invoke(main, ["validate", path, "--prefix", "100", "--json"])
+    assert short.exit_code == 1
+    rep = json.loads(short.output)
+    assert rep["problems"][0]["code"] == "SWPM_PREFIX_TOO_SHORT" and rep["summary"]["prefix_need"] == 288
+    ok = CliRunner().invoke(main, ["validate", path, "--prefix", "608", "--json"])
+    assert ok.exit_code == 0
+    assert json.loads(ok.output)["summary"]["prefix"] == {
+        "bytes": 608,
+        "file_size": 620,
+        "complete": False,
+        "finest_drawable": 1,
+        "drawable_lods": [1, 1],
+        "needed_bytes": {"0": 620, "1": 608},
+    }
+    text = CliRunner().invoke(main, ["validate", path, "--prefix", "620"])
+    assert text.exit_code == 0 and "620 of 620 bytes draw LODs 0..1" in text.output
