@@ -191,7 +191,8 @@ swpm_result swpm_open_prefix(const uint8_t *bytes, size_t length, swpm_file *fil
 /* Complete a prefix opened by swpm_open_prefix with the whole file: `bytes` starts with the same bytes
  * (the same buffer grown, or another: the old one may be freed once this returns). Checks what the prefix
  * could not, in the order of format.md 5 (the length: SWPM_FILE_SIZE_MISMATCH, VERT's CRC, the padding
- * after VERT), so the verdict is the whole file's; on success f views `bytes`. A no-op on a whole file. */
+ * after VERT), so the verdict is the whole file's; on success f views `bytes` (a file opened whole: only
+ * that). */
 swpm_result swpm_prefix_finish(swpm_file *f, const uint8_t *bytes, size_t length);
 int swpm_is_prefix(const swpm_file *f);       /* 1 until swpm_prefix_finish succeeds */
 uint64_t swpm_file_size(const swpm_file *f);  /* the header's file_size */
@@ -2334,15 +2335,17 @@ swpm_result swpm_prefix_finish(swpm_file *f, const uint8_t *bytes, size_t length
     uint32_t crc;
     const uint8_t *old = f->bytes;
     int i;
-    if (!f->prefix) return ok;
     /* in the order of format.md 5: step 1's length, then step 2's VERT CRC (the last entry) and padding */
-    if (len < f->file_size) return swpm__err("SWPM_FILE_SIZE_MISMATCH", 40);
-    vo = f->vert_offset;
-    vl = swpm__u64(bytes + f->vert_entry + 16);
-    crc = swpm__crc_update(swpm__crc_update(0xFFFFFFFFu, bytes + f->vert_entry, 4), bytes + vo, vl) ^ 0xFFFFFFFFu;
-    if (crc != swpm__u32(bytes + f->vert_entry + 24)) return swpm__err("SWPM_CHUNK_CRC_MISMATCH", f->vert_entry + 24);
-    for (g = vo + vl; g < f->file_size; g++)
-        if (bytes[g]) return swpm__err("SWPM_PADDING_NONZERO", vo + vl);
+    if (f->prefix && len < f->file_size) return swpm__err("SWPM_FILE_SIZE_MISMATCH", 40);
+    if (f->prefix) { /* (a whole file was checked all through: only its views move to `bytes`) */
+        vo = f->vert_offset;
+        vl = swpm__u64(bytes + f->vert_entry + 16);
+        crc = swpm__crc_update(swpm__crc_update(0xFFFFFFFFu, bytes + f->vert_entry, 4), bytes + vo, vl) ^ 0xFFFFFFFFu;
+        if (crc != swpm__u32(bytes + f->vert_entry + 24))
+            return swpm__err("SWPM_CHUNK_CRC_MISMATCH", f->vert_entry + 24);
+        for (g = vo + vl; g < f->file_size; g++)
+            if (bytes[g]) return swpm__err("SWPM_PADDING_NONZERO", vo + vl);
+    }
     f->meta = swpm__rebase(f->meta, old, bytes);
     f->lods = swpm__rebase(f->lods, old, bytes);
     f->vert = swpm__rebase(f->vert, old, bytes);
@@ -2355,7 +2358,7 @@ swpm_result swpm_prefix_finish(swpm_file *f, const uint8_t *bytes, size_t length
     for (i = 0; i < 4; i++) f->level_arrays[i] = swpm__rebase(f->level_arrays[i], old, bytes);
     for (i = 0; i < 2; i++) f->level_lists[i] = swpm__rebase(f->level_lists[i], old, bytes);
     f->bytes = bytes;
-    f->held = len;
+    f->held = f->prefix ? len : f->held;
     f->prefix = 0;
     return ok;
 }

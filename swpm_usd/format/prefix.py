@@ -13,7 +13,7 @@ Programming Gems 2) keeps a LOD's vertices a prefix of the vertex buffer; this i
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -54,7 +54,14 @@ class FilePrefix:
     vertex_count: int  # V
     vertex_data_offset: int  # absolute offset of vertex record 0
     vertex_stride: int
-    _buf: np.ndarray
+    _buf: np.ndarray = field(repr=False)
+
+    def __repr__(self) -> str:
+        lods = self.drawable_lods
+        return (
+            f"FilePrefix({self.path or '<bytes>'}, {self.encoding}, {self.size} of {self.file_size} bytes, "
+            f"drawable LODs {f'{lods.start}..{lods.stop - 1}' if lods else 'none'} of {self.lod_count})"
+        )
 
     @property
     def lod_count(self) -> int:
