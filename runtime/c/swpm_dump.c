@@ -18,7 +18,8 @@
  * L if none), "needed": swpm_lod_needed_bytes of LODs 0, the finest drawable (or L-1), L-1, "points_crc" and
  * "pool_crc" (CRC-32 of the finest drawable LOD's points through swpm_point as f32 LE, null if none; of
  * swpm_index_pool's bytes), "smap": [first_lod, lod_count, range_count, prefix_length, ranges...] per band,
- * and "finish": swpm_prefix_finish's result given the whole file (in a buffer of its length).
+ * "finish": swpm_prefix_finish's result given the whole file (in a buffer of its length), and when it succeeds
+ * "whole_crc": [the CRC of every point, of the index pool] read through f after the prefix's buffer is freed.
  * The file's bytes, the scratch and the instance buffers are all given at odd addresses (odd_alloc).
  */
 #include <stdio.h>
@@ -137,6 +138,24 @@ static void result_fields(swpm_result r) {
     if (r.need) printf(",\"need\":%llu", (unsigned long long)r.need);
 }
 
+/* CRC-32 of the points of vertices [0, n) through swpm_point, as f32 little-endian */
+static uint32_t points_crc(const swpm_file *f, uint64_t n) {
+    uint32_t c = 0xFFFFFFFFu, u, j;
+    uint64_t k;
+    for (k = 0; k < n; k++) {
+        float xyz[3];
+        uint8_t le[12];
+        swpm_point(f, (uint32_t)k, xyz);
+        for (j = 0; j < 3; j++) {
+            memcpy(&u, &xyz[j], 4);
+            le[4 * j] = (uint8_t)u, le[4 * j + 1] = (uint8_t)(u >> 8);
+            le[4 * j + 2] = (uint8_t)(u >> 16), le[4 * j + 3] = (uint8_t)(u >> 24);
+        }
+        c = swpm__crc_update(c, le, 12);
+    }
+    return c ^ 0xFFFFFFFFu;
+}
+
 /* --prefix: see the top of the file. */
 static int prefixes(int argc, char **argv) {
     size_t size, n;
@@ -151,8 +170,8 @@ static int prefixes(int argc, char **argv) {
         swpm_result r;
         uint8_t *part, *whole;
         void *scratch = odd_alloc(size);
-        uint64_t L, k, fin, count, b;
-        uint32_t width, c = 0xFFFFFFFFu;
+        uint64_t L, fin, count, b;
+        uint32_t width;
         const uint8_t *pool;
         long long want = atoll(argv[a]);
         n = want < 0 || (unsigned long long)want > size ? size : (size_t)want;
@@ -170,19 +189,7 @@ static int prefixes(int argc, char **argv) {
                    (unsigned long long)swpm_lod_needed_bytes(&f, fin < L ? fin : L - 1),
                    (unsigned long long)swpm_lod_needed_bytes(&f, L - 1));
             if (fin < L && swpm_lod_drawable(&f, fin)) {
-                for (k = 0; k < swpm_lod_vertex_count(&f, fin); k++) {
-                    float xyz[3];
-                    uint8_t le[12];
-                    uint32_t u, j;
-                    swpm_point(&f, (uint32_t)k, xyz);
-                    for (j = 0; j < 3; j++) {
-                        memcpy(&u, &xyz[j], 4);
-                        le[4 * j] = (uint8_t)u, le[4 * j + 1] = (uint8_t)(u >> 8);
-                        le[4 * j + 2] = (uint8_t)(u >> 16), le[4 * j + 3] = (uint8_t)(u >> 24);
-                    }
-                    c = swpm__crc_update(c, le, 12);
-                }
-                printf(",\"points_crc\":%lu", (unsigned long)(c ^ 0xFFFFFFFFu));
+                printf(",\"points_crc\":%lu", (unsigned long)points_crc(&f, swpm_lod_vertex_count(&f, fin)));
             } else {
                 printf(",\"points_crc\":null");
             }
@@ -201,8 +208,16 @@ static int prefixes(int argc, char **argv) {
             whole = (uint8_t *)odd_alloc(size);
             if (size) memcpy(whole, data, size);
             printf("],\"finish\":{");
-            result_fields(swpm_prefix_finish(&f, whole, size));
+            r = swpm_prefix_finish(&f, whole, size);
+            result_fields(r);
             printf("}");
+            odd_free(part); /* finished, f views `whole`: the prefix's buffer may go (ASan: a stale view trips) */
+            part = NULL;
+            if (!r.code) { /* every point and the index pool, through the moved views */
+                pool = swpm_index_pool(&f, &count, &width);
+                printf(",\"whole_crc\":[%lu,%lu]", (unsigned long)points_crc(&f, swpm_vertex_count(&f)),
+                       (unsigned long)(swpm__crc_update(0xFFFFFFFFu, pool, count * width) ^ 0xFFFFFFFFu));
+            }
             odd_free(whole);
         }
         printf("}\n");
