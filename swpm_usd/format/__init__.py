@@ -1,4 +1,5 @@
-"""SWPM binary format v1 (spec/format.md): :func:`save`, :func:`load`, :func:`validate`, error catalogue."""
+"""SWPM binary format v1 (spec/format.md): :func:`save`, :func:`load`, :func:`validate`, error catalogue, and
+:func:`open_prefix` (a file's first bytes, spec 4.1: its coarse LODs before the whole file has arrived)."""
 
 from __future__ import annotations
 

@@ -11,7 +11,9 @@ content checks, run in the order of spec 5 by :func:`_check`, each live in a mod
 :mod:`.meta` (``META``, spec 3.1), :mod:`.check_lods_vert` (``LODS`` and ``VERT``, 3.2-3.3), one module per
 encoding (:mod:`.check_sliding` 3.5, :mod:`.check_vanilla` 3.6, :mod:`.check_skip` 3.7, :mod:`.check_mixed`
 3.8, with the record checks they share in :mod:`.check_records`) and :mod:`.check_smap` (``SMAP``, 4).
-:mod:`.parsed` holds the parsed state they fill in and the checked views they take of the mapping.
+:mod:`.parsed` holds the parsed state they fill in and the checked views they take of the mapping. With
+``prefix`` (:mod:`.prefix`, spec 4.1) the same checks read the first bytes of a file still arriving: the end
+of the file is the header's file_size and what lies past the bytes given waits for the whole file.
 """
 
 from __future__ import annotations
