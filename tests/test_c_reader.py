@@ -804,15 +804,15 @@ def test_exact_arithmetic(dump_san: Path, tmp_path: Path, case: str) -> None:
 
 
 def test_readme_c_example_compiles(tmp_path: Path) -> None:
-    """README's "Drawing from C" examples (sliding-window, vanilla, skip-strip and mixed), each in a function
-    with stand-ins for the GL names, compile."""
+    """README's "Drawing from C" examples (sliding-window, vanilla, skip-strip and mixed, streaming), each in
+    a function with stand-ins for the GL names, compile."""
     cc = shutil.which("cc")
     if cc is None:
         pytest.fail("no C compiler (cc): the C reader's tests need one (README, Set up)")
     text = (ROOT / "README.md").read_text()
     section = text.split("## Drawing from C", 1)[1].split("\n## ", 1)[0]
     blocks = [part.split("```", 1)[0] for part in section.split("```c\n")[1:]]
-    assert len(blocks) == 3
+    assert len(blocks) == 4
     for i, block in enumerate(blocks):
         head = [line for line in block.splitlines() if line.startswith("#")]
         body = [line for line in block.splitlines() if not line.startswith("#")]

@@ -12,6 +12,14 @@
  * swpm_dump --check FILE...: one line per file, {"ok": ...} or {"ok": false, "code", "offset"} (a batch
  * for tests: one process for thousands of files); exit 0, 2 when a file cannot be read.
  * swpm_dump --check-scratch N FILE...: --check with a scratch of N bytes (a too-small one adds "need").
+ * swpm_dump --prefix N... FILE: open the first N bytes of FILE with swpm_open_prefix (format.md 4.1), in a
+ * buffer of exactly N bytes, for each N (N past the file's length: the whole file); one line per N:
+ * {"n", "ok", "code", "offset", "need"} and on success "file_size", "lod_count", "finest" (swpm_finest_drawable_lod,
+ * L if none), "needed": swpm_lod_needed_bytes of LODs 0, the finest drawable (or L-1), L-1, "points_crc" and
+ * "pool_crc" (CRC-32 of the finest drawable LOD's points through swpm_point as f32 LE, null if none; of
+ * swpm_index_pool's bytes), "smap": [first_lod, lod_count, range_count, prefix_length, ranges...] per band,
+ * "finish": swpm_prefix_finish's result given the whole file (in a buffer of its length), and when it succeeds
+ * "whole_crc": [the CRC of every point, of the index pool] read through f after the prefix's buffer is freed.
  * The file's bytes, the scratch and the instance buffers are all given at odd addresses (odd_alloc).
  */
 #include <stdio.h>
@@ -121,6 +129,105 @@ static swpm_result open_with_scratch(const uint8_t *d, size_t n, swpm_file *f, l
     return r;
 }
 
+static void result_fields(swpm_result r) {
+    printf("\"ok\":%s", r.code ? "false" : "true");
+    if (!r.code) return;
+    printf(",\"code\":\"%s\",\"offset\":", r.code);
+    if (r.has_offset) printf("%llu", (unsigned long long)r.offset);
+    else printf("null");
+    if (r.need) printf(",\"need\":%llu", (unsigned long long)r.need);
+}
+
+/* CRC-32 of the points of vertices [0, n) through swpm_point, as f32 little-endian */
+static uint32_t points_crc(const swpm_file *f, uint64_t n) {
+    uint32_t c = 0xFFFFFFFFu, u, j;
+    uint64_t k;
+    for (k = 0; k < n; k++) {
+        float xyz[3];
+        uint8_t le[12];
+        swpm_point(f, (uint32_t)k, xyz);
+        for (j = 0; j < 3; j++) {
+            memcpy(&u, &xyz[j], 4);
+            le[4 * j] = (uint8_t)u, le[4 * j + 1] = (uint8_t)(u >> 8);
+            le[4 * j + 2] = (uint8_t)(u >> 16), le[4 * j + 3] = (uint8_t)(u >> 24);
+        }
+        c = swpm__crc_update(c, le, 12);
+    }
+    return c ^ 0xFFFFFFFFu;
+}
+
+/* --prefix: see the top of the file. */
+static int prefixes(int argc, char **argv) {
+    size_t size, n;
+    int a;
+    uint8_t *data = read_file(argv[argc - 1], &size);
+    if (!data) {
+        fprintf(stderr, "swpm_dump: cannot read %s\n", argv[argc - 1]);
+        return 2;
+    }
+    for (a = 2; a < argc - 1; a++) {
+        swpm_file f;
+        swpm_result r;
+        uint8_t *part, *whole;
+        void *scratch = odd_alloc(size);
+        uint64_t L, fin, count, b;
+        uint32_t width;
+        const uint8_t *pool;
+        long long want = atoll(argv[a]);
+        n = want < 0 || (unsigned long long)want > size ? size : (size_t)want;
+        part = (uint8_t *)odd_alloc(n);
+        if (n) memcpy(part, data, n);
+        r = swpm_open_prefix(part, n, &f, scratch, scratch ? size : 0);
+        printf("{\"n\":%llu,", (unsigned long long)n);
+        result_fields(r);
+        if (!r.code) {
+            L = swpm_lod_count(&f);
+            fin = swpm_finest_drawable_lod(&f);
+            printf(",\"file_size\":%llu,\"lod_count\":%llu,\"finest\":%llu,\"needed\":[%llu,%llu,%llu]",
+                   (unsigned long long)swpm_file_size(&f), (unsigned long long)L, (unsigned long long)fin,
+                   (unsigned long long)swpm_lod_needed_bytes(&f, 0),
+                   (unsigned long long)swpm_lod_needed_bytes(&f, fin < L ? fin : L - 1),
+                   (unsigned long long)swpm_lod_needed_bytes(&f, L - 1));
+            if (fin < L && swpm_lod_drawable(&f, fin)) {
+                printf(",\"points_crc\":%lu", (unsigned long)points_crc(&f, swpm_lod_vertex_count(&f, fin)));
+            } else {
+                printf(",\"points_crc\":null");
+            }
+            pool = swpm_index_pool(&f, &count, &width);
+            printf(",\"pool_crc\":%lu,\"smap\":[",
+                   (unsigned long)(swpm__crc_update(0xFFFFFFFFu, pool, count * width) ^ 0xFFFFFFFFu));
+            for (b = 0; b < swpm_smap_band_count(&f); b++) {
+                uint32_t first, lods, ranges, i;
+                uint64_t plen, ro, rl;
+                swpm_smap_band(&f, b, &first, &lods, &ranges, &plen);
+                printf("%s[%u,%u,%u,%llu", b ? "," : "", first, lods, ranges, (unsigned long long)plen);
+                for (i = 0; i < ranges && swpm_smap_range(&f, b, i, &ro, &rl); i++)
+                    printf(",%llu,%llu", (unsigned long long)ro, (unsigned long long)rl);
+                printf("]");
+            }
+            whole = (uint8_t *)odd_alloc(size);
+            if (size) memcpy(whole, data, size);
+            printf("],\"finish\":{");
+            r = swpm_prefix_finish(&f, whole, size);
+            result_fields(r);
+            printf("}");
+            odd_free(part); /* finished, f views `whole`: the prefix's buffer may go (ASan: a stale view trips) */
+            part = NULL;
+            if (!r.code) { /* every point and the index pool, through the moved views */
+                pool = swpm_index_pool(&f, &count, &width);
+                printf(",\"whole_crc\":[%lu,%lu]", (unsigned long)points_crc(&f, swpm_vertex_count(&f)),
+                       (unsigned long)(swpm__crc_update(0xFFFFFFFFu, pool, count * width) ^ 0xFFFFFFFFu));
+            }
+            odd_free(whole);
+        }
+        printf("}\n");
+        odd_free(part);
+        odd_free(scratch);
+    }
+    odd_free(data);
+    return 0;
+}
+
 static const char *const encodings[5] = {"", "vanilla", "sliding-window", "skip-strip", "mixed"};
 
 /* skip-strip and mixed: the summary's arrays, then "levels" (swpm_level_at of each level) and "instance":
@@ -223,8 +330,9 @@ int main(int argc, char **argv) {
         }
         return 0;
     }
+    if (argc >= 4 && strcmp(argv[1], "--prefix") == 0) return prefixes(argc, argv);
     if (argc != 2) {
-        fprintf(stderr, "usage: swpm_dump FILE | swpm_dump --check FILE...\n");
+        fprintf(stderr, "usage: swpm_dump FILE | swpm_dump --check FILE... | swpm_dump --prefix N... FILE\n");
         return 2;
     }
     data = read_file(argv[1], &size);

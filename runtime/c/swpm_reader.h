@@ -29,6 +29,14 @@
  * A file with records opened with less (swpm_open gives none) is SWPM_READER_SCRATCH_TOO_SMALL, with the
  * bytes needed in swpm_result.need, once every check before the replay has passed.
  *
+ * Streaming (format.md 4.1): swpm_open_prefix() opens the first bytes of a file that is still arriving. It
+ * checks everything the prefix holds as swpm_open_ex would, with the header's file_size as the end of the
+ * file, and leaves to swpm_prefix_finish() (given the whole file) what lies past the prefix: the length,
+ * VERT's CRC and the padding after VERT. It needs VERT to be the last chunk (SWPM_PREFIX_NOT_STREAMABLE) and
+ * the prefix to hold every byte before VERT's vertex records (SWPM_PREFIX_TOO_SHORT, with the bytes to wait
+ * for in swpm_result.need). LOD k draws once swpm_lod_needed_bytes(k) bytes are held: swpm_finest_drawable_lod
+ * gives the finest; the SMAP accessors give the writer's bands and byte ranges, to plan range requests.
+ *
  * Per-instance runtime (an engine's): swpm_vanilla_instance_init() / swpm_vanilla_set_lod() (format.md 3.6
  * "At run time": a copy of INDX in the caller's buffer, moved between LODs by applying or undoing collapse
  * records); swpm_skip_instance_init() / swpm_skip_set_lod() and swpm_mixed_instance_init() /
@@ -83,7 +91,8 @@ typedef struct swpm_result {
     const char *code;
     uint64_t offset;
     int has_offset;
-    uint64_t need; /* SWPM_READER_SCRATCH_TOO_SMALL: the scratch bytes the replay needs; else 0 */
+    uint64_t need; /* SWPM_READER_SCRATCH_TOO_SMALL: the scratch bytes the replay needs; SWPM_PREFIX_TOO_SHORT:
+                      the prefix length opening needs (format.md 4.1); else 0 */
 } swpm_result;
 
 /* One attribute descriptor of VERT (format.md 3.3); name is not NUL-terminated. */
@@ -132,6 +141,13 @@ typedef struct swpm_file {
                                            level_dynamic_collapsed_indices */
     uint64_t level_list_count;          /* C; mixed: D */
     uint64_t longest_list;              /* skip-strip: the longest level list; mixed: dynamic list (elements) */
+    /* streaming (format.md 4, 4.1) */
+    uint64_t file_size;                 /* the header's file_size */
+    uint64_t held;                      /* the bytes given: the prefix's length */
+    int prefix;                         /* opened from a prefix shorter than file_size, not finished yet */
+    uint64_t vert_entry, vert_offset;   /* VERT's chunk-table entry and payload offsets */
+    const uint8_t *smap;                /* SMAP's payload when its length is 8 + 24 B + 16 N, else NULL */
+    uint64_t smap_bands, smap_ranges;   /* B, N */
 } swpm_file;
 
 /* One vanilla VIPM instance (format.md 3.6): the caller's copy of INDX, which set_lod edits in place. */
@@ -163,6 +179,37 @@ swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, v
                          size_t scratch_bytes);
 /* The encoding bit's index: 1 vanilla, 2 sliding-window, 3 skip-strip, 4 mixed. */
 int swpm_encoding(const swpm_file *f);
+
+/* ---- streaming (format.md 4, 4.1): open the first `length` bytes of a file still arriving ---- */
+/* swpm_open_ex for a prefix of the file (length < file_size; a whole file is opened as swpm_open_ex opens it).
+ * SWPM_PREFIX_TOO_SHORT (.need: the prefix length to wait for) while the prefix ends before VERT's vertex
+ * records; SWPM_PREFIX_NOT_STREAMABLE when VERT is not the last chunk; any other error is the file's. On
+ * success every accessor works, but only the vertices of drawable LODs (swpm_lod_drawable) lie in the bytes
+ * given: an engine reads points and attributes of vertex v < swpm_lod_vertex_count(f, k) of a drawable k. */
+swpm_result swpm_open_prefix(const uint8_t *bytes, size_t length, swpm_file *file, void *scratch,
+                             size_t scratch_bytes);
+/* Complete a prefix opened by swpm_open_prefix with the whole file: `bytes` starts with the same bytes
+ * (the same buffer grown, or another: the old one may be freed once this returns). Checks what the prefix
+ * could not, in the order of format.md 5 (the length: SWPM_FILE_SIZE_MISMATCH, VERT's CRC, the padding
+ * after VERT), so the verdict is the whole file's; on success f views `bytes` (a file opened whole: only
+ * that). */
+swpm_result swpm_prefix_finish(swpm_file *f, const uint8_t *bytes, size_t length);
+int swpm_is_prefix(const swpm_file *f);       /* 1 until swpm_prefix_finish succeeds */
+uint64_t swpm_file_size(const swpm_file *f);  /* the header's file_size */
+uint64_t swpm_bytes_held(const swpm_file *f); /* the bytes given */
+/* The file prefix LOD k needs (format.md 4 (a)+(b)+(c)): VERT's data_offset + vertex_count(k) x stride past
+ * VERT's start; non-increasing in k. */
+uint64_t swpm_lod_needed_bytes(const swpm_file *f, uint64_t k);
+int swpm_lod_drawable(const swpm_file *f, uint64_t k); /* needed bytes held */
+/* The finest drawable LOD (the coarsest, L - 1, draws first); L when none is drawable yet. */
+uint64_t swpm_finest_drawable_lod(const swpm_file *f);
+/* SMAP (format.md 4; ancillary and not validated by this reader: plan range requests with it, decide what
+ * draws with swpm_lod_needed_bytes). 0 bands without a SMAP or with one of a wrong length. */
+uint64_t swpm_smap_band_count(const swpm_file *f);
+int swpm_smap_band(const swpm_file *f, uint64_t b, uint32_t *first_lod, uint32_t *lod_count, uint32_t *range_count,
+                   uint64_t *prefix_length); /* 0 if b is out of range */
+int swpm_smap_range(const swpm_file *f, uint64_t b, uint32_t r, uint64_t *offset, uint64_t *length); /* 0 if out
+                                                                                                       of range */
 
 /* Header (2.1): features word, W, O, V, L. */
 uint32_t swpm_features(const swpm_file *f);
@@ -1070,17 +1117,34 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
                                 void *scratch, size_t scratch_bytes);
 static const char *const swpm__encoding_names[5] = {"", "vanilla", "sliding-window", "skip-strip", "mixed"};
 
-swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file) {
-    return swpm_open_ex(bytes, length, file, NULL, 0);
-}
+static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *file, void *scratch,
+                              size_t scratch_bytes, int prefix);
 
+swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file) {
+    return swpm__open(bytes, length, file, NULL, 0, 0);
+}
 swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, void *scratch,
                          size_t scratch_bytes) {
+    return swpm__open(bytes, length, file, scratch, scratch_bytes, 0);
+}
+swpm_result swpm_open_prefix(const uint8_t *bytes, size_t length, swpm_file *file, void *scratch,
+                             size_t scratch_bytes) {
+    return swpm__open(bytes, length, file, scratch, scratch_bytes, 1);
+}
+/* SWPM_PREFIX_TOO_SHORT: reported at the prefix's end, with the length it needs */
+static swpm_result swpm__short(uint64_t len, uint64_t need) {
+    swpm_result r = swpm__err("SWPM_PREFIX_TOO_SHORT", len);
+    r.need = need;
+    return r;
+}
+
+static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *file, void *scratch,
+                              size_t scratch_bytes, int prefix) {
     swpm_file f;
     swpm_result ok = {NULL, 0, 0, 0};
     uint64_t len = (uint64_t)length, eof, table_offset, file_size, table_end, end, last = 0;
     uint32_t header_size, features, count, enc_bits, i, W, O;
-    int enc = 0, one_encoding, have_last = 0;
+    int enc = 0, one_encoding, have_last = 0, streaming;
     int64_t first[SWPM__KINDS];
     uint32_t crc;
     uint8_t zero4[4] = {0, 0, 0, 0};
@@ -1090,6 +1154,7 @@ swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, v
     /* ---- step 1: header (format.md 2.1, 5) ---- */
     if (len < 64) {
         if (len >= 8 && memcmp(bytes, magic, 8) != 0) return swpm__err("SWPM_HEADER_BAD_MAGIC", 0);
+        if (prefix) return swpm__short(len, 64); /* file_size is not there yet */
         return swpm__err("SWPM_HEADER_TRUNCATED", 0);
     }
     if (memcmp(bytes, magic, 8) != 0) return swpm__err("SWPM_HEADER_BAD_MAGIC", 0);
@@ -1097,6 +1162,10 @@ swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, v
     f.minor = swpm__u16(bytes + 10);
     if (f.major != 1) return swpm__err("SWPM_HEADER_UNSUPPORTED_MAJOR", 8);
     header_size = swpm__u32(bytes + 12);
+    file_size = swpm__u64(bytes + 40);
+    streaming = prefix && file_size > len; /* a prefix of a longer file (4.1): it ends at file_size */
+    if (streaming && header_size >= 64 && header_size <= file_size && header_size > len)
+        return swpm__short(len, header_size);
     if (header_size < 64 || header_size > len) return swpm__err("SWPM_HEADER_BAD_SIZE", 12);
     features = swpm__u32(bytes + 20);
     if (features & ~0x7Fu) return swpm__err("SWPM_HEADER_UNKNOWN_FEATURE", 20);
@@ -1110,15 +1179,15 @@ swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, v
     enc = enc_bits == 0x02 ? 1 : enc_bits == 0x04 ? 2 : enc_bits == 0x08 ? 3 : 4;
     one_encoding = 1; /* a header without exactly one encoding bit was rejected above */
     /* reserved fields: warnings only */
-    file_size = swpm__u64(bytes + 40);
-    if (file_size > len) return swpm__err("SWPM_FILE_SIZE_MISMATCH", 40);
-    eof = file_size < len ? file_size : len; /* bytes after file_size are ignored (a warning) */
+    if (file_size > len && !streaming) return swpm__err("SWPM_FILE_SIZE_MISMATCH", 40);
+    eof = file_size < len || streaming ? file_size : len; /* bytes after file_size are ignored (a warning) */
     table_offset = swpm__u64(bytes + 32);
     if (table_offset < header_size || table_offset % 8) return swpm__err("SWPM_TABLE_BAD_OFFSET", 32);
     count = swpm__u32(bytes + 24);
     if (count > 1024) return swpm__err("SWPM_TABLE_TOO_LARGE", 24);
     if (table_offset > eof || 32 * (uint64_t)count > eof - table_offset) return swpm__err("SWPM_TABLE_TRUNCATED", 24);
     table_end = table_offset + 32 * (uint64_t)count;
+    if (table_end > len) return swpm__short(len, table_end); /* (a prefix only: else eof <= len) */
     crc = swpm__crc_update(0xFFFFFFFFu, bytes, 48);
     crc = swpm__crc_update(crc, zero4, 4);
     crc = swpm__crc_update(crc, bytes + 52, table_end - 52) ^ 0xFFFFFFFFu;
@@ -1145,14 +1214,16 @@ swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, v
         if (off < end) return swpm__err("SWPM_CHUNK_OVERLAP", eo + 8);
         {
             uint64_t g;
-            for (g = end; g < off && g < eof; g++)
+            for (g = end; g < off && g < eof && g < len; g++) /* (a prefix: the bytes it holds) */
                 if (bytes[g]) return swpm__err("SWPM_PADDING_NONZERO", end);
         }
         have_last = 1;
         last = off;
         end = off + clen; /* in bounds: no wrap */
-        crc = swpm__crc_update(swpm__crc_update(0xFFFFFFFFu, bytes + eo, 4), bytes + off, clen) ^ 0xFFFFFFFFu;
-        if (crc != swpm__u32(bytes + eo + 24)) return swpm__err("SWPM_CHUNK_CRC_MISMATCH", eo + 24);
+        if (off + clen <= len) { /* (a prefix: a payload it cuts waits for swpm_prefix_finish) */
+            crc = swpm__crc_update(swpm__crc_update(0xFFFFFFFFu, bytes + eo, 4), bytes + off, clen) ^ 0xFFFFFFFFu;
+            if (crc != swpm__u32(bytes + eo + 24)) return swpm__err("SWPM_CHUNK_CRC_MISMATCH", eo + 24);
+        }
         for (k = 0; k < SWPM__KINDS; k++)
             if (memcmp(bytes + eo, swpm__kind_names[k], 4) == 0) kind = k;
         if (kind < 0) {
@@ -1166,7 +1237,7 @@ swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, v
     }
     {
         uint64_t g; /* padding after the last payload: reported at the gap's start */
-        for (g = end; g < eof; g++)
+        for (g = end; g < eof && g < len; g++)
             if (bytes[g]) return swpm__err("SWPM_PADDING_NONZERO", end);
     }
     for (i = 0; swpm__critical_order[enc][i] >= 0; i++)
@@ -1174,11 +1245,26 @@ swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, v
             swpm_result r = {"SWPM_CHUNK_MISSING", 0, 0, 0};
             return r;
         }
+    if (streaming) { /* 4.1: VERT last, and the prefix holds every byte before its vertex records */
+        uint64_t eo = table_offset + 32 * (uint64_t)(count - 1), vo, vl, need;
+        if (memcmp(bytes + eo, "VERT", 4) != 0) return swpm__err("SWPM_PREFIX_NOT_STREAMABLE", eo);
+        vo = swpm__u64(bytes + eo + 8); /* the first VERT (a second one was SWPM_CHUNK_DUPLICATE) */
+        vl = swpm__u64(bytes + eo + 16);
+        need = vo + (vl < 16 ? vl : 16);
+        if (need <= len && vl >= 16) {
+            uint64_t data = swpm__u32(bytes + vo + 12);
+            need = vo + (data < 16 ? 16 : data < vl ? data : vl);
+        }
+        if (need > len) return swpm__short(len, need);
+    }
 
     W = (features & SWPM_FEATURE_INDEX32) ? 4u : 2u;
     O = (features & (SWPM_FEATURE_INDEX32 | SWPM_FEATURE_OFFSET32)) ? 4u : 2u;
     f.bytes = bytes;
     f.length = eof;
+    f.file_size = file_size;
+    f.held = len;
+    f.prefix = streaming;
     f.features = features;
     f.index_width = W;
     f.offset_width = O;
@@ -1190,6 +1276,17 @@ swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, v
             uint64_t eo = table_offset + 32 * (uint64_t)(first[i] < 0 ? 0 : first[i]);
             pe[i] = eo;
             pl[i] = first[i] < 0 ? 0 : swpm__u64(bytes + eo + 16);
+        }
+        f.vert_entry = pe[SWPM__VERT];
+        f.vert_offset = swpm__u64(bytes + pe[SWPM__VERT] + 8);
+        if (first[SWPM__SMAP] >= 0 && pl[SWPM__SMAP] >= 8) { /* in the prefix: it precedes VERT */
+            const uint8_t *m = bytes + swpm__u64(bytes + pe[SWPM__SMAP] + 8);
+            uint64_t B = swpm__u32(m), N = swpm__u32(m + 4);
+            if (8 + 24 * B + 16 * N == pl[SWPM__SMAP]) {
+                f.smap = m;
+                f.smap_bands = B;
+                f.smap_ranges = N;
+            }
         }
 #define SWPM__OFF(k) swpm__u64(bytes + pe[k] + 8)
         /* ---- step 3: META (3.1) ---- */
@@ -2225,6 +2322,87 @@ uint64_t swpm_lod_for_error(const swpm_file *f, double max_error) {
 int swpm_restart_index(const swpm_file *f, uint64_t *restart) {
     if (!f->strips && !f->has_restart) return 0;
     *restart = f->restart_index;
+    return 1;
+}
+
+/* ---- streaming (format.md 4, 4.1) ---- */
+static const uint8_t *swpm__rebase(const uint8_t *p, const uint8_t *old, const uint8_t *now) {
+    return p ? now + (p - old) : p;
+}
+swpm_result swpm_prefix_finish(swpm_file *f, const uint8_t *bytes, size_t length) {
+    swpm_result ok = {NULL, 0, 0, 0};
+    uint64_t len = (uint64_t)length, vo, vl, g;
+    uint32_t crc;
+    const uint8_t *old = f->bytes;
+    int i;
+    /* in the order of format.md 5: step 1's length, then step 2's VERT CRC (the last entry) and padding */
+    if (f->prefix && len < f->file_size) return swpm__err("SWPM_FILE_SIZE_MISMATCH", 40);
+    if (f->prefix) { /* (a whole file was checked all through: only its views move to `bytes`) */
+        vo = f->vert_offset;
+        vl = swpm__u64(bytes + f->vert_entry + 16);
+        crc = swpm__crc_update(swpm__crc_update(0xFFFFFFFFu, bytes + f->vert_entry, 4), bytes + vo, vl) ^ 0xFFFFFFFFu;
+        if (crc != swpm__u32(bytes + f->vert_entry + 24))
+            return swpm__err("SWPM_CHUNK_CRC_MISMATCH", f->vert_entry + 24);
+        for (g = vo + vl; g < f->file_size; g++)
+            if (bytes[g]) return swpm__err("SWPM_PADDING_NONZERO", vo + vl);
+    }
+    f->meta = swpm__rebase(f->meta, old, bytes);
+    f->lods = swpm__rebase(f->lods, old, bytes);
+    f->vert = swpm__rebase(f->vert, old, bytes);
+    f->wrec = swpm__rebase(f->wrec, old, bytes);
+    f->indx = swpm__rebase(f->indx, old, bytes);
+    f->vrec = swpm__rebase(f->vrec, old, bytes);
+    f->change_offsets = swpm__rebase(f->change_offsets, old, bytes);
+    f->rcnt = swpm__rebase(f->rcnt, old, bytes);
+    f->smap = swpm__rebase(f->smap, old, bytes);
+    for (i = 0; i < 4; i++) f->level_arrays[i] = swpm__rebase(f->level_arrays[i], old, bytes);
+    for (i = 0; i < 2; i++) f->level_lists[i] = swpm__rebase(f->level_lists[i], old, bytes);
+    f->bytes = bytes;
+    f->held = f->prefix ? len : f->held;
+    f->prefix = 0;
+    return ok;
+}
+int swpm_is_prefix(const swpm_file *f) { return f->prefix; }
+uint64_t swpm_file_size(const swpm_file *f) { return f->file_size; }
+uint64_t swpm_bytes_held(const swpm_file *f) { return f->held; }
+uint64_t swpm_lod_needed_bytes(const swpm_file *f, uint64_t k) {
+    return f->vert_offset + f->data_offset + (uint64_t)swpm_lod_vertex_count(f, k) * f->stride;
+}
+int swpm_lod_drawable(const swpm_file *f, uint64_t k) {
+    return k < f->lod_count && swpm_lod_needed_bytes(f, k) <= f->held;
+}
+uint64_t swpm_finest_drawable_lod(const swpm_file *f) {
+    uint64_t lo = 0, hi = f->lod_count; /* needed bytes do not increase with k: the first drawable one */
+    while (lo < hi) {
+        uint64_t mid = lo + (hi - lo) / 2;
+        if (swpm_lod_needed_bytes(f, mid) <= f->held) hi = mid;
+        else lo = mid + 1;
+    }
+    return lo;
+}
+uint64_t swpm_smap_band_count(const swpm_file *f) { return f->smap ? f->smap_bands : 0; }
+int swpm_smap_band(const swpm_file *f, uint64_t b, uint32_t *first_lod, uint32_t *lod_count, uint32_t *range_count,
+                   uint64_t *prefix_length) {
+    const uint8_t *p;
+    if (!f->smap || b >= f->smap_bands) return 0;
+    p = f->smap + 8 + 24 * b;
+    *first_lod = swpm__u32(p);
+    *lod_count = swpm__u32(p + 4);
+    *range_count = swpm__u32(p + 12);
+    *prefix_length = swpm__u64(p + 16);
+    return 1;
+}
+int swpm_smap_range(const swpm_file *f, uint64_t b, uint32_t r, uint64_t *offset, uint64_t *length) {
+    const uint8_t *p;
+    uint64_t at;
+    if (!f->smap || b >= f->smap_bands) return 0;
+    p = f->smap + 8 + 24 * b;
+    if (r >= swpm__u32(p + 12)) return 0;
+    at = (uint64_t)swpm__u32(p + 8) + r;
+    if (at >= f->smap_ranges) return 0;
+    p = f->smap + 8 + 24 * f->smap_bands + 16 * at;
+    *offset = swpm__u64(p);
+    *length = swpm__u64(p + 8);
     return 1;
 }
 

@@ -1,4 +1,5 @@
-"""SWPM binary format v1 (spec/format.md): :func:`save`, :func:`load`, :func:`validate`, error catalogue."""
+"""SWPM binary format v1 (spec/format.md): :func:`save`, :func:`load`, :func:`validate`, error catalogue, and
+:func:`open_prefix` (a file's first bytes, spec 4.1: its coarse LODs before the whole file has arrived)."""
 
 from __future__ import annotations
 
@@ -16,11 +17,15 @@ __getattr__, __dir__ = lazy_attributes(
         "validate_bytes": "reader",
         "encode_bytes": "writer",
         "save": "writer",
+        "FilePrefix": "prefix",
+        "open_prefix": "prefix",
+        "validate_prefix": "prefix",
     },
 )
 
 __all__ = [
     "CATALOGUE",
+    "FilePrefix",
     "Problem",
     "Report",
     "SwpmEncodeError",
@@ -28,7 +33,9 @@ __all__ = [
     "encode_bytes",
     "load",
     "load_bytes",
+    "open_prefix",
     "save",
     "validate",
     "validate_bytes",
+    "validate_prefix",
 ]

@@ -146,10 +146,13 @@ def _vert(p: _Parsed, rep: Report) -> None:
         p.content_ok = False
         return
     dtype = np.dtype({"names": names, "formats": formats, "offsets": offsets, "itemsize": stride})
-    recs = _view(p.buf, o + data, V, dtype)
+    held = V if not p.prefix else min(V, max(0, int(p.buf.shape[0]) - o - data) // stride)
+    recs = _view(p.buf, o + data, held, dtype)  # a prefix (spec 4.1): the records it holds
     p.points = recs["f0"]
     p.attributes = {n: recs[f"f{i + 1}"] for i, n in enumerate(attr_names)}
-    p.vert_stride, p.vert_data = stride, data
+    p.vert_stride, p.vert_data, p.vertex_count = stride, data, V
+    if p.prefix:  # the count covers every point: deferred to the whole file
+        return
     nonfinite = int(np.count_nonzero(~np.isfinite(p.points)))
     if nonfinite:
         rep.add("SWPM_VERT_NONFINITE", o + data, count=nonfinite)

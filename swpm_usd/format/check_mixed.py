@@ -62,7 +62,7 @@ def _mixed(p: _Parsed, rep: Report) -> None:
     if arrs is None:
         p.content_ok = False
         return
-    V, Lc = p.points.shape[0], p.lods.shape[0]
+    V, Lc = p.vertex_count, p.lods.shape[0]
     ok = _common_records(p, rep, rec, rc, rc_c.offset, Lc)
     R = rec["collapse_kept"].shape[0]
     first = arrs["level_first_lod"].astype(np.int64)

@@ -64,7 +64,7 @@ def _skip(p: _Parsed, rep: Report) -> None:
     if arrs is None:
         p.content_ok = False
         return
-    V, Lc = p.points.shape[0], p.lods.shape[0]
+    V, Lc = p.vertex_count, p.lods.shape[0]
     ok = _common_records(p, rep, rec, rc, rc_c.offset, Lc)
     params = (p.meta or {}).get("params", {})
     restart = params.get("restart_index")
@@ -148,7 +148,7 @@ def _skip_records(
     below it, the level table matches RCNT, replaying a level's records changes only slots holding the
     binned vertex, removes it from the list and gives the collapsed list, and LODS counts what is drawn."""
     assert p.points is not None and p.lods is not None
-    V, Lc, W, O = p.points.shape[0], p.lods.shape[0], p.width, p.offset_width
+    V, Lc, W, O = p.vertex_count, p.lods.shape[0], p.width, p.offset_width
     kept = rec["collapse_kept"].astype(np.int64)
     binned = rec["collapse_binned"].astype(np.int64)
     R = kept.shape[0]

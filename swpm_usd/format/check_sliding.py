@@ -37,7 +37,7 @@ def _sliding(p: _Parsed, rep: Report) -> None:
         return
     win = _view(p.buf, w_c.offset, cols * Lc, L.index_dtype(O)).reshape(Lc, cols)
     pool = _view(p.buf, idx_c.offset, idx_c.length // p.width, it)
-    V = p.points.shape[0]
+    V = p.vertex_count
     first, tc, vc = (win[:, i].astype(np.int64) for i in range(3))
     rv = None
     if strips:  # (META checked it is an integer)

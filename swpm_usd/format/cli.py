@@ -699,15 +699,28 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
 @click.argument("file", type=FilePath())
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 @click.option("--no-builtin", is_flag=True, help="USD stages: run only our validator, not usd-core's.")
+@click.option(
+    "--prefix",
+    type=click.IntRange(min=0),
+    default=None,
+    help="Check only the first N bytes, as a streaming reader that has received them (spec/format.md 4.1).",
+)
 @click.pass_context
-def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool) -> None:
+def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool, prefix: int | None) -> None:
     """Check FILE and list every problem. Exit 0 valid, 1 invalid.
 
     A .swpm file is checked against the SWPM v1 spec (spec/format.md); a USD stage (.usd .usda .usdc
-    .usdz) with the SwpmMeshAPI validators plus usd-core's built-in ones (spec/usd.md).
+    .usdz) with the SwpmMeshAPI validators plus usd-core's built-in ones (spec/usd.md). --prefix N checks
+    the file's first N bytes as a prefix reader does (spec/format.md 4.1: what they hold now, the LODs they
+    draw; SWPM_PREFIX_TOO_SHORT gives the bytes to wait for): the report's summary gains "prefix" (bytes,
+    file_size, finest_drawable, drawable_lods, needed_bytes of LOD 0 and the coarsest).
     """
     from ..usd import USD_SUFFIXES
 
+    if prefix is not None:
+        if Path(file).suffix.lower() in USD_SUFFIXES:
+            raise click.BadParameter("reads an SWPM file's prefix, not a USD stage's", param_hint="--prefix")
+        _validate_prefix(file, prefix, as_json)
     if Path(file).suffix.lower() in USD_SUFFIXES:
         from ..usd.cli import validate_usd
 
@@ -737,6 +750,43 @@ def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool)
     rep = validate(file)
     _mesh_hint(file, rep.problems)
     click.echo(rep.to_json(indent=2) if as_json else rep.format())
+    sys.exit(0 if rep.valid else 1)
+
+
+def _validate_prefix(file: str, n: int, as_json: bool) -> None:
+    """``validate --prefix N``: the first N bytes of ``file`` read as a prefix (spec 4.1); exits."""
+    from .errors import Report
+    from .prefix import open_prefix, validate_prefix
+
+    try:
+        with open(file, "rb") as f:
+            data = f.read(n)
+    except OSError as exc:
+        rep = Report(path=file)
+        rep.add("SWPM_IO_ERROR", None, reason=exc.strerror or str(exc))
+    else:
+        rep = validate_prefix(data, path=file)
+        if rep.valid:
+            fp = open_prefix(data, path=file)
+            lods = fp.drawable_lods
+            rep.summary["prefix"] = {
+                "bytes": fp.size,
+                "file_size": fp.file_size,
+                "complete": fp.complete,
+                "finest_drawable": fp.finest_drawable,
+                "drawable_lods": [lods.start, lods.stop - 1] if lods else None,
+                "needed_bytes": {
+                    "0": fp.needed_bytes(0),
+                    str(fp.lod_count - 1): fp.needed_bytes(fp.lod_count - 1),
+                },
+            }
+    click.echo(rep.to_json(indent=2) if as_json else rep.format())
+    if not as_json and "prefix" in rep.summary:
+        p = rep.summary["prefix"]
+        what = (
+            f"LODs {p['drawable_lods'][0]}..{p['drawable_lods'][1]}" if p["drawable_lods"] else "no LOD yet"
+        )
+        click.echo(f"  prefix: {p['bytes']} of {p['file_size']} bytes draw {what}")
     sys.exit(0 if rep.valid else 1)
 
 

@@ -278,6 +278,23 @@ _ENTRIES = [
         "of that order, i.e. a trailing duplicate, differs), else the (first) VERT entry when the last "
         "entry is not a VERT; once per file",
     ),
+    Entry(
+        "SWPM_PREFIX_TOO_SHORT",
+        ERROR,
+        "the prefix has {size} bytes, opening it needs {need}",
+        "A prefix reader (format.md 4.1) was given fewer bytes than opening the file takes: its header and "
+        "chunk table, every payload before VERT and VERT's first data_offset bytes; read on when more "
+        "bytes have arrived (only a prefix reader reports it).",
+        "the prefix's length, the first byte it lacks",
+    ),
+    Entry(
+        "SWPM_PREFIX_NOT_STREAMABLE",
+        ERROR,
+        "chunk {type} is the last table entry: a prefix reader needs VERT last",
+        "The last entry of the chunk table is not a VERT, so a prefix of the file cannot hold every table "
+        "before the vertices (format.md 4.1); read the whole file (only a prefix reader reports it).",
+        "the last chunk-table entry",
+    ),
     # -- content ------------------------------------------------------------------------------------------
     Entry(
         "SWPM_META_BAD_JSON",

@@ -51,6 +51,8 @@ class _Parsed:
     buffers: dict[str, np.ndarray] = field(default_factory=dict)
     content_ok: bool = True
     size: int = 0  # the end of the file as read: its first file_size bytes, fewer if it is shorter
+    vertex_count: int = 0  # V, from VERT's header (a prefix holds the first records only: spec 4.1)
+    prefix: bool = False  # read as a prefix of the file (spec 4.1): buf ends before ``size``
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

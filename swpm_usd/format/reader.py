@@ -11,7 +11,9 @@ content checks, run in the order of spec 5 by :func:`_check`, each live in a mod
 :mod:`.meta` (``META``, spec 3.1), :mod:`.check_lods_vert` (``LODS`` and ``VERT``, 3.2-3.3), one module per
 encoding (:mod:`.check_sliding` 3.5, :mod:`.check_vanilla` 3.6, :mod:`.check_skip` 3.7, :mod:`.check_mixed`
 3.8, with the record checks they share in :mod:`.check_records`) and :mod:`.check_smap` (``SMAP``, 4).
-:mod:`.parsed` holds the parsed state they fill in and the checked views they take of the mapping.
+:mod:`.parsed` holds the parsed state they fill in and the checked views they take of the mapping. With
+``prefix`` (:mod:`.prefix`, spec 4.1) the same checks read the first bytes of a file still arriving: the end
+of the file is the header's file_size and what lies past the bytes given waits for the whole file.
 """
 
 from __future__ import annotations
@@ -83,12 +85,18 @@ def _io_reason(exc: OSError) -> str:
 
 
 # -- structure ------------------------------------------------------------------------------------------
-def _structure(buf: np.ndarray, rep: Report, check_crc: bool) -> _Parsed | None:
+def _structure(buf: np.ndarray, rep: Report, check_crc: bool, prefix: bool = False) -> _Parsed | None:
+    """Steps 1-2 of spec 5. ``prefix``: ``buf`` may be a prefix of the file (spec 4.1): when it is shorter
+    than file_size the end of the file is file_size, the bytes it lacks (a CRC over them, padding there,
+    the length) are left to the whole file, and a header or table it cuts is SWPM_PREFIX_TOO_SHORT."""
     size = int(buf.shape[0])
     p = _Parsed(buf)
     if size < L.HEADER_SIZE:
         if size >= 8 and bytes(buf[:8]) != L.MAGIC:
             rep.add("SWPM_HEADER_BAD_MAGIC", 0, found=bytes(buf[:8]).hex(), expected=L.MAGIC.hex())
+        elif prefix:  # the header's file_size is not there yet: wait for it
+            rep.add("SWPM_PREFIX_TOO_SHORT", size, size=size, need=L.HEADER_SIZE)
+            rep.summary["prefix_need"] = L.HEADER_SIZE
         else:
             rep.add("SWPM_HEADER_TRUNCATED", 0, size=size, need=L.HEADER_SIZE)
         return None
@@ -103,6 +111,12 @@ def _structure(buf: np.ndarray, rep: Report, check_crc: bool) -> _Parsed | None:
     if p.minor > L.VERSION_MINOR:
         rep.add("SWPM_HEADER_NEWER_MINOR", 10, minor=p.minor)
     hs = int(h["header_size"])
+    declared = int(h["file_size"])
+    streaming = prefix and declared > size  # a prefix of a longer file: it ends at file_size
+    if streaming and L.HEADER_SIZE <= hs <= declared and hs > size:
+        rep.add("SWPM_PREFIX_TOO_SHORT", size, size=size, need=hs)
+        rep.summary["prefix_need"] = hs
+        return None
     if hs < L.HEADER_SIZE or hs > size:
         rep.add("SWPM_HEADER_BAD_SIZE", 12, value=hs)
         return None
@@ -125,9 +139,10 @@ def _structure(buf: np.ndarray, rep: Report, check_crc: bool) -> _Parsed | None:
             val = h[name]
             if np.any(val):
                 rep.add("SWPM_HEADER_RESERVED_NONZERO", off, field=name, value=np.asarray(val).tolist())
-    declared = int(h["file_size"])
     end = size
-    if declared > size:
+    if streaming:
+        end, p.prefix = declared, True
+    elif declared > size:
         rep.add("SWPM_FILE_SIZE_MISMATCH", 40, declared=declared, actual=size)
     elif declared < size:
         rep.add("SWPM_FILE_TRAILING_BYTES", declared, extra=size - declared)
@@ -145,6 +160,10 @@ def _structure(buf: np.ndarray, rep: Report, check_crc: bool) -> _Parsed | None:
         rep.add("SWPM_TABLE_TRUNCATED", 24, count=count, need=need, at=to, size=end)
         return None
     table_end = to + need
+    if table_end > size:  # (a prefix only: else the end of the file is at most its length)
+        rep.add("SWPM_PREFIX_TOO_SHORT", size, size=size, need=table_end)
+        rep.summary["prefix_need"] = table_end
+        return None
     if check_crc:
         found = int(h["file_crc"])
         crc = zlib.crc32(buf[: L.FILE_CRC_OFFSET])
@@ -187,7 +206,7 @@ def _structure(buf: np.ndarray, rep: Report, check_crc: bool) -> _Parsed | None:
                 field=f"chunk {name} reserved",
                 value=int(e["reserved"]),
             )
-        if c.ok and check_crc:
+        if c.ok and check_crc and off + ln <= size:  # (a prefix: a payload it cuts waits for the rest)
             crc = zlib.crc32(buf[off : off + ln], zlib.crc32(t))
             if crc != int(e["crc"]):
                 rep.add("SWPM_CHUNK_CRC_MISMATCH", eo + 24, type=name, found=int(e["crc"]), computed=crc)
@@ -246,22 +265,44 @@ def _stream_order(p: _Parsed, rep: Report) -> None:
 _DECODERS = {"vanilla": _vanilla, "sliding-window": _sliding, "skip-strip": _skip, "mixed": _mixed}
 
 
-def _check(buf: np.ndarray, path: str | None, check_crc: bool = True) -> tuple[Report, _Parsed | None]:
+def _prefix_skeleton(p: _Parsed, rep: Report) -> None:
+    """What a prefix must hold to be opened (spec 4.1), once steps 1-2 passed: VERT the last table entry
+    (else SWPM_PREFIX_NOT_STREAMABLE), and every byte before VERT's vertex records: its header, then its
+    first data_offset bytes (else SWPM_PREFIX_TOO_SHORT, with the bytes needed)."""
+    size, last = int(p.buf.shape[0]), p.order[-1]
+    if last.type != L.VERT:
+        rep.add("SWPM_PREFIX_NOT_STREAMABLE", last.entry_offset, type=last.name)
+        return
+    v = p.chunks[L.VERT]  # the last entry (a second VERT was SWPM_CHUNK_DUPLICATE)
+    need = v.offset + min(v.length, L.VERT_HEADER.itemsize)
+    if need <= size and v.length >= L.VERT_HEADER.itemsize:
+        data = int(p.buf[v.offset + 12 : v.offset + 16].view("<u4")[0])
+        need = v.offset + max(L.VERT_HEADER.itemsize, min(data, v.length))
+    if need > size:
+        rep.add("SWPM_PREFIX_TOO_SHORT", size, size=size, need=need)
+        rep.summary["prefix_need"] = need
+
+
+def _check(
+    buf: np.ndarray, path: str | None, check_crc: bool = True, prefix: bool = False
+) -> tuple[Report, _Parsed | None]:
     rep = _Report(path=path)
-    p = _structure(buf, rep, check_crc)
+    p = _structure(buf, rep, check_crc, prefix)
+    if p is not None and p.prefix and not rep.errors:
+        _prefix_skeleton(p, rep)
     if p is not None and not rep.errors:
         _meta(p, rep)
         _lods(p, rep)
         _vert(p, rep)
         if p.lods is not None and p.points is not None:
             vc0 = int(p.lods["vertex_count"][0])
-            if vc0 != p.points.shape[0]:
+            if vc0 != p.vertex_count:
                 rep.add(
                     "SWPM_LOD_VERTEX_COUNT",
                     p.chunks[L.LODS].offset,
                     lod=0,
                     count=vc0,
-                    expected=p.points.shape[0],
+                    expected=p.vertex_count,
                 )
                 p.content_ok = False
         if p.lods is not None and p.points is not None and p.meta is not None:
@@ -306,7 +347,7 @@ def _index_values_width(p: _Parsed) -> int:
     if not lists:
         return p.width
     ri = L.strips_restart_index(p.encoding, (p.meta or {}).get("params"))
-    V = int(p.points.shape[0]) if p.points is not None else 0
+    V = int(p.vertex_count) if p.points is not None else 0
     values = L.choose_index_width({str(i): a for i, a in enumerate(lists)}, restart=ri)
     return max(values, L.draw_index_width(V, ri))
 
@@ -322,11 +363,11 @@ def _summarise(p: _Parsed, rep: Report) -> None:
             "offset_width": p.offset_width,
             "index_values_width": _index_values_width(p),
             "lod_count": int(p.lods.shape[0]),
-            "vertex_count": int(p.points.shape[0]),
+            "vertex_count": int(p.vertex_count),
             "triangle_count": int(p.lods["triangle_count"][0]),
             "index_count": int(p.chunks[L.INDX].length // p.width),
             "lambda": (_stored_indices(p) / (3 * t0)) if t0 else None,
-            "file_size": int(p.buf.shape[0]),
+            "file_size": p.size if p.prefix else int(p.buf.shape[0]),
             "attributes": {n: f"{a.dtype}x{a.shape[1]}" for n, a in p.attributes.items()},
             "chunks": [
                 {"type": c.name, "critical": bool(c.flags & 1), "offset": c.offset, "length": c.length}
