@@ -37,7 +37,7 @@ from .rules import (
 from .worker import AUTO_SELECT, STAT_KEYS, TRIANGLES_READ
 
 if TYPE_CHECKING:
-    from .runner import PlanItem
+    from .plan_item import PlanItem
 
 #: every reason's code, in the order an asset's reasons are listed (a stable, lower-case contract: scripts
 #: and ``--json``'s ``because`` use them)

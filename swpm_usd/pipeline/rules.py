@@ -23,7 +23,7 @@ from .config import Config
 from .worker import TRIANGLES_READ
 
 if TYPE_CHECKING:
-    from .runner import PlanItem
+    from .plan_item import PlanItem
 
 
 def _total_fits(cfg: Config, record: dict, item: PlanItem) -> bool:
