@@ -102,11 +102,11 @@ def file_digest(paths: list[Path]) -> str:
 
 def hash_inputs(paths: list[Path]) -> tuple[str, list[dict[str, Any]]]:
     """The digest of an asset's input files and, for each, its manifest entry: ``path``, and the ``size``
-    and :data:`.worker.STAT_KEYS` of the bytes hashed (the stat taken through the descriptor read, before
+    and :data:`.file_hash.STAT_KEYS` of the bytes hashed (the stat taken through the descriptor read, before
     the read) with ``hashed_ns``, the time just before that stat (the runner's guard against a "racily
     clean" file: :func:`.inputs._inputs_unchanged`); the path alone for a file that changed while it was
     read, which the next run hashes again."""
-    from .worker import stat_fields, update_with_stat
+    from .file_hash import stat_fields, update_with_stat
 
     h = hashlib.sha256()
     entries: list[dict[str, Any]] = []
@@ -650,8 +650,8 @@ def canonical_treatment(treatment: dict[str, Any]) -> dict[str, Any]:
     whole numbers given for a real-valued parameter as floats: two configs that build the same thing
     (``mu: 0.1`` written out or left to the default, ``mu: 1`` or ``mu: 1.0``) give one treatment."""
     from ..encodings import ENCODING_PARAMS
+    from .auto import AUTO_SELECT
     from .schema import real_valued
-    from .worker import AUTO_SELECT
 
     encoding = treatment.get("encoding")
     defaults = ENCODING_PARAMS.get(encoding) or {"select": AUTO_SELECT[0]}

@@ -21,12 +21,13 @@ from typing import Any
 from ..codes import PROBLEM_KEYS
 from .assets import Asset, _folded
 from .config import Config, ConfigError
+from .file_hash import STAT_KEYS, hash_with_stat, stat_fields
 from .lock import LOCK
 from .manifest import _RUN_OUTPUT_DEFAULTS, MANIFEST, ORPHANED, RUN_OUTPUTS, _asks_for
 from .records import record_problem
 from .rules import OUTPUT_SUFFIXES, _names_moved, _wanted_outputs
 from .scene import _layer_with_units
-from .worker import STAT_KEYS, USD_TEMPORARY_SUFFIX, hash_with_stat, stat_fields
+from .worker import USD_TEMPORARY_SUFFIX
 
 #: temporary files a run leaves in output.dir if it is killed (the atomic writes', the USD layers' staged by
 #: the workers and the scene's, and usd-core's own beside those two: ``.<stem>.tmp.XXXXXX``), which the next
@@ -137,7 +138,7 @@ def _checked_output(path: Path, recorded: dict, verify: bool = False) -> dict | 
     """``recorded`` (an output's manifest record) when ``path`` is still the file it recorded, else None.
 
     Its size first. Then, unless ``verify``, its stat: a file with the recorded size, mtime, ctime, inode
-    and device (:data:`.worker.STAT_KEYS`) is trusted unchanged without being read (a rerun of thousands of
+    and device (:data:`.file_hash.STAT_KEYS`) is trusted unchanged without being read (a rerun of thousands of
     assets reads none of their outputs). Anything else is hashed: the file is intact when its sha256 is
     the recorded one (a changed byte of a same-size file rebuilds it), and the record returned is then a
     copy with the stat fields of the bytes hashed (recorded anew: a record of an older manifest has
@@ -161,7 +162,7 @@ def _checked_output(path: Path, recorded: dict, verify: bool = False) -> dict | 
 
 
 def _complete_output_record(path: Path, recorded: dict) -> None:
-    """Complete a worker's record of an output it wrote (:func:`.worker.output_record`) as this process
+    """Complete a worker's record of an output it wrote (:func:`.file_hash.output_record`) as this process
     sees the file: its size, and its stat fields when it is still the file the worker hashed (the same
     size, mtime, ctime and inode; the device as this process numbers it, which a Dask worker on another
     machine may not), else none, so the next run hashes it."""
