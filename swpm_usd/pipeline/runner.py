@@ -719,29 +719,7 @@ def _run(
     # each asset's reasons to be built (--force: every asset's first), none for one up to date
     because = {it.asset.id: ([reason("forced", "--force")] if force else []) + it.because for it in picked}
     if dry_run or explain:
-        for it in picked:
-            state = "up to date" if it.up_to_date and not force else "to build"
-            encoding, params = it.treatment.get("encoding"), it.treatment.get("params", {})  # (none: pending)
-            reasons = because[it.asset.id]
-            echo(
-                f"{it.asset.id}: {encoding or '?'} "
-                f"{json.dumps(params, sort_keys=True)} "
-                f"[{state}] {_triangles_shown(it)} instances={it.asset.instances}; {it.why}"
-                + (f"; because: {reasons_shown(reasons)}" if reasons else "")
-            )
-            planned.append(
-                {
-                    "id": it.asset.id,
-                    "encoding": encoding,
-                    "params": params,
-                    "state": state,
-                    "triangles": it.triangles,
-                    "triangles_count": it.triangles_how,
-                    "instances": it.asset.instances,
-                    "why": it.why,
-                    "because": reasons,
-                }
-            )
+        planned = _plan_shown(picked, force, because, echo)
         if chosen is not None:
             echo(f"{_assets(not_selected)} not selected by --only (of {len(items)}): not listed, not built")
         if dry_run:
@@ -766,31 +744,7 @@ def _run(
         lock.claim()
         for path, _ in orphans:
             path.unlink(missing_ok=True)
-    # (the records of current assets the run can use: a hand-edited one is ignored, see plan)
-    usable = {it.asset.id for it in items if it.previous is not None}
-    records = {k: v for k, v in manifest.get("assets", {}).items() if k in usable}
-    for it in picked:  # (an asset not selected keeps its record as it is, up to date or not)
-        kept = records.get(it.asset.id)
-        if not it.up_to_date or force or kept is None:
-            continue
-        if "last_failure" in kept:  # up to date again (an input or a config put back): another's failure
-            kept = records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
-        if it.checked_outputs is not None:  # hashed, and their stat recorded anew
-            kept = records[it.asset.id] = {**kept, "outputs": it.checked_outputs}
-        rule, why = _rule_name(cfg, it), _current_why(kept.get("why"), it)
-        if kept.get("rule") != rule or kept.get("why") != why:
-            # another rule (renamed, reordered, added) now gives the asset the same treatment: the build is
-            # current, and its record names the rule that chose it today (the report shows it)
-            kept = records[it.asset.id] = {**kept, "rule": rule, "why": why}
-        if kept.get("digest") != it.digest:  # (of a version whose digest held the count: as it is now)
-            kept = records[it.asset.id] = {**kept, "digest": it.digest}
-        if "instances" in kept and kept["instances"] != it.asset.instances:
-            # (another instance count, the same build: an encoding other than auto; the report shows it)
-            kept = records[it.asset.id] = {**kept, "instances": it.asset.instances}
-        if it.input_stats is not kept.get("inputs") or _listing_mark(kept) != it.inputs_listed:
-            # hashed (to the recorded digest): their stat anew; or listed by reading the file (the record
-            # of an older version): marked as a list the next run may take
-            records[it.asset.id] = _with_inputs(kept, it)
+    records = _records_kept(cfg, manifest, items, picked, force)
     run_outputs = {  # (the files still there until the run writes them anew: a stopped run records them)
         kind: o
         for kind, o in (
@@ -999,6 +953,72 @@ def _run(
         failures, **orphan_lists, built_ids=built_ids, because=tried, not_selected=not_selected,
         orphans=orphan_records,
     )  # fmt: skip
+
+
+def _plan_shown(picked: list[PlanItem], force: bool, because: dict[str, list], echo) -> list[dict]:
+    """A dry run's or ``--explain``'s plan of the assets ``picked``: a line echoed for each (its encoding,
+    parameters, state, triangles, instances, why and ``because``, its reasons to be built), and each as
+    :attr:`RunResult.plan` holds it."""
+    planned = []
+    for it in picked:
+        state = "up to date" if it.up_to_date and not force else "to build"
+        encoding, params = it.treatment.get("encoding"), it.treatment.get("params", {})  # (none: pending)
+        reasons = because[it.asset.id]
+        echo(
+            f"{it.asset.id}: {encoding or '?'} "
+            f"{json.dumps(params, sort_keys=True)} "
+            f"[{state}] {_triangles_shown(it)} instances={it.asset.instances}; {it.why}"
+            + (f"; because: {reasons_shown(reasons)}" if reasons else "")
+        )
+        planned.append(
+            {
+                "id": it.asset.id,
+                "encoding": encoding,
+                "params": params,
+                "state": state,
+                "triangles": it.triangles,
+                "triangles_count": it.triangles_how,
+                "instances": it.asset.instances,
+                "why": it.why,
+                "because": reasons,
+            }
+        )
+    return planned
+
+
+def _records_kept(
+    cfg: Config, manifest: dict, items: list[PlanItem], picked: list[PlanItem], force: bool
+) -> dict[str, dict]:
+    """The manifest records a run that builds keeps before it builds: those of the config's assets it can
+    use (not a hand-edited one: see :func:`plan`), an up-to-date picked asset's brought up to date itself
+    (its ``last_failure`` dropped, its outputs' stat, rule, why, digest, instances and inputs as the plan
+    found them); the records of the assets to build are replaced as each finishes."""
+    # (the records of current assets the run can use: a hand-edited one is ignored, see plan)
+    usable = {it.asset.id for it in items if it.previous is not None}
+    records = {k: v for k, v in manifest.get("assets", {}).items() if k in usable}
+    for it in picked:  # (an asset not selected keeps its record as it is, up to date or not)
+        kept = records.get(it.asset.id)
+        if not it.up_to_date or force or kept is None:
+            continue
+        if "last_failure" in kept:  # up to date again (an input or a config put back): another's failure
+            kept = records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
+        if it.checked_outputs is not None:  # hashed, and their stat recorded anew
+            kept = records[it.asset.id] = {**kept, "outputs": it.checked_outputs}
+        rule, why = _rule_name(cfg, it), _current_why(kept.get("why"), it)
+        if kept.get("rule") != rule or kept.get("why") != why:
+            # another rule (renamed, reordered, added) now gives the asset the same treatment: the build is
+            # current, and its record names the rule that chose it today (the report shows it)
+            kept = records[it.asset.id] = {**kept, "rule": rule, "why": why}
+        if kept.get("digest") != it.digest:  # (of a version whose digest held the count: as it is now)
+            kept = records[it.asset.id] = {**kept, "digest": it.digest}
+        if "instances" in kept and kept["instances"] != it.asset.instances:
+            # (another instance count, the same build: an encoding other than auto; the report shows it)
+            kept = records[it.asset.id] = {**kept, "instances": it.asset.instances}
+        if it.input_stats is not kept.get("inputs") or _listing_mark(kept) != it.inputs_listed:
+            # hashed (to the recorded digest): their stat anew; or listed by reading the file (the record
+            # of an older version): marked as a list the next run may take
+            records[it.asset.id] = _with_inputs(kept, it)
+    return records
 
 
 def _orphan_named(o: dict) -> dict:
