@@ -36,7 +36,7 @@ problem: the file is never opened in this process unprobed.
 
 This module is the client: which files a stage opens (decided here, without usd-core for a crate file), the
 answers kept, and the server started and talked to; the server's own program, run in its process, is
-:mod:`.probe_program`.
+:mod:`.probe_program`, and what each answer means, as a :class:`Problem`'s message, :mod:`.probe_problems`.
 """
 
 from __future__ import annotations
@@ -47,7 +47,6 @@ import json
 import os
 import select
 import shutil
-import signal
 import stat
 import subprocess
 import sys
@@ -56,8 +55,9 @@ import threading
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import NamedTuple
 
+from .probe_problems import Problem as Problem  # (re-exported)
+from .probe_problems import _not_regular, _overran, _problem
 from .probe_program import _CLEAN, _LAYER_FAILED, _NOT_REGULAR, _OPEN_FAILED, _READ_FAILED
 from .probe_program import _PROBE as _PROBE  # (re-exported: :func:`_start_server` reads it here)
 
@@ -70,16 +70,6 @@ PROBE_SECONDS = 300.0
 #: by the system's out-of-memory killer, which may pick another process)
 PROBE_MEMORY_BASE = 4 << 30
 PROBE_MEMORY_PER_BYTE = 64
-
-
-class Problem(NamedTuple):
-    """What a probe found: ``kind`` "crash" (usd-core died by a signal), "timeout", "open" (it raised an
-    error opening the file), "read" (opening it, but reading a value in it: corrupt data, which read in
-    this process could ask for a giant allocation) or "probe" (the probe itself failed twice, not usd-core:
-    the file was not opened, here or there), and ``message``, one line naming the file."""
-
-    kind: str
-    message: str
 
 
 #: a file's stamp: (size, mtime_ns, inode), None for a file that is not there
@@ -105,26 +95,6 @@ def _regular(path: str) -> bool:
         return stat.S_ISREG(os.stat(path).st_mode)
     except OSError:
         return True
-
-
-def _file_kind(mode: int) -> str:
-    """What a file that is not a regular file is, by its ``st_mode``."""
-    kinds = (
-        (stat.S_ISFIFO, "a FIFO"),
-        (stat.S_ISDIR, "a folder"),
-        (stat.S_ISCHR, "a character device"),
-        (stat.S_ISBLK, "a block device"),
-        (stat.S_ISSOCK, "a socket"),
-    )
-    return next((what for test, what in kinds if test(mode)), "not a regular file")
-
-
-def _not_regular(path: str, layer: str | None, mode: int) -> Problem:
-    """The "open" :class:`Problem` of ``path`` when it (``layer`` None) or a layer its stage opens is not a
-    regular file: reported at once, the file never opened (here or in a probe, where a FIFO's open would
-    wait for a writer until :data:`PROBE_SECONDS`)."""
-    what = "it is" if layer is None else f"a layer its stage opens, {layer}, is"
-    return Problem("open", f"{path}: {what} not a regular file ({_file_kind(mode)}); it was not opened")
 
 
 class _NotRegular(Exception):
@@ -243,13 +213,6 @@ def _seconds() -> float:
         return max(1.0, float(os.environ.get("SWPM_USD_PROBE_SECONDS", PROBE_SECONDS)))
     except ValueError:
         return PROBE_SECONDS
-
-
-def _signal_name(number: int) -> str:
-    try:
-        return signal.Signals(number).name
-    except ValueError:
-        return f"signal {number}"
 
 
 def _stamp(path: str) -> _Stamp:
@@ -615,31 +578,6 @@ def _serve(
     return failed
 
 
-def _problem(path: str, code: int, text: str, seconds: float) -> Problem | None:
-    if code == _CLEAN:
-        return None
-    if code == -signal.SIGALRM:
-        return _overran(path, seconds)
-    if code < 0:
-        said = f"; usd-core said: {text}" if text else ""
-        return Problem(
-            "crash",
-            f"{path}: usd-core crashed opening or reading it (a probe process died by "
-            f"{_signal_name(-code)}{said}): the file is corrupt; it was not opened in this process",
-        )
-    if code == _NOT_REGULAR:
-        mode, _, layer = text.partition("|")
-        return _not_regular(path, layer, int(mode))
-    from ..errors import tf_message
-
-    reason = tf_message(RuntimeError(text)) if text.strip() else "usd-core returned no stage"
-    if code == _OPEN_FAILED:
-        return Problem("open", f"{path}: usd-core cannot open it as a USD layer: {reason}")
-    if code == _LAYER_FAILED:
-        return Problem("open", f"{path}: usd-core cannot open a crate layer its stage uses, {reason}")
-    return Problem("read", f"{path}: usd-core cannot read it: {reason}")
-
-
 def _stop(server: subprocess.Popen[bytes] | None) -> None:
     """Kill the probe server (hung, or gone) and forget it. One the process this one was forked from started
     (a child whose own server failed to start, or Ctrl-C before it had one) is that process's: only this
@@ -653,11 +591,3 @@ def _stop(server: subprocess.Popen[bytes] | None) -> None:
             server.wait()
             _close_pipes(server)
     _server = None
-
-
-def _overran(path: str, seconds: float) -> Problem:
-    return Problem(
-        "timeout",
-        f"{path}: usd-core did not finish opening and reading it within {seconds:g} s (a probe process was "
-        "stopped): the file is corrupt, or larger than SWPM_USD_PROBE_SECONDS allows",
-    )
