@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .gltf_prepare import _COMPONENT, _GLB_BIN, _GLB_JSON, _WIDTH, _document, _index, _Unread, uri_names
+from .gltf_read import _COMPONENT, _GLB_BIN, _GLB_JSON, _WIDTH, _document, _index, _Unread, uri_names
 from .text_rows import _undecoded
 
 
@@ -42,7 +42,7 @@ def _gltf_json_problem(path: Path) -> str | None:
 def _buffer_uri_size(path: Path, uri: str) -> int | str:
     """The byte size of the buffer of ``uri`` (a base64 data URI, or a file beside the .gltf file ``path``),
     or why there is none (the end of a message: "its data URI is not valid base64 (...)"). A file is resolved
-    as the loader's resolver does (:func:`.gltf_prepare.uri_names`), which refuses a file outside the .gltf's
+    as the loader's resolver does (:func:`.gltf_read.uri_names`), which refuses a file outside the .gltf's
     folder: such a file is not looked at, and its size not told."""
     if uri.startswith("data:"):
         meta, _, body = uri.partition(",")
@@ -102,7 +102,7 @@ _GLTF_TYPE_WIDTH = {**_WIDTH, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 def _gltf_document(path: Path) -> tuple[dict, int | None] | None:
     """(the JSON document, the byte length of a .glb's binary chunk or None) of the .gltf or .glb file
     ``path``, or None when it does not read (the checks before say why). The chunks are found as the glTF
-    rewrite finds them (:func:`.gltf_prepare._document`: the first JSON and the first binary chunk, whatever
+    rewrite finds them (:func:`.gltf_read._document`: the first JSON and the first binary chunk, whatever
     comes between them)."""
     try:
         doc, binary = _document(path, path.read_bytes())

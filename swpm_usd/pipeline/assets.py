@@ -3,13 +3,14 @@
 An asset is a mesh file matched by a glob, or a Mesh prim of a USD stage (its instance count comes from
 the composed stage: instanceable prims sharing a prototype, and PointInstancer ids). Rules are tried in
 order; the first whose ``match`` holds wins, a rule without ``match`` matches everything, and when no rule
-matches, ``defaults`` apply.
+matches, ``defaults`` apply: the matching, an asset's treatment and its digest are :mod:`.treatment`'s
+(re-exported here). Besides discovery, this module lists the files an asset is built from (a glTF's buffers,
+a USD stage's layers) and hashes them (:func:`hash_inputs`).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import fnmatch
 import hashlib
 import json
 import os
@@ -23,6 +24,14 @@ from typing import Any
 
 from ..errors import first_few
 from .config import Config
+from .treatment import _MAXIMA as _MAXIMA  # (re-exported, as the names below)
+from .treatment import _MINIMA as _MINIMA
+from .treatment import canonical_treatment as canonical_treatment
+from .treatment import checks_no_stricter as checks_no_stricter
+from .treatment import checks_of as checks_of
+from .treatment import match_rule as match_rule
+from .treatment import rule_checks as rule_checks
+from .treatment import treatment_digest as treatment_digest
 
 
 @dataclass
@@ -102,11 +111,11 @@ def file_digest(paths: list[Path]) -> str:
 
 def hash_inputs(paths: list[Path]) -> tuple[str, list[dict[str, Any]]]:
     """The digest of an asset's input files and, for each, its manifest entry: ``path``, and the ``size``
-    and :data:`.worker.STAT_KEYS` of the bytes hashed (the stat taken through the descriptor read, before
+    and :data:`.file_hash.STAT_KEYS` of the bytes hashed (the stat taken through the descriptor read, before
     the read) with ``hashed_ns``, the time just before that stat (the runner's guard against a "racily
     clean" file: :func:`.inputs._inputs_unchanged`); the path alone for a file that changed while it was
     read, which the next run hashes again."""
-    from .worker import stat_fields, update_with_stat
+    from .file_hash import stat_fields, update_with_stat
 
     h = hashlib.sha256()
     entries: list[dict[str, Any]] = []
@@ -637,138 +646,3 @@ def _folded(name: str) -> str:
     """``name`` as a case-insensitive filesystem compares it: its case folded and, as macOS's APFS and HFS+
     compare names, its Unicode normalized (``é`` one code point or ``e`` and an accent)."""
     return unicodedata.normalize("NFC", name).casefold()
-
-
-def _in_range(value: float, rng: dict | None) -> bool:
-    if not rng:
-        return True
-    return rng.get("min", float("-inf")) <= value <= rng.get("max", float("inf"))
-
-
-def canonical_treatment(treatment: dict[str, Any]) -> dict[str, Any]:
-    """``treatment`` with every parameter of its encoding, defaults filled in (``auto``: ``select``), and
-    whole numbers given for a real-valued parameter as floats: two configs that build the same thing
-    (``mu: 0.1`` written out or left to the default, ``mu: 1`` or ``mu: 1.0``) give one treatment."""
-    from ..encodings import ENCODING_PARAMS
-    from .schema import real_valued
-    from .worker import AUTO_SELECT
-
-    encoding = treatment.get("encoding")
-    defaults = ENCODING_PARAMS.get(encoding) or {"select": AUTO_SELECT[0]}
-    params = dict(defaults)
-    for name, value in (treatment.get("params") or {}).items():
-        if (
-            name in defaults
-            and real_valued(name, defaults[name])
-            and isinstance(value, int)
-            and not isinstance(value, bool)
-        ):
-            try:
-                value = float(value)
-            except OverflowError:  # out of any build's range: the build reports it, located
-                pass
-        params[name] = value
-    return {**treatment, "params": params}
-
-
-def checks_of(data: dict[str, Any]) -> dict[str, Any]:
-    """The parts of a config (its data) that decide whether a built asset passes: ``budgets`` (which ``auto``
-    also chooses by) and ``streaming``."""
-    return {"budgets": data.get("budgets") or {}, "streaming": data.get("streaming") or {}}
-
-
-#: the limits of :func:`checks_of` that a larger value loosens, and the one a smaller value loosens
-_MAXIMA = {
-    ("budgets", "total_bytes"),
-    ("budgets", "global_bytes"),
-    ("budgets", "instance_bytes"),
-    ("streaming", "coarsest_lod_bytes"),
-    ("streaming", "max_lods"),
-}
-_MINIMA = {("streaming", "min_coarsest_triangles")}
-
-
-def checks_no_stricter(now: dict[str, Any], then: dict[str, Any] | None) -> bool:
-    """Does an asset that passed the checks ``then`` pass ``now`` without being built again: every limit of
-    ``now`` as loose as ``then``'s or looser (a limit dropped is looser, one added is not), every other
-    setting (the streaming order) the same? ``then`` None (a record without its checks): no."""
-    if then is None:
-        return False
-    for section in ("budgets", "streaming"):
-        a, b = now.get(section) or {}, then.get(section) or {}
-        for key in set(a) | set(b):
-            if key not in a and ((section, key) in _MAXIMA or (section, key) in _MINIMA):
-                continue  # dropped
-            if (section, key) in _MAXIMA:
-                if key not in b or a[key] < b[key]:
-                    return False
-            elif (section, key) in _MINIMA:
-                if key not in b or a[key] > b[key]:
-                    return False
-            elif a.get(key) != b.get(key):
-                return False
-    return True
-
-
-def treatment_digest(
-    input_digest: str,
-    asset: Asset,
-    treatment: dict[str, Any],
-    version: str,
-    checks: dict[str, Any] | None = None,
-    *,
-    instances: int | None = None,
-) -> str:
-    """What decides whether an asset's outputs are current: its inputs, prim, encoding and parameters
-    (:func:`canonical_treatment`: a default written out changes nothing), for ``encoding: auto`` its
-    instances and the budgets and streaming policy it chose by (:func:`checks_of`; other encodings keep
-    their checks in their record, and :func:`checks_no_stricter` decides), and the tool's version.
-
-    Another encoding builds the same outputs for any instance count (a rule on ``instances`` that picks
-    another treatment changes the digest by that treatment): its digest takes the count as 1, the default,
-    so an asset of the default count keeps the digest it had when every count was in it, and a source's
-    ``instances`` changed rebuilds only its ``auto`` assets (the runner checks ``budgets.total_bytes``
-    against the recorded memory and the new count: :func:`.runner.plan`). ``instances`` given is the count
-    the digest takes instead (a record's, built when every count was in the digest: :func:`.runner.plan`)."""
-    if instances is None:
-        instances = asset.instances if treatment.get("encoding") == "auto" else 1
-    payload = json.dumps(
-        [input_digest, asset.prim, instances, canonical_treatment(treatment), checks or {}, version],
-        sort_keys=True,
-    )
-    return hashlib.sha256(payload.encode()).hexdigest()
-
-
-def rule_checks(rule: dict[str, Any], asset: Asset, triangles: int) -> list[tuple[str, bool]]:
-    """Each of ``rule``'s match conditions, named, and whether ``asset`` (of ``triangles``) meets it: the
-    rule matches the asset when it meets them all (a rule without ``match`` matches every asset)."""
-    m = rule.get("match") or {}
-    checks = []
-    if "path" in m:
-        checks.append(("path", fnmatch.fnmatch(asset.file_id, m["path"])))  # (a stage asset: its stage's)
-    if "prim" in m:
-        checks.append(("prim", asset.prim is not None and fnmatch.fnmatch(asset.prim, m["prim"])))
-    if "triangles" in m:
-        checks.append((f"triangles={triangles}", _in_range(triangles, m["triangles"])))
-    if "instances" in m:
-        checks.append((f"instances={asset.instances}", _in_range(asset.instances, m["instances"])))
-    if "tag" in m:
-        checks.append(("tag", all(asset.tags.get(k) == v for k, v in m["tag"].items())))
-    return checks
-
-
-def match_rule(cfg: Config, asset: Asset, triangles: int) -> tuple[int | None, dict[str, Any], str]:
-    """(rule index or None for defaults, {'encoding', 'params'}, why) for an asset."""
-    for i, rule in enumerate(cfg.data.get("rules", [])):
-        checks = rule_checks(rule, asset, triangles)
-        if all(ok for _, ok in checks):
-            why = f"rule {rule['name']!r} matched" + (
-                f" ({', '.join(name for name, _ in checks)})" if checks else " (no match conditions)"
-            )
-            return i, {"encoding": rule["encoding"], "params": dict(rule.get("params", {}))}, why
-    d = cfg.data.get("defaults", {})
-    return (
-        None,
-        {"encoding": d.get("encoding", "sliding-window"), "params": dict(d.get("params", {}))},
-        ("no rule matched: defaults"),
-    )

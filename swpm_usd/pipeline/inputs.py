@@ -14,11 +14,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .assets import LISTED_SUFFIXES
+from .file_hash import STAT_KEYS, stat_fields
 from .records import INPUT_STAT_KEYS, record_problem, recorded_inputs
-from .worker import STAT_KEYS, stat_fields
 
 if TYPE_CHECKING:
-    from .runner import PlanItem
+    from .plan_item import PlanItem
 
 
 #: an input's recorded stat is trusted only when its mtime and ctime were older than the moment it was

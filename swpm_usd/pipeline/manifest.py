@@ -21,7 +21,7 @@ from .records import _what
 from .worker import atomic_write_bytes
 
 if TYPE_CHECKING:
-    from .runner import PlanItem
+    from .plan_item import PlanItem
 
 
 MANIFEST = "manifest.json"

@@ -1,11 +1,11 @@
 """The run's files in output.dir: what it writes, which are still as recorded, and what it cleans up.
 
 :func:`_checked_output` decides whether an output is still the file its record describes (by size and stat,
-else by sha256); :func:`planned_outputs` and :func:`_overwritten_inputs` keep a run from writing over its
-own inputs; the rest clean up after a killed run or worker (temporary files, outputs a worker had kept
-aside), name or delete the outputs of assets no longer in the config, and keep an asset's previous build
-when its rebuild fails (:func:`_keep_previous`). Separate from the runner: file checks and clean-up rules,
-each a function the run calls at one step.
+else by sha256); :func:`planned_outputs` and :func:`_overwritten_inputs` keep a run from writing over its own
+inputs; the rest clean up after a killed run or worker (temporary files, outputs a worker had kept aside),
+name or delete the outputs of assets no longer in the config (and those a rebuild no longer writes), and keep
+an asset's previous build when its rebuild fails (:func:`_keep_previous`). Separate from the runner: file
+checks and clean-up rules, each a function the run calls at one step.
 """
 
 from __future__ import annotations
@@ -21,11 +21,13 @@ from typing import Any
 from ..codes import PROBLEM_KEYS
 from .assets import Asset, _folded
 from .config import Config, ConfigError
+from .file_hash import STAT_KEYS, hash_with_stat, stat_fields
 from .lock import LOCK
 from .manifest import _RUN_OUTPUT_DEFAULTS, MANIFEST, ORPHANED, RUN_OUTPUTS, _asks_for
 from .records import record_problem
+from .rules import OUTPUT_SUFFIXES, _names_moved, _wanted_outputs
 from .scene import _layer_with_units
-from .worker import STAT_KEYS, USD_TEMPORARY_SUFFIX, hash_with_stat, stat_fields
+from .worker import USD_TEMPORARY_SUFFIX
 
 #: temporary files a run leaves in output.dir if it is killed (the atomic writes', the USD layers' staged by
 #: the workers and the scene's, and usd-core's own beside those two: ``.<stem>.tmp.XXXXXX``), which the next
@@ -136,7 +138,7 @@ def _checked_output(path: Path, recorded: dict, verify: bool = False) -> dict | 
     """``recorded`` (an output's manifest record) when ``path`` is still the file it recorded, else None.
 
     Its size first. Then, unless ``verify``, its stat: a file with the recorded size, mtime, ctime, inode
-    and device (:data:`.worker.STAT_KEYS`) is trusted unchanged without being read (a rerun of thousands of
+    and device (:data:`.file_hash.STAT_KEYS`) is trusted unchanged without being read (a rerun of thousands of
     assets reads none of their outputs). Anything else is hashed: the file is intact when its sha256 is
     the recorded one (a changed byte of a same-size file rebuilds it), and the record returned is then a
     copy with the stat fields of the bytes hashed (recorded anew: a record of an older manifest has
@@ -160,7 +162,7 @@ def _checked_output(path: Path, recorded: dict, verify: bool = False) -> dict | 
 
 
 def _complete_output_record(path: Path, recorded: dict) -> None:
-    """Complete a worker's record of an output it wrote (:func:`.worker.output_record`) as this process
+    """Complete a worker's record of an output it wrote (:func:`.file_hash.output_record`) as this process
     sees the file: its size, and its stat fields when it is still the file the worker hashed (the same
     size, mtime, ctime and inode; the device as this process numbers it, which a Dask worker on another
     machine may not), else none, so the next run hashes it."""
@@ -408,6 +410,26 @@ def _dropped_outputs(
             else:
                 record = _orphan_record(checked, asset, "kind-unwanted", f"{kind}: false")
             found.append((out_dir / o["path"], record))
+    return found
+
+
+def _left_by_rebuilds(cfg: Config, out_dir: Path, items: list, todo: list) -> list[dict]:
+    """The recorded outputs of the assets ``todo`` that their rebuild does not write, still as recorded, each
+    named as its asset's, with why it is left (:func:`.outputs._dropped_outputs`, as the run finds them once
+    each is built), less the files this run's assets write or read."""
+    wanted = _wanted_outputs(cfg)
+    found: list[dict] = []
+    keep = None
+    for it in todo:
+        if not isinstance(it.previous, dict):
+            continue
+        stem = it.asset.output_stem
+        built = {"outputs": {k: {"path": f"{stem}{OUTPUT_SUFFIXES[k]}"} for k in wanted}}
+        moved = _names_moved(cfg, it.asset, it.previous)
+        for path, o in _dropped_outputs(out_dir, it.previous, built, asset=it.asset.id, moved=moved):
+            keep = _files_kept(cfg, out_dir, items) if keep is None else keep
+            if _file_key(path) not in keep:
+                found.append(o)
     return found
 
 

@@ -20,7 +20,9 @@ from typing import TYPE_CHECKING, Any
 
 from ..errors import first_few
 from .assets import _MAXIMA, _MINIMA, canonical_treatment, checks_no_stricter, checks_of, treatment_digest
+from .auto import AUTO_SELECT
 from .config import Config
+from .file_hash import STAT_KEYS
 from .inputs import recorded_path
 from .rules import (
     OUTPUT_SUFFIXES,
@@ -34,10 +36,10 @@ from .rules import (
     _wants_outputs,
     _within_triangle_budget,
 )
-from .worker import AUTO_SELECT, STAT_KEYS, TRIANGLES_READ
+from .worker import TRIANGLES_READ
 
 if TYPE_CHECKING:
-    from .runner import PlanItem
+    from .plan_item import PlanItem
 
 #: every reason's code, in the order an asset's reasons are listed (a stable, lower-case contract: scripts
 #: and ``--json``'s ``because`` use them)

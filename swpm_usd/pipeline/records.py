@@ -15,7 +15,7 @@ from collections.abc import Callable
 from typing import Any
 
 from .assets import _MAXIMA, _MINIMA
-from .worker import STAT_KEYS
+from .file_hash import STAT_KEYS
 
 
 def _what(value: Any) -> str:

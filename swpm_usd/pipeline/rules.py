@@ -23,7 +23,7 @@ from .config import Config
 from .worker import TRIANGLES_READ
 
 if TYPE_CHECKING:
-    from .runner import PlanItem
+    from .plan_item import PlanItem
 
 
 def _total_fits(cfg: Config, record: dict, item: PlanItem) -> bool:
@@ -204,7 +204,7 @@ def _routes_by_triangles(cfg: Config) -> bool:
 def _current_why(recorded: Any, item: PlanItem) -> str:
     """The ``why`` of an up-to-date asset's record today: the rule that chooses its treatment now
     (``item.why``), and for ``encoding: auto`` the choice its build recorded after it (``; auto: ...``,
-    :func:`.worker.choose_auto`'s, which the build alone measures: this treatment's, as the digest is)."""
+    :func:`.auto.choose_auto`'s, which the build alone measures: this treatment's, as the digest is)."""
     if item.treatment.get("encoding") == "auto" and isinstance(recorded, str):
         cut = recorded.rfind("; auto: ")  # (the last: the choice holds none, a rule's name might)
         if cut >= 0:

@@ -1,13 +1,13 @@
 """``swpm-pipeline run``: plan every asset, skip what is up to date, run the rest on an executor, record.
 
-This module is the orchestration: :func:`plan` decides what each asset needs, :func:`execute` runs the
-tasks, :func:`run` holds the steps together and records. What they call lives beside it: :mod:`.manifest`
-(the file, read and written fast), :mod:`.inputs` (which inputs are as recorded), :mod:`.rules` (an asset's
-rule, and whether its build is still current), :mod:`.tasks` (what a worker gets), :mod:`.pool` (the worker
-processes and their fork server), :mod:`.outputs` (the files in output.dir: checked, cleaned up, kept),
-:mod:`.lock` (one run at a time in an output folder), :mod:`.scene` (scene.usda), :mod:`.progress` and
-:mod:`.interrupts` (Ctrl-C), :mod:`.reasons` (why the plan builds an asset again: shown, never deciding),
-:mod:`.selection` (which assets ``only`` picks).
+This module is the orchestration: :func:`plan` decides what each asset needs, :func:`execute` runs the tasks,
+:func:`run` holds the steps together and records. What they call lives beside it: :mod:`.manifest` (the file,
+read and written fast), :mod:`.inputs` (which inputs are as recorded), :mod:`.rules` (an asset's rule, and
+whether its build is still current), :mod:`.tasks` (what a worker gets), :mod:`.pool` (the worker processes
+and their fork server), :mod:`.outputs` (the files in output.dir: checked, cleaned up, kept), :mod:`.lock`
+(one run at a time in an output folder), :mod:`.scene` (scene.usda), :mod:`.progress` and :mod:`.interrupts`
+(Ctrl-C), :mod:`.reasons` (why the plan builds an asset again: shown, never deciding), :mod:`.selection`
+(which assets ``only`` picks), :mod:`.plan_item` (an asset's plan, the type those parts take).
 
 The run manifest (``<output>/manifest.json``) is rewritten atomically as assets finish (at most once a second,
 and at once when the run ends, fails or is stopped with Ctrl-C), so an interrupted run keeps every earlier
@@ -111,6 +111,7 @@ from .outputs import (
     _file_key,
     _files_kept,
     _keep_previous,
+    _left_by_rebuilds,
     _make_out_dir,
     _orphaned_outputs,
     _overwritten_inputs,
@@ -121,6 +122,9 @@ from .outputs import (
     orphan_line,
 )
 from .outputs import planned_outputs as planned_outputs  # (re-exported)
+from .plan_item import TRIANGLE_COUNTS as TRIANGLE_COUNTS  # (re-exported)
+from .plan_item import PlanItem as PlanItem  # (re-exported)
+from .plan_item import _triangles_shown
 from .pool import (
     _TRIMESH_PRELOAD,
     _environ,
@@ -137,7 +141,6 @@ from .reasons import build_reasons, counted, reason
 from .reasons import shown as reasons_shown
 from .records import record_problem, recorded_inputs
 from .rules import (
-    OUTPUT_SUFFIXES,
     _current_why,
     _digest_with_count,
     _max_triangles,
@@ -179,48 +182,6 @@ from .worker import (
 #: at once) has at most 20 rewrite times of finished assets to build again
 _MANIFEST_EVERY_S = 1.0
 _MANIFEST_BACKOFF = 20
-
-
-@dataclass
-class PlanItem:
-    asset: Asset
-    input_digest: str
-    triangles: int | None  # known from the manifest, else None (the worker counts)
-    rule: int | None = None
-    treatment: dict[str, Any] = field(default_factory=dict)
-    why: str = ""
-    digest: str = ""
-    up_to_date: bool = False
-    rule_pending: bool = False  # the worker matches the rule once it has counted the triangles
-    inputs: list[Path] = field(default_factory=list)  # the files the asset is built from (discover's)
-    #: an up-to-date asset's outputs as its manifest record lists them, with the stat fields of those
-    #: hashed to be checked recorded anew (:func:`.outputs._checked_output`) and those of a kind the config no
-    #: longer asks for left out when deleted or changed since, a USD layer's units added to a record
-    #: written before they were (:func:`.worker.recorded_layer_units`); None when no record changed
-    checked_outputs: dict[str, dict] | None = None
-    #: the asset's manifest record; None when the manifest has none, or one that is not a record the run
-    #: writes (a hand edit: :func:`.records.record_problem`), which is then ignored, with a warning
-    previous: dict | None = None
-    #: each input file's manifest entry (:func:`.assets.hash_inputs`): the recorded ones, when the input
-    #: digest was taken from the record (:func:`.inputs._inputs_unchanged`), else those of the files just
-    #: hashed
-    input_stats: list[dict] = field(default_factory=list)
-    #: ``inputs`` is a list a rerun may take from the record while its files are unchanged
-    #: (:func:`.assets.discover`'s ``settled``): the record says so by :data:`.inputs.INPUTS_LISTED`
-    inputs_listed: bool = False
-    #: how ``triangles`` is known (:data:`TRIANGLE_COUNTS`): a dry run takes the count a file tells before
-    #: its geometry is read where the rules need one (:func:`.io.early_triangle_count`)
-    triangles_how: str = "exact"
-    #: why the asset is built again (:func:`.reasons.build_reasons`: ``{"code", "detail"}`` each, in the
-    #: order of :data:`.reasons.REASONS`); empty when it is up to date (``--force`` aside: the runner's)
-    because: list[dict[str, str]] = field(default_factory=list)
-
-
-#: how a plan's triangle count is known: the cleaned mesh's (recorded, or the file loaded), the count the
-#: file declares before cleaning (a dry run: a glTF's JSON, a binary STL's header, a USD stage's
-#: faceVertexCounts), at least that (a dry run: an OBJ's face lines), none needed (no rule on triangles and
-#: no record), or none (the file does not load: its build fails)
-TRIANGLE_COUNTS = ("exact", "declared before cleaning", "lower bound", "not needed", "unknown")
 
 
 @dataclass
@@ -601,26 +562,6 @@ def execute(
 _SERVER_GIVEN: dict[int, tuple[list[str], list[str]]] = {}
 
 
-def _left_by_rebuilds(cfg: Config, out_dir: Path, items: list, todo: list) -> list[dict]:
-    """The recorded outputs of the assets ``todo`` that their rebuild does not write, still as recorded, each
-    named as its asset's, with why it is left (:func:`.outputs._dropped_outputs`, as the run finds them once
-    each is built), less the files this run's assets write or read."""
-    wanted = _wanted_outputs(cfg)
-    found: list[dict] = []
-    keep = None
-    for it in todo:
-        if not isinstance(it.previous, dict):
-            continue
-        stem = it.asset.output_stem
-        built = {"outputs": {k: {"path": f"{stem}{OUTPUT_SUFFIXES[k]}"} for k in wanted}}
-        moved = _names_moved(cfg, it.asset, it.previous)
-        for path, o in _dropped_outputs(out_dir, it.previous, built, asset=it.asset.id, moved=moved):
-            keep = _files_kept(cfg, out_dir, items) if keep is None else keep
-            if _file_key(path) not in keep:
-                found.append(o)
-    return found
-
-
 def run(
     config_path: str | Path,
     *,
@@ -778,29 +719,7 @@ def _run(
     # each asset's reasons to be built (--force: every asset's first), none for one up to date
     because = {it.asset.id: ([reason("forced", "--force")] if force else []) + it.because for it in picked}
     if dry_run or explain:
-        for it in picked:
-            state = "up to date" if it.up_to_date and not force else "to build"
-            encoding, params = it.treatment.get("encoding"), it.treatment.get("params", {})  # (none: pending)
-            reasons = because[it.asset.id]
-            echo(
-                f"{it.asset.id}: {encoding or '?'} "
-                f"{json.dumps(params, sort_keys=True)} "
-                f"[{state}] {_triangles_shown(it)} instances={it.asset.instances}; {it.why}"
-                + (f"; because: {reasons_shown(reasons)}" if reasons else "")
-            )
-            planned.append(
-                {
-                    "id": it.asset.id,
-                    "encoding": encoding,
-                    "params": params,
-                    "state": state,
-                    "triangles": it.triangles,
-                    "triangles_count": it.triangles_how,
-                    "instances": it.asset.instances,
-                    "why": it.why,
-                    "because": reasons,
-                }
-            )
+        planned = _plan_shown(picked, force, because, echo)
         if chosen is not None:
             echo(f"{_assets(not_selected)} not selected by --only (of {len(items)}): not listed, not built")
         if dry_run:
@@ -825,31 +744,7 @@ def _run(
         lock.claim()
         for path, _ in orphans:
             path.unlink(missing_ok=True)
-    # (the records of current assets the run can use: a hand-edited one is ignored, see plan)
-    usable = {it.asset.id for it in items if it.previous is not None}
-    records = {k: v for k, v in manifest.get("assets", {}).items() if k in usable}
-    for it in picked:  # (an asset not selected keeps its record as it is, up to date or not)
-        kept = records.get(it.asset.id)
-        if not it.up_to_date or force or kept is None:
-            continue
-        if "last_failure" in kept:  # up to date again (an input or a config put back): another's failure
-            kept = records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
-        if it.checked_outputs is not None:  # hashed, and their stat recorded anew
-            kept = records[it.asset.id] = {**kept, "outputs": it.checked_outputs}
-        rule, why = _rule_name(cfg, it), _current_why(kept.get("why"), it)
-        if kept.get("rule") != rule or kept.get("why") != why:
-            # another rule (renamed, reordered, added) now gives the asset the same treatment: the build is
-            # current, and its record names the rule that chose it today (the report shows it)
-            kept = records[it.asset.id] = {**kept, "rule": rule, "why": why}
-        if kept.get("digest") != it.digest:  # (of a version whose digest held the count: as it is now)
-            kept = records[it.asset.id] = {**kept, "digest": it.digest}
-        if "instances" in kept and kept["instances"] != it.asset.instances:
-            # (another instance count, the same build: an encoding other than auto; the report shows it)
-            kept = records[it.asset.id] = {**kept, "instances": it.asset.instances}
-        if it.input_stats is not kept.get("inputs") or _listing_mark(kept) != it.inputs_listed:
-            # hashed (to the recorded digest): their stat anew; or listed by reading the file (the record
-            # of an older version): marked as a list the next run may take
-            records[it.asset.id] = _with_inputs(kept, it)
+    records = _records_kept(cfg, manifest, items, picked, force)
     run_outputs = {  # (the files still there until the run writes them anew: a stopped run records them)
         kind: o
         for kind, o in (
@@ -1060,6 +955,72 @@ def _run(
     )  # fmt: skip
 
 
+def _plan_shown(picked: list[PlanItem], force: bool, because: dict[str, list], echo) -> list[dict]:
+    """A dry run's or ``--explain``'s plan of the assets ``picked``: a line echoed for each (its encoding,
+    parameters, state, triangles, instances, why and ``because``, its reasons to be built), and each as
+    :attr:`RunResult.plan` holds it."""
+    planned = []
+    for it in picked:
+        state = "up to date" if it.up_to_date and not force else "to build"
+        encoding, params = it.treatment.get("encoding"), it.treatment.get("params", {})  # (none: pending)
+        reasons = because[it.asset.id]
+        echo(
+            f"{it.asset.id}: {encoding or '?'} "
+            f"{json.dumps(params, sort_keys=True)} "
+            f"[{state}] {_triangles_shown(it)} instances={it.asset.instances}; {it.why}"
+            + (f"; because: {reasons_shown(reasons)}" if reasons else "")
+        )
+        planned.append(
+            {
+                "id": it.asset.id,
+                "encoding": encoding,
+                "params": params,
+                "state": state,
+                "triangles": it.triangles,
+                "triangles_count": it.triangles_how,
+                "instances": it.asset.instances,
+                "why": it.why,
+                "because": reasons,
+            }
+        )
+    return planned
+
+
+def _records_kept(
+    cfg: Config, manifest: dict, items: list[PlanItem], picked: list[PlanItem], force: bool
+) -> dict[str, dict]:
+    """The manifest records a run that builds keeps before it builds: those of the config's assets it can
+    use (not a hand-edited one: see :func:`plan`), an up-to-date picked asset's brought up to date itself
+    (its ``last_failure`` dropped, its outputs' stat, rule, why, digest, instances and inputs as the plan
+    found them); the records of the assets to build are replaced as each finishes."""
+    # (the records of current assets the run can use: a hand-edited one is ignored, see plan)
+    usable = {it.asset.id for it in items if it.previous is not None}
+    records = {k: v for k, v in manifest.get("assets", {}).items() if k in usable}
+    for it in picked:  # (an asset not selected keeps its record as it is, up to date or not)
+        kept = records.get(it.asset.id)
+        if not it.up_to_date or force or kept is None:
+            continue
+        if "last_failure" in kept:  # up to date again (an input or a config put back): another's failure
+            kept = records[it.asset.id] = {k: v for k, v in kept.items() if k != "last_failure"}
+        if it.checked_outputs is not None:  # hashed, and their stat recorded anew
+            kept = records[it.asset.id] = {**kept, "outputs": it.checked_outputs}
+        rule, why = _rule_name(cfg, it), _current_why(kept.get("why"), it)
+        if kept.get("rule") != rule or kept.get("why") != why:
+            # another rule (renamed, reordered, added) now gives the asset the same treatment: the build is
+            # current, and its record names the rule that chose it today (the report shows it)
+            kept = records[it.asset.id] = {**kept, "rule": rule, "why": why}
+        if kept.get("digest") != it.digest:  # (of a version whose digest held the count: as it is now)
+            kept = records[it.asset.id] = {**kept, "digest": it.digest}
+        if "instances" in kept and kept["instances"] != it.asset.instances:
+            # (another instance count, the same build: an encoding other than auto; the report shows it)
+            kept = records[it.asset.id] = {**kept, "instances": it.asset.instances}
+        if it.input_stats is not kept.get("inputs") or _listing_mark(kept) != it.inputs_listed:
+            # hashed (to the recorded digest): their stat anew; or listed by reading the file (the record
+            # of an older version): marked as a list the next run may take
+            records[it.asset.id] = _with_inputs(kept, it)
+    return records
+
+
 def _orphan_named(o: dict) -> dict:
     """An orphan's record as a :class:`RunResult` names it: its path, asset and why it is left."""
     return {k: o[k] for k in ("path", ORPHAN_ASSET, ORPHAN_BECAUSE)}
@@ -1073,20 +1034,6 @@ def _warnings_named(warnings: list[str], asset: Asset) -> list[str]:
 
 def _assets(n: int) -> str:
     return f"{n} asset" + "s" * (n != 1)
-
-
-def _triangles_shown(item: PlanItem) -> str:
-    """A plan line's triangle count, with how it is known when it is not the cleaned mesh's."""
-    tri, how = item.triangles, item.triangles_how
-    if how == "declared before cleaning":
-        return f"triangles={tri} (declared, before cleaning)"
-    if how == "lower bound":
-        return f"triangles>={tri} (at least: a lower bound)"
-    if how == "not needed":
-        return "triangles=? (not needed: no rule on triangles)"
-    if how == "unknown":
-        return "triangles=? (unknown: the file did not load)"
-    return f"triangles={'?' if tri is None else tri}"
 
 
 def _failed_before(record: dict | None) -> bool:

@@ -3,7 +3,7 @@
 ``pipeline/pipeline.schema.json`` is this function's output, checked in; a test fails when they differ
 (``python -m swpm_usd.pipeline.schema > pipeline/pipeline.schema.json`` regenerates it). A rule's
 ``params`` may only name parameters of the rule's ``encoding``; ``auto`` takes ``select`` alone (what it ranks
-the candidates by: :data:`.worker.AUTO_SELECT`).
+the candidates by: :data:`.auto.AUTO_SELECT`).
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from .worker import AUTO_SELECT
+from .auto import AUTO_SELECT
 
 #: the encoding of ``defaults`` without one (:func:`.assets.match_rule`)
 DEFAULT = "sliding-window"

@@ -13,12 +13,12 @@ from typing import TYPE_CHECKING, Any
 
 from .assets import output_names
 from .config import Config
+from .file_hash import STAT_KEYS
 from .inputs import _is_recorded_path
 from .rules import _max_triangles, _routes_by_triangles
-from .worker import STAT_KEYS
 
 if TYPE_CHECKING:
-    from .runner import PlanItem
+    from .plan_item import PlanItem
 
 
 def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
@@ -67,8 +67,8 @@ def _task(cfg: Config, item: PlanItem) -> dict[str, Any]:
 
 
 def _planned_stats(cfg: Config, item: PlanItem) -> dict[str, list[int] | None]:
-    """Each input's size and :data:`.worker.STAT_KEYS` as the plan hashed (or trusted) it, by path; None for
-    an input it has none for (hashed while it changed, unreadable: its digest is of no bytes the worker
+    """Each input's size and :data:`.file_hash.STAT_KEYS` as the plan hashed (or trusted) it, by path; None
+    for an input it has none for (hashed while it changed, unreadable: its digest is of no bytes the worker
     loads); none when the entries are not the inputs'."""
     entries, paths = item.input_stats, item.inputs or [item.asset.path]
     if len(entries) != len(paths) or not all(

@@ -1,11 +1,14 @@
 """One asset's work, run in a worker process (local pool or a Dask task): load, choose, build, check the
 streaming order, write the outputs atomically. Never raises: a failure comes back as a record with its cause.
+
+Beside it: :mod:`.auto` (``encoding: auto``'s choice and the figures a record keeps), :mod:`.input_changes`
+(an input changed while it was read, or since the plan) and :mod:`.file_hash` (a file's sha256 with its
+stat, an output's record), whose names this module still exports.
 """
 
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import math
 import os
 import select
@@ -20,78 +23,34 @@ from typing import Any
 import numpy as np
 
 from ..codes import PROBLEM_KEYS, fields_of, problem_fields
-from ..errors import SwpmError
 from ..fileio import atomic_write_bytes, keep_aside, stage_bytes  # noqa: F401 - (runner, report import it)
-
-AUTO_CANDIDATES = ("vanilla", "skip-strip", "mixed", "sliding-window")
-#: ``encoding: auto``'s ``select`` parameter: what the candidates within the budgets are ranked by.
-#: ``acmr``: the ACMR at half the triangles (issue 7's rule, the default). ``misses-at-error``: the
-#: vertex-cache misses each draws at equal error, as a renderer picking LODs by error (``lod_for_error``)
-#: would draw them: an encoding whose LODs carry more error draws more triangles for the same screen-space
-#: error
-AUTO_SELECT = ("acmr", "misses-at-error")
-#: ``misses-at-error``: the triangle fractions whose errors are the references (see :func:`misses_at_error`)
-AUTO_ERROR_FRACTIONS = (0.5, 0.25, 0.1)
+from .auto import AUTO_CANDIDATES as AUTO_CANDIDATES  # (re-exported, as the names below)
+from .auto import AUTO_ERROR_FRACTIONS as AUTO_ERROR_FRACTIONS
+from .auto import AUTO_SELECT as AUTO_SELECT
+from .auto import _misses_scores as _misses_scores
+from .auto import choose_auto, summarize
+from .auto import lod_change_cost as lod_change_cost
+from .auto import misses_at_error as misses_at_error
+from .file_hash import STAT_KEYS as STAT_KEYS  # (re-exported, as the names below)
+from .file_hash import hash_with_stat as hash_with_stat
+from .file_hash import output_record
+from .file_hash import sha256_file as sha256_file
+from .file_hash import stat_fields as stat_fields
+from .file_hash import update_with_stat as update_with_stat
+from .input_changes import (
+    InputChangedError,
+    _check_unchanged_by_the_read,
+    _hashed_as_loaded,
+    _moved_since_the_plan,
+    _refuse_a_moved_listing,
+    _stat_of,
+)
 
 
 def ignore_interrupts() -> None:
     """A pool worker's initializer: Ctrl-C (SIGINT, sent to the terminal's whole process group) is the main
     process's to handle, which stops the workers itself; a worker that took it would print a traceback."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
-#: the fields of ``os.stat`` an output's manifest record keeps beside its ``size`` and ``sha256``: a later run
-#: that finds the file with the same size and all of these trusts it unchanged without reading it
-#: (:func:`.outputs._checked_output`). ``ctime_ns`` moves on any change to the file's data or metadata and
-#: cannot be set back (``os.utime`` sets the mtime, not the ctime); ``ino`` and ``dev`` change when another
-#: file is renamed over it (a copy written into it, ``cp`` or ``cp -p``, keeps its inode: its ctime moves)
-STAT_KEYS = ("mtime_ns", "ctime_ns", "ino", "dev")
-
-
-def stat_fields(st: os.stat_result) -> dict[str, int]:
-    """The :data:`STAT_KEYS` of a stat result."""
-    return {"mtime_ns": st.st_mtime_ns, "ctime_ns": st.st_ctime_ns, "ino": st.st_ino, "dev": st.st_dev}
-
-
-def hash_with_stat(path: Path) -> tuple[str, os.stat_result | None]:
-    """The sha256 of ``path`` and its stat, taken through the descriptor it is read from, before the read;
-    the stat is None when the file changed while it was read (its size, mtime or ctime moved), so it
-    describes the bytes hashed (a file renamed over ``path`` meanwhile is another inode, which the stat of
-    the one read does not match)."""
-    h = hashlib.sha256()
-    st = update_with_stat(h, path)
-    return h.hexdigest(), st
-
-
-def update_with_stat(h: Any, path: Path) -> os.stat_result | None:
-    """Feed ``path``'s bytes to the hash object ``h``; its stat as :func:`hash_with_stat` takes it (None
-    when the file changed while it was read), for a digest of several files (an asset's inputs)."""
-    with open(path, "rb") as f:
-        before = os.fstat(f.fileno())
-        while chunk := f.read(1 << 20):
-            h.update(chunk)
-        after = os.fstat(f.fileno())
-    same = (before.st_size, before.st_mtime_ns, before.st_ctime_ns) == (
-        after.st_size,
-        after.st_mtime_ns,
-        after.st_ctime_ns,
-    )
-    return before if same else None
-
-
-def sha256_file(path: Path) -> str:
-    """The sha256 of ``path`` (:func:`hash_with_stat`'s)."""
-    return hash_with_stat(path)[0]
-
-
-def output_record(path: Path) -> dict[str, Any]:
-    """A new output's manifest record: its name (``path`` is in output.dir), sha256, size, and the
-    :data:`STAT_KEYS` of the bytes hashed (none when the file changed while it was read)."""
-    sha, st = hash_with_stat(path)
-    rec: dict[str, Any] = {"path": path.name, "sha256": sha}
-    if st is not None:
-        rec.update(size=st.st_size, **stat_fields(st))
-    return rec
 
 
 def swpm_layout(data: bytes, legacy: bool) -> dict[str, Any]:
@@ -101,174 +60,6 @@ def swpm_layout(data: bytes, legacy: bool) -> dict[str, Any]:
 
     index_width, offset_width = header_widths(data)
     return {"legacy_layout": legacy, "index_width": index_width, "offset_width": offset_width}
-
-
-def lod_change_cost(pm) -> float:
-    """Mean index writes per record when an instance changes LOD (0 for a table look-up)."""
-    b = pm.buffers()
-    if "collapse_change_count" in b and b["collapse_change_count"].size:
-        return float(np.mean(b["collapse_change_count"]))
-    return 0.0
-
-
-def summarize(pm, cache_size: int = 16) -> dict[str, Any]:
-    """Figures the manifest and the report show: lambda, ACMR and error per LOD sample, memory."""
-    from ..encode.base import stored_index_count
-    from ..metrics import acmr
-
-    t0 = max(1, pm.triangle_count_at(0))
-    dataset = stored_index_count(pm.buffers())
-    curve = []
-    for f in np.linspace(1.0, 0.0, 21):
-        k = pm.lod_for_triangles(int(round(f * t0)))
-        if curve and curve[-1]["lod"] == k:
-            continue
-        kind, stream = pm.draw_stream(k)
-        curve.append(
-            {
-                "lod": int(k),
-                "triangles": pm.triangle_count_at(k),
-                "vertices": pm.vertex_count_at(k),
-                "error": pm.error_at(k),
-                "acmr": acmr(stream, cache_size=cache_size, kind=kind, restart_index=pm.restart_index),
-            }
-        )
-    half = curve[min(range(len(curve)), key=lambda i: abs(curve[i]["triangles"] - t0 / 2))]
-    return {
-        "lod_count": pm.lod_count,
-        "triangles": int(t0),
-        "vertices": pm.vertex_count,
-        "lambda": dataset / (3 * t0),
-        "acmr": half["acmr"],
-        "error_at_half": half["error"],
-        "global_bytes": int(pm.global_bytes),
-        "instance_bytes": int(pm.instance_bytes),
-        "lod_change_cost": lod_change_cost(pm),
-        "curve": curve,
-    }
-
-
-def misses_at_error(pms: dict[str, Any], fractions=AUTO_ERROR_FRACTIONS, cache_size: int = 16) -> dict:
-    """Per encoding, the FIFO misses its draw stream costs at equal error, at each of ``fractions``.
-
-    For each fraction ``f``, the reference error is the smallest that any of ``pms`` (built from one mesh)
-    stores for its LOD at ``f`` of LOD 0's triangles (``error_at(lod_for_triangles(...))``), among those whose
-    LODs get down to that count (one that stops simplifying above it would offer its coarsest LOD's error);
-    a fraction none of them reaches is skipped. Each encoding then draws its coarsest LOD within that error
-    (``lod_for_error``), as a renderer selecting by error would, and its misses (cache of ``cache_size``,
-    degenerate triangles and strip joins included) are counted. Returns
-    ``{encoding: {"misses": [...], "triangles": [...], "reference_errors": [...]}}``, one entry per fraction
-    used."""
-    from ..metrics import cache_misses
-
-    t0 = max(1, min(pm.triangle_count_at(0) for pm in pms.values()))
-    refs = []
-    for f in fractions:
-        target = int(round(f * t0))
-        errs = []
-        for pm in pms.values():
-            k = pm.lod_for_triangles(target)
-            if pm.triangle_count_at(k) <= target:
-                errs.append(pm.error_at(k))
-        if errs:
-            refs.append(min(errs))
-    out = {}
-    for enc, pm in pms.items():
-        misses, tris = [], []
-        for e in refs:
-            k = pm.lod_for_error(e)
-            kind, stream = pm.draw_stream(k)
-            misses.append(int(cache_misses(stream, cache_size, kind, pm.restart_index)[0]))
-            tris.append(pm.triangle_count_at(k))
-        out[enc] = {"misses": misses, "triangles": tris, "reference_errors": [float(e) for e in refs]}
-    return out
-
-
-def _misses_scores(per_encoding: dict) -> dict[str, float]:
-    """Per encoding, the geometric mean over the reference errors of its misses over the fewest any encoding
-    draws there (1.0: the fewest at every one), so each error weighs alike."""
-    encs = list(per_encoding)
-    m = np.array([per_encoding[e]["misses"] for e in encs], dtype=np.float64).reshape(len(encs), -1)
-    if m.shape[1] == 0:
-        return dict.fromkeys(encs, 1.0)
-    ratio = np.maximum(m, 1.0) / np.maximum(m.min(axis=0), 1.0)
-    return {e: float(np.exp(np.log(ratio[i]).mean())) for i, e in enumerate(encs)}
-
-
-def choose_auto(
-    mesh,
-    instances: int,
-    budgets: dict,
-    storable: frozenset[str] | None = None,
-    select: str = "acmr",
-) -> tuple[Any, str, dict]:
-    """Build every candidate, measure, and pick (Forsyth's table with measured numbers).
-
-    Within the memory budgets (global + instances x instance bytes), the lowest ACMR at half the triangles
-    wins (``select="acmr"``), or the fewest vertex-cache misses at equal error (``select="misses-at-error"``:
-    :func:`misses_at_error`, each encoding's misses over the fewest at every reference error, geometric
-    mean); values within 5 % are a tie, broken by total memory, then by LOD-change cost.
-    If nothing fits the budgets, the smallest total memory wins and the reason says so.
-    """
-    if select not in AUTO_SELECT:
-        raise ValueError(f"auto: select must be one of {', '.join(AUTO_SELECT)}, got {select!r}")
-    from ..build import build
-    from ..encode import BUILDERS
-
-    measured = {}
-    built = {}
-    for enc in AUTO_CANDIDATES:
-        if enc not in BUILDERS or (storable is not None and enc not in storable):
-            continue
-        pm = build(mesh, enc)
-        s = summarize(pm)
-        s["total_bytes"] = s["global_bytes"] + instances * s["instance_bytes"]
-        measured[enc] = {k: v for k, v in s.items() if k != "curve"}
-        built[enc] = pm
-
-    def fits(m: dict) -> bool:
-        return (
-            m["total_bytes"] <= budgets.get("total_bytes", float("inf"))
-            and m["global_bytes"] <= budgets.get("global_bytes", float("inf"))
-            and m["instance_bytes"] <= budgets.get("instance_bytes", float("inf"))
-        )
-
-    if select == "misses-at-error" and built:
-        # the reference errors come from every candidate, within the budgets or not: they only pick the
-        # error levels at which the candidates are compared
-        per_encoding = misses_at_error(built)
-        scores = _misses_scores(per_encoding)
-        for enc, m in per_encoding.items():
-            measured[enc]["misses_at_error"] = m["misses"]
-            measured[enc]["misses_at_error_score"] = scores[enc]
-            measured[enc]["triangles_at_error"] = m["triangles"]
-            measured[enc]["reference_errors"] = m["reference_errors"]
-    key = "acmr" if select == "acmr" else "misses_at_error_score"
-    ok = [e for e in measured if fits(measured[e])]
-    if ok:
-        best = min(measured[e][key] for e in ok)
-        tied = [e for e in ok if measured[e][key] <= 1.05 * best]
-        pick = min(tied, key=lambda e: (measured[e]["total_bytes"], measured[e]["lod_change_cost"]))
-        if select == "acmr":
-            what = f"ACMR {measured[pick]['acmr']:.3f} (best within budget {best:.3f})"
-        else:
-            what = (
-                f"{measured[pick]['misses_at_error_score']:.2f}x the fewest cache misses at equal error "
-                f"(best within budget {best:.2f}x; geometric mean over the errors stored at "
-                f"{', '.join(f'{f:g}' for f in AUTO_ERROR_FRACTIONS)} of the triangles)"
-            )
-        why = (
-            f"auto: {pick} has {what} and "
-            f"{measured[pick]['total_bytes']} bytes for {instances} instance(s); candidates within budget: "
-            f"{', '.join(sorted(ok))}"
-        )
-    else:
-        pick = min(measured, key=lambda e: measured[e]["total_bytes"])
-        why = (
-            f"auto: no encoding fits the budgets; {pick} needs the least memory "
-            f"({measured[pick]['total_bytes']} bytes for {instances} instance(s))"
-        )
-    return built[pick], why, measured
 
 
 def check_streaming(pm, policy: dict) -> list[str]:
@@ -557,94 +348,6 @@ def serve(conn: Any) -> None:
         if task is None:
             return
         conn.send(process_asset(task))
-
-
-class InputChangedError(SwpmError, RuntimeError):
-    """The input file changed while the worker read it (an exporter still writing it, a sync replacing it):
-    the mesh read may be part of one version and part of another, so it is not built (the asset's previous
-    build is kept), and the next run, finding the file's stat moved, hashes and builds it again. ``path``:
-    the file, for a JSON error's ``file`` and ``format`` (``encode``'s; a run's record names its asset)."""
-
-    code = "INPUT_CHANGED"
-
-    def __init__(self, message: str, path: str | None = None) -> None:
-        from ..codes import format_of
-
-        super().__init__(message)
-        self.file, self.format = path, format_of(path)
-
-
-def _stat_of(path: str) -> os.stat_result | None:
-    try:
-        return os.stat(path)
-    except OSError:  # (gone: the loader says so, naming the file)
-        return None
-
-
-def _check_unchanged_by_the_read(path: str, before: os.stat_result | None) -> None:
-    """Raise :class:`InputChangedError` when the file at ``path`` is not the one stat ``before`` saw as the
-    read began (its size, mtime, ctime or inode moved). A change before the read began is not one: that file
-    is read whole, and the next run hashes it (the record keeps the stat taken as the plan hashed it)."""
-    after = _stat_of(path)
-    if before is None or after is None:
-        return
-    if (before.st_size, *stat_fields(before).values()) != (after.st_size, *stat_fields(after).values()):
-        moved = (
-            f"size {before.st_size} -> {after.st_size} bytes"
-            if before.st_size != after.st_size
-            else "same size, modified or replaced"
-        )
-        raise InputChangedError(
-            f"{path}: changed while it was read ({moved}): not built from it; the next run builds it again"
-        )
-
-
-def _moved_since_the_plan(task: dict[str, Any], before: dict[str, os.stat_result | None]) -> list[str]:
-    """The inputs whose stat ``before`` the load is not the one the plan hashed (or trusted) them at (the
-    task's ``input_stats``: each input's size and :data:`STAT_KEYS`; None for one it has no stat for, hashed
-    while it changed or unreadable, which is one): the task's input digest is not of the bytes the worker
-    loads. A file gone is not one (the loader says so, naming it), nor one ``input_stats`` does not name."""
-    planned = task.get("input_stats") or {}
-    return [
-        path
-        for path, st in before.items()
-        if st is not None and path in planned and planned[path] != [st.st_size, *stat_fields(st).values()]
-    ]
-
-
-def _refuse_a_moved_listing(moved: list[str]) -> None:
-    """Raise :class:`InputChangedError` for an input moved since the plan whose bytes list the asset's other
-    inputs (a glTF's buffers, a USD file's layers: :data:`.assets.LISTED_SUFFIXES`): the files the loader
-    reads may be others than the plan's, which the record would list as the asset's, unread by the next run
-    (it takes a built record's list while the files it names are unchanged)."""
-    from .assets import LISTED_SUFFIXES
-
-    for path in moved:
-        if Path(path).suffix.lower() in LISTED_SUFFIXES:
-            raise InputChangedError(
-                f"{path}: changed since the run hashed it (an exporter still writing it?): not built from "
-                "it (the files it names may be others); the next run builds it again"
-            )
-
-
-def _hashed_as_loaded(
-    inputs: list[str], before: dict[str, os.stat_result | None]
-) -> tuple[str, list[dict[str, Any]]]:
-    """The digest of ``inputs`` and their entries (:func:`.assets.hash_inputs`), hashed once the load has
-    read them, each the file stat ``before`` saw as the load began (so the bytes loaded): else
-    :class:`InputChangedError`."""
-    from .assets import hash_inputs
-
-    digest, entries = hash_inputs([Path(p) for p in inputs])
-    for path, entry in zip(inputs, entries, strict=True):
-        st = before.get(path)
-        seen = None if st is None else {"size": st.st_size, **stat_fields(st)}
-        if seen is None or {k: entry.get(k) for k in seen} != seen:
-            raise InputChangedError(
-                f"{path}: changed while it was read (hashed once loaded, it was another): not built from it; "
-                "the next run builds it again"
-            )
-    return digest, entries
 
 
 def _treatment_digest_of(task: dict[str, Any], input_digest: str) -> str:
