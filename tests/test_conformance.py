@@ -123,15 +123,16 @@ def test_manifest_and_expected_results_follow_the_schema() -> None:
 
 
 def _cited_vectors(text: str) -> set[str]:
-    """The vector names a spec text cites: every name of "vector `a`" or "vectors `a`, `b` and `c`", a line
-    break allowed anywhere between the words."""
-    runs = re.findall(r"\bvectors?\s+(`[^`]+`(?:(?:,\s*|\s+and\s+)`[^`]+`)*)", text, re.I)
+    """The vector names a spec text cites: every name of "vector `a`" or "vectors `a`, `b` and `c`" (or
+    "prefix case(s)", format.md 4.1), a line break allowed anywhere between the words."""
+    runs = re.findall(r"\b(?:vector|prefix\s+case)s?\s+(`[^`]+`(?:(?:,\s*|\s+and\s+)`[^`]+`)*)", text, re.I)
     return {name for run in runs for name in re.findall(r"`([^`]+)`", run)}
 
 
 def test_cited_vectors_reads_lists_and_line_breaks() -> None:
     text = "(vector\n   `a-b`), vectors `c`, `d-e`\nand `f`; the vectors `g`; see `h`, vector `i`,\n`j`"
     assert _cited_vectors(text) == {"a-b", "c", "d-e", "f", "g", "i", "j"}
+    assert _cited_vectors("prefix cases `k`, `l` and\n`m`; prefix\ncase `n`") == {"k", "l", "m", "n"}
 
 
 def test_every_vector_the_spec_cites_exists_and_every_code_is_exercised() -> None:
