@@ -7,6 +7,13 @@ specification is precise enough for a second implementation to agree with the co
 the problems in the order of the checks of format.md §5 ("Reporting"), each at the offset the column
 "Offset reported" of errors.md gives, and for a valid file the summary of §7.
 
+``read_prefix(prefix)`` opens the first n bytes of a file as §4.1 says, in the shape of the vectors' prefix
+cases: written from §4.1 before its codec counterpart was read, it agreed with the codec at every cut of
+every vector at once. Where §4.1 was silent it decided, and the text now says so: with n < 64 step 1 applies
+whatever file_size the bytes hold (the need is 64); a ``VERT`` header cut by n needs o + 16 (data_offset is
+in it); a header_size past file_size is ``SWPM_HEADER_BAD_SIZE`` (a prefix cannot compare it with the file's
+length), which the whole file reports as a table error.
+
 The spec settles the offsets, the order, the stages, the multiplicity, the buffers, strict JSON for
 ``META`` (no ``NaN``/``Infinity``, no duplicate key in any object) and the skip-strip ``params``. Since the
 audit of a second reader (F1-F13) it also settles the cases this reader used to decide for itself, which it
