@@ -7,6 +7,13 @@ specification is precise enough for a second implementation to agree with the co
 the problems in the order of the checks of format.md §5 ("Reporting"), each at the offset the column
 "Offset reported" of errors.md gives, and for a valid file the summary of §7.
 
+``read_prefix(prefix)`` opens the first n bytes of a file as §4.1 says, in the shape of the vectors' prefix
+cases: written from §4.1 before its codec counterpart was read, it agreed with the codec at every cut of
+every vector at once. Where §4.1 was silent it decided, and the text now says so: with n < 64 step 1 applies
+whatever file_size the bytes hold (the need is 64); a ``VERT`` header cut by n needs o + 16 (data_offset is
+in it); a header_size past file_size is ``SWPM_HEADER_BAD_SIZE`` (a prefix cannot compare it with the file's
+length), which the whole file reports as a table error.
+
 The spec settles the offsets, the order, the stages, the multiplicity, the buffers, strict JSON for
 ``META`` (no ``NaN``/``Infinity``, no duplicate key in any object) and the skip-strip ``params``. Since the
 audit of a second reader (F1-F13) it also settles the cases this reader used to decide for itself, which it
@@ -218,6 +225,8 @@ SEVERITY = {
     "SWPM_WINDOW_NOT_MONOTONE": "error",
     "SWPM_WINDOW_COUNT_MISMATCH": "error",
     "SWPM_PREFIX_VIOLATION": "error",
+    "SWPM_PREFIX_TOO_SHORT": "error",
+    "SWPM_PREFIX_NOT_STREAMABLE": "error",
     "SWPM_RECORD_BAD_KEPT": "error",
     "SWPM_RECORD_BAD_BINNED": "error",
     "SWPM_RECORD_BAD_COUNTS": "error",
@@ -287,9 +296,13 @@ def _hash(arr: np.ndarray) -> dict[str, Any]:
 
 
 class _Reader:
-    def __init__(self, data: bytes) -> None:
+    def __init__(self, data: bytes, prefix: bool = False) -> None:
         self.raw = bytes(data)
         self.data = self.raw
+        # §4.1: reading a prefix, the first n bytes of a file of file_size bytes; self.size is the end of the
+        # file (§1) that bounds the table and the chunks, while self.data holds only the bytes at hand
+        self.prefix = prefix
+        self.size = len(self.raw)
         self.rep = _Report()
         self.chunks: dict[str, _Chunk] = {}
         self.entries: list[_Chunk] = []
@@ -309,6 +322,7 @@ class _Reader:
         self.tc: list[int] = []
         self.stride = 0
         self.data_offset = 0
+        self.attrs: list[Any] = []
         self.indx = np.zeros(0, dtype=np.int64)
         self.indx_off = 0
         self.level_first: list[int] = []
@@ -331,7 +345,7 @@ class _Reader:
 
     def check_zero(self, start: int, end: int) -> None:
         """The padding gap [start, end) MUST be zero; reported at the start of the gap (errors.md)."""
-        end = min(end, len(self.data))
+        end = min(end, len(self.data))  # (a prefix: the bytes past n are checked on finishing, §4.1)
         if start < end and self.data[start:end].count(0) != end - start:
             self.add("SWPM_PADDING_NONZERO", start)
 
@@ -348,8 +362,33 @@ class _Reader:
         self.table(*table)
         if self.rep.has_error():
             return self.result()
+        if self.prefix and not self.streams():
+            return self.result()
         self.payloads()
         return self.result()
+
+    def too_short(self, need: int) -> None:
+        """§4.1: SWPM_PREFIX_TOO_SHORT at n, with the prefix length the failed check needs."""
+        self.add("SWPM_PREFIX_TOO_SHORT", len(self.raw))
+        self.rep.problems[-1]["need"] = need
+
+    def streams(self) -> bool:
+        """§4.1 step 3: the last table entry is a VERT and the prefix holds every byte before its records."""
+        last = self.entries[-1]
+        if last.type != "VERT":
+            self.add("SWPM_PREFIX_NOT_STREAMABLE", last.entry)
+            return False
+        o, length = self.chunks["VERT"].offset, self.chunks["VERT"].length
+        if length < 16:
+            need = o + length
+        elif len(self.data) < o + 16:
+            need = o + 16  # data_offset is not at hand yet: the check needs VERT's header first
+        else:
+            need = o + max(16, min(self.u32(o + 12), length))
+        if len(self.data) < need:
+            self.too_short(need)
+            return False
+        return True
 
     def header(self) -> tuple[int, int, int] | None:
         d = self.raw
@@ -370,8 +409,11 @@ class _Reader:
         header_size, _flags, features, chunk_count, reserved0 = struct.unpack_from("<IIIII", d, 12)
         table_offset, file_size = struct.unpack_from("<QQ", d, 32)
         file_crc = struct.unpack_from("<I", d, 48)[0]
-        if header_size < HEADER_SIZE or header_size > len(d):
+        if header_size < HEADER_SIZE or header_size > (file_size if self.prefix else len(d)):
             self.add("SWPM_HEADER_BAD_SIZE", 12)
+            return None
+        if header_size > len(d):  # §4.1 step 2: a header_size in [64, file_size] past n
+            self.too_short(header_size)
             return None
         if features & ~KNOWN_FEATURES:
             self.add("SWPM_HEADER_UNKNOWN_FEATURE", 20)
@@ -395,11 +437,15 @@ class _Reader:
                 self.add("SWPM_HEADER_RESERVED_NONZERO", 28)
             if any(d[52:64]):
                 self.add("SWPM_HEADER_RESERVED_NONZERO", 52)
-        if len(d) < file_size:
+        if self.prefix:
+            self.size = file_size  # the length is checked on finishing (§4.1 step 2)
+        elif len(d) < file_size:
             self.add("SWPM_FILE_SIZE_MISMATCH", 40)
         elif len(d) > file_size:
             self.add("SWPM_FILE_TRAILING_BYTES", file_size)
             self.data = d[:file_size]
+        if not self.prefix:
+            self.size = len(self.data)
         if table_offset < header_size or table_offset % 8:
             self.add("SWPM_TABLE_BAD_OFFSET", 32)
             return None
@@ -407,8 +453,11 @@ class _Reader:
             self.add("SWPM_TABLE_TOO_LARGE", 24)
             return None
         table_end = table_offset + ENTRY_SIZE * chunk_count
-        if table_end > len(self.data):
+        if table_end > self.size:
             self.add("SWPM_TABLE_TRUNCATED", 24)
+            return None
+        if table_end > len(self.data):  # §4.1 step 2: a table that ends past n, not past file_size
+            self.too_short(table_end)
             return None
         buf = bytearray(self.data[:table_end])
         buf[48:52] = bytes(4)
@@ -419,7 +468,7 @@ class _Reader:
 
     # ----------------------------------------------------------------- step 2
     def table(self, table_offset: int, count: int, table_end: int) -> None:
-        size = len(self.data)
+        size = self.size
         last, end = -1, table_end
         for i in range(count):
             eo = table_offset + ENTRY_SIZE * i
@@ -446,7 +495,8 @@ class _Reader:
                 last, end = offset, max(end, offset + length)
             if self.minor == 0 and reserved:
                 self.add("SWPM_HEADER_RESERVED_NONZERO", eo + 28)
-            if type_ok and bounds_ok and align_ok and place_ok:
+            # a prefix checks the CRC of a payload that ends past n on finishing (§4.1 step 2)
+            if type_ok and bounds_ok and align_ok and place_ok and offset + length <= len(self.data):
                 payload = self.data[offset : offset + length]
                 if zlib.crc32(payload, zlib.crc32(raw_type)) & 0xFFFFFFFF != crc:
                     self.add("SWPM_CHUNK_CRC_MISMATCH", eo + 24)
@@ -631,21 +681,35 @@ class _Reader:
         if attrs is None:
             self.add("SWPM_VERT_BAD_LAYOUT", p)
             return False
-        self.V, self.stride, self.data_offset = V, stride, data_offset
-        base = p + data_offset
+        self.V, self.stride, self.data_offset, self.attrs = V, stride, data_offset, attrs
+        if self.prefix:  # §4.1 step 3: no vertex record is read; SWPM_VERT_NONFINITE waits for the file
+            return True
+        self.buffers.update(self.vertices(V))
+        if not np.isfinite(self.buffers["points"]).all():
+            self.add("SWPM_VERT_NONFINITE", p + data_offset)
+        return True
+
+    def vertices(self, count: int) -> dict[str, np.ndarray]:
+        """The first ``count`` vertex records of ``VERT``: points and attributes (§3.3, §7)."""
+        base, stride, out = self.chunks["VERT"].offset + self.data_offset, self.stride, {}
         pos_dt = np.dtype({"names": ["p"], "formats": [("<f4", (3,))], "offsets": [0], "itemsize": stride})
-        pts = np.frombuffer(self.data, dtype=pos_dt, count=V, offset=base)["p"] if V else np.zeros((0, 3))
-        self.buffers["points"] = pts.astype("<f4", copy=False)
-        for name, dt, comps, aoff in attrs:
+        pts = (
+            np.frombuffer(self.data, dtype=pos_dt, count=count, offset=base)["p"]
+            if count
+            else np.zeros((0, 3))
+        )
+        out["points"] = pts.astype("<f4", copy=False)
+        for name, dt, comps, aoff in self.attrs:
             adt = np.dtype(
                 {"names": ["a"], "formats": [(dt, (comps,))], "offsets": [aoff], "itemsize": stride}
             )
-            arr = np.frombuffer(self.data, dtype=adt, count=V, offset=base)["a"] if V else np.zeros((0,), dt)
-            self.buffers[f"attribute:{name}"] = arr.reshape(V, comps)
-        bad = int((~np.isfinite(pts)).sum())
-        if bad:
-            self.add("SWPM_VERT_NONFINITE", base)
-        return True
+            arr = (
+                np.frombuffer(self.data, dtype=adt, count=count, offset=base)["a"]
+                if count
+                else np.zeros((0,), dt)
+            )
+            out[f"attribute:{name}"] = arr.reshape(count, comps)
+        return out
 
     def attributes(self, p: int, A: int, stride: int, data_offset: int) -> list[Any] | None:
         """The attribute descriptors of §3.3, or None when one breaks a rule."""
@@ -1239,7 +1303,7 @@ class _Reader:
         if B < 1 or next_lod != self.L:
             self.add("SWPM_SMAP_INVALID", p + 8)
             return
-        if any(off + length > len(self.data) for off, length in ranges):
+        if any(off + length > self.size for off, length in ranges):
             self.add("SWPM_SMAP_INVALID", p + 8 + 24 * B)
             return
         ic, vc = self.chunks["INDX"], self.chunks["VERT"]
@@ -1297,3 +1361,37 @@ class _Reader:
 def read(data: bytes) -> dict[str, Any]:
     """Validate and decode an SWPM v1 file held in memory; never raises on malformed input."""
     return _Reader(data).run()
+
+
+def read_prefix(prefix: bytes) -> dict[str, Any]:
+    """Open ``prefix``, the first n bytes of an SWPM v1 file, as §4.1 reads it: ``{"length", "opened",
+    "problems", "needed", "finest_drawable", "drawable"}``. ``problems`` are the prefix's (a
+    ``SWPM_PREFIX_TOO_SHORT`` also gives ``need``); once opened, ``needed`` is needed(k) per LOD,
+    ``finest_drawable`` k_min (None while no LOD is drawable) and ``drawable`` the hashes of the arrays of
+    §7 over LOD k_min's vertices. Finishing is :func:`read` of the whole file. Never raises."""
+    n = len(prefix)
+    out: dict[str, Any] = {"length": n, "opened": False, "problems": []}
+    if n < HEADER_SIZE:  # §4.1 step 1
+        if n >= 8 and prefix[:8] != MAGIC:
+            out["problems"] = [{"code": "SWPM_HEADER_BAD_MAGIC", "severity": "error", "offset": 0}]
+        else:
+            out["problems"] = [
+                {"code": "SWPM_PREFIX_TOO_SHORT", "severity": "error", "offset": n, "need": 64}
+            ]
+        return out
+    whole = n >= struct.unpack_from("<Q", prefix, 40)[0]  # the prefix is the whole file
+    r = _Reader(prefix, prefix=not whole)
+    verdict = r.run()
+    out["problems"] = verdict["problems"]
+    if r.rep.has_error():
+        return out
+    out["opened"] = True
+    o = r.chunks["VERT"].offset
+    needed = [o + r.data_offset + v * r.stride for v in r.vc]
+    drawable = [k for k in range(r.L) if needed[k] <= n]
+    out["needed"] = needed
+    out["finest_drawable"] = drawable[0] if drawable else None
+    if drawable:
+        arrays = r.vertices(r.vc[drawable[0]])
+        out["drawable"] = {name: _hash(arr) for name, arr in sorted(arrays.items())}
+    return out

@@ -948,3 +948,58 @@ def test_instance_dirty_range(dirty_walk: Path, tmp_path: Path, mesh: str, varia
     assert out["repeat"] > 0 and out["repeat_dirty"] == 0, out
     assert variant == "vanilla" or out["levels"] > 0, out  # level changes (whole-list copies) were walked
     assert 0 < out["uploaded"] < out["drawn"], out
+
+
+def _first_error(problems: list[dict[str, Any]]) -> dict[str, Any]:
+    e = next(q for q in problems if q["severity"] == "error")
+    return {
+        "ok": False,
+        "code": e["code"],
+        "offset": e["offset"],
+        **({"need": e["need"]} if "need" in e else {}),
+    }
+
+
+@pytest.mark.parametrize(
+    "vector", [v for v in MANIFEST["vectors"] if v.get("prefixes")], ids=lambda v: v["name"]
+)
+def test_prefix_cases(dump: Path, vector: dict[str, Any]) -> None:
+    """Every prefix case of the vectors (format.md 4.1) through ``swpm_dump --prefix``: the first error (with
+    need), or the finest drawable LOD, needed(k) and the CRC of the drawable points (whose SHA-256 the case
+    gives), each SMAP band's prefix_length = needed(first_lod), and finishing = the vector's verdict."""
+    path = VECTORS / vector["file"]
+    data = path.read_bytes()
+    whole = json.loads((VECTORS / vector["expected"]).read_text())
+    cases = vector["prefixes"]
+    proc = subprocess.run(
+        [str(dump), "--prefix", *(str(c["length"]) for c in cases), str(path)], capture_output=True, text=True
+    )
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr[-2000:]
+    lines = [json.loads(line) for line in proc.stdout.splitlines()]
+    assert len(lines) == len(cases)
+    for case, got in zip(cases, lines, strict=True):
+        exp = json.loads((VECTORS / case["expected"]).read_text())
+        assert got["n"] == case["length"], case["name"]
+        if not exp["opened"]:
+            assert {k: got[k] for k in got if k != "n"} == _first_error(exp["problems"]), case["name"]
+            continue
+        needed, L = exp["needed"], len(exp["needed"])
+        fin = L if exp["finest_drawable"] is None else exp["finest_drawable"]
+        assert (got["ok"], got["lod_count"], got["finest"]) == (True, L, fin), case["name"]
+        assert got["needed"] == [needed[0], needed[min(fin, L - 1)], needed[L - 1]], case["name"]
+        if fin < L:  # the drawable points: the first vertex_count(fin) records' first 12 bytes
+            count, table = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
+            entries = [struct.unpack_from("<4sIQ", data, table + 32 * e) for e in range(count)]
+            vo = next(off for ctype, _flags, off in entries if ctype == b"VERT")
+            _, _, stride, at = struct.unpack_from("<4I", data, vo)
+            count = exp["drawable"]["points"]["shape"][0]
+            pts = b"".join(data[vo + at + stride * i : vo + at + stride * i + 12] for i in range(count))
+            assert hashlib.sha256(pts).hexdigest() == exp["drawable"]["points"]["sha256"], case["name"]
+            assert got["points_crc"] == zlib.crc32(pts), case["name"]
+        else:
+            assert got["points_crc"] is None, case["name"]
+        for band in got.get("smap", []) if "SWPM_SMAP_INVALID" not in str(whole["problems"]) else []:
+            assert band[3] == needed[band[0]], (case["name"], band)
+        assert got["finish"] == ({"ok": True} if whole["valid"] else _first_error(whole["problems"])), case[
+            "name"
+        ]

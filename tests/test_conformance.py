@@ -29,10 +29,18 @@ def test_manifest_and_expected_results_follow_the_schema() -> None:
     jsonschema.validate(manifest, SCHEMA)
     expected_schema = {**SCHEMA["$defs"]["expected"], "$defs": SCHEMA["$defs"]}
     names = {v["name"] for v in manifest["vectors"]}
+    prefix_schema = {**SCHEMA["$defs"]["prefix"], "$defs": SCHEMA["$defs"]}
     for v in manifest["vectors"]:
         exp = json.loads((VECTORS / v["expected"]).read_text())
         jsonschema.validate(exp, expected_schema)
         assert exp["valid"] == v["valid"]
+        for case in v.get("prefixes", []):
+            pexp = json.loads((VECTORS / case["expected"]).read_text())
+            jsonschema.validate(pexp, prefix_schema)
+            assert pexp["length"] == case["length"]
+            # a TOO_SHORT problem gives need > n, and only it gives need
+            assert all(("need" in q) == (q["code"] == "SWPM_PREFIX_TOO_SHORT") for q in pexp["problems"])
+            assert all(q["need"] > case["length"] for q in pexp["problems"] if "need" in q)
     for need in (
         "truncated-header",
         "truncated-chunk-table",
@@ -115,24 +123,26 @@ def test_manifest_and_expected_results_follow_the_schema() -> None:
 
 
 def _cited_vectors(text: str) -> set[str]:
-    """The vector names a spec text cites: every name of "vector `a`" or "vectors `a`, `b` and `c`", a line
-    break allowed anywhere between the words."""
-    runs = re.findall(r"\bvectors?\s+(`[^`]+`(?:(?:,\s*|\s+and\s+)`[^`]+`)*)", text, re.I)
+    """The vector names a spec text cites: every name of "vector `a`" or "vectors `a`, `b` and `c`" (or
+    "prefix case(s)", format.md 4.1), a line break allowed anywhere between the words."""
+    runs = re.findall(r"\b(?:vector|prefix\s+case)s?\s+(`[^`]+`(?:(?:,\s*|\s+and\s+)`[^`]+`)*)", text, re.I)
     return {name for run in runs for name in re.findall(r"`([^`]+)`", run)}
 
 
 def test_cited_vectors_reads_lists_and_line_breaks() -> None:
     text = "(vector\n   `a-b`), vectors `c`, `d-e`\nand `f`; the vectors `g`; see `h`, vector `i`,\n`j`"
     assert _cited_vectors(text) == {"a-b", "c", "d-e", "f", "g", "i", "j"}
+    assert _cited_vectors("prefix cases `k`, `l` and\n`m`; prefix\ncase `n`") == {"k", "l", "m", "n"}
 
 
 def test_every_vector_the_spec_cites_exists_and_every_code_is_exercised() -> None:
     """A vector named in format.md is in the manifest, and every code of errors.md that a file can cause is
     expected by some vector (SWPM_IO_ERROR, _INDEX_WIDTH, _ENCODING_UNAVAILABLE and _BUFFERS_REJECTED are not
-    problems of a file's bytes; SWPM_PREFIX_TOO_SHORT and _NOT_STREAMABLE are a prefix reader's, format.md
-    4.1, of the first bytes of a file rather than of a file: tests/test_prefix.py exercises them)."""
+    problems of a file's bytes; SWPM_PREFIX_TOO_SHORT and _NOT_STREAMABLE, a prefix reader's, format.md 4.1,
+    are expected by the prefix cases). A name the spec cites may be a vector's or a prefix case's."""
     spec = (ROOT / "spec" / "format.md").read_text()
-    names = {v["name"] for v in json.loads((VECTORS / "manifest.json").read_text())["vectors"]}
+    vectors = json.loads((VECTORS / "manifest.json").read_text())["vectors"]
+    names = {v["name"] for v in vectors} | {c["name"] for v in vectors for c in v.get("prefixes", [])}
     cited = _cited_vectors(spec)
     assert cited and cited <= names, sorted(cited - names)
     codes = set(re.findall(r"^\| `(SWPM_[A-Z0-9_]+)`", (ROOT / "spec" / "errors.md").read_text(), re.M))
@@ -144,8 +154,6 @@ def test_every_vector_the_spec_cites_exists_and_every_code_is_exercised() -> Non
         "SWPM_INDEX_WIDTH",
         "SWPM_ENCODING_UNAVAILABLE",
         "SWPM_BUFFERS_REJECTED",
-        "SWPM_PREFIX_TOO_SHORT",
-        "SWPM_PREFIX_NOT_STREAMABLE",
     }
     assert not_of_bytes < codes, sorted(not_of_bytes - codes)  # errors.md's table was read
     assert sorted(codes - not_of_bytes - seen) == []
@@ -167,6 +175,7 @@ def _copy_vectors(tmp_path: Path, edit_entry=None, expected: dict | None = None)
     """A copy of the first valid vector (manifest, file, expected result), edited."""
     manifest = json.loads((VECTORS / "manifest.json").read_text())
     entry = next(v for v in manifest["vectors"] if v["valid"])
+    entry.pop("prefixes")  # (the whole-file verdict only; test_a_prefix_case_passes_only_on_its_verdict)
     for key in ("file", "expected"):
         (tmp_path / entry[key]).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / entry[key]).write_bytes((VECTORS / entry[key]).read_bytes())
@@ -212,3 +221,34 @@ def test_a_vector_passes_only_on_the_whole_expected_result(tmp_path: Path, case:
     assert not outcome.passed and detail in outcome.detail, outcome.detail
     (intact,) = run_conformance(_copy_vectors(tmp_path / "intact"))
     assert intact.passed, intact.detail
+
+
+@pytest.mark.parametrize(
+    ("edit", "detail"),
+    [
+        (lambda e: e.update(finest_drawable=0), "differs in finest_drawable"),
+        (lambda e: e["problems"][0].update(need=e["problems"][0]["need"] + 1), "differs in problems"),
+        (lambda e: e.pop("opened"), "differs in opened"),
+        (lambda e: e.update(needed=[620, 609]), "differs in needed"),
+    ],
+)
+def test_a_prefix_case_passes_only_on_its_verdict(tmp_path: Path, edit, detail: str) -> None:  # noqa: ANN001
+    """Each prefix case of the manifest is checked against its own expected result (format.md 4.1)."""
+    manifest = json.loads((VECTORS / "manifest.json").read_text())
+    entry = next(v for v in manifest["vectors"] if v["name"] == "minimal-vanilla")
+    short = next(c for c in entry["prefixes"] if c["name"] == "minimal-vanilla-at-records-minus-1")
+    opened = next(c for c in entry["prefixes"] if c["name"] == "minimal-vanilla-mid-record")
+    entry["prefixes"] = [short if "need" in detail or "problems" in detail else opened]
+    for rel in (entry["file"], entry["expected"], entry["prefixes"][0]["expected"]):
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_bytes((VECTORS / rel).read_bytes())
+    (tmp_path / "manifest.json").write_text(json.dumps({**manifest, "vectors": [entry]}))
+    whole, case = run_conformance(tmp_path)
+    assert whole.passed and case.passed, case.detail
+    exp_path = tmp_path / entry["prefixes"][0]["expected"]
+    exp = json.loads(exp_path.read_text())
+    edit(exp)
+    exp_path.write_text(json.dumps(exp))
+    whole, case = run_conformance(tmp_path)
+    assert whole.passed and case.name == f"minimal-vanilla/{entry['prefixes'][0]['name']}"
+    assert not case.passed and detail in case.detail, case.detail

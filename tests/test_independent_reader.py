@@ -21,11 +21,12 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from independent_reader import _Reader, read  # noqa: E402
+from independent_reader import _Reader, read, read_prefix  # noqa: E402
 
 VECTORS = Path(__file__).resolve().parent.parent / "spec" / "vectors"
 MANIFEST = json.loads((VECTORS / "manifest.json").read_text())
 CASES = [pytest.param(v, id=v["name"]) for v in MANIFEST["vectors"]]
+PREFIX_CASES = [pytest.param(v, c, id=c["name"]) for v in MANIFEST["vectors"] for c in v.get("prefixes", [])]
 
 
 def _load(vector: dict[str, Any]) -> tuple[bytes, dict[str, Any]]:
@@ -51,6 +52,107 @@ def test_validity_and_problems(vector: dict[str, Any]) -> None:
     got = read(data)
     assert got["valid"] is expected["valid"] is vector["valid"]
     assert got["problems"] == expected["problems"]
+
+
+@pytest.mark.parametrize(("vector", "case"), PREFIX_CASES)
+def test_prefix_case(vector: dict[str, Any], case: dict[str, Any]) -> None:
+    """Every prefix case (format.md 4.1): the whole verdict on the file's first n bytes (problems with need,
+    needed(k), the finest drawable LOD, its arrays); finishing is reading the whole file (test above)."""
+    data, _ = _load(vector)
+    expected = json.loads((VECTORS / case["expected"]).read_text())
+    assert read_prefix(data[: case["length"]]) == expected
+
+
+def test_prefix_cases_cover_every_rule_of_4_1() -> None:
+    """Each rule of format.md 4.1 has a prefix case (the codes, deferred checks, drawable LODs), and with a
+    valid SMAP every band's prefix_length is needed(first_lod) of an opened prefix."""
+    seen: set[str] = set()
+    bands_checked = 0
+    for vector in MANIFEST["vectors"]:
+        data, whole = _load(vector)
+        for case in vector.get("prefixes", []):
+            got = json.loads((VECTORS / case["expected"]).read_text())
+            n = case["length"]
+            codes = [q["code"] for q in got["problems"]]
+            seen |= set(codes)
+            if n < len(data) and got["opened"]:
+                seen.add("opened")
+                seen.add("drawable" if got["finest_drawable"] is not None else "none drawable")
+                if not whole["valid"]:
+                    seen.add("opened, rejected on finishing")
+                if {q["code"] for q in whole["problems"]} - set(codes) - {"SWPM_SMAP_INVALID"}:
+                    seen.add("deferred")
+            smap = _smap_bands(data)
+            if got["opened"] and smap and "SWPM_SMAP_INVALID" not in {q["code"] for q in whole["problems"]}:
+                for first, _count, prefix_length in smap:
+                    assert prefix_length == got["needed"][first], case["name"]
+                    bands_checked += 1
+    assert {
+        "SWPM_PREFIX_TOO_SHORT",
+        "SWPM_PREFIX_NOT_STREAMABLE",
+        "SWPM_HEADER_BAD_MAGIC",
+        "SWPM_CHUNK_CRC_MISMATCH",
+        "opened",
+        "drawable",
+        "none drawable",
+        "opened, rejected on finishing",
+        "deferred",
+    } <= seen, seen
+    assert bands_checked >= 2
+
+
+def test_prefix_mutants_agree_with_the_reference_reader() -> None:
+    """Mutated vectors (header, table and payload bytes; CRCs fixed or not) cut at chunk boundaries, VERT's
+    records and random places: read_prefix gives the codec's verdict (format.md 4.1), and a prefix error
+    other than the two prefix codes means the whole file is rejected (4.1: perhaps with another error)."""
+    from swpm_usd.format.vectors import prefix_result
+
+    rng = random.Random(4141)
+    files = [_load(v)[0] for v in MANIFEST["vectors"]]
+    checked = 0
+    for trial in range(120):
+        buf = bytearray(rng.choice(files))
+        for _ in range(rng.randint(1, 2)):
+            at = rng.randrange(min(len(buf), 320)) if rng.random() < 0.7 else rng.randrange(len(buf))
+            buf[at] = rng.choice((0, 1, 0xFF, rng.randrange(256)))
+        data = bytes(buf)
+        if trial % 2:
+            try:
+                data = _fix_crcs(buf)
+            except struct.error:  # (a table the mutation moved out of the file)
+                pass
+        whole = read(data)
+        count, table = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
+        cuts = {0, 8, 63, 64, len(data) - 1, len(data), *(rng.randrange(len(data) + 1) for _ in range(4))}
+        if count <= 16 and table + 32 * count <= len(data):
+            for i in range(count):
+                off = struct.unpack_from("<Q", data, table + 32 * i + 8)[0]
+                cuts |= {off - 1, off, off + 16, off + 17} if off < len(data) else set()
+        for n in sorted(c for c in cuts if 0 <= c <= len(data)):
+            got = read_prefix(data[:n])
+            assert got == prefix_result(data[:n]), (trial, n)
+            if any(
+                q["severity"] == "error" and not q["code"].startswith("SWPM_PREFIX_") for q in got["problems"]
+            ):
+                assert not whole["valid"], (trial, n)
+            checked += 1
+    assert checked > 1000
+
+
+def _smap_bands(data: bytes) -> list[tuple[int, int, int]]:
+    """(first_lod, lod_count, prefix_length) of each SMAP band (format.md 4), or [] without SMAP."""
+    count, table = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
+    for i in range(count):
+        ctype, _flags, off, _length = struct.unpack_from("<4sIQQ", data, table + 32 * i)
+        if ctype == b"SMAP":
+            bands = struct.unpack_from("<I", data, off)[0]
+            return [
+                (first, lods, prefix)
+                for first, lods, _rs, _rn, prefix in (
+                    struct.unpack_from("<IIIIQ", data, off + 8 + 24 * b) for b in range(bands)
+                )
+            ]
+    return []
 
 
 @pytest.mark.parametrize("vector", [c for c in CASES if c.values[0]["valid"]])

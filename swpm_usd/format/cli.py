@@ -800,7 +800,7 @@ _REPO_VECTORS = Path(__file__).resolve().parents[2] / "spec" / "vectors"
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def conformance_cmd(vector_dir: str, as_json: bool) -> None:
     """Run the reader over the conformance vectors of VECTOR_DIR (default spec/vectors, else the source
-    checkout's)."""
+    checkout's) and the prefix reader over their prefix cases (spec/format.md 4.1)."""
     from .vectors import ConformanceManifestError, run_conformance
 
     if vector_dir == _DEFAULT_VECTORS and not Path(vector_dir).is_dir() and _REPO_VECTORS.is_dir():

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from . import layout as L
+from .prefix import open_prefix, validate_prefix
 from .reader import _check
 from .writer import encode_bytes, needed_index_ranges, smap_payload
 
@@ -352,7 +353,11 @@ def fan_smap(extra: list[tuple[int, int]], range_count: int | None = None) -> by
 def restream(pm: RawProgressiveMesh, order: list[int]) -> bytes:
     """``pm``'s file with its chunks listed and laid out in ``order`` (see :func:`reorder`) and SMAP written
     again, as the writer would, for the new offsets of INDX and VERT."""
-    data = reorder(_write(pm), order)
+    return resmap(pm, reorder(_write(pm), order))
+
+
+def resmap(pm: RawProgressiveMesh, data: bytes) -> bytes:
+    """``data``, a file of ``pm`` laid out anew, with SMAP written again as the writer would."""
     _, vo, _ = chunk(data, L.VERT)
     _, _, stride, vert_data = struct.unpack_from("<4I", data, vo)
     width = L.read_widths(struct.unpack_from("<I", data, 20)[0])[0]
@@ -368,6 +373,20 @@ def restream(pm: RawProgressiveMesh, order: list[int]) -> bytes:
         return smap_payload(vc, need, width, offs[L.INDX], offs[L.VERT], vert_data, stride)
 
     return with_smap(data, make)
+
+
+def long_header(pm: RawProgressiveMesh, extra: int, fill: int = 0x5A) -> bytes:
+    """``pm``'s file with ``extra`` (a multiple of 8) bytes of ``fill`` after byte 64, inside the header:
+    header_size and table_offset 64 + ``extra`` (a reader skips bytes 64..header_size, format.md 2.1), every
+    chunk moved by ``extra``, SMAP written again."""
+    data = _write(pm)
+    out = bytearray(data[:64]) + bytes([fill]) * extra + data[64:]
+    struct.pack_into("<I", out, 12, 64 + extra)
+    struct.pack_into("<Q", out, 32, 64 + extra)
+    struct.pack_into("<Q", out, 40, len(out))
+    for _, eo, off, _ in _entries(bytes(out)):
+        struct.pack_into("<Q", out, eo + 8, off + extra)
+    return resmap(pm, fix_crcs(out))
 
 
 def grow_stride(data: bytes, extra: int) -> bytes:
@@ -485,6 +504,7 @@ def _valid() -> dict[str, tuple[bytes, str]]:
             " indices): it draws nothing, so window 1 still decodes to its 2 triangles (a reader does not"
             " reject a window that ends on degenerate triangles)",
         ),
+        **_prefix_valid(),
     }
 
 
@@ -1026,6 +1046,197 @@ def _blind_invalid(out: dict[str, tuple[bytes, str]]) -> None:
     )
 
 
+def _prefix_valid() -> dict[str, tuple[bytes, str]]:
+    """Valid files that prefix cases need (format.md 4.1): a long header, an SMAP of two bands."""
+    return {
+        "long-header": (
+            long_header(fan_vanilla(), 64),
+            "header_size 128 (bytes 64..128 are 0x5A, skipped by a reader), table_offset 128: a prefix"
+            " reader waits for header_size bytes (prefix case long-header-at-100)",
+        ),
+        "smap-two-bands": (
+            _write(quad_sliding_empty_windows()),
+            "sliding window, LODs of 4, 3 and 2 vertices in two SMAP bands (LODs 0-1, LOD 2) whose"
+            " prefix_length is the prefix the band's finest LOD needs (format.md 4.1)",
+        ),
+    }
+
+
+def _prefix_cases(files: Mapping[str, bytes]) -> dict[str, list[tuple[str, int, str]]]:
+    """Per vector, its prefix cases (format.md 4.1): (name, prefix length n, description), one or more per
+    rule of 4.1."""
+
+    def at(name: str, t: bytes) -> tuple[int, int, int]:
+        eo, off, ln = chunk(files[name], t)
+        return eo, off, ln
+
+    def records(name: str) -> int:  # the offset of VERT's first vertex record
+        _, vo, _ = at(name, L.VERT)
+        return vo + struct.unpack_from("<I", files[name], vo + 12)[0]
+
+    def needed(name: str, lod: int) -> int:
+        data = files[name]
+        _, vo, _ = at(name, L.VERT)
+        _, lo, _ = at(name, L.LODS)
+        return (
+            records(name)
+            + struct.unpack_from("<I", data, lo + 12 * lod)[0] * struct.unpack_from("<I", data, vo + 8)[0]
+        )
+
+    mv, table_end = "minimal-vanilla", 64 + 32 * struct.unpack_from("<I", files["minimal-vanilla"], 24)[0]
+    _, moff, mlen = at("gap-nonzero-and-crc-mismatch", L.META)
+    return {
+        "bad-magic": [
+            (
+                "bad-magic-at-7",
+                7,
+                "7 bytes: the magic cannot be checked yet, SWPM_PREFIX_TOO_SHORT needing 64",
+            ),
+            ("bad-magic-at-8", 8, "8 bytes of another magic: SWPM_HEADER_BAD_MAGIC, an error of the file"),
+        ],
+        mv: [
+            ("minimal-vanilla-at-63", 63, "n < 64: SWPM_PREFIX_TOO_SHORT at 63 needing 64"),
+            (
+                "minimal-vanilla-at-table-end-minus-1",
+                table_end - 1,
+                "the chunk table ends one byte past n: SWPM_PREFIX_TOO_SHORT needing the table's end",
+            ),
+            (
+                "minimal-vanilla-at-table-end",
+                table_end,
+                "the header and the table only: every payload CRC and padding byte waits, the prefix needs"
+                " every byte before VERT's records",
+            ),
+            (
+                "minimal-vanilla-at-records-minus-1",
+                records(mv) - 1,
+                "one byte before VERT's first vertex record: SWPM_PREFIX_TOO_SHORT needing that byte",
+            ),
+            (
+                "minimal-vanilla-at-records",
+                records(mv),
+                "exactly every byte before VERT's records: opens, no LOD drawable yet",
+            ),
+            (
+                "minimal-vanilla-mid-record",
+                needed(mv, 1) + 2,
+                "two bytes into vertex 4's record: LOD 1 (4 vertices) drawable, LOD 0 not",
+            ),
+            ("minimal-vanilla-whole", len(files[mv]), "n = file_size: the whole file, every LOD drawable"),
+        ],
+        "attributes": [
+            (
+                "attributes-at-vert-header",
+                at("attributes", L.VERT)[1] + 8,
+                "VERT's 16-byte header is cut: SWPM_PREFIX_TOO_SHORT needing the header (data_offset is in"
+                " it)",
+            ),
+            (
+                "attributes-mid-record",
+                needed("attributes", 1) + 1,
+                "LOD 1 drawable with its points and attributes (normal, uv, color)",
+            ),
+        ],
+        "long-header": [
+            ("long-header-at-100", 100, "header_size 128 past n = 100: SWPM_PREFIX_TOO_SHORT needing 128"),
+        ],
+        "smap-empty-index-hull": [
+            (
+                "smap-empty-index-hull-not-streamable",
+                at("smap-empty-index-hull", L.VERT)[1] + 16,
+                "INDX is the last table entry: SWPM_PREFIX_NOT_STREAMABLE at that entry (the whole file is"
+                " valid, with SWPM_STREAM_ORDER)",
+            ),
+        ],
+        "smap-two-bands": [
+            (
+                "smap-two-bands-band-1",
+                needed("smap-two-bands", 2),
+                "band 1's prefix_length = needed(2): LOD 2 drawable",
+            ),
+            (
+                "smap-two-bands-band-1-minus-1",
+                needed("smap-two-bands", 2) - 1,
+                "one byte short of band 1's prefix_length: opens, no LOD drawable",
+            ),
+            ("smap-two-bands-lod-1", needed("smap-two-bands", 1), "needed(1), inside band 0: LOD 1 drawable"),
+        ],
+        "gap-nonzero-and-crc-mismatch": [
+            (
+                "gap-nonzero-and-crc-mismatch-at-records",
+                records("gap-nonzero-and-crc-mismatch"),
+                "the padding and LODS's CRC lie before n: both errors found at once, as in the whole file",
+            ),
+            (
+                "gap-nonzero-and-crc-mismatch-deferred",
+                moff + mlen + 1,
+                "n ends just before the non-zero padding byte, LODS past n: both wait for the file, the"
+                " prefix needs every byte before VERT's records",
+            ),
+        ],
+        "crc-mismatch": [
+            (
+                "crc-mismatch-vert-deferred",
+                len(files["crc-mismatch"]) - 1,
+                "VERT's CRC waits for the file: the prefix opens (LOD 1 drawable) and finishing rejects it",
+            ),
+        ],
+        "vert-nonfinite-point": [
+            (
+                "vert-nonfinite-point-deferred",
+                needed("vert-nonfinite-point", 1),
+                "LOD 1 drawable, its vertex 3 NaN: SWPM_VERT_NONFINITE waits for the file",
+            ),
+        ],
+        "truncated-inside-vert": [
+            (
+                "truncated-inside-vert-whole",
+                len(files["truncated-inside-vert"]),
+                "every byte there is, fewer than file_size: the prefix opens, finishing reports"
+                " SWPM_FILE_SIZE_MISMATCH",
+            ),
+        ],
+        "index-above-vertex-count": [
+            (
+                "index-above-vertex-count-at-records",
+                records("index-above-vertex-count"),
+                "steps 3-5 of format.md 5 run on the prefix: the encoding's error is found at once",
+            ),
+        ],
+    }
+
+
+def prefix_result(data: bytes) -> dict[str, Any]:
+    """The verdict of a prefix reader on ``data``, a file's first n bytes (format.md 4.1): its problems (a
+    SWPM_PREFIX_TOO_SHORT with ``need``, the prefix length its check needs) and, once opened, needed(k) per
+    LOD, the finest drawable LOD and the SHA-256 of its points and attributes."""
+    rep = validate_prefix(data)
+    problems: list[dict[str, Any]] = []
+    for q in rep.problems:
+        problems.append({"code": q.code, "severity": q.severity, "offset": q.offset})
+        if q.code == "SWPM_PREFIX_TOO_SHORT":
+            problems[-1]["need"] = int(rep.summary["prefix_need"])
+    out: dict[str, Any] = {"length": len(data), "opened": rep.valid, "problems": problems}
+    if rep.valid:
+        fp = open_prefix(data)
+        out["needed"] = [fp.needed_bytes(k) for k in range(fp.lod_count)]
+        k = fp.finest_drawable
+        out["finest_drawable"] = k
+        if k is not None:
+            arrays = {
+                "points": fp.lod_points(k),
+                **{f"attribute:{a}": v for a, v in fp.lod_attributes(k).items()},
+            }
+            out["drawable"] = {
+                a: {
+                    "shape": list(v.shape),
+                    "sha256": hashlib.sha256(np.ascontiguousarray(v).tobytes()).hexdigest(),
+                }
+                for a, v in sorted(arrays.items())
+            }
+    return out
+
+
 def buffer_digests(data: bytes) -> dict[str, Any]:
     """Decoded summary of a valid file: counts and the SHA-256 of each array as stored (little-endian)."""
     rep, p = _check(np.frombuffer(data, np.uint8), None)
@@ -1087,6 +1298,22 @@ def build_all() -> dict[str, bytes]:
                     "sha256": hashlib.sha256(data).hexdigest(),
                 }
             )
+    by_name = {**{k: v[0] for k, v in valid.items()}, **{k: v[0] for k, v in invalid.items()}}
+    cases = _prefix_cases(by_name)
+    for entry in manifest:
+        prefixes = []
+        for case, n, desc in cases.pop(entry["name"], []):
+            if n > len(by_name[entry["name"]]):
+                raise AssertionError(f"prefix case {case}: {n} bytes, more than the file")
+            rel = f"prefix/{case}.json"
+            files[rel] = (
+                json.dumps(prefix_result(by_name[entry["name"]][:n]), indent=2, sort_keys=True) + "\n"
+            ).encode()
+            prefixes.append({"name": case, "length": n, "expected": rel, "description": desc})
+        if prefixes:
+            entry["prefixes"] = prefixes
+    if cases:
+        raise AssertionError(f"prefix cases of no vector: {sorted(cases)}")
     doc = {"format": "SWPM", "version": "1.0", "vectors": manifest}
     files["manifest.json"] = (json.dumps(doc, indent=2) + "\n").encode()
     files["minimal-vanilla.hex"] = hexdump(valid["minimal-vanilla"][0]).encode()
@@ -1178,6 +1405,29 @@ def run_conformance(vector_dir: str | Path) -> list[Outcome]:
             got["summary"] = buffer_digests(path.read_bytes())
         diff = sorted(k for k in exp.keys() | got.keys() if exp.get(k) != got.get(k))  # (a key missing too)
         out.append(Outcome(v["name"], not diff, "ok" if not diff else f"differs in {', '.join(diff)}"))
+        out += _run_prefixes(vector_dir, v, path)
+    return out
+
+
+def _run_prefixes(vector_dir: Path, v: dict[str, Any], path: Path) -> list[Outcome]:
+    """The prefix cases of vector ``v`` (format.md 4.1): the prefix reader's verdict on the file's first
+    ``length`` bytes against the case's expected result (finishing is the vector's own verdict)."""
+    out = []
+    for j, case in enumerate(v.get("prefixes", [])):
+        name = f"{v['name']}/{case.get('name', f'prefixes[{j}]') if isinstance(case, dict) else j}"
+        try:
+            exp = json.loads((vector_dir / case["expected"]).read_text(encoding="utf-8"))
+            got = prefix_result(path.read_bytes()[: int(case["length"])])
+        except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError) as exc:
+            what = f"no {exc} key" if isinstance(exc, KeyError) else str(exc)
+            out.append(Outcome(name, False, f"unusable prefix case: {what}"))
+            continue
+        diff = (
+            sorted(k for k in exp.keys() | got.keys() if exp.get(k) != got.get(k))
+            if isinstance(exp, dict)
+            else ["all"]
+        )
+        out.append(Outcome(name, not diff, "ok" if not diff else f"differs in {', '.join(diff)}"))
     return out
 
 
