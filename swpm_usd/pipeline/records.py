@@ -14,7 +14,7 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from .assets import _MAXIMA, _MINIMA
+from .assets import _MAXIMA, _MINIMA, OUTPUT_NAMES
 from .file_hash import STAT_KEYS
 
 
@@ -67,7 +67,7 @@ _RECORD: dict[str, tuple[Callable[[Any], bool], str]] = {
     "last_failure": (lambda v: isinstance(v, dict), "an object"),
     "auto_candidates": (lambda v: isinstance(v, dict), "an object"),
     "warnings": (lambda v: isinstance(v, list) and all(isinstance(w, str) for w in v), "a list of strings"),
-    "output_names": (lambda v: v in ("stem", "path"), '"stem" or "path"'),
+    "output_names": (lambda v: v in OUTPUT_NAMES, '"stem" or "path"'),
 }
 #: the keys of a built asset's record (a failed one has its status alone for sure)
 _BUILT = ("status", "digest", "input_digest", "encoding", "outputs", "summary")

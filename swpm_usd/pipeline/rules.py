@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .. import __version__
-from .assets import Asset, checks_of, match_rule, output_names, rule_checks, treatment_digest
+from .assets import OUTPUT_NAMES, Asset, checks_of, match_rule, output_names, rule_checks, treatment_digest
 from .config import Config
 from .worker import TRIANGLES_READ
 
@@ -186,7 +186,7 @@ def _names_moved(cfg: Config, asset: Asset, previous: dict | None) -> str:
         return ""
     now = output_names(cfg)
     then = previous.get("output_names")
-    if then in ("stem", "path") and then != now:
+    if then in OUTPUT_NAMES and then != now:
         return f"output.names: {then} -> {now}"
     if then == now == "path":
         return "its glob (output.names: path)"
