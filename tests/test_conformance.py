@@ -130,7 +130,8 @@ def test_every_vector_the_spec_cites_exists_and_every_code_is_exercised() -> Non
     """A vector named in format.md is in the manifest, and every code of errors.md that a file can cause is
     expected by some vector (SWPM_IO_ERROR, _INDEX_WIDTH, _ENCODING_UNAVAILABLE and _BUFFERS_REJECTED are not
     problems of a file's bytes; SWPM_PREFIX_TOO_SHORT and _NOT_STREAMABLE are a prefix reader's, format.md
-    4.1, of the first bytes of a file rather than of a file: tests/test_prefix.py exercises them)."""
+    4.1, of the first bytes of a file rather than of a file: tests/test_prefix.py exercises them; so is
+    SWPM_RANGES_NOT_HELD a range reader's, 4.2: tests/test_ranges.py)."""
     spec = (ROOT / "spec" / "format.md").read_text()
     names = {v["name"] for v in json.loads((VECTORS / "manifest.json").read_text())["vectors"]}
     cited = _cited_vectors(spec)
@@ -146,6 +147,7 @@ def test_every_vector_the_spec_cites_exists_and_every_code_is_exercised() -> Non
         "SWPM_BUFFERS_REJECTED",
         "SWPM_PREFIX_TOO_SHORT",
         "SWPM_PREFIX_NOT_STREAMABLE",
+        "SWPM_RANGES_NOT_HELD",
     }
     assert not_of_bytes < codes, sorted(not_of_bytes - codes)  # errors.md's table was read
     assert sorted(codes - not_of_bytes - seen) == []

@@ -86,8 +86,10 @@ def _sliding(p: _Parsed, rep: Report) -> None:
             pool=int(pool.shape[0]),
         )
     ok &= bad.size == 0
-    ok &= _index_check(p, rep, idx_c, pool, "INDX", V, idx_c.offset, exempt=rv)
-    if strips and bad.size == 0:
+    # (ranges without all of INDX, spec 4.2: its content is checked per drawn LOD by .ranges, the rest waits)
+    full = not p.indx_partial
+    ok &= not full or _index_check(p, rep, idx_c, pool, "INDX", V, idx_c.offset, exempt=rv)
+    if strips and bad.size == 0 and full:
         # a window starts a strip (the pool's start or right after a restart index); it may end inside one
         live = np.flatnonzero(count > 0)
         mid = live[(first[live] > 0) & (pool[np.maximum(first[live] - 1, 0)] != rv)]
@@ -95,8 +97,8 @@ def _sliding(p: _Parsed, rep: Report) -> None:
             k = int(mid[0])
             rep.add("SWPM_WINDOW_MID_STRIP", w_c.offset + k * row, lod=k, start=int(first[k]))
             ok = False
-    stage_a = ok
-    if ok and pool.size:
+    stage_a = ok and full
+    if stage_a and pool.size:
         # (a strip pool's restart index is exempt: read as vertex 0 here)
         checked = np.where(pool == rv, 0, pool).astype(pool.dtype) if strips else pool
         if np.all(np.diff(first) >= 0) and np.all(np.diff(end) >= 0) and np.all(np.diff(vc) <= 0):
