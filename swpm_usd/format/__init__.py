@@ -1,6 +1,6 @@
 """SWPM binary format v1 (spec/format.md): :func:`save`, :func:`load`, :func:`validate`, error catalogue, and
 :func:`open_prefix` (a file's first bytes, spec 4.1: its coarse LODs before the whole file has arrived) and
-:func:`open_ranges` / :func:`read_lod` (byte ranges, spec 4.2: a band's LODs from the ranges ``SMAP`` names)."""
+:func:`open_ranges` / :func:`read_lod` (byte ranges, spec 4.2: a band's LODs from ``SMAP``'s ranges)."""
 
 from __future__ import annotations
 
