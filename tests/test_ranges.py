@@ -7,16 +7,17 @@ corruption outside the held ranges is found only on finishing, inside them at on
 
 from __future__ import annotations
 
+import random
 import struct
 from typing import Any
 
 import numpy as np
 import pytest
 from conftest import refix_crcs, shared_mesh
-from test_c_reader import MANIFEST, VECTORS
+from test_c_reader import MANIFEST, VECTORS, _mutate, _mutate_values
 
 import swpm_usd
-from swpm_usd.format import SwpmFormatError, encode_bytes, load_bytes
+from swpm_usd.format import SwpmFormatError, encode_bytes, load_bytes, validate_bytes
 from swpm_usd.format.ranges import open_ranges, ranges_for_lod, read_lod, validate_ranges
 
 VALID = [v["name"] for v in MANIFEST["vectors"] if v["valid"]]
@@ -176,3 +177,52 @@ def test_not_held_names_the_range() -> None:
     assert fr.complete and list(fr.drawable_lods) == list(range(fr.lod_count))
     with pytest.raises(ValueError):
         open_ranges({0: data[:64], len(data) - 4: data[-4:] + b"xx"})
+
+
+def test_fuzz_errors_of_ranges_are_errors_of_the_file() -> None:
+    """Mutants (random bytes, INDX values and record fields, CRCs mostly fixed) read through the coarsest
+    band's ranges and through a mid band's: an error other than SWPM_RANGES_NOT_HELD is an error of the whole
+    file too (reading zeros where bytes are not held never invents one), and ranges that open finish with
+    the whole file's verdict."""
+    rng = random.Random(214)
+    seeds = [_file("suzanne", v) for v in ("sw-list", "sw-strip", "skip-strip", "mixed", "vanilla")]
+    opened = reported = 0
+    for i in range(400):
+        data = rng.choice(seeds)
+        bad = _mutate_values(rng, data) if i % 2 else _mutate(rng, data)
+        L = load_bytes(data).lod_count
+        k = rng.choice([L - 1, L // 2])
+        held = {o: bad[o : o + n] for o, n in ranges_for_lod(data, k)}
+        whole = validate_bytes(bad)
+        try:
+            rep = validate_ranges(held)
+        except ValueError:  # a range past the mutant's file_size: the caller's error
+            continue
+        codes = {p.code for p in rep.errors} - {"SWPM_RANGES_NOT_HELD"}
+        if codes:
+            reported += 1
+            assert not whole.valid, (i, codes)
+        if rep.valid:
+            opened += 1
+            fr = open_ranges(held)
+            if whole.valid:
+                fr.finish(bad)
+            else:
+                with pytest.raises(SwpmFormatError) as exc:
+                    fr.finish(bad)
+                assert exc.value.report.errors[0].code == whole.errors[0].code
+    assert opened > 50 and reported > 50, (opened, reported)
+
+
+def test_a_huge_file_size_allocates_nothing_and_fails_on_finishing() -> None:
+    """The buffer stops at the last byte held, not at the header's file_size (a hostile one: 1 TiB)."""
+    data = bytearray(_file("suzanne", "sw-list"))
+    struct.pack_into("<Q", data, 40, 1 << 40)
+    bad = refix_crcs(bytes(data))
+    k = load_bytes(_file("suzanne", "sw-list")).lod_count - 1
+    held = {o: bad[o : o + n] for o, n in ranges_for_lod(bad, k)}
+    fr = open_ranges(held)  # (SMAP's ranges lie inside the file: file_size is only larger)
+    assert fr.file_size == 1 << 40 and k in fr.drawable_lods and fr._p.buf.shape[0] < len(bad)
+    with pytest.raises(SwpmFormatError) as exc:
+        fr.finish(bad)
+    assert exc.value.report.errors[0].code == "SWPM_FILE_SIZE_MISMATCH"

@@ -68,7 +68,7 @@ def _mixed(p: _Parsed, rep: Report) -> None:
     first = arrs["level_first_lod"].astype(np.int64)
     reason, where = None, m_c.offset
     for name, total, step in (
-        ("level_static_start", static.shape[0], 3),
+        ("level_static_start", idx_c.length // p.width, 3),  # (ranges: the view may stop early)
         ("level_dynamic_start", D, 3),
         ("level_record_start", R, 1),
     ):

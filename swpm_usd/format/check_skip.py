@@ -82,7 +82,7 @@ def _skip(p: _Parsed, rep: Report) -> None:
     first = arrs["level_first_lod"].astype(np.int64)
     reason = None
     for name, total in (
-        ("level_index_start", lst.shape[0]),
+        ("level_index_start", idx_c.length // p.width),  # (ranges: lst may stop at the last byte held)
         ("level_collapsed_start", C),
         ("level_record_start", R),
     ):

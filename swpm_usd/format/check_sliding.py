@@ -75,7 +75,8 @@ def _sliding(p: _Parsed, rep: Report) -> None:
         ok = False
     count = win[:, 3].astype(np.int64) if strips else 3 * tc
     end = first + count
-    bad = np.flatnonzero(end > pool.shape[0])
+    n_pool = idx_c.length // p.width  # (ranges, spec 4.2: the view may stop at the last byte held)
+    bad = np.flatnonzero(end > n_pool)
     for k in bad[:3]:
         rep.add(
             "SWPM_WINDOW_OUT_OF_POOL",
@@ -83,7 +84,7 @@ def _sliding(p: _Parsed, rep: Report) -> None:
             lod=int(k),
             start=int(first[k]),
             end=int(end[k]),
-            pool=int(pool.shape[0]),
+            pool=n_pool,
         )
     ok &= bad.size == 0
     # (ranges without all of INDX, spec 4.2: its content is checked per drawn LOD by .ranges, the rest waits)

@@ -44,7 +44,7 @@ def _vanilla(p: _Parsed, rep: Report) -> None:
         return
     rc = _view(p.buf, rc_c.offset, rc_c.length // ow, ot)
     indices = _view(p.buf, idx_c.offset, idx_c.length // p.width, it)
-    V, T0, Lc = p.vertex_count, indices.shape[0] // 3, p.lods.shape[0]
+    V, T0, Lc = p.vertex_count, idx_c.length // p.width // 3, p.lods.shape[0]  # (not the view: 4.2)
     ok = _common_records(p, rep, rec, rc, rc_c.offset, Lc)
     full = not p.indx_partial  # (ranges without all of INDX, spec 4.2: no LOD draws; its content waits)
     ok &= not full or _index_check(p, rep, idx_c, indices, "INDX", V, idx_c.offset)

@@ -133,7 +133,8 @@ class FileRanges:
     def _drawable(self) -> np.ndarray:
         if self._ok is None:  # (vectorised over LODs: a count of bytes not held before each offset)
             p = self._p
-            gaps = np.zeros(self.file_size + 1, np.int64)
+            top = int(p.buf.shape[0])  # (bytes past it are not held)
+            gaps = np.zeros(top + 1, np.int64)
             if p.held is not None:
                 np.cumsum(~p.held, out=gaps[1:])
             lo, hi = (
@@ -141,8 +142,12 @@ class FileRanges:
             )
             vert = p.chunks[L.VERT].offset
             vend = self.vertex_data_offset + self.vertex_counts.astype(np.int64) * self.vertex_stride
-            ok = (gaps[self.index_offset] == 0) & (gaps[vend] == gaps[vert])
-            self._ok = ok & ((hi <= lo) | (gaps[np.maximum(hi, lo)] == gaps[lo]))
+
+            def held(a: np.ndarray | int, b: np.ndarray) -> np.ndarray:  # every byte of [a, b) held
+                return (b <= top) & (gaps[np.minimum(b, top)] == gaps[np.minimum(a, top)])
+
+            ok = held(0, np.full(self.lod_count, self.index_offset)) & held(vert, vend)
+            self._ok = ok & ((hi <= lo) | held(lo, hi))
         return self._ok
 
     @property
@@ -182,7 +187,8 @@ class FileRanges:
             assert p.lods is not None and p.meta is not None
             self._pm = from_buffers(
                 self.encoding,
-                _all_records(p)["f0"],
+                # (the draw streams read no point: V of them, none allocated, for the mesh's own checks)
+                np.broadcast_to(np.zeros(3, np.float32), (p.vertex_count, 3)),
                 {},
                 p.lods["vertex_count"],
                 p.lods["triangle_count"],
@@ -214,15 +220,6 @@ class FileRanges:
         return _build(p, rep)
 
 
-def _all_records(p: _Parsed) -> np.ndarray:
-    """Every vertex's point in the file buffer (bytes not held read as zero): for the mesh object only, whose
-    drawable LODs read only held records."""
-    v = p.chunks[L.VERT]
-    start = v.offset + p.vert_data
-    dt = np.dtype({"names": ["f0"], "formats": [("<f4", (3,))], "offsets": [0], "itemsize": p.vert_stride})
-    return p.buf[start : start + p.vertex_count * p.vert_stride].view(dt)
-
-
 def _merge(held: Held, file_size: int | None) -> tuple[list[tuple[int, int]], list[tuple[int, np.ndarray]]]:
     items = sorted((int(o), _as_buf(b)) for o, b in held.items() if len(b))
     spans: list[tuple[int, int]] = []
@@ -250,13 +247,16 @@ def _check_ranges(held: Held, path: str | None) -> tuple[Report, _Parsed | None,
         return rep, None, []
     file_size = int(head[: L.HEADER_SIZE].view(L.HEADER)[0]["file_size"])
     spans, items = _merge(held, file_size)
-    buf = np.zeros(file_size, np.uint8)  # bytes not held read as zero: padding there reads clean
-    mask = np.zeros(file_size, bool)
+    # up to the last byte held, not file_size (a hostile header's): bytes not held read as zero, so padding
+    # there reads clean; the checks take file_size as the end of the file (as a prefix's, spec 4.1)
+    top = max((o + n for o, n in spans), default=0)
+    buf = np.zeros(top, np.uint8)
+    mask = np.zeros(top, bool)
     for o, b in items:
         buf[o : o + b.shape[0]] = b
         mask[o : o + b.shape[0]] = True
     buf.setflags(write=False)
-    if mask.all():
+    if top == file_size and mask.all():
         rep, p = _check(buf, path)
         return rep, p, spans
     rep, p = _check(buf, path, held=mask)

@@ -120,7 +120,11 @@ def _structure(
         rep.add("SWPM_HEADER_NEWER_MINOR", 10, minor=p.minor)
     hs = int(h["header_size"])
     declared = int(h["file_size"])
-    streaming = prefix and declared > size  # a prefix of a longer file: it ends at file_size
+    # a prefix of a longer file, or ranges (held up to the last byte held, spec 4.2): it ends at file_size
+    streaming = (prefix or held is not None) and declared > size
+    if held is not None and L.HEADER_SIZE <= hs <= declared and hs > size:
+        _not_held(p, rep, 0, hs)
+        return None
     if streaming and L.HEADER_SIZE <= hs <= declared and hs > size:
         rep.add("SWPM_PREFIX_TOO_SHORT", size, size=size, need=hs)
         rep.summary["prefix_need"] = hs
@@ -168,11 +172,14 @@ def _structure(
         rep.add("SWPM_TABLE_TRUNCATED", 24, count=count, need=need, at=to, size=end)
         return None
     table_end = to + need
+    if table_end > size and held is not None:
+        _not_held(p, rep, 0, table_end)
+        return None
     if table_end > size:  # (a prefix only: else the end of the file is at most its length)
         rep.add("SWPM_PREFIX_TOO_SHORT", size, size=size, need=table_end)
         rep.summary["prefix_need"] = table_end
         return None
-    if not p.holds(0, table_end):
+    if not p.holds(0, table_end):  # (ranges: before the table's end, all of which is in buf)
         _not_held(p, rep, 0, table_end)
         return None
     if check_crc:
@@ -297,7 +304,8 @@ def _prefix_skeleton(p: _Parsed, rep: Report) -> None:
 def _not_held(p: _Parsed, rep: Report, start: int, end: int) -> None:
     """SWPM_RANGES_NOT_HELD (spec 4.2): bytes [start, end) are needed, not all held; at the first missing."""
     assert p.held is not None
-    missing = start + int(np.flatnonzero(~p.held[start:end])[0])
+    gap = np.flatnonzero(~p.held[start:end])
+    missing = start + int(gap[0]) if gap.size else max(start, int(p.held.shape[0]))
     rep.add("SWPM_RANGES_NOT_HELD", missing, start=start, end=end)
     rep.summary["range_need"] = [start, end]
 
