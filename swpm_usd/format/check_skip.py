@@ -115,8 +115,9 @@ def _skip(p: _Parsed, rep: Report) -> None:
         ok &= _offsets_in_level(p, rep, rec, rstart, lstart)
         # prefix property at each level's entry: its list uses only the level's first LOD's vertices
         vc = p.lods["vertex_count"].astype(np.int64)
-        pos, lv = (int(x) for x in segment_limits(lst, lstart, vc[first], -1 if exempt is None else exempt))
-        if pos >= 0 and full:
+        ex = -1 if exempt is None else exempt
+        pos, lv = (int(x) for x in segment_limits(lst, lstart, vc[first], ex)) if full else (-1, -1)
+        if pos >= 0:
             rep.add(
                 "SWPM_PREFIX_VIOLATION",
                 idx_c.offset + pos * p.width,

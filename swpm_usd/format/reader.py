@@ -91,9 +91,10 @@ def _structure(
     """Steps 1-2 of spec 5. ``prefix``: ``buf`` may be a prefix of the file (spec 4.1): when it is shorter
     than file_size the end of the file is file_size, the bytes it lacks (a CRC over them, padding there,
     the length) are left to the whole file, and a header or table it cuts is SWPM_PREFIX_TOO_SHORT.
-    ``held`` (byte ranges, spec 4.2): ``buf`` is file_size bytes of which only ``held`` ones are the file's
-    (the rest zero, so padding there reads clean until the whole file); a CRC over bytes not all held waits
-    for the whole file and a chunk table not held is SWPM_RANGES_NOT_HELD."""
+    ``held`` (byte ranges, spec 4.2): ``buf`` runs to the last byte held, the end of the file is file_size,
+    and only the ``held`` bytes are the file's (the rest zero, so padding there reads clean until the whole
+    file); a CRC over bytes not all held waits for the whole file, and a header or table not held is
+    SWPM_RANGES_NOT_HELD."""
     size = int(buf.shape[0])
     p = _Parsed(buf, held=held, prefix=held is not None)
     if size < L.HEADER_SIZE:
