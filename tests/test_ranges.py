@@ -173,6 +173,10 @@ def test_not_held_names_the_range() -> None:
     assert rep.errors[0].code == "SWPM_RANGES_NOT_HELD" and rep.summary["range_need"][0] == 0
     rep = validate_ranges({0: data[:10]})
     assert rep.errors[0].code == "SWPM_RANGES_NOT_HELD" and rep.summary["range_need"] == [0, 64]
+    rep = validate_ranges({0: b"SWPN" + data[4:8], 8: data[8:64]})  # the magic from ranges that abut
+    assert rep.errors[0].code == "SWPM_HEADER_BAD_MAGIC"
+    pieces = {o: data[o : o + 1000] for o in range(0, len(data), 1000)}  # the whole file, in pieces
+    assert list(open_ranges(pieces).drawable_lods) == list(range(load_bytes(data).lod_count))
     fr = open_ranges({0: data})
     assert fr.complete and list(fr.drawable_lods) == list(range(fr.lod_count))
     with pytest.raises(ValueError):

@@ -236,16 +236,21 @@ def _merge(held: Held, file_size: int | None) -> tuple[list[tuple[int, int]], li
 
 def _check_ranges(held: Held, path: str | None) -> tuple[Report, _Parsed | None, list[tuple[int, int]]]:
     """The report of ranges ``held`` (spec 4.2) and the parsed state, with the held spans."""
-    head = _as_buf(held.get(0, b""))
-    if head.shape[0] < L.HEADER_SIZE or (head.shape[0] >= 8 and bytes(head[:8]) != L.MAGIC):
+    head = np.zeros(L.HEADER_SIZE, np.uint8)  # the header from whichever ranges hold its bytes
+    have = np.zeros(L.HEADER_SIZE, bool)
+    for o, b in held.items():
+        if 0 <= o < L.HEADER_SIZE:
+            b = _as_buf(b)[: L.HEADER_SIZE - o]
+            head[o : o + b.shape[0]], have[o : o + b.shape[0]] = b, True
+    if not have.all():
         rep = _Report(path=path)
-        if head.shape[0] >= 8 and bytes(head[:8]) != L.MAGIC:
+        if have[:8].all() and bytes(head[:8]) != L.MAGIC:
             rep.add("SWPM_HEADER_BAD_MAGIC", 0, found=bytes(head[:8]).hex(), expected=L.MAGIC.hex())
         else:
-            rep.add("SWPM_RANGES_NOT_HELD", head.shape[0], start=0, end=L.HEADER_SIZE)
+            rep.add("SWPM_RANGES_NOT_HELD", int(np.argmin(have)), start=0, end=L.HEADER_SIZE)
             rep.summary["range_need"] = [0, L.HEADER_SIZE]
         return rep, None, []
-    file_size = int(head[: L.HEADER_SIZE].view(L.HEADER)[0]["file_size"])
+    file_size = int(head.view(L.HEADER)[0]["file_size"])
     spans, items = _merge(held, file_size)
     # up to the last byte held, not file_size (a hostile header's): bytes not held read as zero, so padding
     # there reads clean; the checks take file_size as the end of the file (as a prefix's, spec 4.1)
