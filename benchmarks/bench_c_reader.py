@@ -15,7 +15,9 @@ Streaming (spec/format.md 4.1), per mesh (default: every shared mesh) and encodi
 strips, vanilla, skip-strip, mixed): the file's bytes, the prefix the coarsest LOD needs, the LOD of about
 10 % of LOD 0's triangles (``lod_for_triangles``) and LOD 0 (the whole file: VERT is last), each in bytes and
 % of the file, and the time to open the coarsest LOD's prefix: ``swpm_open_prefix`` (``cc -O2``, scratch of
-the file's length) and ``swpm_usd.format.open_prefix``, minimum of ``--repeat`` runs after a warm-up.
+the file's length) and ``swpm_usd.format.open_prefix``, minimum of ``--repeat`` runs after a warm-up. Beside
+the prefix, what a range reader (spec 4.2, ``swpm_usd.format.read_lod``: the header, then ``SMAP``'s ranges
+for the LOD's band) fetches to draw the coarsest LOD and the 10 % LOD, in bytes and % of the file.
 """
 
 from __future__ import annotations
@@ -88,11 +90,11 @@ def _pct(n: int, size: int) -> str:
 def streaming(exe: Path, tmp: Path, meshes: list[str], repeat: int) -> None:
     """The --streaming table (see the module's docstring)."""
     import swpm_usd
-    from swpm_usd.format import encode_bytes, open_prefix
+    from swpm_usd.format import encode_bytes, open_prefix, read_lod
 
     print(
         f"{'mesh':16} {'encoding':10} {'bytes':>9} {'coarsest':>17} {'10 % LOD':>23} {'LOD 0':>9} "
-        f"{'C open ms':>9} {'Py open ms':>10}"
+        f"{'C open ms':>9} {'Py open ms':>10} {'ranges coarsest':>17} {'ranges 10 %':>17}"
     )
     for mesh in meshes:
         for name, (enc, kw) in STREAM_VARIANTS.items():
@@ -117,10 +119,14 @@ def streaming(exe: Path, tmp: Path, meshes: list[str], repeat: int) -> None:
                 open_prefix(part)
                 py.append(time.perf_counter() - t)
             size = len(data)
+            fetched = []
+            for k in (L - 1, k10):  # a range reader's bytes: the union of what it fetched (header, SMAP's)
+                fr = read_lod(lambda o, n, d=data: d[o : o + n], k, head=64)
+                fetched.append(fr.held_bytes)
             print(
                 f"{Path(mesh).stem:16} {name:10} {size:9d} {_pct(coarse, size):>17} "
                 f"{f'(LOD {k10}) ' + _pct(ten, size):>23} {zero:9d} {float(out.stdout):9.3f} "
-                f"{min(py[1:]) * 1e3:10.3f}",
+                f"{min(py[1:]) * 1e3:10.3f} {_pct(fetched[0], size):>17} {_pct(fetched[1], size):>17}",
                 flush=True,
             )
 

@@ -139,7 +139,8 @@ def test_every_vector_the_spec_cites_exists_and_every_code_is_exercised() -> Non
     """A vector named in format.md is in the manifest, and every code of errors.md that a file can cause is
     expected by some vector (SWPM_IO_ERROR, _INDEX_WIDTH, _ENCODING_UNAVAILABLE and _BUFFERS_REJECTED are not
     problems of a file's bytes; SWPM_PREFIX_TOO_SHORT and _NOT_STREAMABLE, a prefix reader's, format.md 4.1,
-    are expected by the prefix cases). A name the spec cites may be a vector's or a prefix case's."""
+    are expected by the prefix cases; SWPM_RANGES_NOT_HELD is a range reader's, 4.2: tests/test_ranges.py).
+    A name the spec cites may be a vector's or a prefix case's."""
     spec = (ROOT / "spec" / "format.md").read_text()
     vectors = json.loads((VECTORS / "manifest.json").read_text())["vectors"]
     names = {v["name"] for v in vectors} | {c["name"] for v in vectors for c in v.get("prefixes", [])}
@@ -154,6 +155,7 @@ def test_every_vector_the_spec_cites_exists_and_every_code_is_exercised() -> Non
         "SWPM_INDEX_WIDTH",
         "SWPM_ENCODING_UNAVAILABLE",
         "SWPM_BUFFERS_REJECTED",
+        "SWPM_RANGES_NOT_HELD",
     }
     assert not_of_bytes < codes, sorted(not_of_bytes - codes)  # errors.md's table was read
     assert sorted(codes - not_of_bytes - seen) == []

@@ -1,5 +1,6 @@
 """SWPM binary format v1 (spec/format.md): :func:`save`, :func:`load`, :func:`validate`, error catalogue, and
-:func:`open_prefix` (a file's first bytes, spec 4.1: its coarse LODs before the whole file has arrived)."""
+:func:`open_prefix` (a file's first bytes, spec 4.1: its coarse LODs before the whole file has arrived) and
+:func:`open_ranges` / :func:`read_lod` (byte ranges, spec 4.2: a band's LODs from ``SMAP``'s ranges)."""
 
 from __future__ import annotations
 
@@ -20,12 +21,18 @@ __getattr__, __dir__ = lazy_attributes(
         "FilePrefix": "prefix",
         "open_prefix": "prefix",
         "validate_prefix": "prefix",
+        "FileRanges": "ranges",
+        "open_ranges": "ranges",
+        "ranges_for_lod": "ranges",
+        "read_lod": "ranges",
+        "validate_ranges": "ranges",
     },
 )
 
 __all__ = [
     "CATALOGUE",
     "FilePrefix",
+    "FileRanges",
     "Problem",
     "Report",
     "SwpmEncodeError",
@@ -34,8 +41,12 @@ __all__ = [
     "load",
     "load_bytes",
     "open_prefix",
+    "open_ranges",
+    "ranges_for_lod",
+    "read_lod",
     "save",
     "validate",
     "validate_bytes",
     "validate_prefix",
+    "validate_ranges",
 ]

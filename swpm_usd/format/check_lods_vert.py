@@ -146,8 +146,8 @@ def _vert(p: _Parsed, rep: Report) -> None:
         p.content_ok = False
         return
     dtype = np.dtype({"names": names, "formats": formats, "offsets": offsets, "itemsize": stride})
-    held = V if not p.prefix else min(V, max(0, int(p.buf.shape[0]) - o - data) // stride)
-    recs = _view(p.buf, o + data, held, dtype)  # a prefix (spec 4.1): the records it holds
+    held = V if not p.prefix else min(V, max(0, p.held_end(o + data) - o - data) // stride)
+    recs = _view(p.buf, o + data, held, dtype)  # a prefix or ranges (spec 4.1-4.2): the records held
     p.points = recs["f0"]
     p.attributes = {n: recs[f"f{i + 1}"] for i, n in enumerate(attr_names)}
     p.vert_stride, p.vert_data, p.vertex_count = stride, data, V

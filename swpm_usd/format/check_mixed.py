@@ -68,7 +68,7 @@ def _mixed(p: _Parsed, rep: Report) -> None:
     first = arrs["level_first_lod"].astype(np.int64)
     reason, where = None, m_c.offset
     for name, total, step in (
-        ("level_static_start", static.shape[0], 3),
+        ("level_static_start", idx_c.length // p.width, 3),  # (ranges: the view may stop early)
         ("level_dynamic_start", D, 3),
         ("level_record_start", R, 1),
     ):
@@ -91,7 +91,8 @@ def _mixed(p: _Parsed, rep: Report) -> None:
         rep.add("SWPM_MIXED_BAD_LEVELS", where, reason=reason)
         p.content_ok = False
         return
-    ok &= _index_check(p, rep, idx_c, static, "INDX", V, idx_c.offset)
+    whole_indx = not p.indx_partial  # (ranges without all of INDX, spec 4.2: .ranges checks the drawn lists)
+    ok &= not whole_indx or _index_check(p, rep, idx_c, static, "INDX", V, idx_c.offset)
     for k in ("level_dynamic_indices", "level_dynamic_collapsed_indices"):
         ok &= _index_check(p, rep, m_c, arrs[k], k, V, at[k])
     if R >= max(V, 1) and R:  # reported; the kept check of this stage still runs
@@ -137,10 +138,10 @@ def _mixed(p: _Parsed, rep: Report) -> None:
     # prefix property: a level's static and dynamic lists use only its first LOD's vertices, the live part
     # of its collapsed dynamic list only the vertices left after its records
     lim = vc[first]
-    for arr, starts, base, limits in (
-        (static, sstart, idx_c.offset, lim),
-        (arrs["level_dynamic_indices"], dstart, at["level_dynamic_indices"], lim),
-    ):
+    lists = [(arrs["level_dynamic_indices"], dstart, at["level_dynamic_indices"], lim)]
+    if whole_indx:
+        lists.insert(0, (static, sstart, idx_c.offset, lim))
+    for arr, starts, base, limits in lists:
         pos, lv = (int(x) for x in segment_limits(arr, starts, limits, -1))
         if pos >= 0:
             rep.add(
@@ -166,7 +167,7 @@ def _mixed(p: _Parsed, rep: Report) -> None:
             )
             ok = False
             break
-    if ok:
+    if ok and whole_indx:
         kind, r, s = (
             int(x)
             for x in mixed_replay(

@@ -82,7 +82,7 @@ def _skip(p: _Parsed, rep: Report) -> None:
     first = arrs["level_first_lod"].astype(np.int64)
     reason = None
     for name, total in (
-        ("level_index_start", lst.shape[0]),
+        ("level_index_start", idx_c.length // p.width),  # (ranges: lst may stop at the last byte held)
         ("level_collapsed_start", C),
         ("level_record_start", R),
     ):
@@ -101,7 +101,8 @@ def _skip(p: _Parsed, rep: Report) -> None:
         rep.add("SWPM_LEVEL_BAD_TABLE", s_c.offset, reason=reason)
         p.content_ok = False
         return
-    ok &= _index_check(p, rep, idx_c, lst, "INDX", V, idx_c.offset, exempt)
+    full = not p.indx_partial  # (ranges without all of INDX, spec 4.2: .ranges checks the drawn lists)
+    ok &= not full or _index_check(p, rep, idx_c, lst, "INDX", V, idx_c.offset, exempt)
     collapsed_at = at["level_collapsed_indices"]
     ok &= _index_check(
         p, rep, s_c, arrs["level_collapsed_indices"], "level_collapsed_indices", V, collapsed_at, exempt
@@ -114,7 +115,8 @@ def _skip(p: _Parsed, rep: Report) -> None:
         ok &= _offsets_in_level(p, rep, rec, rstart, lstart)
         # prefix property at each level's entry: its list uses only the level's first LOD's vertices
         vc = p.lods["vertex_count"].astype(np.int64)
-        pos, lv = (int(x) for x in segment_limits(lst, lstart, vc[first], -1 if exempt is None else exempt))
+        ex = -1 if exempt is None else exempt
+        pos, lv = (int(x) for x in segment_limits(lst, lstart, vc[first], ex)) if full else (-1, -1)
         if pos >= 0:
             rep.add(
                 "SWPM_PREFIX_VIOLATION",
@@ -124,7 +126,7 @@ def _skip(p: _Parsed, rep: Report) -> None:
                 limit=int(vc[first[lv]]),
             )
             ok = False
-    if ok:
+    if ok and full:
         ok = _skip_records(p, rep, rec, arrs, lst, rc, s_c, collapsed_at, exempt)
     if not ok:
         p.content_ok = False

@@ -75,7 +75,8 @@ def _sliding(p: _Parsed, rep: Report) -> None:
         ok = False
     count = win[:, 3].astype(np.int64) if strips else 3 * tc
     end = first + count
-    bad = np.flatnonzero(end > pool.shape[0])
+    n_pool = idx_c.length // p.width  # (ranges, spec 4.2: the view may stop at the last byte held)
+    bad = np.flatnonzero(end > n_pool)
     for k in bad[:3]:
         rep.add(
             "SWPM_WINDOW_OUT_OF_POOL",
@@ -83,11 +84,13 @@ def _sliding(p: _Parsed, rep: Report) -> None:
             lod=int(k),
             start=int(first[k]),
             end=int(end[k]),
-            pool=int(pool.shape[0]),
+            pool=n_pool,
         )
     ok &= bad.size == 0
-    ok &= _index_check(p, rep, idx_c, pool, "INDX", V, idx_c.offset, exempt=rv)
-    if strips and bad.size == 0:
+    # (ranges without all of INDX, spec 4.2: its content is checked per drawn LOD by .ranges, the rest waits)
+    full = not p.indx_partial
+    ok &= not full or _index_check(p, rep, idx_c, pool, "INDX", V, idx_c.offset, exempt=rv)
+    if strips and bad.size == 0 and full:
         # a window starts a strip (the pool's start or right after a restart index); it may end inside one
         live = np.flatnonzero(count > 0)
         mid = live[(first[live] > 0) & (pool[np.maximum(first[live] - 1, 0)] != rv)]
@@ -95,8 +98,8 @@ def _sliding(p: _Parsed, rep: Report) -> None:
             k = int(mid[0])
             rep.add("SWPM_WINDOW_MID_STRIP", w_c.offset + k * row, lod=k, start=int(first[k]))
             ok = False
-    stage_a = ok
-    if ok and pool.size:
+    stage_a = ok and full
+    if stage_a and pool.size:
         # (a strip pool's restart index is exempt: read as vertex 0 here)
         checked = np.where(pool == rv, 0, pool).astype(pool.dtype) if strips else pool
         if np.all(np.diff(first) >= 0) and np.all(np.diff(end) >= 0) and np.all(np.diff(vc) <= 0):

@@ -44,9 +44,10 @@ def _vanilla(p: _Parsed, rep: Report) -> None:
         return
     rc = _view(p.buf, rc_c.offset, rc_c.length // ow, ot)
     indices = _view(p.buf, idx_c.offset, idx_c.length // p.width, it)
-    V, T0, Lc = p.vertex_count, indices.shape[0] // 3, p.lods.shape[0]
+    V, T0, Lc = p.vertex_count, idx_c.length // p.width // 3, p.lods.shape[0]  # (not the view: 4.2)
     ok = _common_records(p, rep, rec, rc, rc_c.offset, Lc)
-    ok &= _index_check(p, rep, idx_c, indices, "INDX", V, idx_c.offset)
+    full = not p.indx_partial  # (ranges without all of INDX, spec 4.2: no LOD draws; its content waits)
+    ok &= not full or _index_check(p, rep, idx_c, indices, "INDX", V, idx_c.offset)
     kept = rec["collapse_kept"].astype(np.int64)
     R = kept.shape[0]
     if R >= max(V, 1) and R:  # reported; the kept check of this stage still runs
@@ -69,7 +70,7 @@ def _vanilla(p: _Parsed, rep: Report) -> None:
     if ok:
         n = rc.astype(np.int64)
         ok &= _lod_counts_check(p, rep, V - n, T0 - cum[n])
-    if ok:
+    if ok and full:
         fields = (rec[f] for f in ("collapse_kept", "collapse_tris_removed", "collapse_change_count"))
         kind, r, s = vanilla_replay(*(_frozen(a) for a in (indices, *fields, offs)), V)
         if kind == 1:

@@ -295,6 +295,15 @@ _ENTRIES = [
         "before the vertices (format.md 4.1); read the whole file (only a prefix reader reports it).",
         "the last chunk-table entry",
     ),
+    Entry(
+        "SWPM_RANGES_NOT_HELD",
+        ERROR,
+        "opening the file's byte ranges needs bytes [{start}, {end}), not all held",
+        "A range reader (format.md 4.2) was given byte ranges that lack what opening the file takes: its "
+        "header and chunk table, every byte before INDX, VERT's bytes before its vertex records; fetch "
+        "[start, end) and open again (only a range reader reports it).",
+        "the first byte of [start, end) not held",
+    ),
     # -- content ------------------------------------------------------------------------------------------
     Entry(
         "SWPM_META_BAD_JSON",

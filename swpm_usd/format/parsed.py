@@ -53,6 +53,22 @@ class _Parsed:
     size: int = 0  # the end of the file as read: its first file_size bytes, fewer if it is shorter
     vertex_count: int = 0  # V, from VERT's header (a prefix holds the first records only: spec 4.1)
     prefix: bool = False  # read as a prefix of the file (spec 4.1): buf ends before ``size``
+    # byte ranges (spec 4.2): which bytes of ``buf`` (file_size long, the rest zero) are held; None: all
+    held: np.ndarray | None = None
+    indx_partial: bool = False  # ranges without all of INDX: checks of its content wait for the whole file
+
+    def holds(self, start: int, end: int) -> bool:
+        """Whether bytes [start, end) are held: inside ``buf`` and, reading ranges, every one held."""
+        if end > self.buf.shape[0]:
+            return False
+        return self.held is None or bool(self.held[start:end].all())
+
+    def held_end(self, start: int) -> int:
+        """The end of the run of held bytes from ``start`` (a prefix: its length)."""
+        if self.held is None:
+            return max(int(self.buf.shape[0]), start)
+        gap = np.flatnonzero(~self.held[start:])
+        return start + int(gap[0]) if gap.size else int(self.held.shape[0])
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

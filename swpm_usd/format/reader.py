@@ -85,12 +85,18 @@ def _io_reason(exc: OSError) -> str:
 
 
 # -- structure ------------------------------------------------------------------------------------------
-def _structure(buf: np.ndarray, rep: Report, check_crc: bool, prefix: bool = False) -> _Parsed | None:
+def _structure(
+    buf: np.ndarray, rep: Report, check_crc: bool, prefix: bool = False, held: np.ndarray | None = None
+) -> _Parsed | None:
     """Steps 1-2 of spec 5. ``prefix``: ``buf`` may be a prefix of the file (spec 4.1): when it is shorter
     than file_size the end of the file is file_size, the bytes it lacks (a CRC over them, padding there,
-    the length) are left to the whole file, and a header or table it cuts is SWPM_PREFIX_TOO_SHORT."""
+    the length) are left to the whole file, and a header or table it cuts is SWPM_PREFIX_TOO_SHORT.
+    ``held`` (byte ranges, spec 4.2): ``buf`` runs to the last byte held, the end of the file is file_size,
+    and only the ``held`` bytes are the file's (the rest zero, so padding there reads clean until the whole
+    file); a CRC over bytes not all held waits for the whole file, and a header or table not held is
+    SWPM_RANGES_NOT_HELD."""
     size = int(buf.shape[0])
-    p = _Parsed(buf)
+    p = _Parsed(buf, held=held, prefix=held is not None)
     if size < L.HEADER_SIZE:
         if size >= 8 and bytes(buf[:8]) != L.MAGIC:
             rep.add("SWPM_HEADER_BAD_MAGIC", 0, found=bytes(buf[:8]).hex(), expected=L.MAGIC.hex())
@@ -99,6 +105,9 @@ def _structure(buf: np.ndarray, rep: Report, check_crc: bool, prefix: bool = Fal
             rep.summary["prefix_need"] = L.HEADER_SIZE
         else:
             rep.add("SWPM_HEADER_TRUNCATED", 0, size=size, need=L.HEADER_SIZE)
+        return None
+    if not p.holds(0, L.HEADER_SIZE):
+        _not_held(p, rep, 0, L.HEADER_SIZE)
         return None
     h = buf[: L.HEADER_SIZE].view(L.HEADER)[0]
     if bytes(buf[:8]) != L.MAGIC:
@@ -112,7 +121,11 @@ def _structure(buf: np.ndarray, rep: Report, check_crc: bool, prefix: bool = Fal
         rep.add("SWPM_HEADER_NEWER_MINOR", 10, minor=p.minor)
     hs = int(h["header_size"])
     declared = int(h["file_size"])
-    streaming = prefix and declared > size  # a prefix of a longer file: it ends at file_size
+    # a prefix of a longer file, or ranges (held up to the last byte held, spec 4.2): it ends at file_size
+    streaming = (prefix or held is not None) and declared > size
+    if held is not None and L.HEADER_SIZE <= hs <= declared and hs > size:
+        _not_held(p, rep, 0, hs)
+        return None
     if streaming and L.HEADER_SIZE <= hs <= declared and hs > size:
         rep.add("SWPM_PREFIX_TOO_SHORT", size, size=size, need=hs)
         rep.summary["prefix_need"] = hs
@@ -160,9 +173,15 @@ def _structure(buf: np.ndarray, rep: Report, check_crc: bool, prefix: bool = Fal
         rep.add("SWPM_TABLE_TRUNCATED", 24, count=count, need=need, at=to, size=end)
         return None
     table_end = to + need
+    if table_end > size and held is not None:
+        _not_held(p, rep, 0, table_end)
+        return None
     if table_end > size:  # (a prefix only: else the end of the file is at most its length)
         rep.add("SWPM_PREFIX_TOO_SHORT", size, size=size, need=table_end)
         rep.summary["prefix_need"] = table_end
+        return None
+    if not p.holds(0, table_end):  # (ranges: before the table's end, all of which is in buf)
+        _not_held(p, rep, 0, table_end)
         return None
     if check_crc:
         found = int(h["file_crc"])
@@ -206,7 +225,7 @@ def _structure(buf: np.ndarray, rep: Report, check_crc: bool, prefix: bool = Fal
                 field=f"chunk {name} reserved",
                 value=int(e["reserved"]),
             )
-        if c.ok and check_crc and off + ln <= size:  # (a prefix: a payload it cuts waits for the rest)
+        if c.ok and check_crc and p.holds(off, off + ln):  # (a prefix or ranges: else it waits for the rest)
             crc = zlib.crc32(buf[off : off + ln], zlib.crc32(t))
             if crc != int(e["crc"]):
                 rep.add("SWPM_CHUNK_CRC_MISMATCH", eo + 24, type=name, found=int(e["crc"]), computed=crc)
@@ -283,12 +302,47 @@ def _prefix_skeleton(p: _Parsed, rep: Report) -> None:
         rep.summary["prefix_need"] = need
 
 
+def _not_held(p: _Parsed, rep: Report, start: int, end: int) -> None:
+    """SWPM_RANGES_NOT_HELD (spec 4.2): bytes [start, end) are needed, not all held; at the first missing."""
+    assert p.held is not None
+    gap = np.flatnonzero(~p.held[start:end])
+    missing = start + int(gap[0]) if gap.size else max(start, int(p.held.shape[0]))
+    rep.add("SWPM_RANGES_NOT_HELD", missing, start=start, end=end)
+    rep.summary["range_need"] = [start, end]
+
+
+def _ranges_skeleton(p: _Parsed, rep: Report) -> None:
+    """What byte ranges must hold to be opened (spec 4.2), once steps 1-2 passed: every byte before ``INDX``
+    and ``VERT``'s bytes before its vertex records (as 4.1 reads them), else SWPM_RANGES_NOT_HELD. INDX not
+    all held: its content is checked per drawn LOD (:mod:`.ranges`), not by the encoding's checks."""
+    indx, v = p.chunks.get(L.INDX), p.chunks.get(L.VERT)
+    if indx is None or v is None:
+        return  # (SWPM_CHUNK_MISSING was reported)
+    if not p.holds(0, indx.offset):
+        _not_held(p, rep, 0, indx.offset)
+        return
+    end = v.offset + min(v.length, L.VERT_HEADER.itemsize)
+    if p.holds(v.offset, end) and v.length >= L.VERT_HEADER.itemsize:
+        data = int(p.buf[v.offset + 12 : v.offset + 16].view("<u4")[0])
+        end = v.offset + max(L.VERT_HEADER.itemsize, min(data, v.length))
+    if not p.holds(v.offset, end):
+        _not_held(p, rep, v.offset, end)
+        return
+    p.indx_partial = not p.holds(indx.offset, indx.offset + indx.length)
+
+
 def _check(
-    buf: np.ndarray, path: str | None, check_crc: bool = True, prefix: bool = False
+    buf: np.ndarray,
+    path: str | None,
+    check_crc: bool = True,
+    prefix: bool = False,
+    held: np.ndarray | None = None,
 ) -> tuple[Report, _Parsed | None]:
     rep = _Report(path=path)
-    p = _structure(buf, rep, check_crc, prefix)
-    if p is not None and p.prefix and not rep.errors:
+    p = _structure(buf, rep, check_crc, prefix, held)
+    if p is not None and held is not None and not rep.errors:
+        _ranges_skeleton(p, rep)
+    elif p is not None and p.prefix and not rep.errors:
         _prefix_skeleton(p, rep)
     if p is not None and not rep.errors:
         _meta(p, rep)

@@ -1,0 +1,232 @@
+"""Reading byte ranges of a file (spec/format.md 4.2): ``swpm_usd.format.ranges``. For every valid vector with
+an ``SMAP`` and real files of every encoding (sliding-window lists and strips, skip-strip, mixed, vanilla),
+each band's ``SMAP`` ranges (plus what the reader asks for) draw that band's LODs exactly as the whole file
+does, a LOD whose ranges are not held is not drawable, finishing gives the whole-file verdict, and
+corruption outside the held ranges is found only on finishing, inside them at once.
+"""
+
+from __future__ import annotations
+
+import random
+import struct
+from typing import Any
+
+import numpy as np
+import pytest
+from conftest import refix_crcs, shared_mesh
+from test_c_reader import MANIFEST, VECTORS, _mutate, _mutate_values
+
+import swpm_usd
+from swpm_usd.format import SwpmFormatError, encode_bytes, load_bytes, validate_bytes
+from swpm_usd.format.ranges import open_ranges, ranges_for_lod, read_lod, validate_ranges
+
+VALID = [v["name"] for v in MANIFEST["vectors"] if v["valid"]]
+VARIANTS = {
+    "sw-list": ("sliding-window", {}),
+    "sw-strip": ("sliding-window", {"primitive": "strip", "cluster": True, "optimize_connectivity": True}),
+    "skip-strip": ("skip-strip", {}),
+    "mixed": ("mixed", {}),
+    "vanilla": ("vanilla", {}),
+}
+_FILES: dict[tuple[str, str], bytes] = {}
+
+
+def _file(mesh: str, variant: str) -> bytes:
+    if (mesh, variant) not in _FILES:
+        enc, kw = VARIANTS[variant]
+        _FILES[mesh, variant] = encode_bytes(swpm_usd.build(shared_mesh(f"{mesh}.obj"), enc, **kw))
+    return _FILES[mesh, variant]
+
+
+def _reader(data: bytes, log: list[tuple[int, int]]) -> Any:
+    def read(o: int, n: int) -> bytes:
+        log.append((o, n))
+        return data[o : o + n]
+
+    return read
+
+
+def _same_draws(data: bytes, whole: Any, fr: Any) -> None:
+    for k in fr.drawable_lods:
+        a, b = fr.draw_stream(int(k)), whole.draw_stream(int(k))
+        assert a[0] == b[0] and np.array_equal(a[1], b[1]), k
+        pts = fr.lod_points(int(k))
+        assert (
+            np.array_equal(pts, whole.points[: pts.shape[0]], equal_nan=True)
+            and pts.shape[0] == whole.vertex_counts[k]
+        )
+
+
+def _check_bands(data: bytes, coarse_only: bool = False) -> list[Any]:
+    """Per band: open its SMAP ranges (plus what the reader asks for); its LODs draw as the whole file."""
+    whole = load_bytes(data)
+    L = whole.lod_count
+    out, seen = [], set()
+    for k in range(L - 1, -1, -1) if coarse_only else range(L):
+        key = tuple(ranges_for_lod(data, k))
+        if key in seen:
+            continue
+        seen.add(key)
+        fr = read_lod(_reader(data, []), k, head=64)
+        assert k in fr.drawable_lods
+        spans = fr.held
+        for j in range(L):  # drawable exactly when every range LOD j needs lies inside a held span
+            inside = all(
+                any(o <= a and a + n <= o + m for o, m in spans) for a, n in fr.needed_ranges(j) if n
+            )
+            assert (j in fr.drawable_lods) == inside, j
+        _same_draws(data, whole, fr)
+        fr.finish(data)  # the whole-file verdict: valid
+        out.append(fr)
+        if coarse_only:
+            break
+    assert out
+    return out
+
+
+def _has_smap(data: bytes) -> bool:
+    try:
+        ranges_for_lod(data, 0)
+    except ValueError:
+        return False
+    return True
+
+
+@pytest.mark.parametrize("name", VALID)
+def test_valid_vectors_every_band(name: str) -> None:
+    data = (VECTORS / "valid" / f"{name}.swpm").read_bytes()
+    if not _has_smap(data):
+        return
+    _check_bands(data)
+
+
+@pytest.mark.parametrize("variant", list(VARIANTS))
+@pytest.mark.parametrize("mesh", ["suzanne", "spot", "cow"])
+def test_real_files_bands(mesh: str, variant: str) -> None:
+    data = _file(mesh, variant)
+    frs = _check_bands(data, coarse_only=mesh != "suzanne")
+    for k in (0, load_bytes(data).lod_count - 1):  # a writer's SMAP: its band's ranges alone draw the LOD
+        fr = open_ranges({o: data[o : o + n] for o, n in ranges_for_lod(data, k)})
+        assert k in fr.drawable_lods and (k == 0 or fr._p.indx_partial == (variant != "vanilla"))
+    fr = frs[-1]
+    if variant != "vanilla":  # the coarsest band's ranges: a part of the file, not every LOD drawable
+        assert fr.held_bytes < len(data)
+        assert 0 not in fr.drawable_lods
+        with pytest.raises(IndexError):
+            fr.draw_stream(0)
+
+
+def _held(data: bytes, k: int) -> dict[int, bytes]:
+    log: list[tuple[int, int]] = []
+    fr = read_lod(_reader(data, log), k, head=64)
+    return {o: data[o : o + n] for o, n in fr.held}
+
+
+@pytest.mark.parametrize("variant", ["sw-list", "sw-strip", "skip-strip", "mixed"])
+def test_corruption_outside_found_on_finishing_inside_at_once(variant: str) -> None:
+    data = _file("suzanne", variant)
+    whole = load_bytes(data)
+    k = whole.lod_count - 1
+    held = _held(data, k)
+    fr = open_ranges(held)
+    # INDX: one element the coarsest LOD does not draw, out of range (its CRC fixed: only content is wrong)
+    to, count = struct.unpack_from("<QI", data, 32)[0], struct.unpack_from("<I", data, 24)[0]
+    entries = {data[to + 32 * i : to + 32 * i + 4]: to + 32 * i for i in range(count)}
+    e = entries[b"INDX"]
+    off, ln = struct.unpack_from("<QQ", data, e + 8)
+    W = fr.index_width
+    lo, hi = (int(x) for x in fr.index_need[k])
+    outside = next(i for i in range(ln // W) if not lo <= i < hi and i * W + off not in held)
+    d = bytearray(data)
+    d[off + outside * W : off + (outside + 1) * W] = b"\xfe" * W
+    bad = refix_crcs(bytes(d))
+    fr2 = open_ranges({o: bad[o : o + len(b)] for o, b in held.items()})  # opens: the element is not held
+    assert k in fr2.drawable_lods
+    with pytest.raises(SwpmFormatError):
+        fr2.finish(bad)
+    # inside: an element the coarsest LOD draws, CRC fixed: found at once (prefix property)
+    if hi > lo:
+        d = bytearray(data)
+        d[off + lo * W : off + (lo + 1) * W] = b"\xfe" * W
+        bad = refix_crcs(bytes(d))
+        rep = validate_ranges({o: bad[o : o + len(b)] for o, b in held.items()})
+        assert not rep.valid and rep.errors[0].code in ("SWPM_PREFIX_VIOLATION", "SWPM_INDEX_OUT_OF_RANGE")
+    # a table byte (held): its CRC no longer matches, found at once
+    d = bytearray(data)
+    w = entries[b"LODS"]
+    loff = struct.unpack_from("<Q", data, w + 8)[0]
+    d[loff] ^= 0x40
+    rep = validate_ranges({o: bytes(d[o : o + len(b)]) for o, b in held.items()})
+    assert not rep.valid and rep.errors[0].code == "SWPM_CHUNK_CRC_MISMATCH"
+    # VERT's tail (not held) changed: opens, finishing finds VERT's CRC
+    d = bytearray(data)
+    d[-1] ^= 0xFF
+    fr3 = open_ranges({o: bytes(d[o : o + len(b)]) for o, b in held.items()})
+    with pytest.raises(SwpmFormatError) as exc:
+        fr3.finish(bytes(d))
+    assert exc.value.report.errors[0].code == "SWPM_CHUNK_CRC_MISMATCH"
+
+
+def test_not_held_names_the_range() -> None:
+    data = _file("suzanne", "sw-list")
+    rep = validate_ranges({0: data[:64]})
+    assert rep.errors[0].code == "SWPM_RANGES_NOT_HELD" and rep.summary["range_need"][0] == 0
+    rep = validate_ranges({0: data[:10]})
+    assert rep.errors[0].code == "SWPM_RANGES_NOT_HELD" and rep.summary["range_need"] == [0, 64]
+    rep = validate_ranges({0: b"SWPN" + data[4:8], 8: data[8:64]})  # the magic from ranges that abut
+    assert rep.errors[0].code == "SWPM_HEADER_BAD_MAGIC"
+    pieces = {o: data[o : o + 1000] for o in range(0, len(data), 1000)}  # the whole file, in pieces
+    assert list(open_ranges(pieces).drawable_lods) == list(range(load_bytes(data).lod_count))
+    fr = open_ranges({0: data})
+    assert fr.complete and list(fr.drawable_lods) == list(range(fr.lod_count))
+    with pytest.raises(ValueError):
+        open_ranges({0: data[:64], len(data) - 4: data[-4:] + b"xx"})
+
+
+def test_fuzz_errors_of_ranges_are_errors_of_the_file() -> None:
+    """Mutants (random bytes, INDX values and record fields, CRCs mostly fixed) read through the coarsest
+    band's ranges and through a mid band's: an error other than SWPM_RANGES_NOT_HELD is an error of the whole
+    file too (reading zeros where bytes are not held never invents one), and ranges that open finish with
+    the whole file's verdict."""
+    rng = random.Random(214)
+    seeds = [_file("suzanne", v) for v in ("sw-list", "sw-strip", "skip-strip", "mixed", "vanilla")]
+    opened = reported = 0
+    for i in range(400):
+        data = rng.choice(seeds)
+        bad = _mutate_values(rng, data) if i % 2 else _mutate(rng, data)
+        L = load_bytes(data).lod_count
+        k = rng.choice([L - 1, L // 2])
+        held = {o: bad[o : o + n] for o, n in ranges_for_lod(data, k)}
+        whole = validate_bytes(bad)
+        try:
+            rep = validate_ranges(held)
+        except ValueError:  # a range past the mutant's file_size: the caller's error
+            continue
+        codes = {p.code for p in rep.errors} - {"SWPM_RANGES_NOT_HELD"}
+        if codes:
+            reported += 1
+            assert not whole.valid, (i, codes)
+        if rep.valid:
+            opened += 1
+            fr = open_ranges(held)
+            if whole.valid:
+                fr.finish(bad)
+            else:
+                with pytest.raises(SwpmFormatError) as exc:
+                    fr.finish(bad)
+                assert exc.value.report.errors[0].code == whole.errors[0].code
+    assert opened > 50 and reported > 50, (opened, reported)
+
+
+def test_a_huge_file_size_allocates_nothing_and_fails_on_finishing() -> None:
+    """The buffer stops at the last byte held, not at the header's file_size (a hostile one: 1 TiB)."""
+    data = bytearray(_file("suzanne", "sw-list"))
+    struct.pack_into("<Q", data, 40, 1 << 40)
+    bad = refix_crcs(bytes(data))
+    k = load_bytes(_file("suzanne", "sw-list")).lod_count - 1
+    held = {o: bad[o : o + n] for o, n in ranges_for_lod(bad, k)}
+    fr = open_ranges(held)  # (SMAP's ranges lie inside the file: file_size is only larger)
+    assert fr.file_size == 1 << 40 and k in fr.drawable_lods and fr._p.buf.shape[0] < len(bad)
+    with pytest.raises(SwpmFormatError) as exc:
+        fr.finish(bad)
+    assert exc.value.report.errors[0].code == "SWPM_FILE_SIZE_MISMATCH"
