@@ -24,18 +24,12 @@ from ..encode.base import ProgressiveMesh, from_buffers
 from . import layout as L
 from .errors import Report, SwpmFormatError
 from .parsed import _Parsed
-from .reader import _build, _check, _Report
+from .prefix import _as_buf, _Bytes, _lod_fields, _Lods, _whole
+from .reader import _check, _Report
 from .writer import needed_index_ranges
 
-_Bytes = bytes | bytearray | memoryview | np.ndarray
 Held = Mapping[int, _Bytes]  # byte ranges of the file: {absolute offset: its bytes}
 _Pieces = Iterable[tuple[int, _Bytes]]  # (offset, bytes) pairs, offsets repeating (FileRanges.extend)
-
-
-def _as_buf(data: _Bytes) -> np.ndarray:
-    if isinstance(data, np.ndarray):
-        return data.view(np.uint8).reshape(-1)
-    return np.frombuffer(data, np.uint8)
 
 
 def ranges_for_lod(head: _Bytes, lod: int) -> list[tuple[int, int]]:
@@ -78,7 +72,7 @@ def ranges_for_lod(head: _Bytes, lod: int) -> list[tuple[int, int]]:
 
 
 @dataclass
-class FileRanges:
+class FileRanges(_Lods):
     """An SWPM file of which the byte ranges :attr:`held` are held, checked as far as they go (spec 4.2).
     :attr:`drawable_lods` are the LODs whose ``INDX`` elements and vertex records are held; their points,
     attributes and draw streams equal the whole file's. :attr:`complete` when every byte is held."""
@@ -110,10 +104,6 @@ class FileRanges:
             f"FileRanges({self.path or '<bytes>'}, {self.encoding}, {n} of {self.file_size} bytes held, "
             f"drawable LODs {self.drawable_lods.tolist()} of {self.lod_count})"
         )
-
-    @property
-    def lod_count(self) -> int:
-        return int(self.vertex_counts.shape[0])
 
     @property
     def held_bytes(self) -> int:
@@ -165,11 +155,6 @@ class FileRanges:
         self._need_drawable(lod)
         return self.points[: int(self.vertex_counts[lod])]
 
-    def lod_attributes(self, lod: int) -> dict[str, np.ndarray]:
-        """The attributes of LOD ``lod``'s vertices, as :meth:`lod_points`."""
-        n = self.lod_points(lod).shape[0]
-        return {k: a[:n] for k, a in self.attributes.items()}
-
     def lod_index_elements(self, lod: int) -> np.ndarray:
         """The ``INDX`` elements LOD ``lod`` draws (its window, level list or static list; a view)."""
         self._need_drawable(lod)
@@ -214,10 +199,7 @@ class FileRanges:
                 raise ValueError(
                     f"{self.path or '<file>'}: the bytes given differ from the range [{o}, {o + n})"
                 )
-        rep, p = _check(buf, self.path)
-        if not rep.valid or p is None:
-            raise SwpmFormatError(rep)
-        return _build(p, rep)
+        return _whole(buf, self.path)
 
 
 def _pieces(held: Held | _Pieces) -> list[tuple[int, np.ndarray]]:
@@ -350,24 +332,12 @@ def _open(held: Held | _Pieces, path: str | None) -> FileRanges:
     rep, p, spans = _check_ranges(held, path)
     if not rep.valid or p is None:
         raise SwpmFormatError(rep)
-    assert p.lods is not None and p.points is not None and p.meta is not None
-    indx, vert = p.chunks[L.INDX], p.chunks[L.VERT]
+    assert p.lods is not None
+    indx = p.chunks[L.INDX]
     need = needed_index_ranges(p.encoding or "", p.buffers, p.lods.shape[0], indx.length // p.width)
     return FileRanges(
-        path=path,
-        report=rep,
+        **_lod_fields(p, rep, path),
         held=spans,
-        file_size=int(p.size),
-        complete=not p.prefix,
-        encoding=p.encoding or "",
-        vertex_counts=p.lods["vertex_count"],
-        triangle_counts=p.lods["triangle_count"],
-        lod_errors=p.lods["error"],
-        points=p.points,
-        attributes=p.attributes,
-        vertex_count=p.vertex_count,
-        vertex_data_offset=vert.offset + p.vert_data,
-        vertex_stride=p.vert_stride,
         index_offset=indx.offset,
         index_width=p.width,
         index_need=need,
