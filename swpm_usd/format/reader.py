@@ -311,8 +311,9 @@ def _vert_head_end(p: _Parsed, v: _Chunk) -> int:
 def _not_held(p: _Parsed, rep: Report, start: int, end: int) -> None:
     """SWPM_RANGES_NOT_HELD (spec 4.2): bytes [start, end) are needed, not all held; at the first missing."""
     assert p.held is not None
-    gap = np.flatnonzero(~p.held[start:end])
-    missing = start + int(gap[0]) if gap.size else max(start, int(p.held.shape[0]))
+    part = p.held[start:end]
+    i = int(np.argmin(part)) if part.size else 0  # the first byte not held (argmin: no index array)
+    missing = start + i if part.size and not part[i] else max(start, int(p.held.shape[0]))
     rep.add("SWPM_RANGES_NOT_HELD", missing, start=start, end=end)
     rep.summary["range_need"] = [start, end]
 
