@@ -328,3 +328,5 @@ def test_cli_validate_prefix() -> None:
     }
     text = CliRunner().invoke(main, ["validate", path, "--prefix", "620"])
     assert text.exit_code == 0 and "620 of 620 bytes draw LODs 0..1" in text.output
+    huge = CliRunner().invoke(main, ["validate", path, "--prefix", str(1 << 60)])  # (was a MemoryError)
+    assert huge.exit_code == 0 and "620 of 620 bytes draw LODs 0..1" in huge.output, huge.output

@@ -230,3 +230,46 @@ def test_a_huge_file_size_allocates_nothing_and_fails_on_finishing() -> None:
     with pytest.raises(SwpmFormatError) as exc:
         fr.finish(bad)
     assert exc.value.report.errors[0].code == "SWPM_FILE_SIZE_MISMATCH"
+
+
+def test_ranges_that_overlap_or_extend() -> None:
+    """Ranges may overlap when they agree; a byte given two values is the caller's error (ValueError naming
+    the file), never a fault of the file's; ``extend`` with a shorter range at a held offset keeps what was
+    held (it replaced it before, dropping the rest of the range)."""
+    data = _file("suzanne", "sw-list")
+    n = len(data)
+    whole = open_ranges({0: data[: n // 2], n // 4: data[n // 4 :]}, path="s.swpm")
+    assert whole.held == [(0, n)] and list(whole.drawable_lods) == list(range(whole.lod_count))
+    clash = bytes(b ^ 1 for b in data[n // 4 : n // 4 + 8])
+    with pytest.raises(ValueError, match=rf"s\.swpm: .* byte {n // 4} "):
+        open_ranges({0: data[: n // 2], n // 4: clash}, path="s.swpm")
+    with pytest.raises(ValueError, match="byte 3 "):  # (in the header, before file_size is known)
+        validate_ranges({0: data[:64], 3: b"\xff"})
+    part = open_ranges({o: data[o : o + ln] for o, ln in ranges_for_lod(data, whole.lod_count - 1)})
+    assert part.held[0][0] == 0 and part.held[0][1] > 64 and not part.complete
+    more = part.extend({0: data[:64]})
+    assert more.held == part.held
+    full = part.extend({0: data[:64], 64: data[64:]})
+    assert full.held == [(0, n)] and full.complete
+    with pytest.raises(ValueError):
+        part.extend({100: clash})
+    assert list(part.extend({}).drawable_lods) == list(part.drawable_lods)
+
+
+def test_whole_file_reads_skip_no_check() -> None:
+    """The prefix and range plumbing leaves a whole-file read as it was: ``prefix`` and ``indx_partial``
+    (which gate deferred checks) stay False and nothing is marked held for every vector, valid or not, and
+    a file read through ranges that hold every byte gets the whole file's report."""
+    from swpm_usd.format.reader import _check
+
+    for v in MANIFEST["vectors"]:
+        data = (VECTORS / v["file"]).read_bytes()
+        rep, p = _check(np.frombuffer(data, np.uint8), None)
+        if p is not None:
+            assert not p.prefix and not p.indx_partial and p.held is None, v["name"]
+        try:
+            ranged = validate_ranges({0: data[: len(data) // 2], len(data) // 2: data[len(data) // 2 :]})
+        except ValueError:  # a range past a file_size that is too small: the caller's error
+            continue
+        if len(data) >= 64 and int.from_bytes(data[40:48], "little") == len(data):
+            assert [(e.code, e.offset) for e in ranged.problems] == [(e.code, e.offset) for e in rep.problems]

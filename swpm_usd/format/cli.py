@@ -759,8 +759,8 @@ def _validate_prefix(file: str, n: int, as_json: bool) -> None:
     from .prefix import open_prefix, validate_prefix
 
     try:
-        with open(file, "rb") as f:
-            data = f.read(n)
+        with open(file, "rb") as f:  # (at most its size: read(N) allocates N bytes first, a huge N fails)
+            data = f.read(min(n, Path(file).stat().st_size))
     except OSError as exc:
         rep = Report(path=file)
         rep.add("SWPM_IO_ERROR", None, reason=exc.strerror or str(exc))

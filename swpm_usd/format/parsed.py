@@ -67,8 +67,9 @@ class _Parsed:
         """The end of the run of held bytes from ``start`` (a prefix: its length)."""
         if self.held is None:
             return max(int(self.buf.shape[0]), start)
-        gap = np.flatnonzero(~self.held[start:])
-        return start + int(gap[0]) if gap.size else int(self.held.shape[0])
+        rest = self.held[start:]
+        i = int(np.argmin(rest)) if rest.size else 0  # the first byte not held (argmin: no index array)
+        return start + i if rest.size and not rest[i] else int(self.held.shape[0])
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

@@ -14,6 +14,7 @@ Programming Gems 2) keeps a LOD's vertices a prefix of the vertex buffer; this i
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -32,8 +33,28 @@ def _as_buf(data: _Bytes) -> np.ndarray:
     return np.frombuffer(data, np.uint8)
 
 
+class _Lods:
+    """What :class:`FilePrefix` and :class:`.ranges.FileRanges` share: the LOD count and a drawn LOD's
+    attributes (each defines ``vertex_counts`` and ``lod_points``, which raises for a LOD not drawable)."""
+
+    vertex_counts: np.ndarray
+    attributes: dict[str, np.ndarray]
+
+    def lod_points(self, lod: int) -> np.ndarray:
+        raise NotImplementedError
+
+    @property
+    def lod_count(self) -> int:
+        return int(self.vertex_counts.shape[0])
+
+    def lod_attributes(self, lod: int) -> dict[str, np.ndarray]:
+        """The attributes of LOD ``lod``'s vertices, as :meth:`lod_points`."""
+        n = self.lod_points(lod).shape[0]
+        return {k: a[:n] for k, a in self.attributes.items()}
+
+
 @dataclass
-class FilePrefix:
+class FilePrefix(_Lods):
     """The first :attr:`size` bytes of an SWPM file, checked as far as they go (spec 4.1). Arrays are
     read-only views of the bytes given; the points and attributes hold the first :attr:`held_vertices`
     records. :attr:`complete` when the bytes held the whole file (then every LOD of a valid file draws)."""
@@ -62,10 +83,6 @@ class FilePrefix:
             f"FilePrefix({self.path or '<bytes>'}, {self.encoding}, {self.size} of {self.file_size} bytes, "
             f"drawable LODs {f'{lods.start}..{lods.stop - 1}' if lods else 'none'} of {self.lod_count})"
         )
-
-    @property
-    def lod_count(self) -> int:
-        return int(self.vertex_counts.shape[0])
 
     @property
     def held_vertices(self) -> int:
@@ -104,11 +121,6 @@ class FilePrefix:
             )
         return self.points[: int(self.vertex_counts[lod])]
 
-    def lod_attributes(self, lod: int) -> dict[str, np.ndarray]:
-        """The attributes of LOD ``lod``'s vertices, as :meth:`lod_points`."""
-        n = self.lod_points(lod).shape[0]
-        return {k: a[:n] for k, a in self.attributes.items()}
-
     def extend(self, more: _Bytes) -> FilePrefix:
         """The prefix with ``more`` bytes appended, opened again (a copy of the bytes)."""
         joined = np.concatenate([self._buf, _as_buf(more)])
@@ -122,10 +134,7 @@ class FilePrefix:
         buf = _as_buf(data)
         if buf.shape[0] < self.size or not np.array_equal(buf[: self.size], self._buf):
             raise ValueError(f"{self.path or '<file>'}: the bytes given do not start with the prefix read")
-        rep, p = _check(buf, self.path)
-        if not rep.valid or p is None:
-            raise SwpmFormatError(rep)
-        return _build(p, rep)
+        return _whole(buf, self.path)
 
 
 def validate_prefix(data: _Bytes, path: str | None = None) -> Report:
@@ -146,25 +155,40 @@ def open_prefix(data: _Bytes, *, path: str | None = None) -> FilePrefix:
     return _prefix(buf, p, rep, path)
 
 
-def _prefix(buf: np.ndarray, p: _Parsed, rep: Report, path: str | None) -> FilePrefix:
+def _lod_fields(p: _Parsed, rep: Report, path: str | None) -> dict[str, Any]:
+    """The fields :class:`FilePrefix` and :class:`.ranges.FileRanges` both take from a checked file."""
     assert p.lods is not None and p.points is not None and p.meta is not None
-    vert = p.chunks[L.VERT]
+    return {
+        "path": path,
+        "report": rep,
+        "file_size": int(p.size),
+        "complete": not p.prefix,
+        "encoding": p.encoding or "",
+        "vertex_counts": p.lods["vertex_count"],
+        "triangle_counts": p.lods["triangle_count"],
+        "lod_errors": p.lods["error"],
+        "points": p.points,
+        "attributes": p.attributes,
+        "vertex_count": p.vertex_count,
+        "vertex_data_offset": p.chunks[L.VERT].offset + p.vert_data,
+        "vertex_stride": p.vert_stride,
+    }
+
+
+def _whole(buf: np.ndarray, path: str | None) -> ProgressiveMesh:
+    """The whole file ``buf``'s verdict (finishing a prefix or ranges): its mesh, or SwpmFormatError."""
+    rep, p = _check(buf, path)
+    if not rep.valid or p is None:
+        raise SwpmFormatError(rep)
+    return _build(p, rep)
+
+
+def _prefix(buf: np.ndarray, p: _Parsed, rep: Report, path: str | None) -> FilePrefix:
+    assert p.meta is not None
     return FilePrefix(
-        path=path,
-        report=rep,
+        **_lod_fields(p, rep, path),
         size=int(buf.shape[0]),
-        file_size=int(p.size),
-        complete=not p.prefix,
-        encoding=p.encoding or "",
-        vertex_counts=p.lods["vertex_count"],
-        triangle_counts=p.lods["triangle_count"],
-        lod_errors=p.lods["error"],
-        points=p.points,
-        attributes=p.attributes,
         buffers=p.buffers,
         params=p.meta.get("params", {}),
-        vertex_count=p.vertex_count,
-        vertex_data_offset=vert.offset + p.vert_data,
-        vertex_stride=p.vert_stride,
         _buf=buf,
     )

@@ -15,7 +15,7 @@ coarse bands small.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,17 +24,12 @@ from ..encode.base import ProgressiveMesh, from_buffers
 from . import layout as L
 from .errors import Report, SwpmFormatError
 from .parsed import _Parsed
-from .reader import _build, _check, _Report
+from .prefix import _as_buf, _Bytes, _lod_fields, _Lods, _whole
+from .reader import _check, _Report
 from .writer import needed_index_ranges
 
-_Bytes = bytes | bytearray | memoryview | np.ndarray
 Held = Mapping[int, _Bytes]  # byte ranges of the file: {absolute offset: its bytes}
-
-
-def _as_buf(data: _Bytes) -> np.ndarray:
-    if isinstance(data, np.ndarray):
-        return data.view(np.uint8).reshape(-1)
-    return np.frombuffer(data, np.uint8)
+_Pieces = Iterable[tuple[int, _Bytes]]  # (offset, bytes) pairs, offsets repeating (FileRanges.extend)
 
 
 def ranges_for_lod(head: _Bytes, lod: int) -> list[tuple[int, int]]:
@@ -77,7 +72,7 @@ def ranges_for_lod(head: _Bytes, lod: int) -> list[tuple[int, int]]:
 
 
 @dataclass
-class FileRanges:
+class FileRanges(_Lods):
     """An SWPM file of which the byte ranges :attr:`held` are held, checked as far as they go (spec 4.2).
     :attr:`drawable_lods` are the LODs whose ``INDX`` elements and vertex records are held; their points,
     attributes and draw streams equal the whole file's. :attr:`complete` when every byte is held."""
@@ -111,10 +106,6 @@ class FileRanges:
         )
 
     @property
-    def lod_count(self) -> int:
-        return int(self.vertex_counts.shape[0])
-
-    @property
     def held_bytes(self) -> int:
         return sum(ln for _, ln in self.held)
 
@@ -131,12 +122,10 @@ class FileRanges:
         return out + [(vert, vend - vert)]
 
     def _drawable(self) -> np.ndarray:
-        if self._ok is None:  # (vectorised over LODs: a count of bytes not held before each offset)
+        if self._ok is None:  # (vectorised over LODs: each [a, b) against the held spans, sorted and merged)
             p = self._p
-            top = int(p.buf.shape[0])  # (bytes past it are not held)
-            gaps = np.zeros(top + 1, np.int64)
-            if p.held is not None:
-                np.cumsum(~p.held, out=gaps[1:])
+            starts = np.array([o for o, _ in self.held], np.int64)
+            ends = starts + np.array([n for _, n in self.held], np.int64)
             lo, hi = (
                 self.index_offset + self.index_need[:, i].astype(np.int64) * self.index_width for i in (0, 1)
             )
@@ -144,7 +133,8 @@ class FileRanges:
             vend = self.vertex_data_offset + self.vertex_counts.astype(np.int64) * self.vertex_stride
 
             def held(a: np.ndarray | int, b: np.ndarray) -> np.ndarray:  # every byte of [a, b) held
-                return (b <= top) & (gaps[np.minimum(b, top)] == gaps[np.minimum(a, top)])
+                i = np.searchsorted(starts, a, side="right") - 1  # the span starting at or before a
+                return (i >= 0) & (ends[np.maximum(i, 0)] >= b)
 
             ok = held(0, np.full(self.lod_count, self.index_offset)) & held(vert, vend)
             self._ok = ok & ((hi <= lo) | held(lo, hi))
@@ -164,11 +154,6 @@ class FileRanges:
         """The points LOD ``lod`` draws; IndexError when its ranges are not held."""
         self._need_drawable(lod)
         return self.points[: int(self.vertex_counts[lod])]
-
-    def lod_attributes(self, lod: int) -> dict[str, np.ndarray]:
-        """The attributes of LOD ``lod``'s vertices, as :meth:`lod_points`."""
-        n = self.lod_points(lod).shape[0]
-        return {k: a[:n] for k, a in self.attributes.items()}
 
     def lod_index_elements(self, lod: int) -> np.ndarray:
         """The ``INDX`` elements LOD ``lod`` draws (its window, level list or static list; a view)."""
@@ -199,10 +184,10 @@ class FileRanges:
         return self._pm.draw_stream(lod)
 
     def extend(self, more: Held) -> FileRanges:
-        """These ranges and ``more``, opened again."""
-        return open_ranges(
-            {**{o: self._p.buf[o : o + n] for o, n in self.held}, **dict(more)}, path=self.path
-        )
+        """These ranges and ``more``, opened again (:class:`ValueError` if ``more`` gives a byte held a
+        different value; a range of ``more`` at an offset held adds to it, never replaces it)."""
+        pieces = [(o, self._p.buf[o : o + n]) for o, n in self.held]
+        return _open(pieces + list(more.items()), self.path)
 
     def finish(self, data: _Bytes) -> ProgressiveMesh:
         """Complete the file with all of its bytes ``data`` (each held range must be its bytes there, else
@@ -214,34 +199,53 @@ class FileRanges:
                 raise ValueError(
                     f"{self.path or '<file>'}: the bytes given differ from the range [{o}, {o + n})"
                 )
-        rep, p = _check(buf, self.path)
-        if not rep.valid or p is None:
-            raise SwpmFormatError(rep)
-        return _build(p, rep)
+        return _whole(buf, self.path)
 
 
-def _merge(held: Held, file_size: int | None) -> tuple[list[tuple[int, int]], list[tuple[int, np.ndarray]]]:
-    items = sorted((int(o), _as_buf(b)) for o, b in held.items() if len(b))
+def _pieces(held: Held | _Pieces) -> list[tuple[int, np.ndarray]]:
+    pairs = held.items() if isinstance(held, Mapping) else held
+    return sorted(((int(o), _as_buf(b)) for o, b in pairs if len(b)), key=lambda t: t[0])
+
+
+def _fill(buf: np.ndarray, have: np.ndarray, o: int, b: np.ndarray, path: str | None) -> None:
+    """Put ``b`` at ``o``; two ranges that give one byte different values are the caller's error."""
+    n = min(b.shape[0], buf.shape[0] - o)
+    m = have[o : o + n]
+    if m.any():
+        differ = m & (buf[o : o + n] != b[:n])
+        if differ.any():
+            at = o + int(np.flatnonzero(differ)[0])
+            raise ValueError(f"{path or '<file>'}: the ranges held give byte {at} two different values")
+    buf[o : o + n], have[o : o + n] = b[:n], True
+
+
+def _merge(
+    items: list[tuple[int, np.ndarray]], file_size: int | None, path: str | None = None
+) -> list[tuple[int, int]]:
     spans: list[tuple[int, int]] = []
     for o, b in items:
         if o < 0 or (file_size is not None and o + b.shape[0] > file_size):
-            raise ValueError(f"range [{o}, {o + b.shape[0]}) lies outside the file ({file_size} bytes)")
+            raise ValueError(
+                f"{path or '<file>'}: range [{o}, {o + b.shape[0]}) lies outside the file ({file_size} bytes)"
+            )
         if spans and o <= spans[-1][0] + spans[-1][1]:
             s, n = spans[-1]
             spans[-1] = (s, max(n, o + b.shape[0] - s))
         else:
             spans.append((o, b.shape[0]))
-    return spans, items
+    return spans
 
 
-def _check_ranges(held: Held, path: str | None) -> tuple[Report, _Parsed | None, list[tuple[int, int]]]:
+def _check_ranges(
+    held: Held | _Pieces, path: str | None
+) -> tuple[Report, _Parsed | None, list[tuple[int, int]]]:
     """The report of ranges ``held`` (spec 4.2) and the parsed state, with the held spans."""
+    items = _pieces(held)
     head = np.zeros(L.HEADER_SIZE, np.uint8)  # the header from whichever ranges hold its bytes
     have = np.zeros(L.HEADER_SIZE, bool)
-    for o, b in held.items():
+    for o, b in items:
         if 0 <= o < L.HEADER_SIZE:
-            b = _as_buf(b)[: L.HEADER_SIZE - o]
-            head[o : o + b.shape[0]], have[o : o + b.shape[0]] = b, True
+            _fill(head, have, o, b, path)
     if not have.all():
         rep = _Report(path=path)
         if have[:8].all() and bytes(head[:8]) != L.MAGIC:
@@ -251,15 +255,14 @@ def _check_ranges(held: Held, path: str | None) -> tuple[Report, _Parsed | None,
             rep.summary["range_need"] = [0, L.HEADER_SIZE]
         return rep, None, []
     file_size = int(head.view(L.HEADER)[0]["file_size"])
-    spans, items = _merge(held, file_size)
+    spans = _merge(items, file_size, path)
     # up to the last byte held, not file_size (a hostile header's): bytes not held read as zero, so padding
     # there reads clean; the checks take file_size as the end of the file (as a prefix's, spec 4.1)
     top = max((o + n for o, n in spans), default=0)
     buf = np.zeros(top, np.uint8)
     mask = np.zeros(top, bool)
     for o, b in items:
-        buf[o : o + b.shape[0]] = b
-        mask[o : o + b.shape[0]] = True
+        _fill(buf, mask, o, b, path)
     buf.setflags(write=False)
     if top == file_size and mask.all():
         rep, p = _check(buf, path)
@@ -321,28 +324,20 @@ def open_ranges(held: Held, *, path: str | None = None) -> FileRanges:
     """Open the byte ranges ``held`` (``{offset: bytes}``) of an SWPM file (spec 4.2); raises
     :class:`SwpmFormatError` with the report when they hold an error (SWPM_RANGES_NOT_HELD: fetch
     ``report.summary["range_need"]`` and open again) and :class:`ValueError` for a range past the
-    header's file_size."""
+    header's file_size, or two ranges that give a byte different values."""
+    return _open(held, path)
+
+
+def _open(held: Held | _Pieces, path: str | None) -> FileRanges:
     rep, p, spans = _check_ranges(held, path)
     if not rep.valid or p is None:
         raise SwpmFormatError(rep)
-    assert p.lods is not None and p.points is not None and p.meta is not None
-    indx, vert = p.chunks[L.INDX], p.chunks[L.VERT]
+    assert p.lods is not None
+    indx = p.chunks[L.INDX]
     need = needed_index_ranges(p.encoding or "", p.buffers, p.lods.shape[0], indx.length // p.width)
     return FileRanges(
-        path=path,
-        report=rep,
+        **_lod_fields(p, rep, path),
         held=spans,
-        file_size=int(p.size),
-        complete=not p.prefix,
-        encoding=p.encoding or "",
-        vertex_counts=p.lods["vertex_count"],
-        triangle_counts=p.lods["triangle_count"],
-        lod_errors=p.lods["error"],
-        points=p.points,
-        attributes=p.attributes,
-        vertex_count=p.vertex_count,
-        vertex_data_offset=vert.offset + p.vert_data,
-        vertex_stride=p.vert_stride,
         index_offset=indx.offset,
         index_width=p.width,
         index_need=need,

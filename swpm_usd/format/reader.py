@@ -292,21 +292,28 @@ def _prefix_skeleton(p: _Parsed, rep: Report) -> None:
     if last.type != L.VERT:
         rep.add("SWPM_PREFIX_NOT_STREAMABLE", last.entry_offset, type=last.name)
         return
-    v = p.chunks[L.VERT]  # the last entry (a second VERT was SWPM_CHUNK_DUPLICATE)
-    need = v.offset + min(v.length, L.VERT_HEADER.itemsize)
-    if need <= size and v.length >= L.VERT_HEADER.itemsize:
-        data = int(p.buf[v.offset + 12 : v.offset + 16].view("<u4")[0])
-        need = v.offset + max(L.VERT_HEADER.itemsize, min(data, v.length))
+    need = _vert_head_end(p, p.chunks[L.VERT])  # the last entry (a second VERT was SWPM_CHUNK_DUPLICATE)
     if need > size:
         rep.add("SWPM_PREFIX_TOO_SHORT", size, size=size, need=need)
         rep.summary["prefix_need"] = need
 
 
+def _vert_head_end(p: _Parsed, v: _Chunk) -> int:
+    """The end of ``VERT``'s bytes before its vertex records (spec 4.1 step 3): o + max(16, min(data_offset,
+    length)), o + length when length < 16, and o + 16 while its header, where data_offset is, is not held."""
+    end = v.offset + min(v.length, L.VERT_HEADER.itemsize)
+    if p.holds(v.offset, end) and v.length >= L.VERT_HEADER.itemsize:
+        data = int(p.buf[v.offset + 12 : v.offset + 16].view("<u4")[0])
+        end = v.offset + max(L.VERT_HEADER.itemsize, min(data, v.length))
+    return end
+
+
 def _not_held(p: _Parsed, rep: Report, start: int, end: int) -> None:
     """SWPM_RANGES_NOT_HELD (spec 4.2): bytes [start, end) are needed, not all held; at the first missing."""
     assert p.held is not None
-    gap = np.flatnonzero(~p.held[start:end])
-    missing = start + int(gap[0]) if gap.size else max(start, int(p.held.shape[0]))
+    part = p.held[start:end]
+    i = int(np.argmin(part)) if part.size else 0  # the first byte not held (argmin: no index array)
+    missing = start + i if part.size and not part[i] else max(start, int(p.held.shape[0]))
     rep.add("SWPM_RANGES_NOT_HELD", missing, start=start, end=end)
     rep.summary["range_need"] = [start, end]
 
@@ -321,10 +328,7 @@ def _ranges_skeleton(p: _Parsed, rep: Report) -> None:
     if not p.holds(0, indx.offset):
         _not_held(p, rep, 0, indx.offset)
         return
-    end = v.offset + min(v.length, L.VERT_HEADER.itemsize)
-    if p.holds(v.offset, end) and v.length >= L.VERT_HEADER.itemsize:
-        data = int(p.buf[v.offset + 12 : v.offset + 16].view("<u4")[0])
-        end = v.offset + max(L.VERT_HEADER.itemsize, min(data, v.length))
+    end = _vert_head_end(p, v)
     if not p.holds(v.offset, end):
         _not_held(p, rep, v.offset, end)
         return
