@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import refix_crcs
 from test_c_reader import MANIFEST, VECTORS, _lpm, _pm, _vpm
 from test_prefix import POOL, _chunks, dump, dump_san  # noqa: F401  (fixtures: the C reader built once per module)
 
@@ -149,3 +150,77 @@ def test_real_files_band_by_band(dump: Path, tmp_path: Path, mesh: str, variant:
     assert any(L - 1 in o["drawable"] for o in drawn)
     if variant != "vanilla":  # a band's ranges draw from a fraction of the file, not all of it
         assert any(o["drawable"][0] > 0 for o in drawn)
+
+
+def _coarsest_band(data: bytes) -> list[tuple[int, int]]:
+    return _bands(data)[-1]
+
+
+def test_sanitizer_fresh_buffers(dump_san: Path, tmp_path: Path) -> None:  # noqa: F811
+    """Under AddressSanitizer / UBSan the held ranges sit in a buffer of their own up to the last held byte
+    (odd addresses), filled with 0xAA elsewhere: every band of a vector of each encoding and the coarsest
+    band of real sliding-window, skip-strip and mixed files open, draw and finish as Python's."""
+    names = [n for n in VALID if b"SMAP" in _chunks((VECTORS / "valid" / f"{n}.swpm").read_bytes())]
+    for name in names[:12]:
+        path = VECTORS / "valid" / f"{name}.swpm"
+        data = path.read_bytes()
+        for spans in _bands(data):
+            assert _c(dump_san, path, spans, 0xAA) == _expected(data, spans), name
+    for variant, build in REAL[:2] + REAL[3:]:
+        data = encode_bytes(build("suzanne"))
+        path = tmp_path / f"{variant}.swpm"
+        path.write_bytes(data)
+        spans = _coarsest_band(data)
+        got = _c(dump_san, path, spans, 0xAA)
+        assert got == _expected(data, spans) and got["ok"] and got["drawable"], variant
+
+
+def _set_index(data: bytes, element: int, value: int) -> bytes:
+    """INDX element ``element`` set to ``value`` (little-endian, the file's width), CRCs recomputed."""
+    ch = _chunks(data)
+    io, _ = ch[b"INDX"]
+    features = struct.unpack_from("<I", data, 20)[0]
+    w = 4 if features & 1 else 2
+    b = bytearray(data)
+    b[io + w * element : io + w * (element + 1)] = value.to_bytes(w, "little")
+    return refix_crcs(bytes(b))
+
+
+def test_drawn_element_and_deferred_faults(dump: Path, tmp_path: Path) -> None:  # noqa: F811
+    """A drawn window's element at or past its vertex count: SWPM_PREFIX_VIOLATION at that element, from
+    C as from Python (spec 4.2 step 3); the same fault in an element the ranges do not hold is deferred:
+    the ranges open, draw, and finishing gives the whole file's error. A VERT byte past the ranges changed
+    (its CRC fails): deferred the same way."""
+    for variant, build in (REAL[0], REAL[3], REAL[4]):
+        data = encode_bytes(build("suzanne"))
+        spans = _coarsest_band(data)
+        io = _chunks(data)[b"INDX"][0]
+        w = 4 if struct.unpack_from("<I", data, 20)[0] & 1 else 2
+        held_idx = [
+            (o, n)
+            for o, n in spans
+            if o >= io and o + n <= _chunks(data)[b"INDX"][0] + _chunks(data)[b"INDX"][1]
+        ]
+        assert held_idx, variant
+        o, n = held_idx[0]
+        V = struct.unpack_from("<I", data, _chunks(data)[b"VERT"][0])[0]
+        bad = _set_index(data, (o - io) // w, V - 1)  # (the finest vertex: past any coarse LOD's count)
+        path = tmp_path / f"{variant}-drawn.swpm"
+        path.write_bytes(bad)
+        got = _agree(dump, path, bad, spans)
+        assert got["code"] == "SWPM_PREFIX_VIOLATION" and got["offset"] == o, (variant, got)
+        far = _set_index(data, 0 if o > io else (o + n - io) // w, V)  # an element not held: out of range
+        path = tmp_path / f"{variant}-deferred.swpm"
+        path.write_bytes(far)
+        got = _agree(dump, path, far, spans)
+        assert got["ok"] and got["drawable"] and not got["finish"]["ok"], (variant, got)
+        assert got["finish"]["code"] == validate_bytes(far).errors[0].code
+    data = encode_bytes(REAL[0][1]("suzanne"))
+    spans = _coarsest_band(data)
+    vo, vl = _chunks(data)[b"VERT"]
+    b = bytearray(data)
+    b[vo + vl - 1] ^= 0x40  # the finest vertex's last byte: past the coarsest band's VERT range
+    path = tmp_path / "vert-crc.swpm"
+    path.write_bytes(bytes(b))
+    got = _agree(dump, path, bytes(b), spans)
+    assert got["ok"] and got["finish"]["code"] == "SWPM_CHUNK_CRC_MISMATCH", got

@@ -425,7 +425,8 @@ int main(int argc, char **argv) {
     if (argc >= 4 && strcmp(argv[1], "--prefix") == 0) return prefixes(argc, argv);
     if (argc >= 4 && strcmp(argv[1], "--ranges") == 0) return ranges(argc, argv);
     if (argc != 2) {
-        fprintf(stderr, "usage: swpm_dump FILE | swpm_dump --check FILE... | swpm_dump --prefix N... FILE\n");
+        fprintf(stderr, "usage: swpm_dump FILE | swpm_dump --check FILE... | swpm_dump --prefix N... FILE | "
+                        "swpm_dump --ranges OFF:LEN,... [--fill HH] FILE\n");
         return 2;
     }
     data = read_file(argv[1], &size);

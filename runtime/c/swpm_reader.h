@@ -36,6 +36,10 @@
  * the prefix to hold every byte before VERT's vertex records (SWPM_PREFIX_TOO_SHORT, with the bytes to wait
  * for in swpm_result.need). LOD k draws once swpm_lod_needed_bytes(k) bytes are held: swpm_finest_drawable_lod
  * gives the finest; the SMAP accessors give the writer's bands and byte ranges, to plan range requests.
+ * Byte ranges (format.md 4.2): swpm_open_ranges() opens the ranges of a file the caller holds (SMAP's for a
+ * band, HTTP range requests) and reads no other byte; SWPM_RANGES_NOT_HELD names the range to fetch
+ * ([.need_start, .need)); swpm_lod_drawable() says which LODs they draw (not always consecutive),
+ * swpm_lod_needed_ranges() what a LOD needs; swpm_ranges_finish() checks the whole file.
  *
  * Per-instance runtime (an engine's): swpm_vanilla_instance_init() / swpm_vanilla_set_lod() (format.md 3.6
  * "At run time": a copy of INDX in the caller's buffer, moved between LODs by applying or undoing collapse
