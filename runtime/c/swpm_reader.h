@@ -237,7 +237,8 @@ int swpm_smap_band(const swpm_file *f, uint64_t b, uint32_t *first_lod, uint32_t
 #define SWPM_READER_BAD_RANGES "SWPM_READER_BAD_RANGES"
 swpm_result swpm_open_ranges(const uint8_t *bytes, size_t length, const swpm_range *held, size_t held_count,
                              swpm_file *file, void *scratch, size_t scratch_bytes);
-/* Complete ranges opened by swpm_open_ranges with the whole file (its bytes in each held range must be the
+/* Complete ranges opened by swpm_open_ranges with the whole file (swpm_prefix_finish given such a file calls
+ * this without scratch) (its bytes in each held range must be the
  * ones held, else SWPM_READER_BAD_RANGES): checks it all through, as swpm_open_ex (so the verdict is the
  * whole file's), and on success *f views `bytes` as an opened whole file. */
 swpm_result swpm_ranges_finish(swpm_file *f, const uint8_t *bytes, size_t length, void *scratch,
@@ -2476,6 +2477,7 @@ swpm_result swpm_prefix_finish(swpm_file *f, const uint8_t *bytes, size_t length
     uint32_t crc;
     const uint8_t *old = f->bytes;
     int i;
+    if (f->ranges) return swpm_ranges_finish(f, bytes, length, NULL, 0); /* (ranges: it checks them all) */
     /* in the order of format.md 5: step 1's length, then step 2's VERT CRC (the last entry) and padding */
     if (f->prefix && len < f->file_size) return swpm__err("SWPM_FILE_SIZE_MISMATCH", 40);
     if (f->prefix) { /* (a whole file was checked all through: only its views move to `bytes`) */
