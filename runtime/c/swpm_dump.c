@@ -20,6 +20,12 @@
  * swpm_index_pool's bytes), "smap": [first_lod, lod_count, range_count, prefix_length, ranges...] per band,
  * "finish": swpm_prefix_finish's result given the whole file (in a buffer of its length), and when it succeeds
  * "whole_crc": [the CRC of every point, of the index pool] read through f after the prefix's buffer is freed.
+ * swpm_dump --ranges OFF:LEN,... [--fill HH] FILE: open the held ranges of FILE with swpm_open_ranges (format.md
+ * 4.2) in a fresh buffer up to the last held byte, the other bytes set to HH (hex, default 00): one line
+ * {"ok", "code", "offset", "need_start", "need"} and on success "lod_count", "finest", "drawable" (the LODs
+ * swpm_lod_drawable accepts), "drawn_crc" (one CRC-32 over, for each drawable LOD in order, its points as f32
+ * LE then its INDX elements of swpm_lod_index_range as stored), "needed" (swpm_lod_needed_ranges of LODs 0
+ * and L-1, flat offset,length pairs), "finish" (swpm_ranges_finish given the whole file) and "whole_crc".
  * The file's bytes, the scratch and the instance buffers are all given at odd addresses (odd_alloc).
  */
 #include <stdio.h>
@@ -136,11 +142,12 @@ static void result_fields(swpm_result r) {
     if (r.has_offset) printf("%llu", (unsigned long long)r.offset);
     else printf("null");
     if (r.need) printf(",\"need\":%llu", (unsigned long long)r.need);
+    if (r.need_start) printf(",\"need_start\":%llu", (unsigned long long)r.need_start);
 }
 
-/* CRC-32 of the points of vertices [0, n) through swpm_point, as f32 little-endian */
-static uint32_t points_crc(const swpm_file *f, uint64_t n) {
-    uint32_t c = 0xFFFFFFFFu, u, j;
+/* The CRC-32 state c continued over the points of vertices [0, n) through swpm_point, as f32 little-endian */
+static uint32_t points_crc_update(uint32_t c, const swpm_file *f, uint64_t n) {
+    uint32_t u, j;
     uint64_t k;
     for (k = 0; k < n; k++) {
         float xyz[3];
@@ -153,7 +160,92 @@ static uint32_t points_crc(const swpm_file *f, uint64_t n) {
         }
         c = swpm__crc_update(c, le, 12);
     }
-    return c ^ 0xFFFFFFFFu;
+    return c;
+}
+/* CRC-32 of the points of vertices [0, n) */
+static uint32_t points_crc(const swpm_file *f, uint64_t n) { return points_crc_update(0xFFFFFFFFu, f, n) ^ 0xFFFFFFFFu; }
+
+/* --ranges OFF:LEN,... [--fill HH] FILE: see the top of the file. */
+static int ranges(int argc, char **argv) {
+    size_t size, top = 0, nh = 0, i;
+    swpm_range held[64];
+    swpm_file f;
+    swpm_result r;
+    uint8_t *buf, *whole;
+    void *scratch;
+    const char *spec = argv[2];
+    int fill = 0;
+    uint8_t *data = read_file(argv[argc - 1], &size);
+    if (!data) {
+        fprintf(stderr, "swpm_dump: cannot read %s\n", argv[argc - 1]);
+        return 2;
+    }
+    if (argc >= 6 && strcmp(argv[3], "--fill") == 0) fill = (int)strtol(argv[4], NULL, 16);
+    while (*spec && nh < 64) { /* OFF:LEN pairs, comma-separated */
+        char *end;
+        held[nh].offset = strtoull(spec, &end, 10);
+        held[nh].length = *end == ':' ? strtoull(end + 1, &end, 10) : 0;
+        if (held[nh].offset <= size && held[nh].length <= size - held[nh].offset) { /* (past the file: dropped) */
+            if (held[nh].offset + held[nh].length > top) top = (size_t)(held[nh].offset + held[nh].length);
+            nh++;
+        }
+        spec = *end == ',' ? end + 1 : end;
+        if (*end != ',') break;
+    }
+    /* a fresh buffer up to the last held byte: the held ranges copied, the rest `fill` (never read) */
+    buf = (uint8_t *)odd_alloc(top);
+    if (top) memset(buf, fill, top);
+    for (i = 0; i < nh; i++)
+        if (held[i].length) memcpy(buf + held[i].offset, data + held[i].offset, (size_t)held[i].length);
+    scratch = odd_alloc(size);
+    r = swpm_open_ranges(buf, top, held, nh, &f, scratch, scratch ? size : 0);
+    printf("{");
+    result_fields(r);
+    if (!r.code) {
+        uint64_t L = swpm_lod_count(&f), k, nd = 0, count, first;
+        uint32_t c = 0xFFFFFFFFu, width;
+        const uint8_t *pool = swpm_index_pool(&f, &count, &width);
+        swpm_range need[3];
+        uint32_t n, j;
+        printf(",\"lod_count\":%llu,\"finest\":%llu,\"drawable\":[", (unsigned long long)L,
+               (unsigned long long)swpm_finest_drawable_lod(&f));
+        for (k = 0; k < L; k++) {
+            if (!swpm_lod_drawable(&f, k)) continue;
+            printf("%s%llu", nd++ ? "," : "", (unsigned long long)k);
+            /* the drawn arrays: points of its vertices (f32 LE), then its INDX elements as stored */
+            c = points_crc_update(c, &f, swpm_lod_vertex_count(&f, k));
+            swpm_lod_index_range(&f, k, &first, &count);
+            c = swpm__crc_update(c, pool + first * width, count * width);
+        }
+        printf("],\"drawn_crc\":%lu,\"needed\":[", (unsigned long)(c ^ 0xFFFFFFFFu));
+        for (k = 0; k < L; k += L - 1 > 0 ? L - 1 : 1) { /* LOD 0 and L-1 */
+            n = swpm_lod_needed_ranges(&f, k, need);
+            printf("%s[", k ? "," : "");
+            for (j = 0; j < n; j++)
+                printf("%s%llu,%llu", j ? "," : "", (unsigned long long)need[j].offset,
+                       (unsigned long long)need[j].length);
+            printf("]");
+        }
+        whole = (uint8_t *)odd_alloc(size);
+        if (size) memcpy(whole, data, size);
+        printf("],\"finish\":{");
+        r = swpm_ranges_finish(&f, whole, size, scratch, scratch ? size : 0);
+        result_fields(r);
+        printf("}");
+        odd_free(buf); /* finished, f views `whole` (ASan: a stale view trips) */
+        buf = NULL;
+        if (!r.code) {
+            pool = swpm_index_pool(&f, &count, &width);
+            printf(",\"whole_crc\":[%lu,%lu]", (unsigned long)points_crc(&f, swpm_vertex_count(&f)),
+                   (unsigned long)(swpm__crc_update(0xFFFFFFFFu, pool, count * width) ^ 0xFFFFFFFFu));
+        }
+        odd_free(whole);
+    }
+    printf("}\n");
+    odd_free(buf);
+    odd_free(scratch);
+    odd_free(data);
+    return 0;
 }
 
 /* --prefix: see the top of the file. */
@@ -331,8 +423,10 @@ int main(int argc, char **argv) {
         return 0;
     }
     if (argc >= 4 && strcmp(argv[1], "--prefix") == 0) return prefixes(argc, argv);
+    if (argc >= 4 && strcmp(argv[1], "--ranges") == 0) return ranges(argc, argv);
     if (argc != 2) {
-        fprintf(stderr, "usage: swpm_dump FILE | swpm_dump --check FILE... | swpm_dump --prefix N... FILE\n");
+        fprintf(stderr, "usage: swpm_dump FILE | swpm_dump --check FILE... | swpm_dump --prefix N... FILE | "
+                        "swpm_dump --ranges OFF:LEN,... [--fill HH] FILE\n");
         return 2;
     }
     data = read_file(argv[1], &size);

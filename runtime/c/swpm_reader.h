@@ -36,6 +36,10 @@
  * the prefix to hold every byte before VERT's vertex records (SWPM_PREFIX_TOO_SHORT, with the bytes to wait
  * for in swpm_result.need). LOD k draws once swpm_lod_needed_bytes(k) bytes are held: swpm_finest_drawable_lod
  * gives the finest; the SMAP accessors give the writer's bands and byte ranges, to plan range requests.
+ * Byte ranges (format.md 4.2): swpm_open_ranges() opens the ranges of a file the caller holds (SMAP's for a
+ * band, HTTP range requests) and reads no other byte; SWPM_RANGES_NOT_HELD names the range to fetch
+ * ([.need_start, .need)); swpm_lod_drawable() says which LODs they draw (not always consecutive),
+ * swpm_lod_needed_ranges() what a LOD needs; swpm_ranges_finish() checks the whole file.
  *
  * Per-instance runtime (an engine's): swpm_vanilla_instance_init() / swpm_vanilla_set_lod() (format.md 3.6
  * "At run time": a copy of INDX in the caller's buffer, moved between LODs by applying or undoing collapse
@@ -92,8 +96,15 @@ typedef struct swpm_result {
     uint64_t offset;
     int has_offset;
     uint64_t need; /* SWPM_READER_SCRATCH_TOO_SMALL: the scratch bytes the replay needs; SWPM_PREFIX_TOO_SHORT:
-                      the prefix length opening needs (format.md 4.1); else 0 */
+                      the prefix length opening needs (format.md 4.1); SWPM_RANGES_NOT_HELD: the end of the
+                      range to fetch (format.md 4.2); else 0 */
+    uint64_t need_start; /* SWPM_RANGES_NOT_HELD: the start of that range, [need_start, need); else 0 */
 } swpm_result;
+
+/* A byte range [offset, offset + length) of a file that the caller holds (format.md 4.2). */
+typedef struct swpm_range {
+    uint64_t offset, length;
+} swpm_range;
 
 /* One attribute descriptor of VERT (format.md 3.3); name is not NUL-terminated. */
 typedef struct swpm_attribute {
@@ -148,6 +159,10 @@ typedef struct swpm_file {
     uint64_t vert_entry, vert_offset;   /* VERT's chunk-table entry and payload offsets */
     const uint8_t *smap;                /* SMAP's payload when its length is 8 + 24 B + 16 N, else NULL */
     uint64_t smap_bands, smap_ranges;   /* B, N */
+    /* byte ranges (format.md 4.2): the caller's array, read while the file is open from ranges */
+    const swpm_range *ranges;           /* NULL unless opened by swpm_open_ranges from a part of the file */
+    uint64_t range_count;
+    int indx_partial;                   /* ranges without all of INDX: its content checks wait for finishing */
 } swpm_file;
 
 /* One vanilla VIPM instance (format.md 3.6): the caller's copy of INDX, which set_lod edits in place. */
@@ -208,6 +223,33 @@ uint64_t swpm_finest_drawable_lod(const swpm_file *f);
 uint64_t swpm_smap_band_count(const swpm_file *f);
 int swpm_smap_band(const swpm_file *f, uint64_t b, uint32_t *first_lod, uint32_t *lod_count, uint32_t *range_count,
                    uint64_t *prefix_length); /* 0 if b is out of range */
+/* Byte ranges (format.md 4.2): open a file from the ranges the caller holds. `bytes` covers [0, length) of the
+ * file (length at least the end of the last held range); only the bytes of held[0..held_count) are the file's,
+ * and no other byte of `bytes` is read. The array `held` is read while the file is open from ranges (keep it
+ * until swpm_ranges_finish). Checks what the ranges hold as swpm_open_ex would, with the header's file_size
+ * as the end of the file: the header and chunk table, every byte before INDX and VERT's bytes before its
+ * records must be held (else SWPM_RANGES_NOT_HELD at the first byte not held, with the range to fetch in
+ * [.need_start, .need)); CRCs of payloads not wholly held, padding not held and the length wait for finishing;
+ * without all of INDX its content checks wait too and each LOD's held INDX elements are checked against the
+ * vertices it draws (SWPM_PREFIX_VIOLATION). This reader also needs every chunk it decodes held (a table
+ * after INDX in a file not in streaming order: SWPM_RANGES_NOT_HELD with that chunk's range). A range past
+ * `length` or past file_size is the caller's error: SWPM_READER_BAD_RANGES. */
+#define SWPM_READER_BAD_RANGES "SWPM_READER_BAD_RANGES"
+swpm_result swpm_open_ranges(const uint8_t *bytes, size_t length, const swpm_range *held, size_t held_count,
+                             swpm_file *file, void *scratch, size_t scratch_bytes);
+/* Complete ranges opened by swpm_open_ranges with the whole file (swpm_prefix_finish given such a file calls
+ * this without scratch) (its bytes in each held range must be the
+ * ones held, else SWPM_READER_BAD_RANGES): checks it all through, as swpm_open_ex (so the verdict is the
+ * whole file's), and on success *f views `bytes` as an opened whole file. */
+swpm_result swpm_ranges_finish(swpm_file *f, const uint8_t *bytes, size_t length, void *scratch,
+                               size_t scratch_bytes);
+int swpm_is_ranges(const swpm_file *f); /* 1 until swpm_ranges_finish succeeds */
+/* The INDX elements LOD k draws (format.md 4 (b)): [*first, *first + *count) of swpm_index_pool (vanilla: all;
+ * sliding-window: its window; skip-strip: its level's list; mixed: its level's static list). 0 if k >= L. */
+int swpm_lod_index_range(const swpm_file *f, uint64_t k, uint64_t *first, uint64_t *count);
+/* The byte ranges LOD k needs (format.md 4: (a) [0, INDX), (b) its INDX elements unless none, (c) VERT up to
+ * its last vertex record), written to out[0..2]; returns how many (2 or 3), 0 if k >= L. */
+uint32_t swpm_lod_needed_ranges(const swpm_file *f, uint64_t k, swpm_range out[3]);
 int swpm_smap_range(const swpm_file *f, uint64_t b, uint32_t r, uint64_t *offset, uint64_t *length); /* 0 if out
                                                                                                        of range */
 
@@ -1048,6 +1090,7 @@ static swpm_result swpm__err(const char *code, uint64_t offset) {
     r.offset = offset;
     r.has_offset = 1;
     r.need = 0;
+    r.need_start = 0;
     return r;
 }
 static void swpm__put(uint8_t *p, uint32_t w, uint64_t v) {
@@ -1065,7 +1108,7 @@ static const uint32_t swpm__elem_sizes[10] = {0, 1, 1, 2, 2, 4, 4, 2, 4, 8};
 static swpm_result swpm__vert(const uint8_t *p, uint64_t len, uint64_t entry, uint64_t off, swpm_file *f) {
     uint32_t V, A, stride, data_offset, i, k;
     uint64_t names_start;
-    swpm_result ok = {NULL, 0, 0, 0};
+    swpm_result ok = {NULL, 0, 0, 0, 0};
     if (len < 16) return swpm__err("SWPM_CHUNK_BAD_LENGTH", entry + 16);
     V = swpm__u32(p);
     A = swpm__u32(p + 4);
@@ -1118,19 +1161,46 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
 static const char *const swpm__encoding_names[5] = {"", "vanilla", "sliding-window", "skip-strip", "mixed"};
 
 static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *file, void *scratch,
-                              size_t scratch_bytes, int prefix);
+                              size_t scratch_bytes, int prefix, const swpm_range *held, uint64_t held_count);
 
 swpm_result swpm_open(const uint8_t *bytes, size_t length, swpm_file *file) {
-    return swpm__open(bytes, length, file, NULL, 0, 0);
+    return swpm__open(bytes, length, file, NULL, 0, 0, NULL, 0);
 }
 swpm_result swpm_open_ex(const uint8_t *bytes, size_t length, swpm_file *file, void *scratch,
                          size_t scratch_bytes) {
-    return swpm__open(bytes, length, file, scratch, scratch_bytes, 0);
+    return swpm__open(bytes, length, file, scratch, scratch_bytes, 0, NULL, 0);
 }
 swpm_result swpm_open_prefix(const uint8_t *bytes, size_t length, swpm_file *file, void *scratch,
                              size_t scratch_bytes) {
-    return swpm__open(bytes, length, file, scratch, scratch_bytes, 1);
+    return swpm__open(bytes, length, file, scratch, scratch_bytes, 1, NULL, 0);
 }
+swpm_result swpm_open_ranges(const uint8_t *bytes, size_t length, const swpm_range *held, size_t held_count,
+                             swpm_file *file, void *scratch, size_t scratch_bytes) {
+    return swpm__open(bytes, length, file, scratch, scratch_bytes, 2, held, (uint64_t)held_count);
+}
+/* The first byte of [a, b) not held (b if all are): in `held` (unsorted, may overlap or abut), or without
+ * ranges in [0, len). Quadratic in the ranges: a caller holds a few (SMAP's bands name at most 16). */
+static uint64_t swpm__held_to(const swpm_range *held, uint64_t n, uint64_t len, uint64_t a, uint64_t b) {
+    uint64_t i, to;
+    if (held == NULL) return b <= len ? b : a > len ? a : len;
+    while (a < b) {
+        for (to = a, i = 0; i < n; i++)
+            if (held[i].offset <= a && a - held[i].offset < held[i].length && held[i].offset + held[i].length > to)
+                to = held[i].offset + held[i].length;
+        if (to == a) return a;
+        a = to;
+    }
+    return b;
+}
+/* SWPM_RANGES_NOT_HELD: at the first byte of [start, end) not held, with that range to fetch */
+static swpm_result swpm__not_held(const swpm_range *held, uint64_t n, uint64_t len, uint64_t start, uint64_t end) {
+    swpm_result r = swpm__err("SWPM_RANGES_NOT_HELD", swpm__held_to(held, n, len, start, end));
+    if (r.offset >= end) r.offset = start > len ? start : len; /* (cannot happen: the caller found a gap) */
+    r.need_start = start;
+    r.need = end;
+    return r;
+}
+static swpm_result swpm__check_drawn(const swpm_file *f);
 /* SWPM_PREFIX_TOO_SHORT: reported at the prefix's end, with the length it needs */
 static swpm_result swpm__short(uint64_t len, uint64_t need) {
     swpm_result r = swpm__err("SWPM_PREFIX_TOO_SHORT", len);
@@ -1139,9 +1209,10 @@ static swpm_result swpm__short(uint64_t len, uint64_t need) {
 }
 
 static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *file, void *scratch,
-                              size_t scratch_bytes, int prefix) {
+                              size_t scratch_bytes, int prefix, const swpm_range *held, uint64_t held_count) {
     swpm_file f;
-    swpm_result ok = {NULL, 0, 0, 0};
+    const int ranges = prefix == 2;
+    swpm_result ok = {NULL, 0, 0, 0, 0};
     uint64_t len = (uint64_t)length, eof, table_offset, file_size, table_end, end, last = 0;
     uint32_t header_size, features, count, enc_bits, i, W, O;
     int enc = 0, one_encoding, have_last = 0, streaming;
@@ -1151,6 +1222,30 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
     static const uint8_t magic[8] = {0x53, 0x57, 0x50, 0x4D, 0x0D, 0x0A, 0x1A, 0x0A};
 
     memset(&f, 0, sizeof f);
+    if (ranges) { /* format.md 4.2 step 1: the header held; ranges inside the buffer (else the caller's error) */
+        uint64_t top = 0, q;
+        swpm_result bad = {SWPM_READER_BAD_RANGES, 0, 0, 0, 0};
+        if (held_count && held == NULL) return bad;
+        for (q = 0; q < held_count; q++) {
+            if (held[q].length > len || held[q].offset > len - held[q].length) return bad;
+            if (held[q].length && held[q].offset + held[q].length > top) top = held[q].offset + held[q].length;
+        }
+        if (swpm__held_to(held, held_count, len, 0, 64) < 64) {
+            if (swpm__held_to(held, held_count, len, 0, 8) == 8 && memcmp(bytes, magic, 8) != 0)
+                return swpm__err("SWPM_HEADER_BAD_MAGIC", 0);
+            return swpm__not_held(held, held_count, len, 0, 64);
+        }
+        if (top > swpm__u64(bytes + 40)) return bad; /* a range past file_size */
+        len = top; /* bytes past the last held byte are not the file's */
+        if (swpm__held_to(held, held_count, len, 0, len) == len && len == swpm__u64(bytes + 40)) {
+            held = NULL; /* every byte held: the whole file, read as format.md 5 reads it */
+            prefix = 0;
+        } else if (memcmp(bytes, magic, 8) == 0 && swpm__u16(bytes + 8) == 1) {
+            uint64_t hs = swpm__u32(bytes + 12), fs = swpm__u64(bytes + 40);
+            if (hs >= 64 && hs <= fs && hs > len) return swpm__not_held(held, held_count, len, 0, hs);
+        }
+    }
+    if (prefix != 2) held = NULL, held_count = 0;
     /* ---- step 1: header (format.md 2.1, 5) ---- */
     if (len < 64) {
         if (len >= 8 && memcmp(bytes, magic, 8) != 0) return swpm__err("SWPM_HEADER_BAD_MAGIC", 0);
@@ -1163,7 +1258,8 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
     if (f.major != 1) return swpm__err("SWPM_HEADER_UNSUPPORTED_MAJOR", 8);
     header_size = swpm__u32(bytes + 12);
     file_size = swpm__u64(bytes + 40);
-    streaming = prefix && file_size > len; /* a prefix of a longer file (4.1): it ends at file_size */
+    streaming = (prefix == 1 && file_size > len) || prefix == 2; /* a prefix of a longer file (4.1), or ranges
+                                                                    (4.2): it ends at file_size */
     if (streaming && header_size >= 64 && header_size <= file_size && header_size > len)
         return swpm__short(len, header_size);
     if (header_size < 64 || header_size > len) return swpm__err("SWPM_HEADER_BAD_SIZE", 12);
@@ -1187,6 +1283,8 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
     if (count > 1024) return swpm__err("SWPM_TABLE_TOO_LARGE", 24);
     if (table_offset > eof || 32 * (uint64_t)count > eof - table_offset) return swpm__err("SWPM_TABLE_TRUNCATED", 24);
     table_end = table_offset + 32 * (uint64_t)count;
+    if (prefix == 2 && swpm__held_to(held, held_count, len, 0, table_end) < table_end)
+        return swpm__not_held(held, held_count, len, 0, table_end);
     if (table_end > len) return swpm__short(len, table_end); /* (a prefix only: else eof <= len) */
     crc = swpm__crc_update(0xFFFFFFFFu, bytes, 48);
     crc = swpm__crc_update(crc, zero4, 4);
@@ -1214,13 +1312,15 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
         if (off < end) return swpm__err("SWPM_CHUNK_OVERLAP", eo + 8);
         {
             uint64_t g;
-            for (g = end; g < off && g < eof && g < len; g++) /* (a prefix: the bytes it holds) */
-                if (bytes[g]) return swpm__err("SWPM_PADDING_NONZERO", end);
+            for (g = end; g < off && g < eof && g < len; g++) /* (a prefix or ranges: the bytes held) */
+                if (bytes[g] && (!held || swpm__held_to(held, held_count, len, g, g + 1) > g))
+                    return swpm__err("SWPM_PADDING_NONZERO", end);
         }
         have_last = 1;
         last = off;
         end = off + clen; /* in bounds: no wrap */
-        if (off + clen <= len) { /* (a prefix: a payload it cuts waits for swpm_prefix_finish) */
+        if (swpm__held_to(held, held_count, len, off, off + clen) == off + clen) { /* (a payload not wholly held
+                                                                      waits for the whole file) */
             crc = swpm__crc_update(swpm__crc_update(0xFFFFFFFFu, bytes + eo, 4), bytes + off, clen) ^ 0xFFFFFFFFu;
             if (crc != swpm__u32(bytes + eo + 24)) return swpm__err("SWPM_CHUNK_CRC_MISMATCH", eo + 24);
         }
@@ -1238,14 +1338,42 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
     {
         uint64_t g; /* padding after the last payload: reported at the gap's start */
         for (g = end; g < eof && g < len; g++)
-            if (bytes[g]) return swpm__err("SWPM_PADDING_NONZERO", end);
+            if (bytes[g] && (!held || swpm__held_to(held, held_count, len, g, g + 1) > g))
+                return swpm__err("SWPM_PADDING_NONZERO", end);
     }
     for (i = 0; swpm__critical_order[enc][i] >= 0; i++)
         if (first[swpm__critical_order[enc][i]] < 0) {
-            swpm_result r = {"SWPM_CHUNK_MISSING", 0, 0, 0};
+            swpm_result r = {"SWPM_CHUNK_MISSING", 0, 0, 0, 0};
             return r;
         }
-    if (streaming) { /* 4.1: VERT last, and the prefix holds every byte before its vertex records */
+    if (prefix == 2) { /* 4.2 step 3: every byte before INDX, VERT's bytes before its records, and (this reader)
+                          every other chunk it decodes */
+        uint64_t io = swpm__u64(bytes + table_offset + 32 * (uint64_t)first[SWPM__INDX] + 8), vo, vl, need;
+        uint64_t eo = table_offset + 32 * (uint64_t)first[SWPM__VERT];
+        int k;
+        if (swpm__held_to(held, held_count, len, 0, io) < io) return swpm__not_held(held, held_count, len, 0, io);
+        vo = swpm__u64(bytes + eo + 8);
+        vl = swpm__u64(bytes + eo + 16);
+        need = vo + (vl < 16 ? vl : 16);
+        if (swpm__held_to(held, held_count, len, vo, need) == need && vl >= 16) {
+            uint64_t data = swpm__u32(bytes + vo + 12);
+            need = vo + (data < 16 ? 16 : data < vl ? data : vl);
+        }
+        if (swpm__held_to(held, held_count, len, vo, need) < need)
+            return swpm__not_held(held, held_count, len, vo, need);
+        for (k = 0; k < SWPM__KINDS; k++)
+            if (first[k] >= 0 && k != SWPM__INDX && k != SWPM__VERT && k != SWPM__SMAP) {
+                uint64_t e2 = table_offset + 32 * (uint64_t)first[k], o2 = swpm__u64(bytes + e2 + 8);
+                uint64_t l2 = swpm__u64(bytes + e2 + 16);
+                if (swpm__held_to(held, held_count, len, o2, o2 + l2) < o2 + l2)
+                    return swpm__not_held(held, held_count, len, o2, o2 + l2);
+            }
+        f.indx_partial = swpm__held_to(held, held_count, len, io, io + swpm__u64(bytes + table_offset + 32 *
+                                       (uint64_t)first[SWPM__INDX] + 16)) < io + swpm__u64(bytes + table_offset +
+                                       32 * (uint64_t)first[SWPM__INDX] + 16);
+        f.ranges = held;
+        f.range_count = held_count;
+    } else if (streaming) { /* 4.1: VERT last, and the prefix holds every byte before its vertex records */
         uint64_t eo = table_offset + 32 * (uint64_t)(count - 1), vo, vl, need;
         if (memcmp(bytes + eo, "VERT", 4) != 0) return swpm__err("SWPM_PREFIX_NOT_STREAMABLE", eo);
         vo = swpm__u64(bytes + eo + 8); /* the first VERT (a second one was SWPM_CHUNK_DUPLICATE) */
@@ -1264,7 +1392,7 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
     f.length = eof;
     f.file_size = file_size;
     f.held = len;
-    f.prefix = streaming;
+    f.prefix = streaming && prefix == 1;
     f.features = features;
     f.index_width = W;
     f.offset_width = O;
@@ -1277,9 +1405,12 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
             pe[i] = eo;
             pl[i] = first[i] < 0 ? 0 : swpm__u64(bytes + eo + 16);
         }
+#define SWPM__OFF0(k) swpm__u64(bytes + pe[k] + 8)
         f.vert_entry = pe[SWPM__VERT];
         f.vert_offset = swpm__u64(bytes + pe[SWPM__VERT] + 8);
-        if (first[SWPM__SMAP] >= 0 && pl[SWPM__SMAP] >= 8) { /* in the prefix: it precedes VERT */
+        if (first[SWPM__SMAP] >= 0 && pl[SWPM__SMAP] >= 8 && /* in a prefix: it precedes VERT; ranges: held */
+            swpm__held_to(held, held_count, len, SWPM__OFF0(SWPM__SMAP), SWPM__OFF0(SWPM__SMAP) + pl[SWPM__SMAP]) ==
+                SWPM__OFF0(SWPM__SMAP) + pl[SWPM__SMAP]) {
             const uint8_t *m = bytes + swpm__u64(bytes + pe[SWPM__SMAP] + 8);
             uint64_t B = swpm__u32(m), N = swpm__u32(m + 4);
             if (8 + 24 * B + 16 * N == pl[SWPM__SMAP]) {
@@ -1388,6 +1519,8 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
             swpm_result r = enc == 1 ? swpm__vanilla(&f, bytes, pe, pl, scratch, scratch_bytes)
                                      : swpm__levels(&f, bytes, pe, pl, scratch, scratch_bytes);
             if (r.code) return r;
+            r = swpm__check_drawn(&f);
+            if (r.code) return r;
             *file = f;
             return ok;
         }
@@ -1424,9 +1557,11 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
                     return swpm__err("SWPM_WINDOW_NOT_MONOTONE", wbase + cols * O * k + O);
             for (k = 0; k < L; k++)
                 if (SWPM__W(k, 0) + SWPM__ICOUNT(k) > nidx) return swpm__err("SWPM_WINDOW_OUT_OF_POOL", wbase + cols * O * k);
-            k = swpm__first_at_least(x, W, 0, nidx, V, f.strips, f.restart_index);
+            /* (ranges without all of INDX, 4.2: its content waits for the whole file; swpm__check_drawn reads
+             * the held windows) */
+            k = f.indx_partial ? nidx : swpm__first_at_least(x, W, 0, nidx, V, f.strips, f.restart_index);
             if (k < nidx) return swpm__err("SWPM_INDEX_OUT_OF_RANGE", ibase + W * k);
-            if (f.strips)
+            if (f.strips && !f.indx_partial)
                 for (k = 0; k < L; k++) {
                     uint64_t s = SWPM__W(k, 0);
                     if (SWPM__W(k, 3) > 0 && s > 0 && SWPM__X(s - 1) != f.restart_index)
@@ -1438,7 +1573,7 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
              * a limit at most this window's and is skipped. Sliding windows overlap their neighbours, so
              * the pool is read about once, not once per window (worst case: once per window). */
             best = nidx;
-            {
+            if (!f.indx_partial) {
                 uint64_t seen0 = 0, seen1 = 0;
                 for (k = L; k-- > 0;) {
                     uint64_t s = SWPM__W(k, 0), e = s + SWPM__ICOUNT(k), lim = SWPM__W(k, 2), i2;
@@ -1468,7 +1603,7 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
              * a strip (stage (a)), so these are the pool's triangles whose last index lies in the window, and
              * whether position j ends one depends on INDX[j-2..j] alone: two cursors (window starts, window
              * ends) count them, moving as far as the windows move between LODs. */
-            if (f.strips) {
+            if (f.strips && !f.indx_partial) {
                 uint64_t at[2] = {0, 0}, n[2] = {0, 0};
                 for (k = 0; k < L; k++) {
                     uint64_t target[2], c;
@@ -1487,6 +1622,11 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
 #undef SWPM__ICOUNT
         }
 #undef SWPM__OFF
+#undef SWPM__OFF0
+    }
+    {
+        swpm_result r = swpm__check_drawn(&f);
+        if (r.code) return r;
     }
     *file = f;
     return ok;
@@ -1495,7 +1635,7 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
 /* ---- vanilla (format.md 3.4, 3.6; 5 step 4: stage 0, (a), (b), (c)) ---- */
 static swpm_result swpm__vanilla(swpm_file *f, const uint8_t *bytes, const uint64_t *pe, const uint64_t *pl,
                                  void *scratch, size_t scratch_bytes) {
-    swpm_result ok = {NULL, 0, 0, 0};
+    swpm_result ok = {NULL, 0, 0, 0, 0};
     const uint32_t W = f->index_width, O = f->offset_width;
     const uint64_t V = f->vertex_count, L = f->lod_count;
     const uint64_t vbase = swpm__u64(bytes + pe[SWPM__VREC] + 8), vlen = pl[SWPM__VREC];
@@ -1538,7 +1678,7 @@ static swpm_result swpm__vanilla(swpm_file *f, const uint8_t *bytes, const uint6
         if ((k == 0 && SWPM__RC(0) != 0) || (k > 0 && SWPM__RC(k) < SWPM__RC(k - 1)) || SWPM__RC(k) > R)
             return swpm__err("SWPM_RECORD_BAD_COUNTS", rbase);
     /* INDX < V, R < V, kept < V-1-r, total tris_removed <= T0, change offsets < 3 T0 */
-    k = swpm__first_at_least(x, W, 0, nidx, V, 0, 0);
+    k = f->indx_partial ? nidx : swpm__first_at_least(x, W, 0, nidx, V, 0, 0); /* (4.2: INDX not all held) */
     if (k < nidx) return swpm__err("SWPM_INDEX_OUT_OF_RANGE", ibase + W * k);
     if (R && R >= V) return swpm__err("SWPM_RECORD_BAD_COUNTS", vbase);
     for (r = 0; r < R; r++)
@@ -1558,14 +1698,14 @@ static swpm_result swpm__vanilla(swpm_file *f, const uint8_t *bytes, const uint6
     /* (c) the replay, stopping at its first problem: a copy of INDX and the number of references each vertex
      * has from live triangles. Record r's slots must hold V-1-r when changed (in the order listed, so a slot
      * listed twice holds kept the second time) and lie in a triangle live after r; then no live triangle
-     * may reference V-1-r. */
-    if (R) {
+     * may reference V-1-r. (Ranges without all of INDX: it waits for the whole file, 4.2.) */
+    if (R && !f->indx_partial) {
         uint8_t *ind;
         uint64_t *refs, pad, live = T0, pos = 0;
         pad = (uint64_t)((8 - ((uintptr_t)scratch & 7)) & 7);
         need = ilen + 8 * V + 7;
         if (scratch == NULL || (uint64_t)scratch_bytes < need) {
-            swpm_result s = {SWPM_READER_SCRATCH_TOO_SMALL, 0, 0, 0};
+            swpm_result s = {SWPM_READER_SCRATCH_TOO_SMALL, 0, 0, 0, 0};
             s.need = need;
             return s;
         }
@@ -1637,7 +1777,7 @@ static uint64_t swpm__tris_in(const uint8_t *x, uint32_t W, uint64_t m, uint64_t
 
 static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64_t *pe, const uint64_t *pl,
                                 void *scratch, size_t scratch_bytes) {
-    swpm_result ok = {NULL, 0, 0, 0};
+    swpm_result ok = {NULL, 0, 0, 0, 0};
     const int mixed = f->encoding == 4;
     const int rk = mixed ? SWPM__MREC : SWPM__SREC, lk = mixed ? SWPM__MLVL : SWPM__SKIP;
     const uint32_t W = f->index_width, O = f->offset_width, cols = mixed ? 5 : 4;
@@ -1732,7 +1872,7 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
             if (SWPM__A(a0, l) <= SWPM__A(a0, l - 1)) bad = 1;
         if (bad) return swpm__err("SWPM_LEVEL_BAD_TABLE", sbase);
         /* values < V: INDX, level_collapsed_indices (the restart index exempt), kept and binned */
-        k = swpm__first_at_least(x, W, 0, nidx, V, exempt, restart);
+        k = f->indx_partial ? nidx : swpm__first_at_least(x, W, 0, nidx, V, exempt, restart);
         if (k < nidx) return swpm__err("SWPM_INDEX_OUT_OF_RANGE", ibase + W * k);
         k = swpm__first_at_least(list1, W, 0, C, V, exempt, restart);
         if (k < C) return swpm__err("SWPM_INDEX_OUT_OF_RANGE", at[4] + W * k);
@@ -1770,7 +1910,7 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
         }
         if (where) return swpm__err("SWPM_MIXED_BAD_LEVELS", where);
         /* values < V (INDX, both dynamic arrays), R < V, kept < V-1-r */
-        k = swpm__first_at_least(x, W, 0, nidx, V, 0, 0);
+        k = f->indx_partial ? nidx : swpm__first_at_least(x, W, 0, nidx, V, 0, 0);
         if (k < nidx) return swpm__err("SWPM_INDEX_OUT_OF_RANGE", ibase + W * k);
         k = swpm__first_at_least(list1, W, 0, C, V, 0, 0);
         if (k < C) return swpm__err("SWPM_INDEX_OUT_OF_RANGE", at[4] + W * k);
@@ -1793,7 +1933,7 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
         uint64_t badk = L, cat = at[4];
         uint8_t *buf;
         /* (a) prefix: level l's list uses only vertices < vertex_count(level_first_lod[l]) */
-        for (l = 0; l < n; l++) {
+        for (l = 0; !f->indx_partial && l < n; l++) {
             uint64_t e = SWPM__A(a1, l + 1);
             k = swpm__first_at_least(x, W, SWPM__A(a1, l), e, SWPM__VC(SWPM__A(a0, l)), exempt, restart);
             if (k < e) return swpm__err("SWPM_PREFIX_VIOLATION", ibase + W * k);
@@ -1815,14 +1955,14 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
         for (l = 0; l < n; l++)
             if (SWPM__A(a3, l + 1) > SWPM__A(a3, l) && SWPM__A(a1, l + 1) - SWPM__A(a1, l) > longest)
                 longest = SWPM__A(a1, l + 1) - SWPM__A(a1, l);
-        need = W * longest;
+        need = f->indx_partial ? 0 : W * longest; /* (4.2: INDX not all held, the replay waits) */
         if (need && (scratch == NULL || (uint64_t)scratch_bytes < need)) {
-            swpm_result s = {SWPM_READER_SCRATCH_TOO_SMALL, 0, 0, 0};
+            swpm_result s = {SWPM_READER_SCRATCH_TOO_SMALL, 0, 0, 0, 0};
             s.need = need;
             return s;
         }
         buf = (uint8_t *)scratch;
-        for (pos = 0, k = 0, l = 0; l < n; l++) {
+        for (pos = 0, k = 0, l = 0; !f->indx_partial && l < n; l++) {
             uint64_t s0 = SWPM__A(a1, l), m = SWPM__A(a1, l + 1) - s0, r0 = SWPM__A(a3, l), r1 = SWPM__A(a3, l + 1);
             uint64_t kend = l + 1 < n ? SWPM__A(a0, l + 1) : L, count;
             const uint8_t *cur = x + W * s0;
@@ -1851,7 +1991,7 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
                 if (SWPM__I(list1, s0 + j) != SWPM__I(cur, j)) return swpm__err("SWPM_LEVEL_BAD_TABLE", cat + W * (s0 + j));
         }
         /* the collapsed lists' prefix: level l's uses only vertices < V - level_record_start[l+1] */
-        for (l = 0; l < n; l++) {
+        for (l = 0; !f->indx_partial && l < n; l++) {
             uint64_t e = SWPM__A(a2, l + 1);
             k = swpm__first_at_least(list1, W, SWPM__A(a2, l), e, V - SWPM__A(a3, l + 1), exempt, restart);
             if (k < e) return swpm__err("SWPM_PREFIX_VIOLATION", cat + W * k);
@@ -1883,7 +2023,7 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
         }
         /* the prefix checks: static lists, dynamic lists (vertices < vertex_count(level_first_lod[l])), the
          * live part of the collapsed dynamic lists (< V - level_record_start[l+1]) */
-        for (q = 0; q < 2; q++)
+        for (q = f->indx_partial ? 1 : 0; q < 2; q++) /* (4.2: INDX's static lists not all held: they wait) */
             for (l = 0; l < n; l++) {
                 const uint8_t *st = q ? a2 : a1;
                 uint64_t e = SWPM__A(st, l + 1);
@@ -1903,7 +2043,9 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
          * with records + 7 alignment bytes); then the copy must equal the collapsed dynamic list */
         for (l = 0; l < n; l++)
             if (SWPM__A(a2, l + 1) - SWPM__A(a2, l) > longest) longest = SWPM__A(a2, l + 1) - SWPM__A(a2, l);
-        if (R) {
+        if (R && f->indx_partial) {
+            /* (4.2: the replay reads the static lists of INDX, not all held: it waits for the whole file) */
+        } else if (R) {
             uint64_t *refs, pad = (uint64_t)((8 - ((uintptr_t)scratch & 7)) & 7), dl = 0;
             uint8_t *buf;
             for (l = 0; l < n; l++)
@@ -1911,7 +2053,7 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
                     dl = SWPM__A(a2, l + 1) - SWPM__A(a2, l);
             need = 8 * V + W * dl + 7;
             if (scratch == NULL || (uint64_t)scratch_bytes < need) {
-                swpm_result s = {SWPM_READER_SCRATCH_TOO_SMALL, 0, 0, 0};
+                swpm_result s = {SWPM_READER_SCRATCH_TOO_SMALL, 0, 0, 0, 0};
                 s.need = need;
                 return s;
             }
@@ -2330,11 +2472,12 @@ static const uint8_t *swpm__rebase(const uint8_t *p, const uint8_t *old, const u
     return p ? now + (p - old) : p;
 }
 swpm_result swpm_prefix_finish(swpm_file *f, const uint8_t *bytes, size_t length) {
-    swpm_result ok = {NULL, 0, 0, 0};
+    swpm_result ok = {NULL, 0, 0, 0, 0};
     uint64_t len = (uint64_t)length, vo, vl, g;
     uint32_t crc;
     const uint8_t *old = f->bytes;
     int i;
+    if (f->ranges) return swpm_ranges_finish(f, bytes, length, NULL, 0); /* (ranges: it checks them all) */
     /* in the order of format.md 5: step 1's length, then step 2's VERT CRC (the last entry) and padding */
     if (f->prefix && len < f->file_size) return swpm__err("SWPM_FILE_SIZE_MISMATCH", 40);
     if (f->prefix) { /* (a whole file was checked all through: only its views move to `bytes`) */
@@ -2363,16 +2506,101 @@ swpm_result swpm_prefix_finish(swpm_file *f, const uint8_t *bytes, size_t length
     return ok;
 }
 int swpm_is_prefix(const swpm_file *f) { return f->prefix; }
+int swpm_is_ranges(const swpm_file *f) { return f->ranges != NULL; }
+/* 4.2: each LOD's held INDX elements below the vertices it draws (a level's list: its first LOD's; a strips'
+ * restart index exempt), else SWPM_PREFIX_VIOLATION at the first element that is not, LODs in order */
+static swpm_result swpm__check_drawn(const swpm_file *f) {
+    swpm_result ok = {NULL, 0, 0, 0, 0};
+    uint64_t k, first, count, io, lim, pos;
+    int exempt = f->encoding == 2 ? f->strips : f->encoding == 3 ? f->has_restart : 0;
+    if (!f->ranges || !f->indx_partial) return ok;
+    io = (uint64_t)(f->indx - f->bytes);
+    for (k = 0; k < f->lod_count; k++) {
+        if (!swpm_lod_index_range(f, k, &first, &count) || count == 0) continue;
+        if (swpm__held_to(f->ranges, f->range_count, f->held, io + first * f->index_width,
+                          io + (first + count) * f->index_width) < io + (first + count) * f->index_width)
+            continue;
+        lim = swpm_lod_vertex_count(f, f->encoding == 3 || f->encoding == 4
+                                           ? swpm__la(f, 0, swpm_level_of_lod(f, k)) : k);
+        pos = swpm__first_at_least(f->indx, f->index_width, first, first + count, lim, exempt, f->restart_index);
+        if (pos < first + count) return swpm__err("SWPM_PREFIX_VIOLATION", io + pos * f->index_width);
+    }
+    return ok;
+}
+swpm_result swpm_ranges_finish(swpm_file *f, const uint8_t *bytes, size_t length, void *scratch,
+                               size_t scratch_bytes) {
+    swpm_file g;
+    swpm_result r;
+    uint64_t q;
+    if (f->ranges) /* the held ranges' bytes must be these (the old buffer is read: keep it until here) */
+        for (q = 0; q < f->range_count; q++) {
+            const swpm_range *h = &f->ranges[q];
+            if (h->offset + h->length > (uint64_t)length ||
+                (h->length && memcmp(bytes + h->offset, f->bytes + h->offset, (size_t)h->length) != 0)) {
+                swpm_result bad = {SWPM_READER_BAD_RANGES, 0, 0, 0, 0};
+                return bad;
+            }
+        }
+    /* the deferred checks need most of the file (CRCs, INDX's content and replays): checked all through */
+    r = swpm__open(bytes, length, &g, scratch, scratch_bytes, 0, NULL, 0);
+    if (!r.code) *f = g;
+    return r;
+}
 uint64_t swpm_file_size(const swpm_file *f) { return f->file_size; }
 uint64_t swpm_bytes_held(const swpm_file *f) { return f->held; }
 uint64_t swpm_lod_needed_bytes(const swpm_file *f, uint64_t k) {
     return f->vert_offset + f->data_offset + (uint64_t)swpm_lod_vertex_count(f, k) * f->stride;
 }
+int swpm_lod_index_range(const swpm_file *f, uint64_t k, uint64_t *first, uint64_t *count) {
+    uint64_t l;
+    if (k >= f->lod_count) return 0;
+    if (f->encoding == 2) {
+        uint32_t vc;
+        return swpm_window(f, k, first, count, &vc);
+    }
+    if (f->encoding == 3 || f->encoding == 4) { /* level_index_start, mixed level_static_start */
+        l = swpm_level_of_lod(f, k);
+        *first = swpm__la(f, 1, l);
+        *count = swpm__la(f, 1, l + 1) - *first;
+        return 1;
+    }
+    *first = 0;
+    *count = f->index_count;
+    return 1;
+}
+uint32_t swpm_lod_needed_ranges(const swpm_file *f, uint64_t k, swpm_range out[3]) {
+    uint64_t io = (uint64_t)(f->indx - f->bytes), first, count;
+    uint32_t n = 0;
+    if (!swpm_lod_index_range(f, k, &first, &count)) return 0;
+    out[n].offset = 0;
+    out[n++].length = io;
+    if (count) {
+        out[n].offset = io + first * f->index_width;
+        out[n++].length = count * f->index_width;
+    }
+    out[n].offset = f->vert_offset;
+    out[n++].length = f->data_offset + (uint64_t)swpm_lod_vertex_count(f, k) * f->stride;
+    return n;
+}
 int swpm_lod_drawable(const swpm_file *f, uint64_t k) {
+    if (f->ranges) { /* 4.2: (a), (b) and (c) held; no byte of them is read */
+        swpm_range r[3];
+        uint32_t n = swpm_lod_needed_ranges(f, k, r), i;
+        if (n == 0) return 0;
+        for (i = 0; i < n; i++)
+            if (swpm__held_to(f->ranges, f->range_count, f->held, r[i].offset, r[i].offset + r[i].length) <
+                r[i].offset + r[i].length)
+                return 0;
+        return 1;
+    }
     return k < f->lod_count && swpm_lod_needed_bytes(f, k) <= f->held;
 }
 uint64_t swpm_finest_drawable_lod(const swpm_file *f) {
     uint64_t lo = 0, hi = f->lod_count; /* needed bytes do not increase with k: the first drawable one */
+    if (f->ranges) { /* (ranges: the drawable LODs need not be consecutive) */
+        while (lo < hi && !swpm_lod_drawable(f, lo)) lo++;
+        return lo;
+    }
     while (lo < hi) {
         uint64_t mid = lo + (hi - lo) / 2;
         if (swpm_lod_needed_bytes(f, mid) <= f->held) hi = mid;
