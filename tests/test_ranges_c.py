@@ -223,3 +223,30 @@ def test_drawn_element_and_deferred_faults(dump: Path, tmp_path: Path) -> None: 
     path.write_bytes(bytes(b))
     got = _agree(dump, path, bytes(b), spans)
     assert got["ok"] and got["finish"]["code"] == "SWPM_CHUNK_CRC_MISMATCH", got
+
+
+def test_record_faults_before_indx_found_at_once(dump: Path, tmp_path: Path) -> None:  # noqa: F811
+    """Spec 4.2 step 3: with INDX not all held, a record check that reads no INDX element still runs (a
+    skip-strip record's binned vertex, a mixed record's removal counts): the range read of the coarsest band
+    reports the whole file's first error at once, in C as in Python; only the replays wait. Each file is
+    changed at the first SREC / MREC byte (after its counts) whose change makes the whole file fail with a
+    record error, CRCs recomputed."""
+    for variant, build in (REAL[3], REAL[4]):
+        data = encode_bytes(build("suzanne"))
+        spans = _coarsest_band(data)
+        tag = b"SREC" if variant == "skip-strip" else b"MREC"
+        ro, rl = _chunks(data)[tag]
+        for pos in range(ro + 8, ro + rl):
+            b = bytearray(data)
+            b[pos] ^= 0x01
+            bad = refix_crcs(bytes(b))
+            whole = validate_bytes(bad)
+            if not whole.valid and whole.errors[0].code.startswith("SWPM_RECORD_"):
+                break
+        else:
+            raise AssertionError(f"{variant}: no record byte fails the whole file")
+        path = tmp_path / f"{variant}-record.swpm"
+        path.write_bytes(bad)
+        got = _agree(dump, path, bad, spans)
+        assert not got["ok"] and got["code"] == whole.errors[0].code, (variant, got, whole.errors[0])
+        assert got["offset"] == whole.errors[0].offset, (variant, got)

@@ -2043,8 +2043,9 @@ static swpm_result swpm__levels(swpm_file *f, const uint8_t *bytes, const uint64
          * with records + 7 alignment bytes); then the copy must equal the collapsed dynamic list */
         for (l = 0; l < n; l++)
             if (SWPM__A(a2, l + 1) - SWPM__A(a2, l) > longest) longest = SWPM__A(a2, l + 1) - SWPM__A(a2, l);
-        if (R && f->indx_partial) {
-            /* (4.2: the replay reads the static lists of INDX, not all held: it waits for the whole file) */
+        if (f->indx_partial) {
+            /* (4.2: the replay reads the static lists of INDX, not all held: it waits for the whole file, and
+             * so does its first step without records, the dynamic lists against their collapsed lists) */
         } else if (R) {
             uint64_t *refs, pad = (uint64_t)((8 - ((uintptr_t)scratch & 7)) & 7), dl = 0;
             uint8_t *buf;

@@ -126,8 +126,8 @@ def _skip(p: _Parsed, rep: Report) -> None:
                 limit=int(vc[first[lv]]),
             )
             ok = False
-    if ok and full:
-        ok = _skip_records(p, rep, rec, arrs, lst, rc, s_c, collapsed_at, exempt)
+    if ok:
+        ok = _skip_records(p, rep, rec, arrs, lst, rc, s_c, collapsed_at, exempt, replay=full)
     if not ok:
         p.content_ok = False
         return
@@ -145,10 +145,13 @@ def _skip_records(
     s_c: _Chunk,
     collapsed_at: int,
     restart: int | None,
+    replay: bool = True,
 ) -> bool:
     """Skip-strip records against the lists and LODS (spec 3.7): record r bins V-1-r onto a kept vertex
     below it, the level table matches RCNT, replaying a level's records changes only slots holding the
-    binned vertex, removes it from the list and gives the collapsed list, and LODS counts what is drawn."""
+    binned vertex, removes it from the list and gives the collapsed list, and LODS counts what is drawn.
+    ``replay`` False (ranges without all of ``INDX``, spec 4.2): the checks up to LODS' vertex counts run,
+    the replay and the collapsed lists' prefix wait for the whole file."""
     assert p.points is not None and p.lods is not None
     V, Lc, W, O = p.vertex_count, p.lods.shape[0], p.width, p.offset_width
     kept = rec["collapse_kept"].astype(np.int64)
@@ -189,8 +192,8 @@ def _skip_records(
             expected=int(V - nrc[k]),
         )
         ok = False
-    if not ok:
-        return False
+    if not ok or not replay:
+        return ok
     kind, r, s, tris = skip_replay(
         lst,
         lstart,
