@@ -165,6 +165,15 @@ static uint32_t points_crc_update(uint32_t c, const swpm_file *f, uint64_t n) {
 /* CRC-32 of the points of vertices [0, n) */
 static uint32_t points_crc(const swpm_file *f, uint64_t n) { return points_crc_update(0xFFFFFFFFu, f, n) ^ 0xFFFFFFFFu; }
 
+/* a finished prefix's or ranges' "whole_crc": every point and the index pool, read through f's views */
+static void whole_crc(const swpm_file *f) {
+    uint64_t count;
+    uint32_t width;
+    const uint8_t *pool = swpm_index_pool(f, &count, &width);
+    printf(",\"whole_crc\":[%lu,%lu]", (unsigned long)points_crc(f, swpm_vertex_count(f)),
+           (unsigned long)(swpm__crc_update(0xFFFFFFFFu, pool, count * width) ^ 0xFFFFFFFFu));
+}
+
 /* --ranges OFF:LEN,... [--fill HH] FILE: see the top of the file. */
 static int ranges(int argc, char **argv) {
     size_t size, top = 0, nh = 0, i;
@@ -234,11 +243,7 @@ static int ranges(int argc, char **argv) {
         printf("}");
         odd_free(buf); /* finished, f views `whole` (ASan: a stale view trips) */
         buf = NULL;
-        if (!r.code) {
-            pool = swpm_index_pool(&f, &count, &width);
-            printf(",\"whole_crc\":[%lu,%lu]", (unsigned long)points_crc(&f, swpm_vertex_count(&f)),
-                   (unsigned long)(swpm__crc_update(0xFFFFFFFFu, pool, count * width) ^ 0xFFFFFFFFu));
-        }
+        if (!r.code) whole_crc(&f);
         odd_free(whole);
     }
     printf("}\n");
@@ -305,11 +310,7 @@ static int prefixes(int argc, char **argv) {
             printf("}");
             odd_free(part); /* finished, f views `whole`: the prefix's buffer may go (ASan: a stale view trips) */
             part = NULL;
-            if (!r.code) { /* every point and the index pool, through the moved views */
-                pool = swpm_index_pool(&f, &count, &width);
-                printf(",\"whole_crc\":[%lu,%lu]", (unsigned long)points_crc(&f, swpm_vertex_count(&f)),
-                       (unsigned long)(swpm__crc_update(0xFFFFFFFFu, pool, count * width) ^ 0xFFFFFFFFu));
-            }
+            if (!r.code) whole_crc(&f); /* every point and the index pool, through the moved views */
             odd_free(whole);
         }
         printf("}\n");
