@@ -1084,11 +1084,48 @@ def test_refine_patch_order_skips_only_swaps_that_cannot_win(spot: Mesh) -> None
                 assert np.array_equal(order, refine_patch_order(*args, False)), (level, reach, max_run)
 
 
+def test_refine_long_moves_bring_cold_patches_to_their_neighbours(spot: Mesh) -> None:
+    """``long_reach``: a patch that shares no vertex with the patch before it may move next to a neighbouring
+    patch farther than ``reach`` away. On spot's greedy orders that lowers the misses summed over the windows
+    below the search without it, moves some patch farther than ``reach``, keeps the pairs with a common
+    target in order, and leaves the swap skipping exact (the same order with and without it)."""
+    from swpm_usd.encode.sw_refine import _patch_neighbours, refine_patch_order, window_misses
+
+    pm = build_sliding_window(spot, order_passes=0)  # the greedy order
+    for level in (1, 4):
+        n, block_start, blocks = _level_blocks(pm, level)
+        nb_start, nbl = _patch_neighbours(block_start, blocks, n, pm.vertex_count, True)
+        for p in (0, n // 2, n - 1):  # neighbours share a vertex, both ways, and exclude the patch itself
+            for q in nbl[nb_start[p] : nb_start[p + 1]]:
+                assert q != p and p in nbl[nb_start[q] : nb_start[q + 1]]
+                assert np.intersect1d(
+                    blocks[block_start[p] : block_start[p + 1]], blocks[block_start[q] : block_start[q + 1]]
+                ).size
+        no_targets = np.zeros(n + 1, np.int64), np.zeros(0, np.int64), 1
+        args = (block_start, blocks, n, *no_targets, pm.vertex_count, 16, 2, 1, 2, True)
+        short, far = refine_patch_order(*args, 0), refine_patch_order(*args, 64)
+        assert np.array_equal(np.sort(far), np.arange(n))
+        assert window_misses(block_start, blocks, n, far, 16) < window_misses(
+            block_start, blocks, n, short, 16
+        )
+        place = np.empty(n, np.int64)
+        place[far] = np.arange(n)
+        assert np.abs(place - np.arange(n)).max() > 2 * 2  # (two passes of reach 2 move a patch 4 at most)
+        pairs = np.arange(n + 1, dtype=np.int64), np.arange(n, dtype=np.int64) // 2, n
+        args = (block_start, blocks, n, *pairs, pm.vertex_count, 16, 2, 1, 2)
+        order = refine_patch_order(*args, True, 64)
+        place[order] = np.arange(n)
+        assert np.all(place[0 : n - 1 : 2] < place[1:n:2])
+        assert np.array_equal(order, refine_patch_order(*args, False, 64)), level
+
+
 def test_order_passes_warm_the_windows_with_the_same_pool_and_errors(spot: Mesh) -> None:
     """``order_passes`` reorders each level's patches (records renumbered with them): every window is still
     the collapse sequence replayed, the pool, the levels and every collapse's error are unchanged, and the
-    windows draw with fewer cache misses (spot, every third window, against the greedy order alone: -1.5 %
-    with two passes of reach 1, -2.1 % at the defaults, two passes of reach 2; -2.3 % with reach 3)."""
+    windows draw with fewer cache misses (spot, every third window, against the greedy order alone: -1.8 %
+    with two passes of reach 1, -2.4 % at the defaults, two passes of reach 2; -2.4 % with reach 3, within
+    0.01 % of the defaults: the long moves of the patches drawn cold, ``sw_layout._LONG_REACH``, take most
+    of what the larger reach gained; without them -1.3 / -1.9 / -2.0 %)."""
     from swpm_usd.metrics import cache_misses
 
     base = swpm_usd.build(spot, "sliding-window", order_passes=0)
@@ -1110,8 +1147,8 @@ def test_order_passes_warm_the_windows_with_the_same_pool_and_errors(spot: Mesh)
         return sum(cache_misses(p.triangles_at(k).reshape(-1), 16)[0] for k in range(0, p.lod_count, 3))
 
     reach1 = swpm_usd.build(spot, "sliding-window", order_reach=1)
-    assert misses(pm) < misses(default) < misses(reach1) < 0.99 * misses(base)
-    assert misses(pm) < 0.985 * misses(base)
+    assert misses(default) < misses(reach1) < 0.99 * misses(base)
+    assert max(misses(pm), misses(default)) < 0.98 * misses(base)
     # the default is two passes with cluster=False only (a linked level's order is its tail's)
     assert np.array_equal(build_sliding_window(spot, order_passes=2).index_pool, default.index_pool)
     clustered = build_sliding_window(spot, cluster=True)

@@ -36,6 +36,9 @@ _HORIZON = 4
 _SETTLE = 40
 #: blocks a window's cold start is simulated (8 gives the same sums within 0.3 % for twice the time)
 _COLD_BLOCKS = 3
+#: a vertex in more patches than this does not make them neighbours (``long_reach``: a hub's patches are
+#: not near each other in any useful sense, and its list would make the neighbour lists quadratic)
+_NEIGHBOUR_HUB = 16
 
 
 # A simulation's state, one tuple for every helper: ``(blocks, block_start, key, log)``. A vertex is in the
@@ -291,6 +294,72 @@ def _apply_move(seq, lo, hi, n, run, sim, version):
     return end, version
 
 
+@nb.njit(cache=True)
+def _patch_neighbours(block_start, blocks, n, vertex_count, wanted):
+    """CSR of the patches that share a vertex with each patch (their ``P`` blocks; a vertex in more than
+    :data:`_NEIGHBOUR_HUB` patches is left out). Empty unless ``wanted``."""
+    nb_start = np.zeros(n + 1, np.int64)
+    if not wanted:
+        return nb_start, np.empty(0, np.int64)
+    vcnt = np.zeros(vertex_count + 1, np.int64)
+    last = np.full(vertex_count, -1, np.int64)
+    for p in range(n):
+        for x in range(block_start[p], block_start[p + 1]):
+            v = blocks[x]
+            if last[v] != p:
+                last[v] = p
+                vcnt[v + 1] += 1
+    for v in range(vertex_count):
+        vcnt[v + 1] += vcnt[v]
+    vl = np.empty(vcnt[vertex_count], np.int64)
+    fill = vcnt[:-1].copy()
+    last[:] = -1
+    for p in range(n):
+        for x in range(block_start[p], block_start[p + 1]):
+            v = blocks[x]
+            if last[v] != p:
+                last[v] = p
+                vl[fill[v]] = p
+                fill[v] += 1
+    seen = np.full(n, -1, np.int64)
+    # two passes: the count, then the fill (no growing array)
+    for rnd in range(2):
+        cnt = 0
+        if rnd == 1:
+            nbl = np.empty(nb_start[n], np.int64)
+        else:
+            nbl = np.empty(0, np.int64)
+        seen[:] = -1
+        for p in range(n):
+            seen[p] = p
+            for x in range(block_start[p], block_start[p + 1]):
+                v = blocks[x]
+                if vcnt[v + 1] - vcnt[v] > _NEIGHBOUR_HUB:
+                    continue
+                for y in range(vcnt[v], vcnt[v + 1]):
+                    q = vl[y]
+                    if seen[q] != p:
+                        seen[q] = p
+                        if rnd == 1:
+                            nbl[cnt] = q
+                        cnt += 1
+            if rnd == 0:
+                nb_start[p + 1] = cnt
+    return nb_start, nbl
+
+
+@nb.njit(cache=True, inline="always")
+def _jump(seq, pos, i, nb_start, nbl):
+    """Whether the patch at place ``i`` shares no vertex with the one at place ``i - 1``."""
+    if i == 0:
+        return True
+    p = seq[i]
+    for y in range(nb_start[p], nb_start[p + 1]):
+        if pos[nbl[y]] == i - 1:
+            return False
+    return True
+
+
 @nb.njit(cache=True, nogil=True)
 def refine_patch_order(
     block_start: np.ndarray,
@@ -305,6 +374,7 @@ def refine_patch_order(
     max_run: int,
     passes: int,
     skip_tried_swaps: bool = True,
+    long_reach: int = 0,
 ) -> np.ndarray:
     """New order (old patch index per place) of a level's ``n`` patches, drawn in index order so far.
 
@@ -317,7 +387,11 @@ def refine_patch_order(
     ``skip_tried_swaps`` (the default): a swap of neighbouring patches tried from the place before, with no
     move made since, is not evaluated again from the second place (the same candidate run on the same stored
     state, whose change was not below 0 then: it cannot be taken now). False evaluates it again: the same
-    order, about 12 % more of the search's time (tests compare the two)."""
+    order, about 12 % more of the search's time (tests compare the two).
+
+    ``long_reach`` > 0: a patch that shares no vertex with the one drawn before it (the greedy left it
+    behind and came back to it cold) may also move next to any patch it shares a vertex with, up to
+    ``long_reach`` places away (0: no such moves)."""
     order = np.arange(n, dtype=np.int64)
     if n < 3:
         return order
@@ -349,6 +423,8 @@ def refine_patch_order(
     marks = 0
     dont_look = np.zeros(n, np.bool_)  # per patch: no move of its improved the last time it was tried
     cand = seq.copy()
+    pos = np.arange(n, dtype=np.int64)  # the place of each patch
+    nb_start, nbl = _patch_neighbours(block_start, blocks, n, vertex_count, long_reach > 0)
     # the swap of the patches at places i - 1 and i, tried from place i - 1 (its k = i) with no move made
     # since, is the same candidate run from place i (its k = i - 1) on the same stored state: its change was
     # not below 0 then (else place i - 1 would have moved), so it cannot beat this place's best (at most 0)
@@ -388,12 +464,32 @@ def refine_patch_order(
                         best_k = k
                     cand[lo:hi] = seq[lo:hi]
                     cand[n + 1 + lo : n + 1 + hi] = seq[n + 1 + lo : n + 1 + hi]
+                if s == 1 and long_reach > 0 and _jump(seq, pos, i, nb_start, nbl):
+                    # next to each of the patch's neighbours, before or after it, beyond ``reach``
+                    p = seq[i]
+                    for y in range(nb_start[p], nb_start[p + 1]):
+                        pq = pos[nbl[y]]
+                        for k in (pq + 1 if pq < i else pq, pq if pq < i else pq - 1):
+                            if k < 0 or k > n - 1 or abs(k - i) <= reach or abs(k - i) > long_reach:
+                                continue
+                            marks += 1
+                            if _crosses_target(seq, i, s, k, target_start, targets, mark, marks):
+                                continue
+                            lo, hi = _arrange(seq, cand, n, i, s, k)
+                            d, version = _move_delta(cand, lo, hi, n, best, run, sim, sim2, version)
+                            if d < best:
+                                best = d
+                                best_k = k
+                            cand[lo:hi] = seq[lo:hi]
+                            cand[n + 1 + lo : n + 1 + hi] = seq[n + 1 + lo : n + 1 + hi]
                 if best_k < 0:
                     continue
                 lo, hi = _arrange(seq, cand, n, i, s, best_k)
                 seq[lo:hi] = cand[lo:hi]
                 seq[n + 1 + lo : n + 1 + hi] = cand[n + 1 + lo : n + 1 + hi]
                 end, version = _apply_move(seq, lo, hi, n, run, sim, version)
+                for x in range(lo, hi):
+                    pos[seq[x]] = x
                 moves += 1
                 for x in range(max(0, lo - reach - 1), min(n, end + reach + 1)):
                     dont_look[seq[x]] = False
