@@ -1051,14 +1051,16 @@ def test_refine_patch_order_lowers_the_windows_misses(spot: Mesh) -> None:
     for level in (1, 4):
         n, block_start, blocks = _level_blocks(pm, level)
         no_targets = np.zeros(n + 1, np.int64), np.zeros(0, np.int64)
-        order = refine_patch_order(block_start, blocks, n, *no_targets, 1, pm.vertex_count, 16, 3, 2, 2, True)
+        order = refine_patch_order(
+            block_start, blocks, n, *no_targets, 1, pm.vertex_count, 16, 3, 2, 2, True, 0
+        )
         assert np.array_equal(np.sort(order), np.arange(n)) and not np.array_equal(order, np.arange(n))
         before = window_misses(block_start, blocks, n, np.arange(n), 16)
         after = window_misses(block_start, blocks, n, order, 16)
         assert after < 0.99 * before, (level, before, after)
         # patches 2m and 2m + 1 share target m: each pair keeps its order
         pairs = np.arange(n + 1, dtype=np.int64), np.arange(n, dtype=np.int64) // 2
-        order = refine_patch_order(block_start, blocks, n, *pairs, n, pm.vertex_count, 16, 3, 2, 2, True)
+        order = refine_patch_order(block_start, blocks, n, *pairs, n, pm.vertex_count, 16, 3, 2, 2, True, 0)
         place = np.empty(n, np.int64)
         place[order] = np.arange(n)
         assert np.all(place[0 : n - 1 : 2] < place[1:n:2])
@@ -1079,9 +1081,9 @@ def test_refine_patch_order_skips_only_swaps_that_cannot_win(spot: Mesh) -> None
         for targets in (no_targets, pairs):
             for reach, max_run, passes in ((1, 1, 2), (2, 1, 2), (3, 2, 3)):
                 args = (block_start, blocks, n, *targets, pm.vertex_count, 16, reach, max_run, passes)
-                order = refine_patch_order(*args, True)  # (passed, as the builder does: one compile)
+                order = refine_patch_order(*args, True, 0)  # (passed, as the builder does: one compile)
                 assert not np.array_equal(order, np.arange(n))
-                assert np.array_equal(order, refine_patch_order(*args, False)), (level, reach, max_run)
+                assert np.array_equal(order, refine_patch_order(*args, False, 0)), (level, reach, max_run)
 
 
 def test_refine_long_moves_bring_cold_patches_to_their_neighbours(spot: Mesh) -> None:
