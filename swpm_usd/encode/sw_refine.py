@@ -294,6 +294,22 @@ def _apply_move(seq, lo, hi, n, run, sim, version):
     return end, version
 
 
+@nb.njit(cache=True, inline="always")
+def _try_move(seq, cand, n, i, s, k, search, marks, best, version):
+    """The change of the search's sum if the run of ``s`` patches at place ``i`` moved to place ``k``
+    (:func:`_move_delta`; ``best``, no better, where the move would cross a patch sharing its target), with
+    ``cand`` left equal to ``seq`` again. ``search = (target_start, targets, mark, run, sim, sim2)``.
+    Returns the change and the simulation's version."""
+    target_start, targets, mark, run, sim, sim2 = search
+    if _crosses_target(seq, i, s, k, target_start, targets, mark, marks):
+        return best, version
+    lo, hi = _arrange(seq, cand, n, i, s, k)
+    d, version = _move_delta(cand, lo, hi, n, best, run, sim, sim2, version)
+    cand[lo:hi] = seq[lo:hi]
+    cand[n + 1 + lo : n + 1 + hi] = seq[n + 1 + lo : n + 1 + hi]
+    return d, version
+
+
 @nb.njit(cache=True)
 def _patch_neighbours(block_start, blocks, n, vertex_count, wanted):
     """CSR of the patches that share a vertex with each patch (their ``P`` blocks; a vertex in more than
@@ -420,6 +436,7 @@ def refine_patch_order(
         version += 1
         cold[a] = _cold_extra(seq, a, snap, m_run, no_change, sim, version)
     mark = np.zeros(target_count, np.int64)
+    search = (target_start, targets, mark, run, sim, sim2)  # (what every tried move reads: _try_move)
     marks = 0
     dont_look = np.zeros(n, np.bool_)  # per patch: no move of its improved the last time it was tried
     cand = seq.copy()
@@ -455,15 +472,10 @@ def refine_patch_order(
                             swap_at = i
                             swap_moves = moves
                     marks += 1
-                    if _crosses_target(seq, i, s, k, target_start, targets, mark, marks):
-                        continue
-                    lo, hi = _arrange(seq, cand, n, i, s, k)
-                    d, version = _move_delta(cand, lo, hi, n, best, run, sim, sim2, version)
+                    d, version = _try_move(seq, cand, n, i, s, k, search, marks, best, version)
                     if d < best:
                         best = d
                         best_k = k
-                    cand[lo:hi] = seq[lo:hi]
-                    cand[n + 1 + lo : n + 1 + hi] = seq[n + 1 + lo : n + 1 + hi]
                 if s == 1 and long_reach > 0 and _jump(seq, pos, i, nb_start, nbl):
                     # next to each of the patch's neighbours, before or after it, beyond ``reach``
                     p = seq[i]
@@ -473,15 +485,10 @@ def refine_patch_order(
                             if k < 0 or k > n - 1 or abs(k - i) <= reach or abs(k - i) > long_reach:
                                 continue
                             marks += 1
-                            if _crosses_target(seq, i, s, k, target_start, targets, mark, marks):
-                                continue
-                            lo, hi = _arrange(seq, cand, n, i, s, k)
-                            d, version = _move_delta(cand, lo, hi, n, best, run, sim, sim2, version)
+                            d, version = _try_move(seq, cand, n, i, s, k, search, marks, best, version)
                             if d < best:
                                 best = d
                                 best_k = k
-                            cand[lo:hi] = seq[lo:hi]
-                            cand[n + 1 + lo : n + 1 + hi] = seq[n + 1 + lo : n + 1 + hi]
                 if best_k < 0:
                     continue
                 lo, hi = _arrange(seq, cand, n, i, s, best_k)
