@@ -158,6 +158,39 @@ def test_asset_layout(pm, asset):
         assert prim.GetAttribute(p.name).HasAuthoredValue()
 
 
+def test_asset_info_names_the_asset_and_its_layer(pm, asset, tmp_path):
+    stage = Usd.Stage.Open(str(asset))
+    model = Usd.ModelAPI(stage.GetDefaultPrim())
+    assert model.GetAssetName() == "Suzanne"
+    ident = model.GetAssetIdentifier()
+    assert ident.path == "./" + asset.name and Path(ident.resolvedPath) == asset.resolve()
+    # file-relative: a moved layer still names itself, and a stage that references it reads it composed
+    moved = tmp_path / "sub" / asset.name
+    moved.parent.mkdir()
+    moved.write_bytes(asset.read_bytes())
+    top = Usd.Stage.CreateNew(str(tmp_path / "top.usda"))
+    prim = top.DefinePrim("/Ref")
+    prim.GetReferences().AddReference("./sub/" + asset.name)
+    assert Path(Usd.ModelAPI(prim).GetAssetIdentifier().resolvedPath) == moved.resolve()
+    assert Usd.ModelAPI(prim).GetAssetName() == "Suzanne"
+
+
+@pytest.mark.parametrize(
+    ("file", "prim"),
+    [("caf\u00e9.usda", "Caf\u00e9"), ("\u65e5\u672c.usdc", "\u65e5\u672c"), ("3d-model.usda", "_d_model")],
+)
+def test_root_prim_of_a_non_ascii_file_keeps_its_name(pm, tmp_path, file, prim):
+    # usd-core takes UTF-8 identifiers: the root prim is named as the pipeline's scene names the asset's prim
+    # (ASCII's Tf.MakeValidIdentifier made caf\u00e9 Caf___); an ASCII name is as before
+    from swpm_usd.pipeline.scene import _valid_identifier
+
+    path = usd.write(pm, tmp_path / file)
+    stage = Usd.Stage.Open(str(path))
+    root = stage.GetDefaultPrim()
+    assert root.GetName() == prim == _valid_identifier(prim)
+    assert Usd.ModelAPI(root).GetAssetName() == prim
+
+
 def test_read_equals_format_file(pm, asset, tmp_path):
     stage = Usd.Stage.Open(str(asset))
     prim = stage.GetDefaultPrim()
@@ -371,7 +404,9 @@ def test_usda_on_request_and_round_trip_is_stable(pm, tmp_path):
     assert a.suffix == ".usda" and a.read_text().startswith("#usda")
     stage = Usd.Stage.Open(str(a))
     back = usd.read(stage.GetDefaultPrim())
-    b = usd.write(back, tmp_path / "b.usda", name="a")
+    # (the same file name elsewhere: assetInfo's identifier names the layer's own file)
+    (tmp_path / "again").mkdir()
+    b = usd.write(back, tmp_path / "again" / "a.usda")
     assert a.read_text() == b.read_text()
 
 

@@ -13,6 +13,7 @@ import hashlib
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..usd.names import valid_identifier as _valid_identifier  # (a module global: tests patch it here)
 from .worker import LAYER_UNIT_KEYS, recorded_layer_units
 
 if TYPE_CHECKING:  # (pxr is imported where a USD output is written: a run without one never loads it)
@@ -35,21 +36,6 @@ def _layer_with_units(out_dir: Path, layer: dict) -> dict | None:
 #: mangled (``café`` -> ``caf___`` and a hash) and is written again, though no record changed; a scene of
 #: ASCII names alone is recorded as before
 UTF8_PRIM_NAMES = "utf8_prim_names"
-
-
-def _valid_identifier(stem: str) -> str:
-    """``stem`` as a USD identifier: an ASCII stem as ``Tf.MakeValidIdentifier`` makes it (each character
-    but ``[A-Za-z0-9_]`` and a leading digit ``_``, as always); a non-ASCII one as usd-core (0.26) reads
-    identifiers, UTF-8 of XID_Start then XID_Continue (``Sdf.Path.IsValidIdentifier``: ``café``, ``日本``),
-    each character it refuses ``_`` (``Tf.MakeValidIdentifier`` is ASCII's: ``café`` was ``caf___``)."""
-    from pxr import Sdf, Tf
-
-    if stem.isascii() or not stem:
-        return Tf.MakeValidIdentifier(stem)
-    if Sdf.Path.IsValidIdentifier(stem):
-        return stem
-    first = stem[0] if Sdf.Path.IsValidIdentifier(stem[0]) else "_"
-    return first + "".join(ch if Sdf.Path.IsValidIdentifier(f"_{ch}") else "_" for ch in stem[1:])
 
 
 def _utf8_named(stems: list[str]) -> bool:

@@ -2,7 +2,8 @@
 
 Asset layout (``write``)::
 
-    /<Name>        Xform, defaultPrim, kind=component   (references / instanceable prims target this)
+    /<Name>        Xform, defaultPrim, kind=component, assetInfo (name, identifier)
+                   (references / instanceable prims target this)
       mesh         Mesh + SwpmMeshAPI: points in LOD order, LOD-0 topology, primvars, swpm:* buffers
 
 With ``lods=n`` the mesh also gets a ``LOD`` variant set (``LOD0`` .. ``LOD{n-1}``, selection ``LOD0``) whose
@@ -32,6 +33,7 @@ from ..fileio import fill_layer_replacing
 from ..format.layout import draw_index_width
 from . import plugin
 from .arrays import to_vt
+from .names import valid_identifier
 from .schema import COLLAPSE_FLAT, COLLAPSE_PREFIX, FORMAT_VERSION, SCHEMA_NAME, attr_name, camel
 
 MESH_NAME = "mesh"
@@ -249,8 +251,10 @@ def select_lods(pm: ProgressiveMesh, count: int, by: str = "triangles", ratio: f
 
 
 def _prim_name(path: Path, name: str | None) -> str:
+    """The root prim's name: ``name``, else the file's stem up to its first dot, capitalised, as a USD
+    identifier (a UTF-8 one as it is where usd-core takes it, as the pipeline's scene names its prims)."""
     raw = name or path.stem.split(".")[0] or "Asset"
-    return Tf.MakeValidIdentifier(raw[0].upper() + raw[1:])
+    return valid_identifier(raw[0].upper() + raw[1:])
 
 
 def _layer_args(path: Path, fmt: str | None) -> dict[str, str]:
@@ -360,7 +364,12 @@ def write(
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z if up_axis.upper() == "Z" else UsdGeom.Tokens.y)
     UsdGeom.SetStageMetersPerUnit(stage, scale)
     root = UsdGeom.Xform.Define(stage, Sdf.Path.absoluteRootPath.AppendChild(_prim_name(p, name)))
-    Usd.ModelAPI(root.GetPrim()).SetKind(Kind.Tokens.component)
+    model = Usd.ModelAPI(root.GetPrim())
+    model.SetKind(Kind.Tokens.component)
+    # assetInfo, as asset-management tools read it (usdview's Meta Data, UsdUtils' dependency tools): the
+    # name, and the layer itself as the identifier, file-relative (anchored to this layer wherever it moves)
+    model.SetAssetName(root.GetPrim().GetName())
+    model.SetAssetIdentifier(Sdf.AssetPath("./" + p.name))
     stage.SetDefaultPrim(root.GetPrim())
     mesh = UsdGeom.Mesh.Define(stage, root.GetPath().AppendChild(MESH_NAME))
     discrete = select_lods(pm, lods, lod_by) if lods else None
