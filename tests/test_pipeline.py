@@ -1514,6 +1514,23 @@ def _listed_outputs(out: Path) -> tuple[set[str], set[str]]:
     return files, {o["path"] for rec in assets.values() for o in rec.get("outputs", {}).values()}
 
 
+def test_a_pipeline_layer_s_asset_info_names_its_own_file_not_the_temporary_one(tmp_path):
+    """The worker exports each layer to a temporary file and renames it: assetInfo's identifier, the layer
+    itself, is the output's name (./cow.usdc), not the temporary file's, and resolves to the output."""
+    cfg = _project(tmp_path, ("cow.obj",), MINIMAL.replace("dir: out", "{dir: out, usd: true, scene: true}"))
+    from pxr import Usd
+
+    assert run(cfg, echo=lambda m: None).built == 1
+    layer = tmp_path / "out" / "cow.usdc"
+    stage = Usd.Stage.Open(str(layer))
+    model = Usd.ModelAPI(stage.GetDefaultPrim())
+    assert model.GetAssetName() == "Cow" and model.GetAssetIdentifier().path == "./cow.usdc"
+    assert Path(model.GetAssetIdentifier().resolvedPath) == layer.resolve()
+    scene = Usd.Stage.Open(str(tmp_path / "out" / "scene.usda"))  # (composed: read through the reference)
+    (child,) = scene.GetDefaultPrim().GetChildren()
+    assert Path(Usd.ModelAPI(child).GetAssetIdentifier().resolvedPath) == layer.resolve()
+
+
 def test_rebuilt_outputs_keep_the_mode_of_the_files_they_replace(tmp_path):
     """Each output is a temporary file renamed over the previous one: it took the umask's mode (0o644), so
     outputs made private (0o600) were readable by everyone after the next run."""

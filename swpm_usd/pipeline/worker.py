@@ -161,7 +161,7 @@ def _stage_usd(
         finally:
             os.close(fd)
         meta = layer_units(source) if units is None else units
-        usd_write(pm, tmp, name=target.stem.split(".")[0] or None, **meta)
+        usd_write(pm, tmp, name=target.stem.split(".")[0] or None, identifier="./" + target.name, **meta)
         # the replaced layer's mode once written (a read-only one's, given first, refused usd-core the write)
         set_mode_for(tmp, target)
         with open(tmp, "rb") as f:

@@ -345,13 +345,15 @@ def write(
     meters_per_unit: float = 1.0,
     lods: int | None = None,
     lod_by: str = "triangles",
+    identifier: str | None = None,
 ) -> Path:
     """Write ``pm`` as an asset layer: ``/<Name>`` (Xform, default prim) / ``mesh`` (Mesh + SwpmMeshAPI).
 
     ``.usdc`` by default (also for ``.usd``); ``.usda`` for a ``.usda`` path or ``fmt="usda"``. ``lods=n``
     adds the ``LOD`` variant set of :func:`select_lods` (``lod_by`` ``"triangles"`` or ``"error"``).
     ``up_axis`` ``"Y"`` or ``"Z"`` and ``meters_per_unit`` (above 0) are the stage's metadata; other values
-    raise :class:`UsdWriteError`.
+    raise :class:`UsdWriteError`. ``identifier``: the root prim's ``assetInfo`` identifier, ``./<the file's
+    name>`` by default (a caller that writes a temporary file and renames it gives the final name's).
     Returns the written path.
     """
     if str(up_axis).upper() not in ("Y", "Z"):  # (the only two USD defines)
@@ -369,7 +371,7 @@ def write(
     # assetInfo, as asset-management tools read it (usdview's Meta Data, UsdUtils' dependency tools): the
     # name, and the layer itself as the identifier, file-relative (anchored to this layer wherever it moves)
     model.SetAssetName(root.GetPrim().GetName())
-    model.SetAssetIdentifier(Sdf.AssetPath("./" + p.name))
+    model.SetAssetIdentifier(Sdf.AssetPath("./" + p.name if identifier is None else identifier))
     stage.SetDefaultPrim(root.GetPrim())
     mesh = UsdGeom.Mesh.Define(stage, root.GetPath().AppendChild(MESH_NAME))
     discrete = select_lods(pm, lods, lod_by) if lods else None
