@@ -3562,9 +3562,9 @@ def test_a_build_recorded_with_its_count_in_the_digest_is_not_built_again(tmp_pa
     # once (a crowd of vanilla assets of 100 instances: every one), its outputs the same
     import hashlib
 
-    from swpm_usd import __version__
     from swpm_usd.pipeline import inputs
     from swpm_usd.pipeline.assets import canonical_treatment
+    from swpm_usd.pipeline.build_version import build_version
 
     monkeypatch.setattr(inputs, "_RACY_NS", 0)
     config = MINIMAL.replace('glob: "meshes/*.obj"', 'glob: "meshes/*.obj"\n    instances: 40')
@@ -3579,7 +3579,7 @@ def test_a_build_recorded_with_its_count_in_the_digest_is_not_built_again(tmp_pa
 
     def before(count: int) -> str:  # (the digest as it was: the count in it, whatever the encoding)
         treatment = canonical_treatment({"encoding": "skip-strip", "params": {}})  # (the rule "small"'s)
-        payload = [rec["input_digest"], None, count, treatment, {}, __version__]
+        payload = [rec["input_digest"], None, count, treatment, {}, build_version(treatment)]
         return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
 
     assert before(1) == digest  # (the default count: the digest it had)

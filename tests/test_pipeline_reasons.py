@@ -152,17 +152,51 @@ def test_params_and_encoding_changed_name_what_moved(project):
     assert because["meshes/b.obj"] == []
 
 
-def test_another_tool_version(project, monkeypatch):
-    from swpm_usd.pipeline import rules, runner
+def test_another_tool_version_alone_rebuilds_nothing(project, monkeypatch):
+    # a release that changes no output bumps no build version (build_version.py): nothing is to build
+    from swpm_usd.pipeline import runner
 
-    then = json.loads((project.parent / "out" / "manifest.json").read_text())["tool_version"]
-    monkeypatch.setattr(rules, "__version__", "99.0.0")
     monkeypatch.setattr(runner, "__version__", "99.0.0")
     because, _ = _dry(project)
-    assert because["meshes/a.obj"] == [{"code": "version-changed", "detail": f"{then} -> 99.0.0"}]
-    # with a parameter changed too: both (the record's digest reproduced with the record's version)
-    project.write_text(_config("encoding: vanilla\n  params: {seam_weight: 3}"))
-    assert _codes(_dry(project)[0]["meshes/a.obj"]) == ["treatment-changed", "version-changed"]
+    assert because == {"meshes/a.obj": [], "meshes/b.obj": []}
+
+
+@pytest.mark.parametrize(("part", "rebuilt"), [("vanilla", True), ("sliding-window", False), ("base", True)])
+def test_a_build_version_bumped_rebuilds_the_assets_it_changes(project, monkeypatch, part, rebuilt):
+    from swpm_usd.pipeline.build_version import BUILD_VERSIONS
+
+    then = BUILD_VERSIONS[part]
+    monkeypatch.setitem(BUILD_VERSIONS, part, "99.0.0")
+    because, _ = _dry(project)
+    expected = [{"code": "version-changed", "detail": f"{part} {then} -> 99.0.0"}] if rebuilt else []
+    assert because == {"meshes/a.obj": expected, "meshes/b.obj": expected}
+    if rebuilt:  # with a parameter changed too: both (the record's digest reproduced with its build version)
+        project.write_text(_config("encoding: vanilla\n  params: {seam_weight: 3}"))
+        assert _codes(_dry(project)[0]["meshes/a.obj"]) == ["treatment-changed", "version-changed"]
+        res = run(project, echo=lambda m: None)
+        assert (res.built, res.failed) == (2, 0), res.failures
+        assert _dry(project)[0] == {"meshes/a.obj": [], "meshes/b.obj": []}
+
+
+def test_a_record_of_a_tool_before_build_versions_is_rebuilt_once(project):
+    # its digest held the tool's version (0.9.1 and before): rebuilt, saying from which version
+    from swpm_usd.pipeline.assets import Asset, treatment_digest
+
+    def edit(data):
+        data["tool_version"] = "0.9.1"
+        for key, rec in data["assets"].items():
+            asset = Asset(key, project.parent / key, None, 1, ())
+            treatment = {"encoding": "vanilla", "params": {}}
+            rec["digest"] = treatment_digest(rec["input_digest"], asset, treatment, "0.9.1", None)
+            del rec["build_version"]
+
+    _edit_manifest(project, edit)
+    because, _ = _dry(project)
+    (entry,) = because["meshes/a.obj"]
+    assert entry["code"] == "version-changed" and entry["detail"].startswith("0.9.1 -> base ")
+    res = run(project, echo=lambda m: None)
+    assert (res.built, res.failed) == (2, 0), res.failures
+    assert _dry(project)[0] == {"meshes/a.obj": [], "meshes/b.obj": []}
 
 
 def test_a_digest_not_reproduced_is_said_so(project):
@@ -475,3 +509,15 @@ def test_canonical_treatments_are_looked_up_by_value_and_type():
         assert type(_canonical(t)["params"]["seam_weight"]) is type(
             canonical_treatment(t)["params"]["seam_weight"]
         )
+
+
+def test_every_encoding_has_a_build_version_and_auto_takes_them_all():
+    from swpm_usd.encodings import ENCODING_PARAMS
+    from swpm_usd.pipeline.build_version import BUILD_VERSIONS, build_version
+
+    assert set(BUILD_VERSIONS) == {"base", "auto", *ENCODING_PARAMS}
+    auto = build_version({"encoding": "auto", "params": {}})
+    assert all(f"{part} {v}" in auto for part, v in BUILD_VERSIONS.items())
+    for encoding in ENCODING_PARAMS:
+        parts = build_version({"encoding": encoding}).split(", ")
+        assert parts == [f"base {BUILD_VERSIONS['base']}", f"{encoding} {BUILD_VERSIONS[encoding]}"]

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 from ..errors import first_few
 from .assets import _MAXIMA, _MINIMA, canonical_treatment, checks_no_stricter, checks_of, treatment_digest
 from .auto import AUTO_SELECT
+from .build_version import build_version
 from .config import Config
 from .file_hash import STAT_KEYS
 from .inputs import recorded_path
@@ -224,6 +225,27 @@ def _recorded_treatments(prev: dict) -> list[dict]:
     return _once(found)
 
 
+def _build_version_parts(version: str) -> dict[str, str] | None:
+    """A build version's parts (:func:`.build_version.build_version`: part -> release), None for a tool's
+    version (a record's from before build versions)."""
+    try:
+        parts = dict(item.rsplit(" ", 1) for item in version.split(", "))
+    except ValueError:
+        return None
+    return parts if "base" in parts else None
+
+
+def _version_change(then: str, now: str) -> str:
+    """``version-changed``'s detail: the parts of the build version that changed (``sliding-window 0.9.2 ->
+    0.9.3``), or the record's tool version and today's build version when the record is older than build
+    versions."""
+    old, new = _build_version_parts(then), _build_version_parts(now)
+    if old is None or new is None:
+        return f"{then} -> {now}"
+    changed = sorted(p for p in old.keys() | new.keys() if old.get(p) != new.get(p))
+    return ", ".join(f"{p} {old.get(p, 'none')} -> {new.get(p, 'none')}" for p in changed)
+
+
 def _digest_reasons(cfg: Config, item: PlanItem, prev: dict, version: str, version_then: Any) -> list[dict]:
     """The reasons the record's digest is not today's: its input digest, and the other parts of the digest
     that reproduce it (:func:`.assets.treatment_digest` of the record's input digest with the treatment,
@@ -240,19 +262,19 @@ def _digest_reasons(cfg: Config, item: PlanItem, prev: dict, version: str, versi
     # the treatments tried (canonical, each once): the record's first (what it was most likely built with),
     # then today's
     treatments = [t for t in _recorded_treatments(prev) if t != now] + [now]
-    versions = [version]
-    if isinstance(version_then, str) and version_then != version:
-        versions.append(version_then)
     today_checks = checks_of(cfg.data)
     match = None
     for treatment in treatments:
         auto = treatment.get("encoding") == "auto"
         checks = _once([today_checks, prev.get("checks")] if auto else [None])
         counts = _once([asset.instances, prev.get("instances")] if auto else [1, prev.get("instances")])
+        # the treatment's build version today, the record's, and (a record of a tool before build versions,
+        # whose digest held the tool's version) the manifest's tool version
+        versions = _once([build_version(treatment), prev.get("build_version"), version_then])
         for v, c, n in itertools.product(versions, checks, counts):
-            if type(n) is not int or (auto and not isinstance(c, dict)):
+            if type(n) is not int or (auto and not isinstance(c, dict)) or not isinstance(v, str):
                 continue
-            today = (now, version, today_checks if auto else None, asset.instances if auto else 1)
+            today = (now, build_version(now), today_checks if auto else None, asset.instances if auto else 1)
             if then_inputs == item.input_digest and (treatment, v, c, n) == today:
                 continue  # (today's digest, which is not the record's)
             if treatment_digest(then_inputs, asset, treatment, v, c, instances=n) == prev["digest"]:
@@ -280,8 +302,8 @@ def _digest_reasons(cfg: Config, item: PlanItem, prev: dict, version: str, versi
             parts.append(reason("instances-changed", f"{n} -> {asset.instances}"))
         if c != today_checks:
             parts.append(reason("checks-changed", _limits_changed(today_checks, c, stricter=False)))
-    if v != version:
-        parts.append(reason("version-changed", f"{v} -> {version}"))
+    if v != build_version(then):
+        parts.append(reason("version-changed", _version_change(v, build_version(then))))
     if not found and not parts:  # (reproduced, yet every part today's: not expected, said as it is)
         parts.append(reason("digest-changed", "the record's digest is not today's"))
     return found + parts

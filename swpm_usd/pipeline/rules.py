@@ -17,8 +17,8 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .. import __version__
 from .assets import OUTPUT_NAMES, Asset, checks_of, match_rule, output_names, rule_checks, treatment_digest
+from .build_version import build_version
 from .config import Config
 from .worker import TRIANGLES_READ
 
@@ -46,7 +46,9 @@ def _total_fits(cfg: Config, record: dict, item: PlanItem) -> bool:
 
 def _treatment_digest(cfg: Config, item: PlanItem) -> str:
     checks = checks_of(cfg.data) if item.treatment.get("encoding") == "auto" else None
-    return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, checks)
+    return treatment_digest(
+        item.input_digest, item.asset, item.treatment, build_version(item.treatment), checks
+    )
 
 
 def _digest_with_count(item: PlanItem, record: dict) -> str | None:
@@ -57,7 +59,8 @@ def _digest_with_count(item: PlanItem, record: dict) -> str | None:
     count = record.get("instances")
     if item.treatment.get("encoding") == "auto" or type(count) is not int or count == 1:
         return None
-    return treatment_digest(item.input_digest, item.asset, item.treatment, __version__, instances=count)
+    version = build_version(item.treatment)
+    return treatment_digest(item.input_digest, item.asset, item.treatment, version, instances=count)
 
 
 def _same_rule_from(cfg: Config, asset: Asset, lowest: int) -> bool:

@@ -31,6 +31,7 @@ from .auto import _misses_scores as _misses_scores
 from .auto import choose_auto, summarize
 from .auto import lod_change_cost as lod_change_cost
 from .auto import misses_at_error as misses_at_error
+from .build_version import build_version
 from .file_hash import STAT_KEYS as STAT_KEYS  # (re-exported, as the names below)
 from .file_hash import hash_with_stat as hash_with_stat
 from .file_hash import output_record
@@ -353,20 +354,22 @@ def serve(conn: Any) -> None:
 def _treatment_digest_of(task: dict[str, Any], input_digest: str) -> str:
     """The task's digest (:func:`.assets.treatment_digest`: the runner's, of its planned rule) with
     ``input_digest`` for the plan's."""
-    from .. import __version__
     from .assets import Asset, checks_of, treatment_digest
 
     asset = Asset(task["id"], Path(task["path"]), task["prim"], task["instances"], task["tags"])
     treatment = {"encoding": task["encoding"], "params": task["params"]}
     checks = checks_of(task) if task["encoding"] == "auto" else None
-    if treatment_digest(task["input_digest"], asset, treatment, __version__, checks) != task["digest"]:
+    version = build_version(treatment)
+    if treatment_digest(task["input_digest"], asset, treatment, version, checks) != task["digest"]:
         raise RuntimeError(f"{task['path']}: the plan's digest is not reproduced from its task")  # (a bug)
-    return treatment_digest(input_digest, asset, treatment, __version__, checks)
+    return treatment_digest(input_digest, asset, treatment, version, checks)
 
 
 def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
     start = time.perf_counter()
     rec: dict[str, Any] = {"id": task["id"], "digest": task["digest"], "status": "failed"}
+    if task["encoding"] is not None:  # (the digest's build version; a pending rule's: once it is matched)
+        rec["build_version"] = build_version({"encoding": task["encoding"]})
     writing = False  # (an OSError once the outputs are written is theirs: OUTPUT_UNWRITABLE)
     try:
         from .. import build as build_pm
@@ -401,7 +404,6 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
         encoding, params = task["encoding"], task["params"]
         reason = task["why"]
         if task.get("config_data") is not None:  # the planner left the rule to the triangle count
-            from .. import __version__
             from .assets import Asset, checks_of, match_rule, treatment_digest
             from .config import Config
 
@@ -412,7 +414,8 @@ def _process_asset(task: dict[str, Any]) -> dict[str, Any]:
             encoding, params = treatment["encoding"], treatment["params"]
             rec["rule_index"] = rule
             checks = checks_of(task["config_data"]) if treatment["encoding"] == "auto" else None
-            rec["digest"] = treatment_digest(input_digest, asset, treatment, __version__, checks)
+            rec["build_version"] = build_version(treatment)
+            rec["digest"] = treatment_digest(input_digest, asset, treatment, rec["build_version"], checks)
         candidates = None
         if encoding == "auto":
             storable = None
