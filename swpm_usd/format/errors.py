@@ -619,5 +619,85 @@ def render_markdown() -> str:
     return "\n".join(lines) + "\n\n" + codes_table()
 
 
+#: the C reader's own codes (runtime/c/swpm_reader.h): answers about the call, not the file, so not in the
+#: catalogue above; runtime/c/swpm_codes.h lists them beside it
+C_READER_CODES = [
+    Entry(
+        "SWPM_READER_SCRATCH_TOO_SMALL",
+        ERROR,
+        "",
+        "The replay needs more scratch memory than swpm_open_ex was given (swpm_result.need bytes); the file "
+        "is neither accepted nor rejected.",
+        "",
+    ),
+    Entry(
+        "SWPM_READER_BAD_RANGES",
+        ERROR,
+        "",
+        "A held range lies past the buffer or past file_size, or a held byte changed before finishing: the "
+        "caller's error, not the file's.",
+        "",
+    ),
+    Entry(
+        "SWPM_READER_UNSUPPORTED_ENCODING",
+        ERROR,
+        "",
+        "No longer returned (every encoding is read); defined for code that tests for it.",
+        "",
+    ),
+]
+
+
+def _c_string(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def render_c_header() -> str:
+    """``runtime/c/swpm_codes.h``: every code a reader reports, its severity and meaning, for an engine's
+    log (the C reader returns the code alone); generated, do not edit by hand."""
+    rows = [
+        f"    {{{_c_string(e.code)}, {_c_string(e.severity)},\n     {_c_string(e.meaning)}}},"
+        for e in [*_ENTRIES, *C_READER_CODES]
+    ]
+    return "\n".join(
+        [
+            "/* swpm_codes.h: every code the SWPM readers report (spec/errors.md), with its severity and",
+            " * meaning, for an engine's log: swpm_code_lookup(r.code)->meaning. Header-only, C99 and C++11;",
+            " * include it beside swpm_reader.h. Generated from swpm_usd/format/errors.py",
+            " * (`python -m swpm_usd.format.errors --c > runtime/c/swpm_codes.h`); do not edit. */",
+            "#ifndef SWPM_CODES_H",
+            "#define SWPM_CODES_H",
+            "",
+            "#include <string.h>",
+            "",
+            "typedef struct swpm_code_info {",
+            "    const char *code;     /* the stable code, as swpm_result.code holds it */",
+            '    const char *severity; /* "error", "warning" or "info" */',
+            "    const char *meaning;  /* one or two sentences: what is wrong */",
+            "} swpm_code_info;",
+            "",
+            f"#define SWPM_CODE_COUNT {len(rows)}",
+            "",
+            "static const swpm_code_info swpm_codes[SWPM_CODE_COUNT] = {",
+            *rows,
+            "};",
+            "",
+            "/* The entry of `code` (a swpm_result's code); NULL for NULL or an unlisted code. */",
+            "static inline const swpm_code_info *swpm_code_lookup(const char *code) {",
+            "    int i;",
+            "    if (code == NULL) return NULL;",
+            "    for (i = 0; i < SWPM_CODE_COUNT; i++)",
+            "        if (strcmp(swpm_codes[i].code, code) == 0) return &swpm_codes[i];",
+            "    return NULL;",
+            "}",
+            "",
+            "#endif /* SWPM_CODES_H */",
+            "",
+        ]
+    )
+
+
 if __name__ == "__main__":  # pragma: no cover
-    print(render_markdown(), end="")
+    import sys
+
+    print(render_c_header() if sys.argv[1:] == ["--c"] else render_markdown(), end="")

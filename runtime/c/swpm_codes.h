@@ -1,0 +1,156 @@
+/* swpm_codes.h: every code the SWPM readers report (spec/errors.md), with its severity and
+ * meaning, for an engine's log: swpm_code_lookup(r.code)->meaning. Header-only, C99 and C++11;
+ * include it beside swpm_reader.h. Generated from swpm_usd/format/errors.py
+ * (`python -m swpm_usd.format.errors --c > runtime/c/swpm_codes.h`); do not edit. */
+#ifndef SWPM_CODES_H
+#define SWPM_CODES_H
+
+#include <string.h>
+
+typedef struct swpm_code_info {
+    const char *code;     /* the stable code, as swpm_result.code holds it */
+    const char *severity; /* "error", "warning" or "info" */
+    const char *meaning;  /* one or two sentences: what is wrong */
+} swpm_code_info;
+
+#define SWPM_CODE_COUNT 63
+
+static const swpm_code_info swpm_codes[SWPM_CODE_COUNT] = {
+    {"SWPM_IO_ERROR", "error",
+     "The file could not be opened or mapped."},
+    {"SWPM_HEADER_TRUNCATED", "error",
+     "The file is shorter than the 64-byte header."},
+    {"SWPM_HEADER_BAD_MAGIC", "error",
+     "The first 8 bytes are not the SWPM signature."},
+    {"SWPM_HEADER_UNSUPPORTED_MAJOR", "error",
+     "The major version is not 1; nothing after the version fields can be interpreted."},
+    {"SWPM_HEADER_NEWER_MINOR", "info",
+     "A newer minor version: only ancillary chunks, flags and reserved fields can differ."},
+    {"SWPM_HEADER_BAD_SIZE", "error",
+     "The header size field is invalid."},
+    {"SWPM_HEADER_UNKNOWN_FEATURE", "error",
+     "A required feature this reader does not implement."},
+    {"SWPM_HEADER_BAD_ENCODING", "error",
+     "Exactly one of the encoding feature bits must be set."},
+    {"SWPM_HEADER_STRIPS_NOT_SLIDING", "error",
+     "The SW_STRIPS feature bit (0x20) is allowed only with the sliding-window encoding."},
+    {"SWPM_HEADER_OFFSET32_WITH_INDEX32", "error",
+     "The OFFSET32 feature bit (0x40) widens only the tables of a file whose index type is u16; with INDEX32 it is not allowed."},
+    {"SWPM_HEADER_RESERVED_NONZERO", "warning",
+     "A reserved header field is not zero."},
+    {"SWPM_FILE_SIZE_MISMATCH", "error",
+     "The file is shorter than its header declares (truncated download)."},
+    {"SWPM_FILE_TRAILING_BYTES", "warning",
+     "The file is longer than declared; the extra bytes are ignored."},
+    {"SWPM_CHECKSUM_MISMATCH", "error",
+     "The CRC-32 over header and chunk table does not match."},
+    {"SWPM_TABLE_TRUNCATED", "error",
+     "The chunk table runs past the end of the file."},
+    {"SWPM_TABLE_TOO_LARGE", "error",
+     "A v1 file has at most 1024 chunks."},
+    {"SWPM_TABLE_BAD_OFFSET", "error",
+     "The chunk table must start at or after the header, on an 8-byte boundary."},
+    {"SWPM_CHUNK_BAD_TYPE", "error",
+     "A chunk type must be four characters from A-Z, a-z, 0-9."},
+    {"SWPM_CHUNK_OUT_OF_BOUNDS", "error",
+     "A chunk's payload lies (partly) outside the file."},
+    {"SWPM_CHUNK_MISALIGNED", "error",
+     "Payloads start on 8-byte boundaries."},
+    {"SWPM_CHUNK_OVERLAP", "error",
+     "Two chunks, or a chunk and the header or table, share bytes."},
+    {"SWPM_CHUNK_OUT_OF_ORDER", "error",
+     "Chunk-table entries are listed in increasing offset order."},
+    {"SWPM_CHUNK_CRC_MISMATCH", "error",
+     "A chunk's CRC-32 over its type and payload does not match."},
+    {"SWPM_CHUNK_DUPLICATE", "error",
+     "Every v1 chunk type occurs at most once."},
+    {"SWPM_CHUNK_UNKNOWN_CRITICAL", "error",
+     "A chunk marked critical that this reader does not know: the file cannot be decoded."},
+    {"SWPM_CHUNK_UNKNOWN_ANCILLARY", "info",
+     "An ancillary chunk this reader does not know; it is skipped."},
+    {"SWPM_CHUNK_MISSING", "error",
+     "A chunk the encoding needs is absent."},
+    {"SWPM_CHUNK_NOT_ALLOWED", "error",
+     "A known chunk of another encoding."},
+    {"SWPM_CHUNK_BAD_FLAGS", "error",
+     "A known chunk with the wrong critical bit."},
+    {"SWPM_CHUNK_BAD_LENGTH", "error",
+     "A chunk's length does not match the counts it declares."},
+    {"SWPM_COUNT_EXCEEDS_CHUNK", "error",
+     "A count that would need more bytes than remain (checked before anything is allocated)."},
+    {"SWPM_PADDING_NONZERO", "error",
+     "Padding before the chunk table, between chunks and after the last payload must be zero (padding inside payloads is not checked)."},
+    {"SWPM_STREAM_ORDER", "warning",
+     "Chunks are not in the coarse-to-fine order of the spec; the file decodes but does not stream."},
+    {"SWPM_PREFIX_TOO_SHORT", "error",
+     "A prefix reader (format.md 4.1) was given fewer bytes than opening the file takes: its header and chunk table, every payload before VERT and VERT's first data_offset bytes; read on when more bytes have arrived (only a prefix reader reports it)."},
+    {"SWPM_PREFIX_NOT_STREAMABLE", "error",
+     "The last entry of the chunk table is not a VERT, so a prefix of the file cannot hold every table before the vertices (format.md 4.1); read the whole file (only a prefix reader reports it)."},
+    {"SWPM_RANGES_NOT_HELD", "error",
+     "A range reader (format.md 4.2) was given byte ranges that lack what opening the file takes: its header and chunk table, every byte before INDX, VERT's bytes before its vertex records; fetch [start, end) and open again (only a range reader reports it)."},
+    {"SWPM_META_BAD_JSON", "error",
+     "The metadata chunk cannot be decoded."},
+    {"SWPM_META_BAD_FIELD", "error",
+     "A metadata field has the wrong type."},
+    {"SWPM_LOD_EMPTY", "error",
+     "At least one LOD is required."},
+    {"SWPM_LOD_NOT_MONOTONE", "error",
+     "Vertex and triangle counts must not increase, errors must not decrease (no NaN)."},
+    {"SWPM_LOD_VERTEX_COUNT", "error",
+     "LOD 0 must use every vertex, no LOD more than there are."},
+    {"SWPM_VERT_BAD_LAYOUT", "error",
+     "The VERT header or attribute table is invalid."},
+    {"SWPM_VERT_NONFINITE", "warning",
+     "Points should be finite."},
+    {"SWPM_INDEX_WIDTH", "error",
+     "A u32 file whose values all fit u16 is allowed; this reports a u16 file that needs u32."},
+    {"SWPM_INDEX_OUT_OF_RANGE", "error",
+     "An index at or above the vertex count (or an offset past its list)."},
+    {"SWPM_WINDOW_OUT_OF_POOL", "error",
+     "A sliding window that is not inside the index pool."},
+    {"SWPM_WINDOW_NOT_MONOTONE", "error",
+     "Windows are ordered finest to coarsest with non-increasing triangle counts."},
+    {"SWPM_WINDOW_COUNT_MISMATCH", "error",
+     "A window's counts differ from the LOD table."},
+    {"SWPM_WINDOW_MID_STRIP", "error",
+     "A strip pool's window (SW_STRIPS) must start at the pool's start or right after a restart index, so that its strips take the parity the pool's decoding gives them (it may end inside a strip)."},
+    {"SWPM_WINDOW_STRIP_TRIANGLES", "error",
+     "A strip pool's window (SW_STRIPS) must decode to exactly triangle_count non-degenerate triangles."},
+    {"SWPM_PREFIX_VIOLATION", "error",
+     "The vertex prefix property: LOD k draws only vertices below vertex_count_at(k)."},
+    {"SWPM_RECORD_BAD_KEPT", "error",
+     "A collapse must keep a vertex that stays in use."},
+    {"SWPM_RECORD_BAD_BINNED", "error",
+     "Skip-strip record r must bin the last vertex still in use, V - 1 - r (vertex prefix property)."},
+    {"SWPM_RECORD_BAD_COUNTS", "error",
+     "Change counts, previous change counts, removed triangles or per-LOD record counts are inconsistent."},
+    {"SWPM_RECORD_BAD_CHANGE", "error",
+     "A change offset must point at a live index slot holding the binned vertex; a record's changes are made in the order listed, so a slot listed twice no longer holds it the second time."},
+    {"SWPM_LEVEL_BAD_TABLE", "error",
+     "The level table is inconsistent."},
+    {"SWPM_MIXED_BAD_LEVELS", "error",
+     "The mixed level table (MLVL) is inconsistent with itself, its arrays, MREC or RCNT."},
+    {"SWPM_SMAP_INVALID", "warning",
+     "The (ancillary) streaming map is malformed or does not cover what a LOD needs; ignore it."},
+    {"SWPM_ENCODING_UNAVAILABLE", "error",
+     "The file is valid but this installation cannot build its ProgressiveMesh."},
+    {"SWPM_BUFFERS_REJECTED", "error",
+     "from_buffers raised on the decoded arrays."},
+    {"SWPM_READER_SCRATCH_TOO_SMALL", "error",
+     "The replay needs more scratch memory than swpm_open_ex was given (swpm_result.need bytes); the file is neither accepted nor rejected."},
+    {"SWPM_READER_BAD_RANGES", "error",
+     "A held range lies past the buffer or past file_size, or a held byte changed before finishing: the caller's error, not the file's."},
+    {"SWPM_READER_UNSUPPORTED_ENCODING", "error",
+     "No longer returned (every encoding is read); defined for code that tests for it."},
+};
+
+/* The entry of `code` (a swpm_result's code); NULL for NULL or an unlisted code. */
+static inline const swpm_code_info *swpm_code_lookup(const char *code) {
+    int i;
+    if (code == NULL) return NULL;
+    for (i = 0; i < SWPM_CODE_COUNT; i++)
+        if (strcmp(swpm_codes[i].code, code) == 0) return &swpm_codes[i];
+    return NULL;
+}
+
+#endif /* SWPM_CODES_H */
