@@ -1967,6 +1967,7 @@ def _hand_edited(good: dict) -> dict[str, object]:
         "a curve point without its error": edit(lambda r: r["summary"]["curve"][0].pop("error")),
         "last_failure a string": edit(lambda r: r.update(last_failure="boom")),
         "seconds a string": edit(lambda r: r.update(seconds="0.5")),
+        "build_version a number": edit(lambda r: r.update(build_version=0.92)),
         # (the scene corrects the asset's layer by its units: scene._author_units_correction)
         "an up axis X": edit(lambda r: r["outputs"]["usd"].update(up_axis="X")),
         "metersPerUnit 0": edit(lambda r: r["outputs"]["usd"].update(meters_per_unit=0)),

@@ -52,6 +52,7 @@ def _file_name(value: Any) -> bool:
 _RECORD: dict[str, tuple[Callable[[Any], bool], str]] = {
     "status": (lambda v: isinstance(v, str), "a string"),
     "digest": (lambda v: isinstance(v, str), "a string"),
+    "build_version": (lambda v: isinstance(v, str), "a string"),
     "input_digest": (lambda v: isinstance(v, str), "a string"),
     "encoding": (lambda v: isinstance(v, str), "a string"),
     "error": (lambda v: isinstance(v, str), "a string"),
