@@ -273,3 +273,28 @@ def test_whole_file_reads_skip_no_check() -> None:
             continue
         if len(data) >= 64 and int.from_bytes(data[40:48], "little") == len(data):
             assert [(e.code, e.offset) for e in ranged.problems] == [(e.code, e.offset) for e in rep.problems]
+
+
+def test_read_lod_fetches_a_table_after_indx() -> None:
+    """A file not in streaming order (spec 2.3), its encoding's tables after INDX (spec 4.2): ``read_lod`` of
+    the coarsest LOD fetches each table the reader names (SWPM_RANGES_NOT_HELD with its payload's range)
+    and draws it as the whole file does; the table is never decoded from bytes not held."""
+    from swpm_usd.format.vectors import _entries, reorder
+
+    data = _file("suzanne", "sw-list")
+    types = [t for t, *_ in _entries(data)]
+    order = [0, 1, 2, types.index(b"INDX"), types.index(b"WREC"), types.index(b"VERT")]
+    moved = reorder(data, order)
+    wrec = next((o, n) for t, _, o, n in _entries(moved) if t == b"WREC")
+    whole = load_bytes(moved)
+    L = whole.lod_count
+    log: list[tuple[int, int]] = []
+    fr = read_lod(_reader(moved, log), L - 1)
+    assert wrec in log and L - 1 in fr.drawable_lods
+    _same_draws(moved, whole, fr)
+    held = {0: moved[: wrec[0]]}  # everything before WREC (INDX and VERT's header are not in it)
+    ch = {t: (o, n) for t, _, o, n in _entries(moved)}
+    vo = ch[b"VERT"][0]
+    held[vo] = moved[vo:]
+    rep = validate_ranges(held)
+    assert rep.errors[0].code == "SWPM_RANGES_NOT_HELD" and rep.summary["range_need"] == [wrec[0], sum(wrec)]
