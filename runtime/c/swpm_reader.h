@@ -231,8 +231,8 @@ int swpm_smap_band(const swpm_file *f, uint64_t b, uint32_t *first_lod, uint32_t
  * records must be held (else SWPM_RANGES_NOT_HELD at the first byte not held, with the range to fetch in
  * [.need_start, .need)); CRCs of payloads not wholly held, padding not held and the length wait for finishing;
  * without all of INDX its content checks wait too and each LOD's held INDX elements are checked against the
- * vertices it draws (SWPM_PREFIX_VIOLATION). This reader also needs every chunk it decodes held (a table
- * after INDX in a file not in streaming order: SWPM_RANGES_NOT_HELD with that chunk's range). A range past
+ * vertices it draws (SWPM_PREFIX_VIOLATION). Every table it decodes must be held too (format.md 4.2: a table
+ * after INDX in a file not in streaming order, SWPM_RANGES_NOT_HELD with that chunk's range). A range past
  * `length` or past file_size is the caller's error: SWPM_READER_BAD_RANGES.
  * The contract on `held` (tests/c_bad_ranges.c checks each clause): ranges may come in any order, overlap and
  * abut (what counts is the union of their bytes; their order changes no result); a range of length 0 holds
@@ -1353,8 +1353,8 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
             swpm_result r = {"SWPM_CHUNK_MISSING", 0, 0, 0, 0};
             return r;
         }
-    if (prefix == 2) { /* 4.2 step 3: every byte before INDX, VERT's bytes before its records, and (this reader)
-                          every other chunk it decodes */
+    if (prefix == 2) { /* 4.2 step 3: every byte before INDX, VERT's bytes before its records, and every other
+                          table it decodes (one after INDX: 4.2, the order of 2.3, as kinds are numbered) */
         uint64_t io = swpm__u64(bytes + table_offset + 32 * (uint64_t)first[SWPM__INDX] + 8), vo, vl, need;
         uint64_t eo = table_offset + 32 * (uint64_t)first[SWPM__VERT];
         int k;
