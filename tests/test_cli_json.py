@@ -46,6 +46,7 @@ CASES = [
     # validate --ranges: an item that is not OFF:LEN is named, before the file is read
     (["validate", "a.swpm", "--ranges", "0:64,64-128", "--json"], "'64-128' is not OFF:LEN", {}),
     (["validate", "a.swpm", "--ranges", "", "--json"], "'' is not OFF:LEN", {}),
+    (["validate", "a.swpm", "--ranges", "0:6\u00b2", "--json"], "'0:6\u00b2' is not OFF:LEN", {}),
     (
         ["validate", "a.swpm", "--lod", "1", "--prefix", "9", "--json"],
         "give one of --prefix, --ranges, --lod",

@@ -259,13 +259,13 @@ AFTER_INDX = ["minimal-vanilla", "sliding-window-offset32", "skip-strip-strip", 
 
 
 @pytest.mark.parametrize("name", AFTER_INDX)
-def test_tables_after_indx_must_be_held(dump: Path, tmp_path: Path, name: str) -> None:  # noqa: F811
+def test_tables_after_indx_must_be_held(dump: Path, dump_san: Path, tmp_path: Path, name: str) -> None:  # noqa: F811
     """Spec 4.2 (a table after INDX): a file laid out META LODS INDX [tables] SMAP VERT, held as [0, INDX's
     end) and all of VERT: SWPM_RANGES_NOT_HELD names each table's payload in the order of 2.3, in C as in
-    Python (both used to differ: Python decoded the tables' unheld bytes as zeros, reporting errors of the
-    whole file it does not have); once every table is held the ranges open and draw every LOD, with no
-    SMAP warning while SMAP is not held (a wrong map, SWPM_SMAP_INVALID in the whole file and in ranges that
-    hold it, waits for finishing when they do not)."""
+    Python (they used to differ: Python decoded the tables' unheld bytes as zeros, reporting errors of the
+    whole file it does not have), also under ASan / UBSan; once every table is held the ranges open and
+    draw every LOD, with no SMAP warning while SMAP is not held (a wrong map, SWPM_SMAP_INVALID in the
+    whole file and in ranges that hold it, waits for finishing when they do not)."""
     from swpm_usd.format.vectors import _entries, reorder
 
     data = (VECTORS / "valid" / f"{name}.swpm").read_bytes()
@@ -291,6 +291,8 @@ def test_tables_after_indx_must_be_held(dump: Path, tmp_path: Path, name: str) -
         asked.append((start, end - start))
         spans.append((start, end - start))
     assert asked == want
+    for held_spans in (spans[:2], spans):  # under ASan / UBSan: the first refusal, and the ranges opened
+        assert _c(dump_san, path, held_spans, 0xAA) == _expected(moved, held_spans)
     assert got["drawable"] == list(range(got["lod_count"])) and got["finish"] == {"ok": True}
     so, sl = ch[b"SMAP"]
     b = bytearray(moved)

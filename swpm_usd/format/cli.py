@@ -10,6 +10,7 @@ import contextlib
 import hashlib
 import json
 import math
+import re
 import sys
 import textwrap
 import time
@@ -831,12 +832,15 @@ def _validate_prefix(file: str, n: int, as_json: bool) -> None:
     sys.exit(0 if rep.valid else 1)
 
 
+_DECIMAL = re.compile(r"[0-9]+")
+
+
 def _parse_ranges(spec: str) -> list[tuple[int, int]]:
     """``--ranges``' OFF:LEN,... as (offset, length) pairs; a usage error naming the item that is not one."""
     out = []
     for item in spec.split(","):
         off, sep, ln = item.strip().partition(":")
-        if not (sep and off.isdigit() and ln.isdigit()):
+        if not (sep and _DECIMAL.fullmatch(off) and _DECIMAL.fullmatch(ln)):  # (isdigit() passes "²")
             raise click.BadParameter(
                 f"{item!r} is not OFF:LEN (a byte offset and a length, decimal: 0:4096,81920:2048)",
                 param_hint="--ranges",
