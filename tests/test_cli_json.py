@@ -43,6 +43,20 @@ CASES = [
     (["inspect", "x.swpm", "--rows", "0", "--json"], "Invalid value for '--rows'", {}),
     (["validate", "a.swpm", "b.swpm", "--json"], "Got unexpected extra argument (b.swpm)", {}),
     (["validate", "a.swpm", "--jsn", "--json"], "No such option '--jsn'", {}),
+    # validate --ranges: an item that is not OFF:LEN is named, before the file is read
+    (["validate", "a.swpm", "--ranges", "0:64,64-128", "--json"], "'64-128' is not OFF:LEN", {}),
+    (["validate", "a.swpm", "--ranges", "", "--json"], "'' is not OFF:LEN", {}),
+    (["validate", "a.swpm", "--ranges", "0:6\u00b2", "--json"], "'0:6\u00b2' is not OFF:LEN", {}),
+    (
+        ["validate", "a.swpm", "--lod", "1", "--prefix", "9", "--json"],
+        "give one of --prefix, --ranges, --lod",
+        {},
+    ),
+    (
+        ["validate", "a.usda", "--ranges", "0:64", "--json"],
+        "reads an SWPM file's bytes, not a USD stage's",
+        {},
+    ),
     (["conformance", "/nonexistent/vectors", "--json"], "/nonexistent/vectors: no such folder", {}),
 ]
 

@@ -330,3 +330,27 @@ def test_cli_validate_prefix() -> None:
     assert text.exit_code == 0 and "620 of 620 bytes draw LODs 0..1" in text.output
     huge = CliRunner().invoke(main, ["validate", path, "--prefix", str(1 << 60)])  # (was a MemoryError)
     assert huge.exit_code == 0 and "620 of 620 bytes draw LODs 0..1" in huge.output, huge.output
+
+
+def test_cli_validate_prefix_checks_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``validate --prefix N`` runs the codec's checks over the prefix once (it called validate_prefix, then
+    open_prefix for the summary: every check twice), counted at the check both call."""
+    from click.testing import CliRunner
+
+    import swpm_usd.format.prefix as prefix_mod
+    from swpm_usd.cli import main
+
+    calls: list[int] = []
+    real = prefix_mod._check
+
+    def counted(*a: Any, **k: Any) -> Any:
+        calls.append(1)
+        return real(*a, **k)
+
+    monkeypatch.setattr(prefix_mod, "_check", counted)
+    path = str(VECTORS / "valid" / "minimal-vanilla.swpm")
+    ok = CliRunner().invoke(main, ["validate", path, "--prefix", "608", "--json"])
+    assert ok.exit_code == 0 and json.loads(ok.output)["summary"]["prefix"]["finest_drawable"] == 1
+    assert len(calls) == 1
+    short = CliRunner().invoke(main, ["validate", path, "--prefix", "100"])
+    assert short.exit_code == 1 and "SWPM_PREFIX_TOO_SHORT" in short.output and len(calls) == 2

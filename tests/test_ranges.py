@@ -7,6 +7,7 @@ corruption outside the held ranges is found only on finishing, inside them at on
 
 from __future__ import annotations
 
+import json
 import random
 import struct
 from typing import Any
@@ -273,3 +274,130 @@ def test_whole_file_reads_skip_no_check() -> None:
             continue
         if len(data) >= 64 and int.from_bytes(data[40:48], "little") == len(data):
             assert [(e.code, e.offset) for e in ranged.problems] == [(e.code, e.offset) for e in rep.problems]
+
+
+def test_read_lod_fetches_a_table_after_indx() -> None:
+    """A file not in streaming order (spec 2.3), its encoding's tables after INDX (spec 4.2): ``read_lod`` of
+    the coarsest LOD fetches each table the reader names (SWPM_RANGES_NOT_HELD with its payload's range)
+    and draws it as the whole file does; the table is never decoded from bytes not held."""
+    from swpm_usd.format.vectors import _entries, reorder
+
+    data = _file("suzanne", "sw-list")
+    types = [t for t, *_ in _entries(data)]
+    order = [0, 1, 2, types.index(b"INDX"), types.index(b"WREC"), types.index(b"VERT")]
+    moved = reorder(data, order)
+    wrec = next((o, n) for t, _, o, n in _entries(moved) if t == b"WREC")
+    whole = load_bytes(moved)
+    L = whole.lod_count
+    log: list[tuple[int, int]] = []
+    fr = read_lod(_reader(moved, log), L - 1)
+    assert wrec in log and L - 1 in fr.drawable_lods
+    _same_draws(moved, whole, fr)
+    held = {0: moved[: wrec[0]]}  # everything before WREC (INDX and VERT's header are not in it)
+    ch = {t: (o, n) for t, _, o, n in _entries(moved)}
+    vo = ch[b"VERT"][0]
+    held[vo] = moved[vo:]
+    rep = validate_ranges(held)
+    assert rep.errors[0].code == "SWPM_RANGES_NOT_HELD" and rep.summary["range_need"] == [wrec[0], sum(wrec)]
+
+
+def _cli(*args: str) -> Any:
+    from click.testing import CliRunner
+
+    from swpm_usd.cli import main
+
+    return CliRunner().invoke(main, ["validate", *args])
+
+
+def test_cli_validate_ranges(tmp_path: Any, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``validate FILE --ranges OFF:LEN,...`` (spec 4.2): the coarsest band of SMAP checks once (counted at
+    the codec's check) and draws the LODs open_ranges draws (exit 0; --json's summary "ranges", the text's
+    line); the header alone is SWPM_RANGES_NOT_HELD naming the range to fetch (exit 1, "fetch next"); a
+    range past the end of the file, or past the header's file_size, is a usage error naming it (exit 2);
+    a fault inside the held ranges is the file's error (exit 1)."""
+    import swpm_usd.format.ranges as ranges_mod
+
+    data = _file("suzanne", "sw-list")
+    path = tmp_path / "s.swpm"
+    path.write_bytes(data)
+    L = load_bytes(data).lod_count
+    spans = ranges_for_lod(data, L - 1)
+    spec = ",".join(f"{o}:{n}" for o, n in spans)
+    calls: list[int] = []
+    real = ranges_mod._check
+
+    def counted(*a: Any, **k: Any) -> Any:
+        calls.append(1)
+        return real(*a, **k)
+
+    monkeypatch.setattr(ranges_mod, "_check", counted)
+    ok = _cli(str(path), "--ranges", spec, "--json")
+    assert ok.exit_code == 0, ok.output
+    assert len(calls) == 1
+    got = json.loads(ok.output)["summary"]["ranges"]
+    fr = open_ranges({o: data[o : o + n] for o, n in spans})
+    lods = fr.drawable_lods.tolist()
+    assert got["drawable_lods"] == lods and got["finest_drawable"] == lods[0] > 0 and L - 1 in lods
+    assert got["held_bytes"] == fr.held_bytes < len(data) and got["file_size"] == len(data)
+    assert not got["complete"] and got["needed_ranges"][str(L - 1)] == [
+        list(r) for r in fr.needed_ranges(L - 1)
+    ]
+    text = _cli(str(path), "--ranges", spec)
+    assert text.exit_code == 0
+    assert f"ranges: {fr.held_bytes} of {len(data)} bytes held draw LODs {lods[0]}..{lods[-1]}" in text.output
+    # the header alone: the table and what lies before INDX are fetched next
+    head = _cli(str(path), "--ranges", "0:64", "--json")
+    assert head.exit_code == 1
+    rep = json.loads(head.output)
+    need = rep["summary"]["range_need"]
+    assert rep["problems"][0]["code"] == "SWPM_RANGES_NOT_HELD" and need[0] == 0 and need[1] > 64
+    assert f"fetch next: 0:{need[1]}" in _cli(str(path), "--ranges", "0:64").output
+    # the caller's errors: usage errors naming the range
+    past = _cli(str(path), "--ranges", f"0:64,{len(data) - 8}:9")
+    assert past.exit_code == 2 and f"{len(data) - 8}:9 ends at byte {len(data) + 1}" in past.output
+    longer = tmp_path / "longer.swpm"  # 8 bytes after file_size: inside the file on disk, outside SWPM's
+    longer.write_bytes(data + bytes(8))
+    beyond = _cli(str(longer), "--ranges", f"0:{len(data) + 8}")
+    assert beyond.exit_code == 2 and "outside the file" in beyond.output, beyond.output
+    # a fault in a held range (META's first byte): the file's error, found at once
+    meta = struct.unpack_from("<Q", data, struct.unpack_from("<Q", data, 32)[0] + 8)[0]
+    b = bytearray(data)
+    b[meta] = ord("x")
+    bad = tmp_path / "bad.swpm"
+    bad.write_bytes(refix_crcs(bytes(b)))
+    first = validate_bytes(bad.read_bytes()).errors[0]
+    out = _cli(str(bad), "--ranges", spec, "--json")
+    assert out.exit_code == 1
+    assert (json.loads(out.output)["problems"][0]["code"], first.code) == ("SWPM_META_BAD_JSON",) * 2
+
+
+def test_cli_validate_lod(tmp_path: Any) -> None:
+    """``validate FILE --lod K``: what LOD K needs, fetched as read_lod fetches it (the same reads, in
+    order, none repeated), opened; LOD K draws (exit 0); a LOD the file does not have is a usage error (exit
+    2); a file whose held bytes hold an error exits 1 with it."""
+    data = _file("suzanne", "sw-list")
+    path = tmp_path / "s.swpm"
+    path.write_bytes(data)
+    L = load_bytes(data).lod_count
+    for k in (L - 1, L // 2):
+        log: list[tuple[int, int]] = []
+        fr = read_lod(_reader(data, log), k)
+        out = _cli(str(path), "--lod", str(k), "--json")
+        assert out.exit_code == 0, out.output
+        got = json.loads(out.output)["summary"]["ranges"]
+        assert got["lod"] == k and [tuple(r) for r in got["reads"]] == log
+        assert len(set(log)) == len(log), log  # (a range held is not read again: [0, INDX) was, twice)
+        assert k in got["drawable_lods"] and got["drawable_lods"] == fr.drawable_lods.tolist()
+    text = _cli(str(path), "--lod", str(L - 1))
+    assert text.exit_code == 0 and f"read for LOD {L - 1}: 0:4096," in text.output
+    none = _cli(str(path), "--lod", str(L))
+    assert none.exit_code == 2 and f"no such LOD: LOD {L} of {L}" in none.output
+    b = bytearray(data)
+    b[8] = 2  # major version 2: the header's error, whatever is fetched
+    bad = tmp_path / "bad.swpm"
+    bad.write_bytes(bytes(b))
+    out = _cli(str(bad), "--lod", "0", "--json")
+    assert (
+        out.exit_code == 1
+        and json.loads(out.output)["problems"][0]["code"] == "SWPM_HEADER_UNSUPPORTED_MAJOR"
+    )

@@ -4,7 +4,9 @@ verdict, the code, its offset and the range to fetch, the drawable LODs and the 
 points and ``INDX`` elements, band by band of ``SMAP`` for every valid vector and for real files of every
 encoding; the bytes not held set to 0x00 and to 0xAA give the same output (nothing unheld is read), also
 under AddressSanitizer with the held ranges copied into a buffer of their own; finishing gives the
-whole-file verdict.
+whole-file verdict. A file whose tables follow INDX needs them held, in C as in Python; the contract
+swpm_reader.h states on the held ranges (order, overlap, empty ranges, SWPM_READER_BAD_RANGES) is checked by
+tests/c_bad_ranges.c, also under ASan / UBSan.
 """
 
 from __future__ import annotations
@@ -250,3 +252,132 @@ def test_record_faults_before_indx_found_at_once(dump: Path, tmp_path: Path) -> 
         got = _agree(dump, path, bad, spans)
         assert not got["ok"] and got["code"] == whole.errors[0].code, (variant, got, whole.errors[0])
         assert got["offset"] == whole.errors[0].offset, (variant, got)
+
+
+#: a vector of each encoding, whose tables and SMAP are moved after INDX below
+AFTER_INDX = ["minimal-vanilla", "sliding-window-offset32", "skip-strip-strip", "mixed"]
+
+
+@pytest.mark.parametrize("name", AFTER_INDX)
+def test_tables_after_indx_must_be_held(dump: Path, dump_san: Path, tmp_path: Path, name: str) -> None:  # noqa: F811
+    """Spec 4.2 (a table after INDX): a file laid out META LODS INDX [tables] SMAP VERT, held as [0, INDX's
+    end) and all of VERT: SWPM_RANGES_NOT_HELD names each table's payload in the order of 2.3, in C as in
+    Python (they used to differ: Python decoded the tables' unheld bytes as zeros, reporting errors of the
+    whole file it does not have), also under ASan / UBSan; once every table is held the ranges open and
+    draw every LOD, with no SMAP warning while SMAP is not held (a wrong map, SWPM_SMAP_INVALID in the
+    whole file and in ranges that hold it, waits for finishing when they do not)."""
+    from swpm_usd.format.vectors import _entries, reorder
+
+    data = (VECTORS / "valid" / f"{name}.swpm").read_bytes()
+    types = [t for t, *_ in _entries(data)]
+    tables = [i for i, t in enumerate(types) if t not in (b"META", b"LODS", b"SMAP", b"INDX", b"VERT")]
+    order = [0, 1, types.index(b"INDX"), *tables, types.index(b"SMAP"), types.index(b"VERT")]
+    moved = reorder(data, order)
+    path = tmp_path / f"{name}-after-indx.swpm"
+    path.write_bytes(moved)
+    ch = {t: (o, n) for t, _, o, n in _entries(moved)}
+    io, il = ch[b"INDX"]
+    vo, vl = ch[b"VERT"]
+    spans = [(0, io + il), (vo, vl)]
+    want = [ch[types[i]] for i in tables]  # the tables, in the order of 2.3 (the vector's own order)
+    asked = []
+    while True:
+        got = _agree(dump, path, moved, spans)
+        if got["ok"]:
+            break
+        assert got["code"] == "SWPM_RANGES_NOT_HELD", got
+        start, end = got.get("need_start", 0), got["need"]
+        assert got["offset"] == start
+        asked.append((start, end - start))
+        spans.append((start, end - start))
+    assert asked == want
+    for held_spans in (spans[:2], spans):  # under ASan / UBSan: the first refusal, and the ranges opened
+        assert _c(dump_san, path, held_spans, 0xAA) == _expected(moved, held_spans)
+    assert got["drawable"] == list(range(got["lod_count"])) and got["finish"] == {"ok": True}
+    so, sl = ch[b"SMAP"]
+    b = bytearray(moved)
+    b[so] += 1  # band_count: SMAP's length no longer matches its counts
+    bad = refix_crcs(bytes(b))
+    assert "SWPM_SMAP_INVALID" in validate_bytes(bad).codes()
+    assert "SWPM_SMAP_INVALID" in validate_ranges(_held(bad, [*spans, (so, sl)])).codes()
+    rep = validate_ranges(_held(bad, spans))  # SMAP not held: not read as zeros, checked on finishing
+    assert rep.valid and "SWPM_SMAP_INVALID" not in rep.codes() and "SWPM_STREAM_ORDER" in rep.codes()
+
+
+def _build_bad_ranges(out: Path, extra: list[str]) -> Path:
+    from test_c_reader import FLAGS, ROOT, RUNTIME
+
+    src = ROOT / "tests" / "c_bad_ranges.c"
+    subprocess.run(["cc", *FLAGS, *extra, "-I", str(RUNTIME), "-o", str(out), str(src)], check=True)
+    return out
+
+
+@pytest.fixture(scope="module")
+def bad_ranges(tmp_path_factory: pytest.TempPathFactory, dump: Path) -> Path:  # noqa: F811
+    return _build_bad_ranges(tmp_path_factory.mktemp("cc-bad") / "c_bad_ranges", [])
+
+
+@pytest.fixture(scope="module")
+def bad_ranges_san(tmp_path_factory: pytest.TempPathFactory, dump_san: Path) -> Path:  # noqa: F811
+    from test_c_reader import SANITIZE
+
+    return _build_bad_ranges(tmp_path_factory.mktemp("cc-bad-san") / "c_bad_ranges_san", SANITIZE)
+
+
+BAD = {"code": "SWPM_READER_BAD_RANGES", "offset": 0, "need_start": 0, "need": 0}
+
+
+@pytest.mark.parametrize("san", [False, True], ids=["plain", "asan-ubsan"])
+@pytest.mark.parametrize("source", ["sliding-window-suzanne", "skip-strip-strip"])
+def test_held_ranges_contract(
+    bad_ranges: Path, bad_ranges_san: Path, tmp_path: Path, source: str, san: bool
+) -> None:
+    """swpm_reader.h's contract on the held ranges (tests/c_bad_ranges.c, also under ASan / UBSan), on
+    the coarsest band of SMAP: listed in reverse, overlapping and abutting, or with empty ranges anywhere
+    (at 0, at the buffer's end, past it, at 2^64 - 1) the ranges open exactly as given (the same drawable
+    LODs, those of Python's open_ranges); a range one byte past the buffer, one that wraps past 2^64, ranges
+    past the header's file_size, and NULL with a count are SWPM_READER_BAD_RANGES; no range is
+    SWPM_RANGES_NOT_HELD for the header; finishing with a held byte changed, or with a buffer that ends
+    inside a held range, is SWPM_READER_BAD_RANGES, with the file itself the whole file's verdict. Python's
+    open_ranges holds the same contract (reordered, overlapping and empty ranges the same; past file_size
+    and a changed byte on finishing a ValueError)."""
+    from swpm_usd.format.ranges import open_ranges
+
+    if source == "sliding-window-suzanne":
+        data = encode_bytes(REAL[0][1]("suzanne"))
+        path = tmp_path / "suzanne.swpm"
+        path.write_bytes(data)
+    else:
+        path = VECTORS / "valid" / f"{source}.swpm"
+        data = path.read_bytes()
+    spans = _coarsest_band(data)
+    binary = bad_ranges_san if san else bad_ranges
+    spec = ",".join(f"{o}:{n}" for o, n in spans)
+    proc = subprocess.run([str(binary), str(path), spec], capture_output=True, text=True)
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr[-2000:]
+    got = {d.pop("case"): d for d in map(json.loads, proc.stdout.splitlines())}
+    fr = open_ranges(_held(data, spans))
+    drawable = [int(k) for k in fr.drawable_lods]
+    opened = {"code": None, "offset": 0, "need_start": 0, "need": 0, "drawable": drawable}
+    assert drawable and got["given"] == opened
+    if source == "sliding-window-suzanne":  # the coarsest band: a fraction of the file, not every LOD
+        assert drawable[0] > 0 and sum(n for _, n in spans) < len(data) // 2
+    for case in ("reversed", "overlapping", "zero-length"):
+        assert got[case] == opened, case
+    for case in ("past-buffer", "wraps", "past-file-size", "null-held", "finish-differs", "finish-short"):
+        assert got[case] == BAD, case
+    assert got["none-held"] == {"code": "SWPM_RANGES_NOT_HELD", "offset": 0, "need_start": 0, "need": 64}
+    assert got["finish-ok"] == {**opened, "drawable": list(range(fr.lod_count))}
+    # Python: the same held bytes as pieces out of order, overlapping, with empty ones anywhere
+    pieces = {len(data) + 4096: b"", 7: b""}
+    pieces |= {o + n // 2: data[o + n // 2 : o + n] for o, n in reversed(spans)}
+    pieces |= {o: data[o : o + n] for o, n in reversed(spans)}
+    fr2 = open_ranges(pieces)
+    assert fr2.drawable_lods.tolist() == drawable and fr2.held == fr.held
+    with pytest.raises(ValueError, match="outside the file"):
+        open_ranges({**_held(data, spans), len(data) - 4: data[-4:] + b"\0"})
+    b = bytearray(data)
+    o, n = spans[-1]
+    b[o + n - 1] ^= 1
+    with pytest.raises(ValueError, match="differ"):
+        fr.finish(bytes(b))

@@ -231,15 +231,21 @@ int swpm_smap_band(const swpm_file *f, uint64_t b, uint32_t *first_lod, uint32_t
  * records must be held (else SWPM_RANGES_NOT_HELD at the first byte not held, with the range to fetch in
  * [.need_start, .need)); CRCs of payloads not wholly held, padding not held and the length wait for finishing;
  * without all of INDX its content checks wait too and each LOD's held INDX elements are checked against the
- * vertices it draws (SWPM_PREFIX_VIOLATION). This reader also needs every chunk it decodes held (a table
- * after INDX in a file not in streaming order: SWPM_RANGES_NOT_HELD with that chunk's range). A range past
- * `length` or past file_size is the caller's error: SWPM_READER_BAD_RANGES. */
+ * vertices it draws (SWPM_PREFIX_VIOLATION). Every table it decodes must be held too (format.md 4.2: a table
+ * after INDX in a file not in streaming order, SWPM_RANGES_NOT_HELD with that chunk's range). A range past
+ * `length` or past file_size is the caller's error: SWPM_READER_BAD_RANGES.
+ * The contract on `held` (tests/c_bad_ranges.c checks each clause): ranges may come in any order, overlap and
+ * abut (what counts is the union of their bytes; their order changes no result); a range of length 0 holds
+ * no byte and is ignored wherever its offset lies (as Python's open_ranges drops an empty range); a range
+ * with offset + length past `length`, past the header's file_size, or past 2^64 (wrapping), and `held`
+ * NULL with held_count > 0, are SWPM_READER_BAD_RANGES (offset 0; no file is opened); held_count 0 holds no
+ * byte: SWPM_RANGES_NOT_HELD for [0, 64). */
 #define SWPM_READER_BAD_RANGES "SWPM_READER_BAD_RANGES"
 swpm_result swpm_open_ranges(const uint8_t *bytes, size_t length, const swpm_range *held, size_t held_count,
                              swpm_file *file, void *scratch, size_t scratch_bytes);
 /* Complete ranges opened by swpm_open_ranges with the whole file (swpm_prefix_finish given such a file calls
- * this without scratch) (its bytes in each held range must be the
- * ones held, else SWPM_READER_BAD_RANGES): checks it all through, as swpm_open_ex (so the verdict is the
+ * this without scratch) (its bytes in each held range must be the ones held, `length` reaching the end of
+ * each, else SWPM_READER_BAD_RANGES): checks it all through, as swpm_open_ex (so the verdict is the
  * whole file's), and on success *f views `bytes` as an opened whole file. */
 swpm_result swpm_ranges_finish(swpm_file *f, const uint8_t *bytes, size_t length, void *scratch,
                                size_t scratch_bytes);
@@ -1227,8 +1233,9 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
         swpm_result bad = {SWPM_READER_BAD_RANGES, 0, 0, 0, 0};
         if (held_count && held == NULL) return bad;
         for (q = 0; q < held_count; q++) {
+            if (!held[q].length) continue; /* holds no byte: never read, wherever it lies */
             if (held[q].length > len || held[q].offset > len - held[q].length) return bad;
-            if (held[q].length && held[q].offset + held[q].length > top) top = held[q].offset + held[q].length;
+            if (held[q].offset + held[q].length > top) top = held[q].offset + held[q].length;
         }
         if (swpm__held_to(held, held_count, len, 0, 64) < 64) {
             if (swpm__held_to(held, held_count, len, 0, 8) == 8 && memcmp(bytes, magic, 8) != 0)
@@ -1346,8 +1353,8 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
             swpm_result r = {"SWPM_CHUNK_MISSING", 0, 0, 0, 0};
             return r;
         }
-    if (prefix == 2) { /* 4.2 step 3: every byte before INDX, VERT's bytes before its records, and (this reader)
-                          every other chunk it decodes */
+    if (prefix == 2) { /* 4.2 step 3: every byte before INDX, VERT's bytes before its records, and every other
+                          table it decodes (one after INDX: 4.2, the order of 2.3, as kinds are numbered) */
         uint64_t io = swpm__u64(bytes + table_offset + 32 * (uint64_t)first[SWPM__INDX] + 8), vo, vl, need;
         uint64_t eo = table_offset + 32 * (uint64_t)first[SWPM__VERT];
         int k;
@@ -2536,8 +2543,8 @@ swpm_result swpm_ranges_finish(swpm_file *f, const uint8_t *bytes, size_t length
     if (f->ranges) /* the held ranges' bytes must be these (the old buffer is read: keep it until here) */
         for (q = 0; q < f->range_count; q++) {
             const swpm_range *h = &f->ranges[q];
-            if (h->offset + h->length > (uint64_t)length ||
-                (h->length && memcmp(bytes + h->offset, f->bytes + h->offset, (size_t)h->length) != 0)) {
+            if (h->length && (h->offset + h->length > (uint64_t)length ||
+                              memcmp(bytes + h->offset, f->bytes + h->offset, (size_t)h->length) != 0)) {
                 swpm_result bad = {SWPM_READER_BAD_RANGES, 0, 0, 0, 0};
                 return bad;
             }

@@ -10,15 +10,21 @@ import contextlib
 import hashlib
 import json
 import math
+import re
 import sys
 import textwrap
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import click
 
 from ..errors import SwpmError
+
+if TYPE_CHECKING:
+    from .errors import Report
+    from .ranges import FileRanges
 
 
 def _parse_params(params: tuple[str, ...]) -> dict:
@@ -705,22 +711,59 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
     default=None,
     help="Check only the first N bytes, as a streaming reader that has received them (spec/format.md 4.1).",
 )
+@click.option(
+    "--ranges",
+    "ranges_spec",
+    metavar="OFF:LEN,...",
+    default=None,
+    help="Check only these byte ranges of the file (byte offset:length, comma-separated, e.g. "
+    "0:4096,81920:2048), as a reader that fetched them does (spec/format.md 4.2): the LODs they draw, or "
+    "SWPM_RANGES_NOT_HELD with the range to fetch next.",
+)
+@click.option(
+    "--lod",
+    type=click.IntRange(min=0),
+    default=None,
+    help="Fetch what LOD K needs as a range reader does (the header, SMAP's ranges for K's band, then what "
+    "the reader asks for; spec/format.md 4.2) and check those ranges: the reads made, the LODs they draw.",
+)
 @click.pass_context
-def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool, prefix: int | None) -> None:
+def validate_cmd(
+    ctx: click.Context,
+    file: str,
+    as_json: bool,
+    no_builtin: bool,
+    prefix: int | None,
+    ranges_spec: str | None,
+    lod: int | None,
+) -> None:
     """Check FILE and list every problem. Exit 0 valid, 1 invalid.
 
     A .swpm file is checked against the SWPM v1 spec (spec/format.md); a USD stage (.usd .usda .usdc
     .usdz) with the SwpmMeshAPI validators plus usd-core's built-in ones (spec/usd.md). --prefix N checks
     the file's first N bytes as a prefix reader does (spec/format.md 4.1: what they hold now, the LODs they
     draw; SWPM_PREFIX_TOO_SHORT gives the bytes to wait for): the report's summary gains "prefix" (bytes,
-    file_size, finest_drawable, drawable_lods, needed_bytes of LOD 0 and the coarsest).
+    file_size, finest_drawable, drawable_lods, needed_bytes of LOD 0 and the coarsest). --ranges OFF:LEN,...
+    checks those byte ranges as a range reader does (spec 4.2: a band of SMAP, HTTP range requests;
+    SWPM_RANGES_NOT_HELD gives the range to fetch next, in the summary's range_need [start, end)); --lod K
+    fetches what LOD K needs first, as swpm_usd.format.read_lod does. Their summary gains "ranges" (held,
+    held_bytes, file_size, complete, drawable_lods, finest_drawable, needed_ranges of LOD 0 and the
+    coarsest; with --lod, lod and the reads made). Give one of --prefix, --ranges, --lod.
     """
     from ..usd import USD_SUFFIXES
 
+    options = (("prefix", prefix), ("ranges", ranges_spec), ("lod", lod))
+    given = [f"--{n}" for n, v in options if v is not None]
+    if len(given) > 1:
+        raise click.UsageError(f"give one of --prefix, --ranges, --lod, not {' and '.join(given)}")
+    if given and Path(file).suffix.lower() in USD_SUFFIXES:
+        raise click.BadParameter("reads an SWPM file's bytes, not a USD stage's", param_hint=given[0])
     if prefix is not None:
-        if Path(file).suffix.lower() in USD_SUFFIXES:
-            raise click.BadParameter("reads an SWPM file's prefix, not a USD stage's", param_hint="--prefix")
         _validate_prefix(file, prefix, as_json)
+    if ranges_spec is not None:
+        _validate_ranges(file, _parse_ranges(ranges_spec), as_json)
+    if lod is not None:
+        _validate_lod(file, lod, as_json)
     if Path(file).suffix.lower() in USD_SUFFIXES:
         from ..usd.cli import validate_usd
 
@@ -756,7 +799,7 @@ def validate_cmd(ctx: click.Context, file: str, as_json: bool, no_builtin: bool,
 def _validate_prefix(file: str, n: int, as_json: bool) -> None:
     """``validate --prefix N``: the first N bytes of ``file`` read as a prefix (spec 4.1); exits."""
     from .errors import Report
-    from .prefix import open_prefix, validate_prefix
+    from .prefix import _checked_prefix
 
     try:
         with open(file, "rb") as f:  # (at most its size: read(N) allocates N bytes first, a huge N fails)
@@ -765,9 +808,8 @@ def _validate_prefix(file: str, n: int, as_json: bool) -> None:
         rep = Report(path=file)
         rep.add("SWPM_IO_ERROR", None, reason=exc.strerror or str(exc))
     else:
-        rep = validate_prefix(data, path=file)
-        if rep.valid:
-            fp = open_prefix(data, path=file)
+        rep, fp = _checked_prefix(data, path=file)  # (once: validate_prefix then open_prefix checked twice)
+        if fp is not None:
             lods = fp.drawable_lods
             rep.summary["prefix"] = {
                 "bytes": fp.size,
@@ -787,6 +829,138 @@ def _validate_prefix(file: str, n: int, as_json: bool) -> None:
             f"LODs {p['drawable_lods'][0]}..{p['drawable_lods'][1]}" if p["drawable_lods"] else "no LOD yet"
         )
         click.echo(f"  prefix: {p['bytes']} of {p['file_size']} bytes draw {what}")
+    sys.exit(0 if rep.valid else 1)
+
+
+_DECIMAL = re.compile(r"[0-9]+")
+
+
+def _parse_ranges(spec: str) -> list[tuple[int, int]]:
+    """``--ranges``' OFF:LEN,... as (offset, length) pairs; a usage error naming the item that is not one."""
+    out = []
+    for item in spec.split(","):
+        off, sep, ln = item.strip().partition(":")
+        if not (sep and _DECIMAL.fullmatch(off) and _DECIMAL.fullmatch(ln)):  # (isdigit() passes "²")
+            raise click.BadParameter(
+                f"{item!r} is not OFF:LEN (a byte offset and a length, decimal: 0:4096,81920:2048)",
+                param_hint="--ranges",
+            )
+        out.append((int(off), int(ln)))
+    return out
+
+
+def _read_ranges(file: str, spans: list[tuple[int, int]]) -> dict[int, bytes]:
+    """The bytes of ``spans`` read from ``file``; a range past its end is a usage error naming it (checked
+    before reading: read(LEN) allocates LEN bytes first). OSError passes up."""
+    size = Path(file).stat().st_size
+    for o, n in spans:
+        if o + n > size:
+            raise click.BadParameter(
+                f"{o}:{n} ends at byte {o + n}, past the end of {file} ({size} bytes)", param_hint="--ranges"
+            )
+    held: dict[int, bytes] = {}
+    with open(file, "rb") as f:
+        for o, n in spans:
+            if n > len(held.get(o, b"")):  # (two ranges at one offset: the longer holds the other)
+                f.seek(o)
+                held[o] = f.read(n)
+    return held
+
+
+def _ranges_summary(fr: FileRanges) -> dict[str, Any]:
+    """What ``validate --ranges`` / ``--lod`` add to the summary of ranges that opened."""
+    lods = [int(k) for k in fr.drawable_lods]
+    return {
+        "held": [list(r) for r in fr.held],
+        "held_bytes": fr.held_bytes,
+        "file_size": fr.file_size,
+        "complete": fr.complete,
+        "drawable_lods": lods,
+        "finest_drawable": lods[0] if lods else None,
+        "needed_ranges": {
+            str(k): [list(r) for r in fr.needed_ranges(k)] for k in sorted({0, fr.lod_count - 1})
+        },
+    }
+
+
+def _runs(lods: list[int]) -> str:
+    """``[0, 1, 2, 5]`` as ``0..2, 5`` (a band's ranges draw its LODs, not always consecutive ones)."""
+    runs: list[list[int]] = []
+    for k in lods:
+        if runs and k == runs[-1][1] + 1:
+            runs[-1][1] = k
+        else:
+            runs.append([k, k])
+    return ", ".join(str(a) if a == b else f"{a}..{b}" for a, b in runs)
+
+
+def _echo_ranges(rep: Report, as_json: bool) -> None:
+    click.echo(rep.to_json(indent=2) if as_json else rep.format())
+    if as_json:
+        return
+    r = rep.summary.get("ranges")
+    if r is not None:
+        d = r["drawable_lods"]
+        what = f"LOD{'s' if len(d) > 1 else ''} {_runs(d)}" if d else "no LOD"
+        click.echo(f"  ranges: {r['held_bytes']} of {r['file_size']} bytes held draw {what}")
+        if "reads" in r:
+            click.echo(f"  read for LOD {r['lod']}: {','.join(f'{o}:{n}' for o, n in r['reads'])}")
+    need = rep.summary.get("range_need")
+    if need is not None:
+        click.echo(f"  fetch next: {need[0]}:{need[1] - need[0]} (bytes [{need[0]}, {need[1]}))")
+
+
+def _validate_ranges(file: str, spans: list[tuple[int, int]], as_json: bool) -> None:
+    """``validate --ranges OFF:LEN,...``: those byte ranges of ``file`` read as a range reader does (spec
+    4.2), checked once; exits."""
+    from .errors import Report
+    from .ranges import _checked_ranges
+
+    try:
+        held = _read_ranges(file, spans)
+    except OSError as exc:
+        rep = Report(path=file)
+        rep.add("SWPM_IO_ERROR", None, reason=exc.strerror or str(exc))
+    else:
+        try:
+            rep, fr = _checked_ranges(held, file)
+        except ValueError as exc:  # a range past the header's file_size: the caller's, spec 4.2 step 1
+            raise click.BadParameter(str(exc), param_hint="--ranges") from None
+        if fr is not None:
+            rep.summary["ranges"] = _ranges_summary(fr)
+    _echo_ranges(rep, as_json)
+    sys.exit(0 if rep.valid else 1)
+
+
+def _validate_lod(file: str, lod: int, as_json: bool) -> None:
+    """``validate --lod K``: what LOD K needs, fetched from ``file`` as :func:`.ranges.read_lod` does, and
+    the ranges it opened; exits."""
+    from .errors import Report, SwpmFormatError
+    from .ranges import read_lod
+
+    reads: list[list[int]] = []
+    try:
+        size = Path(file).stat().st_size
+        with open(file, "rb") as f:
+
+            def read(o: int, n: int) -> bytes:
+                n = max(0, min(n, size - o))  # (a file shorter than its header says: what there is)
+                reads.append([o, n])
+                f.seek(o)
+                return f.read(n)
+
+            fr = read_lod(read, lod, path=file)
+    except OSError as exc:
+        rep = Report(path=file)
+        rep.add("SWPM_IO_ERROR", None, reason=exc.strerror or str(exc))
+    except SwpmFormatError as exc:
+        rep = exc.report
+    except (IndexError, ValueError) as exc:  # a LOD the file does not have (or that never draws)
+        raise click.BadParameter(f"no such LOD: {exc}", param_hint="--lod") from None
+    else:
+        rep = fr.report
+        rep.summary["ranges"] = {"lod": lod, "reads": reads, **_ranges_summary(fr)}
+    _echo_ranges(rep, as_json)
     sys.exit(0 if rep.valid else 1)
 
 

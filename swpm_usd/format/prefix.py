@@ -148,11 +148,18 @@ def open_prefix(data: _Bytes, *, path: str | None = None) -> FilePrefix:
     """Open the first bytes of an SWPM file (spec 4.1); raises :class:`SwpmFormatError` with the report when
     they hold an error (SWPM_PREFIX_TOO_SHORT: wait for ``report.summary["prefix_need"]`` bytes;
     SWPM_PREFIX_NOT_STREAMABLE: the file does not stream, read it whole)."""
+    rep, fp = _checked_prefix(data, path)
+    if fp is None:
+        raise SwpmFormatError(rep)
+    return fp
+
+
+def _checked_prefix(data: _Bytes, path: str | None) -> tuple[Report, FilePrefix | None]:
+    """The report of prefix ``data`` and, when it opens, the prefix, from one check (``validate --prefix``
+    called :func:`validate_prefix` then :func:`open_prefix`: every check ran twice)."""
     buf = _as_buf(data)
     rep, p = _check(buf, path, prefix=True)
-    if not rep.valid or p is None:
-        raise SwpmFormatError(rep)
-    return _prefix(buf, p, rep, path)
+    return rep, (_prefix(buf, p, rep, path) if rep.valid and p is not None else None)
 
 
 def _lod_fields(p: _Parsed, rep: Report, path: str | None) -> dict[str, Any]:

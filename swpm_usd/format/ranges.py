@@ -329,13 +329,22 @@ def open_ranges(held: Held, *, path: str | None = None) -> FileRanges:
 
 
 def _open(held: Held | _Pieces, path: str | None) -> FileRanges:
+    rep, fr = _checked_ranges(held, path)
+    if fr is None:
+        raise SwpmFormatError(rep)
+    return fr
+
+
+def _checked_ranges(held: Held | _Pieces, path: str | None) -> tuple[Report, FileRanges | None]:
+    """The report of ranges ``held`` and, when they open, the :class:`FileRanges`, from one check (for
+    ``validate --ranges``: :func:`validate_ranges` then :func:`open_ranges` would check twice)."""
     rep, p, spans = _check_ranges(held, path)
     if not rep.valid or p is None:
-        raise SwpmFormatError(rep)
+        return rep, None
     assert p.lods is not None
     indx = p.chunks[L.INDX]
     need = needed_index_ranges(p.encoding or "", p.buffers, p.lods.shape[0], indx.length // p.width)
-    return FileRanges(
+    return rep, FileRanges(
         **_lod_fields(p, rep, path),
         held=spans,
         index_offset=indx.offset,
@@ -375,5 +384,6 @@ def read_lod(
         if lod in fr.drawable_lods:
             return fr
         for o, n in fr.needed_ranges(lod):
-            _put(held, o, read(o, n))
+            if not any(s <= o and o + n <= s + ln for s, ln in fr.held):  # (a range held is not read again)
+                _put(held, o, read(o, n))
     raise IndexError(f"{path or '<file>'}: LOD {lod} did not become drawable")
