@@ -87,7 +87,7 @@ static const swpm_code_info swpm_codes[SWPM_CODE_COUNT] = {
     {"SWPM_PREFIX_NOT_STREAMABLE", "error",
      "The last entry of the chunk table is not a VERT, so a prefix of the file cannot hold every table before the vertices (format.md 4.1); read the whole file (only a prefix reader reports it)."},
     {"SWPM_RANGES_NOT_HELD", "error",
-     "A range reader (format.md 4.2) was given byte ranges that lack what opening the file takes: its header and chunk table, every byte before INDX, VERT's bytes before its vertex records; fetch [start, end) and open again (only a range reader reports it)."},
+     "A range reader (format.md 4.2) was given byte ranges that lack what opening the file takes: its header and chunk table, every byte before INDX, VERT's bytes before its vertex records, and each table that lies after INDX in a file not in streaming order; fetch [start, end) and open again (only a range reader reports it)."},
     {"SWPM_META_BAD_JSON", "error",
      "The metadata chunk cannot be decoded."},
     {"SWPM_META_BAD_FIELD", "error",
@@ -139,7 +139,7 @@ static const swpm_code_info swpm_codes[SWPM_CODE_COUNT] = {
     {"SWPM_READER_SCRATCH_TOO_SMALL", "error",
      "The replay needs more scratch memory than swpm_open_ex was given (swpm_result.need bytes); the file is neither accepted nor rejected."},
     {"SWPM_READER_BAD_RANGES", "error",
-     "A held range lies past the buffer or past file_size, or a held byte changed before finishing: the caller's error, not the file's."},
+     "A held range lies past the buffer or past file_size or wraps, held is NULL with a count, or a held byte changed before finishing: the caller's error, not the file's."},
     {"SWPM_READER_UNSUPPORTED_ENCODING", "error",
      "No longer returned (every encoding is read); defined for code that tests for it."},
 };

@@ -635,8 +635,8 @@ C_READER_CODES = [
         "SWPM_READER_BAD_RANGES",
         ERROR,
         "",
-        "A held range lies past the buffer or past file_size, or a held byte changed before finishing: the "
-        "caller's error, not the file's.",
+        "A held range lies past the buffer or past file_size or wraps, held is NULL with a count, or a held "
+        "byte changed before finishing: the caller's error, not the file's.",
         "",
     ),
     Entry(
