@@ -227,6 +227,7 @@ SEVERITY = {
     "SWPM_PREFIX_VIOLATION": "error",
     "SWPM_PREFIX_TOO_SHORT": "error",
     "SWPM_PREFIX_NOT_STREAMABLE": "error",
+    "SWPM_RANGES_NOT_HELD": "error",
     "SWPM_RECORD_BAD_KEPT": "error",
     "SWPM_RECORD_BAD_BINNED": "error",
     "SWPM_RECORD_BAD_COUNTS": "error",
