@@ -439,9 +439,10 @@ class _Reader:
             return False
         if self.not_held(o, o + max(16, min(self.u32(o + 12), length))):
             return False
-        # (not in §4.2: the other chunks steps 3-5 of §5 read, which lie before INDX in streaming order)
+        # every other chunk steps 3-4 of §5 decode (before INDX in streaming order); SMAP, ancillary, is
+        # not checked when not wholly held
         for ctype, c in self.chunks.items():
-            if ctype not in ("INDX", "VERT") and self.not_held(c.offset, c.offset + c.length):
+            if ctype not in ("INDX", "VERT", "SMAP") and self.not_held(c.offset, c.offset + c.length):
                 return False
         return True
 
@@ -467,8 +468,11 @@ class _Reader:
         if header_size < HEADER_SIZE or header_size > (file_size if self.prefix else len(d)):
             self.add("SWPM_HEADER_BAD_SIZE", 12)
             return None
-        # §4.1 step 2: a header_size in [64, file_size] past n (§4.2 needs only [0, 64) of the header)
-        if header_size > len(d) and self.held_runs is None:
+        # §4.1 step 2: a header_size in [64, file_size] past n; §4.2 step 2: past the last byte held
+        if header_size > len(d) and self.held_runs is not None:
+            self.not_held(0, header_size)
+            return None
+        if header_size > len(d):
             self.too_short(header_size)
             return None
         if features & ~KNOWN_FEATURES:
@@ -513,15 +517,14 @@ class _Reader:
             self.add("SWPM_TABLE_TRUNCATED", 24)
             return None
         if self.held_runs is not None:
-            if self.not_held(table_offset, table_end):  # §4.2 step 2: the chunk table MUST be held
+            if self.not_held(0, table_end):  # §4.2 step 2: every byte to the table's end (file_crc's)
                 return None
         elif table_end > len(self.data):  # §4.1 step 2: a table that ends past n, not past file_size
             self.too_short(table_end)
             return None
         buf = bytearray(self.data[:table_end])
         buf[48:52] = bytes(4)
-        # (ranges: bytes 64..table_offset that are not held defer the file CRC; §4.2 does not say)
-        if self.held(0, table_end) and zlib.crc32(bytes(buf)) & 0xFFFFFFFF != file_crc:
+        if zlib.crc32(bytes(buf)) & 0xFFFFFFFF != file_crc:
             self.add("SWPM_CHECKSUM_MISMATCH", 48)
         self.check_zero(header_size, table_offset)
         return table_offset, chunk_count, table_end
@@ -617,8 +620,15 @@ class _Reader:
         }
         if self.encoding is not None:
             enc[self.encoding]()
-        if not self.rep.has_error() and "SMAP" in self.chunks:
+        smap = self.chunks.get("SMAP")
+        if (
+            not self.rep.has_error()
+            and smap is not None
+            and self.held(smap.offset, smap.offset + smap.length)
+        ):
             self.read_smap()
+        if not self.rep.has_error() and not self.indx_whole:
+            self.held_lods_below()
 
     def read_meta(self) -> bool:
         c = self.chunks["META"]
@@ -860,10 +870,15 @@ class _Reader:
         self.indx_whole = self.held(c.offset, c.offset + c.length)
         return True
 
-    def held_lods_below(self, restart: int | None = None) -> None:
-        """§4.2 step 3, INDX not wholly held: for every LOD k whose (b) elements are held, each is below
-        vertex_count(k) (skip-strip, mixed: of the first LOD of k's level), the restart index exempt; else
-        SWPM_PREFIX_VIOLATION at the first that is not, one per LOD."""
+    def held_lods_below(self) -> None:
+        """§4.2 step 3, INDX not wholly held, after step 5 of §5: for every LOD k in order whose (b) elements
+        are held, each is below vertex_count(k) (skip-strip, mixed: of the first LOD of k's level), a strips'
+        restart index exempt; else SWPM_PREFIX_VIOLATION at the first that is not (one problem)."""
+        restart = None
+        if self.strips or (
+            self.encoding == "skip-strip" and self.params.get("primitive", "strip") == "strip"
+        ):
+            restart = self.params.get("restart_index")
         for k in range(self.L):
             lo, hi = self.lod_index_range(k)
             if hi <= lo or not self.held(self.indx_off + self.W * lo, self.indx_off + self.W * hi):
@@ -873,6 +888,7 @@ class _Reader:
             bad = np.flatnonzero(self.above(self.indx[lo:hi], limit, restart))
             if len(bad):
                 self.add("SWPM_PREFIX_VIOLATION", self.indx_off + self.W * (lo + int(bad[0])))
+                return
 
     def level_layout(self, ctype: str, extra: int, names: list[str]) -> list[tuple[np.ndarray, int]] | None:
         """SKIP/MLVL: u32 n, u32 count, then off arrays of n, n+1, n+1, n+1 and ``extra`` idx arrays of count
@@ -1082,7 +1098,6 @@ class _Reader:
             return
         # (b) the prefix property: the lowest offending INDX element (§4.2: per held window, the rest waits)
         if not self.indx_whole:
-            self.held_lods_below(restart)
             return
         worst = None
         for k in range(L):
@@ -1173,8 +1188,7 @@ class _Reader:
             if len(bad):
                 self.add("SWPM_PREFIX_VIOLATION", self.indx_off + W * (ls[lev] + int(bad[0])))
                 break
-        if not self.indx_whole:
-            self.held_lods_below(restart)
+
         if self.rep.total > mark:
             return
         # (c)
@@ -1334,8 +1348,6 @@ class _Reader:
             d_live = (ds[lev + 1] - ds[lev]) // 3 - (d_rm[rc[k]] - d_rm[rs[lev]])
             expected.append(s_live + d_live)
         self.lods_row_bad_counts(expected)
-        if not self.indx_whole:
-            self.held_lods_below()
         for arr, off, st in ((self.indx, self.indx_off, ss), (ldi, ldi_o, ds)):
             if arr is self.indx and not self.indx_whole:
                 continue

@@ -21,12 +21,13 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from independent_reader import _Reader, read, read_prefix  # noqa: E402
+from independent_reader import _Reader, read, read_prefix, read_ranges  # noqa: E402
 
 VECTORS = Path(__file__).resolve().parent.parent / "spec" / "vectors"
 MANIFEST = json.loads((VECTORS / "manifest.json").read_text())
 CASES = [pytest.param(v, id=v["name"]) for v in MANIFEST["vectors"]]
 PREFIX_CASES = [pytest.param(v, c, id=c["name"]) for v in MANIFEST["vectors"] for c in v.get("prefixes", [])]
+RANGE_CASES = [pytest.param(v, c, id=c["name"]) for v in MANIFEST["vectors"] for c in v.get("ranges", [])]
 
 
 def _load(vector: dict[str, Any]) -> tuple[bytes, dict[str, Any]]:
@@ -61,6 +62,68 @@ def test_prefix_case(vector: dict[str, Any], case: dict[str, Any]) -> None:
     data, _ = _load(vector)
     expected = json.loads((VECTORS / case["expected"]).read_text())
     assert read_prefix(data[: case["length"]]) == expected
+
+
+@pytest.mark.parametrize(("vector", "case"), RANGE_CASES)
+def test_range_case(vector: dict[str, Any], case: dict[str, Any]) -> None:
+    """Every range case (format.md 4.2): the whole verdict on the file's held ranges (problems with the
+    range to fetch, the ranges each LOD needs, the drawable LODs, what each draws); finishing is reading the
+    whole file (test_validity_and_problems)."""
+    data, _ = _load(vector)
+    expected = json.loads((VECTORS / case["expected"]).read_text())
+    assert read_ranges(data, [tuple(r) for r in case["ranges"]]) == expected
+
+
+def test_range_cases_cover_every_rule_of_4_2() -> None:
+    """Each rule of format.md 4.2 has a range case: the header and table held or not, a bad magic, every
+    byte held, deferred CRCs and padding (found at once when held), INDX partly held (opened with its
+    content deferred, or a held list's SWPM_PREFIX_VIOLATION), drawable LODs not consecutive, unsorted and
+    overlapping ranges, and ranges that open but whose file is rejected on finishing."""
+    seen: set[str] = set()
+    for vector in MANIFEST["vectors"]:
+        data, whole = _load(vector)
+        for case in vector.get("ranges", []):
+            got = json.loads((VECTORS / case["expected"]).read_text())
+            held = sorted((o, o + n) for o, n in case["ranges"])
+            seen |= {q["code"] for q in got["problems"]}
+            if any(b > a2 for (_, b), (a2, _) in zip(held, held[1:])) or held != [
+                (o, o + n) for o, n in case["ranges"]
+            ]:
+                seen.add("unsorted or overlapping")
+            if not got["opened"]:
+                for q in got["problems"]:
+                    if q["code"] == "SWPM_RANGES_NOT_HELD":
+                        seen.add(f"need [{q['need_start'] and 'o'}, ...)")
+                continue
+            seen.add("opened")
+            lods = got["drawable_lods"]
+            if not lods:
+                seen.add("none drawable")
+            elif lods != list(range(lods[0], lods[-1] + 1)):
+                seen.add("not consecutive")
+            elif lods[-1] < len(got["needed"]) - 1:
+                seen.add("a coarser LOD not drawable")
+            if not whole["valid"]:
+                seen.add("opened, rejected on finishing")
+            if whole["valid"] and any(o == 0 and n >= len(data) for o, n in case["ranges"]):
+                seen.add("every byte")
+    assert {
+        "SWPM_RANGES_NOT_HELD",
+        "need [0, ...)",
+        "need [o, ...)",
+        "SWPM_HEADER_BAD_MAGIC",
+        "SWPM_CHUNK_CRC_MISMATCH",
+        "SWPM_PADDING_NONZERO",
+        "SWPM_PREFIX_VIOLATION",
+        "SWPM_INDEX_OUT_OF_RANGE",
+        "opened",
+        "none drawable",
+        "not consecutive",
+        "a coarser LOD not drawable",
+        "opened, rejected on finishing",
+        "unsorted or overlapping",
+        "every byte",
+    } <= seen, seen
 
 
 def test_prefix_cases_cover_every_rule_of_4_1() -> None:
