@@ -135,8 +135,10 @@ def test_manifest_and_expected_results_follow_the_schema() -> None:
 
 def _cited_vectors(text: str) -> set[str]:
     """The vector names a spec text cites: every name of "vector `a`" or "vectors `a`, `b` and `c`" (or
-    "prefix case(s)", format.md 4.1), a line break allowed anywhere between the words."""
-    runs = re.findall(r"\b(?:vector|(?:prefix|range)\s+case)s?\s+(`[^`]+`(?:(?:,\s*|\s+and\s+)`[^`]+`)*)", text, re.I)
+    "prefix case(s)", format.md 4.1, "range case(s)", 4.2), a line break allowed anywhere between the
+    words."""
+    cites = r"\b(?:vector|(?:prefix|range)\s+case)s?\s+(`[^`]+`(?:(?:,\s*|\s+and\s+)`[^`]+`)*)"
+    runs = re.findall(cites, text, re.I)
     return {name for run in runs for name in re.findall(r"`([^`]+)`", run)}
 
 

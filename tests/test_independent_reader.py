@@ -86,7 +86,7 @@ def test_range_cases_cover_every_rule_of_4_2() -> None:
             got = json.loads((VECTORS / case["expected"]).read_text())
             held = sorted((o, o + n) for o, n in case["ranges"])
             seen |= {q["code"] for q in got["problems"]}
-            if any(b > a2 for (_, b), (a2, _) in zip(held, held[1:])) or held != [
+            if any(b > a2 for (_, b), (a2, _) in zip(held, held[1:], strict=False)) or held != [
                 (o, o + n) for o, n in case["ranges"]
             ]:
                 seen.add("unsorted or overlapping")
