@@ -345,6 +345,9 @@ class _Reader:
         dt = self.odt if table else self.idt
         if count == 0:
             return np.zeros(0, dtype=dt)
+        end = off + count * np.dtype(dt).itemsize
+        if end > len(self.data):  # (ranges: INDX past the last byte held; only its held elements are read)
+            return np.frombuffer(self.data[off:] + bytes(end - len(self.data)), dtype=dt, count=count)
         return np.frombuffer(self.data, dtype=dt, count=count, offset=off)
 
     def check_zero(self, start: int, end: int) -> None:

@@ -21,6 +21,8 @@ def _smap(p: _Parsed, rep: Report) -> None:
     c = p.chunks.get(L.SMAP)
     if c is None or not c.ok or not p.content_ok or p.lods is None:
         return
+    if not p.holds(c.offset, c.offset + c.length):  # (byte ranges without all of it, spec 4.2: not read)
+        return
     if c.length < 8:
         rep.add("SWPM_SMAP_INVALID", c.offset, reason="shorter than its header")
         return

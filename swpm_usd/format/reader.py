@@ -320,8 +320,9 @@ def _not_held(p: _Parsed, rep: Report, start: int, end: int) -> None:
 
 def _ranges_skeleton(p: _Parsed, rep: Report) -> None:
     """What byte ranges must hold to be opened (spec 4.2), once steps 1-2 passed: every byte before ``INDX``
-    and ``VERT``'s bytes before its vertex records (as 4.1 reads them), else SWPM_RANGES_NOT_HELD. INDX not
-    all held: its content is checked per drawn LOD (:mod:`.ranges`), not by the encoding's checks."""
+    and ``VERT``'s bytes before its vertex records (as 4.1 reads them), then every other chunk steps 3-4 of
+    spec 5 decode (``SMAP`` aside: not checked unless held), else SWPM_RANGES_NOT_HELD. INDX not all held:
+    its content is checked per drawn LOD (:mod:`.ranges`), not by the encoding's checks."""
     indx, v = p.chunks.get(L.INDX), p.chunks.get(L.VERT)
     if indx is None or v is None:
         return  # (SWPM_CHUNK_MISSING was reported)
@@ -332,6 +333,10 @@ def _ranges_skeleton(p: _Parsed, rep: Report) -> None:
     if not p.holds(v.offset, end):
         _not_held(p, rep, v.offset, end)
         return
+    for t, c in p.chunks.items():  # a table after INDX (not in streaming order): read only when held
+        if t not in (L.INDX, L.VERT, L.SMAP) and not p.holds(c.offset, c.offset + c.length):
+            _not_held(p, rep, c.offset, c.offset + c.length)
+            return
     p.indx_partial = not p.holds(indx.offset, indx.offset + indx.length)
 
 

@@ -1124,6 +1124,12 @@ def _ranges_valid() -> dict[str, tuple[bytes, str]]:
             "sliding window of three LODs (5, 4 and 3 vertices) with disjoint windows: held ranges can draw"
             " LODs 0 and 2 and not LOD 1 (range case sliding-window-three-lods-not-lod-1)",
         ),
+        "vanilla-tables-after-indx": (
+            reorder(_write(fan_vanilla()), [0, 1, 3, 5, 4, 2, 6]),
+            "minimal-vanilla laid out META LODS RCNT INDX VREC SMAP VERT (valid, SWPM_STREAM_ORDER): VREC and"
+            " SMAP lie after INDX, outside (a) of format.md 4 (range cases vanilla-tables-after-indx-vrec-"
+            "not-held, vanilla-tables-after-indx-smap-not-held)",
+        ),
         "skip-strip-two-levels": (
             _write(fan_skip_two_levels()),
             "skip-strip list of two levels (LODs 0-1, LOD 2): a range reader checks level 0's list, held"
@@ -1315,6 +1321,7 @@ def _ranges_cases(files: Mapping[str, bytes]) -> dict[str, list[tuple[str, list[
     long_len = len(files["long-header"])
     long_table = 128 + 32 * struct.unpack_from("<I", files["long-header"], 24)[0]
     crc_bad = 564  # (the byte crc-mismatch flips: vertex 0's record)
+    late = "vanilla-tables-after-indx"
     return {
         mv: [
             (
@@ -1477,6 +1484,20 @@ def _ranges_cases(files: Mapping[str, bytes]) -> dict[str, list[tuple[str, list[
                 "skip-strip-two-levels-prefix-violation-level-0",
                 [(0, k2vio), (k2vio, 24), rec(k2v, 5)],
                 "level 0's list held, not level 1's: LODs 0 and 1 drawable; finishing rejects the file",
+            ),
+        ],
+        "vanilla-tables-after-indx": [
+            (
+                "vanilla-tables-after-indx-vrec-not-held",
+                [(0, at(late, L.INDX)[0]), at(late, L.VERT)],
+                "VREC, after INDX, not held: the encoding's checks decode it, SWPM_RANGES_NOT_HELD with its"
+                " payload's range",
+            ),
+            (
+                "vanilla-tables-after-indx-smap-not-held",
+                [(0, at(late, L.INDX)[0]), at(late, L.VREC), at(late, L.VERT)],
+                "SMAP, after INDX, not held: ancillary, it is not checked (no SWPM_SMAP_INVALID); the ranges"
+                " open, no LOD drawable (INDX not held)",
             ),
         ],
         "mixed": [
