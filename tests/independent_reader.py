@@ -442,10 +442,11 @@ class _Reader:
             return False
         if self.not_held(o, o + max(16, min(self.u32(o + 12), length))):
             return False
-        # every other chunk steps 3-4 of §5 decode (before INDX in streaming order); SMAP, ancillary, is
-        # not checked when not wholly held
-        for ctype, c in self.chunks.items():
-            if ctype not in ("INDX", "VERT", "SMAP") and self.not_held(c.offset, c.offset + c.length):
+        # every other chunk steps 3-4 of §5 decode (before INDX in streaming order), in the order of §2.3;
+        # SMAP, ancillary, is not checked when not wholly held
+        for ctype in ["META", "LODS", *ENCODING_TABLES[self.encoding or "vanilla"]]:  # in §2.3's order
+            c = self.chunks[ctype]
+            if self.not_held(c.offset, c.offset + c.length):
                 return False
         return True
 

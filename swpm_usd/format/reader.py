@@ -333,8 +333,9 @@ def _ranges_skeleton(p: _Parsed, rep: Report) -> None:
     if not p.holds(v.offset, end):
         _not_held(p, rep, v.offset, end)
         return
-    for t, c in p.chunks.items():  # a table after INDX (not in streaming order): read only when held
-        if t not in (L.INDX, L.VERT, L.SMAP) and not p.holds(c.offset, c.offset + c.length):
+    for t in L.REQUIRED_CHUNKS[p.encoding or ""]:  # a table after INDX (not in streaming order): held
+        c = p.chunks.get(t)
+        if c is not None and t not in (L.INDX, L.VERT, L.SMAP) and not p.holds(c.offset, c.offset + c.length):
             _not_held(p, rep, c.offset, c.offset + c.length)
             return
     p.indx_partial = not p.holds(indx.offset, indx.offset + indx.length)

@@ -1125,10 +1125,10 @@ def _ranges_valid() -> dict[str, tuple[bytes, str]]:
             " LODs 0 and 2 and not LOD 1 (range case sliding-window-three-lods-not-lod-1)",
         ),
         "vanilla-tables-after-indx": (
-            reorder(_write(fan_vanilla()), [0, 1, 3, 5, 4, 2, 6]),
-            "minimal-vanilla laid out META LODS RCNT INDX VREC SMAP VERT (valid, SWPM_STREAM_ORDER): VREC and"
-            " SMAP lie after INDX, outside (a) of format.md 4 (range cases vanilla-tables-after-indx-vrec-"
-            "not-held, vanilla-tables-after-indx-smap-not-held)",
+            reorder(_write(fan_vanilla()), [0, 1, 5, 4, 3, 2, 6]),
+            "minimal-vanilla laid out META LODS INDX VREC RCNT SMAP VERT (valid, SWPM_STREAM_ORDER): VREC,"
+            " RCNT and SMAP lie after INDX, outside (a) of format.md 4 (range cases"
+            " vanilla-tables-after-indx-tables-not-held, vanilla-tables-after-indx-smap-not-held)",
         ),
         "skip-strip-two-levels": (
             _write(fan_skip_two_levels()),
@@ -1488,14 +1488,14 @@ def _ranges_cases(files: Mapping[str, bytes]) -> dict[str, list[tuple[str, list[
         ],
         "vanilla-tables-after-indx": [
             (
-                "vanilla-tables-after-indx-vrec-not-held",
+                "vanilla-tables-after-indx-tables-not-held",
                 [(0, at(late, L.INDX)[0]), at(late, L.VERT)],
-                "VREC, after INDX, not held: the encoding's checks decode it, SWPM_RANGES_NOT_HELD with its"
-                " payload's range",
+                "VREC and RCNT, after INDX, not held: the encoding's checks decode them, SWPM_RANGES_NOT_HELD"
+                " with RCNT's payload range (the first in format.md 2.3's order, though listed after VREC)",
             ),
             (
                 "vanilla-tables-after-indx-smap-not-held",
-                [(0, at(late, L.INDX)[0]), at(late, L.VREC), at(late, L.VERT)],
+                [(0, at(late, L.INDX)[0]), at(late, L.VREC), at(late, L.RCNT), at(late, L.VERT)],
                 "SMAP, after INDX, not held: ancillary, it is not checked (no SWPM_SMAP_INVALID); the ranges"
                 " open, no LOD drawable (INDX not held)",
             ),
