@@ -14,6 +14,23 @@ whatever file_size the bytes hold (the need is 64); a ``VERT`` header cut by n n
 in it); a header_size past file_size is ``SWPM_HEADER_BAD_SIZE`` (a prefix cannot compare it with the file's
 length), which the whole file reports as a table error.
 
+``read_ranges(data, ranges)`` opens the byte ranges of a file it holds as §4.2 says, in the shape of the
+vectors' range cases. It was written from §4.2's text before the codec's ``swpm_usd/format/ranges.py`` or the
+C reader were read; comparing them, the text left these open and now says what the codec and the C reader
+did (this reader had decided otherwise and follows the text):
+
+* the chunk table's check needs [0, table end), all that ``file_crc`` covers (it had needed only the table
+  and deferred the file CRC), and a header_size in [64, file_size] past the last byte held needs
+  [0, header_size) where §5 checks header_size (it had needed only [0, 64));
+* the held lists' ``SWPM_PREFIX_VIOLATION`` is one problem, found after step 5 of §5, LODs in order (it had
+  reported one per LOD, in place of the prefix property's stage).
+
+Where the readers disagreed and the text said which was right, a reader was fixed: the codec read bytes not
+held as zeros (a table after ``INDX`` not held gave ``SWPM_CHUNK_BAD_LENGTH`` on a valid file, an ``SMAP``
+not held ``SWPM_SMAP_INVALID``; the C reader and this one ask for the table and skip the ``SMAP``), and it
+deferred the CRC of an empty payload past the last byte held (an empty payload is wholly held). The tables
+after ``INDX`` are asked for in §2.3's order (the C reader's; the other two went by table order).
+
 The spec settles the offsets, the order, the stages, the multiplicity, the buffers, strict JSON for
 ``META`` (no ``NaN``/``Infinity``, no duplicate key in any object) and the skip-strip ``params``. Since the
 audit of a second reader (F1-F13) it also settles the cases this reader used to decide for itself, which it
