@@ -24,6 +24,9 @@ did (this reader had decided otherwise and follows the text):
   [0, header_size) where §5 checks header_size (it had needed only [0, 64));
 * the held lists' ``SWPM_PREFIX_VIOLATION`` is one problem, found after step 5 of §5, LODs in order (it had
   reported one per LOD, in place of the prefix property's stage).
+* skip-strip's collapsed lists' prefix waits with the replay (stage (d)), though it reads ``SKIP`` only (it
+  had run it: the checks that read no ``INDX`` element ran); mixed's dynamic and collapsed lists' prefix
+  (stage (c)) runs in all three.
 
 Where the readers disagreed and the text said which was right, a reader was fixed: the codec read bytes not
 held as zeros (a table after ``INDX`` not held gave ``SWPM_CHUNK_BAD_LENGTH`` on a valid file, an ``SMAP``
@@ -1241,7 +1244,7 @@ class _Reader:
             if len(diff):
                 self.add("SWPM_LEVEL_BAD_TABLE", lci_o + W * (cs[lev] + int(diff[0])))
                 break
-        for lev in range(n):
+        for lev in range(n if self.indx_whole else 0):  # (§4.2: with the replay, it waits for INDX)
             bad = np.flatnonzero(self.above(lci[cs[lev] : cs[lev + 1]], V - rs[lev + 1], restart))
             if len(bad):
                 self.add("SWPM_PREFIX_VIOLATION", lci_o + W * (cs[lev] + int(bad[0])))

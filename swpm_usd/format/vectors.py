@@ -227,7 +227,9 @@ def fan_sliding_three_lods() -> RawProgressiveMesh:
     )
 
 
-def fan_skip_two_levels(level1: list[int] | None = None) -> RawProgressiveMesh:
+def fan_skip_two_levels(
+    level1: list[int] | None = None, collapsed0: list[int] | None = None
+) -> RawProgressiveMesh:
     """Skip-strip list of two levels: level 0 (LODs 0 and 1) the fan, its records binning vertex 4, then 3,
     onto 0; level 1 (LOD 2, 3 vertices) ``level1``, the triangle 1 2 0 by default. A range reader holding
     level 0's list checks it against LOD 0's 5 vertices, not LOD 1's 4 (format.md 4.2)."""
@@ -237,7 +239,7 @@ def fan_skip_two_levels(level1: list[int] | None = None) -> RawProgressiveMesh:
         "level_index_start": [0, 12, 12 + len(lst)],
         "level_indices": [1, 2, 4, 2, 3, 4, 0, 1, 4, 3, 0, 4, *lst],
         "level_collapsed_start": [0, 12, 12 + len(lst)],
-        "level_collapsed_indices": [1, 2, 0, 2, 0, 0, 0, 1, 0, 0, 0, 0, 1, 2, 0],
+        "level_collapsed_indices": [*(collapsed0 or [1, 2, 0, 2, 0, 0, 0, 1, 0, 0, 0, 0]), 1, 2, 0],
         "level_record_start": [0, 2, 2],
         "collapse_kept": [0, 0],
         "collapse_binned": [4, 3],
@@ -894,6 +896,13 @@ def _settled_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
     )
     _review_invalid(out)
     _blind_invalid(out)
+    out["skip-strip-two-levels-collapsed-prefix"] = (
+        _write(fan_skip_two_levels(collapsed0=[1, 2, 0, 2, 3, 0, 0, 1, 0, 0, 0, 0])),
+        "skip-strip-two-levels with level 0's collapsed list keeping vertex 3, which its records bin: the"
+        " replay's list differs (SWPM_LEVEL_BAD_TABLE) and the collapsed lists' prefix is broken"
+        " (SWPM_PREFIX_VIOLATION), both at that element; without all of INDX both wait (range case"
+        " skip-strip-two-levels-collapsed-prefix-no-indx)",
+    )
     out["skip-strip-two-levels-prefix-violation"] = (
         _write(fan_skip_two_levels([1, 2, 3])),
         "skip-strip-two-levels with level 1's list 1 2 3 (its collapsed list 1 2 0): vertex 3 is not below"
@@ -1322,6 +1331,7 @@ def _ranges_cases(files: Mapping[str, bytes]) -> dict[str, list[tuple[str, list[
     long_table = 128 + 32 * struct.unpack_from("<I", files["long-header"], 24)[0]
     crc_bad = 564  # (the byte crc-mismatch flips: vertex 0's record)
     late = "vanilla-tables-after-indx"
+    k2c = "skip-strip-two-levels-collapsed-prefix"
     return {
         mv: [
             (
@@ -1471,6 +1481,14 @@ def _ranges_cases(files: Mapping[str, bytes]) -> dict[str, list[tuple[str, list[
                 [(0, k2io), (k2io, 24), rec(k2, 5)],
                 "level 0's list held, not level 1's: LODs 0 and 1 drawable; LOD 1's elements are checked"
                 " against LOD 0's 5 vertices (its level's first LOD), so vertex 4 there is no violation",
+            ),
+        ],
+        k2c: [
+            (
+                "skip-strip-two-levels-collapsed-prefix-no-indx",
+                [(0, at(k2c, L.INDX)[0]), rec(k2c, 5)],
+                "all but INDX: the replay and the collapsed lists' prefix (stage (d), though the prefix"
+                " check reads SKIP only) wait; the ranges open and finishing rejects the file",
             ),
         ],
         k2v: [
