@@ -333,7 +333,7 @@ def _ranges_skeleton(p: _Parsed, rep: Report) -> None:
     if not p.holds(v.offset, end):
         _not_held(p, rep, v.offset, end)
         return
-    for t in L.REQUIRED_CHUNKS[p.encoding or ""]:  # a table after INDX (not in streaming order): held
+    for t in L.REQUIRED_CHUNKS.get(p.encoding or "", ()):  # a table after INDX (not in streaming order)
         c = p.chunks.get(t)
         if c is not None and t not in (L.INDX, L.VERT, L.SMAP) and not p.holds(c.offset, c.offset + c.length):
             _not_held(p, rep, c.offset, c.offset + c.length)
