@@ -14,6 +14,26 @@ whatever file_size the bytes hold (the need is 64); a ``VERT`` header cut by n n
 in it); a header_size past file_size is ``SWPM_HEADER_BAD_SIZE`` (a prefix cannot compare it with the file's
 length), which the whole file reports as a table error.
 
+``read_ranges(data, ranges)`` opens the byte ranges of a file it holds as §4.2 says, in the shape of the
+vectors' range cases. It was written from §4.2's text before the codec's ``swpm_usd/format/ranges.py`` or the
+C reader were read; comparing them, the text left these open and now says what the codec and the C reader
+did (this reader had decided otherwise and follows the text):
+
+* the chunk table's check needs [0, table end), all that ``file_crc`` covers (it had needed only the table
+  and deferred the file CRC), and a header_size in [64, file_size] past the last byte held needs
+  [0, header_size) where §5 checks header_size (it had needed only [0, 64));
+* the held lists' ``SWPM_PREFIX_VIOLATION`` is one problem, found after step 5 of §5, LODs in order (it had
+  reported one per LOD, in place of the prefix property's stage).
+* skip-strip's collapsed lists' prefix waits with the replay (stage (d)), though it reads ``SKIP`` only (it
+  had run it: the checks that read no ``INDX`` element ran); mixed's dynamic and collapsed lists' prefix
+  (stage (c)) runs in all three.
+
+Where the readers disagreed and the text said which was right, a reader was fixed: the codec read bytes not
+held as zeros (a table after ``INDX`` not held gave ``SWPM_CHUNK_BAD_LENGTH`` on a valid file, an ``SMAP``
+not held ``SWPM_SMAP_INVALID``; the C reader and this one ask for the table and skip the ``SMAP``), and it
+deferred the CRC of an empty payload past the last byte held (an empty payload is wholly held). The tables
+after ``INDX`` are asked for in §2.3's order (the C reader's; the other two went by table order).
+
 The spec settles the offsets, the order, the stages, the multiplicity, the buffers, strict JSON for
 ``META`` (no ``NaN``/``Infinity``, no duplicate key in any object) and the skip-strip ``params``. Since the
 audit of a second reader (F1-F13) it also settles the cases this reader used to decide for itself, which it
@@ -227,6 +247,7 @@ SEVERITY = {
     "SWPM_PREFIX_VIOLATION": "error",
     "SWPM_PREFIX_TOO_SHORT": "error",
     "SWPM_PREFIX_NOT_STREAMABLE": "error",
+    "SWPM_RANGES_NOT_HELD": "error",
     "SWPM_RECORD_BAD_KEPT": "error",
     "SWPM_RECORD_BAD_BINNED": "error",
     "SWPM_RECORD_BAD_COUNTS": "error",
@@ -296,12 +317,15 @@ def _hash(arr: np.ndarray) -> dict[str, Any]:
 
 
 class _Reader:
-    def __init__(self, data: bytes, prefix: bool = False) -> None:
+    def __init__(self, data: bytes, prefix: bool = False, held: list[tuple[int, int]] | None = None) -> None:
         self.raw = bytes(data)
         self.data = self.raw
         # §4.1: reading a prefix, the first n bytes of a file of file_size bytes; self.size is the end of the
         # file (§1) that bounds the table and the chunks, while self.data holds only the bytes at hand
-        self.prefix = prefix
+        self.prefix = prefix or held is not None
+        # §4.2: reading byte ranges, the disjoint sorted runs [a, b) held (self.data holds zeros elsewhere)
+        self.held_runs = held
+        self.indx_whole = True  # §4.2 step 3: INDX wholly held (else the checks reading it are deferred)
         self.size = len(self.raw)
         self.rep = _Report()
         self.chunks: dict[str, _Chunk] = {}
@@ -341,13 +365,48 @@ class _Reader:
         dt = self.odt if table else self.idt
         if count == 0:
             return np.zeros(0, dtype=dt)
+        end = off + count * np.dtype(dt).itemsize
+        if end > len(self.data):  # (ranges: INDX past the last byte held; only its held elements are read)
+            return np.frombuffer(self.data[off:] + bytes(end - len(self.data)), dtype=dt, count=count)
         return np.frombuffer(self.data, dtype=dt, count=count, offset=off)
 
     def check_zero(self, start: int, end: int) -> None:
-        """The padding gap [start, end) MUST be zero; reported at the start of the gap (errors.md)."""
-        end = min(end, len(self.data))  # (a prefix: the bytes past n are checked on finishing, §4.1)
-        if start < end and self.data[start:end].count(0) != end - start:
+        """The padding gap [start, end) MUST be zero; reported at the start of the gap (errors.md). Only the
+        bytes at hand are checked: a prefix's or held range's others are checked on finishing (§4.1, §4.2)."""
+        end = min(end, len(self.data))
+        parts = [(start, end)] if self.held_runs is None else self.held_parts(start, end)
+        if any(a < b and self.data[a:b].count(0) != b - a for a, b in parts):
             self.add("SWPM_PADDING_NONZERO", start)
+
+    def held(self, a: int, b: int) -> bool:
+        """Every byte of [a, b) is at hand (§4.2's held(a, b); a prefix holds [0, n))."""
+        if self.held_runs is None:
+            return b <= len(self.data)
+        if b <= a:
+            return True
+        return any(s <= a and b <= e for s, e in self.held_runs)
+
+    def held_parts(self, a: int, b: int) -> list[tuple[int, int]]:
+        """The held parts of [a, b)."""
+        assert self.held_runs is not None
+        return [(max(a, s), min(b, e)) for s, e in self.held_runs if max(a, s) < min(b, e)]
+
+    def first_unheld(self, a: int, b: int) -> int:
+        """The first byte of [a, b) not held (the caller knows one is not)."""
+        x = a
+        for s, e in self.held_runs or []:
+            if s <= x < e:
+                x = e
+        return x
+
+    def not_held(self, start: int, end: int) -> bool:
+        """§4.2: SWPM_RANGES_NOT_HELD at the first byte of [start, end) not held, with the range; True if
+        reported."""
+        if self.held(start, end):
+            return False
+        self.add("SWPM_RANGES_NOT_HELD", self.first_unheld(start, end))
+        self.rep.problems[-1].update(need_start=start, need=end)
+        return True
 
     def first_n(self, mask: np.ndarray, base: int, step: int, n: int = 3) -> None:
         """Report SWPM_INDEX_OUT_OF_RANGE at the first ``n`` set elements of ``mask``."""
@@ -362,7 +421,9 @@ class _Reader:
         self.table(*table)
         if self.rep.has_error():
             return self.result()
-        if self.prefix and not self.streams():
+        if self.held_runs is not None and not self.ranges_hold_the_skeleton():
+            return self.result()
+        if self.held_runs is None and self.prefix and not self.streams():
             return self.result()
         self.payloads()
         return self.result()
@@ -390,6 +451,25 @@ class _Reader:
             return False
         return True
 
+    def ranges_hold_the_skeleton(self) -> bool:
+        """§4.2 step 3: every byte before INDX ((a) of §4) and VERT's bytes before its vertex records."""
+        o, length = self.chunks["VERT"].offset, self.chunks["VERT"].length
+        if self.not_held(0, self.chunks["INDX"].offset):
+            return False
+        if length < 16:
+            return not self.not_held(o, o + length)
+        if self.not_held(o, o + 16):  # data_offset is in VERT's 16-byte header
+            return False
+        if self.not_held(o, o + max(16, min(self.u32(o + 12), length))):
+            return False
+        # every other chunk steps 3-4 of §5 decode (before INDX in streaming order), in the order of §2.3;
+        # SMAP, ancillary, is not checked when not wholly held
+        for ctype in ["META", "LODS", *ENCODING_TABLES[self.encoding or "vanilla"]]:  # in §2.3's order
+            c = self.chunks[ctype]
+            if self.not_held(c.offset, c.offset + c.length):
+                return False
+        return True
+
     def header(self) -> tuple[int, int, int] | None:
         d = self.raw
         if len(d) < HEADER_SIZE:
@@ -412,7 +492,11 @@ class _Reader:
         if header_size < HEADER_SIZE or header_size > (file_size if self.prefix else len(d)):
             self.add("SWPM_HEADER_BAD_SIZE", 12)
             return None
-        if header_size > len(d):  # §4.1 step 2: a header_size in [64, file_size] past n
+        # §4.1 step 2: a header_size in [64, file_size] past n; §4.2 step 2: past the last byte held
+        if header_size > len(d) and self.held_runs is not None:
+            self.not_held(0, header_size)
+            return None
+        if header_size > len(d):
             self.too_short(header_size)
             return None
         if features & ~KNOWN_FEATURES:
@@ -456,7 +540,10 @@ class _Reader:
         if table_end > self.size:
             self.add("SWPM_TABLE_TRUNCATED", 24)
             return None
-        if table_end > len(self.data):  # §4.1 step 2: a table that ends past n, not past file_size
+        if self.held_runs is not None:
+            if self.not_held(0, table_end):  # §4.2 step 2: every byte to the table's end (file_crc's)
+                return None
+        elif table_end > len(self.data):  # §4.1 step 2: a table that ends past n, not past file_size
             self.too_short(table_end)
             return None
         buf = bytearray(self.data[:table_end])
@@ -496,7 +583,7 @@ class _Reader:
             if self.minor == 0 and reserved:
                 self.add("SWPM_HEADER_RESERVED_NONZERO", eo + 28)
             # a prefix checks the CRC of a payload that ends past n on finishing (§4.1 step 2)
-            if type_ok and bounds_ok and align_ok and place_ok and offset + length <= len(self.data):
+            if type_ok and bounds_ok and align_ok and place_ok and self.held(offset, offset + length):
                 payload = self.data[offset : offset + length]
                 if zlib.crc32(payload, zlib.crc32(raw_type)) & 0xFFFFFFFF != crc:
                     self.add("SWPM_CHUNK_CRC_MISMATCH", eo + 24)
@@ -557,8 +644,15 @@ class _Reader:
         }
         if self.encoding is not None:
             enc[self.encoding]()
-        if not self.rep.has_error() and "SMAP" in self.chunks:
+        smap = self.chunks.get("SMAP")
+        if (
+            not self.rep.has_error()
+            and smap is not None
+            and self.held(smap.offset, smap.offset + smap.length)
+        ):
             self.read_smap()
+        if not self.rep.has_error() and not self.indx_whole:
+            self.held_lods_below()
 
     def read_meta(self) -> bool:
         c = self.chunks["META"]
@@ -797,7 +891,28 @@ class _Reader:
         self.buffers[name] = arr
         self.indx = arr.astype(np.int64)
         self.indx_off = c.offset
+        self.indx_whole = self.held(c.offset, c.offset + c.length)
         return True
+
+    def held_lods_below(self) -> None:
+        """§4.2 step 3, INDX not wholly held, after step 5 of §5: for every LOD k in order whose (b) elements
+        are held, each is below vertex_count(k) (skip-strip, mixed: of the first LOD of k's level), a strips'
+        restart index exempt; else SWPM_PREFIX_VIOLATION at the first that is not (one problem)."""
+        restart = None
+        if self.strips or (
+            self.encoding == "skip-strip" and self.params.get("primitive", "strip") == "strip"
+        ):
+            restart = self.params.get("restart_index")
+        for k in range(self.L):
+            lo, hi = self.lod_index_range(k)
+            if hi <= lo or not self.held(self.indx_off + self.W * lo, self.indx_off + self.W * hi):
+                continue
+            sliding = self.encoding == "sliding-window"
+            limit = self.vc[k] if sliding else self.vc[self.level_first[self.level_of(k)]]
+            bad = np.flatnonzero(self.above(self.indx[lo:hi], limit, restart))
+            if len(bad):
+                self.add("SWPM_PREFIX_VIOLATION", self.indx_off + self.W * (lo + int(bad[0])))
+                return
 
     def level_layout(self, ctype: str, extra: int, names: list[str]) -> list[tuple[np.ndarray, int]] | None:
         """SKIP/MLVL: u32 n, u32 count, then off arrays of n, n+1, n+1, n+1 and ``extra`` idx arrays of count
@@ -921,7 +1036,8 @@ class _Reader:
         mark = self.rep.total
         # (a)
         self.counts_36("VREC", recs, M, rc)
-        self.first_n(self.indx >= V, self.indx_off, self.W)
+        if self.indx_whole:  # (§4.2: the index values wait for INDX)
+            self.first_n(self.indx >= V, self.indx_off, self.W)
         self.r_below_v("VREC", R)
         self.bad_kept("VREC", recs)
         if int(recs[:, 1].sum()) > T0:
@@ -935,7 +1051,9 @@ class _Reader:
         self.lods_row_bad_counts([T0 - removed[rc[k]] for k in range(self.L)])
         if self.rep.total > mark:
             return
-        # (c) the replay: one problem
+        # (c) the replay: one problem (§4.2: it waits for INDX; no LOD's (b), all of INDX, is held)
+        if not self.indx_whole:
+            return
         ind = self.indx.copy()
         starts = self.slot_starts(recs)
         live = T0
@@ -994,14 +1112,17 @@ class _Reader:
         outside = [k for k in range(L) if first[k] + count[k] > pool]
         for k in outside[:3]:
             self.add("SWPM_WINDOW_OUT_OF_POOL", c.offset + n * O * k)
-        self.first_n(self.above(self.indx, self.V, restart), self.indx_off, W)
-        if self.strips and not outside:
+        if self.indx_whole:
+            self.first_n(self.above(self.indx, self.V, restart), self.indx_off, W)
+        if self.strips and not outside and self.indx_whole:
             k = _first_bad(first, lambda i, x: count[i] > 0 and x > 0 and int(self.indx[x - 1]) != restart)
             if k is not None:
                 self.add("SWPM_WINDOW_MID_STRIP", c.offset + n * O * k)
         if self.rep.total > mark:
             return
-        # (b) the prefix property: the lowest offending INDX element
+        # (b) the prefix property: the lowest offending INDX element (§4.2: per held window, the rest waits)
+        if not self.indx_whole:
+            return
         worst = None
         for k in range(L):
             win = self.indx[first[k] : first[k] + count[k]]
@@ -1075,7 +1196,8 @@ class _Reader:
             return (arr >= V) & (arr != restart) if restart is not None else arr >= V
 
         rec_base = self.chunks["SREC"].offset + 8
-        self.first_n(over(self.indx), self.indx_off, W)
+        if self.indx_whole:
+            self.first_n(over(self.indx), self.indx_off, W)
         self.first_n(over(lci), lci_o, W)
         O = self.O
         self.first_n(recs[:, 0] >= V, rec_base, 4 * O)  # kept
@@ -1085,11 +1207,12 @@ class _Reader:
         # (b)
         starts = self.slot_starts(recs)
         self.offsets_in_levels(starts, rs, ls, offs, op)
-        for lev in range(n):
+        for lev in range(n if self.indx_whole else 0):
             bad = np.flatnonzero(self.above(self.indx[ls[lev] : ls[lev + 1]], self.vc[fl[lev]], restart))
             if len(bad):
                 self.add("SWPM_PREFIX_VIOLATION", self.indx_off + W * (ls[lev] + int(bad[0])))
                 break
+
         if self.rep.total > mark:
             return
         # (c)
@@ -1104,8 +1227,8 @@ class _Reader:
         self.lods_vertex_counts(rc)
         if self.rep.total > mark:
             return
-        # (d) the replay, then the collapsed lists' prefix
-        for lev in range(n):
+        # (d) the replay (§4.2: it waits for INDX), then the collapsed lists' prefix
+        for lev in range(n if self.indx_whole else 0):
             lst = self.indx[ls[lev] : ls[lev + 1]].copy()
             bad_record = None
             for r in range(rs[lev], rs[lev + 1]):
@@ -1121,7 +1244,7 @@ class _Reader:
             if len(diff):
                 self.add("SWPM_LEVEL_BAD_TABLE", lci_o + W * (cs[lev] + int(diff[0])))
                 break
-        for lev in range(n):
+        for lev in range(n if self.indx_whole else 0):  # (§4.2: with the replay, it waits for INDX)
             bad = np.flatnonzero(self.above(lci[cs[lev] : cs[lev + 1]], V - rs[lev + 1], restart))
             if len(bad):
                 self.add("SWPM_PREFIX_VIOLATION", lci_o + W * (cs[lev] + int(bad[0])))
@@ -1129,7 +1252,10 @@ class _Reader:
         if self.rep.total > mark:
             return
         # (e) LODS triangle counts: non-degenerate triangles after records [level_record_start[l], RCNT[k])
-        # RCNT is non-decreasing (stage a), so each level's records are applied once, in order.
+        # RCNT is non-decreasing (stage a), so each level's records are applied once, in order (§4.2: they
+        # wait for INDX).
+        if not self.indx_whole:
+            return
         expected = []
         for lev in range(n):
             lst = self.indx[ls[lev] : ls[lev + 1]].copy()
@@ -1216,7 +1342,8 @@ class _Reader:
                 self.add("SWPM_MIXED_BAD_LEVELS", lrs_o + self.O * lev)
                 return
         self.level_first, self.level_starts = fl, ss
-        self.first_n(self.indx >= V, self.indx_off, W)
+        if self.indx_whole:
+            self.first_n(self.indx >= V, self.indx_off, W)
         self.first_n(ldi >= V, ldi_o, W)
         self.first_n(ldc >= V, ldc_o, W)
         self.r_below_v("MREC", R)
@@ -1246,6 +1373,8 @@ class _Reader:
             expected.append(s_live + d_live)
         self.lods_row_bad_counts(expected)
         for arr, off, st in ((self.indx, self.indx_off, ss), (ldi, ldi_o, ds)):
+            if arr is self.indx and not self.indx_whole:
+                continue
             for lev in range(n):
                 bad = np.flatnonzero(arr[st[lev] : st[lev + 1]] >= self.vc[fl[lev]])
                 if len(bad):
@@ -1259,8 +1388,8 @@ class _Reader:
                 break
         if self.rep.total > mark:
             return
-        # (d) the replay: one problem
-        for lev in range(n):
+        # (d) the replay: one problem (§4.2: it waits for INDX)
+        for lev in range(n if self.indx_whole else 0):
             stat = self.indx[ss[lev] : ss[lev + 1]]
             dyn = ldi[ds[lev] : ds[lev + 1]].copy()
             s_live, d_live = len(stat) // 3, len(dyn) // 3
@@ -1394,4 +1523,83 @@ def read_prefix(prefix: bytes) -> dict[str, Any]:
     if drawable:
         arrays = r.vertices(r.vc[drawable[0]])
         out["drawable"] = {name: _hash(arr) for name, arr in sorted(arrays.items())}
+    return out
+
+
+def _merge(ranges: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """Held ranges (offset, length), in any order, overlapping or touching, as disjoint sorted runs
+    [a, b): §4.2's held(a, b) asks only whether every byte is held."""
+    runs: list[tuple[int, int]] = []
+    for a, b in sorted((o, o + n) for o, n in ranges if n > 0):
+        if runs and a <= runs[-1][1]:
+            runs[-1] = (runs[-1][0], max(runs[-1][1], b))
+        else:
+            runs.append((a, b))
+    return runs
+
+
+def read_ranges(data: bytes, ranges: list[tuple[int, int]]) -> dict[str, Any]:
+    """Open the byte ranges ``ranges`` ((offset, length) each) of the SWPM v1 file ``data`` as §4.2 reads
+    them, reading no other byte: ``{"ranges", "opened", "problems", "needed", "drawable_lods",
+    "drawable"}``. ``problems`` are the ranges' (a ``SWPM_RANGES_NOT_HELD`` also gives the range it needs,
+    ``need_start`` and ``need``); once opened, ``needed`` lists per LOD the ranges (a), (b) (none when empty)
+    and (c) of §4, ``drawable_lods`` the LODs whose three are held and ``drawable`` per such LOD (by its
+    number) the hashes of its vertices' arrays (§7 names) and of its (b) elements (``indices``). Finishing is
+    :func:`read` of the whole file. Ranges past the file (an error of the caller) are not held."""
+    runs = _merge([(o, min(n, len(data) - o)) for o, n in ranges if o < len(data)])
+    buf = bytearray(runs[-1][1] if runs else 0)
+    for a, b in runs:
+        buf[a:b] = data[a:b]
+    out: dict[str, Any] = {"ranges": [list(r) for r in ranges], "opened": False, "problems": []}
+
+    def held(a: int, b: int) -> bool:
+        return b <= a or any(s <= a and b <= e for s, e in runs)
+
+    if not held(0, HEADER_SIZE):  # §4.2 step 1
+        if held(0, 8) and bytes(buf[:8]) != MAGIC:
+            out["problems"] = [{"code": "SWPM_HEADER_BAD_MAGIC", "severity": "error", "offset": 0}]
+        else:
+            first = runs[0][1] if runs and runs[0][0] == 0 else 0
+            out["problems"] = [
+                {
+                    "code": "SWPM_RANGES_NOT_HELD",
+                    "severity": "error",
+                    "offset": first,
+                    "need_start": 0,
+                    "need": HEADER_SIZE,
+                }
+            ]
+        return out
+    file_size = struct.unpack_from("<Q", buf, 40)[0]
+    if held(0, file_size):  # every byte: read as §5 reads the file
+        verdict = read(bytes(buf[:file_size]))
+        r = _Reader(bytes(buf[:file_size]))
+        r.run()
+        out["problems"] = verdict["problems"]
+        if not verdict["valid"]:
+            return out
+        r.held_runs = [(0, file_size)]
+    else:
+        r = _Reader(bytes(buf), held=runs)
+        r.run()
+        out["problems"] = r.rep.problems
+        if r.rep.has_error():
+            return out
+    out["opened"] = True
+    ic, vc = r.chunks["INDX"], r.chunks["VERT"]
+    needed, drawable = [], {}
+    for k in range(r.L):
+        lo, hi = r.lod_index_range(k)
+        need = [[0, ic.offset]]
+        if hi > lo:
+            need.append([ic.offset + r.W * lo, ic.offset + r.W * hi])
+        need.append([vc.offset, vc.offset + r.data_offset + r.vc[k] * r.stride])
+        needed.append(need)
+        if all(held(a, b) for a, b in need):
+            arrays = r.vertices(r.vc[k])
+            arrays["indices"] = r.view(ic.offset + r.W * lo, hi - lo)
+            drawable[str(k)] = {name: _hash(arr) for name, arr in sorted(arrays.items())}
+    out["needed"] = needed
+    out["drawable_lods"] = [int(k) for k in drawable]
+    out["drawable"] = drawable
     return out

@@ -1003,3 +1003,56 @@ def test_prefix_cases(dump: Path, vector: dict[str, Any]) -> None:
         assert got["finish"] == ({"ok": True} if whole["valid"] else _first_error(whole["problems"])), case[
             "name"
         ]
+
+
+@pytest.mark.parametrize(
+    ("vector", "case"),
+    [pytest.param(v, c, id=c["name"]) for v in MANIFEST["vectors"] for c in v.get("ranges", [])],
+)
+def test_range_cases(dump: Path, vector: dict[str, Any], case: dict[str, Any]) -> None:
+    """Every range case of the vectors (format.md 4.2) through ``swpm_dump --ranges`` (the bytes not held
+    filled with 0xA5, never read): the first error (with the range to fetch), or the drawable LODs, the
+    CRC of what they draw (their points, then their INDX elements, whose SHA-256 the case gives), the
+    ranges LODs 0 and L-1 need, and finishing = the vector's verdict."""
+    path = VECTORS / vector["file"]
+    data = path.read_bytes()
+    whole = json.loads((VECTORS / vector["expected"]).read_text())
+    exp = json.loads((VECTORS / case["expected"]).read_text())
+    held = ",".join(f"{o}:{n}" for o, n in case["ranges"])
+    proc = subprocess.run(
+        [str(dump), "--ranges", held, "--fill", "a5", str(path)], capture_output=True, text=True
+    )
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr[-2000:]
+    got = json.loads(proc.stdout)
+    if not exp["opened"]:
+        first = _first_error(exp["problems"])
+        if first["code"] == "SWPM_RANGES_NOT_HELD":
+            first["need"] = next(q["need"] for q in exp["problems"] if q["code"] == first["code"])
+            start = next(q["need_start"] for q in exp["problems"] if q["code"] == first["code"])
+            if start:  # (swpm_dump prints need_start when it is not 0)
+                first["need_start"] = start
+        assert got == first
+        return
+    L = len(exp["needed"])
+    lods = exp["drawable_lods"]
+    assert (got["ok"], got["lod_count"], got["drawable"]) == (True, L, lods)
+    assert got["finest"] == (lods[0] if lods else L)
+    for k, flat in zip((0, L - 1), got["needed"], strict=False):
+        assert flat == [x for a, b in exp["needed"][k] for x in (a, b - a)], k
+    # what each drawable LOD draws: the points of its vertices (the first 12 bytes of each record), its INDX
+    # elements; the case gives their SHA-256, swpm_dump one CRC over all of them
+    count, table = struct.unpack_from("<I", data, 24)[0], struct.unpack_from("<Q", data, 32)[0]
+    entries = [struct.unpack_from("<4sIQ", data, table + 32 * e) for e in range(count)]
+    vo = next(off for ctype, _flags, off in entries if ctype == b"VERT")
+    _, _, stride, at = struct.unpack_from("<4I", data, vo)
+    drawn = b""
+    for k in lods:
+        draws, (_, *rest) = exp["drawable"][str(k)], exp["needed"][k]
+        n = draws["points"]["shape"][0]
+        pts = b"".join(data[vo + at + stride * i : vo + at + stride * i + 12] for i in range(n))
+        assert hashlib.sha256(pts).hexdigest() == draws["points"]["sha256"], k
+        elems = data[rest[0][0] : rest[0][1]] if len(rest) == 2 else b""
+        assert hashlib.sha256(elems).hexdigest() == draws["indices"]["sha256"], k
+        drawn += pts + elems
+    assert got["drawn_crc"] == zlib.crc32(drawn)
+    assert got["finish"] == ({"ok": True} if whole["valid"] else _first_error(whole["problems"]))

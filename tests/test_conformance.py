@@ -30,6 +30,7 @@ def test_manifest_and_expected_results_follow_the_schema() -> None:
     expected_schema = {**SCHEMA["$defs"]["expected"], "$defs": SCHEMA["$defs"]}
     names = {v["name"] for v in manifest["vectors"]}
     prefix_schema = {**SCHEMA["$defs"]["prefix"], "$defs": SCHEMA["$defs"]}
+    ranges_schema = {**SCHEMA["$defs"]["ranges"], "$defs": SCHEMA["$defs"]}
     for v in manifest["vectors"]:
         exp = json.loads((VECTORS / v["expected"]).read_text())
         jsonschema.validate(exp, expected_schema)
@@ -41,6 +42,16 @@ def test_manifest_and_expected_results_follow_the_schema() -> None:
             # a TOO_SHORT problem gives need > n, and only it gives need
             assert all(("need" in q) == (q["code"] == "SWPM_PREFIX_TOO_SHORT") for q in pexp["problems"])
             assert all(q["need"] > case["length"] for q in pexp["problems"] if "need" in q)
+        for case in v.get("ranges", []):
+            rexp = json.loads((VECTORS / case["expected"]).read_text())
+            jsonschema.validate(rexp, ranges_schema)
+            assert rexp["ranges"] == case["ranges"]
+            # a NOT_HELD problem gives its range, the offset its first byte not held; only it gives one
+            for q in rexp["problems"]:
+                assert ("need" in q) == ("need_start" in q) == (q["code"] == "SWPM_RANGES_NOT_HELD")
+                if "need" in q:
+                    assert q["need_start"] <= q["offset"] < q["need"]
+                    assert not any(o <= q["offset"] < o + n for o, n in case["ranges"])
     for need in (
         "truncated-header",
         "truncated-chunk-table",
@@ -124,8 +135,10 @@ def test_manifest_and_expected_results_follow_the_schema() -> None:
 
 def _cited_vectors(text: str) -> set[str]:
     """The vector names a spec text cites: every name of "vector `a`" or "vectors `a`, `b` and `c`" (or
-    "prefix case(s)", format.md 4.1), a line break allowed anywhere between the words."""
-    runs = re.findall(r"\b(?:vector|prefix\s+case)s?\s+(`[^`]+`(?:(?:,\s*|\s+and\s+)`[^`]+`)*)", text, re.I)
+    "prefix case(s)", format.md 4.1, "range case(s)", 4.2), a line break allowed anywhere between the
+    words."""
+    cites = r"\b(?:vector|(?:prefix|range)\s+case)s?\s+(`[^`]+`(?:(?:,\s*|\s+and\s+)`[^`]+`)*)"
+    runs = re.findall(cites, text, re.I)
     return {name for run in runs for name in re.findall(r"`([^`]+)`", run)}
 
 
@@ -133,17 +146,20 @@ def test_cited_vectors_reads_lists_and_line_breaks() -> None:
     text = "(vector\n   `a-b`), vectors `c`, `d-e`\nand `f`; the vectors `g`; see `h`, vector `i`,\n`j`"
     assert _cited_vectors(text) == {"a-b", "c", "d-e", "f", "g", "i", "j"}
     assert _cited_vectors("prefix cases `k`, `l` and\n`m`; prefix\ncase `n`") == {"k", "l", "m", "n"}
+    assert _cited_vectors("range cases `o` and `p`; range\ncase `q`") == {"o", "p", "q"}
 
 
 def test_every_vector_the_spec_cites_exists_and_every_code_is_exercised() -> None:
     """A vector named in format.md is in the manifest, and every code of errors.md that a file can cause is
     expected by some vector (SWPM_IO_ERROR, _INDEX_WIDTH, _ENCODING_UNAVAILABLE and _BUFFERS_REJECTED are not
     problems of a file's bytes; SWPM_PREFIX_TOO_SHORT and _NOT_STREAMABLE, a prefix reader's, format.md 4.1,
-    are expected by the prefix cases; SWPM_RANGES_NOT_HELD is a range reader's, 4.2: tests/test_ranges.py).
-    A name the spec cites may be a vector's or a prefix case's."""
+    are expected by the prefix cases, SWPM_RANGES_NOT_HELD, a range reader's, 4.2, by the range cases).
+    A name the spec cites may be a vector's, a prefix case's or a range case's."""
     spec = (ROOT / "spec" / "format.md").read_text()
     vectors = json.loads((VECTORS / "manifest.json").read_text())["vectors"]
-    names = {v["name"] for v in vectors} | {c["name"] for v in vectors for c in v.get("prefixes", [])}
+    names = {v["name"] for v in vectors} | {
+        c["name"] for v in vectors for key in ("prefixes", "ranges") for c in v.get(key, [])
+    }
     cited = _cited_vectors(spec)
     assert cited and cited <= names, sorted(cited - names)
     codes = set(re.findall(r"^\| `(SWPM_[A-Z0-9_]+)`", (ROOT / "spec" / "errors.md").read_text(), re.M))
@@ -155,7 +171,6 @@ def test_every_vector_the_spec_cites_exists_and_every_code_is_exercised() -> Non
         "SWPM_INDEX_WIDTH",
         "SWPM_ENCODING_UNAVAILABLE",
         "SWPM_BUFFERS_REJECTED",
-        "SWPM_RANGES_NOT_HELD",
     }
     assert not_of_bytes < codes, sorted(not_of_bytes - codes)  # errors.md's table was read
     assert sorted(codes - not_of_bytes - seen) == []
@@ -178,6 +193,7 @@ def _copy_vectors(tmp_path: Path, edit_entry=None, expected: dict | None = None)
     manifest = json.loads((VECTORS / "manifest.json").read_text())
     entry = next(v for v in manifest["vectors"] if v["valid"])
     entry.pop("prefixes")  # (the whole-file verdict only; test_a_prefix_case_passes_only_on_its_verdict)
+    entry.pop("ranges")
     for key in ("file", "expected"):
         (tmp_path / entry[key]).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / entry[key]).write_bytes((VECTORS / entry[key]).read_bytes())
@@ -238,6 +254,7 @@ def test_a_prefix_case_passes_only_on_its_verdict(tmp_path: Path, edit, detail: 
     """Each prefix case of the manifest is checked against its own expected result (format.md 4.1)."""
     manifest = json.loads((VECTORS / "manifest.json").read_text())
     entry = next(v for v in manifest["vectors"] if v["name"] == "minimal-vanilla")
+    entry.pop("ranges")  # (test_a_range_case_passes_only_on_its_verdict)
     short = next(c for c in entry["prefixes"] if c["name"] == "minimal-vanilla-at-records-minus-1")
     opened = next(c for c in entry["prefixes"] if c["name"] == "minimal-vanilla-mid-record")
     entry["prefixes"] = [short if "need" in detail or "problems" in detail else opened]
@@ -253,4 +270,34 @@ def test_a_prefix_case_passes_only_on_its_verdict(tmp_path: Path, edit, detail: 
     exp_path.write_text(json.dumps(exp))
     whole, case = run_conformance(tmp_path)
     assert whole.passed and case.name == f"minimal-vanilla/{entry['prefixes'][0]['name']}"
+    assert not case.passed and detail in case.detail, case.detail
+
+
+@pytest.mark.parametrize(
+    ("edit", "detail"),
+    [
+        (lambda e: e.update(drawable_lods=[0, 1]), "differs in drawable_lods"),
+        (lambda e: e["drawable"].pop("1"), "differs in drawable"),
+        (lambda e: e["needed"][1].pop(1), "differs in needed"),
+        (lambda e: e.update(opened=False), "differs in opened"),
+    ],
+)
+def test_a_range_case_passes_only_on_its_verdict(tmp_path: Path, edit, detail: str) -> None:  # noqa: ANN001
+    """Each range case of the manifest is checked against its own expected result (format.md 4.2)."""
+    manifest = json.loads((VECTORS / "manifest.json").read_text())
+    entry = next(v for v in manifest["vectors"] if v["name"] == "minimal-vanilla")
+    entry.pop("prefixes")
+    entry["ranges"] = [c for c in entry["ranges"] if c["name"] == "minimal-vanilla-unsorted-overlapping"]
+    for rel in (entry["file"], entry["expected"], entry["ranges"][0]["expected"]):
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_bytes((VECTORS / rel).read_bytes())
+    (tmp_path / "manifest.json").write_text(json.dumps({**manifest, "vectors": [entry]}))
+    whole, case = run_conformance(tmp_path)
+    assert whole.passed and case.passed, case.detail
+    exp_path = tmp_path / entry["ranges"][0]["expected"]
+    exp = json.loads(exp_path.read_text())
+    edit(exp)
+    exp_path.write_text(json.dumps(exp))
+    whole, case = run_conformance(tmp_path)
+    assert whole.passed and case.name == "minimal-vanilla/minimal-vanilla-unsorted-overlapping"
     assert not case.passed and detail in case.detail, case.detail

@@ -87,7 +87,7 @@ static const swpm_code_info swpm_codes[SWPM_CODE_COUNT] = {
     {"SWPM_PREFIX_NOT_STREAMABLE", "error",
      "The last entry of the chunk table is not a VERT, so a prefix of the file cannot hold every table before the vertices (format.md 4.1); read the whole file (only a prefix reader reports it)."},
     {"SWPM_RANGES_NOT_HELD", "error",
-     "A range reader (format.md 4.2) was given byte ranges that lack what opening the file takes: its header and chunk table, every byte before INDX, VERT's bytes before its vertex records, and each table that lies after INDX in a file not in streaming order; fetch [start, end) and open again (only a range reader reports it)."},
+     "A range reader (format.md 4.2) was given byte ranges that lack what opening the file takes: its header and chunk table (every byte up to the table's end), every byte before INDX, VERT's bytes before its vertex records, and each table that lies after INDX in a file not in streaming order; fetch [start, end) and open again (only a range reader reports it)."},
     {"SWPM_META_BAD_JSON", "error",
      "The metadata chunk cannot be decoded."},
     {"SWPM_META_BAD_FIELD", "error",

@@ -300,9 +300,9 @@ _ENTRIES = [
         ERROR,
         "opening the file's byte ranges needs bytes [{start}, {end}), not all held",
         "A range reader (format.md 4.2) was given byte ranges that lack what opening the file takes: its "
-        "header and chunk table, every byte before INDX, VERT's bytes before its vertex records, and each "
-        "table that lies after INDX in a file not in streaming order; fetch [start, end) and open again "
-        "(only a range reader reports it).",
+        "header and chunk table (every byte up to the table's end), every byte before INDX, VERT's bytes "
+        "before its vertex records, and each table that lies after INDX in a file not in streaming order; "
+        "fetch [start, end) and open again (only a range reader reports it).",
         "the first byte of [start, end) not held",
     ),
     # -- content ------------------------------------------------------------------------------------------

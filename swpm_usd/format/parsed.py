@@ -58,7 +58,10 @@ class _Parsed:
     indx_partial: bool = False  # ranges without all of INDX: checks of its content wait for the whole file
 
     def holds(self, start: int, end: int) -> bool:
-        """Whether bytes [start, end) are held: inside ``buf`` and, reading ranges, every one held."""
+        """Whether bytes [start, end) are held: inside ``buf`` and, reading ranges, every one held (an empty
+        range is, wherever it lies: spec 4.2's held(a, b), so an empty payload's CRC is checked at once)."""
+        if self.held is not None and end <= start:
+            return True
         if end > self.buf.shape[0]:
             return False
         return self.held is None or bool(self.held[start:end].all())

@@ -23,6 +23,7 @@ import numpy as np
 
 from . import layout as L
 from .prefix import open_prefix, validate_prefix
+from .ranges import open_ranges, validate_ranges
 from .reader import _check
 from .writer import encode_bytes, needed_index_ranges, smap_payload
 
@@ -207,6 +208,54 @@ def fan_mixed(**over: Any) -> RawProgressiveMesh:
         "lod_record_counts": [0, 1],
     }
     return _fan("mixed", bufs, {"cache_size": 16, "level_threshold": 0.25}, **over)
+
+
+def fan_sliding_three_lods() -> RawProgressiveMesh:
+    """:func:`fan_sliding` with a third LOD (3 vertices, the triangle 1 2 0) whose window follows the other
+    two: three disjoint windows, so held ranges can draw LODs 0 and 2 but not 1 (format.md 4.2)."""
+    bufs = {
+        "index_pool": [0, 1, 4, 3, 0, 4, 1, 2, 4, 2, 3, 4, 1, 2, 0, 2, 3, 0, 1, 2, 0],
+        "window_records": [[0, 4, 5], [12, 2, 4], [18, 1, 3]],
+    }
+    return _fan(
+        "sliding-window",
+        bufs,
+        {"cache_size": 16},
+        vertex_counts=np.array([5, 4, 3]),
+        triangle_counts=np.array([4, 2, 1]),
+        lod_errors=np.array([0.0, 0.5, 1.0], np.float32),
+    )
+
+
+def fan_skip_two_levels(
+    level1: list[int] | None = None, collapsed0: list[int] | None = None
+) -> RawProgressiveMesh:
+    """Skip-strip list of two levels: level 0 (LODs 0 and 1) the fan, its records binning vertex 4, then 3,
+    onto 0; level 1 (LOD 2, 3 vertices) ``level1``, the triangle 1 2 0 by default. A range reader holding
+    level 0's list checks it against LOD 0's 5 vertices, not LOD 1's 4 (format.md 4.2)."""
+    lst = [1, 2, 0] if level1 is None else level1
+    bufs = {
+        "level_first_lod": [0, 2],
+        "level_index_start": [0, 12, 12 + len(lst)],
+        "level_indices": [1, 2, 4, 2, 3, 4, 0, 1, 4, 3, 0, 4, *lst],
+        "level_collapsed_start": [0, 12, 12 + len(lst)],
+        "level_collapsed_indices": [*(collapsed0 or [1, 2, 0, 2, 0, 0, 0, 1, 0, 0, 0, 0]), 1, 2, 0],
+        "level_record_start": [0, 2, 2],
+        "collapse_kept": [0, 0],
+        "collapse_binned": [4, 3],
+        "collapse_change_count": [4, 2],
+        "collapse_prev_change_count": [0, 4],
+        "collapse_change_offsets": [2, 5, 8, 11, 4, 9],
+        "lod_record_counts": [0, 1, 2],
+    }
+    return _fan(
+        "skip-strip",
+        bufs,
+        {"primitive": "list"},
+        vertex_counts=np.array([5, 4, 3]),
+        triangle_counts=np.array([4, 2, 1]),
+        lod_errors=np.array([0.0, 0.5, 1.0], np.float32),
+    )
 
 
 def quad_sliding_empty_windows() -> RawProgressiveMesh:
@@ -505,6 +554,7 @@ def _valid() -> dict[str, tuple[bytes, str]]:
             " reject a window that ends on degenerate triangles)",
         ),
         **_prefix_valid(),
+        **_ranges_valid(),
     }
 
 
@@ -846,6 +896,19 @@ def _settled_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
     )
     _review_invalid(out)
     _blind_invalid(out)
+    out["skip-strip-two-levels-collapsed-prefix"] = (
+        _write(fan_skip_two_levels(collapsed0=[1, 2, 0, 2, 3, 0, 0, 1, 0, 0, 0, 0])),
+        "skip-strip-two-levels with level 0's collapsed list keeping vertex 3, which its records bin: the"
+        " replay's list differs (SWPM_LEVEL_BAD_TABLE) and the collapsed lists' prefix is broken"
+        " (SWPM_PREFIX_VIOLATION), both at that element; without all of INDX both wait (range case"
+        " skip-strip-two-levels-collapsed-prefix-no-indx)",
+    )
+    out["skip-strip-two-levels-prefix-violation"] = (
+        _write(fan_skip_two_levels([1, 2, 3])),
+        "skip-strip-two-levels with level 1's list 1 2 3 (its collapsed list 1 2 0): vertex 3 is not below"
+        " its first LOD's 3 vertices, SWPM_PREFIX_VIOLATION at that element (range case"
+        " skip-strip-two-levels-prefix-violation-level-1: found at once from that list's range)",
+    )
 
 
 def _review_invalid(out: dict[str, tuple[bytes, str]]) -> None:
@@ -1062,6 +1125,28 @@ def _prefix_valid() -> dict[str, tuple[bytes, str]]:
     }
 
 
+def _ranges_valid() -> dict[str, tuple[bytes, str]]:
+    """Valid files that range cases need (format.md 4.2): LODs whose INDX elements lie apart."""
+    return {
+        "sliding-window-three-lods": (
+            _write(fan_sliding_three_lods()),
+            "sliding window of three LODs (5, 4 and 3 vertices) with disjoint windows: held ranges can draw"
+            " LODs 0 and 2 and not LOD 1 (range case sliding-window-three-lods-not-lod-1)",
+        ),
+        "vanilla-tables-after-indx": (
+            reorder(_write(fan_vanilla()), [0, 1, 5, 4, 3, 2, 6]),
+            "minimal-vanilla laid out META LODS INDX VREC RCNT SMAP VERT (valid, SWPM_STREAM_ORDER): VREC,"
+            " RCNT and SMAP lie after INDX, outside (a) of format.md 4 (range cases"
+            " vanilla-tables-after-indx-tables-not-held, vanilla-tables-after-indx-smap-not-held)",
+        ),
+        "skip-strip-two-levels": (
+            _write(fan_skip_two_levels()),
+            "skip-strip list of two levels (LODs 0-1, LOD 2): a range reader checks level 0's list, held"
+            " alone, against LOD 0's vertex count for LOD 1 too (range case skip-strip-two-levels-level-0)",
+        ),
+    }
+
+
 def _prefix_cases(files: Mapping[str, bytes]) -> dict[str, list[tuple[str, int, str]]]:
     """Per vector, its prefix cases (format.md 4.1): (name, prefix length n, description), one or more per
     rule of 4.1."""
@@ -1206,6 +1291,262 @@ def _prefix_cases(files: Mapping[str, bytes]) -> dict[str, list[tuple[str, int, 
     }
 
 
+def _smap_band_ranges(data: bytes, band: int) -> list[tuple[int, int]]:
+    """The (offset, length) ranges SMAP names for band ``band`` (format.md 4), empty ones included."""
+    _, off, _ = chunk(data, L.SMAP)
+    B = struct.unpack_from("<I", data, off)[0]
+    _, _, rs, rn, _ = struct.unpack_from("<IIIIQ", data, off + 8 + 24 * band)
+    return [struct.unpack_from("<QQ", data, off + 8 + 24 * B + 16 * i) for i in range(rs, rs + rn)]
+
+
+def _ranges_cases(files: Mapping[str, bytes]) -> dict[str, list[tuple[str, list[tuple[int, int]], str]]]:
+    """Per vector, its range cases (format.md 4.2): (name, held ranges (offset, length), description), one
+    or more per rule of 4.2."""
+
+    def at(name: str, t: bytes) -> tuple[int, int]:
+        _, off, ln = chunk(files[name], t)
+        return off, ln
+
+    def rec(name: str, count: int) -> tuple[int, int]:  # VERT's header and its first ``count`` records
+        vo, _ = at(name, L.VERT)
+        data_offset, stride = (struct.unpack_from("<I", files[name], vo + x)[0] for x in (12, 8))
+        return vo, data_offset + count * stride
+
+    mv, data = "minimal-vanilla", files["minimal-vanilla"]
+    table_end = 64 + 32 * struct.unpack_from("<I", data, 24)[0]
+    io, il = at(mv, L.INDX)
+    vo, vl = at(mv, L.VERT)
+    gap = "gap-nonzero-and-crc-mismatch"
+    g = at(gap, L.META)[0] + at(gap, L.META)[1] + 1  # the non-zero padding byte
+    wp, wio = "window-prefix-violation", at("window-prefix-violation", L.INDX)[0]
+    s3, s3io = "sliding-window-three-lods", at("sliding-window-three-lods", L.INDX)[0]
+    k2, k2io = "skip-strip-two-levels", at("skip-strip-two-levels", L.INDX)[0]
+    k2v, k2vio = (
+        "skip-strip-two-levels-prefix-violation",
+        at("skip-strip-two-levels-prefix-violation", L.INDX)[0],
+    )
+    tb = "smap-two-bands"
+    band0 = _smap_band_ranges(files[tb], 0)
+    long_len = len(files["long-header"])
+    long_table = 128 + 32 * struct.unpack_from("<I", files["long-header"], 24)[0]
+    crc_bad = 564  # (the byte crc-mismatch flips: vertex 0's record)
+    late = "vanilla-tables-after-indx"
+    k2c = "skip-strip-two-levels-collapsed-prefix"
+    return {
+        mv: [
+            (
+                "minimal-vanilla-header-part",
+                [(0, 40)],
+                "40 header bytes: SWPM_RANGES_NOT_HELD at 40, [0, 64)",
+            ),
+            (
+                "minimal-vanilla-header-only",
+                [(0, 64)],
+                "the header alone: the chunk table is needed, SWPM_RANGES_NOT_HELD at 64 with [0, table end)",
+            ),
+            (
+                "minimal-vanilla-table-only",
+                [(0, table_end)],
+                "the header and the chunk table: every CRC and padding byte waits, then every byte before"
+                " INDX is needed",
+            ),
+            (
+                "minimal-vanilla-before-indx",
+                [(0, io)],
+                "every byte before INDX: VERT's 16-byte header is needed ([o, o + 16): data_offset is in it)",
+            ),
+            (
+                "minimal-vanilla-no-indx",
+                [(0, io), (vo, vl)],
+                "all but INDX: opens (INDX's CRC and content wait); vanilla draws from all of INDX, so no"
+                " LOD",
+            ),
+            (
+                "minimal-vanilla-smap-band-0",
+                _smap_band_ranges(data, 0),
+                "SMAP's band 0 ranges, abutting: every byte is held, the file is read as format.md 5 reads"
+                " it",
+            ),
+            (
+                "minimal-vanilla-unsorted-overlapping",
+                [(vo, 16 + 4 * 12), (300, io + il - 300), (0, 400)],
+                "ranges unsorted, overlapping and abutting (held(a, b) asks only whether every byte is held):"
+                " LOD 1 drawable, not LOD 0 (vertex 4's record is not held)",
+            ),
+        ],
+        "bad-magic": [
+            (
+                "bad-magic-first-8",
+                [(0, 8)],
+                "the first 8 bytes held and another magic: SWPM_HEADER_BAD_MAGIC",
+            ),
+        ],
+        "long-header": [
+            (
+                "long-header-first-64",
+                [(0, 64)],
+                "header_size 128 past the last byte held: SWPM_RANGES_NOT_HELD at 64 needing [0, 128)",
+            ),
+            (
+                "long-header-skipped-bytes-not-held",
+                [(0, 64), (128, long_len - 128)],
+                "all but header bytes 64..128: the chunk table's check needs [0, table end), which file_crc"
+                f" covers (SWPM_RANGES_NOT_HELD at 64 with [0, {long_table}))",
+            ),
+        ],
+        gap: [
+            (
+                "gap-nonzero-and-crc-mismatch-padding-held",
+                [(0, table_end), (g, 1)],
+                "the non-zero padding byte held: SWPM_PADDING_NONZERO at once; LODS not held, its CRC waits",
+            ),
+            (
+                "gap-nonzero-and-crc-mismatch-crc-held",
+                [(0, g), (g + 1, len(files[gap]) - g - 1)],
+                "all but the non-zero padding byte: LODS wholly held, SWPM_CHUNK_CRC_MISMATCH at once; the"
+                " padding byte waits",
+            ),
+            (
+                "gap-nonzero-and-crc-mismatch-deferred",
+                [(0, g)],
+                "up to the padding byte: both faults wait, and every byte before INDX is needed",
+            ),
+        ],
+        "crc-mismatch": [
+            (
+                "crc-mismatch-vert-held",
+                [(0, io), (vo, vl)],
+                "VERT wholly held with its flipped bit: SWPM_CHUNK_CRC_MISMATCH at once",
+            ),
+            (
+                "crc-mismatch-vert-part",
+                [(0, crc_bad + 8)],
+                "VERT held up to just past its flipped bit: its CRC waits, the ranges open (no LOD drawable)"
+                " and finishing rejects the file",
+            ),
+        ],
+        "index-above-vertex-count": [
+            (
+                "index-above-vertex-count-indx-held",
+                [(0, io + il), rec("index-above-vertex-count", 0)],
+                "INDX wholly held: the encoding's checks read it, SWPM_INDEX_OUT_OF_RANGE at once",
+            ),
+            (
+                "index-above-vertex-count-indx-not-held",
+                [(0, io), (vo, vl)],
+                "INDX not held: its values wait for the whole file (finishing: SWPM_INDEX_OUT_OF_RANGE)",
+            ),
+        ],
+        wp: [
+            (
+                "window-prefix-violation-window-1",
+                [(0, wio), (wio + 24, 12), rec(wp, 4)],
+                "window 1 held (INDX partly): its vertex 4 is not below LOD 1's 4 vertices,"
+                " SWPM_PREFIX_VIOLATION at once",
+            ),
+            (
+                "window-prefix-violation-window-0",
+                [(0, wio), (wio, 24), rec(wp, 5)],
+                "window 0 held, not window 1: LOD 0 drawable; the violation waits (finishing rejects)",
+            ),
+        ],
+        tb: [
+            ("smap-two-bands-ranges-band-0", band0, "SMAP's band 0 ranges: LODs 0-2 drawable"),
+            (
+                "smap-two-bands-ranges-band-1",
+                _smap_band_ranges(files[tb], 1),
+                "SMAP's band 1 ranges (its INDX range empty): LOD 2 drawable, not LOD 1 (3 vertices)",
+            ),
+            (
+                "smap-two-bands-band-0-last-dropped",
+                band0[:-1],
+                "band 0's ranges but VERT's: SWPM_RANGES_NOT_HELD at VERT's offset, [o, o + 16)",
+            ),
+            (
+                "smap-two-bands-band-0-window-dropped",
+                [band0[0], band0[2]],
+                "band 0's ranges but its INDX range: LOD 0 not drawable, LODs 1 and 2 (empty windows) are",
+            ),
+        ],
+        s3: [
+            (
+                "sliding-window-three-lods-not-lod-1",
+                [(0, s3io), (s3io, 24), (s3io + 36, 6), rec(s3, 5)],
+                "windows 0 and 2 held, not window 1: LODs 0 and 2 drawable, not LOD 1 (not consecutive)",
+            ),
+        ],
+        k2: [
+            (
+                "skip-strip-two-levels-level-0",
+                [(0, k2io), (k2io, 24), rec(k2, 5)],
+                "level 0's list held, not level 1's: LODs 0 and 1 drawable; LOD 1's elements are checked"
+                " against LOD 0's 5 vertices (its level's first LOD), so vertex 4 there is no violation",
+            ),
+        ],
+        k2c: [
+            (
+                "skip-strip-two-levels-collapsed-prefix-no-indx",
+                [(0, at(k2c, L.INDX)[0]), rec(k2c, 5)],
+                "all but INDX: the replay and the collapsed lists' prefix (stage (d), though the prefix"
+                " check reads SKIP only) wait; the ranges open and finishing rejects the file",
+            ),
+        ],
+        k2v: [
+            (
+                "skip-strip-two-levels-prefix-violation-level-1",
+                [(0, k2vio), (k2vio + 24, 6), rec(k2v, 3)],
+                "level 1's list held: its vertex 3 is not below LOD 2's 3 vertices, SWPM_PREFIX_VIOLATION"
+                " at once",
+            ),
+            (
+                "skip-strip-two-levels-prefix-violation-level-0",
+                [(0, k2vio), (k2vio, 24), rec(k2v, 5)],
+                "level 0's list held, not level 1's: LODs 0 and 1 drawable; finishing rejects the file",
+            ),
+        ],
+        "vanilla-tables-after-indx": [
+            (
+                "vanilla-tables-after-indx-tables-not-held",
+                [(0, at(late, L.INDX)[0]), at(late, L.VERT)],
+                "VREC and RCNT, after INDX, not held: the encoding's checks decode them, SWPM_RANGES_NOT_HELD"
+                " with RCNT's payload range (the first in format.md 2.3's order, though listed after VREC)",
+            ),
+            (
+                "vanilla-tables-after-indx-smap-not-held",
+                [(0, at(late, L.INDX)[0]), at(late, L.VREC), at(late, L.RCNT), at(late, L.VERT)],
+                "SMAP, after INDX, not held: ancillary, it is not checked (no SWPM_SMAP_INVALID); the ranges"
+                " open, no LOD drawable (INDX not held)",
+            ),
+        ],
+        "mixed": [
+            (
+                "mixed-no-indx",
+                [(0, at("mixed", L.INDX)[0]), at("mixed", L.VERT)],
+                "all but INDX (the static lists): opens; the dynamic lists' checks run, no LOD drawable",
+            ),
+        ],
+        "truncated-inside-vert": [
+            (
+                "truncated-inside-vert-all-there-is",
+                [(0, len(files["truncated-inside-vert"]))],
+                "every byte there is, fewer than file_size: opens; finishing reports SWPM_FILE_SIZE_MISMATCH",
+            ),
+        ],
+        "vert-nonfinite-point": [
+            (
+                "vert-nonfinite-point-deferred",
+                [(0, vo + 16 + 4 * 12)],
+                "LOD 1 drawable, its vertex 3 NaN: SWPM_VERT_NONFINITE waits for the file",
+            ),
+            (
+                "vert-nonfinite-point-every-byte",
+                [(0, len(files["vert-nonfinite-point"]))],
+                "every byte: read as format.md 5 reads the file, SWPM_VERT_NONFINITE (a warning) at once",
+            ),
+        ],
+    }
+
+
 def prefix_result(data: bytes) -> dict[str, Any]:
     """The verdict of a prefix reader on ``data``, a file's first n bytes (format.md 4.1): its problems (a
     SWPM_PREFIX_TOO_SHORT with ``need``, the prefix length its check needs) and, once opened, needed(k) per
@@ -1234,6 +1575,48 @@ def prefix_result(data: bytes) -> dict[str, Any]:
                 }
                 for a, v in sorted(arrays.items())
             }
+    return out
+
+
+def _digest(v: np.ndarray) -> dict[str, Any]:
+    return {"shape": list(v.shape), "sha256": hashlib.sha256(np.ascontiguousarray(v).tobytes()).hexdigest()}
+
+
+def ranges_result(data: bytes, ranges: list[tuple[int, int]]) -> dict[str, Any]:
+    """The verdict of a range reader holding ``ranges`` ((offset, length) each) of the file ``data``
+    (format.md 4.2): its problems (a SWPM_RANGES_NOT_HELD with ``need_start`` and ``need``, the range its
+    check needs) and, once opened, the ranges (a), (b) and (c) each LOD needs, the drawable LODs and, per
+    drawable LOD, the SHA-256 of its vertices' points and attributes and of its INDX elements
+    (``indices``)."""
+    held: dict[int, bytes] = {}
+    for o, n in ranges:  # (two ranges at one offset: the longer holds the other)
+        if n and n > len(held.get(o, b"")):
+            held[o] = data[o : o + n]
+    rep = validate_ranges(held)
+    problems: list[dict[str, Any]] = []
+    for q in rep.problems:
+        problems.append({"code": q.code, "severity": q.severity, "offset": q.offset})
+        if q.code == "SWPM_RANGES_NOT_HELD":
+            problems[-1]["need_start"], problems[-1]["need"] = (int(x) for x in rep.summary["range_need"])
+    out: dict[str, Any] = {"ranges": [list(r) for r in ranges], "opened": rep.valid, "problems": problems}
+    if rep.valid:
+        fr = open_ranges(held)
+        out["needed"] = [[[o, o + n] for o, n in fr.needed_ranges(k)] for k in range(fr.lod_count)]
+        lods = [int(k) for k in fr.drawable_lods]
+        out["drawable_lods"] = lods
+        out["drawable"] = {
+            str(k): {
+                a: _digest(v)
+                for a, v in sorted(
+                    {
+                        "points": fr.lod_points(k),
+                        **{f"attribute:{a}": v for a, v in fr.lod_attributes(k).items()},
+                        "indices": fr.lod_index_elements(k),
+                    }.items()
+                )
+            }
+            for k in lods
+        }
     return out
 
 
@@ -1314,6 +1697,21 @@ def build_all() -> dict[str, bytes]:
             entry["prefixes"] = prefixes
     if cases:
         raise AssertionError(f"prefix cases of no vector: {sorted(cases)}")
+    rcases = _ranges_cases(by_name)
+    for entry in manifest:
+        ranges = []
+        for case, held, desc in rcases.pop(entry["name"], []):
+            rel = f"ranges/{case}.json"
+            files[rel] = (
+                json.dumps(ranges_result(by_name[entry["name"]], held), indent=2, sort_keys=True) + "\n"
+            ).encode()
+            ranges.append(
+                {"name": case, "ranges": [list(r) for r in held], "expected": rel, "description": desc}
+            )
+        if ranges:
+            entry["ranges"] = ranges
+    if rcases:
+        raise AssertionError(f"range cases of no vector: {sorted(rcases)}")
     doc = {"format": "SWPM", "version": "1.0", "vectors": manifest}
     files["manifest.json"] = (json.dumps(doc, indent=2) + "\n").encode()
     files["minimal-vanilla.hex"] = hexdump(valid["minimal-vanilla"][0]).encode()
@@ -1406,6 +1804,30 @@ def run_conformance(vector_dir: str | Path) -> list[Outcome]:
         diff = sorted(k for k in exp.keys() | got.keys() if exp.get(k) != got.get(k))  # (a key missing too)
         out.append(Outcome(v["name"], not diff, "ok" if not diff else f"differs in {', '.join(diff)}"))
         out += _run_prefixes(vector_dir, v, path)
+        out += _run_ranges(vector_dir, v, path)
+    return out
+
+
+def _run_ranges(vector_dir: Path, v: dict[str, Any], path: Path) -> list[Outcome]:
+    """The range cases of vector ``v`` (format.md 4.2): the range reader's verdict on the file's held ranges
+    against the case's expected result (finishing is the vector's own verdict)."""
+    out = []
+    for j, case in enumerate(v.get("ranges", [])):
+        name = f"{v['name']}/{case.get('name', f'ranges[{j}]') if isinstance(case, dict) else j}"
+        try:
+            exp = json.loads((vector_dir / case["expected"]).read_text(encoding="utf-8"))
+            held = [(int(o), int(n)) for o, n in case["ranges"]]
+            got = ranges_result(path.read_bytes(), held)
+        except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError) as exc:
+            what = f"no {exc} key" if isinstance(exc, KeyError) else str(exc)
+            out.append(Outcome(name, False, f"unusable range case: {what}"))
+            continue
+        diff = (
+            sorted(k for k in exp.keys() | got.keys() if exp.get(k) != got.get(k))
+            if isinstance(exp, dict)
+            else ["all"]
+        )
+        out.append(Outcome(name, not diff, "ok" if not diff else f"differs in {', '.join(diff)}"))
     return out
 
 
