@@ -265,9 +265,16 @@ def _move_delta(cand, lo, hi, n, best, run, sim, sim2, version):
             bound += new_m[b] if lo <= b < end else m_run[b]
     if d - bound >= best:
         return d - bound, version
+    # then each one simulated in turn, its term no longer bounded: the bound of those left may settle the
+    # move before the last (exact: a value >= best once it cannot win, as above)
     for a in range(max(1, lo), min(n + 1, hi)):
         version += 1
         d += _cold_extra(cand, a, snap, m_run, (lo, end, new_m, new_t, sim[3]), sim2, version) - cold[a]
+        bound -= cold[a]
+        for b in range(a, min(a + _COLD_BLOCKS, N)):
+            bound -= new_m[b] if lo <= b < end else m_run[b]
+        if d - bound >= best:
+            return d - bound, version
     return d, version
 
 
@@ -442,6 +449,8 @@ def refine_patch_order(
     cand = seq.copy()
     pos = np.arange(n, dtype=np.int64)  # the place of each patch
     nb_start, nbl = _patch_neighbours(block_start, blocks, n, vertex_count, long_reach > 0)
+    tried = np.zeros(n if long_reach > 0 else 0, np.int64)  # a long move's place, tried for ``tried_id``
+    tried_id = 0
     # the swap of the patches at places i - 1 and i, tried from place i - 1 (its k = i) with no move made
     # since, is the same candidate run from place i (its k = i - 1) on the same stored state: its change was
     # not below 0 then (else place i - 1 would have moved), so it cannot beat this place's best (at most 0)
@@ -477,13 +486,20 @@ def refine_patch_order(
                         best = d
                         best_k = k
                 if s == 1 and long_reach > 0 and _jump(seq, pos, i, nb_start, nbl):
-                    # next to each of the patch's neighbours, before or after it, beyond ``reach``
+                    # next to each of the patch's neighbours, before or after it, beyond ``reach``; a place
+                    # two neighbours share (next to both) is tried once: the same candidate on the same
+                    # stored run, it cannot beat the best its first try left (16 % of these tries, the
+                    # greedy orders of 82 levels of six meshes)
+                    tried_id += 1
                     p = seq[i]
                     for y in range(nb_start[p], nb_start[p + 1]):
                         pq = pos[nbl[y]]
                         for k in (pq + 1 if pq < i else pq, pq if pq < i else pq - 1):
                             if k < 0 or k > n - 1 or abs(k - i) <= reach or abs(k - i) > long_reach:
                                 continue
+                            if tried[k] == tried_id:
+                                continue
+                            tried[k] = tried_id
                             marks += 1
                             d, version = _try_move(seq, cand, n, i, s, k, search, marks, best, version)
                             if d < best:
