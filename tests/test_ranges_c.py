@@ -381,3 +381,14 @@ def test_held_ranges_contract(
     b[o + n - 1] ^= 1
     with pytest.raises(ValueError, match="differ"):
         fr.finish(bytes(b))
+
+
+@pytest.mark.parametrize("item", ["0:99999", "abc", "0:", ":5", "0:64x", "5", "-1:5", ","])
+def test_swpm_dump_refuses_a_range_item_it_cannot_hold(dump, item):  # noqa: F811 - (the fixture)
+    # a range past the file, or an item that is not OFF:LEN, was dropped silently (the ranges read as fewer)
+    path = VECTORS / "valid" / "minimal-vanilla.swpm"
+    proc = subprocess.run([str(dump), "--ranges", f"0:64,{item}", str(path)], capture_output=True, text=True)
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert f"--ranges item {item.rstrip(',')}:" in proc.stderr and "620 bytes" in proc.stderr
+    ok = subprocess.run([str(dump), "--ranges", "0:64,", str(path)], capture_output=True, text=True)
+    assert ok.returncode == 0 and '"code":"SWPM_RANGES_NOT_HELD"' in ok.stdout

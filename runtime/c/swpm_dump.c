@@ -190,16 +190,24 @@ static int ranges(int argc, char **argv) {
         return 2;
     }
     if (argc >= 6 && strcmp(argv[3], "--fill") == 0) fill = (int)strtol(argv[4], NULL, 16);
-    while (*spec && nh < 64) { /* OFF:LEN pairs, comma-separated */
-        char *end;
-        held[nh].offset = strtoull(spec, &end, 10);
-        held[nh].length = *end == ':' ? strtoull(end + 1, &end, 10) : 0;
-        if (held[nh].offset <= size && held[nh].length <= size - held[nh].offset) { /* (past the file: dropped) */
-            if (held[nh].offset + held[nh].length > top) top = (size_t)(held[nh].offset + held[nh].length);
-            nh++;
+    while (*spec) { /* OFF:LEN pairs, comma-separated; a malformed one or one past the file: usage (2) */
+        char *end, *colon;
+        unsigned long long off, len;
+        off = strtoull(spec, &colon, 10);
+        end = colon;
+        len = *colon == ':' && colon != spec ? strtoull(colon + 1, &end, 10) : 0;
+        if (*colon != ':' || colon == spec || end == colon + 1 || (*end && *end != ',') || nh == 64 ||
+            off > size || len > size - off) {
+            fprintf(stderr, "swpm_dump: --ranges item %.*s: not OFF:LEN within the file's %zu bytes"
+                    " (at most 64 ranges)\n", (int)strcspn(spec, ","), spec, size);
+            odd_free(data);
+            return 2;
         }
+        held[nh].offset = off;
+        held[nh].length = len;
+        if (off + len > top) top = (size_t)(off + len);
+        nh++;
         spec = *end == ',' ? end + 1 : end;
-        if (*end != ',') break;
     }
     /* a fresh buffer up to the last held byte: the held ranges copied, the rest `fill` (never read) */
     buf = (uint8_t *)odd_alloc(top);
