@@ -401,3 +401,23 @@ def test_cli_validate_lod(tmp_path: Any) -> None:
         out.exit_code == 1
         and json.loads(out.output)["problems"][0]["code"] == "SWPM_HEADER_UNSUPPORTED_MAJOR"
     )
+
+
+def test_read_lod_of_a_file_longer_than_its_file_size(tmp_path: Any) -> None:
+    """A file with bytes after its header's file_size (SWPM_FILE_TRAILING_BYTES, a warning: the file is
+    valid) shorter than ``read_lod``'s first read: the bytes it reads past file_size are not the file's, so
+    it does not hold them (a held range past file_size is the caller's error, spec 4.2 step 1): each LOD
+    draws as the file's own bytes draw it, and ``validate --lod`` exits 0 (it was a usage error, exit 2,
+    "no such LOD: ... lies outside the file")."""
+    data = (VECTORS / "valid" / "minimal-vanilla.swpm").read_bytes()
+    longer = data + bytes(8)
+    whole = load_bytes(data)
+    for k in range(whole.lod_count):
+        fr = read_lod(_reader(longer, []), k)
+        assert k in fr.drawable_lods and fr.file_size == len(data)
+        _same_draws(data, whole, fr)
+    path = tmp_path / "longer.swpm"
+    path.write_bytes(longer)
+    out = _cli(str(path), "--lod", "0", "--json")
+    assert out.exit_code == 0, out.output
+    assert 0 in json.loads(out.output)["summary"]["ranges"]["drawable_lods"]

@@ -340,10 +340,9 @@ def test_a_token_that_is_not_utf8_is_a_value_usd_core_cannot_read(tmp_path):
     )
     layer = usd.write(swpm_usd.build(obj, encoding="vanilla"), tmp_path / "seed_vanilla.usdc")
     data = bytearray(layer.read_bytes())
-    # (a byte of the compressed TOKENS section whose flip makes that token not UTF-8; found by flipping each
-    # byte of the section in a forked child: 38 of its 692 do. Since 0.9.2's assetInfo the section starts at
-    # 6521, not 6473, and the byte is 7066, not 6990; the first assertion below says when it moves again)
-    data[7066] ^= 0xFF
+    # (a byte of the compressed TOKENS section whose flip garbles bufferNames' token alone: 6990 until the
+    # root prim gained assetInfo in 0.9.2, which moved the section; found again by a sweep over its bytes)
+    data[7104] ^= 0xFF
     bad = tmp_path / "bad.usdc"
     bad.write_bytes(bytes(data))
     stage = Usd.Stage.Open(str(bad))  # (the value as Python reads it: the defect's precondition)
@@ -357,6 +356,36 @@ def test_a_token_that_is_not_utf8_is_a_value_usd_core_cannot_read(tmp_path):
         f"{bad}: usd-core cannot read it"
     )
     assert "not UTF-8" in finding["message"] and "Traceback" not in done.stderr
+
+
+def test_a_metadata_token_that_is_not_utf8_is_a_value_usd_core_cannot_read(tmp_path):
+    # the same sweep's other flips: one garbles a token of the prim's apiSchemas list op (metadata, whose
+    # items the probe's GetAllMetadata left unread): `validate` printed a traceback (UnicodeDecodeError in
+    # is_encoded) where it is SWPM_USD_READ, as a value's
+    import swpm_usd
+    from swpm_usd import usd
+
+    obj = tmp_path / "seed.obj"
+    spot = load_mesh(SAMPLES / "spot.obj")
+    trimesh.Trimesh(spot.points, spot.triangles, process=False).submesh([np.arange(200)], append=True).export(
+        obj
+    )
+    layer = usd.write(swpm_usd.build(obj, encoding="vanilla"), tmp_path / "seed_vanilla.usdc")
+    data = bytearray(layer.read_bytes())
+    data[6702] ^= 0xFF  # (found by the sweep over the TOKENS section's bytes)
+    bad = tmp_path / "bad.usdc"
+    bad.write_bytes(bytes(data))
+    stage = Usd.Stage.Open(str(bad))  # (the defect's precondition: the list op's items as Python reads them)
+    with pytest.raises(UnicodeDecodeError):
+        for prim in stage.Traverse():
+            ops = prim.GetMetadata("apiSchemas")
+            if ops:
+                ops.GetAddedOrExplicitItems()
+    del stage
+    done = _cli("validate", str(bad), "--json")
+    assert done.returncode == 1 and "Traceback" not in done.stderr, (done.stdout, done.stderr)
+    codes = [f["code"] for f in json.loads(done.stdout)["findings"]]
+    assert "SWPM_USD_READ" in codes, codes
 
 
 def test_a_small_files_probe_does_not_pay_usd_cores_start_each_time(tmp_path, monkeypatch):

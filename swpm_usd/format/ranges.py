@@ -354,6 +354,18 @@ def _checked_ranges(held: Held | _Pieces, path: str | None) -> tuple[Report, Fil
     )
 
 
+def _declared_end(head: _Bytes) -> int | None:
+    """The header's file_size, read from the file's first bytes ``head``: where ``read_lod``'s first read,
+    of a fixed length, stops being the file's (bytes after it, SWPM_FILE_TRAILING_BYTES, are not held).
+    None without a header, or for a file_size below it (the header is then held as read: the caller's
+    error of spec 4.2 step 1)."""
+    buf = _as_buf(head)
+    if buf.shape[0] < L.HEADER_SIZE or bytes(buf[:8]) != L.MAGIC:
+        return None
+    size = int(buf[: L.HEADER_SIZE].view(L.HEADER)[0]["file_size"])
+    return size if size >= L.HEADER_SIZE else None
+
+
 def _put(held: dict[int, _Bytes], offset: int, data: _Bytes) -> None:
     if len(data) > len(held.get(offset, b"")):  # (two fetches at one offset: the longer holds the other)
         held[offset] = data
@@ -366,7 +378,11 @@ def read_lod(
     and open it: the file's first ``head`` bytes, ``SMAP``'s ranges for the LOD's band, then what the reader
     asks for (SWPM_RANGES_NOT_HELD's range, the LOD's :meth:`FileRanges.needed_ranges`) until it draws.
     Raises :class:`SwpmFormatError` for an error of the file and :class:`IndexError` if it never draws."""
-    held: dict[int, _Bytes] = {0: read(0, head)}
+    first = read(0, head)
+    end = _declared_end(first)
+    if end is not None and end < len(first):  # (a held range past file_size is the caller's: spec 4.2 step 1)
+        first = first[:end]
+    held: dict[int, _Bytes] = {0: first}
     try:
         for o, n in ranges_for_lod(held[0], lod):
             _put(held, o, read(o, n))

@@ -1808,19 +1808,25 @@ def run_conformance(vector_dir: str | Path) -> list[Outcome]:
     return out
 
 
-def _run_ranges(vector_dir: Path, v: dict[str, Any], path: Path) -> list[Outcome]:
-    """The range cases of vector ``v`` (format.md 4.2): the range reader's verdict on the file's held ranges
-    against the case's expected result (finishing is the vector's own verdict)."""
+def _run_cases(
+    vector_dir: Path,
+    v: dict[str, Any],
+    path: Path,
+    key: str,
+    kind: str,
+    result: Callable[[bytes, dict], dict],
+) -> list[Outcome]:
+    """The cases ``v[key]`` of vector ``v``: ``result(file bytes, case)``, the reader's verdict on the part of
+    the file the case holds, against the case's expected result (finishing is the vector's own verdict)."""
     out = []
-    for j, case in enumerate(v.get("ranges", [])):
-        name = f"{v['name']}/{case.get('name', f'ranges[{j}]') if isinstance(case, dict) else j}"
+    for j, case in enumerate(v.get(key, [])):
+        name = f"{v['name']}/{case.get('name', f'{key}[{j}]') if isinstance(case, dict) else j}"
         try:
             exp = json.loads((vector_dir / case["expected"]).read_text(encoding="utf-8"))
-            held = [(int(o), int(n)) for o, n in case["ranges"]]
-            got = ranges_result(path.read_bytes(), held)
+            got = result(path.read_bytes(), case)
         except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError) as exc:
             what = f"no {exc} key" if isinstance(exc, KeyError) else str(exc)
-            out.append(Outcome(name, False, f"unusable range case: {what}"))
+            out.append(Outcome(name, False, f"unusable {kind} case: {what}"))
             continue
         diff = (
             sorted(k for k in exp.keys() | got.keys() if exp.get(k) != got.get(k))
@@ -1829,28 +1835,27 @@ def _run_ranges(vector_dir: Path, v: dict[str, Any], path: Path) -> list[Outcome
         )
         out.append(Outcome(name, not diff, "ok" if not diff else f"differs in {', '.join(diff)}"))
     return out
+
+
+def _run_ranges(vector_dir: Path, v: dict[str, Any], path: Path) -> list[Outcome]:
+    """The range cases of vector ``v`` (format.md 4.2): the range reader's verdict on the file's held
+    ranges."""
+    return _run_cases(
+        vector_dir,
+        v,
+        path,
+        "ranges",
+        "range",
+        lambda d, c: ranges_result(d, [(int(o), int(n)) for o, n in c["ranges"]]),
+    )
 
 
 def _run_prefixes(vector_dir: Path, v: dict[str, Any], path: Path) -> list[Outcome]:
     """The prefix cases of vector ``v`` (format.md 4.1): the prefix reader's verdict on the file's first
-    ``length`` bytes against the case's expected result (finishing is the vector's own verdict)."""
-    out = []
-    for j, case in enumerate(v.get("prefixes", [])):
-        name = f"{v['name']}/{case.get('name', f'prefixes[{j}]') if isinstance(case, dict) else j}"
-        try:
-            exp = json.loads((vector_dir / case["expected"]).read_text(encoding="utf-8"))
-            got = prefix_result(path.read_bytes()[: int(case["length"])])
-        except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError) as exc:
-            what = f"no {exc} key" if isinstance(exc, KeyError) else str(exc)
-            out.append(Outcome(name, False, f"unusable prefix case: {what}"))
-            continue
-        diff = (
-            sorted(k for k in exp.keys() | got.keys() if exp.get(k) != got.get(k))
-            if isinstance(exp, dict)
-            else ["all"]
-        )
-        out.append(Outcome(name, not diff, "ok" if not diff else f"differs in {', '.join(diff)}"))
-    return out
+    ``length`` bytes."""
+    return _run_cases(
+        vector_dir, v, path, "prefixes", "prefix", lambda d, c: prefix_result(d[: int(c["length"])])
+    )
 
 
 if __name__ == "__main__":  # pragma: no cover

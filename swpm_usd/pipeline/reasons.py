@@ -52,7 +52,7 @@ REASONS = (
     "treatment-changed",  # its encoding or parameters (a default written out is no change)
     "instances-changed",  # encoding auto, which chooses by the instance count
     "checks-changed",  # encoding auto, which chooses by the budgets and streaming policy
-    "version-changed",  # the tool's version (the manifest's vs today's)
+    "version-changed",  # the build version (the part that changed: sliding-window 0.9.2 -> 0.9.3)
     "digest-changed",  # the record's digest, not reproduced from what it holds (an older record)
     "rule-pending",  # its rule is left to the worker, by a triangle count the record does not hold
     "checks-stricter",  # a budget or streaming limit stricter than those it passed

@@ -3,8 +3,9 @@ passed.
 
 :func:`match_rule` gives an asset its rule (the first whose ``match`` conditions, :func:`rule_checks`, it
 meets; else ``defaults``); :func:`treatment_digest` is what decides whether its build is current (its inputs,
-prim, :func:`canonical_treatment`, the tool's version; for ``auto`` the budgets it chose by,
-:func:`checks_of`); :func:`checks_no_stricter` whether a build that passed some budgets passes today's.
+prim, :func:`canonical_treatment`, its build version (:mod:`.build_version`); for ``auto`` the budgets it
+chose by, :func:`checks_of`); :func:`checks_no_stricter` whether a build that passed some budgets passes
+today's.
 Separate from :mod:`.assets`' discovery (which files and prims are assets), which re-exports these names.
 """
 
@@ -104,7 +105,8 @@ def treatment_digest(
     """What decides whether an asset's outputs are current: its inputs, prim, encoding and parameters
     (:func:`canonical_treatment`: a default written out changes nothing), for ``encoding: auto`` its
     instances and the budgets and streaming policy it chose by (:func:`checks_of`; other encodings keep
-    their checks in their record, and :func:`checks_no_stricter` decides), and the tool's version.
+    their checks in their record, and :func:`checks_no_stricter` decides), and its build version
+    (:func:`.build_version.build_version`).
 
     Another encoding builds the same outputs for any instance count (a rule on ``instances`` that picks
     another treatment changes the digest by that treatment): its digest takes the count as 1, the default,

@@ -206,10 +206,16 @@ def probe(path):
         except Exception:
             pass
         return None
+    def read_meta(obj):
+        # a list op's items (apiSchemas') are made Python text only when asked for: asked here
+        for value in (attempt(obj.GetAllMetadata) or {}).values():
+            if hasattr(value, "prependedItems"):
+                for kind in ("explicit", "added", "prepended", "appended", "deleted"):
+                    attempt(getattr, value, kind + "Items")
     def read_prim(prim):
-        attempt(prim.GetAllMetadata)
+        read_meta(prim)
         for prop in attempt(prim.GetProperties) or []:
-            attempt(prop.GetAllMetadata)
+            read_meta(prop)
             if isinstance(prop, Usd.Attribute):
                 value = attempt(prop.Get)
                 if type(value).__name__ in ("TokenArray", "StringArray"):  # (made Python text as read)
