@@ -27,7 +27,6 @@ from .file_hash import STAT_KEYS
 from .inputs import recorded_path
 from .rules import (
     OUTPUT_SUFFIXES,
-    _digest_with_count,
     _max_triangles,
     _output_names_current,
     _rule_name,
@@ -342,7 +341,7 @@ def build_reasons(
         elif built:
             found.append(reason("rule-pending", "the record holds no triangle count the rules route by"))
         return found
-    if prev.get("digest") != item.digest and prev.get("digest") != _digest_with_count(item, prev):
+    if prev.get("digest") != item.digest:
         found += _digest_reasons(cfg, item, prev, version, version_then)
     if not built:
         return found

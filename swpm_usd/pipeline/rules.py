@@ -1,9 +1,8 @@
 """The plan's questions about rules: which rule an asset's triangle count routes it by, which rules no asset
 reaches, and whether the build its record holds still meets today's config.
 
-A build is current when its digest is the treatment's (:func:`_treatment_digest`, or the digest of an
-older version that held the instance count: :func:`_digest_with_count`), its recorded memory still fits
-``budgets.total_bytes`` at today's instance count (:func:`_total_fits`), its triangles
+A build is current when its digest is the treatment's (:func:`_treatment_digest`), its recorded memory
+still fits ``budgets.total_bytes`` at today's instance count (:func:`_total_fits`), its triangles
 ``limits.max_triangles`` (:func:`_within_triangle_budget`), and its outputs are those the config asks for
 (:func:`_wanted_outputs`), at the names ``output.names`` gives them (:func:`_output_names_current`).
 Separate from the runner: each answer is a small pure function of the config and a record, which
@@ -49,18 +48,6 @@ def _treatment_digest(cfg: Config, item: PlanItem) -> str:
     return treatment_digest(
         item.input_digest, item.asset, item.treatment, build_version(item.treatment), checks
     )
-
-
-def _digest_with_count(item: PlanItem, record: dict) -> str | None:
-    """The digest ``record``, of an asset other than ``auto``, was built under by a version that put every
-    asset's instance count in its digest (its count then: the record's ``instances``), so a build current
-    but for that is not built again; None for an ``auto`` asset or a record of the default count (the
-    digest is the same)."""
-    count = record.get("instances")
-    if item.treatment.get("encoding") == "auto" or type(count) is not int or count == 1:
-        return None
-    version = build_version(item.treatment)
-    return treatment_digest(item.input_digest, item.asset, item.treatment, version, instances=count)
 
 
 def _same_rule_from(cfg: Config, asset: Asset, lowest: int) -> bool:

@@ -142,7 +142,6 @@ from .reasons import shown as reasons_shown
 from .records import record_problem, recorded_inputs
 from .rules import (
     _current_why,
-    _digest_with_count,
     _max_triangles,
     _names_moved,
     _output_names_current,
@@ -423,7 +422,7 @@ def plan(
         outs = prev.get("outputs", {})
         item.up_to_date = (
             prev.get("status") == "built"
-            and (prev.get("digest") == item.digest or prev.get("digest") == _digest_with_count(item, prev))
+            and prev.get("digest") == item.digest
             # (auto's checks are in its digest; another encoding passes limits as loose as it passed before)
             and (
                 item.treatment.get("encoding") == "auto"
