@@ -325,11 +325,8 @@ def test_a_file_usd_core_crashes_on_is_answered_and_leaves_the_server(tmp_path):
     assert probe.check(_seed(tmp_path / "good.usdc")) is None
 
 
-def test_a_token_that_is_not_utf8_is_a_value_usd_core_cannot_read(tmp_path):
-    # found by the sweep over byte flips of a vanilla asset layer: a flip in its compressed tokens gives
-    # swpm:bufferNames a token that is not UTF-8, and `validate` printed a traceback (UnicodeDecodeError, as
-    # Python reads the token) where the loader had not read that value. The probe reads every value: it is
-    # SWPM_USD_READ, and the loader's MeshLoadError
+def _vanilla_layer_bytes(tmp_path: Path) -> bytearray:
+    """The bytes of a vanilla asset layer of 200 of spot's triangles: the seed of the token-flip sweep."""
     import swpm_usd
     from swpm_usd import usd
 
@@ -339,7 +336,17 @@ def test_a_token_that_is_not_utf8_is_a_value_usd_core_cannot_read(tmp_path):
         obj
     )
     layer = usd.write(swpm_usd.build(obj, encoding="vanilla"), tmp_path / "seed_vanilla.usdc")
-    data = bytearray(layer.read_bytes())
+    return bytearray(layer.read_bytes())
+
+
+def test_a_token_that_is_not_utf8_is_a_value_usd_core_cannot_read(tmp_path):
+    # found by the sweep over byte flips of a vanilla asset layer: a flip in its compressed tokens gives
+    # swpm:bufferNames a token that is not UTF-8, and `validate` printed a traceback (UnicodeDecodeError, as
+    # Python reads the token) where the loader had not read that value. The probe reads every value: it is
+    # SWPM_USD_READ, and the loader's MeshLoadError
+    from swpm_usd import usd
+
+    data = _vanilla_layer_bytes(tmp_path)
     # (a byte of the compressed TOKENS section whose flip garbles bufferNames' token alone: 6990 until the
     # root prim gained assetInfo in 0.9.2, which moved the section; found again by a sweep over its bytes)
     data[7104] ^= 0xFF
@@ -362,16 +369,8 @@ def test_a_metadata_token_that_is_not_utf8_is_a_value_usd_core_cannot_read(tmp_p
     # the same sweep's other flips: one garbles a token of the prim's apiSchemas list op (metadata, whose
     # items the probe's GetAllMetadata left unread): `validate` printed a traceback (UnicodeDecodeError in
     # is_encoded) where it is SWPM_USD_READ, as a value's
-    import swpm_usd
-    from swpm_usd import usd
 
-    obj = tmp_path / "seed.obj"
-    spot = load_mesh(SAMPLES / "spot.obj")
-    trimesh.Trimesh(spot.points, spot.triangles, process=False).submesh([np.arange(200)], append=True).export(
-        obj
-    )
-    layer = usd.write(swpm_usd.build(obj, encoding="vanilla"), tmp_path / "seed_vanilla.usdc")
-    data = bytearray(layer.read_bytes())
+    data = _vanilla_layer_bytes(tmp_path)
     data[6702] ^= 0xFF  # (found by the sweep over the TOKENS section's bytes)
     bad = tmp_path / "bad.usdc"
     bad.write_bytes(bytes(data))
