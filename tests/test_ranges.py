@@ -421,3 +421,14 @@ def test_read_lod_of_a_file_longer_than_its_file_size(tmp_path: Any) -> None:
     out = _cli(str(path), "--lod", "0", "--json")
     assert out.exit_code == 0, out.output
     assert 0 in json.loads(out.output)["summary"]["ranges"]["drawable_lods"]
+
+
+def test_validate_lod_says_a_refused_range_as_it_is(tmp_path: Any) -> None:
+    """A header whose file_size is below 64 puts the header itself past file_size, which a range reader
+    refuses as the caller's error (spec 4.2 step 1): ``validate --lod`` said "no such LOD" for it."""
+    data = bytearray((VECTORS / "valid" / "minimal-vanilla.swpm").read_bytes())
+    struct.pack_into("<Q", data, 40, 10)
+    path = tmp_path / "small.swpm"
+    path.write_bytes(bytes(data))
+    out = _cli(str(path), "--lod", "0")
+    assert out.exit_code == 2 and "no such LOD" not in out.output and "lies outside the file" in out.output

@@ -955,8 +955,10 @@ def _validate_lod(file: str, lod: int, as_json: bool) -> None:
         rep.add("SWPM_IO_ERROR", None, reason=exc.strerror or str(exc))
     except SwpmFormatError as exc:
         rep = exc.report
-    except (IndexError, ValueError) as exc:  # a LOD the file does not have (or that never draws)
+    except IndexError as exc:  # a LOD the file does not have (or that never draws)
         raise click.BadParameter(f"no such LOD: {exc}", param_hint="--lod") from None
+    except ValueError as exc:  # a range the reader refuses as the caller's (spec 4.2 step 1), said as it is
+        raise click.BadParameter(str(exc), param_hint="--lod") from None
     else:
         rep = fr.report
         rep.summary["ranges"] = {"lod": lod, "reads": reads, **_ranges_summary(fr)}
