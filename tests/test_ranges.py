@@ -432,3 +432,19 @@ def test_validate_lod_says_a_refused_range_as_it_is(tmp_path: Any) -> None:
     path.write_bytes(bytes(data))
     out = _cli(str(path), "--lod", "0")
     assert out.exit_code == 2 and "no such LOD" not in out.output and "lies outside the file" in out.output
+
+
+@pytest.mark.parametrize("variant", ["sw-list", "sw-strip", "skip-strip", "mixed"])
+def test_read_lod_reads_no_byte_twice(variant: str) -> None:
+    """``read_lod`` fetched a range it held in part again whole (SMAP's [0, INDX) over the first 4096 bytes,
+    VERT's header up to three times): each byte is read once now, and every LOD it opens draws as the whole
+    file draws it."""
+    data = _file("suzanne", variant)
+    whole = load_bytes(data)
+    for k in sorted({0, whole.lod_count // 2, whole.lod_count - 1}):
+        log: list[tuple[int, int]] = []
+        fr = read_lod(_reader(data, log), k)
+        spans = sorted((o, o + min(n, len(data) - o)) for o, n in log)
+        assert all(a[1] <= b[0] for a, b in zip(spans, spans[1:], strict=False)), (k, spans)
+        assert k in fr.drawable_lods
+        _same_draws(data, whole, fr)

@@ -371,6 +371,26 @@ def _put(held: dict[int, _Bytes], offset: int, data: _Bytes) -> None:
         held[offset] = data
 
 
+def _fetch(held: dict[int, _Bytes], read: Callable[[int, int], _Bytes], offset: int, length: int) -> None:
+    """Read the parts of [offset, offset + length) that ``held`` does not hold yet, each once: a range
+    that overlaps one already fetched (SMAP's bytes before INDX and the first read, VERT's header) reads only
+    what it adds."""
+    at, end = offset, offset + length
+    for s, data in sorted(held.items()):
+        e = s + len(data)
+        if e <= at or not data:
+            continue
+        if s >= end:
+            break
+        if s > at:
+            _put(held, at, read(at, s - at))
+        at = max(at, e)
+        if at >= end:
+            return
+    if at < end:
+        _put(held, at, read(at, end - at))
+
+
 def read_lod(
     read: Callable[[int, int], _Bytes], lod: int, *, head: int = 4096, path: str | None = None
 ) -> FileRanges:
@@ -385,7 +405,7 @@ def read_lod(
     held: dict[int, _Bytes] = {0: first}
     try:
         for o, n in ranges_for_lod(held[0], lod):
-            _put(held, o, read(o, n))
+            _fetch(held, read, o, n)
     except ValueError:  # no usable SMAP: the reader names what it needs
         pass
     for _ in range(8):
@@ -395,11 +415,10 @@ def read_lod(
             need = exc.report.summary.get("range_need")
             if need is None:
                 raise
-            _put(held, need[0], read(need[0], need[1] - need[0]))
+            _fetch(held, read, need[0], need[1] - need[0])
             continue
         if lod in fr.drawable_lods:
             return fr
         for o, n in fr.needed_ranges(lod):
-            if not any(s <= o and o + n <= s + ln for s, ln in fr.held):  # (a range held is not read again)
-                _put(held, o, read(o, n))
+            _fetch(held, read, o, n)
     raise IndexError(f"{path or '<file>'}: LOD {lod} did not become drawable")
