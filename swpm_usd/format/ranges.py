@@ -376,17 +376,12 @@ def _fetch(held: dict[int, _Bytes], read: Callable[[int, int], _Bytes], offset: 
     that overlaps one already fetched (SMAP's bytes before INDX and the first read, VERT's header) reads only
     what it adds."""
     at, end = offset, offset + length
-    for s, data in sorted(held.items()):
-        e = s + len(data)
-        if e <= at or not data:
-            continue
+    for s, n in _merge(_pieces(held), None):
         if s >= end:
             break
         if s > at:
             _put(held, at, read(at, s - at))
-        at = max(at, e)
-        if at >= end:
-            return
+        at = max(at, s + n)
     if at < end:
         _put(held, at, read(at, end - at))
 

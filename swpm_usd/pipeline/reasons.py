@@ -245,7 +245,7 @@ def _version_change(then: str, now: str) -> str:
     return ", ".join(f"{p} {old.get(p, 'none')} -> {new.get(p, 'none')}" for p in changed)
 
 
-def _digest_reasons(cfg: Config, item: PlanItem, prev: dict, version: str, version_then: Any) -> list[dict]:
+def _digest_reasons(cfg: Config, item: PlanItem, prev: dict, version_then: Any) -> list[dict]:
     """The reasons the record's digest is not today's: its input digest, and the other parts of the digest
     that reproduce it (:func:`.assets.treatment_digest` of the record's input digest with the treatment,
     version, checks and instance count tried from today's and the record's), else ``digest-changed``."""
@@ -311,7 +311,6 @@ def _digest_reasons(cfg: Config, item: PlanItem, prev: dict, version: str, versi
 def build_reasons(
     cfg: Config,
     item: PlanItem,
-    version: str,
     version_then: Any,
     out_dir: Path,
     ignored: str | None = None,
@@ -319,9 +318,9 @@ def build_reasons(
     units_ok: bool = True,
 ) -> list[dict[str, str]]:
     """Why :func:`.runner.plan` builds ``item`` again (it found it not up to date), every reason that
-    applies in the order of :data:`REASONS` (``forced`` aside: the runner adds it). ``version``: today's
-    tool version; ``version_then``: the manifest's ``tool_version``; ``ignored``: why the asset's record
-    was ignored (not one the run writes); ``checked``: its outputs as the plan checked them
+    applies in the order of :data:`REASONS` (``forced`` aside: the runner adds it). ``version_then``: the
+    manifest's ``tool_version`` (a record's digest before build versions held it); ``ignored``: why the
+    asset's record was ignored (not one the run writes); ``checked``: its outputs as the plan checked them
     (:func:`.outputs._checked_output`, None for one not as recorded), when the plan got that far, else a
     wanted output is only looked for (missing or not); ``units_ok`` False: its USD layer's units are not
     known (:func:`.scene._layer_with_units`)."""
@@ -342,7 +341,7 @@ def build_reasons(
             found.append(reason("rule-pending", "the record holds no triangle count the rules route by"))
         return found
     if prev.get("digest") != item.digest:
-        found += _digest_reasons(cfg, item, prev, version, version_then)
+        found += _digest_reasons(cfg, item, prev, version_then)
     if not built:
         return found
     now_checks, then_checks = checks_of(cfg.data), prev.get("checks")

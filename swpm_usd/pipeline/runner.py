@@ -368,7 +368,7 @@ def plan(
                         inputs_listed=a.id in settled,
                     )
                 )
-                items[-1].because = build_reasons(cfg, items[-1], __version__, version_then, out_dir, ignored)
+                items[-1].because = build_reasons(cfg, items[-1], version_then, out_dir, ignored)
                 continue
             early, data = None, b""
             if early_counts:  # (an OBJ's bytes kept: loaded from them below, not read twice)
@@ -401,9 +401,7 @@ def plan(
                             triangles_how="unknown",
                         )
                     )
-                    items[-1].because = build_reasons(
-                        cfg, items[-1], __version__, version_then, out_dir, ignored
-                    )
+                    items[-1].because = build_reasons(cfg, items[-1], version_then, out_dir, ignored)
                     continue
                 finally:
                     data = b""  # (released before the next asset's file is read)
@@ -456,9 +454,7 @@ def plan(
                     kept = item.checked_outputs if item.checked_outputs is not None else dict(outs)
                     item.checked_outputs = {**kept, "usd": with_units}
         if not item.up_to_date:  # (the decision is taken: its reasons, for the plan lines and the report)
-            item.because = build_reasons(
-                cfg, item, __version__, version_then, out_dir, ignored, checked, units_ok
-            )
+            item.because = build_reasons(cfg, item, version_then, out_dir, ignored, checked, units_ok)
         items.append(item)
     warnings = [] if _rules_pending(items, dry_run=early_counts) else _unreached_rules(cfg, items)
     return items, problems, aliases + record_warnings + warnings
