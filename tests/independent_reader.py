@@ -1571,6 +1571,11 @@ def read_ranges(data: bytes, ranges: list[tuple[int, int]]) -> dict[str, Any]:
             ]
         return out
     file_size = struct.unpack_from("<Q", buf, 40)[0]
+    if file_size < HEADER_SIZE:  # §4.2 step 1: the header lies past file_size; §5 reads the bytes held
+        r = _Reader(bytes(buf))
+        r.run()
+        out["problems"] = r.rep.problems
+        return out
     if held(0, file_size):  # every byte: read as §5 reads the file
         verdict = read(bytes(buf[:file_size]))
         r = _Reader(bytes(buf[:file_size]))

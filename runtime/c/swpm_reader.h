@@ -233,11 +233,12 @@ int swpm_smap_band(const swpm_file *f, uint64_t b, uint32_t *first_lod, uint32_t
  * without all of INDX its content checks wait too and each LOD's held INDX elements are checked against the
  * vertices it draws (SWPM_PREFIX_VIOLATION). Every table it decodes must be held too (format.md 4.2: a table
  * after INDX in a file not in streaming order, SWPM_RANGES_NOT_HELD with that chunk's range). A range past
- * `length` or past file_size is the caller's error: SWPM_READER_BAD_RANGES.
+ * `length` or past file_size is the caller's error: SWPM_READER_BAD_RANGES, unless file_size is below 64 (the
+ * header then lies past it: the file's error, as format.md 5 reports it from the bytes held).
  * The contract on `held` (tests/c_bad_ranges.c checks each clause): ranges may come in any order, overlap and
  * abut (what counts is the union of their bytes; their order changes no result); a range of length 0 holds
  * no byte and is ignored wherever its offset lies (as Python's open_ranges drops an empty range); a range
- * with offset + length past `length`, past the header's file_size, or past 2^64 (wrapping), and `held`
+ * with offset + length past `length`, past the header's file_size (64 or more), or past 2^64 (wrapping), and `held`
  * NULL with held_count > 0, are SWPM_READER_BAD_RANGES (offset 0; no file is opened); held_count 0 holds no
  * byte: SWPM_RANGES_NOT_HELD for [0, 64). */
 #define SWPM_READER_BAD_RANGES "SWPM_READER_BAD_RANGES"
@@ -1242,9 +1243,15 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
                 return swpm__err("SWPM_HEADER_BAD_MAGIC", 0);
             return swpm__not_held(held, held_count, len, 0, 64);
         }
-        if (top > swpm__u64(bytes + 40)) return bad; /* a range past file_size */
         len = top; /* bytes past the last held byte are not the file's */
-        if (swpm__held_to(held, held_count, len, 0, len) == len && len == swpm__u64(bytes + 40)) {
+        if (swpm__u64(bytes + 40) < 64) { /* the header lies past file_size: the file's error (4.2 step 1), read
+                                              as format.md 5 reads the bytes to the last held one (its table
+                                              ends past file_size: no byte past the header is read) */
+            held = NULL;
+            prefix = 0;
+        } else if (top > swpm__u64(bytes + 40)) {
+            return bad; /* a range past file_size */
+        } else if (swpm__held_to(held, held_count, len, 0, len) == len && len == swpm__u64(bytes + 40)) {
             held = NULL; /* every byte held: the whole file, read as format.md 5 reads it */
             prefix = 0;
         } else if (memcmp(bytes, magic, 8) == 0 && swpm__u16(bytes + 8) == 1) {

@@ -255,7 +255,11 @@ def _check_ranges(
             rep.summary["range_need"] = [0, L.HEADER_SIZE]
         return rep, None, []
     file_size = int(head.view(L.HEADER)[0]["file_size"])
-    spans = _merge(items, file_size, path)
+    # a file_size below the header puts the header past it: no range is then the caller's error, and the file
+    # is read as format.md 5 reads it, its length the last byte held (spec 4.2 step 1): its table ends past
+    # file_size, which stops the checks before any byte past the header is read
+    below = file_size < L.HEADER_SIZE
+    spans = _merge(items, None if below else file_size, path)
     # up to the last byte held, not file_size (a hostile header's): bytes not held read as zero, so padding
     # there reads clean; the checks take file_size as the end of the file (as a prefix's, spec 4.1)
     top = max((o + n for o, n in spans), default=0)
@@ -264,7 +268,7 @@ def _check_ranges(
     for o, b in items:
         _fill(buf, mask, o, b, path)
     buf.setflags(write=False)
-    if top == file_size and mask.all():
+    if below or (top == file_size and mask.all()):
         rep, p = _check(buf, path)
         return rep, p, spans
     rep, p = _check(buf, path, held=mask)
@@ -357,8 +361,8 @@ def _checked_ranges(held: Held | _Pieces, path: str | None) -> tuple[Report, Fil
 def _declared_end(head: _Bytes) -> int | None:
     """The header's file_size, read from the file's first bytes ``head``: where ``read_lod``'s first read,
     of a fixed length, stops being the file's (bytes after it, SWPM_FILE_TRAILING_BYTES, are not held).
-    None without a header, or for a file_size below it (the header is then held as read: the caller's
-    error of spec 4.2 step 1)."""
+    None without a header, or for a file_size below it (the header is then held as read: the file's error,
+    spec 4.2 step 1)."""
     buf = _as_buf(head)
     if buf.shape[0] < L.HEADER_SIZE or bytes(buf[:8]) != L.MAGIC:
         return None
