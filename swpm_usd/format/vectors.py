@@ -1635,7 +1635,8 @@ def _ranges_cases(files: Mapping[str, bytes]) -> dict[str, list[tuple[str, list[
             (
                 "file-size-below-header-header-and-table",
                 [(0, table_end), (io, il)],
-                "the header, the chunk table and INDX: the same two problems (nothing past the header is read)",
+                "the header, the chunk table and INDX: the same two problems (nothing past the header is"
+                " read)",
             ),
         ],
         sk: [
