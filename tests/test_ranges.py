@@ -8,8 +8,10 @@ corruption outside the held ranges is found only on finishing, inside them at on
 from __future__ import annotations
 
 import json
+import os
 import random
 import struct
+import tracemalloc
 from typing import Any
 
 import numpy as np
@@ -437,3 +439,45 @@ def test_validate_lod_of_a_file_size_below_the_header_is_the_files_error(tmp_pat
     whole = validate_bytes(bytes(data))
     assert got == [(p.code, p.offset) for p in whole.problems]
     assert got == [("SWPM_FILE_TRAILING_BYTES", 10), ("SWPM_TABLE_TRUNCATED", 24)]
+
+
+def _far_file(far_byte: int) -> tuple[bytes, dict[int, bytes]]:
+    """minimal-vanilla whose header claims file_size 2^41, and the ranges: all of its 620 bytes and 16 bytes
+    at 2^40 (trailing padding of the claimed file; ``far_byte`` the first of them)."""
+    data = bytearray((VECTORS / "valid" / "minimal-vanilla.swpm").read_bytes())
+    struct.pack_into("<Q", data, 40, 1 << 41)
+    data = refix_crcs(bytes(data))
+    return data, {0: data, 1 << 40: bytes([far_byte]) + bytes(15)}
+
+
+def _rss() -> int:
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+@pytest.mark.parametrize("far_byte", [0, 7])
+def test_a_range_far_past_the_others_is_held_sparsely(far_byte: int) -> None:
+    """A 16-byte range at 2^40 of a file whose header claims 2^41 bytes: the reader held the ranges in one
+    buffer up to the last byte held (np.zeros of 2^40 bytes: MemoryError, or a terabyte traced) and read
+    the padding between them byte by byte. It holds them sparsely now: the far range costs its own pages,
+    and is still read (a non-zero byte there is the trailing padding's SWPM_PADDING_NONZERO, at the end of
+    VERT, the gap's start)."""
+    data, held = _far_file(far_byte)
+    open_ranges({0: (VECTORS / "valid" / "minimal-vanilla.swpm").read_bytes()})  # (imports made: not traced)
+    rss = _rss()
+    tracemalloc.start()
+    try:
+        rep = validate_ranges(held)
+        fr = open_ranges(held) if rep.valid else None
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 1 << 20, peak
+    assert _rss() - rss < 64 << 20
+    if far_byte:
+        assert [(q.code, q.offset) for q in rep.problems] == [("SWPM_PADDING_NONZERO", len(data))]
+    else:
+        assert rep.valid, rep.problems
+        assert fr is not None and fr.drawable_lods.tolist() == [0, 1]
+        whole = load_bytes((VECTORS / "valid" / "minimal-vanilla.swpm").read_bytes())
+        assert np.array_equal(fr.lod_points(0), whole.points)
