@@ -1181,6 +1181,12 @@ def _ranges_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
         " and the chunk table past the end of the file, SWPM_TABLE_TRUNCATED; a range reader holding the"
         " header reports the same (range case file-size-below-header-header-only), not the caller's error",
     )
+    out["skip-strip-level-of-two-lods-prefix-violation"] = (
+        _write(fan_skip_level_of_two_lods([1, 2, 0, 2, 4, 0])),
+        "skip-strip-level-of-two-lods with level 1's list 1 2 0 2 4 0: vertex 4 is not below its first LOD's"
+        " 4 vertices, SWPM_PREFIX_VIOLATION at that element (range case"
+        " skip-strip-level-of-two-lods-prefix-violation-level-1: found at once from that list's range)",
+    )
     out["mixed-two-levels-prefix-violation"] = (
         _write(fan_mixed_two_levels([2, 4, 0])),
         "mixed-two-levels with level 1's static triangle 2 4 0: vertex 4 is not below its level's first"
@@ -1425,6 +1431,8 @@ def _ranges_cases(files: Mapping[str, bytes]) -> dict[str, list[tuple[str, list[
     k2c = "skip-strip-two-levels-collapsed-prefix"
     sk, skio = "skip-strip-level-of-two-lods", at("skip-strip-level-of-two-lods", L.INDX)[0]
     mx, mxio = "mixed-two-levels", at("mixed-two-levels", L.INDX)[0]
+    skv = "skip-strip-level-of-two-lods-prefix-violation"
+    skvio = at(skv, L.INDX)[0]
     mxv, mxvio = "mixed-two-levels-prefix-violation", at("mixed-two-levels-prefix-violation", L.INDX)[0]
     return {
         mv: [
@@ -1674,6 +1682,19 @@ def _ranges_cases(files: Mapping[str, bytes]) -> dict[str, list[tuple[str, list[
                 "mixed-two-levels-smap-band-0",
                 _smap_band_ranges(files[mx], 0),
                 "SMAP's one band: every byte is held, read as format.md 5 reads the file, every LOD drawable",
+            ),
+        ],
+        skv: [
+            (
+                "skip-strip-level-of-two-lods-prefix-violation-level-1",
+                [(0, skvio), (skvio + 24, 12), rec(skv, 4)],
+                "level 1's list held (LODs 1-2): its vertex 4 is not below LOD 1's 4 vertices,"
+                " SWPM_PREFIX_VIOLATION at once (the whole file's error too)",
+            ),
+            (
+                "skip-strip-level-of-two-lods-prefix-violation-level-0",
+                [(0, skvio), (skvio, 24), rec(skv, 5)],
+                "level 0's list held, not level 1's: LOD 0 drawable; finishing rejects the file",
             ),
         ],
         mxv: [
