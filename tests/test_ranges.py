@@ -481,3 +481,18 @@ def test_a_range_far_past_the_others_is_held_sparsely(far_byte: int) -> None:
         assert fr is not None and fr.drawable_lods.tolist() == [0, 1]
         whole = load_bytes((VECTORS / "valid" / "minimal-vanilla.swpm").read_bytes())
         assert np.array_equal(fr.lod_points(0), whole.points)
+
+
+def test_a_range_past_what_a_reader_maps_is_the_callers_error() -> None:
+    """Ranges are held in virtual memory up to the last held byte, at most MAX_RANGE_END (2^46) bytes: a
+    range past it (at 2^50 of a file claiming 2^51) is refused as the caller's, a ValueError naming it, as a
+    range past file_size is, not a MemoryError or an attempt to map 2^50 bytes."""
+    from swpm_usd.format.ranges import MAX_RANGE_END
+
+    data = bytearray((VECTORS / "valid" / "minimal-vanilla.swpm").read_bytes())
+    struct.pack_into("<Q", data, 40, 1 << 51)
+    data = bytearray(refix_crcs(bytes(data)))
+    assert MAX_RANGE_END < 1 << 50
+    with pytest.raises(ValueError, match=f"ends at {(1 << 50) + 16}, past the {MAX_RANGE_END}"):
+        validate_ranges({0: bytes(data), 1 << 50: bytes(16)})
+    assert validate_ranges({0: bytes(data), MAX_RANGE_END - 16: bytes(16)}).valid  # (at the limit: held)
