@@ -26,7 +26,10 @@ did (this reader had decided otherwise and follows the text):
   reported one per LOD, in place of the prefix property's stage).
 * skip-strip's collapsed lists' prefix waits with the replay (stage (d)), though it reads ``SKIP`` only (it
   had run it: the checks that read no ``INDX`` element ran); mixed's dynamic and collapsed lists' prefix
-  (stage (c)) runs in all three.
+  (stage (c)) runs in all three;
+* a header whose file_size is below 64 lies past its own file_size: each reader took it otherwise (the codec
+  and the C reader refused the ranges as the caller's error, this one read the first file_size bytes as a
+  file, ``SWPM_HEADER_TRUNCATED``); §4.2 step 1 now makes it the file's error, §5 run on the bytes held.
 
 Where the readers disagreed and the text said which was right, a reader was fixed: the codec read bytes not
 held as zeros (a table after ``INDX`` not held gave ``SWPM_CHUNK_BAD_LENGTH`` on a valid file, an ``SMAP``
@@ -1571,6 +1574,11 @@ def read_ranges(data: bytes, ranges: list[tuple[int, int]]) -> dict[str, Any]:
             ]
         return out
     file_size = struct.unpack_from("<Q", buf, 40)[0]
+    if file_size < HEADER_SIZE:  # §4.2 step 1: the header lies past file_size; §5 reads the bytes held
+        r = _Reader(bytes(buf))
+        r.run()
+        out["problems"] = r.rep.problems
+        return out
     if held(0, file_size):  # every byte: read as §5 reads the file
         verdict = read(bytes(buf[:file_size]))
         r = _Reader(bytes(buf[:file_size]))

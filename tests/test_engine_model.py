@@ -338,7 +338,7 @@ def test_conformance_vector_verdict(v: dict) -> None:
     data = (VECTORS / v["file"]).read_bytes()
     expected = json.loads((VECTORS / v["expected"]).read_text())
     errors = {p["code"] for p in expected["problems"] if p["severity"] == "error"}
-    assert len(_vectors()) == 111  # (long-header, smap-two-bands: 4.1 prefix cases; 5 for 4.2 range cases)
+    assert len(_vectors()) == 116  # (long-header, smap-two-bands: 4.1 prefix cases; 10 for 4.2 range cases)
     if v["valid"]:
         f, eng = em.load(data)
         inst = None if f.encoding == "sliding-window" else eng.instance()

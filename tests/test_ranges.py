@@ -8,8 +8,10 @@ corruption outside the held ranges is found only on finishing, inside them at on
 from __future__ import annotations
 
 import json
+import os
 import random
 import struct
+import tracemalloc
 from typing import Any
 
 import numpy as np
@@ -423,28 +425,74 @@ def test_read_lod_of_a_file_longer_than_its_file_size(tmp_path: Any) -> None:
     assert 0 in json.loads(out.output)["summary"]["ranges"]["drawable_lods"]
 
 
-def test_validate_lod_says_a_refused_range_as_it_is(tmp_path: Any) -> None:
-    """A header whose file_size is below 64 puts the header itself past file_size, which a range reader
-    refuses as the caller's error (spec 4.2 step 1): ``validate --lod`` said "no such LOD" for it."""
+def test_validate_lod_of_a_file_size_below_the_header_is_the_files_error(tmp_path: Any) -> None:
+    """A header whose file_size is below 64 puts the header itself past file_size: a range reader reports the
+    file's error as format.md 5 does (spec 4.2 step 1), not the caller's. ``validate --lod`` refused the
+    ranges as a usage error (exit 2, "lies outside the file") before."""
     data = bytearray((VECTORS / "valid" / "minimal-vanilla.swpm").read_bytes())
     struct.pack_into("<Q", data, 40, 10)
     path = tmp_path / "small.swpm"
     path.write_bytes(bytes(data))
-    out = _cli(str(path), "--lod", "0")
-    assert out.exit_code == 2 and "no such LOD" not in out.output and "lies outside the file" in out.output
+    out = _cli(str(path), "--lod", "0", "--json")
+    assert out.exit_code == 1, out.output
+    got = [(p["code"], p["offset"]) for p in json.loads(out.output)["problems"]]
+    whole = validate_bytes(bytes(data))
+    assert got == [(p.code, p.offset) for p in whole.problems]
+    assert got == [("SWPM_FILE_TRAILING_BYTES", 10), ("SWPM_TABLE_TRUNCATED", 24)]
 
 
-@pytest.mark.parametrize("variant", ["sw-list", "sw-strip", "skip-strip", "mixed"])
-def test_read_lod_reads_no_byte_twice(variant: str) -> None:
-    """``read_lod`` fetched a range it held in part again whole (SMAP's [0, INDX) over the first 4096 bytes,
-    VERT's header up to three times): each byte is read once now, and every LOD it opens draws as the whole
-    file draws it."""
-    data = _file("suzanne", variant)
-    whole = load_bytes(data)
-    for k in sorted({0, whole.lod_count // 2, whole.lod_count - 1}):
-        log: list[tuple[int, int]] = []
-        fr = read_lod(_reader(data, log), k)
-        spans = sorted((o, o + min(n, len(data) - o)) for o, n in log)
-        assert all(a[1] <= b[0] for a, b in zip(spans, spans[1:], strict=False)), (k, spans)
-        assert k in fr.drawable_lods
-        _same_draws(data, whole, fr)
+def _far_file(far_byte: int) -> tuple[bytes, dict[int, bytes]]:
+    """minimal-vanilla whose header claims file_size 2^41, and the ranges: all of its 620 bytes and 16 bytes
+    at 2^40 (trailing padding of the claimed file; ``far_byte`` the first of them)."""
+    data = bytearray((VECTORS / "valid" / "minimal-vanilla.swpm").read_bytes())
+    struct.pack_into("<Q", data, 40, 1 << 41)
+    data = refix_crcs(bytes(data))
+    return data, {0: data, 1 << 40: bytes([far_byte]) + bytes(15)}
+
+
+def _rss() -> int:
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+@pytest.mark.parametrize("far_byte", [0, 7])
+def test_a_range_far_past_the_others_is_held_sparsely(far_byte: int) -> None:
+    """A 16-byte range at 2^40 of a file whose header claims 2^41 bytes: the reader held the ranges in one
+    buffer up to the last byte held (np.zeros of 2^40 bytes: MemoryError, or a terabyte traced) and read
+    the padding between them byte by byte. It holds them sparsely now: the far range costs its own pages,
+    and is still read (a non-zero byte there is the trailing padding's SWPM_PADDING_NONZERO, at the end of
+    VERT, the gap's start)."""
+    data, held = _far_file(far_byte)
+    open_ranges({0: (VECTORS / "valid" / "minimal-vanilla.swpm").read_bytes()})  # (imports made: not traced)
+    rss = _rss()
+    tracemalloc.start()
+    try:
+        rep = validate_ranges(held)
+        fr = open_ranges(held) if rep.valid else None
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 1 << 20, peak
+    assert _rss() - rss < 64 << 20
+    if far_byte:
+        assert [(q.code, q.offset) for q in rep.problems] == [("SWPM_PADDING_NONZERO", len(data))]
+    else:
+        assert rep.valid, rep.problems
+        assert fr is not None and fr.drawable_lods.tolist() == [0, 1]
+        whole = load_bytes((VECTORS / "valid" / "minimal-vanilla.swpm").read_bytes())
+        assert np.array_equal(fr.lod_points(0), whole.points)
+
+
+def test_a_range_past_what_a_reader_maps_is_the_callers_error() -> None:
+    """Ranges are held in virtual memory up to the last held byte, at most MAX_RANGE_END (2^46) bytes: a
+    range past it (at 2^50 of a file claiming 2^51) is refused as the caller's, a ValueError naming it, as a
+    range past file_size is, not a MemoryError or an attempt to map 2^50 bytes."""
+    from swpm_usd.format.ranges import MAX_RANGE_END
+
+    data = bytearray((VECTORS / "valid" / "minimal-vanilla.swpm").read_bytes())
+    struct.pack_into("<Q", data, 40, 1 << 51)
+    data = bytearray(refix_crcs(bytes(data)))
+    assert MAX_RANGE_END < 1 << 50
+    with pytest.raises(ValueError, match=f"ends at {(1 << 50) + 16}, past the {MAX_RANGE_END}"):
+        validate_ranges({0: bytes(data), 1 << 50: bytes(16)})
+    assert validate_ranges({0: bytes(data), MAX_RANGE_END - 16: bytes(16)}).valid  # (at the limit: held)

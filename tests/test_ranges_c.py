@@ -392,3 +392,38 @@ def test_swpm_dump_refuses_a_range_item_it_cannot_hold(dump, item):  # noqa: F81
     assert f"--ranges item {item.rstrip(',')}:" in proc.stderr and "620 bytes" in proc.stderr
     ok = subprocess.run([str(dump), "--ranges", "0:64,", str(path)], capture_output=True, text=True)
     assert ok.returncode == 0 and '"code":"SWPM_RANGES_NOT_HELD"' in ok.stdout
+
+
+@pytest.mark.parametrize("san", [False, True], ids=["plain", "asan-ubsan"])
+def test_far_range_reads_only_what_is_held(tmp_path: Path, dump: Path, dump_san: Path, san: bool) -> None:  # noqa: F811
+    """A 16-byte range at 2^40 of a file whose header claims 2^41 (tests/c_far_range.c): the buffer is
+    virtual memory readable only where the ranges are held, so a byte read between them faults. The C
+    reader walked the padding after VERT byte by byte up to the last held byte (a SIGSEGV at the first page
+    not held; 2^40 reads with a readable buffer); it reads the held bytes of a gap only now, and agrees with
+    Python's open_ranges: zeros there open (LODs 0 and 1), a non-zero byte is SWPM_PADDING_NONZERO at the
+    gap's start, VERT's end."""
+    from test_c_reader import FLAGS, ROOT, RUNTIME, SANITIZE
+
+    from swpm_usd.format.ranges import open_ranges
+
+    exe = tmp_path / "c_far_range"
+    extra = SANITIZE if san else []
+    src = ROOT / "tests" / "c_far_range.c"
+    subprocess.run(["cc", *FLAGS, *extra, "-I", str(RUNTIME), "-o", str(exe), str(src)], check=True)
+    vector = VECTORS / "valid" / "minimal-vanilla.swpm"
+    far = 1 << 40
+    data = bytearray(vector.read_bytes())
+    struct.pack_into("<Q", data, 40, 2 * far)
+    data = bytearray(refix_crcs(bytes(data)))
+    for byte in (0, 7):
+        out = subprocess.run([str(exe), str(vector), str(far), f"{byte:02x}"], capture_output=True, text=True)
+        assert out.returncode == 0, out.stderr[-2000:]
+        got = json.loads(out.stdout)
+        held = {0: bytes(data), far: bytes([byte]) + bytes(15)}
+        rep = validate_ranges(held)
+        if rep.valid:
+            assert got == {"code": None, "offset": 0, "drawable": open_ranges(held).drawable_lods.tolist()}
+            assert got["drawable"] == [0, 1]
+        else:
+            assert (got["code"], got["offset"]) == (rep.errors[0].code, rep.errors[0].offset)
+            assert got == {"code": "SWPM_PADDING_NONZERO", "offset": len(data)}

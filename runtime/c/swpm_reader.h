@@ -37,9 +37,10 @@
  * for in swpm_result.need). LOD k draws once swpm_lod_needed_bytes(k) bytes are held: swpm_finest_drawable_lod
  * gives the finest; the SMAP accessors give the writer's bands and byte ranges, to plan range requests.
  * Byte ranges (format.md 4.2): swpm_open_ranges() opens the ranges of a file the caller holds (SMAP's for a
- * band, HTTP range requests) and reads no other byte; SWPM_RANGES_NOT_HELD names the range to fetch
- * ([.need_start, .need)); swpm_lod_drawable() says which LODs they draw (not always consecutive),
- * swpm_lod_needed_ranges() what a LOD needs; swpm_ranges_finish() checks the whole file.
+ * band, HTTP range requests) and reads no other byte, however far apart they lie (tests/c_far_range.c);
+ * SWPM_RANGES_NOT_HELD names the range to fetch ([.need_start, .need)); swpm_lod_drawable() says which LODs
+ * they draw (not always consecutive), swpm_lod_needed_ranges() what a LOD needs; swpm_ranges_finish() checks
+ * the whole file.
  *
  * Per-instance runtime (an engine's): swpm_vanilla_instance_init() / swpm_vanilla_set_lod() (format.md 3.6
  * "At run time": a copy of INDX in the caller's buffer, moved between LODs by applying or undoing collapse
@@ -233,13 +234,14 @@ int swpm_smap_band(const swpm_file *f, uint64_t b, uint32_t *first_lod, uint32_t
  * without all of INDX its content checks wait too and each LOD's held INDX elements are checked against the
  * vertices it draws (SWPM_PREFIX_VIOLATION). Every table it decodes must be held too (format.md 4.2: a table
  * after INDX in a file not in streaming order, SWPM_RANGES_NOT_HELD with that chunk's range). A range past
- * `length` or past file_size is the caller's error: SWPM_READER_BAD_RANGES.
+ * `length` or past file_size is the caller's error: SWPM_READER_BAD_RANGES, unless file_size is below 64 (the
+ * header then lies past it: the file's error, as format.md 5 reports it from the bytes held).
  * The contract on `held` (tests/c_bad_ranges.c checks each clause): ranges may come in any order, overlap and
  * abut (what counts is the union of their bytes; their order changes no result); a range of length 0 holds
  * no byte and is ignored wherever its offset lies (as Python's open_ranges drops an empty range); a range
- * with offset + length past `length`, past the header's file_size, or past 2^64 (wrapping), and `held`
- * NULL with held_count > 0, are SWPM_READER_BAD_RANGES (offset 0; no file is opened); held_count 0 holds no
- * byte: SWPM_RANGES_NOT_HELD for [0, 64). */
+ * with offset + length past `length`, past the header's file_size (64 or more), or past 2^64 (wrapping), and
+ * `held` NULL with held_count > 0, are SWPM_READER_BAD_RANGES (offset 0; no file is opened); held_count 0
+ * holds no byte: SWPM_RANGES_NOT_HELD for [0, 64). */
 #define SWPM_READER_BAD_RANGES "SWPM_READER_BAD_RANGES"
 swpm_result swpm_open_ranges(const uint8_t *bytes, size_t length, const swpm_range *held, size_t held_count,
                              swpm_file *file, void *scratch, size_t scratch_bytes);
@@ -1198,6 +1200,27 @@ static uint64_t swpm__held_to(const swpm_range *held, uint64_t n, uint64_t len, 
     }
     return b;
 }
+/* Whether a byte of [a, b) at hand is non-zero (padding, format.md 1): of [0, len) without ranges, else of the
+ * held ranges only, each read in its part of [a, b): a gap far longer than the ranges (one held at 2^40 of a
+ * file whose file_size says 2^41) costs the bytes they hold, and no byte not held is read. */
+static int swpm__nonzero(const uint8_t *bytes, const swpm_range *held, uint64_t n, uint64_t len, uint64_t a,
+                         uint64_t b) {
+    uint64_t i, g, lo, hi;
+    if (b > len) b = len;
+    if (held == NULL) {
+        for (g = a; g < b; g++)
+            if (bytes[g]) return 1;
+        return 0;
+    }
+    for (i = 0; i < n; i++) { /* (ranges inside [0, len): checked when opened) */
+        if (!held[i].length) continue;
+        lo = held[i].offset > a ? held[i].offset : a;
+        hi = held[i].offset + held[i].length < b ? held[i].offset + held[i].length : b;
+        for (g = lo; g < hi; g++)
+            if (bytes[g]) return 1;
+    }
+    return 0;
+}
 /* SWPM_RANGES_NOT_HELD: at the first byte of [start, end) not held, with that range to fetch */
 static swpm_result swpm__not_held(const swpm_range *held, uint64_t n, uint64_t len, uint64_t start, uint64_t end) {
     swpm_result r = swpm__err("SWPM_RANGES_NOT_HELD", swpm__held_to(held, n, len, start, end));
@@ -1242,9 +1265,15 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
                 return swpm__err("SWPM_HEADER_BAD_MAGIC", 0);
             return swpm__not_held(held, held_count, len, 0, 64);
         }
-        if (top > swpm__u64(bytes + 40)) return bad; /* a range past file_size */
         len = top; /* bytes past the last held byte are not the file's */
-        if (swpm__held_to(held, held_count, len, 0, len) == len && len == swpm__u64(bytes + 40)) {
+        if (swpm__u64(bytes + 40) < 64) { /* the header lies past file_size: the file's error (4.2 step 1), read
+                                              as format.md 5 reads the bytes to the last held one (its table
+                                              ends past file_size: no byte past the header is read) */
+            held = NULL;
+            prefix = 0;
+        } else if (top > swpm__u64(bytes + 40)) {
+            return bad; /* a range past file_size */
+        } else if (swpm__held_to(held, held_count, len, 0, len) == len && len == swpm__u64(bytes + 40)) {
             held = NULL; /* every byte held: the whole file, read as format.md 5 reads it */
             prefix = 0;
         } else if (memcmp(bytes, magic, 8) == 0 && swpm__u16(bytes + 8) == 1) {
@@ -1317,12 +1346,8 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
         if (off % 8) return swpm__err("SWPM_CHUNK_MISALIGNED", eo + 8);
         if (have_last && off < last) return swpm__err("SWPM_CHUNK_OUT_OF_ORDER", eo + 8);
         if (off < end) return swpm__err("SWPM_CHUNK_OVERLAP", eo + 8);
-        {
-            uint64_t g;
-            for (g = end; g < off && g < eof && g < len; g++) /* (a prefix or ranges: the bytes held) */
-                if (bytes[g] && (!held || swpm__held_to(held, held_count, len, g, g + 1) > g))
-                    return swpm__err("SWPM_PADDING_NONZERO", end);
-        }
+        if (end < off && swpm__nonzero(bytes, held, held_count, len, end, off < eof ? off : eof))
+            return swpm__err("SWPM_PADDING_NONZERO", end); /* (a prefix or ranges: the bytes held) */
         have_last = 1;
         last = off;
         end = off + clen; /* in bounds: no wrap */
@@ -1342,12 +1367,8 @@ static swpm_result swpm__open(const uint8_t *bytes, size_t length, swpm_file *fi
         if (first[kind] >= 0) return swpm__err("SWPM_CHUNK_DUPLICATE", eo);
         first[kind] = (int64_t)i;
     }
-    {
-        uint64_t g; /* padding after the last payload: reported at the gap's start */
-        for (g = end; g < eof && g < len; g++)
-            if (bytes[g] && (!held || swpm__held_to(held, held_count, len, g, g + 1) > g))
-                return swpm__err("SWPM_PADDING_NONZERO", end);
-    }
+    if (end < eof && swpm__nonzero(bytes, held, held_count, len, end, eof)) /* padding after the last payload */
+        return swpm__err("SWPM_PADDING_NONZERO", end);                       /* at the gap's start */
     for (i = 0; swpm__critical_order[enc][i] >= 0; i++)
         if (first[swpm__critical_order[enc][i]] < 0) {
             swpm_result r = {"SWPM_CHUNK_MISSING", 0, 0, 0, 0};

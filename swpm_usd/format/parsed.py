@@ -9,6 +9,7 @@ share them without importing the reader (which imports them).
 
 from __future__ import annotations
 
+import bisect
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -32,6 +33,33 @@ class _Chunk:
         return self.type.decode("latin-1")
 
 
+class _Spans:
+    """Byte ranges held (spec 4.2), sorted and merged: [starts[i], ends[i]) each. Every query costs the
+    logarithm or the number of spans, never the bytes between them: a range held far past the others (at
+    2^40 of a file whose header claims 2^41) adds one span, not a mask up to it."""
+
+    def __init__(self, spans: list[tuple[int, int]]) -> None:  # (offset, length), sorted and merged
+        self.starts = [o for o, _ in spans]
+        self.ends = [o + n for o, n in spans]
+
+    def run_end(self, a: int) -> int:
+        """The end of the run of held bytes from ``a`` (``a`` when it is not held)."""
+        i = bisect.bisect_right(self.starts, a) - 1
+        return self.ends[i] if i >= 0 and a < self.ends[i] else a
+
+    def holds(self, a: int, b: int) -> bool:
+        return self.run_end(a) >= b > a or b <= a
+
+    def parts(self, a: int, b: int) -> list[tuple[int, int]]:
+        """The held parts of [a, b)."""
+        out = []
+        for i in range(bisect.bisect_right(self.ends, a), len(self.starts)):
+            if self.starts[i] >= b:
+                break
+            out.append((max(self.starts[i], a), min(self.ends[i], b)))
+        return out
+
+
 @dataclass
 class _Parsed:
     buf: np.ndarray
@@ -53,8 +81,9 @@ class _Parsed:
     size: int = 0  # the end of the file as read: its first file_size bytes, fewer if it is shorter
     vertex_count: int = 0  # V, from VERT's header (a prefix holds the first records only: spec 4.1)
     prefix: bool = False  # read as a prefix of the file (spec 4.1): buf ends before ``size``
-    # byte ranges (spec 4.2): which bytes of ``buf`` (file_size long, the rest zero) are held; None: all
-    held: np.ndarray | None = None
+    # byte ranges (spec 4.2): which bytes of ``buf`` (up to the last byte held, the rest zero) are held;
+    # None: all
+    held: _Spans | None = None
     indx_partial: bool = False  # ranges without all of INDX: checks of its content wait for the whole file
 
     def holds(self, start: int, end: int) -> bool:
@@ -64,15 +93,32 @@ class _Parsed:
             return True
         if end > self.buf.shape[0]:
             return False
-        return self.held is None or bool(self.held[start:end].all())
+        return self.held is None or self.held.holds(start, end)
 
     def held_end(self, start: int) -> int:
         """The end of the run of held bytes from ``start`` (a prefix: its length)."""
         if self.held is None:
             return max(int(self.buf.shape[0]), start)
-        rest = self.held[start:]
-        i = int(np.argmin(rest)) if rest.size else 0  # the first byte not held (argmin: no index array)
-        return start + i if rest.size and not rest[i] else int(self.held.shape[0])
+        return self.held.run_end(start)
+
+    def first_missing(self, start: int, end: int) -> int:
+        """The first byte of [start, end) not held (``end`` when every one is)."""
+        if self.held is None:
+            return min(max(int(self.buf.shape[0]), start), end)
+        at = start
+        while at < end:
+            nxt = self.held.run_end(at)
+            if nxt == at:
+                return at
+            at = nxt
+        return end
+
+    def nonzero(self, start: int, end: int) -> bool:
+        """Whether a byte of [start, end) at hand is non-zero (padding, spec 1): reading ranges only the held
+        ones are read, so a gap far longer than what is held costs what is held."""
+        if self.held is None:
+            return bool(np.any(self.buf[start:end]))
+        return any(bool(np.any(self.buf[a:b])) for a, b in self.held.parts(start, end))
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

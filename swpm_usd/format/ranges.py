@@ -15,6 +15,8 @@ coarse bands small.
 
 from __future__ import annotations
 
+import mmap
+import sys
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 
@@ -23,7 +25,7 @@ import numpy as np
 from ..encode.base import ProgressiveMesh, from_buffers
 from . import layout as L
 from .errors import Report, SwpmFormatError
-from .parsed import _Parsed
+from .parsed import _Parsed, _Spans
 from .prefix import _as_buf, _Bytes, _lod_fields, _Lods, _whole
 from .reader import _check, _Report
 from .writer import needed_index_ranges
@@ -219,6 +221,31 @@ def _fill(buf: np.ndarray, have: np.ndarray, o: int, b: np.ndarray, path: str | 
     buf[o : o + n], have[o : o + n] = b[:n], True
 
 
+#: how far into a file a range reader holds bytes: its buffer is virtual memory of that many bytes at most
+#: (x86-64 gives a process 2^47), of which only the held bytes' pages are committed
+MAX_RANGE_END = 1 << 46
+
+
+#: reserve no swap for the mapping (Linux's value: Python's mmap module names it from 3.13 on); without it a
+#: mapping larger than memory is refused under the default heuristic overcommit
+_MAP_NORESERVE = getattr(mmap, "MAP_NORESERVE", 0x4000 if sys.platform.startswith("linux") else 0)
+
+
+def _zeros(n: int, path: str | None) -> np.ndarray:
+    """``n`` zero bytes, writable, as virtual memory: a page is committed only where it is written (the held
+    ranges), so a range held far past the others (at 2^40 of a file whose header claims 2^41) costs its own
+    pages, not the gap's (spec 5: no giant allocation on a corrupt file)."""
+    if n > MAX_RANGE_END:
+        raise ValueError(f"{path or '<file>'}: a range ends at {n}, past the {MAX_RANGE_END} held at most")
+    if n == 0:
+        return np.zeros(0, np.uint8)
+    flags = mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS | _MAP_NORESERVE
+    try:
+        return np.frombuffer(mmap.mmap(-1, n, flags=flags), np.uint8)
+    except OSError as exc:  # (an address space or overcommit limit: the caller's ranges cannot be held)
+        raise ValueError(f"{path or '<file>'}: cannot hold ranges up to byte {n}: {exc.strerror}") from None
+
+
 def _merge(
     items: list[tuple[int, np.ndarray]], file_size: int | None, path: str | None = None
 ) -> list[tuple[int, int]]:
@@ -255,19 +282,29 @@ def _check_ranges(
             rep.summary["range_need"] = [0, L.HEADER_SIZE]
         return rep, None, []
     file_size = int(head.view(L.HEADER)[0]["file_size"])
-    spans = _merge(items, file_size, path)
+    # a file_size below the header puts the header past it: no range is then the caller's error, and the file
+    # is read as format.md 5 reads it, its length the last byte held (spec 4.2 step 1): its table ends past
+    # file_size, which stops the checks before any byte past the header is read
+    below = file_size < L.HEADER_SIZE
+    spans = _merge(items, None if below else file_size, path)
     # up to the last byte held, not file_size (a hostile header's): bytes not held read as zero, so padding
-    # there reads clean; the checks take file_size as the end of the file (as a prefix's, spec 4.1)
+    # there reads clean; the checks take file_size as the end of the file (as a prefix's, spec 4.1). Only
+    # the held bytes' pages are ever touched: the checks read held bytes only (_Spans)
     top = max((o + n for o, n in spans), default=0)
-    buf = np.zeros(top, np.uint8)
-    mask = np.zeros(top, bool)
+    buf = _zeros(top, path)
+    end = 0  # (items sorted by offset: of [o, o + n) an earlier range gave exactly [o, end))
     for o, b in items:
-        _fill(buf, mask, o, b, path)
+        k = min(b.shape[0], max(end - o, 0))
+        if k and not np.array_equal(buf[o : o + k], b[:k]):  # one byte two values: the caller's error
+            at = o + int(np.flatnonzero(buf[o : o + k] != b[:k])[0])
+            raise ValueError(f"{path or '<file>'}: the ranges held give byte {at} two different values")
+        buf[o + k : o + b.shape[0]] = b[k:]
+        end = max(end, o + b.shape[0])
     buf.setflags(write=False)
-    if top == file_size and mask.all():
+    if below or (top == file_size and spans == [(0, top)]):
         rep, p = _check(buf, path)
         return rep, p, spans
-    rep, p = _check(buf, path, held=mask)
+    rep, p = _check(buf, path, held=_Spans(spans))
     if p is not None and rep.valid and p.indx_partial:
         _check_drawn(p, rep)
     return rep, p, spans
@@ -357,8 +394,8 @@ def _checked_ranges(held: Held | _Pieces, path: str | None) -> tuple[Report, Fil
 def _declared_end(head: _Bytes) -> int | None:
     """The header's file_size, read from the file's first bytes ``head``: where ``read_lod``'s first read,
     of a fixed length, stops being the file's (bytes after it, SWPM_FILE_TRAILING_BYTES, are not held).
-    None without a header, or for a file_size below it (the header is then held as read: the caller's
-    error of spec 4.2 step 1)."""
+    None without a header, or for a file_size below it (the header is then held as read: the file's error,
+    spec 4.2 step 1)."""
     buf = _as_buf(head)
     if buf.shape[0] < L.HEADER_SIZE or bytes(buf[:8]) != L.MAGIC:
         return None

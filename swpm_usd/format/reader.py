@@ -38,7 +38,7 @@ from .check_smap import _smap
 from .check_vanilla import _vanilla
 from .errors import Report, SwpmFormatError
 from .meta import _meta, parse_meta_json  # noqa: F401 - (re-exported: public, its home before the split)
-from .parsed import _Chunk, _Parsed
+from .parsed import _Chunk, _Parsed, _Spans
 
 _TYPE_RE = re.compile(rb"^[A-Za-z0-9]{4}$")
 #: problems of one code beyond this many are counted in ``summary["suppressed"]``, not listed
@@ -86,7 +86,7 @@ def _io_reason(exc: OSError) -> str:
 
 # -- structure ------------------------------------------------------------------------------------------
 def _structure(
-    buf: np.ndarray, rep: Report, check_crc: bool, prefix: bool = False, held: np.ndarray | None = None
+    buf: np.ndarray, rep: Report, check_crc: bool, prefix: bool = False, held: _Spans | None = None
 ) -> _Parsed | None:
     """Steps 1-2 of spec 5. ``prefix``: ``buf`` may be a prefix of the file (spec 4.1): when it is shorter
     than file_size the end of the file is file_size, the bytes it lacks (a CRC over them, padding there,
@@ -190,7 +190,7 @@ def _structure(
         crc = zlib.crc32(buf[L.FILE_CRC_OFFSET + 4 : table_end], crc)
         if crc != found:
             rep.add("SWPM_CHECKSUM_MISMATCH", L.FILE_CRC_OFFSET, found=found, computed=crc)
-    if np.any(buf[hs:to]):
+    if p.nonzero(hs, to):
         rep.add("SWPM_PADDING_NONZERO", hs, start=hs)
     entries = buf[to:table_end].view(L.CHUNK_ENTRY)
     prev_end, prev_off, prev_name = table_end, -1, "header/chunk table"
@@ -216,7 +216,7 @@ def _structure(
         elif off < prev_end:
             rep.add("SWPM_CHUNK_OVERLAP", eo + 8, type=name, start=off, end=off + ln, other=prev_name)
             c.ok = False
-        elif np.any(buf[prev_end : min(off, end)]):  # a gap running past the end of file: up to the end
+        elif p.nonzero(prev_end, min(off, end)):  # a gap running past the end of file: up to the end
             rep.add("SWPM_PADDING_NONZERO", prev_end, start=prev_end)
         if int(e["reserved"]) and p.minor == L.VERSION_MINOR:
             rep.add(
@@ -249,7 +249,7 @@ def _structure(
         p.order.append(c)
         if off >= prev_off:
             prev_off, prev_end, prev_name = off, max(prev_end, off + ln), name
-    if prev_end < end and np.any(buf[prev_end:end]):
+    if prev_end < end and p.nonzero(prev_end, end):
         rep.add("SWPM_PADDING_NONZERO", prev_end, start=prev_end)
     if p.encoding is None:
         return None
@@ -311,10 +311,7 @@ def _vert_head_end(p: _Parsed, v: _Chunk) -> int:
 def _not_held(p: _Parsed, rep: Report, start: int, end: int) -> None:
     """SWPM_RANGES_NOT_HELD (spec 4.2): bytes [start, end) are needed, not all held; at the first missing."""
     assert p.held is not None
-    part = p.held[start:end]
-    i = int(np.argmin(part)) if part.size else 0  # the first byte not held (argmin: no index array)
-    missing = start + i if part.size and not part[i] else max(start, int(p.held.shape[0]))
-    rep.add("SWPM_RANGES_NOT_HELD", missing, start=start, end=end)
+    rep.add("SWPM_RANGES_NOT_HELD", p.first_missing(start, end), start=start, end=end)
     rep.summary["range_need"] = [start, end]
 
 
@@ -348,7 +345,7 @@ def _check(
     path: str | None,
     check_crc: bool = True,
     prefix: bool = False,
-    held: np.ndarray | None = None,
+    held: _Spans | None = None,
 ) -> tuple[Report, _Parsed | None]:
     rep = _Report(path=path)
     p = _structure(buf, rep, check_crc, prefix, held)
@@ -409,7 +406,10 @@ def _index_values_width(p: _Parsed) -> int:
     vertex id in them fits it, and a strips' restart index by :func:`.layout.draw_index_width` (0xFFFFFFFF,
     all ones of a u32 file's ``idx``, copies to u16 as 0xFFFF while no vertex id is 0xFFFF). 4 from 65,536
     vertices on, also for an older writer's u16 file of them: vertex 65,535 is u16's restart (spec 1)."""
-    lists = [np.asarray(p.buffers[n]) for n in _DRAWN_LISTS.get(p.encoding or "", ()) if n in p.buffers]
+    names = _DRAWN_LISTS.get(p.encoding or "", ())
+    if p.indx_partial:  # (ranges without all of INDX, the first list: its values wait for the file, spec 4.2)
+        names = names[1:]
+    lists = [np.asarray(p.buffers[n]) for n in names if n in p.buffers]
     if not lists:
         return p.width
     ri = L.strips_restart_index(p.encoding, (p.meta or {}).get("params"))

@@ -258,6 +258,68 @@ def fan_skip_two_levels(
     )
 
 
+def fan_skip_level_of_two_lods(level1: list[int] | None = None) -> RawProgressiveMesh:
+    """Skip-strip list of two levels whose second spans two LODs: level 0 (LOD 0) the fan, its record binning
+    vertex 4 onto 0; level 1 (LODs 1 and 2, 4 then 3 vertices) ``level1``, by default the triangles 1 2 0 and
+    2 3 0 that remain, its record binning 3 onto 0. Level 1's list names vertex 3, below its first LOD's 4
+    vertices though not below LOD 2's 3: a range reader checks LOD 2's elements against LOD 1's count."""
+    lst = [1, 2, 0, 2, 3, 0] if level1 is None else level1
+    bufs = {
+        "level_first_lod": [0, 1],
+        "level_index_start": [0, 12, 12 + len(lst)],
+        "level_indices": [1, 2, 4, 2, 3, 4, 0, 1, 4, 3, 0, 4, *lst],
+        "level_collapsed_start": [0, 12, 12 + len(lst)],
+        "level_collapsed_indices": [1, 2, 0, 2, 3, 0, 0, 1, 0, 3, 0, 0, 1, 2, 0, 2, 0, 0],
+        "level_record_start": [0, 1, 2],
+        "collapse_kept": [0, 0],
+        "collapse_binned": [4, 3],
+        "collapse_change_count": [4, 1],
+        "collapse_prev_change_count": [0, 4],
+        "collapse_change_offsets": [2, 5, 8, 11, 4],
+        "lod_record_counts": [0, 1, 2],
+    }
+    return _fan(
+        "skip-strip",
+        bufs,
+        {"primitive": "list"},
+        vertex_counts=np.array([5, 4, 3]),
+        triangle_counts=np.array([4, 2, 1]),
+        lod_errors=np.array([0.0, 0.5, 1.0], np.float32),
+    )
+
+
+def fan_mixed_two_levels(static1: list[int] | None = None) -> RawProgressiveMesh:
+    """Mixed, two levels: level 0 (LOD 0) :func:`fan_mixed`'s, its record binning vertex 4 onto 0; level 1
+    (LODs 1 and 2, 4 then 3 vertices) the static triangle ``static1`` (2 3 0 by default), which its record,
+    binning 3 onto 0, drops, and the dynamic triangle 1 2 0. The static list names vertex 3, below its
+    level's first LOD's 4 vertices though not below LOD 2's 3."""
+    st = [2, 3, 0] if static1 is None else static1
+    bufs = {
+        "level_first_lod": [0, 1],
+        "level_record_start": [0, 1, 2],
+        "level_static_start": [0, 6, 9],
+        "level_static_indices": [0, 1, 4, 3, 0, 4, *st],
+        "level_dynamic_start": [0, 6, 9],
+        "level_dynamic_indices": [1, 2, 4, 2, 3, 4, 1, 2, 0],
+        "level_dynamic_collapsed_indices": [1, 2, 0, 2, 3, 0, 1, 2, 0],
+        "collapse_kept": [0, 0],
+        "collapse_static_tris_removed": [2, 1],
+        "collapse_dynamic_tris_removed": [0, 0],
+        "collapse_change_count": [2, 0],
+        "collapse_prev_change_count": [0, 2],
+        "collapse_change_offsets": [2, 5],
+        "lod_record_counts": [0, 1, 2],
+    }
+    return _fan(
+        "mixed",
+        bufs,
+        {"cache_size": 16, "level_threshold": 0.25},
+        vertex_counts=np.array([5, 4, 3]),
+        triangle_counts=np.array([4, 2, 1]),
+        lod_errors=np.array([0.0, 0.5, 1.0], np.float32),
+    )
+
+
 def quad_sliding_empty_windows() -> RawProgressiveMesh:
     """Sliding-window quad whose coarser LODs draw nothing: LOD 0 (4 vertices) draws pool [3, 9), LOD 1 (3
     vertices) an empty window at 0, LOD 2 (2 vertices, a band of its own) an empty window at 9, the pool's
@@ -896,6 +958,7 @@ def _settled_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
     )
     _review_invalid(out)
     _blind_invalid(out)
+    _ranges_invalid(base, out)
     out["skip-strip-two-levels-collapsed-prefix"] = (
         _write(fan_skip_two_levels(collapsed0=[1, 2, 0, 2, 3, 0, 0, 1, 0, 0, 0, 0])),
         "skip-strip-two-levels with level 0's collapsed list keeping vertex 3, which its records bin: the"
@@ -1109,6 +1172,29 @@ def _blind_invalid(out: dict[str, tuple[bytes, str]]) -> None:
     )
 
 
+def _ranges_invalid(base: bytes, out: dict[str, tuple[bytes, str]]) -> None:
+    """Invalid files that range cases need (format.md 4.2): a file_size below the header, a two-LOD level
+    whose list breaks its first LOD's vertex count."""
+    out["file-size-below-header"] = (
+        patch(base, 40, "<Q", 40),
+        "minimal-vanilla with file_size 40, below the 64-byte header: SWPM_FILE_TRAILING_BYTES (a warning)"
+        " and the chunk table past the end of the file, SWPM_TABLE_TRUNCATED; a range reader holding the"
+        " header reports the same (range case file-size-below-header-header-only), not the caller's error",
+    )
+    out["skip-strip-level-of-two-lods-prefix-violation"] = (
+        _write(fan_skip_level_of_two_lods([1, 2, 0, 2, 4, 0])),
+        "skip-strip-level-of-two-lods with level 1's list 1 2 0 2 4 0: vertex 4 is not below its first LOD's"
+        " 4 vertices, SWPM_PREFIX_VIOLATION at that element (range case"
+        " skip-strip-level-of-two-lods-prefix-violation-level-1: found at once from that list's range)",
+    )
+    out["mixed-two-levels-prefix-violation"] = (
+        _write(fan_mixed_two_levels([2, 4, 0])),
+        "mixed-two-levels with level 1's static triangle 2 4 0: vertex 4 is not below its level's first"
+        " LOD's 4 vertices, SWPM_PREFIX_VIOLATION at that element (range case"
+        " mixed-two-levels-prefix-violation-level-1: found at once from that list's range)",
+    )
+
+
 def _prefix_valid() -> dict[str, tuple[bytes, str]]:
     """Valid files that prefix cases need (format.md 4.1): a long header, an SMAP of two bands."""
     return {
@@ -1143,6 +1229,17 @@ def _ranges_valid() -> dict[str, tuple[bytes, str]]:
             _write(fan_skip_two_levels()),
             "skip-strip list of two levels (LODs 0-1, LOD 2): a range reader checks level 0's list, held"
             " alone, against LOD 0's vertex count for LOD 1 too (range case skip-strip-two-levels-level-0)",
+        ),
+        "skip-strip-level-of-two-lods": (
+            _write(fan_skip_level_of_two_lods()),
+            "skip-strip list of two levels (LOD 0, LODs 1-2): level 1's list names vertex 3, below LOD 1's 4"
+            " vertices, not LOD 2's 3: a range reader checks LOD 2's elements against LOD 1's count (range"
+            " case skip-strip-level-of-two-lods-level-1)",
+        ),
+        "mixed-two-levels": (
+            _write(fan_mixed_two_levels()),
+            "mixed, two levels (LOD 0, LODs 1-2): level 1's static list names vertex 3, below LOD 1's 4"
+            " vertices, not LOD 2's 3 (range cases mixed-two-levels-*)",
         ),
     }
 
@@ -1332,6 +1429,11 @@ def _ranges_cases(files: Mapping[str, bytes]) -> dict[str, list[tuple[str, list[
     crc_bad = 564  # (the byte crc-mismatch flips: vertex 0's record)
     late = "vanilla-tables-after-indx"
     k2c = "skip-strip-two-levels-collapsed-prefix"
+    sk, skio = "skip-strip-level-of-two-lods", at("skip-strip-level-of-two-lods", L.INDX)[0]
+    mx, mxio = "mixed-two-levels", at("mixed-two-levels", L.INDX)[0]
+    skv = "skip-strip-level-of-two-lods-prefix-violation"
+    skvio = at(skv, L.INDX)[0]
+    mxv, mxvio = "mixed-two-levels-prefix-violation", at("mixed-two-levels-prefix-violation", L.INDX)[0]
     return {
         mv: [
             (
@@ -1523,6 +1625,89 @@ def _ranges_cases(files: Mapping[str, bytes]) -> dict[str, list[tuple[str, list[
                 "mixed-no-indx",
                 [(0, at("mixed", L.INDX)[0]), at("mixed", L.VERT)],
                 "all but INDX (the static lists): opens; the dynamic lists' checks run, no LOD drawable",
+            ),
+        ],
+        "file-size-below-header": [
+            (
+                "file-size-below-header-header-part",
+                [(0, 40)],
+                "file_size 40 and 40 header bytes held: the header is needed, SWPM_RANGES_NOT_HELD at 40 with"
+                " [0, 64)",
+            ),
+            (
+                "file-size-below-header-header-only",
+                [(0, 64)],
+                "the header, past its file_size 40: the file's error as format.md 5 reports it"
+                " (SWPM_FILE_TRAILING_BYTES, SWPM_TABLE_TRUNCATED), not the caller's",
+            ),
+            (
+                "file-size-below-header-header-and-table",
+                [(0, table_end), (io, il)],
+                "the header, the chunk table and INDX: the same two problems (nothing past the header is"
+                " read)",
+            ),
+        ],
+        sk: [
+            (
+                "skip-strip-level-of-two-lods-level-1",
+                [(0, skio), (skio + 24, 12), rec(sk, 4)],
+                "level 1's list held (LODs 1-2), not level 0's: LODs 1 and 2 drawable; LOD 2's elements are"
+                " checked against LOD 1's 4 vertices (its level's first LOD), so vertex 3 is no violation",
+            ),
+            (
+                "skip-strip-level-of-two-lods-level-0",
+                [(0, skio), (skio, 24), rec(sk, 5)],
+                "level 0's list held, not level 1's: LOD 0 drawable only",
+            ),
+        ],
+        mx: [
+            (
+                "mixed-two-levels-level-1",
+                [(0, mxio), (mxio + 12, 6), rec(mx, 4)],
+                "level 1's static list held, not level 0's: LODs 1 and 2 drawable (their dynamic lists are in"
+                " MLVL, before INDX); vertex 3 is checked against LOD 1's 4 vertices, no violation",
+            ),
+            (
+                "mixed-two-levels-level-0",
+                [(0, mxio), (mxio, 12), rec(mx, 5)],
+                "level 0's static list held, not level 1's: LOD 0 drawable only",
+            ),
+            (
+                "mixed-two-levels-no-indx",
+                [(0, mxio), at(mx, L.VERT)],
+                "all but INDX: opens (the dynamic lists and the level table are checked at once), no LOD"
+                " drawable",
+            ),
+            (
+                "mixed-two-levels-smap-band-0",
+                _smap_band_ranges(files[mx], 0),
+                "SMAP's one band: every byte is held, read as format.md 5 reads the file, every LOD drawable",
+            ),
+        ],
+        skv: [
+            (
+                "skip-strip-level-of-two-lods-prefix-violation-level-1",
+                [(0, skvio), (skvio + 24, 12), rec(skv, 4)],
+                "level 1's list held (LODs 1-2): its vertex 4 is not below LOD 1's 4 vertices,"
+                " SWPM_PREFIX_VIOLATION at once (the whole file's error too)",
+            ),
+            (
+                "skip-strip-level-of-two-lods-prefix-violation-level-0",
+                [(0, skvio), (skvio, 24), rec(skv, 5)],
+                "level 0's list held, not level 1's: LOD 0 drawable; finishing rejects the file",
+            ),
+        ],
+        mxv: [
+            (
+                "mixed-two-levels-prefix-violation-level-1",
+                [(0, mxvio), (mxvio + 12, 6), rec(mxv, 4)],
+                "level 1's static list held: its vertex 4 is not below LOD 1's 4 vertices,"
+                " SWPM_PREFIX_VIOLATION at once (the whole file's error too)",
+            ),
+            (
+                "mixed-two-levels-prefix-violation-level-0",
+                [(0, mxvio), (mxvio, 12), rec(mxv, 5)],
+                "level 0's static list held, not level 1's: LOD 0 drawable; finishing rejects the file",
             ),
         ],
         "truncated-inside-vert": [
