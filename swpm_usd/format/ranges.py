@@ -239,9 +239,12 @@ def _zeros(n: int, path: str | None) -> np.ndarray:
         raise ValueError(f"{path or '<file>'}: a range ends at {n}, past the {MAX_RANGE_END} held at most")
     if n == 0:
         return np.zeros(0, np.uint8)
-    flags = mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS | _MAP_NORESERVE
     try:
-        return np.frombuffer(mmap.mmap(-1, n, flags=flags), np.uint8)
+        if hasattr(mmap, "MAP_ANONYMOUS"):
+            flags = mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS | _MAP_NORESERVE
+            return np.frombuffer(mmap.mmap(-1, n, flags=flags), np.uint8)
+        # Windows: an anonymous mapping without flags (its pages are committed when first touched)
+        return np.frombuffer(mmap.mmap(-1, n), np.uint8)
     except OSError as exc:  # (an address space or overcommit limit: the caller's ranges cannot be held)
         raise ValueError(f"{path or '<file>'}: cannot hold ranges up to byte {n}: {exc.strerror}") from None
 
