@@ -1,6 +1,10 @@
-"""Tests of a sliding-window level's finishing in one kernel call (:func:`.sw_layout._finish`): the same pool,
-patch order and renumbered records as its steps called one by one (:func:`.sw_layout.level_pool`,
-:func:`.sw_refine.refine_patch_order`, :func:`.sw_refine.reorder_patches`)."""
+"""Tests of the sliding-window level steps fused into one kernel call each.
+
+A level's finishing (:func:`.sw_layout._finish`) gives the same pool, patch order and renumbered records
+as its steps called one by one (:func:`.sw_layout.level_pool`, :func:`.sw_refine.refine_patch_order`,
+:func:`.sw_refine.reorder_patches`); a level's patches (:func:`.sw_order.ordered_patches`) the same
+patches, absorbed middle and order as theirs (:func:`.sw_patches.patch_triangles`,
+:func:`.sw_patches.absorb_middle`, :func:`.sw_order.order_patches`, :func:`.sw_order.reassign_middle`)."""
 
 from __future__ import annotations
 
@@ -106,3 +110,64 @@ def test_finish_in_one_call_is_the_steps_one_by_one(name: str, monkeypatch: pyte
     assert reordered > 0
     if name == "teapot":
         assert compacted > 0
+
+
+def _patches_step_by_step(st, inner_start, inner, stars, alive_t, min_shared, rounds, max_middle, V, C, w):
+    """A level's patches as ``slidingwindow._build_levels`` made them one call each before
+    :func:`.sw_order.ordered_patches`."""
+    from swpm_usd.encode import sw_order, sw_patches
+
+    pt_start, pt = sw_patches.patch_triangles(st, inner_start, inner, stars)
+    own_start = pt_start
+    absorb = min_shared > 0 and alive_t.shape[0] - pt_start[-1] <= max_middle * alive_t.shape[0]
+    if absorb:
+        for _ in range(rounds):
+            grown_start, grown = sw_patches.absorb_middle(st, pt_start, pt, alive_t, min_shared, stars)
+            if grown.shape[0] == pt.shape[0]:
+                break
+            pt_start, pt = grown_start, grown
+    inner_pos = np.zeros(st.pos_points.shape[0], bool)
+    inner_pos[inner] = True
+    binned_vertex = inner_pos[st.vertex_pos]
+    order = sw_order.order_patches(pt_start, pt, st.tri_verts, binned_vertex, np.diff(inner_start), V, C, w)
+    if absorb:
+        pt_start, pt = sw_order.reassign_middle(st, own_start, pt_start, pt, order, binned_vertex, C)
+    return pt_start, pt, order
+
+
+@pytest.mark.parametrize("name", ["suzanne", "beetle"])
+def test_ordered_patches_is_the_steps_one_by_one(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """:func:`.sw_order.ordered_patches` (a level's patches, absorbed middle, order and reassignment in one
+    kernel call) gives what its steps one by one give, on every level of a build: with the default one round
+    of absorption, with rounds until none is left, without it, and on the coarse levels whose middle is not
+    absorbed (beetle's)."""
+    from swpm_usd.encode import sw_order
+
+    real = sw_order.ordered_patches
+    calls = []
+
+    def capture(*args):
+        calls.append(copy.deepcopy(args))  # (the state changes with the level's collapses)
+        return real(*args)
+
+    monkeypatch.setattr(sw_order, "ordered_patches", capture)
+    with sw.inline_finishing():
+        swpm_usd.build(shared_mesh(f"{name}.obj"), "sliding-window")
+    monkeypatch.setattr(sw_order, "ordered_patches", real)
+    assert len(calls) >= 8
+    absorbed = kept = 0
+    for args in calls:
+        st, inner_start, inner, stars, alive_t, min_shared, rounds, max_middle = args[:8]
+        assert (min_shared, rounds) == (1, 1)
+        for shared, r in ((1, 1), (1, 64), (0, 1)):
+            a = (*args[:5], shared, r, *args[7:])
+            got = real(*copy.deepcopy(a))
+            want = _patches_step_by_step(*copy.deepcopy(a))
+            for x, y in zip(got, want, strict=True):
+                assert x.dtype == y.dtype and np.array_equal(x, y)
+        own = _patches_step_by_step(*copy.deepcopy((*args[:5], 0, 1, *args[7:])))[0][-1]
+        absorbed += alive_t.shape[0] - own <= max_middle * alive_t.shape[0]
+        kept += alive_t.shape[0] - own > max_middle * alive_t.shape[0]
+    assert absorbed > 0
+    if name == "beetle":
+        assert kept > 0
