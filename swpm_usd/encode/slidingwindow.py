@@ -482,40 +482,22 @@ def _build_levels(
                 inner_start = np.arange(inner.shape[0] + 1, dtype=np.int64)
             elif not grown:
                 inner_start, inner = _grow_patches(adj_start, adj, eligible, tiebreak, inner_vertices, inner)
-            pt_start, pt = sw_patches.patch_triangles(st, inner_start, inner, stars)
-            own_start = pt_start
-            absorb = (
-                absorb_min_shared > 0
-                and alive_t.shape[0] - pt_start[-1] <= _ABSORB_MAX_MIDDLE * alive_t.shape[0]
-            )
-            if absorb:
-                pt_start, pt = _absorb(
-                    st,
-                    pt_start,
-                    pt,
-                    alive_t.astype(np.int64, copy=False),
-                    absorb_min_shared,
-                    stars,
-                    absorb_rounds,
-                )
-            inner_pos = np.zeros(P, bool)
-            inner_pos[inner] = True
-            binned_vertex = inner_pos[st.vertex_pos]
             live_weight = sw_order.ORDER_LIVE_WEIGHT_CLUSTER if cluster else sw_order.ORDER_LIVE_WEIGHT
-            order = sw_order.order_patches(
-                pt_start,
-                pt,
-                st.tri_verts,
-                binned_vertex,
-                np.diff(inner_start),
+            # the patches' triangles, the absorbed middle, their order and the middle's reassignment in one
+            # kernel call (:func:`.sw_order.ordered_patches`)
+            pt_start, pt, order = sw_order.ordered_patches(
+                st,
+                inner_start,
+                inner,
+                stars,
+                alive_t,
+                int(absorb_min_shared),
+                int(absorb_rounds) if absorb_rounds > 0 else _ABSORB_ROUNDS,
+                _ABSORB_MAX_MIDDLE,
                 V,
                 int(cache_size),
                 live_weight,
             )
-            if absorb:
-                pt_start, pt = sw_order.reassign_middle(
-                    st, own_start, pt_start, pt, order, binned_vertex, int(cache_size)
-                )
         del stars  # stale from the first collapse on (and one level's snapshot at a time in memory)
         # a trickle of a fully stored level, dearer than the few triangles it removes
         if not link and levels and _trickle(2 * inner.shape[0], alive_t.shape[0], T):
@@ -633,18 +615,6 @@ def _build_topology(mesh: Mesh, st, new_state, *args, **kwargs):
     recs = np.concatenate(recs_all) if recs_all else np.zeros((0, 3), np.int64)
     info = np.concatenate(info_all) if info_all else np.zeros((0, 3))
     return gtris[:ng], levels, recs, info, geometric, surface_of() if surface_of is not None else None
-
-
-def _absorb(st, pt_start, pt, alive_t, min_shared: int, stars, rounds: int):
-    """:func:`.sw_patches.absorb_middle` for ``rounds`` rounds, each taking the middle triangles next to the
-    patches as the one before grew them (a breadth-first growth over the static middle), or with
-    ``rounds=0`` until no middle triangle is next to a patch (at most :data:`_ABSORB_ROUNDS` rounds)."""
-    for _ in range(rounds if rounds > 0 else _ABSORB_ROUNDS):
-        grown_start, grown = sw_patches.absorb_middle(st, pt_start, pt, alive_t, min_shared, stars)
-        if grown.shape[0] == pt.shape[0]:
-            break
-        pt_start, pt = grown_start, grown
-    return pt_start, pt
 
 
 def _grow_patches(

@@ -2,8 +2,9 @@
 
 The topology-driven builder (:mod:`.slidingwindow`) collapses a level's patches and hands the result here:
 :func:`finish_level` searches the patch order for fewer cache misses over the level's windows
-(:func:`refine_level`, :mod:`.sw_refine`) and lays the level out (:func:`level_layout`) with every block's
-triangles ordered for the vertex cache (:func:`block_order`, :func:`swpm_usd.vcache.optimize_block_order`).
+(:mod:`.sw_refine`) and lays the level out (:func:`level_layout`, :func:`level_pool`) with every block's
+triangles ordered for the vertex cache (:func:`block_order`, :func:`swpm_usd.vcache.optimize_block_order`),
+in one kernel call (:func:`_finish`).
 With ``cluster=True`` (SWPM 3.2) a level's head is the previous level's tail instead
 (:func:`first_clustered_level`, :func:`linked_level`). :class:`Level` is what the pool assembly reads.
 """
@@ -209,17 +210,37 @@ def level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size):
 
 
 def finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach):
-    """A fully stored level after its collapses: its patch order searched (``passes`` > 0:
-    :func:`refine_level`) and its triangles in pool order. Returns the :class:`Level` (with its ``pool``,
-    its triangle ids let go), its collapse records and its steps' info (renumbered by the search). Reads only
-    rows of ``gtris`` that later levels keep."""
-    pool = None
-    if passes > 0:
-        collapsed, pool = refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach)
+    """A fully stored level after its collapses: its patch order searched (``passes`` > 0, three patches or
+    more: :func:`.sw_refine.refine_patch_order` over the blocks in their cache order, fewer misses over the
+    level's windows; its records and steps renumbered to follow, :func:`.sw_refine.reorder_patches`) and its
+    triangles in pool order (:func:`level_pool`). Returns the :class:`Level` (with its ``pool``, its triangle
+    ids let go), its collapse records and its steps' info. Reads only rows of ``gtris`` that later levels
+    keep. One kernel call (:func:`_finish`)."""
     p_start, p_out, q_start, q_out, patch_steps, recs, info = collapsed
+    cache_tab, live_tab = _score_tables(int(cache_size))
+    pool, p_start, p_out, q_start, q_out, patch_steps, recs, info = _finish(
+        gtris,
+        start_gids,
+        p_start,
+        p_out,
+        q_start,
+        q_out,
+        patch_steps,
+        recs,
+        info,
+        int(step0),
+        int(V),
+        int(P),
+        int(cache_size),
+        cache_tab,
+        live_tab,
+        _HEAVY,
+        int(passes),
+        int(reach),
+        _REFINE_RUN,
+        _LONG_REACH,
+    )
     lev = Level(start_gids, p_start, p_out, q_start, q_out, patch_steps)
-    if pool is None:
-        pool = level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size)[0]
     # what the assembly (sw_assemble._assemble) needs: the pool (vertex ids, int32 where they fit), the
     # patch offsets and step counts; the triangle ids are let go (1 M triangles: 130 MB less at the peak
     # with the pools halved)
@@ -228,24 +249,68 @@ def finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, 
     return lev, recs, info
 
 
-def refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach):
-    """The level's patches in the order of :func:`.sw_refine.refine_patch_order` (fewer cache misses over
-    its windows), with their collapse records and steps renumbered to follow. ``collapsed``: the level's
-    ``(p_start, p_out, q_start, q_out, patch_steps, recs, info)`` from :func:`.sw_collapse.collapse_patches`.
-    Returns it in the same form, and the level's triangles in pool order (None for fewer than 3 patches,
-    which are not searched)."""
-    p_start, p_out, q_start, q_out, patch_steps, recs, info = collapsed
+@nb.njit(cache=True, nogil=True)
+def _finish(
+    gtris,
+    start_gids,
+    p_start,
+    p_out,
+    q_start,
+    q_out,
+    patch_steps,
+    recs,
+    info,
+    step0,
+    V,
+    P,
+    cache_size,
+    cache_tab,
+    live_tab,
+    heavy,
+    passes,
+    reach,
+    run,
+    long_reach,
+):
+    """:func:`finish_level`'s kernels in one call, on the arrays its steps passed them before (the level's
+    pool as :func:`level_pool` orders it; then, ``passes`` > 0 and three patches or more, the patch order
+    search and the renumbering of :func:`.sw_refine.reorder_patches`): a level cost about 30 us (suzanne)
+    to 70 us (teapot) of numpy and Python around its six kernel calls. Returns the pool (rows of 3, int64)
+    and ``(p_start, p_out, q_start, q_out, patch_steps, recs, info)``, renumbered or as given."""
+    tris, starts, tail, nvert = _level_triangles(gtris, start_gids, p_start, p_out, q_start, q_out)
+    if tris.shape[0] >= 2:
+        ids = tris
+        if nvert > 4 * tris.size + 1024:  # as vcache._compact: dense ids, their order kept
+            flat = tris.reshape(-1)
+            uniq = np.unique(flat)
+            ids = np.searchsorted(uniq, flat).reshape(tris.shape)
+            nvert = uniq.shape[0]
+        perm, shift, _ = _order_blocks(
+            ids,
+            starts,
+            cache_size,
+            np.zeros(nvert, np.int64),
+            np.full(cache_size, -1, np.int64),
+            0,
+            cache_tab,
+            live_tab,
+            True,
+            np.array([tail], np.int64),
+            heavy,
+        )
+        tris = _permuted_rows(tris, perm, shift)
     n = patch_steps.shape[0]
-    if n < 3:
-        return collapsed, None
-    # the blocks cache-ordered as the pool stores them, not as fans: the search then gains what the pool
-    # keeps (spot, misses over every third window: -1.2 % as fans)
-    tris, starts = level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size)
-    step_start = np.concatenate(([0], np.cumsum(patch_steps)))
-    targets = info[: step_start[n], 2].astype(np.int64)
-    perm = swr.refine_patch_order(
+    if passes <= 0 or n < 3:
+        return tris, p_start, p_out, q_start, q_out, patch_steps, recs, info
+    step_start = np.zeros(n + 1, np.int64)
+    for p in range(n):
+        step_start[p + 1] = step_start[p] + patch_steps[p]
+    targets = np.empty(step_start[n], np.int64)
+    for i in range(step_start[n]):
+        targets[i] = np.int64(info[i, 2])
+    order = swr.refine_patch_order(
         3 * starts,
-        np.ascontiguousarray(tris, np.int64).reshape(-1),
+        tris.reshape(-1),
         n,
         step_start,
         targets,
@@ -253,17 +318,33 @@ def refine_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, 
         V,
         cache_size,
         reach,
-        _REFINE_RUN,
+        run,
         passes,
-        True,  # (skip_tried_swaps passed, not omitted: the omitted and the passed flag compile twice)
-        _LONG_REACH,
+        True,
+        long_reach,
     )
-    if np.array_equal(perm, np.arange(n)):
-        return collapsed, tris
+    same = True
+    for i in range(n):
+        if order[i] != i:
+            same = False
+            break
+    if same:
+        return tris, p_start, p_out, q_start, q_out, patch_steps, recs, info
     # the pool: the blocks as ordered for the search, moved with their patches
-    return swr.reorder_patches(
-        perm, starts, tris, p_start, p_out, q_start, q_out, patch_steps, info, recs, step0
+    pool, ps, po, qs, qo, steps, new_info, new_recs = swr._reorder(
+        order,
+        starts,
+        tris.reshape(-1),
+        p_start,
+        p_out,
+        q_start,
+        q_out,
+        patch_steps,
+        info.reshape(-1),
+        recs.reshape(-1),
+        step0,
     )
+    return pool.reshape(-1, 3), ps, po, qs, qo, steps, new_recs.reshape(-1, 3), new_info.reshape(-1, 3)
 
 
 def first_clustered_level(gtris, start_gids, p_start, p_out, q_start, q_out, patch_steps, cache_size):

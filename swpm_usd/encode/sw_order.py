@@ -6,6 +6,8 @@ sequences a window draws, ``P_{j+1}..P_n`` and ``Q_1..Q_j``.
   vertices.
 * :func:`reassign_middle` - each triangle :func:`.sw_patches.absorb_middle` added moves to the patch where
   that order draws it with the fewest misses.
+* :func:`ordered_patches` - a fully stored level's patches from its inner vertices to their order: the
+  patches' triangles, the absorbed middle, the order and the reassignment in one kernel call.
 
 :mod:`.sw_refine` then searches the order further (``order_passes``).
 """
@@ -16,6 +18,7 @@ import numba as nb
 import numpy as np
 
 from ..simplify import kernels as K
+from .sw_patches import absorb_middle, patch_triangles
 
 #: weight of the "live" term in the patch order: the mean number of other unvisited patches on a patch's
 #: vertices (Forsyth's remaining-triangle score at patch level: finish vertices off rather than leave
@@ -329,3 +332,53 @@ def reassign_middle(
         out[fill2[p]] = ab[i]
         fill2[p] += 1
     return new_start, out
+
+
+@nb.njit(cache=True, nogil=True)
+def ordered_patches(
+    st: K.CollapseState,
+    inner_start: np.ndarray,
+    inner: np.ndarray,
+    stars: K.Stars,
+    alive_t: np.ndarray,
+    min_shared: int,
+    rounds: int,
+    max_middle: float,
+    vertex_count: int,
+    cache_size: int,
+    live_weight: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A fully stored level's patches of inner vertices ``inner_start`` / ``inner`` (positions) in cache
+    order, as the builder's steps made them one call each (about 30 us of numpy and Python a level):
+    their triangles (:func:`.sw_patches.patch_triangles`); if ``min_shared`` > 0 and the patches cover at
+    least ``1 - max_middle`` of the level's ``alive_t``, the middle absorbed, ``rounds`` rounds or until
+    none is taken (:func:`.sw_patches.absorb_middle`); the patch order (:func:`order_patches`); and the
+    absorbed triangles moved where that order draws them best (:func:`reassign_middle`). Returns
+    ``(pt_start, pt, order)``."""
+    pt_start, pt = patch_triangles(st, inner_start, inner, stars)
+    own_start = pt_start
+    absorb = min_shared > 0 and alive_t.shape[0] - pt_start[-1] <= max_middle * alive_t.shape[0]
+    if absorb:
+        for _ in range(rounds):
+            grown_start, grown = absorb_middle(st, pt_start, pt, alive_t, min_shared, stars)
+            if grown.shape[0] == pt.shape[0]:
+                break
+            pt_start, pt = grown_start, grown
+    # a vertex is binned by the level if its position is an inner one
+    inner_pos = np.zeros(st.pos_points.shape[0], np.bool_)
+    for i in range(inner.shape[0]):
+        inner_pos[inner[i]] = True
+    vpos = st.vertex_pos
+    binned_vertex = np.empty(vpos.shape[0], np.bool_)
+    for v in range(vpos.shape[0]):
+        binned_vertex[v] = inner_pos[vpos[v]]
+    n = inner_start.shape[0] - 1
+    inner_count = np.empty(n, np.int64)
+    for p in range(n):
+        inner_count[p] = inner_start[p + 1] - inner_start[p]
+    order = order_patches(
+        pt_start, pt, st.tri_verts, binned_vertex, inner_count, vertex_count, cache_size, live_weight
+    )
+    if absorb:
+        pt_start, pt = reassign_middle(st, own_start, pt_start, pt, order, binned_vertex, cache_size)
+    return pt_start, pt, order

@@ -1,0 +1,173 @@
+"""Tests of the sliding-window level steps fused into one kernel call each.
+
+A level's finishing (:func:`.sw_layout._finish`) gives the same pool, patch order and renumbered records
+as its steps called one by one (:func:`.sw_layout.level_pool`, :func:`.sw_refine.refine_patch_order`,
+:func:`.sw_refine.reorder_patches`); a level's patches (:func:`.sw_order.ordered_patches`) the same
+patches, absorbed middle and order as theirs (:func:`.sw_patches.patch_triangles`,
+:func:`.sw_patches.absorb_middle`, :func:`.sw_order.order_patches`, :func:`.sw_order.reassign_middle`)."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+from conftest import shared_mesh
+
+import swpm_usd
+from swpm_usd.encode import slidingwindow as sw
+from swpm_usd.encode import sw_layout as swl
+from swpm_usd.encode import sw_refine as swr
+
+
+def _captured_levels(name: str, monkeypatch: pytest.MonkeyPatch) -> list[tuple]:
+    """The inputs of every :func:`.sw_layout.finish_level` call of a default build of ``name``."""
+    real = swl.finish_level
+    calls = []
+
+    def capture(*args):
+        calls.append(copy.deepcopy(args))
+        return real(*args)
+
+    monkeypatch.setattr(swl, "finish_level", capture)
+    with sw.inline_finishing():
+        swpm_usd.build(shared_mesh(f"{name}.obj"), "sliding-window")
+    monkeypatch.setattr(swl, "finish_level", real)
+    return calls
+
+
+def _step_by_step(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach):
+    """The finishing as ``sw_layout`` called its steps before :func:`.sw_layout._finish`: the pool and the
+    level's ``(p_start, p_out, q_start, q_out, patch_steps, recs, info)``, and whether the search moved a
+    patch."""
+    p_start, p_out, q_start, q_out, patch_steps, recs, info = collapsed
+    n = patch_steps.shape[0]
+    tris, starts = swl.level_pool(gtris, start_gids, p_start, p_out, q_start, q_out, cache_size)
+    if passes == 0 or n < 3:
+        return tris, collapsed, False
+    step_start = np.concatenate(([0], np.cumsum(patch_steps)))
+    targets = info[: step_start[n], 2].astype(np.int64)
+    perm = swr.refine_patch_order(
+        3 * starts,
+        np.ascontiguousarray(tris, np.int64).reshape(-1),
+        n,
+        step_start,
+        targets,
+        P,
+        V,
+        cache_size,
+        reach,
+        swl._REFINE_RUN,
+        passes,
+        True,
+        swl._LONG_REACH,
+    )
+    if np.array_equal(perm, np.arange(n)):
+        return tris, collapsed, False
+    moved, pool = swr.reorder_patches(
+        perm, starts, tris, p_start, p_out, q_start, q_out, patch_steps, info, recs, step0
+    )
+    return pool, moved, True
+
+
+@pytest.mark.parametrize("name", ["suzanne", "teapot"])
+def test_finish_in_one_call_is_the_steps_one_by_one(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every level of a build finished by :func:`.sw_layout.finish_level` (one kernel call) and by its steps
+    one by one: the same pool, offsets, steps, records and step info, with the search (two passes) and
+    without it; among the levels some the search reordered and (teapot's small levels of a mesh of 3,644
+    vertices) some whose vertex ids the cache ordering renumbers densely."""
+    levels = _captured_levels(name, monkeypatch)
+    assert len(levels) >= 10
+    reordered = compacted = 0
+    for args in levels:
+        gtris, start_gids, collapsed, step0, V, P, cache_size, passes, reach = args
+        assert passes == 2
+        for p in (passes, 0):
+            want_pool, want, moved = _step_by_step(*copy.deepcopy((*args[:7], p, reach)))
+            reordered += moved
+            got = swl._finish(
+                *copy.deepcopy((gtris, start_gids, *collapsed[:5], collapsed[5], collapsed[6])),
+                step0,
+                V,
+                P,
+                cache_size,
+                *swl._score_tables(cache_size),
+                swl._HEAVY,
+                p,
+                reach,
+                swl._REFINE_RUN,
+                swl._LONG_REACH,
+            )
+            assert np.array_equal(got[0], want_pool)
+            for a, b in zip(got[1:], want, strict=True):
+                assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b)
+            lev, recs, info = swl.finish_level(*copy.deepcopy((*args[:7], p, reach)))
+            assert lev.pool.dtype == np.int32 and np.array_equal(lev.pool, want_pool)
+            assert np.array_equal(lev.p_start, want[0]) and np.array_equal(lev.q_start, want[2])
+            assert np.array_equal(recs, want[5]) and np.array_equal(info, want[6])
+        tris, _, _, nvert = swl._level_triangles(gtris, start_gids, *collapsed[:4])
+        compacted += nvert > 4 * tris.size + 1024  # (as vcache._compact)
+    assert reordered > 0
+    if name == "teapot":
+        assert compacted > 0
+
+
+def _patches_step_by_step(st, inner_start, inner, stars, alive_t, min_shared, rounds, max_middle, V, C, w):
+    """A level's patches as ``slidingwindow._build_levels`` made them one call each before
+    :func:`.sw_order.ordered_patches`."""
+    from swpm_usd.encode import sw_order, sw_patches
+
+    pt_start, pt = sw_patches.patch_triangles(st, inner_start, inner, stars)
+    own_start = pt_start
+    absorb = min_shared > 0 and alive_t.shape[0] - pt_start[-1] <= max_middle * alive_t.shape[0]
+    if absorb:
+        for _ in range(rounds):
+            grown_start, grown = sw_patches.absorb_middle(st, pt_start, pt, alive_t, min_shared, stars)
+            if grown.shape[0] == pt.shape[0]:
+                break
+            pt_start, pt = grown_start, grown
+    inner_pos = np.zeros(st.pos_points.shape[0], bool)
+    inner_pos[inner] = True
+    binned_vertex = inner_pos[st.vertex_pos]
+    order = sw_order.order_patches(pt_start, pt, st.tri_verts, binned_vertex, np.diff(inner_start), V, C, w)
+    if absorb:
+        pt_start, pt = sw_order.reassign_middle(st, own_start, pt_start, pt, order, binned_vertex, C)
+    return pt_start, pt, order
+
+
+@pytest.mark.parametrize("name", ["suzanne", "beetle"])
+def test_ordered_patches_is_the_steps_one_by_one(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """:func:`.sw_order.ordered_patches` (a level's patches, absorbed middle, order and reassignment in one
+    kernel call) gives what its steps one by one give, on every level of a build: with the default one round
+    of absorption, with rounds until none is left, without it, and on the coarse levels whose middle is not
+    absorbed (beetle's)."""
+    from swpm_usd.encode import sw_order
+
+    real = sw_order.ordered_patches
+    calls = []
+
+    def capture(*args):
+        calls.append(copy.deepcopy(args))  # (the state changes with the level's collapses)
+        return real(*args)
+
+    monkeypatch.setattr(sw_order, "ordered_patches", capture)
+    with sw.inline_finishing():
+        swpm_usd.build(shared_mesh(f"{name}.obj"), "sliding-window")
+    monkeypatch.setattr(sw_order, "ordered_patches", real)
+    assert len(calls) >= 8
+    absorbed = kept = 0
+    for args in calls:
+        st, inner_start, inner, stars, alive_t, min_shared, rounds, max_middle = args[:8]
+        assert (min_shared, rounds) == (1, 1)
+        for shared, r in ((1, 1), (1, 64), (0, 1)):
+            a = (*args[:5], shared, r, *args[7:])
+            got = real(*copy.deepcopy(a))
+            want = _patches_step_by_step(*copy.deepcopy(a))
+            for x, y in zip(got, want, strict=True):
+                assert x.dtype == y.dtype and np.array_equal(x, y)
+        own = _patches_step_by_step(*copy.deepcopy((*args[:5], 0, 1, *args[7:])))[0][-1]
+        absorbed += alive_t.shape[0] - own <= max_middle * alive_t.shape[0]
+        kept += alive_t.shape[0] - own > max_middle * alive_t.shape[0]
+    assert absorbed > 0
+    if name == "beetle":
+        assert kept > 0
