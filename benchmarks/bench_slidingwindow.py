@@ -38,6 +38,10 @@ the order the strip draws them; ten meshes, lambda mean / max / bunny: strip 3.5
 cluster-swap-strip 2.975 / 3.609 / 2.554 with the block search sized by the pool (3.058 / 3.683 / 2.577
 before it) and joins across window ends, 2026-12-05; 3.697 / 3.997 / 3.700 and 3.261 / 3.873 / 2.794
 before them; 3.786 / 4.091 / 3.785 and 3.352 / 3.958 / 2.885 when every window's end was a restart).
+error-bound4 and error-bound2 (``error_bound``: a level's centres ranked at most 4 / 2 times the plain
+quadric sequence's error at the level's expected end: at 4 the meshes whose levels take collapses far dearer
+than the quadric order's (fandisk, beetle, spot, suzanne) trade pool for error and the others, bunny
+included, build the same pools).
 ``--big`` adds a generated icosphere of 1.3 M triangles (build time only).
 Targets (issue): lambda <= 5.4 on bunny (topology, no reductions; <= 3.9 with cluster-swap; <= 2.8 with
 inner3-cluster-swap, the papers' (d); inner3-swap alone 2.88), ACMR ratio <= 1.10, error ratio <= 1.5,
@@ -93,6 +97,8 @@ OPTIONS = {
     "cluster-swap-slack1": {"cluster": True, "optimize_connectivity": True, "target_slack": 1.0},
     "strip": {"primitive": "strip"},
     "cluster-swap-strip": {"cluster": True, "optimize_connectivity": True, "primitive": "strip"},
+    "error-bound4": {"error_bound": 4.0},
+    "error-bound2": {"error_bound": 2.0},
 }
 FRACTIONS = (1.0, 0.5, 0.25, 0.1)
 

@@ -32,6 +32,7 @@ OUT_OF_BOUNDS = [
     ("sliding-window", "target_slack=Infinity", "target_slack: inf is not a finite number"),
     ("sliding-window", "target_slack=NaN", "target_slack: nan is not a finite number"),
     ("sliding-window", "order_reach=99", "order_reach: must be in [1, 8], got 99"),
+    ("sliding-window", "error_bound=0", "error_bound: must be greater than 0, got 0"),
     ("sliding-window", "builder=foo", "builder: 'foo' is not one of ['topology', 'forsyth']"),
     ("sliding-window", "cache_size=16.0", "cache_size: must be an integer, got 16.0"),
     # (one line in a config, as here: it was three, the type twice and the bound)

@@ -1017,6 +1017,70 @@ def test_target_slack_trades_error_for_pool_size(spot: Mesh) -> None:
             build_sliding_window(spot, target_slack=bad)
 
 
+def test_sequence_reference_matches_the_quadric_sequence() -> None:
+    """The error bound's reference: the plain quadric sequence's triangles left after each step (from
+    :func:`.sw_bound.death_steps`) and running maximum error are those of the vanilla collapse sequence."""
+    from swpm_usd.encode.sw_bound import SequenceReference
+    from swpm_usd.simplify import collapse_sequence, make_state
+
+    for name in ("beetle.obj", "suzanne.obj"):  # (beetle: boundaries and non-manifold edges)
+        mesh = shared_mesh(name)
+        topo = mesh_topology(mesh)
+        ref = SequenceReference(make_state(mesh, topo), topo.tri_pos)
+        seq = collapse_sequence(mesh, geometric_error=False)
+        assert ref.alive.shape[0] == seq.step_count + 1
+        for s in range(0, seq.step_count + 1, max(1, seq.step_count // 40)):
+            assert ref.alive[s] == seq.triangles_at_step(s).shape[0]
+        assert ref.alive[-1] == seq.triangles_at_step(seq.step_count).shape[0]
+        assert np.array_equal(ref.error, seq.lod_errors())
+        # the fewest steps that leave at most the count asked for
+        for count in (0.9 * mesh.triangle_count, 0.5 * mesh.triangle_count, 0.0):
+            s = int(np.argmax(ref.alive <= count)) if (ref.alive <= count).any() else seq.step_count
+            assert ref.error_at(count) == ref.error[s]
+
+
+def test_error_bound_bars_costly_centres(spot: Mesh, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``error_bound``: no patch centre of a level ranks above ``error_bound`` times the quadric sequence's
+    error at the level's expected end, and no collapse costs more; off (None) by default; validated."""
+    from swpm_usd.encode import slidingwindow as sw
+    from swpm_usd.encode import sw_bound
+
+    seen: list[dict] = []
+    bar, collapse = sw_bound.bar_costly, sw.sw_collapse.collapse_patches
+
+    def spy_bar(eligible, positions, ks, rank_cs, bound2):
+        barred = bar(eligible, positions, ks, rank_cs, bound2)
+        rank = dict(zip(positions.tolist(), rank_cs.tolist(), strict=True))
+        seen.append({"rank": rank, "bound2": bound2, "barred": barred})
+        return barred
+
+    def spy_collapse(st, order, inner_start, inner, *args):
+        out = collapse(st, order, inner_start, inner, *args)
+        seen[-1].update(centres=inner.copy(), max_cost=args[-2], info=out[-2])
+        return out
+
+    monkeypatch.setattr(sw_bound, "bar_costly", spy_bar)
+    monkeypatch.setattr(sw.sw_collapse, "collapse_patches", spy_collapse)
+    pm = build_sliding_window(spot, error_bound=2.0)
+    levels = [lev for lev in seen if "centres" in lev]
+    assert len(levels) == pm.level_count - 1  # (the coarsest LOD's copy counts as a level)
+    assert sum(lev["barred"] for lev in levels) > 0.05 * spot.vertex_count  # (the bound bites on spot)
+    for lev in levels:
+        assert all(lev["rank"][c] <= lev["bound2"] for c in lev["centres"].tolist())
+        assert lev["max_cost"] <= lev["bound2"] or lev["max_cost"] == np.inf  # (a level after a trickle)
+        if lev["max_cost"] < np.inf:
+            assert (lev["info"][:, 0] ** 2 <= lev["bound2"] * (1 + 1e-12)).all()
+    monkeypatch.undo()
+    default = build_sliding_window(spot)
+    assert pm.index_pool.shape[0] > default.index_pool.shape[0]  # (fewer centres a level: more levels)
+    assert np.array_equal(build_sliding_window(spot, error_bound=None).index_pool, default.index_pool)
+    assert swpm_usd.build(spot, "sliding-window", error_bound=2).params["error_bound"] == 2
+    _check_all(pm, spot, closed=True, every=9)
+    for bad in (0, 0.0, -1.0, float("nan"), float("inf"), "2", True):
+        with pytest.raises(BuildError, match="error_bound"):
+            build_sliding_window(spot, error_bound=bad)
+
+
 def test_forsyth_tolerance_trades_levels_for_order(spot: Mesh) -> None:
     """Forsyth's tolerance: a larger one lets more collapses skip ahead of one that would start a new level,
     so fewer levels (and a smaller pool); with 0 every touching collapse starts one."""

@@ -40,7 +40,10 @@ choice, what was measured and what was tried and dropped):
   search then move patches up to ``order_reach`` places (default 2) wherever the FIFO misses summed over the
   level's windows fall (:mod:`.sw_refine`; a warmer cache, the same pool and errors; more passes and a longer
   reach for a longer build). ``coarsest_copy`` (default True): the coarsest LOD also stored on its own after
-  the last level, cache-ordered as one block, where it is small and that saves misses.
+  the last level, cache-ordered as one block, where it is small and that saves misses. ``error_bound``
+  (default None, off): a level's vertices ranked above ``error_bound`` times the plain quadric sequence's
+  error at the level's expected end are barred too (:mod:`.sw_bound`; pool for error on the meshes whose
+  levels take collapses far dearer than the quadric order's).
 * ``builder="forsyth"``: Forsyth's quadric-error order with the error-tolerance reordering
   (:mod:`.sw_forsyth`).
 * ``optimize_connectivity=True`` (SWPM 3.1): edge swaps creating low-degree vertices first, each moving the
@@ -63,7 +66,8 @@ from the levels (and the coarsest LOD's copy) into a :class:`.sw_mesh.SlidingWin
 pool and records as stored, the LOD look-ups, the memory figures and buffers); :mod:`.sw_layout` finishes a
 level (its patch order search and block layout), :mod:`.sw_threads` shares the main thread's work with a
 helper thread. The numba kernels, in the order a level runs them: :mod:`.sw_levels` (a level's positions,
-edge graph and error ranking), :mod:`.sw_centres` (patch centres), :mod:`.sw_cluster` (clustered patches),
+edge graph and error ranking), :mod:`.sw_bound` (``error_bound``'s reference), :mod:`.sw_centres` (patch
+centres), :mod:`.sw_cluster` (clustered patches),
 :mod:`.sw_patches` (the patches' triangles, the absorbed middle), :mod:`.sw_order` (the patch order for the
 cache), :mod:`.sw_collapse` (collapsing the patches), :mod:`.sw_refine` (patch order search); with
 :mod:`.sw_fans` (fan order of a few triangles), :mod:`.sw_deviation` (fan deviation), :mod:`.sw_swaps` (edge
@@ -106,8 +110,8 @@ from ..simplify import make_state, mesh_topology
 from ..simplify.fan_deviation import replay_state
 from ..simplify.kernels import star_snapshot
 from ..simplify.sequence import replay_steps, replay_surface
+from . import sw_bound, sw_cluster, sw_collapse, sw_levels, sw_order, sw_patches
 from . import sw_centres as swc
-from . import sw_cluster, sw_collapse, sw_levels, sw_order, sw_patches
 from . import sw_deviation as swd
 from . import sw_layout as swl
 from . import sw_threads as swt
@@ -175,6 +179,13 @@ _DEVIATION_SHARE = 0.5
 #: nodes a sample's search may open (512: the ten shared meshes build the same pools as without a limit; a
 #: cone of 80,000 sections 24 s without, 4.1 s with it)
 _DEVIATION_BUDGET = 512
+
+#: ``error_bound``: a level's expected end, the share of its triangles left after it (a level of single
+#: inner vertices removes about 30 %), at which the plain quadric sequence's error is the bound's reference
+_BOUND_END = 0.7
+#: the bound is at least this fraction of the bounding-box diagonal (a flat start, where the quadric
+#: sequence's error is 0, would bar every vertex of any cost)
+_BOUND_FLOOR = 1e-5
 
 
 #: iterations of the centre search (:func:`sw_centres.grow_independent_set`) per eligible vertex: the
@@ -354,6 +365,7 @@ def _build_levels(
     absorb_rounds: int = 1,
     order_passes: int = 0,
     order_reach: int = 2,
+    error_bound: tuple[float, sw_bound.SequenceReference] | None = None,
 ):
     T = mesh.triangle_count
     P = st.pos_points.shape[0]
@@ -373,6 +385,9 @@ def _build_levels(
     fresh_cost = None  # cluster=True: pool triangles per collapse a fully stored level would cost
     relax = False  # the level after a trickle: no cost limit at collapse time (see ``last`` below)
     rank_by_deviation = _RANK_BY_DEVIATION and surface_of is not None
+    if error_bound is not None:
+        lo, hi = st.pos_points.min(axis=0), st.pos_points.max(axis=0)
+        bound_floor = _BOUND_FLOOR * float(np.linalg.norm(hi - lo))
     if rank_by_deviation:
         lo, hi = st.pos_points.min(axis=0), st.pos_points.max(axis=0)
         floor2 = float((_DEVIATION_FLOOR * np.linalg.norm(hi - lo)) ** 2)
@@ -421,6 +436,15 @@ def _build_levels(
             positions, ks, cs, order, P, int(round(mu * positions.shape[0])), _ERROR_WEIGHT
         )
         max_cost = float(max_cost)
+        if error_bound is not None:
+            # ``error_bound``: the vertices whose ranking cost passes the bound are barred too, and no
+            # collapse of the level may cost more (the bound is the cut if it is the lower)
+            c, reference = error_bound
+            end_error = reference.error_at(_BOUND_END * alive_t.shape[0])
+            bound2 = max(c * end_error, bound_floor) ** 2
+            if sw_bound.bar_costly(eligible, positions, ks, rank_cs, bound2):
+                any_eligible = bool(eligible.any())
+            max_cost = min(max_cost, bound2)
         if not any_eligible:
             break
         link = False
@@ -696,6 +720,7 @@ def build_sliding_window(
     strip_window: int = 4,
     boundary_weight: float = 8.0,
     seam_weight: float = 2.0,
+    error_bound: float | None = None,
 ) -> SlidingWindowProgressiveMesh:
     """Build a sliding-window progressive mesh of ``mesh`` (parameters: the module docstring; their design:
     ``slidingwindow.md``)."""
@@ -717,6 +742,12 @@ def build_sliding_window(
         and 0.0 <= float(target_slack) < np.inf
     ):
         raise BuildError(f"target_slack must be a finite number >= 0 or None, got {target_slack!r}")
+    if error_bound is not None and not (
+        isinstance(error_bound, numbers.Real)
+        and not isinstance(error_bound, bool)
+        and 0.0 < float(error_bound) < np.inf
+    ):
+        raise BuildError(f"error_bound must be a finite number > 0 or None, got {error_bound!r}")
     if not _is_integer(absorb_rounds) or absorb_rounds < 0:
         raise BuildError(f"absorb_rounds must be an integer >= 0, got {absorb_rounds!r}")
     if order_passes is None:  # a linked level's patch order is its tail's: no search with cluster
@@ -753,6 +784,10 @@ def build_sliding_window(
 
     if builder == "topology":
         absorb = _ABSORB_MIN_SHARED if absorb_middle else 0
+        bound = None
+        if error_bound is not None:  # the plain quadric sequence on a state of its own
+            ref_state = make_state(mesh, topo, boundary_weight=boundary_weight, seam_weight=seam_weight)
+            bound = (float(error_bound), sw_bound.SequenceReference(ref_state, topo.tri_pos))
         gtris, levels, recs, info, geometric, surface = _build_topology(
             mesh,
             st,
@@ -766,6 +801,7 @@ def build_sliding_window(
             int(absorb_rounds),
             int(order_passes),
             int(order_reach),
+            bound,
         )
     else:
         gtris, levels, recs, info = _build_forsyth(mesh, st, float(tolerance), boundary_weight, seam_weight)

@@ -38,6 +38,8 @@ def _param_schema(value: Any, name: str = "", encoding: str = "") -> dict[str, A
         return {"type": "number", "minimum": 0}
     if name == "target_slack":
         return {"type": ["number", "null"], "minimum": 0}
+    if name == "error_bound":
+        return {"type": ["number", "null"], "exclusiveMinimum": 0}
     if name == "inner_vertices":
         return {"type": "integer", "minimum": 1}
     if name == "absorb_rounds":
