@@ -51,6 +51,12 @@ def check_params(encoding: str, defaults: dict[str, Any], params: dict[str, Any]
             raise BuildError(f"{name} must be in [0, {MAX_QUADRIC_WEIGHT:g}], got {params[name]}")
 
 
+#: parameters recorded in ``pm.params`` (and so in a file's metadata) only when set: options added after
+#: files without them were written (``error_bound``, 0.9.3), so a build that leaves them off writes the
+#: same bytes as before they existed
+RECORDED_WHEN_SET = frozenset({"error_bound"})
+
+
 def build(mesh_or_path: Mesh | str | Path, encoding: str = "vanilla", **params: Any) -> ProgressiveMesh:
     """Build a :class:`ProgressiveMesh` of ``encoding`` from a mesh or a mesh file.
 
@@ -77,6 +83,14 @@ def build(mesh_or_path: Mesh | str | Path, encoding: str = "vanilla", **params: 
         mesh = load_mesh(mesh_or_path)
     resolved = {**defaults, **params}
     pm = fn(mesh, **resolved)
-    # a None default leaves the choice to the encoder: the value it recorded stays (order_passes)
-    pm.params.update({k: v for k, v in resolved.items() if v is not None or k not in pm.params})
+    # a None default leaves the choice to the encoder: the value it recorded stays (order_passes); an option
+    # added later that is off is not recorded, so a build without it is byte for byte the file it was before
+    # the option existed (nothing for a pipeline to rebuild)
+    pm.params.update(
+        {
+            k: v
+            for k, v in resolved.items()
+            if (v is not None or k not in pm.params) and not (v is None and k in RECORDED_WHEN_SET)
+        }
+    )
     return pm

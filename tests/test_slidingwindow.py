@@ -1075,6 +1075,9 @@ def test_error_bound_bars_costly_centres(spot: Mesh, monkeypatch: pytest.MonkeyP
     assert pm.index_pool.shape[0] > default.index_pool.shape[0]  # (fewer centres a level: more levels)
     assert np.array_equal(build_sliding_window(spot, error_bound=None).index_pool, default.index_pool)
     assert swpm_usd.build(spot, "sliding-window", error_bound=2).params["error_bound"] == 2
+    # off, it is not recorded: a default build's file is the bytes it was before the option existed
+    assert "error_bound" not in swpm_usd.build(spot, "sliding-window").params
+    assert "error_bound" not in swpm_usd.build(spot, "sliding-window", error_bound=None).params
     _check_all(pm, spot, closed=True, every=9)
     for bad in (0, 0.0, -1.0, float("nan"), float("inf"), "2", True):
         with pytest.raises(BuildError, match="error_bound"):
