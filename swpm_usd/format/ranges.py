@@ -365,7 +365,8 @@ def open_ranges(held: Held, *, path: str | None = None) -> FileRanges:
     """Open the byte ranges ``held`` (``{offset: bytes}``) of an SWPM file (spec 4.2); raises
     :class:`SwpmFormatError` with the report when they hold an error (SWPM_RANGES_NOT_HELD: fetch
     ``report.summary["range_need"]`` and open again) and :class:`ValueError` for a range past the
-    header's file_size, or two ranges that give a byte different values."""
+    header's file_size (of 64 or more: below, the header itself lies past it, the file's error, spec 4.2
+    step 1) or past :data:`MAX_RANGE_END`, or two ranges that give a byte different values."""
     return _open(held, path)
 
 
