@@ -435,7 +435,7 @@ def test_header_mutants_three_readers_agree(tmp_path: Path, dump: Path) -> None:
     independent reader's verdict is the codec's (spec 4.2 step 1's file_size below 64 included), the C
     reader's first error (code, offset, range to fetch) or drawable LODs are the codec's, and the bytes not
     held set to 0x00 or 0xAA change nothing in C (none is read). Ranges past a file_size of 64 or more are
-    the caller's error (ValueError, SWPM_READER_BAD_RANGES) and are not drawn."""
+    the caller's error (ValueError, SWPM_READER_BAD_RANGES): the test draws none."""
     import random
 
     from independent_reader import read_ranges
