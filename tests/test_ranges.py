@@ -441,6 +441,22 @@ def test_validate_lod_of_a_file_size_below_the_header_is_the_files_error(tmp_pat
     assert got == [("SWPM_FILE_TRAILING_BYTES", 10), ("SWPM_TABLE_TRUNCATED", 24)]
 
 
+@pytest.mark.parametrize("variant", ["sw-list", "sw-strip", "skip-strip", "mixed"])
+def test_read_lod_reads_no_byte_twice(variant: str) -> None:
+    """``read_lod`` fetched a range it held in part again whole (SMAP's [0, INDX) over the first 4096 bytes,
+    VERT's header up to three times): each byte is read once now, and every LOD it opens draws as the whole
+    file draws it."""
+    data = _file("suzanne", variant)
+    whole = load_bytes(data)
+    for k in sorted({0, whole.lod_count // 2, whole.lod_count - 1}):
+        log: list[tuple[int, int]] = []
+        fr = read_lod(_reader(data, log), k)
+        spans = sorted((o, o + min(n, len(data) - o)) for o, n in log)
+        assert all(a[1] <= b[0] for a, b in zip(spans, spans[1:], strict=False)), (k, spans)
+        assert k in fr.drawable_lods
+        _same_draws(data, whole, fr)
+
+
 def _far_file(far_byte: int) -> tuple[bytes, dict[int, bytes]]:
     """minimal-vanilla whose header claims file_size 2^41, and the ranges: all of its 620 bytes and 16 bytes
     at 2^40 (trailing padding of the claimed file; ``far_byte`` the first of them)."""

@@ -427,3 +427,78 @@ def test_far_range_reads_only_what_is_held(tmp_path: Path, dump: Path, dump_san:
         else:
             assert (got["code"], got["offset"]) == (rep.errors[0].code, rep.errors[0].offset)
             assert got == {"code": "SWPM_PADDING_NONZERO", "offset": len(data)}
+
+
+def test_header_mutants_three_readers_agree(tmp_path: Path, dump: Path) -> None:  # noqa: F811
+    """Header mutants of the range vectors (file_size 0..80 and near the length, header_size, table_offset,
+    chunk_count; CRCs mostly fixed) opened from random held ranges, the header often among them: the
+    independent reader's verdict is the codec's (spec 4.2 step 1's file_size below 64 included), the C
+    reader's first error (code, offset, range to fetch) or drawable LODs are the codec's, and the bytes not
+    held set to 0x00 or 0xAA change nothing in C (none is read). Ranges past a file_size of 64 or more are
+    the caller's error (ValueError, SWPM_READER_BAD_RANGES): the test draws none."""
+    import random
+
+    from independent_reader import read_ranges
+
+    from swpm_usd.format.vectors import ranges_result
+
+    rng = random.Random(226)
+    names = ["file-size-below-header", "mixed-two-levels", "skip-strip-level-of-two-lods", "long-header"]
+    files = [
+        next(
+            (VECTORS / kind / f"{n}.swpm")
+            for kind in ("valid", "invalid")
+            if (VECTORS / kind / f"{n}.swpm").exists()
+        )
+        for n in names
+    ]
+    seeds = [p.read_bytes() for p in files]
+    path = tmp_path / "mutant.swpm"
+    below = codes = 0
+    seen: set[str] = set()
+    for trial in range(150):
+        d = bytearray(rng.choice(seeds))
+        if rng.random() < 0.6:
+            struct.pack_into("<Q", d, 40, rng.randrange(81))
+        elif rng.random() < 0.5:
+            struct.pack_into("<Q", d, 40, rng.choice([len(d) - 8, len(d), len(d) + 8]))
+        for off, fmt, values in (
+            (12, "<I", [0, 63, 64, 72, 128, len(d) + 64]),  # header_size
+            (32, "<Q", [0, 56, 64, 72, 96, len(d)]),  # table_offset
+            (24, "<I", [0, 1, 3, 1025]),  # chunk_count
+        ):
+            if rng.random() < 0.25:
+                struct.pack_into(fmt, d, off, rng.choice(values))
+        data = refix_crcs(bytes(d)) if rng.random() < 0.8 else bytes(d)
+        fs = struct.unpack_from("<Q", data, 40)[0]
+        top = len(data) if fs < 64 else min(len(data), fs)
+        cuts = sorted({0, 8, 40, 48, 64, 72, 96, top, rng.randrange(top + 1)} & set(range(top + 1)))
+        ranges = [(0, rng.choice([64, 72, 96, top]))] if rng.random() < 0.8 else []
+        for _ in range(rng.randint(0, 3)):
+            a, b = rng.choice(cuts), rng.choice(cuts)
+            if b > a:
+                ranges.append((a, b - a))
+        ranges = [(o, min(n, top - o)) for o, n in ranges if o < top and n > 0]
+        if not ranges:
+            continue
+        want = ranges_result(data, ranges)
+        assert read_ranges(data, ranges) == want, (trial, ranges)
+        path.write_bytes(data)
+        got = _c(dump, path, ranges, 0x00)
+        assert _c(dump, path, ranges, 0xAA) == got, (trial, ranges)
+        errors = [q for q in want["problems"] if q["severity"] == "error"]
+        if errors:
+            e = errors[0]
+            expect = {"ok": False, "code": e["code"], "offset": e["offset"]}
+            if e["code"] == "SWPM_RANGES_NOT_HELD":
+                expect["need"] = e["need"]
+                if e["need_start"]:
+                    expect["need_start"] = e["need_start"]
+            assert {k: got.get(k) for k in expect} == expect, (trial, ranges, got)
+            seen.add(e["code"])
+            codes += 1
+        else:
+            assert got["ok"] and got["drawable"] == want["drawable_lods"], (trial, ranges, got)
+        below += fs < 64 and any(o == 0 and n >= 64 for o, n in ranges)
+    assert below > 40 and codes > 60, (below, codes)
+    assert {"SWPM_TABLE_TRUNCATED", "SWPM_HEADER_BAD_SIZE", "SWPM_RANGES_NOT_HELD"} <= seen, seen

@@ -243,7 +243,8 @@ def _zeros(n: int, path: str | None) -> np.ndarray:
         if hasattr(mmap, "MAP_ANONYMOUS"):
             flags = mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS | _MAP_NORESERVE
             return np.frombuffer(mmap.mmap(-1, n, flags=flags), np.uint8)
-        # Windows: an anonymous mapping without flags (its pages are committed when first touched)
+        # Windows: an anonymous mapping without flags, backed by the paging file, which Windows may charge
+        # in full against its commit limit: a range far past the others may be refused there (ValueError)
         return np.frombuffer(mmap.mmap(-1, n), np.uint8)
     except OSError as exc:  # (an address space or overcommit limit: the caller's ranges cannot be held)
         raise ValueError(f"{path or '<file>'}: cannot hold ranges up to byte {n}: {exc.strerror}") from None
@@ -364,7 +365,8 @@ def open_ranges(held: Held, *, path: str | None = None) -> FileRanges:
     """Open the byte ranges ``held`` (``{offset: bytes}``) of an SWPM file (spec 4.2); raises
     :class:`SwpmFormatError` with the report when they hold an error (SWPM_RANGES_NOT_HELD: fetch
     ``report.summary["range_need"]`` and open again) and :class:`ValueError` for a range past the
-    header's file_size, or two ranges that give a byte different values."""
+    header's file_size (of 64 or more: below, the header itself lies past it, the file's error, spec 4.2
+    step 1) or past :data:`MAX_RANGE_END`, or two ranges that give a byte different values."""
     return _open(held, path)
 
 
