@@ -44,13 +44,13 @@ are the whole config's), then builds only the assets it selects (:func:`selected
 (with ``force``, each of those); the records of the others stay as they are, and the scene and report are
 written from the whole manifest.
 
-A run that builds and prunes nothing, whose failures each fail again as recorded (:func:`_same_failure`:
-retried, their records kept), and whose manifest would hold what it holds, writes neither it nor scene.usda
-nor report.html: those were written from these records (their ``run_outputs`` records marked
-:data:`.manifest.CURRENT`) and are kept while they are as recorded (10,000 assets: a 47 MB manifest, 2.2 s to
-write), the report while it names the config where it is now (:data:`.manifest.REPORT_CONFIG`: a project moved
-whole has its report and manifest written); nor the lock file, which holds the pid of the last run that wrote
-(:meth:`.lock._OutputLock.claim`).
+A run that builds and prunes nothing, whose failures each fail again as recorded
+(:func:`.run_records._same_failure`: retried, their records kept), and whose manifest would hold what it
+holds, writes neither it nor scene.usda nor report.html: those were written from these records (their
+``run_outputs`` records marked :data:`.manifest.CURRENT`) and are kept while they are as recorded (10,000
+assets: a 47 MB manifest, 2.2 s to write), the report while it names the config where it is now
+(:data:`.manifest.REPORT_CONFIG`: a project moved whole has its report and manifest written); nor the lock
+file, which holds the pid of the last run that wrote (:meth:`.lock._OutputLock.claim`).
 """
 
 from __future__ import annotations
