@@ -8,6 +8,7 @@ their defaults from here; :data:`swpm_usd.encode.BUILDERS` pairs each encoding's
 
 from __future__ import annotations
 
+import numbers
 from typing import Any
 
 #: parameters of the shared collapse sequence, accepted by every encoding built on it
@@ -120,4 +121,8 @@ def combination_problem(encoding: str, params: dict[str, Any]) -> str | None:
     if isinstance(passes, int) and not isinstance(passes, bool) and passes > 0:
         if builder != "topology" or cluster:
             return "order_passes > 0 needs builder='topology' without cluster"
+    # (Forsyth's builder has no patch centres to bar: it ignored the bound, recorded in the file's params)
+    bound = p.get("error_bound")
+    if isinstance(bound, numbers.Real) and not isinstance(bound, bool) and builder != "topology":
+        return "error_bound needs builder='topology'"
     return None

@@ -154,6 +154,8 @@ COMBINATIONS = [
     (["builder=forsyth", "order_passes=1"], "order_passes > 0 needs builder='topology' without cluster"),
     (["cluster=true", "order_passes=2"], "order_passes > 0 needs builder='topology' without cluster"),
     (["cluster=true", "builder=forsyth"], "cluster=True needs builder='topology'"),
+    # (Forsyth's builder ignored the bound and recorded it in the file's params all the same)
+    (["builder=forsyth", "error_bound=4"], "error_bound needs builder='topology'"),
 ]
 
 
@@ -183,7 +185,13 @@ def test_a_parameter_combination_the_builder_refuses_is_a_usage_error(tmp_path, 
 
 def test_a_combination_the_builder_takes_is_taken(tmp_path):
     mesh = _write(tmp_path / "g.obj")
-    for params in (["cluster=true", "order_passes=0"], ["builder=forsyth", "order_passes=0"], ["mu=0.2"]):
+    for params in (
+        ["cluster=true", "order_passes=0"],
+        ["builder=forsyth", "order_passes=0"],
+        ["mu=0.2"],
+        ["builder=forsyth", "error_bound=null"],
+        ["cluster=true", "error_bound=4"],
+    ):
         args = ["build", str(mesh), "-e", "sliding-window", "--rows", "2"]
         for p in params:
             args += ["-p", p]

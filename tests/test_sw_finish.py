@@ -171,3 +171,48 @@ def test_ordered_patches_is_the_steps_one_by_one(name: str, monkeypatch: pytest.
     assert absorbed > 0
     if name == "beetle":
         assert kept > 0
+
+
+@pytest.mark.parametrize("params", [{"inner_vertices": 3}, {"cluster": True, "inner_vertices": 3}])
+def test_fused_steps_with_grown_patches_and_clusters(params: dict, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The paths the default builds above do not take: patches of several inner vertices (grown,
+    ``inner_vertices=3``), and ``cluster=True`` (whose levels :mod:`.sw_layout`'s clustered layout finishes,
+    not :func:`.sw_layout.finish_level`): :func:`.sw_order.ordered_patches` and :func:`.sw_layout._finish`
+    give what their steps one by one give on every level."""
+    from swpm_usd.encode import sw_order
+
+    real_finish, real_patches = swl.finish_level, sw_order.ordered_patches
+    finishes, patches = [], []
+
+    def capture_finish(*args):
+        finishes.append(copy.deepcopy(args))
+        return real_finish(*args)
+
+    def capture_patches(*args):
+        patches.append(copy.deepcopy(args))  # (the state changes with the level's collapses)
+        return real_patches(*args)
+
+    monkeypatch.setattr(swl, "finish_level", capture_finish)
+    monkeypatch.setattr(sw_order, "ordered_patches", capture_patches)
+    with sw.inline_finishing():
+        swpm_usd.build(shared_mesh("suzanne.obj"), "sliding-window", **params)
+    monkeypatch.undo()
+    assert len(patches) >= 3
+    assert len(finishes) == (0 if params.get("cluster") else len(patches))
+    grown = 0
+    for args in patches:
+        inner_start = args[1]
+        grown += int(np.diff(inner_start).max(initial=0) > 1)
+        got = real_patches(*copy.deepcopy(args))
+        want = _patches_step_by_step(*copy.deepcopy(args))
+        for x, y in zip(got, want, strict=True):
+            assert x.dtype == y.dtype and np.array_equal(x, y)
+    assert grown > 0  # (patches of several inner vertices were made)
+    for args in finishes:
+        assert args[7] == 2  # (the search's passes)
+        want_pool, want, _ = _step_by_step(*copy.deepcopy(args))
+        lev, recs, info = real_finish(*copy.deepcopy(args))
+        assert lev.pool.dtype == np.int32 and np.array_equal(lev.pool, want_pool)
+        assert np.array_equal(lev.p_start, want[0]) and np.array_equal(lev.q_start, want[2])
+        assert np.array_equal(lev.patch_steps, want[4])
+        assert np.array_equal(recs, want[5]) and np.array_equal(info, want[6])

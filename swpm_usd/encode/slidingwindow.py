@@ -43,7 +43,7 @@ choice, what was measured and what was tried and dropped):
   the last level, cache-ordered as one block, where it is small and that saves misses. ``error_bound``
   (default None, off): a level's vertices ranked above ``error_bound`` times the plain quadric sequence's
   error at the level's expected end are barred too (:mod:`.sw_bound`; pool for error on the meshes whose
-  levels take collapses far dearer than the quadric order's).
+  levels take collapses far dearer than the quadric order's; ``builder="forsyth"`` refuses it).
 * ``builder="forsyth"``: Forsyth's quadric-error order with the error-tolerance reordering
   (:mod:`.sw_forsyth`).
 * ``optimize_connectivity=True`` (SWPM 3.1): edge swaps creating low-degree vertices first, each moving the
@@ -758,7 +758,13 @@ def build_sliding_window(
         )
     # (the command line and a config refuse these combinations before any mesh is read, in these words)
     problem = combination_problem(
-        "sliding-window", {"builder": builder, "cluster": bool(cluster), "order_passes": int(order_passes)}
+        "sliding-window",
+        {
+            "builder": builder,
+            "cluster": bool(cluster),
+            "order_passes": int(order_passes),
+            "error_bound": error_bound,
+        },
     )
     if problem:
         raise BuildError(problem)
