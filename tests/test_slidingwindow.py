@@ -1018,15 +1018,15 @@ def test_target_slack_trades_error_for_pool_size(spot: Mesh) -> None:
 
 
 def test_sequence_reference_matches_the_quadric_sequence() -> None:
-    """The error bound's reference: the plain quadric sequence's triangles left after each step (from
-    :func:`.sw_bound.death_steps`) and running maximum error are those of the vanilla collapse sequence."""
+    """The error bound's reference: the plain quadric sequence's triangles left after each step and running
+    maximum error are those of the vanilla collapse sequence."""
     from swpm_usd.encode.sw_bound import SequenceReference
     from swpm_usd.simplify import collapse_sequence, make_state
 
     for name in ("beetle.obj", "suzanne.obj"):  # (beetle: boundaries and non-manifold edges)
         mesh = shared_mesh(name)
         topo = mesh_topology(mesh)
-        ref = SequenceReference(make_state(mesh, topo), topo.tri_pos)
+        ref = SequenceReference(make_state(mesh, topo), mesh.triangles)
         seq = collapse_sequence(mesh, geometric_error=False)
         assert ref.alive.shape[0] == seq.step_count + 1
         for s in range(0, seq.step_count + 1, max(1, seq.step_count // 40)):

@@ -385,12 +385,10 @@ def _build_levels(
     fresh_cost = None  # cluster=True: pool triangles per collapse a fully stored level would cost
     relax = False  # the level after a trickle: no cost limit at collapse time (see ``last`` below)
     rank_by_deviation = _RANK_BY_DEVIATION and surface_of is not None
-    if error_bound is not None:
-        lo, hi = st.pos_points.min(axis=0), st.pos_points.max(axis=0)
-        bound_floor = _BOUND_FLOOR * float(np.linalg.norm(hi - lo))
-    if rank_by_deviation:
-        lo, hi = st.pos_points.min(axis=0), st.pos_points.max(axis=0)
-        floor2 = float((_DEVIATION_FLOOR * np.linalg.norm(hi - lo)) ** 2)
+    if error_bound is not None or rank_by_deviation:
+        diagonal = float(np.linalg.norm(st.pos_points.max(axis=0) - st.pos_points.min(axis=0)))
+        bound_floor = _BOUND_FLOOR * diagonal
+        floor2 = float((_DEVIATION_FLOOR * diagonal) ** 2)
     while True:
         alive_t = np.flatnonzero(st.tri_alive)
         if alive_t.shape[0] == 0:
@@ -793,7 +791,7 @@ def build_sliding_window(
         bound = None
         if error_bound is not None:  # the plain quadric sequence on a state of its own
             ref_state = make_state(mesh, topo, boundary_weight=boundary_weight, seam_weight=seam_weight)
-            bound = (float(error_bound), sw_bound.SequenceReference(ref_state, topo.tri_pos))
+            bound = (float(error_bound), sw_bound.SequenceReference(ref_state, mesh.triangles))
         gtris, levels, recs, info, geometric, surface = _build_topology(
             mesh,
             st,

@@ -2,79 +2,33 @@
 an absolute reference): the plain quadric collapse sequence's error (the vanilla order, Garland-Heckbert
 quadrics) at a triangle count, which the level's centres may exceed only by a factor.
 
-* :func:`death_steps` - the step of a collapse sequence after which each triangle is gone.
 * :class:`SequenceReference` - the sequence's running maximum error at a triangle count.
 * :func:`bar_costly` - a level's centres whose ranking cost passes the bound made ineligible.
 """
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
 
 from ..simplify import kernels as K
-
-
-@nb.njit(cache=True, nogil=True)
-def death_steps(tri_pos: np.ndarray, step_b: np.ndarray, step_k: np.ndarray, P: int) -> np.ndarray:
-    """Per triangle (positions ``tri_pos``), the step of the collapse sequence (``step_b[s]`` onto
-    ``step_k[s]``) after which two of its corners are one position, or ``len(step_b)`` if never. Each
-    position is binned once, onto a position alive then, so the chains of targets of two corners only merge:
-    the triangle goes when the later corner reaches the first position both chains hold."""
-    S = step_b.shape[0]
-    binned_at = np.full(P, S, np.int64)
-    onto = np.full(P, -1, np.int64)
-    for s in range(S):
-        binned_at[step_b[s]] = s
-        onto[step_b[s]] = step_k[s]
-    mark = np.full(P, -1, np.int64)
-    arrive = np.zeros(P, np.int64)  # steps after which the marked corner has reached a marked position
-    T = tri_pos.shape[0]
-    out = np.empty(T, np.int64)
-    for t in range(T):
-        best = S
-        for i in range(2):
-            stamp = 2 * t + i
-            p = tri_pos[t, i]
-            at = np.int64(0)
-            while True:
-                mark[p] = stamp
-                arrive[p] = at
-                if onto[p] < 0:
-                    break
-                at = binned_at[p] + 1
-                p = onto[p]
-            for j in range(i + 1, 3):
-                q = tri_pos[t, j]
-                at = np.int64(0)
-                while mark[q] != stamp:
-                    if onto[q] < 0:
-                        at = -1  # (the chains never meet)
-                        break
-                    at = binned_at[q] + 1
-                    q = onto[q]
-                if at >= 0:
-                    best = min(best, max(max(at, arrive[q]) - 1, 0))
-        out[t] = best
-    return out
+from .vanilla import collapse_records
 
 
 class SequenceReference:
     """The plain quadric collapse sequence of a fresh simplifier state ``st`` (collapsed here: pass one of
-    its own; ``tri_pos``: its triangles' positions): its running maximum error (a distance, ``sqrt`` of the
-    quadric cost, as :meth:`swpm_usd.simplify.CollapseSequence.lod_errors` without the fan deviation) once
-    a given number of triangles is left (:meth:`error_at`)."""
+    its own; ``triangles``: the mesh's, in its vertex ids): its running maximum error (a distance, ``sqrt``
+    of the quadric cost, as :meth:`swpm_usd.simplify.CollapseSequence.lod_errors` without the fan
+    deviation) once a given number of triangles is left (:meth:`error_at`)."""
 
-    def __init__(self, st: K.CollapseState, tri_pos: np.ndarray) -> None:
-        _, _, _, step_error, step_b, step_k = K.run_sequence(st, 3, False)
+    def __init__(self, st: K.CollapseState, triangles: np.ndarray) -> None:
+        binned, kept, step, step_error, _, _ = K.run_sequence(st, 3, False)
         S = step_error.shape[0]
-        die = death_steps(
-            np.ascontiguousarray(tri_pos, np.int64), step_b.astype(np.int64), step_k.astype(np.int64),
-            st.pos_points.shape[0],
-        )  # fmt: skip
-        gone = np.cumsum(np.bincount(die, minlength=S + 1)[:S])  # gone after s + 1 steps
+        # the triangles each vertex collapse removes, as the vanilla encoding replays them
+        _, removed, _, _ = collapse_records(triangles, binned, kept, st.vertex_pos.shape[0])
+        tri_after = triangles.shape[0] - np.r_[0, np.cumsum(removed)]
+        steps_done = np.r_[0, np.cumsum(np.bincount(step, minlength=S))]  # vertex collapses after s steps
         #: triangles left after ``s`` steps and the running maximum error then (``s = 0 .. S``)
-        self.alive = np.r_[tri_pos.shape[0], tri_pos.shape[0] - gone]
+        self.alive = tri_after[steps_done]
         self.error = np.r_[0.0, np.maximum.accumulate(step_error)] if S else np.zeros(1)
 
     def error_at(self, triangles: float) -> float:

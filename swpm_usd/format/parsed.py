@@ -103,15 +103,7 @@ class _Parsed:
 
     def first_missing(self, start: int, end: int) -> int:
         """The first byte of [start, end) not held (``end`` when every one is)."""
-        if self.held is None:
-            return min(max(int(self.buf.shape[0]), start), end)
-        at = start
-        while at < end:
-            nxt = self.held.run_end(at)
-            if nxt == at:
-                return at
-            at = nxt
-        return end
+        return min(self.held_end(start), end)  # (the spans are merged: a run ends at a byte not held)
 
     def nonzero(self, start: int, end: int) -> bool:
         """Whether a byte of [start, end) at hand is non-zero (padding, spec 1): reading ranges only the held
