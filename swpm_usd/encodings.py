@@ -125,4 +125,32 @@ def combination_problem(encoding: str, params: dict[str, Any]) -> str | None:
     bound = p.get("error_bound")
     if isinstance(bound, numbers.Real) and not isinstance(bound, bool) and builder != "topology":
         return "error_bound needs builder='topology'"
+    if builder != "topology":
+        for name in TOPOLOGY_ONLY_PARAMS:  # (ignored, silently, and recorded in the file's params)
+            if name in params and not _is_default(params[name], SLIDING_WINDOW_PARAMS[name]):
+                return f"{name} needs builder='topology'"
     return None
+
+
+#: the sliding-window parameters only the topology builder reads (its patches and their order), which
+#: ``builder="forsyth"`` refuses set to anything but their default; ``cluster``, ``order_passes`` and
+#: ``error_bound`` have rules of their own above
+TOPOLOGY_ONLY_PARAMS = (
+    "mu",
+    "inner_vertices",
+    "absorb_middle",
+    "absorb_rounds",
+    "target_slack",
+    "order_reach",
+)
+
+
+def _is_default(value: Any, default: Any) -> bool:
+    """``value`` equal to ``default`` and of its kind (numpy's too): ``1`` is not ``True``, nor ``True`` 1."""
+    if default is None:
+        return value is None
+    if isinstance(default, bool):  # (numpy's bool is no number)
+        return (isinstance(value, bool) or not isinstance(value, numbers.Number)) and bool(value == default)
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        return False
+    return bool(value == default)

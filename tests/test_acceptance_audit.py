@@ -156,6 +156,13 @@ COMBINATIONS = [
     (["cluster=true", "builder=forsyth"], "cluster=True needs builder='topology'"),
     # (Forsyth's builder ignored the bound and recorded it in the file's params all the same)
     (["builder=forsyth", "error_bound=4"], "error_bound needs builder='topology'"),
+    # (Forsyth's builder ignored these too, silently: target_slack recorded, the bytes the default's)
+    (["builder=forsyth", "target_slack=0.5"], "target_slack needs builder='topology'"),
+    (["builder=forsyth", "mu=0.2"], "mu needs builder='topology'"),
+    (["builder=forsyth", "inner_vertices=3"], "inner_vertices needs builder='topology'"),
+    (["builder=forsyth", "absorb_middle=false"], "absorb_middle needs builder='topology'"),
+    (["builder=forsyth", "absorb_rounds=0"], "absorb_rounds needs builder='topology'"),
+    (["builder=forsyth", "order_reach=3"], "order_reach needs builder='topology'"),
 ]
 
 
@@ -190,6 +197,8 @@ def test_a_combination_the_builder_takes_is_taken(tmp_path):
         ["builder=forsyth", "order_passes=0"],
         ["mu=0.2"],
         ["builder=forsyth", "error_bound=null"],
+        ["builder=forsyth", "target_slack=null", "mu=0.1", "order_reach=2"],  # (each its default)
+        ["builder=forsyth", "tolerance=0.5", "cache_size=12", "primitive=strip"],  # (what it uses)
         ["cluster=true", "error_bound=4"],
     ):
         args = ["build", str(mesh), "-e", "sliding-window", "--rows", "2"]

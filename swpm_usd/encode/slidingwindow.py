@@ -45,7 +45,8 @@ choice, what was measured and what was tried and dropped):
   error at the level's expected end are barred too (:mod:`.sw_bound`; pool for error on the meshes whose
   levels take collapses far dearer than the quadric order's; ``builder="forsyth"`` refuses it).
 * ``builder="forsyth"``: Forsyth's quadric-error order with the error-tolerance reordering
-  (:mod:`.sw_forsyth`).
+  (:mod:`.sw_forsyth`); the topology builder's own parameters (``encodings.TOPOLOGY_ONLY_PARAMS``,
+  ``cluster``, ``order_passes``, ``error_bound``) are refused with it unless left at their defaults.
 * ``optimize_connectivity=True`` (SWPM 3.1): edge swaps creating low-degree vertices first, each moving the
   surface by at most ``swap_max_deviation`` of the bounding-box diagonal (:mod:`.sw_swaps`).
 * ``cluster=True`` (SWPM 3.2): a level's patches read out of the previous level's tail, so consecutive
@@ -762,6 +763,13 @@ def build_sliding_window(
             "cluster": bool(cluster),
             "order_passes": int(order_passes),
             "error_bound": error_bound,
+            # (Forsyth's builder reads none of these: refused unless each is its default)
+            "mu": mu,
+            "inner_vertices": inner_vertices,
+            "absorb_middle": absorb_middle,
+            "absorb_rounds": absorb_rounds,
+            "target_slack": target_slack,
+            "order_reach": order_reach,
         },
     )
     if problem:
