@@ -125,6 +125,30 @@ def test_an_off_header_trimesh_refuses_is_named_with_its_line(tmp_path: Path, ed
     _refused(tmp_path / "m.off", edit(data), says)
 
 
+@pytest.mark.parametrize(
+    ("edit", "says"),
+    [
+        (lambda d: d[: d.index(b"3 0 3 2")], "the header declares 4 faces, the file has 2"),
+        (lambda d: d[: d.index(b"3 0 3 2") + 5], "line 9: face 2 declares 3 corners and lists 2 values"),
+        (lambda d: d.replace(b"3 0 2 1", b"4 0 2 1", 1), "line 7: face 0 declares 4 corners and lists 3"),
+        (lambda d: d.replace(b"3 0 2 1", b"2000000000 0 2 1", 1), "face 0 declares 2000000000 corners"),
+    ],
+    ids=["cut-at-a-row", "cut-in-a-row", "corner-missing", "huge-corner-count"],
+)
+def test_an_off_file_cut_in_its_faces_is_refused(tmp_path: Path, edit, says: str) -> None:
+    """trimesh reads the face rows there are, and of each the indices there are: a file cut in its faces
+    loaded as a smaller mesh (2 triangles of 4), no word said, where a cut PLY or STL is refused."""
+    data = _export("off")
+    assert data.endswith(b"3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"), data[-40:]
+    _refused(tmp_path / "m.off", edit(data), says)
+    assert load_mesh_ok(tmp_path / "whole.off", data).triangle_count == 4
+
+
+def load_mesh_ok(path: Path, data: bytes):
+    path.write_bytes(data)
+    return load_mesh(path)
+
+
 @pytest.mark.parametrize("encoding", ["binary", "ascii"])
 def test_a_ply_comment_holding_end_header_is_named(tmp_path: Path, encoding: str) -> None:
     """trimesh ends the header at any line holding the word (and then misreads the rest: "PLY is unexpected

@@ -60,6 +60,37 @@ def _off_problem(data: bytes) -> str | None:
     return None
 
 
+def _off_short(data: bytes) -> str | None:
+    """What an OFF file of bytes ``data`` that trimesh read lacks, or None: face rows past its last (the
+    header's count more than the file holds: a cut file) or a face row listing fewer indices than it
+    declares. trimesh takes what there is (its slice of rows, each row's slice of indices), so a file cut
+    in its faces loaded as a smaller mesh, no word said. Its other problems are :func:`_off_problem`'s
+    (asked when trimesh fails); faces of fewer than 3 corners trimesh drops are left to it."""
+    rows = _numbered_rows(data)
+    first = next(rows, None)
+    if first is None:
+        return None
+    counts = first[1][1:] if len(first[1]) > 1 else next(rows, (0, []))[1]
+    try:
+        n_vertices, n_faces = int(counts[0]), int(counts[1])
+    except (IndexError, ValueError):
+        return None  # (trimesh read it: nothing of ours to say)
+    for _ in range(max(n_vertices, 0)):
+        if next(rows, None) is None:
+            return None  # (trimesh checks the vertices' count)
+    for k in range(max(n_faces, 0)):
+        number, words = next(rows, (None, []))
+        if number is None:
+            return f"the header declares {n_faces} faces, the file has {k}"
+        try:
+            declared = int(words[0])
+        except ValueError:
+            continue
+        if len(words) - 1 < declared:
+            return f"line {number}: face {k} declares {declared} corners and lists {len(words) - 1} values"
+    return None
+
+
 def _off_rows(data: bytes) -> Iterator[list[bytes]]:
     """The tokens of each non-empty line of an OFF file, comments left out, lazily."""
     for line in io.BytesIO(data):

@@ -65,6 +65,7 @@ from .obj import (
 from .off import (
     _off_colours,
     _off_problem,
+    _off_short,
 )
 from .ply import _ply_ascii_problem, _ply_header_problem, ply_polygons_as_triangles, ply_problem
 from .stl import _STL_HEADER_BYTES, _STL_TRIANGLE_BYTES, _stl_ascii_problem, check_stl
@@ -188,6 +189,9 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
                 scene = _trimesh().load_scene(
                     io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
                 )
+            problem = _off_short(data) if file_type == "off" else None  # (a cut file loaded as less)
+            if problem is not None:
+                raise MeshLoadError(path, f"not a valid OFF file: {problem}")
         elif file_type == "glb" and (problem := glb_chunk_problem(path)) is not None:
             check_glb_json(path)  # (its JSON's problem first, when its chunk is whole: as a whole file's)
             raise MeshLoadError(path, _glb_length_problem(path) or problem)  # ("truncated" when it is)
