@@ -252,3 +252,24 @@ def test_a_gltf_primitive_without_position_is_named(tmp_path: Path, suffix: str,
         out = struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body
     with pytest.warns(UserWarning, match=r"meshes\[0\]\.primitives\[0\] without a POSITION attribute"):
         _refused(tmp_path / f"m{suffix}", out, "no triangles")
+
+
+@pytest.mark.parametrize(
+    ("face", "says"),
+    [
+        (b"f 0 3 2", "line 8: face corner '0' refers to vertex 0, the file has 4"),
+        (b"f 1 3 00", "line 8: face corner '00' refers to vertex 0, the file has 4"),
+        (b"f 1/1 -0/2 2/3", "line 8: face corner '-0/2' refers to vertex 0, the file has 4"),
+    ],
+    ids=["zero", "zeros", "minus-zero"],
+)
+def test_an_obj_face_corner_of_vertex_index_0_is_refused(tmp_path: Path, face: bytes, says: str) -> None:
+    """OBJ counts vertices from 1 (and back from -1); trimesh read an index 0 as the first vertex, so
+    ``f 0 3 2`` loaded as the triangle of vertices 1, 3, 2, no word said."""
+    head = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 0 1\n"
+    slash = b"/" in face
+    fine, rest = (b"f 1/1 3/2 2/3", b"f 1/1 2/2 4/3\n") if slash else (b"f 1 3 2", b"f 1 2 4\n")
+    _refused(tmp_path / "m.obj", head + face + b"\n" + rest, says)
+    # the same file with index 1: the zeros of its v and vt rows and of a comment are no vertex index
+    ok = head + b"# f 0 1 2\n" + fine + b"\n" + rest + rest.replace(b"1", b"3", 1)
+    assert load_mesh_ok(tmp_path / "ok.obj", ok).triangle_count == 3

@@ -60,6 +60,7 @@ from .obj import (
     _OBJ_FACE_LINE,
     _obj_faces_in_numpy,
     _obj_problem,
+    _obj_zero_corner,
     _report_dropped_obj_attributes,
 )
 from .off import (
@@ -189,9 +190,10 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
                 scene = _trimesh().load_scene(
                     io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
                 )
-            problem = _off_short(data) if file_type == "off" else None  # (a cut file loaded as less)
+            # (a cut OFF loaded as a smaller mesh; an OBJ's index 0 as its first vertex)
+            problem = _off_short(data) if file_type == "off" else _obj_zero_corner(data)
             if problem is not None:
-                raise MeshLoadError(path, f"not a valid OFF file: {problem}")
+                raise MeshLoadError(path, f"not a valid {file_type.upper()} file: {problem}")
         elif file_type == "glb" and (problem := glb_chunk_problem(path)) is not None:
             check_glb_json(path)  # (its JSON's problem first, when its chunk is whole: as a whole file's)
             raise MeshLoadError(path, _glb_length_problem(path) or problem)  # ("truncated" when it is)
