@@ -125,10 +125,25 @@ def combination_problem(encoding: str, params: dict[str, Any]) -> str | None:
     bound = p.get("error_bound")
     if isinstance(bound, numbers.Real) and not isinstance(bound, bool) and builder != "topology":
         return "error_bound needs builder='topology'"
+    # the parameters set to other than their default, which a build that ignores them refuses (it ignored
+    # them, silently, and ``swpm_usd.build`` recorded them in the file's params)
+    given = {
+        name
+        for name, value in params.items()
+        if name in SLIDING_WINDOW_PARAMS and not _is_default(value, SLIDING_WINDOW_PARAMS[name])
+    }
     if builder != "topology":
-        for name in TOPOLOGY_ONLY_PARAMS:  # (ignored, silently, and recorded in the file's params)
-            if name in params and not _is_default(params[name], SLIDING_WINDOW_PARAMS[name]):
+        for name in TOPOLOGY_ONLY_PARAMS:
+            if name in given:
                 return f"{name} needs builder='topology'"
+    elif "tolerance" in given:
+        return "tolerance needs builder='forsyth'"
+    if "swap_max_deviation" in given and p["optimize_connectivity"] is False:
+        return "swap_max_deviation needs optimize_connectivity=True"
+    if "absorb_rounds" in given and p["absorb_middle"] is False:
+        return "absorb_rounds needs absorb_middle=True"
+    if "order_reach" in given and (cluster or (isinstance(passes, int) and passes == 0)):
+        return "order_reach needs order_passes > 0 (builder='topology' without cluster)"
     return None
 
 

@@ -163,6 +163,18 @@ COMBINATIONS = [
     (["builder=forsyth", "absorb_middle=false"], "absorb_middle needs builder='topology'"),
     (["builder=forsyth", "absorb_rounds=0"], "absorb_rounds needs builder='topology'"),
     (["builder=forsyth", "order_reach=3"], "order_reach needs builder='topology'"),
+    # (and the other parameters a build ignored, silently, where another one turns their use off)
+    (["tolerance=0.5"], "tolerance needs builder='forsyth'"),
+    (["swap_max_deviation=0.001"], "swap_max_deviation needs optimize_connectivity=True"),
+    (["absorb_middle=false", "absorb_rounds=0"], "absorb_rounds needs absorb_middle=True"),
+    (
+        ["cluster=true", "order_reach=3"],
+        "order_reach needs order_passes > 0 (builder='topology' without cluster)",
+    ),
+    (
+        ["order_passes=0", "order_reach=1"],
+        "order_reach needs order_passes > 0 (builder='topology' without cluster)",
+    ),
 ]
 
 
@@ -199,6 +211,8 @@ def test_a_combination_the_builder_takes_is_taken(tmp_path):
         ["builder=forsyth", "error_bound=null"],
         ["builder=forsyth", "target_slack=null", "mu=0.1", "order_reach=2"],  # (each its default)
         ["builder=forsyth", "tolerance=0.5", "cache_size=12", "primitive=strip"],  # (what it uses)
+        ["tolerance=0.1", "swap_max_deviation=0.0005", "order_passes=0", "order_reach=2"],  # (defaults)
+        ["optimize_connectivity=true", "swap_max_deviation=0.001", "absorb_rounds=0", "order_reach=3"],
         ["cluster=true", "error_bound=4"],
     ):
         args = ["build", str(mesh), "-e", "sliding-window", "--rows", "2"]

@@ -755,6 +755,8 @@ def build_sliding_window(
         raise BuildError(
             f"order_passes must be None or an integer in [0, {MAX_ORDER_PASSES}], got {order_passes!r}"
         )
+    if not _is_integer(order_reach) or not 1 <= order_reach <= MAX_ORDER_REACH:
+        raise BuildError(f"order_reach must be an integer in [1, {MAX_ORDER_REACH}], got {order_reach!r}")
     # (the command line and a config refuse these combinations before any mesh is read, in these words)
     problem = combination_problem(
         "sliding-window",
@@ -763,7 +765,10 @@ def build_sliding_window(
             "cluster": bool(cluster),
             "order_passes": int(order_passes),
             "error_bound": error_bound,
-            # (Forsyth's builder reads none of these: refused unless each is its default)
+            # (each refused where the build would ignore it, unless it is its default)
+            "tolerance": tolerance,
+            "optimize_connectivity": optimize_connectivity,
+            "swap_max_deviation": swap_max_deviation,
             "mu": mu,
             "inner_vertices": inner_vertices,
             "absorb_middle": absorb_middle,
@@ -774,8 +779,6 @@ def build_sliding_window(
     )
     if problem:
         raise BuildError(problem)
-    if not _is_integer(order_reach) or not 1 <= order_reach <= MAX_ORDER_REACH:
-        raise BuildError(f"order_reach must be an integer in [1, {MAX_ORDER_REACH}], got {order_reach!r}")
     if primitive not in PRIMITIVES:
         raise BuildError(f"primitive must be one of {PRIMITIVES}, got {primitive!r}")
     if not _is_integer(strip_window) or not 1 <= strip_window <= MAX_STRIP_WINDOW:
