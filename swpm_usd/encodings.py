@@ -110,6 +110,8 @@ def combination_problem(encoding: str, params: dict[str, Any]) -> str | None:
     config's ``params`` check with the values' bounds, a usage error before any mesh is read (``-p
     builder=forsyth -p order_passes=1`` read the mesh and failed at the build, exit 1; a config passed
     ``--dry-run`` and failed every asset). A value of the wrong type is left to the check of its own."""
+    if encoding == "skip-strip":
+        return _strip_only_problem(SKIPSTRIP_PARAMS, params)
     if encoding != "sliding-window":
         return None
     p = {**SLIDING_WINDOW_PARAMS, **params}
@@ -144,6 +146,17 @@ def combination_problem(encoding: str, params: dict[str, Any]) -> str | None:
         return "absorb_rounds needs absorb_middle=True"
     if "order_reach" in given and (cluster or (isinstance(passes, int) and passes == 0)):
         return "order_reach needs order_passes > 0 (builder='topology' without cluster)"
+    return _strip_only_problem(SLIDING_WINDOW_PARAMS, params)
+
+
+def _strip_only_problem(defaults: dict[str, Any], params: dict[str, Any]) -> str | None:
+    """``restart`` or ``strip_window`` set to other than its default with ``primitive="list"``, which builds
+    no strip (each was ignored, silently, and recorded in the file's params), or None."""
+    if {**defaults, **params}["primitive"] != "list":
+        return None
+    for name in ("restart", "strip_window"):
+        if name in params and name in defaults and not _is_default(params[name], defaults[name]):
+            return f"{name} needs primitive='strip'"
     return None
 
 

@@ -757,6 +757,10 @@ def build_sliding_window(
         )
     if not _is_integer(order_reach) or not 1 <= order_reach <= MAX_ORDER_REACH:
         raise BuildError(f"order_reach must be an integer in [1, {MAX_ORDER_REACH}], got {order_reach!r}")
+    if primitive not in PRIMITIVES:
+        raise BuildError(f"primitive must be one of {PRIMITIVES}, got {primitive!r}")
+    if not _is_integer(strip_window) or not 1 <= strip_window <= MAX_STRIP_WINDOW:
+        raise BuildError(f"strip_window must be an integer in [1, {MAX_STRIP_WINDOW}], got {strip_window!r}")
     # (the command line and a config refuse these combinations before any mesh is read, in these words)
     problem = combination_problem(
         "sliding-window",
@@ -775,14 +779,12 @@ def build_sliding_window(
             "absorb_rounds": absorb_rounds,
             "target_slack": target_slack,
             "order_reach": order_reach,
+            "primitive": primitive,
+            "strip_window": strip_window,
         },
     )
     if problem:
         raise BuildError(problem)
-    if primitive not in PRIMITIVES:
-        raise BuildError(f"primitive must be one of {PRIMITIVES}, got {primitive!r}")
-    if not _is_integer(strip_window) or not 1 <= strip_window <= MAX_STRIP_WINDOW:
-        raise BuildError(f"strip_window must be an integer in [1, {MAX_STRIP_WINDOW}], got {strip_window!r}")
     if optimize_connectivity:
         mesh = optimize_mesh_connectivity(mesh, max_deviation=swap_max_deviation)
     topo = mesh_topology(mesh)
