@@ -273,3 +273,22 @@ def test_an_obj_face_corner_of_vertex_index_0_is_refused(tmp_path: Path, face: b
     # the same file with index 1: the zeros of its v and vt rows and of a comment are no vertex index
     ok = head + b"# f 0 1 2\n" + fine + b"\n" + rest + rest.replace(b"1", b"3", 1)
     assert load_mesh_ok(tmp_path / "ok.obj", ok).triangle_count == 3
+
+
+@pytest.mark.parametrize(
+    ("edit", "says"),
+    [
+        (lambda d: d[:-4], "line 18: face 3 declares 3 values and lists 1"),
+        (lambda d: d.replace(b"\n3 0 2 1", b"\n4 0 2 1", 1), "line 15: face 0 declares 4 values and lists 3"),
+        (lambda d: d.replace(b"\n3 0 1 3", b"\n3", 1), "line 16: face 1 declares 3 values and lists 0"),
+    ],
+    ids=["cut-in-the-last-row", "corner-missing", "corners-missing"],
+)
+def test_an_ascii_ply_face_row_short_of_its_count_is_refused(tmp_path: Path, edit, says: str) -> None:
+    """trimesh reads an ASCII PLY a row a line and takes the values there are: ``4 0 2 1`` loaded as the
+    triangle 0 2 1, and a file cut inside its last row (as many lines as rows) without that face, silently."""
+    data = _export("ply", encoding="ascii")
+    assert data.endswith(b"\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"), data[-40:]
+    problem = _refused(tmp_path / "m.ply", edit(data), says)
+    assert problem.startswith("not a valid PLY file: ")
+    assert load_mesh_ok(tmp_path / "whole.ply", data).triangle_count == 4

@@ -68,7 +68,13 @@ from .off import (
     _off_problem,
     _off_short,
 )
-from .ply import _ply_ascii_problem, _ply_header_problem, ply_polygons_as_triangles, ply_problem
+from .ply import (
+    _ply_ascii_problem,
+    _ply_header_problem,
+    ply_ascii_short,
+    ply_polygons_as_triangles,
+    ply_problem,
+)
 from .stl import _STL_HEADER_BYTES, _STL_TRIANGLE_BYTES, _stl_ascii_problem, check_stl
 from .trimesh_scene import _geometry_part, _geometry_transforms, _node_instances
 
@@ -162,7 +168,7 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
             scene = _trimesh().load_scene(str(path), file_type=file_type, process=False)
         elif file_type == "ply":
             data = path.read_bytes()
-            problem = ply_problem(data, ascii_only=True)
+            problem = ply_problem(data, ascii_only=True) or ply_ascii_short(data)
             if problem is not None:
                 raise MeshLoadError(path, problem)
             triangulated = ply_polygons_as_triangles(data)
