@@ -292,3 +292,24 @@ def test_an_ascii_ply_face_row_short_of_its_count_is_refused(tmp_path: Path, edi
     problem = _refused(tmp_path / "m.ply", edit(data), says)
     assert problem.startswith("not a valid PLY file: ")
     assert load_mesh_ok(tmp_path / "whole.ply", data).triangle_count == 4
+
+
+def test_the_numpy_gate_of_the_off_check_never_passes_what_its_loop_refuses() -> None:
+    """``_off_whole`` (numpy) lets a file through only when ``_off_short``'s loop finds nothing: every cut of
+    an OFF file of triangles and a quad, and every face row's count changed, blank lines and CRLF too."""
+    from swpm_usd.io.off import _off_problem, _off_short, _off_whole
+
+    whole = b"OFF\n\n5 3 0\n0 0 0\n1 0 0\n0 1 0\r\n1 1 0\n\n0 0 1\n3 0 1 2\n4 1 3 2 4 255 0 0\n3 0 2 4\n"
+    assert _off_whole(whole) and _off_short(whole) is None and _off_problem(whole) is None
+    variants = [whole[:n] for n in range(len(whole))]
+    rows = whole.split(b"\n")
+    for i, r in enumerate(rows):
+        if r[:1] in (b"3", b"4"):
+            for c in (b"2", b"4", b"5", b"40", b"x", b"-3", b"+3", b"999999999999"):
+                variants.append(b"\n".join([*rows[:i], c + r[1:], *rows[i + 1 :]]))
+    refused = 0
+    for v in variants:
+        if _off_whole(v):
+            assert _off_short(v) is None, v
+        refused += _off_short(v) is not None
+    assert refused > len(whole) // 2  # (the loop refuses most: the gate did not hide them)
