@@ -313,3 +313,22 @@ def test_the_numpy_gate_of_the_off_check_never_passes_what_its_loop_refuses() ->
             assert _off_short(v) is None, v
         refused += _off_short(v) is not None
     assert refused > len(whole) // 2  # (the loop refuses most: the gate did not hide them)
+
+
+@pytest.mark.parametrize(
+    ("edit", "says"),
+    [
+        (
+            lambda d: d.replace(b"v 1 0 0\n", b"v 1 0 0 # x\n", 1),
+            "line 2: a comment after a 'v' row's values ('# x')",
+        ),
+        (lambda d: d + b"f 1 2 3 # the last\n", "line 9: a comment after a 'f' row's values ('# the last')"),
+    ],
+    ids=["vertex", "face"],
+)
+def test_an_obj_comment_after_a_rows_values_is_named_with_its_line(tmp_path: Path, edit, says: str) -> None:
+    """trimesh fails on it ("string or file could not be read to its end due to unmatched data"), and the
+    row check, which leaves comments out, found nothing: the message was trimesh's."""
+    data = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+    assert load_mesh_ok(tmp_path / "whole.obj", b"# a comment line\n" + data).triangle_count == 4
+    _refused(tmp_path / "m.obj", edit(data), says)

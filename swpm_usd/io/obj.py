@@ -26,6 +26,14 @@ def _obj_problem(data: bytes) -> str | None:
     number, or too few; a face corner whose index is not an integer, or refers to no vertex), or None (asked
     once trimesh has failed on it: "string or file could not be read to its end due to unmatched data",
     "invalid literal for int() with base 10", "index 3000 is out of bounds for axis 0")."""
+    for number, line in enumerate(data.split(b"\n"), 1):  # (trimesh takes the comment for values)
+        values, hash_, comment = line.partition(b"#")
+        key = values.split()[:1]
+        if hash_ and key and key[0] in (b"v", b"vt", b"vn", b"f"):
+            return (
+                f"line {number}: a comment after a '{key[0].decode()}' row's values "
+                f"({_shown(hash_ + comment)}): trimesh reads one only on a line of its own"
+            )
     vertices = 0
     for number, words in _numbered_rows(data):
         key = words[0]
