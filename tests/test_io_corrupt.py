@@ -332,3 +332,50 @@ def test_an_obj_comment_after_a_rows_values_is_named_with_its_line(tmp_path: Pat
     data = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
     assert load_mesh_ok(tmp_path / "whole.obj", b"# a comment line\n" + data).triangle_count == 4
     _refused(tmp_path / "m.obj", edit(data), says)
+
+
+def _gltf_doc(indices: list[int] | None, mode: int | None = None) -> bytes:
+    """A glTF of the tetrahedron's points (embedded buffer), with ``indices`` (None: none) and ``mode``."""
+    import base64
+    import json
+
+    pb = POINTS.astype(np.float32).tobytes()
+    ib = b"" if indices is None else np.array(indices, np.uint32).tobytes()
+    buf = pb + ib
+    prim: dict = {"attributes": {"POSITION": 0}}
+    accessors = [
+        {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0] * 3, "max": [1] * 3}
+    ]
+    views = [{"buffer": 0, "byteOffset": 0, "byteLength": len(pb)}]
+    if indices is not None:
+        prim["indices"] = 1
+        accessors.append({"bufferView": 1, "componentType": 5125, "count": len(indices), "type": "SCALAR"})
+        views.append({"buffer": 0, "byteOffset": len(pb), "byteLength": len(ib)})
+    if mode is not None:
+        prim["mode"] = mode
+    uri = "data:application/octet-stream;base64," + base64.b64encode(buf).decode()
+    doc = {
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [prim]}],
+        "accessors": accessors,
+        "bufferViews": views,
+        "buffers": [{"byteLength": len(buf), "uri": uri}],
+    }
+    return json.dumps(doc).encode()
+
+
+def test_a_gltf_triangle_list_of_a_count_not_a_multiple_of_3_is_named(tmp_path: Path) -> None:
+    """trimesh's words were "cannot reshape array of size 5 into shape (3)"."""
+    assert load_mesh_ok(tmp_path / "whole.gltf", _gltf_doc(FACES.ravel().tolist())).triangle_count == 4
+    _refused(
+        tmp_path / "m.gltf",
+        _gltf_doc(FACES.ravel().tolist()[:5]),
+        "meshes[0].primitives[0]: its 5 indices (accessors[1]) are not a whole number of triangles",
+    )
+    _refused(
+        tmp_path / "n.gltf",
+        _gltf_doc(None),
+        "meshes[0].primitives[0]: its 4 POSITION values (no indices) (accessors[0]) are not a whole number",
+    )
