@@ -379,3 +379,39 @@ def test_a_gltf_triangle_list_of_a_count_not_a_multiple_of_3_is_named(tmp_path: 
         _gltf_doc(None),
         "meshes[0].primitives[0]: its 4 POSITION values (no indices) (accessors[0]) are not a whole number",
     )
+
+
+@pytest.mark.parametrize(
+    ("file_type", "edit", "says"),
+    [
+        (
+            "ply",
+            lambda d: b"ply\nformat weird 1.0\nend_header\n",
+            "line 2: 'format weird 1.0' is not a PLY",
+        ),
+        (
+            "off",
+            lambda d: d.replace(b"4 4 0", b"-4 4 0", 1),
+            "line 2: the counts line '-4 4 0' holds a negative count",
+        ),
+        (
+            "off",
+            lambda d: d.replace(b"4 4 0", b"-4 0 0", 1)[:10],
+            "line 2: the counts line '-4 0 0' holds a negative",
+        ),
+        (
+            "off",
+            lambda d: d.replace(b"4 4 0", b"4 -4 0", 1),
+            "line 2: the counts line '4 -4 0' holds a negative count",
+        ),
+    ],
+    ids=["ply-format", "off-vertices", "off-vertices-only", "off-faces"],
+)
+def test_a_header_trimesh_reads_as_holding_nothing_is_named(
+    tmp_path: Path, file_type: str, edit, says: str
+) -> None:
+    """trimesh read these headers as ones of no rows: the error was "no triangles: the file holds no triangle
+    geometry" (INPUT_EMPTY), or the header's face count against none found."""
+    data = _export(file_type, **({"encoding": "ascii"} if file_type == "ply" else {}))
+    problem = _refused(tmp_path / f"m.{file_type}", edit(data), says)
+    assert problem.startswith(f"not a valid {file_type.upper()} file: "), problem

@@ -35,6 +35,8 @@ def _off_problem(data: bytes) -> str | None:
             int(counts[2])  # (the edge count: trimesh reads it as a whole number too)
     except (IndexError, ValueError):
         return f"line {number}: the counts line {_shown(b' '.join(counts))} is not vertices, faces, edges"
+    if n_vertices < 0 or n_faces < 0:  # (trimesh read none: "no triangles")
+        return f"line {number}: the counts line {_shown(b' '.join(counts))} holds a negative count"
     for k in range(n_vertices):
         number, words = next(rows, (None, []))
         if number is None:
@@ -72,11 +74,13 @@ def _off_short(data: bytes) -> str | None:
     first = next(rows, None)
     if first is None:
         return None
-    counts = first[1][1:] if len(first[1]) > 1 else next(rows, (0, []))[1]
+    number, counts = (first[0], first[1][1:]) if len(first[1]) > 1 else next(rows, (0, []))
     try:
         n_vertices, n_faces = int(counts[0]), int(counts[1])
     except (IndexError, ValueError):
         return None  # (trimesh read it: nothing of ours to say)
+    if n_vertices < 0 or n_faces < 0:
+        return f"line {number}: the counts line {_shown(b' '.join(counts))} holds a negative count"
     for _ in range(max(n_vertices, 0)):
         if next(rows, None) is None:
             return None  # (trimesh checks the vertices' count)

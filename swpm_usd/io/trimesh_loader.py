@@ -97,6 +97,30 @@ _ROW_PROBLEMS: dict[str, Callable[[bytes], str | None]] = {
 }
 
 
+def _ply_format_problem(data: bytes) -> str | None:
+    """:func:`_ply_header_problem` of a PLY file trimesh read as holding nothing, or None."""
+    try:
+        return _ply_header_problem(data)
+    except Exception:  # noqa: BLE001 - (a look for the message: "no triangles" is said without it)
+        return None
+
+
+def _off_counts_problem(data: bytes) -> str | None:
+    """:func:`_off_problem` of an OFF file trimesh read as holding nothing, when it is its counts line's."""
+    try:
+        problem = _off_problem(data)
+    except Exception:  # noqa: BLE001 - (a look for the message: "no triangles" is said without it)
+        return None
+    return f"not a valid OFF file: {problem}" if problem and "the counts line" in problem else None
+
+
+#: the check of a file trimesh read as holding no triangles, by type: a header it took as one of no rows
+_no_rows_problems: dict[str, Callable[[bytes], str | None]] = {
+    "ply": _ply_format_problem,
+    "off": _off_counts_problem,
+}
+
+
 def _read_problem(path: Path, check: Callable[[bytes], str | None]) -> str | None:
     """``check`` of the bytes of ``path``, or None when it cannot be read again."""
     try:
@@ -285,6 +309,12 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
             raise MeshLoadError(path, f"its {INSTANCING} nodes could not be read ({e})") from e
         raise MeshLoadError(path, f"trimesh could not read it ({type(e).__name__}: {e})") from e
     if not parts:
+        # (a header trimesh read as one of no rows: 'format weird 1.0', a count of -3)
+        problem = (
+            _read_problem(path, _no_rows_problems[file_type]) if file_type in _no_rows_problems else None
+        )
+        if problem is not None:
+            raise MeshLoadError(path, problem)
         raise MeshLoadError(path, "no triangles: the file holds no triangle geometry", code="INPUT_EMPTY")
     if file_type == "obj":
         _report_dropped_obj_attributes(path, data, parts)
