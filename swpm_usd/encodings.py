@@ -134,11 +134,11 @@ def combination_problem(encoding: str, params: dict[str, Any]) -> str | None:
         for name, value in params.items()
         if name in SLIDING_WINDOW_PARAMS and not _is_default(value, SLIDING_WINDOW_PARAMS[name])
     }
-    if builder != "topology":
+    if builder == "forsyth":  # (an unknown builder is its own check's)
         for name in TOPOLOGY_ONLY_PARAMS:
             if name in given:
                 return f"{name} needs builder='topology'"
-    elif "tolerance" in given:
+    elif builder == "topology" and "tolerance" in given:
         return "tolerance needs builder='forsyth'"
     if "swap_max_deviation" in given and p["optimize_connectivity"] is False:
         return "swap_max_deviation needs optimize_connectivity=True"
