@@ -110,6 +110,8 @@ def combination_problem(encoding: str, params: dict[str, Any]) -> str | None:
     config's ``params`` check with the values' bounds, a usage error before any mesh is read (``-p
     builder=forsyth -p order_passes=1`` read the mesh and failed at the build, exit 1; a config passed
     ``--dry-run`` and failed every asset). A value of the wrong type is left to the check of its own."""
+    if encoding == "skip-strip":
+        return _strip_only_problem(SKIPSTRIP_PARAMS, params)
     if encoding != "sliding-window":
         return None
     p = {**SLIDING_WINDOW_PARAMS, **params}
@@ -125,4 +127,58 @@ def combination_problem(encoding: str, params: dict[str, Any]) -> str | None:
     bound = p.get("error_bound")
     if isinstance(bound, numbers.Real) and not isinstance(bound, bool) and builder != "topology":
         return "error_bound needs builder='topology'"
+    # the parameters set to other than their default, which a build that ignores them refuses (it ignored
+    # them, silently, and ``swpm_usd.build`` recorded them in the file's params)
+    given = {
+        name
+        for name, value in params.items()
+        if name in SLIDING_WINDOW_PARAMS and not _is_default(value, SLIDING_WINDOW_PARAMS[name])
+    }
+    if builder == "forsyth":  # (an unknown builder is its own check's)
+        for name in TOPOLOGY_ONLY_PARAMS:
+            if name in given:
+                return f"{name} needs builder='topology'"
+    elif builder == "topology" and "tolerance" in given:
+        return "tolerance needs builder='forsyth'"
+    if "swap_max_deviation" in given and p["optimize_connectivity"] is False:
+        return "swap_max_deviation needs optimize_connectivity=True"
+    if "absorb_rounds" in given and p["absorb_middle"] is False:
+        return "absorb_rounds needs absorb_middle=True"
+    if "order_reach" in given and (cluster or (isinstance(passes, int) and passes == 0)):
+        return "order_reach needs order_passes > 0 (builder='topology' without cluster)"
+    return _strip_only_problem(SLIDING_WINDOW_PARAMS, params)
+
+
+def _strip_only_problem(defaults: dict[str, Any], params: dict[str, Any]) -> str | None:
+    """``restart`` or ``strip_window`` set to other than its default with ``primitive="list"``, which builds
+    no strip (each was ignored, silently, and recorded in the file's params), or None."""
+    if {**defaults, **params}["primitive"] != "list":
+        return None
+    for name in ("restart", "strip_window"):
+        if name in params and name in defaults and not _is_default(params[name], defaults[name]):
+            return f"{name} needs primitive='strip'"
     return None
+
+
+#: the sliding-window parameters only the topology builder reads (its patches and their order), which
+#: ``builder="forsyth"`` refuses set to anything but their default; ``cluster``, ``order_passes`` and
+#: ``error_bound`` have rules of their own above
+TOPOLOGY_ONLY_PARAMS = (
+    "mu",
+    "inner_vertices",
+    "absorb_middle",
+    "absorb_rounds",
+    "target_slack",
+    "order_reach",
+)
+
+
+def _is_default(value: Any, default: Any) -> bool:
+    """``value`` equal to ``default`` and of its kind (numpy's too): ``1`` is not ``True``, nor ``True`` 1."""
+    if default is None:
+        return value is None
+    if isinstance(default, bool):  # (numpy's bool is no number)
+        return (isinstance(value, bool) or not isinstance(value, numbers.Number)) and bool(value == default)
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        return False
+    return bool(value == default)

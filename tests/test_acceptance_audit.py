@@ -156,6 +156,26 @@ COMBINATIONS = [
     (["cluster=true", "builder=forsyth"], "cluster=True needs builder='topology'"),
     # (Forsyth's builder ignored the bound and recorded it in the file's params all the same)
     (["builder=forsyth", "error_bound=4"], "error_bound needs builder='topology'"),
+    # (Forsyth's builder ignored these too, silently: target_slack recorded, the bytes the default's)
+    (["builder=forsyth", "target_slack=0.5"], "target_slack needs builder='topology'"),
+    (["builder=forsyth", "mu=0.2"], "mu needs builder='topology'"),
+    (["builder=forsyth", "inner_vertices=3"], "inner_vertices needs builder='topology'"),
+    (["builder=forsyth", "absorb_middle=false"], "absorb_middle needs builder='topology'"),
+    (["builder=forsyth", "absorb_rounds=0"], "absorb_rounds needs builder='topology'"),
+    (["builder=forsyth", "order_reach=3"], "order_reach needs builder='topology'"),
+    # (and the other parameters a build ignored, silently, where another one turns their use off)
+    (["tolerance=0.5"], "tolerance needs builder='forsyth'"),
+    (["swap_max_deviation=0.001"], "swap_max_deviation needs optimize_connectivity=True"),
+    (["absorb_middle=false", "absorb_rounds=0"], "absorb_rounds needs absorb_middle=True"),
+    (
+        ["cluster=true", "order_reach=3"],
+        "order_reach needs order_passes > 0 (builder='topology' without cluster)",
+    ),
+    (
+        ["order_passes=0", "order_reach=1"],
+        "order_reach needs order_passes > 0 (builder='topology' without cluster)",
+    ),
+    (["strip_window=8"], "strip_window needs primitive='strip'"),  # (the sliding window's default: list)
 ]
 
 
@@ -183,6 +203,42 @@ def test_a_parameter_combination_the_builder_refuses_is_a_usage_error(tmp_path, 
         swpm_usd.build(str(_write(tmp_path / "g.obj")), encoding="sliding-window", **_values(params))
 
 
+@pytest.mark.parametrize(
+    "params, says",
+    [
+        (["primitive=list", "restart=false"], "restart needs primitive='strip'"),
+        (["primitive=list", "strip_window=8"], "strip_window needs primitive='strip'"),
+    ],
+)
+def test_a_strip_parameter_with_primitive_list_is_a_usage_error(tmp_path, params, says):
+    # skip-strip with primitive=list builds no strip: restart and strip_window were ignored, silently, and
+    # recorded in the file's params
+    args = ["build", str(tmp_path / "missing.obj"), "-e", "skip-strip"]
+    for p in params:
+        args += ["-p", p]
+    result = CliRunner().invoke(main, [*args, "--json"])
+    assert result.exit_code == 2, result.output
+    assert json.loads(result.stdout)["error"] == f"Invalid value for --param: {says}"
+    cfg = tmp_path / "pipeline.yaml"
+    values = ", ".join(p.replace("=", ": ") for p in params)
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\n"
+        f"defaults: {{encoding: skip-strip, params: {{{values}}}}}\n"
+    )
+    result = CliRunner().invoke(main, ["run", str(cfg), "--dry-run"])
+    assert result.exit_code == 2, result.output
+    assert f"params: {says}" in result.stderr
+    kwargs = {k: json.loads(v) if v != "list" else v for k, v in (p.split("=") for p in params)}
+    with pytest.raises(swpm_usd.BuildError, match=says):
+        swpm_usd.build(str(_write(tmp_path / "g.obj")), encoding="skip-strip", **kwargs)
+    for taken in (["primitive=list", "restart=true", "strip_window=4"], ["restart=false", "strip_window=8"]):
+        args = ["build", str(tmp_path / "g.obj"), "-e", "skip-strip", "--rows", "2"]
+        for p in taken:
+            args += ["-p", p]
+        result = CliRunner().invoke(main, args)
+        assert result.exit_code == 0, result.output
+
+
 def test_a_combination_the_builder_takes_is_taken(tmp_path):
     mesh = _write(tmp_path / "g.obj")
     for params in (
@@ -190,6 +246,11 @@ def test_a_combination_the_builder_takes_is_taken(tmp_path):
         ["builder=forsyth", "order_passes=0"],
         ["mu=0.2"],
         ["builder=forsyth", "error_bound=null"],
+        ["builder=forsyth", "target_slack=null", "mu=0.1", "order_reach=2"],  # (each its default)
+        ["builder=forsyth", "tolerance=0.5", "cache_size=12", "primitive=strip"],  # (what it uses)
+        ["tolerance=0.1", "swap_max_deviation=0.0005", "order_passes=0", "order_reach=2"],  # (defaults)
+        ["optimize_connectivity=true", "swap_max_deviation=0.001", "absorb_rounds=0", "order_reach=3"],
+        ["primitive=strip", "strip_window=8"],
         ["cluster=true", "error_bound=4"],
     ):
         args = ["build", str(mesh), "-e", "sliding-window", "--rows", "2"]

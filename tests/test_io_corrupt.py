@@ -125,6 +125,30 @@ def test_an_off_header_trimesh_refuses_is_named_with_its_line(tmp_path: Path, ed
     _refused(tmp_path / "m.off", edit(data), says)
 
 
+@pytest.mark.parametrize(
+    ("edit", "says"),
+    [
+        (lambda d: d[: d.index(b"3 0 3 2")], "the header declares 4 faces, the file has 2"),
+        (lambda d: d[: d.index(b"3 0 3 2") + 5], "line 9: face 2 declares 3 corners and lists 2 values"),
+        (lambda d: d.replace(b"3 0 2 1", b"4 0 2 1", 1), "line 7: face 0 declares 4 corners and lists 3"),
+        (lambda d: d.replace(b"3 0 2 1", b"2000000000 0 2 1", 1), "face 0 declares 2000000000 corners"),
+    ],
+    ids=["cut-at-a-row", "cut-in-a-row", "corner-missing", "huge-corner-count"],
+)
+def test_an_off_file_cut_in_its_faces_is_refused(tmp_path: Path, edit, says: str) -> None:
+    """trimesh reads the face rows there are, and of each the indices there are: a file cut in its faces
+    loaded as a smaller mesh (2 triangles of 4), no word said, where a cut PLY or STL is refused."""
+    data = _export("off")
+    assert data.endswith(b"3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"), data[-40:]
+    _refused(tmp_path / "m.off", edit(data), says)
+    assert load_mesh_ok(tmp_path / "whole.off", data).triangle_count == 4
+
+
+def load_mesh_ok(path: Path, data: bytes):
+    path.write_bytes(data)
+    return load_mesh(path)
+
+
 @pytest.mark.parametrize("encoding", ["binary", "ascii"])
 def test_a_ply_comment_holding_end_header_is_named(tmp_path: Path, encoding: str) -> None:
     """trimesh ends the header at any line holding the word (and then misreads the rest: "PLY is unexpected
@@ -228,3 +252,166 @@ def test_a_gltf_primitive_without_position_is_named(tmp_path: Path, suffix: str,
         out = struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body
     with pytest.warns(UserWarning, match=r"meshes\[0\]\.primitives\[0\] without a POSITION attribute"):
         _refused(tmp_path / f"m{suffix}", out, "no triangles")
+
+
+@pytest.mark.parametrize(
+    ("face", "says"),
+    [
+        (b"f 0 3 2", "line 8: face corner '0' refers to vertex 0, the file has 4"),
+        (b"f 1 3 00", "line 8: face corner '00' refers to vertex 0, the file has 4"),
+        (b"f 1/1 -0/2 2/3", "line 8: face corner '-0/2' refers to vertex 0, the file has 4"),
+    ],
+    ids=["zero", "zeros", "minus-zero"],
+)
+def test_an_obj_face_corner_of_vertex_index_0_is_refused(tmp_path: Path, face: bytes, says: str) -> None:
+    """OBJ counts vertices from 1 (and back from -1); trimesh read an index 0 as the first vertex, so
+    ``f 0 3 2`` loaded as the triangle of vertices 1, 3, 2, no word said."""
+    head = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 0 1\n"
+    slash = b"/" in face
+    fine, rest = (b"f 1/1 3/2 2/3", b"f 1/1 2/2 4/3\n") if slash else (b"f 1 3 2", b"f 1 2 4\n")
+    _refused(tmp_path / "m.obj", head + face + b"\n" + rest, says)
+    # the same file with index 1: the zeros of its v and vt rows and of a comment are no vertex index
+    ok = head + b"# f 0 1 2\n" + fine + b"\n" + rest + rest.replace(b"1", b"3", 1)
+    assert load_mesh_ok(tmp_path / "ok.obj", ok).triangle_count == 3
+
+
+@pytest.mark.parametrize(
+    ("edit", "says"),
+    [
+        (lambda d: d[:-4], "line 18: face 3 declares 3 values and lists 1"),
+        (lambda d: d.replace(b"\n3 0 2 1", b"\n4 0 2 1", 1), "line 15: face 0 declares 4 values and lists 3"),
+        (lambda d: d.replace(b"\n3 0 1 3", b"\n3", 1), "line 16: face 1 declares 3 values and lists 0"),
+    ],
+    ids=["cut-in-the-last-row", "corner-missing", "corners-missing"],
+)
+def test_an_ascii_ply_face_row_short_of_its_count_is_refused(tmp_path: Path, edit, says: str) -> None:
+    """trimesh reads an ASCII PLY a row a line and takes the values there are: ``4 0 2 1`` loaded as the
+    triangle 0 2 1, and a file cut inside its last row (as many lines as rows) without that face, silently."""
+    data = _export("ply", encoding="ascii")
+    assert data.endswith(b"\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"), data[-40:]
+    problem = _refused(tmp_path / "m.ply", edit(data), says)
+    assert problem.startswith("not a valid PLY file: ")
+    assert load_mesh_ok(tmp_path / "whole.ply", data).triangle_count == 4
+
+
+def test_the_numpy_gate_of_the_off_check_never_passes_what_its_loop_refuses() -> None:
+    """``_off_whole`` (numpy) lets a file through only when ``_off_short``'s loop finds nothing: every cut of
+    an OFF file of triangles and a quad, and every face row's count changed, blank lines and CRLF too."""
+    from swpm_usd.io.off import _off_problem, _off_short, _off_whole
+
+    whole = b"OFF\n\n5 3 0\n0 0 0\n1 0 0\n0 1 0\r\n1 1 0\n\n0 0 1\n3 0 1 2\n4 1 3 2 4 255 0 0\n3 0 2 4\n"
+    assert _off_whole(whole) and _off_short(whole) is None and _off_problem(whole) is None
+    variants = [whole[:n] for n in range(len(whole))]
+    rows = whole.split(b"\n")
+    for i, r in enumerate(rows):
+        if r[:1] in (b"3", b"4"):
+            for c in (b"2", b"4", b"5", b"40", b"x", b"-3", b"+3", b"999999999999"):
+                variants.append(b"\n".join([*rows[:i], c + r[1:], *rows[i + 1 :]]))
+    refused = 0
+    for v in variants:
+        if _off_whole(v):
+            assert _off_short(v) is None, v
+        refused += _off_short(v) is not None
+    assert refused > len(whole) // 2  # (the loop refuses most: the gate did not hide them)
+
+
+@pytest.mark.parametrize(
+    ("edit", "says"),
+    [
+        (
+            lambda d: d.replace(b"v 1 0 0\n", b"v 1 0 0 # x\n", 1),
+            "line 2: a comment after a 'v' row's values ('# x')",
+        ),
+        (lambda d: d + b"f 1 2 3 # the last\n", "line 9: a comment after a 'f' row's values ('# the last')"),
+    ],
+    ids=["vertex", "face"],
+)
+def test_an_obj_comment_after_a_rows_values_is_named_with_its_line(tmp_path: Path, edit, says: str) -> None:
+    """trimesh fails on it ("string or file could not be read to its end due to unmatched data"), and the
+    row check, which leaves comments out, found nothing: the message was trimesh's."""
+    data = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+    assert load_mesh_ok(tmp_path / "whole.obj", b"# a comment line\n" + data).triangle_count == 4
+    _refused(tmp_path / "m.obj", edit(data), says)
+
+
+def _gltf_doc(indices: list[int] | None, mode: int | None = None) -> bytes:
+    """A glTF of the tetrahedron's points (embedded buffer), with ``indices`` (None: none) and ``mode``."""
+    import base64
+    import json
+
+    pb = POINTS.astype(np.float32).tobytes()
+    ib = b"" if indices is None else np.array(indices, np.uint32).tobytes()
+    buf = pb + ib
+    prim: dict = {"attributes": {"POSITION": 0}}
+    accessors = [
+        {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0] * 3, "max": [1] * 3}
+    ]
+    views = [{"buffer": 0, "byteOffset": 0, "byteLength": len(pb)}]
+    if indices is not None:
+        prim["indices"] = 1
+        accessors.append({"bufferView": 1, "componentType": 5125, "count": len(indices), "type": "SCALAR"})
+        views.append({"buffer": 0, "byteOffset": len(pb), "byteLength": len(ib)})
+    if mode is not None:
+        prim["mode"] = mode
+    uri = "data:application/octet-stream;base64," + base64.b64encode(buf).decode()
+    doc = {
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [prim]}],
+        "accessors": accessors,
+        "bufferViews": views,
+        "buffers": [{"byteLength": len(buf), "uri": uri}],
+    }
+    return json.dumps(doc).encode()
+
+
+def test_a_gltf_triangle_list_of_a_count_not_a_multiple_of_3_is_named(tmp_path: Path) -> None:
+    """trimesh's words were "cannot reshape array of size 5 into shape (3)"."""
+    assert load_mesh_ok(tmp_path / "whole.gltf", _gltf_doc(FACES.ravel().tolist())).triangle_count == 4
+    _refused(
+        tmp_path / "m.gltf",
+        _gltf_doc(FACES.ravel().tolist()[:5]),
+        "meshes[0].primitives[0]: its 5 indices (accessors[1]) are not a whole number of triangles",
+    )
+    _refused(
+        tmp_path / "n.gltf",
+        _gltf_doc(None),
+        "meshes[0].primitives[0]: its 4 POSITION values (no indices) (accessors[0]) are not a whole number",
+    )
+
+
+@pytest.mark.parametrize(
+    ("file_type", "edit", "says"),
+    [
+        (
+            "ply",
+            lambda d: b"ply\nformat weird 1.0\nend_header\n",
+            "line 2: 'format weird 1.0' is not a PLY",
+        ),
+        (
+            "off",
+            lambda d: d.replace(b"4 4 0", b"-4 4 0", 1),
+            "line 2: the counts line '-4 4 0' holds a negative count",
+        ),
+        (
+            "off",
+            lambda d: d.replace(b"4 4 0", b"-4 0 0", 1)[:10],
+            "line 2: the counts line '-4 0 0' holds a negative",
+        ),
+        (
+            "off",
+            lambda d: d.replace(b"4 4 0", b"4 -4 0", 1),
+            "line 2: the counts line '4 -4 0' holds a negative count",
+        ),
+    ],
+    ids=["ply-format", "off-vertices", "off-vertices-only", "off-faces"],
+)
+def test_a_header_trimesh_reads_as_holding_nothing_is_named(
+    tmp_path: Path, file_type: str, edit, says: str
+) -> None:
+    """trimesh read these headers as ones of no rows: the error was "no triangles: the file holds no triangle
+    geometry" (INPUT_EMPTY), or the header's face count against none found."""
+    data = _export(file_type, **({"encoding": "ascii"} if file_type == "ply" else {}))
+    problem = _refused(tmp_path / f"m.{file_type}", edit(data), says)
+    assert problem.startswith(f"not a valid {file_type.upper()} file: "), problem

@@ -29,7 +29,7 @@ from typing import Any
 import numba as nb
 import numpy as np
 
-from ..encodings import MAX_STRIP_WINDOW, PRIMITIVES, SKIPSTRIP_PARAMS
+from ..encodings import MAX_STRIP_WINDOW, PRIMITIVES, SKIPSTRIP_PARAMS, combination_problem
 from ..errors import BuildError
 from ..format.layout import STRIP_ARRAYS, draw_index_width, rejoin_strips, restart_index_for
 from ..mesh import Mesh
@@ -412,6 +412,11 @@ def build_skipstrip(
         raise BuildError(f"strip_window must be an integer, got {strip_window!r}")
     if not 1 <= int(strip_window) <= MAX_STRIP_WINDOW:
         raise BuildError(f"strip_window must be in [1, {MAX_STRIP_WINDOW}], got {strip_window}")
+    problem = combination_problem(  # (as the command line and a config refuse it, before a mesh is read)
+        "skip-strip", {"primitive": primitive, "restart": restart, "strip_window": strip_window}
+    )
+    if problem:
+        raise BuildError(problem)
     mesh = seq.mesh
     V, C = mesh.vertex_count, seq.collapse_count
     new_id, perm = vertex_order(seq)

@@ -45,7 +45,8 @@ choice, what was measured and what was tried and dropped):
   error at the level's expected end are barred too (:mod:`.sw_bound`; pool for error on the meshes whose
   levels take collapses far dearer than the quadric order's; ``builder="forsyth"`` refuses it).
 * ``builder="forsyth"``: Forsyth's quadric-error order with the error-tolerance reordering
-  (:mod:`.sw_forsyth`).
+  (:mod:`.sw_forsyth`); the topology builder's own parameters (``encodings.TOPOLOGY_ONLY_PARAMS``,
+  ``cluster``, ``order_passes``, ``error_bound``) are refused with it unless left at their defaults.
 * ``optimize_connectivity=True`` (SWPM 3.1): edge swaps creating low-degree vertices first, each moving the
   surface by at most ``swap_max_deviation`` of the bounding-box diagonal (:mod:`.sw_swaps`).
 * ``cluster=True`` (SWPM 3.2): a level's patches read out of the previous level's tail, so consecutive
@@ -754,6 +755,12 @@ def build_sliding_window(
         raise BuildError(
             f"order_passes must be None or an integer in [0, {MAX_ORDER_PASSES}], got {order_passes!r}"
         )
+    if not _is_integer(order_reach) or not 1 <= order_reach <= MAX_ORDER_REACH:
+        raise BuildError(f"order_reach must be an integer in [1, {MAX_ORDER_REACH}], got {order_reach!r}")
+    if primitive not in PRIMITIVES:
+        raise BuildError(f"primitive must be one of {PRIMITIVES}, got {primitive!r}")
+    if not _is_integer(strip_window) or not 1 <= strip_window <= MAX_STRIP_WINDOW:
+        raise BuildError(f"strip_window must be an integer in [1, {MAX_STRIP_WINDOW}], got {strip_window!r}")
     # (the command line and a config refuse these combinations before any mesh is read, in these words)
     problem = combination_problem(
         "sliding-window",
@@ -762,16 +769,22 @@ def build_sliding_window(
             "cluster": bool(cluster),
             "order_passes": int(order_passes),
             "error_bound": error_bound,
+            # (each refused where the build would ignore it, unless it is its default)
+            "tolerance": tolerance,
+            "optimize_connectivity": optimize_connectivity,
+            "swap_max_deviation": swap_max_deviation,
+            "mu": mu,
+            "inner_vertices": inner_vertices,
+            "absorb_middle": absorb_middle,
+            "absorb_rounds": absorb_rounds,
+            "target_slack": target_slack,
+            "order_reach": order_reach,
+            "primitive": primitive,
+            "strip_window": strip_window,
         },
     )
     if problem:
         raise BuildError(problem)
-    if not _is_integer(order_reach) or not 1 <= order_reach <= MAX_ORDER_REACH:
-        raise BuildError(f"order_reach must be an integer in [1, {MAX_ORDER_REACH}], got {order_reach!r}")
-    if primitive not in PRIMITIVES:
-        raise BuildError(f"primitive must be one of {PRIMITIVES}, got {primitive!r}")
-    if not _is_integer(strip_window) or not 1 <= strip_window <= MAX_STRIP_WINDOW:
-        raise BuildError(f"strip_window must be an integer in [1, {MAX_STRIP_WINDOW}], got {strip_window!r}")
     if optimize_connectivity:
         mesh = optimize_mesh_connectivity(mesh, max_deviation=swap_max_deviation)
     topo = mesh_topology(mesh)

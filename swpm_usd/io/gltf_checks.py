@@ -260,6 +260,16 @@ def _gltf_shape_problem(doc: Any) -> str | None:
             for key in ("indices", "material", "mode"):
                 if key in prim and not _index(prim[key]):
                     return f"meshes[{m}].primitives[{k}].{key} is {prim[key]!r}, not an index"
+            # (trimesh's "cannot reshape array of size 5 into shape (3)")
+            accessors = doc.get("accessors", [])
+            corners = prim.get("indices", prim["attributes"]["POSITION"])
+            count = accessors[corners].get("count") if _index(corners) and corners < len(accessors) else None
+            if prim.get("mode", 4) == 4 and _index(count) and count % 3:
+                what = "indices" if "indices" in prim else "POSITION values (no indices)"
+                return (
+                    f"meshes[{m}].primitives[{k}]: its {count} {what} (accessors[{corners}]) are not a whole "
+                    "number of triangles (mode TRIANGLES: 3 a triangle)"
+                )
     for i, buf in enumerate(doc.get("buffers", [])):
         if not _index(buf.get("byteLength")):
             return f"buffers[{i}].byteLength is {buf.get('byteLength')!r}, not a byte count"

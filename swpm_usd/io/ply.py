@@ -197,6 +197,40 @@ def ply_problem(data: bytes, ascii_only: bool = False) -> str | None:
     return None
 
 
+def ply_ascii_short(data: bytes) -> str | None:
+    """The first row of an ASCII PLY file of bytes ``data`` whose list (``vertex_indices``) holds fewer values
+    than it declares, in :func:`_ply_ascii_problem`'s words, or None (a binary file, or a header this does not
+    read). trimesh reads a row a line and takes the values there are: a face row ``4 0 2 1`` was the triangle
+    0 2 1, and a file cut inside its last row (as many lines as rows, so :func:`ply_problem` does not count
+    them) loaded without that face, no word said. A row of more values than its properties is left to
+    trimesh. Bunny as ASCII PLY: 27 ms of its 270 ms load."""
+    header = _ply_header(data[:_PLY_HEADER_BYTES])
+    if header is None or header[0] != "ascii":
+        return None
+    _, at, elements = header
+    lines = data[at:].split(b"\n")
+    first = 0
+    for name, count, props in elements:
+        lists = [j for j, p in enumerate(props) if len(p) == 2]
+        if len(lists) == 1:
+            li, fixed = lists[0], len(props) - 1
+            for k, line in enumerate(lines[first : first + count]):
+                words = line.split()
+                try:
+                    declared = int(words[li]) if li < len(words) else -1
+                except ValueError:
+                    return None  # (not a whole number: trimesh's or _ply_ascii_problem's to report)
+                if declared < 0 or len(words) - 1 - fixed < declared:
+                    number = data[:at].count(b"\n") + 1 + first + k
+                    listed = max(len(words) - 1 - fixed, 0)
+                    return (
+                        f"not a valid PLY file: line {number}: {name} {k} declares {declared} values and "
+                        f"lists {listed}"
+                    )
+        first += count
+    return None
+
+
 def _fan(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(face, its second corner's place in its list) of each fan triangle of faces of ``counts`` corners."""
     n_tris = np.maximum(counts - 2, 0)

@@ -60,13 +60,21 @@ from .obj import (
     _OBJ_FACE_LINE,
     _obj_faces_in_numpy,
     _obj_problem,
+    _obj_zero_corner,
     _report_dropped_obj_attributes,
 )
 from .off import (
     _off_colours,
     _off_problem,
+    _off_short,
 )
-from .ply import _ply_ascii_problem, _ply_header_problem, ply_polygons_as_triangles, ply_problem
+from .ply import (
+    _ply_ascii_problem,
+    _ply_header_problem,
+    ply_ascii_short,
+    ply_polygons_as_triangles,
+    ply_problem,
+)
 from .stl import _STL_HEADER_BYTES, _STL_TRIANGLE_BYTES, _stl_ascii_problem, check_stl
 from .trimesh_scene import _geometry_part, _geometry_transforms, _node_instances
 
@@ -86,6 +94,30 @@ _ROW_PROBLEMS: dict[str, Callable[[bytes], str | None]] = {
     "off": _off_problem,
     "stl": _stl_ascii_problem,
     "ply": _ply_ascii_problem,
+}
+
+
+def _ply_format_problem(data: bytes) -> str | None:
+    """:func:`_ply_header_problem` of a PLY file trimesh read as holding nothing, or None."""
+    try:
+        return _ply_header_problem(data)
+    except Exception:  # noqa: BLE001 - (a look for the message: "no triangles" is said without it)
+        return None
+
+
+def _off_counts_problem(data: bytes) -> str | None:
+    """:func:`_off_problem` of an OFF file trimesh read as holding nothing, when it is its counts line's."""
+    try:
+        problem = _off_problem(data)
+    except Exception:  # noqa: BLE001 - (a look for the message: "no triangles" is said without it)
+        return None
+    return f"not a valid OFF file: {problem}" if problem and "the counts line" in problem else None
+
+
+#: the check of a file trimesh read as holding no triangles, by type: a header it took as one of no rows
+_no_rows_problems: dict[str, Callable[[bytes], str | None]] = {
+    "ply": _ply_format_problem,
+    "off": _off_counts_problem,
 }
 
 
@@ -160,7 +192,7 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
             scene = _trimesh().load_scene(str(path), file_type=file_type, process=False)
         elif file_type == "ply":
             data = path.read_bytes()
-            problem = ply_problem(data, ascii_only=True)
+            problem = ply_problem(data, ascii_only=True) or ply_ascii_short(data)
             if problem is not None:
                 raise MeshLoadError(path, problem)
             triangulated = ply_polygons_as_triangles(data)
@@ -188,6 +220,10 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
                 scene = _trimesh().load_scene(
                     io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
                 )
+            # (a cut OFF loaded as a smaller mesh; an OBJ's index 0 as its first vertex)
+            problem = _off_short(data) if file_type == "off" else _obj_zero_corner(data)
+            if problem is not None:
+                raise MeshLoadError(path, f"not a valid {file_type.upper()} file: {problem}")
         elif file_type == "glb" and (problem := glb_chunk_problem(path)) is not None:
             check_glb_json(path)  # (its JSON's problem first, when its chunk is whole: as a whole file's)
             raise MeshLoadError(path, _glb_length_problem(path) or problem)  # ("truncated" when it is)
@@ -273,6 +309,12 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
             raise MeshLoadError(path, f"its {INSTANCING} nodes could not be read ({e})") from e
         raise MeshLoadError(path, f"trimesh could not read it ({type(e).__name__}: {e})") from e
     if not parts:
+        # (a header trimesh read as one of no rows: 'format weird 1.0', a count of -3)
+        problem = (
+            _read_problem(path, _no_rows_problems[file_type]) if file_type in _no_rows_problems else None
+        )
+        if problem is not None:
+            raise MeshLoadError(path, problem)
         raise MeshLoadError(path, "no triangles: the file holds no triangle geometry", code="INPUT_EMPTY")
     if file_type == "obj":
         _report_dropped_obj_attributes(path, data, parts)
