@@ -174,11 +174,14 @@ TOPOLOGY_ONLY_PARAMS = (
 
 
 def _is_default(value: Any, default: Any) -> bool:
-    """``value`` equal to ``default`` and of its kind (numpy's too): ``1`` is not ``True``, nor ``True`` 1."""
-    if default is None:
-        return value is None
-    if isinstance(default, bool):  # (numpy's bool is no number)
-        return (isinstance(value, bool) or not isinstance(value, numbers.Number)) and bool(value == default)
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        return False
-    return bool(value == default)
+    """``value`` equal to ``default``, or of another kind than the parameter's (numpy's too): a value of the
+    wrong type is its own check's, not a combination's (a config's ``tolerance: '0.2'`` also said 'tolerance
+    needs builder='forsyth''); ``1`` is not ``True``, nor ``True`` 1, and each is the other's wrong type."""
+    flag = isinstance(value, bool) or type(value).__name__ == "bool_"  # (numpy's bool is no number)
+    if isinstance(default, bool):
+        return not flag or bool(value) == default
+    if default is None or isinstance(default, numbers.Real):
+        if flag or not isinstance(value, numbers.Real):
+            return True
+        return default is not None and bool(value == default)
+    return not isinstance(value, type(default)) or value == default

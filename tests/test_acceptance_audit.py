@@ -353,3 +353,35 @@ def test_an_unknown_parameter_in_a_config_names_its_encoding(tmp_path):
         "$.rules[0].params.cluster: unknown key (not a parameter of skip-strip)",
         "$.rules[1].params.mu: unknown key (not a parameter of auto, which takes select alone)",
     ]
+
+
+@pytest.mark.parametrize(
+    "section, says",
+    [
+        (
+            "{encoding: sliding-window, params: {tolerance: '0.2'}}",
+            "tolerance: '0.2' is not of type 'number'",
+        ),
+        (
+            "{encoding: sliding-window, params: {builder: forsyth, mu: 'x'}}",
+            "mu: 'x' is not of type 'number'",
+        ),
+        (
+            "{encoding: sliding-window, params: {builder: forsyth, absorb_rounds: true}}",
+            "absorb_rounds: True is not of type",
+        ),
+        (
+            "{encoding: skip-strip, params: {primitive: list, strip_window: '8'}}",
+            "strip_window: '8' is not of type 'integer'",
+        ),
+    ],
+)
+def test_a_parameter_of_the_wrong_type_is_named_once_not_as_a_combination_too(tmp_path, section, says):
+    # combination_problem counted a value of the wrong type as set: a config said 'tolerance needs
+    # builder='forsyth'' (or 'mu needs builder='topology'', ...) beside the value's own type error
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(f"version: 1\nassets: [{{glob: 'm/*.obj'}}]\noutput: {{dir: out}}\ndefaults: {section}\n")
+    result = CliRunner().invoke(main, ["run", str(cfg), "--dry-run"])
+    assert result.exit_code == 2, result.output
+    assert says in result.stderr
+    assert "needs" not in result.stderr, result.stderr
