@@ -315,6 +315,31 @@ def test_the_numpy_gate_of_the_off_check_never_passes_what_its_loop_refuses() ->
     assert refused > len(whole) // 2  # (the loop refuses most: the gate did not hide them)
 
 
+def test_the_off_check_holds_a_few_times_the_file_not_eight_bytes_a_byte() -> None:
+    """``_off_whole`` took each token's line from a cumsum over the file's bytes, an int64 a byte: its peak
+    was 20 times the file (nefertiti as OFF, 4.1 MB: 83 MB), a 100 MB scan's 2 GB on top of trimesh's
+    read. The newlines' places and a search hold a few times the file (25 MB)."""
+    import tracemalloc
+
+    from swpm_usd.io.off import _off_short
+
+    n = 150
+    rows = [b"OFF", b"%d %d 0" % ((n + 1) ** 2, 2 * n * n)]
+    rows += [b"%d %d %.1f" % (x, y, (x * y) % 3 * 0.1) for y in range(n + 1) for x in range(n + 1)]
+    for y in range(n):
+        for x in range(n):
+            a = y * (n + 1) + x
+            rows += [b"3 %d %d %d" % (a, a + 1, a + n + 2), b"3 %d %d %d" % (a, a + n + 2, a + n + 1)]
+    data = b"\n".join(rows) + b"\n"
+    tracemalloc.start()
+    try:
+        assert _off_short(data) is None
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 10 * len(data), (peak, len(data))
+
+
 @pytest.mark.parametrize(
     ("edit", "says"),
     [
