@@ -315,6 +315,29 @@ def test_the_numpy_gate_of_the_off_check_never_passes_what_its_loop_refuses() ->
     assert refused > len(whole) // 2  # (the loop refuses most: the gate did not hide them)
 
 
+@pytest.mark.parametrize(
+    "comment",
+    [
+        (b"1 0 0\n", b"1 0 0\n# a comment among the vertices\n"),
+        (b"3 0 2 1\n", b"3 0 2 1 # the first face\n"),
+        (b"0 0 1\n", b"0 0 1\n\n# the faces\n"),
+    ],
+    ids=["line-among-vertices", "after-a-face", "before-the-faces"],
+)
+def test_an_off_file_with_a_comment_past_its_second_line_loads_whole(tmp_path: Path, comment) -> None:
+    """trimesh 5.2's comment_strip repeats the text before a file's first '#' (from its second line on):
+    an OFF file whose first comment came after its counts line loaded, no word said, as the counts line
+    read as a vertex and one triangle (3 vertices, 1 triangle of the tetrahedron's 4 and 4)."""
+    path = tmp_path / "t.off"
+    whole = b"OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"
+    path.write_bytes(whole)
+    expected = load_mesh(path)
+    path.write_bytes(whole.replace(*comment))
+    mesh = load_mesh(path)
+    assert (mesh.vertex_count, mesh.triangle_count) == (4, 4)
+    assert np.array_equal(mesh.points, expected.points) and np.array_equal(mesh.triangles, expected.triangles)
+
+
 def test_the_off_check_holds_a_few_times_the_file_not_eight_bytes_a_byte() -> None:
     """``_off_whole`` took each token's line from a cumsum over the file's bytes, an int64 a byte: its peak
     was 20 times the file (nefertiti as OFF, 4.1 MB: 83 MB), a 100 MB scan's 2 GB on top of trimesh's
