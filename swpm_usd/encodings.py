@@ -140,9 +140,9 @@ def combination_problem(encoding: str, params: dict[str, Any]) -> str | None:
                 return f"{name} needs builder='topology'"
     elif builder == "topology" and "tolerance" in given:
         return "tolerance needs builder='forsyth'"
-    if "swap_max_deviation" in given and p["optimize_connectivity"] is False:
+    if "swap_max_deviation" in given and _off(p["optimize_connectivity"]):
         return "swap_max_deviation needs optimize_connectivity=True"
-    if "absorb_rounds" in given and p["absorb_middle"] is False:
+    if "absorb_rounds" in given and _off(p["absorb_middle"]):
         return "absorb_rounds needs absorb_middle=True"
     if "order_reach" in given and (cluster or (isinstance(passes, int) and passes == 0)):
         return "order_reach needs order_passes > 0 (builder='topology' without cluster)"
@@ -174,11 +174,24 @@ TOPOLOGY_ONLY_PARAMS = (
 
 
 def _is_default(value: Any, default: Any) -> bool:
-    """``value`` equal to ``default`` and of its kind (numpy's too): ``1`` is not ``True``, nor ``True`` 1."""
-    if default is None:
-        return value is None
-    if isinstance(default, bool):  # (numpy's bool is no number)
-        return (isinstance(value, bool) or not isinstance(value, numbers.Number)) and bool(value == default)
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        return False
-    return bool(value == default)
+    """``value`` equal to ``default``, or of another kind than the parameter's (numpy's too): a value of the
+    wrong type is its own check's, not a combination's (a config's ``tolerance: '0.2'`` also said 'tolerance
+    needs builder='forsyth''); ``1`` is not ``True``, nor ``True`` 1, and each is the other's wrong type."""
+    flag = _is_flag(value)
+    if isinstance(default, bool):
+        return not flag or bool(value) == default
+    if default is None or isinstance(default, numbers.Real):
+        if flag or not isinstance(value, numbers.Real):
+            return True
+        return default is not None and bool(value == default)
+    return not isinstance(value, type(default)) or value == default
+
+
+def _is_flag(value: Any) -> bool:
+    """``value`` a bool, Python's or numpy's (no number; numpy 2 names its type 'bool', not 'bool_')."""
+    return isinstance(value, bool) or getattr(getattr(value, "dtype", None), "kind", "") == "b"
+
+
+def _off(value: Any) -> bool:
+    """``value`` False, Python's or numpy's (``swpm_usd.build`` takes either): ``is False`` missed numpy's."""
+    return _is_flag(value) and not bool(value)

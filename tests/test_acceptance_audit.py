@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -353,3 +354,72 @@ def test_an_unknown_parameter_in_a_config_names_its_encoding(tmp_path):
         "$.rules[0].params.cluster: unknown key (not a parameter of skip-strip)",
         "$.rules[1].params.mu: unknown key (not a parameter of auto, which takes select alone)",
     ]
+
+
+@pytest.mark.parametrize(
+    "section, says",
+    [
+        (
+            "{encoding: sliding-window, params: {tolerance: '0.2'}}",
+            "tolerance: '0.2' is not of type 'number'",
+        ),
+        (
+            "{encoding: sliding-window, params: {builder: forsyth, mu: 'x'}}",
+            "mu: 'x' is not of type 'number'",
+        ),
+        (
+            "{encoding: sliding-window, params: {builder: forsyth, absorb_rounds: true}}",
+            "absorb_rounds: True is not of type",
+        ),
+        (
+            "{encoding: skip-strip, params: {primitive: list, strip_window: '8'}}",
+            "strip_window: '8' is not of type 'integer'",
+        ),
+    ],
+)
+def test_a_parameter_of_the_wrong_type_is_named_once_not_as_a_combination_too(tmp_path, section, says):
+    # combination_problem counted a value of the wrong type as set: a config said 'tolerance needs
+    # builder='forsyth'' (or 'mu needs builder='topology'', ...) beside the value's own type error
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(f"version: 1\nassets: [{{glob: 'm/*.obj'}}]\noutput: {{dir: out}}\ndefaults: {section}\n")
+    result = CliRunner().invoke(main, ["run", str(cfg), "--dry-run"])
+    assert result.exit_code == 2, result.output
+    assert says in result.stderr
+    assert "needs" not in result.stderr, result.stderr
+
+
+@pytest.mark.parametrize(
+    "encoding, params, says",
+    [
+        (
+            "sliding-window",
+            {"builder": "forsyth", "absorb_middle": False},
+            "absorb_middle needs builder='topology'",
+        ),
+        (
+            "sliding-window",
+            {"absorb_middle": False, "absorb_rounds": 0},
+            "absorb_rounds needs absorb_middle=True",
+        ),
+        (
+            "sliding-window",
+            {"optimize_connectivity": False, "swap_max_deviation": 0.001},
+            "swap_max_deviation needs optimize_connectivity=True",
+        ),
+        ("skip-strip", {"primitive": "list", "restart": False}, "restart needs primitive='strip'"),
+    ],
+)
+def test_a_combination_of_numpy_bools_is_refused_as_of_python_bools(tmp_path, encoding, params, says):
+    # swpm_usd.build takes numpy's bool for a bool parameter (check_params); the combination rules compared
+    # 'is False' (absorb_rounds, swap_max_deviation), and a numpy bool read as a value of the wrong type
+    # (numpy 2 names it 'bool'), so np.False_ was let through, ignored, and recorded in the file's params
+    from swpm_usd.encodings import combination_problem
+
+    numpy_params = {k: np.bool_(v) if isinstance(v, bool) else v for k, v in params.items()}
+    assert combination_problem(encoding, params) == says
+    assert combination_problem(encoding, numpy_params) == says
+    with pytest.raises(swpm_usd.BuildError, match=says.replace("(", r"\(").replace(")", r"\)")):
+        swpm_usd.build(str(_write(tmp_path / "g.obj")), encoding=encoding, **numpy_params)
+    taken = {k: np.bool_(True) if k == "absorb_middle" else v for k, v in numpy_params.items()}
+    if encoding == "sliding-window" and "builder" not in params:
+        assert combination_problem(encoding, {**taken, "optimize_connectivity": np.bool_(True)}) is None

@@ -111,7 +111,8 @@ def _off_whole(data: bytes) -> bool:
     ends = np.flatnonzero(~blank & np.append(blank[1:], True))  # (and its last)
     if starts.shape[0] < 3:
         return False
-    line = np.cumsum(a == ord("\n"))[starts]  # (the line of each token)
+    # (the line of each token: the newlines before it; a cumsum over the bytes held 8 bytes a byte)
+    line = np.searchsorted(np.flatnonzero(a == ord("\n")), starts)
     row = np.concatenate(([0], np.flatnonzero(line[1:] != line[:-1]) + 1))  # (each row's first token)
     tokens = np.diff(np.append(row, starts.shape[0]))
     head = 1 if tokens[0] > 1 else 2  # ('OFF V F E', or 'OFF' then the counts)

@@ -208,8 +208,8 @@ def ply_ascii_short(data: bytes) -> str | None:
     if header is None or header[0] != "ascii":
         return None
     _, at, elements = header
-    lines = data[at:].split(b"\n")
-    first = 0
+    lines = data.split(b"\n")  # (the whole file's: data[at:] copied the body to split it)
+    first = data.count(b"\n", 0, at)  # (the header's lines, each ended by one)
     for name, count, props in elements:
         lists = [j for j, p in enumerate(props) if len(p) == 2]
         if len(lists) == 1:
@@ -221,7 +221,7 @@ def ply_ascii_short(data: bytes) -> str | None:
                 except ValueError:
                     return None  # (not a whole number: trimesh's or _ply_ascii_problem's to report)
                 if declared < 0 or len(words) - 1 - fixed < declared:
-                    number = data[:at].count(b"\n") + 1 + first + k
+                    number = first + k + 1
                     listed = max(len(words) - 1 - fixed, 0)
                     return (
                         f"not a valid PLY file: line {number}: {name} {k} declares {declared} values and "

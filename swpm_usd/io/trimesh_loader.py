@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import re
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -216,12 +217,18 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
             if max_triangles is not None and file_type == "obj":
                 _budget_before_parsing(path, file_type, data, max_triangles)
             resolver = _trimesh().resolvers.FilePathResolver(str(path))
+            # (an OFF's comments left out as our checks leave them: trimesh's comment_strip repeats the text
+            # before the first '#' from its second line on, so a comment past the counts line read the counts
+            # as a vertex, silently)
+            text = re.sub(rb"#[^\n]*", b"", data) if file_type == "off" and b"#" in data else data
             with _obj_faces_in_numpy() if file_type == "obj" else contextlib.nullcontext():
                 scene = _trimesh().load_scene(
-                    io.BytesIO(data), file_type=file_type, resolver=resolver, process=False
+                    io.BytesIO(text), file_type=file_type, resolver=resolver, process=False
                 )
-            # (a cut OFF loaded as a smaller mesh; an OBJ's index 0 as its first vertex)
-            problem = _off_short(data) if file_type == "off" else _obj_zero_corner(data)
+            # (a cut OFF loaded as a smaller mesh; an OBJ's index 0 as its first vertex. The OFF's text
+            # without comments, its lines the file's: the numpy check, not the loop a '#' needs)
+            problem = _off_short(text) if file_type == "off" else _obj_zero_corner(data)
+            del text
             if problem is not None:
                 raise MeshLoadError(path, f"not a valid {file_type.upper()} file: {problem}")
         elif file_type == "glb" and (problem := glb_chunk_problem(path)) is not None:
