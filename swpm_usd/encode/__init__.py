@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from .. import numba_cache  # noqa: F401 (first: it stamps the kernels defined from here on)
 from ..encodings import ENCODING_PARAMS, SIMPLIFY_PARAMS
 from ..mesh import Mesh
 from ..simplify import collapse_sequence

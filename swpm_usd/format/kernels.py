@@ -9,6 +9,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from .. import numba_cache  # noqa: F401 (before the kernels: it stamps them)
+
 
 @nb.njit(cache=True)
 def vanilla_replay(indices, kept, removed, change_count, offsets, vertex_count):  # pragma: no cover - jitted

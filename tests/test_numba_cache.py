@@ -1,0 +1,105 @@
+"""numba's cache stamped with the package's kernel fingerprint (swpm_usd.numba_cache): a kernel whose callee
+in another file changed is compiled again, not loaded with the old callee inside."""
+
+from __future__ import annotations
+
+import importlib
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numba
+from numba.core.caching import NullCache
+
+import swpm_usd
+from swpm_usd import numba_cache
+
+
+def _kernel_modules() -> list[str]:
+    modules = numba_cache._modules(numba_cache._ROOT, numba_cache.PACKAGE)
+    return sorted(m for m, p in modules.items() if numba_cache._USES_NUMBA.search(p.read_bytes()))
+
+
+def test_every_cached_kernel_of_the_package_is_stamped_with_the_fingerprint():
+    seen = 0
+    for name in _kernel_modules():
+        module = importlib.import_module(name)
+        for attr, value in vars(module).items():
+            if not isinstance(value, numba.core.dispatcher.Dispatcher):
+                continue
+            if value.py_func.__module__ != name or isinstance(value._cache, NullCache):
+                continue
+            locator = value._cache._impl.locator
+            assert type(locator).__name__ == "PackageKernelLocator", f"{name}.{attr}: {type(locator)}"
+            assert locator.get_source_stamp()[1] == numba_cache.kernel_fingerprint(), f"{name}.{attr}"
+            seen += 1
+    assert seen > 100  # (the package has about 180 cached kernels)
+
+
+def _write(root: Path, files: dict[str, str]) -> None:
+    for rel, text in files.items():
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        (root / rel).write_text(textwrap.dedent(text))
+
+
+def test_fingerprint_covers_the_kernels_and_what_they_import_only(tmp_path: Path):
+    root = tmp_path / "pkgf"
+    _write(
+        root,
+        {
+            "__init__.py": "",
+            "consts.py": "SCALE = 10\n",
+            "kern.py": "import numba\nfrom .consts import SCALE\nfrom . import (\n    helpers,  # x\n)\n",
+            "helpers.py": "def h():\n    return 1\n",
+            "cli.py": "from .kern import SCALE\n",
+        },
+    )
+    fp = lambda: numba_cache.kernel_fingerprint.__wrapped__(root, "pkgf")  # noqa: E731 (uncached)
+    first = fp()
+    (root / "cli.py").write_text("from .kern import SCALE  # a command-line change\n")
+    assert fp() == first  # imports a kernel module, is not imported by one
+    for rel, text in (("consts.py", "SCALE = 11\n"), ("helpers.py", "def h():\n    return 2\n")):
+        before = fp()
+        (root / rel).write_text(text)
+        assert fp() != before, rel  # a constant, a module a kernel module imports in parentheses
+
+
+_CALLEE = """
+import numba as nb
+
+@nb.njit(cache=True)
+def step(x):
+    return x + {n}
+"""
+_CALLER = """
+import numba as nb
+from .callee import step
+
+@nb.njit(cache=True)
+def scaled(x):
+    return step(x) * 10
+"""
+
+
+def test_a_kernel_is_compiled_again_when_its_callee_in_another_file_changes(tmp_path: Path):
+    pkg = tmp_path / "pkgx"
+    init = "from swpm_usd import numba_cache\nnumba_cache.install(__name__, __path__[0])\n"
+    _write(pkg, {"__init__.py": init, "callee.py": _CALLEE.format(n=1), "caller.py": _CALLER})
+    env = dict(os.environ)
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / "cache")
+    env["PYTHONPATH"] = os.pathsep.join([str(tmp_path), str(Path(swpm_usd.__file__).parents[1])])
+
+    def run() -> str:
+        code = "from pkgx.caller import scaled; print(scaled(1))"
+        argv = [sys.executable, "-c", code]
+        out = subprocess.run(argv, env=env, capture_output=True, text=True, timeout=300)
+        assert out.returncode == 0, out.stderr
+        return out.stdout.strip()
+
+    assert run() == "20"
+    assert run() == "20"  # (from the cache)
+    (pkg / "callee.py").write_text(textwrap.dedent(_CALLEE.format(n=2)))
+    # numba alone loads caller.py's cached kernel, its own file unchanged, with the old step inside: 20
+    assert run() == "30"
