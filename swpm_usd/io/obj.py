@@ -18,7 +18,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .text_rows import _not_numbers, _numbered_rows, _shown
+from .text_rows import _not_numbers, _numbered_rows, _shown, _without_bom
+
+
+def _obj_text(data: bytes) -> bytes:
+    """The OBJ file of bytes ``data`` as trimesh and the checks below read it, its lines unchanged: without
+    its byte-order mark (trimesh took ``\ufeffv`` for no vertex: every index after it off by one)."""
+    return _without_bom(data)
 
 
 def _obj_problem(data: bytes) -> str | None:
@@ -26,6 +32,7 @@ def _obj_problem(data: bytes) -> str | None:
     number, or too few; a face corner whose index is not an integer, or refers to no vertex), or None (asked
     once trimesh has failed on it: "string or file could not be read to its end due to unmatched data",
     "invalid literal for int() with base 10", "index 3000 is out of bounds for axis 0")."""
+    data = _obj_text(data)
     for number, line in enumerate(data.split(b"\n"), 1):  # (trimesh takes the comment for values)
         values, hash_, comment = line.partition(b"#")
         key = values.split()[:1]

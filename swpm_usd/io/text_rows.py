@@ -7,6 +7,15 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
+#: the UTF-8 byte-order mark Windows tools write before a text file's first line (no part of its first word)
+BOM = b"\xef\xbb\xbf"
+
+
+def _without_bom(data: bytes) -> bytes:
+    """The bytes ``data`` of a text mesh file without its UTF-8 byte-order mark, if it starts with one (its
+    lines unchanged: the mark is no line of its own)."""
+    return data[len(BOM) :] if data.startswith(BOM) else data
+
 
 def _numbered_rows(data: bytes) -> Iterator[tuple[int, list[bytes]]]:
     """(line number from 1, tokens) of each line of a text mesh file holding any, comments left out."""

@@ -61,6 +61,7 @@ from .obj import (
     _OBJ_FACE_LINE,
     _obj_faces_in_numpy,
     _obj_problem,
+    _obj_text,
     _obj_zero_corner,
     _report_dropped_obj_attributes,
 )
@@ -145,7 +146,7 @@ def declared_triangle_count(path: Path, file_type: str, data: bytes = b"") -> tu
         if size == _STL_HEADER_BYTES + _STL_TRIANGLE_BYTES * count:  # (binary: check_stl's test)
             return count, True, " (declared by its binary STL header)"
     elif file_type == "obj":
-        n = len(_OBJ_FACE_LINE.findall(data or path.read_bytes()))
+        n = len(_OBJ_FACE_LINE.findall(_obj_text(data or path.read_bytes())))
         return n, False, f" (at least: it has {n} face lines of 3 or more corners)"
     elif file_type in ("gltf", "glb"):
         n = gltf_triangle_count(path)
@@ -210,6 +211,8 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
             # without it: hand it UTF-8 (non-UTF-8 bytes are read as Latin-1, which only occurs in comments
             # and names of a valid file)
             data = given or path.read_bytes()
+            if file_type == "obj":  # (before the decoding: a Latin-1 file's mark would be other bytes)
+                data = _obj_text(data)
             try:
                 data.decode("utf-8")
             except UnicodeDecodeError:
