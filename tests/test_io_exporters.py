@@ -58,3 +58,49 @@ def test_obj_with_a_byte_order_mark_keeps_its_line_numbers_and_counts(tmp_path: 
     path = tmp_path / "face_first.obj"  # (its first line a face: counted for the budget)
     path.write_bytes(BOM + b"f 1 2 3\n" + _obj())
     assert early_triangle_count(path) == (5, False)
+
+
+@pytest.mark.parametrize(
+    "text",
+    [_obj("\t"), _obj(" ", "  "), _obj(" ", "\t"), _obj("\t", "\t", "\r\n"), BOM + _obj("\t", nl="\r\n")],
+    ids=["tabs", "indented", "tab-indented", "tabs-crlf", "bom-tabs-crlf"],
+)
+def test_obj_with_tabs_or_indented_rows_loads_as_plain(tmp_path: Path, text: bytes) -> None:
+    # (trimesh finds rows by '\nv ' and '\nf ': "no triangles")
+    _same(_load(tmp_path, "x.obj", text), _load(tmp_path, "plain.obj", _obj()))
+
+
+def test_obj_with_some_indented_faces_loads_them_all(tmp_path: Path) -> None:
+    # (the indented faces were dropped, no word said: 2 triangles of 4)
+    mixed = _obj().replace(b"\nf 5", b"\n   f 5").replace(b"\nv 2", b"\n\tv 2")
+    _same(_load(tmp_path, "mixed.obj", mixed), _load(tmp_path, "plain.obj", _obj()))
+
+
+def test_obj_with_tab_separated_uvs_and_normals_keeps_them(tmp_path: Path) -> None:
+    rows = ["v 0 0 0", "v 1 0 0", "v 1 1 0", "vt 0 0", "vt 1 0", "vt 1 1", "vn 0 0 1", "f 1/1/1 2/2/1 3/3/1"]
+    plain = _load(tmp_path, "plain.obj", ("\n".join(rows) + "\n").encode())
+    assert sorted(plain.attributes) == ["normal", "uv"]
+    tabbed = "\n".join("\t" + r.replace(" ", "\t") for r in rows) + "\n"
+    _same(_load(tmp_path, "tabs.obj", tabbed.encode()), plain)
+
+
+def test_obj_indented_rows_are_checked_and_counted(tmp_path: Path) -> None:
+    from swpm_usd.io import early_triangle_count
+
+    with pytest.raises(MeshLoadError, match=r"zero\.obj.*line 9: face corner '0' refers to vertex 0"):
+        _load(tmp_path, "zero.obj", _obj(" ", "  ").replace(b"f 1 2 3", b"f 0 2 3"))
+    with pytest.raises(
+        MeshLoadError, match=r"far\.obj.*line 10: face corner '9' refers to vertex 9, the file has 8"
+    ):
+        _load(tmp_path, "far.obj", _obj("\t").replace(b"f\t1\t3\t4", b"f\t1\t3\t9"))
+    path = tmp_path / "count.obj"
+    path.write_bytes(_obj("\t", "  "))
+    assert early_triangle_count(path) == (4, False)
+
+
+def test_obj_continued_lines_keep_their_blanks(tmp_path: Path) -> None:
+    # a line ended by '\' continues on the next: its blanks are not a row's indentation
+    quad = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+    one = _load(tmp_path, "one.obj", quad + b"f 1 2 3 4\n")
+    _same(_load(tmp_path, "continued.obj", quad + b"f 1 2 \\\n   3 4\n"), one)
+    _same(_load(tmp_path, "continued_crlf.obj", (quad + b"f 1 2 \\\n\t3 4\n").replace(b"\n", b"\r\n")), one)

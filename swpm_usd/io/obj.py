@@ -20,11 +20,23 @@ import numpy as np
 
 from .text_rows import _not_numbers, _numbered_rows, _shown, _without_bom
 
+#: a row's indentation: blanks at a line's start, unless the line before ends in '\\' (which continues
+#: that line here: trimesh joins them, blanks and all)
+_OBJ_INDENT = re.compile(rb"(?m)(?<!\\\n)(?<!\\\r\n)^ +")
+
 
 def _obj_text(data: bytes) -> bytes:
     """The OBJ file of bytes ``data`` as trimesh and the checks below read it, its lines unchanged: without
-    its byte-order mark (trimesh took ``\ufeffv`` for no vertex: every index after it off by one)."""
-    return _without_bom(data)
+    its byte-order mark (trimesh took ``\\ufeffv`` for no vertex: every index after it off by one), its tabs
+    as spaces and its rows' indentation dropped (trimesh finds rows by ``'\\nv '`` and ``'\\nf '``: a file
+    of tab-separated rows was "no triangles", an indented face dropped, no word said). A file without any
+    (three scans for a byte, no copy) is returned as it is."""
+    data = _without_bom(data)
+    if b"\t" in data:
+        data = data.replace(b"\t", b" ")
+    if data.startswith(b" ") or b"\n " in data:
+        data = _OBJ_INDENT.sub(b"", data)
+    return data
 
 
 def _obj_problem(data: bytes) -> str | None:
@@ -199,9 +211,9 @@ def _obj_faces_in_numpy() -> Iterator[None]:
         _OBJ_FACES_IN_NUMPY.reset(token)
 
 
-#: an OBJ face line of at least 3 corners, as trimesh reads them (from a line's start: an indented 'f' line
-#: is not a face to it, nor one with a tab after the f; a line of fewer corners is skipped; '#' starts a
-#: comment): each is at least a triangle
+#: an OBJ face line of at least 3 corners, as trimesh reads them (from a line's start, in the text of
+#: :func:`_obj_text`: no tab, no indentation; a line of fewer corners is skipped; '#' starts a comment): each
+#: is at least a triangle
 _OBJ_FACE_LINE = re.compile(rb"(?m)^f [ \t]*[^\s#]+(?:[ \t]+[^\s#]+){2}")
 
 
