@@ -4,6 +4,7 @@ counts; or refuse with a clear MeshLoadError naming the file."""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -104,3 +105,70 @@ def test_obj_continued_lines_keep_their_blanks(tmp_path: Path) -> None:
     one = _load(tmp_path, "one.obj", quad + b"f 1 2 3 4\n")
     _same(_load(tmp_path, "continued.obj", quad + b"f 1 2 \\\n   3 4\n"), one)
     _same(_load(tmp_path, "continued_crlf.obj", (quad + b"f 1 2 \\\n\t3 4\n").replace(b"\n", b"\r\n")), one)
+
+
+# --- OFF
+
+
+def _off(faces: list[tuple[int, ...]], extra: list[str] | None = None) -> bytes:
+    rows = [f"OFF\n{len(POINTS)} {len(faces)} 0"] + [" ".join(map(str, p)) for p in POINTS]
+    for k, f in enumerate(faces):
+        rows.append(f"{len(f)} {' '.join(map(str, f))}" + (f" {extra[k]}" if extra else ""))
+    return ("\n".join(rows) + "\n").encode()
+
+
+def _canonical(triangles: np.ndarray) -> list[tuple[int, ...]]:
+    """The triangles each rotated to start at its least index (its orientation kept), sorted."""
+    t = np.asarray(triangles)
+    rolled = [tuple(np.roll(r, -int(np.argmin(r))).tolist()) for r in t]
+    return sorted(rolled)
+
+
+@pytest.mark.parametrize(
+    "faces",
+    [
+        [(0, 1, 2, 3), (4, 5, 6, 7, 0)],
+        [(0, 1, 2, 3), (4, 5, 6, 7, 0), (1, 5, 6)],
+        [(1, 5, 6), (0, 4, 5, 6, 7, 3)],
+    ],
+    ids=["4-5", "4-5-3", "3-6"],
+)
+def test_off_of_polygons_of_mixed_corner_counts_loads_them_as_fans(tmp_path: Path, faces: list) -> None:
+    # (trimesh failed: "The 'out' kwarg is necessary when using the string multiply ufunc directly")
+    m = _load(tmp_path, "mixed.off", _off(faces))
+    fans = [(f[0], f[k], f[k + 1]) for f in faces for k in range(1, len(f) - 1)]
+    want = _load(tmp_path, "fans.off", _off(fans))
+    np.testing.assert_array_equal(m.points, want.points)
+    assert m.triangle_count == len(fans) and _canonical(m.triangles) == _canonical(want.triangles)
+
+
+def test_off_of_mixed_polygons_keeps_each_face_colour(tmp_path: Path) -> None:
+    faces = [(0, 1, 2, 3), (4, 5, 6, 7, 0), (1, 5, 6)]
+    colours = ["255 0 0", "0 255 0", "0 0 255"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # (no "face colours are not loaded")
+        m = _load(tmp_path, "coloured.off", _off(faces, colours))
+    assert m.triangle_count == 2 + 3 + 1
+    for tri in m.triangles:
+        ids = {POINTS.index(tuple(float(c) for c in m.points[v])) for v in tri}
+        (face,) = [k for k, f in enumerate(faces) if ids <= set(f)]
+        want = [float(c) / 255 for c in colours[face].split()] + [1.0]
+        np.testing.assert_allclose(m.attributes["color"][tri], [want] * 3, atol=1e-6)
+
+
+def test_off_of_mixed_polygons_cut_short_says_where(tmp_path: Path) -> None:
+    short = _off([(0, 1, 2, 3), (4, 5, 6, 7, 0)]).replace(b"5 4 5 6 7 0", b"5 4 5 6 7")
+    with pytest.raises(
+        MeshLoadError, match=r"short\.off.*line 12: face 1 declares 5 corners and lists 4 values"
+    ):
+        _load(tmp_path, "short.off", short)
+    far = _off([(0, 1, 2, 3), (4, 5, 6, 7, 9)])
+    with pytest.raises(MeshLoadError, match=r"far\.off.*line 12: face 1 refers to vertex 9, the file has 8"):
+        _load(tmp_path, "far.off", far)
+
+
+def test_off_of_mixed_polygons_with_its_counts_on_the_header_line_and_comments(tmp_path: Path) -> None:
+    faces = [(0, 1, 2, 3), (4, 5, 6, 7, 0)]
+    text = _off(faces).replace(b"OFF\n", b"OFF ").replace(b"\n5 ", b"\n# a pentagon\n5 ", 1)
+    assert text.startswith(b"OFF 8 2 0\n")
+    _same(_load(tmp_path, "one_line.off", text), _load(tmp_path, "plain.off", _off(faces)))

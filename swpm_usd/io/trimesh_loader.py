@@ -67,6 +67,7 @@ from .obj import (
 )
 from .off import (
     _off_colours,
+    _off_fanned,
     _off_problem,
     _off_short,
 )
@@ -225,9 +226,19 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
             # as a vertex, silently)
             text = re.sub(rb"#[^\n]*", b"", data) if file_type == "off" and b"#" in data else data
             with _obj_faces_in_numpy() if file_type == "obj" else contextlib.nullcontext():
-                scene = _trimesh().load_scene(
-                    io.BytesIO(text), file_type=file_type, resolver=resolver, process=False
-                )
+                try:
+                    scene = _trimesh().load_scene(
+                        io.BytesIO(text), file_type=file_type, resolver=resolver, process=False
+                    )
+                except Exception:
+                    # (an OFF of polygons of 5+ corners beside other faces: trimesh reads their fans)
+                    fanned = _off_fanned(text) if file_type == "off" else None
+                    if fanned is None:
+                        raise
+                    scene = _trimesh().load_scene(
+                        io.BytesIO(fanned), file_type=file_type, resolver=resolver, process=False
+                    )
+                    del fanned
             # (a cut OFF loaded as a smaller mesh; an OBJ's index 0 as its first vertex. The OFF's text
             # without comments, its lines the file's: the numpy check, not the loop a '#' needs)
             problem = _off_short(text) if file_type == "off" else _obj_zero_corner(data)
