@@ -172,3 +172,15 @@ def test_off_of_mixed_polygons_with_its_counts_on_the_header_line_and_comments(t
     text = _off(faces).replace(b"OFF\n", b"OFF ").replace(b"\n5 ", b"\n# a pentagon\n5 ", 1)
     assert text.startswith(b"OFF 8 2 0\n")
     _same(_load(tmp_path, "one_line.off", text), _load(tmp_path, "plain.off", _off(faces)))
+
+
+def test_off_with_a_byte_order_mark_loads_as_without(tmp_path: Path) -> None:
+    coff = b"COFF\n4 2 0\n0 0 0 255 0 0\n1 0 0 0 255 0\n1 1 0 0 0 255\n0 1 0 255 255 255\n3 0 1 2\n3 0 2 3\n"
+    plain = _load(tmp_path, "plain.off", coff)
+    assert "color" in plain.attributes
+    _same(_load(tmp_path, "bom.off", BOM + coff), plain)  # (its vertex colours were dropped, no word said)
+    mixed = _off([(0, 1, 2, 3), (4, 5, 6, 7, 0)])
+    _same(_load(tmp_path, "bom_mixed.off", BOM + mixed), _load(tmp_path, "mixed.off", mixed))
+    bad = BOM + _off(TRIANGLES).replace(b"\n1 0 0.5\n", b"\n1 0 x\n")
+    with pytest.raises(MeshLoadError, match=r"bad\.off: not a valid OFF file: line 4: vertex 1 holds 'x'"):
+        _load(tmp_path, "bad.off", bad)

@@ -79,6 +79,7 @@ from .ply import (
     ply_problem,
 )
 from .stl import _STL_HEADER_BYTES, _STL_TRIANGLE_BYTES, _stl_ascii_problem, check_stl
+from .text_rows import _without_bom
 from .trimesh_scene import _geometry_part, _geometry_transforms, _node_instances
 
 _TEXT_TYPES = ("obj", "off")
@@ -124,10 +125,12 @@ _no_rows_problems: dict[str, Callable[[bytes], str | None]] = {
 }
 
 
-def _read_problem(path: Path, check: Callable[[bytes], str | None]) -> str | None:
-    """``check`` of the bytes of ``path``, or None when it cannot be read again."""
+def _read_problem(path: Path, check: Callable[[bytes], str | None], text: bool = True) -> str | None:
+    """``check`` of the bytes of ``path`` (a text format's without a byte-order mark, as the loader reads
+    them; ``text`` False: a .glb's, as they are), or None when it cannot be read again."""
     try:
-        return check(path.read_bytes())
+        data = path.read_bytes()
+        return check(_without_bom(data) if text else data)
     except (OSError, MemoryError):
         return None
 
@@ -212,8 +215,9 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
             # without it: hand it UTF-8 (non-UTF-8 bytes are read as Latin-1, which only occurs in comments
             # and names of a valid file)
             data = given or path.read_bytes()
-            if file_type == "obj":  # (before the decoding: a Latin-1 file's mark would be other bytes)
-                data = _obj_text(data)
+            # (before the decoding: a Latin-1 file's mark would be other bytes. An OFF's: its header word
+            # '\ufeffCOFF' was no COFF to the colours' reader)
+            data = _obj_text(data) if file_type == "obj" else _without_bom(data)
             try:
                 data.decode("utf-8")
             except UnicodeDecodeError:
@@ -307,7 +311,7 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
         problem = _glb_length_problem(path) if file_type == "glb" else problem
         if problem is None and file_type in _HEADER_PROBLEMS:
             try:
-                problem = _read_problem(path, _HEADER_PROBLEMS[file_type])
+                problem = _read_problem(path, _HEADER_PROBLEMS[file_type], text=file_type != "glb")
             except Exception:  # noqa: BLE001 - (a look for the message: trimesh's is given without it)
                 problem = None
         if problem is None and file_type in ("gltf", "glb"):
