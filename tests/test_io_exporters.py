@@ -4,6 +4,7 @@ counts; or refuse with a clear MeshLoadError naming the file."""
 
 from __future__ import annotations
 
+import struct
 import warnings
 from pathlib import Path
 
@@ -184,3 +185,52 @@ def test_off_with_a_byte_order_mark_loads_as_without(tmp_path: Path) -> None:
     bad = BOM + _off(TRIANGLES).replace(b"\n1 0 0.5\n", b"\n1 0 x\n")
     with pytest.raises(MeshLoadError, match=r"bad\.off: not a valid OFF file: line 4: vertex 1 holds 'x'"):
         _load(tmp_path, "bad.off", bad)
+
+
+# --- PLY
+
+
+def _ply(fmt: str = "ascii", nl: str = "\n", sep: str = " ", faces: list | None = None) -> bytes:
+    faces = faces or [(0, 1, 2, 3), (4, 5, 6, 7, 0), (1, 5, 6)]
+    head = ["ply", f"format {fmt} 1.0", f"element vertex {len(POINTS)}"]
+    head += [f"property float {c}" for c in "xyz"]
+    head += [f"element face {len(faces)}", "property list uchar int vertex_indices", "end_header"]
+    out = (nl.join(head) + nl).encode()
+    if fmt == "ascii":
+        out += "".join(sep.join(map(str, p)) + nl for p in POINTS).encode()
+        return out + "".join(sep.join(map(str, [len(f), *f])) + nl for f in faces).encode()
+    out += b"".join(struct.pack("<3f", *p) for p in POINTS)
+    return out + b"".join(struct.pack(f"<B{len(f)}i", len(f), *f) for f in faces)
+
+
+@pytest.mark.parametrize("fmt", ["ascii", "binary_little_endian"])
+def test_ply_with_a_byte_order_mark_loads_as_without(tmp_path: Path, fmt: str) -> None:
+    # (the checks and the polygons' triangulation looked for 'ply' at byte 0: an ASCII file's mixed faces
+    # came out other triangles, a binary one's "vertex index 50331648 out of range")
+    plain = _load(tmp_path, "plain.ply", _ply(fmt))
+    assert plain.triangle_count == 2 + 3 + 1
+    _same(_load(tmp_path, "bom.ply", BOM + _ply(fmt)), plain)
+    triangles = [(0, 1, 2), (0, 2, 3), (4, 5, 6), (4, 6, 7)]
+    _same(
+        _load(tmp_path, "bom3.ply", BOM + _ply(fmt, faces=triangles)),
+        _load(tmp_path, "p3.ply", _ply(fmt, faces=triangles)),
+    )
+
+
+def test_ply_with_a_byte_order_mark_cut_short_is_refused(tmp_path: Path) -> None:
+    # (its rows were loaded as a smaller mesh, no word said)
+    with pytest.raises(
+        MeshLoadError, match=r"cut\.ply: truncated ASCII PLY: element face declares 3, found 1"
+    ):
+        _load(tmp_path, "cut.ply", (BOM + _ply())[:-20])
+    with pytest.raises(MeshLoadError, match=r"cut_bin\.ply: truncated binary PLY: element face declares 3"):
+        _load(tmp_path, "cut_bin.ply", (BOM + _ply("binary_little_endian"))[:-5])
+
+
+@pytest.mark.parametrize(
+    "nl, sep", [("\r\n", " "), ("\n", "\t"), ("\r\n", "\t")], ids=["crlf", "tabs", "crlf-tabs"]
+)
+def test_ply_with_crlf_lines_or_tabs_loads_as_plain(tmp_path: Path, nl: str, sep: str) -> None:
+    _same(_load(tmp_path, "x.ply", _ply(nl=nl, sep=sep)), _load(tmp_path, "plain.ply", _ply()))
+    binary = _ply("binary_little_endian", nl=nl)  # (a CRLF header before binary rows)
+    _same(_load(tmp_path, "x_bin.ply", binary), _load(tmp_path, "plain.ply", _ply()))

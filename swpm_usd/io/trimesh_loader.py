@@ -79,7 +79,7 @@ from .ply import (
     ply_problem,
 )
 from .stl import _STL_HEADER_BYTES, _STL_TRIANGLE_BYTES, _stl_ascii_problem, check_stl
-from .text_rows import _without_bom
+from .text_rows import BOM, _without_bom
 from .trimesh_scene import _geometry_part, _geometry_transforms, _node_instances
 
 _TEXT_TYPES = ("obj", "off")
@@ -198,10 +198,16 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
             scene = _trimesh().load_scene(str(path), file_type=file_type, process=False)
         elif file_type == "ply":
             data = path.read_bytes()
+            # (a byte-order mark before 'ply': trimesh read past it, our checks found no header and said
+            # nothing of a cut file or mixed polygons. Both read the file without it)
+            marked = data.startswith(BOM)
+            data = _without_bom(data)
             problem = ply_problem(data, ascii_only=True) or ply_ascii_short(data)
             if problem is not None:
                 raise MeshLoadError(path, problem)
             triangulated = ply_polygons_as_triangles(data)
+            if triangulated is None and marked:
+                triangulated = data
             data = b""  # (released before trimesh reads the file: a large scan is not held twice)
             if triangulated is None:
                 scene = _trimesh().load_scene(str(path), file_type=file_type, process=False)
