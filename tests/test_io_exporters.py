@@ -234,3 +234,40 @@ def test_ply_with_crlf_lines_or_tabs_loads_as_plain(tmp_path: Path, nl: str, sep
     _same(_load(tmp_path, "x.ply", _ply(nl=nl, sep=sep)), _load(tmp_path, "plain.ply", _ply()))
     binary = _ply("binary_little_endian", nl=nl)  # (a CRLF header before binary rows)
     _same(_load(tmp_path, "x_bin.ply", binary), _load(tmp_path, "plain.ply", _ply()))
+
+
+# --- STL (found sound: these guard it)
+
+
+def _stl(name: str = "cube", nl: str = "\n", sep: str = " ", indent: str = "  ") -> bytes:
+    rows = [f"solid {name}".rstrip()]
+    for t in TRIANGLES:
+        rows += [f"{indent}facet normal 0 0 1", f"{indent * 2}outer loop"]
+        rows += [f"{indent * 3}vertex{sep}{sep.join(map(str, POINTS[i]))}" for i in t]
+        rows += [f"{indent * 2}endloop", f"{indent}endfacet"]
+    return (nl.join([*rows, f"endsolid {name}".rstrip()]) + nl).encode()
+
+
+def _stl_binary(header: bytes) -> bytes:
+    body = b"".join(
+        struct.pack("<3f", 0, 0, 1) + b"".join(struct.pack("<3f", *POINTS[i]) for i in t) + b"\0\0"
+        for t in TRIANGLES
+    )
+    return header.ljust(80, b" ") + struct.pack("<I", len(TRIANGLES)) + body
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        BOM + _stl(),
+        _stl(sep="\t", indent="\t"),
+        BOM + _stl("part v2 (final)", "\r\n", "\t", "\t"),
+        _stl(""),
+        _stl().upper(),
+        _stl_binary(b"solid exported by a CAD tool"),  # (binary, its header starting with 'solid')
+        _stl_binary(b"solid x\nfacet normal 0 0 1\nendsolid x\n"),
+    ],
+    ids=["bom", "tabs", "bom-name-crlf-tabs", "no-name", "upper", "binary-solid", "binary-solid-text"],
+)
+def test_stl_as_exporters_write_it_loads_as_plain(tmp_path: Path, text: bytes) -> None:
+    _same(_load(tmp_path, "x.stl", text), _load(tmp_path, "plain.stl", _stl()))
