@@ -271,3 +271,27 @@ def _stl_binary(header: bytes) -> bytes:
 )
 def test_stl_as_exporters_write_it_loads_as_plain(tmp_path: Path, text: bytes) -> None:
     _same(_load(tmp_path, "x.stl", text), _load(tmp_path, "plain.stl", _stl()))
+
+
+# --- lines ended by CR alone (classic Mac OS)
+
+
+def test_text_files_of_cr_lines_load_as_plain(tmp_path: Path) -> None:
+    # (OBJ: "line 1: a 'v' row holds 'v', not a number"; ASCII STL: "trimesh could not read it"; a COFF's
+    # colours dropped)
+    _same(_load(tmp_path, "cr.obj", _obj(nl="\r")), _load(tmp_path, "plain.obj", _obj()))
+    _same(_load(tmp_path, "cr.stl", _stl(nl="\r")), _load(tmp_path, "plain.stl", _stl()))
+    _same(
+        _load(tmp_path, "cr.off", _off(TRIANGLES).replace(b"\n", b"\r")),
+        _load(tmp_path, "p.off", _off(TRIANGLES)),
+    )
+    coff = b"COFF\n4 2 0\n0 0 0 255 0 0\n1 0 0 0 255 0\n1 1 0 0 0 255\n0 1 0 255 255 255\n3 0 1 2\n3 0 2 3\n"
+    plain = _load(tmp_path, "coff.off", coff)
+    _same(_load(tmp_path, "coff_cr.off", coff.replace(b"\n", b"\r")), plain)
+    with pytest.raises(MeshLoadError, match=r"zero\.obj.*line 9: face corner '0' refers to vertex 0"):
+        _load(tmp_path, "zero.obj", _obj(nl="\r").replace(b"f 1 2 3", b"f 0 2 3"))
+
+
+def test_ply_of_cr_lines_says_so(tmp_path: Path) -> None:
+    with pytest.raises(MeshLoadError, match=r"cr\.ply: not a valid PLY file: its lines end in CR alone"):
+        _load(tmp_path, "cr.ply", _ply(nl="\r"))

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .text_rows import _not_numbers, _numbered_rows, _shown, _without_bom
+from .text_rows import _not_numbers, _numbered_rows, _shown, _text_lines
 
 #: a row's indentation: blanks at a line's start, unless the line before ends in '\\' (which continues
 #: that line here: trimesh joins them, blanks and all)
@@ -28,11 +28,12 @@ _OBJ_INDENTED = re.compile(rb"\n ")
 
 def _obj_text(data: bytes) -> bytes:
     """The OBJ file of bytes ``data`` as trimesh and the checks below read it, its lines unchanged: without
-    its byte-order mark (trimesh took ``\\ufeffv`` for no vertex: every index after it off by one), its tabs
+    its byte-order mark (trimesh took ``\\ufeffv`` for no vertex: every index after it off by one), its lines
+    ended by LF if they end in CR alone (:func:`.text_rows._text_lines`), its tabs
     as spaces and its rows' indentation dropped (trimesh finds rows by ``'\\nv '`` and ``'\\nf '``: a file
     of tab-separated rows was "no triangles", an indented face dropped, no word said). A file without any
     is returned as it is, not copied (bunny, 2.4 MB: 1 ms)."""
-    data = _without_bom(data)
+    data = _text_lines(data)
     if b"\t" in data:
         data = data.replace(b"\t", b" ")
     # (re's search, not "b'\n ' in data": 2.3 ms, nor numpy's compare of neighbours: 1.9 ms)

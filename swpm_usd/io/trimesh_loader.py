@@ -79,7 +79,7 @@ from .ply import (
     ply_problem,
 )
 from .stl import _STL_HEADER_BYTES, _STL_TRIANGLE_BYTES, _stl_ascii_problem, check_stl
-from .text_rows import BOM, _without_bom
+from .text_rows import BOM, _cr_only, _text_lines, _without_bom
 from .trimesh_scene import _geometry_part, _geometry_transforms, _node_instances
 
 _TEXT_TYPES = ("obj", "off")
@@ -90,6 +90,11 @@ _HEADER_PROBLEMS: dict[str, Callable[[bytes], str | None]] = {
     "glb": _glb_json_problem,
     "ply": _ply_header_problem,
 }
+
+
+#: how the checks asked after a failure read a file that may be binary, by type (a text file's:
+#: :func:`.text_rows._text_lines`): a PLY without its byte-order mark, its CRs kept (its rows may be bytes)
+_BINARY_READS: dict[str, Callable[[bytes], bytes]] = {"glb": bytes, "ply": _without_bom}
 
 
 #: the check of a text file's rows, by type, asked once trimesh has failed on it
@@ -125,12 +130,14 @@ _no_rows_problems: dict[str, Callable[[bytes], str | None]] = {
 }
 
 
-def _read_problem(path: Path, check: Callable[[bytes], str | None], text: bool = True) -> str | None:
-    """``check`` of the bytes of ``path`` (a text format's without a byte-order mark, as the loader reads
-    them; ``text`` False: a .glb's, as they are), or None when it cannot be read again."""
+def _read_problem(
+    path: Path, check: Callable[[bytes], str | None], read: Callable[[bytes], bytes] = _text_lines
+) -> str | None:
+    """``check`` of the bytes of ``path`` as the loader reads them (``read`` of them: a text format's without
+    a byte-order mark, its lines ended by LF; a PLY's without the mark; a .glb's as they are), or None when
+    it cannot be read again."""
     try:
-        data = path.read_bytes()
-        return check(_without_bom(data) if text else data)
+        return check(read(path.read_bytes()))
     except (OSError, MemoryError):
         return None
 
@@ -195,7 +202,15 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
                 _budget_before_parsing(path, file_type, data, max_triangles)
         if file_type == "stl":
             check_stl(path)  # (its start and end: trimesh reads the file)
-            scene = _trimesh().load_scene(str(path), file_type=file_type, process=False)
+            try:
+                scene = _trimesh().load_scene(str(path), file_type=file_type, process=False)
+            except Exception:
+                # (an ASCII STL of lines ended by CR alone: trimesh read it as one line. Asked only then)
+                data = _without_bom(path.read_bytes())
+                if not _cr_only(data) or data.lstrip()[:5].lower() != b"solid":
+                    raise
+                scene = _trimesh().load_scene(io.BytesIO(_text_lines(data)), file_type="stl", process=False)
+                data = b""
         elif file_type == "ply":
             data = path.read_bytes()
             # (a byte-order mark before 'ply': trimesh read past it, our checks found no header and said
@@ -223,7 +238,7 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
             data = given or path.read_bytes()
             # (before the decoding: a Latin-1 file's mark would be other bytes. An OFF's: its header word
             # '\ufeffCOFF' was no COFF to the colours' reader)
-            data = _obj_text(data) if file_type == "obj" else _without_bom(data)
+            data = _obj_text(data) if file_type == "obj" else _text_lines(data)
             try:
                 data.decode("utf-8")
             except UnicodeDecodeError:
@@ -313,11 +328,11 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
         problem = _gltf_buffer_problem(path) if file_type == "gltf" else None
         if problem is not None:
             raise MeshLoadError(path, f"not a valid glTF file: {problem}", code="INPUT_INCOMPLETE") from e
-        problem = _read_problem(path, ply_problem) if file_type == "ply" else None
+        problem = _read_problem(path, ply_problem, _without_bom) if file_type == "ply" else None
         problem = _glb_length_problem(path) if file_type == "glb" else problem
         if problem is None and file_type in _HEADER_PROBLEMS:
             try:
-                problem = _read_problem(path, _HEADER_PROBLEMS[file_type], text=file_type != "glb")
+                problem = _read_problem(path, _HEADER_PROBLEMS[file_type], _BINARY_READS[file_type])
             except Exception:  # noqa: BLE001 - (a look for the message: trimesh's is given without it)
                 problem = None
         if problem is None and file_type in ("gltf", "glb"):
@@ -330,7 +345,9 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
             problem = None if problem is None else f"not a valid {file_type.upper()} file: {problem}"
         if problem is None and file_type in _ROW_PROBLEMS:
             try:
-                problem = _read_problem(path, _ROW_PROBLEMS[file_type])
+                problem = _read_problem(
+                    path, _ROW_PROBLEMS[file_type], _BINARY_READS.get(file_type, _text_lines)
+                )
             except Exception:  # noqa: BLE001 - (a look for the message: trimesh's is given without it)
                 problem = None
             problem = None if problem is None else f"not a valid {file_type.upper()} file: {problem}"
@@ -342,7 +359,9 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
     if not parts:
         # (a header trimesh read as one of no rows: 'format weird 1.0', a count of -3)
         problem = (
-            _read_problem(path, _no_rows_problems[file_type]) if file_type in _no_rows_problems else None
+            _read_problem(path, _no_rows_problems[file_type], _BINARY_READS.get(file_type, _text_lines))
+            if file_type in _no_rows_problems
+            else None
         )
         if problem is not None:
             raise MeshLoadError(path, problem)
