@@ -97,6 +97,53 @@ def _off_short(data: bytes) -> str | None:
     return None
 
 
+def _off_fanned(text: bytes) -> bytes | None:
+    """The OFF text ``text`` (no comments) with each face of more than 4 corners as its fan of triangle rows
+    (0, k, k + 1) and the header's face count to match, for trimesh to read; None when it has no such face,
+    or a row this does not read (trimesh's and :func:`_off_problem`'s to report). trimesh reads triangles and
+    quads but fails on polygons of 5 or more corners beside faces of another count ("The 'out' kwarg is
+    necessary when using the string multiply ufunc directly"): asked only then, so a file trimesh reads is
+    read as before. Values after a face's indices (its colour) are left out: :func:`_off_colours` reads
+    them from the file."""
+    lines = text.split(b"\n")
+    rows = ((i, line.split()) for i, line in enumerate(lines))
+    rows = ((i, words) for i, words in rows if words)
+    first = next(rows, None)
+    if first is None or _OFF_HEADER.fullmatch(first[1][0]) is None:
+        return None
+    if len(first[1]) > 1:  # ('OFF V F E' on one line)
+        at, head, counts = first[0], first[1][:1], first[1][1:]
+    else:
+        at, counts = next(rows, (0, []))
+        head = []
+    try:
+        n_vertices, n_faces = int(counts[0]), int(counts[1])
+    except (IndexError, ValueError):
+        return None
+    for _ in range(max(n_vertices, 0)):
+        if next(rows, None) is None:
+            return None
+    fanned = False
+    extra = 0
+    for _ in range(max(n_faces, 0)):
+        i, words = next(rows, (None, []))
+        if i is None:
+            return None
+        try:
+            corners = [int(w) for w in words[: 1 + int(words[0])]]
+        except ValueError:
+            return None
+        n = corners[0]
+        if n > 4 and len(corners) == n + 1:
+            c = corners[1:]
+            lines[i] = b"\n".join(b"3 %d %d %d" % (c[0], c[k], c[k + 1]) for k in range(1, n - 1))
+            fanned, extra = True, extra + n - 3
+    if not fanned:
+        return None
+    lines[at] = b" ".join([*head, str(n_vertices).encode(), str(n_faces + extra).encode(), *counts[2:]])
+    return b"\n".join(lines)
+
+
 _BLANK = np.zeros(256, bool)  # (what bytes.split() splits at)
 _BLANK[list(b" \t\n\r\x0b\x0c")] = True
 

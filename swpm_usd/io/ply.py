@@ -370,6 +370,8 @@ def _ply_header_problem(data: bytes) -> str | None:
     decode byte 0xec in position 0", "PLY is unexpected length!", a KeyError of a type)."""
     if not data.startswith(b"ply"):
         return f"not a PLY file: it starts with {data[:8]!r}, not b'ply'"
+    if data.startswith(b"ply\r") and not data.startswith(b"ply\r\n"):  # (trimesh: "no end_header")
+        return "not a valid PLY file: its lines end in CR alone (classic Mac OS), not LF or CRLF"
     end = re.search(rb"(?m)^end_header[ \t]*\r?$", data[:_PLY_HEADER_BYTES])
     if end is None:
         within = f" in its first {_PLY_HEADER_BYTES} bytes" if len(data) > _PLY_HEADER_BYTES else ""

@@ -7,6 +7,29 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
+#: the UTF-8 byte-order mark Windows tools write before a text file's first line (no part of its first word)
+BOM = b"\xef\xbb\xbf"
+
+
+def _without_bom(data: bytes) -> bytes:
+    """The bytes ``data`` of a text mesh file without its UTF-8 byte-order mark, if it starts with one (its
+    lines unchanged: the mark is no line of its own)."""
+    return data[len(BOM) :] if data.startswith(BOM) else data
+
+
+def _cr_only(data: bytes) -> bool:
+    """Whether the text ``data`` ends its lines in CR alone (classic Mac OS): a CR and no LF."""
+    return b"\n" not in data and b"\r" in data
+
+
+def _text_lines(data: bytes) -> bytes:
+    """The bytes ``data`` of a text mesh file (OBJ, OFF, ASCII STL) as its checks and trimesh read it: without
+    its byte-order mark, and its lines ended by LF if each ends in CR alone (trimesh's OBJ and STL readers and
+    our checks split lines at LF only: the whole file read as one line). Lines, and so messages' line
+    numbers, unchanged; a file of LF or CRLF lines is returned as it is."""
+    data = _without_bom(data)
+    return data.replace(b"\r", b"\n") if _cr_only(data) else data
+
 
 def _numbered_rows(data: bytes) -> Iterator[tuple[int, list[bytes]]]:
     """(line number from 1, tokens) of each line of a text mesh file holding any, comments left out."""

@@ -61,11 +61,13 @@ from .obj import (
     _OBJ_FACE_LINE,
     _obj_faces_in_numpy,
     _obj_problem,
+    _obj_text,
     _obj_zero_corner,
     _report_dropped_obj_attributes,
 )
 from .off import (
     _off_colours,
+    _off_fanned,
     _off_problem,
     _off_short,
 )
@@ -77,6 +79,7 @@ from .ply import (
     ply_problem,
 )
 from .stl import _STL_HEADER_BYTES, _STL_TRIANGLE_BYTES, _stl_ascii_problem, check_stl
+from .text_rows import BOM, _cr_only, _text_lines, _without_bom
 from .trimesh_scene import _geometry_part, _geometry_transforms, _node_instances
 
 _TEXT_TYPES = ("obj", "off")
@@ -87,6 +90,11 @@ _HEADER_PROBLEMS: dict[str, Callable[[bytes], str | None]] = {
     "glb": _glb_json_problem,
     "ply": _ply_header_problem,
 }
+
+
+#: how the checks asked after a failure read a file that may be binary, by type (a text file's:
+#: :func:`.text_rows._text_lines`): a PLY without its byte-order mark, its CRs kept (its rows may be bytes)
+_BINARY_READS: dict[str, Callable[[bytes], bytes]] = {"glb": bytes, "ply": _without_bom}
 
 
 #: the check of a text file's rows, by type, asked once trimesh has failed on it
@@ -122,10 +130,14 @@ _no_rows_problems: dict[str, Callable[[bytes], str | None]] = {
 }
 
 
-def _read_problem(path: Path, check: Callable[[bytes], str | None]) -> str | None:
-    """``check`` of the bytes of ``path``, or None when it cannot be read again."""
+def _read_problem(
+    path: Path, check: Callable[[bytes], str | None], read: Callable[[bytes], bytes] = _text_lines
+) -> str | None:
+    """``check`` of the bytes of ``path`` as the loader reads them (``read`` of them: a text format's without
+    a byte-order mark, its lines ended by LF; a PLY's without the mark; a .glb's as they are), or None when
+    it cannot be read again."""
     try:
-        return check(path.read_bytes())
+        return check(read(path.read_bytes()))
     except (OSError, MemoryError):
         return None
 
@@ -145,7 +157,7 @@ def declared_triangle_count(path: Path, file_type: str, data: bytes = b"") -> tu
         if size == _STL_HEADER_BYTES + _STL_TRIANGLE_BYTES * count:  # (binary: check_stl's test)
             return count, True, " (declared by its binary STL header)"
     elif file_type == "obj":
-        n = len(_OBJ_FACE_LINE.findall(data or path.read_bytes()))
+        n = len(_OBJ_FACE_LINE.findall(_obj_text(data or path.read_bytes())))
         return n, False, f" (at least: it has {n} face lines of 3 or more corners)"
     elif file_type in ("gltf", "glb"):
         n = gltf_triangle_count(path)
@@ -190,13 +202,27 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
                 _budget_before_parsing(path, file_type, data, max_triangles)
         if file_type == "stl":
             check_stl(path)  # (its start and end: trimesh reads the file)
-            scene = _trimesh().load_scene(str(path), file_type=file_type, process=False)
+            try:
+                scene = _trimesh().load_scene(str(path), file_type=file_type, process=False)
+            except Exception:
+                # (an ASCII STL of lines ended by CR alone: trimesh read it as one line. Asked only then)
+                data = _without_bom(path.read_bytes())
+                if not _cr_only(data) or data.lstrip()[:5].lower() != b"solid":
+                    raise
+                scene = _trimesh().load_scene(io.BytesIO(_text_lines(data)), file_type="stl", process=False)
+                data = b""
         elif file_type == "ply":
             data = path.read_bytes()
+            # (a byte-order mark before 'ply': trimesh read past it, our checks found no header and said
+            # nothing of a cut file or mixed polygons. Both read the file without it)
+            marked = data.startswith(BOM)
+            data = _without_bom(data)
             problem = ply_problem(data, ascii_only=True) or ply_ascii_short(data)
             if problem is not None:
                 raise MeshLoadError(path, problem)
             triangulated = ply_polygons_as_triangles(data)
+            if triangulated is None and marked:
+                triangulated = data
             data = b""  # (released before trimesh reads the file: a large scan is not held twice)
             if triangulated is None:
                 scene = _trimesh().load_scene(str(path), file_type=file_type, process=False)
@@ -210,6 +236,9 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
             # without it: hand it UTF-8 (non-UTF-8 bytes are read as Latin-1, which only occurs in comments
             # and names of a valid file)
             data = given or path.read_bytes()
+            # (before the decoding: a Latin-1 file's mark would be other bytes. An OFF's: its header word
+            # '\ufeffCOFF' was no COFF to the colours' reader)
+            data = _obj_text(data) if file_type == "obj" else _text_lines(data)
             try:
                 data.decode("utf-8")
             except UnicodeDecodeError:
@@ -222,9 +251,19 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
             # as a vertex, silently)
             text = re.sub(rb"#[^\n]*", b"", data) if file_type == "off" and b"#" in data else data
             with _obj_faces_in_numpy() if file_type == "obj" else contextlib.nullcontext():
-                scene = _trimesh().load_scene(
-                    io.BytesIO(text), file_type=file_type, resolver=resolver, process=False
-                )
+                try:
+                    scene = _trimesh().load_scene(
+                        io.BytesIO(text), file_type=file_type, resolver=resolver, process=False
+                    )
+                except Exception:
+                    # (an OFF of polygons of 5+ corners beside other faces: trimesh reads their fans)
+                    fanned = _off_fanned(text) if file_type == "off" else None
+                    if fanned is None:
+                        raise
+                    scene = _trimesh().load_scene(
+                        io.BytesIO(fanned), file_type=file_type, resolver=resolver, process=False
+                    )
+                    del fanned
             # (a cut OFF loaded as a smaller mesh; an OBJ's index 0 as its first vertex. The OFF's text
             # without comments, its lines the file's: the numpy check, not the loop a '#' needs)
             problem = _off_short(text) if file_type == "off" else _obj_zero_corner(data)
@@ -289,11 +328,11 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
         problem = _gltf_buffer_problem(path) if file_type == "gltf" else None
         if problem is not None:
             raise MeshLoadError(path, f"not a valid glTF file: {problem}", code="INPUT_INCOMPLETE") from e
-        problem = _read_problem(path, ply_problem) if file_type == "ply" else None
+        problem = _read_problem(path, ply_problem, _without_bom) if file_type == "ply" else None
         problem = _glb_length_problem(path) if file_type == "glb" else problem
         if problem is None and file_type in _HEADER_PROBLEMS:
             try:
-                problem = _read_problem(path, _HEADER_PROBLEMS[file_type])
+                problem = _read_problem(path, _HEADER_PROBLEMS[file_type], _BINARY_READS[file_type])
             except Exception:  # noqa: BLE001 - (a look for the message: trimesh's is given without it)
                 problem = None
         if problem is None and file_type in ("gltf", "glb"):
@@ -306,7 +345,9 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
             problem = None if problem is None else f"not a valid {file_type.upper()} file: {problem}"
         if problem is None and file_type in _ROW_PROBLEMS:
             try:
-                problem = _read_problem(path, _ROW_PROBLEMS[file_type])
+                problem = _read_problem(
+                    path, _ROW_PROBLEMS[file_type], _BINARY_READS.get(file_type, _text_lines)
+                )
             except Exception:  # noqa: BLE001 - (a look for the message: trimesh's is given without it)
                 problem = None
             problem = None if problem is None else f"not a valid {file_type.upper()} file: {problem}"
@@ -318,7 +359,9 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
     if not parts:
         # (a header trimesh read as one of no rows: 'format weird 1.0', a count of -3)
         problem = (
-            _read_problem(path, _no_rows_problems[file_type]) if file_type in _no_rows_problems else None
+            _read_problem(path, _no_rows_problems[file_type], _BINARY_READS.get(file_type, _text_lines))
+            if file_type in _no_rows_problems
+            else None
         )
         if problem is not None:
             raise MeshLoadError(path, problem)
