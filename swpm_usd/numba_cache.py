@@ -14,8 +14,9 @@ function (the same cache folder), its source stamp paired with :func:`kernel_fin
 module of the package that imports numba and of the package modules those import directly (the constants a
 kernel may read). A change in any of them recompiles the package's kernels once; a change elsewhere (the
 pipeline, the command line) does not. Importing this module installs it for this package: the encoders'
-and the simplifier's ``__init__`` and ``format.kernels`` import it before their kernels are defined (a test
-checks every cached kernel of the package has the locator).
+and the simplifier's ``__init__``, ``format.kernels``, ``metrics`` and ``vcache`` import it before their
+kernels are defined (tests check every cached kernel of the package has the locator, whatever module a
+process imports first: a kernel stamped both ways would have its cache index rewritten by turns).
 """
 
 from __future__ import annotations

@@ -103,3 +103,36 @@ def test_a_kernel_is_compiled_again_when_its_callee_in_another_file_changes(tmp_
     (pkg / "callee.py").write_text(textwrap.dedent(_CALLEE.format(n=2)))
     # numba alone loads caller.py's cached kernel, its own file unchanged, with the old step inside: 20
     assert run() == "30"
+
+
+_STAMPED_WHEN_FIRST = """
+import importlib, sys
+import numba
+from numba.core.caching import NullCache
+name = sys.argv[1]
+module = importlib.import_module(name)  # the first module of the package this process imports
+for attr, value in vars(module).items():
+    if isinstance(value, numba.core.dispatcher.Dispatcher) and value.py_func.__module__ == name:
+        if not isinstance(value._cache, NullCache):
+            print(attr, type(value._cache._impl.locator).__name__)
+"""
+
+
+def test_every_cached_kernel_is_stamped_whatever_module_a_process_imports_first():
+    # (metrics and vcache are outside encode/ and simplify/, whose __init__ install the locator: imported
+    # first, their kernels had numba's stamp alone, and a process importing them later had the package's:
+    # the two rewrote each other's cache index)
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(Path(swpm_usd.__file__).parents[1]), env.get("PYTHONPATH", "")])
+    unstamped, seen = [], 0
+    for name in _kernel_modules():  # (one process each: a few seconds in all)
+        argv = [sys.executable, "-c", _STAMPED_WHEN_FIRST, name]
+        out = subprocess.run(argv, env=env, capture_output=True, text=True, timeout=300)
+        assert out.returncode == 0, f"{name}: {out.stderr}"
+        for line in out.stdout.splitlines():
+            attr, locator = line.split()
+            seen += 1
+            if locator != "PackageKernelLocator":
+                unstamped.append(f"{name}.{attr}: {locator}")
+    assert seen > 100
+    assert unstamped == []
