@@ -32,10 +32,14 @@ _ROOT = Path(__file__).resolve().parent
 
 
 def _modules(root: Path, package: str) -> dict[str, Path]:
-    """Module name -> file, for every ``.py`` file under ``root`` (the folder of ``package``)."""
+    """Module name -> file, for every ``.py`` file under ``root`` (the folder of ``package``) that can be
+    imported as a module: not an editor's lock file (emacs's ``.#name.py``, a link to nowhere, read would
+    fail every kernel's definition) or backup."""
     out = {}
     for path in sorted(root.rglob("*.py")):
         parts = list(path.relative_to(root).with_suffix("").parts)
+        if not all(part.isidentifier() for part in parts):
+            continue
         if parts[-1] == "__init__":
             parts.pop()
         out[".".join([package, *parts])] = path

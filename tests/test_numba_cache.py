@@ -66,6 +66,17 @@ def test_fingerprint_covers_the_kernels_and_what_they_import_only(tmp_path: Path
         assert fp() != before, rel  # a constant, a module a kernel module imports in parentheses
 
 
+def test_fingerprint_skips_files_that_are_not_modules(tmp_path: Path):
+    # emacs's lock file for a modified buffer is a link to nowhere named .#kern.py: reading it raised
+    # FileNotFoundError as the package's first kernel was defined (numba alone imported)
+    root = tmp_path / "pkgl"
+    _write(root, {"__init__.py": "", "kern.py": "import numba\n"})
+    first = numba_cache.kernel_fingerprint.__wrapped__(root, "pkgl")
+    (root / ".#kern.py").symlink_to(root / "user@host.1234")
+    _write(root, {"kern-backup.py": "import numba\nX = 1\n"})
+    assert numba_cache.kernel_fingerprint.__wrapped__(root, "pkgl") == first
+
+
 _CALLEE = """
 import numba as nb
 
