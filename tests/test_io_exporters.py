@@ -308,6 +308,8 @@ def test_off_of_lf_and_cr_lines_loads_as_plain(tmp_path: Path) -> None:
     # alone: 'the header declares 4 faces, the file has 2' of a file trimesh read whole, and colours lost
     plain = _load(tmp_path, "p.off", _off(TRIANGLES))
     _same(_load(tmp_path, "mixed.off", _mixed_line_ends(_off(TRIANGLES))), plain)
+    one_cr = _off(TRIANGLES).replace(b"3 0 1 2\n", b"3 0 1 2\r")  # (refused: 'declares 4 faces, ... has 3')
+    _same(_load(tmp_path, "one_cr.off", one_cr), plain)
     _same(_load(tmp_path, "mixed_crlf.off", _mixed_line_ends(_off(TRIANGLES)).replace(b"\n", b"\r\n")), plain)
     colours = ["255 0 0", "0 255 0", "0 0 255", "255 255 255"]
     with warnings.catch_warnings():
