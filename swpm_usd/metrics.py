@@ -40,6 +40,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from . import numba_cache  # noqa: F401 (before the kernels: it stamps them)
+
 __all__ = [
     "SurfaceError",
     "acmr",

@@ -14,8 +14,9 @@ function (the same cache folder), its source stamp paired with :func:`kernel_fin
 module of the package that imports numba and of the package modules those import directly (the constants a
 kernel may read). A change in any of them recompiles the package's kernels once; a change elsewhere (the
 pipeline, the command line) does not. Importing this module installs it for this package: the encoders'
-and the simplifier's ``__init__`` and ``format.kernels`` import it before their kernels are defined (a test
-checks every cached kernel of the package has the locator).
+and the simplifier's ``__init__``, ``format.kernels``, ``metrics`` and ``vcache`` import it before their
+kernels are defined (tests check every cached kernel of the package has the locator, whatever module a
+process imports first: a kernel stamped both ways would have its cache index rewritten by turns).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import re
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -30,11 +32,36 @@ PACKAGE = "swpm_usd"
 _ROOT = Path(__file__).resolve().parent
 
 
-def _modules(root: Path, package: str) -> dict[str, Path]:
-    """Module name -> file, for every ``.py`` file under ``root`` (the folder of ``package``)."""
+def _py_files(root: Path) -> list[tuple[tuple[str, ...], Any]]:
+    """(parts of the path under ``root``, file) for every ``.py`` file under ``root``: a folder, or a folder
+    inside a zip archive the package is imported from (numba caches such kernels too, stamped with their
+    own file alone). A file is a :class:`~pathlib.Path` or a :class:`zipfile.Path`: both read_bytes()."""
+    if root.is_dir():
+        return [(path.relative_to(root).parts, path) for path in root.rglob("*.py")]
+    archive = next((a for a in root.parents if a.is_file() and zipfile.is_zipfile(a)), None)
+    if archive is None:
+        return []
+    out: list[tuple[tuple[str, ...], Any]] = []
+    folders = [((), zipfile.Path(archive, at=root.relative_to(archive).as_posix() + "/"))]
+    while folders:
+        parts, folder = folders.pop()
+        for entry in folder.iterdir():
+            if entry.is_dir():
+                folders.append(((*parts, entry.name), entry))
+            elif entry.name.endswith(".py"):
+                out.append(((*parts, entry.name), entry))
+    return out
+
+
+def _modules(root: Path, package: str) -> dict[str, Any]:
+    """Module name -> file, for every ``.py`` file under ``root`` (the folder of ``package``) that can be
+    imported as a module: not an editor's lock file (emacs's ``.#name.py``, a link to nowhere, read would
+    fail every kernel's definition) or backup."""
     out = {}
-    for path in sorted(root.rglob("*.py")):
-        parts = list(path.relative_to(root).with_suffix("").parts)
+    for rel, path in sorted(_py_files(root), key=lambda item: item[0]):
+        parts = [*rel[:-1], rel[-1].removesuffix(".py")]
+        if not all(part.isidentifier() for part in parts):
+            continue
         if parts[-1] == "__init__":
             parts.pop()
         out[".".join([package, *parts])] = path
@@ -50,7 +77,7 @@ _FROM_IMPORT = re.compile(r"^[ \t]*from[ \t]+(\.*)([\w.]*)[ \t]+import[ \t]+(\([
 _IMPORT = re.compile(r"^[ \t]*import[ \t]+([\w., \t]+)", re.MULTILINE)
 
 
-def _imports_of(name: str, path: Path, modules: dict[str, Path]) -> set[str]:
+def _imports_of(name: str, path: Any, modules: dict[str, Any]) -> set[str]:
     """The modules of ``modules`` that module ``name`` (file ``path``) imports by name."""
     here = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
     text = path.read_text(encoding="utf-8")
@@ -80,7 +107,7 @@ def kernel_fingerprint(root: Path = _ROOT, package: str = PACKAGE) -> str:
     return digest.hexdigest()
 
 
-#: package -> its folder, for the packages :func:`install` has been called for
+#: package -> its folder (maybe inside a zip archive), for the packages :func:`install` has been called for
 _PACKAGES: dict[str, Path] = {}
 
 

@@ -68,6 +68,8 @@ import functools
 import numpy as np
 from numba import njit
 
+from . import numba_cache  # noqa: F401 (before the kernels: it stamps them)
+
 __all__ = [
     "apply_order",
     "fan_order",

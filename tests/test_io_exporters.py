@@ -295,3 +295,37 @@ def test_text_files_of_cr_lines_load_as_plain(tmp_path: Path) -> None:
 def test_ply_of_cr_lines_says_so(tmp_path: Path) -> None:
     with pytest.raises(MeshLoadError, match=r"cr\.ply: not a valid PLY file: its lines end in CR alone"):
         _load(tmp_path, "cr.ply", _ply(nl="\r"))
+
+
+def _mixed_line_ends(data: bytes) -> bytes:
+    """``data`` with every other line ended by CR alone, the rest by LF (a file pieced from two systems')."""
+    lines = data.split(b"\n")
+    return b"".join(line + (b"\r" if k % 2 else b"\n") for k, line in enumerate(lines[:-1])) + lines[-1]
+
+
+def test_off_of_lf_and_cr_lines_loads_as_plain(tmp_path: Path) -> None:
+    # trimesh's OFF reader splits lines at CR, LF and CRLF (str.splitlines); the checks after it split at LF
+    # alone: 'the header declares 4 faces, the file has 2' of a file trimesh read whole, and colours lost
+    plain = _load(tmp_path, "p.off", _off(TRIANGLES))
+    _same(_load(tmp_path, "mixed.off", _mixed_line_ends(_off(TRIANGLES))), plain)
+    one_cr = _off(TRIANGLES).replace(b"3 0 1 2\n", b"3 0 1 2\r")  # (refused: 'declares 4 faces, ... has 3')
+    _same(_load(tmp_path, "one_cr.off", one_cr), plain)
+    _same(_load(tmp_path, "mixed_crlf.off", _mixed_line_ends(_off(TRIANGLES)).replace(b"\n", b"\r\n")), plain)
+    colours = ["255 0 0", "0 255 0", "0 0 255", "255 255 255"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # (no "face colours are not loaded")
+        _same(
+            _load(tmp_path, "c.off", _mixed_line_ends(_off(TRIANGLES, colours))),
+            _load(tmp_path, "cp.off", _off(TRIANGLES, colours)),
+        )
+    coff = b"COFF\n4 2 0\n0 0 0 255 0 0\n1 0 0 0 255 0\n1 1 0 0 0 255\n0 1 0 255 255 255\n3 0 1 2\n3 0 2 3\n"
+    _same(_load(tmp_path, "coff_mixed.off", _mixed_line_ends(coff)), _load(tmp_path, "coff.off", coff))
+    mixed = _mixed_line_ends(_off([(0, 1, 2, 3), (4, 5, 6, 7, 0)]))
+    _same(
+        _load(tmp_path, "fan_mixed.off", mixed),
+        _load(tmp_path, "fan.off", _off([(0, 1, 2, 3), (4, 5, 6, 7, 0)])),
+    )
+    with pytest.raises(
+        MeshLoadError, match=r"cut\.off: not a valid OFF file: the header declares 4 faces, the file has 3"
+    ):
+        _load(tmp_path, "cut.off", _mixed_line_ends(_off(TRIANGLES)).rsplit(b"3 ", 1)[0])

@@ -8,6 +8,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import zipfile
 from pathlib import Path
 
 import numba
@@ -66,6 +67,17 @@ def test_fingerprint_covers_the_kernels_and_what_they_import_only(tmp_path: Path
         assert fp() != before, rel  # a constant, a module a kernel module imports in parentheses
 
 
+def test_fingerprint_skips_files_that_are_not_modules(tmp_path: Path):
+    # emacs's lock file for a modified buffer is a link to nowhere named .#kern.py: reading it raised
+    # FileNotFoundError as the package's first kernel was defined (numba alone imported)
+    root = tmp_path / "pkgl"
+    _write(root, {"__init__.py": "", "kern.py": "import numba\n"})
+    first = numba_cache.kernel_fingerprint.__wrapped__(root, "pkgl")
+    (root / ".#kern.py").symlink_to(root / "user@host.1234")
+    _write(root, {"kern-backup.py": "import numba\nX = 1\n"})
+    assert numba_cache.kernel_fingerprint.__wrapped__(root, "pkgl") == first
+
+
 _CALLEE = """
 import numba as nb
 
@@ -103,3 +115,79 @@ def test_a_kernel_is_compiled_again_when_its_callee_in_another_file_changes(tmp_
     (pkg / "callee.py").write_text(textwrap.dedent(_CALLEE.format(n=2)))
     # numba alone loads caller.py's cached kernel, its own file unchanged, with the old step inside: 20
     assert run() == "30"
+
+
+_STAMPED_WHEN_FIRST = """
+import importlib, sys
+import numba
+from numba.core.caching import NullCache
+name = sys.argv[1]
+module = importlib.import_module(name)  # the first module of the package this process imports
+for attr, value in vars(module).items():
+    if isinstance(value, numba.core.dispatcher.Dispatcher) and value.py_func.__module__ == name:
+        if not isinstance(value._cache, NullCache):
+            print(attr, type(value._cache._impl.locator).__name__)
+"""
+
+
+def test_every_cached_kernel_is_stamped_whatever_module_a_process_imports_first():
+    # (metrics and vcache are outside encode/ and simplify/, whose __init__ install the locator: imported
+    # first, their kernels had numba's stamp alone, and a process importing them later had the package's:
+    # the two rewrote each other's cache index)
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(Path(swpm_usd.__file__).parents[1]), env.get("PYTHONPATH", "")])
+    unstamped, seen = [], 0
+    for name in _kernel_modules():  # (one process each: a few seconds in all)
+        argv = [sys.executable, "-c", _STAMPED_WHEN_FIRST, name]
+        out = subprocess.run(argv, env=env, capture_output=True, text=True, timeout=300)
+        assert out.returncode == 0, f"{name}: {out.stderr}"
+        for line in out.stdout.splitlines():
+            attr, locator = line.split()
+            seen += 1
+            if locator != "PackageKernelLocator":
+                unstamped.append(f"{name}.{attr}: {locator}")
+    assert seen > 100
+    assert unstamped == []
+
+
+def _zip(folder: Path, archive: Path) -> None:
+    with zipfile.ZipFile(archive, "w") as zf:  # (no folder entries, as many tools write)
+        for path in sorted(folder.rglob("*.py")):
+            zf.write(path, path.relative_to(folder.parent).as_posix())
+
+
+def test_a_package_imported_from_a_zip_archive_has_the_same_fingerprint(tmp_path: Path):
+    # numba caches a zipped module's kernels (ZipCacheLocator) stamped with their own file's bytes; the
+    # fingerprint found no file under a folder inside the archive: every kernel stamped with the empty hash
+    root = tmp_path / "src" / "pkgz"
+    _write(root, {"__init__.py": "", "kern.py": "import numba\nfrom .sub import c\n", "sub/c.py": "N = 1\n"})
+    _zip(root, tmp_path / "a.zip")
+    fp = numba_cache.kernel_fingerprint.__wrapped__
+    assert fp(tmp_path / "a.zip" / "pkgz", "pkgz") == fp(root, "pkgz")
+    _write(root, {"sub/c.py": "N = 2\n"})
+    _zip(root, tmp_path / "b.zip")
+    assert fp(tmp_path / "b.zip" / "pkgz", "pkgz") != fp(tmp_path / "a.zip" / "pkgz", "pkgz")
+
+
+def test_a_kernel_from_a_zip_archive_is_compiled_again_when_its_callee_changes(tmp_path: Path):
+    pkg = tmp_path / "src" / "pkgw"
+    init = "from swpm_usd import numba_cache\nnumba_cache.install(__name__, __path__[0])\n"
+    _write(pkg, {"__init__.py": init, "callee.py": _CALLEE.format(n=1), "caller.py": _CALLER})
+    archive = tmp_path / "pkgw.zip"
+    env = dict(os.environ)
+    env["XDG_CACHE_HOME"] = str(tmp_path / "cache")  # (numba's zip locator caches in the user's folder)
+    env["PYTHONPATH"] = os.pathsep.join([str(archive), str(Path(swpm_usd.__file__).parents[1])])
+
+    def run() -> str:
+        code = "from pkgw.caller import scaled; print(scaled(1), scaled.stats.cache_hits.total())"
+        argv = [sys.executable, "-c", code]
+        out = subprocess.run(argv, env=env, capture_output=True, text=True, timeout=300)
+        assert out.returncode == 0, out.stderr
+        return out.stdout.strip()
+
+    _zip(pkg, archive)
+    assert run() == "20 0"
+    assert run() == "20 1"  # (from the cache)
+    _write(pkg, {"callee.py": _CALLEE.format(n=2)})
+    _zip(pkg, archive)
+    assert run() == "30 0"

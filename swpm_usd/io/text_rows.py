@@ -5,6 +5,7 @@ glTF ones of :mod:`.gltf_checks`)."""
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterator
 
 #: the UTF-8 byte-order mark Windows tools write before a text file's first line (no part of its first word)
@@ -29,6 +30,19 @@ def _text_lines(data: bytes) -> bytes:
     numbers, unchanged; a file of LF or CRLF lines is returned as it is."""
     data = _without_bom(data)
     return data.replace(b"\r", b"\n") if _cr_only(data) else data
+
+
+#: a CR that ends a line alone, in a file of LF or CRLF lines
+_LONE_CR = re.compile(rb"\r(?!\n)")
+
+
+def _off_lines(data: bytes) -> bytes:
+    """The bytes ``data`` of an OFF file as trimesh's OFF reader splits them (str.splitlines: at CR, LF and
+    CRLF) and the checks read them: :func:`_text_lines`, and a CR alone in a file with LFs as an LF too (the
+    checks, splitting at LF, read such a line and the next as one: a file trimesh read whole was 'the header
+    declares 4 faces, the file has 3', its colours lost). A file with no such CR is returned as it is."""
+    data = _text_lines(data)
+    return _LONE_CR.sub(b"\n", data) if b"\r" in data and _LONE_CR.search(data) else data
 
 
 def _numbered_rows(data: bytes) -> Iterator[tuple[int, list[bytes]]]:

@@ -79,7 +79,7 @@ from .ply import (
     ply_problem,
 )
 from .stl import _STL_HEADER_BYTES, _STL_TRIANGLE_BYTES, _stl_ascii_problem, check_stl
-from .text_rows import BOM, _cr_only, _text_lines, _without_bom
+from .text_rows import BOM, _cr_only, _off_lines, _text_lines, _without_bom
 from .trimesh_scene import _geometry_part, _geometry_transforms, _node_instances
 
 _TEXT_TYPES = ("obj", "off")
@@ -93,8 +93,9 @@ _HEADER_PROBLEMS: dict[str, Callable[[bytes], str | None]] = {
 
 
 #: how the checks asked after a failure read a file that may be binary, by type (a text file's:
-#: :func:`.text_rows._text_lines`): a PLY without its byte-order mark, its CRs kept (its rows may be bytes)
-_BINARY_READS: dict[str, Callable[[bytes], bytes]] = {"glb": bytes, "ply": _without_bom}
+#: :func:`.text_rows._text_lines`, an OFF's :func:`.text_rows._off_lines`): a PLY without its byte-order
+#: mark, its CRs kept (its rows may be bytes)
+_BINARY_READS: dict[str, Callable[[bytes], bytes]] = {"glb": bytes, "ply": _without_bom, "off": _off_lines}
 
 
 #: the check of a text file's rows, by type, asked once trimesh has failed on it
@@ -238,7 +239,7 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
             data = given or path.read_bytes()
             # (before the decoding: a Latin-1 file's mark would be other bytes. An OFF's: its header word
             # '\ufeffCOFF' was no COFF to the colours' reader)
-            data = _obj_text(data) if file_type == "obj" else _text_lines(data)
+            data = {"obj": _obj_text, "off": _off_lines}.get(file_type, _text_lines)(data)
             try:
                 data.decode("utf-8")
             except UnicodeDecodeError:
