@@ -17,8 +17,9 @@ from ..encodings import ENCODING_PARAMS
 
 #: part -> the release that last changed its outputs (0.9.2: the digest's first release of build versions,
 #: which rebuilt everything once; base 0.9.4: loaders that misread some inputs silently read them right, an
-#: OBJ with indented or tab-led rows, an OFF with comments among its rows or a byte-order mark, a PLY with a
-#: byte-order mark and mixed polygons). Keep one entry per encoding in ENCODING_PARAMS (a test checks).
+#: OBJ with indented or tab-led rows, an OFF with comments among its rows, a byte-order mark or lone CRs, a
+#: PLY with a byte-order mark and mixed polygons). Keep one entry per encoding in ENCODING_PARAMS (a test
+#: checks).
 BUILD_VERSIONS: dict[str, str] = {
     "base": "0.9.4",
     "auto": "0.9.2",  # ``encoding: auto``'s choice among the encodings it builds
