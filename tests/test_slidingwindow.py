@@ -1134,6 +1134,56 @@ def test_refine_patch_order_lowers_the_windows_misses(spot: Mesh) -> None:
         assert not np.array_equal(order, np.arange(n))
 
 
+def _searched_run(block_start: np.ndarray, blocks: np.ndarray, n: int, seq: np.ndarray, V: int, C: int):
+    """The search's stored state of the run ``seq`` (:mod:`.sw_refine`'s layout), simulated in full."""
+    from swpm_usd.encode import sw_refine as swr
+
+    N = 2 * n + 1
+    snap = np.full((N + 1, C), -1, np.int32)
+    new_t = np.zeros(N + 1, np.int64)
+    m_run = np.zeros(N, np.int64)
+    log = np.empty(C + blocks.shape[0] + 1, np.int32)
+    sim = (blocks, block_start, np.zeros(V, np.int64), log)
+    swr._run(seq, 0, N, (N, N), snap, snap, new_t[:0], N, m_run, sim, 1, -1)
+    run = (snap, m_run, np.zeros(n + 1, np.int64), new_t, np.zeros(N, np.int64))
+    return run, sim
+
+
+def test_refine_move_keeps_the_stored_run_exact(spot: Mesh) -> None:
+    """A move taken (``sw_refine._apply_move``) leaves the stored misses and caches of every run position as
+    a full simulation of the new run gives them, on levels small enough (``2n + 1`` blocks within
+    ``_SETTLE`` of the change) that the move's simulation ends only where the caches agree or at the run's
+    end. Among the moves, some whose run settles right at its first changed ``Q`` place: before, those
+    ``Q`` places kept the misses and caches of the blocks they held before the move."""
+    from swpm_usd.encode import sw_refine as swr
+
+    pm = build_sliding_window(spot, order_passes=0)  # the greedy order
+    C = 16
+    at_q = checked = 0
+    for level in range(pm.level_count):
+        n, block_start, blocks = _level_blocks(pm, level)
+        if not 3 <= n <= (swr._SETTLE - 1) // 2:
+            continue
+        N = 2 * n + 1
+        base = np.concatenate((np.arange(n), [n], n + 1 + np.arange(n))).astype(np.int64)
+        for i in range(n):
+            for k in range(n):
+                if k == i:
+                    continue
+                run, sim = _searched_run(block_start, blocks, n, base.copy(), pm.vertex_count, C)
+                seq = base.copy()
+                cand = seq.copy()
+                lo, hi = swr._arrange(seq, cand, n, i, 1, k)
+                seq[:] = cand
+                end, _ = swr._apply_move(seq, lo, hi, n, run, sim, 2)
+                at_q += end == n + 1 + lo
+                want, _ = _searched_run(block_start, blocks, n, seq, pm.vertex_count, C)
+                assert np.array_equal(run[1], want[1]), (level, i, k, end, n + 1 + lo)
+                assert np.array_equal(run[0][: N + 1], want[0][: N + 1]), (level, i, k, end, n + 1 + lo)
+                checked += 1
+    assert checked > 100 and at_q > 0, (checked, at_q)
+
+
 def test_refine_patch_order_skips_only_swaps_that_cannot_win(spot: Mesh) -> None:
     """The search does not evaluate again a swap of neighbouring patches already tried from the place before
     with no move made since (``skip_tried_swaps``): the orders are those of the search that evaluates every

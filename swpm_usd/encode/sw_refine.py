@@ -248,7 +248,7 @@ def _move_delta(cand, lo, hi, n, best, run, sim, sim2, version):
     d = 0
     for a in range(lo, end):
         d += _weight(a, n) * (new_m[a] - m_run[a])
-    if end < q_change[0]:  # settled before the Q blocks: follow them on their own
+    if end <= q_change[0]:  # stopped before the changed Q blocks: follow them on their own
         version += 1
         end_q = _run(
             cand, q_change[0], q_change[1], (N, N), snap, snap, new_t[:0], 0, new_m, sim2, version, _HORIZON
@@ -291,7 +291,7 @@ def _apply_move(seq, lo, hi, n, run, sim, version):
     _settled_windows(hi, min(n + 1, end), end, m_run, new_m, cold, True)
     for a in range(lo, end):
         m_run[a] = new_m[a]
-    if end < q_change[0]:
+    if end <= q_change[0]:  # (settled at the first changed Q place too: those blocks did change)
         version += 1
         _run(seq, q_change[0], q_change[1], (N, N), snap, snap, new_t[:0], N, m_run, sim, version, _SETTLE)
     no_change = (0, 0, m_run, new_t[:0], sim[3])
