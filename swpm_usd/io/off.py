@@ -16,6 +16,15 @@ from .text_rows import _not_numbers, _numbered_rows, _shown
 _OFF_HEADER = re.compile(rb"(ST)?C?N?4?n?OFF", re.IGNORECASE)
 
 
+def _counts_row(
+    first: tuple[int, list[bytes]], rows: Iterator[tuple[int, list[bytes]]]
+) -> tuple[int, list[bytes]]:
+    """(line, tokens) of an OFF file's counts, given its first row ``first`` (the header word's) and the rows
+    after it: the rest of that row ('OFF V F E' on one line), else the next row (``first``'s line and no
+    token when there is none)."""
+    return (first[0], first[1][1:]) if len(first[1]) > 1 else next(rows, (first[0], []))
+
+
 def _off_problem(data: bytes) -> str | None:
     """What is wrong with the header or a row of the OFF file of bytes ``data`` (counts that are not whole
     numbers; a vertex row of too few values, or one that is not a number; a face row whose corner count or
@@ -28,7 +37,7 @@ def _off_problem(data: bytes) -> str | None:
         return None
     if _OFF_HEADER.fullmatch(first[1][0]) is None:
         return f"line {first[0]}: {_shown(first[1][0])} is not 'OFF' (nor a variant of it: COFF, NOFF...)"
-    number, counts = (first[0], first[1][1:]) if len(first[1]) > 1 else next(rows, (first[0], []))
+    number, counts = _counts_row(first, rows)
     try:
         n_vertices, n_faces = int(counts[0]), int(counts[1])
         if len(counts) > 2:
@@ -74,7 +83,7 @@ def _off_short(data: bytes) -> str | None:
     first = next(rows, None)
     if first is None:
         return None
-    number, counts = (first[0], first[1][1:]) if len(first[1]) > 1 else next(rows, (0, []))
+    number, counts = _counts_row(first, rows)
     try:
         n_vertices, n_faces = int(counts[0]), int(counts[1])
     except (IndexError, ValueError):
@@ -111,11 +120,8 @@ def _off_fanned(text: bytes) -> bytes | None:
     first = next(rows, None)
     if first is None or _OFF_HEADER.fullmatch(first[1][0]) is None:
         return None
-    if len(first[1]) > 1:  # ('OFF V F E' on one line)
-        at, head, counts = first[0], first[1][:1], first[1][1:]
-    else:
-        at, counts = next(rows, (0, []))
-        head = []
+    at, counts = _counts_row(first, rows)
+    head = first[1][:1] if at == first[0] else []  # ('OFF V F E' on one line: the line keeps its word)
     try:
         n_vertices, n_faces = int(counts[0]), int(counts[1])
     except (IndexError, ValueError):
