@@ -77,10 +77,10 @@ _FROM_IMPORT = re.compile(r"^[ \t]*from[ \t]+(\.*)([\w.]*)[ \t]+import[ \t]+(\([
 _IMPORT = re.compile(r"^[ \t]*import[ \t]+([\w., \t]+)", re.MULTILINE)
 
 
-def _imports_of(name: str, path: Any, modules: dict[str, Any]) -> set[str]:
-    """The modules of ``modules`` that module ``name`` (file ``path``) imports by name."""
-    here = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
-    text = path.read_text(encoding="utf-8")
+def _imports_of(name: str, is_package: bool, text: str, modules: dict[str, Any]) -> set[str]:
+    """The modules of ``modules`` that module ``name`` (a package's ``__init__`` if ``is_package``; its source
+    ``text``) imports by name."""
+    here = name.split(".") if is_package else name.split(".")[:-1]
     found: set[str] = set()
     for dots, module, names in _FROM_IMPORT.findall(text):
         base = here[: len(here) - len(dots) + 1] if dots else []
@@ -97,13 +97,15 @@ def kernel_fingerprint(root: Path = _ROOT, package: str = PACKAGE) -> str:
     """A hash of the sources a kernel of ``package`` (under ``root``) may be compiled from: every module
     that imports numba, and the package modules each of them imports."""
     modules = _modules(root, package)
-    kernels = {m for m, path in modules.items() if _USES_NUMBA.search(path.read_bytes())}
+    source = {m: path.read_bytes() for m, path in modules.items()}  # (each file read once)
+    kernels = {m for m, text in source.items() if _USES_NUMBA.search(text)}
     covered = set(kernels)
     for m in kernels:
-        covered |= _imports_of(m, modules[m], modules)
+        is_package = modules[m].name == "__init__.py"
+        covered |= _imports_of(m, is_package, source[m].decode("utf-8"), modules)
     digest = hashlib.sha256()
     for m in sorted(covered):
-        digest.update(m.encode() + b"\0" + modules[m].read_bytes() + b"\0")
+        digest.update(m.encode() + b"\0" + source[m] + b"\0")
     return digest.hexdigest()
 
 
