@@ -17,6 +17,7 @@ import numpy as np
 from ..errors import BuildError
 from ..mesh import Mesh
 from . import kernels
+from .topology import classify_edges
 
 if TYPE_CHECKING:
     from . import fan_deviation
@@ -92,8 +93,8 @@ def check_buildable(mesh: Mesh) -> None:
 
 
 def mesh_topology(mesh: Mesh) -> MeshTopology:
-    """Weld positions and classify every edge (numpy only). Raises :class:`BuildError` for a mesh the
-    kernels cannot take (:func:`check_buildable`, and the degenerate triangles below)."""
+    """Weld positions and classify every edge (:func:`.topology.classify_edges`). Raises :class:`BuildError`
+    for a mesh the kernels cannot take (:func:`check_buildable`, and the degenerate triangles below)."""
     check_buildable(mesh)
     pts = mesh.points
     tris = mesh.triangles
@@ -118,63 +119,16 @@ def mesh_topology(mesh: Mesh) -> MeshTopology:
             f"the position of vertex {int(np.argmax(vertex_pos == p))} is {int(corners[p])} triangle "
             f"corners, more than the mesh's {tris.shape[0]} triangles (triangles with two corners there)",
         )
-    T = tris.shape[0]
-    # half-edges (a -> b) of every triangle, with their vertices and face
-    ha = tri_pos.reshape(-1)
-    hb = tri_pos[:, [1, 2, 0]].reshape(-1)
-    va = tris.reshape(-1)
-    vb = tris[:, [1, 2, 0]].reshape(-1)
-    face = np.repeat(np.arange(T, dtype=np.int64), 3)
-    lo = np.minimum(ha, hb).astype(np.int64)
-    hi = np.maximum(ha, hb).astype(np.int64)
-    key = lo * P + hi
-    # = np.argsort(key, kind="stable"), as two counting sorts (keys below P * P)
-    order = kernels.stable_order(hi, P)
-    order = order[kernels.stable_order(lo[order], P)]
-    key_s = key[order]
-    starts = np.flatnonzero(np.r_[True, key_s[1:] != key_s[:-1]])
-    counts = np.diff(np.r_[starts, key_s.shape[0]])
-    first = order[starts]
-    # boundary edges
-    bmask = counts == 1
-    bh = first[bmask]
-    boundary_edges = np.stack([ha[bh], hb[bh]], axis=1).astype(np.int32)
-    boundary_faces = face[bh].astype(np.int32)
-    pos_boundary = np.zeros(P, bool)
-    pos_boundary[boundary_edges.reshape(-1)] = True
-    # manifold edges: exactly two half-edges in opposite directions
-    two = counts == 2
-    h0 = order[starts[two]]
-    h1 = order[starts[two] + 1]
-    ha0 = ha[h0]
-    ha1 = ha[h1]
-    consistent = ha0 == hb[h1]
-    # vertices at (lo, hi) on each side; a seam when they differ (each gathered once: these gathers of a
-    # value per edge were most of the time)
-    up0 = ha0 == lo[h0]
-    up1 = ha1 == lo[h1]
-    va0, vb0, va1, vb1 = va[h0], vb[h0], va[h1], vb[h1]
-    seam = (np.where(up0, va0, vb0) != np.where(up1, va1, vb1)) | (  # on inconsistently oriented edges too
-        np.where(up0, vb0, va0) != np.where(up1, vb1, va1)
-    )
-    sh0 = h0[seam]
-    sh1 = h1[seam]
-    seam_edges = np.concatenate([np.stack([ha[sh0], hb[sh0]], 1), np.stack([ha[sh1], hb[sh1]], 1)]).astype(
-        np.int32
-    )
-    seam_faces = np.concatenate([face[sh0], face[sh1]]).astype(np.int32)
-
-    # non-manifold: more than two triangles (complex), or two with the same direction (inconsistent
-    # orientation)
-    def ends(edge_starts: np.ndarray) -> np.ndarray:
-        on = np.zeros(P, bool)
-        on[(key_s[edge_starts] // P).astype(np.int64)] = True
-        on[(key_s[edge_starts] % P).astype(np.int64)] = True
-        return on
-
-    on_fin = ends(starts[counts > 2])
-    on_inconsistent = ends(starts[two][~consistent])
-    pos_nonmanifold = on_fin | on_inconsistent
+    # every edge classified in one kernel pass (:func:`.topology.classify_edges`)
+    (
+        boundary_edges,
+        boundary_faces,
+        seam_edges,
+        seam_faces,
+        pos_boundary,
+        pos_nonmanifold,
+        on_fin,
+    ) = classify_edges(tri_pos, np.ascontiguousarray(tris, np.int32), P)
     return MeshTopology(
         vertex_pos=vertex_pos,
         pos_points=uniq.astype(np.float64),
