@@ -130,10 +130,29 @@ def _to_python(
     return value
 
 
+def _mesh_given(path: Path, shown: str) -> str | None:
+    """The problem of a mesh file given as the config, ``swpm-pipeline run spot.obj`` (it said "the
+    configuration must be a mapping ..., not a scalar", a .glb "cannot read the file (utf-8 codec ...)", a
+    .gltf listed its JSON's keys as unknown): what to run instead. None for any other file."""
+    from ..io import SUPPORTED_SUFFIXES
+
+    suffix = path.suffix.lower()
+    if suffix not in SUPPORTED_SUFFIXES or not path.is_file():  # (a missing one: "file not found")
+        return None
+    return (
+        f"{shown}:1:1: $: {shown} is a mesh file ({suffix}), not a pipeline config: swpm-pipeline build "
+        f"{shown} shows its LODs, swpm-pipeline encode {shown} -o {path.stem}.swpm writes one; a config is "
+        "a YAML file whose assets name the meshes (samples/pipeline.yaml is one)"
+    )
+
+
 def load_config(path: str | Path) -> Config:
     """Parse and validate ``path``; raise :class:`ConfigError` listing every problem."""
     path = Path(path)
     shown = str(path)  # (as given: a problem names the file the user named, not its name alone)
+    mesh = _mesh_given(path, shown)
+    if mesh:
+        raise ConfigError([mesh])
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
@@ -343,7 +362,15 @@ def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
             hint = ""
             known = list(err.schema.get("properties", {}))
             if path and path[-1] == "params":
-                hint = f" ({_params_owner(cfg, path)})"
+                owner = _params_owner(cfg, path)
+                encoding = _params_encoding(cfg, path)
+                if isinstance(encoding, str) and encoding != "auto":
+                    from ..encodings import taken_elsewhere
+
+                    # (`mu` under `encoding: vanilla`: the encoding that takes it named)
+                    elsewhere = taken_elsewhere(encoding, key) if isinstance(key, str) else ""
+                    owner += f"; {elsewhere}" if elsewhere else ""
+                hint = f" ({owner})"
                 known = _owner_params(cfg, path) or known
             msgs.append(
                 f"{cfg.shown or cfg.path}:{where[0]}:{where[1]}: {format_path((*path, key))}: "

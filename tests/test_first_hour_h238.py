@@ -1,0 +1,139 @@
+"""A new user's first hour, from a fresh install (helper-238): the README's example does not flood the
+terminal, its first command's sentence names every file the run writes, and the first slips on the command
+line (a parameter of another encoding, a misspelt name, a mesh given to ``run``) say what was meant."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import re
+import shutil
+
+import pytest
+from click.testing import CliRunner
+from conftest import ROOT
+
+from swpm_usd.cli import main
+from swpm_usd.pipeline import run
+from swpm_usd.pipeline.config import ConfigError, load_config
+
+README = (ROOT / "README.md").read_text()
+
+
+def test_the_readme_python_example_prints_a_screenful(tmp_path, monkeypatch):
+    """It printed the whole layer, ``ExportToString()``: 0.9 MB of spot's arrays on the terminal, the
+    schema's attributes lost in it."""
+    code = re.findall(r"```python\n(.*?)```", README, re.S)[0]
+    shutil.copytree(ROOT / "samples", tmp_path / "samples", ignore=shutil.ignore_patterns("out"))
+    monkeypatch.chdir(tmp_path)
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        exec(compile(code, "README.md", "exec"), {})  # noqa: S102 - the README's own example
+    printed = out.getvalue()
+    assert len(printed) < 8000 and max(len(line) for line in printed.splitlines()) <= 100, len(printed)
+    # what it is there to show: the asset's prim, the Mesh with the schema and its attributes
+    shown = ('def Xform "Spot"', 'prepend apiSchemas = ["SwpmMeshAPI"]', "swpm:encoding", "swpm:lodErrors")
+    for says in shown:
+        assert says in printed, says
+
+
+def test_the_readme_names_every_file_the_sample_run_writes(tmp_path):
+    """The first command's sentence listed a .swpm and a USD layer per mesh, manifest.json and report.html;
+    the sample config writes scene.usda too."""
+    shutil.copytree(ROOT / "samples", tmp_path / "samples", ignore=shutil.ignore_patterns("out"))
+    res = run(tmp_path / "samples" / "pipeline.yaml", echo=lambda m: None)
+    assert res.built == 2
+    written = {p.name for p in (tmp_path / "samples" / "out").iterdir() if not p.name.startswith(".")}
+    stems = {p.stem for p in (tmp_path / "samples").glob("*.obj")}
+    kinds = {f".{name.split('.', 1)[1]}" if name.split(".", 1)[0] in stems else name for name in written}
+    assert kinds == {".swpm", ".usdc", "scene.usda", "manifest.json", "report.html"}, written
+    sentence = README[README.index("Install and run the main job") : README.index("```sh")]
+    for kind in kinds:
+        assert f"`{kind}`" in sentence, kind
+
+
+@pytest.mark.parametrize(
+    "args, says",
+    [
+        # the default encoding is vanilla: -p mu=0.2 said vanilla takes boundary_weight and seam_weight
+        (["-p", "mu=0.2"], "mu not a parameter of vanilla (mu: sliding-window takes it); it takes"),
+        (["-e", "mixed", "-p", "primitive=list"], "(primitive: sliding-window and skip-strip take it)"),
+        (
+            ["-e", "sliding-window", "-p", "muu=0.2"],
+            "muu not a parameter of sliding-window (muu: did you mean 'mu'?)",
+        ),
+        (
+            ["-e", "skip-strip", "-p", "mu=0.1", "-p", "restrat=true"],
+            "(mu: sliding-window takes it; restrat: did you mean 'restart'?)",
+        ),
+        (["-e", "slidingwindow"], "vanilla (did you mean 'sliding-window'?)"),
+        (["-e", "Vanilla"], "(did you mean 'vanilla'?)"),
+    ],
+)
+@pytest.mark.parametrize("command", ["build", "encode"])
+def test_a_slip_on_the_command_line_says_what_was_meant(tmp_path, command, args, says):
+    mesh = tmp_path / "a.obj"
+    mesh.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    argv = [command, str(mesh), *args, *(["-o", str(tmp_path / "a.swpm")] if command == "encode" else [])]
+    result = CliRunner().invoke(main, argv)
+    assert result.exit_code == 2 and says in result.output, result.output
+    result = CliRunner().invoke(main, [*argv, "--json"])
+    assert result.exit_code == 2 and says in json.loads(result.stdout)["error"]
+    assert not (tmp_path / "a.swpm").exists()
+
+
+def test_an_unmisspelt_unknown_parameter_gets_no_guess(tmp_path):
+    mesh = tmp_path / "a.obj"
+    mesh.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    result = CliRunner().invoke(main, ["build", str(mesh), "-p", "zz=1"])
+    assert result.exit_code == 2
+    assert "zz not a parameter of vanilla; it takes boundary_weight, seam_weight" in result.output
+
+
+def test_a_config_names_the_encoding_that_takes_a_parameter(tmp_path):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: '*.obj'}]\noutput: {dir: out}\n"
+        "defaults: {encoding: vanilla, params: {mu: 0.2, seam_weight: 1}}\n"
+        "rules:\n  - {name: a, encoding: mixed, params: {primitive: list, nope: 1}}\n"
+    )
+    (tmp_path / "a.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    with pytest.raises(ConfigError) as err:
+        load_config(cfg)
+    assert [p.split(": ", 1)[1] for p in err.value.problems] == [
+        "$.defaults.params.mu: unknown key (not a parameter of vanilla; sliding-window takes it)",
+        "$.rules[0].params.primitive: unknown key (not a parameter of mixed; sliding-window and skip-strip "
+        "take it)",
+        "$.rules[0].params.nope: unknown key (not a parameter of mixed)",
+    ]
+
+
+@pytest.mark.parametrize("name", ["spot.obj", "scene.gltf", "model.glb", "stage.usda"])
+def test_run_given_a_mesh_says_it_is_a_mesh_and_what_to_run(tmp_path, name):
+    """``swpm-pipeline run spot.obj`` said "the configuration must be a mapping (version, assets, output), not
+    a scalar"; a .glb "cannot read the file ('utf-8' codec can't decode ...)"; a .gltf listed its JSON's keys
+    as unknown ones of a config."""
+    contents = {
+        "spot.obj": (ROOT / "samples" / "spot.obj").read_bytes(),
+        "scene.gltf": json.dumps({"asset": {"version": "2.0"}, "meshes": []}).encode(),
+        "model.glb": b"glTF\x02\x00\x00\x00\x0c\x00\x00\x00\xff\xfe",
+        "stage.usda": b'#usda 1.0\ndef Mesh "m" {}\n',
+    }
+    mesh = tmp_path / name
+    mesh.write_bytes(contents[name])
+    result = CliRunner().invoke(main, ["run", str(mesh)])
+    assert result.exit_code == 2
+    stem = name.split(".")[0]
+    assert result.stderr.strip() == (
+        f"{mesh}:1:1: $: {mesh} is a mesh file (.{name.split('.')[1]}), not a pipeline config: swpm-pipeline "
+        f"build {mesh} shows its LODs, swpm-pipeline encode {mesh} -o {stem}.swpm writes one; a config is a "
+        "YAML file whose assets name the meshes (samples/pipeline.yaml is one)"
+    )
+    result = CliRunner().invoke(main, ["run", str(mesh), "--json"])
+    out = json.loads(result.stdout)
+    assert result.exit_code == 2 and out["code"] == "CONFIG_INVALID"
+    assert "is a mesh file" in out["problems"][0]
+    # a mesh name that is no file is still "file not found", and a config is read as before
+    result = CliRunner().invoke(main, ["run", str(tmp_path / "nope.obj")])
+    assert result.exit_code == 2 and result.stderr.strip().endswith("$: file not found")
