@@ -9,6 +9,7 @@ import io
 import json
 import re
 import shutil
+from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
@@ -137,3 +138,31 @@ def test_run_given_a_mesh_says_it_is_a_mesh_and_what_to_run(tmp_path, name):
     # a mesh name that is no file is still "file not found", and a config is read as before
     result = CliRunner().invoke(main, ["run", str(tmp_path / "nope.obj")])
     assert result.exit_code == 2 and result.stderr.strip().endswith("$: file not found")
+
+
+@pytest.mark.parametrize("read_only", [True, False])
+def test_an_output_dir_on_a_read_only_mount_is_named_so(tmp_path, monkeypatch, read_only):
+    """A read-only mount (a farm's input share given as output.dir) said "permission denied", even to root,
+    whom no permission stops; its flag says why."""
+    import os
+    import types
+
+    (tmp_path / "a.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    (tmp_path / "out").mkdir()
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text("version: 1\nassets: [{glob: '*.obj'}]\noutput: {dir: out}\n")
+    out = tmp_path / "out"
+    real_access, real_statvfs = os.access, os.statvfs
+    monkeypatch.setattr(os, "access", lambda p, mode, **kw: Path(p) != out and real_access(p, mode, **kw))
+
+    def statvfs(p):
+        if Path(p) == out:
+            return types.SimpleNamespace(f_flag=os.ST_RDONLY if read_only else 0)
+        return real_statvfs(p)
+
+    monkeypatch.setattr(os, "statvfs", statvfs)
+    result = CliRunner().invoke(main, ["run", str(cfg)])
+    why = "it is on a read-only file system" if read_only else "permission denied"
+    assert result.exit_code == 2
+    assert result.stderr.strip() == f"{cfg}:3:15: $.output.dir: cannot write in {out}: {why}"
+    assert not list(out.glob("*.swpm"))  # (nothing built; the lock file root could still make aside)
