@@ -166,3 +166,42 @@ def test_an_output_dir_on_a_read_only_mount_is_named_so(tmp_path, monkeypatch, r
     assert result.exit_code == 2
     assert result.stderr.strip() == f"{cfg}:3:15: $.output.dir: cannot write in {out}: {why}"
     assert not list(out.glob("*.swpm"))  # (nothing built; the lock file root could still make aside)
+
+
+@pytest.mark.parametrize(
+    "kwargs, says",
+    [
+        ({"mu": 0.2}, "mu do not belong to encoding 'vanilla' (mu: sliding-window takes it); it accepts"),
+        (
+            {"encoding": "sliding-window", "params": {"mu": 0.2}},  # (a config's params, given whole)
+            "(params: give each parameter as a keyword, build(path, encoding, **params))",
+        ),
+        ({"encoding": "slidingwindow"}, "vanilla'] (did you mean 'sliding-window'?)"),
+        ({"encoding": "mixed", "muu": 1}, "parameter(s) muu do not belong to encoding 'mixed'; it accepts"),
+    ],
+)
+def test_a_slip_in_python_says_what_was_meant(tmp_path, kwargs, says):
+    import swpm_usd
+    from swpm_usd.errors import SwpmError
+
+    mesh = tmp_path / "a.obj"
+    mesh.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    with pytest.raises(SwpmError) as err:
+        swpm_usd.build(mesh, **kwargs)
+    assert err.value.code == "PARAMETER_INVALID" and says in str(err.value), str(err.value)
+
+
+@pytest.mark.parametrize("name", ["meshes", "dir.obj"])
+def test_a_folder_given_as_a_mesh_is_called_a_folder(tmp_path, name):
+    """``swpm_usd.build("meshes")`` said "unsupported file type '(no suffix)'"."""
+    import swpm_usd
+    from swpm_usd.io import MeshLoadError
+
+    (tmp_path / name).mkdir()
+    with pytest.raises(MeshLoadError) as err:
+        swpm_usd.build(tmp_path / name)
+    assert err.value.code == "INPUT_UNREADABLE"
+    assert str(err.value) == (
+        f"{tmp_path / name}: not a regular file: a folder; a pipeline config builds the meshes in one "
+        "(assets: [{glob: 'meshes/*.obj'}], as samples/pipeline.yaml)"
+    )
