@@ -205,3 +205,40 @@ def test_a_folder_given_as_a_mesh_is_called_a_folder(tmp_path, name):
         f"{tmp_path / name}: not a regular file: a folder; a pipeline config builds the meshes in one "
         "(assets: [{glob: 'meshes/*.obj'}], as samples/pipeline.yaml)"
     )
+
+
+@pytest.mark.parametrize(
+    "assets, says",
+    [
+        (
+            "  - glob: *.obj\n",
+            "3:12: $: invalid YAML: expected alphabetic or numeric character, but found '.'",
+        ),
+        (
+            "  - glob: **/*.obj\n",
+            "3:12: $: invalid YAML: expected alphabetic or numeric character, but found '*'",
+        ),
+        ("  - glob: *obj\n", "3:11: $: invalid YAML: found undefined alias 'obj'"),
+    ],
+)
+def test_an_unquoted_glob_is_told_to_be_quoted(tmp_path, assets, says):
+    """``glob: *.obj`` unquoted is a YAML alias: the config said only "expected alphabetic or numeric
+    character, but found '.'"."""
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(f"version: 1\nassets:\n{assets}output: {{dir: out}}\n")
+    with pytest.raises(ConfigError) as err:
+        load_config(cfg)
+    assert err.value.problems == [
+        f'{cfg}:{says}; a value starting with * is a YAML alias: quote it, as glob: "*.obj"'
+    ]
+
+
+def test_a_tab_in_a_config_is_told_as_a_tab(tmp_path):
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text("version: 1\nassets:\n  - glob: '*.obj'\noutput:\n  dir: out\n\tswpm: true\n")
+    with pytest.raises(ConfigError) as err:
+        load_config(cfg)
+    assert err.value.problems == [
+        f"{cfg}:6:1: $: invalid YAML: found character '\\t' that cannot start any token; YAML indents with "
+        "spaces, not tabs"
+    ]

@@ -130,6 +130,18 @@ def _to_python(
     return value
 
 
+def _yaml_hint(exc: yaml.YAMLError) -> str:
+    """What a YAML error's words mean in a config, for the two a first config meets: ``glob: *.obj``
+    unquoted (a ``*`` starts a YAML alias: it said "expected alphabetic or numeric character, but found
+    '.'") and a tab in the indentation ("found character '\\t' that cannot start any token")."""
+    context, problem = getattr(exc, "context", None) or "", getattr(exc, "problem", None) or ""
+    if context == "while scanning an alias" or problem.startswith("found undefined alias"):
+        return '; a value starting with * is a YAML alias: quote it, as glob: "*.obj"'
+    if "'\\t'" in problem:
+        return "; YAML indents with spaces, not tabs"
+    return ""
+
+
 def _mesh_given(path: Path, shown: str) -> str | None:
     """The problem of a mesh file given as the config, ``swpm-pipeline run spot.obj`` (it said "the
     configuration must be a mapping ..., not a scalar", a .glb "cannot read the file (utf-8 codec ...)", a
@@ -179,9 +191,8 @@ def load_config(path: str | Path) -> Config:
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
-        raise ConfigError(
-            [f"{shown}:{line}:{col}: $: invalid YAML: {getattr(exc, 'problem', None) or exc}"]
-        ) from None
+        problem = getattr(exc, "problem", None) or exc
+        raise ConfigError([f"{shown}:{line}:{col}: $: invalid YAML: {problem}{_yaml_hint(exc)}"]) from None
     if duplicates:
         raise ConfigError(duplicates)
     cfg = Config(
