@@ -242,3 +242,27 @@ def test_a_tab_in_a_config_is_told_as_a_tab(tmp_path):
         f"{cfg}:6:1: $: invalid YAML: found character '\\t' that cannot start any token; YAML indents with "
         "spaces, not tabs"
     ]
+
+
+def test_validate_of_a_stage_says_valid_or_invalid_as_of_an_swpm_file(tmp_path):
+    """``validate spot.usdc`` ended "spot.usdc: 0 error(s), 0 warning(s)" where ``validate spot.swpm`` says
+    "spot.swpm: valid": the verdict first, alike."""
+    import swpm_usd
+    from swpm_usd import usd
+
+    pm = swpm_usd.build(ROOT / "samples" / "spot.obj", encoding="vanilla")
+    stage = tmp_path / "spot.usdc"
+    usd.write(pm, stage)
+    result = CliRunner().invoke(main, ["validate", str(stage)])
+    assert (
+        result.exit_code == 0
+        and result.output.splitlines()[-1] == f"{stage}: valid, 0 error(s), 0 warning(s)"
+    )
+    bad = tmp_path / "bad.usda"
+    bad.write_text(
+        '#usda 1.0\ndef Mesh "m" (prepend apiSchemas = ["SwpmMeshAPI"]) {\n'
+        '    uniform token swpm:encoding = "nope"\n}\n'
+    )
+    result = CliRunner().invoke(main, ["validate", str(bad), "--no-builtin"])
+    last = result.output.splitlines()[-1]
+    assert result.exit_code == 1 and last.startswith(f"{bad}: INVALID, ") and "0 error(s)" not in last
