@@ -75,7 +75,7 @@ def build(mesh_or_path: Mesh | str | Path, encoding: str = "vanilla", **params: 
     fn, defaults = BUILDERS[encoding]
     unknown = sorted(set(params) - set(defaults))
     if unknown:
-        from .encodings import unknown_param_hint
+        from .param_hints import unknown_param_hint
 
         # (``mu=0.2`` under the default vanilla, a config's ``params={...}`` given whole: say what was meant)
         hints = []

@@ -104,26 +104,6 @@ ENCODING_PARAMS: dict[str, dict[str, Any]] = {
 }
 
 
-def taken_elsewhere(encoding: str, name: str) -> str:
-    """``"sliding-window takes it"`` for ``name``, a parameter ``encoding`` does not take but others do (``-p
-    mu=0.2`` under the default ``vanilla``, a first user's slip), else ""."""
-    others = [e for e, params in ENCODING_PARAMS.items() if e != encoding and name in params]
-    return f"{' and '.join(others)} take{'s' * (len(others) == 1)} it" if others else ""
-
-
-def unknown_param_hint(encoding: str, name: str) -> str:
-    """What to say of ``name``, a parameter ``encoding`` does not take: :func:`taken_elsewhere`, else the
-    closest of ``encoding``'s own names (``did you mean 'mu'?``), else ""."""
-    import difflib
-
-    elsewhere = taken_elsewhere(encoding, name)
-    if elsewhere:
-        return elsewhere
-    own = ENCODING_PARAMS.get(encoding, {})
-    close = difflib.get_close_matches(name.lower().replace("-", "_"), list(own), n=1, cutoff=0.75)
-    return f"did you mean {close[0]!r}?" if close else ""
-
-
 def combination_problem(encoding: str, params: dict[str, Any]) -> str | None:
     """What the ``encoding``'s builder refuses of ``params`` together, each value valid alone, or None: the
     one rule, which the builder (``swpm_usd.encode.slidingwindow``) raises and the command line's ``-p`` and a

@@ -69,7 +69,7 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     parsed = _parse_params(params)
     unknown = sorted(set(parsed) - set(ENCODING_PARAMS[encoding]))
     if unknown:
-        from ..encodings import unknown_param_hint
+        from ..param_hints import unknown_param_hint
 
         # (``-p mu=0.2`` without ``-e sliding-window`` said vanilla takes boundary_weight and seam_weight
         # alone, and no more: name the encoding that takes it, or the name meant)

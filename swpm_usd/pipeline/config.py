@@ -376,7 +376,7 @@ def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
                 owner = _params_owner(cfg, path)
                 encoding = _params_encoding(cfg, path)
                 if isinstance(encoding, str) and encoding != "auto":
-                    from ..encodings import taken_elsewhere
+                    from ..param_hints import taken_elsewhere
 
                     # (`mu` under `encoding: vanilla`: the encoding that takes it named)
                     elsewhere = taken_elsewhere(encoding, key) if isinstance(key, str) else ""
