@@ -281,3 +281,18 @@ def test_the_readme_names_the_benchmarks_that_need_meshoptimizer():
     for name in needing:
         assert f"`{name}`" in section, name
     assert "pip install -e '.[dev]'" in section
+
+
+def test_the_readme_command_line_section_names_every_option():
+    """``build --rows``, ``inspect --rows`` and ``validate --no-builtin`` were in ``--help`` alone."""
+    import click
+
+    section = README[README.index("## Command line") : README.index("## Layout")]
+    ctx = click.Context(main)
+    missing = []
+    for name in main.list_commands(ctx):
+        for param in main.get_command(ctx, name).params:
+            if isinstance(param, click.Option) and "--help" not in param.opts:
+                if not any(re.search(rf"`[^`]*{re.escape(opt)}\b[^`]*`", section) for opt in param.opts):
+                    missing.append(f"{name} {'/'.join(param.opts)}")
+    assert not missing, missing
