@@ -296,3 +296,21 @@ def test_the_readme_command_line_section_names_every_option():
                 if not any(re.search(rf"`[^`]*{re.escape(opt)}\b[^`]*`", section) for opt in param.opts):
                     missing.append(f"{name} {'/'.join(param.opts)}")
     assert not missing, missing
+
+
+def test_load_of_a_mesh_file_says_what_reads_it(tmp_path):
+    """``swpm_usd.load("spot.obj")`` said only "SWPM_HEADER_BAD_MAGIC: magic is 7620302e33343837, ..."."""
+    import swpm_usd
+    from swpm_usd.format import SwpmFormatError
+
+    with pytest.raises(SwpmFormatError) as err:
+        swpm_usd.load(ROOT / "samples" / "spot.obj")
+    assert err.value.code == "INPUT_MALFORMED" and err.value.report.errors[0].code == "SWPM_HEADER_BAD_MAGIC"
+    assert str(err.value).endswith(
+        "; it is a mesh file (.obj), not an SWPM file: swpm_usd.build reads it (swpm_usd.save writes one)"
+    )
+    other = tmp_path / "notes.txt"  # (no mesh name: no hint)
+    other.write_text("x" * 100)
+    with pytest.raises(SwpmFormatError) as err:
+        swpm_usd.load(other)
+    assert "mesh file" not in str(err.value)
