@@ -146,9 +146,11 @@ def _mesh_given(path: Path, shown: str) -> str | None:
     """The problem of a mesh file given as the config, ``swpm-pipeline run spot.obj`` (it said "the
     configuration must be a mapping ..., not a scalar", a .glb "cannot read the file (utf-8 codec ...)", a
     .gltf listed its JSON's keys as unknown): what to run instead. None for any other file."""
+    suffix = path.suffix.lower()
+    if suffix in (".yaml", ".yml", ".json"):  # (a config's: nothing to import or stat)
+        return None
     from ..io import SUPPORTED_SUFFIXES
 
-    suffix = path.suffix.lower()
     if suffix not in SUPPORTED_SUFFIXES or not path.is_file():  # (a missing one: "file not found")
         return None
     return (
