@@ -314,3 +314,14 @@ def test_load_of_a_mesh_file_says_what_reads_it(tmp_path):
     with pytest.raises(SwpmFormatError) as err:
         swpm_usd.load(other)
     assert "mesh file" not in str(err.value)
+
+
+def test_build_help_gives_a_param_example_that_builds(tmp_path):
+    """``build --help`` gave ``-p mu=0.2`` as -p's example: under the default vanilla, a usage error."""
+    text = " ".join(CliRunner().invoke(main, ["build", "--help"], terminal_width=80).output.split())
+    example = re.search(r"when it can be: ((?:-[ep] \S+ ?)+)", text)
+    assert example, text
+    mesh = tmp_path / "a.obj"
+    mesh.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
+    result = CliRunner().invoke(main, ["build", str(mesh), *example.group(1).split()])
+    assert result.exit_code == 0, result.output
