@@ -66,12 +66,27 @@ def build(mesh_or_path: Mesh | str | Path, encoding: str = "vanilla", **params: 
     from .encode import BUILDERS
 
     if encoding not in BUILDERS:
-        raise BuildError(f"unknown encoding {encoding!r}; choose one of {sorted(BUILDERS)}")
+        from .pipeline.config import _did_you_mean
+
+        meant = _did_you_mean(encoding, list(BUILDERS)).removeprefix("; ")
+        raise BuildError(
+            f"unknown encoding {encoding!r}; choose one of {sorted(BUILDERS)}{f' ({meant})' if meant else ''}"
+        )
     fn, defaults = BUILDERS[encoding]
     unknown = sorted(set(params) - set(defaults))
     if unknown:
+        from .param_hints import unknown_param_hint
+
+        # (``mu=0.2`` under the default vanilla, a config's ``params={...}`` given whole: say what was meant)
+        hints = []
+        for name in unknown:
+            if name == "params" and isinstance(params[name], dict):
+                hints.append(f"{name}: give each parameter as a keyword, build(path, encoding, **params)")
+            elif hint := unknown_param_hint(encoding, name):
+                hints.append(f"{name}: {hint}")
+        said = f" ({'; '.join(hints)})" if hints else ""
         raise BuildError(
-            f"parameter(s) {', '.join(unknown)} do not belong to encoding {encoding!r}; "
+            f"parameter(s) {', '.join(unknown)} do not belong to encoding {encoding!r}{said}; "
             f"it accepts {', '.join(sorted(defaults))}"
         )
     check_params(encoding, defaults, params)

@@ -122,7 +122,10 @@ def main() -> None:
     "params",
     multiple=True,
     metavar="NAME=VALUE",
-    help="Encoding parameter (repeatable, listed below), value parsed as JSON when it can be: -p mu=0.2",
+    help=(  # (-p mu=0.2 alone: vanilla, the default, does not take mu)
+        "Encoding parameter (repeatable, listed below), value parsed as JSON when it can be: "
+        "-e sliding-window -p mu=0.2"
+    ),
 )
 @click.option(
     "--rows",

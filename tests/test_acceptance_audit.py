@@ -350,8 +350,8 @@ def test_an_unknown_parameter_in_a_config_names_its_encoding(tmp_path):
     with pytest.raises(ConfigError) as err:
         load_config(cfg)
     assert [p.split(": ", 1)[1] for p in err.value.problems] == [
-        "$.defaults.params.mu: unknown key (not a parameter of vanilla)",
-        "$.rules[0].params.cluster: unknown key (not a parameter of skip-strip)",
+        "$.defaults.params.mu: unknown key (not a parameter of vanilla; sliding-window takes it)",
+        "$.rules[0].params.cluster: unknown key (not a parameter of skip-strip; sliding-window takes it)",
         "$.rules[1].params.mu: unknown key (not a parameter of auto, which takes select alone)",
     ]
 

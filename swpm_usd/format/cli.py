@@ -58,14 +58,24 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     from ..encodings import ENCODING_PARAMS, combination_problem
 
     if encoding not in ENCODING_PARAMS:
+        from ..pipeline.config import _did_you_mean
+
+        meant = _did_you_mean(encoding, list(ENCODING_PARAMS)).removeprefix("; ")  # (`-e slidingwindow`)
+        meant = f" ({meant})" if meant else ""
         raise click.BadParameter(
-            f"{encoding!r}; choose one of {', '.join(sorted(ENCODING_PARAMS))}", param_hint="--encoding"
+            f"{encoding!r}; choose one of {', '.join(sorted(ENCODING_PARAMS))}{meant}",
+            param_hint="--encoding",
         )
     parsed = _parse_params(params)
     unknown = sorted(set(parsed) - set(ENCODING_PARAMS[encoding]))
     if unknown:
+        from ..param_hints import unknown_param_hint
+
+        # (``-p mu=0.2`` without ``-e sliding-window`` said vanilla takes boundary_weight and seam_weight
+        # alone, and no more: name the encoding that takes it, or the name meant)
+        hints = "; ".join(f"{n}: {hint}" for n in unknown if (hint := unknown_param_hint(encoding, n)))
         raise click.BadParameter(
-            f"{', '.join(unknown)} not a parameter of {encoding}; "
+            f"{', '.join(unknown)} not a parameter of {encoding}{f' ({hints})' if hints else ''}; "
             f"it takes {', '.join(sorted(ENCODING_PARAMS[encoding]))}",
             param_hint="--param",
         )

@@ -529,5 +529,22 @@ def load(path: str | os.PathLike[str]) -> ProgressiveMesh:
         raise err from exc
     rep, p = _check(buf, str(path))
     if not rep.valid or p is None:
-        raise SwpmFormatError(rep)
+        err = SwpmFormatError(rep)
+        hint = _mesh_given_hint(path, rep)
+        if hint:  # (``load("spot.obj")`` said "SWPM_HEADER_BAD_MAGIC: magic is 7620302e33343837, ...")
+            err.args = (f"{err.args[0]}; {hint}",)
+        raise err
     return _build(p, rep)
+
+
+def _mesh_given_hint(path: str | os.PathLike[str], rep: Report) -> str:
+    """What to call instead when ``path``, refused for its first bytes, is named as a mesh file: "" else."""
+    from ..io import SUPPORTED_SUFFIXES
+
+    suffix = os.path.splitext(os.fspath(path))[1].lower()
+    first = rep.errors[0].code if rep.errors else ""
+    if suffix not in SUPPORTED_SUFFIXES or first not in ("SWPM_HEADER_BAD_MAGIC", "SWPM_HEADER_TRUNCATED"):
+        return ""
+    return (
+        f"it is a mesh file ({suffix}), not an SWPM file: swpm_usd.build reads it (swpm_usd.save writes one)"
+    )

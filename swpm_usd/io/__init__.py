@@ -23,6 +23,13 @@ _USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 SUPPORTED_SUFFIXES = _TRIMESH_SUFFIXES + _USD_SUFFIXES
 
 
+#: a folder given as a mesh file (``swpm_usd.build("meshes")``): what builds a folder's meshes
+_FOLDER_GIVEN = (
+    "not a regular file: a folder; a pipeline config builds the meshes in one (assets: [{glob: "
+    "'meshes/*.obj'}], as samples/pipeline.yaml)"
+)
+
+
 def load_mesh(
     path: str | os.PathLike[str],
     *,
@@ -52,6 +59,8 @@ def load_mesh(
     check_budget(max_triangles)
     p = Path(path)
     suffix = p.suffix.lower()
+    if p.is_dir():  # (a folder said "unsupported file type '(no suffix)'": it has none, being no file)
+        raise MeshLoadError(p, _FOLDER_GIVEN, code="INPUT_UNREADABLE")
     if suffix not in SUPPORTED_SUFFIXES:
         # (an .swpm given to build or encode is this package's output: say what reads it)
         hint = f": it is already encoded, swpm-pipeline inspect {p} shows it" if suffix == ".swpm" else ""

@@ -130,10 +130,43 @@ def _to_python(
     return value
 
 
+def _yaml_hint(exc: yaml.YAMLError) -> str:
+    """What a YAML error's words mean in a config, for the two a first config meets: ``glob: *.obj``
+    unquoted (a ``*`` starts a YAML alias: it said "expected alphabetic or numeric character, but found
+    '.'") and a tab in the indentation ("found character '\\t' that cannot start any token")."""
+    context, problem = getattr(exc, "context", None) or "", getattr(exc, "problem", None) or ""
+    if context == "while scanning an alias" or problem.startswith("found undefined alias"):
+        return '; a value starting with * is a YAML alias: quote it, as glob: "*.obj"'
+    if "'\\t'" in problem:
+        return "; YAML indents with spaces, not tabs"
+    return ""
+
+
+def _mesh_given(path: Path, shown: str) -> str | None:
+    """The problem of a mesh file given as the config, ``swpm-pipeline run spot.obj`` (it said "the
+    configuration must be a mapping ..., not a scalar", a .glb "cannot read the file (utf-8 codec ...)", a
+    .gltf listed its JSON's keys as unknown): what to run instead. None for any other file."""
+    suffix = path.suffix.lower()
+    if suffix in (".yaml", ".yml", ".json"):  # (a config's: nothing to import or stat)
+        return None
+    from ..io import SUPPORTED_SUFFIXES
+
+    if suffix not in SUPPORTED_SUFFIXES or not path.is_file():  # (a missing one: "file not found")
+        return None
+    return (
+        f"{shown}:1:1: $: {shown} is a mesh file ({suffix}), not a pipeline config: swpm-pipeline build "
+        f"{shown} shows its LODs, swpm-pipeline encode {shown} -o {path.stem}.swpm writes one; a config is "
+        "a YAML file whose assets name the meshes (samples/pipeline.yaml is one)"
+    )
+
+
 def load_config(path: str | Path) -> Config:
     """Parse and validate ``path``; raise :class:`ConfigError` listing every problem."""
     path = Path(path)
     shown = str(path)  # (as given: a problem names the file the user named, not its name alone)
+    mesh = _mesh_given(path, shown)
+    if mesh:
+        raise ConfigError([mesh])
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
@@ -160,9 +193,8 @@ def load_config(path: str | Path) -> Config:
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
-        raise ConfigError(
-            [f"{shown}:{line}:{col}: $: invalid YAML: {getattr(exc, 'problem', None) or exc}"]
-        ) from None
+        problem = getattr(exc, "problem", None) or exc
+        raise ConfigError([f"{shown}:{line}:{col}: $: invalid YAML: {problem}{_yaml_hint(exc)}"]) from None
     if duplicates:
         raise ConfigError(duplicates)
     cfg = Config(
@@ -343,7 +375,15 @@ def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
             hint = ""
             known = list(err.schema.get("properties", {}))
             if path and path[-1] == "params":
-                hint = f" ({_params_owner(cfg, path)})"
+                owner = _params_owner(cfg, path)
+                encoding = _params_encoding(cfg, path)
+                if isinstance(encoding, str) and encoding != "auto":
+                    from ..param_hints import taken_elsewhere
+
+                    # (`mu` under `encoding: vanilla`: the encoding that takes it named)
+                    elsewhere = taken_elsewhere(encoding, key) if isinstance(key, str) else ""
+                    owner += f"; {elsewhere}" if elsewhere else ""
+                hint = f" ({owner})"
                 known = _owner_params(cfg, path) or known
             msgs.append(
                 f"{cfg.shown or cfg.path}:{where[0]}:{where[1]}: {format_path((*path, key))}: "

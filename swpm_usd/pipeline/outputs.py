@@ -128,8 +128,14 @@ def _make_out_dir(cfg: Config, out_dir: Path) -> None:
             code="OUTPUT_UNWRITABLE",
         ) from None
     if not os.access(out_dir, os.W_OK | os.X_OK):
+        # (a read-only mount, root's too, said "permission denied": no chmod helps there)
+        try:
+            read_only = bool(os.statvfs(out_dir).f_flag & os.ST_RDONLY)
+        except OSError:
+            read_only = False
+        why = "it is on a read-only file system" if read_only else "permission denied"
         raise ConfigError(
-            [f"{cfg.where(('output', 'dir'))}: cannot write in {out_dir}: permission denied"],
+            [f"{cfg.where(('output', 'dir'))}: cannot write in {out_dir}: {why}"],
             code="OUTPUT_UNWRITABLE",
         )
 

@@ -29,7 +29,10 @@ def validate_usd(stage: Path, as_json: bool, no_builtin: bool) -> None:
     else:
         for f in findings:
             click.echo(f"{f.severity.upper():7} {f.code} {f.prim}: {f.message}")
-        click.echo(f"{stage}: {rep['errors']} error(s), {rep['warnings']} warning(s)")
+        # (the verdict first, as an .swpm file's line gives it: "spot.usdc: 0 error(s), 0 warning(s)" left a
+        # first reader to count)
+        verdict = "INVALID" if rep["errors"] else "valid"
+        click.echo(f"{stage}: {verdict}, {rep['errors']} error(s), {rep['warnings']} warning(s)")
     if rep["errors"]:
         raise SystemExit(1)
 
