@@ -208,3 +208,24 @@ def test_loading_a_stage_of_several_encoded_prims_names_the_call_that_picks_one(
         swpm_usd.load(path)
     assert "/World/copy_0" in str(err.value)
     assert usd.read_file(path, prim="/World/copy_1").lod_count > 0  # (what the message says works)
+
+
+def test_a_run_with_nothing_finished_for_a_while_says_it_is_still_working(capsys):
+    # a fresh install's first run printed "[0/2] building 2 assets ..." and then nothing for 135 s while
+    # numba compiled (helper-238, session 56): it now says once that it is still working
+    import time
+
+    progress = _Progress(2, still_working_s=0.05)
+    time.sleep(0.5)
+    progress.advance(_failed("MeshLoadError: no triangles: the file is empty (0 bytes)"))
+    progress.close()
+    lines = capsys.readouterr().err.splitlines()
+    still = [ln for ln in lines if "still working" in ln]
+    assert len(still) == 1 and still[0].startswith("[0/2] still working after 0 s, no asset finished")
+    assert lines.index(still[0]) < next(i for i, ln in enumerate(lines) if ln.startswith("[1/2]"))
+    # an asset done first: no such line, even after the time has passed
+    progress = _Progress(2, still_working_s=0.2)
+    progress.advance(_failed("MeshLoadError: no triangles: the file is empty (0 bytes)"))
+    time.sleep(0.5)
+    progress.close()
+    assert "still working" not in capsys.readouterr().err

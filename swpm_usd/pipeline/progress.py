@@ -6,15 +6,22 @@ Separate from the runner: display only; the records and the summary after the ru
 from __future__ import annotations
 
 import sys
+import threading
+
+#: seconds with no asset finished before a run says it is still working: a fresh install's first run printed
+#: its first line, then nothing for 135 s while numba compiled (helper-238's walk-through; warm, the README's
+#: samples finish in under a second each)
+STILL_WORKING_S = 30.0
 
 
 class _Progress:
     """A rich progress bar on a terminal, plain lines elsewhere (CI logs)."""
 
-    def __init__(self, total: int) -> None:
+    def __init__(self, total: int, still_working_s: float = STILL_WORKING_S) -> None:
         self.total = total
         self.done = 0
         self.bar = None
+        self.timer: threading.Timer | None = None
         if total:  # (a first run printed nothing for minutes while numba compiled: users took it for a hang)
             print(
                 f"[0/{total}] building {total} asset{'s' * (total != 1)}; on a new machine numba compiles "
@@ -35,11 +42,31 @@ class _Progress:
             )
             self.bar.start()
             self.task = self.bar.add_task("", total=total)
+        if total:
+            self.timer = threading.Timer(still_working_s, self._still_working, args=(still_working_s,))
+            self.timer.daemon = True
+            self.timer.start()
+
+    def _still_working(self, seconds: float) -> None:
+        line = (
+            f"[0/{self.total}] still working after {seconds:.0f} s, no asset finished yet: a first run on "
+            "this machine compiles numba's kernels (a minute or more, once), and a large asset takes longer"
+        )
+        if self.bar is not None:
+            self.bar.console.print(line, markup=False, highlight=False)
+        else:
+            print(line, file=sys.stderr, flush=True)
+
+    def _stop_timer(self) -> None:
+        if self.timer is not None:
+            self.timer.cancel()
+            self.timer = None
 
     def advance(self, rec: dict, path: str | None = None) -> None:
         """One more asset done; ``path``, its file as the worker's error names it, is left out of the line
         (which names the asset already): a deep folder's path filled the 100 characters kept of the error,
         and the line lost its cause (the summary after the run prints the error whole)."""
+        self._stop_timer()
         self.done += 1
         error = rec.get("error", "")
         if path:
@@ -64,5 +91,6 @@ class _Progress:
             )
 
     def close(self) -> None:
+        self._stop_timer()
         if self.bar is not None:
             self.bar.stop()
