@@ -11,6 +11,7 @@ import re
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 from conftest import ROOT
@@ -325,3 +326,14 @@ def test_build_help_gives_a_param_example_that_builds(tmp_path):
     mesh.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
     result = CliRunner().invoke(main, ["build", str(mesh), *example.group(1).split()])
     assert result.exit_code == 0, result.output
+
+
+def test_save_of_what_is_not_a_progressive_mesh_says_what_it_got(tmp_path):
+    # swpm_usd.save(1, path) was "AttributeError: 'int' object has no attribute 'encoding'" from the writer
+    import swpm_usd
+
+    mesh = swpm_usd.Mesh(np.zeros((3, 3)), np.array([[0, 1, 2]]))
+    for pm, said in ((1, "not int"), ("spot.obj", "a path: swpm_usd.build"), (mesh, "before its build")):
+        with pytest.raises(TypeError, match=said):
+            swpm_usd.save(pm, tmp_path / "a.swpm")
+    assert not list(tmp_path.iterdir())

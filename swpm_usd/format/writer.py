@@ -222,7 +222,9 @@ def encode_bytes(
     they are, as a writer before 0.8.0 did (the vector generator's older-file vector).
     :class:`SwpmEncodeError` when ``pm.params`` would make a ``META`` the reader rejects (spec 3.1: nested
     more than 128 deep, an integer too large for binary64); NaN or infinity is a ``ValueError``, as is a
-    width other than 2 or 4; a ``legacy`` other than True or False is a ``TypeError``."""
+    width other than 2 or 4; a ``legacy`` other than True or False is a ``TypeError``, as is a ``pm`` that
+    is not a progressive mesh (a path, or a mesh before its build)."""
+    _check_progressive_mesh(pm)
     enc = pm.encoding
     if enc not in L.ENCODING_FEATURES:
         raise ValueError(f"encoding {enc!r} has no SWPM v1 layout")
@@ -392,6 +394,22 @@ def _json_default(o: Any) -> Any:
     if isinstance(o, (set, tuple)):
         return list(o)
     raise TypeError(f"parameter value {o!r} is not JSON-serialisable")
+
+
+def _check_progressive_mesh(pm: object) -> None:
+    """A :class:`TypeError` naming what ``pm`` is when it is not a progressive mesh: ``save(1, path)`` was an
+    ``AttributeError`` from deep in the writer ('int' object has no attribute 'encoding')."""
+    if all(hasattr(pm, a) for a in ("encoding", "buffers", "vertex_count")):
+        return
+    from ..mesh import Mesh
+
+    if isinstance(pm, Mesh):
+        hint = "a mesh before its build: swpm_usd.build(mesh, encoding=...) makes one"
+    elif isinstance(pm, str | os.PathLike):
+        hint = "a path: swpm_usd.build(path, encoding=...) builds the mesh file there"
+    else:
+        hint = "swpm_usd.build's result, or swpm_usd.load's"
+    raise TypeError(f"an SWPM file is written from a progressive mesh, not {type(pm).__name__} ({hint})")
 
 
 def save(
