@@ -13,6 +13,9 @@ int32 against int64 scalars, a literal ``0`` or ``True``, an argument omitted or
 layout): every extra one is a whole compile on a fresh machine. ``--check`` exits 1 when one of
 ``ONE_SIGNATURE`` has more than one (a cold cache is what types a caller's callees: a warm one loads the
 caller whole, so this is a benchmark, not a unit test).
+``--kernels N`` also lists the N kernels whose compile took longest in the (last) cold process: seconds of
+its own compile (its callees' compiles taken out: numba's ``numba:compile`` events nest) and with them, and
+its signatures (wall time: run it on a quiet machine).
 No target: what a user waits for on first use, and a yardstick for changes to the kernels.
 """
 
@@ -43,6 +46,7 @@ ONE_SIGNATURE = (
     "swpm_usd.encode.sw_deviation.deviation_rows",
     "swpm_usd.simplify.stars.triangle_positions",
     "swpm_usd.vcache._rotate_rows",
+    "swpm_usd.vcache._order_blocks",  # (sw_layout._finish passed it the literals 0 and True: ~5 s CPU)
 )
 STEPS = {
     "sliding-window": ("sliding-window", {}),
@@ -55,6 +59,26 @@ STEPS = {
 CHILD = """
 import json, resource, sys, time
 steps = json.loads(sys.argv[2])
+kernels, stack = {}, []
+if len(sys.argv) > 3:  # per kernel: [own s, with callees s, signatures]
+    from numba.core import event
+
+    class Compiles(event.Listener):
+        def on_start(self, ev):
+            stack.append([time.perf_counter(), 0.0])
+
+        def on_end(self, ev):
+            t0, inner = stack.pop()
+            dt = time.perf_counter() - t0
+            if stack:
+                stack[-1][1] += dt
+            f = ev.data["dispatcher"].py_func
+            row = kernels.setdefault(f"{f.__module__}.{f.__qualname__}", [0.0, 0.0, []])
+            row[0] += dt - inner
+            row[1] += dt
+            row[2].append(str(ev.data["args"]))
+
+    event.register("numba:compile", Compiles())
 t = time.perf_counter()
 import swpm_usd
 mesh = swpm_usd.load_mesh(sys.argv[1])
@@ -74,15 +98,16 @@ for mod in list(sys.modules.values()):
         if isinstance(obj, CPUDispatcher) and len(obj.signatures) > 1:
             sigs[f"{obj.py_func.__module__}.{obj.py_func.__name__}"] = [str(s) for s in obj.signatures]
 out["signatures"] = sigs
+out["kernels"] = kernels
 print(json.dumps(out))
 """
 
 
-def _run(mesh: str, steps: dict) -> dict:
+def _run(mesh: str, steps: dict, kernels: bool = False) -> dict:
     with tempfile.TemporaryDirectory(prefix="swpm-numba-") as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache)
         res = subprocess.run(
-            [sys.executable, "-c", CHILD, mesh, json.dumps(steps)],
+            [sys.executable, "-c", CHILD, mesh, json.dumps(steps), *(["kernels"] if kernels else [])],
             env=env,
             capture_output=True,
             text=True,
@@ -98,6 +123,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--alone", action="store_true", help="every encoding in a fresh process of its own")
     ap.add_argument("--out", default=str(HERE / "results" / "compile.json"))
     ap.add_argument("--check", action="store_true", help="exit 1 if a kernel of ONE_SIGNATURE has several")
+    ap.add_argument("--kernels", type=int, default=0, metavar="N", help="list the N slowest kernel compiles")
     args = ap.parse_args(argv)
     if args.repeats < 1:
         ap.error("--repeats must be at least 1")
@@ -105,8 +131,9 @@ def main(argv: list[str] | None = None) -> int:
     cpu: list[float] = []
     several: dict[str, list[str]] = {}
     for _ in range(args.repeats):
-        outs = [_run(args.mesh, {name: step}) for name, step in STEPS.items()] if args.alone else []
-        outs = outs or [_run(args.mesh, STEPS)]
+        kernels = args.kernels > 0
+        outs = [_run(args.mesh, {name: step}, kernels) for name, step in STEPS.items()] if args.alone else []
+        outs = outs or [_run(args.mesh, STEPS, kernels)]
         for out in outs:
             for name in STEPS:
                 if name in out:
@@ -133,6 +160,16 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{len(sigs)} signatures: {name}")
         for sig in sigs:
             print(f"    {sig}")
+    compiled: dict[str, list] = {}
+    for out in outs:  # (the last repeat's processes)
+        compiled.update(out["kernels"])
+    if compiled:
+        own = sum(row[0] for row in compiled.values())
+        count = sum(len(row[2]) for row in compiled.values())
+        print(f"kernels compiled: {len(compiled)}, signatures {count}, compile {own:.1f} s (wall)")
+        print(f"{'own s':>7s} {'with callees':>12s} {'sigs':>4s}  kernel")
+        for name, row in sorted(compiled.items(), key=lambda kv: -kv[1][0])[: args.kernels]:
+            print(f"{row[0]:7.2f} {row[1]:12.2f} {len(row[2]):4d}  {name}")
     out_path = Path(args.out)
     out_path.parent.mkdir(parents=True, exist_ok=True)
     doc = {
@@ -143,6 +180,7 @@ def main(argv: list[str] | None = None) -> int:
         "total_cold_s": total,
         "cpu_s": cpu,
         "several_signatures": several,
+        "kernels": compiled,
     }
     out_path.write_text(json.dumps(doc, indent=2))
     print(f"wrote {out_path}")

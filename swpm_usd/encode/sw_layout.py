@@ -291,10 +291,10 @@ def _finish(
             cache_size,
             np.zeros(nvert, np.int64),
             np.full(cache_size, -1, np.int64),
-            0,
+            np.int64(0),  # (not the literals 0 and True: a second signature, ~7 s more of a cold compile)
             cache_tab,
             live_tab,
-            True,
+            np.bool_(True),
             np.array([tail], np.int64),
             heavy,
         )
@@ -320,7 +320,7 @@ def _finish(
         reach,
         run,
         passes,
-        True,
+        np.bool_(True),  # (as a Python caller's True: one signature, not a literal's second)
         long_reach,
     )
     same = True

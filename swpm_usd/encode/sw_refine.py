@@ -449,6 +449,12 @@ def refine_patch_order(
     cand = seq.copy()
     pos = np.arange(n, dtype=np.int64)  # the place of each patch
     nb_start, nbl = _patch_neighbours(block_start, blocks, n, vertex_count, long_reach > 0)
+    # a place's candidate moves, listed first and then tried at one call site of ``_try_move``: numba
+    # inlines the whole move evaluation at each call site (two cost ~6 s more of a cold compile)
+    most = 0
+    for p in range(n):
+        most = max(most, nb_start[p + 1] - nb_start[p])
+    ks = np.empty(2 * min(reach, n) + 1 + 2 * most, np.int64)
     tried = np.zeros(n if long_reach > 0 else 0, np.int64)  # a long move's place, tried for ``tried_id``
     tried_id = 0
     # the swap of the patches at places i - 1 and i, tried from place i - 1 (its k = i) with no move made
@@ -469,8 +475,7 @@ def refine_patch_order(
             for s in range(1, max_run + 1):
                 if i + s > n:
                     break
-                best = 0
-                best_k = -1
+                nk = 0
                 for k in range(max(0, i - reach), min(n - s, i + reach) + 1):
                     if k == i:
                         continue
@@ -480,11 +485,8 @@ def refine_patch_order(
                         if k == i + 1:
                             swap_at = i
                             swap_moves = moves
-                    marks += 1
-                    d, version = _try_move(seq, cand, n, i, s, k, search, marks, best, version)
-                    if d < best:
-                        best = d
-                        best_k = k
+                    ks[nk] = k
+                    nk += 1
                 if s == 1 and long_reach > 0 and _jump(seq, pos, i, nb_start, nbl):
                     # next to each of the patch's neighbours, before or after it, beyond ``reach``; a place
                     # two neighbours share (next to both) is tried once: the same candidate on the same
@@ -500,11 +502,17 @@ def refine_patch_order(
                             if tried[k] == tried_id:
                                 continue
                             tried[k] = tried_id
-                            marks += 1
-                            d, version = _try_move(seq, cand, n, i, s, k, search, marks, best, version)
-                            if d < best:
-                                best = d
-                                best_k = k
+                            ks[nk] = k
+                            nk += 1
+                best = 0
+                best_k = -1
+                for j in range(nk):
+                    k = ks[j]
+                    marks += 1
+                    d, version = _try_move(seq, cand, n, i, s, k, search, marks, best, version)
+                    if d < best:
+                        best = d
+                        best_k = k
                 if best_k < 0:
                     continue
                 lo, hi = _arrange(seq, cand, n, i, s, best_k)
