@@ -3,11 +3,16 @@
 
 from __future__ import annotations
 
+import io
+import sys
+import time
+
 import pytest
 from click.testing import CliRunner
 
 from swpm_usd.cli import main
 from swpm_usd.pipeline.config import ConfigError, load_config
+from swpm_usd.pipeline.progress import _Progress
 
 CONFIG = "version: 1\nassets: [{glob: 'meshes/*.obj'}]\noutput: {dir: out}\n"
 
@@ -51,3 +56,41 @@ def test_a_mesh_given_as_the_config_is_still_called_a_mesh(tmp_path, name, data)
     with pytest.raises(ConfigError) as err:
         load_config(mesh)
     assert f"is a mesh file ({mesh.suffix}), not a pipeline config" in str(err.value)
+
+
+class _Terminal(io.StringIO):
+    """stderr on a terminal (what makes the run show a rich bar)."""
+
+    def isatty(self) -> bool:
+        return True
+
+
+def test_the_bar_and_its_still_working_line_stay_off_stdout(monkeypatch):
+    """``swpm-pipeline run cfg --json > report.json`` from a terminal: the bar (rich's own console, stdout)
+    and the "still working" line printed through it went into the JSON, which no longer parsed."""
+    out, err = io.StringIO(), _Terminal()
+    monkeypatch.setattr(sys, "stdout", out)
+    monkeypatch.setattr(sys, "stderr", err)
+    progress = _Progress(1, still_working_s=0.01)
+    deadline = time.monotonic() + 10
+    while "still working" not in err.getvalue() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    progress.advance({"id": "a.obj", "status": "built", "seconds": 0.1})
+    progress.close()
+    assert out.getvalue() == ""
+    said = err.getvalue()
+    assert "[0/1] still working after 0 s" in said and "a.obj: built" in said
+
+
+def test_no_still_working_line_once_an_asset_is_done(monkeypatch):
+    """The timer's thread, woken as the first asset finished (or the run closed), printed "no asset
+    finished yet" after that asset's line: its check and the cancelling are now one at a time."""
+    err = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", err)
+    progress = _Progress(2, still_working_s=3600)
+    timer = progress.timer
+    progress.advance({"id": "a.obj", "status": "built", "seconds": 0.1})
+    timer.function(*timer.args)  # (the thread, past its wait before the cancel, calls it now)
+    progress.close()
+    timer.function(*timer.args)
+    assert "still working" not in err.getvalue()
