@@ -43,8 +43,9 @@ class _Progress:
                 TextColumn("{task.description}"),
                 transient=False,
                 # (on stderr, the terminal it was asked of: rich's own console, stdout, put the bar and the
-                # "still working" line into `run --json > report.json`'s JSON)
+                # "still working" line into `run --json > report.json`'s JSON; stdout left where it goes)
                 console=Console(file=sys.stderr),
+                redirect_stdout=False,
             )
             self.bar.start()
             self.task = self.bar.add_task("", total=total)
