@@ -6,6 +6,7 @@ from __future__ import annotations
 import io
 import sys
 import time
+from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
@@ -95,3 +96,22 @@ def test_no_still_working_line_once_an_asset_is_done(monkeypatch):
     progress.close()
     timer.function(*timer.args)
     assert "still working" not in err.getvalue()
+
+
+def test_an_unwritable_output_dir_without_statvfs_is_still_named(tmp_path, monkeypatch):
+    """The read-only check called ``os.statvfs``, which Windows' os has not (nor ``ST_RDONLY``): an
+    unwritable output.dir there was an AttributeError out of the run, not its "permission denied"."""
+    import os
+
+    (tmp_path / "a.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    out = tmp_path / "out"
+    out.mkdir()
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text("version: 1\nassets: [{glob: '*.obj'}]\noutput: {dir: out}\n")
+    real_access = os.access
+    monkeypatch.setattr(os, "access", lambda p, mode, **kw: Path(p) != out and real_access(p, mode, **kw))
+    monkeypatch.delattr(os, "statvfs")
+    monkeypatch.delattr(os, "ST_RDONLY")
+    result = CliRunner().invoke(main, ["run", str(cfg)])
+    assert result.exit_code == 2, result.output
+    assert result.stderr.strip() == f"{cfg}:3:15: $.output.dir: cannot write in {out}: permission denied"
