@@ -115,3 +115,21 @@ def test_an_unwritable_output_dir_without_statvfs_is_still_named(tmp_path, monke
     result = CliRunner().invoke(main, ["run", str(cfg)])
     assert result.exit_code == 2, result.output
     assert result.stderr.strip() == f"{cfg}:3:15: $.output.dir: cannot write in {out}: permission denied"
+
+
+def test_save_with_its_arguments_swapped_says_so(tmp_path):
+    """``save("spot.swpm", pm)`` was pathlib's "expected str, bytes or os.PathLike object, not
+    VanillaProgressiveMesh"; the lead's check of ``pm`` would have called the path "a path: swpm_usd.build
+    (path, ...) builds the mesh file there"."""
+    import swpm_usd
+
+    mesh = tmp_path / "a.obj"
+    mesh.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
+    pm = swpm_usd.build(mesh)
+    out = tmp_path / "a.swpm"
+    with pytest.raises(TypeError, match=r"save\(pm, path\): the progressive mesh first, then the path"):
+        swpm_usd.save(str(out), pm)
+    assert not out.exists()
+    with pytest.raises(TypeError, match="a path: swpm_usd.build"):  # (a path alone: as before)
+        swpm_usd.save(str(out), str(tmp_path / "b.swpm"))
+    assert swpm_usd.save(pm, out) == out and swpm_usd.load(out).lod_count == pm.lod_count
