@@ -396,10 +396,14 @@ def _json_default(o: Any) -> Any:
     raise TypeError(f"parameter value {o!r} is not JSON-serialisable")
 
 
+def _is_progressive_mesh(pm: object) -> bool:
+    return all(hasattr(pm, a) for a in ("encoding", "buffers", "vertex_count"))
+
+
 def _check_progressive_mesh(pm: object) -> None:
     """A :class:`TypeError` naming what ``pm`` is when it is not a progressive mesh: ``save(1, path)`` was an
     ``AttributeError`` from deep in the writer ('int' object has no attribute 'encoding')."""
-    if all(hasattr(pm, a) for a in ("encoding", "buffers", "vertex_count")):
+    if _is_progressive_mesh(pm):
         return
     from ..mesh import Mesh
 
@@ -431,6 +435,9 @@ def save(
     wrote the SWPM bytes over a source mesh of that name."""
     from ..io import SUPPORTED_SUFFIXES
 
+    if isinstance(pm, str | os.PathLike) and _is_progressive_mesh(path):
+        # (``save("spot.swpm", pm)`` was pathlib's "expected str, bytes or os.PathLike object, not ...")
+        raise TypeError(f"save(pm, path): the progressive mesh first, then the path ({os.fspath(pm)!r})")
     suffix = Path(path).suffix.lower()
     if suffix in SUPPORTED_SUFFIXES:
         raise SwpmEncodeError(

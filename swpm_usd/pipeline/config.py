@@ -153,11 +153,41 @@ def _mesh_given(path: Path, shown: str) -> str | None:
 
     if suffix not in SUPPORTED_SUFFIXES or not path.is_file():  # (a missing one: "file not found")
         return None
+    if _looks_like_config(path):  # (a config named ``assets.usda`` or ``lods.obj`` was refused as a mesh)
+        return None
     return (
         f"{shown}:1:1: $: {shown} is a mesh file ({suffix}), not a pipeline config: swpm-pipeline build "
         f"{shown} shows its LODs, swpm-pipeline encode {shown} -o {path.stem}.swpm writes one; a config is "
         "a YAML file whose assets name the meshes (samples/pipeline.yaml is one)"
     )
+
+
+#: bytes of a file with a mesh's suffix read to tell a config from a mesh (its first line of content)
+_SNIFF_BYTES = 4096
+
+
+def _looks_like_config(path: Path) -> bool:
+    """Whether ``path``'s first line of content (past blank lines, ``#`` comments and YAML's ``---``, ``%``)
+    opens with one of a config's top-level keys, then ``:`` (``version: 1``, JSON's ``{"assets": ...``).
+    A mesh's does not (``v 1 2 3``, ``ply``, ``#usda 1.0`` then ``def``, glTF's ``{"asset": ...``), nor does
+    a binary file's (a NUL byte) or one that cannot be read."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(_SNIFF_BYTES)
+    except OSError:
+        return False
+    if b"\0" in head:
+        return False
+    keys = "|".join(re.escape(k) for k in load_schema()["properties"])
+    opens = re.compile(rf"""\{{?\s*(["']?)(?:{keys})\1\s*:""")
+    for line in head.decode("utf-8", errors="replace").lstrip("\ufeff").splitlines():
+        line = line.strip()
+        if line.startswith("---"):  # (a document's start, content after it on the line or not)
+            line = line[3:].strip()
+        if not line or line.startswith(("#", "%")):
+            continue
+        return opens.match(line) is not None
+    return False
 
 
 def load_config(path: str | Path) -> Config:

@@ -131,7 +131,7 @@ def _make_out_dir(cfg: Config, out_dir: Path) -> None:
         # (a read-only mount, root's too, said "permission denied": no chmod helps there)
         try:
             read_only = bool(os.statvfs(out_dir).f_flag & os.ST_RDONLY)
-        except OSError:
+        except (OSError, AttributeError):  # (AttributeError: no statvfs or ST_RDONLY, Windows)
             read_only = False
         why = "it is on a read-only file system" if read_only else "permission denied"
         raise ConfigError(

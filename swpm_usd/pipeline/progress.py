@@ -22,6 +22,8 @@ class _Progress:
         self.done = 0
         self.bar = None
         self.timer: threading.Timer | None = None
+        # (the timer's line and its cancelling one at a time: none printed once an asset is done or closed)
+        self._lock = threading.Lock()
         if total:  # (a first run printed nothing for minutes while numba compiled: users took it for a hang)
             print(
                 f"[0/{total}] building {total} asset{'s' * (total != 1)}; on a new machine numba compiles "
@@ -30,6 +32,7 @@ class _Progress:
                 flush=True,
             )
         if sys.stderr.isatty() and total:
+            from rich.console import Console
             from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
             self.bar = Progress(
@@ -39,6 +42,10 @@ class _Progress:
                 TimeRemainingColumn(),
                 TextColumn("{task.description}"),
                 transient=False,
+                # (on stderr, the terminal it was asked of: rich's own console, stdout, put the bar and the
+                # "still working" line into `run --json > report.json`'s JSON; stdout left where it goes)
+                console=Console(file=sys.stderr),
+                redirect_stdout=False,
             )
             self.bar.start()
             self.task = self.bar.add_task("", total=total)
@@ -48,6 +55,11 @@ class _Progress:
             self.timer.start()
 
     def _still_working(self, seconds: float) -> None:
+        with self._lock:
+            if self.timer is not None:  # (None: stopped as this thread woke; an asset done, or closed)
+                self._say_still_working(seconds)
+
+    def _say_still_working(self, seconds: float) -> None:
         line = (
             f"[0/{self.total}] still working after {seconds:.0f} s, no asset finished yet: a first run on "
             "this machine compiles numba's kernels (a minute or more, once), and a large asset takes longer"
@@ -58,9 +70,10 @@ class _Progress:
             print(line, file=sys.stderr, flush=True)
 
     def _stop_timer(self) -> None:
-        if self.timer is not None:
-            self.timer.cancel()
-            self.timer = None
+        with self._lock:
+            if self.timer is not None:
+                self.timer.cancel()
+                self.timer = None
 
     def advance(self, rec: dict, path: str | None = None) -> None:
         """One more asset done; ``path``, its file as the worker's error names it, is left out of the line
