@@ -133,3 +133,36 @@ def test_save_with_its_arguments_swapped_says_so(tmp_path):
     with pytest.raises(TypeError, match="a path: swpm_usd.build"):  # (a path alone: as before)
         swpm_usd.save(str(out), str(tmp_path / "b.swpm"))
     assert swpm_usd.save(pm, out) == out and swpm_usd.load(out).lod_count == pm.lod_count
+
+
+def test_a_run_stopped_by_ctrl_c_says_nothing_of_still_working(tmp_path, monkeypatch, capsys):
+    # the timer's line came after a Ctrl-C whose stop outlasted the time left to it (helper-239's find):
+    # the timer is stopped before the run stops
+    from functools import partial
+
+    from swpm_usd.pipeline import run, runner
+
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'm/*.obj'}]\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+    )
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+        yield  # (a generator, as execute is)
+
+    stop = runner._Run.stop
+
+    def slow_stop(self):
+        time.sleep(0.6)
+        stop(self)
+
+    monkeypatch.setattr(runner, "execute", interrupted)
+    monkeypatch.setattr(runner._Run, "stop", slow_stop)
+    monkeypatch.setattr(runner, "_Progress", partial(_Progress, still_working_s=0.2))
+    with pytest.raises(KeyboardInterrupt):
+        run(cfg, echo=lambda m: None)
+    time.sleep(0.3)
+    assert "still working" not in capsys.readouterr().err
