@@ -4725,10 +4725,16 @@ def test_a_report_of_many_assets_draws_their_curves_on_demand(tmp_path, monkeypa
     assert sorted(table) == sorted(manifest["assets"])
     for aid, rec in manifest["assets"].items():
         curve = rec["summary"]["curve"]
-        encoding, *figures = table[aid]
+        encoding, *figures, error_labels, acmr_labels = table[aid]
         assert encoding == rec["encoding"] and len(curve) > 1
         for got, key in zip(figures, ("triangles", "error", "lod", "acmr"), strict=True):
             assert got == pytest.approx([c[key] for c in curve], rel=1e-3, abs=1e-12), (aid, key)
+        # the axis ends' labels: the fewest and most triangles, the least and largest error, LODs, ACMR
+        tri, err = [c["triangles"] for c in curve], [c["error"] for c in curve]
+        assert error_labels[:2] == [str(min(tri)), str(max(tri))]
+        assert float(error_labels[3]) == pytest.approx(max(err), rel=6e-3)
+        lods = [c["lod"] for c in curve]
+        assert acmr_labels[:2] == [str(min(lods)), str(max(lods))]
     assert "click an asset's name" in text and "summary.curve" in text
 
 
@@ -6047,3 +6053,20 @@ def test_an_output_dir_that_is_a_link_loop_or_to_nothing_is_a_config_error(tmp_p
     r = CliRunner().invoke(main, ["run", str(cfg), "--json"])
     assert r.exit_code == 2 and "Traceback" not in r.output, r.output
     assert json.loads(r.stdout)["problems"] == [f"{cfg}:3:15: $.output.dir: {says}"]
+
+
+def test_a_report_s_plots_label_their_axis_ends(tmp_path, monkeypatch):
+    # report.html's plots had no values on their axes: a curve's shape, but not its triangles, error or ACMR
+    from swpm_usd.pipeline import report
+
+    manifest = _report_manifest(tmp_path, monkeypatch)
+    report.write_report(tmp_path / "report.html", manifest)
+    text = (tmp_path / "report.html").read_text()
+    curve = manifest["assets"]["m/a.obj"]["summary"]["curve"]
+    tri, err = [c["triangles"] for c in curve], [c["error"] for c in curve]
+    card = text[text.index("<h3>m/a.obj") :]
+    errors_svg = card[card.index("<svg") : card.index("</svg>")]
+    labels = re.findall(r"<text [^>]*>([^<]*)</text>", errors_svg)
+    assert labels == [f"{max(err):.3g}", f"{min(err):.3g}", str(min(tri)), str(max(tri))]
+    assert report._tick(69451.0) == "69451" and report._tick(0.000123456) == "0.000123"
+    assert report._tick(float("nan")) == "?" and report._tick(2.5e6) == "2.5e+06"

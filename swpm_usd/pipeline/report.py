@@ -22,22 +22,62 @@ from .worker import atomic_write_bytes
 INLINE_CURVES = 500
 
 
-def _polyline(xs: list[float], ys: list[float], w: int = 260, h: int = 140, log_y: bool = False) -> str:
+#: a plot's size and margins (pixels): the axis ends' labels sit in the left and bottom margins
+_W, _H, _LEFT, _RIGHT, _TOP, _BOTTOM = 300, 150, 46, 8, 8, 18
+
+
+def _tick(v: float) -> str:
+    """An axis end's label: a whole number as it is, any other to three significant digits."""
+    if not math.isfinite(v):
+        return "?"
+    if v == int(v) and abs(v) < 1e6:
+        return str(int(v))
+    return f"{v:.3g}"
+
+
+def _axis_labels(xs: list[float], ys: list[float]) -> list[str]:
+    """The labels of a plot's axis ends, ``[x min, x max, y min, y max]``, of the finite figures, in their
+    own units (a log plot's too). The on-demand plots get them from the report, not from the script: one
+    number format."""
+    xs = [v for v in xs if math.isfinite(v)] or [math.nan]
+    ys = [v for v in ys if math.isfinite(v)] or [math.nan]
+    return [_tick(min(xs)), _tick(max(xs)), _tick(min(ys)), _tick(max(ys))]
+
+
+def _polyline(
+    xs: list[float],
+    ys: list[float],
+    log_y: bool = False,
+    labels: list[str] | None = None,
+) -> str:
     if not xs:
         return "<svg></svg>"
+    labels = _axis_labels(xs, ys) if labels is None else labels
     if log_y:
         ys = [math.log10(max(y, 1e-12)) for y in ys]
+    w, h = _W, _H
     x0, x1 = min(xs), max(xs) or 1
     y0, y1 = min(ys), max(ys)
-    sx = (w - 20) / ((x1 - x0) or 1)
-    sy = (h - 20) / ((y1 - y0) or 1)
+    sx = (w - _LEFT - _RIGHT) / ((x1 - x0) or 1)
+    sy = (h - _TOP - _BOTTOM) / ((y1 - y0) or 1)
     pts = " ".join(
-        f"{10 + (x - x0) * sx:.1f},{h - 10 - (y - y0) * sy:.1f}" for x, y in zip(xs, ys, strict=True)
+        f"{_LEFT + (x - x0) * sx:.1f},{h - _BOTTOM - (y - y0) * sy:.1f}" for x, y in zip(xs, ys, strict=True)
     )
+    xa, xb, ya, yb = labels
     return (
         f'<svg width="{w}" height="{h}" style="background:#fafafa;border:1px solid #ddd">'
+        f'<g font-size="10" fill="#555"><text x="{_LEFT - 3}" y="{_TOP + 8}" text-anchor="end">{yb}</text>'
+        f'<text x="{_LEFT - 3}" y="{h - _BOTTOM}" text-anchor="end">{ya}</text>'
+        f'<text x="{_LEFT}" y="{h - 4}">{xa}</text>'
+        f'<text x="{w - _RIGHT}" y="{h - 4}" text-anchor="end">{xb}</text></g>'
         f'<polyline fill="none" stroke="#2a6" stroke-width="2" points="{pts}"/></svg>'
     )
+
+
+def _held(values: list) -> list:
+    """``values`` as the curve table holds them (:func:`_compact`): whole numbers as they are, others to four
+    significant digits, one not finite as NaN."""
+    return [v if type(v) is int else float(f"{v:.4g}") if math.isfinite(v) else math.nan for v in values]
 
 
 def _compact(values: list) -> str:
@@ -47,25 +87,30 @@ def _compact(values: list) -> str:
     return f"[{','.join(shown)}]"
 
 
-#: draws the plots of an asset (its name clicked in the table) from the curve table, as _polyline does
+#: draws the plots of an asset (its name clicked in the table) from the curve table, as _polyline does (the
+#: axis ends' labels as the table gives them: entries 5 and 6, from :func:`_axis_labels`)
 _CURVE_SCRIPT = """<script>
 (function(){
 var data=JSON.parse(document.getElementById('curve-data').textContent);
-function poly(xs,ys,logY){
- var w=260,h=140;if(!xs.length)return '<svg></svg>';
+function poly(xs,ys,logY,lab){
+ var w=300,h=150,L=46,R=8,T=8,B=18;if(!xs.length)return '<svg></svg>';
  if(logY)ys=ys.map(function(y){return Math.log10(Math.max(y,1e-12));});
  var x0=Math.min.apply(null,xs),x1=Math.max.apply(null,xs)||1,y0=Math.min.apply(null,ys),
-  y1=Math.max.apply(null,ys),sx=(w-20)/((x1-x0)||1),sy=(h-20)/((y1-y0)||1);
- var pts=xs.map(function(x,i){return (10+(x-x0)*sx).toFixed(1)+','+(h-10-(ys[i]-y0)*sy).toFixed(1);});
+  y1=Math.max.apply(null,ys),sx=(w-L-R)/((x1-x0)||1),sy=(h-T-B)/((y1-y0)||1);
+ var pts=xs.map(function(x,i){return (L+(x-x0)*sx).toFixed(1)+','+(h-B-(ys[i]-y0)*sy).toFixed(1);});
  return '<svg width="'+w+'" height="'+h+'" style="background:#fafafa;border:1px solid #ddd">'+
+  '<g font-size="10" fill="#555"><text x="'+(L-3)+'" y="'+(T+8)+'" text-anchor="end">'+lab[3]+'</text>'+
+  '<text x="'+(L-3)+'" y="'+(h-B)+'" text-anchor="end">'+lab[2]+'</text>'+
+  '<text x="'+L+'" y="'+(h-4)+'">'+lab[0]+'</text>'+
+  '<text x="'+(w-R)+'" y="'+(h-4)+'" text-anchor="end">'+lab[1]+'</text></g>'+
   '<polyline fill="none" stroke="#2a6" stroke-width="2" points="'+pts.join(' ')+'"/></svg>';}
 function show(aid){
  var c=data[aid];if(!c)return;
  var card=document.createElement('div'),h=document.createElement('h3'),small=document.createElement('small');
  card.className='card';h.textContent=aid+' ';small.textContent=c[0];h.appendChild(small);card.appendChild(h);
  var a=document.createElement('div'),b=document.createElement('div');
- a.innerHTML='triangles (x) vs error (y, log)<br>'+poly(c[1],c[2],true);
- b.innerHTML='LOD (x) vs ACMR (y)<br>'+poly(c[3],c[4],false);
+ a.innerHTML='triangles (x) vs error (y, log)<br>'+poly(c[1],c[2],true,c[5]);
+ b.innerHTML='LOD (x) vs ACMR (y)<br>'+poly(c[3],c[4],false,c[6]);
  card.appendChild(a);card.appendChild(b);
  var box=document.getElementById('curves');box.insertBefore(card,box.firstChild);}
 document.getElementById('assets').addEventListener('click',function(e){
@@ -179,8 +224,13 @@ def write_report(path: Path, manifest: dict, because: dict[str, list[dict]] | No
             autos.append(_auto_table(aid, rec))
         curve = s.get("curve", [])
         if not inline:
-            figures = ([c[k] for c in curve] for k in ("triangles", "error", "lod", "acmr"))
-            shown = ",".join([json.dumps(rec["encoding"]), *(_compact(f) for f in figures)])
+            figures = [[c[k] for c in curve] for k in ("triangles", "error", "lod", "acmr")]
+            # (the labels of the figures as the table holds them, four significant digits, as drawn)
+            held = [_held(f) for f in figures]
+            labels = [_axis_labels(held[0], held[1]), _axis_labels(held[2], held[3])]
+            shown = ",".join(
+                [json.dumps(rec["encoding"]), *(_compact(f) for f in figures), *map(json.dumps, labels)]
+            )
             curves.append(f"{json.dumps(aid)}:[{shown}]")
             continue
         tri = [c["triangles"] for c in curve]
