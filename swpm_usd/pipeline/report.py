@@ -82,7 +82,7 @@ def _held(values: list) -> list:
 
 def _compact(values: list) -> str:
     """Curve figures for the on-demand plots, a JSON array: whole numbers as they are, others to four
-    significant digits (a plot is 260 pixels wide), one not finite as null."""
+    significant digits (a plot is 300 pixels wide), one not finite as null."""
     shown = (str(v) if type(v) is int else f"{v:.4g}" if math.isfinite(v) else "null" for v in values)
     return f"[{','.join(shown)}]"
 
