@@ -66,9 +66,9 @@ def build(mesh_or_path: Mesh | str | Path, encoding: str = "vanilla", **params: 
     from .encode import BUILDERS
 
     if encoding not in BUILDERS:
-        from .pipeline.config import _did_you_mean
+        from .param_hints import did_you_mean
 
-        meant = _did_you_mean(encoding, list(BUILDERS)).removeprefix("; ")
+        meant = did_you_mean(encoding, list(BUILDERS))
         raise BuildError(
             f"unknown encoding {encoding!r}; choose one of {sorted(BUILDERS)}{f' ({meant})' if meant else ''}"
         )

@@ -8,8 +8,21 @@ to the kernels' fingerprint (:mod:`swpm_usd.numba_cache`), which compiles every 
 from __future__ import annotations
 
 import difflib
+from typing import Any
 
 from .encodings import ENCODING_PARAMS
+
+
+def did_you_mean(word: Any, known: list[str]) -> str:
+    """``did you mean 'vanilla'?`` for a misspelt name, the closest of ``known`` (by
+    :func:`difflib.get_close_matches`), or "" when none is close (a case or separator slip counts:
+    ``optimise_connectivity``, ``Sliding_Window``) or ``word`` is no string (a key YAML read as another
+    type, ``on:``: its own message says so)."""
+    if not isinstance(word, str):
+        return ""
+    folded = {k.lower().replace("_", "-"): k for k in known}
+    close = difflib.get_close_matches(word.lower().replace("_", "-"), list(folded), n=1, cutoff=0.75)
+    return f"did you mean {folded[close[0]]!r}?" if close else ""
 
 
 def taken_elsewhere(encoding: str, name: str) -> str:
@@ -25,6 +38,4 @@ def unknown_param_hint(encoding: str, name: str) -> str:
     elsewhere = taken_elsewhere(encoding, name)
     if elsewhere:
         return elsewhere
-    own = ENCODING_PARAMS.get(encoding, {})
-    close = difflib.get_close_matches(name.lower().replace("-", "_"), list(own), n=1, cutoff=0.75)
-    return f"did you mean {close[0]!r}?" if close else ""
+    return did_you_mean(name, list(ENCODING_PARAMS.get(encoding, {})))

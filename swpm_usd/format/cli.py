@@ -58,9 +58,9 @@ def _encoding_and_params(encoding: str, params: tuple[str, ...]) -> dict:
     from ..encodings import ENCODING_PARAMS, combination_problem
 
     if encoding not in ENCODING_PARAMS:
-        from ..pipeline.config import _did_you_mean
+        from ..param_hints import did_you_mean
 
-        meant = _did_you_mean(encoding, list(ENCODING_PARAMS)).removeprefix("; ")  # (`-e slidingwindow`)
+        meant = did_you_mean(encoding, list(ENCODING_PARAMS))  # (`-e slidingwindow`)
         meant = f" ({meant})" if meant else ""
         raise click.BadParameter(
             f"{encoding!r}; choose one of {', '.join(sorted(ENCODING_PARAMS))}{meant}",

@@ -46,8 +46,8 @@ def _obj_problem(data: bytes) -> str | None:
     """What is wrong with a row of the OBJ file of bytes ``data`` (a ``v``/``vt``/``vn`` value that is not a
     number, or too few; a face corner whose index is not an integer, or refers to no vertex), or None (asked
     once trimesh has failed on it: "string or file could not be read to its end due to unmatched data",
-    "invalid literal for int() with base 10", "index 3000 is out of bounds for axis 0")."""
-    data = _obj_text(data)
+    "invalid literal for int() with base 10", "index 3000 is out of bounds for axis 0"). ``data``: the file
+    as the loader reads it (:func:`_obj_text`)."""
     for number, line in enumerate(data.split(b"\n"), 1):  # (trimesh takes the comment for values)
         values, hash_, comment = line.partition(b"#")
         key = values.split()[:1]

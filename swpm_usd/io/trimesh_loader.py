@@ -92,10 +92,16 @@ _HEADER_PROBLEMS: dict[str, Callable[[bytes], str | None]] = {
 }
 
 
-#: how the checks asked after a failure read a file that may be binary, by type (a text file's:
-#: :func:`.text_rows._text_lines`, an OFF's :func:`.text_rows._off_lines`): a PLY without its byte-order
-#: mark, its CRs kept (its rows may be bytes)
-_BINARY_READS: dict[str, Callable[[bytes], bytes]] = {"glb": bytes, "ply": _without_bom, "off": _off_lines}
+#: how the loader and the checks asked after a failure read a file's bytes, by type (any other text file's:
+#: :func:`.text_rows._text_lines`): an OBJ's as :func:`.obj._obj_text`, an OFF's as
+#: :func:`.text_rows._off_lines`, a PLY without its byte-order mark, its CRs kept (its rows may be bytes),
+#: a .glb's as they are
+_READS: dict[str, Callable[[bytes], bytes]] = {
+    "obj": _obj_text,
+    "off": _off_lines,
+    "ply": _without_bom,
+    "glb": bytes,
+}
 
 
 #: the check of a text file's rows, by type, asked once trimesh has failed on it
@@ -125,7 +131,7 @@ def _off_counts_problem(data: bytes) -> str | None:
 
 
 #: the check of a file trimesh read as holding no triangles, by type: a header it took as one of no rows
-_no_rows_problems: dict[str, Callable[[bytes], str | None]] = {
+_NO_ROWS_PROBLEMS: dict[str, Callable[[bytes], str | None]] = {
     "ply": _ply_format_problem,
     "off": _off_counts_problem,
 }
@@ -239,7 +245,7 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
             data = given or path.read_bytes()
             # (before the decoding: a Latin-1 file's mark would be other bytes. An OFF's: its header word
             # '\ufeffCOFF' was no COFF to the colours' reader)
-            data = {"obj": _obj_text, "off": _off_lines}.get(file_type, _text_lines)(data)
+            data = _READS.get(file_type, _text_lines)(data)
             try:
                 data.decode("utf-8")
             except UnicodeDecodeError:
@@ -329,11 +335,11 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
         problem = _gltf_buffer_problem(path) if file_type == "gltf" else None
         if problem is not None:
             raise MeshLoadError(path, f"not a valid glTF file: {problem}", code="INPUT_INCOMPLETE") from e
-        problem = _read_problem(path, ply_problem, _without_bom) if file_type == "ply" else None
+        problem = _read_problem(path, ply_problem, _READS["ply"]) if file_type == "ply" else None
         problem = _glb_length_problem(path) if file_type == "glb" else problem
         if problem is None and file_type in _HEADER_PROBLEMS:
             try:
-                problem = _read_problem(path, _HEADER_PROBLEMS[file_type], _BINARY_READS[file_type])
+                problem = _read_problem(path, _HEADER_PROBLEMS[file_type], _READS[file_type])
             except Exception:  # noqa: BLE001 - (a look for the message: trimesh's is given without it)
                 problem = None
         if problem is None and file_type in ("gltf", "glb"):
@@ -346,9 +352,7 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
             problem = None if problem is None else f"not a valid {file_type.upper()} file: {problem}"
         if problem is None and file_type in _ROW_PROBLEMS:
             try:
-                problem = _read_problem(
-                    path, _ROW_PROBLEMS[file_type], _BINARY_READS.get(file_type, _text_lines)
-                )
+                problem = _read_problem(path, _ROW_PROBLEMS[file_type], _READS.get(file_type, _text_lines))
             except Exception:  # noqa: BLE001 - (a look for the message: trimesh's is given without it)
                 problem = None
             problem = None if problem is None else f"not a valid {file_type.upper()} file: {problem}"
@@ -360,8 +364,8 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
     if not parts:
         # (a header trimesh read as one of no rows: 'format weird 1.0', a count of -3)
         problem = (
-            _read_problem(path, _no_rows_problems[file_type], _BINARY_READS.get(file_type, _text_lines))
-            if file_type in _no_rows_problems
+            _read_problem(path, _NO_ROWS_PROBLEMS[file_type], _READS.get(file_type, _text_lines))
+            if file_type in _NO_ROWS_PROBLEMS
             else None
         )
         if problem is not None:

@@ -444,16 +444,12 @@ def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
 
 
 def _did_you_mean(word: Any, known: list[str]) -> str:
-    """``; did you mean 'vanilla'?`` for a misspelt key or value, the closest of ``known`` (by
-    :func:`difflib.get_close_matches`), or "" when none is close (a case or separator slip counts:
-    ``optimise_connectivity``, ``Sliding_Window``)."""
-    import difflib
+    """``; did you mean 'vanilla'?`` for a misspelt key or value (:func:`..param_hints.did_you_mean`), or
+    ""."""
+    from ..param_hints import did_you_mean
 
-    if not isinstance(word, str):  # (a key YAML read as no string, `on:`: its own message says so)
-        return ""
-    folded = {k.lower().replace("_", "-"): k for k in known}
-    close = difflib.get_close_matches(word.lower().replace("_", "-"), list(folded), n=1, cutoff=0.75)
-    return f"; did you mean {folded[close[0]]!r}?" if close else ""
+    meant = did_you_mean(word, known)
+    return f"; {meant}" if meant else ""
 
 
 def _owner_params(cfg: Config, path: tuple) -> list[str]:
