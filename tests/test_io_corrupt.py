@@ -338,6 +338,17 @@ def test_an_off_file_with_a_comment_past_its_second_line_loads_whole(tmp_path: P
     assert np.array_equal(mesh.points, expected.points) and np.array_equal(mesh.triangles, expected.triangles)
 
 
+def _grid_rows(n: int) -> list[bytes]:
+    """The vertex rows, then the face rows ('3 a b c'), of an n x n grid of quads split in two triangles, its
+    heights varied: the body of an ASCII PLY or an OFF file of 2 n^2 triangles."""
+    rows = [b"%d %d %.1f" % (x, y, (x * y) % 3 * 0.1) for y in range(n + 1) for x in range(n + 1)]
+    for y in range(n):
+        for x in range(n):
+            a = y * (n + 1) + x
+            rows += [b"3 %d %d %d" % (a, a + 1, a + n + 2), b"3 %d %d %d" % (a, a + n + 2, a + n + 1)]
+    return rows
+
+
 def test_the_ascii_ply_check_splits_the_file_without_a_copy_of_its_body() -> None:
     """``ply_ascii_short`` split ``data[at:]``, a copy of the body, for its rows: its peak 4.5 times a
     100,000-triangle grid's file (1.1 MB), 3.9 splitting the file itself (the rows' list and bytes)."""
@@ -348,12 +359,7 @@ def test_the_ascii_ply_check_splits_the_file_without_a_copy_of_its_body() -> Non
     n = 150
     rows = [b"ply", b"format ascii 1.0", b"element vertex %d" % ((n + 1) ** 2)]
     rows += [b"property float x", b"property float y", b"property float z", b"element face %d" % (2 * n * n)]
-    rows += [b"property list uchar int vertex_indices", b"end_header"]
-    rows += [b"%d %d %.1f" % (x, y, (x * y) % 3 * 0.1) for y in range(n + 1) for x in range(n + 1)]
-    for y in range(n):
-        for x in range(n):
-            a = y * (n + 1) + x
-            rows += [b"3 %d %d %d" % (a, a + 1, a + n + 2), b"3 %d %d %d" % (a, a + n + 2, a + n + 1)]
+    rows += [b"property list uchar int vertex_indices", b"end_header", *_grid_rows(n)]
     data = b"\n".join(rows) + b"\n"
     tracemalloc.start()
     try:
@@ -376,12 +382,7 @@ def test_the_off_check_holds_a_few_times_the_file_not_eight_bytes_a_byte() -> No
     from swpm_usd.io.off import _off_short
 
     n = 150
-    rows = [b"OFF", b"%d %d 0" % ((n + 1) ** 2, 2 * n * n)]
-    rows += [b"%d %d %.1f" % (x, y, (x * y) % 3 * 0.1) for y in range(n + 1) for x in range(n + 1)]
-    for y in range(n):
-        for x in range(n):
-            a = y * (n + 1) + x
-            rows += [b"3 %d %d %d" % (a, a + 1, a + n + 2), b"3 %d %d %d" % (a, a + n + 2, a + n + 1)]
+    rows = [b"OFF", b"%d %d 0" % ((n + 1) ** 2, 2 * n * n), *_grid_rows(n)]
     data = b"\n".join(rows) + b"\n"
     tracemalloc.start()
     try:

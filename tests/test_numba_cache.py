@@ -95,6 +95,13 @@ def scaled(x):
 """
 
 
+def _printed(code: str, env: dict[str, str]) -> str:
+    """What a fresh Python process running ``code`` under ``env`` prints (it must succeed)."""
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    return out.stdout.strip()
+
+
 def test_a_kernel_is_compiled_again_when_its_callee_in_another_file_changes(tmp_path: Path):
     pkg = tmp_path / "pkgx"
     init = "from swpm_usd import numba_cache\nnumba_cache.install(__name__, __path__[0])\n"
@@ -104,11 +111,7 @@ def test_a_kernel_is_compiled_again_when_its_callee_in_another_file_changes(tmp_
     env["PYTHONPATH"] = os.pathsep.join([str(tmp_path), str(Path(swpm_usd.__file__).parents[1])])
 
     def run() -> str:
-        code = "from pkgx.caller import scaled; print(scaled(1))"
-        argv = [sys.executable, "-c", code]
-        out = subprocess.run(argv, env=env, capture_output=True, text=True, timeout=300)
-        assert out.returncode == 0, out.stderr
-        return out.stdout.strip()
+        return _printed("from pkgx.caller import scaled; print(scaled(1))", env)
 
     assert run() == "20"
     assert run() == "20"  # (from the cache)
@@ -180,10 +183,7 @@ def test_a_kernel_from_a_zip_archive_is_compiled_again_when_its_callee_changes(t
 
     def run() -> str:
         code = "from pkgw.caller import scaled; print(scaled(1), scaled.stats.cache_hits.total())"
-        argv = [sys.executable, "-c", code]
-        out = subprocess.run(argv, env=env, capture_output=True, text=True, timeout=300)
-        assert out.returncode == 0, out.stderr
-        return out.stdout.strip()
+        return _printed(code, env)
 
     _zip(pkg, archive)
     assert run() == "20 0"
