@@ -130,8 +130,8 @@ def main(argv: list[str] | None = None) -> int:
     runs: dict[str, list[dict]] = {name: [] for name in STEPS}
     cpu: list[float] = []
     several: dict[str, list[str]] = {}
+    kernels = args.kernels > 0
     for _ in range(args.repeats):
-        kernels = args.kernels > 0
         outs = [_run(args.mesh, {name: step}, kernels) for name, step in STEPS.items()] if args.alone else []
         outs = outs or [_run(args.mesh, STEPS, kernels)]
         for out in outs:
