@@ -534,6 +534,45 @@ def refine_patch_order(
     return order
 
 
+@nb.njit(cache=True, nogil=True)
+def exact_window_misses(block_start, blocks, n, orders, cache_size):
+    """The misses summed over a level's windows, each drawn on its own from a cold FIFO cache, for each
+    order (row of ``orders``: old patch per place), as :func:`window_misses` counts them; the blocks as
+    :func:`refine_patch_order` reads them. Its cost is ``orders`` times the level's indices times its
+    ``n + 1`` windows: for small levels only (:func:`.sw_layout._finish`)."""
+    m0 = block_start[n]
+    m1 = block_start[n + 1]
+    # dense ids (a small level of a large mesh: no key array of the whole mesh's vertices)
+    uniq = np.unique(blocks)
+    ids = np.searchsorted(uniq, blocks)
+    key = np.zeros(uniq.shape[0], np.int64)
+    C = cache_size
+    out = np.zeros(orders.shape[0], np.int64)
+    t = np.int64(C + 1)
+    for o in range(orders.shape[0]):
+        total = 0
+        for j in range(n + 1):
+            t += C + 1  # every key older than the cache: a cold start
+            for x in range(j, 2 * n + 1):
+                if x < n:
+                    b = orders[o, x]
+                elif x == n:
+                    b = n
+                else:
+                    b = n + 1 + orders[o, x - n - 1]
+                    if x - n - 1 >= j:
+                        break
+                lo, hi = (m0, m1) if b == n else (block_start[b], block_start[b + 1])
+                for i in range(lo, hi):
+                    v = ids[i]
+                    if key[v] < t - C:
+                        key[v] = t
+                        t += 1
+                        total += 1
+        out[o] = total
+    return out
+
+
 def window_misses(
     block_start: np.ndarray, blocks: np.ndarray, n: int, order: np.ndarray, cache_size: int
 ) -> int:
