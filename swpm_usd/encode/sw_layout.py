@@ -72,6 +72,13 @@ _REFINE_RUN = 1
 #: the bench's 40 ACMR points: 39 -> 40 within 1.10 (spot at 50 % 1.109 -> 1.097), mean 1.030 -> 1.027;
 #: 400 points 385 -> 388, mean 1.0310 -> 1.0276 (``slidingwindow.md``, "missed targets")
 _LONG_REACH = 64
+#: ... and a level whose ``n + 1`` windows draw at most this many indices (``n + 1`` times the level's: a
+#: bound) keeps the greedy order if the searched one has more misses over its windows, both counted exactly
+#: (:func:`.sw_refine.exact_window_misses`, tens of microseconds there). The search evaluates a move locally
+#: (cold starts before the moved place and those reaching the moved ``Q`` blocks left out), which on levels
+#: of a few patches can end above its greedy start: ten meshes, 3 of 181 levels, of 5-6 patches and 60-82
+#: triangles (suzanne, cow, nefertiti: +2 to +6 % of the level's misses; ``slidingwindow.md``, "small levels")
+_EXACT_CHECK = 1 << 14
 
 
 class Level:
@@ -239,6 +246,7 @@ def finish_level(gtris, start_gids, collapsed, step0, V, P, cache_size, passes, 
         int(reach),
         _REFINE_RUN,
         _LONG_REACH,
+        _EXACT_CHECK,
     )
     lev = Level(start_gids, p_start, p_out, q_start, q_out, patch_steps)
     # what the assembly (sw_assemble._assemble) needs: the pool (vertex ids, int32 where they fit), the
@@ -271,10 +279,12 @@ def _finish(
     reach,
     run,
     long_reach,
+    exact_check,
 ):
     """:func:`finish_level`'s kernels in one call, on the arrays its steps passed them before (the level's
     pool as :func:`level_pool` orders it; then, ``passes`` > 0 and three patches or more, the patch order
-    search and the renumbering of :func:`.sw_refine.reorder_patches`): a level cost about 30 us (suzanne)
+    search, kept on a small level only if no worse exactly (``exact_check``, :data:`_EXACT_CHECK`), and the
+    renumbering of :func:`.sw_refine.reorder_patches`): a level cost about 30 us (suzanne)
     to 70 us (teapot) of numpy and Python around its six kernel calls. Returns the pool (rows of 3, int64)
     and ``(p_start, p_out, q_start, q_out, patch_steps, recs, info)``, renumbered or as given."""
     tris, starts, tail, nvert = _level_triangles(gtris, start_gids, p_start, p_out, q_start, q_out)
@@ -330,6 +340,14 @@ def _finish(
             break
     if same:
         return tris, p_start, p_out, q_start, q_out, patch_steps, recs, info
+    if (n + 1) * tris.size <= exact_check:  # a small level: the searched order only if no worse, exactly
+        orders = np.empty((2, n), np.int64)
+        for i in range(n):
+            orders[0, i] = i
+            orders[1, i] = order[i]
+        misses = swr.exact_window_misses(3 * starts, tris.reshape(-1), n, orders, cache_size)
+        if misses[1] > misses[0]:
+            return tris, p_start, p_out, q_start, q_out, patch_steps, recs, info
     # the pool: the blocks as ordered for the search, moved with their patches
     pool, ps, po, qs, qo, steps, new_info, new_recs = swr._reorder(
         order,

@@ -16,7 +16,10 @@ terms and warm misses) and those past it (which draw only unchanged blocks) corr
 lost or gained there; a move taken is simulated until the caches agree (at most :data:`_SETTLE` blocks).
 The sum is then close to the exact one: on levels of spot, suzanne and beetle the search lowers the exact
 sum (every window simulated on its own, :func:`window_misses`) by 1.5-4 %, within 0.6 % of a search that
-evaluates every move exactly.
+evaluates every move exactly. On a level of a few patches it can still end above its greedy start (a move's
+evaluation leaves out the cold starts of the windows just before it and those reaching its moved ``Q``
+blocks, a large share of so few windows): :func:`.sw_layout._finish` counts both orders of a small level
+exactly (:func:`exact_window_misses`) and keeps the better.
 
 Patches that collapse onto a common target keep their relative order: a target's quadric grows with every
 collapse onto it, so every collapse then costs what it cost when the level was built. Otherwise the
@@ -532,6 +535,47 @@ def refine_patch_order(
             break
     order[:] = seq[:n]
     return order
+
+
+@nb.njit(cache=True, nogil=True)
+def exact_window_misses(
+    block_start: np.ndarray, blocks: np.ndarray, n: int, orders: np.ndarray, cache_size: int
+) -> np.ndarray:
+    """The misses summed over a level's windows, each drawn on its own from a cold FIFO cache, for each
+    order (row of ``orders``: old patch per place), as :func:`window_misses` counts them; the blocks as
+    :func:`refine_patch_order` reads them. Its cost is ``orders`` times the level's indices times its
+    ``n + 1`` windows: for small levels only (:func:`.sw_layout._finish`)."""
+    m0 = block_start[n]
+    m1 = block_start[n + 1]
+    # dense ids (a small level of a large mesh: no key array of the whole mesh's vertices)
+    uniq = np.unique(blocks)
+    ids = np.searchsorted(uniq, blocks)
+    key = np.zeros(uniq.shape[0], np.int64)
+    C = cache_size
+    out = np.zeros(orders.shape[0], np.int64)
+    t = np.int64(C + 1)
+    for o in range(orders.shape[0]):
+        total = 0
+        for j in range(n + 1):
+            t += C + 1  # every key older than the cache: a cold start
+            for x in range(j, 2 * n + 1):
+                if x < n:
+                    b = orders[o, x]
+                elif x == n:
+                    b = n
+                else:
+                    b = n + 1 + orders[o, x - n - 1]
+                    if x - n - 1 >= j:
+                        break
+                lo, hi = (m0, m1) if b == n else (block_start[b], block_start[b + 1])
+                for i in range(lo, hi):
+                    v = ids[i]
+                    if key[v] < t - C:
+                        key[v] = t
+                        t += 1
+                        total += 1
+        out[o] = total
+    return out
 
 
 def window_misses(
