@@ -13,16 +13,21 @@ from typing import Any
 from .encodings import ENCODING_PARAMS
 
 
-def did_you_mean(word: Any, known: list[str]) -> str:
-    """``did you mean 'vanilla'?`` for a misspelt name, the closest of ``known`` (by
-    :func:`difflib.get_close_matches`), or "" when none is close (a case or separator slip counts:
-    ``optimise_connectivity``, ``Sliding_Window``) or ``word`` is no string (a key YAML read as another
-    type, ``on:``: its own message says so)."""
+def closest_name(word: Any, known: list[str]) -> str | None:
+    """The name of ``known`` closest to ``word`` (by :func:`difflib.get_close_matches`), or None when none
+    is close (a case or separator slip counts: ``optimise_connectivity``, ``Sliding_Window``) or ``word`` is
+    no string (a key YAML read as another type, ``on:``: its own message says so)."""
     if not isinstance(word, str):
-        return ""
+        return None
     folded = {k.lower().replace("_", "-"): k for k in known}
     close = difflib.get_close_matches(word.lower().replace("_", "-"), list(folded), n=1, cutoff=0.75)
-    return f"did you mean {folded[close[0]]!r}?" if close else ""
+    return folded[close[0]] if close else None
+
+
+def did_you_mean(word: Any, known: list[str]) -> str:
+    """``did you mean 'vanilla'?`` for a misspelt name (:func:`closest_name`), or ""."""
+    meant = closest_name(word, known)
+    return f"did you mean {meant!r}?" if meant else ""
 
 
 def taken_elsewhere(encoding: str, name: str) -> str:
@@ -34,8 +39,15 @@ def taken_elsewhere(encoding: str, name: str) -> str:
 
 def unknown_param_hint(encoding: str, name: str) -> str:
     """What to say of ``name``, a parameter ``encoding`` does not take: :func:`taken_elsewhere`, else the
-    closest of ``encoding``'s own names (``did you mean 'mu'?``), else ""."""
+    closest of ``encoding``'s own names (``did you mean 'mu'?``), else the closest of the other encodings'
+    names with who takes it (``did you mean 'mu'? sliding-window takes it``), else ""."""
     elsewhere = taken_elsewhere(encoding, name)
     if elsewhere:
         return elsewhere
-    return did_you_mean(name, list(ENCODING_PARAMS.get(encoding, {})))
+    own = list(ENCODING_PARAMS.get(encoding, {}))
+    if hint := did_you_mean(name, own):
+        return hint
+    # a slip on another encoding's name (``-p MU=0.2`` under vanilla): that name, and who takes it
+    others = sorted({p for e, ps in ENCODING_PARAMS.items() if e != encoding for p in ps} - set(own))
+    meant = closest_name(name, others)
+    return f"did you mean {meant!r}? {taken_elsewhere(encoding, meant)}" if meant else ""

@@ -69,6 +69,12 @@ def test_the_readme_names_every_file_the_sample_run_writes(tmp_path):
             ["-e", "skip-strip", "-p", "mu=0.1", "-p", "restrat=true"],
             "(mu: sliding-window takes it; restrat: did you mean 'restart'?)",
         ),
+        # a slip on another encoding's name: the name meant and who takes it (it said nothing of MU)
+        (["-p", "MU=0.2"], "(MU: did you mean 'mu'? sliding-window takes it)"),
+        (
+            ["-e", "skip-strip", "-p", "optimise_connectivity=true"],
+            "(optimise_connectivity: did you mean 'optimize_connectivity'? sliding-window takes it)",
+        ),
         (["-e", "slidingwindow"], "vanilla (did you mean 'sliding-window'?)"),
         (["-e", "Vanilla"], "(did you mean 'vanilla'?)"),
     ],
@@ -178,7 +184,11 @@ def test_an_output_dir_on_a_read_only_mount_is_named_so(tmp_path, monkeypatch, r
             "(params: give each parameter as a keyword, build(path, encoding, **params))",
         ),
         ({"encoding": "slidingwindow"}, "vanilla'] (did you mean 'sliding-window'?)"),
-        ({"encoding": "mixed", "muu": 1}, "parameter(s) muu do not belong to encoding 'mixed'; it accepts"),
+        (
+            {"encoding": "mixed", "muu": 1},  # (a slip on another encoding's name: that one named)
+            "muu do not belong to encoding 'mixed' (muu: did you mean 'mu'? sliding-window takes it); it",
+        ),
+        ({"encoding": "mixed", "zz": 1}, "parameter(s) zz do not belong to encoding 'mixed'; it accepts"),
     ],
 )
 def test_a_slip_in_python_says_what_was_meant(tmp_path, kwargs, says):
