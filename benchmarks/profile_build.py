@@ -6,7 +6,14 @@ calls made inside it on the same thread), and so is ``concurrent.futures.Future.
 waits for another). A kernel's time includes the kernels it calls inside numba (those are not wrapped).
 The wrappers cost a few microseconds a call: the table's total is a little above an unwrapped build's.
 
-    python benchmarks/profile_build.py MESH.obj [--encoding sliding-window] [--builds 3] [--top 40]
+    python benchmarks/profile_build.py MESH.obj [--encoding sliding-window] [--builds 3] [--top 45]
+        [--threads | --inline] [--calls collapse_patches,_finish]
+
+``--threads``: the worker and helper threads whatever the load (``sw_threads.ADAPT_TO_LOAD`` off), as on a
+machine with a core free; ``--inline``: none. ``--calls``: each call's self CPU time of those functions (in
+the last build), to see how a kernel's time falls with its level's size. The rows are per thread root (the
+first wrapped function a pool thread ran: ``finish_level`` is the worker, ``Replay._level`` its replay,
+``deviation_rows`` / ``level_costs`` / ``_adjacency`` the helper's shares), then every thread together.
 """
 
 from __future__ import annotations
@@ -139,6 +146,15 @@ def main() -> None:
             if name.endswith(want):
                 per = len(ms) // b
                 print(f"{name}: " + " ".join(f"{x:.2f}" for x in ms[-per:]))
+    # every thread together: calls and self CPU time per function
+    agg = collections.defaultdict(lambda: [0, 0.0])
+    for (_, name), st in _stats.items():
+        agg[name][0] += st[0]
+        agg[name][1] += st[3]
+    print(f"all threads: {'function':<52} {'calls':>7} {'self CPU s':>10} {'share':>6}")
+    for name, (calls, self_cpu) in sorted(agg.items(), key=lambda kv: -kv[1][1])[: args.top]:
+        share = self_cpu / b / total
+        print(f"             {name[-52:]:<52} {calls / b:>7.0f} {self_cpu / b:>10.4f} {share:>6.1%}")
     kern = collections.defaultdict(lambda: [0, 0.0])
     for (_, name), s in _stats.items():
         if name.startswith("[nb]"):
