@@ -5,10 +5,12 @@ second core: the main thread builds the levels one after another, a *worker* fin
 level (:func:`.sw_layout.finish_level`), and a *helper* takes part of the main thread's own work. This
 module holds the helper's share: a call run beside the main thread (:func:`beside`), a level's work cut into
 blocks that both threads take in turn (:func:`share`: the best collapses, :func:`level_costs_shared`, and the
-fan-deviation searches, :func:`sampled_deviation`), the replay of the LOD errors level by level
-(:class:`Replay`), and whether the threads should start at all (:func:`core_free`: only while the other
-processes leave a core free). Every result is the one the main thread alone computes, bit for bit: the
-kernels read the state and write separate outputs, and they release the GIL.
+fan-deviation searches, :func:`sampled_deviation`); the replay of the LOD errors level by level
+(:class:`Replay`, on the worker after each level's finishing: on the helper its tasks queued ahead of the
+shares, and the main thread did nearly every share itself); and whether the threads should start at all
+(:func:`core_free`: only while the other processes leave a core free). Every result is the one the main
+thread alone computes, bit for bit: the kernels read the state and write separate outputs, and they release
+the GIL.
 """
 
 from __future__ import annotations
@@ -241,9 +243,9 @@ def sampled_deviation(helper: ThreadPoolExecutor | None, args: tuple) -> np.ndar
 class Replay:
     """Each step's error as the LODs report it (:func:`swpm_usd.simplify.sequence.step_geometric_errors`: a
     fresh state, its :class:`swpm_usd.simplify.fan_deviation.ReplayState`, replays the steps in their final
-    order) computed level by level on the ``helper`` thread as the worker finishes the levels (which
-    settles their steps' order), not after the last level on the main thread (cow: 26 of its 185 ms). The
-    parts carry the running maximum: the values of one replay."""
+    order) computed level by level on the ``helper`` executor (the build passes its worker: each level's
+    replay queued after its finishing, which settles its steps' order), not after the last level on the main
+    thread (cow: 26 of its 185 ms). The parts carry the running maximum: the values of one replay."""
 
     def __init__(self, helper: ThreadPoolExecutor, new_state, surface_of) -> None:
         self.helper = helper
