@@ -103,8 +103,9 @@ def main() -> None:
     ap.add_argument("--builds", type=int, default=3)
     ap.add_argument("--top", type=int, default=45)
     ap.add_argument("--calls", default="", help="comma-separated names: each call's self CPU ms")
-    ap.add_argument("--inline", action="store_true", help="no worker or helper thread")
-    ap.add_argument("--threads", action="store_true", help="threads whatever the load")
+    mode = ap.add_mutually_exclusive_group()  # (both together ran inline, saying nothing)
+    mode.add_argument("--inline", action="store_true", help="no worker or helper thread")
+    mode.add_argument("--threads", action="store_true", help="threads whatever the load")
     args = ap.parse_args()
     mesh = load_mesh(args.mesh)
     swpm_usd.build(mesh, encoding=args.encoding)  # compile

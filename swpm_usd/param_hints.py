@@ -44,10 +44,17 @@ def unknown_param_hint(encoding: str, name: str) -> str:
     elsewhere = taken_elsewhere(encoding, name)
     if elsewhere:
         return elsewhere
-    own = list(ENCODING_PARAMS.get(encoding, {}))
-    if hint := did_you_mean(name, own):
-        return hint
-    # a slip on another encoding's name (``-p MU=0.2`` under vanilla): that name, and who takes it
-    others = sorted({p for e, ps in ENCODING_PARAMS.items() if e != encoding for p in ps} - set(own))
+    return did_you_mean(name, list(ENCODING_PARAMS.get(encoding, {}))) or meant_elsewhere(encoding, name)
+
+
+def meant_elsewhere(encoding: str, name: Any) -> str:
+    """``did you mean 'mu'? sliding-window takes it`` for ``name``, a slip on a parameter of an encoding other
+    than ``encoding`` (``-p MU=0.2`` under vanilla; none of ``encoding``'s own names close), else "". Shared
+    by :func:`unknown_param_hint` (``-p``, :func:`swpm_usd.build`) and a config's unknown ``params`` key, so
+    both say the same of the same slip."""
+    own = set(ENCODING_PARAMS.get(encoding, {}))
+    if closest_name(name, list(own)):
+        return ""  # (the encoding's own name is the one meant: did_you_mean says so)
+    others = sorted({p for e, ps in ENCODING_PARAMS.items() if e != encoding for p in ps} - own)
     meant = closest_name(name, others)
     return f"did you mean {meant!r}? {taken_elsewhere(encoding, meant)}" if meant else ""

@@ -1352,6 +1352,31 @@ def test_levels_finished_in_a_thread_build_the_same_pool(
         build_sliding_window(spot, **params)
 
 
+def test_a_replay_that_fails_on_the_worker_reaches_the_caller(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The LOD errors' replay runs on the worker (``sw_threads.Replay``, queued after each level's finishing):
+    an error there is not left in its future, :meth:`~.sw_threads.Replay.result` raises it; the levels it had
+    not started are not replayed on the worker after that."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from swpm_usd.encode import sw_threads as swt
+
+    ran = []
+
+    def broken(*args):
+        ran.append(args[2].shape[0])
+        raise RuntimeError("replay failed")
+
+    monkeypatch.setattr(swt, "replay_steps", broken)
+    info = np.zeros((2, 3))
+    with ThreadPoolExecutor(max_workers=1) as worker:
+        replay = swt.Replay(worker, lambda: None, lambda: None)
+        replay.advance([(swt.done_future((None, None, info)), None)])
+        assert isinstance(replay.tasks[0].exception(timeout=60), RuntimeError)  # (ran on the worker)
+        with pytest.raises(RuntimeError, match="replay failed"):
+            replay.result([info, info[:1]])
+    assert ran == [2]
+
+
 def test_inline_finishing_builds_without_a_worker_on_this_thread_only(
     spot: Mesh, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -404,20 +404,25 @@ def _describe(cfg: Config, err: jsonschema.ValidationError) -> list[str]:
             where = cfg.marks.get((*path, key, "<key>")) or cfg.marks.get(path, (1, 1))
             hint = ""
             known = list(err.schema.get("properties", {}))
+            meant = ""
             if path and path[-1] == "params":
                 owner = _params_owner(cfg, path)
                 encoding = _params_encoding(cfg, path)
                 if isinstance(encoding, str) and encoding != "auto":
-                    from ..param_hints import taken_elsewhere
+                    from ..encodings import ENCODING_PARAMS
+                    from ..param_hints import meant_elsewhere, taken_elsewhere
 
                     # (`mu` under `encoding: vanilla`: the encoding that takes it named)
                     elsewhere = taken_elsewhere(encoding, key) if isinstance(key, str) else ""
                     owner += f"; {elsewhere}" if elsewhere else ""
+                    # (`MU` under vanilla: the name meant and who takes it, as -p and build() say)
+                    if not elsewhere and encoding in ENCODING_PARAMS:
+                        meant = meant_elsewhere(encoding, key)
                 hint = f" ({owner})"
                 known = _owner_params(cfg, path) or known
             msgs.append(
                 f"{cfg.shown or cfg.path}:{where[0]}:{where[1]}: {format_path((*path, key))}: "
-                f"unknown key{hint}{_did_you_mean(key, known)}"
+                f"unknown key{hint}{_did_you_mean(key, known) or (f'; {meant}' if meant else '')}"
             )
         return msgs
     if err.validator == "oneOf" and path and path[0] == "assets":
