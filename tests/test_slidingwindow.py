@@ -1145,7 +1145,7 @@ def _searched_run(block_start: np.ndarray, blocks: np.ndarray, n: int, seq: np.n
     log = np.empty(C + blocks.shape[0] + 1, np.int32)
     sim = (blocks, block_start, np.zeros(V, np.int64), log)
     swr._run(seq, 0, N, (N, N), snap, snap, new_t[:0], N, m_run, sim, 1, -1)
-    run = (snap, m_run, np.zeros(n + 1, np.int64), new_t, np.zeros(N, np.int64))
+    run = (snap, m_run, np.zeros(n + 1, np.int64), new_t, np.zeros(N, np.int64), np.zeros(N, np.int64))
     return run, sim
 
 

@@ -246,10 +246,10 @@ def _changed_m(b, lo, end, q0, end_q, m_run, new_m):
 def _move_delta(cand, lo, hi, n, best, run, sims, version):
     """The change of the window-weighted sum if the run were ``cand`` (changed in ``[lo, hi)`` and the same
     ``Q`` places), or any value ``>= best`` once the move cannot beat ``best``. ``run = (snap, m_run,
-    cold, new_t, new_m)``; ``sims = (sim, sim2, sim3)``: the candidate run's caches stay in ``sim``'s log
-    (those of its changed ``Q`` blocks, followed on their own, in ``sim3``'s), read through ``new_t``; the
-    cold starts use ``sim2``. Returns ``(delta, version)``."""
-    snap, m_run, cold, new_t, new_m = run
+    cold, new_t, new_m, first)``; ``sims = (sim, sim2, sim3)``: the candidate run's caches stay in
+    ``sim``'s log (those of its changed ``Q`` blocks, followed on their own, in ``sim3``'s), read through
+    ``new_t``; the cold starts use ``sim2``. Returns ``(delta, version)``."""
+    snap, m_run, cold, new_t, new_m, first = run
     sim, sim2, sim3 = sims
     N = cand.shape[0]
     q_change = (n + 1 + lo, n + 1 + hi)
@@ -270,12 +270,13 @@ def _move_delta(cand, lo, hi, n, best, run, sims, version):
         for a in range(q0, end_q):
             d += _weight(a, n) * (new_m[a] - m_run[a])
     # every window whose cold start reads a changed position (:func:`_windows`) is simulated again, but only
-    # if that could make this move the best: its term can fall at most by its old term and warm misses
+    # if that could make this move the best: its new term is at least its first block's distinct vertices
+    # (each misses once, cold) less the warm misses of its blocks
     bound = 0
     for r in range(2):
         a0, a1 = _windows(lo, end, q0, end_q, n, r)
         for a in range(a0, a1):
-            bound += cold[a]
+            bound += cold[a] - first[cand[a]]
             for b in range(a, min(a + _COLD_BLOCKS, N)):
                 bound += _changed_m(b, lo, end, q0, end_q, m_run, new_m)
     if d - bound >= best:
@@ -288,7 +289,7 @@ def _move_delta(cand, lo, hi, n, best, run, sims, version):
         for a in range(a0, a1):
             version += 1
             d += _cold_extra(cand, a, snap, m_run, new, sim2, version) - cold[a]
-            bound -= cold[a]
+            bound -= cold[a] - first[cand[a]]
             for b in range(a, min(a + _COLD_BLOCKS, N)):
                 bound -= _changed_m(b, lo, end, q0, end_q, m_run, new_m)
             if d - bound >= best:
@@ -301,7 +302,7 @@ def _apply_move(seq, lo, hi, n, run, sim, version):
     """Re-simulate the stored run after ``seq`` changed in ``[lo, hi)`` (and the same ``Q`` places), until
     its caches agree with the stored ones (at most :data:`_SETTLE` blocks past the change), and the cold
     starts of the windows that read a changed position. Returns ``(end of the change, version)``."""
-    snap, m_run, cold, new_t, new_m = run
+    snap, m_run, cold, new_t, new_m, _ = run
     N = seq.shape[0]
     q_change = (n + 1 + lo, n + 1 + hi)
     version += 1
@@ -359,8 +360,17 @@ def _start(seq, n, blocks, block_start, C, vertex_count):
         (blocks, block_start, key, np.empty_like(log)),
         (blocks, block_start, key, np.empty_like(log)),
     )
-    run = (snap, m_run, cold, new_t, new_m)
-    version = 1
+    # each block's distinct vertices (:func:`_move_delta`'s bound on a cold start)
+    first = np.zeros(N, np.int64)
+    for b in range(N):
+        base = (b + 1) * _KEY
+        for i in range(block_start[b], block_start[b + 1]):
+            v = blocks[i]
+            if key[v] != base:
+                key[v] = base
+                first[b] += 1
+    run = (snap, m_run, cold, new_t, new_m, first)
+    version = N + 1
     _run(seq, 0, N, (N, N), snap, snap, new_t[:0], N, m_run, sim, version, -1)
     no_change = (0, 0, 0, 0, m_run, new_t[:0], log, log)
     for a in range(1, n + 1):
