@@ -1145,15 +1145,15 @@ def _searched_run(block_start: np.ndarray, blocks: np.ndarray, n: int, seq: np.n
     log = np.empty(C + blocks.shape[0] + 1, np.int32)
     sim = (blocks, block_start, np.zeros(V, np.int64), log)
     swr._run(seq, 0, N, (N, N), snap, snap, new_t[:0], N, m_run, sim, 1, -1)
-    run = (snap, m_run, np.zeros(n + 1, np.int64), new_t, np.zeros(N, np.int64), np.zeros(N, np.int64))
+    run = (snap, m_run, np.zeros(n + 1, np.int64), new_t, np.zeros(N, np.int64))
     return run, sim
 
 
 def test_refine_move_keeps_the_stored_run_exact(spot: Mesh) -> None:
     """A move taken (``sw_refine._apply_move``) leaves the stored misses and caches of every run position as
-    a full simulation of the new run gives them (the move's simulation ends only where the caches agree or at
-    the run's end: ``_SETTLE`` -1; levels of up to 19 patches, as when it was 40). Among the moves, some
-    whose run settles right at its first changed ``Q`` place: before, those
+    a full simulation of the new run gives them, on levels small enough (``2n + 1`` blocks within
+    ``_SETTLE`` of the change) that the move's simulation ends only where the caches agree or at the run's
+    end. Among the moves, some whose run settles right at its first changed ``Q`` place: before, those
     ``Q`` places kept the misses and caches of the blocks they held before the move."""
     from swpm_usd.encode import sw_refine as swr
 
@@ -1162,7 +1162,7 @@ def test_refine_move_keeps_the_stored_run_exact(spot: Mesh) -> None:
     at_q = checked = 0
     for level in range(pm.level_count):
         n, block_start, blocks = _level_blocks(pm, level)
-        if not 3 <= n <= 19:
+        if not 3 <= n <= (swr._SETTLE - 1) // 2:
             continue
         N = 2 * n + 1
         base = np.concatenate((np.arange(n), [n], n + 1 + np.arange(n))).astype(np.int64)

@@ -32,12 +32,11 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-#: blocks a move's effect on the warm run is followed past the moved place (-1: until its cache agrees with
-#: the stored run's again, the move's change exact; the search before 2026-12-06 stopped 4 past it)
-_HORIZON = -1
-#: the same for a move taken (-1: until the caches agree; 40 before 2026-12-06: past it the stored caches
-#: and misses were kept as they were)
-_SETTLE = -1
+#: blocks a move's effect on the warm run is followed past the moved place (ten meshes, ACMR ratio mean
+#: over 40 fractions with the search: 2 loses about half its gain, 10 gains no more than 4)
+_HORIZON = 4
+#: the same for a move taken: past it the run's stored caches and misses are kept as they were
+_SETTLE = 40
 #: blocks a window's cold start is simulated (8 gives the same sums within 0.3 % for twice the time)
 _COLD_BLOCKS = 3
 #: a vertex in more patches than this does not make them neighbours (``long_reach``: a hub's patches are
@@ -157,11 +156,11 @@ def _run(seq, lo, cap, q_change, snap, out_snap, out_t, snap_until, out_m, sim, 
 
 @nb.njit(cache=True, inline="always")
 def _cold_extra(seq, a, snap, m_run, new, sim, version):
-    """Extra misses of the window starting cold at position ``a`` over the warm run. ``new = (lo, end, q0,
-    end_q, new_m, new_t, new_log, new_log_q)``: positions in ``[lo, end)`` and ``[q0, end_q)`` read the
-    candidate run's misses and caches (the cache before position ``b``: ``new_log[new_t[b] - C:new_t[b]]``,
-    :func:`_run`'s ``out_t``; ``new_log_q`` in the second range); ``sim``'s log must be neither."""
-    lo, end, q0, end_q, new_m, new_t, new_log, new_log_q = new
+    """Extra misses of the window starting cold at position ``a`` over the warm run. ``new = (lo, end,
+    new_m, new_t, new_log)``: positions in ``[lo, end)`` read the candidate run's misses and caches (the
+    cache before position ``b``: ``new_log[new_t[b] - C:new_t[b]]``, :func:`_run`'s ``out_t``); ``sim``'s
+    log must not be ``new_log``."""
+    lo, end, new_m, new_t, new_log = new
     C = snap.shape[1]
     log = sim[3]
     t = C
@@ -171,13 +170,10 @@ def _cold_extra(seq, a, snap, m_run, new, sim, version):
     b = a
     while b < seq.shape[0] and b < a + _COLD_BLOCKS:
         m, t = _draw(sim, seq[b], version, t, C)
-        extra += m - (new_m[b] if (lo <= b < end or q0 <= b < end_q) else m_run[b])
+        extra += m - (new_m[b] if lo <= b < end else m_run[b])
         b += 1
         if lo < b <= end:
             if _agrees_log(sim, t, new_log, new_t[b], C):
-                break
-        elif q0 < b <= end_q:
-            if _agrees_log(sim, t, new_log_q, new_t[b], C):
                 break
         elif _agrees(sim, t, snap, b):
             break
@@ -185,18 +181,19 @@ def _cold_extra(seq, a, snap, m_run, new, sim, version):
 
 
 @nb.njit(cache=True, inline="always")
-def _windows(lo, end, q0, end_q, n, r):
-    """Range ``r`` (0 or 1) of the windows whose cold start reads a position whose misses or cache before it
-    changed (``[lo, end)``, and ``[q0, end_q)`` if not empty): a cold start draws ``_COLD_BLOCKS`` blocks,
-    so it reaches into a change from up to ``_COLD_BLOCKS - 1`` places before it. The second range starts
-    past the first."""
-    a0 = max(1, lo - _COLD_BLOCKS + 1)
-    a1 = min(n + 1, end)
-    if r == 0:
-        return a0, a1
-    if end_q <= q0:
-        return a1, a1
-    return max(a1, q0 - _COLD_BLOCKS + 1), max(a1, min(n + 1, end_q))
+def _settled_windows(a0, a1, end, m_run, new_m, cold, write):
+    """Windows starting at ``a`` in ``[a0, a1)``, past the moved patches, draw only unchanged blocks and
+    agree with the *old* warm run: their cold-start term changes by what the warm run's misses change over
+    ``[a, end)``. Returns the summed change (``write``: also applied to ``cold``)."""
+    total = 0
+    suffix = 0
+    for a in range(end - 1, a0 - 1, -1):
+        suffix += m_run[a] - new_m[a]
+        if a < a1:
+            total += suffix
+            if write:
+                cold[a] += suffix
+    return total
 
 
 @nb.njit(cache=True, inline="always")
@@ -238,89 +235,72 @@ def _crosses_target(order, i, s, k, target_start, targets, mark, stamp_id):
 
 
 @nb.njit(cache=True, inline="always")
-def _changed_m(b, lo, end, q0, end_q, m_run, new_m):
-    return new_m[b] if (lo <= b < end or q0 <= b < end_q) else m_run[b]
-
-
-@nb.njit(cache=True, inline="always")
-def _move_delta(cand, lo, hi, n, best, run, sims, version):
+def _move_delta(cand, lo, hi, n, best, run, sim, sim2, version):
     """The change of the window-weighted sum if the run were ``cand`` (changed in ``[lo, hi)`` and the same
     ``Q`` places), or any value ``>= best`` once the move cannot beat ``best``. ``run = (snap, m_run,
-    cold, new_t, new_m, first)``; ``sims = (sim, sim2, sim3)``: the candidate run's caches stay in
-    ``sim``'s log (those of its changed ``Q`` blocks, followed on their own, in ``sim3``'s), read through
-    ``new_t``; the cold starts use ``sim2``. Returns ``(delta, version)``."""
-    snap, m_run, cold, new_t, new_m, first = run
-    sim, sim2, sim3 = sims
+    cold, new_t, new_m)``. ``sim2``: ``sim`` with a log of its own, for the simulations after the first
+    (whose caches stay in ``sim``'s log, read through ``new_t``). Returns ``(delta, version)``."""
+    snap, m_run, cold, new_t, new_m = run
     N = cand.shape[0]
     q_change = (n + 1 + lo, n + 1 + hi)
     version += 1
     # the candidate's caches as push counts into its log, not copied: the cold starts below read a few
     # of them, and only for a move that could win (the search -3 %, medians of three alternating runs
     # over 98 captured levels of seven meshes: 172.7 -> 166.8 ms)
-    end = _run(cand, lo, hi, q_change, snap, snap, new_t, N, new_m, sim, version, _HORIZON)
+    end = _run(cand, lo, hi, q_change, snap, snap, new_t, hi + _COLD_BLOCKS, new_m, sim, version, _HORIZON)
     d = 0
     for a in range(lo, end):
         d += _weight(a, n) * (new_m[a] - m_run[a])
-    q0 = 0
-    end_q = 0
     if end <= q_change[0]:  # stopped before the changed Q blocks: follow them on their own
         version += 1
-        q0 = q_change[0]
-        end_q = _run(cand, q0, q_change[1], (N, N), snap, snap, new_t, N, new_m, sim3, version, _HORIZON)
-        for a in range(q0, end_q):
+        end_q = _run(
+            cand, q_change[0], q_change[1], (N, N), snap, snap, new_t[:0], 0, new_m, sim2, version, _HORIZON
+        )
+        for a in range(q_change[0], end_q):
             d += _weight(a, n) * (new_m[a] - m_run[a])
-    # every window whose cold start reads a changed position (:func:`_windows`) is simulated again, but only
-    # if that could make this move the best: its new term is at least its first block's distinct vertices
-    # (each misses once, cold) less the warm misses of its blocks
+    d += _settled_windows(hi, min(n + 1, end), end, m_run, new_m, cold, False)
+    # the cold starts inside the change can lower d by at most their old terms and warm misses: simulate
+    # them only if that could make this move the best
     bound = 0
-    for r in range(2):
-        a0, a1 = _windows(lo, end, q0, end_q, n, r)
-        for a in range(a0, a1):
-            bound += cold[a] - first[cand[a]]
-            for b in range(a, min(a + _COLD_BLOCKS, N)):
-                bound += _changed_m(b, lo, end, q0, end_q, m_run, new_m)
+    for a in range(max(1, lo), min(n + 1, hi)):
+        bound += cold[a]
+        for b in range(a, min(a + _COLD_BLOCKS, N)):
+            bound += new_m[b] if lo <= b < end else m_run[b]
     if d - bound >= best:
         return d - bound, version
     # then each one simulated in turn, its term no longer bounded: the bound of those left may settle the
     # move before the last (exact: a value >= best once it cannot win, as above)
-    new = (lo, end, q0, end_q, new_m, new_t, sim[3], sim3[3])
-    for r in range(2):
-        a0, a1 = _windows(lo, end, q0, end_q, n, r)
-        for a in range(a0, a1):
-            version += 1
-            d += _cold_extra(cand, a, snap, m_run, new, sim2, version) - cold[a]
-            bound -= cold[a] - first[cand[a]]
-            for b in range(a, min(a + _COLD_BLOCKS, N)):
-                bound -= _changed_m(b, lo, end, q0, end_q, m_run, new_m)
-            if d - bound >= best:
-                return d - bound, version
+    for a in range(max(1, lo), min(n + 1, hi)):
+        version += 1
+        d += _cold_extra(cand, a, snap, m_run, (lo, end, new_m, new_t, sim[3]), sim2, version) - cold[a]
+        bound -= cold[a]
+        for b in range(a, min(a + _COLD_BLOCKS, N)):
+            bound -= new_m[b] if lo <= b < end else m_run[b]
+        if d - bound >= best:
+            return d - bound, version
     return d, version
 
 
 @nb.njit(cache=True, inline="always")
 def _apply_move(seq, lo, hi, n, run, sim, version):
     """Re-simulate the stored run after ``seq`` changed in ``[lo, hi)`` (and the same ``Q`` places), until
-    its caches agree with the stored ones (at most :data:`_SETTLE` blocks past the change), and the cold
-    starts of the windows that read a changed position. Returns ``(end of the change, version)``."""
-    snap, m_run, cold, new_t, new_m, _ = run
+    its caches agree with the stored ones (at most :data:`_SETTLE` blocks past the change). Returns
+    ``(end of the change, version)``."""
+    snap, m_run, cold, new_t, new_m = run
     N = seq.shape[0]
     q_change = (n + 1 + lo, n + 1 + hi)
     version += 1
     end = _run(seq, lo, hi, q_change, snap, snap, new_t[:0], N, new_m, sim, version, _SETTLE)
+    _settled_windows(hi, min(n + 1, end), end, m_run, new_m, cold, True)
     for a in range(lo, end):
         m_run[a] = new_m[a]
-    q0 = 0
-    end_q = 0
     if end <= q_change[0]:  # (settled at the first changed Q place too: those blocks did change)
         version += 1
-        q0 = q_change[0]
-        end_q = _run(seq, q0, q_change[1], (N, N), snap, snap, new_t[:0], N, m_run, sim, version, _SETTLE)
-    no_change = (0, 0, 0, 0, m_run, new_t[:0], sim[3], sim[3])
-    for r in range(2):
-        a0, a1 = _windows(lo, end, q0, end_q, n, r)
-        for a in range(a0, a1):
-            version += 1
-            cold[a] = _cold_extra(seq, a, snap, m_run, no_change, sim, version)
+        _run(seq, q_change[0], q_change[1], (N, N), snap, snap, new_t[:0], N, m_run, sim, version, _SETTLE)
+    no_change = (0, 0, m_run, new_t[:0], sim[3])
+    for a in range(max(1, lo - _COLD_BLOCKS), min(n + 1, hi)):
+        version += 1
+        cold[a] = _cold_extra(seq, a, snap, m_run, no_change, sim, version)
     return end, version
 
 
@@ -328,55 +308,16 @@ def _apply_move(seq, lo, hi, n, run, sim, version):
 def _try_move(seq, cand, n, i, s, k, search, marks, best, version):
     """The change of the search's sum if the run of ``s`` patches at place ``i`` moved to place ``k``
     (:func:`_move_delta`; ``best``, no better, where the move would cross a patch sharing its target), with
-    ``cand`` left equal to ``seq`` again. ``search = (target_start, targets, mark, run, sims)``.
+    ``cand`` left equal to ``seq`` again. ``search = (target_start, targets, mark, run, sim, sim2)``.
     Returns the change and the simulation's version."""
-    target_start, targets, mark, run, sims = search
+    target_start, targets, mark, run, sim, sim2 = search
     if _crosses_target(seq, i, s, k, target_start, targets, mark, marks):
         return best, version
     lo, hi = _arrange(seq, cand, n, i, s, k)
-    d, version = _move_delta(cand, lo, hi, n, best, run, sims, version)
+    d, version = _move_delta(cand, lo, hi, n, best, run, sim, sim2, version)
     cand[lo:hi] = seq[lo:hi]
     cand[n + 1 + lo : n + 1 + hi] = seq[n + 1 + lo : n + 1 + hi]
     return d, version
-
-
-@nb.njit(cache=True, inline="always")
-def _start(seq, n, blocks, block_start, C, vertex_count):
-    """The search's stored state for the run ``seq``: ``(run, sims, version)`` (:func:`_move_delta`), the
-    warm run simulated whole and every window's cold start."""
-    N = seq.shape[0]
-    # cache content before each run position, oldest first (int32: 19 MB for 150,000 patches)
-    snap = np.full((N + 1, C), -1, np.int32)
-    new_t = np.zeros(N + 1, np.int64)  # a candidate run's push count before each position (_move_delta)
-    m_run = np.zeros(N, np.int64)
-    new_m = np.zeros(N, np.int64)
-    cold = np.zeros(n + 1, np.int64)  # window j's cold start, at run position j (M for j = n)
-    log = np.empty(C + blocks.shape[0] + 1, np.int32)
-    key = np.zeros(vertex_count, np.int64)
-    sim = (blocks, block_start, key, log)
-    # (the versions keep the three apart in ``key``)
-    sims = (
-        sim,
-        (blocks, block_start, key, np.empty_like(log)),
-        (blocks, block_start, key, np.empty_like(log)),
-    )
-    # each block's distinct vertices (:func:`_move_delta`'s bound on a cold start)
-    first = np.zeros(N, np.int64)
-    for b in range(N):
-        base = (b + 1) * _KEY
-        for i in range(block_start[b], block_start[b + 1]):
-            v = blocks[i]
-            if key[v] != base:
-                key[v] = base
-                first[b] += 1
-    run = (snap, m_run, cold, new_t, new_m, first)
-    version = N + 1
-    _run(seq, 0, N, (N, N), snap, snap, new_t[:0], N, m_run, sim, version, -1)
-    no_change = (0, 0, 0, 0, m_run, new_t[:0], log, log)
-    for a in range(1, n + 1):
-        version += 1
-        cold[a] = _cold_extra(seq, a, snap, m_run, no_change, sim, version)
-    return run, sims, version
 
 
 @nb.njit(cache=True)
@@ -487,9 +428,25 @@ def refine_patch_order(
         seq[a] = a
         seq[n + 1 + a] = n + 1 + a
     seq[n] = n
-    run, sims, version = _start(seq, n, blocks, block_start, C, vertex_count)
+    # cache content before each run position, oldest first (int32: 19 MB for 150,000 patches)
+    snap = np.full((N + 1, C), -1, np.int32)
+    new_t = np.zeros(N + 1, np.int64)  # a candidate run's push count before each position (_move_delta)
+    m_run = np.zeros(N, np.int64)
+    new_m = np.zeros(N, np.int64)
+    cold = np.zeros(n + 1, np.int64)  # window j's cold start, at run position j (M for j = n)
+    log = np.empty(C + blocks.shape[0] + 1, np.int32)
+    key = np.zeros(vertex_count, np.int64)
+    sim = (blocks, block_start, key, log)
+    sim2 = (blocks, block_start, key, np.empty_like(log))  # (the versions keep the two apart in ``key``)
+    run = (snap, m_run, cold, new_t, new_m)
+    version = 1
+    _run(seq, 0, N, (N, N), snap, snap, new_t[:0], N, m_run, sim, version, -1)
+    no_change = (0, 0, m_run, new_t[:0], log)
+    for a in range(1, n + 1):
+        version += 1
+        cold[a] = _cold_extra(seq, a, snap, m_run, no_change, sim, version)
     mark = np.zeros(target_count, np.int64)
-    search = (target_start, targets, mark, run, sims)  # (what every tried move reads: _try_move)
+    search = (target_start, targets, mark, run, sim, sim2)  # (what every tried move reads: _try_move)
     marks = 0
     dont_look = np.zeros(n, np.bool_)  # per patch: no move of its improved the last time it was tried
     cand = seq.copy()
@@ -564,7 +521,7 @@ def refine_patch_order(
                 lo, hi = _arrange(seq, cand, n, i, s, best_k)
                 seq[lo:hi] = cand[lo:hi]
                 seq[n + 1 + lo : n + 1 + hi] = cand[n + 1 + lo : n + 1 + hi]
-                end, version = _apply_move(seq, lo, hi, n, run, sims[0], version)
+                end, version = _apply_move(seq, lo, hi, n, run, sim, version)
                 for x in range(lo, hi):
                     pos[seq[x]] = x
                 moves += 1
