@@ -96,6 +96,8 @@ def main() -> None:
                     c = time.thread_time()
                     out = fn(*a)
                     total += time.thread_time() - c
+                    if name == "collapse_patches":
+                        out = (out[0][: out[1]],) + out[1:]  # (gtris's rows past ng: not written)
                     _digest(h, out)
                 times[label].append(total)
                 digests[label] = h.hexdigest()

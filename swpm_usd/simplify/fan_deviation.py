@@ -24,7 +24,7 @@ import numba as nb
 import numpy as np
 
 from .. import metrics
-from ..metrics import _STACK, _box_dist2, _leaf_min2, _nearest2
+from ..metrics import _STACK, _box_dist2, _leaf_min2
 from . import kernels as K
 
 #: per fan triangle ``(k, u, v)`` (barycentric weights): its centroid and the midpoint of its new edge ``k u``
@@ -215,19 +215,40 @@ def _fan_max2(
             if ub <= m:
                 continue
             # then the input triangles around the corners (the BVH leaves that hold them): most samples
-            # lie that close to one of them (bunny: 59 %), and need no search from the root
-            for c in (c0, c1, c2):
-                leaf = hints[c]
-                ub = _leaf_min2(px, py, pz, tv, node_a[leaf], max(-1 - node_b[leaf], 0), ub, m)
-                if ub <= m:
-                    break
+            # lie that close to one of them (bunny: 59 %), and need no search from the root. Each leaf's
+            # own nearest kept (the same ub as one running minimum): a search starting from one of them
+            # (the step's first, from k's) opens it again for that value
+            h0 = hints[c0]
+            l0 = _leaf_min2(px, py, pz, tv, node_a[h0], max(-1 - node_b[h0], 0), np.inf, m)
+            ub = min(ub, l0)
+            if ub <= m:
+                continue
+            h1 = hints[c1]
+            l1 = _leaf_min2(px, py, pz, tv, node_a[h1], max(-1 - node_b[h1], 0), np.inf, m)
+            ub = min(ub, l1)
+            if ub <= m:
+                continue
+            h2 = hints[c2]
+            l2 = _leaf_min2(px, py, pz, tv, node_a[h2], max(-1 - node_b[h2], 0), np.inf, m)
+            ub = min(ub, l2)
             if ub <= m:
                 continue
             # out of its budget the search keeps the nearest triangle it found, not m: an error may be
-            # overestimated there, never underestimated (ub: the corners and their leaves, as near)
-            # (np.bool_, not a literal True: the other callers' one compile of _nearest2)
-            d, hint = _nearest2(
-                px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d,
+            # overestimated there, never underestimated (ub: the corners and their leaves, as near).
+            # _nearest2's first leaf (the hint's) here, known where it is a corner's
+            if hint == h0:
+                d = l0
+            elif hint == h1:
+                d = l1
+            elif hint == h2:
+                d = l2
+            else:
+                d = _leaf_min2(px, py, pz, tv, node_a[hint], max(-1 - node_b[hint], 0), np.inf, m)
+                if d <= m:
+                    continue  # (min(d, ub) <= m: no change, the hint kept)
+            # (np.bool_, not a literal True: the other callers' one compile of _nearest2_from)
+            d, hint = _nearest2_from(
+                px, py, pz, m, hint, d, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d,
                 np.bool_(True),
             )  # fmt: skip
             d = min(d, ub)
