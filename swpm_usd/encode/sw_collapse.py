@@ -39,7 +39,7 @@ def _grow_tris(a: np.ndarray, n: int) -> np.ndarray:
     return b
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, inline="always")
 def _emit_into(
     st: K.CollapseState,
     tris: np.ndarray,
@@ -98,7 +98,7 @@ def _record_collapse(
     return recs, _record_collapse_into(st, b, k, recs, nrec, step, bbuf)
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, inline="always")
 def _record_collapse_into(
     st: K.CollapseState, b: int, k: int, recs: np.ndarray, nrec: int, step: int, bbuf: tuple
 ) -> int:
@@ -248,7 +248,7 @@ def collapse_patches(
 _HUB_DEGREE = 1 << 30
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, inline="always")  # (small: its call's reference counting of nine arrays, per target)
 def _target_rows(
     head: np.ndarray,
     cnext: np.ndarray,
