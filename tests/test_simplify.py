@@ -883,3 +883,51 @@ def test_the_search_budget_never_lowers_a_lod_error(budget, monkeypatch: pytest.
     assert np.all(got >= exact - 2 * fd.DISTANCE_FLOOR * diag)
     if budget is None:  # the figure is still the distance where no budget runs out
         assert np.allclose(got, exact, rtol=1e-9, atol=2 * fd.DISTANCE_FLOOR * diag)
+
+
+@pytest.mark.parametrize("budget", [1 << 62, 12, 3])
+def test_the_search_after_its_first_leaf_is_nearest2s(budget):
+    """The deviation searches try ``metrics._nearest2``'s first leaf (the hint's) inline and call
+    ``fan_deviation._nearest2_from`` past it: the same distance and hint, bit for bit, for any point, bound
+    and hint, with a budget that runs out too (where the hint decides the answer) and either ``upper``."""
+    from swpm_usd import metrics
+    from swpm_usd.simplify import fan_deviation as fd
+
+    mesh = shared_mesh("cow.obj")
+    pts = np.asarray(mesh.points, np.float64)
+    tv, node_min, node_max, node_a, node_b = fd.surface_bvh(pts, mesh.triangles)
+    rng = np.random.default_rng(7)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    stack = np.empty(metrics._STACK, np.int64)
+    stack_d = np.empty(metrics._STACK, np.float64)
+    leaves = np.flatnonzero(node_b < 0)
+    searched = moved = cut = 0
+    for i in range(600):
+        p = lo + (hi - lo) * rng.uniform(-0.1, 1.1, 3) if i % 2 else pts[rng.integers(pts.shape[0])] * 1.01
+        bound = float(rng.choice([-1.0, 1e-6, 1e-3, 1e-2])) * float(np.sum((hi - lo) ** 2))
+        hint = int(rng.choice(leaves)) if i % 3 else 0
+        upper = np.bool_(i % 4 == 0)
+        want = metrics._nearest2(
+            p[0], p[1], p[2], bound, hint, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d,
+            upper,
+        )  # fmt: skip
+        first = max(-1 - node_b[hint], 0)
+        d = metrics._leaf_min2(p[0], p[1], p[2], tv, node_a[hint], first, np.inf, bound)
+        if d <= bound:
+            assert want == (d, hint)
+            continue
+        got = fd._nearest2_from(
+            p[0], p[1], p[2], bound, np.int64(hint), d, tv, node_min, node_max, node_a, node_b, stack,
+            np.int64(budget), stack_d, upper,
+        )  # fmt: skip
+        assert got == want
+        searched += 1
+        full = fd._nearest2_from(
+            p[0], p[1], p[2], bound, np.int64(hint), d, tv, node_min, node_max, node_a, node_b, stack,
+            np.int64(1 << 62), stack_d, upper,
+        )  # fmt: skip
+        moved += got[1] != hint
+        cut += got != full
+    # searches that left their first leaf; with a small budget, searches that ran out of it
+    assert searched > 200
+    assert (moved if budget == 1 << 62 else cut) > 50

@@ -39,7 +39,7 @@ def _grow_tris(a: np.ndarray, n: int) -> np.ndarray:
     return b
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, inline="always")
 def _emit_into(
     st: K.CollapseState,
     tris: np.ndarray,
@@ -98,7 +98,7 @@ def _record_collapse(
     return recs, _record_collapse_into(st, b, k, recs, nrec, step, bbuf)
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, inline="always")
 def _record_collapse_into(
     st: K.CollapseState, b: int, k: int, recs: np.ndarray, nrec: int, step: int, bbuf: tuple
 ) -> int:
@@ -248,7 +248,7 @@ def collapse_patches(
 _HUB_DEGREE = 1 << 30
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, inline="always")  # (small: its call's reference counting of nine arrays, per target)
 def _target_rows(
     head: np.ndarray,
     cnext: np.ndarray,
@@ -315,29 +315,32 @@ def _shaped_collapse(
             best = i
     k0 = -1
     c0 = np.inf
+    d0 = -1  # k0's degree as the slack's choice counts it (its star not read again there)
     k = np.int64(b_nbr[best])  # one specialisation of the helpers (int64 positions)
     # (the edge's triangle count first, from b's star: a target's star may be a hub's thousands)
     if K.edge_count_ok_in(locked, boundary, b, k, b_tp, nt):
-        mt, mn, _ = _target_rows(head, cnext, talive, tv, vp, k, b_nbr, nn, kbuf)
+        mt, mn, hub = _target_rows(head, cnext, talive, tv, vp, k, b_nbr, nn, kbuf)
         if K.valid_collapse_in(
             alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, b_tris, b_tp, z, nt, b_nbr, z, nn,
             k_tp, z, mt, k_nbr, z, mn,
         ):  # fmt: skip
             k0 = k
             c0 = costs[best]
+            d0 = _HUB_DEGREE if hub else mn
     if k0 < 0:
         order = np.argsort(costs[:nn])
         for i in range(1, min(nn, K.MAX_TARGET_TRIES)):
             k = np.int64(b_nbr[order[i]])
             if not K.edge_count_ok_in(locked, boundary, b, k, b_tp, nt):
                 continue
-            mt, mn, _ = _target_rows(head, cnext, talive, tv, vp, k, b_nbr, nn, kbuf)
+            mt, mn, hub = _target_rows(head, cnext, talive, tv, vp, k, b_nbr, nn, kbuf)
             if K.valid_collapse_in(
                 alive, locked, boundary, pts, min_area2, tv, pv, vstart, b, k, b_tris, b_tp, z, nt, b_nbr, z,
                 nn, k_tp, z, mt, k_nbr, z, mn,
             ):  # fmt: skip
                 k0 = k
                 c0 = costs[order[i]]
+                d0 = _HUB_DEGREE if hub else mn
                 break
     if k0 < 0 or slack <= 0.0 or not np.isfinite(max_cost):
         return k0, c0
@@ -350,8 +353,11 @@ def _shaped_collapse(
         c = costs[i]
         if c > lim or not K.edge_count_ok_in(locked, boundary, b, k, b_tp, nt):
             continue
-        mt, mn, hub = _target_rows(head, cnext, talive, tv, vp, k, b_nbr, nn, kbuf)
-        d = _HUB_DEGREE if hub else mn
+        if k == k0:
+            d = d0  # (the state unchanged since: the same star)
+        else:
+            mt, mn, hub = _target_rows(head, cnext, talive, tv, vp, k, b_nbr, nn, kbuf)
+            d = _HUB_DEGREE if hub else mn
         # the validity test costs most: only for a target that would win (k0 passed it already)
         if not (d > best_d or (d == best_d and c < best_c)):
             continue

@@ -21,8 +21,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ..metrics import _STACK, _nearest2, _tri_dist2
-from ..simplify.fan_deviation import SAMPLES, _fan_triangle, sample_point, surface_bvh
+from ..metrics import _STACK, _leaf_min2, _tri_dist2
+from ..simplify.fan_deviation import SAMPLES, _fan_triangle, _nearest2_from, sample_point, surface_bvh
 
 __all__ = ["SAMPLES", "deviation_costs", "surface_bvh"]
 
@@ -122,9 +122,12 @@ def deviation_rows(
                 continue
             for s in range(samples.shape[0]):
                 px, py, pz = sample_point(pts, c0, c1, c2, samples[s])
-                # (upper passed as a non-literal, as every caller passes it: one compile of _nearest2)
-                d, hint = _nearest2(
-                    px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d,
+                # _nearest2's first leaf here: 40 % of the searches stop in it (bunny, nefertiti)
+                d = _leaf_min2(px, py, pz, tv, node_a[hint], max(-1 - node_b[hint], 0), np.inf, m)
+                if d <= m:
+                    continue
+                d, hint = _nearest2_from(
+                    px, py, pz, m, hint, d, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d,
                     np.bool_(False),
                 )  # fmt: skip
                 if d > m:

@@ -24,7 +24,7 @@ import numba as nb
 import numpy as np
 
 from .. import metrics
-from ..metrics import _STACK, _leaf_min2, _nearest2
+from ..metrics import _STACK, _box_dist2, _leaf_min2
 from . import kernels as K
 
 #: per fan triangle ``(k, u, v)`` (barycentric weights): its centroid and the midpoint of its new edge ``k u``
@@ -83,6 +83,72 @@ def _ranks(counts: np.ndarray) -> np.ndarray:
     """0..c-1 for every ``c`` in ``counts``, concatenated."""
     starts = np.repeat(np.cumsum(counts) - counts, counts)
     return np.arange(int(counts.sum())) - starts
+
+
+@nb.njit(cache=True)
+def _nearest2_from(
+    px: float,
+    py: float,
+    pz: float,
+    bound: float,
+    hint: int,
+    best: float,
+    tv_sorted: np.ndarray,
+    node_min: np.ndarray,
+    node_max: np.ndarray,
+    node_a: np.ndarray,
+    node_b: np.ndarray,
+    stack: np.ndarray,
+    budget: int,
+    stack_d: np.ndarray,
+    upper: bool,
+) -> tuple[float, int]:
+    """:func:`swpm_usd.metrics._nearest2` after its first leaf, bit for bit: ``best`` the squared distance to
+    the triangles of the ``hint`` leaf, above ``bound`` (the caller tried that leaf inline, and most
+    searches stop there without a call: numba's reference counting of the call's arrays)."""
+    stack[0] = 0
+    stack_d[0] = _box_dist2(px, py, pz, node_min, node_max, 0)
+    sp = 1
+    while sp > 0:
+        budget -= 1
+        if budget < 0:
+            return (best if upper else bound), hint
+        sp -= 1
+        n = stack[sp]
+        if stack_d[sp] >= best:
+            continue
+        b = node_b[n]
+        if b < 0:
+            d = _leaf_min2(px, py, pz, tv_sorted, node_a[n], -1 - b, best, bound)
+            if d < best:
+                best = d
+                hint = n
+            if best <= bound:
+                return best, hint
+            continue
+        a = node_a[n]
+        da = _box_dist2(px, py, pz, node_min, node_max, a)
+        db = _box_dist2(px, py, pz, node_min, node_max, b)
+        # (the farther child pushed first, so the nearer one is searched first)
+        if da <= db:
+            if db < best:
+                stack[sp] = b
+                stack_d[sp] = db
+                sp += 1
+            if da < best:
+                stack[sp] = a
+                stack_d[sp] = da
+                sp += 1
+        else:
+            if da < best:
+                stack[sp] = a
+                stack_d[sp] = da
+                sp += 1
+            if db < best:
+                stack[sp] = b
+                stack_d[sp] = db
+                sp += 1
+    return best, hint
 
 
 @nb.njit(cache=True, inline="always")
@@ -149,19 +215,40 @@ def _fan_max2(
             if ub <= m:
                 continue
             # then the input triangles around the corners (the BVH leaves that hold them): most samples
-            # lie that close to one of them (bunny: 59 %), and need no search from the root
-            for c in (c0, c1, c2):
-                leaf = hints[c]
-                ub = _leaf_min2(px, py, pz, tv, node_a[leaf], max(-1 - node_b[leaf], 0), ub, m)
-                if ub <= m:
-                    break
+            # lie that close to one of them (bunny: 59 %), and need no search from the root. Each leaf's
+            # own nearest kept (the same ub as one running minimum): a search starting from one of them
+            # (the step's first, from k's) opens it again for that value
+            h0 = hints[c0]
+            l0 = _leaf_min2(px, py, pz, tv, node_a[h0], max(-1 - node_b[h0], 0), np.inf, m)
+            ub = min(ub, l0)
+            if ub <= m:
+                continue
+            h1 = hints[c1]
+            l1 = _leaf_min2(px, py, pz, tv, node_a[h1], max(-1 - node_b[h1], 0), np.inf, m)
+            ub = min(ub, l1)
+            if ub <= m:
+                continue
+            h2 = hints[c2]
+            l2 = _leaf_min2(px, py, pz, tv, node_a[h2], max(-1 - node_b[h2], 0), np.inf, m)
+            ub = min(ub, l2)
             if ub <= m:
                 continue
             # out of its budget the search keeps the nearest triangle it found, not m: an error may be
-            # overestimated there, never underestimated (ub: the corners and their leaves, as near)
-            # (np.bool_, not a literal True: the other callers' one compile of _nearest2)
-            d, hint = _nearest2(
-                px, py, pz, m, hint, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d,
+            # overestimated there, never underestimated (ub: the corners and their leaves, as near).
+            # _nearest2's first leaf (the hint's) here, known where it is a corner's
+            if hint == h0:
+                d = l0
+            elif hint == h1:
+                d = l1
+            elif hint == h2:
+                d = l2
+            else:
+                d = _leaf_min2(px, py, pz, tv, node_a[hint], max(-1 - node_b[hint], 0), np.inf, m)
+                if d <= m:
+                    continue  # (min(d, ub) <= m: no change, the hint kept)
+            # (np.bool_, not a literal True: the other callers' one compile of _nearest2_from)
+            d, hint = _nearest2_from(
+                px, py, pz, m, hint, d, tv, node_min, node_max, node_a, node_b, stack, budget, stack_d,
                 np.bool_(True),
             )  # fmt: skip
             d = min(d, ub)
