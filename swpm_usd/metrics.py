@@ -493,6 +493,72 @@ def _leaf_min2(
 
 
 @njit(cache=True)
+def _nearest2_from(
+    px: float,
+    py: float,
+    pz: float,
+    bound: float,
+    hint: int,
+    best: float,
+    tv_sorted: np.ndarray,
+    node_min: np.ndarray,
+    node_max: np.ndarray,
+    node_a: np.ndarray,
+    node_b: np.ndarray,
+    stack: np.ndarray,
+    budget: int,
+    stack_d: np.ndarray,
+    upper: bool,
+) -> tuple[float, int]:
+    """:func:`_nearest2` after its first leaf, bit for bit: ``best`` the squared distance to
+    the triangles of the ``hint`` leaf, above ``bound`` (the caller tried that leaf inline, and most
+    searches stop there without a call: numba's reference counting of the call's arrays)."""
+    stack[0] = 0
+    stack_d[0] = _box_dist2(px, py, pz, node_min, node_max, 0)
+    sp = 1
+    while sp > 0:
+        budget -= 1
+        if budget < 0:
+            return (best if upper else bound), hint
+        sp -= 1
+        n = stack[sp]
+        if stack_d[sp] >= best:
+            continue
+        b = node_b[n]
+        if b < 0:
+            d = _leaf_min2(px, py, pz, tv_sorted, node_a[n], -1 - b, best, bound)
+            if d < best:
+                best = d
+                hint = n
+            if best <= bound:
+                return best, hint
+            continue
+        a = node_a[n]
+        da = _box_dist2(px, py, pz, node_min, node_max, a)
+        db = _box_dist2(px, py, pz, node_min, node_max, b)
+        # (the farther child pushed first, so the nearer one is searched first)
+        if da <= db:
+            if db < best:
+                stack[sp] = b
+                stack_d[sp] = db
+                sp += 1
+            if da < best:
+                stack[sp] = a
+                stack_d[sp] = da
+                sp += 1
+        else:
+            if da < best:
+                stack[sp] = a
+                stack_d[sp] = da
+                sp += 1
+            if db < best:
+                stack[sp] = b
+                stack_d[sp] = db
+                sp += 1
+    return best, hint
+
+
+@njit(cache=True)
 def _nearest2(
     px: float,
     py: float,
@@ -522,49 +588,23 @@ def _nearest2(
     best = _leaf_min2(px, py, pz, tv_sorted, node_a[hint], max(-1 - node_b[hint], 0), np.inf, bound)
     if best <= bound:
         return best, hint
-    stack[0] = 0
-    stack_d[0] = _box_dist2(px, py, pz, node_min, node_max, 0)
-    sp = 1
-    while sp > 0:
-        budget -= 1
-        if budget < 0:
-            return (best if upper else bound), hint
-        sp -= 1
-        n = stack[sp]
-        if stack_d[sp] >= best:
-            continue
-        b = node_b[n]
-        if b < 0:
-            d = _leaf_min2(px, py, pz, tv_sorted, node_a[n], -1 - b, best, bound)
-            if d < best:
-                best = d
-                hint = n
-            if best <= bound:
-                return best, hint
-            continue
-        a = node_a[n]
-        da = _box_dist2(px, py, pz, node_min, node_max, a)
-        db = _box_dist2(px, py, pz, node_min, node_max, b)
-        # Push the farther child first so the nearer one is searched first.
-        if da <= db:
-            if db < best:
-                stack[sp] = b
-                stack_d[sp] = db
-                sp += 1
-            if da < best:
-                stack[sp] = a
-                stack_d[sp] = da
-                sp += 1
-        else:
-            if da < best:
-                stack[sp] = a
-                stack_d[sp] = da
-                sp += 1
-            if db < best:
-                stack[sp] = b
-                stack_d[sp] = db
-                sp += 1
-    return best, hint
+    return _nearest2_from(
+        px,
+        py,
+        pz,
+        bound,
+        hint,
+        best,
+        tv_sorted,
+        node_min,
+        node_max,
+        node_a,
+        node_b,
+        stack,
+        budget,
+        stack_d,
+        upper,
+    )
 
 
 @njit(cache=True)

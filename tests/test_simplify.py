@@ -888,8 +888,9 @@ def test_the_search_budget_never_lowers_a_lod_error(budget, monkeypatch: pytest.
 @pytest.mark.parametrize("budget", [1 << 62, 12, 3])
 def test_the_search_after_its_first_leaf_is_nearest2s(budget):
     """The deviation searches try ``metrics._nearest2``'s first leaf (the hint's) inline and call
-    ``fan_deviation._nearest2_from`` past it: the same distance and hint, bit for bit, for any point, bound
-    and hint, with a budget that runs out too (where the hint decides the answer) and either ``upper``."""
+    ``metrics._nearest2_from`` past it, as ``_nearest2`` does: the same distance and hint, bit for bit, for
+    any point, bound and hint, with a budget that runs out too (where the hint decides the answer) and either
+    ``upper``."""
     from swpm_usd import metrics
     from swpm_usd.simplify import fan_deviation as fd
 

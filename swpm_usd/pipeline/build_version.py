@@ -26,7 +26,7 @@ BUILD_VERSIONS: dict[str, str] = {
     "vanilla": "0.9.2",
     "skip-strip": "0.9.2",
     "mixed": "0.9.2",
-    "sliding-window": "0.9.6",  # (a small level keeps its greedy patch order where the search ends worse: h241)
+    "sliding-window": "0.9.6",  # (small levels keep the greedy patch order where the search ends worse)
 }
 
 

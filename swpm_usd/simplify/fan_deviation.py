@@ -24,7 +24,7 @@ import numba as nb
 import numpy as np
 
 from .. import metrics
-from ..metrics import _STACK, _box_dist2, _leaf_min2
+from ..metrics import _STACK, _leaf_min2, _nearest2_from
 from . import kernels as K
 
 #: per fan triangle ``(k, u, v)`` (barycentric weights): its centroid and the midpoint of its new edge ``k u``
@@ -83,72 +83,6 @@ def _ranks(counts: np.ndarray) -> np.ndarray:
     """0..c-1 for every ``c`` in ``counts``, concatenated."""
     starts = np.repeat(np.cumsum(counts) - counts, counts)
     return np.arange(int(counts.sum())) - starts
-
-
-@nb.njit(cache=True)
-def _nearest2_from(
-    px: float,
-    py: float,
-    pz: float,
-    bound: float,
-    hint: int,
-    best: float,
-    tv_sorted: np.ndarray,
-    node_min: np.ndarray,
-    node_max: np.ndarray,
-    node_a: np.ndarray,
-    node_b: np.ndarray,
-    stack: np.ndarray,
-    budget: int,
-    stack_d: np.ndarray,
-    upper: bool,
-) -> tuple[float, int]:
-    """:func:`swpm_usd.metrics._nearest2` after its first leaf, bit for bit: ``best`` the squared distance to
-    the triangles of the ``hint`` leaf, above ``bound`` (the caller tried that leaf inline, and most
-    searches stop there without a call: numba's reference counting of the call's arrays)."""
-    stack[0] = 0
-    stack_d[0] = _box_dist2(px, py, pz, node_min, node_max, 0)
-    sp = 1
-    while sp > 0:
-        budget -= 1
-        if budget < 0:
-            return (best if upper else bound), hint
-        sp -= 1
-        n = stack[sp]
-        if stack_d[sp] >= best:
-            continue
-        b = node_b[n]
-        if b < 0:
-            d = _leaf_min2(px, py, pz, tv_sorted, node_a[n], -1 - b, best, bound)
-            if d < best:
-                best = d
-                hint = n
-            if best <= bound:
-                return best, hint
-            continue
-        a = node_a[n]
-        da = _box_dist2(px, py, pz, node_min, node_max, a)
-        db = _box_dist2(px, py, pz, node_min, node_max, b)
-        # (the farther child pushed first, so the nearer one is searched first)
-        if da <= db:
-            if db < best:
-                stack[sp] = b
-                stack_d[sp] = db
-                sp += 1
-            if da < best:
-                stack[sp] = a
-                stack_d[sp] = da
-                sp += 1
-        else:
-            if da < best:
-                stack[sp] = a
-                stack_d[sp] = da
-                sp += 1
-            if db < best:
-                stack[sp] = b
-                stack_d[sp] = db
-                sp += 1
-    return best, hint
 
 
 @nb.njit(cache=True, inline="always")
