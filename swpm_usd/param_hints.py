@@ -41,10 +41,11 @@ def unknown_param_hint(encoding: str, name: str) -> str:
     """What to say of ``name``, a parameter ``encoding`` does not take: :func:`taken_elsewhere`, else the
     closest of ``encoding``'s own names (``did you mean 'mu'?``), else the closest of the other encodings'
     names with who takes it (``did you mean 'mu'? sliding-window takes it``), else ""."""
-    elsewhere = taken_elsewhere(encoding, name)
-    if elsewhere:
-        return elsewhere
-    return did_you_mean(name, list(ENCODING_PARAMS.get(encoding, {}))) or meant_elsewhere(encoding, name)
+    return (
+        taken_elsewhere(encoding, name)
+        or did_you_mean(name, list(ENCODING_PARAMS.get(encoding, {})))
+        or meant_elsewhere(encoding, name)
+    )
 
 
 def meant_elsewhere(encoding: str, name: Any) -> str:

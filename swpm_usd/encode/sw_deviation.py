@@ -21,8 +21,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ..metrics import _STACK, _leaf_min2, _tri_dist2
-from ..simplify.fan_deviation import SAMPLES, _fan_triangle, _nearest2_from, sample_point, surface_bvh
+from ..metrics import _STACK, _leaf_min2, _nearest2_from, _tri_dist2
+from ..simplify.fan_deviation import SAMPLES, _fan_triangle, sample_point, surface_bvh
 
 __all__ = ["SAMPLES", "deviation_costs", "surface_bvh"]
 

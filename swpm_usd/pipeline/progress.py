@@ -69,7 +69,7 @@ class _Progress:
         else:
             print(line, file=sys.stderr, flush=True)
 
-    def _stop_timer(self) -> None:
+    def stop_timer(self) -> None:
         with self._lock:
             if self.timer is not None:
                 self.timer.cancel()
@@ -79,7 +79,7 @@ class _Progress:
         """One more asset done; ``path``, its file as the worker's error names it, is left out of the line
         (which names the asset already): a deep folder's path filled the 100 characters kept of the error,
         and the line lost its cause (the summary after the run prints the error whole)."""
-        self._stop_timer()
+        self.stop_timer()
         self.done += 1
         error = rec.get("error", "")
         if path:
@@ -104,6 +104,6 @@ class _Progress:
             )
 
     def close(self) -> None:
-        self._stop_timer()
+        self.stop_timer()
         if self.bar is not None:
             self.bar.stop()

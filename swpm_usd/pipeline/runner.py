@@ -844,7 +844,7 @@ class _Run:
                     write_s = last_write - now
                 progress.advance(rec, str(it.asset.path))
         except BaseException:
-            progress._stop_timer()  # (first: a Ctrl-C stop that took past 30 s printed "still working")
+            progress.stop_timer()  # (first: a Ctrl-C stop that took past 30 s printed "still working")
             self.stop()
             raise
         finally:
