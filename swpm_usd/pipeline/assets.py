@@ -568,7 +568,7 @@ def discover(
         elif stem in seen and seen[stem].id != a.id:
             problems.append(
                 f"{where}: {a.id} and {seen[stem].id} would both write {stem}.swpm"
-                f"{_names_hint(cfg, a, seen[stem])}"
+                f"{_names_hint(cfg, a, seen[stem]) or _suffix_hint(a, seen[stem])}"
             )
         elif _folded(stem) in folded and folded[_folded(stem)][1] != stem:
             other, other_stem = folded[_folded(stem)]
@@ -640,6 +640,19 @@ def _names_hint(cfg: Config, a: Asset, b: Asset) -> str:
         f"; output.names: path names outputs by their path under the glob's fixed folder: {by_path[0]}.swpm "
         f"and {by_path[1]}.swpm (or rename one)"
     )
+
+
+def _suffix_hint(a: Asset, b: Asset) -> str:
+    """What to do about two files of one folder and one name but their suffix (``cow.obj`` beside its export
+    ``cow.glb``): outputs are named without the suffix under either ``output.names``, so neither helps (the
+    error said nothing of what to do). "" for any other pair."""
+    if a.prim is None and b.prim is None and a.path.parent == b.path.parent and a.path.stem == b.path.stem:
+        return (
+            f"; outputs are named without the file's suffix ({a.path.suffix} and {b.path.suffix} here) under "
+            "either output.names: rename one, move it to a folder of its own, or narrow the glob to one "
+            f'suffix ("*{b.path.suffix}")'
+        )
+    return ""
 
 
 def _folded(name: str) -> str:

@@ -1,0 +1,53 @@
+"""What a studio's first day with the pipeline tripped on (helper-247's walk-through): each test failed before
+its fix."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from swpm_usd.pipeline import ConfigError, run
+
+TWO_TRIANGLES_OBJ = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n"
+TWO_TRIANGLES_OFF = "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n3 0 1 2\n3 1 3 2\n"
+
+
+def _quiet(message: str) -> None:
+    pass
+
+
+@pytest.mark.parametrize("names", ["stem", "path"])
+def test_one_folder_s_files_of_one_name_but_their_suffix_are_told_what_to_do(tmp_path: Path, names: str):
+    # a source and its export side by side (cow.obj, cow.off): one output name under either output.names,
+    # and the error ended at "would both write ...swpm", saying nothing of what to do
+    (tmp_path / "lib" / "cow").mkdir(parents=True)
+    (tmp_path / "lib" / "cow" / "cow.obj").write_text(TWO_TRIANGLES_OBJ)
+    (tmp_path / "lib" / "cow" / "cow.off").write_text(TWO_TRIANGLES_OFF)
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        f'version: 1\nassets:\n  - glob: "lib/**/*"\noutput: {{dir: out, names: {names}}}\n'
+        "defaults: {encoding: vanilla}\n"
+    )
+    with pytest.raises(ConfigError) as exc:
+        run(cfg, echo=_quiet, dry_run=True)
+    (problem,) = exc.value.problems
+    assert "lib/cow/cow.o" in problem and "would both write" in problem
+    assert "named without the file's suffix" in problem and "rename one" in problem
+    assert "output.names: path names outputs" not in problem  # (that would not help: it names them alike)
+    # renamed as it says, both build
+    (tmp_path / "lib" / "cow" / "cow.off").rename(tmp_path / "lib" / "cow" / "cow_off.off")
+    assert run(cfg, echo=_quiet).built == 2
+
+
+def test_two_folders_files_of_one_name_keep_their_hint(tmp_path: Path):
+    # (the new words are for one folder's pair alone: another folder's keeps output.names: path's hint)
+    for folder in ("a", "b"):
+        (tmp_path / "lib" / folder).mkdir(parents=True)
+        (tmp_path / "lib" / folder / "rock.obj").write_text(TWO_TRIANGLES_OBJ)
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text('version: 1\nassets:\n  - glob: "lib/**/*.obj"\noutput: {dir: out}\n')
+    with pytest.raises(ConfigError) as exc:
+        run(cfg, echo=_quiet, dry_run=True)
+    (problem,) = exc.value.problems
+    assert "output.names: path names outputs" in problem and "suffix" not in problem
