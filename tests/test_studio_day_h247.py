@@ -3,11 +3,13 @@ its fix."""
 
 from __future__ import annotations
 
+import unicodedata
 from pathlib import Path
 
 import pytest
 
 from swpm_usd.pipeline import ConfigError, run
+from swpm_usd.pipeline.selection import selected_ids
 
 TWO_TRIANGLES_OBJ = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n"
 TWO_TRIANGLES_OFF = "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n3 0 1 2\n3 1 3 2\n"
@@ -51,3 +53,24 @@ def test_two_folders_files_of_one_name_keep_their_hint(tmp_path: Path):
         run(cfg, echo=_quiet, dry_run=True)
     (problem,) = exc.value.problems
     assert "output.names: path names outputs" in problem and "suffix" not in problem
+
+
+@pytest.mark.parametrize("on_disk", ["NFC", "NFD"])
+def test_only_matches_a_pattern_in_another_unicode_normalization(tmp_path: Path, on_disk: str):
+    # `--only 'props/café.obj'` pasted from a macOS Finder or terminal (e and a combining accent) matched no
+    # asset named with one code point, and the usage error showed the same-looking text as unmatched
+    name = unicodedata.normalize(on_disk, "café.obj")
+    (tmp_path / "props").mkdir()
+    (tmp_path / "props" / name).write_text(TWO_TRIANGLES_OBJ)
+    (tmp_path / "props" / "rock.obj").write_text(TWO_TRIANGLES_OBJ)
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text('version: 1\nassets:\n  - glob: "props/*.obj"\noutput: {dir: out}\n')
+    for form in ("NFC", "NFD"):
+        typed = unicodedata.normalize(form, "props/café.obj")
+        res = run(cfg, echo=_quiet, only=[typed], force=True)
+        assert res.built == 1 and res.not_selected == 1, form
+        assert selected_ids([f"props/{name}", "props/rock.obj"], [typed]) == {f"props/{name}"}
+        glob = unicodedata.normalize(form, "props/café*")
+        assert selected_ids([f"props/{name}"], [glob]) == {f"props/{name}"}
+    # (still case-sensitive: ids are the config's paths)
+    assert selected_ids(["props/Rock.obj", "props/rock.obj"], ["props/rock.obj"]) == {"props/rock.obj"}
