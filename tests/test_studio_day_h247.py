@@ -74,3 +74,31 @@ def test_only_matches_a_pattern_in_another_unicode_normalization(tmp_path: Path,
         assert selected_ids([f"props/{name}"], [glob]) == {f"props/{name}"}
     # (still case-sensitive: ids are the config's paths)
     assert selected_ids(["props/Rock.obj", "props/rock.obj"], ["props/rock.obj"]) == {"props/rock.obj"}
+
+
+def test_coarsest_lod_bytes_counts_the_lod_s_own_bytes_not_the_file_prefix(tmp_path: Path):
+    # the sample's comment read "the coarsest LOD must be drawable from this many bytes" (a download's
+    # prefix); the check counts the LOD's vertices and indices: spot's skip-strip file (the sample's rule)
+    # passes 65,536 with 828 bytes while its coarsest LOD draws from the first 271,024 of the file (README,
+    # Command line)
+    from conftest import SHARED_MESHES
+
+    import swpm_usd
+    from swpm_usd.format import SwpmFormatError, encode_bytes, open_prefix
+    from swpm_usd.pipeline.worker import check_streaming
+
+    pm = swpm_usd.build(SHARED_MESHES / "spot.obj", encoding="skip-strip", primitive="strip", restart=True)
+    assert check_streaming(pm, {"coarsest_lod_bytes": 65536}) == []
+    assert check_streaming(pm, {"coarsest_lod_bytes": 827}) == [
+        "coarsest LOD needs 828 bytes > streaming.coarsest_lod_bytes=827"
+    ]
+    data = encode_bytes(pm)
+
+    def draws(n: int) -> bool:
+        try:
+            return open_prefix(data[:n]).finest_drawable is not None
+        except SwpmFormatError:
+            return False
+
+    # (the run's file, 64 bytes of asset digest longer, from 271,024: measured for the README)
+    assert not draws(65536) and not draws(len(data) * 3 // 4) and draws(len(data))
