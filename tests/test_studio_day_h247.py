@@ -102,3 +102,26 @@ def test_coarsest_lod_bytes_counts_the_lod_s_own_bytes_not_the_file_prefix(tmp_p
 
     # (the run's file, 64 bytes of asset digest longer, from 271,024: measured for the README)
     assert not draws(65536) and not draws(len(data) * 3 // 4) and draws(len(data))
+
+
+def test_a_rule_whose_path_matches_no_asset_path_is_told_the_near_pattern(tmp_path: Path):
+    # `match: {path: "props/*"}` written from the glob's folder (the ids are "assets/props/..."): the warning
+    # said "rule 'props' matches no asset" alone, and the assets took the defaults
+    (tmp_path / "assets" / "props").mkdir(parents=True)
+    for name in ("chair", "lamp"):
+        (tmp_path / "assets" / "props" / f"{name}.obj").write_text(TWO_TRIANGLES_OBJ)
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        'version: 1\nassets:\n  - glob: "assets/**/*.obj"\noutput: {dir: out}\n'
+        "defaults: {encoding: vanilla}\nrules:\n"
+        '  - {name: props, match: {path: "props/*"}, encoding: mixed}\n'
+        '  - {name: huge-props, match: {path: "assets/props/*", triangles: {min: 1000}}, encoding: mixed}\n'
+    )
+    res = run(cfg, echo=_quiet, dry_run=True)
+    props, huge = res.warnings
+    assert props.endswith(
+        "rule 'props' matches no asset (its path 'props/*' matches no asset's path, relative to the config "
+        "as --dry-run shows it: did you mean 'assets/props/*'? 2 assets)"
+    ), props
+    # (a path that matches, the rule missing by another condition: no word on the path)
+    assert huge.endswith("rule 'huge-props' matches no asset"), huge
