@@ -125,3 +125,24 @@ def test_a_rule_whose_path_matches_no_asset_path_is_told_the_near_pattern(tmp_pa
     ), props
     # (a path that matches, the rule missing by another condition: no word on the path)
     assert huge.endswith("rule 'huge-props' matches no asset"), huge
+
+
+def test_a_rerun_retrying_broken_inputs_alone_says_nothing_of_numba_s_compile(tmp_path: Path, capsys):
+    # every rerun of a library with one broken file printed "[0/1] building 1 asset; on a new machine numba
+    # compiles its kernels first (a minute or more, once)" for a retry that fails before any build
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES_OBJ)
+    (tmp_path / "m" / "empty.obj").write_text("")
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text('version: 1\nassets:\n  - glob: "m/*.obj"\noutput: {dir: out}\n')
+
+    def first_line() -> str:
+        capsys.readouterr()
+        run(cfg, echo=_quiet)
+        return capsys.readouterr().err.splitlines()[0]
+
+    note = "; on a new machine numba compiles its kernels first (a minute or more, once)"
+    assert first_line() == f"[0/2] building 2 assets{note}"  # (new: both may build)
+    assert first_line() == "[0/1] building 1 asset"  # (the broken file retried alone)
+    (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES_OBJ + "f 1 3 4\n")
+    assert first_line() == f"[0/2] building 2 assets{note}"  # (a mesh to build beside it)
