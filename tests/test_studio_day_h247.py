@@ -146,3 +146,29 @@ def test_a_rerun_retrying_broken_inputs_alone_says_nothing_of_numba_s_compile(tm
     assert first_line() == "[0/1] building 1 asset"  # (the broken file retried alone)
     (tmp_path / "m" / "a.obj").write_text(TWO_TRIANGLES_OBJ + "f 1 3 4\n")
     assert first_line() == f"[0/2] building 2 assets{note}"  # (a mesh to build beside it)
+
+
+def test_a_tag_is_read_on_the_mesh_prim_not_its_ancestors_as_the_readme_says(tmp_path: Path):
+    # a studio tags the Xform that places an asset in its set; the rule's tag is read on the Mesh prim alone
+    # (README, Command line): the prim glob is what matches such an asset
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "set.usda"))
+    for name in ("hero", "extra"):
+        xf = UsdGeom.Xform.Define(stage, f"/World/{name}")
+        mesh = UsdGeom.Mesh.Define(stage, f"/World/{name}/Geo")
+        mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)])
+        mesh.CreateFaceVertexCountsAttr([3, 3])
+        mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 1, 3, 2])
+    xf.GetPrim().SetCustomDataByKey("tier", "hero")  # (on /World/extra's Xform)
+    stage.GetPrimAtPath("/World/hero/Geo").SetCustomDataByKey("tier", "hero")
+    stage.GetRootLayer().Save()
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        "version: 1\nassets:\n  - stage: set.usda\noutput: {dir: out}\ndefaults: {encoding: vanilla}\n"
+        "rules:\n  - {name: tagged, match: {tag: {tier: hero}}, encoding: mixed}\n"
+        '  - {name: by-prim, match: {prim: "/World/extra/*"}, encoding: skip-strip}\n'
+    )
+    plan = {p["id"]: p for p in run(cfg, echo=_quiet, dry_run=True).plan}
+    assert plan["set.usda:/World/hero/Geo"]["encoding"] == "mixed"
+    assert plan["set.usda:/World/extra/Geo"]["encoding"] == "skip-strip"
