@@ -172,3 +172,37 @@ def test_a_tag_is_read_on_the_mesh_prim_not_its_ancestors_as_the_readme_says(tmp
     plan = {p["id"]: p for p in run(cfg, echo=_quiet, dry_run=True).plan}
     assert plan["set.usda:/World/hero/Geo"]["encoding"] == "mixed"
     assert plan["set.usda:/World/extra/Geo"]["encoding"] == "skip-strip"
+
+
+@pytest.mark.parametrize("names", ["path", "stem"])
+def test_an_output_name_too_long_to_write_is_a_config_error_before_any_build(tmp_path: Path, names: str):
+    # a library nine folders deep under output.names: path: the dry run passed, the run built the mesh and
+    # failed its asset at the rename (OUTPUT_UNWRITABLE, "[Errno 36] File name too long")
+    from swpm_usd.pipeline.assets import LONGEST_STEM
+
+    deep = tmp_path / "lib"
+    for i in range(9):
+        deep = deep / f"very_long_folder_name_for_department_{i}"
+    deep.mkdir(parents=True)
+    long_stem = "s" * (LONGEST_STEM + 1) if names == "stem" else "suzanne"
+    (deep / f"{long_stem}.obj").write_text(TWO_TRIANGLES_OBJ)
+    (tmp_path / "lib" / "ok.obj").write_text(TWO_TRIANGLES_OBJ)
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        f'version: 1\nassets:\n  - glob: "lib/**/*.obj"\noutput: {{dir: out, names: {names}, usd: true}}\n'
+        "defaults: {encoding: vanilla}\n"
+    )
+    for dry_run in (True, False):
+        with pytest.raises(ConfigError) as exc:
+            run(cfg, echo=_quiet, dry_run=dry_run)
+        (problem,) = exc.value.problems
+        assert f"past the {LONGEST_STEM} a name may have here" in problem, problem
+        assert ("start the glob from a deeper folder" if names == "path" else "rename the file") in problem
+    assert not (tmp_path / "out").exists()  # (nothing built or written)
+    # the longest name that fits builds, and builds again over its previous build (kept aside meanwhile)
+    (deep / f"{long_stem}.obj").unlink()
+    fits = tmp_path / "lib" / f"{'f' * LONGEST_STEM}.obj"
+    fits.write_text(TWO_TRIANGLES_OBJ)
+    cfg.write_text(cfg.read_text().replace(f"names: {names}", "names: stem"))
+    assert run(cfg, echo=_quiet).built == 2
+    assert run(cfg, echo=_quiet, force=True).built == 2
