@@ -172,6 +172,16 @@ def test_a_tag_is_read_on_the_mesh_prim_not_its_ancestors_as_the_readme_says(tmp
     plan = {p["id"]: p for p in run(cfg, echo=_quiet, dry_run=True).plan}
     assert plan["set.usda:/World/hero/Geo"]["encoding"] == "mixed"
     assert plan["set.usda:/World/extra/Geo"]["encoding"] == "skip-strip"
+    # a tag on the Xforms alone: the rule matches nothing, and its warning says where tags are read (it
+    # named the rule alone)
+    stage.GetPrimAtPath("/World/hero/Geo").ClearCustomDataByKey("tier")
+    stage.GetPrimAtPath("/World/hero").SetCustomDataByKey("tier", "hero")
+    stage.GetRootLayer().Save()
+    (warning,) = run(cfg, echo=_quiet, dry_run=True).warnings
+    assert warning.endswith(
+        "rule 'tagged' matches no asset (a tag is read on a stage asset's Mesh prim, its own customData: not "
+        "an ancestor's, and a glob's files carry none; match.prim globs on prim paths)"
+    ), warning
 
 
 @pytest.mark.parametrize("names", ["path", "stem"])

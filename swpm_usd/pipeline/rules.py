@@ -115,9 +115,20 @@ def _unreached_rules(cfg: Config, items: list[PlanItem]) -> list[str]:
                 "matches is taken by an earlier rule"
             )
         else:
-            hint = _path_hint(rule, items)
+            hint = _path_hint(rule, items) or _tag_hint(rule)
             warnings.append(f"{cfg.where(('rules', idx))}: rule {rule['name']!r} matches no asset{hint}")
     return warnings
+
+
+def _tag_hint(rule: dict[str, Any]) -> str:
+    """Where a rule with a ``match.tag`` matches no asset: where tags are read (a studio tags the Xform that
+    places an asset in its set, which no rule sees)."""
+    if not (rule.get("match") or {}).get("tag"):
+        return ""
+    return (
+        " (a tag is read on a stage asset's Mesh prim, its own customData: not an ancestor's, and a glob's "
+        "files carry none; match.prim globs on prim paths)"
+    )
 
 
 def _path_hint(rule: dict[str, Any], items: list[PlanItem]) -> str:
