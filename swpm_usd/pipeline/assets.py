@@ -568,7 +568,7 @@ def discover(
         elif stem in seen and seen[stem].id != a.id:
             problems.append(
                 f"{where}: {a.id} and {seen[stem].id} would both write {stem}.swpm"
-                f"{_names_hint(cfg, a, seen[stem])}"
+                f"{_names_hint(cfg, a, seen[stem]) or _suffix_hint(a, seen[stem])}"
             )
         elif _folded(stem) in folded and folded[_folded(stem)][1] != stem:
             other, other_stem = folded[_folded(stem)]
@@ -579,6 +579,8 @@ def discover(
                 f"filesystem (macOS, Windows): {stem}.swpm and {other_stem}.swpm differ only in {differ}"
                 f"{_names_hint(cfg, a, other) or '; rename one'}"
             )
+        if len(os.fsencode(stem)) > LONGEST_STEM:
+            problems.append(f"{where}: {a.id}: {_too_long(cfg, a, stem)}")
         seen[stem] = a
         folded.setdefault(_folded(stem), (a, stem))
     for (first, later), stems in stage_pairs.items():
@@ -640,6 +642,46 @@ def _names_hint(cfg: Config, a: Asset, b: Asset) -> str:
         f"; output.names: path names outputs by their path under the glob's fixed folder: {by_path[0]}.swpm "
         f"and {by_path[1]}.swpm (or rename one)"
     )
+
+
+#: the longest output name (without ``.swpm``) the run can write, in bytes: a file name stops at 255 bytes
+#: (ext4, XFS, APFS), and the longest name a run gives an output's file is the one it keeps the previous
+#: build aside under, 24 bytes longer (``.<stem>.swpm.XXXXXXXX.prev.tmp``, :func:`..fileio.keep_aside`).
+#: A longer name built the mesh, then failed its asset (``OUTPUT_UNWRITABLE``, "File name too long")
+LONGEST_STEM = 255 - len("..swpm.XXXXXXXX.prev.tmp")
+
+
+def _too_long(cfg: Config, a: Asset, stem: str) -> str:
+    """Why ``a``'s outputs, named ``stem``, cannot be written, and what to do (names by path: a glob from a
+    deeper folder, or stem names; a stage's prim: its path; else: rename the file)."""
+    shown = f"{stem[:60]}...{stem[-30:]}" if len(stem) > 100 else stem
+    if a.prim is not None:
+        fix = "its outputs are named by its stage's file and its prim path: rename the stage or the prims"
+    elif a.path_name is not None:
+        fix = (
+            "output.names: path joins every folder below the glob's fixed folder: start the glob from a "
+            "deeper folder, or name outputs by their stem (output.names: stem)"
+        )
+    else:
+        fix = "rename the file"
+    return (
+        f"its outputs would be named {shown}.swpm, {len(os.fsencode(stem))} bytes before .swpm, past the "
+        f"{LONGEST_STEM} a name may have here (a file name stops at 255 bytes, and the run's temporary names "
+        f"add 24); {fix}"
+    )
+
+
+def _suffix_hint(a: Asset, b: Asset) -> str:
+    """What to do about two files of one folder and one name but their suffix (``cow.obj`` beside its export
+    ``cow.glb``): outputs are named without the suffix under either ``output.names``, so neither helps (the
+    error said nothing of what to do). "" for any other pair."""
+    if a.prim is None and b.prim is None and a.path.parent == b.path.parent and a.path.stem == b.path.stem:
+        return (
+            f"; outputs are named without the file's suffix ({a.path.suffix} and {b.path.suffix} here) under "
+            "either output.names: rename one, move it to a folder of its own, or narrow the glob to one "
+            f'suffix ("*{b.path.suffix}")'
+        )
+    return ""
 
 
 def _folded(name: str) -> str:

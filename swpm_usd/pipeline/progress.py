@@ -17,7 +17,9 @@ STILL_WORKING_S = 30.0
 class _Progress:
     """A rich progress bar on a terminal, plain lines elsewhere (CI logs)."""
 
-    def __init__(self, total: int, still_working_s: float = STILL_WORKING_S) -> None:
+    def __init__(self, total: int, still_working_s: float = STILL_WORKING_S, compiles: bool = True) -> None:
+        """``compiles``: whether the run may build a mesh, so wait for numba's first compile (False: every
+        asset a broken input retried, which fails before any build: the first line says nothing of it)."""
         self.total = total
         self.done = 0
         self.bar = None
@@ -25,9 +27,9 @@ class _Progress:
         # (the timer's line and its cancelling one at a time: none printed once an asset is done or closed)
         self._lock = threading.Lock()
         if total:  # (a first run printed nothing for minutes while numba compiled: users took it for a hang)
+            compile_note = "; on a new machine numba compiles its kernels first (a minute or more, once)"
             print(
-                f"[0/{total}] building {total} asset{'s' * (total != 1)}; on a new machine numba compiles "
-                "its kernels first (a minute or more, once)",
+                f"[0/{total}] building {total} asset{'s' * (total != 1)}{compile_note * compiles}",
                 file=sys.stderr,
                 flush=True,
             )

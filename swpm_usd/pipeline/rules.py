@@ -12,6 +12,7 @@ Separate from the runner: each answer is a small pure function of the config and
 from __future__ import annotations
 
 import dataclasses
+import fnmatch
 import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -114,8 +115,38 @@ def _unreached_rules(cfg: Config, items: list[PlanItem]) -> list[str]:
                 "matches is taken by an earlier rule"
             )
         else:
-            warnings.append(f"{cfg.where(('rules', idx))}: rule {rule['name']!r} matches no asset")
+            hint = _path_hint(rule, items) or _tag_hint(rule)
+            warnings.append(f"{cfg.where(('rules', idx))}: rule {rule['name']!r} matches no asset{hint}")
     return warnings
+
+
+def _tag_hint(rule: dict[str, Any]) -> str:
+    """Where a rule with a ``match.tag`` matches no asset: where tags are read (a studio tags the Xform that
+    places an asset in its set, which no rule sees)."""
+    if not (rule.get("match") or {}).get("tag"):
+        return ""
+    return (
+        " (a tag is read on a stage asset's Mesh prim, its own customData: not an ancestor's, and a glob's "
+        "files carry none; match.prim globs on prim paths)"
+    )
+
+
+def _path_hint(rule: dict[str, Any], items: list[PlanItem]) -> str:
+    """Where a rule's ``match.path`` matches no asset's path at all: how paths are written and, as ``--only``
+    says, the pattern near it that matches some (``props/*`` written from the glob's folder for
+    ``assets/props/*``: the warning named the rule alone, and the studio looked at its other conditions)."""
+    from .selection import _selection_hint
+
+    pattern = (rule.get("match") or {}).get("path")
+    if not isinstance(pattern, str):
+        return ""
+    ids = list(dict.fromkeys(it.asset.file_id for it in items))
+    if not ids or any(fnmatch.fnmatch(i, pattern) for i in ids):
+        return ""
+    near = _selection_hint(pattern, ids)
+    guess = f": did you mean {near[0]!r}? {near[1]} asset{'s' * (near[1] != 1)}" if near else ""
+    how = "relative to the config as --dry-run shows it"
+    return f" (its path {pattern!r} matches no asset's path, {how}{guess})"
 
 
 def _wants_outputs(cfg: Config) -> bool:

@@ -160,7 +160,7 @@ from .scene import UP_AXIS_OP as UP_AXIS_OP  # (re-exported)
 from .scene import UTF8_PRIM_NAMES, _scene_stems, _utf8_named, _write_scene
 from .selection import SelectionConflictError, _selection_clashes, selected_ids
 from .selection import SelectionError as SelectionError  # (re-exported: swpm_usd.pipeline's)
-from .tasks import _task
+from .tasks import _failed_loading, _task
 from .up_to_date import _decide
 from .worker import (
     RUNNER_PID_ENV,
@@ -821,7 +821,8 @@ class _Run:
         less often while a rewrite takes more than 1/:data:`_MANIFEST_BACKOFF` of it); stopped cleanly
         (:meth:`stop`) by an error or Ctrl-C."""
         cfg = self.cfg
-        progress = _Progress(len(self.todo))
+        # (a rerun whose only work is broken inputs retried builds nothing: no word of numba's compile)
+        progress = _Progress(len(self.todo), compiles=not all(_failed_loading(it) for it in self.todo))
         self.by_id = {it.asset.id: it for it in self.todo}
         self.kept_files: set[tuple] | None = None  # (_files_kept, once an asset drops an output)
         last_write, write_s = float("-inf"), 0.0

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import fnmatch
 import re
+import unicodedata
 from collections.abc import Iterable
 
 from .assets import _folded
@@ -136,13 +137,17 @@ def _pattern(pattern: str) -> re.Pattern[str]:
 def selected_ids(ids: Iterable[str], patterns: Iterable[str]) -> set[str]:
     """The ids of ``ids`` that any of ``patterns`` matches (:func:`_pattern`: ``meshes/hero_*`` also takes
     ``meshes/hero_a/b.obj`` and the prims of ``meshes/hero_set.usda``; a plain id, ``[`` and all, matches
-    itself); raises :class:`SelectionError` naming each pattern that matches none."""
+    itself; pattern and id compared in Unicode NFC, as macOS compares file names); raises
+    :class:`SelectionError` naming each pattern that matches none."""
     ids = list(ids)
+    # compared in one Unicode normalization: a pattern typed or pasted on macOS (`café`, e and an accent)
+    # matched no id written with one code point, and its error showed the same-looking text
+    nfc = [unicodedata.normalize("NFC", aid) for aid in ids]
     chosen: set[str] = set()
     unmatched = []
     for p in dict.fromkeys(patterns):  # (a pattern given twice: once)
-        rx = _pattern(p)
-        found = [aid for aid in ids if rx.match(aid)]
+        rx = _pattern(unicodedata.normalize("NFC", p))
+        found = [aid for aid, n in zip(ids, nfc, strict=True) if rx.match(n)]
         if not found:
             unmatched.append(p)
         chosen.update(found)
