@@ -35,3 +35,48 @@ def test_the_generators_commands_run_without_runpys_warning(module, args, checke
     )
     assert proc.returncode == 0 and proc.stderr == "", proc.stderr[-2000:]
     assert proc.stdout == (ROOT / checked_in).read_text(), f"regenerate: python -m {module} {' '.join(args)}"
+
+
+def _ply(triangles: int) -> bytes:
+    """An ASCII PLY of ``triangles`` triangles in a row (a strip's worth of vertices)."""
+    verts = [f"{i} {i % 2} 0" for i in range(triangles + 2)]
+    faces = [f"3 {i} {i + 1} {i + 2}" if i % 2 == 0 else f"3 {i + 1} {i} {i + 2}" for i in range(triangles)]
+    header = (
+        f"ply\nformat ascii 1.0\nelement vertex {len(verts)}\nproperty float x\nproperty float y\n"
+        f"property float z\nelement face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    return (header + "\n".join(verts + faces) + "\n").encode()
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_a_ply_is_read_once_and_the_bytes_checked_are_the_bytes_parsed(tmp_path, monkeypatch, binary):
+    """The loader read a PLY for its checks, then trimesh read the file again: two reads of a large scan,
+    and a file replaced between them was parsed unchecked. Here it is replaced right after the first read."""
+    import pathlib
+
+    import trimesh
+
+    from swpm_usd.io import load_mesh
+
+    path = tmp_path / "scan.ply"
+    first, second = _ply(4), _ply(9)
+    if binary:
+        first, second = (
+            trimesh.exchange.ply.export_ply(trimesh.load(trimesh.util.wrap_as_stream(d), file_type="ply"))
+            for d in (first, second)
+        )
+    path.write_bytes(first)
+    reads = []
+    read_bytes = pathlib.Path.read_bytes
+
+    def read_then_replaced(self: pathlib.Path) -> bytes:
+        data = read_bytes(self)
+        if self == path:
+            reads.append(len(data))
+            path.write_bytes(second)
+        return data
+
+    monkeypatch.setattr(pathlib.Path, "read_bytes", read_then_replaced)
+    mesh = load_mesh(path)
+    assert reads == [len(first)]
+    assert mesh.triangle_count == 4, "trimesh parsed the file read again, not the bytes the loader checked"
