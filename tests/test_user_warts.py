@@ -80,3 +80,20 @@ def test_a_ply_is_read_once_and_the_bytes_checked_are_the_bytes_parsed(tmp_path,
     mesh = load_mesh(path)
     assert reads == [len(first)]
     assert mesh.triangle_count == 4, "trimesh parsed the file read again, not the bytes the loader checked"
+
+
+@pytest.mark.parametrize("cache_size", [0, 1025, 10**9])
+def test_a_direct_sliding_window_build_bounds_its_cache_size_as_build_does(cache_size):
+    """``build()`` refused ``cache_size=10**9`` (its FIFO simulations allocate that many entries); the
+    encoder called directly took it."""
+    import swpm_usd
+    from swpm_usd.encode.slidingwindow import build_sliding_window
+    from swpm_usd.errors import BuildError
+
+    mesh = swpm_usd.Mesh.from_arrays([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    with pytest.raises(BuildError) as via_build:
+        swpm_usd.build(mesh, encoding="sliding-window", cache_size=cache_size)
+    with pytest.raises(BuildError) as direct:
+        build_sliding_window(mesh, cache_size=cache_size)
+    assert str(direct.value) == str(via_build.value)
+    assert ("at least 1" if cache_size < 1 else "at most 1024") in str(direct.value)
