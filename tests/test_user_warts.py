@@ -97,3 +97,36 @@ def test_a_direct_sliding_window_build_bounds_its_cache_size_as_build_does(cache
         build_sliding_window(mesh, cache_size=cache_size)
     assert str(direct.value) == str(via_build.value)
     assert ("at least 1" if cache_size < 1 else "at most 1024") in str(direct.value)
+
+
+@pytest.fixture(scope="module")
+def swpm_bytes() -> bytes:
+    from conftest import shared_mesh
+
+    import swpm_usd
+    from swpm_usd.format import encode_bytes
+
+    return encode_bytes(swpm_usd.build(shared_mesh("suzanne.obj"), encoding="vanilla"))
+
+
+@pytest.mark.parametrize("kept", [0, 5000])
+def test_validate_lod_of_a_cut_or_empty_file_lists_its_problems_not_a_usage_error(tmp_path, swpm_bytes, kept):
+    """``validate cut.swpm --lod 0`` said "Invalid value for --lod: no such LOD: cut.swpm: LOD 0 did not
+    become drawable" and exited 2, as if the command line were wrong: the file is (exit 1, its problems)."""
+    from click.testing import CliRunner
+
+    from swpm_usd.cli import main
+
+    cut = tmp_path / "cut.swpm"
+    cut.write_bytes(swpm_bytes[:kept])
+    for args in (["validate", str(cut), "--lod", "0"], ["validate", str(cut), "--lod", "3", "--json"]):
+        result = CliRunner().invoke(main, args)
+        assert result.exit_code == 1, result.output
+        assert "no such LOD" not in result.output
+        code = "SWPM_HEADER_TRUNCATED" if kept == 0 else "SWPM_CHUNK_OUT_OF_BOUNDS"
+        assert code in result.output and str(cut) in result.output, result.output
+    # a LOD a valid file does not have stays the usage error it is
+    whole = tmp_path / "whole.swpm"
+    whole.write_bytes(swpm_bytes)
+    result = CliRunner().invoke(main, ["validate", str(whole), "--lod", "99999"])
+    assert result.exit_code == 2 and "no such LOD: LOD 99999 of" in result.output, result.output

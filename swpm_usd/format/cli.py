@@ -966,7 +966,13 @@ def _validate_lod(file: str, lod: int, as_json: bool) -> None:
     except SwpmFormatError as exc:
         rep = exc.report
     except IndexError as exc:  # a LOD the file does not have (or that never draws)
-        raise click.BadParameter(f"no such LOD: {exc}", param_hint="--lod") from None
+        from .reader import validate
+
+        # (a cut or empty file's LOD 0 "did not become drawable" was a usage error, exit 2: its problems
+        # are the file's, as validate lists them)
+        rep = validate(file)
+        if rep.valid:
+            raise click.BadParameter(f"no such LOD: {exc}", param_hint="--lod") from None
     except ValueError as exc:  # a range the reader refuses as the caller's (spec 4.2 step 1), said as it is
         raise click.BadParameter(str(exc), param_hint="--lod") from None
     else:
