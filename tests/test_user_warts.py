@@ -130,3 +130,18 @@ def test_validate_lod_of_a_cut_or_empty_file_lists_its_problems_not_a_usage_erro
     whole.write_bytes(swpm_bytes)
     result = CliRunner().invoke(main, ["validate", str(whole), "--lod", "99999"])
     assert result.exit_code == 2 and "no such LOD: LOD 99999 of" in result.output, result.output
+
+
+@pytest.mark.parametrize("option", [["--prefix", "100"], ["--ranges", "0:100"], ["--lod", "0"]])
+def test_validate_of_a_mesh_with_a_reader_option_says_what_to_run(tmp_path, option):
+    """``validate mesh.obj`` said which command reads a mesh; with --prefix, --ranges or --lod it listed
+    "SWPM_HEADER_BAD_MAGIC @0: magic is 232323230a230a23" alone."""
+    from click.testing import CliRunner
+
+    from swpm_usd.cli import main
+
+    mesh = tmp_path / "mesh.obj"
+    mesh.write_text("# a mesh, not an SWPM file\n" * 8 + "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    result = CliRunner().invoke(main, ["validate", str(mesh), *option])
+    assert result.exit_code == 1, result.output
+    assert f"hint: {mesh} is a mesh file (.obj), not an SWPM file: swpm-pipeline encode" in result.output
