@@ -42,13 +42,20 @@ def check_params(encoding: str, defaults: dict[str, Any], params: dict[str, Any]
             continue
         if not ok:
             raise BuildError(f"{encoding} parameter {name} must be {kind}, got {value!r}")
-    if params.get("cache_size", 1) < 1:  # (the cache simulations' ValueError, a traceback in `build`)
-        raise BuildError(f"cache_size must be at least 1, got {params['cache_size']}")
-    if params.get("cache_size", 0) > MAX_CACHE_SIZE:
-        raise BuildError(f"cache_size must be at most {MAX_CACHE_SIZE}, got {params['cache_size']}")
+    if "cache_size" in params:
+        check_cache_size(params["cache_size"])
     for name in ("boundary_weight", "seam_weight"):
         if name in params and not 0.0 <= params[name] <= MAX_QUADRIC_WEIGHT:
             raise BuildError(f"{name} must be in [0, {MAX_QUADRIC_WEIGHT:g}], got {params[name]}")
+
+
+def check_cache_size(cache_size: Any) -> None:
+    """A :class:`BuildError` unless ``cache_size`` is in ``[1, MAX_CACHE_SIZE]``: :func:`build`'s check, and
+    an encoder's called directly (``build_sliding_window(mesh, cache_size=10**9)``)."""
+    if cache_size < 1:  # (the cache simulations' ValueError, a traceback in `build`)
+        raise BuildError(f"cache_size must be at least 1, got {cache_size}")
+    if cache_size > MAX_CACHE_SIZE:
+        raise BuildError(f"cache_size must be at most {MAX_CACHE_SIZE}, got {cache_size}")
 
 
 #: parameters recorded in ``pm.params`` (and so in a file's metadata) only when set: options added after

@@ -96,6 +96,7 @@ from typing import Any
 
 import numpy as np
 
+from ..build import check_cache_size
 from ..encodings import (
     MAX_ORDER_PASSES,
     MAX_ORDER_REACH,
@@ -736,6 +737,7 @@ def build_sliding_window(
         raise BuildError(f"inner_vertices must be >= 1, got {inner_vertices}")
     if not float(swap_max_deviation) >= 0.0:
         raise BuildError(f"swap_max_deviation must be >= 0, got {swap_max_deviation}")
+    check_cache_size(cache_size)  # (build()'s bounds, called directly too)
     if int(cache_size) < 3:
         raise BuildError(f"cache_size must be >= 3, got {cache_size}")
     if target_slack is not None and not (

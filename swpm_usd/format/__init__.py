@@ -5,13 +5,14 @@
 from __future__ import annotations
 
 from .._lazy import lazy_attributes
-from .errors import CATALOGUE, Problem, Report, SwpmEncodeError, SwpmFormatError
 
 # the reader and the writer load numba and the encoders: imported on first use (:mod:`swpm_usd._lazy`), so
-# that the command line's modules (``swpm_usd.format.cli``) import without them
+# that the command line's modules (``swpm_usd.format.cli``) import without them. The catalogue too (light):
+# imported here, ``python -m swpm_usd.format.errors`` would find it loaded and runpy would warn
 __getattr__, __dir__ = lazy_attributes(
     __name__,
     {
+        **dict.fromkeys(("CATALOGUE", "Problem", "Report", "SwpmEncodeError", "SwpmFormatError"), "errors"),
         "load": "reader",
         "load_bytes": "reader",
         "validate": "reader",

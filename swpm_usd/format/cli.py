@@ -832,6 +832,7 @@ def _validate_prefix(file: str, n: int, as_json: bool) -> None:
                     str(fp.lod_count - 1): fp.needed_bytes(fp.lod_count - 1),
                 },
             }
+    _mesh_hint(file, rep.problems)  # (a mesh given: as validate alone says it)
     click.echo(rep.to_json(indent=2) if as_json else rep.format())
     if not as_json and "prefix" in rep.summary:
         p = rep.summary["prefix"]
@@ -938,6 +939,7 @@ def _validate_ranges(file: str, spans: list[tuple[int, int]], as_json: bool) -> 
             raise click.BadParameter(str(exc), param_hint="--ranges") from None
         if fr is not None:
             rep.summary["ranges"] = _ranges_summary(fr)
+    _mesh_hint(file, rep.problems)
     _echo_ranges(rep, as_json)
     sys.exit(0 if rep.valid else 1)
 
@@ -966,12 +968,19 @@ def _validate_lod(file: str, lod: int, as_json: bool) -> None:
     except SwpmFormatError as exc:
         rep = exc.report
     except IndexError as exc:  # a LOD the file does not have (or that never draws)
-        raise click.BadParameter(f"no such LOD: {exc}", param_hint="--lod") from None
+        from .reader import validate
+
+        # (a cut or empty file's LOD 0 "did not become drawable" was a usage error, exit 2: its problems
+        # are the file's, as validate lists them)
+        rep = validate(file)
+        if rep.valid:
+            raise click.BadParameter(f"no such LOD: {exc}", param_hint="--lod") from None
     except ValueError as exc:  # a range the reader refuses as the caller's (spec 4.2 step 1), said as it is
         raise click.BadParameter(str(exc), param_hint="--lod") from None
     else:
         rep = fr.report
         rep.summary["ranges"] = {"lod": lod, "reads": reads, **_ranges_summary(fr)}
+    _mesh_hint(file, rep.problems)
     _echo_ranges(rep, as_json)
     sys.exit(0 if rep.valid else 1)
 

@@ -79,7 +79,7 @@ from .ply import (
     ply_problem,
 )
 from .stl import _STL_HEADER_BYTES, _STL_TRIANGLE_BYTES, _stl_ascii_problem, check_stl
-from .text_rows import BOM, _cr_only, _off_lines, _text_lines, _without_bom
+from .text_rows import _cr_only, _off_lines, _text_lines, _without_bom
 from .trimesh_scene import _geometry_part, _geometry_transforms, _node_instances
 
 _TEXT_TYPES = ("obj", "off")
@@ -219,25 +219,20 @@ def load_trimesh(path: Path, *, max_triangles: int | None = None, data: bytes = 
                 scene = _trimesh().load_scene(io.BytesIO(_text_lines(data)), file_type="stl", process=False)
                 data = b""
         elif file_type == "ply":
-            data = path.read_bytes()
             # (a byte-order mark before 'ply': trimesh read past it, our checks found no header and said
             # nothing of a cut file or mixed polygons. Both read the file without it)
-            marked = data.startswith(BOM)
-            data = _without_bom(data)
+            data = _without_bom(path.read_bytes())
             problem = ply_problem(data, ascii_only=True) or ply_ascii_short(data)
             if problem is not None:
                 raise MeshLoadError(path, problem)
+            # (trimesh parses the bytes checked, not the file read again: once from the disk, and a file
+            # changed between the two reads is not parsed unchecked)
             triangulated = ply_polygons_as_triangles(data)
-            if triangulated is None and marked:
-                triangulated = data
-            data = b""  # (released before trimesh reads the file: a large scan is not held twice)
-            if triangulated is None:
-                scene = _trimesh().load_scene(str(path), file_type=file_type, process=False)
-            else:
-                resolver = _trimesh().resolvers.FilePathResolver(str(path))
-                scene = _trimesh().load_scene(
-                    io.BytesIO(triangulated), file_type=file_type, resolver=resolver, process=False
-                )
+            stream = io.BytesIO(data if triangulated is None else triangulated)
+            data = triangulated = b""  # (the stream's bytes alone: a large scan is not held twice)
+            resolver = _trimesh().resolvers.FilePathResolver(str(path))
+            scene = _trimesh().load_scene(stream, file_type=file_type, resolver=resolver, process=False)
+            del stream
         elif file_type in _TEXT_TYPES:
             # trimesh needs the optional charset_normalizer to guess the encoding of non-UTF-8 text and fails
             # without it: hand it UTF-8 (non-UTF-8 bytes are read as Latin-1, which only occurs in comments
