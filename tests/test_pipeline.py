@@ -2075,8 +2075,14 @@ def test_parallel_jobs_and_dask_executor(tmp_path):
     assert res.built == 2 and res.failed == 0
     cfg2 = tmp_path / "pipeline2.yaml"
     cfg2.write_text(cfg.read_text().replace("dir: out", "dir: out_dask"))
+    environ = dict(os.environ)
     res2 = run(cfg2, jobs=1, executor="dask", echo=lambda m: None)
     assert res2.built == 2 and res2.failed == 0
+    # the local cluster's nanny set its workers' variables in this process (OMP_NUM_THREADS=1,
+    # MALLOC_TRIM_THRESHOLD_, PYTHONHASHSEED, ...): every process the caller started later had them, and the
+    # tests after this one in its xdist worker ran so
+    changed = {k for k in {*environ, *os.environ} if environ.get(k) != os.environ.get(k)}
+    assert not changed, sorted(changed)
     a = json.loads((tmp_path / "out" / "manifest.json").read_text())["assets"]
     b = json.loads((tmp_path / "out_dask" / "manifest.json").read_text())["assets"]
     for key in a:
