@@ -51,6 +51,15 @@ def edge_stats(triangles: np.ndarray, vertex_pos: np.ndarray) -> dict[str, int]:
     }
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    """Python's Ctrl-C handler in a test process started with SIGINT ignored: a suite run as a background job
+    (``pytest ... &`` in a script, as some CI runners start it) inherits the ignored signal, and so does each
+    process a test starts. The tests of Ctrl-C are of a command run from a terminal: theirs failed so (exit 1,
+    not 130; a subprocess that ignores the test's Ctrl-C), the product rightly keeping a caller's ignore."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 @pytest.fixture(autouse=True)
 def _ctrl_c_handler_restored():
     """Every test leaves the process's Ctrl-C handler as it found it. A command run in-process ignores Ctrl-C

@@ -216,16 +216,29 @@ def test_a_run_with_nothing_finished_for_a_while_says_it_is_still_working(capsys
     import time
 
     progress = _Progress(2, still_working_s=0.05)
-    time.sleep(0.5)
+    timer = progress.timer
+    assert timer is not None
+    # (the timer's thread ended, its line printed: a fixed sleep lost the race to a thread not yet run on a
+    # loaded machine, two xdist workers beside the CI's other jobs)
+    timer.join(timeout=60)
+    assert not timer.is_alive()
     progress.advance(_failed("MeshLoadError: no triangles: the file is empty (0 bytes)"))
     progress.close()
     lines = capsys.readouterr().err.splitlines()
     still = [ln for ln in lines if "still working" in ln]
     assert len(still) == 1 and still[0].startswith("[0/2] still working after 0 s, no asset finished")
     assert lines.index(still[0]) < next(i for i, ln in enumerate(lines) if ln.startswith("[1/2]"))
-    # an asset done first: no such line, even after the time has passed
-    progress = _Progress(2, still_working_s=0.2)
+    # an asset done first: no such line, even once the time has passed. (5 s: an advance 0.2 s after the
+    # start on a loaded machine was late, and the line it then printed was right; the cancelled timer's
+    # thread ends at once, one not cancelled prints at 5 s and then ends: joined, either is seen)
+    progress = _Progress(2, still_working_s=5.0)
+    timer = progress.timer
+    assert timer is not None
+    start = time.monotonic()
     progress.advance(_failed("MeshLoadError: no triangles: the file is empty (0 bytes)"))
-    time.sleep(0.5)
+    advanced = time.monotonic() - start
+    timer.join(timeout=60)
+    assert not timer.is_alive()
     progress.close()
     assert "still working" not in capsys.readouterr().err
+    assert advanced < 5.0, advanced  # (the case tested: the asset done before the time)

@@ -219,9 +219,12 @@ def test_meta_depth_scan_is_linear_on_an_unterminated_string() -> None:
     the depth scan before parsing restarted a string at each quote (quadratic: 10 s for this file, 5 ms
     without the scan)."""
     data = _with_meta(b'{"params":{},"a":"' + b'\\"' * 20000)
-    start = time.perf_counter()
-    assert _problems(data) == [("SWPM_META_BAD_JSON", _entry(data, b"META")[1])]
-    assert time.perf_counter() - start < 2.0
+    times = []
+    for _ in range(3):  # the best of three: two xdist workers share the CI's 2 cores with its other jobs
+        start = time.perf_counter()
+        assert _problems(data) == [("SWPM_META_BAD_JSON", _entry(data, b"META")[1])]
+        times.append(time.perf_counter() - start)
+    assert min(times) < 2.0, times  # (3-16 ms measured at a load of 9)
 
 
 def _nest(depth: int) -> list[Any]:

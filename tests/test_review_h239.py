@@ -73,10 +73,11 @@ def test_the_bar_and_its_still_working_line_stay_off_stdout(monkeypatch):
     monkeypatch.setattr(sys, "stdout", out)
     monkeypatch.setattr(sys, "stderr", err)
     progress = _Progress(1, still_working_s=0.01)
+    timer = progress.timer
+    assert timer is not None
     print("stdout's own line, as the bar runs")
-    deadline = time.monotonic() + 10
-    while "still working" not in err.getvalue() and time.monotonic() < deadline:
-        time.sleep(0.01)
+    timer.join(timeout=60)  # (its line printed: the thread's end, however late a loaded machine runs it)
+    assert not timer.is_alive()
     progress.advance({"id": "a.obj", "status": "built", "seconds": 0.1})
     progress.close()
     assert out.getvalue() == "stdout's own line, as the bar runs\n"
@@ -154,15 +155,28 @@ def test_a_run_stopped_by_ctrl_c_says_nothing_of_still_working(tmp_path, monkeyp
         yield  # (a generator, as execute is)
 
     stop = runner._Run.stop
+    # the timer's time ends during the stop: 1 s after the progress starts (the Ctrl-C comes at once, but a
+    # loaded machine may pause the run a while: 0.2 s was within reach), the stop held till 0.5 s past it
+    started, timers = [], []
+
+    def progress(*args, **kwargs):
+        made = partial(_Progress, still_working_s=1.0)(*args, **kwargs)
+        started.append(time.monotonic())
+        timers.append(made.timer)
+        return made
 
     def slow_stop(self):
-        time.sleep(0.6)
+        interrupted_at.append(time.monotonic())
+        time.sleep(max(0.0, started[0] + 1.5 - time.monotonic()))
         stop(self)
 
+    interrupted_at: list[float] = []
     monkeypatch.setattr(runner, "execute", interrupted)
     monkeypatch.setattr(runner._Run, "stop", slow_stop)
-    monkeypatch.setattr(runner, "_Progress", partial(_Progress, still_working_s=0.2))
+    monkeypatch.setattr(runner, "_Progress", progress)
     with pytest.raises(KeyboardInterrupt):
         run(cfg, echo=lambda m: None)
-    time.sleep(0.3)
+    timers[0].join(timeout=60)  # (a line it was to print is printed by its thread's end)
+    assert not timers[0].is_alive()
     assert "still working" not in capsys.readouterr().err
+    assert interrupted_at[0] - started[0] < 1.0  # (the case tested: stopped before the time)

@@ -439,20 +439,35 @@ def _on_dask(tasks: list[dict], jobs: int, scheduler: str | None) -> Generator[d
     from dask.distributed import Client, LocalCluster, as_completed
 
     cluster = None
-    if scheduler:
-        client = Client(scheduler)
-    else:
-        workers = max(1, min(jobs, len(tasks)))  # (no worker with nothing to do)
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True)
-        client = Client(cluster)
+    # (a local cluster's nannies set their workers' variables in this process, OMP_NUM_THREADS=1,
+    # MALLOC_TRIM_THRESHOLD_, PYTHONHASHSEED...: left so, every process the caller started later had them)
+    environ = dict(os.environ)
     try:
-        futures = client.map(process_asset, tasks, pure=False)
-        for fut in as_completed(futures):
-            yield fut.result()
+        if scheduler:
+            client = Client(scheduler)
+        else:
+            workers = max(1, min(jobs, len(tasks)))  # (no worker with nothing to do)
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True)
+            client = Client(cluster)
+        try:
+            futures = client.map(process_asset, tasks, pure=False)
+            for fut in as_completed(futures):
+                yield fut.result()
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
     finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        _restore_environ(environ)
+
+
+def _restore_environ(environ: dict[str, str]) -> None:
+    """``os.environ`` as ``environ`` again: the variables set since removed or given their values back."""
+    for name in [k for k in os.environ if k not in environ]:
+        del os.environ[name]
+    for name, value in environ.items():
+        if os.environ.get(name) != value:
+            os.environ[name] = value
 
 
 def _start_forkserver(ctx: Any, tasks: list[dict]) -> None:
