@@ -28,3 +28,20 @@ def test_a_long_output_name_is_no_error_where_the_run_writes_no_outputs(tmp_path
         "defaults: {encoding: vanilla}\n"
     )
     assert run(cfg, echo=_quiet).built == 2
+
+
+def test_a_near_pattern_s_hint_translates_the_pattern_once_not_once_an_asset(monkeypatch):
+    # a rule's match.path 'set*/*' written from the glob's folder, on 2,000 ids 'lib/setK/rockJ.obj': its
+    # hint (_common_folders) translated 'lib/set*/*' for every id it matched. 100 such rules on 10,000
+    # assets: run --dry-run 4.6 -> 14.6 s; counted here (no timing)
+    import fnmatch
+
+    from swpm_usd.pipeline.selection import _selection_hint
+
+    translate = fnmatch.translate
+    calls = []
+    monkeypatch.setattr(fnmatch, "translate", lambda p: calls.append(p) or translate(p))
+    ids = [f"lib/set{k:02d}/rock{j:02d}.obj" for k in range(40) for j in range(50)]
+    for _ in range(3):  # (three rules of the one pattern)
+        assert _selection_hint("set*/*", ids) == ("lib/set*/*", 2000)
+    assert len(calls) < 20, len(calls)
