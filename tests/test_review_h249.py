@@ -45,3 +45,87 @@ def test_a_near_pattern_s_hint_translates_the_pattern_once_not_once_an_asset(mon
     for _ in range(3):  # (three rules of the one pattern)
         assert _selection_hint("set*/*", ids) == ("lib/set*/*", 2000)
     assert len(calls) < 20, len(calls)
+
+
+class _FakeFuture:
+    def __init__(self, value: dict) -> None:
+        self.value = value
+
+    def result(self) -> dict:
+        return self.value
+
+
+def _fake_dask(monkeypatch, closed: list[str], client_fails: bool = False) -> None:
+    """dask.distributed's Client, LocalCluster and as_completed as stand-ins: the cluster's start sets
+    variables in this process as a local cluster's nannies do (OMP_NUM_THREADS=1, MALLOC_TRIM_THRESHOLD_)."""
+    import os
+
+    import dask.distributed
+
+    class Cluster:
+        def __init__(self, **kwargs) -> None:
+            os.environ["OMP_NUM_THREADS"] = "1"
+            os.environ["H249_NANNY"] = "65536"
+
+        def close(self) -> None:
+            closed.append("cluster")
+
+    class Client:
+        def __init__(self, cluster) -> None:
+            if client_fails:
+                raise OSError("timed out connecting to the cluster")
+
+        def map(self, fn, tasks, pure):
+            return [_FakeFuture(t) for t in tasks]
+
+        def close(self) -> None:
+            closed.append("client")
+
+    monkeypatch.setattr(dask.distributed, "LocalCluster", Cluster)
+    monkeypatch.setattr(dask.distributed, "Client", Client)
+    monkeypatch.setattr(dask.distributed, "as_completed", iter)
+
+
+def test_a_dask_run_gives_back_the_cluster_s_variables_and_keeps_the_caller_s(monkeypatch):
+    # _restore_environ put os.environ back as it was before the run, whole: a variable the caller's other
+    # threads set (or changed) while the run went on was removed (or changed back) at its end
+    import os
+
+    from swpm_usd.pipeline.runner import _on_dask
+
+    monkeypatch.setenv("OMP_NUM_THREADS", "4")
+    monkeypatch.setenv("H249_CALLER_CHANGED", "before")
+    for name in ("H249_NANNY", "H249_CALLER"):  # (recorded absent: removed again at the test's end)
+        monkeypatch.setenv(name, "")
+        monkeypatch.delenv(name)
+    closed: list[str] = []
+    _fake_dask(monkeypatch, closed)
+    results = _on_dask([{"asset": "a"}, {"asset": "b"}], 2, None)
+    assert next(results) == {"asset": "a"}
+    assert os.environ["OMP_NUM_THREADS"] == "1" and os.environ["H249_NANNY"] == "65536"  # (the fakes work)
+    os.environ["H249_CALLER"] = "set meanwhile"  # (another thread of the caller, while the run goes on)
+    os.environ["H249_CALLER_CHANGED"] = "after"
+    assert list(results) == [{"asset": "b"}]
+    assert closed == ["client", "cluster"]
+    assert os.environ["OMP_NUM_THREADS"] == "4" and "H249_NANNY" not in os.environ
+    assert os.environ.get("H249_CALLER") == "set meanwhile"
+    assert os.environ["H249_CALLER_CHANGED"] == "after"
+
+
+def test_a_dask_client_that_fails_to_start_closes_its_local_cluster(monkeypatch):
+    # Client(cluster) raising left the LocalCluster's workers running (cluster.close() was never reached)
+    import os
+
+    import pytest
+
+    from swpm_usd.pipeline.runner import _on_dask
+
+    monkeypatch.setenv("OMP_NUM_THREADS", "4")
+    monkeypatch.setenv("H249_NANNY", "")
+    monkeypatch.delenv("H249_NANNY")
+    closed: list[str] = []
+    _fake_dask(monkeypatch, closed, client_fails=True)
+    with pytest.raises(OSError, match="timed out"):
+        next(_on_dask([{"asset": "a"}], 1, None))
+    assert closed == ["cluster"]
+    assert os.environ["OMP_NUM_THREADS"] == "4" and "H249_NANNY" not in os.environ
