@@ -560,6 +560,8 @@ def discover(
     # two stage entries of one file stem and prim paths: (first entry, later entry) -> the stems both write,
     # said once a pair of entries (two sets of 1,000 prims under /World: 1,000 problems were listed)
     stage_pairs: dict[tuple[int, int], list[str]] = {}
+    # (a run writing no outputs, swpm and usd off, names no file after an asset: any name does)
+    writes = bool(cfg.data["output"].get("swpm", True) or cfg.data["output"].get("usd", False))
     for a in assets:
         stem = a.output_stem
         where = cfg.where(("assets", a.source_index))
@@ -579,7 +581,7 @@ def discover(
                 f"filesystem (macOS, Windows): {stem}.swpm and {other_stem}.swpm differ only in {differ}"
                 f"{_names_hint(cfg, a, other) or '; rename one'}"
             )
-        if len(os.fsencode(stem)) > LONGEST_STEM:
+        if writes and len(os.fsencode(stem)) > LONGEST_STEM:
             problems.append(f"{where}: {a.id}: {_too_long(cfg, a, stem)}")
         seen[stem] = a
         folded.setdefault(_folded(stem), (a, stem))

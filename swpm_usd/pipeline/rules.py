@@ -95,6 +95,7 @@ def _unreached_rules(cfg: Config, items: list[PlanItem]) -> list[str]:
     reached = {i.rule for i in items}
     rules = cfg.data.get("rules", [])
     warnings = []
+    path_hints: dict[str, str] = {}  # (a pattern's hint, once: each looks at every asset's id)
     for idx, rule in enumerate(rules):
         if idx in reached:
             continue
@@ -115,7 +116,7 @@ def _unreached_rules(cfg: Config, items: list[PlanItem]) -> list[str]:
                 "matches is taken by an earlier rule"
             )
         else:
-            hint = _path_hint(rule, items) or _tag_hint(rule)
+            hint = _path_hint(rule, items, path_hints) or _tag_hint(rule)
             warnings.append(f"{cfg.where(('rules', idx))}: rule {rule['name']!r} matches no asset{hint}")
     return warnings
 
@@ -131,15 +132,20 @@ def _tag_hint(rule: dict[str, Any]) -> str:
     )
 
 
-def _path_hint(rule: dict[str, Any], items: list[PlanItem]) -> str:
+def _path_hint(rule: dict[str, Any], items: list[PlanItem], known: dict[str, str] | None = None) -> str:
     """Where a rule's ``match.path`` matches no asset's path at all: how paths are written and, as ``--only``
     says, the pattern near it that matches some (``props/*`` written from the glob's folder for
-    ``assets/props/*``: the warning named the rule alone, and the studio looked at its other conditions)."""
+    ``assets/props/*``: the warning named the rule alone, and the studio looked at its other conditions).
+    ``known``: the hints of patterns already looked at (a pattern -> its hint), kept there."""
     from .selection import _selection_hint
 
     pattern = (rule.get("match") or {}).get("path")
     if not isinstance(pattern, str):
         return ""
+    if known is not None:
+        if pattern not in known:
+            known[pattern] = _path_hint(rule, items)
+        return known[pattern]
     ids = list(dict.fromkeys(it.asset.file_id for it in items))
     if not ids or any(fnmatch.fnmatch(i, pattern) for i in ids):
         return ""

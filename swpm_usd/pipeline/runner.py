@@ -438,36 +438,45 @@ def _on_dask(tasks: list[dict], jobs: int, scheduler: str | None) -> Generator[d
     require_dask()
     from dask.distributed import Client, LocalCluster, as_completed
 
-    cluster = None
+    cluster = client = None
     # (a local cluster's nannies set their workers' variables in this process, OMP_NUM_THREADS=1,
     # MALLOC_TRIM_THRESHOLD_, PYTHONHASHSEED...: left so, every process the caller started later had them)
     environ = dict(os.environ)
+    started: dict[str, str] | None = None  # (os.environ once the cluster is up)
     try:
         if scheduler:
             client = Client(scheduler)
         else:
             workers = max(1, min(jobs, len(tasks)))  # (no worker with nothing to do)
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True)
-            client = Client(cluster)
-        try:
-            futures = client.map(process_asset, tasks, pure=False)
-            for fut in as_completed(futures):
-                yield fut.result()
-        finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+            client = Client(cluster)  # (its failure closes the cluster too: its workers were left running)
+        started = dict(os.environ)
+        futures = client.map(process_asset, tasks, pure=False)
+        for fut in as_completed(futures):
+            yield fut.result()
     finally:
-        _restore_environ(environ)
+        try:
+            if client is not None:
+                client.close()
+        finally:
+            try:
+                if cluster is not None:
+                    cluster.close()
+            finally:
+                _restore_environ(environ, dict(os.environ) if started is None else started)
 
 
-def _restore_environ(environ: dict[str, str]) -> None:
-    """``os.environ`` as ``environ`` again: the variables set since removed or given their values back."""
-    for name in [k for k in os.environ if k not in environ]:
-        del os.environ[name]
-    for name, value in environ.items():
-        if os.environ.get(name) != value:
-            os.environ[name] = value
+def _restore_environ(before: dict[str, str], after: dict[str, str]) -> None:
+    """Undo what took ``os.environ`` from ``before`` to ``after`` (a cluster's start): each variable it set,
+    changed or removed is given its value in ``before`` back, unless it has changed again since (the
+    caller's other threads' variables, set while the run went on, are theirs: they were all undone)."""
+    for name in {*before, *after}:
+        if before.get(name) == after.get(name) or os.environ.get(name) != after.get(name):
+            continue
+        if name in before:
+            os.environ[name] = before[name]
+        else:
+            del os.environ[name]
 
 
 def _start_forkserver(ctx: Any, tasks: list[dict]) -> None:

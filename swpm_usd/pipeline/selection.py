@@ -8,6 +8,7 @@ the whole config and builds the selection (:func:`.runner.run`).
 from __future__ import annotations
 
 import fnmatch
+import functools
 import re
 import unicodedata
 from collections.abc import Iterable
@@ -128,9 +129,12 @@ def _selection_clashes(cfg: Config, items: list, picked: list, force: bool) -> l
     return clashes
 
 
+@functools.lru_cache(maxsize=1024)
 def _pattern(pattern: str) -> re.Pattern[str]:
     """``pattern`` as fnmatch reads it (``*`` any characters, ``/`` and ``:`` too; ``?`` one; ``[seq]``),
-    case-sensitive on every system (ids are the config's paths), or the id it is written as."""
+    case-sensitive on every system (ids are the config's paths), or the id it is written as. Cached: the
+    hints try one pattern on every id (:func:`_common_folders`: 100 unmatched rules' hints on 10,000 ids
+    translated it 1,000,000 times, 10 s of a 15 s dry run)."""
     return re.compile(f"{re.escape(pattern)}\\Z|{fnmatch.translate(pattern)}")
 
 
