@@ -1,0 +1,47 @@
+"""The command line's remaining warts from a studio walk-through (helper-248): a slow ``inspect``/``validate``
+start, a dry run's Ctrl-C note, ``--prefix`` past the end, usd-core's raw warnings on a missing layer, a dry
+run's ``? {}`` for a rule the path decides, and the direct skip-strip/mixed builds' unbounded cache size."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _square():
+    import swpm_usd
+
+    return swpm_usd.Mesh.from_arrays(
+        [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0.5, 0.1]],
+        [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]],
+    )
+
+
+@pytest.mark.parametrize("encoding", ["skip-strip", "mixed"])
+@pytest.mark.parametrize("cache_size", [0, 1025, 10**9])
+def test_direct_skip_strip_and_mixed_builds_bound_their_cache_size_as_build_does(encoding, cache_size):
+    """``build()`` refused ``cache_size=10**9`` (the FIFO simulations allocate that many entries); the
+    encoders called directly took it (and ran for minutes)."""
+    import swpm_usd
+    from swpm_usd.encode.mixed import build_mixed, build_mixed_mesh
+    from swpm_usd.encode.skipstrip import build_skipstrip, build_skipstrip_mesh
+    from swpm_usd.errors import BuildError
+    from swpm_usd.simplify import collapse_sequence
+
+    mesh = _square()
+    direct_seq, direct_mesh = {
+        "skip-strip": (build_skipstrip, build_skipstrip_mesh),
+        "mixed": (build_mixed, build_mixed_mesh),
+    }[encoding]
+    with pytest.raises(BuildError) as via_build:
+        swpm_usd.build(mesh, encoding=encoding, cache_size=cache_size)
+    with pytest.raises(BuildError) as direct:
+        direct_seq(collapse_sequence(mesh), cache_size=cache_size)
+    assert str(direct.value) == str(via_build.value)
+    with pytest.raises(BuildError) as direct:
+        direct_mesh(mesh, cache_size=cache_size)
+    assert str(direct.value) == str(via_build.value)
+    assert ("at least 1" if cache_size < 1 else "at most 1024") in str(direct.value)
