@@ -45,3 +45,31 @@ def test_direct_skip_strip_and_mixed_builds_bound_their_cache_size_as_build_does
         direct_mesh(mesh, cache_size=cache_size)
     assert str(direct.value) == str(via_build.value)
     assert ("at least 1" if cache_size < 1 else "at most 1024") in str(direct.value)
+
+
+@pytest.mark.parametrize("dry_run", [True, False])
+def test_a_dry_run_stopped_by_ctrl_c_does_not_say_it_recorded_anything(tmp_path, monkeypatch, dry_run):
+    """A dry run interrupted said "the assets finished are recorded in the manifest, and a rerun builds the
+    rest": it records nothing. A run's note is as it was."""
+    from click.testing import CliRunner
+
+    import swpm_usd.pipeline
+    from swpm_usd.cli import main
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(swpm_usd.pipeline, "run", interrupted)
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text("inputs: []\n")
+    r = CliRunner().invoke(main, ["run", str(cfg), *(["--dry-run"] if dry_run else [])])
+    assert r.exit_code == 130, r.output
+    if dry_run:
+        assert r.stderr == "swpm-pipeline run: interrupted; a dry run builds and writes nothing\n"
+        assert "recorded" not in r.stderr and "rerun" not in r.stderr
+    else:
+        assert r.stderr == (
+            "swpm-pipeline run: interrupted; the assets finished are recorded in the manifest, and a rerun "
+            "builds the rest\n"
+        )
+    assert r.stdout == ""
