@@ -4,6 +4,7 @@ run's ``? {}`` for a rule the path decides, and the direct skip-strip/mixed buil
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -73,3 +74,57 @@ def test_a_dry_run_stopped_by_ctrl_c_does_not_say_it_recorded_anything(tmp_path,
             "builds the rest\n"
         )
     assert r.stdout == ""
+
+
+_BROKEN_PLY = b"ply\nformat ascii 1.0\nelement vertex 3\nend_header\n1 2\n"
+
+
+@pytest.mark.parametrize(
+    ("rules", "encoding", "params", "why"),
+    [
+        (  # the first rule that matches it checks its path alone: that rule, whatever its triangles
+            "  - {name: plys, match: {path: '*.ply'}, encoding: skip-strip, params: {primitive: list}}\n"
+            "  - {name: tiny, match: {triangles: {max: 100}}, encoding: mixed}\n",
+            "skip-strip",
+            {"primitive": "list"},
+            "rule 'plys' matched (path) before any rule on triangles: the file did not load",
+        ),
+        (  # a rule on triangles whose path it fails does not decide; the defaults do
+            "  - {name: tiny-objs, match: {path: '*.obj', triangles: {max: 100}}, encoding: mixed}\n",
+            "vanilla",
+            {},
+            "no rule matched, whatever the triangles: defaults: the file did not load",
+        ),
+        (  # a rule on triangles first: the worker's, once it counts them (as it was)
+            "  - {name: tiny, match: {triangles: {max: 100}}, encoding: mixed}\n"
+            "  - {name: plys, match: {path: 'meshes/*.ply'}, encoding: skip-strip}\n",
+            None,
+            {},
+            "rule chosen by the worker: the file did not load",
+        ),
+    ],
+)
+def test_a_dry_run_shows_the_rule_the_path_decides_for_a_file_that_does_not_load(
+    tmp_path, rules, encoding, params, why
+):
+    """``run --dry-run`` showed ``? {}`` ("rule chosen by the worker") for an input that did not load even
+    when the first rule it matches checks its path alone."""
+    from swpm_usd.pipeline import run
+
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "meshes" / "broken.ply").write_bytes(_BROKEN_PLY)
+    (tmp_path / "meshes" / "a.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    cfg = tmp_path / "pipeline.yaml"
+    cfg.write_text(
+        "version: 1\nassets: [{glob: 'meshes/*'}]\noutput: {dir: out, report: false}\n"
+        f"defaults: {{encoding: vanilla}}\nrules:\n{rules}"
+    )
+    lines: list[str] = []
+    res = run(cfg, dry_run=True, echo=lines.append)
+    entry = next(p for p in res.plan if p["id"] == "meshes/broken.ply")
+    assert (entry["encoding"], entry["params"], entry["triangles_count"]) == (encoding, params, "unknown")
+    assert entry["why"].startswith(why), entry["why"]
+    shown = next(ln for ln in lines if ln.startswith("meshes/broken.ply: "))
+    assert shown.startswith(f"meshes/broken.ply: {encoding or '?'} {json.dumps(params)} [to build] "), shown
+    assert f"; {entry['why']}" in shown
+    assert not (tmp_path / "out").exists()
