@@ -128,3 +128,30 @@ def test_a_dry_run_shows_the_rule_the_path_decides_for_a_file_that_does_not_load
     assert shown.startswith(f"meshes/broken.ply: {encoding or '?'} {json.dumps(params)} [to build] "), shown
     assert f"; {entry['why']}" in shown
     assert not (tmp_path / "out").exists()
+
+
+def test_validate_prefix_past_the_end_of_the_file_says_so():
+    """``validate ok.swpm --prefix N`` with N past the end was taken as the whole file without a word. It
+    still checks the whole file (a script's one N for files of every size keeps working) and says so."""
+    from click.testing import CliRunner
+
+    from swpm_usd.cli import main
+
+    path = str(ROOT / "spec" / "vectors" / "valid" / "minimal-vanilla.swpm")
+    size = Path(path).stat().st_size
+    for n in (size + 1, 1 << 60):
+        r = CliRunner().invoke(main, ["validate", path, "--prefix", str(n)])
+        assert r.exit_code == 0, r.output
+        assert f"{size} of {size} bytes draw LODs" in r.stdout
+        assert r.stderr == (
+            f"note: --prefix {n} is past the end of {path} ({size} bytes): the whole file was checked\n"
+        )
+        r = CliRunner().invoke(main, ["validate", path, "--prefix", str(n), "--json"])
+        assert r.exit_code == 0, r.output
+        prefix = json.loads(r.stdout)["summary"]["prefix"]
+        assert (prefix["bytes"], prefix["file_size"], prefix["requested_bytes"]) == (size, size, n)
+    for n in (size, size - 12):  # (a prefix of the file: no note, no requested_bytes)
+        r = CliRunner().invoke(main, ["validate", path, "--prefix", str(n)])
+        assert r.exit_code == 0 and r.stderr == "", r.output
+        r = CliRunner().invoke(main, ["validate", path, "--prefix", str(n), "--json"])
+        assert "requested_bytes" not in json.loads(r.stdout)["summary"]["prefix"]
