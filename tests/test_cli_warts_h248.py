@@ -5,6 +5,9 @@ run's ``? {}`` for a rule the path decides, and the direct skip-strip/mixed buil
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -155,3 +158,80 @@ def test_validate_prefix_past_the_end_of_the_file_says_so():
         assert r.exit_code == 0 and r.stderr == "", r.output
         r = CliRunner().invoke(main, ["validate", path, "--prefix", str(n), "--json"])
         assert "requested_bytes" not in json.loads(r.stdout)["summary"]["prefix"]
+
+
+_SCENE_MISSING_LAYERS = """#usda 1.0
+(
+    defaultPrim = "World"
+    metersPerUnit = 1
+    upAxis = "Y"
+    subLayers = [@./gone_sub.usda@]
+)
+
+def Xform "World"
+{
+    def "A" (
+        prepend references = @./gone_a.usdc@
+    )
+    {
+    }
+    def "B" (
+        prepend payload = @./gone_b.usdc@</Root>
+    )
+    {
+    }
+}
+"""
+
+
+@pytest.mark.parametrize("options", [[], ["--no-builtin"], ["--json"]])
+def test_validate_a_stage_missing_a_layer_reports_it_coded_and_prints_nothing_of_usd_cores(tmp_path, options):
+    """``validate scene.usda`` with a reference that does not resolve: usd-core's raw warnings ("Warning: in
+    _ReportErrors at line 3326 of .../stage.cpp -- ...", its MissingReferenceValidator's) reached stderr
+    beside the report, and with ``--no-builtin`` the stage was "valid". Each missing layer is now one
+    SWPM_USD_LAYER_MISSING naming it, at the prim that names it; the report is the only output."""
+    scene = tmp_path / "scene.usda"
+    scene.write_text(_SCENE_MISSING_LAYERS)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), *sys.path])}
+    proc = subprocess.run(
+        [sys.executable, "-c", "from swpm_usd.cli import main; main()", "validate", str(scene), *options],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
+    assert proc.returncode == 1, proc.stdout + proc.stderr
+    assert proc.stderr == ""
+    expected = {
+        ("/", f"sublayer {tmp_path / 'gone_sub.usda'}: file not found"),
+        ("/World/A", f"reference {tmp_path / 'gone_a.usdc'}: file not found"),
+        ("/World/B", f"payload {tmp_path / 'gone_b.usdc'}: file not found"),
+    }
+    if "--json" in options:
+        found = json.loads(proc.stdout)["findings"]
+        ours = {
+            (f["prim"], f["message"].split(" (usd-core: ")[0])
+            for f in found
+            if f["code"] == ("SWPM_USD_LAYER_MISSING")
+        }
+        assert ours == expected
+    else:
+        lines = [ln for ln in proc.stdout.splitlines() if " SWPM_USD_LAYER_MISSING " in ln]
+        ours = {(ln.split()[2].rstrip(":"), ln.split(": ", 1)[1].split(" (usd-core: ")[0]) for ln in lines}
+        assert ours == expected, proc.stdout
+        assert proc.stdout.splitlines()[-1].startswith(f"{scene}: INVALID")
+    if "--no-builtin" in options:
+        assert len(proc.stdout.splitlines()) == 4, proc.stdout  # (ours alone: three, and the verdict)
+
+
+def test_validate_stage_keeps_usd_cores_other_warnings(tmp_path):
+    """Only the warnings a finding reports are dropped: another of usd-core's is printed as before."""
+    from pxr import Tf
+
+    from swpm_usd.usd.validate import _reported_warnings_trapped
+
+    with Tf.DiagnosticTrap() as outer:
+        with _reported_warnings_trapped():
+            Tf.Warn("another warning")
+        assert [str(w.commentary) for w in outer.GetWarnings()] == ["another warning"]
+        outer.Clear()
