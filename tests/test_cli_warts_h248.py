@@ -235,3 +235,116 @@ def test_validate_stage_keeps_usd_cores_other_warnings(tmp_path):
             Tf.Warn("another warning")
         assert [str(w.commentary) for w in outer.GetWarnings()] == ["another warning"]
         outer.Clear()
+
+
+_MODULES_AT_EXIT = (
+    "import atexit, sys\n"
+    "loaded = lambda: sorted(m for m in ('numba', 'swpm_usd.encode') if m in sys.modules)\n"
+    "atexit.register(lambda: print(loaded(), file=sys.stderr))\n"
+    "from swpm_usd.cli import main\n"
+    "main()\n"
+)
+
+
+@pytest.mark.parametrize(
+    ("vector", "loaded"),
+    [("skip-strip-strip.swpm", []), ("skip-strip-list.swpm", []), ("minimal-vanilla.swpm", ["numba"])],
+)
+@pytest.mark.parametrize("command", ["inspect", "validate"])
+def test_inspect_and_validate_start_without_the_encoders(command, vector, loaded):
+    """``inspect``/``validate`` of one file took 1.5 s: the reader imported the encoders (numba and every
+    encoder module: 1.0 s) and the skip-strip check loaded two numba kernels (0.7 s) for a check of
+    milliseconds. The encoders are imported by ``load`` alone, a skip-strip file is checked with numpy (no
+    numba at all), the other encodings' replays load numba when they run."""
+    path = ROOT / "spec" / "vectors" / "valid" / vector
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), *sys.path])}
+    proc = subprocess.run(
+        [sys.executable, "-c", _MODULES_AT_EXIT, command, str(path)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert proc.stderr.strip() == repr(loaded), proc.stderr
+
+
+def test_the_numpy_skip_strip_kernels_give_the_jitted_ones_results():
+    """:mod:`swpm_usd.format.kernels_np` against :mod:`swpm_usd.format.kernels` on random level tables and
+    records, consistent ones (kind 0: the triangle counts compared too) and broken ones (kinds 1 and 3)."""
+    import numpy as np
+
+    from swpm_usd.format import kernels as jitted
+    from swpm_usd.format import kernels_np as plain
+
+    rng = np.random.default_rng(248)
+    kinds: dict[int, int] = {}
+    for _ in range(600):
+        n, nv = int(rng.integers(1, 5)), int(rng.integers(3, 12))
+        lens = rng.integers(0, 12, n)
+        lstart = np.concatenate(([0], np.cumsum(lens))).astype(np.int64)
+        strip, restart = bool(rng.integers(0, 2)), int(rng.choice([-1, 65535]))
+        lst = rng.integers(0, nv, int(lstart[-1])).astype(np.int64)
+        if restart >= 0 and lst.size:
+            lst[rng.random(lst.size) < 0.1] = restart
+        rstart = np.concatenate(([0], np.cumsum(rng.integers(0, 4, n)))).astype(np.int64)
+        R = int(rstart[-1])
+        kept = rng.integers(0, nv, R).astype(np.int64)
+        cc = rng.integers(0, 4, R).astype(np.int64)
+        offs, slots = [], []
+        for lv in range(n):
+            if lens[lv] == 0:
+                cc[rstart[lv] : rstart[lv + 1]] = 0
+            for r in range(rstart[lv], rstart[lv + 1]):
+                for _ in range(cc[r]):
+                    offs.append(int(rng.integers(0, lens[lv])))
+                    slots.append((int(lstart[lv]) + offs[-1], r))
+        offsets = np.array(offs, np.int64)
+        if rng.random() < 0.7:  # records that hold: a slot's first change finds its binned vertex (mostly)
+            seen: set[int] = set()
+            for s, r in slots:
+                if s not in seen and rng.random() < 0.97:
+                    lst[s] = nv - 1 - r
+                seen.add(s)
+            buf = lst.copy()
+            for s, r in slots:
+                buf[s] = kept[r]
+            coll = buf.copy()
+            if rng.random() < 0.2 and coll.size:
+                coll[rng.integers(0, coll.size)] += 1
+        else:
+            coll = rng.integers(0, nv, lst.size).astype(np.int64)
+        args = (lst, lstart, coll, rstart, kept, cc, offsets, nv, strip, restart)
+        want, got = jitted.skip_replay(*args), plain.skip_replay_np(*args)
+        assert tuple(int(x) for x in want[:3]) == got[:3], args
+        if got[0] == 0:
+            assert np.array_equal(want[3], got[3]), args
+        kinds[got[0]] = kinds.get(got[0], 0) + 1
+        limits = rng.integers(0, nv + 1, n).astype(np.int64)
+        for exempt in (-1, 65535):
+            want_seg = tuple(int(x) for x in jitted.segment_limits(lst, lstart, limits, exempt))
+            assert plain.segment_limits(lst, lstart, limits, exempt) == want_seg
+    assert kinds.get(0, 0) > 100 and kinds.get(1, 0) > 20 and kinds.get(3, 0) > 20, kinds
+
+
+def test_every_vector_reads_the_same_with_the_numpy_skip_strip_kernels(monkeypatch):
+    """Each vector's report (problems, offsets, summary) with the numpy kernels is the one the jitted kernels
+    give (the C reader and the independent reader agree with it: test_conformance, test_c_reader)."""
+    import swpm_usd.format.check_mixed as check_mixed
+    import swpm_usd.format.check_skip as check_skip
+    from swpm_usd.format import kernels as jitted
+    from swpm_usd.format.reader import validate
+
+    def report(path):
+        rep = validate(path)
+        return [(p.code, p.offset, p.message) for p in rep.problems], json.dumps(rep.summary, default=str)
+
+    files = sorted((ROOT / "spec" / "vectors").rglob("*.swpm"))
+    skip_like = [f for f in files if "skip" in f.name or "mixed" in f.name]
+    assert len(skip_like) > 10
+    monkeypatch.setattr(check_skip, "_use_jitted", lambda elements: False)
+    plain = {f: report(f) for f in files}
+    monkeypatch.setattr(check_skip, "_use_jitted", lambda elements: True)
+    monkeypatch.setattr(check_skip, "segment_limits", jitted.segment_limits)
+    monkeypatch.setattr(check_mixed, "segment_limits", jitted.segment_limits)
+    assert {f: report(f) for f in files} == plain

@@ -14,7 +14,6 @@ import numpy as np
 from . import layout as L
 from .check_records import _common_records, _kept_below_binned, _lod_counts_check, _record_chunk
 from .errors import Report
-from .kernels import vanilla_replay
 from .parsed import _frozen, _get, _index_check, _Parsed, _view
 
 
@@ -71,6 +70,8 @@ def _vanilla(p: _Parsed, rep: Report) -> None:
         n = rc.astype(np.int64)
         ok &= _lod_counts_check(p, rep, V - n, T0 - cum[n])
     if ok and full:
+        from .kernels import vanilla_replay  # (numba: loaded by the check that replays, not by the import)
+
         fields = (rec[f] for f in ("collapse_kept", "collapse_tris_removed", "collapse_change_count"))
         kind, r, s = vanilla_replay(*(_frozen(a) for a in (indices, *fields, offs)), V)
         if kind == 1:
