@@ -248,14 +248,19 @@ _MODULES_AT_EXIT = (
 
 @pytest.mark.parametrize(
     ("vector", "loaded"),
-    [("skip-strip-strip.swpm", []), ("skip-strip-list.swpm", []), ("minimal-vanilla.swpm", ["numba"])],
+    [
+        ("skip-strip-strip.swpm", []),
+        ("skip-strip-list.swpm", []),
+        ("minimal-vanilla.swpm", []),
+        ("sliding-window-offset32.swpm", ["numba"]),
+    ],
 )
 @pytest.mark.parametrize("command", ["inspect", "validate"])
 def test_inspect_and_validate_start_without_the_encoders(command, vector, loaded):
     """``inspect``/``validate`` of one file took 1.5 s: the reader imported the encoders (numba and every
     encoder module: 1.0 s) and the skip-strip check loaded two numba kernels (0.7 s) for a check of
-    milliseconds. The encoders are imported by ``load`` alone, a skip-strip file is checked with numpy (no
-    numba at all), the other encodings' replays load numba when they run."""
+    milliseconds. The encoders are imported by ``load`` alone, a skip-strip or vanilla file is checked with
+    numpy (no numba at all), the other encodings' checks load numba when they run."""
     path = ROOT / "spec" / "vectors" / "valid" / vector
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), *sys.path])}
     proc = subprocess.run(
@@ -327,12 +332,14 @@ def test_the_numpy_skip_strip_kernels_give_the_jitted_ones_results():
     assert kinds.get(0, 0) > 100 and kinds.get(1, 0) > 20 and kinds.get(3, 0) > 20, kinds
 
 
-def test_every_vector_reads_the_same_with_the_numpy_skip_strip_kernels(monkeypatch):
-    """Each vector's report (problems, offsets, summary) with the numpy kernels is the one the jitted kernels
-    give (the C reader and the independent reader agree with it: test_conformance, test_c_reader)."""
+def test_every_vector_reads_the_same_with_the_numpy_kernels(monkeypatch):
+    """Each vector's report (problems, offsets, summary) with the numpy kernels (skip-strip and vanilla
+    replays, segment limits) is the one the jitted kernels give (the C reader and the independent reader
+    agree with it: test_conformance, test_c_reader)."""
     import swpm_usd.format.check_mixed as check_mixed
     import swpm_usd.format.check_skip as check_skip
     from swpm_usd.format import kernels as jitted
+    from swpm_usd.format import kernels_np
     from swpm_usd.format.reader import validate
 
     def report(path):
@@ -340,11 +347,51 @@ def test_every_vector_reads_the_same_with_the_numpy_skip_strip_kernels(monkeypat
         return [(p.code, p.offset, p.message) for p in rep.problems], json.dumps(rep.summary, default=str)
 
     files = sorted((ROOT / "spec" / "vectors").rglob("*.swpm"))
-    skip_like = [f for f in files if "skip" in f.name or "mixed" in f.name]
-    assert len(skip_like) > 10
-    monkeypatch.setattr(check_skip, "_use_jitted", lambda elements: False)
+    replayed = [f for f in files if any(e in f.name for e in ("skip", "mixed", "vanilla"))]
+    assert len(replayed) > 10
+    monkeypatch.setattr(kernels_np, "use_jitted", lambda elements: False)
     plain = {f: report(f) for f in files}
-    monkeypatch.setattr(check_skip, "_use_jitted", lambda elements: True)
+    monkeypatch.setattr(kernels_np, "use_jitted", lambda elements: True)
     monkeypatch.setattr(check_skip, "segment_limits", jitted.segment_limits)
     monkeypatch.setattr(check_mixed, "segment_limits", jitted.segment_limits)
     assert {f: report(f) for f in files} == plain
+
+
+def test_the_numpy_vanilla_replay_gives_the_jitted_ones_results():
+    """:func:`swpm_usd.format.kernels_np.vanilla_replay_np` against the jitted kernel on random records: a
+    change off its binned vertex or past the live triangles (kind 1), a binned vertex still referenced
+    (kind 2), and records that hold (kind 0)."""
+    import numpy as np
+
+    from swpm_usd.format import kernels as jitted
+    from swpm_usd.format import kernels_np as plain
+
+    rng = np.random.default_rng(2048)
+    kinds: dict[int, int] = {}
+    for _ in range(1500):
+        V, T0 = int(rng.integers(3, 10)), int(rng.integers(1, 8))
+        n = 3 * T0 + (int(rng.integers(0, 3)) if rng.random() < 0.2 else 0)  # (a tail no record removes)
+        indices = rng.integers(0, V, n).astype(np.int64)
+        R = int(rng.integers(0, V))
+        kept = rng.integers(0, V, R).astype(np.int64)
+        removed = np.zeros(R, np.int64)
+        left = T0
+        for r in range(R):
+            removed[r] = int(rng.integers(0, min(left, 3) + 1))
+            left -= int(removed[r])
+        cc = rng.integers(0, 4, R).astype(np.int64)
+        offsets = rng.integers(0, 3 * T0, int(cc.sum())).astype(np.int64)
+        if rng.random() < 0.6:  # changes that find their binned vertex, mostly
+            j, buf = 0, indices.copy()
+            for r in range(R):
+                for _ in range(cc[r]):
+                    s = offsets[j]
+                    j += 1
+                    if rng.random() < 0.95 and buf[s] == indices[s]:
+                        indices[s] = V - 1 - r
+                    buf[s] = kept[r]
+        args = (indices, kept, removed, cc, offsets, V)
+        want = tuple(int(x) for x in jitted.vanilla_replay(*args))
+        assert plain.vanilla_replay_np(*args) == want, args
+        kinds[want[0]] = kinds.get(want[0], 0) + 1
+    assert min(kinds.get(kind, 0) for kind in (0, 1, 2)) > 100, kinds

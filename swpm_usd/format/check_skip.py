@@ -9,36 +9,25 @@ stored collapsed list. Separate from the reader, as each encoding's checks are: 
 
 from __future__ import annotations
 
-import sys
 from typing import Any
 
 import numpy as np
 
+from . import kernels_np
 from . import layout as L
 from .check_records import _common_records, _kept_below_binned, _offsets_in_level, _record_chunk
 from .errors import Report
-from .kernels_np import segment_limits, skip_replay_np
+from .kernels_np import segment_limits
 from .parsed import _arrays, _Chunk, _frozen, _get, _index_check, _Parsed, _view
-
-#: list elements above which the jitted replay pays for loading numba in a process that has not (the numpy one
-#: takes ~0.2 us an element, 113 ms for a 4.2 MB bunny; numba's import and kernel load ~1.2 s)
-_NUMPY_REPLAY_MAX = 4_000_000
-
-
-def _use_jitted(elements: int) -> bool:
-    """The jitted replay where numba is loaded already (a pipeline worker, a process validating many files:
-    10x faster a file), or the file is large; else numpy (``validate``/``inspect`` of one file start without
-    numba: 1.5 -> 0.8 s on cow). Both give the same results (tests/test_cli_warts_h248.py)."""
-    return "numba" in sys.modules or elements > _NUMPY_REPLAY_MAX
 
 
 def skip_replay(*args: Any) -> tuple[int, int, int, np.ndarray]:
-    """:func:`.kernels.skip_replay` or :func:`.kernels_np.skip_replay_np` (:func:`_use_jitted`)."""
-    if _use_jitted(int(args[0].shape[0])):
+    """:func:`.kernels.skip_replay` or :func:`.kernels_np.skip_replay_np` (:func:`.kernels_np.use_jitted`)."""
+    if kernels_np.use_jitted(int(args[0].shape[0]) + int(args[6].shape[0])):  # (list elements and changes)
         from .kernels import skip_replay as jitted
 
         return jitted(*args)
-    return skip_replay_np(*args)
+    return kernels_np.skip_replay_np(*args)
 
 
 def _skip(p: _Parsed, rep: Report) -> None:

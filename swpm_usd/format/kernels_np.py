@@ -1,16 +1,32 @@
-"""numpy versions of the skip-strip check's kernels (:func:`.kernels.segment_limits`,
-:func:`.kernels.skip_replay`, as :func:`skip_replay_np`): the same results, without numba.
+"""numpy versions of the validator's kernels for skip-strip and vanilla files
+(:func:`.kernels.segment_limits`, :func:`.kernels.skip_replay` as :func:`skip_replay_np`,
+:func:`.kernels.vanilla_replay` as :func:`vanilla_replay_np`): the same results, without numba.
 
 ``validate`` and ``inspect`` of one file spent 1.5 s starting: numba's import and its cached kernels' load
 (0.7 s for the skip-strip check's two on cow) for a check that takes milliseconds once loaded. These replay
 a file's records vectorised (each change's slot value before it, each affected triangle's corners at its
-time, by sorting the changes by slot), so a skip-strip file's check loads no numba at all; callers check
+time, by sorting the changes by slot), so a skip-strip or vanilla file's check loads no numba; callers check
 every index, offset and range first, as for the jitted kernels.
 """
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
+
+#: list elements and changes above which a jitted replay pays for loading numba in a process that has not
+#: (the numpy one takes ~0.2 us an element, 113 ms for a 4.2 MB skip-strip bunny; numba's import and kernel
+#: load ~0.8 s; its memory, a few hundred bytes a change, stays bounded)
+NUMPY_REPLAY_MAX = 4_000_000
+
+
+def use_jitted(elements: int) -> bool:
+    """A replay of ``elements`` (list elements and changes) jitted where numba is loaded already (a pipeline
+    worker, a process validating many files: ~10x faster a file) or the file is large; else numpy, so that
+    ``validate``/``inspect`` of one file start without numba. Both give the same results
+    (tests/test_cli_warts_h248.py)."""
+    return "numba" in sys.modules or elements > NUMPY_REPLAY_MAX
 
 
 def segment_limits(arr: np.ndarray, starts: np.ndarray, limits: np.ndarray, exempt: int) -> tuple[int, int]:
@@ -90,9 +106,8 @@ def skip_replay_np(
         np.flatnonzero(np.asarray(coll[lo_all:hi_all]).astype(np.int64) != final[lo_all:hi_all]) + lo_all
     )
     tris = np.zeros(R + n, np.int64)
-    if (
-        differs.size
-    ):  # (the first level whose collapsed list differs, unless a change fails in a level before)
+    # (the first level whose collapsed list differs, unless a change fails in a level before it)
+    if differs.size:
         i3 = int(differs[0])
         l3 = int(np.searchsorted(lstart, i3, side="right")) - 1
         if not bad.size or l3 < int(lv[bad[0]]):
@@ -139,3 +154,63 @@ def skip_replay_np(
     elif rn:
         tris[:rn] = init[level_of_rec]
     return 0, 0, 0, tris
+
+
+def vanilla_replay_np(
+    indices: np.ndarray,
+    kept: np.ndarray,
+    removed: np.ndarray,
+    change_count: np.ndarray,
+    offsets: np.ndarray,
+    vertex_count: int,
+) -> tuple[int, int, int]:
+    """:func:`.kernels.vanilla_replay`'s ``(kind, record, slot)``, vectorised: each slot's values over the
+    replay as segments (a value, the change that wrote it, the change that replaces it), so the binned vertex
+    of record r is still referenced after it when a segment of that value is alive then, in the live
+    triangles' slots (or the list's tail past its last whole triangle, which no record removes)."""
+    n = int(indices.shape[0])
+    R = int(kept.shape[0])
+    cc = np.asarray(change_count, np.int64)
+    cstart = np.concatenate(([0], np.cumsum(cc)))
+    J = int(cstart[-1])
+    live0 = n // 3
+    after = live0 - np.cumsum(np.asarray(removed, np.int64))  # live triangles after each record
+    if int(offsets.shape[0]) < J or (R and int(after[-1]) < 0) or (np.asarray(removed) < 0).any():
+        from .kernels import vanilla_replay as jitted  # (records the caller has not bounded: as it was)
+
+        return jitted(indices, kept, removed, change_count, offsets, vertex_count)
+    base = np.asarray(indices).astype(np.int64)
+    rec = np.repeat(np.arange(R, dtype=np.int64), cc)
+    g = np.asarray(offsets[:J], np.int64)
+    b = vertex_count - 1 - rec
+    k = np.asarray(kept, np.int64)[rec]
+    order = np.lexsort((np.arange(J), g))
+    gs, ks = g[order], k[order]
+    same = np.zeros(J, bool)
+    same[1:] = gs[1:] == gs[:-1]
+    before = np.empty(J, np.int64)
+    before[order] = np.where(same, np.roll(ks, 1), base[gs])
+    bad = np.flatnonzero((g >= 3 * after[rec]) | (before != b))
+    r1 = int(rec[bad[0]]) if bad.size else R
+    # segments: each slot's first value (from before the replay) and each change's, until the next change
+    # of the slot (J + 1: never)
+    never = J + 1
+    nxt = np.full(J, never, np.int64)
+    nxt[:-1] = np.where(gs[1:] == gs[:-1], order[1:], never)
+    first_change = np.full(n, never, np.int64)
+    first_change[gs[~same]] = order[~same]
+    slot = np.concatenate((np.arange(n, dtype=np.int64), gs))
+    value = np.concatenate((base, ks))
+    start = np.concatenate((np.full(n, -1, np.int64), order))
+    end = np.concatenate((first_change, nxt))
+    r_of = vertex_count - 1 - value  # the record that bins the segment's vertex
+    has = (r_of >= 0) & (r_of < R)
+    slot, start, end, r_of = slot[has], start[has], end[has], r_of[has]
+    t = cstart[r_of + 1]  # the changes done once that record is
+    alive = (start < t) & (end >= t) & ((slot < 3 * after[r_of]) | (slot >= 3 * live0))
+    r2 = int(r_of[alive].min()) if alive.any() else R
+    if r1 < R and r1 <= r2:
+        return 1, r1, int(g[bad[0]])
+    if r2 < R:
+        return 2, r2, vertex_count - 1 - r2
+    return 0, 0, 0
