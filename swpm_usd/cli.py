@@ -341,11 +341,14 @@ def run_cmd(
         sys.exit(1)
     except KeyboardInterrupt:  # the run has stopped its workers and recorded what they finished
         _exiting_on_interrupt()
-        click.echo(
-            "swpm-pipeline run: interrupted; the assets finished are recorded in the manifest, "
-            "and a rerun builds the rest",
-            err=True,
-        )
+        if dry_run:  # (it records nothing: "the assets finished are recorded" was untrue of it)
+            click.echo("swpm-pipeline run: interrupted; a dry run builds and writes nothing", err=True)
+        else:
+            click.echo(
+                "swpm-pipeline run: interrupted; the assets finished are recorded in the manifest, "
+                "and a rerun builds the rest",
+                err=True,
+            )
         if as_json:
             from .codes import fields_of
 

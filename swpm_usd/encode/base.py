@@ -20,6 +20,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..errors import BuildError
+from ..format.layout import stored_index_count  # noqa: F401 (its home: read without the encoders)
 from .screen import budget, error_for_pixels
 
 ENCODINGS: dict[str, type[ProgressiveMesh]] = {}
@@ -251,12 +252,3 @@ def with_attributes(pm: ProgressiveMesh, attributes: Mapping[str, np.ndarray]) -
         pm.buffers(),
         pm.params,
     )
-
-
-def stored_index_count(buffers: Mapping[str, np.ndarray]) -> int:
-    """The indices an encoding stores for every instance, which lambda counts (a run's manifest and report,
-    ``inspect``): the sliding window's pool, else every ``*indices`` buffer (skip-strip's level and collapsed
-    lists, mixed's static and dynamic ones)."""
-    if "index_pool" in buffers:
-        return int(buffers["index_pool"].shape[0])
-    return sum(int(v.shape[0]) for k, v in buffers.items() if k.endswith("indices"))

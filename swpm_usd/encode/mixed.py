@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from ..build import check_cache_size
 from ..encodings import MIXED_PARAMS
 from ..errors import BuildError
 from ..format.layout import draw_index_width
@@ -214,6 +215,7 @@ def build_mixed(
     """Mixed-mode lists for a collapse sequence; see the module docstring."""
     if not 0.0 <= float(level_threshold) < 1.0:
         raise BuildError(f"level_threshold must be in [0, 1), got {level_threshold}")
+    check_cache_size(cache_size)  # (build()'s bounds, called directly too)
     mesh = seq.mesh
     V, C = mesh.vertex_count, seq.collapse_count
     new_id, perm = vertex_order(seq)

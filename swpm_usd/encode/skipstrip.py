@@ -29,6 +29,7 @@ from typing import Any
 import numba as nb
 import numpy as np
 
+from ..build import check_cache_size
 from ..encodings import MAX_STRIP_WINDOW, PRIMITIVES, SKIPSTRIP_PARAMS, combination_problem
 from ..errors import BuildError
 from ..format.layout import STRIP_ARRAYS, draw_index_width, rejoin_strips, restart_index_for
@@ -406,6 +407,7 @@ def build_skipstrip(
     """Multilevel skip strips (or skip lists) for a collapse sequence; see the module docstring."""
     if primitive not in PRIMITIVES:
         raise BuildError(f"primitive must be one of {PRIMITIVES}, got {primitive!r}")
+    check_cache_size(cache_size)  # (build()'s bounds, called directly too)
     if not 0.0 <= float(degenerate_threshold) < 1.0:
         raise BuildError(f"degenerate_threshold must be in [0, 1), got {degenerate_threshold}")
     if isinstance(strip_window, bool) or not isinstance(strip_window, (int, np.integer)):

@@ -20,14 +20,13 @@ from .check_records import (
     _record_chunk,
 )
 from .errors import Report
-from .kernels import mixed_replay, segment_limits
+from .kernels_np import segment_limits
 from .parsed import _arrays, _frozen, _get, _index_check, _Parsed, _view
-from .writer import MIXED_RECORD_COLUMNS
 
 
 def _mixed(p: _Parsed, rep: Report) -> None:
     rc_c, m_c, idx_c = _get(p, L.RCNT), _get(p, L.MLVL), _get(p, L.INDX)
-    rec = _record_chunk(p, rep, L.MREC, list(MIXED_RECORD_COLUMNS))
+    rec = _record_chunk(p, rep, L.MREC, list(L.MIXED_RECORD_COLUMNS))
     if rc_c is None or m_c is None or idx_c is None or rec is None or p.lods is None or p.points is None:
         p.content_ok = False
         return
@@ -168,6 +167,8 @@ def _mixed(p: _Parsed, rep: Report) -> None:
             ok = False
             break
     if ok and whole_indx:
+        from .kernels import mixed_replay  # (numba: loaded by the check that replays, not by the import)
+
         kind, r, s = (
             int(x)
             for x in mixed_replay(

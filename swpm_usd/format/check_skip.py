@@ -9,13 +9,25 @@ stored collapsed list. Separate from the reader, as each encoding's checks are: 
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+from . import kernels_np
 from . import layout as L
 from .check_records import _common_records, _kept_below_binned, _offsets_in_level, _record_chunk
 from .errors import Report
-from .kernels import segment_limits, skip_replay
+from .kernels_np import segment_limits
 from .parsed import _arrays, _Chunk, _frozen, _get, _index_check, _Parsed, _view
+
+
+def skip_replay(*args: Any) -> tuple[int, int, int, np.ndarray]:
+    """:func:`.kernels.skip_replay` or :func:`.kernels_np.skip_replay_np` (:func:`.kernels_np.use_jitted`)."""
+    if kernels_np.use_jitted(int(args[0].shape[0]) + int(args[6].shape[0])):  # (list elements and changes)
+        from .kernels import skip_replay as jitted
+
+        return jitted(*args)
+    return kernels_np.skip_replay_np(*args)
 
 
 def _skip(p: _Parsed, rep: Report) -> None:

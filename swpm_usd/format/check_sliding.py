@@ -16,7 +16,6 @@ import numpy as np
 
 from . import layout as L
 from .errors import Report
-from .kernels import first_violation, monotone_windows, window_limits
 from .parsed import _get, _index_check, _Parsed, _view
 
 
@@ -100,6 +99,8 @@ def _sliding(p: _Parsed, rep: Report) -> None:
             ok = False
     stage_a = ok and full
     if stage_a and pool.size:
+        from .kernels import first_violation, monotone_windows, window_limits  # (numba: loaded when used)
+
         # (a strip pool's restart index is exempt: read as vertex 0 here)
         checked = np.where(pool == rv, 0, pool).astype(pool.dtype) if strips else pool
         if np.all(np.diff(first) >= 0) and np.all(np.diff(end) >= 0) and np.all(np.diff(vc) <= 0):

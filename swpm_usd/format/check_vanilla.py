@@ -9,13 +9,25 @@ holding the binned vertex and each LOD must use only its own vertices (``SWPM_RE
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+from . import kernels_np
 from . import layout as L
 from .check_records import _common_records, _kept_below_binned, _lod_counts_check, _record_chunk
 from .errors import Report
-from .kernels import vanilla_replay
 from .parsed import _frozen, _get, _index_check, _Parsed, _view
+
+
+def vanilla_replay(*args: Any) -> tuple[int, int, int]:
+    """:func:`.kernels.vanilla_replay` or :func:`.kernels_np.vanilla_replay_np`
+    (:func:`.kernels_np.use_jitted`: a file's check in a process without numba loads none)."""
+    if kernels_np.use_jitted(int(args[0].shape[0]) + int(args[4].shape[0])):  # (list elements and changes)
+        from .kernels import vanilla_replay as jitted
+
+        return jitted(*args)
+    return kernels_np.vanilla_replay_np(*args)
 
 
 def _vanilla(p: _Parsed, rep: Report) -> None:

@@ -10,6 +10,7 @@ import contextlib
 import hashlib
 import json
 import math
+import os
 import re
 import sys
 import textwrap
@@ -719,7 +720,9 @@ def inspect_cmd(file: str, as_json: bool, rows: int) -> None:
     "--prefix",
     type=click.IntRange(min=0),
     default=None,
-    help="Check only the first N bytes, as a streaming reader that has received them (spec/format.md 4.1).",
+    help="Check only the first N bytes, as a streaming reader that has received them (spec/format.md 4.1); "
+    "an N past the end checks the whole file, with a note on stderr (--json: "
+    "summary.prefix.requested_bytes).",
 )
 @click.option(
     "--ranges",
@@ -811,9 +814,11 @@ def _validate_prefix(file: str, n: int, as_json: bool) -> None:
     from .errors import Report
     from .prefix import _checked_prefix
 
+    size = None
     try:
         with open(file, "rb") as f:  # (at most its size: read(N) allocates N bytes first, a huge N fails)
-            data = f.read(min(n, Path(file).stat().st_size))
+            size = os.fstat(f.fileno()).st_size
+            data = f.read(min(n, size))
     except OSError as exc:
         rep = Report(path=file)
         rep.add("SWPM_IO_ERROR", None, reason=exc.strerror or str(exc))
@@ -832,6 +837,9 @@ def _validate_prefix(file: str, n: int, as_json: bool) -> None:
                     str(fp.lod_count - 1): fp.needed_bytes(fp.lod_count - 1),
                 },
             }
+    past_end = size is not None and n > size
+    if past_end and "prefix" in rep.summary:
+        rep.summary["prefix"]["requested_bytes"] = n
     _mesh_hint(file, rep.problems)  # (a mesh given: as validate alone says it)
     click.echo(rep.to_json(indent=2) if as_json else rep.format())
     if not as_json and "prefix" in rep.summary:
@@ -840,6 +848,11 @@ def _validate_prefix(file: str, n: int, as_json: bool) -> None:
             f"LODs {p['drawable_lods'][0]}..{p['drawable_lods'][1]}" if p["drawable_lods"] else "no LOD yet"
         )
         click.echo(f"  prefix: {p['bytes']} of {p['file_size']} bytes draw {what}")
+    if past_end:  # (it was taken as the whole file without a word: a script's N for every file is kept)
+        click.echo(
+            f"note: --prefix {n} is past the end of {file} ({size} bytes): the whole file was checked",
+            err=True,
+        )
     sys.exit(0 if rep.valid else 1)
 
 

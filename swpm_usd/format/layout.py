@@ -332,3 +332,22 @@ def draw_index_width(vertex_count: int, restart: int | None = None) -> int:
     if restart is None:
         return 2
     return 2 if int(restart) <= 0xFFFF or int(restart) == 0xFFFFFFFF else 4
+
+
+def stored_index_count(buffers: Mapping[str, np.ndarray]) -> int:
+    """The indices an encoding stores for every instance, which lambda counts (a run's manifest and report,
+    ``inspect``): the sliding window's pool, else every ``*indices`` buffer (skip-strip's level and collapsed
+    lists, mixed's static and dynamic ones)."""
+    if "index_pool" in buffers:
+        return int(buffers["index_pool"].shape[0])
+    return sum(int(v.shape[0]) for k, v in buffers.items() if k.endswith("indices"))
+
+
+#: the columns of a mixed file's ``MREC`` records, in order (the writer writes them, the reader checks them)
+MIXED_RECORD_COLUMNS = (
+    "collapse_kept",
+    "collapse_static_tris_removed",
+    "collapse_dynamic_tris_removed",
+    "collapse_change_count",
+    "collapse_prev_change_count",
+)

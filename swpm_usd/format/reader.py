@@ -24,11 +24,10 @@ import os
 import re
 import stat
 import zlib
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..encode.base import ENCODINGS, ProgressiveMesh, from_buffers, stored_index_count
 from . import layout as L
 from .check_lods_vert import _lods, _vert
 from .check_mixed import _mixed
@@ -39,6 +38,10 @@ from .check_vanilla import _vanilla
 from .errors import Report, SwpmFormatError
 from .meta import _meta, parse_meta_json  # noqa: F401 - (re-exported: public, its home before the split)
 from .parsed import _Chunk, _Parsed, _Spans
+
+if TYPE_CHECKING:  # (the encoders, numba's among them, are imported by load() alone: validate and inspect
+    # start without them, 0.3-0.5 s of each command's start)
+    from ..encode.base import ProgressiveMesh
 
 _TYPE_RE = re.compile(rb"^[A-Za-z0-9]{4}$")
 #: problems of one code beyond this many are counted in ``summary["suppressed"]``, not listed
@@ -386,7 +389,7 @@ def _stored_indices(p: _Parsed) -> int:
     """Indices the file stores for every instance, as ``run``'s manifest and report count them for lambda
     (:func:`..encode.base.stored_index_count`: skip-strip's collapsed lists in ``SKIP``, mixed's dynamic ones
     in ``MLVL``, not ``INDX`` alone: a skip-strip file read 2.61 here, 5.23 in its run's report)."""
-    return stored_index_count(p.buffers) or int(p.chunks[L.INDX].length // p.width)
+    return L.stored_index_count(p.buffers) or int(p.chunks[L.INDX].length // p.width)
 
 
 #: the index lists an engine uploads to draw from, per encoding (skip-strip's and mixed's collapsed lists are
@@ -473,6 +476,8 @@ def validate(path: str | os.PathLike[str]) -> Report:
 
 
 def _build(p: _Parsed, rep: Report) -> ProgressiveMesh:
+    from ..encode.base import ENCODINGS, from_buffers
+
     assert p.lods is not None and p.meta is not None and p.points is not None
     if p.encoding not in ENCODINGS:
         rep.add("SWPM_ENCODING_UNAVAILABLE", None, encoding=p.encoding)

@@ -8,28 +8,25 @@ import os
 import zlib
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .. import __version__
-from ..encode.base import ProgressiveMesh
 from ..fileio import atomic_write_bytes
 from . import layout as L
 from .errors import SwpmEncodeError
 from .layout import STRIP_ARRAYS, choose_index_width
 from .meta import parse_meta_json
 
+if TYPE_CHECKING:  # (a type only: the reader's checks import this module, and validate starts without
+    # the encoders)
+    from ..encode.base import ProgressiveMesh
+
 #: LOD bands of the streaming map: one per halving of the vertex count
 GENERATOR = f"swpm-usd {__version__}"
 #: the columns of an MREC record row, in order (spec section "MLVL and MREC")
-MIXED_RECORD_COLUMNS = (
-    "collapse_kept",
-    "collapse_static_tris_removed",
-    "collapse_dynamic_tris_removed",
-    "collapse_change_count",
-    "collapse_prev_change_count",
-)
+MIXED_RECORD_COLUMNS = L.MIXED_RECORD_COLUMNS  # (in layout: the reader's check reads it without the encoders)
 
 
 def _pad(b: bytes, a: int = L.ARRAY_ALIGN) -> bytes:

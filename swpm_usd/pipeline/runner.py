@@ -740,7 +740,7 @@ class _Run:
 
     def show_plan(self) -> None:
         """A dry run's or ``--explain``'s plan lines, and how many assets ``only`` left out."""
-        self.planned = _plan_shown(self.picked, self.force, self.because, self.echo)
+        self.planned = _plan_shown(self.cfg, self.picked, self.force, self.because, self.echo)
         if self.chosen is not None:
             self.echo(
                 f"{_assets(self.not_selected)} not selected by --only (of {len(self.items)}): not listed, "

@@ -46,6 +46,8 @@ CODES: dict[str, str] = {
     "SWPM_USD_OPEN": "the file is not a USD layer usd-core can open (empty, truncated or not USD at all), "
     "or it or a layer its stage opens is not a regular file (a FIFO, a folder, a device: never opened).",
     "SWPM_USD_READ": "usd-core opened the layer but cannot read a value in it (corrupt .usdc data).",
+    "SWPM_USD_LAYER_MISSING": "a sublayer, reference or payload the stage names does not open (no such file, "
+    "or not a USD layer): the prims it brings are missing from the stage.",
     "SWPM_USD_CRASH": "usd-core crashed (died by a signal) or hung opening or reading the .usdc file in a "
     "probe process (corrupt data); it is not opened in the validating process.",
     "SWPM_USD_PROBE": "the probe process that opens a crate file first failed itself, twice (not usd-core on "

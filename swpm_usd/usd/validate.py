@@ -11,12 +11,14 @@ here; this module registers them, checks each instance prototype once, and runs 
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import threading
+from collections.abc import Iterator
 from typing import Any
 
-from pxr import Usd, UsdValidation
+from pxr import Tf, Usd, UsdValidation
 
 from ..fileio import missing_file_problem
 from ..format.errors import Problem, Report
@@ -206,29 +208,100 @@ def stage_report(path: str | os.PathLike[str]) -> Report:
 
 
 def validate_stage(path: str | os.PathLike[str] | Usd.Stage, builtin: bool = True) -> list[Finding]:
-    """Run our validator and (``builtin``) usd-core's built-in validators on a stage; our output has none."""
-    if isinstance(path, Usd.Stage):
-        stage = path
-    else:
-        from .probe import checked
+    """Run our validator and (``builtin``) usd-core's built-in validators on a stage; our output has none
+    (usd-core's warnings of what a finding reports are dropped: :func:`_reported_warnings_trapped`)."""
+    with _reported_warnings_trapped() as missing:
+        if isinstance(path, Usd.Stage):
+            stage = path
+        else:
+            from .probe import checked
 
-        # a corrupt crate file can crash usd-core (SIGSEGV) or make it ask for a giant allocation: opened
-        # first in a probe process, and here only if that ends cleanly (the text layers the check parsed
-        # here held for the open: parsed once)
-        with checked(path) as probed:
-            if probed is not None:
-                kinds = {"open": "SWPM_USD_OPEN", "read": "SWPM_USD_READ", "probe": "SWPM_USD_PROBE"}
-                code = kinds.get(probed.kind, "SWPM_USD_CRASH")
-                return [Finding(code, ERROR, "/", probed.message)]
-            stage, problem = _open(os.fspath(path))
-        if stage is None:
-            return [Finding("SWPM_USD_OPEN", ERROR, "/", problem)]
+            # a corrupt crate file can crash usd-core (SIGSEGV) or make it ask for a giant allocation: opened
+            # first in a probe process, and here only if that ends cleanly (the text layers the check parsed
+            # here held for the open: parsed once)
+            with checked(path) as probed:
+                if probed is not None:
+                    kinds = {"open": "SWPM_USD_OPEN", "read": "SWPM_USD_READ", "probe": "SWPM_USD_PROBE"}
+                    code = kinds.get(probed.kind, "SWPM_USD_CRASH")
+                    return [Finding(code, ERROR, "/", probed.message)]
+                stage, problem = _open(os.fspath(path))
+            if stage is None:
+                return [Finding("SWPM_USD_OPEN", ERROR, "/", problem)]
+        return _validated(path, stage, builtin, missing)
+
+
+#: usd-core's warnings (posted to stderr) a validation reports as findings: a layer the stage names that does
+#: not open, as the stage's open reports its composition error (``SWPM_USD_LAYER_MISSING``, and usd-core's
+#: own CompositionError), and a dependency that does not resolve (the MissingReferenceValidator's finding,
+#: whose site it makes of the file's path: "Ill-formed SdfPath </tmp/a-b/x.usdc>" for a path with a '-')
+_REPORTED_WARNINGS = (
+    ("UsdStage::_ReportErrors", ("Could not open asset @", "Could not load sublayer @")),
+    ("_EnqueueDependency", ("Failed to resolve reference @",)),
+)
+
+
+def _is_reported(diagnostic: Any, layers: set[str]) -> bool:
+    where, what = str(diagnostic.sourceFunction), str(diagnostic.commentary)
+    if where.endswith("::SdfPath") and what.startswith("Ill-formed SdfPath <"):
+        return what[len("Ill-formed SdfPath <") :].split(">", 1)[0] in layers
+    return any(where.endswith(fn) and any(t in what for t in texts) for fn, texts in _REPORTED_WARNINGS)
+
+
+@contextlib.contextmanager
+def _reported_warnings_trapped() -> Iterator[set[str]]:
+    """The block's usd-core warnings a finding reports (:data:`_REPORTED_WARNINGS`; the block adds the layers
+    it reports missing to the set it is given) dropped: they reached stderr beside the report ("Warning: in
+    _ReportErrors at line 3326 of .../stage.cpp -- ..."). Every other diagnostic is posted as before, and
+    errors still raise (``Tf.DiagnosticTrap``, usd-core 26; without it, nothing is trapped)."""
+    layers: set[str] = set()
+    trap = getattr(Tf, "DiagnosticTrap", None)
+    if trap is None:  # pragma: no cover - an older usd-core
+        yield layers
+        return
+    with trap() as trapped:
+        try:
+            yield layers
+        finally:
+            trapped.EraseMatching(lambda d: _is_reported(d, layers))
+
+
+_MISSING_LAYER_ERRORS = ("ErrorInvalidAssetPath", "ErrorInvalidSublayerPath")
+
+
+def _missing_layers(stage: Usd.Stage, layers: set[str]) -> list[Finding]:
+    """A ``SWPM_USD_LAYER_MISSING`` for each sublayer, reference or payload of ``stage`` that does not open:
+    the prims it brings are not on the stage (usd-core warned on stderr; ``--no-builtin`` said "valid"). Each
+    layer's path added to ``layers``."""
+    out = []
+    for err in stage.GetCompositionErrors():
+        if type(err).__name__ not in _MISSING_LAYER_ERRORS:
+            continue
+        text = str(err)
+        asset = re.search(r"@([^@]+)@", text)
+        layer = asset.group(1) if asset else "?"
+        kind = re.search(r" for (reference|payload) introduced by ", text)
+        site = getattr(getattr(err, "rootSite", None), "path", None)
+        prim = "/" if site is None or site.isEmpty else str(site.StripAllVariantSelections().GetPrimPath())
+        why = missing_file_problem(layer) if not os.path.exists(layer) else "it does not open as a USD layer"
+        arc = kind.group(1) if kind else "sublayer"
+        layers.add(layer)
+        out.append(
+            Finding("SWPM_USD_LAYER_MISSING", ERROR, prim or "/", f"{arc} {layer}: {why} (usd-core: {text})")
+        )
+    return out
+
+
+def _validated(
+    path: str | os.PathLike[str] | Usd.Stage, stage: Usd.Stage, builtin: bool, missing: set[str]
+) -> list[Finding]:
+    """:func:`validate_stage`'s findings on the open ``stage`` (``path``: as it was given; ``missing``: the
+    layers found missing, added)."""
     reg = UsdValidation.ValidationRegistry()
     names = _builtin_names(reg) if builtin else []
     ours = register_validators()
     if ours:
         names.append(VALIDATOR_NAME)
-    findings: list[Finding] = []
+    findings: list[Finding] = _missing_layers(stage, missing)
     memo: dict[str, _Checked] = {}
     with _memo_lock:
         _memos.setdefault(stage, []).append(memo)
