@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__version__ = "0.9.6"
+__version__ = "0.9.7"
 
 # first: in the swpm-pipeline command, a Ctrl-C during the imports below exits 130 with one line
 from . import _startup  # noqa: F401, I001 - (its import sets the handler: see swpm_usd._startup)
