@@ -52,6 +52,22 @@ def _ok(x: np.ndarray, y: np.ndarray, z: np.ndarray, restart: int) -> np.ndarray
     )
 
 
+def _by_slot(
+    g: np.ndarray, k: np.ndarray, base: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The changes (slot ``g``, kept vertex ``k``) by slot, in order: ``(order, gs, ks, same, before)``, each
+    change's slot value before it (``before``) the previous change's kept vertex of that slot, else the
+    list's (``base``); ``same``: a sorted change whose slot the one before it changed too."""
+    J = int(g.shape[0])
+    order = np.lexsort((np.arange(J), g))
+    gs, ks = g[order], k[order]
+    same = np.zeros(J, bool)
+    same[1:] = gs[1:] == gs[:-1]
+    before = np.empty(J, np.int64)
+    before[order] = np.where(same, np.roll(ks, 1), base[gs])
+    return order, gs, ks, same, before
+
+
 def skip_replay_np(
     lst: np.ndarray,
     lstart: np.ndarray,
@@ -89,13 +105,7 @@ def skip_replay_np(
     g = a + s  # each change's element of lst
     b = nv - 1 - rec
     k = np.asarray(kept, np.int64)[rec]
-    # the changes by slot, in order: each one's slot value before it is the previous one's kept vertex
-    order = np.lexsort((np.arange(J), g))
-    gs, ks = g[order], k[order]
-    same = np.zeros(J, bool)
-    same[1:] = gs[1:] == gs[:-1]
-    before = np.empty(J, np.int64)
-    before[order] = np.where(same, np.roll(ks, 1), base[gs])
+    order, gs, ks, same, before = _by_slot(g, k, base)
     bad = np.flatnonzero(before != b)
     final = base.copy()
     last = np.ones(J, bool)
@@ -184,12 +194,7 @@ def vanilla_replay_np(
     g = np.asarray(offsets[:J], np.int64)
     b = vertex_count - 1 - rec
     k = np.asarray(kept, np.int64)[rec]
-    order = np.lexsort((np.arange(J), g))
-    gs, ks = g[order], k[order]
-    same = np.zeros(J, bool)
-    same[1:] = gs[1:] == gs[:-1]
-    before = np.empty(J, np.int64)
-    before[order] = np.where(same, np.roll(ks, 1), base[gs])
+    order, gs, ks, same, before = _by_slot(g, k, base)
     bad = np.flatnonzero((g >= 3 * after[rec]) | (before != b))
     r1 = int(rec[bad[0]]) if bad.size else R
     # segments: each slot's first value (from before the replay) and each change's, until the next change
