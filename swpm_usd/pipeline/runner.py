@@ -438,32 +438,25 @@ def _on_dask(tasks: list[dict], jobs: int, scheduler: str | None) -> Generator[d
     require_dask()
     from dask.distributed import Client, LocalCluster, as_completed
 
-    cluster = client = None
     # (a local cluster's nannies set their workers' variables in this process, OMP_NUM_THREADS=1,
     # MALLOC_TRIM_THRESHOLD_, PYTHONHASHSEED...: left so, every process the caller started later had them)
     environ = dict(os.environ)
     started: dict[str, str] | None = None  # (os.environ once the cluster is up)
-    try:
+    # (closed in reverse, each whatever the one before raised: the client, the cluster, then the environment)
+    with contextlib.ExitStack() as stack:
+        stack.callback(lambda: _restore_environ(environ, dict(os.environ) if started is None else started))
         if scheduler:
             client = Client(scheduler)
         else:
             workers = max(1, min(jobs, len(tasks)))  # (no worker with nothing to do)
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True)
-            client = Client(cluster)  # (its failure closes the cluster too: its workers were left running)
+            stack.callback(cluster.close)  # (a client that fails to start: its workers were left running)
+            client = Client(cluster)
+        stack.callback(client.close)
         started = dict(os.environ)
         futures = client.map(process_asset, tasks, pure=False)
         for fut in as_completed(futures):
             yield fut.result()
-    finally:
-        try:
-            if client is not None:
-                client.close()
-        finally:
-            try:
-                if cluster is not None:
-                    cluster.close()
-            finally:
-                _restore_environ(environ, dict(os.environ) if started is None else started)
 
 
 def _restore_environ(before: dict[str, str], after: dict[str, str]) -> None:
